@@ -1,0 +1,1 @@
+#include <mlayer/mlayer.h>

@@ -1,0 +1,28 @@
+"""mlayer: smooth motion layers and motion manifolds for character animation.
+
+A thin numpy layer over the mlayer C library (cffi). Arrays are float64, C order, frames
+along the first axis; quaternions are scalar-first (w, x, y, z).
+"""
+from __future__ import annotations
+
+from importlib.metadata import PackageNotFoundError, version as _dist_version
+
+from ._native import ffi as _ffi, lib as _lib
+from .errors import (Error, InvalidArgumentError, MlayerIOError, MlayerWarning, ParseError,
+                     SingularMatrixError, UnsupportedError)
+from .lgs import LGS, have_cholmod, lgs
+
+try:
+    __version__ = _dist_version("mlayer")
+except PackageNotFoundError:  # running from a build tree
+    __version__ = _ffi.string(_lib.mlr_version_string()).decode()
+
+
+def library_version() -> str:
+    """Version of the C library that is actually loaded."""
+    return _ffi.string(_lib.mlr_version_string()).decode()
+
+
+__all__ = ["__version__", "library_version", "Error", "InvalidArgumentError", "ParseError",
+           "SingularMatrixError", "MlayerIOError", "UnsupportedError", "MlayerWarning",
+           "LGS", "lgs", "have_cholmod"]

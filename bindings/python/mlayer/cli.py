@@ -1,0 +1,84 @@
+"""The `mlayer` command line: argparse over the Python API.
+
+Exit codes: 0 success, 1 a library or data error (one line on stderr naming the file, the
+line and the status), 2 a usage error. Outputs are written to a temporary file and renamed
+into place, so a failed run never leaves a half-written file.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+
+from . import __version__, library_version
+from .errors import Error
+
+# Subcommands register here: name -> (add_arguments(parser), run(args) -> int, help)
+_COMMANDS: dict = {}
+
+
+def command(name: str, help: str):
+    """Decorator registering `run(args)` as a subcommand; `run.arguments(p)` adds its options."""
+    def wrap(run):
+        _COMMANDS[name] = (run, help)
+        return run
+    return wrap
+
+
+@command("version", "print the package and C library versions")
+def _cmd_version(args) -> int:
+    print(f"mlayer {__version__} (C library {library_version()})")
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="mlayer",
+                                description="Smooth motion layers for character animation.")
+    p.add_argument("--version", action="version",
+                   version=f"mlayer {__version__} (C library {library_version()})")
+    sub = p.add_subparsers(dest="command", metavar="COMMAND")
+    for name, (run, help_text) in _COMMANDS.items():
+        sp = sub.add_parser(name, help=help_text, description=help_text)
+        add = getattr(run, "arguments", None)
+        if add is not None:
+            add(sp)
+        sp.set_defaults(_run=run)
+    return p
+
+
+def _load_subcommands() -> None:
+    """Import the modules that define subcommands (each registers itself)."""
+    import importlib
+    for mod in ("cli_info", "cli_demo"):
+        try:
+            importlib.import_module(f".{mod}", __package__)
+        except ModuleNotFoundError as e:
+            if e.name != f"{__package__}.{mod}":
+                raise
+
+
+def main(argv: list[str] | None = None) -> int:
+    _load_subcommands()
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not getattr(args, "_run", None):
+        parser.print_help(sys.stderr)
+        return 2
+    try:
+        return int(args._run(args) or 0)
+    except Error as e:
+        where = ""
+        path, line = getattr(e, "path", None), getattr(e, "line", None)
+        if path:
+            where = f"{path}:{line}: " if line else f"{path}: "
+        print(f"mlayer {args.command}: error: {where}{e}", file=sys.stderr)
+        return 1
+    except OSError as e:
+        print(f"mlayer {args.command}: error: {e}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print(f"mlayer {args.command}: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,141 @@
+"""The linear Gaussian system of paper 1, section 3: smoothing and resampling of channels.
+
+    (lam^2 L^T L + A^T A / sigma^2) x = A^T y / sigma^2
+
+L is the first (order=1) or second (order=2) difference matrix on the output grid of n_out
+frames; A is the identity, or has linear-interpolation rows that place observation i at the
+fractional output frame t[i]. Only s = lam^2 sigma^2 changes the mean; sigma also scales the
+posterior variance.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from . import _arrays
+from ._native import ffi, lib
+from .errors import InvalidArgumentError, check
+
+_SOLVERS = {"banded": lib.MLR_LGS_BANDED, "cholmod": lib.MLR_LGS_CHOLMOD}
+
+
+def have_cholmod() -> bool:
+    """True when this build of mlayer includes the CHOLMOD sparse path."""
+    return bool(lib.mlr_lgs_have_cholmod())
+
+
+class LGS:
+    """A factored system, reusable for many right-hand sides with the same positions.
+
+    Create it once and call :meth:`solve` for every batch of channels; :meth:`variance` gives
+    the posterior variance per output frame. ``close()`` frees it now rather than at collection.
+    """
+
+    def __init__(self, n_out: int, lam: float = 1.0, sigma: float = 1.0, *, order: int = 2,
+                 t=None, n_obs: int | None = None, solver: str = "banded"):
+        if solver not in _SOLVERS:
+            raise InvalidArgumentError(f"solver must be one of {sorted(_SOLVERS)}, got {solver!r}")
+        if int(order) != order or order not in (1, 2):
+            raise InvalidArgumentError(f"order must be 1 or 2, got {order!r}")
+        if n_out is None or int(n_out) != n_out or n_out < 0:
+            raise InvalidArgumentError(f"n_out must be a non-negative integer, got {n_out!r}")
+        if t is None:
+            self._t = None
+            n_obs = int(n_out) if n_obs is None else int(n_obs)
+            tp = ffi.NULL
+        else:
+            self._t = _arrays.as_f64(t, "t", ndim=1)
+            n_obs = self._t.shape[0]
+            tp = _arrays.ptr(self._t)
+        out = ffi.new("mlr_lgs **")
+        diag = ffi.new("mlr_diag *")
+        code = lib.mlr_lgs_create(int(n_out), int(order), float(lam), float(sigma), tp, n_obs,
+                                  _SOLVERS[solver], ffi.NULL, out, diag)
+        check(code, "mlayer.lgs", diag)
+        self._h = ffi.gc(out[0], lib.mlr_lgs_destroy)
+        self.n_out, self.n_obs, self.order, self.solver = int(n_out), n_obs, int(order), solver
+        self.lam, self.sigma = float(lam), float(sigma)
+
+    def solve(self, y, out: np.ndarray | None = None) -> np.ndarray:
+        """Posterior mean for y of shape (n_obs,) or (n_obs, m); returns (n_out,) or (n_out, m)."""
+        y = _arrays.as_f64(y, "y", ndim=(1, 2))
+        if y.shape[0] != self.n_obs:
+            raise InvalidArgumentError(
+                f"y: expected {self.n_obs} observations (rows), got shape {y.shape}")
+        m = 1 if y.ndim == 1 else y.shape[1]
+        shape = (self.n_out,) if y.ndim == 1 else (self.n_out, m)
+        if out is None:
+            out = np.empty(shape)
+        else:
+            _arrays.check_out(out, "out", shape)
+        if m == 0 or self.n_out == 0:
+            return out
+        code = lib.mlr_lgs_solve(self._h, _arrays.ptr(y), m, m, _arrays.ptr_out(out), m)
+        if code == lib.MLR_E_INVALID_ARG:
+            raise InvalidArgumentError("mlayer.lgs: y contains NaN or infinite values "
+                                       "[MLR_E_INVALID_ARG]", code)
+        check(code, "mlayer.lgs")
+        return out
+
+    def variance(self) -> np.ndarray:
+        """Posterior variance per output frame, shape (n_out,), for observation noise sigma."""
+        var = np.empty(self.n_out)
+        check(lib.mlr_lgs_variance(self._h, _arrays.ptr_out(var), self.n_out),
+              "mlayer.LGS.variance")
+        return var
+
+    def close(self) -> None:
+        """Free the C handle now. The object is unusable afterwards."""
+        if self._h is not None:
+            ffi.release(self._h)
+            self._h = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+
+def lgs(y, lam: float = 1.0, sigma: float = 1.0, *, order: int = 2, t=None,
+        n_out: int | None = None, return_var: bool = False, solver: str = "banded"):
+    """Posterior mean of the LGS for observations y, one column per channel.
+
+    Parameters
+    ----------
+    y : array (n_obs,) or (n_obs, m)
+        Observations; float64 C-contiguous input is used without a copy.
+    lam, sigma : float
+        Smoothness weight (>= 0) and observation noise (> 0).
+    order : 1 or 2
+        First-difference (tridiagonal) or second-difference (pentadiagonal) prior.
+    t : array (n_obs,), optional
+        Sorted fractional positions of the observations on the output grid, in [0, n_out-1].
+        Default: observation i at frame i.
+    n_out : int, optional
+        Frames of the output grid; default n_obs. Required to differ from n_obs only with t.
+    return_var : bool
+        Also return the posterior variance per output frame, shape (n_out,).
+    solver : "banded" or "cholmod"
+        The library's banded LDL^T (default, O(n m)) or the CHOLMOD sparse path.
+
+    Returns x of shape (n_out,) or (n_out, m); with return_var, (x, var).
+    Raises InvalidArgumentError (also a ValueError) for bad shapes, parameters or non-finite
+    values, SingularMatrixError when the observations do not determine the result.
+    """
+    y = _arrays.as_f64(y, "y", ndim=(1, 2))
+    n_obs = y.shape[0]
+    if n_out is None:
+        if t is not None:
+            raise InvalidArgumentError("n_out is required when t is given")
+        n_out = n_obs
+    if return_var and solver != "banded":
+        raise InvalidArgumentError("return_var needs solver='banded' (the variance comes from "
+                                   "selected inversion of the banded factor)")
+    with LGS(n_out, lam, sigma, order=order, t=t, n_obs=n_obs, solver=solver) as g:
+        x = g.solve(y)
+        if return_var:
+            return x, g.variance()
+        return x
+
+
+__all__ = ["LGS", "lgs", "have_cholmod"]

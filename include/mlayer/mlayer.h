@@ -1,0 +1,11 @@
+/* mlayer: smooth motion layers and motion manifolds. Umbrella header of the stable C API. */
+#ifndef MLAYER_H
+#define MLAYER_H
+
+#include "mlr_version.h"
+#include "mlr_common.h"
+#include "mlr_band.h"
+#include "mlr_lgs.h"
+#include "mlr_quat.h"
+
+#endif /* MLAYER_H */

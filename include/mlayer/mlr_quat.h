@@ -1,0 +1,78 @@
+/*
+ * Quaternions, batched. Stored scalar-first (w, x, y, z), Hamilton product. Rotation vectors
+ * are axis times the full rotation angle (as scipy's Rotation.as_rotvec).
+ * Every array function takes count elements; out may alias an input of the same shape.
+ * None of them allocates; all are thread-safe on separate data.
+ */
+#ifndef MLR_QUAT_H
+#define MLR_QUAT_H
+
+#include "mlr_common.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct mlr_quat { double w, x, y, z; } mlr_quat;
+typedef struct mlr_vec3 { double x, y, z; } mlr_vec3;
+
+/** Intrinsic Euler orders as BVH channel lines name them: "Zrotation Xrotation Yrotation" is
+ *  MLR_EULER_ZXY and means R = Rz(a0) Rx(a1) Ry(a2). Values pinned. */
+typedef enum mlr_euler_order {
+    MLR_EULER_XYZ = 0, MLR_EULER_XZY = 1, MLR_EULER_YXZ = 2,
+    MLR_EULER_YZX = 3, MLR_EULER_ZXY = 4, MLR_EULER_ZYX = 5
+} mlr_euler_order;
+
+/** Single-quaternion helpers (cannot fail). out may alias a or b. */
+MLR_API void mlr_quat_mul(const mlr_quat *a, const mlr_quat *b, mlr_quat *out);
+/** Rotate vector v by unit quaternion q. out may alias v. */
+MLR_API void mlr_quat_rotate(const mlr_quat *q, const mlr_vec3 *v, mlr_vec3 *out);
+
+/** out[i] = a[i] * b[i]. */
+MLR_API void mlr_quat_mul_array(const mlr_quat *a, const mlr_quat *b, size_t count,
+                                mlr_quat *out);
+/** out[i] = conj(q[i]). */
+MLR_API void mlr_quat_conj_array(const mlr_quat *q, size_t count, mlr_quat *out);
+/**
+ * out[i] = q[i] / |q[i]|.
+ * @return MLR_OK; MLR_E_INVALID_ARG (a zero or non-finite quaternion: out[i] for that i is
+ *         set to the identity and the others are still normalized)
+ */
+MLR_API mlr_status mlr_quat_normalize_array(const mlr_quat *q, size_t count, mlr_quat *out);
+/** out[i] = exp(v[i]): the rotation by |v| about v/|v|, accurate near 0.
+ *  @return MLR_OK; MLR_E_INVALID_ARG (non-finite input) */
+MLR_API mlr_status mlr_quat_exp_array(const mlr_vec3 *v, size_t count, mlr_quat *out);
+/** out[i] = log(q[i]) as a full-angle rotation vector of the unit quaternion q[i] (its angle
+ *  taken in [0, pi], so q and -q give the same vector). Accurate near 0 and near pi.
+ *  @return MLR_OK; MLR_E_INVALID_ARG (non-finite or zero input) */
+MLR_API mlr_status mlr_quat_log_array(const mlr_quat *q, size_t count, mlr_vec3 *out);
+/** out[i] = slerp(a[i], b[i], t[i]) along the shorter arc, unit-norm output.
+ *  @return MLR_OK; MLR_E_INVALID_ARG (non-finite input) */
+MLR_API mlr_status mlr_quat_slerp_array(const mlr_quat *a, const mlr_quat *b, const double *t,
+                                        size_t count, mlr_quat *out);
+/**
+ * From intrinsic Euler angles in radians, angles[3*i + k] about the k-th axis of order.
+ * @return MLR_OK; MLR_E_INVALID_ARG (bad order or non-finite angle)
+ */
+MLR_API mlr_status mlr_quat_from_euler_array(const double *angles, size_t count,
+                                             mlr_euler_order order, mlr_quat *out);
+/** To intrinsic Euler angles in radians; the middle angle in [-pi/2, pi/2], the others in
+ *  (-pi, pi]. At gimbal lock the third angle is 0. q need not be normalized.
+ *  @return MLR_OK; MLR_E_INVALID_ARG */
+MLR_API mlr_status mlr_quat_to_euler_array(const mlr_quat *q, size_t count,
+                                           mlr_euler_order order, double *angles);
+/**
+ * Sign continuity in place along a sequence: q is n_frames x n_tracks (row-major), and each
+ * track is flipped (q -> -q) where needed so that consecutive samples have a non-negative dot
+ * product. The rotations are unchanged.
+ */
+MLR_API void mlr_quat_make_continuous(mlr_quat *q, size_t n_frames, size_t n_tracks);
+
+/** Parse "XYZ".."ZYX" (case-insensitive) into an order. @return MLR_OK, MLR_E_INVALID_ARG */
+MLR_API mlr_status mlr_euler_order_parse(const char *name, mlr_euler_order *out);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* MLR_QUAT_H */

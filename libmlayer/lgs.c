@@ -1,0 +1,334 @@
+/*
+ * The LGS posterior mean, solved as the equivalent scaled system
+ *     (s L^T L + A^T A) x = A^T y,   s = lam^2 sigma^2,
+ * whose matrix has bandwidth `order`. The right-hand side A^T y is formed row by row inside
+ * the forward sweep, so a solve reads y once and makes one more pass over x.
+ */
+#include "lgs_internal.h"
+
+#include <math.h>
+
+struct mlr_lgs {
+    mlr_allocator alloc;
+    size_t n_out, n_obs;
+    unsigned order;
+    double s, sigma2;
+    mlr_lgs_solver solver;
+    mlr_band *band;            /* MLR_LGS_BANDED */
+    mlr_sparse_spd *sparse;    /* MLR_LGS_CHOLMOD */
+    /* interpolation rows (NULL for the identity): observations i with lo_i == r are
+     * first[r] .. first[r+1]-1; f[i] is the weight on frame lo_i + 1 */
+    size_t *first;
+    double *f;
+    size_t first_bytes, f_bytes;
+};
+
+int mlr_lgs_have_cholmod(void)
+{
+#ifdef MLR_HAVE_CHOLMOD
+    return 1;
+#else
+    return 0;
+#endif
+}
+
+/* Coefficients of the difference operator of the given order (alternating binomials). */
+static const double diff_coef[3][3] = {{1, 0, 0}, {-1, 1, 0}, {1, -2, 1}};
+
+typedef struct system_ctx {
+    size_t n;
+    unsigned order;
+    double s;
+    const double *ata_d; /* diagonal of A^T A (NULL: identity) */
+    const double *ata_o; /* A^T A (i, i-1) (NULL: zero) */
+} system_ctx;
+
+/* (L^T L)(i, j) for j <= i, L the (n - p) x n difference matrix of order p. */
+static double ltl_entry(size_t n, unsigned p, size_t i, size_t j)
+{
+    if (i - j > p)
+        return 0.0;
+    const double *c = diff_coef[p];
+    size_t r0 = i >= p ? i - p : 0;
+    size_t r1 = j < n - p - 1 ? j : n - p - 1; /* rows r = 0 .. n-p-1 */
+    double v = 0.0;
+    for (size_t r = r0; r <= r1 && r <= j; r++)
+        v += c[i - r] * c[j - r];
+    return v;
+}
+
+static double system_entry(const void *vctx, size_t i, size_t j)
+{
+    const system_ctx *ctx = vctx;
+    double v = ctx->s == 0.0 ? 0.0 : ctx->s * ltl_entry(ctx->n, ctx->order, i, j);
+    if (i == j)
+        v += ctx->ata_d ? ctx->ata_d[i] : 1.0;
+    else if (i == j + 1 && ctx->ata_o)
+        v += ctx->ata_o[i];
+    return v;
+}
+
+static mlr_status check_params(size_t n_out, unsigned order, double lam, double sigma,
+                               const double *t, size_t n_obs, mlr_diag *diag)
+{
+    if (order != 1 && order != 2)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "order must be 1 or 2, got %u", order);
+    if (!isfinite(lam) || lam < 0.0)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "lam must be finite and >= 0, got %g", lam);
+    if (!isfinite(sigma) || !(sigma > 0.0))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "sigma must be finite and > 0, got %g", sigma);
+    if (n_out <= order)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "an order-%u prior needs at least %u frames, got %zu", order, order + 1, n_out);
+    if (!t) {
+        if (n_obs != n_out)
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "without positions t the observations (%zu) must equal the output frames (%zu)",
+                                n_obs, n_out);
+        return MLR_OK;
+    }
+    if (n_obs == 0)
+        return mlr_diag_set(diag, MLR_E_SINGULAR, 0, 0, "no observations");
+    const double tmax = (double)(n_out - 1);
+    size_t distinct = 0;
+    for (size_t i = 0; i < n_obs; i++) {
+        if (!isfinite(t[i]))
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "t[%zu] is not finite", i);
+        if (t[i] < 0.0 || t[i] > tmax)
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "t[%zu] = %g is outside [0, n_out-1 = %zu]", i, t[i], n_out - 1);
+        if (i > 0 && t[i] < t[i - 1])
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "t is not sorted: t[%zu] = %g < t[%zu] = %g", i, t[i], i - 1, t[i - 1]);
+        if (i == 0 || t[i] != t[i - 1])
+            distinct++;
+    }
+    if (lam > 0.0 && distinct < order)
+        return mlr_diag_set(diag, MLR_E_SINGULAR, 0, 0,
+                            "an order-%u prior needs observations at %u distinct positions, got %zu",
+                            order, order, distinct);
+    return MLR_OK;
+}
+
+static void lgs_free(mlr_lgs *g)
+{
+    mlr_allocator a = g->alloc;
+    mlr_band_destroy(g->band);
+#ifdef MLR_HAVE_CHOLMOD
+    mlr_sparse_spd_destroy(g->sparse);
+#endif
+    mlr_free(&a, g->first, g->first_bytes);
+    mlr_free(&a, g->f, g->f_bytes);
+    mlr_free(&a, g, sizeof *g);
+}
+
+/* Observation i sits between frames lo and lo+1 with weight f on lo+1; lo <= n_out - 2. */
+static size_t obs_lo(double t, size_t n_out, double *f)
+{
+    double fl = floor(t);
+    size_t lo = (size_t)fl;
+    if (lo > n_out - 2)
+        lo = n_out - 2;
+    *f = t - (double)lo;
+    return lo;
+}
+
+mlr_status mlr_lgs_create(size_t n_out, unsigned order, double lam, double sigma,
+                          const double *t, size_t n_obs, mlr_lgs_solver solver,
+                          const mlr_allocator *alloc, mlr_lgs **out, mlr_diag *diag)
+{
+    if (!out)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "out is NULL");
+    *out = NULL;
+    if (t == NULL && n_obs > 0 && n_obs != n_out)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "t is NULL but n_obs != n_out");
+    mlr_status st = check_params(n_out, order, lam, sigma, t, n_obs, diag);
+    if (st != MLR_OK)
+        return st;
+    if (solver != MLR_LGS_BANDED && solver != MLR_LGS_CHOLMOD)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "unknown solver %d", (int)solver);
+    if (solver == MLR_LGS_CHOLMOD && !mlr_lgs_have_cholmod())
+        return mlr_diag_set(diag, MLR_E_UNSUPPORTED, 0, 0, "this build of mlayer has no CHOLMOD");
+
+    mlr_allocator a;
+    mlr_allocator_resolve(alloc, &a);
+    mlr_lgs *g = mlr_alloc(&a, sizeof *g);
+    if (!g)
+        return MLR_E_NO_MEMORY;
+    memset(g, 0, sizeof *g);
+    g->alloc = a;
+    g->n_out = n_out;
+    g->n_obs = n_obs;
+    g->order = order;
+    g->s = lam * lam * sigma * sigma;
+    g->sigma2 = sigma * sigma;
+    g->solver = solver;
+    if (!isfinite(g->s)) {
+        lgs_free(g);
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "lam^2 sigma^2 overflows");
+    }
+
+    double *ata = NULL;
+    size_t ata_bytes = 0;
+    system_ctx ctx = {n_out, order, g->s, NULL, NULL};
+    if (t) {
+        if (mlr_mul_size(n_out + 1, sizeof(size_t), &g->first_bytes) ||
+            mlr_mul_size(n_obs, sizeof(double), &g->f_bytes) ||
+            mlr_mul_size(n_out, 2 * sizeof(double), &ata_bytes)) {
+            lgs_free(g);
+            return MLR_E_OVERFLOW;
+        }
+        g->first = mlr_alloc(&a, g->first_bytes);
+        g->f = mlr_alloc(&a, g->f_bytes);
+        ata = mlr_alloc(&a, ata_bytes);
+        if (!g->first || !g->f || !ata) {
+            mlr_free(&a, ata, ata_bytes);
+            lgs_free(g);
+            return MLR_E_NO_MEMORY;
+        }
+        double *ata_d = ata, *ata_o = ata + n_out;
+        memset(ata, 0, ata_bytes);
+        size_t r = 0;
+        for (size_t i = 0; i < n_obs; i++) {
+            size_t lo = obs_lo(t[i], n_out, &g->f[i]);
+            while (r <= lo)
+                g->first[r++] = i;
+            double f = g->f[i];
+            ata_d[lo] += (1.0 - f) * (1.0 - f);
+            ata_d[lo + 1] += f * f;
+            ata_o[lo + 1] += (1.0 - f) * f;
+        }
+        while (r <= n_out)
+            g->first[r++] = n_obs;
+        ctx.ata_d = ata_d;
+        ctx.ata_o = ata_o;
+    }
+
+    if (solver == MLR_LGS_BANDED) {
+        st = mlr_band_create(n_out, order, &a, &g->band);
+        if (st == MLR_OK)
+            st = mlr_band_factor_fn(g->band, system_entry, &ctx);
+    } else {
+#ifdef MLR_HAVE_CHOLMOD
+        st = mlr_sparse_spd_create(n_out, order, system_entry, &ctx, &g->sparse);
+#else
+        st = MLR_E_UNSUPPORTED;
+#endif
+    }
+    mlr_free(&a, ata, ata_bytes);
+    if (st < 0) {
+        lgs_free(g);
+        if (st == MLR_E_SINGULAR)
+            return mlr_diag_set(diag, st, 0, 0,
+                                "the system is singular: some output frames are not determined "
+                                "by the observations and the prior (lam = 0 with unobserved frames?)");
+        return st;
+    }
+    *out = g;
+    return st;
+}
+
+void mlr_lgs_destroy(mlr_lgs *g)
+{
+    if (g)
+        lgs_free(g);
+}
+
+size_t mlr_lgs_n_out(const mlr_lgs *g) { return g ? g->n_out : 0; }
+size_t mlr_lgs_n_obs(const mlr_lgs *g) { return g ? g->n_obs : 0; }
+
+/* Row r of A^T y into x. */
+static void rhs_row(const mlr_lgs *g, size_t r, const double *y, size_t ldy, size_t m,
+                    double *xr)
+{
+    for (size_t c = 0; c < m; c++)
+        xr[c] = 0.0;
+    if (r > 0) { /* observations between r-1 and r contribute f */
+        for (size_t i = g->first[r - 1]; i < g->first[r]; i++) {
+            const double w = g->f[i];
+            const double *yi = y + i * ldy;
+            for (size_t c = 0; c < m; c++)
+                xr[c] += w * yi[c];
+        }
+    }
+    if (r < g->n_out - 1) { /* observations between r and r+1 contribute 1-f */
+        for (size_t i = g->first[r]; i < g->first[r + 1]; i++) {
+            const double w = 1.0 - g->f[i];
+            const double *yi = y + i * ldy;
+            for (size_t c = 0; c < m; c++)
+                xr[c] += w * yi[c];
+        }
+    }
+}
+
+static int row_finite(const double *x, size_t m)
+{
+    double acc = 0.0;
+    for (size_t c = 0; c < m; c++)
+        acc += x[c] * 0.0; /* NaN for any NaN or inf */
+    return acc == 0.0;
+}
+
+mlr_status mlr_lgs_solve(const mlr_lgs *g, const double *y, size_t ldy, size_t m, double *x,
+                         size_t ldx)
+{
+    if (!g)
+        return MLR_E_INVALID_ARG;
+    if (m == 0)
+        return MLR_OK;
+    if (!y || !x || ldy < m || ldx < m)
+        return MLR_E_INVALID_ARG;
+    if (g->first && x == y)
+        return MLR_E_INVALID_ARG;
+    const size_t n = g->n_out;
+    if (g->solver == MLR_LGS_BANDED) {
+        for (size_t r = 0; r < n; r++) {
+            double *xr = x + r * ldx;
+            if (g->first)
+                rhs_row(g, r, y, ldy, m, xr);
+            else if (xr != y + r * ldy)
+                memcpy(xr, y + r * ldy, m * sizeof(double));
+            if (r > 0)
+                mlr_band_forward_row(g->band, r, x, ldx, m);
+        }
+        mlr_band_backward(g->band, x, ldx, m);
+    } else {
+#ifdef MLR_HAVE_CHOLMOD
+        /* a sparse factor need not connect every row with every other: check y itself */
+        for (size_t i = 0; i < g->n_obs; i++)
+            if (!row_finite(y + i * ldy, m))
+                return MLR_E_INVALID_ARG;
+        for (size_t r = 0; r < n; r++) {
+            double *xr = x + r * ldx;
+            if (g->first)
+                rhs_row(g, r, y, ldy, m, xr);
+            else if (xr != y + r * ldy)
+                memcpy(xr, y + r * ldy, m * sizeof(double));
+        }
+        mlr_status st = mlr_sparse_spd_solve(g->sparse, x, ldx, m);
+        if (st != MLR_OK)
+            return st;
+#else
+        return MLR_E_UNSUPPORTED;
+#endif
+    }
+    /* Any NaN or inf in y reaches every output row through the two sweeps (0 * inf and
+     * 0 * NaN are NaN), so the first and last rows tell whether y was finite. */
+    if (!row_finite(x, m) || !row_finite(x + (n - 1) * ldx, m))
+        return MLR_E_INVALID_ARG;
+    return MLR_OK;
+}
+
+mlr_status mlr_lgs_variance(const mlr_lgs *g, double *var, size_t n_out)
+{
+    if (!g || !var || n_out != g->n_out)
+        return MLR_E_INVALID_ARG;
+    if (g->solver != MLR_LGS_BANDED)
+        return MLR_E_UNSUPPORTED;
+    mlr_status st = mlr_band_inverse_diagonal(g->band, var, n_out);
+    if (st != MLR_OK)
+        return st;
+    for (size_t i = 0; i < n_out; i++)
+        var[i] *= g->sigma2;
+    return MLR_OK;
+}

@@ -1,0 +1,31 @@
+#!/usr/bin/env bash
+# Install what mlayer needs on a Debian machine and build the Python package into .venv.
+# Idempotent: already-installed packages are skipped. Usage: bash scripts/setup.sh
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+APT_PACKAGES=(build-essential pkg-config ninja-build check libsuitesparse-dev libopenblas-dev
+              clang python3-venv)
+missing=()
+for p in "${APT_PACKAGES[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "setup: installing Debian packages: ${missing[*]}"
+  SUDO=""; [ "$(id -u)" -eq 0 ] || SUDO="sudo"
+  $SUDO apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+fi
+
+PY=${PYTHON:-python3}
+if [ ! -x .venv/bin/python ]; then
+  echo "setup: creating .venv"
+  "$PY" -m venv .venv
+fi
+. .venv/bin/activate
+python -m pip install -q --upgrade pip
+python -m pip install -q "meson>=1.3" "meson-python>=0.16" "cffi>=2.1" ninja "numpy>=1.24" \
+  scipy matplotlib pytest
+echo "setup: building and installing the mlayer package"
+python -m pip install -q --no-build-isolation .
+echo "setup: $(mlayer --version)"

@@ -1,0 +1,26 @@
+#!/usr/bin/env bash
+# Set up (scripts/setup.sh), then run every test: the Check suites of the C core through meson,
+# the same suites again under AddressSanitizer + UndefinedBehaviorSanitizer, then pytest.
+# Usage: bash scripts/test.sh
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bash scripts/setup.sh
+. .venv/bin/activate
+
+echo "== C core: Check suites and ABI checks =="
+meson setup build-test -Dtests=enabled -Dcholmod=enabled --reconfigure >/dev/null 2>&1 \
+  || meson setup build-test -Dtests=enabled -Dcholmod=enabled >/dev/null
+meson compile -C build-test >/dev/null
+meson test -C build-test -v --print-errorlogs
+
+echo "== C core under ASan + UBSan =="
+meson setup build-sanitize -Dtests=enabled -Dcholmod=enabled -Db_sanitize=address,undefined \
+  -Db_lundef=false -Dbuildtype=debugoptimized --reconfigure >/dev/null 2>&1 \
+  || meson setup build-sanitize -Dtests=enabled -Dcholmod=enabled -Db_sanitize=address,undefined \
+       -Db_lundef=false -Dbuildtype=debugoptimized >/dev/null
+meson compile -C build-sanitize >/dev/null
+UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 ASAN_OPTIONS=detect_leaks=1 \
+  meson test -C build-sanitize -v --print-errorlogs --suite unit
+
+echo "== Python package: pytest =="
+python -m pytest bindings/python/tests -q -p no:cacheprovider

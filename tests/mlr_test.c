@@ -1,0 +1,84 @@
+#include "mlr_test.h"
+
+#include <math.h>
+#include <stdlib.h>
+
+void mlr_test_rng_seed(mlr_test_rng *r, uint64_t seed) { r->state = seed; }
+
+uint64_t mlr_test_rng_u64(mlr_test_rng *r)
+{
+    uint64_t z = (r->state += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+}
+
+double mlr_test_rng_uniform(mlr_test_rng *r)
+{
+    return (double)(mlr_test_rng_u64(r) >> 11) * (1.0 / 9007199254740992.0);
+}
+
+double mlr_test_rng_normal(mlr_test_rng *r)
+{
+    double u1 = mlr_test_rng_uniform(r), u2 = mlr_test_rng_uniform(r);
+    if (u1 < 1e-300)
+        u1 = 1e-300;
+    return sqrt(-2.0 * log(u1)) * cos(6.283185307179586 * u2);
+}
+
+typedef struct block_header { size_t size; size_t pad; } block_header;
+
+static void *test_allocate(void *user, size_t size, size_t align)
+{
+    mlr_test_allocator *ta = user;
+    (void)align;
+    if (ta->n_calls++ == ta->fail_at)
+        return NULL;
+    block_header *h = malloc(sizeof *h + size);
+    if (!h)
+        return NULL;
+    h->size = size;
+    ta->live_blocks++;
+    ta->live_bytes += size;
+    return h + 1;
+}
+
+static void test_release(void *user, void *ptr, size_t size)
+{
+    mlr_test_allocator *ta = user;
+    block_header *h = (block_header *)ptr - 1;
+    ck_assert_uint_eq(h->size, size); /* release gets the size that was allocated */
+    ta->live_blocks--;
+    ta->live_bytes -= size;
+    free(h);
+}
+
+void mlr_test_allocator_init(mlr_test_allocator *ta, size_t fail_at)
+{
+    ta->base.allocate = test_allocate;
+    ta->base.release = test_release;
+    ta->base.user = ta;
+    ta->fail_at = fail_at;
+    ta->n_calls = ta->live_blocks = ta->live_bytes = 0;
+}
+
+const char *mlr_test_mocap_dir(void)
+{
+    const char *env = getenv("MLR_TEST_MOCAP_DIR");
+    if (env && *env)
+        return env;
+#ifdef MLR_TEST_MOCAP_DIR_DEFAULT
+    return MLR_TEST_MOCAP_DIR_DEFAULT;
+#else
+    return NULL;
+#endif
+}
+
+int mlr_test_run(Suite *s)
+{
+    SRunner *sr = srunner_create(s);
+    srunner_run_all(sr, CK_NORMAL);
+    int failed = srunner_ntests_failed(sr);
+    srunner_free(sr);
+    return failed == 0 ? EXIT_SUCCESS : EXIT_FAILURE;
+}

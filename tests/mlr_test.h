@@ -1,0 +1,40 @@
+/* Shared helpers of the Check suites: seeded data, a counting/failing allocator, a runner. */
+#ifndef MLR_TEST_H
+#define MLR_TEST_H
+
+#include <check.h>
+#include <mlayer/mlayer.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#define MLR_COUNTOF(a) (sizeof(a) / sizeof((a)[0]))
+
+/* Deterministic generator (splitmix64); never rand(). */
+typedef struct mlr_test_rng { uint64_t state; } mlr_test_rng;
+void mlr_test_rng_seed(mlr_test_rng *r, uint64_t seed);
+uint64_t mlr_test_rng_u64(mlr_test_rng *r);
+double mlr_test_rng_uniform(mlr_test_rng *r);            /* [0, 1) */
+double mlr_test_rng_normal(mlr_test_rng *r);             /* N(0, 1) */
+
+/* Allocator that counts live blocks and fails the fail_at-th allocation (0-based);
+ * fail_at = SIZE_MAX never fails. */
+typedef struct mlr_test_allocator {
+    mlr_allocator base;                                  /* pass &ta.base */
+    size_t fail_at, n_calls, live_blocks, live_bytes;
+} mlr_test_allocator;
+void mlr_test_allocator_init(mlr_test_allocator *ta, size_t fail_at);
+
+/* Directory of the shared real mocap clips, or NULL when not configured. */
+const char *mlr_test_mocap_dir(void);
+
+/* Run a suite, print Check's summary line, return the process exit code. */
+int mlr_test_run(Suite *s);
+
+#define ck_assert_close(a, b, tol)                                                           \
+    do {                                                                                     \
+        double a_ = (a), b_ = (b), t_ = (tol);                                               \
+        ck_assert_msg(fabs(a_ - b_) <= t_, "%s = %.17g, %s = %.17g, |diff| %.3g > %.3g", #a, \
+                      a_, #b, b_, fabs(a_ - b_), t_);                                        \
+    } while (0)
+
+#endif
