@@ -105,7 +105,71 @@ mlr_status mlr_band_factor(mlr_band *b, const double *ab, size_t ldab)
     return mlr_band_factor_fn(b, lapack_entry, &lb);
 }
 
-/* Forward sweep for one row: x_i = (x_i - sum_k L(i,i-k) x_{i-k}) (scaled by 1/D later). */
+/* Row kernels: the rows are distinct, so restrict lets the compiler vectorize over channels. */
+static inline void row_sub1(double *restrict xi, const double *restrict x1, double l1, size_t m)
+{
+    for (size_t c = 0; c < m; c++)
+        xi[c] -= l1 * x1[c];
+}
+
+static inline void row_sub2(double *restrict xi, const double *restrict x1,
+                            const double *restrict x2, double l1, double l2, size_t m)
+{
+    for (size_t c = 0; c < m; c++)
+        xi[c] -= l1 * x1[c] + l2 * x2[c];
+}
+
+static inline void row_scale_sub1(double *restrict xi, const double *restrict x1, double di,
+                                  double l1, size_t m)
+{
+    for (size_t c = 0; c < m; c++)
+        xi[c] = xi[c] * di - l1 * x1[c];
+}
+
+static inline void row_scale_sub2(double *restrict xi, const double *restrict x1,
+                                  const double *restrict x2, double di, double l1, double l2,
+                                  size_t m)
+{
+    for (size_t c = 0; c < m; c++)
+        xi[c] = xi[c] * di - (l1 * x1[c] + l2 * x2[c]);
+}
+
+/* x_i = y_i - l1 x_{i-1} - l2 x_{i-2}: the forward sweep fused with the copy of the input. */
+static inline void row_from2(double *restrict xi, const double *restrict yi,
+                             const double *restrict x1, const double *restrict x2, double l1,
+                             double l2, size_t m)
+{
+    for (size_t c = 0; c < m; c++)
+        xi[c] = yi[c] - (l1 * x1[c] + l2 * x2[c]);
+}
+
+static inline void row_from1(double *restrict xi, const double *restrict yi,
+                             const double *restrict x1, double l1, size_t m)
+{
+    for (size_t c = 0; c < m; c++)
+        xi[c] = yi[c] - l1 * x1[c];
+}
+
+void mlr_band_forward_row_from(const mlr_band *b, size_t i, const double *yi, double *x,
+                               size_t ldx, size_t m)
+{
+    const size_t kd = b->kd;
+    const double *li = b->l + i * kd;
+    double *xi = x + i * ldx;
+    size_t kmax = i < kd ? i : kd;
+    if (kmax == 2) {
+        row_from2(xi, yi, xi - ldx, xi - 2 * ldx, li[0], li[1], m);
+    } else if (kmax == 1) {
+        row_from1(xi, yi, xi - ldx, li[0], m);
+    } else {
+        memcpy(xi, yi, m * sizeof(double));
+        for (size_t k = 1; k <= kmax; k++)
+            row_sub1(xi, xi - k * ldx, li[k - 1], m);
+    }
+}
+
+/* Forward sweep for one row: x_i -= sum_k L(i,i-k) x_{i-k} (the 1/D scaling comes in the
+ * backward sweep). */
 void mlr_band_forward_row(const mlr_band *b, size_t i, double *x, size_t ldx, size_t m)
 {
     const size_t kd = b->kd;
@@ -113,22 +177,12 @@ void mlr_band_forward_row(const mlr_band *b, size_t i, double *x, size_t ldx, si
     double *xi = x + i * ldx;
     size_t kmax = i < kd ? i : kd;
     if (kmax == 2) {
-        const double l1 = li[0], l2 = li[1];
-        const double *x1 = xi - ldx, *x2 = xi - 2 * ldx;
-        for (size_t c = 0; c < m; c++)
-            xi[c] -= l1 * x1[c] + l2 * x2[c];
+        row_sub2(xi, xi - ldx, xi - 2 * ldx, li[0], li[1], m);
     } else if (kmax == 1) {
-        const double l1 = li[0];
-        const double *x1 = xi - ldx;
-        for (size_t c = 0; c < m; c++)
-            xi[c] -= l1 * x1[c];
+        row_sub1(xi, xi - ldx, li[0], m);
     } else {
-        for (size_t k = 1; k <= kmax; k++) {
-            const double lk = li[k - 1];
-            const double *xk = xi - k * ldx;
-            for (size_t c = 0; c < m; c++)
-                xi[c] -= lk * xk[c];
-        }
+        for (size_t k = 1; k <= kmax; k++)
+            row_sub1(xi, xi - k * ldx, li[k - 1], m);
     }
 }
 
@@ -142,24 +196,14 @@ void mlr_band_backward(const mlr_band *b, double *x, size_t ldx, size_t m)
         const double di = dinv[i];
         size_t kmax = n - 1 - i < kd ? n - 1 - i : kd;
         if (kmax == 2) {
-            const double l1 = l[(i + 1) * kd], l2 = l[(i + 2) * kd + 1];
-            const double *x1 = xi + ldx, *x2 = xi + 2 * ldx;
-            for (size_t c = 0; c < m; c++)
-                xi[c] = xi[c] * di - (l1 * x1[c] + l2 * x2[c]);
+            row_scale_sub2(xi, xi + ldx, xi + 2 * ldx, di, l[(i + 1) * kd], l[(i + 2) * kd + 1], m);
         } else if (kmax == 1) {
-            const double l1 = l[(i + 1) * kd];
-            const double *x1 = xi + ldx;
-            for (size_t c = 0; c < m; c++)
-                xi[c] = xi[c] * di - l1 * x1[c];
+            row_scale_sub1(xi, xi + ldx, di, l[(i + 1) * kd], m);
         } else {
             for (size_t c = 0; c < m; c++)
                 xi[c] *= di;
-            for (size_t k = 1; k <= kmax; k++) {
-                const double lk = l[(i + k) * kd + k - 1];
-                const double *xk = xi + k * ldx;
-                for (size_t c = 0; c < m; c++)
-                    xi[c] -= lk * xk[c];
-            }
+            for (size_t k = 1; k <= kmax; k++)
+                row_sub1(xi, xi + k * ldx, l[(i + k) * kd + k - 1], m);
         }
     }
 }

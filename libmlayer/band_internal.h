@@ -19,6 +19,9 @@ typedef double (*mlr_band_entry_fn)(const void *ctx, size_t i, size_t j);
 
 mlr_status mlr_band_factor_fn(mlr_band *b, mlr_band_entry_fn entry, const void *ctx);
 void mlr_band_forward_row(const mlr_band *b, size_t i, double *x, size_t ldx, size_t m);
+/* The same with the right-hand side row taken from yi (not aliasing x): x_i = y_i - ... */
+void mlr_band_forward_row_from(const mlr_band *b, size_t i, const double *yi, double *x,
+                               size_t ldx, size_t m);
 void mlr_band_backward(const mlr_band *b, double *x, size_t ldx, size_t m);
 
 #endif

@@ -284,12 +284,14 @@ mlr_status mlr_lgs_solve(const mlr_lgs *g, const double *y, size_t ldy, size_t m
     if (g->solver == MLR_LGS_BANDED) {
         for (size_t r = 0; r < n; r++) {
             double *xr = x + r * ldx;
-            if (g->first)
+            if (g->first) {
                 rhs_row(g, r, y, ldy, m, xr);
-            else if (xr != y + r * ldy)
-                memcpy(xr, y + r * ldy, m * sizeof(double));
-            if (r > 0)
                 mlr_band_forward_row(g->band, r, x, ldx, m);
+            } else if (xr != y + r * ldy) {
+                mlr_band_forward_row_from(g->band, r, y + r * ldy, x, ldx, m);
+            } else {
+                mlr_band_forward_row(g->band, r, x, ldx, m);
+            }
         }
         mlr_band_backward(g->band, x, ldx, m);
     } else {

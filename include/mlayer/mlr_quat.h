@@ -3,6 +3,11 @@
  * are axis times the full rotation angle (as scipy's Rotation.as_rotvec).
  * Every array function takes count elements; out may alias an input of the same shape.
  * None of them allocates; all are thread-safe on separate data.
+ * Status-returning functions accept NULL pointers when count is 0 (MLR_OK) and return
+ * MLR_E_INVALID_ARG for a NULL pointer otherwise. A bad element does not stop the batch: its
+ * output is set as documented (identity quaternion, zero vector or zero angles), the other
+ * elements are still computed, and the call returns MLR_E_INVALID_ARG.
+ * The void functions do nothing when given a NULL pointer.
  */
 #ifndef MLR_QUAT_H
 #define MLR_QUAT_H
@@ -40,25 +45,34 @@ MLR_API void mlr_quat_conj_array(const mlr_quat *q, size_t count, mlr_quat *out)
  */
 MLR_API mlr_status mlr_quat_normalize_array(const mlr_quat *q, size_t count, mlr_quat *out);
 /** out[i] = exp(v[i]): the rotation by |v| about v/|v|, accurate near 0.
- *  @return MLR_OK; MLR_E_INVALID_ARG (non-finite input) */
+ *  @return MLR_OK; MLR_E_INVALID_ARG (non-finite input: that out[i] is the identity) */
 MLR_API mlr_status mlr_quat_exp_array(const mlr_vec3 *v, size_t count, mlr_quat *out);
 /** out[i] = log(q[i]) as a full-angle rotation vector of the unit quaternion q[i] (its angle
- *  taken in [0, pi], so q and -q give the same vector). Accurate near 0 and near pi.
- *  @return MLR_OK; MLR_E_INVALID_ARG (non-finite or zero input) */
+ *  taken in [0, pi], so q and -q give the same vector). Accurate near 0 and near pi. The result
+ *  does not depend on |q[i]|: an unnormalized q gives the log of its rotation.
+ *  @return MLR_OK; MLR_E_INVALID_ARG (non-finite or zero input: that out[i] is zero) */
 MLR_API mlr_status mlr_quat_log_array(const mlr_quat *q, size_t count, mlr_vec3 *out);
-/** out[i] = slerp(a[i], b[i], t[i]) along the shorter arc, unit-norm output.
- *  @return MLR_OK; MLR_E_INVALID_ARG (non-finite input) */
+/** out[i] = slerp(a[i], b[i], t[i]) along the shorter arc, unit-norm output. a and b are
+ *  normalized first; t outside [0, 1] extrapolates. Exact limit as a -> b (no 0/0), and a ~ -b
+ *  is the same rotation as b, so it is handled like a ~ b.
+ *  @return MLR_OK; MLR_E_INVALID_ARG (non-finite input, or a zero a or b: that out[i] is the
+ *          identity) */
 MLR_API mlr_status mlr_quat_slerp_array(const mlr_quat *a, const mlr_quat *b, const double *t,
                                         size_t count, mlr_quat *out);
 /**
  * From intrinsic Euler angles in radians, angles[3*i + k] about the k-th axis of order.
- * @return MLR_OK; MLR_E_INVALID_ARG (bad order or non-finite angle)
+ * Any finite angles are accepted (no range restriction).
+ * @return MLR_OK; MLR_E_INVALID_ARG (bad order: nothing written; non-finite angle: that out[i]
+ *         is the identity)
  */
 MLR_API mlr_status mlr_quat_from_euler_array(const double *angles, size_t count,
                                              mlr_euler_order order, mlr_quat *out);
 /** To intrinsic Euler angles in radians; the middle angle in [-pi/2, pi/2], the others in
- *  (-pi, pi]. At gimbal lock the third angle is 0. q need not be normalized.
- *  @return MLR_OK; MLR_E_INVALID_ARG */
+ *  (-pi, pi]. At gimbal lock (middle angle within 1e-13 of +-pi/2) the third angle is 0 and the
+ *  first carries the whole rotation about the locked axis. q need not be normalized; q and -q
+ *  give the same angles (up to the +-pi ends of the ranges).
+ *  @return MLR_OK; MLR_E_INVALID_ARG (bad order: nothing written; zero or non-finite q: those
+ *          three angles are 0) */
 MLR_API mlr_status mlr_quat_to_euler_array(const mlr_quat *q, size_t count,
                                            mlr_euler_order order, double *angles);
 /**

@@ -10,6 +10,7 @@ from importlib.metadata import PackageNotFoundError, version as _dist_version
 from ._native import ffi as _ffi, lib as _lib
 from .errors import (Error, InvalidArgumentError, MlayerIOError, MlayerWarning, ParseError,
                      SingularMatrixError, UnsupportedError)
+from . import quat
 from .lgs import LGS, have_cholmod, lgs
 
 try:
@@ -25,4 +26,4 @@ def library_version() -> str:
 
 __all__ = ["__version__", "library_version", "Error", "InvalidArgumentError", "ParseError",
            "SingularMatrixError", "MlayerIOError", "UnsupportedError", "MlayerWarning",
-           "LGS", "lgs", "have_cholmod"]
+           "LGS", "lgs", "have_cholmod", "quat"]

@@ -1,0 +1,23 @@
+/* The benchmark harness: a case is a row in a table; the harness times it. */
+#ifndef MLR_BENCH_H
+#define MLR_BENCH_H
+
+#include <stddef.h>
+
+typedef struct mlr_bench_case {
+    const char *name;               /* "lgs.solve/n=100000,m=127" */
+    size_t n;                       /* elements per iteration, for ns/element */
+    void *(*setup)(size_t n);       /* seeded input; NULL on failure */
+    double (*run)(void *state);     /* one iteration; result folded into a checksum */
+    void (*teardown)(void *state);
+} mlr_bench_case;
+
+/* Seeded uniform [0, 1) and normal values for inputs (splitmix64). */
+double mlr_bench_uniform(unsigned long long *state);
+double mlr_bench_normal(unsigned long long *state);
+
+/* Case tables of each subject, defined in bench_<subject>.c. */
+extern const mlr_bench_case mlr_bench_lgs_cases[];
+extern const size_t mlr_bench_lgs_count;
+
+#endif
