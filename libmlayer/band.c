@@ -51,58 +51,84 @@ void mlr_band_destroy(mlr_band *b)
 /* Pivot below this fraction of its diagonal entry: the factor is usable but inaccurate. */
 #define MLR_BAND_ILL_PIVOT 1e-13
 
-mlr_status mlr_band_factor_fn(mlr_band *b, mlr_band_entry_fn entry, const void *ctx)
+/* Pivot checks shared by the factor loops. */
+static inline int pivot_ok(double d, double aii, mlr_status *status)
+{
+    if (!(d > 0.0) || !isfinite(d))
+        return 0;
+    if (d < MLR_BAND_ILL_PIVOT * fabs(aii))
+        *status = MLR_W_ILL_CONDITIONED;
+    return 1;
+}
+
+mlr_status mlr_band_factor_in_place(mlr_band *b)
 {
     const size_t n = b->n, kd = b->kd;
     double *l = b->l, *dinv = b->dinv;
     mlr_status status = MLR_OK;
     b->factored = 0;
-    for (size_t i = 0; i < n; i++) {
-        size_t kmax = i < kd ? i : kd;
-        /* L(i, j) for j = i-kmax .. i-1, left to right */
-        for (size_t k = kmax; k >= 1; k--) {
-            size_t j = i - k;
-            double s = entry(ctx, i, j);
-            /* subtract sum_p L(i,p) D(p) L(j,p) over p < j with p >= i - kd */
-            for (size_t q = k + 1; q <= kmax; q++) {
-                size_t p = i - q;           /* L(i,p) = l[i*kd + q-1] */
-                size_t kj = j - p;          /* L(j,p) = l[j*kd + kj-1] */
-                s -= l[i * kd + q - 1] * l[j * kd + kj - 1] / dinv[p];
+    if (kd == 2) { /* pentadiagonal, the LGS default: one division per row */
+        for (size_t i = 0; i < n; i++) {
+            double *li = l + 2 * i, aii = dinv[i], d = aii;
+            if (i >= 2) {
+                const double a2 = li[1], a1 = li[0] - a2 * l[2 * (i - 1)];
+                li[1] = a2 * dinv[i - 2];
+                li[0] = a1 * dinv[i - 1];
+                d -= li[1] * a2 + li[0] * a1;
+            } else if (i == 1) {
+                const double a1 = li[0];
+                li[0] = a1 * dinv[0];
+                li[1] = 0.0;
+                d -= li[0] * a1;
+            } else {
+                li[0] = li[1] = 0.0;
             }
-            l[i * kd + k - 1] = s * dinv[j];
+            if (!pivot_ok(d, aii, &status))
+                return MLR_E_SINGULAR;
+            dinv[i] = 1.0 / d;
         }
-        for (size_t k = kmax + 1; k <= kd; k++)
-            l[i * kd + k - 1] = 0.0;
-        double aii = entry(ctx, i, i);
-        double d = aii;
-        for (size_t k = 1; k <= kmax; k++) {
-            double lik = l[i * kd + k - 1];
-            d -= lik * lik / dinv[i - k];
+    } else {
+        for (size_t i = 0; i < n; i++) {
+            size_t kmax = i < kd ? i : kd;
+            /* L(i, j) for j = i-kmax .. i-1, left to right, over A(i, j) in the same slots */
+            for (size_t k = kmax; k >= 1; k--) {
+                size_t j = i - k;
+                double v = l[i * kd + k - 1];
+                /* subtract sum_p L(i,p) D(p) L(j,p) over p < j with p >= i - kd */
+                for (size_t q = k + 1; q <= kmax; q++) {
+                    size_t p = i - q;   /* L(i,p) = l[i*kd + q-1] */
+                    size_t kj = j - p;  /* L(j,p) = l[j*kd + kj-1] */
+                    v -= l[i * kd + q - 1] * l[j * kd + kj - 1] / dinv[p];
+                }
+                l[i * kd + k - 1] = v * dinv[j];
+            }
+            for (size_t k = kmax + 1; k <= kd; k++)
+                l[i * kd + k - 1] = 0.0;
+            double aii = dinv[i], d = aii;
+            for (size_t k = 1; k <= kmax; k++) {
+                double lik = l[i * kd + k - 1];
+                d -= lik * lik / dinv[i - k];
+            }
+            if (!pivot_ok(d, aii, &status))
+                return MLR_E_SINGULAR;
+            dinv[i] = 1.0 / d;
         }
-        if (!(d > 0.0) || !isfinite(d))
-            return MLR_E_SINGULAR;
-        if (d < MLR_BAND_ILL_PIVOT * fabs(aii))
-            status = MLR_W_ILL_CONDITIONED;
-        dinv[i] = 1.0 / d;
     }
     b->factored = 1;
     return status;
-}
-
-typedef struct lapack_band { const double *ab; size_t ldab; } lapack_band;
-
-static double lapack_entry(const void *ctx, size_t i, size_t j)
-{
-    const lapack_band *lb = ctx;
-    return lb->ab[j * lb->ldab + (i - j)];
 }
 
 mlr_status mlr_band_factor(mlr_band *b, const double *ab, size_t ldab)
 {
     if (!b || !ab || ldab < b->kd + 1)
         return MLR_E_INVALID_ARG;
-    lapack_band lb = {ab, ldab};
-    return mlr_band_factor_fn(b, lapack_entry, &lb);
+    const size_t n = b->n, kd = b->kd;
+    for (size_t i = 0; i < n; i++) {
+        b->dinv[i] = ab[i * ldab];
+        for (size_t k = 1; k <= kd; k++)
+            b->l[i * kd + k - 1] = k <= i ? ab[(i - k) * ldab + k] : 0.0;
+    }
+    return mlr_band_factor_in_place(b);
 }
 
 /* Row kernels: the rows are distinct, so restrict lets the compiler vectorize over channels. */
@@ -186,15 +212,16 @@ void mlr_band_forward_row(const mlr_band *b, size_t i, double *x, size_t ldx, si
     }
 }
 
-/* Backward sweep after the forward one: x_i = x_i / D_i - sum_k L(i+k,i) x_{i+k}. */
-void mlr_band_backward(const mlr_band *b, double *x, size_t ldx, size_t m)
+/* Backward sweep over rows e..a (e >= a) after the forward one:
+ * x_i = x_i / D_i - sum_k L(i+k,i) x_{i+k}, rows past e taken as zero. */
+static void backward_range(const mlr_band *b, size_t a, size_t e, double *x, size_t ldx, size_t m)
 {
-    const size_t n = b->n, kd = b->kd;
+    const size_t kd = b->kd;
     const double *l = b->l, *dinv = b->dinv;
-    for (size_t i = n; i-- > 0;) {
+    for (size_t i = e + 1; i-- > a;) {
         double *xi = x + i * ldx;
         const double di = dinv[i];
-        size_t kmax = n - 1 - i < kd ? n - 1 - i : kd;
+        size_t kmax = e - i < kd ? e - i : kd;
         if (kmax == 2) {
             row_scale_sub2(xi, xi + ldx, xi + 2 * ldx, di, l[(i + 1) * kd], l[(i + 2) * kd + 1], m);
         } else if (kmax == 1) {
@@ -208,6 +235,119 @@ void mlr_band_backward(const mlr_band *b, double *x, size_t ldx, size_t m)
     }
 }
 
+void mlr_band_backward(const mlr_band *b, double *x, size_t ldx, size_t m)
+{
+    backward_range(b, 0, b->n - 1, x, ldx, m);
+}
+
+/*
+ * Single-pass solve by chunks. A chunk [a, e] swept backward with zero rows past e gives p;
+ * the true x is p + sum_j h_j x_{e+j}, where h_j solves the homogeneous backward recurrence
+ * h_i = -sum_k L(i+k,i) h_{i+k} with h_{e+k} = delta_jk. The recurrence is stable backward,
+ * so h_j decays away from e: past MLR_BAND_TAIL_TOL it changes no digit of x. When the decay
+ * fits inside every chunk, a chunk's first rows are final as soon as it is swept, and the
+ * previous chunk only needs its tail corrected. Each chunk is swept forward, then (one chunk
+ * later) backward, and its predecessor's tail fixed, while all three are still in cache: the
+ * solve streams y and x once instead of twice.
+ */
+#define MLR_BAND_TAIL_TOL 1e-20
+#define MLR_BAND_TAIL_MAX 1024           /* rows of h kept on the stack (16 KiB for kd = 2) */
+#define MLR_BAND_CHUNK_BYTES (256u << 10) /* about a quarter of a core's L2 per chunk */
+
+/* h for the chunk ending at e (e + kd <= n - 1): h[(e - i) * kd + j - 1] for rows i down to
+ * e + 1 - *len; returns 0 when it does not decay within max_len rows. */
+static int tail_homogeneous(const mlr_band *b, size_t e, size_t max_len, double *h, size_t *len)
+{
+    const size_t kd = b->kd;
+    const double *l = b->l;
+    size_t quiet = 0;
+    for (size_t r = 0; r < max_len && r <= e; r++) {
+        size_t i = e - r;
+        double mag = 0.0;
+        for (size_t j = 1; j <= kd; j++) {
+            double v = 0.0;
+            for (size_t k = 1; k <= kd; k++) {
+                double hk; /* h_j at row i + k */
+                size_t rk = i + k;
+                if (rk > e)
+                    hk = (rk - e == j) ? 1.0 : 0.0;
+                else
+                    hk = h[(e - rk) * kd + j - 1];
+                v -= l[(i + k) * kd + k - 1] * hk;
+            }
+            h[r * kd + j - 1] = v;
+            mag = fmax(mag, fabs(v));
+        }
+        quiet = mag < MLR_BAND_TAIL_TOL ? quiet + 1 : 0;
+        if (quiet >= kd + 1) {
+            *len = r + 1;
+            return 1;
+        }
+    }
+    return 0;
+}
+
+static void correct_tail(const mlr_band *b, size_t e, double *x, size_t ldx, size_t m,
+                         double *h)
+{
+    size_t len = 0;
+    const size_t kd = b->kd;
+    tail_homogeneous(b, e, MLR_BAND_TAIL_MAX, h, &len); /* checked to decay before the solve */
+    for (size_t r = 0; r < len; r++) {
+        double *xi = x + (e - r) * ldx;
+        if (kd == 2)
+            row_sub2(xi, x + (e + 1) * ldx, x + (e + 2) * ldx, -h[r * 2], -h[r * 2 + 1], m);
+        else
+            row_sub1(xi, x + (e + 1) * ldx, -h[r], m);
+    }
+}
+
+void mlr_band_solve_rows(const mlr_band *b, mlr_band_row_fn forward_row, const void *ctx,
+                         double *x, size_t ldx, size_t m)
+{
+    const size_t n = b->n, kd = b->kd;
+    size_t chunk = MLR_BAND_CHUNK_BYTES / (m * sizeof(double) + 1);
+    if (chunk < 64)
+        chunk = 64;
+    double h[MLR_BAND_TAIL_MAX * 2];
+    int chunked = (kd == 1 || kd == 2) && n >= 4 * chunk;
+    /* every interior chunk's tail must decay within the chunk (and within the buffer) */
+    for (size_t e = chunk - 1; chunked && e + chunk < n; e += chunk) {
+        size_t len = 0, lim = chunk - kd < MLR_BAND_TAIL_MAX ? chunk - kd : MLR_BAND_TAIL_MAX;
+        chunked = tail_homogeneous(b, e, lim, h, &len);
+    }
+    if (!chunked) {
+        for (size_t r = 0; r < n; r++)
+            forward_row(ctx, r, x, ldx, m);
+        mlr_band_backward(b, x, ldx, m);
+        return;
+    }
+    /* chunks [k*chunk, (k+1)*chunk - 1]; the last one takes the remainder */
+    size_t n_chunks = n / chunk;
+#define CHUNK_A(k) ((k) * chunk)
+#define CHUNK_E(k) ((k) + 1 == n_chunks ? n - 1 : ((k) + 1) * chunk - 1)
+    for (size_t k = 0; k < n_chunks; k++) {
+        for (size_t r = CHUNK_A(k); r <= CHUNK_E(k); r++)
+            forward_row(ctx, r, x, ldx, m);
+        if (k >= 1)
+            backward_range(b, CHUNK_A(k - 1), CHUNK_E(k - 1), x, ldx, m);
+        if (k >= 2)
+            correct_tail(b, CHUNK_E(k - 2), x, ldx, m, h);
+    }
+    backward_range(b, CHUNK_A(n_chunks - 1), n - 1, x, ldx, m);
+    correct_tail(b, CHUNK_E(n_chunks - 2), x, ldx, m, h);
+#undef CHUNK_A
+#undef CHUNK_E
+}
+
+typedef struct inplace_ctx { const mlr_band *b; } inplace_ctx;
+
+static void forward_in_place(const void *vctx, size_t r, double *x, size_t ldx, size_t m)
+{
+    const inplace_ctx *ctx = vctx;
+    mlr_band_forward_row(ctx->b, r, x, ldx, m);
+}
+
 mlr_status mlr_band_solve(const mlr_band *b, double *x, size_t ldx, size_t m)
 {
     if (!b)
@@ -218,9 +358,8 @@ mlr_status mlr_band_solve(const mlr_band *b, double *x, size_t ldx, size_t m)
         return MLR_OK;
     if (!x || ldx < m)
         return MLR_E_INVALID_ARG;
-    for (size_t i = 1; i < b->n; i++)
-        mlr_band_forward_row(b, i, x, ldx, m);
-    mlr_band_backward(b, x, ldx, m);
+    inplace_ctx ctx = {b};
+    mlr_band_solve_rows(b, forward_in_place, &ctx, x, ldx, m);
     return MLR_OK;
 }
 

@@ -206,8 +206,26 @@ mlr_status mlr_lgs_create(size_t n_out, unsigned order, double lam, double sigma
 
     if (solver == MLR_LGS_BANDED) {
         st = mlr_band_create(n_out, order, &a, &g->band);
-        if (st == MLR_OK)
-            st = mlr_band_factor_fn(g->band, system_entry, &ctx);
+        if (st == MLR_OK) {
+            mlr_band *b = g->band;
+            /* interior rows of L^T L are constant: (6, -4, 1) for order 2, (2, -1) for 1 */
+            const double sd = g->s * (order == 2 ? 6.0 : 2.0), s1 = g->s * (order == 2 ? -4.0 : -1.0);
+            const double s2 = g->s;
+            for (size_t i = 0; i < n_out; i++) {
+                double *li = b->l + i * order;
+                if (i >= order && i + order < n_out) {
+                    b->dinv[i] = sd + (ctx.ata_d ? ctx.ata_d[i] : 1.0);
+                    li[0] = s1 + (ctx.ata_o ? ctx.ata_o[i] : 0.0);
+                    if (order == 2)
+                        li[1] = s2;
+                    continue;
+                }
+                b->dinv[i] = system_entry(&ctx, i, i);
+                for (size_t k = 1; k <= order; k++)
+                    li[k - 1] = k <= i ? system_entry(&ctx, i, i - k) : 0.0;
+            }
+            st = mlr_band_factor_in_place(b);
+        }
     } else {
 #ifdef MLR_HAVE_CHOLMOD
         st = mlr_sparse_spd_create(n_out, order, system_entry, &ctx, &g->sparse);
@@ -261,6 +279,31 @@ static void rhs_row(const mlr_lgs *g, size_t r, const double *y, size_t ldy, siz
     }
 }
 
+typedef struct solve_ctx {
+    const mlr_lgs *g;
+    const double *y;
+    size_t ldy;
+} solve_ctx;
+
+static void row_interp(const void *vctx, size_t r, double *x, size_t ldx, size_t m)
+{
+    const solve_ctx *c = vctx;
+    rhs_row(c->g, r, c->y, c->ldy, m, x + r * ldx);
+    mlr_band_forward_row(c->g->band, r, x, ldx, m);
+}
+
+static void row_copy(const void *vctx, size_t r, double *x, size_t ldx, size_t m)
+{
+    const solve_ctx *c = vctx;
+    mlr_band_forward_row_from(c->g->band, r, c->y + r * c->ldy, x, ldx, m);
+}
+
+static void row_in_place(const void *vctx, size_t r, double *x, size_t ldx, size_t m)
+{
+    const solve_ctx *c = vctx;
+    mlr_band_forward_row(c->g->band, r, x, ldx, m);
+}
+
 static int row_finite(const double *x, size_t m)
 {
     double acc = 0.0;
@@ -282,18 +325,9 @@ mlr_status mlr_lgs_solve(const mlr_lgs *g, const double *y, size_t ldy, size_t m
         return MLR_E_INVALID_ARG;
     const size_t n = g->n_out;
     if (g->solver == MLR_LGS_BANDED) {
-        for (size_t r = 0; r < n; r++) {
-            double *xr = x + r * ldx;
-            if (g->first) {
-                rhs_row(g, r, y, ldy, m, xr);
-                mlr_band_forward_row(g->band, r, x, ldx, m);
-            } else if (xr != y + r * ldy) {
-                mlr_band_forward_row_from(g->band, r, y + r * ldy, x, ldx, m);
-            } else {
-                mlr_band_forward_row(g->band, r, x, ldx, m);
-            }
-        }
-        mlr_band_backward(g->band, x, ldx, m);
+        solve_ctx ctx = {g, y, ldy};
+        mlr_band_row_fn fn = g->first ? row_interp : (x == y ? row_in_place : row_copy);
+        mlr_band_solve_rows(g->band, fn, &ctx, x, ldx, m);
     } else {
 #ifdef MLR_HAVE_CHOLMOD
         /* a sparse factor need not connect every row with every other: check y itself */
