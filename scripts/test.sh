@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Set up (scripts/setup.sh), then run every test: the Check suites of the C core through meson,
-# the same suites again under AddressSanitizer + UndefinedBehaviorSanitizer, then pytest.
+# the same suites again under AddressSanitizer + UndefinedBehaviorSanitizer, a bounded fuzzing
+# run of the BVH reader, then pytest.
 # Usage: bash scripts/test.sh
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -21,6 +22,14 @@ meson setup build-sanitize -Dtests=enabled -Dcholmod=enabled -Db_sanitize=addres
 meson compile -C build-sanitize >/dev/null
 UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 ASAN_OPTIONS=detect_leaks=1 \
   meson test -C build-sanitize -v --print-errorlogs --suite unit
+
+echo "== BVH reader fuzzed for 60 s (libFuzzer, ASan + UBSan, real clips as seeds) =="
+mkdir -p build-fuzz
+if bash tests/fuzz/run.sh 60 >build-fuzz/fuzz.log 2>&1; then
+  grep -E "^(fuzzing|Done)" build-fuzz/fuzz.log
+else
+  tail -40 build-fuzz/fuzz.log; echo "fuzzing the BVH reader failed" >&2; exit 1
+fi
 
 echo "== Python package: pytest =="
 python -m pytest bindings/python/tests -q -p no:cacheprovider

@@ -7,5 +7,7 @@
 #include "mlr_band.h"
 #include "mlr_lgs.h"
 #include "mlr_quat.h"
+#include "mlr_bvh.h"
+#include "mlr_fk.h"
 
 #endif /* MLAYER_H */

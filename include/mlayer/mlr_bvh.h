@@ -1,0 +1,231 @@
+/*
+ * BVH motion files: a motion handle (skeleton + frames), a reader and a writer.
+ *
+ * Data model (DESIGN.md):
+ * - J joints (ROOT and JOINT entries) in BVH depth-first order: joint 0 is the root and every
+ *   joint's parent comes before it. parents[0] == -1.
+ * - offsets: J x 3, the OFFSET of each joint as written in the file.
+ * - root_pos: N x 3, the root's translation per frame. Position channels REPLACE the OFFSET
+ *   component they name (they are absolute, as MotionBuilder and Blender read them); a root
+ *   without position channels gets its OFFSET in every frame.
+ * - rot: N x J x 4 unit quaternions, scalar first (w, x, y, z), local to the parent, converted
+ *   from each joint's own Euler order (degrees in the file, intrinsic, as the CHANNELS line
+ *   names the axes).
+ * - trans: N x P x 3 translations of the P non-root joints that have position channels, again
+ *   replacing their OFFSET (Bandai Namco clips put 6 channels on every joint).
+ *   trans_joints lists those P joints in increasing order.
+ * - End Sites (leaf markers without channels) are kept with their parent joint and OFFSET so
+ *   that a written file has the same hierarchy. Forward kinematics ignores them.
+ *
+ * A joint with fewer than 3 rotation channels keeps the missing angles at zero; its Euler order
+ * is the listed rotation axes followed by the missing ones in X, Y, Z order. When such a joint
+ * is written, only the listed angles are written.
+ *
+ * Every function is thread-safe on separate handles; a handle may be read from several
+ * threads at once while nobody modifies it.
+ */
+#ifndef MLR_BVH_H
+#define MLR_BVH_H
+
+#include <stdint.h>
+
+#include "mlr_common.h"
+#include "mlr_quat.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/** A skeleton and its frames. Opaque; created by the readers or mlr_motion_create. */
+typedef struct mlr_motion mlr_motion;
+
+/** Channel kinds, as named on a CHANNELS line. Values pinned. */
+typedef enum mlr_bvh_channel {
+    MLR_BVH_XPOSITION = 0, MLR_BVH_YPOSITION = 1, MLR_BVH_ZPOSITION = 2,
+    MLR_BVH_XROTATION = 3, MLR_BVH_YROTATION = 4, MLR_BVH_ZROTATION = 5
+} mlr_bvh_channel;
+
+/* ---------------------------------------------------------------------------------------- */
+/* Reading                                                                                  */
+
+/**
+ * Parse BVH text from memory.
+ * Accepts LF, CRLF or CR line ends, tabs and any whitespace, a UTF-8 byte order mark, keywords
+ * in any case, 0 to 6 channels per joint in any order, position channels on any joint and a
+ * different Euler order on every joint. One ROOT per file. Every frame is one line holding
+ * exactly as many values as the hierarchy declares channels.
+ * Never allocates from an unchecked count: "Frames:" is bounded by the bytes that follow it.
+ * @param text   [in] the file's bytes, need not be NUL-terminated; not kept
+ * @param len    [in] number of bytes
+ * @param alloc  [in] allocator, copied into the motion; NULL for malloc/free
+ * @param out    [out] new motion, or NULL on failure; release with mlr_motion_destroy
+ * @param diag   [out] optional: on MLR_E_PARSE the 1-based line and column and the reason
+ * @return MLR_OK; MLR_E_PARSE (malformed input, details in diag); MLR_E_NO_MEMORY;
+ *         MLR_E_OVERFLOW; MLR_E_INVALID_ARG (out NULL, text NULL with len > 0)
+ * Allocates: yes. Threads: any.
+ */
+MLR_API mlr_status mlr_bvh_read_memory(const char *text, size_t len, const mlr_allocator *alloc,
+                                       mlr_motion **out, mlr_diag *diag);
+
+/**
+ * Read and parse a BVH file (the whole file is read into memory first).
+ * @param path   [in] file name, passed to fopen as is (bytes in the platform's encoding)
+ * @return as mlr_bvh_read_memory, plus MLR_E_IO (cannot open or read; reason in diag with
+ *         line 0)
+ */
+MLR_API mlr_status mlr_bvh_read_file(const char *path, const mlr_allocator *alloc,
+                                     mlr_motion **out, mlr_diag *diag);
+
+/* ---------------------------------------------------------------------------------------- */
+/* Writing                                                                                  */
+
+/**
+ * Sink for mlr_bvh_write: receives the text in pieces, in order. Return 0 to go on, anything
+ * else to stop writing (mlr_bvh_write then returns MLR_E_IO).
+ */
+typedef int (*mlr_bvh_write_fn)(void *user, const char *data, size_t len);
+
+/**
+ * Write the motion as BVH text: the same hierarchy, End Sites, channel layout and Euler orders,
+ * LF line ends, tab indentation. OFFSETs and Frame Time are written with the fewest digits
+ * that read back to the same double; position channels with 9 significant digits when that
+ * reads back exactly, else 17; angles (in degrees, from the quaternions) with 9 significant
+ * digits (an error of the order of 1e-8 rad). Output does not depend on the locale.
+ * @param motion [in] the motion; rot need not be normalized
+ * @param fn     [in] sink, called many times with pieces of at most a few KiB
+ * @param user   [in] passed to fn
+ * @return MLR_OK; MLR_E_IO (fn asked to stop); MLR_E_INVALID_ARG (NULL arguments; a
+ *         non-finite value, for which nothing more is written)
+ * Allocates: never (works in a few KiB of stack). Threads: motion is only read.
+ */
+MLR_API mlr_status mlr_bvh_write(const mlr_motion *motion, mlr_bvh_write_fn fn, void *user);
+
+/**
+ * Write the BVH text into caller memory.
+ * @param buf    [out] destination, or NULL to query the size only
+ * @param cap    [in] bytes available at buf
+ * @param len    [out] bytes the text takes (always set on MLR_OK and MLR_E_OVERFLOW); no NUL
+ *               terminator is written or counted
+ * @return MLR_OK; MLR_E_OVERFLOW (buf is not NULL and cap < *len; buf holds the first cap
+ *         bytes); MLR_E_INVALID_ARG (as mlr_bvh_write, or len NULL)
+ * Allocates: never. Threads: motion is only read.
+ */
+MLR_API mlr_status mlr_bvh_write_memory(const mlr_motion *motion, char *buf, size_t cap,
+                                        size_t *len);
+
+/**
+ * Write the motion to a BVH file atomically: the text goes to a new temporary file in the same
+ * directory, which then replaces path by a rename. On any failure the temporary file is
+ * removed and path is left as it was.
+ * @param diag   [out] optional: the reason on MLR_E_IO
+ * @return MLR_OK; MLR_E_IO; MLR_E_INVALID_ARG
+ * Allocates: yes (a buffer for the temporary name). Threads: motion is only read.
+ */
+MLR_API mlr_status mlr_bvh_write_file(const mlr_motion *motion, const char *path,
+                                      mlr_diag *diag);
+
+/* ---------------------------------------------------------------------------------------- */
+/* Building a motion from arrays                                                            */
+
+/**
+ * Create a motion from a skeleton; its frames start as the rest pose (identity rotations,
+ * root_pos and trans equal to the OFFSETs). Fill them through mlr_motion_root_pos_mut,
+ * mlr_motion_rot_mut and mlr_motion_trans_mut.
+ * @param n_joints    [in] J >= 1
+ * @param names       [in] J NUL-terminated names: not empty, no control characters except
+ *                    tabs, no braces, no leading or trailing blanks; copied
+ * @param parents     [in] J parent indices: parents[0] == -1, and the joints in depth-first
+ *                    order (each parents[j] is j-1 or one of j-1's ancestors)
+ * @param offsets     [in] J x 3 OFFSETs, finite
+ * @param channels    [in] J channel lists as on a CHANNELS line without the count, e.g.
+ *                    "Xposition Yposition Zposition Zrotation Xrotation Yrotation" (any case,
+ *                    any order, each kind at most once; "" for none); or NULL for the common
+ *                    layout: the root "Xposition Yposition Zposition Zrotation Yrotation
+ *                    Xrotation", the others "Zrotation Yrotation Xrotation"
+ * @param n_end_sites [in] number of End Sites E
+ * @param end_parents [in] E joint indices, non-decreasing (an End Site is written right
+ *                    after its joint's CHANNELS line)
+ * @param end_offsets [in] E x 3 End Site OFFSETs, finite
+ * @param n_frames    [in] N (0 allowed)
+ * @param frame_time  [in] seconds per frame, finite and > 0
+ * @param alloc       [in] allocator, copied; NULL for malloc/free
+ * @param out         [out] new motion, or NULL on failure
+ * @param diag        [out] optional: which argument is wrong, on MLR_E_INVALID_ARG (line 0)
+ * @return MLR_OK; MLR_E_INVALID_ARG; MLR_E_NO_MEMORY; MLR_E_OVERFLOW
+ * Allocates: yes. Threads: any.
+ */
+MLR_API mlr_status mlr_motion_create(size_t n_joints, const char *const *names,
+                                     const int32_t *parents, const double *offsets,
+                                     const char *const *channels, size_t n_end_sites,
+                                     const int32_t *end_parents, const double *end_offsets,
+                                     size_t n_frames, double frame_time,
+                                     const mlr_allocator *alloc, mlr_motion **out,
+                                     mlr_diag *diag);
+
+/**
+ * Deep copy of frames [begin, begin + count) of a motion (the skeleton is copied whole).
+ * @return MLR_OK; MLR_E_INVALID_ARG (out of range, NULL); MLR_E_NO_MEMORY
+ * Allocates: yes, with the allocator of src. Threads: src is only read.
+ */
+MLR_API mlr_status mlr_motion_copy_frames(const mlr_motion *src, size_t begin, size_t count,
+                                          mlr_motion **out);
+
+/** Release a motion. NULL is a no-op. */
+MLR_API void mlr_motion_destroy(mlr_motion *motion);
+
+/* ---------------------------------------------------------------------------------------- */
+/* Accessors. None allocates or fails; out-of-range indices give 0, NULL or -1 as stated.    */
+/* Returned pointers live as long as the motion.                                            */
+
+MLR_API size_t mlr_motion_n_joints(const mlr_motion *motion);
+MLR_API size_t mlr_motion_n_frames(const mlr_motion *motion);
+/** Total number of channels (values per frame line). */
+MLR_API size_t mlr_motion_n_channels(const mlr_motion *motion);
+/** Seconds per frame ("Frame Time:"). */
+MLR_API double mlr_motion_frame_time(const mlr_motion *motion);
+/** Set the frame time. @return MLR_OK; MLR_E_INVALID_ARG (not finite or <= 0) */
+MLR_API mlr_status mlr_motion_set_frame_time(mlr_motion *motion, double frame_time);
+
+/** Name of joint j, NUL-terminated; NULL when j >= J. */
+MLR_API const char *mlr_motion_joint_name(const mlr_motion *motion, size_t j);
+/** J parent indices, -1 for the root. */
+MLR_API const int32_t *mlr_motion_parents(const mlr_motion *motion);
+/** J x 3 OFFSETs. */
+MLR_API const double *mlr_motion_offsets(const mlr_motion *motion);
+
+/** Number of channels of joint j (0..6; 0 when j >= J). */
+MLR_API size_t mlr_motion_joint_n_channels(const mlr_motion *motion, size_t j);
+/** Channel j's kinds in file order into codes (room for 6); returns their number. */
+MLR_API size_t mlr_motion_joint_channel_codes(const mlr_motion *motion, size_t j,
+                                              unsigned char *codes);
+/** Channel list of joint j as on a CHANNELS line without the count, "" for none, NULL when
+ *  j >= J. */
+MLR_API const char *mlr_motion_joint_channels(const mlr_motion *motion, size_t j);
+/** 1 when joint j has at least one position channel, else 0. */
+MLR_API int mlr_motion_joint_has_position(const mlr_motion *motion, size_t j);
+/** Euler order of joint j's rotation channels (completed as described at the top). */
+MLR_API mlr_euler_order mlr_motion_joint_euler_order(const mlr_motion *motion, size_t j);
+
+/** End Sites: E, their parent joints (sorted) and E x 3 OFFSETs. */
+MLR_API size_t mlr_motion_n_end_sites(const mlr_motion *motion);
+MLR_API const int32_t *mlr_motion_end_site_parents(const mlr_motion *motion);
+MLR_API const double *mlr_motion_end_site_offsets(const mlr_motion *motion);
+
+/** Root translation, N x 3 (NULL when N == 0). The _mut form allows changing the values. */
+MLR_API const double *mlr_motion_root_pos(const mlr_motion *motion);
+MLR_API double *mlr_motion_root_pos_mut(mlr_motion *motion);
+/** Local rotations, N x J x 4 scalar-first quaternions (NULL when N == 0). */
+MLR_API const double *mlr_motion_rot(const mlr_motion *motion);
+MLR_API double *mlr_motion_rot_mut(mlr_motion *motion);
+/** P, the number of non-root joints with position channels, and those joints (increasing). */
+MLR_API size_t mlr_motion_n_trans(const mlr_motion *motion);
+MLR_API const int32_t *mlr_motion_trans_joints(const mlr_motion *motion);
+/** Their local translations, N x P x 3 (NULL when N == 0 or P == 0). */
+MLR_API const double *mlr_motion_trans(const mlr_motion *motion);
+MLR_API double *mlr_motion_trans_mut(mlr_motion *motion);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* MLR_BVH_H */

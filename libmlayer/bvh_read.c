@@ -1,0 +1,870 @@
+/* BVH reader: a single pass over the text, no recursion, every count checked against the
+ * bytes that remain before anything is allocated from it. Errors carry line, column and reason.
+ * Nothing here prints or keeps state. */
+#include "bvh_internal.h"
+
+#include <errno.h>
+#include <float.h>
+#include <locale.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+
+/* ---- numbers ----------------------------------------------------------------------------- */
+
+static const double pow10_exact[23] = {
+    1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e7,  1e8,  1e9,  1e10, 1e11,
+    1e12, 1e13, 1e14, 1e15, 1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
+};
+
+/* strtod on a copy, with '.' turned into the locale's decimal point. */
+static int parse_number_slow(const char *p, size_t n, double *out)
+{
+    char buf[256];
+    if (n >= sizeof buf)
+        return 0;
+    const struct lconv *lc = localeconv();
+    char dp = (lc && lc->decimal_point && lc->decimal_point[0] && !lc->decimal_point[1])
+                  ? lc->decimal_point[0]
+                  : '.';
+    for (size_t i = 0; i < n; i++)
+        buf[i] = p[i] == '.' ? dp : p[i];
+    buf[n] = '\0';
+    char *endp = NULL;
+    double v = strtod(buf, &endp);
+    if (endp != buf + n || isinf(v) || isnan(v))
+        return 0;
+    *out = v;
+    return 1;
+}
+
+/* Clinger's fast path: a mantissa below 2^53 times an exact power of ten is one correctly
+ * rounded operation. Anything else goes to strtod. */
+static inline size_t parse_number_inline(const char *p, const char *end, double *out)
+{
+    const char *s = p;
+    int neg = 0;
+    if (s < end && (*s == '-' || *s == '+')) {
+        neg = *s == '-';
+        s++;
+    }
+    uint64_t m = 0;
+    int sig = 0, ndig = 0, dropped = 0;
+    long e10 = 0;
+    while (s < end && (unsigned)(*s - '0') < 10u) {
+        unsigned d = (unsigned)(*s - '0');
+        if (sig < 19) {
+            m = m * 10 + d;
+            sig += m != 0;
+        } else {
+            e10++;
+            dropped |= d != 0;
+        }
+        ndig++;
+        s++;
+    }
+    if (s < end && *s == '.') {
+        s++;
+        while (s < end && (unsigned)(*s - '0') < 10u) {
+            unsigned d = (unsigned)(*s - '0');
+            if (sig < 19) {
+                m = m * 10 + d;
+                sig += m != 0;
+                e10--;
+            } else {
+                dropped |= d != 0;
+            }
+            ndig++;
+            s++;
+        }
+    }
+    if (ndig == 0)
+        return 0;
+    if (s < end && (*s == 'e' || *s == 'E')) {
+        const char *t = s + 1;
+        int eneg = 0;
+        if (t < end && (*t == '-' || *t == '+')) {
+            eneg = *t == '-';
+            t++;
+        }
+        if (t < end && (unsigned)(*t - '0') < 10u) {
+            long ev = 0;
+            while (t < end && (unsigned)(*t - '0') < 10u) {
+                if (ev < 100000)
+                    ev = ev * 10 + (*t - '0');
+                t++;
+            }
+            e10 += eneg ? -ev : ev;
+            s = t;
+        }
+    }
+    size_t n = (size_t)(s - p);
+#if defined(FLT_EVAL_METHOD) && FLT_EVAL_METHOD == 0
+    if (!dropped && m <= (UINT64_C(1) << 53)) {
+        double v;
+        if (m == 0)
+            v = 0.0;
+        else if (e10 >= 0 && e10 <= 22)
+            v = (double)m * pow10_exact[e10];
+        else if (e10 < 0 && e10 >= -22)
+            v = (double)m / pow10_exact[-e10];
+        else
+            goto slow;
+        *out = neg ? -v : v;
+        return n;
+    }
+slow:
+#else
+    (void)dropped;
+    (void)neg;
+    (void)pow10_exact;
+#endif
+    return parse_number_slow(p, n, out) ? n : 0;
+}
+
+size_t bvh_parse_number(const char *p, const char *end, double *out)
+{
+    return parse_number_inline(p, end, out);
+}
+
+/* ---- growable arrays through the allocator ------------------------------------------------ */
+
+typedef struct vec {
+    unsigned char *data;
+    size_t len, cap, elsize;
+} vec;
+
+static void *vec_push(vec *v, const mlr_allocator *a)
+{
+    if (v->len == v->cap) {
+        size_t cap = v->cap ? v->cap * 2 : 16, bytes;
+        if (cap < v->cap || mlr_mul_size(cap, v->elsize, &bytes) != MLR_OK)
+            return NULL;
+        unsigned char *d = mlr_alloc(a, bytes);
+        if (!d)
+            return NULL;
+        if (v->len)
+            memcpy(d, v->data, v->len * v->elsize);
+        mlr_free(a, v->data, v->cap * v->elsize);
+        v->data = d;
+        v->cap = cap;
+    }
+    return v->data + v->elsize * v->len++;
+}
+
+static void vec_free(vec *v, const mlr_allocator *a)
+{
+    mlr_free(a, v->data, v->cap * v->elsize);
+    v->data = NULL;
+    v->len = v->cap = 0;
+}
+
+/* ---- the parser -------------------------------------------------------------------------- */
+
+typedef struct tjoint {
+    size_t name_off, name_len, line;
+    int32_t parent;
+    double offset[3];
+    unsigned char n_ch, ch[BVH_MAX_CHANNELS];
+    unsigned char has_offset, has_channels;
+    size_t n_end, end_next;
+} tjoint;
+
+typedef struct tend {
+    int32_t parent;
+    double offset[3];
+} tend;
+
+typedef struct parser {
+    const char *p, *end, *line_start;
+    size_t line;
+    mlr_diag *diag;
+    mlr_allocator a;
+    vec joints, ends, names;
+} parser;
+
+static int is_blank(char c) { return c == ' ' || c == '\t' || c == '\v' || c == '\f'; }
+static int is_eol(char c) { return c == '\n' || c == '\r'; }
+
+static mlr_status fail_at(parser *ps, const char *at, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 3, 4)))
+#endif
+    ;
+
+static mlr_status fail_at(parser *ps, const char *at, const char *fmt, ...)
+{
+    if (ps->diag) {
+        va_list ap;
+        va_start(ap, fmt);
+        ps->diag->line = ps->line;
+        ps->diag->column = at ? (size_t)(at - ps->line_start) + 1 : 0;
+        vsnprintf(ps->diag->message, sizeof ps->diag->message, fmt, ap);
+        va_end(ap);
+    }
+    return MLR_E_PARSE;
+}
+
+/* A printable copy of a token for messages: at most 32 bytes, control bytes as '?'. */
+typedef struct shown { char s[40]; } shown;
+static shown show(const char *t, size_t n)
+{
+    shown r;
+    size_t k = n > 32 ? 32 : n;
+    for (size_t i = 0; i < k; i++) {
+        unsigned char c = (unsigned char)t[i];
+        r.s[i] = (c < 0x20 || c == 0x7f) ? '?' : (char)c;
+    }
+    if (n > k) {
+        memcpy(r.s + k, "...", 4);
+    } else {
+        r.s[k] = '\0';
+    }
+    return r;
+}
+
+static void eat_eol(parser *ps)
+{
+    if (ps->p < ps->end && *ps->p == '\r')
+        ps->p++;
+    if (ps->p < ps->end && *ps->p == '\n')
+        ps->p++;
+    ps->line++;
+    ps->line_start = ps->p;
+}
+
+static void skip_blank(parser *ps)
+{
+    while (ps->p < ps->end && is_blank(*ps->p))
+        ps->p++;
+}
+
+static void skip_ws(parser *ps)
+{
+    while (ps->p < ps->end) {
+        char c = *ps->p;
+        if (is_blank(c))
+            ps->p++;
+        else if (is_eol(c))
+            eat_eol(ps);
+        else
+            break;
+    }
+}
+
+static int is_token_char(unsigned char c) { return c > 0x20 && c != 0x7f && c != '{' && c != '}'; }
+
+/* Next token: '{', '}' or a run of other visible bytes. Returns 1 with the token, 0 at the end
+ * of the input, MLR_E_PARSE on a control byte. */
+static int next_token(parser *ps, const char **tok, size_t *len)
+{
+    skip_ws(ps);
+    if (ps->p >= ps->end)
+        return 0;
+    const char *t = ps->p;
+    unsigned char c = (unsigned char)*t;
+    if (c == '{' || c == '}') {
+        ps->p++;
+    } else if (!is_token_char(c)) {
+        return fail_at(ps, t, "unexpected control byte 0x%02x (binary data?)", c);
+    } else {
+        while (ps->p < ps->end && is_token_char((unsigned char)*ps->p))
+            ps->p++;
+        if (ps->p < ps->end) {
+            unsigned char d = (unsigned char)*ps->p;
+            if ((d < 0x20 && !is_blank((char)d) && !is_eol((char)d)) || d == 0x7f)
+                return fail_at(ps, ps->p, "unexpected control byte 0x%02x (binary data?)", d);
+        }
+    }
+    *tok = t;
+    *len = (size_t)(ps->p - t);
+    return 1;
+}
+
+static int tok_is(const char *t, size_t n, const char *kw)
+{
+    size_t i = 0;
+    for (; i < n && kw[i]; i++) {
+        char a = t[i];
+        if (a >= 'a' && a <= 'z')
+            a = (char)(a - 'a' + 'A');
+        char b = kw[i];
+        if (b >= 'a' && b <= 'z')
+            b = (char)(b - 'a' + 'A');
+        if (a != b)
+            return 0;
+    }
+    return i == n && kw[i] == '\0';
+}
+
+/* Expect a token equal to kw; what describes the place for the message. */
+static mlr_status expect(parser *ps, const char *kw, const char *what)
+{
+    const char *t;
+    size_t n;
+    int r = next_token(ps, &t, &n);
+    if (r < 0)
+        return r;
+    if (r == 0)
+        return fail_at(ps, ps->p, "unexpected end of file: expected '%s' %s", kw, what);
+    if (!tok_is(t, n, kw))
+        return fail_at(ps, t, "expected '%s' %s, found '%s'", kw, what, show(t, n).s);
+    return MLR_OK;
+}
+
+static mlr_status expect_number(parser *ps, double *out, const char *what)
+{
+    const char *t;
+    size_t n;
+    int r = next_token(ps, &t, &n);
+    if (r < 0)
+        return r;
+    if (r == 0)
+        return fail_at(ps, ps->p, "unexpected end of file: expected %s", what);
+    if (parse_number_inline(t, t + n, out) != n)
+        return fail_at(ps, t, "expected %s, found '%s'", what, show(t, n).s);
+    return MLR_OK;
+}
+
+/* Name after ROOT or JOINT: the rest of the line up to a brace, blanks trimmed. */
+static mlr_status read_name(parser *ps, const char *kw, size_t *off, size_t *len)
+{
+    skip_blank(ps);
+    const char *t = ps->p;
+    while (ps->p < ps->end && !is_eol(*ps->p) && *ps->p != '{' && *ps->p != '}') {
+        unsigned char c = (unsigned char)*ps->p;
+        if ((c < 0x20 && c != '\t' && c != '\v' && c != '\f') || c == 0x7f)
+            return fail_at(ps, ps->p, "unexpected control byte 0x%02x in a %s name", c, kw);
+        ps->p++;
+    }
+    const char *e = ps->p;
+    while (e > t && is_blank(e[-1]))
+        e--;
+    if (e == t)
+        return fail_at(ps, t, "%s without a name", kw);
+    size_t n = (size_t)(e - t);
+    *off = ps->names.len;
+    *len = n;
+    for (size_t i = 0; i < n; i++) {
+        char *c = vec_push(&ps->names, &ps->a);
+        if (!c)
+            return MLR_E_NO_MEMORY;
+        *c = is_blank(t[i]) && t[i] != '\t' ? ' ' : t[i];
+    }
+    char *z = vec_push(&ps->names, &ps->a);
+    if (!z)
+        return MLR_E_NO_MEMORY;
+    *z = '\0';
+    return MLR_OK;
+}
+
+static mlr_status open_joint(parser *ps, const char *kw, int32_t parent, int32_t *index)
+{
+    if (ps->joints.len >= BVH_MAX_JOINTS)
+        return fail_at(ps, ps->p, "too many joints");
+    size_t line = ps->line;
+    tjoint *jt = vec_push(&ps->joints, &ps->a);
+    if (!jt)
+        return MLR_E_NO_MEMORY;
+    memset(jt, 0, sizeof *jt);
+    jt->parent = parent;
+    jt->line = line;
+    *index = (int32_t)(ps->joints.len - 1);
+    size_t off, len;
+    mlr_status s = read_name(ps, kw, &off, &len);
+    if (s != MLR_OK)
+        return s;
+    jt = (tjoint *)ps->joints.data + *index; /* names vec is separate; jt still valid */
+    jt->name_off = off;
+    jt->name_len = len;
+    return expect(ps, "{", "after the joint name");
+}
+
+static const char *joint_name(parser *ps, int32_t j)
+{
+    return (const char *)ps->names.data + ((tjoint *)ps->joints.data)[j].name_off;
+}
+
+static mlr_status parse_channels(parser *ps, tjoint *jt, int32_t j)
+{
+    const char *t;
+    size_t n;
+    int r = next_token(ps, &t, &n);
+    if (r < 0)
+        return r;
+    if (r == 0)
+        return fail_at(ps, ps->p, "unexpected end of file after CHANNELS");
+    size_t count = 0;
+    for (size_t i = 0; i < n; i++) {
+        if (t[i] < '0' || t[i] > '9' || count > 6) {
+            count = 99;
+            break;
+        }
+        count = count * 10 + (size_t)(t[i] - '0');
+    }
+    if (count > BVH_MAX_CHANNELS)
+        return fail_at(ps, t, "CHANNELS count must be 0 to 6, found '%s'", show(t, n).s);
+    unsigned seen = 0;
+    for (size_t k = 0; k < count; k++) {
+        r = next_token(ps, &t, &n);
+        if (r < 0)
+            return r;
+        if (r == 0)
+            return fail_at(ps, ps->p, "unexpected end of file in CHANNELS of joint '%s'",
+                           joint_name(ps, j));
+        int c = bvh_channel_parse(t, n);
+        if (c < 0) {
+            if (tok_is(t, n, "JOINT") || tok_is(t, n, "End") || tok_is(t, n, "}") ||
+                tok_is(t, n, "OFFSET") || tok_is(t, n, "{"))
+                return fail_at(ps, t, "CHANNELS %zu lists only %zu channel names", count, k);
+            return fail_at(ps, t, "unknown channel '%s'", show(t, n).s);
+        }
+        if (seen & (1u << c))
+            return fail_at(ps, t, "channel %s listed twice", bvh_channel_name(c));
+        seen |= 1u << c;
+        jt->ch[k] = (unsigned char)c;
+    }
+    jt->n_ch = (unsigned char)count;
+    jt->has_channels = 1;
+    return MLR_OK;
+}
+
+static mlr_status parse_end_site(parser *ps, int32_t parent)
+{
+    mlr_status s = expect(ps, "Site", "after 'End'");
+    if (s == MLR_OK)
+        s = expect(ps, "{", "after 'End Site'");
+    if (s == MLR_OK)
+        s = expect(ps, "OFFSET", "in End Site");
+    if (ps->ends.len >= BVH_MAX_JOINTS)
+        return fail_at(ps, ps->p, "too many End Sites");
+    tend *e = s == MLR_OK ? vec_push(&ps->ends, &ps->a) : NULL;
+    if (s == MLR_OK && !e)
+        s = MLR_E_NO_MEMORY;
+    for (int k = 0; k < 3 && s == MLR_OK; k++)
+        s = expect_number(ps, &e->offset[k], "a number in the End Site OFFSET");
+    if (s == MLR_OK)
+        s = expect(ps, "}", "to close the End Site");
+    if (s == MLR_OK) {
+        e->parent = parent;
+        ((tjoint *)ps->joints.data)[parent].n_end++;
+    }
+    return s;
+}
+
+static mlr_status parse_hierarchy(parser *ps)
+{
+    const char *t;
+    size_t n;
+    int r = next_token(ps, &t, &n);
+    if (r < 0)
+        return r;
+    if (r == 0)
+        return fail_at(ps, ps->p, "empty input: expected HIERARCHY");
+    if (!tok_is(t, n, "HIERARCHY"))
+        return fail_at(ps, t, "expected HIERARCHY at the start, found '%s'", show(t, n).s);
+    mlr_status s = expect(ps, "ROOT", "after HIERARCHY");
+    int32_t cur = -1;
+    if (s == MLR_OK)
+        s = open_joint(ps, "ROOT", -1, &cur);
+    while (s == MLR_OK && cur >= 0) {
+        r = next_token(ps, &t, &n);
+        if (r < 0)
+            return r;
+        tjoint *jt = (tjoint *)ps->joints.data + cur;
+        if (r == 0)
+            return fail_at(ps, ps->p, "unexpected end of file in joint '%s' (missing '}')",
+                           joint_name(ps, cur));
+        if (tok_is(t, n, "JOINT")) {
+            s = open_joint(ps, "JOINT", cur, &cur);
+        } else if (tok_is(t, n, "End")) {
+            s = parse_end_site(ps, cur);
+        } else if (tok_is(t, n, "OFFSET")) {
+            if (jt->has_offset)
+                return fail_at(ps, t, "second OFFSET in joint '%s'", joint_name(ps, cur));
+            for (int k = 0; k < 3 && s == MLR_OK; k++)
+                s = expect_number(ps, &jt->offset[k], "a number in OFFSET");
+            jt->has_offset = 1;
+        } else if (tok_is(t, n, "CHANNELS")) {
+            if (jt->has_channels)
+                return fail_at(ps, t, "second CHANNELS in joint '%s'", joint_name(ps, cur));
+            s = parse_channels(ps, jt, cur);
+        } else if (tok_is(t, n, "}")) {
+            if (!jt->has_offset)
+                return fail_at(ps, t, "joint '%s' has no OFFSET", joint_name(ps, cur));
+            cur = jt->parent;
+        } else if (tok_is(t, n, "ROOT")) {
+            return fail_at(ps, t, "ROOT inside joint '%s' (missing '}')", joint_name(ps, cur));
+        } else if (tok_is(t, n, "MOTION")) {
+            return fail_at(ps, t, "MOTION inside joint '%s' (missing '}')", joint_name(ps, cur));
+        } else {
+            return fail_at(ps, t, "unexpected '%s' in joint '%s'", show(t, n).s,
+                           joint_name(ps, cur));
+        }
+    }
+    return s;
+}
+
+/* "Frames:" or "Frame Time:" followed by its value, possibly glued to the colon. */
+static mlr_status read_header_value(parser *ps, const char *label, const char **vt, size_t *vn)
+{
+    const char *t;
+    size_t n;
+    int r = next_token(ps, &t, &n);
+    if (r < 0)
+        return r;
+    size_t ln = strlen(label);
+    if (r == 0)
+        return fail_at(ps, ps->p, "unexpected end of file: expected '%s'", label);
+    if (n < ln || !tok_is(t, ln, label))
+        return fail_at(ps, t, "expected '%s', found '%s'", label, show(t, n).s);
+    if (n > ln) {
+        *vt = t + ln;
+        *vn = n - ln;
+        return MLR_OK;
+    }
+    skip_blank(ps);
+    if (ps->p >= ps->end || is_eol(*ps->p))
+        return fail_at(ps, ps->p, "missing value after '%s'", label);
+    r = next_token(ps, vt, vn);
+    return r < 0 ? r : MLR_OK;
+}
+
+/* Destination of one channel value: kind in the low 2 bits, index above. */
+enum { DST_ROOT = 0, DST_TRANS = 1, DST_ANGLE = 2 };
+
+typedef struct frame_ctx {
+    size_t *dst;      /* C */
+    double *row;      /* C */
+    double *ang;      /* J x 3, radians */
+} frame_ctx;
+
+static mlr_status parse_frames(parser *ps, mlr_motion *m, const frame_ctx *fc)
+{
+    const size_t N = m->n_frames, C = m->n_channels, J = m->n_joints, P = m->n_trans;
+    for (size_t f = 0; f < N; f++) {
+        /* skip blank lines */
+        for (;;) {
+            skip_blank(ps);
+            if (ps->p < ps->end && is_eol(*ps->p))
+                eat_eol(ps);
+            else
+                break;
+        }
+        if (ps->p >= ps->end)
+            return fail_at(ps, ps->p, "unexpected end of file: %zu of %zu frames", f, N);
+        double *row = fc->row;
+        for (size_t c = 0; c < C; c++) {
+            skip_blank(ps);
+            if (ps->p >= ps->end || is_eol(*ps->p))
+                return fail_at(ps, ps->p, "frame %zu has %zu values, expected %zu", f + 1, c, C);
+            const char *t = ps->p;
+            size_t k = parse_number_inline(t, ps->end, row + c);
+            if (k == 0 || (t + k < ps->end && !is_blank(t[k]) && !is_eol(t[k]))) {
+                const char *e = t;
+                while (e < ps->end && !is_blank(*e) && !is_eol(*e))
+                    e++;
+                return fail_at(ps, t, "frame %zu: invalid number '%s'", f + 1,
+                               show(t, (size_t)(e - t)).s);
+            }
+            ps->p = t + k;
+        }
+        skip_blank(ps);
+        if (ps->p < ps->end && !is_eol(*ps->p))
+            return fail_at(ps, ps->p, "frame %zu has more than %zu values", f + 1, C);
+        if (ps->p < ps->end)
+            eat_eol(ps);
+
+        /* scatter */
+        double *rp = m->root_pos + 3 * f;
+        memcpy(rp, m->offsets, 3 * sizeof(double));
+        double *tr = P ? m->trans + 3 * P * f : NULL;
+        for (size_t k = 0; k < P; k++)
+            memcpy(tr + 3 * k, m->offsets + 3 * (size_t)m->trans_joints[k], 3 * sizeof(double));
+        memset(fc->ang, 0, 3 * J * sizeof(double));
+        for (size_t c = 0; c < C; c++) {
+            size_t d = fc->dst[c], idx = d >> 2;
+            switch (d & 3) {
+            case DST_ROOT: rp[idx] = row[c]; break;
+            case DST_TRANS: tr[idx] = row[c]; break;
+            default: fc->ang[idx] = row[c] * BVH_DEG2RAD; break;
+            }
+        }
+        /* Euler to quaternions, in runs of joints that share an order */
+        mlr_quat *q = (mlr_quat *)(void *)(m->rot + 4 * J * f);
+        size_t j0 = 0;
+        for (size_t j = 1; j <= J; j++) {
+            if (j == J || m->order[j] != m->order[j0]) {
+                mlr_quat_from_euler_array(fc->ang + 3 * j0, j - j0,
+                                          (mlr_euler_order)m->order[j0], q + j0);
+                j0 = j;
+            }
+        }
+    }
+    /* only whitespace (and NUL padding) may follow */
+    skip_ws(ps);
+    if (ps->p < ps->end) {
+        const char *t = ps->p;
+        while (t < ps->end && *t == '\0')
+            t++;
+        if (t < ps->end)
+            return fail_at(ps, ps->p, "data after the %zu frames declared by Frames:", N);
+    }
+    return MLR_OK;
+}
+
+static mlr_status build_motion(parser *ps, size_t n_frames, double frame_time,
+                               mlr_motion **out)
+{
+    const size_t J = ps->joints.len, E = ps->ends.len;
+    tjoint *tj = (tjoint *)ps->joints.data;
+    size_t P = 0, C = 0;
+    for (size_t j = 0; j < J; j++) {
+        C += tj[j].n_ch;
+        if (j > 0)
+            for (size_t k = 0; k < tj[j].n_ch; k++)
+                if (tj[j].ch[k] < 3) {
+                    P++;
+                    break;
+                }
+    }
+    mlr_motion *m;
+    mlr_status s = bvh_motion_alloc(&ps->a, J, E, ps->names.len, n_frames, P, &m);
+    if (s != MLR_OK)
+        return s;
+    m->frame_time = frame_time;
+    m->n_channels = C;
+    memcpy(m->name_buf, ps->names.data, ps->names.len);
+    size_t p = 0, end_next = 0;
+    for (size_t j = 0; j < J; j++) {
+        m->names[j] = m->name_buf + tj[j].name_off;
+        m->parents[j] = tj[j].parent;
+        memcpy(m->offsets + 3 * j, tj[j].offset, 3 * sizeof(double));
+        m->n_ch[j] = tj[j].n_ch;
+        memcpy(m->ch + BVH_MAX_CHANNELS * j, tj[j].ch, BVH_MAX_CHANNELS);
+        size_t n_pos = bvh_layout_finish(m, j);
+        m->trans_slot[j] = -1;
+        if (j > 0 && n_pos > 0) {
+            m->trans_slot[j] = (int32_t)p;
+            m->trans_joints[p++] = (int32_t)j;
+        }
+        tj[j].end_next = end_next; /* End Sites sorted by joint, stable */
+        end_next += tj[j].n_end;
+    }
+    const tend *te = (const tend *)ps->ends.data;
+    for (size_t e = 0; e < E; e++) {
+        size_t k = tj[te[e].parent].end_next++;
+        m->end_parents[k] = te[e].parent;
+        memcpy(m->end_offsets + 3 * k, te[e].offset, 3 * sizeof(double));
+    }
+    *out = m;
+    return MLR_OK;
+}
+
+static mlr_status parse(parser *ps, mlr_motion **out)
+{
+    mlr_status s = parse_hierarchy(ps);
+    if (s != MLR_OK)
+        return s;
+
+    const char *t;
+    size_t n;
+    int r = next_token(ps, &t, &n);
+    if (r < 0)
+        return r;
+    if (r == 0)
+        return fail_at(ps, ps->p, "unexpected end of file: expected MOTION");
+    if (tok_is(t, n, "ROOT"))
+        return fail_at(ps, t, "more than one ROOT: not supported");
+    if (!tok_is(t, n, "MOTION"))
+        return fail_at(ps, t, "expected MOTION after the hierarchy, found '%s'", show(t, n).s);
+
+    const char *vt;
+    size_t vn;
+    if ((s = read_header_value(ps, "Frames:", &vt, &vn)) != MLR_OK)
+        return s;
+    size_t frames_line = ps->line;
+    size_t n_frames = 0;
+    for (size_t i = 0; i < vn; i++) {
+        if (vt[i] < '0' || vt[i] > '9')
+            return fail_at(ps, vt, "Frames: needs a whole number, found '%s'", show(vt, vn).s);
+        unsigned d = (unsigned)(vt[i] - '0');
+        if (n_frames > (SIZE_MAX - d) / 10)
+            return fail_at(ps, vt, "Frames: %s is out of range", show(vt, vn).s);
+        n_frames = n_frames * 10 + d;
+    }
+    if ((s = expect(ps, "Frame", "after Frames:")) != MLR_OK)
+        return s;
+    if ((s = read_header_value(ps, "Time:", &vt, &vn)) != MLR_OK)
+        return s;
+    double frame_time;
+    if (parse_number_inline(vt, vt + vn, &frame_time) != vn)
+        return fail_at(ps, vt, "Frame Time: needs a number, found '%s'", show(vt, vn).s);
+    if (!(frame_time > 0.0))
+        return fail_at(ps, vt, "Frame Time: must be positive");
+    skip_blank(ps);
+    if (ps->p < ps->end && !is_eol(*ps->p))
+        return fail_at(ps, ps->p, "unexpected data after Frame Time:");
+    if (ps->p < ps->end)
+        eat_eol(ps);
+
+    /* Every value takes a byte and a separator: bound N by what is left. */
+    size_t C = 0, J = ps->joints.len;
+    for (size_t j = 0; j < J; j++)
+        C += ((tjoint *)ps->joints.data)[j].n_ch;
+    size_t left = (size_t)(ps->end - ps->p);
+    if (n_frames > 0 && C == 0) {
+        ps->line = frames_line;
+        return fail_at(ps, NULL, "Frames: %zu, but the hierarchy declares no channels",
+                       n_frames);
+    }
+    if (n_frames > 0) {
+        /* N frames of C values take at least 2 N C - 1 bytes */
+        size_t per = 2 * C, most = left / per + (left % per == per - 1);
+        if (n_frames > most) {
+            ps->line = frames_line;
+            return fail_at(ps, NULL,
+                           "Frames: %zu, but the %zu bytes that follow hold at most %zu frames "
+                           "of %zu values", n_frames, left, most, C);
+        }
+    }
+
+    mlr_motion *m;
+    if ((s = build_motion(ps, n_frames, frame_time, &m)) != MLR_OK)
+        return s;
+    frame_ctx fc = {NULL, NULL, NULL};
+    size_t tmp_bytes = 0;
+    unsigned char *tmp = NULL;
+    if (n_frames > 0) {
+        /* C doubles of row, 3J doubles of angles, C size_t of destinations */
+        size_t a1, a2, a3;
+        if (mlr_mul_size(C, sizeof(double), &a1) || mlr_mul_size(J, 3 * sizeof(double), &a2) ||
+            mlr_mul_size(C, sizeof(size_t), &a3) || a1 > SIZE_MAX - a2 ||
+            a1 + a2 > SIZE_MAX - a3) {
+            mlr_motion_destroy(m);
+            return MLR_E_OVERFLOW;
+        }
+        tmp_bytes = a1 + a2 + a3;
+        tmp = mlr_alloc(&ps->a, tmp_bytes);
+        if (!tmp) {
+            mlr_motion_destroy(m);
+            return MLR_E_NO_MEMORY;
+        }
+        fc.row = (double *)(void *)tmp;
+        fc.ang = (double *)(void *)(tmp + a1);
+        fc.dst = (size_t *)(void *)(tmp + a1 + a2);
+        size_t c = 0;
+        for (size_t j = 0; j < J; j++) {
+            const unsigned char *ch = m->ch + BVH_MAX_CHANNELS * j;
+            for (size_t k = 0; k < m->n_ch[j]; k++, c++) {
+                if (ch[k] < 3 && j == 0)
+                    fc.dst[c] = ((size_t)ch[k] << 2) | DST_ROOT;
+                else if (ch[k] < 3)
+                    fc.dst[c] = ((3 * (size_t)m->trans_slot[j] + ch[k]) << 2) | DST_TRANS;
+                else
+                    fc.dst[c] = ((3 * j + m->rot_idx[3 * j + ch[k] - 3]) << 2) | DST_ANGLE;
+            }
+        }
+    }
+    s = parse_frames(ps, m, &fc);
+    mlr_free(&ps->a, tmp, tmp_bytes);
+    if (s != MLR_OK) {
+        mlr_motion_destroy(m);
+        return s;
+    }
+    *out = m;
+    return MLR_OK;
+}
+
+mlr_status mlr_bvh_read_memory(const char *text, size_t len, const mlr_allocator *alloc,
+                               mlr_motion **out, mlr_diag *diag)
+{
+    if (!out)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "out is NULL");
+    *out = NULL;
+    if (!text && len)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "text is NULL");
+    if (diag) {
+        diag->line = diag->column = 0;
+        diag->message[0] = '\0';
+    }
+    parser ps;
+    memset(&ps, 0, sizeof ps);
+    mlr_allocator_resolve(alloc, &ps.a);
+    ps.p = text ? text : "";
+    ps.end = ps.p + len;
+    ps.line_start = ps.p;
+    ps.line = 1;
+    ps.diag = diag;
+    ps.joints.elsize = sizeof(tjoint);
+    ps.ends.elsize = sizeof(tend);
+    ps.names.elsize = 1;
+    if (len >= 3 && (unsigned char)ps.p[0] == 0xEF && (unsigned char)ps.p[1] == 0xBB &&
+        (unsigned char)ps.p[2] == 0xBF)
+        ps.p += 3;
+    mlr_status s = parse(&ps, out);
+    vec_free(&ps.joints, &ps.a);
+    vec_free(&ps.ends, &ps.a);
+    vec_free(&ps.names, &ps.a);
+    if (s == MLR_E_NO_MEMORY || s == MLR_E_OVERFLOW)
+        mlr_diag_set(diag, s, 0, 0, "%s", mlr_status_string(s));
+    return s;
+}
+
+/* ---- files ------------------------------------------------------------------------------- */
+
+mlr_status mlr_bvh_read_file(const char *path, const mlr_allocator *alloc, mlr_motion **out,
+                             mlr_diag *diag)
+{
+    if (!out)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "out is NULL");
+    *out = NULL;
+    if (!path)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "path is NULL");
+    mlr_allocator a;
+    mlr_allocator_resolve(alloc, &a);
+    FILE *fp = fopen(path, "rb");
+    if (!fp)
+        return mlr_diag_set(diag, MLR_E_IO, 0, 0, "cannot open: %s", strerror(errno));
+    /* Read in growing chunks: no reliance on ftell for the size. */
+    size_t cap = 0, len = 0;
+    char *buf = NULL;
+    mlr_status s = MLR_OK;
+    for (;;) {
+        if (len == cap) {
+            size_t ncap = cap ? cap * 2 : 1 << 16;
+            if (ncap < cap) {
+                s = MLR_E_OVERFLOW;
+                break;
+            }
+            char *nb = mlr_alloc(&a, ncap);
+            if (!nb) {
+                s = MLR_E_NO_MEMORY;
+                break;
+            }
+            if (len)
+                memcpy(nb, buf, len);
+            mlr_free(&a, buf, cap);
+            buf = nb;
+            cap = ncap;
+        }
+        size_t got = fread(buf + len, 1, cap - len, fp);
+        len += got;
+        if (got == 0 || len < cap) {
+            if (ferror(fp))
+                s = MLR_E_IO;
+            if (feof(fp) || s != MLR_OK)
+                break;
+        }
+    }
+    fclose(fp);
+    if (s == MLR_E_IO)
+        mlr_diag_set(diag, s, 0, 0, "read error: %s", strerror(errno));
+    else if (s != MLR_OK)
+        mlr_diag_set(diag, s, 0, 0, "%s", mlr_status_string(s));
+    else
+        s = mlr_bvh_read_memory(buf, len, &a, out, diag);
+    mlr_free(&a, buf, cap);
+    return s;
+}

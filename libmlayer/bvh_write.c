@@ -1,0 +1,359 @@
+/* BVH writer: to a callback, to caller memory, or atomically to a file (temporary file in the
+ * same directory, then rename). Output is independent of the locale. Nothing here prints or
+ * keeps state. */
+#include "bvh_internal.h"
+
+#include <errno.h>
+#include <locale.h>
+#include <math.h>
+#include <stdio.h>
+#include <time.h>
+
+#ifdef _WIN32
+#  define WIN32_LEAN_AND_MEAN
+#  include <windows.h>
+#endif
+
+#define MAX_INDENT 64
+
+typedef struct sink {
+    mlr_bvh_write_fn fn;
+    void *user;
+    int failed;
+    const char *dp;   /* the locale's decimal point when it is not "." */
+    size_t dp_len;
+    size_t len;
+    char buf[4096];
+} sink;
+
+static void flush(sink *s)
+{
+    if (s->len && !s->failed && s->fn(s->user, s->buf, s->len) != 0)
+        s->failed = 1;
+    s->len = 0;
+}
+
+static void put(sink *s, const char *d, size_t n)
+{
+    if (s->len + n > sizeof s->buf) {
+        flush(s);
+        if (n > sizeof s->buf) {
+            if (!s->failed && s->fn(s->user, d, n) != 0)
+                s->failed = 1;
+            return;
+        }
+    }
+    memcpy(s->buf + s->len, d, n);
+    s->len += n;
+}
+
+static void puts_(sink *s, const char *z) { put(s, z, strlen(z)); }
+
+static void indent(sink *s, size_t depth)
+{
+    static const char tabs[MAX_INDENT] = {
+        '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t',
+        '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t',
+        '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t',
+        '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t',
+    };
+    put(s, tabs, depth < MAX_INDENT ? depth : MAX_INDENT);
+}
+
+/* printf("%.*g") with the locale's decimal point turned back into '.'; returns the length. */
+static size_t format_g(const sink *s, char *out, size_t cap, double v, int prec)
+{
+    int n = snprintf(out, cap, "%.*g", prec, v);
+    if (n < 0 || (size_t)n >= cap) { /* cannot happen for a finite double and cap >= 32 */
+        out[0] = '0';
+        return 1;
+    }
+    size_t len = (size_t)n;
+    if (s->dp) {
+        char *p = strstr(out, s->dp);
+        if (p) {
+            *p = '.';
+            memmove(p + 1, p + s->dp_len, len - (size_t)(p - out) - s->dp_len + 1);
+            len -= s->dp_len - 1;
+        }
+    }
+    return len;
+}
+
+/* Fewest digits from min_prec on that read back exactly (17 always do). */
+static void put_exact(sink *s, double v, int min_prec, int step_to_17)
+{
+    char b[48];
+    for (int prec = min_prec;; prec = step_to_17 ? 17 : prec + 1) {
+        size_t n = format_g(s, b, sizeof b, v, prec);
+        double back;
+        if (prec >= 17 || (bvh_parse_number(b, b + n, &back) == n && back == v &&
+                           signbit(back) == signbit(v))) {
+            put(s, b, n);
+            return;
+        }
+    }
+}
+
+static void put_g9(sink *s, double v)
+{
+    char b[48];
+    put(s, b, format_g(s, b, sizeof b, v, 9));
+}
+
+static void put_size(sink *s, size_t v)
+{
+    char b[32];
+    int n = snprintf(b, sizeof b, "%zu", v);
+    put(s, b, (size_t)n);
+}
+
+static void put_vec3(sink *s, const char *label, const double *v)
+{
+    puts_(s, label);
+    for (int k = 0; k < 3; k++) {
+        put(s, " ", 1);
+        put_exact(s, v[k], 1, 0);
+    }
+    put(s, "\n", 1);
+}
+
+static int all_finite(const double *v, size_t n)
+{
+    for (size_t i = 0; i < n; i++)
+        if (!isfinite(v[i]))
+            return 0;
+    return 1;
+}
+
+static int quats_usable(const double *q, size_t n)
+{
+    for (size_t i = 0; i < n; i++, q += 4) {
+        if (!isfinite(q[0]) || !isfinite(q[1]) || !isfinite(q[2]) || !isfinite(q[3]))
+            return 0;
+        if (q[0] == 0.0 && q[1] == 0.0 && q[2] == 0.0 && q[3] == 0.0)
+            return 0;
+    }
+    return 1;
+}
+
+static void write_hierarchy(const mlr_motion *m, sink *s)
+{
+    const size_t J = m->n_joints, E = m->n_end;
+    puts_(s, "HIERARCHY\n");
+    int32_t cur = -1;
+    size_t depth = 0, e = 0;
+    for (size_t j = 0; j < J; j++) {
+        int32_t p = m->parents[j];
+        while (cur != p && cur >= 0) {
+            indent(s, --depth);
+            puts_(s, "}\n");
+            cur = m->parents[cur];
+        }
+        indent(s, depth);
+        puts_(s, j == 0 ? "ROOT " : "JOINT ");
+        puts_(s, m->names[j]);
+        put(s, "\n", 1);
+        indent(s, depth);
+        puts_(s, "{\n");
+        depth++;
+        indent(s, depth);
+        put_vec3(s, "OFFSET", m->offsets + 3 * j);
+        indent(s, depth);
+        puts_(s, "CHANNELS ");
+        put_size(s, m->n_ch[j]);
+        if (m->n_ch[j]) {
+            put(s, " ", 1);
+            puts_(s, m->ch_str + BVH_CHSTR * j);
+        }
+        put(s, "\n", 1);
+        for (; e < E && (size_t)m->end_parents[e] == j; e++) {
+            indent(s, depth);
+            puts_(s, "End Site\n");
+            indent(s, depth);
+            puts_(s, "{\n");
+            indent(s, depth + 1);
+            put_vec3(s, "OFFSET", m->end_offsets + 3 * e);
+            indent(s, depth);
+            puts_(s, "}\n");
+        }
+        cur = (int32_t)j;
+    }
+    while (cur >= 0) {
+        indent(s, --depth);
+        puts_(s, "}\n");
+        cur = m->parents[cur];
+    }
+}
+
+static void write_frames(const mlr_motion *m, sink *s)
+{
+    const size_t J = m->n_joints, N = m->n_frames, P = m->n_trans;
+    puts_(s, "MOTION\nFrames: ");
+    put_size(s, N);
+    puts_(s, "\nFrame Time: ");
+    put_exact(s, m->frame_time, 1, 0);
+    put(s, "\n", 1);
+    for (size_t f = 0; f < N && !s->failed; f++) {
+        const double *rot = m->rot + 4 * J * f;
+        int first = 1;
+        for (size_t j = 0; j < J; j++) {
+            size_t nch = m->n_ch[j];
+            if (nch == 0)
+                continue;
+            const unsigned char *ch = m->ch + BVH_MAX_CHANNELS * j;
+            const double *t = j == 0 ? m->root_pos + 3 * f
+                              : m->trans_slot[j] >= 0 ? m->trans + 3 * (P * f + (size_t)m->trans_slot[j])
+                                                      : NULL;
+            double ang[3] = {0.0, 0.0, 0.0};
+            int have_ang = 0;
+            for (size_t k = 0; k < nch; k++) {
+                if (!first)
+                    put(s, " ", 1);
+                first = 0;
+                if (ch[k] < 3) {
+                    put_exact(s, t[ch[k]], 9, 1);
+                } else {
+                    if (!have_ang) {
+                        mlr_quat q = {rot[4 * j], rot[4 * j + 1], rot[4 * j + 2], rot[4 * j + 3]};
+                        mlr_quat_to_euler_array(&q, 1, (mlr_euler_order)m->order[j], ang);
+                        have_ang = 1;
+                    }
+                    double deg = ang[m->rot_idx[3 * j + ch[k] - 3]] * BVH_RAD2DEG;
+                    put_g9(s, deg);
+                }
+            }
+        }
+        put(s, "\n", 1);
+    }
+}
+
+mlr_status mlr_bvh_write(const mlr_motion *m, mlr_bvh_write_fn fn, void *user)
+{
+    if (!m || !fn)
+        return MLR_E_INVALID_ARG;
+    const size_t J = m->n_joints, N = m->n_frames, P = m->n_trans;
+    /* Validate everything first so that nothing is written for bad data. */
+    if (!isfinite(m->frame_time) || !(m->frame_time > 0.0) || !all_finite(m->offsets, 3 * J) ||
+        !all_finite(m->end_offsets, 3 * m->n_end) || !all_finite(m->root_pos, 3 * N) ||
+        !all_finite(m->trans, 3 * N * P) || !quats_usable(m->rot, N * J))
+        return MLR_E_INVALID_ARG;
+    sink s;
+    s.fn = fn;
+    s.user = user;
+    s.failed = 0;
+    s.len = 0;
+    const struct lconv *lc = localeconv();
+    s.dp = NULL;
+    s.dp_len = 0;
+    if (lc && lc->decimal_point && lc->decimal_point[0] && strcmp(lc->decimal_point, ".") != 0) {
+        s.dp = lc->decimal_point;
+        s.dp_len = strlen(s.dp);
+    }
+    write_hierarchy(m, &s);
+    write_frames(m, &s);
+    flush(&s);
+    return s.failed ? MLR_E_IO : MLR_OK;
+}
+
+/* ---- memory ------------------------------------------------------------------------------ */
+
+typedef struct mem_sink {
+    char *buf;
+    size_t cap, len;
+} mem_sink;
+
+static int mem_write(void *user, const char *data, size_t len)
+{
+    mem_sink *ms = user;
+    if (ms->buf && ms->len < ms->cap) {
+        size_t k = ms->cap - ms->len < len ? ms->cap - ms->len : len;
+        memcpy(ms->buf + ms->len, data, k);
+    }
+    if (len > SIZE_MAX - ms->len)
+        return 1;
+    ms->len += len;
+    return 0;
+}
+
+mlr_status mlr_bvh_write_memory(const mlr_motion *m, char *buf, size_t cap, size_t *len)
+{
+    if (!len)
+        return MLR_E_INVALID_ARG;
+    *len = 0;
+    mem_sink ms = {buf, buf ? cap : 0, 0};
+    mlr_status s = mlr_bvh_write(m, mem_write, &ms);
+    if (s == MLR_E_IO)
+        return MLR_E_OVERFLOW;
+    if (s != MLR_OK)
+        return s;
+    *len = ms.len;
+    return (buf && ms.len > cap) ? MLR_E_OVERFLOW : MLR_OK;
+}
+
+/* ---- files ------------------------------------------------------------------------------- */
+
+static int file_write(void *user, const char *data, size_t len)
+{
+    return fwrite(data, 1, len, (FILE *)user) == len ? 0 : 1;
+}
+
+static int replace_file(const char *from, const char *to)
+{
+#ifdef _WIN32
+    return MoveFileExA(from, to, MOVEFILE_REPLACE_EXISTING | MOVEFILE_WRITE_THROUGH) ? 0 : -1;
+#else
+    return rename(from, to);
+#endif
+}
+
+mlr_status mlr_bvh_write_file(const mlr_motion *m, const char *path, mlr_diag *diag)
+{
+    if (diag) {
+        diag->line = diag->column = 0;
+        diag->message[0] = '\0';
+    }
+    if (!m || !path || !*path)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "motion or path is NULL or empty");
+    size_t plen = strlen(path);
+    const size_t suffix = 24; /* ".tmp-" + 16 hex digits + NUL, rounded up */
+    if (plen > SIZE_MAX - suffix)
+        return MLR_E_OVERFLOW;
+    char *tmp = mlr_alloc(&m->alloc, plen + suffix);
+    if (!tmp)
+        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "out of memory");
+
+    /* A name no other writer is likely to pick; "x" makes the creation exclusive. */
+    uint64_t seed = (uint64_t)time(NULL) ^ ((uint64_t)clock() << 20) ^ (uint64_t)(uintptr_t)tmp ^
+                    ((uint64_t)(uintptr_t)&seed << 7);
+    FILE *fp = NULL;
+    int err = 0;
+    for (int attempt = 0; attempt < 32 && !fp; attempt++) {
+        seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+        snprintf(tmp, plen + suffix, "%s.tmp-%016llx", path, (unsigned long long)(seed >> 1));
+        errno = 0;
+        fp = fopen(tmp, "wbx");
+        err = errno;
+        if (!fp && err != EEXIST)
+            break;
+    }
+    if (!fp) {
+        mlr_free(&m->alloc, tmp, plen + suffix);
+        return mlr_diag_set(diag, MLR_E_IO, 0, 0, "cannot create a temporary file next to the "
+                            "target: %s", strerror(err ? err : EEXIST));
+    }
+    mlr_status s = mlr_bvh_write(m, file_write, fp);
+    if (s == MLR_E_IO)
+        mlr_diag_set(diag, s, 0, 0, "write failed: %s", strerror(errno));
+    else if (s != MLR_OK)
+        mlr_diag_set(diag, s, 0, 0, "the motion holds a non-finite value or a zero quaternion");
+    if (fclose(fp) != 0 && s == MLR_OK)
+        s = mlr_diag_set(diag, MLR_E_IO, 0, 0, "write failed: %s", strerror(errno));
+    if (s == MLR_OK && replace_file(tmp, path) != 0)
+        s = mlr_diag_set(diag, MLR_E_IO, 0, 0, "cannot rename the temporary file: %s",
+                         strerror(errno));
+    if (s != MLR_OK)
+        remove(tmp);
+    mlr_free(&m->alloc, tmp, plen + suffix);
+    return s;
+}

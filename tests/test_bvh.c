@@ -1,0 +1,1108 @@
+#define _POSIX_C_SOURCE 200809L
+/* BVH reader and writer: the real clips of the shared mocap folder (counts from its README,
+ * values against an independent Euler-matrix reference), round trips, malformed input with the
+ * expected line, allocation failures, motions built from arrays. */
+#include "mlr_test.h"
+
+#include <errno.h>
+#include <locale.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+/* ---- helpers ----------------------------------------------------------------------------- */
+
+static char *slurp(const char *path, size_t *len)
+{
+    FILE *fp = fopen(path, "rb");
+    if (!fp)
+        return NULL;
+    fseek(fp, 0, SEEK_END);
+    long n = ftell(fp);
+    fseek(fp, 0, SEEK_SET);
+    char *buf = malloc((size_t)n + 1);
+    ck_assert_ptr_nonnull(buf);
+    ck_assert_uint_eq(fread(buf, 1, (size_t)n, fp), (size_t)n);
+    fclose(fp);
+    buf[n] = '\0';
+    *len = (size_t)n;
+    return buf;
+}
+
+static char *clip_path(const char *name)
+{
+    const char *dir = mlr_test_mocap_dir();
+    ck_assert_msg(dir != NULL, "no mocap dir configured (MLR_TEST_MOCAP_DIR)");
+    static char buf[4096];
+    snprintf(buf, sizeof buf, "%s/%s", dir, name);
+    return buf;
+}
+
+static mlr_motion *read_text(const char *text, mlr_diag *diag, mlr_status *status)
+{
+    mlr_motion *m = NULL;
+    *status = mlr_bvh_read_memory(text, strlen(text), NULL, &m, diag);
+    return m;
+}
+
+/* angle between two rotations given as (possibly sign-flipped) unit quaternions */
+static double quat_angle(const double *a, const double *b)
+{
+    double d = fabs(a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]);
+    double na = sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2] + a[3] * a[3]);
+    double nb = sqrt(b[0] * b[0] + b[1] * b[1] + b[2] * b[2] + b[3] * b[3]);
+    d /= na * nb;
+    if (d > 1.0)
+        d = 1.0;
+    /* 2 acos(d) loses accuracy near 1: use the sine of the half difference instead */
+    double s2 = 0.0;
+    for (int k = 0; k < 4; k++) {
+        double sa = a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3] < 0 ? -1.0 : 1.0;
+        double t = a[k] / na - sa * b[k] / nb;
+        s2 += t * t;
+    }
+    return 4.0 * asin(fmin(1.0, 0.5 * sqrt(s2)));
+}
+
+/* 3x3 rotation matrix about axis (0 X, 1 Y, 2 Z) by deg degrees, row-major */
+static void axis_matrix(int axis, double deg, double r[9])
+{
+    double a = deg * 3.14159265358979323846 / 180.0, c = cos(a), s = sin(a);
+    for (int i = 0; i < 9; i++)
+        r[i] = 0.0;
+    int i = (axis + 1) % 3, j = (axis + 2) % 3;
+    r[axis * 3 + axis] = 1.0;
+    r[i * 3 + i] = c;
+    r[i * 3 + j] = -s;
+    r[j * 3 + i] = s;
+    r[j * 3 + j] = c;
+}
+
+static void matmul3(const double a[9], const double b[9], double out[9])
+{
+    double t[9];
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++)
+            t[3 * i + j] = a[3 * i] * b[j] + a[3 * i + 1] * b[3 + j] + a[3 * i + 2] * b[6 + j];
+    memcpy(out, t, sizeof t);
+}
+
+static void quat_matrix(const double *q, double r[9])
+{
+    double w = q[0], x = q[1], y = q[2], z = q[3];
+    r[0] = 1 - 2 * (y * y + z * z); r[1] = 2 * (x * y - w * z);     r[2] = 2 * (x * z + w * y);
+    r[3] = 2 * (x * y + w * z);     r[4] = 1 - 2 * (x * x + z * z); r[5] = 2 * (y * z - w * x);
+    r[6] = 2 * (x * z - w * y);     r[7] = 2 * (y * z + w * x);     r[8] = 1 - 2 * (x * x + y * y);
+}
+
+/* ---- the real clips ---------------------------------------------------------------------- */
+
+typedef struct clip_info {
+    const char *file;
+    size_t frames, joints, end_sites, channels;
+    double frame_time;
+    size_t n_trans;   /* non-root joints with position channels */
+} clip_info;
+
+static const clip_info clips[] = {
+    {"cmu_01_01_playground_jumps.bvh", 2752, 31, 7, 96, 0.0083333, 0},
+    {"cmu_131_01_mj_style_walk.bvh", 994, 31, 7, 96, 0.0083333, 0},
+    {"cmu_10_01_soccer_kick.bvh", 802, 43, 14, 132, 0.00833333, 0},
+    {"cmu_60_10_salsa_dance.bvh", 1197, 43, 14, 132, 0.008333, 0},
+    {"cmu_02_03_run_jog_25fps.bvh", 174, 165, 47, 498, 0.04, 0},
+    {"lafan1_clip_a.bvh", 7184, 22, 5, 69, 0.033333, 0},
+    {"bandai1_walk_happy_001.bvh", 213, 22, 5, 132, 0.0333333, 21},
+    {"ai4a_dog_D1_008_KAN01_002.bvh", 911, 21, 6, 66, 0.0166667, 0},
+};
+
+static mlr_motion *read_clip(const clip_info *ci)
+{
+    mlr_diag d;
+    mlr_motion *m = NULL;
+    mlr_status s = mlr_bvh_read_file(clip_path(ci->file), NULL, &m, &d);
+    ck_assert_msg(s == MLR_OK, "%s: %s at line %zu: %s", ci->file, mlr_status_name(s), d.line,
+                  d.message);
+    return m;
+}
+
+/* Independent check of one frame: the motion line parsed with strtod, each joint's rotation
+ * rebuilt as a product of axis matrices in channel order, translations replacing OFFSETs. */
+static void check_frame_against_text(const mlr_motion *m, const char *text, size_t f)
+{
+    const char *p = strstr(text, "Frame Time:");
+    ck_assert_ptr_nonnull(p);
+    p = strchr(p, '\n') + 1;
+    for (size_t k = 0; k < f; k++) {
+        p = strchr(p, '\n');
+        ck_assert_ptr_nonnull(p);
+        p++;
+    }
+    size_t J = mlr_motion_n_joints(m), P = mlr_motion_n_trans(m);
+    const double *rot = mlr_motion_rot(m) + 4 * J * f;
+    const double *rp = mlr_motion_root_pos(m) + 3 * f;
+    const double *tr = mlr_motion_trans(m);
+    const int32_t *tj = mlr_motion_trans_joints(m);
+    size_t slot = 0;
+    for (size_t j = 0; j < J; j++) {
+        unsigned char codes[6];
+        size_t n = mlr_motion_joint_channel_codes(m, j, codes);
+        double r[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1}, t[3];
+        memcpy(t, mlr_motion_offsets(m) + 3 * j, sizeof t);
+        for (size_t k = 0; k < n; k++) {
+            char *e;
+            double v = strtod(p, &e);
+            ck_assert_ptr_ne(e, p);
+            p = e;
+            if (codes[k] < 3) {
+                t[codes[k]] = v;
+            } else {
+                double a[9];
+                axis_matrix(codes[k] - 3, v, a);
+                matmul3(r, a, r);
+            }
+        }
+        double qr[9];
+        quat_matrix(rot + 4 * j, qr);
+        for (int i = 0; i < 9; i++)
+            ck_assert_close(qr[i], r[i], 1e-12);
+        const double *got = NULL;
+        if (j == 0) {
+            got = rp;
+        } else if (slot < P && (size_t)tj[slot] == j) {
+            got = tr + 3 * (P * f + slot);
+            slot++;
+        }
+        if (got)
+            for (int k = 0; k < 3; k++)
+                ck_assert_double_eq(got[k], t[k]);
+    }
+}
+
+START_TEST(every_clip_parses_with_readme_counts)
+{
+    const clip_info *ci = &clips[_i];
+    mlr_motion *m = read_clip(ci);
+    ck_assert_uint_eq(mlr_motion_n_frames(m), ci->frames);
+    ck_assert_uint_eq(mlr_motion_n_joints(m), ci->joints);
+    ck_assert_uint_eq(mlr_motion_n_end_sites(m), ci->end_sites);
+    ck_assert_uint_eq(mlr_motion_n_channels(m), ci->channels);
+    ck_assert_uint_eq(mlr_motion_n_trans(m), ci->n_trans);
+    ck_assert_double_eq(mlr_motion_frame_time(m), ci->frame_time);
+    size_t J = ci->joints, N = ci->frames, total = 0;
+    const int32_t *par = mlr_motion_parents(m);
+    ck_assert_int_eq(par[0], -1);
+    for (size_t j = 0; j < J; j++) {
+        total += mlr_motion_joint_n_channels(m, j);
+        if (j)
+            ck_assert(par[j] >= 0 && (size_t)par[j] < j);
+        ck_assert_ptr_nonnull(mlr_motion_joint_name(m, j));
+    }
+    ck_assert_uint_eq(total, ci->channels);
+    const double *rot = mlr_motion_rot(m);
+    for (size_t i = 0; i < N * J; i++) {
+        const double *q = rot + 4 * i;
+        ck_assert_close(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3], 1.0, 1e-12);
+    }
+    size_t len;
+    char *text = slurp(clip_path(ci->file), &len);
+    ck_assert_ptr_nonnull(text);
+    check_frame_against_text(m, text, 0);
+    check_frame_against_text(m, text, N / 2);
+    check_frame_against_text(m, text, N - 1);
+    free(text);
+    mlr_motion_destroy(m);
+}
+END_TEST
+
+START_TEST(per_joint_euler_orders)
+{
+    /* cmu_131_01: 19 ZYX (root included) and 12 ZXY joints; Daz files: root ZYX, rest ZXY */
+    mlr_motion *m = read_clip(&clips[1]);
+    size_t zyx = 0, zxy = 0;
+    for (size_t j = 0; j < mlr_motion_n_joints(m); j++) {
+        mlr_euler_order o = mlr_motion_joint_euler_order(m, j);
+        zyx += o == MLR_EULER_ZYX;
+        zxy += o == MLR_EULER_ZXY;
+    }
+    ck_assert_uint_eq(zyx, 19);
+    ck_assert_uint_eq(zxy, 12);
+    ck_assert_int_eq(mlr_motion_joint_euler_order(m, 0), MLR_EULER_ZYX);
+    mlr_motion_destroy(m);
+
+    m = read_clip(&clips[2]);
+    ck_assert_int_eq(mlr_motion_joint_euler_order(m, 0), MLR_EULER_ZYX);
+    for (size_t j = 1; j < mlr_motion_n_joints(m); j++)
+        ck_assert_int_eq(mlr_motion_joint_euler_order(m, j), MLR_EULER_ZXY);
+    ck_assert_str_eq(mlr_motion_joint_channels(m, 0),
+                     "Xposition Yposition Zposition Zrotation Yrotation Xrotation");
+    ck_assert_str_eq(mlr_motion_joint_channels(m, 1), "Zrotation Xrotation Yrotation");
+    ck_assert_str_eq(mlr_motion_joint_name(m, 0), "hip");
+    mlr_motion_destroy(m);
+}
+END_TEST
+
+START_TEST(bandai_position_channels_replace_offsets)
+{
+    mlr_motion *m = read_clip(&clips[6]);
+    size_t J = mlr_motion_n_joints(m), P = mlr_motion_n_trans(m), N = mlr_motion_n_frames(m);
+    ck_assert_uint_eq(P, J - 1);
+    const int32_t *tj = mlr_motion_trans_joints(m);
+    const double *tr = mlr_motion_trans(m), *off = mlr_motion_offsets(m);
+    ck_assert_str_eq(mlr_motion_joint_name(m, 1), "Hips");
+    ck_assert_int_eq(tj[0], 1);
+    /* Hips moves (the body translation); the other joints' channels equal their OFFSET */
+    double travel = fabs(tr[3 * (P * (N - 1))] - tr[0]) + fabs(tr[3 * (P * (N - 1)) + 2] - tr[2]);
+    ck_assert(travel > 50.0);
+    for (size_t f = 0; f < N; f += 17)
+        for (size_t k = 1; k < P; k++)
+            for (int c = 0; c < 3; c++)
+                ck_assert_close(tr[3 * (P * f + k) + c], off[3 * (size_t)tj[k] + c], 1e-3);
+    mlr_motion_destroy(m);
+}
+END_TEST
+
+/* ---- round trips ------------------------------------------------------------------------- */
+
+static void assert_same_motion(const mlr_motion *a, const mlr_motion *b, double rot_tol)
+{
+    size_t J = mlr_motion_n_joints(a), N = mlr_motion_n_frames(a), E = mlr_motion_n_end_sites(a),
+           P = mlr_motion_n_trans(a);
+    ck_assert_uint_eq(mlr_motion_n_joints(b), J);
+    ck_assert_uint_eq(mlr_motion_n_frames(b), N);
+    ck_assert_uint_eq(mlr_motion_n_end_sites(b), E);
+    ck_assert_uint_eq(mlr_motion_n_trans(b), P);
+    ck_assert_uint_eq(mlr_motion_n_channels(b), mlr_motion_n_channels(a));
+    ck_assert_double_eq(mlr_motion_frame_time(b), mlr_motion_frame_time(a));
+    for (size_t j = 0; j < J; j++) {
+        ck_assert_str_eq(mlr_motion_joint_name(b, j), mlr_motion_joint_name(a, j));
+        ck_assert_str_eq(mlr_motion_joint_channels(b, j), mlr_motion_joint_channels(a, j));
+        ck_assert_int_eq(mlr_motion_parents(b)[j], mlr_motion_parents(a)[j]);
+        for (int k = 0; k < 3; k++)
+            ck_assert_double_eq(mlr_motion_offsets(b)[3 * j + k], mlr_motion_offsets(a)[3 * j + k]);
+    }
+    for (size_t e = 0; e < E; e++) {
+        ck_assert_int_eq(mlr_motion_end_site_parents(b)[e], mlr_motion_end_site_parents(a)[e]);
+        for (int k = 0; k < 3; k++)
+            ck_assert_double_eq(mlr_motion_end_site_offsets(b)[3 * e + k],
+                                mlr_motion_end_site_offsets(a)[3 * e + k]);
+    }
+    for (size_t i = 0; i < 3 * N; i++)
+        ck_assert_double_eq(mlr_motion_root_pos(b)[i], mlr_motion_root_pos(a)[i]);
+    for (size_t i = 0; i < 3 * N * P; i++)
+        ck_assert_double_eq(mlr_motion_trans(b)[i], mlr_motion_trans(a)[i]);
+    double worst = 0.0;
+    for (size_t i = 0; i < N * J; i++) {
+        double d = quat_angle(mlr_motion_rot(a) + 4 * i, mlr_motion_rot(b) + 4 * i);
+        if (d > worst)
+            worst = d;
+    }
+    ck_assert_msg(worst <= rot_tol, "rotation differs by %.3g rad", worst);
+}
+
+static char *write_to_memory(const mlr_motion *m, size_t *len)
+{
+    ck_assert_int_eq(mlr_bvh_write_memory(m, NULL, 0, len), MLR_OK);
+    char *buf = malloc(*len + 1);
+    size_t len2 = 0;
+    ck_assert_int_eq(mlr_bvh_write_memory(m, buf, *len, &len2), MLR_OK);
+    ck_assert_uint_eq(len2, *len);
+    buf[*len] = '\0';
+    return buf;
+}
+
+START_TEST(round_trip_every_clip)
+{
+    mlr_motion *a = read_clip(&clips[_i]);
+    size_t len;
+    char *text = write_to_memory(a, &len);
+    mlr_motion *b = NULL;
+    mlr_diag d;
+    mlr_status s = mlr_bvh_read_memory(text, len, NULL, &b, &d);
+    ck_assert_msg(s == MLR_OK, "re-read: line %zu: %s", d.line, d.message);
+    assert_same_motion(a, b, 1e-6);
+    /* a second generation is byte-identical to the first */
+    size_t len2;
+    char *text2 = write_to_memory(b, &len2);
+    mlr_motion *c = NULL;
+    ck_assert_int_eq(mlr_bvh_read_memory(text2, len2, NULL, &c, NULL), MLR_OK);
+    assert_same_motion(b, c, 1e-6);
+    free(text);
+    free(text2);
+    mlr_motion_destroy(a);
+    mlr_motion_destroy(b);
+    mlr_motion_destroy(c);
+}
+END_TEST
+
+static char tmpdir[256];
+
+static void make_tmpdir(void)
+{
+    snprintf(tmpdir, sizeof tmpdir, "/tmp/mlr_test_bvh_XXXXXX");
+    ck_assert_ptr_nonnull(mkdtemp(tmpdir));
+}
+
+static size_t count_dir_entries(const char *dir)
+{
+    char cmd[512];
+    snprintf(cmd, sizeof cmd, "ls -A '%s' | wc -l", dir);
+    FILE *p = popen(cmd, "r");
+    unsigned long n = 0;
+    ck_assert_int_eq(fscanf(p, "%lu", &n), 1);
+    pclose(p);
+    return (size_t)n;
+}
+
+static void remove_tmpdir(void)
+{
+    char cmd[512];
+    snprintf(cmd, sizeof cmd, "rm -rf '%s'", tmpdir);
+    ck_assert_int_eq(system(cmd), 0);
+}
+
+START_TEST(write_file_is_atomic_and_matches_memory)
+{
+    make_tmpdir();
+    mlr_motion *a = read_clip(&clips[1]);
+    char path[512];
+    snprintf(path, sizeof path, "%s/out.bvh", tmpdir);
+    mlr_diag d;
+    ck_assert_int_eq(mlr_bvh_write_file(a, path, &d), MLR_OK);
+    ck_assert_uint_eq(count_dir_entries(tmpdir), 1); /* no temporary left behind */
+    size_t flen, mlen;
+    char *ftext = slurp(path, &flen), *mtext = write_to_memory(a, &mlen);
+    ck_assert_uint_eq(flen, mlen);
+    ck_assert_int_eq(memcmp(ftext, mtext, flen), 0);
+    mlr_motion *b = NULL;
+    ck_assert_int_eq(mlr_bvh_read_file(path, NULL, &b, &d), MLR_OK);
+    assert_same_motion(a, b, 1e-6);
+
+    /* a failing write (non-finite value) leaves the old file untouched and no temporary */
+    mlr_motion_rot_mut(b)[5] = NAN;
+    ck_assert_int_eq(mlr_bvh_write_file(b, path, &d), MLR_E_INVALID_ARG);
+    size_t flen2;
+    char *ftext2 = slurp(path, &flen2);
+    ck_assert_uint_eq(flen2, flen);
+    ck_assert_int_eq(memcmp(ftext, ftext2, flen), 0);
+    ck_assert_uint_eq(count_dir_entries(tmpdir), 1);
+    mlr_motion_destroy(b);
+
+    /* a missing directory is an I/O error */
+    snprintf(path, sizeof path, "%s/no/such/dir/out.bvh", tmpdir);
+    ck_assert_int_eq(mlr_bvh_write_file(a, path, &d), MLR_E_IO);
+    ck_assert(strlen(d.message) > 0);
+    ck_assert_int_eq(mlr_bvh_read_file(path, NULL, &b, &d), MLR_E_IO);
+    ck_assert_ptr_null(b);
+    free(ftext);
+    free(ftext2);
+    free(mtext);
+    mlr_motion_destroy(a);
+    remove_tmpdir();
+}
+END_TEST
+
+static int stop_after_first(void *user, const char *data, size_t len)
+{
+    (void)data;
+    (void)len;
+    return (*(int *)user)++ > 0;
+}
+
+START_TEST(write_memory_overflow_and_callback_stop)
+{
+    mlr_motion *a = read_clip(&clips[7]);
+    size_t len, len2;
+    ck_assert_int_eq(mlr_bvh_write_memory(a, NULL, 0, &len), MLR_OK);
+    char small[100];
+    ck_assert_int_eq(mlr_bvh_write_memory(a, small, sizeof small, &len2), MLR_E_OVERFLOW);
+    ck_assert_uint_eq(len2, len);
+    ck_assert_int_eq(memcmp(small, "HIERARCHY\n", 10), 0);
+    int calls = 0;
+    ck_assert_int_eq(mlr_bvh_write(a, stop_after_first, &calls), MLR_E_IO);
+    ck_assert_int_eq(calls, 2);
+    ck_assert_int_eq(mlr_bvh_write(NULL, stop_after_first, &calls), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_bvh_write_memory(a, NULL, 0, NULL), MLR_E_INVALID_ARG);
+    /* a zero quaternion cannot be written */
+    memset(mlr_motion_rot_mut(a), 0, 4 * sizeof(double));
+    ck_assert_int_eq(mlr_bvh_write_memory(a, NULL, 0, &len), MLR_E_INVALID_ARG);
+    mlr_motion_destroy(a);
+}
+END_TEST
+
+START_TEST(copy_frames_slices)
+{
+    mlr_motion *a = read_clip(&clips[6]), *b = NULL;
+    size_t J = mlr_motion_n_joints(a), P = mlr_motion_n_trans(a);
+    ck_assert_int_eq(mlr_motion_copy_frames(a, 10, 40, &b), MLR_OK);
+    ck_assert_uint_eq(mlr_motion_n_frames(b), 40);
+    ck_assert_int_eq(memcmp(mlr_motion_rot(b), mlr_motion_rot(a) + 4 * J * 10,
+                            40 * 4 * J * sizeof(double)), 0);
+    ck_assert_int_eq(memcmp(mlr_motion_trans(b), mlr_motion_trans(a) + 3 * P * 10,
+                            40 * 3 * P * sizeof(double)), 0);
+    ck_assert_int_eq(memcmp(mlr_motion_root_pos(b), mlr_motion_root_pos(a) + 30,
+                            40 * 3 * sizeof(double)), 0);
+    ck_assert_str_eq(mlr_motion_joint_name(b, 3), mlr_motion_joint_name(a, 3));
+    mlr_motion_destroy(b);
+    b = (mlr_motion *)&b;
+    ck_assert_int_eq(mlr_motion_copy_frames(a, 200, 14, &b), MLR_E_INVALID_ARG);
+    ck_assert_ptr_null(b);
+    ck_assert_int_eq(mlr_motion_copy_frames(a, 213, 0, &b), MLR_OK);
+    ck_assert_uint_eq(mlr_motion_n_frames(b), 0);
+    ck_assert_ptr_null(mlr_motion_rot(b));
+    mlr_motion_destroy(b);
+    mlr_motion_destroy(a);
+}
+END_TEST
+
+/* ---- whitespace, line ends, layouts ------------------------------------------------------ */
+
+static const char small_bvh[] =
+    "HIERARCHY\n"
+    "ROOT Hips\n"
+    "{\n"
+    "  OFFSET 1 2 3\n"
+    "  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n"
+    "  JOINT Spine\n"
+    "  {\n"
+    "    OFFSET 0 10 0\n"
+    "    CHANNELS 3 Xrotation Yrotation Zrotation\n"
+    "    End Site\n"
+    "    {\n"
+    "      OFFSET 0 5 0\n"
+    "    }\n"
+    "  }\n"
+    "  JOINT Leg\n"
+    "  {\n"
+    "    OFFSET 2 -10 0\n"
+    "    CHANNELS 6 Zrotation Yposition Xrotation Xposition Yrotation Zposition\n"
+    "  }\n"
+    "}\n"
+    "MOTION\n"
+    "Frames: 2\n"
+    "Frame Time: 0.5\n"
+    "1 2 3 10 20 30 40 50 60 70 80 90 7 8 9\n"
+    "-1 -2 -3.5e0 0 0 0 0 0 0 0 0 0 0 0 0\n";
+
+static char *replace_all(const char *s, const char *from, const char *to)
+{
+    size_t n = 0, fl = strlen(from), tl = strlen(to);
+    for (const char *p = strstr(s, from); p; p = strstr(p + fl, from))
+        n++;
+    char *out = malloc(strlen(s) + n * tl + 1), *o = out;
+    for (const char *p = s;;) {
+        const char *q = strstr(p, from);
+        if (!q) {
+            strcpy(o, p);
+            break;
+        }
+        memcpy(o, p, (size_t)(q - p));
+        o += q - p;
+        memcpy(o, to, tl);
+        o += tl;
+        p = q + fl;
+    }
+    return out;
+}
+
+static void check_small(const mlr_motion *m)
+{
+    ck_assert_uint_eq(mlr_motion_n_joints(m), 3);
+    ck_assert_uint_eq(mlr_motion_n_frames(m), 2);
+    ck_assert_uint_eq(mlr_motion_n_end_sites(m), 1);
+    ck_assert_uint_eq(mlr_motion_n_trans(m), 1);
+    ck_assert_int_eq(mlr_motion_trans_joints(m)[0], 2);
+    ck_assert_str_eq(mlr_motion_joint_name(m, 2), "Leg");
+    ck_assert_int_eq(mlr_motion_parents(m)[2], 0);
+    ck_assert_int_eq(mlr_motion_joint_euler_order(m, 0), MLR_EULER_ZXY);
+    ck_assert_int_eq(mlr_motion_joint_euler_order(m, 1), MLR_EULER_XYZ);
+    ck_assert_int_eq(mlr_motion_joint_euler_order(m, 2), MLR_EULER_ZXY);
+    ck_assert_int_eq(mlr_motion_joint_has_position(m, 2), 1);
+    ck_assert_int_eq(mlr_motion_joint_has_position(m, 1), 0);
+    const double *t = mlr_motion_trans(m), *rp = mlr_motion_root_pos(m);
+    /* Leg: Zrot=70 Ypos=80 Xrot=90 Xpos=7 Yrot=8 Zpos=9 */
+    ck_assert_double_eq(t[0], 7.0);
+    ck_assert_double_eq(t[1], 80.0);
+    ck_assert_double_eq(t[2], 9.0);
+    ck_assert_double_eq(rp[3], -1.0);
+    ck_assert_double_eq(rp[5], -3.5);
+    ck_assert_double_eq(mlr_motion_end_site_offsets(m)[1], 5.0);
+}
+
+START_TEST(whitespace_and_line_end_variants)
+{
+    static const char *const variants[][2] = {
+        {"\n", "\r\n"}, {"\n", "\r"}, {"  ", "\t"}, {" ", " \t \v\f "},
+        {"HIERARCHY", "hierarchy"}, {"CHANNELS", "channels"}, {"Frames: ", "Frames:"},
+        {"Frame Time: ", "Frame Time:\t"}, {"}\n", "}\n\n\n"}, {"Hips\n", "Hips {\n"},
+    };
+    char *base = NULL;
+    for (size_t v = 0; v < MLR_COUNTOF(variants); v++) {
+        char *text = replace_all(small_bvh, variants[v][0], variants[v][1]);
+        if (v == 9) { /* brace on the name line: drop the brace line that follows */
+            char *t2 = replace_all(text, "Hips {\n{\n", "Hips {\n");
+            free(text);
+            text = t2;
+        }
+        mlr_diag d;
+        mlr_status s;
+        mlr_motion *m = read_text(text, &d, &s);
+        ck_assert_msg(s == MLR_OK, "variant %zu: line %zu: %s", v, d.line, d.message);
+        check_small(m);
+        mlr_motion_destroy(m);
+        free(text);
+    }
+    /* a byte order mark and trailing NUL padding */
+    base = malloc(sizeof small_bvh + 8);
+    memcpy(base, "\xEF\xBB\xBF", 3);
+    memcpy(base + 3, small_bvh, sizeof small_bvh - 1);
+    memset(base + 3 + sizeof small_bvh - 1, 0, 4);
+    mlr_motion *m = NULL;
+    ck_assert_int_eq(mlr_bvh_read_memory(base, sizeof small_bvh + 6, NULL, &m, NULL), MLR_OK);
+    check_small(m);
+    mlr_motion_destroy(m);
+    free(base);
+}
+END_TEST
+
+START_TEST(small_file_round_trip_keeps_layout)
+{
+    mlr_status s;
+    mlr_motion *a = read_text(small_bvh, NULL, &s);
+    ck_assert_int_eq(s, MLR_OK);
+    size_t len;
+    char *text = write_to_memory(a, &len);
+    ck_assert_ptr_nonnull(strstr(text, "CHANNELS 6 Zrotation Yposition Xrotation Xposition "
+                                       "Yrotation Zposition\n"));
+    ck_assert_ptr_nonnull(strstr(text, "Frame Time: 0.5\n"));
+    ck_assert_ptr_nonnull(strstr(text, "\t\tEnd Site\n\t\t{\n\t\t\tOFFSET 0 5 0\n\t\t}\n"));
+    mlr_motion *b = read_text(text, NULL, &s);
+    ck_assert_int_eq(s, MLR_OK);
+    check_small(b);
+    assert_same_motion(a, b, 1e-9);
+    free(text);
+    mlr_motion_destroy(a);
+    mlr_motion_destroy(b);
+}
+END_TEST
+
+START_TEST(partial_and_empty_channel_lists)
+{
+    static const char text[] =
+        "HIERARCHY\nROOT r\n{\nOFFSET 0 0 0\nCHANNELS 1 Yposition\n"
+        "JOINT a\n{\nOFFSET 1 0 0\nCHANNELS 1 Yrotation\n"
+        "JOINT b\n{\nOFFSET 1 0 0\nCHANNELS 0\n"
+        "JOINT c\n{\nOFFSET 1 0 0\nCHANNELS 2 Xposition Zrotation\n}\n}\n}\n"
+        "JOINT d\n{\nOFFSET 0 1 0\n}\n}\n"
+        "MOTION\nFrames: 1\nFrame Time: 0.1\n5 90 3 45\n";
+    mlr_diag d;
+    mlr_status s;
+    mlr_motion *m = read_text(text, &d, &s);
+    ck_assert_msg(s == MLR_OK, "line %zu: %s", d.line, d.message);
+    ck_assert_uint_eq(mlr_motion_n_channels(m), 4);
+    ck_assert_int_eq(mlr_motion_joint_euler_order(m, 1), MLR_EULER_YXZ);
+    ck_assert_int_eq(mlr_motion_joint_euler_order(m, 3), MLR_EULER_ZXY);
+    ck_assert_str_eq(mlr_motion_joint_channels(m, 2), "");
+    ck_assert_uint_eq(mlr_motion_joint_n_channels(m, 4), 0);
+    const double *rp = mlr_motion_root_pos(m), *rot = mlr_motion_rot(m);
+    ck_assert_double_eq(rp[0], 0.0);
+    ck_assert_double_eq(rp[1], 5.0);
+    ck_assert_close(rot[4 * 1 + 0], sqrt(0.5), 1e-15); /* 90 deg about Y */
+    ck_assert_close(rot[4 * 1 + 2], sqrt(0.5), 1e-15);
+    ck_assert_double_eq(rot[4 * 2 + 0], 1.0);
+    const double *t = mlr_motion_trans(m);
+    ck_assert_double_eq(t[0], 3.0);
+    ck_assert_double_eq(t[1], 0.0);
+    size_t len;
+    char *out = write_to_memory(m, &len);
+    ck_assert_ptr_nonnull(strstr(out, "CHANNELS 0\n"));
+    ck_assert_ptr_nonnull(strstr(out, "\n5 90 3 45\n"));
+    mlr_motion *b = read_text(out, NULL, &s);
+    ck_assert_int_eq(s, MLR_OK);
+    assert_same_motion(m, b, 1e-12);
+    free(out);
+    mlr_motion_destroy(b);
+    mlr_motion_destroy(m);
+}
+END_TEST
+
+START_TEST(numbers_are_correctly_rounded)
+{
+    /* position channels carry values through untouched: compare with strtod bit for bit */
+    mlr_test_rng rng;
+    mlr_test_rng_seed(&rng, 42);
+    enum { N = 3000 };
+    static char text[N * 3 * 48 + 512];
+    size_t len = (size_t)sprintf(text, "HIERARCHY\nROOT r\n{\nOFFSET 0 0 0\nCHANNELS 3 Xposition "
+                                 "Yposition Zposition\n}\nMOTION\nFrames: %d\nFrame Time: 1\n", N);
+    static char tokens[N * 3][48];
+    for (int i = 0; i < N * 3; i++) {
+        char *t = tokens[i];
+        int kind = (int)(mlr_test_rng_u64(&rng) % 5), n = 0;
+        if (mlr_test_rng_u64(&rng) & 1)
+            t[n++] = '-';
+        int digits = 1 + (int)(mlr_test_rng_u64(&rng) % (kind == 4 ? 25 : 17));
+        int dot = (int)(mlr_test_rng_u64(&rng) % (unsigned)(digits + 1));
+        for (int k = 0; k < digits; k++) {
+            if (k == dot && kind != 0)
+                t[n++] = '.';
+            t[n++] = (char)('0' + mlr_test_rng_u64(&rng) % 10);
+        }
+        if (kind >= 2)
+            n += sprintf(t + n, "e%d", (int)(mlr_test_rng_u64(&rng) % 80) - 40);
+        if (kind == 3)
+            n = sprintf(t, "%.17g", mlr_test_rng_normal(&rng) * 1e3);
+        t[n] = '\0';
+        len += (size_t)sprintf(text + len, "%s%s", t, i % 3 == 2 ? "\n" : " ");
+    }
+    mlr_motion *m = NULL;
+    mlr_diag d;
+    mlr_status s = mlr_bvh_read_memory(text, len, NULL, &m, &d);
+    ck_assert_msg(s == MLR_OK, "line %zu: %s", d.line, d.message);
+    const double *v = mlr_motion_root_pos(m);
+    for (int i = 0; i < N * 3; i++) {
+        double ref = strtod(tokens[i], NULL);
+        ck_assert_msg(memcmp(&ref, &v[i], sizeof ref) == 0, "'%s': %.17g vs %.17g", tokens[i],
+                      v[i], ref);
+    }
+    /* and they are written back exactly */
+    size_t wlen;
+    char *w = write_to_memory(m, &wlen);
+    mlr_motion *b = NULL;
+    ck_assert_int_eq(mlr_bvh_read_memory(w, wlen, NULL, &b, NULL), MLR_OK);
+    ck_assert_int_eq(memcmp(mlr_motion_root_pos(b), v, 3 * N * sizeof(double)), 0);
+    free(w);
+    mlr_motion_destroy(b);
+    mlr_motion_destroy(m);
+}
+END_TEST
+
+START_TEST(locale_with_decimal_comma)
+{
+    const char *names[] = {"de_DE.UTF-8", "de_DE.utf8", "fr_FR.UTF-8", "C.UTF-8"};
+    const char *got = NULL;
+    for (size_t i = 0; i < MLR_COUNTOF(names) && !got; i++)
+        got = setlocale(LC_NUMERIC, names[i]);
+    /* Even without such a locale the test checks the slow path (long numbers) still works. */
+    static const char text[] = "HIERARCHY\nROOT r\n{\nOFFSET 0.5 0 0\nCHANNELS 3 Xposition "
+                               "Yposition Zposition\n}\nMOTION\nFrames: 1\nFrame Time: 0.25\n"
+                               "1.00000000000000000000001 2.5e-300 0.1234567890123456789\n";
+    mlr_status s;
+    mlr_diag d;
+    mlr_motion *m = read_text(text, &d, &s);
+    ck_assert_msg(s == MLR_OK, "line %zu: %s", d.line, d.message);
+    ck_assert_double_eq(mlr_motion_root_pos(m)[0], 1.0);
+    ck_assert_double_eq(mlr_motion_root_pos(m)[1], 2.5e-300);
+    ck_assert_double_eq(mlr_motion_root_pos(m)[2], 0.1234567890123456789);
+    size_t len;
+    char *out = write_to_memory(m, &len);
+    ck_assert_ptr_nonnull(strstr(out, "OFFSET 0.5 0 0\n"));
+    ck_assert_ptr_nonnull(strstr(out, "Frame Time: 0.25\n"));
+    ck_assert_ptr_null(strchr(out, ','));
+    free(out);
+    mlr_motion_destroy(m);
+    setlocale(LC_NUMERIC, "C");
+}
+END_TEST
+
+START_TEST(deep_nesting_needs_no_recursion)
+{
+    enum { DEPTH = 100000 };
+    size_t cap = (size_t)DEPTH * 64 + 256, len = 0;
+    char *text = malloc(cap);
+    len += (size_t)sprintf(text + len, "HIERARCHY\nROOT j0\n{\nOFFSET 0 0 0\nCHANNELS 3 Xrotation "
+                                       "Yrotation Zrotation\n");
+    for (int i = 1; i < DEPTH; i++)
+        len += (size_t)sprintf(text + len, "JOINT j%d\n{\nOFFSET 0 1 0\nCHANNELS 0\n", i);
+    len += (size_t)sprintf(text + len, "End Site\n{\nOFFSET 0 1 0\n}\n");
+    for (int i = 0; i < DEPTH; i++)
+        text[len++] = '}', text[len++] = '\n';
+    len += (size_t)sprintf(text + len, "MOTION\nFrames: 1\nFrame Time: 1\n90 0 0\n");
+    mlr_motion *m = NULL;
+    mlr_diag d;
+    mlr_status s = mlr_bvh_read_memory(text, len, NULL, &m, &d);
+    ck_assert_msg(s == MLR_OK, "line %zu: %s", d.line, d.message);
+    ck_assert_uint_eq(mlr_motion_n_joints(m), DEPTH);
+    ck_assert_int_eq(mlr_motion_parents(m)[DEPTH - 1], DEPTH - 2);
+    size_t wlen;
+    char *w = write_to_memory(m, &wlen);
+    mlr_motion *b = NULL;
+    ck_assert_int_eq(mlr_bvh_read_memory(w, wlen, NULL, &b, &d), MLR_OK);
+    assert_same_motion(m, b, 1e-9);
+    /* missing the last brace: an error at the end, not a crash */
+    mlr_motion_destroy(b);
+    char *mos = strstr(text, "}\nMOTION");
+    if (mos == NULL)
+        ck_abort_msg("no closing brace before MOTION");
+    memmove(mos, mos + 2, strlen(mos + 2) + 1);
+    s = mlr_bvh_read_memory(text, strlen(text), NULL, &b, &d);
+    ck_assert_int_eq(s, MLR_E_PARSE);
+    ck_assert_ptr_nonnull(strstr(d.message, "missing '}'"));
+    free(w);
+    free(text);
+    mlr_motion_destroy(m);
+}
+END_TEST
+
+/* ---- malformed input --------------------------------------------------------------------- */
+
+static const char hier[] = "HIERARCHY\nROOT r\n{\nOFFSET 0 0 0\nCHANNELS 3 Xrotation Yrotation "
+                           "Zrotation\n}\nMOTION\n"; /* MOTION on line 7 */
+
+static const struct bad_case {
+    const char *text; /* "%H" at the start stands for hier */
+    size_t line;
+    const char *reason;  /* substring of the message */
+} bad_cases[] = {
+    {"", 1, "empty input"},
+    {"   \n\n", 3, "empty input"},
+    {"HIERARCHY\n", 2, "expected 'ROOT'"},
+    {"HIERARCH\nROOT r", 1, "expected HIERARCHY"},
+    {"HIERARCHY\nROOT\n{", 2, "ROOT without a name"},
+    {"HIERARCHY\nROOT r\nOFFSET 0 0 0", 3, "expected '{'"},
+    {"HIERARCHY\nROOT r\n{\nOFFSET 0 0\nCHANNELS 0\n}", 5, "a number in OFFSET"},
+    {"HIERARCHY\nROOT r\n{\nOFFSET 0 nan 0\n}", 4, "found 'nan'"},
+    {"HIERARCHY\nROOT r\n{\nOFFSET 0 inf 0\n}", 4, "found 'inf'"},
+    {"HIERARCHY\nROOT r\n{\nOFFSET 0 1e999 0\n}", 4, "found '1e999'"},
+    {"HIERARCHY\nROOT r\n{\nOFFSET 0 0 0\nOFFSET 0 0 0\n}", 5, "second OFFSET"},
+    {"HIERARCHY\nROOT r\n{\nCHANNELS 0\n}\nMOTION", 5, "has no OFFSET"},
+    {"HIERARCHY\nROOT r\n{\nOFFSET 0 0 0\nCHANNELS 7 Xrotation", 5, "CHANNELS count"},
+    {"HIERARCHY\nROOT r\n{\nOFFSET 0 0 0\nCHANNELS -1", 5, "CHANNELS count"},
+    {"HIERARCHY\nROOT r\n{\nOFFSET 0 0 0\nCHANNELS 3 Xrotation Yrotation\n}", 6,
+     "lists only 2 channel names"},
+    {"HIERARCHY\nROOT r\n{\nOFFSET 0 0 0\nCHANNELS 2 Xrotation Wrotation\n}", 5,
+     "unknown channel 'Wrotation'"},
+    {"HIERARCHY\nROOT r\n{\nOFFSET 0 0 0\nCHANNELS 2 Xrotation xrotation\n}", 5,
+     "listed twice"},
+    {"HIERARCHY\nROOT r\n{\nOFFSET 0 0 0\nCHANNELS 1 Xrotation\nCHANNELS 0\n}", 6,
+     "second CHANNELS"},
+    {"HIERARCHY\nROOT r\n{\nOFFSET 0 0 0\nJOINT a\n{\nOFFSET 0 0 0\n}\n", 9,
+     "in joint 'r' (missing '}')"},
+    {"HIERARCHY\nROOT r\n{\nOFFSET 0 0 0\nJOINT a\n{\nOFFSET 0 0 0\nMOTION\n", 8,
+     "MOTION inside joint 'a'"},
+    {"HIERARCHY\nROOT r\n{\nOFFSET 0 0 0\nROOT b\n", 5, "ROOT inside joint"},
+    {"HIERARCHY\nROOT r\n{\nOFFSET 0 0 0\nFOO 1\n}", 5, "unexpected 'FOO' in joint 'r'"},
+    {"HIERARCHY\nROOT r\n{\nOFFSET 0 0 0\nEnd\n{\n}", 6, "expected 'Site'"},
+    {"HIERARCHY\nROOT r\n{\nOFFSET 0 0 0\nEnd Site\n{\n}\n}", 7, "expected 'OFFSET'"},
+    {"HIERARCHY\nROOT r\n{\nOFFSET 0 0 0\nEnd Site\n{\nOFFSET 1 2 3\nOFFSET 1 2 3\n}", 8,
+     "to close the End Site"},
+    {"HIERARCHY\nROOT r\n{\nOFFSET 0 0 0\n}\n}\n", 6, "expected MOTION"},
+    {"HIERARCHY\nROOT r\n{\nOFFSET 0 0 0\n}\n", 6, "expected MOTION"},
+    {"HIERARCHY\nROOT r\n{\nOFFSET 0 0 0\n}\nROOT s\n", 6, "more than one ROOT"},
+    {"HIERARCHY\nROOT r\n{\nOFF\x01SET 0 0 0\n}", 4, "control byte 0x01"},
+    {"HIERARCHY\nROOT r\x02x\n{", 2, "control byte 0x02"},
+    {"\x7f" "ELF\x02\x01\x01", 1, "control byte 0x7f"},
+    {"%H", 8, "expected 'Frames:'"},
+    {"%HFrames: 1\n", 9, "expected 'Frame'"},
+    {"%HFrames:\nFrame Time: 1\n", 8, "missing value"},
+    {"%HFrames: x1\nFrame Time: 1\n", 8, "needs a whole number"},
+    {"%HFrames: -1\nFrame Time: 1\n", 8, "needs a whole number"},
+    {"%HFrames: 99999999999999999999999\nFrame Time: 1\n", 8, "out of range"},
+    {"%HFrames: 1000000000\nFrame Time: 1\n0 0 0\n", 8, "hold at most 1 frames"},
+    {"%HFrames: 1\nFrame Time: 0\n0 0 0\n", 9, "must be positive"},
+    {"%HFrames: 1\nFrame Time: -0.1\n0 0 0\n", 9, "must be positive"},
+    {"%HFrames: 1\nFrame Time: abc\n0 0 0\n", 9, "needs a number"},
+    {"%HFrames: 1\nFrame Time: 1 2\n0 0 0\n", 9, "after Frame Time"},
+    {"%HFrames: 2\nFrame Time: 1\n10 20 30\n1 2\n", 11, "frame 2 has 2 values, expected 3"},
+    {"%HFrames: 2\nFrame Time: 1\n0 0 0\n1 2 3 4\n", 11, "frame 2 has more than 3 values"},
+    {"%HFrames: 3\nFrame Time: 1\n10 20 30\n10 20 30\n", 12, "2 of 3 frames"},
+    {"%HFrames: 2\nFrame Time: 1\n0 0 0\n1 2 3\n4 5 6\n", 12, "data after the 2 frames"},
+    {"%HFrames: 2\nFrame Time: 1\n0 0 0\n1 nan 3\n", 11, "invalid number 'nan'"},
+    {"%HFrames: 2\nFrame Time: 1\n0 0 0\n1 -inf 3\n", 11, "invalid number '-inf'"},
+    {"%HFrames: 2\nFrame Time: 1\n0 0 0\n1 1e400 3\n", 11, "invalid number '1e400'"},
+    {"%HFrames: 2\nFrame Time: 1\n0 0 0\n1 1.2.3 3\n", 11, "invalid number '1.2.3'"},
+    {"%HFrames: 2\nFrame Time: 1\n0 0 0\n1 2,5 3\n", 11, "invalid number '2,5'"},
+    {"%HFrames: 2\nFrame Time: 1\n0 0 0\n1 0x10 3\n", 11, "invalid number '0x10'"},
+    {"%HFrames: 2\nFrame Time: 1\n0 0 0\n1 2e 3\n", 11, "invalid number '2e'"},
+    {"%HFrames: 2\nFrame Time: 1\n0 0 0\n1 . 3\n", 11, "invalid number '.'"},
+    {"%HFrames: 2\nFrame Time: 1\n0 0 0\n1 \x03\x04 3\n", 11, "invalid number '?" "?'"},
+    {"%HFrames: 1\nFrame Time: 1\n0 0 0\n\x01\x02\x03", 11, "data after the 1 frames"},
+    {"HIERARCHY\nROOT r\n{\nOFFSET 0 0 0\n}\nMOTION\nFrames: 5\nFrame Time: 1\n", 7,
+     "declares no channels"},
+};
+
+START_TEST(malformed_input_reports_line_and_reason)
+{
+    const struct bad_case *bc = &bad_cases[_i];
+    char text[512];
+    if (strncmp(bc->text, "%H", 2) == 0)
+        snprintf(text, sizeof text, "%s%s", hier, bc->text + 2);
+    else
+        snprintf(text, sizeof text, "%s", bc->text);
+    mlr_diag d;
+    memset(&d, 0x55, sizeof d);
+    static char sentinel;
+    mlr_motion *m = (mlr_motion *)&sentinel;
+    mlr_status s = mlr_bvh_read_memory(text, strlen(text), NULL, &m, &d);
+    ck_assert_int_eq(s, MLR_E_PARSE);
+    ck_assert_ptr_null(m);
+    ck_assert_msg(memchr(d.message, '\0', sizeof d.message) != NULL, "message not terminated");
+    ck_assert_msg(strstr(d.message, bc->reason) != NULL, "case %d: message '%s' lacks '%s'", _i,
+                  d.message, bc->reason);
+    ck_assert_msg(d.line == bc->line, "case %d ('%s'): line %zu, expected %zu", _i, d.message,
+                  d.line, bc->line);
+}
+END_TEST
+
+START_TEST(every_truncation_and_mutation_is_handled)
+{
+    /* each prefix of a valid file, and seeded byte mutations: OK or PARSE, never a crash */
+    size_t n = sizeof small_bvh - 1;
+    for (size_t k = 0; k < n; k++) {
+        mlr_motion *m = NULL;
+        mlr_diag d;
+        mlr_status s = mlr_bvh_read_memory(small_bvh, k, NULL, &m, &d);
+        ck_assert_msg(s == MLR_E_PARSE || (s == MLR_OK && k >= n - 1), "prefix %zu: %s", k,
+                      mlr_status_name(s));
+        ck_assert(s != MLR_E_PARSE || d.line >= 1);
+        mlr_motion_destroy(m);
+    }
+    mlr_test_rng rng;
+    mlr_test_rng_seed(&rng, 7);
+    char buf[sizeof small_bvh];
+    for (int it = 0; it < 20000; it++) {
+        memcpy(buf, small_bvh, sizeof buf);
+        int flips = 1 + (int)(mlr_test_rng_u64(&rng) % 4);
+        for (int f = 0; f < flips; f++)
+            buf[mlr_test_rng_u64(&rng) % n] = (char)(mlr_test_rng_u64(&rng) & 0xff);
+        mlr_motion *m = NULL;
+        mlr_status s = mlr_bvh_read_memory(buf, n, NULL, &m, NULL);
+        ck_assert(s == MLR_OK || s == MLR_E_PARSE);
+        if (s == MLR_OK) {
+            size_t len;
+            ck_assert_int_eq(mlr_bvh_write_memory(m, NULL, 0, &len), MLR_OK);
+        }
+        mlr_motion_destroy(m);
+    }
+}
+END_TEST
+
+START_TEST(null_arguments)
+{
+    mlr_motion *m = NULL;
+    mlr_diag d;
+    ck_assert_int_eq(mlr_bvh_read_memory("x", 1, NULL, NULL, &d), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_bvh_read_memory(NULL, 3, NULL, &m, &d), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_bvh_read_memory(NULL, 0, NULL, &m, &d), MLR_E_PARSE);
+    ck_assert_int_eq(mlr_bvh_read_file(NULL, NULL, &m, &d), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_bvh_read_file("/nonexistent/x.bvh", NULL, &m, &d), MLR_E_IO);
+    ck_assert_int_eq(d.line, 0);
+    ck_assert_uint_eq(mlr_motion_n_joints(NULL), 0);
+    ck_assert_ptr_null(mlr_motion_joint_name(NULL, 0));
+    mlr_motion_destroy(NULL);
+}
+END_TEST
+
+/* ---- allocation failures ----------------------------------------------------------------- */
+
+START_TEST(every_allocation_failure_is_clean)
+{
+    for (size_t fail_at = 0;; fail_at++) {
+        mlr_test_allocator ta;
+        mlr_test_allocator_init(&ta, fail_at);
+        mlr_motion *m = NULL, *c = NULL;
+        mlr_diag d;
+        mlr_status s = mlr_bvh_read_memory(small_bvh, sizeof small_bvh - 1, &ta.base, &m, &d);
+        if (s != MLR_OK)
+            ck_assert_ptr_null(m);
+        if (s == MLR_OK) {
+            s = mlr_motion_copy_frames(m, 1, 1, &c);
+            if (s == MLR_OK)
+                ck_assert_int_eq(mlr_motion_n_frames(c), 1);
+        }
+        mlr_motion_destroy(c);
+        mlr_motion_destroy(m);
+        ck_assert_uint_eq(ta.live_blocks, 0);
+        if (s == MLR_OK)
+            break;
+        ck_assert_int_eq(s, MLR_E_NO_MEMORY);
+        ck_assert(fail_at < 1000);
+    }
+}
+END_TEST
+
+START_TEST(every_allocation_failure_is_clean_for_files)
+{
+    make_tmpdir();
+    char path[512];
+    snprintf(path, sizeof path, "%s/a.bvh", tmpdir);
+    FILE *fp = fopen(path, "wb");
+    fputs(small_bvh, fp);
+    fclose(fp);
+    for (size_t fail_at = 0;; fail_at++) {
+        mlr_test_allocator ta;
+        mlr_test_allocator_init(&ta, fail_at);
+        mlr_motion *m = NULL;
+        mlr_diag d;
+        mlr_status s = mlr_bvh_read_file(path, &ta.base, &m, &d);
+        if (s == MLR_OK)
+            s = mlr_bvh_write_file(m, path, &d);
+        mlr_motion_destroy(m);
+        ck_assert_uint_eq(ta.live_blocks, 0);
+        ck_assert_uint_eq(count_dir_entries(tmpdir), 1);
+        if (s == MLR_OK)
+            break;
+        ck_assert_int_eq(s, MLR_E_NO_MEMORY);
+    }
+    remove_tmpdir();
+}
+END_TEST
+
+/* ---- motions from arrays ----------------------------------------------------------------- */
+
+START_TEST(create_from_arrays_writes_and_reads_back)
+{
+    const char *names[] = {"root", "spine", "head", "arm", "hand"};
+    const int32_t parents[] = {-1, 0, 1, 1, 3};
+    const double offsets[] = {0, 90, 0, 0, 10, 0, 0, 20, 0, 15, 15, 0, 25, 0, 0};
+    const char *channels[] = {"Xposition Yposition Zposition Yrotation Xrotation Zrotation",
+                              "Zrotation Xrotation Yrotation", "", "Xposition Yposition Zposition "
+                              "Xrotation Yrotation Zrotation", "xrotation zrotation yrotation"};
+    const int32_t end_parents[] = {2, 4};
+    const double end_offsets[] = {0, 8, 0, 5, 0, 0};
+    mlr_motion *m = NULL;
+    mlr_diag d;
+    mlr_status s = mlr_motion_create(5, names, parents, offsets, channels, 2, end_parents,
+                                     end_offsets, 30, 1.0 / 60, NULL, &m, &d);
+    ck_assert_msg(s == MLR_OK, "%s", d.message);
+    ck_assert_uint_eq(mlr_motion_n_trans(m), 1);
+    ck_assert_int_eq(mlr_motion_trans_joints(m)[0], 3);
+    ck_assert_int_eq(mlr_motion_joint_euler_order(m, 4), MLR_EULER_XZY);
+    ck_assert_str_eq(mlr_motion_joint_channels(m, 4), "Xrotation Zrotation Yrotation");
+    /* rest pose */
+    ck_assert_double_eq(mlr_motion_root_pos(m)[1], 90.0);
+    ck_assert_double_eq(mlr_motion_trans(m)[0], 15.0);
+    ck_assert_double_eq(mlr_motion_rot(m)[0], 1.0);
+    /* random rotations (joint 2 has no channels: stays identity) */
+    mlr_test_rng rng;
+    mlr_test_rng_seed(&rng, 3);
+    double *rot = mlr_motion_rot_mut(m), *rp = mlr_motion_root_pos_mut(m);
+    for (size_t i = 0; i < 30 * 5; i++) {
+        if (i % 5 == 2)
+            continue;
+        double q[4], n = 0;
+        for (int k = 0; k < 4; k++)
+        {
+            q[k] = mlr_test_rng_normal(&rng);
+            n += q[k] * q[k];
+        }
+        for (int k = 0; k < 4; k++)
+            rot[4 * i + k] = q[k] / sqrt(n);
+    }
+    for (size_t i = 0; i < 90; i++)
+        rp[i] = mlr_test_rng_normal(&rng) * 100;
+    size_t len;
+    char *text = write_to_memory(m, &len);
+    mlr_motion *b = read_text(text, &d, &s);
+    ck_assert_msg(s == MLR_OK, "line %zu: %s", d.line, d.message);
+    assert_same_motion(m, b, 1e-7);
+    free(text);
+    mlr_motion_destroy(b);
+
+    /* frame_time */
+    ck_assert_int_eq(mlr_motion_set_frame_time(m, 0.0), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_motion_set_frame_time(m, 0.04), MLR_OK);
+    ck_assert_double_eq(mlr_motion_frame_time(m), 0.04);
+    mlr_motion_destroy(m);
+
+    /* default channels */
+    s = mlr_motion_create(5, names, parents, offsets, NULL, 0, NULL, NULL, 0, 0.1, NULL, &m, &d);
+    ck_assert_int_eq(s, MLR_OK);
+    ck_assert_uint_eq(mlr_motion_n_channels(m), 6 + 4 * 3);
+    ck_assert_int_eq(mlr_motion_joint_euler_order(m, 3), MLR_EULER_ZYX);
+    mlr_motion_destroy(m);
+}
+END_TEST
+
+START_TEST(create_rejects_bad_arrays)
+{
+    const char *names[] = {"a", "b", "c"};
+    const char *bad_names[] = {"a", "b c ", "c"};
+    const char *brace_names[] = {"a", "b{", "c"};
+    const int32_t parents[] = {-1, 0, 1}, not_dfs[] = {-1, 0, 2}, two_roots[] = {-1, -1, 1};
+    const int32_t sib[] = {-1, 0, 0};
+    const double off[9] = {0}, bad_off[9] = {0, 0, NAN};
+    const char *bad_ch[] = {"Xposition", "Xrotation Xrotation", ""};
+    const char *unk_ch[] = {"Xposition", "Wrotation", ""};
+    const int32_t ends_unsorted[] = {2, 1}, ends_bad[] = {3};
+    const double end_off[6] = {0};
+    mlr_motion *m = NULL;
+    mlr_diag d;
+#define REJECT(...)                                                                   \
+    do {                                                                              \
+        m = (mlr_motion *)&d;                                                         \
+        ck_assert_int_eq(mlr_motion_create(__VA_ARGS__, NULL, &m, &d), MLR_E_INVALID_ARG); \
+        ck_assert_ptr_null(m);                                                        \
+        ck_assert(strlen(d.message) > 0);                                             \
+    } while (0)
+    REJECT(0, names, parents, off, NULL, 0, NULL, NULL, 1, 0.1);
+    REJECT(3, bad_names, parents, off, NULL, 0, NULL, NULL, 1, 0.1);
+    REJECT(3, brace_names, parents, off, NULL, 0, NULL, NULL, 1, 0.1);
+    REJECT(3, names, not_dfs, off, NULL, 0, NULL, NULL, 1, 0.1);
+    REJECT(3, names, two_roots, off, NULL, 0, NULL, NULL, 1, 0.1);
+    REJECT(3, names, parents, bad_off, NULL, 0, NULL, NULL, 1, 0.1);
+    REJECT(3, names, parents, off, bad_ch, 0, NULL, NULL, 1, 0.1);
+    REJECT(3, names, parents, off, unk_ch, 0, NULL, NULL, 1, 0.1);
+    REJECT(3, names, parents, off, NULL, 2, ends_unsorted, end_off, 1, 0.1);
+    REJECT(3, names, parents, off, NULL, 1, ends_bad, end_off, 1, 0.1);
+    REJECT(3, names, parents, off, NULL, 0, NULL, NULL, 1, 0.0);
+    REJECT(3, names, parents, off, NULL, 0, NULL, NULL, 1, NAN);
+    REJECT(3, NULL, parents, off, NULL, 0, NULL, NULL, 1, 0.1);
+#undef REJECT
+    ck_assert_int_eq(mlr_motion_create(3, names, sib, off, NULL, 0, NULL, NULL, 1, 0.1, NULL, &m,
+                                       NULL), MLR_OK);
+    mlr_motion_destroy(m);
+    for (size_t fail_at = 0;; fail_at++) {
+        mlr_test_allocator ta;
+        mlr_test_allocator_init(&ta, fail_at);
+        mlr_status s = mlr_motion_create(3, names, sib, off, NULL, 0, NULL, NULL, 5, 0.1,
+                                         &ta.base, &m, NULL);
+        mlr_motion_destroy(m);
+        ck_assert_uint_eq(ta.live_blocks, 0);
+        if (s == MLR_OK)
+            break;
+        ck_assert_int_eq(s, MLR_E_NO_MEMORY);
+    }
+}
+END_TEST
+
+static Suite *bvh_suite(void)
+{
+    Suite *s = suite_create("bvh");
+    TCase *tc = tcase_create("clips");
+    tcase_set_timeout(tc, 120);
+    tcase_add_loop_test(tc, every_clip_parses_with_readme_counts, 0, (int)MLR_COUNTOF(clips));
+    tcase_add_test(tc, per_joint_euler_orders);
+    tcase_add_test(tc, bandai_position_channels_replace_offsets);
+    tcase_add_loop_test(tc, round_trip_every_clip, 0, (int)MLR_COUNTOF(clips));
+    tcase_add_test(tc, write_file_is_atomic_and_matches_memory);
+    tcase_add_test(tc, write_memory_overflow_and_callback_stop);
+    tcase_add_test(tc, copy_frames_slices);
+    suite_add_tcase(s, tc);
+
+    TCase *syn = tcase_create("syntax");
+    tcase_set_timeout(syn, 120);
+    tcase_add_test(syn, whitespace_and_line_end_variants);
+    tcase_add_test(syn, small_file_round_trip_keeps_layout);
+    tcase_add_test(syn, partial_and_empty_channel_lists);
+    tcase_add_test(syn, numbers_are_correctly_rounded);
+    tcase_add_test(syn, locale_with_decimal_comma);
+    tcase_add_test(syn, deep_nesting_needs_no_recursion);
+    tcase_add_loop_test(syn, malformed_input_reports_line_and_reason, 0,
+                        (int)MLR_COUNTOF(bad_cases));
+    tcase_add_test(syn, every_truncation_and_mutation_is_handled);
+    tcase_add_test(syn, null_arguments);
+    suite_add_tcase(s, syn);
+
+    TCase *mem = tcase_create("memory");
+    tcase_add_test(mem, every_allocation_failure_is_clean);
+    tcase_add_test(mem, every_allocation_failure_is_clean_for_files);
+    tcase_add_test(mem, create_from_arrays_writes_and_reads_back);
+    tcase_add_test(mem, create_rejects_bad_arrays);
+    suite_add_tcase(s, mem);
+    return s;
+}
+
+int main(void) { return mlr_test_run(bvh_suite()); }
