@@ -14,6 +14,9 @@ meson setup build-test -Dtests=enabled -Dcholmod=enabled --reconfigure >/dev/nul
 meson compile -C build-test >/dev/null
 meson test -C build-test -v --print-errorlogs
 
+echo "== C users: meson install, then a program built with pkg-config only =="
+bash tests/install/run.sh
+
 echo "== C core under ASan + UBSan =="
 meson setup build-sanitize -Dtests=enabled -Dcholmod=enabled -Db_sanitize=address,undefined \
   -Db_lundef=false -Dbuildtype=debugoptimized --reconfigure >/dev/null 2>&1 \
