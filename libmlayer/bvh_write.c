@@ -220,7 +220,7 @@ static void write_frames(const mlr_motion *m, sink *s)
                         have_ang = 1;
                     }
                     double deg = ang[m->rot_idx[3 * j + ch[k] - 3]] * BVH_RAD2DEG;
-                    put_g9(s, deg);
+                    put_g9(s, deg + 0.0); /* + 0.0: -0 is written as 0 */
                 }
             }
         }

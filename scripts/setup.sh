@@ -26,6 +26,8 @@ fi
 python -m pip install -q --upgrade pip
 python -m pip install -q "meson>=1.3" "meson-python>=0.16" "cffi>=2.1" ninja "numpy>=1.24" \
   scipy matplotlib pytest
+# test-only: an independent BVH reader the pytest suite checks forward kinematics against
+python -m pip install -q "bvhio>=1.5"
 echo "setup: building and installing the mlayer package"
 python -m pip install -q --no-build-isolation .
 echo "setup: $(mlayer --version)"

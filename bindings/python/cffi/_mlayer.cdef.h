@@ -74,3 +74,62 @@ mlr_status mlr_quat_to_euler_array(const mlr_quat *q, size_t count,
                                    mlr_euler_order order, double *angles);
 void mlr_quat_make_continuous(mlr_quat *q, size_t n_frames, size_t n_tracks);
 mlr_status mlr_euler_order_parse(const char *name, mlr_euler_order *out);
+
+/* mlr_bvh.h */
+typedef struct mlr_motion mlr_motion;
+typedef enum mlr_bvh_channel {
+    MLR_BVH_XPOSITION = 0, MLR_BVH_YPOSITION = 1, MLR_BVH_ZPOSITION = 2,
+    MLR_BVH_XROTATION = 3, MLR_BVH_YROTATION = 4, MLR_BVH_ZROTATION = 5
+} mlr_bvh_channel;
+mlr_status mlr_bvh_read_memory(const char *text, size_t len, const mlr_allocator *alloc,
+                               mlr_motion **out, mlr_diag *diag);
+mlr_status mlr_bvh_read_file(const char *path, const mlr_allocator *alloc,
+                             mlr_motion **out, mlr_diag *diag);
+typedef int (*mlr_bvh_write_fn)(void *user, const char *data, size_t len);
+mlr_status mlr_bvh_write(const mlr_motion *motion, mlr_bvh_write_fn fn, void *user);
+mlr_status mlr_bvh_write_memory(const mlr_motion *motion, char *buf, size_t cap, size_t *len);
+mlr_status mlr_bvh_write_file(const mlr_motion *motion, const char *path, mlr_diag *diag);
+mlr_status mlr_motion_create(size_t n_joints, const char *const *names,
+                             const int32_t *parents, const double *offsets,
+                             const char *const *channels, size_t n_end_sites,
+                             const int32_t *end_parents, const double *end_offsets,
+                             size_t n_frames, double frame_time,
+                             const mlr_allocator *alloc, mlr_motion **out, mlr_diag *diag);
+mlr_status mlr_motion_copy_frames(const mlr_motion *src, size_t begin, size_t count,
+                                  mlr_motion **out);
+void mlr_motion_destroy(mlr_motion *motion);
+size_t mlr_motion_n_joints(const mlr_motion *motion);
+size_t mlr_motion_n_frames(const mlr_motion *motion);
+size_t mlr_motion_n_channels(const mlr_motion *motion);
+double mlr_motion_frame_time(const mlr_motion *motion);
+mlr_status mlr_motion_set_frame_time(mlr_motion *motion, double frame_time);
+const char *mlr_motion_joint_name(const mlr_motion *motion, size_t j);
+const int32_t *mlr_motion_parents(const mlr_motion *motion);
+const double *mlr_motion_offsets(const mlr_motion *motion);
+size_t mlr_motion_joint_n_channels(const mlr_motion *motion, size_t j);
+size_t mlr_motion_joint_channel_codes(const mlr_motion *motion, size_t j,
+                                      unsigned char *codes);
+const char *mlr_motion_joint_channels(const mlr_motion *motion, size_t j);
+int mlr_motion_joint_has_position(const mlr_motion *motion, size_t j);
+mlr_euler_order mlr_motion_joint_euler_order(const mlr_motion *motion, size_t j);
+size_t mlr_motion_n_end_sites(const mlr_motion *motion);
+const int32_t *mlr_motion_end_site_parents(const mlr_motion *motion);
+const double *mlr_motion_end_site_offsets(const mlr_motion *motion);
+const double *mlr_motion_root_pos(const mlr_motion *motion);
+double *mlr_motion_root_pos_mut(mlr_motion *motion);
+const double *mlr_motion_rot(const mlr_motion *motion);
+double *mlr_motion_rot_mut(mlr_motion *motion);
+size_t mlr_motion_n_trans(const mlr_motion *motion);
+const int32_t *mlr_motion_trans_joints(const mlr_motion *motion);
+const double *mlr_motion_trans(const mlr_motion *motion);
+double *mlr_motion_trans_mut(mlr_motion *motion);
+
+/* mlr_fk.h */
+mlr_status mlr_fk_arrays(size_t n_frames, size_t n_joints, const int32_t *parents,
+                         const double *offsets, const double *root_pos,
+                         const double *rot, size_t n_trans,
+                         const int32_t *trans_joints, const double *trans,
+                         double *world_pos, double *world_rot,
+                         const mlr_allocator *alloc);
+mlr_status mlr_fk_motion(const mlr_motion *motion, size_t begin, size_t count,
+                         double *world_pos, double *world_rot);

@@ -12,6 +12,10 @@ from .errors import (Error, InvalidArgumentError, MlayerIOError, MlayerWarning, 
                      SingularMatrixError, UnsupportedError)
 from . import quat
 from .lgs import LGS, have_cholmod, lgs
+from .motion import Motion, Skeleton
+from .bvh import read_bvh, read_bvh_string, write_bvh, write_bvh_string
+from . import metrics
+from . import data
 
 try:
     __version__ = _dist_version("mlayer")
@@ -26,4 +30,6 @@ def library_version() -> str:
 
 __all__ = ["__version__", "library_version", "Error", "InvalidArgumentError", "ParseError",
            "SingularMatrixError", "MlayerIOError", "UnsupportedError", "MlayerWarning",
-           "LGS", "lgs", "have_cholmod", "quat"]
+           "LGS", "lgs", "have_cholmod", "quat",
+           "Motion", "Skeleton", "read_bvh", "write_bvh", "read_bvh_string", "write_bvh_string",
+           "metrics", "data"]

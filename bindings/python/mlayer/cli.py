@@ -70,6 +70,8 @@ def main(argv: list[str] | None = None) -> int:
         path, line = getattr(e, "path", None), getattr(e, "line", None)
         if path:
             where = f"{path}:{line}: " if line else f"{path}: "
+            if str(e).startswith(where):  # e.g. ParseError messages already say where
+                where = ""
         print(f"mlayer {args.command}: error: {where}{e}", file=sys.stderr)
         return 1
     except OSError as e:

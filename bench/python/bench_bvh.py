@@ -1,0 +1,130 @@
+"""BVH reading speed: mlayer.read_bvh against the Python BVH readers on PyPI, on the long shared
+clips, in one run. Prints the median time of the repeats, MB/s, frames/s and each peer's time
+divided by mlayer's (how many times faster mlayer is).
+
+    python bench/python/bench_bvh.py [--clips lafan1_clip_a.bvh,cmu_01_01_playground_jumps.bvh]
+                                     [--repeat 5] [--peer-repeat 3] [--mocap DIR]
+
+Peers (each optional: pip install pybvh bvhtools bvhio bvh bvhtoolbox bvhsdk). What each one
+does differs: mlayer parses and converts every joint's Euler angles to quaternions; pybvh
+(np.loadtxt) and bvhtools keep Euler angles; bvhio builds per-joint glm poses; `bvh` and
+bvhtoolbox only split the text into strings, so the bench converts their frames with
+np.array(..., dtype=float) to get numbers at all; bvhsdk builds its animation objects.
+"""
+from __future__ import annotations
+
+import argparse
+import contextlib
+import io
+import os
+import pathlib
+import time
+import warnings
+
+import numpy as np
+
+import mlayer
+
+HERE = pathlib.Path(__file__).resolve()
+DEFAULT_MOCAP = HERE.parents[3] / "shared" / "data" / "mocap"
+
+
+def median_seconds(fn, repeat):
+    times = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return float(np.median(times))
+
+
+def peers():
+    """(name, reader(path)) for every peer that imports."""
+    out = []
+    try:
+        import pybvh
+        out.append(("pybvh", lambda p: pybvh.read_bvh_file(p)))
+    except ImportError:
+        pass
+    try:
+        import bvhTools.bvhIO as bvhtools_io
+        out.append(("bvhtools", lambda p: bvhtools_io.readBvh(str(p))))
+    except ImportError:
+        pass
+    try:
+        import bvhio
+        out.append(("bvhio.readAsBvh", lambda p: bvhio.readAsBvh(str(p))))
+    except ImportError:
+        pass
+    try:
+        import bvh
+
+        def read_bvh_pkg(p):
+            with open(p) as f:
+                m = bvh.Bvh(f.read())
+            return np.array(m.frames, dtype=float)
+        out.append(("bvh (+np.array)", read_bvh_pkg))
+    except ImportError:
+        pass
+    try:
+        import bvhtoolbox
+
+        def read_toolbox(p):
+            with open(p) as f:
+                m = bvhtoolbox.BvhTree(f.read())
+            return np.array(m.frames, dtype=float)
+        out.append(("bvhtoolbox (+np.array)", read_toolbox))
+    except ImportError:
+        pass
+    try:
+        import bvhsdk.bvh as bvhsdk_bvh
+
+        def read_sdk(p):
+            with contextlib.redirect_stdout(io.StringIO()):  # it prints per joint
+                return bvhsdk_bvh.ReadFile(str(p))
+        out.append(("bvhsdk", read_sdk))
+    except ImportError:
+        pass
+    return out
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--clips", default="lafan1_clip_a.bvh,cmu_01_01_playground_jumps.bvh")
+    ap.add_argument("--repeat", type=int, default=7, help="repeats for mlayer")
+    ap.add_argument("--peer-repeat", type=int, default=3, help="repeats for each peer")
+    ap.add_argument("--mocap", default=os.environ.get("MLR_TEST_MOCAP_DIR", str(DEFAULT_MOCAP)))
+    a = ap.parse_args()
+    warnings.simplefilter("ignore")
+    peer_list = peers()
+    print(f"{'clip':<32} {'reader':<24} {'median ms':>10} {'MB/s':>8} {'frames/s':>11}"
+          f" {'peer/mlayer':>12}")
+    for clip in a.clips.split(","):
+        path = pathlib.Path(a.mocap) / clip
+        size = path.stat().st_size
+        data = path.read_bytes()
+        n_frames = mlayer.read_bvh(path).n_frames
+
+        def row(name, t, base=None):
+            ratio = f"{t / base:12.1f}" if base else f"{'':>12}"
+            print(f"{clip:<32} {name:<24} {t * 1e3:10.2f} {size / t / 1e6:8.1f}"
+                  f" {n_frames / t:11.0f} {ratio}", flush=True)
+
+        t_ml = median_seconds(lambda: mlayer.read_bvh(path), a.repeat)
+        row("mlayer.read_bvh", t_ml)
+        t_mem = median_seconds(lambda: mlayer.read_bvh_string(data), a.repeat)
+        row("mlayer (from memory)", t_mem)
+        for name, reader in peer_list:
+            try:
+                reader(path)  # warm up, and skip peers that cannot read the clip
+            except Exception as e:  # noqa: BLE001 - a peer's failure is a result, not a crash
+                print(f"{clip:<32} {name:<24} fails: {type(e).__name__}: {str(e)[:60]}")
+                continue
+            row(name, median_seconds(lambda: reader(path), a.peer_repeat), t_ml)
+    print(f"Medians of {a.repeat} (mlayer) and {a.peer_repeat} (peers) runs after one warm-up "
+          "read; file reading included except for 'from memory'. peer/mlayer = how many times "
+          "longer the peer takes than mlayer.read_bvh.")
+
+
+if __name__ == "__main__":
+    main()

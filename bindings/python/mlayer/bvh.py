@@ -1,0 +1,89 @@
+"""BVH files: read them into a :class:`~mlayer.Motion`, write a Motion back.
+
+Parsing and formatting run in the C core (``mlr_bvh_read_memory``, ``mlr_bvh_write_file``).
+The reader accepts LF/CRLF/CR line ends, tabs, 0 to 6 channels per joint in any order, position
+channels on any joint (they replace the joint's OFFSET) and a different Euler order on every
+joint. A file that does not parse raises :class:`~mlayer.ParseError` with ``path``, ``line`` and
+``column`` set and a message such as ``"walk.bvh:12: expected '{' after the joint name"``;
+a file that cannot be opened raises the usual :class:`OSError` subclass
+(``FileNotFoundError``, ``PermissionError``, ...).
+
+The writer keeps the hierarchy, End Sites, channel layout and Euler orders; it writes enough
+digits that reading the file back gives the same motion (rotations within about 1e-8 rad) and
+replaces the destination atomically (a temporary file in the same directory, then a rename).
+"""
+from __future__ import annotations
+
+import os
+
+from ._native import ffi, lib
+from .errors import ParseError, check
+from .motion import Motion
+
+__all__ = ["read_bvh", "write_bvh", "read_bvh_string", "write_bvh_string"]
+
+
+def _parse(data, name: str) -> Motion:
+    buf = ffi.from_buffer(data)
+    out = ffi.new("mlr_motion **")
+    diag = ffi.new("mlr_diag *")
+    code = lib.mlr_bvh_read_memory(buf, len(buf), ffi.NULL, out, diag)
+    if code == lib.MLR_E_PARSE:
+        line = int(diag.line)
+        reason = ffi.string(diag.message).decode("utf-8", errors="replace")
+        e = ParseError(f"{name}:{line}: {reason}" if line else f"{name}: {reason}", code,
+                       path=name, line=line or None)
+        e.column = int(diag.column) or None
+        e.reason = reason
+        raise e
+    check(code, f"mlayer.read_bvh({name})", diag)
+    try:
+        return Motion._from_c(out[0])
+    finally:
+        lib.mlr_motion_destroy(out[0])
+
+
+def read_bvh(path) -> Motion:
+    """Read a BVH file. ``path``: a str, bytes or os.PathLike.
+
+    Raises ParseError (with path, line, column) when the file is not valid BVH, OSError when it
+    cannot be read, MemoryError when it does not fit in memory.
+    """
+    path = os.fspath(path)
+    with open(path, "rb") as f:
+        data = f.read()
+    name = path if isinstance(path, str) else os.fsdecode(path)
+    return _parse(data, name)
+
+
+def read_bvh_string(text, name: str = "<string>") -> Motion:
+    """Parse BVH text given as str or bytes; ``name`` stands for the path in error messages."""
+    if isinstance(text, str):
+        text = text.encode("utf-8", errors="surrogateescape")
+    return _parse(text, name)
+
+
+def write_bvh(motion: Motion, path) -> None:
+    """Write ``motion`` to ``path`` as BVH, atomically (the old file, if any, stays intact
+    when writing fails). Raises MlayerIOError (an OSError) when the file cannot be written,
+    InvalidArgumentError when the motion holds non-finite values."""
+    if not isinstance(motion, Motion):
+        raise TypeError(f"write_bvh: expected a mlayer.Motion, got {type(motion).__name__}")
+    path = os.fspath(path)
+    bpath = path if isinstance(path, bytes) else os.fsencode(path)
+    diag = ffi.new("mlr_diag *")
+    with motion._handle() as h:
+        code = lib.mlr_bvh_write_file(h, bpath, diag)
+        check(code, f"mlayer.write_bvh({os.fsdecode(path)})", diag)
+
+
+def write_bvh_string(motion: Motion) -> str:
+    """The BVH text of ``motion`` (LF line ends)."""
+    if not isinstance(motion, Motion):
+        raise TypeError(f"write_bvh_string: expected a mlayer.Motion, got {type(motion).__name__}")
+    with motion._handle() as h:
+        n = ffi.new("size_t *")
+        check(lib.mlr_bvh_write_memory(h, ffi.NULL, 0, n), "mlayer.write_bvh_string")
+        buf = ffi.new("char[]", max(int(n[0]), 1))
+        check(lib.mlr_bvh_write_memory(h, buf, int(n[0]), n), "mlayer.write_bvh_string")
+        return ffi.unpack(buf, int(n[0])).decode("utf-8", errors="surrogateescape")

@@ -1,0 +1,497 @@
+"""Motions: a skeleton plus frames of root translation and local joint rotations.
+
+A :class:`Motion` holds numpy arrays, and those arrays are the truth: ``root_pos`` (N, 3),
+``rot`` (N, J, 4, scalar-first unit quaternions, local to the parent) and ``trans`` (N, P, 3,
+the translations of the P non-root joints that have position channels). The C library's motion
+handle (``mlr_motion``) is built only for a moment, to write a file; forward kinematics runs on
+the arrays directly (``mlr_fk_arrays``). Why arrays and not a handle:
+
+- every feature (denoising, resampling, learning) consumes and produces numpy arrays; a handle
+  would force a copy out and a copy back around each of them, and in-place edits of
+  ``m.rot`` would silently not reach it;
+- slicing, copying and building a motion with new frames are plain numpy operations, with no
+  lifetime to manage across the C boundary;
+- the handle costs nothing to build when it is needed (a memcpy of the frames, far below the
+  cost of formatting the text).
+
+The skeleton (:class:`Skeleton`: names, parents, OFFSETs, channel layout with each joint's
+Euler order, End Sites) is immutable and shared between a motion and the motions derived from
+it. It is checked by the C core when it is created, so a skeleton that exists can be written.
+
+Position channels *replace* the OFFSET of their joint, as MotionBuilder and Blender read them
+(the Bandai Namco clips put 6 channels on every joint); a root without position channels has
+its OFFSET as ``root_pos`` in every frame.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from . import _arrays
+from ._native import ffi, lib
+from .errors import InvalidArgumentError, check
+
+__all__ = ["Motion", "Skeleton", "DEFAULT_ROOT_CHANNELS", "DEFAULT_JOINT_CHANNELS"]
+
+DEFAULT_ROOT_CHANNELS = "Xposition Yposition Zposition Zrotation Yrotation Xrotation"
+DEFAULT_JOINT_CHANNELS = "Zrotation Yrotation Xrotation"
+
+_ORDER_NAMES = ("XYZ", "XZY", "YXZ", "YZX", "ZXY", "ZYX")  # mlr_euler_order values 0..5
+
+
+def _readonly(a: np.ndarray) -> np.ndarray:
+    a.setflags(write=False)
+    return a
+
+
+def _enc(s: str) -> bytes:
+    return s.encode("utf-8", errors="surrogateescape")
+
+
+def _dec(p) -> str:
+    return ffi.string(p).decode("utf-8", errors="surrogateescape")
+
+
+class _Handle:
+    """An ``mlr_motion *`` owned for the duration of a ``with`` block."""
+
+    def __init__(self, ptr):
+        self.ptr = ptr
+
+    def __enter__(self):
+        return self.ptr
+
+    def __exit__(self, *exc):
+        lib.mlr_motion_destroy(self.ptr)
+        self.ptr = ffi.NULL
+
+
+class Skeleton:
+    """Joint names, parents, OFFSETs, channel layout and End Sites; immutable.
+
+    Joints are in BVH depth-first order: joint 0 is the root (parent -1) and every parent comes
+    before its children. End Sites are kept only so that a written file has the same hierarchy;
+    they are not joints (forward kinematics leaves them out).
+    """
+
+    __slots__ = ("_names", "parents", "offsets", "channels", "euler_orders",
+                 "end_site_parents", "end_site_offsets", "trans_joints", "n_channels")
+
+    def __init__(self, joint_names, parents, offsets, channels=None, end_site_parents=(),
+                 end_site_offsets=None):
+        names = [str(n) for n in joint_names]
+        J = len(names)
+        if J == 0:
+            raise InvalidArgumentError("Skeleton: needs at least one joint")
+        par = np.asarray(parents)
+        if par.shape != (J,) or not np.issubdtype(par.dtype, np.integer):
+            raise InvalidArgumentError(
+                f"Skeleton: parents must be {J} integers, got shape {par.shape} ({par.dtype})")
+        par = np.ascontiguousarray(par, dtype=np.int32)
+        off = _arrays.as_f64(offsets, "offsets", ndim=2, last=(3,))
+        if off.shape[0] != J:
+            raise InvalidArgumentError(f"Skeleton: offsets must be ({J}, 3), got {off.shape}")
+        if channels is None:
+            channels = [DEFAULT_ROOT_CHANNELS] + [DEFAULT_JOINT_CHANNELS] * (J - 1)
+        elif isinstance(channels, str):
+            raise InvalidArgumentError("Skeleton: channels must be a list of one string per joint")
+        channels = [" ".join(c) if not isinstance(c, str) else c for c in channels]
+        if len(channels) != J:
+            raise InvalidArgumentError(
+                f"Skeleton: channels must list {J} joints, got {len(channels)}")
+        ep = np.asarray(end_site_parents if end_site_parents is not None else ())
+        if ep.size == 0:
+            ep = np.zeros(0, dtype=np.int32)
+        if ep.ndim != 1 or not np.issubdtype(ep.dtype, np.integer):
+            raise InvalidArgumentError("Skeleton: end_site_parents must be a 1-D integer array")
+        ep = np.ascontiguousarray(ep, dtype=np.int32)
+        E = ep.shape[0]
+        if end_site_offsets is None:
+            eo = np.zeros((E, 3))
+        else:
+            eo = _arrays.as_f64(end_site_offsets, "end_site_offsets", ndim=2, last=(3,)) \
+                if E else np.zeros((0, 3))
+        if eo.shape != (E, 3):
+            raise InvalidArgumentError(f"Skeleton: end_site_offsets must be ({E}, 3), got "
+                                       f"{eo.shape}")
+        # Let the C core judge names, parents, channel lists and End Sites; read back its
+        # canonical channel lists, Euler orders and the joints with position channels.
+        with _create_handle(names, par, off, channels, ep, eo, 0, 1.0) as h:
+            self._from_handle(h)
+
+    @classmethod
+    def _from_c(cls, h) -> "Skeleton":
+        self = cls.__new__(cls)
+        self._from_handle(h)
+        return self
+
+    def _from_handle(self, h) -> None:
+        J = lib.mlr_motion_n_joints(h)
+        self._names = tuple(_dec(lib.mlr_motion_joint_name(h, j)) for j in range(J))
+        self.parents = _readonly(np.frombuffer(
+            ffi.buffer(lib.mlr_motion_parents(h), 4 * J), dtype=np.int32).copy())
+        self.offsets = _readonly(np.frombuffer(
+            ffi.buffer(lib.mlr_motion_offsets(h), 24 * J), dtype=np.float64).reshape(J, 3).copy())
+        self.channels = tuple(_dec(lib.mlr_motion_joint_channels(h, j)) for j in range(J))
+        self.euler_orders = tuple(_ORDER_NAMES[lib.mlr_motion_joint_euler_order(h, j)]
+                                  for j in range(J))
+        E = lib.mlr_motion_n_end_sites(h)
+        self.end_site_parents = _readonly(
+            np.frombuffer(ffi.buffer(lib.mlr_motion_end_site_parents(h), 4 * E),
+                          dtype=np.int32).copy() if E else np.zeros(0, dtype=np.int32))
+        self.end_site_offsets = _readonly(
+            np.frombuffer(ffi.buffer(lib.mlr_motion_end_site_offsets(h), 24 * E),
+                          dtype=np.float64).reshape(E, 3).copy() if E else np.zeros((0, 3)))
+        P = lib.mlr_motion_n_trans(h)
+        self.trans_joints = _readonly(
+            np.frombuffer(ffi.buffer(lib.mlr_motion_trans_joints(h), 4 * P),
+                          dtype=np.int32).copy() if P else np.zeros(0, dtype=np.int32))
+        self.n_channels = int(lib.mlr_motion_n_channels(h))
+
+    @property
+    def joint_names(self) -> list[str]:
+        return list(self._names)
+
+    @property
+    def n_joints(self) -> int:
+        return len(self._names)
+
+    @property
+    def n_end_sites(self) -> int:
+        return int(self.end_site_parents.shape[0])
+
+    def index(self, name: str) -> int:
+        """Index of the joint called ``name`` (ValueError when there is none)."""
+        try:
+            return self._names.index(name)
+        except ValueError:
+            raise InvalidArgumentError(f"no joint named {name!r}") from None
+
+    def children(self, j: int) -> list[int]:
+        return [k for k in range(self.n_joints) if self.parents[k] == j]
+
+    def depth(self) -> np.ndarray:
+        """Depth of every joint in the tree (root 0)."""
+        d = np.zeros(self.n_joints, dtype=np.int64)
+        for j in range(1, self.n_joints):
+            d[j] = d[self.parents[j]] + 1
+        return d
+
+    def __eq__(self, other) -> bool:
+        if not isinstance(other, Skeleton):
+            return NotImplemented
+        return (self._names == other._names and self.channels == other.channels
+                and np.array_equal(self.parents, other.parents)
+                and np.array_equal(self.offsets, other.offsets)
+                and np.array_equal(self.end_site_parents, other.end_site_parents)
+                and np.array_equal(self.end_site_offsets, other.end_site_offsets))
+
+    __hash__ = None
+
+    def __repr__(self) -> str:
+        return (f"Skeleton({self.n_joints} joints, {self.n_end_sites} End Sites, "
+                f"{self.n_channels} channels, root {self._names[0]!r})")
+
+
+def _create_handle(names, parents, offsets, channels, end_parents, end_offsets, n_frames,
+                   frame_time) -> _Handle:
+    J, E = len(names), end_parents.shape[0]
+    keep = [ffi.new("char[]", _enc(n)) for n in names]
+    keep_ch = [ffi.new("char[]", _enc(c)) for c in channels]
+    c_names = ffi.new("const char *[]", keep)
+    c_ch = ffi.new("const char *[]", keep_ch)
+    out = ffi.new("mlr_motion **")
+    diag = ffi.new("mlr_diag *")
+    code = lib.mlr_motion_create(
+        J, c_names, ffi.cast("const int32_t *", ffi.from_buffer(parents)),
+        _arrays.ptr(offsets), c_ch, E,
+        ffi.cast("const int32_t *", ffi.from_buffer(end_parents)) if E else ffi.NULL,
+        _arrays.ptr(end_offsets) if E else ffi.NULL, n_frames, frame_time, ffi.NULL, out, diag)
+    check(code, "mlayer.Skeleton", diag)
+    return _Handle(out[0])
+
+
+class Motion:
+    """A skeleton and N frames. See the module docstring for the data model.
+
+    Attributes (numpy arrays are the data; edit them in place or build a new motion with
+    :meth:`with_frames`):
+
+    - ``skeleton``: the :class:`Skeleton` (shared, immutable)
+    - ``frame_time``: seconds per frame (``fps`` is its inverse)
+    - ``root_pos``: (N, 3) root translation
+    - ``rot``: (N, J, 4) local rotations, scalar-first unit quaternions
+    - ``trans``: (N, P, 3) translations of the joints ``skeleton.trans_joints`` (the non-root
+      joints with position channels; they replace those joints' OFFSETs). P is usually 0.
+
+    ``m[a:b]`` (or ``m[a:b:k]``) is a new motion holding copies of those frames (a step k
+    multiplies the frame time by k); ``len(m)`` is the number of frames.
+    """
+
+    __slots__ = ("skeleton", "frame_time", "root_pos", "rot", "trans")
+
+    def __init__(self, skeleton: Skeleton, frame_time: float, root_pos, rot, trans=None, *,
+                 _trusted: bool = False):
+        if not isinstance(skeleton, Skeleton):
+            raise InvalidArgumentError("Motion: skeleton must be a mlayer.Skeleton")
+        self.skeleton = skeleton
+        if _trusted:
+            self.frame_time, self.root_pos, self.rot, self.trans = frame_time, root_pos, rot, trans
+            return
+        ft = float(frame_time)
+        if not (np.isfinite(ft) and ft > 0):
+            raise InvalidArgumentError(f"Motion: frame_time must be finite and > 0, got {ft}")
+        J, P = skeleton.n_joints, skeleton.trans_joints.shape[0]
+        rot = _arrays.as_f64(rot, "rot", ndim=3)
+        if rot.shape[1:] != (J, 4):
+            raise InvalidArgumentError(f"Motion: rot must be (N, {J}, 4), got {rot.shape}")
+        N = rot.shape[0]
+        root_pos = _arrays.as_f64(root_pos, "root_pos", ndim=2, last=(3,))
+        if root_pos.shape[0] != N:
+            raise InvalidArgumentError(f"Motion: root_pos must be ({N}, 3), got {root_pos.shape}")
+        if trans is None:
+            if P:
+                trans = np.broadcast_to(skeleton.offsets[skeleton.trans_joints], (N, P, 3)).copy()
+            else:
+                trans = np.zeros((N, 0, 3))
+        trans = _arrays.as_f64(trans, "trans", ndim=3, last=(3,))
+        if trans.shape != (N, P, 3):
+            raise InvalidArgumentError(f"Motion: trans must be ({N}, {P}, 3), got {trans.shape}")
+        for a, name in ((root_pos, "root_pos"), (rot, "rot"), (trans, "trans")):
+            _arrays.require_finite(a, f"Motion: {name}")
+        if N:
+            norm = np.sqrt(np.einsum("...i,...i->...", rot, rot))
+            bad = np.abs(norm - 1.0) > 1e-6
+            if bad.any():
+                f, j = np.argwhere(bad)[0]
+                raise InvalidArgumentError(
+                    f"Motion: rot[{f}, {j}] has norm {norm[f, j]:.9g}, expected unit quaternions "
+                    "(mlayer.quat.normalize)")
+        self.frame_time, self.root_pos, self.rot, self.trans = ft, root_pos, rot, trans
+
+    # ---- construction ----------------------------------------------------------------------
+
+    @classmethod
+    def from_arrays(cls, joint_names, parents, offsets, root_pos, rot, *, fps: float = None,
+                    frame_time: float = None, channels=None, trans=None,
+                    end_site_parents=(), end_site_offsets=None) -> "Motion":
+        """Build a motion from arrays.
+
+        joint_names: J names; parents: J indices (-1 for joint 0, each parent before its
+        children, depth-first order); offsets: (J, 3); root_pos: (N, 3); rot: (N, J, 4) unit
+        quaternions (w, x, y, z); fps or frame_time (default 30 fps). channels: one string per
+        joint as on a CHANNELS line without the count (e.g. "Zrotation Xrotation Yrotation");
+        default: the root "Xposition Yposition Zposition Zrotation Yrotation Xrotation", the
+        others "Zrotation Yrotation Xrotation". trans: (N, P, 3) translations of the non-root
+        joints whose channels include positions (default: their OFFSETs). End Sites: E parent
+        joint indices (non-decreasing) and (E, 3) OFFSETs, written back to files only.
+        """
+        if fps is not None and frame_time is not None:
+            raise InvalidArgumentError("from_arrays: give fps or frame_time, not both")
+        if frame_time is None:
+            fps = 30.0 if fps is None else float(fps)
+            if not (np.isfinite(fps) and fps > 0):
+                raise InvalidArgumentError(f"from_arrays: fps must be finite and > 0, got {fps}")
+            frame_time = 1.0 / fps
+        skel = Skeleton(joint_names, parents, offsets, channels, end_site_parents,
+                        end_site_offsets)
+        return cls(skel, frame_time, root_pos, rot, trans)
+
+    def with_frames(self, root_pos=None, rot=None, trans=None, *, frame_time=None) -> "Motion":
+        """A new motion on the same skeleton with new frames.
+
+        Arrays not given are copied from this motion (they must then keep its frame count);
+        the arrays given are checked (shapes, finite values, unit quaternions) and used without
+        a copy when they already are C-contiguous float64.
+        """
+        return Motion(self.skeleton, self.frame_time if frame_time is None else frame_time,
+                      self.root_pos.copy() if root_pos is None else root_pos,
+                      self.rot.copy() if rot is None else rot,
+                      self.trans.copy() if trans is None else trans)
+
+    def copy(self) -> "Motion":
+        """A deep copy of the frames (the immutable skeleton is shared)."""
+        return Motion(self.skeleton, self.frame_time, self.root_pos.copy(), self.rot.copy(),
+                      self.trans.copy(), _trusted=True)
+
+    # ---- sizes and skeleton shortcuts ------------------------------------------------------
+
+    @property
+    def joint_names(self) -> list[str]:
+        return self.skeleton.joint_names
+
+    @property
+    def parents(self) -> np.ndarray:
+        return self.skeleton.parents
+
+    @property
+    def offsets(self) -> np.ndarray:
+        return self.skeleton.offsets
+
+    @property
+    def channels(self) -> tuple[str, ...]:
+        return self.skeleton.channels
+
+    @property
+    def euler_orders(self) -> tuple[str, ...]:
+        return self.skeleton.euler_orders
+
+    @property
+    def trans_joints(self) -> np.ndarray:
+        return self.skeleton.trans_joints
+
+    @property
+    def end_site_parents(self) -> np.ndarray:
+        return self.skeleton.end_site_parents
+
+    @property
+    def end_site_offsets(self) -> np.ndarray:
+        return self.skeleton.end_site_offsets
+
+    @property
+    def n_joints(self) -> int:
+        return self.skeleton.n_joints
+
+    @property
+    def n_frames(self) -> int:
+        return int(self.rot.shape[0])
+
+    @property
+    def fps(self) -> float:
+        return 1.0 / self.frame_time
+
+    @property
+    def duration(self) -> float:
+        """Length in seconds: N frame times (each frame stands for one frame time)."""
+        return self.n_frames * self.frame_time
+
+    def __len__(self) -> int:
+        return self.n_frames
+
+    def __getitem__(self, key) -> "Motion":
+        N = self.n_frames
+        if isinstance(key, (int, np.integer)):
+            i = int(key)
+            if i < -N or i >= N:
+                raise IndexError(f"frame {i} out of range for {N} frames")
+            key = slice(i % N, i % N + 1)
+        if not isinstance(key, slice):
+            raise TypeError("Motion indices are frame slices m[a:b:k] or single frames m[i]")
+        start, stop, step = key.indices(N)
+        if step <= 0:
+            raise InvalidArgumentError("Motion slices need a positive step")
+        return Motion(self.skeleton, self.frame_time * step,
+                      self.root_pos[start:stop:step].copy(order="C"),
+                      self.rot[start:stop:step].copy(order="C"),
+                      self.trans[start:stop:step].copy(order="C"), _trusted=True)
+
+    # ---- kinematics ------------------------------------------------------------------------
+
+    def local_translations(self) -> np.ndarray:
+        """(N, J, 3) translation of every joint relative to its parent: root_pos for the root,
+        the position channels where a joint has them, the OFFSET otherwise."""
+        t = np.broadcast_to(self.skeleton.offsets, (self.n_frames, self.n_joints, 3)).copy()
+        t[:, 0] = self.root_pos
+        if self.trans.shape[1]:
+            t[:, self.skeleton.trans_joints] = self.trans
+        return t
+
+    def _frames(self):
+        """The frame arrays as C-contiguous float64 of the right shapes (they are public and
+        may have been replaced), without a copy when they already are."""
+        N, J, P = self.n_frames, self.n_joints, self.skeleton.trans_joints.shape[0]
+        out = []
+        for a, name, shape in ((self.root_pos, "root_pos", (N, 3)), (self.rot, "rot", (N, J, 4)),
+                               (self.trans, "trans", (N, P, 3))):
+            a = _arrays.as_f64(a, f"Motion.{name}")
+            if a.shape != shape:
+                raise InvalidArgumentError(f"Motion.{name}: expected shape {shape}, got {a.shape}")
+            out.append(a)
+        return out
+
+    def _fk(self, want_rot: bool):
+        N, J = self.n_frames, self.n_joints
+        sk = self.skeleton
+        root_pos, rot, trans = self._frames()
+        pos = np.empty((N, J, 3))
+        wrot = np.empty((N, J, 4)) if want_rot else None
+        if N == 0:
+            return pos, wrot
+        P = sk.trans_joints.shape[0]
+        code = lib.mlr_fk_arrays(
+            N, J, ffi.cast("const int32_t *", ffi.from_buffer(sk.parents)),
+            _arrays.ptr(sk.offsets), _arrays.ptr(root_pos), _arrays.ptr(rot), P,
+            ffi.cast("const int32_t *", ffi.from_buffer(sk.trans_joints)) if P else ffi.NULL,
+            _arrays.ptr(trans) if P else ffi.NULL, _arrays.ptr_out(pos),
+            _arrays.ptr_out(wrot) if want_rot else ffi.NULL, ffi.NULL)
+        check(code, "mlayer.Motion.positions")
+        return pos, wrot
+
+    def positions(self) -> np.ndarray:
+        """(N, J, 3) world positions of the joints (End Sites excluded), by forward kinematics
+        in the C core."""
+        return self._fk(False)[0]
+
+    def world_rotations(self) -> np.ndarray:
+        """(N, J, 4) world rotations of the joints (scalar-first quaternions)."""
+        return self._fk(True)[1]
+
+    def forward_kinematics(self) -> tuple[np.ndarray, np.ndarray]:
+        """World positions (N, J, 3) and world rotations (N, J, 4) in one pass."""
+        return self._fk(True)
+
+    def end_site_positions(self) -> np.ndarray:
+        """(N, E, 3) world positions of the End Sites."""
+        from . import quat
+        pos, wrot = self._fk(True)
+        sk = self.skeleton
+        if sk.n_end_sites == 0:
+            return np.zeros((self.n_frames, 0, 3))
+        q = wrot[:, sk.end_site_parents]
+        v = np.concatenate([np.zeros(q.shape[:-1] + (1,)),
+                            np.broadcast_to(sk.end_site_offsets, q.shape[:-1] + (3,))], axis=-1)
+        r = quat.mul(quat.mul(q, v), quat.conj(q))[..., 1:]
+        return pos[:, sk.end_site_parents] + r
+
+    # ---- output ----------------------------------------------------------------------------
+
+    def _handle(self) -> _Handle:
+        """A C motion handle holding a copy of this motion (for the writers)."""
+        sk = self.skeleton
+        N = self.n_frames
+        root_pos, rot, trans = self._frames()
+        for a, name in ((root_pos, "root_pos"), (rot, "rot"), (trans, "trans")):
+            _arrays.require_finite(a, f"Motion.{name}")
+        h = _create_handle(list(sk._names), sk.parents, sk.offsets, sk.channels,
+                           sk.end_site_parents, sk.end_site_offsets, N, self.frame_time)
+        if N:
+            ffi.memmove(lib.mlr_motion_root_pos_mut(h.ptr), ffi.from_buffer(root_pos),
+                        root_pos.nbytes)
+            ffi.memmove(lib.mlr_motion_rot_mut(h.ptr), ffi.from_buffer(rot), rot.nbytes)
+            if trans.size:
+                ffi.memmove(lib.mlr_motion_trans_mut(h.ptr), ffi.from_buffer(trans), trans.nbytes)
+        return h
+
+    @classmethod
+    def _from_c(cls, h, skeleton: Skeleton | None = None) -> "Motion":
+        """Copy the frames of a C motion handle into a new Motion."""
+        sk = skeleton if skeleton is not None else Skeleton._from_c(h)
+        N, J, P = (lib.mlr_motion_n_frames(h), sk.n_joints, sk.trans_joints.shape[0])
+        root_pos, rot, trans = np.empty((N, 3)), np.empty((N, J, 4)), np.empty((N, P, 3))
+        if N:
+            ffi.memmove(ffi.from_buffer(root_pos, require_writable=True),
+                        lib.mlr_motion_root_pos(h), root_pos.nbytes)
+            ffi.memmove(ffi.from_buffer(rot, require_writable=True), lib.mlr_motion_rot(h),
+                        rot.nbytes)
+            if P:
+                ffi.memmove(ffi.from_buffer(trans, require_writable=True),
+                            lib.mlr_motion_trans(h), trans.nbytes)
+        return cls(sk, float(lib.mlr_motion_frame_time(h)), root_pos, rot, trans,
+                   _trusted=True)
+
+    def __repr__(self) -> str:
+        sk = self.skeleton
+        extra = f", {sk.trans_joints.shape[0]} joints with position channels" \
+            if sk.trans_joints.shape[0] else ""
+        return (f"<mlayer.Motion {self.n_frames} frames at {self.fps:.6g} fps "
+                f"({self.duration:.3f} s), {sk.n_joints} joints (+{sk.n_end_sites} End Sites), "
+                f"{sk.n_channels} channels{extra}, root {sk._names[0]!r}>")

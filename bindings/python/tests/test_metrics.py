@@ -1,0 +1,54 @@
+"""MPJPE and jitter against direct numpy computations, on a real clip and on hand-made arrays."""
+import numpy as np
+import pytest
+
+import mlayer
+from mlayer import metrics
+
+
+def test_mpjpe_on_a_real_clip_matches_numpy(mocap):
+    m = mlayer.read_bvh(mocap / "cmu_10_01_soccer_kick.bvh")
+    a, b = m[10:400], m[11:401]  # the clip against itself one frame later
+    pa, pb = a.positions(), b.positions()
+    ref = np.mean([[np.sqrt(np.sum((pa[f, j] - pb[f, j]) ** 2)) for j in range(pa.shape[1])]
+                   for f in range(pa.shape[0])])
+    assert metrics.mpjpe(a, b) == pytest.approx(ref, rel=1e-12)
+    assert metrics.mpjpe(pa, pb) == pytest.approx(ref, rel=1e-12)  # arrays work too
+    assert metrics.mpjpe(a, a) == 0.0
+
+
+def test_mpjpe_hand_made():
+    a = np.zeros((2, 3, 3))
+    b = a.copy()
+    b[..., 0], b[..., 1] = 3.0, 4.0  # every joint 5 away
+    assert metrics.mpjpe(a, b) == 5.0
+    b[1] = 0.0  # half the frames exact
+    assert metrics.mpjpe(a, b) == 2.5
+    with pytest.raises(mlayer.InvalidArgumentError):
+        metrics.mpjpe(a, b[:1])
+    with pytest.raises(mlayer.InvalidArgumentError):
+        metrics.mpjpe(np.zeros((2, 3)), np.zeros((2, 3)))
+
+
+def test_jitter_on_a_real_clip_matches_numpy(mocap):
+    m = mlayer.read_bvh(mocap / "cmu_131_01_mj_style_walk.bvh")
+    p = m.positions()
+    d3 = p[3:] - 3 * p[2:-1] + 3 * p[1:-2] - p[:-3]
+    ref = np.sqrt((d3 ** 2).sum(axis=-1)).mean()
+    assert metrics.jitter(m) == pytest.approx(ref, rel=1e-12)
+    assert metrics.jitter(m, fps=m.fps) == pytest.approx(ref * m.fps ** 3, rel=1e-12)
+    # a smoothed clip jitters less: a moving average of the positions
+    k = np.ones(5) / 5
+    smooth = np.apply_along_axis(lambda x: np.convolve(x, k, mode="valid"), 0, p)
+    assert metrics.jitter(smooth) < metrics.jitter(p[2:-2])
+
+
+def test_jitter_hand_made():
+    t = np.arange(10.0)
+    p = np.zeros((10, 2, 3))
+    p[:, 0, 0] = t ** 3  # third difference is 6 everywhere
+    p[:, 1, 1] = 2 * t ** 2 - t  # quadratic: third difference 0
+    assert metrics.jitter(p) == pytest.approx(3.0, abs=1e-12)
+    assert metrics.jitter(p, fps=10) == pytest.approx(3000.0, rel=1e-12)
+    with pytest.raises(mlayer.InvalidArgumentError):
+        metrics.jitter(p[:3])
