@@ -1,0 +1,78 @@
+"""Stick-figure GIF rendering: frame count, non-blank content, one camera, atomic output."""
+import os
+
+import numpy as np
+import pytest
+
+import mlayer
+import mlayer.data
+from mlayer.render import body_side, render_gif
+
+PIL = pytest.importorskip("PIL.Image")
+
+
+@pytest.fixture(scope="module")
+def sample():
+    return mlayer.data.load_sample()[:240]  # 2 s at 120 fps
+
+
+def _frames(path):
+    im = PIL.open(path)
+    out = []
+    for k in range(im.n_frames):
+        im.seek(k)
+        out.append(np.asarray(im.convert("RGB")))
+    return out
+
+
+def test_gif_has_one_frame_per_tick_and_is_not_blank(tmp_path, sample):
+    out = tmp_path / "clip.gif"
+    n = render_gif([sample, sample], out, labels=["a", "b"], fps=15, panel_size=(160, 200))
+    frames = _frames(out)
+    assert n == len(frames) == 30  # 2 s at 15 fps
+    assert frames[0].shape == (200, 320, 3)
+    for f in (frames[0], frames[-1]):
+        # the figure's bones are drawn in the side colours: plenty of non-background pixels
+        assert (np.abs(f.astype(int) - [250, 250, 247]).sum(-1) > 60).sum() > 200
+    # same motion in both panels under one camera: the panels are identical apart from labels
+    left, right = frames[10][20:, :160], frames[10][20:, 160:]
+    assert np.mean(np.any(left != right, axis=-1)) < 0.02
+    # the figure moves
+    assert np.any(frames[0] != frames[-1])
+
+
+def test_panels_differ_when_motions_differ(tmp_path, sample):
+    moved = sample.with_frames(root_pos=sample.root_pos + [0.0, 3.0, 0.0])  # lifted
+    out = tmp_path / "two.gif"
+    render_gif([sample, moved], out, fps=5, panel_size=(160, 200))
+    f = _frames(out)[3]
+    assert np.mean(np.any(f[20:, :160] != f[20:, 160:], axis=-1)) > 0.01
+
+
+def test_bad_arguments_leave_no_file(tmp_path, sample):
+    out = tmp_path / "bad.gif"
+    with pytest.raises(mlayer.Error):
+        render_gif([], out)
+    with pytest.raises(mlayer.Error):
+        render_gif([sample], out, labels=["a", "b"])
+    with pytest.raises(mlayer.Error):
+        render_gif([sample], out, fps=0.0)
+    assert os.listdir(tmp_path) == []
+
+
+def test_failure_while_writing_leaves_nothing(tmp_path, sample):
+    def stop(done, total):
+        if done == 3:
+            raise KeyboardInterrupt
+    out = tmp_path / "cut.gif"
+    with pytest.raises(KeyboardInterrupt):
+        render_gif([sample], out, progress=stop)
+    assert os.listdir(tmp_path) == []
+
+
+@pytest.mark.parametrize("name,side", [
+    ("LeftUpLeg", "left"), ("RightHand", "right"), ("lThigh", "left"), ("rShldr", "right"),
+    ("UpperLeg_L", "left"), ("thigh.R", "right"), ("LowerBack", "center"), ("Hips", "center"),
+    ("lowerback", "center"), ("Spine1", "center"), ("LThumb", "left"), ("RHipJoint", "right")])
+def test_body_side(name, side):
+    assert body_side(name) == side
