@@ -135,7 +135,8 @@ static mlr_status check_motion(size_t n_frames, size_t n_joints, size_t n_trans,
     if (n_trans > 0 && (!trans || !trans_out))
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "trans or trans_out is NULL");
     size_t tmp;
-    if (mlr_mul_size(n_frames, n_joints, &tmp) || mlr_mul_size(tmp, 4 * sizeof(double), &tmp) ||
+    if (mlr_mul_size(n_frames, 3 * sizeof(double), &tmp) || mlr_mul_size(n_out, 3 * sizeof(double), &tmp) ||
+        mlr_mul_size(n_frames, n_joints, &tmp) || mlr_mul_size(tmp, 4 * sizeof(double), &tmp) ||
         mlr_mul_size(n_out, n_joints, &tmp) || mlr_mul_size(tmp, 4 * sizeof(double), &tmp) ||
         mlr_mul_size(n_frames, n_trans, &tmp) || mlr_mul_size(tmp, 3 * sizeof(double), &tmp) ||
         mlr_mul_size(n_out, n_trans, &tmp) || mlr_mul_size(tmp, 3 * sizeof(double), &tmp))
