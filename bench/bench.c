@@ -29,6 +29,12 @@ double mlr_bench_normal(unsigned long long *s)
     return sqrt(-2.0 * log(u1 > 1e-300 ? u1 : 1e-300)) * cos(6.283185307179586 * u2);
 }
 
+const char *mlr_bench_mocap_dir(void)
+{
+    const char *dir = getenv("MLR_TEST_MOCAP_DIR");
+    return dir && *dir ? dir : MLR_BENCH_MOCAP_DIR;
+}
+
 static double now_ns(void)
 {
     struct timespec ts;
@@ -78,7 +84,8 @@ int main(int argc, char **argv)
         }
     }
     const table tables[] = {{mlr_bench_lgs_cases, &mlr_bench_lgs_count},
-                            {mlr_bench_bvh_cases, &mlr_bench_bvh_count}};
+                            {mlr_bench_bvh_cases, &mlr_bench_bvh_count},
+                            {mlr_bench_resample_cases, &mlr_bench_resample_count}};
     printf("name\tn\tmedian_ns\tmin_ns\tns_per_elem\tchecksum\n");
     int failures = 0;
     for (size_t t = 0; t < sizeof tables / sizeof tables[0]; t++) {

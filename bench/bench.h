@@ -16,10 +16,15 @@ typedef struct mlr_bench_case {
 double mlr_bench_uniform(unsigned long long *state);
 double mlr_bench_normal(unsigned long long *state);
 
+/* Folder of the shared real clips: $MLR_TEST_MOCAP_DIR, else the one next to the checkout. */
+const char *mlr_bench_mocap_dir(void);
+
 /* Case tables of each subject, defined in bench_<subject>.c. */
 extern const mlr_bench_case mlr_bench_lgs_cases[];
 extern const size_t mlr_bench_lgs_count;
 extern const mlr_bench_case mlr_bench_bvh_cases[];
 extern const size_t mlr_bench_bvh_count;
+extern const mlr_bench_case mlr_bench_resample_cases[];
+extern const size_t mlr_bench_resample_count;
 
 #endif

@@ -18,13 +18,7 @@ typedef struct bvh_state {
 
 static void *setup_clip(const char *file, size_t n)
 {
-    const char *dir = getenv("MLR_TEST_MOCAP_DIR");
-#ifdef MLR_BENCH_MOCAP_DIR
-    if (!dir || !*dir)
-        dir = MLR_BENCH_MOCAP_DIR;
-#endif
-    if (!dir)
-        return NULL;
+    const char *dir = mlr_bench_mocap_dir();
     bvh_state *s = calloc(1, sizeof *s);
     if (!s)
         return NULL;

@@ -31,4 +31,8 @@ mlr_status mlr_diag_set(mlr_diag *diag, mlr_status status, size_t line, size_t c
 #endif
     ;
 
+/* Predictive sign continuity of row f of q (n_frames x n_tracks) given rows f-3 .. f-1 (those
+ * that exist) already made continuous: mlr_quat_continue_sign per track (quat.c). */
+void mlr_quat_continue_frame(mlr_quat *q, size_t f, size_t n_tracks);
+
 #endif

@@ -82,6 +82,50 @@ MLR_API mlr_status mlr_quat_to_euler_array(const mlr_quat *q, size_t count,
  */
 MLR_API void mlr_quat_make_continuous(mlr_quat *q, size_t n_frames, size_t n_tracks);
 
+/**
+ * Predictive sign continuity for one sample (for streaming filters and sparse keys): returns in
+ * out the representative, q or -q, that continues the track whose previously chosen samples
+ * are prev[0 .. n_prev-1] (oldest first; only the last three are used).
+ *
+ * The nearest-sign rule (out . prev[n_prev-1] >= 0) limits a step between samples to 180
+ * degrees of rotation. Here the angular velocity of the previous step is extrapolated
+ * (second-order prediction p = p1 conj(p2) p1, p1 and p2 the last two samples) and the sign
+ * closer to p is taken, so a spin whose steps grow smoothly past 180 degrees keeps its true
+ * direction. The longer representative (a step of 180 to 300 degrees) is taken only when all
+ * of these hold, otherwise the nearest sign is the fallback:
+ * - n_prev >= 2, and the previous step is at most 300 degrees;
+ * - the prediction misses the longer representative by less than 90 degrees of rotation;
+ * - the new step is at most 300 degrees (beyond that the chordal LGS cannot follow it);
+ * - with n_prev >= 3: the step changed by less than 90 degrees since the step before (a bounded
+ *   angular acceleration), so an isolated glitch of about 180 degrees (one sample flipped, then
+ *   back) is not taken for a spin and does not flip the rest of the track.
+ * Steps below 60 degrees always take the nearest sign (dense data never pays for prediction).
+ * What cannot be told apart: a spin that is already above 180 degrees per step at the very
+ * first samples is indistinguishable from a spin below 180 degrees the other way (both give
+ * the same rotations), and is read as the latter; a step of exactly 360 degrees looks like no
+ * motion. With n_prev == 2 the acceleration check is skipped (pass three samples if possible).
+ * The chordal LGS interpolates the chosen representatives along the long arc correctly only
+ * while a step stays below 360 degrees.
+ * @param prev    [in] n_prev chosen samples, oldest first (unit or not; only directions
+ *                matter); may be NULL when n_prev == 0
+ * @param n_prev  [in] number of previous samples (0 or 1: nearest sign, or q itself for 0)
+ * @param q       [in] the new sample
+ * @param out     [out] q or -q (exactly, no renormalization); may alias q
+ * Cannot fail: non-finite or zero inputs fall back to the nearest sign (or q as is). Does nothing
+ * when q or out is NULL. Allocates: never. Threads: any.
+ */
+MLR_API void mlr_quat_continue_sign(const mlr_quat *prev, size_t n_prev, const mlr_quat *q,
+                                    mlr_quat *out);
+
+/**
+ * Predictive sign continuity in place along a sequence: q is n_frames x n_tracks (row-major);
+ * every sample of each track is replaced by the representative mlr_quat_continue_sign picks
+ * given the (up to three) samples before it. The rotations are unchanged. On dense data this
+ * equals mlr_quat_make_continuous; it differs only where steps exceed 60 degrees.
+ * Allocates: never. Threads: any, on separate data.
+ */
+MLR_API void mlr_quat_make_continuous_predictive(mlr_quat *q, size_t n_frames, size_t n_tracks);
+
 /** Parse "XYZ".."ZYX" (case-insensitive) into an order. @return MLR_OK, MLR_E_INVALID_ARG */
 MLR_API mlr_status mlr_euler_order_parse(const char *name, mlr_euler_order *out);
 

@@ -133,3 +133,35 @@ mlr_status mlr_fk_arrays(size_t n_frames, size_t n_joints, const int32_t *parent
                          const mlr_allocator *alloc);
 mlr_status mlr_fk_motion(const mlr_motion *motion, size_t begin, size_t count,
                          double *world_pos, double *world_rot);
+
+/* mlr_quat.h: predictive sign continuity (MLAYER_0.3) */
+void mlr_quat_continue_sign(const mlr_quat *prev, size_t n_prev, const mlr_quat *q,
+                            mlr_quat *out);
+void mlr_quat_make_continuous_predictive(mlr_quat *q, size_t n_frames, size_t n_tracks);
+
+/* mlr_resample.h (MLAYER_0.3); MLR_RESAMPLE_AUTO is -1.0, KAPPA_DOWN 0.5, KAPPA_UP 0.01,
+ * MAX_FACTOR 100 (floating-point macros are not visible through cffi) */
+enum { MLR_RESAMPLE_ALLOW_EXTREME = 1, MLR_RESAMPLE_NEAREST_SIGN = 2 };
+mlr_status mlr_resample_n_out(size_t n_frames, double fps_in, double fps_out, unsigned flags,
+                              size_t *n_out, mlr_diag *diag);
+mlr_status mlr_timemap_validate(const double *t, size_t n_frames, size_t n_out, unsigned flags,
+                                mlr_diag *diag);
+double mlr_resample_auto_smoothness(size_t n_frames, size_t n_out);
+mlr_status mlr_resample_arrays(size_t n_frames, size_t n_joints, size_t n_trans,
+                               const double *root_pos, const double *rot, const double *trans,
+                               const double *t, size_t n_out, double lam, double sigma,
+                               unsigned flags, double *root_out, double *rot_out,
+                               double *trans_out, double *var_out, const mlr_allocator *alloc,
+                               mlr_diag *diag);
+mlr_status mlr_slerp_resample_arrays(size_t n_frames, size_t n_joints, size_t n_trans,
+                                     const double *root_pos, const double *rot,
+                                     const double *trans, const double *t, size_t n_out,
+                                     unsigned flags, double *root_out, double *rot_out,
+                                     double *trans_out, mlr_diag *diag);
+mlr_status mlr_timewarp_speed(size_t n_frames, size_t n_joints, const double *root_pos,
+                              const double *rot, const double *joint_weights,
+                              double root_weight, double *speed, mlr_diag *diag);
+mlr_status mlr_timewarp_map(size_t n_frames, size_t n_joints, const double *root_pos,
+                            const double *rot, const double *joint_weights, double root_weight,
+                            double strength, double smooth_frames, size_t n_out, unsigned flags,
+                            double *t, const mlr_allocator *alloc, mlr_diag *diag);

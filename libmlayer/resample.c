@@ -1,0 +1,351 @@
+/*
+ * Resampling through the LGS and the SLERP baseline (paper 1, section 5.3). The time map puts
+ * input frame i at position t[i] of the output grid; the LGS (order 2) turns the positions into
+ * linear-interpolation rows of A, factors once and solves every channel. See mlr_resample.h
+ * for the choice of the smoothness.
+ */
+#include "mlr_internal.h"
+
+#include <math.h>
+
+/* Local steps are compared with the factor limit with this relative slack, so that a uniform
+ * map at exactly 100x, computed in floating point, passes. */
+#define FACTOR_SLACK 1e-9
+
+static int extreme_ok(unsigned flags) { return (flags & MLR_RESAMPLE_ALLOW_EXTREME) != 0; }
+
+static mlr_status check_factor(double r, unsigned flags, mlr_diag *diag)
+{
+    const double lim = MLR_RESAMPLE_MAX_FACTOR;
+    if (extreme_ok(flags))
+        return MLR_OK;
+    if (r > lim * (1.0 + FACTOR_SLACK) || r < (1.0 - FACTOR_SLACK) / lim)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "resampling factor %g is beyond %gx (pass MLR_RESAMPLE_ALLOW_EXTREME "
+                            "if this is intended)", r >= 1.0 ? r : 1.0 / r, lim);
+    return MLR_OK;
+}
+
+static mlr_status check_flags(unsigned flags, mlr_diag *diag)
+{
+    if (flags & ~(unsigned)(MLR_RESAMPLE_ALLOW_EXTREME | MLR_RESAMPLE_NEAREST_SIGN))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "unknown flags 0x%x", flags);
+    return MLR_OK;
+}
+
+mlr_status mlr_resample_n_out(size_t n_frames, double fps_in, double fps_out, unsigned flags,
+                              size_t *n_out, mlr_diag *diag)
+{
+    if (!n_out)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "n_out is NULL");
+    *n_out = 0;
+    if (check_flags(flags, diag))
+        return MLR_E_INVALID_ARG;
+    if (n_frames < 2)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "resampling needs at least 2 frames, got %zu", n_frames);
+    if (!isfinite(fps_in) || !(fps_in > 0.0))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "input fps must be finite and > 0, got %g", fps_in);
+    if (!isfinite(fps_out) || !(fps_out > 0.0))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "output fps must be finite and > 0, got %g", fps_out);
+    const double r = fps_out / fps_in;
+    mlr_status st = check_factor(r, flags, diag);
+    if (st != MLR_OK)
+        return st;
+    const double n = round((double)(n_frames - 1) * r) + 1.0;
+    if (!(n < (double)SIZE_MAX / 2))
+        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "output frame count overflows");
+    *n_out = n < 2.0 ? 2 : (size_t)n;
+    return MLR_OK;
+}
+
+mlr_status mlr_timemap_validate(const double *t, size_t n_frames, size_t n_out, unsigned flags,
+                                mlr_diag *diag)
+{
+    if (check_flags(flags, diag))
+        return MLR_E_INVALID_ARG;
+    if (n_frames < 2)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "a time map needs at least 2 frames, got %zu", n_frames);
+    if (n_out < 2)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "the output needs at least 2 frames, got %zu", n_out);
+    if (!t)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "time map is NULL");
+    const double last = (double)(n_out - 1);
+    mlr_status st = check_factor(last / (double)(n_frames - 1), flags, diag);
+    if (st != MLR_OK)
+        return st;
+    for (size_t i = 0; i < n_frames; i++)
+        if (!isfinite(t[i]))
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "time map: t[%zu] is not finite", i);
+    if (t[0] != 0.0)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "time map: t[0] must be 0 (the first frame stays put), got %g", t[0]);
+    if (t[n_frames - 1] != last)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "time map: t[%zu] must be n_out - 1 = %zu (the last frame stays put), got %g",
+                            n_frames - 1, n_out - 1, t[n_frames - 1]);
+    const double lo = (1.0 - FACTOR_SLACK) / MLR_RESAMPLE_MAX_FACTOR;
+    const double hi = MLR_RESAMPLE_MAX_FACTOR * (1.0 + FACTOR_SLACK);
+    for (size_t i = 1; i < n_frames; i++) {
+        const double d = t[i] - t[i - 1];
+        if (!(d > 0.0))
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "time map is not strictly increasing: t[%zu] = %g, t[%zu] = %g",
+                                i - 1, t[i - 1], i, t[i]);
+        if (!extreme_ok(flags) && (d < lo || d > hi))
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "time map step t[%zu] - t[%zu] = %g is beyond the %gx factor limit "
+                                "(pass MLR_RESAMPLE_ALLOW_EXTREME if this is intended)",
+                                i, i - 1, d, MLR_RESAMPLE_MAX_FACTOR);
+    }
+    return MLR_OK;
+}
+
+double mlr_resample_auto_smoothness(size_t n_frames, size_t n_out)
+{
+    if (n_frames < 2 || n_out < 2)
+        return 0.0;
+    const double r = (double)(n_out - 1) / (double)(n_frames - 1);
+    const double up = MLR_RESAMPLE_KAPPA_UP * r * r * r, down = MLR_RESAMPLE_KAPPA_DOWN / r;
+    return up > down ? up : down;
+}
+
+/* Shared argument checks of the resampling entry points (everything but the time map). */
+static mlr_status check_motion(size_t n_frames, size_t n_joints, size_t n_trans,
+                               const double *root_pos, const double *rot, const double *trans,
+                               size_t n_out, unsigned flags, const double *root_out,
+                               const double *rot_out, const double *trans_out, mlr_diag *diag)
+{
+    if (check_flags(flags, diag))
+        return MLR_E_INVALID_ARG;
+    if (n_frames < 2)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "resampling needs at least 2 frames, got %zu", n_frames);
+    if (n_out < 2)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "the output needs at least 2 frames, got %zu", n_out);
+    if (!root_pos || !root_out)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "root_pos or root_out is NULL");
+    if (n_joints > 0 && (!rot || !rot_out))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "rot or rot_out is NULL");
+    if (n_trans > 0 && (!trans || !trans_out))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "trans or trans_out is NULL");
+    size_t tmp;
+    if (mlr_mul_size(n_frames, 3 * sizeof(double), &tmp) || mlr_mul_size(n_out, 3 * sizeof(double), &tmp) ||
+        mlr_mul_size(n_frames, n_joints, &tmp) || mlr_mul_size(tmp, 4 * sizeof(double), &tmp) ||
+        mlr_mul_size(n_out, n_joints, &tmp) || mlr_mul_size(tmp, 4 * sizeof(double), &tmp) ||
+        mlr_mul_size(n_frames, n_trans, &tmp) || mlr_mul_size(tmp, 3 * sizeof(double), &tmp) ||
+        mlr_mul_size(n_out, n_trans, &tmp) || mlr_mul_size(tmp, 3 * sizeof(double), &tmp))
+        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "array sizes overflow");
+    return MLR_OK;
+}
+
+/* 1 when every value is finite, else 0 with the index of the first bad one in *bad. */
+static int all_finite(const double *v, size_t count, size_t *bad)
+{
+    for (size_t i = 0; i < count; i++)
+        if (!isfinite(v[i])) {
+            *bad = i;
+            return 0;
+        }
+    return 1;
+}
+
+static mlr_status check_translations(size_t n_frames, size_t n_trans, const double *root_pos,
+                                     const double *trans, mlr_diag *diag)
+{
+    size_t bad;
+    if (!all_finite(root_pos, n_frames * 3, &bad))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "root_pos of frame %zu is not finite", bad / 3);
+    if (n_trans > 0 && !all_finite(trans, n_frames * n_trans * 3, &bad))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "trans of frame %zu, joint %zu is not finite", bad / (3 * n_trans),
+                            (bad / 3) % n_trans);
+    return MLR_OK;
+}
+
+/* A quaternion row of J joints: finite and nonzero. */
+static int rot_row_ok(const double *q, size_t n_joints, size_t *bad_joint)
+{
+    for (size_t j = 0; j < n_joints; j++) {
+        const double *p = q + 4 * j;
+        const double n2 = p[0] * p[0] + p[1] * p[1] + p[2] * p[2] + p[3] * p[3];
+        if (!(n2 > 0.0) || !isfinite(n2)) {
+            *bad_joint = j;
+            return 0;
+        }
+    }
+    return 1;
+}
+
+static mlr_status bad_rot(mlr_diag *diag, size_t f, size_t j)
+{
+    return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                        "rot of frame %zu, joint %zu is zero or not finite", f, j);
+}
+
+mlr_status mlr_resample_arrays(size_t n_frames, size_t n_joints, size_t n_trans,
+                               const double *root_pos, const double *rot, const double *trans,
+                               const double *t, size_t n_out, double lam, double sigma,
+                               unsigned flags, double *root_out, double *rot_out,
+                               double *trans_out, double *var_out, const mlr_allocator *alloc,
+                               mlr_diag *diag)
+{
+    mlr_status st = check_motion(n_frames, n_joints, n_trans, root_pos, rot, trans, n_out, flags,
+                                 root_out, rot_out, trans_out, diag);
+    if (st != MLR_OK)
+        return st;
+    if (!isfinite(sigma) || !(sigma > 0.0))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "sigma must be finite and > 0, got %g",
+                            sigma);
+    if (isnan(lam) || (lam >= 0.0 && !isfinite(lam)))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "lam must be finite and >= 0, or MLR_RESAMPLE_AUTO; got %g", lam);
+    if (t) {
+        st = mlr_timemap_validate(t, n_frames, n_out, flags, diag);
+    } else {
+        st = check_factor((double)(n_out - 1) / (double)(n_frames - 1), flags, diag);
+    }
+    if (st != MLR_OK)
+        return st;
+    st = check_translations(n_frames, n_trans, root_pos, trans, diag);
+    if (st != MLR_OK)
+        return st;
+    if (lam < 0.0)
+        lam = sqrt(mlr_resample_auto_smoothness(n_frames, n_out)) / sigma;
+
+    mlr_allocator a;
+    mlr_allocator_resolve(alloc, &a);
+    double *tu = NULL, *q = NULL;
+    size_t tu_bytes = 0, q_bytes = 0;
+    mlr_lgs *lgs = NULL;
+    const size_t n_rot = n_joints * 4;
+
+    /* the uniform map, unless it is the identity */
+    if (!t && n_out != n_frames) {
+        tu_bytes = n_frames * sizeof(double);
+        tu = mlr_alloc(&a, tu_bytes);
+        if (!tu)
+            return MLR_E_NO_MEMORY;
+        const double step = (double)(n_out - 1) / (double)(n_frames - 1);
+        for (size_t i = 0; i + 1 < n_frames; i++)
+            tu[i] = (double)i * step;
+        tu[n_frames - 1] = (double)(n_out - 1);
+        t = tu;
+    }
+    /* sign-continuous copy of the rotations */
+    if (n_joints > 0) {
+        q_bytes = n_frames * n_rot * sizeof(double);
+        q = mlr_alloc(&a, q_bytes);
+        if (!q) {
+            st = MLR_E_NO_MEMORY;
+            goto done;
+        }
+        const int nearest = (flags & MLR_RESAMPLE_NEAREST_SIGN) != 0;
+        for (size_t f = 0; f < n_frames; f++) {
+            size_t bad;
+            const double *src = rot + f * n_rot;
+            if (!rot_row_ok(src, n_joints, &bad)) {
+                st = bad_rot(diag, f, bad);
+                goto done;
+            }
+            memcpy(q + f * n_rot, src, n_rot * sizeof(double));
+            if (f == 0)
+                continue;
+            if (nearest)
+                mlr_quat_make_continuous((mlr_quat *)(q + (f - 1) * n_rot), 2, n_joints);
+            else
+                mlr_quat_continue_frame((mlr_quat *)q, f, n_joints);
+        }
+    }
+
+    st = mlr_lgs_create(n_out, n_out >= 3 ? 2 : 1, lam, sigma, t, n_frames, MLR_LGS_BANDED, &a,
+                        &lgs, diag);
+    if (st < 0)
+        goto done;
+    const mlr_status created = st;
+    st = mlr_lgs_solve(lgs, root_pos, 3, 3, root_out, 3);
+    if (st == MLR_OK && n_joints > 0)
+        st = mlr_lgs_solve(lgs, q, n_rot, n_rot, rot_out, n_rot);
+    if (st == MLR_OK && n_trans > 0)
+        st = mlr_lgs_solve(lgs, trans, 3 * n_trans, 3 * n_trans, trans_out, 3 * n_trans);
+    if (st == MLR_OK && var_out)
+        st = mlr_lgs_variance(lgs, var_out, n_out);
+    if (st != MLR_OK)
+        goto done;
+    if (n_joints > 0 &&
+        mlr_quat_normalize_array((const mlr_quat *)rot_out, n_out * n_joints,
+                                 (mlr_quat *)rot_out) != MLR_OK) {
+        st = mlr_diag_set(diag, MLR_E_SINGULAR, 0, 0,
+                          "an interpolated quaternion vanished (a key step near 360 degrees?)");
+        goto done;
+    }
+    st = created;
+done:
+    mlr_lgs_destroy(lgs);
+    mlr_free(&a, q, q_bytes);
+    mlr_free(&a, tu, tu_bytes);
+    return st;
+}
+
+mlr_status mlr_slerp_resample_arrays(size_t n_frames, size_t n_joints, size_t n_trans,
+                                     const double *root_pos, const double *rot,
+                                     const double *trans, const double *t, size_t n_out,
+                                     unsigned flags, double *root_out, double *rot_out,
+                                     double *trans_out, mlr_diag *diag)
+{
+    mlr_status st = check_motion(n_frames, n_joints, n_trans, root_pos, rot, trans, n_out, flags,
+                                 root_out, rot_out, trans_out, diag);
+    if (st != MLR_OK)
+        return st;
+    if (t)
+        st = mlr_timemap_validate(t, n_frames, n_out, flags, diag);
+    else
+        st = check_factor((double)(n_out - 1) / (double)(n_frames - 1), flags, diag);
+    if (st != MLR_OK)
+        return st;
+    st = check_translations(n_frames, n_trans, root_pos, trans, diag);
+    if (st != MLR_OK)
+        return st;
+    for (size_t f = 0; f < n_frames; f++) {
+        size_t bad;
+        if (!rot_row_ok(rot + f * n_joints * 4, n_joints, &bad))
+            return bad_rot(diag, f, bad);
+    }
+
+    const double step = (double)(n_out - 1) / (double)(n_frames - 1);
+    size_t k = 0; /* interval [k, k+1] of the input */
+    enum { CHUNK = 64 };
+    double u_rep[CHUNK];
+    for (size_t j = 0; j < n_out; j++) {
+        const double x = (double)j;
+#define POS(i) (t ? t[i] : ((i) + 1 == n_frames ? (double)(n_out - 1) : (double)(i) * step))
+        while (k + 2 < n_frames && POS(k + 1) <= x)
+            k++;
+        const double t0 = POS(k), t1 = POS(k + 1);
+#undef POS
+        double u = (x - t0) / (t1 - t0);
+        u = u < 0.0 ? 0.0 : (u > 1.0 ? 1.0 : u);
+        const double *p0 = root_pos + 3 * k, *p1 = p0 + 3;
+        for (size_t c = 0; c < 3; c++)
+            root_out[3 * j + c] = p0[c] + u * (p1[c] - p0[c]);
+        for (size_t c = 0; c < 3 * n_trans; c++) {
+            const double a0 = trans[3 * n_trans * k + c], a1 = trans[3 * n_trans * (k + 1) + c];
+            trans_out[3 * n_trans * j + c] = a0 + u * (a1 - a0);
+        }
+        for (size_t c = 0; c < CHUNK && c < n_joints; c++)
+            u_rep[c] = u;
+        for (size_t j0 = 0; j0 < n_joints; j0 += CHUNK) {
+            const size_t cnt = n_joints - j0 < CHUNK ? n_joints - j0 : CHUNK;
+            const mlr_quat *qa = (const mlr_quat *)(rot + 4 * (n_joints * k + j0));
+            const mlr_quat *qb = qa + n_joints;
+            mlr_quat_slerp_array(qa, qb, u_rep, cnt, (mlr_quat *)(rot_out + 4 * (n_joints * j + j0)));
+        }
+    }
+    return MLR_OK;
+}
