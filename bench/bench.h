@@ -26,5 +26,7 @@ extern const mlr_bench_case mlr_bench_bvh_cases[];
 extern const size_t mlr_bench_bvh_count;
 extern const mlr_bench_case mlr_bench_resample_cases[];
 extern const size_t mlr_bench_resample_count;
+extern const mlr_bench_case mlr_bench_stream_cases[];
+extern const size_t mlr_bench_stream_count;
 
 #endif

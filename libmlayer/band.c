@@ -69,20 +69,10 @@ mlr_status mlr_band_factor_in_place(mlr_band *b)
     b->factored = 0;
     if (kd == 2) { /* pentadiagonal, the LGS default: one division per row */
         for (size_t i = 0; i < n; i++) {
-            double *li = l + 2 * i, aii = dinv[i], d = aii;
-            if (i >= 2) {
-                const double a2 = li[1], a1 = li[0] - a2 * l[2 * (i - 1)];
-                li[1] = a2 * dinv[i - 2];
-                li[0] = a1 * dinv[i - 1];
-                d -= li[1] * a2 + li[0] * a1;
-            } else if (i == 1) {
-                const double a1 = li[0];
-                li[0] = a1 * dinv[0];
-                li[1] = 0.0;
-                d -= li[0] * a1;
-            } else {
-                li[0] = li[1] = 0.0;
-            }
+            double *li = l + 2 * i, aii = dinv[i];
+            double d = mlr_band_ldl2_row(i, aii, li[0], li[1], i >= 2 ? l[2 * (i - 1)] : 0.0,
+                                         i >= 1 ? dinv[i - 1] : 0.0, i >= 2 ? dinv[i - 2] : 0.0,
+                                         &li[0], &li[1]);
             if (!pivot_ok(d, aii, &status))
                 return MLR_E_SINGULAR;
             dinv[i] = 1.0 / d;

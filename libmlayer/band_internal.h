@@ -17,6 +17,30 @@ struct mlr_band {
 /* Entry A(i, j), j <= i <= j + kd, of a matrix (used to assemble the CHOLMOD path). */
 typedef double (*mlr_band_entry_fn)(const void *ctx, size_t i, size_t j);
 
+/* One row of the pentadiagonal (kd = 2) LDL^T, the recurrence of mlr_band_factor_in_place:
+ * from A(i,i), A(i,i-1), A(i,i-2) and the previous rows' L(i-1,i-2), 1/D(i-1), 1/D(i-2), set
+ * L(i,i-1), L(i,i-2) and return D(i) (rows 0 and 1 ignore what they do not have). Shared with
+ * the streaming smoother, which factors one row per pushed frame. */
+static inline double mlr_band_ldl2_row(size_t i, double aii, double a1, double a2,
+                                       double l1_prev, double dinv_prev1, double dinv_prev2,
+                                       double *l1, double *l2)
+{
+    double d = aii;
+    if (i >= 2) {
+        const double b1 = a1 - a2 * l1_prev;
+        *l2 = a2 * dinv_prev2;
+        *l1 = b1 * dinv_prev1;
+        d -= *l2 * a2 + *l1 * b1;
+    } else if (i == 1) {
+        *l1 = a1 * dinv_prev1;
+        *l2 = 0.0;
+        d -= *l1 * a1;
+    } else {
+        *l1 = *l2 = 0.0;
+    }
+    return d;
+}
+
 /* Factor in place: on entry dinv[i] holds A(i,i) and l[i*kd + k-1] holds A(i,i-k) (zero
  * where i < k); on return the factor. Same statuses as mlr_band_factor. */
 mlr_status mlr_band_factor_in_place(mlr_band *b);

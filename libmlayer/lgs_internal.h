@@ -4,6 +4,10 @@
 
 #include "band_internal.h"
 
+/* (L^T L)(i, j) for j <= i < n, L the (n - p) x n difference matrix of order p (0 when n <= p:
+ * L has no rows). Shared with the streaming smoother (stream.c). */
+double mlr_lgs_ltl_entry(size_t n, unsigned p, size_t i, size_t j);
+
 /* Sparse SPD solver behind MLR_LGS_CHOLMOD (lgs_cholmod.c, only built with CHOLMOD). */
 typedef struct mlr_sparse_spd mlr_sparse_spd;
 

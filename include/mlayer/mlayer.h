@@ -10,5 +10,6 @@
 #include "mlr_bvh.h"
 #include "mlr_fk.h"
 #include "mlr_resample.h"
+#include "mlr_stream.h"
 
 #endif /* MLAYER_H */

@@ -165,3 +165,26 @@ mlr_status mlr_timewarp_map(size_t n_frames, size_t n_joints, const double *root
                             const double *rot, const double *joint_weights, double root_weight,
                             double strength, double smooth_frames, size_t n_out, unsigned flags,
                             double *t, const mlr_allocator *alloc, mlr_diag *diag);
+
+/* mlr_stream.h */
+typedef struct mlr_stream mlr_stream;
+mlr_status mlr_stream_create(size_t n_joints, int root, size_t n_trans, double lam,
+                             double sigma, size_t lag, const mlr_allocator *alloc,
+                             mlr_stream **out, mlr_diag *diag);
+mlr_status mlr_stream_create_layered(size_t n_joints, int root, size_t n_trans,
+                                     double lam, double sigma, double lam_base,
+                                     double sigma_base, size_t lag,
+                                     const mlr_allocator *alloc, mlr_stream **out,
+                                     mlr_diag *diag);
+mlr_status mlr_stream_push(mlr_stream *st, const double *frame, size_t n_values,
+                           double *out, size_t out_len, size_t *n_ready);
+mlr_status mlr_stream_flush(mlr_stream *st, double *out, size_t out_len, size_t *n_written);
+void mlr_stream_reset(mlr_stream *st);
+mlr_status mlr_stream_set_alpha(mlr_stream *st, double alpha_trans, const double *alpha,
+                                size_t n_joints);
+size_t mlr_stream_frame_size(const mlr_stream *st);
+size_t mlr_stream_lag(const mlr_stream *st);
+size_t mlr_stream_n_pushed(const mlr_stream *st);
+size_t mlr_stream_pending(const mlr_stream *st);
+double mlr_stream_decay_rate(double lam, double sigma);
+void mlr_stream_destroy(mlr_stream *st);
