@@ -77,7 +77,8 @@ int main(int argc, char **argv)
             return 2;
         }
     }
-    const table tables[] = {{mlr_bench_lgs_cases, &mlr_bench_lgs_count}};
+    const table tables[] = {{mlr_bench_lgs_cases, &mlr_bench_lgs_count},
+                            {mlr_bench_layers_cases, &mlr_bench_layers_count}};
     printf("name\tn\tmedian_ns\tmin_ns\tns_per_elem\tchecksum\n");
     int failures = 0;
     for (size_t t = 0; t < sizeof tables / sizeof tables[0]; t++) {

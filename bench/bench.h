@@ -19,5 +19,7 @@ double mlr_bench_normal(unsigned long long *state);
 /* Case tables of each subject, defined in bench_<subject>.c. */
 extern const mlr_bench_case mlr_bench_lgs_cases[];
 extern const size_t mlr_bench_lgs_count;
+extern const mlr_bench_case mlr_bench_layers_cases[];
+extern const size_t mlr_bench_layers_count;
 
 #endif

@@ -44,7 +44,7 @@ typedef struct system_ctx {
 } system_ctx;
 
 /* (L^T L)(i, j) for j <= i, L the (n - p) x n difference matrix of order p. */
-static double ltl_entry(size_t n, unsigned p, size_t i, size_t j)
+double mlr_lgs_ltl_entry(size_t n, unsigned p, size_t i, size_t j)
 {
     if (i - j > p)
         return 0.0;
@@ -60,7 +60,7 @@ static double ltl_entry(size_t n, unsigned p, size_t i, size_t j)
 static double system_entry(const void *vctx, size_t i, size_t j)
 {
     const system_ctx *ctx = vctx;
-    double v = ctx->s == 0.0 ? 0.0 : ctx->s * ltl_entry(ctx->n, ctx->order, i, j);
+    double v = ctx->s == 0.0 ? 0.0 : ctx->s * mlr_lgs_ltl_entry(ctx->n, ctx->order, i, j);
     if (i == j)
         v += ctx->ata_d ? ctx->ata_d[i] : 1.0;
     else if (i == j + 1 && ctx->ata_o)

@@ -14,4 +14,7 @@ mlr_status mlr_sparse_spd_create(size_t n, size_t kd, mlr_band_entry_fn entry, c
 mlr_status mlr_sparse_spd_solve(mlr_sparse_spd *s, double *x, size_t ldx, size_t m);
 void mlr_sparse_spd_destroy(mlr_sparse_spd *s);
 
+/* (L^T L)(i, j) for j <= i, L the (n - p) x n difference matrix of order p (lgs.c). */
+double mlr_lgs_ltl_entry(size_t n, unsigned p, size_t i, size_t j);
+
 #endif

@@ -9,5 +9,6 @@
 #include "mlr_quat.h"
 #include "mlr_bvh.h"
 #include "mlr_fk.h"
+#include "mlr_layers.h"
 
 #endif /* MLAYER_H */
