@@ -72,6 +72,18 @@ static void *setup_clip_fixed(size_t n)
     return s;
 }
 
+/* Both smoothings given: no search at all, the floor of one factor + solve per layer plus the
+ * quaternion log / exp of the displacements and residuals. */
+static void *setup_clip_fixed_both(size_t n)
+{
+    layers_state *s = setup_clip_fixed(n);
+    if (s) {
+        s->opt[0] = (mlr_layers_option){MLR_LAYERS_OPT_LAM_B, 1000.0};
+        s->opt[1] = (mlr_layers_option){MLR_LAYERS_OPT_LAM_C, 1.0};
+    }
+    return s;
+}
+
 static double run_decompose(void *p)
 {
     layers_state *s = p;
@@ -90,6 +102,7 @@ static double run_decompose(void *p)
 const mlr_bench_case mlr_bench_layers_cases[] = {
     {"layers.decompose/n=2526,j=31", 2526 * 31, setup_clip, run_decompose, teardown},
     {"layers.decompose_fixed_c/n=2526,j=31", 2526 * 31, setup_clip_fixed, run_decompose, teardown},
+    {"layers.decompose_fixed_bc/n=2526,j=31", 2526 * 31, setup_clip_fixed_both, run_decompose, teardown},
     {"layers.decompose/n=100000,j=31", 100000 * 31, setup_clip, run_decompose, teardown},
 };
 const size_t mlr_bench_layers_count = sizeof mlr_bench_layers_cases / sizeof mlr_bench_layers_cases[0];

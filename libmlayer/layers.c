@@ -76,7 +76,7 @@ static mlr_status compute_sizes(size_t n, size_t j, sizes *z)
     if (ng == 0 || mlr_mul_size(n, 3, &z->pos) || mlr_mul_size(n, j, &t) ||
         mlr_mul_size(t, 4, &z->rot) || mlr_mul_size(n, ng, &t) || mlr_mul_size(t, 3, &z->grp) ||
         mlr_mul_size(ng, MLR_LAYERS_N_PARAM, &z->param) ||
-        mlr_mul_size(ng, 20, &z->work))
+        mlr_mul_size(ng, 26, &z->work))
         return MLR_E_OVERFLOW;
     z->q = z->rot;
     z->fac = z->grp; /* three n x (1 + j) factor arrays */
@@ -104,11 +104,14 @@ static mlr_status compute_sizes(size_t n, size_t j, sizes *z)
 }
 
 /* Displacements: root u0 = p - pb; joints v = log(conj(qb) q). On return q holds the products
- * conj(qb) q (needed again by the residual) and the largest |u0|, |v_j| are in the params. */
-static void displacements(mlr_layers *L, const double *root_pos, double *q, double *delta)
+ * conj(qb) q (needed again by the residual) and the largest |u0|, |v_j| are in the params.
+ * tmp: 4 j doubles. */
+static void displacements(mlr_layers *L, const double *root_pos, double *q, double *delta,
+                          double *tmp)
 {
     const size_t n = L->n, j = L->j, ld = 3 * (1 + j);
     double *amax = mlr_layers_param_slot(L, MLR_LAYERS_PARAM_BASE_MAX_ANGLE, 0);
+    mlr_quat *cb = (mlr_quat *)(void *)tmp;
     for (size_t g = 0; g <= j; g++)
         amax[g] = 0.0;
     for (size_t i = 0; i < n; i++) {
@@ -118,11 +121,8 @@ static void displacements(mlr_layers *L, const double *root_pos, double *q, doub
             di[c] = root_pos ? root_pos[3 * i + c] - pb[c] : 0.0;
         amax[0] = fmax(amax[0], sqrt(di[0] * di[0] + di[1] * di[1] + di[2] * di[2]));
         mlr_quat *qi = (mlr_quat *)(void *)(q + 4 * j * i);
-        const mlr_quat *bi = (const mlr_quat *)(const void *)(L->base_rot + 4 * j * i);
-        for (size_t k = 0; k < j; k++) {
-            const mlr_quat cb = {bi[k].w, -bi[k].x, -bi[k].y, -bi[k].z};
-            mlr_quat_mul(&cb, &qi[k], &qi[k]);
-        }
+        mlr_quat_conj_array((const mlr_quat *)(const void *)(L->base_rot + 4 * j * i), j, cb);
+        mlr_quat_mul_array(cb, qi, j, qi);
         mlr_quat_log_array(qi, j, (mlr_vec3 *)(void *)(di + 3));
         for (size_t k = 0; k < j; k++) {
             const double *v = di + 3 + 3 * k;
@@ -132,23 +132,20 @@ static void displacements(mlr_layers *L, const double *root_pos, double *q, doub
 }
 
 /* Residual in place over delta: u0 - uc for the root, log(conj(exp(vc)) conj(qb) q) for the
- * joints (p = conj(qb) q from displacements()). */
-static void residuals(mlr_layers *L, const double *p, double *delta)
+ * joints (p = conj(qb) q from displacements()). tmp: 8 j doubles. */
+static void residuals(mlr_layers *L, const double *p, double *delta, double *tmp)
 {
     const size_t n = L->n, j = L->j, ld = 3 * (1 + j);
+    mlr_quat *e = (mlr_quat *)(void *)tmp, *r = e + j;
     for (size_t i = 0; i < n; i++) {
         double *ri = delta + i * ld;
         const double *ci = L->control + i * ld;
-        const mlr_quat *pi = (const mlr_quat *)(const void *)(p + 4 * j * i);
         for (size_t c = 0; c < 3; c++)
             ri[c] -= ci[c];
-        for (size_t k = 0; k < j; k++) {
-            mlr_quat e, r;
-            mlr_quat_exp_array((const mlr_vec3 *)(const void *)(ci + 3 + 3 * k), 1, &e);
-            e.x = -e.x, e.y = -e.y, e.z = -e.z;
-            mlr_quat_mul(&e, &pi[k], &r);
-            mlr_quat_log_array(&r, 1, (mlr_vec3 *)(void *)(ri + 3 + 3 * k));
-        }
+        mlr_quat_exp_array((const mlr_vec3 *)(const void *)(ci + 3), j, e);
+        mlr_quat_conj_array(e, j, e);
+        mlr_quat_mul_array(e, (const mlr_quat *)(const void *)(p + 4 * j * i), j, r);
+        mlr_quat_log_array(r, j, (mlr_vec3 *)(void *)(ri + 3));
     }
 }
 
@@ -222,11 +219,11 @@ mlr_status mlr_layers_decompose(size_t n_frames, size_t n_joints, const double *
     if (st == MLR_OK)
         st = mlr_layers_base(L, &cfg, q, root_pos, fac, work, col, diag);
     if (st == MLR_OK) {
-        displacements(L, root_pos, q, L->residual);
+        displacements(L, root_pos, q, L->residual, fac);
         st = mlr_layers_control(L, &cfg, L->residual, fac, work, col, diag);
     }
     if (st == MLR_OK)
-        residuals(L, q, L->residual);
+        residuals(L, q, L->residual, fac);
     mlr_free(&a, scratch, z.scratch_bytes);
     if (st != MLR_OK) {
         mlr_free(&a, block, z.handle_bytes);

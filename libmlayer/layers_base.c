@@ -62,7 +62,7 @@ static double angle_of_cos2(double c2)
 /* One batched evaluation: systems k = 0..ns-1 at s[k]; base quaternions (unnormalized) into
  * qb, largest angles into angle. */
 static mlr_status eval_angles(mlr_layers *L, const double *q, mlr_lay_batch *b, const size_t *col,
-                              const double *s, double *angle, mlr_diag *diag)
+                              const double *s, double *angle, double *zero, mlr_diag *diag)
 {
     const size_t n = L->n, j = L->j;
     size_t bad = mlr_lay_batch_factor(b, s);
@@ -70,7 +70,7 @@ static mlr_status eval_angles(mlr_layers *L, const double *q, mlr_lay_batch *b, 
         return mlr_diag_set(diag, MLR_E_SINGULAR, 0, 0,
                             "base smoothing of joint %zu failed at s = %g: s is too large for "
                             "%zu frames", col[bad - 1] / 4, s[bad - 1], n);
-    mlr_lay_batch_solve(b, col, 4, q, 4 * j, L->base_rot, 4 * j);
+    mlr_lay_batch_solve(b, col, 4, q, 4 * j, L->base_rot, 4 * j, zero);
     min_cos2(n, j, b->ns, col, q, L->base_rot, angle);
     for (size_t k = 0; k < b->ns; k++)
         angle[k] = angle_of_cos2(angle[k]);
@@ -92,6 +92,7 @@ mlr_status mlr_layers_base(mlr_layers *L, const mlr_layers_cfg *cfg, const doubl
     double *s = work, *angle = work + j, *s_best = work + 2 * j;
     double *u_lo = work + 3 * j, *u_hi = work + 4 * j, *h_lo = work + 5 * j, *h_hi = work + 6 * j;
     double *side = work + 7 * j; /* -1 the ok end moved last, +1 the broken end, 0 none */
+    double *zero = work + 8 * j;  /* 5 j doubles for the solves */
     mlr_status rc;
 
     for (size_t k = 0; k < j; k++)
@@ -106,7 +107,7 @@ mlr_status mlr_layers_base(mlr_layers *L, const mlr_layers_cfg *cfg, const doubl
         /* the strongest setting first: joints within the bound there are done */
         for (size_t k = 0; k < j; k++)
             s[k] = cfg->base_s_max;
-        if (eval_angles(L, q, &b, col, s, angle, NULL) < 0) /* s_max too large for n */
+        if (eval_angles(L, q, &b, col, s, angle, zero, NULL) < 0) /* s_max too large for n */
             for (size_t k = 0; k < j; k++)
                 angle[k] = INFINITY;
         size_t na = 0;
@@ -122,7 +123,7 @@ mlr_status mlr_layers_base(mlr_layers *L, const mlr_layers_cfg *cfg, const doubl
         b.ns = na;
         for (size_t k = 0; k < na; k++)
             s[k] = cfg->base_s_min;
-        if (na > 0 && (rc = eval_angles(L, q, &b, col, s, angle, diag)) < 0)
+        if (na > 0 && (rc = eval_angles(L, q, &b, col, s, angle, zero, diag)) < 0)
             return rc;
         size_t nb = 0;
         for (size_t k = 0; k < na; k++) {
@@ -150,7 +151,7 @@ mlr_status mlr_layers_base(mlr_layers *L, const mlr_layers_cfg *cfg, const doubl
                     u = c - margin;
                 s[k] = exp(u);
             }
-            if ((rc = eval_angles(L, q, &b, col, s, angle, diag)) < 0)
+            if ((rc = eval_angles(L, q, &b, col, s, angle, zero, diag)) < 0)
                 return rc;
             size_t nn = 0;
             for (size_t k = 0; k < nb; k++) {
@@ -181,7 +182,7 @@ mlr_status mlr_layers_base(mlr_layers *L, const mlr_layers_cfg *cfg, const doubl
     b.ns = j;
     for (size_t k = 0; k < j; k++)
         col[k] = 4 * k;
-    if ((rc = eval_angles(L, q, &b, col, s_best, angle, diag)) < 0)
+    if ((rc = eval_angles(L, q, &b, col, s_best, angle, zero, diag)) < 0)
         return rc;
     for (size_t k = 0; k < j; k++) {
         const double sk = s_best[k], kk = sqrt(sqrt(100.0 * sk));
@@ -217,6 +218,6 @@ mlr_status mlr_layers_base(mlr_layers *L, const mlr_layers_cfg *cfg, const doubl
     if (mlr_lay_batch_factor(&b, &s0))
         return mlr_diag_set(diag, MLR_E_SINGULAR, 0, 0,
                             "base smoothing of the root translation failed at s = %g", s0);
-    mlr_lay_batch_solve(&b, col, 3, root_pos, 3, L->base_pos, 3);
+    mlr_lay_batch_solve(&b, col, 3, root_pos, 3, L->base_pos, 3, zero);
     return MLR_OK;
 }

@@ -67,53 +67,62 @@ size_t mlr_lay_batch_factor(mlr_lay_batch *b, const double *s)
     return 0;
 }
 
-/* The sweeps with the channel count fixed at compile time (3 or 4) so the inner loops unroll. */
+/* The sweeps with the channel count fixed at compile time (3 or 4) so the inner loops unroll;
+ * the first and last two rows (fewer neighbours) use zero coefficients on a guard row. */
+static inline void forward_row(size_t ns, const size_t *restrict col, const size_t m,
+                               const double *restrict l1, const double *restrict l2,
+                               const double *restrict yi, double *restrict xi,
+                               const double *restrict x1, const double *restrict x2)
+{
+    for (size_t k = 0; k < ns; k++) {
+        const size_t c0 = col[k];
+        const double a1 = l1[k], a2 = l2[k];
+        for (size_t c = 0; c < m; c++)
+            xi[c0 + c] = yi[c0 + c] - a1 * x1[c0 + c] - a2 * x2[c0 + c];
+    }
+}
+
+static inline void backward_row(size_t ns, const size_t *restrict col, const size_t m,
+                                const double *restrict di, const double *restrict l1,
+                                const double *restrict l2, double *restrict xi,
+                                const double *restrict x1, const double *restrict x2)
+{
+    for (size_t k = 0; k < ns; k++) {
+        const size_t c0 = col[k];
+        const double d = di[k], a1 = l1[k], a2 = l2[k];
+        for (size_t c = 0; c < m; c++)
+            xi[c0 + c] = xi[c0 + c] * d - a1 * x1[c0 + c] - a2 * x2[c0 + c];
+    }
+}
+
 static inline void solve_m(const mlr_lay_batch *b, const size_t *col, const size_t m,
-                           const double *y, size_t ldy, double *x, size_t ldx)
+                           const double *y, size_t ldy, double *x, size_t ldx, double *zero)
 {
     const size_t n = b->n, ns = b->ns;
+    /* zero: ns coefficients and one row of ldx values, all zero */
+    const double *zrow = zero + ns;
     for (size_t i = 0; i < n; i++) {
-        const double *l1 = b->l1 + i * ns, *l2 = b->l2 + i * ns;
-        double *xi = x + i * ldx;
-        const double *yi = y + i * ldy;
-        for (size_t k = 0; k < ns; k++) {
-            const size_t c0 = col[k];
-            for (size_t c = 0; c < m; c++) {
-                double v = yi[c0 + c];
-                if (i >= 1)
-                    v -= l1[k] * xi[c0 + c - ldx];
-                if (i >= 2)
-                    v -= l2[k] * xi[c0 + c - 2 * ldx];
-                xi[c0 + c] = v;
-            }
-        }
+        const double *l1 = i >= 1 ? b->l1 + i * ns : zero, *l2 = i >= 2 ? b->l2 + i * ns : zero;
+        const double *x1 = i >= 1 ? x + (i - 1) * ldx : zrow, *x2 = i >= 2 ? x + (i - 2) * ldx : zrow;
+        forward_row(ns, col, m, l1, l2, y + i * ldy, x + i * ldx, x1, x2);
     }
     for (size_t i = n; i-- > 0;) {
-        const double *di = b->dinv + i * ns;
-        const double *l1n = i + 1 < n ? b->l1 + (i + 1) * ns : NULL;
-        const double *l2n = i + 2 < n ? b->l2 + (i + 2) * ns : NULL;
-        double *xi = x + i * ldx;
-        for (size_t k = 0; k < ns; k++) {
-            const size_t c0 = col[k];
-            for (size_t c = 0; c < m; c++) {
-                double v = xi[c0 + c] * di[k];
-                if (l1n)
-                    v -= l1n[k] * xi[c0 + c + ldx];
-                if (l2n)
-                    v -= l2n[k] * xi[c0 + c + 2 * ldx];
-                xi[c0 + c] = v;
-            }
-        }
+        const double *l1 = i + 1 < n ? b->l1 + (i + 1) * ns : zero;
+        const double *l2 = i + 2 < n ? b->l2 + (i + 2) * ns : zero;
+        const double *x1 = i + 1 < n ? x + (i + 1) * ldx : zrow;
+        const double *x2 = i + 2 < n ? x + (i + 2) * ldx : zrow;
+        backward_row(ns, col, m, b->dinv + i * ns, l1, l2, x + i * ldx, x1, x2);
     }
 }
 
 void mlr_lay_batch_solve(const mlr_lay_batch *b, const size_t *col, size_t m, const double *y,
-                         size_t ldy, double *x, size_t ldx)
+                         size_t ldy, double *x, size_t ldx, double *zero)
 {
+    memset(zero, 0, (b->ns + ldx) * sizeof(double));
     if (m == 4)
-        solve_m(b, col, 4, y, ldy, x, ldx);
+        solve_m(b, col, 4, y, ldy, x, ldx, zero);
     else
-        solve_m(b, col, 3, y, ldy, x, ldx);
+        solve_m(b, col, 3, y, ldy, x, ldx, zero);
 }
 
 /*

@@ -89,7 +89,7 @@ static void brent_update(brent *br, double fu)
  * GCV and tr(H) per system. */
 static mlr_status eval_gcv(mlr_layers *L, const double *delta, mlr_lay_batch *b,
                            const size_t *col, const double *s, double *gcv, double *dof,
-                           double *work, mlr_diag *diag)
+                           double *work, double *zero, mlr_diag *diag)
 {
     const size_t n = L->n, ld = 3 * (1 + L->j), ns = b->ns;
     size_t bad = mlr_lay_batch_factor(b, s);
@@ -97,7 +97,7 @@ static mlr_status eval_gcv(mlr_layers *L, const double *delta, mlr_lay_batch *b,
         return mlr_diag_set(diag, MLR_E_SINGULAR, 0, 0,
                             "control smoothing of group %zu failed at s = %g: s is too large "
                             "for %zu frames", col[bad - 1] / 3, s[bad - 1], n);
-    mlr_lay_batch_solve(b, col, 3, delta, ld, L->control, ld);
+    mlr_lay_batch_solve(b, col, 3, delta, ld, L->control, ld, zero);
     mlr_lay_batch_trace(b, dof, work);
     for (size_t k = 0; k < ns; k++)
         gcv[k] = 0.0;
@@ -125,6 +125,7 @@ mlr_status mlr_layers_control(mlr_layers *L, const mlr_layers_cfg *cfg, const do
     double *s = work, *gcv = work + ng, *dof = work + 2 * ng, *tw = work + 3 * ng;
     double *s_best = work + 6 * ng, *searched = work + 7 * ng;
     brent *br = (brent *)(void *)(work + 8 * ng); /* 11 ng doubles */
+    double *zero = work + 19 * ng;                 /* 4 ng doubles for the solves */
     mlr_status rc;
 
     for (size_t g = 0; g < ng; g++)
@@ -158,7 +159,7 @@ mlr_status mlr_layers_control(mlr_layers *L, const mlr_layers_cfg *cfg, const do
             const double u = p + 1 == n_grid ? u1 : u0 + step * (double)p;
             for (size_t k = 0; k < na; k++)
                 s[k] = exp(u);
-            if ((rc = eval_gcv(L, delta, &b, col, s, gcv, dof, tw, diag)) < 0)
+            if ((rc = eval_gcv(L, delta, &b, col, s, gcv, dof, tw, zero, diag)) < 0)
                 return rc;
             for (size_t k = 0; k < na; k++) {
                 brent *r = &br[col[k] / 3];
@@ -190,7 +191,7 @@ mlr_status mlr_layers_control(mlr_layers *L, const mlr_layers_cfg *cfg, const do
             na = b.ns = nb;
             if (na == 0)
                 break;
-            if ((rc = eval_gcv(L, delta, &b, col, s, gcv, dof, tw, diag)) < 0)
+            if ((rc = eval_gcv(L, delta, &b, col, s, gcv, dof, tw, zero, diag)) < 0)
                 return rc;
             for (size_t k = 0; k < na; k++)
                 brent_update(&br[col[k] / 3], gcv[k]);
@@ -204,7 +205,7 @@ mlr_status mlr_layers_control(mlr_layers *L, const mlr_layers_cfg *cfg, const do
     b.ns = ng;
     for (size_t g = 0; g < ng; g++)
         col[g] = 3 * g;
-    if ((rc = eval_gcv(L, delta, &b, col, s_best, gcv, dof, tw, diag)) < 0)
+    if ((rc = eval_gcv(L, delta, &b, col, s_best, gcv, dof, tw, zero, diag)) < 0)
         return rc;
     for (size_t g = 0; g < ng; g++) {
         const double sg = s_best[g], k = sqrt(sqrt(sg));

@@ -45,9 +45,10 @@ typedef struct mlr_lay_batch {
 size_t mlr_lay_batch_factor(mlr_lay_batch *b, const double *s);
 
 /* x = A_k^-1 y for every system: system k owns the m channels at column col[k] of the rows
- * of y (stride ldy) and of x (stride ldx). x may be y (same stride). m is 3 or 4. */
+ * of y (stride ldy) and of x (stride ldx); x and y do not overlap. m is 3 or 4. zero is
+ * scratch of ns + ldx doubles. */
 void mlr_lay_batch_solve(const mlr_lay_batch *b, const size_t *col, size_t m, const double *y,
-                         size_t ldy, double *x, size_t ldx);
+                         size_t ldy, double *x, size_t ldx, double *zero);
 
 /* tr(A_k^-1) for every system by selected inversion over the factor (rolling, O(n ns));
  * work holds 3 ns doubles. */
@@ -62,13 +63,13 @@ mlr_status mlr_layers_prepare_rot(size_t n, size_t j, const double *rot_in, doub
 
 /* Base layer: per-joint s (heuristic or cfg->base_s) into L->param, L->base_rot filled with
  * the unit base quaternions; root translation smoothed with joint 0's s into L->base_pos.
- * fac: 3 n j doubles; work: 8 j doubles; col: j entries. */
+ * fac: 3 n j doubles; work: 13 j doubles; col: j entries. */
 mlr_status mlr_layers_base(mlr_layers *L, const mlr_layers_cfg *cfg, const double *q,
                            const double *root_pos, double *fac, double *work, size_t *col,
                            mlr_diag *diag);
 
 /* Control layer: delta (n x (1+j) x 3) smoothed into L->control with s per group by GCV
- * (or cfg->control_s); parameters into L->param. fac: 3 n (1+j) doubles; work: 20 (1+j)
+ * (or cfg->control_s); parameters into L->param. fac: 3 n (1+j) doubles; work: 26 (1+j)
  * doubles; col: 1+j entries. */
 mlr_status mlr_layers_control(mlr_layers *L, const mlr_layers_cfg *cfg, const double *delta,
                               double *fac, double *work, size_t *col, mlr_diag *diag);
