@@ -60,9 +60,4 @@ size_t bvh_layout_finish(mlr_motion *m, size_t j);
 /* Set frame f to the rest pose: identity rotations, root_pos and trans from the OFFSETs. */
 void bvh_motion_rest_frame(mlr_motion *m, size_t f);
 
-/* Parse a decimal number at [p, end) (sign, digits, optional fraction and exponent; no nan or
- * inf). Exact: the correctly rounded double. Returns the characters consumed, 0 when there is
- * no number there or it is out of range. Does not look past the number's last character. */
-size_t bvh_parse_number(const char *p, const char *end, double *out);
-
 #endif

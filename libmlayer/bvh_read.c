@@ -2,6 +2,8 @@
  * bytes that remain before anything is allocated from it. Errors carry line, column and reason.
  * Nothing here prints or keeps state. */
 #include "bvh_internal.h"
+#include "numparse.h"
+#include "sincosd.h"
 
 #include <errno.h>
 #include <float.h>
@@ -10,123 +12,6 @@
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
-
-/* ---- numbers ----------------------------------------------------------------------------- */
-
-static const double pow10_exact[23] = {
-    1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e7,  1e8,  1e9,  1e10, 1e11,
-    1e12, 1e13, 1e14, 1e15, 1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
-};
-
-/* strtod on a copy, with '.' turned into the locale's decimal point. */
-static int parse_number_slow(const char *p, size_t n, double *out)
-{
-    char buf[256];
-    if (n >= sizeof buf)
-        return 0;
-    const struct lconv *lc = localeconv();
-    char dp = (lc && lc->decimal_point && lc->decimal_point[0] && !lc->decimal_point[1])
-                  ? lc->decimal_point[0]
-                  : '.';
-    for (size_t i = 0; i < n; i++)
-        buf[i] = p[i] == '.' ? dp : p[i];
-    buf[n] = '\0';
-    char *endp = NULL;
-    double v = strtod(buf, &endp);
-    if (endp != buf + n || isinf(v) || isnan(v))
-        return 0;
-    *out = v;
-    return 1;
-}
-
-/* Clinger's fast path: a mantissa below 2^53 times an exact power of ten is one correctly
- * rounded operation. Anything else goes to strtod. */
-static inline size_t parse_number_inline(const char *p, const char *end, double *out)
-{
-    const char *s = p;
-    int neg = 0;
-    if (s < end && (*s == '-' || *s == '+')) {
-        neg = *s == '-';
-        s++;
-    }
-    uint64_t m = 0;
-    int sig = 0, ndig = 0, dropped = 0;
-    long e10 = 0;
-    while (s < end && (unsigned)(*s - '0') < 10u) {
-        unsigned d = (unsigned)(*s - '0');
-        if (sig < 19) {
-            m = m * 10 + d;
-            sig += m != 0;
-        } else {
-            e10++;
-            dropped |= d != 0;
-        }
-        ndig++;
-        s++;
-    }
-    if (s < end && *s == '.') {
-        s++;
-        while (s < end && (unsigned)(*s - '0') < 10u) {
-            unsigned d = (unsigned)(*s - '0');
-            if (sig < 19) {
-                m = m * 10 + d;
-                sig += m != 0;
-                e10--;
-            } else {
-                dropped |= d != 0;
-            }
-            ndig++;
-            s++;
-        }
-    }
-    if (ndig == 0)
-        return 0;
-    if (s < end && (*s == 'e' || *s == 'E')) {
-        const char *t = s + 1;
-        int eneg = 0;
-        if (t < end && (*t == '-' || *t == '+')) {
-            eneg = *t == '-';
-            t++;
-        }
-        if (t < end && (unsigned)(*t - '0') < 10u) {
-            long ev = 0;
-            while (t < end && (unsigned)(*t - '0') < 10u) {
-                if (ev < 100000)
-                    ev = ev * 10 + (*t - '0');
-                t++;
-            }
-            e10 += eneg ? -ev : ev;
-            s = t;
-        }
-    }
-    size_t n = (size_t)(s - p);
-#if defined(FLT_EVAL_METHOD) && FLT_EVAL_METHOD == 0
-    if (!dropped && m <= (UINT64_C(1) << 53)) {
-        double v;
-        if (m == 0)
-            v = 0.0;
-        else if (e10 >= 0 && e10 <= 22)
-            v = (double)m * pow10_exact[e10];
-        else if (e10 < 0 && e10 >= -22)
-            v = (double)m / pow10_exact[-e10];
-        else
-            goto slow;
-        *out = neg ? -v : v;
-        return n;
-    }
-slow:
-#else
-    (void)dropped;
-    (void)neg;
-    (void)pow10_exact;
-#endif
-    return parse_number_slow(p, n, out) ? n : 0;
-}
-
-size_t bvh_parse_number(const char *p, const char *end, double *out)
-{
-    return parse_number_inline(p, end, out);
-}
 
 /* ---- growable arrays through the allocator ------------------------------------------------ */
 
@@ -315,14 +200,14 @@ static mlr_status expect(parser *ps, const char *kw, const char *what)
 
 static mlr_status expect_number(parser *ps, double *out, const char *what)
 {
-    const char *t;
-    size_t n;
+    const char *t = NULL;
+    size_t n = 0;
     int r = next_token(ps, &t, &n);
     if (r < 0)
         return r;
     if (r == 0)
         return fail_at(ps, ps->p, "unexpected end of file: expected %s", what);
-    if (parse_number_inline(t, t + n, out) != n)
+    if (mlr_parse_decimal(t, t + n, out) != n)
         return fail_at(ps, t, "expected %s, found '%s'", what, show(t, n).s);
     return MLR_OK;
 }
@@ -534,11 +419,45 @@ static mlr_status read_header_value(parser *ps, const char *label, const char **
 /* Destination of one channel value: kind in the low 2 bits, index above. */
 enum { DST_ROOT = 0, DST_TRANS = 1, DST_ANGLE = 2 };
 
+/* Scratch space of the frame loop. Angles are kept by their place in the joint's Euler order
+ * (slot k = 0, 1, 2) and joint: half[k J + j] is half of that angle in degrees (0 for a slot no
+ * channel fills), so that one call gives the sines and cosines of a whole frame. */
 typedef struct frame_ctx {
-    size_t *dst;      /* C */
-    double *row;      /* C */
-    double *ang;      /* J x 3, radians */
+    size_t *dst;      /* C destinations */
+    double *row;      /* C values of the line */
+    double *half;     /* 3 J half-angles, degrees */
+    double *sn, *cs;  /* 3 J their sines and cosines */
 } frame_ctx;
+
+/* The values of one frame line into row: returns MLR_OK with ps->p at the end of the line. */
+static mlr_status parse_row(parser *ps, size_t f, size_t C, double *row)
+{
+    const char *p = ps->p, *const end = ps->end;
+    for (size_t c = 0; c < C; c++) {
+        while (p < end && is_blank(*p))
+            p++;
+        if (p >= end || is_eol(*p)) {
+            ps->p = p;
+            return fail_at(ps, p, "frame %zu has %zu values, expected %zu", f + 1, c, C);
+        }
+        size_t k = mlr_parse_decimal(p, end, row + c);
+        if (k == 0 || (p + k < end && !is_blank(p[k]) && !is_eol(p[k]))) {
+            const char *e = p;
+            while (e < end && !is_blank(*e) && !is_eol(*e))
+                e++;
+            ps->p = p;
+            return fail_at(ps, p, "frame %zu: invalid number '%s'", f + 1,
+                           show(p, (size_t)(e - p)).s);
+        }
+        p += k;
+    }
+    while (p < end && is_blank(*p))
+        p++;
+    ps->p = p;
+    if (p < end && !is_eol(*p))
+        return fail_at(ps, p, "frame %zu has more than %zu values", f + 1, C);
+    return MLR_OK;
+}
 
 static mlr_status parse_frames(parser *ps, mlr_motion *m, const frame_ctx *fc)
 {
@@ -555,24 +474,9 @@ static mlr_status parse_frames(parser *ps, mlr_motion *m, const frame_ctx *fc)
         if (ps->p >= ps->end)
             return fail_at(ps, ps->p, "unexpected end of file: %zu of %zu frames", f, N);
         double *row = fc->row;
-        for (size_t c = 0; c < C; c++) {
-            skip_blank(ps);
-            if (ps->p >= ps->end || is_eol(*ps->p))
-                return fail_at(ps, ps->p, "frame %zu has %zu values, expected %zu", f + 1, c, C);
-            const char *t = ps->p;
-            size_t k = parse_number_inline(t, ps->end, row + c);
-            if (k == 0 || (t + k < ps->end && !is_blank(t[k]) && !is_eol(t[k]))) {
-                const char *e = t;
-                while (e < ps->end && !is_blank(*e) && !is_eol(*e))
-                    e++;
-                return fail_at(ps, t, "frame %zu: invalid number '%s'", f + 1,
-                               show(t, (size_t)(e - t)).s);
-            }
-            ps->p = t + k;
-        }
-        skip_blank(ps);
-        if (ps->p < ps->end && !is_eol(*ps->p))
-            return fail_at(ps, ps->p, "frame %zu has more than %zu values", f + 1, C);
+        mlr_status s = parse_row(ps, f, C, row);
+        if (s != MLR_OK)
+            return s;
         if (ps->p < ps->end)
             eat_eol(ps);
 
@@ -582,24 +486,22 @@ static mlr_status parse_frames(parser *ps, mlr_motion *m, const frame_ctx *fc)
         double *tr = P ? m->trans + 3 * P * f : NULL;
         for (size_t k = 0; k < P; k++)
             memcpy(tr + 3 * k, m->offsets + 3 * (size_t)m->trans_joints[k], 3 * sizeof(double));
-        memset(fc->ang, 0, 3 * J * sizeof(double));
         for (size_t c = 0; c < C; c++) {
             size_t d = fc->dst[c], idx = d >> 2;
             switch (d & 3) {
             case DST_ROOT: rp[idx] = row[c]; break;
             case DST_TRANS: tr[idx] = row[c]; break;
-            default: fc->ang[idx] = row[c] * BVH_DEG2RAD; break;
+            default: fc->half[idx] = 0.5 * row[c]; break;
             }
         }
-        /* Euler to quaternions, in runs of joints that share an order */
+        /* Euler to quaternions: the frame's sines and cosines at once, then one product each */
+        mlr_sincosd_array(fc->half, 3 * J, fc->sn, fc->cs);
         mlr_quat *q = (mlr_quat *)(void *)(m->rot + 4 * J * f);
-        size_t j0 = 0;
-        for (size_t j = 1; j <= J; j++) {
-            if (j == J || m->order[j] != m->order[j0]) {
-                mlr_quat_from_euler_array(fc->ang + 3 * j0, j - j0,
-                                          (mlr_euler_order)m->order[j0], q + j0);
-                j0 = j;
-            }
+        const double *sn = fc->sn, *cs = fc->cs;
+        for (size_t j = 0; j < J; j++) {
+            const unsigned o = m->order[j];
+            mlr_quat_from_euler_half(cs[j], sn[j], cs[J + j], sn[J + j], cs[2 * J + j],
+                                     sn[2 * J + j], mlr_euler_axes[o], mlr_euler_parity[o], q + j);
         }
     }
     /* only whitespace (and NUL padding) may follow */
@@ -699,7 +601,7 @@ static mlr_status parse(parser *ps, mlr_motion **out)
     if ((s = read_header_value(ps, "Time:", &vt, &vn)) != MLR_OK)
         return s;
     double frame_time;
-    if (parse_number_inline(vt, vt + vn, &frame_time) != vn)
+    if (mlr_parse_decimal(vt, vt + vn, &frame_time) != vn)
         return fail_at(ps, vt, "Frame Time: needs a number, found '%s'", show(vt, vn).s);
     if (!(frame_time > 0.0))
         return fail_at(ps, vt, "Frame Time: must be positive");
@@ -733,13 +635,14 @@ static mlr_status parse(parser *ps, mlr_motion **out)
     mlr_motion *m;
     if ((s = build_motion(ps, n_frames, frame_time, &m)) != MLR_OK)
         return s;
-    frame_ctx fc = {NULL, NULL, NULL};
+    frame_ctx fc = {NULL, NULL, NULL, NULL, NULL};
     size_t tmp_bytes = 0;
     unsigned char *tmp = NULL;
     if (n_frames > 0) {
-        /* C doubles of row, 3J doubles of angles, C size_t of destinations */
+        /* C doubles of row, 9 J doubles of half-angles, sines and cosines, C size_t of
+         * destinations */
         size_t a1, a2, a3;
-        if (mlr_mul_size(C, sizeof(double), &a1) || mlr_mul_size(J, 3 * sizeof(double), &a2) ||
+        if (mlr_mul_size(C, sizeof(double), &a1) || mlr_mul_size(J, 9 * sizeof(double), &a2) ||
             mlr_mul_size(C, sizeof(size_t), &a3) || a1 > SIZE_MAX - a2 ||
             a1 + a2 > SIZE_MAX - a3) {
             mlr_motion_destroy(m);
@@ -752,8 +655,11 @@ static mlr_status parse(parser *ps, mlr_motion **out)
             return MLR_E_NO_MEMORY;
         }
         fc.row = (double *)(void *)tmp;
-        fc.ang = (double *)(void *)(tmp + a1);
+        fc.half = (double *)(void *)(tmp + a1);
+        fc.sn = fc.half + 3 * J;
+        fc.cs = fc.sn + 3 * J;
         fc.dst = (size_t *)(void *)(tmp + a1 + a2);
+        memset(fc.half, 0, 3 * J * sizeof(double));
         size_t c = 0;
         for (size_t j = 0; j < J; j++) {
             const unsigned char *ch = m->ch + BVH_MAX_CHANNELS * j;
@@ -763,7 +669,7 @@ static mlr_status parse(parser *ps, mlr_motion **out)
                 else if (ch[k] < 3)
                     fc.dst[c] = ((3 * (size_t)m->trans_slot[j] + ch[k]) << 2) | DST_TRANS;
                 else
-                    fc.dst[c] = ((3 * j + m->rot_idx[3 * j + ch[k] - 3]) << 2) | DST_ANGLE;
+                    fc.dst[c] = ((m->rot_idx[3 * j + ch[k] - 3] * J + j) << 2) | DST_ANGLE;
             }
         }
     }

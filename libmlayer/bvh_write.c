@@ -2,6 +2,7 @@
  * same directory, then rename). Output is independent of the locale. Nothing here prints or
  * keeps state. */
 #include "bvh_internal.h"
+#include "numparse.h"
 
 #include <errno.h>
 #include <locale.h>
@@ -87,7 +88,7 @@ static void put_exact(sink *s, double v, int min_prec, int step_to_17)
     for (int prec = min_prec;; prec = step_to_17 ? 17 : prec + 1) {
         size_t n = format_g(s, b, sizeof b, v, prec);
         double back;
-        if (prec >= 17 || (bvh_parse_number(b, b + n, &back) == n && back == v &&
+        if (prec >= 17 || (mlr_parse_decimal(b, b + n, &back) == n && back == v &&
                            signbit(back) == signbit(v))) {
             put(s, b, n);
             return;

@@ -35,4 +35,25 @@ mlr_status mlr_diag_set(mlr_diag *diag, mlr_status status, size_t line, size_t c
  * that exist) already made continuous: mlr_quat_continue_sign per track (quat.c). */
 void mlr_quat_continue_frame(mlr_quat *q, size_t f, size_t n_tracks);
 
+/* Intrinsic Euler orders (quat.c): axes (0 = X, 1 = Y, 2 = Z) in the order of mlr_euler_order,
+ * and the sign of each permutation (+1 cyclic, -1 anticyclic). */
+extern const unsigned char mlr_euler_axes[6][3];
+extern const double mlr_euler_parity[6];
+
+/* q = q_i(a0) q_j(a1) q_k(a2) from the cosines and sines of the half-angles, for the order with
+ * axes (i, j, k) and parity par, expanded with e_i e_j = par e_k. */
+static inline void mlr_quat_from_euler_half(double ca, double sa, double cb, double sb, double cc,
+                                            double sc, const unsigned char axes[3], double par,
+                                            mlr_quat *out)
+{
+    double v[3];
+    out->w = ca * cb * cc - par * sa * sb * sc;
+    v[axes[0]] = sa * cb * cc + par * ca * sb * sc;
+    v[axes[1]] = ca * sb * cc - par * sa * cb * sc;
+    v[axes[2]] = ca * cb * sc + par * sa * sb * cc;
+    out->x = v[0];
+    out->y = v[1];
+    out->z = v[2];
+}
+
 #endif

@@ -24,12 +24,10 @@
 
 static const mlr_quat quat_identity = {1.0, 0.0, 0.0, 0.0};
 
-/* Intrinsic orders: axes (0 = X, 1 = Y, 2 = Z) in the order of the enum, and the sign of the
- * permutation (+1 cyclic, -1 anticyclic). */
-static const unsigned char euler_axes[6][3] = {
+const unsigned char mlr_euler_axes[6][3] = {
     {0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0},
 };
-static const double euler_parity[6] = {1.0, -1.0, -1.0, 1.0, 1.0, -1.0};
+const double mlr_euler_parity[6] = {1.0, -1.0, -1.0, 1.0, 1.0, -1.0};
 
 static int quat_is_finite(const mlr_quat *q)
 {
@@ -303,9 +301,8 @@ mlr_status mlr_quat_from_euler_array(const double *angles, size_t count, mlr_eul
         return MLR_OK;
     if (!angles || !out)
         return MLR_E_INVALID_ARG;
-    const unsigned ia = euler_axes[order][0], ja = euler_axes[order][1],
-                   ka = euler_axes[order][2];
-    const double s = euler_parity[order];
+    const unsigned char *axes = mlr_euler_axes[order];
+    const double s = mlr_euler_parity[order];
     mlr_status status = MLR_OK;
     for (size_t n = 0; n < count; n++) {
         const double a0 = angles[3 * n], a1 = angles[3 * n + 1], a2 = angles[3 * n + 2];
@@ -314,19 +311,8 @@ mlr_status mlr_quat_from_euler_array(const double *angles, size_t count, mlr_eul
             status = MLR_E_INVALID_ARG;
             continue;
         }
-        /* q = q_i(a0) q_j(a1) q_k(a2), expanded with e_i e_j = s e_k (s the order's parity). */
-        const double ca = cos(0.5 * a0), sa = sin(0.5 * a0);
-        const double cb = cos(0.5 * a1), sb = sin(0.5 * a1);
-        const double cc = cos(0.5 * a2), sc = sin(0.5 * a2);
-        double v[3];
-        const double w = ca * cb * cc - s * sa * sb * sc;
-        v[ia] = sa * cb * cc + s * ca * sb * sc;
-        v[ja] = ca * sb * cc - s * sa * cb * sc;
-        v[ka] = ca * cb * sc + s * sa * sb * cc;
-        out[n].w = w;
-        out[n].x = v[0];
-        out[n].y = v[1];
-        out[n].z = v[2];
+        mlr_quat_from_euler_half(cos(0.5 * a0), sin(0.5 * a0), cos(0.5 * a1), sin(0.5 * a1),
+                                 cos(0.5 * a2), sin(0.5 * a2), axes, s, &out[n]);
     }
     return status;
 }
@@ -340,9 +326,9 @@ mlr_status mlr_quat_to_euler_array(const mlr_quat *q, size_t count, mlr_euler_or
         return MLR_OK;
     if (!q || !angles)
         return MLR_E_INVALID_ARG;
-    const unsigned ia = euler_axes[order][0], ja = euler_axes[order][1],
-                   ka = euler_axes[order][2];
-    const double s = euler_parity[order];
+    const unsigned ia = mlr_euler_axes[order][0], ja = mlr_euler_axes[order][1],
+                   ka = mlr_euler_axes[order][2];
+    const double s = mlr_euler_parity[order];
     mlr_status status = MLR_OK;
     for (size_t n = 0; n < count; n++) {
         double *out = &angles[3 * n];
@@ -522,8 +508,8 @@ mlr_status mlr_euler_order_parse(const char *name, mlr_euler_order *out)
     if (name[3] != '\0')
         return MLR_E_INVALID_ARG;
     for (int o = 0; o < 6; o++) {
-        if (euler_axes[o][0] == axis[0] && euler_axes[o][1] == axis[1] &&
-            euler_axes[o][2] == axis[2]) {
+        if (mlr_euler_axes[o][0] == axis[0] && mlr_euler_axes[o][1] == axis[1] &&
+            mlr_euler_axes[o][2] == axis[2]) {
             *out = (mlr_euler_order)o;
             return MLR_OK;
         }

@@ -679,6 +679,58 @@ START_TEST(numbers_are_correctly_rounded)
 }
 END_TEST
 
+START_TEST(number_fast_path_boundaries)
+{
+    /* The reader's fast path takes up to 7 integer and 7 fraction digits without exponent when
+     * 18 bytes remain; each token here is read once in the middle of the file and once as the
+     * file's last value (the general path), and must equal strtod bit for bit. */
+    static const char *const tokens[] = {
+        "0", "-0", "+0", "-0.0000000", "0.0000001", "-0.0000001", "5.", "-5.", ".5", "-.5",
+        "+.25", "1234567", "-1234567", "12345678", "123456789", "1234567.1234567",
+        "-9999999.9999999", "9999999.99999999", "1.12345678", "0.12345678901234567",
+        "0.1", "0.2", "0.3", "-224.689499", "0.003093", "-0.000001", "77.536437",
+        "1e5", "1.5E-3", "-2.5e+2", "123456.7e1", "0.1e0", "00000001.5", "0001234567.0000001",
+        "4503599627370497", "9007199254740993", "0.9007199254740993", "1797693.1348623157",
+        "3.0000000000000004", "1.00000000000000011102230246251565",
+    };
+    char text[4096];
+    for (size_t i = 0; i < MLR_COUNTOF(tokens); i++) {
+        int n = snprintf(text, sizeof text,
+                         "HIERARCHY\nROOT r\n{\nOFFSET 0 0 0\nCHANNELS 3 Xposition Yposition "
+                         "Zposition\n}\nMOTION\nFrames: 2\nFrame Time: 1\n%s 1 %s\r\n7 %s\t%s",
+                         tokens[i], tokens[i], tokens[i], tokens[i]);
+        ck_assert(n > 0 && (size_t)n < sizeof text);
+        mlr_motion *m = NULL;
+        mlr_diag d;
+        mlr_status s = mlr_bvh_read_memory(text, (size_t)n, NULL, &m, &d);
+        ck_assert_msg(s == MLR_OK, "'%s': line %zu: %s", tokens[i], d.line, d.message);
+        const double ref = strtod(tokens[i], NULL), *v = mlr_motion_root_pos(m);
+        const int at[4] = {0, 2, 4, 5};
+        for (int k = 0; k < 4; k++)
+            ck_assert_msg(memcmp(&ref, &v[at[k]], sizeof ref) == 0,
+                          "'%s' (value %d): %.17g vs %.17g", tokens[i], at[k], v[at[k]], ref);
+        mlr_motion_destroy(m);
+    }
+    /* not numbers, whatever the path */
+    static const char *const bad[] = {"-", "+", ".", "-.", "1.2.3", "1-", "1e", "1e+", "--1",
+                                      "0x10", "1,5", "nan", "inf", "1.5x"};
+    for (size_t i = 0; i < 2 * MLR_COUNTOF(bad); i++) {
+        const char *b = bad[i / 2];
+        const int last = (int)(i % 2); /* in the middle (fast path), or the file's last value */
+        int n = snprintf(text, sizeof text,
+                         "HIERARCHY\nROOT r\n{\nOFFSET 0 0 0\nCHANNELS 3 Xposition Yposition "
+                         "Zposition\n}\nMOTION\nFrames: 2\nFrame Time: 1\n1 2 3\n1 %s %s",
+                         last ? "2" : b, last ? b : "2                   ");
+        mlr_motion *m = NULL;
+        mlr_diag d;
+        ck_assert_msg(mlr_bvh_read_memory(text, (size_t)n, NULL, &m, &d) == MLR_E_PARSE,
+                      "'%s' was accepted", b);
+        ck_assert_uint_eq(d.line, 11);
+        ck_assert_ptr_null(m);
+    }
+}
+END_TEST
+
 START_TEST(locale_with_decimal_comma)
 {
     const char *names[] = {"de_DE.UTF-8", "de_DE.utf8", "fr_FR.UTF-8", "C.UTF-8"};
@@ -1088,6 +1140,7 @@ static Suite *bvh_suite(void)
     tcase_add_test(syn, small_file_round_trip_keeps_layout);
     tcase_add_test(syn, partial_and_empty_channel_lists);
     tcase_add_test(syn, numbers_are_correctly_rounded);
+    tcase_add_test(syn, number_fast_path_boundaries);
     tcase_add_test(syn, locale_with_decimal_comma);
     tcase_add_test(syn, deep_nesting_needs_no_recursion);
     tcase_add_loop_test(syn, malformed_input_reports_line_and_reason, 0,

@@ -1,8 +1,12 @@
 /* Check suite for libmlayer/quat.c: invariants and small independent references (explicit
  * rotation matrices, Rodrigues' formula, slerp as a * exp(t log(conj(a) b))). */
 #include "mlr_test.h"
+#include "sincosd.h" /* private: the BVH reader's sine and cosine in degrees */
 
+#include <float.h>
 #include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #define PI 3.14159265358979323846
@@ -719,6 +723,119 @@ START_TEST(bad_input_is_rejected)
 }
 END_TEST
 
+/* ---------------------------------------------------------------- sincosd.h (degrees) */
+
+/* Reference in long double: exact reduction by fmodl and remainderl (r in [-45, 45]) and its
+ * quadrant, then sinl / cosl of r in radians with a long double pi. */
+static void sincosd_reference(double x, long double *s, long double *c)
+{
+    const long double y = fmodl((long double)x, 360.0L); /* exact, |y| < 360 */
+    const long double r = remainderl(y, 90.0L);          /* exact */
+    const int q = ((int)((y - r) / 90.0L) + 8) % 4;          /* (y - r) / 90 in -4 .. 4 */
+    const long double t = r * (3.14159265358979323846264338327950288L / 180.0L);
+    const long double sr = sinl(t), cr = cosl(t);
+    switch (q) {
+    case 0: *s = sr, *c = cr; break;
+    case 1: *s = cr, *c = -sr; break;
+    case 2: *s = -sr, *c = -cr; break;
+    default: *s = -cr, *c = sr; break;
+    }
+}
+
+static double ulp_of(long double v)
+{
+    double a = fabs((double)v);
+    return a == 0.0 ? 0x1p-1074 : nextafter(a, INFINITY) - a;
+}
+
+/* A batch of angles: random in several ranges plus edges (multiples of 45 and their
+ * neighbours, zeros, the reduction's limits, huge values). */
+static size_t sincosd_angles(mlr_test_rng *r, size_t batch, double *x, size_t n)
+{
+    static const double edges[] = {0.0, -0.0, 45.0, -45.0, 90.0, -90.0, 135.0, 180.0, -180.0,
+                                   270.0, 360.0, -360.0, 720.0, 22.5, 67.5, 1e-300, -4.9e-324,
+                                   0x1p50, -0x1p50, 0x1p50 - 1.0, 0x1p52 + 2.0, 1e15, 1e17, 1e300,
+                                   -DBL_MAX, 89.999999999999986, 45.000000000000007};
+    size_t k = 0;
+    if (batch == 0)
+        for (; k < MLR_COUNTOF(edges) && k < n; k++)
+            x[k] = edges[k];
+    for (; k < n; k++) {
+        const double u = mlr_test_rng_uniform(r) - 0.5;
+        switch ((batch + k) % 6) {
+        case 0: x[k] = 360.0 * u; break;                                  /* BVH half-angles */
+        case 1: x[k] = 1e6 * u; break;
+        case 2: x[k] = ldexp(u, (int)(mlr_test_rng_u64(r) % 120) - 60); break;
+        case 3: x[k] = 45.0 * (double)((int64_t)(mlr_test_rng_u64(r) % 33) - 16); /* n 45 + tiny */
+                x[k] = nextafter(x[k], (u > 0) ? INFINITY : -INFINITY);
+                if (mlr_test_rng_u64(r) & 1)
+                    x[k] += 1e-9 * u;
+                break;
+        case 4: x[k] = ldexp(u, 30 + (int)(mlr_test_rng_u64(r) % 21)); break; /* to 2^50 */
+        default: x[k] = ldexp(u, 50 + (int)(mlr_test_rng_u64(r) % 900)); break; /* fmod path */
+        }
+    }
+    return n;
+}
+
+START_TEST(sincosd_is_within_two_ulp)
+{
+    /* Against a long double reference: at most 2 ulp (about 1.6 measured; with a long double
+     * no wider than double the reference itself may be 1 ulp off). Against libm's sin/cos of
+     * the angle in radians, for |x| <= 720: within 2 ulp plus what the two roundings of
+     * x * (pi / 180) move libm's own argument (up to |x pi / 180| 2^-52; near the zeros of sin
+     * and cos that is many of their ulps). */
+    const double tol = LDBL_MANT_DIG >= 64 ? 2.0 : 3.0;
+    enum { BATCH = 4096, BATCHES = 512 }; /* 2 million angles */
+    static double x[BATCH], sn[BATCH], cs[BATCH];
+    mlr_test_rng r;
+    mlr_test_rng_seed(&r, 7);
+    double worst = 0.0, worst_x = 0.0, worst_libm = 0.0;
+    for (size_t b = 0; b < BATCHES; b++) {
+        sincosd_angles(&r, b, x, BATCH);
+        mlr_sincosd_array(x, BATCH, sn, cs);
+        for (size_t i = 0; i < BATCH; i++) {
+            long double rs, rc;
+            sincosd_reference(x[i], &rs, &rc);
+            const double es = (double)fabsl((long double)sn[i] - rs) / ulp_of(rs);
+            const double ec = (double)fabsl((long double)cs[i] - rc) / ulp_of(rc);
+            if (es > worst || ec > worst)
+                worst = es > ec ? es : ec, worst_x = x[i];
+            if (fabs(x[i]) <= 720.0) {
+                const double xr = x[i] * (PI / 180.0);
+                const double slack = fabs(xr) * 0x1p-52;
+                const double ds = fabs(sn[i] - sin(xr)), dc = fabs(cs[i] - cos(xr));
+                ck_assert_msg(ds <= 2 * ulp_of(sin(xr)) + slack &&
+                                  dc <= 2 * ulp_of(cos(xr)) + slack,
+                              "x = %.17g: sin %.17g vs libm %.17g, cos %.17g vs %.17g", x[i],
+                              sn[i], sin(xr), cs[i], cos(xr));
+                if (fmax(ds, dc) > worst_libm)
+                    worst_libm = fmax(ds, dc);
+            }
+        }
+    }
+    ck_assert_msg(worst <= tol, "max error %.3f ulp at x = %.17g", worst, worst_x);
+    if (getenv("MLR_TEST_VERBOSE"))
+        printf("sincosd: max %.3f ulp from the long double reference (x = %.17g), at most %.3g "
+               "from libm for |x| <= 720\n", worst, worst_x, worst_libm);
+    /* exact values where they exist */
+    static const double xs[] = {0.0, 90.0, -90.0, 180.0, 270.0, 360.0, -720.0};
+    static const double se[] = {0.0, 1.0, -1.0, 0.0, -1.0, 0.0, 0.0};
+    static const double ce[] = {1.0, 0.0, 0.0, -1.0, 0.0, 1.0, 1.0};
+    double s7[7], c7[7];
+    mlr_sincosd_array(xs, 7, s7, c7);
+    for (int i = 0; i < 7; i++) {
+        ck_assert_msg(s7[i] == se[i] && c7[i] == ce[i], "x = %g: %g %g", xs[i], s7[i], c7[i]);
+    }
+    /* NaN and infinities give NaN */
+    const double bad[3] = {NAN, INFINITY, -INFINITY};
+    double sb[3], cb[3];
+    mlr_sincosd_array(bad, 3, sb, cb);
+    for (int i = 0; i < 3; i++)
+        ck_assert(isnan(sb[i]) && isnan(cb[i]));
+}
+END_TEST
+
 static Suite *quat_suite(void)
 {
     Suite *s = suite_create("quat");
@@ -753,6 +870,11 @@ static Suite *quat_suite(void)
     tcase_add_test(eu, to_euler_scale_and_sign_invariant);
     tcase_add_test(eu, euler_order_parse_names);
     suite_add_tcase(s, eu);
+
+    TCase *deg = tcase_create("sincosd"); /* 2 million angles: slow under the sanitizers */
+    tcase_add_test(deg, sincosd_is_within_two_ulp);
+    tcase_set_timeout(deg, 120);
+    suite_add_tcase(s, deg);
 
     TCase *misc = tcase_create("misc");
     tcase_add_test(misc, make_continuous_flips_per_track);

@@ -37,10 +37,7 @@ def _parse(data, name: str) -> Motion:
         e.reason = reason
         raise e
     check(code, f"mlayer.read_bvh({name})", diag)
-    try:
-        return Motion._from_c(out[0])
-    finally:
-        lib.mlr_motion_destroy(out[0])
+    return Motion._adopt_c(out[0])  # the frames stay in the C block: no copy
 
 
 def read_bvh(path) -> Motion:

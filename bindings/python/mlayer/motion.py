@@ -192,6 +192,25 @@ class Skeleton:
                 f"{self.n_channels} channels, root {self._names[0]!r})")
 
 
+class _CFrames:
+    """A float64 block inside a C motion handle, seen by numpy through the array interface.
+
+    The numpy array keeps this object as its base, and this object keeps ``owner`` (the handle,
+    with ``mlr_motion_destroy`` as its finalizer), so the memory lives as long as any array on
+    it does.
+    """
+
+    __slots__ = ("__array_interface__", "_owner")
+
+    def __init__(self, owner, ptr, shape):
+        self._owner = owner
+        self.__array_interface__ = {"shape": tuple(shape), "typestr": np.dtype(np.float64).str,
+                                    "version": 3, "data": (int(ffi.cast("uintptr_t", ptr)), False)}
+
+    def array(self) -> np.ndarray:
+        return np.asarray(self)
+
+
 def _create_handle(names, parents, offsets, channels, end_parents, end_offsets, n_frames,
                    frame_time) -> _Handle:
     J, E = len(names), end_parents.shape[0]
@@ -472,19 +491,23 @@ class Motion:
         return h
 
     @classmethod
-    def _from_c(cls, h, skeleton: Skeleton | None = None) -> "Motion":
-        """Copy the frames of a C motion handle into a new Motion."""
-        sk = skeleton if skeleton is not None else Skeleton._from_c(h)
+    def _adopt_c(cls, h) -> "Motion":
+        """A new Motion whose frame arrays are the C handle's own memory, with no copy.
+
+        Takes ownership of ``h``: it is destroyed when the last of the arrays (or of the views
+        taken from them) goes away. Used by the readers, where the handle exists only to be
+        turned into a Motion; a copy of the frames would cost more than the conversion.
+        """
+        owner = ffi.gc(h, lib.mlr_motion_destroy)
+        sk = Skeleton._from_c(h)
         N, J, P = (lib.mlr_motion_n_frames(h), sk.n_joints, sk.trans_joints.shape[0])
-        root_pos, rot, trans = np.empty((N, 3)), np.empty((N, J, 4)), np.empty((N, P, 3))
-        if N:
-            ffi.memmove(ffi.from_buffer(root_pos, require_writable=True),
-                        lib.mlr_motion_root_pos(h), root_pos.nbytes)
-            ffi.memmove(ffi.from_buffer(rot, require_writable=True), lib.mlr_motion_rot(h),
-                        rot.nbytes)
-            if P:
-                ffi.memmove(ffi.from_buffer(trans, require_writable=True),
-                            lib.mlr_motion_trans(h), trans.nbytes)
+        if N == 0:
+            return cls(sk, float(lib.mlr_motion_frame_time(h)), np.empty((0, 3)),
+                       np.empty((0, J, 4)), np.empty((0, P, 3)), _trusted=True)
+        root_pos = _CFrames(owner, lib.mlr_motion_root_pos(h), (N, 3)).array()
+        rot = _CFrames(owner, lib.mlr_motion_rot(h), (N, J, 4)).array()
+        trans = (_CFrames(owner, lib.mlr_motion_trans(h), (N, P, 3)).array() if P
+                 else np.empty((N, 0, 3)))
         return cls(sk, float(lib.mlr_motion_frame_time(h)), root_pos, rot, trans,
                    _trusted=True)
 
