@@ -108,16 +108,8 @@ static mlr_status eval_gcv(const mlr_layers *L, mlr_lay_batch *b, const double *
                             "for %zu frames", col[(bad - 1) * m / 3] / 3, s[bad - 1], n);
     mlr_lay_batch_solve(b, m, y, mm, x, mm, w->ebuf);
     mlr_lay_batch_trace(b, w->trace, w->tw);
-    double *restrict acc = w->acc;
-    for (size_t c = 0; c < mm; c++)
-        acc[c] = 0.0;
-    for (size_t i = 0; i < n; i++) {
-        const double *restrict yi = y + i * mm, *restrict xi = x + i * mm;
-        for (size_t c = 0; c < mm; c++) {
-            const double r = yi[c] - xi[c];
-            acc[c] += r * r;
-        }
-    }
+    const double *acc = w->acc;
+    mlr_lay_sum_sq_diff(n, mm, y, x, w->acc);
     const double nd = (double)n;
     for (size_t g = 0; g < ng; g++) {
         const double tr = w->trace[3 * g / m], den = 1.0 - tr / nd;

@@ -63,6 +63,9 @@ size_t mlr_lay_batch_factor(mlr_lay_batch *b, const double *s);
 void mlr_lay_batch_solve(const mlr_lay_batch *b, size_t m, const double *y, size_t ldy,
                          double *x, size_t ldx, double *buf);
 
+/* acc[c] = sum_i (y[i mm + c] - x[i mm + c])^2 over n rows of mm channels. */
+void mlr_lay_sum_sq_diff(size_t n, size_t mm, const double *y, const double *x, double *acc);
+
 /* tr(A_k^-1) for every system by selected inversion over the factor (rolling, O(n ns) at
  * most); work holds 3 ns doubles. */
 void mlr_lay_batch_trace(const mlr_lay_batch *b, double *trace, double *work);
