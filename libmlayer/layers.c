@@ -67,7 +67,7 @@ static mlr_status parse_options(const mlr_layers_option *opts, size_t n_opts,
 /* Sizes (in doubles) of the handle's arrays and of the scratch, overflow-checked. */
 typedef struct sizes {
     size_t pos, rot, grp, param, handle_bytes;
-    size_t q, fac, work, col, scratch_bytes;
+    size_t q, fac, comp, work, col, scratch_bytes;
 } sizes;
 
 static mlr_status compute_sizes(size_t n, size_t j, sizes *z)
@@ -76,10 +76,11 @@ static mlr_status compute_sizes(size_t n, size_t j, sizes *z)
     if (ng == 0 || mlr_mul_size(n, 3, &z->pos) || mlr_mul_size(n, j, &t) ||
         mlr_mul_size(t, 4, &z->rot) || mlr_mul_size(n, ng, &t) || mlr_mul_size(t, 3, &z->grp) ||
         mlr_mul_size(ng, MLR_LAYERS_N_PARAM, &z->param) ||
-        mlr_mul_size(ng, 26, &z->work))
+        mlr_mul_size(ng, MLR_LAYERS_WORK, &z->work))
         return MLR_E_OVERFLOW;
     z->q = z->rot;
     z->fac = z->grp; /* three n x (1 + j) factor arrays */
+    z->comp = z->rot > z->grp ? z->rot : z->grp; /* compacted channels of the searches */
     z->col = ng;
     size_t total = z->pos;
     const size_t parts[] = {z->rot, z->grp, z->grp, z->param};
@@ -92,7 +93,7 @@ static mlr_status compute_sizes(size_t n, size_t j, sizes *z)
         return MLR_E_OVERFLOW;
     z->handle_bytes = t + sizeof(mlr_layers) + 64;
     total = z->q;
-    const size_t sparts[] = {z->fac, z->work, z->col};
+    const size_t sparts[] = {z->fac, z->comp, z->work, z->col};
     for (size_t i = 0; i < MLR_COUNTOF(sparts); i++) {
         if (total > SIZE_MAX - sparts[i])
             return MLR_E_OVERFLOW;
@@ -212,15 +213,15 @@ mlr_status mlr_layers_decompose(size_t n_frames, size_t n_joints, const double *
     L->residual = d, d += z.grp;
     L->param = d;
 
-    double *q = scratch, *fac = q + z.q, *work = fac + z.fac;
+    double *q = scratch, *fac = q + z.q, *comp = fac + z.fac, *work = comp + z.comp;
     size_t *col = (size_t *)(void *)(work + z.work);
 
     st = mlr_layers_prepare_rot(n_frames, n_joints, rot, q, diag);
     if (st == MLR_OK)
-        st = mlr_layers_base(L, &cfg, q, root_pos, fac, work, col, diag);
+        st = mlr_layers_base(L, &cfg, q, root_pos, fac, comp, work, col, diag);
     if (st == MLR_OK) {
         displacements(L, root_pos, q, L->residual, fac);
-        st = mlr_layers_control(L, &cfg, L->residual, fac, work, col, diag);
+        st = mlr_layers_control(L, &cfg, L->residual, fac, comp, work, col, diag);
     }
     if (st == MLR_OK)
         residuals(L, q, L->residual, fac);

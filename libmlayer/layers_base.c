@@ -36,16 +36,17 @@ mlr_status mlr_layers_prepare_rot(size_t n, size_t j, const double *rot_in, doub
     return MLR_OK;
 }
 
-/* Smallest <qb, q>^2 / |qb|^2 over the frames for each system k (joint col[k] / 4). */
-static void min_cos2(size_t n, size_t j, size_t ns, const size_t *col, const double *q,
-                     const double *qb, double *out)
+/* Smallest <qb, q>^2 / |qb|^2 over the frames for each of the ns joints whose 4 channels
+ * are at 4 k of the rows of q (stride ldq) and qb (stride ldb). */
+static void min_cos2(size_t n, size_t ns, const double *q, size_t ldq, const double *qb,
+                     size_t ldb, double *out)
 {
     for (size_t k = 0; k < ns; k++)
         out[k] = 1.0;
     for (size_t i = 0; i < n; i++) {
-        const double *qi = q + i * 4 * j, *bi = qb + i * 4 * j;
+        const double *qi = q + i * ldq, *bi = qb + i * ldb;
         for (size_t k = 0; k < ns; k++) {
-            const double *a = qi + col[k], *b = bi + col[k];
+            const double *a = qi + 4 * k, *b = bi + 4 * k;
             const double d = a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3];
             const double nn = b[0] * b[0] + b[1] * b[1] + b[2] * b[2] + b[3] * b[3];
             const double r = nn > 0.0 ? d * d / nn : 0.0;
@@ -59,20 +60,33 @@ static double angle_of_cos2(double c2)
     return 2.0 * acos(sqrt(c2 < 1.0 ? c2 : 1.0));
 }
 
-/* One batched evaluation: systems k = 0..ns-1 at s[k]; base quaternions (unnormalized) into
- * qb, largest angles into angle. */
+/* One batched evaluation: systems k = 0..ns-1 (joint col[k] / 4) at s[k]; base quaternions
+ * (unnormalized) into L->base_rot, the ns joints packed (row stride 4 ns: the full layout
+ * when every joint is evaluated); largest angles into angle. comp: 4 n ns doubles when some
+ * joint is left out; ebuf: 12 ns doubles. */
 static mlr_status eval_angles(mlr_layers *L, const double *q, mlr_lay_batch *b, const size_t *col,
-                              const double *s, double *angle, double *zero, mlr_diag *diag)
+                              const double *s, double *angle, double *comp, double *ebuf,
+                              mlr_diag *diag)
 {
-    const size_t n = L->n, j = L->j;
+    const size_t n = L->n, j = L->j, ns = b->ns;
     size_t bad = mlr_lay_batch_factor(b, s);
     if (bad)
         return mlr_diag_set(diag, MLR_E_SINGULAR, 0, 0,
                             "base smoothing of joint %zu failed at s = %g: s is too large for "
                             "%zu frames", col[bad - 1] / 4, s[bad - 1], n);
-    mlr_lay_batch_solve(b, col, 4, q, 4 * j, L->base_rot, 4 * j, zero);
-    min_cos2(n, j, b->ns, col, q, L->base_rot, angle);
-    for (size_t k = 0; k < b->ns; k++)
+    const double *y = q;
+    if (ns < j) {
+        for (size_t i = 0; i < n; i++) {
+            const double *qi = q + i * 4 * j;
+            double *ci = comp + i * 4 * ns;
+            for (size_t k = 0; k < ns; k++)
+                memcpy(ci + 4 * k, qi + col[k], 4 * sizeof(double));
+        }
+        y = comp;
+    }
+    mlr_lay_batch_solve(b, 4, y, 4 * ns, L->base_rot, 4 * ns, ebuf);
+    min_cos2(n, ns, y, 4 * ns, L->base_rot, 4 * ns, angle);
+    for (size_t k = 0; k < ns; k++)
         angle[k] = angle_of_cos2(angle[k]);
     return MLR_OK;
 }
@@ -83,16 +97,17 @@ static double h_of(double angle, double gamma)
 }
 
 mlr_status mlr_layers_base(mlr_layers *L, const mlr_layers_cfg *cfg, const double *q,
-                           const double *root_pos, double *fac, double *work, size_t *col,
-                           mlr_diag *diag)
+                           const double *root_pos, double *fac, double *comp, double *work,
+                           size_t *col, mlr_diag *diag)
 {
     const size_t n = L->n, j = L->j;
-    mlr_lay_batch b = {n, j, fac, fac + n * j, fac + 2 * n * j};
+    mlr_lay_batch b = {n, j, n, fac, fac + n * j, fac + 2 * n * j};
     /* per system k (packed): s, angle; per joint: the rest */
     double *s = work, *angle = work + j, *s_best = work + 2 * j;
     double *u_lo = work + 3 * j, *u_hi = work + 4 * j, *h_lo = work + 5 * j, *h_hi = work + 6 * j;
     double *side = work + 7 * j; /* -1 the ok end moved last, +1 the broken end, 0 none */
-    double *zero = work + 8 * j;  /* 5 j doubles for the solves */
+    double *ebuf = work + 8 * j;  /* 12 j doubles for the solves */
+    int fresh = 0; /* L->base_rot holds every joint's solution at s_best (full layout) */
     mlr_status rc;
 
     for (size_t k = 0; k < j; k++)
@@ -107,9 +122,12 @@ mlr_status mlr_layers_base(mlr_layers *L, const mlr_layers_cfg *cfg, const doubl
         /* the strongest setting first: joints within the bound there are done */
         for (size_t k = 0; k < j; k++)
             s[k] = cfg->base_s_max;
-        if (eval_angles(L, q, &b, col, s, angle, zero, NULL) < 0) /* s_max too large for n */
+        if (eval_angles(L, q, &b, col, s, angle, comp, ebuf, NULL) < 0) { /* s_max too large */
             for (size_t k = 0; k < j; k++)
                 angle[k] = INFINITY;
+        } else {
+            fresh = 1;
+        }
         size_t na = 0;
         for (size_t k = 0; k < j; k++) {
             s_best[k] = cfg->base_s_max;
@@ -123,8 +141,11 @@ mlr_status mlr_layers_base(mlr_layers *L, const mlr_layers_cfg *cfg, const doubl
         b.ns = na;
         for (size_t k = 0; k < na; k++)
             s[k] = cfg->base_s_min;
-        if (na > 0 && (rc = eval_angles(L, q, &b, col, s, angle, zero, diag)) < 0)
-            return rc;
+        if (na > 0) {
+            fresh = 0;
+            if ((rc = eval_angles(L, q, &b, col, s, angle, comp, ebuf, diag)) < 0)
+                return rc;
+        }
         size_t nb = 0;
         for (size_t k = 0; k < na; k++) {
             const size_t jj = col[k] / 4;
@@ -151,7 +172,7 @@ mlr_status mlr_layers_base(mlr_layers *L, const mlr_layers_cfg *cfg, const doubl
                     u = c - margin;
                 s[k] = exp(u);
             }
-            if ((rc = eval_angles(L, q, &b, col, s, angle, zero, diag)) < 0)
+            if ((rc = eval_angles(L, q, &b, col, s, angle, comp, ebuf, diag)) < 0)
                 return rc;
             size_t nn = 0;
             for (size_t k = 0; k < nb; k++) {
@@ -182,7 +203,7 @@ mlr_status mlr_layers_base(mlr_layers *L, const mlr_layers_cfg *cfg, const doubl
     b.ns = j;
     for (size_t k = 0; k < j; k++)
         col[k] = 4 * k;
-    if ((rc = eval_angles(L, q, &b, col, s_best, angle, zero, diag)) < 0)
+    if (!fresh && (rc = eval_angles(L, q, &b, col, s_best, angle, comp, ebuf, diag)) < 0)
         return rc;
     for (size_t k = 0; k < j; k++) {
         const double sk = s_best[k], kk = sqrt(sqrt(100.0 * sk));
@@ -218,6 +239,6 @@ mlr_status mlr_layers_base(mlr_layers *L, const mlr_layers_cfg *cfg, const doubl
     if (mlr_lay_batch_factor(&b, &s0))
         return mlr_diag_set(diag, MLR_E_SINGULAR, 0, 0,
                             "base smoothing of the root translation failed at s = %g", s0);
-    mlr_lay_batch_solve(&b, col, 3, root_pos, 3, L->base_pos, 3, zero);
+    mlr_lay_batch_solve(&b, 3, root_pos, 3, L->base_pos, 3, ebuf);
     return MLR_OK;
 }

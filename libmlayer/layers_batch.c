@@ -1,9 +1,17 @@
 /*
  * Batched smoothing systems of the layers: A_k = I + s_k L^T L for many k at once (one per
  * joint or per displacement group, each with its own s). The LDL^T recurrences follow band.c
- * (mlr_band_factor_in_place, the selected inversion of mlr_band_inverse_diagonal); here they
- * run over the systems in the innermost loop, which the compiler vectorizes, instead of one
+ * (mlr_band_ldl2_row, the selected inversion of mlr_band_inverse_diagonal); here they run over
+ * the systems in the innermost loop, which the compiler vectorizes, instead of one
  * latency-bound chain per system.
+ *
+ * Away from the ends the factor of a Toeplitz-like SPD matrix converges geometrically to a
+ * fixed point of its recurrence (within a number of rows that grows like s^(1/4)). Once a row
+ * equals its predecessor to rounding (with the same inputs) every later interior row is that
+ * same row, so the factor stores only the rows up to there plus the last two: the same factor
+ * to rounding, and O(1) rows per system for a moderate s whatever n. The selected inversion
+ * skips the constant stretch the same way once its state stops changing, and the sweeps use
+ * one per-channel coefficient row for the whole interior.
  */
 #include "layers_internal.h"
 
@@ -21,41 +29,84 @@ static void ltl_row(size_t n, size_t i, double *d0, double *d1, double *d2)
     *d2 = i >= 2 ? mlr_lgs_ltl_entry(n, 2, i, i - 2) : 0.0;
 }
 
+/* Factor row i of every system into storage row r from storage rows p1 (row i-1) and p2
+ * (row i-2). */
+static void factor_row(mlr_lay_batch *b, const double *restrict s, size_t i, size_t r,
+                       size_t p1, size_t p2)
+{
+    const size_t ns = b->ns;
+    double c0, c1, c2;
+    ltl_row(b->n, i, &c0, &c1, &c2);
+    double *restrict di = b->dinv + r * ns, *restrict l1 = b->l1 + r * ns;
+    double *restrict l2 = b->l2 + r * ns;
+    if (i == 0) {
+        for (size_t k = 0; k < ns; k++) {
+            l1[k] = l2[k] = 0.0;
+            di[k] = 1.0 / (1.0 + s[k] * c0);
+        }
+    } else if (i == 1) {
+        const double *restrict dp = b->dinv + p1 * ns;
+        for (size_t k = 0; k < ns; k++) {
+            const double a1 = s[k] * c1;
+            l2[k] = 0.0;
+            l1[k] = a1 * dp[k];
+            di[k] = 1.0 / (1.0 + s[k] * c0 - l1[k] * a1);
+        }
+    } else {
+        const double *restrict dp = b->dinv + p1 * ns, *restrict dpp = b->dinv + p2 * ns;
+        const double *restrict l1p = b->l1 + p1 * ns;
+        for (size_t k = 0; k < ns; k++) {
+            const double a2 = s[k] * c2, a1 = s[k] * c1 - a2 * l1p[k];
+            l2[k] = a2 * dpp[k];
+            l1[k] = a1 * dp[k];
+            di[k] = 1.0 / (1.0 + s[k] * c0 - l2[k] * a2 - l1[k] * a1);
+        }
+    }
+}
+
+/* Two values of a converging recurrence equal to rounding (a fixed point in exact arithmetic
+ * may show as a cycle of an ulp or two in floating point). */
+#define MLR_LAY_SAME 6e-16
+static inline int differs(double a, double b)
+{
+    return fabs(a - b) > MLR_LAY_SAME * fabs(b);
+}
+
+/* Row i equals row i-1 and row i-1's inputs equal row i's: the recurrence is at its fixed
+ * point. */
+static int row_repeats(const mlr_lay_batch *b, size_t i)
+{
+    const size_t ns = b->ns;
+    const double *d0 = b->dinv + i * ns, *d1 = d0 - ns, *d2 = d1 - ns;
+    const double *a0 = b->l1 + i * ns, *a1 = a0 - ns;
+    int diff = 0;
+    for (size_t k = 0; k < ns; k++)
+        diff |= differs(d0[k], d1[k]) | differs(d1[k], d2[k]) | differs(a0[k], a1[k]);
+    return !diff;
+}
+
 size_t mlr_lay_batch_factor(mlr_lay_batch *b, const double *s)
 {
     const size_t n = b->n, ns = b->ns;
+    b->k = n;
     for (size_t i = 0; i < n; i++) {
-        double c0, c1, c2;
-        ltl_row(n, i, &c0, &c1, &c2);
-        double *restrict di = b->dinv + i * ns, *restrict l1 = b->l1 + i * ns;
-        double *restrict l2 = b->l2 + i * ns;
-        if (i == 0) {
-            for (size_t k = 0; k < ns; k++) {
-                l1[k] = l2[k] = 0.0;
-                di[k] = 1.0 / (1.0 + s[k] * c0);
-            }
-        } else if (i == 1) {
-            const double *restrict dp = b->dinv;
-            for (size_t k = 0; k < ns; k++) {
-                const double a1 = s[k] * c1;
-                l2[k] = 0.0;
-                l1[k] = a1 * dp[k];
-                di[k] = 1.0 / (1.0 + s[k] * c0 - l1[k] * a1);
-            }
-        } else {
-            const double *restrict dp = b->dinv + (i - 1) * ns, *restrict dpp = b->dinv + (i - 2) * ns;
-            const double *restrict l1p = b->l1 + (i - 1) * ns;
-            for (size_t k = 0; k < ns; k++) {
-                const double a2 = s[k] * c2, a1 = s[k] * c1 - a2 * l1p[k];
-                l2[k] = a2 * dpp[k];
-                l1[k] = a1 * dp[k];
-                di[k] = 1.0 / (1.0 + s[k] * c0 - l2[k] * a2 - l1[k] * a1);
-            }
+        factor_row(b, s, i, i, i >= 1 ? i - 1 : 0, i >= 2 ? i - 2 : 0);
+        /* rows i+1 .. n-3 are interior rows with the inputs of row i: all equal row i */
+        if (i >= 4 && i + 4 <= n && row_repeats(b, i)) {
+            b->k = i + 1;
+            break;
         }
     }
+    size_t stored = n;
+    if (b->k < n) { /* rows n-2, n-1 after the constant stretch, stored at k, k+1 */
+        const size_t k = b->k;
+        factor_row(b, s, n - 2, k, k - 1, k - 1);
+        factor_row(b, s, n - 1, k + 1, k, k - 1);
+        stored = k + 2;
+    }
     /* I + s L^T L is SPD: a pivot that is not positive and finite is rounding at a huge s */
-    for (size_t i = 0; i < n; i++) {
-        const double *di = b->dinv + i * ns;
+    for (size_t r = 0; r < stored; r++) {
+        const double *di = b->dinv + r * ns;
         int bad = 0;
         for (size_t k = 0; k < ns; k++)
             bad |= !(di[k] > 0.0 && di[k] < INFINITY);
@@ -67,62 +118,142 @@ size_t mlr_lay_batch_factor(mlr_lay_batch *b, const double *s)
     return 0;
 }
 
-/* The sweeps with the channel count fixed at compile time (3 or 4) so the inner loops unroll;
- * the first and last two rows (fewer neighbours) use zero coefficients on a guard row. */
-static inline void forward_row(size_t ns, const size_t *restrict col, const size_t m,
-                               const double *restrict l1, const double *restrict l2,
-                               const double *restrict yi, double *restrict xi,
-                               const double *restrict x1, const double *restrict x2)
+/* Row kernels. Group form: system k scales its m channels [k m, (k+1) m) by its coefficient
+ * (m fixed at compile time by the callers, so the inner loop unrolls); channel form: one
+ * coefficient per channel (the constant interior, expanded once). */
+static inline void fwd_groups(size_t ns, const size_t m, const double *restrict l1,
+                              const double *restrict l2, const double *restrict yi,
+                              double *restrict xi, const double *restrict x1,
+                              const double *restrict x2)
 {
     for (size_t k = 0; k < ns; k++) {
-        const size_t c0 = col[k];
         const double a1 = l1[k], a2 = l2[k];
-        for (size_t c = 0; c < m; c++)
-            xi[c0 + c] = yi[c0 + c] - a1 * x1[c0 + c] - a2 * x2[c0 + c];
+        for (size_t c = k * m; c < k * m + m; c++)
+            xi[c] = yi[c] - (a1 * x1[c] + a2 * x2[c]);
     }
 }
 
-static inline void backward_row(size_t ns, const size_t *restrict col, const size_t m,
-                                const double *restrict di, const double *restrict l1,
-                                const double *restrict l2, double *restrict xi,
+static inline void bwd_groups(size_t ns, const size_t m, const double *restrict di,
+                              const double *restrict l1, const double *restrict l2,
+                              double *restrict xi, const double *restrict x1,
+                              const double *restrict x2)
+{
+    for (size_t k = 0; k < ns; k++) {
+        const double d = di[k], a1 = l1[k], a2 = l2[k];
+        for (size_t c = k * m; c < k * m + m; c++)
+            xi[c] = xi[c] * d - (a1 * x1[c] + a2 * x2[c]);
+    }
+}
+
+static inline void fwd_channels(size_t mm, const double *restrict e1, const double *restrict e2,
+                                const double *restrict yi, double *restrict xi,
                                 const double *restrict x1, const double *restrict x2)
 {
-    for (size_t k = 0; k < ns; k++) {
-        const size_t c0 = col[k];
-        const double d = di[k], a1 = l1[k], a2 = l2[k];
-        for (size_t c = 0; c < m; c++)
-            xi[c0 + c] = xi[c0 + c] * d - a1 * x1[c0 + c] - a2 * x2[c0 + c];
+    for (size_t c = 0; c < mm; c++)
+        xi[c] = yi[c] - (e1[c] * x1[c] + e2[c] * x2[c]);
+}
+
+static inline void bwd_channels(size_t mm, const double *restrict ed, const double *restrict e1,
+                                const double *restrict e2, double *restrict xi,
+                                const double *restrict x1, const double *restrict x2)
+{
+    for (size_t c = 0; c < mm; c++)
+        xi[c] = xi[c] * ed[c] - (e1[c] * x1[c] + e2[c] * x2[c]);
+}
+
+#if defined(__GNUC__)
+__attribute__((always_inline))
+#endif
+static inline void solve_m(const mlr_lay_batch *b, const size_t m, const double *y, size_t ldy,
+                           double *x, size_t ldx, double *buf)
+{
+    const size_t n = b->n, ns = b->ns, mm = m * ns, kc = b->k - 1;
+    const double *l1 = b->l1, *l2 = b->l2, *dv = b->dinv;
+    /* the constant interior row, one coefficient per channel */
+    double *e1 = buf, *e2 = buf + mm, *ed = buf + 2 * mm;
+    const int conv = b->k < n;
+    if (conv) {
+        for (size_t k = 0; k < ns; k++) {
+            for (size_t c = k * m; c < k * m + m; c++) {
+                e1[c] = l1[kc * ns + k];
+                e2[c] = l2[kc * ns + k];
+                ed[c] = dv[kc * ns + k];
+            }
+        }
+    }
+    memcpy(x, y, mm * sizeof(double));
+    {
+        const double *y1 = y + ldy, *x0 = x;
+        double *x1 = x + ldx;
+        const double *a = l1 + ns;
+        for (size_t k = 0; k < ns; k++)
+            for (size_t c = k * m; c < k * m + m; c++)
+                x1[c] = y1[c] - a[k] * x0[c];
+    }
+    for (size_t i = 2; i < n; i++) {
+        const size_t r = mlr_lay_row(b, i);
+        double *xi = x + i * ldx;
+        if (conv && r == kc)
+            fwd_channels(mm, e1, e2, y + i * ldy, xi, xi - ldx, xi - 2 * ldx);
+        else
+            fwd_groups(ns, m, l1 + r * ns, l2 + r * ns, y + i * ldy, xi, xi - ldx, xi - 2 * ldx);
+    }
+    {
+        double *xl = x + (n - 1) * ldx;
+        const double *d = dv + mlr_lay_row(b, n - 1) * ns;
+        for (size_t k = 0; k < ns; k++)
+            for (size_t c = k * m; c < k * m + m; c++)
+                xl[c] *= d[k];
+        double *xp = x + (n - 2) * ldx;
+        const double *d2 = dv + mlr_lay_row(b, n - 2) * ns, *a = l1 + mlr_lay_row(b, n - 1) * ns;
+        for (size_t k = 0; k < ns; k++)
+            for (size_t c = k * m; c < k * m + m; c++)
+                xp[c] = xp[c] * d2[k] - a[k] * xl[c];
+    }
+    for (size_t i = n - 2; i-- > 0;) {
+        const size_t r0 = mlr_lay_row(b, i), r1 = mlr_lay_row(b, i + 1), r2 = mlr_lay_row(b, i + 2);
+        double *xi = x + i * ldx;
+        if (conv && r0 == kc && r1 == kc && r2 == kc)
+            bwd_channels(mm, ed, e1, e2, xi, xi + ldx, xi + 2 * ldx);
+        else
+            bwd_groups(ns, m, dv + r0 * ns, l1 + r1 * ns, l2 + r2 * ns, xi, xi + ldx, xi + 2 * ldx);
     }
 }
 
-static inline void solve_m(const mlr_lay_batch *b, const size_t *col, const size_t m,
-                           const double *y, size_t ldy, double *x, size_t ldx, double *zero)
-{
-    const size_t n = b->n, ns = b->ns;
-    /* zero: ns coefficients and one row of ldx values, all zero */
-    const double *zrow = zero + ns;
-    for (size_t i = 0; i < n; i++) {
-        const double *l1 = i >= 1 ? b->l1 + i * ns : zero, *l2 = i >= 2 ? b->l2 + i * ns : zero;
-        const double *x1 = i >= 1 ? x + (i - 1) * ldx : zrow, *x2 = i >= 2 ? x + (i - 2) * ldx : zrow;
-        forward_row(ns, col, m, l1, l2, y + i * ldy, x + i * ldx, x1, x2);
-    }
-    for (size_t i = n; i-- > 0;) {
-        const double *l1 = i + 1 < n ? b->l1 + (i + 1) * ns : zero;
-        const double *l2 = i + 2 < n ? b->l2 + (i + 2) * ns : zero;
-        const double *x1 = i + 1 < n ? x + (i + 1) * ldx : zrow;
-        const double *x2 = i + 2 < n ? x + (i + 2) * ldx : zrow;
-        backward_row(ns, col, m, b->dinv + i * ns, l1, l2, x + i * ldx, x1, x2);
-    }
-}
+/* The sweeps are the bulk of a decomposition; with GCC on x86-64 they get an AVX2 clone
+ * chosen at load time (the build itself assumes only the baseline ISA). */
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__) && \
+    !defined(__SANITIZE_ADDRESS__)
+#define MLR_LAY_CLONES __attribute__((target_clones("avx2", "default")))
+#else
+#define MLR_LAY_CLONES
+#endif
 
-void mlr_lay_batch_solve(const mlr_lay_batch *b, const size_t *col, size_t m, const double *y,
-                         size_t ldy, double *x, size_t ldx, double *zero)
+MLR_LAY_CLONES
+void mlr_lay_batch_solve(const mlr_lay_batch *b, size_t m, const double *y, size_t ldy,
+                         double *x, size_t ldx, double *buf)
 {
-    memset(zero, 0, (b->ns + ldx) * sizeof(double));
-    if (m == 4)
-        solve_m(b, col, 4, y, ldy, x, ldx, zero);
+    if (m == 3)
+        solve_m(b, 3, y, ldy, x, ldx, buf);
+    else if (m == 4)
+        solve_m(b, 4, y, ldy, x, ldx, buf);
     else
-        solve_m(b, col, 3, y, ldy, x, ldx, zero);
+        solve_m(b, m, y, ldy, x, ldx, buf);
+}
+
+MLR_LAY_CLONES
+void mlr_lay_sum_sq_diff(size_t n, size_t mm, const double *y, const double *x, double *acc)
+{
+    for (size_t c = 0; c < mm; c++)
+        acc[c] = 0.0;
+    for (size_t i = 0; i < n; i++) {
+        const double *restrict yi = y + i * mm, *restrict xi = x + i * mm;
+        double *restrict a = acc;
+        for (size_t c = 0; c < mm; c++) {
+            const double r = yi[c] - xi[c];
+            a[c] += r * r;
+        }
+    }
 }
 
 /*
@@ -130,12 +261,14 @@ void mlr_lay_batch_solve(const mlr_lay_batch *b, const size_t *col, size_t m, co
  *   Z(i, i+1) = -L(i+1,i) Z(i+1,i+1) - L(i+2,i) Z(i+2,i+1)
  *   Z(i, i+2) = -L(i+1,i) Z(i+1,i+2) - L(i+2,i) Z(i+2,i+2)
  *   Z(i, i)   = 1/D(i) - L(i+1,i) Z(i,i+1) - L(i+2,i) Z(i,i+2)
+ * In the constant interior, once the state repeats bit for bit, the rows down to the start
+ * of that stretch each add the same Z(i, i).
  */
 void mlr_lay_batch_trace(const mlr_lay_batch *b, double *trace, double *work)
 {
-    const size_t n = b->n, ns = b->ns;
+    const size_t n = b->n, ns = b->ns, kc = b->k - 1;
     double *restrict za = work, *restrict zb = work + ns, *restrict zc = work + 2 * ns;
-    const double *dl = b->dinv + (n - 1) * ns;
+    const double *dl = b->dinv + mlr_lay_row(b, n - 1) * ns;
     for (size_t k = 0; k < ns; k++) {
         za[k] = dl[k]; /* Z(i+1, i+1) */
         zb[k] = 0.0;   /* Z(i+1, i+2) */
@@ -143,17 +276,27 @@ void mlr_lay_batch_trace(const mlr_lay_batch *b, double *trace, double *work)
         trace[k] = dl[k];
     }
     for (size_t i = n - 1; i-- > 0;) {
-        const double *restrict di = b->dinv + i * ns, *restrict l1 = b->l1 + (i + 1) * ns;
-        const double *restrict l2 = i + 2 < n ? b->l2 + (i + 2) * ns : NULL;
+        const size_t r0 = mlr_lay_row(b, i), r1 = mlr_lay_row(b, i + 1);
+        const double *restrict di = b->dinv + r0 * ns, *restrict l1 = b->l1 + r1 * ns;
+        const double *restrict l2 = i + 2 < n ? b->l2 + mlr_lay_row(b, i + 2) * ns : NULL;
+        int moved = 0;
         for (size_t k = 0; k < ns; k++) {
             const double a1 = l1[k], a2 = l2 ? l2[k] : 0.0;
             const double z01 = -a1 * za[k] - a2 * zb[k];
             const double z02 = -a1 * zb[k] - a2 * zc[k];
             const double z00 = di[k] - a1 * z01 - a2 * z02;
+            moved |= differs(z00, za[k]) | differs(z01, zb[k]) | differs(za[k], zc[k]);
             zc[k] = za[k];
             zb[k] = z01;
             za[k] = z00;
             trace[k] += z00;
+        }
+        /* rows i-1 .. kc have the factor rows of row i: the same update, the same Z(i, i) */
+        if (!moved && b->k < n && i > kc && i + 2 <= n - 3) {
+            const double rows = (double)(i - kc);
+            for (size_t k = 0; k < ns; k++)
+                trace[k] += rows * za[k];
+            i = kc;
         }
     }
 }

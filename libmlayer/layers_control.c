@@ -85,47 +85,64 @@ static void brent_update(brent *br, double fu)
     }
 }
 
-/* Batched evaluation for systems k (group col[k] / 3) at s[k]: the solution into L->control,
- * GCV and tr(H) per system. */
-static mlr_status eval_gcv(mlr_layers *L, const double *delta, mlr_lay_batch *b,
-                           const size_t *col, const double *s, double *gcv, double *dof,
-                           double *work, double *zero, mlr_diag *diag)
+/* Work of one GCV evaluation. */
+typedef struct gcv_work {
+    double *trace, *tw, *acc, *ebuf; /* ng, 3 ng, 3 ng, 9 ng doubles */
+} gcv_work;
+
+/*
+ * Batched evaluation of ng groups of 3 channels, the rows of y (stride 3 ng, groups packed)
+ * smoothed into x (same stride): b->ns systems at s[k], each owning 3 ng / ns channels (one
+ * system for all groups on the shared grid, or one per group). GCV and tr(H) per group; col
+ * names the groups for messages.
+ */
+static mlr_status eval_gcv(const mlr_layers *L, mlr_lay_batch *b, const double *s, size_t ng,
+                           const size_t *col, const double *y, double *x, double *gcv,
+                           double *dof, const gcv_work *w, mlr_diag *diag)
 {
-    const size_t n = L->n, ld = 3 * (1 + L->j), ns = b->ns;
+    const size_t n = L->n, ns = b->ns, mm = 3 * ng, m = mm / ns;
     size_t bad = mlr_lay_batch_factor(b, s);
     if (bad)
         return mlr_diag_set(diag, MLR_E_SINGULAR, 0, 0,
                             "control smoothing of group %zu failed at s = %g: s is too large "
-                            "for %zu frames", col[bad - 1] / 3, s[bad - 1], n);
-    mlr_lay_batch_solve(b, col, 3, delta, ld, L->control, ld, zero);
-    mlr_lay_batch_trace(b, dof, work);
-    for (size_t k = 0; k < ns; k++)
-        gcv[k] = 0.0;
-    for (size_t i = 0; i < n; i++) {
-        const double *y = delta + i * ld, *x = L->control + i * ld;
-        for (size_t k = 0; k < ns; k++) {
-            const size_t c = col[k];
-            const double r0 = y[c] - x[c], r1 = y[c + 1] - x[c + 1], r2 = y[c + 2] - x[c + 2];
-            gcv[k] += r0 * r0 + r1 * r1 + r2 * r2;
-        }
-    }
+                            "for %zu frames", col[(bad - 1) * m / 3] / 3, s[bad - 1], n);
+    mlr_lay_batch_solve(b, m, y, mm, x, mm, w->ebuf);
+    mlr_lay_batch_trace(b, w->trace, w->tw);
+    const double *acc = w->acc;
+    mlr_lay_sum_sq_diff(n, mm, y, x, w->acc);
     const double nd = (double)n;
-    for (size_t k = 0; k < ns; k++) {
-        const double den = 1.0 - dof[k] / nd;
-        gcv[k] = den > 0.0 ? gcv[k] / (3.0 * nd) / (den * den) : INFINITY;
+    for (size_t g = 0; g < ng; g++) {
+        const double tr = w->trace[3 * g / m], den = 1.0 - tr / nd;
+        const double rss = acc[3 * g] + acc[3 * g + 1] + acc[3 * g + 2];
+        dof[g] = tr;
+        gcv[g] = den > 0.0 ? rss / (3.0 * nd) / (den * den) : INFINITY;
     }
     return MLR_OK;
 }
 
+/* The groups col[0..na) of delta (row stride 3 ng_all) packed into comp (row stride 3 na). */
+static void gather(size_t n, size_t ng_all, const double *delta, const size_t *col, size_t na,
+                   double *comp)
+{
+    for (size_t i = 0; i < n; i++) {
+        const double *di = delta + i * 3 * ng_all;
+        double *ci = comp + i * 3 * na;
+        for (size_t k = 0; k < na; k++)
+            memcpy(ci + 3 * k, di + col[k], 3 * sizeof(double));
+    }
+}
+
 mlr_status mlr_layers_control(mlr_layers *L, const mlr_layers_cfg *cfg, const double *delta,
-                              double *fac, double *work, size_t *col, mlr_diag *diag)
+                              double *fac, double *comp, double *work, size_t *col,
+                              mlr_diag *diag)
 {
     const size_t n = L->n, ng = 1 + L->j, ld = 3 * ng;
-    mlr_lay_batch b = {n, ng, fac, fac + n * ng, fac + 2 * n * ng};
-    double *s = work, *gcv = work + ng, *dof = work + 2 * ng, *tw = work + 3 * ng;
-    double *s_best = work + 6 * ng, *searched = work + 7 * ng;
-    brent *br = (brent *)(void *)(work + 8 * ng); /* 11 ng doubles */
-    double *zero = work + 19 * ng;                 /* 4 ng doubles for the solves */
+    mlr_lay_batch b = {n, ng, n, fac, fac + n * ng, fac + 2 * n * ng};
+    double *s = work, *gcv = work + ng, *dof = work + 2 * ng;
+    double *s_best = work + 3 * ng, *searched = work + 4 * ng;
+    brent *br = (brent *)(void *)(work + 5 * ng); /* 11 ng doubles */
+    const gcv_work w = {work + 16 * ng, work + 17 * ng, work + 20 * ng, work + 23 * ng};
+    double *x = L->control; /* packed solutions during the search; the layer at the end */
     mlr_status rc;
 
     for (size_t g = 0; g < ng; g++)
@@ -148,18 +165,24 @@ mlr_status mlr_layers_control(mlr_layers *L, const mlr_layers_cfg *cfg, const do
                 searched[g] = 1.0;
             }
         }
-        /* the shared grid */
+        /* the groups searched, packed (delta itself when every group is) */
+        size_t packed = na;
+        const double *y = delta;
+        if (na > 0 && na < ng) {
+            gather(n, ng, delta, col, na, comp);
+            y = comp;
+        }
+        /* the shared grid: one system for every group */
         const double u0 = log(cfg->control_s_min), u1 = log(cfg->control_s_max);
         size_t n_grid = (size_t)ceil((u1 - u0) / GCV_GRID_STEP - 1e-9) + 1;
         if (n_grid < 2)
             n_grid = 2;
         const double step = (u1 - u0) / (double)(n_grid - 1);
-        b.ns = na;
+        b.ns = 1;
         for (size_t p = 0; p < n_grid && na > 0; p++) {
             const double u = p + 1 == n_grid ? u1 : u0 + step * (double)p;
-            for (size_t k = 0; k < na; k++)
-                s[k] = exp(u);
-            if ((rc = eval_gcv(L, delta, &b, col, s, gcv, dof, tw, zero, diag)) < 0)
+            s[0] = exp(u);
+            if ((rc = eval_gcv(L, &b, s, na, col, y, x, gcv, dof, &w, diag)) < 0)
                 return rc;
             for (size_t k = 0; k < na; k++) {
                 brent *r = &br[col[k] / 3];
@@ -178,7 +201,7 @@ mlr_status mlr_layers_control(mlr_layers *L, const mlr_layers_cfg *cfg, const do
             r->fw = r->fv = r->fx;
             r->d = r->e = 0.0;
         }
-        /* Brent in lockstep */
+        /* Brent in lockstep, one system per group */
         for (int it = 0; na > 0 && it < GCV_MAX_STEPS; it++) {
             size_t nb = 0;
             for (size_t k = 0; k < na; k++) {
@@ -191,7 +214,12 @@ mlr_status mlr_layers_control(mlr_layers *L, const mlr_layers_cfg *cfg, const do
             na = b.ns = nb;
             if (na == 0)
                 break;
-            if ((rc = eval_gcv(L, delta, &b, col, s, gcv, dof, tw, zero, diag)) < 0)
+            if (na != packed) {
+                gather(n, ng, delta, col, na, comp);
+                y = comp;
+                packed = na;
+            }
+            if ((rc = eval_gcv(L, &b, s, na, col, y, x, gcv, dof, &w, diag)) < 0)
                 return rc;
             for (size_t k = 0; k < na; k++)
                 brent_update(&br[col[k] / 3], gcv[k]);
@@ -205,7 +233,7 @@ mlr_status mlr_layers_control(mlr_layers *L, const mlr_layers_cfg *cfg, const do
     b.ns = ng;
     for (size_t g = 0; g < ng; g++)
         col[g] = 3 * g;
-    if ((rc = eval_gcv(L, delta, &b, col, s_best, gcv, dof, tw, zero, diag)) < 0)
+    if ((rc = eval_gcv(L, &b, s_best, ng, col, delta, x, gcv, dof, &w, diag)) < 0)
         return rc;
     for (size_t g = 0; g < ng; g++) {
         const double sg = s_best[g], k = sqrt(sqrt(sg));

@@ -8,6 +8,9 @@
 /* Number of values per group in the parameter table (mlr_layers_param). */
 #define MLR_LAYERS_N_PARAM 9
 
+/* Work doubles per group of the stages (see mlr_layers_base, mlr_layers_control). */
+#define MLR_LAYERS_WORK 40
+
 struct mlr_layers {
     mlr_allocator alloc;
     size_t n, j;         /* frames, joints */
@@ -32,26 +35,39 @@ typedef struct mlr_layers_cfg {
  * Batched LDL^T of ns pentadiagonal systems A_k = I + s_k L^T L (L the n-row second
  * difference, n >= 3), factored and swept together: the recurrences of one system are
  * latency-bound, those of different systems are independent, so the loops run over systems
- * innermost. Factor arrays are n x ns, entry [i * ns + k]: dinv = 1 / D(i), l1 = L(i, i-1),
- * l2 = L(i, i-2) of system k.
+ * innermost. Factor arrays hold up to n rows of ns values, entry [r * ns + k]: dinv = 1 / D,
+ * l1 = L(i, i-1), l2 = L(i, i-2) of system k. When the factor reaches a fixed point of its
+ * recurrence at row k - 1 (k < n), rows k .. n-3 equal row k - 1 and are not stored; rows
+ * n-2 and n-1 are stored at k and k + 1 (see mlr_lay_row). k == n: every row stored.
  */
 typedef struct mlr_lay_batch {
-    size_t n, ns;
+    size_t n, ns, k;
     double *dinv, *l1, *l2;
 } mlr_lay_batch;
+
+/* Storage row of factor row i. */
+static inline size_t mlr_lay_row(const mlr_lay_batch *b, size_t i)
+{
+    if (i < b->k)
+        return i;
+    return i + 2 >= b->n ? b->k + (i + 2 - b->n) : b->k - 1;
+}
 
 /* Factor every system; 0 on success, or 1 + k for the first system k with a non-positive or
  * non-finite pivot (s far too large for n). */
 size_t mlr_lay_batch_factor(mlr_lay_batch *b, const double *s);
 
-/* x = A_k^-1 y for every system: system k owns the m channels at column col[k] of the rows
- * of y (stride ldy) and of x (stride ldx); x and y do not overlap. m is 3 or 4. zero is
- * scratch of ns + ldx doubles. */
-void mlr_lay_batch_solve(const mlr_lay_batch *b, const size_t *col, size_t m, const double *y,
-                         size_t ldy, double *x, size_t ldx, double *zero);
+/* x = A_k^-1 y for every system: system k owns the m contiguous channels [k m, (k+1) m) of
+ * the rows of y (stride ldy) and of x (stride ldx); x and y do not overlap. buf is scratch of
+ * 3 m ns doubles. */
+void mlr_lay_batch_solve(const mlr_lay_batch *b, size_t m, const double *y, size_t ldy,
+                         double *x, size_t ldx, double *buf);
 
-/* tr(A_k^-1) for every system by selected inversion over the factor (rolling, O(n ns));
- * work holds 3 ns doubles. */
+/* acc[c] = sum_i (y[i mm + c] - x[i mm + c])^2 over n rows of mm channels. */
+void mlr_lay_sum_sq_diff(size_t n, size_t mm, const double *y, const double *x, double *acc);
+
+/* tr(A_k^-1) for every system by selected inversion over the factor (rolling, O(n ns) at
+ * most); work holds 3 ns doubles. */
 void mlr_lay_batch_trace(const mlr_lay_batch *b, double *trace, double *work);
 
 /* The stages of mlr_layers_decompose; work areas are owned by the caller. */
@@ -63,16 +79,17 @@ mlr_status mlr_layers_prepare_rot(size_t n, size_t j, const double *rot_in, doub
 
 /* Base layer: per-joint s (heuristic or cfg->base_s) into L->param, L->base_rot filled with
  * the unit base quaternions; root translation smoothed with joint 0's s into L->base_pos.
- * fac: 3 n j doubles; work: 13 j doubles; col: j entries. */
+ * fac: 3 n j doubles; comp: 4 n j doubles; work: MLR_LAYERS_WORK j doubles; col: j entries. */
 mlr_status mlr_layers_base(mlr_layers *L, const mlr_layers_cfg *cfg, const double *q,
-                           const double *root_pos, double *fac, double *work, size_t *col,
-                           mlr_diag *diag);
+                           const double *root_pos, double *fac, double *comp, double *work,
+                           size_t *col, mlr_diag *diag);
 
 /* Control layer: delta (n x (1+j) x 3) smoothed into L->control with s per group by GCV
- * (or cfg->control_s); parameters into L->param. fac: 3 n (1+j) doubles; work: 26 (1+j)
- * doubles; col: 1+j entries. */
+ * (or cfg->control_s); parameters into L->param. fac: 3 n (1+j) doubles; comp: 3 n (1+j)
+ * doubles; work: MLR_LAYERS_WORK (1+j) doubles; col: 1+j entries. */
 mlr_status mlr_layers_control(mlr_layers *L, const mlr_layers_cfg *cfg, const double *delta,
-                              double *fac, double *work, size_t *col, mlr_diag *diag);
+                              double *fac, double *comp, double *work, size_t *col,
+                              mlr_diag *diag);
 
 /* Parameter slot of group g. */
 static inline double *mlr_layers_param_slot(const mlr_layers *L, int which, size_t g)

@@ -114,16 +114,23 @@ static double wrap_pi(double a)
     return a;
 }
 
-void mlr_quat_mul(const mlr_quat *a, const mlr_quat *b, mlr_quat *out)
+/* The product, inlined into the array loops (no call through the exported symbol); out may
+ * alias a or b. */
+static inline void quat_mul(const mlr_quat *a, const mlr_quat *b, mlr_quat *out)
 {
-    if (!a || !b || !out)
-        return;
     const double aw = a->w, ax = a->x, ay = a->y, az = a->z;
     const double bw = b->w, bx = b->x, by = b->y, bz = b->z;
     out->w = aw * bw - ax * bx - ay * by - az * bz;
     out->x = aw * bx + ax * bw + ay * bz - az * by;
     out->y = aw * by - ax * bz + ay * bw + az * bx;
     out->z = aw * bz + ax * by - ay * bx + az * bw;
+}
+
+void mlr_quat_mul(const mlr_quat *a, const mlr_quat *b, mlr_quat *out)
+{
+    if (!a || !b || !out)
+        return;
+    quat_mul(a, b, out);
 }
 
 void mlr_quat_rotate(const mlr_quat *q, const mlr_vec3 *v, mlr_vec3 *out)
@@ -146,7 +153,7 @@ void mlr_quat_mul_array(const mlr_quat *a, const mlr_quat *b, size_t count, mlr_
     if (!a || !b || !out)
         return;
     for (size_t i = 0; i < count; i++)
-        mlr_quat_mul(&a[i], &b[i], &out[i]);
+        quat_mul(&a[i], &b[i], &out[i]);
 }
 
 void mlr_quat_conj_array(const mlr_quat *q, size_t count, mlr_quat *out)

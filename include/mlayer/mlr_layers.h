@@ -110,7 +110,7 @@ typedef enum mlr_layers_param {
  *         an s range not finite, positive and ordered); MLR_E_SINGULAR (a factorization
  *         failed: s far too large for the clip); MLR_E_NO_MEMORY; MLR_E_OVERFLOW
  * Allocates: the handle, one block of about (10 J + 9) N doubles, and while running one block
- * of about (7 J + 3) N doubles of scratch. Cost O(N J) per search step (a few dozen steps).
+ * of about (11 J + 6) N doubles of scratch. Cost O(N J) per search step (a few dozen steps).
  * Threads: any; inputs only read.
  */
 MLR_API mlr_status mlr_layers_decompose(size_t n_frames, size_t n_joints,
