@@ -23,11 +23,13 @@ is then the skeleton's OFFSETs, as in :class:`~mlayer.Motion`), or as a one-fram
 ``(root_pos, rot, trans)`` for a tuple, a one-frame Motion for a Motion, a flat array for a flat
 array (the fastest path).
 
-Cost (one core, CMU 131_01: 31 joints, lag 10; medians of 5 runs over its 994 frames,
-``bench/python/stream_cost.py``): the C push is about 0.9 us per frame; through Python, a
-flat-array push costs about 2 us, a ``(root_pos, rot)`` push about 6 us and a Motion-frame
-push about 11 us; :func:`stream_motion` about 1.3 us per frame. Buffers are allocated
-once by the constructor; a push allocates only its returned copy.
+Cost (CMU 131_01: 31 joints, lag 10, lam = sigma = 1; on a 2-core machine shared with other
+jobs): the C push is 0.87 us per frame (median, ``build-b/bench/mlayer-bench --filter stream``);
+through Python (``python bench/python/bench_stream.py``, 21 passes over the 994 frames, the
+fastest pass; medians were 2 to 3 times higher under the machine's load) a flat-array push costs
+about 2 us per frame, a ``(root_pos, rot)`` push about 5 us, a Motion-frame push about 10 us,
+and :func:`stream_motion` about 3 us per frame (the loop of C pushes alone: 1.3 us). Buffers
+are allocated once by the constructor; a push allocates only the copy it returns.
 
 A stream is not thread-safe; separate streams are independent.
 """
@@ -187,11 +189,10 @@ class Stream:
             if frame.shape[0] != self._m:
                 raise InvalidArgumentError(
                     f"Stream.push: a flat frame needs {self._m} values, got {frame.shape[0]}")
-            try:
-                np.copyto(self._in, frame, casting="same_kind")
-            except TypeError:
+            if frame.dtype.kind not in "fiub":
                 raise InvalidArgumentError(
-                    f"Stream.push: cannot use a {frame.dtype} array as a frame") from None
+                    f"Stream.push: cannot use a {frame.dtype} array as a frame")
+            self._in[...] = frame
             return "flat"
         if isinstance(frame, Motion):
             if frame.n_frames != 1:
@@ -199,10 +200,12 @@ class Stream:
                     f"Stream.push: a Motion frame must hold 1 frame, got {frame.n_frames}")
             if frame.skeleton is not self.skeleton and frame.skeleton != self.skeleton:
                 raise InvalidArgumentError("Stream.push: the Motion has another skeleton")
-            parts = (frame.root_pos[0], frame.rot[0], frame.trans[0])
+            parts = (frame.root_pos[0], frame.rot[0], frame.trans[0]) if self._P \
+                else (frame.root_pos[0], frame.rot[0])
             kind = "motion"
         elif isinstance(frame, tuple) and len(frame) in (2, 3):
-            parts = frame if len(frame) == 3 else (frame[0], frame[1], self._default_trans)
+            parts = frame if len(frame) == 3 or not self._P \
+                else (frame[0], frame[1], self._default_trans)
             kind = "tuple"
         else:
             raise InvalidArgumentError(
@@ -210,15 +213,14 @@ class Stream:
                 f"Motion or a flat array of {self._m} values, got {type(frame).__name__}")
         for src, dst, name in zip(parts, (self._in_root, self._in_rot, self._in_trans),
                                   ("root_pos", "rot", "trans")):
-            a = np.asarray(src)
+            a = src if type(src) is np.ndarray else np.asarray(src)
             if a.shape != dst.shape:
                 raise InvalidArgumentError(
                     f"Stream.push: {name} must have shape {dst.shape}, got {a.shape}")
-            try:
-                np.copyto(dst, a, casting="same_kind")
-            except TypeError:
+            if a.dtype.kind not in "fiub":
                 raise InvalidArgumentError(
-                    f"Stream.push: cannot use a {a.dtype} array as {name}") from None
+                    f"Stream.push: cannot use a {a.dtype} array as {name}")
+            dst[...] = a
         return kind
 
     def _check_status(self, code: int, where: str) -> None:
