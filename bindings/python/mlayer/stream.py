@@ -154,7 +154,7 @@ class Stream:
 
     @property
     def decay_rate(self) -> float:
-        """Gap shrink rate per frame of lag for this stream's lam, sigma (see :func:`decay_rate`)."""
+        """Gap shrink rate per frame of lag for this lam, sigma (see :func:`decay_rate`)."""
         return decay_rate(self.lam, self.sigma)
 
     @property
