@@ -33,7 +33,7 @@ static int clip_load(const char *path, clip *c)
     c->ya = malloc(c->N * c->m * sizeof(double));
     mlr_quat *q = malloc(c->N * c->J * sizeof(mlr_quat));
     memcpy(q, mlr_motion_rot(mo), c->N * c->J * sizeof(mlr_quat));
-    mlr_quat_make_continuous(q, c->N, c->J);
+    mlr_quat_make_continuous_predictive(q, c->N, c->J);
     for (size_t f = 0; f < c->N; f++) {
         double *row = c->y + f * c->m, *ra = c->ya + f * c->m;
         memcpy(row, mlr_motion_root_pos(mo) + 3 * f, 3 * sizeof(double));

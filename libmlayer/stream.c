@@ -10,7 +10,7 @@
  *    z_{n-3}, z_{n-4}.
  * Ring slots: row i lives in slot i % ring, ring = max(lag + 1, 4) (the output needs rows
  * min(j, n-4) .. n-3 of z, j = n-1-lag). The aligned inputs keep 3 rows (y_{n-2}, y_{n-1}
- * for the end rows, and one more for a second-order sign rule).
+ * for the end rows, one spare); the sign rule keeps its own 3 earlier quaternion rows.
  */
 #include "lgs_internal.h"
 
@@ -41,7 +41,7 @@ struct mlr_stream {
     const double **src;         /* ring + 4 scratch row pointers */
     double *raw_base;           /* m: base layer output row */
     double *zh;                 /* m: scratch row of the flush */
-    double *qhist;              /* 3 x n_joints aligned quaternions: frames n-2, n-1, new */
+    double *qhist;              /* 4 x n_joints aligned quaternions: frames n-3 .. n-1, new */
     double *flush_base;         /* lag x m: base layer rows of a flush (layered only) */
     double *alpha;              /* n_joints layer scales */
     double alpha_trans;
@@ -274,11 +274,11 @@ static void smoother_tail(mlr_stream *st, const smoother *sm, size_t first, doub
 /* Quaternions and layers                                                                   */
 
 /*
- * Online sign continuity of the new frame's quaternions (frame i), in st->qhist row 2, against
- * the aligned frames i-1 (row 1) and i-2 (row 0). The rule is the single call below: the
- * nearest sign to the previous aligned sample, as mlr_quat_make_continuous does offline (so
- * the aligned input equals the offline clip's). A second-order predictive rule would instead be
- * called on all three rows when i >= 2.
+ * Online sign continuity of the new frame's quaternions (frame i), placed in st->qhist row 3,
+ * against the aligned frames i-3 .. i-1 (rows 0 .. 2; only the last min(i, 3) exist): the
+ * second-order predictive rule of mlr_quat_continue_sign, through the very per-frame step the
+ * batch mlr_quat_make_continuous_predictive takes (mlr_quat_continue_frame), so the aligned
+ * input equals the offline clip's bit for bit.
  */
 static void align_signs(mlr_stream *st, size_t i, double *yi)
 {
@@ -286,11 +286,11 @@ static void align_signs(mlr_stream *st, size_t i, double *yi)
     if (J == 0)
         return;
     mlr_quat *h = (mlr_quat *)st->qhist;
-    memcpy(h + 2 * J, yi + st->q_off, qb);
-    if (i >= 1)
-        mlr_quat_make_continuous(h + J, 2, J);
-    memcpy(yi + st->q_off, h + 2 * J, qb);
-    memmove(h, h + J, 2 * qb); /* rows 1, 2 become rows 0, 1 */
+    const size_t n_prev = i < 3 ? i : 3;
+    memcpy(h + 3 * J, yi + st->q_off, qb);
+    mlr_quat_continue_frame(h + (3 - n_prev) * J, n_prev, J);
+    memcpy(yi + st->q_off, h + 3 * J, qb);
+    memmove(h, h + J, 3 * qb); /* rows 1 .. 3 become rows 0 .. 2 */
 }
 
 /* Renormalize the quaternions of an output row x; with layers, compose it with the base row
@@ -371,10 +371,10 @@ static mlr_status stream_create(size_t n_joints, int root, size_t n_trans, doubl
         return MLR_E_OVERFLOW;
     const size_t ring = lag + 1 > 4 ? lag + 1 : 4, n_sm = layered ? 2 : 1;
     /* doubles: per smoother ring x m + 3 ring; y 3m; coef 2 (ring + 4); raw_base, zh m each;
-     * qhist 12 J; flush_base lag m; alpha J. Then ring + 4 pointers. */
+     * qhist 16 J; flush_base lag m; alpha J. Then ring + 4 pointers. */
     size_t nd = 0, per_sm = 0;
     if (add_size(&per_sm, ring, m) || add_size(&per_sm, ring, 3) || add_size(&nd, per_sm, n_sm) ||
-        add_size(&nd, m, 5) || add_size(&nd, ring + 4, 2) || add_size(&nd, n_joints, 13) ||
+        add_size(&nd, m, 5) || add_size(&nd, ring + 4, 2) || add_size(&nd, n_joints, 17) ||
         (layered && add_size(&nd, lag, m)))
         return MLR_E_OVERFLOW;
     size_t bytes = 0;
@@ -410,7 +410,7 @@ static mlr_status stream_create(size_t n_joints, int root, size_t n_trans, doubl
     s->raw_base = p, p += m;
     s->zh = p, p += m;
     s->coef = p, p += 2 * (ring + 4);
-    s->qhist = p, p += 12 * n_joints;
+    s->qhist = p, p += 16 * n_joints;
     s->alpha = p, p += n_joints;
     if (layered)
         s->flush_base = p, p += lag * m;

@@ -83,7 +83,7 @@ static void clip_load(clip *c, size_t which)
     mlr_quat *q = malloc(c->N * c->J * sizeof(mlr_quat));
     for (size_t f = 0; f < c->N; f++)
         memcpy(q + f * c->J, c->ya + f * c->m + 3 + 3 * c->P, c->J * sizeof(mlr_quat));
-    mlr_quat_make_continuous(q, c->N, c->J);
+    mlr_quat_make_continuous_predictive(q, c->N, c->J);
     for (size_t f = 0; f < c->N; f++)
         memcpy(c->ya + f * c->m + 3 + 3 * c->P, q + f * c->J, c->J * sizeof(mlr_quat));
     free(q);
@@ -326,6 +326,72 @@ START_TEST(reset_repeats_bitwise)
 }
 END_TEST
 
+/* Quaternion signs: the stream applies the predictive rule online exactly as the batch
+ * mlr_quat_make_continuous_predictive does. Spins that speed up to 190 .. 280 degrees per frame
+ * (where the nearest sign would turn them back) with random input signs: lam 0 returns the
+ * aligned input itself (the same representative as the batch rule, every sample); lam > 0
+ * with lag >= N flushes the offline solve of the batch-aligned clip. */
+START_TEST(signs_follow_predictive_rule)
+{
+    const size_t N = 240, J = 6, m = 3 + 4 * J;
+    mlr_test_rng rng;
+    mlr_test_rng_seed(&rng, 1234);
+    clip c = {.N = N, .J = J, .P = 0, .m = m};
+    c.y = malloc(N * m * sizeof(double));
+    c.ya = malloc(N * m * sizeof(double));
+    double *x = malloc(N * m * sizeof(double)), *ref = malloc(N * m * sizeof(double));
+    mlr_quat *qp = malloc(N * J * sizeof(mlr_quat)), *qn = malloc(N * J * sizeof(mlr_quat));
+    const double deg = 3.14159265358979323846 / 180.0;
+    for (size_t j = 0; j < J; j++) {
+        double ax[3] = {mlr_test_rng_normal(&rng), mlr_test_rng_normal(&rng),
+                        mlr_test_rng_normal(&rng)};
+        const double na = sqrt(ax[0] * ax[0] + ax[1] * ax[1] + ax[2] * ax[2]);
+        const double top = (190.0 + 18.0 * (double)j) * deg; /* top speed of track j */
+        double th = 0.0, w = 20.0 * deg;
+        for (size_t f = 0; f < N; f++) {
+            /* speed up by 6 degrees per frame, hold, slow down after frame 160 */
+            w = f < 160 ? fmin(w + 6.0 * deg, top) : fmax(w - 6.0 * deg, 10.0 * deg);
+            th += w;
+            const double sg = mlr_test_rng_uniform(&rng) < 0.5 ? -1.0 : 1.0;
+            mlr_quat q = {sg * cos(th / 2), sg * sin(th / 2) * ax[0] / na,
+                          sg * sin(th / 2) * ax[1] / na, sg * sin(th / 2) * ax[2] / na};
+            qp[f * J + j] = qn[f * J + j] = q;
+        }
+    }
+    for (size_t f = 0; f < N; f++) {
+        double *row = c.y + f * m;
+        row[0] = sin(0.05 * (double)f), row[1] = 0.01 * (double)f, row[2] = 1.0;
+        memcpy(row + 3, qp + f * J, J * sizeof(mlr_quat));
+    }
+    c.extent = 1.0;
+    mlr_quat_make_continuous_predictive(qp, N, J);
+    mlr_quat_make_continuous(qn, N, J);
+    size_t differ = 0;
+    for (size_t k = 0; k < N * J; k++)
+        differ += qp[k].w * qn[k].w + qp[k].x * qn[k].x + qp[k].y * qn[k].y + qp[k].z * qn[k].z <
+                  0.0;
+    ck_assert_uint_gt(differ, N / 4); /* the rules disagree here: the test tells them apart */
+    memcpy(c.ya, c.y, N * m * sizeof(double));
+    for (size_t f = 0; f < N; f++)
+        memcpy(c.ya + f * m + 3, qp + f * J, J * sizeof(mlr_quat));
+
+    mlr_stream *st = NULL;
+    ck_assert_int_eq(mlr_stream_create(J, 1, 0, 0.0, 1.0, 0, NULL, &st, NULL), MLR_OK);
+    stream_all(st, c.y, N, m, x);
+    mlr_stream_destroy(st);
+    for (size_t k = 0; k < N * m; k++)
+        ck_assert_close(x[k], c.ya[k], 1e-15);
+
+    offline(&c, 2.0, 0.5, ref);
+    ck_assert_int_eq(mlr_stream_create(J, 1, 0, 2.0, 0.5, N, NULL, &st, NULL), MLR_OK);
+    stream_all(st, c.y, N, m, x);
+    mlr_stream_destroy(st);
+    ck_assert_double_le(rel_gap(&c, x, ref, 0, N), 1e-9);
+    free(x), free(ref), free(qp), free(qn);
+    clip_free(&c);
+}
+END_TEST
+
 /* ---------------------------------------------------------------------------------------- */
 /* Layers                                                                                   */
 
@@ -564,6 +630,7 @@ static Suite *stream_suite(void)
     tcase_add_test(num, gap_decays_geometrically);
     tcase_add_test(num, decay_rate_is_a_root);
     tcase_add_test(num, reset_repeats_bitwise);
+    tcase_add_test(num, signs_follow_predictive_rule);
     tcase_add_test(num, layers_match_offline_composition);
     suite_add_tcase(s, num);
     TCase *args = tcase_create("memory_and_arguments");

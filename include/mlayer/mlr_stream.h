@@ -40,10 +40,12 @@
  * position channels of mlr_motion_trans), then n_joints quaternions (w, x, y, z): the order
  * of mlr_motion_root_pos, mlr_motion_trans and mlr_motion_rot for one frame.
  *
- * Quaternions: each pushed quaternion first gets the sign nearest to the previous aligned
- * sample of its joint (the rule of mlr_quat_make_continuous, applied online, so the aligned
- * input equals that of the offline clip), its 4 components are smoothed as channels (the
- * chordal approximation, paper 1 eq. 11) and the output is renormalized.
+ * Quaternions: each pushed quaternion first gets its sign from the second-order predictive
+ * rule (mlr_quat_continue_sign on the up to 3 earlier aligned samples of its joint; the nearest
+ * sign for steps below 60 degrees), applied online exactly as the batch
+ * mlr_quat_make_continuous_predictive applies it, so the aligned input equals that of the
+ * offline clip bit for bit; its 4 components are smoothed as channels (the chordal
+ * approximation, paper 1 eq. 11) and the output is renormalized.
  *
  * Layers (paper 1 section 4, optional): mlr_stream_create_layered adds a second, stronger
  * smoother (lam_base, sigma_base) over the same input, the base layer Mb; the output is

@@ -15,6 +15,7 @@ from .lgs import LGS, have_cholmod, lgs
 from .motion import Motion, Skeleton
 from .bvh import read_bvh, read_bvh_string, write_bvh, write_bvh_string
 from . import metrics
+from .stream import Stream, stream_motion
 from . import data
 from .layers import Layers, decompose, denoise, stylize
 
@@ -33,4 +34,5 @@ __all__ = ["__version__", "library_version", "Error", "InvalidArgumentError", "P
            "SingularMatrixError", "MlayerIOError", "UnsupportedError", "MlayerWarning",
            "LGS", "lgs", "have_cholmod", "quat",
            "Motion", "Skeleton", "read_bvh", "write_bvh", "read_bvh_string", "write_bvh_string",
-           "metrics", "data", "Layers", "decompose", "denoise", "stylize"]
+           "metrics", "data", "Layers", "decompose", "denoise", "stylize", "Stream",
+           "stream_motion"]

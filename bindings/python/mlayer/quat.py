@@ -183,10 +183,15 @@ def to_euler(q, order: str, degrees: bool = True) -> np.ndarray:
     return out
 
 
-def continuous(q) -> np.ndarray:
+def continuous(q, *, predictive: bool = False) -> np.ndarray:
     """Sign continuity along axis 0: a copy of ``q`` (N, ..., 4) where each track (every index
     of the middle dimensions) is flipped to ``-q`` where needed so that consecutive frames have
-    a non-negative dot product. The first frame keeps its sign; rotations are unchanged."""
+    a non-negative dot product. The first frame keeps its sign; rotations are unchanged.
+
+    ``predictive=True`` uses the second-order predictive rule instead
+    (``mlr_quat_make_continuous_predictive``: the sign that continues the previous steps, so a
+    spin faster than 180 degrees per frame keeps its direction; the nearest sign for steps below
+    60 degrees). It is the rule the resampler and :class:`mlayer.Stream` apply."""
     q = _quats(q, "q")
     if q.ndim < 2:
         raise InvalidArgumentError(
@@ -194,6 +199,7 @@ def continuous(q) -> np.ndarray:
     out = np.array(q, dtype=np.float64, order="C", copy=True)
     n_frames = out.shape[0]
     if out.size and n_frames > 1:
-        lib.mlr_quat_make_continuous(_arrays.ptr_out(out, "mlr_quat *"), n_frames,
-                                     out.size // (4 * n_frames))
+        fn = lib.mlr_quat_make_continuous_predictive if predictive \
+            else lib.mlr_quat_make_continuous
+        fn(_arrays.ptr_out(out, "mlr_quat *"), n_frames, out.size // (4 * n_frames))
     return out

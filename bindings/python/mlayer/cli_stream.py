@@ -1,0 +1,166 @@
+"""`mlayer stream IN.bvh --lag 10 [--lam L --sigma S] -o OUT.bvh [--plot compare.png]`.
+
+Streams a clip frame by frame through the fixed-lag LGS smoother (:class:`mlayer.Stream`), as
+a live system would, writes the streamed motion and prints its largest gap to the offline solve
+(``mlayer.lgs`` on the same channels with the same lam, sigma). ``--plot`` draws one joint
+rotation channel over time: the input, the offline solve, the stream and a One Euro filter
+(:mod:`mlayer.one_euro`, by default with the LGS's half-power frequency as its cutoff and beta 0),
+and below, each one's difference to the offline solve.
+"""
+from __future__ import annotations
+
+import math
+import sys
+
+import numpy as np
+
+from . import quat
+from ._files import atomic_output
+from .bvh import read_bvh, write_bvh
+from .cli import command
+from .errors import InvalidArgumentError
+from .lgs import lgs
+from .one_euro import one_euro
+from .stream import decay_rate, motion_channels, stream_motion
+
+_COMPONENTS = "wxyz"
+
+
+def _arguments(p) -> None:
+    p.add_argument("input", metavar="IN.bvh", help="the clip to stream")
+    p.add_argument("-o", "--output", required=True, metavar="OUT.bvh",
+                   help="where to write the streamed motion (BVH)")
+    p.add_argument("--lag", type=int, default=10, help="output delay in frames (default 10)")
+    p.add_argument("--lam", type=float, default=1.0, help="smoothness weight lam (default 1)")
+    p.add_argument("--sigma", type=float, default=1.0, help="observation noise sigma (default 1)")
+    p.add_argument("--plot", metavar="PNG", help="write a comparison plot (offline, streamed, "
+                   "One Euro) of one joint rotation channel")
+    p.add_argument("--joint", help="joint of the plot (default: the one whose rotation moves "
+                   "most)")
+    p.add_argument("--component", choices=list(_COMPONENTS),
+                   help="quaternion component of the plot (default: the one that moves most)")
+    p.add_argument("--euro-min-cutoff", type=float, metavar="HZ",
+                   help="One Euro cutoff at rest (default: the LGS's half-power frequency)")
+    p.add_argument("--euro-beta", type=float, default=0.0,
+                   help="One Euro speed coefficient (default 0)")
+
+
+def aligned_channels(motion) -> np.ndarray:
+    """Stream channels (N, 3 + 3P + 4J) with the quaternions made continuous by the predictive
+    rule, as the stream aligns them."""
+    y = motion_channels(motion)
+    q0, J = y.shape[1] - 4 * motion.n_joints, motion.n_joints
+    if motion.n_frames:
+        y[:, q0:] = quat.continuous(y[:, q0:].reshape(-1, J, 4),
+                                    predictive=True).reshape(len(y), -1)
+    return y
+
+
+def _renormalize(x: np.ndarray, J: int) -> np.ndarray:
+    q = x[:, x.shape[1] - 4 * J:].reshape(len(x), J, 4)
+    q /= np.linalg.norm(q, axis=-1, keepdims=True)
+    return x
+
+
+def offline_channels(motion, lam: float, sigma: float) -> np.ndarray:
+    """The offline solve the stream converges to: mlayer.lgs (order 2) on the aligned channels,
+    quaternions renormalized."""
+    y = aligned_channels(motion)
+    if len(y) == 0:
+        return y
+    return _renormalize(lgs(y, lam, sigma), motion.n_joints)
+
+
+def half_power_frequency(lam: float, sigma: float, rate: float) -> float:
+    """Frequency (Hz) where the order-2 LGS's gain 1 / (1 + s (2 - 2 cos w)^2) is 1/2, s = lam^2
+    sigma^2 (the Nyquist frequency when it does not get there)."""
+    s = lam * lam * sigma * sigma
+    c = 1.0 - 0.5 / math.sqrt(s) if s > 0 else -2.0
+    w = math.acos(c) if c > -1.0 else math.pi
+    return w * rate / (2.0 * math.pi)
+
+
+def _gaps(motion, x: np.ndarray, ref: np.ndarray) -> tuple[float, float]:
+    """Largest gap: translations relative to the clip's size (largest translation range),
+    quaternion components absolute."""
+    nt = x.shape[1] - 4 * motion.n_joints
+    y = motion_channels(motion)[:, :nt]
+    size = float((y.max(axis=0) - y.min(axis=0)).max()) if len(y) else 0.0
+    gt = float(np.abs(x[:, :nt] - ref[:, :nt]).max()) / size if size > 0 else 0.0
+    gq = float(np.abs(x[:, nt:] - ref[:, nt:]).max()) if x.shape[1] > nt else 0.0
+    return gt, gq
+
+
+def _plot(path, motion, y, ref, x, euro, joint: int, comp: int, lag: int, lam: float,
+          sigma: float, cutoff: float, beta: float) -> None:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    col = y.shape[1] - 4 * motion.n_joints + 4 * joint + comp
+    t = np.arange(len(y)) * motion.frame_time
+    name = f"{motion.joint_names[joint]} q.{_COMPONENTS[comp]}"
+    fig, (a1, a2) = plt.subplots(2, 1, figsize=(11, 6.5), sharex=True,
+                                 gridspec_kw={"height_ratios": [3, 2]})
+    a1.plot(t, y[:, col], color="0.75", lw=1.0, label="input")
+    a1.plot(t, ref[:, col], color="k", lw=1.4, label=f"offline LGS (lam {lam:g}, sigma {sigma:g})")
+    a1.plot(t, x[:, col], color="tab:blue", lw=1.0, ls="--", label=f"streamed, lag {lag}")
+    a1.plot(t, euro[:, col], color="tab:red", lw=1.0,
+            label=f"One Euro (min cutoff {cutoff:.3g} Hz, beta {beta:g})")
+    a1.set_ylabel(name)
+    a1.legend(loc="best", fontsize=8)
+    a1.set_title(f"{name}: offline vs streamed vs One Euro")
+    a2.plot(t, x[:, col] - ref[:, col], color="tab:blue", lw=1.0, label="streamed - offline")
+    a2.plot(t, euro[:, col] - ref[:, col], color="tab:red", lw=1.0, label="One Euro - offline")
+    a2.axhline(0.0, color="k", lw=0.6)
+    a2.set_xlabel("time (s)")
+    a2.set_ylabel("difference")
+    a2.legend(loc="best", fontsize=8)
+    fig.tight_layout()
+    with atomic_output(path, suffix=".png") as tmp:
+        fig.savefig(tmp, dpi=110, format="png")
+    plt.close(fig)
+
+
+@command("stream", "stream a clip through the fixed-lag LGS smoother (live filtering), write it "
+                   "and compare it with the offline solve")
+def run(args) -> int:
+    motion = read_bvh(args.input)
+    if motion.n_frames == 0:
+        raise InvalidArgumentError(f"{args.input}: the clip has no frames")
+    joint = comp = None
+    if args.plot:  # check the plot's options before any work
+        if args.joint is not None:
+            joint = motion.skeleton.index(args.joint)
+        if args.component is not None:
+            comp = _COMPONENTS.index(args.component)
+        if args.euro_min_cutoff is not None and not (math.isfinite(args.euro_min_cutoff)
+                                                     and args.euro_min_cutoff > 0):
+            raise InvalidArgumentError(f"--euro-min-cutoff must be > 0, got "
+                                       f"{args.euro_min_cutoff:g}")
+    out = stream_motion(motion, lam=args.lam, sigma=args.sigma, lag=args.lag)
+    write_bvh(out, args.output)
+    x = motion_channels(out)
+    ref = offline_channels(motion, args.lam, args.sigma)
+    gt, gq = _gaps(motion, x, ref)
+    print(f"{args.output}: {out.n_frames} frames streamed with lag {args.lag} (lam {args.lam:g}, "
+          f"sigma {args.sigma:g}, decay rate {decay_rate(args.lam, args.sigma):.3f}); largest "
+          f"gap to the offline solve: {gt:.3g} of the clip size (translations), {gq:.3g} "
+          "(quaternion components)")
+    if args.plot:
+        y = aligned_channels(motion)
+        J, q0 = motion.n_joints, y.shape[1] - 4 * motion.n_joints
+        cutoff = args.euro_min_cutoff if args.euro_min_cutoff is not None \
+            else half_power_frequency(args.lam, args.sigma, motion.fps)
+        euro = _renormalize(one_euro(y, motion.fps, cutoff, args.euro_beta), J)
+        moves = np.abs(np.diff(y[:, q0:], axis=0)).sum(axis=0).reshape(J, 4)
+        if joint is None:
+            joint = int(np.argmax(moves.sum(axis=1)))
+        if comp is None:
+            comp = int(np.argmax(moves[joint]))
+        _plot(args.plot, motion, y, ref, x, euro, joint, comp, args.lag, args.lam, args.sigma,
+              cutoff, args.euro_beta)
+        print(f"{args.plot}: {motion.joint_names[joint]} q.{_COMPONENTS[comp]}", file=sys.stdout)
+    return 0
+
+
+run.arguments = _arguments

@@ -1,0 +1,96 @@
+"""The One Euro filter (Casiez, Roussel and Vogel, "1 Euro Filter: A Simple Speed-based Low-pass
+Filter for Noisy Input in Interactive Systems", CHI 2012), for comparison with the LGS stream.
+
+It is the ad-hoc filter live systems use today: a first-order low-pass whose cutoff rises with
+the signal's speed, so slow motion is smoothed hard (little jitter) and fast motion little
+(little lag). For each channel, at sampling rate ``rate`` (Hz):
+
+    alpha(fc)  = 1 / (1 + rate / (2 pi fc))         (smoothing factor of a cutoff fc)
+    dx_i       = (x_i - xhat_{i-1}) * rate          (speed against the previous output)
+    dxhat_i    = dxhat_{i-1} + alpha(d_cutoff) (dx_i - dxhat_{i-1})
+    fc_i       = min_cutoff + beta |dxhat_i|
+    xhat_i     = xhat_{i-1} + alpha(fc_i) (x_i - xhat_{i-1})
+
+with xhat_0 = x_0 and dxhat_0 = 0 (the paper's Algorithm 1). ``beta = 0`` gives a plain
+exponential smoother with cutoff ``min_cutoff``. It is causal (no lag parameter, no look-ahead):
+its output always trails the signal, and it is not the LGS posterior any lag would converge to.
+
+Quaternions are filtered as their four components (after sign continuity) and renormalized, as
+the LGS stream does. Pure numpy: O(channels) per sample.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from . import _arrays
+from .errors import InvalidArgumentError
+
+__all__ = ["OneEuroFilter", "one_euro"]
+
+
+def _alpha(rate: float, cutoff):
+    return 1.0 / (1.0 + rate / (2.0 * math.pi * cutoff))
+
+
+class OneEuroFilter:
+    """A One Euro filter over m channels, one sample at a time (:meth:`__call__`).
+
+    rate: samples per second (> 0); min_cutoff (Hz, > 0): cutoff at rest; beta (>= 0): how fast
+    the cutoff grows with speed (per unit of the channel per second); d_cutoff (Hz, > 0): cutoff
+    of the speed estimate.
+    """
+
+    def __init__(self, rate: float, min_cutoff: float = 1.0, beta: float = 0.0,
+                 d_cutoff: float = 1.0):
+        vals = {"rate": rate, "min_cutoff": min_cutoff, "d_cutoff": d_cutoff}
+        for name, v in vals.items():
+            if not (isinstance(v, (int, float, np.floating, np.integer)) and math.isfinite(v)
+                    and v > 0):
+                raise InvalidArgumentError(f"OneEuroFilter: {name} must be finite and > 0, "
+                                           f"got {v!r}")
+        if not (math.isfinite(beta) and beta >= 0):
+            raise InvalidArgumentError(f"OneEuroFilter: beta must be finite and >= 0, got {beta!r}")
+        self.rate, self.min_cutoff, self.beta, self.d_cutoff = (float(rate), float(min_cutoff),
+                                                                float(beta), float(d_cutoff))
+        self._a_d = _alpha(self.rate, self.d_cutoff)
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the past samples."""
+        self._x = None
+        self._dx = None
+
+    def __call__(self, x) -> np.ndarray:
+        """Filter the next sample (any shape, the same every call); return the output (a copy)."""
+        try:
+            x = np.asarray(x, dtype=np.float64)  # keeps a scalar 0-d
+        except (TypeError, ValueError) as e:
+            raise InvalidArgumentError(f"OneEuroFilter: x is not numeric ({e})") from None
+        _arrays.require_finite(x, "OneEuroFilter: x")
+        if self._x is None:
+            self._x, self._dx = x.copy(), np.zeros_like(x)
+            return x.copy()
+        if x.shape != self._x.shape:
+            raise InvalidArgumentError(
+                f"OneEuroFilter: sample shape {x.shape} differs from the first {self._x.shape}")
+        dx = (x - self._x) * self.rate
+        self._dx += self._a_d * (dx - self._dx)
+        a = _alpha(self.rate, self.min_cutoff + self.beta * np.abs(self._dx))
+        self._x += a * (x - self._x)
+        return self._x.copy()
+
+
+def one_euro(y, rate: float, min_cutoff: float = 1.0, beta: float = 0.0,
+             d_cutoff: float = 1.0) -> np.ndarray:
+    """One Euro filter along axis 0 of y (N, ...): every other index is its own channel.
+    Returns an array of y's shape."""
+    y = _arrays.as_f64(y, "one_euro: y")
+    if y.ndim < 1:
+        raise InvalidArgumentError("one_euro: y needs a frame axis")
+    f = OneEuroFilter(rate, min_cutoff, beta, d_cutoff)
+    out = np.empty_like(y)
+    for i in range(y.shape[0]):
+        out[i] = f(y[i])
+    return out
