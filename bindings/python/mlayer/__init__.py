@@ -15,6 +15,8 @@ from .lgs import LGS, have_cholmod, lgs
 from .motion import Motion, Skeleton
 from .bvh import read_bvh, read_bvh_string, write_bvh, write_bvh_string
 from . import metrics
+from . import ik
+from .contacts import detect_contacts, fix_contacts
 from . import data
 
 try:
@@ -32,4 +34,4 @@ __all__ = ["__version__", "library_version", "Error", "InvalidArgumentError", "P
            "SingularMatrixError", "MlayerIOError", "UnsupportedError", "MlayerWarning",
            "LGS", "lgs", "have_cholmod", "quat",
            "Motion", "Skeleton", "read_bvh", "write_bvh", "read_bvh_string", "write_bvh_string",
-           "metrics", "data"]
+           "metrics", "data", "ik", "detect_contacts", "fix_contacts"]
