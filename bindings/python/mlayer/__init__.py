@@ -18,6 +18,7 @@ from . import metrics
 from . import ik
 from .contacts import detect_contacts, fix_contacts
 from . import data
+from .layers import Layers, decompose, denoise, stylize
 
 try:
     __version__ = _dist_version("mlayer")
@@ -34,4 +35,5 @@ __all__ = ["__version__", "library_version", "Error", "InvalidArgumentError", "P
            "SingularMatrixError", "MlayerIOError", "UnsupportedError", "MlayerWarning",
            "LGS", "lgs", "have_cholmod", "quat",
            "Motion", "Skeleton", "read_bvh", "write_bvh", "read_bvh_string", "write_bvh_string",
-           "metrics", "data", "ik", "detect_contacts", "fix_contacts"]
+           "metrics", "data", "Layers", "decompose", "denoise", "stylize", "ik",
+           "detect_contacts", "fix_contacts"]

@@ -43,10 +43,9 @@ def jitter(m, fps: float | None = None) -> float:
 
 
 def body_height(m) -> float:
-    """Body size: the median over frames of the vertical (Y) extent of the world joint
-    positions (End Sites excluded), in the clip's length units. For a standing human about the
-    height minus the head top; for a quadruped about its height at the head. The median makes
-    a few crouching or lying frames irrelevant."""
+    """Body size used to make thresholds and errors unit-free: the median over frames of the
+    joints' vertical (Y) extent (End Sites excluded, so the head top and toe tips are not
+    counted). Units: the clip's length unit; a standing CMU subject is about 24 units."""
     p = _positions(m)
     if p.shape[0] == 0:
         raise InvalidArgumentError("body_height needs at least one frame")
