@@ -26,7 +26,7 @@ from .errors import InvalidArgumentError
 from .lgs import lgs
 from .metrics import body_height
 
-__all__ = ["find_feet", "detect_contacts", "fix_contacts", "contact_intervals",
+__all__ = ["find_feet", "detect_contacts", "fix_contacts", "keep_contacts", "contact_intervals",
            "contact_positions", "END_SUFFIX",
            "FOOT_PATTERN", "TOE_PATTERN", "HAND_PATTERN"]
 
@@ -442,3 +442,20 @@ def fix_contacts(motion, contacts, names, reference=None):
             r = ik.from_to(now[:, col] - pos2[:, ankle], target - pos2[:, ankle])
             ik.rotate_to(rot, wrot2, sk.parents, ankle, r)
     return motion.with_frames(root_pos=root + shift, rot=rot)
+
+
+def keep_contacts(original, synthesized, joints=None):
+    """``synthesized`` with the feet pinned during the contacts detected on ``original`` (same
+    frames): :func:`detect_contacts` then :func:`fix_contacts` with ``original`` as reference.
+    A skeleton without recognisable feet (and no ``joints``), or a clip of fewer than 3
+    frames, is returned unchanged: this is the default step of stylize/denoise, which also
+    work on skeletons that have no feet."""
+    if original.n_frames < 3:
+        return synthesized
+    if joints is None:
+        try:
+            find_feet(original)
+        except InvalidArgumentError:
+            return synthesized
+    names, c = detect_contacts(original, joints)
+    return fix_contacts(synthesized, c, names, reference=original)
