@@ -16,6 +16,8 @@ from .motion import Motion, Skeleton
 from .bvh import read_bvh, read_bvh_string, write_bvh, write_bvh_string
 from . import metrics
 from .stream import Stream, stream_motion
+from . import ik
+from .contacts import detect_contacts, fix_contacts
 from . import data
 from .layers import Layers, decompose, denoise, stylize
 
@@ -31,8 +33,8 @@ def library_version() -> str:
 
 
 __all__ = ["__version__", "library_version", "Error", "InvalidArgumentError", "ParseError",
-           "SingularMatrixError", "MlayerIOError", "UnsupportedError", "MlayerWarning",
-           "LGS", "lgs", "have_cholmod", "quat",
-           "Motion", "Skeleton", "read_bvh", "write_bvh", "read_bvh_string", "write_bvh_string",
-           "metrics", "data", "Layers", "decompose", "denoise", "stylize", "Stream",
-           "stream_motion"]
+           "SingularMatrixError", "MlayerIOError", "UnsupportedError", "MlayerWarning", "LGS",
+           "lgs", "have_cholmod", "quat", "Motion", "Skeleton", "read_bvh", "write_bvh",
+           "read_bvh_string", "write_bvh_string", "metrics", "data", "Layers", "decompose",
+           "denoise", "stylize", "Stream", "stream_motion", "ik", "detect_contacts",
+           "fix_contacts"]

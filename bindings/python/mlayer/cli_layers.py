@@ -2,6 +2,9 @@
 
     mlayer denoise IN.bvh -o OUT.bvh [--lam-c L --sigma-c S] [--gamma G]
     mlayer stylize IN.bvh --alpha 2 [--joint 'Left*=3' ...] -o OUT.bvh
+
+denoise and stylize pin the feet during the contacts detected on the input (mlayer.contacts);
+--no-contacts skips that.
     mlayer layers IN.bvh --plot layers.png [--npz layers.npz] [--joint NAME]
 
 Each prints what it chose (the smoothing found by the gamma heuristic and by GCV) and the
@@ -20,6 +23,11 @@ from .errors import InvalidArgumentError
 from .metrics import body_height, jitter
 
 
+def _contact_option(p) -> None:
+    p.add_argument("--no-contacts", action="store_true",
+                   help="do not pin the feet during the contacts detected on the input")
+
+
 def _layer_options(p) -> None:
     p.add_argument("--gamma", type=float, default=math.pi / 2,
                    help="largest displacement angle of the base layer, radians, in [pi/2, pi) "
@@ -28,6 +36,14 @@ def _layer_options(p) -> None:
                    help="control-layer lambda (default: chosen per joint by GCV)")
     p.add_argument("--sigma-c", type=float, default=None,
                    help="control-layer sigma (default: chosen per joint by GCV)")
+
+
+def _contacts(args, original, out):
+    """Foot contacts kept by default (mlayer.contacts); --no-contacts skips it."""
+    if getattr(args, "no_contacts", False):
+        return out
+    from .contacts import keep_contacts
+    return keep_contacts(original, out)
 
 
 def _decompose(args, motion):
@@ -67,6 +83,7 @@ def _arguments_denoise(p) -> None:
     p.add_argument("input", metavar="IN.bvh")
     p.add_argument("-o", "--output", required=True, metavar="OUT.bvh")
     _layer_options(p)
+    _contact_option(p)
 
 
 @command("denoise", "smooth a clip: the base and controllable layers, without the residual")
@@ -74,6 +91,7 @@ def _cmd_denoise(args) -> int:
     m = read_bvh(args.input)
     layers = _decompose(args, m)
     out = layers.synthesize(1.0)
+    out = _contacts(args, m, out)
     write_bvh(out, args.output)
     _summary(args.input, m, out, layers)
     print(f"  wrote {args.output}")
@@ -93,6 +111,7 @@ def _arguments_stylize(p) -> None:
                    help="alpha for the joints matching a name or glob, e.g. 'Left*=3' "
                         "(repeatable; later patterns win)")
     _layer_options(p)
+    _contact_option(p)
 
 
 @command("stylize", "exaggerate or flatten a clip's style by scaling its controllable layer")
@@ -103,6 +122,7 @@ def _cmd_stylize(args) -> int:
     m = read_bvh(args.input)
     layers = _decompose(args, m)
     out = layers.synthesize(args.alpha, joints=joints or None)
+    out = _contacts(args, m, out)
     write_bvh(out, args.output)
     _summary(args.input, m, out, layers)
     print(f"  alpha {args.alpha:g}" + "".join(f", {k}={v:g}" for k, v in joints.items()))

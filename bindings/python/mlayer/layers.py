@@ -240,13 +240,26 @@ def decompose(motion, *, gamma: float = math.pi / 2, lam_c=None, sigma_c=None, l
     return Layers(motion, handle, params)
 
 
-def denoise(motion, **kw):
-    """The denoised motion: decompose(motion, **kw).synthesize(1.0)."""
-    return decompose(motion, **kw).synthesize(1.0)
+def denoise(motion, *, keep_contacts=True, **kw):
+    """The denoised motion: decompose(motion, **kw).synthesize(1.0).
+
+    keep_contacts: pin the feet during the contacts detected on `motion` (mlayer.contacts,
+    paper 1 eq. 18); False skips it. Skeletons without recognisable feet are left as they are."""
+    out = decompose(motion, **kw).synthesize(1.0)
+    return _keep_contacts(motion, out) if keep_contacts else out
 
 
-def stylize(motion, alpha, joints=None, *, root_alpha=None, **kw):
+def stylize(motion, alpha, joints=None, *, root_alpha=None, keep_contacts=True, **kw):
     """Scale the style (controllable layer) of a motion: decompose(motion, **kw)
     .synthesize(alpha, joints, root_alpha=root_alpha). alpha = 2 exaggerates, 0.5 flattens;
-    joints maps joint names or globs ("Left*") to their own alpha."""
-    return decompose(motion, **kw).synthesize(alpha, joints, root_alpha=root_alpha)
+    joints maps joint names or globs ("Left*") to their own alpha.
+
+    keep_contacts: pin the feet during the contacts detected on `motion` (mlayer.contacts,
+    paper 1 eq. 18); False skips it. Skeletons without recognisable feet are left as they are."""
+    out = decompose(motion, **kw).synthesize(alpha, joints, root_alpha=root_alpha)
+    return _keep_contacts(motion, out) if keep_contacts else out
+
+
+def _keep_contacts(original, synthesized):
+    from .contacts import keep_contacts
+    return keep_contacts(original, synthesized)

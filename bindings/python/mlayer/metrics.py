@@ -50,3 +50,32 @@ def body_height(m) -> float:
     if p.shape[0] == 0:
         raise InvalidArgumentError("body_height needs at least one frame")
     return float(np.median(p[..., 1].max(axis=1) - p[..., 1].min(axis=1)))
+
+
+def foot_sliding(m, contacts, names) -> float:
+    """Mean horizontal speed of the contact joints while they are in contact.
+
+    m: a Motion; contacts: bool (N, C) as returned by :func:`mlayer.detect_contacts`; names: the
+    C contact point names (joints, or "Joint/End" for a joint's End Site). For every joint c and every pair of consecutive frames (t, t+1) that are both
+    in contact, the horizontal (X-Z plane, Y is up) displacement |p_c(t+1) - p_c(t)| times the
+    frame rate; the mean over all such pairs of all joints. Units: the clip's length unit per
+    second (cm/s for LaFAN1 and Bandai). 0 for a perfectly planted foot; NaN when no joint has
+    two consecutive contact frames.
+    """
+    if not hasattr(m, "positions") or not hasattr(m, "skeleton"):
+        raise InvalidArgumentError("foot_sliding: m must be a mlayer.Motion")
+    names = [names] if isinstance(names, str) else list(names)
+    c = np.asarray(contacts)
+    if c.dtype != np.bool_ or c.ndim != 2 or c.shape != (m.n_frames, len(names)):
+        raise InvalidArgumentError(
+            f"foot_sliding: contacts must be a bool array ({m.n_frames}, {len(names)}), got "
+            f"{c.dtype} {c.shape}")
+    from .contacts import contact_positions
+    p = contact_positions(m, names)[:, :, [0, 2]]
+    if p.shape[0] < 2:
+        return float("nan")
+    speed = np.linalg.norm(np.diff(p, axis=0), axis=-1) * m.fps
+    both = c[1:] & c[:-1]
+    if not both.any():
+        return float("nan")
+    return float(speed[both].mean())

@@ -1,0 +1,63 @@
+"""`mlayer contacts IN.bvh [--joints A,B] [--plot contacts.png]`: foot contacts of a clip.
+
+Prints, per contact point (ankle, toe or End Site), the number of contacts, the duty factor
+(fraction of frames in contact) and the median contact length; --plot draws a timeline per
+point (matplotlib), written atomically.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ._files import atomic_output
+from .bvh import read_bvh
+from .cli import command
+from .contacts import contact_intervals, detect_contacts
+
+
+def _arguments(p) -> None:
+    p.add_argument("input", metavar="IN.bvh")
+    p.add_argument("--joints", default=None, metavar="A,B,...",
+                   help="contact joints (default: feet found by name; 'Joint/End' for an "
+                        "End Site)")
+    p.add_argument("--plot", metavar="contacts.png", help="timeline per contact point")
+
+
+def plot_contacts(names, contacts, fps, path) -> None:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    n, c = contacts.shape
+    fig, ax = plt.subplots(figsize=(10, 0.45 * c + 1.0))
+    for i in range(c):
+        for a, b in contact_intervals(contacts[:, i]):
+            ax.broken_barh([(a / fps, (b - a) / fps)], (c - 1 - i + 0.1, 0.8), color="C0")
+    ax.set_yticks([c - 1 - i + 0.5 for i in range(c)], names)
+    ax.set_xlim(0, n / fps)
+    ax.set_ylim(0, c)
+    ax.set_xlabel("time (s)")
+    ax.set_title("foot contacts")
+    fig.tight_layout()
+    suffix = "." + path.rsplit(".", 1)[-1] if "." in path else ".png"
+    with atomic_output(path, suffix) as tmp:
+        fig.savefig(tmp, format=suffix[1:], dpi=100)
+    plt.close(fig)
+
+
+@command("contacts", "detect foot contacts: counts, duty factors, optional timeline plot")
+def run(args) -> int:
+    m = read_bvh(args.input)
+    names, c = detect_contacts(m, args.joints)
+    print(f"{args.input}: {len(m)} frames at {m.fps:.6g} fps")
+    width = max(len(n) for n in names)
+    for i, n in enumerate(names):
+        iv = contact_intervals(c[:, i])
+        med = np.median([b - a for a, b in iv]) / m.fps if iv else 0.0
+        print(f"  {n:<{width}}  {len(iv):4d} contacts  duty {c[:, i].mean():.2f}  "
+              f"median {med:.2f} s")
+    if args.plot:
+        plot_contacts(names, c, m.fps, args.plot)
+        print(f"  wrote {args.plot}")
+    return 0
+
+
+run.arguments = _arguments
