@@ -15,6 +15,7 @@ from .lgs import LGS, have_cholmod, lgs
 from .motion import Motion, Skeleton
 from .bvh import read_bvh, read_bvh_string, write_bvh, write_bvh_string
 from . import metrics
+from .resample import (resample, slerp_resample, timewarp, timewarp_map, timewarp_speed)
 from . import data
 
 try:
@@ -32,4 +33,5 @@ __all__ = ["__version__", "library_version", "Error", "InvalidArgumentError", "P
            "SingularMatrixError", "MlayerIOError", "UnsupportedError", "MlayerWarning",
            "LGS", "lgs", "have_cholmod", "quat",
            "Motion", "Skeleton", "read_bvh", "write_bvh", "read_bvh_string", "write_bvh_string",
-           "metrics", "data"]
+           "metrics", "data",
+           "resample", "slerp_resample", "timewarp", "timewarp_map", "timewarp_speed"]
