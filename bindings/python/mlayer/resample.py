@@ -150,8 +150,7 @@ def _time_map(time_map, N: int, n_frames, allow_extreme: bool, where: str):
 def _solve(motion: Motion, t, n_out: int, frame_time: float, lam: float, sigma: float,
            flags: int, want_var: bool, where: str):
     root, rot, trans = motion._frames()
-    for a, name in ((root, "root_pos"), (rot, "rot"), (trans, "trans")):
-        _arrays.require_finite(a, f"{where}: motion.{name}")
+    # (the C core checks every value: non-finite data is reported with its frame and joint)
     N, J, P = motion.n_frames, motion.n_joints, trans.shape[1]
     root_out, rot_out = np.empty((n_out, 3)), np.empty((n_out, J, 4))
     trans_out = np.empty((n_out, P, 3))
@@ -224,8 +223,7 @@ def slerp_resample(motion: Motion, *, fps: float | None = None, n_frames: int | 
         t = None
         n_out, frame_time = _target(motion, fps, n_frames, allow_extreme, where)
     root, rot, trans = motion._frames()
-    for a, name in ((root, "root_pos"), (rot, "rot"), (trans, "trans")):
-        _arrays.require_finite(a, f"{where}: motion.{name}")
+    # (the C core checks every value: non-finite data is reported with its frame and joint)
     N, J, P = motion.n_frames, motion.n_joints, trans.shape[1]
     root_out, rot_out = np.empty((n_out, 3)), np.empty((n_out, J, 4))
     trans_out = np.empty((n_out, P, 3))
