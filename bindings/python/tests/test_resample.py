@@ -399,6 +399,15 @@ def test_bad_input_gives_clear_errors():
     with pytest.raises(E, match="step .* beyond the 100x.*allow_extreme=True"):
         mlayer.timewarp(m, time_map=steep)
     assert len(mlayer.timewarp(m, time_map=steep, allow_extreme=True)) == len(m) + 300
+    # non-finite frames (edited in place after construction): the C core says where
+    bad_m = m.copy()
+    bad_m.root_pos[3, 0] = np.nan
+    with pytest.raises(E, match="root_pos of frame 3 is not finite"):
+        mlayer.resample(bad_m, fps=30)
+    bad_m = m.copy()
+    bad_m.rot[7, 0] = 0
+    with pytest.raises(E, match="rot of frame 7, joint 0 is zero or not finite"):
+        mlayer.slerp_resample(bad_m, fps=30)
     # parameters
     with pytest.raises(E, match="strength"):
         mlayer.timewarp(m, strength=-1)
