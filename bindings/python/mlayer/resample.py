@@ -215,9 +215,9 @@ def slerp_resample(motion: Motion, *, fps: float | None = None, n_frames: int | 
     where = "mlayer.slerp_resample"
     motion = _motion(motion, where)
     if time_map is not None:
-        t, n_out = _time_map(time_map, motion.n_frames, n_frames, allow_extreme, where)
         if fps is not None:
             raise InvalidArgumentError(f"{where}: give fps or time_map, not both")
+        t, n_out = _time_map(time_map, motion.n_frames, n_frames, allow_extreme, where)
         frame_time = motion.frame_time
     else:
         t = None
@@ -239,7 +239,8 @@ def slerp_resample(motion: Motion, *, fps: float | None = None, n_frames: int | 
 def body_size(motion: Motion) -> float:
     """The size of the body in the motion's length units: the median over (up to 256 evenly
     spaced) frames of the largest side of the box around the joints. For a standing person this
-    is the height; it needs no knowledge of the units or of the up axis."""
+    is the height; it needs no knowledge of the units or of the up axis. 1.0 when the joints
+    have no extent (e.g. a single joint)."""
     N = motion.n_frames
     if N == 0:
         raise InvalidArgumentError("body_size: the motion has no frames")
