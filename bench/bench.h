@@ -28,5 +28,7 @@ extern const mlr_bench_case mlr_bench_resample_cases[];
 extern const size_t mlr_bench_resample_count;
 extern const mlr_bench_case mlr_bench_stream_cases[];
 extern const size_t mlr_bench_stream_count;
+extern const mlr_bench_case mlr_bench_layers_cases[];
+extern const size_t mlr_bench_layers_count;
 
 #endif

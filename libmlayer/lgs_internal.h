@@ -5,7 +5,8 @@
 #include "band_internal.h"
 
 /* (L^T L)(i, j) for j <= i < n, L the (n - p) x n difference matrix of order p (0 when n <= p:
- * L has no rows). Shared with the streaming smoother (stream.c). */
+ * L has no rows). Shared with the streaming smoother (stream.c) and
+ * the layers (layers_batch.c). */
 double mlr_lgs_ltl_entry(size_t n, unsigned p, size_t i, size_t j);
 
 /* Sparse SPD solver behind MLR_LGS_CHOLMOD (lgs_cholmod.c, only built with CHOLMOD). */

@@ -10,6 +10,8 @@
 /* Below this, sinc and atan(r)/r use their Taylor series (error of the first dropped term is
  * below 1e-24 relative). */
 #define SMALL_ARG 1e-4
+/* log uses a longer series for r = |xyz| / w below this (error below 1e-19 relative). */
+#define LOG_SERIES_ARG 0.05
 
 /* Inside this band of the middle angle around +-pi/2 (in radians), to_euler reports gimbal
  * lock (third angle 0). from_euler at exactly +-pi/2 lands within ~5e-16 of the pole; forcing
@@ -226,9 +228,14 @@ mlr_status mlr_quat_log_array(const mlr_quat *q, size_t count, mlr_vec3 *out)
          * to |q|, so a slightly unnormalized q gives the log of its normalized rotation. */
         const double s = norm3(p.x, p.y, p.z);
         double k;
-        if (s < SMALL_ARG * p.w) {
-            const double r = s / p.w, r2 = r * r; /* 2 atan(r) / (r w), Taylor in r */
-            k = (2.0 / p.w) * (1.0 - r2 * (1.0 / 3.0) + r2 * r2 * (1.0 / 5.0));
+        if (s < LOG_SERIES_ARG * p.w) {
+            /* 2 atan(r) / (r w), Taylor in r to r^12: the first dropped term is below 1e-19
+             * relative, and it spares the atan2 for the small angles that dominate motion
+             * displacements (below about 5.7 degrees) */
+            const double r = s / p.w, r2 = r * r;
+            const double t = 1.0 / 11.0 - r2 * (1.0 / 13.0);
+            const double u = 1.0 / 7.0 - r2 * (1.0 / 9.0 - r2 * t);
+            k = (2.0 / p.w) * (1.0 - r2 * (1.0 / 3.0 - r2 * (1.0 / 5.0 - r2 * u)));
         } else {
             k = 2.0 * atan2(s, p.w) / s;
         }

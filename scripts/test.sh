@@ -23,8 +23,8 @@ meson setup build-sanitize -Dtests=enabled -Dcholmod=enabled -Db_sanitize=addres
   || meson setup build-sanitize -Dtests=enabled -Dcholmod=enabled -Db_sanitize=address,undefined \
        -Db_lundef=false -Dbuildtype=debugoptimized >/dev/null
 meson compile -C build-sanitize >/dev/null
-UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 ASAN_OPTIONS=detect_leaks=1 \
-  meson test -C build-sanitize -v --print-errorlogs --suite unit
+UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 ASAN_OPTIONS=detect_leaks=1 CK_TIMEOUT_MULTIPLIER=3 \
+  meson test -C build-sanitize --timeout-multiplier 3 -v --print-errorlogs --suite unit
 
 echo "== BVH reader fuzzed for 60 s (libFuzzer, ASan + UBSan, real clips as seeds) =="
 mkdir -p build-fuzz

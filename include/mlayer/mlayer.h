@@ -11,5 +11,6 @@
 #include "mlr_fk.h"
 #include "mlr_resample.h"
 #include "mlr_stream.h"
+#include "mlr_layers.h"
 
 #endif /* MLAYER_H */

@@ -188,3 +188,36 @@ size_t mlr_stream_n_pushed(const mlr_stream *st);
 size_t mlr_stream_pending(const mlr_stream *st);
 double mlr_stream_decay_rate(double lam, double sigma);
 void mlr_stream_destroy(mlr_stream *st);
+
+/* mlr_layers.h (MLAYER_0.2) */
+typedef struct mlr_layers mlr_layers;
+typedef enum mlr_layers_key {
+    MLR_LAYERS_OPT_GAMMA = 1, MLR_LAYERS_OPT_LAM_B = 2, MLR_LAYERS_OPT_SIGMA_B = 3,
+    MLR_LAYERS_OPT_LAM_C = 4, MLR_LAYERS_OPT_SIGMA_C = 5, MLR_LAYERS_OPT_BASE_S_MIN = 6,
+    MLR_LAYERS_OPT_BASE_S_MAX = 7, MLR_LAYERS_OPT_CONTROL_S_MIN = 8,
+    MLR_LAYERS_OPT_CONTROL_S_MAX = 9
+} mlr_layers_key;
+typedef struct mlr_layers_option { int key; double value; } mlr_layers_option;
+typedef enum mlr_layers_param {
+    MLR_LAYERS_PARAM_BASE_S = 0, MLR_LAYERS_PARAM_BASE_LAM = 1, MLR_LAYERS_PARAM_BASE_SIGMA = 2,
+    MLR_LAYERS_PARAM_BASE_MAX_ANGLE = 3, MLR_LAYERS_PARAM_CONTROL_S = 4,
+    MLR_LAYERS_PARAM_CONTROL_LAM = 5, MLR_LAYERS_PARAM_CONTROL_SIGMA = 6,
+    MLR_LAYERS_PARAM_CONTROL_GCV = 7, MLR_LAYERS_PARAM_CONTROL_DOF = 8
+} mlr_layers_param;
+mlr_status mlr_layers_decompose(size_t n_frames, size_t n_joints, const double *root_pos,
+                                const double *rot, const mlr_layers_option *opts, size_t n_opts,
+                                const mlr_allocator *alloc, mlr_layers **out, mlr_diag *diag);
+size_t mlr_layers_n_frames(const mlr_layers *layers);
+size_t mlr_layers_n_joints(const mlr_layers *layers);
+mlr_status mlr_layers_get_base(const mlr_layers *layers, double *root_pos, size_t n_root_pos,
+                               double *rot, size_t n_rot);
+mlr_status mlr_layers_get_control(const mlr_layers *layers, double *out, size_t count);
+mlr_status mlr_layers_get_residual(const mlr_layers *layers, double *out, size_t count);
+mlr_status mlr_layers_get_param(const mlr_layers *layers, mlr_layers_param which, double *out,
+                                size_t count);
+mlr_status mlr_layers_synthesize(const mlr_layers *layers, size_t begin, size_t count,
+                                 const double *alpha, size_t n_alpha, double *root_pos,
+                                 size_t n_root_pos, double *rot, size_t n_rot);
+mlr_status mlr_layers_reconstruct(const mlr_layers *layers, size_t begin, size_t count,
+                                  double *root_pos, size_t n_root_pos, double *rot, size_t n_rot);
+void mlr_layers_destroy(mlr_layers *layers);

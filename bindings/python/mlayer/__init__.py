@@ -17,6 +17,7 @@ from .bvh import read_bvh, read_bvh_string, write_bvh, write_bvh_string
 from . import metrics
 from .resample import (resample, slerp_resample, timewarp, timewarp_map, timewarp_speed)
 from . import data
+from .layers import Layers, decompose, denoise, stylize
 
 try:
     __version__ = _dist_version("mlayer")
@@ -33,5 +34,5 @@ __all__ = ["__version__", "library_version", "Error", "InvalidArgumentError", "P
            "SingularMatrixError", "MlayerIOError", "UnsupportedError", "MlayerWarning",
            "LGS", "lgs", "have_cholmod", "quat",
            "Motion", "Skeleton", "read_bvh", "write_bvh", "read_bvh_string", "write_bvh_string",
-           "metrics", "data",
+           "metrics", "data", "Layers", "decompose", "denoise", "stylize",
            "resample", "slerp_resample", "timewarp", "timewarp_map", "timewarp_speed"]

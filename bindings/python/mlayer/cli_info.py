@@ -12,6 +12,7 @@ import sys
 import numpy as np
 
 from .bvh import read_bvh
+from .metrics import body_height
 from .cli import command
 from .errors import Error, ParseError
 
@@ -58,8 +59,7 @@ def describe(m, path: str | None = None, tree: bool = True) -> str:
             f"{a} [{_fmt(lo[i])}, {_fmt(hi[i])}]" for i, a in enumerate("xyz"))
             + f"  (world joint positions over all frames; size {_fmt(size[0])} x "
               f"{_fmt(size[1])} x {_fmt(size[2])})")
-        vert = p[..., 1].max(axis=1) - p[..., 1].min(axis=1)
-        lines.append(f"height    ~{_fmt(float(np.median(vert)))} (median over frames of the "
+        lines.append(f"height    ~{_fmt(body_height(p))} (median over frames of the "
                      "joints' vertical (Y) extent; End Sites excluded; file units)")
     if tree:
         lines.append("skeleton")

@@ -18,6 +18,7 @@ from ._files import atomic_output
 from .bvh import read_bvh, write_bvh
 from .cli import command
 from .errors import InvalidArgumentError, MlayerIOError
+from .layers import stylize
 from .resample import (resample, slerp_resample, timewarp, timewarp_map, timewarp_speed)
 
 
@@ -127,6 +128,8 @@ def _resample_arguments(p) -> None:
                    help="the SLERP + linear interpolation baseline instead of the LGS")
     p.add_argument("--lam", type=float, default=None,
                    help="smoothness (default: automatic from the resampling factor)")
+    p.add_argument("--style", type=float, metavar="ALPHA",
+                   help="also scale the style (mlayer stylize ALPHA) before resampling")
     p.add_argument("--report", nargs="?", const=True, default=None, metavar="PLOT.png",
                    help="print a summary of the posterior variance per output frame, and plot "
                         "it to PLOT.png if given")
@@ -145,10 +148,12 @@ def run_resample(args) -> int:
     if args.slerp:
         if args.lam is not None:
             raise InvalidArgumentError("--lam does not apply to --slerp")
-        out, var = slerp_resample(m, **kw), None
+        src = m if args.style is None else stylize(m, args.style)
+        out, var = slerp_resample(src, **kw), None
     else:
-        out, var = resample(m, lam=args.lam, return_var=True, **kw)
-    method = "SLERP" if args.slerp else "LGS"
+        out, var = resample(m, lam=args.lam, return_var=True, style=args.style, **kw)
+    method = ("SLERP" if args.slerp else "LGS") + \
+        (f", style x{args.style:g}" if args.style is not None else "")
     fig = None
     if args.report is not None:
         print(variance_summary(var, out.fps))
@@ -221,6 +226,8 @@ def _timewarp_arguments(p) -> None:
                         "frame, strictly increasing from 0 to N-1")
     p.add_argument("--smooth", type=float, default=0.25, metavar="SECONDS",
                    help="easing length of the automatic map (default 0.25 s)")
+    p.add_argument("--style", type=float, metavar="ALPHA",
+                   help="also scale the style (mlayer stylize ALPHA) in the same run")
     p.add_argument("--plot", metavar="TIMEMAP.png",
                    help="plot the time map with the motion speed under it (paper Figure 9)")
     p.add_argument("--allow-extreme", action="store_true",
@@ -235,13 +242,15 @@ def run_timewarp(args) -> int:
     if args.map is not None:
         t_user = _load_map(args.map)
         out, t = timewarp(m, time_map=t_user, n_frames=args.frames, return_map=True,
-                          allow_extreme=args.allow_extreme)
+                          allow_extreme=args.allow_extreme, style=args.style)
         how = f"time map from {args.map}"
     else:
         t = timewarp_map(m, strength=args.strength, n_frames=args.frames,
                          smooth_seconds=args.smooth, allow_extreme=args.allow_extreme)
-        out = timewarp(m, time_map=t, allow_extreme=args.allow_extreme)
+        out = timewarp(m, time_map=t, allow_extreme=args.allow_extreme, style=args.style)
         how = f"strength {args.strength:g}"
+    if args.style is not None:
+        how += f", style x{args.style:g}"
     fig = None
     if args.plot:
         fig = timemap_figure(m, out, t, timewarp_speed(m),

@@ -40,3 +40,13 @@ def jitter(m, fps: float | None = None) -> float:
         raise InvalidArgumentError(f"jitter needs at least 4 frames, got {p.shape[0]}")
     j = np.linalg.norm(np.diff(p, n=3, axis=0), axis=-1).mean()
     return float(j * fps**3) if fps else float(j)
+
+
+def body_height(m) -> float:
+    """Body size used to make thresholds and errors unit-free: the median over frames of the
+    joints' vertical (Y) extent (End Sites excluded, so the head top and toe tips are not
+    counted). Units: the clip's length unit; a standing CMU subject is about 24 units."""
+    p = _positions(m)
+    if p.shape[0] == 0:
+        raise InvalidArgumentError("body_height needs at least one frame")
+    return float(np.median(p[..., 1].max(axis=1) - p[..., 1].min(axis=1)))

@@ -147,6 +147,26 @@ def _time_map(time_map, N: int, n_frames, allow_extreme: bool, where: str):
     return t, n_out
 
 
+def _stylized(motion: Motion, style, where: str) -> Motion:
+    """motion with its style scaled first (mlayer.stylize), when style is given: an alpha, or a
+    dict of stylize's arguments ({"alpha": 2, "joints": {"Left*": 3}, ...})."""
+    if style is None:
+        return motion
+    from .layers import stylize
+    if isinstance(style, dict):
+        kw = dict(style)
+        if "alpha" not in kw:
+            raise InvalidArgumentError(f"{where}: a style dict needs an 'alpha' entry")
+        return stylize(motion, kw.pop("alpha"), **kw)
+    try:
+        alpha = float(style)
+    except (TypeError, ValueError):
+        raise InvalidArgumentError(
+            f"{where}: style must be an alpha or a dict of stylize arguments, got {style!r}") \
+            from None
+    return stylize(motion, alpha)
+
+
 def _solve(motion: Motion, t, n_out: int, frame_time: float, lam: float, sigma: float,
            flags: int, want_var: bool, where: str):
     root, rot, trans = motion._frames()
@@ -168,7 +188,7 @@ def _solve(motion: Motion, t, n_out: int, frame_time: float, lam: float, sigma: 
 
 def resample(motion: Motion, *, fps: float | None = None, n_frames: int | None = None,
              lam: float | None = None, sigma: float | None = None, return_var: bool = False,
-             allow_extreme: bool = False, nearest_sign: bool = False):
+             allow_extreme: bool = False, nearest_sign: bool = False, style=None):
     """Resample ``motion`` to a new frame rate or frame count through the LGS.
 
     Parameters
@@ -191,6 +211,11 @@ def resample(motion: Motion, *, fps: float | None = None, n_frames: int | None =
         Accept factors beyond 100x.
     nearest_sign : bool
         Make quaternions continuous by the nearest sign only (no prediction), for comparison.
+    style : float or dict, optional
+        Retime and stylize in one call: the style is scaled first, at the input's frame rate
+        (``mlayer.stylize(motion, style)``, or ``mlayer.stylize(motion, **style)`` for a dict
+        with ``alpha`` and stylize's other arguments), then the result is resampled. The
+        other order is ``mlayer.stylize(mlayer.resample(motion, ...), alpha)``.
 
     Returns the new :class:`Motion` (same skeleton), or ``(motion, var)`` with ``return_var``.
     Raises InvalidArgumentError for fewer than 2 frames, fps <= 0, both or neither of fps /
@@ -200,6 +225,7 @@ def resample(motion: Motion, *, fps: float | None = None, n_frames: int | None =
     motion = _motion(motion, where)
     n_out, frame_time = _target(motion, fps, n_frames, allow_extreme, where)
     lam, sigma = _lam_sigma(lam, sigma, where)
+    motion = _stylized(motion, style, where)
     return _solve(motion, None, n_out, frame_time, lam, sigma,
                   _flags(allow_extreme, nearest_sign), return_var, where)
 
@@ -325,7 +351,8 @@ def timewarp_map(motion: Motion, *, strength: float = 1.0, n_frames: int | None 
 def timewarp(motion: Motion, *, strength: float = 1.0, n_frames: int | None = None,
              time_map=None, lam: float | None = None, sigma: float | None = None,
              return_var: bool = False, return_map: bool = False, smooth_seconds: float = 0.25,
-             root_weight: float = 1.0, joint_weights=None, allow_extreme: bool = False):
+             root_weight: float = 1.0, joint_weights=None, allow_extreme: bool = False,
+             style=None):
     """Retime ``motion`` along a monotone time map, solved by the LGS; the frame rate stays.
 
     Automatic (default): :func:`timewarp_map` with ``strength`` (0 uniform, 1 natural, more
@@ -342,7 +369,8 @@ def timewarp(motion: Motion, *, strength: float = 1.0, n_frames: int | None = No
     ``lam``/``sigma``/``allow_extreme`` as in :func:`resample` (the automatic smoothness takes
     the mean factor ``(n_frames-1)/(N-1)``). Returns the new motion, followed by the variance
     per output frame with ``return_var`` and the time map with ``return_map``
-    (``(motion, var, t)`` with both).
+    (``(motion, var, t)`` with both). ``style`` stylizes in the same call, as in
+    :func:`resample` (the time map is taken from the original motion).
 
     The first and the last frame stay put; boundaries between slow and fast intervals are
     eased, so there are no jumps.
@@ -357,6 +385,7 @@ def timewarp(motion: Motion, *, strength: float = 1.0, n_frames: int | None = No
                          joint_weights=joint_weights, allow_extreme=allow_extreme)
         n_out = int(round(t[-1])) + 1
     lam, sigma = _lam_sigma(lam, sigma, where)
+    motion = _stylized(motion, style, where)
     res = _solve(motion, t, n_out, motion.frame_time, lam, sigma, _flags(allow_extreme),
                  return_var, where)
     if not return_map:

@@ -256,7 +256,8 @@ BAD = [
     ("too-many-frames", SMALL.replace("Frames: 2", "Frames: 1"), 20, "data after"),
     ("channel-count", SMALL.replace("CHANNELS 3 Z", "CHANNELS 4 Z"), 10, "lists only 3"),
     ("channel-count-7", SMALL.replace("CHANNELS 3 Z", "CHANNELS 7 Z"), 9, "0 to 6"),
-    ("unknown-channel", SMALL.replace("Xrotation Yrotation\n    End", "Xrotation Wrotation\n    End"),
+    ("unknown-channel",
+     SMALL.replace("Xrotation Yrotation\n    End", "Xrotation Wrotation\n    End"),
      9, "unknown channel"),
     ("missing-open-brace", _replace_line(SMALL, 7, ""), 8, "expected '{'"),
     ("missing-close-brace", _replace_line(SMALL, 14, ""), 16, "missing '}'"),
@@ -270,7 +271,8 @@ BAD = [
     ("offset-garbage", SMALL.replace("OFFSET 0 10 0", "OFFSET 0 1O 0"), 8, "OFFSET"),
     ("no-hierarchy", SMALL.replace("HIERARCHY", "HIERARCH"), 1, "HIERARCHY"),
     ("empty", "", 1, "empty"),
-    ("binary-junk-in-frames", _replace_line(SMALL, 19, "1 2 3 0 0 \x00\x01\x02 0 0 0"), 19, "invalid number"),
+    ("binary-junk-in-frames", _replace_line(SMALL, 19, "1 2 3 0 0 \x00\x01\x02 0 0 0"), 19,
+     "invalid number"),
     ("binary-junk-in-hierarchy", SMALL.replace("JOINT Spine", "JOINT Sp\x01ine"), 6, "control"),
 ]
 

@@ -46,6 +46,17 @@ def test_resample_frames_and_slerp(capsys, tmp_path):
     assert len(mlayer.read_bvh(tmp_path / "b.bvh")) == 497  # 993 * 60 / 120.0005 = 496.498
 
 
+def test_style_in_the_same_run(capsys, tmp_path):
+    code, text, err = run(capsys, "resample", SAMPLE, "--fps", 30, "--style", 2, "-o",
+                          tmp_path / "s.bvh")
+    assert code == 0 and err == "" and "style x2" in text
+    want = mlayer.resample(mlayer.read_bvh(SAMPLE), fps=30, style=2.0)
+    assert mlayer.metrics.mpjpe(mlayer.read_bvh(tmp_path / "s.bvh"), want) < 1e-3
+    code, text, err = run(capsys, "timewarp", SAMPLE, "--style", 0.5, "-o", tmp_path / "t.bvh")
+    assert code == 0 and "style x0.5" in text
+    assert len(mlayer.read_bvh(tmp_path / "t.bvh")) == 994
+
+
 def test_resample_report_prints_and_plots_the_variance(capsys, tmp_path):
     out, png = tmp_path / "up.bvh", tmp_path / "var.png"
     code, text, err = run(capsys, "resample", SAMPLE, "--fps", 240, "-o", out, "--report", png)

@@ -1,0 +1,153 @@
+"""Layer commands: `mlayer denoise`, `mlayer stylize`, `mlayer layers`.
+
+    mlayer denoise IN.bvh -o OUT.bvh [--lam-c L --sigma-c S] [--gamma G]
+    mlayer stylize IN.bvh --alpha 2 [--joint 'Left*=3' ...] -o OUT.bvh
+    mlayer layers IN.bvh --plot layers.png [--npz layers.npz] [--joint NAME]
+
+Each prints what it chose (the smoothing found by the gamma heuristic and by GCV) and the
+jitter before and after, and writes its outputs atomically.
+"""
+from __future__ import annotations
+
+import math
+import sys
+
+import numpy as np
+
+from .bvh import read_bvh, write_bvh
+from .cli import command
+from .errors import InvalidArgumentError
+from .metrics import body_height, jitter
+
+
+def _layer_options(p) -> None:
+    p.add_argument("--gamma", type=float, default=math.pi / 2,
+                   help="largest displacement angle of the base layer, radians, in [pi/2, pi) "
+                        "(default pi/2)")
+    p.add_argument("--lam-c", type=float, default=None,
+                   help="control-layer lambda (default: chosen per joint by GCV)")
+    p.add_argument("--sigma-c", type=float, default=None,
+                   help="control-layer sigma (default: chosen per joint by GCV)")
+
+
+def _decompose(args, motion):
+    from .layers import decompose
+    return decompose(motion, gamma=args.gamma, lam_c=args.lam_c, sigma_c=args.sigma_c)
+
+
+def parse_joint_alphas(items) -> dict:
+    """['Left*=3', 'Head=0.5'] -> {'Left*': 3.0, 'Head': 0.5}."""
+    out = {}
+    for it in items or ():
+        name, sep, value = it.rpartition("=")
+        if not sep or not name:
+            raise InvalidArgumentError(f"--joint expects PATTERN=ALPHA, got {it!r}")
+        try:
+            out[name] = float(value)
+        except ValueError:
+            raise InvalidArgumentError(f"--joint {it!r}: {value!r} is not a number") from None
+    return out
+
+
+def _summary(name, before, after, layers=None) -> None:
+    h = body_height(before)
+    jb, ja = jitter(before, fps=before.fps) / h, jitter(after, fps=after.fps) / h
+    print(f"{name}: {before.n_frames} frames at {before.fps:g} fps, {before.n_joints} joints")
+    if layers is not None:
+        lam_c = np.asarray(layers.lam_c)
+        print(f"  control smoothing (GCV per joint unless given): lam_c median "
+              f"{np.median(lam_c):.3g}, range [{lam_c.min():.3g}, {lam_c.max():.3g}]")
+        s_b = np.asarray(layers.base_s)
+        print(f"  base smoothing (gamma heuristic per joint): s median {np.median(s_b):.3g}, "
+              f"range [{s_b.min():.3g}, {s_b.max():.3g}]")
+    print(f"  jitter {jb:.3g} -> {ja:.3g} body heights / s^3 ({100 * (ja / jb - 1):+.1f}%)")
+
+
+def _arguments_denoise(p) -> None:
+    p.add_argument("input", metavar="IN.bvh")
+    p.add_argument("-o", "--output", required=True, metavar="OUT.bvh")
+    _layer_options(p)
+
+
+@command("denoise", "smooth a clip: the base and controllable layers, without the residual")
+def _cmd_denoise(args) -> int:
+    m = read_bvh(args.input)
+    layers = _decompose(args, m)
+    out = layers.synthesize(1.0)
+    write_bvh(out, args.output)
+    _summary(args.input, m, out, layers)
+    print(f"  wrote {args.output}")
+    return 0
+
+
+_cmd_denoise.arguments = _arguments_denoise
+
+
+def _arguments_stylize(p) -> None:
+    p.add_argument("input", metavar="IN.bvh")
+    p.add_argument("-o", "--output", required=True, metavar="OUT.bvh")
+    p.add_argument("--alpha", type=float, default=2.0,
+                   help="scale of the controllable layer for every joint (default 2: "
+                        "exaggerate; 0 gives the base layer, 1 the denoised clip)")
+    p.add_argument("--joint", action="append", metavar="PATTERN=ALPHA",
+                   help="alpha for the joints matching a name or glob, e.g. 'Left*=3' "
+                        "(repeatable; later patterns win)")
+    _layer_options(p)
+
+
+@command("stylize", "exaggerate or flatten a clip's style by scaling its controllable layer")
+def _cmd_stylize(args) -> int:
+    if not math.isfinite(args.alpha):
+        raise InvalidArgumentError(f"--alpha must be finite, got {args.alpha}")
+    joints = parse_joint_alphas(args.joint)
+    m = read_bvh(args.input)
+    layers = _decompose(args, m)
+    out = layers.synthesize(args.alpha, joints=joints or None)
+    write_bvh(out, args.output)
+    _summary(args.input, m, out, layers)
+    print(f"  alpha {args.alpha:g}" + "".join(f", {k}={v:g}" for k, v in joints.items()))
+    print(f"  wrote {args.output}")
+    return 0
+
+
+_cmd_stylize.arguments = _arguments_stylize
+
+
+def _arguments_layers(p) -> None:
+    p.add_argument("input", metavar="IN.bvh")
+    p.add_argument("--plot", metavar="FIG.png", help="figure of the layers (png, svg, pdf)")
+    p.add_argument("--npz", metavar="LAYERS.npz", help="all layers and parameters as numpy arrays")
+    p.add_argument("--joint", default=None, help="joint shown in the figure (default: the one "
+                                                 "whose controllable layer moves most)")
+    _layer_options(p)
+
+
+@command("layers", "decompose a clip into base, controllable and residual layers")
+def _cmd_layers(args) -> int:
+    if not args.plot and not args.npz:
+        print("mlayer layers: nothing to write; give --plot and/or --npz (showing the "
+              "chosen parameters only)", file=sys.stderr)
+    m = read_bvh(args.input)
+    layers = _decompose(args, m)
+    names = m.joint_names
+    print(f"{args.input}: {m.n_frames} frames at {m.fps:g} fps")
+    print(f"{'group':24s} {'base s':>10s} {'max angle':>10s} {'lam_c':>8s} {'sigma_c':>8s} "
+          f"{'dof':>8s}")
+    groups = ["(root translation)"] + list(names)
+    for g, name in enumerate(groups):
+        ang = layers.base_max_angle[g]
+        ang_txt = f"{math.degrees(ang):9.1f}d" if g else f"{ang:10.3g}"
+        print(f"{name:24s} {layers.base_s[g]:10.3g} {ang_txt} {layers.lam_c[g]:8.3g} "
+              f"{layers.sigma_c[g]:8.3g} {layers.control_dof[g]:8.1f}")
+    if args.npz:
+        layers.save_npz(args.npz)
+        print(f"wrote {args.npz}")
+    if args.plot:
+        from .plot import plot_layers
+        shown = plot_layers(m, layers, args.plot, joint=args.joint,
+                            title=f"{args.input}: layers")
+        print(f"wrote {args.plot} (root {'XYZ'[shown['root_axis']]}, joint {shown['joint']})")
+    return 0
+
+
+_cmd_layers.arguments = _arguments_layers

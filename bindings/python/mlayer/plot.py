@@ -1,0 +1,84 @@
+"""Figures of the motion layers (like paper 1, Figures 1 and 2), drawn with matplotlib.
+
+Only imported when a figure is asked for: the rest of mlayer does not need matplotlib.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from . import quat
+from ._files import atomic_output
+from .errors import InvalidArgumentError
+
+
+def _pyplot():
+    try:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError as e:  # pragma: no cover - matplotlib is an optional dependency
+        raise InvalidArgumentError("plotting needs matplotlib (pip install matplotlib)") from e
+    return plt
+
+
+def _angle(q):
+    """Rotation angle in degrees of unit quaternions (..., 4)."""
+    return np.degrees(np.linalg.norm(quat.log(q), axis=-1))
+
+
+def plot_layers(motion, layers, path, *, joint=None, root_axis=None, title=None) -> dict:
+    """Write a figure of the layers of `motion` to `path` (PNG, SVG or PDF, by extension).
+
+    Top: one root translation channel through the original, the base layer and base plus the
+    controllable layer, with the residual under it. Bottom: the same for one joint's rotation
+    angle (degrees). `joint` is a joint name (default: the joint whose controllable layer moves
+    most); `root_axis` 0, 1 or 2 (default: the axis whose controllable layer moves most).
+    Returns what was plotted: {"joint": name, "root_axis": axis}.
+    """
+    plt = _pyplot()
+    names = list(motion.joint_names)
+    ctrl = np.asarray(layers.control)
+    resid = np.asarray(layers.residual)
+    base = layers.base
+    t = np.arange(motion.n_frames) / motion.fps
+    if root_axis is None:
+        root_axis = int(np.argmax(ctrl[:, 0, :].std(axis=0)))
+    if root_axis not in (0, 1, 2):
+        raise InvalidArgumentError(f"root_axis must be 0, 1 or 2, got {root_axis}")
+    if joint is None:
+        j = int(np.argmax(np.linalg.norm(ctrl[:, 1:, :], axis=-1).std(axis=0)))
+    elif joint in names:
+        j = names.index(joint)
+    else:
+        raise InvalidArgumentError(f"no joint {joint!r}; joints: {', '.join(names)}")
+
+    axis_name = "XYZ"[root_axis]
+    pb = base.root_pos[:, root_axis]
+    fig, ax = plt.subplots(4, 1, figsize=(9, 8.5), sharex=True,
+                           gridspec_kw={"height_ratios": [3, 1, 3, 1]})
+    ax[0].plot(t, motion.root_pos[:, root_axis], color="0.55", lw=2.2, label="original M")
+    ax[0].plot(t, pb, color="tab:blue", lw=1.2, label="base Mb")
+    ax[0].plot(t, pb + ctrl[:, 0, root_axis], color="tab:red", lw=1.0, ls="--",
+               label="Mb (+) control")
+    ax[0].set_ylabel(f"root {axis_name}")
+    ax[0].legend(loc="best", fontsize=8)
+    ax[1].plot(t, resid[:, 0, root_axis], color="tab:green", lw=0.8)
+    ax[1].set_ylabel("residual")
+
+    qb = base.rot[:, j]
+    q_ctrl = quat.mul(qb, quat.exp(ctrl[:, 1 + j]))
+    ax[2].plot(t, _angle(motion.rot[:, j]), color="0.55", lw=2.2, label="original M")
+    ax[2].plot(t, _angle(qb), color="tab:blue", lw=1.2, label="base Mb")
+    ax[2].plot(t, _angle(q_ctrl), color="tab:red", lw=1.0, ls="--", label="Mb (+) control")
+    ax[2].set_ylabel(f"{names[j]} angle (deg)")
+    ax[2].legend(loc="best", fontsize=8)
+    ax[3].plot(t, np.degrees(np.linalg.norm(resid[:, 1 + j], axis=-1)), color="tab:green",
+               lw=0.8)
+    ax[3].set_ylabel("|residual| (deg)")
+    ax[3].set_xlabel("time (s)")
+    fig.suptitle(title or "motion layers: base, controllable, residual")
+    fig.tight_layout()
+    with atomic_output(path) as tmp:
+        fig.savefig(tmp, dpi=110)
+    plt.close(fig)
+    return {"joint": names[j], "root_axis": root_axis}

@@ -1,0 +1,95 @@
+"""`mlayer denoise / stylize / layers / render / demo`: outputs, one-line errors, no partial
+files."""
+import os
+
+import numpy as np
+import pytest
+
+import mlayer
+from mlayer.cli import main
+
+
+@pytest.fixture(scope="module")
+def short_clip(tmp_path_factory):
+    """The first 2 s of the bundled walk, as a file."""
+    p = tmp_path_factory.mktemp("clip") / "walk.bvh"
+    mlayer.write_bvh(mlayer.data.load_sample()[:240], p)
+    return p
+
+
+def run(capsys, *argv):
+    code = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_denoise_writes_the_denoised_clip(capsys, tmp_path, short_clip):
+    out = tmp_path / "den.bvh"
+    code, text, err = run(capsys, "denoise", short_clip, "-o", out)
+    assert code == 0, err
+    m = mlayer.read_bvh(out)
+    ref = mlayer.denoise(mlayer.read_bvh(short_clip))
+    assert m.n_frames == 240 and np.allclose(m.positions(), ref.positions(), atol=1e-5)
+    assert "lam_c median" in text and "jitter" in text
+
+
+def test_stylize_with_joint_patterns(capsys, tmp_path, short_clip):
+    out = tmp_path / "sty.bvh"
+    code, text, err = run(capsys, "stylize", short_clip, "--alpha", "1.5", "--joint",
+                          "Left*=3", "-o", out)
+    assert code == 0, err
+    src = mlayer.read_bvh(short_clip)
+    ref = mlayer.stylize(src, 1.5, {"Left*": 3.0})
+    assert np.allclose(mlayer.read_bvh(out).positions(), ref.positions(), atol=1e-5)
+    assert "Left*=3" in text
+
+
+def test_layers_plot_and_npz(capsys, tmp_path, short_clip):
+    fig, npz = tmp_path / "layers.png", tmp_path / "layers.npz"
+    code, text, err = run(capsys, "layers", short_clip, "--plot", fig, "--npz", npz)
+    assert code == 0, err
+    assert fig.stat().st_size > 10000 and fig.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    z = np.load(npz)
+    assert z["control"].shape == (240, 32, 3)
+    assert "(root translation)" in text and "LeftKnee" in text
+
+
+def test_render_gif(capsys, tmp_path, short_clip):
+    out = tmp_path / "clip.gif"
+    code, text, err = run(capsys, "render", short_clip, short_clip, "-o", out, "--fps", "10",
+                          "--size", "120x140")
+    assert code == 0, err
+    from PIL import Image
+    im = Image.open(out)
+    assert im.size == (240, 140) and im.n_frames == 20
+
+
+def test_demo_on_the_bundled_clip(capsys, tmp_path):
+    d = tmp_path / "demo"
+    code, text, err = run(capsys, "demo", "-o", d, "--no-gif")
+    assert code == 0, err
+    assert sorted(os.listdir(d)) == ["denoised.bvh", "layers.npz", "layers.png",
+                                     "stylized_alpha2.bvh"]
+    assert mlayer.read_bvh(d / "denoised.bvh").n_frames == 994
+
+
+@pytest.mark.parametrize("argv,needle", [
+    (["stylize", "{clip}", "--alpha", "nan", "-o", "{out}"], "alpha must be finite"),
+    (["stylize", "{clip}", "--joint", "Nope*=2", "-o", "{out}"], "matches no joint"),
+    (["stylize", "{clip}", "--joint", "Left*", "-o", "{out}"], "PATTERN=ALPHA"),
+    (["denoise", "{clip}", "--gamma", "4", "-o", "{out}"], "gamma"),
+    (["denoise", "{bad}", "-o", "{out}"], "bad.bvh:"),
+    (["denoise", "{missing}", "-o", "{out}"], "missing.bvh"),
+    (["render", "{clip}", "--size", "big", "-o", "{out}"], "--size"),
+])
+def test_errors_are_one_line_and_leave_no_output(capsys, tmp_path, short_clip, argv, needle):
+    bad = tmp_path / "bad.bvh"
+    bad.write_text("HIERARCHY\nROOT a\n{\nOFFSET 0 0\n")
+    out = tmp_path / "out.bvh"
+    subs = {"{clip}": str(short_clip), "{out}": str(out), "{bad}": str(bad),
+            "{missing}": str(tmp_path / "missing.bvh")}
+    code, text, err = run(capsys, *[subs.get(a, a) for a in argv])
+    assert code == 1
+    assert len(err.strip().splitlines()) == 1 and needle in err, err
+    assert not out.exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.bvh"]

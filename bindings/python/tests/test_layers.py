@@ -1,0 +1,165 @@
+"""Motion layers through Python: the layer identity checked independently in numpy/scipy on
+every real clip, synthesis, joint patterns, the base-layer floor, and bad input."""
+import math
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+import mlayer
+from mlayer import quat
+from mlayer.layers import base_s_max
+
+CLIPS = ["cmu_01_01_playground_jumps", "cmu_131_01_mj_style_walk", "cmu_10_01_soccer_kick",
+         "cmu_60_10_salsa_dance", "cmu_02_03_run_jog_25fps", "lafan1_clip_a",
+         "bandai1_walk_happy_001", "ai4a_dog_D1_008_KAN01_002"]
+
+
+def _scipy(q):
+    """scalar-first (w, x, y, z) -> scipy Rotation (scalar-last)."""
+    return Rotation.from_quat(np.asarray(q)[..., [1, 2, 3, 0]].reshape(-1, 4))
+
+
+def _same_rotation_deg(a, b):
+    """Largest angle in degrees between rotations given as scalar-first quaternions."""
+    return np.degrees((_scipy(a).inv() * _scipy(b)).magnitude().max())
+
+
+@pytest.fixture(scope="module")
+def walk():
+    return mlayer.data.load_sample()
+
+
+@pytest.mark.parametrize("clip", CLIPS)
+def test_layer_identity_checked_with_scipy(mocap, clip):
+    m = mlayer.read_bvh(mocap / f"{clip}.bvh")
+    L = mlayer.decompose(m)
+    n, j = m.n_frames, m.n_joints
+    assert L.control.shape == L.residual.shape == (n, 1 + j, 3)
+    # (Mb (+) control) (+) residual, composed here with scipy rotations, is the input
+    qb = _scipy(L.base.rot)
+    qc = qb * Rotation.from_rotvec(L.control[:, 1:].reshape(-1, 3))
+    q = qc * Rotation.from_rotvec(L.residual[:, 1:].reshape(-1, 3))
+    err = (q.inv() * _scipy(m.rot)).magnitude().max()
+    assert err < 1e-9, f"{clip}: rotations off by {err} rad"
+    root = L.base.root_pos + L.control[:, 0] + L.residual[:, 0]
+    scale = np.ptp(m.positions().reshape(-1, 3), axis=0).max()
+    assert np.abs(root - m.root_pos).max() < 1e-9 * scale
+    # and the library's own reconstruction agrees
+    r = L.reconstruct()
+    assert _same_rotation_deg(r.rot, m.rot) < 1e-7
+    assert np.abs(r.root_pos - m.root_pos).max() < 1e-9 * scale
+    # base quaternions are unit and the parameters are reported for every group
+    assert np.allclose(np.linalg.norm(L.base.rot, axis=-1), 1.0, atol=1e-12)
+    for name in ("lam", "sigma", "base_s", "lam_c", "sigma_c", "control_dof"):
+        a = getattr(L, name)
+        assert a.shape == (1 + j,) and np.all(np.isfinite(a)) and np.all(a > 0), name
+
+
+def test_synthesis_alphas(walk):
+    L = mlayer.decompose(walk)
+    base = L.synthesize(0.0)
+    assert np.allclose(base.root_pos, L.base.root_pos, atol=1e-12)
+    assert _same_rotation_deg(base.rot, L.base.rot) < 1e-9
+    # alpha = 1: the base plus the controllable layer, computed independently
+    den = L.synthesize(1.0)
+    ref = _scipy(L.base.rot) * Rotation.from_rotvec(L.control[:, 1:].reshape(-1, 3))
+    assert _same_rotation_deg(den.rot, ref.as_quat()[:, [3, 0, 1, 2]]) < 1e-9
+    assert np.allclose(den.root_pos, L.base.root_pos + L.control[:, 0], atol=1e-12)
+    # alpha = 2 doubles the control rotation vector
+    two = L.synthesize(2.0)
+    v = (_scipy(L.base.rot).inv() * _scipy(two.rot)).as_rotvec().reshape(L.control[:, 1:].shape)
+    small = np.linalg.norm(L.control[:, 1:], axis=-1) < 1.4  # 2 |v| < pi: no wrap
+    assert np.allclose(v[small], 2 * L.control[:, 1:][small], atol=1e-9)
+    # denoise / stylize are the same computations
+    assert np.array_equal(mlayer.denoise(walk).rot, den.rot)
+    assert np.array_equal(mlayer.stylize(walk, 2.0).rot, two.rot)
+    # the skeleton and frame rate are kept
+    assert two.skeleton == walk.skeleton and two.fps == walk.fps
+
+
+def test_joint_patterns_scale_only_their_joints(walk):
+    L = mlayer.decompose(walk)
+    names = walk.joint_names
+    w = L.alphas(1.0, {"Left*": 3.0, "LeftWrist": 0.5})
+    for k, n in enumerate(names):
+        expect = 0.5 if n == "LeftWrist" else 3.0 if n.startswith("Left") else 1.0
+        assert w[1 + k] == expect, n
+    assert w[0] == 1.0
+    out = L.synthesize(1.0, {"Left*": 3.0})
+    den = L.synthesize(1.0)
+    changed = ~np.all(np.isclose(out.rot, den.rot, atol=1e-12), axis=(0, 2))
+    assert [n for n, c in zip(names, changed) if c] == [n for n in names
+                                                        if n.startswith("Left")
+                                                        and np.abs(L.control[:, 1 + names.index(n)]).max() > 0]
+    assert np.array_equal(out.root_pos, den.root_pos)
+    assert not np.array_equal(L.synthesize(1.0, root_alpha=2.0).root_pos, den.root_pos)
+
+
+def test_base_floor_follows_the_frame_rate(walk):
+    # the response of the LGS at the cutoff is 1/2 for the chosen s
+    for fps, fc in ((120.0, 0.25), (30.0, 0.25), (24.0, 1.0)):
+        s = base_s_max(fps, fc)
+        assert math.isclose(1.0 / (1.0 + s * (2 * math.sin(math.pi * fc / fps)) ** 4), 0.5)
+    L = mlayer.decompose(walk)
+    assert L.base_s.max() <= base_s_max(walk.fps, 0.25) * (1 + 1e-12)
+    free = mlayer.decompose(walk, base_cutoff=None)
+    assert free.base_s.max() > 100 * L.base_s.max()
+    # gamma bound: every joint's largest displacement stays within gamma
+    assert np.all(L.base_max_angle[1:] <= math.pi / 2 + 1e-12)
+
+
+def test_explicit_control_parameters(walk):
+    L = mlayer.decompose(walk, lam_c=1.0, sigma_c=1.0)
+    assert np.allclose(L.lam_c, 1.0) and np.allclose(L.sigma_c, 1.0)
+    assert np.all(np.isnan(L.control_gcv))
+    # the controllable layer of the root is then exactly mlayer.lgs of its displacement
+    disp = walk.root_pos - L.base.root_pos
+    assert np.allclose(L.control[:, 0], mlayer.lgs(disp, 1.0, 1.0), atol=1e-9)
+
+
+def test_denoising_reduces_added_noise(walk):
+    rng = np.random.default_rng(7)
+    noisy = walk.with_frames(rot=quat.mul(walk.rot, quat.exp(
+        rng.normal(scale=math.radians(1.5), size=walk.rot.shape[:-1] + (3,)))))
+    den = mlayer.denoise(noisy)
+    e_noisy = mlayer.metrics.mpjpe(noisy, walk)
+    e_den = mlayer.metrics.mpjpe(den, walk)
+    assert e_den < 0.5 * e_noisy
+    assert mlayer.metrics.jitter(den) < 0.1 * mlayer.metrics.jitter(noisy)
+
+
+@pytest.mark.parametrize("kw,msg", [
+    ({"gamma": 1.0}, "gamma"), ({"gamma": math.pi}, "gamma"), ({"lam_c": float("nan")}, "lam_c"),
+    ({"sigma_c": -1.0}, "sigma"), ({"base_cutoff": 0.0}, "base_cutoff"),
+    ({"base_cutoff": 1000.0}, "base_cutoff")])
+def test_bad_parameters(walk, kw, msg):
+    with pytest.raises(mlayer.InvalidArgumentError, match=msg):
+        mlayer.decompose(walk[:50], **kw)
+
+
+def test_bad_alphas_and_patterns(walk):
+    L = mlayer.decompose(walk[:60])
+    for bad in (float("nan"), float("inf"), "x"):
+        with pytest.raises(mlayer.InvalidArgumentError, match="alpha"):
+            L.synthesize(bad)
+    with pytest.raises(mlayer.InvalidArgumentError, match="matches no joint.*LeftHip"):
+        L.synthesize(1.0, {"Nope*": 2.0})
+    with pytest.raises(mlayer.InvalidArgumentError, match="alpha of 'Left\\*'"):
+        L.synthesize(1.0, {"Left*": float("nan")})
+
+
+def test_too_short_clip(walk):
+    with pytest.raises(mlayer.InvalidArgumentError, match="at least 3 frames"):
+        mlayer.decompose(walk[:2])
+    L = mlayer.decompose(walk[:3])
+    assert L.synthesize(1.0).n_frames == 3
+
+
+def test_save_npz(tmp_path, walk):
+    L = mlayer.decompose(walk[:100])
+    L.save_npz(tmp_path / "l.npz")
+    z = np.load(tmp_path / "l.npz")
+    assert np.array_equal(z["control"], L.control) and np.array_equal(z["lam_c"], L.lam_c)
+    assert list(z["joint_names"]) == walk.joint_names
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["l.npz"]

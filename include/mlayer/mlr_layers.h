@@ -1,0 +1,188 @@
+/*
+ * Motion layers (paper 1, section 4): a motion M = (root translation p, joint rotations q_j)
+ * is decomposed into
+ *
+ *     M = (Mb (+) delta_c) (+) delta_r
+ *
+ * Mb        base layer: LGS (order 2) on the root translation and on each joint's
+ *           hemisphere-aligned quaternion as 4 channels, renormalized (eq. 11);
+ * delta     displacement M (-) Mb: u0 = p - pb for the root, v_j = log(conj(qb_j) q_j) for
+ *           the joints (full-angle rotation vectors, eq. 13);
+ * delta_c   controllable layer: LGS of the displacement channels (eq. 15);
+ * delta_r   residual exp(delta) (-) exp(delta_c): u0 - uc for the root,
+ *           r_j = log(conj(exp(vc_j)) exp(v_j)) for the joints.
+ *
+ * (+) is vector addition for translations and q * exp(v) for rotations. Synthesis (eq. 16, 17)
+ * is M' = Mb (+) W delta_c with one alpha for the root translation and one per joint; alpha = 1
+ * everywhere is the denoised motion.
+ *
+ * Smoothing strength. Every LGS here has identity observations, so its mean depends only on
+ * s = lam^2 sigma^2 (the system is (I + s L^T L) x = y with L the second difference).
+ *
+ * Base layer, per joint (eq. 14): the strongest s in [BASE_S_MIN, BASE_S_MAX] whose largest
+ * displacement angle max_t |v_j(t)| stays within gamma (default pi/2, valid [pi/2, pi)). The
+ * paper uses one setting for the whole body; a setting per joint keeps a one-joint glitch
+ * from weakening every other joint. The search runs all joints in lockstep: BASE_S_MAX first
+ * (a joint within the bound there keeps it), then BASE_S_MIN (a joint beyond the bound even
+ * there keeps it, see MLR_LAYERS_PARAM_BASE_MAX_ANGLE), then a bracketed secant (Illinois)
+ * search on log s of log(max angle / gamma), nearly linear in log s, until the bracket
+ * [s_ok, s_broken] is narrower than 4% in s. The reported s is s_ok: it satisfies the bound
+ * and 1.04 s breaks it. The paper strengthens lam and sigma together from
+ * lam = 1, sigma = 0.1; the reported pair is that path: lam = k, sigma = 0.1 k, k = (100 s)^(1/4).
+ * The root translation has no angle to bound: it takes the s of joint 0, the root segment
+ * whose orientation the same markers measure, so the pelvis translation and orientation are
+ * smoothed alike.
+ *
+ * Controllable layer, per group (the root translation, then each joint; 3 channels each): s is
+ * chosen by generalized cross-validation, GCV(s) = (RSS / 3N) / (1 - tr(H)/N)^2 with
+ * H = (I + s L^T L)^-1 (tr(H) by selected inversion of the banded factor), minimized over
+ * log s in [CONTROL_S_MIN, CONTROL_S_MAX]: a grid of one point per two decades, then Brent's
+ * method around the best point to 5% in s. A group whose displacement is identically zero
+ * gets s = 1. Explicit lam_c / sigma_c options replace GCV for every group (the paper uses
+ * lam_c = sigma_c = 1). The reported pair is lam_c = sigma_c = s^(1/4).
+ *
+ * Arrays are row-major float64; quaternions scalar-first (w, x, y, z). Joint 0 is the root
+ * segment; root_pos is its translation. Rotations are normalized on input, and the layers
+ * reproduce the normalized input; an output quaternion of synthesis and reconstruction is taken
+ * in the hemisphere of the base quaternion of its frame (the base is sign-continuous in time),
+ * so a rotation may come back as -q for an input q.
+ */
+#ifndef MLR_LAYERS_H
+#define MLR_LAYERS_H
+
+#include "mlr_common.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/** A decomposed motion. Opaque; read-only after mlr_layers_decompose. */
+typedef struct mlr_layers mlr_layers;
+
+/** Option keys for mlr_layers_decompose. Values pinned; new options get new values. */
+typedef enum mlr_layers_key {
+    MLR_LAYERS_OPT_GAMMA = 1,          /* angle bound of eq. 14 in radians, [pi/2, pi); pi/2 */
+    MLR_LAYERS_OPT_LAM_B = 2,          /* base lam: setting LAM_B or SIGMA_B fixes the base s */
+    MLR_LAYERS_OPT_SIGMA_B = 3,        /*   for every joint and the root (the other of the pair
+                                          then defaults to lam = 1 / sigma = 0.1) */
+    MLR_LAYERS_OPT_LAM_C = 4,          /* control lam: setting LAM_C or SIGMA_C replaces GCV */
+    MLR_LAYERS_OPT_SIGMA_C = 5,        /*   (the other of the pair then defaults to 1) */
+    MLR_LAYERS_OPT_BASE_S_MIN = 6,     /* search range of the base s; default 1e-2 */
+    MLR_LAYERS_OPT_BASE_S_MAX = 7,     /*   default 1e10 */
+    MLR_LAYERS_OPT_CONTROL_S_MIN = 8,  /* GCV search range of the control s; default 1e-2 */
+    MLR_LAYERS_OPT_CONTROL_S_MAX = 9   /*   default 1e8 */
+} mlr_layers_key;
+
+/** One option: key (an mlr_layers_key) and its value. A frozen value type. */
+typedef struct mlr_layers_option {
+    int key;
+    double value;
+} mlr_layers_option;
+
+/** What mlr_layers_get_param reports, 1 + n_joints values each: the root translation first,
+ *  then the joints. Values pinned. */
+typedef enum mlr_layers_param {
+    MLR_LAYERS_PARAM_BASE_S = 0,          /* s = lam^2 sigma^2 of the base LGS */
+    MLR_LAYERS_PARAM_BASE_LAM = 1,
+    MLR_LAYERS_PARAM_BASE_SIGMA = 2,
+    MLR_LAYERS_PARAM_BASE_MAX_ANGLE = 3,  /* max_t |v_j(t)| in radians; for the root,
+                                             max_t |u0(t)| in its length unit */
+    MLR_LAYERS_PARAM_CONTROL_S = 4,       /* s of the controllable layer's LGS */
+    MLR_LAYERS_PARAM_CONTROL_LAM = 5,
+    MLR_LAYERS_PARAM_CONTROL_SIGMA = 6,
+    MLR_LAYERS_PARAM_CONTROL_GCV = 7,     /* GCV score at the chosen s; NaN when s was given */
+    MLR_LAYERS_PARAM_CONTROL_DOF = 8      /* tr(H): effective degrees of freedom per channel */
+} mlr_layers_param;
+
+/**
+ * Decompose a motion.
+ * @param n_frames  [in] N >= 3 (the second-difference prior needs three frames)
+ * @param n_joints  [in] J >= 1
+ * @param root_pos  [in] N x 3 root translations, finite; NULL for zeros. Not kept.
+ * @param rot       [in] N x J x 4 joint rotations, finite and nonzero (normalized here). Not
+ *                  kept.
+ * @param opts      [in] n_opts options; NULL when n_opts is 0. A key may appear once.
+ * @param alloc     [in] allocator, copied; NULL for malloc/free
+ * @param out       [out] new handle, NULL on failure
+ * @param diag      [out] optional: the reason of an error
+ * @return MLR_OK; MLR_E_INVALID_ARG (N < 3, J == 0, NULL arrays, non-finite or zero input,
+ *         unknown or repeated key, gamma outside [pi/2, pi), a lam/sigma not finite and > 0,
+ *         an s range not finite, positive and ordered); MLR_E_SINGULAR (a factorization
+ *         failed: s far too large for the clip); MLR_E_NO_MEMORY; MLR_E_OVERFLOW
+ * Allocates: the handle, one block of about (10 J + 9) N doubles, and while running one block
+ * of about (7 J + 3) N doubles of scratch. Cost O(N J) per search step (a few dozen steps).
+ * Threads: any; inputs only read.
+ */
+MLR_API mlr_status mlr_layers_decompose(size_t n_frames, size_t n_joints,
+                                        const double *root_pos, const double *rot,
+                                        const mlr_layers_option *opts, size_t n_opts,
+                                        const mlr_allocator *alloc, mlr_layers **out,
+                                        mlr_diag *diag);
+
+/** Frames N of the decomposition (0 for NULL). */
+MLR_API size_t mlr_layers_n_frames(const mlr_layers *layers);
+/** Joints J of the decomposition (0 for NULL). */
+MLR_API size_t mlr_layers_n_joints(const mlr_layers *layers);
+
+/**
+ * Copy the base layer.
+ * @param root_pos    [out] N x 3, or NULL to skip (then n_root_pos is ignored)
+ * @param n_root_pos  [in] doubles at root_pos; must be 3 N
+ * @param rot         [out] N x J x 4 unit quaternions, or NULL to skip
+ * @param n_rot       [in] doubles at rot; must be 4 N J
+ * @return MLR_OK; MLR_E_INVALID_ARG (NULL handle, wrong count)
+ * Allocates: never. Threads: handle only read.
+ */
+MLR_API mlr_status mlr_layers_get_base(const mlr_layers *layers, double *root_pos,
+                                       size_t n_root_pos, double *rot, size_t n_rot);
+
+/** Copy the controllable layer delta_c: N x (1 + J) x 3, the root translation first in every
+ *  frame, then the joints' rotation vectors. count must be 3 N (1 + J).
+ *  @return MLR_OK; MLR_E_INVALID_ARG. Allocates: never. Threads: handle only read. */
+MLR_API mlr_status mlr_layers_get_control(const mlr_layers *layers, double *out, size_t count);
+
+/** Copy the residual layer delta_r, laid out like the controllable layer.
+ *  @return MLR_OK; MLR_E_INVALID_ARG. Allocates: never. Threads: handle only read. */
+MLR_API mlr_status mlr_layers_get_residual(const mlr_layers *layers, double *out,
+                                           size_t count);
+
+/** Parameters chosen per group (see mlr_layers_param): count must be 1 + J, the root first.
+ *  @return MLR_OK; MLR_E_INVALID_ARG (NULL, wrong count, unknown which). Allocates: never. */
+MLR_API mlr_status mlr_layers_get_param(const mlr_layers *layers, mlr_layers_param which,
+                                        double *out, size_t count);
+
+/**
+ * Synthesize frames [begin, begin + count) of M' = Mb (+) W delta_c (eq. 16, 17): the root
+ * translation pb + alpha_0 uc, joint j's rotation qb_j * exp(alpha_{1+j} vc_j).
+ * @param alpha       [in] n_alpha finite scales: 1 + J values (root translation first), or a
+ *                    single value for every group. Any finite value is accepted (0 gives the
+ *                    base layer, 1 the denoised motion, > 1 exaggerates, < 0 inverts).
+ * @param root_pos    [out] count x 3, or NULL to skip
+ * @param n_root_pos  [in] must be 3 count when root_pos is not NULL
+ * @param rot         [out] count x J x 4, or NULL to skip
+ * @param n_rot       [in] must be 4 J count when rot is not NULL
+ * @return MLR_OK; MLR_E_INVALID_ARG (NULL handle, frame range outside [0, N), wrong counts,
+ *         alpha NaN or infinite: nothing is written)
+ * Allocates: never. Threads: handle only read, so threads may synthesize concurrently.
+ */
+MLR_API mlr_status mlr_layers_synthesize(const mlr_layers *layers, size_t begin, size_t count,
+                                         const double *alpha, size_t n_alpha, double *root_pos,
+                                         size_t n_root_pos, double *rot, size_t n_rot);
+
+/**
+ * Rebuild frames [begin, begin + count) of the input as (Mb (+) delta_c) (+) delta_r. It equals
+ * the (normalized) input to rounding, a rotation possibly as -q. Arguments as for synthesize.
+ * @return MLR_OK; MLR_E_INVALID_ARG. Allocates: never. Threads: handle only read.
+ */
+MLR_API mlr_status mlr_layers_reconstruct(const mlr_layers *layers, size_t begin, size_t count,
+                                          double *root_pos, size_t n_root_pos, double *rot,
+                                          size_t n_rot);
+
+/** Release the handle. NULL is a no-op. */
+MLR_API void mlr_layers_destroy(mlr_layers *layers);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* MLR_LAYERS_H */

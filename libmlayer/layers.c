@@ -1,0 +1,364 @@
+/*
+ * Motion layers (paper 1, section 4): the handle, the decomposition's stages in order, the
+ * getters, synthesis and reconstruction. The base layer is in layers_base.c, the control
+ * layer in layers_control.c, the batched solves in layers_batch.c.
+ */
+#include "layers_internal.h"
+
+#include <math.h>
+
+#define MLR_PI 3.14159265358979323846
+
+static mlr_status parse_options(const mlr_layers_option *opts, size_t n_opts,
+                                mlr_layers_cfg *cfg, mlr_diag *diag)
+{
+    double val[10];
+    int seen[10] = {0};
+    for (size_t i = 0; i < n_opts; i++) {
+        const int key = opts[i].key;
+        if (key < MLR_LAYERS_OPT_GAMMA || key > MLR_LAYERS_OPT_CONTROL_S_MAX)
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "unknown option key %d", key);
+        if (seen[key])
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "option key %d given twice", key);
+        seen[key] = 1;
+        val[key] = opts[i].value;
+        if (!isfinite(val[key]))
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "option key %d: value %g is not finite",
+                                key, val[key]);
+        if (key != MLR_LAYERS_OPT_GAMMA && !(val[key] > 0.0))
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "option key %d: value %g is not > 0",
+                                key, val[key]);
+    }
+    cfg->gamma = seen[MLR_LAYERS_OPT_GAMMA] ? val[MLR_LAYERS_OPT_GAMMA] : 0.5 * MLR_PI;
+    if (!(cfg->gamma >= 0.5 * MLR_PI && cfg->gamma < MLR_PI))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "gamma = %g is outside [pi/2, pi)", cfg->gamma);
+    cfg->base_s = cfg->control_s = 0.0;
+    if (seen[MLR_LAYERS_OPT_LAM_B] || seen[MLR_LAYERS_OPT_SIGMA_B]) {
+        const double lam = seen[MLR_LAYERS_OPT_LAM_B] ? val[MLR_LAYERS_OPT_LAM_B] : 1.0;
+        const double sig = seen[MLR_LAYERS_OPT_SIGMA_B] ? val[MLR_LAYERS_OPT_SIGMA_B] : 0.1;
+        cfg->base_s = lam * lam * sig * sig;
+        if (!(cfg->base_s > 0.0) || !isfinite(cfg->base_s))
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "base lam^2 sigma^2 = %g is not finite and > 0", cfg->base_s);
+    }
+    if (seen[MLR_LAYERS_OPT_LAM_C] || seen[MLR_LAYERS_OPT_SIGMA_C]) {
+        const double lam = seen[MLR_LAYERS_OPT_LAM_C] ? val[MLR_LAYERS_OPT_LAM_C] : 1.0;
+        const double sig = seen[MLR_LAYERS_OPT_SIGMA_C] ? val[MLR_LAYERS_OPT_SIGMA_C] : 1.0;
+        cfg->control_s = lam * lam * sig * sig;
+        if (!(cfg->control_s > 0.0) || !isfinite(cfg->control_s))
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "control lam^2 sigma^2 = %g is not finite and > 0", cfg->control_s);
+    }
+    cfg->base_s_min = seen[MLR_LAYERS_OPT_BASE_S_MIN] ? val[MLR_LAYERS_OPT_BASE_S_MIN] : 1e-2;
+    cfg->base_s_max = seen[MLR_LAYERS_OPT_BASE_S_MAX] ? val[MLR_LAYERS_OPT_BASE_S_MAX] : 1e10;
+    cfg->control_s_min = seen[MLR_LAYERS_OPT_CONTROL_S_MIN] ? val[MLR_LAYERS_OPT_CONTROL_S_MIN] : 1e-2;
+    cfg->control_s_max = seen[MLR_LAYERS_OPT_CONTROL_S_MAX] ? val[MLR_LAYERS_OPT_CONTROL_S_MAX] : 1e8;
+    if (!(cfg->base_s_min < cfg->base_s_max))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "base s range [%g, %g] is not ordered",
+                            cfg->base_s_min, cfg->base_s_max);
+    if (!(cfg->control_s_min < cfg->control_s_max))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "control s range [%g, %g] is not ordered", cfg->control_s_min,
+                            cfg->control_s_max);
+    return MLR_OK;
+}
+
+/* Sizes (in doubles) of the handle's arrays and of the scratch, overflow-checked. */
+typedef struct sizes {
+    size_t pos, rot, grp, param, handle_bytes;
+    size_t q, fac, work, col, scratch_bytes;
+} sizes;
+
+static mlr_status compute_sizes(size_t n, size_t j, sizes *z)
+{
+    size_t ng = j + 1, t;
+    if (ng == 0 || mlr_mul_size(n, 3, &z->pos) || mlr_mul_size(n, j, &t) ||
+        mlr_mul_size(t, 4, &z->rot) || mlr_mul_size(n, ng, &t) || mlr_mul_size(t, 3, &z->grp) ||
+        mlr_mul_size(ng, MLR_LAYERS_N_PARAM, &z->param) ||
+        mlr_mul_size(ng, 26, &z->work))
+        return MLR_E_OVERFLOW;
+    z->q = z->rot;
+    z->fac = z->grp; /* three n x (1 + j) factor arrays */
+    z->col = ng;
+    size_t total = z->pos;
+    const size_t parts[] = {z->rot, z->grp, z->grp, z->param};
+    for (size_t i = 0; i < MLR_COUNTOF(parts); i++) {
+        if (total > SIZE_MAX - parts[i])
+            return MLR_E_OVERFLOW;
+        total += parts[i];
+    }
+    if (mlr_mul_size(total, sizeof(double), &t) || t > SIZE_MAX - sizeof(mlr_layers) - 64)
+        return MLR_E_OVERFLOW;
+    z->handle_bytes = t + sizeof(mlr_layers) + 64;
+    total = z->q;
+    const size_t sparts[] = {z->fac, z->work, z->col};
+    for (size_t i = 0; i < MLR_COUNTOF(sparts); i++) {
+        if (total > SIZE_MAX - sparts[i])
+            return MLR_E_OVERFLOW;
+        total += sparts[i];
+    }
+    if (mlr_mul_size(total, sizeof(double), &z->scratch_bytes))
+        return MLR_E_OVERFLOW;
+    return MLR_OK;
+}
+
+/* Displacements: root u0 = p - pb; joints v = log(conj(qb) q). On return q holds the products
+ * conj(qb) q (needed again by the residual) and the largest |u0|, |v_j| are in the params.
+ * tmp: 4 j doubles. */
+static void displacements(mlr_layers *L, const double *root_pos, double *q, double *delta,
+                          double *tmp)
+{
+    const size_t n = L->n, j = L->j, ld = 3 * (1 + j);
+    double *amax = mlr_layers_param_slot(L, MLR_LAYERS_PARAM_BASE_MAX_ANGLE, 0);
+    mlr_quat *cb = (mlr_quat *)(void *)tmp;
+    for (size_t g = 0; g <= j; g++)
+        amax[g] = 0.0;
+    for (size_t i = 0; i < n; i++) {
+        double *di = delta + i * ld;
+        const double *pb = L->base_pos + 3 * i;
+        for (size_t c = 0; c < 3; c++)
+            di[c] = root_pos ? root_pos[3 * i + c] - pb[c] : 0.0;
+        amax[0] = fmax(amax[0], sqrt(di[0] * di[0] + di[1] * di[1] + di[2] * di[2]));
+        mlr_quat *qi = (mlr_quat *)(void *)(q + 4 * j * i);
+        mlr_quat_conj_array((const mlr_quat *)(const void *)(L->base_rot + 4 * j * i), j, cb);
+        mlr_quat_mul_array(cb, qi, j, qi);
+        mlr_quat_log_array(qi, j, (mlr_vec3 *)(void *)(di + 3));
+        for (size_t k = 0; k < j; k++) {
+            const double *v = di + 3 + 3 * k;
+            amax[1 + k] = fmax(amax[1 + k], sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]));
+        }
+    }
+}
+
+/* Residual in place over delta: u0 - uc for the root, log(conj(exp(vc)) conj(qb) q) for the
+ * joints (p = conj(qb) q from displacements()). tmp: 8 j doubles. */
+static void residuals(mlr_layers *L, const double *p, double *delta, double *tmp)
+{
+    const size_t n = L->n, j = L->j, ld = 3 * (1 + j);
+    mlr_quat *e = (mlr_quat *)(void *)tmp, *r = e + j;
+    for (size_t i = 0; i < n; i++) {
+        double *ri = delta + i * ld;
+        const double *ci = L->control + i * ld;
+        for (size_t c = 0; c < 3; c++)
+            ri[c] -= ci[c];
+        mlr_quat_exp_array((const mlr_vec3 *)(const void *)(ci + 3), j, e);
+        mlr_quat_conj_array(e, j, e);
+        mlr_quat_mul_array(e, (const mlr_quat *)(const void *)(p + 4 * j * i), j, r);
+        mlr_quat_log_array(r, j, (mlr_vec3 *)(void *)(ri + 3));
+    }
+}
+
+static int all_finite(const double *x, size_t count, size_t *bad)
+{
+    for (size_t i = 0; i < count; i++) {
+        if (!isfinite(x[i])) {
+            *bad = i;
+            return 0;
+        }
+    }
+    return 1;
+}
+
+mlr_status mlr_layers_decompose(size_t n_frames, size_t n_joints, const double *root_pos,
+                                const double *rot, const mlr_layers_option *opts, size_t n_opts,
+                                const mlr_allocator *alloc, mlr_layers **out, mlr_diag *diag)
+{
+    if (!out)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "out is NULL");
+    *out = NULL;
+    if (n_frames < 3)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "the second-difference prior needs at least 3 frames, got %zu", n_frames);
+    if (n_joints == 0)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "no joints");
+    if (!rot)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "rot is NULL");
+    if (n_opts > 0 && !opts)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "opts is NULL but n_opts is %zu", n_opts);
+    mlr_layers_cfg cfg;
+    mlr_status st = parse_options(opts, n_opts, &cfg, diag);
+    if (st != MLR_OK)
+        return st;
+    sizes z;
+    if (compute_sizes(n_frames, n_joints, &z) != MLR_OK)
+        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "%zu frames x %zu joints overflow a size",
+                            n_frames, n_joints);
+    size_t bad;
+    if (root_pos && !all_finite(root_pos, z.pos, &bad))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "root translation of frame %zu is not finite", bad / 3);
+
+    mlr_allocator a;
+    mlr_allocator_resolve(alloc, &a);
+    unsigned char *block = mlr_alloc(&a, z.handle_bytes);
+    if (!block)
+        return MLR_E_NO_MEMORY;
+    double *scratch = mlr_alloc(&a, z.scratch_bytes);
+    if (!scratch) {
+        mlr_free(&a, block, z.handle_bytes);
+        return MLR_E_NO_MEMORY;
+    }
+    mlr_layers *L = (mlr_layers *)(void *)block;
+    memset(L, 0, sizeof *L);
+    L->alloc = a;
+    L->n = n_frames;
+    L->j = n_joints;
+    L->bytes = z.handle_bytes;
+    double *d = (double *)(void *)(block + ((sizeof *L + 63) & ~(size_t)63));
+    L->base_pos = d, d += z.pos;
+    L->base_rot = d, d += z.rot;
+    L->control = d, d += z.grp;
+    L->residual = d, d += z.grp;
+    L->param = d;
+
+    double *q = scratch, *fac = q + z.q, *work = fac + z.fac;
+    size_t *col = (size_t *)(void *)(work + z.work);
+
+    st = mlr_layers_prepare_rot(n_frames, n_joints, rot, q, diag);
+    if (st == MLR_OK)
+        st = mlr_layers_base(L, &cfg, q, root_pos, fac, work, col, diag);
+    if (st == MLR_OK) {
+        displacements(L, root_pos, q, L->residual, fac);
+        st = mlr_layers_control(L, &cfg, L->residual, fac, work, col, diag);
+    }
+    if (st == MLR_OK)
+        residuals(L, q, L->residual, fac);
+    mlr_free(&a, scratch, z.scratch_bytes);
+    if (st != MLR_OK) {
+        mlr_free(&a, block, z.handle_bytes);
+        return st;
+    }
+    *out = L;
+    return MLR_OK;
+}
+
+void mlr_layers_destroy(mlr_layers *L)
+{
+    if (!L)
+        return;
+    mlr_allocator a = L->alloc;
+    mlr_free(&a, L, L->bytes);
+}
+
+size_t mlr_layers_n_frames(const mlr_layers *L) { return L ? L->n : 0; }
+size_t mlr_layers_n_joints(const mlr_layers *L) { return L ? L->j : 0; }
+
+mlr_status mlr_layers_get_base(const mlr_layers *L, double *root_pos, size_t n_root_pos,
+                               double *rot, size_t n_rot)
+{
+    if (!L || (root_pos && n_root_pos != 3 * L->n) || (rot && n_rot != 4 * L->n * L->j))
+        return MLR_E_INVALID_ARG;
+    if (root_pos)
+        memcpy(root_pos, L->base_pos, n_root_pos * sizeof(double));
+    if (rot)
+        memcpy(rot, L->base_rot, n_rot * sizeof(double));
+    return MLR_OK;
+}
+
+static mlr_status copy_groups(const mlr_layers *L, const double *src, double *out, size_t count)
+{
+    if (!L || !out || count != 3 * L->n * (1 + L->j))
+        return MLR_E_INVALID_ARG;
+    memcpy(out, src, count * sizeof(double));
+    return MLR_OK;
+}
+
+mlr_status mlr_layers_get_control(const mlr_layers *L, double *out, size_t count)
+{
+    return copy_groups(L, L ? L->control : NULL, out, count);
+}
+
+mlr_status mlr_layers_get_residual(const mlr_layers *L, double *out, size_t count)
+{
+    return copy_groups(L, L ? L->residual : NULL, out, count);
+}
+
+mlr_status mlr_layers_get_param(const mlr_layers *L, mlr_layers_param which, double *out,
+                                size_t count)
+{
+    if (!L || !out || count != 1 + L->j || (int)which < 0 || (int)which >= MLR_LAYERS_N_PARAM)
+        return MLR_E_INVALID_ARG;
+    memcpy(out, mlr_layers_param_slot(L, (int)which, 0), count * sizeof(double));
+    return MLR_OK;
+}
+
+static mlr_status check_range(const mlr_layers *L, size_t begin, size_t count, double *root_pos,
+                              size_t n_root_pos, double *rot, size_t n_rot)
+{
+    if (!L || begin > L->n || count > L->n - begin)
+        return MLR_E_INVALID_ARG;
+    if (root_pos && n_root_pos != 3 * count)
+        return MLR_E_INVALID_ARG;
+    if (rot && n_rot != 4 * L->j * count)
+        return MLR_E_INVALID_ARG;
+    return MLR_OK;
+}
+
+/* q = qb * exp(v) [* exp(r)], in the hemisphere of qb. */
+static void displace(const double *qb, const double *v, double alpha, const double *r, double *out)
+{
+    const mlr_vec3 av = {alpha * v[0], alpha * v[1], alpha * v[2]};
+    mlr_quat e, o;
+    mlr_quat_exp_array(&av, 1, &e);
+    mlr_quat_mul((const mlr_quat *)(const void *)qb, &e, &o);
+    if (r) {
+        mlr_quat_exp_array((const mlr_vec3 *)(const void *)r, 1, &e);
+        mlr_quat_mul(&o, &e, &o);
+    }
+    const double sgn = o.w * qb[0] + o.x * qb[1] + o.y * qb[2] + o.z * qb[3] < 0.0 ? -1.0 : 1.0;
+    out[0] = sgn * o.w, out[1] = sgn * o.x, out[2] = sgn * o.y, out[3] = sgn * o.z;
+}
+
+mlr_status mlr_layers_synthesize(const mlr_layers *L, size_t begin, size_t count,
+                                 const double *alpha, size_t n_alpha, double *root_pos,
+                                 size_t n_root_pos, double *rot, size_t n_rot)
+{
+    mlr_status st = check_range(L, begin, count, root_pos, n_root_pos, rot, n_rot);
+    if (st != MLR_OK)
+        return st;
+    const size_t j = L->j, ld = 3 * (1 + j);
+    if (!alpha || (n_alpha != 1 && n_alpha != 1 + j))
+        return MLR_E_INVALID_ARG;
+    for (size_t g = 0; g < n_alpha; g++)
+        if (!isfinite(alpha[g]))
+            return MLR_E_INVALID_ARG;
+    for (size_t f = 0; f < count; f++) {
+        const size_t i = begin + f;
+        const double *ci = L->control + i * ld;
+        if (root_pos) {
+            const double a0 = alpha[0];
+            for (size_t c = 0; c < 3; c++)
+                root_pos[3 * f + c] = L->base_pos[3 * i + c] + a0 * ci[c];
+        }
+        if (rot) {
+            for (size_t k = 0; k < j; k++) {
+                const double ak = alpha[n_alpha == 1 ? 0 : 1 + k];
+                displace(L->base_rot + 4 * (i * j + k), ci + 3 + 3 * k, ak, NULL,
+                         rot + 4 * (f * j + k));
+            }
+        }
+    }
+    return MLR_OK;
+}
+
+mlr_status mlr_layers_reconstruct(const mlr_layers *L, size_t begin, size_t count,
+                                  double *root_pos, size_t n_root_pos, double *rot, size_t n_rot)
+{
+    mlr_status st = check_range(L, begin, count, root_pos, n_root_pos, rot, n_rot);
+    if (st != MLR_OK)
+        return st;
+    const size_t j = L->j, ld = 3 * (1 + j);
+    for (size_t f = 0; f < count; f++) {
+        const size_t i = begin + f;
+        const double *ci = L->control + i * ld, *ri = L->residual + i * ld;
+        if (root_pos)
+            for (size_t c = 0; c < 3; c++)
+                root_pos[3 * f + c] = (L->base_pos[3 * i + c] + ci[c]) + ri[c];
+        if (rot)
+            for (size_t k = 0; k < j; k++)
+                displace(L->base_rot + 4 * (i * j + k), ci + 3 + 3 * k, 1.0, ri + 3 + 3 * k,
+                         rot + 4 * (f * j + k));
+    }
+    return MLR_OK;
+}

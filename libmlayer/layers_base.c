@@ -1,0 +1,223 @@
+/*
+ * Base layer (paper 1, section 4.1, eq. 11 and 14): hemisphere-aligned quaternions smoothed as
+ * 4 channels, renormalized; the smoothing s chosen per joint as the strongest one whose largest
+ * displacement angle stays within gamma.
+ *
+ * The angle of conj(qb/|qb|) q for a unit q is 2 acos(|<qb, q>| / |qb|), so the largest angle
+ * over the frames is the one with the smallest <qb, q>^2 / |qb|^2: no log per frame.
+ *
+ * The search runs every joint in lockstep (one batched solve per step over the joints still
+ * searching) on u = ln s with h(u) = ln(angle(u) / gamma): the angle grows roughly like a
+ * power of s, so h is nearly linear in u and a bracketed secant (Illinois) closes quickly.
+ */
+#include "layers_internal.h"
+
+#include <math.h>
+
+/* The search stops when the bracket [s_ok, s_bad] is narrower than this ratio. */
+#define BASE_BRACKET_RATIO 1.04
+#define BASE_MAX_STEPS 60
+
+mlr_status mlr_layers_prepare_rot(size_t n, size_t j, const double *rot_in, double *q,
+                                  mlr_diag *diag)
+{
+    if (mlr_quat_normalize_array((const mlr_quat *)rot_in, n * j, (mlr_quat *)q) != MLR_OK) {
+        for (size_t i = 0; i < n * j; i++) {
+            const double *r = rot_in + 4 * i;
+            const double nn = r[0] * r[0] + r[1] * r[1] + r[2] * r[2] + r[3] * r[3];
+            if (!isfinite(r[0] + r[1] + r[2] + r[3]) || nn == 0.0)
+                return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "rotation of frame %zu, joint %zu is %s", i / j, i % j,
+                                    nn == 0.0 ? "zero" : "not finite");
+        }
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "a rotation cannot be normalized");
+    }
+    mlr_quat_make_continuous((mlr_quat *)q, n, j);
+    return MLR_OK;
+}
+
+/* Smallest <qb, q>^2 / |qb|^2 over the frames for each system k (joint col[k] / 4). */
+static void min_cos2(size_t n, size_t j, size_t ns, const size_t *col, const double *q,
+                     const double *qb, double *out)
+{
+    for (size_t k = 0; k < ns; k++)
+        out[k] = 1.0;
+    for (size_t i = 0; i < n; i++) {
+        const double *qi = q + i * 4 * j, *bi = qb + i * 4 * j;
+        for (size_t k = 0; k < ns; k++) {
+            const double *a = qi + col[k], *b = bi + col[k];
+            const double d = a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3];
+            const double nn = b[0] * b[0] + b[1] * b[1] + b[2] * b[2] + b[3] * b[3];
+            const double r = nn > 0.0 ? d * d / nn : 0.0;
+            out[k] = r < out[k] ? r : out[k];
+        }
+    }
+}
+
+static double angle_of_cos2(double c2)
+{
+    return 2.0 * acos(sqrt(c2 < 1.0 ? c2 : 1.0));
+}
+
+/* One batched evaluation: systems k = 0..ns-1 at s[k]; base quaternions (unnormalized) into
+ * qb, largest angles into angle. */
+static mlr_status eval_angles(mlr_layers *L, const double *q, mlr_lay_batch *b, const size_t *col,
+                              const double *s, double *angle, double *zero, mlr_diag *diag)
+{
+    const size_t n = L->n, j = L->j;
+    size_t bad = mlr_lay_batch_factor(b, s);
+    if (bad)
+        return mlr_diag_set(diag, MLR_E_SINGULAR, 0, 0,
+                            "base smoothing of joint %zu failed at s = %g: s is too large for "
+                            "%zu frames", col[bad - 1] / 4, s[bad - 1], n);
+    mlr_lay_batch_solve(b, col, 4, q, 4 * j, L->base_rot, 4 * j, zero);
+    min_cos2(n, j, b->ns, col, q, L->base_rot, angle);
+    for (size_t k = 0; k < b->ns; k++)
+        angle[k] = angle_of_cos2(angle[k]);
+    return MLR_OK;
+}
+
+static double h_of(double angle, double gamma)
+{
+    return log(fmax(angle, 1e-300) / gamma);
+}
+
+mlr_status mlr_layers_base(mlr_layers *L, const mlr_layers_cfg *cfg, const double *q,
+                           const double *root_pos, double *fac, double *work, size_t *col,
+                           mlr_diag *diag)
+{
+    const size_t n = L->n, j = L->j;
+    mlr_lay_batch b = {n, j, fac, fac + n * j, fac + 2 * n * j};
+    /* per system k (packed): s, angle; per joint: the rest */
+    double *s = work, *angle = work + j, *s_best = work + 2 * j;
+    double *u_lo = work + 3 * j, *u_hi = work + 4 * j, *h_lo = work + 5 * j, *h_hi = work + 6 * j;
+    double *side = work + 7 * j; /* -1 the ok end moved last, +1 the broken end, 0 none */
+    double *zero = work + 8 * j;  /* 5 j doubles for the solves */
+    mlr_status rc;
+
+    for (size_t k = 0; k < j; k++)
+        col[k] = 4 * k;
+    const double gamma = cfg->gamma;
+
+    if (cfg->base_s > 0.0) {
+        for (size_t k = 0; k < j; k++)
+            s_best[k] = cfg->base_s;
+    } else {
+        const double tol = log(BASE_BRACKET_RATIO);
+        /* the strongest setting first: joints within the bound there are done */
+        for (size_t k = 0; k < j; k++)
+            s[k] = cfg->base_s_max;
+        if (eval_angles(L, q, &b, col, s, angle, zero, NULL) < 0) /* s_max too large for n */
+            for (size_t k = 0; k < j; k++)
+                angle[k] = INFINITY;
+        size_t na = 0;
+        for (size_t k = 0; k < j; k++) {
+            s_best[k] = cfg->base_s_max;
+            if (angle[k] > gamma) {
+                u_hi[k] = log(cfg->base_s_max);
+                h_hi[k] = isfinite(angle[k]) ? h_of(angle[k], gamma) : INFINITY;
+                col[na++] = 4 * k;
+            }
+        }
+        /* then the weakest: joints beyond the bound even there keep s_min */
+        b.ns = na;
+        for (size_t k = 0; k < na; k++)
+            s[k] = cfg->base_s_min;
+        if (na > 0 && (rc = eval_angles(L, q, &b, col, s, angle, zero, diag)) < 0)
+            return rc;
+        size_t nb = 0;
+        for (size_t k = 0; k < na; k++) {
+            const size_t jj = col[k] / 4;
+            s_best[jj] = cfg->base_s_min;
+            if (angle[k] <= gamma) {
+                u_lo[jj] = log(cfg->base_s_min);
+                h_lo[jj] = h_of(angle[k], gamma);
+                side[jj] = 0.0;
+                col[nb++] = col[k];
+            }
+        }
+        /* Illinois on the joints with a bracket */
+        for (int step = 0; nb > 0 && step < BASE_MAX_STEPS; step++) {
+            b.ns = nb;
+            for (size_t k = 0; k < nb; k++) {
+                const size_t jj = col[k] / 4;
+                const double a = u_lo[jj], c = u_hi[jj], ha = h_lo[jj], hc = h_hi[jj];
+                double u = isfinite(hc) && hc > ha ? a - ha * (c - a) / (hc - ha) : 0.5 * (a + c);
+                /* stay clear of the ends so that the bracket shrinks on both sides */
+                const double margin = fmin(0.25 * tol, 0.25 * (c - a));
+                if (!(u > a + margin))
+                    u = a + margin;
+                if (!(u < c - margin))
+                    u = c - margin;
+                s[k] = exp(u);
+            }
+            if ((rc = eval_angles(L, q, &b, col, s, angle, zero, diag)) < 0)
+                return rc;
+            size_t nn = 0;
+            for (size_t k = 0; k < nb; k++) {
+                const size_t jj = col[k] / 4;
+                const double u = log(s[k]), h = h_of(angle[k], gamma);
+                if (angle[k] <= gamma) {
+                    u_lo[jj] = u;
+                    h_lo[jj] = h;
+                    s_best[jj] = s[k];
+                    if (side[jj] < 0.0)
+                        h_hi[jj] *= 0.5;
+                    side[jj] = -1.0;
+                } else {
+                    u_hi[jj] = u;
+                    h_hi[jj] = h;
+                    if (side[jj] > 0.0)
+                        h_lo[jj] *= 0.5;
+                    side[jj] = 1.0;
+                }
+                if (u_hi[jj] - u_lo[jj] > tol)
+                    col[nn++] = col[k];
+            }
+            nb = nn;
+        }
+    }
+
+    /* final pass at the chosen s of every joint */
+    b.ns = j;
+    for (size_t k = 0; k < j; k++)
+        col[k] = 4 * k;
+    if ((rc = eval_angles(L, q, &b, col, s_best, angle, zero, diag)) < 0)
+        return rc;
+    for (size_t k = 0; k < j; k++) {
+        const double sk = s_best[k], kk = sqrt(sqrt(100.0 * sk));
+        *mlr_layers_param_slot(L, MLR_LAYERS_PARAM_BASE_S, 1 + k) = sk;
+        *mlr_layers_param_slot(L, MLR_LAYERS_PARAM_BASE_LAM, 1 + k) = kk;
+        *mlr_layers_param_slot(L, MLR_LAYERS_PARAM_BASE_SIGMA, 1 + k) = 0.1 * kk;
+    }
+    /* renormalize; a vanishing mean (only possible when even s_min breaks the bound) falls
+     * back to the input rotation */
+    double *qb = L->base_rot;
+    for (size_t i = 0; i < n * j; i++) {
+        double *r = qb + 4 * i;
+        const double nn = r[0] * r[0] + r[1] * r[1] + r[2] * r[2] + r[3] * r[3];
+        if (nn > 1e-200) {
+            const double inv = 1.0 / sqrt(nn);
+            r[0] *= inv, r[1] *= inv, r[2] *= inv, r[3] *= inv;
+        } else {
+            memcpy(r, q + 4 * i, 4 * sizeof(double));
+        }
+    }
+
+    /* root translation with joint 0's s */
+    const double s0 = s_best[0], k0 = sqrt(sqrt(100.0 * s0));
+    *mlr_layers_param_slot(L, MLR_LAYERS_PARAM_BASE_S, 0) = s0;
+    *mlr_layers_param_slot(L, MLR_LAYERS_PARAM_BASE_LAM, 0) = k0;
+    *mlr_layers_param_slot(L, MLR_LAYERS_PARAM_BASE_SIGMA, 0) = 0.1 * k0;
+    if (!root_pos) {
+        memset(L->base_pos, 0, 3 * n * sizeof(double));
+        return MLR_OK;
+    }
+    b.ns = 1;
+    col[0] = 0;
+    if (mlr_lay_batch_factor(&b, &s0))
+        return mlr_diag_set(diag, MLR_E_SINGULAR, 0, 0,
+                            "base smoothing of the root translation failed at s = %g", s0);
+    mlr_lay_batch_solve(&b, col, 3, root_pos, 3, L->base_pos, 3, zero);
+    return MLR_OK;
+}

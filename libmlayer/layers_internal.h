@@ -1,0 +1,83 @@
+/* Internals of the motion layers (layers.c, layers_base.c, layers_control.c, layers_batch.c).
+ * Not installed. */
+#ifndef MLR_LAYERS_INTERNAL_H
+#define MLR_LAYERS_INTERNAL_H
+
+#include "lgs_internal.h"
+
+/* Number of values per group in the parameter table (mlr_layers_param). */
+#define MLR_LAYERS_N_PARAM 9
+
+struct mlr_layers {
+    mlr_allocator alloc;
+    size_t n, j;         /* frames, joints */
+    size_t bytes;        /* of the single allocation holding the struct and its arrays */
+    double *base_pos;    /* n x 3 */
+    double *base_rot;    /* n x j x 4, unit */
+    double *control;     /* n x (1 + j) x 3 */
+    double *residual;    /* n x (1 + j) x 3 */
+    double *param;       /* MLR_LAYERS_N_PARAM x (1 + j), param[which * (1 + j) + g] */
+};
+
+/* Settings of one decomposition, validated. */
+typedef struct mlr_layers_cfg {
+    double gamma;
+    double base_s;              /* > 0: fixed base s for every group; 0: heuristic */
+    double control_s;           /* > 0: fixed control s; 0: GCV */
+    double base_s_min, base_s_max;
+    double control_s_min, control_s_max;
+} mlr_layers_cfg;
+
+/*
+ * Batched LDL^T of ns pentadiagonal systems A_k = I + s_k L^T L (L the n-row second
+ * difference, n >= 3), factored and swept together: the recurrences of one system are
+ * latency-bound, those of different systems are independent, so the loops run over systems
+ * innermost. Factor arrays are n x ns, entry [i * ns + k]: dinv = 1 / D(i), l1 = L(i, i-1),
+ * l2 = L(i, i-2) of system k.
+ */
+typedef struct mlr_lay_batch {
+    size_t n, ns;
+    double *dinv, *l1, *l2;
+} mlr_lay_batch;
+
+/* Factor every system; 0 on success, or 1 + k for the first system k with a non-positive or
+ * non-finite pivot (s far too large for n). */
+size_t mlr_lay_batch_factor(mlr_lay_batch *b, const double *s);
+
+/* x = A_k^-1 y for every system: system k owns the m channels at column col[k] of the rows
+ * of y (stride ldy) and of x (stride ldx); x and y do not overlap. m is 3 or 4. zero is
+ * scratch of ns + ldx doubles. */
+void mlr_lay_batch_solve(const mlr_lay_batch *b, const size_t *col, size_t m, const double *y,
+                         size_t ldy, double *x, size_t ldx, double *zero);
+
+/* tr(A_k^-1) for every system by selected inversion over the factor (rolling, O(n ns));
+ * work holds 3 ns doubles. */
+void mlr_lay_batch_trace(const mlr_lay_batch *b, double *trace, double *work);
+
+/* The stages of mlr_layers_decompose; work areas are owned by the caller. */
+
+/* rot_in (n x j x 4) normalized and made sign-continuous into q; MLR_E_INVALID_ARG with the
+ * frame and joint of a zero or non-finite quaternion. */
+mlr_status mlr_layers_prepare_rot(size_t n, size_t j, const double *rot_in, double *q,
+                                  mlr_diag *diag);
+
+/* Base layer: per-joint s (heuristic or cfg->base_s) into L->param, L->base_rot filled with
+ * the unit base quaternions; root translation smoothed with joint 0's s into L->base_pos.
+ * fac: 3 n j doubles; work: 13 j doubles; col: j entries. */
+mlr_status mlr_layers_base(mlr_layers *L, const mlr_layers_cfg *cfg, const double *q,
+                           const double *root_pos, double *fac, double *work, size_t *col,
+                           mlr_diag *diag);
+
+/* Control layer: delta (n x (1+j) x 3) smoothed into L->control with s per group by GCV
+ * (or cfg->control_s); parameters into L->param. fac: 3 n (1+j) doubles; work: 26 (1+j)
+ * doubles; col: 1+j entries. */
+mlr_status mlr_layers_control(mlr_layers *L, const mlr_layers_cfg *cfg, const double *delta,
+                              double *fac, double *work, size_t *col, mlr_diag *diag);
+
+/* Parameter slot of group g. */
+static inline double *mlr_layers_param_slot(const mlr_layers *L, int which, size_t g)
+{
+    return L->param + (size_t)which * (1 + L->j) + g;
+}
+
+#endif

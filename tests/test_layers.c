@@ -1,0 +1,791 @@
+/* Motion layers: the layer identity on every real clip; synthesis at alpha 0 and 1 against
+ * the layers; the gamma bound of the base heuristic checked with an independent LGS solve; GCV
+ * against a brute-force scan with dense inverses; explicit lam_c / sigma_c; denoising of a
+ * synthetic motion at 24-120 fps; bad arguments; allocation failures; threads. */
+#include "mlr_test.h"
+
+#include <dirent.h>
+#include <math.h>
+#include <pthread.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define PI 3.14159265358979323846
+
+/* ---- small helpers ---------------------------------------------------------------------- */
+
+static double qdot(const double *a, const double *b)
+{
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3];
+}
+
+/* Rotation angle between unit quaternions a and b (sign-insensitive, accurate near 0). */
+static double qangle(const double *a, const double *b)
+{
+    mlr_quat ca = {a[0], -a[1], -a[2], -a[3]}, r;
+    mlr_quat_mul(&ca, (const mlr_quat *)(const void *)b, &r);
+    double s = sqrt(r.x * r.x + r.y * r.y + r.z * r.z);
+    return 2.0 * atan2(s, fabs(r.w));
+}
+
+/* Max over components of min(|a - b|, |a + b|) for quaternion arrays. */
+static double qdiff_sign(const double *a, const double *b, size_t count)
+{
+    double e = 0.0;
+    for (size_t i = 0; i < count; i++) {
+        double dp = 0.0, dm = 0.0;
+        for (int c = 0; c < 4; c++) {
+            dp = fmax(dp, fabs(a[4 * i + c] - b[4 * i + c]));
+            dm = fmax(dm, fabs(a[4 * i + c] + b[4 * i + c]));
+        }
+        e = fmax(e, fmin(dp, dm));
+    }
+    return e;
+}
+
+static void normalize_copy(const double *in, double *out, size_t count)
+{
+    for (size_t i = 0; i < count; i++) {
+        double n = sqrt(qdot(in + 4 * i, in + 4 * i));
+        for (int c = 0; c < 4; c++)
+            out[4 * i + c] = in[4 * i + c] / n;
+    }
+}
+
+/* Dense (I + s L^T L)^-1 (order 2) by Gauss-Jordan; caller frees. */
+static double *dense_h(size_t n, double s)
+{
+    double *M = calloc(n * n, sizeof *M), *H = calloc(n * n, sizeof *H);
+    const double c[3] = {1, -2, 1};
+    for (size_t r = 0; r + 2 < n; r++)
+        for (size_t a = 0; a < 3; a++)
+            for (size_t b = 0; b < 3; b++)
+                M[(r + a) * n + r + b] += s * c[a] * c[b];
+    for (size_t i = 0; i < n; i++) {
+        M[i * n + i] += 1.0;
+        H[i * n + i] = 1.0;
+    }
+    for (size_t p = 0; p < n; p++) {
+        double d = M[p * n + p];
+        for (size_t k = 0; k < n; k++) {
+            M[p * n + k] /= d;
+            H[p * n + k] /= d;
+        }
+        for (size_t r = 0; r < n; r++) {
+            if (r == p)
+                continue;
+            double f = M[r * n + p];
+            for (size_t k = 0; k < n; k++) {
+                M[r * n + k] -= f * M[p * n + k];
+                H[r * n + k] -= f * H[p * n + k];
+            }
+        }
+    }
+    free(M);
+    return H;
+}
+
+/* Dense GCV of n x 3 data y at s; tr(H) into *dof. */
+static double dense_gcv(size_t n, const double *y, size_t ldy, double s, double *dof)
+{
+    double *H = dense_h(n, s), rss = 0.0, tr = 0.0;
+    for (size_t i = 0; i < n; i++) {
+        tr += H[i * n + i];
+        for (size_t c = 0; c < 3; c++) {
+            double hy = 0.0;
+            for (size_t k = 0; k < n; k++)
+                hy += H[i * n + k] * y[k * ldy + c];
+            rss += (y[i * ldy + c] - hy) * (y[i * ldy + c] - hy);
+        }
+    }
+    free(H);
+    if (dof)
+        *dof = tr;
+    double den = 1.0 - tr / (double)n;
+    return rss / (3.0 * (double)n) / (den * den);
+}
+
+/* Largest angle of the displacement of joint k after an independent base solve at s:
+ * mlr_lgs on the sign-continuous quaternion channels, renormalized. */
+static double base_max_angle(size_t n, size_t j, const double *rot, size_t k, double s)
+{
+    double *y = malloc(n * 4 * sizeof *y), *x = malloc(n * 4 * sizeof *x);
+    for (size_t i = 0; i < n; i++) {
+        double nn = sqrt(qdot(rot + 4 * (i * j + k), rot + 4 * (i * j + k)));
+        for (int c = 0; c < 4; c++)
+            y[4 * i + c] = rot[4 * (i * j + k) + c] / nn;
+    }
+    mlr_quat_make_continuous((mlr_quat *)(void *)y, n, 1);
+    mlr_lgs *g = NULL;
+    ck_assert_int_ge(mlr_lgs_create(n, 2, sqrt(s), 1.0, NULL, n, MLR_LGS_BANDED, NULL, &g, NULL), 0);
+    ck_assert_int_eq(mlr_lgs_solve(g, y, 4, 4, x, 4), MLR_OK);
+    mlr_lgs_destroy(g);
+    double amax = 0.0;
+    for (size_t i = 0; i < n; i++) {
+        double nb = sqrt(qdot(x + 4 * i, x + 4 * i));
+        for (int c = 0; c < 4; c++)
+            x[4 * i + c] /= nb;
+        amax = fmax(amax, qangle(x + 4 * i, y + 4 * i));
+    }
+    free(y), free(x);
+    return amax;
+}
+
+/* ---- clips -------------------------------------------------------------------------------- */
+
+typedef struct clip {
+    char name[256];
+    mlr_motion *m;
+    size_t n, j;
+    const double *pos, *rot;
+} clip;
+
+static size_t load_clips(clip *out, size_t cap)
+{
+    const char *dir = mlr_test_mocap_dir();
+    ck_assert_ptr_nonnull(dir);
+    DIR *d = opendir(dir);
+    ck_assert_ptr_nonnull(d);
+    size_t n = 0;
+    struct dirent *e;
+    while ((e = readdir(d)) && n < cap) {
+        size_t len = strlen(e->d_name);
+        if (len < 5 || strcmp(e->d_name + len - 4, ".bvh"))
+            continue;
+        char path[1024];
+        snprintf(path, sizeof path, "%s/%s", dir, e->d_name);
+        clip *c = &out[n];
+        snprintf(c->name, sizeof c->name, "%s", e->d_name);
+        mlr_diag dg;
+        ck_assert_msg(mlr_bvh_read_file(path, NULL, &c->m, &dg) == MLR_OK, "%s: %s", path, dg.message);
+        c->n = mlr_motion_n_frames(c->m);
+        c->j = mlr_motion_n_joints(c->m);
+        c->pos = mlr_motion_root_pos(c->m);
+        c->rot = mlr_motion_rot(c->m);
+        n++;
+    }
+    closedir(d);
+    ck_assert_uint_ge(n, 1);
+    return n;
+}
+
+static void free_clips(clip *c, size_t n)
+{
+    for (size_t i = 0; i < n; i++)
+        mlr_motion_destroy(c[i].m);
+}
+
+/* ---- tests --------------------------------------------------------------------------------- */
+
+START_TEST(identity_on_every_clip)
+{
+    clip clips[16];
+    size_t nc = load_clips(clips, 16);
+    for (size_t ci = 0; ci < nc; ci++) {
+        const clip *c = &clips[ci];
+        mlr_layers *L = NULL;
+        mlr_diag dg;
+        ck_assert_msg(mlr_layers_decompose(c->n, c->j, c->pos, c->rot, NULL, 0, NULL, &L, &dg) == MLR_OK,
+                      "%s: %s", c->name, dg.message);
+        ck_assert_uint_eq(mlr_layers_n_frames(L), c->n);
+        ck_assert_uint_eq(mlr_layers_n_joints(L), c->j);
+        const size_t n = c->n, j = c->j, nr = 4 * n * j;
+        double *pos = malloc(3 * n * sizeof *pos), *rot = malloc(nr * sizeof *rot);
+        double *unit = malloc(nr * sizeof *unit);
+        normalize_copy(c->rot, unit, n * j);
+        ck_assert_int_eq(mlr_layers_reconstruct(L, 0, n, pos, 3 * n, rot, nr), MLR_OK);
+        double ep = 0.0, scale = 1.0;
+        for (size_t i = 0; i < 3 * n; i++) {
+            ep = fmax(ep, fabs(pos[i] - c->pos[i]));
+            scale = fmax(scale, fabs(c->pos[i]));
+        }
+        double eq = qdiff_sign(rot, unit, n * j);
+        ck_assert_msg(ep <= 1e-12 * scale && eq <= 1e-12, "%s: identity error pos %.3g (scale %g), rot %.3g",
+                      c->name, ep, scale, eq);
+        /* a sub-range reproduces the same frames */
+        size_t b0 = n / 3, cnt = n / 4;
+        double *pos2 = malloc(3 * cnt * sizeof *pos2), *rot2 = malloc(4 * cnt * j * sizeof *rot2);
+        ck_assert_int_eq(mlr_layers_reconstruct(L, b0, cnt, pos2, 3 * cnt, rot2, 4 * cnt * j), MLR_OK);
+        ck_assert(memcmp(pos2, pos + 3 * b0, 3 * cnt * sizeof *pos2) == 0);
+        ck_assert(memcmp(rot2, rot + 4 * j * b0, 4 * cnt * j * sizeof *rot2) == 0);
+        free(pos2), free(rot2);
+        free(pos), free(rot), free(unit);
+        mlr_layers_destroy(L);
+    }
+    free_clips(clips, nc);
+}
+END_TEST
+
+START_TEST(alpha_zero_is_base_and_one_is_denoised)
+{
+    clip clips[16];
+    size_t nc = load_clips(clips, 16);
+    for (size_t ci = 0; ci < nc; ci++) {
+        const clip *c = &clips[ci];
+        const size_t n = c->n, j = c->j, nr = 4 * n * j, ng = 3 * n * (1 + j);
+        mlr_layers *L = NULL;
+        ck_assert_int_eq(mlr_layers_decompose(n, j, c->pos, c->rot, NULL, 0, NULL, &L, NULL), MLR_OK);
+        double *bp = malloc(3 * n * sizeof *bp), *br = malloc(nr * sizeof *br);
+        double *sp = malloc(3 * n * sizeof *sp), *sr = malloc(nr * sizeof *sr);
+        double *ctl = malloc(ng * sizeof *ctl), *res = malloc(ng * sizeof *res);
+        double *unit = malloc(nr * sizeof *unit);
+        normalize_copy(c->rot, unit, n * j);
+        ck_assert_int_eq(mlr_layers_get_base(L, bp, 3 * n, br, nr), MLR_OK);
+        ck_assert_int_eq(mlr_layers_get_control(L, ctl, ng), MLR_OK);
+        ck_assert_int_eq(mlr_layers_get_residual(L, res, ng), MLR_OK);
+        for (size_t i = 0; i < n * j; i++)  /* base quaternions are unit */
+            ck_assert_close(qdot(br + 4 * i, br + 4 * i), 1.0, 1e-14);
+        const double zero = 0.0, one = 1.0;
+        ck_assert_int_eq(mlr_layers_synthesize(L, 0, n, &zero, 1, sp, 3 * n, sr, nr), MLR_OK);
+        ck_assert(memcmp(sp, bp, 3 * n * sizeof *sp) == 0);
+        ck_assert_double_le(qdiff_sign(sr, br, n * j), 1e-15);
+        ck_assert_int_eq(mlr_layers_synthesize(L, 0, n, &one, 1, sp, 3 * n, sr, nr), MLR_OK);
+        /* alpha = 1: the input minus exactly the residual */
+        double ep = 0.0, ea = 0.0, scale = 1.0;
+        for (size_t i = 0; i < n; i++) {
+            const double *ri = res + 3 * (1 + j) * i;
+            for (size_t k = 0; k < 3; k++) {
+                ep = fmax(ep, fabs(sp[3 * i + k] + ri[k] - c->pos[3 * i + k]));
+                scale = fmax(scale, fabs(c->pos[3 * i + k]));
+            }
+            for (size_t k = 0; k < j; k++) {
+                const double *r = ri + 3 + 3 * k;
+                double rn = sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]);
+                ea = fmax(ea, fabs(qangle(sr + 4 * (i * j + k), unit + 4 * (i * j + k)) - rn));
+            }
+        }
+        ck_assert_msg(ep <= 1e-12 * scale && ea <= 1e-9, "%s: alpha=1 pos %.3g rot angle %.3g",
+                      c->name, ep, ea);
+        /* an alpha per group: only the scaled joint moves away from the base */
+        double *alpha = calloc(1 + j, sizeof *alpha);
+        const size_t pick = j / 2;
+        alpha[1 + pick] = 2.0;
+        ck_assert_int_eq(mlr_layers_synthesize(L, 0, n, alpha, 1 + j, sp, 3 * n, sr, nr), MLR_OK);
+        ck_assert(memcmp(sp, bp, 3 * n * sizeof *sp) == 0);
+        for (size_t i = 0; i < n; i++) {
+            for (size_t k = 0; k < j; k++) {
+                const double *v = ctl + 3 * (1 + j) * i + 3 + 3 * k;
+                double want = k == pick ? 2.0 * sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]) : 0.0;
+                double got = qangle(sr + 4 * (i * j + k), br + 4 * (i * j + k));
+                if (want < PI - 1e-6)
+                    ck_assert_double_le(fabs(got - want), 1e-9);
+            }
+        }
+        free(alpha);
+        free(bp), free(br), free(sp), free(sr), free(ctl), free(res), free(unit);
+        mlr_layers_destroy(L);
+    }
+    free_clips(clips, nc);
+}
+END_TEST
+
+/* The base of the root translation is the LGS of joint 0's s; the control layer of the root
+ * is the LGS of u0 = control + residual at the reported control s. */
+START_TEST(root_layers_match_lgs)
+{
+    clip clips[16];
+    size_t nc = load_clips(clips, 16);
+    for (size_t ci = 0; ci < nc; ci++) {
+        const clip *c = &clips[ci];
+        const size_t n = c->n, j = c->j, ng = 3 * n * (1 + j), ld = 3 * (1 + j);
+        mlr_layers *L = NULL;
+        ck_assert_int_eq(mlr_layers_decompose(n, j, c->pos, c->rot, NULL, 0, NULL, &L, NULL), MLR_OK);
+        double *bs = malloc((1 + j) * sizeof *bs), *cs = malloc((1 + j) * sizeof *cs);
+        double *bp = malloc(3 * n * sizeof *bp), *x = malloc(3 * n * sizeof *x);
+        double *u = malloc(3 * n * sizeof *u);
+        double *ctl = malloc(ng * sizeof *ctl), *res = malloc(ng * sizeof *res);
+        ck_assert_int_eq(mlr_layers_get_param(L, MLR_LAYERS_PARAM_BASE_S, bs, 1 + j), MLR_OK);
+        ck_assert_int_eq(mlr_layers_get_param(L, MLR_LAYERS_PARAM_CONTROL_S, cs, 1 + j), MLR_OK);
+        ck_assert_double_eq(bs[0], bs[1]);
+        ck_assert_int_eq(mlr_layers_get_base(L, bp, 3 * n, NULL, 0), MLR_OK);
+        ck_assert_int_eq(mlr_layers_get_control(L, ctl, ng), MLR_OK);
+        ck_assert_int_eq(mlr_layers_get_residual(L, res, ng), MLR_OK);
+        mlr_lgs *g = NULL;
+        ck_assert_int_ge(mlr_lgs_create(n, 2, sqrt(bs[0]), 1.0, NULL, n, MLR_LGS_BANDED, NULL, &g, NULL), 0);
+        ck_assert_int_eq(mlr_lgs_solve(g, c->pos, 3, 3, x, 3), MLR_OK);
+        mlr_lgs_destroy(g);
+        double e = 0.0, scale = 1.0;
+        for (size_t i = 0; i < 3 * n; i++) {
+            e = fmax(e, fabs(x[i] - bp[i]));
+            scale = fmax(scale, fabs(c->pos[i]));
+        }
+        /* two solvers of I + s L^T L agree to about eps * cond = eps (1 + 16 s) */
+        ck_assert_msg(e <= 1e-14 * (1.0 + 16.0 * bs[0]) * scale, "%s: root base vs mlr_lgs %.3g", c->name, e);
+        for (size_t i = 0; i < n; i++)
+            for (size_t k = 0; k < 3; k++)
+                u[3 * i + k] = ctl[i * ld + k] + res[i * ld + k];
+        ck_assert_int_ge(mlr_lgs_create(n, 2, sqrt(cs[0]), 1.0, NULL, n, MLR_LGS_BANDED, NULL, &g, NULL), 0);
+        ck_assert_int_eq(mlr_lgs_solve(g, u, 3, 3, x, 3), MLR_OK);
+        mlr_lgs_destroy(g);
+        e = 0.0;
+        for (size_t i = 0; i < n; i++)
+            for (size_t k = 0; k < 3; k++)
+                e = fmax(e, fabs(x[3 * i + k] - ctl[i * ld + k]));
+        ck_assert_msg(e <= 1e-14 * (1.0 + 16.0 * cs[0]) * scale, "%s: root control vs mlr_lgs %.3g", c->name, e);
+        free(bs), free(cs), free(bp), free(x), free(u), free(ctl), free(res);
+        mlr_layers_destroy(L);
+    }
+    free_clips(clips, nc);
+}
+END_TEST
+
+/* Check the bound of every joint's s with an independent solve; an interior s is the
+ * strongest within 5%. */
+static size_t check_gamma_bound(const char *name, size_t n, size_t j, const double *pos,
+                              const double *rot, double gamma, double s_max)
+{
+    mlr_layers_option opt[2] = {{MLR_LAYERS_OPT_GAMMA, gamma}, {MLR_LAYERS_OPT_BASE_S_MAX, s_max}};
+    mlr_layers *L = NULL;
+    mlr_diag dg;
+    ck_assert_msg(mlr_layers_decompose(n, j, pos, rot, opt, 2, NULL, &L, &dg) == MLR_OK, "%s: %s", name,
+                  dg.message);
+    double *s = malloc((1 + j) * sizeof *s), *amax = malloc((1 + j) * sizeof *amax);
+    ck_assert_int_eq(mlr_layers_get_param(L, MLR_LAYERS_PARAM_BASE_S, s, 1 + j), MLR_OK);
+    ck_assert_int_eq(mlr_layers_get_param(L, MLR_LAYERS_PARAM_BASE_MAX_ANGLE, amax, 1 + j), MLR_OK);
+    size_t interior = 0;
+    for (size_t k = 0; k < j; k++) {
+        const double sk = s[1 + k];
+        ck_assert(sk >= 1e-2 && sk <= s_max);
+        /* two solvers of I + s L^T L agree to about eps * cond = eps (1 + 16 s) */
+        const double tol = 1e-12 + 1e-15 * (1.0 + 16.0 * 1.05 * sk);
+        double a = base_max_angle(n, j, rot, k, sk);
+        ck_assert_msg(fabs(a - amax[1 + k]) <= tol, "%s joint %zu: max angle %.17g, reported %.17g",
+                      name, k, a, amax[1 + k]);
+        if (sk == 1e-2)
+            continue; /* even the weakest setting may break the bound */
+        ck_assert_msg(amax[1 + k] <= gamma, "%s joint %zu: s %g gives %.6f > gamma %.6f", name, k,
+                      sk, amax[1 + k], gamma);
+        ck_assert(a <= gamma + tol);
+        if (sk < s_max) {
+            interior++;
+            double a5 = base_max_angle(n, j, rot, k, 1.05 * sk);
+            ck_assert_msg(a5 > gamma - tol, "%s joint %zu: s %g is not the strongest: 1.05 s gives %.6f <= %.6f",
+                          name, k, sk, a5, gamma);
+        }
+    }
+    free(s), free(amax);
+    mlr_layers_destroy(L);
+    return interior;
+}
+
+/* A synthetic motion with large rotations: joint 0 spins about y (several turns), joint 1
+ * swings +-150 degrees, joint 2 moves little; seeded noise on top. */
+static void synthetic_big(size_t n, double fps, double *pos, double *rot, uint64_t seed)
+{
+    mlr_test_rng rng;
+    mlr_test_rng_seed(&rng, seed);
+    for (size_t i = 0; i < n; i++) {
+        double t = (double)i / fps;
+        double ang[3][3] = {{0.2 * sin(1.3 * t), 2.0 * t + 0.8 * sin(0.7 * t), 0.1 * cos(2.1 * t)},
+                            {2.6 * sin(1.1 * t), 0.3 * sin(0.4 * t), 0.5 * cos(0.9 * t)},
+                            {0.2 * sin(3.0 * t), 0.1 * cos(2.0 * t), 0.15 * sin(1.7 * t)}};
+        for (size_t k = 0; k < 3; k++) {
+            for (size_t a = 0; a < 3; a++)
+                ang[k][a] += 0.01 * mlr_test_rng_normal(&rng);
+            mlr_quat_from_euler_array(ang[k], 1, MLR_EULER_ZYX, (mlr_quat *)(void *)(rot + 4 * (3 * i + k)));
+        }
+        pos[3 * i] = 10.0 * sin(0.3 * t);
+        pos[3 * i + 1] = 90.0 + 3.0 * sin(4.0 * t);
+        pos[3 * i + 2] = 50.0 * t;
+    }
+}
+
+START_TEST(gamma_bound_synthetic)
+{
+    const double fps[] = {30.0, 120.0};
+    const double gammas[] = {PI / 2, 2.0, 3.0};
+    for (size_t f = 0; f < 2; f++) {
+        size_t n = (size_t)(12.0 * fps[f]);
+        double *pos = malloc(3 * n * sizeof *pos), *rot = malloc(12 * n * sizeof *rot);
+        synthetic_big(n, fps[f], pos, rot, 7 + f);
+        for (size_t g = 0; g < 3; g++) /* the spinning joint binds */
+            ck_assert_uint_ge(check_gamma_bound("synthetic", n, 3, pos, rot, gammas[g], 1e10), 1);
+        free(pos), free(rot);
+    }
+}
+END_TEST
+
+START_TEST(gamma_bound_real_clips)
+{
+    clip clips[16];
+    size_t nc = load_clips(clips, 16);
+    for (size_t ci = 0; ci < nc; ci++) {
+        const clip *c = &clips[ci];
+        if (c->j > 50)
+            continue; /* the 165-joint clip adds time, not coverage */
+        check_gamma_bound(c->name, c->n, c->j, c->pos, c->rot, PI / 2, 1e10);
+        check_gamma_bound(c->name, c->n, c->j, c->pos, c->rot, 2.5, 1e10);
+    }
+    free_clips(clips, nc);
+}
+END_TEST
+
+/* GCV on a small problem: the chosen s is the minimum of a dense brute-force scan, and the
+ * reported GCV and tr(H) match dense values. */
+START_TEST(gcv_matches_dense_scan)
+{
+    const size_t n = 60;
+    for (uint64_t seed = 1; seed <= 4; seed++) {
+        double pos[3 * 60], rot[4 * 60];
+        mlr_test_rng rng;
+        mlr_test_rng_seed(&rng, seed);
+        const double noise = seed == 4 ? 1e-4 : 0.05 * (double)seed;
+        for (size_t i = 0; i < n; i++) {
+            double t = (double)i / 30.0;
+            double ang[3] = {0.8 * sin(2.0 * t) + noise * mlr_test_rng_normal(&rng),
+                             0.3 * t + noise * mlr_test_rng_normal(&rng),
+                             0.2 * cos(3.0 * t) + noise * mlr_test_rng_normal(&rng)};
+            mlr_quat_from_euler_array(ang, 1, MLR_EULER_XYZ, (mlr_quat *)(void *)(rot + 4 * i));
+            for (size_t k = 0; k < 3; k++)
+                pos[3 * i + k] = sin(1.5 * t + (double)k) + 10.0 * noise * mlr_test_rng_normal(&rng);
+        }
+        mlr_layers *L = NULL;
+        ck_assert_int_eq(mlr_layers_decompose(n, 1, pos, rot, NULL, 0, NULL, &L, NULL), MLR_OK);
+        double cs[2], gcv[2], dof[2], ctl[6 * 60], res[6 * 60], br[4 * 60];
+        ck_assert_int_eq(mlr_layers_get_param(L, MLR_LAYERS_PARAM_CONTROL_S, cs, 2), MLR_OK);
+        ck_assert_int_eq(mlr_layers_get_param(L, MLR_LAYERS_PARAM_CONTROL_GCV, gcv, 2), MLR_OK);
+        ck_assert_int_eq(mlr_layers_get_param(L, MLR_LAYERS_PARAM_CONTROL_DOF, dof, 2), MLR_OK);
+        ck_assert_int_eq(mlr_layers_get_control(L, ctl, 6 * n), MLR_OK);
+        ck_assert_int_eq(mlr_layers_get_residual(L, res, 6 * n), MLR_OK);
+        ck_assert_int_eq(mlr_layers_get_base(L, NULL, 0, br, 4 * n), MLR_OK);
+        /* the displacement of each group, rebuilt independently */
+        double y[2][3 * 60];
+        double unit[4 * 60];
+        normalize_copy(rot, unit, n);
+        mlr_quat_make_continuous((mlr_quat *)(void *)unit, n, 1);
+        for (size_t i = 0; i < n; i++) {
+            for (size_t k = 0; k < 3; k++)
+                y[0][3 * i + k] = ctl[6 * i + k] + res[6 * i + k];
+            mlr_quat cb = {br[4 * i], -br[4 * i + 1], -br[4 * i + 2], -br[4 * i + 3]}, p;
+            mlr_quat_mul(&cb, (const mlr_quat *)(const void *)(unit + 4 * i), &p);
+            mlr_quat_log_array(&p, 1, (mlr_vec3 *)(void *)(y[1] + 3 * i));
+        }
+        for (size_t g = 0; g < 2; g++) {
+            double d_dof, d_gcv = dense_gcv(n, y[g], 3, cs[g], &d_dof);
+            ck_assert_msg(fabs(d_dof - dof[g]) <= 1e-10 * n, "tr(H) %.17g vs dense %.17g", dof[g], d_dof);
+            ck_assert_msg(fabs(d_gcv - gcv[g]) <= 1e-8 * d_gcv, "GCV %.17g vs dense %.17g", gcv[g], d_gcv);
+            /* brute-force scan over [1e-2, 1e8], 20 points per decade */
+            double best = INFINITY, s_best = 0.0;
+            for (int p = 0; p <= 200; p++) {
+                double s = pow(10.0, -2.0 + 0.05 * p), v = dense_gcv(n, y[g], 3, s, NULL);
+                if (v < best)
+                    best = v, s_best = s;
+            }
+            ck_assert_msg(gcv[g] <= best * (1.0 + 1e-6),
+                          "seed %d group %zu: GCV %.10g at s %g above the scan's %.10g at s %g",
+                          (int)seed, g, gcv[g], cs[g], best, s_best);
+            if (s_best > 1e-2 && s_best < 1e8)
+                ck_assert_msg(fabs(log(cs[g] / s_best)) < log(1.2), "s %g vs scan %g", cs[g], s_best);
+        }
+        mlr_layers_destroy(L);
+    }
+}
+END_TEST
+
+START_TEST(explicit_control_parameters)
+{
+    clip clips[16];
+    size_t nc = load_clips(clips, 16);
+    const clip *c = &clips[0];
+    const size_t n = c->n, j = c->j, ld = 3 * (1 + j), ng = ld * n;
+    mlr_layers_option opt[2] = {{MLR_LAYERS_OPT_LAM_C, 2.0}, {MLR_LAYERS_OPT_SIGMA_C, 0.25}};
+    mlr_layers *L = NULL;
+    ck_assert_int_eq(mlr_layers_decompose(n, j, c->pos, c->rot, opt, 2, NULL, &L, NULL), MLR_OK);
+    double *p = malloc((1 + j) * sizeof *p), *ctl = malloc(ng * sizeof *ctl), *res = malloc(ng * sizeof *res);
+    ck_assert_int_eq(mlr_layers_get_param(L, MLR_LAYERS_PARAM_CONTROL_S, p, 1 + j), MLR_OK);
+    for (size_t g = 0; g <= j; g++)
+        ck_assert_double_eq_tol(p[g], 0.25, 1e-15);
+    ck_assert_int_eq(mlr_layers_get_param(L, MLR_LAYERS_PARAM_CONTROL_GCV, p, 1 + j), MLR_OK);
+    for (size_t g = 0; g <= j; g++)
+        ck_assert(isnan(p[g]));
+    ck_assert_int_eq(mlr_layers_get_param(L, MLR_LAYERS_PARAM_CONTROL_LAM, p, 1 + j), MLR_OK);
+    ck_assert_double_eq_tol(p[0], sqrt(0.5), 1e-15);
+    /* the root control is the LGS with lam = 2, sigma = 0.25 */
+    ck_assert_int_eq(mlr_layers_get_control(L, ctl, ng), MLR_OK);
+    ck_assert_int_eq(mlr_layers_get_residual(L, res, ng), MLR_OK);
+    double *u = malloc(3 * n * sizeof *u), *x = malloc(3 * n * sizeof *x);
+    for (size_t i = 0; i < n; i++)
+        for (size_t k = 0; k < 3; k++)
+            u[3 * i + k] = ctl[ld * i + k] + res[ld * i + k];
+    mlr_lgs *g = NULL;
+    ck_assert_int_ge(mlr_lgs_create(n, 2, 2.0, 0.25, NULL, n, MLR_LGS_BANDED, NULL, &g, NULL), 0);
+    ck_assert_int_eq(mlr_lgs_solve(g, u, 3, 3, x, 3), MLR_OK);
+    mlr_lgs_destroy(g);
+    for (size_t i = 0; i < n; i++)
+        for (size_t k = 0; k < 3; k++)
+            ck_assert_double_le(fabs(x[3 * i + k] - ctl[ld * i + k]), 1e-9);
+    mlr_layers_destroy(L);
+    /* one of the pair alone: the other defaults to 1 */
+    opt[0].key = MLR_LAYERS_OPT_SIGMA_C;
+    opt[0].value = 3.0;
+    ck_assert_int_eq(mlr_layers_decompose(n, j, c->pos, c->rot, opt, 1, NULL, &L, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_layers_get_param(L, MLR_LAYERS_PARAM_CONTROL_S, p, 1 + j), MLR_OK);
+    ck_assert_double_eq_tol(p[3], 9.0, 1e-14);
+    mlr_layers_destroy(L);
+    /* explicit base parameters */
+    mlr_layers_option ob[2] = {{MLR_LAYERS_OPT_LAM_B, 10.0}, {MLR_LAYERS_OPT_SIGMA_B, 2.0}};
+    ck_assert_int_eq(mlr_layers_decompose(n, j, c->pos, c->rot, ob, 2, NULL, &L, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_layers_get_param(L, MLR_LAYERS_PARAM_BASE_S, p, 1 + j), MLR_OK);
+    for (size_t k = 0; k <= j; k++)
+        ck_assert_double_eq_tol(p[k], 400.0, 1e-12);
+    mlr_layers_destroy(L);
+    free(p), free(ctl), free(res), free(u), free(x);
+    free_clips(clips, nc);
+}
+END_TEST
+
+/* Clean smooth motion plus ~1.5 degrees of noise per axis: alpha = 1 is closer to the clean
+ * motion than the noisy input, at 24, 30, 60 and 120 fps. */
+START_TEST(denoises_synthetic_motion)
+{
+    const double fps[] = {24.0, 30.0, 60.0, 120.0};
+    const size_t j = 5;
+    const double sigma = 1.5 * PI / 180.0;
+    for (size_t f = 0; f < 4; f++) {
+        const size_t n = (size_t)(10.0 * fps[f]);
+        double *clean = malloc(4 * n * j * sizeof *clean), *noisy = malloc(4 * n * j * sizeof *noisy);
+        double *pos = malloc(3 * n * sizeof *pos), *out = malloc(4 * n * j * sizeof *out);
+        mlr_test_rng rng;
+        mlr_test_rng_seed(&rng, 100 + f);
+        for (size_t i = 0; i < n; i++) {
+            double t = (double)i / fps[f];
+            for (size_t k = 0; k < j; k++) {
+                double fk = 0.4 + 0.3 * (double)k;
+                double ang[3] = {0.6 * sin(2 * PI * fk * t), 0.4 * cos(2 * PI * 0.7 * fk * t + 1.0),
+                                 0.3 * sin(2 * PI * 1.3 * fk * t + 2.0)};
+                mlr_quat *qc = (mlr_quat *)(void *)(clean + 4 * (i * j + k));
+                mlr_quat_from_euler_array(ang, 1, MLR_EULER_ZYX, qc);
+                mlr_vec3 e = {sigma * mlr_test_rng_normal(&rng), sigma * mlr_test_rng_normal(&rng),
+                              sigma * mlr_test_rng_normal(&rng)};
+                mlr_quat qe;
+                mlr_quat_exp_array(&e, 1, &qe);
+                mlr_quat_mul(qc, &qe, (mlr_quat *)(void *)(noisy + 4 * (i * j + k)));
+            }
+            pos[3 * i] = pos[3 * i + 1] = pos[3 * i + 2] = 0.0;
+        }
+        mlr_layers *L = NULL;
+        ck_assert_int_eq(mlr_layers_decompose(n, j, pos, noisy, NULL, 0, NULL, &L, NULL), MLR_OK);
+        const double one = 1.0;
+        ck_assert_int_eq(mlr_layers_synthesize(L, 0, n, &one, 1, NULL, 0, out, 4 * n * j), MLR_OK);
+        double e_noisy = 0.0, e_out = 0.0;
+        for (size_t i = 0; i < n * j; i++) {
+            e_noisy += qangle(noisy + 4 * i, clean + 4 * i);
+            e_out += qangle(out + 4 * i, clean + 4 * i);
+        }
+        ck_assert_msg(e_out < 0.7 * e_noisy, "%g fps: denoised error %.4g deg vs noisy %.4g deg",
+                      fps[f], e_out / (double)(n * j) * 180 / PI, e_noisy / (double)(n * j) * 180 / PI);
+        mlr_layers_destroy(L);
+        free(clean), free(noisy), free(pos), free(out);
+    }
+}
+END_TEST
+
+START_TEST(bad_arguments)
+{
+    double pos[3 * 8] = {0}, rot[4 * 8 * 2];
+    for (size_t i = 0; i < 16; i++)
+        rot[4 * i] = 1.0, rot[4 * i + 1] = rot[4 * i + 2] = rot[4 * i + 3] = 0.0;
+    mlr_layers *L = (mlr_layers *)(void *)rot;
+    mlr_diag dg;
+#define EXPECT_BAD(call)                                                                      \
+    do {                                                                                      \
+        dg.message[0] = '\0';                                                                 \
+        L = (mlr_layers *)(void *)rot;                                                        \
+        ck_assert_int_eq((call), MLR_E_INVALID_ARG);                                          \
+        ck_assert_ptr_null(L);                                                                \
+        ck_assert_msg(dg.message[0] != '\0', "no reason for %s", #call);                      \
+    } while (0)
+    EXPECT_BAD(mlr_layers_decompose(2, 2, pos, rot, NULL, 0, NULL, &L, &dg));
+    EXPECT_BAD(mlr_layers_decompose(8, 0, pos, rot, NULL, 0, NULL, &L, &dg));
+    EXPECT_BAD(mlr_layers_decompose(8, 2, pos, NULL, NULL, 0, NULL, &L, &dg));
+    EXPECT_BAD(mlr_layers_decompose(8, 2, pos, rot, NULL, 1, NULL, &L, &dg));
+    ck_assert_int_eq(mlr_layers_decompose(8, 2, pos, rot, NULL, 0, NULL, NULL, &dg), MLR_E_INVALID_ARG);
+    rot[4 * 5 + 2] = NAN;
+    EXPECT_BAD(mlr_layers_decompose(8, 2, pos, rot, NULL, 0, NULL, &L, &dg));
+    ck_assert_ptr_nonnull(strstr(dg.message, "frame 2, joint 1"));
+    rot[4 * 5 + 2] = 0.0;
+    rot[4 * 6] = 0.0;
+    EXPECT_BAD(mlr_layers_decompose(8, 2, pos, rot, NULL, 0, NULL, &L, &dg));
+    ck_assert_ptr_nonnull(strstr(dg.message, "zero"));
+    rot[4 * 6] = 1.0;
+    pos[7] = INFINITY;
+    EXPECT_BAD(mlr_layers_decompose(8, 2, pos, rot, NULL, 0, NULL, &L, &dg));
+    pos[7] = 0.0;
+    const mlr_layers_option bad_opts[][2] = {
+        {{MLR_LAYERS_OPT_GAMMA, 1.5}, {0, 0}},
+        {{MLR_LAYERS_OPT_GAMMA, PI}, {0, 0}},
+        {{MLR_LAYERS_OPT_GAMMA, NAN}, {0, 0}},
+        {{99, 1.0}, {0, 0}},
+        {{0, 1.0}, {0, 0}},
+        {{MLR_LAYERS_OPT_LAM_C, 1.0}, {MLR_LAYERS_OPT_LAM_C, 2.0}},
+        {{MLR_LAYERS_OPT_LAM_C, -1.0}, {0, 0}},
+        {{MLR_LAYERS_OPT_SIGMA_B, 0.0}, {0, 0}},
+        {{MLR_LAYERS_OPT_LAM_B, 1e200}, {MLR_LAYERS_OPT_SIGMA_B, 1e200}},
+        {{MLR_LAYERS_OPT_BASE_S_MIN, 10.0}, {MLR_LAYERS_OPT_BASE_S_MAX, 1.0}},
+        {{MLR_LAYERS_OPT_CONTROL_S_MAX, INFINITY}, {0, 0}},
+    };
+    const size_t n_bad[] = {1, 1, 1, 1, 1, 2, 1, 1, 2, 2, 1};
+    for (size_t i = 0; i < MLR_COUNTOF(bad_opts); i++)
+        EXPECT_BAD(mlr_layers_decompose(8, 2, pos, rot, bad_opts[i], n_bad[i], NULL, &L, &dg));
+    const mlr_layers_option ok_gamma = {MLR_LAYERS_OPT_GAMMA, PI / 2};
+    ck_assert_int_eq(mlr_layers_decompose(8, 2, pos, rot, &ok_gamma, 1, NULL, &L, &dg), MLR_OK);
+    /* getters, synthesis, reconstruction */
+    double buf[4 * 8 * 3], alpha[3] = {1, 1, 1};
+    ck_assert_int_eq(mlr_layers_get_base(L, buf, 23, NULL, 0), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_layers_get_base(L, NULL, 0, buf, 63), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_layers_get_base(NULL, buf, 24, NULL, 0), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_layers_get_control(L, buf, 71), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_layers_get_control(L, NULL, 72), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_layers_get_residual(L, buf, 73), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_layers_get_param(L, MLR_LAYERS_PARAM_BASE_S, buf, 2), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_layers_get_param(L, (mlr_layers_param)9, buf, 3), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_layers_get_param(L, (mlr_layers_param)-1, buf, 3), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_layers_synthesize(L, 0, 8, alpha, 2, buf, 24, NULL, 0), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_layers_synthesize(L, 0, 8, NULL, 1, buf, 24, NULL, 0), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_layers_synthesize(L, 4, 5, alpha, 3, NULL, 0, NULL, 0), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_layers_synthesize(L, 9, 0, alpha, 3, NULL, 0, NULL, 0), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_layers_synthesize(L, 0, 8, alpha, 3, buf, 23, NULL, 0), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_layers_synthesize(L, 0, 8, alpha, 3, NULL, 0, buf, 60), MLR_E_INVALID_ARG);
+    for (int v = 0; v < 3; v++) {
+        alpha[1] = v == 0 ? NAN : v == 1 ? INFINITY : -INFINITY;
+        buf[0] = 42.0;
+        ck_assert_int_eq(mlr_layers_synthesize(L, 0, 8, alpha, 3, buf, 24, NULL, 0), MLR_E_INVALID_ARG);
+        ck_assert_double_eq(buf[0], 42.0); /* nothing written */
+    }
+    alpha[1] = -3.0; /* any finite value works */
+    ck_assert_int_eq(mlr_layers_synthesize(L, 0, 8, alpha, 3, buf, 24, buf + 24, 64), MLR_OK);
+    ck_assert_int_eq(mlr_layers_reconstruct(L, 7, 2, buf, 6, NULL, 0), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_layers_reconstruct(NULL, 0, 1, buf, 3, NULL, 0), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_layers_reconstruct(L, 8, 0, NULL, 0, NULL, 0), MLR_OK);
+    ck_assert_uint_eq(mlr_layers_n_frames(NULL), 0);
+    ck_assert_uint_eq(mlr_layers_n_joints(NULL), 0);
+    mlr_layers_destroy(L);
+    mlr_layers_destroy(NULL);
+#undef EXPECT_BAD
+}
+END_TEST
+
+START_TEST(constant_motion_and_no_root)
+{
+    /* a motion that does not move: every layer but the base is zero; no root translation */
+    const size_t n = 20, j = 2;
+    double rot[4 * 20 * 2];
+    for (size_t i = 0; i < n * j; i++) {
+        rot[4 * i] = 0.5, rot[4 * i + 1] = -0.5, rot[4 * i + 2] = 0.5, rot[4 * i + 3] = 0.5;
+        if (i % 3 == 0)
+            for (int c = 0; c < 4; c++)
+                rot[4 * i + c] *= -2.0; /* sign flips and scale are normalized away */
+    }
+    mlr_layers *L = NULL;
+    ck_assert_int_eq(mlr_layers_decompose(n, j, NULL, rot, NULL, 0, NULL, &L, NULL), MLR_OK);
+    double pos[60], r[160], unit[160];
+    normalize_copy(rot, unit, n * j);
+    ck_assert_int_eq(mlr_layers_reconstruct(L, 0, n, pos, 60, r, 160), MLR_OK);
+    for (size_t i = 0; i < 60; i++)
+        ck_assert_double_le(fabs(pos[i]), 1e-300);
+    ck_assert_double_le(qdiff_sign(r, unit, n * j), 1e-14);
+    double s[3];
+    ck_assert_int_eq(mlr_layers_get_param(L, MLR_LAYERS_PARAM_CONTROL_S, s, 3), MLR_OK);
+    ck_assert_double_eq(s[0], 1.0); /* zero root displacement: s = 1 */
+    mlr_layers_destroy(L);
+}
+END_TEST
+
+START_TEST(every_allocation_failure_is_clean)
+{
+    double pos[3 * 30], rot[4 * 30 * 3];
+    synthetic_big(30, 30.0, pos, rot, 3);
+    for (size_t fail_at = 0;; fail_at++) {
+        mlr_test_allocator ta;
+        mlr_test_allocator_init(&ta, fail_at);
+        mlr_layers *L = NULL;
+        mlr_status s = mlr_layers_decompose(30, 3, pos, rot, NULL, 0, &ta.base, &L, NULL);
+        if (s == MLR_OK) {
+            ck_assert_uint_eq(ta.live_blocks, 1); /* the handle is one block */
+            mlr_layers_destroy(L);
+        }
+        ck_assert_uint_eq(ta.live_blocks, 0);
+        if (s == MLR_OK)
+            break;
+        ck_assert_int_eq(s, MLR_E_NO_MEMORY);
+        ck_assert_ptr_null(L);
+    }
+}
+END_TEST
+
+typedef struct thread_job {
+    const mlr_layers *L;
+    size_t n, j;
+    double alpha;
+    double *rot, *pos;
+    int status;
+} thread_job;
+
+static void *synth_thread(void *p)
+{
+    thread_job *t = p;
+    t->status = 0;
+    for (int rep = 0; rep < 5 && t->status == 0; rep++)
+        t->status = mlr_layers_synthesize(t->L, 0, t->n, &t->alpha, 1, t->pos, 3 * t->n, t->rot,
+                                          4 * t->n * t->j);
+    return NULL;
+}
+
+START_TEST(threads_synthesize_identically)
+{
+    const size_t n = 600, j = 3;
+    double *pos = malloc(3 * n * sizeof *pos), *rot = malloc(4 * n * j * sizeof *rot);
+    synthetic_big(n, 60.0, pos, rot, 11);
+    mlr_layers *L = NULL;
+    ck_assert_int_eq(mlr_layers_decompose(n, j, pos, rot, NULL, 0, NULL, &L, NULL), MLR_OK);
+    enum { NT = 4 };
+    thread_job jobs[NT];
+    pthread_t th[NT];
+    double *ref_r = malloc(4 * n * j * sizeof *ref_r), *ref_p = malloc(3 * n * sizeof *ref_p);
+    for (int t = 0; t < NT; t++) {
+        jobs[t] = (thread_job){L, n, j, 0.5 * (double)(t % 2 + 1), malloc(4 * n * j * sizeof(double)),
+                               malloc(3 * n * sizeof(double)), -1};
+        ck_assert_int_eq(pthread_create(&th[t], NULL, synth_thread, &jobs[t]), 0);
+    }
+    for (int t = 0; t < NT; t++)
+        ck_assert_int_eq(pthread_join(th[t], NULL), 0);
+    for (int t = 0; t < NT; t++) {
+        ck_assert_int_eq(jobs[t].status, MLR_OK);
+        ck_assert_int_eq(mlr_layers_synthesize(L, 0, n, &jobs[t].alpha, 1, ref_p, 3 * n, ref_r, 4 * n * j), MLR_OK);
+        ck_assert(memcmp(ref_r, jobs[t].rot, 4 * n * j * sizeof *ref_r) == 0);
+        ck_assert(memcmp(ref_p, jobs[t].pos, 3 * n * sizeof *ref_p) == 0);
+        free(jobs[t].rot), free(jobs[t].pos);
+    }
+    free(ref_r), free(ref_p), free(pos), free(rot);
+    mlr_layers_destroy(L);
+}
+END_TEST
+
+static Suite *layers_suite(void)
+{
+    Suite *s = suite_create("layers");
+    TCase *clips = tcase_create("clips");
+    tcase_set_timeout(clips, 300);
+    tcase_add_test(clips, identity_on_every_clip);
+    tcase_add_test(clips, alpha_zero_is_base_and_one_is_denoised);
+    tcase_add_test(clips, root_layers_match_lgs);
+    tcase_add_test(clips, gamma_bound_real_clips);
+    tcase_add_test(clips, explicit_control_parameters);
+    suite_add_tcase(s, clips);
+    TCase *num = tcase_create("numerics");
+    tcase_set_timeout(num, 120);
+    tcase_add_test(num, gamma_bound_synthetic);
+    tcase_add_test(num, gcv_matches_dense_scan);
+    tcase_add_test(num, denoises_synthetic_motion);
+    tcase_add_test(num, constant_motion_and_no_root);
+    suite_add_tcase(s, num);
+    TCase *args = tcase_create("arguments");
+    tcase_add_test(args, bad_arguments);
+    tcase_add_test(args, every_allocation_failure_is_clean);
+    tcase_add_test(args, threads_synthesize_identically);
+    suite_add_tcase(s, args);
+    return s;
+}
+
+int main(void) { return mlr_test_run(layers_suite()); }
