@@ -18,6 +18,7 @@ from . import metrics
 from .stream import Stream, stream_motion
 from . import ik
 from .contacts import detect_contacts, fix_contacts
+from .resample import (resample, slerp_resample, timewarp, timewarp_map, timewarp_speed)
 from . import data
 from .layers import Layers, decompose, denoise, stylize
 
@@ -37,4 +38,5 @@ __all__ = ["__version__", "library_version", "Error", "InvalidArgumentError", "P
            "lgs", "have_cholmod", "quat", "Motion", "Skeleton", "read_bvh", "write_bvh",
            "read_bvh_string", "write_bvh_string", "metrics", "data", "Layers", "decompose",
            "denoise", "stylize", "Stream", "stream_motion", "ik", "detect_contacts",
-           "fix_contacts"]
+           "fix_contacts", "resample", "slerp_resample", "timewarp", "timewarp_map",
+           "timewarp_speed"]
