@@ -11,5 +11,7 @@
 #include "mlr_fk.h"
 #include "mlr_resample.h"
 #include "mlr_stream.h"
+#include "mlr_kmeans.h"
+#include "mlr_som.h"
 
 #endif /* MLAYER_H */

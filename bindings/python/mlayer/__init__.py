@@ -16,6 +16,9 @@ from .motion import Motion, Skeleton
 from .bvh import read_bvh, read_bvh_string, write_bvh, write_bvh_string
 from . import metrics
 from . import data
+from .kmeans import KMeansResult, elbow, kmeans
+from .som import SOM
+from .features import pose_features
 
 try:
     __version__ = _dist_version("mlayer")
@@ -32,4 +35,4 @@ __all__ = ["__version__", "library_version", "Error", "InvalidArgumentError", "P
            "SingularMatrixError", "MlayerIOError", "UnsupportedError", "MlayerWarning",
            "LGS", "lgs", "have_cholmod", "quat",
            "Motion", "Skeleton", "read_bvh", "write_bvh", "read_bvh_string", "write_bvh_string",
-           "metrics", "data"]
+           "metrics", "data", "kmeans", "KMeansResult", "elbow", "SOM", "pose_features"]
