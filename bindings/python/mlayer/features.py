@@ -33,7 +33,8 @@ def _one(m: Motion) -> np.ndarray:
 
 def pose_features(motion) -> np.ndarray:
     """(N, 3J) pose features of a Motion, or of several clips of one skeleton (a list or tuple
-    of Motions, stacked in order).
+    of Motions, stacked in order; "one skeleton" means the same hierarchy, i.e. equal parent
+    arrays: joint names may differ between exports, e.g. CMU's LeftHip / LeftUpLeg).
 
     For each frame: world joint positions by forward kinematics, minus the root joint's world
     position, rotated about +Y by minus the root's heading (:func:`heading`), so a clip moved
@@ -48,8 +49,7 @@ def pose_features(motion) -> np.ndarray:
             raise InvalidArgumentError(f"pose_features: expected Motion objects, got {type(m)}")
     sk = clips[0].skeleton
     for i, m in enumerate(clips[1:], 1):
-        if m.skeleton.joint_names != sk.joint_names or \
-                not np.array_equal(m.skeleton.parents, sk.parents):
+        if not np.array_equal(m.skeleton.parents, sk.parents):
             raise InvalidArgumentError(f"pose_features: clip {i} has another skeleton than clip 0")
     return np.concatenate([_one(m) for m in clips], axis=0)
 
