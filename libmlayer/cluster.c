@@ -254,9 +254,76 @@ __attribute__((target("avx512f"))) static void dot_avx512(const double *const *x
     _mm512_storeu_pd(out + 5 * MLR_PACK, a50);
     _mm512_storeu_pd(out + 5 * MLR_PACK + 8, a51);
 }
+
+/* One row against 4 consecutive blocks (64 centres): the same fma sequence per (row, centre)
+ * as dot_avx512, so a row gets bit-identical values whichever kernel served it. */
+__attribute__((target("avx512f"))) static void dot1x4_avx512(const double *x, const double *blk,
+                                                             size_t dim, double *out)
+{
+    const size_t bs = dim * MLR_PACK;
+    const double *b0 = blk, *b1 = blk + bs, *b2 = blk + 2 * bs, *b3 = blk + 3 * bs;
+    __m512d a0 = _mm512_setzero_pd(), a1 = a0, a2 = a0, a3 = a0, a4 = a0, a5 = a0, a6 = a0,
+            a7 = a0;
+    for (size_t t = 0; t < dim; t++) {
+        __m512d v = _mm512_set1_pd(x[t]);
+        size_t o = t * MLR_PACK;
+        a0 = _mm512_fmadd_pd(v, _mm512_loadu_pd(b0 + o), a0);
+        a1 = _mm512_fmadd_pd(v, _mm512_loadu_pd(b0 + o + 8), a1);
+        a2 = _mm512_fmadd_pd(v, _mm512_loadu_pd(b1 + o), a2);
+        a3 = _mm512_fmadd_pd(v, _mm512_loadu_pd(b1 + o + 8), a3);
+        a4 = _mm512_fmadd_pd(v, _mm512_loadu_pd(b2 + o), a4);
+        a5 = _mm512_fmadd_pd(v, _mm512_loadu_pd(b2 + o + 8), a5);
+        a6 = _mm512_fmadd_pd(v, _mm512_loadu_pd(b3 + o), a6);
+        a7 = _mm512_fmadd_pd(v, _mm512_loadu_pd(b3 + o + 8), a7);
+    }
+    _mm512_storeu_pd(out, a0);
+    _mm512_storeu_pd(out + 8, a1);
+    _mm512_storeu_pd(out + 16, a2);
+    _mm512_storeu_pd(out + 24, a3);
+    _mm512_storeu_pd(out + 32, a4);
+    _mm512_storeu_pd(out + 40, a5);
+    _mm512_storeu_pd(out + 48, a6);
+    _mm512_storeu_pd(out + 56, a7);
+}
 #endif
 
 typedef void (*dot_fn)(const double *const *xr, const double *blk, size_t dim, double *out);
+
+#ifdef MLR_X86_DISPATCH
+/* Single row (online SOM step), AVX-512 only: 64 centres per pass; returns 0 when the CPU lacks it. */
+static int nearest1_avx512(const mlr_packed *p, const double *x, int32_t *best, double *d2best)
+{
+    if (!__builtin_cpu_supports("avx512f"))
+        return 0;
+    const size_t dim = p->dim, nb = p->kpad / MLR_PACK;
+    double out[4 * MLR_PACK], bv = INFINITY;
+    int32_t bi = 0;
+    size_t jb = 0;
+    while (jb < nb) {
+        size_t take = nb - jb >= 4 ? 4 : 1;
+        if (take == 4) {
+            dot1x4_avx512(x, p->pc + jb * dim * MLR_PACK, dim, out);
+        } else {
+            const double *xr[MAX_G] = {x, x, x, x, x, x};
+            double o6[6 * MLR_PACK];
+            dot_avx512(xr, p->pc + jb * dim * MLR_PACK, dim, o6);
+            memcpy(out, o6, MLR_PACK * sizeof(double));
+        }
+        for (size_t q = 0; q < take * MLR_PACK; q++) {
+            double v = p->cn[jb * MLR_PACK + q] - 2.0 * out[q];
+            if (v < bv) {
+                bv = v;
+                bi = (int32_t)(jb * MLR_PACK + q);
+            }
+        }
+        jb += take;
+    }
+    double b = bv + mlr_norm2(x, dim);
+    *best = bi;
+    *d2best = b > 0 ? b : 0;
+    return 1;
+}
+#endif
 
 static dot_fn pick_dot(size_t *group)
 {
@@ -278,6 +345,11 @@ void mlr_nearest2(const mlr_packed *p, const double *x, size_t ldx, const size_t
                   const double *xn, int32_t *best, double *d2best, double *d2second,
                   int32_t *second)
 {
+#ifdef MLR_X86_DISPATCH
+    if (m == 1 && !d2second && !second && nearest1_avx512(p, x + (rows ? rows[0] : 0) * ldx,
+                                                          best, d2best))
+        return;
+#endif
     size_t G;
     dot_fn dot = pick_dot(&G);
     const size_t dim = p->dim, nb = p->kpad / MLR_PACK;
