@@ -373,8 +373,15 @@ void mlr_nearest2(const mlr_packed *p, const double *x, size_t ldx, const size_t
             const double *cn = p->cn + jb * MLR_PACK;
             for (size_t r = 0; r < cnt; r++) {
                 const double *o = out + r * MLR_PACK;
+                double val[MLR_PACK], mn = INFINITY;
+                for (int l = 0; l < MLR_PACK; l++) { /* branch-free filter of the block */
+                    val[l] = cn[l] - 2.0 * o[l];
+                    mn = val[l] < mn ? val[l] : mn;
+                }
+                if (!(mn < sv[r]))
+                    continue;
                 for (int l = 0; l < MLR_PACK; l++) {
-                    double v = cn[l] - 2.0 * o[l];
+                    double v = val[l];
                     if (v < sv[r]) {
                         int32_t j = (int32_t)(jb * MLR_PACK + (size_t)l);
                         if (v < bv[r]) {

@@ -337,20 +337,31 @@ static void online_step(mlr_som *s, const double *x, double sigma, double alpha,
     for (size_t c = c0; c < c1; c++)
         gc[c] = exp(k * (double)((c - bc) * (c - bc)));
     for (size_t r = r0; r < r1; r++) {
-        for (size_t c = c0; c < c1; c++) {
-            double h = gr[r] * gc[c];
-            if (h < 1e-12 * alpha)
-                continue;
-            size_t u = r * cols + c;
-            double *blk = s->pk.pc + (u / MLR_PACK) * dim * MLR_PACK + u % MLR_PACK;
-            double nn = 0;
-            for (size_t t = 0; t < dim; t++) {
-                double v = blk[t * MLR_PACK];
-                v += h * (x[t] - v);
-                blk[t * MLR_PACK] = v;
-                nn += v * v;
+        /* units r * cols + c0 .. r * cols + c1 - 1, a block of 16 at a time; lanes outside the
+         * window get h = 0, which leaves them exactly unchanged */
+        size_t u0 = r * cols + c0, u1 = r * cols + c1;
+        for (size_t jb = u0 / MLR_PACK; jb * MLR_PACK < u1; jb++) {
+            double h[MLR_PACK], nn[MLR_PACK];
+            for (size_t l = 0; l < MLR_PACK; l++) {
+                size_t u = jb * MLR_PACK + l;
+                double v = (u >= u0 && u < u1) ? gr[r] * gc[u - r * cols] : 0.0;
+                h[l] = v < 1e-12 * alpha ? 0.0 : v;
+                nn[l] = 0.0;
             }
-            s->pk.cn[u] = nn;
+            double *blk = s->pk.pc + jb * dim * MLR_PACK;
+            for (size_t t = 0; t < dim; t++) {
+                double *bt = blk + t * MLR_PACK, xt = x[t];
+                for (size_t l = 0; l < MLR_PACK; l++) {
+                    double v = bt[l] + h[l] * (xt - bt[l]);
+                    bt[l] = v;
+                    nn[l] += v * v;
+                }
+            }
+            for (size_t l = 0; l < MLR_PACK; l++) {
+                size_t u = jb * MLR_PACK + l;
+                if (u >= u0 && u < u1)
+                    s->pk.cn[u] = nn[l];
+            }
         }
     }
 }
