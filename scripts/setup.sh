@@ -5,7 +5,8 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 APT_PACKAGES=(build-essential pkg-config ninja-build check libsuitesparse-dev libopenblas-dev
-              clang libclang-rt-14-dev python3-venv)
+              clang libclang-rt-14-dev python3-venv
+              chromium chromium-driver)
 missing=()
 for p in "${APT_PACKAGES[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
@@ -28,6 +29,8 @@ python -m pip install -q "meson>=1.3" "meson-python>=0.16" "cffi>=2.1" ninja "nu
   scipy matplotlib pytest
 # test-only: an independent BVH reader the pytest suite checks forward kinematics against
 python -m pip install -q "bvhio>=1.5"
+# test-only: drives Debian's chromium (apt, /usr/bin/chromedriver) for the viewer's browser tests
+python -m pip install -q "selenium>=4.10"
 echo "setup: building and installing the mlayer package"
 python -m pip install -q --no-build-isolation .
 echo "setup: $(mlayer --version)"
