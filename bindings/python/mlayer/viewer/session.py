@@ -295,12 +295,10 @@ class Clip:
         t0 = time.perf_counter()
         alpha = p["alpha"]
         joints = {}
-        for j, (name, part) in enumerate(zip(m.joint_names, self._parts)):
-            a = p.get(part)
-            if a is not None and j > 0:
-                joints[_glob_escape(name)] = a
-        if self._parts and p.get("spine") is not None:
-            joints[_glob_escape(m.joint_names[0])] = p["spine"]
+        for name, part in zip(m.joint_names, self._parts):  # the root joint is "spine"
+            if p.get(part) is not None:
+                joints[_glob_escape(name)] = p[part]
+        # the root translation follows the global alpha
         out = L.synthesize(alpha, joints or None, root_alpha=alpha)
         if not p["denoise"]:
             r = np.asarray(L.residual)
