@@ -5,7 +5,8 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 APT_PACKAGES=(build-essential pkg-config ninja-build check libsuitesparse-dev libopenblas-dev
-              clang libclang-rt-14-dev python3-venv)
+              clang libclang-rt-14-dev python3-venv
+              chromium chromium-driver)
 missing=()
 for p in "${APT_PACKAGES[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
@@ -32,6 +33,8 @@ python -m pip install -q "bvhio>=1.5"
 # SOM quantization error against MiniSom. (bench/python/bench_cluster.py also times somoclu,
 # which is not installed here: `pip install --no-build-isolation somoclu` after numpy.)
 python -m pip install -q scikit-learn minisom
+# test-only: drives Debian's chromium (apt, /usr/bin/chromedriver) for the viewer's browser tests
+python -m pip install -q "selenium>=4.10"
 echo "setup: building and installing the mlayer package"
 python -m pip install -q --no-build-isolation .
 echo "setup: $(mlayer --version)"

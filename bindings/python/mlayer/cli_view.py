@@ -1,0 +1,59 @@
+"""`mlayer view CLIP.bvh [MORE.bvh ...] [--port N] [--host H] [--open]`: the interactive viewer.
+
+Starts a local web server (127.0.0.1, a free port unless --port) serving a page that plays the
+original and the processed motion as stick figures, with sliders for alpha (global and per
+body part), denoising, contact cleanup and retiming; prints the address and serves until
+Ctrl-C. Opens a browser only with --open. A clip that fails to parse is reported here and on
+the page; the others are served.
+"""
+from __future__ import annotations
+
+import sys
+
+from .cli import command
+
+
+def _arguments(p) -> None:
+    p.add_argument("inputs", nargs="+", metavar="CLIP.bvh")
+    p.add_argument("--port", type=int, default=0,
+                   help="port to listen on (default: a free port)")
+    p.add_argument("--host", default="127.0.0.1",
+                   help="address to bind (default 127.0.0.1; anything but loopback exposes "
+                        "the clips to the network)")
+    p.add_argument("--open", action="store_true", help="open the page in a web browser")
+
+
+@command("view", "interactive viewer in the browser: alpha sliders, cleanup, retiming")
+def run(args) -> int:
+    from .errors import InvalidArgumentError
+    from .viewer import is_loopback, make_server
+    if not 0 <= args.port <= 65535:
+        raise InvalidArgumentError(f"--port must be in 0..65535, got {args.port}")
+    if not is_loopback(args.host):
+        print(f"mlayer view: warning: serving on {args.host}, not on loopback: anyone who can "
+              f"reach this address can view the clips and run computations on this machine",
+              file=sys.stderr)
+    server = make_server(args.inputs, args.host, args.port)
+    good = [c for c in server.clips if c.ok]
+    for c in server.clips:
+        if not c.ok:
+            print(f"mlayer view: error: {c.error}", file=sys.stderr)
+    if not good:
+        print("mlayer view: error: no clip could be loaded; the page shows the errors",
+              file=sys.stderr)
+    print(f"mlayer view: serving {len(good)} of {len(server.clips)} clip(s) at {server.url} "
+          f"(Ctrl-C to stop)", flush=True)
+    server.warm()
+    if args.open:
+        import webbrowser
+        webbrowser.open(server.url)
+    try:
+        server.serve_forever(poll_interval=0.25)
+    except KeyboardInterrupt:
+        print("mlayer view: stopped", file=sys.stderr)
+    finally:
+        server.server_close()
+    return 0
+
+
+run.arguments = _arguments

@@ -1,0 +1,15 @@
+"""`mlayer view`: an interactive viewer in the browser (paper 1, section 5.1: alpha and the
+target length as sliders).
+
+A local HTTP server (:mod:`.server`, Python stdlib) serves one page (``index.html``,
+``viewer.js``, ``viewer.css``, package data in this folder: a Canvas 2D stick-figure renderer
+written for mlayer, no third-party code, works offline) and a JSON API that recomputes the
+processed motion through the C core on every slider move (:mod:`.session`).
+"""
+from __future__ import annotations
+
+from .server import ViewerServer, is_loopback, make_server
+from .session import Clip, body_parts, load_clips, parse_params
+
+__all__ = ["ViewerServer", "make_server", "is_loopback", "Clip", "body_parts", "load_clips",
+           "parse_params"]

@@ -1,0 +1,528 @@
+// mlayer view: the page's script. Written for mlayer; no third-party code, works offline.
+//
+// The server (mlayer/viewer/server.py) sends joint positions as base64 float32 arrays; this
+// script draws them as stick figures with Canvas 2D through a small perspective camera of its
+// own (orbit by drag, zoom by wheel), plays them, and asks the server to recompute the
+// processed motion whenever a control changes (one request in flight at a time; a change made
+// meanwhile is sent when the answer arrives).
+//
+// For tests, window.mlayerViewer exposes the state, the world positions last drawn, and
+// play/pause/setFrame.
+"use strict";
+
+(function () {
+  const $ = (id) => document.getElementById(id);
+  const PARTS = ["arms", "legs", "spine"];
+  const COLORS = { left: [38, 110, 200], right: [205, 60, 50], center: [70, 70, 78] };
+
+  const S = {
+    clips: [], clip: -1, orig: null, proc: null,
+    playing: true, t: 0, speed: 1, layout: "side",
+    cam: { yaw: 0.7, pitch: 0.28, dist: 0, zoom: 1 },
+    linked: { arms: true, legs: true, spine: true },
+    inflight: false, pending: false, requests: 0, responses: 0, ready: false,
+    lastError: null, lastQuery: "", drawn: null, pngClip: -1, target: null,
+  };
+
+  // ---------- data ----------
+
+  function b64bytes(b64) {
+    const s = atob(b64);
+    const u = new Uint8Array(s.length);
+    for (let i = 0; i < s.length; i++) u[i] = s.charCodeAt(i);
+    return u;
+  }
+  const f32 = (b64) => new Float32Array(b64bytes(b64).buffer);
+
+  function decodeMotion(d, nPoints) {
+    const nc = (d.contact_names || S.orig.contactNames).length;
+    return {
+      frames: d.frames, fps: d.fps, duration: d.duration, nPoints: nPoints,
+      pos: f32(d.positions), cpos: f32(d.contact_points), contacts: b64bytes(d.contacts),
+      nContacts: nc, metrics: d.metrics,
+    };
+  }
+
+  async function getJSON(url) {
+    const r = await fetch(url, { cache: "no-store" });
+    let body = null;
+    try { body = await r.json(); } catch (e) { body = { error: `HTTP ${r.status}` }; }
+    if (!r.ok) throw new Error(body && body.error ? body.error : `HTTP ${r.status}`);
+    return body;
+  }
+
+  function status(text, kind) {
+    const el = $("status");
+    el.textContent = text;
+    el.className = kind || "";
+  }
+
+  // ---------- clips ----------
+
+  async function start() {
+    bindControls();
+    let list;
+    try {
+      list = (await getJSON("/api/clips")).clips;
+    } catch (e) {
+      status(`cannot reach the server: ${e.message}`, "bad");
+      return;
+    }
+    S.clips = list;
+    const sel = $("clip");
+    const bad = [];
+    for (const c of list) {
+      const o = document.createElement("option");
+      o.value = c.index;
+      o.textContent = c.error ? `${c.name} (failed to load)` : c.name;
+      o.disabled = !!c.error;
+      sel.appendChild(o);
+      if (c.error) bad.push(`${c.name}: ${c.error}`);
+    }
+    if (bad.length) {
+      $("errors").hidden = false;
+      $("errors").textContent = bad.join("\n");
+    }
+    const good = list.filter((c) => !c.error);
+    if (!good.length) {
+      status("no clip could be loaded (see the errors above)", "bad");
+      $("main").hidden = true;
+      S.ready = true;
+      return;
+    }
+    sel.value = good[0].index;
+    await loadClip(good[0].index);
+    requestAnimationFrame(tick);
+  }
+
+  async function loadClip(i) {
+    S.clip = +i;
+    S.ready = false;
+    status("loading clip…", "busy");
+    let d;
+    try {
+      d = await getJSON(`/api/clip?clip=${S.clip}`);
+    } catch (e) {
+      status(e.message, "bad");
+      return;
+    }
+    const o = decodeMotion(d, d.n_points);
+    Object.assign(o, {
+      name: d.name, parents: d.parents, sides: d.sides, parts: d.parts,
+      jointNames: d.joint_names, contactNames: d.contact_names, height: d.height,
+      plotJoint: d.plot_joint, decomposeMs: d.decompose_ms,
+    });
+    o.nJoints = d.joint_names.length;
+    let ymin = Infinity;
+    for (let k = 1; k < o.pos.length; k += 3) ymin = Math.min(ymin, o.pos[k]);
+    o.floor = ymin;
+    S.orig = o;
+    S.proc = null;
+    S.cam.dist = 0;
+    S.target = null;
+    // the joint list of the layer chart, the part sizes
+    const js = $("joint");
+    js.textContent = "";
+    d.joint_names.forEach((n, j) => {
+      const op = document.createElement("option");
+      op.value = j;
+      op.textContent = n;
+      js.appendChild(op);
+    });
+    js.value = d.plot_joint;
+    const count = (p) => d.parts.filter((x) => x === p).length;
+    $("parts-note").textContent =
+      `joints per part: arms ${count("arms")}, legs ${count("legs")}, spine and head ${count("spine")}` +
+      (d.contact_names.length ? `; contacts on ${d.contact_names.join(", ")}` : "; no feet found");
+    $("slide-orig").textContent = fmt(d.metrics.sliding);
+    $("jitter-orig").textContent = fmt(d.metrics.jitter);
+    $("frames-orig").textContent = `${d.frames} @ ${fpsText(d.fps)}`;
+    $("layers-png").removeAttribute("src");
+    S.pngClip = -1;
+    if ($("figure-details").open) showPng();
+    request();
+  }
+
+  // ---------- requests ----------
+
+  function query() {
+    const q = new URLSearchParams();
+    q.set("clip", S.clip);
+    q.set("alpha", $("alpha").value);
+    for (const p of PARTS) if (!S.linked[p]) q.set(p, $(p).value);
+    q.set("denoise", $("denoise").checked ? "1" : "0");
+    q.set("contacts", $("contacts").checked ? "1" : "0");
+    const ratio = +$("length").value;
+    if (Math.abs(ratio - 1) > 1e-9) q.set("length", (ratio * S.orig.duration).toFixed(6));
+    if (+$("warp").value > 0) q.set("warp", $("warp").value);
+    if ($("fps").value) q.set("fps", $("fps").value);
+    q.set("joint", $("joint").value);
+    return q.toString();
+  }
+
+  function request() {
+    if (!S.orig) return;
+    if (S.inflight) { S.pending = true; return; }
+    S.inflight = true;
+    S.pending = false;
+    S.requests++;
+    const q = query();
+    const clip = S.clip;
+    const t0 = performance.now();
+    status("computing…", "busy");
+    getJSON(`/api/process?${q}`).then((d) => {
+      if (clip !== S.clip) return;
+      const u = phase();
+      S.proc = decodeMotion(d, d.n_points);
+      S.proc.plot = d.plot;
+      S.t = u * S.proc.duration;
+      S.lastQuery = q;
+      S.lastError = null;
+      $("download").href = `/api/download?${q}`;
+      $("download").classList.remove("disabled");
+      $("slide-proc").textContent = fmt(d.metrics.sliding);
+      $("jitter-proc").textContent = fmt(d.metrics.jitter);
+      $("frames-proc").textContent = `${d.frames} @ ${fpsText(d.fps)}`;
+      const rt = performance.now() - t0;
+      $("timing").textContent =
+        (d.cached ? "cached on the server" : `computed in ${d.compute_ms.toFixed(0)} ms on the server`) +
+        ` (${rt.toFixed(0)} ms round trip); ` +
+        `decomposition ${S.orig.decomposeMs.toFixed(0)} ms, once per clip. Units: body heights per s (sliding), per s³ (jitter).`;
+      $("scrub").max = S.proc.frames - 1;
+      status(`${S.orig.name} · ${S.orig.frames} frames · ${S.orig.jointNames.length} joints`);
+      drawChart();
+      S.responses++;
+      S.ready = true;
+    }).catch((e) => {
+      S.lastError = e.message;
+      S.responses++;
+      status(e.message, "bad");
+    }).finally(() => {
+      S.inflight = false;
+      if (S.pending) request();
+    });
+  }
+
+  const fpsText = (f) => f.toFixed(2).replace(/\.?0+$/, "");
+
+  function fmt(v) {
+    if (v === null || v === undefined) return "n/a";
+    return Math.abs(v) >= 1000 ? v.toExponential(2) : v.toPrecision(3);
+  }
+
+  // ---------- controls ----------
+
+  function bindControls() {
+    $("clip").addEventListener("change", (e) => loadClip(e.target.value));
+    $("alpha").addEventListener("input", () => {
+      $("alpha-out").textContent = (+$("alpha").value).toFixed(2);
+      for (const p of PARTS) if (S.linked[p]) $(p).value = $("alpha").value;
+      request();
+    });
+    for (const p of PARTS) {
+      $(p).addEventListener("input", () => {
+        S.linked[p] = false;
+        $(`${p}-out`).textContent = (+$(p).value).toFixed(2);
+        request();
+      });
+    }
+    $("reset-parts").addEventListener("click", () => {
+      for (const p of PARTS) {
+        S.linked[p] = true;
+        $(p).value = $("alpha").value;
+        $(`${p}-out`).textContent = "=";
+      }
+      request();
+    });
+    for (const id of ["denoise", "contacts", "fps", "joint"]) $(id).addEventListener("change", request);
+    $("length").addEventListener("input", () => {
+      const r = +$("length").value;
+      $("length-out").textContent = S.orig ? `${(r * S.orig.duration).toFixed(1)} s` : `${r.toFixed(2)}×`;
+      request();
+    });
+    $("warp").addEventListener("input", () => {
+      $("warp-out").textContent = (+$("warp").value).toFixed(1);
+      request();
+    });
+    $("play").addEventListener("click", () => (S.playing ? pause() : play()));
+    $("scrub").addEventListener("input", () => setFrame(+$("scrub").value));
+    $("speed").addEventListener("change", () => { S.speed = +$("speed").value; });
+    $("layout").addEventListener("change", () => { S.layout = $("layout").value; });
+    $("figure-details").addEventListener("toggle", () => { if ($("figure-details").open) showPng(); });
+    $("download").classList.add("disabled");
+
+    const cv = $("figure");
+    let drag = null;
+    cv.addEventListener("pointerdown", (e) => {
+      drag = { x: e.clientX, y: e.clientY };
+      cv.setPointerCapture(e.pointerId);
+      cv.classList.add("dragging");
+    });
+    cv.addEventListener("pointermove", (e) => {
+      if (!drag) return;
+      S.cam.yaw -= (e.clientX - drag.x) * 0.008;
+      S.cam.pitch = Math.max(-0.2, Math.min(1.45, S.cam.pitch + (e.clientY - drag.y) * 0.006));
+      drag = { x: e.clientX, y: e.clientY };
+    });
+    const up = () => { drag = null; cv.classList.remove("dragging"); };
+    cv.addEventListener("pointerup", up);
+    cv.addEventListener("pointercancel", up);
+    cv.addEventListener("wheel", (e) => {
+      e.preventDefault();
+      S.cam.zoom = Math.max(0.15, Math.min(8, S.cam.zoom * Math.exp(e.deltaY * 0.0015)));
+    }, { passive: false });
+    cv.addEventListener("dblclick", () => { S.cam.yaw = 0.7; S.cam.pitch = 0.28; S.cam.zoom = 1; });
+  }
+
+  function showPng() {
+    if (S.pngClip === S.clip || S.clip < 0) return;
+    S.pngClip = S.clip;
+    $("layers-png").src = `/api/layers.png?clip=${S.clip}`;
+  }
+
+  function play() { S.playing = true; $("play").textContent = "pause"; }
+  function pause() { S.playing = false; $("play").textContent = "play"; }
+  function setFrame(f) {
+    if (!S.proc) return;
+    S.t = Math.max(0, Math.min(S.proc.frames - 1, f)) / S.proc.fps;
+  }
+  function phase() {
+    if (!S.proc) return 0;
+    return S.proc.frames > 1 ? procFrame() / (S.proc.frames - 1) : 0;
+  }
+  function procFrame() {
+    if (!S.proc) return 0;
+    return Math.min(S.proc.frames - 1, Math.max(0, Math.floor(S.t * S.proc.fps + 1e-6)));
+  }
+
+  // ---------- camera ----------
+
+  const sub = (a, b) => [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+  const dot = (a, b) => a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+  const cross = (a, b) => [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
+  const norm = (a) => { const l = Math.hypot(a[0], a[1], a[2]) || 1; return [a[0] / l, a[1] / l, a[2] / l]; };
+
+  function camera(target, w, h) {
+    const c = S.cam;
+    const dist = 2.6 * S.orig.height * c.zoom;
+    const eye = [target[0] + dist * Math.cos(c.pitch) * Math.sin(c.yaw), target[1] + dist * Math.sin(c.pitch),
+      target[2] + dist * Math.cos(c.pitch) * Math.cos(c.yaw)];
+    const f = norm(sub(target, eye));
+    const r = norm(cross(f, [0, 1, 0]));
+    const u = cross(r, f);
+    const focal = h / (2 * Math.tan((40 * Math.PI) / 360));
+    const near = 0.02 * S.orig.height;
+    return { eye, f, r, u, focal, near, cx: w / 2, cy: h * 0.55 };
+  }
+  function toCam(cam, p) { const d = sub(p, cam.eye); return [dot(d, cam.r), dot(d, cam.u), dot(d, cam.f)]; }
+  function toScreen(cam, c) { return [cam.cx + (cam.focal * c[0]) / c[2], cam.cy - (cam.focal * c[1]) / c[2]]; }
+  function segment(ctx, cam, a, b) {
+    let ca = toCam(cam, a), cb = toCam(cam, b);
+    if (ca[2] < cam.near && cb[2] < cam.near) return;
+    if (ca[2] < cam.near || cb[2] < cam.near) {
+      const s = (cam.near - ca[2]) / (cb[2] - ca[2]);
+      const m = [ca[0] + s * (cb[0] - ca[0]), ca[1] + s * (cb[1] - ca[1]), cam.near];
+      if (ca[2] < cam.near) ca = m; else cb = m;
+    }
+    const sa = toScreen(cam, ca), sb = toScreen(cam, cb);
+    ctx.moveTo(sa[0], sa[1]);
+    ctx.lineTo(sb[0], sb[1]);
+  }
+
+  // ---------- drawing ----------
+
+  function point(m, f, k, off) {
+    const i = (f * m.nPoints + k) * 3;
+    return [m.pos[i] + off[0], m.pos[i + 1], m.pos[i + 2] + off[2]];
+  }
+
+  function drawFigure(ctx, cam, m, f, off, faded, label) {
+    const o = S.orig;
+    ctx.lineCap = "round";
+    for (let k = 1; k < m.nPoints; k++) {
+      const p = o.parents[k];
+      if (p < 0) continue;
+      const c = COLORS[o.sides[k]] || COLORS.center;
+      ctx.strokeStyle = `rgba(${c[0]},${c[1]},${c[2]},${faded ? 0.4 : 1})`;
+      ctx.lineWidth = faded ? 2.5 : 3.5;
+      ctx.beginPath();
+      segment(ctx, cam, point(m, f, p, off), point(m, f, k, off));
+      ctx.stroke();
+    }
+    ctx.fillStyle = faded ? "rgba(20,20,20,0.35)" : "#141414";
+    for (let k = 0; k < o.nJoints; k++) {
+      const c = toCam(cam, point(m, f, k, off));
+      if (c[2] < cam.near) continue;
+      const s = toScreen(cam, c);
+      ctx.beginPath();
+      ctx.arc(s[0], s[1], faded ? 1.6 : 2.2, 0, 2 * Math.PI);
+      ctx.fill();
+    }
+    // foot contacts: green discs on the contact points
+    for (let c = 0; c < m.nContacts; c++) {
+      if (!m.contacts[f * m.nContacts + c]) continue;
+      const i = (f * m.nContacts + c) * 3;
+      const cc = toCam(cam, [m.cpos[i] + off[0], m.cpos[i + 1], m.cpos[i + 2] + off[2]]);
+      if (cc[2] < cam.near) continue;
+      const s = toScreen(cam, cc);
+      const r = Math.max(3, (cam.focal * 0.025 * o.height) / cc[2]);
+      ctx.fillStyle = faded ? "rgba(30,160,70,0.45)" : "rgba(30,160,70,0.9)";
+      ctx.beginPath();
+      ctx.arc(s[0], s[1], r, 0, 2 * Math.PI);
+      ctx.fill();
+    }
+    if (label) {
+      let top = -Infinity;
+      for (let k = 0; k < m.nPoints; k++) top = Math.max(top, m.pos[(f * m.nPoints + k) * 3 + 1]);
+      const head = toCam(cam, [point(m, f, 0, off)[0], top + 0.1 * o.height, point(m, f, 0, off)[2]]);
+      if (head[2] > cam.near) {
+        const s = toScreen(cam, head);
+        ctx.fillStyle = "#333";
+        ctx.font = "13px system-ui, sans-serif";
+        ctx.textAlign = "center";
+        ctx.fillText(label, s[0], s[1]);
+      }
+    }
+  }
+
+  function niceStep(x) {
+    const p = Math.pow(10, Math.floor(Math.log10(x)));
+    const m = x / p;
+    return (m < 1.5 ? 1 : m < 3.5 ? 2 : m < 7.5 ? 5 : 10) * p;
+  }
+
+  function drawGrid(ctx, cam, center) {
+    const o = S.orig;
+    const step = niceStep(o.height / 2);
+    const K = 14;
+    const cx = Math.round(center[0] / step) * step, cz = Math.round(center[2] / step) * step;
+    ctx.strokeStyle = "#d6d6d0";
+    ctx.lineWidth = 1;
+    ctx.beginPath();
+    for (let i = -K; i <= K; i++) {
+      for (let s = -K; s < K; s++) {  // short pieces so lines behind the camera clip cleanly
+        segment(ctx, cam, [cx + i * step, o.floor, cz + s * step], [cx + i * step, o.floor, cz + (s + 1) * step]);
+        segment(ctx, cam, [cx + s * step, o.floor, cz + i * step], [cx + (s + 1) * step, o.floor, cz + i * step]);
+      }
+    }
+    ctx.stroke();
+  }
+
+  function resizeCanvas(cv) {
+    const dpr = window.devicePixelRatio || 1;
+    const w = Math.round(cv.clientWidth * dpr), h = Math.round(cv.clientWidth * dpr * 0.5);
+    if (cv.width !== w || cv.height !== h) { cv.width = w; cv.height = h; }
+  }
+
+  let last = null;
+  function tick(now) {
+    const dt = last === null ? 0 : Math.min(0.1, (now - last) / 1000);
+    last = now;
+    if (S.proc && S.playing) {
+      S.t += dt * S.speed;
+      if (S.t * S.proc.fps > S.proc.frames - 1 + 1e-6) S.t = 0;
+    }
+    draw();
+    requestAnimationFrame(tick);
+  }
+
+  function draw() {
+    const cv = $("figure");
+    resizeCanvas(cv);
+    const ctx = cv.getContext("2d");
+    ctx.fillStyle = "#ffffff";
+    ctx.fillRect(0, 0, cv.width, cv.height);
+    const o = S.orig, p = S.proc;
+    if (!o || !p) return;
+    const fp = procFrame();
+    const fo = p.frames > 1 ? Math.round((fp / (p.frames - 1)) * (o.frames - 1)) : 0;
+    // the camera follows the original's root over the ground, smoothly
+    const root = point(o, fo, 0, [0, 0, 0]);
+    const want = [root[0], o.floor + 0.5 * o.height, root[2]];
+    if (!S.target) S.target = want;
+    else for (let a = 0; a < 3; a++) S.target[a] += 0.15 * (want[a] - S.target[a]);
+    const cam = camera(S.target, cv.width, cv.height);
+    drawGrid(ctx, cam, S.target);
+    const gap = S.layout === "side" ? 0.45 * o.height : 0;
+    const right = norm([cam.r[0], 0, cam.r[2]]);
+    const offO = [-gap * right[0], 0, -gap * right[2]], offP = [gap * right[0], 0, gap * right[2]];
+    const side = S.layout === "side";
+    if (S.layout !== "processed") drawFigure(ctx, cam, o, fo, offO, !side, side ? "original" : null);
+    drawFigure(ctx, cam, p, fp, offP, false, side ? "processed" : null);
+    $("scrub").value = fp;
+    $("time").textContent = `${fp + 1} / ${p.frames} · ${(fp / p.fps).toFixed(2)} s`;
+    const grab = (m, f) => Array.from({ length: o.nJoints }, (_, k) => point(m, f, k, [0, 0, 0]));
+    S.drawn = { procFrame: fp, origFrame: fo, processed: grab(p, fp), original: grab(o, fo) };
+    drawCursor();
+  }
+
+  // ---------- layer chart ----------
+
+  function drawChart() {
+    const cv = $("chart");
+    const dpr = window.devicePixelRatio || 1;
+    cv.width = Math.round(cv.clientWidth * dpr);
+    cv.height = Math.round(200 * dpr);
+    const ctx = cv.getContext("2d");
+    ctx.setTransform(dpr, 0, 0, dpr, 0, 0);
+    const W = cv.width / dpr, H = cv.height / dpr;
+    ctx.fillStyle = "#fff";
+    ctx.fillRect(0, 0, W, H);
+    const pl = S.proc && S.proc.plot;
+    if (!pl) return;
+    const curves = [pl.original, pl.base, pl.control, pl.processed];
+    let lo = Infinity, hi = -Infinity;
+    for (const c of curves) for (const v of c) { if (v < lo) lo = v; if (v > hi) hi = v; }
+    if (!(hi > lo)) { lo -= 1; hi += 1; }
+    const pad = 0.06 * (hi - lo);
+    lo -= pad; hi += pad;
+    const tmax = Math.max(pl.t[pl.t.length - 1] || 1, pl.t_processed[pl.t_processed.length - 1] || 1);
+    const L = 46, R = 10, T = 10, B = 24;
+    const X = (t) => L + ((W - L - R) * t) / tmax, Y = (v) => T + ((H - T - B) * (hi - v)) / (hi - lo);
+    ctx.strokeStyle = "#ccc";
+    ctx.fillStyle = "#555";
+    ctx.font = "11px system-ui, sans-serif";
+    ctx.lineWidth = 1;
+    const ys = niceStep((hi - lo) / 4);
+    ctx.textAlign = "right";
+    for (let v = Math.ceil(lo / ys) * ys; v <= hi; v += ys) {
+      ctx.beginPath(); ctx.moveTo(L, Y(v)); ctx.lineTo(W - R, Y(v)); ctx.stroke();
+      ctx.fillText(`${+v.toFixed(6)}°`, L - 4, Y(v) + 4);
+    }
+    const xs = niceStep(tmax / 8);
+    ctx.textAlign = "center";
+    for (let t = 0; t <= tmax + 1e-9; t += xs) ctx.fillText(`${+t.toFixed(3)} s`, X(t), H - 6);
+    const line = (ts, vs, color, width, dash) => {
+      ctx.strokeStyle = color; ctx.lineWidth = width; ctx.setLineDash(dash || []);
+      ctx.beginPath();
+      vs.forEach((v, i) => (i ? ctx.lineTo(X(ts[i]), Y(v)) : ctx.moveTo(X(ts[i]), Y(v))));
+      ctx.stroke();
+      ctx.setLineDash([]);
+    };
+    line(pl.t, pl.original, "#8c8c8c", 2.4);
+    line(pl.t, pl.base, "#1f77b4", 1.3);
+    line(pl.t, pl.control, "#9467bd", 1.1, [5, 3]);
+    line(pl.t_processed, pl.processed, "#d62728", 1.3);
+    S.chart = { X, Y, W, H, T, B, image: ctx.getImageData(0, 0, cv.width, cv.height) };
+  }
+
+  function drawCursor() {  // the current time on the chart
+    const ch = S.chart;
+    if (!ch || !S.proc) return;
+    const ctx = $("chart").getContext("2d");
+    ctx.putImageData(ch.image, 0, 0);
+    const x = ch.X(procFrame() / S.proc.fps);
+    ctx.strokeStyle = "rgba(0,0,0,0.5)";
+    ctx.lineWidth = 1;
+    ctx.beginPath(); ctx.moveTo(x, ch.T); ctx.lineTo(x, ch.H - ch.B); ctx.stroke();
+  }
+
+  window.addEventListener("resize", () => { if (S.proc) drawChart(); });
+
+  window.mlayerViewer = {
+    state: S, play, pause, setFrame, request,
+    get ready() { return S.ready; },
+    get drawn() { return S.drawn; },
+  };
+  document.addEventListener("DOMContentLoaded", start);
+})();

@@ -1,0 +1,286 @@
+"""mlayer view end to end in a real headless browser: Debian's chromium driven by Selenium
+through /usr/bin/chromedriver (both from apt; scripts/setup.sh installs them; nothing is
+downloaded). Skipped, with the reason, only when chromium, chromedriver or selenium is missing.
+
+Set MLR_VIEWER_SCREENSHOT=path.png to keep the screenshot taken after the slider move.
+"""
+import io
+import os
+import sys
+import threading
+import time
+import urllib.parse
+
+import numpy as np
+import pytest
+
+import mlayer
+from mlayer.viewer import make_server
+from mlayer.viewer.session import PARAMS, parse_params
+
+CHROMIUM = os.environ.get("MLR_CHROMIUM", "/usr/bin/chromium")
+CHROMEDRIVER = os.environ.get("MLR_CHROMEDRIVER", "/usr/bin/chromedriver")
+WALK = "cmu_131_01_mj_style_walk.bvh"
+
+
+def _missing() -> str | None:
+    for path, pkg in ((CHROMIUM, "chromium"), (CHROMEDRIVER, "chromium-driver")):
+        if not (os.path.isfile(path) and os.access(path, os.X_OK)):
+            return (f"{path} not found: the browser tests need Debian's {pkg} (apt-get install "
+                    f"-y chromium chromium-driver, as scripts/setup.sh does)")
+    try:
+        import selenium  # noqa: F401
+    except ImportError:
+        return "selenium is not installed (pip install selenium, as scripts/setup.sh does)"
+    return None
+
+
+pytestmark = pytest.mark.skipif(_missing() is not None, reason=_missing() or "")
+
+
+@pytest.fixture(scope="module")
+def downloads(tmp_path_factory):
+    return tmp_path_factory.mktemp("downloads")
+
+
+@pytest.fixture(scope="module")
+def browser(downloads):
+    from selenium import webdriver
+    from selenium.webdriver.chrome.service import Service
+    opts = webdriver.ChromeOptions()
+    opts.binary_location = CHROMIUM
+    for a in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage", "--disable-gpu",
+              "--window-size=1400,1100", "--force-device-scale-factor=1",
+              "--disable-extensions", "--no-first-run", "--disable-background-networking"):
+        opts.add_argument(a)
+    opts.add_experimental_option("prefs", {
+        "download.default_directory": str(downloads), "download.prompt_for_download": False,
+        "safebrowsing.enabled": False})
+    d = webdriver.Chrome(service=Service(CHROMEDRIVER), options=opts)
+    d.set_page_load_timeout(60)
+    try:
+        d.execute_cdp_cmd("Page.setDownloadBehavior",
+                          {"behavior": "allow", "downloadPath": str(downloads)})
+    except Exception:  # older drivers: the prefs above do it
+        pass
+    yield d
+    d.quit()
+
+
+def _serve(paths):
+    srv = make_server(paths, log=sys.stderr)
+    t = threading.Thread(target=srv.serve_forever, kwargs={"poll_interval": 0.05}, daemon=True)
+    t.start()
+    return srv, t
+
+
+@pytest.fixture(scope="module")
+def server(mocap, tmp_path_factory):
+    bad = tmp_path_factory.mktemp("bad") / "broken.bvh"
+    bad.write_text("HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 zero\n}\n")
+    srv, t = _serve([mocap / WALK, bad])
+    srv.warm().join(60)
+    yield srv
+    srv.shutdown()
+    srv.server_close()
+    t.join(5)
+
+
+def wait(cond, timeout=30.0, what="condition"):
+    t0 = time.monotonic()
+    while True:
+        v = cond()
+        if v:
+            return v
+        if time.monotonic() - t0 > timeout:
+            raise AssertionError(f"timed out after {timeout:g} s waiting for {what}")
+        time.sleep(0.05)
+
+
+def js(d, expr):
+    return d.execute_script(f"return {expr};")
+
+
+def settled(d):
+    """No request in flight or pending, and the figure drawn after the last answer."""
+    return js(d, "window.mlayerViewer && mlayerViewer.ready && !mlayerViewer.state.inflight "
+                 "&& !mlayerViewer.state.pending && mlayerViewer.drawn !== null")
+
+
+def open_page(d, srv):
+    d.get(srv.url)
+    wait(lambda: settled(d), what="the page to load the first clip")
+
+
+def drawn_at(d, frame):
+    """Pause at a frame and return the world positions drawn there (after a repaint)."""
+    d.execute_script(f"mlayerViewer.pause(); mlayerViewer.setFrame({frame});")
+    wait(lambda: js(d, f"mlayerViewer.drawn && mlayerViewer.drawn.procFrame === {frame}"),
+         what=f"frame {frame} to be drawn")
+    time.sleep(0.1)  # one more animation frame
+    dr = js(d, "mlayerViewer.drawn")
+    return np.array(dr["processed"]), np.array(dr["original"])
+
+
+def move_slider(d, element_id, fraction):
+    """Click the range input at `fraction` of its width, as a user would."""
+    from selenium.webdriver.common.action_chains import ActionChains
+    el = d.find_element("id", element_id)
+    w = el.size["width"]
+    ActionChains(d).move_to_element_with_offset(el, int((fraction - 0.5) * w), 0).click() \
+        .perform()
+    return el
+
+
+def test_page_plays_and_alpha_slider_changes_the_pose(browser, server, mocap, downloads,
+                                                      tmp_path):
+    d = browser
+    open_page(d, server)
+    assert js(d, "document.getElementById('status').className") == ""
+    # it plays by itself
+    f0 = js(d, "mlayerViewer.drawn.procFrame")
+    wait(lambda: js(d, "mlayerViewer.drawn.procFrame") != f0, 10, "playback to advance")
+
+    before, orig_before = drawn_at(d, 400)
+    slide_before = d.find_element("id", "slide-proc").text
+    jitter_before = d.find_element("id", "jitter-proc").text
+    n_resp = js(d, "mlayerViewer.state.responses")
+    assert slide_before not in ("", "–") and "alpha=1&" in js(d, "mlayerViewer.state.lastQuery")
+
+    el = move_slider(d, "alpha", 0.92)
+    value = float(el.get_attribute("value"))
+    assert value > 2.4
+    wait(lambda: js(d, "mlayerViewer.state.responses") > n_resp, what="the server's answer")
+    wait(lambda: settled(d), what="the answer to be applied")
+    assert js(d, "mlayerViewer.state.lastError") is None
+    assert f"alpha={value:g}" in js(d, "mlayerViewer.state.lastQuery")
+    assert d.find_element("id", "alpha-out").text == f"{value:.2f}"
+
+    after, orig_after = drawn_at(d, 400)
+    m = mlayer.read_bvh(mocap / WALK)
+    h = mlayer.metrics.body_height(m)
+    moved = np.linalg.norm(after - before, axis=1)
+    assert moved.max() > 0.02 * h, f"pose barely changed: {moved.max():.4g} units"
+    np.testing.assert_allclose(orig_after, orig_before)  # the original stays as it was
+    # the figure matches the server's processed motion at that frame
+    q = dict(urllib.parse.parse_qsl(js(d, "mlayerViewer.state.lastQuery")))
+    p = parse_params(urllib.parse.urlencode(q), tuple(PARAMS))
+    _, proc = server.clips[0].process(p)
+    np.testing.assert_allclose(after, proc.positions()[400], atol=1e-4 * h)
+    # the metrics updated
+    assert d.find_element("id", "slide-proc").text != slide_before
+    assert d.find_element("id", "jitter-proc").text != jitter_before
+
+    # a screenshot: not blank, the figure canvas has lines of several colours
+    from PIL import Image
+    png = d.get_screenshot_as_png()
+    keep = os.environ.get("MLR_VIEWER_SCREENSHOT")
+    for path in [tmp_path / "viewer.png"] + ([keep] if keep else []):
+        with open(path, "wb") as f:
+            f.write(png)
+    img = np.asarray(Image.open(io.BytesIO(png)).convert("RGB")).astype(int)
+    assert img.shape[0] > 500 and img.shape[1] > 900
+    assert img.std() > 10 and len(np.unique(img.reshape(-1, 3), axis=0)) > 100
+    canvas = np.asarray(Image.open(io.BytesIO(
+        d.find_element("id", "figure").screenshot_as_png)).convert("RGB")).astype(int)
+    ink = (canvas < 235).any(axis=-1)
+    assert 0.003 < ink.mean() < 0.6, f"figure canvas coverage {ink.mean():.4f}"
+    red = (canvas[..., 0] > 150) & (canvas[..., 1] < 110) & (canvas[..., 2] < 110)
+    blue = (canvas[..., 2] > 150) & (canvas[..., 0] < 110)
+    green = (canvas[..., 1] > 120) & (canvas[..., 0] < 90) & (canvas[..., 2] < 120)
+    assert red.sum() > 50 and blue.sum() > 50, "left/right limbs not drawn"
+    assert green.sum() > 10, "no contact drawn on the feet"
+
+    # download: a real click, the file lands in the download folder and parses
+    for f in downloads.iterdir():
+        f.unlink()
+    d.find_element("id", "download").click()
+    done = wait(lambda: [f for f in downloads.iterdir() if f.suffix == ".bvh"], 30,
+                "the download")
+    text = done[0].read_text()
+    assert done[0].name == "cmu_131_01_mj_style_walk_processed.bvh"
+    got = mlayer.read_bvh_string(text, done[0].name)
+    assert got.joint_names == m.joint_names and got.n_frames == m.n_frames
+    np.testing.assert_allclose(got.positions()[400], after, atol=1e-3 * h)
+
+
+def test_parts_denoise_retiming_and_camera(browser, server, mocap):
+    from selenium.webdriver.common.action_chains import ActionChains
+    from selenium.webdriver.common.keys import Keys
+    d = browser
+    open_page(d, server)
+    m = mlayer.read_bvh(mocap / WALK)
+
+    def after(action, what):
+        n = js(d, "mlayerViewer.state.responses")
+        action()
+        wait(lambda: js(d, "mlayerViewer.state.responses") > n, what=what)
+        wait(lambda: settled(d), what=what)
+        assert js(d, "mlayerViewer.state.lastError") is None
+        return js(d, "mlayerViewer.state.lastQuery")
+
+    # a part slider unlinks that part only
+    q = after(lambda: move_slider(d, "arms", 0.05), "the arms slider")
+    assert "arms=" in q and "legs=" not in q and "spine=" not in q
+    q = after(lambda: d.find_element("id", "reset-parts").click(), "the reset button")
+    assert "arms=" not in q
+    q = after(lambda: d.find_element("id", "denoise").click(), "the denoise box")
+    assert "denoise=0" in q
+    q = after(lambda: d.find_element("id", "contacts").click(), "the contacts box")
+    assert "contacts=0" in q
+    # retiming: longer clip, more frames on the scrub bar
+    el = d.find_element("id", "length")
+    q = after(lambda: el.send_keys(Keys.END), "the length slider")
+    assert f"length={2 * m.duration:.6f}" in q
+    assert int(d.find_element("id", "scrub").get_attribute("max")) == 2 * m.n_frames - 1
+    q = after(lambda: move_slider(d, "warp", 0.5), "the warp slider")
+    assert "warp=" in q
+    from selenium.webdriver.support.ui import Select
+    q = after(lambda: Select(d.find_element("id", "fps")).select_by_value("30"), "fps")
+    assert "fps=30" in q and d.find_element("id", "frames-proc").text.endswith("@ 30")
+    # orbit by drag, zoom by wheel
+    cv = d.find_element("id", "figure")
+    yaw, zoom = js(d, "mlayerViewer.state.cam.yaw"), js(d, "mlayerViewer.state.cam.zoom")
+    ActionChains(d).move_to_element(cv).click_and_hold().move_by_offset(120, 30).release() \
+        .perform()
+    assert js(d, "mlayerViewer.state.cam.yaw") != pytest.approx(yaw)
+    d.execute_script("arguments[0].dispatchEvent(new WheelEvent('wheel', {deltaY: 300, "
+                     "bubbles: true, cancelable: true}))", cv)
+    assert js(d, "mlayerViewer.state.cam.zoom") > zoom
+    # the layer chart was drawn
+    assert js(d, "mlayerViewer.state.chart !== undefined")
+    assert js(d, "mlayerViewer.state.proc.plot.processed.length") > 10
+
+
+def test_bad_clip_shows_its_error(browser, server):
+    d = browser
+    open_page(d, server)
+    box = d.find_element("id", "errors")
+    assert box.is_displayed()
+    assert "broken.bvh" in box.text and ":4:" in box.text
+    opts = d.find_elements("css selector", "#clip option")
+    assert [o.get_attribute("disabled") for o in opts] == [None, "true"]
+
+
+def test_error_page_when_no_clip_parses(browser, tmp_path):
+    bad = tmp_path / "nothing.bvh"
+    bad.write_text("this is not a BVH file\n")
+    srv, t = _serve([bad])
+    try:
+        d = browser
+        d.get(srv.url)
+        wait(lambda: js(d, "window.mlayerViewer && mlayerViewer.ready"), what="the error page")
+        assert "no clip could be loaded" in d.find_element("id", "status").text
+        assert "nothing.bvh" in d.find_element("id", "errors").text
+        assert not d.find_element("id", "main").is_displayed()
+    finally:
+        srv.shutdown()
+        srv.server_close()
+        t.join(5)
+
+
+def test_no_console_errors(browser, server):
+    d = browser
+    open_page(d, server)
+    logs = [e for e in d.get_log("browser") if e["level"] == "SEVERE"]
+    assert logs == []
