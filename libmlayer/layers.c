@@ -104,19 +104,6 @@ static mlr_status compute_sizes(size_t n, size_t j, sizes *z)
     return MLR_OK;
 }
 
-/* out[k] = conj(a[k]) b[k] for k < m; out may alias b. */
-static void conj_mul(const double *restrict a, const double *b, size_t m, double *out)
-{
-    for (size_t k = 0; k < m; k++) {
-        const double aw = a[4 * k], ax = -a[4 * k + 1], ay = -a[4 * k + 2], az = -a[4 * k + 3];
-        const double bw = b[4 * k], bx = b[4 * k + 1], by = b[4 * k + 2], bz = b[4 * k + 3];
-        out[4 * k] = aw * bw - ax * bx - ay * by - az * bz;
-        out[4 * k + 1] = aw * bx + ax * bw + ay * bz - az * by;
-        out[4 * k + 2] = aw * by - ax * bz + ay * bw + az * bx;
-        out[4 * k + 3] = aw * bz + ax * by - ay * bx + az * bw;
-    }
-}
-
 /* Displacements: root u0 = p - pb; joints v = log(conj(qb) q). On return q holds the products
  * conj(qb) q (needed again by the residual) and the largest |u0|, |v_j| are in the params.
  * tmp: 1 + j doubles. */
@@ -133,9 +120,9 @@ static void displacements(mlr_layers *L, const double *root_pos, double *q, doub
         const double *pb = L->base_pos + 3 * i;
         for (size_t c = 0; c < 3; c++)
             di[c] = root_pos ? root_pos[3 * i + c] - pb[c] : 0.0;
-        double *qi = q + 4 * j * i;
-        conj_mul(L->base_rot + 4 * j * i, qi, j, qi);
-        mlr_quat_log_array((const mlr_quat *)(const void *)qi, j, (mlr_vec3 *)(void *)(di + 3));
+        mlr_quat *qi = (mlr_quat *)(void *)(q + 4 * j * i);
+        mlr_quat_conj_mul_log((const mlr_quat *)(const void *)(L->base_rot + 4 * j * i), qi, j,
+                              qi, (mlr_vec3 *)(void *)(di + 3));
         for (size_t g = 0; g <= j; g++) {
             const double *v = di + 3 * g, r = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
             a2[g] = r > a2[g] ? r : a2[g];
@@ -150,15 +137,15 @@ static void displacements(mlr_layers *L, const double *root_pos, double *q, doub
 static void residuals(mlr_layers *L, const double *p, double *delta, double *tmp)
 {
     const size_t n = L->n, j = L->j, ld = 3 * (1 + j);
-    double *e = tmp, *r = tmp + 4 * j;
+    mlr_quat *e = (mlr_quat *)(void *)tmp, *r = e + j;
     for (size_t i = 0; i < n; i++) {
         double *ri = delta + i * ld;
         const double *ci = L->control + i * ld;
         for (size_t c = 0; c < 3; c++)
             ri[c] -= ci[c];
-        mlr_quat_exp_array((const mlr_vec3 *)(const void *)(ci + 3), j, (mlr_quat *)(void *)e);
-        conj_mul(e, p + 4 * j * i, j, r);
-        mlr_quat_log_array((const mlr_quat *)(const void *)r, j, (mlr_vec3 *)(void *)(ri + 3));
+        mlr_quat_exp_array((const mlr_vec3 *)(const void *)(ci + 3), j, e);
+        mlr_quat_conj_mul_log(e, (const mlr_quat *)(const void *)(p + 4 * j * i), j, r,
+                              (mlr_vec3 *)(void *)(ri + 3));
     }
 }
 

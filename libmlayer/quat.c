@@ -179,6 +179,8 @@ void mlr_quat_conj_array(const mlr_quat *q, size_t count, mlr_quat *out)
  * With GCC on x86-64 the vector loops get an AVX2 clone chosen at load time.
  */
 #define QBLK 32
+#define PAD4(m) (((m) + 3) & ~(size_t)3) /* vector loops run over whole vectors: lanes past m
+                                            hold identities (never stored) */
 #define FAST_LO 0x1p-250
 #define FAST_HI 0x1p+250
 
@@ -227,6 +229,8 @@ static inline int block_load(const mlr_quat *restrict q, size_t m, double *restr
         const double mx = vmax(vmax(fabs(w[i]), fabs(x[i])), vmax(fabs(y[i]), fabs(z[i])));
         bad |= !((mx >= lo) & (mx <= hi) & finite4(w[i], x[i], y[i], z[i]));
     }
+    for (size_t i = m; i < PAD4(m); i++)
+        w[i] = 1.0, x[i] = y[i] = z[i] = 0.0;
     return !bad;
 }
 
@@ -236,7 +240,7 @@ static int normalize_fast(const mlr_quat *q, size_t m, mlr_quat *out)
     double w[QBLK], x[QBLK], y[QBLK], z[QBLK];
     if (!block_load(q, m, w, x, y, z, FAST_LO, FAST_HI))
         return 0;
-    for (size_t i = 0; i < m; i++) {
+    for (size_t i = 0; i < PAD4(m); i++) {
         const double n = sqrt(w[i] * w[i] + x[i] * x[i] + y[i] * y[i] + z[i] * z[i]);
         w[i] /= n, x[i] /= n, y[i] /= n, z[i] /= n;
     }
@@ -280,7 +284,9 @@ static int exp_fast(const mlr_vec3 *v, size_t m, mlr_quat *out)
     }
     if (bad)
         return 0;
-    for (size_t i = 0; i < m; i++) {
+    for (size_t i = m; i < PAD4(m); i++)
+        x[i] = y[i] = z[i] = 0.0;
+    for (size_t i = 0; i < PAD4(m); i++) {
         /* squares of components below 1e-154 may underflow: the angle is then too small to
          * change cos or sin(angle / 2) / angle = 1/2 */
         const double angle = sqrt(x[i] * x[i] + y[i] * y[i] + z[i] * z[i]);
@@ -383,14 +389,14 @@ static inline double atan2_pos(double s, double w)
     return hi - ((u * (s1 + s2) - lo) - u);
 }
 
-/* log of m quaternions of block_load's common case; 0 (nothing written) otherwise. */
-QUAT_CLONES
-static int log_fast(const mlr_quat *q, size_t m, mlr_vec3 *out)
+/* log of m quaternions in SoA copies, each of the common case (see block_load), the copies
+ * padded to PAD4(m). */
+static inline void log_soa(const double *restrict w, const double *restrict x,
+                           const double *restrict y, const double *restrict z, size_t m,
+                           mlr_vec3 *restrict out)
 {
-    double w[QBLK], x[QBLK], y[QBLK], z[QBLK], k[QBLK];
-    if (!block_load(q, m, w, x, y, z, FAST_LO, FAST_HI))
-        return 0;
-    for (size_t i = 0; i < m; i++) {
+    double k[QBLK];
+    for (size_t i = 0; i < PAD4(m); i++) {
         /* q and -q are the same rotation; take the angle in [0, pi] */
         const double sg = w[i] < 0.0 ? -1.0 : 1.0, aw = sg * w[i];
         const double s = sqrt(x[i] * x[i] + y[i] * y[i] + z[i] * z[i]);
@@ -403,6 +409,41 @@ static int log_fast(const mlr_quat *q, size_t m, mlr_vec3 *out)
         out[i].y = k[i] * y[i];
         out[i].z = k[i] * z[i];
     }
+}
+
+/* log of one quaternion in the scalar path: any input; MLR_E_INVALID_ARG (and 0) for a zero
+ * or non-finite one. */
+static mlr_status log_one(const mlr_quat *q, mlr_vec3 *out)
+{
+    mlr_quat p = *q;
+    if (!quat_is_finite(&p) || !quat_prescale(&p)) {
+        out->x = out->y = out->z = 0.0;
+        return MLR_E_INVALID_ARG;
+    }
+    if (p.w < 0.0) { /* q and -q are the same rotation; take the angle in [0, pi] */
+        p.w = -p.w;
+        p.x = -p.x;
+        p.y = -p.y;
+        p.z = -p.z;
+    }
+    /* angle = 2 atan2(s, w); the vector is angle * (x, y, z) / s. The scale is invariant to
+     * |q|, so a slightly unnormalized q gives the log of its normalized rotation. */
+    const double s = norm3(p.x, p.y, p.z);
+    const double k = s < LOG_SERIES_ARG * p.w ? log_series(s, p.w) : 2.0 * atan2_pos(s, p.w) / s;
+    out->x = k * p.x;
+    out->y = k * p.y;
+    out->z = k * p.z;
+    return MLR_OK;
+}
+
+/* log of m quaternions of block_load's common case; 0 (nothing written) otherwise. */
+QUAT_CLONES
+static int log_fast(const mlr_quat *q, size_t m, mlr_vec3 *out)
+{
+    double w[QBLK], x[QBLK], y[QBLK], z[QBLK];
+    if (!block_load(q, m, w, x, y, z, FAST_LO, FAST_HI))
+        return 0;
+    log_soa(w, x, y, z, m, out);
     return 1;
 }
 
@@ -417,30 +458,50 @@ mlr_status mlr_quat_log_array(const mlr_quat *q, size_t count, mlr_vec3 *out)
         const size_t m = count - i0 < QBLK ? count - i0 : QBLK;
         if (log_fast(q + i0, m, out + i0))
             continue;
-        for (size_t i = i0; i < i0 + m; i++) {
-            mlr_quat p = q[i];
-            if (!quat_is_finite(&p) || !quat_prescale(&p)) {
-                out[i].x = out[i].y = out[i].z = 0.0;
+        for (size_t i = i0; i < i0 + m; i++)
+            if (log_one(&q[i], &out[i]) != MLR_OK)
                 status = MLR_E_INVALID_ARG;
-                continue;
-            }
-            if (p.w < 0.0) { /* q and -q are the same rotation; take the angle in [0, pi] */
-                p.w = -p.w;
-                p.x = -p.x;
-                p.y = -p.y;
-                p.z = -p.z;
-            }
-            /* angle = 2 atan2(s, w); the vector is angle * (x, y, z) / s. The scale is invariant
-             * to |q|, so a slightly unnormalized q gives the log of its normalized rotation. */
-            const double s = norm3(p.x, p.y, p.z);
-            const double k = s < LOG_SERIES_ARG * p.w ? log_series(s, p.w)
-                                                      : 2.0 * atan2_pos(s, p.w) / s;
-            out[i].x = k * p.x;
-            out[i].y = k * p.y;
-            out[i].z = k * p.z;
-        }
     }
     return status;
+}
+
+/* prod = conj(a) b, out = log(prod) for m <= QBLK quaternions; the SoA path when the
+ * products are of the common case. */
+QUAT_CLONES
+static void conj_mul_log_block(const mlr_quat *a, const mlr_quat *b, size_t m, mlr_quat *prod,
+                               mlr_vec3 *out)
+{
+    double w[QBLK], x[QBLK], y[QBLK], z[QBLK];
+    int bad = 0;
+    for (size_t i = 0; i < m; i++) {
+        const double aw = a[i].w, ax = -a[i].x, ay = -a[i].y, az = -a[i].z;
+        const double bw = b[i].w, bx = b[i].x, by = b[i].y, bz = b[i].z;
+        w[i] = aw * bw - ax * bx - ay * by - az * bz;
+        x[i] = aw * bx + ax * bw + ay * bz - az * by;
+        y[i] = aw * by - ax * bz + ay * bw + az * bx;
+        z[i] = aw * bz + ax * by - ay * bx + az * bw;
+        const double mx = vmax(vmax(fabs(w[i]), fabs(x[i])), vmax(fabs(y[i]), fabs(z[i])));
+        bad |= !((mx >= FAST_LO) & (mx <= FAST_HI) & finite4(w[i], x[i], y[i], z[i]));
+    }
+    for (size_t i = 0; i < m; i++)
+        prod[i].w = w[i], prod[i].x = x[i], prod[i].y = y[i], prod[i].z = z[i];
+    for (size_t i = m; i < PAD4(m); i++)
+        w[i] = 1.0, x[i] = y[i] = z[i] = 0.0;
+    if (!bad) {
+        log_soa(w, x, y, z, m, out);
+        return;
+    }
+    for (size_t i = 0; i < m; i++)
+        log_one(&prod[i], &out[i]);
+}
+
+void mlr_quat_conj_mul_log(const mlr_quat *a, const mlr_quat *b, size_t count, mlr_quat *prod,
+                           mlr_vec3 *out)
+{
+    for (size_t i0 = 0; i0 < count; i0 += QBLK) {
+        const size_t m = count - i0 < QBLK ? count - i0 : QBLK;
+        conj_mul_log_block(a + i0, b + i0, m, prod + i0, out + i0);
+    }
 }
 
 mlr_status mlr_quat_slerp_array(const mlr_quat *a, const mlr_quat *b, const double *t,
