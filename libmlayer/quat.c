@@ -326,8 +326,16 @@ mlr_status mlr_quat_exp_array(const mlr_vec3 *v, size_t count, mlr_quat *out)
             }
             const double angle = norm3(x, y, z);
             const double half = 0.5 * angle;
-            const double k = 0.5 * sinc(half); /* sin(angle / 2) / angle */
-            out[i].w = cos(half);
+            double k, c; /* k = sin(angle / 2) / angle */
+            if (half < MLR_SINCOS_LIMIT) { /* as exp_fast */
+                double sn;
+                mlr_sincos_kernel(half, &sn, &c);
+                k = angle > 0.0 ? sn / angle : 0.5;
+            } else {
+                k = 0.5 * sinc(half);
+                c = cos(half);
+            }
+            out[i].w = c;
             out[i].x = k * x;
             out[i].y = k * y;
             out[i].z = k * z;
