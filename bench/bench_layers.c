@@ -1,9 +1,11 @@
 /* Layer decomposition cases: the full decomposition (base heuristic, displacements, GCV
  * control layer, residual) of real capture data, cmu_01_01 (31 joints, 120 fps): the first
  * 2,526 frames after its T-pose frame (the paper's clip length), and a 100,000-frame tiling of
- * the clip (mirrored back and forth so it stays continuous). n is frames x joints. */
+ * the clip (mirrored back and forth so it stays continuous); "capped" cases pass the base s
+ * range the Python wrapper passes by default. n is frames x joints. */
 #include "bench.h"
 
+#include <math.h>
 #include <mlayer/mlayer.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -79,6 +81,19 @@ static void *setup_clip_fixed_both(size_t n)
     return s;
 }
 
+/* What the Python wrapper passes by default: the base s capped at the 0.25 Hz floor of the
+ * clip's frame rate (120 fps), (2 sin(pi 0.25 / fps))^-4 (about 8.3e7). */
+static void *setup_clip_capped(size_t n)
+{
+    layers_state *s = setup_frames(n / 31);
+    if (s) {
+        const double w = 2.0 * sin(3.14159265358979323846 * 0.25 / 120.0);
+        s->opt[0] = (mlr_layers_option){MLR_LAYERS_OPT_BASE_S_MAX, 1.0 / (w * w * w * w)};
+        s->n_opt = 1;
+    }
+    return s;
+}
+
 static double run_decompose(void *p)
 {
     layers_state *s = p;
@@ -99,5 +114,7 @@ const mlr_bench_case mlr_bench_layers_cases[] = {
     {"layers.decompose_fixed_c/n=2526,j=31", 2526 * 31, setup_clip_fixed, run_decompose, teardown},
     {"layers.decompose_fixed_bc/n=2526,j=31", 2526 * 31, setup_clip_fixed_both, run_decompose, teardown},
     {"layers.decompose/n=100000,j=31", 100000 * 31, setup_clip, run_decompose, teardown},
+    {"layers.decompose_capped/n=2526,j=31", 2526 * 31, setup_clip_capped, run_decompose, teardown},
+    {"layers.decompose_capped/n=100000,j=31", 100000 * 31, setup_clip_capped, run_decompose, teardown},
 };
 const size_t mlr_bench_layers_count = sizeof mlr_bench_layers_cases / sizeof mlr_bench_layers_cases[0];

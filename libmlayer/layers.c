@@ -106,30 +106,30 @@ static mlr_status compute_sizes(size_t n, size_t j, sizes *z)
 
 /* Displacements: root u0 = p - pb; joints v = log(conj(qb) q). On return q holds the products
  * conj(qb) q (needed again by the residual) and the largest |u0|, |v_j| are in the params.
- * tmp: 4 j doubles. */
+ * tmp: 1 + j doubles. */
 static void displacements(mlr_layers *L, const double *root_pos, double *q, double *delta,
                           double *tmp)
 {
     const size_t n = L->n, j = L->j, ld = 3 * (1 + j);
     double *amax = mlr_layers_param_slot(L, MLR_LAYERS_PARAM_BASE_MAX_ANGLE, 0);
-    mlr_quat *cb = (mlr_quat *)(void *)tmp;
+    double *a2 = tmp; /* largest squared norms */
     for (size_t g = 0; g <= j; g++)
-        amax[g] = 0.0;
+        a2[g] = 0.0;
     for (size_t i = 0; i < n; i++) {
         double *di = delta + i * ld;
         const double *pb = L->base_pos + 3 * i;
         for (size_t c = 0; c < 3; c++)
             di[c] = root_pos ? root_pos[3 * i + c] - pb[c] : 0.0;
-        amax[0] = fmax(amax[0], sqrt(di[0] * di[0] + di[1] * di[1] + di[2] * di[2]));
         mlr_quat *qi = (mlr_quat *)(void *)(q + 4 * j * i);
-        mlr_quat_conj_array((const mlr_quat *)(const void *)(L->base_rot + 4 * j * i), j, cb);
-        mlr_quat_mul_array(cb, qi, j, qi);
-        mlr_quat_log_array(qi, j, (mlr_vec3 *)(void *)(di + 3));
-        for (size_t k = 0; k < j; k++) {
-            const double *v = di + 3 + 3 * k;
-            amax[1 + k] = fmax(amax[1 + k], sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]));
+        mlr_quat_conj_mul_log((const mlr_quat *)(const void *)(L->base_rot + 4 * j * i), qi, j,
+                              qi, (mlr_vec3 *)(void *)(di + 3));
+        for (size_t g = 0; g <= j; g++) {
+            const double *v = di + 3 * g, r = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
+            a2[g] = r > a2[g] ? r : a2[g];
         }
     }
+    for (size_t g = 0; g <= j; g++)
+        amax[g] = sqrt(a2[g]);
 }
 
 /* Residual in place over delta: u0 - uc for the root, log(conj(exp(vc)) conj(qb) q) for the
@@ -144,9 +144,8 @@ static void residuals(mlr_layers *L, const double *p, double *delta, double *tmp
         for (size_t c = 0; c < 3; c++)
             ri[c] -= ci[c];
         mlr_quat_exp_array((const mlr_vec3 *)(const void *)(ci + 3), j, e);
-        mlr_quat_conj_array(e, j, e);
-        mlr_quat_mul_array(e, (const mlr_quat *)(const void *)(p + 4 * j * i), j, r);
-        mlr_quat_log_array(r, j, (mlr_vec3 *)(void *)(ri + 3));
+        mlr_quat_conj_mul_log(e, (const mlr_quat *)(const void *)(p + 4 * j * i), j, r,
+                              (mlr_vec3 *)(void *)(ri + 3));
     }
 }
 

@@ -49,7 +49,8 @@ static void min_cos2(size_t n, size_t ns, const double *q, size_t ldq, const dou
             const double *a = qi + 4 * k, *b = bi + 4 * k;
             const double d = a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3];
             const double nn = b[0] * b[0] + b[1] * b[1] + b[2] * b[2] + b[3] * b[3];
-            const double r = nn > 0.0 ? d * d / nn : 0.0;
+            /* nn == 0 only with d == 0: r = 0 then (no branch, so the loop vectorizes) */
+            const double r = d * d / (nn > 1e-300 ? nn : 1e-300);
             out[k] = r < out[k] ? r : out[k];
         }
     }
@@ -214,15 +215,18 @@ mlr_status mlr_layers_base(mlr_layers *L, const mlr_layers_cfg *cfg, const doubl
     /* renormalize; a vanishing mean (only possible when even s_min breaks the bound) falls
      * back to the input rotation */
     double *qb = L->base_rot;
-    for (size_t i = 0; i < n * j; i++) {
+    int vanished = 0;
+    for (size_t i = 0; i < n * j; i++) { /* branch-free, so that it vectorizes */
         double *r = qb + 4 * i;
         const double nn = r[0] * r[0] + r[1] * r[1] + r[2] * r[2] + r[3] * r[3];
-        if (nn > 1e-200) {
-            const double inv = 1.0 / sqrt(nn);
-            r[0] *= inv, r[1] *= inv, r[2] *= inv, r[3] *= inv;
-        } else {
+        const double inv = 1.0 / sqrt(nn > 1e-200 ? nn : 1.0);
+        r[0] *= inv, r[1] *= inv, r[2] *= inv, r[3] *= inv;
+        vanished |= !(nn > 1e-200);
+    }
+    for (size_t i = 0; vanished && i < n * j; i++) {
+        double *r = qb + 4 * i; /* unscaled where the mean vanished: below 1e-100 */
+        if (!(r[0] * r[0] + r[1] * r[1] + r[2] * r[2] + r[3] * r[3] > 1e-200))
             memcpy(r, q + 4 * i, 4 * sizeof(double));
-        }
     }
 
     /* root translation with joint 0's s */

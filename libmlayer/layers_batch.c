@@ -91,8 +91,9 @@ size_t mlr_lay_batch_factor(mlr_lay_batch *b, const double *s)
     b->k = n;
     for (size_t i = 0; i < n; i++) {
         factor_row(b, s, i, i, i >= 1 ? i - 1 : 0, i >= 2 ? i - 2 : 0);
-        /* rows i+1 .. n-3 are interior rows with the inputs of row i: all equal row i */
-        if (i >= 4 && i + 4 <= n && row_repeats(b, i)) {
+        /* rows i+1 .. n-3 are interior rows with the inputs of row i: all equal row i
+         * (checked every fourth row: a fixed point found a few rows late stores those rows) */
+        if (i >= 4 && i + 4 <= n && (i & 3) == 0 && row_repeats(b, i)) {
             b->k = i + 1;
             break;
         }
@@ -161,26 +162,64 @@ static inline void bwd_channels(size_t mm, const double *restrict ed, const doub
         xi[c] = xi[c] * ed[c] - (e1[c] * x1[c] + e2[c] * x2[c]);
 }
 
+/* Backward row kernels of the residual form: x_i from the forward value z_i into a separate
+ * output row, and acc[c] += (y_i[c] - x_i[c])^2. */
+static inline void bwd_groups_rss(size_t ns, const size_t m, const double *restrict di,
+                                  const double *restrict l1, const double *restrict l2,
+                                  const double *restrict zi, double *restrict xi,
+                                  const double *restrict x1, const double *restrict x2,
+                                  const double *restrict yi, double *restrict acc)
+{
+    for (size_t k = 0; k < ns; k++) {
+        const double d = di[k], a1 = l1[k], a2 = l2[k];
+        for (size_t c = k * m; c < k * m + m; c++) {
+            const double v = zi[c] * d - (a1 * x1[c] + a2 * x2[c]), r = yi[c] - v;
+            xi[c] = v;
+            acc[c] += r * r;
+        }
+    }
+}
+
+static inline void bwd_channels_rss(size_t mm, const double *restrict ed,
+                                    const double *restrict e1, const double *restrict e2,
+                                    const double *restrict zi, double *restrict xi,
+                                    const double *restrict x1, const double *restrict x2,
+                                    const double *restrict yi, double *restrict acc)
+{
+    for (size_t c = 0; c < mm; c++) {
+        const double v = zi[c] * ed[c] - (e1[c] * x1[c] + e2[c] * x2[c]), r = yi[c] - v;
+        xi[c] = v;
+        acc[c] += r * r;
+    }
+}
+
+/* The constant interior row, one coefficient per channel, into e1, e2, ed (3 m ns doubles);
+ * 0 when the factor has no constant stretch. */
+static inline int expand_interior(const mlr_lay_batch *b, const size_t m, double *e1, double *e2,
+                                  double *ed)
+{
+    const size_t ns = b->ns, kc = b->k - 1;
+    if (b->k >= b->n)
+        return 0;
+    for (size_t k = 0; k < ns; k++) {
+        for (size_t c = k * m; c < k * m + m; c++) {
+            e1[c] = b->l1[kc * ns + k];
+            e2[c] = b->l2[kc * ns + k];
+            ed[c] = b->dinv[kc * ns + k];
+        }
+    }
+    return 1;
+}
+
+/* Forward sweep z = L^-1 y into x. */
 #if defined(__GNUC__)
 __attribute__((always_inline))
 #endif
-static inline void solve_m(const mlr_lay_batch *b, const size_t m, const double *y, size_t ldy,
-                           double *x, size_t ldx, double *buf)
+static inline void fwd_m(const mlr_lay_batch *b, const size_t m, const double *y, size_t ldy,
+                         double *x, size_t ldx, const double *e1, const double *e2, int conv)
 {
     const size_t n = b->n, ns = b->ns, mm = m * ns, kc = b->k - 1;
-    const double *l1 = b->l1, *l2 = b->l2, *dv = b->dinv;
-    /* the constant interior row, one coefficient per channel */
-    double *e1 = buf, *e2 = buf + mm, *ed = buf + 2 * mm;
-    const int conv = b->k < n;
-    if (conv) {
-        for (size_t k = 0; k < ns; k++) {
-            for (size_t c = k * m; c < k * m + m; c++) {
-                e1[c] = l1[kc * ns + k];
-                e2[c] = l2[kc * ns + k];
-                ed[c] = dv[kc * ns + k];
-            }
-        }
-    }
+    const double *l1 = b->l1, *l2 = b->l2;
     memcpy(x, y, mm * sizeof(double));
     {
         const double *y1 = y + ldy, *x0 = x;
@@ -198,6 +237,19 @@ static inline void solve_m(const mlr_lay_batch *b, const size_t m, const double 
         else
             fwd_groups(ns, m, l1 + r * ns, l2 + r * ns, y + i * ldy, xi, xi - ldx, xi - 2 * ldx);
     }
+}
+
+#if defined(__GNUC__)
+__attribute__((always_inline))
+#endif
+static inline void solve_m(const mlr_lay_batch *b, const size_t m, const double *y, size_t ldy,
+                           double *x, size_t ldx, double *buf)
+{
+    const size_t n = b->n, ns = b->ns, mm = m * ns, kc = b->k - 1;
+    const double *l1 = b->l1, *l2 = b->l2, *dv = b->dinv;
+    double *e1 = buf, *e2 = buf + mm, *ed = buf + 2 * mm;
+    const int conv = expand_interior(b, m, e1, e2, ed);
+    fwd_m(b, m, y, ldy, x, ldx, e1, e2, conv);
     {
         double *xl = x + (n - 1) * ldx;
         const double *d = dv + mlr_lay_row(b, n - 1) * ns;
@@ -220,6 +272,51 @@ static inline void solve_m(const mlr_lay_batch *b, const size_t m, const double 
     }
 }
 
+/* The residual sums of the solve without keeping the solution: the forward sweep into z (full
+ * rows, stride ldz), the backward one through a ring of three rows, acc[c] = sum_i
+ * (y_i[c] - x_i[c])^2 accumulated as it goes (one pass less over the arrays than a solve and
+ * mlr_lay_sum_sq_diff). */
+#if defined(__GNUC__)
+__attribute__((always_inline))
+#endif
+static inline void rss_m(const mlr_lay_batch *b, const size_t m, const double *y, size_t ldy,
+                         double *z, size_t ldz, double *buf, double *acc)
+{
+    const size_t n = b->n, ns = b->ns, mm = m * ns, kc = b->k - 1;
+    const double *l1 = b->l1, *l2 = b->l2, *dv = b->dinv;
+    double *e1 = buf, *e2 = buf + mm, *ed = buf + 2 * mm, *ring = buf + 3 * mm;
+    const int conv = expand_interior(b, m, e1, e2, ed);
+    fwd_m(b, m, y, ldy, z, ldz, e1, e2, conv);
+    for (size_t c = 0; c < mm; c++)
+        acc[c] = 0.0;
+    /* rows n-1, n-2: ring rows (n-1) % 3 and (n-2) % 3 */
+    {
+        double *xl = ring + ((n - 1) % 3) * mm, *xp = ring + ((n - 2) % 3) * mm;
+        const double *zl = z + (n - 1) * ldz, *zp = z + (n - 2) * ldz;
+        const double *yl = y + (n - 1) * ldy, *yp = y + (n - 2) * ldy;
+        const double *d = dv + mlr_lay_row(b, n - 1) * ns;
+        const double *d2 = dv + mlr_lay_row(b, n - 2) * ns, *a = l1 + mlr_lay_row(b, n - 1) * ns;
+        for (size_t k = 0; k < ns; k++) {
+            for (size_t c = k * m; c < k * m + m; c++) {
+                xl[c] = zl[c] * d[k];
+                xp[c] = zp[c] * d2[k] - a[k] * xl[c];
+                const double r1 = yl[c] - xl[c], r2 = yp[c] - xp[c];
+                acc[c] += r1 * r1 + r2 * r2;
+            }
+        }
+    }
+    for (size_t i = n - 2; i-- > 0;) {
+        const size_t r0 = mlr_lay_row(b, i), r1 = mlr_lay_row(b, i + 1), r2 = mlr_lay_row(b, i + 2);
+        double *xi = ring + (i % 3) * mm;
+        const double *x1 = ring + ((i + 1) % 3) * mm, *x2 = ring + ((i + 2) % 3) * mm;
+        if (conv && r0 == kc && r1 == kc && r2 == kc)
+            bwd_channels_rss(mm, ed, e1, e2, z + i * ldz, xi, x1, x2, y + i * ldy, acc);
+        else
+            bwd_groups_rss(ns, m, dv + r0 * ns, l1 + r1 * ns, l2 + r2 * ns, z + i * ldz, xi, x1,
+                           x2, y + i * ldy, acc);
+    }
+}
+
 /* The sweeps are the bulk of a decomposition; with GCC on x86-64 they get an AVX2 clone
  * chosen at load time (the build itself assumes only the baseline ISA). */
 #if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__) && \
@@ -239,6 +336,16 @@ void mlr_lay_batch_solve(const mlr_lay_batch *b, size_t m, const double *y, size
         solve_m(b, 4, y, ldy, x, ldx, buf);
     else
         solve_m(b, m, y, ldy, x, ldx, buf);
+}
+
+MLR_LAY_CLONES
+void mlr_lay_batch_rss(const mlr_lay_batch *b, size_t m, const double *y, size_t ldy, double *z,
+                       size_t ldz, double *buf, double *acc)
+{
+    if (m == 3)
+        rss_m(b, 3, y, ldy, z, ldz, buf, acc);
+    else
+        rss_m(b, m, y, ldy, z, ldz, buf, acc);
 }
 
 MLR_LAY_CLONES

@@ -12,6 +12,9 @@
 #include "layers_internal.h"
 
 #include <math.h>
+#ifdef MLR_DEBUG_GCV
+#include <stdio.h>
+#endif
 
 #define GCV_GRID_STEP 4.605170185988091 /* ln 100: one grid point per two decades */
 #define GCV_TOL 0.012197083360807     /* ln(1.05) / 4: Brent stops with a bracket < 5% in s */
@@ -87,17 +90,18 @@ static void brent_update(brent *br, double fu)
 
 /* Work of one GCV evaluation. */
 typedef struct gcv_work {
-    double *trace, *tw, *acc, *ebuf; /* ng, 3 ng, 3 ng, 9 ng doubles */
+    double *trace, *tw, *acc, *ebuf; /* ng, 3 ng, 3 ng, 18 ng doubles */
 } gcv_work;
 
 /*
  * Batched evaluation of ng groups of 3 channels, the rows of y (stride 3 ng, groups packed)
  * smoothed into x (same stride): b->ns systems at s[k], each owning 3 ng / ns channels (one
  * system for all groups on the shared grid, or one per group). GCV and tr(H) per group; col
- * names the groups for messages.
+ * names the groups for messages. keep: x is the smoothed layer on return; otherwise x is only
+ * scratch (the search needs the residual sums, not the solution).
  */
 static mlr_status eval_gcv(const mlr_layers *L, mlr_lay_batch *b, const double *s, size_t ng,
-                           const size_t *col, const double *y, double *x, double *gcv,
+                           const size_t *col, const double *y, double *x, int keep, double *gcv,
                            double *dof, const gcv_work *w, mlr_diag *diag)
 {
     const size_t n = L->n, ns = b->ns, mm = 3 * ng, m = mm / ns;
@@ -106,10 +110,14 @@ static mlr_status eval_gcv(const mlr_layers *L, mlr_lay_batch *b, const double *
         return mlr_diag_set(diag, MLR_E_SINGULAR, 0, 0,
                             "control smoothing of group %zu failed at s = %g: s is too large "
                             "for %zu frames", col[(bad - 1) * m / 3] / 3, s[bad - 1], n);
-    mlr_lay_batch_solve(b, m, y, mm, x, mm, w->ebuf);
+    if (keep) {
+        mlr_lay_batch_solve(b, m, y, mm, x, mm, w->ebuf);
+        mlr_lay_sum_sq_diff(n, mm, y, x, w->acc);
+    } else {
+        mlr_lay_batch_rss(b, m, y, mm, x, mm, w->ebuf, w->acc);
+    }
     mlr_lay_batch_trace(b, w->trace, w->tw);
     const double *acc = w->acc;
-    mlr_lay_sum_sq_diff(n, mm, y, x, w->acc);
     const double nd = (double)n;
     for (size_t g = 0; g < ng; g++) {
         const double tr = w->trace[3 * g / m], den = 1.0 - tr / nd;
@@ -142,6 +150,7 @@ mlr_status mlr_layers_control(mlr_layers *L, const mlr_layers_cfg *cfg, const do
     double *s_best = work + 3 * ng, *searched = work + 4 * ng;
     brent *br = (brent *)(void *)(work + 5 * ng); /* 11 ng doubles */
     const gcv_work w = {work + 16 * ng, work + 17 * ng, work + 20 * ng, work + 23 * ng};
+    double *f_lo = work + 41 * ng, *f_hi = work + 42 * ng, *f_prev = work + 43 * ng;
     double *x = L->control; /* packed solutions during the search; the layer at the end */
     mlr_status rc;
 
@@ -182,24 +191,40 @@ mlr_status mlr_layers_control(mlr_layers *L, const mlr_layers_cfg *cfg, const do
         for (size_t p = 0; p < n_grid && na > 0; p++) {
             const double u = p + 1 == n_grid ? u1 : u0 + step * (double)p;
             s[0] = exp(u);
-            if ((rc = eval_gcv(L, &b, s, na, col, y, x, gcv, dof, &w, diag)) < 0)
+            if ((rc = eval_gcv(L, &b, s, na, col, y, x, 0, gcv, dof, &w, diag)) < 0)
                 return rc;
             for (size_t k = 0; k < na; k++) {
-                brent *r = &br[col[k] / 3];
+                const size_t g = col[k] / 3;
+                brent *r = &br[g];
                 if (p == 0 || gcv[k] < r->fx) {
                     r->x = u, r->fx = gcv[k];
                     r->a = p == 0 ? u0 : u - step;
                     r->b = p + 1 == n_grid ? u1 : u + step;
+                    f_lo[g] = p == 0 ? NAN : f_prev[g];
+                    f_hi[g] = NAN;
+                } else if (isnan(f_hi[g])) { /* the point right after the best so far */
+                    f_hi[g] = gcv[k];
                 }
+                f_prev[g] = gcv[k];
             }
         }
         for (size_t k = 0; k < na; k++) {
-            brent *r = &br[col[k] / 3];
+            const size_t g = col[k] / 3;
+            brent *r = &br[g];
             if (r->b > u1)
                 r->b = u1;
             r->w = r->v = r->x;
             r->fw = r->fv = r->fx;
             r->d = r->e = 0.0;
+            /* an interior best: its two neighbours on the grid seed the parabola, so that the
+             * first step is already a parabolic one (Brent starts with golden steps
+             * otherwise); the step history is set to the grid step so that it is accepted
+             * when it falls inside the bracket */
+            if (isfinite(f_lo[g]) && isfinite(f_hi[g]) && r->a < r->x && r->x < r->b) {
+                r->w = r->a, r->fw = f_lo[g];
+                r->v = r->b, r->fv = f_hi[g];
+                r->d = r->e = r->b - r->a;
+            }
         }
         /* Brent in lockstep, one system per group */
         for (int it = 0; na > 0 && it < GCV_MAX_STEPS; it++) {
@@ -212,6 +237,9 @@ mlr_status mlr_layers_control(mlr_layers *L, const mlr_layers_cfg *cfg, const do
                 }
             }
             na = b.ns = nb;
+#ifdef MLR_DEBUG_GCV
+            fprintf(stderr, "it %d na %zu\n", it, na);
+#endif
             if (na == 0)
                 break;
             if (na != packed) {
@@ -219,7 +247,7 @@ mlr_status mlr_layers_control(mlr_layers *L, const mlr_layers_cfg *cfg, const do
                 y = comp;
                 packed = na;
             }
-            if ((rc = eval_gcv(L, &b, s, na, col, y, x, gcv, dof, &w, diag)) < 0)
+            if ((rc = eval_gcv(L, &b, s, na, col, y, x, 0, gcv, dof, &w, diag)) < 0)
                 return rc;
             for (size_t k = 0; k < na; k++)
                 brent_update(&br[col[k] / 3], gcv[k]);
@@ -233,7 +261,7 @@ mlr_status mlr_layers_control(mlr_layers *L, const mlr_layers_cfg *cfg, const do
     b.ns = ng;
     for (size_t g = 0; g < ng; g++)
         col[g] = 3 * g;
-    if ((rc = eval_gcv(L, &b, s_best, ng, col, delta, x, gcv, dof, &w, diag)) < 0)
+    if ((rc = eval_gcv(L, &b, s_best, ng, col, delta, x, 1, gcv, dof, &w, diag)) < 0)
         return rc;
     for (size_t g = 0; g < ng; g++) {
         const double sg = s_best[g], k = sqrt(sqrt(sg));

@@ -9,7 +9,7 @@
 #define MLR_LAYERS_N_PARAM 9
 
 /* Work doubles per group of the stages (see mlr_layers_base, mlr_layers_control). */
-#define MLR_LAYERS_WORK 40
+#define MLR_LAYERS_WORK 56
 
 struct mlr_layers {
     mlr_allocator alloc;
@@ -62,6 +62,12 @@ size_t mlr_lay_batch_factor(mlr_lay_batch *b, const double *s);
  * 3 m ns doubles. */
 void mlr_lay_batch_solve(const mlr_lay_batch *b, size_t m, const double *y, size_t ldy,
                          double *x, size_t ldx, double *buf);
+
+/* acc[c] = sum_i (y_i[c] - x_i[c])^2 over the mm = m ns channels for x = A^-1 y (systems and
+ * channels as for mlr_lay_batch_solve), without keeping x: z (stride ldz, not overlapping y)
+ * receives the forward sweep only. buf is scratch of 6 m ns doubles. */
+void mlr_lay_batch_rss(const mlr_lay_batch *b, size_t m, const double *y, size_t ldy, double *z,
+                       size_t ldz, double *buf, double *acc);
 
 /* acc[c] = sum_i (y[i mm + c] - x[i mm + c])^2 over n rows of mm channels. */
 void mlr_lay_sum_sq_diff(size_t n, size_t mm, const double *y, const double *x, double *acc);

@@ -1,6 +1,7 @@
 /* Batched quaternions: Hamilton product, scalar-first (w, x, y, z). Rotation vectors are axis
  * times the full angle. Nothing here allocates, prints or keeps state. */
 #include "mlr_internal.h"
+#include "sincosd.h"
 
 #include <math.h>
 
@@ -168,6 +169,86 @@ void mlr_quat_conj_array(const mlr_quat *q, size_t count, mlr_quat *out)
     }
 }
 
+/*
+ * Array kernels. The arrays are processed by blocks of QBLK: the block is checked for the
+ * common case (every component finite, the largest magnitude of each element within
+ * [FAST_LO, FAST_HI], so that sums of squares neither overflow nor lose precision), and then
+ * runs through a branch-free loop over structure-of-arrays copies that compilers vectorize;
+ * a block with any other element takes the scalar path of each element (which scales the
+ * element first). Both paths use the same formulas.
+ * With GCC on x86-64 the vector loops get an AVX2 clone chosen at load time.
+ */
+#define QBLK 32
+#define PAD4(m) (((m) + 3) & ~(size_t)3) /* vector loops run over whole vectors: lanes past m
+                                            hold identities (never stored) */
+#define FAST_LO 0x1p-250
+#define FAST_HI 0x1p+250
+
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__) && \
+    !defined(__SANITIZE_ADDRESS__)
+#define QUAT_CLONES __attribute__((target_clones("avx2", "default")))
+#else
+#define QUAT_CLONES
+#endif
+
+/* Larger of two (a NaN may be dropped: callers test for NaN apart, see finite4). */
+static inline double vmax(double a, double b)
+{
+    return a > b ? a : b;
+}
+
+/* 1 when a, b, c, d are all finite (0 * inf and NaN give NaN), without branches. */
+static inline int finite4(double a, double b, double c, double d)
+{
+    return a * 0.0 + b * 0.0 + c * 0.0 + d * 0.0 == 0.0;
+}
+
+/* c ? a : b by bit masks, so that the compiler keeps both operands computed unconditionally
+ * (GCC otherwise moves a division under a branch, which stops the vectorizer). */
+static inline double select_bits(int c, double a, double b)
+{
+    const uint64_t mask = (uint64_t)0 - (uint64_t)(c != 0);
+    uint64_t ab, bb;
+    memcpy(&ab, &a, sizeof ab);
+    memcpy(&bb, &b, sizeof bb);
+    const uint64_t r = (ab & mask) | (bb & ~mask);
+    double out;
+    memcpy(&out, &r, sizeof out);
+    return out;
+}
+
+/* The m quaternions at q into SoA copies w, x, y, z; 1 when every component is finite and the
+ * largest |component| of every quaternion lies in [lo, hi]. */
+static inline int block_load(const mlr_quat *restrict q, size_t m, double *restrict w,
+                             double *restrict x, double *restrict y, double *restrict z,
+                             double lo, double hi)
+{
+    int bad = 0;
+    for (size_t i = 0; i < m; i++) {
+        w[i] = q[i].w, x[i] = q[i].x, y[i] = q[i].y, z[i] = q[i].z;
+        const double mx = vmax(vmax(fabs(w[i]), fabs(x[i])), vmax(fabs(y[i]), fabs(z[i])));
+        bad |= !((mx >= lo) & (mx <= hi) & finite4(w[i], x[i], y[i], z[i]));
+    }
+    for (size_t i = m; i < PAD4(m); i++)
+        w[i] = 1.0, x[i] = y[i] = z[i] = 0.0;
+    return !bad;
+}
+
+QUAT_CLONES
+static int normalize_fast(const mlr_quat *q, size_t m, mlr_quat *out)
+{
+    double w[QBLK], x[QBLK], y[QBLK], z[QBLK];
+    if (!block_load(q, m, w, x, y, z, FAST_LO, FAST_HI))
+        return 0;
+    for (size_t i = 0; i < PAD4(m); i++) {
+        const double n = sqrt(w[i] * w[i] + x[i] * x[i] + y[i] * y[i] + z[i] * z[i]);
+        w[i] /= n, x[i] /= n, y[i] /= n, z[i] /= n;
+    }
+    for (size_t i = 0; i < m; i++)
+        out[i].w = w[i], out[i].x = x[i], out[i].y = y[i], out[i].z = z[i];
+    return 1;
+}
+
 mlr_status mlr_quat_normalize_array(const mlr_quat *q, size_t count, mlr_quat *out)
 {
     if (count == 0)
@@ -175,13 +256,54 @@ mlr_status mlr_quat_normalize_array(const mlr_quat *q, size_t count, mlr_quat *o
     if (!q || !out)
         return MLR_E_INVALID_ARG;
     mlr_status status = MLR_OK;
-    for (size_t i = 0; i < count; i++) {
-        if (!quat_unit(&q[i], &out[i])) {
-            out[i] = quat_identity;
-            status = MLR_E_INVALID_ARG;
+    for (size_t i0 = 0; i0 < count; i0 += QBLK) {
+        const size_t m = count - i0 < QBLK ? count - i0 : QBLK;
+        if (normalize_fast(q + i0, m, out + i0))
+            continue;
+        for (size_t i = i0; i < i0 + m; i++) {
+            if (!quat_unit(&q[i], &out[i])) {
+                out[i] = quat_identity;
+                status = MLR_E_INVALID_ARG;
+            }
         }
     }
     return status;
+}
+
+/* exp of m rotation vectors whose components are all finite and below MLR_SINCOS_LIMIT / 2
+ * in magnitude; 0 (nothing written) otherwise. */
+QUAT_CLONES
+static int exp_fast(const mlr_vec3 *v, size_t m, mlr_quat *out)
+{
+    double x[QBLK], y[QBLK], z[QBLK], c[QBLK], k[QBLK];
+    int bad = 0;
+    for (size_t i = 0; i < m; i++) {
+        x[i] = v[i].x, y[i] = v[i].y, z[i] = v[i].z;
+        const double mx = vmax(vmax(fabs(x[i]), fabs(y[i])), fabs(z[i]));
+        bad |= !((mx <= 0.5 * MLR_SINCOS_LIMIT) & finite4(x[i], y[i], z[i], 0.0));
+    }
+    if (bad)
+        return 0;
+    for (size_t i = m; i < PAD4(m); i++)
+        x[i] = y[i] = z[i] = 0.0;
+    for (size_t i = 0; i < PAD4(m); i++) {
+        /* squares of components below 1e-154 may underflow: the angle is then too small to
+         * change cos or sin(angle / 2) / angle = 1/2 */
+        const double angle = sqrt(x[i] * x[i] + y[i] * y[i] + z[i] * z[i]);
+        double sn, cs;
+        mlr_sincos_kernel(0.5 * angle, &sn, &cs);
+        /* a nonzero angle is above 1e-162 */
+        const double ratio = sn / vmax(angle, 0x1p-600);
+        c[i] = cs;
+        k[i] = select_bits(angle > 0.0, ratio, 0.5); /* sin(angle / 2) / angle */
+    }
+    for (size_t i = 0; i < m; i++) {
+        out[i].w = c[i];
+        out[i].x = k[i] * x[i];
+        out[i].y = k[i] * y[i];
+        out[i].z = k[i] * z[i];
+    }
+    return 1;
 }
 
 mlr_status mlr_quat_exp_array(const mlr_vec3 *v, size_t count, mlr_quat *out)
@@ -191,22 +313,146 @@ mlr_status mlr_quat_exp_array(const mlr_vec3 *v, size_t count, mlr_quat *out)
     if (!v || !out)
         return MLR_E_INVALID_ARG;
     mlr_status status = MLR_OK;
-    for (size_t i = 0; i < count; i++) {
-        const double x = v[i].x, y = v[i].y, z = v[i].z;
-        if (!(isfinite(x) && isfinite(y) && isfinite(z))) {
-            out[i] = quat_identity;
-            status = MLR_E_INVALID_ARG;
+    for (size_t i0 = 0; i0 < count; i0 += QBLK) {
+        const size_t m = count - i0 < QBLK ? count - i0 : QBLK;
+        if (exp_fast(v + i0, m, out + i0))
             continue;
+        for (size_t i = i0; i < i0 + m; i++) {
+            const double x = v[i].x, y = v[i].y, z = v[i].z;
+            if (!(isfinite(x) && isfinite(y) && isfinite(z))) {
+                out[i] = quat_identity;
+                status = MLR_E_INVALID_ARG;
+                continue;
+            }
+            const double angle = norm3(x, y, z);
+            const double half = 0.5 * angle;
+            double k, c; /* k = sin(angle / 2) / angle */
+            if (half < MLR_SINCOS_LIMIT) { /* as exp_fast */
+                double sn;
+                mlr_sincos_kernel(half, &sn, &c);
+                k = angle > 0.0 ? sn / angle : 0.5;
+            } else {
+                k = 0.5 * sinc(half);
+                c = cos(half);
+            }
+            out[i].w = c;
+            out[i].x = k * x;
+            out[i].y = k * y;
+            out[i].z = k * z;
         }
-        const double angle = norm3(x, y, z);
-        const double half = 0.5 * angle;
-        const double k = 0.5 * sinc(half); /* sin(angle / 2) / angle */
-        out[i].w = cos(half);
-        out[i].x = k * x;
-        out[i].y = k * y;
-        out[i].z = k * z;
     }
     return status;
+}
+
+/* 2 atan(r) / (r w) for r = s / w below LOG_SERIES_ARG: Taylor in r to r^12, the first
+ * dropped term below 1e-19 relative. It spares the atan for the small angles that dominate
+ * motion displacements (below about 5.7 degrees). */
+static inline double log_series(double s, double w)
+{
+    const double r = s / w, r2 = r * r;
+    const double t = 1.0 / 11.0 - r2 * (1.0 / 13.0);
+    const double u = 1.0 / 7.0 - r2 * (1.0 / 9.0 - r2 * t);
+    return (2.0 / w) * (1.0 - r2 * (1.0 / 3.0 - r2 * (1.0 / 5.0 - r2 * u)));
+}
+
+/*
+ * atan2(s, w) for s, w >= 0, not both 0, without branches: fdlibm's atan (s_atan.c,
+ *   Copyright (C) 1993 by Sun Microsystems, Inc. All rights reserved.
+ *   Developed at SunSoft, a Sun Microsystems, Inc. business.
+ *   Permission to use, copy, modify, and distribute this software is freely granted, provided
+ *   that this notice is preserved.)
+ * on x = min / max in [0, 1], reduced to |t| <= 7/16 around 0, 1/2 or 1, and
+ * atan2 = pi/2 - atan(w / s) when s > w (the constants of pi/2 - atan(c) in two parts).
+ * Within about an ulp of atan2.
+ */
+static inline double atan2_pos(double s, double w)
+{
+    static const double T0 = 3.33333333333329318027e-01, T1 = -1.99999999998764832476e-01,
+                        T2 = 1.42857142725034663711e-01, T3 = -1.11111104054623557880e-01,
+                        T4 = 9.09088713343650656196e-02, T5 = -7.69187620504482999495e-02,
+                        T6 = 6.66107313738753120669e-02, T7 = -5.83357013379057348645e-02,
+                        T8 = 4.97687799461593236017e-02, T9 = -3.65315727442169155270e-02,
+                        T10 = 1.62858201153657823623e-02;
+    const int big = s > w;
+    /* the selects are bit masks so that the divisions stay unconditional (vectorizable) */
+    const double x = select_bits(big, w, s) / select_bits(big, s, w);
+    const int i0 = x >= 0.4375, i1 = x >= 0.6875;
+    /* t = (x - c) / (1 + c x) for c = 0, 1/2, 1 with exact numerators */
+    const double n1 = x - 1.0, d1 = x + 1.0, n0 = 2.0 * x - 1.0, d0 = 2.0 + x;
+    const double t = select_bits(i1, n1, select_bits(i0, n0, x)) /
+                     select_bits(i1, d1, select_bits(i0, d0, 1.0));
+    /* atan(c) (or pi/2 - atan(c) when big) as hi + lo */
+    const double hi = big ? (i1 ? 7.85398163397448278999e-01
+                                : i0 ? 1.10714871779409040897e+00 : 1.57079632679489655800e+00)
+                          : (i1 ? 7.85398163397448278999e-01
+                                : i0 ? 4.63647609000806093515e-01 : 0.0);
+    const double lo = big ? (i1 ? 3.06161699786838301793e-17
+                                : i0 ? 9.40447137356637995390e-17 : 6.12323399573676603587e-17)
+                          : (i1 ? 3.06161699786838301793e-17
+                                : i0 ? 2.26987774529616870924e-17 : 0.0);
+    const double u = big ? -t : t;
+    const double z = t * t, w2 = z * z;
+    const double s1 = z * (T0 + w2 * (T2 + w2 * (T4 + w2 * (T6 + w2 * (T8 + w2 * T10)))));
+    const double s2 = w2 * (T1 + w2 * (T3 + w2 * (T5 + w2 * (T7 + w2 * T9))));
+    return hi - ((u * (s1 + s2) - lo) - u);
+}
+
+/* log of m quaternions in SoA copies, each of the common case (see block_load), the copies
+ * padded to PAD4(m). */
+static inline void log_soa(const double *restrict w, const double *restrict x,
+                           const double *restrict y, const double *restrict z, size_t m,
+                           mlr_vec3 *restrict out)
+{
+    double k[QBLK];
+    for (size_t i = 0; i < PAD4(m); i++) {
+        /* q and -q are the same rotation; take the angle in [0, pi] */
+        const double sg = w[i] < 0.0 ? -1.0 : 1.0, aw = sg * w[i];
+        const double s = sqrt(x[i] * x[i] + y[i] * y[i] + z[i] * z[i]);
+        /* both forms computed, one kept (the other may be 0/0 there) */
+        const double ks = log_series(s, aw), ka = 2.0 * atan2_pos(s, aw) / s;
+        k[i] = sg * select_bits(s < LOG_SERIES_ARG * aw, ks, ka);
+    }
+    for (size_t i = 0; i < m; i++) {
+        out[i].x = k[i] * x[i];
+        out[i].y = k[i] * y[i];
+        out[i].z = k[i] * z[i];
+    }
+}
+
+/* log of one quaternion in the scalar path: any input; MLR_E_INVALID_ARG (and 0) for a zero
+ * or non-finite one. */
+static mlr_status log_one(const mlr_quat *q, mlr_vec3 *out)
+{
+    mlr_quat p = *q;
+    if (!quat_is_finite(&p) || !quat_prescale(&p)) {
+        out->x = out->y = out->z = 0.0;
+        return MLR_E_INVALID_ARG;
+    }
+    if (p.w < 0.0) { /* q and -q are the same rotation; take the angle in [0, pi] */
+        p.w = -p.w;
+        p.x = -p.x;
+        p.y = -p.y;
+        p.z = -p.z;
+    }
+    /* angle = 2 atan2(s, w); the vector is angle * (x, y, z) / s. The scale is invariant to
+     * |q|, so a slightly unnormalized q gives the log of its normalized rotation. */
+    const double s = norm3(p.x, p.y, p.z);
+    const double k = s < LOG_SERIES_ARG * p.w ? log_series(s, p.w) : 2.0 * atan2_pos(s, p.w) / s;
+    out->x = k * p.x;
+    out->y = k * p.y;
+    out->z = k * p.z;
+    return MLR_OK;
+}
+
+/* log of m quaternions of block_load's common case; 0 (nothing written) otherwise. */
+QUAT_CLONES
+static int log_fast(const mlr_quat *q, size_t m, mlr_vec3 *out)
+{
+    double w[QBLK], x[QBLK], y[QBLK], z[QBLK];
+    if (!block_load(q, m, w, x, y, z, FAST_LO, FAST_HI))
+        return 0;
+    log_soa(w, x, y, z, m, out);
+    return 1;
 }
 
 mlr_status mlr_quat_log_array(const mlr_quat *q, size_t count, mlr_vec3 *out)
@@ -216,39 +462,54 @@ mlr_status mlr_quat_log_array(const mlr_quat *q, size_t count, mlr_vec3 *out)
     if (!q || !out)
         return MLR_E_INVALID_ARG;
     mlr_status status = MLR_OK;
-    for (size_t i = 0; i < count; i++) {
-        mlr_quat p = q[i];
-        if (!quat_is_finite(&p) || !quat_prescale(&p)) {
-            out[i].x = out[i].y = out[i].z = 0.0;
-            status = MLR_E_INVALID_ARG;
+    for (size_t i0 = 0; i0 < count; i0 += QBLK) {
+        const size_t m = count - i0 < QBLK ? count - i0 : QBLK;
+        if (log_fast(q + i0, m, out + i0))
             continue;
-        }
-        if (p.w < 0.0) { /* q and -q are the same rotation; take the angle in [0, pi] */
-            p.w = -p.w;
-            p.x = -p.x;
-            p.y = -p.y;
-            p.z = -p.z;
-        }
-        /* angle = 2 atan2(s, w); the vector is angle * (x, y, z) / s. The scale is invariant
-         * to |q|, so a slightly unnormalized q gives the log of its normalized rotation. */
-        const double s = norm3(p.x, p.y, p.z);
-        double k;
-        if (s < LOG_SERIES_ARG * p.w) {
-            /* 2 atan(r) / (r w), Taylor in r to r^12: the first dropped term is below 1e-19
-             * relative, and it spares the atan2 for the small angles that dominate motion
-             * displacements (below about 5.7 degrees) */
-            const double r = s / p.w, r2 = r * r;
-            const double t = 1.0 / 11.0 - r2 * (1.0 / 13.0);
-            const double u = 1.0 / 7.0 - r2 * (1.0 / 9.0 - r2 * t);
-            k = (2.0 / p.w) * (1.0 - r2 * (1.0 / 3.0 - r2 * (1.0 / 5.0 - r2 * u)));
-        } else {
-            k = 2.0 * atan2(s, p.w) / s;
-        }
-        out[i].x = k * p.x;
-        out[i].y = k * p.y;
-        out[i].z = k * p.z;
+        for (size_t i = i0; i < i0 + m; i++)
+            if (log_one(&q[i], &out[i]) != MLR_OK)
+                status = MLR_E_INVALID_ARG;
     }
     return status;
+}
+
+/* prod = conj(a) b, out = log(prod) for m <= QBLK quaternions; the SoA path when the
+ * products are of the common case. */
+QUAT_CLONES
+static void conj_mul_log_block(const mlr_quat *a, const mlr_quat *b, size_t m, mlr_quat *prod,
+                               mlr_vec3 *out)
+{
+    double w[QBLK], x[QBLK], y[QBLK], z[QBLK];
+    int bad = 0;
+    for (size_t i = 0; i < m; i++) {
+        const double aw = a[i].w, ax = -a[i].x, ay = -a[i].y, az = -a[i].z;
+        const double bw = b[i].w, bx = b[i].x, by = b[i].y, bz = b[i].z;
+        w[i] = aw * bw - ax * bx - ay * by - az * bz;
+        x[i] = aw * bx + ax * bw + ay * bz - az * by;
+        y[i] = aw * by - ax * bz + ay * bw + az * bx;
+        z[i] = aw * bz + ax * by - ay * bx + az * bw;
+        const double mx = vmax(vmax(fabs(w[i]), fabs(x[i])), vmax(fabs(y[i]), fabs(z[i])));
+        bad |= !((mx >= FAST_LO) & (mx <= FAST_HI) & finite4(w[i], x[i], y[i], z[i]));
+    }
+    for (size_t i = 0; i < m; i++)
+        prod[i].w = w[i], prod[i].x = x[i], prod[i].y = y[i], prod[i].z = z[i];
+    for (size_t i = m; i < PAD4(m); i++)
+        w[i] = 1.0, x[i] = y[i] = z[i] = 0.0;
+    if (!bad) {
+        log_soa(w, x, y, z, m, out);
+        return;
+    }
+    for (size_t i = 0; i < m; i++)
+        log_one(&prod[i], &out[i]);
+}
+
+void mlr_quat_conj_mul_log(const mlr_quat *a, const mlr_quat *b, size_t count, mlr_quat *prod,
+                           mlr_vec3 *out)
+{
+    for (size_t i0 = 0; i0 < count; i0 += QBLK) {
+        const size_t m = count - i0 < QBLK ? count - i0 : QBLK;
+        conj_mul_log_block(a + i0, b + i0, m, prod + i0, out + i0);
+    }
 }
 
 mlr_status mlr_quat_slerp_array(const mlr_quat *a, const mlr_quat *b, const double *t,

@@ -1,4 +1,5 @@
-/* Sine and cosine of angles in degrees, for arrays, in a form compilers vectorize. Not
+/* Sine and cosine of angles in degrees, for arrays, in a form compilers vectorize (and a radian
+ * kernel for small angles, mlr_sincos_kernel, used by the quaternion exp). Not
  * installed; static inline so that the tests can check the kernel directly.
  *
  * Method. Angles in degrees reduce exactly: for |x| < 2^50, k = nearest integer to x / 90
@@ -28,8 +29,9 @@
 
 #define MLR_SINCOSD_LIMIT 0x1p50
 
-/* sin and cos of x degrees for |x| < MLR_SINCOSD_LIMIT (or NaN); no branches. */
-static inline void mlr_sincosd_kernel(double x, double *s_out, double *c_out)
+/* sin and cos of t + k pi/2 for |t| <= pi/4 (a hair beyond is fine) and the quadrant k in the
+ * low bits of kbits: the fdlibm kernels and the quadrant swap; no branches. */
+static inline void mlr_sincos_quadrant(double t, uint64_t kbits, double *s_out, double *c_out)
 {
     static const double S1 = -1.66666666666666324348e-01, S2 = 8.33333333332248946124e-03,
                         S3 = -1.98412698298579493134e-04, S4 = 2.75573137070700676789e-06,
@@ -37,13 +39,6 @@ static inline void mlr_sincosd_kernel(double x, double *s_out, double *c_out)
     static const double C1 = 4.16666666666666019037e-02, C2 = -1.38888888888741095749e-03,
                         C3 = 2.48015872894767294178e-05, C4 = -2.75573143513906633035e-07,
                         C5 = 2.08757232129817482790e-09, C6 = -1.13596475577881948265e-11;
-    const double shifter = 0x1.8p52; /* adding it rounds to an integer, kept in the low bits */
-    const double kq = x * (1.0 / 90.0) + shifter;
-    const double k = kq - shifter;
-    uint64_t kbits;
-    memcpy(&kbits, &kq, sizeof kbits);
-    const double r = x - k * 90.0; /* exact */
-    const double t = r * 0.017453292519943295769;
     const double z = t * t;
     /* sin(t) = t + t^3 (S1 + z P(z)) */
     const double ps = S2 + z * (S3 + z * (S4 + z * (S5 + z * S6)));
@@ -63,6 +58,37 @@ static inline void mlr_sincosd_kernel(double x, double *s_out, double *c_out)
     const uint64_t co = ((cb & ~swap) | (sb & swap)) ^ sign_c;
     memcpy(s_out, &so, sizeof so);
     memcpy(c_out, &co, sizeof co);
+}
+
+/* sin and cos of x degrees for |x| < MLR_SINCOSD_LIMIT (or NaN); no branches. */
+static inline void mlr_sincosd_kernel(double x, double *s_out, double *c_out)
+{
+    const double shifter = 0x1.8p52; /* adding it rounds to an integer, kept in the low bits */
+    const double kq = x * (1.0 / 90.0) + shifter;
+    const double k = kq - shifter;
+    uint64_t kbits;
+    memcpy(&kbits, &kq, sizeof kbits);
+    const double r = x - k * 90.0; /* exact */
+    mlr_sincos_quadrant(r * 0.017453292519943295769, kbits, s_out, c_out);
+}
+
+/* Radians. The limit of mlr_sincos_kernel: k pi/2 with the 33-bit head of pi/2 stays exact. */
+#define MLR_SINCOS_LIMIT 0x1p19
+
+/* sin and cos of x radians for |x| < MLR_SINCOS_LIMIT (or NaN); no branches. Reduction by
+ * k pi/2 in two parts (the fdlibm pio2_1, 33 bits, whose multiples below 2^20 are exact, and
+ * its tail pio2_1t): the reduced angle carries an absolute error below about 1e-26 k, which
+ * moves sin and cos by as much in absolute terms (not relative near their zeros). */
+static inline void mlr_sincos_kernel(double x, double *s_out, double *c_out)
+{
+    static const double PIO2_1 = 1.57079632673412561417e+00, PIO2_1T = 6.07710050650619224932e-11;
+    const double shifter = 0x1.8p52;
+    const double kq = x * 6.36619772367581382433e-01 + shifter;
+    const double k = kq - shifter;
+    uint64_t kbits;
+    memcpy(&kbits, &kq, sizeof kbits);
+    const double r = (x - k * PIO2_1) - k * PIO2_1T;
+    mlr_sincos_quadrant(r, kbits, s_out, c_out);
 }
 
 /* s[i] = sin(x[i] degrees), c[i] = cos(x[i] degrees) for i < n. x must not overlap s or c. */

@@ -371,6 +371,77 @@ START_TEST(log_at_pi)
 }
 END_TEST
 
+static double ulp_of(long double v);
+
+/* The array kernels run blocks of common input through a vectorized path and blocks with any
+ * unusual element (zero, non-finite, tiny or huge) element by element: both must give the
+ * same bits for the same element. Block size in quat.c: 32; a bad element at index 40 sends
+ * the block 32..63 down the scalar path. */
+START_TEST(array_paths_agree)
+{
+    enum { N = 96, BAD = 40 };
+    mlr_test_rng r;
+    mlr_test_rng_seed(&r, 31);
+    static mlr_quat q[N], q2[N], e1[N], e2[N], n1[N], n2[N];
+    static mlr_vec3 v[N], v2[N], l1[N], l2[N];
+    for (int i = 0; i < N; i++) {
+        q[i] = random_unit(&r);
+        const double sc = (i % 3 == 0) ? 1e-3 : (i % 3 == 1) ? 0.3 : 2.0; /* series and atan */
+        const double k = sc * (0.5 + mlr_test_rng_uniform(&r));
+        q[i].x *= k, q[i].y *= k, q[i].z *= k;
+        if (i % 7 == 0)
+            q[i].w = -q[i].w;
+        v[i] = (mlr_vec3){3.0 * mlr_test_rng_normal(&r), mlr_test_rng_normal(&r), 1e-6 * i};
+    }
+    memcpy(q2, q, sizeof q);
+    memcpy(v2, v, sizeof v);
+    q2[BAD].w = NAN;
+    v2[BAD].x = INFINITY;
+    ck_assert_int_eq(mlr_quat_log_array(q, N, l1), MLR_OK);
+    ck_assert_int_eq(mlr_quat_log_array(q2, N, l2), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_quat_exp_array(v, N, e1), MLR_OK);
+    ck_assert_int_eq(mlr_quat_exp_array(v2, N, e2), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_quat_normalize_array(q, N, n1), MLR_OK);
+    ck_assert_int_eq(mlr_quat_normalize_array(q2, N, n2), MLR_E_INVALID_ARG);
+    for (int i = 0; i < N; i++) {
+        if (i == BAD)
+            continue;
+        ck_assert_msg(memcmp(&l1[i], &l2[i], sizeof l1[i]) == 0, "log %d", i);
+        ck_assert_msg(memcmp(&e1[i], &e2[i], sizeof e1[i]) == 0, "exp %d", i);
+        ck_assert_msg(memcmp(&n1[i], &n2[i], sizeof n1[i]) == 0, "normalize %d", i);
+    }
+    ck_assert(l2[BAD].x == 0.0 && e2[BAD].w == 1.0 && n2[BAD].w == 1.0);
+}
+END_TEST
+
+/* The radian kernel of the quaternion exp against long double sinl / cosl: within 2 ulp plus
+ * the reduction's absolute error (below 1e-26 k for the quadrant k). */
+START_TEST(sincos_radians_kernel)
+{
+    mlr_test_rng r;
+    mlr_test_rng_seed(&r, 32);
+    for (int i = 0; i < 200000; i++) {
+        const double u = mlr_test_rng_uniform(&r);
+        double x = i % 4 == 0 ? ldexp(u, -(int)(mlr_test_rng_u64(&r) % 60))
+                 : i % 4 == 1 ? 8.0 * u : i % 4 == 2 ? 1e4 * u : 0.5 * MLR_SINCOS_LIMIT * u;
+        if (i % 5 == 0)
+            x = -x;
+        double sn, cs;
+        mlr_sincos_kernel(x, &sn, &cs);
+        const long double rs = sinl((long double)x), rc = cosl((long double)x);
+        const double slack = 1e-26 * (fabs(x) / 1.5 + 1.0);
+        const double tol = LDBL_MANT_DIG >= 64 ? 2.0 : 3.0;
+        ck_assert_msg((double)fabsl((long double)sn - rs) <= tol * ulp_of(rs) + slack,
+                      "sin(%.17g) = %.17g", x, sn);
+        ck_assert_msg((double)fabsl((long double)cs - rc) <= tol * ulp_of(rc) + slack,
+                      "cos(%.17g) = %.17g", x, cs);
+    }
+    double sn, cs;
+    mlr_sincos_kernel(0.0, &sn, &cs);
+    ck_assert(sn == 0.0 && cs == 1.0);
+}
+END_TEST
+
 /* ---------------------------------------------------------------- slerp */
 
 /* Reference: a * exp(t * log(conj(a) * b)), with log taking the shorter arc. */
@@ -854,6 +925,7 @@ static Suite *quat_suite(void)
     tcase_add_loop_test(el, log_exp_round_trip, 0, (int)MLR_COUNTOF(round_trip_angles));
     tcase_add_test(el, exp_log_round_trip_on_quaternions);
     tcase_add_test(el, log_at_pi);
+    tcase_add_test(el, array_paths_agree);
     suite_add_tcase(s, el);
 
     TCase *sl = tcase_create("slerp");
@@ -873,6 +945,7 @@ static Suite *quat_suite(void)
 
     TCase *deg = tcase_create("sincosd"); /* 2 million angles: slow under the sanitizers */
     tcase_add_test(deg, sincosd_is_within_two_ulp);
+    tcase_add_test(deg, sincos_radians_kernel);
     tcase_set_timeout(deg, 120);
     suite_add_tcase(s, deg);
 
