@@ -20,6 +20,7 @@ from . import ik
 from .contacts import detect_contacts, fix_contacts
 from . import data
 from .layers import Layers, decompose, denoise, stylize
+from .batch import batch
 
 try:
     __version__ = _dist_version("mlayer")
@@ -37,4 +38,4 @@ __all__ = ["__version__", "library_version", "Error", "InvalidArgumentError", "P
            "lgs", "have_cholmod", "quat", "Motion", "Skeleton", "read_bvh", "write_bvh",
            "read_bvh_string", "write_bvh_string", "metrics", "data", "Layers", "decompose",
            "denoise", "stylize", "Stream", "stream_motion", "ik", "detect_contacts",
-           "fix_contacts"]
+           "fix_contacts", "batch"]

@@ -48,7 +48,8 @@ def build_parser() -> argparse.ArgumentParser:
 def _load_subcommands() -> None:
     """Import the modules that define subcommands (each registers itself)."""
     import importlib
-    for mod in ("cli_info", "cli_layers", "cli_render", "cli_stream", "cli_contacts", "cli_demo"):
+    for mod in ("cli_info", "cli_layers", "cli_render", "cli_stream", "cli_contacts", "cli_demo",
+                "cli_batch"):
         try:
             importlib.import_module(f".{mod}", __package__)
         except ModuleNotFoundError as e:
