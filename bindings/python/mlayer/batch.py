@@ -279,7 +279,8 @@ def find_inputs(inputs) -> list[tuple[pathlib.Path, pathlib.PurePath]]:
         else:
             raise InvalidArgumentError(f"{s}: no such file, folder or matching glob")
         for f, rel in pairs:
-            found.setdefault(f.resolve(), rel.with_suffix(""))
+            # absolute, symlinks kept: links to one file are separate clips (corpus copies)
+            found.setdefault(pathlib.Path(os.path.abspath(f)), rel.with_suffix(""))
     return sorted(found.items(), key=lambda kv: str(kv[1]))
 
 
@@ -659,13 +660,13 @@ def batch(operation, inputs, out_dir, *, alphas=None, scheduler=None, n_workers=
     if not clips:
         raise InvalidArgumentError(f"no .bvh files in {inputs!r}")
     out_root = pathlib.Path(out_dir).resolve()
-    inputs_set = {str(src) for src, _ in clips}
+    inputs_set = {str(src) for src, _ in clips} | {os.path.realpath(src) for src, _ in clips}
     plan, seen = [], {}
     for src, rel in clips:
         jobs = []
         for v in variants:
             out = out_root / rel.parent / (rel.name + _variant_tag(v) + op.extension)
-            if str(out) in inputs_set:
+            if str(out) in inputs_set or os.path.realpath(out) in inputs_set:
                 raise InvalidArgumentError(f"batch: output {out} would overwrite an input; "
                                            "choose another output folder")
             if str(out) in seen:
