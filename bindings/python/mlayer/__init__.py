@@ -18,8 +18,12 @@ from . import metrics
 from .stream import Stream, stream_motion
 from . import ik
 from .contacts import detect_contacts, fix_contacts
+from .resample import (resample, slerp_resample, timewarp, timewarp_map, timewarp_speed)
 from . import data
 from .layers import Layers, decompose, denoise, stylize
+from .kmeans import KMeansResult, elbow, kmeans
+from .som import SOM
+from .features import pose_features
 from .batch import batch
 
 try:
@@ -38,4 +42,5 @@ __all__ = ["__version__", "library_version", "Error", "InvalidArgumentError", "P
            "lgs", "have_cholmod", "quat", "Motion", "Skeleton", "read_bvh", "write_bvh",
            "read_bvh_string", "write_bvh_string", "metrics", "data", "Layers", "decompose",
            "denoise", "stylize", "Stream", "stream_motion", "ik", "detect_contacts",
-           "fix_contacts", "batch"]
+           "fix_contacts", "resample", "slerp_resample", "timewarp", "timewarp_map",
+           "timewarp_speed", "kmeans", "KMeansResult", "elbow", "SOM", "pose_features", "batch"]
