@@ -198,6 +198,8 @@ def test_features_npz(clips, tmp_path, cluster):
             assert list(z["contact_names"]) == cn
             assert list(z["joint_names"]) == m.joint_names
             assert float(z["fps"]) == m.fps
+            if hasattr(mlayer, "pose_features"):
+                np.testing.assert_array_equal(z["pose_features"], mlayer.pose_features(m))
 
 
 @pytest.mark.skipif(not hasattr(mlayer, "resample"), reason="mlayer.resample not in this tree")
