@@ -24,6 +24,7 @@ from .layers import Layers, decompose, denoise, stylize
 from .kmeans import KMeansResult, elbow, kmeans
 from .som import SOM
 from .features import pose_features
+from .batch import batch
 
 try:
     __version__ = _dist_version("mlayer")
@@ -42,4 +43,4 @@ __all__ = ["__version__", "library_version", "Error", "InvalidArgumentError", "P
            "read_bvh_string", "write_bvh_string", "metrics", "data", "Layers", "decompose",
            "denoise", "stylize", "Stream", "stream_motion", "ik", "detect_contacts",
            "fix_contacts", "resample", "slerp_resample", "timewarp", "timewarp_map",
-           "timewarp_speed", "kmeans", "KMeansResult", "elbow", "SOM", "pose_features"]
+           "timewarp_speed", "kmeans", "KMeansResult", "elbow", "SOM", "pose_features", "batch"]

@@ -54,6 +54,7 @@ _SUBCOMMAND_MODULES = (
     "cli_contacts",
     "cli_resample",
     "cli_view",
+    "cli_batch",
     "cli_demo",
 )
 
