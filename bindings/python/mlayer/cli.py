@@ -45,15 +45,23 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+# Modules that define subcommands, one per line (cli_demo last: it uses the others).
+_SUBCOMMAND_MODULES = (
+    "cli_info",
+    "cli_layers",
+    "cli_render",
+    "cli_stream",
+    "cli_contacts",
+    "cli_resample",
+    "cli_demo",
+)
+
+
 def _load_subcommands() -> None:
     """Import the modules that define subcommands (each registers itself)."""
     import importlib
-    for mod in ("cli_info", "cli_layers", "cli_render", "cli_stream", "cli_contacts", "cli_demo"):
-        try:
-            importlib.import_module(f".{mod}", __package__)
-        except ModuleNotFoundError as e:
-            if e.name != f"{__package__}.{mod}":
-                raise
+    for mod in _SUBCOMMAND_MODULES:
+        importlib.import_module(f".{mod}", __package__)
 
 
 def main(argv: list[str] | None = None) -> int:

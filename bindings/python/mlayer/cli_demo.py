@@ -1,7 +1,7 @@
 """`mlayer demo [-o DIR]`: the main job end to end on the bundled CMU clip (or --clip FILE).
 
 Decomposes the clip into layers, writes the denoised and the exaggerated (alpha = 2) clips as
-BVH, the layers as a figure and as arrays, a GIF of original, denoised and exaggerated side by
+BVH (feet pinned during the contacts of the original), the layers as a figure and as arrays, a GIF of original, denoised and exaggerated side by
 side, and prints what was chosen and measured.
 """
 from __future__ import annotations
@@ -13,7 +13,7 @@ import time
 from .bvh import read_bvh, write_bvh
 from .cli import command
 from .cli_render import progress_bar
-from .metrics import body_height, jitter
+from .metrics import body_height, foot_sliding, jitter
 
 
 def _arguments(p) -> None:
@@ -29,6 +29,7 @@ def _arguments(p) -> None:
 def _cmd_demo(args) -> int:
     from . import data
     from .layers import decompose
+    from .contacts import detect_contacts, keep_contacts
     from .plot import plot_layers
     from .render import render_gif
 
@@ -42,8 +43,9 @@ def _cmd_demo(args) -> int:
     t0 = time.perf_counter()
     layers = decompose(m)
     t_dec = time.perf_counter() - t0
-    den = layers.synthesize(1.0)
-    sty = layers.synthesize(args.alpha)
+    den = keep_contacts(m, layers.synthesize(1.0))
+    sty_raw = layers.synthesize(args.alpha)
+    sty = keep_contacts(m, sty_raw)
     print(f"layers    decomposed in {1e3 * t_dec:.1f} ms (gamma heuristic + GCV per joint)")
     write_bvh(den, out("denoised.bvh"))
     write_bvh(sty, out(f"stylized_alpha{args.alpha:g}.bvh"))
@@ -51,9 +53,15 @@ def _cmd_demo(args) -> int:
     shown = plot_layers(m, layers, out("layers.png"), title=f"{os.path.basename(clip)}: layers")
 
     h = body_height(m)
-    print(f"{'motion':22s} {'jitter (heights/s^3)':>22s}")
-    for name, mm in (("original", m), ("denoised", den), (f"alpha = {args.alpha:g}", sty)):
-        print(f"{name:22s} {jitter(mm, fps=mm.fps) / h:22.3g}")
+    names, contacts = detect_contacts(m)
+    print(f"contacts  {', '.join(names)}: {int(contacts.sum())} contact frames, pinned "
+          f"after synthesis")
+    print(f"{'motion':28s} {'jitter (heights/s^3)':>21s} {'foot sliding (heights/s)':>25s}")
+    rows = (("original", m), ("denoised", den), (f"alpha = {args.alpha:g}, no cleanup", sty_raw),
+            (f"alpha = {args.alpha:g}", sty))
+    for name, mm in rows:
+        print(f"{name:28s} {jitter(mm, fps=mm.fps) / h:21.3g} "
+              f"{foot_sliding(mm, contacts, names) / h:25.3g}")
     print(f"figure    layers.png shows root {'XYZ'[shown['root_axis']]} and {shown['joint']}")
     if not args.no_gif:
         sys.stdout.flush()  # the progress bar goes to stderr

@@ -1,0 +1,267 @@
+"""`mlayer resample` and `mlayer timewarp`: retiming BVH files through the LGS.
+
+    mlayer resample IN.bvh --fps 30 -o OUT.bvh [--report [VAR.png]] [--slerp]
+    mlayer resample IN.bvh --frames 40 -o OUT.bvh
+    mlayer timewarp IN.bvh --strength 1.5 [--frames N] -o OUT.bvh [--plot TIMEMAP.png]
+    mlayer timewarp IN.bvh --map MAP.txt -o OUT.bvh
+
+Bad input gives one line on stderr and exit status 1; every output (BVH, figure) is computed
+first and written atomically, so a failed run leaves no output file.
+"""
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+from ._files import atomic_output
+from .bvh import read_bvh, write_bvh
+from .cli import command
+from .errors import InvalidArgumentError, MlayerIOError
+from .layers import stylize
+from .resample import (resample, slerp_resample, timewarp, timewarp_map, timewarp_speed)
+
+
+def _pyplot():
+    try:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:  # pragma: no cover - matplotlib is optional
+        raise InvalidArgumentError("plotting needs matplotlib (pip install matplotlib)") from None
+    return plt
+
+
+def _int(text: str) -> int:
+    import argparse
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+    return v
+
+
+def _check_dirs(*paths) -> None:
+    """Fail before any work when an output's directory does not exist."""
+    for p in paths:
+        if isinstance(p, str):
+            d = os.path.dirname(os.path.abspath(p))
+            if not os.path.isdir(d):
+                raise MlayerIOError(f"{p}: directory {d} does not exist")
+
+
+def _cli_flags(run):
+    """Run a subcommand with the API's keyword names in messages replaced by the options."""
+    def wrapped(args):
+        try:
+            return run(args)
+        except InvalidArgumentError as e:
+            msg = str(e)
+            if "allow_extreme=True" not in msg:
+                raise
+            raise InvalidArgumentError(msg.replace("allow_extreme=True", "--allow-extreme"),
+                                       e.code) from None
+    wrapped.__name__ = run.__name__
+    return wrapped
+
+
+def _write(motion, out: str, figure=None, figure_path: str | None = None) -> None:
+    """Write the figure (if any) and the BVH so that either both appear or neither does."""
+    if figure is None:
+        write_bvh(motion, out)
+        return
+    plt = _pyplot()
+    try:
+        with atomic_output(figure_path) as tmp:
+            figure.savefig(tmp, dpi=110)
+            write_bvh(motion, out)
+    finally:
+        plt.close(figure)
+
+
+# ---- mlayer resample -------------------------------------------------------------------------
+
+def variance_summary(var: np.ndarray, fps: float) -> str:
+    """The lines `mlayer resample --report` prints about the posterior variance per frame."""
+    i_min, i_max = int(np.argmin(var)), int(np.argmax(var))
+    med = float(np.median(var))
+    # the frames within 5 % of the peak, as intervals, so a periodic pattern is visible
+    near = np.flatnonzero(var >= var[i_max] - 0.05 * (var[i_max] - var[i_min]))
+    runs = np.split(near, np.flatnonzero(np.diff(near) > 1) + 1)
+    spans = [f"{r[0]}" if r[0] == r[-1] else f"{r[0]}-{r[-1]}" for r in runs[:6]]
+    more = f" and {len(runs) - 6} more" if len(runs) > 6 else ""
+    return "\n".join([
+        f"posterior variance per output frame ({var.shape[0]} frames, relative to one "
+        "observation's):",
+        f"  min    {var[i_min]:.4g} at frame {i_min} ({i_min / fps:.3f} s)",
+        f"  median {med:.4g}",
+        f"  max    {var[i_max]:.4g} at frame {i_max} ({i_max / fps:.3f} s); max/min "
+        f"{var[i_max] / var[i_min]:.3g}",
+        f"  within 5 % of the max: frames {', '.join(spans)}{more}",
+    ])
+
+
+def variance_figure(var: np.ndarray, fps: float, obs_t: np.ndarray, title: str):
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(9, 3.6))
+    t = np.arange(var.shape[0]) / fps
+    ax.plot(t, var, color="tab:red", lw=1.3, label="posterior variance")
+    ax.plot(obs_t / fps, np.full(obs_t.shape, var.min()), "|", color="0.4", ms=9,
+            label="input frames (observations)")
+    ax.set_xlabel("output time (s)")
+    ax.set_ylabel("variance (x sigma^2)")
+    ax.set_title(title, fontsize=10)
+    ax.legend(loc="upper right", fontsize=8)
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    return fig
+
+
+def _resample_arguments(p) -> None:
+    p.add_argument("input", metavar="IN.bvh", help="BVH file to resample")
+    g = p.add_mutually_exclusive_group(required=True)
+    g.add_argument("--fps", type=float, help="new frame rate")
+    g.add_argument("--frames", type=_int, metavar="N",
+                   help="new frame count (the first and last frames keep their times)")
+    p.add_argument("-o", "--output", required=True, metavar="OUT.bvh", help="output BVH file")
+    p.add_argument("--slerp", action="store_true",
+                   help="the SLERP + linear interpolation baseline instead of the LGS")
+    p.add_argument("--lam", type=float, default=None,
+                   help="smoothness (default: automatic from the resampling factor)")
+    p.add_argument("--style", type=float, metavar="ALPHA",
+                   help="also scale the style (mlayer stylize ALPHA) before resampling")
+    p.add_argument("--report", nargs="?", const=True, default=None, metavar="PLOT.png",
+                   help="print a summary of the posterior variance per output frame, and plot "
+                        "it to PLOT.png if given")
+    p.add_argument("--allow-extreme", action="store_true",
+                   help="accept resampling factors beyond 100x")
+
+
+@command("resample", "resample a BVH file to a new frame rate or frame count (LGS)")
+@_cli_flags
+def run_resample(args) -> int:
+    if args.report is not None and args.slerp:
+        raise InvalidArgumentError("--report needs the LGS: --slerp has no posterior variance")
+    _check_dirs(args.output, args.report)
+    m = read_bvh(args.input)
+    kw = dict(fps=args.fps, n_frames=args.frames, allow_extreme=args.allow_extreme)
+    if args.slerp:
+        if args.lam is not None:
+            raise InvalidArgumentError("--lam does not apply to --slerp")
+        src = m if args.style is None else stylize(m, args.style)
+        out, var = slerp_resample(src, **kw), None
+    else:
+        out, var = resample(m, lam=args.lam, return_var=True, style=args.style, **kw)
+    method = ("SLERP" if args.slerp else "LGS") + \
+        (f", style x{args.style:g}" if args.style is not None else "")
+    fig = None
+    if args.report is not None:
+        print(variance_summary(var, out.fps))
+        if isinstance(args.report, str):
+            N, n = m.n_frames, out.n_frames
+            obs = np.arange(N) * (n - 1) / (N - 1)
+            fig = variance_figure(var, out.fps, obs,
+                                  f"{os.path.basename(args.input)}: {N} frames at "
+                                  f"{m.fps:.6g} fps -> {n} at {out.fps:.6g} fps (LGS)")
+    _write(out, args.output, fig, args.report if isinstance(args.report, str) else None)
+    print(f"{args.output}: {out.n_frames} frames at {out.fps:.6g} fps ({method}; from "
+          f"{m.n_frames} frames at {m.fps:.6g} fps)")
+    return 0
+
+
+run_resample.arguments = _resample_arguments
+
+
+# ---- mlayer timewarp -------------------------------------------------------------------------
+
+def timemap_figure(m, warped, t, speed, title: str):
+    """Like paper 1, Figure 9: the time map (output time against input time) with the motion
+    speed under it, and the root height of the original and of the warped motion."""
+    plt = _pyplot()
+    fig, ax = plt.subplots(3, 1, figsize=(9, 8), gridspec_kw={"height_ratios": [3, 1.3, 2]})
+    tin = np.arange(m.n_frames) * m.frame_time
+    tout = t * warped.frame_time
+    ax[0].plot(tin, tin * (tout[-1] / tin[-1]), "--", color="0.6", lw=1, label="uniform")
+    ax[0].plot(tin, tout, color="tab:red", lw=1.6, label="time map")
+    ax[0].set_ylabel("output time (s)")
+    ax[0].set_title(title, fontsize=10)
+    ax[0].legend(loc="upper left", fontsize=8)
+    ax[1].plot(tin, speed, color="tab:blue", lw=1)
+    ax[1].set_ylabel("motion speed\n(rad / frame)")
+    ax[1].set_xlabel("input time (s)")
+    ax[1].sharex(ax[0])
+    for a in ax[:2]:
+        a.grid(alpha=0.3)
+    ax[2].plot(tin, m.root_pos[:, 1], color="tab:blue", lw=1.3, label="original")
+    ax[2].plot(np.arange(warped.n_frames) * warped.frame_time, warped.root_pos[:, 1],
+               color="tab:red", lw=1.3, label="time-warped")
+    ax[2].set_xlabel("time (s)")
+    ax[2].set_ylabel("root Y")
+    ax[2].legend(loc="upper right", fontsize=8)
+    ax[2].grid(alpha=0.3)
+    fig.tight_layout()
+    return fig
+
+
+def _load_map(path: str) -> np.ndarray:
+    try:
+        t = np.loadtxt(path, dtype=np.float64, ndmin=1)
+    except ValueError as e:
+        raise InvalidArgumentError(f"{path}: not a list of numbers ({e})") from None
+    if t.ndim != 1:
+        raise InvalidArgumentError(f"{path}: expected one number per line, got shape {t.shape}")
+    return t
+
+
+def _timewarp_arguments(p) -> None:
+    p.add_argument("input", metavar="IN.bvh", help="BVH file to time-warp")
+    p.add_argument("-o", "--output", required=True, metavar="OUT.bvh", help="output BVH file")
+    p.add_argument("--strength", type=float, default=1.0,
+                   help="0 uniform, 1 dwell time follows the motion magnitude, more exaggerates "
+                        "(default 1; at most 10)")
+    p.add_argument("--frames", type=_int, metavar="N",
+                   help="target length in frames (default: the input's)")
+    p.add_argument("--map", metavar="MAP.txt",
+                   help="an explicit time map instead: one output frame position per input "
+                        "frame, strictly increasing from 0 to N-1")
+    p.add_argument("--smooth", type=float, default=0.25, metavar="SECONDS",
+                   help="easing length of the automatic map (default 0.25 s)")
+    p.add_argument("--style", type=float, metavar="ALPHA",
+                   help="also scale the style (mlayer stylize ALPHA) in the same run")
+    p.add_argument("--plot", metavar="TIMEMAP.png",
+                   help="plot the time map with the motion speed under it (paper Figure 9)")
+    p.add_argument("--allow-extreme", action="store_true",
+                   help="accept local rate changes beyond 100x")
+
+
+@command("timewarp", "slow down large motion and speed up calm motion (automatic time warp)")
+@_cli_flags
+def run_timewarp(args) -> int:
+    _check_dirs(args.output, args.plot)
+    m = read_bvh(args.input)
+    if args.map is not None:
+        t_user = _load_map(args.map)
+        out, t = timewarp(m, time_map=t_user, n_frames=args.frames, return_map=True,
+                          allow_extreme=args.allow_extreme, style=args.style)
+        how = f"time map from {args.map}"
+    else:
+        t = timewarp_map(m, strength=args.strength, n_frames=args.frames,
+                         smooth_seconds=args.smooth, allow_extreme=args.allow_extreme)
+        out = timewarp(m, time_map=t, allow_extreme=args.allow_extreme, style=args.style)
+        how = f"strength {args.strength:g}"
+    if args.style is not None:
+        how += f", style x{args.style:g}"
+    fig = None
+    if args.plot:
+        fig = timemap_figure(m, out, t, timewarp_speed(m),
+                             f"{os.path.basename(args.input)}: time warp, {how}; "
+                             f"{m.n_frames} -> {out.n_frames} frames at {out.fps:.6g} fps")
+    _write(out, args.output, fig, args.plot)
+    rate = np.diff(t)
+    print(f"{args.output}: {out.n_frames} frames at {out.fps:.6g} fps ({how}); local rate "
+          f"{rate.min():.3g} to {rate.max():.3g} output frames per input frame, slowest at "
+          f"input frame {int(np.argmax(rate)) + 1} ({(np.argmax(rate) + 1) * m.frame_time:.2f} s)")
+    return 0
+
+
+run_timewarp.arguments = _timewarp_arguments

@@ -1,0 +1,393 @@
+"""Resampling and time warping through the LGS (paper 1, section 5.3), and the SLERP baseline.
+
+Every function takes a :class:`~mlayer.Motion` and returns a new one on the same skeleton, so
+retiming composes with everything else that takes a motion (e.g. retime, then stylize).
+
+- :func:`resample`: a new frame rate (``fps``) or frame count (``n_frames``). Input frame i is
+  placed at its fractional position on the output grid; the root translation, the per-joint
+  translations and the joint quaternions are solved by one order-2 LGS (quaternions made
+  sign-continuous by second-order prediction first, renormalized after). Downsampling
+  low-passes by construction (no aliasing); upsampling sparse keys follows a spin in its true
+  direction where SLERP takes the short way round. ``return_var=True`` also gives the posterior
+  variance per output frame (relative to one observation's for ``sigma=1``): it grows where
+  observations are sparse.
+- :func:`timewarp`: the same solve with a non-uniform time map: automatic (paper Figure 9:
+  intervals of large motion slow down, with easing in and out) or given by the user.
+  :func:`timewarp_map` and :func:`timewarp_speed` expose the automatic map and the per-frame
+  motion magnitude it is built from.
+- :func:`slerp_resample`: the classic baseline (SLERP of rotations between the two nearest
+  input frames, linear interpolation of translations).
+
+The first and the last frame always stay put. Factors beyond 100x (either way, or any local
+step of a time map) are refused unless ``allow_extreme=True``: they are usually a unit mistake.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from . import _arrays
+from ._native import ffi, lib
+from .errors import InvalidArgumentError, check
+from .motion import Motion
+
+__all__ = ["resample", "slerp_resample", "timewarp", "timewarp_map", "timewarp_speed",
+           "body_size", "MAX_FACTOR"]
+
+#: The largest resampling factor (either way) accepted without ``allow_extreme=True``.
+MAX_FACTOR = 100.0
+_SLACK = 1e-9  # as the C core: a factor of exactly 100 passes despite rounding
+
+
+def _check(code: int, where: str, diag) -> None:
+    """check() with the C flag names in the message replaced by the Python keyword."""
+    if code < 0 and diag is not None and diag.message[0] != b"\0":
+        msg = ffi.string(diag.message).replace(b"MLR_RESAMPLE_ALLOW_EXTREME",
+                                               b"allow_extreme=True")
+        diag.message = msg
+    check(code, where, diag)
+
+
+def _motion(motion, where: str) -> Motion:
+    if not isinstance(motion, Motion):
+        raise TypeError(f"{where}: expected a mlayer.Motion, got {type(motion).__name__}")
+    if motion.n_frames < 2:
+        raise InvalidArgumentError(
+            f"{where}: needs a motion of at least 2 frames, got {motion.n_frames}")
+    return motion
+
+
+def _flags(allow_extreme: bool, nearest_sign: bool = False) -> int:
+    return (lib.MLR_RESAMPLE_ALLOW_EXTREME if allow_extreme else 0) | \
+        (lib.MLR_RESAMPLE_NEAREST_SIGN if nearest_sign else 0)
+
+
+def _factor_check(factor: float, what: str, where: str, allow_extreme: bool) -> None:
+    if allow_extreme:
+        return
+    f = factor if factor >= 1.0 else 1.0 / factor
+    if f > MAX_FACTOR * (1.0 + _SLACK):
+        raise InvalidArgumentError(
+            f"{where}: {what} is a factor of {f:.6g}, beyond {MAX_FACTOR:g}x (usually a unit "
+            "mistake, e.g. a frame time given as a frame rate); pass allow_extreme=True if you "
+            "mean it")
+
+
+def _frame_count(n, name: str, where: str) -> int:
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)):
+        raise InvalidArgumentError(f"{where}: {name} must be an integer, got {n!r}")
+    if n < 2:
+        raise InvalidArgumentError(f"{where}: {name} must be at least 2, got {n}")
+    return int(n)
+
+
+def _target(motion: Motion, fps, n_frames, allow_extreme: bool, where: str):
+    """(n_out, frame_time) for exactly one of fps / n_frames; the uniform map keeps the first
+    and last frames, so n_frames keeps the duration of frames 0..N-1 (the frame time
+    changes) and fps keeps the rate given (the duration moves by under half a frame)."""
+    if (fps is None) == (n_frames is None):
+        raise InvalidArgumentError(f"{where}: give exactly one of fps or n_frames")
+    N = motion.n_frames
+    if fps is not None:
+        try:
+            fps = float(fps)
+        except (TypeError, ValueError):
+            raise InvalidArgumentError(f"{where}: fps must be a number, got {fps!r}") from None
+        if not (math.isfinite(fps) and fps > 0):
+            raise InvalidArgumentError(f"{where}: fps must be finite and > 0, got {fps:g}")
+        _factor_check(fps / motion.fps, f"{motion.fps:.6g} -> {fps:.6g} fps", where,
+                      allow_extreme)
+        n = ffi.new("size_t *")
+        diag = ffi.new("mlr_diag *")
+        _check(lib.mlr_resample_n_out(N, motion.fps, fps, _flags(allow_extreme), n, diag),
+               where, diag)
+        return int(n[0]), 1.0 / fps
+    n_out = _frame_count(n_frames, "n_frames", where)
+    _factor_check((n_out - 1) / (N - 1), f"{N} -> {n_out} frames", where, allow_extreme)
+    return n_out, motion.frame_time * (N - 1) / (n_out - 1)
+
+
+def _lam_sigma(lam, sigma, where: str):
+    if lam is None:
+        lam = -1.0  # MLR_RESAMPLE_AUTO
+    else:
+        lam = float(lam)
+        if not (math.isfinite(lam) and lam >= 0):
+            raise InvalidArgumentError(
+                f"{where}: lam must be finite and >= 0 (None for the automatic smoothness), "
+                f"got {lam:g}")
+    sigma = 1.0 if sigma is None else float(sigma)
+    if not (math.isfinite(sigma) and sigma > 0):
+        raise InvalidArgumentError(f"{where}: sigma must be finite and > 0, got {sigma:g}")
+    return lam, sigma
+
+
+def _time_map(time_map, N: int, n_frames, allow_extreme: bool, where: str):
+    """The user's map as float64 and the output count (n_frames, or t[-1] + 1)."""
+    t = _arrays.as_f64(time_map, "time_map", ndim=1)
+    if t.shape[0] != N:
+        raise InvalidArgumentError(
+            f"{where}: time_map must hold one output position per input frame ({N}), "
+            f"got {t.shape[0]}")
+    _arrays.require_finite(t, f"{where}: time_map")
+    if n_frames is None:
+        last = float(t[-1])
+        if not (last >= 1 and last == round(last)):
+            raise InvalidArgumentError(
+                f"{where}: time_map[-1] must be the last output frame (an integer >= 1), got "
+                f"{last:g}; or give n_frames")
+        n_out = int(last) + 1
+    else:
+        n_out = _frame_count(n_frames, "n_frames", where)
+    _factor_check((n_out - 1) / (N - 1), f"{N} -> {n_out} frames", where, allow_extreme)
+    diag = ffi.new("mlr_diag *")
+    _check(lib.mlr_timemap_validate(_arrays.ptr(t), N, n_out, _flags(allow_extreme), diag),
+           where, diag)
+    return t, n_out
+
+
+def _stylized(motion: Motion, style, where: str) -> Motion:
+    """motion with its style scaled first (mlayer.stylize), when style is given: an alpha, or a
+    dict of stylize's arguments ({"alpha": 2, "joints": {"Left*": 3}, ...})."""
+    if style is None:
+        return motion
+    from .layers import stylize
+    if isinstance(style, dict):
+        kw = dict(style)
+        if "alpha" not in kw:
+            raise InvalidArgumentError(f"{where}: a style dict needs an 'alpha' entry")
+        return stylize(motion, kw.pop("alpha"), **kw)
+    try:
+        alpha = float(style)
+    except (TypeError, ValueError):
+        raise InvalidArgumentError(
+            f"{where}: style must be an alpha or a dict of stylize arguments, got {style!r}") \
+            from None
+    return stylize(motion, alpha)
+
+
+def _solve(motion: Motion, t, n_out: int, frame_time: float, lam: float, sigma: float,
+           flags: int, want_var: bool, where: str):
+    root, rot, trans = motion._frames()
+    # (the C core checks every value: non-finite data is reported with its frame and joint)
+    N, J, P = motion.n_frames, motion.n_joints, trans.shape[1]
+    root_out, rot_out = np.empty((n_out, 3)), np.empty((n_out, J, 4))
+    trans_out = np.empty((n_out, P, 3))
+    var = np.empty(n_out) if want_var else None
+    diag = ffi.new("mlr_diag *")
+    code = lib.mlr_resample_arrays(
+        N, J, P, _arrays.ptr(root), _arrays.ptr(rot), _arrays.ptr(trans),
+        ffi.NULL if t is None else _arrays.ptr(t), n_out, lam, sigma, flags,
+        _arrays.ptr_out(root_out), _arrays.ptr_out(rot_out), _arrays.ptr_out(trans_out),
+        _arrays.ptr_out(var) if want_var else ffi.NULL, ffi.NULL, diag)
+    _check(code, where, diag)
+    out = Motion(motion.skeleton, frame_time, root_out, rot_out, trans_out, _trusted=True)
+    return (out, var) if want_var else out
+
+
+def resample(motion: Motion, *, fps: float | None = None, n_frames: int | None = None,
+             lam: float | None = None, sigma: float | None = None, return_var: bool = False,
+             allow_extreme: bool = False, nearest_sign: bool = False, style=None):
+    """Resample ``motion`` to a new frame rate or frame count through the LGS.
+
+    Parameters
+    ----------
+    fps : float
+        The new frame rate; the output has ``round((N-1) fps / motion.fps) + 1`` frames and
+        frame time ``1 / fps``.
+    n_frames : int
+        The new frame count (>= 2); the frame time is scaled so that the first and last frames
+        keep their times. Give exactly one of ``fps`` and ``n_frames``.
+    lam, sigma : float, optional
+        Smoothness and observation noise. ``lam=None`` (default) picks the smoothness from the
+        factor (C ``MLR_RESAMPLE_AUTO``: low-pass at 0.38 of the new Nyquist when downsampling,
+        near-interpolation of the keys when upsampling). ``sigma`` (default 1) scales the
+        variance only.
+    return_var : bool
+        Also return the posterior variance per output frame, shape ``(n_out,)``, in units of
+        ``sigma**2`` (the same for every channel).
+    allow_extreme : bool
+        Accept factors beyond 100x.
+    nearest_sign : bool
+        Make quaternions continuous by the nearest sign only (no prediction), for comparison.
+    style : float or dict, optional
+        Retime and stylize in one call: the style is scaled first, at the input's frame rate
+        (``mlayer.stylize(motion, style)``, or ``mlayer.stylize(motion, **style)`` for a dict
+        with ``alpha`` and stylize's other arguments), then the result is resampled. The
+        other order is ``mlayer.stylize(mlayer.resample(motion, ...), alpha)``.
+
+    Returns the new :class:`Motion` (same skeleton), or ``(motion, var)`` with ``return_var``.
+    Raises InvalidArgumentError for fewer than 2 frames, fps <= 0, both or neither of fps /
+    n_frames, factors over 100x without ``allow_extreme``, non-finite data.
+    """
+    where = "mlayer.resample"
+    motion = _motion(motion, where)
+    n_out, frame_time = _target(motion, fps, n_frames, allow_extreme, where)
+    lam, sigma = _lam_sigma(lam, sigma, where)
+    motion = _stylized(motion, style, where)
+    return _solve(motion, None, n_out, frame_time, lam, sigma,
+                  _flags(allow_extreme, nearest_sign), return_var, where)
+
+
+def slerp_resample(motion: Motion, *, fps: float | None = None, n_frames: int | None = None,
+                   time_map=None, allow_extreme: bool = False) -> Motion:
+    """The baseline: every output frame is the SLERP (shorter arc) of the two input frames
+    around it, translations are linearly interpolated; no smoothing, no anti-aliasing.
+
+    Same ``fps`` / ``n_frames`` / ``allow_extreme`` rules as :func:`resample`; ``time_map``
+    (optional, as in :func:`timewarp`) retimes the same way as the LGS does with that map.
+    """
+    where = "mlayer.slerp_resample"
+    motion = _motion(motion, where)
+    if time_map is not None:
+        if fps is not None:
+            raise InvalidArgumentError(f"{where}: give fps or time_map, not both")
+        t, n_out = _time_map(time_map, motion.n_frames, n_frames, allow_extreme, where)
+        frame_time = motion.frame_time
+    else:
+        t = None
+        n_out, frame_time = _target(motion, fps, n_frames, allow_extreme, where)
+    root, rot, trans = motion._frames()
+    # (the C core checks every value: non-finite data is reported with its frame and joint)
+    N, J, P = motion.n_frames, motion.n_joints, trans.shape[1]
+    root_out, rot_out = np.empty((n_out, 3)), np.empty((n_out, J, 4))
+    trans_out = np.empty((n_out, P, 3))
+    diag = ffi.new("mlr_diag *")
+    code = lib.mlr_slerp_resample_arrays(
+        N, J, P, _arrays.ptr(root), _arrays.ptr(rot), _arrays.ptr(trans),
+        ffi.NULL if t is None else _arrays.ptr(t), n_out, _flags(allow_extreme),
+        _arrays.ptr_out(root_out), _arrays.ptr_out(rot_out), _arrays.ptr_out(trans_out), diag)
+    _check(code, where, diag)
+    return Motion(motion.skeleton, frame_time, root_out, rot_out, trans_out, _trusted=True)
+
+
+def body_size(motion: Motion) -> float:
+    """The size of the body in the motion's length units: the median over (up to 256 evenly
+    spaced) frames of the largest side of the box around the joints. For a standing person this
+    is the height; it needs no knowledge of the units or of the up axis. 1.0 when the joints
+    have no extent (e.g. a single joint)."""
+    N = motion.n_frames
+    if N == 0:
+        raise InvalidArgumentError("body_size: the motion has no frames")
+    idx = np.unique(np.linspace(0, N - 1, min(N, 256)).round().astype(np.int64))
+    sub = Motion(motion.skeleton, motion.frame_time, motion.root_pos[idx], motion.rot[idx],
+                 motion.trans[idx], _trusted=True)
+    p = sub.positions()
+    ext = (p.max(axis=1) - p.min(axis=1)).max(axis=1)
+    s = float(np.median(ext))
+    return s if s > 0 and math.isfinite(s) else 1.0
+
+
+def _speed_args(motion: Motion, root_weight: float, joint_weights, where: str):
+    rw = float(root_weight)
+    if not (math.isfinite(rw) and rw >= 0):
+        raise InvalidArgumentError(f"{where}: root_weight must be finite and >= 0, got {rw:g}")
+    root_w = rw / body_size(motion) if rw > 0 else 0.0
+    if joint_weights is None:
+        return root_w, None
+    w = _arrays.as_f64(joint_weights, "joint_weights", ndim=1)
+    if w.shape[0] != motion.n_joints:
+        raise InvalidArgumentError(
+            f"{where}: joint_weights must hold {motion.n_joints} values, got {w.shape[0]}")
+    return root_w, w
+
+
+def timewarp_speed(motion: Motion, *, root_weight: float = 1.0, joint_weights=None) -> np.ndarray:
+    """Per-frame motion magnitude that drives the automatic time warp, shape ``(N,)``:
+    the (weighted) mean rotation angle of the joints' local rotation change per frame
+    (radians, central differences) plus ``root_weight`` times the root's displacement per
+    frame measured in body sizes (:func:`body_size`), so no length unit is involved.
+    ``joint_weights``: J weights >= 0 (default equal)."""
+    where = "mlayer.timewarp_speed"
+    motion = _motion(motion, where)
+    root_w, w = _speed_args(motion, root_weight, joint_weights, where)
+    root, rot, _ = motion._frames()
+    speed = np.empty(motion.n_frames)
+    diag = ffi.new("mlr_diag *")
+    _check(lib.mlr_timewarp_speed(motion.n_frames, motion.n_joints, _arrays.ptr(root),
+                                  _arrays.ptr(rot), ffi.NULL if w is None else _arrays.ptr(w),
+                                  root_w, _arrays.ptr_out(speed), diag), where, diag)
+    return speed
+
+
+def timewarp_map(motion: Motion, *, strength: float = 1.0, n_frames: int | None = None,
+                 smooth_seconds: float = 0.25, root_weight: float = 1.0, joint_weights=None,
+                 allow_extreme: bool = False) -> np.ndarray:
+    """The automatic time map of :func:`timewarp`: ``t`` of shape ``(N,)``, the output frame
+    (fractional) at which each input frame lands; ``t[0] == 0``, ``t[-1] == n_frames - 1``,
+    strictly increasing.
+
+    The output frames spent per input frame are proportional to ``exp(strength * s)`` with s
+    the log of the motion magnitude (:func:`timewarp_speed`, relative to its clip mean) smoothed
+    over about ``smooth_seconds`` (the easing in and out). ``strength`` in [0, 10]: 0 is the
+    uniform map, 1 makes the dwell time follow the motion magnitude, more exaggerates.
+    ``n_frames`` (default: the input's count) is the target length.
+    """
+    where = "mlayer.timewarp_map"
+    motion = _motion(motion, where)
+    N = motion.n_frames
+    n_out = N if n_frames is None else _frame_count(n_frames, "n_frames", where)
+    _factor_check((n_out - 1) / (N - 1), f"{N} -> {n_out} frames", where, allow_extreme)
+    strength = float(strength)
+    if not (math.isfinite(strength) and 0 <= strength <= 10):
+        raise InvalidArgumentError(f"{where}: strength must be in [0, 10], got {strength:g}")
+    smooth_seconds = float(smooth_seconds)
+    if not (math.isfinite(smooth_seconds) and smooth_seconds >= 0):
+        raise InvalidArgumentError(
+            f"{where}: smooth_seconds must be finite and >= 0, got {smooth_seconds:g}")
+    root_w, w = _speed_args(motion, root_weight, joint_weights, where)
+    root, rot, _ = motion._frames()
+    t = np.empty(N)
+    diag = ffi.new("mlr_diag *")
+    _check(lib.mlr_timewarp_map(N, motion.n_joints, _arrays.ptr(root), _arrays.ptr(rot),
+                                ffi.NULL if w is None else _arrays.ptr(w), root_w, strength,
+                                max(1.0, smooth_seconds * motion.fps), n_out,
+                                _flags(allow_extreme), _arrays.ptr_out(t), ffi.NULL, diag),
+           where, diag)
+    return t
+
+
+def timewarp(motion: Motion, *, strength: float = 1.0, n_frames: int | None = None,
+             time_map=None, lam: float | None = None, sigma: float | None = None,
+             return_var: bool = False, return_map: bool = False, smooth_seconds: float = 0.25,
+             root_weight: float = 1.0, joint_weights=None, allow_extreme: bool = False,
+             style=None):
+    """Retime ``motion`` along a monotone time map, solved by the LGS; the frame rate stays.
+
+    Automatic (default): :func:`timewarp_map` with ``strength`` (0 uniform, 1 natural, more
+    exaggerated), ``smooth_seconds`` (easing), ``root_weight`` (how much the root's travel
+    counts, per body size and frame, against the joints' radians per frame) and
+    ``joint_weights``. Intervals of large motion slow down, calm ones speed up; with
+    ``n_frames`` larger than the input the whole clip is slowed down and the extra time goes
+    mostly to the large motion.
+
+    Explicit: ``time_map`` of shape ``(N,)``, the output frame of each input frame, strictly
+    increasing from 0 to ``n_frames - 1`` (default ``n_frames = time_map[-1] + 1``). ``strength``
+    and the automatic options are not used then.
+
+    ``lam``/``sigma``/``allow_extreme`` as in :func:`resample` (the automatic smoothness takes
+    the mean factor ``(n_frames-1)/(N-1)``). Returns the new motion, followed by the variance
+    per output frame with ``return_var`` and the time map with ``return_map``
+    (``(motion, var, t)`` with both). ``style`` stylizes in the same call, as in
+    :func:`resample` (the time map is taken from the original motion).
+
+    The first and the last frame stay put; boundaries between slow and fast intervals are
+    eased, so there are no jumps.
+    """
+    where = "mlayer.timewarp"
+    motion = _motion(motion, where)
+    if time_map is not None:
+        t, n_out = _time_map(time_map, motion.n_frames, n_frames, allow_extreme, where)
+    else:
+        t = timewarp_map(motion, strength=strength, n_frames=n_frames,
+                         smooth_seconds=smooth_seconds, root_weight=root_weight,
+                         joint_weights=joint_weights, allow_extreme=allow_extreme)
+        n_out = int(round(t[-1])) + 1
+    lam, sigma = _lam_sigma(lam, sigma, where)
+    motion = _stylized(motion, style, where)
+    res = _solve(motion, t, n_out, motion.frame_time, lam, sigma, _flags(allow_extreme),
+                 return_var, where)
+    if not return_map:
+        return res
+    return (*res, t) if return_var else (res, t)
