@@ -31,6 +31,7 @@ from .lgs import lgs
 from .metrics import body_height
 
 __all__ = ["find_feet", "detect_contacts", "fix_contacts", "keep_contacts", "contact_intervals",
+           "keep_contacts_retimed",
            "contact_positions", "END_SUFFIX",
            "FOOT_PATTERN", "TOE_PATTERN", "HAND_PATTERN"]
 
@@ -499,7 +500,8 @@ def fix_contacts(motion, contacts, names, reference=None):
 
 def _root_shift(pos, legs, fps) -> np.ndarray:
     """A smooth root translation (N, 3) that keeps every ankle target within _REACH of its
-    leg's length on the frames where the foot is in contact (zero where no leg needs it)."""
+    leg's length (or the leg's current extension, up to 99.9%, where it is straighter already)
+    on the frames where the foot is in contact (zero where no leg needs it)."""
     N = pos.shape[0]
     shift = np.zeros((N, 3))
     lam = (_ROOT_SMOOTH * fps) ** 2
@@ -507,8 +509,11 @@ def _root_shift(pos, legs, fps) -> np.ndarray:
     for _ in range(_ROOT_ITERATIONS):
         need = np.zeros((N, 3))
         for ankle, (h, k, e), U, at, _toe in legs:
-            reach = _REACH * (np.linalg.norm(pos[:, k] - pos[:, h], axis=1)
-                              + np.linalg.norm(pos[:, e] - pos[:, k], axis=1))
+            length = (np.linalg.norm(pos[:, k] - pos[:, h], axis=1)
+                      + np.linalg.norm(pos[:, e] - pos[:, k], axis=1))
+            # a leg already straighter than _REACH may stay so (up to 99.9%)
+            now = np.linalg.norm(pos[:, e] - pos[:, h], axis=1)
+            reach = np.maximum(_REACH * length, np.minimum(now, 0.999 * length))
             v = at - (pos[:, h] + shift)
             dist = np.linalg.norm(v, axis=1)
             excess = np.where(U, np.maximum(dist - reach, 0.0), 0.0)
@@ -524,6 +529,26 @@ def _root_shift(pos, legs, fps) -> np.ndarray:
         src = np.arange(N) - half + np.argmax(win, axis=1)
         shift += lgs(need[src], lam=lam)
     return shift
+
+
+def keep_contacts_retimed(original, retimed, reference, source_frames, joints=None):
+    """``retimed`` (resampled or time-warped from ``original``) with the feet pinned during the
+    contacts detected on ``original``, carried to the output frames: output frame k takes the
+    contacts of input frame ``round(source_frames[k])`` (its fractional input frame).
+    ``reference`` is the original at the output frames without smoothing (a SLERP resampling
+    on the same time map), whose contact trajectories the feet follow. Skeletons without
+    recognisable feet (and no ``joints``) and clips of fewer than 3 frames come back
+    unchanged, as in :func:`keep_contacts`."""
+    if original.n_frames < 3 or retimed.n_frames < 2:
+        return retimed
+    if joints is None:
+        try:
+            find_feet(original)
+        except InvalidArgumentError:
+            return retimed
+    names, c = detect_contacts(original, joints)
+    k = np.clip(np.rint(np.asarray(source_frames, dtype=np.float64)), 0, original.n_frames - 1)
+    return fix_contacts(retimed, c[k.astype(np.int64)], names, reference=reference)
 
 
 def keep_contacts(original, synthesized, joints=None):

@@ -192,3 +192,27 @@ def test_bad_input(mocap):
         mlayer.fix_contacts(m, c, names, reference=m[:-1])
     with pytest.raises(mlayer.InvalidArgumentError, match="bool array"):
         foot_sliding(m, c[:, :1], names)
+
+
+@pytest.mark.parametrize("name", WALKS)
+@pytest.mark.parametrize("kind", ["resample", "timewarp"])
+def test_retiming_keeps_contacts(mocap, name, kind):
+    # resample / timewarp pin the feet by default: contacts of the original carried to the new
+    # frames, the feet following the original's SLERP retiming (unsmoothed)
+    m = _read(mocap, name, 900)
+    names, c = mlayer.detect_contacts(m)
+    if kind == "resample":
+        raw = mlayer.resample(m, fps=0.5 * m.fps, keep_contacts=False)
+        fixed = mlayer.resample(m, fps=0.5 * m.fps)
+        ref = mlayer.slerp_resample(m, n_frames=len(raw))
+        src = np.arange(len(raw)) * (len(m) - 1) / (len(raw) - 1)
+    else:
+        raw, t = mlayer.timewarp(m, keep_contacts=False, return_map=True)
+        fixed = mlayer.timewarp(m)
+        ref = mlayer.slerp_resample(m, time_map=t)
+        src = np.interp(np.arange(len(raw)), t, np.arange(len(m)))
+    assert len(fixed) == len(raw) and fixed.fps == raw.fps
+    c2 = c[np.rint(src).astype(int)]
+    assert foot_sliding(fixed, c2, names) <= 1.5 * foot_sliding(ref, c2, names)
+    assert jitter(fixed) <= 1.1 * jitter(raw)
+    assert _jumps(fixed, names) <= 1.5 * _jumps(raw, names)
