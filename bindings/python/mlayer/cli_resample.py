@@ -6,8 +6,8 @@
     mlayer timewarp IN.bvh --map MAP.txt -o OUT.bvh
 
 Both keep foot contacts by default (the feet follow the input's, mlayer.contacts);
---no-contacts skips that. Bad input gives one line on stderr and exit status 1; every output (BVH, figure) is computed
-first and written atomically, so a failed run leaves no output file.
+--no-contacts skips that. Bad input gives one line on stderr and exit status 1; every output
+(BVH, figure) is computed first and written atomically, so a failed run leaves no output file.
 """
 from __future__ import annotations
 
