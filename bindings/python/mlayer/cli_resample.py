@@ -5,8 +5,9 @@
     mlayer timewarp IN.bvh --strength 1.5 [--frames N] -o OUT.bvh [--plot TIMEMAP.png]
     mlayer timewarp IN.bvh --map MAP.txt -o OUT.bvh
 
-Bad input gives one line on stderr and exit status 1; every output (BVH, figure) is computed
-first and written atomically, so a failed run leaves no output file.
+Both keep foot contacts by default (the feet follow the input's, mlayer.contacts);
+--no-contacts skips that. Bad input gives one line on stderr and exit status 1; every output
+(BVH, figure) is computed first and written atomically, so a failed run leaves no output file.
 """
 from __future__ import annotations
 
@@ -17,6 +18,7 @@ import numpy as np
 from ._files import atomic_output
 from .bvh import read_bvh, write_bvh
 from .cli import command
+from .cli_layers import _contact_option
 from .errors import InvalidArgumentError, MlayerIOError
 from .layers import stylize
 from .resample import (resample, slerp_resample, timewarp, timewarp_map, timewarp_speed)
@@ -135,6 +137,15 @@ def _resample_arguments(p) -> None:
                         "it to PLOT.png if given")
     p.add_argument("--allow-extreme", action="store_true",
                    help="accept resampling factors beyond 100x")
+    _contact_option(p)
+
+
+def _style(args):
+    """The style argument of resample/timewarp: --style, without its own contact cleanup
+    under --no-contacts."""
+    if args.style is None or not args.no_contacts:
+        return args.style
+    return {"alpha": args.style, "keep_contacts": False}
 
 
 @command("resample", "resample a BVH file to a new frame rate or frame count (LGS)")
@@ -148,10 +159,12 @@ def run_resample(args) -> int:
     if args.slerp:
         if args.lam is not None:
             raise InvalidArgumentError("--lam does not apply to --slerp")
-        src = m if args.style is None else stylize(m, args.style)
+        src = m if args.style is None else stylize(m, args.style,
+                                                    keep_contacts=not args.no_contacts)
         out, var = slerp_resample(src, **kw), None
     else:
-        out, var = resample(m, lam=args.lam, return_var=True, style=args.style, **kw)
+        out, var = resample(m, lam=args.lam, return_var=True, style=_style(args),
+                            keep_contacts=not args.no_contacts, **kw)
     method = ("SLERP" if args.slerp else "LGS") + \
         (f", style x{args.style:g}" if args.style is not None else "")
     fig = None
@@ -232,6 +245,7 @@ def _timewarp_arguments(p) -> None:
                    help="plot the time map with the motion speed under it (paper Figure 9)")
     p.add_argument("--allow-extreme", action="store_true",
                    help="accept local rate changes beyond 100x")
+    _contact_option(p)
 
 
 @command("timewarp", "slow down large motion and speed up calm motion (automatic time warp)")
@@ -242,12 +256,14 @@ def run_timewarp(args) -> int:
     if args.map is not None:
         t_user = _load_map(args.map)
         out, t = timewarp(m, time_map=t_user, n_frames=args.frames, return_map=True,
-                          allow_extreme=args.allow_extreme, style=args.style)
+                          allow_extreme=args.allow_extreme, style=_style(args),
+                          keep_contacts=not args.no_contacts)
         how = f"time map from {args.map}"
     else:
         t = timewarp_map(m, strength=args.strength, n_frames=args.frames,
                          smooth_seconds=args.smooth, allow_extreme=args.allow_extreme)
-        out = timewarp(m, time_map=t, allow_extreme=args.allow_extreme, style=args.style)
+        out = timewarp(m, time_map=t, allow_extreme=args.allow_extreme, style=_style(args),
+                       keep_contacts=not args.no_contacts)
         how = f"strength {args.strength:g}"
     if args.style is not None:
         how += f", style x{args.style:g}"

@@ -7,13 +7,17 @@ seconds, so the defaults work in any length unit and at any frame rate. Height i
 the joint's own local floor level (its lowest height within +-0.75 s), so an ankle that sits
 above the sole, a dog's raised hock, slopes and a lying phase need no calibration.
 
-Cleanup (:func:`fix_contacts`) implements eq. 18, ``M* = M' (+) delta_e``: each contact interval
-gets one target (the synthesized joint's mean horizontal position over the interval, on the
-reference motion's height there), the per-frame displacement toward it is spread smoothly over
-the neighbouring frames by the LGS (a displacement map: it interpolates the contact frames and
-returns to zero away from contacts), and analytic two-bone IK on each leg (:mod:`mlayer.ik`)
-reaches the displaced positions; a toe is placed by turning its ankle. Where a leg cannot reach,
-the root moves by a smoothed correction. Y is up.
+Cleanup (:func:`fix_contacts`) implements eq. 18, ``M* = M' (+) delta_e``. Targets: on the
+frames where a foot touches, it follows the original's own contact trajectory (smoothed over
+0.02 s to drop capture noise), shifted horizontally by one offset per contact toward where the
+synthesized foot is, at the original's heights; so the foot keeps the original's heel roll and
+settling and slides no more than the original did. The root moves by a smoothed correction
+only where a leg would have to stretch beyond 98% of its length; analytic two-bone IK on each
+leg (:mod:`mlayer.ik`) reaches the targets on the contact frames (a toe is placed by turning
+its ankle), and the resulting changes of the hip, knee and ankle rotations are spread over
+the neighbouring frames by the LGS as a displacement map on rotation vectors (interpolating
+the contact frames, back to zero 0.3 s away), so the rotations stay smooth and nothing pops
+at contact boundaries. Y is up.
 """
 from __future__ import annotations
 
@@ -27,6 +31,7 @@ from .lgs import lgs
 from .metrics import body_height
 
 __all__ = ["find_feet", "detect_contacts", "fix_contacts", "keep_contacts", "contact_intervals",
+           "keep_contacts_retimed",
            "contact_positions", "END_SUFFIX",
            "FOOT_PATTERN", "TOE_PATTERN", "HAND_PATTERN"]
 
@@ -288,7 +293,11 @@ def detect_contacts(motion, joints=None, *, speed: float = _SPEED_ON,
 
 _SPREAD = 0.3        # seconds: displacements fade to zero this far from a contact
 _ROOT_SMOOTH = 0.1   # seconds: time scale of the root correction's smoothing
-_PIN_SMOOTH = 0.02   # seconds: time scale of the displacement map's smoothing
+_PIN_SMOOTH = 0.005  # seconds: time scale of the displacement map's smoothing
+_REF_SMOOTH = 0.02   # seconds: smoothing of the reference's contact trajectories
+_REACH = 0.98        # the root moves where a leg would need more than this of its length
+_ROOT_ITERATIONS = 5  # the smoothed root correction is repeated on what it left
+_PASSES = 2          # IK + spread passes (the second removes what the smoothing left)
 
 
 def _feet_of(sk, names) -> list[tuple[int, list[int], list[int]]]:
@@ -317,8 +326,8 @@ def _feet_of(sk, names) -> list[tuple[int, list[int], list[int]]]:
 
 def _spread(frames: np.ndarray, values: np.ndarray, n: int, fps: float) -> np.ndarray:
     """A smooth displacement map over n frames through values (k, m) at the sorted frames,
-    returning to zero farther than _SPREAD seconds from them: the LGS (order 2, near
-    interpolation) with zero observations added away from the constraints."""
+    returning to zero farther than _SPREAD seconds from them: the LGS (order 2, time scale
+    _PIN_SMOOTH: near interpolation) with zero observations added away from the constraints."""
     far = int(round(_SPREAD * fps))
     dist = np.full(n, np.iinfo(np.int64).max // 4, dtype=np.int64)
     idx = np.arange(n)
@@ -333,23 +342,90 @@ def _spread(frames: np.ndarray, values: np.ndarray, n: int, fps: float) -> np.nd
     return lgs(y[order], lam=(_PIN_SMOOTH * fps) ** 2, t=t[order].astype(np.float64), n_out=n)
 
 
+def _runs_list(mask) -> list[tuple[int, int]]:
+    s, e = _runs(mask)
+    return list(zip(s.tolist(), e.tolist()))
+
+
+def _foot_targets(c, cols, own, P, Pr, pos, pos_ref, ankle):
+    """Per-frame targets of one foot on the frames U where any of its points is in contact:
+    (U, ankle target (N, 3), target of its first placed point (N, 3) or None).
+
+    With a reference, each run of U gets one horizontal offset o (the mean over the run's contact
+    samples of motion minus reference); the points then follow the reference's own trajectory
+    shifted by o: ankle ``pos_ref + o``, toe ``Pr + o``, so the foot keeps the reference's small
+    motion (roll, settling) and its rigid shape, and the heights are the reference's. Without a
+    reference each point is pinned to its mean over its contact frames (height too), and an
+    ankle not in contact itself moves with its points' mean displacement."""
+    N = c.shape[0]
+    U = c[:, cols].any(axis=1)
+    at = pos[:, ankle].copy()
+    toes = [k for k in cols if k not in own]
+    tt = P[:, toes[0]].copy() if toes else None
+    for a, b in _runs_list(U):
+        cc = c[a:b][:, cols]
+        if Pr is not None:
+            d = (P[a:b][:, cols] - Pr[a:b][:, cols])[cc]
+            o = d.mean(axis=0)
+            o[1] = 0.0
+            at[a:b] = pos_ref[a:b, ankle] + o
+            if toes:
+                tt[a:b] = Pr[a:b, toes[0]] + o
+            continue
+        delta = np.zeros((b - a, len(cols), 3))
+        for i, col in enumerate(cols):
+            for s, e in _runs_list(c[a:b, col]):
+                delta[s:e, i] = P[a + s:a + e, col].mean(axis=0) - P[a + s:a + e, col]
+        w = cc.sum(axis=1)
+        mean_d = (delta * cc[..., None]).sum(axis=1) / np.maximum(w, 1)[:, None]
+        if own:
+            i = cols.index(own[0])
+            mean_d = np.where(cc[:, i, None], delta[:, i], mean_d)
+        at[a:b] += mean_d
+        if toes:
+            i = cols.index(toes[0])
+            tt[a:b] += np.where(cc[:, i, None], delta[:, i], mean_d)
+    return U, at, tt
+
+
+def _spread_rotations(rot, new, joints, U, fps):
+    """Spread the local-rotation corrections ``new * inv(rot)`` of ``joints``, known on the
+    frames U, smoothly over time with the LGS (:func:`_spread`, a displacement map on rotation
+    vectors) and apply them to ``rot`` in place."""
+    frames = np.flatnonzero(U)
+    off = np.concatenate([quat.log(quat.mul(new[frames, j], quat.conj(rot[frames, j])))
+                          for j in joints], axis=1)
+    smooth = _spread(frames, off, rot.shape[0], fps)
+    for i, j in enumerate(joints):
+        rot[:, j] = quat.normalize(quat.mul(quat.exp(smooth[:, 3 * i:3 * i + 3]), rot[:, j]))
+
+
+
+
 def fix_contacts(motion, contacts, names, reference=None):
     """Pin the feet of a synthesized motion during its contacts (paper 1, eq. 18).
 
     motion: the synthesized Motion (after stylize, denoise, resample, ...); contacts, names:
     bool (N, C) and C contact point names as from :func:`detect_contacts` (usually detected on
-    the original motion); reference: an optional Motion with the same frames whose contact
-    heights are the targets' heights (the original, before synthesis); default: ``motion``.
+    the original motion); reference: an optional Motion with the same frames, normally the
+    original before synthesis.
 
-    Each contact interval of each point gets one target: the point's mean horizontal position
-    over the interval in ``motion``, at its mean height there in ``reference``. On contact
-    frames the displacement to the target is known; the LGS spreads it smoothly over the other
-    frames (near-interpolating the constraints, back to zero 0.3 s from any contact), so no pop
-    appears at contact boundaries. Per frame, two-bone IK on each leg (hip, knee, ankle, found
-    by walking up the parents) reaches the displaced ankle; a toe (or End Site) is placed by
-    turning the ankle. A point listed without its ankle moves its ankle rigidly. Where a leg
-    cannot reach, the root moves by a smoothed correction. Returns a new Motion; bone lengths
-    are unchanged.
+    Targets, per foot (an ankle and the points placed by turning it, toe or End Site) on the
+    frames where any of its points is in contact: with a reference, each such run gets one
+    horizontal offset (the mean of motion minus reference over the run's contact samples) and
+    the foot follows the reference's own trajectory (LGS-smoothed over 0.02 s against capture
+    noise) shifted by it, so it keeps the original's small motion within the contact (heel
+    roll, settling), its shape and its heights; without
+    one, each point is pinned to its mean position over its contact interval.
+
+    Correction: the root moves (a smoothed correction, only where needed) where a leg would have
+    to stretch beyond 98% of its length; per frame, two-bone IK on each leg (hip, knee,
+    ankle, found by walking up the parents) reaches the ankle target and a turn of the ankle
+    the toe target. The changes of the local rotations of hip, knee and ankle, known on the
+    contact frames, are spread over the other frames as a displacement map on rotation vectors
+    solved with the LGS (near-interpolating, back to zero 0.3 s from any contact), so rotations
+    stay smooth and nothing pops at contact boundaries; a second pass removes what the
+    smoothing left. Returns a new Motion; bone lengths are unchanged.
     """
     from .motion import Motion
     if not isinstance(motion, Motion):
@@ -376,72 +452,103 @@ def fix_contacts(motion, contacts, names, reference=None):
     fps = motion.fps
     pos, wrot = motion.forward_kinematics()
     P = contact_positions(motion, names, pos, wrot)
-    Pr = P if reference is None else contact_positions(reference, names)
-    # targets and displacements on contact frames
-    delta = np.zeros_like(P)
-    for col in range(len(names)):
-        for a, b in contact_intervals(c[:, col]):
-            target = P[a:b, col].mean(axis=0)
-            target[1] = Pr[a:b, col, 1].mean()
-            delta[a:b, col] = target - P[a:b, col]
+    Pr = pos_ref = None
+    if reference is not None:
+        pos_ref, wrot_ref = reference.forward_kinematics()
+        Pr = contact_positions(reference, names, pos_ref, wrot_ref)
     feet = _feet_of(sk, names)
-    ankle_target, toe_target, chains = {}, {}, {}
+    if reference is not None and _REF_SMOOTH > 0:
+        # the reference's contact trajectories without their capture noise (LGS smoothing)
+        lam = (_REF_SMOOTH * fps) ** 2
+        Pr = lgs(Pr.reshape(N, -1), lam=lam).reshape(Pr.shape)
+        ankles = [a for a, _, _ in feet]
+        pos_ref = pos_ref.copy()
+        pos_ref[:, ankles] = lgs(pos_ref[:, ankles].reshape(N, -1), lam=lam).reshape(
+            N, len(ankles), 3)
+    legs = []
     for ankle, own, toes in feet:
         cols = own + toes
-        on = c[:, cols].any(axis=1)
-        if not on.any():
+        if not c[:, cols].any():
             continue
-        frames = np.flatnonzero(on)
-        # ankle displacement: its own where in contact, else the mean of its points' in contact
-        d_ankle = np.zeros((N, 3))
-        w = np.zeros(N)
-        for col in toes:
-            d_ankle += delta[:, col] * c[:, col, None]
-            w += c[:, col]
-        d_ankle /= np.maximum(w, 1)[:, None]
-        for col in own:
-            d_ankle[c[:, col]] = delta[c[:, col], col]
-        # a toe follows the ankle rigidly where it is not in contact itself
-        d_toes = [np.where(c[:, col, None], delta[:, col], d_ankle) for col in toes]
-        obs = np.concatenate([d_ankle] + d_toes, axis=1)[frames]
-        smooth = _spread(frames, obs, N, fps)
-        ankle_target[ankle] = pos[:, ankle] + smooth[:, :3]
-        if toes:
-            toe_target[ankle] = (toes[0], P[:, toes[0]] + smooth[:, 3:6])
-        chains[ankle] = ik.leg_chain(sk, ankle)
-    if not chains:
+        U, at, tt = _foot_targets(c, cols, own, P, Pr, pos, pos_ref, ankle)
+        legs.append((ankle, ik.leg_chain(sk, ankle), U, at,
+                     None if tt is None else (toes[0], tt)))
+    if not legs:
         return motion.copy()
-    # the root moves where a leg cannot reach
-    root = motion.root_pos.copy()
+    root = motion.root_pos + _root_shift(pos, legs, fps)
+    rot = motion.rot.copy()
+    for _ in range(_PASSES):
+        m1 = motion.with_frames(root_pos=root, rot=rot)
+        pos1, wrot1 = m1.forward_kinematics()
+        new = rot.copy()
+        for ankle, chain, U, at, _toe in legs:
+            ik.apply_leg(new, pos1, wrot1, sk.parents, chain, np.where(U[:, None], at,
+                                                                       pos1[:, ankle]))
+        if any(toe is not None for *_, toe in legs):
+            m2 = motion.with_frames(root_pos=root, rot=new)
+            pos2, wrot2 = m2.forward_kinematics()
+            now = contact_positions(m2, names, pos2, wrot2)
+            for ankle, chain, U, at, toe in legs:
+                if toe is not None:
+                    col, target = toe
+                    r = ik.from_to(now[:, col] - pos2[:, ankle], target - pos2[:, ankle])
+                    ik.rotate_to(new, wrot2, sk.parents, ankle, r)
+        for ankle, (h, k, e), U, at, toe in legs:
+            _spread_rotations(rot, new, [h, k] + ([e] if toe is not None else []), U, fps)
+    return motion.with_frames(root_pos=root, rot=rot)
+
+
+def _root_shift(pos, legs, fps) -> np.ndarray:
+    """A smooth root translation (N, 3) that keeps every ankle target within _REACH of its
+    leg's length (or the leg's current extension, up to 99.9%, where it is straighter already)
+    on the frames where the foot is in contact (zero where no leg needs it)."""
+    N = pos.shape[0]
     shift = np.zeros((N, 3))
-    for _ in range(3):
+    lam = (_ROOT_SMOOTH * fps) ** 2
+    half = max(1, int(round(_ROOT_SMOOTH * fps)))
+    for _ in range(_ROOT_ITERATIONS):
         need = np.zeros((N, 3))
-        for ankle, (h, k, e) in chains.items():
-            reach = 0.999 * (np.linalg.norm(pos[:, k] - pos[:, h], axis=1)
-                             + np.linalg.norm(pos[:, e] - pos[:, k], axis=1))
-            v = ankle_target[ankle] - (pos[:, h] + shift)
+        for ankle, (h, k, e), U, at, _toe in legs:
+            length = (np.linalg.norm(pos[:, k] - pos[:, h], axis=1)
+                      + np.linalg.norm(pos[:, e] - pos[:, k], axis=1))
+            # a leg already straighter than _REACH may stay so (up to 99.9%)
+            now = np.linalg.norm(pos[:, e] - pos[:, h], axis=1)
+            reach = np.maximum(_REACH * length, np.minimum(now, 0.999 * length))
+            v = at - (pos[:, h] + shift)
             dist = np.linalg.norm(v, axis=1)
-            excess = np.maximum(dist - reach, 0.0)
+            excess = np.where(U, np.maximum(dist - reach, 0.0), 0.0)
             cand = v * (excess / np.maximum(dist, 1e-12))[:, None]
             bigger = np.linalg.norm(cand, axis=1) > np.linalg.norm(need, axis=1)
             need[bigger] = cand[bigger]
         if not need.any():
             break
-        lam = (_ROOT_SMOOTH * fps) ** 2
-        shift += lgs(need, lam=lam)
-    rot = motion.rot.copy()
-    m1 = motion.with_frames(root_pos=root + shift, rot=rot)
-    pos1, wrot1 = m1.forward_kinematics()
-    for ankle, chain in chains.items():
-        ik.apply_leg(rot, pos1, wrot1, sk.parents, chain, ankle_target[ankle])
-    if toe_target:
-        m2 = motion.with_frames(root_pos=root + shift, rot=rot)
-        pos2, wrot2 = m2.forward_kinematics()
-        now = contact_positions(m2, names, pos2, wrot2)
-        for ankle, (col, target) in toe_target.items():
-            r = ik.from_to(now[:, col] - pos2[:, ankle], target - pos2[:, ankle])
-            ik.rotate_to(rot, wrot2, sk.parents, ankle, r)
-    return motion.with_frames(root_pos=root + shift, rot=rot)
+        # widen each need to the smoothing's time scale first (the largest need within
+        # +-_ROOT_SMOOTH), so the smoothed correction covers a need of a single frame
+        size = np.linalg.norm(need, axis=1)
+        win = np.lib.stride_tricks.sliding_window_view(np.pad(size, half), 2 * half + 1)
+        src = np.arange(N) - half + np.argmax(win, axis=1)
+        shift += lgs(need[src], lam=lam)
+    return shift
+
+
+def keep_contacts_retimed(original, retimed, reference, source_frames, joints=None):
+    """``retimed`` (resampled or time-warped from ``original``) with the feet pinned during the
+    contacts detected on ``original``, carried to the output frames: output frame k takes the
+    contacts of input frame ``round(source_frames[k])`` (its fractional input frame).
+    ``reference`` is the original at the output frames without smoothing (a SLERP resampling
+    on the same time map), whose contact trajectories the feet follow. Skeletons without
+    recognisable feet (and no ``joints``) and clips of fewer than 3 frames come back
+    unchanged, as in :func:`keep_contacts`."""
+    if original.n_frames < 3 or retimed.n_frames < 2:
+        return retimed
+    if joints is None:
+        try:
+            find_feet(original)
+        except InvalidArgumentError:
+            return retimed
+    names, c = detect_contacts(original, joints)
+    k = np.clip(np.rint(np.asarray(source_frames, dtype=np.float64)), 0, original.n_frames - 1)
+    return fix_contacts(retimed, c[k.astype(np.int64)], names, reference=reference)
 
 
 def keep_contacts(original, synthesized, joints=None):

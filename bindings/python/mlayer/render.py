@@ -5,8 +5,9 @@ grid), which is fast enough to render a whole clip in a second or two and needs 
 the package's dependencies. Motions are assumed Y-up, as BVH files almost always are.
 
 Every panel uses the same camera: the same scale, the same view direction and the same target,
-which follows the first motion's root across the ground, so differences between the panels
-(denoised, exaggerated, retimed) are differences of the motions, not of the framing.
+which follows the first motion across the ground (its first joint that moves: the root, or the
+hips under a root that stays at the origin as Bandai's ``joint_Root``), so differences between
+the panels (denoised, exaggerated, retimed) are differences of the motions, not of the framing.
 """
 from __future__ import annotations
 
@@ -67,6 +68,18 @@ def _smooth_track(xz: np.ndarray, frames: int) -> np.ndarray:
     return np.stack([np.convolve(padded[:, c], k, mode="valid") for c in range(xz.shape[1])], 1)
 
 
+def followed_joint(positions: np.ndarray) -> int:
+    """The joint the camera follows: the first joint (in skeleton order, so the root or the
+    joint nearest to it) whose horizontal position moves by more than 1% of the body's height
+    over the clip; joint 0 when none does. Rigs such as Bandai's keep a ``joint_Root`` at the
+    origin and move the body with the hips below it."""
+    p = np.asarray(positions, dtype=np.float64)
+    height = float(np.median(p[:, :, 1].max(axis=1) - p[:, :, 1].min(axis=1))) or 1.0
+    xz = p[:, :, [0, 2]]
+    moved = np.linalg.norm(xz - xz[:1], axis=-1).max(axis=0) > 0.01 * height
+    return int(np.argmax(moved)) if moved.any() else 0
+
+
 def render_gif(motions, path, *, labels=None, fps: float = 30.0, panel_size=(320, 380),
                azimuth: float = 35.0, elevation: float = 12.0, max_seconds: float | None = None,
                progress=None) -> int:
@@ -108,7 +121,7 @@ def render_gif(motions, path, *, labels=None, fps: float = 30.0, panel_size=(320
     height = float(np.percentile(p0[:, :, 1].max(axis=1) - ground, 50)) or 1.0
     w, h = panel_size
     scale = 0.62 * h / height
-    track = _smooth_track(p0[:, 0, [0, 2]], max(1, int(motions[0].fps)))
+    track = _smooth_track(p0[:, followed_joint(p0), [0, 2]], max(1, int(motions[0].fps)))
 
     spacing = height / 2.0
     palette = [c for rgb in _PALETTE.values() for c in rgb]

@@ -188,7 +188,8 @@ def _solve(motion: Motion, t, n_out: int, frame_time: float, lam: float, sigma: 
 
 def resample(motion: Motion, *, fps: float | None = None, n_frames: int | None = None,
              lam: float | None = None, sigma: float | None = None, return_var: bool = False,
-             allow_extreme: bool = False, nearest_sign: bool = False, style=None):
+             allow_extreme: bool = False, nearest_sign: bool = False, style=None,
+             keep_contacts: bool = True):
     """Resample ``motion`` to a new frame rate or frame count through the LGS.
 
     Parameters
@@ -216,6 +217,10 @@ def resample(motion: Motion, *, fps: float | None = None, n_frames: int | None =
         (``mlayer.stylize(motion, style)``, or ``mlayer.stylize(motion, **style)`` for a dict
         with ``alpha`` and stylize's other arguments), then the result is resampled. The
         other order is ``mlayer.stylize(mlayer.resample(motion, ...), alpha)``.
+    keep_contacts : bool
+        Pin the feet during the contacts detected on ``motion``, carried to the new frames
+        (:func:`mlayer.contacts.keep_contacts_retimed`, following the SLERP resampling of
+        ``motion``); False skips it. Skeletons without recognisable feet are left as they are.
 
     Returns the new :class:`Motion` (same skeleton), or ``(motion, var)`` with ``return_var``.
     Raises InvalidArgumentError for fewer than 2 frames, fps <= 0, both or neither of fps /
@@ -225,9 +230,22 @@ def resample(motion: Motion, *, fps: float | None = None, n_frames: int | None =
     motion = _motion(motion, where)
     n_out, frame_time = _target(motion, fps, n_frames, allow_extreme, where)
     lam, sigma = _lam_sigma(lam, sigma, where)
-    motion = _stylized(motion, style, where)
-    return _solve(motion, None, n_out, frame_time, lam, sigma,
-                  _flags(allow_extreme, nearest_sign), return_var, where)
+    original, motion = motion, _stylized(motion, style, where)
+    res = _solve(motion, None, n_out, frame_time, lam, sigma,
+                 _flags(allow_extreme, nearest_sign), return_var, where)
+    if not keep_contacts:
+        return res
+    src = np.arange(n_out) * ((original.n_frames - 1) / max(n_out - 1, 1))
+    ref = slerp_resample(original, n_frames=n_out, allow_extreme=allow_extreme)
+    return _pinned(original, res, ref, src)
+
+
+def _pinned(original, res, reference, source_frames):
+    """res (a motion, or a tuple starting with one) with the feet pinned (keep_contacts)."""
+    from .contacts import keep_contacts_retimed
+    if isinstance(res, tuple):
+        return (keep_contacts_retimed(original, res[0], reference, source_frames), *res[1:])
+    return keep_contacts_retimed(original, res, reference, source_frames)
 
 
 def slerp_resample(motion: Motion, *, fps: float | None = None, n_frames: int | None = None,
@@ -352,7 +370,7 @@ def timewarp(motion: Motion, *, strength: float = 1.0, n_frames: int | None = No
              time_map=None, lam: float | None = None, sigma: float | None = None,
              return_var: bool = False, return_map: bool = False, smooth_seconds: float = 0.25,
              root_weight: float = 1.0, joint_weights=None, allow_extreme: bool = False,
-             style=None):
+             style=None, keep_contacts: bool = True):
     """Retime ``motion`` along a monotone time map, solved by the LGS; the frame rate stays.
 
     Automatic (default): :func:`timewarp_map` with ``strength`` (0 uniform, 1 natural, more
@@ -373,7 +391,9 @@ def timewarp(motion: Motion, *, strength: float = 1.0, n_frames: int | None = No
     :func:`resample` (the time map is taken from the original motion).
 
     The first and the last frame stay put; boundaries between slow and fast intervals are
-    eased, so there are no jumps.
+    eased, so there are no jumps. ``keep_contacts`` (default True) pins the feet during the
+    contacts detected on ``motion``, carried through the time map
+    (:func:`mlayer.contacts.keep_contacts_retimed`, following the SLERP retiming of ``motion``).
     """
     where = "mlayer.timewarp"
     motion = _motion(motion, where)
@@ -385,9 +405,13 @@ def timewarp(motion: Motion, *, strength: float = 1.0, n_frames: int | None = No
                          joint_weights=joint_weights, allow_extreme=allow_extreme)
         n_out = int(round(t[-1])) + 1
     lam, sigma = _lam_sigma(lam, sigma, where)
-    motion = _stylized(motion, style, where)
+    original, motion = motion, _stylized(motion, style, where)
     res = _solve(motion, t, n_out, motion.frame_time, lam, sigma, _flags(allow_extreme),
                  return_var, where)
+    if keep_contacts:
+        ref = slerp_resample(original, time_map=t, allow_extreme=allow_extreme)
+        src = np.interp(np.arange(n_out), t, np.arange(original.n_frames))
+        res = _pinned(original, res, ref, src)
     if not return_map:
         return res
     return (*res, t) if return_var else (res, t)

@@ -57,6 +57,20 @@ def test_style_in_the_same_run(capsys, tmp_path):
     assert len(mlayer.read_bvh(tmp_path / "t.bvh")) == 994
 
 
+def test_contacts_kept_by_default_and_no_contacts_skips(capsys, tmp_path):
+    m = mlayer.read_bvh(SAMPLE)
+    for cmd, extra, fn in (("resample", ["--fps", 30], lambda **k: mlayer.resample(m, fps=30, **k)),
+                           ("timewarp", [], lambda **k: mlayer.timewarp(m, **k))):
+        for flag, keep in (([], True), (["--no-contacts"], False)):
+            out = tmp_path / f"{cmd}{keep}.bvh"
+            code, _, err = run(capsys, cmd, SAMPLE, *extra, "--style", 2, *flag, "-o", out)
+            assert code == 0 and err == ""
+            style = 2.0 if keep else {"alpha": 2.0, "keep_contacts": False}
+            got = mlayer.read_bvh(out)
+            assert mlayer.metrics.mpjpe(got, fn(style=style, keep_contacts=keep)) < 1e-3
+            assert mlayer.metrics.mpjpe(got, fn(style=2.0, keep_contacts=not keep)) > 1e-2
+
+
 def test_resample_report_prints_and_plots_the_variance(capsys, tmp_path):
     out, png = tmp_path / "up.bvh", tmp_path / "var.png"
     code, text, err = run(capsys, "resample", SAMPLE, "--fps", 240, "-o", out, "--report", png)

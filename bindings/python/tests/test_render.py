@@ -6,7 +6,7 @@ import pytest
 
 import mlayer
 import mlayer.data
-from mlayer.render import body_side, render_gif
+from mlayer.render import body_side, followed_joint, render_gif
 
 PIL = pytest.importorskip("PIL.Image")
 
@@ -76,3 +76,21 @@ def test_failure_while_writing_leaves_nothing(tmp_path, sample):
     ("lowerback", "center"), ("Spine1", "center"), ("LThumb", "left"), ("RHipJoint", "right")])
 def test_body_side(name, side):
     assert body_side(name) == side
+
+
+def test_camera_follows_the_first_joint_that_moves(tmp_path, mocap):
+    # Bandai's joint_Root stays at the origin; the body walks away with the Hips below it
+    m = mlayer.read_bvh(mocap / "bandai1_walk_happy_001.bvh")
+    p = m.positions()
+    assert m.joint_names[followed_joint(p)] == "Hips"
+    assert followed_joint(np.zeros((5, 3, 3))) == 0  # nothing moves: the root
+    out = tmp_path / "bandai.gif"
+    render_gif([m], out, fps=2, panel_size=(160, 200))
+    last = _frames(out)[-1].astype(int)
+    # the walker (7 body heights from its start, 3.6 from the origin by the end) is still in
+    # the panel's middle: pixels of the left/right bone colours
+    ink = np.zeros(last.shape[:2], bool)
+    for rgb in ([38, 110, 200], [205, 60, 50]):
+        ink |= np.abs(last - rgb).sum(-1) < 10
+    cols = np.flatnonzero(ink.any(axis=0))
+    assert ink.sum() > 100 and 40 < cols.mean() < 120
