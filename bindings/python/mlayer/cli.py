@@ -53,6 +53,7 @@ _SUBCOMMAND_MODULES = (
     "cli_stream",
     "cli_contacts",
     "cli_resample",
+    "cli_primitives",
     "cli_demo",
 )
 
