@@ -28,8 +28,11 @@ python -m pip install -q "meson>=1.3" "meson-python>=0.16" "cffi>=2.1" ninja "nu
   scipy matplotlib pytest
 # test-only: an independent BVH reader the pytest suite checks forward kinematics against
 python -m pip install -q "bvhio>=1.5"
-# test-only peer of the manifold suite: GMM log-likelihood against scikit-learn's GaussianMixture
-python -m pip install -q scikit-learn
+# test-only peers of the clustering suite: k-means labels/inertia against scikit-learn's Lloyd,
+# SOM quantization error against MiniSom; GMM log-likelihood against
+# scikit-learn's GaussianMixture. (bench/python/bench_cluster.py also times somoclu,
+# which is not installed here: `pip install --no-build-isolation somoclu` after numpy.)
+python -m pip install -q scikit-learn minisom
 echo "setup: building and installing the mlayer package"
 python -m pip install -q --no-build-isolation .
 echo "setup: $(mlayer --version)"

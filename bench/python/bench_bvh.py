@@ -18,24 +18,15 @@ import contextlib
 import io
 import os
 import pathlib
-import time
 import warnings
 
 import numpy as np
 
 import mlayer
+from benchutil import median_seconds, mocap_dir
 
 HERE = pathlib.Path(__file__).resolve()
-DEFAULT_MOCAP = HERE.parents[3] / "shared" / "data" / "mocap"
-
-
-def median_seconds(fn, repeat):
-    times = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return float(np.median(times))
+DEFAULT_MOCAP = mocap_dir()
 
 
 def peers():

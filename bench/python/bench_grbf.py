@@ -14,22 +14,13 @@ information: the least-squares fit the primitives model uses (10,000 training po
 from __future__ import annotations
 
 import argparse
-import time
 
 import numpy as np
+from benchutil import median_seconds
 from scipy.interpolate import RBFInterpolator
 
 import mlayer
 from mlayer.manifold import lattice_points
-
-
-def median_seconds(fn, repeat):
-    times, out = [], None
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        out = fn()
-        times.append(time.perf_counter() - t0)
-    return float(np.median(times)), out
 
 
 def main() -> None:
@@ -58,8 +49,9 @@ def main() -> None:
         return RBFInterpolator(C, Y, kernel="thin_plate_spline", degree=1)(Q)
 
     ours()  # warm-up (imports, BLAS threads)
-    t_ours, a = median_seconds(ours, args.repeat)
-    t_scipy, b = median_seconds(theirs, args.repeat)
+    t_ours = median_seconds(ours, args.repeat)
+    t_scipy = median_seconds(theirs, args.repeat)
+    a, b = ours(), theirs()
     diff = float(np.abs(a - b).max() / np.abs(b).max())
     print(f"GRBF fit + evaluation: {C.shape[0]} centres, {args.outputs} outputs, "
           f"{args.points} points (median of {args.repeat})")
@@ -69,7 +61,7 @@ def main() -> None:
           f"{diff:.1e})")
     P = rng.uniform(0, 64, size=(args.points, 2))
     YP = values(P)
-    t_ls, _ = median_seconds(
+    t_ls = median_seconds(
         lambda: mlayer.GRBF("thin_plate", (rows, cols), bounds=bounds).fit(P, YP).predict(Q),
         max(1, args.repeat // 2))
     print(f"  least squares, {args.points} training points onto the {C.shape[0]} centres, "

@@ -9,27 +9,18 @@ scikit-sparse is optional (pip install scikit-sparse==0.4.16 builds against Suit
 from __future__ import annotations
 
 import argparse
-import time
 
 import numpy as np
 import scipy.linalg
 import scipy.sparse
 
 import mlayer
+from benchutil import median_seconds
 
 try:
     from sksparse.cholmod import cholesky as sk_cholesky
 except ImportError:  # optional peer
     sk_cholesky = None
-
-
-def median_seconds(fn, repeat):
-    times = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return float(np.median(times))
 
 
 def system_bands(n, s):

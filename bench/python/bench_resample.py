@@ -11,31 +11,12 @@ The clips folder: $MLR_TEST_MOCAP_DIR, else ../shared/data/mocap beside the repo
 from __future__ import annotations
 
 import argparse
-import os
-import pathlib
-import time
 
 import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
 
 import mlayer
-
-REPO = pathlib.Path(__file__).resolve().parents[2]
-
-
-def mocap_dir() -> pathlib.Path:
-    env = os.environ.get("MLR_TEST_MOCAP_DIR")
-    return pathlib.Path(env) if env else REPO.parent / "shared" / "data" / "mocap"
-
-
-def median_seconds(fn, repeat):
-    times = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return float(np.median(times))
-
+from benchutil import median_seconds, mocap_dir
 
 def long_clip(m, n_frames):
     """Frames 0..N-1, N-2..1, 0..N-1, ... (no jumps at the joins) up to n_frames."""

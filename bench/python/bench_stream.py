@@ -15,11 +15,12 @@ import time
 import numpy as np
 
 import mlayer
+from benchutil import mocap_dir
 from mlayer.one_euro import OneEuroFilter
 from mlayer.stream import motion_channels
 
 HERE = pathlib.Path(__file__).resolve()
-DEFAULT_MOCAP = HERE.parents[3] / "shared" / "data" / "mocap"
+DEFAULT_MOCAP = mocap_dir()
 
 
 def per_frame_us(fn, n, repeat):

@@ -12,5 +12,7 @@
 #include "mlr_resample.h"
 #include "mlr_stream.h"
 #include "mlr_layers.h"
+#include "mlr_kmeans.h"
+#include "mlr_som.h"
 
 #endif /* MLAYER_H */

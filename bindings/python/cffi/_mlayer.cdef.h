@@ -221,3 +221,54 @@ mlr_status mlr_layers_synthesize(const mlr_layers *layers, size_t begin, size_t 
 mlr_status mlr_layers_reconstruct(const mlr_layers *layers, size_t begin, size_t count,
                                   double *root_pos, size_t n_root_pos, double *rot, size_t n_rot);
 void mlr_layers_destroy(mlr_layers *layers);
+/* mlr_kmeans.h */
+typedef struct mlr_kmeans mlr_kmeans;
+enum {
+    MLR_KMEANS_MAX_ITER = 1, MLR_KMEANS_TOL = 2, MLR_KMEANS_N_INIT = 3, MLR_KMEANS_SEED = 4,
+    MLR_KMEANS_N_THREADS = 5, MLR_KMEANS_ALGORITHM = 6
+};
+enum { MLR_KMEANS_AUTO = 0, MLR_KMEANS_LLOYD = 1, MLR_KMEANS_HAMERLY = 2 };
+mlr_status mlr_kmeans_create(size_t k, size_t dim, const mlr_allocator *alloc,
+                             mlr_kmeans **out, mlr_diag *diag);
+mlr_status mlr_kmeans_set(mlr_kmeans *km, int option, double value, mlr_diag *diag);
+mlr_status mlr_kmeans_fit(mlr_kmeans *km, const double *x, size_t n, size_t ldx,
+                          const double *init, size_t ldinit, int32_t *labels, mlr_diag *diag);
+mlr_status mlr_kmeans_predict(const mlr_kmeans *km, const double *x, size_t n, size_t ldx,
+                              int32_t *labels, double *dist2, mlr_diag *diag);
+mlr_status mlr_kmeans_set_centers(mlr_kmeans *km, const double *c, size_t ldc, mlr_diag *diag);
+const double *mlr_kmeans_centers(const mlr_kmeans *km);
+double mlr_kmeans_inertia(const mlr_kmeans *km);
+size_t mlr_kmeans_n_iter(const mlr_kmeans *km);
+size_t mlr_kmeans_n_skipped(const mlr_kmeans *km);
+size_t mlr_kmeans_k(const mlr_kmeans *km);
+size_t mlr_kmeans_dim(const mlr_kmeans *km);
+void mlr_kmeans_destroy(mlr_kmeans *km);
+
+/* mlr_som.h */
+typedef struct mlr_som mlr_som;
+enum {
+    MLR_SOM_SEED = 1, MLR_SOM_N_THREADS = 2, MLR_SOM_SIGMA0 = 3, MLR_SOM_SIGMA1 = 4,
+    MLR_SOM_ALPHA0 = 5, MLR_SOM_ALPHA1 = 6
+};
+enum { MLR_SOM_BATCH = 0, MLR_SOM_ONLINE = 1 };
+mlr_status mlr_som_create(size_t rows, size_t cols, size_t dim, const mlr_allocator *alloc,
+                          mlr_som **out, mlr_diag *diag);
+mlr_status mlr_som_set(mlr_som *som, int option, double value, mlr_diag *diag);
+mlr_status mlr_som_init_random(mlr_som *som, const double *x, size_t n, size_t ldx,
+                               mlr_diag *diag);
+mlr_status mlr_som_train(mlr_som *som, const double *x, size_t n, size_t ldx, size_t epochs,
+                         int mode, mlr_diag *diag);
+mlr_status mlr_som_bmu(const mlr_som *som, const double *x, size_t n, size_t ldx, int32_t *bmu,
+                       double *dist, int32_t *second, mlr_diag *diag);
+mlr_status mlr_som_errors(const mlr_som *som, const double *x, size_t n, size_t ldx, double *qe,
+                          double *te, mlr_diag *diag);
+const double *mlr_som_codebook(const mlr_som *som);
+mlr_status mlr_som_set_codebook(mlr_som *som, const double *w, size_t ldw, mlr_diag *diag);
+size_t mlr_som_rows(const mlr_som *som);
+size_t mlr_som_cols(const mlr_som *som);
+size_t mlr_som_dim(const mlr_som *som);
+size_t mlr_som_export_size(const mlr_som *som);
+mlr_status mlr_som_export(const mlr_som *som, void *buf, size_t size, mlr_diag *diag);
+mlr_status mlr_som_import(const void *buf, size_t size, const mlr_allocator *alloc,
+                          mlr_som **out, mlr_diag *diag);
+void mlr_som_destroy(mlr_som *som);

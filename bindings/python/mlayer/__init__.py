@@ -21,6 +21,9 @@ from .contacts import detect_contacts, fix_contacts
 from .resample import (resample, slerp_resample, timewarp, timewarp_map, timewarp_speed)
 from . import data
 from .layers import Layers, decompose, denoise, stylize
+from .kmeans import KMeansResult, elbow, kmeans
+from .som import SOM
+from .features import pose_features
 from .manifold import GRBF, PCA
 from .mixture import GaussianMixture, fuzzy_cmeans
 from .markov import Markov
@@ -43,5 +46,5 @@ __all__ = ["__version__", "library_version", "Error", "InvalidArgumentError", "P
            "read_bvh_string", "write_bvh_string", "metrics", "data", "Layers", "decompose",
            "denoise", "stylize", "Stream", "stream_motion", "ik", "detect_contacts",
            "fix_contacts", "resample", "slerp_resample", "timewarp", "timewarp_map",
-           "timewarp_speed", "PCA", "GRBF", "fuzzy_cmeans", "GaussianMixture", "Markov",
-           "PrimitiveModel"]
+           "timewarp_speed", "kmeans", "KMeansResult", "elbow", "SOM", "pose_features", "PCA",
+           "GRBF", "fuzzy_cmeans", "GaussianMixture", "Markov", "PrimitiveModel"]

@@ -71,7 +71,7 @@ def describe(m, path: str | None = None, tree: bool = True) -> str:
             ch = sk.channels[j]
             short = " ".join(c[0] + ("pos" if c.endswith("position") else "rot")
                              for c in ch.split()) or "(no channels)"
-            extra = f"  + End Site" if ends[j] == 1 else \
+            extra = "  + End Site" if ends[j] == 1 else \
                 (f"  + {ends[j]} End Sites" if ends[j] > 1 else "")
             lines.append(f"  {label:<{width}}  {short:<30} {sk.euler_orders[j]}{extra}".rstrip())
     return "\n".join(lines)

@@ -53,14 +53,10 @@ _PARAMS = {
 
 
 def _option(key, value, name):
+    """An (option key, value) pair for the C call, or None when value is None."""
     if value is None:
         return None
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise InvalidArgumentError(f"{name} must be a number, got {value!r}") from None
-    if not math.isfinite(v):
-        raise InvalidArgumentError(f"{name} must be finite, got {value!r}")
+    v = _finite(value, name)
     if name != "gamma" and v <= 0.0:
         raise InvalidArgumentError(f"{name} must be > 0, got {value!r}")
     return (key, v)

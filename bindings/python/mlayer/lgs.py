@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import _arrays
-from ._native import ffi, lib
+from ._native import NativeHandle, ffi, lib
 from .errors import InvalidArgumentError, check
 
 _SOLVERS = {"banded": lib.MLR_LGS_BANDED, "cholmod": lib.MLR_LGS_CHOLMOD}
@@ -23,7 +23,7 @@ def have_cholmod() -> bool:
     return bool(lib.mlr_lgs_have_cholmod())
 
 
-class LGS:
+class LGS(NativeHandle):
     """A factored system, reusable for many right-hand sides with the same positions.
 
     Create it once and call :meth:`solve` for every batch of channels; :meth:`variance` gives
@@ -82,18 +82,6 @@ class LGS:
         check(lib.mlr_lgs_variance(self._h, _arrays.ptr_out(var), self.n_out),
               "mlayer.LGS.variance")
         return var
-
-    def close(self) -> None:
-        """Free the C handle now. The object is unusable afterwards."""
-        if self._h is not None:
-            ffi.release(self._h)
-            self._h = None
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        self.close()
 
 
 def lgs(y, lam: float = 1.0, sigma: float = 1.0, *, order: int = 2, t=None,

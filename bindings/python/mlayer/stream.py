@@ -40,7 +40,7 @@ from typing import NamedTuple
 import numpy as np
 
 from . import _arrays
-from ._native import ffi, lib
+from ._native import NativeHandle, ffi, lib
 from .errors import Error, InvalidArgumentError, check
 from .motion import Motion, Skeleton
 
@@ -70,7 +70,7 @@ def _as_lag(lag) -> int:
     return int(lag)
 
 
-class Stream:
+class Stream(NativeHandle):
     """A fixed-lag LGS smoother for one skeleton (see the module docstring).
 
     Parameters
@@ -323,18 +323,6 @@ class Stream:
         if code:
             self._check_status(code, "mlayer.stream_motion")
         assert done + n[0] == N
-
-    def close(self) -> None:
-        """Free the C stream now. The object is unusable afterwards."""
-        if self._h is not None:
-            ffi.release(self._h)
-            self._h = None
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        self.close()
 
     def __repr__(self) -> str:
         base = f", base lam={self.lam_base:g} sigma={self.sigma_base:g}" if self._layered else ""

@@ -25,13 +25,3 @@ def rng():
     import numpy as np
     return np.random.default_rng(12345)
 
-
-@pytest.fixture(scope="session")
-def cluster():
-    """mlayer.kmeans / mlayer.som / mlayer.features, or test-only stand-ins while the C k-means
-    and SOM are not merged (see _cluster_standins.py)."""
-    import sys
-    sys.path.insert(0, str(pathlib.Path(__file__).parent))
-    pytest.importorskip("sklearn")
-    import _cluster_standins
-    return _cluster_standins.install()

@@ -124,7 +124,7 @@ def test_gmm_means_only_init_like_sklearn(rng):
     assert mu.shape == (3, 2)
 
 
-def test_gmm_kmeanspp_init(rng, cluster):
+def test_gmm_kmeanspp_init(rng):
     X, _ = blobs(rng, n=300, k=3, spread=0.3)
     g = GaussianMixture(3, seed=1).fit(X)
     assert g.converged_
@@ -268,7 +268,7 @@ def test_bad_input_messages(rng):
 # ---- synthesis and the commands ----------------------------------------------------------------
 
 @pytest.fixture(scope="module")
-def walk_model(cluster, mocap):
+def walk_model(mocap):
     from mlayer.primitives import PrimitiveModel
     m = mlayer.read_bvh(mocap / "cmu_131_01_mj_style_walk.bvh")
     return m, PrimitiveModel.fit([m], som=(12, 12), epochs=8, lattice=(8, 8), k="auto",
@@ -321,7 +321,7 @@ def test_model_bad_input(walk_model):
         type(model).fit([m[:5]], k=6, som=(3, 3), epochs=1)
 
 
-def test_cli_primitives_generate(cluster, mocap, tmp_path, capsys):
+def test_cli_primitives_generate(mocap, tmp_path, capsys):
     from mlayer.cli import main
     model = tmp_path / "model.npz"
     clip = str(mocap / "cmu_131_01_mj_style_walk.bvh")

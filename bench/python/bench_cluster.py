@@ -1,0 +1,180 @@
+"""Clustering speed: mlayer.kmeans against scikit-learn's Lloyd, mlayer.SOM against somoclu and
+MiniSom, in one run, same machine, same thread count. Reports medians and ratios (peer time /
+mlayer time, > 1 means mlayer is faster).
+
+    python bench/python/bench_cluster.py [--threads 2] [--repeat 3] [--only kmeans|som]
+
+k-means: n = 200,000 rows, k = 64, 20 Lloyd iterations (tol = 0) from the same initial centres
+(k-means++ of mlayer), time per iteration = wall time of the fit / n_iter, on
+  - mocap-like data: pose features (mlayer.pose_features) of the real clips in
+    ../shared/data/mocap of the CMU skeleton, tiled to 200,000 rows, plus Gaussian jitter of
+    1% of each column's standard deviation (near-duplicate rows, as 120 fps captures have);
+  - random normal data, d = 96 (the worst case: no structure for the bounds to exploit).
+SOM: 65 x 65 lattice on 10,000 x 93 pose features (tiled with the same jitter), batch training, time per epoch; somoclu
+(batch, Gaussian, planar, rectangular; `pip install --no-build-isolation somoclu`, optional)
+with the same thread count (OMP_NUM_THREADS); MiniSom (online, one row per step, pure NumPy)
+timed over 1,000 steps and scaled to one epoch of 10,000 rows, compared with mlayer's online
+epoch and batch epoch.
+"""
+from __future__ import annotations
+
+import argparse
+import glob
+import os
+import sys
+import time
+
+import numpy as np
+
+
+def parse():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--only", choices=["kmeans", "som"], default=None)
+    ap.add_argument("--mocap", default=os.path.join(os.path.dirname(__file__), "..", "..", "..",
+                                                     "shared", "data", "mocap"))
+    return ap.parse_args()
+
+
+ARGS = parse()
+# thread counts of the peers must be fixed before they load OpenMP / BLAS
+for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ[var] = str(ARGS.threads)
+
+import mlayer  # noqa: E402
+
+
+def median_of(fn, repeat):
+    out = []
+    for _ in range(repeat):
+        out.append(fn())
+    return float(np.median(out))
+
+
+def mocap_features(mocap_dir):
+    """Pose features of the clips of one skeleton, stacked."""
+    by_shape = {}
+    for path in sorted(glob.glob(os.path.join(mocap_dir, "*.bvh"))):
+        try:
+            m = mlayer.read_bvh(path)
+        except mlayer.Error:
+            continue
+        f = mlayer.pose_features(m)
+        by_shape.setdefault(f.shape[1], []).append(f)
+    # the CMU skeleton (31 joints, 93 columns) when present, else the most frames
+    d = 93 if 93 in by_shape else max(by_shape, key=lambda k: sum(len(f) for f in by_shape[k]))
+    return np.concatenate(by_shape[d])
+
+
+def tiled(F, n, seed=0):
+    rng = np.random.default_rng(seed)
+    X = np.resize(F, (n, F.shape[1]))  # repeats the rows in order
+    X = X + rng.normal(size=X.shape) * (0.01 * F.std(axis=0))
+    return np.ascontiguousarray(X)
+
+
+def bench_kmeans(name, X, k=64, iters=20):
+    from sklearn.cluster import KMeans
+    init = mlayer.kmeans(X[::10], k, seed=1, max_iter=1, n_threads=ARGS.threads).centers
+
+    def ours():
+        t0 = time.perf_counter()
+        r = mlayer.kmeans(X, k, init=init, max_iter=iters, tol=0.0, n_threads=ARGS.threads)
+        return (time.perf_counter() - t0) / r.n_iter, r
+
+    def ours_lloyd():
+        t0 = time.perf_counter()
+        r = mlayer.kmeans(X, k, init=init, max_iter=iters, tol=0.0, n_threads=ARGS.threads,
+                          algorithm="lloyd")
+        return (time.perf_counter() - t0) / r.n_iter, r
+
+    def sk():
+        t0 = time.perf_counter()
+        km = KMeans(k, init=init, n_init=1, max_iter=iters, tol=0.0, algorithm="lloyd").fit(X)
+        return (time.perf_counter() - t0) / km.n_iter_, km
+
+    res = {}
+    for label, fn in (("mlayer", ours), ("mlayer-lloyd", ours_lloyd), ("sklearn", sk)):
+        ts, last = [], None
+        for _ in range(ARGS.repeat):
+            t, last = fn()
+            ts.append(t)
+        res[label] = (float(np.median(ts)), last)
+    r, km = res["mlayer"][1], res["sklearn"][1]
+    same = bool(np.array_equal(r.labels, km.labels_))
+    rel = abs(r.inertia - km.inertia_) / km.inertia_
+    skipped = r.n_skipped / (len(X) * r.n_iter)
+    print(f"kmeans {name}: n={len(X)} d={X.shape[1]} k={k}  iterations mlayer {r.n_iter} "
+          f"sklearn {km.n_iter_}  labels equal {same}  inertia rel diff {rel:.1e}  "
+          f"rows skipped by bounds {100 * skipped:.0f}%")
+    for label in ("mlayer", "mlayer-lloyd", "sklearn"):
+        print(f"  {label:13s} {1e3 * res[label][0]:8.2f} ms/iteration")
+    print(f"  ratio sklearn/mlayer {res['sklearn'][0] / res['mlayer'][0]:.2f}x "
+          f"(plain Lloyd {res['sklearn'][0] / res['mlayer-lloyd'][0]:.2f}x)")
+    sys.stdout.flush()
+
+
+def bench_som(F):
+    X = tiled(F, 10_000, seed=1)
+    rows = cols = 65
+    epochs = 3
+
+    def ours(mode, ep):
+        som = mlayer.SOM(rows, cols, X.shape[1], seed=0, n_threads=ARGS.threads)
+        t0 = time.perf_counter()
+        som.train(X, ep, mode=mode)
+        return (time.perf_counter() - t0) / ep, som
+
+    t_batch = median_of(lambda: ours("batch", epochs)[0], ARGS.repeat)
+    t_online, som_on = ours("online", 1)
+    som_b = ours("batch", 10)[1]
+    print(f"som 65x65 on {X.shape}: mlayer batch {t_batch:.3f} s/epoch, online {t_online:.3f} "
+          f"s/epoch; QE batch(10 epochs) {som_b.quantization_error(X):.3f} "
+          f"online(1 epoch) {som_on.quantization_error(X):.3f}")
+    try:
+        import somoclu
+    except ImportError:
+        print("  somoclu: not installed (pip install --no-build-isolation somoclu)")
+    else:
+        Xf = X.astype(np.float32)  # somoclu trains in float32
+
+        def sc():
+            s = somoclu.Somoclu(cols, rows, maptype="planar", gridtype="rectangular",
+                                neighborhood="gaussian", initialization="random")
+            t0 = time.perf_counter()
+            s.train(Xf, epochs=epochs)
+            return (time.perf_counter() - t0) / epochs
+
+        t_sc = median_of(sc, ARGS.repeat)
+        print(f"  somoclu batch  {t_sc:.3f} s/epoch   ratio somoclu/mlayer(batch) "
+              f"{t_sc / t_batch:.1f}x")
+    try:
+        from minisom import MiniSom
+    except ImportError:
+        print("  minisom: not installed")
+    else:
+        steps = 1000
+        ms = MiniSom(rows, cols, X.shape[1], sigma=rows / 2, learning_rate=0.5, random_seed=0)
+        ms.random_weights_init(X)
+        t0 = time.perf_counter()
+        ms.train(X, steps, random_order=True)
+        t_ms = (time.perf_counter() - t0) * len(X) / steps
+        print(f"  minisom online {t_ms:.2f} s/epoch (1,000 steps scaled to 10,000)   ratio "
+              f"minisom/mlayer(online) {t_ms / t_online:.1f}x, minisom/mlayer(batch) "
+              f"{t_ms / t_batch:.0f}x")
+
+
+def main():
+    F = mocap_features(ARGS.mocap)
+    print(f"threads {ARGS.threads}; pose features of the clips: {F.shape}")
+    if ARGS.only in (None, "kmeans"):
+        bench_kmeans("mocap-like", tiled(F, 200_000))
+        rng = np.random.default_rng(0)
+        bench_kmeans("random normal", rng.normal(size=(200_000, 96)))
+    if ARGS.only in (None, "som"):
+        bench_som(F)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,205 @@
+"""k-means clustering (C core) and the elbow rule for choosing k (paper 2, section 4.1).
+
+``kmeans`` follows scikit-learn's ``KMeans(algorithm="lloyd")``: the same initial centres give
+the same labels and inertia (up to rounding). ``tol`` is relative to the mean variance of the
+columns of X, as in scikit-learn. Seeds drive mlayer's own generator, not NumPy's.
+"""
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import _arrays
+from ._native import ffi, lib
+from .errors import InvalidArgumentError, check
+
+_ALGORITHMS = {"auto": lib.MLR_KMEANS_AUTO, "lloyd": lib.MLR_KMEANS_LLOYD,
+               "hamerly": lib.MLR_KMEANS_HAMERLY}
+
+
+def default_threads() -> int:
+    """Threads used when none is asked for: the CPUs this process may run on (at most 64).
+    Results do not depend on the thread count."""
+    try:
+        n = len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        n = os.cpu_count() or 1
+    return max(1, min(64, n))
+
+
+def _count(v, name: str, lo: int = 1) -> int:
+    if isinstance(v, bool) or int(v) != v or v < lo:
+        raise InvalidArgumentError(f"{name} must be an integer >= {lo}, got {v!r}")
+    return int(v)
+
+
+@dataclass(frozen=True)
+class KMeansResult:
+    """Result of :func:`kmeans`: centres (k, d), labels (n,) int32, inertia (sum of squared
+    distances to the centres), n_iter (Lloyd iterations of the kept run) and n_skipped (rows
+    whose search the Hamerly bounds skipped, over all iterations)."""
+    centers: np.ndarray
+    labels: np.ndarray
+    inertia: float
+    n_iter: int
+    n_skipped: int = 0
+
+    def predict(self, X) -> np.ndarray:
+        """Index of the nearest centre of each row of X (lowest index on exact ties)."""
+        return predict(self.centers, X)
+
+
+def _prepare_data(X, name="X") -> np.ndarray:
+    X = _arrays.as_f64(X, name, ndim=2)
+    if X.shape[0] == 0 or X.shape[1] == 0:
+        raise InvalidArgumentError(f"{name}: empty data, shape {X.shape}")
+    return X
+
+
+def kmeans(X, k: int, *, init="k-means++", n_init: int = 1, max_iter: int = 300,
+           tol: float = 1e-4, seed: int = 0, algorithm: str = "auto",
+           n_threads: int | None = None) -> KMeansResult:
+    """Cluster the rows of X (n, d) into k groups.
+
+    init: "k-means++" (seeded; n_init runs, the lowest inertia kept) or a (k, d) array of
+    initial centres (one run). algorithm: "auto" (Hamerly bounds when k >= 4), "lloyd" or
+    "hamerly": all give the same labels. n_threads: default :func:`default_threads`; the
+    result is bit-identical for every thread count.
+    """
+    X = _prepare_data(X)
+    n, d = X.shape
+    k = _count(k, "k")
+    if k > n:
+        raise InvalidArgumentError(f"k = {k} exceeds the number of rows n = {n}")
+    if algorithm not in _ALGORITHMS:
+        raise InvalidArgumentError(f"algorithm must be one of {sorted(_ALGORITHMS)}, "
+                                   f"got {algorithm!r}")
+    n_threads = default_threads() if n_threads is None else _count(n_threads, "n_threads")
+    if isinstance(init, str):
+        if init != "k-means++":
+            raise InvalidArgumentError(f"init must be 'k-means++' or an array, got {init!r}")
+        init_arr = None
+    else:
+        init_arr = _arrays.as_f64(init, "init", ndim=2)
+        if init_arr.shape != (k, d):
+            raise InvalidArgumentError(f"init: expected shape {(k, d)}, got {init_arr.shape}")
+    out = ffi.new("mlr_kmeans **")
+    diag = ffi.new("mlr_diag *")
+    check(lib.mlr_kmeans_create(k, d, ffi.NULL, out, diag), "mlayer.kmeans", diag)
+    h = ffi.gc(out[0], lib.mlr_kmeans_destroy)
+    try:
+        for key, v, nm in ((lib.MLR_KMEANS_MAX_ITER, _count(max_iter, "max_iter"), "max_iter"),
+                           (lib.MLR_KMEANS_TOL, float(tol), "tol"),
+                           (lib.MLR_KMEANS_N_INIT, _count(n_init, "n_init"), "n_init"),
+                           (lib.MLR_KMEANS_SEED, _count(seed, "seed", 0), "seed"),
+                           (lib.MLR_KMEANS_N_THREADS, n_threads, "n_threads"),
+                           (lib.MLR_KMEANS_ALGORITHM, _ALGORITHMS[algorithm], "algorithm")):
+            check(lib.mlr_kmeans_set(h, key, float(v), diag), f"mlayer.kmeans ({nm})", diag)
+        labels = np.empty(n, dtype=np.int32)
+        code = lib.mlr_kmeans_fit(h, _arrays.ptr(X), n, d,
+                                  _arrays.ptr(init_arr) if init_arr is not None else ffi.NULL, d,
+                                  ffi.cast("int32_t *", ffi.from_buffer(labels,
+                                                                        require_writable=True)),
+                                  diag)
+        check(code, "mlayer.kmeans", diag)
+        centers = np.frombuffer(ffi.buffer(lib.mlr_kmeans_centers(h), k * d * 8),
+                                dtype=np.float64).reshape(k, d).copy()
+        return KMeansResult(centers, labels, float(lib.mlr_kmeans_inertia(h)),
+                            int(lib.mlr_kmeans_n_iter(h)), int(lib.mlr_kmeans_n_skipped(h)))
+    finally:
+        ffi.release(h)
+
+
+def predict(centers, X) -> np.ndarray:
+    """Index of the nearest of the (k, d) centres for each row of X (n, d), int32."""
+    C = _prepare_data(centers, "centers")
+    X = _arrays.as_f64(X, "X", ndim=2)
+    k, d = C.shape
+    if X.shape[1] != d:
+        raise InvalidArgumentError(f"X: dimension mismatch, {X.shape[1]} columns for centres "
+                                   f"of dimension {d}")
+    out = ffi.new("mlr_kmeans **")
+    diag = ffi.new("mlr_diag *")
+    check(lib.mlr_kmeans_create(k, d, ffi.NULL, out, diag), "mlayer.kmeans.predict", diag)
+    h = ffi.gc(out[0], lib.mlr_kmeans_destroy)
+    try:
+        check(lib.mlr_kmeans_set_centers(h, _arrays.ptr(C), d, diag), "mlayer.kmeans.predict",
+              diag)
+        labels = np.empty(X.shape[0], dtype=np.int32)
+        if X.shape[0]:
+            check(lib.mlr_kmeans_predict(
+                h, _arrays.ptr(X), X.shape[0], d,
+                ffi.cast("int32_t *", ffi.from_buffer(labels, require_writable=True)),
+                ffi.NULL, diag), "mlayer.kmeans.predict", diag)
+        return labels
+    finally:
+        ffi.release(h)
+
+
+@dataclass(frozen=True)
+class ElbowResult:
+    """The elbow rule's choice: k, the ks tried, their inertias, the normalized curve and the
+    distance of each of its points below the chord (the criterion)."""
+    k: int
+    ks: np.ndarray
+    inertia: np.ndarray
+    score: np.ndarray
+    results: tuple
+
+    def plot(self, ax=None):
+        """Inertia against k with the chosen k marked (matplotlib); returns the axes."""
+        import matplotlib.pyplot as plt
+        if ax is None:
+            ax = plt.figure(figsize=(5, 3.5)).add_subplot()
+        ax.plot(self.ks, self.inertia, "o-", color="tab:blue")
+        i = int(np.flatnonzero(self.ks == self.k)[0])
+        ax.plot([self.k], [self.inertia[i]], "o", ms=12, mfc="none", color="tab:red",
+                label=f"elbow: k = {self.k}")
+        ax.set_xlabel("k")
+        ax.set_ylabel("inertia")
+        ax.legend()
+        return ax
+
+
+def elbow_point(ks, inertia) -> tuple[int, np.ndarray]:
+    """The elbow of a decreasing curve inertia(k): the kneedle rule.
+
+    Both axes are scaled to [0, 1] (k by its range, inertia by its range), so the curve runs
+    from (0, 1) to (1, 0); the elbow is the k whose point lies farthest below the chord
+    joining the end points, i.e. that maximizes (1 - x) - y, the vertical gap to the chord
+    (proportional to the Euclidean distance to it). Ties go to the smaller k. With fewer than
+    3 ks, or a flat curve, the smallest k is returned. Returns (k, scores).
+    """
+    ks = np.asarray(ks, dtype=np.float64)
+    y = np.asarray(inertia, dtype=np.float64)
+    if ks.ndim != 1 or ks.shape != y.shape or ks.size == 0:
+        raise InvalidArgumentError("ks and inertia must be 1-D of the same non-zero length")
+    order = np.argsort(ks, kind="stable")
+    ks, y = ks[order], y[order]
+    if ks.size < 3 or y.max() == y.min() or ks[-1] == ks[0]:
+        return int(ks[0]), np.zeros(ks.size)
+    xn = (ks - ks[0]) / (ks[-1] - ks[0])
+    yn = (y - y.min()) / (y.max() - y.min())
+    score = (1.0 - xn) - yn
+    return int(ks[int(np.argmax(score))]), score
+
+
+def elbow(X, ks, **kwargs) -> ElbowResult:
+    """Run :func:`kmeans` for every k in ks (keyword arguments are passed on) and choose k by
+    the elbow rule (:func:`elbow_point`). Returns an :class:`ElbowResult` with the curve."""
+    ks = [_count(k, "k") for k in ks]
+    if not ks:
+        raise InvalidArgumentError("ks is empty")
+    if len(set(ks)) != len(ks):
+        raise InvalidArgumentError("ks has repeated values")
+    ks = sorted(ks)
+    results = tuple(kmeans(X, k, **kwargs) for k in ks)
+    inertia = np.array([r.inertia for r in results])
+    k, score = elbow_point(ks, inertia)
+    return ElbowResult(k, np.array(ks), inertia, score, results)
+
+
+__all__ = ["kmeans", "KMeansResult", "predict", "elbow", "elbow_point", "ElbowResult",
+           "default_threads"]

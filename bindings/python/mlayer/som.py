@@ -1,0 +1,178 @@
+"""Self-organizing map (Kohonen) on a rows x cols lattice, C core (paper 2, section 3).
+
+Batch and online training with exponentially decaying radius sigma and learning rate alpha
+(schedules in ``include/mlayer/mlr_som.h``), Gaussian neighbourhood, seeded and bit-identical
+across runs and thread counts.
+"""
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+from . import _arrays
+from ._native import ffi, lib
+from .errors import InvalidArgumentError, check
+from .kmeans import _count, default_threads
+
+_MODES = {"batch": lib.MLR_SOM_BATCH, "online": lib.MLR_SOM_ONLINE}
+
+
+class SOM:
+    """A rows x cols map of dim-dimensional codebook vectors.
+
+    sigma0/sigma1: neighbourhood radius at the start/end of a training call (lattice units;
+    default max(rows, cols)/2 and 1); alpha0/alpha1: learning rate of online training (0.5,
+    0.01). n_threads: default :func:`mlayer.kmeans.default_threads`; results do not depend on it.
+    """
+
+    def __init__(self, rows: int, cols: int, dim: int, *, seed: int = 0,
+                 sigma0: float | None = None, sigma1: float = 1.0, alpha0: float = 0.5,
+                 alpha1: float = 0.01, n_threads: int | None = None, _handle=None):
+        for v, nm in ((rows, "rows"), (cols, "cols"), (dim, "dim")):
+            if isinstance(v, bool) or int(v) != v or v < 0:
+                raise InvalidArgumentError(f"{nm} must be a non-negative integer, got {v!r}")
+        diag = ffi.new("mlr_diag *")
+        if _handle is None:
+            out = ffi.new("mlr_som **")
+            check(lib.mlr_som_create(int(rows), int(cols), int(dim), ffi.NULL, out, diag),
+                  "mlayer.SOM", diag)
+            _handle = out[0]
+        self._h = ffi.gc(_handle, lib.mlr_som_destroy)
+        self.rows, self.cols, self.dim = int(rows), int(cols), int(dim)
+        self.n_threads = default_threads() if n_threads is None else _count(n_threads,
+                                                                            "n_threads")
+        opts = [(lib.MLR_SOM_SEED, _count(seed, "seed", 0)),
+                (lib.MLR_SOM_N_THREADS, self.n_threads),
+                (lib.MLR_SOM_SIGMA1, sigma1), (lib.MLR_SOM_ALPHA0, alpha0),
+                (lib.MLR_SOM_ALPHA1, alpha1)]
+        if sigma0 is not None:
+            opts.append((lib.MLR_SOM_SIGMA0, sigma0))
+        for key, v in opts:
+            check(lib.mlr_som_set(self._h, key, float(v), diag), "mlayer.SOM", diag)
+
+    def close(self) -> None:
+        """Free the map now rather than at garbage collection."""
+        if self._h is not None:
+            ffi.release(self._h)
+            self._h = None
+
+    def _live(self):
+        if self._h is None:
+            raise InvalidArgumentError("mlayer.SOM: the map is closed")
+        return self._h
+
+    def _data(self, X) -> np.ndarray:
+        X = _arrays.as_f64(X, "X", ndim=2)
+        if X.shape[0] == 0:
+            raise InvalidArgumentError("X: empty data, no rows")
+        if X.shape[1] != self.dim:
+            raise InvalidArgumentError(
+                f"X: dimension mismatch, {X.shape[1]} columns for a map of dimension {self.dim}")
+        return X
+
+    def train(self, X, epochs: int, mode: str = "batch") -> "SOM":
+        """Train on the rows of X (n, dim) for epochs passes; mode "batch" or "online".
+        An untrained map starts from rows of X drawn by the seed. Returns self."""
+        X = self._data(X)
+        if mode not in _MODES:
+            raise InvalidArgumentError(f"mode must be 'batch' or 'online', got {mode!r}")
+        diag = ffi.new("mlr_diag *")
+        check(lib.mlr_som_train(self._live(), _arrays.ptr(X), X.shape[0], self.dim,
+                                _count(epochs, "epochs"), _MODES[mode], diag),
+              "mlayer.SOM.train", diag)
+        return self
+
+    @property
+    def codebook(self) -> np.ndarray:
+        """Copy of the codebook, shape (rows, cols, dim)."""
+        n = self.rows * self.cols * self.dim
+        return np.frombuffer(ffi.buffer(lib.mlr_som_codebook(self._live()), n * 8),
+                             dtype=np.float64).reshape(self.rows, self.cols, self.dim).copy()
+
+    @codebook.setter
+    def codebook(self, w) -> None:
+        w = _arrays.as_f64(w, "codebook", ndim=3)
+        if w.shape != (self.rows, self.cols, self.dim):
+            raise InvalidArgumentError(
+                f"codebook: expected shape {(self.rows, self.cols, self.dim)}, got {w.shape}")
+        diag = ffi.new("mlr_diag *")
+        check(lib.mlr_som_set_codebook(self._live(), _arrays.ptr(w), self.dim, diag),
+              "mlayer.SOM.codebook", diag)
+
+    def bmu_index(self, X, *, second: bool = False):
+        """Unit index (r * cols + c) of each row's best-matching unit, int32 (n,); with
+        second=True also the second-best units."""
+        X = self._data(X)
+        n = X.shape[0]
+        b = np.empty(n, dtype=np.int32)
+        s = np.empty(n, dtype=np.int32) if second else None
+        diag = ffi.new("mlr_diag *")
+        i32 = lambda a: ffi.cast("int32_t *", ffi.from_buffer(a, require_writable=True))  # noqa: E731
+        check(lib.mlr_som_bmu(self._live(), _arrays.ptr(X), n, self.dim, i32(b), ffi.NULL,
+                              i32(s) if second else ffi.NULL, diag), "mlayer.SOM.bmu", diag)
+        return (b, s) if second else b
+
+    def bmu(self, X) -> np.ndarray:
+        """Best-matching unit of each row as (n, 2) ints (lattice row, column)."""
+        u = self.bmu_index(X).astype(np.int64)
+        return np.stack([u // self.cols, u % self.cols], axis=1)
+
+    def _errors(self, X):
+        X = self._data(X)
+        qe = ffi.new("double *")
+        te = ffi.new("double *")
+        diag = ffi.new("mlr_diag *")
+        check(lib.mlr_som_errors(self._live(), _arrays.ptr(X), X.shape[0], self.dim, qe, te,
+                                 diag), "mlayer.SOM", diag)
+        return float(qe[0]), float(te[0])
+
+    def quantization_error(self, X) -> float:
+        """Mean Euclidean distance of the rows of X to their BMU's codebook vector."""
+        return self._errors(X)[0]
+
+    def topographic_error(self, X) -> float:
+        """Fraction of rows whose best and second-best units are not lattice neighbours
+        (8-neighbourhood)."""
+        return self._errors(X)[1]
+
+    def to_bytes(self) -> bytes:
+        """The codebook as a checked blob (tag, version, size, hash)."""
+        h = self._live()
+        size = lib.mlr_som_export_size(h)
+        buf = ffi.new("char[]", size)
+        diag = ffi.new("mlr_diag *")
+        check(lib.mlr_som_export(h, buf, size, diag), "mlayer.SOM.to_bytes", diag)
+        return bytes(ffi.buffer(buf, size))
+
+    @classmethod
+    def from_bytes(cls, blob: bytes, *, seed: int = 0, n_threads: int | None = None) -> "SOM":
+        """A map from :meth:`to_bytes` output; a corrupt blob raises ParseError."""
+        blob = bytes(blob)
+        out = ffi.new("mlr_som **")
+        diag = ffi.new("mlr_diag *")
+        check(lib.mlr_som_import(blob, len(blob), ffi.NULL, out, diag), "mlayer.SOM.from_bytes",
+              diag)
+        h = out[0]
+        rows, cols, dim = lib.mlr_som_rows(h), lib.mlr_som_cols(h), lib.mlr_som_dim(h)
+        return cls(rows, cols, dim, seed=seed, n_threads=n_threads, _handle=h)
+
+    def save(self, path) -> None:
+        """Write the codebook blob to path (a temporary file renamed into place)."""
+        path = os.fspath(path)
+        tmp = f"{path}.tmp{os.getpid()}"
+        with open(tmp, "wb") as f:
+            f.write(self.to_bytes())
+        os.replace(tmp, path)
+
+    @classmethod
+    def load(cls, path, **kwargs) -> "SOM":
+        """Read a map written by :meth:`save`."""
+        with open(os.fspath(path), "rb") as f:
+            return cls.from_bytes(f.read(), **kwargs)
+
+    def __repr__(self) -> str:
+        return f"SOM({self.rows}, {self.cols}, {self.dim})"
+
+
+__all__ = ["SOM"]
