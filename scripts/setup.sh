@@ -30,7 +30,8 @@ python -m pip install -q "meson>=1.3" "meson-python>=0.16" "cffi>=2.1" ninja "nu
 # test-only: an independent BVH reader the pytest suite checks forward kinematics against
 python -m pip install -q "bvhio>=1.5"
 # test-only peers of the clustering suite: k-means labels/inertia against scikit-learn's Lloyd,
-# SOM quantization error against MiniSom. (bench/python/bench_cluster.py also times somoclu,
+# SOM quantization error against MiniSom; GMM log-likelihood against
+# scikit-learn's GaussianMixture. (bench/python/bench_cluster.py also times somoclu,
 # which is not installed here: `pip install --no-build-isolation somoclu` after numpy.)
 python -m pip install -q scikit-learn minisom
 # test-only: drives Debian's chromium (apt, /usr/bin/chromedriver) for the viewer's browser tests

@@ -25,6 +25,10 @@ from .kmeans import KMeansResult, elbow, kmeans
 from .som import SOM
 from .features import pose_features
 from .batch import batch
+from .manifold import GRBF, PCA
+from .mixture import GaussianMixture, fuzzy_cmeans
+from .markov import Markov
+from .primitives import PrimitiveModel
 
 try:
     __version__ = _dist_version("mlayer")
@@ -43,4 +47,5 @@ __all__ = ["__version__", "library_version", "Error", "InvalidArgumentError", "P
            "read_bvh_string", "write_bvh_string", "metrics", "data", "Layers", "decompose",
            "denoise", "stylize", "Stream", "stream_motion", "ik", "detect_contacts",
            "fix_contacts", "resample", "slerp_resample", "timewarp", "timewarp_map",
-           "timewarp_speed", "kmeans", "KMeansResult", "elbow", "SOM", "pose_features", "batch"]
+           "timewarp_speed", "kmeans", "KMeansResult", "elbow", "SOM", "pose_features", "batch",
+           "PCA", "GRBF", "fuzzy_cmeans", "GaussianMixture", "Markov", "PrimitiveModel"]

@@ -55,6 +55,7 @@ _SUBCOMMAND_MODULES = (
     "cli_resample",
     "cli_view",
     "cli_batch",
+    "cli_primitives",
     "cli_demo",
 )
 

@@ -24,3 +24,4 @@ def mocap():
 def rng():
     import numpy as np
     return np.random.default_rng(12345)
+

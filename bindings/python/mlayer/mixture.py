@@ -1,0 +1,311 @@
+"""Soft clustering of manifold points (paper 2, section 4.1): fuzzy c-means and a Gaussian
+mixture fitted by EM, numpy only. Hard k-means is :func:`mlayer.kmeans` (C core)."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import _arrays
+from .errors import InvalidArgumentError
+
+__all__ = ["fuzzy_cmeans", "FuzzyResult", "GaussianMixture"]
+
+
+def _data(X, k: int, what: str, name: str = "X") -> np.ndarray:
+    X = _arrays.as_f64(X, name, ndim=2)
+    if X.shape[0] == 0 or X.shape[1] == 0:
+        raise InvalidArgumentError(f"{name}: empty data, shape {X.shape}")
+    _arrays.require_finite(X, name)
+    if k > X.shape[0]:
+        raise InvalidArgumentError(f"{what} = {k} exceeds the number of rows n = {X.shape[0]}")
+    return X
+
+
+def _count(v, name: str, lo: int = 1) -> int:
+    if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
+        raise InvalidArgumentError(f"{name} must be an integer >= {lo}, got {v!r}")
+    return int(v)
+
+
+def _sqdist(X: np.ndarray, C: np.ndarray) -> np.ndarray:
+    d2 = (X * X).sum(1)[:, None] - 2.0 * (X @ C.T) + (C * C).sum(1)[None, :]
+    np.maximum(d2, 0.0, out=d2)
+    return d2
+
+
+def _initial_centers(X: np.ndarray, k: int, init, seed: int, who: str) -> np.ndarray:
+    if isinstance(init, str):
+        if init != "k-means++":
+            raise InvalidArgumentError(f"{who}: init must be 'k-means++' or an array of "
+                                       f"centres, got {init!r}")
+        from .kmeans import kmeans  # the C core's seeding and Lloyd
+        return kmeans(X, k, seed=seed).centers
+    C = _arrays.as_f64(init, "init", ndim=2)
+    if C.shape != (k, X.shape[1]):
+        raise InvalidArgumentError(f"{who}: init must have shape {(k, X.shape[1])}, got "
+                                   f"{C.shape}")
+    _arrays.require_finite(C, "init")
+    return C.copy()
+
+
+# ---------------------------------------------------------------------------------------------
+# fuzzy c-means
+
+
+@dataclass(frozen=True)
+class FuzzyResult:
+    """Result of :func:`fuzzy_cmeans`: centers (c, d), memberships u (n, c) (rows sum to 1),
+    labels (n,) = argmax of u, objective J_m = sum u^m |x - v|^2, n_iter."""
+    centers: np.ndarray
+    u: np.ndarray
+    labels: np.ndarray
+    objective: float
+    n_iter: int
+
+    def predict_proba(self, X, m: float | None = None) -> np.ndarray:
+        """Memberships of new rows to the fitted centres (the exponent m of the fit)."""
+        X = _data(X, 1, "c")
+        if X.shape[1] != self.centers.shape[1]:
+            raise InvalidArgumentError(f"X: dimension mismatch, {X.shape[1]} columns for "
+                                       f"centres of dimension {self.centers.shape[1]}")
+        return _memberships(_sqdist(X, self.centers), self._m if m is None else m)
+
+
+def _memberships(d2: np.ndarray, m: float) -> np.ndarray:
+    """u_ik = 1 / sum_j (d_ik / d_ij)^(2 / (m - 1)); a row on a centre belongs to it alone."""
+    zero = d2 <= 0.0
+    with np.errstate(divide="ignore"):
+        w = np.where(zero, 0.0, d2) ** (-1.0 / (m - 1.0))
+    w[zero] = 0.0
+    hit = zero.any(axis=1)
+    if hit.any():  # a row on one or more centres: share among those centres
+        w[hit] = zero[hit] / zero[hit].sum(axis=1, keepdims=True)
+    # scale-free division: the largest weight is finite because d2 > 0 off the hit rows
+    w /= w.sum(axis=1, keepdims=True)
+    return w
+
+
+def fuzzy_cmeans(X, c: int, m: float = 2.0, *, init=None, max_iter: int = 300,
+                 tol: float = 1e-6, seed: int = 0) -> FuzzyResult:
+    """Fuzzy c-means (Bezdek) of the rows of X (n, d) into c clusters with fuzzifier m > 1.
+
+    init: None (memberships drawn from a seeded Dirichlet distribution), "k-means++" (centres
+    of :func:`mlayer.kmeans`) or a (c, d) array of initial centres. Iterates centres
+    v_k = sum u^m x / sum u^m and memberships until the largest membership change is below
+    tol or max_iter. Deterministic for a given seed.
+    """
+    c = _count(c, "c")
+    X = _data(X, c, "c")
+    m = float(m)
+    if not (math.isfinite(m) and m > 1.0):
+        raise InvalidArgumentError(f"fuzzy_cmeans: m must be finite and > 1, got {m}")
+    max_iter = _count(max_iter, "max_iter")
+    if not (math.isfinite(tol) and tol >= 0):
+        raise InvalidArgumentError(f"fuzzy_cmeans: tol must be >= 0, got {tol}")
+    if init is None:
+        u = np.random.default_rng(_count(seed, "seed", 0)).dirichlet(np.ones(c), X.shape[0])
+    else:
+        V = _initial_centers(X, c, init, seed, "fuzzy_cmeans")
+        u = _memberships(_sqdist(X, V), m)
+    n_iter = 0
+    for n_iter in range(1, max_iter + 1):
+        um = u ** m
+        V = (um.T @ X) / um.sum(axis=0)[:, None]
+        u_new = _memberships(_sqdist(X, V), m)
+        delta = np.abs(u_new - u).max()
+        u = u_new
+        if delta < tol:
+            break
+    um = u ** m
+    V = (um.T @ X) / um.sum(axis=0)[:, None]
+    J = float((um * _sqdist(X, V)).sum())
+    res = FuzzyResult(V, u, np.argmax(u, axis=1).astype(np.int32), J, n_iter)
+    object.__setattr__(res, "_m", m)
+    return res
+
+
+# ---------------------------------------------------------------------------------------------
+# Gaussian mixture
+
+_LOG_2PI = math.log(2.0 * math.pi)
+
+
+class GaussianMixture:
+    """Gaussian mixture of k components fitted by EM.
+
+    covariance  "full" (k, d, d) or "diag" (k, d).
+    init        "k-means++" (the centres of :func:`mlayer.kmeans`, seeded) or a (k, d) array of
+                initial means. weights_init (k,) and covariances_init ((k, d, d) or (k, d))
+                complete it; when they are missing they come from the hard assignment of the
+                rows to the nearest initial mean, as scikit-learn does.
+    reg_covar   added to the diagonal of every covariance (keeps them positive definite).
+    tol         EM stops when the mean log-likelihood per row changes by less than tol.
+
+    After :meth:`fit`: ``weights_``, ``means_``, ``covariances_``, ``converged_``,
+    ``n_iter_``, ``lower_bound_`` (mean log-likelihood of the training rows).
+    """
+
+    def __init__(self, k: int, covariance: str = "full", *, init="k-means++",
+                 weights_init=None, covariances_init=None, max_iter: int = 100,
+                 tol: float = 1e-3, reg_covar: float = 1e-6, seed: int = 0):
+        self.k = _count(k, "k")
+        if covariance not in ("full", "diag"):
+            raise InvalidArgumentError(f"GaussianMixture: covariance must be 'full' or 'diag', "
+                                       f"got {covariance!r}")
+        self.covariance = covariance
+        self.init = init
+        self.weights_init = weights_init
+        self.covariances_init = covariances_init
+        self.max_iter = _count(max_iter, "max_iter")
+        if not (math.isfinite(tol) and tol >= 0):
+            raise InvalidArgumentError(f"GaussianMixture: tol must be >= 0, got {tol}")
+        if not (math.isfinite(reg_covar) and reg_covar >= 0):
+            raise InvalidArgumentError(f"GaussianMixture: reg_covar must be >= 0, got "
+                                       f"{reg_covar}")
+        self.tol, self.reg_covar = float(tol), float(reg_covar)
+        self.seed = _count(seed, "seed", 0)
+
+    # -- EM pieces -----------------------------------------------------------------------------
+
+    def _m_step(self, X: np.ndarray, resp: np.ndarray) -> None:
+        nk = resp.sum(axis=0) + 10.0 * np.finfo(np.float64).eps
+        self.weights_ = nk / nk.sum()
+        self.means_ = (resp.T @ X) / nk[:, None]
+        if self.covariance == "full":
+            d = X.shape[1]
+            cov = np.empty((self.k, d, d))
+            for j in range(self.k):
+                D = X - self.means_[j]
+                cov[j] = (resp[:, j] * D.T) @ D / nk[j]
+                cov[j].flat[::d + 1] += self.reg_covar
+            self.covariances_ = cov
+        else:
+            avg_x2 = (resp.T @ (X * X)) / nk[:, None]
+            self.covariances_ = avg_x2 - self.means_ ** 2 + self.reg_covar
+        self._factor()
+
+    def _factor(self) -> None:
+        if self.covariance == "full":
+            try:
+                self._chol = np.linalg.cholesky(self.covariances_)
+            except np.linalg.LinAlgError:
+                raise InvalidArgumentError(
+                    "GaussianMixture: a covariance is not positive definite (collapsed "
+                    "component; increase reg_covar or reduce k)") from None
+        else:
+            if not (self.covariances_ > 0).all():
+                raise InvalidArgumentError(
+                    "GaussianMixture: a variance is not positive (increase reg_covar)")
+
+    def _log_gauss(self, X: np.ndarray) -> np.ndarray:
+        """log N(x | mu_j, Sigma_j), shape (n, k)."""
+        n, d = X.shape
+        out = np.empty((n, self.k))
+        if self.covariance == "full":
+            for j in range(self.k):
+                L = self._chol[j]
+                z = np.linalg.solve(L, (X - self.means_[j]).T)  # triangular: L z = x - mu
+                out[:, j] = -0.5 * (d * _LOG_2PI + (z * z).sum(axis=0)) \
+                    - np.log(np.diag(L)).sum()
+        else:
+            var = self.covariances_
+            for j in range(self.k):
+                D = X - self.means_[j]
+                out[:, j] = -0.5 * (d * _LOG_2PI + np.log(var[j]).sum()
+                                    + (D * D / var[j]).sum(axis=1))
+        return out
+
+    def _weighted(self, X: np.ndarray) -> np.ndarray:
+        return self._log_gauss(X) + np.log(self.weights_)
+
+    @staticmethod
+    def _logsumexp(a: np.ndarray) -> np.ndarray:
+        mx = a.max(axis=1, keepdims=True)
+        return (mx + np.log(np.exp(a - mx).sum(axis=1, keepdims=True)))[:, 0]
+
+    # -- public --------------------------------------------------------------------------------
+
+    def _check_X(self, X) -> np.ndarray:
+        if not hasattr(self, "means_"):
+            raise InvalidArgumentError("GaussianMixture: call fit first")
+        X = _data(X, 1, "k")
+        if X.shape[1] != self.means_.shape[1]:
+            raise InvalidArgumentError(f"X: dimension mismatch, {X.shape[1]} columns for a "
+                                       f"model of dimension {self.means_.shape[1]}")
+        return X
+
+    def fit(self, X) -> "GaussianMixture":
+        X = _data(X, self.k, "k")
+        n, d = X.shape
+        means = _initial_centers(X, self.k, self.init, self.seed, "GaussianMixture")
+        if self.weights_init is None or self.covariances_init is None:
+            lab = np.argmin(_sqdist(X, means), axis=1)
+            resp = np.zeros((n, self.k))
+            resp[np.arange(n), lab] = 1.0
+            self._m_step(X, resp)
+        if self.weights_init is not None:
+            w = _arrays.as_f64(self.weights_init, "weights_init", ndim=1)
+            if w.shape != (self.k,) or not np.isfinite(w).all() or (w < 0).any() \
+                    or abs(w.sum() - 1.0) > 1e-6:
+                raise InvalidArgumentError(f"weights_init: need {self.k} non-negative weights "
+                                           "summing to 1")
+            self.weights_ = w.copy()
+        if self.covariances_init is not None:
+            shape = (self.k, d, d) if self.covariance == "full" else (self.k, d)
+            cv = _arrays.as_f64(self.covariances_init, "covariances_init")
+            if cv.shape != shape:
+                raise InvalidArgumentError(f"covariances_init: expected shape {shape}, got "
+                                           f"{cv.shape}")
+            _arrays.require_finite(cv, "covariances_init")
+            self.covariances_ = cv.copy()
+        self.means_ = means
+        self._factor()
+        lower = -np.inf
+        self.converged_ = False
+        self.n_iter_ = 0
+        for it in range(1, self.max_iter + 1):
+            lw = self._weighted(X)
+            lse = self._logsumexp(lw)
+            ll = float(lse.mean())
+            self._m_step(X, np.exp(lw - lse[:, None]))
+            self.n_iter_ = it
+            if abs(ll - lower) < self.tol:
+                self.converged_ = True
+                lower = ll
+                break
+            lower = ll
+        self.lower_bound_ = lower
+        return self
+
+    def predict_proba(self, X) -> np.ndarray:
+        """Responsibilities (n, k); rows sum to 1."""
+        X = self._check_X(X)
+        lw = self._weighted(X)
+        return np.exp(lw - self._logsumexp(lw)[:, None])
+
+    def predict(self, X) -> np.ndarray:
+        """Most responsible component of each row, int32 (n,)."""
+        X = self._check_X(X)
+        return np.argmax(self._weighted(X), axis=1).astype(np.int32)
+
+    def score_samples(self, X) -> np.ndarray:
+        """log p(x) of each row (n,)."""
+        return self._logsumexp(self._weighted(self._check_X(X)))
+
+    def score(self, X) -> float:
+        """Mean log-likelihood per row (scikit-learn's ``score``)."""
+        return float(self.score_samples(X).mean())
+
+    def log_likelihood(self, X) -> float:
+        """Total log-likelihood of the rows of X."""
+        return float(self.score_samples(X).sum())
+
+    def bic(self, X) -> float:
+        """Bayesian information criterion (lower is better)."""
+        X = self._check_X(X)
+        d = X.shape[1]
+        cov_p = self.k * d * (d + 1) / 2 if self.covariance == "full" else self.k * d
+        p = cov_p + self.k * d + self.k - 1
+        return -2.0 * self.log_likelihood(X) + p * math.log(X.shape[0])

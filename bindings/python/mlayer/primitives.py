@@ -1,0 +1,430 @@
+"""Motion primitives and synthesis on the manifold (paper 2, sections 3-5).
+
+:meth:`PrimitiveModel.fit` learns, from clips of one skeleton:
+
+1. pose features (:func:`mlayer.pose_features`) and their 2-D manifold points: the best-matching
+   unit of each frame on a SOM lattice (``manifold="som"``), or the first two principal
+   components (``manifold="pca"``);
+2. primitives: k-means of the manifold points, k chosen by the elbow rule when k="auto";
+3. their dynamics: a :class:`mlayer.Markov` model of consecutive frame labels;
+4. the generative GRBF mapping (:class:`mlayer.GRBF`) from manifold points to poses: root
+   height, root velocity and turning rate in the heading frame, joint rotations (quaternions,
+   the root's without its heading) and joint positions (the pose features).
+
+:meth:`PrimitiveModel.generate` turns a sequence of primitives (sampled from the Markov model or
+followed by equation 5) or a list of key poses into a smooth path on the manifold (the LGS
+spline through the primitives' centres, paced by their mean durations), resampled to N frames,
+mapped to poses with the GRBF, smoothed with the LGS and returned as a :class:`mlayer.Motion`.
+"""
+from __future__ import annotations
+
+import math
+import sys
+
+import numpy as np
+
+from . import quat
+from .errors import InvalidArgumentError, MlayerIOError
+from .lgs import lgs
+from .manifold import GRBF, PCA
+from .markov import Markov
+from .motion import Motion, Skeleton
+
+__all__ = ["PrimitiveModel", "heading_quat", "split_heading"]
+
+_FORMAT = 1
+
+
+def _yaw(rot_root: np.ndarray) -> np.ndarray:
+    from .features import heading
+    return heading(rot_root)
+
+
+def heading_quat(yaw) -> np.ndarray:
+    """Unit quaternions (n, 4) of rotations by yaw (radians) about +Y."""
+    yaw = np.asarray(yaw, dtype=np.float64)
+    q = np.zeros(yaw.shape + (4,))
+    q[..., 0] = np.cos(yaw / 2)
+    q[..., 2] = np.sin(yaw / 2)
+    return q
+
+
+def split_heading(rot_root) -> tuple[np.ndarray, np.ndarray]:
+    """Split root rotations (n, 4) into yaw (n,) and the rotation without heading:
+    rot_root = heading_quat(yaw) * rest."""
+    yaw = _yaw(rot_root)
+    return yaw, quat.mul(quat.conj(heading_quat(yaw)), rot_root)
+
+
+def _hemisphere(q: np.ndarray) -> np.ndarray:
+    """Flip the quaternions (n, J, 4) of each joint to the hemisphere of that joint's principal
+    axis (the eigenvector of sum q q^T), so that linear regression on them is meaningful."""
+    out = q.copy()
+    for j in range(q.shape[1]):
+        M = q[:, j].T @ q[:, j]
+        ref = np.linalg.eigh(M)[1][:, -1]
+        out[:, j] *= np.where(q[:, j] @ ref < 0, -1.0, 1.0)[:, None]
+    return out
+
+
+def _say(progress, msg: str) -> None:
+    if progress:
+        print(msg, file=sys.stderr if progress is True else progress, flush=True)
+
+
+class PrimitiveModel:
+    """A learned motion manifold with primitives; build it with :meth:`fit` or :meth:`load`.
+
+    Attributes: ``skeleton``, ``frame_time``, ``manifold`` ("som" or "pca"), ``points``
+    (n, 2) manifold point of every training frame, ``clip_starts`` (first frame of each clip),
+    ``labels`` (n,), ``centers`` (k, 2) primitive centres on the manifold, ``markov``,
+    ``grbf``, ``bounds`` (the manifold box the GRBF lattice spans), ``elbow_ks`` and
+    ``elbow_inertia`` (the curve when k was chosen automatically), ``som_codebook``
+    (rows, cols, dim) or ``pca_mean``/``pca_components``.
+    """
+
+    # -- learning ------------------------------------------------------------------------------
+
+    @classmethod
+    def fit(cls, clips, *, k="auto", ks=range(2, 21), manifold: str = "som", som=(30, 30),
+            epochs: int = 20, lattice=(15, 15), kernel: str = "thin_plate",
+            smoothing: float = 1e-6, seed: int = 0, progress=None) -> "PrimitiveModel":
+        """Learn a model from one Motion or a list of Motions of one skeleton.
+
+        k: number of primitives, or "auto" (elbow rule over ks). manifold: "som" (a rows x
+        cols SOM, batch training for epochs) or "pca". lattice, kernel, smoothing: the GRBF
+        (a small relative ridge keeps the weights of lattice centres with no training frame
+        nearby determined). progress: True prints the
+        steps on stderr (or give a file).
+        """
+        from .features import pose_features
+        from .kmeans import elbow, kmeans
+        clips = list(clips) if isinstance(clips, (list, tuple)) else [clips]
+        if not clips:
+            raise InvalidArgumentError("PrimitiveModel.fit: no clips")
+        for m in clips:
+            if not isinstance(m, Motion):
+                raise InvalidArgumentError(f"PrimitiveModel.fit: expected Motion objects, got "
+                                           f"{type(m).__name__}")
+            if m.n_frames < 2:
+                raise InvalidArgumentError("PrimitiveModel.fit: every clip needs >= 2 frames")
+        if manifold not in ("som", "pca"):
+            raise InvalidArgumentError(f"manifold must be 'som' or 'pca', got {manifold!r}")
+        self = cls()
+        self.skeleton = clips[0].skeleton
+        self.frame_time = float(np.median([m.frame_time for m in clips]))
+        _say(progress, f"features: {len(clips)} clip(s), "
+                       f"{sum(m.n_frames for m in clips)} frames")
+        X = pose_features(clips)
+        self.clip_starts = np.cumsum([0] + [m.n_frames for m in clips[:-1]]).astype(np.int64)
+        self.manifold = manifold
+        if manifold == "som":
+            from .som import SOM
+            rows, cols = (int(v) for v in som)
+            _say(progress, f"SOM {rows}x{cols}: {epochs} batch epochs on {X.shape[0]} x "
+                           f"{X.shape[1]}")
+            s = SOM(rows, cols, X.shape[1], seed=seed)
+            s.train(X, epochs, mode="batch")
+            self.som_codebook = s.codebook
+            self.points = s.bmu(X).astype(np.float64)
+            self.bounds = ((0.0, rows - 1.0), (0.0, cols - 1.0))
+            _say(progress, f"SOM: quantization error {s.quantization_error(X):.4g}, "
+                           f"topographic error {s.topographic_error(X):.3f}, "
+                           f"{len(np.unique(s.bmu_index(X)))} units used")
+        else:
+            p = PCA(2).fit(X)
+            self.pca_mean, self.pca_components = p.mean_, p.components_
+            self.points = p.transform(X)
+            self.bounds = tuple((float(self.points[:, j].min()), float(self.points[:, j].max()))
+                                for j in range(2))
+        if k == "auto":
+            ks = [q for q in ks if q <= X.shape[0]]
+            _say(progress, f"elbow: k-means for k = {ks[0]} .. {ks[-1]}")
+            e = elbow(self.points, ks, seed=seed, n_init=3)
+            self.elbow_ks, self.elbow_inertia = np.asarray(e.ks), np.asarray(e.inertia)
+            km = e.results[list(e.ks).index(e.k)]
+        else:
+            self.elbow_ks = self.elbow_inertia = np.zeros(0)
+            km = kmeans(self.points, k, seed=seed, n_init=3)
+        self.centers = np.asarray(km.centers, dtype=np.float64)
+        self.labels = np.asarray(km.labels, dtype=np.int64)
+        k = self.centers.shape[0]
+        _say(progress, f"primitives: k = {k}")
+        ends = list(self.clip_starts[1:]) + [X.shape[0]]
+        self.markov = Markov.fit([self.labels[a:b] for a, b in zip(self.clip_starts, ends)],
+                                 n_states=k)
+        Y = self._targets(clips, X)
+        _say(progress, f"GRBF: {kernel}, {lattice[0]}x{lattice[1]} centres, "
+                       f"{X.shape[0]} frames -> {Y.shape[1]} outputs")
+        self.grbf = GRBF(kernel, lattice, bounds=self.bounds,
+                         smoothing=smoothing).fit(self.points, Y)
+        fit = self.grbf.predict(self.points)
+        J = self.skeleton.n_joints
+        err = np.sqrt(((fit[:, -3 * J:] - X) ** 2).reshape(-1, J, 3).sum(-1)).mean()
+        self.fit_error = float(err)
+        _say(progress, f"GRBF: mean joint position error on the training frames {err:.4g}")
+        return self
+
+    def _targets(self, clips, X) -> np.ndarray:
+        """Per frame: [root height, vx, vz (heading frame, per frame), yaw rate, J*4
+        quaternions (root without heading), 3J positions]."""
+        parts = []
+        for m in clips:
+            yaw, rest = split_heading(m.rot[:, 0])
+            rot = m.rot.copy()
+            rot[:, 0] = rest
+            dp = np.diff(m.root_pos, axis=0)
+            dyaw = np.angle(np.exp(1j * np.diff(yaw)))
+            c, s = np.cos(yaw[:-1]), np.sin(yaw[:-1])
+            # world step rotated by -yaw: the step in the heading frame
+            vx = c * dp[:, 0] - s * dp[:, 2]
+            vz = s * dp[:, 0] + c * dp[:, 2]
+            vel = np.stack([vx, vz, dyaw], axis=1)
+            vel = np.vstack([vel, vel[-1:]])
+            parts.append((m.root_pos[:, 1:2], vel, rot))
+        rot = _hemisphere(np.concatenate([p[2] for p in parts]))
+        return np.hstack([np.concatenate([p[0] for p in parts]),
+                          np.concatenate([p[1] for p in parts]),
+                          rot.reshape(rot.shape[0], -1), X])
+
+    # -- mapping ---------------------------------------------------------------------------------
+
+    def clamp(self, points) -> np.ndarray:
+        """Points (n, 2) clipped to the manifold box the GRBF was fitted on."""
+        p = np.array(points, dtype=np.float64)
+        for j in range(2):
+            np.clip(p[:, j], self.bounds[j][0], self.bounds[j][1], out=p[:, j])
+        return p
+
+    def _split(self, Y: np.ndarray) -> dict:
+        J = self.skeleton.n_joints
+        rot = Y[:, 4:4 + 4 * J].reshape(-1, J, 4)
+        rot = rot / np.linalg.norm(rot, axis=-1, keepdims=True)
+        return {"height": Y[:, 0], "velocity": Y[:, 1:3], "yaw_rate": Y[:, 3],
+                "rot": rot, "positions": Y[:, 4 + 4 * J:].reshape(-1, J, 3)}
+
+    def predict(self, points) -> dict:
+        """GRBF outputs at manifold points (n, 2): a dict with ``height`` (n,), ``velocity``
+        (n, 2), ``yaw_rate`` (n,), ``rot`` (n, J, 4, renormalized, root without heading) and
+        ``positions`` (n, J, 3: pose features, root at the origin, heading removed)."""
+        return self._split(self.grbf.predict(points))
+
+    def positions(self, points) -> np.ndarray:
+        """Joint positions (n, J, 3) (pose features) at manifold points, as the paper maps."""
+        return self.predict(points)["positions"]
+
+    def to_manifold(self, poses) -> np.ndarray:
+        """Inverse mapping: manifold points (n, 2) of poses given as pose features (n, 3J) or a
+        Motion (its frames): the BMU's lattice position (SOM) or the PCA projection."""
+        from .features import pose_features
+        X = pose_features(poses) if isinstance(poses, Motion) else np.asarray(poses, np.float64)
+        if X.ndim == 1:
+            X = X[None, :]
+        dim = 3 * self.skeleton.n_joints
+        if X.ndim != 2 or X.shape[1] != dim:
+            raise InvalidArgumentError(f"to_manifold: dimension mismatch, poses must be "
+                                       f"(n, {dim}) pose features, got shape {X.shape}")
+        if isinstance(poses, Motion) and not np.array_equal(poses.skeleton.parents,
+                                                            self.skeleton.parents):
+            raise InvalidArgumentError("to_manifold: the motion has another skeleton than the "
+                                       "model")
+        if not np.isfinite(X).all():
+            raise InvalidArgumentError("to_manifold: poses contain NaN or infinite values")
+        if self.manifold == "som":
+            from .som import SOM
+            rows, cols, d = self.som_codebook.shape
+            s = SOM(rows, cols, d)
+            s.codebook = self.som_codebook
+            return s.bmu(X).astype(np.float64)
+        return (X - self.pca_mean) @ self.pca_components.T
+
+    # -- synthesis -------------------------------------------------------------------------------
+
+    def primitive_path(self, start: int, n_frames: int, *, noise: float = 0.0, seed: int = 0,
+                       most_likely: bool = False) -> np.ndarray:
+        """Primitives from start, enough to fill n_frames at their mean durations: sampled
+        from the chain of distinct primitives (perturbed by noise), or following equation 5."""
+        dur = np.maximum(self.markov.run_length, 1.0)
+        path = [int(start)]
+        total = 0.0
+        chunk = 64
+        i = 0
+        while total < n_frames:
+            if most_likely:
+                nxt = self.markov.most_likely_next(path[-1])
+                if nxt < 0:
+                    break
+                path.append(nxt)
+            else:
+                if i % chunk == 0:
+                    seq = self.markov.sample(path[-1], chunk + 1, noise=noise, seed=seed + i,
+                                             distinct=True)[1:]
+                path.append(int(seq[i % chunk]))
+            i += 1
+            total += (dur[path[-2]] + dur[path[-1]]) / 2.0
+            if i > 100000:
+                break
+        return np.array(path, dtype=np.int64)
+
+    def spline(self, knots, times, n_frames: int, *, stiffness: float = 1e-3) -> np.ndarray:
+        """The LGS smoothing spline (second-difference prior) through knots (K, 2) at
+        fractional frames times (K,), sampled on n_frames frames; stiffness = lam^2 sigma^2."""
+        knots = np.asarray(knots, dtype=np.float64)
+        t = np.asarray(times, dtype=np.float64)
+        if knots.shape[0] == 1:
+            return np.repeat(knots, n_frames, axis=0)
+        return lgs(knots, lam=math.sqrt(stiffness), sigma=1.0, order=2, t=t, n_out=n_frames)
+
+    def generate(self, n_frames: int, *, start_frame: int | None = None, start: int | None = None,
+                 path=None, key_poses=None, noise: float = 0.0, seed: int = 0,
+                 most_likely: bool = False, smooth: float = 2.0,
+                 return_info: bool = False):
+        """Synthesize n_frames frames.
+
+        Knots of the manifold path: the manifold point of training frame start_frame (default
+        a seeded random frame) followed by the centres of the primitives of ``path`` (default
+        :meth:`primitive_path`: Markov samples with perturbation noise, or equation 5 when
+        most_likely) spaced by their mean durations; or, with key_poses (pose features or a
+        Motion), their manifold points (:meth:`to_manifold`) spread evenly over the frames.
+        The LGS spline through the knots, clipped to the manifold box, is mapped to poses by
+        the GRBF, smoothed by the LGS with lam = smooth, quaternions renormalized; root
+        height, turning and forward motion come from the mapping too. Returns a Motion (and a
+        dict with the manifold path, knots and primitive sequence when return_info).
+        """
+        if isinstance(n_frames, bool) or not isinstance(n_frames, (int, np.integer)) \
+                or n_frames < 2:
+            raise InvalidArgumentError(f"generate: frames must be an integer >= 2, got "
+                                       f"{n_frames!r}")
+        n = self.points.shape[0]
+        if key_poses is not None:
+            knots = self.to_manifold(key_poses)
+            if knots.shape[0] < 1:
+                raise InvalidArgumentError("generate: no key poses")
+            times = np.linspace(0, n_frames - 1, knots.shape[0]) if knots.shape[0] > 1 \
+                else np.zeros(1)
+            seq = np.array([int(np.argmin(((self.centers - p) ** 2).sum(1))) for p in knots])
+        else:
+            if start_frame is None:
+                start_frame = int(np.random.default_rng(seed).integers(n))
+            if isinstance(start_frame, bool) or not isinstance(start_frame, (int, np.integer)) \
+                    or not 0 <= start_frame < n:
+                raise InvalidArgumentError(f"generate: start frame {start_frame!r} out of range "
+                                           f"(the model has {n} training frames, 0 .. {n - 1})")
+            first = int(self.labels[start_frame]) if start is None else int(start)
+            if path is None:
+                seq = self.primitive_path(first, n_frames, noise=noise, seed=seed,
+                                          most_likely=most_likely)
+            else:
+                seq = np.asarray(path, dtype=np.int64)
+                if seq.ndim != 1 or seq.size == 0 or seq.min() < 0 \
+                        or seq.max() >= self.centers.shape[0]:
+                    raise InvalidArgumentError(f"generate: path must list primitives 0 .. "
+                                               f"{self.centers.shape[0] - 1}")
+            dur = np.maximum(self.markov.run_length, 1.0)
+            knots = np.vstack([self.points[start_frame], self.centers[seq[1:]]])
+            steps = (dur[seq[:-1]] + dur[seq[1:]]) / 2.0
+            times = np.r_[0.0, np.cumsum(steps)]
+            if path is not None and times[-1] > 0:
+                times *= (n_frames - 1) / times[-1]  # a given path fills the frames
+            # cut at the last frame: interpolate the knot where the time reaches n_frames - 1
+            last = n_frames - 1
+            if times[-1] > last:
+                i = int(np.searchsorted(times, last))
+                a = (last - times[i - 1]) / (times[i] - times[i - 1])
+                end = knots[i - 1] + a * (knots[i] - knots[i - 1])
+                knots = np.vstack([knots[:i], end])
+                times = np.r_[times[:i], last]
+                seq = seq[:i + 1]
+        if knots.shape[0] > 1 and np.any(np.diff(times) <= 0):
+            raise InvalidArgumentError("generate: more key poses than frames")
+        traj = self.clamp(self.spline(knots, times, n_frames))
+        motion = self.motion_along(traj, smooth=smooth)
+        if return_info:
+            return motion, {"trajectory": traj, "knots": knots, "times": times,
+                            "primitives": seq}
+        return motion
+
+    def motion_along(self, traj, *, smooth: float = 2.0) -> Motion:
+        """The Motion whose frames the GRBF maps from the manifold points traj (n, 2)."""
+        traj = np.asarray(traj, dtype=np.float64)
+        Y = self.grbf.predict(traj)
+        if smooth > 0 and Y.shape[0] > 2:
+            Y = lgs(Y, lam=smooth, sigma=1.0, order=2)
+        out = self._split(Y)
+        yaw = np.r_[0.0, np.cumsum(out["yaw_rate"][:-1])]
+        c, s = np.cos(yaw), np.sin(yaw)
+        v = out["velocity"]
+        step = np.stack([c * v[:, 0] + s * v[:, 1], -s * v[:, 0] + c * v[:, 1]], axis=1)
+        xz = np.vstack([np.zeros((1, 2)), np.cumsum(step[:-1], axis=0)])
+        root_pos = np.stack([xz[:, 0], out["height"], xz[:, 1]], axis=1)
+        rot = out["rot"]
+        rot[:, 0] = quat.mul(heading_quat(yaw), rot[:, 0])
+        rot = quat.normalize(rot)
+        return Motion(self.skeleton, self.frame_time, root_pos, rot)
+
+    # -- persistence -----------------------------------------------------------------------------
+
+    def save(self, path) -> None:
+        """Write the model as a .npz file (numpy arrays only, no pickle), atomically."""
+        from ._files import atomic_output
+        sk = self.skeleton
+        arrays = dict(
+            format=np.int64(_FORMAT), manifold=np.str_(self.manifold),
+            joint_names=np.array(sk.joint_names), parents=sk.parents, offsets=sk.offsets,
+            channels=np.array(sk.channels), end_site_parents=sk.end_site_parents,
+            end_site_offsets=sk.end_site_offsets, frame_time=np.float64(self.frame_time),
+            points=self.points, clip_starts=self.clip_starts, labels=self.labels,
+            centers=self.centers, P=self.markov.P, counts=self.markov.counts,
+            run_length=self.markov.run_length, bounds=np.array(self.bounds),
+            elbow_ks=self.elbow_ks, elbow_inertia=self.elbow_inertia,
+            grbf_kernel=np.str_(self.grbf.kernel), grbf_centers=self.grbf.centers_,
+            grbf_lattice=np.array(self.grbf.lattice), grbf_coef=self.grbf.coef_,
+            grbf_width=np.float64(getattr(self.grbf, "width_", 0.0)),
+            fit_error=np.float64(self.fit_error))
+        if self.manifold == "som":
+            arrays["som_codebook"] = self.som_codebook
+        else:
+            arrays["pca_mean"], arrays["pca_components"] = self.pca_mean, self.pca_components
+        with atomic_output(path, suffix=".npz") as tmp:
+            with open(tmp, "wb") as f:
+                np.savez_compressed(f, **arrays)
+
+    @classmethod
+    def load(cls, path) -> "PrimitiveModel":
+        """Read a model written by :meth:`save`."""
+        try:
+            z = np.load(path, allow_pickle=False)
+        except (OSError, ValueError) as e:
+            raise MlayerIOError(f"{path}: cannot read a model ({e})") from None
+        with z:
+            try:
+                if int(z["format"]) != _FORMAT:
+                    raise MlayerIOError(f"{path}: model format {int(z['format'])}, expected "
+                                        f"{_FORMAT}")
+                self = cls()
+                self.skeleton = Skeleton([str(s) for s in z["joint_names"]], z["parents"],
+                                         z["offsets"], [str(s) for s in z["channels"]],
+                                         z["end_site_parents"], z["end_site_offsets"])
+                self.manifold = str(z["manifold"])
+                self.frame_time = float(z["frame_time"])
+                for name in ("points", "clip_starts", "labels", "centers", "elbow_ks",
+                             "elbow_inertia"):
+                    setattr(self, name, z[name])
+                self.bounds = tuple(tuple(float(v) for v in b) for b in z["bounds"])
+                self.markov = Markov(z["P"], z["counts"], z["run_length"])
+                g = GRBF(str(z["grbf_kernel"]), tuple(int(v) for v in z["grbf_lattice"]),
+                         bounds=self.bounds)
+                g.centers_, g.coef_, g._vector = z["grbf_centers"], z["grbf_coef"], False
+                g.bounds_ = self.bounds
+                g.width_ = float(z["grbf_width"])
+                g.n_outputs_ = g.coef_.shape[1]
+                self.grbf = g
+                self.fit_error = float(z["fit_error"])
+                if self.manifold == "som":
+                    self.som_codebook = z["som_codebook"]
+                else:
+                    self.pca_mean, self.pca_components = z["pca_mean"], z["pca_components"]
+            except KeyError as e:
+                raise MlayerIOError(f"{path}: not an mlayer primitives model (missing {e})") \
+                    from None
+        return self
