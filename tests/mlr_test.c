@@ -82,3 +82,37 @@ int mlr_test_run(Suite *s)
     srunner_free(sr);
     return failed == 0 ? EXIT_SUCCESS : EXIT_FAILURE;
 }
+
+void mlr_test_cholesky(size_t n, double *a)
+{
+    for (size_t j = 0; j < n; j++) {
+        double d = a[j * n + j];
+        for (size_t k = 0; k < j; k++)
+            d -= a[j * n + k] * a[j * n + k];
+        a[j * n + j] = sqrt(d);
+        for (size_t i = j + 1; i < n; i++) {
+            double v = a[i * n + j];
+            for (size_t k = 0; k < j; k++)
+                v -= a[i * n + k] * a[j * n + k];
+            a[i * n + j] = v / a[j * n + j];
+        }
+    }
+}
+
+void mlr_test_cholesky_solve(size_t n, const double *c, double *b, size_t m)
+{
+    for (size_t col = 0; col < m; col++) {
+        for (size_t i = 0; i < n; i++) {
+            double v = b[i * m + col];
+            for (size_t k = 0; k < i; k++)
+                v -= c[i * n + k] * b[k * m + col];
+            b[i * m + col] = v / c[i * n + i];
+        }
+        for (size_t i = n; i-- > 0;) {
+            double v = b[i * m + col];
+            for (size_t k = i + 1; k < n; k++)
+                v -= c[k * n + i] * b[k * m + col];
+            b[i * m + col] = v / c[i * n + i];
+        }
+    }
+}

@@ -27,6 +27,12 @@ void mlr_test_allocator_init(mlr_test_allocator *ta, size_t fail_at);
 /* Directory of the shared real mocap clips, or NULL when not configured. */
 const char *mlr_test_mocap_dir(void);
 
+/* Dense references for the banded solvers (small n only). mlr_test_cholesky overwrites the
+ * lower triangle of the SPD n x n row-major matrix a with its Cholesky factor C (a = C C^T);
+ * mlr_test_cholesky_solve solves C C^T X = B in place for B n x m row-major. */
+void mlr_test_cholesky(size_t n, double *a);
+void mlr_test_cholesky_solve(size_t n, const double *c, double *b, size_t m);
+
 /* Run a suite, print Check's summary line, return the process exit code. */
 int mlr_test_run(Suite *s);
 

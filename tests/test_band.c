@@ -31,32 +31,8 @@ static void random_band(mlr_test_rng *r, size_t n, size_t kd, double *ab, size_t
 /* Dense Cholesky solve of A X = B (B n x m row-major), in place; reference only. */
 static void dense_solve(size_t n, double *a, double *b, size_t m)
 {
-    for (size_t j = 0; j < n; j++) {
-        double s = a[j * n + j];
-        for (size_t k = 0; k < j; k++)
-            s -= a[j * n + k] * a[j * n + k];
-        a[j * n + j] = sqrt(s);
-        for (size_t i = j + 1; i < n; i++) {
-            double t = a[i * n + j];
-            for (size_t k = 0; k < j; k++)
-                t -= a[i * n + k] * a[j * n + k];
-            a[i * n + j] = t / a[j * n + j];
-        }
-    }
-    for (size_t c = 0; c < m; c++) {
-        for (size_t i = 0; i < n; i++) {
-            double t = b[i * m + c];
-            for (size_t k = 0; k < i; k++)
-                t -= a[i * n + k] * b[k * m + c];
-            b[i * m + c] = t / a[i * n + i];
-        }
-        for (size_t i = n; i-- > 0;) {
-            double t = b[i * m + c];
-            for (size_t k = i + 1; k < n; k++)
-                t -= a[k * n + i] * b[k * m + c];
-            b[i * m + c] = t / a[i * n + i];
-        }
-    }
+    mlr_test_cholesky(n, a);
+    mlr_test_cholesky_solve(n, a, b, m);
 }
 
 static const struct { size_t n, kd, m; } shapes[] = {

@@ -17,18 +17,7 @@
 
 static void chol_solve(const double *C, size_t n, double *b) /* C: lower Cholesky factor */
 {
-    for (size_t i = 0; i < n; i++) {
-        double v = b[i];
-        for (size_t k = 0; k < i; k++)
-            v -= C[i * n + k] * b[k];
-        b[i] = v / C[i * n + i];
-    }
-    for (size_t i = n; i-- > 0;) {
-        double v = b[i];
-        for (size_t k = i + 1; k < n; k++)
-            v -= C[k * n + i] * b[k];
-        b[i] = v / C[i * n + i];
-    }
+    mlr_test_cholesky_solve(n, C, b, 1);
 }
 
 static void dense_reference(size_t N, const double *t, size_t n, unsigned order, double s,
@@ -63,18 +52,8 @@ static void dense_reference(size_t N, const double *t, size_t n, unsigned order,
                 v += A[r * n + i] * A[r * n + j];
             M[i * n + j] = v;
         }
-    for (size_t j = 0; j < n; j++) { /* Cholesky M = C C^T */
-        double d = M[j * n + j];
-        for (size_t k = 0; k < j; k++)
-            d -= C[j * n + k] * C[j * n + k];
-        C[j * n + j] = sqrt(d);
-        for (size_t i = j + 1; i < n; i++) {
-            double v = M[i * n + j];
-            for (size_t k = 0; k < j; k++)
-                v -= C[i * n + k] * C[j * n + k];
-            C[i * n + j] = v / C[j * n + j];
-        }
-    }
+    memcpy(C, M, n * n * sizeof *C); /* Cholesky M = C C^T */
+    mlr_test_cholesky(n, C);
     for (size_t c = 0; c < m; c++) {
         for (size_t i = 0; i < n; i++) {
             double v = 0.0;
