@@ -30,5 +30,7 @@ extern const mlr_bench_case mlr_bench_stream_cases[];
 extern const size_t mlr_bench_stream_count;
 extern const mlr_bench_case mlr_bench_layers_cases[];
 extern const size_t mlr_bench_layers_count;
+extern const mlr_bench_case mlr_bench_cluster_cases[];
+extern const size_t mlr_bench_cluster_count;
 
 #endif

@@ -50,6 +50,19 @@ void mlr_nearest2(const mlr_packed *p, const double *x, size_t ldx, const size_t
                   const double *xn, int32_t *best, double *d2best, double *d2second,
                   int32_t *second);
 
+/* One online SOM step fused with the search for the next row, in a single pass over p (the
+ * codebook, units in lattice order, unit u at row u / cols, column u % cols): every unit u with
+ * h[u] != 0 moves to w_u + h[u] (x - w_u) (one fma per coordinate) and gets its norm updated
+ * (other units are left exactly as they are); h holds kpad values, active[jb] != 0 marks the
+ * blocks of 16 units holding a nonzero h. With xnext (NULL: no search), returns the unit
+ * nearest to xnext in the updated codebook, lowest index among exact ties. A unit's value does
+ * not depend on whether it moved (with AVX-512 and in plain C the dot products are those of
+ * mlr_nearest2 for a lone row, same fma sequence; on AVX2-only CPUs the search takes the plain C
+ * dot products, the results are then reproducible but can differ from mlr_nearest2 in the last
+ * bit). */
+int32_t mlr_packed_sweep(mlr_packed *p, const double *x, const double *h,
+                         const unsigned char *active, const double *xnext);
+
 /* ||a - b||^2 by direct differences (accurate near 0). */
 double mlr_dist2(const double *a, const double *b, size_t dim);
 /* ||a||^2. */

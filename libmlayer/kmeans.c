@@ -66,9 +66,13 @@ static void assign_task(void *ctx, size_t b)
     const double rel = 1.0 + 4.0 * (double)(dim + 2) * DBL_EPSILON;
     size_t lo, hi;
     blk_range(w->n, w->nblk, b, &lo, &hi);
+    /* partial sums of the block: rebuilt on the first iteration, then kept up to date by
+     * moving the rows whose label changed (incremental, in row order: still independent of
+     * the thread count) */
     double *ps = w->update ? w->psum + b * k * dim : NULL;
     size_t *pc = w->update ? w->pcnt + b * k : NULL;
-    if (ps) {
+    const int rebuild = ps && w->first;
+    if (rebuild) {
         memset(ps, 0, k * dim * sizeof *ps);
         memset(pc, 0, k * sizeof *pc);
     }
@@ -102,8 +106,19 @@ static void assign_task(void *ctx, size_t b)
                          NULL);
             for (size_t r = 0; r < m; r++) {
                 size_t i = rows[r];
-                if (lb[r] != w->lab[i])
+                if (lb[r] != w->lab[i]) {
                     changed++;
+                    if (ps && !rebuild) {
+                        double *from = ps + (size_t)w->lab[i] * dim, *to = ps + (size_t)lb[r] * dim;
+                        const double *xi = w->x + i * w->ldx;
+                        for (size_t t = 0; t < dim; t++) {
+                            from[t] -= xi[t];
+                            to[t] += xi[t];
+                        }
+                        pc[w->lab[i]]--;
+                        pc[lb[r]]++;
+                    }
+                }
                 w->lab[i] = lb[r];
                 if (w->hamerly) {
                     w->u[i] = sqrt(db[r]) + w->margin;
@@ -111,7 +126,7 @@ static void assign_task(void *ctx, size_t b)
                 }
             }
         }
-        if (ps) {
+        if (rebuild) {
             for (size_t i = i0; i < i1; i++) {
                 size_t a = (size_t)w->lab[i];
                 double *dst = ps + a * dim;
@@ -256,11 +271,18 @@ static void run_lloyd(fit_ws *w, double tol_abs, double xmax2, double *inertia, 
         w->update = 1;
         mlr_parallel_run(nth, w->nblk, assign_task, w);
         w->first = 0;
-        size_t changed = 0;
+        size_t changed = 0, skip_it = 0;
         for (size_t b = 0; b < w->nblk; b++) {
             changed += w->pchg[b];
-            skipped += w->pskip[b];
+            skip_it += w->pskip[b];
         }
+        skipped += skip_it;
+        /* AUTO: from the fifth iteration on (the bounds need a few small centre moves to
+         * bite: on random normal data they skip ~0%, 0.2%, 8%, 12% of the rows in iterations
+         * 2 to 5, then 15-35%), drop them if they skip under 1/32 of the rows, where their
+         * upkeep costs more than they save; labels are the same either way */
+        if (w->hamerly && km->algorithm == MLR_KMEANS_AUTO && it >= 4 && skip_it * 32 < n)
+            w->hamerly = 0;
         /* reduce the partial sums in block order */
         memcpy(w->cnew, w->psum, k * dim * sizeof(double));
         for (size_t j = 0; j < k; j++)
@@ -621,22 +643,27 @@ mlr_status mlr_kmeans_fit(mlr_kmeans *km, const double *x, size_t n, size_t ldx,
     w.pk.dim = dim;
 
     /* norms, tolerance (scikit-learn: tol * mean of the column variances) */
-    double xmax2 = 0, mvar = 0;
-    for (size_t i = 0; i < n; i++) {
-        w.xn[i] = mlr_norm2(x + i * ldx, dim);
+    double xmax2 = 0, mvar = 0, *mean = w.c, *var = w.cnew; /* dim each, before the runs */
+    memset(mean, 0, dim * sizeof(double));
+    memset(var, 0, dim * sizeof(double));
+    for (size_t i = 0; i < n; i++) { /* row by row: the column sums still run over i in order */
+        const double *xi = x + i * ldx;
+        w.xn[i] = mlr_norm2(xi, dim);
         xmax2 = w.xn[i] > xmax2 ? w.xn[i] : xmax2;
+        for (size_t t = 0; t < dim; t++)
+            mean[t] += xi[t];
     }
-    for (size_t t = 0; t < dim; t++) {
-        double mean = 0, var = 0;
-        for (size_t i = 0; i < n; i++)
-            mean += x[i * ldx + t];
-        mean /= (double)n;
-        for (size_t i = 0; i < n; i++) {
-            double e = x[i * ldx + t] - mean;
-            var += e * e;
+    for (size_t t = 0; t < dim; t++)
+        mean[t] /= (double)n;
+    for (size_t i = 0; i < n; i++) {
+        const double *xi = x + i * ldx;
+        for (size_t t = 0; t < dim; t++) {
+            double e = xi[t] - mean[t];
+            var[t] += e * e;
         }
-        mvar += var / (double)n;
     }
+    for (size_t t = 0; t < dim; t++)
+        mvar += var[t] / (double)n;
     double tol_abs = km->tol * mvar / (double)dim;
 
     mlr_rng rng;

@@ -11,11 +11,13 @@ struct mlr_som {
     size_t n_threads;
     uint64_t seed;
     double sigma0, sigma1, alpha0, alpha1;
+    double cutoff;      /* online: Gaussian factors below it count as 0 */
     int initialized;
     size_t bytes;       /* of the single allocation after the struct */
 };
 
 #define SUB 64
+#define MLR_SOM_DEFAULT_CUTOFF 1e-3
 #define N_BLOCKS 16
 static const char som_tag[8] = {'M', 'L', 'R', 'S', 'O', 'M', 0, 0};
 #define SOM_BLOB_VERSION 1u
@@ -68,6 +70,7 @@ mlr_status mlr_som_create(size_t rows, size_t cols, size_t dim, const mlr_alloca
     s->sigma1 = 1.0;
     s->alpha0 = 0.5;
     s->alpha1 = 0.01;
+    s->cutoff = MLR_SOM_DEFAULT_CUTOFF;
     *out = s;
     return MLR_OK;
 }
@@ -104,6 +107,10 @@ mlr_status mlr_som_set(mlr_som *som, int option, double v, mlr_diag *diag)
     case MLR_SOM_ALPHA1:
         if ((ok = v > 0 && v <= 1))
             *(option == MLR_SOM_ALPHA0 ? &som->alpha0 : &som->alpha1) = v;
+        break;
+    case MLR_SOM_CUTOFF:
+        if ((ok = v >= 0 && v <= 0.5))
+            som->cutoff = v;
         break;
     default:
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "unknown SOM option %d", option);
@@ -319,50 +326,43 @@ static double decay(double v0, double v1, size_t step, size_t steps)
 
 /* ---- online training ------------------------------------------------------------------------ */
 
-static void online_step(mlr_som *s, const double *x, double sigma, double alpha, double *gr,
-                        double *gc)
+/* Neighbourhood of one online step around unit b into h (kpad values, zero outside) and the
+ * block marks: h_u = alpha exp(-dr^2 / 2 sigma^2) exp(-dc^2 / 2 sigma^2), set to 0 where the
+ * Gaussian factor is below cut (the square window of half-width sigma sqrt(2 ln(1 / cut)) is all
+ * that is visited). Returns the window as rows [*r0, *r1) and columns [*c0, *c1). */
+static void online_window(const mlr_som *s, size_t b, double sigma, double alpha, double cut,
+                          double *gr, double *gc, double *h, unsigned char *active, size_t win[4])
 {
-    const size_t rows = s->rows, cols = s->cols, dim = s->dim;
-    int32_t b;
-    double d2;
-    mlr_nearest2(&s->pk, x, dim, NULL, 1, NULL, &b, &d2, NULL, NULL);
-    size_t br = (size_t)b / cols, bc = (size_t)b % cols;
-    double reach = sigma * 7.4338; /* exp(-reach^2 / 2 sigma^2) = 1e-12 */
-    size_t rad = reach > (double)(rows + cols) ? rows + cols : (size_t)reach;
+    const size_t rows = s->rows, cols = s->cols;
+    size_t br = b / cols, bc = b % cols;
+    double reach = cut > 0 ? sigma * sqrt(-2.0 * log(cut)) : INFINITY;
+    size_t rad = reach >= (double)(rows + cols) ? rows + cols : (size_t)reach;
     size_t r0 = br > rad ? br - rad : 0, r1 = br + rad + 1 < rows ? br + rad + 1 : rows;
     size_t c0 = bc > rad ? bc - rad : 0, c1 = bc + rad + 1 < cols ? bc + rad + 1 : cols;
-    double k = -0.5 / (sigma * sigma);
+    double k = -0.5 / (sigma * sigma), hmin = cut * alpha;
     for (size_t r = r0; r < r1; r++)
         gr[r] = alpha * exp(k * (double)((r - br) * (r - br)));
     for (size_t c = c0; c < c1; c++)
         gc[c] = exp(k * (double)((c - bc) * (c - bc)));
     for (size_t r = r0; r < r1; r++) {
-        /* units r * cols + c0 .. r * cols + c1 - 1, a block of 16 at a time; lanes outside the
-         * window get h = 0, which leaves them exactly unchanged */
-        size_t u0 = r * cols + c0, u1 = r * cols + c1;
-        for (size_t jb = u0 / MLR_PACK; jb * MLR_PACK < u1; jb++) {
-            double h[MLR_PACK], nn[MLR_PACK];
-            for (size_t l = 0; l < MLR_PACK; l++) {
-                size_t u = jb * MLR_PACK + l;
-                double v = (u >= u0 && u < u1) ? gr[r] * gc[u - r * cols] : 0.0;
-                h[l] = v < 1e-12 * alpha ? 0.0 : v;
-                nn[l] = 0.0;
-            }
-            double *blk = s->pk.pc + jb * dim * MLR_PACK;
-            for (size_t t = 0; t < dim; t++) {
-                double *bt = blk + t * MLR_PACK, xt = x[t];
-                for (size_t l = 0; l < MLR_PACK; l++) {
-                    double v = bt[l] + h[l] * (xt - bt[l]);
-                    bt[l] = v;
-                    nn[l] += v * v;
-                }
-            }
-            for (size_t l = 0; l < MLR_PACK; l++) {
-                size_t u = jb * MLR_PACK + l;
-                if (u >= u0 && u < u1)
-                    s->pk.cn[u] = nn[l];
-            }
+        size_t u0 = r * cols;
+        for (size_t c = c0; c < c1; c++) {
+            double v = gr[r] * gc[c];
+            h[u0 + c] = v < hmin ? 0.0 : v;
         }
+        for (size_t jb = (u0 + c0) / MLR_PACK; jb * MLR_PACK < u0 + c1; jb++)
+            active[jb] = 1;
+    }
+    win[0] = r0, win[1] = r1, win[2] = c0, win[3] = c1;
+}
+
+static void online_clear(const mlr_som *s, double *h, unsigned char *active, const size_t win[4])
+{
+    for (size_t r = win[0]; r < win[1]; r++) {
+        size_t u0 = r * s->cols;
+        memset(h + u0 + win[2], 0, (win[3] - win[2]) * sizeof(double));
+        for (size_t jb = (u0 + win[2]) / MLR_PACK; jb * MLR_PACK < u0 + win[3]; jb++)
+            active[jb] = 0;
     }
 }
 
@@ -380,14 +380,16 @@ mlr_status mlr_som_train(mlr_som *som, const double *x, size_t n, size_t ldx, si
     size_t nb, steps;
     if (mlr_mul_size(units, w * sizeof(double), &nb) || mlr_mul_size(epochs, n, &steps))
         return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "training workspace overflows");
+    const size_t kpad = som->pk.kpad;
     size_t gbytes = (som->rows + som->cols) * sizeof(double);
     size_t ibytes = n * (mode == MLR_SOM_BATCH ? sizeof(int32_t) : sizeof(size_t));
-    size_t sbytes = mode == MLR_SOM_BATCH ? nb : 0;
+    /* batch: per-unit sums; online: h (kpad doubles) then the block marks (kpad / 16 bytes) */
+    size_t sbytes = mode == MLR_SOM_BATCH ? nb : kpad * sizeof(double) + kpad / MLR_PACK;
     double *g = mlr_alloc(&som->a, gbytes);
     void *idx = mlr_alloc(&som->a, ibytes);
     double *sum = sbytes ? mlr_alloc(&som->a, sbytes) : NULL;
-    double *tmp = sbytes ? mlr_alloc(&som->a, sbytes) : NULL;
-    if (!g || !idx || (sbytes && (!sum || !tmp))) {
+    double *tmp = mode == MLR_SOM_BATCH ? mlr_alloc(&som->a, sbytes) : NULL;
+    if (!g || !idx || !sum || (mode == MLR_SOM_BATCH && !tmp)) {
         st = mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "no memory for the training workspace");
         goto done;
     }
@@ -419,8 +421,9 @@ mlr_status mlr_som_train(mlr_som *som, const double *x, size_t n, size_t ldx, si
         mlr_rng_seed(&rng, som->seed ^ 0x5eed5eed5eedull);
         for (size_t i = 0; i < n; i++)
             order[i] = i;
-        double *xrow = tmp; /* unused */
-        (void)xrow;
+        double *h = sum;
+        unsigned char *active = (unsigned char *)(sum + kpad);
+        memset(sum, 0, sbytes);
         size_t step = 0;
         for (size_t e = 0; e < epochs; e++) {
             for (size_t i = n - 1; i > 0; i--) { /* Fisher-Yates */
@@ -428,10 +431,20 @@ mlr_status mlr_som_train(mlr_som *som, const double *x, size_t n, size_t ldx, si
                 order[i] = order[j];
                 order[j] = t;
             }
+            /* BMU of the first row; each step then moves the units and finds the BMU of the
+             * next row in the same pass over the codebook */
+            int32_t b;
+            double d2;
+            mlr_nearest2(&som->pk, x + order[0] * ldx, ldx, NULL, 1, NULL, &b, &d2, NULL, NULL);
             for (size_t i = 0; i < n; i++, step++) {
                 double sigma = decay(som->sigma0, som->sigma1, step, steps);
                 double alpha = decay(som->alpha0, som->alpha1, step, steps);
-                online_step(som, x + order[i] * ldx, sigma, alpha, g, g + som->rows);
+                size_t win[4];
+                online_window(som, (size_t)b, sigma, alpha, som->cutoff, g, g + som->rows, h,
+                              active, win);
+                b = mlr_packed_sweep(&som->pk, x + order[i] * ldx, h, active,
+                                     i + 1 < n ? x + order[i + 1] * ldx : NULL);
+                online_clear(som, h, active, win);
             }
         }
         for (size_t u = 0; u < units; u++)
@@ -441,10 +454,9 @@ mlr_status mlr_som_train(mlr_som *som, const double *x, size_t n, size_t ldx, si
 done:
     mlr_free(&som->a, g, gbytes);
     mlr_free(&som->a, idx, ibytes);
-    if (sbytes) {
-        mlr_free(&som->a, sum, sbytes);
+    mlr_free(&som->a, sum, sbytes);
+    if (mode == MLR_SOM_BATCH)
         mlr_free(&som->a, tmp, sbytes);
-    }
     return st;
 }
 

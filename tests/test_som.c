@@ -1,10 +1,13 @@
 /* Self-organizing map: BMUs, second BMUs, quantization and topographic errors against a brute
  * force written here; one batch epoch against a dense reference update; bit-identical results
- * across runs and thread counts; online training lowers the quantization error; codebook
+ * across runs and thread counts; online training lowers the quantization error; online steps
+ * against a dense update; the neighbourhood cutoff keeps the quantization error within 1% on
+ * real clips; codebook
  * export/import and corrupt blobs; bad input; allocation failures. */
 #include "mlr_test.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -245,6 +248,9 @@ START_TEST(bad_input_is_refused_with_a_reason)
     ck_assert_int_eq(mlr_som_bmu(s, x, 6, 2, NULL, NULL, NULL, &dg), MLR_E_INVALID_ARG);
     ck_assert_int_eq(mlr_som_errors(s, x, 0, 2, NULL, NULL, &dg), MLR_E_INVALID_ARG);
     ck_assert_int_eq(mlr_som_set(s, MLR_SOM_SIGMA0, 0, &dg), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_som_set(s, MLR_SOM_CUTOFF, -1e-3, &dg), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_som_set(s, MLR_SOM_CUTOFF, 0.6, &dg), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_som_set(s, MLR_SOM_CUTOFF, NAN, &dg), MLR_E_INVALID_ARG);
     ck_assert_int_eq(mlr_som_set(s, MLR_SOM_ALPHA0, 1.5, &dg), MLR_E_INVALID_ARG);
     ck_assert_int_eq(mlr_som_set(s, MLR_SOM_N_THREADS, 65, &dg), MLR_E_INVALID_ARG);
     ck_assert_int_eq(mlr_som_set(s, 42, 1, &dg), MLR_E_INVALID_ARG);
@@ -283,6 +289,77 @@ START_TEST(every_allocation_failure_is_clean)
 }
 END_TEST
 
+/* Online steps with one row (the order is then known) against a dense update written here:
+ * brute-force BMU, every unit moved by alpha_s h_s; cutoff 0 (no unit skipped). Steps after
+ * the first take the BMU from the fused update-and-search pass. */
+START_TEST(online_steps_match_dense_update)
+{
+    const size_t rows = 7, cols = 9, d = 5, units = rows * cols, epochs = 4;
+    double *w = normal_data(units, d, 21), *x = normal_data(1, d, 22);
+    double *ref = malloc(units * d * sizeof *ref);
+    memcpy(ref, w, units * d * sizeof *ref);
+    mlr_som *s = som_with_codebook(rows, cols, d, w);
+    ck_assert_int_eq(mlr_som_set(s, MLR_SOM_CUTOFF, 0.0, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_som_set(s, MLR_SOM_SIGMA0, 3.0, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_som_train(s, x, 1, d, epochs, MLR_SOM_ONLINE, NULL), MLR_OK);
+    for (size_t step = 0; step < epochs; step++) {
+        double f = (double)step / (double)(epochs - 1);
+        double sigma = 3.0 * pow(1.0 / 3.0, f), alpha = 0.5 * pow(0.01 / 0.5, f);
+        size_t b = 0;
+        for (size_t u = 1; u < units; u++)
+            if (d2(x, ref + u * d, d) < d2(x, ref + b * d, d))
+                b = u;
+        for (size_t u = 0; u < units; u++) {
+            double dr = (double)(u / cols) - (double)(b / cols);
+            double dc = (double)(u % cols) - (double)(b % cols);
+            double h = alpha * exp(-(dr * dr + dc * dc) / (2 * sigma * sigma));
+            for (size_t t = 0; t < d; t++)
+                ref[u * d + t] += h * (x[t] - ref[u * d + t]);
+        }
+    }
+    const double *got = mlr_som_codebook(s);
+    for (size_t q = 0; q < units * d; q++)
+        ck_assert_close(got[q], ref[q], 1e-12 * (1 + fabs(ref[q])));
+    mlr_som_destroy(s);
+    free(w), free(x), free(ref);
+}
+END_TEST
+
+/* The default cutoff (Gaussian factors below 1e-3 are not applied) changes the quantization
+ * error of online training by less than 1% against the full update, on the joint positions of
+ * real clips. */
+START_TEST(online_cutoff_keeps_quantization_error)
+{
+    const char *dir = mlr_test_mocap_dir();
+    if (!dir)
+        return;
+    const char *files[] = {"cmu_131_01_mj_style_walk.bvh", "lafan1_clip_a.bvh"};
+    char path[1024];
+    snprintf(path, sizeof path, "%s/%s", dir, files[_i]);
+    mlr_motion *m = NULL;
+    ck_assert_int_eq(mlr_bvh_read_file(path, NULL, &m, NULL), MLR_OK);
+    size_t n = mlr_motion_n_frames(m), d = 3 * mlr_motion_n_joints(m);
+    if (n > 2000)
+        n = 2000;
+    double *x = malloc(n * d * sizeof *x);
+    ck_assert_int_eq(mlr_fk_motion(m, 0, n, x, NULL), MLR_OK);
+    double qe[2];
+    for (int full = 0; full < 2; full++) {
+        mlr_som *s = NULL;
+        ck_assert_int_eq(mlr_som_create(24, 24, d, NULL, &s, NULL), MLR_OK);
+        if (full)
+            ck_assert_int_eq(mlr_som_set(s, MLR_SOM_CUTOFF, 0.0, NULL), MLR_OK);
+        ck_assert_int_eq(mlr_som_train(s, x, n, d, 2, MLR_SOM_ONLINE, NULL), MLR_OK);
+        ck_assert_int_eq(mlr_som_errors(s, x, n, d, &qe[full], NULL, NULL), MLR_OK);
+        mlr_som_destroy(s);
+    }
+    ck_assert_msg(fabs(qe[0] - qe[1]) < 0.01 * qe[1], "%s: qe %g with the cutoff, %g without",
+                  files[_i], qe[0], qe[1]);
+    mlr_motion_destroy(m);
+    free(x);
+}
+END_TEST
+
 static Suite *som_suite(void)
 {
     Suite *s = suite_create("som");
@@ -292,6 +369,8 @@ static Suite *som_suite(void)
     tcase_add_test(num, batch_epoch_matches_dense_update);
     tcase_add_test(num, bit_identical_across_runs_and_threads);
     tcase_add_test(num, training_lowers_quantization_error);
+    tcase_add_test(num, online_steps_match_dense_update);
+    tcase_add_loop_test(num, online_cutoff_keeps_quantization_error, 0, 2);
     tcase_add_test(num, export_import_roundtrip_and_corruption);
     suite_add_tcase(s, num);
     TCase *args = tcase_create("arguments");

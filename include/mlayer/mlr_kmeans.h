@@ -14,10 +14,14 @@
  *  - without strict convergence the rows are assigned once more to the final centres;
  *  - inertia = sum of squared distances of the rows to their centres (direct differences).
  * Distances in the assignment are ||x||^2 - 2 x.c + ||c||^2 over packed centres with a
- * vectorized kernel (AVX2/FMA when the CPU has it, chosen at run time). The Hamerly variant
- * keeps, per row, an upper bound on the distance to its centre and a lower bound on the
- * distance to the second nearest, widened by a rounding margin: a row whose bounds prove its
- * centre cannot change is not searched, so labels equal those of plain Lloyd.
+ * vectorized kernel (AVX-512 or AVX2/FMA when the CPU has it, chosen at run time). The
+ * Hamerly variant keeps, per row, an upper bound on the distance to its centre and a lower
+ * bound on the distance to the second nearest, widened by a rounding margin: a row whose bounds prove its
+ * centre cannot change is not searched, so labels equal those of plain Lloyd. With
+ * MLR_KMEANS_AUTO the bounds are dropped for the rest of a run when, from the fifth iteration
+ * on, they skip fewer than 1/32 of the rows. The per-cluster sums are rebuilt on the first
+ * iteration of a run and then updated by the rows that changed cluster (in fixed row blocks,
+ * so still bit-identical across thread counts).
  *
  * k-means++ (scikit-learn's greedy variant): the first centre is a uniformly drawn row; each
  * next one is the best, by resulting potential, of 2 + floor(ln k) rows drawn with probability
@@ -50,7 +54,8 @@ enum {
     MLR_KMEANS_N_THREADS = 5, /* 1 .. 64, default 1 */
     MLR_KMEANS_ALGORITHM = 6  /* MLR_KMEANS_AUTO (default), _LLOYD or _HAMERLY */
 };
-/** Values of MLR_KMEANS_ALGORITHM. AUTO uses the Hamerly bounds when k >= 4. */
+/** Values of MLR_KMEANS_ALGORITHM. AUTO uses the Hamerly bounds when k >= 4 (and drops them
+ *  when they skip too few rows, see above). */
 enum { MLR_KMEANS_AUTO = 0, MLR_KMEANS_LLOYD = 1, MLR_KMEANS_HAMERLY = 2 };
 
 /**

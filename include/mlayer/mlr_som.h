@@ -17,7 +17,11 @@
  *    the rows each epoch) and moves every unit toward it,
  *        w_u += alpha_s h_s(u, bmu) (x - w_u),
  *        sigma_s = sigma0 (sigma1 / sigma0)^(s / (T - 1)),  alpha_s = alpha0 (alpha1 / alpha0)^(s / (T - 1)),
- *    skipping units where h < 1e-12 (lattice distance > 7.44 sigma).
+ *    skipping units whose Gaussian factor h_s(u, bmu) is below MLR_SOM_CUTOFF (default 1e-3:
+ *    lattice distance > 3.72 sigma; only that window is visited). With the default the
+ *    quantization error stays within 1% of the full update (0: every unit moves, as MiniSom
+ *    does); measured 2.413 against 2.415 for one epoch of a 65 x 65 map on 10,000 x 93 pose
+ *    features. One pass over the codebook per step moves the units and finds the next row's BMU.
  * Defaults: sigma0 = max(rows, cols) / 2, sigma1 = 1, alpha0 = 0.5, alpha1 = 0.01. A train call
  * runs its whole schedule; calling it again starts a new schedule from the current codebook.
  * An untrained map is first initialized by mlr_som_init_random.
@@ -56,7 +60,8 @@ enum {
     MLR_SOM_SIGMA0 = 3,    /* > 0, default max(rows, cols) / 2 */
     MLR_SOM_SIGMA1 = 4,    /* > 0, default 1 */
     MLR_SOM_ALPHA0 = 5,    /* in (0, 1], default 0.5 (online only) */
-    MLR_SOM_ALPHA1 = 6     /* in (0, 1], default 0.01 (online only) */
+    MLR_SOM_ALPHA1 = 6,    /* in (0, 1], default 0.01 (online only) */
+    MLR_SOM_CUTOFF = 7     /* in [0, 0.5], default 1e-3 (online only): see the online schedule */
 };
 /** Training modes. */
 enum { MLR_SOM_BATCH = 0, MLR_SOM_ONLINE = 1 };

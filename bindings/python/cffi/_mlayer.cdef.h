@@ -248,7 +248,7 @@ void mlr_kmeans_destroy(mlr_kmeans *km);
 typedef struct mlr_som mlr_som;
 enum {
     MLR_SOM_SEED = 1, MLR_SOM_N_THREADS = 2, MLR_SOM_SIGMA0 = 3, MLR_SOM_SIGMA1 = 4,
-    MLR_SOM_ALPHA0 = 5, MLR_SOM_ALPHA1 = 6
+    MLR_SOM_ALPHA0 = 5, MLR_SOM_ALPHA1 = 6, MLR_SOM_CUTOFF = 7
 };
 enum { MLR_SOM_BATCH = 0, MLR_SOM_ONLINE = 1 };
 mlr_status mlr_som_create(size_t rows, size_t cols, size_t dim, const mlr_allocator *alloc,

@@ -23,12 +23,15 @@ class SOM:
 
     sigma0/sigma1: neighbourhood radius at the start/end of a training call (lattice units;
     default max(rows, cols)/2 and 1); alpha0/alpha1: learning rate of online training (0.5,
-    0.01). n_threads: default :func:`mlayer.kmeans.default_threads`; results do not depend on it.
+    0.01). cutoff: online training leaves a unit alone when its Gaussian factor is below it
+    (1e-3; 0 updates every unit, as MiniSom does). n_threads: default
+    :func:`mlayer.kmeans.default_threads`; results do not depend on it.
     """
 
     def __init__(self, rows: int, cols: int, dim: int, *, seed: int = 0,
                  sigma0: float | None = None, sigma1: float = 1.0, alpha0: float = 0.5,
-                 alpha1: float = 0.01, n_threads: int | None = None, _handle=None):
+                 alpha1: float = 0.01, cutoff: float = 1e-3, n_threads: int | None = None,
+                 _handle=None):
         for v, nm in ((rows, "rows"), (cols, "cols"), (dim, "dim")):
             if isinstance(v, bool) or int(v) != v or v < 0:
                 raise InvalidArgumentError(f"{nm} must be a non-negative integer, got {v!r}")
@@ -45,7 +48,7 @@ class SOM:
         opts = [(lib.MLR_SOM_SEED, _count(seed, "seed", 0)),
                 (lib.MLR_SOM_N_THREADS, self.n_threads),
                 (lib.MLR_SOM_SIGMA1, sigma1), (lib.MLR_SOM_ALPHA0, alpha0),
-                (lib.MLR_SOM_ALPHA1, alpha1)]
+                (lib.MLR_SOM_ALPHA1, alpha1), (lib.MLR_SOM_CUTOFF, cutoff)]
         if sigma0 is not None:
             opts.append((lib.MLR_SOM_SIGMA0, sigma0))
         for key, v in opts:
