@@ -233,6 +233,31 @@ static void kmeans_pp(fit_ws *w, mlr_rng *rng)
     }
 }
 
+/* Before an assignment pass: pack the centres w->c and their norms, the rounding margin of the
+ * distance comparisons, and (Hamerly) half the distance from each centre to its nearest other
+ * centre, shrunk by that margin. */
+static void prepare_centres(fit_ws *w, double xmax2, double eps_d)
+{
+    const size_t k = w->k, dim = w->dim;
+    mlr_packed_fill(&w->pk, w->c, dim);
+    double cmax2 = 0;
+    for (size_t j = 0; j < k; j++)
+        cmax2 = w->pk.cn[j] > cmax2 ? w->pk.cn[j] : cmax2;
+    w->margin = sqrt(eps_d * (xmax2 + cmax2));
+    if (!w->hamerly)
+        return;
+    for (size_t j = 0; j < k; j++) {
+        double best = INFINITY;
+        for (size_t q = 0; q < k; q++) {
+            if (q == j)
+                continue;
+            double d = mlr_dist2(w->c + j * dim, w->c + q * dim, dim);
+            best = d < best ? d : best;
+        }
+        w->s[j] = 0.5 * sqrt(best) * (1.0 - eps_d) - w->margin;
+    }
+}
+
 /* One Lloyd run from the centres in w->c. */
 static void run_lloyd(fit_ws *w, double tol_abs, double xmax2, double *inertia, size_t *n_iter,
                       size_t *n_skipped)
@@ -251,23 +276,7 @@ static void run_lloyd(fit_ws *w, double tol_abs, double xmax2, double *inertia, 
     int strict = 0;
     size_t it = 0, skipped = 0;
     for (it = 0; it < km->max_iter; it++) {
-        mlr_packed_fill(&w->pk, w->c, dim);
-        double cmax2 = 0;
-        for (size_t j = 0; j < k; j++)
-            cmax2 = w->pk.cn[j] > cmax2 ? w->pk.cn[j] : cmax2;
-        w->margin = sqrt(eps_d * (xmax2 + cmax2));
-        if (w->hamerly) {
-            for (size_t j = 0; j < k; j++) {
-                double best = INFINITY;
-                for (size_t q = 0; q < k; q++) {
-                    if (q == j)
-                        continue;
-                    double d = mlr_dist2(w->c + j * dim, w->c + q * dim, dim);
-                    best = d < best ? d : best;
-                }
-                w->s[j] = 0.5 * sqrt(best) * (1.0 - eps_d) - w->margin;
-            }
-        }
+        prepare_centres(w, xmax2, eps_d);
         w->update = 1;
         mlr_parallel_run(nth, w->nblk, assign_task, w);
         w->first = 0;
@@ -364,23 +373,7 @@ static void run_lloyd(fit_ws *w, double tol_abs, double xmax2, double *inertia, 
         }
     }
     if (!strict) { /* labels of the final centres */
-        mlr_packed_fill(&w->pk, w->c, dim);
-        double cmax2 = 0;
-        for (size_t j = 0; j < k; j++)
-            cmax2 = w->pk.cn[j] > cmax2 ? w->pk.cn[j] : cmax2;
-        w->margin = sqrt(eps_d * (xmax2 + cmax2));
-        if (w->hamerly) {
-            for (size_t j = 0; j < k; j++) {
-                double best = INFINITY;
-                for (size_t q = 0; q < k; q++) {
-                    if (q == j)
-                        continue;
-                    double d = mlr_dist2(w->c + j * dim, w->c + q * dim, dim);
-                    best = d < best ? d : best;
-                }
-                w->s[j] = 0.5 * sqrt(best) * (1.0 - eps_d) - w->margin;
-            }
-        }
+        prepare_centres(w, xmax2, eps_d);
         w->update = 0;
         mlr_parallel_run(nth, w->nblk, assign_task, w);
     }

@@ -116,3 +116,11 @@ void mlr_test_cholesky_solve(size_t n, const double *c, double *b, size_t m)
         }
     }
 }
+
+double mlr_test_dist2(const double *a, const double *b, size_t d)
+{
+    double s = 0;
+    for (size_t t = 0; t < d; t++)
+        s += (a[t] - b[t]) * (a[t] - b[t]);
+    return s;
+}

@@ -31,6 +31,8 @@ const char *mlr_test_mocap_dir(void);
  * lower triangle of the SPD n x n row-major matrix a with its Cholesky factor C (a = C C^T);
  * mlr_test_cholesky_solve solves C C^T X = B in place for B n x m row-major. */
 void mlr_test_cholesky(size_t n, double *a);
+/* Squared Euclidean distance of two d-vectors, summed in index order (a plain reference). */
+double mlr_test_dist2(const double *a, const double *b, size_t d);
 void mlr_test_cholesky_solve(size_t n, const double *c, double *b, size_t m);
 
 /* Run a suite, print Check's summary line, return the process exit code. */

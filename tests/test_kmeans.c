@@ -26,13 +26,8 @@ static double *clustered(size_t n, size_t d, size_t c, uint64_t seed)
     return x;
 }
 
-static double d2(const double *a, const double *b, size_t d)
-{
-    double s = 0;
-    for (size_t t = 0; t < d; t++)
-        s += (a[t] - b[t]) * (a[t] - b[t]);
-    return s;
-}
+/* squared Euclidean distance: the reference, summed in plain order */
+static double d2(const double *a, const double *b, size_t d) { return mlr_test_dist2(a, b, d); }
 
 /* Naive Lloyd with scikit-learn's stopping rules (no empty clusters in these tests). */
 static void ref_lloyd(const double *x, size_t n, size_t d, size_t k, const double *init,

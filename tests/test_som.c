@@ -21,13 +21,8 @@ static double *normal_data(size_t n, size_t d, uint64_t seed)
     return x;
 }
 
-static double d2(const double *a, const double *b, size_t d)
-{
-    double s = 0;
-    for (size_t t = 0; t < d; t++)
-        s += (a[t] - b[t]) * (a[t] - b[t]);
-    return s;
-}
+/* squared Euclidean distance: the reference, summed in plain order */
+static double d2(const double *a, const double *b, size_t d) { return mlr_test_dist2(a, b, d); }
 
 static mlr_som *som_with_codebook(size_t rows, size_t cols, size_t d, const double *w)
 {
