@@ -7,6 +7,10 @@
 #include "band_internal.h"
 
 #include <math.h>
+#include <stdint.h>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 #include <stdlib.h>
 
 mlr_status mlr_band_create(size_t n, size_t kd, const mlr_allocator *alloc, mlr_band **out)
@@ -68,14 +72,30 @@ mlr_status mlr_band_factor_in_place(mlr_band *b)
     mlr_status status = MLR_OK;
     b->factored = 0;
     if (kd == 2) { /* pentadiagonal, the LGS default: one division per row */
+        double pa[3] = {0.0, 0.0, 0.0}; /* A's row i-1 */
         for (size_t i = 0; i < n; i++) {
             double *li = l + 2 * i, aii = dinv[i];
-            double d = mlr_band_ldl2_row(i, aii, li[0], li[1], i >= 2 ? l[2 * (i - 1)] : 0.0,
+            const double a1 = li[0], a2 = li[1];
+            double d = mlr_band_ldl2_row(i, aii, a1, a2, i >= 2 ? l[2 * (i - 1)] : 0.0,
                                          i >= 1 ? dinv[i - 1] : 0.0, i >= 2 ? dinv[i - 2] : 0.0,
                                          &li[0], &li[1]);
             if (!pivot_ok(d, aii, &status))
                 return MLR_E_SINGULAR;
             dinv[i] = 1.0 / d;
+            /* A Toeplitz stretch (the interior of every smoothing prior) drives the recurrence
+             * to a fixed point within a few hundred rows: once a row repeats the previous one
+             * bit for bit on the same input, every following row with that input is the same. */
+            if (i >= 3 && aii == pa[0] && a1 == pa[1] && a2 == pa[2] && li[0] == li[-2] &&
+                li[1] == li[-1] && dinv[i] == dinv[i - 1] && dinv[i - 1] == dinv[i - 2]) {
+                while (i + 1 < n && dinv[i + 1] == aii && l[2 * (i + 1)] == a1 &&
+                       l[2 * (i + 1) + 1] == a2) {
+                    i++;
+                    l[2 * i] = li[0];
+                    l[2 * i + 1] = li[1];
+                    dinv[i] = dinv[i - 1];
+                }
+            }
+            pa[0] = aii, pa[1] = a1, pa[2] = a2;
         }
     } else {
         for (size_t i = 0; i < n; i++) {
@@ -166,61 +186,72 @@ static inline void row_from1(double *restrict xi, const double *restrict yi,
         xi[c] = yi[c] - l1 * x1[c];
 }
 
-void mlr_band_forward_row_from(const mlr_band *b, size_t i, const double *yi, double *x,
-                               size_t ldx, size_t m)
+MLR_CLONES_AVX512
+void mlr_band_forward_row_from(const mlr_band *b, size_t i, const double *yi, double *xi,
+                               size_t ld, size_t m)
 {
     const size_t kd = b->kd;
     const double *li = b->l + i * kd;
-    double *xi = x + i * ldx;
     size_t kmax = i < kd ? i : kd;
     if (kmax == 2) {
-        row_from2(xi, yi, xi - ldx, xi - 2 * ldx, li[0], li[1], m);
+        row_from2(xi, yi, xi - ld, xi - 2 * ld, li[0], li[1], m);
     } else if (kmax == 1) {
-        row_from1(xi, yi, xi - ldx, li[0], m);
+        row_from1(xi, yi, xi - ld, li[0], m);
     } else {
-        memcpy(xi, yi, m * sizeof(double));
+        if (xi != yi)
+            memcpy(xi, yi, m * sizeof(double));
         for (size_t k = 1; k <= kmax; k++)
-            row_sub1(xi, xi - k * ldx, li[k - 1], m);
+            row_sub1(xi, xi - k * ld, li[k - 1], m);
     }
 }
 
 /* Forward sweep for one row: x_i -= sum_k L(i,i-k) x_{i-k} (the 1/D scaling comes in the
  * backward sweep). */
-void mlr_band_forward_row(const mlr_band *b, size_t i, double *x, size_t ldx, size_t m)
+MLR_CLONES_AVX512
+void mlr_band_forward_row(const mlr_band *b, size_t i, double *xi, size_t ld, size_t m)
 {
     const size_t kd = b->kd;
     const double *li = b->l + i * kd;
-    double *xi = x + i * ldx;
     size_t kmax = i < kd ? i : kd;
     if (kmax == 2) {
-        row_sub2(xi, xi - ldx, xi - 2 * ldx, li[0], li[1], m);
+        row_sub2(xi, xi - ld, xi - 2 * ld, li[0], li[1], m);
     } else if (kmax == 1) {
-        row_sub1(xi, xi - ldx, li[0], m);
+        row_sub1(xi, xi - ld, li[0], m);
     } else {
         for (size_t k = 1; k <= kmax; k++)
-            row_sub1(xi, xi - k * ldx, li[k - 1], m);
+            row_sub1(xi, xi - k * ld, li[k - 1], m);
     }
 }
 
-/* Backward sweep over rows e..a (e >= a) after the forward one:
+void mlr_band_forward_row_any(const mlr_band *b, size_t i, const double *yi, double *xi, size_t ld,
+                              size_t m)
+{
+    if (yi == xi)
+        mlr_band_forward_row(b, i, xi, ld, m);
+    else
+        mlr_band_forward_row_from(b, i, yi, xi, ld, m);
+}
+
+/* Backward sweep over rows e..a (e >= a) after the forward one, row a at xa, stride ld:
  * x_i = x_i / D_i - sum_k L(i+k,i) x_{i+k}, rows past e taken as zero. */
-static void backward_range(const mlr_band *b, size_t a, size_t e, double *x, size_t ldx, size_t m)
+MLR_CLONES_AVX512
+static void backward_range(const mlr_band *b, size_t a, size_t e, double *xa, size_t ld, size_t m)
 {
     const size_t kd = b->kd;
     const double *l = b->l, *dinv = b->dinv;
     for (size_t i = e + 1; i-- > a;) {
-        double *xi = x + i * ldx;
+        double *xi = xa + (i - a) * ld;
         const double di = dinv[i];
         size_t kmax = e - i < kd ? e - i : kd;
         if (kmax == 2) {
-            row_scale_sub2(xi, xi + ldx, xi + 2 * ldx, di, l[(i + 1) * kd], l[(i + 2) * kd + 1], m);
+            row_scale_sub2(xi, xi + ld, xi + 2 * ld, di, l[(i + 1) * kd], l[(i + 2) * kd + 1], m);
         } else if (kmax == 1) {
-            row_scale_sub1(xi, xi + ldx, di, l[(i + 1) * kd], m);
+            row_scale_sub1(xi, xi + ld, di, l[(i + 1) * kd], m);
         } else {
             for (size_t c = 0; c < m; c++)
                 xi[c] *= di;
             for (size_t k = 1; k <= kmax; k++)
-                row_sub1(xi, xi + k * ldx, l[(i + k) * kd + k - 1], m);
+                row_sub1(xi, xi + k * ld, l[(i + k) * kd + k - 1], m);
         }
     }
 }
@@ -236,13 +267,14 @@ void mlr_band_backward(const mlr_band *b, double *x, size_t ldx, size_t m)
  * h_i = -sum_k L(i+k,i) h_{i+k} with h_{e+k} = delta_jk. The recurrence is stable backward,
  * so h_j decays away from e: past MLR_BAND_TAIL_TOL it changes no digit of x. When the decay
  * fits inside every chunk, a chunk's first rows are final as soon as it is swept, and the
- * previous chunk only needs its tail corrected. Each chunk is swept forward, then (one chunk
- * later) backward, and its predecessor's tail fixed, while all three are still in cache: the
- * solve streams y and x once instead of twice.
+ * previous chunk only needs its tail corrected. Each chunk is swept forward into a ring of
+ * three cache-sized buffers, then (one chunk later) backward, and its predecessor's tail
+ * fixed; that chunk is then final and streams out to x. y is read once and x written once,
+ * with non-temporal stores: no read of x's old contents, no write-back of intermediate values.
  */
 #define MLR_BAND_TAIL_TOL 1e-20
-#define MLR_BAND_TAIL_MAX 1024           /* rows of h kept on the stack (16 KiB for kd = 2) */
-#define MLR_BAND_CHUNK_BYTES (256u << 10) /* about a quarter of a core's L2 per chunk */
+#define MLR_BAND_TAIL_MAX 1024            /* rows of h kept on the stack (16 KiB for kd = 2) */
+#define MLR_BAND_CHUNK_BYTES (512u << 10) /* a chunk of the ring, about 1/8 of a core's L2 */
 
 /* h for the chunk ending at e (e + kd <= n - 1): h[(e - i) * kd + j - 1] for rows i down to
  * e + 1 - *len; returns 0 when it does not decay within max_len rows. */
@@ -266,7 +298,7 @@ static int tail_homogeneous(const mlr_band *b, size_t e, size_t max_len, double 
                 v -= l[(i + k) * kd + k - 1] * hk;
             }
             h[r * kd + j - 1] = v;
-            mag = fmax(mag, fabs(v));
+            mag = fabs(v) > mag ? fabs(v) : mag;
         }
         quiet = mag < MLR_BAND_TAIL_TOL ? quiet + 1 : 0;
         if (quiet >= kd + 1) {
@@ -277,18 +309,44 @@ static int tail_homogeneous(const mlr_band *b, size_t e, size_t max_len, double 
     return 0;
 }
 
-static void correct_tail(const mlr_band *b, size_t e, double *x, size_t ldx, size_t m,
-                         double *h)
+/* Add the true boundary (rows e+1, e+2 at next, stride ld_next) to the tail of the chunk
+ * ending at row e (at xe, stride ld). */
+MLR_CLONES_AVX512
+static void correct_tail(const mlr_band *b, size_t e, double *xe, size_t ld, const double *next,
+                         size_t ld_next, size_t m, double *h)
 {
     size_t len = 0;
     const size_t kd = b->kd;
     tail_homogeneous(b, e, MLR_BAND_TAIL_MAX, h, &len); /* checked to decay before the solve */
     for (size_t r = 0; r < len; r++) {
-        double *xi = x + (e - r) * ldx;
+        double *xi = xe - r * ld;
         if (kd == 2)
-            row_sub2(xi, x + (e + 1) * ldx, x + (e + 2) * ldx, -h[r * 2], -h[r * 2 + 1], m);
+            row_sub2(xi, next, next + ld_next, -h[r * 2], -h[r * 2 + 1], m);
         else
-            row_sub1(xi, x + (e + 1) * ldx, -h[r], m);
+            row_sub1(xi, next, -h[r], m);
+    }
+}
+
+/* rows x rows of m values from src (stride m) to dst (stride ld), bypassing the cache where
+ * the ISA has non-temporal stores (the caller fences once at the end). */
+static void stream_out(double *dst, size_t ld, const double *src, size_t m, size_t rows)
+{
+    if (ld == m) {
+        m *= rows;
+        rows = 1;
+    }
+    for (size_t r = 0; r < rows; r++, dst += ld, src += m) {
+#if defined(__SSE2__)
+        size_t c = 0;
+        if ((uintptr_t)dst % 16 != 0 && m > 0)
+            dst[c] = src[c], c++;
+        for (; c + 2 <= m; c += 2)
+            _mm_stream_pd(dst + c, _mm_loadu_pd(src + c));
+        for (; c < m; c++)
+            dst[c] = src[c];
+#else
+        memcpy(dst, src, m * sizeof(double));
+#endif
     }
 }
 
@@ -306,36 +364,58 @@ void mlr_band_solve_rows(const mlr_band *b, mlr_band_row_fn forward_row, const v
         size_t len = 0, lim = chunk - kd < MLR_BAND_TAIL_MAX ? chunk - kd : MLR_BAND_TAIL_MAX;
         chunked = tail_homogeneous(b, e, lim, h, &len);
     }
-    if (!chunked) {
+    /* the ring: three slots of kd halo rows (the previous chunk's last forward rows) + chunk */
+    const size_t slot = (kd + chunk) * m, ring_bytes = 3 * slot * sizeof(double);
+    double *ring = chunked ? mlr_alloc(&b->alloc, ring_bytes) : NULL;
+    if (!ring) { /* small, not chunkable, or no memory: two sweeps over x */
         for (size_t r = 0; r < n; r++)
-            forward_row(ctx, r, x, ldx, m);
+            forward_row(ctx, r, x + r * ldx, ldx, m);
         mlr_band_backward(b, x, ldx, m);
         return;
     }
-    /* chunks [k*chunk, (k+1)*chunk - 1]; the last one takes the remainder */
-    size_t n_chunks = n / chunk;
+    /* chunks [k*chunk, min(n, (k+1)*chunk) - 1]; only the last one can be shorter */
+    const size_t n_chunks = (n + chunk - 1) / chunk;
 #define CHUNK_A(k) ((k) * chunk)
 #define CHUNK_E(k) ((k) + 1 == n_chunks ? n - 1 : ((k) + 1) * chunk - 1)
-    for (size_t k = 0; k < n_chunks; k++) {
-        for (size_t r = CHUNK_A(k); r <= CHUNK_E(k); r++)
-            forward_row(ctx, r, x, ldx, m);
-        if (k >= 1)
-            backward_range(b, CHUNK_A(k - 1), CHUNK_E(k - 1), x, ldx, m);
-        if (k >= 2)
-            correct_tail(b, CHUNK_E(k - 2), x, ldx, m, h);
+#define SLOT_ROW(k, r) (ring + ((k) % 3) * slot + (kd + (r) - CHUNK_A(k)) * m)
+    for (size_t k = 0; k <= n_chunks; k++) {
+        if (k < n_chunks) {
+            if (k >= 1) /* halo: the forward rows just before this chunk */
+                memcpy(SLOT_ROW(k, CHUNK_A(k) - kd), SLOT_ROW(k - 1, CHUNK_A(k) - kd),
+                       kd * m * sizeof(double));
+            for (size_t r = CHUNK_A(k); r <= CHUNK_E(k); r++)
+                forward_row(ctx, r, SLOT_ROW(k, r), m, m);
+        }
+        if (k >= 1) /* the last chunk ends at row n - 1: its sweep is exact */
+            backward_range(b, CHUNK_A(k - 1), CHUNK_E(k - 1), SLOT_ROW(k - 1, CHUNK_A(k - 1)), m,
+                           m);
+        if (k >= 2) {
+            size_t e = CHUNK_E(k - 2);
+            correct_tail(b, e, SLOT_ROW(k - 2, e), m, SLOT_ROW(k - 1, e + 1), m, m, h);
+            stream_out(x + CHUNK_A(k - 2) * ldx, ldx, SLOT_ROW(k - 2, CHUNK_A(k - 2)), m, chunk);
+        }
     }
-    backward_range(b, CHUNK_A(n_chunks - 1), n - 1, x, ldx, m);
-    correct_tail(b, CHUNK_E(n_chunks - 2), x, ldx, m, h);
+    size_t a = CHUNK_A(n_chunks - 1);
+    stream_out(x + a * ldx, ldx, SLOT_ROW(n_chunks - 1, a), m, n - a);
+#if defined(__SSE2__)
+    _mm_sfence();
+#endif
+    mlr_free(&b->alloc, ring, ring_bytes);
 #undef CHUNK_A
 #undef CHUNK_E
+#undef SLOT_ROW
 }
 
-typedef struct inplace_ctx { const mlr_band *b; } inplace_ctx;
+typedef struct inplace_ctx {
+    const mlr_band *b;
+    const double *y; /* the right-hand side, overwritten by the solution */
+    size_t ldy;
+} inplace_ctx;
 
-static void forward_in_place(const void *vctx, size_t r, double *x, size_t ldx, size_t m)
+static void forward_in_place(const void *vctx, size_t r, double *xr, size_t ld, size_t m)
 {
     const inplace_ctx *ctx = vctx;
-    mlr_band_forward_row(ctx->b, r, x, ldx, m);
+    mlr_band_forward_row_any(ctx->b, r, ctx->y + r * ctx->ldy, xr, ld, m);
 }
 
 mlr_status mlr_band_solve(const mlr_band *b, double *x, size_t ldx, size_t m)
@@ -348,7 +428,7 @@ mlr_status mlr_band_solve(const mlr_band *b, double *x, size_t ldx, size_t m)
         return MLR_OK;
     if (!x || ldx < m)
         return MLR_E_INVALID_ARG;
-    inplace_ctx ctx = {b};
+    inplace_ctx ctx = {b, x, ldx};
     mlr_band_solve_rows(b, forward_in_place, &ctx, x, ldx, m);
     return MLR_OK;
 }

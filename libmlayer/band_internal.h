@@ -44,16 +44,22 @@ static inline double mlr_band_ldl2_row(size_t i, double aii, double a1, double a
 /* Factor in place: on entry dinv[i] holds A(i,i) and l[i*kd + k-1] holds A(i,i-k) (zero
  * where i < k); on return the factor. Same statuses as mlr_band_factor. */
 mlr_status mlr_band_factor_in_place(mlr_band *b);
-void mlr_band_forward_row(const mlr_band *b, size_t i, double *x, size_t ldx, size_t m);
-/* The same with the right-hand side row taken from yi (not aliasing x): x_i = y_i - ... */
-void mlr_band_forward_row_from(const mlr_band *b, size_t i, const double *yi, double *x,
-                               size_t ldx, size_t m);
-/* Row r of the right-hand side into x, then its forward-sweep update (forward_row or
- * forward_row_from); called for r = 0, 1, ..., n-1 in order. */
-typedef void (*mlr_band_row_fn)(const void *ctx, size_t r, double *x, size_t ldx, size_t m);
+/* Forward-sweep update of row i, at xi, its predecessors at xi - ld and xi - 2 ld. */
+void mlr_band_forward_row(const mlr_band *b, size_t i, double *xi, size_t ld, size_t m);
+/* The same with the right-hand side row taken from yi (not aliasing xi): x_i = y_i - ... */
+void mlr_band_forward_row_from(const mlr_band *b, size_t i, const double *yi, double *xi,
+                               size_t ld, size_t m);
+/* Either of the two, by whether yi is xi. */
+void mlr_band_forward_row_any(const mlr_band *b, size_t i, const double *yi, double *xi, size_t ld,
+                              size_t m);
+/* Row r of the right-hand side into xr, then its forward-sweep update (one of the above, with
+ * rows r-1 and r-2 at xr - ld and xr - 2 ld); called for r = 0, 1, ..., n-1 in order. xr is a
+ * row of the solver's own buffer or of x: read the right-hand side from the caller's data. */
+typedef void (*mlr_band_row_fn)(const void *ctx, size_t r, double *xr, size_t ld, size_t m);
 
-/* The whole solve: forward through forward_row, backward sweep; by cache-sized chunks in a
- * single pass over x when the factor allows it (see band.c). Never allocates. */
+/* The whole solve into x: forward through forward_row, backward sweep; by cache-sized chunks
+ * in a single pass through a ring buffer when the factor allows it (see band.c; the ring is
+ * allocated per call, and without memory the solve takes two plain sweeps over x). */
 void mlr_band_solve_rows(const mlr_band *b, mlr_band_row_fn forward_row, const void *ctx,
                          double *x, size_t ldx, size_t m);
 void mlr_band_backward(const mlr_band *b, double *x, size_t ldx, size_t m);

@@ -317,16 +317,8 @@ static inline void rss_m(const mlr_lay_batch *b, const size_t m, const double *y
     }
 }
 
-/* The sweeps are the bulk of a decomposition; with GCC on x86-64 they get an AVX2 clone
- * chosen at load time (the build itself assumes only the baseline ISA). */
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__) && \
-    !defined(__SANITIZE_ADDRESS__)
-#define MLR_LAY_CLONES __attribute__((target_clones("avx2", "default")))
-#else
-#define MLR_LAY_CLONES
-#endif
-
-MLR_LAY_CLONES
+/* The sweeps are the bulk of a decomposition: they get an AVX2 clone (mlr_internal.h). */
+MLR_CLONES_AVX2
 void mlr_lay_batch_solve(const mlr_lay_batch *b, size_t m, const double *y, size_t ldy,
                          double *x, size_t ldx, double *buf)
 {
@@ -338,7 +330,7 @@ void mlr_lay_batch_solve(const mlr_lay_batch *b, size_t m, const double *y, size
         solve_m(b, m, y, ldy, x, ldx, buf);
 }
 
-MLR_LAY_CLONES
+MLR_CLONES_AVX2
 void mlr_lay_batch_rss(const mlr_lay_batch *b, size_t m, const double *y, size_t ldy, double *z,
                        size_t ldz, double *buf, double *acc)
 {
@@ -348,7 +340,7 @@ void mlr_lay_batch_rss(const mlr_lay_batch *b, size_t m, const double *y, size_t
         rss_m(b, m, y, ldy, z, ldz, buf, acc);
 }
 
-MLR_LAY_CLONES
+MLR_CLONES_AVX2
 void mlr_lay_sum_sq_diff(size_t n, size_t mm, const double *y, const double *x, double *acc)
 {
     for (size_t c = 0; c < mm; c++)

@@ -284,23 +284,17 @@ typedef struct solve_ctx {
     size_t ldy;
 } solve_ctx;
 
-static void row_interp(const void *vctx, size_t r, double *x, size_t ldx, size_t m)
+static void row_interp(const void *vctx, size_t r, double *xr, size_t ld, size_t m)
 {
     const solve_ctx *c = vctx;
-    rhs_row(c->g, r, c->y, c->ldy, m, x + r * ldx);
-    mlr_band_forward_row(c->g->band, r, x, ldx, m);
+    rhs_row(c->g, r, c->y, c->ldy, m, xr);
+    mlr_band_forward_row(c->g->band, r, xr, ld, m);
 }
 
-static void row_copy(const void *vctx, size_t r, double *x, size_t ldx, size_t m)
+static void row_copy(const void *vctx, size_t r, double *xr, size_t ld, size_t m)
 {
     const solve_ctx *c = vctx;
-    mlr_band_forward_row_from(c->g->band, r, c->y + r * c->ldy, x, ldx, m);
-}
-
-static void row_in_place(const void *vctx, size_t r, double *x, size_t ldx, size_t m)
-{
-    const solve_ctx *c = vctx;
-    mlr_band_forward_row(c->g->band, r, x, ldx, m);
+    mlr_band_forward_row_any(c->g->band, r, c->y + r * c->ldy, xr, ld, m);
 }
 
 static int row_finite(const double *x, size_t m)
@@ -325,7 +319,7 @@ mlr_status mlr_lgs_solve(const mlr_lgs *g, const double *y, size_t ldy, size_t m
     const size_t n = g->n_out;
     if (g->solver == MLR_LGS_BANDED) {
         solve_ctx ctx = {g, y, ldy};
-        mlr_band_row_fn fn = g->first ? row_interp : (x == y ? row_in_place : row_copy);
+        mlr_band_row_fn fn = g->first ? row_interp : row_copy;
         mlr_band_solve_rows(g->band, fn, &ctx, x, ldx, m);
     } else {
 #ifdef MLR_HAVE_CHOLMOD

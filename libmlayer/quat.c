@@ -184,13 +184,6 @@ void mlr_quat_conj_array(const mlr_quat *q, size_t count, mlr_quat *out)
 #define FAST_LO 0x1p-250
 #define FAST_HI 0x1p+250
 
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__) && \
-    !defined(__SANITIZE_ADDRESS__)
-#define QUAT_CLONES __attribute__((target_clones("avx2", "default")))
-#else
-#define QUAT_CLONES
-#endif
-
 /* Larger of two (a NaN may be dropped: callers test for NaN apart, see finite4). */
 static inline double vmax(double a, double b)
 {
@@ -234,7 +227,7 @@ static inline int block_load(const mlr_quat *restrict q, size_t m, double *restr
     return !bad;
 }
 
-QUAT_CLONES
+MLR_CLONES_AVX2
 static int normalize_fast(const mlr_quat *q, size_t m, mlr_quat *out)
 {
     double w[QBLK], x[QBLK], y[QBLK], z[QBLK];
@@ -272,7 +265,7 @@ mlr_status mlr_quat_normalize_array(const mlr_quat *q, size_t count, mlr_quat *o
 
 /* exp of m rotation vectors whose components are all finite and below MLR_SINCOS_LIMIT / 2
  * in magnitude; 0 (nothing written) otherwise. */
-QUAT_CLONES
+MLR_CLONES_AVX2
 static int exp_fast(const mlr_vec3 *v, size_t m, mlr_quat *out)
 {
     double x[QBLK], y[QBLK], z[QBLK], c[QBLK], k[QBLK];
@@ -445,7 +438,7 @@ static mlr_status log_one(const mlr_quat *q, mlr_vec3 *out)
 }
 
 /* log of m quaternions of block_load's common case; 0 (nothing written) otherwise. */
-QUAT_CLONES
+MLR_CLONES_AVX2
 static int log_fast(const mlr_quat *q, size_t m, mlr_vec3 *out)
 {
     double w[QBLK], x[QBLK], y[QBLK], z[QBLK];
@@ -475,7 +468,7 @@ mlr_status mlr_quat_log_array(const mlr_quat *q, size_t count, mlr_vec3 *out)
 
 /* prod = conj(a) b, out = log(prod) for m <= QBLK quaternions; the SoA path when the
  * products are of the common case. */
-QUAT_CLONES
+MLR_CLONES_AVX2
 static void conj_mul_log_block(const mlr_quat *a, const mlr_quat *b, size_t m, mlr_quat *prod,
                                mlr_vec3 *out)
 {

@@ -65,6 +65,50 @@ START_TEST(solve_matches_dense)
 }
 END_TEST
 
+/* Long smoothing systems s L^T L + diag(w) with Toeplitz stretches (where the factor reaches
+ * a fixed point and is copied) broken by changes of w: a stretch change, a single odd row and
+ * the ends. The residual A x - b, from the band itself, is the reference. */
+static const struct { size_t n, m; double s; } long_systems[] = {
+    {3000, 3, 16.0}, {3000, 1, 1e4}, {800, 2, 0.5}, {70000, 1, 16.0},
+};
+
+START_TEST(long_toeplitz_stretches_solve_exactly)
+{
+    const size_t n = long_systems[_i].n, m = long_systems[_i].m, ldab = 3;
+    const double s = long_systems[_i].s;
+    static const double dc[3] = {1.0, -2.0, 1.0}; /* second difference */
+    double *ab = calloc(n * ldab, sizeof *ab), *b = malloc(n * m * sizeof *b);
+    double *x = malloc(n * m * sizeof *x);
+    for (size_t i = 0; i < n; i++) /* w: 1 in the first half, 4 after, 2 on one row */
+        ab[i * ldab] = i == n * 3 / 4 ? 2.0 : (i < n / 2 ? 1.0 : 4.0);
+    for (size_t r = 0; r + 2 < n; r++) /* add s d_r d_r^T, d_r = dc at rows r..r+2 */
+        for (size_t p = 0; p < 3; p++)
+            for (size_t q = p; q < 3; q++)
+                ab[(r + p) * ldab + (q - p)] += s * dc[p] * dc[q];
+    mlr_test_rng rng;
+    mlr_test_rng_seed(&rng, 77 + (uint64_t)_i);
+    for (size_t i = 0; i < n * m; i++)
+        x[i] = b[i] = mlr_test_rng_normal(&rng);
+    mlr_band *band = NULL;
+    ck_assert_int_eq(mlr_band_create(n, 2, NULL, &band), MLR_OK);
+    ck_assert_int_eq(mlr_band_factor(band, ab, ldab), MLR_OK);
+    ck_assert_int_eq(mlr_band_solve(band, x, m, m), MLR_OK);
+    for (size_t i = 0; i < n; i++)
+        for (size_t c = 0; c < m; c++) {
+            double ax = ab[i * ldab] * x[i * m + c];
+            for (size_t k = 1; k <= 2; k++) {
+                if (i + k < n)
+                    ax += ab[i * ldab + k] * x[(i + k) * m + c];
+                if (i >= k)
+                    ax += ab[(i - k) * ldab + k] * x[(i - k) * m + c];
+            }
+            ck_assert_close(ax, b[i * m + c], 1e-9 * (1.0 + s));
+        }
+    mlr_band_destroy(band);
+    free(ab), free(b), free(x);
+}
+END_TEST
+
 START_TEST(inverse_diagonal_matches_dense_inverse)
 {
     const size_t n = shapes[_i].n, kd = shapes[_i].kd, ldab = kd + 1;
@@ -147,6 +191,8 @@ static Suite *band_suite(void)
     TCase *num = tcase_create("numerics");
     tcase_add_loop_test(num, solve_matches_dense, 0, (int)MLR_COUNTOF(shapes));
     tcase_add_loop_test(num, inverse_diagonal_matches_dense_inverse, 0, (int)MLR_COUNTOF(shapes));
+    tcase_add_loop_test(num, long_toeplitz_stretches_solve_exactly, 0,
+                        (int)MLR_COUNTOF(long_systems));
     suite_add_tcase(s, num);
     TCase *args = tcase_create("arguments");
     tcase_add_loop_test(args, create_rejects_bad_shape, 0, (int)MLR_COUNTOF(bad_shape));
