@@ -272,6 +272,147 @@ static inline void solve_m(const mlr_lay_batch *b, const size_t m, const double 
     }
 }
 
+/* acc[c] += (y_i[c] - x_i[c])^2 over rows of mm channels, y with stride ldy, x packed. */
+static inline void mlr_lay_sum_sq_diff_rows(size_t rows, size_t mm, const double *y, size_t ldy,
+                                            const double *x, double *acc)
+{
+    for (size_t i = 0; i < rows; i++) {
+        const double *restrict yi = y + i * ldy, *restrict xi = x + i * mm;
+        double *restrict a = acc;
+        for (size_t c = 0; c < mm; c++) {
+            const double r = yi[c] - xi[c];
+            a[c] += r * r;
+        }
+    }
+}
+
+/*
+ * The residual sums in a single pass over y by chunks, for long clips whose arrays do not stay
+ * in cache (the method of mlr_band_solve_rows in band.c): each chunk is swept forward into a
+ * ring of three chunk buffers, one chunk later backward with zero rows past its end, and one
+ * chunk later again its tail gets the true boundary through the homogeneous solutions h (the
+ * same for every chunk: the interior coefficients are constant), after which its rows are
+ * final and add to acc. The ring, h and a zero row live in z. Returns 0 (nothing done) when
+ * the clip is short, the factor has no constant interior, or h decays too slowly.
+ */
+#define MLR_LAY_TAIL_TOL 1e-20
+#define MLR_LAY_CHUNK_BYTES (128u << 10)
+
+#if defined(__GNUC__)
+__attribute__((always_inline))
+#endif
+static inline int rss_chunked(const mlr_lay_batch *b, const size_t m, const double *y, size_t ldy,
+                              double *z, size_t ldz, const double *e1, const double *e2,
+                              const double *ed, double *acc)
+{
+    const size_t n = b->n, ns = b->ns, mm = m * ns, kc = b->k - 1;
+    if (b->k >= b->n || n < 4096)
+        return 0;
+    const double *l1c = b->l1 + kc * ns, *l2c = b->l2 + kc * ns;
+    /* tail length T: rows until |h| < tol for three rows in a row, every system */
+    size_t tail = 0;
+    {
+        size_t quiet = 0;
+        for (size_t k = 0; k < ns; k++) {
+            double p1 = 1.0, q1 = 0.0, p2 = 0.0, q2 = 1.0; /* h_j at rows i+1, i+2 */
+            size_t r = 0;
+            for (quiet = 0; quiet < 3; r++) {
+                if (r > n / 16)
+                    return 0;
+                const double v1 = -(l1c[k] * p1 + l2c[k] * q1), v2 = -(l1c[k] * p2 + l2c[k] * q2);
+                q1 = p1, p1 = v1, q2 = p2, p2 = v2;
+                quiet = fabs(v1) < MLR_LAY_TAIL_TOL && fabs(v2) < MLR_LAY_TAIL_TOL ? quiet + 1 : 0;
+            }
+            tail = r > tail ? r : tail;
+        }
+    }
+    size_t chunk = MLR_LAY_CHUNK_BYTES / (mm * sizeof(double));
+    if (chunk < 2 * tail + 8)
+        chunk = 2 * tail + 8;
+    if (chunk < kc + tail + 8)
+        chunk = kc + tail + 8;
+    const size_t n_chunks = n / chunk, cap = 2 * chunk + 2; /* rows per slot, halo included */
+    if (n_chunks < 4 || (3 * cap + 1 + 2 * tail) * mm > (n - 1) * ldz) /* ring inside z */
+        return 0;
+    double *ring = z, *zero = z + 3 * cap * mm, *h = zero + mm;
+    for (size_t c = 0; c < mm; c++)
+        zero[c] = 0.0;
+    for (size_t k = 0; k < ns; k++) { /* h[(r ns + k) 2 + j]: row e - r, boundary row e+1+j */
+        double p1 = 1.0, q1 = 0.0, p2 = 0.0, q2 = 1.0;
+        for (size_t r = 0; r < tail; r++) {
+            const double v1 = -(l1c[k] * p1 + l2c[k] * q1), v2 = -(l1c[k] * p2 + l2c[k] * q2);
+            q1 = p1, p1 = v1, q2 = p2, p2 = v2;
+            h[(r * ns + k) * 2] = v1;
+            h[(r * ns + k) * 2 + 1] = v2;
+        }
+    }
+    const double *l1 = b->l1, *l2 = b->l2, *dv = b->dinv;
+#define CHUNK_A(k) ((k) * chunk)
+#define CHUNK_E(k) ((k) + 1 == n_chunks ? n - 1 : ((k) + 1) * chunk - 1)
+#define SLOT_ROW(k, i) (ring + ((k) % 3) * cap * mm + (2 + (i) - CHUNK_A(k)) * mm)
+    for (size_t q = 0; q <= n_chunks; q++) {
+        if (q < n_chunks) { /* forward sweep of chunk q */
+            size_t i = CHUNK_A(q);
+            if (q >= 1) {
+                memcpy(SLOT_ROW(q, i - 2), SLOT_ROW(q - 1, i - 2), 2 * mm * sizeof(double));
+            } else {
+                double *x0 = SLOT_ROW(0, 0), *x1 = SLOT_ROW(0, 1);
+                const double *y1 = y + ldy, *a = l1 + ns;
+                memcpy(x0, y, mm * sizeof(double));
+                for (size_t k = 0; k < ns; k++)
+                    for (size_t c = k * m; c < k * m + m; c++)
+                        x1[c] = y1[c] - a[k] * x0[c];
+                i = 2;
+            }
+            for (; i <= CHUNK_E(q); i++) {
+                const size_t r = mlr_lay_row(b, i);
+                double *xi = SLOT_ROW(q, i);
+                if (r == kc)
+                    fwd_channels(mm, e1, e2, y + i * ldy, xi, xi - mm, xi - 2 * mm);
+                else
+                    fwd_groups(ns, m, l1 + r * ns, l2 + r * ns, y + i * ldy, xi, xi - mm,
+                               xi - 2 * mm);
+            }
+        }
+        if (q >= 1) { /* backward sweep of chunk q-1, zero rows past its end */
+            const size_t a = CHUNK_A(q - 1), e = CHUNK_E(q - 1);
+            for (size_t i = e + 1; i-- > a;) {
+                const size_t r0 = mlr_lay_row(b, i);
+                const size_t r1 = mlr_lay_row(b, i + 1 < n ? i + 1 : n - 1);
+                const size_t r2 = mlr_lay_row(b, i + 2 < n ? i + 2 : n - 1);
+                double *xi = SLOT_ROW(q - 1, i);
+                const double *x1 = i + 1 <= e ? xi + mm : zero, *x2 = i + 2 <= e ? xi + 2 * mm : zero;
+                if (r0 == kc && r1 == kc && r2 == kc)
+                    bwd_channels(mm, ed, e1, e2, xi, x1, x2);
+                else
+                    bwd_groups(ns, m, dv + r0 * ns, l1 + r1 * ns, l2 + r2 * ns, xi, x1, x2);
+            }
+        }
+        if (q >= 2) { /* chunk q-2: true boundary into its tail, then its residuals */
+            const size_t a = CHUNK_A(q - 2), e = CHUNK_E(q - 2);
+            const double *b1 = SLOT_ROW(q - 1, e + 1), *b2 = b1 + mm;
+            for (size_t r = 0; r < tail; r++) {
+                double *xi = SLOT_ROW(q - 2, e - r);
+                const double *hr = h + r * ns * 2;
+                for (size_t k = 0; k < ns; k++) {
+                    const double g1 = hr[2 * k], g2 = hr[2 * k + 1];
+                    for (size_t c = k * m; c < k * m + m; c++)
+                        xi[c] += g1 * b1[c] + g2 * b2[c];
+                }
+            }
+            mlr_lay_sum_sq_diff_rows(e + 1 - a, mm, y + a * ldy, ldy, SLOT_ROW(q - 2, a), acc);
+        }
+    }
+    {
+        const size_t a = CHUNK_A(n_chunks - 1);
+        mlr_lay_sum_sq_diff_rows(n - a, mm, y + a * ldy, ldy, SLOT_ROW(n_chunks - 1, a), acc);
+    }
+#undef CHUNK_A
+#undef CHUNK_E
+#undef SLOT_ROW
+    return 1;
+}
+
 /* The residual sums of the solve without keeping the solution: the forward sweep into z (full
  * rows, stride ldz), the backward one through a ring of three rows, acc[c] = sum_i
  * (y_i[c] - x_i[c])^2 accumulated as it goes (one pass less over the arrays than a solve and
@@ -286,9 +427,11 @@ static inline void rss_m(const mlr_lay_batch *b, const size_t m, const double *y
     const double *l1 = b->l1, *l2 = b->l2, *dv = b->dinv;
     double *e1 = buf, *e2 = buf + mm, *ed = buf + 2 * mm, *ring = buf + 3 * mm;
     const int conv = expand_interior(b, m, e1, e2, ed);
-    fwd_m(b, m, y, ldy, z, ldz, e1, e2, conv);
     for (size_t c = 0; c < mm; c++)
         acc[c] = 0.0;
+    if (conv && rss_chunked(b, m, y, ldy, z, ldz, e1, e2, ed, acc))
+        return;
+    fwd_m(b, m, y, ldy, z, ldz, e1, e2, conv);
     /* rows n-1, n-2: ring rows (n-1) % 3 and (n-2) % 3 */
     {
         double *xl = ring + ((n - 1) % 3) * mm, *xp = ring + ((n - 2) % 3) * mm;
@@ -345,14 +488,7 @@ void mlr_lay_sum_sq_diff(size_t n, size_t mm, const double *y, const double *x, 
 {
     for (size_t c = 0; c < mm; c++)
         acc[c] = 0.0;
-    for (size_t i = 0; i < n; i++) {
-        const double *restrict yi = y + i * mm, *restrict xi = x + i * mm;
-        double *restrict a = acc;
-        for (size_t c = 0; c < mm; c++) {
-            const double r = yi[c] - xi[c];
-            a[c] += r * r;
-        }
-    }
+    mlr_lay_sum_sq_diff_rows(n, mm, y, mm, x, acc);
 }
 
 /*
