@@ -272,3 +272,10 @@ mlr_status mlr_som_export(const mlr_som *som, void *buf, size_t size, mlr_diag *
 mlr_status mlr_som_import(const void *buf, size_t size, const mlr_allocator *alloc,
                           mlr_som **out, mlr_diag *diag);
 void mlr_som_destroy(mlr_som *som);
+
+/* mlr_grbf.h */
+enum { MLR_GRBF_THIN_PLATE = 0, MLR_GRBF_GAUSSIAN = 1 };
+mlr_status mlr_grbf_basis(int kernel, double width, const double *centers, size_t n_centers,
+                          size_t ldc, const double *x, size_t n, size_t ldx, size_t dim, int poly,
+                          size_t n_threads, double *out, size_t ldo, const mlr_allocator *alloc,
+                          mlr_diag *diag);
