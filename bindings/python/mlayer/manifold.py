@@ -131,9 +131,8 @@ def _sqdist(X: np.ndarray, C: np.ndarray) -> np.ndarray:
 
 _KERNEL_IDS = {"thin_plate": lib.MLR_GRBF_THIN_PLATE, "gaussian": lib.MLR_GRBF_GAUSSIAN}
 
-# rows of a triangular block solve; bytes of the basis block predict evaluates at a time
+# rows of a triangular block solve
 _TRI_BLOCK = 256
-_BASIS_BYTES = 1 << 24
 
 
 class GRBF:
@@ -281,7 +280,10 @@ class GRBF:
         square = n == N and self.smoothing == 0.0
         if square and self.lattice is not None and min(self.lattice) >= 2 \
                 and np.array_equal(P, C):
-            self.coef_ = self._fit_lattice(Y)
+            try:
+                self.coef_ = self._fit_lattice_c(Y)
+            except SingularMatrixError:  # rounding made a class indefinite: LU of each class
+                self.coef_ = self._fit_lattice(Y)
         elif square:
             # square, general: the bordered system [[Phi, Pp], [Pc^T, 0]] [w; a] = [Y; 0] by LU
             A = np.zeros((N + m, N + m))
@@ -302,6 +304,25 @@ class GRBF:
         self.n_outputs_ = Y.shape[1]
         return self
 
+    def _fit_lattice_c(self, Y: np.ndarray) -> np.ndarray:
+        """Interpolation on the lattice by the C core (``mlr_grbf_fit_lattice``: the four
+        symmetry classes of the notes below, each by Cholesky after a Householder reflection
+        removes its side condition, one thread per class)."""
+        R, Cn = self.lattice
+        C3 = self.centers_.reshape(R, Cn, 2)
+        xs = np.ascontiguousarray(C3[:, 0, 0])
+        ys = np.ascontiguousarray(C3[0, :, 1])
+        d = Y.shape[1]
+        Y = np.ascontiguousarray(Y)
+        coef = np.empty((R * Cn + 3, d))
+        diag = ffi.new("mlr_diag *")
+        check(lib.mlr_grbf_fit_lattice(_KERNEL_IDS[self.kernel],
+                                       float(getattr(self, "width_", 0.0)), _arrays.ptr(xs), R,
+                                       _arrays.ptr(ys), Cn, _arrays.ptr(Y), d, d, self.n_threads,
+                                       _arrays.ptr_out(coef), d, ffi.NULL, diag),
+              "mlayer.GRBF.fit", diag)
+        return coef
+
     def _fit_lattice(self, Y: np.ndarray) -> np.ndarray:
         """Interpolation at the rows x cols lattice of centres, split by the reflection
         symmetry of the lattice (see the class notes). Centre u = r * cols + c; rows mirror
@@ -320,11 +341,12 @@ class GRBF:
         C3 = C.reshape(R, Cn, 2)
         reps = np.ascontiguousarray(C3[:Rh, :Ch].reshape(-1, 2))
         K4 = self._basis(reps, False).reshape(Rh, Ch, R, Cn)
-        # K[i, g j] for the four reflections g, j over the representatives
-        Kg = (K4[:, :, :Rh, :Ch], K4[:, :, ::-1][:, :, :Rh, :Ch],
-              K4[:, :, :, ::-1][:, :, :Rh, :Ch], K4[:, :, ::-1, ::-1][:, :, :Rh, :Ch])
+        # sum_g chi(g) K[i, g j]: fold the target rows (even: K[., r] + K[., R-1-r], odd: -),
+        # then the target columns the same way
+        fold_r = (K4[:, :, :Rh] + K4[:, :, ::-1][:, :, :Rh],
+                  K4[:, :, :Rh] - K4[:, :, ::-1][:, :, :Rh])
         Y3 = Y.reshape(R, Cn, d)
-        Yg = (Y3[:Rh, :Ch], Y3[::-1][:Rh, :Ch], Y3[:, ::-1][:Rh, :Ch], Y3[::-1, ::-1][:Rh, :Ch])
+        fy_r = (Y3[:Rh] + Y3[::-1][:Rh], Y3[:Rh] - Y3[::-1][:Rh])
         mid_r = np.zeros(Rh, bool)
         mid_c = np.zeros(Ch, bool)
         mid_r[-1] = R % 2 == 1
@@ -335,16 +357,19 @@ class GRBF:
         a = np.zeros((3, d))
         W3 = np.zeros((R, Cn, d))
         for cls, (sx, sy) in enumerate(((1, 1), (-1, 1), (1, -1), (-1, -1))):
-            chi = (1.0, sx, sy, sx * sy)
             rv = Rh if sx > 0 else R // 2
             cv = Ch if sy > 0 else Cn // 2
             k = rv * cv
-            sq = np.sqrt(stab[:rv, :cv]).reshape(k)
-            blk = sum(chi[g] * Kg[g][:rv, :cv, :rv, :cv] for g in range(4)).reshape(k, k)
-            yc = sum(chi[g] * Yg[g][:rv, :cv] for g in range(4)).reshape(k, d)
             mc = 0 if poly[cls] is None else 1
             A = np.zeros((k + mc, k + mc))
-            A[:k, :k] = blk / np.outer(sq, sq)
+            Kx = fold_r[sx < 0][:rv, :cv, :rv]
+            blk = A[:k, :k].reshape(rv, cv, rv, cv)
+            np.add(Kx[..., :cv], sy * Kx[..., ::-1][..., :cv], out=blk)
+            yx = fy_r[sx < 0][:rv]
+            yc = (yx[:, :cv] + sy * yx[:, ::-1][:, :cv]).reshape(k, d)
+            sq = np.sqrt(stab[:rv, :cv]).reshape(k)
+            if mid_r[-1] and sx > 0 or mid_c[-1] and sy > 0:  # unit vectors of fixed centres
+                A[:k, :k] /= np.outer(sq, sq)
             rhs = np.zeros((k + mc, d))
             rhs[:k] = yc / (2.0 * sq[:, None])
             if mc:
@@ -386,25 +411,24 @@ class GRBF:
         sol = _solve_upper(R, Rm[:N, N:])
         return sol[:m], sol[m:]
 
-    def predict(self, points, *, chunk: int | None = None) -> np.ndarray:
-        """Values (n, d) at points (n, e) (shape (n,) if fit was given a vector)."""
+    def predict(self, points) -> np.ndarray:
+        """Values (n, d) at points (n, e) (shape (n,) if fit was given a vector): psi(x) B in
+        one pass of the C core (``mlr_grbf_eval``: kernel values and products block by block,
+        psi never stored)."""
         if self.coef_ is None:
             raise InvalidArgumentError("GRBF: call fit first")
         X = self._points(points)
-        cols, d = self.coef_.shape
-        if chunk is None:
-            chunk = max(64, _BASIS_BYTES // (8 * cols))
-        # out^T = B^T psi^T, block by block: BLAS runs the narrow product (d = 93 outputs)
-        # about twice as fast this way round than as psi B
-        coef_t = np.ascontiguousarray(self.coef_.T)
-        out_t = np.empty((d, X.shape[0]))
-        buf = np.empty((min(chunk, X.shape[0]), cols))
-        for s in range(0, X.shape[0], chunk):
-            x = X[s:s + chunk]
-            b = buf[:x.shape[0]]
-            self._basis(x, True, b)
-            out_t[:, s:s + chunk] = coef_t @ b.T
-        return out_t[0] if self._vector else np.ascontiguousarray(out_t.T)
+        C = self.centers_
+        coef = np.ascontiguousarray(self.coef_, dtype=np.float64)
+        N, e = C.shape
+        d = coef.shape[1]
+        out = np.empty((X.shape[0], d))
+        diag = ffi.new("mlr_diag *")
+        check(lib.mlr_grbf_eval(_KERNEL_IDS[self.kernel], float(getattr(self, "width_", 0.0)),
+                                _arrays.ptr(C), N, e, _arrays.ptr(coef), d, d, _arrays.ptr(X),
+                                X.shape[0], e, e, self.n_threads, _arrays.ptr_out(out), d,
+                                ffi.NULL, diag), "mlayer.GRBF.predict", diag)
+        return out[:, 0] if self._vector else out
 
     __call__ = predict
 
