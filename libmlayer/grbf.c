@@ -279,7 +279,7 @@ mlr_status mlr_grbf_basis(int kernel, double width, const double *centers, size_
  * whatever the task, the thread and the row's place in its task. */
 #define EVAL_ROWS 16
 #define EVAL_KC 128
-#define EVAL_PANEL 24
+#define EVAL_PANEL 24 /* = PANEL */
 #define EVAL_GROUP 8 /* panels per pass: up to 192 outputs share one basis evaluation */
 
 typedef struct eval_ctx {
@@ -305,66 +305,90 @@ static void basis_segment(const eval_ctx *c, const double *xi, size_t k0, size_t
         b[k - k0] = k == c->nc ? 1.0 : xi[k - c->nc - 1];
 }
 
-/* acc[p * lda + l] += sum_k bas[p * EVAL_KC + k] pan[k * EVAL_PANEL + l], k in order. */
-static void panel_generic(const double *bas, size_t rows, size_t kc, const double *pan,
-                          double *acc, size_t lda)
+/* The product kernel of the evaluation and of the lattice solves: acc[p * lda + l] += sum_k
+ * a[p * sp + k * sk] b[k * ldb + l] for p < rows, l < 24 (PANEL), k = 0 .. kc-1 in order. */
+#define PANEL 24
+static void panel_generic(const double *a, size_t sp, size_t sk, size_t rows, size_t kc,
+                          const double *b, size_t ldb, double *acc, size_t lda)
 {
     for (size_t p = 0; p < rows; p++) {
-        double a[EVAL_PANEL];
-        memcpy(a, acc + p * lda, sizeof a);
+        double s[PANEL];
+        memcpy(s, acc + p * lda, sizeof s);
         for (size_t k = 0; k < kc; k++) {
-            double b = bas[p * EVAL_KC + k];
-            const double *q = pan + k * EVAL_PANEL;
-            for (size_t l = 0; l < EVAL_PANEL; l++)
-                a[l] += b * q[l];
+            double v = a[p * sp + k * sk];
+            const double *q = b + k * ldb;
+            for (size_t l = 0; l < PANEL; l++)
+                s[l] += v * q[l];
         }
-        memcpy(acc + p * lda, a, sizeof a);
+        memcpy(acc + p * lda, s, sizeof s);
     }
 }
 
 #ifdef MLR_GRBF_X86
-/* The same with fused multiply-adds: 8 rows x 24 outputs in 24 registers, then single rows
+/* The same with fused multiply-adds: 8 rows x 24 columns in 24 registers, then single rows
  * (the same fma sequence per output). */
-__attribute__((target("avx512f"))) static void panel_avx512(const double *bas, size_t rows,
-                                                             size_t kc, const double *pan,
+__attribute__((target("avx512f"))) static void panel_avx512(const double *a, size_t sp,
+                                                             size_t sk, size_t rows, size_t kc,
+                                                             const double *b, size_t ldb,
                                                              double *acc, size_t lda)
 {
     size_t p0 = 0;
     for (; p0 + 8 <= rows; p0 += 8) {
-        const double *b = bas + p0 * EVAL_KC;
+        const double *ap = a + p0 * sp;
         double *o = acc + p0 * lda;
-#define LOAD3(r) \
+#define LOAD3(r)                                                                       \
     __m512d a##r##0 = _mm512_loadu_pd(o + r * lda), a##r##1 = _mm512_loadu_pd(o + r * lda + 8), \
             a##r##2 = _mm512_loadu_pd(o + r * lda + 16)
-        LOAD3(0); LOAD3(1); LOAD3(2); LOAD3(3); LOAD3(4); LOAD3(5); LOAD3(6); LOAD3(7);
+        LOAD3(0);
+        LOAD3(1);
+        LOAD3(2);
+        LOAD3(3);
+        LOAD3(4);
+        LOAD3(5);
+        LOAD3(6);
+        LOAD3(7);
 #undef LOAD3
         for (size_t k = 0; k < kc; k++) {
-            const double *q = pan + k * EVAL_PANEL;
+            const double *q = b + k * ldb, *ak = ap + k * sk;
             __m512d q0 = _mm512_loadu_pd(q), q1 = _mm512_loadu_pd(q + 8),
                     q2 = _mm512_loadu_pd(q + 16), v;
-#define FMA3(r)                                                 \
-    v = _mm512_set1_pd(b[r * EVAL_KC + k]);                     \
-    a##r##0 = _mm512_fmadd_pd(v, q0, a##r##0);                  \
-    a##r##1 = _mm512_fmadd_pd(v, q1, a##r##1);                  \
+#define FMA3(r)                                \
+    v = _mm512_set1_pd(ak[r * sp]);            \
+    a##r##0 = _mm512_fmadd_pd(v, q0, a##r##0); \
+    a##r##1 = _mm512_fmadd_pd(v, q1, a##r##1); \
     a##r##2 = _mm512_fmadd_pd(v, q2, a##r##2)
-            FMA3(0); FMA3(1); FMA3(2); FMA3(3); FMA3(4); FMA3(5); FMA3(6); FMA3(7);
+            FMA3(0);
+            FMA3(1);
+            FMA3(2);
+            FMA3(3);
+            FMA3(4);
+            FMA3(5);
+            FMA3(6);
+            FMA3(7);
 #undef FMA3
         }
-#define STORE3(r)                                   \
-    _mm512_storeu_pd(o + r * lda, a##r##0);         \
-    _mm512_storeu_pd(o + r * lda + 8, a##r##1);     \
+#define STORE3(r)                               \
+    _mm512_storeu_pd(o + r * lda, a##r##0);     \
+    _mm512_storeu_pd(o + r * lda + 8, a##r##1); \
     _mm512_storeu_pd(o + r * lda + 16, a##r##2)
-        STORE3(0); STORE3(1); STORE3(2); STORE3(3); STORE3(4); STORE3(5); STORE3(6); STORE3(7);
+        STORE3(0);
+        STORE3(1);
+        STORE3(2);
+        STORE3(3);
+        STORE3(4);
+        STORE3(5);
+        STORE3(6);
+        STORE3(7);
 #undef STORE3
     }
     for (; p0 < rows; p0++) {
-        const double *b = bas + p0 * EVAL_KC;
+        const double *ap = a + p0 * sp;
         double *o = acc + p0 * lda;
         __m512d a0 = _mm512_loadu_pd(o), a1 = _mm512_loadu_pd(o + 8),
                 a2 = _mm512_loadu_pd(o + 16);
         for (size_t k = 0; k < kc; k++) {
-            const double *q = pan + k * EVAL_PANEL;
-            __m512d v = _mm512_set1_pd(b[k]);
+            const double *q = b + k * ldb;
+            __m512d v = _mm512_set1_pd(ap[k * sk]);
             a0 = _mm512_fmadd_pd(v, _mm512_loadu_pd(q), a0);
             a1 = _mm512_fmadd_pd(v, _mm512_loadu_pd(q + 8), a1);
             a2 = _mm512_fmadd_pd(v, _mm512_loadu_pd(q + 16), a2);
@@ -375,6 +399,19 @@ __attribute__((target("avx512f"))) static void panel_avx512(const double *bas, s
     }
 }
 #endif
+
+static void panel(int wide, const double *a, size_t sp, size_t sk, size_t rows, size_t kc,
+                  const double *b, size_t ldb, double *acc, size_t lda)
+{
+#ifdef MLR_GRBF_X86
+    if (wide) {
+        panel_avx512(a, sp, sk, rows, kc, b, ldb, acc, lda);
+        return;
+    }
+#endif
+    (void)wide;
+    panel_generic(a, sp, sk, rows, kc, b, ldb, acc, lda);
+}
 
 static void eval_task(void *ctx, size_t task)
 {
@@ -390,15 +427,10 @@ static void eval_task(void *ctx, size_t task)
             const size_t kc = c->K - k0 < EVAL_KC ? c->K - k0 : EVAL_KC;
             for (size_t p = 0; p < rows; p++)
                 basis_segment(c, c->x + (i0 + p) * c->ldx, k0, kc, bas + p * EVAL_KC);
-            for (size_t q = 0; q < gp; q++) {
-                const double *pan = c->pan + ((g0 + q) * c->K + k0) * EVAL_PANEL;
-#ifdef MLR_GRBF_X86
-                if (c->wide)
-                    panel_avx512(bas, rows, kc, pan, acc + q * EVAL_PANEL, lda);
-                else
-#endif
-                    panel_generic(bas, rows, kc, pan, acc + q * EVAL_PANEL, lda);
-            }
+            for (size_t q = 0; q < gp; q++)
+                panel(c->wide, bas, EVAL_KC, 1, rows, kc,
+                      c->pan + ((g0 + q) * c->K + k0) * EVAL_PANEL, EVAL_PANEL,
+                      acc + q * EVAL_PANEL, lda);
         }
         const size_t o0 = g0 * EVAL_PANEL;
         const size_t no = c->n_out - o0 < lda ? c->n_out - o0 : lda;
@@ -491,46 +523,91 @@ static inline void axpy_sub(double *restrict y, double f, const double *restrict
 }
 
 /* In-place Cholesky A = L L^T of the n x n matrix at a (row stride lda; the lower triangle is
- * read and overwritten by L). Returns 0, or -1 at a pivot that is not positive and finite. */
-GRBF_CLONES
-static int cholesky_lower(double *a, size_t n, size_t lda)
+ * read and overwritten by L), left-looking by blocks of PANEL columns: the block's columns of
+ * every row below get the products with the columns before the block from the product kernel
+ * (the block's rows packed transposed into pk, n x PANEL), then the block is finished column by
+ * column. Returns 0, or -1 at a pivot that is not positive and finite. */
+static int cholesky_lower(double *a, size_t n, size_t lda, double *pk, int wide)
 {
-    for (size_t j = 0; j < n; j++) {
-        double *aj = a + j * lda;
-        double d = aj[j] - dot32(aj, aj, j);
-        if (!(d > 0.0) || !(d < INFINITY))
-            return -1;
-        d = sqrt(d);
-        aj[j] = d;
-        const double inv = 1.0 / d;
-        for (size_t i = j + 1; i < n; i++) {
-            double *ai = a + i * lda;
-            ai[j] = (ai[j] - dot32(ai, aj, j)) * inv;
+    double acc[8 * PANEL];
+    for (size_t j0 = 0; j0 < n; j0 += PANEL) {
+        const size_t jb = n - j0 < PANEL ? n - j0 : PANEL;
+        for (size_t q = 0; q < j0; q++) /* pk[q][c] = L[j0 + c][q] */
+            for (size_t c = 0; c < PANEL; c++)
+                pk[q * PANEL + c] = c < jb ? a[(j0 + c) * lda + q] : 0.0;
+        for (size_t i0 = j0; i0 < n && j0 > 0; i0 += 8) {
+            const size_t rb = n - i0 < 8 ? n - i0 : 8;
+            memset(acc, 0, sizeof acc);
+            panel(wide, a + i0 * lda, lda, 1, rb, j0, pk, PANEL, acc, PANEL);
+            for (size_t p = 0; p < rb; p++) {
+                double *ai = a + (i0 + p) * lda + j0;
+                const size_t cmax = i0 + p - j0 + 1 < jb ? i0 + p - j0 + 1 : jb;
+                for (size_t c = 0; c < cmax; c++)
+                    ai[c] -= acc[p * PANEL + c];
+            }
+        }
+        for (size_t c = 0; c < jb; c++) { /* the block itself, then its column below */
+            double *aj = a + (j0 + c) * lda + j0;
+            double d = aj[c];
+            for (size_t t = 0; t < c; t++)
+                d -= aj[t] * aj[t];
+            if (!(d > 0.0) || !(d < INFINITY))
+                return -1;
+            d = sqrt(d);
+            aj[c] = d;
+            const double inv = 1.0 / d;
+            for (size_t i = j0 + c + 1; i < n; i++) {
+                double *ai = a + i * lda + j0, v = ai[c];
+                for (size_t t = 0; t < c; t++)
+                    v -= ai[t] * aj[t];
+                ai[c] = v * inv;
+            }
         }
     }
     return 0;
 }
 
-/* X = (L L^T)^-1 X for the factor of cholesky_lower; X n x m, row stride ldx. */
-GRBF_CLONES
-static void cholesky_solve(const double *l, size_t n, size_t ldl, double *x, size_t ldx, size_t m)
+/* X = (L L^T)^-1 X for the factor of cholesky_lower; X n x (np PANEL) (padded), row stride ldx.
+ * By blocks of 8 rows: the product kernel takes the rows already solved, the 8 x 8 diagonal
+ * block is solved by substitution. */
+static void cholesky_solve(const double *l, size_t n, size_t ldl, double *x, size_t ldx,
+                           size_t np, int wide, double *acc)
 {
-    for (size_t i = 0; i < n; i++) {
-        double *xi = x + i * ldx;
-        const double *li = l + i * ldl;
-        for (size_t k = 0; k < i; k++)
-            axpy_sub(xi, li[k], x + k * ldx, m);
-        const double inv = 1.0 / li[i];
-        for (size_t t = 0; t < m; t++)
-            xi[t] *= inv;
+    const size_t w = np * PANEL;
+    for (size_t i0 = 0; i0 < n; i0 += 8) { /* L y = x */
+        const size_t rb = n - i0 < 8 ? n - i0 : 8;
+        memset(acc, 0, rb * w * sizeof(double));
+        for (size_t q = 0; q < np && i0 > 0; q++)
+            panel(wide, l + i0 * ldl, ldl, 1, rb, i0, x + q * PANEL, ldx, acc + q * PANEL, w);
+        for (size_t p = 0; p < rb; p++) {
+            double *xi = x + (i0 + p) * ldx;
+            const double *li = l + (i0 + p) * ldl;
+            for (size_t t = 0; t < w; t++)
+                xi[t] -= acc[p * w + t];
+            for (size_t p2 = 0; p2 < p; p2++)
+                axpy_sub(xi, li[i0 + p2], x + (i0 + p2) * ldx, w);
+            const double inv = 1.0 / li[i0 + p];
+            for (size_t t = 0; t < w; t++)
+                xi[t] *= inv;
+        }
     }
-    for (size_t i = n; i-- > 0;) {
-        double *xi = x + i * ldx;
-        for (size_t k = i + 1; k < n; k++)
-            axpy_sub(xi, l[k * ldl + i], x + k * ldx, m);
-        const double inv = 1.0 / l[i * ldl + i];
-        for (size_t t = 0; t < m; t++)
-            xi[t] *= inv;
+    for (size_t e = n; e > 0;) { /* L^T x = y, blocks from the bottom */
+        const size_t rb = e % 8 ? e % 8 : 8, i0 = e - rb, done = n - e;
+        memset(acc, 0, rb * w * sizeof(double));
+        for (size_t q = 0; q < np && done > 0; q++) /* sum_{k >= e} L[k][i] x_k */
+            panel(wide, l + e * ldl + i0, 1, ldl, rb, done, x + e * ldx + q * PANEL, ldx,
+                  acc + q * PANEL, w);
+        for (size_t p = rb; p-- > 0;) {
+            double *xi = x + (i0 + p) * ldx;
+            for (size_t t = 0; t < w; t++)
+                xi[t] -= acc[p * w + t];
+            for (size_t p2 = p + 1; p2 < rb; p2++)
+                axpy_sub(xi, l[(i0 + p2) * ldl + i0 + p], x + (i0 + p2) * ldx, w);
+            const double inv = 1.0 / l[(i0 + p) * ldl + i0 + p];
+            for (size_t t = 0; t < w; t++)
+                xi[t] *= inv;
+        }
+        e = i0;
     }
 }
 
@@ -548,14 +625,19 @@ static void householder_rows(double *x, size_t k, size_t m, const double *v, dou
 }
 
 typedef struct lattice_ctx {
-    size_t R, C, Rh, Ch, n_out, ldy;
-    const double *xs, *ys, *y, *krow; /* krow: Rh Ch rows of the R C kernel values */
+    size_t R, C, Rh, Ch, n_out, mp, ldy; /* mp: n_out rounded up to PANEL */
+    const double *xs, *ys, *y, *krow;   /* krow: Rh Ch rows of the R C kernel values */
     double xm, ym;
-    /* per class: matrix (k x k), right-hand sides then solution (k x n_out), work (2 k +
-     * n_out); the polynomial coefficient of classes 0, 1, 2 (n_out each) */
+    int wide;
+    /* per class: matrix (k x k), right-hand sides then solution (k x mp, zero padded), work
+     * (LATTICE_WORK); the polynomial coefficient of classes 0, 1, 2 (n_out each) */
     double *a[4], *x[4], *v[4], *poly_a[3];
     int failed[4];
 } lattice_ctx;
+
+/* Work doubles of a class of at most nr unknowns: v and z (2 nr), t (mp), the packed block of
+ * the Cholesky (nr PANEL) and the accumulators of the solves (8 mp). */
+#define LATTICE_WORK(nr, mp) ((2 + PANEL) * (nr) + 9 * (mp))
 
 static double lattice_scale(const lattice_ctx *c, size_t r, size_t col)
 {
@@ -571,9 +653,10 @@ static void lattice_class_task(void *ctx, size_t cls)
 {
     lattice_ctx *c = ctx;
     const double sx = cls & 1 ? -1.0 : 1.0, sy = cls & 2 ? -1.0 : 1.0;
-    const size_t R = c->R, C = c->C, Ch = c->Ch, m = c->n_out;
+    const size_t R = c->R, C = c->C, Ch = c->Ch, m = c->n_out, mp = c->mp, np = mp / PANEL;
     const size_t rv = sx > 0 ? c->Rh : R / 2, cv = sy > 0 ? Ch : C / 2, k = rv * cv;
     double *A = c->a[cls], *X = c->x[cls], *v = c->v[cls], *z = v + k, *t = z + k;
+    double *pk = t + mp, *acc = pk + k * PANEL;
     /* lower triangle of sum_g chi(g) K[i, g j] / sqrt(s_i s_j), mirrored */
     for (size_t i = 0; i < k; i++) {
         const size_t ri = i / cv, ci = i % cv;
@@ -588,18 +671,20 @@ static void lattice_class_task(void *ctx, size_t cls)
         const double *y2 = c->y + (ri * C + C - 1 - ci) * c->ldy;
         const double *y3 = c->y + ((R - 1 - ri) * C + C - 1 - ci) * c->ldy;
         for (size_t o = 0; o < m; o++)
-            X[i * m + o] = (y0[o] + sx * y1[o] + sy * y2[o] + sx * sy * y3[o]) / (2.0 * si);
+            X[i * mp + o] = (y0[o] + sx * y1[o] + sy * y2[o] + sx * sy * y3[o]) / (2.0 * si);
+        for (size_t o = m; o < mp; o++)
+            X[i * mp + o] = 0.0;
         /* the class's polynomial, 2 p(i) / sqrt(s_i): 1, x - xm, y - ym */
         v[i] = cls == 0 ? 2.0 / si
              : cls == 1 ? 2.0 * (c->xs[ri] - c->xm) / si
              : cls == 2 ? 2.0 * (c->ys[ci] - c->ym) / si : 0.0;
     }
     if (cls == 3) { /* no polynomial term: K is positive definite on the whole class */
-        if (cholesky_lower(A, k, k)) {
+        if (cholesky_lower(A, k, k, pk, c->wide)) {
             c->failed[cls] = 1;
             return;
         }
-        cholesky_solve(A, k, k, X, m, m);
+        cholesky_solve(A, k, k, X, mp, np, c->wide, acc);
         return;
     }
     /* Householder H = I - beta v v^T with H p = alpha e_0; w = H [0; w'] satisfies p^T w = 0,
@@ -620,22 +705,22 @@ static void lattice_class_task(void *ctx, size_t cls)
     for (size_t i = 0; i < k; i++)
         for (size_t j = 0; j < k; j++)
             A[i * k + j] -= v[i] * z[j] + z[i] * v[j];
-    householder_rows(X, k, m, v, beta, t); /* X = H X */
-    if (cholesky_lower(A + k + 1, k - 1, k)) {
+    householder_rows(X, k, mp, v, beta, t); /* X = H X */
+    if (cholesky_lower(A + k + 1, k - 1, k, pk, c->wide)) {
         c->failed[cls] = 1;
         return;
     }
-    cholesky_solve(A + k + 1, k - 1, k, X + m, m, m);
+    cholesky_solve(A + k + 1, k - 1, k, X + mp, mp, np, c->wide, acc);
     double *pa = c->poly_a[cls];
     for (size_t o = 0; o < m; o++) /* alpha a = (H y)_0 - (H A H)[0, 1:] w' */
         pa[o] = X[o];
     for (size_t j = 1; j < k; j++)
-        axpy_sub(pa, A[j], X + j * m, m);
-    for (size_t o = 0; o < m; o++) {
-        pa[o] /= alpha;
+        axpy_sub(pa, A[j], X + j * mp, m);
+    for (size_t o = 0; o < mp; o++)
         X[o] = 0.0;
-    }
-    householder_rows(X, k, m, v, beta, t); /* w = H [0; w'] */
+    for (size_t o = 0; o < m; o++)
+        pa[o] /= alpha;
+    householder_rows(X, k, mp, v, beta, t); /* w = H [0; w'] */
 }
 
 mlr_status mlr_grbf_fit_lattice(int kernel, double width, const double *xs, size_t rows,
@@ -672,12 +757,15 @@ mlr_status mlr_grbf_fit_lattice(int kernel, double width, const double *xs, size
     /* workspace: transposed centres (2 N), representatives (2 nr), kernel rows (nr N), and per
      * class a matrix (<= nr^2), the right-hand sides (<= nr n_out), work (2 nr + n_out); the
      * three polynomial coefficients (n_out each) */
+    if (n_out > SIZE_MAX / 16 - PANEL || nr > SIZE_MAX / (4 * (PANEL + 2)))
+        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "lattice workspace overflows");
+    const size_t mp = (n_out + PANEL - 1) / PANEL * PANEL;
     size_t parts[] = {2 * N, 2 * nr, nkrow, kk, kk, kk, kk, 0, 0, 0, 0, 0, 0, 0, 0, 3 * n_out};
     for (size_t q = 7; q < 11; q++)
-        if (mlr_mul_size(nr, n_out, &parts[q]))
+        if (mlr_mul_size(nr, mp, &parts[q]))
             return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "lattice workspace overflows");
     for (size_t q = 11; q < 15; q++)
-        parts[q] = 2 * nr + n_out;
+        parts[q] = LATTICE_WORK(nr, mp);
     for (size_t q = 0; q < MLR_COUNTOF(parts); q++) {
         if (parts[q] > SIZE_MAX / sizeof(double) - total)
             return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "lattice workspace overflows");
@@ -725,7 +813,7 @@ mlr_status mlr_grbf_fit_lattice(int kernel, double width, const double *xs, size
     basis_ctx bc = {kernel, 0, kernel == MLR_GRBF_GAUSSIAN ? 1.0 / (width * width) : 0.0,
                     ct, rep, N, 2, nr, 2, N, krow};
     mlr_parallel_run(n_threads, (nr + GRBF_TASK_ROWS - 1) / GRBF_TASK_ROWS, basis_task, &bc);
-    lattice_ctx lc = {rows, cols, Rh, Ch, n_out, ldy, xs, ys, y, krow, xm, ym,
+    lattice_ctx lc = {rows, cols, Rh, Ch, n_out, mp, ldy, xs, ys, y, krow, xm, ym, cpu_wide(),
                       {ptr[3], ptr[4], ptr[5], ptr[6]}, {ptr[7], ptr[8], ptr[9], ptr[10]},
                       {ptr[11], ptr[12], ptr[13], ptr[14]},
                       {ptr[15], ptr[15] + n_out, ptr[15] + 2 * n_out}, {0, 0, 0, 0}};
@@ -746,7 +834,7 @@ mlr_status mlr_grbf_fit_lattice(int kernel, double width, const double *xs, size
             for (size_t i = 0; i < rv * cv; i++) {
                 const size_t ri = i / cv, ci = i % cv, rr = rows - 1 - ri, cr = cols - 1 - ci;
                 const double f = 1.0 / (2.0 * lattice_scale(&lc, ri, ci));
-                const double *w = lc.x[cls] + i * n_out;
+                const double *w = lc.x[cls] + i * mp;
                 /* w[g i] += chi(g) w_i / (2 sqrt(s_i)); a fixed centre gets its share twice */
                 axpy_sub(coef + (ri * cols + ci) * ldcoef, -f, w, n_out);
                 axpy_sub(coef + (rr * cols + ci) * ldcoef, -sx * f, w, n_out);
