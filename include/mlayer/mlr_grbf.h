@@ -1,8 +1,9 @@
 /*
- * Generalized radial basis functions (paper 2, equations 1-2): the basis matrix of a GRBF
- * mapping y = B psi(x), psi(x) = [phi(|x - c_1|), ..., phi(|x - c_N|), 1, x_1, ..., x_dim], for
- * many points at once. The fit itself (a dense symmetric or least-squares solve) is left to the
- * caller's LAPACK; this is the part no BLAS does: N kernel values per point.
+ * Generalized radial basis functions (paper 2, equations 1-2): a mapping y = B psi(x),
+ * psi(x) = [phi(|x - c_1|), ..., phi(|x - c_N|), 1, x_1, ..., x_dim], from points x to n_out
+ * outputs. Here: the basis matrix of many points (mlr_grbf_basis, for fits done with the
+ * caller's LAPACK), the evaluation psi(x) B without storing psi (mlr_grbf_eval), and the
+ * interpolating fit on a symmetric lattice of centres (mlr_grbf_fit_lattice).
  *
  * Kernels, with u = |x - c| and d2 = u^2 summed over the coordinates in order (exactly 0 for a
  * point equal to a centre):

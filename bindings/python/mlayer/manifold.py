@@ -146,28 +146,33 @@ class GRBF:
     centers  an explicit (N, e) array of centres instead of a lattice.
     smoothing  ridge weight on the kernel weights w, relative to the mean squared norm of the
              basis columns (scale-free; default 0).
-    n_threads  threads of the kernel evaluation (default: the CPUs available; the values do
-             not depend on it). numpy's BLAS has its own threads.
+    n_threads  threads of the C core's kernel values, lattice fit and evaluation (default: the
+             CPUs available; the values do not depend on it). numpy's BLAS, used by the other
+             fits, has its own threads.
 
     :meth:`fit` solves for B = [w; a] with the side conditions sum w_i = 0, sum w_i c_i = 0
     (which make thin-plate interpolation unique). With as many training points as centres the
     system is square and solved exactly (at points equal to the centres, f interpolates them,
     as scipy's RBFInterpolator does); with more points it is the least-squares fit under the
-    same conditions; with fewer it is underdetermined and refused.
+    same conditions; with fewer it is underdetermined and refused. :meth:`predict` evaluates
+    psi(x) B in the C core (``mlr_grbf_eval``), psi never stored.
 
-    How (the kernel values come from the C core, the solves from numpy's LAPACK):
-    - training points equal to a lattice of centres (interpolation on the lattice): the lattice
-      is symmetric under the reflections x -> x0 + x1 - x and y -> y0 + y1 - y, and so is the
-      kernel matrix, so in the basis of even and odd combinations of mirrored centres the
-      bordered system splits exactly into four independent systems of about N/4 unknowns
-      each (the constant term in the even-even one, the centred x and y terms in the odd-even
-      and even-odd ones): about 1/16 of the LU work of the whole system, the same solution up
-      to rounding;
-    - other square systems: LU of the bordered system [[Phi, Pp], [Pc^T, 0]];
+    How the fit solves:
+    - training points equal to a lattice of centres (interpolation on the lattice), in the C
+      core (``mlr_grbf_fit_lattice``): the lattice is symmetric under the reflections
+      x -> x0 + x1 - x and y -> y0 + y1 - y, and so is the kernel matrix, so in the basis of
+      even and odd combinations of mirrored centres the bordered system splits exactly into
+      four independent systems of about N/4 unknowns each (the constant term in the even-even
+      one, the centred x and y terms in the odd-even and even-odd ones); in each a Householder
+      reflection removes the side condition and leaves a positive definite matrix for
+      Cholesky. About 1/16 of the work of one LU of the whole system, the same solution up to
+      rounding. (Should rounding make a class indefinite, numpy's LU solves each class.)
+    - other square systems: numpy's LU of the bordered system [[Phi, Pp], [Pc^T, 0]];
     - more points than centres (or a ridge): w = Z beta with Z an orthonormal basis of the w
       the side conditions allow (Householder QR of Pc = [1, c], applied as a rank-(e+1)
-      update), then least squares in (a, beta) by the QR factorization of [Pp, Phi Z | Y]
-      (R and Q^T Y at once, no explicit Q), with rows sqrt(lam) I under Phi Z for the ridge.
+      update), then least squares in (a, beta) by numpy's QR factorization of
+      [Pp, Phi Z | Y] (R and Q^T Y at once, no explicit Q), with rows sqrt(lam) I under Phi Z
+      for the ridge.
     """
 
     def __init__(self, kernel: str = "thin_plate", lattice=(15, 15), *, centers=None,
@@ -325,7 +330,8 @@ class GRBF:
 
     def _fit_lattice(self, Y: np.ndarray) -> np.ndarray:
         """Interpolation at the rows x cols lattice of centres, split by the reflection
-        symmetry of the lattice (see the class notes). Centre u = r * cols + c; rows mirror
+        symmetry of the lattice (see the class notes), each class by numpy's LU: the fallback
+        of _fit_lattice_c. Centre u = r * cols + c; rows mirror
         r <-> R-1-r (x), columns c <-> C-1-c (y). The representatives are the centres with
         r < ceil(R/2), c < ceil(C/2); a middle row or column (odd R or C) is fixed by its
         reflection (stabilizer size s = 1, 2 or 4), and the odd classes skip it. In class

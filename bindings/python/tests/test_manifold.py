@@ -229,6 +229,22 @@ def test_grbf_least_squares(rng):
     assert v.predict(P[:3]).shape == (3,)
 
 
+def test_grbf_least_squares_many_centres(rng):
+    # 306 centres: the triangular solve after the QR runs over several blocks; the fitted
+    # values (well conditioned, unlike the coefficients) against the KKT reference
+    P = rng.uniform(0, 4, size=(1500, 2))
+    Y = smooth_fn(P) + 0.01 * rng.normal(size=(1500, 3))
+    g = GRBF("thin_plate", (18, 17)).fit(P, Y)
+    N, m = 306, 3
+    D = g.design(P)
+    Pc = np.hstack([np.ones((N, 1)), g.centers_])
+    Cm = np.hstack([Pc.T, np.zeros((m, m))])
+    K = np.block([[D.T @ D, Cm.T], [Cm, np.zeros((m, m))]])
+    sol = np.linalg.solve(K, np.vstack([D.T @ Y, np.zeros((m, 3))]))[:N + m]
+    np.testing.assert_allclose(g.predict(P), D @ sol, rtol=0, atol=1e-7 * np.abs(Y).max())
+    np.testing.assert_allclose(Pc.T @ g.coef_[:N], 0, atol=1e-8 * np.abs(g.coef_).max())
+
+
 @pytest.mark.parametrize("lat", [(2, 2), (2, 3), (3, 2), (4, 6), (5, 5), (6, 7), (9, 4)])
 @pytest.mark.parametrize("kernel", ["thin_plate", "gaussian"])
 def test_grbf_lattice_split_matches_whole_system(rng, monkeypatch, lat, kernel):
