@@ -374,13 +374,18 @@ static void online_clear(const mlr_som *s, double *h, unsigned char *active, con
 
 /* Online steps shared by a team: the caller sweeps part 0 of every step and n_parts - 1
  * workers the other parts (mlr_packed_sweep parts, disjoint units). Per step the caller
- * publishes the step number in go (release) after writing x, xnext, h and active; each worker
- * sweeps its part, stores its result and the step number in its own slot (release); the caller
- * waits for every slot, then takes the lowest (value, index). Waits spin briefly, then yield the
- * core (the machine may be shared). */
+ * publishes the step number in go (release) after writing x, xnext, h and active. Part q is
+ * done by whoever claims it first for the step (a compare-and-swap of the step number into its
+ * claim word): its worker as soon as it sees go, or the caller once its own part is done. So a
+ * worker that the system has not run in time (a core busy with another process) costs nothing
+ * but its share of the speed-up: the caller does the part itself. A worker that claimed its
+ * part stores its result and the step number in done (release), and the caller waits for it.
+ * Then the caller takes the lowest (value, index). The parts compute the same values whoever
+ * runs them. Waits spin briefly, then yield the core. */
 #define TEAM_SLOT 64
 typedef struct team_slot {
-    _Alignas(TEAM_SLOT) atomic_size_t done;
+    _Alignas(TEAM_SLOT) atomic_size_t claim; /* last step number + 1 claimed */
+    atomic_size_t done;                      /* last step number + 1 done by the worker */
     double value;
     int32_t unit;
 } team_slot;
@@ -430,6 +435,12 @@ static void *team_worker(void *arg)
         seen = wait_change(&t->go, seen);
         if (seen == SIZE_MAX)
             return NULL;
+        /* claim words only grow: a worker that wakes up late (seen is an old step, the caller
+         * has claimed later ones) must not take anything */
+        size_t cur = atomic_load_explicit(&sl->claim, memory_order_acquire);
+        if (cur >= seen || !atomic_compare_exchange_strong_explicit(
+                               &sl->claim, &cur, seen, memory_order_acq_rel, memory_order_acquire))
+            continue; /* the caller took this step's part */
         sl->unit = mlr_packed_sweep(t->pk, t->x, t->h, t->active, t->xnext, ta->part, t->n_parts,
                                     &sl->value);
         atomic_store_explicit(&sl->done, seen, memory_order_release);
@@ -447,12 +458,23 @@ static int32_t team_step(team *t, size_t step, const double *x, const double *xn
     int32_t bi = mlr_packed_sweep(t->pk, x, t->h, t->active, xnext, 0, t->n_parts, &bv);
     for (size_t q = 1; q < t->n_parts; q++) {
         team_slot *sl = &t->slot[q];
-        size_t d = atomic_load_explicit(&sl->done, memory_order_acquire);
-        while (d != step + 1)
-            d = wait_change(&sl->done, d);
-        if (sl->value < bv || (sl->value == bv && sl->unit < bi)) {
-            bv = sl->value;
-            bi = sl->unit;
+        double v;
+        int32_t u;
+        size_t cur = atomic_load_explicit(&sl->claim, memory_order_acquire);
+        if (cur < step + 1 &&
+            atomic_compare_exchange_strong_explicit(&sl->claim, &cur, step + 1,
+                                                    memory_order_acq_rel, memory_order_acquire)) {
+            u = mlr_packed_sweep(t->pk, x, t->h, t->active, xnext, q, t->n_parts, &v);
+        } else { /* the worker has it */
+            size_t d = atomic_load_explicit(&sl->done, memory_order_acquire);
+            while (d != step + 1)
+                d = wait_change(&sl->done, d);
+            v = sl->value;
+            u = sl->unit;
+        }
+        if (v < bv || (v == bv && u < bi)) {
+            bv = v;
+            bi = u;
         }
     }
     return bi;
@@ -531,8 +553,10 @@ mlr_status mlr_som_train(mlr_som *som, const double *x, size_t n, size_t ldx, si
         tm.h = h;
         tm.active = active;
         atomic_init(&tm.go, 0);
-        for (size_t q = 0; q < MLR_MAX_THREADS; q++)
+        for (size_t q = 0; q < MLR_MAX_THREADS; q++) {
+            atomic_init(&tm.slot[q].claim, 0);
             atomic_init(&tm.slot[q].done, 0);
+        }
         pthread_t th[MLR_MAX_THREADS];
         team_arg ta[MLR_MAX_THREADS];
         size_t started = 0;
