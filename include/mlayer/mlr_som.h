@@ -39,7 +39,9 @@
  * units when every thread gets at least 16,384 codebook values (a 65 x 65 map with dim 93:
  * up to 24 threads); each unit is computed the same way whatever the split, and the BMU is the
  * lowest (distance, index) over the parts. Those threads synchronize at every step (a short
- * spin, then they yield the core).
+ * spin, then they yield the core); a part whose thread has not started it by the time the
+ * calling thread is done with its own is done by the calling thread (same values), so a busy
+ * core slows a step down to one thread's speed at worst.
  *
  * Export: the codebook travels as a relocatable blob (tag, version, size, FNV-1a hash; the
  * writer's byte order) that mlr_som_import checks before trusting it.
