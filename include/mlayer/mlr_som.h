@@ -40,8 +40,9 @@
  * up to 24 threads); each unit is computed the same way whatever the split, and the BMU is the
  * lowest (distance, index) over the parts. Those threads synchronize at every step (a short
  * spin, then they yield the core); a part whose thread has not started it by the time the
- * calling thread is done with its own is done by the calling thread (same values), so a busy
- * core slows a step down to one thread's speed at worst.
+ * calling thread is done with its own is done by the calling thread (same values), so a core
+ * busy with another process mostly costs the speed-up only (a thread descheduled in the middle
+ * of its part still holds that step up).
  *
  * Export: the codebook travels as a relocatable blob (tag, version, size, FNV-1a hash; the
  * writer's byte order) that mlr_som_import checks before trusting it.
