@@ -624,7 +624,8 @@ __attribute__((target("avx512f"))) static void dot1_avx512(const double *x, cons
 #endif
 
 int32_t mlr_packed_sweep(mlr_packed *p, const double *x, const double *h,
-                         const unsigned char *active, const double *xnext)
+                         const unsigned char *active, const double *xnext, size_t part,
+                         size_t n_parts, double *best)
 {
     const size_t dim = p->dim, nb = p->kpad / MLR_PACK;
 #ifdef MLR_X86_DISPATCH
@@ -636,50 +637,55 @@ int32_t mlr_packed_sweep(mlr_packed *p, const double *x, const double *h,
     lane_min st;
     lane_init(&st);
     double out[4 * MLR_PACK], nn[MLR_PACK];
-    size_t jb = 0;
-    while (jb < nb) {
-        const size_t o = jb * MLR_PACK;
-        double *blk = p->pc + o * dim;
-        if (active[jb]) {
+    for (size_t g0 = part * MLR_SWEEP_GROUP; g0 < nb; g0 += n_parts * MLR_SWEEP_GROUP) {
+        const size_t g1 = g0 + MLR_SWEEP_GROUP < nb ? g0 + MLR_SWEEP_GROUP : nb;
+        size_t jb = g0;
+        while (jb < g1) {
+            const size_t o = jb * MLR_PACK;
+            double *blk = p->pc + o * dim;
+            if (active[jb]) {
 #ifdef MLR_X86_DISPATCH
+                if (wide)
+                    sweep_block_avx512(blk, dim, x, h + o, xnext, nn, out);
+                else
+#endif
+                    sweep_block_generic(blk, dim, x, h + o, xnext, nn, out);
+                for (int l = 0; l < MLR_PACK; l++)
+                    if (h[o + (size_t)l] != 0.0)
+                        p->cn[o + (size_t)l] = nn[l];
+                if (xnext)
+                    fold(out, p->cn + o, (double)o, &st);
+                jb++;
+                continue;
+            }
+            if (!xnext) {
+                jb++;
+                continue;
+            }
+#ifdef MLR_X86_DISPATCH
+            if (wide && jb + 4 <= g1 && !active[jb + 1] && !active[jb + 2] && !active[jb + 3]) {
+                dot1x4_avx512(xnext, blk, dim, out);
+                for (size_t q = 0; q < 4; q++)
+                    fold(out + q * MLR_PACK, p->cn + o + q * MLR_PACK,
+                         (double)(o + q * MLR_PACK), &st);
+                jb += 4;
+                continue;
+            }
             if (wide)
-                sweep_block_avx512(blk, dim, x, h + o, xnext, nn, out);
+                dot1_avx512(xnext, blk, dim, out);
             else
 #endif
-                sweep_block_generic(blk, dim, x, h + o, xnext, nn, out);
-            for (int l = 0; l < MLR_PACK; l++)
-                if (h[o + (size_t)l] != 0.0)
-                    p->cn[o + (size_t)l] = nn[l];
-            if (xnext)
-                fold(out, p->cn + o, (double)o, &st);
+                dot1_generic(xnext, blk, dim, out);
+            fold(out, p->cn + o, (double)o, &st);
             jb++;
-            continue;
         }
-        if (!xnext) {
-            jb++;
-            continue;
-        }
-#ifdef MLR_X86_DISPATCH
-        if (wide && jb + 4 <= nb && !active[jb + 1] && !active[jb + 2] && !active[jb + 3]) {
-            dot1x4_avx512(xnext, blk, dim, out);
-            for (size_t q = 0; q < 4; q++)
-                fold(out + q * MLR_PACK, p->cn + o + q * MLR_PACK, (double)(o + q * MLR_PACK), &st);
-            jb += 4;
-            continue;
-        }
-        if (wide)
-            dot1_avx512(xnext, blk, dim, out);
-        else
-#endif
-            dot1_generic(xnext, blk, dim, out);
-        fold(out, p->cn + o, (double)o, &st);
-        jb++;
     }
-    if (!xnext)
-        return 0;
-    double bv, sv;
-    int32_t bi, si;
-    pick_merge()(&st, &bv, &bi, &sv, &si);
+    double bv = INFINITY, sv;
+    int32_t bi = 0, si;
+    if (xnext)
+        pick_merge()(&st, &bv, &bi, &sv, &si);
+    if (best)
+        *best = bv;
     return bi;
 }
 

@@ -55,13 +55,20 @@ void mlr_nearest2(const mlr_packed *p, const double *x, size_t ldx, const size_t
  * h[u] != 0 moves to w_u + h[u] (x - w_u) (one fma per coordinate) and gets its norm updated
  * (other units are left exactly as they are); h holds kpad values, active[jb] != 0 marks the
  * blocks of 16 units holding a nonzero h. With xnext (NULL: no search), returns the unit
- * nearest to xnext in the updated codebook, lowest index among exact ties. A unit's value does
+ * nearest to xnext in the updated codebook, lowest index among exact ties, and its value
+ * ||c||^2 - 2 xnext.c in *best (optional; +inf and unit 0 without xnext). A unit's value does
  * not depend on whether it moved (with AVX-512 and in plain C the dot products are those of
  * mlr_nearest2 for a lone row, same fma sequence; on AVX2-only CPUs the search takes the plain C
  * dot products, the results are then reproducible but can differ from mlr_nearest2 in the last
- * bit). */
+ * bit).
+ * Parts: only the groups of MLR_SWEEP_GROUP blocks g with g % n_parts == part are visited (part
+ * 0 of 1: all), so n_parts threads can share one step on disjoint units; a unit's update and
+ * value do not depend on the split, and the unit of the whole step is the part result with the
+ * lowest (value, index). */
+#define MLR_SWEEP_GROUP 4
 int32_t mlr_packed_sweep(mlr_packed *p, const double *x, const double *h,
-                         const unsigned char *active, const double *xnext);
+                         const unsigned char *active, const double *xnext, size_t part,
+                         size_t n_parts, double *best);
 
 /* ||a - b||^2 by direct differences (accurate near 0). */
 double mlr_dist2(const double *a, const double *b, size_t dim);

@@ -2,6 +2,9 @@
 #include "cluster_internal.h"
 
 #include <math.h>
+#include <pthread.h>
+#include <sched.h>
+#include <stdatomic.h>
 
 struct mlr_som {
     mlr_allocator a;
@@ -38,7 +41,7 @@ mlr_status mlr_som_create(size_t rows, size_t cols, size_t dim, const mlr_alloca
                             cols);
     size_t kpad = mlr_packed_kpad(units);
     if (mlr_mul_size(units, dim, &nw) || mlr_mul_size(kpad, dim + 1, &np) ||
-        mlr_mul_size(nw + np, sizeof(double), &bytes))
+        mlr_mul_size(nw + np + 16, sizeof(double), &bytes))
         return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "codebook size overflows");
     mlr_allocator a;
     mlr_allocator_resolve(alloc, &a);
@@ -59,7 +62,10 @@ mlr_status mlr_som_create(size_t rows, size_t cols, size_t dim, const mlr_alloca
     s->dim = dim;
     s->units = units;
     memset(s->w, 0, nw * sizeof(double));
-    s->pk.pc = s->w + nw;
+    /* the packed blocks start on a 64-byte boundary (and so does every block of 16 units):
+     * the vector loads of the search then never straddle two cache lines */
+    uintptr_t at = (uintptr_t)(s->w + nw);
+    s->pk.pc = s->w + nw + ((64 - at % 64) % 64) / sizeof(double);
     s->pk.cn = s->pk.pc + kpad * dim;
     s->pk.k = units;
     s->pk.kpad = kpad;
@@ -366,6 +372,117 @@ static void online_clear(const mlr_som *s, double *h, unsigned char *active, con
     }
 }
 
+/* Online steps shared by a team: the caller sweeps part 0 of every step and n_parts - 1
+ * workers the other parts (mlr_packed_sweep parts, disjoint units). Per step the caller
+ * publishes the step number in go (release) after writing x, xnext, h and active. Part q is
+ * done by whoever claims it first for the step (a compare-and-swap of the step number into its
+ * claim word): its worker as soon as it sees go, or the caller once its own part is done. So a
+ * worker that the system has not run in time (a core busy with another process) costs nothing
+ * but its share of the speed-up: the caller does the part itself. A worker that claimed its
+ * part stores its result and the step number in done (release), and the caller waits for it.
+ * Then the caller takes the lowest (value, index). The parts compute the same values whoever
+ * runs them. Waits spin briefly, then yield the core. */
+#define TEAM_SLOT 64
+typedef struct team_slot {
+    _Alignas(TEAM_SLOT) atomic_size_t claim; /* last step number + 1 claimed */
+    atomic_size_t done;                      /* last step number + 1 done by the worker */
+    double value;
+    int32_t unit;
+} team_slot;
+
+typedef struct team {
+    mlr_packed *pk;
+    const double *h;
+    const unsigned char *active;
+    const double *x, *xnext;
+    size_t n_parts;
+    _Alignas(TEAM_SLOT) atomic_size_t go; /* step number + 1; SIZE_MAX: quit */
+    team_slot slot[MLR_MAX_THREADS];
+} team;
+
+typedef struct team_arg {
+    team *t;
+    size_t part;
+} team_arg;
+
+static inline void cpu_relax(void)
+{
+#if (defined(__x86_64__) || defined(__i386__)) && (defined(__GNUC__) || defined(__clang__))
+    __builtin_ia32_pause();
+#endif
+}
+
+/* Wait until *a != old (acquire); returns the new value. */
+static size_t wait_change(atomic_size_t *a, size_t old)
+{
+    size_t v;
+    for (unsigned spin = 0; (v = atomic_load_explicit(a, memory_order_acquire)) == old; spin++) {
+        if (spin < 1024)
+            cpu_relax();
+        else
+            sched_yield();
+    }
+    return v;
+}
+
+static void *team_worker(void *arg)
+{
+    team_arg *ta = arg;
+    team *t = ta->t;
+    team_slot *sl = &t->slot[ta->part];
+    size_t seen = 0;
+    for (;;) {
+        seen = wait_change(&t->go, seen);
+        if (seen == SIZE_MAX)
+            return NULL;
+        /* claim words only grow: a worker that wakes up late (seen is an old step, the caller
+         * has claimed later ones) must not take anything */
+        size_t cur = atomic_load_explicit(&sl->claim, memory_order_acquire);
+        if (cur >= seen || !atomic_compare_exchange_strong_explicit(
+                               &sl->claim, &cur, seen, memory_order_acq_rel, memory_order_acquire))
+            continue; /* the caller took this step's part */
+        sl->unit = mlr_packed_sweep(t->pk, t->x, t->h, t->active, t->xnext, ta->part, t->n_parts,
+                                    &sl->value);
+        atomic_store_explicit(&sl->done, seen, memory_order_release);
+    }
+}
+
+/* One step on the team (n_parts >= 1): returns the unit nearest to xnext (0 without it). */
+static int32_t team_step(team *t, size_t step, const double *x, const double *xnext)
+{
+    t->x = x;
+    t->xnext = xnext;
+    if (t->n_parts > 1)
+        atomic_store_explicit(&t->go, step + 1, memory_order_release);
+    double bv;
+    int32_t bi = mlr_packed_sweep(t->pk, x, t->h, t->active, xnext, 0, t->n_parts, &bv);
+    for (size_t q = 1; q < t->n_parts; q++) {
+        team_slot *sl = &t->slot[q];
+        double v;
+        int32_t u;
+        size_t cur = atomic_load_explicit(&sl->claim, memory_order_acquire);
+        if (cur < step + 1 &&
+            atomic_compare_exchange_strong_explicit(&sl->claim, &cur, step + 1,
+                                                    memory_order_acq_rel, memory_order_acquire)) {
+            u = mlr_packed_sweep(t->pk, x, t->h, t->active, xnext, q, t->n_parts, &v);
+        } else { /* the worker has it */
+            size_t d = atomic_load_explicit(&sl->done, memory_order_acquire);
+            while (d != step + 1)
+                d = wait_change(&sl->done, d);
+            v = sl->value;
+            u = sl->unit;
+        }
+        if (v < bv || (v == bv && u < bi)) {
+            bv = v;
+            bi = u;
+        }
+    }
+    return bi;
+}
+
+/* Values of the codebook per online part below which splitting a step does not pay. */
+#define TEAM_MIN_VALUES 16384
+
 mlr_status mlr_som_train(mlr_som *som, const double *x, size_t n, size_t ldx, size_t epochs,
                          int mode, mlr_diag *diag)
 {
@@ -424,6 +541,33 @@ mlr_status mlr_som_train(mlr_som *som, const double *x, size_t n, size_t ldx, si
         double *h = sum;
         unsigned char *active = (unsigned char *)(sum + kpad);
         memset(sum, 0, sbytes);
+        /* the team: parts of at least TEAM_MIN_VALUES codebook values and one group each */
+        size_t groups = (kpad / MLR_PACK + MLR_SWEEP_GROUP - 1) / MLR_SWEEP_GROUP;
+        size_t parts = som->n_threads < groups ? som->n_threads : groups;
+        size_t cap = kpad * dim / TEAM_MIN_VALUES;
+        if (parts > cap)
+            parts = cap ? cap : 1;
+        team tm;
+        memset(&tm, 0, sizeof tm);
+        tm.pk = &som->pk;
+        tm.h = h;
+        tm.active = active;
+        atomic_init(&tm.go, 0);
+        for (size_t q = 0; q < MLR_MAX_THREADS; q++) {
+            atomic_init(&tm.slot[q].claim, 0);
+            atomic_init(&tm.slot[q].done, 0);
+        }
+        pthread_t th[MLR_MAX_THREADS];
+        team_arg ta[MLR_MAX_THREADS];
+        size_t started = 0;
+        for (size_t q = 1; q < parts; q++) {
+            ta[q].t = &tm;
+            ta[q].part = q;
+            if (pthread_create(&th[q], NULL, team_worker, &ta[q]) != 0)
+                break; /* fewer parts: the same result */
+            started = q;
+        }
+        tm.n_parts = started + 1;
         size_t step = 0;
         for (size_t e = 0; e < epochs; e++) {
             for (size_t i = n - 1; i > 0; i--) { /* Fisher-Yates */
@@ -442,10 +586,15 @@ mlr_status mlr_som_train(mlr_som *som, const double *x, size_t n, size_t ldx, si
                 size_t win[4];
                 online_window(som, (size_t)b, sigma, alpha, som->cutoff, g, g + som->rows, h,
                               active, win);
-                b = mlr_packed_sweep(&som->pk, x + order[i] * ldx, h, active,
-                                     i + 1 < n ? x + order[i + 1] * ldx : NULL);
+                b = team_step(&tm, step, x + order[i] * ldx,
+                              i + 1 < n ? x + order[i + 1] * ldx : NULL);
                 online_clear(som, h, active, win);
             }
+        }
+        if (started) {
+            atomic_store_explicit(&tm.go, SIZE_MAX, memory_order_release);
+            for (size_t q = 1; q <= started; q++)
+                pthread_join(th[q], NULL);
         }
         for (size_t u = 0; u < units; u++)
             mlr_packed_get(&som->pk, u, som->w + u * dim);

@@ -1,7 +1,8 @@
 /* Self-organizing map: BMUs, second BMUs, quantization and topographic errors against a brute
  * force written here; one batch epoch against a dense reference update; bit-identical results
  * across runs and thread counts; online training lowers the quantization error; online steps
- * against a dense update; the neighbourhood cutoff keeps the quantization error within 1% on
+ * against a dense update (also split over threads); online steps split over threads are
+ * bit-identical to one thread; the neighbourhood cutoff keeps the quantization error within 1% on
  * real clips; codebook
  * export/import and corrupt blobs; bad input; allocation failures. */
 #include "mlr_test.h"
@@ -289,13 +290,16 @@ END_TEST
  * the first take the BMU from the fused update-and-search pass. */
 START_TEST(online_steps_match_dense_update)
 {
-    const size_t rows = 7, cols = 9, d = 5, units = rows * cols, epochs = 4;
+    /* _i = 0: one thread; _i = 1: a map large enough for the step to be split over 3 threads */
+    const size_t rows = _i ? 32 : 7, cols = _i ? 32 : 9, d = _i ? 48 : 5, units = rows * cols;
+    const size_t epochs = 4;
     double *w = normal_data(units, d, 21), *x = normal_data(1, d, 22);
     double *ref = malloc(units * d * sizeof *ref);
     memcpy(ref, w, units * d * sizeof *ref);
     mlr_som *s = som_with_codebook(rows, cols, d, w);
     ck_assert_int_eq(mlr_som_set(s, MLR_SOM_CUTOFF, 0.0, NULL), MLR_OK);
     ck_assert_int_eq(mlr_som_set(s, MLR_SOM_SIGMA0, 3.0, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_som_set(s, MLR_SOM_N_THREADS, _i ? 3 : 1, NULL), MLR_OK);
     ck_assert_int_eq(mlr_som_train(s, x, 1, d, epochs, MLR_SOM_ONLINE, NULL), MLR_OK);
     for (size_t step = 0; step < epochs; step++) {
         double f = (double)step / (double)(epochs - 1);
@@ -317,6 +321,32 @@ START_TEST(online_steps_match_dense_update)
         ck_assert_close(got[q], ref[q], 1e-12 * (1 + fabs(ref[q])));
     mlr_som_destroy(s);
     free(w), free(x), free(ref);
+}
+END_TEST
+
+/* Online training splits each step over the threads when the map is large enough (at least
+ * 16,384 codebook values per part): the codebook is bit-identical for every thread count, with
+ * the default cutoff (windows that cover some parts only) and without it. */
+START_TEST(online_split_is_bit_identical)
+{
+    const size_t rows = 32, cols = 31, d = 48, n = 700, len = rows * cols * d;
+    double *x = normal_data(n, d, 31), *a = malloc(len * 8), *b = malloc(len * 8);
+    const size_t threads[] = {1, 2, 3, 7};
+    for (size_t q = 0; q < MLR_COUNTOF(threads); q++) {
+        mlr_som *s = NULL;
+        ck_assert_int_eq(mlr_som_create(rows, cols, d, NULL, &s, NULL), MLR_OK);
+        ck_assert_int_eq(mlr_som_set(s, MLR_SOM_SEED, 5, NULL), MLR_OK);
+        ck_assert_int_eq(mlr_som_set(s, MLR_SOM_CUTOFF, _i ? 0.0 : 1e-3, NULL), MLR_OK);
+        ck_assert_int_eq(mlr_som_set(s, MLR_SOM_N_THREADS, (double)threads[q], NULL), MLR_OK);
+        ck_assert_int_eq(mlr_som_train(s, x, n, d, 2, MLR_SOM_ONLINE, NULL), MLR_OK);
+        memcpy(q ? b : a, mlr_som_codebook(s), len * sizeof *a);
+        mlr_som_destroy(s);
+        if (q)
+            ck_assert(memcmp(a, b, len * sizeof *a) == 0);
+    }
+    free(x);
+    free(a);
+    free(b);
 }
 END_TEST
 
@@ -364,7 +394,8 @@ static Suite *som_suite(void)
     tcase_add_test(num, batch_epoch_matches_dense_update);
     tcase_add_test(num, bit_identical_across_runs_and_threads);
     tcase_add_test(num, training_lowers_quantization_error);
-    tcase_add_test(num, online_steps_match_dense_update);
+    tcase_add_loop_test(num, online_steps_match_dense_update, 0, 2);
+    tcase_add_loop_test(num, online_split_is_bit_identical, 0, 2);
     tcase_add_loop_test(num, online_cutoff_keeps_quantization_error, 0, 2);
     tcase_add_test(num, export_import_roundtrip_and_corruption);
     suite_add_tcase(s, num);

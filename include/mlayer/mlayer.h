@@ -14,5 +14,6 @@
 #include "mlr_layers.h"
 #include "mlr_kmeans.h"
 #include "mlr_som.h"
+#include "mlr_grbf.h"
 
 #endif /* MLAYER_H */

@@ -34,7 +34,15 @@
  * Determinism: every result is a function of the data, the options and the seed only; it is
  * bit-identical across runs and for every MLR_SOM_N_THREADS (rows are split into fixed blocks,
  * sums are taken in row order, lattice passes write disjoint outputs). Online training is
- * sequential by nature and uses one thread.
+ * sequential by nature: its steps run one after the other, but each step (the update and the
+ * next row's BMU search) is split over up to MLR_SOM_N_THREADS threads by fixed groups of 64
+ * units when every thread gets at least 16,384 codebook values (a 65 x 65 map with dim 93:
+ * up to 24 threads); each unit is computed the same way whatever the split, and the BMU is the
+ * lowest (distance, index) over the parts. Those threads synchronize at every step (a short
+ * spin, then they yield the core); a part whose thread has not started it by the time the
+ * calling thread is done with its own is done by the calling thread (same values), so a core
+ * busy with another process mostly costs the speed-up only (a thread descheduled in the middle
+ * of its part still holds that step up).
  *
  * Export: the codebook travels as a relocatable blob (tag, version, size, FNV-1a hash; the
  * writer's byte order) that mlr_som_import checks before trusting it.
@@ -94,7 +102,8 @@ MLR_API mlr_status mlr_som_init_random(mlr_som *som, const double *x, size_t n, 
  *         sigma1 > sigma0 or alpha1 > alpha0 is allowed; NaN or infinity in x),
  *         MLR_E_OVERFLOW, MLR_E_NO_MEMORY (the codebook is then unchanged).
  * Allocates: O(n + rows cols dim) workspace, released before returning.
- * Threads: batch mode uses MLR_SOM_N_THREADS threads; results do not depend on it.
+ * Threads: both modes use up to MLR_SOM_N_THREADS threads (online: see above); results do not
+ * depend on it.
  */
 MLR_API mlr_status mlr_som_train(mlr_som *som, const double *x, size_t n, size_t ldx,
                                  size_t epochs, int mode, mlr_diag *diag);

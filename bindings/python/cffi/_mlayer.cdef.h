@@ -272,3 +272,18 @@ mlr_status mlr_som_export(const mlr_som *som, void *buf, size_t size, mlr_diag *
 mlr_status mlr_som_import(const void *buf, size_t size, const mlr_allocator *alloc,
                           mlr_som **out, mlr_diag *diag);
 void mlr_som_destroy(mlr_som *som);
+
+/* mlr_grbf.h */
+enum { MLR_GRBF_THIN_PLATE = 0, MLR_GRBF_GAUSSIAN = 1 };
+mlr_status mlr_grbf_basis(int kernel, double width, const double *centers, size_t n_centers,
+                          size_t ldc, const double *x, size_t n, size_t ldx, size_t dim, int poly,
+                          size_t n_threads, double *out, size_t ldo, const mlr_allocator *alloc,
+                          mlr_diag *diag);
+mlr_status mlr_grbf_eval(int kernel, double width, const double *centers, size_t n_centers,
+                         size_t ldc, const double *coef, size_t ldcoef, size_t n_out,
+                         const double *x, size_t n, size_t ldx, size_t dim, size_t n_threads,
+                         double *out, size_t ldo, const mlr_allocator *alloc, mlr_diag *diag);
+mlr_status mlr_grbf_fit_lattice(int kernel, double width, const double *xs, size_t rows,
+                                const double *ys, size_t cols, const double *y, size_t ldy,
+                                size_t n_out, size_t n_threads, double *coef, size_t ldcoef,
+                                const mlr_allocator *alloc, mlr_diag *diag);

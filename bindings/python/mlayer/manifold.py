@@ -3,14 +3,17 @@
 :class:`PCA` gives a linear embedding of pose features. :class:`GRBF` is the generative
 mapping of equations 1-2, y = B psi(x): N radial basis functions on a regular lattice of
 centres in the 2-D embedding (thin plate ``u^2 log u`` or Gaussian ``exp(-(u/width)^2)``), plus
-the polynomial terms 1, x1, x2, fitted to many outputs at once by least squares. numpy only.
+the polynomial terms 1, x1, x2, fitted to many outputs at once by least squares. The kernel
+values come from the C core (``mlr_grbf_basis``); the solves are numpy's LAPACK.
 """
 from __future__ import annotations
 
 import numpy as np
 
 from . import _arrays
-from .errors import InvalidArgumentError, SingularMatrixError
+from ._native import ffi, lib
+from .errors import InvalidArgumentError, SingularMatrixError, check
+from .kmeans import default_threads
 
 __all__ = ["PCA", "GRBF", "lattice_points"]
 
@@ -126,6 +129,12 @@ def _sqdist(X: np.ndarray, C: np.ndarray) -> np.ndarray:
     return d2
 
 
+_KERNEL_IDS = {"thin_plate": lib.MLR_GRBF_THIN_PLATE, "gaussian": lib.MLR_GRBF_GAUSSIAN}
+
+# rows of a triangular block solve
+_TRI_BLOCK = 256
+
+
 class GRBF:
     """Generalized radial basis function mapping from e-dimensional points (e = 2 for the
     manifold) to d outputs: f(x) = sum_i w_i phi(|x - c_i|) + a0 + a . x.
@@ -137,16 +146,38 @@ class GRBF:
     centers  an explicit (N, e) array of centres instead of a lattice.
     smoothing  ridge weight on the kernel weights w, relative to the mean squared norm of the
              basis columns (scale-free; default 0).
+    n_threads  threads of the C core's kernel values, lattice fit and evaluation (default: the
+             CPUs available; the values do not depend on it). numpy's BLAS, used by the other
+             fits, has its own threads.
 
     :meth:`fit` solves for B = [w; a] with the side conditions sum w_i = 0, sum w_i c_i = 0
     (which make thin-plate interpolation unique). With as many training points as centres the
     system is square and solved exactly (at points equal to the centres, f interpolates them,
     as scipy's RBFInterpolator does); with more points it is the least-squares fit under the
-    same conditions; with fewer it is underdetermined and refused.
+    same conditions; with fewer it is underdetermined and refused. :meth:`predict` evaluates
+    psi(x) B in the C core (``mlr_grbf_eval``), psi never stored.
+
+    How the fit solves:
+    - training points equal to a lattice of centres (interpolation on the lattice), in the C
+      core (``mlr_grbf_fit_lattice``): the lattice is symmetric under the reflections
+      x -> x0 + x1 - x and y -> y0 + y1 - y, and so is the kernel matrix, so in the basis of
+      even and odd combinations of mirrored centres the bordered system splits exactly into
+      four independent systems of about N/4 unknowns each (the constant term in the even-even
+      one, the centred x and y terms in the odd-even and even-odd ones); in each a Householder
+      reflection removes the side condition and leaves a positive definite matrix for
+      Cholesky. About 1/16 of the work of one LU of the whole system, the same solution up to
+      rounding. (Should rounding make a class indefinite, numpy's LU solves each class.)
+    - other square systems: numpy's LU of the bordered system [[Phi, Pp], [Pc^T, 0]];
+    - more points than centres (or a ridge): w = Z beta with Z an orthonormal basis of the w
+      the side conditions allow (Householder QR of Pc = [1, c], applied as a rank-(e+1)
+      update), then least squares in (a, beta) by numpy's QR factorization of
+      [Pp, Phi Z | Y] (R and Q^T Y at once, no explicit Q), with rows sqrt(lam) I under Phi Z
+      for the ridge.
     """
 
     def __init__(self, kernel: str = "thin_plate", lattice=(15, 15), *, centers=None,
-                 bounds=None, width: float | None = None, smoothing: float = 0.0):
+                 bounds=None, width: float | None = None, smoothing: float = 0.0,
+                 n_threads: int | None = None):
         if kernel not in _KERNELS:
             raise InvalidArgumentError(f"GRBF: kernel must be one of {_KERNELS}, got {kernel!r}")
         self.kernel = kernel
@@ -165,30 +196,37 @@ class GRBF:
             raise InvalidArgumentError(f"GRBF: smoothing must be finite and >= 0, got "
                                        f"{smoothing!r}")
         self.smoothing = float(smoothing)
+        if n_threads is not None and (isinstance(n_threads, bool) or int(n_threads) != n_threads
+                                      or not 1 <= n_threads <= 64):
+            raise InvalidArgumentError(f"GRBF: n_threads must be an integer in 1 .. 64, got "
+                                       f"{n_threads!r}")
+        self.n_threads = default_threads() if n_threads is None else int(n_threads)
         self.coef_ = None
 
     # -- basis ---------------------------------------------------------------------------------
 
-    def _phi(self, X: np.ndarray) -> np.ndarray:
-        d2 = _sqdist(X, self.centers_)
-        if self.kernel == "thin_plate":
-            # u^2 log u = d2 log(d2) / 2, and 0 at u = 0
-            with np.errstate(divide="ignore", invalid="ignore"):
-                lg = np.log(d2)
-            lg[d2 == 0.0] = 0.0
-            d2 *= lg
-            d2 *= 0.5
-            return d2
-        d2 *= -1.0 / (self.width_ * self.width_)
-        return np.exp(d2, out=d2)
-
-    def _poly(self, X: np.ndarray) -> np.ndarray:
-        return np.hstack([np.ones((X.shape[0], 1)), X])
+    def _basis(self, X: np.ndarray, poly: bool, out: np.ndarray | None = None) -> np.ndarray:
+        """[phi(|x - c_j|) ...] (and 1, x with poly) for the rows of X, by the C core, into the
+        first columns of the first rows of out (C-contiguous float64, at least that large; a
+        new (n, cols) array when None). Returns out."""
+        C = self.centers_
+        N, e = C.shape
+        cols = N + (1 + e if poly else 0)
+        if out is None:
+            out = np.empty((X.shape[0], cols))
+        assert out.flags.c_contiguous and out.shape[0] >= X.shape[0] and out.shape[1] >= cols
+        diag = ffi.new("mlr_diag *")
+        check(lib.mlr_grbf_basis(_KERNEL_IDS[self.kernel], float(getattr(self, "width_", 0.0)),
+                                 _arrays.ptr(C), N, e, _arrays.ptr(X), X.shape[0], e, e,
+                                 int(poly), self.n_threads, _arrays.ptr_out(out), out.shape[1],
+                                 ffi.NULL, diag), "mlayer.GRBF", diag)
+        return out
 
     def design(self, X) -> np.ndarray:
         """psi(X): the (n, N + 1 + e) basis matrix [phi(|x - c_i|) ..., 1, x]."""
-        X = self._points(X)
-        return np.hstack([self._phi(X), self._poly(X)])
+        if self.coef_ is None:
+            raise InvalidArgumentError("GRBF: call fit first")
+        return self._basis(self._points(X), True)
 
     def _points(self, X) -> np.ndarray:
         X = _data(X, "points")
@@ -244,63 +282,203 @@ class GRBF:
             raise InvalidArgumentError(
                 f"GRBF: {n} training points for {N} centres: underdetermined (use a smaller "
                 "lattice or more points)")
-        Phi = self._phi(P)
-        Pp = self._poly(P)
-        Pc = self._poly(C)
-        if n == N and self.smoothing == 0.0:
-            # square: [[Phi, Pp], [Pc^T, 0]] [w; a] = [Y; 0]
+        square = n == N and self.smoothing == 0.0
+        if square and self.lattice is not None and min(self.lattice) >= 2 \
+                and np.array_equal(P, C):
+            try:
+                self.coef_ = self._fit_lattice_c(Y)
+            except SingularMatrixError:  # rounding made a class indefinite: LU of each class
+                self.coef_ = self._fit_lattice(Y)
+        elif square:
+            # square, general: the bordered system [[Phi, Pp], [Pc^T, 0]] [w; a] = [Y; 0] by LU
             A = np.zeros((N + m, N + m))
-            A[:N, :N] = Phi
-            A[:N, N:] = Pp
-            A[N:, :N] = Pc.T
+            self._basis(P, True, A[:N])
+            A[N:, :N] = _poly(C).T
             rhs = np.zeros((N + m, Y.shape[1]))
             rhs[:N] = Y
             self.coef_ = _solve(A, rhs)
         else:
-            # w = Z beta with Z an orthonormal basis of the null space of Pc^T, then ordinary
-            # least squares in (beta, a) (ridge on beta = ridge on w, Z being orthonormal)
             if N <= m:
                 raise InvalidArgumentError(f"GRBF: needs more than {m} centres, got {N}")
-            q, _ = np.linalg.qr(Pc, mode="complete")
-            Z = q[:, m:]
-            D = np.hstack([Phi @ Z, Pp])
-            if self.smoothing > 0:
-                lam = self.smoothing * float(np.mean(np.sum(D[:, :N - m] ** 2, axis=0)))
-                reg = np.zeros((N - m, N))
-                reg[:, :N - m] = np.sqrt(lam) * np.eye(N - m)
-                D = np.vstack([D, reg])
-                Y = np.vstack([Y, np.zeros((N - m, Y.shape[1]))])
-            sol, _, rank, _ = np.linalg.lstsq(D, Y, rcond=None)
-            if rank < D.shape[1]:
-                raise SingularMatrixError(
-                    f"GRBF: the training points do not determine the {N} centres' weights "
-                    f"(rank {rank} < {D.shape[1]}); use fewer centres or spread the points")
-            self.coef_ = np.vstack([Z @ sol[:N - m], sol[N - m:]])
+            V, T = _householder(_poly(C))
+            a, beta = self._fit_least_squares(P, Y, V, T, m)
+            w = np.zeros((N, Y.shape[1]))
+            w[m:] = beta
+            w -= V @ (T @ (V.T @ w))  # w = Q [0; beta]
+            self.coef_ = np.vstack([w, a])
         self.n_outputs_ = Y.shape[1]
         return self
 
-    def predict(self, points, *, chunk: int = 4096) -> np.ndarray:
-        """Values (n, d) at points (n, e) (shape (n,) if fit was given a vector)."""
+    def _fit_lattice_c(self, Y: np.ndarray) -> np.ndarray:
+        """Interpolation on the lattice by the C core (``mlr_grbf_fit_lattice``: the four
+        symmetry classes of the notes below, each by Cholesky after a Householder reflection
+        removes its side condition, one thread per class)."""
+        R, Cn = self.lattice
+        C3 = self.centers_.reshape(R, Cn, 2)
+        xs = np.ascontiguousarray(C3[:, 0, 0])
+        ys = np.ascontiguousarray(C3[0, :, 1])
+        d = Y.shape[1]
+        Y = np.ascontiguousarray(Y)
+        coef = np.empty((R * Cn + 3, d))
+        diag = ffi.new("mlr_diag *")
+        check(lib.mlr_grbf_fit_lattice(_KERNEL_IDS[self.kernel],
+                                       float(getattr(self, "width_", 0.0)), _arrays.ptr(xs), R,
+                                       _arrays.ptr(ys), Cn, _arrays.ptr(Y), d, d, self.n_threads,
+                                       _arrays.ptr_out(coef), d, ffi.NULL, diag),
+              "mlayer.GRBF.fit", diag)
+        return coef
+
+    def _fit_lattice(self, Y: np.ndarray) -> np.ndarray:
+        """Interpolation at the rows x cols lattice of centres, split by the reflection
+        symmetry of the lattice (see the class notes), each class by numpy's LU: the fallback
+        of _fit_lattice_c. Centre u = r * cols + c; rows mirror
+        r <-> R-1-r (x), columns c <-> C-1-c (y). The representatives are the centres with
+        r < ceil(R/2), c < ceil(C/2); a middle row or column (odd R or C) is fixed by its
+        reflection (stabilizer size s = 1, 2 or 4), and the odd classes skip it. In class
+        (sx, sy) representative i stands for the unit vector b_i = sum_g chi(g) e_{g i} /
+        (2 sqrt(s_i)) (g over the four reflections, chi(g) = 1, sx, sy, sx sy), so that
+        b_i^T K b_j = sum_g chi(g) K[i, g j] / sqrt(s_i s_j), b_i^T y = sum_g chi(g) y[g i] /
+        (2 sqrt(s_i)) and b_i^T p = 2 p(i) / sqrt(s_i) for the polynomial p = 1, x - xm or
+        y - ym of the class."""
+        R, Cn = self.lattice
+        C = self.centers_
+        d = Y.shape[1]
+        Rh, Ch = (R + 1) // 2, (Cn + 1) // 2
+        C3 = C.reshape(R, Cn, 2)
+        reps = np.ascontiguousarray(C3[:Rh, :Ch].reshape(-1, 2))
+        K4 = self._basis(reps, False).reshape(Rh, Ch, R, Cn)
+        # sum_g chi(g) K[i, g j]: fold the target rows (even: K[., r] + K[., R-1-r], odd: -),
+        # then the target columns the same way
+        fold_r = (K4[:, :, :Rh] + K4[:, :, ::-1][:, :, :Rh],
+                  K4[:, :, :Rh] - K4[:, :, ::-1][:, :, :Rh])
+        Y3 = Y.reshape(R, Cn, d)
+        fy_r = (Y3[:Rh] + Y3[::-1][:Rh], Y3[:Rh] - Y3[::-1][:Rh])
+        mid_r = np.zeros(Rh, bool)
+        mid_c = np.zeros(Ch, bool)
+        mid_r[-1] = R % 2 == 1
+        mid_c[-1] = Cn % 2 == 1
+        stab = np.where(mid_r, 2.0, 1.0)[:, None] * np.where(mid_c, 2.0, 1.0)[None, :]
+        xm, ym = C3[:, :, 0].mean(), C3[:, :, 1].mean()
+        poly = (np.ones((Rh, Ch)), C3[:Rh, :Ch, 0] - xm, C3[:Rh, :Ch, 1] - ym, None)
+        a = np.zeros((3, d))
+        W3 = np.zeros((R, Cn, d))
+        for cls, (sx, sy) in enumerate(((1, 1), (-1, 1), (1, -1), (-1, -1))):
+            rv = Rh if sx > 0 else R // 2
+            cv = Ch if sy > 0 else Cn // 2
+            k = rv * cv
+            mc = 0 if poly[cls] is None else 1
+            A = np.zeros((k + mc, k + mc))
+            Kx = fold_r[sx < 0][:rv, :cv, :rv]
+            blk = A[:k, :k].reshape(rv, cv, rv, cv)
+            np.add(Kx[..., :cv], sy * Kx[..., ::-1][..., :cv], out=blk)
+            yx = fy_r[sx < 0][:rv]
+            yc = (yx[:, :cv] + sy * yx[:, ::-1][:, :cv]).reshape(k, d)
+            sq = np.sqrt(stab[:rv, :cv]).reshape(k)
+            if mid_r[-1] and sx > 0 or mid_c[-1] and sy > 0:  # unit vectors of fixed centres
+                A[:k, :k] /= np.outer(sq, sq)
+            rhs = np.zeros((k + mc, d))
+            rhs[:k] = yc / (2.0 * sq[:, None])
+            if mc:
+                A[:k, k] = A[k, :k] = 2.0 * poly[cls][:rv, :cv].reshape(k) / sq
+            sol = _solve(A, rhs)
+            if mc:
+                a[cls] = sol[k]
+            wc = np.zeros((Rh, Ch, d))
+            wc[:rv, :cv] = (sol[:k] / (2.0 * sq[:, None])).reshape(rv, cv, d)
+            W3[:Rh, :Ch] += wc
+            W3[::-1][:Rh, :Ch] += sx * wc
+            W3[:, ::-1][:Rh, :Ch] += sy * wc
+            W3[::-1, ::-1][:Rh, :Ch] += (sx * sy) * wc
+        a[0] -= a[1] * xm + a[2] * ym  # back to the terms 1, x, y
+        return np.vstack([W3.reshape(R * Cn, d), a])
+
+    def _fit_least_squares(self, P, Y, V, T, m):
+        """More points than centres (or a ridge): least squares in (a, beta) by QR of the
+        augmented matrix [Pp, Phi Z, Y] (rows of sqrt(lam) I under Phi Z for the ridge)."""
+        N = self.centers_.shape[0]
+        n, d = Y.shape
+        extra = N - m if self.smoothing > 0 else 0
+        M = np.zeros((n + extra, N + d))
+        self._basis(P, False, M)  # Phi in M[:n, :N]
+        Phi = M[:n, :N]
+        Phi -= (Phi @ V) @ (T @ V.T)  # Phi Q; its first m columns (w along Y) are dropped
+        M[:n, :m] = _poly(P)
+        M[:n, N:] = Y
+        if extra:
+            lam = self.smoothing * float(np.mean(np.sum(M[:n, m:N] ** 2, axis=0)))
+            M[n:, m:N] = np.sqrt(lam) * np.eye(N - m)
+        Rm = np.linalg.qr(M, mode="r")
+        R = Rm[:N, :N]
+        diag = np.abs(np.diag(R))
+        if not diag.min() > np.finfo(float).eps * max(M.shape) * diag.max():
+            raise SingularMatrixError(
+                f"GRBF: the training points do not determine the {N} centres' weights "
+                "(rank-deficient least squares); use fewer centres or spread the points")
+        sol = _solve_upper(R, Rm[:N, N:])
+        return sol[:m], sol[m:]
+
+    def predict(self, points) -> np.ndarray:
+        """Values (n, d) at points (n, e) (shape (n,) if fit was given a vector): psi(x) B in
+        one pass of the C core (``mlr_grbf_eval``: kernel values and products block by block,
+        psi never stored)."""
         if self.coef_ is None:
             raise InvalidArgumentError("GRBF: call fit first")
         X = self._points(points)
-        N = self.centers_.shape[0]
-        out = np.empty((X.shape[0], self.coef_.shape[1]))
-        W, a = self.coef_[:N], self.coef_[N:]
-        for s in range(0, X.shape[0], chunk):
-            x = X[s:s + chunk]
-            o = out[s:s + chunk]
-            np.matmul(self._phi(x), W, out=o)
-            o += a[0]
-            o += x @ a[1:]
+        C = self.centers_
+        coef = np.ascontiguousarray(self.coef_, dtype=np.float64)
+        N, e = C.shape
+        d = coef.shape[1]
+        out = np.empty((X.shape[0], d))
+        diag = ffi.new("mlr_diag *")
+        check(lib.mlr_grbf_eval(_KERNEL_IDS[self.kernel], float(getattr(self, "width_", 0.0)),
+                                _arrays.ptr(C), N, e, _arrays.ptr(coef), d, d, _arrays.ptr(X),
+                                X.shape[0], e, e, self.n_threads, _arrays.ptr_out(out), d,
+                                ffi.NULL, diag), "mlayer.GRBF.predict", diag)
         return out[:, 0] if self._vector else out
 
     __call__ = predict
 
 
+def _poly(X: np.ndarray) -> np.ndarray:
+    return np.hstack([np.ones((X.shape[0], 1)), X])
+
+
+def _householder(Pc: np.ndarray):
+    """Compact WY form of the Householder QR of Pc (N, m): Q = I - V T V^T (V unit lower
+    trapezoidal (N, m), T upper triangular (m, m)). Refuses a rank-deficient Pc (centres on a
+    line: the linear terms are not determined)."""
+    h, tau = np.linalg.qr(Pc, mode="raw")
+    H = h.T
+    m = Pc.shape[1]
+    R = np.triu(H[:m])
+    dr = np.abs(np.diag(R))
+    if not dr.min() > np.finfo(float).eps * Pc.shape[0] * dr.max():
+        raise SingularMatrixError("GRBF: the centres lie on a line (or a plane in 3-D ...): "
+                                  "the polynomial terms are not determined")
+    V = np.tril(H, -1)
+    V[np.arange(m), np.arange(m)] = 1.0
+    T = np.zeros((m, m))
+    for j in range(m):  # LAPACK larft, forward, columnwise
+        T[j, j] = tau[j]
+        if j:
+            T[:j, j] = -tau[j] * (T[:j, :j] @ (V[:, :j].T @ V[:, j]))
+    return V, T
+
+
+def _solve_upper(U: np.ndarray, B: np.ndarray) -> np.ndarray:
+    """X with U X = B for U upper triangular: backward substitution by blocks."""
+    X = np.array(B, dtype=np.float64)
+    n = U.shape[0]
+    for i1 in range(n, 0, -_TRI_BLOCK):
+        i0 = max(i1 - _TRI_BLOCK, 0)
+        if i1 < n:
+            X[i0:i1] -= U[i0:i1, i1:] @ X[i1:]
+        X[i0:i1] = np.linalg.solve(U[i0:i1, i0:i1], X[i0:i1])
+    return X
+
+
 def _solve(A: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Solve the square system by LU (LAPACK gesv; its symmetric indefinite sysv measured 8x
-    slower here with OpenBLAS)."""
+    """Solve the square system by LU (LAPACK gesv)."""
     try:
         return np.linalg.solve(A, b)
     except np.linalg.LinAlgError as e:

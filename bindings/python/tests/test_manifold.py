@@ -229,6 +229,94 @@ def test_grbf_least_squares(rng):
     assert v.predict(P[:3]).shape == (3,)
 
 
+def test_grbf_least_squares_many_centres(rng):
+    # 306 centres: the triangular solve after the QR runs over several blocks; the fitted
+    # values (well conditioned, unlike the coefficients) against the KKT reference
+    P = rng.uniform(0, 4, size=(1500, 2))
+    Y = smooth_fn(P) + 0.01 * rng.normal(size=(1500, 3))
+    g = GRBF("thin_plate", (18, 17)).fit(P, Y)
+    N, m = 306, 3
+    D = g.design(P)
+    Pc = np.hstack([np.ones((N, 1)), g.centers_])
+    Cm = np.hstack([Pc.T, np.zeros((m, m))])
+    K = np.block([[D.T @ D, Cm.T], [Cm, np.zeros((m, m))]])
+    sol = np.linalg.solve(K, np.vstack([D.T @ Y, np.zeros((m, 3))]))[:N + m]
+    np.testing.assert_allclose(g.predict(P), D @ sol, rtol=0, atol=1e-7 * np.abs(Y).max())
+    np.testing.assert_allclose(Pc.T @ g.coef_[:N], 0, atol=1e-8 * np.abs(g.coef_).max())
+
+
+@pytest.mark.parametrize("lat", [(2, 2), (2, 3), (3, 2), (4, 6), (5, 5), (6, 7), (9, 4)])
+@pytest.mark.parametrize("kernel", ["thin_plate", "gaussian"])
+def test_grbf_lattice_split_matches_whole_system(rng, monkeypatch, lat, kernel):
+    # interpolation on a lattice goes through the four symmetry classes of the lattice (C core,
+    # Cholesky per class); the same centres passed explicitly go through LU of the whole
+    # bordered system; numpy's LU per class (the fallback) agrees too
+    calls = []
+    orig = GRBF._fit_lattice_c
+    monkeypatch.setattr(GRBF, "_fit_lattice_c", lambda self, Y: calls.append(1) or orig(self, Y))
+    bounds = ((-1.0, 3.0), (0.5, 2.0))
+    C = mlayer.manifold.lattice_points(lat, bounds)
+    Y = np.hstack([smooth_fn(C), rng.normal(size=(C.shape[0], 2))])
+    g = GRBF(kernel, lat, bounds=bounds).fit(C, Y)
+    assert calls == [1]
+    ref = GRBF(kernel, centers=C, width=g.width_ if kernel == "gaussian" else None).fit(C, Y)
+    assert calls == [1]
+    scale = np.abs(ref.coef_).max()
+    np.testing.assert_allclose(g.coef_, ref.coef_, rtol=0, atol=1e-10 * scale)
+    np.testing.assert_allclose(g.predict(C), Y, rtol=0, atol=1e-10 * np.abs(Y).max())
+    np.testing.assert_allclose(g.coef_[:-3].sum(0), 0, atol=1e-10 * scale)  # side conditions
+    np.testing.assert_allclose(C.T @ g.coef_[:-3], 0, atol=1e-9 * scale)
+    np.testing.assert_allclose(g._fit_lattice(Y), g.coef_, rtol=0, atol=1e-10 * scale)
+
+
+def test_grbf_bench_case_matches_scipy(rng):
+    # the case of bench/python/bench_grbf.py: 40 x 50 lattice, 93 outputs, thin plate with
+    # linear terms, interpolating; scipy's RBFInterpolator solves the whole system by LU
+    interp = pytest.importorskip("scipy.interpolate")
+    bounds = ((0.0, 64.0), (0.0, 64.0))
+    C = mlayer.manifold.lattice_points((40, 50), bounds)
+    f = rng.normal(scale=0.08, size=(2, 93))
+    ph = rng.uniform(0, 2 * np.pi, size=93)
+    amp = rng.uniform(1, 20, size=93)
+    Y = amp * np.sin(C @ f + ph)
+    Q = rng.uniform(0, 64, size=(3000, 2))
+    ours = GRBF("thin_plate", (40, 50), bounds=bounds).fit(C, Y).predict(Q)
+    ref = interp.RBFInterpolator(C, Y, kernel="thin_plate_spline", degree=1)(Q)
+    # both are within rounding of the exact interpolant (condition number about 1e7 here)
+    np.testing.assert_allclose(ours, ref, rtol=0, atol=1e-9 * np.abs(ref).max())
+
+
+def test_grbf_ridge_matches_kkt_reference(rng):
+    P = rng.uniform(0, 4, size=(300, 2))
+    Y = smooth_fn(P) + 0.05 * rng.normal(size=(300, 3))
+    N, m = 25, 3
+    g = GRBF("thin_plate", (5, 5), smoothing=1e-3).fit(P, Y)
+    D = g.design(P)
+    Pc = np.hstack([np.ones((N, 1)), g.centers_])
+    proj = np.eye(N) - Pc @ np.linalg.solve(Pc.T @ Pc, Pc.T)
+    lam = 1e-3 * np.sum((D[:, :N] @ proj) ** 2) / (N - m)
+    Cm = np.hstack([Pc.T, np.zeros((m, m))])
+    H = D.T @ D
+    H[:N, :N] += lam * np.eye(N)
+    K = np.block([[H, Cm.T], [Cm, np.zeros((m, m))]])
+    sol = np.linalg.solve(K, np.vstack([D.T @ Y, np.zeros((m, 3))]))[:N + m]
+    np.testing.assert_allclose(g.coef_, sol, rtol=0, atol=1e-8 * np.abs(sol).max())
+    plain = GRBF("thin_plate", (5, 5)).fit(P, Y)
+    assert np.abs(g.coef_[:N]).sum() < np.abs(plain.coef_[:N]).sum()  # the ridge shrinks w
+
+
+def test_grbf_threads_and_chunks_do_not_change_values(rng):
+    P = rng.uniform(0, 4, size=(500, 2))
+    Y = smooth_fn(P)
+    Q = rng.uniform(-1, 5, size=(1000, 2))
+    a = GRBF("gaussian", (6, 5), n_threads=1).fit(P, Y)
+    b = GRBF("gaussian", (6, 5), n_threads=3).fit(P, Y)
+    assert a.coef_.tobytes() == b.coef_.tobytes()
+    np.testing.assert_array_equal(a.predict(Q), b.predict(Q))
+    np.testing.assert_array_equal(a.predict(Q)[77:300], b.predict(Q[77:300]))
+    np.testing.assert_allclose(a.predict(Q), a.design(Q) @ a.coef_, rtol=1e-13, atol=1e-13)
+
+
 # ---- bad input ---------------------------------------------------------------------------------
 
 def test_bad_input_messages(rng):

@@ -54,6 +54,15 @@ def test_bit_identical_across_threads_and_runs(rng, mode):
     assert a.tobytes() == b.tobytes() == c.tobytes()
 
 
+def test_online_steps_split_over_threads_on_real_clip(mocap):
+    # a 20 x 20 map on 93 pose features is large enough (>= 16,384 codebook values per thread)
+    # for each online step to be split over 2 threads: the result is the same to the bit
+    X = mlayer.pose_features(mlayer.read_bvh(mocap / "cmu_131_01_mj_style_walk.bvh"))[:1500]
+    a = mlayer.SOM(20, 20, X.shape[1], seed=4, n_threads=1).train(X, 2, mode="online")
+    b = mlayer.SOM(20, 20, X.shape[1], seed=4, n_threads=2).train(X, 2, mode="online")
+    assert a.codebook.tobytes() == b.codebook.tobytes()
+
+
 def test_save_load_roundtrip(tmp_path, rng):
     X = three_blobs(rng)
     som = mlayer.SOM(5, 6, 4).train(X, 2)
