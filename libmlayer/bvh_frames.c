@@ -1,0 +1,356 @@
+/* Kernels of the BVH reader's MOTION section: see bvh_frames.h.
+ *
+ * The AVX-512 line parser works in two steps on a whole frame line.
+ * 1. Structure, 64 bytes at a time: masks of token bytes ('-' to '9'), blanks (space, tab) and
+ *    line ends; every byte outside these sends the line to the careful parser. The end of each
+ *    token (the blank or line end after it) goes into ends[]; there must be exactly C.
+ * 2. Numbers, 8 at a time (two registers of four 16-byte lanes): lane i holds the 16 bytes
+ *    before ends[i], byte-reversed, so the token starts at byte 0 with its last character and
+ *    its own bytes are those below the first blank (bytes <= 0x20) of the lane. Per lane, with
+ *    the lanes' 16-bit fields of the byte masks: the token must be 1 to 15 bytes of digits with
+ *    at most one '.' and a '-' only as its first character, and hold a digit. The digits,
+ *    shifted down over the dot by one byte shuffle, form an integer M < 10^15 < 2^53 (units at
+ *    byte 0); with f fraction digits the value is M / 10^f: an exact integer divided by an
+ *    exact power of ten, one correctly rounded division (Clinger's fast path), the double that
+ *    strtod returns. The sign is set as a bit ("-0" gives -0.0, as strtod).
+ * Any lane outside this form sends the line to the careful parser; nothing is guessed. */
+#include "bvh_frames.h"
+
+#include "numparse.h"
+#include "sincosd.h"
+
+#include <string.h>
+
+/* Both builds must round alike: no contraction into FMA where the compiler may contract by
+ * default (clang; GCC does not contract in ISO C mode) */
+#if defined(__clang__)
+#  pragma STDC FP_CONTRACT OFF
+#endif
+
+#if (defined(__x86_64__) || defined(__i386__)) && (defined(__GNUC__) || defined(__clang__))
+#  define BVH_X86 1
+#  include <immintrin.h>
+#endif
+
+/* ---- per-frame conversion ------------------------------------------------------------------ */
+
+/* Portable: gathers, sines and cosines of the half-angles, and q = q_i(a0) q_j(a1) q_k(a2) in
+ * the same operations as mlr_quat_from_euler_half. */
+static void frame_portable(const bvh_conv *cv, const double *restrict row, double *restrict tmp,
+                           double *restrict rp, double *restrict tr, double *restrict q)
+{
+    const size_t J = cv->J, Jp = cv->Jp, P = cv->P;
+    const uint32_t *restrict src = cv->src;
+    for (size_t k = 0; k < 3; k++)
+        rp[k] = row[src[k]];
+    for (size_t k = 0; k < 3 * P; k++)
+        tr[k] = row[src[3 + k]];
+    const uint32_t *restrict g = src + 3 + 3 * P;
+    double *restrict half = tmp, *restrict sn = tmp + 3 * Jp, *restrict cs = tmp + 6 * Jp;
+    for (size_t k = 0; k < 3 * Jp; k++)
+        half[k] = 0.5 * row[g[k]];
+    mlr_sincosd_array(half, 3 * Jp, sn, cs);
+    const double *restrict par = cv->par;
+    const unsigned char *restrict sel = cv->sel;
+    for (size_t j = 0; j < J; j++) {
+        const double ca = cs[j], sa = sn[j], cb = cs[Jp + j], sb = sn[Jp + j], cc = cs[2 * Jp + j],
+                     sc = sn[2 * Jp + j], p = par[j];
+        double c[3];
+        q[4 * j] = ca * cb * cc - p * sa * sb * sc;
+        c[0] = sa * cb * cc + p * ca * sb * sc;
+        c[1] = ca * sb * cc - p * sa * cb * sc;
+        c[2] = ca * cb * sc + p * sa * sb * cc;
+        q[4 * j + 1] = c[sel[j]];
+        q[4 * j + 2] = c[sel[Jp + j]];
+        q[4 * j + 3] = c[sel[2 * Jp + j]];
+    }
+}
+
+size_t bvh_count_newlines(const char *p, const char *end)
+{
+    size_t n = 0;
+    for (; p < end; p++)
+        n += *p == '\n';
+    return n;
+}
+
+#ifdef BVH_X86
+#  define AVX512 __attribute__((target("avx512f,avx512bw,avx512dq,avx512vl,bmi,bmi2,popcnt")))
+
+/* As frame_portable, 8 joints at a time: the same operations in the same order, so the same
+ * results (the sines and cosines are the same inline code, vectorized by the compiler). */
+AVX512 static void frame_avx512(const bvh_conv *cv, const double *restrict row,
+                                double *restrict tmp, double *restrict rp, double *restrict tr,
+                                double *restrict q)
+{
+    const size_t J = cv->J, Jp = cv->Jp, P = cv->P;
+    const uint32_t *restrict src = cv->src;
+    for (size_t k = 0; k < 3; k++)
+        rp[k] = row[src[k]];
+    for (size_t k = 0; k < 3 * P; k++)
+        tr[k] = row[src[3 + k]];
+    const uint32_t *restrict g = src + 3 + 3 * P;
+    double *restrict half = tmp, *restrict sn = tmp + 3 * Jp, *restrict cs = tmp + 6 * Jp;
+    const __m512d h = _mm512_set1_pd(0.5);
+    const __m512i lo = _mm512_setr_epi64(0, 4, 1, 5, 8, 12, 9, 13);
+    const __m512i hi = _mm512_setr_epi64(2, 6, 3, 7, 10, 14, 11, 15);
+    for (size_t j = 0; j < Jp; j += 8) {
+        if (cv->tri_ok[j / 8]) {
+            /* 8 joints whose angles are three consecutive channels: 4 doubles from each
+             * joint's first angle, transposed (the fourth is not used) */
+            const uint32_t *t = cv->tri + j;
+#  define LD2(a, b) \
+    _mm512_insertf64x4(_mm512_castpd256_pd512(_mm256_loadu_pd(row + t[a])), \
+                       _mm256_loadu_pd(row + t[b]), 1)
+            const __m512d z0 = LD2(0, 1), z1 = LD2(2, 3), z2 = LD2(4, 5), z3 = LD2(6, 7);
+#  undef LD2
+            const __m512d e0 = _mm512_unpacklo_pd(z0, z1), e1 = _mm512_unpackhi_pd(z0, z1);
+            const __m512d e2 = _mm512_unpacklo_pd(z2, z3), e3 = _mm512_unpackhi_pd(z2, z3);
+            _mm512_storeu_pd(half + j, _mm512_mul_pd(h, _mm512_permutex2var_pd(e0, lo, e2)));
+            _mm512_storeu_pd(half + Jp + j,
+                             _mm512_mul_pd(h, _mm512_permutex2var_pd(e1, lo, e3)));
+            _mm512_storeu_pd(half + 2 * Jp + j,
+                             _mm512_mul_pd(h, _mm512_permutex2var_pd(e0, hi, e2)));
+        } else {
+            for (size_t k = 0; k < 3; k++)
+                for (size_t i = 0; i < 8; i++)
+                    half[k * Jp + j + i] = 0.5 * row[g[k * Jp + j + i]];
+        }
+    }
+    mlr_sincosd_array(half, 3 * Jp, sn, cs);
+    const __m128i zero = _mm_setzero_si128(), one = _mm_set1_epi8(1);
+    for (size_t j = 0; j < J; j += 8) {
+        const __m512d ca = _mm512_loadu_pd(cs + j), sa = _mm512_loadu_pd(sn + j);
+        const __m512d cb = _mm512_loadu_pd(cs + Jp + j), sb = _mm512_loadu_pd(sn + Jp + j);
+        const __m512d cc = _mm512_loadu_pd(cs + 2 * Jp + j), sc = _mm512_loadu_pd(sn + 2 * Jp + j);
+        const __m512d p = _mm512_loadu_pd(cv->par + j);
+#  define MUL3(a, b, c) _mm512_mul_pd(_mm512_mul_pd(a, b), c)
+#  define MUL4(a, b, c, d) _mm512_mul_pd(_mm512_mul_pd(_mm512_mul_pd(a, b), c), d)
+        const __m512d w = _mm512_sub_pd(MUL3(ca, cb, cc), MUL4(p, sa, sb, sc));
+        const __m512d c0 = _mm512_add_pd(MUL3(sa, cb, cc), MUL4(p, ca, sb, sc));
+        const __m512d c1 = _mm512_sub_pd(MUL3(ca, sb, cc), MUL4(p, sa, cb, sc));
+        const __m512d c2 = _mm512_add_pd(MUL3(ca, cb, sc), MUL4(p, sa, sb, cc));
+#  undef MUL3
+#  undef MUL4
+        __m512d xyz[3];
+        for (size_t a = 0; a < 3; a++) {
+            const __m128i s = _mm_loadl_epi64((const __m128i *)(const void *)(cv->sel + a * Jp + j));
+            const __mmask8 is0 = (__mmask8)_mm_cmpeq_epi8_mask(s, zero);
+            const __mmask8 is1 = (__mmask8)_mm_cmpeq_epi8_mask(s, one);
+            xyz[a] = _mm512_mask_mov_pd(_mm512_mask_mov_pd(c2, is0, c0), is1, c1);
+        }
+        /* (w, x, y, z) of 8 joints to 8 quaternions in a row */
+        const __m512d t0 = _mm512_unpacklo_pd(w, xyz[0]), t1 = _mm512_unpackhi_pd(w, xyz[0]);
+        const __m512d t2 = _mm512_unpacklo_pd(xyz[1], xyz[2]), t3 = _mm512_unpackhi_pd(xyz[1], xyz[2]);
+        const __m512d u0 = _mm512_shuffle_f64x2(t0, t2, 0x44), u1 = _mm512_shuffle_f64x2(t1, t3, 0x44);
+        const __m512d v0 = _mm512_shuffle_f64x2(t0, t2, 0xEE), v1 = _mm512_shuffle_f64x2(t1, t3, 0xEE);
+        const __m512d o[4] = {_mm512_shuffle_f64x2(u0, u1, 0x88), _mm512_shuffle_f64x2(u0, u1, 0xDD),
+                              _mm512_shuffle_f64x2(v0, v1, 0x88), _mm512_shuffle_f64x2(v0, v1, 0xDD)};
+        double *qj = q + 4 * j;
+        if (j + 8 <= J) {
+            for (int i = 0; i < 4; i++)
+                _mm512_storeu_pd(qj + 8 * i, o[i]);
+        } else {
+            const size_t left = 4 * (J - j); /* doubles */
+            for (size_t i = 0; i < 4 && 8 * i < left; i++) {
+                const size_t n = left - 8 * i < 8 ? left - 8 * i : 8;
+                _mm512_mask_storeu_pd(qj + 8 * i, (__mmask8)((1u << n) - 1u), o[i]);
+            }
+        }
+    }
+}
+
+/* A token for unused lanes: "0" after blanks; lanes read the 16 bytes before its end. */
+static const char zero_token[16] = {' ', ' ', ' ', ' ', ' ', ' ', ' ', ' ',
+                                    ' ', ' ', ' ', ' ', ' ', ' ', ' ', '0'};
+
+/* Step 1: token ends of the line at p into ends; returns their count (stops early, returning
+ * more than C, once there are too many), 0 with *ok = 0 on a byte that is neither visible
+ * ASCII nor a blank or line end. */
+AVX512 static size_t scan_line(const char *p, const char *end, size_t C, const char **ends,
+                               const char **line_end, int *ok)
+{
+    const __m512i vis_lo = _mm512_set1_epi8(0x21), vis_n = _mm512_set1_epi8(0x5E);
+    const __m512i sp = _mm512_set1_epi8(' '), tab = _mm512_set1_epi8('\t');
+    const __m512i lf = _mm512_set1_epi8('\n'), cr = _mm512_set1_epi8('\r');
+    uint64_t carry = 0; /* the byte before the block is a token byte */
+    size_t n = 0;
+    for (;;) {
+        __m512i b;
+        if (end - p >= 64) {
+            b = _mm512_loadu_si512((const void *)p);
+        } else {
+            /* the tail, padded with line ends: the end of the input ends the line */
+            char buf[64];
+            memset(buf, '\n', sizeof buf);
+            memcpy(buf, p, (size_t)(end - p));
+            b = _mm512_loadu_si512((const void *)buf);
+        }
+        const uint64_t tok = _mm512_cmplt_epu8_mask(_mm512_sub_epi8(b, vis_lo), vis_n);
+        const uint64_t blank = _mm512_cmpeq_epi8_mask(b, sp) | _mm512_cmpeq_epi8_mask(b, tab);
+        const uint64_t eol = _mm512_cmpeq_epi8_mask(b, lf) | _mm512_cmpeq_epi8_mask(b, cr);
+        const uint64_t lim = eol ? _blsmsk_u64(eol) : ~(uint64_t)0; /* up to the first eol */
+        if (~(tok | blank | eol) & lim) {
+            *ok = 0;
+            return 0;
+        }
+        uint64_t e = ~tok & ((tok << 1) | carry) & lim;
+        carry = tok >> 63;
+        const size_t cnt = (size_t)_mm_popcnt_u64(e);
+        if (n + cnt > C)
+            return n + cnt;
+        /* 8 at a time without a branch per token; ends has room for 8 past C */
+        const char **o = ends + n;
+        for (size_t k = 0;; k += 8) {
+            for (int i = 0; i < 8; i++) {
+                o[k + (size_t)i] = p + _tzcnt_u64(e);
+                e = _blsr_u64(e);
+            }
+            if (k + 8 >= cnt)
+                break;
+        }
+        n += cnt;
+        if (eol) {
+            const char *le = p + _tzcnt_u64(eol);
+            *line_end = le < end ? le : end;
+            return n;
+        }
+        p += 64;
+    }
+}
+
+/* Bit i set when 16-bit field i of x is not zero. */
+AVX512 static inline unsigned fields_nonzero(uint64_t x)
+{
+    const uint64_t LO = 0x7FFF7FFF7FFF7FFFu, HI = 0x8000800080008000u;
+    return (unsigned)_pext_u64((((x & LO) + LO) | x) & HI, HI);
+}
+
+/* Step 2 for four lanes: the integer M in the low qword of each lane (m), the lane's count of
+ * fraction digits, 15 for none (f), the lanes with a '-' (bits 0-3 of *neg); returns the lanes
+ * (bits 0-3) that do not hold a simple token, whose results are meaningless. */
+AVX512 static inline unsigned lanes4(__m512i w, __m512i *m, __m512i *f, unsigned *neg)
+{
+    const __m512i rev = _mm512_broadcast_i32x4(
+        _mm_setr_epi8(15, 14, 13, 12, 11, 10, 9, 8, 7, 6, 5, 4, 3, 2, 1, 0));
+    const __m512i iota = _mm512_broadcast_i32x4(
+        _mm_setr_epi8(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15));
+    const uint64_t ONE = 0x0001000100010001u, HI = 0x8000800080008000u;
+    const __m512i r = _mm512_shuffle_epi8(w, rev);
+    const uint64_t ks = _mm512_cmple_epu8_mask(r, _mm512_set1_epi8(0x20));
+    const uint64_t kd =
+        _mm512_cmplt_epu8_mask(_mm512_sub_epi8(r, _mm512_set1_epi8('0')), _mm512_set1_epi8(10));
+    const uint64_t kp = _mm512_cmpeq_epi8_mask(r, _mm512_set1_epi8('.'));
+    const uint64_t km = _mm512_cmpeq_epi8_mask(r, _mm512_set1_epi8('-'));
+    const uint64_t tok = (ks - ONE) & ~ks; /* the token: bytes below the first blank */
+    uint64_t bad = tok & ~(kd | kp | km);
+    const uint64_t top = tok & ~(tok >> 1); /* its first character */
+    bad |= km & tok & ~top;
+    const uint64_t y = (kp & tok) | HI; /* dots, with a sentinel at byte 15 */
+    bad |= y & (y - ONE) & ~HI;         /* a second dot */
+    const uint64_t dig = kd & tok;
+    bad |= (dig - ONE) & ~dig & HI; /* no digit (may also flag the lanes above: harmless) */
+    const uint64_t below = (y - ONE) & ~y; /* bytes below the dot (below 15 without one) */
+    const uint64_t above = ~below & ~HI;   /* from the dot up: take the next byte */
+    __m512i t = _mm512_maskz_sub_epi8(dig, r, _mm512_set1_epi8('0'));
+    t = _mm512_shuffle_epi8(t, _mm512_mask_add_epi8(iota, above, iota, _mm512_set1_epi8(1)));
+    /* byte k has weight 10^k: pairs, quads, then the low and high 8 digits */
+    const __m512i a = _mm512_maddubs_epi16(t, _mm512_set1_epi16(0x0A01));
+    const __m512i b = _mm512_madd_epi16(a, _mm512_set1_epi32(0x00640001));
+    const __m512i c = _mm512_packus_epi32(b, b);
+    const __m512i d = _mm512_madd_epi16(c, _mm512_set1_epi32(0x27100001));
+    *m = _mm512_add_epi64(_mm512_mul_epu32(_mm512_srli_epi64(d, 32), _mm512_set1_epi64(100000000)),
+                          _mm512_and_si512(d, _mm512_set1_epi64(0xFFFFFFFF)));
+    const __m512i cnt = _mm512_sad_epu8(_mm512_maskz_set1_epi8(below, 1), _mm512_setzero_si512());
+    *f = _mm512_add_epi64(cnt, _mm512_shuffle_epi32(cnt, _MM_PERM_BADC));
+    *neg = fields_nonzero(km & top);
+    /* a lane without a blank holds a token of 16 bytes or more, and the borrow of ks - ONE
+     * spoils the lanes above it: all four go to the scalar parser */
+    return (ks - ONE) & ~ks & HI ? 0xFu : fields_nonzero(bad);
+}
+
+AVX512 static inline __m512i windows4(const char *const *e)
+{
+    __m512i w = _mm512_castsi128_si512(_mm_loadu_si128((const __m128i *)(const void *)(e[0] - 16)));
+    w = _mm512_inserti32x4(w, _mm_loadu_si128((const __m128i *)(const void *)(e[1] - 16)), 1);
+    w = _mm512_inserti32x4(w, _mm_loadu_si128((const __m128i *)(const void *)(e[2] - 16)), 2);
+    return _mm512_inserti32x4(w, _mm_loadu_si128((const __m128i *)(const void *)(e[3] - 16)), 3);
+}
+
+/* A token the lanes do not take (exponent, '+', 16 bytes or more, or no number at all):
+ * mlr_parse_decimal on it, which must take all of it. */
+static int token_slow(const char *line, const char *e, double *out)
+{
+    const char *s = e;
+    while (s > line && s[-1] != ' ' && s[-1] != '\t')
+        s--;
+    return mlr_parse_decimal(s, e, out) == (size_t)(e - s);
+}
+
+AVX512 static int line_avx512(const char *p, const char *end, size_t C, const char **ends,
+                              double *row, const char **line_end)
+{
+    int ok = 1;
+    const size_t n = scan_line(p, end, C, ends, line_end, &ok);
+    if (!ok || n != C)
+        return 0;
+    for (size_t i = 0; i < 8; i++)
+        ends[C + i] = zero_token + 16;
+    /* 10^f for f = 0 .. 14, 1 for the "no dot" count 15; and their reciprocals, rounded */
+    const __m512d p10a = _mm512_setr_pd(1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7);
+    const __m512d p10b = _mm512_setr_pd(1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e0);
+    const __m512d r10a = _mm512_setr_pd(1e0, 1e-1, 1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7);
+    const __m512d r10b = _mm512_setr_pd(1e-8, 1e-9, 1e-10, 1e-11, 1e-12, 1e-13, 1e-14, 1e0);
+    const __m512i even = _mm512_setr_epi64(0, 2, 4, 6, 8, 10, 12, 14);
+    const __m512i sign = _mm512_set1_epi64((long long)0x8000000000000000u);
+    for (size_t i = 0; i < C; i += 8) {
+        __m512i ma, fa, mb, fb;
+        unsigned na, nb;
+        unsigned bad = lanes4(windows4(ends + i), &ma, &fa, &na);
+        bad |= lanes4(windows4(ends + i + 4), &mb, &fb, &nb) << 4;
+        const __m512i m = _mm512_permutex2var_epi64(ma, even, mb);
+        const __m512i f = _mm512_permutex2var_epi64(fa, even, fb);
+        /* M / 10^f without a division: q0 = M * RN(10^-f) is within 2 ulps of the quotient,
+         * r = M - q0 10^f is exact (one FMA), and q0 + r RN(10^-f) lands within 2^-51 ulp of
+         * M / 10^f, which is never within 2^-47 ulp of a midpoint between doubles (M < 2^53,
+         * f <= 14): the same double as the division (Markstein's correction) */
+        const __m512d md = _mm512_cvtepu64_pd(m);
+        const __m512d y = _mm512_permutex2var_pd(r10a, f, r10b);
+        const __m512d q0 = _mm512_mul_pd(md, y);
+        const __m512d r = _mm512_fnmadd_pd(q0, _mm512_permutex2var_pd(p10a, f, p10b), md);
+        const __m512d v = _mm512_fmadd_pd(r, y, q0);
+        const __m512i s = _mm512_mask_or_epi64(_mm512_castpd_si512(v),
+                                               (__mmask8)(na | (nb << 4)), _mm512_castpd_si512(v),
+                                               sign);
+        _mm512_storeu_si512((void *)(row + i), s);
+        for (; bad; bad &= bad - 1) {
+            const size_t c = i + (size_t)_tzcnt_u32(bad);
+            if (c < C && !token_slow(p, ends[c], row + c))
+                return 0;
+        }
+    }
+    return 1;
+}
+
+static int have_avx512(void)
+{
+    return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
+           __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512vl") &&
+           __builtin_cpu_supports("bmi") && __builtin_cpu_supports("bmi2") &&
+           __builtin_cpu_supports("popcnt");
+}
+#endif
+
+void bvh_kernels_pick(bvh_kernels *k, int force_portable)
+{
+    k->line = NULL;
+    k->frame = frame_portable;
+#ifdef BVH_X86
+    if (!force_portable && have_avx512()) {
+        k->line = line_avx512;
+        k->frame = frame_avx512;
+    }
+#else
+    (void)force_portable;
+#endif
+}

@@ -1,0 +1,298 @@
+#define _POSIX_C_SOURCE 200809L
+/* The BVH reader's whole-line number kernel (libmlayer/bvh_frames.c, compiled in here): on a
+ * CPU that has it, it must take every frame line of every real clip and random lines of
+ * numbers, give strtod's double bit for bit, and decline (leave to the careful parser, which
+ * reports the error) every line that holds something other than C numbers. The reader-level
+ * checks are in test_bvh.c. */
+#include "mlr_test.h"
+
+#include "bvh_frames.c"
+#include "numparse.c"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* Text placed before every line: the kernel reads up to 16 bytes before a token's end. */
+static const char prefix[] = "Frame Time: 0.033333\n";
+
+static bvh_kernels kernels(void)
+{
+    bvh_kernels k;
+    bvh_kernels_pick(&k, 0);
+    return k;
+}
+
+/* A copy of prefix + line in a block of exactly that size (so that ASan sees any overread). */
+static char *framed(const char *line, size_t len, const char **start, const char **end)
+{
+    size_t pl = sizeof prefix - 1;
+    char *b = malloc(pl + len);
+    ck_assert_ptr_nonnull(b);
+    memcpy(b, prefix, pl);
+    memcpy(b + pl, line, len);
+    *start = b + pl;
+    *end = b + pl + len;
+    return b;
+}
+
+/* Run the kernel on line[0, len) holding C values; returns its verdict and checks, when it
+ * takes the line, every value against strtod and the line end against the first CR/LF. */
+static int run_line(const bvh_kernels *k, const char *line, size_t len, size_t C)
+{
+    const char *p, *end, *le = NULL;
+    char *b = framed(line, len, &p, &end);
+    const char **ends = malloc((C + 16) * sizeof *ends);
+    double *row = malloc(((C + 7) / 8 * 8 + 8) * sizeof *row);
+    ck_assert(ends && row);
+    int ok = k->line(p, end, C, ends, row, &le);
+    if (ok) {
+        const char *q = p, *eol = p;
+        while (eol < end && *eol != '\n' && *eol != '\r')
+            eol++;
+        ck_assert_ptr_eq(le, eol);
+        char tmp[64];
+        for (size_t c = 0; c < C; c++) {
+            while (*q == ' ' || *q == '\t')
+                q++;
+            size_t n = 0;
+            while (q + n < eol && q[n] != ' ' && q[n] != '\t')
+                n++;
+            ck_assert(n > 0 && n < sizeof tmp);
+            memcpy(tmp, q, n);
+            tmp[n] = '\0';
+            const double ref = strtod(tmp, NULL);
+            ck_assert_msg(memcmp(&ref, &row[c], sizeof ref) == 0, "'%s': %.17g, strtod %.17g",
+                          tmp, row[c], ref);
+            q += n;
+        }
+    }
+    free(row);
+    free(ends);
+    free(b);
+    return ok;
+}
+
+/* A random number of the form the kernel takes: sign, digits, at most one dot, 1..15 bytes. */
+static size_t simple_token(mlr_test_rng *r, char *t)
+{
+    size_t n = 0;
+    const int neg = (int)(mlr_test_rng_u64(r) & 1);
+    if (neg)
+        t[n++] = '-';
+    const size_t room = 15 - (size_t)neg;
+    const int dot = (int)(mlr_test_rng_u64(r) % 4) != 0;
+    size_t digits = 1 + (size_t)(mlr_test_rng_u64(r) % (room - (size_t)dot));
+    if (mlr_test_rng_u64(r) % 3 == 0) /* short tokens are common in real files */
+        digits = 1 + (size_t)(mlr_test_rng_u64(r) % 3);
+    const size_t at = dot ? (size_t)(mlr_test_rng_u64(r) % (digits + 1)) : SIZE_MAX;
+    for (size_t i = 0; i < digits; i++) {
+        if (i == at)
+            t[n++] = '.';
+        t[n++] = (char)('0' + mlr_test_rng_u64(r) % 10);
+    }
+    if (at == digits)
+        t[n++] = '.';
+    t[n] = '\0';
+    return n;
+}
+
+/* A random line of C simple tokens with varied blanks and line end; returns its length. */
+static size_t simple_line(mlr_test_rng *r, size_t C, char *buf)
+{
+    static const char *const seps[] = {" ", " ", " ", "\t", "  ", " \t ", "\t\t"};
+    static const char *const eols[] = {"\n", "\r\n", "\r", "", "\r\n"};
+    size_t n = 0;
+    if (mlr_test_rng_u64(r) % 8 == 0)
+        buf[n++] = ' ';
+    for (size_t c = 0; c < C; c++) {
+        if (c)
+            n += (size_t)sprintf(buf + n, "%s", seps[mlr_test_rng_u64(r) % MLR_COUNTOF(seps)]);
+        n += simple_token(r, buf + n);
+    }
+    if (mlr_test_rng_u64(r) % 8 == 0)
+        buf[n++] = '\t';
+    n += (size_t)sprintf(buf + n, "%s", eols[mlr_test_rng_u64(r) % MLR_COUNTOF(eols)]);
+    return n;
+}
+
+START_TEST(line_kernel_takes_every_line_of_every_clip)
+{
+    static const char *const files[] = {
+        "cmu_01_01_playground_jumps.bvh", "cmu_131_01_mj_style_walk.bvh",
+        "cmu_10_01_soccer_kick.bvh",      "cmu_60_10_salsa_dance.bvh",
+        "cmu_02_03_run_jog_25fps.bvh",    "lafan1_clip_a.bvh",
+        "bandai1_walk_happy_001.bvh",     "ai4a_dog_D1_008_KAN01_002.bvh",
+    };
+    const bvh_kernels k = kernels();
+    if (!k.line)
+        return; /* no whole-line kernel on this CPU: the careful parser reads everything */
+    const char *dir = mlr_test_mocap_dir();
+    ck_assert_ptr_nonnull(dir);
+    char path[4096];
+    snprintf(path, sizeof path, "%s/%s", dir, files[_i]);
+    FILE *fp = fopen(path, "rb");
+    ck_assert_ptr_nonnull(fp);
+    fseek(fp, 0, SEEK_END);
+    const size_t len = (size_t)ftell(fp);
+    fseek(fp, 0, SEEK_SET);
+    char *text = malloc(len);
+    ck_assert_ptr_nonnull(text);
+    ck_assert_uint_eq(fread(text, 1, len, fp), len);
+    fclose(fp);
+    const char *end = text + len, *p = text;
+    while (p < end && strncmp(p, "Frame Time:", 11) != 0)
+        p = (const char *)memchr(p, '\n', (size_t)(end - p)) + 1;
+    p = (const char *)memchr(p, '\n', (size_t)(end - p)) + 1;
+    size_t C = 0, lines = 0;
+    for (const char *q = p; *q != '\r' && *q != '\n'; q++)
+        C += (q[0] != ' ' && q[0] != '\t') && (q == p || q[-1] == ' ' || q[-1] == '\t');
+    const char **ends = malloc((C + 16) * sizeof *ends);
+    double *row = malloc((C + 16) * sizeof *row);
+    ck_assert(ends && row);
+    while (p < end) {
+        const char *le = NULL;
+        ck_assert_msg(k.line(p, end, C, ends, row, &le), "%s: line %zu of the frames declined",
+                      files[_i], lines + 1);
+        const char *q = p;
+        for (size_t c = 0; c < C; c++) {
+            char *e;
+            const double ref = strtod(q, &e);
+            ck_assert_msg(memcmp(&ref, &row[c], sizeof ref) == 0,
+                          "%s: frame %zu value %zu: %.17g, strtod %.17g", files[_i], lines + 1,
+                          c + 1, row[c], ref);
+            q = e;
+        }
+        while (q < end && (*q == ' ' || *q == '\t'))
+            q++;
+        ck_assert_ptr_eq(le, q);
+        p = le;
+        if (p < end && *p == '\r')
+            p++;
+        if (p < end && *p == '\n')
+            p++;
+        lines++;
+    }
+    ck_assert_uint_gt(lines, 100);
+    free(row);
+    free(ends);
+    free(text);
+}
+END_TEST
+
+START_TEST(line_kernel_takes_random_simple_lines)
+{
+    const bvh_kernels k = kernels();
+    if (!k.line)
+        return;
+    mlr_test_rng r;
+    mlr_test_rng_seed(&r, 2024);
+    char *buf = malloc(400 * 24);
+    ck_assert_ptr_nonnull(buf);
+    size_t values = 0;
+    for (int it = 0; it < 3000; it++) {
+        const size_t C = 1 + (size_t)(mlr_test_rng_u64(&r) % (it % 10 == 0 ? 400 : 40));
+        const size_t len = simple_line(&r, C, buf);
+        ck_assert_msg(run_line(&k, buf, len, C), "declined: '%.*s'", (int)len, buf);
+        values += C;
+    }
+    ck_assert_uint_gt(values, 50000);
+    free(buf);
+}
+END_TEST
+
+START_TEST(line_kernel_declines_what_it_does_not_take)
+{
+    const bvh_kernels k = kernels();
+    if (!k.line)
+        return;
+    /* no numbers: the line goes to the careful parser, which reports them */
+    static const char *const odd[] = {
+        "1.2.3", "..1", "-", ".", "-.", "1-2", "--1", "1-", "0x1", "nan", "inf", "-inf", "1,5",
+        "1/2", "/", "12a", "1e", "1e+", "e5", "+", "1e999", "\x01", "1\x7f", "\xc3\xa9", "1\v2",
+        "1\f2", "1\x00" "2",
+    };
+    mlr_test_rng r;
+    mlr_test_rng_seed(&r, 99);
+    char buf[4096];
+    for (size_t i = 0; i < MLR_COUNTOF(odd); i++) {
+        const size_t olen = i == MLR_COUNTOF(odd) - 1 ? 3 : strlen(odd[i]);
+        for (int rep = 0; rep < 40; rep++) {
+            const size_t C = 1 + (size_t)(mlr_test_rng_u64(&r) % 30);
+            const size_t at = (size_t)(mlr_test_rng_u64(&r) % C);
+            size_t n = 0;
+            for (size_t c = 0; c < C; c++) {
+                if (c)
+                    buf[n++] = ' ';
+                if (c == at) {
+                    memcpy(buf + n, odd[i], olen);
+                    n += olen;
+                } else {
+                    n += simple_token(&r, buf + n);
+                }
+            }
+            n += (size_t)sprintf(buf + n, "%s", rep % 2 ? "\r\n" : "\n");
+            ck_assert_msg(!run_line(&k, buf, n, C), "took '%s'", odd[i]);
+        }
+    }
+    /* wrong counts, blank lines, a lone line end */
+    for (int rep = 0; rep < 200; rep++) {
+        const size_t C = 1 + (size_t)(mlr_test_rng_u64(&r) % 50);
+        size_t n = simple_line(&r, C, buf);
+        ck_assert(run_line(&k, buf, n, C));
+        ck_assert(!run_line(&k, buf, n, C + 1));
+        if (C > 1)
+            ck_assert(!run_line(&k, buf, n, C - 1));
+    }
+    /* numbers the vector lanes leave to the scalar parser: still taken, still exact */
+    static const char *const long_ones[] = {
+        "1e5", "1E5", "+1", "+.5", "-2.5e+2", "1.5E-3", "5.1072e-06", "-1.51632e-14",
+        "1234567890123456", "-123456789012345", "123456789012345.", "1.23456789012345",
+        "0.12345678901234567", "9007199254740993", "-0.000000000000000000001",
+        "1.00000000000000011102230246251565", "2.5e-300",
+    };
+    for (size_t i = 0; i < MLR_COUNTOF(long_ones); i++)
+        for (int rep = 0; rep < 40; rep++) {
+            const size_t C = 1 + (size_t)(mlr_test_rng_u64(&r) % 30);
+            const size_t at = (size_t)(mlr_test_rng_u64(&r) % C);
+            size_t n = 0;
+            for (size_t c = 0; c < C; c++) {
+                if (c)
+                    buf[n++] = ' ';
+                n += c == at ? (size_t)sprintf(buf + n, "%s", long_ones[i])
+                             : simple_token(&r, buf + n);
+            }
+            n += (size_t)sprintf(buf + n, "%s", rep % 2 ? "\r\n" : "");
+            ck_assert_msg(run_line(&k, buf, n, C), "declined '%s'", long_ones[i]);
+        }
+    ck_assert(!run_line(&k, "\n1 2 3\n", 7, 3));
+    ck_assert(!run_line(&k, "  \t \r\n", 6, 1));
+    ck_assert(!run_line(&k, "", 0, 1));
+}
+END_TEST
+
+START_TEST(portable_kernels_have_no_line_parser)
+{
+    bvh_kernels k;
+    bvh_kernels_pick(&k, 1);
+    ck_assert(k.line == NULL);
+    ck_assert(k.frame == frame_portable);
+    static const char nl[] = "a\nb\r\n\nc";
+    ck_assert_uint_eq(bvh_count_newlines(nl, nl + 7), 3);
+}
+END_TEST
+
+static Suite *bvh_frames_suite(void)
+{
+    Suite *s = suite_create("bvh_frames");
+    TCase *tc = tcase_create("line kernel");
+    tcase_add_loop_test(tc, line_kernel_takes_every_line_of_every_clip, 0, 8);
+    tcase_add_test(tc, line_kernel_takes_random_simple_lines);
+    tcase_add_test(tc, line_kernel_declines_what_it_does_not_take);
+    tcase_add_test(tc, portable_kernels_have_no_line_parser);
+    suite_add_tcase(s, tc);
+    return s;
+}
+
+int main(void) { return mlr_test_run(bvh_frames_suite()); }
