@@ -66,7 +66,7 @@ static void frame_portable(const bvh_conv *cv, const double *restrict row, doubl
     }
 }
 
-size_t bvh_count_newlines(const char *p, const char *end)
+static size_t count_newlines_portable(const char *p, const char *end)
 {
     size_t n = 0;
     for (; p < end; p++)
@@ -92,6 +92,8 @@ AVX512 static void frame_avx512(const bvh_conv *cv, const double *restrict row,
     const uint32_t *restrict g = src + 3 + 3 * P;
     double *restrict half = tmp, *restrict sn = tmp + 3 * Jp, *restrict cs = tmp + 6 * Jp;
     const __m512d h = _mm512_set1_pd(0.5);
+    const __m512d limit = _mm512_set1_pd(MLR_SINCOSD_LIMIT);
+    __mmask8 big = 0; /* a half-angle the kernel does not reduce exactly */
     const __m512i lo = _mm512_setr_epi64(0, 4, 1, 5, 8, 12, 9, 13);
     const __m512i hi = _mm512_setr_epi64(2, 6, 3, 7, 10, 14, 11, 15);
     for (size_t j = 0; j < Jp; j += 8) {
@@ -106,18 +108,28 @@ AVX512 static void frame_avx512(const bvh_conv *cv, const double *restrict row,
 #  undef LD2
             const __m512d e0 = _mm512_unpacklo_pd(z0, z1), e1 = _mm512_unpackhi_pd(z0, z1);
             const __m512d e2 = _mm512_unpacklo_pd(z2, z3), e3 = _mm512_unpackhi_pd(z2, z3);
-            _mm512_storeu_pd(half + j, _mm512_mul_pd(h, _mm512_permutex2var_pd(e0, lo, e2)));
-            _mm512_storeu_pd(half + Jp + j,
-                             _mm512_mul_pd(h, _mm512_permutex2var_pd(e1, lo, e3)));
-            _mm512_storeu_pd(half + 2 * Jp + j,
-                             _mm512_mul_pd(h, _mm512_permutex2var_pd(e0, hi, e2)));
+            const __m512d a0 = _mm512_mul_pd(h, _mm512_permutex2var_pd(e0, lo, e2));
+            const __m512d a1 = _mm512_mul_pd(h, _mm512_permutex2var_pd(e1, lo, e3));
+            const __m512d a2 = _mm512_mul_pd(h, _mm512_permutex2var_pd(e0, hi, e2));
+            _mm512_storeu_pd(half + j, a0);
+            _mm512_storeu_pd(half + Jp + j, a1);
+            _mm512_storeu_pd(half + 2 * Jp + j, a2);
+            big |= _mm512_cmp_pd_mask(_mm512_abs_pd(a0), limit, _CMP_NLT_UQ) |
+                   _mm512_cmp_pd_mask(_mm512_abs_pd(a1), limit, _CMP_NLT_UQ) |
+                   _mm512_cmp_pd_mask(_mm512_abs_pd(a2), limit, _CMP_NLT_UQ);
         } else {
             for (size_t k = 0; k < 3; k++)
                 for (size_t i = 0; i < 8; i++)
                     half[k * Jp + j + i] = 0.5 * row[g[k * Jp + j + i]];
+            big = 1; /* let mlr_sincosd_array check these */
         }
     }
-    mlr_sincosd_array(half, 3 * Jp, sn, cs);
+    if (big) {
+        mlr_sincosd_array(half, 3 * Jp, sn, cs);
+    } else { /* as mlr_sincosd_array does when no angle is large */
+        for (size_t k = 0; k < 3 * Jp; k++)
+            mlr_sincosd_kernel(half[k], sn + k, cs + k);
+    }
     const __m128i zero = _mm_setzero_si128(), one = _mm_set1_epi8(1);
     for (size_t j = 0; j < J; j += 8) {
         const __m512d ca = _mm512_loadu_pd(cs + j), sa = _mm512_loadu_pd(sn + j);
@@ -332,6 +344,16 @@ AVX512 static int line_avx512(const char *p, const char *end, size_t C, const ch
     return 1;
 }
 
+AVX512 static size_t count_newlines_avx512(const char *p, const char *end)
+{
+    const __m512i lf = _mm512_set1_epi8('\n');
+    size_t n = 0;
+    for (; end - p >= 64; p += 64)
+        n += (size_t)_mm_popcnt_u64(
+            _mm512_cmpeq_epi8_mask(_mm512_loadu_si512((const void *)p), lf));
+    return n + count_newlines_portable(p, end);
+}
+
 static int have_avx512(void)
 {
     return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
@@ -345,10 +367,12 @@ void bvh_kernels_pick(bvh_kernels *k, int force_portable)
 {
     k->line = NULL;
     k->frame = frame_portable;
+    k->count_newlines = count_newlines_portable;
 #ifdef BVH_X86
     if (!force_portable && have_avx512()) {
         k->line = line_avx512;
         k->frame = frame_avx512;
+        k->count_newlines = count_newlines_avx512;
     }
 #else
     (void)force_portable;

@@ -63,12 +63,10 @@ typedef void (*bvh_frame_fn)(const bvh_conv *cv, const double *row, double *tmp,
 typedef struct bvh_kernels {
     bvh_line_fn line;      /* NULL when no whole-line parser suits this CPU */
     bvh_frame_fn frame;
+    size_t (*count_newlines)(const char *p, const char *end); /* '\n' bytes in [p, end) */
 } bvh_kernels;
 
 /* The fastest kernels for this CPU (force_portable: the portable ones, for tests). */
 void bvh_kernels_pick(bvh_kernels *k, int force_portable);
-
-/* Count of '\n' bytes in [p, end). */
-size_t bvh_count_newlines(const char *p, const char *end);
 
 #endif

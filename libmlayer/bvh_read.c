@@ -547,7 +547,7 @@ static mlr_status parse_frames(parser *ps, const frames_plan *pl, frames_job *jo
         const char *nl = memchr(from, '\n', (size_t)(ps->end - from));
         if (!nl || nl + 1 >= ps->end || nl + 1 <= jobs[used - 1].start)
             break;
-        size_t g = jobs[used - 1].f0 + bvh_count_newlines(jobs[used - 1].start, nl + 1);
+        size_t g = jobs[used - 1].f0 + pl->k.count_newlines(jobs[used - 1].start, nl + 1);
         if (g >= N || g <= jobs[used - 1].f0)
             break;
         frames_job *jb = &jobs[used++];

@@ -272,14 +272,27 @@ START_TEST(line_kernel_declines_what_it_does_not_take)
 }
 END_TEST
 
-START_TEST(portable_kernels_have_no_line_parser)
+START_TEST(portable_kernels_and_line_counts)
 {
     bvh_kernels k;
     bvh_kernels_pick(&k, 1);
     ck_assert(k.line == NULL);
     ck_assert(k.frame == frame_portable);
-    static const char nl[] = "a\nb\r\n\nc";
-    ck_assert_uint_eq(bvh_count_newlines(nl, nl + 7), 3);
+    /* the line counts that place the threads' shares, both builds */
+    const bvh_kernels f = kernels();
+    char *text = malloc(1000);
+    ck_assert_ptr_nonnull(text);
+    for (size_t i = 0; i < 1000; i++)
+        text[i] = i % 7 == 0 || i % 11 == 0 ? '\n' : i % 13 == 0 ? '\r' : 'x';
+    for (size_t a = 0; a < 200; a += 7)
+        for (size_t b = a; b <= 1000; b += 61) {
+            size_t want = 0;
+            for (size_t i = a; i < b; i++)
+                want += text[i] == '\n';
+            ck_assert_uint_eq(k.count_newlines(text + a, text + b), want);
+            ck_assert_uint_eq(f.count_newlines(text + a, text + b), want);
+        }
+    free(text);
 }
 END_TEST
 
@@ -290,7 +303,7 @@ static Suite *bvh_frames_suite(void)
     tcase_add_loop_test(tc, line_kernel_takes_every_line_of_every_clip, 0, 8);
     tcase_add_test(tc, line_kernel_takes_random_simple_lines);
     tcase_add_test(tc, line_kernel_declines_what_it_does_not_take);
-    tcase_add_test(tc, portable_kernels_have_no_line_parser);
+    tcase_add_test(tc, portable_kernels_and_line_counts);
     suite_add_tcase(s, tc);
     return s;
 }
