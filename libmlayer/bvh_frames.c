@@ -36,8 +36,12 @@
 
 /* Portable: gathers, sines and cosines of the half-angles, and q = q_i(a0) q_j(a1) q_k(a2) in
  * the same operations as mlr_quat_from_euler_half. */
-static void frame_portable(const bvh_conv *cv, const double *restrict row, double *restrict tmp,
-                           double *restrict rp, double *restrict tr, double *restrict q)
+#if defined(__GNUC__)
+__attribute__((always_inline))
+#endif
+static inline void frame_body(const bvh_conv *cv, const double *restrict row,
+                              double *restrict tmp, double *restrict rp, double *restrict tr,
+                              double *restrict q)
 {
     const size_t J = cv->J, Jp = cv->Jp, P = cv->P;
     const uint32_t *restrict src = cv->src;
@@ -66,6 +70,12 @@ static void frame_portable(const bvh_conv *cv, const double *restrict row, doubl
     }
 }
 
+static void frame_portable(const bvh_conv *cv, const double *row, double *tmp, double *rp,
+                           double *tr, double *q)
+{
+    frame_body(cv, row, tmp, rp, tr, q);
+}
+
 static size_t count_newlines_portable(const char *p, const char *end)
 {
     size_t n = 0;
@@ -76,6 +86,15 @@ static size_t count_newlines_portable(const char *p, const char *end)
 
 #ifdef BVH_X86
 #  define AVX512 __attribute__((target("avx512f,avx512bw,avx512dq,avx512vl,bmi,bmi2,popcnt")))
+
+/* frame_portable compiled for AVX2 (4 doubles a vector): the same operations, so the same bits
+ * (no FMA: GCC does not contract in ISO C mode, clang is told not to above). */
+__attribute__((target("avx2"))) static void frame_avx2(const bvh_conv *cv, const double *row,
+                                                      double *tmp, double *rp, double *tr,
+                                                      double *q)
+{
+    frame_body(cv, row, tmp, rp, tr, q);
+}
 
 /* As frame_portable, 8 joints at a time: the same operations in the same order, so the same
  * results (the sines and cosines are the same inline code, vectorized by the compiler). */
@@ -373,6 +392,8 @@ void bvh_kernels_pick(bvh_kernels *k, int force_portable)
         k->line = line_avx512;
         k->frame = frame_avx512;
         k->count_newlines = count_newlines_avx512;
+    } else if (!force_portable && __builtin_cpu_supports("avx2")) {
+        k->frame = frame_avx2;
     }
 #else
     (void)force_portable;

@@ -1,18 +1,28 @@
 #define _POSIX_C_SOURCE 200809L
-/* The BVH reader's whole-line number kernel (libmlayer/bvh_frames.c, compiled in here): on a
- * CPU that has it, it must take every frame line of every real clip and random lines of
- * numbers, give strtod's double bit for bit, and decline (leave to the careful parser, which
- * reports the error) every line that holds something other than C numbers. The reader-level
- * checks are in test_bvh.c. */
+/* The BVH reader's MOTION kernels (libmlayer/bvh_frames.c, compiled in here). The whole-line
+ * number kernel, on a CPU that has it, must take every frame line of every real clip and random
+ * lines of numbers, give strtod's double bit for bit, and decline (leave to the careful parser,
+ * which reports the error) every line that holds something other than C numbers. The frame
+ * kernels (portable, AVX2, AVX-512) must give the same bits on random conversion plans, those of
+ * mlr_quat_from_euler_half on the sines and cosines of the half-angles. The reader-level checks
+ * are in test_bvh.c. */
 #include "mlr_test.h"
 
 #include "bvh_frames.c"
+#include "mlr_internal.h" /* mlr_quat_from_euler_half: the reference product */
 #include "numparse.c"
 
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+
+/* Axes and parity of the Euler orders as mlr_quat.h numbers them (quat.c's tables are not
+ * compiled in here). */
+static const unsigned char ref_axes[6][3] = {
+    {0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0},
+};
+static const double ref_parity[6] = {1.0, -1.0, -1.0, 1.0, 1.0, -1.0};
 
 /* Text placed before every line: the kernel reads up to 16 bytes before a token's end. */
 static const char prefix[] = "Frame Time: 0.033333\n";
@@ -296,6 +306,125 @@ START_TEST(portable_kernels_and_line_counts)
 }
 END_TEST
 
+/* A random conversion plan: C channels, J joints, P translated joints; each slot takes a random
+ * channel or none, joints in groups of 8 with their angles in consecutive channels or not. */
+typedef struct rplan {
+    bvh_conv cv;
+    uint32_t *src, *tri;
+    unsigned char *sel, *tri_ok;
+    double *par;
+} rplan;
+
+static void rplan_make(mlr_test_rng *r, rplan *rp)
+{
+    const size_t J = 1 + (size_t)(mlr_test_rng_u64(r) % 50), Jp = (J + 7) / 8 * 8;
+    const size_t P = (size_t)(mlr_test_rng_u64(r) % J), C = 3 * J + 6 + (size_t)(mlr_test_rng_u64(r) % 9);
+    const size_t R = (C + 7) / 8 * 8;
+    bvh_conv *cv = &rp->cv;
+    cv->C = C, cv->J = J, cv->Jp = Jp, cv->P = P, cv->R = R;
+    rp->src = malloc((3 + 3 * P + 3 * Jp) * sizeof(uint32_t));
+    rp->tri = malloc(Jp * sizeof(uint32_t));
+    rp->sel = malloc(3 * Jp);
+    rp->tri_ok = malloc(Jp / 8);
+    rp->par = malloc(Jp * sizeof(double));
+    ck_assert(rp->src && rp->tri && rp->sel && rp->tri_ok && rp->par);
+    for (size_t k = 0; k < 3 + 3 * P; k++) /* a channel or a constant */
+        rp->src[k] = mlr_test_rng_u64(r) % 4 ? (uint32_t)(mlr_test_rng_u64(r) % C)
+                                              : (uint32_t)(R + 4 + k);
+    uint32_t *g = rp->src + 3 + 3 * P;
+    for (size_t j = 0; j < Jp; j += 8) {
+        const int regular = mlr_test_rng_u64(r) % 3 != 0;
+        rp->tri_ok[j / 8] = (unsigned char)regular;
+        for (size_t i = j; i < j + 8; i++) {
+            const uint32_t base = (uint32_t)(mlr_test_rng_u64(r) % (C - 2));
+            rp->tri[i] = i < J ? base : (uint32_t)R;
+            for (size_t k = 0; k < 3; k++)
+                g[k * Jp + i] = i >= J ? (uint32_t)R
+                                : regular ? base + (uint32_t)k
+                                : mlr_test_rng_u64(r) % 5 ? (uint32_t)(mlr_test_rng_u64(r) % C)
+                                                          : (uint32_t)R;
+            const unsigned o = (unsigned)(mlr_test_rng_u64(r) % 6);
+            rp->par[i] = i < J ? ref_parity[o] : 1.0;
+            for (size_t a = 0; a < 3; a++) /* slot of axis a: the inverse of the order's axes */
+                rp->sel[ref_axes[o][a] * Jp + i] = i < J ? (unsigned char)a : 0;
+        }
+    }
+    cv->src = rp->src, cv->tri = rp->tri, cv->tri_ok = rp->tri_ok, cv->sel = rp->sel;
+    cv->par = rp->par;
+}
+
+static void rplan_free(rplan *rp)
+{
+    free(rp->src), free(rp->tri), free(rp->sel), free(rp->tri_ok), free(rp->par);
+}
+
+START_TEST(frame_kernels_agree_bit_for_bit)
+{
+    bvh_frame_fn fns[3] = {frame_portable, NULL, NULL};
+#ifdef BVH_X86
+    if (__builtin_cpu_supports("avx2"))
+        fns[1] = frame_avx2;
+    if (have_avx512())
+        fns[2] = frame_avx512;
+#endif
+    mlr_test_rng r;
+    mlr_test_rng_seed(&r, 31337);
+    for (int it = 0; it < 300; it++) {
+        rplan rp;
+        rplan_make(&r, &rp);
+        const bvh_conv *cv = &rp.cv;
+        const size_t J = cv->J, P = cv->P, n_row = bvh_frame_row_size(cv);
+        double *row = malloc(n_row * sizeof *row), *tmp = malloc(bvh_frame_tmp_size(cv) * 8);
+        double *out[3];
+        const size_t n_out = 3 + 3 * P + 4 * J;
+        for (int v = 0; v < 3; v++)
+            out[v] = malloc(n_out * sizeof(double));
+        ck_assert(row && tmp && out[0] && out[1] && out[2]);
+        for (size_t c = 0; c < n_row; c++) {
+            const uint64_t kind = mlr_test_rng_u64(&r) % 50;
+            row[c] = kind == 0 ? 0x1p53 * mlr_test_rng_normal(&r) /* reduced with fmod */
+                     : kind == 1 ? 90.0 * (double)(int)(mlr_test_rng_u64(&r) % 9)
+                                 : 400.0 * mlr_test_rng_normal(&r);
+        }
+        for (size_t k = cv->R; k < cv->R + 4; k++)
+            row[k] = 0.0;
+        for (int v = 0; v < 3; v++) {
+            if (!fns[v])
+                continue;
+            double *o = out[v];
+            fns[v](cv, row, tmp, o, o + 3, o + 3 + 3 * P);
+            ck_assert_msg(memcmp(o, out[0], n_out * sizeof(double)) == 0,
+                          "kernel %d differs from the portable one (plan %d)", v, it);
+        }
+        /* the portable kernel against the reference formula */
+        const uint32_t *g = cv->src + 3 + 3 * P;
+        for (size_t j = 0; j < J; j++) {
+            double sn[3], cs[3];
+            for (size_t k = 0; k < 3; k++) {
+                const double h = 0.5 * row[g[k * cv->Jp + j]];
+                mlr_sincosd_kernel(fabs(h) < MLR_SINCOSD_LIMIT ? h : fmod(h, 360.0), &sn[k],
+                                   &cs[k]);
+            }
+            unsigned char axes[3];
+            for (size_t a = 0; a < 3; a++)
+                axes[cv->sel[a * cv->Jp + j]] = (unsigned char)a;
+            mlr_quat q;
+            mlr_quat_from_euler_half(cs[0], sn[0], cs[1], sn[1], cs[2], sn[2], axes, cv->par[j],
+                                     &q);
+            const double want[4] = {q.w, q.x, q.y, q.z};
+            ck_assert(memcmp(want, out[0] + 3 + 3 * P + 4 * j, sizeof want) == 0);
+        }
+        for (size_t k = 0; k < 3 + 3 * P; k++)
+            ck_assert(memcmp(&out[0][k], &row[cv->src[k]], sizeof(double)) == 0);
+        for (int v = 0; v < 3; v++)
+            free(out[v]);
+        free(tmp);
+        free(row);
+        rplan_free(&rp);
+    }
+}
+END_TEST
+
 static Suite *bvh_frames_suite(void)
 {
     Suite *s = suite_create("bvh_frames");
@@ -304,6 +433,7 @@ static Suite *bvh_frames_suite(void)
     tcase_add_test(tc, line_kernel_takes_random_simple_lines);
     tcase_add_test(tc, line_kernel_declines_what_it_does_not_take);
     tcase_add_test(tc, portable_kernels_and_line_counts);
+    tcase_add_test(tc, frame_kernels_agree_bit_for_bit);
     suite_add_tcase(s, tc);
     return s;
 }
