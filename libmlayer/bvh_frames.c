@@ -14,6 +14,12 @@
  *    exact power of ten, one correctly rounded division (Clinger's fast path), the double that
  *    strtod returns. The sign is set as a bit ("-0" gives -0.0, as strtod).
  * Any lane outside this form sends the line to the careful parser; nothing is guessed. */
+/* All builds must round alike: no contraction into FMA (the build passes -ffp-contract=off;
+ * clang also gets the pragma, before the inline code of sincosd.h is read) */
+#if defined(__clang__)
+#  pragma STDC FP_CONTRACT OFF
+#endif
+
 #include "bvh_frames.h"
 
 #include "numparse.h"
@@ -21,11 +27,6 @@
 
 #include <string.h>
 
-/* Both builds must round alike: no contraction into FMA where the compiler may contract by
- * default (clang; GCC does not contract in ISO C mode) */
-#if defined(__clang__)
-#  pragma STDC FP_CONTRACT OFF
-#endif
 
 #if (defined(__x86_64__) || defined(__i386__)) && (defined(__GNUC__) || defined(__clang__))
 #  define BVH_X86 1
@@ -197,93 +198,120 @@ static const char zero_token[16] = {' ', ' ', ' ', ' ', ' ', ' ', ' ', ' ',
 
 /* Step 1: token ends of the line at p into ends; returns their count (stops early, returning
  * more than C, once there are too many), 0 with *ok = 0 on a byte that is neither visible
- * ASCII nor a blank or line end. */
-AVX512 static size_t scan_line(const char *p, const char *end, size_t C, const char **ends,
-                               const char **line_end, int *ok)
-{
-    const __m512i vis_lo = _mm512_set1_epi8(0x21), vis_n = _mm512_set1_epi8(0x5E);
-    const __m512i sp = _mm512_set1_epi8(' '), tab = _mm512_set1_epi8('\t');
-    const __m512i lf = _mm512_set1_epi8('\n'), cr = _mm512_set1_epi8('\r');
-    uint64_t carry = 0; /* the byte before the block is a token byte */
-    size_t n = 0;
-    for (;;) {
-        __m512i b;
-        if (end - p >= 64) {
-            b = _mm512_loadu_si512((const void *)p);
-        } else {
-            /* the tail, padded with line ends: the end of the input ends the line */
-            char buf[64];
-            memset(buf, '\n', sizeof buf);
-            memcpy(buf, p, (size_t)(end - p));
-            b = _mm512_loadu_si512((const void *)buf);
-        }
-        const uint64_t tok = _mm512_cmplt_epu8_mask(_mm512_sub_epi8(b, vis_lo), vis_n);
-        const uint64_t blank = _mm512_cmpeq_epi8_mask(b, sp) | _mm512_cmpeq_epi8_mask(b, tab);
-        const uint64_t eol = _mm512_cmpeq_epi8_mask(b, lf) | _mm512_cmpeq_epi8_mask(b, cr);
-        const uint64_t lim = eol ? _blsmsk_u64(eol) : ~(uint64_t)0; /* up to the first eol */
-        if (~(tok | blank | eol) & lim) {
-            *ok = 0;
-            return 0;
-        }
-        uint64_t e = ~tok & ((tok << 1) | carry) & lim;
-        carry = tok >> 63;
-        const size_t cnt = (size_t)_mm_popcnt_u64(e);
-        if (n + cnt > C)
-            return n + cnt;
-        /* 8 at a time without a branch per token; ends has room for 8 past C */
-        const char **o = ends + n;
-        for (size_t k = 0;; k += 8) {
-            for (int i = 0; i < 8; i++) {
-                o[k + (size_t)i] = p + _tzcnt_u64(e);
-                e = _blsr_u64(e);
-            }
-            if (k + 8 >= cnt)
-                break;
-        }
-        n += cnt;
-        if (eol) {
-            const char *le = p + _tzcnt_u64(eol);
-            *line_end = le < end ? le : end;
-            return n;
-        }
-        p += 64;
+ * ASCII nor a blank or line end. CLASSIFY(q, &tok, &blank, &eol) gives the masks of the 64
+ * bytes at q. */
+#  define DEFINE_SCAN_LINE(NAME, ATTR, CLASSIFY)                                               \
+    ATTR static size_t NAME(const char *p, const char *end, size_t C, const char **ends,      \
+                            const char **line_end, int *ok)                                   \
+    {                                                                                         \
+        uint64_t carry = 0; /* the byte before the block is a token byte */                   \
+        size_t n = 0;                                                                         \
+        for (;;) {                                                                            \
+            uint64_t tok, blank, eol;                                                         \
+            if (end - p >= 64) {                                                              \
+                CLASSIFY(p, &tok, &blank, &eol);                                              \
+            } else { /* the tail, padded with line ends: the end of the input ends the line */ \
+                char buf[64];                                                                 \
+                memset(buf, '\n', sizeof buf);                                                \
+                memcpy(buf, p, (size_t)(end - p));                                            \
+                CLASSIFY(buf, &tok, &blank, &eol);                                            \
+            }                                                                                 \
+            const uint64_t lim = eol ? _blsmsk_u64(eol) : ~(uint64_t)0; /* to the first eol */ \
+            if (~(tok | blank | eol) & lim) {                                                 \
+                *ok = 0;                                                                      \
+                return 0;                                                                     \
+            }                                                                                 \
+            uint64_t e = ~tok & ((tok << 1) | carry) & lim;                                   \
+            carry = tok >> 63;                                                                \
+            const size_t cnt = (size_t)_mm_popcnt_u64(e);                                     \
+            if (n + cnt > C)                                                                  \
+                return n + cnt;                                                               \
+            /* 8 at a time without a branch per token; ends has room for 8 past C */          \
+            const char **o = ends + n;                                                        \
+            for (size_t k = 0;; k += 8) {                                                     \
+                for (int i = 0; i < 8; i++) {                                                 \
+                    o[k + (size_t)i] = p + _tzcnt_u64(e);                                     \
+                    e = _blsr_u64(e);                                                         \
+                }                                                                             \
+                if (k + 8 >= cnt)                                                             \
+                    break;                                                                    \
+            }                                                                                 \
+            n += cnt;                                                                         \
+            if (eol) {                                                                        \
+                const char *le = p + _tzcnt_u64(eol);                                         \
+                *line_end = le < end ? le : end;                                              \
+                return n;                                                                     \
+            }                                                                                 \
+            p += 64;                                                                          \
+        }                                                                                     \
     }
+
+AVX512 static inline void classify_avx512(const char *q, uint64_t *tok, uint64_t *blank,
+                                          uint64_t *eol)
+{
+    const __m512i b = _mm512_loadu_si512((const void *)q);
+    *tok = _mm512_cmplt_epu8_mask(_mm512_sub_epi8(b, _mm512_set1_epi8(0x21)),
+                                  _mm512_set1_epi8(0x5E));
+    *blank = _mm512_cmpeq_epi8_mask(b, _mm512_set1_epi8(' ')) |
+             _mm512_cmpeq_epi8_mask(b, _mm512_set1_epi8('\t'));
+    *eol = _mm512_cmpeq_epi8_mask(b, _mm512_set1_epi8('\n')) |
+           _mm512_cmpeq_epi8_mask(b, _mm512_set1_epi8('\r'));
 }
 
+DEFINE_SCAN_LINE(scan_line, AVX512, classify_avx512)
+
+#  define BMI __attribute__((target("bmi,bmi2,popcnt")))
+
 /* Bit i set when 16-bit field i of x is not zero. */
-AVX512 static inline unsigned fields_nonzero(uint64_t x)
+BMI static inline unsigned fields_nonzero(uint64_t x)
 {
     const uint64_t LO = 0x7FFF7FFF7FFF7FFFu, HI = 0x8000800080008000u;
     return (unsigned)_pext_u64((((x & LO) + LO) | x) & HI, HI);
 }
 
-/* Step 2 for four lanes: the integer M in the low qword of each lane (m), the lane's count of
- * fraction digits, 15 for none (f), the lanes with a '-' (bits 0-3 of *neg); returns the lanes
- * (bits 0-3) that do not hold a simple token, whose results are meaningless. */
-AVX512 static inline unsigned lanes4(__m512i w, __m512i *m, __m512i *f, unsigned *neg)
+/* The scalar part of step 2 for four lanes (16-bit fields of 64-bit masks) from the byte-
+ * reversed lanes' masks of blanks (bytes <= 0x20), digits, dots and '-': the token's digits,
+ * the bytes below its dot (bytes 0-14 without a dot) and its first character if it is a '-'.
+ * Returns the lanes (bits 0-3) that do not hold a simple token: their results are meaningless. */
+typedef struct lane_bits { uint64_t dig, below, neg; } lane_bits;
+
+BMI static inline unsigned lane_check(uint64_t ks, uint64_t kd, uint64_t kp, uint64_t km,
+                                      lane_bits *lb)
 {
-    const __m512i rev = _mm512_broadcast_i32x4(
-        _mm_setr_epi8(15, 14, 13, 12, 11, 10, 9, 8, 7, 6, 5, 4, 3, 2, 1, 0));
-    const __m512i iota = _mm512_broadcast_i32x4(
-        _mm_setr_epi8(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15));
     const uint64_t ONE = 0x0001000100010001u, HI = 0x8000800080008000u;
-    const __m512i r = _mm512_shuffle_epi8(w, rev);
-    const uint64_t ks = _mm512_cmple_epu8_mask(r, _mm512_set1_epi8(0x20));
-    const uint64_t kd =
-        _mm512_cmplt_epu8_mask(_mm512_sub_epi8(r, _mm512_set1_epi8('0')), _mm512_set1_epi8(10));
-    const uint64_t kp = _mm512_cmpeq_epi8_mask(r, _mm512_set1_epi8('.'));
-    const uint64_t km = _mm512_cmpeq_epi8_mask(r, _mm512_set1_epi8('-'));
     const uint64_t tok = (ks - ONE) & ~ks; /* the token: bytes below the first blank */
     uint64_t bad = tok & ~(kd | kp | km);
     const uint64_t top = tok & ~(tok >> 1); /* its first character */
     bad |= km & tok & ~top;
     const uint64_t y = (kp & tok) | HI; /* dots, with a sentinel at byte 15 */
     bad |= y & (y - ONE) & ~HI;         /* a second dot */
-    const uint64_t dig = kd & tok;
-    bad |= (dig - ONE) & ~dig & HI; /* no digit (may also flag the lanes above: harmless) */
-    const uint64_t below = (y - ONE) & ~y; /* bytes below the dot (below 15 without one) */
-    const uint64_t above = ~below & ~HI;   /* from the dot up: take the next byte */
-    __m512i t = _mm512_maskz_sub_epi8(dig, r, _mm512_set1_epi8('0'));
+    lb->dig = kd & tok;
+    bad |= (lb->dig - ONE) & ~lb->dig & HI; /* no digit (may also flag the lanes above) */
+    lb->below = (y - ONE) & ~y;
+    lb->neg = km & top;
+    /* a lane without a blank holds a token of 16 bytes or more, and the borrow of ks - ONE
+     * spoils the lanes above it: all four go to the scalar parser */
+    return (ks - ONE) & ~ks & HI ? 0xFu : fields_nonzero(bad);
+}
+
+/* Step 2 for four lanes: the integer M in the low qword of each lane (m), the lane's count of
+ * fraction digits, 15 for none (f), the lanes with a '-' (bits 0-3 of *neg); returns the lanes
+ * that do not hold a simple token (as lane_check). */
+AVX512 static inline unsigned lanes4(__m512i w, __m512i *m, __m512i *f, unsigned *neg)
+{
+    const __m512i rev = _mm512_broadcast_i32x4(
+        _mm_setr_epi8(15, 14, 13, 12, 11, 10, 9, 8, 7, 6, 5, 4, 3, 2, 1, 0));
+    const __m512i iota = _mm512_broadcast_i32x4(
+        _mm_setr_epi8(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15));
+    const __m512i r = _mm512_shuffle_epi8(w, rev);
+    lane_bits lb;
+    const unsigned bad = lane_check(
+        _mm512_cmple_epu8_mask(r, _mm512_set1_epi8(0x20)),
+        _mm512_cmplt_epu8_mask(_mm512_sub_epi8(r, _mm512_set1_epi8('0')), _mm512_set1_epi8(10)),
+        _mm512_cmpeq_epi8_mask(r, _mm512_set1_epi8('.')),
+        _mm512_cmpeq_epi8_mask(r, _mm512_set1_epi8('-')), &lb);
+    const uint64_t above = ~lb.below & ~0x8000800080008000u; /* from the dot up: next byte */
+    __m512i t = _mm512_maskz_sub_epi8(lb.dig, r, _mm512_set1_epi8('0'));
     t = _mm512_shuffle_epi8(t, _mm512_mask_add_epi8(iota, above, iota, _mm512_set1_epi8(1)));
     /* byte k has weight 10^k: pairs, quads, then the low and high 8 digits */
     const __m512i a = _mm512_maddubs_epi16(t, _mm512_set1_epi16(0x0A01));
@@ -292,12 +320,11 @@ AVX512 static inline unsigned lanes4(__m512i w, __m512i *m, __m512i *f, unsigned
     const __m512i d = _mm512_madd_epi16(c, _mm512_set1_epi32(0x27100001));
     *m = _mm512_add_epi64(_mm512_mul_epu32(_mm512_srli_epi64(d, 32), _mm512_set1_epi64(100000000)),
                           _mm512_and_si512(d, _mm512_set1_epi64(0xFFFFFFFF)));
-    const __m512i cnt = _mm512_sad_epu8(_mm512_maskz_set1_epi8(below, 1), _mm512_setzero_si512());
+    const __m512i cnt =
+        _mm512_sad_epu8(_mm512_maskz_set1_epi8(lb.below, 1), _mm512_setzero_si512());
     *f = _mm512_add_epi64(cnt, _mm512_shuffle_epi32(cnt, _MM_PERM_BADC));
-    *neg = fields_nonzero(km & top);
-    /* a lane without a blank holds a token of 16 bytes or more, and the borrow of ks - ONE
-     * spoils the lanes above it: all four go to the scalar parser */
-    return (ks - ONE) & ~ks & HI ? 0xFu : fields_nonzero(bad);
+    *neg = fields_nonzero(lb.neg);
+    return bad;
 }
 
 AVX512 static inline __m512i windows4(const char *const *e)
@@ -363,6 +390,155 @@ AVX512 static int line_avx512(const char *p, const char *end, size_t C, const ch
     return 1;
 }
 
+/* ---- the same line kernel for AVX2: two lanes per register, four numbers per step ---------- */
+
+#  define AVX2 __attribute__((target("avx2,fma,bmi,bmi2,popcnt")))
+
+AVX2 static inline void classify_avx2(const char *q, uint64_t *tok, uint64_t *blank,
+                                      uint64_t *eol)
+{
+    uint64_t m[3] = {0, 0, 0};
+    for (int h = 0; h < 2; h++) {
+        const __m256i b = _mm256_loadu_si256((const __m256i *)(const void *)(q + 32 * h));
+        /* visible ASCII 0x21 .. 0x7e: as signed bytes, above 0x20 and below 0x7f */
+        const __m256i vis = _mm256_and_si256(_mm256_cmpgt_epi8(b, _mm256_set1_epi8(0x20)),
+                                             _mm256_cmpgt_epi8(_mm256_set1_epi8(0x7f), b));
+        const __m256i bl = _mm256_or_si256(_mm256_cmpeq_epi8(b, _mm256_set1_epi8(' ')),
+                                           _mm256_cmpeq_epi8(b, _mm256_set1_epi8('\t')));
+        const __m256i el = _mm256_or_si256(_mm256_cmpeq_epi8(b, _mm256_set1_epi8('\n')),
+                                           _mm256_cmpeq_epi8(b, _mm256_set1_epi8('\r')));
+        m[0] |= (uint64_t)(uint32_t)_mm256_movemask_epi8(vis) << (32 * h);
+        m[1] |= (uint64_t)(uint32_t)_mm256_movemask_epi8(bl) << (32 * h);
+        m[2] |= (uint64_t)(uint32_t)_mm256_movemask_epi8(el) << (32 * h);
+    }
+    *tok = m[0], *blank = m[1], *eol = m[2];
+}
+
+DEFINE_SCAN_LINE(scan_line_avx2, AVX2, classify_avx2)
+
+/* 10^f (f = 0 .. 14; 1 for the count 15 that means no dot) and RN(10^-f), then both negated:
+ * index f + 16 for a '-' (the sign rides through the exact correction unchanged). */
+static const double pow10_signed[32] = {
+    1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e7,  1e8,  1e9,  1e10,  1e11,  1e12,  1e13,  1e14,  1e0,
+    -1e0, -1e1, -1e2, -1e3, -1e4, -1e5, -1e6, -1e7, -1e8, -1e9, -1e10, -1e11, -1e12, -1e13, -1e14, -1e0,
+};
+static const double pow10_signed_inv[32] = {
+    1e0,   1e-1,  1e-2,  1e-3,  1e-4,  1e-5,  1e-6,  1e-7,  1e-8,  1e-9,  1e-10,
+    1e-11, 1e-12, 1e-13, 1e-14, 1e0,   -1e0,  -1e-1, -1e-2, -1e-3, -1e-4, -1e-5,
+    -1e-6, -1e-7, -1e-8, -1e-9, -1e-10, -1e-11, -1e-12, -1e-13, -1e-14, -1e0,
+};
+
+/* The 32-bit mask of bytes x[i] <= lim[i] as unsigned. */
+AVX2 static inline uint32_t le_mask(__m256i x, __m256i lim)
+{
+    return (uint32_t)_mm256_movemask_epi8(_mm256_cmpeq_epi8(_mm256_min_epu8(x, lim), x));
+}
+
+/* Step 2 for four numbers (two lanes in each of two registers): their integers M in order (m)
+ * and table indices (f + 16 for a '-') in idx; returns the lanes that do not hold a simple token
+ * (as lane_check). */
+AVX2 static inline unsigned lanes4_avx2(const char *const *e, __m256i *m, unsigned idx[4])
+{
+    const __m256i rev = _mm256_broadcastsi128_si256(
+        _mm_setr_epi8(15, 14, 13, 12, 11, 10, 9, 8, 7, 6, 5, 4, 3, 2, 1, 0));
+    const __m256i iota = _mm256_broadcastsi128_si256(
+        _mm_setr_epi8(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15));
+    const __m256i one = _mm256_set1_epi8(1), zero = _mm256_set1_epi8('0');
+    __m256i r[2], t[2];
+    uint64_t ks = 0, kd = 0, kp = 0, km = 0;
+    for (int h = 0; h < 2; h++) {
+        const __m256i w = _mm256_inserti128_si256(
+            _mm256_castsi128_si256(_mm_loadu_si128((const __m128i *)(const void *)(e[2 * h] - 16))),
+            _mm_loadu_si128((const __m128i *)(const void *)(e[2 * h + 1] - 16)), 1);
+        r[h] = _mm256_shuffle_epi8(w, rev);
+        t[h] = _mm256_sub_epi8(r[h], zero);
+        const int sh = 32 * h;
+        ks |= (uint64_t)le_mask(r[h], _mm256_set1_epi8(0x20)) << sh;
+        kd |= (uint64_t)le_mask(t[h], _mm256_set1_epi8(9)) << sh;
+        kp |= (uint64_t)(uint32_t)_mm256_movemask_epi8(
+                  _mm256_cmpeq_epi8(r[h], _mm256_set1_epi8('.'))) << sh;
+        km |= (uint64_t)(uint32_t)_mm256_movemask_epi8(
+                  _mm256_cmpeq_epi8(r[h], _mm256_set1_epi8('-'))) << sh;
+    }
+    lane_bits lb;
+    const unsigned bad = lane_check(ks, kd, kp, km, &lb);
+    unsigned f[4], dn[4];
+    for (int i = 0; i < 4; i++) {
+        f[i] = (unsigned)_mm_popcnt_u64((lb.below >> (16 * i)) & 0xFFFF);
+        dn[i] = (unsigned)_mm_popcnt_u64((lb.dig >> (16 * i)) & 0xFFFF);
+        idx[i] = f[i] + (((lb.neg >> (16 * i)) & 0xFFFF) ? 16u : 0u);
+    }
+    __m256i mv[2];
+    for (int h = 0; h < 2; h++) {
+        /* byte k takes byte k below the dot and k + 1 from it up; zero from the digit count on
+         * (there sits the '-', if any, and what lies before the token) */
+        const __m256i v = _mm256_set1_epi32(
+            (int)(f[2 * h] | f[2 * h + 1] << 8 | dn[2 * h] << 16 | dn[2 * h + 1] << 24));
+        const __m256i fv = _mm256_shuffle_epi8(
+            v, _mm256_setr_epi8(0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,
+                                1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1));
+        const __m256i dv = _mm256_shuffle_epi8(
+            v, _mm256_setr_epi8(2, 2, 2, 2, 2, 2, 2, 2, 2, 2, 2, 2, 2, 2, 2, 2,
+                                3, 3, 3, 3, 3, 3, 3, 3, 3, 3, 3, 3, 3, 3, 3, 3));
+        const __m256i iota1 = _mm256_add_epi8(iota, one);
+        const __m256i from = _mm256_or_si256(
+            _mm256_sub_epi8(iota, _mm256_cmpgt_epi8(iota1, fv)), _mm256_cmpgt_epi8(iota1, dv));
+        const __m256i d8 = _mm256_shuffle_epi8(t[h], from);
+        /* byte k has weight 10^k: pairs, quads, then the low and high 8 digits */
+        const __m256i a = _mm256_maddubs_epi16(d8, _mm256_set1_epi16(0x0A01));
+        const __m256i b = _mm256_madd_epi16(a, _mm256_set1_epi32(0x00640001));
+        const __m256i c = _mm256_packus_epi32(b, b);
+        const __m256i d = _mm256_madd_epi16(c, _mm256_set1_epi32(0x27100001));
+        mv[h] = _mm256_add_epi64(
+            _mm256_mul_epu32(_mm256_srli_epi64(d, 32), _mm256_set1_epi64x(100000000)),
+            _mm256_and_si256(d, _mm256_set1_epi64x(0xFFFFFFFF)));
+    }
+    /* the low qword of each lane: (M0, M2 | M1, M3) -> M0 M1 M2 M3 */
+    *m = _mm256_permute4x64_epi64(_mm256_unpacklo_epi64(mv[0], mv[1]), 0xD8);
+    return bad;
+}
+
+AVX2 static int line_avx2(const char *p, const char *end, size_t C, const char **ends,
+                          double *row, const char **line_end)
+{
+    int ok = 1;
+    const size_t n = scan_line_avx2(p, end, C, ends, line_end, &ok);
+    if (!ok || n != C)
+        return 0;
+    for (size_t i = 0; i < 8; i++)
+        ends[C + i] = zero_token + 16;
+    const __m256i magic = _mm256_set1_epi64x(0x4330000000000000); /* 2^52 */
+    for (size_t i = 0; i < C; i += 4) {
+        __m256i m;
+        unsigned idx[4];
+        unsigned bad = lanes4_avx2(ends + i, &m, idx);
+        /* M < 10^15 < 2^52: the double 2^52 + M, minus 2^52, is M exactly */
+        const __m256d md = _mm256_sub_pd(_mm256_castsi256_pd(_mm256_or_si256(m, magic)),
+                                         _mm256_castsi256_pd(magic));
+        /* M / 10^f with the sign, as line_avx512 does */
+        const __m256d y = _mm256_setr_pd(pow10_signed_inv[idx[0]], pow10_signed_inv[idx[1]],
+                                         pow10_signed_inv[idx[2]], pow10_signed_inv[idx[3]]);
+        const __m256d p10 = _mm256_setr_pd(pow10_signed[idx[0]], pow10_signed[idx[1]],
+                                           pow10_signed[idx[2]], pow10_signed[idx[3]]);
+        const __m256d q0 = _mm256_mul_pd(md, y);
+        const __m256d v = _mm256_fmadd_pd(_mm256_fnmadd_pd(q0, p10, md), y, q0);
+        _mm256_storeu_pd(row + i, v);
+        for (; bad; bad &= bad - 1) {
+            const size_t c = i + (size_t)_tzcnt_u32(bad);
+            if (c < C && !token_slow(p, ends[c], row + c))
+                return 0;
+        }
+    }
+    return 1;
+}
+
+static int have_avx2(void)
+{
+    return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma") &&
+           __builtin_cpu_supports("bmi") && __builtin_cpu_supports("bmi2") &&
+           __builtin_cpu_supports("popcnt");
+}
+
 AVX512 static size_t count_newlines_avx512(const char *p, const char *end)
 {
     const __m512i lf = _mm512_set1_epi8('\n');
@@ -382,20 +558,21 @@ static int have_avx512(void)
 }
 #endif
 
-void bvh_kernels_pick(bvh_kernels *k, int force_portable)
+void bvh_kernels_pick(bvh_kernels *k, int most)
 {
     k->line = NULL;
     k->frame = frame_portable;
     k->count_newlines = count_newlines_portable;
 #ifdef BVH_X86
-    if (!force_portable && have_avx512()) {
+    if (most >= BVH_KERNELS_AVX512 && have_avx512()) {
         k->line = line_avx512;
         k->frame = frame_avx512;
         k->count_newlines = count_newlines_avx512;
-    } else if (!force_portable && __builtin_cpu_supports("avx2")) {
+    } else if (most >= BVH_KERNELS_AVX2 && have_avx2()) {
+        k->line = line_avx2;
         k->frame = frame_avx2;
     }
 #else
-    (void)force_portable;
+    (void)most;
 #endif
 }

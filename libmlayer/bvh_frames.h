@@ -66,7 +66,12 @@ typedef struct bvh_kernels {
     size_t (*count_newlines)(const char *p, const char *end); /* '\n' bytes in [p, end) */
 } bvh_kernels;
 
-/* The fastest kernels for this CPU (force_portable: the portable ones, for tests). */
-void bvh_kernels_pick(bvh_kernels *k, int force_portable);
+/* Kernel sets, from the portable one up. */
+enum { BVH_KERNELS_PORTABLE = 0, BVH_KERNELS_AVX2 = 1, BVH_KERNELS_AVX512 = 2,
+       BVH_KERNELS_BEST = BVH_KERNELS_AVX512 };
+
+/* The fastest kernels this CPU runs, up to the set most (BVH_KERNELS_BEST in the library; the
+ * others let tests and the fuzz target compare them). */
+void bvh_kernels_pick(bvh_kernels *k, int most);
 
 #endif

@@ -57,9 +57,10 @@ const char *bvh_channel_name(int code);
  * channels (returned). Codes must be valid and distinct. */
 size_t bvh_layout_finish(mlr_motion *m, size_t j);
 
-/* mlr_bvh_read_memory_mt, and with force_portable set, the portable kernels whatever the CPU
- * (for comparisons in the fuzz target). */
-mlr_status bvh_read_memory_ex(const char *text, size_t len, size_t n_threads, int force_portable,
+/* mlr_bvh_read_memory_mt with the MOTION kernels limited to a set (BVH_KERNELS_* of
+ * bvh_frames.h; BVH_KERNELS_BEST in the library, the others to compare them in the fuzz
+ * target). */
+mlr_status bvh_read_memory_ex(const char *text, size_t len, size_t n_threads, int kernels,
                               const mlr_allocator *alloc, mlr_motion **out, mlr_diag *diag);
 
 /* Set frame f to the rest pose: identity rotations, root_pos and trans from the OFFSETs. */

@@ -724,7 +724,7 @@ static mlr_status build_motion(parser *ps, size_t n_frames, double frame_time,
     return MLR_OK;
 }
 
-static mlr_status parse(parser *ps, size_t n_threads, int force_portable, mlr_motion **out)
+static mlr_status parse(parser *ps, size_t n_threads, int kernels, mlr_motion **out)
 {
     mlr_status s = parse_hierarchy(ps);
     if (s != MLR_OK)
@@ -807,7 +807,7 @@ static mlr_status parse(parser *ps, size_t n_threads, int force_portable, mlr_mo
         size_t bytes = 0;
         s = frames_setup(ps, m, T, &pl, jobs, &block, &bytes);
         if (s == MLR_OK) {
-            bvh_kernels_pick(&pl.k, force_portable);
+            bvh_kernels_pick(&pl.k, kernels);
             pl.m = m;
             pl.text = ps->begin;
             s = parse_frames(ps, &pl, jobs, T);
@@ -833,7 +833,7 @@ static mlr_status parse(parser *ps, size_t n_threads, int force_portable, mlr_mo
     return MLR_OK;
 }
 
-mlr_status bvh_read_memory_ex(const char *text, size_t len, size_t n_threads, int force_portable,
+mlr_status bvh_read_memory_ex(const char *text, size_t len, size_t n_threads, int kernels,
                               const mlr_allocator *alloc, mlr_motion **out, mlr_diag *diag)
 {
     if (!out)
@@ -859,7 +859,7 @@ mlr_status bvh_read_memory_ex(const char *text, size_t len, size_t n_threads, in
     if (len >= 3 && (unsigned char)ps.p[0] == 0xEF && (unsigned char)ps.p[1] == 0xBB &&
         (unsigned char)ps.p[2] == 0xBF)
         ps.p += 3;
-    mlr_status s = parse(&ps, n_threads, force_portable, out);
+    mlr_status s = parse(&ps, n_threads, kernels, out);
     vec_free(&ps.joints, &ps.a);
     vec_free(&ps.ends, &ps.a);
     vec_free(&ps.names, &ps.a);
@@ -871,13 +871,13 @@ mlr_status bvh_read_memory_ex(const char *text, size_t len, size_t n_threads, in
 mlr_status mlr_bvh_read_memory(const char *text, size_t len, const mlr_allocator *alloc,
                                mlr_motion **out, mlr_diag *diag)
 {
-    return bvh_read_memory_ex(text, len, 1, 0, alloc, out, diag);
+    return bvh_read_memory_ex(text, len, 1, BVH_KERNELS_BEST, alloc, out, diag);
 }
 
 mlr_status mlr_bvh_read_memory_mt(const char *text, size_t len, size_t n_threads,
                                   const mlr_allocator *alloc, mlr_motion **out, mlr_diag *diag)
 {
-    return bvh_read_memory_ex(text, len, n_threads, 0, alloc, out, diag);
+    return bvh_read_memory_ex(text, len, n_threads, BVH_KERNELS_BEST, alloc, out, diag);
 }
 
 /* ---- files ------------------------------------------------------------------------------- */
@@ -948,7 +948,7 @@ mlr_status mlr_bvh_read_file_mt(const char *path, size_t n_threads, const mlr_al
     else if (s != MLR_OK)
         mlr_diag_set(diag, s, 0, 0, "%s", mlr_status_string(s));
     else
-        s = bvh_read_memory_ex(buf, len, n_threads, 0, &a, out, diag);
+        s = bvh_read_memory_ex(buf, len, n_threads, BVH_KERNELS_BEST, &a, out, diag);
     mlr_free(&a, buf, cap);
     return s;
 }

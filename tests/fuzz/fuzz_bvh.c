@@ -1,11 +1,12 @@
 /* libFuzzer target for the BVH reader (built only with clang; see run.sh).
  * Oracles beyond "no crash, no leak, no UB": the status is OK or PARSE (or NO_MEMORY from the
- * capped allocator), a PARSE error carries a line and a message, the portable kernels and the
- * SIMD ones, on one thread or three, give the same status, error and bits, and whatever parses
- * is written and read back to the same skeleton and exact positions. */
+ * capped allocator), a PARSE error carries a line and a message, the portable, AVX2 and
+ * AVX-512 kernels on one to three threads give the same status, error and bits, and whatever
+ * parses is written and read back to the same skeleton and exact positions. */
 #include <mlayer/mlayer.h>
 
-#include "bvh_internal.h" /* bvh_read_memory_ex: the portable kernels on request */
+#include "bvh_frames.h"   /* BVH_KERNELS_*: which kernels */
+#include "bvh_internal.h" /* bvh_read_memory_ex: a kernel set on request */
 
 #include <stdint.h>
 #include <stdlib.h>
@@ -50,12 +51,14 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     check(s == MLR_OK || s == MLR_E_PARSE || s == MLR_E_NO_MEMORY || s == MLR_E_OVERFLOW);
     if (s == MLR_E_PARSE)
         check(d.line >= 1 && d.message[0] != '\0' && memchr(d.message, 0, sizeof d.message));
-    /* the same input through the portable kernels on one thread and the default ones on three */
-    for (int v = 0; v < 2; v++) {
+    /* the same input through the portable kernels on one thread, the AVX2 ones (where the CPU
+     * has them) on two and the best on three */
+    for (int v = 0; v < 3; v++) {
         mlr_motion *o = NULL;
         mlr_diag od;
-        mlr_status os = bvh_read_memory_ex((const char *)data, size, v ? 3 : 1, v == 0, &a, &o,
-                                           &od);
+        static const int sets[3] = {BVH_KERNELS_PORTABLE, BVH_KERNELS_AVX2, BVH_KERNELS_BEST};
+        mlr_status os = bvh_read_memory_ex((const char *)data, size, (size_t)v + 1, sets[v], &a,
+                                           &o, &od);
         check(os == s || os == MLR_E_NO_MEMORY || s == MLR_E_NO_MEMORY);
         if (os == s && s == MLR_E_PARSE)
             check(od.line == d.line && od.column == d.column &&
