@@ -1,8 +1,9 @@
 /* BVH reader cases: parse the two long shared clips (LaFAN1 clip A, 5.05 MB, 7184 frames; CMU
  * 01_01, 2.07 MB, 2752 frames) from memory (file already read) and from the file (read
- * included), on one thread and on two (mlr_bvh_read_*_mt). n is the file's size in bytes, so ns_per_elem is ns per byte and MB/s is
- * 1000 / ns_per_elem; frames/s is frames / median. The clips come from $MLR_TEST_MOCAP_DIR or
- * ../shared/data/mocap beside the source tree; a missing or changed clip fails its setup. */
+ * included), on one thread and on two (mlr_bvh_read_*_mt). n is the file's size in bytes, so
+ * ns_per_elem is ns per byte and MB/s is 1000 / ns_per_elem; frames/s is frames / median. The
+ * clips come from $MLR_TEST_MOCAP_DIR or ../shared/data/mocap beside the source tree; a missing
+ * or changed clip fails its setup. */
 #include "bench.h"
 
 #include <mlayer/mlayer.h>

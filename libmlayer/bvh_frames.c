@@ -166,18 +166,23 @@ AVX512 static void frame_avx512(const bvh_conv *cv, const double *restrict row,
 #  undef MUL4
         __m512d xyz[3];
         for (size_t a = 0; a < 3; a++) {
-            const __m128i s = _mm_loadl_epi64((const __m128i *)(const void *)(cv->sel + a * Jp + j));
+            const __m128i s =
+                _mm_loadl_epi64((const __m128i *)(const void *)(cv->sel + a * Jp + j));
             const __mmask8 is0 = (__mmask8)_mm_cmpeq_epi8_mask(s, zero);
             const __mmask8 is1 = (__mmask8)_mm_cmpeq_epi8_mask(s, one);
             xyz[a] = _mm512_mask_mov_pd(_mm512_mask_mov_pd(c2, is0, c0), is1, c1);
         }
         /* (w, x, y, z) of 8 joints to 8 quaternions in a row */
         const __m512d t0 = _mm512_unpacklo_pd(w, xyz[0]), t1 = _mm512_unpackhi_pd(w, xyz[0]);
-        const __m512d t2 = _mm512_unpacklo_pd(xyz[1], xyz[2]), t3 = _mm512_unpackhi_pd(xyz[1], xyz[2]);
-        const __m512d u0 = _mm512_shuffle_f64x2(t0, t2, 0x44), u1 = _mm512_shuffle_f64x2(t1, t3, 0x44);
-        const __m512d v0 = _mm512_shuffle_f64x2(t0, t2, 0xEE), v1 = _mm512_shuffle_f64x2(t1, t3, 0xEE);
-        const __m512d o[4] = {_mm512_shuffle_f64x2(u0, u1, 0x88), _mm512_shuffle_f64x2(u0, u1, 0xDD),
-                              _mm512_shuffle_f64x2(v0, v1, 0x88), _mm512_shuffle_f64x2(v0, v1, 0xDD)};
+        const __m512d t2 = _mm512_unpacklo_pd(xyz[1], xyz[2]);
+        const __m512d t3 = _mm512_unpackhi_pd(xyz[1], xyz[2]);
+        const __m512d u0 = _mm512_shuffle_f64x2(t0, t2, 0x44);
+        const __m512d u1 = _mm512_shuffle_f64x2(t1, t3, 0x44);
+        const __m512d v0 = _mm512_shuffle_f64x2(t0, t2, 0xEE);
+        const __m512d v1 = _mm512_shuffle_f64x2(t1, t3, 0xEE);
+        const __m512d o[4] = {
+            _mm512_shuffle_f64x2(u0, u1, 0x88), _mm512_shuffle_f64x2(u0, u1, 0xDD),
+            _mm512_shuffle_f64x2(v0, v1, 0x88), _mm512_shuffle_f64x2(v0, v1, 0xDD)};
         double *qj = q + 4 * j;
         if (j + 8 <= J) {
             for (int i = 0; i < 4; i++)
@@ -419,8 +424,9 @@ DEFINE_SCAN_LINE(scan_line_avx2, AVX2, classify_avx2)
 /* 10^f (f = 0 .. 14; 1 for the count 15 that means no dot) and RN(10^-f), then both negated:
  * index f + 16 for a '-' (the sign rides through the exact correction unchanged). */
 static const double pow10_signed[32] = {
-    1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e7,  1e8,  1e9,  1e10,  1e11,  1e12,  1e13,  1e14,  1e0,
-    -1e0, -1e1, -1e2, -1e3, -1e4, -1e5, -1e6, -1e7, -1e8, -1e9, -1e10, -1e11, -1e12, -1e13, -1e14, -1e0,
+    1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e7,  1e8,  1e9,  1e10,  1e11,  1e12,  1e13,
+    1e14, 1e0,  -1e0, -1e1, -1e2, -1e3, -1e4, -1e5, -1e6, -1e7, -1e8, -1e9, -1e10, -1e11,
+    -1e12, -1e13, -1e14, -1e0,
 };
 static const double pow10_signed_inv[32] = {
     1e0,   1e-1,  1e-2,  1e-3,  1e-4,  1e-5,  1e-6,  1e-7,  1e-8,  1e-9,  1e-10,

@@ -513,10 +513,11 @@ static void frames_job_run(void *ctx, size_t t)
     jb->status = parse_frames_range(&jb->ps, jb->pl, &jb->s, jb->f0, jb->f1);
 }
 
-/* Threads for n_threads == 0: one per MiB of frame text, at most the online processors and 8. */
+/* Threads for n_threads == 0: one per 512 KiB of frame text, at most the online processors
+ * and 8. */
 static size_t auto_threads(size_t bytes)
 {
-    size_t t = bytes >> 20, cpus = 1;
+    size_t t = bytes >> 19, cpus = 1;
 #ifdef _SC_NPROCESSORS_ONLN
     long n = sysconf(_SC_NPROCESSORS_ONLN);
     if (n > 1)

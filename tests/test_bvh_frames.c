@@ -338,7 +338,8 @@ typedef struct rplan {
 static void rplan_make(mlr_test_rng *r, rplan *rp)
 {
     const size_t J = 1 + (size_t)(mlr_test_rng_u64(r) % 50), Jp = (J + 7) / 8 * 8;
-    const size_t P = (size_t)(mlr_test_rng_u64(r) % J), C = 3 * J + 6 + (size_t)(mlr_test_rng_u64(r) % 9);
+    const size_t P = (size_t)(mlr_test_rng_u64(r) % J);
+    const size_t C = 3 * J + 6 + (size_t)(mlr_test_rng_u64(r) % 9);
     const size_t R = (C + 7) / 8 * 8;
     bvh_conv *cv = &rp->cv;
     cv->C = C, cv->J = J, cv->Jp = Jp, cv->P = P, cv->R = R;

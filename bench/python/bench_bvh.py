@@ -5,9 +5,9 @@ divided by mlayer's (how many times faster mlayer is).
     python bench/python/bench_bvh.py [--clips lafan1_clip_a.bvh,cmu_01_01_playground_jumps.bvh]
                                      [--repeat 5] [--peer-repeat 3] [--mocap DIR]
 
-Rows for mlayer: read_bvh as users call it (default threads: one per MiB of frames, at most the
-processors; the row every peer ratio refers to), the same on one thread, and both from memory
-(bytes already read). Peers (each optional: pip install pybvh bvhtools bvhio bvh bvhtoolbox
+Rows for mlayer: read_bvh as users call it (default threads: one per 512 KiB of frames, at most
+the processors; the row every peer ratio refers to), the same on one thread, and both from
+memory (bytes already read). Peers (each optional: pip install pybvh bvhtools bvhio bvh bvhtoolbox
 bvhsdk). What each one does differs: mlayer parses and converts every joint's Euler angles to
 quaternions; pybvh
 (np.loadtxt) and bvhtools keep Euler angles; bvhio builds per-joint glm poses; `bvh` and

@@ -84,8 +84,8 @@ MLR_API mlr_status mlr_bvh_read_file(const char *path, const mlr_allocator *allo
  * not one per line (blank lines, CR-only line ends) are still read correctly, partly on one
  * thread.
  * @param n_threads [in] threads to use, the calling one included: 1 for the calling thread
- *                  only (as mlr_bvh_read_memory), 0 for automatic (one per MiB of frame text, at
- *                  most the online processors and 8); values above 16 count as 16
+ *                  only (as mlr_bvh_read_memory), 0 for automatic (one per 512 KiB of frame
+ *                  text, at most the online processors and 8); values above 16 count as 16
  * @return as mlr_bvh_read_memory
  * Allocates: yes (the motion, and per thread a scratch of a few KiB). Threads: starts up to
  * n_threads - 1 threads and joins them before returning (if one cannot be started its share is

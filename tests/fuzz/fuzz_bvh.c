@@ -64,12 +64,14 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             check(od.line == d.line && od.column == d.column &&
                   strcmp(od.message, d.message) == 0);
         if (os == s && s == MLR_OK) {
-            size_t N = mlr_motion_n_frames(m), J = mlr_motion_n_joints(m), P = mlr_motion_n_trans(m);
+            size_t N = mlr_motion_n_frames(m), J = mlr_motion_n_joints(m);
+            size_t P = mlr_motion_n_trans(m), d8 = sizeof(double);
             check(mlr_motion_n_frames(o) == N && mlr_motion_n_joints(o) == J);
-            check(N == 0 || (memcmp(mlr_motion_rot(m), mlr_motion_rot(o), 4 * N * J * sizeof(double)) == 0 &&
-                             memcmp(mlr_motion_root_pos(m), mlr_motion_root_pos(o), 3 * N * sizeof(double)) == 0));
+            check(N == 0 || memcmp(mlr_motion_rot(m), mlr_motion_rot(o), 4 * N * J * d8) == 0);
+            check(N == 0 ||
+                  memcmp(mlr_motion_root_pos(m), mlr_motion_root_pos(o), 3 * N * d8) == 0);
             check(N == 0 || P == 0 ||
-                  memcmp(mlr_motion_trans(m), mlr_motion_trans(o), 3 * N * P * sizeof(double)) == 0);
+                  memcmp(mlr_motion_trans(m), mlr_motion_trans(o), 3 * N * P * d8) == 0);
         }
         mlr_motion_destroy(o);
     }

@@ -62,9 +62,9 @@ def read_bvh(path, *, threads=None) -> Motion:
     """Read a BVH file. ``path``: a str, bytes or os.PathLike.
 
     ``threads``: how many threads parse the frame lines (the result is the same for every
-    count); None (default) picks one per MiB of frames, at most the machine's processors and
-    8, so small files use one. Files of 64 KiB or more are memory-mapped while they are parsed
-    (no copy): do not truncate the file meanwhile.
+    count); None (default) picks one per 512 KiB of frames, at most the machine's processors
+    and 8, so small files use one. Files of 64 KiB or more are memory-mapped while they are
+    parsed (no copy): do not truncate the file meanwhile.
 
     Raises ParseError (with path, line, column) when the file is not valid BVH, OSError when it
     cannot be read, MemoryError when it does not fit in memory.
