@@ -1,19 +1,22 @@
 /* Kernels of the BVH reader's MOTION section: see bvh_frames.h.
  *
- * The AVX-512 line parser works in two steps on a whole frame line.
- * 1. Structure, 64 bytes at a time: masks of token bytes ('-' to '9'), blanks (space, tab) and
- *    line ends; every byte outside these sends the line to the careful parser. The end of each
- *    token (the blank or line end after it) goes into ends[]; there must be exactly C.
- * 2. Numbers, 8 at a time (two registers of four 16-byte lanes): lane i holds the 16 bytes
- *    before ends[i], byte-reversed, so the token starts at byte 0 with its last character and
- *    its own bytes are those below the first blank (bytes <= 0x20) of the lane. Per lane, with
- *    the lanes' 16-bit fields of the byte masks: the token must be 1 to 15 bytes of digits with
- *    at most one '.' and a '-' only as its first character, and hold a digit. The digits,
- *    shifted down over the dot by one byte shuffle, form an integer M < 10^15 < 2^53 (units at
- *    byte 0); with f fraction digits the value is M / 10^f: an exact integer divided by an
- *    exact power of ten, one correctly rounded division (Clinger's fast path), the double that
- *    strtod returns. The sign is set as a bit ("-0" gives -0.0, as strtod).
- * Any lane outside this form sends the line to the careful parser; nothing is guessed. */
+ * The whole-line parser works in two steps on a frame line.
+ * 1. Structure, 64 bytes at a time: masks of token bytes (visible ASCII), blanks (space, tab)
+ *    and line ends; any other byte sends the line to the careful parser. The end of each token
+ *    (the blank or line end after it) goes into ends[]; there must be exactly C.
+ * 2. Numbers, four 16-byte lanes at a time (one AVX-512 register, or two AVX2 ones): lane i
+ *    holds the 16 bytes before ends[i], byte-reversed, so the token starts at byte 0 with its
+ *    last character and its own bytes are those below the first blank (byte <= 0x20) of the
+ *    lane. Scalar arithmetic on the lanes' 16-bit fields of the byte masks checks the simple
+ *    form: 1 to 15 bytes of digits with at most one '.', a '-' only as the first character,
+ *    at least one digit. The digits, shifted down over the dot by one byte shuffle, form an
+ *    integer M < 10^15 < 2^53 (units at byte 0); with f fraction digits the value is M / 10^f,
+ *    an exact integer over an exact power of ten: its correctly rounded quotient (Clinger's
+ *    fast path) is the double strtod returns. It is computed without a division (see
+ *    line_avx512), the sign as a bit ("-0" gives -0.0, as strtod). A lane in another form (an
+ *    exponent, a '+', 16 bytes or more, or no number) is read by mlr_parse_decimal, which must
+ *    take the whole token; if it does not, the line goes to the careful parser, which reports
+ *    the error. Nothing is guessed. */
 /* All builds must round alike: no contraction into FMA (the build passes -ffp-contract=off;
  * clang also gets the pragma, before the inline code of sincosd.h is read) */
 #if defined(__clang__)

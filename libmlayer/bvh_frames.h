@@ -2,10 +2,11 @@
  * per-frame conversion (channels to root positions, translations and quaternions). Not
  * installed.
  *
- * Two builds of each kernel exist: portable C, and on x86-64 an AVX-512 one (BW, DQ, VL and
- * BMI2) picked at run time. Both give bit-identical results: the line parser is exact (every
- * value it returns is the correctly rounded double, as strtod gives) and the conversion runs
- * the same IEEE operations in the same order (no contraction into FMA). */
+ * Three sets, picked at run time: portable C (no line parser: the careful one in bvh_read.c
+ * reads every line), and on x86-64 AVX2 (with FMA, BMI2) and AVX-512 (F, BW, DQ, VL, BMI2).
+ * All give bit-identical results: the line parsers are exact (every value is the correctly
+ * rounded double, as strtod gives) and the conversions run the same IEEE operations in the same
+ * order (no contraction into FMA). */
 #ifndef MLR_BVH_FRAMES_H
 #define MLR_BVH_FRAMES_H
 
@@ -45,13 +46,12 @@ typedef struct bvh_scratch {
     const char **ends;     /* C + 16 token ends (the line parser) */
 } bvh_scratch;
 
-/* Parse one frame line starting at p (not a blank line; the caller found no special case):
- * the C values into row[0, C) and *line_end at the line's end-of-line byte (or end). Returns
- * 0 when the line is not in the simple form the kernel takes (C tokens of the form
- * -?d*.?d* with a digit, at most 15 bytes, separated by spaces or tabs, nothing else on the
- * line): the caller then parses it the careful way, which also finds every error. p must be
- * at least 16 bytes past the start of the text (the kernel reads up to 16 bytes before each
- * token's end, never at or past end). */
+/* Parse one frame line starting at p: the C values into row[0, C) (row has room up to C
+ * rounded up to 8) and *line_end at the line's end-of-line byte (or end). Returns 0 when the
+ * line is not C numbers separated by spaces or tabs, nothing else (a blank line, a count
+ * off, a bad number, a control byte, ...): the caller then parses it the careful way, which
+ * reports the error. p must be at least 16 bytes past the start of the text (the kernel reads
+ * up to 16 bytes before each token's end, never at or past end). */
 typedef int (*bvh_line_fn)(const char *p, const char *end, size_t C, const char **ends,
                            double *row, const char **line_end);
 
