@@ -207,8 +207,9 @@ static const char zero_token[16] = {' ', ' ', ' ', ' ', ' ', ' ', ' ', ' ',
 /* Step 1: token ends of the line at p into ends; returns their count (stops early, returning
  * more than C, once there are too many), 0 with *ok = 0 on a byte that is neither visible
  * ASCII nor a blank or line end. CLASSIFY(q, &tok, &blank, &eol) gives the masks of the 64
- * bytes at q. */
-#  define DEFINE_SCAN_LINE(NAME, ATTR, CLASSIFY)                                               \
+ * bytes at q; EXTRACT(o, p, e, cnt) writes p + the positions of the cnt set bits of e to
+ * o[0 .. cnt), and may write up to o[cnt rounded up to 8]. */
+#  define DEFINE_SCAN_LINE(NAME, ATTR, CLASSIFY, EXTRACT)                                      \
     ATTR static size_t NAME(const char *p, const char *end, size_t C, const char **ends,      \
                             const char **line_end, int *ok)                                   \
     {                                                                                         \
@@ -234,16 +235,7 @@ static const char zero_token[16] = {' ', ' ', ' ', ' ', ' ', ' ', ' ', ' ',
             const size_t cnt = (size_t)_mm_popcnt_u64(e);                                     \
             if (n + cnt > C)                                                                  \
                 return n + cnt;                                                               \
-            /* 8 at a time without a branch per token; ends has room for 8 past C */          \
-            const char **o = ends + n;                                                        \
-            for (size_t k = 0;; k += 8) {                                                     \
-                for (int i = 0; i < 8; i++) {                                                 \
-                    o[k + (size_t)i] = p + _tzcnt_u64(e);                                     \
-                    e = _blsr_u64(e);                                                         \
-                }                                                                             \
-                if (k + 8 >= cnt)                                                             \
-                    break;                                                                    \
-            }                                                                                 \
+            EXTRACT(ends + n, p, e, cnt); /* ends has room for 8 past C */                    \
             n += cnt;                                                                         \
             if (eol) {                                                                        \
                 const char *le = p + _tzcnt_u64(eol);                                         \
@@ -266,7 +258,45 @@ AVX512 static inline void classify_avx512(const char *q, uint64_t *tok, uint64_t
            _mm512_cmpeq_epi8_mask(b, _mm512_set1_epi8('\r'));
 }
 
-DEFINE_SCAN_LINE(scan_line, AVX512, classify_avx512)
+/* 8 at a time without a branch per token */
+#  define EXTRACT_BITS(o, p, e, cnt)                                                           \
+    do {                                                                                      \
+        uint64_t e_ = (e);                                                                    \
+        for (size_t k = 0;; k += 8) {                                                         \
+            for (int i = 0; i < 8; i++) {                                                     \
+                (o)[k + (size_t)i] = (p) + _tzcnt_u64(e_);                                    \
+                e_ = _blsr_u64(e_);                                                           \
+            }                                                                                 \
+            if (k + 8 >= (cnt))                                                               \
+                break;                                                                        \
+        }                                                                                     \
+    } while (0)
+
+/* The same with AVX-512 VBMI2: the positions compressed into bytes, widened 8 at a time */
+#  define AVX512V                                                                               \
+      __attribute__((target("avx512f,avx512bw,avx512dq,avx512vl,avx512vbmi2,bmi,bmi2,popcnt")))
+
+AVX512V static inline void extract_compress(const char **o, const char *p, uint64_t e,
+                                            size_t cnt)
+{
+    static const unsigned char iota64[64] = {
+        0,  1,  2,  3,  4,  5,  6,  7,  8,  9,  10, 11, 12, 13, 14, 15, 16, 17, 18, 19, 20, 21,
+        22, 23, 24, 25, 26, 27, 28, 29, 30, 31, 32, 33, 34, 35, 36, 37, 38, 39, 40, 41, 42, 43,
+        44, 45, 46, 47, 48, 49, 50, 51, 52, 53, 54, 55, 56, 57, 58, 59, 60, 61, 62, 63};
+    unsigned char pos[64];
+    _mm512_storeu_si512((void *)pos,
+                        _mm512_maskz_compress_epi8(e, _mm512_loadu_si512((const void *)iota64)));
+    const __m512i base = _mm512_set1_epi64((long long)(uintptr_t)p);
+    for (size_t k = 0;; k += 8) {
+        const __m128i b8 = _mm_loadl_epi64((const __m128i *)(const void *)(pos + k));
+        _mm512_storeu_si512((void *)(o + k), _mm512_add_epi64(base, _mm512_cvtepu8_epi64(b8)));
+        if (k + 8 >= cnt)
+            break;
+    }
+}
+
+DEFINE_SCAN_LINE(scan_line, AVX512, classify_avx512, EXTRACT_BITS)
+DEFINE_SCAN_LINE(scan_line_vbmi2, AVX512V, classify_avx512, extract_compress)
 
 #  define BMI __attribute__((target("bmi,bmi2,popcnt")))
 
@@ -353,15 +383,13 @@ static int token_slow(const char *line, const char *e, double *out)
     return mlr_parse_decimal(s, e, out) == (size_t)(e - s);
 }
 
-AVX512 static int line_avx512(const char *p, const char *end, size_t C, const char **ends,
-                              double *row, const char **line_end)
+/* Steps 1 and 2 on a line; the body of line_avx512 and line_vbmi2, which differ in step 1. */
+#  if defined(__GNUC__)
+__attribute__((always_inline))
+#  endif
+AVX512 static inline int line_avx512_body(const char *p, const char *const *ends, size_t C,
+                                          double *row)
 {
-    int ok = 1;
-    const size_t n = scan_line(p, end, C, ends, line_end, &ok);
-    if (!ok || n != C)
-        return 0;
-    for (size_t i = 0; i < 8; i++)
-        ends[C + i] = zero_token + 16;
     /* 10^f for f = 0 .. 14, 1 for the "no dot" count 15; and their reciprocals, rounded */
     const __m512d p10a = _mm512_setr_pd(1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7);
     const __m512d p10b = _mm512_setr_pd(1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e0);
@@ -398,6 +426,28 @@ AVX512 static int line_avx512(const char *p, const char *end, size_t C, const ch
     return 1;
 }
 
+AVX512 static int line_avx512(const char *p, const char *end, size_t C, const char **ends,
+                              double *row, const char **line_end)
+{
+    int ok = 1;
+    if (scan_line(p, end, C, ends, line_end, &ok) != C || !ok)
+        return 0;
+    for (size_t i = 0; i < 8; i++)
+        ends[C + i] = zero_token + 16;
+    return line_avx512_body(p, ends, C, row);
+}
+
+AVX512V static int line_vbmi2(const char *p, const char *end, size_t C, const char **ends,
+                              double *row, const char **line_end)
+{
+    int ok = 1;
+    if (scan_line_vbmi2(p, end, C, ends, line_end, &ok) != C || !ok)
+        return 0;
+    for (size_t i = 0; i < 8; i++)
+        ends[C + i] = zero_token + 16;
+    return line_avx512_body(p, ends, C, row);
+}
+
 /* ---- the same line kernel for AVX2: two lanes per register, four numbers per step ---------- */
 
 #  define AVX2 __attribute__((target("avx2,fma,bmi,bmi2,popcnt")))
@@ -422,7 +472,7 @@ AVX2 static inline void classify_avx2(const char *q, uint64_t *tok, uint64_t *bl
     *tok = m[0], *blank = m[1], *eol = m[2];
 }
 
-DEFINE_SCAN_LINE(scan_line_avx2, AVX2, classify_avx2)
+DEFINE_SCAN_LINE(scan_line_avx2, AVX2, classify_avx2, EXTRACT_BITS)
 
 /* 10^f (f = 0 .. 14; 1 for the count 15 that means no dot) and RN(10^-f), then both negated:
  * index f + 16 for a '-' (the sign rides through the exact correction unchanged). */
@@ -574,7 +624,7 @@ void bvh_kernels_pick(bvh_kernels *k, int most)
     k->count_newlines = count_newlines_portable;
 #ifdef BVH_X86
     if (most >= BVH_KERNELS_AVX512 && have_avx512()) {
-        k->line = line_avx512;
+        k->line = __builtin_cpu_supports("avx512vbmi2") ? line_vbmi2 : line_avx512;
         k->frame = frame_avx512;
         k->count_newlines = count_newlines_avx512;
     } else if (most >= BVH_KERNELS_AVX2 && have_avx2()) {

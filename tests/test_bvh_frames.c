@@ -37,7 +37,8 @@ static bvh_kernels kernels(void)
     return k;
 }
 
-/* Line kernel variant v (0: AVX-512, 1: AVX2) in k.line, NULL when this CPU lacks it. */
+/* Line kernel variant v (0: AVX-512, 1: AVX2, 2: AVX-512 with VBMI2) in k.line, NULL when
+ * this CPU lacks it. */
 static bvh_kernels line_variant(int v)
 {
     bvh_kernels k;
@@ -47,6 +48,8 @@ static bvh_kernels line_variant(int v)
         k.line = line_avx512;
     if (v == 1 && have_avx2())
         k.line = line_avx2;
+    if (v == 2 && have_avx512() && __builtin_cpu_supports("avx512vbmi2"))
+        k.line = line_vbmi2;
 #else
     (void)v;
 #endif
@@ -450,10 +453,10 @@ static Suite *bvh_frames_suite(void)
 {
     Suite *s = suite_create("bvh_frames");
     TCase *tc = tcase_create("line kernel");
-    /* AVX-512 and AVX2 line kernels */
-    tcase_add_loop_test(tc, line_kernel_takes_every_line_of_every_clip, 0, 16);
-    tcase_add_loop_test(tc, line_kernel_takes_random_simple_lines, 0, 2);
-    tcase_add_loop_test(tc, line_kernel_declines_what_it_does_not_take, 0, 2);
+    /* the AVX-512, AVX2 and AVX-512 VBMI2 line kernels */
+    tcase_add_loop_test(tc, line_kernel_takes_every_line_of_every_clip, 0, 24);
+    tcase_add_loop_test(tc, line_kernel_takes_random_simple_lines, 0, 3);
+    tcase_add_loop_test(tc, line_kernel_declines_what_it_does_not_take, 0, 3);
     tcase_add_test(tc, portable_kernels_and_line_counts);
     tcase_add_test(tc, frame_kernels_agree_bit_for_bit);
     suite_add_tcase(s, tc);
