@@ -1,8 +1,9 @@
 /* BVH reader cases: parse the two long shared clips (LaFAN1 clip A, 5.05 MB, 7184 frames; CMU
  * 01_01, 2.07 MB, 2752 frames) from memory (file already read) and from the file (read
- * included). n is the file's size in bytes, so ns_per_elem is ns per byte and MB/s is
- * 1000 / ns_per_elem; frames/s is frames / median. The clips come from $MLR_TEST_MOCAP_DIR or
- * ../shared/data/mocap beside the source tree; a missing or changed clip fails its setup. */
+ * included), on one thread and on two (mlr_bvh_read_*_mt). n is the file's size in bytes, so
+ * ns_per_elem is ns per byte and MB/s is 1000 / ns_per_elem; frames/s is frames / median. The
+ * clips come from $MLR_TEST_MOCAP_DIR or ../shared/data/mocap beside the source tree; a missing
+ * or changed clip fails its setup. */
 #include "bench.h"
 
 #include <mlayer/mlayer.h>
@@ -68,6 +69,22 @@ static double run_file(void *p)
     return checksum(m);
 }
 
+static double run_memory_2(void *p)
+{
+    bvh_state *s = p;
+    mlr_motion *m = NULL;
+    mlr_bvh_read_memory_mt(s->text, s->len, 2, NULL, &m, NULL);
+    return checksum(m);
+}
+
+static double run_file_2(void *p)
+{
+    bvh_state *s = p;
+    mlr_motion *m = NULL;
+    mlr_bvh_read_file_mt(s->path, 2, NULL, &m, NULL);
+    return checksum(m);
+}
+
 /* Writing, for reference: the same clip formatted back into memory. */
 static double run_write(void *p)
 {
@@ -92,8 +109,13 @@ static void *setup_cmu(size_t n) { return setup_clip(CMU, n); }
 const mlr_bench_case mlr_bench_bvh_cases[] = {
     {"bvh.read_memory/lafan1_clip_a,7184_frames", LAFAN_BYTES, setup_lafan, run_memory, teardown},
     {"bvh.read_file/lafan1_clip_a,7184_frames", LAFAN_BYTES, setup_lafan, run_file, teardown},
+    {"bvh.read_memory_mt2/lafan1_clip_a,7184_frames", LAFAN_BYTES, setup_lafan, run_memory_2,
+     teardown},
+    {"bvh.read_file_mt2/lafan1_clip_a,7184_frames", LAFAN_BYTES, setup_lafan, run_file_2, teardown},
     {"bvh.read_memory/cmu_01_01,2752_frames", CMU_BYTES, setup_cmu, run_memory, teardown},
     {"bvh.read_file/cmu_01_01,2752_frames", CMU_BYTES, setup_cmu, run_file, teardown},
+    {"bvh.read_memory_mt2/cmu_01_01,2752_frames", CMU_BYTES, setup_cmu, run_memory_2, teardown},
+    {"bvh.read_file_mt2/cmu_01_01,2752_frames", CMU_BYTES, setup_cmu, run_file_2, teardown},
     {"bvh.read+write_memory/cmu_01_01,2752_frames", CMU_BYTES, setup_cmu, run_write, teardown},
 };
 const size_t mlr_bench_bvh_count = sizeof mlr_bench_bvh_cases / sizeof mlr_bench_bvh_cases[0];

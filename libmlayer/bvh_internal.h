@@ -57,6 +57,12 @@ const char *bvh_channel_name(int code);
  * channels (returned). Codes must be valid and distinct. */
 size_t bvh_layout_finish(mlr_motion *m, size_t j);
 
+/* mlr_bvh_read_memory_mt with the MOTION kernels limited to a set (BVH_KERNELS_* of
+ * bvh_frames.h; BVH_KERNELS_BEST in the library, the others to compare them in the fuzz
+ * target). */
+mlr_status bvh_read_memory_ex(const char *text, size_t len, size_t n_threads, int kernels,
+                              const mlr_allocator *alloc, mlr_motion **out, mlr_diag *diag);
+
 /* Set frame f to the rest pose: identity rotations, root_pos and trans from the OFFSETs. */
 void bvh_motion_rest_frame(mlr_motion *m, size_t f);
 

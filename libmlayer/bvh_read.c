@@ -1,9 +1,10 @@
 /* BVH reader: a single pass over the text, no recursion, every count checked against the
  * bytes that remain before anything is allocated from it. Errors carry line, column and reason.
  * Nothing here prints or keeps state. */
+#include "bvh_frames.h"
 #include "bvh_internal.h"
+#include "cluster_internal.h" /* mlr_parallel_run */
 #include "numparse.h"
-#include "sincosd.h"
 
 #include <errno.h>
 #include <float.h>
@@ -12,6 +13,12 @@
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
+#if defined(__unix__) || defined(__APPLE__)
+#  include <unistd.h>
+#endif
+
+/* Most threads a read uses. */
+#define BVH_MAX_THREADS 16
 
 /* ---- growable arrays through the allocator ------------------------------------------------ */
 
@@ -62,7 +69,7 @@ typedef struct tend {
 } tend;
 
 typedef struct parser {
-    const char *p, *end, *line_start;
+    const char *begin, *p, *end, *line_start;
     size_t line;
     mlr_diag *diag;
     mlr_allocator a;
@@ -416,19 +423,6 @@ static mlr_status read_header_value(parser *ps, const char *label, const char **
     return r < 0 ? r : MLR_OK;
 }
 
-/* Destination of one channel value: kind in the low 2 bits, index above. */
-enum { DST_ROOT = 0, DST_TRANS = 1, DST_ANGLE = 2 };
-
-/* Scratch space of the frame loop. Angles are kept by their place in the joint's Euler order
- * (slot k = 0, 1, 2) and joint: half[k J + j] is half of that angle in degrees (0 for a slot no
- * channel fills), so that one call gives the sines and cosines of a whole frame. */
-typedef struct frame_ctx {
-    size_t *dst;      /* C destinations */
-    double *row;      /* C values of the line */
-    double *half;     /* 3 J half-angles, degrees */
-    double *sn, *cs;  /* 3 J their sines and cosines */
-} frame_ctx;
-
 /* The values of one frame line into row: returns MLR_OK with ps->p at the end of the line. */
 static mlr_status parse_row(parser *ps, size_t f, size_t C, double *row)
 {
@@ -459,59 +453,226 @@ static mlr_status parse_row(parser *ps, size_t f, size_t C, double *row)
     return MLR_OK;
 }
 
-static mlr_status parse_frames(parser *ps, mlr_motion *m, const frame_ctx *fc)
+/* Everything the frame loop shares, read-only, between threads. */
+typedef struct frames_plan {
+    bvh_conv cv;
+    bvh_kernels k;
+    mlr_motion *m;
+    const char *text; /* start of the input: the line kernel reads up to 16 bytes back */
+} frames_plan;
+
+/* Frames [f0, f1) from ps->p on, the careful way where the line kernel declines a line (a
+ * blank line, an exponent, an error, ...). Returns with ps->p after the last frame's line. */
+static mlr_status parse_frames_range(parser *ps, const frames_plan *pl, const bvh_scratch *s,
+                                     size_t f0, size_t f1)
 {
-    const size_t N = m->n_frames, C = m->n_channels, J = m->n_joints, P = m->n_trans;
-    for (size_t f = 0; f < N; f++) {
-        /* skip blank lines */
-        for (;;) {
-            skip_blank(ps);
-            if (ps->p < ps->end && is_eol(*ps->p))
-                eat_eol(ps);
-            else
-                break;
+    const size_t C = pl->cv.C, J = pl->cv.J, P = pl->cv.P, N = pl->m->n_frames;
+    mlr_motion *m = pl->m;
+    const bvh_line_fn line = pl->k.line;
+    const bvh_frame_fn frame = pl->k.frame;
+    for (size_t f = f0; f < f1; f++) {
+        const char *le;
+        if (line && ps->p - pl->text >= 16 && ps->p < ps->end &&
+            line(ps->p, ps->end, C, s->ends, s->row, &le)) {
+            ps->p = le;
+        } else {
+            for (;;) { /* skip blank lines */
+                skip_blank(ps);
+                if (ps->p < ps->end && is_eol(*ps->p))
+                    eat_eol(ps);
+                else
+                    break;
+            }
+            if (ps->p >= ps->end)
+                return fail_at(ps, ps->p, "unexpected end of file: %zu of %zu frames", f, N);
+            mlr_status st = parse_row(ps, f, C, s->row);
+            if (st != MLR_OK)
+                return st;
         }
-        if (ps->p >= ps->end)
-            return fail_at(ps, ps->p, "unexpected end of file: %zu of %zu frames", f, N);
-        double *row = fc->row;
-        mlr_status s = parse_row(ps, f, C, row);
-        if (s != MLR_OK)
-            return s;
         if (ps->p < ps->end)
             eat_eol(ps);
-
-        /* scatter */
-        double *rp = m->root_pos + 3 * f;
-        memcpy(rp, m->offsets, 3 * sizeof(double));
-        double *tr = P ? m->trans + 3 * P * f : NULL;
-        for (size_t k = 0; k < P; k++)
-            memcpy(tr + 3 * k, m->offsets + 3 * (size_t)m->trans_joints[k], 3 * sizeof(double));
-        for (size_t c = 0; c < C; c++) {
-            size_t d = fc->dst[c], idx = d >> 2;
-            switch (d & 3) {
-            case DST_ROOT: rp[idx] = row[c]; break;
-            case DST_TRANS: tr[idx] = row[c]; break;
-            default: fc->half[idx] = 0.5 * row[c]; break;
-            }
-        }
-        /* Euler to quaternions: the frame's sines and cosines at once, then one product each */
-        mlr_sincosd_array(fc->half, 3 * J, fc->sn, fc->cs);
-        mlr_quat *q = (mlr_quat *)(void *)(m->rot + 4 * J * f);
-        const double *sn = fc->sn, *cs = fc->cs;
-        for (size_t j = 0; j < J; j++) {
-            const unsigned o = m->order[j];
-            mlr_quat_from_euler_half(cs[j], sn[j], cs[J + j], sn[J + j], cs[2 * J + j],
-                                     sn[2 * J + j], mlr_euler_axes[o], mlr_euler_parity[o], q + j);
-        }
+        frame(&pl->cv, s->row, s->tmp, m->root_pos + 3 * f, P ? m->trans + 3 * P * f : NULL,
+              m->rot + 4 * J * f);
     }
-    /* only whitespace (and NUL padding) may follow */
-    skip_ws(ps);
-    if (ps->p < ps->end) {
-        const char *t = ps->p;
-        while (t < ps->end && *t == '\0')
-            t++;
-        if (t < ps->end)
-            return fail_at(ps, ps->p, "data after the %zu frames declared by Frames:", N);
+    return MLR_OK;
+}
+
+/* One thread's share of the frames: [f0, f1) from its own cursor. */
+typedef struct frames_job {
+    parser ps;
+    const frames_plan *pl;
+    bvh_scratch s;
+    size_t f0, f1;
+    const char *start;
+    mlr_status status;
+} frames_job;
+
+static void frames_job_run(void *ctx, size_t t)
+{
+    frames_job *jb = (frames_job *)ctx + t;
+    jb->status = parse_frames_range(&jb->ps, jb->pl, &jb->s, jb->f0, jb->f1);
+}
+
+/* Threads for n_threads == 0: one per 512 KiB of frame text, at most the online processors
+ * and 8. */
+static size_t auto_threads(size_t bytes)
+{
+    size_t t = bytes >> 19, cpus = 1;
+#ifdef _SC_NPROCESSORS_ONLN
+    long n = sysconf(_SC_NPROCESSORS_ONLN);
+    if (n > 1)
+        cpus = (size_t)n;
+#endif
+    if (t > cpus)
+        t = cpus;
+    if (t > 8)
+        t = 8;
+    return t ? t : 1;
+}
+
+/* The MOTION lines, on T threads: thread t starts at the first line after byte t/T of the
+ * text, at frame g_t = the number of '\n' before it (a guess that holds when every frame is one
+ * line). Threads write disjoint frames. Afterwards the shares are chained from the first: a
+ * share counts only if the previous one ended exactly where it started; from the first share
+ * that does not (or that failed) on, the frames are parsed again on the calling thread, so the
+ * result and the first error (line, reason) are those of a single-threaded parse. */
+static mlr_status parse_frames(parser *ps, const frames_plan *pl, frames_job *jobs, size_t T)
+{
+    const size_t N = pl->m->n_frames;
+    jobs[0].ps = *ps;
+    jobs[0].start = ps->p;
+    jobs[0].f0 = 0;
+    size_t used = 1;
+    for (size_t t = 1; t < T; t++) {
+        const char *from = ps->p + (size_t)(ps->end - ps->p) / T * t;
+        const char *nl = memchr(from, '\n', (size_t)(ps->end - from));
+        if (!nl || nl + 1 >= ps->end || nl + 1 <= jobs[used - 1].start)
+            break;
+        size_t g = jobs[used - 1].f0 + pl->k.count_newlines(jobs[used - 1].start, nl + 1);
+        if (g >= N || g <= jobs[used - 1].f0)
+            break;
+        frames_job *jb = &jobs[used++];
+        jb->ps = *ps;
+        jb->ps.p = jb->ps.line_start = jb->start = nl + 1;
+        jb->ps.line = 1;
+        jb->ps.diag = NULL;
+        jb->f0 = g;
+    }
+    for (size_t t = 0; t < used; t++) {
+        jobs[t].f1 = t + 1 < used ? jobs[t + 1].f0 : N;
+        jobs[t].pl = pl;
+    }
+    if (used == 1) {
+        mlr_status s = parse_frames_range(ps, pl, &jobs[0].s, 0, N);
+        return s;
+    }
+    mlr_parallel_run(used, used, frames_job_run, jobs);
+    *ps = jobs[0].ps;
+    if (jobs[0].status != MLR_OK)
+        return jobs[0].status;
+    for (size_t t = 1; t < used; t++) {
+        if (ps->p != jobs[t].start || jobs[t].status != MLR_OK)
+            return parse_frames_range(ps, pl, &jobs[0].s, jobs[t].f0, N);
+        ps->p = jobs[t].ps.p;
+        ps->line_start = jobs[t].ps.line_start;
+        ps->line += jobs[t].ps.line - 1;
+    }
+    return MLR_OK;
+}
+
+/* The conversion plan and T threads' scratch in one block of *bytes. */
+static mlr_status frames_setup(parser *ps, mlr_motion *m, size_t T, frames_plan *pl,
+                               frames_job *jobs, unsigned char **block, size_t *bytes)
+{
+    const size_t C = m->n_channels, J = m->n_joints, P = m->n_trans;
+    bvh_conv *cv = &pl->cv;
+    /* C, J and P are bounded by the text's length (a joint takes bytes, a channel too) */
+    if (C > SIZE_MAX / 64 || J > SIZE_MAX / 64 || P > J || C + 8 + 7 + 3 * P > UINT32_MAX)
+        return MLR_E_OVERFLOW;
+    cv->C = C;
+    cv->J = J;
+    cv->Jp = (J + 7) & ~(size_t)7;
+    cv->P = P;
+    cv->R = (C + 7) & ~(size_t)7;
+    const size_t Jp = cv->Jp, n_src = 3 + 3 * P + 3 * Jp + Jp; /* src, then tri */
+    const size_t row_n = bvh_frame_row_size(cv), tmp_n = bvh_frame_tmp_size(cv);
+    /* per thread: row, tmp, ends (C + 16 pointers); shared: par (Jp doubles), src (uint32),
+     * sel (bytes) */
+    const size_t per = (row_n + tmp_n) * sizeof(double) + (C + 16) * sizeof(const char *);
+    const size_t shared = Jp * sizeof(double) + n_src * sizeof(uint32_t) + 4 * Jp + 64;
+    size_t total;
+    if (mlr_mul_size(per, T, &total) != MLR_OK || total > SIZE_MAX - shared)
+        return MLR_E_OVERFLOW;
+    total += shared;
+    unsigned char *b = mlr_alloc(&ps->a, total);
+    if (!b)
+        return MLR_E_NO_MEMORY;
+    *block = b;
+    *bytes = total;
+    /* doubles first (8-byte aligned from the allocator), pointers, uint32, bytes */
+    double *par = (double *)(void *)b;
+    double *dp = par + Jp;
+    for (size_t t = 0; t < T; t++) {
+        jobs[t].s.row = dp;
+        jobs[t].s.tmp = dp + row_n;
+        dp += row_n + tmp_n;
+    }
+    const char **pp = (const char **)(void *)dp;
+    for (size_t t = 0; t < T; t++) {
+        jobs[t].s.ends = pp;
+        pp += C + 16;
+    }
+    uint32_t *src = (uint32_t *)(void *)pp;
+    uint32_t *tri = src + n_src - Jp;
+    unsigned char *sel = (unsigned char *)(src + n_src), *tri_ok = sel + 3 * Jp;
+    cv->src = src;
+    cv->tri = tri;
+    cv->tri_ok = tri_ok;
+    cv->sel = sel;
+    cv->par = par;
+
+    /* constants of the row: zeros at R, then the root's OFFSET and each translated joint's */
+    const size_t R = cv->R;
+    double *row0 = jobs[0].s.row;
+    memset(row0, 0, row_n * sizeof(double));
+    memcpy(row0 + R + 4, m->offsets, 3 * sizeof(double));
+    for (size_t k = 0; k < P; k++)
+        memcpy(row0 + R + 7 + 3 * k, m->offsets + 3 * (size_t)m->trans_joints[k],
+               3 * sizeof(double));
+    for (size_t t = 1; t < T; t++)
+        memcpy(jobs[t].s.row, row0, row_n * sizeof(double));
+    for (size_t k = 0; k < 3; k++)
+        src[k] = (uint32_t)(R + 4 + k);
+    for (size_t k = 0; k < 3 * P; k++)
+        src[3 + k] = (uint32_t)(R + 7 + k);
+    uint32_t *g = src + 3 + 3 * P;
+    for (size_t k = 0; k < 3 * Jp; k++)
+        g[k] = (uint32_t)R;
+    memset(sel, 0, 3 * Jp);
+    for (size_t j = J; j < Jp; j++) {
+        par[j] = 1.0;
+        tri[j] = (uint32_t)R;
+    }
+    memset(tri_ok, 1, Jp / 8);
+    size_t c = 0;
+    for (size_t j = 0; j < J; j++) {
+        const unsigned char *ch = m->ch + BVH_MAX_CHANNELS * j;
+        for (size_t k = 0; k < m->n_ch[j]; k++, c++) {
+            if (ch[k] < 3 && j == 0)
+                src[ch[k]] = (uint32_t)c;
+            else if (ch[k] < 3)
+                src[3 + 3 * (size_t)m->trans_slot[j] + ch[k]] = (uint32_t)c;
+            else
+                g[m->rot_idx[3 * j + ch[k] - 3] * Jp + j] = (uint32_t)c;
+        }
+        if (g[j] + 1 == g[Jp + j] && g[j] + 2 == g[2 * Jp + j] && g[j] < C)
+            tri[j] = g[j];
+        else
+            tri_ok[j / 8] = 0;
+        const unsigned o = m->order[j];
+        par[j] = mlr_euler_parity[o];
+        for (size_t k = 0; k < 3; k++)
+            sel[mlr_euler_axes[o][k] * Jp + j] = (unsigned char)k;
     }
     return MLR_OK;
 }
@@ -564,7 +725,7 @@ static mlr_status build_motion(parser *ps, size_t n_frames, double frame_time,
     return MLR_OK;
 }
 
-static mlr_status parse(parser *ps, mlr_motion **out)
+static mlr_status parse(parser *ps, size_t n_threads, int kernels, mlr_motion **out)
 {
     mlr_status s = parse_hierarchy(ps);
     if (s != MLR_OK)
@@ -635,56 +796,46 @@ static mlr_status parse(parser *ps, mlr_motion **out)
     mlr_motion *m;
     if ((s = build_motion(ps, n_frames, frame_time, &m)) != MLR_OK)
         return s;
-    frame_ctx fc = {NULL, NULL, NULL, NULL, NULL};
-    size_t tmp_bytes = 0;
-    unsigned char *tmp = NULL;
     if (n_frames > 0) {
-        /* C doubles of row, 9 J doubles of half-angles, sines and cosines, C size_t of
-         * destinations */
-        size_t a1, a2, a3;
-        if (mlr_mul_size(C, sizeof(double), &a1) || mlr_mul_size(J, 9 * sizeof(double), &a2) ||
-            mlr_mul_size(C, sizeof(size_t), &a3) || a1 > SIZE_MAX - a2 ||
-            a1 + a2 > SIZE_MAX - a3) {
-            mlr_motion_destroy(m);
-            return MLR_E_OVERFLOW;
+        size_t T = n_threads ? n_threads : auto_threads(left);
+        if (T > BVH_MAX_THREADS)
+            T = BVH_MAX_THREADS;
+        if (T > n_frames)
+            T = n_frames;
+        frames_plan pl;
+        frames_job jobs[BVH_MAX_THREADS];
+        unsigned char *block = NULL;
+        size_t bytes = 0;
+        s = frames_setup(ps, m, T, &pl, jobs, &block, &bytes);
+        if (s == MLR_OK) {
+            bvh_kernels_pick(&pl.k, kernels);
+            pl.m = m;
+            pl.text = ps->begin;
+            s = parse_frames(ps, &pl, jobs, T);
+            mlr_free(&ps->a, block, bytes);
         }
-        tmp_bytes = a1 + a2 + a3;
-        tmp = mlr_alloc(&ps->a, tmp_bytes);
-        if (!tmp) {
+        if (s != MLR_OK) {
             mlr_motion_destroy(m);
-            return MLR_E_NO_MEMORY;
-        }
-        fc.row = (double *)(void *)tmp;
-        fc.half = (double *)(void *)(tmp + a1);
-        fc.sn = fc.half + 3 * J;
-        fc.cs = fc.sn + 3 * J;
-        fc.dst = (size_t *)(void *)(tmp + a1 + a2);
-        memset(fc.half, 0, 3 * J * sizeof(double));
-        size_t c = 0;
-        for (size_t j = 0; j < J; j++) {
-            const unsigned char *ch = m->ch + BVH_MAX_CHANNELS * j;
-            for (size_t k = 0; k < m->n_ch[j]; k++, c++) {
-                if (ch[k] < 3 && j == 0)
-                    fc.dst[c] = ((size_t)ch[k] << 2) | DST_ROOT;
-                else if (ch[k] < 3)
-                    fc.dst[c] = ((3 * (size_t)m->trans_slot[j] + ch[k]) << 2) | DST_TRANS;
-                else
-                    fc.dst[c] = ((m->rot_idx[3 * j + ch[k] - 3] * J + j) << 2) | DST_ANGLE;
-            }
+            return s;
         }
     }
-    s = parse_frames(ps, m, &fc);
-    mlr_free(&ps->a, tmp, tmp_bytes);
-    if (s != MLR_OK) {
-        mlr_motion_destroy(m);
-        return s;
+    /* only whitespace (and NUL padding) may follow */
+    skip_ws(ps);
+    if (ps->p < ps->end) {
+        const char *t = ps->p;
+        while (t < ps->end && *t == '\0')
+            t++;
+        if (t < ps->end) {
+            mlr_motion_destroy(m);
+            return fail_at(ps, ps->p, "data after the %zu frames declared by Frames:", n_frames);
+        }
     }
     *out = m;
     return MLR_OK;
 }
 
-mlr_status mlr_bvh_read_memory(const char *text, size_t len, const mlr_allocator *alloc,
-                               mlr_motion **out, mlr_diag *diag)
+mlr_status bvh_read_memory_ex(const char *text, size_t len, size_t n_threads, int kernels,
+                              const mlr_allocator *alloc, mlr_motion **out, mlr_diag *diag)
 {
     if (!out)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "out is NULL");
@@ -698,7 +849,7 @@ mlr_status mlr_bvh_read_memory(const char *text, size_t len, const mlr_allocator
     parser ps;
     memset(&ps, 0, sizeof ps);
     mlr_allocator_resolve(alloc, &ps.a);
-    ps.p = text ? text : "";
+    ps.begin = ps.p = text ? text : "";
     ps.end = ps.p + len;
     ps.line_start = ps.p;
     ps.line = 1;
@@ -709,7 +860,7 @@ mlr_status mlr_bvh_read_memory(const char *text, size_t len, const mlr_allocator
     if (len >= 3 && (unsigned char)ps.p[0] == 0xEF && (unsigned char)ps.p[1] == 0xBB &&
         (unsigned char)ps.p[2] == 0xBF)
         ps.p += 3;
-    mlr_status s = parse(&ps, out);
+    mlr_status s = parse(&ps, n_threads, kernels, out);
     vec_free(&ps.joints, &ps.a);
     vec_free(&ps.ends, &ps.a);
     vec_free(&ps.names, &ps.a);
@@ -718,10 +869,35 @@ mlr_status mlr_bvh_read_memory(const char *text, size_t len, const mlr_allocator
     return s;
 }
 
+mlr_status mlr_bvh_read_memory(const char *text, size_t len, const mlr_allocator *alloc,
+                               mlr_motion **out, mlr_diag *diag)
+{
+    return bvh_read_memory_ex(text, len, 1, BVH_KERNELS_BEST, alloc, out, diag);
+}
+
+mlr_status mlr_bvh_read_memory_mt(const char *text, size_t len, size_t n_threads,
+                                  const mlr_allocator *alloc, mlr_motion **out, mlr_diag *diag)
+{
+    return bvh_read_memory_ex(text, len, n_threads, BVH_KERNELS_BEST, alloc, out, diag);
+}
+
 /* ---- files ------------------------------------------------------------------------------- */
 
-mlr_status mlr_bvh_read_file(const char *path, const mlr_allocator *alloc, mlr_motion **out,
-                             mlr_diag *diag)
+/* The size of an open file from fseek/ftell, or 0 when unknown: only a first guess. */
+static size_t size_hint(FILE *fp)
+{
+    long n = -1;
+    if (fseek(fp, 0, SEEK_END) == 0)
+        n = ftell(fp);
+    if (fseek(fp, 0, SEEK_SET) != 0) {
+        clearerr(fp);
+        rewind(fp);
+    }
+    return n > 0 && (unsigned long)n < SIZE_MAX / 2 ? (size_t)n : 0;
+}
+
+mlr_status mlr_bvh_read_file_mt(const char *path, size_t n_threads, const mlr_allocator *alloc,
+                                mlr_motion **out, mlr_diag *diag)
 {
     if (!out)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "out is NULL");
@@ -733,13 +909,16 @@ mlr_status mlr_bvh_read_file(const char *path, const mlr_allocator *alloc, mlr_m
     FILE *fp = fopen(path, "rb");
     if (!fp)
         return mlr_diag_set(diag, MLR_E_IO, 0, 0, "cannot open: %s", strerror(errno));
-    /* Read in growing chunks: no reliance on ftell for the size. */
+    /* Read until the end of the file, in a buffer first sized from the file's size (one byte
+     * more, so that a file of the expected size needs no second buffer) and doubled when the
+     * file turns out longer: the size is a guess, not relied on. */
+    const size_t hint = size_hint(fp);
     size_t cap = 0, len = 0;
     char *buf = NULL;
     mlr_status s = MLR_OK;
     for (;;) {
         if (len == cap) {
-            size_t ncap = cap ? cap * 2 : 1 << 16;
+            size_t ncap = cap ? cap * 2 : hint ? hint + 1 : (size_t)1 << 16;
             if (ncap < cap) {
                 s = MLR_E_OVERFLOW;
                 break;
@@ -770,7 +949,13 @@ mlr_status mlr_bvh_read_file(const char *path, const mlr_allocator *alloc, mlr_m
     else if (s != MLR_OK)
         mlr_diag_set(diag, s, 0, 0, "%s", mlr_status_string(s));
     else
-        s = mlr_bvh_read_memory(buf, len, &a, out, diag);
+        s = bvh_read_memory_ex(buf, len, n_threads, BVH_KERNELS_BEST, &a, out, diag);
     mlr_free(&a, buf, cap);
     return s;
+}
+
+mlr_status mlr_bvh_read_file(const char *path, const mlr_allocator *alloc, mlr_motion **out,
+                             mlr_diag *diag)
+{
+    return mlr_bvh_read_file_mt(path, 1, alloc, out, diag);
 }

@@ -1,8 +1,14 @@
 #define _POSIX_C_SOURCE 200809L
+#if defined(__clang__)
+#  pragma STDC FP_CONTRACT OFF /* the references round as the library does */
+#endif
 /* BVH reader and writer: the real clips of the shared mocap folder (counts from its README,
  * values against an independent Euler-matrix reference), round trips, malformed input with the
  * expected line, allocation failures, motions built from arrays. */
 #include "mlr_test.h"
+
+#include "mlr_internal.h" /* private: mlr_quat_from_euler_half, for a bit-exact reference */
+#include "sincosd.h"      /* private: the reader's sines and cosines in degrees */
 
 #include <errno.h>
 #include <locale.h>
@@ -180,6 +186,110 @@ static void check_frame_against_text(const mlr_motion *m, const char *text, size
                 ck_assert_double_eq(got[k], t[k]);
     }
 }
+
+/* Axes and parity of the Euler orders as mlr_quat.h numbers them (the library's tables are
+ * private). */
+static const unsigned char ref_axes[6][3] = {
+    {0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0},
+};
+static const double ref_parity[6] = {1.0, -1.0, -1.0, 1.0, 1.0, -1.0};
+
+/* Every frame of m against the text after its Frame Time line, bit for bit: each value read
+ * with strtod; position channels replacing the OFFSET; each joint's quaternion rebuilt from its
+ * angles (in channel order, missing ones zero) with the reader's arithmetic, the sine and
+ * cosine of each half-angle (mlr_sincosd_kernel) and the product of mlr_quat_from_euler_half.
+ * Blank lines between frames are allowed. */
+static void assert_frames_are_strtods(const mlr_motion *m, const char *text, const char *what)
+{
+    const char *p = strstr(text, "Frame Time:");
+    ck_assert_ptr_nonnull(p);
+    p += strcspn(p, "\r\n");
+    const size_t N = mlr_motion_n_frames(m), J = mlr_motion_n_joints(m),
+                 P = mlr_motion_n_trans(m);
+    const int32_t *tj = mlr_motion_trans_joints(m);
+    for (size_t f = 0; f < N; f++) {
+        size_t slot = 0;
+        for (size_t j = 0; j < J; j++) {
+            unsigned char codes[6];
+            const size_t n = mlr_motion_joint_n_channels(m, j);
+            ck_assert_uint_eq(mlr_motion_joint_channel_codes(m, j, codes), n);
+            double t[3], ang[3] = {0.0, 0.0, 0.0};
+            memcpy(t, mlr_motion_offsets(m) + 3 * j, sizeof t);
+            size_t na = 0;
+            for (size_t k = 0; k < n; k++) {
+                char *e;
+                const double v = strtod(p, &e);
+                ck_assert_msg(e != p, "%s: frame %zu: no number", what, f + 1);
+                p = e;
+                if (codes[k] < 3)
+                    t[codes[k]] = v;
+                else
+                    ang[na++] = v;
+            }
+            const mlr_euler_order o = mlr_motion_joint_euler_order(m, j);
+            double sn[3], cs[3];
+            for (int k = 0; k < 3; k++) {
+                const double h = 0.5 * ang[k];
+                mlr_sincosd_kernel(fabs(h) < MLR_SINCOSD_LIMIT ? h : fmod(h, 360.0), &sn[k],
+                                   &cs[k]);
+            }
+            mlr_quat q;
+            mlr_quat_from_euler_half(cs[0], sn[0], cs[1], sn[1], cs[2], sn[2], ref_axes[o],
+                                     ref_parity[o], &q);
+            const double want[4] = {q.w, q.x, q.y, q.z};
+            const double *got = mlr_motion_rot(m) + 4 * (J * f + j);
+            ck_assert_msg(memcmp(want, got, sizeof want) == 0,
+                          "%s: frame %zu joint %zu: quaternion (%.17g %.17g %.17g %.17g), "
+                          "expected (%.17g %.17g %.17g %.17g)", what, f + 1, j, got[0], got[1],
+                          got[2], got[3], want[0], want[1], want[2], want[3]);
+            const double *pos = NULL;
+            if (j == 0)
+                pos = mlr_motion_root_pos(m) + 3 * f;
+            else if (slot < P && (size_t)tj[slot] == j)
+                pos = mlr_motion_trans(m) + 3 * (P * f + slot++);
+            if (pos)
+                ck_assert_msg(memcmp(pos, t, sizeof t) == 0, "%s: frame %zu joint %zu position",
+                              what, f + 1, j);
+        }
+    }
+}
+
+/* Bit-identical motions (same skeleton assumed). */
+static void assert_same_frames(const mlr_motion *a, const mlr_motion *b, const char *what)
+{
+    const size_t N = mlr_motion_n_frames(a), J = mlr_motion_n_joints(a),
+                 P = mlr_motion_n_trans(a);
+    ck_assert_uint_eq(mlr_motion_n_frames(b), N);
+    ck_assert_msg(memcmp(mlr_motion_rot(a), mlr_motion_rot(b), 4 * N * J * sizeof(double)) == 0,
+                  "%s: rotations differ", what);
+    ck_assert_msg(memcmp(mlr_motion_root_pos(a), mlr_motion_root_pos(b),
+                         3 * N * sizeof(double)) == 0, "%s: root positions differ", what);
+    if (P)
+        ck_assert_msg(memcmp(mlr_motion_trans(a), mlr_motion_trans(b),
+                             3 * N * P * sizeof(double)) == 0, "%s: translations differ", what);
+}
+
+START_TEST(every_value_of_every_clip_is_strtods)
+{
+    const clip_info *ci = &clips[_i];
+    size_t len;
+    char *text = slurp(clip_path(ci->file), &len);
+    ck_assert_ptr_nonnull(text);
+    mlr_motion *m = read_clip(ci);
+    assert_frames_are_strtods(m, text, ci->file);
+    /* and on several threads, the same bits */
+    static const size_t threads[] = {0, 2, 3, 8};
+    for (size_t i = 0; i < MLR_COUNTOF(threads); i++) {
+        mlr_motion *b = NULL;
+        mlr_diag d;
+        ck_assert_int_eq(mlr_bvh_read_memory_mt(text, len, threads[i], NULL, &b, &d), MLR_OK);
+        assert_same_frames(m, b, ci->file);
+        mlr_motion_destroy(b);
+    }
+    free(text);
+    mlr_motion_destroy(m);
+}
+END_TEST
 
 START_TEST(every_clip_parses_with_readme_counts)
 {
@@ -949,6 +1059,274 @@ END_TEST
 
 /* ---- allocation failures ----------------------------------------------------------------- */
 
+/* ---- random layouts and threads ---------------------------------------------------------- */
+
+enum { TXT_CRLF = 1, TXT_CR = 2, TXT_BLANK_LINES = 4, TXT_EXOTIC = 8, TXT_TABS = 16 };
+
+/* A random BVH text: J joints (each the child of a random earlier one) with random channel lists
+ * (0 to 6 kinds in random order), N frames of numbers in the forms motion files use (with
+ * TXT_EXOTIC also exponents, '+' and 17 digits); line ends LF, CRLF or CR; blank lines between
+ * frames on request. Returns a malloc'd NUL-terminated text. */
+static char *random_bvh(mlr_test_rng *r, size_t J, size_t N, unsigned flags, size_t *len)
+{
+    static const char *const kinds[6] = {"Xposition", "Yposition", "Zposition",
+                                         "Xrotation", "Yrotation", "Zrotation"};
+    const char *eol = flags & TXT_CR ? "\r" : flags & TXT_CRLF ? "\r\n" : "\n";
+    size_t cap = 4096 + J * 256 + N * (J * 6 * 26 + 8), n = 0, C = 0;
+    char *t = malloc(cap);
+    ck_assert_ptr_nonnull(t);
+    int32_t *parent = malloc(J * sizeof *parent);
+    ck_assert_ptr_nonnull(parent);
+    n += (size_t)sprintf(t + n, "HIERARCHY%s", eol);
+    /* joints in depth-first order: parent[j] is j-1 or one of its ancestors */
+    size_t depth = 0;
+    int32_t *stack = malloc((J + 1) * sizeof *stack);
+    ck_assert_ptr_nonnull(stack);
+    for (size_t j = 0; j < J; j++) {
+        if (j > 0) {
+            size_t up = (size_t)(mlr_test_rng_u64(r) % depth); /* close 0 .. depth-1 joints */
+            for (size_t u = 0; u < up; u++)
+                n += (size_t)sprintf(t + n, "}%s", eol);
+            depth -= up;
+        }
+        parent[j] = j ? stack[depth - 1] : -1;
+        stack[depth++] = (int32_t)j;
+        n += (size_t)sprintf(t + n, "%s j%zu%s{%s\tOFFSET %.3f %.3f %.3f%s", j ? "JOINT" : "ROOT",
+                             j, eol, eol, mlr_test_rng_normal(r), mlr_test_rng_normal(r),
+                             mlr_test_rng_normal(r), eol);
+        int perm[6] = {0, 1, 2, 3, 4, 5};
+        for (int i = 5; i > 0; i--) {
+            int k = (int)(mlr_test_rng_u64(r) % (uint64_t)(i + 1)), tmp = perm[i];
+            perm[i] = perm[k];
+            perm[k] = tmp;
+        }
+        /* mostly the usual layouts (three rotations, or three positions then three rotations),
+         * some random */
+        size_t nc = 3;
+        const uint64_t pick = mlr_test_rng_u64(r) % 8;
+        if (pick < 4) {
+            perm[0] = 3 + (int)(mlr_test_rng_u64(r) % 3);
+            perm[1] = 3 + (perm[0] - 3 + 1 + (int)(mlr_test_rng_u64(r) % 2)) % 3;
+            perm[2] = 12 - perm[0] - perm[1];
+        } else if (pick < 6) {
+            nc = 6;
+            for (int i = 0; i < 3; i++)
+                perm[i] = i;
+            for (int i = 3; i < 6; i++)
+                perm[i] = 8 - i;
+        } else {
+            nc = (size_t)(mlr_test_rng_u64(r) % 7);
+            if (j == 0 && nc == 0)
+                nc = 1; /* at least one channel in the file */
+        }
+        n += (size_t)sprintf(t + n, "\tCHANNELS %zu", nc);
+        for (size_t k = 0; k < nc; k++)
+            n += (size_t)sprintf(t + n, " %s", kinds[perm[k]]);
+        n += (size_t)sprintf(t + n, "%s", eol);
+        C += nc;
+    }
+    while (depth--)
+        n += (size_t)sprintf(t + n, "}%s", eol);
+    n += (size_t)sprintf(t + n, "MOTION%sFrames: %zu%sFrame Time: 0.0333333%s", eol, N, eol, eol);
+    for (size_t f = 0; f < N; f++) {
+        if ((flags & TXT_BLANK_LINES) && mlr_test_rng_u64(r) % 50 == 0)
+            n += (size_t)sprintf(t + n, "%s%s", mlr_test_rng_u64(r) % 2 ? " \t" : "", eol);
+        for (size_t c = 0; c < C; c++) {
+            const double v = mlr_test_rng_normal(r) * (c % 5 == 0 ? 300.0 : 40.0);
+            const uint64_t form = mlr_test_rng_u64(r) % ((flags & TXT_EXOTIC) ? 12 : 8);
+            const char *sep = c == 0 ? "" : (flags & TXT_TABS) && c % 3 == 0 ? "\t" : " ";
+            if (form < 6)
+                n += (size_t)sprintf(t + n, "%s%.*f", sep, (int)form + 1, v);
+            else if (form == 6)
+                n += (size_t)sprintf(t + n, "%s%d", sep, (int)v);
+            else if (form == 7)
+                n += (size_t)sprintf(t + n, "%s%.10f", sep, v * 1e-3);
+            else if (form == 8)
+                n += (size_t)sprintf(t + n, "%s%.5e", sep, v * 1e-9);
+            else if (form == 9)
+                n += (size_t)sprintf(t + n, "%s%.17g", sep, v);
+            else if (form == 10)
+                n += (size_t)sprintf(t + n, "%s+%g", sep, fabs(v));
+            else
+                n += (size_t)sprintf(t + n, "%s%.3E", sep, v);
+        }
+        n += (size_t)sprintf(t + n, "%s", eol);
+        ck_assert(n + 4096 < cap);
+    }
+    free(stack);
+    free(parent);
+    *len = n;
+    return t;
+}
+
+START_TEST(random_layouts_read_exactly_on_any_thread_count)
+{
+    mlr_test_rng r;
+    mlr_test_rng_seed(&r, 1000 + (uint64_t)_i);
+    const size_t J = 1 + (size_t)(mlr_test_rng_u64(&r) % 40);
+    const size_t N = _i % 4 == 0 ? 3000 : 1 + (size_t)(mlr_test_rng_u64(&r) % 400);
+    const unsigned flags = (unsigned)(mlr_test_rng_u64(&r) % 32);
+    size_t len;
+    char *text = random_bvh(&r, J, N, flags, &len);
+    mlr_motion *m = NULL;
+    mlr_diag d;
+    mlr_status s = mlr_bvh_read_memory(text, len, NULL, &m, &d);
+    ck_assert_msg(s == MLR_OK, "case %d: line %zu: %s", _i, d.line, d.message);
+    char what[64];
+    snprintf(what, sizeof what, "random layout %d (J %zu, N %zu, flags %u)", _i, J, N, flags);
+    assert_frames_are_strtods(m, text, what);
+    static const size_t threads[] = {0, 2, 3, 5, 16};
+    for (size_t i = 0; i < MLR_COUNTOF(threads); i++) {
+        mlr_motion *b = NULL;
+        ck_assert_int_eq(mlr_bvh_read_memory_mt(text, len, threads[i], NULL, &b, &d), MLR_OK);
+        assert_same_frames(m, b, what);
+        mlr_motion_destroy(b);
+    }
+    free(text);
+    mlr_motion_destroy(m);
+}
+END_TEST
+
+/* Start of frame f's line (no blank lines in text). */
+static char *frame_line(char *text, size_t f)
+{
+    char *p = strstr(text, "Frame Time:");
+    ck_assert_ptr_nonnull(p);
+    for (size_t k = 0; k <= f; k++) {
+        p = strchr(p, '\n');
+        ck_assert_ptr_nonnull(p);
+        p++;
+    }
+    return p;
+}
+
+START_TEST(threads_report_the_first_error_as_one_thread_does)
+{
+    mlr_test_rng r;
+    mlr_test_rng_seed(&r, 77);
+    size_t len;
+    char *base = random_bvh(&r, 6, 3000, TXT_CRLF, &len);
+    char *t = malloc(len + 64);
+    ck_assert_ptr_nonnull(t);
+    for (int variant = 0; variant < 9; variant++) {
+        memcpy(t, base, len + 1);
+        size_t n = len;
+        char *q;
+        switch (variant) {
+        case 0: /* a bad number late in the file */
+            q = frame_line(t, 2500);
+            q[0] = 'x';
+            break;
+        case 1: /* two: the first one counts */
+            frame_line(t, 1200)[0] = '#';
+            frame_line(t, 2900)[0] = 'x';
+            break;
+        case 2: /* cut inside frame 2000 */
+            q = frame_line(t, 2000) + 5;
+            n = (size_t)(q - t);
+            break;
+        case 3: /* one value too many, late */
+            q = frame_line(t, 2600);
+            memmove(q + 2, q, n + 1 - (size_t)(q - t));
+            memcpy(q, "1 ", 2);
+            n += 2;
+            break;
+        case 4: /* a control byte, late */
+            frame_line(t, 1800)[3] = '\x01';
+            break;
+        case 5: /* a line missing, late: "Frames:" promises one frame more */
+            q = frame_line(t, 2999);
+            n = (size_t)(q - t);
+            break;
+        case 6: /* data after the last frame */
+            n += (size_t)sprintf(t + n, "1 2 3\r\n");
+            break;
+        case 7: /* a blank line late, then an error: the error's line counts the blank line */
+            q = frame_line(t, 2200);
+            memmove(q + 2, q, n + 1 - (size_t)(q - t));
+            memcpy(q, "\r\n", 2);
+            n += 2;
+            frame_line(t, 2700)[0] = 'y';
+            break;
+        default: /* CR-only line ends from frame 1000 on, then an error */
+            for (q = frame_line(t, 1000); *q; q++)
+                if (q[0] == '\r' && q[1] == '\n')
+                    q[1] = ' ';
+            q = strchr(frame_line(t, 998), '\r'); /* frame_line counts LFs: before frame 1000 */
+            ck_assert_ptr_nonnull(q);
+            for (int k = 0; k < 1700; k++) {
+                q = strchr(q + 1, '\r');
+                ck_assert_ptr_nonnull(q);
+            }
+            q[-1] = 'z';
+            break;
+        }
+        mlr_motion *m = NULL;
+        mlr_diag d1;
+        const mlr_status s1 = mlr_bvh_read_memory(t, n, NULL, &m, &d1);
+        ck_assert_msg(s1 == MLR_E_PARSE, "variant %d: %s", variant, mlr_status_name(s1));
+        static const size_t threads[] = {0, 2, 3, 4, 7, 16};
+        for (size_t i = 0; i < MLR_COUNTOF(threads); i++) {
+            mlr_diag d;
+            memset(&d, 0x55, sizeof d);
+            const mlr_status s = mlr_bvh_read_memory_mt(t, n, threads[i], NULL, &m, &d);
+            ck_assert_msg(s == s1 && m == NULL, "variant %d, %zu threads: %s", variant,
+                          threads[i], mlr_status_name(s));
+            ck_assert_msg(d.line == d1.line && d.column == d1.column &&
+                              strcmp(d.message, d1.message) == 0,
+                          "variant %d, %zu threads: line %zu col %zu '%s', one thread: line %zu "
+                          "col %zu '%s'", variant, threads[i], d.line, d.column, d.message,
+                          d1.line, d1.column, d1.message);
+        }
+    }
+    free(t);
+    free(base);
+}
+END_TEST
+
+START_TEST(read_file_mt_matches_read_file)
+{
+    mlr_motion *a = read_clip(&clips[0]), *b = NULL;
+    mlr_diag d;
+    ck_assert_int_eq(mlr_bvh_read_file_mt(clip_path(clips[0].file), 2, NULL, &b, &d), MLR_OK);
+    assert_same_frames(a, b, clips[0].file);
+    mlr_motion_destroy(b);
+    mlr_motion_destroy(a);
+    ck_assert_int_eq(mlr_bvh_read_file_mt(NULL, 2, NULL, &b, &d), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_bvh_read_file_mt("/nonexistent/x.bvh", 0, NULL, &b, &d), MLR_E_IO);
+    ck_assert_ptr_null(b);
+    ck_assert_int_eq(mlr_bvh_read_file_mt("/nonexistent/x.bvh", 0, NULL, NULL, &d),
+                     MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_bvh_read_memory_mt(NULL, 5, 2, NULL, &b, &d), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_bvh_read_memory_mt("x", 1, 2, NULL, NULL, &d), MLR_E_INVALID_ARG);
+}
+END_TEST
+
+START_TEST(every_allocation_failure_is_clean_on_threads)
+{
+    mlr_test_rng r;
+    mlr_test_rng_seed(&r, 5);
+    size_t len;
+    char *text = random_bvh(&r, 4, 300, 0, &len);
+    for (size_t fail_at = 0;; fail_at++) {
+        mlr_test_allocator ta;
+        mlr_test_allocator_init(&ta, fail_at);
+        mlr_motion *m = NULL;
+        mlr_diag d;
+        mlr_status s = mlr_bvh_read_memory_mt(text, len, 3, &ta.base, &m, &d);
+        if (s != MLR_OK)
+            ck_assert_ptr_null(m);
+        mlr_motion_destroy(m);
+        ck_assert_uint_eq(ta.live_blocks, 0);
+        if (s == MLR_OK)
+            break;
+        ck_assert_int_eq(s, MLR_E_NO_MEMORY);
+        ck_assert(fail_at < 1000);
+    }
+    free(text);
+}
+END_TEST
+
 START_TEST(every_allocation_failure_is_clean)
 {
     for (size_t fail_at = 0;; fail_at++) {
@@ -1010,8 +1388,8 @@ START_TEST(create_from_arrays_writes_and_reads_back)
     const int32_t parents[] = {-1, 0, 1, 1, 3};
     const double offsets[] = {0, 90, 0, 0, 10, 0, 0, 20, 0, 15, 15, 0, 25, 0, 0};
     const char *channels[] = {"Xposition Yposition Zposition Yrotation Xrotation Zrotation",
-                              "Zrotation Xrotation Yrotation", "", "Xposition Yposition Zposition "
-                              "Xrotation Yrotation Zrotation", "xrotation zrotation yrotation"};
+                              "Zrotation Xrotation Yrotation", "", ("Xposition Yposition Zposition "
+                              "Xrotation Yrotation Zrotation"), "xrotation zrotation yrotation"};
     const int32_t end_parents[] = {2, 4};
     const double end_offsets[] = {0, 8, 0, 5, 0, 0};
     mlr_motion *m = NULL;
@@ -1126,6 +1504,7 @@ static Suite *bvh_suite(void)
     TCase *tc = tcase_create("clips");
     tcase_set_timeout(tc, 120);
     tcase_add_loop_test(tc, every_clip_parses_with_readme_counts, 0, (int)MLR_COUNTOF(clips));
+    tcase_add_loop_test(tc, every_value_of_every_clip_is_strtods, 0, (int)MLR_COUNTOF(clips));
     tcase_add_test(tc, per_joint_euler_orders);
     tcase_add_test(tc, bandai_position_channels_replace_offsets);
     tcase_add_loop_test(tc, round_trip_every_clip, 0, (int)MLR_COUNTOF(clips));
@@ -1140,6 +1519,9 @@ static Suite *bvh_suite(void)
     tcase_add_test(syn, small_file_round_trip_keeps_layout);
     tcase_add_test(syn, partial_and_empty_channel_lists);
     tcase_add_test(syn, numbers_are_correctly_rounded);
+    tcase_add_loop_test(syn, random_layouts_read_exactly_on_any_thread_count, 0, 24);
+    tcase_add_test(syn, threads_report_the_first_error_as_one_thread_does);
+    tcase_add_test(syn, read_file_mt_matches_read_file);
     tcase_add_test(syn, number_fast_path_boundaries);
     tcase_add_test(syn, locale_with_decimal_comma);
     tcase_add_test(syn, deep_nesting_needs_no_recursion);
@@ -1151,6 +1533,7 @@ static Suite *bvh_suite(void)
 
     TCase *mem = tcase_create("memory");
     tcase_add_test(mem, every_allocation_failure_is_clean);
+    tcase_add_test(mem, every_allocation_failure_is_clean_on_threads);
     tcase_add_test(mem, every_allocation_failure_is_clean_for_files);
     tcase_add_test(mem, create_from_arrays_writes_and_reads_back);
     tcase_add_test(mem, create_rejects_bad_arrays);

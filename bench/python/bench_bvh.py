@@ -5,8 +5,11 @@ divided by mlayer's (how many times faster mlayer is).
     python bench/python/bench_bvh.py [--clips lafan1_clip_a.bvh,cmu_01_01_playground_jumps.bvh]
                                      [--repeat 5] [--peer-repeat 3] [--mocap DIR]
 
-Peers (each optional: pip install pybvh bvhtools bvhio bvh bvhtoolbox bvhsdk). What each one
-does differs: mlayer parses and converts every joint's Euler angles to quaternions; pybvh
+Rows for mlayer: read_bvh as users call it (default threads: one per 512 KiB of frames, at most
+the processors; the row every peer ratio refers to), the same on one thread, and both from
+memory (bytes already read). Peers (each optional: pip install pybvh bvhtools bvhio bvh bvhtoolbox
+bvhsdk). What each one does differs: mlayer parses and converts every joint's Euler angles to
+quaternions; pybvh
 (np.loadtxt) and bvhtools keep Euler angles; bvhio builds per-joint glm poses; `bvh` and
 bvhtoolbox only split the text into strings, so the bench converts their frames with
 np.array(..., dtype=float) to get numbers at all; bvhsdk builds its animation objects.
@@ -103,18 +106,26 @@ def main():
 
         t_ml = median_seconds(lambda: mlayer.read_bvh(path), a.repeat)
         row("mlayer.read_bvh", t_ml)
+        t_1 = median_seconds(lambda: mlayer.read_bvh(path, threads=1), a.repeat)
+        row("mlayer.read_bvh threads=1", t_1)
         t_mem = median_seconds(lambda: mlayer.read_bvh_string(data), a.repeat)
         row("mlayer (from memory)", t_mem)
+        t_mem1 = median_seconds(lambda: mlayer.read_bvh_string(data, threads=1), a.repeat)
+        row("mlayer (memory, 1 thr.)", t_mem1)
         for name, reader in peer_list:
             try:
                 reader(path)  # warm up, and skip peers that cannot read the clip
             except Exception as e:  # noqa: BLE001 - a peer's failure is a result, not a crash
                 print(f"{clip:<32} {name:<24} fails: {type(e).__name__}: {str(e)[:60]}")
                 continue
-            row(name, median_seconds(lambda: reader(path), a.peer_repeat), t_ml)
+            t_peer = median_seconds(lambda: reader(path), a.peer_repeat)
+            row(name, t_peer, t_ml)
+            print(f"{'':<32} {'  (vs mlayer threads=1)':<24} {'':>10} {'':>8} {'':>11}"
+                  f" {t_peer / t_1:12.1f}")
     print(f"Medians of {a.repeat} (mlayer) and {a.peer_repeat} (peers) runs after one warm-up "
           "read; file reading included except for 'from memory'. peer/mlayer = how many times "
-          "longer the peer takes than mlayer.read_bvh.")
+          "longer the peer takes than mlayer.read_bvh (default threads; the line below it: "
+          f"threads=1). {os.cpu_count()} processors.")
 
 
 if __name__ == "__main__":

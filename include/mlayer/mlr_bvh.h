@@ -76,6 +76,33 @@ MLR_API mlr_status mlr_bvh_read_memory(const char *text, size_t len, const mlr_a
 MLR_API mlr_status mlr_bvh_read_file(const char *path, const mlr_allocator *alloc,
                                      mlr_motion **out, mlr_diag *diag);
 
+/**
+ * mlr_bvh_read_memory with the frame lines parsed on several threads.
+ * The MOTION text is cut at line ends into n_threads shares parsed at once; the result, and on
+ * failure the status and diag (the first bad line, as a single thread reports it), do not
+ * depend on n_threads: bit-identical frames for every thread count. Files whose frame lines are
+ * not one per line (blank lines, CR-only line ends) are still read correctly, partly on one
+ * thread.
+ * @param n_threads [in] threads to use, the calling one included: 1 for the calling thread
+ *                  only (as mlr_bvh_read_memory), 0 for automatic (one per 512 KiB of frame
+ *                  text, at most the online processors and 8); values above 16 count as 16
+ * @return as mlr_bvh_read_memory
+ * Allocates: yes (the motion, and per thread a scratch of a few KiB). Threads: starts up to
+ * n_threads - 1 threads and joins them before returning (if one cannot be started its share is
+ * parsed by the others).
+ */
+MLR_API mlr_status mlr_bvh_read_memory_mt(const char *text, size_t len, size_t n_threads,
+                                          const mlr_allocator *alloc, mlr_motion **out,
+                                          mlr_diag *diag);
+
+/**
+ * mlr_bvh_read_file with the frame lines parsed on n_threads threads (see
+ * mlr_bvh_read_memory_mt; 0 for automatic).
+ */
+MLR_API mlr_status mlr_bvh_read_file_mt(const char *path, size_t n_threads,
+                                        const mlr_allocator *alloc, mlr_motion **out,
+                                        mlr_diag *diag);
+
 /* ---------------------------------------------------------------------------------------- */
 /* Writing                                                                                  */
 

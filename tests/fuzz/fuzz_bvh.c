@@ -1,8 +1,12 @@
 /* libFuzzer target for the BVH reader (built only with clang; see run.sh).
  * Oracles beyond "no crash, no leak, no UB": the status is OK or PARSE (or NO_MEMORY from the
- * capped allocator), a PARSE error carries a line and a message, and whatever parses is written
- * and read back to the same skeleton and exact positions. */
+ * capped allocator), a PARSE error carries a line and a message, the portable, AVX2 and
+ * AVX-512 kernels on one to three threads give the same status, error and bits, and whatever
+ * parses is written and read back to the same skeleton and exact positions. */
 #include <mlayer/mlayer.h>
+
+#include "bvh_frames.h"   /* BVH_KERNELS_*: which kernels */
+#include "bvh_internal.h" /* bvh_read_memory_ex: a kernel set on request */
 
 #include <stdint.h>
 #include <stdlib.h>
@@ -47,6 +51,30 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     check(s == MLR_OK || s == MLR_E_PARSE || s == MLR_E_NO_MEMORY || s == MLR_E_OVERFLOW);
     if (s == MLR_E_PARSE)
         check(d.line >= 1 && d.message[0] != '\0' && memchr(d.message, 0, sizeof d.message));
+    /* the same input through the portable kernels on one thread, the AVX2 ones (where the CPU
+     * has them) on two and the best on three */
+    for (int v = 0; v < 3; v++) {
+        mlr_motion *o = NULL;
+        mlr_diag od;
+        static const int sets[3] = {BVH_KERNELS_PORTABLE, BVH_KERNELS_AVX2, BVH_KERNELS_BEST};
+        mlr_status os = bvh_read_memory_ex((const char *)data, size, (size_t)v + 1, sets[v], &a,
+                                           &o, &od);
+        check(os == s || os == MLR_E_NO_MEMORY || s == MLR_E_NO_MEMORY);
+        if (os == s && s == MLR_E_PARSE)
+            check(od.line == d.line && od.column == d.column &&
+                  strcmp(od.message, d.message) == 0);
+        if (os == s && s == MLR_OK) {
+            size_t N = mlr_motion_n_frames(m), J = mlr_motion_n_joints(m);
+            size_t P = mlr_motion_n_trans(m), d8 = sizeof(double);
+            check(mlr_motion_n_frames(o) == N && mlr_motion_n_joints(o) == J);
+            check(N == 0 || memcmp(mlr_motion_rot(m), mlr_motion_rot(o), 4 * N * J * d8) == 0);
+            check(N == 0 ||
+                  memcmp(mlr_motion_root_pos(m), mlr_motion_root_pos(o), 3 * N * d8) == 0);
+            check(N == 0 || P == 0 ||
+                  memcmp(mlr_motion_trans(m), mlr_motion_trans(o), 3 * N * P * d8) == 0);
+        }
+        mlr_motion_destroy(o);
+    }
     if (s != MLR_OK) {
         check(m == NULL);
         check(c.live == 0);

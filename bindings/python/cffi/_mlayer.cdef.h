@@ -85,6 +85,10 @@ mlr_status mlr_bvh_read_memory(const char *text, size_t len, const mlr_allocator
                                mlr_motion **out, mlr_diag *diag);
 mlr_status mlr_bvh_read_file(const char *path, const mlr_allocator *alloc,
                              mlr_motion **out, mlr_diag *diag);
+mlr_status mlr_bvh_read_memory_mt(const char *text, size_t len, size_t n_threads,
+                                  const mlr_allocator *alloc, mlr_motion **out, mlr_diag *diag);
+mlr_status mlr_bvh_read_file_mt(const char *path, size_t n_threads, const mlr_allocator *alloc,
+                                mlr_motion **out, mlr_diag *diag);
 typedef int (*mlr_bvh_write_fn)(void *user, const char *data, size_t len);
 mlr_status mlr_bvh_write(const mlr_motion *motion, mlr_bvh_write_fn fn, void *user);
 mlr_status mlr_bvh_write_memory(const mlr_motion *motion, char *buf, size_t cap, size_t *len);

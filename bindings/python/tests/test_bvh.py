@@ -189,6 +189,65 @@ def test_read_accepts_pathlike_and_bytes_paths(tmp_path):
         assert mlayer.read_bvh(arg).n_frames == 2
 
 
+@clip_params
+def test_threads_give_the_same_motion(clip, motions, mocap):
+    m = motions[clip]
+    data = (mocap / clip).read_bytes()
+    for threads in (1, 2, 3, 16):
+        for b in (mlayer.read_bvh(mocap / clip, threads=threads),
+                  mlayer.read_bvh_string(data, threads=threads)):
+            assert b.skeleton == m.skeleton
+            assert np.array_equal(b.rot, m.rot) and np.array_equal(b.root_pos, m.root_pos)
+            assert np.array_equal(b.trans, m.trans)
+
+
+def test_threads_argument_is_checked():
+    for bad in (0, -1, 1.5, True, "2"):
+        with pytest.raises(ValueError):
+            mlayer.read_bvh_string(SMALL, threads=bad)
+
+
+def _long_text(n_frames):
+    head, motion = SMALL.split("MOTION")
+    lines = [f"{i % 7} {i % 5}.25 -{i % 3}.5 {i % 90} 0 0 1e-3 {i % 45} 0" for i in range(n_frames)]
+    return (head + f"MOTION\nFrames: {n_frames}\nFrame Time: 0.04\n" + "\n".join(lines) + "\n")
+
+
+def test_errors_are_the_same_on_threads(tmp_path):
+    text = _long_text(20000).splitlines()
+    first = next(i for i, t in enumerate(text) if t.startswith("Frame Time"))
+    text[first + 15000] = "1.2.3" + text[first + 15000][1:]  # frame 15000
+    text = "\n".join(text) + "\n"
+    f = tmp_path / "bad.bvh"
+    f.write_text(text)
+    assert f.stat().st_size >= 1 << 16  # read through a memory map
+    errors = []
+    for threads in (1, 2, 4, None):
+        for call in (lambda: mlayer.read_bvh(f, threads=threads),
+                     lambda: mlayer.read_bvh_string(text, name=str(f), threads=threads)):
+            with pytest.raises(mlayer.ParseError) as e:
+                call()
+            errors.append((e.value.path, e.value.line, e.value.column, e.value.reason))
+    assert errors[0][1] == first + 15001 and "invalid number '1.2.3'" in errors[0][3]
+    assert all(e == errors[0] for e in errors)
+    # the map is closed again: the file can be replaced
+    mlayer.write_bvh(mlayer.read_bvh_string(SMALL), f)
+    assert mlayer.read_bvh(f).n_frames == 2
+
+
+def test_small_and_mapped_files_read_alike(tmp_path):
+    text = _long_text(3000)
+    small, big = tmp_path / "small.bvh", tmp_path / "big.bvh"
+    small.write_text(SMALL)
+    big.write_text(text)
+    assert small.stat().st_size < 1 << 16 <= big.stat().st_size
+    assert np.array_equal(mlayer.read_bvh(small).rot, mlayer.read_bvh_string(SMALL).rot)
+    m = mlayer.read_bvh(big)
+    assert m.n_frames == 3000
+    assert np.array_equal(m.rot, mlayer.read_bvh_string(text).rot)
+    np.testing.assert_array_equal(m.root_pos[123], [123 % 7, 123 % 5 + 0.25, -(123 % 3) - 0.5])
+
+
 def test_missing_file_is_an_oserror(tmp_path):
     with pytest.raises(FileNotFoundError):
         mlayer.read_bvh(tmp_path / "nope.bvh")
