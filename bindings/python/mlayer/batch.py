@@ -382,7 +382,7 @@ def process_clip(op: Operation, src: str, jobs: list, options: dict, metrics: bo
                 "error": "", "worker": worker} for variant, out, _, _ in jobs]
     try:
         from .bvh import read_bvh
-        motion = read_bvh(src)
+        motion = read_bvh(src, threads=1)  # the workers are the parallelism here
         for r in records:
             r["frames"], r["fps"] = motion.n_frames, motion.fps
         before = _metrics_before(motion) if metrics else None

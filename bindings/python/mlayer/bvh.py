@@ -14,12 +14,10 @@ replaces the destination atomically (a temporary file in the same directory, the
 """
 from __future__ import annotations
 
-import mmap
 import os
-import stat
 
 from ._native import ffi, lib
-from .errors import ParseError, check
+from .errors import InvalidArgumentError, ParseError, check
 from .motion import Motion
 
 __all__ = ["read_bvh", "write_bvh", "read_bvh_string", "write_bvh_string"]
@@ -30,7 +28,7 @@ def _threads(threads) -> int:
     if threads is None:
         return 0
     if isinstance(threads, bool) or not isinstance(threads, int) or threads < 1:
-        raise ValueError(f"threads must be None or an integer >= 1, got {threads!r}")
+        raise InvalidArgumentError(f"threads must be None or an integer >= 1, got {threads!r}")
     return threads
 
 
@@ -41,7 +39,7 @@ def _parse(data, name: str, threads: int) -> Motion:
     try:
         code = lib.mlr_bvh_read_memory_mt(buf, len(buf), threads, ffi.NULL, out, diag)
     finally:
-        ffi.release(buf)  # before a memory map it points into is closed
+        ffi.release(buf)
     if code == lib.MLR_E_PARSE:
         line = int(diag.line)
         reason = ffi.string(diag.message).decode("utf-8", errors="replace")
@@ -54,17 +52,13 @@ def _parse(data, name: str, threads: int) -> Motion:
     return Motion._adopt_c(out[0])  # the frames stay in the C block: no copy
 
 
-# Files from this size on are memory-mapped rather than copied into a bytes object.
-_MAP_FROM = 1 << 16
-
-
 def read_bvh(path, *, threads=None) -> Motion:
     """Read a BVH file. ``path``: a str, bytes or os.PathLike.
 
     ``threads``: how many threads parse the frame lines (the result is the same for every
     count); None (default) picks one per 512 KiB of frames, at most the machine's processors
-    and 8, so small files use one. Files of 64 KiB or more are memory-mapped while they are
-    parsed (no copy): do not truncate the file meanwhile.
+    and 8, so small files use one. The file is read into memory first (not memory-mapped: a
+    file truncated by another process while it is parsed must not crash this one).
 
     Raises ParseError (with path, line, column) when the file is not valid BVH, OSError when it
     cannot be read, MemoryError when it does not fit in memory.
@@ -73,15 +67,6 @@ def read_bvh(path, *, threads=None) -> Motion:
     path = os.fspath(path)
     name = path if isinstance(path, str) else os.fsdecode(path)
     with open(path, "rb") as f:
-        st = os.fstat(f.fileno())
-        if st.st_size >= _MAP_FROM and stat.S_ISREG(st.st_mode):
-            try:
-                mm = mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ)
-            except (OSError, ValueError):
-                mm = None
-            if mm is not None:
-                with mm:
-                    return _parse(mm, name, n_threads)
         data = f.read()
     return _parse(data, name, n_threads)
 
