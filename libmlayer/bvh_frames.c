@@ -38,6 +38,20 @@
 
 /* ---- per-frame conversion ------------------------------------------------------------------ */
 
+/* Root and joint translations of one frame row into rp, tr; returns the row offsets of the
+ * Euler angles (3 per padded joint). */
+static inline const uint32_t *gather_translations(const bvh_conv *cv, const double *restrict row,
+                                                  double *restrict rp, double *restrict tr)
+{
+    const size_t P = cv->P;
+    const uint32_t *restrict src = cv->src;
+    for (size_t k = 0; k < 3; k++)
+        rp[k] = row[src[k]];
+    for (size_t k = 0; k < 3 * P; k++)
+        tr[k] = row[src[3 + k]];
+    return src + 3 + 3 * P;
+}
+
 /* Portable: gathers, sines and cosines of the half-angles, and q = q_i(a0) q_j(a1) q_k(a2) in
  * the same operations as mlr_quat_from_euler_half. */
 #if defined(__GNUC__)
@@ -47,13 +61,8 @@ static inline void frame_body(const bvh_conv *cv, const double *restrict row,
                               double *restrict tmp, double *restrict rp, double *restrict tr,
                               double *restrict q)
 {
-    const size_t J = cv->J, Jp = cv->Jp, P = cv->P;
-    const uint32_t *restrict src = cv->src;
-    for (size_t k = 0; k < 3; k++)
-        rp[k] = row[src[k]];
-    for (size_t k = 0; k < 3 * P; k++)
-        tr[k] = row[src[3 + k]];
-    const uint32_t *restrict g = src + 3 + 3 * P;
+    const size_t J = cv->J, Jp = cv->Jp;
+    const uint32_t *restrict g = gather_translations(cv, row, rp, tr);
     double *restrict half = tmp, *restrict sn = tmp + 3 * Jp, *restrict cs = tmp + 6 * Jp;
     for (size_t k = 0; k < 3 * Jp; k++)
         half[k] = 0.5 * row[g[k]];
@@ -106,13 +115,8 @@ AVX512 static void frame_avx512(const bvh_conv *cv, const double *restrict row,
                                 double *restrict tmp, double *restrict rp, double *restrict tr,
                                 double *restrict q)
 {
-    const size_t J = cv->J, Jp = cv->Jp, P = cv->P;
-    const uint32_t *restrict src = cv->src;
-    for (size_t k = 0; k < 3; k++)
-        rp[k] = row[src[k]];
-    for (size_t k = 0; k < 3 * P; k++)
-        tr[k] = row[src[3 + k]];
-    const uint32_t *restrict g = src + 3 + 3 * P;
+    const size_t J = cv->J, Jp = cv->Jp;
+    const uint32_t *restrict g = gather_translations(cv, row, rp, tr);
     double *restrict half = tmp, *restrict sn = tmp + 3 * Jp, *restrict cs = tmp + 6 * Jp;
     const __m512d h = _mm512_set1_pd(0.5);
     const __m512d limit = _mm512_set1_pd(MLR_SINCOSD_LIMIT);

@@ -182,9 +182,8 @@ static int rows_overflow(size_t n, size_t ld)
 
 /* Argument checks shared by mlr_grbf_basis and mlr_grbf_eval (the data are scanned later, by
  * check_data, once the sizes are known to be sane); fills *ct_bytes (the transposed centres). */
-static mlr_status check_common(int kernel, double width, const double *centers, size_t n_centers,
-                               size_t ldc, const double *x, size_t n, size_t ldx, size_t dim,
-                               size_t n_threads, size_t *ct_bytes, mlr_diag *diag)
+/* The kernel id and, for the Gaussian, its width. */
+static mlr_status check_kernel(int kernel, double width, mlr_diag *diag)
 {
     if (kernel != MLR_GRBF_THIN_PLATE && kernel != MLR_GRBF_GAUSSIAN)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "unknown GRBF kernel %d", kernel);
@@ -192,6 +191,16 @@ static mlr_status check_common(int kernel, double width, const double *centers, 
         !(width > 0 && width < INFINITY && 1.0 / (width * width) < INFINITY))
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                             "Gaussian width must be finite and >= 1e-150, got %g", width);
+    return MLR_OK;
+}
+
+static mlr_status check_common(int kernel, double width, const double *centers, size_t n_centers,
+                               size_t ldc, const double *x, size_t n, size_t ldx, size_t dim,
+                               size_t n_threads, size_t *ct_bytes, mlr_diag *diag)
+{
+    mlr_status st = check_kernel(kernel, width, diag);
+    if (st != MLR_OK)
+        return st;
     if (n_centers == 0 || dim == 0)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                             "%zu centres of dimension %zu: both must be >= 1", n_centers, dim);
@@ -728,12 +737,9 @@ mlr_status mlr_grbf_fit_lattice(int kernel, double width, const double *xs, size
                                 size_t n_out, size_t n_threads, double *coef, size_t ldcoef,
                                 const mlr_allocator *alloc, mlr_diag *diag)
 {
-    if (kernel != MLR_GRBF_THIN_PLATE && kernel != MLR_GRBF_GAUSSIAN)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "unknown GRBF kernel %d", kernel);
-    if (kernel == MLR_GRBF_GAUSSIAN &&
-        !(width > 0 && width < INFINITY && 1.0 / (width * width) < INFINITY))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "Gaussian width must be finite and >= 1e-150, got %g", width);
+    mlr_status st = check_kernel(kernel, width, diag);
+    if (st != MLR_OK)
+        return st;
     if (rows < 2 || cols < 2)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                             "lattice %zu x %zu: needs at least 2 x 2 (the linear terms)", rows,
@@ -818,7 +824,7 @@ mlr_status mlr_grbf_fit_lattice(int kernel, double width, const double *xs, size
                       {ptr[11], ptr[12], ptr[13], ptr[14]},
                       {ptr[15], ptr[15] + n_out, ptr[15] + 2 * n_out}, {0, 0, 0, 0}};
     mlr_parallel_run(n_threads, 4, lattice_class_task, &lc);
-    mlr_status st = MLR_OK;
+    st = MLR_OK;
     for (size_t cls = 0; cls < 4; cls++)
         if (lc.failed[cls] && !st)
             st = mlr_diag_set(diag, MLR_E_SINGULAR, 0, 0,
