@@ -30,6 +30,7 @@ rotations.
 from __future__ import annotations
 
 import fnmatch
+import functools
 import math
 
 import numpy as np
@@ -84,23 +85,36 @@ class Layers:
     def __init__(self, motion, handle, params: dict):
         self.motion = motion
         self._h = handle
-        n, j = motion.n_frames, motion.n_joints
-        root = np.empty((n, 3))
-        rot = np.empty((n, j, 4))
-        check(lib.mlr_layers_get_base(handle, _arrays.ptr_out(root), root.size,
-                                      _arrays.ptr_out(rot), rot.size), "layers base")
-        self.base = motion.with_frames(root_pos=root, rot=rot)
-        self.control = np.empty((n, 1 + j, 3))
-        check(lib.mlr_layers_get_control(handle, _arrays.ptr_out(self.control),
-                                         self.control.size), "layers control")
-        self.residual = np.empty((n, 1 + j, 3))
-        check(lib.mlr_layers_get_residual(handle, _arrays.ptr_out(self.residual),
-                                          self.residual.size), "layers residual")
-        for a in (self.control, self.residual):
-            a.flags.writeable = False
         for name, values in params.items():
             values.flags.writeable = False
             setattr(self, name, values)
+
+    # The layers are read from the C handle on first use: synthesize() and denoise() need
+    # none of them, and a 2,526 x 31 clip's three copies take about 1.5 ms.
+    @functools.cached_property
+    def base(self):
+        """The base layer Mb as a Motion on the same skeleton."""
+        n, j = self.motion.n_frames, self.motion.n_joints
+        root, rot = np.empty((n, 3)), np.empty((n, j, 4))
+        check(lib.mlr_layers_get_base(self._h, _arrays.ptr_out(root), root.size,
+                                      _arrays.ptr_out(rot), rot.size), "layers base")
+        return self.motion.with_frames(root_pos=root, rot=rot)
+
+    @functools.cached_property
+    def control(self) -> np.ndarray:
+        """The controllable layer, (N, 1 + J, 3): root translation, then rotation vectors."""
+        return self._groups(lib.mlr_layers_get_control, "layers control")
+
+    @functools.cached_property
+    def residual(self) -> np.ndarray:
+        """The residual layer, (N, 1 + J, 3), as control."""
+        return self._groups(lib.mlr_layers_get_residual, "layers residual")
+
+    def _groups(self, getter, where) -> np.ndarray:
+        a = np.empty((self.motion.n_frames, 1 + self.motion.n_joints, 3))
+        check(getter(self._h, _arrays.ptr_out(a), a.size), where)
+        a.flags.writeable = False
+        return a
 
     @property
     def n_frames(self) -> int:
