@@ -3,7 +3,7 @@
  * Nothing here prints or keeps state. */
 #include "bvh_frames.h"
 #include "bvh_internal.h"
-#include "cluster_internal.h" /* mlr_parallel_run */
+#include "parallel_internal.h"
 #include "numparse.h"
 
 #include <errno.h>

@@ -1,64 +1,13 @@
-/* Shared building blocks of k-means and the SOM: parallel loop, generator, packed centres and
- * the nearest/second-nearest search, blobs. See cluster_internal.h. */
+/* Shared building blocks of k-means and the SOM: generator, packed centres and the
+ * nearest/second-nearest search, blobs. See cluster_internal.h. */
 #include "cluster_internal.h"
 
 #include <math.h>
-#include <pthread.h>
-#include <stdatomic.h>
 
 #if (defined(__x86_64__) || defined(__i386__)) && (defined(__GNUC__) || defined(__clang__))
 #  define MLR_X86_DISPATCH 1
 #  include <immintrin.h>
 #endif
-
-/* ---- parallel loop ---------------------------------------------------------------------- */
-
-typedef struct par_ctx {
-    atomic_size_t next;
-    size_t n_tasks;
-    mlr_task_fn fn;
-    void *ctx;
-} par_ctx;
-
-static void *par_worker(void *arg)
-{
-    par_ctx *pc = arg;
-    for (;;) {
-        size_t t = atomic_fetch_add(&pc->next, 1);
-        if (t >= pc->n_tasks)
-            break;
-        pc->fn(pc->ctx, t);
-    }
-    return NULL;
-}
-
-void mlr_parallel_run(size_t n_threads, size_t n_tasks, mlr_task_fn fn, void *ctx)
-{
-    if (n_threads > MLR_MAX_THREADS)
-        n_threads = MLR_MAX_THREADS;
-    if (n_threads > n_tasks)
-        n_threads = n_tasks;
-    if (n_threads <= 1) {
-        for (size_t t = 0; t < n_tasks; t++)
-            fn(ctx, t);
-        return;
-    }
-    par_ctx pc;
-    atomic_init(&pc.next, 0);
-    pc.n_tasks = n_tasks;
-    pc.fn = fn;
-    pc.ctx = ctx;
-    pthread_t th[MLR_MAX_THREADS];
-    size_t started = 0;
-    for (size_t i = 0; i + 1 < n_threads; i++) {
-        if (pthread_create(&th[started], NULL, par_worker, &pc) != 0)
-            break; /* the others take its share */
-        started++;
-    }
-    par_worker(&pc);
-    for (size_t i = 0; i < started; i++)
-        pthread_join(th[i], NULL);
-}
 
 /* ---- generator ---------------------------------------------------------------------------- */
 

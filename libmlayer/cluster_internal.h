@@ -1,22 +1,13 @@
-/* Private building blocks shared by k-means (kmeans.c) and the SOM (som.c): a fixed-task
- * parallel loop, a seeded generator, packed centres with a nearest/second-nearest search,
- * and the relocatable blob format of trained models. Not installed. */
+/* Private building blocks shared by k-means (kmeans.c) and the SOM (som.c): a seeded
+ * generator, packed centres with a nearest/second-nearest search, and the relocatable blob
+ * format of trained models. Not installed. */
 #ifndef MLR_CLUSTER_INTERNAL_H
 #define MLR_CLUSTER_INTERNAL_H
 
 #include "mlr_internal.h"
+#include "parallel_internal.h"
 
 #include <stdint.h>
-
-/* Largest thread count honoured; more are clamped. */
-#define MLR_MAX_THREADS 64
-
-/* Run fn(ctx, t) for t = 0 .. n_tasks-1 on up to n_threads threads (the caller is one of
- * them). Tasks are taken in any order by any thread, so a result must depend only on the task
- * index (each task writes its own output). If a thread cannot be started the remaining tasks
- * run on the others: never fails, never allocates. */
-typedef void (*mlr_task_fn)(void *ctx, size_t task);
-void mlr_parallel_run(size_t n_threads, size_t n_tasks, mlr_task_fn fn, void *ctx);
 
 /* xoshiro256** seeded through splitmix64. */
 typedef struct mlr_rng { uint64_t s[4]; } mlr_rng;

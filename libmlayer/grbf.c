@@ -1,5 +1,5 @@
 /* GRBF basis matrices: kernel values of many points against a set of centres. See mlr_grbf.h. */
-#include "cluster_internal.h"
+#include "cluster_internal.h" /* mlr_first_nonfinite_row, mlr_parallel_run */
 
 #include <float.h>
 #include <math.h>

@@ -1,0 +1,17 @@
+/* A fixed-task parallel loop for the library's threaded parts. Not installed. */
+#ifndef MLR_PARALLEL_INTERNAL_H
+#define MLR_PARALLEL_INTERNAL_H
+
+#include <stddef.h>
+
+/* Largest thread count honoured; more are clamped. */
+#define MLR_MAX_THREADS 64
+
+/* Run fn(ctx, t) for t = 0 .. n_tasks-1 on up to n_threads threads (the caller is one of
+ * them). Tasks are taken in any order by any thread, so a result must depend only on the task
+ * index (each task writes its own output). If a thread cannot be started the remaining tasks
+ * run on the others: never fails, never allocates. */
+typedef void (*mlr_task_fn)(void *ctx, size_t task);
+void mlr_parallel_run(size_t n_threads, size_t n_tasks, mlr_task_fn fn, void *ctx);
+
+#endif
