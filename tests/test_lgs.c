@@ -260,6 +260,33 @@ START_TEST(non_finite_observations_are_rejected)
 }
 END_TEST
 
+/* The same on a problem long enough for the chunked single-pass solve: a NaN or inf in the
+ * first, a middle or the last row, in any channel, is reported. */
+START_TEST(non_finite_observations_are_rejected_when_chunked)
+{
+    const size_t n = 20000, m = 16;
+    double *y = malloc(n * m * sizeof *y), *x = malloc(n * m * sizeof *x);
+    for (size_t i = 0; i < n * m; i++)
+        y[i] = sin(0.001 * (double)i);
+    mlr_lgs *g = NULL;
+    ck_assert_int_eq(mlr_lgs_create(n, 2, 4.0, 1.0, NULL, n, MLR_LGS_BANDED, NULL, &g, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_lgs_solve(g, y, m, m, x, m), MLR_OK);
+    const size_t rows[] = {0, n / 3, n / 2 + 7, n - 2, n - 1};
+    const double bad[] = {NAN, INFINITY, -INFINITY};
+    for (size_t r = 0; r < MLR_COUNTOF(rows); r++) {
+        for (size_t b = 0; b < MLR_COUNTOF(bad); b++) {
+            const size_t at = rows[r] * m + (r * 5 + b) % m;
+            const double keep = y[at];
+            y[at] = bad[b];
+            ck_assert_int_eq(mlr_lgs_solve(g, y, m, m, x, m), MLR_E_INVALID_ARG);
+            y[at] = keep;
+        }
+    }
+    mlr_lgs_destroy(g);
+    free(y), free(x);
+}
+END_TEST
+
 START_TEST(every_allocation_failure_is_clean)
 {
     double t[5] = {0, 2, 4.5, 7, 9};
@@ -390,6 +417,7 @@ static Suite *lgs_suite(void)
     tcase_add_loop_test(num, cholmod_agrees_with_banded, 0, (int)MLR_COUNTOF(cases));
     tcase_add_test(num, variance_grows_between_sparse_keys);
     tcase_add_loop_test(num, chunked_solve_matches_column_by_column, 0, (int)MLR_COUNTOF(big));
+    tcase_add_test(num, non_finite_observations_are_rejected_when_chunked);
     suite_add_tcase(s, num);
     TCase *args = tcase_create("arguments");
     tcase_add_test(args, rejects_bad_parameters);
