@@ -198,8 +198,7 @@ void mlr_band_forward_row_from(const mlr_band *b, size_t i, const double *yi, do
     } else if (kmax == 1) {
         row_from1(xi, yi, xi - ld, li[0], m);
     } else {
-        if (xi != yi)
-            memcpy(xi, yi, m * sizeof(double));
+        memcpy(xi, yi, m * sizeof(double));
         for (size_t k = 1; k <= kmax; k++)
             row_sub1(xi, xi - k * ld, li[k - 1], m);
     }

@@ -298,6 +298,29 @@ static inline void mlr_lay_sum_sq_diff_rows(size_t rows, size_t mm, const double
 #define MLR_LAY_TAIL_TOL 1e-20
 #define MLR_LAY_CHUNK_BYTES (128u << 10)
 
+/* The homogeneous solutions h_1, h_2 of the backward sweep with the interior coefficients
+ * l1, l2, from the chunk end backward (h_j = 1 at boundary row j): with h NULL, the number of
+ * rows until both stay below MLR_LAY_TAIL_TOL for three rows (0 when that takes more than
+ * max_rows); otherwise the first max_rows of them into h[r * 2 * stride + j - 1]. */
+static size_t interior_tail(double l1, double l2, size_t max_rows, double *h, size_t stride)
+{
+    double p1 = 1.0, q1 = 0.0, p2 = 0.0, q2 = 1.0; /* h_j at the two rows after this one */
+    size_t quiet = 0;
+    for (size_t r = 0; r < max_rows; r++) {
+        const double v1 = -(l1 * p1 + l2 * q1), v2 = -(l1 * p2 + l2 * q2);
+        q1 = p1, p1 = v1, q2 = p2, p2 = v2;
+        if (h) {
+            h[r * 2 * stride] = v1;
+            h[r * 2 * stride + 1] = v2;
+        } else {
+            quiet = fabs(v1) < MLR_LAY_TAIL_TOL && fabs(v2) < MLR_LAY_TAIL_TOL ? quiet + 1 : 0;
+            if (quiet == 3)
+                return r + 1;
+        }
+    }
+    return h ? max_rows : 0;
+}
+
 #if defined(__GNUC__)
 __attribute__((always_inline))
 #endif
@@ -310,21 +333,12 @@ static inline int rss_chunked(const mlr_lay_batch *b, const size_t m, const doub
         return 0;
     const double *l1c = b->l1 + kc * ns, *l2c = b->l2 + kc * ns;
     /* tail length T: rows until |h| < tol for three rows in a row, every system */
-    size_t tail = 0;
-    {
-        size_t quiet = 0;
-        for (size_t k = 0; k < ns; k++) {
-            double p1 = 1.0, q1 = 0.0, p2 = 0.0, q2 = 1.0; /* h_j at rows i+1, i+2 */
-            size_t r = 0;
-            for (quiet = 0; quiet < 3; r++) {
-                if (r > n / 16)
-                    return 0;
-                const double v1 = -(l1c[k] * p1 + l2c[k] * q1), v2 = -(l1c[k] * p2 + l2c[k] * q2);
-                q1 = p1, p1 = v1, q2 = p2, p2 = v2;
-                quiet = fabs(v1) < MLR_LAY_TAIL_TOL && fabs(v2) < MLR_LAY_TAIL_TOL ? quiet + 1 : 0;
-            }
-            tail = r > tail ? r : tail;
-        }
+    size_t tail = 0; /* rows until |h| < tol for three rows in a row, every system */
+    for (size_t k = 0; k < ns; k++) {
+        const size_t r = interior_tail(l1c[k], l2c[k], n / 16, NULL, 0);
+        if (r == 0)
+            return 0;
+        tail = r > tail ? r : tail;
     }
     size_t chunk = MLR_LAY_CHUNK_BYTES / (mm * sizeof(double));
     if (chunk < 2 * tail + 8)
@@ -337,15 +351,8 @@ static inline int rss_chunked(const mlr_lay_batch *b, const size_t m, const doub
     double *ring = z, *zero = z + 3 * cap * mm, *h = zero + mm;
     for (size_t c = 0; c < mm; c++)
         zero[c] = 0.0;
-    for (size_t k = 0; k < ns; k++) { /* h[(r ns + k) 2 + j]: row e - r, boundary row e+1+j */
-        double p1 = 1.0, q1 = 0.0, p2 = 0.0, q2 = 1.0;
-        for (size_t r = 0; r < tail; r++) {
-            const double v1 = -(l1c[k] * p1 + l2c[k] * q1), v2 = -(l1c[k] * p2 + l2c[k] * q2);
-            q1 = p1, p1 = v1, q2 = p2, p2 = v2;
-            h[(r * ns + k) * 2] = v1;
-            h[(r * ns + k) * 2 + 1] = v2;
-        }
-    }
+    for (size_t k = 0; k < ns; k++) /* h[(r ns + k) 2 + j]: row e - r, boundary row e+1+j */
+        interior_tail(l1c[k], l2c[k], tail, h + 2 * k, ns);
     const double *l1 = b->l1, *l2 = b->l2, *dv = b->dinv;
 #define CHUNK_A(k) ((k) * chunk)
 #define CHUNK_E(k) ((k) + 1 == n_chunks ? n - 1 : ((k) + 1) * chunk - 1)

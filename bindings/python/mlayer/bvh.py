@@ -17,7 +17,8 @@ from __future__ import annotations
 import os
 
 from ._native import ffi, lib
-from .errors import InvalidArgumentError, ParseError, check
+from .errors import ParseError, check
+from .kmeans import _count
 from .motion import Motion
 
 __all__ = ["read_bvh", "write_bvh", "read_bvh_string", "write_bvh_string"]
@@ -25,11 +26,7 @@ __all__ = ["read_bvh", "write_bvh", "read_bvh_string", "write_bvh_string"]
 
 def _threads(threads) -> int:
     """C thread count: None -> 0 (automatic), else an int >= 1."""
-    if threads is None:
-        return 0
-    if isinstance(threads, bool) or not isinstance(threads, int) or threads < 1:
-        raise InvalidArgumentError(f"threads must be None or an integer >= 1, got {threads!r}")
-    return threads
+    return 0 if threads is None else _count(threads, "threads")
 
 
 def _parse(data, name: str, threads: int) -> Motion:

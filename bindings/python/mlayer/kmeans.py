@@ -29,9 +29,14 @@ def default_threads() -> int:
     return max(1, min(64, n))
 
 
-def _count(v, name: str, lo: int = 1) -> int:
-    if isinstance(v, bool) or int(v) != v or v < lo:
-        raise InvalidArgumentError(f"{name} must be an integer >= {lo}, got {v!r}")
+def _count(v, name: str, lo: int = 1, hi: int | None = None) -> int:
+    try:
+        ok = not isinstance(v, bool) and int(v) == v and v >= lo and (hi is None or v <= hi)
+    except (TypeError, ValueError):
+        ok = False
+    if not ok:
+        bounds = f">= {lo}" if hi is None else f"in {lo} .. {hi}"
+        raise InvalidArgumentError(f"{name} must be an integer {bounds}, got {v!r}")
     return int(v)
 
 

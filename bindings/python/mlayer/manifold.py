@@ -13,7 +13,7 @@ import numpy as np
 from . import _arrays
 from ._native import ffi, lib
 from .errors import InvalidArgumentError, SingularMatrixError, check
-from .kmeans import default_threads
+from .kmeans import _count, default_threads
 
 __all__ = ["PCA", "GRBF", "lattice_points"]
 
@@ -166,7 +166,8 @@ class GRBF:
       one, the centred x and y terms in the odd-even and even-odd ones); in each a Householder
       reflection removes the side condition and leaves a positive definite matrix for
       Cholesky. About 1/16 of the work of one LU of the whole system, the same solution up to
-      rounding. (Should rounding make a class indefinite, numpy's LU solves each class.)
+      rounding. (Should rounding make a class indefinite, the whole system goes to LU as
+      below.)
     - other square systems: numpy's LU of the bordered system [[Phi, Pp], [Pc^T, 0]];
     - more points than centres (or a ridge): w = Z beta with Z an orthonormal basis of the w
       the side conditions allow (Householder QR of Pc = [1, c], applied as a rank-(e+1)
@@ -196,11 +197,8 @@ class GRBF:
             raise InvalidArgumentError(f"GRBF: smoothing must be finite and >= 0, got "
                                        f"{smoothing!r}")
         self.smoothing = float(smoothing)
-        if n_threads is not None and (isinstance(n_threads, bool) or int(n_threads) != n_threads
-                                      or not 1 <= n_threads <= 64):
-            raise InvalidArgumentError(f"GRBF: n_threads must be an integer in 1 .. 64, got "
-                                       f"{n_threads!r}")
-        self.n_threads = default_threads() if n_threads is None else int(n_threads)
+        self.n_threads = (default_threads() if n_threads is None
+                          else _count(n_threads, "GRBF: n_threads", 1, 64))
         self.coef_ = None
 
     # -- basis ---------------------------------------------------------------------------------
@@ -283,12 +281,15 @@ class GRBF:
                 f"GRBF: {n} training points for {N} centres: underdetermined (use a smaller "
                 "lattice or more points)")
         square = n == N and self.smoothing == 0.0
+        coef = None
         if square and self.lattice is not None and min(self.lattice) >= 2 \
                 and np.array_equal(P, C):
             try:
-                self.coef_ = self._fit_lattice_c(Y)
-            except SingularMatrixError:  # rounding made a class indefinite: LU of each class
-                self.coef_ = self._fit_lattice(Y)
+                coef = self._fit_lattice_c(Y)
+            except SingularMatrixError:  # rounding made a class indefinite: the LU below
+                coef = None
+        if coef is not None:
+            self.coef_ = coef
         elif square:
             # square, general: the bordered system [[Phi, Pp], [Pc^T, 0]] [w; a] = [Y; 0] by LU
             A = np.zeros((N + m, N + m))
@@ -311,7 +312,7 @@ class GRBF:
 
     def _fit_lattice_c(self, Y: np.ndarray) -> np.ndarray:
         """Interpolation on the lattice by the C core (``mlr_grbf_fit_lattice``: the four
-        symmetry classes of the notes below, each by Cholesky after a Householder reflection
+        symmetry classes of the class notes, each by Cholesky after a Householder reflection
         removes its side condition, one thread per class)."""
         R, Cn = self.lattice
         C3 = self.centers_.reshape(R, Cn, 2)
@@ -327,70 +328,6 @@ class GRBF:
                                        _arrays.ptr_out(coef), d, ffi.NULL, diag),
               "mlayer.GRBF.fit", diag)
         return coef
-
-    def _fit_lattice(self, Y: np.ndarray) -> np.ndarray:
-        """Interpolation at the rows x cols lattice of centres, split by the reflection
-        symmetry of the lattice (see the class notes), each class by numpy's LU: the fallback
-        of _fit_lattice_c. Centre u = r * cols + c; rows mirror
-        r <-> R-1-r (x), columns c <-> C-1-c (y). The representatives are the centres with
-        r < ceil(R/2), c < ceil(C/2); a middle row or column (odd R or C) is fixed by its
-        reflection (stabilizer size s = 1, 2 or 4), and the odd classes skip it. In class
-        (sx, sy) representative i stands for the unit vector b_i = sum_g chi(g) e_{g i} /
-        (2 sqrt(s_i)) (g over the four reflections, chi(g) = 1, sx, sy, sx sy), so that
-        b_i^T K b_j = sum_g chi(g) K[i, g j] / sqrt(s_i s_j), b_i^T y = sum_g chi(g) y[g i] /
-        (2 sqrt(s_i)) and b_i^T p = 2 p(i) / sqrt(s_i) for the polynomial p = 1, x - xm or
-        y - ym of the class."""
-        R, Cn = self.lattice
-        C = self.centers_
-        d = Y.shape[1]
-        Rh, Ch = (R + 1) // 2, (Cn + 1) // 2
-        C3 = C.reshape(R, Cn, 2)
-        reps = np.ascontiguousarray(C3[:Rh, :Ch].reshape(-1, 2))
-        K4 = self._basis(reps, False).reshape(Rh, Ch, R, Cn)
-        # sum_g chi(g) K[i, g j]: fold the target rows (even: K[., r] + K[., R-1-r], odd: -),
-        # then the target columns the same way
-        fold_r = (K4[:, :, :Rh] + K4[:, :, ::-1][:, :, :Rh],
-                  K4[:, :, :Rh] - K4[:, :, ::-1][:, :, :Rh])
-        Y3 = Y.reshape(R, Cn, d)
-        fy_r = (Y3[:Rh] + Y3[::-1][:Rh], Y3[:Rh] - Y3[::-1][:Rh])
-        mid_r = np.zeros(Rh, bool)
-        mid_c = np.zeros(Ch, bool)
-        mid_r[-1] = R % 2 == 1
-        mid_c[-1] = Cn % 2 == 1
-        stab = np.where(mid_r, 2.0, 1.0)[:, None] * np.where(mid_c, 2.0, 1.0)[None, :]
-        xm, ym = C3[:, :, 0].mean(), C3[:, :, 1].mean()
-        poly = (np.ones((Rh, Ch)), C3[:Rh, :Ch, 0] - xm, C3[:Rh, :Ch, 1] - ym, None)
-        a = np.zeros((3, d))
-        W3 = np.zeros((R, Cn, d))
-        for cls, (sx, sy) in enumerate(((1, 1), (-1, 1), (1, -1), (-1, -1))):
-            rv = Rh if sx > 0 else R // 2
-            cv = Ch if sy > 0 else Cn // 2
-            k = rv * cv
-            mc = 0 if poly[cls] is None else 1
-            A = np.zeros((k + mc, k + mc))
-            Kx = fold_r[sx < 0][:rv, :cv, :rv]
-            blk = A[:k, :k].reshape(rv, cv, rv, cv)
-            np.add(Kx[..., :cv], sy * Kx[..., ::-1][..., :cv], out=blk)
-            yx = fy_r[sx < 0][:rv]
-            yc = (yx[:, :cv] + sy * yx[:, ::-1][:, :cv]).reshape(k, d)
-            sq = np.sqrt(stab[:rv, :cv]).reshape(k)
-            if mid_r[-1] and sx > 0 or mid_c[-1] and sy > 0:  # unit vectors of fixed centres
-                A[:k, :k] /= np.outer(sq, sq)
-            rhs = np.zeros((k + mc, d))
-            rhs[:k] = yc / (2.0 * sq[:, None])
-            if mc:
-                A[:k, k] = A[k, :k] = 2.0 * poly[cls][:rv, :cv].reshape(k) / sq
-            sol = _solve(A, rhs)
-            if mc:
-                a[cls] = sol[k]
-            wc = np.zeros((Rh, Ch, d))
-            wc[:rv, :cv] = (sol[:k] / (2.0 * sq[:, None])).reshape(rv, cv, d)
-            W3[:Rh, :Ch] += wc
-            W3[::-1][:Rh, :Ch] += sx * wc
-            W3[:, ::-1][:Rh, :Ch] += sy * wc
-            W3[::-1, ::-1][:Rh, :Ch] += (sx * sy) * wc
-        a[0] -= a[1] * xm + a[2] * ym  # back to the terms 1, x, y
-        return np.vstack([W3.reshape(R * Cn, d), a])
 
     def _fit_least_squares(self, P, Y, V, T, m):
         """More points than centres (or a ridge): least squares in (a, beta) by QR of the

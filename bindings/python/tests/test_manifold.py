@@ -250,7 +250,7 @@ def test_grbf_least_squares_many_centres(rng):
 def test_grbf_lattice_split_matches_whole_system(rng, monkeypatch, lat, kernel):
     # interpolation on a lattice goes through the four symmetry classes of the lattice (C core,
     # Cholesky per class); the same centres passed explicitly go through LU of the whole
-    # bordered system; numpy's LU per class (the fallback) agrees too
+    # bordered system; so does the fallback when the C core finds a class indefinite
     calls = []
     orig = GRBF._fit_lattice_c
     monkeypatch.setattr(GRBF, "_fit_lattice_c", lambda self, Y: calls.append(1) or orig(self, Y))
@@ -266,7 +266,12 @@ def test_grbf_lattice_split_matches_whole_system(rng, monkeypatch, lat, kernel):
     np.testing.assert_allclose(g.predict(C), Y, rtol=0, atol=1e-10 * np.abs(Y).max())
     np.testing.assert_allclose(g.coef_[:-3].sum(0), 0, atol=1e-10 * scale)  # side conditions
     np.testing.assert_allclose(C.T @ g.coef_[:-3], 0, atol=1e-9 * scale)
-    np.testing.assert_allclose(g._fit_lattice(Y), g.coef_, rtol=0, atol=1e-10 * scale)
+
+    def indefinite(self, Y):
+        raise mlayer.SingularMatrixError("class indefinite (forced)")
+    monkeypatch.setattr(GRBF, "_fit_lattice_c", indefinite)
+    fb = GRBF(kernel, lat, bounds=bounds).fit(C, Y)
+    np.testing.assert_allclose(fb.coef_, g.coef_, rtol=0, atol=1e-10 * scale)
 
 
 def test_grbf_bench_case_matches_scipy(rng):
