@@ -55,6 +55,38 @@ static double solve_order(lgs_state *s, unsigned order)
     return s->x[(s->n / 2) * s->m];
 }
 
+/* Into a newly allocated x (as a Python caller gets): the page faults of new memory count, and
+ * n_threads 0 lets a second thread map x's pages while the solve runs. */
+static double solve_new_x(lgs_state *s, size_t n_threads)
+{
+    mlr_lgs *g = NULL;
+    double *x = malloc(s->n * s->m * sizeof(double));
+    if (!x || mlr_lgs_create(s->n, 2, 4.0, 1.0, NULL, s->n, MLR_LGS_BANDED, NULL, &g, NULL) < 0) {
+        free(x);
+        return -1.0;
+    }
+    mlr_lgs_solve_mt(g, s->y, s->m, s->m, x, s->m, n_threads);
+    mlr_lgs_destroy(g);
+    const double v = x[(s->n / 2) * s->m];
+    free(x);
+    return v;
+}
+
+static double run_new_x_1(void *p) { return solve_new_x(p, 1); }
+static double run_new_x_auto(void *p) { return solve_new_x(p, 0); }
+
+static double run_copy_new_x(void *p)
+{
+    lgs_state *s = p;
+    double *x = malloc(s->n * s->m * sizeof(double));
+    if (!x)
+        return -1.0;
+    memcpy(x, s->y, s->n * s->m * sizeof(double));
+    const double v = x[(s->n / 2) * s->m];
+    free(x);
+    return v;
+}
+
 static double run_order2(void *p) { return solve_order(p, 2); }
 static double run_order1(void *p) { return solve_order(p, 1); }
 
@@ -83,5 +115,8 @@ const mlr_bench_case mlr_bench_lgs_cases[] = {
     {"lgs.variance/n=100000", 100000 * 96, setup_clip, run_variance, teardown},
     {"lgs.order2/n=100000,m=127", 100000 * 127, setup_big, run_order2, teardown},
     {"copy/n=100000,m=127", 100000 * 127, setup_big, run_copy, teardown},
+    {"lgs.order2.new_x,1_thread/n=100000,m=127", 100000 * 127, setup_big, run_new_x_1, teardown},
+    {"lgs.order2.new_x,auto/n=100000,m=127", 100000 * 127, setup_big, run_new_x_auto, teardown},
+    {"copy.new_x/n=100000,m=127", 100000 * 127, setup_big, run_copy_new_x, teardown},
 };
 const size_t mlr_bench_lgs_count = sizeof mlr_bench_lgs_cases / sizeof mlr_bench_lgs_cases[0];

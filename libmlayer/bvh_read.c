@@ -13,9 +13,6 @@
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
-#if defined(__unix__) || defined(__APPLE__)
-#  include <unistd.h>
-#endif
 
 /* Most threads a read uses. */
 #define BVH_MAX_THREADS 16
@@ -517,12 +514,7 @@ static void frames_job_run(void *ctx, size_t t)
  * and 8. */
 static size_t auto_threads(size_t bytes)
 {
-    size_t t = bytes >> 19, cpus = 1;
-#ifdef _SC_NPROCESSORS_ONLN
-    long n = sysconf(_SC_NPROCESSORS_ONLN);
-    if (n > 1)
-        cpus = (size_t)n;
-#endif
+    size_t t = bytes >> 19, cpus = mlr_online_cpus();
     if (t > cpus)
         t = cpus;
     if (t > 8)

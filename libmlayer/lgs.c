@@ -5,6 +5,8 @@
  * the forward sweep, so a solve reads y once and makes one more pass over x.
  */
 #include "lgs_internal.h"
+#include "parallel_internal.h"
+#include "prefault_internal.h"
 
 #include <math.h>
 
@@ -308,6 +310,12 @@ static int row_finite(const double *x, size_t m)
 mlr_status mlr_lgs_solve(const mlr_lgs *g, const double *y, size_t ldy, size_t m, double *x,
                          size_t ldx)
 {
+    return mlr_lgs_solve_mt(g, y, ldy, m, x, ldx, 1);
+}
+
+mlr_status mlr_lgs_solve_mt(const mlr_lgs *g, const double *y, size_t ldy, size_t m, double *x,
+                            size_t ldx, size_t n_threads)
+{
     if (!g)
         return MLR_E_INVALID_ARG;
     if (m == 0)
@@ -320,7 +328,12 @@ mlr_status mlr_lgs_solve(const mlr_lgs *g, const double *y, size_t ldy, size_t m
     if (g->solver == MLR_LGS_BANDED) {
         solve_ctx ctx = {g, y, ldy};
         mlr_band_row_fn fn = g->first ? row_interp : row_copy;
+        mlr_prefault pf = {0};
+        if (n_threads != 1 && (n_threads > 1 || mlr_online_cpus() > 1) &&
+            n - 1 <= (SIZE_MAX / sizeof(double) - m) / ldx) /* x's span fits in size_t */
+            mlr_prefault_start(&pf, x, ((n - 1) * ldx + m) * sizeof(double));
         mlr_band_solve_rows(g->band, fn, &ctx, x, ldx, m);
+        mlr_prefault_finish(&pf);
     } else {
 #ifdef MLR_HAVE_CHOLMOD
         /* a sparse factor need not connect every row with every other: check y itself */

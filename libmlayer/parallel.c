@@ -1,9 +1,13 @@
 /* The fixed-task parallel loop of the threaded parts (k-means, SOM, GRBF, BVH frames). See
  * parallel_internal.h. */
+#define _DEFAULT_SOURCE 1 /* sysconf */
 #include "parallel_internal.h"
 
 #include <pthread.h>
 #include <stdatomic.h>
+#if defined(__unix__) || defined(__APPLE__)
+#  include <unistd.h>
+#endif
 
 typedef struct par_ctx {
     atomic_size_t next;
@@ -50,4 +54,14 @@ void mlr_parallel_run(size_t n_threads, size_t n_tasks, mlr_task_fn fn, void *ct
     par_worker(&pc);
     for (size_t i = 0; i < started; i++)
         pthread_join(th[i], NULL);
+}
+
+size_t mlr_online_cpus(void)
+{
+#ifdef _SC_NPROCESSORS_ONLN
+    long n = sysconf(_SC_NPROCESSORS_ONLN);
+    if (n > 1)
+        return (size_t)n;
+#endif
+    return 1;
 }

@@ -14,4 +14,7 @@
 typedef void (*mlr_task_fn)(void *ctx, size_t task);
 void mlr_parallel_run(size_t n_threads, size_t n_tasks, mlr_task_fn fn, void *ctx);
 
+/* Online processors (at least 1). */
+size_t mlr_online_cpus(void);
+
 #endif

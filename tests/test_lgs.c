@@ -4,6 +4,7 @@
 
 #include <math.h>
 #include <stdlib.h>
+#include <string.h>
 
 /* Dense (lam^2 L^T L + A^T A / sigma^2) and A^T y / sigma^2, then Gauss elimination. */
 static void dense_lgs(size_t n_out, unsigned order, double lam, double sigma, const double *t,
@@ -287,6 +288,55 @@ START_TEST(non_finite_observations_are_rejected_when_chunked)
 }
 END_TEST
 
+/* With the page-mapping helper (outputs over 8 MiB), every thread count gives the bits of the
+ * plain solve: into new memory, at an odd offset and stride, in place, with interpolation rows,
+ * and a NaN is still reported. */
+START_TEST(helper_thread_changes_no_bits)
+{
+    const size_t n = 70000, m = 16, ld = 19; /* x spans 8.96 MB (10.1 MB strided) */
+    mlr_test_rng r;
+    mlr_test_rng_seed(&r, 808);
+    double *y = malloc(n * m * sizeof *y), *ref = malloc(n * m * sizeof *ref);
+    double acc = 0.0;
+    for (size_t i = 0; i < n * m; i++)
+        y[i] = (acc += 0.01 * mlr_test_rng_normal(&r)) + mlr_test_rng_normal(&r);
+    double *t = malloc(n * sizeof *t);
+    for (size_t i = 0; i < n; i++)
+        t[i] = (double)i * (double)(n - 1) / (double)n + 0.3 * mlr_test_rng_uniform(&r);
+    for (int interp = 0; interp < 2; interp++) {
+        mlr_lgs *g = NULL;
+        ck_assert_int_eq(mlr_lgs_create(n, 2, 3.0, 1.0, interp ? t : NULL, n, MLR_LGS_BANDED,
+                                        NULL, &g, NULL), MLR_OK);
+        ck_assert_int_eq(mlr_lgs_solve(g, y, m, m, ref, m), MLR_OK);
+        for (size_t threads = 0; threads < 4; threads++) {
+            double *x = malloc(n * m * sizeof *x); /* new pages each time */
+            ck_assert_int_eq(mlr_lgs_solve_mt(g, y, m, m, x, m, threads), MLR_OK);
+            ck_assert_msg(memcmp(x, ref, n * m * sizeof *x) == 0, "threads %zu", threads);
+            free(x);
+            double *xs = malloc((n * ld + 1) * sizeof *xs), *x1 = xs + 1; /* odd offset */
+            ck_assert_int_eq(mlr_lgs_solve_mt(g, y, m, m, x1, ld, threads), MLR_OK);
+            for (size_t i = 0; i < n; i++)
+                ck_assert_msg(memcmp(x1 + i * ld, ref + i * m, m * sizeof *x1) == 0,
+                              "threads %zu, row %zu", threads, i);
+            if (!interp) {
+                double *yy = malloc(n * m * sizeof *yy);
+                memcpy(yy, y, n * m * sizeof *yy);
+                ck_assert_int_eq(mlr_lgs_solve_mt(g, yy, m, m, yy, m, threads), MLR_OK);
+                ck_assert(memcmp(yy, ref, n * m * sizeof *yy) == 0);
+                free(yy);
+            }
+            const double keep = y[(n / 2) * m + 3];
+            y[(n / 2) * m + 3] = NAN;
+            ck_assert_int_eq(mlr_lgs_solve_mt(g, y, m, m, x1, ld, threads), MLR_E_INVALID_ARG);
+            y[(n / 2) * m + 3] = keep;
+            free(xs);
+        }
+        mlr_lgs_destroy(g);
+    }
+    free(y), free(ref), free(t);
+}
+END_TEST
+
 START_TEST(every_allocation_failure_is_clean)
 {
     double t[5] = {0, 2, 4.5, 7, 9};
@@ -418,6 +468,7 @@ static Suite *lgs_suite(void)
     tcase_add_test(num, variance_grows_between_sparse_keys);
     tcase_add_loop_test(num, chunked_solve_matches_column_by_column, 0, (int)MLR_COUNTOF(big));
     tcase_add_test(num, non_finite_observations_are_rejected_when_chunked);
+    tcase_add_test(num, helper_thread_changes_no_bits);
     suite_add_tcase(s, num);
     TCase *args = tcase_create("arguments");
     tcase_add_test(args, rejects_bad_parameters);

@@ -9,6 +9,7 @@ scikit-sparse is optional (pip install scikit-sparse==0.4.16 builds against Suit
 from __future__ import annotations
 
 import argparse
+import os
 
 import numpy as np
 import scipy.linalg
@@ -43,7 +44,7 @@ def main():
     rng = np.random.default_rng(0)
     print(f"{'n x m':>14} {'copy ms':>9} {'mlayer ms':>10} {'pbsv ms':>9} {'cholmod ms':>11}"
           f" {'mlayer/copy':>12} {'pbsv/mlayer':>12} {'cholmod/mlayer':>15}"
-          f" {'copyto ms':>10} {'mlayer out= ms':>15}")
+          f" {'copyto ms':>10} {'mlayer out= ms':>15} {'1-thread ms':>12} {'pbsv/1-thread':>14}")
     for spec in a.sizes.split(","):
         n, m = (int(v) for v in spec.split("x"))
         y = np.cumsum(rng.normal(size=(n, m)), axis=0)
@@ -54,6 +55,7 @@ def main():
         assert err < 1e-10, f"mlayer and pbsv disagree: {err:g}"
         t_copy = median_seconds(lambda: y.copy(), a.repeat)
         t_ml = median_seconds(lambda: mlayer.lgs(y, a.lam, 1.0), a.repeat)
+        t_ml1 = median_seconds(lambda: mlayer.lgs(y, a.lam, 1.0, threads=1), a.repeat)
         t_pb = median_seconds(lambda: scipy.linalg.solveh_banded(ab, y, lower=True), a.repeat)
         t_ch = float("nan")
         if sk_cholesky is not None:
@@ -70,11 +72,14 @@ def main():
         g.close()
         print(f"{spec:>14} {t_copy*1e3:9.2f} {t_ml*1e3:10.2f} {t_pb*1e3:9.1f} {t_ch*1e3:11.1f}"
               f" {t_ml/t_copy:12.2f} {t_pb/t_ml:12.1f} {t_ch/t_ml:15.1f}"
-              f" {t_copyto*1e3:10.2f} {t_ml_out*1e3:15.2f}")
+              f" {t_copyto*1e3:10.2f} {t_ml_out*1e3:15.2f} {t_ml1*1e3:12.2f}"
+              f" {t_pb/t_ml1:14.1f}")
     print("mlayer, pbsv and cholmod each include building/factoring the system; the copy "
           "is y.copy() (the memory floor). Medians of", a.repeat, "runs.\n"
           "copyto and 'mlayer out=' write into an existing array (np.copyto, LGS.solve(y, out=)),"
-          " without the page faults of a new one (the factor is built once there).")
+          " without the page faults of a new one (the factor is built once there).\n"
+          "mlayer.lgs by default lets a second thread map the pages of a result of 8 MiB or "
+          "more while it solves; '1-thread' is threads=1. Processors:", os.cpu_count())
 
 
 if __name__ == "__main__":

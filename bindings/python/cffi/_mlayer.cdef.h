@@ -47,6 +47,8 @@ mlr_status mlr_lgs_create(size_t n_out, unsigned order, double lam, double sigma
                           const mlr_allocator *alloc, mlr_lgs **out, mlr_diag *diag);
 mlr_status mlr_lgs_solve(const mlr_lgs *lgs, const double *y, size_t ldy, size_t m,
                          double *x, size_t ldx);
+mlr_status mlr_lgs_solve_mt(const mlr_lgs *lgs, const double *y, size_t ldy, size_t m,
+                            double *x, size_t ldx, size_t n_threads);
 mlr_status mlr_lgs_variance(const mlr_lgs *lgs, double *var, size_t n_out);
 size_t mlr_lgs_n_out(const mlr_lgs *lgs);
 size_t mlr_lgs_n_obs(const mlr_lgs *lgs);

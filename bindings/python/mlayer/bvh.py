@@ -18,15 +18,10 @@ import os
 
 from ._native import ffi, lib
 from .errors import ParseError, check
-from .kmeans import _count
+from .kmeans import _c_threads
 from .motion import Motion
 
 __all__ = ["read_bvh", "write_bvh", "read_bvh_string", "write_bvh_string"]
-
-
-def _threads(threads) -> int:
-    """C thread count: None -> 0 (automatic), else an int >= 1."""
-    return 0 if threads is None else _count(threads, "threads")
 
 
 def _parse(data, name: str, threads: int) -> Motion:
@@ -60,7 +55,7 @@ def read_bvh(path, *, threads=None) -> Motion:
     Raises ParseError (with path, line, column) when the file is not valid BVH, OSError when it
     cannot be read, MemoryError when it does not fit in memory.
     """
-    n_threads = _threads(threads)
+    n_threads = _c_threads(threads)
     path = os.fspath(path)
     name = path if isinstance(path, str) else os.fsdecode(path)
     with open(path, "rb") as f:
@@ -71,7 +66,7 @@ def read_bvh(path, *, threads=None) -> Motion:
 def read_bvh_string(text, name: str = "<string>", *, threads=None) -> Motion:
     """Parse BVH text given as str or bytes; ``name`` stands for the path in error messages;
     ``threads`` as for :func:`read_bvh`."""
-    n_threads = _threads(threads)
+    n_threads = _c_threads(threads)
     if isinstance(text, str):
         text = text.encode("utf-8", errors="surrogateescape")
     return _parse(text, name, n_threads)

@@ -40,6 +40,11 @@ def _count(v, name: str, lo: int = 1, hi: int | None = None) -> int:
     return int(v)
 
 
+def _c_threads(threads) -> int:
+    """A C function's thread count: None -> 0 (the library picks), else an int >= 1."""
+    return 0 if threads is None else _count(threads, "threads")
+
+
 @dataclass(frozen=True)
 class KMeansResult:
     """Result of :func:`kmeans`: centres (k, d), labels (n,) int32, inertia (sum of squared

@@ -14,6 +14,7 @@ import numpy as np
 from . import _arrays
 from ._native import NativeHandle, ffi, lib
 from .errors import InvalidArgumentError, check
+from .kmeans import _c_threads
 
 _SOLVERS = {"banded": lib.MLR_LGS_BANDED, "cholmod": lib.MLR_LGS_CHOLMOD}
 
@@ -55,8 +56,14 @@ class LGS(NativeHandle):
         self.n_out, self.n_obs, self.order, self.solver = int(n_out), n_obs, int(order), solver
         self.lam, self.sigma = float(lam), float(sigma)
 
-    def solve(self, y, out: np.ndarray | None = None) -> np.ndarray:
-        """Posterior mean for y of shape (n_obs,) or (n_obs, m); returns (n_out,) or (n_out, m)."""
+    def solve(self, y, out: np.ndarray | None = None, *, threads=None) -> np.ndarray:
+        """Posterior mean for y of shape (n_obs,) or (n_obs, m); returns (n_out,) or (n_out, m).
+
+        ``threads``: None (default) lets a second thread map the pages of a large output (8 MiB
+        or more) while this one solves, when the machine has two processors; 1 solves on this
+        thread only. The result is the same, bit for bit.
+        """
+        n_threads = _c_threads(threads)
         y = _arrays.as_f64(y, "y", ndim=(1, 2))
         if y.shape[0] != self.n_obs:
             raise InvalidArgumentError(
@@ -69,7 +76,8 @@ class LGS(NativeHandle):
             _arrays.check_out(out, "out", shape)
         if m == 0 or self.n_out == 0:
             return out
-        code = lib.mlr_lgs_solve(self._h, _arrays.ptr(y), m, m, _arrays.ptr_out(out), m)
+        code = lib.mlr_lgs_solve_mt(self._h, _arrays.ptr(y), m, m, _arrays.ptr_out(out), m,
+                                    n_threads)
         if code == lib.MLR_E_INVALID_ARG:
             raise InvalidArgumentError("mlayer.lgs: y contains NaN or infinite values "
                                        "[MLR_E_INVALID_ARG]", code)
@@ -85,7 +93,8 @@ class LGS(NativeHandle):
 
 
 def lgs(y, lam: float = 1.0, sigma: float = 1.0, *, order: int = 2, t=None,
-        n_out: int | None = None, return_var: bool = False, solver: str = "banded"):
+        n_out: int | None = None, return_var: bool = False, solver: str = "banded",
+        threads=None):
     """Posterior mean of the LGS for observations y, one column per channel.
 
     Parameters
@@ -105,6 +114,10 @@ def lgs(y, lam: float = 1.0, sigma: float = 1.0, *, order: int = 2, t=None,
         Also return the posterior variance per output frame, shape (n_out,).
     solver : "banded" or "cholmod"
         The library's banded LDL^T (default, O(n m)) or the CHOLMOD sparse path.
+    threads : None or int
+        None (default): on a machine with two or more processors, a second thread maps the
+        pages of a large result (8 MiB or more) while the solve fills it, which saves the page
+        faults of new memory (about 40% of a 100,000 x 127 solve); 1: one thread. Same result.
 
     Returns x of shape (n_out,) or (n_out, m); with return_var, (x, var).
     Raises InvalidArgumentError (also a ValueError) for bad shapes, parameters or non-finite
@@ -120,7 +133,7 @@ def lgs(y, lam: float = 1.0, sigma: float = 1.0, *, order: int = 2, t=None,
         raise InvalidArgumentError("return_var needs solver='banded' (the variance comes from "
                                    "selected inversion of the banded factor)")
     with LGS(n_out, lam, sigma, order=order, t=t, n_obs=n_obs, solver=solver) as g:
-        x = g.solve(y)
+        x = g.solve(y, threads=threads)
         if return_var:
             return x, g.variance()
         return x

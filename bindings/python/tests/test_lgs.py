@@ -145,3 +145,23 @@ def test_closed_handle():
     g = mlayer.LGS(10)
     g.close()
     g.close()  # idempotent
+
+
+def test_page_mapping_thread_gives_the_same_bits(rng):
+    # 70,000 x 16 doubles (9 MB) is over the 8 MiB from which a second thread maps the pages
+    y = np.cumsum(rng.normal(size=(70000, 16)), axis=0)
+    ref = mlayer.lgs(y, 3.0, threads=1)
+    for threads in (None, 2, 3):
+        assert np.array_equal(mlayer.lgs(y, 3.0, threads=threads), ref)
+    g = mlayer.LGS(70000, 3.0)
+    out = np.full_like(y, np.nan)
+    assert g.solve(y, out=out, threads=2) is out and np.array_equal(out, ref)
+    t = np.linspace(0.0, 69998.5, 70000)
+    assert np.array_equal(mlayer.lgs(y, 3.0, t=t, n_out=70000),
+                          mlayer.lgs(y, 3.0, t=t, n_out=70000, threads=1))
+
+
+@pytest.mark.parametrize("threads", [0, -1, 1.5, "2", True])
+def test_bad_thread_counts_raise(threads):
+    with pytest.raises(mlayer.InvalidArgumentError, match="threads"):
+        mlayer.lgs(np.ones((5, 2)), threads=threads)
