@@ -3,10 +3,10 @@
  * Nothing here prints or keeps state. */
 #include "bvh_frames.h"
 #include "bvh_internal.h"
+#include "file_read_internal.h"
 #include "parallel_internal.h"
 #include "numparse.h"
 
-#include <errno.h>
 #include <float.h>
 #include <locale.h>
 #include <math.h>
@@ -875,19 +875,6 @@ mlr_status mlr_bvh_read_memory_mt(const char *text, size_t len, size_t n_threads
 
 /* ---- files ------------------------------------------------------------------------------- */
 
-/* The size of an open file from fseek/ftell, or 0 when unknown: only a first guess. */
-static size_t size_hint(FILE *fp)
-{
-    long n = -1;
-    if (fseek(fp, 0, SEEK_END) == 0)
-        n = ftell(fp);
-    if (fseek(fp, 0, SEEK_SET) != 0) {
-        clearerr(fp);
-        rewind(fp);
-    }
-    return n > 0 && (unsigned long)n < SIZE_MAX / 2 ? (size_t)n : 0;
-}
-
 mlr_status mlr_bvh_read_file_mt(const char *path, size_t n_threads, const mlr_allocator *alloc,
                                 mlr_motion **out, mlr_diag *diag)
 {
@@ -898,50 +885,13 @@ mlr_status mlr_bvh_read_file_mt(const char *path, size_t n_threads, const mlr_al
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "path is NULL");
     mlr_allocator a;
     mlr_allocator_resolve(alloc, &a);
-    FILE *fp = fopen(path, "rb");
-    if (!fp)
-        return mlr_diag_set(diag, MLR_E_IO, 0, 0, "cannot open: %s", strerror(errno));
-    /* Read until the end of the file, in a buffer first sized from the file's size (one byte
-     * more, so that a file of the expected size needs no second buffer) and doubled when the
-     * file turns out longer: the size is a guess, not relied on. */
-    const size_t hint = size_hint(fp);
-    size_t cap = 0, len = 0;
-    char *buf = NULL;
-    mlr_status s = MLR_OK;
-    for (;;) {
-        if (len == cap) {
-            size_t ncap = cap ? cap * 2 : hint ? hint + 1 : (size_t)1 << 16;
-            if (ncap < cap) {
-                s = MLR_E_OVERFLOW;
-                break;
-            }
-            char *nb = mlr_alloc(&a, ncap);
-            if (!nb) {
-                s = MLR_E_NO_MEMORY;
-                break;
-            }
-            if (len)
-                memcpy(nb, buf, len);
-            mlr_free(&a, buf, cap);
-            buf = nb;
-            cap = ncap;
-        }
-        size_t got = fread(buf + len, 1, cap - len, fp);
-        len += got;
-        if (got == 0 || len < cap) {
-            if (ferror(fp))
-                s = MLR_E_IO;
-            if (feof(fp) || s != MLR_OK)
-                break;
-        }
-    }
-    fclose(fp);
-    if (s == MLR_E_IO)
-        mlr_diag_set(diag, s, 0, 0, "read error: %s", strerror(errno));
-    else if (s != MLR_OK)
-        mlr_diag_set(diag, s, 0, 0, "%s", mlr_status_string(s));
-    else
-        s = bvh_read_memory_ex(buf, len, n_threads, BVH_KERNELS_BEST, &a, out, diag);
+    char *buf;
+    size_t len, cap;
+    /* a large file is read by as many threads as will parse it */
+    mlr_status s = mlr_read_file(path, n_threads, &a, &buf, &len, &cap, diag);
+    if (s != MLR_OK)
+        return s;
+    s = bvh_read_memory_ex(buf, len, n_threads, BVH_KERNELS_BEST, &a, out, diag);
     mlr_free(&a, buf, cap);
     return s;
 }

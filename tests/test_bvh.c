@@ -1284,14 +1284,23 @@ START_TEST(threads_report_the_first_error_as_one_thread_does)
 }
 END_TEST
 
+/* Every clip on 0 (automatic), 2 and 3 threads: the files of 1 MiB or more are then also read
+ * in parallel shares. */
 START_TEST(read_file_mt_matches_read_file)
 {
-    mlr_motion *a = read_clip(&clips[0]), *b = NULL;
+    mlr_motion *b = NULL;
     mlr_diag d;
-    ck_assert_int_eq(mlr_bvh_read_file_mt(clip_path(clips[0].file), 2, NULL, &b, &d), MLR_OK);
-    assert_same_frames(a, b, clips[0].file);
-    mlr_motion_destroy(b);
-    mlr_motion_destroy(a);
+    for (size_t c = 0; c < MLR_COUNTOF(clips); c++) {
+        mlr_motion *a = read_clip(&clips[c]);
+        const size_t counts[] = {0, 2, 3};
+        for (size_t k = 0; k < MLR_COUNTOF(counts); k++) {
+            ck_assert_int_eq(mlr_bvh_read_file_mt(clip_path(clips[c].file), counts[k], NULL, &b,
+                                                  &d), MLR_OK);
+            assert_same_frames(a, b, clips[c].file);
+            mlr_motion_destroy(b);
+        }
+        mlr_motion_destroy(a);
+    }
     ck_assert_int_eq(mlr_bvh_read_file_mt(NULL, 2, NULL, &b, &d), MLR_E_INVALID_ARG);
     ck_assert_int_eq(mlr_bvh_read_file_mt("/nonexistent/x.bvh", 0, NULL, &b, &d), MLR_E_IO);
     ck_assert_ptr_null(b);

@@ -32,6 +32,11 @@ def _parse(data, name: str, threads: int) -> Motion:
         code = lib.mlr_bvh_read_memory_mt(buf, len(buf), threads, ffi.NULL, out, diag)
     finally:
         ffi.release(buf)
+    return _motion_or_raise(code, out, diag, name)
+
+
+def _motion_or_raise(code: int, out, diag, name: str) -> Motion:
+    """The Motion a C reader returned, or the exception for its status."""
     if code == lib.MLR_E_PARSE:
         line = int(diag.line)
         reason = ffi.string(diag.message).decode("utf-8", errors="replace")
@@ -49,8 +54,9 @@ def read_bvh(path, *, threads=None) -> Motion:
 
     ``threads``: how many threads parse the frame lines (the result is the same for every
     count); None (default) picks one per 512 KiB of frames, at most the machine's processors
-    and 8, so small files use one. The file is read into memory first (not memory-mapped: a
-    file truncated by another process while it is parsed must not crash this one).
+    and 8, so small files use one. The file is read into memory first, a large one (1 MiB or
+    more) by the same threads, each its share (not memory-mapped: a file truncated by another
+    process while it is parsed must not crash this one).
 
     Raises ParseError (with path, line, column) when the file is not valid BVH, OSError when it
     cannot be read, MemoryError when it does not fit in memory.
@@ -58,9 +64,19 @@ def read_bvh(path, *, threads=None) -> Motion:
     n_threads = _c_threads(threads)
     path = os.fspath(path)
     name = path if isinstance(path, str) else os.fsdecode(path)
-    with open(path, "rb") as f:
-        data = f.read()
-    return _parse(data, name, n_threads)
+    bpath = os.fsencode(path)
+    if b"\0" in bpath:
+        raise ValueError(f"mlayer.read_bvh: embedded null byte in the path {name!r}")
+    out = ffi.new("mlr_motion **")
+    diag = ffi.new("mlr_diag *")
+    # the C reader reads the file itself (a large one on the parsing threads, each its share)
+    code = lib.mlr_bvh_read_file_mt(bpath, n_threads, ffi.NULL, out, diag)
+    if code == lib.MLR_E_IO:
+        # the OSError subclass that fits (FileNotFoundError, PermissionError, IsADirectoryError,
+        # ...) comes from Python's own open and read; if those work now, the C reason stands
+        with open(path, "rb") as f:
+            f.read(1)
+    return _motion_or_raise(code, out, diag, name)
 
 
 def read_bvh_string(text, name: str = "<string>", *, threads=None) -> Motion:

@@ -249,8 +249,19 @@ def test_files_read_as_their_text(tmp_path):
 def test_missing_file_is_an_oserror(tmp_path):
     with pytest.raises(FileNotFoundError):
         mlayer.read_bvh(tmp_path / "nope.bvh")
-    with pytest.raises(OSError):
-        mlayer.read_bvh(tmp_path)  # a directory
+    with pytest.raises(IsADirectoryError):
+        mlayer.read_bvh(tmp_path)
+    with pytest.raises(ValueError, match="null byte"):
+        mlayer.read_bvh(str(tmp_path / "a\0b.bvh"))
+
+
+def test_large_file_reads_alike_on_every_thread_count(mocap):
+    # over 1 MiB: read by the parsing threads in shares, then parsed; same bits for every count
+    src = mocap / "cmu_01_01_playground_jumps.bvh"
+    ref = mlayer.read_bvh(src, threads=1)
+    for threads in (None, 2, 3):
+        m = mlayer.read_bvh(src, threads=threads)
+        assert np.array_equal(m.rot, ref.rot) and np.array_equal(m.root_pos, ref.root_pos)
 
 
 def test_write_failure_is_an_oserror_and_keeps_the_old_file(tmp_path):
