@@ -514,12 +514,13 @@ static void frames_job_run(void *ctx, size_t t)
  * and 8. */
 static size_t auto_threads(size_t bytes)
 {
-    size_t t = bytes >> 19, cpus = mlr_online_cpus();
+    size_t t = bytes >> 19;
+    if (t <= 1)
+        return 1; /* small files do not ask for the processor count */
+    const size_t cpus = mlr_online_cpus();
     if (t > cpus)
         t = cpus;
-    if (t > 8)
-        t = 8;
-    return t ? t : 1;
+    return t > 8 ? 8 : t;
 }
 
 /* The MOTION lines, on T threads: thread t starts at the first line after byte t/T of the

@@ -329,9 +329,12 @@ mlr_status mlr_lgs_solve_mt(const mlr_lgs *g, const double *y, size_t ldy, size_
         solve_ctx ctx = {g, y, ldy};
         mlr_band_row_fn fn = g->first ? row_interp : row_copy;
         mlr_prefault pf = {0};
-        if (n_threads != 1 && (n_threads > 1 || mlr_online_cpus() > 1) &&
-            n - 1 <= (SIZE_MAX / sizeof(double) - m) / ldx) /* x's span fits in size_t */
-            mlr_prefault_start(&pf, x, ((n - 1) * ldx + m) * sizeof(double));
+        size_t rows, span; /* bytes from x's first to its last value; the size test comes
+                            * first, so small solves never ask for the processor count */
+        if (n_threads != 1 && mlr_mul_size(n - 1, ldx, &rows) == MLR_OK && rows <= SIZE_MAX - m &&
+            mlr_mul_size(rows + m, sizeof(double), &span) == MLR_OK &&
+            span >= MLR_PREFAULT_MIN_BYTES && (n_threads > 1 || mlr_online_cpus() > 1))
+            mlr_prefault_start(&pf, x, span);
         mlr_band_solve_rows(g->band, fn, &ctx, x, ldx, m);
         mlr_prefault_finish(&pf);
     } else {
