@@ -98,7 +98,7 @@ static size_t count_newlines_portable(const char *p, const char *end)
 }
 
 #ifdef BVH_X86
-#  define AVX512 __attribute__((target("avx512f,avx512bw,avx512dq,avx512vl,bmi,bmi2,popcnt")))
+#  define AVX512 __attribute__((target("avx512f,avx512bw,avx512dq,avx512vl,avx512cd,bmi,bmi2,popcnt")))
 
 /* frame_portable compiled for AVX2 (4 doubles a vector): the same operations, so the same bits
  * (no FMA: GCC does not contract in ISO C mode, clang is told not to above). */
@@ -278,7 +278,7 @@ AVX512 static inline void classify_avx512(const char *q, uint64_t *tok, uint64_t
 
 /* The same with AVX-512 VBMI2: the positions compressed into bytes, widened 8 at a time */
 #  define AVX512V                                                                               \
-      __attribute__((target("avx512f,avx512bw,avx512dq,avx512vl,avx512vbmi2,bmi,bmi2,popcnt")))
+      __attribute__((target("avx512f,avx512bw,avx512dq,avx512vl,avx512cd,avx512vbmi2,bmi,bmi2,popcnt")))
 
 AVX512V static inline void extract_compress(const char **o, const char *p, uint64_t e,
                                             size_t cnt)
@@ -377,6 +377,81 @@ AVX512 static inline __m512i windows4(const char *const *e)
     return _mm512_inserti32x4(w, _mm_loadu_si128((const __m128i *)(const void *)(e[3] - 16)), 3);
 }
 
+/* Step 2 for eight tokens of at most 8 bytes (most tokens of files written with 4 decimals),
+ * all eight at once, one per 64-bit lane. A token is that short when its end lies at most 9
+ * bytes after the previous token's end (e[-1] for the first of the eight; for the line's first
+ * token the byte before the line stands for that end): the 8 bytes up to its end then hold
+ * the token and, unless it has 8 bytes, the blank before it. Those bytes, reversed (the last
+ * character in byte 0), up to the first blank, are checked as lanes4 does (digits, at most
+ * one dot, a '-' only first, a digit at least), the dot taken out, the digits summed by
+ * weight and M / 10^f formed as line_avx512_body does. Returns 0, having stored nothing, when
+ * a token of the first n (1 to 8; the others are padding) may be longer or is not simple: the
+ * caller then takes the group the general way. */
+AVX512 static inline int short8(const char *const *e, unsigned n, double *out)
+{
+    const __m512i ev = _mm512_loadu_si512((const void *)e);
+    const __m512i gap = _mm512_sub_epi64(ev, _mm512_loadu_si512((const void *)(e - 1)));
+    if (_mm512_mask_cmpgt_epu64_mask((__mmask8)(0xFFu >> (8 - n)), gap, _mm512_set1_epi64(9)))
+        return 0;
+    const __m512i rev = _mm512_broadcast_i32x4(
+        _mm_setr_epi8(7, 6, 5, 4, 3, 2, 1, 0, 15, 14, 13, 12, 11, 10, 9, 8));
+#  define LD2(a, b) _mm_castpd_si128(_mm_loadh_pd( \
+        _mm_castsi128_pd(_mm_loadl_epi64((const __m128i *)(const void *)(e[a] - 8))), \
+        (const double *)(const void *)(e[b] - 8)))
+    const __m256i lo = _mm256_inserti128_si256(_mm256_castsi128_si256(LD2(0, 1)), LD2(2, 3), 1);
+    const __m256i hi = _mm256_inserti128_si256(_mm256_castsi128_si256(LD2(4, 5)), LD2(6, 7), 1);
+#  undef LD2
+    const __m512i w = _mm512_shuffle_epi8(
+        _mm512_inserti64x4(_mm512_castsi256_si512(lo), hi, 1), rev); /* byte k: the k-th last byte */
+    /* the token's bytes: those below the lowest blank (byte <= 0x20; all 8 without one), and
+     * its first character, the top one */
+    const __m512i bl = _mm512_movm_epi8(_mm512_cmple_epu8_mask(w, _mm512_set1_epi8(0x20)));
+    const __m512i tm = _mm512_sub_epi64(
+        _mm512_and_si512(bl, _mm512_sub_epi64(_mm512_setzero_si512(), bl)), _mm512_set1_epi64(1));
+    const __mmask64 tok = _mm512_movepi8_mask(tm);
+    const __mmask64 first = _mm512_movepi8_mask(_mm512_andnot_si512(_mm512_srli_epi64(tm, 8), tm));
+    const __m512i t = _mm512_sub_epi8(w, _mm512_set1_epi8('0'));
+    const __mmask64 dg = _mm512_mask_cmplt_epu8_mask(tok, t, _mm512_set1_epi8(10));
+    const __mmask64 dt = _mm512_mask_cmpeq_epi8_mask(tok, w, _mm512_set1_epi8('.'));
+    const __mmask64 mn = _mm512_mask_cmpeq_epi8_mask(tok, w, _mm512_set1_epi8('-'));
+    /* a byte that is none of these, or a '-' not first; no digit; a second dot */
+    const __mmask64 badb = _kor_mask64(_kandn_mask64(_kor_mask64(_kor_mask64(dg, dt), mn), tok),
+                                       _kandn_mask64(first, mn));
+    const __m512i dots = _mm512_maskz_set1_epi8(dt, 1);
+    const __mmask8 has_dot = _mm512_test_epi64_mask(dots, dots);
+    const __m512i dm1 = _mm512_sub_epi64(dots, _mm512_set1_epi64(1));
+    if (_mm512_test_epi64_mask(_mm512_movm_epi8(badb), _mm512_movm_epi8(badb)) |
+        (__mmask8)~_mm512_test_epi64_mask(_mm512_movm_epi8(dg), _mm512_movm_epi8(dg)) |
+        _mm512_test_epi64_mask(dots, dm1))
+        return 0;
+    /* bytes below the dot (none without one); the digits with the dot taken out: byte k has
+     * weight 10^k */
+    const __m512i below = _mm512_maskz_mov_epi64(has_dot, dm1);
+    const __m512i d = _mm512_maskz_mov_epi8(dg, t);
+    const __m512i dd = _mm512_ternarylogic_epi64(below, d, _mm512_mask_srli_epi64(d, has_dot, d, 8),
+                                                 0xCA); /* below ? d : shifted */
+    const __m512i a = _mm512_maddubs_epi16(dd, _mm512_set1_epi16(0x0A01));
+    const __m512i b = _mm512_madd_epi16(a, _mm512_set1_epi32(0x00640001));
+    const __m512i m = _mm512_add_epi64(_mm512_mul_epu32(_mm512_srli_epi64(b, 32),
+                                                        _mm512_set1_epi64(10000)),
+                                       _mm512_and_si512(b, _mm512_set1_epi64(0xFFFFFFFF)));
+    /* f = bytes below the dot = (64 - leading zeros of below) / 8 */
+    const __m512i f = _mm512_srli_epi64(
+        _mm512_sub_epi64(_mm512_set1_epi64(64), _mm512_lzcnt_epi64(below)), 3);
+    const __m512d p10 = _mm512_setr_pd(1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7);
+    const __m512d r10 = _mm512_setr_pd(1e0, 1e-1, 1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7);
+    const __m512d md = _mm512_cvtepu64_pd(m);
+    const __m512d y = _mm512_permutexvar_pd(f, r10);
+    const __m512d q0 = _mm512_mul_pd(md, y);
+    const __m512d r = _mm512_fnmadd_pd(q0, _mm512_permutexvar_pd(f, p10), md);
+    const __m512d v = _mm512_fmadd_pd(r, y, q0);
+    const __mmask8 neg = _mm512_test_epi64_mask(_mm512_movm_epi8(mn), _mm512_movm_epi8(mn));
+    _mm512_storeu_si512((void *)out,
+                        _mm512_mask_or_epi64(_mm512_castpd_si512(v), neg, _mm512_castpd_si512(v),
+                                             _mm512_set1_epi64((long long)0x8000000000000000u)));
+    return 1;
+}
+
 /* A token the lanes do not take (exponent, '+', 16 bytes or more, or no number at all):
  * mlr_parse_decimal on it, which must take all of it. */
 static int token_slow(const char *line, const char *e, double *out)
@@ -392,7 +467,7 @@ static int token_slow(const char *line, const char *e, double *out)
 __attribute__((always_inline))
 #  endif
 AVX512 static inline int line_avx512_body(const char *p, const char *const *ends, size_t C,
-                                          double *row)
+                                          double *row, int try_short)
 {
     /* 10^f for f = 0 .. 14, 1 for the "no dot" count 15; and their reciprocals, rounded */
     const __m512d p10a = _mm512_setr_pd(1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7);
@@ -402,6 +477,8 @@ AVX512 static inline int line_avx512_body(const char *p, const char *const *ends
     const __m512i even = _mm512_setr_epi64(0, 2, 4, 6, 8, 10, 12, 14);
     const __m512i sign = _mm512_set1_epi64((long long)0x8000000000000000u);
     for (size_t i = 0; i < C; i += 8) {
+        if (try_short && short8(ends + i, C - i < 8 ? (unsigned)(C - i) : 8u, row + i))
+            continue;
         __m512i ma, fa, mb, fb;
         unsigned na, nb;
         unsigned bad = lanes4(windows4(ends + i), &ma, &fa, &na);
@@ -434,22 +511,28 @@ AVX512 static int line_avx512(const char *p, const char *end, size_t C, const ch
                               double *row, const char **line_end)
 {
     int ok = 1;
+    ends[0] = p - 1; /* short8's end before the first token */
+    ends++;
     if (scan_line(p, end, C, ends, line_end, &ok) != C || !ok)
         return 0;
     for (size_t i = 0; i < 8; i++)
         ends[C + i] = zero_token + 16;
-    return line_avx512_body(p, ends, C, row);
+    /* short tokens come 9 bytes apart at most: a longer line has too few to look for them */
+    return line_avx512_body(p, ends, C, row, (size_t)(*line_end - p) <= 9 * C);
 }
 
 AVX512V static int line_vbmi2(const char *p, const char *end, size_t C, const char **ends,
                               double *row, const char **line_end)
 {
     int ok = 1;
+    ends[0] = p - 1; /* short8's end before the first token */
+    ends++;
     if (scan_line_vbmi2(p, end, C, ends, line_end, &ok) != C || !ok)
         return 0;
     for (size_t i = 0; i < 8; i++)
         ends[C + i] = zero_token + 16;
-    return line_avx512_body(p, ends, C, row);
+    /* short tokens come 9 bytes apart at most: a longer line has too few to look for them */
+    return line_avx512_body(p, ends, C, row, (size_t)(*line_end - p) <= 9 * C);
 }
 
 /* ---- the same line kernel for AVX2: two lanes per register, four numbers per step ---------- */
@@ -616,6 +699,7 @@ static int have_avx512(void)
 {
     return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
            __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512vl") &&
+           __builtin_cpu_supports("avx512cd") &&
            __builtin_cpu_supports("bmi") && __builtin_cpu_supports("bmi2") &&
            __builtin_cpu_supports("popcnt");
 }

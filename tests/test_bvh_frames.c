@@ -130,6 +130,29 @@ static size_t simple_token(mlr_test_rng *r, char *t)
     return n;
 }
 
+/* A random simple token of at most 8 bytes (the kernel's eight-at-once path): "-12.3456",
+ * "7", ".5", "-3.", "12345678", ... */
+static size_t short_token(mlr_test_rng *r, char *t)
+{
+    size_t n = 0;
+    const int neg = (int)(mlr_test_rng_u64(r) & 1);
+    if (neg)
+        t[n++] = '-';
+    const int dot = (int)(mlr_test_rng_u64(r) % 5) != 0;
+    const size_t room = 8 - (size_t)neg - (size_t)dot; /* digits: 1 .. room */
+    const size_t digits = 1 + (size_t)(mlr_test_rng_u64(r) % room);
+    const size_t at = dot ? (size_t)(mlr_test_rng_u64(r) % (digits + 1)) : SIZE_MAX;
+    for (size_t i = 0; i < digits; i++) {
+        if (i == at)
+            t[n++] = '.';
+        t[n++] = (char)('0' + mlr_test_rng_u64(r) % 10);
+    }
+    if (at == digits)
+        t[n++] = '.';
+    t[n] = '\0';
+    return n;
+}
+
 /* A random line of C simple tokens with varied blanks and line end; returns its length. */
 static size_t simple_line(mlr_test_rng *r, size_t C, char *buf)
 {
@@ -235,6 +258,38 @@ START_TEST(line_kernel_takes_random_simple_lines)
 }
 END_TEST
 
+/* Lines of short tokens one blank apart, as files written with 4 decimals have them, with now
+ * and then a long token, two blanks or a tab: every value exact, whichever way the kernel
+ * takes its group of eight. */
+START_TEST(line_kernel_takes_random_short_lines)
+{
+    const bvh_kernels k = line_variant(_i);
+    if (!k.line)
+        return;
+    mlr_test_rng r;
+    mlr_test_rng_seed(&r, 77);
+    char *buf = malloc(400 * 24);
+    ck_assert_ptr_nonnull(buf);
+    size_t values = 0;
+    for (int it = 0; it < 3000; it++) {
+        const size_t C = 1 + (size_t)(mlr_test_rng_u64(&r) % (it % 10 == 0 ? 400 : 40));
+        const unsigned odd = (unsigned)(mlr_test_rng_u64(&r) % 4); /* 0: all short, one blank */
+        size_t n = 0;
+        for (size_t c = 0; c < C; c++) {
+            const uint64_t u = mlr_test_rng_u64(&r) % 64;
+            if (c)
+                n += (size_t)sprintf(buf + n, "%s", odd && u == 1 ? "  " : odd && u == 2 ? "\t" : " ");
+            n += odd && u == 3 ? simple_token(&r, buf + n) : short_token(&r, buf + n);
+        }
+        n += (size_t)sprintf(buf + n, "%s", it % 3 ? "\n" : "\r\n");
+        ck_assert_msg(run_line(&k, buf, n, C), "declined: '%.*s'", (int)n, buf);
+        values += C;
+    }
+    ck_assert_uint_gt(values, 50000);
+    free(buf);
+}
+END_TEST
+
 START_TEST(line_kernel_declines_what_it_does_not_take)
 {
     const bvh_kernels k = line_variant(_i);
@@ -242,7 +297,7 @@ START_TEST(line_kernel_declines_what_it_does_not_take)
         return;
     /* no numbers: the line goes to the careful parser, which reports them */
     static const char *const odd[] = {
-        "1.2.3", "..1", "-", ".", "-.", "1-2", "--1", "1-", "0x1", "nan", "inf", "-inf", "1,5",
+        "1.2.3", "..1", "-1.2.3", "1.-2", "-1-", "12.34.5", "-0-0", "1..", "-..", "-", ".", "-.", "1-2", "--1", "1-", "0x1", "nan", "inf", "-inf", "1,5",
         "1/2", "/", "12a", "1e", "1e+", "e5", "+", "1e999", "\x01", "1\x7f", "\xc3\xa9", "1\v2",
         "1\f2", ("1\x00" "2"),
     };
@@ -261,8 +316,8 @@ START_TEST(line_kernel_declines_what_it_does_not_take)
                 if (c == at) {
                     memcpy(buf + n, odd[i], olen);
                     n += olen;
-                } else {
-                    n += simple_token(&r, buf + n);
+                } else { /* among short tokens half the time: the eight-at-once path */
+                    n += rep % 4 < 2 ? short_token(&r, buf + n) : simple_token(&r, buf + n);
                 }
             }
             n += (size_t)sprintf(buf + n, "%s", rep % 2 ? "\r\n" : "\n");
@@ -293,8 +348,9 @@ START_TEST(line_kernel_declines_what_it_does_not_take)
             for (size_t c = 0; c < C; c++) {
                 if (c)
                     buf[n++] = ' ';
-                n += c == at ? (size_t)sprintf(buf + n, "%s", long_ones[i])
-                             : simple_token(&r, buf + n);
+                n += c == at       ? (size_t)sprintf(buf + n, "%s", long_ones[i])
+                     : rep % 4 < 2 ? short_token(&r, buf + n)
+                                   : simple_token(&r, buf + n);
             }
             n += (size_t)sprintf(buf + n, "%s", rep % 2 ? "\r\n" : "");
             ck_assert_msg(run_line(&k, buf, n, C), "declined '%s'", long_ones[i]);
@@ -456,6 +512,7 @@ static Suite *bvh_frames_suite(void)
     /* the AVX-512, AVX2 and AVX-512 VBMI2 line kernels */
     tcase_add_loop_test(tc, line_kernel_takes_every_line_of_every_clip, 0, 24);
     tcase_add_loop_test(tc, line_kernel_takes_random_simple_lines, 0, 3);
+    tcase_add_loop_test(tc, line_kernel_takes_random_short_lines, 0, 3);
     tcase_add_loop_test(tc, line_kernel_declines_what_it_does_not_take, 0, 3);
     tcase_add_test(tc, portable_kernels_and_line_counts);
     tcase_add_test(tc, frame_kernels_agree_bit_for_bit);
