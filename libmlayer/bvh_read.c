@@ -529,19 +529,29 @@ static size_t auto_threads(size_t bytes)
  * share counts only if the previous one ended exactly where it started; from the first share
  * that does not (or that failed) on, the frames are parsed again on the calling thread, so the
  * result and the first error (line, reason) are those of a single-threaded parse. */
-static mlr_status parse_frames(parser *ps, const frames_plan *pl, frames_job *jobs, size_t T)
+static mlr_status parse_frames(parser *ps, const frames_plan *pl, const mlr_file_lines *lines,
+                               frames_job *jobs, size_t T)
 {
     const size_t N = pl->m->n_frames;
     jobs[0].ps = *ps;
     jobs[0].start = ps->p;
     jobs[0].f0 = 0;
     size_t used = 1;
+    /* with the file reader's line counts (same shares): the shares start after the first '\n'
+     * of the reader's shares, and the '\n' before them need no counting here */
+    const int counted = lines && lines->n == T;
+    const size_t header_nl = counted ? pl->k.count_newlines(pl->text, ps->p) : 0;
     for (size_t t = 1; t < T; t++) {
-        const char *from = ps->p + (size_t)(ps->end - ps->p) / T * t;
+        const char *from = counted ? pl->text + lines->off[t]
+                                   : ps->p + (size_t)(ps->end - ps->p) / T * t;
+        if (from < ps->p) /* a reader's share that starts in the header */
+            continue;
         const char *nl = memchr(from, '\n', (size_t)(ps->end - from));
         if (!nl || nl + 1 >= ps->end || nl + 1 <= jobs[used - 1].start)
             break;
-        size_t g = jobs[used - 1].f0 + pl->k.count_newlines(jobs[used - 1].start, nl + 1);
+        size_t g = counted ? lines->nl[t] + 1 - header_nl
+                           : jobs[used - 1].f0 +
+                                 pl->k.count_newlines(jobs[used - 1].start, nl + 1);
         if (g >= N || g <= jobs[used - 1].f0)
             break;
         frames_job *jb = &jobs[used++];
@@ -718,7 +728,8 @@ static mlr_status build_motion(parser *ps, size_t n_frames, double frame_time,
     return MLR_OK;
 }
 
-static mlr_status parse(parser *ps, size_t n_threads, int kernels, mlr_motion **out)
+static mlr_status parse(parser *ps, size_t n_threads, int kernels, const mlr_file_lines *lines,
+                        mlr_motion **out)
 {
     mlr_status s = parse_hierarchy(ps);
     if (s != MLR_OK)
@@ -790,7 +801,8 @@ static mlr_status parse(parser *ps, size_t n_threads, int kernels, mlr_motion **
     if ((s = build_motion(ps, n_frames, frame_time, &m)) != MLR_OK)
         return s;
     if (n_frames > 0) {
-        size_t T = n_threads ? n_threads : auto_threads(left);
+        /* automatic: as many threads as read the file, if it was read in parallel */
+        size_t T = n_threads ? n_threads : lines && lines->n > 1 ? lines->n : auto_threads(left);
         if (T > BVH_MAX_THREADS)
             T = BVH_MAX_THREADS;
         if (T > n_frames)
@@ -804,7 +816,7 @@ static mlr_status parse(parser *ps, size_t n_threads, int kernels, mlr_motion **
             bvh_kernels_pick(&pl.k, kernels);
             pl.m = m;
             pl.text = ps->begin;
-            s = parse_frames(ps, &pl, jobs, T);
+            s = parse_frames(ps, &pl, lines, jobs, T);
             mlr_free(&ps->a, block, bytes);
         }
         if (s != MLR_OK) {
@@ -827,8 +839,10 @@ static mlr_status parse(parser *ps, size_t n_threads, int kernels, mlr_motion **
     return MLR_OK;
 }
 
-mlr_status bvh_read_memory_ex(const char *text, size_t len, size_t n_threads, int kernels,
-                              const mlr_allocator *alloc, mlr_motion **out, mlr_diag *diag)
+/* bvh_read_memory_ex with, for a file read in parallel, the reader's line counts. */
+static mlr_status read_text(const char *text, size_t len, size_t n_threads, int kernels,
+                            const mlr_file_lines *lines, const mlr_allocator *alloc,
+                            mlr_motion **out, mlr_diag *diag)
 {
     if (!out)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "out is NULL");
@@ -853,13 +867,19 @@ mlr_status bvh_read_memory_ex(const char *text, size_t len, size_t n_threads, in
     if (len >= 3 && (unsigned char)ps.p[0] == 0xEF && (unsigned char)ps.p[1] == 0xBB &&
         (unsigned char)ps.p[2] == 0xBF)
         ps.p += 3;
-    mlr_status s = parse(&ps, n_threads, kernels, out);
+    mlr_status s = parse(&ps, n_threads, kernels, lines, out);
     vec_free(&ps.joints, &ps.a);
     vec_free(&ps.ends, &ps.a);
     vec_free(&ps.names, &ps.a);
     if (s == MLR_E_NO_MEMORY || s == MLR_E_OVERFLOW)
         mlr_diag_set(diag, s, 0, 0, "%s", mlr_status_string(s));
     return s;
+}
+
+mlr_status bvh_read_memory_ex(const char *text, size_t len, size_t n_threads, int kernels,
+                              const mlr_allocator *alloc, mlr_motion **out, mlr_diag *diag)
+{
+    return read_text(text, len, n_threads, kernels, NULL, alloc, out, diag);
 }
 
 mlr_status mlr_bvh_read_memory(const char *text, size_t len, const mlr_allocator *alloc,
@@ -888,11 +908,16 @@ mlr_status mlr_bvh_read_file_mt(const char *path, size_t n_threads, const mlr_al
     mlr_allocator_resolve(alloc, &a);
     char *buf;
     size_t len, cap;
-    /* a large file is read by as many threads as will parse it */
-    mlr_status s = mlr_read_file(path, n_threads, &a, &buf, &len, &cap, diag);
+    /* a large file is read by as many threads as will parse it, which count its lines as they
+     * go: the parse then starts its threads without counting them again */
+    bvh_kernels k;
+    bvh_kernels_pick(&k, BVH_KERNELS_BEST);
+    mlr_file_lines lines;
+    mlr_status s =
+        mlr_read_file_lines(path, n_threads, &a, k.count_newlines, &lines, &buf, &len, &cap, diag);
     if (s != MLR_OK)
         return s;
-    s = bvh_read_memory_ex(buf, len, n_threads, BVH_KERNELS_BEST, &a, out, diag);
+    s = read_text(buf, len, n_threads, BVH_KERNELS_BEST, &lines, &a, out, diag);
     mlr_free(&a, buf, cap);
     return s;
 }

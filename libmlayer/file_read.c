@@ -17,8 +17,11 @@
 #  include <unistd.h>
 #endif
 
-/* Most threads a read uses. */
-#define READ_MAX_THREADS 8
+#define READ_MAX_THREADS MLR_FILE_MAX_THREADS
+
+/* Bytes a reading thread asks for at a time when it counts lines (they are counted while in
+ * its cache). */
+#define READ_CHUNK ((size_t)1 << 18)
 
 /* The reason of an errno value, thread-safe (strerror need not be). */
 static mlr_status io_error(mlr_diag *diag, const char *what, int err)
@@ -106,6 +109,8 @@ typedef struct read_share {
     char *dst;
     off_t off;
     size_t len;
+    mlr_count_newlines_fn count; /* NULL: no counting */
+    size_t nl;                   /* '\n' bytes in the share */
     int err; /* errno of a failed pread; -1 when the file ended early */
 } read_share;
 
@@ -114,20 +119,26 @@ static void read_share_run(void *ctx, size_t t)
     read_share *s = (read_share *)ctx + t;
     size_t done = 0;
     while (done < s->len) {
-        ssize_t k = pread(s->fd, s->dst + done, s->len - done, s->off + (off_t)done);
+        size_t want = s->len - done;
+        if (s->count && want > READ_CHUNK)
+            want = READ_CHUNK;
+        ssize_t k = pread(s->fd, s->dst + done, want, s->off + (off_t)done);
         if (k < 0 && errno == EINTR)
             continue;
         if (k <= 0) {
             s->err = k < 0 ? errno : -1;
             return;
         }
+        if (s->count)
+            s->nl += s->count(s->dst + done, s->dst + done + k);
         done += (size_t)k;
     }
 }
 
 /* A regular file of `size` bytes on T threads. Returns 1 when read, 0 when the file must be
  * read sequentially instead (it changed size), -1 on an error (diag set, *status). */
-static int read_parallel(int fd, size_t size, size_t T, const mlr_allocator *a, char **out,
+static int read_parallel(int fd, size_t size, size_t T, const mlr_allocator *a,
+                         mlr_count_newlines_fn count, mlr_file_lines *lines, char **out,
                          size_t *out_len, size_t *out_cap, mlr_status *status, mlr_diag *diag)
 {
     const size_t cap = size + 1;
@@ -144,6 +155,8 @@ static int read_parallel(int fd, size_t size, size_t T, const mlr_allocator *a, 
         sh[t].off = (off_t)(t * per);
         sh[t].dst = buf + t * per;
         sh[t].len = t + 1 < T ? per : size - t * per;
+        sh[t].count = lines ? count : NULL;
+        sh[t].nl = 0;
         sh[t].err = 0;
     }
     mlr_parallel_run(T, T, read_share_run, sh);
@@ -165,6 +178,14 @@ static int read_parallel(int fd, size_t size, size_t T, const mlr_allocator *a, 
         mlr_free(a, buf, cap);
         return 0;
     }
+    if (lines && count) {
+        lines->n = T;
+        for (size_t t = 0, nl = 0; t < T; t++) {
+            lines->off[t] = (size_t)sh[t].off;
+            lines->nl[t] = nl;
+            nl += sh[t].nl;
+        }
+    }
     *out = buf;
     *out_len = size;
     *out_cap = cap;
@@ -175,8 +196,17 @@ static int read_parallel(int fd, size_t size, size_t T, const mlr_allocator *a, 
 mlr_status mlr_read_file(const char *path, size_t n_threads, const mlr_allocator *a, char **buf,
                          size_t *len, size_t *cap, mlr_diag *diag)
 {
+    return mlr_read_file_lines(path, n_threads, a, NULL, NULL, buf, len, cap, diag);
+}
+
+mlr_status mlr_read_file_lines(const char *path, size_t n_threads, const mlr_allocator *a,
+                               mlr_count_newlines_fn count, mlr_file_lines *lines, char **buf,
+                               size_t *len, size_t *cap, mlr_diag *diag)
+{
     *buf = NULL;
     *len = *cap = 0;
+    if (lines)
+        lines->n = 0;
 #ifdef MLR_POSIX_FILES
     int fd;
     do
@@ -197,7 +227,7 @@ mlr_status mlr_read_file(const char *path, size_t n_threads, const mlr_allocator
             T = READ_MAX_THREADS;
         if (T > 1) {
             mlr_status s = MLR_OK;
-            const int r = read_parallel(fd, size, T, a, buf, len, cap, &s, diag);
+            const int r = read_parallel(fd, size, T, a, count, lines, buf, len, cap, &s, diag);
             if (r != 0) {
                 close(fd);
                 return s;
@@ -212,6 +242,7 @@ mlr_status mlr_read_file(const char *path, size_t n_threads, const mlr_allocator
     }
 #else
     (void)n_threads;
+    (void)count;
     FILE *fp = fopen(path, "rb");
     if (!fp)
         return io_error(diag, "cannot open", errno);

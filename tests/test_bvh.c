@@ -1284,6 +1284,59 @@ START_TEST(threads_report_the_first_error_as_one_thread_does)
 }
 END_TEST
 
+/* Files of 1 MiB and more are read in parallel shares whose line counts place the parsing
+ * threads: with CR-only line ends in part of the file, blank lines, or an error, the result
+ * (frames, or the error's line, column and reason) is that of one thread reading from memory. */
+START_TEST(parallel_file_reads_match_one_thread)
+{
+    mlr_test_rng r;
+    mlr_test_rng_seed(&r, 4242);
+    size_t len;
+    char *t = random_bvh(&r, 12, 9000, TXT_CRLF | (_i == 1 ? TXT_BLANK_LINES : 0), &len);
+    ck_assert_uint_gt(len, 3 * ((size_t)1 << 20) / 2);
+    if (_i == 2) { /* CR-only line ends from frame 4000 to 6000 */
+        char *a = frame_line(t, 4000), *b = frame_line(t, 6000);
+        for (char *q = a; q < b; q++)
+            if (q[0] == '\r' && q[1] == '\n')
+                q[1] = ' ';
+    }
+    if (_i == 3)
+        frame_line(t, 7000)[2] = 'x';
+    mlr_motion *m1 = NULL, *m = NULL;
+    mlr_diag d1, d;
+    const mlr_status s1 = mlr_bvh_read_memory(t, len, NULL, &m1, &d1);
+    ck_assert_int_eq(s1, _i == 3 ? MLR_E_PARSE : MLR_OK);
+    char dir[64], path[128];
+    snprintf(dir, sizeof dir, "/tmp/mlr_test_bvh_XXXXXX");
+    ck_assert_ptr_nonnull(mkdtemp(dir));
+    snprintf(path, sizeof path, "%s/big.bvh", dir);
+    FILE *fp = fopen(path, "wb");
+    ck_assert_ptr_nonnull(fp);
+    ck_assert_uint_eq(fwrite(t, 1, len, fp), len);
+    ck_assert_int_eq(fclose(fp), 0);
+    static const size_t threads[] = {0, 2, 3, 5};
+    for (size_t i = 0; i < MLR_COUNTOF(threads); i++) {
+        memset(&d, 0x55, sizeof d);
+        const mlr_status s = mlr_bvh_read_file_mt(path, threads[i], NULL, &m, &d);
+        ck_assert_msg(s == s1, "case %d, %zu threads: %s", _i, threads[i], mlr_status_name(s));
+        if (s == MLR_OK) {
+            assert_same_frames(m1, m, "parallel file read");
+            mlr_motion_destroy(m);
+        } else {
+            ck_assert_msg(d.line == d1.line && d.column == d1.column &&
+                              strcmp(d.message, d1.message) == 0,
+                          "%zu threads: line %zu col %zu '%s', one thread: line %zu col %zu '%s'",
+                          threads[i], d.line, d.column, d.message, d1.line, d1.column,
+                          d1.message);
+        }
+    }
+    mlr_motion_destroy(m1);
+    unlink(path);
+    rmdir(dir);
+    free(t);
+}
+END_TEST
+
 /* Every clip on 0 (automatic), 2 and 3 threads: the files of 1 MiB or more are then also read
  * in parallel shares. */
 START_TEST(read_file_mt_matches_read_file)
@@ -1531,6 +1584,7 @@ static Suite *bvh_suite(void)
     tcase_add_loop_test(syn, random_layouts_read_exactly_on_any_thread_count, 0, 24);
     tcase_add_test(syn, threads_report_the_first_error_as_one_thread_does);
     tcase_add_test(syn, read_file_mt_matches_read_file);
+    tcase_add_loop_test(syn, parallel_file_reads_match_one_thread, 0, 4);
     tcase_add_test(syn, number_fast_path_boundaries);
     tcase_add_test(syn, locale_with_decimal_comma);
     tcase_add_test(syn, deep_nesting_needs_no_recursion);

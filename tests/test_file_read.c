@@ -59,6 +59,49 @@ START_TEST(every_thread_count_reads_the_same_bytes)
 }
 END_TEST
 
+/* The shares' line counts of a parallel read: share t starts at t * (size / T) and the counts
+ * are those of the bytes before it; a sequential read reports no shares. */
+static size_t count_lf(const char *p, const char *end)
+{
+    size_t n = 0;
+    for (; p < end; p++)
+        n += *p == '\n';
+    return n;
+}
+
+START_TEST(parallel_reads_count_the_lines_of_their_shares)
+{
+    const size_t size = 3 * MLR_FILE_PARALLEL_MIN_BYTES + 12345; /* several chunks a share */
+    write_file(size);
+    for (size_t threads = 0; threads <= 9; threads++) {
+        char *buf;
+        size_t len, cap;
+        mlr_diag d;
+        mlr_allocator a;
+        mlr_allocator_resolve(NULL, &a);
+        mlr_file_lines lines;
+        memset(&lines, 0x55, sizeof lines);
+        ck_assert_int_eq(mlr_read_file_lines(path, threads, &a, count_lf, &lines, &buf, &len,
+                                             &cap, &d), MLR_OK);
+        ck_assert_uint_eq(len, size);
+        ck_assert(memcmp(buf, expect, len) == 0);
+        if (threads == 1) {
+            ck_assert_uint_eq(lines.n, 0);
+        } else {
+            const size_t T = threads ? (threads > 8 ? 8 : threads) : lines.n;
+            ck_assert_uint_eq(lines.n, T);
+            ck_assert_uint_ge(T, 1);
+            for (size_t t = 0; t < T; t++) {
+                ck_assert_uint_eq(lines.off[t], t * (size / T));
+                ck_assert_uint_eq(lines.nl[t], count_lf(buf, buf + lines.off[t]));
+            }
+        }
+        mlr_free(&a, buf, cap);
+    }
+    remove_file();
+}
+END_TEST
+
 START_TEST(errors_are_reported)
 {
     char *buf = (char *)1;
@@ -113,6 +156,7 @@ static Suite *file_read_suite(void)
     Suite *s = suite_create("file_read");
     TCase *tc = tcase_create("read");
     tcase_add_test(tc, every_thread_count_reads_the_same_bytes);
+    tcase_add_test(tc, parallel_reads_count_the_lines_of_their_shares);
     tcase_add_test(tc, errors_are_reported);
     tcase_add_test(tc, allocation_failures_leave_nothing);
     suite_add_tcase(s, tc);
