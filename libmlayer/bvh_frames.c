@@ -98,7 +98,8 @@ static size_t count_newlines_portable(const char *p, const char *end)
 }
 
 #ifdef BVH_X86
-#  define AVX512 __attribute__((target("avx512f,avx512bw,avx512dq,avx512vl,avx512cd,bmi,bmi2,popcnt")))
+#  define AVX512 \
+      __attribute__((target("avx512f,avx512bw,avx512dq,avx512vl,avx512cd,bmi,bmi2,popcnt")))
 
 /* frame_portable compiled for AVX2 (4 doubles a vector): the same operations, so the same bits
  * (no FMA: GCC does not contract in ISO C mode, clang is told not to above). */
@@ -278,7 +279,8 @@ AVX512 static inline void classify_avx512(const char *q, uint64_t *tok, uint64_t
 
 /* The same with AVX-512 VBMI2: the positions compressed into bytes, widened 8 at a time */
 #  define AVX512V                                                                               \
-      __attribute__((target("avx512f,avx512bw,avx512dq,avx512vl,avx512cd,avx512vbmi2,bmi,bmi2,popcnt")))
+      __attribute__((target( \
+          "avx512f,avx512bw,avx512dq,avx512vl,avx512cd,avx512vbmi2,bmi,bmi2,popcnt")))
 
 AVX512V static inline void extract_compress(const char **o, const char *p, uint64_t e,
                                             size_t cnt)
@@ -401,15 +403,17 @@ AVX512 static inline int short8(const char *const *e, unsigned n, double *out)
     const __m256i lo = _mm256_inserti128_si256(_mm256_castsi128_si256(LD2(0, 1)), LD2(2, 3), 1);
     const __m256i hi = _mm256_inserti128_si256(_mm256_castsi128_si256(LD2(4, 5)), LD2(6, 7), 1);
 #  undef LD2
-    const __m512i w = _mm512_shuffle_epi8(
-        _mm512_inserti64x4(_mm512_castsi256_si512(lo), hi, 1), rev); /* byte k: the k-th last byte */
+    /* byte k: the k-th last byte */
+    const __m512i w =
+        _mm512_shuffle_epi8(_mm512_inserti64x4(_mm512_castsi256_si512(lo), hi, 1), rev);
     /* the token's bytes: those below the lowest blank (byte <= 0x20; all 8 without one), and
      * its first character, the top one */
     const __m512i bl = _mm512_movm_epi8(_mm512_cmple_epu8_mask(w, _mm512_set1_epi8(0x20)));
     const __m512i tm = _mm512_sub_epi64(
         _mm512_and_si512(bl, _mm512_sub_epi64(_mm512_setzero_si512(), bl)), _mm512_set1_epi64(1));
     const __mmask64 tok = _mm512_movepi8_mask(tm);
-    const __mmask64 first = _mm512_movepi8_mask(_mm512_andnot_si512(_mm512_srli_epi64(tm, 8), tm));
+    const __mmask64 first =
+        _mm512_movepi8_mask(_mm512_andnot_si512(_mm512_srli_epi64(tm, 8), tm));
     const __m512i t = _mm512_sub_epi8(w, _mm512_set1_epi8('0'));
     const __mmask64 dg = _mm512_mask_cmplt_epu8_mask(tok, t, _mm512_set1_epi8(10));
     const __mmask64 dt = _mm512_mask_cmpeq_epi8_mask(tok, w, _mm512_set1_epi8('.'));

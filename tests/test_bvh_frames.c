@@ -106,17 +106,18 @@ static int run_line(const bvh_kernels *k, const char *line, size_t len, size_t C
     return ok;
 }
 
-/* A random number of the form the kernel takes: sign, digits, at most one dot, 1..15 bytes. */
-static size_t simple_token(mlr_test_rng *r, char *t)
+/* A random number of the form the kernel takes, of 1 to `bytes` bytes: a sign, digits, at
+ * most one dot ("-12.3456", "7", ".5", "-3.", "12345678", ...). */
+static size_t random_token(mlr_test_rng *r, size_t bytes, char *t)
 {
     size_t n = 0;
     const int neg = (int)(mlr_test_rng_u64(r) & 1);
     if (neg)
         t[n++] = '-';
-    const size_t room = 15 - (size_t)neg;
+    const size_t room = bytes - (size_t)neg;
     const int dot = (int)(mlr_test_rng_u64(r) % 4) != 0;
     size_t digits = 1 + (size_t)(mlr_test_rng_u64(r) % (room - (size_t)dot));
-    if (mlr_test_rng_u64(r) % 3 == 0) /* short tokens are common in real files */
+    if (bytes > 8 && mlr_test_rng_u64(r) % 3 == 0) /* short tokens are common in real files */
         digits = 1 + (size_t)(mlr_test_rng_u64(r) % 3);
     const size_t at = dot ? (size_t)(mlr_test_rng_u64(r) % (digits + 1)) : SIZE_MAX;
     for (size_t i = 0; i < digits; i++) {
@@ -130,28 +131,11 @@ static size_t simple_token(mlr_test_rng *r, char *t)
     return n;
 }
 
-/* A random simple token of at most 8 bytes (the kernel's eight-at-once path): "-12.3456",
- * "7", ".5", "-3.", "12345678", ... */
-static size_t short_token(mlr_test_rng *r, char *t)
-{
-    size_t n = 0;
-    const int neg = (int)(mlr_test_rng_u64(r) & 1);
-    if (neg)
-        t[n++] = '-';
-    const int dot = (int)(mlr_test_rng_u64(r) % 5) != 0;
-    const size_t room = 8 - (size_t)neg - (size_t)dot; /* digits: 1 .. room */
-    const size_t digits = 1 + (size_t)(mlr_test_rng_u64(r) % room);
-    const size_t at = dot ? (size_t)(mlr_test_rng_u64(r) % (digits + 1)) : SIZE_MAX;
-    for (size_t i = 0; i < digits; i++) {
-        if (i == at)
-            t[n++] = '.';
-        t[n++] = (char)('0' + mlr_test_rng_u64(r) % 10);
-    }
-    if (at == digits)
-        t[n++] = '.';
-    t[n] = '\0';
-    return n;
-}
+/* Up to 15 bytes: the kernel's four-at-once lanes (and one-at-a-time below them). */
+static size_t simple_token(mlr_test_rng *r, char *t) { return random_token(r, 15, t); }
+
+/* Up to 8 bytes: the kernel's eight-at-once path. */
+static size_t short_token(mlr_test_rng *r, char *t) { return random_token(r, 8, t); }
 
 /* A random line of C simple tokens with varied blanks and line end; returns its length. */
 static size_t simple_line(mlr_test_rng *r, size_t C, char *buf)
@@ -237,56 +221,56 @@ START_TEST(line_kernel_takes_every_line_of_every_clip)
 }
 END_TEST
 
-START_TEST(line_kernel_takes_random_simple_lines)
+/* Kernel variant v on 3000 random lines from make (C values, 1 to 40, every tenth line up to
+ * 400): every line taken, every value exact. */
+static void takes_random_lines(int v, uint64_t seed,
+                               size_t (*make)(mlr_test_rng *r, size_t C, char *buf))
 {
-    const bvh_kernels k = line_variant(_i);
+    const bvh_kernels k = line_variant(v);
     if (!k.line)
         return;
     mlr_test_rng r;
-    mlr_test_rng_seed(&r, 2024);
+    mlr_test_rng_seed(&r, seed);
     char *buf = malloc(400 * 24);
     ck_assert_ptr_nonnull(buf);
     size_t values = 0;
     for (int it = 0; it < 3000; it++) {
         const size_t C = 1 + (size_t)(mlr_test_rng_u64(&r) % (it % 10 == 0 ? 400 : 40));
-        const size_t len = simple_line(&r, C, buf);
+        const size_t len = make(&r, C, buf);
         ck_assert_msg(run_line(&k, buf, len, C), "declined: '%.*s'", (int)len, buf);
         values += C;
     }
     ck_assert_uint_gt(values, 50000);
     free(buf);
 }
+
+/* A line of C short tokens one blank apart, as files written with 4 decimals have them; in
+ * three lines of four now and then a long token, two blanks or a tab. */
+static size_t short_line(mlr_test_rng *r, size_t C, char *buf)
+{
+    const unsigned odd = (unsigned)(mlr_test_rng_u64(r) % 4); /* 0: all short, one blank */
+    size_t n = 0;
+    for (size_t c = 0; c < C; c++) {
+        const uint64_t u = mlr_test_rng_u64(r) % 64;
+        if (c)
+            n += (size_t)sprintf(buf + n, "%s",
+                                 odd && u == 1 ? "  " : odd && u == 2 ? "\t" : " ");
+        n += odd && u == 3 ? simple_token(r, buf + n) : short_token(r, buf + n);
+    }
+    n += (size_t)sprintf(buf + n, "%s", mlr_test_rng_u64(r) % 3 ? "\n" : "\r\n");
+    return n;
+}
+
+START_TEST(line_kernel_takes_random_simple_lines)
+{
+    takes_random_lines(_i, 2024, simple_line);
+}
 END_TEST
 
-/* Lines of short tokens one blank apart, as files written with 4 decimals have them, with now
- * and then a long token, two blanks or a tab: every value exact, whichever way the kernel
- * takes its group of eight. */
+/* Whichever way the kernel takes each group of eight, every value exact. */
 START_TEST(line_kernel_takes_random_short_lines)
 {
-    const bvh_kernels k = line_variant(_i);
-    if (!k.line)
-        return;
-    mlr_test_rng r;
-    mlr_test_rng_seed(&r, 77);
-    char *buf = malloc(400 * 24);
-    ck_assert_ptr_nonnull(buf);
-    size_t values = 0;
-    for (int it = 0; it < 3000; it++) {
-        const size_t C = 1 + (size_t)(mlr_test_rng_u64(&r) % (it % 10 == 0 ? 400 : 40));
-        const unsigned odd = (unsigned)(mlr_test_rng_u64(&r) % 4); /* 0: all short, one blank */
-        size_t n = 0;
-        for (size_t c = 0; c < C; c++) {
-            const uint64_t u = mlr_test_rng_u64(&r) % 64;
-            if (c)
-                n += (size_t)sprintf(buf + n, "%s", odd && u == 1 ? "  " : odd && u == 2 ? "\t" : " ");
-            n += odd && u == 3 ? simple_token(&r, buf + n) : short_token(&r, buf + n);
-        }
-        n += (size_t)sprintf(buf + n, "%s", it % 3 ? "\n" : "\r\n");
-        ck_assert_msg(run_line(&k, buf, n, C), "declined: '%.*s'", (int)n, buf);
-        values += C;
-    }
-    ck_assert_uint_gt(values, 50000);
-    free(buf);
+    takes_random_lines(_i, 77, short_line);
 }
 END_TEST
 
@@ -297,7 +281,8 @@ START_TEST(line_kernel_declines_what_it_does_not_take)
         return;
     /* no numbers: the line goes to the careful parser, which reports them */
     static const char *const odd[] = {
-        "1.2.3", "..1", "-1.2.3", "1.-2", "-1-", "12.34.5", "-0-0", "1..", "-..", "-", ".", "-.", "1-2", "--1", "1-", "0x1", "nan", "inf", "-inf", "1,5",
+        "1.2.3", "..1", "-1.2.3", "1.-2", "-1-", "12.34.5", "-0-0", "1..", "-..", "-", ".", "-.",
+        "1-2", "--1", "1-", "0x1", "nan", "inf", "-inf", "1,5",
         "1/2", "/", "12a", "1e", "1e+", "e5", "+", "1e999", "\x01", "1\x7f", "\xc3\xa9", "1\v2",
         "1\f2", ("1\x00" "2"),
     };

@@ -11,9 +11,9 @@ memory (bytes already read). The readers take turns in rounds (--peer-repeat of 
 calls are spread over the rounds), so that the slow and fast spells of a shared machine fall on
 all of them; in each round mlayer's first call, right after the peers, is timed on a row of its
 own ("1st after peers"): the peers' memory use leaves glibc handing out new pages, whose first
-touch costs a page fault each, so that call shows what a read costs with a cold heap. Peers (each optional: pip install pybvh bvhtools bvhio bvh bvhtoolbox
-bvhsdk). What each one does differs: mlayer parses and converts every joint's Euler angles to
-quaternions; pybvh
+touch costs a page fault each, so that call shows what a read costs with a cold heap.
+Peers (each optional: pip install pybvh bvhtools bvhio bvh bvhtoolbox bvhsdk). What each one
+does differs: mlayer parses and converts every joint's Euler angles to quaternions; pybvh
 (np.loadtxt) and bvhtools keep Euler angles; bvhio builds per-joint glm poses; `bvh` and
 bvhtoolbox only split the text into strings, so the bench converts their frames with
 np.array(..., dtype=float) to get numbers at all; bvhsdk builds its animation objects.

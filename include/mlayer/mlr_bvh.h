@@ -100,7 +100,10 @@ MLR_API mlr_status mlr_bvh_read_memory_mt(const char *text, size_t len, size_t n
  * mlr_bvh_read_memory_mt; 0 for automatic). A regular file of 1 MiB or more is also read by
  * several threads (n_threads, or for 0 one per MiB up to the online processors), each its
  * share with pread (POSIX systems); a file whose size changes meanwhile is read again by one
- * thread. Other files (pipes, devices) and smaller ones are read by one.
+ * thread. Other files (pipes, devices) and smaller ones are read by one. The reading threads
+ * count the line ends of their shares as they go, and the frame lines are then parsed by as
+ * many threads (for n_threads 0), each from the first line of its share: the parse need not
+ * count lines to place its threads.
  */
 MLR_API mlr_status mlr_bvh_read_file_mt(const char *path, size_t n_threads,
                                         const mlr_allocator *alloc, mlr_motion **out,
