@@ -511,33 +511,26 @@ AVX512 static inline int line_avx512_body(const char *p, const char *const *ends
     return 1;
 }
 
-AVX512 static int line_avx512(const char *p, const char *end, size_t C, const char **ends,
-                              double *row, const char **line_end)
-{
-    int ok = 1;
-    ends[0] = p - 1; /* short8's end before the first token */
-    ends++;
-    if (scan_line(p, end, C, ends, line_end, &ok) != C || !ok)
-        return 0;
-    for (size_t i = 0; i < 8; i++)
-        ends[C + i] = zero_token + 16;
-    /* short tokens come 9 bytes apart at most: a longer line has too few to look for them */
-    return line_avx512_body(p, ends, C, row, (size_t)(*line_end - p) <= 9 * C);
-}
+/* The whole-line kernel around step 1 SCAN: ends[0] stands for the end before the first token
+ * (short8 reads it), the token ends follow from ends[1], then padding tokens for the last
+ * group of eight. */
+#  define DEFINE_LINE(NAME, ATTR, SCAN)                                                          \
+    ATTR static int NAME(const char *p, const char *end, size_t C, const char **ends,          \
+                         double *row, const char **line_end)                                   \
+    {                                                                                          \
+        int ok = 1;                                                                            \
+        ends[0] = p - 1;                                                                       \
+        ends++;                                                                                \
+        if (SCAN(p, end, C, ends, line_end, &ok) != C || !ok)                                  \
+            return 0;                                                                          \
+        for (size_t i = 0; i < 8; i++)                                                         \
+            ends[C + i] = zero_token + 16;                                                     \
+        /* short tokens come 9 bytes apart at most: a longer line has too few to look for */   \
+        return line_avx512_body(p, ends, C, row, (size_t)(*line_end - p) <= 9 * C);            \
+    }
 
-AVX512V static int line_vbmi2(const char *p, const char *end, size_t C, const char **ends,
-                              double *row, const char **line_end)
-{
-    int ok = 1;
-    ends[0] = p - 1; /* short8's end before the first token */
-    ends++;
-    if (scan_line_vbmi2(p, end, C, ends, line_end, &ok) != C || !ok)
-        return 0;
-    for (size_t i = 0; i < 8; i++)
-        ends[C + i] = zero_token + 16;
-    /* short tokens come 9 bytes apart at most: a longer line has too few to look for them */
-    return line_avx512_body(p, ends, C, row, (size_t)(*line_end - p) <= 9 * C);
-}
+DEFINE_LINE(line_avx512, AVX512, scan_line)
+DEFINE_LINE(line_vbmi2, AVX512V, scan_line_vbmi2)
 
 /* ---- the same line kernel for AVX2: two lanes per register, four numbers per step ---------- */
 

@@ -274,6 +274,28 @@ START_TEST(line_kernel_takes_random_short_lines)
 }
 END_TEST
 
+/* A line of C random tokens (1 to 30) with tok[0, tlen) at a random place, blank-separated,
+ * ending with eol; the tokens around it are short ones (the eight-at-once path) when rep % 4
+ * is 0 or 1. Returns its length. */
+static size_t line_around(mlr_test_rng *r, const char *tok, size_t tlen, int rep,
+                          const char *eol, char *buf, size_t *C)
+{
+    *C = 1 + (size_t)(mlr_test_rng_u64(r) % 30);
+    const size_t at = (size_t)(mlr_test_rng_u64(r) % *C);
+    size_t n = 0;
+    for (size_t c = 0; c < *C; c++) {
+        if (c)
+            buf[n++] = ' ';
+        if (c == at) {
+            memcpy(buf + n, tok, tlen);
+            n += tlen;
+        } else {
+            n += rep % 4 < 2 ? short_token(r, buf + n) : simple_token(r, buf + n);
+        }
+    }
+    return n + (size_t)sprintf(buf + n, "%s", eol);
+}
+
 START_TEST(line_kernel_declines_what_it_does_not_take)
 {
     const bvh_kernels k = line_variant(_i);
@@ -292,20 +314,8 @@ START_TEST(line_kernel_declines_what_it_does_not_take)
     for (size_t i = 0; i < MLR_COUNTOF(odd); i++) {
         const size_t olen = i == MLR_COUNTOF(odd) - 1 ? 3 : strlen(odd[i]);
         for (int rep = 0; rep < 40; rep++) {
-            const size_t C = 1 + (size_t)(mlr_test_rng_u64(&r) % 30);
-            const size_t at = (size_t)(mlr_test_rng_u64(&r) % C);
-            size_t n = 0;
-            for (size_t c = 0; c < C; c++) {
-                if (c)
-                    buf[n++] = ' ';
-                if (c == at) {
-                    memcpy(buf + n, odd[i], olen);
-                    n += olen;
-                } else { /* among short tokens half the time: the eight-at-once path */
-                    n += rep % 4 < 2 ? short_token(&r, buf + n) : simple_token(&r, buf + n);
-                }
-            }
-            n += (size_t)sprintf(buf + n, "%s", rep % 2 ? "\r\n" : "\n");
+            size_t C;
+            const size_t n = line_around(&r, odd[i], olen, rep, rep % 2 ? "\r\n" : "\n", buf, &C);
             ck_assert_msg(!run_line(&k, buf, n, C), "took '%s'", odd[i]);
         }
     }
@@ -327,17 +337,9 @@ START_TEST(line_kernel_declines_what_it_does_not_take)
     };
     for (size_t i = 0; i < MLR_COUNTOF(long_ones); i++)
         for (int rep = 0; rep < 40; rep++) {
-            const size_t C = 1 + (size_t)(mlr_test_rng_u64(&r) % 30);
-            const size_t at = (size_t)(mlr_test_rng_u64(&r) % C);
-            size_t n = 0;
-            for (size_t c = 0; c < C; c++) {
-                if (c)
-                    buf[n++] = ' ';
-                n += c == at       ? (size_t)sprintf(buf + n, "%s", long_ones[i])
-                     : rep % 4 < 2 ? short_token(&r, buf + n)
-                                   : simple_token(&r, buf + n);
-            }
-            n += (size_t)sprintf(buf + n, "%s", rep % 2 ? "\r\n" : "");
+            size_t C;
+            const size_t n = line_around(&r, long_ones[i], strlen(long_ones[i]), rep,
+                                         rep % 2 ? "\r\n" : "", buf, &C);
             ck_assert_msg(run_line(&k, buf, n, C), "declined '%s'", long_ones[i]);
         }
     ck_assert(!run_line(&k, "\n1 2 3\n", 7, 3));
