@@ -8,6 +8,7 @@
 #include "numparse.h"
 
 #include <float.h>
+#include <stdatomic.h>
 #include <locale.h>
 #include <math.h>
 #include <stdarg.h>
@@ -496,7 +497,7 @@ static mlr_status frames_loop(parser *ps, const frames_plan *pl, const bvh_scrat
 
 /* frames_loop on copies in this thread's stack frame of the parser, plan and scratch pointers:
  * the loop reads and writes them every frame, and where they sit beside another thread's
- * (the jobs array, the caller's plan) the cache line would travel between the cores each
+ * (the tasks array, the caller's plan) the cache line would travel between the cores each
  * time (measured: 9% of a two-thread parse of lafan1_clip_a went to those loads). */
 static mlr_status parse_frames_range(parser *ps, const frames_plan *pl, const bvh_scratch *s,
                                      size_t f0, size_t f1)
@@ -509,20 +510,48 @@ static mlr_status parse_frames_range(parser *ps, const frames_plan *pl, const bv
     return st;
 }
 
-/* One thread's share of the frames: [f0, f1) from its own cursor. */
-typedef struct frames_job {
-    parser ps;
-    const frames_plan *pl;
-    bvh_scratch s;
-    size_t f0, f1;
-    const char *start;
+/* The MOTION text is cut into chunks (tasks) at line starts; a thread takes the next chunk
+ * when it is free, so a thread that starts late or runs slow (a busy machine) holds up no more
+ * than a chunk. A chunk's first frame is the number of '\n' before it (a guess that holds when
+ * every frame is one line): the task of the chunk before counts its own lines first and
+ * publishes the sum, then parses, so no thread counts the whole text. */
+typedef struct frames_task {
+    _Alignas(128) atomic_size_t first; /* the chunk's first frame + 1; 0 until published */
+    const char *start;                 /* the chunk's first line */
+    size_t f0;                         /* its first frame, once running */
+    parser ps;                         /* the cursor where the task stopped */
     mlr_status status;
-} frames_job;
+} frames_task; /* on its own cache lines: a task spins on first while another writes ps */
 
-static void frames_job_run(void *ctx, size_t t)
+typedef struct frames_run {
+    const frames_plan *pl;
+    const parser *base; /* the caller's parser at the first frame */
+    const bvh_scratch *scratch; /* one per thread */
+    frames_task *tasks;
+    size_t K;
+} frames_run;
+
+static void frames_task_run(void *ctx, size_t k, size_t worker)
 {
-    frames_job *jb = (frames_job *)ctx + t;
-    jb->status = parse_frames_range(&jb->ps, jb->pl, &jb->s, jb->f0, jb->f1);
+    const frames_run *r = ctx;
+    frames_task *tk = &r->tasks[k];
+    const size_t N = r->pl->m->n_frames;
+    /* the task before publishes early in its run (its thread is running: tasks go out in order) */
+    const size_t f0 = mlr_wait_nonzero(&tk->first) - 1;
+    size_t f1 = N;
+    if (k + 1 < r->K) {
+        const size_t n = r->pl->k.count_newlines(tk->start, r->tasks[k + 1].start);
+        f1 = n < N - f0 ? f0 + n : N;
+        atomic_store_explicit(&r->tasks[k + 1].first, f1 + 1, memory_order_release);
+    }
+    tk->f0 = f0;
+    tk->ps = *r->base;
+    if (k > 0) {
+        tk->ps.p = tk->ps.line_start = tk->start;
+        tk->ps.line = 1;
+        tk->ps.diag = NULL;
+    }
+    tk->status = parse_frames_range(&tk->ps, r->pl, &r->scratch[worker], f0, f1);
 }
 
 /* Threads for n_threads == 0: one per 512 KiB of frame text, at most the online processors
@@ -538,64 +567,59 @@ static size_t auto_threads(size_t bytes)
     return t > 8 ? 8 : t;
 }
 
-/* The MOTION lines, on T threads: thread t starts at the first line after byte t/T of the
- * text, at frame g_t = the number of '\n' before it (a guess that holds when every frame is one
- * line). Threads write disjoint frames. Afterwards the shares are chained from the first: a
- * share counts only if the previous one ended exactly where it started; from the first share
- * that does not (or that failed) on, the frames are parsed again on the calling thread, so the
- * result and the first error (line, reason) are those of a single-threaded parse. */
-static mlr_status parse_frames(parser *ps, const frames_plan *pl, const mlr_file_lines *lines,
-                               frames_job *jobs, size_t T)
+/* Bytes of MOTION text per task (a chunk): small enough that a late thread holds up little. */
+#define FRAMES_CHUNK ((size_t)128 << 10)
+
+/* The MOTION lines on T threads (see frames_task). Threads write disjoint frames. Afterwards the
+ * chunks are chained from the first: a chunk counts only if the one before ended exactly where
+ * it starts; from the first that does not (or that failed) on, the frames are parsed again on
+ * the calling thread, so the result and the first error (line, reason) are those of a
+ * single-threaded parse. */
+static mlr_status parse_frames(parser *ps, const frames_plan *pl, const bvh_scratch *scratch,
+                               size_t T)
 {
-    const size_t N = pl->m->n_frames;
-    jobs[0].ps = *ps;
-    jobs[0].start = ps->p;
-    jobs[0].f0 = 0;
+    const size_t N = pl->m->n_frames, len = (size_t)(ps->end - ps->p);
+    if (T <= 1)
+        return parse_frames_range(ps, pl, &scratch[0], 0, N);
+    size_t K = len / FRAMES_CHUNK;
+    K = K < T ? T : K > 16 * T ? 16 * T : K;
+    const size_t bytes = K * sizeof(frames_task) + _Alignof(frames_task);
+    unsigned char *block = mlr_alloc(&ps->a, bytes);
+    if (!block)
+        return MLR_E_NO_MEMORY;
+    frames_task *tasks =
+        (frames_task *)(void *)(block + (_Alignof(frames_task) -
+                                         (uintptr_t)block % _Alignof(frames_task)) %
+                                            _Alignof(frames_task));
+    tasks[0].start = ps->p;
     size_t used = 1;
-    /* with the file reader's line counts (same shares): the shares start after the first '\n'
-     * of the reader's shares, and the '\n' before them need no counting here */
-    const int counted = lines && lines->n == T;
-    const size_t header_nl = counted ? pl->k.count_newlines(pl->text, ps->p) : 0;
-    for (size_t t = 1; t < T; t++) {
-        const char *from = counted ? pl->text + lines->off[t]
-                                   : ps->p + (size_t)(ps->end - ps->p) / T * t;
-        if (from < ps->p) /* a reader's share that starts in the header */
-            continue;
+    for (size_t k = 1; k < K; k++) {
+        const char *from = ps->p + len / K * k;
         const char *nl = memchr(from, '\n', (size_t)(ps->end - from));
-        if (!nl || nl + 1 >= ps->end || nl + 1 <= jobs[used - 1].start)
+        if (!nl || nl + 1 >= ps->end)
             break;
-        size_t g = counted ? lines->nl[t] + 1 - header_nl
-                           : jobs[used - 1].f0 +
-                                 pl->k.count_newlines(jobs[used - 1].start, nl + 1);
-        if (g >= N || g <= jobs[used - 1].f0)
+        if (nl + 1 > tasks[used - 1].start)
+            tasks[used++].start = nl + 1;
+    }
+    for (size_t k = 0; k < used; k++)
+        atomic_init(&tasks[k].first, k == 0 ? 1 : 0);
+    const frames_run r = {pl, ps, scratch, tasks, used};
+    mlr_parallel_run_workers(T, used, frames_task_run, (void *)&r);
+    mlr_status s = MLR_OK;
+    *ps = tasks[0].ps;
+    if (tasks[0].status != MLR_OK)
+        s = tasks[0].status;
+    for (size_t k = 1; k < used && s == MLR_OK; k++) {
+        if (ps->p != tasks[k].start || tasks[k].status != MLR_OK) {
+            s = parse_frames_range(ps, pl, &scratch[0], tasks[k].f0, N);
             break;
-        frames_job *jb = &jobs[used++];
-        jb->ps = *ps;
-        jb->ps.p = jb->ps.line_start = jb->start = nl + 1;
-        jb->ps.line = 1;
-        jb->ps.diag = NULL;
-        jb->f0 = g;
+        }
+        ps->p = tasks[k].ps.p;
+        ps->line_start = tasks[k].ps.line_start;
+        ps->line += tasks[k].ps.line - 1;
     }
-    for (size_t t = 0; t < used; t++) {
-        jobs[t].f1 = t + 1 < used ? jobs[t + 1].f0 : N;
-        jobs[t].pl = pl;
-    }
-    if (used == 1) {
-        mlr_status s = parse_frames_range(ps, pl, &jobs[0].s, 0, N);
-        return s;
-    }
-    mlr_parallel_run(used, used, frames_job_run, jobs);
-    *ps = jobs[0].ps;
-    if (jobs[0].status != MLR_OK)
-        return jobs[0].status;
-    for (size_t t = 1; t < used; t++) {
-        if (ps->p != jobs[t].start || jobs[t].status != MLR_OK)
-            return parse_frames_range(ps, pl, &jobs[0].s, jobs[t].f0, N);
-        ps->p = jobs[t].ps.p;
-        ps->line_start = jobs[t].ps.line_start;
-        ps->line += jobs[t].ps.line - 1;
-    }
-    return MLR_OK;
+    mlr_free(&ps->a, block, bytes);
+    return s;
 }
 
 #define SCRATCH_ALIGN 128
@@ -608,7 +632,7 @@ static size_t scratch_round(size_t n)
 
 /* The conversion plan and T threads' scratch in one block of *bytes. */
 static mlr_status frames_setup(parser *ps, mlr_motion *m, size_t T, frames_plan *pl,
-                               frames_job *jobs, unsigned char **block, size_t *bytes)
+                               bvh_scratch *scratch, unsigned char **block, size_t *bytes)
 {
     const size_t C = m->n_channels, J = m->n_joints, P = m->n_trans;
     bvh_conv *cv = &pl->cv;
@@ -644,9 +668,9 @@ static mlr_status frames_setup(parser *ps, mlr_motion *m, size_t T, frames_plan 
      * bytes */
     unsigned char *sp = b + (SCRATCH_ALIGN - (uintptr_t)b % SCRATCH_ALIGN) % SCRATCH_ALIGN;
     for (size_t t = 0; t < T; t++, sp += per) {
-        jobs[t].s.row = (double *)(void *)sp;
-        jobs[t].s.tmp = (double *)(void *)(sp + row_b);
-        jobs[t].s.ends = (const char **)(void *)(sp + row_b + tmp_b);
+        scratch[t].row = (double *)(void *)sp;
+        scratch[t].tmp = (double *)(void *)(sp + row_b);
+        scratch[t].ends = (const char **)(void *)(sp + row_b + tmp_b);
     }
     double *par = (double *)(void *)sp;
     uint32_t *src = (uint32_t *)(void *)(par + Jp);
@@ -660,14 +684,14 @@ static mlr_status frames_setup(parser *ps, mlr_motion *m, size_t T, frames_plan 
 
     /* constants of the row: zeros at R, then the root's OFFSET and each translated joint's */
     const size_t R = cv->R;
-    double *row0 = jobs[0].s.row;
+    double *row0 = scratch[0].row;
     memset(row0, 0, row_n * sizeof(double));
     memcpy(row0 + R + 4, m->offsets, 3 * sizeof(double));
     for (size_t k = 0; k < P; k++)
         memcpy(row0 + R + 7 + 3 * k, m->offsets + 3 * (size_t)m->trans_joints[k],
                3 * sizeof(double));
     for (size_t t = 1; t < T; t++)
-        memcpy(jobs[t].s.row, row0, row_n * sizeof(double));
+        memcpy(scratch[t].row, row0, row_n * sizeof(double));
     for (size_t k = 0; k < 3; k++)
         src[k] = (uint32_t)(R + 4 + k);
     for (size_t k = 0; k < 3 * P; k++)
@@ -832,15 +856,15 @@ static mlr_status parse(parser *ps, size_t n_threads, int kernels, const mlr_fil
         if (T > n_frames)
             T = n_frames;
         frames_plan pl;
-        frames_job jobs[BVH_MAX_THREADS];
+        bvh_scratch scratch[BVH_MAX_THREADS];
         unsigned char *block = NULL;
         size_t bytes = 0;
-        s = frames_setup(ps, m, T, &pl, jobs, &block, &bytes);
+        s = frames_setup(ps, m, T, &pl, scratch, &block, &bytes);
         if (s == MLR_OK) {
             bvh_kernels_pick(&pl.k, kernels);
             pl.m = m;
             pl.text = ps->begin;
-            s = parse_frames(ps, &pl, lines, jobs, T);
+            s = parse_frames(ps, &pl, scratch, T);
             mlr_free(&ps->a, block, bytes);
         }
         if (s != MLR_OK) {
