@@ -776,8 +776,7 @@ static mlr_status build_motion(parser *ps, size_t n_frames, double frame_time,
     return MLR_OK;
 }
 
-static mlr_status parse(parser *ps, size_t n_threads, int kernels, const mlr_file_lines *lines,
-                        mlr_motion **out)
+static mlr_status parse(parser *ps, size_t n_threads, int kernels, mlr_motion **out)
 {
     mlr_status s = parse_hierarchy(ps);
     if (s != MLR_OK)
@@ -849,8 +848,7 @@ static mlr_status parse(parser *ps, size_t n_threads, int kernels, const mlr_fil
     if ((s = build_motion(ps, n_frames, frame_time, &m)) != MLR_OK)
         return s;
     if (n_frames > 0) {
-        /* automatic: as many threads as read the file, if it was read in parallel */
-        size_t T = n_threads ? n_threads : lines && lines->n > 1 ? lines->n : auto_threads(left);
+        size_t T = n_threads ? n_threads : auto_threads(left);
         if (T > BVH_MAX_THREADS)
             T = BVH_MAX_THREADS;
         if (T > n_frames)
@@ -887,10 +885,8 @@ static mlr_status parse(parser *ps, size_t n_threads, int kernels, const mlr_fil
     return MLR_OK;
 }
 
-/* bvh_read_memory_ex with, for a file read in parallel, the reader's line counts. */
-static mlr_status read_text(const char *text, size_t len, size_t n_threads, int kernels,
-                            const mlr_file_lines *lines, const mlr_allocator *alloc,
-                            mlr_motion **out, mlr_diag *diag)
+mlr_status bvh_read_memory_ex(const char *text, size_t len, size_t n_threads, int kernels,
+                              const mlr_allocator *alloc, mlr_motion **out, mlr_diag *diag)
 {
     if (!out)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "out is NULL");
@@ -915,19 +911,13 @@ static mlr_status read_text(const char *text, size_t len, size_t n_threads, int 
     if (len >= 3 && (unsigned char)ps.p[0] == 0xEF && (unsigned char)ps.p[1] == 0xBB &&
         (unsigned char)ps.p[2] == 0xBF)
         ps.p += 3;
-    mlr_status s = parse(&ps, n_threads, kernels, lines, out);
+    mlr_status s = parse(&ps, n_threads, kernels, out);
     vec_free(&ps.joints, &ps.a);
     vec_free(&ps.ends, &ps.a);
     vec_free(&ps.names, &ps.a);
     if (s == MLR_E_NO_MEMORY || s == MLR_E_OVERFLOW)
         mlr_diag_set(diag, s, 0, 0, "%s", mlr_status_string(s));
     return s;
-}
-
-mlr_status bvh_read_memory_ex(const char *text, size_t len, size_t n_threads, int kernels,
-                              const mlr_allocator *alloc, mlr_motion **out, mlr_diag *diag)
-{
-    return read_text(text, len, n_threads, kernels, NULL, alloc, out, diag);
 }
 
 mlr_status mlr_bvh_read_memory(const char *text, size_t len, const mlr_allocator *alloc,
@@ -956,16 +946,11 @@ mlr_status mlr_bvh_read_file_mt(const char *path, size_t n_threads, const mlr_al
     mlr_allocator_resolve(alloc, &a);
     char *buf;
     size_t len, cap;
-    /* a large file is read by as many threads as will parse it, which count its lines as they
-     * go: the parse then starts its threads without counting them again */
-    bvh_kernels k;
-    bvh_kernels_pick(&k, BVH_KERNELS_BEST);
-    mlr_file_lines lines;
-    mlr_status s =
-        mlr_read_file_lines(path, n_threads, &a, k.count_newlines, &lines, &buf, &len, &cap, diag);
+    /* a large file is read in parallel chunks (n_threads permitting), then parsed */
+    mlr_status s = mlr_read_file(path, n_threads, &a, &buf, &len, &cap, diag);
     if (s != MLR_OK)
         return s;
-    s = read_text(buf, len, n_threads, BVH_KERNELS_BEST, &lines, &a, out, diag);
+    s = bvh_read_memory_ex(buf, len, n_threads, BVH_KERNELS_BEST, &a, out, diag);
     mlr_free(&a, buf, cap);
     return s;
 }

@@ -8,6 +8,7 @@
 #include "parallel_internal.h"
 
 #include <errno.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <string.h>
 #ifdef MLR_POSIX_FILES
@@ -19,8 +20,8 @@
 
 #define READ_MAX_THREADS MLR_FILE_MAX_THREADS
 
-/* Bytes a reading thread asks for at a time when it counts lines (they are counted while in
- * its cache). */
+/* Bytes of a parallel read's chunk: the threads take the next one as they come free, so a
+ * thread that starts late or runs slow holds up little. */
 #define READ_CHUNK ((size_t)1 << 18)
 
 /* The reason of an errno value, thread-safe (strerror need not be). */
@@ -104,41 +105,36 @@ static mlr_status read_stream(FILE *fp, const mlr_allocator *a, char **out, size
 }
 
 #ifdef MLR_POSIX_FILES
-typedef struct read_share {
+/* A parallel read: chunks of READ_CHUNK bytes handed out as threads come free. */
+typedef struct read_job {
     int fd;
-    char *dst;
-    off_t off;
-    size_t len;
-    mlr_count_newlines_fn count; /* NULL: no counting */
-    size_t nl;                   /* '\n' bytes in the share */
-    int err; /* errno of a failed pread; -1 when the file ended early */
-} read_share;
+    char *buf;
+    size_t size;
+    atomic_int err; /* 0; the errno of a failed pread; -1 when the file ended early */
+} read_job;
 
-static void read_share_run(void *ctx, size_t t)
+static void read_chunk_run(void *ctx, size_t k)
 {
-    read_share *s = (read_share *)ctx + t;
+    read_job *j = ctx;
+    const size_t off = k * READ_CHUNK;
+    const size_t len = j->size - off < READ_CHUNK ? j->size - off : READ_CHUNK;
     size_t done = 0;
-    while (done < s->len) {
-        size_t want = s->len - done;
-        if (s->count && want > READ_CHUNK)
-            want = READ_CHUNK;
-        ssize_t k = pread(s->fd, s->dst + done, want, s->off + (off_t)done);
-        if (k < 0 && errno == EINTR)
+    while (done < len) {
+        ssize_t got = pread(j->fd, j->buf + off + done, len - done, (off_t)(off + done));
+        if (got < 0 && errno == EINTR)
             continue;
-        if (k <= 0) {
-            s->err = k < 0 ? errno : -1;
+        if (got <= 0) {
+            int none = 0;
+            atomic_compare_exchange_strong(&j->err, &none, got < 0 ? errno : -1);
             return;
         }
-        if (s->count)
-            s->nl += s->count(s->dst + done, s->dst + done + k);
-        done += (size_t)k;
+        done += (size_t)got;
     }
 }
 
 /* A regular file of `size` bytes on T threads. Returns 1 when read, 0 when the file must be
  * read sequentially instead (it changed size), -1 on an error (diag set, *status). */
-static int read_parallel(int fd, size_t size, size_t T, const mlr_allocator *a,
-                         mlr_count_newlines_fn count, mlr_file_lines *lines, char **out,
+static int read_parallel(int fd, size_t size, size_t T, const mlr_allocator *a, char **out,
                          size_t *out_len, size_t *out_cap, mlr_status *status, mlr_diag *diag)
 {
     const size_t cap = size + 1;
@@ -148,43 +144,23 @@ static int read_parallel(int fd, size_t size, size_t T, const mlr_allocator *a,
                                mlr_status_string(MLR_E_NO_MEMORY));
         return -1;
     }
-    read_share sh[READ_MAX_THREADS];
-    const size_t per = size / T;
-    for (size_t t = 0; t < T; t++) {
-        sh[t].fd = fd;
-        sh[t].off = (off_t)(t * per);
-        sh[t].dst = buf + t * per;
-        sh[t].len = t + 1 < T ? per : size - t * per;
-        sh[t].count = lines ? count : NULL;
-        sh[t].nl = 0;
-        sh[t].err = 0;
-    }
-    mlr_parallel_run(T, T, read_share_run, sh);
-    int shrank = 0;
-    for (size_t t = 0; t < T; t++) {
-        if (sh[t].err > 0) {
-            mlr_free(a, buf, cap);
-            *status = io_error(diag, "read error", sh[t].err);
-            return -1;
-        }
-        shrank |= sh[t].err < 0;
+    read_job j = {fd, buf, size, 0};
+    atomic_init(&j.err, 0);
+    mlr_parallel_run(T, (size + READ_CHUNK - 1) / READ_CHUNK, read_chunk_run, &j);
+    const int err = atomic_load(&j.err);
+    if (err > 0) {
+        mlr_free(a, buf, cap);
+        *status = io_error(diag, "read error", err);
+        return -1;
     }
     /* a byte past the size means the file grew meanwhile */
     ssize_t more;
     do
         more = pread(fd, buf + size, 1, (off_t)size);
     while (more < 0 && errno == EINTR);
-    if (shrank || more != 0) {
+    if (err < 0 || more != 0) {
         mlr_free(a, buf, cap);
         return 0;
-    }
-    if (lines && count) {
-        lines->n = T;
-        for (size_t t = 0, nl = 0; t < T; t++) {
-            lines->off[t] = (size_t)sh[t].off;
-            lines->nl[t] = nl;
-            nl += sh[t].nl;
-        }
     }
     *out = buf;
     *out_len = size;
@@ -196,17 +172,8 @@ static int read_parallel(int fd, size_t size, size_t T, const mlr_allocator *a,
 mlr_status mlr_read_file(const char *path, size_t n_threads, const mlr_allocator *a, char **buf,
                          size_t *len, size_t *cap, mlr_diag *diag)
 {
-    return mlr_read_file_lines(path, n_threads, a, NULL, NULL, buf, len, cap, diag);
-}
-
-mlr_status mlr_read_file_lines(const char *path, size_t n_threads, const mlr_allocator *a,
-                               mlr_count_newlines_fn count, mlr_file_lines *lines, char **buf,
-                               size_t *len, size_t *cap, mlr_diag *diag)
-{
     *buf = NULL;
     *len = *cap = 0;
-    if (lines)
-        lines->n = 0;
 #ifdef MLR_POSIX_FILES
     int fd;
     do
@@ -227,7 +194,7 @@ mlr_status mlr_read_file_lines(const char *path, size_t n_threads, const mlr_all
             T = READ_MAX_THREADS;
         if (T > 1) {
             mlr_status s = MLR_OK;
-            const int r = read_parallel(fd, size, T, a, count, lines, buf, len, cap, &s, diag);
+            const int r = read_parallel(fd, size, T, a, buf, len, cap, &s, diag);
             if (r != 0) {
                 close(fd);
                 return s;
@@ -242,7 +209,6 @@ mlr_status mlr_read_file_lines(const char *path, size_t n_threads, const mlr_all
     }
 #else
     (void)n_threads;
-    (void)count;
     FILE *fp = fopen(path, "rb");
     if (!fp)
         return io_error(diag, "cannot open", errno);

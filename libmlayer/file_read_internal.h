@@ -5,8 +5,8 @@
 
 #include "mlr_internal.h"
 
-/* Files from this size on are read by several threads (n_threads permitting), each its own
- * share with pread; smaller ones, pipes and devices by one sequential read. */
+/* Files from this size on are read by several threads (n_threads permitting), in chunks with
+ * pread; smaller ones, pipes and devices by one sequential read. */
 #define MLR_FILE_PARALLEL_MIN_BYTES ((size_t)1 << 20)
 
 /* Read the file at path into *buf (through a; *cap bytes allocated, *len used, *len < *cap so
@@ -19,22 +19,5 @@ mlr_status mlr_read_file(const char *path, size_t n_threads, const mlr_allocator
 
 /* Most threads a read uses. */
 #define MLR_FILE_MAX_THREADS 8
-
-/* Where the shares of a parallel read begin and how many '\n' bytes come before each, counted
- * by the reading threads while the bytes are in their caches. */
-typedef struct mlr_file_lines {
-    size_t n;                         /* shares; 0 when the file was read sequentially */
-    size_t off[MLR_FILE_MAX_THREADS]; /* share t's first byte (off[0] = 0) */
-    size_t nl[MLR_FILE_MAX_THREADS];  /* '\n' bytes in [0, off[t]) */
-} mlr_file_lines;
-
-/* The '\n' bytes in [p, end). */
-typedef size_t (*mlr_count_newlines_fn)(const char *p, const char *end);
-
-/* mlr_read_file, and when the file is read in parallel the shares' line counts in *lines (by
- * count); lines->n = 0 when it is read sequentially. */
-mlr_status mlr_read_file_lines(const char *path, size_t n_threads, const mlr_allocator *a,
-                               mlr_count_newlines_fn count, mlr_file_lines *lines, char **buf,
-                               size_t *len, size_t *cap, mlr_diag *diag);
 
 #endif

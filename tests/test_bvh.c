@@ -1284,9 +1284,10 @@ START_TEST(threads_report_the_first_error_as_one_thread_does)
 }
 END_TEST
 
-/* Files of 1 MiB and more are read in parallel shares whose line counts place the parsing
- * threads: with CR-only line ends in part of the file, blank lines, or an error, the result
- * (frames, or the error's line, column and reason) is that of one thread reading from memory. */
+/* Files of 1 MiB and more are read in parallel chunks and parsed in chunks of 128 KiB, each
+ * placed by the line count of the chunks before it: with CR-only line ends in part of the file,
+ * blank lines, or an error, the result (frames, or the error's line, column and reason) is that
+ * of one thread reading from memory. */
 START_TEST(parallel_file_reads_match_one_thread)
 {
     mlr_test_rng r;
@@ -1338,7 +1339,7 @@ START_TEST(parallel_file_reads_match_one_thread)
 END_TEST
 
 /* Every clip on 0 (automatic), 2 and 3 threads: the files of 1 MiB or more are then also read
- * in parallel shares. */
+ * in parallel chunks. */
 START_TEST(read_file_mt_matches_read_file)
 {
     mlr_motion *b = NULL;

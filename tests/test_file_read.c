@@ -35,21 +35,12 @@ static void remove_file(void)
     rmdir(dir);
 }
 
-static size_t count_lf(const char *p, const char *end)
-{
-    size_t n = 0;
-    for (; p < end; p++)
-        n += *p == '\n';
-    return n;
-}
 
-/* Every thread count gives the file's bytes. With line counting (even thread counts here), a
- * parallel read reports its shares: share t starts at t * (size / T), its count is that of the
- * bytes before it; a sequential read reports none. */
+/* Every thread count gives the file's bytes. */
 START_TEST(every_thread_count_reads_the_same_bytes)
 {
-    /* sizes around the parallel threshold and shares that do not divide evenly; the last has
-     * several read chunks a share */
+    /* sizes around the parallel threshold and ones that do not divide evenly into chunks; the
+     * last has more chunks than threads */
     const size_t sizes[] = {0, 1000, MLR_FILE_PARALLEL_MIN_BYTES - 1, MLR_FILE_PARALLEL_MIN_BYTES,
                             3 * MLR_FILE_PARALLEL_MIN_BYTES + 12345};
     for (size_t z = 0; z < MLR_COUNTOF(sizes); z++) {
@@ -60,28 +51,10 @@ START_TEST(every_thread_count_reads_the_same_bytes)
             mlr_diag d;
             mlr_allocator a;
             mlr_allocator_resolve(NULL, &a);
-            mlr_file_lines lines;
-            memset(&lines, 0x55, sizeof lines);
-            const int counting = threads % 2 == 0;
-            ck_assert_int_eq(counting ? mlr_read_file_lines(path, threads, &a, count_lf, &lines,
-                                                            &buf, &len, &cap, &d)
-                                      : mlr_read_file(path, threads, &a, &buf, &len, &cap, &d),
-                             MLR_OK);
+            ck_assert_int_eq(mlr_read_file(path, threads, &a, &buf, &len, &cap, &d), MLR_OK);
             ck_assert_uint_eq(len, sizes[z]);
             ck_assert_uint_gt(cap, len);
             ck_assert(len == 0 || memcmp(buf, expect, len) == 0);
-            if (counting && (threads == 1 || sizes[z] < MLR_FILE_PARALLEL_MIN_BYTES))
-                ck_assert_uint_eq(lines.n, 0);
-            if (counting && lines.n) {
-                const size_t T = lines.n;
-                ck_assert(threads == 0 || T == (threads > 8 ? 8 : threads));
-                for (size_t t = 0; t < T; t++) {
-                    ck_assert_uint_eq(lines.off[t], t * (len / T));
-                    ck_assert_uint_eq(lines.nl[t], count_lf(buf, buf + lines.off[t]));
-                }
-            }
-            if (counting && threads >= 2 && sizes[z] >= MLR_FILE_PARALLEL_MIN_BYTES)
-                ck_assert_uint_ge(lines.n, 2);
             mlr_free(&a, buf, cap);
         }
         remove_file();

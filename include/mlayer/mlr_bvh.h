@@ -78,11 +78,11 @@ MLR_API mlr_status mlr_bvh_read_file(const char *path, const mlr_allocator *allo
 
 /**
  * mlr_bvh_read_memory with the frame lines parsed on several threads.
- * The MOTION text is cut at line ends into n_threads shares parsed at once; the result, and on
- * failure the status and diag (the first bad line, as a single thread reports it), do not
- * depend on n_threads: bit-identical frames for every thread count. Files whose frame lines are
- * not one per line (blank lines, CR-only line ends) are still read correctly, partly on one
- * thread.
+ * The MOTION text is cut at line ends into chunks of about 128 KiB (at least one per thread),
+ * which the threads take in turn as they come free; the result, and on failure the status and
+ * diag (the first bad line, as a single thread reports it), do not depend on n_threads:
+ * bit-identical frames for every thread count. Files whose frame lines are not one per line
+ * (blank lines, CR-only line ends) are still read correctly, partly on one thread.
  * @param n_threads [in] threads to use, the calling one included: 1 for the calling thread
  *                  only (as mlr_bvh_read_memory), 0 for automatic (one per 512 KiB of frame
  *                  text, at most the online processors and 8); values above 16 count as 16
@@ -97,13 +97,10 @@ MLR_API mlr_status mlr_bvh_read_memory_mt(const char *text, size_t len, size_t n
 
 /**
  * mlr_bvh_read_file with the frame lines parsed on n_threads threads (see
- * mlr_bvh_read_memory_mt; 0 for automatic). A regular file of 1 MiB or more is also read by
- * several threads (n_threads, or for 0 one per MiB up to the online processors), each its
- * share with pread (POSIX systems); a file whose size changes meanwhile is read again by one
- * thread. Other files (pipes, devices) and smaller ones are read by one. The reading threads
- * count the line ends of their shares as they go, and the frame lines are then parsed by as
- * many threads (for n_threads 0), each from the first line of its share: the parse need not
- * count lines to place its threads.
+ * mlr_bvh_read_memory_mt; 0 for automatic). A regular file of 1 MiB or more is first read by
+ * several threads (n_threads, or for 0 one per MiB up to the online processors), in chunks of
+ * 256 KiB with pread (POSIX systems); a file whose size changes meanwhile is read again by one
+ * thread. Other files (pipes, devices) and smaller ones are read by one.
  */
 MLR_API mlr_status mlr_bvh_read_file_mt(const char *path, size_t n_threads,
                                         const mlr_allocator *alloc, mlr_motion **out,
