@@ -110,21 +110,59 @@ __attribute__((target("avx2"))) static void frame_avx2(const bvh_conv *cv, const
     frame_body(cv, row, tmp, rp, tr, q);
 }
 
-/* As frame_portable, 8 joints at a time: the same operations in the same order, so the same
- * results (the sines and cosines are the same inline code, vectorized by the compiler). */
+/* mlr_sincosd_kernel on 8 angles: the same operations in the same order (no FMA), so the
+ * same bits. */
+AVX512 static inline void sincosd8(__m512d x, __m512d *s_out, __m512d *c_out)
+{
+#  define K(v) _mm512_set1_pd(v)
+    const __m512d shifter = K(0x1.8p52);
+    const __m512d kq = _mm512_add_pd(_mm512_mul_pd(x, K(1.0 / 90.0)), shifter);
+    const __m512d k = _mm512_sub_pd(kq, shifter);
+    const __m512d t =
+        _mm512_mul_pd(_mm512_sub_pd(x, _mm512_mul_pd(k, K(90.0))), K(MLR_DEG_TO_RAD));
+    const __m512d z = _mm512_mul_pd(t, t);
+#  define STEP(c, acc) _mm512_add_pd(K(c), _mm512_mul_pd(z, acc))
+    const __m512d ps = STEP(MLR_SINCOS_S2, STEP(MLR_SINCOS_S3, STEP(MLR_SINCOS_S4,
+                            STEP(MLR_SINCOS_S5, K(MLR_SINCOS_S6)))));
+    const __m512d sn =
+        _mm512_add_pd(t, _mm512_mul_pd(_mm512_mul_pd(z, t), STEP(MLR_SINCOS_S1, ps)));
+    const __m512d qc = _mm512_mul_pd(
+        z, STEP(MLR_SINCOS_C1, STEP(MLR_SINCOS_C2, STEP(MLR_SINCOS_C3, STEP(MLR_SINCOS_C4,
+               STEP(MLR_SINCOS_C5, K(MLR_SINCOS_C6)))))));
+#  undef STEP
+    const __m512d hz = _mm512_mul_pd(K(0.5), z), w = _mm512_sub_pd(K(1.0), hz);
+    const __m512d cs = _mm512_add_pd(
+        w, _mm512_add_pd(_mm512_sub_pd(_mm512_sub_pd(K(1.0), w), hz), _mm512_mul_pd(z, qc)));
+#  undef K
+    /* quadrant q = k mod 4: (sin, cos) = (sn, cs), (cs, -sn), (-sn, -cs), (-cs, sn) */
+    const __m512i q = _mm512_and_si512(_mm512_castpd_si512(kq), _mm512_set1_epi64(3));
+    const __mmask8 swap = _mm512_test_epi64_mask(q, _mm512_set1_epi64(1));
+    const __m512i two = _mm512_set1_epi64(2);
+    const __m512i sign_s = _mm512_slli_epi64(_mm512_and_si512(q, two), 62);
+    const __m512i sign_c =
+        _mm512_slli_epi64(_mm512_and_si512(_mm512_add_epi64(q, _mm512_set1_epi64(1)), two), 62);
+    *s_out = _mm512_castsi512_pd(
+        _mm512_xor_si512(_mm512_castpd_si512(_mm512_mask_blend_pd(swap, sn, cs)), sign_s));
+    *c_out = _mm512_castsi512_pd(
+        _mm512_xor_si512(_mm512_castpd_si512(_mm512_mask_blend_pd(swap, cs, sn)), sign_c));
+}
+
+/* As frame_portable, 8 joints at a time in registers: the same operations in the same order,
+ * so the same results. */
 AVX512 static void frame_avx512(const bvh_conv *cv, const double *restrict row,
                                 double *restrict tmp, double *restrict rp, double *restrict tr,
                                 double *restrict q)
 {
+    (void)tmp;
     const size_t J = cv->J, Jp = cv->Jp;
     const uint32_t *restrict g = gather_translations(cv, row, rp, tr);
-    double *restrict half = tmp, *restrict sn = tmp + 3 * Jp, *restrict cs = tmp + 6 * Jp;
     const __m512d h = _mm512_set1_pd(0.5);
     const __m512d limit = _mm512_set1_pd(MLR_SINCOSD_LIMIT);
-    __mmask8 big = 0; /* a half-angle the kernel does not reduce exactly */
     const __m512i lo = _mm512_setr_epi64(0, 4, 1, 5, 8, 12, 9, 13);
     const __m512i hi = _mm512_setr_epi64(2, 6, 3, 7, 10, 14, 11, 15);
-    for (size_t j = 0; j < Jp; j += 8) {
+    const __m128i zero = _mm_setzero_si128(), one = _mm_set1_epi8(1);
+    for (size_t j = 0; j < J; j += 8) {
+        __m512d a[3]; /* the half-angles of the joints' three rotations */
         if (cv->tri_ok[j / 8]) {
             /* 8 joints whose angles are three consecutive channels: 4 doubles from each
              * joint's first angle, transposed (the fourth is not used) */
@@ -136,33 +174,36 @@ AVX512 static void frame_avx512(const bvh_conv *cv, const double *restrict row,
 #  undef LD2
             const __m512d e0 = _mm512_unpacklo_pd(z0, z1), e1 = _mm512_unpackhi_pd(z0, z1);
             const __m512d e2 = _mm512_unpacklo_pd(z2, z3), e3 = _mm512_unpackhi_pd(z2, z3);
-            const __m512d a0 = _mm512_mul_pd(h, _mm512_permutex2var_pd(e0, lo, e2));
-            const __m512d a1 = _mm512_mul_pd(h, _mm512_permutex2var_pd(e1, lo, e3));
-            const __m512d a2 = _mm512_mul_pd(h, _mm512_permutex2var_pd(e0, hi, e2));
-            _mm512_storeu_pd(half + j, a0);
-            _mm512_storeu_pd(half + Jp + j, a1);
-            _mm512_storeu_pd(half + 2 * Jp + j, a2);
-            big |= _mm512_cmp_pd_mask(_mm512_abs_pd(a0), limit, _CMP_NLT_UQ) |
-                   _mm512_cmp_pd_mask(_mm512_abs_pd(a1), limit, _CMP_NLT_UQ) |
-                   _mm512_cmp_pd_mask(_mm512_abs_pd(a2), limit, _CMP_NLT_UQ);
+            a[0] = _mm512_mul_pd(h, _mm512_permutex2var_pd(e0, lo, e2));
+            a[1] = _mm512_mul_pd(h, _mm512_permutex2var_pd(e1, lo, e3));
+            a[2] = _mm512_mul_pd(h, _mm512_permutex2var_pd(e0, hi, e2));
         } else {
-            for (size_t k = 0; k < 3; k++)
+            double v[8];
+            for (size_t k = 0; k < 3; k++) {
                 for (size_t i = 0; i < 8; i++)
-                    half[k * Jp + j + i] = 0.5 * row[g[k * Jp + j + i]];
-            big = 1; /* let mlr_sincosd_array check these */
+                    v[i] = 0.5 * row[g[k * Jp + j + i]];
+                a[k] = _mm512_loadu_pd(v);
+            }
         }
-    }
-    if (big) {
-        mlr_sincosd_array(half, 3 * Jp, sn, cs);
-    } else { /* as mlr_sincosd_array does when no angle is large */
-        for (size_t k = 0; k < 3 * Jp; k++)
-            mlr_sincosd_kernel(half[k], sn + k, cs + k);
-    }
-    const __m128i zero = _mm_setzero_si128(), one = _mm_set1_epi8(1);
-    for (size_t j = 0; j < J; j += 8) {
-        const __m512d ca = _mm512_loadu_pd(cs + j), sa = _mm512_loadu_pd(sn + j);
-        const __m512d cb = _mm512_loadu_pd(cs + Jp + j), sb = _mm512_loadu_pd(sn + Jp + j);
-        const __m512d cc = _mm512_loadu_pd(cs + 2 * Jp + j), sc = _mm512_loadu_pd(sn + 2 * Jp + j);
+        __m512d sn[3], cs[3];
+        const __mmask8 big = _mm512_cmp_pd_mask(_mm512_abs_pd(a[0]), limit, _CMP_NLT_UQ) |
+                             _mm512_cmp_pd_mask(_mm512_abs_pd(a[1]), limit, _CMP_NLT_UQ) |
+                             _mm512_cmp_pd_mask(_mm512_abs_pd(a[2]), limit, _CMP_NLT_UQ);
+        if (!big) {
+            for (size_t k = 0; k < 3; k++)
+                sincosd8(a[k], &sn[k], &cs[k]);
+        } else { /* an angle of 2^50 degrees or more, or NaN: as mlr_sincosd_array does */
+            double x[8], sv[8], cv8[8];
+            for (size_t k = 0; k < 3; k++) {
+                _mm512_storeu_pd(x, a[k]);
+                for (size_t i = 0; i < 8; i++)
+                    mlr_sincosd_kernel(fabs(x[i]) < MLR_SINCOSD_LIMIT ? x[i] : fmod(x[i], 360.0),
+                                       sv + i, cv8 + i);
+                sn[k] = _mm512_loadu_pd(sv);
+                cs[k] = _mm512_loadu_pd(cv8);
+            }
+        }
+        const __m512d ca = cs[0], sa = sn[0], cb = cs[1], sb = sn[1], cc = cs[2], sc = sn[2];
         const __m512d p = _mm512_loadu_pd(cv->par + j);
 #  define MUL3(a, b, c) _mm512_mul_pd(_mm512_mul_pd(a, b), c)
 #  define MUL4(a, b, c, d) _mm512_mul_pd(_mm512_mul_pd(_mm512_mul_pd(a, b), c), d)
@@ -173,12 +214,12 @@ AVX512 static void frame_avx512(const bvh_conv *cv, const double *restrict row,
 #  undef MUL3
 #  undef MUL4
         __m512d xyz[3];
-        for (size_t a = 0; a < 3; a++) {
+        for (size_t k = 0; k < 3; k++) {
             const __m128i s =
-                _mm_loadl_epi64((const __m128i *)(const void *)(cv->sel + a * Jp + j));
+                _mm_loadl_epi64((const __m128i *)(const void *)(cv->sel + k * Jp + j));
             const __mmask8 is0 = (__mmask8)_mm_cmpeq_epi8_mask(s, zero);
             const __mmask8 is1 = (__mmask8)_mm_cmpeq_epi8_mask(s, one);
-            xyz[a] = _mm512_mask_mov_pd(_mm512_mask_mov_pd(c2, is0, c0), is1, c1);
+            xyz[k] = _mm512_mask_mov_pd(_mm512_mask_mov_pd(c2, is0, c0), is1, c1);
         }
         /* (w, x, y, z) of 8 joints to 8 quaternions in a row */
         const __m512d t0 = _mm512_unpacklo_pd(w, xyz[0]), t1 = _mm512_unpackhi_pd(w, xyz[0]);

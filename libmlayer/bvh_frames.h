@@ -36,8 +36,9 @@ typedef struct bvh_conv {
 /* Doubles of a thread's row: the values, room, zeros and the constants. */
 static inline size_t bvh_frame_row_size(const bvh_conv *cv) { return cv->R + 7 + 3 * cv->P; }
 
-/* Doubles of a thread's tmp: half-angles, sines, cosines and four quaternion parts. */
-static inline size_t bvh_frame_tmp_size(const bvh_conv *cv) { return 13 * cv->Jp; }
+/* Doubles of a thread's tmp: half-angles, sines and cosines (the portable and AVX2 kernels;
+ * the AVX-512 one keeps them in registers). */
+static inline size_t bvh_frame_tmp_size(const bvh_conv *cv) { return 9 * cv->Jp; }
 
 /* Per-thread scratch of the frame loop. */
 typedef struct bvh_scratch {

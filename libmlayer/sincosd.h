@@ -29,16 +29,30 @@
 
 #define MLR_SINCOSD_LIMIT 0x1p50
 
+/* The fdlibm coefficients (macros, so that a vector kernel can use the same ones). */
+#define MLR_SINCOS_S1 -1.66666666666666324348e-01
+#define MLR_SINCOS_S2 8.33333333332248946124e-03
+#define MLR_SINCOS_S3 -1.98412698298579493134e-04
+#define MLR_SINCOS_S4 2.75573137070700676789e-06
+#define MLR_SINCOS_S5 -2.50507602534068634195e-08
+#define MLR_SINCOS_S6 1.58969099521155010221e-10
+#define MLR_SINCOS_C1 4.16666666666666019037e-02
+#define MLR_SINCOS_C2 -1.38888888888741095749e-03
+#define MLR_SINCOS_C3 2.48015872894767294178e-05
+#define MLR_SINCOS_C4 -2.75573143513906633035e-07
+#define MLR_SINCOS_C5 2.08757232129817482790e-09
+#define MLR_SINCOS_C6 -1.13596475577881948265e-11
+/* Degrees to radians, as rounded */
+#define MLR_DEG_TO_RAD 0.017453292519943295769
+
 /* sin and cos of t + k pi/2 for |t| <= pi/4 (a hair beyond is fine) and the quadrant k in the
  * low bits of kbits: the fdlibm kernels and the quadrant swap; no branches. */
 static inline void mlr_sincos_quadrant(double t, uint64_t kbits, double *s_out, double *c_out)
 {
-    static const double S1 = -1.66666666666666324348e-01, S2 = 8.33333333332248946124e-03,
-                        S3 = -1.98412698298579493134e-04, S4 = 2.75573137070700676789e-06,
-                        S5 = -2.50507602534068634195e-08, S6 = 1.58969099521155010221e-10;
-    static const double C1 = 4.16666666666666019037e-02, C2 = -1.38888888888741095749e-03,
-                        C3 = 2.48015872894767294178e-05, C4 = -2.75573143513906633035e-07,
-                        C5 = 2.08757232129817482790e-09, C6 = -1.13596475577881948265e-11;
+    const double S1 = MLR_SINCOS_S1, S2 = MLR_SINCOS_S2, S3 = MLR_SINCOS_S3, S4 = MLR_SINCOS_S4,
+                 S5 = MLR_SINCOS_S5, S6 = MLR_SINCOS_S6;
+    const double C1 = MLR_SINCOS_C1, C2 = MLR_SINCOS_C2, C3 = MLR_SINCOS_C3, C4 = MLR_SINCOS_C4,
+                 C5 = MLR_SINCOS_C5, C6 = MLR_SINCOS_C6;
     const double z = t * t;
     /* sin(t) = t + t^3 (S1 + z P(z)) */
     const double ps = S2 + z * (S3 + z * (S4 + z * (S5 + z * S6)));
@@ -69,7 +83,7 @@ static inline void mlr_sincosd_kernel(double x, double *s_out, double *c_out)
     uint64_t kbits;
     memcpy(&kbits, &kq, sizeof kbits);
     const double r = x - k * 90.0; /* exact */
-    mlr_sincos_quadrant(r * 0.017453292519943295769, kbits, s_out, c_out);
+    mlr_sincos_quadrant(r * MLR_DEG_TO_RAD, kbits, s_out, c_out);
 }
 
 /* Radians. The limit of mlr_sincos_kernel: k pi/2 with the 33-bit head of pi/2 stays exact. */
