@@ -458,6 +458,46 @@ mlr_euler_order mlr_motion_joint_euler_order(const mlr_motion *m, size_t j)
     return (m && j < m->n_joints) ? (mlr_euler_order)m->order[j] : MLR_EULER_XYZ;
 }
 
+/* The J strings str(m, j) one after another with their NULs into buf (when cap allows);
+ * returns their size. */
+static size_t pack_strings(const mlr_motion *m, const char *(*str)(const mlr_motion *, size_t),
+                           char *buf, size_t cap)
+{
+    if (!m)
+        return 0;
+    size_t need = 0;
+    for (size_t j = 0; j < m->n_joints; j++)
+        need += strlen(str(m, j)) + 1;
+    if (buf && cap >= need) {
+        for (size_t j = 0; j < m->n_joints; j++) {
+            const char *t = str(m, j);
+            const size_t n = strlen(t) + 1;
+            memcpy(buf, t, n);
+            buf += n;
+        }
+    }
+    return need;
+}
+
+size_t mlr_motion_joint_names_packed(const mlr_motion *m, char *buf, size_t cap)
+{
+    return pack_strings(m, mlr_motion_joint_name, buf, cap);
+}
+
+size_t mlr_motion_joint_channels_packed(const mlr_motion *m, char *buf, size_t cap)
+{
+    return pack_strings(m, mlr_motion_joint_channels, buf, cap);
+}
+
+size_t mlr_motion_joint_euler_orders(const mlr_motion *m, int32_t *out)
+{
+    if (!m || !out)
+        return 0;
+    for (size_t j = 0; j < m->n_joints; j++)
+        out[j] = (int32_t)m->order[j];
+    return m->n_joints;
+}
+
 size_t mlr_motion_n_end_sites(const mlr_motion *m) { return m ? m->n_end : 0; }
 const int32_t *mlr_motion_end_site_parents(const mlr_motion *m) { return m ? m->end_parents : NULL; }
 const double *mlr_motion_end_site_offsets(const mlr_motion *m) { return m ? m->end_offsets : NULL; }

@@ -327,6 +327,46 @@ START_TEST(every_clip_parses_with_readme_counts)
 }
 END_TEST
 
+/* The packed accessors give what the per-joint ones give, for every clip; a short buffer gets
+ * nothing written; NULL motions give 0. */
+START_TEST(packed_accessors_match_per_joint_ones)
+{
+    mlr_motion *m = read_clip(&clips[_i]);
+    const size_t J = mlr_motion_n_joints(m);
+    for (int which = 0; which < 2; which++) {
+        size_t (*packed)(const mlr_motion *, char *, size_t) =
+            which ? mlr_motion_joint_channels_packed : mlr_motion_joint_names_packed;
+        const char *(*one)(const mlr_motion *, size_t) =
+            which ? mlr_motion_joint_channels : mlr_motion_joint_name;
+        const size_t n = packed(m, NULL, 0);
+        char *buf = malloc(n + 1);
+        ck_assert_ptr_nonnull(buf);
+        memset(buf, '#', n + 1);
+        ck_assert_uint_eq(packed(m, buf, n - 1), n); /* too short: untouched */
+        ck_assert_int_eq(buf[0], '#');
+        ck_assert_uint_eq(packed(m, buf, n), n);
+        ck_assert_int_eq(buf[n], '#');
+        const char *q = buf;
+        for (size_t j = 0; j < J; j++) {
+            ck_assert_str_eq(q, one(m, j));
+            q += strlen(q) + 1;
+        }
+        ck_assert_ptr_eq(q, buf + n);
+        ck_assert_uint_eq(packed(NULL, buf, n), 0);
+        free(buf);
+    }
+    int32_t *orders = malloc(J * sizeof *orders);
+    ck_assert_ptr_nonnull(orders);
+    ck_assert_uint_eq(mlr_motion_joint_euler_orders(m, orders), J);
+    for (size_t j = 0; j < J; j++)
+        ck_assert_int_eq(orders[j], (int32_t)mlr_motion_joint_euler_order(m, j));
+    ck_assert_uint_eq(mlr_motion_joint_euler_orders(NULL, orders), 0);
+    ck_assert_uint_eq(mlr_motion_joint_euler_orders(m, NULL), 0);
+    free(orders);
+    mlr_motion_destroy(m);
+}
+END_TEST
+
 START_TEST(per_joint_euler_orders)
 {
     /* cmu_131_01: 19 ZYX (root included) and 12 ZXY joints; Daz files: root ZYX, rest ZXY */
@@ -1569,6 +1609,7 @@ static Suite *bvh_suite(void)
     tcase_add_loop_test(tc, every_clip_parses_with_readme_counts, 0, (int)MLR_COUNTOF(clips));
     tcase_add_loop_test(tc, every_value_of_every_clip_is_strtods, 0, (int)MLR_COUNTOF(clips));
     tcase_add_test(tc, per_joint_euler_orders);
+    tcase_add_loop_test(tc, packed_accessors_match_per_joint_ones, 0, (int)MLR_COUNTOF(clips));
     tcase_add_test(tc, bandai_position_channels_replace_offsets);
     tcase_add_loop_test(tc, round_trip_every_clip, 0, (int)MLR_COUNTOF(clips));
     tcase_add_test(tc, write_file_is_atomic_and_matches_memory);

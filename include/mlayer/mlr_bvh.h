@@ -236,6 +236,18 @@ MLR_API int mlr_motion_joint_has_position(const mlr_motion *motion, size_t j);
 /** Euler order of joint j's rotation channels (completed as described at the top). */
 MLR_API mlr_euler_order mlr_motion_joint_euler_order(const mlr_motion *motion, size_t j);
 
+/** All J joint names at once: each followed by a NUL, in joint order, into buf when cap is at
+ *  least the size returned (nothing is written otherwise; buf may then be NULL).
+ *  @return the bytes the names take with their NULs (0 for NULL) */
+MLR_API size_t mlr_motion_joint_names_packed(const mlr_motion *motion, char *buf, size_t cap);
+/** All J channel lists at once (as mlr_motion_joint_channels), as mlr_motion_joint_names_packed
+ *  does for the names. */
+MLR_API size_t mlr_motion_joint_channels_packed(const mlr_motion *motion, char *buf,
+                                                size_t cap);
+/** The J Euler orders (as mlr_motion_joint_euler_order) into out (room for J).
+ *  @return J (0 for NULL) */
+MLR_API size_t mlr_motion_joint_euler_orders(const mlr_motion *motion, int32_t *out);
+
 /** End Sites: E, their parent joints (sorted) and E x 3 OFFSETs. */
 MLR_API size_t mlr_motion_n_end_sites(const mlr_motion *motion);
 MLR_API const int32_t *mlr_motion_end_site_parents(const mlr_motion *motion);

@@ -118,6 +118,9 @@ size_t mlr_motion_joint_channel_codes(const mlr_motion *motion, size_t j,
 const char *mlr_motion_joint_channels(const mlr_motion *motion, size_t j);
 int mlr_motion_joint_has_position(const mlr_motion *motion, size_t j);
 mlr_euler_order mlr_motion_joint_euler_order(const mlr_motion *motion, size_t j);
+size_t mlr_motion_joint_names_packed(const mlr_motion *motion, char *buf, size_t cap);
+size_t mlr_motion_joint_channels_packed(const mlr_motion *motion, char *buf, size_t cap);
+size_t mlr_motion_joint_euler_orders(const mlr_motion *motion, int32_t *out);
 size_t mlr_motion_n_end_sites(const mlr_motion *motion);
 const int32_t *mlr_motion_end_site_parents(const mlr_motion *motion);
 const double *mlr_motion_end_site_offsets(const mlr_motion *motion);

@@ -47,8 +47,12 @@ def _enc(s: str) -> bytes:
     return s.encode("utf-8", errors="surrogateescape")
 
 
-def _dec(p) -> str:
-    return ffi.string(p).decode("utf-8", errors="surrogateescape")
+def _packed(fn, h, J: int) -> tuple:
+    """The J strings of a C ``*_packed`` accessor (each NUL-terminated, one call for all)."""
+    n = fn(h, ffi.NULL, 0)
+    buf = ffi.new("char[]", max(n, 1))
+    fn(h, buf, n)
+    return tuple(ffi.unpack(buf, n).decode("utf-8", errors="surrogateescape").split("\0")[:J])
 
 
 class _Handle:
@@ -126,14 +130,15 @@ class Skeleton:
 
     def _from_handle(self, h) -> None:
         J = lib.mlr_motion_n_joints(h)
-        self._names = tuple(_dec(lib.mlr_motion_joint_name(h, j)) for j in range(J))
+        self._names = _packed(lib.mlr_motion_joint_names_packed, h, J)
         self.parents = _readonly(np.frombuffer(
             ffi.buffer(lib.mlr_motion_parents(h), 4 * J), dtype=np.int32).copy())
         self.offsets = _readonly(np.frombuffer(
             ffi.buffer(lib.mlr_motion_offsets(h), 24 * J), dtype=np.float64).reshape(J, 3).copy())
-        self.channels = tuple(_dec(lib.mlr_motion_joint_channels(h, j)) for j in range(J))
-        self.euler_orders = tuple(_ORDER_NAMES[lib.mlr_motion_joint_euler_order(h, j)]
-                                  for j in range(J))
+        self.channels = _packed(lib.mlr_motion_joint_channels_packed, h, J)
+        orders = ffi.new("int32_t[]", max(J, 1))
+        lib.mlr_motion_joint_euler_orders(h, orders)
+        self.euler_orders = tuple(_ORDER_NAMES[o] for o in ffi.unpack(orders, J))
         E = lib.mlr_motion_n_end_sites(h)
         self.end_site_parents = _readonly(
             np.frombuffer(ffi.buffer(lib.mlr_motion_end_site_parents(h), 4 * E),
