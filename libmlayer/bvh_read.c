@@ -8,10 +8,10 @@
 #include "numparse.h"
 
 #include <float.h>
-#include <stdatomic.h>
 #include <locale.h>
 #include <math.h>
 #include <stdarg.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 
