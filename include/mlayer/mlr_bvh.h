@@ -87,9 +87,9 @@ MLR_API mlr_status mlr_bvh_read_file(const char *path, const mlr_allocator *allo
  *                  only (as mlr_bvh_read_memory), 0 for automatic (one per 512 KiB of frame
  *                  text, at most the online processors and 8); values above 16 count as 16
  * @return as mlr_bvh_read_memory
- * Allocates: yes (the motion, and per thread a scratch of a few KiB). Threads: starts up to
- * n_threads - 1 threads and joins them before returning (if one cannot be started its share is
- * parsed by the others).
+ * Allocates: yes (the motion, per thread a scratch of a few KiB, and a few hundred bytes per
+ * chunk). Threads: starts up to n_threads - 1 threads and joins them before returning (if one
+ * cannot be started, the others take its chunks).
  */
 MLR_API mlr_status mlr_bvh_read_memory_mt(const char *text, size_t len, size_t n_threads,
                                           const mlr_allocator *alloc, mlr_motion **out,
