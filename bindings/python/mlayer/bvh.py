@@ -108,7 +108,14 @@ def write_bvh_string(motion: Motion) -> str:
         raise TypeError(f"write_bvh_string: expected a mlayer.Motion, got {type(motion).__name__}")
     with motion._handle() as h:
         n = ffi.new("size_t *")
-        check(lib.mlr_bvh_write_memory(h, ffi.NULL, 0, n), "mlayer.write_bvh_string")
-        buf = ffi.new("char[]", max(int(n[0]), 1))
-        check(lib.mlr_bvh_write_memory(h, buf, int(n[0]), n), "mlayer.write_bvh_string")
+        # one pass into a buffer sized for the usual text (a value takes at most 16 bytes with
+        # its blank when it has no exponent); a second, exact one only when that falls short
+        sk = motion.skeleton
+        cap = 4096 + 160 * (sk.n_joints + sk.n_end_sites) + 16 * sk.n_channels * motion.n_frames
+        buf = ffi.new("char[]", cap)
+        code = lib.mlr_bvh_write_memory(h, buf, cap, n)
+        if code == lib.MLR_E_OVERFLOW:
+            buf = ffi.new("char[]", max(int(n[0]), 1))
+            code = lib.mlr_bvh_write_memory(h, buf, int(n[0]), n)
+        check(code, "mlayer.write_bvh_string")
         return ffi.unpack(buf, int(n[0])).decode("utf-8", errors="surrogateescape")
