@@ -295,6 +295,28 @@ def test_write_string_has_lf_and_the_hierarchy():
     assert "Frames: 2" in s
 
 
+def test_write_string_longer_than_its_first_buffer(tmp_path):
+    # positions that need 17 digits and an exponent (24 bytes) on every joint make the text
+    # longer than the 16 bytes a value the first pass makes room for: the second pass must give
+    # the whole text, as the file has it
+    rng = np.random.default_rng(5)
+    n = 1000
+    q = rng.standard_normal((n, 2, 4))
+    q /= np.linalg.norm(q, axis=-1, keepdims=True)
+    pos = "Xposition Yposition Zposition Zrotation Xrotation Yrotation"
+    m = mlayer.Motion.from_arrays(
+        ["root", "child"], [-1, 0], np.array([[0.0, 0, 0], [0, 1, 0]]),
+        rng.standard_normal((n, 3)) * 1e-200, q, fps=30.0, channels=[pos, pos],
+        trans=rng.standard_normal((n, 1, 3)) * 1e-200)
+    s = mlayer.write_bvh_string(m)
+    assert len(s) > 16 * 12 * n + 4096 + 160 * 4  # more than the first buffer holds
+    mlayer.write_bvh(m, tmp_path / "long.bvh")
+    assert s == (tmp_path / "long.bvh").read_text()
+    back = mlayer.read_bvh_string(s)
+    np.testing.assert_array_equal(back.root_pos, m.root_pos)
+    np.testing.assert_array_equal(back.trans, m.trans)
+
+
 # ---- bad input -----------------------------------------------------------------------------
 
 def _lines(text):
