@@ -1,7 +1,27 @@
+#define _POSIX_C_SOURCE 200809L /* mkdtemp */
 #include "mlr_test.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
+#include <unistd.h>
+
+void mlr_test_temp_write(mlr_test_temp *t, const char *name, const void *data, size_t n)
+{
+    snprintf(t->dir, sizeof t->dir, "/tmp/mlr_test_XXXXXX");
+    ck_assert_ptr_nonnull(mkdtemp(t->dir));
+    snprintf(t->path, sizeof t->path, "%s/%s", t->dir, name);
+    FILE *fp = fopen(t->path, "wb");
+    ck_assert_ptr_nonnull(fp);
+    ck_assert_uint_eq(fwrite(data, 1, n, fp), n);
+    ck_assert_int_eq(fclose(fp), 0);
+}
+
+void mlr_test_temp_remove(const mlr_test_temp *t)
+{
+    unlink(t->path);
+    rmdir(t->dir);
+}
 
 void mlr_test_rng_seed(mlr_test_rng *r, uint64_t seed) { r->state = seed; }
 

@@ -35,6 +35,12 @@ void mlr_test_cholesky(size_t n, double *a);
 double mlr_test_dist2(const double *a, const double *b, size_t d);
 void mlr_test_cholesky_solve(size_t n, const double *c, double *b, size_t m);
 
+/* A new temporary directory holding one file of the given bytes; remove both with
+ * mlr_test_temp_remove. */
+typedef struct mlr_test_temp { char dir[64], path[192]; } mlr_test_temp;
+void mlr_test_temp_write(mlr_test_temp *t, const char *name, const void *data, size_t n);
+void mlr_test_temp_remove(const mlr_test_temp *t);
+
 /* Run a suite, print Check's summary line, return the process exit code. */
 int mlr_test_run(Suite *s);
 

@@ -1347,14 +1347,9 @@ START_TEST(parallel_file_reads_match_one_thread)
     mlr_diag d1, d;
     const mlr_status s1 = mlr_bvh_read_memory(t, len, NULL, &m1, &d1);
     ck_assert_int_eq(s1, _i == 3 ? MLR_E_PARSE : MLR_OK);
-    char dir[64], path[128];
-    snprintf(dir, sizeof dir, "/tmp/mlr_test_bvh_XXXXXX");
-    ck_assert_ptr_nonnull(mkdtemp(dir));
-    snprintf(path, sizeof path, "%s/big.bvh", dir);
-    FILE *fp = fopen(path, "wb");
-    ck_assert_ptr_nonnull(fp);
-    ck_assert_uint_eq(fwrite(t, 1, len, fp), len);
-    ck_assert_int_eq(fclose(fp), 0);
+    mlr_test_temp tf;
+    mlr_test_temp_write(&tf, "big.bvh", t, len);
+    const char *path = tf.path;
     static const size_t threads[] = {0, 2, 3, 5};
     for (size_t i = 0; i < MLR_COUNTOF(threads); i++) {
         memset(&d, 0x55, sizeof d);
@@ -1372,8 +1367,7 @@ START_TEST(parallel_file_reads_match_one_thread)
         }
     }
     mlr_motion_destroy(m1);
-    unlink(path);
-    rmdir(dir);
+    mlr_test_temp_remove(&tf);
     free(t);
 }
 END_TEST

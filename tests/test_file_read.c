@@ -9,9 +9,10 @@
 
 #include <stdlib.h>
 
-static char dir[64], path[128];
+static mlr_test_temp tf;  /* the file written last */
+static const char *path;  /* its path */
 
-static unsigned char *expect; /* the bytes of the file written last */
+static unsigned char *expect; /* its bytes */
 
 static void write_file(size_t bytes)
 {
@@ -20,21 +21,11 @@ static void write_file(size_t bytes)
     ck_assert_ptr_nonnull(expect);
     for (size_t i = 0; i < bytes; i++)
         expect[i] = (unsigned char)((i * 2654435761u) >> 11 & 0xff);
-    snprintf(dir, sizeof dir, "/tmp/mlr_test_read_XXXXXX");
-    ck_assert_ptr_nonnull(mkdtemp(dir));
-    snprintf(path, sizeof path, "%s/f.bin", dir);
-    FILE *fp = fopen(path, "wb");
-    ck_assert_ptr_nonnull(fp);
-    ck_assert_uint_eq(fwrite(expect, 1, bytes, fp), bytes);
-    ck_assert_int_eq(fclose(fp), 0);
+    mlr_test_temp_write(&tf, "f.bin", expect, bytes);
+    path = tf.path;
 }
 
-static void remove_file(void)
-{
-    unlink(path);
-    rmdir(dir);
-}
-
+static void remove_file(void) { mlr_test_temp_remove(&tf); }
 
 /* Every thread count gives the file's bytes. */
 START_TEST(every_thread_count_reads_the_same_bytes)
