@@ -15,5 +15,6 @@
 #include "mlr_kmeans.h"
 #include "mlr_som.h"
 #include "mlr_grbf.h"
+#include "mlr_rig.h"
 
 #endif /* MLAYER_H */

@@ -296,3 +296,27 @@ mlr_status mlr_grbf_fit_lattice(int kernel, double width, const double *xs, size
                                 const double *ys, size_t cols, const double *y, size_t ldy,
                                 size_t n_out, size_t n_threads, double *coef, size_t ldcoef,
                                 const mlr_allocator *alloc, mlr_diag *diag);
+
+/* mlr_rig.h */
+typedef struct mlr_rig {
+    size_t n_joints;
+    const int32_t *parents;
+    const double *offsets;
+    const char *const *names;
+    size_t n_trans;
+    const int32_t *trans_joints;
+    size_t n_end_sites;
+    const int32_t *end_site_parents;
+    const double *end_site_offsets;
+} mlr_rig;
+typedef enum mlr_axis { MLR_AXIS_X = 0, MLR_AXIS_Y = 1, MLR_AXIS_Z = 2 } mlr_axis;
+mlr_status mlr_rig_check(const mlr_rig *rig, mlr_diag *diag);
+mlr_status mlr_rig_find_point(const mlr_rig *rig, const char *name, int32_t *joint,
+                              int32_t *end_site, mlr_diag *diag);
+mlr_status mlr_rig_point_positions(const mlr_rig *rig, size_t n_frames,
+                                   const double *world_pos, const double *world_rot,
+                                   size_t n_points, const int32_t *joints,
+                                   const int32_t *end_sites, double *out, mlr_diag *diag);
+mlr_status mlr_rig_body_height(size_t n_frames, size_t n_joints, const double *world_pos,
+                               int up, double *height, const mlr_allocator *alloc,
+                               mlr_diag *diag);

@@ -1,0 +1,97 @@
+/*
+ * A skeleton described by plain arrays (a "rig"), for the subjects that need more than the
+ * parents and offsets of forward kinematics: joint names (to find feet, knees and elbows), End
+ * Sites (toe tips of rigs without toe joints), the joints with per-frame translations, and
+ * the body's size and up axis.
+ *
+ * An mlr_rig only points at the caller's arrays: it is borrowed for the duration of a call and
+ * never kept. Joints are in depth-first order (parents[0] == -1, 0 <= parents[j] < j).
+ *
+ * Contact and end points are named "Joint" or "Joint/End" (the first End Site below Joint).
+ */
+#ifndef MLR_RIG_H
+#define MLR_RIG_H
+
+#include <stdint.h>
+
+#include "mlr_common.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/** A skeleton by reference. A frozen value type: fields are never reordered or removed. */
+typedef struct mlr_rig {
+    size_t n_joints;                 /* J >= 1 */
+    const int32_t *parents;          /* J parent indices */
+    const double *offsets;           /* J x 3 OFFSETs (local translations) */
+    const char *const *names;        /* J NUL-terminated UTF-8 names, or NULL (no names) */
+    size_t n_trans;                  /* P: joints with per-frame translations (0 for none) */
+    const int32_t *trans_joints;     /* P indices, strictly increasing, each in [1, J) */
+    size_t n_end_sites;              /* E */
+    const int32_t *end_site_parents; /* E joint indices, or NULL when E is 0 */
+    const double *end_site_offsets;  /* E x 3, or NULL when E is 0 */
+} mlr_rig;
+
+/** Axes, for the up axis of a clip. Values pinned. */
+typedef enum mlr_axis { MLR_AXIS_X = 0, MLR_AXIS_Y = 1, MLR_AXIS_Z = 2 } mlr_axis;
+
+/** The suffix that names a joint's End Site as a point: "LeftFoot/End". */
+#define MLR_RIG_END_SUFFIX "/End"
+
+/**
+ * Check a rig: J >= 1, parents in depth-first order, finite offsets, trans_joints strictly
+ * increasing in [1, J), End Site parents in [0, J), arrays present where counts are nonzero.
+ * @return MLR_OK; MLR_E_INVALID_ARG (reason in diag)
+ * Allocates: never. Threads: any.
+ */
+MLR_API mlr_status mlr_rig_check(const mlr_rig *rig, mlr_diag *diag);
+
+/**
+ * Find a point by name: "Joint" gives (joint, -1), "Joint/End" (joint, its first End Site).
+ * @param joint     [out] joint index
+ * @param end_site  [out] End Site index, or -1 for the joint itself
+ * @return MLR_OK; MLR_E_INVALID_ARG (no names, no such joint, the joint has no End Site;
+ *         reason in diag)
+ * Allocates: never. Threads: any.
+ */
+MLR_API mlr_status mlr_rig_find_point(const mlr_rig *rig, const char *name, int32_t *joint,
+                                      int32_t *end_site, mlr_diag *diag);
+
+/**
+ * World positions of points (joints or End Sites) from forward kinematics:
+ * out[f][c] = world_pos[f][joint] + rotate(world_rot[f][joint], end_site_offsets[e]).
+ * @param world_pos  [in] N x J x 3
+ * @param world_rot  [in] N x J x 4; may be NULL when no point is an End Site
+ * @param joints     [in] C joint indices
+ * @param end_sites  [in] C End Site indices (-1: the joint itself), or NULL for all joints
+ * @param out        [out] N x C x 3
+ * @return MLR_OK; MLR_E_INVALID_ARG (index out of range, End Site not below its joint)
+ * Allocates: never. Threads: any.
+ */
+MLR_API mlr_status mlr_rig_point_positions(const mlr_rig *rig, size_t n_frames,
+                                           const double *world_pos, const double *world_rot,
+                                           size_t n_points, const int32_t *joints,
+                                           const int32_t *end_sites, double *out,
+                                           mlr_diag *diag);
+
+/**
+ * Body size used to make thresholds unit-free: the median over frames of the joints' extent
+ * along the up axis (End Sites excluded). A standing CMU subject is about 24 units.
+ * @param world_pos  [in] N x J x 3, N >= 1
+ * @param up         [in] an mlr_axis
+ * @param height     [out] the height (0 for a flat skeleton)
+ * @param alloc      [in] for N doubles of scratch; NULL for malloc/free
+ * @return MLR_OK; MLR_E_INVALID_ARG (N == 0, J == 0, bad axis, non-finite positions);
+ *         MLR_E_NO_MEMORY
+ * Allocates: N doubles, released before return. Threads: any.
+ */
+MLR_API mlr_status mlr_rig_body_height(size_t n_frames, size_t n_joints,
+                                       const double *world_pos, int up, double *height,
+                                       const mlr_allocator *alloc, mlr_diag *diag);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* MLR_RIG_H */

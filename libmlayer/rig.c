@@ -1,0 +1,181 @@
+/*
+ * Rigs by reference: checks, point lookup by name, End Site positions, body height.
+ */
+#include "mlr_internal.h"
+
+#include <math.h>
+#include <stdlib.h>
+
+mlr_status mlr_rig_check(const mlr_rig *rig, mlr_diag *diag)
+{
+    if (!rig)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "rig is NULL");
+    const size_t J = rig->n_joints;
+    if (J == 0 || !rig->parents || !rig->offsets)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "rig: needs at least one joint, parents and offsets");
+    if (rig->parents[0] != -1)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "rig: parents[0] must be -1, got %d",
+                            (int)rig->parents[0]);
+    for (size_t j = 1; j < J; j++)
+        if (rig->parents[j] < 0 || (size_t)rig->parents[j] >= j)
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "rig: parents[%zu] = %d is not a joint before it", j,
+                                (int)rig->parents[j]);
+    for (size_t k = 0; k < 3 * J; k++)
+        if (!isfinite(rig->offsets[k]))
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "rig: offset of joint %zu is not finite", k / 3);
+    if (rig->n_trans && !rig->trans_joints)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "rig: trans_joints is NULL");
+    for (size_t p = 0; p < rig->n_trans; p++) {
+        int32_t t = rig->trans_joints[p];
+        if (t < 1 || (size_t)t >= J || (p > 0 && t <= rig->trans_joints[p - 1]))
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "rig: trans_joints must be strictly increasing in [1, %zu)", J);
+    }
+    if (rig->n_end_sites && (!rig->end_site_parents || !rig->end_site_offsets))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "rig: End Site arrays are NULL for %zu End Sites", rig->n_end_sites);
+    for (size_t e = 0; e < rig->n_end_sites; e++) {
+        int32_t p = rig->end_site_parents[e];
+        if (p < 0 || (size_t)p >= J)
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "rig: End Site %zu has parent %d outside [0, %zu)", e, (int)p, J);
+        for (int k = 0; k < 3; k++)
+            if (!isfinite(rig->end_site_offsets[3 * e + (size_t)k]))
+                return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "rig: offset of End Site %zu is not finite", e);
+    }
+    return MLR_OK;
+}
+
+mlr_status mlr_rig_find_point(const mlr_rig *rig, const char *name, int32_t *joint,
+                              int32_t *end_site, mlr_diag *diag)
+{
+    if (!rig || !name || !joint || !end_site)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "find_point: NULL argument");
+    if (!rig->names)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "find_point: the rig has no joint names (looking for '%.80s')", name);
+    const size_t len = strlen(name), suffix = sizeof MLR_RIG_END_SUFFIX - 1;
+    const int end = len > suffix && strcmp(name + len - suffix, MLR_RIG_END_SUFFIX) == 0;
+    for (int pass = 0; pass < 2; pass++) {
+        /* A joint whose own name ends in "/End" wins over the End Site reading. */
+        const int want_end = pass == 1;
+        if (want_end && !end)
+            break;
+        const size_t n = want_end ? len - suffix : len;
+        for (size_t j = 0; j < rig->n_joints; j++) {
+            const char *s = rig->names[j];
+            if (!s || strlen(s) != n || strncmp(s, name, n) != 0)
+                continue;
+            if (!want_end) {
+                *joint = (int32_t)j;
+                *end_site = -1;
+                return MLR_OK;
+            }
+            for (size_t e = 0; e < rig->n_end_sites; e++)
+                if (rig->end_site_parents[e] == (int32_t)j) {
+                    *joint = (int32_t)j;
+                    *end_site = (int32_t)e;
+                    return MLR_OK;
+                }
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "joint '%.80s' has no End Site", s);
+        }
+    }
+    return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                        "no joint named '%.80s' ('Joint/End' names a joint's End Site)", name);
+}
+
+mlr_status mlr_rig_point_positions(const mlr_rig *rig, size_t n_frames,
+                                   const double *world_pos, const double *world_rot,
+                                   size_t n_points, const int32_t *joints,
+                                   const int32_t *end_sites, double *out, mlr_diag *diag)
+{
+    if (!rig || (n_frames && n_points && (!world_pos || !joints || !out)))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "point_positions: NULL argument");
+    const size_t J = rig->n_joints;
+    for (size_t c = 0; c < n_points; c++) {
+        if (joints[c] < 0 || (size_t)joints[c] >= J)
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "point %zu: joint %d outside [0, %zu)", c, (int)joints[c], J);
+        int32_t e = end_sites ? end_sites[c] : -1;
+        if (e < -1 || (e >= 0 && ((size_t)e >= rig->n_end_sites ||
+                                  rig->end_site_parents[e] != joints[c])))
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "point %zu: End Site %d is not below joint %d", c, (int)e,
+                                (int)joints[c]);
+        if (e >= 0 && !world_rot)
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "point %zu is an End Site: world_rot is needed", c);
+    }
+    for (size_t f = 0; f < n_frames; f++)
+        for (size_t c = 0; c < n_points; c++) {
+            const size_t j = (size_t)joints[c];
+            const double *p = world_pos + 3 * (f * J + j);
+            double *o = out + 3 * (f * n_points + c);
+            int32_t e = end_sites ? end_sites[c] : -1;
+            if (e < 0) {
+                o[0] = p[0], o[1] = p[1], o[2] = p[2];
+                continue;
+            }
+            const double *q = world_rot + 4 * (f * J + j);
+            const mlr_quat qq = {q[0], q[1], q[2], q[3]};
+            const double *v = rig->end_site_offsets + 3 * (size_t)e;
+            const mlr_vec3 vv = {v[0], v[1], v[2]};
+            mlr_vec3 r;
+            mlr_quat_rotate(&qq, &vv, &r);
+            o[0] = p[0] + r.x, o[1] = p[1] + r.y, o[2] = p[2] + r.z;
+        }
+    return MLR_OK;
+}
+
+static int cmp_double(const void *a, const void *b)
+{
+    const double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+mlr_status mlr_rig_body_height(size_t n_frames, size_t n_joints, const double *world_pos,
+                               int up, double *height, const mlr_allocator *alloc,
+                               mlr_diag *diag)
+{
+    if (!world_pos || !height || n_frames == 0 || n_joints == 0)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "body_height: needs at least one frame and one joint");
+    if (up < MLR_AXIS_X || up > MLR_AXIS_Z)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "body_height: up axis %d is not "
+                            "0 (X), 1 (Y) or 2 (Z)", up);
+    size_t bytes;
+    if (mlr_mul_size(n_frames, sizeof(double), &bytes) != MLR_OK)
+        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "body_height: too many frames");
+    mlr_allocator a;
+    mlr_allocator_resolve(alloc, &a);
+    double *ext = mlr_alloc(&a, bytes);
+    if (!ext)
+        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "body_height: out of memory");
+    for (size_t f = 0; f < n_frames; f++) {
+        const double *p = world_pos + 3 * f * n_joints + (size_t)up;
+        double lo = p[0], hi = p[0];
+        for (size_t j = 0; j < n_joints; j++) {
+            const double y = p[3 * j];
+            if (!isfinite(y)) {
+                mlr_free(&a, ext, bytes);
+                return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "body_height: position of joint %zu at frame %zu is not "
+                                    "finite", j, f);
+            }
+            lo = y < lo ? y : lo;
+            hi = y > hi ? y : hi;
+        }
+        ext[f] = hi - lo;
+    }
+    qsort(ext, n_frames, sizeof(double), cmp_double);
+    /* numpy's median: the mean of the two middle values for an even count */
+    *height = n_frames % 2 ? ext[n_frames / 2]
+                           : 0.5 * (ext[n_frames / 2 - 1] + ext[n_frames / 2]);
+    mlr_free(&a, ext, bytes);
+    return MLR_OK;
+}
