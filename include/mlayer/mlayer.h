@@ -16,5 +16,7 @@
 #include "mlr_som.h"
 #include "mlr_grbf.h"
 #include "mlr_rig.h"
+#include "mlr_ik.h"
+#include "mlr_cleanup.h"
 
 #endif /* MLAYER_H */

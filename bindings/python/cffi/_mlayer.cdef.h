@@ -320,3 +320,61 @@ mlr_status mlr_rig_point_positions(const mlr_rig *rig, size_t n_frames,
 mlr_status mlr_rig_body_height(size_t n_frames, size_t n_joints, const double *world_pos,
                                int up, double *height, const mlr_allocator *alloc,
                                mlr_diag *diag);
+
+/* mlr_ik.h */
+mlr_status mlr_ik_two_bone(size_t n, const double *hip, const double *knee, const double *end,
+                           const double *target, const double *bend_axis, double max_extension,
+                           double *r_hip, double *r_knee, mlr_diag *diag);
+mlr_status mlr_ik_from_to(size_t n, const double *u, const double *v, double *out);
+mlr_status mlr_ik_leg_chain(const mlr_rig *rig, int32_t end, int32_t *hip, int32_t *knee,
+                            mlr_diag *diag);
+mlr_status mlr_ik_bend_axis_local(size_t n, size_t n_joints, const double *world_pos,
+                                  const double *world_rot, int32_t hip, int32_t knee,
+                                  int32_t end, double axis[3]);
+mlr_status mlr_ik_rotate_to(size_t n, size_t n_joints, const int32_t *parents, double *rot,
+                            const double *world_rot, int32_t joint, const double *r_world,
+                            mlr_diag *diag);
+mlr_status mlr_ik_apply_leg(size_t n, size_t n_joints, const int32_t *parents, double *rot,
+                            const double *world_pos, const double *world_rot, int32_t hip,
+                            int32_t knee, int32_t end, const double *target,
+                            const double *bend_axis, mlr_diag *diag);
+
+/* mlr_cleanup.h */
+typedef enum mlr_cleanup_key {
+    MLR_CLEANUP_OPT_BLEND = 1,
+    MLR_CLEANUP_OPT_REACH = 2,
+    MLR_CLEANUP_OPT_PASSES = 3,
+    MLR_CLEANUP_OPT_FLOOR = 4,
+    MLR_CLEANUP_OPT_FLOOR_HEIGHT = 5,
+    MLR_CLEANUP_OPT_FLOOR_QUANTILE = 6,
+    MLR_CLEANUP_OPT_REF_SMOOTH = 7,
+    MLR_CLEANUP_OPT_PIN_SMOOTH = 8,
+    MLR_CLEANUP_OPT_ROOT = 9
+} mlr_cleanup_key;
+typedef struct mlr_cleanup_option {
+    int key;
+    double value;
+} mlr_cleanup_option;
+typedef struct mlr_cleanup_report {
+    double floor_height;
+    size_t contact_frames;
+    size_t floor_frames;
+    double root_shift_max;
+} mlr_cleanup_report;
+mlr_status mlr_cleanup_floor_height(const mlr_rig *rig, size_t n_frames,
+                                    const double *root_pos, const double *rot,
+                                    const double *trans, size_t n_points,
+                                    const int32_t *joints, const int32_t *end_sites,
+                                    const uint8_t *contacts, int up, double quantile,
+                                    double *height, const mlr_allocator *alloc,
+                                    mlr_diag *diag);
+mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t n_frames, double fps, int up,
+                                const double *root_pos, const double *rot, const double *trans,
+                                const double *ref_root_pos, const double *ref_rot,
+                                const double *ref_trans, size_t n_points,
+                                const int32_t *joints, const int32_t *end_sites,
+                                const uint8_t *contacts, const mlr_cleanup_option *opts,
+                                size_t n_opts, double *out_root_pos, double *out_rot,
+                                mlr_cleanup_report *report, const mlr_allocator *alloc,
+                                mlr_diag *diag);
+

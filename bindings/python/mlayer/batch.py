@@ -128,9 +128,10 @@ def _op_stylize(motion, variants, keep_contacts=True, joints=None, root_alpha=No
     from .layers import _keep_contacts, decompose
     layers = decompose(motion, **options)
     out = []
+    den = layers.synthesize(1.0) if keep_contacts else None
     for v in variants:
         m = layers.synthesize(v["alpha"], joints, root_alpha=root_alpha)
-        out.append(_keep_contacts(motion, m) if keep_contacts else m)
+        out.append(_keep_contacts(motion, m, den) if keep_contacts else m)
     return out
 
 

@@ -1,4 +1,4 @@
-"""Analytic two-bone inverse kinematics, vectorized over frames (numpy).
+"""Analytic two-bone inverse kinematics, vectorized over frames (the C core, mlr_ik.h).
 
 A leg is a chain ``hip -> knee -> end`` (end: the ankle, or any joint that should reach a
 target). :func:`two_bone` returns two world-space rotations per frame: ``r_knee`` turns the
@@ -17,27 +17,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import quat
-from .errors import InvalidArgumentError
+from . import _arrays
+from ._native import ffi, lib
+from .errors import InvalidArgumentError, check
 
 __all__ = ["leg_chain", "two_bone", "from_to", "apply_leg", "rotate_to", "bend_axis_local"]
 
 _EPS = 1e-12
-
-
-def _norm(v: np.ndarray) -> np.ndarray:
-    return np.sqrt(np.einsum("...i,...i->...", v, v))
-
-
-def _unit(v: np.ndarray) -> np.ndarray:
-    n = _norm(v)[..., None]
-    return v / np.where(n > _EPS, n, 1.0)
-
-
-def _axis_angle(axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
-    """Unit quaternions of rotations by ``angle`` about unit ``axis`` (right-handed)."""
-    h = 0.5 * np.asarray(angle)[..., None]
-    return np.concatenate([np.cos(h), np.sin(h) * axis], axis=-1)
 
 
 def _rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -47,12 +33,32 @@ def _rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
     return v + w * t + np.cross(u, t)
 
 
-def _bone_parent(parents, lengths, j: int) -> int:
-    """The nearest ancestor of j whose position differs from j's (-1 when there is none)."""
-    c = j
-    while c > 0 and lengths[c] <= 1e-9:
-        c = int(parents[c])
-    return int(parents[c]) if c > 0 else -1
+def _i32(a):
+    return ffi.cast("const int32_t *", ffi.from_buffer(a))
+
+
+def rig_of(skeleton):
+    """(mlr_rig *, keepalive) for a Skeleton: the C view of its arrays (borrowed)."""
+    keep = []
+    parents = np.ascontiguousarray(skeleton.parents, dtype=np.int32)
+    offsets = np.ascontiguousarray(skeleton.offsets, dtype=np.float64)
+    names = [ffi.new("char[]", n.encode("utf-8")) for n in skeleton.joint_names]
+    name_arr = ffi.new("const char *[]", names)
+    tj = np.ascontiguousarray(skeleton.trans_joints, dtype=np.int32)
+    ep = np.ascontiguousarray(skeleton.end_site_parents, dtype=np.int32)
+    eo = np.ascontiguousarray(np.asarray(skeleton.end_site_offsets, dtype=np.float64).reshape(-1, 3))
+    keep += [parents, offsets, names, name_arr, tj, ep, eo]
+    rig = ffi.new("mlr_rig *")
+    rig.n_joints = parents.shape[0]
+    rig.parents = _i32(parents)
+    rig.offsets = ffi.cast("const double *", ffi.from_buffer(offsets))
+    rig.names = name_arr
+    rig.n_trans = tj.shape[0]
+    rig.trans_joints = _i32(tj) if tj.size else ffi.NULL
+    rig.n_end_sites = ep.shape[0]
+    rig.end_site_parents = _i32(ep) if ep.size else ffi.NULL
+    rig.end_site_offsets = ffi.cast("const double *", ffi.from_buffer(eo)) if ep.size else ffi.NULL
+    return rig, keep
 
 
 def leg_chain(skeleton, end: int) -> tuple[int, int, int]:
@@ -63,16 +69,19 @@ def leg_chain(skeleton, end: int) -> tuple[int, int, int]:
     knee. Raises InvalidArgumentError when the chain does not exist (a joint too close to the
     root).
     """
-    parents = skeleton.parents
-    lengths = np.linalg.norm(skeleton.offsets, axis=1)
-    knee = _bone_parent(parents, lengths, end)
-    hip = _bone_parent(parents, lengths, knee) if knee >= 0 else -1
-    if knee < 0 or hip < 0:
-        name = skeleton.joint_names[end]
-        raise InvalidArgumentError(
-            f"joint {name!r} has no two-bone chain above it (needs two ancestors at non-zero "
-            "distances: a hip and a knee)")
-    return hip, knee, end
+    rig, keep = rig_of(skeleton)
+    hip, knee = ffi.new("int32_t *"), ffi.new("int32_t *")
+    diag = ffi.new("mlr_diag *")
+    check(lib.mlr_ik_leg_chain(rig, int(end), hip, knee, diag), "leg_chain", diag)
+    del keep
+    return int(hip[0]), int(knee[0]), int(end)
+
+
+def _vec3(x, name, n=None):
+    a = _arrays.as_f64(x, name, ndim=2)
+    if a.shape[1] != 3 or (n is not None and a.shape[0] != n):
+        raise InvalidArgumentError(f"{name}: expected an (N, 3) array, got {a.shape}")
+    return a
 
 
 def from_to(u: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -81,22 +90,16 @@ def from_to(u: np.ndarray, v: np.ndarray) -> np.ndarray:
     Identity where either vector is zero; for opposite vectors, a half turn about an axis
     perpendicular to u.
     """
-    u, v = _unit(np.asarray(u, dtype=np.float64)), _unit(np.asarray(v, dtype=np.float64))
-    c = np.einsum("...i,...i->...", u, v)
-    axis = np.cross(u, v)
-    q = np.concatenate([(1.0 + c)[..., None], axis], axis=-1)
-    opposite = c < -1.0 + 1e-12
-    if np.any(opposite):
-        uo = u[opposite]
-        perp = np.cross(uo, np.array([1.0, 0.0, 0.0]))
-        small = _norm(perp) < 1e-6
-        perp[small] = np.cross(uo[small], np.array([0.0, 1.0, 0.0]))
-        q[opposite] = np.concatenate([np.zeros((uo.shape[0], 1)), _unit(perp)], axis=-1)
-    n = _norm(q)[..., None]
-    zero = n[..., 0] < _EPS
-    q = q / np.where(n > _EPS, n, 1.0)
-    q[zero] = (1.0, 0.0, 0.0, 0.0)
-    return q
+    u = np.asarray(u, dtype=np.float64)
+    shape = u.shape[:-1]
+    u = np.ascontiguousarray(u.reshape(-1, 3))
+    v = np.ascontiguousarray(np.asarray(v, dtype=np.float64).reshape(-1, 3))
+    if u.shape != v.shape:
+        raise InvalidArgumentError(f"from_to: u and v must have one shape, got {u.shape}, {v.shape}")
+    out = np.empty((u.shape[0], 4))
+    check(lib.mlr_ik_from_to(u.shape[0], _arrays.ptr(u), _arrays.ptr(v), _arrays.ptr_out(out)),
+          "from_to")
+    return out.reshape(shape + (4,))
 
 
 def two_bone(hip, knee, end, target, bend_axis=None, *, max_extension: float = 0.9999):
@@ -115,73 +118,67 @@ def two_bone(hip, knee, end, target, bend_axis=None, *, max_extension: float = 0
     exactly when the distance is reachable with that hinge (for a hinge perpendicular to the
     thigh: between ``|l1 - l2|`` and ``max_extension * (l1 + l2)``; a leg already straighter
     than that is not bent). Otherwise the end stops at the nearest reachable distance on the
-    hip-target line.
+    hip-target line. (mlr_ik_two_bone)
     """
-    a = np.asarray(hip, dtype=np.float64)
-    b = np.asarray(knee, dtype=np.float64)
-    c = np.asarray(end, dtype=np.float64)
-    t = np.asarray(target, dtype=np.float64)
-    if not (a.shape == b.shape == c.shape == t.shape) or a.ndim != 2 or a.shape[1] != 3:
+    arrs = [np.asarray(x, dtype=np.float64) for x in (hip, knee, end, target)]
+    if not (arrs[0].shape == arrs[1].shape == arrs[2].shape == arrs[3].shape) or \
+            arrs[0].ndim != 2 or arrs[0].shape[1] != 3:
         raise InvalidArgumentError(
-            f"two_bone: hip, knee, end and target must be (N, 3) arrays of one shape, got "
-            f"{a.shape}, {b.shape}, {c.shape}, {t.shape}")
-    for x, name in ((a, "hip"), (b, "knee"), (c, "end"), (t, "target")):
+            "two_bone: hip, knee, end and target must be (N, 3) arrays of one shape, got "
+            + ", ".join(str(a.shape) for a in arrs))
+    for x, name in zip(arrs, ("hip", "knee", "end", "target")):
         if not np.all(np.isfinite(x)):
             raise InvalidArgumentError(f"two_bone: {name} contains NaN or infinite values")
-    ab, bc = b - a, c - b
-    l1, l2 = _norm(ab), _norm(bc)
-    d_now = _norm(c - a)
-    d = _norm(t - a)
-    hi = np.maximum(max_extension * (l1 + l2), d_now)
-    d = np.minimum(d, hi)
-    # hinge axis, perpendicular to the shin
-    n = np.cross(bc, -ab) if bend_axis is None else np.asarray(bend_axis, dtype=np.float64)
-    bcu = _unit(bc)
-    n = n - np.einsum("ij,ij->i", n, bcu)[:, None] * bcu
-    weak = _norm(n) <= 1e-9 * np.maximum(l1 * l2, _EPS)
-    if np.any(weak):  # hinge along the shin: fall back to the leg's own plane, or any axis
-        alt = np.cross(bc[weak], -ab[weak])
-        bad = _norm(alt) <= 1e-9 * np.maximum(l1 * l2, _EPS)[weak]
-        alt[bad] = np.cross(bc[weak][bad], np.array([1.0, 0.0, 0.0]))
-        n[weak] = alt
-    n = _unit(n)
-    # |ab + R(n, phi) bc|^2 = K + 2 (P cos phi + Q sin phi) = K + 2 A cos(phi - phi0)
-    w = np.cross(n, bc)
-    K = l1 * l1 + l2 * l2
-    P = np.einsum("ij,ij->i", ab, bc)
-    Q = np.einsum("ij,ij->i", ab, w)
-    A = np.hypot(P, Q)
-    phi0 = np.arctan2(Q, P)  # the straightest pose
-    cosb = (d * d - K) / np.maximum(2.0 * A, _EPS)
-    beta = np.arccos(np.clip(cosb, -1.0, 1.0))
-    phi = phi0 + beta  # the forward-bent solution
-    phi = (phi + np.pi) % (2.0 * np.pi) - np.pi
-    r_knee = _axis_angle(n, phi)
-    c1 = b + np.cos(phi)[:, None] * bc + np.sin(phi)[:, None] * w
-    r_hip = from_to(c1 - a, t - a)
+    a, b, c, t = (np.ascontiguousarray(x) for x in arrs)
+    n = a.shape[0]
+    ax = ffi.NULL
+    if bend_axis is not None:
+        axis = _vec3(np.broadcast_to(np.asarray(bend_axis, dtype=np.float64), (n, 3)).copy(),
+                     "bend_axis", n)
+        ax = _arrays.ptr(axis)
+    r_hip, r_knee = np.empty((n, 4)), np.empty((n, 4))
+    diag = ffi.new("mlr_diag *")
+    check(lib.mlr_ik_two_bone(n, _arrays.ptr(a), _arrays.ptr(b), _arrays.ptr(c), _arrays.ptr(t),
+                              ax, float(max_extension), _arrays.ptr_out(r_hip),
+                              _arrays.ptr_out(r_knee), diag), "two_bone", diag)
     return r_hip, r_knee
+
+
+def _nj(arr, name, last):
+    a = _arrays.as_f64(arr, name, ndim=3)
+    if a.shape[2] != last:
+        raise InvalidArgumentError(f"{name}: expected (N, J, {last}), got {a.shape}")
+    return a
 
 
 def bend_axis_local(hip_wrot, hip, knee, end) -> np.ndarray:
     """The knee's bend axis in the hip joint's frame: the mean over frames of
     ``inv(G_hip) cross(end - knee, hip - knee)`` (unit, weighted by how bent the leg is);
-    zeros when the leg never bends."""
-    n = np.cross(end - knee, hip - knee)
-    local = _rotate(quat.conj(hip_wrot), n)
-    s = local.sum(axis=0)
-    ns = _norm(s)
-    return s / ns if ns > _EPS else np.zeros(3)
+    zeros when the leg never bends. (mlr_ik_bend_axis_local)"""
+    g = np.ascontiguousarray(np.asarray(hip_wrot, dtype=np.float64).reshape(-1, 1, 4))
+    pos = np.ascontiguousarray(np.stack([np.asarray(x, dtype=np.float64) for x in (hip, knee, end)],
+                                        axis=1))
+    n = pos.shape[0]
+    g3 = np.ascontiguousarray(np.broadcast_to(g, (n, 3, 4)))
+    out = ffi.new("double[3]")
+    check(lib.mlr_ik_bend_axis_local(n, 3, _arrays.ptr(pos), _arrays.ptr(g3), 0, 1, 2, out),
+          "bend_axis_local")
+    return np.array([out[0], out[1], out[2]])
 
 
 def rotate_to(rot, wrot, parents, joint: int, r_world) -> None:
     """Apply the world-space delta r_world (N, 4) to ``joint`` in the local rotations ``rot``
     (N, J, 4, modified in place), given the current world rotations ``wrot`` (N, J, 4):
-    ``L' = inv(G_parent) * r * G``."""
-    g = wrot[:, joint]
-    p = int(parents[joint])
-    new_world = quat.mul(r_world, g)
-    local = quat.mul(quat.conj(wrot[:, p]), new_world) if p >= 0 else new_world
-    rot[:, joint] = quat.normalize(local)
+    ``L' = inv(G_parent) * r * G``. (mlr_ik_rotate_to)"""
+    if not (isinstance(rot, np.ndarray) and rot.dtype == np.float64 and rot.flags.c_contiguous):
+        raise InvalidArgumentError("rotate_to: rot must be a C-contiguous float64 (N, J, 4) array")
+    n, J = rot.shape[0], rot.shape[1]
+    w = np.ascontiguousarray(_nj(wrot, "wrot", 4))
+    r = np.ascontiguousarray(np.asarray(r_world, dtype=np.float64).reshape(n, 4))
+    par = np.ascontiguousarray(parents, dtype=np.int32)
+    diag = ffi.new("mlr_diag *")
+    check(lib.mlr_ik_rotate_to(n, J, _i32(par), _arrays.ptr_out(rot), _arrays.ptr(w),
+                               int(joint), _arrays.ptr(r), diag), "rotate_to", diag)
 
 
 def apply_leg(rot, pos, wrot, parents, chain, target, bend_axis=None) -> None:
@@ -189,14 +186,20 @@ def apply_leg(rot, pos, wrot, parents, chain, target, bend_axis=None) -> None:
     local rotations of hip and knee into ``rot`` (N, J, 4, in place). pos, wrot: current world
     positions and rotations (N, J, 3) and (N, J, 4) of the motion ``rot`` belongs to.
     bend_axis: (N, 3) world knee axis for straight legs; default: the clip's own mean bend
-    axis in the hip's frame (:func:`bend_axis_local`)."""
-    h, k, e = chain
-    if bend_axis is None:
-        axis = bend_axis_local(wrot[:, h], pos[:, h], pos[:, k], pos[:, e])
-        if np.any(axis):
-            bend_axis = _rotate(wrot[:, h], np.broadcast_to(axis, (pos.shape[0], 3)))
-    r_hip, r_knee = two_bone(pos[:, h], pos[:, k], pos[:, e], target, bend_axis)
-    # The knee's parent is the hip or a joint between them: its world rotation is the old one,
-    # because the hip's delta rotates knee and parent alike.
-    rotate_to(rot, wrot, parents, k, r_knee)
-    rotate_to(rot, wrot, parents, h, r_hip)
+    axis in the hip's frame (:func:`bend_axis_local`). (mlr_ik_apply_leg)"""
+    if not (isinstance(rot, np.ndarray) and rot.dtype == np.float64 and rot.flags.c_contiguous):
+        raise InvalidArgumentError("apply_leg: rot must be a C-contiguous float64 (N, J, 4) array")
+    n, J = rot.shape[0], rot.shape[1]
+    p = np.ascontiguousarray(_nj(pos, "pos", 3))
+    w = np.ascontiguousarray(_nj(wrot, "wrot", 4))
+    t = _vec3(target, "target", n)
+    ax = ffi.NULL
+    if bend_axis is not None:
+        axis = _vec3(bend_axis, "bend_axis", n)
+        ax = _arrays.ptr(axis)
+    par = np.ascontiguousarray(parents, dtype=np.int32)
+    h, k, e = (int(x) for x in chain)
+    diag = ffi.new("mlr_diag *")
+    check(lib.mlr_ik_apply_leg(n, J, _i32(par), _arrays.ptr_out(rot), _arrays.ptr(p),
+                               _arrays.ptr(w), h, k, e, _arrays.ptr(t), ax, diag), "apply_leg",
+          diag)

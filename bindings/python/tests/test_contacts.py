@@ -115,8 +115,7 @@ def test_fix_contacts_follows_the_reference_within_contacts(mocap, name, monkeyp
     m = _read(mocap, name, 900)
     names, c = mlayer.detect_contacts(m)
     raw = mlayer.stylize(m, 2.0, keep_contacts=False)
-    monkeypatch.setattr(C, "_REF_SMOOTH", 0.0)
-    fixed = mlayer.fix_contacts(raw, c, names, reference=m)
+    fixed = mlayer.fix_contacts(raw, c, names, reference=m, ref_smooth=0.0)
     pf, pm = C.contact_positions(fixed, names), C.contact_positions(m, names)
     tol = 1e-3 * body_height(m)
     both = c[1:] & c[:-1]
@@ -137,7 +136,7 @@ def test_fix_contacts_smooths_the_reference(mocap):
     fixed = mlayer.fix_contacts(raw, c, names, reference=m)
     n = len(m)
     d2 = np.diff(np.eye(n), n=2, axis=0)
-    lam = (C._REF_SMOOTH * m.fps) ** 2
+    lam = (0.02 * m.fps) ** 2  # the default ref_smooth of mlr_cleanup_contacts
     ps = np.linalg.solve(np.eye(n) + lam**2 * d2.T @ d2,
                          C.contact_positions(m, names).reshape(n, -1)).reshape(n, -1, 3)
     pf = C.contact_positions(fixed, names)

@@ -1,0 +1,225 @@
+"""Cleanup of a synthesized motion in the C core (mlr_cleanup.h): feet pinned during the
+contacts detected on the original, and kept above the original's floor.
+
+:func:`fix_contacts` wraps ``mlr_cleanup_contacts``: per foot (an ankle and the points placed by
+turning it: toe or End Site), on the frames where any of its points is in contact, targets follow
+the reference's own contact trajectories shifted by one horizontal offset per contact (without a
+reference: each point pinned to its mean); the root moves only where a leg cannot reach; two-bone
+IK (:mod:`mlayer.ik`) reaches the targets, and the rotation changes are spread in time by a
+displacement map that blends to zero within ``blend`` seconds of the constrained frames (then
+smoothed by the LGS), so frames farther from every contact keep the synthesized motion.
+
+Floor (``floor="auto"``, the default): a flat floor at :func:`floor_height` of the reference (the
+5% quantile of the contact points' heights on their contact frames); no foot point goes below
+min(floor, the reference's own height of that point in that frame); a foot that would is raised
+by IK on its leg, spread in time like the contact correction. ``floor=None`` turns it off, a
+number sets the height. The up axis is Y unless ``up`` says otherwise.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from . import _arrays
+from ._native import ffi, lib
+from .errors import InvalidArgumentError, check
+from .ik import rig_of
+
+__all__ = ["fix_contacts", "keep_contacts", "keep_contacts_retimed", "floor_height"]
+
+_AXES = {"x": 0, "y": 1, "z": 2, 0: 0, 1: 1, 2: 2}
+_OPT = {"blend": lib.MLR_CLEANUP_OPT_BLEND, "reach": lib.MLR_CLEANUP_OPT_REACH,
+        "passes": lib.MLR_CLEANUP_OPT_PASSES, "floor_quantile": lib.MLR_CLEANUP_OPT_FLOOR_QUANTILE,
+        "ref_smooth": lib.MLR_CLEANUP_OPT_REF_SMOOTH, "pin_smooth": lib.MLR_CLEANUP_OPT_PIN_SMOOTH,
+        "root": lib.MLR_CLEANUP_OPT_ROOT}
+
+
+def _up(up) -> int:
+    key = up.lower() if isinstance(up, str) else up
+    if key not in _AXES:
+        raise InvalidArgumentError(f"up: expected 'x', 'y', 'z' or 0, 1, 2, got {up!r}")
+    return _AXES[key]
+
+
+def _points(skeleton, names):
+    from .contacts import _point
+    pts = [_point(skeleton, n) for n in names]
+    j = np.array([p[0] for p in pts], dtype=np.int32)
+    e = np.array([p[1] for p in pts], dtype=np.int32)
+    return j, e
+
+
+def _contacts(contacts, n, names, where):
+    c = np.asarray(contacts)
+    if c.dtype != np.bool_ or c.shape != (n, len(names)):
+        raise InvalidArgumentError(
+            f"{where}: contacts must be a bool array ({n}, {len(names)}) (frames x names), got "
+            f"{c.dtype} {c.shape}")
+    return np.ascontiguousarray(c.astype(np.uint8))
+
+
+def _i32(a):
+    return ffi.cast("const int32_t *", ffi.from_buffer(a)) if a.size else ffi.NULL
+
+
+def _frames(m):
+    root, rot, trans = (np.ascontiguousarray(x, dtype=np.float64)
+                        for x in (m.root_pos, m.rot, m.trans))
+    return root, rot, trans
+
+
+def floor_height(motion, contacts=None, names=None, *, quantile: float = 0.05, up="y") -> float:
+    """The floor height of a motion along the up axis: the ``quantile`` quantile of the heights
+    of its contact points on their contact frames (contacts, names as from
+    :func:`mlayer.detect_contacts`; detected here when not given). NaN when nothing touches.
+    (mlr_cleanup_floor_height)"""
+    from .contacts import detect_contacts
+    from .motion import Motion
+    if not isinstance(motion, Motion):
+        raise InvalidArgumentError("floor_height: motion must be a mlayer.Motion")
+    if contacts is None or names is None:
+        names, contacts = detect_contacts(motion, names)
+    names = [names] if isinstance(names, str) else list(names)
+    c = _contacts(contacts, motion.n_frames, names, "floor_height")
+    if not (np.isfinite(quantile) and 0.0 <= quantile <= 1.0):
+        raise InvalidArgumentError(f"floor_height: quantile must be in [0, 1], got {quantile}")
+    j, e = _points(motion.skeleton, names)
+    rig, keep = rig_of(motion.skeleton)
+    root, rot, trans = _frames(motion)
+    out = ffi.new("double *")
+    diag = ffi.new("mlr_diag *")
+    check(lib.mlr_cleanup_floor_height(
+        rig, motion.n_frames, _arrays.ptr(root), _arrays.ptr(rot),
+        _arrays.ptr(trans) if trans.size else ffi.NULL, len(names), _i32(j), _i32(e),
+        ffi.cast("const uint8_t *", ffi.from_buffer(c)), _up(up), float(quantile), out,
+        ffi.NULL, diag), "floor_height", diag)
+    del keep
+    return float(out[0])
+
+
+def fix_contacts(motion, contacts, names, reference=None, *, floor="auto", up="y",
+                 return_report=False, **options):
+    """Pin the feet of a synthesized motion during its contacts (paper 1, eq. 18) and keep them
+    above the floor (mlr_cleanup_contacts).
+
+    motion: the synthesized Motion; contacts, names: bool (N, C) and C contact point names as
+    from :func:`mlayer.detect_contacts` (usually detected on the original); reference: an
+    optional Motion with the same frames (normally the original before synthesis, or its
+    denoised version) whose contact trajectories and heights the feet follow.
+    floor: "auto" (the reference's :func:`floor_height`, or the motion's without one), None
+    (off) or a finite height. options: blend (seconds, 0.1), reach (0.98), passes (2),
+    floor_quantile (0.05), ref_smooth (seconds, 0.02), pin_smooth (seconds, 0.01), root (True).
+    Returns a new Motion (and with return_report=True a dict of what was done); bone lengths
+    and the translations of non-root joints are unchanged.
+    """
+    from .contacts import _resolve_names
+    from .motion import Motion
+    if not isinstance(motion, Motion):
+        raise InvalidArgumentError("fix_contacts: motion must be a mlayer.Motion")
+    names = [names] if isinstance(names, str) else list(names)
+    N = motion.n_frames
+    c = _contacts(contacts, N, names, "fix_contacts")
+    names = _resolve_names(motion, names) if names else []
+    if reference is not None:
+        if not isinstance(reference, Motion):
+            raise InvalidArgumentError("fix_contacts: reference must be a mlayer.Motion")
+        if reference.n_frames != N:
+            raise InvalidArgumentError(
+                f"fix_contacts: reference has {reference.n_frames} frames, motion {N}")
+        if reference.skeleton.n_joints != motion.skeleton.n_joints or \
+                reference.trans.shape != motion.trans.shape:
+            raise InvalidArgumentError("fix_contacts: reference has another skeleton")
+    opts = []
+    for k, v in options.items():
+        if k not in _OPT:
+            raise InvalidArgumentError(f"fix_contacts: unknown option {k!r} (known: "
+                                       + ", ".join(sorted(_OPT)) + ")")
+        v = float(v)
+        if not np.isfinite(v):
+            raise InvalidArgumentError(f"fix_contacts: {k} must be finite, got {v}")
+        opts.append((_OPT[k], v))
+    if floor is None:
+        opts.append((lib.MLR_CLEANUP_OPT_FLOOR, 0.0))
+    elif isinstance(floor, str):
+        if floor != "auto":
+            raise InvalidArgumentError(f"floor: expected 'auto', None or a height, got {floor!r}")
+    else:
+        try:
+            h = float(floor)
+        except (TypeError, ValueError):
+            raise InvalidArgumentError(f"floor: expected 'auto', None or a height, got {floor!r}")
+        if not np.isfinite(h):
+            raise InvalidArgumentError(f"floor: the height must be finite, got {h}")
+        opts.append((lib.MLR_CLEANUP_OPT_FLOOR_HEIGHT, h))
+    copts = ffi.new("mlr_cleanup_option[]", max(1, len(opts)))
+    for i, (k, v) in enumerate(opts):
+        copts[i].key, copts[i].value = k, v
+    j, e = _points(motion.skeleton, names) if names else (np.zeros(0, np.int32),) * 2
+    rig, keep = rig_of(motion.skeleton)
+    root, rot, trans = _frames(motion)
+    P = trans.shape[1]
+    if reference is not None:
+        rr, rq, rt = _frames(reference)
+        refp = (_arrays.ptr(rr), _arrays.ptr(rq), _arrays.ptr(rt) if P else ffi.NULL)
+    else:
+        refp = (ffi.NULL, ffi.NULL, ffi.NULL)
+    out_root, out_rot = np.empty_like(root), np.empty_like(rot)
+    rep = ffi.new("mlr_cleanup_report *")
+    diag = ffi.new("mlr_diag *")
+    check(lib.mlr_cleanup_contacts(
+        rig, N, float(motion.fps), _up(up), _arrays.ptr(root), _arrays.ptr(rot),
+        _arrays.ptr(trans) if P else ffi.NULL, *refp, len(names), _i32(j), _i32(e),
+        ffi.cast("const uint8_t *", ffi.from_buffer(c)) if c.size else ffi.NULL, copts,
+        len(opts), _arrays.ptr_out(out_root), _arrays.ptr_out(out_rot), rep, ffi.NULL, diag),
+        "fix_contacts", diag)
+    del keep
+    out = motion.with_frames(root_pos=out_root, rot=out_rot)
+    if return_report:
+        return out, {"floor_height": rep.floor_height, "contact_frames": rep.contact_frames,
+                     "floor_frames": rep.floor_frames, "root_shift_max": rep.root_shift_max}
+    return out
+
+
+def _has_feet(original, joints) -> bool:
+    from .contacts import find_feet
+    if joints is not None:
+        return True
+    try:
+        find_feet(original)
+    except InvalidArgumentError:
+        return False
+    return True
+
+
+def keep_contacts_retimed(original, retimed, reference, source_frames, joints=None, *,
+                          floor="auto"):
+    """``retimed`` (resampled or time-warped from ``original``) with the feet pinned during the
+    contacts detected on ``original``, carried to the output frames: output frame k takes the
+    contacts of input frame ``round(source_frames[k])`` (its fractional input frame).
+    ``reference`` is the original at the output frames without smoothing (a SLERP resampling
+    on the same time map), whose contact trajectories the feet follow. Skeletons without
+    recognisable feet (and no ``joints``) and clips of fewer than 3 frames come back
+    unchanged, as in :func:`keep_contacts`."""
+    from .contacts import detect_contacts
+    if original.n_frames < 3 or retimed.n_frames < 2 or not _has_feet(original, joints):
+        return retimed
+    names, c = detect_contacts(original, joints)
+    k = np.clip(np.rint(np.asarray(source_frames, dtype=np.float64)), 0, original.n_frames - 1)
+    return fix_contacts(retimed, c[k.astype(np.int64)], names, reference=reference, floor=floor)
+
+
+def keep_contacts(original, synthesized, joints=None, *, reference=None, floor="auto",
+                  **options):
+    """``synthesized`` with the feet pinned during the contacts detected on ``original`` (same
+    frames): :func:`mlayer.detect_contacts` then :func:`fix_contacts` with ``reference``
+    (default: ``original``). stylize/denoise pass the denoised motion as the reference (with
+    ref_smooth=0): its feet carry no capture noise, so an input that does not slide comes out
+    of denoise as it went in. A skeleton without recognisable feet (and no ``joints``), or a
+    clip of fewer than 3 frames, is returned unchanged: this is the default step of
+    stylize/denoise, which also work on skeletons that have no feet."""
+    from .contacts import detect_contacts
+    if original.n_frames < 3 or not _has_feet(original, joints):
+        return synthesized
+    names, c = detect_contacts(original, joints)
+    return fix_contacts(synthesized, c, names,
+                        reference=original if reference is None else reference, floor=floor,
+                        **options)

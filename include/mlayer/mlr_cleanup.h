@@ -1,0 +1,154 @@
+/*
+ * Cleanup of a synthesized motion (paper 1, eq. 18, and the floor guard of issue 18): the feet
+ * are pinned during the contacts detected on the original and kept above the original's floor,
+ * with two-bone IK on the legs (mlr_ik.h) and the rotation corrections spread in time as an LGS
+ * displacement map (mlr_lgs.h).
+ *
+ * Contact points are (joint, End Site or -1) pairs as mlr_rig_point_positions takes them;
+ * contacts is N x C uint8 (nonzero: the point touches the ground in that frame), normally
+ * detected on the original. Points are grouped into feet: a listed joint with no listed
+ * ancestor is an ankle; the other points (toes, End Sites) are placed by turning the topmost
+ * listed ankle above them (or, without one, their own joint's parent for a joint point and the
+ * joint itself for an End Site).
+ *
+ * Targets, per foot on the frames U where any of its points is in contact: with a reference,
+ * each run of U gets one horizontal offset o (the mean of motion minus reference over the run's
+ * contact samples) and the ankle and the first placed point follow the reference's own
+ * trajectories (smoothed over REF_SMOOTH seconds) shifted by o, at the reference's heights;
+ * without one, each point is pinned to its mean position over its contact interval.
+ *
+ * Floor: a flat floor at height h along the up axis. Unless given (FLOOR_HEIGHT), h is the
+ * FLOOR_QUANTILE (default 0.05, linear interpolation between order statistics) quantile of the
+ * heights of the contact points on their contact frames, in the reference (the motion itself
+ * without one): the level the feet stand on, robust to a few low outliers. A foot point may not
+ * go below min(h, the reference's own height of that point in that frame) (h without a
+ * reference); on frames where one does (and the foot is not in contact) the foot's ankle target
+ * is its current position raised by the largest shortfall, and the ankle keeps its world
+ * rotation, so every point of the foot rises by that amount.
+ *
+ * Correction: the root moves only where a leg would have to stretch beyond REACH of its length
+ * (or beyond its current extension where it is straighter already) to reach a contact target:
+ * the need, widened over +-0.1 s, blended and repeated on what is left (5 times). Per frame,
+ * two-bone IK on each leg (hip, knee, ankle from mlr_ik_leg_chain) reaches the ankle target,
+ * and a turn of the ankle the placed point's target. The changes of the local rotations of hip,
+ * knee and ankle (rotation vectors of new * inv(old)), known on the constrained frames, make a
+ * displacement map: on the frames between two constrained frames less than BLEND seconds apart
+ * it goes from one value to the other along a smoothstep; elsewhere it fades from the nearest
+ * constrained frame's value to zero along a smoothstep over BLEND seconds; then the LGS (order
+ * 2, time scale PIN_SMOOTH seconds) smooths the blend's corners. Every channel of the map stays
+ * within the range of its values at the two nearest constrained frames and zero, so a foot out
+ * of contact moves no further than the blend requires, and frames farther than BLEND from every
+ * constrained frame keep the synthesized motion (up to the LGS's tails, ~exp(-d / PIN_SMOOTH)).
+ * PASSES passes repeat IK and spread on what the smoothing left. Bone lengths never change;
+ * translations of non-root joints (trans) are kept as they are.
+ */
+#ifndef MLR_CLEANUP_H
+#define MLR_CLEANUP_H
+
+#include <stdint.h>
+
+#include "mlr_common.h"
+#include "mlr_rig.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/** Option keys of mlr_cleanup_contacts. Values pinned; new options get new values. */
+typedef enum mlr_cleanup_key {
+    MLR_CLEANUP_OPT_BLEND = 1,          /* seconds, > 0: the map's fade outside constrained
+                                           frames; default 0.1 */
+    MLR_CLEANUP_OPT_REACH = 2,          /* (0, 1]: the root moves where a leg needs more than
+                                           this of its length; default 0.98 */
+    MLR_CLEANUP_OPT_PASSES = 3,         /* integer in [1, 10]: IK + spread passes; default 2 */
+    MLR_CLEANUP_OPT_FLOOR = 4,          /* 1: the floor guard on (default), 0: off */
+    MLR_CLEANUP_OPT_FLOOR_HEIGHT = 5,   /* finite: the floor height along the up axis (replaces
+                                           the estimate) */
+    MLR_CLEANUP_OPT_FLOOR_QUANTILE = 6, /* [0, 1]: quantile of contact heights; default 0.05 */
+    MLR_CLEANUP_OPT_REF_SMOOTH = 7,     /* seconds, >= 0: LGS smoothing of the reference's
+                                           contact trajectories; default 0.02; 0: none */
+    MLR_CLEANUP_OPT_PIN_SMOOTH = 8,     /* seconds, > 0: LGS time scale of the map; 0.01 */
+    MLR_CLEANUP_OPT_ROOT = 9            /* 1: the root may move (default), 0: never */
+} mlr_cleanup_key;
+
+/** One option: key (an mlr_cleanup_key) and its value. A frozen value type. */
+typedef struct mlr_cleanup_option {
+    int key;
+    double value;
+} mlr_cleanup_option;
+
+/** What a cleanup did. A frozen value type: fields are never reordered or removed. */
+typedef struct mlr_cleanup_report {
+    double floor_height;   /* the floor used along the up axis; NaN when the floor was off */
+    size_t contact_frames; /* frames where some foot was pinned */
+    size_t floor_frames;   /* frames where some foot was raised to the floor (last pass) */
+    double root_shift_max; /* largest root correction (length units) */
+} mlr_cleanup_report;
+
+/**
+ * The floor height of a motion from its contacts: the `quantile` quantile (linear
+ * interpolation between order statistics) of the up coordinates of the contact points on their
+ * contact frames.
+ * @param rig       [in] the skeleton (mlr_rig_check)
+ * @param n_frames  [in] N >= 1
+ * @param root_pos, rot, trans [in] N x 3, N x J x 4, N x P x 3 (P = rig->n_trans; trans may
+ *                  be NULL when P is 0)
+ * @param n_points, joints, end_sites [in] C points (end_sites NULL: all joints)
+ * @param contacts  [in] N x C, nonzero where the point touches
+ * @param up        [in] an mlr_axis
+ * @param quantile  [in] in [0, 1]
+ * @param height    [out] the floor; NaN when no point is in contact on any frame
+ * @return MLR_OK; MLR_E_INVALID_ARG (bad rig, NULL array, points that name nothing, bad axis
+ *         or quantile, non-finite motion; reason in diag); MLR_E_NO_MEMORY; MLR_E_OVERFLOW
+ * Allocates: forward kinematics and the heights, about N (7 J + 4 C) doubles, released before
+ * return. Threads: any; inputs only read.
+ */
+MLR_API mlr_status mlr_cleanup_floor_height(const mlr_rig *rig, size_t n_frames,
+                                            const double *root_pos, const double *rot,
+                                            const double *trans, size_t n_points,
+                                            const int32_t *joints, const int32_t *end_sites,
+                                            const uint8_t *contacts, int up, double quantile,
+                                            double *height, const mlr_allocator *alloc,
+                                            mlr_diag *diag);
+
+/**
+ * Pin the feet of a synthesized motion during contacts and keep them above the floor (see the
+ * file comment).
+ * @param rig        [in] the skeleton of motion and reference (mlr_rig_check)
+ * @param n_frames   [in] N >= 1 (N < 2 or nothing to do: the input is copied)
+ * @param fps        [in] frames per second, finite, > 0
+ * @param up         [in] the up axis, an mlr_axis
+ * @param root_pos, rot, trans [in] the synthesized motion: N x 3, N x J x 4 unit quaternions,
+ *                   N x P x 3 (P = rig->n_trans; NULL when P is 0), finite
+ * @param ref_root_pos, ref_rot, ref_trans [in] the reference (normally the original) at the
+ *                   same frames, or all NULL for none (ref_trans NULL when P is 0)
+ * @param n_points, joints, end_sites [in] C contact points (end_sites NULL: all joints)
+ * @param contacts   [in] N x C uint8, nonzero where a point touches
+ * @param opts       [in] n_opts options (mlr_cleanup_key); NULL when n_opts is 0
+ * @param out_root_pos [out] N x 3; may be root_pos itself
+ * @param out_rot    [out] N x J x 4; may be rot itself
+ * @param report     [out] optional
+ * @param alloc      [in] NULL for malloc/free
+ * @return MLR_OK; MLR_E_INVALID_ARG (bad rig, NULL array, fps or axis, points that name
+ *         nothing, a contact foot without a two-bone chain, non-finite input, unknown or
+ *         repeated option, option values out of range or not finite; reason in diag; outputs
+ *         then unspecified); MLR_E_NO_MEMORY; MLR_E_OVERFLOW
+ * Allocates: scratch of about N (14 J + 12 C + 40) doubles, released before return. Cost
+ * O(N J) per pass. Threads: any; inputs only read.
+ */
+MLR_API mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t n_frames, double fps,
+                                        int up, const double *root_pos, const double *rot,
+                                        const double *trans, const double *ref_root_pos,
+                                        const double *ref_rot, const double *ref_trans,
+                                        size_t n_points, const int32_t *joints,
+                                        const int32_t *end_sites, const uint8_t *contacts,
+                                        const mlr_cleanup_option *opts, size_t n_opts,
+                                        double *out_root_pos, double *out_rot,
+                                        mlr_cleanup_report *report, const mlr_allocator *alloc,
+                                        mlr_diag *diag);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* MLR_CLEANUP_H */

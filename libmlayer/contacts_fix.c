@@ -1,0 +1,858 @@
+/*
+ * Contact cleanup and floor guard of a synthesized motion (mlr_cleanup.h).
+ */
+#include "ik_internal.h"
+
+#include <math.h>
+#include <stdlib.h>
+
+enum { MAX_BLOCKS = 48 };
+
+typedef struct arena {
+    const mlr_allocator *a;
+    void *p[MAX_BLOCKS];
+    size_t n[MAX_BLOCKS];
+    int count;
+    mlr_status st;
+} arena;
+
+static void *take(arena *ar, size_t count, size_t elem)
+{
+    size_t bytes;
+    if (ar->st != MLR_OK)
+        return NULL;
+    if (mlr_mul_size(count ? count : 1, elem, &bytes) != MLR_OK) {
+        ar->st = MLR_E_OVERFLOW;
+        return NULL;
+    }
+    void *p = ar->count < MAX_BLOCKS ? mlr_alloc(ar->a, bytes) : NULL;
+    if (!p) {
+        ar->st = MLR_E_NO_MEMORY;
+        return NULL;
+    }
+    memset(p, 0, bytes);
+    ar->p[ar->count] = p, ar->n[ar->count] = bytes, ar->count++;
+    return p;
+}
+
+static void release(arena *ar)
+{
+    for (int i = ar->count - 1; i >= 0; i--)
+        mlr_free(ar->a, ar->p[i], ar->n[i]);
+    ar->count = 0;
+}
+
+typedef struct config {
+    double blend, reach, floor_height, floor_q, ref_smooth, pin_smooth;
+    int passes, floor_on, floor_given, root_on;
+} config;
+
+static mlr_status parse_options(const mlr_cleanup_option *opts, size_t n_opts, config *cfg,
+                                mlr_diag *diag)
+{
+    int seen[16] = {0};
+    cfg->blend = 0.1, cfg->reach = 0.98, cfg->passes = 2, cfg->floor_on = 1;
+    cfg->floor_given = 0, cfg->floor_height = NAN, cfg->floor_q = 0.05;
+    cfg->ref_smooth = 0.02, cfg->pin_smooth = 0.01, cfg->root_on = 1;
+    if (n_opts && !opts)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "opts is NULL but n_opts is %zu",
+                            n_opts);
+    for (size_t i = 0; i < n_opts; i++) {
+        const int key = opts[i].key;
+        const double v = opts[i].value;
+        if (key < MLR_CLEANUP_OPT_BLEND || key > MLR_CLEANUP_OPT_ROOT)
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "unknown option key %d", key);
+        if (seen[key])
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "option key %d given twice", key);
+        seen[key] = 1;
+        if (!isfinite(v))
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "option key %d: value %g is not finite", key, v);
+        int ok = 1;
+        switch (key) {
+        case MLR_CLEANUP_OPT_BLEND: ok = v > 0.0; cfg->blend = v; break;
+        case MLR_CLEANUP_OPT_REACH: ok = v > 0.0 && v <= 1.0; cfg->reach = v; break;
+        case MLR_CLEANUP_OPT_PASSES:
+            ok = v >= 1.0 && v <= 10.0 && v == floor(v);
+            cfg->passes = (int)v;
+            break;
+        case MLR_CLEANUP_OPT_FLOOR: ok = v == 0.0 || v == 1.0; cfg->floor_on = v != 0.0; break;
+        case MLR_CLEANUP_OPT_FLOOR_HEIGHT: cfg->floor_given = 1; cfg->floor_height = v; break;
+        case MLR_CLEANUP_OPT_FLOOR_QUANTILE: ok = v >= 0.0 && v <= 1.0; cfg->floor_q = v; break;
+        case MLR_CLEANUP_OPT_REF_SMOOTH: ok = v >= 0.0; cfg->ref_smooth = v; break;
+        case MLR_CLEANUP_OPT_PIN_SMOOTH: ok = v > 0.0; cfg->pin_smooth = v; break;
+        default: ok = v == 0.0 || v == 1.0; cfg->root_on = v != 0.0; break;
+        }
+        if (!ok)
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "option key %d: value %g out of range", key, v);
+    }
+    return MLR_OK;
+}
+
+static int finite_all(const double *x, size_t count)
+{
+    for (size_t i = 0; i < count; i++)
+        if (!isfinite(x[i]))
+            return 0;
+    return 1;
+}
+
+static mlr_status check_motion(const mlr_rig *rig, size_t N, const double *root_pos,
+                               const double *rot, const double *trans, const char *what,
+                               mlr_diag *diag)
+{
+    const size_t J = rig->n_joints, P = rig->n_trans;
+    if (!root_pos || !rot || (P && !trans))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: root_pos, rot%s is NULL", what,
+                            P ? " or trans" : "");
+    if (!finite_all(root_pos, 3 * N) || !finite_all(rot, 4 * N * J) ||
+        (P && !finite_all(trans, 3 * N * P)))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "%s contains NaN or infinite values", what);
+    return MLR_OK;
+}
+
+static mlr_status check_points(const mlr_rig *rig, size_t C, const int32_t *joints,
+                               const int32_t *end_sites, mlr_diag *diag)
+{
+    if (C && !joints)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "contact points: joints is NULL");
+    for (size_t c = 0; c < C; c++) {
+        const int32_t j = joints[c], e = end_sites ? end_sites[c] : -1;
+        if (j < 0 || (size_t)j >= rig->n_joints)
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "contact point %zu: joint %d names nothing (the rig has %zu "
+                                "joints)", c, (int)j, rig->n_joints);
+        if (e < -1 || (e >= 0 && ((size_t)e >= rig->n_end_sites || rig->end_site_parents[e] != j)))
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "contact point %zu: End Site %d is not an End Site of joint %d",
+                                c, (int)e, (int)j);
+        for (size_t d = 0; d < c; d++)
+            if (joints[d] == j && (end_sites ? end_sites[d] : -1) == e)
+                return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "contact points %zu and %zu are the same point", d, c);
+    }
+    return MLR_OK;
+}
+
+static int cmp_double(const void *a, const void *b)
+{
+    const double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+static double quantile_of(double *v, size_t n, double q)
+{
+    qsort(v, n, sizeof *v, cmp_double);
+    const double pos = q * (double)(n - 1);
+    const size_t i = (size_t)floor(pos);
+    if (i + 1 >= n)
+        return v[n - 1];
+    const double f = pos - (double)i;
+    return v[i] + f * (v[i + 1] - v[i]);
+}
+
+/* FK + points of one motion into caller arrays. */
+static mlr_status fk_points(const mlr_rig *rig, size_t N, const double *root_pos,
+                            const double *rot, const double *trans, size_t C,
+                            const int32_t *joints, const int32_t *end_sites, double *pos,
+                            double *wrot, double *pts, const mlr_allocator *alloc)
+{
+    mlr_status st = mlr_fk_arrays(N, rig->n_joints, rig->parents, rig->offsets, root_pos, rot,
+                                  rig->n_trans, rig->trans_joints, trans, pos, wrot, alloc);
+    if (st != MLR_OK || !pts)
+        return st;
+    return mlr_rig_point_positions(rig, N, pos, wrot, C, joints, end_sites, pts, NULL);
+}
+
+mlr_status mlr_cleanup_floor_height(const mlr_rig *rig, size_t N, const double *root_pos,
+                                    const double *rot, const double *trans, size_t C,
+                                    const int32_t *joints, const int32_t *end_sites,
+                                    const uint8_t *contacts, int up, double quantile,
+                                    double *height, const mlr_allocator *alloc, mlr_diag *diag)
+{
+    mlr_status st = mlr_rig_check(rig, diag);
+    if (st != MLR_OK)
+        return st;
+    if (!height || N == 0 || (C && !contacts))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "floor_height: NULL output or contacts, or no frames");
+    if (up < 0 || up > 2)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "floor_height: up axis %d is not "
+                            "0 (X), 1 (Y) or 2 (Z)", up);
+    if (!(quantile >= 0.0 && quantile <= 1.0))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "floor_height: quantile %g outside [0, 1]", quantile);
+    if ((st = check_points(rig, C, joints, end_sites, diag)) != MLR_OK ||
+        (st = check_motion(rig, N, root_pos, rot, trans, "motion", diag)) != MLR_OK)
+        return st;
+    mlr_allocator A;
+    mlr_allocator_resolve(alloc, &A);
+    arena ar = {.a = &A, .st = MLR_OK};
+    const size_t J = rig->n_joints;
+    double *pos = take(&ar, N * J * 3, sizeof(double));
+    double *wrot = take(&ar, N * J * 4, sizeof(double));
+    double *pts = take(&ar, N * C * 3, sizeof(double));
+    double *v = take(&ar, N * C, sizeof(double));
+    if (ar.st != MLR_OK) {
+        release(&ar);
+        return mlr_diag_set(diag, ar.st, 0, 0, "floor_height: out of memory");
+    }
+    st = fk_points(rig, N, root_pos, rot, trans, C, joints, end_sites, pos, wrot, pts, &A);
+    if (st == MLR_OK) {
+        size_t k = 0;
+        for (size_t i = 0; i < N * C; i++)
+            if (contacts[i])
+                v[k++] = pts[3 * i + (size_t)up];
+        *height = k ? quantile_of(v, k, quantile) : NAN;
+    }
+    release(&ar);
+    return st == MLR_OK ? MLR_OK : mlr_diag_set(diag, st, 0, 0, "floor_height: FK failed");
+}
+
+/* ---- the displacement map ---- */
+
+static double smoothstep(double x)
+{
+    x = x < 0.0 ? 0.0 : x > 1.0 ? 1.0 : x;
+    return x * x * (3.0 - 2.0 * x);
+}
+
+/* y (N x m): the blended map through val at the frames with mask set (see the header). */
+static void design_map(size_t N, size_t m, const uint8_t *mask, const double *val, double B,
+                       double *y)
+{
+    size_t prev = (size_t)-1;
+    memset(y, 0, N * m * sizeof *y);
+    for (size_t f = 0; f <= N; f++) {
+        if (f < N && !mask[f])
+            continue;
+        if (f < N)
+            memcpy(y + f * m, val + f * m, m * sizeof *y);
+        if (prev == (size_t)-1 && f < N) { /* before the first constrained frame */
+            for (size_t i = 0; i < f; i++) {
+                const double w = 1.0 - smoothstep((double)(f - i) / B);
+                for (size_t k = 0; k < m; k++)
+                    y[i * m + k] = w * val[f * m + k];
+            }
+        } else if (prev != (size_t)-1 && f == N) { /* after the last */
+            for (size_t i = prev + 1; i < N; i++) {
+                const double w = 1.0 - smoothstep((double)(i - prev) / B);
+                for (size_t k = 0; k < m; k++)
+                    y[i * m + k] = w * val[prev * m + k];
+            }
+        } else if (prev != (size_t)-1 && f > prev + 1) {
+            const double L = (double)(f - prev);
+            const double s = L <= B ? L : B;
+            for (size_t i = prev + 1; i < f; i++) {
+                const double wa = 1.0 - smoothstep((double)(i - prev) / s);
+                const double wb = 1.0 - smoothstep((double)(f - i) / s);
+                for (size_t k = 0; k < m; k++)
+                    y[i * m + k] = wa * val[prev * m + k] + wb * val[f * m + k];
+            }
+        }
+        prev = f;
+    }
+}
+
+static void qlog(const double q_in[4], double v[3])
+{
+    double q[4] = {q_in[0], q_in[1], q_in[2], q_in[3]};
+    if (q[0] < 0.0)
+        q[0] = -q[0], q[1] = -q[1], q[2] = -q[2], q[3] = -q[3];
+    const double s = sqrt(q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+    const double angle = 2.0 * atan2(s, q[0]);
+    const double k = s > 1e-300 ? angle / s : 2.0;
+    v[0] = k * q[1], v[1] = k * q[2], v[2] = k * q[3];
+}
+
+static void qexp(const double v[3], double q[4])
+{
+    const double a = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    const double h = 0.5 * a;
+    const double k = a > 1e-300 ? sin(h) / a : 0.5;
+    q[0] = cos(h), q[1] = k * v[0], q[2] = k * v[1], q[3] = k * v[2];
+}
+
+/* A foot: anchor joint, its leg, the columns of its points, the targets. */
+typedef struct foot {
+    int32_t anchor, hip, knee;
+    size_t n_cols, n_own;
+    size_t cols[16]; /* own first, then the placed points */
+    uint8_t *U, *F;
+    double *at, *tt, *lift;
+    int active;
+} foot;
+
+typedef struct work {
+    const mlr_rig *rig;
+    size_t N, J, C;
+    double fps;
+    int up;
+    const config *cfg;
+    mlr_lgs *pin;
+    double *map_val, *map_y, *map_out; /* N x 9 */
+} work;
+
+/* Spread the corrections new * inv(rot) of the listed joints, known on the frames of mask. */
+static mlr_status spread_rotations(work *w, double *rot, const double *newr, const int32_t *js,
+                                   size_t nj, const uint8_t *mask)
+{
+    const size_t N = w->N, J = w->J, m = 3 * nj;
+    for (size_t f = 0; f < N; f++) {
+        if (!mask[f])
+            continue;
+        for (size_t i = 0; i < nj; i++) {
+            const double *a = newr + 4 * (f * J + (size_t)js[i]), *b = rot + 4 * (f * J + (size_t)js[i]);
+            const double cb[4] = {b[0], -b[1], -b[2], -b[3]};
+            double d[4];
+            mlr_ik_qmul(a, cb, d);
+            qlog(d, w->map_val + f * m + 3 * i);
+        }
+    }
+    design_map(N, m, mask, w->map_val, w->cfg->blend * w->fps, w->map_y);
+    mlr_status st = mlr_lgs_solve(w->pin, w->map_y, m, m, w->map_out, m);
+    if (st != MLR_OK)
+        return st;
+    for (size_t f = 0; f < N; f++)
+        for (size_t i = 0; i < nj; i++) {
+            double *r = rot + 4 * (f * J + (size_t)js[i]), e[4], o[4];
+            qexp(w->map_out + f * m + 3 * i, e);
+            mlr_ik_qmul(e, r, o);
+            const double n = sqrt(o[0] * o[0] + o[1] * o[1] + o[2] * o[2] + o[3] * o[3]);
+            for (int k = 0; k < 4; k++)
+                r[k] = o[k] / n;
+        }
+    return MLR_OK;
+}
+
+static int has_ancestor_in(const int32_t *parents, int32_t j, const uint8_t *listed)
+{
+    for (int32_t p = parents[j]; p >= 0; p = parents[p])
+        if (listed[p])
+            return 1;
+    return 0;
+}
+
+static double dist3(const double *a, const double *b)
+{
+    const double x = a[0] - b[0], y = a[1] - b[1], z = a[2] - b[2];
+    return sqrt(x * x + y * y + z * z);
+}
+
+mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t N, double fps, int up,
+                                const double *root_pos, const double *rot, const double *trans,
+                                const double *ref_root_pos, const double *ref_rot,
+                                const double *ref_trans, size_t C, const int32_t *joints,
+                                const int32_t *end_sites, const uint8_t *contacts,
+                                const mlr_cleanup_option *opts, size_t n_opts,
+                                double *out_root_pos, double *out_rot,
+                                mlr_cleanup_report *report, const mlr_allocator *alloc,
+                                mlr_diag *diag)
+{
+    mlr_status st = mlr_rig_check(rig, diag);
+    if (st != MLR_OK)
+        return st;
+    config cfg;
+    if ((st = parse_options(opts, n_opts, &cfg, diag)) != MLR_OK)
+        return st;
+    if (N == 0 || !out_root_pos || !out_rot || (C && !contacts))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "cleanup: no frames, or NULL outputs or contacts");
+    if (!(isfinite(fps) && fps > 0.0))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "cleanup: fps %g is not finite "
+                            "and > 0", fps);
+    if (up < 0 || up > 2)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "cleanup: up axis %d is not 0 (X), "
+                            "1 (Y) or 2 (Z)", up);
+    const int have_ref = ref_root_pos || ref_rot || ref_trans;
+    if ((st = check_points(rig, C, joints, end_sites, diag)) != MLR_OK ||
+        (st = check_motion(rig, N, root_pos, rot, trans, "motion", diag)) != MLR_OK ||
+        (have_ref && (st = check_motion(rig, N, ref_root_pos, ref_rot, ref_trans, "reference",
+                                        diag)) != MLR_OK))
+        return st;
+    const size_t J = rig->n_joints;
+    if (C > 64)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "cleanup: at most 64 contact "
+                            "points, got %zu", C);
+    if (report) {
+        report->floor_height = NAN;
+        report->contact_frames = report->floor_frames = 0;
+        report->root_shift_max = 0.0;
+    }
+    if (out_root_pos != root_pos)
+        memmove(out_root_pos, root_pos, 3 * N * sizeof(double));
+    if (out_rot != rot)
+        memmove(out_rot, rot, 4 * N * J * sizeof(double));
+    size_t any_contact = 0;
+    for (size_t i = 0; i < N * C; i++)
+        any_contact += contacts[i] != 0;
+    if (N < 3 || C == 0 || (!any_contact && !(cfg.floor_on && cfg.floor_given)))
+        return MLR_OK;
+
+    /* ---- feet ---- */
+    foot feet[64];
+    size_t nf = 0;
+    work w = {rig, N, J, C, fps, up, &cfg, NULL, NULL, NULL, NULL};
+    mlr_allocator A;
+    mlr_allocator_resolve(alloc, &A);
+    arena ar = {.a = &A, .st = MLR_OK};
+    uint8_t *listed = take(&ar, J, 1);
+    uint8_t *assigned = take(&ar, C, 1);
+    if (ar.st != MLR_OK)
+        goto fail;
+    for (size_t c = 0; c < C; c++)
+        if (!end_sites || end_sites[c] < 0)
+            listed[joints[c]] = 1;
+    for (size_t c = 0; c < C; c++) { /* ankles: listed joints with no listed ancestor */
+        const int32_t j = joints[c];
+        if ((end_sites && end_sites[c] >= 0) || has_ancestor_in(rig->parents, j, listed))
+            continue;
+        size_t k = 0;
+        while (k < nf && feet[k].anchor != j)
+            k++;
+        if (k == nf) {
+            memset(&feet[nf], 0, sizeof feet[nf]);
+            feet[nf++].anchor = j;
+        }
+        if (feet[k].n_cols == 16) {
+            st = mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "cleanup: more than 16 contact "
+                              "points on the foot of joint %d", (int)j);
+            goto fail_st_keep;
+        }
+        feet[k].cols[feet[k].n_cols++] = c, feet[k].n_own++;
+        assigned[c] = 1;
+    }
+    for (size_t c = 0; c < C; c++) {
+        if (assigned[c])
+            continue;
+        const int32_t j = joints[c];
+        const int es = end_sites && end_sites[c] >= 0;
+        int32_t anchor = es ? j : -1;
+        for (int32_t p = es ? j : rig->parents[j]; p >= 0; p = rig->parents[p])
+            for (size_t k = 0; k < nf; k++)
+                if (feet[k].anchor == p && feet[k].n_own)
+                    anchor = p;
+        if (anchor < 0)
+            anchor = rig->parents[j];
+        if (anchor < 0)
+            anchor = j;
+        size_t k = 0;
+        while (k < nf && feet[k].anchor != anchor)
+            k++;
+        if (k == nf) {
+            memset(&feet[nf], 0, sizeof feet[nf]);
+            feet[nf++].anchor = anchor;
+        }
+        if (feet[k].n_cols == 16) {
+            st = mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "cleanup: more than 16 contact "
+                              "points on the foot of joint %d", (int)anchor);
+            goto fail_st_keep;
+        }
+        feet[k].cols[feet[k].n_cols++] = c;
+    }
+
+    /* ---- forward kinematics, points, reference ---- */
+    double *pos = take(&ar, N * J * 3, sizeof(double));
+    double *wrot = take(&ar, N * J * 4, sizeof(double));
+    double *P = take(&ar, N * C * 3, sizeof(double));
+    double *pos_ref = NULL, *Pr = NULL, *lim = take(&ar, N * C, sizeof(double));
+    double *newr = take(&ar, N * J * 4, sizeof(double));
+    double *shift = take(&ar, N * 3, sizeof(double));
+    w.map_val = take(&ar, N * 9, sizeof(double));
+    w.map_y = take(&ar, N * 9, sizeof(double));
+    w.map_out = take(&ar, N * 9, sizeof(double));
+    if (have_ref) {
+        pos_ref = take(&ar, N * J * 3, sizeof(double));
+        Pr = take(&ar, N * C * 3, sizeof(double));
+    }
+    if (ar.st != MLR_OK)
+        goto fail;
+    if ((st = fk_points(rig, N, root_pos, rot, trans, C, joints, end_sites, pos, wrot, P, &A)) !=
+        MLR_OK)
+        goto fail_st;
+    const double *src_pts = P;
+    if (have_ref) {
+        if ((st = fk_points(rig, N, ref_root_pos, ref_rot, ref_trans, C, joints, end_sites,
+                            pos_ref, newr, Pr, &A)) != MLR_OK)
+            goto fail_st;
+        src_pts = Pr;
+    }
+    /* floor and the per-point limits (from the unsmoothed reference) */
+    double floor_h = NAN;
+    if (cfg.floor_on) {
+        if (cfg.floor_given) {
+            floor_h = cfg.floor_height;
+        } else {
+            double *v = take(&ar, N * C, sizeof(double));
+            if (ar.st != MLR_OK)
+                goto fail;
+            size_t k = 0;
+            for (size_t i = 0; i < N * C; i++)
+                if (contacts[i])
+                    v[k++] = src_pts[3 * i + (size_t)up];
+            if (k)
+                floor_h = quantile_of(v, k, cfg.floor_q);
+        }
+        for (size_t i = 0; i < N * C; i++)
+            lim[i] = have_ref ? fmin(floor_h, Pr[3 * i + (size_t)up]) : floor_h;
+    }
+    const int floor_active = cfg.floor_on && isfinite(floor_h);
+    if (report)
+        report->floor_height = floor_active ? floor_h : NAN;
+    mlr_lgs *ref_lgs = NULL;
+    if (have_ref && cfg.ref_smooth > 0.0) {
+        const double lam = (cfg.ref_smooth * fps) * (cfg.ref_smooth * fps);
+        if ((st = mlr_lgs_create(N, 2, lam, 1.0, NULL, N, MLR_LGS_BANDED, &A, &ref_lgs, diag)) <
+            0)
+            goto fail_st;
+        double *tmp = take(&ar, N * 3 * (C > nf ? C : nf), sizeof(double));
+        if (ar.st != MLR_OK) {
+            mlr_lgs_destroy(ref_lgs);
+            goto fail;
+        }
+        mlr_lgs_solve(ref_lgs, Pr, 3 * C, 3 * C, tmp, 3 * C);
+        memcpy(Pr, tmp, N * C * 3 * sizeof(double));
+        for (size_t k = 0; k < nf; k++) { /* the ankles' trajectories */
+            const size_t a = (size_t)feet[k].anchor;
+            mlr_lgs_solve(ref_lgs, pos_ref + 3 * a, 3 * J, 3, tmp, 3);
+            for (size_t f = 0; f < N; f++)
+                memcpy(pos_ref + 3 * (f * J + a), tmp + 3 * f, 3 * sizeof(double));
+        }
+        mlr_lgs_destroy(ref_lgs);
+    }
+    {
+        const double lam = (cfg.pin_smooth * fps) * (cfg.pin_smooth * fps);
+        if ((st = mlr_lgs_create(N, 2, lam, 1.0, NULL, N, MLR_LGS_BANDED, &A, &w.pin, diag)) < 0)
+            goto fail_st;
+    }
+
+    /* ---- targets per foot ---- */
+    uint8_t *anyU = take(&ar, N, 1);
+    uint8_t *anyF = take(&ar, N, 1);
+    if (ar.st != MLR_OK)
+        goto fail;
+    for (size_t k = 0; k < nf; k++) {
+        foot *ft = &feet[k];
+        ft->U = take(&ar, N, 1);
+        ft->F = take(&ar, N, 1);
+        ft->at = take(&ar, N * 3, sizeof(double));
+        ft->tt = take(&ar, N * 3, sizeof(double));
+        ft->lift = take(&ar, N, sizeof(double));
+        if (ar.st != MLR_OK)
+            goto fail;
+        size_t nu = 0;
+        for (size_t f = 0; f < N; f++) {
+            for (size_t i = 0; i < ft->n_cols; i++)
+                ft->U[f] |= contacts[f * C + ft->cols[i]] != 0;
+            nu += ft->U[f];
+        }
+        ft->active = nu > 0 || floor_active;
+        if (!ft->active)
+            continue;
+        if ((st = mlr_ik_leg_chain(rig, ft->anchor, &ft->hip, &ft->knee, diag)) != MLR_OK)
+            goto fail_st_keep;
+        const size_t a = (size_t)ft->anchor;
+        const int has_toe = ft->n_cols > ft->n_own;
+        const size_t toe = has_toe ? ft->cols[ft->n_own] : 0;
+        for (size_t f = 0; f < N; f++) {
+            memcpy(ft->at + 3 * f, pos + 3 * (f * J + a), 3 * sizeof(double));
+            if (has_toe)
+                memcpy(ft->tt + 3 * f, P + 3 * (f * C + toe), 3 * sizeof(double));
+        }
+        for (size_t s = 0; s < N;) { /* runs of U */
+            if (!ft->U[s]) {
+                s++;
+                continue;
+            }
+            size_t e = s;
+            while (e < N && ft->U[e])
+                e++;
+            if (have_ref) {
+                double o[3] = {0, 0, 0};
+                size_t cnt = 0;
+                for (size_t f = s; f < e; f++)
+                    for (size_t i = 0; i < ft->n_cols; i++) {
+                        const size_t c = ft->cols[i];
+                        if (!contacts[f * C + c])
+                            continue;
+                        for (int d = 0; d < 3; d++)
+                            o[d] += P[3 * (f * C + c) + (size_t)d] - Pr[3 * (f * C + c) + (size_t)d];
+                        cnt++;
+                    }
+                for (int d = 0; d < 3; d++)
+                    o[d] = d == up ? 0.0 : o[d] / (double)cnt;
+                for (size_t f = s; f < e; f++)
+                    for (int d = 0; d < 3; d++) {
+                        ft->at[3 * f + (size_t)d] = pos_ref[3 * (f * J + a) + (size_t)d] + o[d];
+                        if (has_toe)
+                            ft->tt[3 * f + (size_t)d] = Pr[3 * (f * C + toe) + (size_t)d] + o[d];
+                    }
+            } else {
+                /* each point pinned to its mean over each of its contact runs within [s, e) */
+                for (size_t f = s; f < e; f++) {
+                    double md[3] = {0, 0, 0}, own_d[3] = {0, 0, 0}, toe_d[3] = {0, 0, 0};
+                    size_t cnt = 0;
+                    int own_in = 0, toe_in = 0;
+                    for (size_t i = 0; i < ft->n_cols; i++) {
+                        const size_t c = ft->cols[i];
+                        if (!contacts[f * C + c])
+                            continue;
+                        size_t r0 = f, r1 = f; /* the point's contact run around f */
+                        while (r0 > s && contacts[(r0 - 1) * C + c])
+                            r0--;
+                        while (r1 < e && contacts[r1 * C + c])
+                            r1++;
+                        double d[3];
+                        for (int q = 0; q < 3; q++) {
+                            double mean = 0.0;
+                            for (size_t g = r0; g < r1; g++)
+                                mean += P[3 * (g * C + c) + (size_t)q];
+                            d[q] = mean / (double)(r1 - r0) - P[3 * (f * C + c) + (size_t)q];
+                            md[q] += d[q];
+                        }
+                        cnt++;
+                        if (i == 0 && ft->n_own)
+                            own_in = 1, memcpy(own_d, d, sizeof d);
+                        if (has_toe && i == ft->n_own)
+                            toe_in = 1, memcpy(toe_d, d, sizeof d);
+                    }
+                    for (int q = 0; q < 3; q++) {
+                        md[q] /= (double)(cnt ? cnt : 1);
+                        ft->at[3 * f + (size_t)q] += own_in ? own_d[q] : md[q];
+                        if (has_toe)
+                            ft->tt[3 * f + (size_t)q] += toe_in ? toe_d[q] : md[q];
+                    }
+                    if (floor_active) { /* the pinned points stay above the floor */
+                        double lift = 0.0;
+                        if (ft->n_own)
+                            lift = fmax(lift, floor_h - ft->at[3 * f + (size_t)up]);
+                        if (has_toe)
+                            lift = fmax(lift, floor_h - ft->tt[3 * f + (size_t)up]);
+                        ft->at[3 * f + (size_t)up] += lift;
+                        if (has_toe)
+                            ft->tt[3 * f + (size_t)up] += lift;
+                    }
+                }
+            }
+            s = e;
+        }
+        for (size_t f = 0; f < N; f++)
+            anyU[f] |= ft->U[f];
+    }
+
+    /* ---- root shift: legs that cannot reach their contact targets ---- */
+    if (cfg.root_on) {
+        double *need = take(&ar, N * 3, sizeof(double));
+        double *wide = take(&ar, N * 3, sizeof(double));
+        uint8_t *nmask = take(&ar, N, 1);
+        double *ysh = take(&ar, N * 3, sizeof(double));
+        if (ar.st != MLR_OK)
+            goto fail;
+        const size_t half = (size_t)fmax(1.0, round(0.1 * fps));
+        for (int it = 0; it < 5; it++) {
+            memset(need, 0, N * 3 * sizeof(double));
+            int any = 0;
+            for (size_t k = 0; k < nf; k++) {
+                const foot *ft = &feet[k];
+                if (!ft->active)
+                    continue;
+                const size_t h = (size_t)ft->hip, kn = (size_t)ft->knee, e = (size_t)ft->anchor;
+                for (size_t f = 0; f < N; f++) {
+                    if (!ft->U[f])
+                        continue;
+                    const double *ph = pos + 3 * (f * J + h), *pk = pos + 3 * (f * J + kn),
+                                 *pe = pos + 3 * (f * J + e);
+                    const double length = dist3(pk, ph) + dist3(pe, pk);
+                    const double now = dist3(pe, ph);
+                    const double reach = fmax(cfg.reach * length, now);
+                    double v[3];
+                    for (int d = 0; d < 3; d++)
+                        v[d] = ft->at[3 * f + (size_t)d] - (ph[d] + shift[3 * f + (size_t)d]);
+                    const double dist = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+                    const double excess = dist - reach;
+                    if (!(excess > 0.0))
+                        continue;
+                    const double cur = sqrt(need[3 * f] * need[3 * f] +
+                                            need[3 * f + 1] * need[3 * f + 1] +
+                                            need[3 * f + 2] * need[3 * f + 2]);
+                    if (excess > cur) {
+                        for (int d = 0; d < 3; d++)
+                            need[3 * f + (size_t)d] = v[d] * excess / fmax(dist, 1e-12);
+                        any = 1;
+                    }
+                }
+            }
+            if (!any)
+                break;
+            /* widen each need to +-0.1 s (the largest need there), then blend and smooth */
+            for (size_t f = 0; f < N; f++) {
+                size_t best = f;
+                double bn = -1.0;
+                const size_t lo = f > half ? f - half : 0, hi = f + half < N ? f + half : N - 1;
+                for (size_t g = lo; g <= hi; g++) {
+                    const double n2 = need[3 * g] * need[3 * g] + need[3 * g + 1] * need[3 * g + 1] +
+                                      need[3 * g + 2] * need[3 * g + 2];
+                    if (n2 > bn)
+                        bn = n2, best = g;
+                }
+                memcpy(wide + 3 * f, need + 3 * best, 3 * sizeof(double));
+                nmask[f] = bn > 0.0;
+            }
+            design_map(N, 3, nmask, wide, cfg.blend * fps, ysh);
+            if ((st = mlr_lgs_solve(w.pin, ysh, 3, 3, wide, 3)) != MLR_OK)
+                goto fail_st;
+            for (size_t i = 0; i < 3 * N; i++)
+                shift[i] += wide[i];
+        }
+        for (size_t f = 0; f < N; f++) {
+            for (int d = 0; d < 3; d++)
+                out_root_pos[3 * f + (size_t)d] += shift[3 * f + (size_t)d];
+            if (report) {
+                const double n = sqrt(shift[3 * f] * shift[3 * f] +
+                                      shift[3 * f + 1] * shift[3 * f + 1] +
+                                      shift[3 * f + 2] * shift[3 * f + 2]);
+                report->root_shift_max = fmax(report->root_shift_max, n);
+            }
+        }
+    }
+
+    /* ---- passes: IK on the constrained frames, then the spread ---- */
+    double *P2 = take(&ar, N * C * 3, sizeof(double));
+    double *pos2 = take(&ar, N * J * 3, sizeof(double));
+    double *wrot2 = take(&ar, N * J * 4, sizeof(double));
+    uint8_t *mask = take(&ar, N, 1);
+    if (ar.st != MLR_OK)
+        goto fail;
+    const double *tr = trans;
+    for (int pass = 0; pass < cfg.passes; pass++) {
+        if ((st = fk_points(rig, N, out_root_pos, out_rot, tr, C, joints, end_sites, pos, wrot, P2,
+                            &A)) != MLR_OK)
+            goto fail_st;
+        /* floor frames: a point below its limit, the foot not in contact */
+        memset(anyF, 0, N);
+        for (size_t k = 0; k < nf; k++) {
+            foot *ft = &feet[k];
+            if (!ft->active || !floor_active)
+                continue;
+            for (size_t f = 0; f < N; f++) {
+                double lift = 0.0;
+                for (size_t i = 0; i < ft->n_cols; i++) {
+                    const size_t c = ft->cols[i];
+                    lift = fmax(lift, lim[f * C + c] - P2[3 * (f * C + c) + (size_t)up]);
+                }
+                ft->lift[f] = lift;
+                if (!ft->U[f] && lift > 0.0)
+                    ft->F[f] = 1;
+                anyF[f] |= ft->F[f] && lift > 0.0;
+            }
+        }
+        memcpy(newr, out_rot, N * J * 4 * sizeof(double));
+        for (size_t k = 0; k < nf; k++) {
+            const foot *ft = &feet[k];
+            if (!ft->active)
+                continue;
+            const size_t h = (size_t)ft->hip, kn = (size_t)ft->knee, a = (size_t)ft->anchor;
+            const int32_t pk = rig->parents[kn], ph = rig->parents[h];
+            double local[3] = {0, 0, 0};
+            mlr_ik_bend_axis_local(N, J, pos, wrot, ft->hip, ft->knee, ft->anchor, local);
+            const int have_local = local[0] != 0.0 || local[1] != 0.0 || local[2] != 0.0;
+            for (size_t f = 0; f < N; f++) {
+                if (!ft->U[f] && !ft->F[f])
+                    continue;
+                const double *Pf = pos + 3 * f * J, *G = wrot + 4 * f * J;
+                double target[3], ax[3], rh[4], rk[4];
+                if (ft->U[f]) {
+                    memcpy(target, ft->at + 3 * f, sizeof target);
+                } else {
+                    memcpy(target, Pf + 3 * a, sizeof target);
+                    target[up] += fmax(ft->lift[f], 0.0);
+                }
+                if (have_local)
+                    mlr_ik_qrot(G + 4 * h, local, ax);
+                mlr_ik_two_bone_1(Pf + 3 * h, Pf + 3 * kn, Pf + 3 * a, target,
+                                  have_local ? ax : NULL, MLR_IK_MAX_EXTENSION, rh, rk);
+                mlr_ik_rotate_to_1(newr + 4 * (f * J + kn), pk >= 0 ? G + 4 * (size_t)pk : NULL,
+                                   G + 4 * kn, rk);
+                mlr_ik_rotate_to_1(newr + 4 * (f * J + h), ph >= 0 ? G + 4 * (size_t)ph : NULL,
+                                   G + 4 * h, rh);
+            }
+        }
+        /* placed points (toes) by turning the ankle; on floor frames the ankle keeps its world
+           rotation, so the whole foot rises with it */
+        if ((st = mlr_fk_arrays(N, J, rig->parents, rig->offsets, out_root_pos, newr,
+                                rig->n_trans, rig->trans_joints, tr, pos2, wrot2, &A)) != MLR_OK)
+            goto fail_st;
+        for (size_t k = 0; k < nf; k++) {
+            const foot *ft = &feet[k];
+            if (!ft->active || ft->n_cols == ft->n_own)
+                continue;
+            const size_t a = (size_t)ft->anchor;
+            const int32_t pa = rig->parents[a];
+            const size_t c = ft->cols[ft->n_own];
+            const int32_t e = end_sites ? end_sites[c] : -1;
+            const size_t j = (size_t)joints[c];
+            for (size_t f = 0; f < N; f++) {
+                if (!ft->U[f] && !ft->F[f])
+                    continue;
+                const double *ga = wrot2 + 4 * (f * J + a);
+                const double *gp = pa >= 0 ? wrot2 + 4 * (f * J + (size_t)pa) : NULL;
+                double r[4];
+                if (ft->U[f]) {
+                    double now[3], u[3], v[3];
+                    if (e >= 0)
+                        mlr_ik_qrot(wrot2 + 4 * (f * J + j), rig->end_site_offsets + 3 * (size_t)e,
+                                    now);
+                    else
+                        now[0] = now[1] = now[2] = 0.0;
+                    for (int d = 0; d < 3; d++) {
+                        now[d] += pos2[3 * (f * J + j) + (size_t)d];
+                        u[d] = now[d] - pos2[3 * (f * J + a) + (size_t)d];
+                        v[d] = ft->tt[3 * f + (size_t)d] - pos2[3 * (f * J + a) + (size_t)d];
+                    }
+                    mlr_ik_from_to_1(u, v, r);
+                } else { /* r * ga = the old world rotation */
+                    const double *gold = wrot + 4 * (f * J + a);
+                    const double cg[4] = {ga[0], -ga[1], -ga[2], -ga[3]};
+                    mlr_ik_qmul(gold, cg, r);
+                }
+                mlr_ik_rotate_to_1(newr + 4 * (f * J + a), gp, ga, r);
+            }
+        }
+        /* spread per leg */
+        for (size_t k = 0; k < nf; k++) {
+            const foot *ft = &feet[k];
+            if (!ft->active)
+                continue;
+            size_t cnt = 0;
+            for (size_t f = 0; f < N; f++)
+                cnt += (mask[f] = ft->U[f] | ft->F[f]) != 0;
+            if (!cnt)
+                continue;
+            int32_t js[3] = {ft->hip, ft->knee, ft->anchor};
+            if ((st = spread_rotations(&w, out_rot, newr, js, ft->n_cols > ft->n_own ? 3 : 2,
+                                       mask)) != MLR_OK)
+                goto fail_st;
+        }
+    }
+    if (report) {
+        for (size_t f = 0; f < N; f++) {
+            report->contact_frames += anyU[f];
+            report->floor_frames += anyF[f];
+        }
+    }
+    mlr_lgs_destroy(w.pin);
+    release(&ar);
+    return MLR_OK;
+fail:
+    mlr_lgs_destroy(w.pin);
+    release(&ar);
+    return mlr_diag_set(diag, ar.st, 0, 0, "cleanup: out of memory");
+fail_st:
+    mlr_diag_set(diag, st, 0, 0, "cleanup: internal solve failed (status %d)", (int)st);
+fail_st_keep:
+    mlr_lgs_destroy(w.pin);
+    release(&ar);
+    return st;
+}

@@ -1,0 +1,320 @@
+/*
+ * Analytic two-bone IK (mlr_ik.h): the solver per frame, leg chains, local rotations.
+ */
+#include "ik_internal.h"
+
+#include <math.h>
+
+#define IK_EPS 1e-12
+#define IK_PI 3.14159265358979323846
+
+static double dot3(const double a[3], const double b[3])
+{
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
+static void cross3(const double a[3], const double b[3], double o[3])
+{
+    const double x = a[1] * b[2] - a[2] * b[1], y = a[2] * b[0] - a[0] * b[2],
+                 z = a[0] * b[1] - a[1] * b[0];
+    o[0] = x, o[1] = y, o[2] = z;
+}
+
+static double norm3(const double a[3]) { return sqrt(dot3(a, a)); }
+
+static void unit3(double a[3])
+{
+    const double n = norm3(a);
+    if (n > IK_EPS)
+        a[0] /= n, a[1] /= n, a[2] /= n;
+}
+
+void mlr_ik_qmul(const double a[4], const double b[4], double o[4])
+{
+    const double w = a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3];
+    const double x = a[0] * b[1] + a[1] * b[0] + a[2] * b[3] - a[3] * b[2];
+    const double y = a[0] * b[2] - a[1] * b[3] + a[2] * b[0] + a[3] * b[1];
+    const double z = a[0] * b[3] + a[1] * b[2] - a[2] * b[1] + a[3] * b[0];
+    o[0] = w, o[1] = x, o[2] = y, o[3] = z;
+}
+
+void mlr_ik_qrot(const double q[4], const double v[3], double o[3])
+{
+    /* v + w t + u x t, t = 2 u x v (as ik._rotate) */
+    const double u[3] = {q[1], q[2], q[3]};
+    double t[3], ut[3];
+    cross3(u, v, t);
+    t[0] *= 2.0, t[1] *= 2.0, t[2] *= 2.0;
+    cross3(u, t, ut);
+    const double x = v[0] + q[0] * t[0] + ut[0], y = v[1] + q[0] * t[1] + ut[1],
+                 z = v[2] + q[0] * t[2] + ut[2];
+    o[0] = x, o[1] = y, o[2] = z;
+}
+
+static void qnormalize(double q[4])
+{
+    const double n = sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+    if (n > 0.0)
+        q[0] /= n, q[1] /= n, q[2] /= n, q[3] /= n;
+}
+
+void mlr_ik_from_to_1(const double u_in[3], const double v_in[3], double q[4])
+{
+    double u[3] = {u_in[0], u_in[1], u_in[2]}, v[3] = {v_in[0], v_in[1], v_in[2]};
+    unit3(u);
+    unit3(v);
+    const double c = dot3(u, v);
+    double axis[3];
+    cross3(u, v, axis);
+    q[0] = 1.0 + c, q[1] = axis[0], q[2] = axis[1], q[3] = axis[2];
+    if (c < -1.0 + 1e-12) {
+        const double ex[3] = {1.0, 0.0, 0.0}, ey[3] = {0.0, 1.0, 0.0};
+        double perp[3];
+        cross3(u, ex, perp);
+        if (norm3(perp) < 1e-6)
+            cross3(u, ey, perp);
+        unit3(perp);
+        q[0] = 0.0, q[1] = perp[0], q[2] = perp[1], q[3] = perp[2];
+    }
+    const double n = sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+    if (n < IK_EPS) {
+        q[0] = 1.0, q[1] = q[2] = q[3] = 0.0;
+        return;
+    }
+    q[0] /= n, q[1] /= n, q[2] /= n, q[3] /= n;
+}
+
+void mlr_ik_two_bone_1(const double a[3], const double b[3], const double c[3],
+                       const double t[3], const double *axis, double max_ext, double r_hip[4],
+                       double r_knee[4])
+{
+    double ab[3], bc[3], ac[3], at[3], mab[3];
+    for (int k = 0; k < 3; k++) {
+        ab[k] = b[k] - a[k], bc[k] = c[k] - b[k], ac[k] = c[k] - a[k], at[k] = t[k] - a[k];
+        mab[k] = -ab[k];
+    }
+    const double l1 = norm3(ab), l2 = norm3(bc), d_now = norm3(ac);
+    double d = norm3(at);
+    const double hi = fmax(max_ext * (l1 + l2), d_now);
+    d = fmin(d, hi);
+    double n[3], bcu[3] = {bc[0], bc[1], bc[2]};
+    if (axis)
+        n[0] = axis[0], n[1] = axis[1], n[2] = axis[2];
+    else
+        cross3(bc, mab, n);
+    unit3(bcu);
+    const double p = dot3(n, bcu);
+    for (int k = 0; k < 3; k++)
+        n[k] -= p * bcu[k];
+    const double small = 1e-9 * fmax(l1 * l2, IK_EPS);
+    if (norm3(n) <= small) { /* hinge along the shin: the leg's own plane, or any axis */
+        cross3(bc, mab, n);
+        if (norm3(n) <= small) {
+            const double ex[3] = {1.0, 0.0, 0.0};
+            cross3(bc, ex, n);
+        }
+    }
+    unit3(n);
+    /* |ab + R(n, phi) bc|^2 = K + 2 (P cos phi + Q sin phi) = K + 2 A cos(phi - phi0) */
+    double w[3];
+    cross3(n, bc, w);
+    const double K = l1 * l1 + l2 * l2, P = dot3(ab, bc), Q = dot3(ab, w);
+    const double A = hypot(P, Q), phi0 = atan2(Q, P);
+    double cosb = (d * d - K) / fmax(2.0 * A, IK_EPS);
+    cosb = cosb < -1.0 ? -1.0 : cosb > 1.0 ? 1.0 : cosb;
+    double phi = phi0 + acos(cosb); /* the forward-bent solution */
+    phi = phi + IK_PI;
+    phi = phi - 2.0 * IK_PI * floor(phi / (2.0 * IK_PI)) - IK_PI;
+    const double h = 0.5 * phi, s = sin(h);
+    r_knee[0] = cos(h), r_knee[1] = s * n[0], r_knee[2] = s * n[1], r_knee[3] = s * n[2];
+    const double cp = cos(phi), sp = sin(phi);
+    double c1a[3];
+    for (int k = 0; k < 3; k++)
+        c1a[k] = b[k] + cp * bc[k] + sp * w[k] - a[k];
+    mlr_ik_from_to_1(c1a, at, r_hip);
+}
+
+void mlr_ik_rotate_to_1(double rot_j[4], const double *gp, const double g[4], const double r[4])
+{
+    double nw[4];
+    mlr_ik_qmul(r, g, nw);
+    if (gp) {
+        const double cgp[4] = {gp[0], -gp[1], -gp[2], -gp[3]};
+        mlr_ik_qmul(cgp, nw, rot_j);
+    } else {
+        rot_j[0] = nw[0], rot_j[1] = nw[1], rot_j[2] = nw[2], rot_j[3] = nw[3];
+    }
+    qnormalize(rot_j);
+}
+
+static int all_finite(const double *x, size_t count)
+{
+    for (size_t i = 0; i < count; i++)
+        if (!isfinite(x[i]))
+            return 0;
+    return 1;
+}
+
+mlr_status mlr_ik_two_bone(size_t n, const double *hip, const double *knee, const double *end,
+                           const double *target, const double *bend_axis, double max_extension,
+                           double *r_hip, double *r_knee, mlr_diag *diag)
+{
+    if (n && (!hip || !knee || !end || !target || !r_hip || !r_knee))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "two_bone: NULL array");
+    if (!(max_extension > 0.0 && max_extension <= 1.0))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "two_bone: max_extension %g outside (0, 1]", max_extension);
+    const double *arrs[5] = {hip, knee, end, target, bend_axis};
+    const char *names[5] = {"hip", "knee", "end", "target", "bend_axis"};
+    for (int i = 0; i < 5; i++)
+        if (arrs[i] && !all_finite(arrs[i], 3 * n))
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "two_bone: %s contains NaN or infinite values", names[i]);
+    for (size_t f = 0; f < n; f++)
+        mlr_ik_two_bone_1(hip + 3 * f, knee + 3 * f, end + 3 * f, target + 3 * f,
+                          bend_axis ? bend_axis + 3 * f : NULL, max_extension, r_hip + 4 * f,
+                          r_knee + 4 * f);
+    return MLR_OK;
+}
+
+mlr_status mlr_ik_from_to(size_t n, const double *u, const double *v, double *out)
+{
+    if (n && (!u || !v || !out))
+        return MLR_E_INVALID_ARG;
+    for (size_t f = 0; f < n; f++)
+        mlr_ik_from_to_1(u + 3 * f, v + 3 * f, out + 4 * f);
+    return MLR_OK;
+}
+
+static int32_t bone_parent(const mlr_rig *rig, int32_t j)
+{
+    int32_t c = j;
+    while (c > 0 && norm3(rig->offsets + 3 * (size_t)c) <= 1e-9)
+        c = rig->parents[c];
+    return c > 0 ? rig->parents[c] : -1;
+}
+
+mlr_status mlr_ik_leg_chain(const mlr_rig *rig, int32_t end, int32_t *hip, int32_t *knee,
+                            mlr_diag *diag)
+{
+    mlr_status st = mlr_rig_check(rig, diag);
+    if (st != MLR_OK)
+        return st;
+    if (!hip || !knee)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "leg_chain: NULL output");
+    if (end < 0 || (size_t)end >= rig->n_joints)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "leg_chain: joint %d outside [0, %zu)", (int)end, rig->n_joints);
+    const int32_t k = bone_parent(rig, end);
+    const int32_t h = k >= 0 ? bone_parent(rig, k) : -1;
+    if (k < 0 || h < 0) {
+        if (rig->names && rig->names[end])
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "joint '%.60s' has no two-bone chain above it (needs two "
+                                "ancestors at non-zero distances: a hip and a knee)",
+                                rig->names[end]);
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "joint %d has no two-bone chain above it (needs two ancestors at "
+                            "non-zero distances: a hip and a knee)", (int)end);
+    }
+    *hip = h, *knee = k;
+    return MLR_OK;
+}
+
+mlr_status mlr_ik_bend_axis_local(size_t n, size_t J, const double *pos, const double *wrot,
+                                  int32_t hip, int32_t knee, int32_t end, double axis[3])
+{
+    if (!axis || (n && (!pos || !wrot)) || hip < 0 || knee < 0 || end < 0 ||
+        (size_t)hip >= J || (size_t)knee >= J || (size_t)end >= J)
+        return MLR_E_INVALID_ARG;
+    double s[3] = {0.0, 0.0, 0.0};
+    for (size_t f = 0; f < n; f++) {
+        const double *ph = pos + 3 * (f * J + (size_t)hip), *pk = pos + 3 * (f * J + (size_t)knee),
+                     *pe = pos + 3 * (f * J + (size_t)end), *g = wrot + 4 * (f * J + (size_t)hip);
+        double ek[3], hk[3], c[3], l[3];
+        for (int k = 0; k < 3; k++)
+            ek[k] = pe[k] - pk[k], hk[k] = ph[k] - pk[k];
+        cross3(ek, hk, c);
+        const double cg[4] = {g[0], -g[1], -g[2], -g[3]};
+        mlr_ik_qrot(cg, c, l);
+        s[0] += l[0], s[1] += l[1], s[2] += l[2];
+    }
+    const double ns = norm3(s);
+    for (int k = 0; k < 3; k++)
+        axis[k] = ns > IK_EPS ? s[k] / ns : 0.0;
+    return MLR_OK;
+}
+
+static mlr_status check_joint(size_t J, const int32_t *parents, int32_t j, mlr_diag *diag)
+{
+    if (j < 0 || (size_t)j >= J)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "joint %d outside [0, %zu)", (int)j, J);
+    if ((j == 0 && parents[0] != -1) || (j > 0 && (parents[j] < 0 || parents[j] >= j)))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "joint %d: bad parent %d", (int)j,
+                            (int)parents[j]);
+    return MLR_OK;
+}
+
+mlr_status mlr_ik_rotate_to(size_t n, size_t J, const int32_t *parents, double *rot,
+                            const double *wrot, int32_t joint, const double *r_world,
+                            mlr_diag *diag)
+{
+    if (!parents || (n && (!rot || !wrot || !r_world)))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "rotate_to: NULL array");
+    mlr_status st = check_joint(J, parents, joint, diag);
+    if (st != MLR_OK)
+        return st;
+    const int32_t p = parents[joint];
+    for (size_t f = 0; f < n; f++)
+        mlr_ik_rotate_to_1(rot + 4 * (f * J + (size_t)joint),
+                           p >= 0 ? wrot + 4 * (f * J + (size_t)p) : NULL,
+                           wrot + 4 * (f * J + (size_t)joint), r_world + 4 * f);
+    return MLR_OK;
+}
+
+mlr_status mlr_ik_apply_leg(size_t n, size_t J, const int32_t *parents, double *rot,
+                            const double *pos, const double *wrot, int32_t hip, int32_t knee,
+                            int32_t end, const double *target, const double *bend_axis,
+                            mlr_diag *diag)
+{
+    if (!parents || (n && (!rot || !pos || !wrot || !target)))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "apply_leg: NULL array");
+    mlr_status st;
+    if ((st = check_joint(J, parents, hip, diag)) != MLR_OK ||
+        (st = check_joint(J, parents, knee, diag)) != MLR_OK ||
+        (st = check_joint(J, parents, end, diag)) != MLR_OK)
+        return st;
+    if (!(hip < knee && knee < end))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "apply_leg: (%d, %d, %d) is not a hip, knee, end chain", (int)hip,
+                            (int)knee, (int)end);
+    if (!all_finite(target, 3 * n) || (bend_axis && !all_finite(bend_axis, 3 * n)))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "apply_leg: target or bend_axis contains NaN or infinite values");
+    double local[3] = {0.0, 0.0, 0.0};
+    int have_local = 0;
+    if (!bend_axis) {
+        mlr_ik_bend_axis_local(n, J, pos, wrot, hip, knee, end, local);
+        have_local = local[0] != 0.0 || local[1] != 0.0 || local[2] != 0.0;
+    }
+    const size_t h = (size_t)hip, k = (size_t)knee, e = (size_t)end;
+    const int32_t pk = parents[knee], ph = parents[hip];
+    for (size_t f = 0; f < n; f++) {
+        const double *P = pos + 3 * f * J, *G = wrot + 4 * f * J;
+        double ax[3], rh[4], rk[4];
+        const double *axp = bend_axis ? bend_axis + 3 * f : NULL;
+        if (have_local) {
+            mlr_ik_qrot(G + 4 * h, local, ax);
+            axp = ax;
+        }
+        mlr_ik_two_bone_1(P + 3 * h, P + 3 * k, P + 3 * e, target + 3 * f, axp,
+                          MLR_IK_MAX_EXTENSION, rh, rk);
+        /* the knee's parent keeps its old world rotation here: the hip's delta turns knee and
+           parent alike */
+        mlr_ik_rotate_to_1(rot + 4 * (f * J + k), pk >= 0 ? G + 4 * (size_t)pk : NULL,
+                           G + 4 * k, rk);
+        mlr_ik_rotate_to_1(rot + 4 * (f * J + h), ph >= 0 ? G + 4 * (size_t)ph : NULL,
+                           G + 4 * h, rh);
+    }
+    return MLR_OK;
+}
