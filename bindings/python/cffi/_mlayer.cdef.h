@@ -204,7 +204,8 @@ typedef enum mlr_layers_key {
     MLR_LAYERS_OPT_GAMMA = 1, MLR_LAYERS_OPT_LAM_B = 2, MLR_LAYERS_OPT_SIGMA_B = 3,
     MLR_LAYERS_OPT_LAM_C = 4, MLR_LAYERS_OPT_SIGMA_C = 5, MLR_LAYERS_OPT_BASE_S_MIN = 6,
     MLR_LAYERS_OPT_BASE_S_MAX = 7, MLR_LAYERS_OPT_CONTROL_S_MIN = 8,
-    MLR_LAYERS_OPT_CONTROL_S_MAX = 9
+    MLR_LAYERS_OPT_CONTROL_S_MAX = 9, MLR_LAYERS_OPT_FPS = 10, MLR_LAYERS_OPT_BASE_CUTOFF = 11,
+    MLR_LAYERS_OPT_BODY_JOINT = 12
 } mlr_layers_key;
 typedef struct mlr_layers_option { int key; double value; } mlr_layers_option;
 typedef enum mlr_layers_param {

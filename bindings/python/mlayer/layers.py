@@ -189,8 +189,10 @@ def _finite(v, name) -> float:
 
 def base_s_max(fps: float, cutoff_hz: float) -> float:
     """The base-layer smoothing s = lam^2 sigma^2 whose LGS (second-difference prior, identity
-    observations) halves the power at cutoff_hz for a clip at fps: the response
-    1 / (1 + s (2 sin(pi f / fps))^4) is 1/2 there."""
+    observations) halves the amplitude at cutoff_hz for a clip at fps: the gain
+    1 / (1 + s (2 sin(pi f / fps))^4) is 1/2 there. The C core computes the same upper end of
+    the base search from MLR_LAYERS_OPT_FPS and MLR_LAYERS_OPT_BASE_CUTOFF (decompose passes
+    those); this formula is kept as the reference."""
     return (2.0 * math.sin(math.pi * cutoff_hz / fps)) ** -4
 
 
@@ -224,14 +226,13 @@ def decompose(motion, *, gamma: float = math.pi / 2, lam_c=None, sigma_c=None, l
         _option(lib.MLR_LAYERS_OPT_LAM_B, lam_b, "lam_b"),
         _option(lib.MLR_LAYERS_OPT_SIGMA_B, sigma_b, "sigma_b")) if o is not None]
     if base_cutoff is not None and lam_b is None and sigma_b is None:
+        # the floor is the C default given the frame rate (mlr_layers.h, "The base floor")
         cutoff = _finite(base_cutoff, "base_cutoff")
         if not 0.0 < cutoff < 0.5 * motion.fps:
             raise InvalidArgumentError(f"base_cutoff must be in (0, fps/2) = (0, "
                                        f"{0.5 * motion.fps:g}) Hz, got {base_cutoff!r}")
-        s_max = base_s_max(motion.fps, cutoff)
-        opts.append((lib.MLR_LAYERS_OPT_BASE_S_MAX, s_max))
-        if s_max <= 1e-2:  # the C default lower end of the search range
-            opts.append((lib.MLR_LAYERS_OPT_BASE_S_MIN, s_max / 10.0))
+        opts += [(lib.MLR_LAYERS_OPT_FPS, _finite(motion.fps, "fps")),
+                 (lib.MLR_LAYERS_OPT_BASE_CUTOFF, cutoff)]
     copts = ffi.new("mlr_layers_option[]", max(1, len(opts)))
     for k, (key, value) in enumerate(opts):
         copts[k].key, copts[k].value = key, value

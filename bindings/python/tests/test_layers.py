@@ -109,6 +109,58 @@ def test_base_floor_follows_the_frame_rate(walk):
     assert np.all(L.base_max_angle[1:] <= math.pi / 2 + 1e-12)
 
 
+def _decompose_old_formula(m, root_pos, extra=()):
+    """The layers as Python made them before the floor moved into C: the upper end of the base
+    search computed here (base_s_max at 0.25 Hz) and passed as MLR_LAYERS_OPT_BASE_S_MAX."""
+    from mlayer._native import ffi, lib
+    opts = [(lib.MLR_LAYERS_OPT_GAMMA, math.pi / 2),
+            (lib.MLR_LAYERS_OPT_BASE_S_MAX, base_s_max(m.fps, 0.25))] + list(extra)
+    copts = ffi.new("mlr_layers_option[]", len(opts))
+    for k, (key, value) in enumerate(opts):
+        copts[k].key, copts[k].value = key, value
+    root = np.ascontiguousarray(root_pos, dtype=np.float64)
+    rot = np.ascontiguousarray(m.rot, dtype=np.float64)
+    out = ffi.new("mlr_layers **")
+    n, j = m.n_frames, m.n_joints
+    assert lib.mlr_layers_decompose(n, j, ffi.cast("const double *", ffi.from_buffer(root)),
+                                    ffi.cast("const double *", ffi.from_buffer(rot)), copts,
+                                    len(opts), ffi.NULL, out, ffi.NULL) == 0
+    h = ffi.gc(out[0], lib.mlr_layers_destroy)
+    got = {"base_pos": np.empty((n, 3)), "base_rot": np.empty((n, j, 4)),
+           "control": np.empty((n, 1 + j, 3)), "residual": np.empty((n, 1 + j, 3)),
+           "base_s": np.empty(1 + j)}
+    buf = {k: ffi.cast("double *", ffi.from_buffer(v, require_writable=True))
+           for k, v in got.items()}
+    assert lib.mlr_layers_get_base(h, buf["base_pos"], 3 * n, buf["base_rot"], 4 * n * j) == 0
+    assert lib.mlr_layers_get_control(h, buf["control"], 3 * n * (1 + j)) == 0
+    assert lib.mlr_layers_get_residual(h, buf["residual"], 3 * n * (1 + j)) == 0
+    assert lib.mlr_layers_get_param(h, lib.MLR_LAYERS_PARAM_BASE_S, buf["base_s"], 1 + j) == 0
+    return got
+
+
+@pytest.mark.parametrize("clip", CLIPS)
+def test_floor_in_c_gives_the_layers_of_the_python_formula(mocap, clip):
+    # decompose now passes the frame rate (MLR_LAYERS_OPT_FPS, default cutoff 0.25 Hz) and the
+    # C core derives the floor: bit for bit what the Python formula gave
+    m = mlayer.read_bvh(mocap / f"{clip}.bvh")
+    L = mlayer.decompose(m)
+    old = _decompose_old_formula(m, m.root_pos)
+    np.testing.assert_array_equal(L.base.rot, old["base_rot"])
+    np.testing.assert_array_equal(L.base.root_pos, old["base_pos"])
+    np.testing.assert_array_equal(L.control, old["control"])
+    np.testing.assert_array_equal(L.residual, old["residual"])
+    np.testing.assert_array_equal(L.base_s, old["base_s"])
+
+
+def test_base_cutoff_reaches_c(walk):
+    # another cutoff moves the C floor; lam_b / sigma_b still win over it
+    L = mlayer.decompose(walk, base_cutoff=1.0)
+    assert L.base_s.max() <= base_s_max(walk.fps, 1.0) * (1 + 1e-12)
+    assert L.base_s.max() < mlayer.decompose(walk).base_s.max()
+    fixed = mlayer.decompose(walk, lam_b=2.0, base_cutoff=1.0)
+    np.testing.assert_allclose(fixed.base_s, (2.0 * 0.1) ** 2)
+
+
 def test_explicit_control_parameters(walk):
     L = mlayer.decompose(walk, lam_c=1.0, sigma_c=1.0)
     assert np.allclose(L.lam_c, 1.0) and np.allclose(L.sigma_c, 1.0)
