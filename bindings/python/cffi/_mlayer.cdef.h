@@ -321,3 +321,6 @@ mlr_status mlr_rig_point_positions(const mlr_rig *rig, size_t n_frames,
 mlr_status mlr_rig_body_height(size_t n_frames, size_t n_joints, const double *world_pos,
                                int up, double *height, const mlr_allocator *alloc,
                                mlr_diag *diag);
+mlr_status mlr_rig_body_translation_joint(const mlr_rig *rig, size_t n_frames,
+                                          const double *root_pos, const double *trans,
+                                          int32_t *joint, mlr_diag *diag);
