@@ -23,9 +23,12 @@ How the smoothing is chosen (all in the C core, see mlr_layers.h):
   lam_c = sigma_c = 1 was tuned on 24 fps data and barely smooths 120 fps captures; pass
   lam_c / sigma_c to use fixed values instead.
 
-Joints with position channels other than the root (Bandai files put 6 channels on every
-joint) keep their translations unchanged: the layers act on the root translation and on the
-rotations.
+The translation group (index 0 of control, residual and the parameters) is the body
+translation: the root's, or, on rigs whose root stays put while a joint below it carries the
+walk in its position channels (Bandai: a static ``joint_Root`` above ``Hips``), that joint's
+(:func:`body_translation_joint`, ``Layers.body_joint``). Denoising smooths it and style
+modulation scales it wherever it lives. Other position channels (Bandai files put 6 channels on
+every joint, repeating the OFFSETs) keep their values.
 """
 from __future__ import annotations
 
@@ -63,27 +66,103 @@ def _option(key, value, name):
     return (key, v)
 
 
+def body_translation_joint(motion) -> int:
+    """The joint that carries the body translation of a Motion (or of a list of Motions of one
+    skeleton): the root when its translation varies beyond rounding, else the topmost joint with
+    position channels whose translation does (Bandai: ``Hips`` under a static ``joint_Root``),
+    else the root. "Beyond rounding": a coordinate spans more than 1e-5 of the rest pose's size
+    (mlr_rig_body_translation_joint in the C core). For several clips: the first non-root
+    answer among them, else the root."""
+    from .motion import Motion
+    clips = list(motion) if isinstance(motion, (list, tuple)) else [motion]
+    for m in clips:
+        if not isinstance(m, Motion):
+            raise InvalidArgumentError(f"body_translation_joint: expected a Motion, got "
+                                       f"{type(m).__name__}")
+    for m in clips:
+        j = _body_joint_one(m)
+        if j != 0:
+            return j
+    return 0
+
+
+def _body_joint_one(m) -> int:
+    sk = m.skeleton
+    P = int(sk.trans_joints.shape[0])
+    if P == 0 or m.n_frames == 0:
+        return 0
+    root, _, trans = m._frames()
+    parents = np.ascontiguousarray(sk.parents, dtype=np.int32)
+    tj = np.ascontiguousarray(sk.trans_joints, dtype=np.int32)
+    offsets = _arrays.as_f64(sk.offsets, "offsets")
+    E = int(sk.end_site_parents.shape[0])
+    ep = np.ascontiguousarray(sk.end_site_parents, dtype=np.int32)
+    eo = _arrays.as_f64(sk.end_site_offsets, "end_site_offsets").reshape(-1, 3)
+    rig = ffi.new("mlr_rig *")
+    rig.n_joints = sk.n_joints
+    rig.parents = ffi.cast("const int32_t *", ffi.from_buffer(parents))
+    rig.offsets = _arrays.ptr(offsets)
+    rig.names = ffi.NULL
+    rig.n_trans = P
+    rig.trans_joints = ffi.cast("const int32_t *", ffi.from_buffer(tj))
+    rig.n_end_sites = E
+    rig.end_site_parents = ffi.cast("const int32_t *", ffi.from_buffer(ep)) if E else ffi.NULL
+    rig.end_site_offsets = _arrays.ptr(eo) if E else ffi.NULL
+    out = ffi.new("int32_t *")
+    diag = ffi.new("mlr_diag *")
+    check(lib.mlr_rig_body_translation_joint(rig, m.n_frames, _arrays.ptr(root),
+                                             _arrays.ptr(trans), out, diag),
+          "body_translation_joint", diag)
+    return int(out[0])
+
+
+def body_translation(motion, joint: int) -> np.ndarray:
+    """The (N, 3) translation of `joint` in a Motion: root_pos for the root, else its position
+    channels (the joint must have them)."""
+    if joint == 0:
+        return motion.root_pos
+    hits = np.flatnonzero(motion.skeleton.trans_joints == joint)
+    if hits.size != 1:
+        raise InvalidArgumentError(f"joint {joint} has no position channels")
+    return motion.trans[:, int(hits[0])]
+
+
+def _with_body_translation(motion, joint: int, t: np.ndarray, rot: np.ndarray):
+    """motion.with_frames with rotations rot and the body translation t written to `joint`
+    (the root's translation when joint is 0, else that joint's position channels; the root and
+    the other channels keep motion's values)."""
+    if joint == 0:
+        return motion.with_frames(root_pos=t, rot=rot)
+    trans = np.array(motion.trans, dtype=np.float64, order="C", copy=True)
+    trans[:, int(np.flatnonzero(motion.skeleton.trans_joints == joint)[0])] = t
+    return motion.with_frames(rot=rot, trans=trans)
+
+
 class Layers:
     """The layers of one motion. Made by :func:`decompose`; read-only.
 
-    Attributes (groups: index 0 is the root translation, 1 + j is joint j)
+    Attributes (groups: index 0 is the body translation, 1 + j is joint j)
       motion          the input Motion
+      body_joint      the joint whose translation is group 0: 0 (the root) on most rigs; the
+                      joint below a static root that carries the walk otherwise (Bandai: Hips);
+                      see :func:`body_translation_joint`
       base            the base layer, a Motion on the same skeleton
-      control         controllable layer, (N, 1 + J, 3): root translation offsets, then one
+      control         controllable layer, (N, 1 + J, 3): body translation offsets, then one
                       rotation vector (radians, axis times angle) per joint
       residual        residual layer, laid out like control
       lam, sigma      base-layer LGS parameters per group, (1 + J,)
       base_s          lam^2 sigma^2 of the base layer per group (the smoothing strength)
       base_max_angle  largest displacement per group: radians for joints, length units for
-                      the root translation
+                      the body translation
       lam_c, sigma_c  controllable-layer LGS parameters per group, (1 + J,)
       control_s       lam_c^2 sigma_c^2 per group
       control_gcv     GCV score at the chosen setting (NaN when lam_c/sigma_c were given)
       control_dof     effective degrees of freedom of the control smoother per channel
     """
 
-    def __init__(self, motion, handle, params: dict):
+    def __init__(self, motion, handle, params: dict, body_joint: int = 0):
         self.motion = motion
+        self.body_joint = int(body_joint)
         self._h = handle
         for name, values in params.items():
             values.flags.writeable = False
@@ -98,11 +177,11 @@ class Layers:
         root, rot = np.empty((n, 3)), np.empty((n, j, 4))
         check(lib.mlr_layers_get_base(self._h, _arrays.ptr_out(root), root.size,
                                       _arrays.ptr_out(rot), rot.size), "layers base")
-        return self.motion.with_frames(root_pos=root, rot=rot)
+        return _with_body_translation(self.motion, self.body_joint, root, rot)
 
     @functools.cached_property
     def control(self) -> np.ndarray:
-        """The controllable layer, (N, 1 + J, 3): root translation, then rotation vectors."""
+        """The controllable layer, (N, 1 + J, 3): body translation, then rotation vectors."""
         return self._groups(lib.mlr_layers_get_control, "layers control")
 
     @functools.cached_property
@@ -123,7 +202,7 @@ class Layers:
     def alphas(self, alpha=1.0, joints=None, root_alpha=None) -> np.ndarray:
         """The (1 + J,) alpha vector synthesize uses: `alpha` everywhere, then each pattern of
         `joints` (a dict of joint name or glob -> alpha, applied in order; later patterns win),
-        and `root_alpha` for the root translation (default: alpha)."""
+        and `root_alpha` for the body translation (default: alpha)."""
         names = self.motion.joint_names
         out = np.full(1 + len(names), _finite(alpha, "alpha"))
         if root_alpha is not None:
@@ -139,10 +218,11 @@ class Layers:
     def synthesize(self, alpha=1.0, joints=None, *, root_alpha=None):
         """M' = Mb (+) W control (paper eq. 16, 17), as a Motion on the same skeleton.
 
-        alpha       scale of the controllable layer for every joint and the root translation
+        alpha       scale of the controllable layer for every joint and the body translation
                     (1: denoised, > 1 exaggerated, 0: the base layer)
         joints      dict mapping a joint name or a glob such as "Left*" to its own alpha
-        root_alpha  alpha of the root translation (default: alpha)
+        root_alpha  alpha of the body translation (default: alpha): the root's, or that of
+                    ``body_joint`` when a joint below a static root carries it
         """
         w = self.alphas(alpha, joints, root_alpha)
         return self._frames(lambda r, q: lib.mlr_layers_synthesize(
@@ -160,12 +240,14 @@ class Layers:
         n, j = self.n_frames, self.motion.n_joints
         root, rot = np.empty((n, 3)), np.empty((n, j, 4))
         check(call(root, rot), where)
-        return self.motion.with_frames(root_pos=root, rot=rot)
+        return _with_body_translation(self.motion, self.body_joint, root, rot)
 
     def save_npz(self, path) -> None:
         """Write every layer and parameter to a .npz file (atomically): base_root_pos, base_rot,
-        control, residual, the parameter arrays, joint_names and fps."""
+        base_trans (the base layer's position channels of non-root joints), control, residual,
+        the parameter arrays, body_joint, joint_names and fps."""
         arrays = {"base_root_pos": self.base.root_pos, "base_rot": self.base.rot,
+                  "base_trans": self.base.trans, "body_joint": np.int64(self.body_joint),
                   "control": self.control, "residual": self.residual,
                   "joint_names": np.array(self.motion.joint_names), "fps": self.motion.fps}
         arrays.update({name: getattr(self, name) for name in _PARAMS})
@@ -173,8 +255,10 @@ class Layers:
             np.savez(tmp, **arrays)
 
     def __repr__(self) -> str:
+        body = "" if self.body_joint == 0 else \
+            f"; body translation on {self.motion.joint_names[self.body_joint]!r}"
         return (f"<mlayer.Layers of {self.n_frames} frames, {self.motion.n_joints} joints; "
-                f"lam_c median {np.median(self.lam_c):.3g}>")
+                f"lam_c median {np.median(self.lam_c):.3g}{body}>")
 
 
 def _finite(v, name) -> float:
@@ -198,7 +282,10 @@ def base_s_max(fps: float, cutoff_hz: float) -> float:
 
 def decompose(motion, *, gamma: float = math.pi / 2, lam_c=None, sigma_c=None, lam_b=None,
               sigma_b=None, base_cutoff: float | None = 0.25) -> Layers:
-    """Split a Motion into base, controllable and residual layers (see the module docs).
+    """Split a Motion into base, controllable and residual layers (see the module docs). The
+    translation group is the body translation (:func:`body_translation_joint`): the root's, or
+    that of the joint below a static root that carries it, which then also lends its base
+    smoothing to the translation (MLR_LAYERS_OPT_BODY_JOINT).
 
     gamma           largest displacement angle the base layer may leave, radians, in
                     [pi/2, pi) (paper eq. 14)
@@ -233,10 +320,13 @@ def decompose(motion, *, gamma: float = math.pi / 2, lam_c=None, sigma_c=None, l
                                        f"{0.5 * motion.fps:g}) Hz, got {base_cutoff!r}")
         opts += [(lib.MLR_LAYERS_OPT_FPS, _finite(motion.fps, "fps")),
                  (lib.MLR_LAYERS_OPT_BASE_CUTOFF, cutoff)]
+    body = body_translation_joint(motion)
+    if body != 0:
+        opts.append((lib.MLR_LAYERS_OPT_BODY_JOINT, float(body)))
     copts = ffi.new("mlr_layers_option[]", max(1, len(opts)))
     for k, (key, value) in enumerate(opts):
         copts[k].key, copts[k].value = key, value
-    root = _arrays.as_f64(motion.root_pos, "root_pos")
+    root = _arrays.as_f64(body_translation(motion, body), "root_pos")
     rot = _arrays.as_f64(motion.rot, "rot")
     out = ffi.new("mlr_layers **")
     diag = ffi.new("mlr_diag *")
@@ -248,7 +338,7 @@ def decompose(motion, *, gamma: float = math.pi / 2, lam_c=None, sigma_c=None, l
         a = np.empty(1 + j)
         check(lib.mlr_layers_get_param(handle, which, _arrays.ptr_out(a), a.size), name)
         params[name] = a
-    return Layers(motion, handle, params)
+    return Layers(motion, handle, params, body)
 
 
 def denoise(motion, *, keep_contacts=True, **kw):
