@@ -62,7 +62,8 @@
  * lam_c = sigma_c = 1). The reported pair is lam_c = sigma_c = s^(1/4).
  *
  * Arrays are row-major float64; quaternions scalar-first (w, x, y, z). Joint 0 is the root
- * segment; root_pos is its translation. Rotations are normalized on input, and the layers
+ * segment; root_pos is the body translation (its translation, unless BODY_JOINT names another
+ * joint). Rotations are normalized on input, and the layers
  * reproduce the normalized input; an output quaternion of synthesis and reconstruction is taken
  * in the hemisphere of the base quaternion of its frame (the base is sign-continuous in time),
  * so a rotation may come back as -q for an input q.
@@ -123,7 +124,8 @@ typedef enum mlr_layers_param {
  * Decompose a motion.
  * @param n_frames  [in] N >= 3 (the second-difference prior needs three frames)
  * @param n_joints  [in] J >= 1
- * @param root_pos  [in] N x 3 root translations, finite; NULL for zeros. Not kept.
+ * @param root_pos  [in] N x 3 body translations, finite (the root's, or those of the joint
+ *                  given as MLR_LAYERS_OPT_BODY_JOINT); NULL for zeros. Not kept.
  * @param rot       [in] N x J x 4 joint rotations, finite and nonzero (normalized here). Not
  *                  kept.
  * @param opts      [in] n_opts options; NULL when n_opts is 0. A key may appear once.
