@@ -7,6 +7,12 @@
 #include <stdlib.h>
 #include <string.h>
 
+static int cmp_d0(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
 /* ---- feet by name ---------------------------------------------------------------------- */
 
 /* A rig from names and parents; offsets all (0, -1, 0) except where given. */
@@ -212,6 +218,70 @@ START_TEST(hands_that_stay_low_are_feet)
         fails++;
     }
     ck_assert_uint_eq(fails, 3); /* flags, body height, medians */
+}
+END_TEST
+
+/* The hand rule on random heights (many ties, odd and even counts): the same decision as
+ * medians by sorting. */
+static double sorted_median(double *v, size_t n)
+{
+    qsort(v, n, sizeof(double), cmp_d0);
+    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+START_TEST(the_hand_rule_equals_medians_by_sorting)
+{
+    const char *names[] = {"Hips", "LeftFoot", "RightAnkle", "Spine", "LeftHand", "RightWrist"};
+    const int32_t parents[] = {-1, 0, 0, 0, 3, 3};
+    test_rig t;
+    make_rig(&t, 6, names, parents);
+    mlr_test_rng rng;
+    mlr_test_rng_seed(&rng, 7);
+    size_t seen[2] = {0, 0};
+    for (int trial = 0; trial < 300; trial++) {
+        const size_t N = 1 + (size_t)(mlr_test_rng_uniform(&rng) * 200);
+        const int up = trial % 3, coarse = trial % 2; /* coarse: values on a grid of 0.5 */
+        double *pos = malloc(3 * N * 6 * sizeof(double)), *ext = malloc(N * sizeof(double));
+        double *g = malloc(N * sizeof(double)), *rel = malloc(2 * N * sizeof(double));
+        double *hr = malloc(N * sizeof(double));
+        for (size_t i = 0; i < 3 * N * 6; i++) {
+            double x = 10 * mlr_test_rng_uniform(&rng);
+            pos[i] = coarse ? 0.5 * floor(2 * x) : x;
+        }
+        for (size_t f = 0; f < N; f++) {
+            double lo = INFINITY, hi = -INFINITY;
+            for (size_t j = 0; j < 6; j++) {
+                const double y = pos[3 * (6 * f + j) + up];
+                lo = y < lo ? y : lo, hi = y > hi ? y : hi;
+            }
+            ext[f] = hi - lo, g[f] = lo;
+            rel[2 * f] = pos[3 * (6 * f + 1) + up] - lo;
+            rel[2 * f + 1] = pos[3 * (6 * f + 2) + up] - lo;
+        }
+        double H = sorted_median(ext, N);
+        H = H == 0.0 ? 1.0 : H;
+        const double foot_h = sorted_median(rel, 2 * N);
+        int want[2];
+        for (int h = 0; h < 2; h++) {
+            for (size_t f = 0; f < N; f++)
+                hr[f] = pos[3 * (6 * f + 4 + (size_t)h) + up] - g[f];
+            want[h] = sorted_median(hr, N) <= foot_h + 0.2 * H;
+            seen[want[h]]++;
+        }
+        int32_t jt[12], es[12];
+        size_t F;
+        mlr_diag d;
+        ck_assert_int_eq(mlr_contacts_find_feet(&t.rig, N, pos, up, 6, jt, es, &F, NULL, &d),
+                         MLR_OK);
+        ck_assert_uint_eq(F, 2 + (size_t)want[0] + (size_t)want[1]);
+        size_t f = 2;
+        for (int h = 0; h < 2; h++)
+            if (want[h])
+                ck_assert_int_eq(jt[2 * f++], 4 + h);
+        free(pos), free(ext), free(g), free(rel), free(hr);
+    }
+    ck_assert_uint_gt(seen[0], 20); /* both decisions are exercised */
+    ck_assert_uint_gt(seen[1], 50);
 }
 END_TEST
 
@@ -646,6 +716,7 @@ static Suite *contacts_suite(void)
     tcase_add_test(tc, the_longest_toe_wins_and_names_fold_case);
     tcase_add_test(tc, no_feet_names_the_patterns);
     tcase_add_test(tc, hands_that_stay_low_are_feet);
+    tcase_add_test(tc, the_hand_rule_equals_medians_by_sorting);
     tcase_add_test(tc, known_contacts_of_a_stepping_foot_on_every_up_axis);
     tcase_add_test(tc, detection_equals_the_reference_on_random_motion);
     tcase_add_test(tc, bad_input_says_why);

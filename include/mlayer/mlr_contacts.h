@@ -52,7 +52,8 @@ extern "C" {
  *         capacity too small, or no joint name matches: the message names the patterns);
  *         MLR_E_NO_MEMORY; MLR_E_OVERFLOW
  * Allocates: J bytes and, when the rig has hand joints and N > 0, about N (A + 2) doubles
- * (A ankles) of scratch, released before return. Cost O(N J). Threads: any.
+ * (A ankles) of scratch, released before return. Cost O(N J) (medians by selection).
+ * Threads: any.
  */
 MLR_API mlr_status mlr_contacts_find_feet(const mlr_rig *rig, size_t n_frames,
                                           const double *world_pos, int up, size_t capacity,
