@@ -324,3 +324,22 @@ mlr_status mlr_rig_body_height(size_t n_frames, size_t n_joints, const double *w
 mlr_status mlr_rig_body_translation_joint(const mlr_rig *rig, size_t n_frames,
                                           const double *root_pos, const double *trans,
                                           int32_t *joint, mlr_diag *diag);
+
+/* mlr_contacts.h */
+mlr_status mlr_contacts_find_feet(const mlr_rig *rig, size_t n_frames, const double *world_pos,
+                                  int up, size_t capacity, int32_t *joints, int32_t *end_sites,
+                                  size_t *n_feet, const mlr_allocator *alloc, mlr_diag *diag);
+typedef enum mlr_contacts_key {
+    MLR_CONTACTS_OPT_SPEED = 1,
+    MLR_CONTACTS_OPT_HEIGHT = 2,
+    MLR_CONTACTS_OPT_MIN_DURATION = 3
+} mlr_contacts_key;
+typedef struct mlr_contacts_option {
+    int key;
+    double value;
+} mlr_contacts_option;
+mlr_status mlr_contacts_detect(const mlr_rig *rig, double fps, int up, size_t n_frames,
+                               const double *world_pos, const double *world_rot,
+                               size_t n_points, const int32_t *joints, const int32_t *end_sites,
+                               const mlr_contacts_option *opts, size_t n_opts,
+                               uint8_t *contacts, const mlr_allocator *alloc, mlr_diag *diag);
