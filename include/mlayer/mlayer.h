@@ -16,5 +16,6 @@
 #include "mlr_som.h"
 #include "mlr_grbf.h"
 #include "mlr_rig.h"
+#include "mlr_limits.h"
 
 #endif /* MLAYER_H */
