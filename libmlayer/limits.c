@@ -435,12 +435,15 @@ mlr_status mlr_limits_create(const mlr_rig *rig, const mlr_limits_clip *clips, s
             continue;
         }
         r->kind = MLR_LIMITS_SWING_TWIST;
-        const double in_sw = fmin(PI, fmax(MIN_INPUT_BOUND, g->stats[2] / (1.0 - o.soft)));
-        const double in_tw = fmin(PI, fmax(MIN_INPUT_BOUND, g->stats[3] / (1.0 - o.soft)));
+        /* the input's own extent sits at the knee point (a relative 1e-12 above it, so that
+         * rounding never moves an input frame) */
+        const double grow = (1.0 + 1e-12) / (1.0 - o.soft);
+        const double in_sw = fmin(PI, fmax(MIN_INPUT_BOUND, g->stats[2] * grow));
+        const double in_tw = fmin(PI, fmax(MIN_INPUT_BOUND, g->stats[3] * grow));
         double t_sw, t_tw;
         if (lim->human && mlr_limits_table(cls[j], count[cls[j]], &t_sw, &t_tw)) {
-            r->swing = fmin(PI, fmax(t_sw, g->stats[2] / (1.0 - o.soft)));
-            r->twist = fmin(PI, fmax(t_tw, g->stats[3] / (1.0 - o.soft)));
+            r->swing = fmin(PI, fmax(t_sw, g->stats[2] * grow));
+            r->twist = fmin(PI, fmax(t_tw, g->stats[3] * grow));
             r->widen = 0, r->source = MLR_LIMITS_SOURCE_TABLE;
         } else {
             r->swing = in_sw, r->twist = in_tw;

@@ -42,8 +42,8 @@
  * Soft saturation. A bound B with soft width w (w = soft * B for swing and twist,
  * soft * (hi - lo) at a hinge's fold side, MLR_LIMITS_OPT_REVERSAL_SOFT at its reversal side):
  * x is unchanged up to the knee point k = B - w, above it y = k + w tanh((x - k) / w). The map
- * is C-infinity except at k where it is C2 (tanh'(0) = 1, tanh''(0) = 0), strictly increasing,
- * and y < B for every x: no clip. Each frame is mapped on its own (no state), so the same
+ * is C-infinity except at k where it is C2 (tanh'(0) = 1, tanh''(0) = 0), increasing, and
+ * y < B for every x (y rounds to B only far beyond it, x - k > 19 w): no clip. Each frame is mapped on its own (no state), so the same
  * function serves batch synthesis and streams (mlr_stream_set_limits).
  *
  * Arrays are row-major float64; quaternions scalar-first (w, x, y, z); angles in radians.
