@@ -17,5 +17,6 @@
 #include "mlr_grbf.h"
 #include "mlr_rig.h"
 #include "mlr_contacts.h"
+#include "mlr_limits.h"
 
 #endif /* MLAYER_H */

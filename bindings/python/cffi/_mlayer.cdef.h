@@ -343,3 +343,57 @@ mlr_status mlr_contacts_detect(const mlr_rig *rig, double fps, int up, size_t n_
                                size_t n_points, const int32_t *joints, const int32_t *end_sites,
                                const mlr_contacts_option *opts, size_t n_opts,
                                uint8_t *contacts, const mlr_allocator *alloc, mlr_diag *diag);
+
+/* mlr_limits.h */
+typedef struct mlr_limits mlr_limits;
+typedef enum mlr_limits_kind {
+    MLR_LIMITS_FREE = 0,
+    MLR_LIMITS_HINGE = 1,
+    MLR_LIMITS_SWING_TWIST = 2
+} mlr_limits_kind;
+typedef enum mlr_limits_source {
+    MLR_LIMITS_SOURCE_NONE = 0,
+    MLR_LIMITS_SOURCE_TABLE = 1,
+    MLR_LIMITS_SOURCE_INPUT = 2,
+    MLR_LIMITS_SOURCE_USER = 3
+} mlr_limits_source;
+typedef struct mlr_limits_range {
+    int kind;
+    double lo;
+    double hi;
+    double swing;
+    double twist;
+    int widen;
+    int source;
+} mlr_limits_range;
+typedef struct mlr_limits_clip {
+    size_t n_frames;
+    const double *rot;
+    const double *trans;
+} mlr_limits_clip;
+typedef enum mlr_limits_key {
+    MLR_LIMITS_OPT_HUMAN = 1,
+    MLR_LIMITS_OPT_FOLD = 2,
+    MLR_LIMITS_OPT_SOFT = 3,
+    MLR_LIMITS_OPT_REVERSAL_SOFT = 4
+} mlr_limits_key;
+typedef struct mlr_limits_option {
+    int key;
+    double value;
+} mlr_limits_option;
+mlr_status mlr_limits_create(const mlr_rig *rig, const mlr_limits_clip *clips, size_t n_clips,
+                             const mlr_limits_option *opts, size_t n_opts,
+                             const mlr_allocator *alloc, mlr_limits **out, mlr_diag *diag);
+size_t mlr_limits_n_joints(const mlr_limits *lim);
+int mlr_limits_is_human(const mlr_limits *lim);
+mlr_status mlr_limits_get_range(const mlr_limits *lim, size_t joint, mlr_limits_range *out);
+mlr_status mlr_limits_set_range(mlr_limits *lim, size_t joint, const mlr_limits_range *range,
+                                mlr_diag *diag);
+mlr_status mlr_limits_get_geometry(const mlr_limits *lim, size_t joint, double *centre,
+                                   double *axis, double *bone_in, double *bone_out,
+                                   double *stats);
+mlr_status mlr_limits_apply(const mlr_limits *lim, size_t n_frames, const double *rot_in,
+                            double *rot_out, const double *alpha, size_t n_alpha,
+                            size_t *counts, size_t n_counts, mlr_diag *diag);
+void mlr_limits_destroy(mlr_limits *lim);
+mlr_status mlr_stream_set_limits(mlr_stream *st, const mlr_limits *limits);
