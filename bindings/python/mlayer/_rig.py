@@ -10,7 +10,8 @@ from .errors import InvalidArgumentError
 def c_rig(skeleton):
     """``(rig, keep)``: an ``mlr_rig *`` over the skeleton's names, parents, offsets, trans
     joints and End Sites, and the objects that must stay referenced while it is used."""
-    names = [ffi.new("char[]", n.encode()) for n in skeleton.joint_names]
+    names = [ffi.new("char[]", n.encode("utf-8", errors="surrogateescape"))
+             for n in skeleton.joint_names]
     cnames = ffi.new("const char *[]", names)
     parents = np.ascontiguousarray(skeleton.parents, dtype=np.int32)
     offsets = np.ascontiguousarray(skeleton.offsets, dtype=np.float64)

@@ -41,6 +41,7 @@ import numpy as np
 from . import _arrays
 from ._files import atomic_output
 from ._native import ffi, lib
+from ._rig import c_rig
 from .errors import InvalidArgumentError, check
 
 _PARAMS = {
@@ -92,22 +93,7 @@ def _body_joint_one(m) -> int:
     if P == 0 or m.n_frames == 0:
         return 0
     root, _, trans = m._frames()
-    parents = np.ascontiguousarray(sk.parents, dtype=np.int32)
-    tj = np.ascontiguousarray(sk.trans_joints, dtype=np.int32)
-    offsets = _arrays.as_f64(sk.offsets, "offsets")
-    E = int(sk.end_site_parents.shape[0])
-    ep = np.ascontiguousarray(sk.end_site_parents, dtype=np.int32)
-    eo = _arrays.as_f64(sk.end_site_offsets, "end_site_offsets").reshape(-1, 3)
-    rig = ffi.new("mlr_rig *")
-    rig.n_joints = sk.n_joints
-    rig.parents = ffi.cast("const int32_t *", ffi.from_buffer(parents))
-    rig.offsets = _arrays.ptr(offsets)
-    rig.names = ffi.NULL
-    rig.n_trans = P
-    rig.trans_joints = ffi.cast("const int32_t *", ffi.from_buffer(tj))
-    rig.n_end_sites = E
-    rig.end_site_parents = ffi.cast("const int32_t *", ffi.from_buffer(ep)) if E else ffi.NULL
-    rig.end_site_offsets = _arrays.ptr(eo) if E else ffi.NULL
+    rig, _keep = c_rig(sk)
     out = ffi.new("int32_t *")
     diag = ffi.new("mlr_diag *")
     check(lib.mlr_rig_body_translation_joint(rig, m.n_frames, _arrays.ptr(root),

@@ -19,6 +19,7 @@ import numpy as np
 
 from . import _arrays
 from ._native import ffi, lib
+from ._rig import c_rig
 from .errors import InvalidArgumentError, check
 
 KINDS = {lib.MLR_LIMITS_FREE: "free", lib.MLR_LIMITS_HINGE: "hinge",
@@ -26,30 +27,6 @@ KINDS = {lib.MLR_LIMITS_FREE: "free", lib.MLR_LIMITS_HINGE: "hinge",
 _KIND_CODES = {v: k for k, v in KINDS.items()}
 SOURCES = {lib.MLR_LIMITS_SOURCE_NONE: "-", lib.MLR_LIMITS_SOURCE_TABLE: "table",
            lib.MLR_LIMITS_SOURCE_INPUT: "input", lib.MLR_LIMITS_SOURCE_USER: "user"}
-
-
-def _rig(motion):
-    """An mlr_rig for the motion's skeleton and the buffers it points at (keep them alive)."""
-    sk = motion.skeleton
-    keep = [ffi.new("char[]", n.encode()) for n in sk.joint_names]
-    names = ffi.new("const char *[]", keep)
-    parents = np.ascontiguousarray(sk.parents, dtype=np.int32)
-    offsets = _arrays.as_f64(sk.offsets, "offsets")
-    tj = np.ascontiguousarray(sk.trans_joints, dtype=np.int32)
-    ep = np.ascontiguousarray(motion.end_site_parents, dtype=np.int32)
-    eo = _arrays.as_f64(motion.end_site_offsets, "end_site_offsets")
-    rig = ffi.new("mlr_rig *")
-    rig.n_joints = sk.n_joints
-    rig.parents = ffi.cast("const int32_t *", ffi.from_buffer(parents))
-    rig.offsets = _arrays.ptr(offsets)
-    rig.names = names
-    rig.n_trans = tj.shape[0]
-    rig.trans_joints = ffi.cast("const int32_t *", ffi.from_buffer(tj)) if tj.size else ffi.NULL
-    rig.n_end_sites = ep.shape[0]
-    rig.end_site_parents = ffi.cast("const int32_t *", ffi.from_buffer(ep)) if ep.size \
-        else ffi.NULL
-    rig.end_site_offsets = _arrays.ptr(eo) if ep.size else ffi.NULL
-    return rig, (keep, names, parents, offsets, tj, ep, eo)
 
 
 def _finite(v, name) -> float:
@@ -208,7 +185,7 @@ def joint_limits(motions, *, human=None, fold_degrees: float = 150.0, soft: floa
     copts = ffi.new("mlr_limits_option[]", len(opts))
     for k, (key, v) in enumerate(opts):
         copts[k].key, copts[k].value = key, v
-    rig, keep = _rig(first)
+    rig, keep = c_rig(first.skeleton)
     clips = ffi.new("mlr_limits_clip[]", len(ms))
     arrays = []
     for k, m in enumerate(ms):
