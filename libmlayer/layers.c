@@ -9,14 +9,24 @@
 
 #define MLR_PI 3.14159265358979323846
 
-static mlr_status parse_options(const mlr_layers_option *opts, size_t n_opts,
+/* The base s whose LGS (second-difference prior, identity observations) halves the power at
+ * cutoff Hz for a clip at fps: 1 / (1 + s (2 sin(pi f / fps))^4) = 1/2 at f = cutoff. */
+static double floor_s_max(double fps, double cutoff)
+{
+    return pow(2.0 * sin(MLR_PI * cutoff / fps), -4.0);
+}
+
+#define MLR_LAYERS_DEFAULT_CUTOFF 0.25 /* Hz */
+#define MLR_LAYERS_N_KEYS (MLR_LAYERS_OPT_BODY_JOINT + 1)
+
+static mlr_status parse_options(const mlr_layers_option *opts, size_t n_opts, size_t n_joints,
                                 mlr_layers_cfg *cfg, mlr_diag *diag)
 {
-    double val[10];
-    int seen[10] = {0};
+    double val[MLR_LAYERS_N_KEYS];
+    int seen[MLR_LAYERS_N_KEYS] = {0};
     for (size_t i = 0; i < n_opts; i++) {
         const int key = opts[i].key;
-        if (key < MLR_LAYERS_OPT_GAMMA || key > MLR_LAYERS_OPT_CONTROL_S_MAX)
+        if (key < MLR_LAYERS_OPT_GAMMA || key > MLR_LAYERS_OPT_BODY_JOINT)
             return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "unknown option key %d", key);
         if (seen[key])
             return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "option key %d given twice", key);
@@ -25,7 +35,7 @@ static mlr_status parse_options(const mlr_layers_option *opts, size_t n_opts,
         if (!isfinite(val[key]))
             return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "option key %d: value %g is not finite",
                                 key, val[key]);
-        if (key != MLR_LAYERS_OPT_GAMMA && !(val[key] > 0.0))
+        if (key != MLR_LAYERS_OPT_GAMMA && key != MLR_LAYERS_OPT_BODY_JOINT && !(val[key] > 0.0))
             return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "option key %d: value %g is not > 0",
                                 key, val[key]);
     }
@@ -50,8 +60,40 @@ static mlr_status parse_options(const mlr_layers_option *opts, size_t n_opts,
             return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                                 "control lam^2 sigma^2 = %g is not finite and > 0", cfg->control_s);
     }
+    cfg->body_joint = 0;
+    if (seen[MLR_LAYERS_OPT_BODY_JOINT]) {
+        const double b = val[MLR_LAYERS_OPT_BODY_JOINT];
+        if (!(b >= 0.0 && b < (double)n_joints && b == floor(b)))
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "body joint %g is not a joint index in [0, %zu)", b, n_joints);
+        cfg->body_joint = (size_t)b;
+    }
     cfg->base_s_min = seen[MLR_LAYERS_OPT_BASE_S_MIN] ? val[MLR_LAYERS_OPT_BASE_S_MIN] : 1e-2;
     cfg->base_s_max = seen[MLR_LAYERS_OPT_BASE_S_MAX] ? val[MLR_LAYERS_OPT_BASE_S_MAX] : 1e10;
+    if (seen[MLR_LAYERS_OPT_BASE_CUTOFF] && !seen[MLR_LAYERS_OPT_FPS])
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "base cutoff %g Hz needs the frame rate (MLR_LAYERS_OPT_FPS)",
+                            val[MLR_LAYERS_OPT_BASE_CUTOFF]);
+    if (seen[MLR_LAYERS_OPT_FPS]) {
+        const double fps = val[MLR_LAYERS_OPT_FPS];
+        const double fc = seen[MLR_LAYERS_OPT_BASE_CUTOFF] ? val[MLR_LAYERS_OPT_BASE_CUTOFF]
+                                                           : MLR_LAYERS_DEFAULT_CUTOFF;
+        if (!(fc < 0.5 * fps))
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "base cutoff %g Hz is not in (0, fps/2) = (0, %g)", fc, 0.5 * fps);
+        if (seen[MLR_LAYERS_OPT_BASE_CUTOFF] && seen[MLR_LAYERS_OPT_BASE_S_MAX])
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "base cutoff and BASE_S_MAX both set the upper end of the base "
+                                "search: give one");
+        if (!seen[MLR_LAYERS_OPT_BASE_S_MAX]) {
+            cfg->base_s_max = floor_s_max(fps, fc); /* >= 1/16 > the default BASE_S_MIN */
+            if (!(cfg->base_s_min < cfg->base_s_max))
+                return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "BASE_S_MIN %g is not below the base floor's s %g "
+                                    "(cutoff %g Hz at %g fps)", cfg->base_s_min,
+                                    cfg->base_s_max, fc, fps);
+        }
+    }
     cfg->control_s_min = seen[MLR_LAYERS_OPT_CONTROL_S_MIN] ? val[MLR_LAYERS_OPT_CONTROL_S_MIN] : 1e-2;
     cfg->control_s_max = seen[MLR_LAYERS_OPT_CONTROL_S_MAX] ? val[MLR_LAYERS_OPT_CONTROL_S_MAX] : 1e8;
     if (!(cfg->base_s_min < cfg->base_s_max))
@@ -177,7 +219,7 @@ mlr_status mlr_layers_decompose(size_t n_frames, size_t n_joints, const double *
     if (n_opts > 0 && !opts)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "opts is NULL but n_opts is %zu", n_opts);
     mlr_layers_cfg cfg;
-    mlr_status st = parse_options(opts, n_opts, &cfg, diag);
+    mlr_status st = parse_options(opts, n_opts, n_joints, &cfg, diag);
     if (st != MLR_OK)
         return st;
     sizes z;

@@ -229,8 +229,8 @@ mlr_status mlr_layers_base(mlr_layers *L, const mlr_layers_cfg *cfg, const doubl
             memcpy(r, q + 4 * i, 4 * sizeof(double));
     }
 
-    /* root translation with joint 0's s */
-    const double s0 = s_best[0], k0 = sqrt(sqrt(100.0 * s0));
+    /* root translation with the body joint's s (joint 0 unless told) */
+    const double s0 = s_best[cfg->body_joint], k0 = sqrt(sqrt(100.0 * s0));
     *mlr_layers_param_slot(L, MLR_LAYERS_PARAM_BASE_S, 0) = s0;
     *mlr_layers_param_slot(L, MLR_LAYERS_PARAM_BASE_LAM, 0) = k0;
     *mlr_layers_param_slot(L, MLR_LAYERS_PARAM_BASE_SIGMA, 0) = 0.1 * k0;

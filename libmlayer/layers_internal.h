@@ -29,6 +29,7 @@ typedef struct mlr_layers_cfg {
     double control_s;           /* > 0: fixed control s; 0: GCV */
     double base_s_min, base_s_max;
     double control_s_min, control_s_max;
+    size_t body_joint;          /* the joint whose base s the translation group takes */
 } mlr_layers_cfg;
 
 /*
@@ -84,7 +85,8 @@ mlr_status mlr_layers_prepare_rot(size_t n, size_t j, const double *rot_in, doub
                                   mlr_diag *diag);
 
 /* Base layer: per-joint s (heuristic or cfg->base_s) into L->param, L->base_rot filled with
- * the unit base quaternions; root translation smoothed with joint 0's s into L->base_pos.
+ * the unit base quaternions; root translation smoothed with joint cfg->body_joint's s into
+ * L->base_pos.
  * fac: 3 n j doubles; comp: 4 n j doubles; work: MLR_LAYERS_WORK j doubles; col: j entries. */
 mlr_status mlr_layers_base(mlr_layers *L, const mlr_layers_cfg *cfg, const double *q,
                            const double *root_pos, double *fac, double *comp, double *work,

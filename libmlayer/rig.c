@@ -1,5 +1,6 @@
 /*
- * Rigs by reference: checks, point lookup by name, End Site positions, body height.
+ * Rigs by reference: checks, point lookup by name, End Site positions, body height, the joint
+ * that carries the body translation.
  */
 #include "mlr_internal.h"
 
@@ -177,5 +178,102 @@ mlr_status mlr_rig_body_height(size_t n_frames, size_t n_joints, const double *w
     *height = n_frames % 2 ? ext[n_frames / 2]
                            : 0.5 * (ext[n_frames / 2 - 1] + ext[n_frames / 2]);
     mlr_free(&a, ext, bytes);
+    return MLR_OK;
+}
+
+/* Rest-pose position of joint j (OFFSETs summed up the chain, the root at the origin). */
+static void rest_position(const mlr_rig *rig, size_t j, double *p)
+{
+    p[0] = p[1] = p[2] = 0.0;
+    for (size_t k = j; k != 0; k = (size_t)rig->parents[k])
+        for (int c = 0; c < 3; c++)
+            p[c] += rig->offsets[3 * k + (size_t)c];
+}
+
+/* Largest extent along an axis of the rest pose, joints and End Sites. */
+static double rest_size(const mlr_rig *rig)
+{
+    double lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0}, p[3];
+    const size_t J = rig->n_joints;
+    for (size_t i = 0; i < J + rig->n_end_sites; i++) {
+        if (i < J) {
+            rest_position(rig, i, p);
+        } else {
+            const size_t e = i - J;
+            rest_position(rig, (size_t)rig->end_site_parents[e], p);
+            for (int c = 0; c < 3; c++)
+                p[c] += rig->end_site_offsets[3 * e + (size_t)c];
+        }
+        for (int c = 0; c < 3; c++) {
+            lo[c] = p[c] < lo[c] ? p[c] : lo[c];
+            hi[c] = p[c] > hi[c] ? p[c] : hi[c];
+        }
+    }
+    double size = 0.0;
+    for (int c = 0; c < 3; c++)
+        size = hi[c] - lo[c] > size ? hi[c] - lo[c] : size;
+    return size;
+}
+
+/* Largest span over the frames of one coordinate of a translation (rows of stride ld). */
+static double span(size_t n, const double *x, size_t ld)
+{
+    double best = 0.0;
+    for (int c = 0; c < 3; c++) {
+        double lo = x[c], hi = x[c];
+        for (size_t f = 1; f < n; f++) {
+            const double v = x[f * ld + (size_t)c];
+            lo = v < lo ? v : lo;
+            hi = v > hi ? v : hi;
+        }
+        best = hi - lo > best ? hi - lo : best;
+    }
+    return best;
+}
+
+mlr_status mlr_rig_body_translation_joint(const mlr_rig *rig, size_t n_frames,
+                                          const double *root_pos, const double *trans,
+                                          int32_t *joint, mlr_diag *diag)
+{
+    if (!joint)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "body_translation_joint: joint is NULL");
+    *joint = 0;
+    mlr_status st = mlr_rig_check(rig, diag);
+    if (st != MLR_OK)
+        return st;
+    const size_t P = rig->n_trans;
+    if (n_frames == 0)
+        return MLR_OK;
+    if (P > 0 && !trans)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "body_translation_joint: trans is NULL for %zu trans joints", P);
+    double amax = 0.0;
+    for (size_t f = 0; f < n_frames; f++)
+        for (size_t k = 0; k < 3 * (1 + P); k++) {
+            const double v = k < 3 ? (root_pos ? root_pos[3 * f + k] : 0.0)
+                                   : trans[3 * P * f + k - 3];
+            if (!isfinite(v))
+                return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "body_translation_joint: %s translation at frame %zu is "
+                                    "not finite", k < 3 ? "root" : "a trans joint's", f);
+            amax = fabs(v) > amax ? fabs(v) : amax;
+        }
+    double size = rest_size(rig);
+    if (!(size > 0.0))
+        size = amax;
+    const double tol = MLR_RIG_TRANSLATION_ROUNDING * size;
+    if (root_pos && span(n_frames, root_pos, 3) > tol)
+        return MLR_OK;
+    size_t best_depth = SIZE_MAX;
+    for (size_t p = 0; p < P; p++) {
+        const size_t j = (size_t)rig->trans_joints[p];
+        size_t depth = 0;
+        for (size_t k = j; k != 0; k = (size_t)rig->parents[k])
+            depth++;
+        if (depth < best_depth && span(n_frames, trans + 3 * p, 3 * P) > tol) {
+            best_depth = depth;
+            *joint = (int32_t)j;
+        }
+    }
     return MLR_OK;
 }

@@ -13,6 +13,7 @@
  * for the end rows, one spare); the sign rule keeps its own 3 earlier quaternion rows.
  */
 #include "lgs_internal.h"
+#include "limits_internal.h"
 
 #include <math.h>
 
@@ -45,6 +46,7 @@ struct mlr_stream {
     double *flush_base;         /* lag x m: base layer rows of a flush (layered only) */
     double *alpha;              /* n_joints layer scales */
     double alpha_trans;
+    const mlr_limits *limits;   /* borrowed (mlr_stream_set_limits), or NULL */
 };
 
 /* ---------------------------------------------------------------------------------------- */
@@ -293,15 +295,25 @@ static void align_signs(mlr_stream *st, size_t i, double *yi)
     memmove(h, h + J, 3 * qb); /* rows 1 .. 3 become rows 0 .. 2 */
 }
 
+static void compose_layers(const mlr_stream *st, double *x, double *xb, mlr_quat *q);
+
 /* Renormalize the quaternions of an output row x; with layers, compose it with the base row
- * xb (raw, normalized here): x = xb (+) alpha (x (-) xb). */
+ * xb (raw, normalized here): x = xb (+) alpha (x (-) xb); then the joint limits, if any. */
 static void finish_row(const mlr_stream *st, double *x, double *xb)
 {
     const size_t J = st->n_joints;
     mlr_quat *q = (mlr_quat *)(x + st->q_off);
     (void)mlr_quat_normalize_array(q, J, q); /* a zero mean gives the identity */
-    if (!st->layered)
-        return;
+    if (st->layered)
+        compose_layers(st, x, xb, q);
+    if (st->limits)
+        mlr_limits_apply_frame(st->limits, q, st->layered ? st->alpha : NULL, 1, NULL);
+}
+
+/* x = xb (+) alpha (x (-) xb) of a layered stream (q: the normalized quaternions of x). */
+static void compose_layers(const mlr_stream *st, double *x, double *xb, mlr_quat *q)
+{
+    const size_t J = st->n_joints;
     if (st->alpha_trans != 1.0)
         for (size_t c = 0; c < st->q_off; c++)
             x[c] = xb[c] + st->alpha_trans * (x[c] - xb[c]);
@@ -530,6 +542,14 @@ mlr_status mlr_stream_set_alpha(mlr_stream *st, double alpha_trans, const double
     st->alpha_trans = alpha_trans;
     if (n_joints > 0)
         memcpy(st->alpha, alpha, n_joints * sizeof(double));
+    return MLR_OK;
+}
+
+mlr_status mlr_stream_set_limits(mlr_stream *st, const mlr_limits *limits)
+{
+    if (!st || (limits && mlr_limits_n_joints(limits) != st->n_joints))
+        return MLR_E_INVALID_ARG;
+    st->limits = limits;
     return MLR_OK;
 }
 

@@ -858,6 +858,235 @@ START_TEST(threads_synthesize_identically)
 }
 END_TEST
 
+/* ---- the base floor (MLR_LAYERS_OPT_FPS, BASE_CUTOFF) and the body joint --------------- */
+
+/* Every array and parameter of two decompositions, bit for bit. */
+static int same_layers(const mlr_layers *a, const mlr_layers *b)
+{
+    const size_t n = mlr_layers_n_frames(a), j = mlr_layers_n_joints(a);
+    if (n != mlr_layers_n_frames(b) || j != mlr_layers_n_joints(b))
+        return 0;
+    const size_t np = 3 * n, nr = 4 * n * j, ng = 3 * n * (1 + j);
+    double *x = malloc((np + nr + 2 * ng) * sizeof *x), *y = malloc((np + nr + 2 * ng) * sizeof *y);
+    int same = 1;
+    ck_assert_int_eq(mlr_layers_get_base(a, x, np, x + np, nr), MLR_OK);
+    ck_assert_int_eq(mlr_layers_get_base(b, y, np, y + np, nr), MLR_OK);
+    ck_assert_int_eq(mlr_layers_get_control(a, x + np + nr, ng), MLR_OK);
+    ck_assert_int_eq(mlr_layers_get_control(b, y + np + nr, ng), MLR_OK);
+    ck_assert_int_eq(mlr_layers_get_residual(a, x + np + nr + ng, ng), MLR_OK);
+    ck_assert_int_eq(mlr_layers_get_residual(b, y + np + nr + ng, ng), MLR_OK);
+    same = memcmp(x, y, (np + nr + 2 * ng) * sizeof *x) == 0;
+    for (int w = 0; w < 9 && same; w++) {
+        ck_assert_int_eq(mlr_layers_get_param(a, (mlr_layers_param)w, x, 1 + j), MLR_OK);
+        ck_assert_int_eq(mlr_layers_get_param(b, (mlr_layers_param)w, y, 1 + j), MLR_OK);
+        for (size_t g = 0; g <= j; g++) /* NaN GCV scores compare equal here */
+            same &= x[g] == y[g] || (isnan(x[g]) && isnan(y[g]));
+    }
+    free(x), free(y);
+    return same;
+}
+
+static mlr_layers *decompose_ok(const clip *c, const mlr_layers_option *opt, size_t n_opt)
+{
+    mlr_layers *L = NULL;
+    mlr_diag dg;
+    ck_assert_msg(mlr_layers_decompose(c->n, c->j, c->pos, c->rot, opt, n_opt, NULL, &L, &dg) == MLR_OK,
+                  "%s: %s", c->name, dg.message);
+    return L;
+}
+
+/* The gain of the mean of the LGS (I + s L^T L)^-1 on a sinusoid of frequency f at fps, measured
+ * with mlr_lgs in the middle of a long clip (the ends are left out). */
+static double lgs_gain(double s, double f, double fps)
+{
+    const size_t n = (size_t)(40.0 * fps / f);
+    double *y = malloc(n * sizeof *y), *x = malloc(n * sizeof *x);
+    for (size_t i = 0; i < n; i++)
+        y[i] = sin(2.0 * PI * f * (double)i / fps);
+    mlr_lgs *g = NULL;
+    ck_assert_int_ge(mlr_lgs_create(n, 2, sqrt(s), 1.0, NULL, n, MLR_LGS_BANDED, NULL, &g, NULL), 0);
+    ck_assert_int_eq(mlr_lgs_solve(g, y, 1, 1, x, 1), MLR_OK);
+    mlr_lgs_destroy(g);
+    double xy = 0.0, yy = 0.0;
+    for (size_t i = n / 4; i < 3 * n / 4; i++)
+        xy += x[i] * y[i], yy += y[i] * y[i];
+    free(y), free(x);
+    return xy / yy;
+}
+
+/* FPS alone gives the 0.25 Hz floor: the same layers as the upper end (2 sin(pi fc/fps))^-4
+ * given explicitly (the formula Python used before the floor moved into C), and that s
+ * halves a 0.25 Hz sinusoid; BASE_CUTOFF moves it; every joint's s stays within it. */
+START_TEST(fps_gives_the_base_floor)
+{
+    clip clips[16];
+    size_t nc = load_clips(clips, 16);
+    for (size_t ci = 0; ci < nc; ci++) {
+        const clip *c = &clips[ci];
+        if (c->j > 50)
+            continue; /* the 165-joint clip adds time, not coverage */
+        const double fps = 1.0 / mlr_motion_frame_time(c->m);
+        const double fcs[2] = {0.25, 1.0};
+        for (int k = 0; k < 2; k++) {
+            const double smax = pow(2.0 * sin(PI * fcs[k] / fps), -4.0);
+            mlr_layers_option o_fps[2] = {{MLR_LAYERS_OPT_FPS, fps}, {MLR_LAYERS_OPT_BASE_CUTOFF, fcs[k]}};
+            mlr_layers_option o_s = {MLR_LAYERS_OPT_BASE_S_MAX, smax};
+            mlr_layers *A = decompose_ok(c, o_fps, k == 0 ? 1 : 2), *B = decompose_ok(c, &o_s, 1);
+            ck_assert_msg(same_layers(A, B), "%s: FPS %g, cutoff %g differs from BASE_S_MAX %g",
+                          c->name, fps, fcs[k], smax);
+            double *s = malloc((1 + c->j) * sizeof *s);
+            ck_assert_int_eq(mlr_layers_get_param(A, MLR_LAYERS_PARAM_BASE_S, s, 1 + c->j), MLR_OK);
+            for (size_t g = 0; g <= c->j; g++)
+                ck_assert_double_le(s[g], smax);
+            free(s);
+            mlr_layers_destroy(A), mlr_layers_destroy(B);
+        }
+        if (ci == 0) { /* the floor's meaning, measured apart from the formula */
+            const double smax = pow(2.0 * sin(PI * 0.25 / fps), -4.0);
+            ck_assert_double_eq_tol(lgs_gain(smax, 0.25, fps), 0.5, 2e-3);
+            ck_assert_double_gt(lgs_gain(smax, 0.125, fps), 0.9);
+            ck_assert_double_lt(lgs_gain(smax, 0.5, fps), 0.1);
+        }
+    }
+    free_clips(clips, nc);
+}
+END_TEST
+
+/* Precedence: LAM_B / SIGMA_B win over the floor; an explicit BASE_S_MAX replaces it (1e10
+ * with FPS is the C default range again); an explicit BASE_S_MIN is kept. */
+START_TEST(base_floor_precedence)
+{
+    clip clips[16];
+    size_t nc = load_clips(clips, 16);
+    const clip *c = NULL;
+    for (size_t ci = 0; ci < nc; ci++)
+        if (strstr(clips[ci].name, "131_01"))
+            c = &clips[ci];
+    if (!c)
+        c = &clips[0];
+    const double fps = 1.0 / mlr_motion_frame_time(c->m);
+    mlr_layers *A, *B;
+    mlr_layers_option o1[3] = {{MLR_LAYERS_OPT_FPS, fps}, {MLR_LAYERS_OPT_LAM_B, 3.0},
+                               {MLR_LAYERS_OPT_BASE_CUTOFF, 0.5}};
+    A = decompose_ok(c, o1, 3), B = decompose_ok(c, o1 + 1, 1);
+    ck_assert(same_layers(A, B));
+    mlr_layers_destroy(A), mlr_layers_destroy(B);
+    mlr_layers_option o2[2] = {{MLR_LAYERS_OPT_BASE_S_MAX, 1e10}, {MLR_LAYERS_OPT_FPS, fps}};
+    A = decompose_ok(c, o2, 2), B = decompose_ok(c, NULL, 0);
+    ck_assert(same_layers(A, B));
+    mlr_layers_destroy(A), mlr_layers_destroy(B);
+    const double smax = pow(2.0 * sin(PI * 0.25 / fps), -4.0);
+    mlr_layers_option o3[2] = {{MLR_LAYERS_OPT_FPS, fps}, {MLR_LAYERS_OPT_BASE_S_MIN, 3.0}};
+    mlr_layers_option o4[2] = {{MLR_LAYERS_OPT_BASE_S_MAX, smax}, {MLR_LAYERS_OPT_BASE_S_MIN, 3.0}};
+    A = decompose_ok(c, o3, 2), B = decompose_ok(c, o4, 2);
+    ck_assert(same_layers(A, B));
+    double *s = malloc((1 + c->j) * sizeof *s);
+    ck_assert_int_eq(mlr_layers_get_param(A, MLR_LAYERS_PARAM_BASE_S, s, 1 + c->j), MLR_OK);
+    for (size_t g = 0; g <= c->j; g++)
+        ck_assert(s[g] >= 3.0 && s[g] <= smax);
+    free(s);
+    mlr_layers_destroy(A), mlr_layers_destroy(B);
+    free_clips(clips, nc);
+}
+END_TEST
+
+/* BODY_JOINT k: the translation group takes joint k's base s, and its base is the LGS of the
+ * translation at that s; the rest of the decomposition is unchanged. */
+START_TEST(body_joint_sets_the_translation_s)
+{
+    const size_t n = 360, j = 3;
+    double *pos = malloc(3 * n * sizeof *pos), *rot = malloc(4 * n * j * sizeof *rot);
+    double *bp = malloc(3 * n * sizeof *bp), *x = malloc(3 * n * sizeof *x);
+    synthetic_big(n, 30.0, pos, rot, 5);
+    for (size_t k = 0; k < j; k++) {
+        mlr_layers_option o = {MLR_LAYERS_OPT_BODY_JOINT, (double)k};
+        mlr_layers *L = NULL, *R = NULL;
+        ck_assert_int_eq(mlr_layers_decompose(n, j, pos, rot, &o, 1, NULL, &L, NULL), MLR_OK);
+        ck_assert_int_eq(mlr_layers_decompose(n, j, pos, rot, NULL, 0, NULL, &R, NULL), MLR_OK);
+        double bs[4], br[4];
+        ck_assert_int_eq(mlr_layers_get_param(L, MLR_LAYERS_PARAM_BASE_S, bs, 1 + j), MLR_OK);
+        ck_assert_int_eq(mlr_layers_get_param(R, MLR_LAYERS_PARAM_BASE_S, br, 1 + j), MLR_OK);
+        ck_assert_double_eq(bs[0], bs[1 + k]);
+        for (size_t g = 1; g <= j; g++)
+            ck_assert_double_eq(bs[g], br[g]);
+        if (k == 0)
+            ck_assert(same_layers(L, R));
+        ck_assert_int_eq(mlr_layers_get_base(L, bp, 3 * n, NULL, 0), MLR_OK);
+        mlr_lgs *g = NULL;
+        ck_assert_int_ge(mlr_lgs_create(n, 2, sqrt(bs[0]), 1.0, NULL, n, MLR_LGS_BANDED, NULL, &g, NULL), 0);
+        ck_assert_int_eq(mlr_lgs_solve(g, pos, 3, 3, x, 3), MLR_OK);
+        mlr_lgs_destroy(g);
+        for (size_t i = 0; i < 3 * n; i++)
+            ck_assert_double_le(fabs(x[i] - bp[i]), 1e-14 * (1.0 + 16.0 * bs[0]) * 200.0);
+        mlr_layers_destroy(L), mlr_layers_destroy(R);
+    }
+    /* joint 1's s differs from joint 0's here, so the option is not a no-op */
+    mlr_layers *L = NULL;
+    ck_assert_int_eq(mlr_layers_decompose(n, j, pos, rot, NULL, 0, NULL, &L, NULL), MLR_OK);
+    double bs[4];
+    ck_assert_int_eq(mlr_layers_get_param(L, MLR_LAYERS_PARAM_BASE_S, bs, 1 + j), MLR_OK);
+    ck_assert_double_ne(bs[1], bs[2]);
+    ck_assert_double_ne(bs[1], bs[3]);
+    mlr_layers_destroy(L);
+    free(pos), free(rot), free(bp), free(x);
+}
+END_TEST
+
+START_TEST(base_floor_bad_options)
+{
+    double pos[3 * 8] = {0}, rot[4 * 8 * 2];
+    for (size_t i = 0; i < 16; i++)
+        rot[4 * i] = 1.0, rot[4 * i + 1] = rot[4 * i + 2] = rot[4 * i + 3] = 0.0;
+    const struct { mlr_layers_option o[2]; size_t n; const char *why; } bad[] = {
+        {{{MLR_LAYERS_OPT_FPS, 0.0}, {0, 0}}, 1, "not > 0"},
+        {{{MLR_LAYERS_OPT_FPS, -30.0}, {0, 0}}, 1, "not > 0"},
+        {{{MLR_LAYERS_OPT_FPS, NAN}, {0, 0}}, 1, "not finite"},
+        {{{MLR_LAYERS_OPT_FPS, INFINITY}, {0, 0}}, 1, "not finite"},
+        {{{MLR_LAYERS_OPT_FPS, 0.4}, {0, 0}}, 1, "(0, fps/2)"},     /* default 0.25 Hz >= fps/2 */
+        {{{MLR_LAYERS_OPT_BASE_CUTOFF, 0.25}, {0, 0}}, 1, "frame rate"},
+        {{{MLR_LAYERS_OPT_FPS, 30.0}, {MLR_LAYERS_OPT_BASE_CUTOFF, 15.0}}, 2, "(0, fps/2)"},
+        {{{MLR_LAYERS_OPT_FPS, 30.0}, {MLR_LAYERS_OPT_BASE_CUTOFF, 20.0}}, 2, "(0, fps/2)"},
+        {{{MLR_LAYERS_OPT_FPS, 30.0}, {MLR_LAYERS_OPT_BASE_CUTOFF, 0.0}}, 2, "not > 0"},
+        {{{MLR_LAYERS_OPT_FPS, 30.0}, {MLR_LAYERS_OPT_BASE_CUTOFF, -1.0}}, 2, "not > 0"},
+        {{{MLR_LAYERS_OPT_BASE_CUTOFF, 0.5}, {MLR_LAYERS_OPT_BASE_S_MAX, 1e6}}, 2, "frame rate"},
+        {{{MLR_LAYERS_OPT_FPS, 30.0}, {MLR_LAYERS_OPT_FPS, 60.0}}, 2, "twice"},
+        {{{MLR_LAYERS_OPT_BODY_JOINT, -1.0}, {0, 0}}, 1, "joint index"},
+        {{{MLR_LAYERS_OPT_BODY_JOINT, 2.0}, {0, 0}}, 1, "joint index"},
+        {{{MLR_LAYERS_OPT_BODY_JOINT, 0.5}, {0, 0}}, 1, "joint index"},
+        {{{MLR_LAYERS_OPT_BODY_JOINT, NAN}, {0, 0}}, 1, "not finite"},
+        {{{MLR_LAYERS_OPT_BODY_JOINT, 13.0}, {MLR_LAYERS_OPT_FPS, 30.0}}, 2, "joint index"},
+        {{{13, 1.0}, {0, 0}}, 1, "unknown"},
+    };
+    for (size_t i = 0; i < MLR_COUNTOF(bad); i++) {
+        mlr_layers *L = (mlr_layers *)(void *)rot;
+        mlr_diag dg;
+        dg.message[0] = '\0';
+        ck_assert_int_eq(mlr_layers_decompose(8, 2, pos, rot, bad[i].o, bad[i].n, NULL, &L, &dg),
+                         MLR_E_INVALID_ARG);
+        ck_assert_ptr_null(L);
+        ck_assert_msg(strstr(dg.message, bad[i].why), "case %zu: '%s' lacks '%s'", i, dg.message,
+                      bad[i].why);
+    }
+    /* the conflicts: cutoff with an explicit upper end; an explicit lower end above the floor */
+    const mlr_layers_option both[3] = {{MLR_LAYERS_OPT_FPS, 30.0}, {MLR_LAYERS_OPT_BASE_CUTOFF, 0.5},
+                                       {MLR_LAYERS_OPT_BASE_S_MAX, 1e6}};
+    const mlr_layers_option low[3] = {{MLR_LAYERS_OPT_FPS, 30.0}, {MLR_LAYERS_OPT_BASE_CUTOFF, 14.0},
+                                      {MLR_LAYERS_OPT_BASE_S_MIN, 1.0}};
+    mlr_layers *L = NULL;
+    mlr_diag dg;
+    ck_assert_int_eq(mlr_layers_decompose(8, 2, pos, rot, both, 3, NULL, &L, &dg), MLR_E_INVALID_ARG);
+    ck_assert_ptr_nonnull(strstr(dg.message, "give one"));
+    ck_assert_int_eq(mlr_layers_decompose(8, 2, pos, rot, low, 3, NULL, &L, &dg), MLR_E_INVALID_ARG);
+    ck_assert_ptr_nonnull(strstr(dg.message, "not below the base floor"));
+    /* a cutoff close to fps/2 is valid: s = (2 sin(pi 14/30))^-4 = 0.064 (never below 1/16) */
+    ck_assert_int_eq(mlr_layers_decompose(8, 2, pos, rot, low, 2, NULL, &L, &dg), MLR_OK);
+    double s[3];
+    ck_assert_int_eq(mlr_layers_get_param(L, MLR_LAYERS_PARAM_BASE_S, s, 3), MLR_OK);
+    ck_assert_double_le(s[1], pow(2.0 * sin(PI * 14.0 / 30.0), -4.0));
+    mlr_layers_destroy(L);
+}
+END_TEST
+
 static Suite *layers_suite(void)
 {
     Suite *s = suite_create("layers");
@@ -868,6 +1097,8 @@ static Suite *layers_suite(void)
     tcase_add_test(clips, root_layers_match_lgs);
     tcase_add_test(clips, gamma_bound_real_clips);
     tcase_add_test(clips, explicit_control_parameters);
+    tcase_add_test(clips, fps_gives_the_base_floor);
+    tcase_add_test(clips, base_floor_precedence);
     suite_add_tcase(s, clips);
     TCase *num = tcase_create("numerics");
     tcase_set_timeout(num, 120);
@@ -876,9 +1107,11 @@ static Suite *layers_suite(void)
     tcase_add_test(num, gcv_long_clip_matches_banded_scan);
     tcase_add_test(num, denoises_synthetic_motion);
     tcase_add_test(num, constant_motion_and_no_root);
+    tcase_add_test(num, body_joint_sets_the_translation_s);
     suite_add_tcase(s, num);
     TCase *args = tcase_create("arguments");
     tcase_add_test(args, bad_arguments);
+    tcase_add_test(args, base_floor_bad_options);
     tcase_add_test(args, every_allocation_failure_is_clean);
     tcase_add_test(args, threads_synthesize_identically);
     suite_add_tcase(s, args);

@@ -1,7 +1,10 @@
-/* Rigs by reference: checks, points by name, End Site positions, body height. */
+/* Rigs by reference: checks, points by name, End Site positions, body height, the joint that
+ * carries the body translation (synthetic rigs and the real clips). */
 #include "mlr_test.h"
 
 #include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 /* root -> thigh -> shin -> foot (with an End Site 2 units ahead) */
@@ -108,6 +111,185 @@ START_TEST(body_height_is_the_median_extent_on_the_up_axis)
 }
 END_TEST
 
+/* root 0 -> A 1 -> B 2, root -> C 3 (depth-first order); B and C have position channels.
+ * B is deeper than C but comes first in joint order. */
+static const int32_t tparents[4] = {-1, 0, 1, 0};
+static const double toffsets[12] = {0, 0, 0, 0, 10, 0, 0, 5, 0, 3, 8, 0};
+static const int32_t ttrans[2] = {2, 3};
+
+static mlr_rig trans_rig(void)
+{
+    mlr_rig r = {4, tparents, toffsets, NULL, 2, ttrans, 0, NULL, NULL};
+    return r;
+}
+
+/* N frames: root static at (1, 2, 3); B and C at their OFFSETs, plus moves given per joint
+ * (amplitude along x, as a sine). The rest pose's size is 15 (B at y = 15). */
+static void trans_frames(size_t n, double root_move, double b_move, double c_move,
+                         double *root, double *trans)
+{
+    for (size_t f = 0; f < n; f++) {
+        const double w = sin(0.3 * (double)f);
+        root[3 * f] = 1.0 + root_move * w, root[3 * f + 1] = 2.0, root[3 * f + 2] = 3.0;
+        for (int c = 0; c < 3; c++) {
+            trans[6 * f + (size_t)c] = toffsets[6 + c];
+            trans[6 * f + 3 + (size_t)c] = toffsets[9 + c];
+        }
+        trans[6 * f] += b_move * w;
+        trans[6 * f + 3 + 2] += c_move * w;
+    }
+}
+
+START_TEST(body_translation_joint_synthetic)
+{
+    enum { N = 40 };
+    double root[3 * N], trans[6 * N];
+    mlr_rig r = trans_rig();
+    mlr_diag d;
+    int32_t j = -7;
+    /* nothing moves: the root */
+    trans_frames(N, 0, 0, 0, root, trans);
+    ck_assert_int_eq(mlr_rig_body_translation_joint(&r, N, root, trans, &j, &d), MLR_OK);
+    ck_assert_int_eq(j, 0);
+    /* the root moves: the root, whatever else moves */
+    trans_frames(N, 0.5, 2.0, 2.0, root, trans);
+    ck_assert_int_eq(mlr_rig_body_translation_joint(&r, N, root, trans, &j, &d), MLR_OK);
+    ck_assert_int_eq(j, 0);
+    /* static root, both move: the topmost (C, depth 1) over the first in order (B, depth 2) */
+    trans_frames(N, 0, 2.0, 2.0, root, trans);
+    ck_assert_int_eq(mlr_rig_body_translation_joint(&r, N, root, trans, &j, &d), MLR_OK);
+    ck_assert_int_eq(j, 3);
+    /* only B moves */
+    trans_frames(N, 0, 2.0, 0, root, trans);
+    ck_assert_int_eq(mlr_rig_body_translation_joint(&r, N, root, trans, &j, &d), MLR_OK);
+    ck_assert_int_eq(j, 2);
+    /* rounding: spans of 1e-6 of the body size (15) are not motion, 1e-4 is */
+    trans_frames(N, 0, 2.0, 15e-6, root, trans);
+    ck_assert_int_eq(mlr_rig_body_translation_joint(&r, N, root, trans, &j, &d), MLR_OK);
+    ck_assert_int_eq(j, 2);
+    trans_frames(N, 15e-6, 0, 15e-4, root, trans);
+    ck_assert_int_eq(mlr_rig_body_translation_joint(&r, N, root, trans, &j, &d), MLR_OK);
+    ck_assert_int_eq(j, 3);
+    trans_frames(N, 15e-4, 0, 15e-4, root, trans);
+    ck_assert_int_eq(mlr_rig_body_translation_joint(&r, N, root, trans, &j, &d), MLR_OK);
+    ck_assert_int_eq(j, 0);
+    /* the threshold scales with the body: the same motion on a rig 1000 times larger (its
+     * OFFSETs in the channels) is rounding */
+    double big[12];
+    for (int k = 0; k < 12; k++)
+        big[k] = 1000.0 * toffsets[k];
+    mlr_rig rb = r;
+    rb.offsets = big;
+    trans_frames(N, 0, 0, 15e-4, root, trans);
+    for (size_t f = 0; f < N; f++)
+        for (int c = 0; c < 6; c++)
+            trans[6 * f + (size_t)c] += big[6 + c] - toffsets[6 + c];
+    ck_assert_int_eq(mlr_rig_body_translation_joint(&r, N, root, trans, &j, &d), MLR_OK);
+    ck_assert_int_eq(j, 3); /* a span of 2e-4 of the small rig's size */
+    ck_assert_int_eq(mlr_rig_body_translation_joint(&rb, N, root, trans, &j, &d), MLR_OK);
+    ck_assert_int_eq(j, 0);
+    trans_frames(N, 0, 0, 15e-4 * 1000.0, root, trans);
+    ck_assert_int_eq(mlr_rig_body_translation_joint(&rb, N, root, trans, &j, &d), MLR_OK);
+    ck_assert_int_eq(j, 3);
+    /* a rig without extent: rounding relative to the data */
+    const double zero[12] = {0};
+    mlr_rig rz = r;
+    rz.offsets = zero;
+    trans_frames(N, 0, 2.0, 0, root, trans);
+    ck_assert_int_eq(mlr_rig_body_translation_joint(&rz, N, root, trans, &j, &d), MLR_OK);
+    ck_assert_int_eq(j, 2);
+    /* no frames, no trans joints, a NULL root (static) */
+    ck_assert_int_eq(mlr_rig_body_translation_joint(&r, 0, NULL, NULL, &j, &d), MLR_OK);
+    ck_assert_int_eq(j, 0);
+    ck_assert_int_eq(mlr_rig_body_translation_joint(&r, N, NULL, trans, &j, &d), MLR_OK);
+    ck_assert_int_eq(j, 2);
+    mlr_rig rn = r;
+    rn.n_trans = 0;
+    rn.trans_joints = NULL;
+    trans_frames(N, 0, 0, 0, root, trans);
+    ck_assert_int_eq(mlr_rig_body_translation_joint(&rn, N, root, NULL, &j, &d), MLR_OK);
+    ck_assert_int_eq(j, 0);
+}
+END_TEST
+
+START_TEST(body_translation_joint_bad_input)
+{
+    enum { N = 10 };
+    double root[3 * N], trans[6 * N];
+    trans_frames(N, 0, 2.0, 0, root, trans);
+    mlr_rig r = trans_rig();
+    mlr_diag d;
+    int32_t j = 5;
+    ck_assert_int_eq(mlr_rig_body_translation_joint(&r, N, root, trans, NULL, &d), MLR_E_INVALID_ARG);
+    ck_assert_ptr_nonnull(strstr(d.message, "joint is NULL"));
+    ck_assert_int_eq(mlr_rig_body_translation_joint(NULL, N, root, trans, &j, &d), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(j, 0);
+    ck_assert_int_eq(mlr_rig_body_translation_joint(&r, N, root, NULL, &j, &d), MLR_E_INVALID_ARG);
+    ck_assert_ptr_nonnull(strstr(d.message, "trans is NULL"));
+    int32_t bad_trans[2] = {3, 2};
+    mlr_rig rb = r;
+    rb.trans_joints = bad_trans;
+    ck_assert_int_eq(mlr_rig_body_translation_joint(&rb, N, root, trans, &j, &d), MLR_E_INVALID_ARG);
+    ck_assert_ptr_nonnull(strstr(d.message, "trans_joints"));
+    trans[6 * 4 + 4] = NAN;
+    ck_assert_int_eq(mlr_rig_body_translation_joint(&r, N, root, trans, &j, &d), MLR_E_INVALID_ARG);
+    ck_assert_ptr_nonnull(strstr(d.message, "frame 4"));
+    trans[6 * 4 + 4] = 8.0;
+    root[3 * 7 + 1] = INFINITY;
+    ck_assert_int_eq(mlr_rig_body_translation_joint(&r, N, root, trans, &j, &d), MLR_E_INVALID_ARG);
+    ck_assert_ptr_nonnull(strstr(d.message, "root translation at frame 7"));
+}
+END_TEST
+
+/* The real clips: Bandai's walk is in Hips (joint 1) under a static joint_Root; every other
+ * clip moves its root. */
+START_TEST(body_translation_joint_real_clips)
+{
+    const char *dir = mlr_test_mocap_dir();
+    if (!dir)
+        return;
+    const struct { const char *file; const char *joint; } cases[] = {
+        {"bandai1_walk_happy_001.bvh", "Hips"},
+        {"cmu_131_01_mj_style_walk.bvh", "Hips"},
+        {"cmu_10_01_soccer_kick.bvh", "hip"},
+        {"lafan1_clip_a.bvh", "Hips"},
+        {"ai4a_dog_D1_008_KAN01_002.bvh", "Hips"},
+    };
+    for (size_t i = 0; i < MLR_COUNTOF(cases); i++) {
+        char path[1024];
+        snprintf(path, sizeof path, "%s/%s", dir, cases[i].file);
+        FILE *fp = fopen(path, "rb");
+        if (!fp)
+            continue;
+        fclose(fp);
+        mlr_motion *m = NULL;
+        mlr_diag d;
+        ck_assert_msg(mlr_bvh_read_file(path, NULL, &m, &d) == MLR_OK, "%s: %s", path, d.message);
+        const size_t J = mlr_motion_n_joints(m);
+        const char **nm = malloc(J * sizeof *nm);
+        for (size_t k = 0; k < J; k++)
+            nm[k] = mlr_motion_joint_name(m, k);
+        mlr_rig r = {J, mlr_motion_parents(m), mlr_motion_offsets(m), nm, mlr_motion_n_trans(m),
+                     mlr_motion_trans_joints(m), mlr_motion_n_end_sites(m),
+                     mlr_motion_end_site_parents(m), mlr_motion_end_site_offsets(m)};
+        int32_t j = -1;
+        ck_assert_msg(mlr_rig_body_translation_joint(&r, mlr_motion_n_frames(m), mlr_motion_root_pos(m),
+                                                     mlr_motion_trans(m), &j, &d) == MLR_OK,
+                      "%s: %s", cases[i].file, d.message);
+        ck_assert_msg(strcmp(nm[j], cases[i].joint) == 0, "%s: body joint %s, expected %s",
+                      cases[i].file, nm[j], cases[i].joint);
+        if (strstr(cases[i].file, "bandai")) {
+            ck_assert_int_eq(j, 1); /* not the root */
+            ck_assert_uint_eq(mlr_motion_n_trans(m), J - 1);
+        } else {
+            ck_assert_int_eq(j, 0);
+        }
+        free(nm);
+        mlr_motion_destroy(m);
+    }
+}
+END_TEST
+
 static Suite *rig_suite(void)
 {
     Suite *s = suite_create("rig");
@@ -116,6 +298,9 @@ static Suite *rig_suite(void)
     tcase_add_test(tc, points_are_found_by_name_and_end_suffix);
     tcase_add_test(tc, end_site_positions_follow_the_joint_rotation);
     tcase_add_test(tc, body_height_is_the_median_extent_on_the_up_axis);
+    tcase_add_test(tc, body_translation_joint_synthetic);
+    tcase_add_test(tc, body_translation_joint_bad_input);
+    tcase_add_test(tc, body_translation_joint_real_clips);
     suite_add_tcase(s, tc);
     return s;
 }

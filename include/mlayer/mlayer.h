@@ -16,6 +16,8 @@
 #include "mlr_som.h"
 #include "mlr_grbf.h"
 #include "mlr_rig.h"
+#include "mlr_contacts.h"
+#include "mlr_limits.h"
 #include "mlr_ik.h"
 #include "mlr_cleanup.h"
 

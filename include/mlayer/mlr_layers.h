@@ -31,7 +31,27 @@
  * lam = 1, sigma = 0.1; the reported pair is that path: lam = k, sigma = 0.1 k, k = (100 s)^(1/4).
  * The root translation has no angle to bound: it takes the s of joint 0, the root segment
  * whose orientation the same markers measure, so the pelvis translation and orientation are
- * smoothed alike.
+ * smoothed alike. On rigs whose body translation rides on a non-root joint (a static root
+ * above a moving pelvis, see mlr_rig_body_translation_joint), pass that joint's translation
+ * as root_pos and its index as MLR_LAYERS_OPT_BODY_JOINT: the translation then takes that
+ * joint's s.
+ *
+ * The base floor (fps-dependent default). Human joints rarely move gamma = 90 degrees from
+ * their mean, so without a floor the heuristic picks BASE_S_MAX for nearly every joint and the
+ * base layer becomes a straight line or parabola through the whole clip; exaggerating then
+ * pushes the root far off its path. With MLR_LAYERS_OPT_FPS given, the upper end of the search
+ * defaults to the s whose LGS halves the amplitude at the cutoff frequency fc
+ * (MLR_LAYERS_OPT_BASE_CUTOFF, default 0.25 Hz: trends slower than about 4 s stay in the base):
+ *
+ *     BASE_S_MAX = (2 sin(pi fc / fps))^-4     (the gain 1 / (1 + s (2 sin(pi f/fps))^4)
+ *                                               is 1/2 at f = fc)
+ *
+ * which is at least 1/16, above the default BASE_S_MIN. Precedence: LAM_B / SIGMA_B fix the base s and the search range is not used (FPS,
+ * BASE_CUTOFF, BASE_S_MIN and BASE_S_MAX are validated, then ignored); an explicit BASE_S_MAX
+ * replaces the floor of FPS (BASE_S_MAX together with BASE_CUTOFF is a conflict:
+ * MLR_E_INVALID_ARG); an explicit BASE_S_MIN is kept and must stay below the floor's
+ * BASE_S_MAX. To lift the floor, leave out FPS (the range is then [1e-2, 1e10]) or give FPS
+ * with an explicit BASE_S_MAX.
  *
  * Controllable layer, per group (the root translation, then each joint; 3 channels each): s is
  * chosen by generalized cross-validation, GCV(s) = (RSS / 3N) / (1 - tr(H)/N)^2 with
@@ -42,7 +62,8 @@
  * lam_c = sigma_c = 1). The reported pair is lam_c = sigma_c = s^(1/4).
  *
  * Arrays are row-major float64; quaternions scalar-first (w, x, y, z). Joint 0 is the root
- * segment; root_pos is its translation. Rotations are normalized on input, and the layers
+ * segment; root_pos is the body translation (its translation, unless BODY_JOINT names another
+ * joint). Rotations are normalized on input, and the layers
  * reproduce the normalized input; an output quaternion of synthesis and reconstruction is taken
  * in the hemisphere of the base quaternion of its frame (the base is sign-continuous in time),
  * so a rotation may come back as -q for an input q.
@@ -70,7 +91,12 @@ typedef enum mlr_layers_key {
     MLR_LAYERS_OPT_BASE_S_MIN = 6,     /* search range of the base s; default 1e-2 */
     MLR_LAYERS_OPT_BASE_S_MAX = 7,     /*   default 1e10 */
     MLR_LAYERS_OPT_CONTROL_S_MIN = 8,  /* GCV search range of the control s; default 1e-2 */
-    MLR_LAYERS_OPT_CONTROL_S_MAX = 9   /*   default 1e8 */
+    MLR_LAYERS_OPT_CONTROL_S_MAX = 9,  /*   default 1e8 */
+    MLR_LAYERS_OPT_FPS = 10,           /* frame rate in Hz, finite > 0: turns on the base floor
+                                          (BASE_CUTOFF, default 0.25 Hz) */
+    MLR_LAYERS_OPT_BASE_CUTOFF = 11,   /* base floor in Hz, in (0, fps/2); needs FPS */
+    MLR_LAYERS_OPT_BODY_JOINT = 12     /* joint whose base s the translation group takes, an
+                                          integer in [0, J); default 0 (the root) */
 } mlr_layers_key;
 
 /** One option: key (an mlr_layers_key) and its value. A frozen value type. */
@@ -98,7 +124,8 @@ typedef enum mlr_layers_param {
  * Decompose a motion.
  * @param n_frames  [in] N >= 3 (the second-difference prior needs three frames)
  * @param n_joints  [in] J >= 1
- * @param root_pos  [in] N x 3 root translations, finite; NULL for zeros. Not kept.
+ * @param root_pos  [in] N x 3 body translations, finite (the root's, or those of the joint
+ *                  given as MLR_LAYERS_OPT_BODY_JOINT); NULL for zeros. Not kept.
  * @param rot       [in] N x J x 4 joint rotations, finite and nonzero (normalized here). Not
  *                  kept.
  * @param opts      [in] n_opts options; NULL when n_opts is 0. A key may appear once.
@@ -107,7 +134,9 @@ typedef enum mlr_layers_param {
  * @param diag      [out] optional: the reason of an error
  * @return MLR_OK; MLR_E_INVALID_ARG (N < 3, J == 0, NULL arrays, non-finite or zero input,
  *         unknown or repeated key, gamma outside [pi/2, pi), a lam/sigma not finite and > 0,
- *         an s range not finite, positive and ordered); MLR_E_SINGULAR (a factorization
+ *         an s range not finite, positive and ordered, fps not finite and > 0, BASE_CUTOFF
+ *         outside (0, fps/2) or without FPS or together with BASE_S_MAX, BODY_JOINT not an
+ *         integer in [0, J)); MLR_E_SINGULAR (a factorization
  *         failed: s far too large for the clip); MLR_E_NO_MEMORY; MLR_E_OVERFLOW
  * Allocates: the handle, one block of about (10 J + 9) N doubles, and while running one block
  * of about (11 J + 6) N doubles of scratch. Cost O(N J) per search step (a few dozen steps).

@@ -90,6 +90,37 @@ MLR_API mlr_status mlr_rig_body_height(size_t n_frames, size_t n_joints,
                                        const double *world_pos, int up, double *height,
                                        const mlr_allocator *alloc, mlr_diag *diag);
 
+/** Relative size of "rounding" for mlr_rig_body_translation_joint: a translation varies when
+ *  one of its coordinates spans more than this times the rest pose's size over the frames. */
+#define MLR_RIG_TRANSLATION_ROUNDING 1e-5
+
+/**
+ * The joint that carries the body translation. Most rigs move the root; some keep a static
+ * root above a moving pelvis (Bandai: `joint_Root` stays at the origin, the walk is in the
+ * position channels of `Hips`). The answer is:
+ *  - the root, when one coordinate of root_pos spans more than rounding over the frames;
+ *  - else the topmost (fewest ancestors; the first in joint order among equals) of the trans
+ *    joints whose translation spans more than rounding;
+ *  - else the root.
+ * "Rounding" is MLR_RIG_TRANSLATION_ROUNDING times the size of the rest pose (the largest
+ * extent along an axis of the joints and End Sites placed by their OFFSETs, the root at the
+ * origin; a unit-free body size), or times the largest |translation| in the data when the rest
+ * pose has no extent. Channel values that only repeat an OFFSET with float noise (Bandai's
+ * non-root joints: a few 1e-12) are rounding; a capture moving its pelvis is far beyond it.
+ * @param rig       [in] a valid rig (mlr_rig_check)
+ * @param n_frames  [in] N, may be 0 (the answer is then the root)
+ * @param root_pos  [in] N x 3 root translations, or NULL for a static root
+ * @param trans     [in] N x P x 3 translations of rig->trans_joints (P = rig->n_trans), in
+ *                  that order (the layout of mlr_motion_trans); NULL allowed when P or N is 0
+ * @param joint     [out] the joint index (0 for the root)
+ * @return MLR_OK; MLR_E_INVALID_ARG (joint NULL, an invalid rig, trans NULL with P, N > 0,
+ *         a translation not finite; reason in diag)
+ * Allocates: never. Cost O(N (1 + P) + J depth). Threads: any; inputs only read.
+ */
+MLR_API mlr_status mlr_rig_body_translation_joint(const mlr_rig *rig, size_t n_frames,
+                                                  const double *root_pos, const double *trans,
+                                                  int32_t *joint, mlr_diag *diag);
+
 #ifdef __cplusplus
 }
 #endif

@@ -54,6 +54,11 @@
  * smoothed motion; alpha > 1 exaggerates, 0 <= alpha < 1 flattens toward the base. The alphas
  * may change between any two pushes (live style modulation).
  *
+ * Joint limits (optional): mlr_stream_set_limits attaches an mlr_limits; every output frame's
+ * quaternions then go through mlr_limits_apply's map (with the stream's alphas for the
+ * widening of input-derived ranges; alpha 1 without layers). The map is per frame, so the
+ * output stays C1 and streamed frames equal mlr_limits_apply of the unlimited stream's output.
+ *
  * Memory: everything is allocated by create (O((lag + 4) n_values) doubles per smoother);
  * push, flush, reset and set_alpha never allocate. A stream serves one thread at a time;
  * separate streams are independent.
@@ -62,6 +67,7 @@
 #define MLR_STREAM_H
 
 #include "mlr_common.h"
+#include "mlr_limits.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -150,6 +156,16 @@ MLR_API void mlr_stream_reset(mlr_stream *st);
  */
 MLR_API mlr_status mlr_stream_set_alpha(mlr_stream *st, double alpha_trans, const double *alpha,
                                         size_t n_joints);
+
+/**
+ * Attach joint limits to the stream's output from the next output frame on (push and flush),
+ * or detach them with NULL. The limits are borrowed: they must outlive the stream or be
+ * detached first, and not be changed (mlr_limits_set_range) while a push or flush runs.
+ * @param limits [in] limits for the stream's n_joints joints, or NULL
+ * @return MLR_OK; MLR_E_INVALID_ARG (NULL stream, mlr_limits_n_joints(limits) != n_joints)
+ * Allocates: never. Threads: one caller at a time per stream.
+ */
+MLR_API mlr_status mlr_stream_set_limits(mlr_stream *st, const mlr_limits *limits);
 
 /** Values per frame (3 root + 3 n_trans + 4 n_joints); 0 for NULL. */
 MLR_API size_t mlr_stream_frame_size(const mlr_stream *st);

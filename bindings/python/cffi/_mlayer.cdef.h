@@ -204,7 +204,8 @@ typedef enum mlr_layers_key {
     MLR_LAYERS_OPT_GAMMA = 1, MLR_LAYERS_OPT_LAM_B = 2, MLR_LAYERS_OPT_SIGMA_B = 3,
     MLR_LAYERS_OPT_LAM_C = 4, MLR_LAYERS_OPT_SIGMA_C = 5, MLR_LAYERS_OPT_BASE_S_MIN = 6,
     MLR_LAYERS_OPT_BASE_S_MAX = 7, MLR_LAYERS_OPT_CONTROL_S_MIN = 8,
-    MLR_LAYERS_OPT_CONTROL_S_MAX = 9
+    MLR_LAYERS_OPT_CONTROL_S_MAX = 9, MLR_LAYERS_OPT_FPS = 10, MLR_LAYERS_OPT_BASE_CUTOFF = 11,
+    MLR_LAYERS_OPT_BODY_JOINT = 12
 } mlr_layers_key;
 typedef struct mlr_layers_option { int key; double value; } mlr_layers_option;
 typedef enum mlr_layers_param {
@@ -320,6 +321,82 @@ mlr_status mlr_rig_point_positions(const mlr_rig *rig, size_t n_frames,
 mlr_status mlr_rig_body_height(size_t n_frames, size_t n_joints, const double *world_pos,
                                int up, double *height, const mlr_allocator *alloc,
                                mlr_diag *diag);
+mlr_status mlr_rig_body_translation_joint(const mlr_rig *rig, size_t n_frames,
+                                          const double *root_pos, const double *trans,
+                                          int32_t *joint, mlr_diag *diag);
+
+/* mlr_contacts.h */
+mlr_status mlr_contacts_find_feet(const mlr_rig *rig, size_t n_frames, const double *world_pos,
+                                  int up, size_t capacity, int32_t *joints, int32_t *end_sites,
+                                  size_t *n_feet, const mlr_allocator *alloc, mlr_diag *diag);
+typedef enum mlr_contacts_key {
+    MLR_CONTACTS_OPT_SPEED = 1,
+    MLR_CONTACTS_OPT_HEIGHT = 2,
+    MLR_CONTACTS_OPT_MIN_DURATION = 3
+} mlr_contacts_key;
+typedef struct mlr_contacts_option {
+    int key;
+    double value;
+} mlr_contacts_option;
+mlr_status mlr_contacts_detect(const mlr_rig *rig, double fps, int up, size_t n_frames,
+                               const double *world_pos, const double *world_rot,
+                               size_t n_points, const int32_t *joints, const int32_t *end_sites,
+                               const mlr_contacts_option *opts, size_t n_opts,
+                               uint8_t *contacts, const mlr_allocator *alloc, mlr_diag *diag);
+
+/* mlr_limits.h */
+typedef struct mlr_limits mlr_limits;
+typedef enum mlr_limits_kind {
+    MLR_LIMITS_FREE = 0,
+    MLR_LIMITS_HINGE = 1,
+    MLR_LIMITS_SWING_TWIST = 2
+} mlr_limits_kind;
+typedef enum mlr_limits_source {
+    MLR_LIMITS_SOURCE_NONE = 0,
+    MLR_LIMITS_SOURCE_TABLE = 1,
+    MLR_LIMITS_SOURCE_INPUT = 2,
+    MLR_LIMITS_SOURCE_USER = 3
+} mlr_limits_source;
+typedef struct mlr_limits_range {
+    int kind;
+    double lo;
+    double hi;
+    double swing;
+    double twist;
+    int widen;
+    int source;
+} mlr_limits_range;
+typedef struct mlr_limits_clip {
+    size_t n_frames;
+    const double *rot;
+    const double *trans;
+} mlr_limits_clip;
+typedef enum mlr_limits_key {
+    MLR_LIMITS_OPT_HUMAN = 1,
+    MLR_LIMITS_OPT_FOLD = 2,
+    MLR_LIMITS_OPT_SOFT = 3,
+    MLR_LIMITS_OPT_REVERSAL_SOFT = 4
+} mlr_limits_key;
+typedef struct mlr_limits_option {
+    int key;
+    double value;
+} mlr_limits_option;
+mlr_status mlr_limits_create(const mlr_rig *rig, const mlr_limits_clip *clips, size_t n_clips,
+                             const mlr_limits_option *opts, size_t n_opts,
+                             const mlr_allocator *alloc, mlr_limits **out, mlr_diag *diag);
+size_t mlr_limits_n_joints(const mlr_limits *lim);
+int mlr_limits_is_human(const mlr_limits *lim);
+mlr_status mlr_limits_get_range(const mlr_limits *lim, size_t joint, mlr_limits_range *out);
+mlr_status mlr_limits_set_range(mlr_limits *lim, size_t joint, const mlr_limits_range *range,
+                                mlr_diag *diag);
+mlr_status mlr_limits_get_geometry(const mlr_limits *lim, size_t joint, double *centre,
+                                   double *axis, double *bone_in, double *bone_out,
+                                   double *stats);
+mlr_status mlr_limits_apply(const mlr_limits *lim, size_t n_frames, const double *rot_in,
+                            double *rot_out, const double *alpha, size_t n_alpha,
+                            size_t *counts, size_t n_counts, mlr_diag *diag);
+void mlr_limits_destroy(mlr_limits *lim);
+mlr_status mlr_stream_set_limits(mlr_stream *st, const mlr_limits *limits);
 
 /* mlr_ik.h */
 mlr_status mlr_ik_two_bone(size_t n, const double *hip, const double *knee, const double *end,

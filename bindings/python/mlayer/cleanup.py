@@ -22,7 +22,7 @@ import numpy as np
 from . import _arrays
 from ._native import ffi, lib
 from .errors import InvalidArgumentError, check
-from .ik import rig_of
+from ._rig import c_rig
 
 __all__ = ["fix_contacts", "keep_contacts", "keep_contacts_retimed", "floor_height"]
 
@@ -83,7 +83,7 @@ def floor_height(motion, contacts=None, names=None, *, quantile: float = 0.05, u
     if not (np.isfinite(quantile) and 0.0 <= quantile <= 1.0):
         raise InvalidArgumentError(f"floor_height: quantile must be in [0, 1], got {quantile}")
     j, e = _points(motion.skeleton, names)
-    rig, keep = rig_of(motion.skeleton)
+    rig, keep = c_rig(motion.skeleton)
     root, rot, trans = _frames(motion)
     out = ffi.new("double *")
     diag = ffi.new("mlr_diag *")
@@ -154,7 +154,7 @@ def fix_contacts(motion, contacts, names, reference=None, *, floor="auto", up="y
     for i, (k, v) in enumerate(opts):
         copts[i].key, copts[i].value = k, v
     j, e = _points(motion.skeleton, names) if names else (np.zeros(0, np.int32),) * 2
-    rig, keep = rig_of(motion.skeleton)
+    rig, keep = c_rig(motion.skeleton)
     root, rot, trans = _frames(motion)
     P = trans.shape[1]
     if reference is not None:

@@ -1,7 +1,8 @@
 """Foot contacts: detection on a motion, and spacetime cleanup after synthesis (paper 1, 4.3).
 
-Detection (:func:`detect_contacts`) marks, per foot joint (ankle, and toe where the skeleton
-has one), the frames where the joint is slow and low, with hysteresis and a minimum duration.
+Detection (:func:`detect_contacts`, in the C core: mlr_contacts.h) marks, per foot joint
+(ankle, and toe where the skeleton has one), the frames where the joint is slow and low, with
+hysteresis and a minimum duration, on any up axis.
 Every threshold is relative to the body size (:func:`mlayer.metrics.body_height`) and to
 seconds, so the defaults work in any length unit and at any frame rate. Height is measured above
 the joint's own local floor level (its lowest height within +-0.75 s), so an ankle that sits
@@ -26,7 +27,10 @@ import re
 import numpy as np
 
 from . import ik, quat
-from .errors import InvalidArgumentError
+from ._arrays import as_f64, ptr, ptr_out
+from ._native import ffi, lib
+from ._rig import axis, c_rig
+from .errors import InvalidArgumentError, check
 from .lgs import lgs
 from .metrics import body_height
 
@@ -43,12 +47,10 @@ TOE_PATTERN = re.compile(r"toe|ball", re.IGNORECASE)
 #: front feet of quadrupeds named as hands (AI4Animation dog "LeftHand"); used only when low
 HAND_PATTERN = re.compile(r"hand|wrist", re.IGNORECASE)
 
-# detection defaults (body heights, seconds)
-_SPEED_ON, _SPEED_OFF = 0.25, 0.5      # body heights per second
-_HEIGHT_ON, _HEIGHT_OFF = 0.06, 0.09   # body heights above the local floor level
-_MIN_CONTACT, _MAX_GAP = 0.08, 0.05    # seconds
-_FLOOR_WINDOW = 0.75                   # seconds each side for the local floor level
-_HAND_LOW = 0.2                        # hands within this (body heights) of the feet are feet
+# detection defaults (body heights, seconds), as in the C core (mlr_contacts.h)
+_SPEED_ON = 0.25     # body heights per second
+_HEIGHT_ON = 0.06    # body heights above the local floor level
+_MIN_CONTACT = 0.08  # seconds
 
 
 def _has_ancestor_in(parents, j: int, group) -> bool:
@@ -60,15 +62,6 @@ def _has_ancestor_in(parents, j: int, group) -> bool:
     return False
 
 
-def _descendants(parents, j: int) -> list[int]:
-    out, frontier = [], {j}
-    for k in range(j + 1, len(parents)):
-        if int(parents[k]) in frontier:
-            frontier.add(k)
-            out.append(k)
-    return out
-
-
 END_SUFFIX = "/End"
 
 
@@ -78,54 +71,83 @@ def _end_site_of(sk, j: int) -> int:
     return int(hits[0]) if hits.size else -1
 
 
-def find_feet(motion, positions: np.ndarray | None = None) -> list[tuple[str, str | None]]:
+def _check_motion(motion, where: str):
+    from .motion import Motion
+    if not isinstance(motion, Motion):
+        raise InvalidArgumentError(f"{where}: motion must be a mlayer.Motion")
+
+
+def _positions_arg(motion, positions, name: str, last: int) -> np.ndarray:
+    shape = (motion.n_frames, motion.n_joints, last)
+    a = as_f64(positions, name)
+    if a.shape != shape:
+        raise InvalidArgumentError(f"{name}: expected shape {shape}, got {a.shape}")
+    return a
+
+
+def _c_feet(motion, pos, up: int) -> list[tuple[int, int]]:
+    """Contact points (joint, End Site or -1) of the feet, ankle then toe, by the C core;
+    (-1, -1) for a foot without a toe."""
+    sk = motion.skeleton
+    J = sk.n_joints
+    rig, keep = c_rig(sk)
+    joints = np.empty(2 * J, dtype=np.int32)
+    ends = np.empty(2 * J, dtype=np.int32)
+    n_feet = ffi.new("size_t *")
+    diag = ffi.new("mlr_diag *")
+    N = pos.shape[0] if pos is not None else 0
+    code = lib.mlr_contacts_find_feet(
+        rig, N, ptr(pos, "const double *") if N else ffi.NULL, up, J,
+        ffi.cast("int32_t *", ffi.from_buffer(joints, require_writable=True)),
+        ffi.cast("int32_t *", ffi.from_buffer(ends, require_writable=True)), n_feet, ffi.NULL,
+        diag)
+    del keep
+    try:
+        check(code, "find_feet", diag)
+    except InvalidArgumentError as e:
+        if "no feet found" not in str(e):
+            raise
+        names = sk.joint_names
+        raise InvalidArgumentError(
+            f"{e}. Name the contact joints yourself: joints=['LeftFoot', 'LeftToeBase', ...] "
+            "(Python) or --joints LeftFoot,LeftToeBase (command line). Joints of this "
+            "skeleton: " + ", ".join(names[:40]) + (" ..." if len(names) > 40 else ""),
+            e.code) from None
+    n = 2 * int(n_feet[0])
+    return list(zip(joints[:n].tolist(), ends[:n].tolist()))
+
+
+def _point_name(sk, j: int, e: int) -> str:
+    return sk.joint_names[j] + (END_SUFFIX if e >= 0 else "")
+
+
+def find_feet(motion, positions: np.ndarray | None = None, *,
+              up="y") -> list[tuple[str, str | None]]:
     """The feet of a skeleton found by joint name: a list of (ankle, toe or None) names.
 
     Ankles: the topmost joint of each chain whose name matches :data:`FOOT_PATTERN`. A toe:
     the child of that ankle matching :data:`TOE_PATTERN` (the one with the longest OFFSET when
-    there are several, as MakeHuman's five toes); without one, the ankle's End Site, named
-    ``"<ankle>/End"`` (the toe tip of the Daz skeletons, the paw of the AI4Animation dog).
-    Joints matching :data:`HAND_PATTERN` are feet too when they stay low (median height within
-    0.2 body heights of the feet's: a quadruped's front feet). Raises InvalidArgumentError
-    naming the patterns and the skeleton's joints when no foot is found.
+    there are several, as MakeHuman's five toes; also one behind zero-length joints); without
+    one, the ankle's End Site, named ``"<ankle>/End"`` (the toe tip of the Daz skeletons, the
+    paw of the AI4Animation dog). Joints matching :data:`HAND_PATTERN` are feet too when they
+    stay low (median height along ``up`` within 0.2 body heights of the feet's: a quadruped's
+    front feet); positions (N, J, 3) are the motion's own when not given. up: the up axis,
+    "x", "y" or "z" or 0..2. Raises InvalidArgumentError naming the patterns and the
+    skeleton's joints when no foot is found. The rules run in the C core
+    (``mlr_contacts_find_feet``).
     """
+    _check_motion(motion, "find_feet")
+    ax = axis(up, "find_feet")
+    if motion.n_frames:
+        pos = motion.positions() if positions is None else \
+            _positions_arg(motion, positions, "find_feet: positions", 3)
+    else:
+        pos = None
     sk = motion.skeleton
-    names, parents = sk.joint_names, sk.parents
-    found = {j for j, n in enumerate(names) if FOOT_PATTERN.search(n)}
-    ankles = [j for j in sorted(found) if not _has_ancestor_in(parents, j, found)]
-    if not ankles:
-        raise InvalidArgumentError(
-            "no feet found: no joint name matches /" + FOOT_PATTERN.pattern + "/ (case-"
-            "insensitive; toes: /" + TOE_PATTERN.pattern + "/ below a foot). Name the contact "
-            "joints yourself: joints=['LeftFoot', 'LeftToeBase', ...] (Python) or --joints "
-            "LeftFoot,LeftToeBase (command line); 'Joint/End' names a joint's End Site. Joints "
-            "of this skeleton: " + ", ".join(names[:40]) + (" ..." if len(names) > 40 else ""))
-    hands = [j for j, n in enumerate(names) if HAND_PATTERN.search(n)]
-    hands = [j for j in hands if not _has_ancestor_in(parents, j, set(hands))]
-    if hands and motion.n_frames:
-        p = motion.positions() if positions is None else positions
-        H = float(np.median(p[..., 1].max(axis=1) - p[..., 1].min(axis=1))) or 1.0
-        ground = p[..., 1].min(axis=1)
-        foot_h = np.median(p[:, ankles, 1] - ground[:, None])
-        for j in hands:
-            if np.median(p[:, j, 1] - ground) <= foot_h + _HAND_LOW * H:
-                ankles.append(j)
-    ankles.sort()
-    lengths = np.linalg.norm(sk.offsets, axis=1)
-    feet = []
-    for a in ankles:
-        kids = [k for k in sk.children(a) if TOE_PATTERN.search(names[k])]
-        if not kids:  # a toe behind a zero-length joint
-            kids = [k for k in _descendants(parents, a) if TOE_PATTERN.search(names[k])
-                    and all(lengths[x] <= 1e-9 for x in _path_between(parents, a, k)[:-1])]
-        if kids:
-            toe = names[max(kids, key=lambda k: lengths[k])]
-        elif _end_site_of(sk, a) >= 0:
-            toe = names[a] + END_SUFFIX
-        else:
-            toe = None
-        feet.append((names[a], toe))
-    return feet
+    pts = _c_feet(motion, pos, ax)
+    return [(sk.joint_names[pts[i][0]],
+             None if pts[i + 1][0] < 0 else _point_name(sk, *pts[i + 1]))
+            for i in range(0, len(pts), 2)]
 
 
 def _point(sk, name) -> tuple[int, int]:
@@ -150,44 +172,40 @@ def _point(sk, name) -> tuple[int, int]:
         "skeleton: " + ", ".join(names))
 
 
+def _point_arrays(pts):
+    joints = np.ascontiguousarray([j for j, _ in pts], dtype=np.int32)
+    ends = np.ascontiguousarray([e for _, e in pts], dtype=np.int32)
+    return joints, ends
+
+
 def contact_positions(motion, names, pos=None, wrot=None) -> np.ndarray:
-    """(N, C) world positions (N, C, 3) of contact points: joints, or End Sites ("Joint/End")."""
+    """(N, C, 3) world positions of contact points: joints, or End Sites ("Joint/End"), by
+    the C core (``mlr_rig_point_positions``). pos (N, J, 3) and wrot (N, J, 4): the motion's
+    forward kinematics when already at hand."""
+    _check_motion(motion, "contact_positions")
     sk = motion.skeleton
+    names = [names] if isinstance(names, str) else list(names)
     pts = [_point(sk, n) for n in names]
     if pos is None or (wrot is None and any(e >= 0 for _, e in pts)):
         pos, wrot = motion.forward_kinematics()
-    out = np.empty((pos.shape[0], len(pts), 3))
-    for c, (j, e) in enumerate(pts):
-        out[:, c] = pos[:, j]
-        if e >= 0:
-            out[:, c] += ik._rotate(wrot[:, j], np.broadcast_to(sk.end_site_offsets[e],
-                                                                (pos.shape[0], 3)))
+    pos = _positions_arg(motion, pos, "contact_positions: pos", 3)
+    if wrot is not None:
+        wrot = _positions_arg(motion, wrot, "contact_positions: wrot", 4)
+    N = pos.shape[0]
+    out = np.empty((N, len(pts), 3))
+    if N == 0 or not pts:
+        return out
+    joints, ends = _point_arrays(pts)
+    rig, keep = c_rig(sk)
+    diag = ffi.new("mlr_diag *")
+    code = lib.mlr_rig_point_positions(
+        rig, N, ptr(pos, "const double *"),
+        ptr(wrot, "const double *") if wrot is not None else ffi.NULL, len(pts),
+        ffi.cast("const int32_t *", ffi.from_buffer(joints)),
+        ffi.cast("const int32_t *", ffi.from_buffer(ends)), ptr_out(out), diag)
+    del keep
+    check(code, "contact_positions", diag)
     return out
-
-
-def _path_between(parents, a: int, k: int) -> list[int]:
-    """Joints from below a down to k (inclusive)."""
-    path = []
-    while k != a and k >= 0:
-        path.append(k)
-        k = int(parents[k])
-    return path[::-1]
-
-
-def _moving_min(x: np.ndarray, half: int) -> np.ndarray:
-    """Minimum over the window [t - half, t + half] along axis 0 (van Herk / Gil-Werman)."""
-    n = x.shape[0]
-    if half <= 0 or n <= 1:
-        return x.copy()
-    w = 2 * half + 1
-    pad = np.concatenate([np.full((half,) + x.shape[1:], np.inf), x,
-                          np.full((half + (-(n + 2 * half)) % w,) + x.shape[1:], np.inf)])
-    blocks = pad.reshape((-1, w) + x.shape[1:])
-    fwd = np.minimum.accumulate(blocks, axis=1).reshape(pad.shape)
-    bwd = np.minimum.accumulate(blocks[:, ::-1], axis=1)[:, ::-1].reshape(pad.shape)
-    # window starting at i (in padded coordinates) covers i .. i + w - 1
-    i = np.arange(n)
-    return np.minimum(bwd[i], fwd[i + w - 1])
 
 
 def _runs(mask: np.ndarray):
@@ -200,16 +218,6 @@ def contact_intervals(contacts_column) -> list[tuple[int, int]]:
     """The contact intervals [start, end) of one column of a contact array."""
     s, e = _runs(np.asarray(contacts_column, dtype=bool))
     return list(zip(s.tolist(), e.tolist()))
-
-
-def _hysteresis(on: np.ndarray, off: np.ndarray) -> np.ndarray:
-    """Enter where `on`, leave where `off`, keep the state otherwise (per column, from False)."""
-    n = on.shape[0]
-    event = np.where(on, 1, np.where(off, 0, -1))
-    idx = np.where(event >= 0, np.arange(n)[:, None], -1)
-    last = np.maximum.accumulate(idx, axis=0)
-    state = np.take_along_axis(event, np.maximum(last, 0), axis=0)
-    return (state == 1) & (last >= 0)
 
 
 def _resolve_names(motion, joints) -> list[str]:
@@ -229,66 +237,60 @@ def _resolve_names(motion, joints) -> list[str]:
 
 
 def detect_contacts(motion, joints=None, *, speed: float = _SPEED_ON,
-                    height: float = _HEIGHT_ON, min_duration: float = _MIN_CONTACT):
+                    height: float = _HEIGHT_ON, min_duration: float = _MIN_CONTACT, up="y"):
     """Foot contacts of a motion: ``(names, contacts)``, contacts a bool array (N, C).
 
     joints: the contact points: joint names or indices, or "Joint/End" for a joint's End Site (a
     string may list names separated by commas); default: every foot of :func:`find_feet`,
     ankle then toe (or the ankle's End Site when the skeleton has no toe joint).
     A joint enters contact where its speed is below ``speed`` body heights per second and its
-    height above its local floor level (the lowest height within +-0.75 s) below ``height``
-    body heights; it leaves where the speed exceeds twice ``speed`` or the height 1.5 times
-    ``height`` (hysteresis). Gaps shorter than 0.05 s are closed, then contacts shorter than
-    ``min_duration`` seconds dropped. Speeds are central differences over about 1/30 s, so the
-    same defaults hold at 25-120 fps; body height is :func:`mlayer.metrics.body_height`.
+    height along ``up`` above its local floor level (the lowest height within +-0.75 s) below
+    ``height`` body heights; it leaves where the speed exceeds twice ``speed`` or the height
+    1.5 times ``height`` (hysteresis). Gaps shorter than 0.05 s are closed, then contacts
+    shorter than ``min_duration`` seconds dropped. Speeds are central differences over about
+    1/30 s, so the same defaults hold at 25-120 fps; body height is the median extent of the
+    joints along ``up`` (:func:`mlayer.metrics.body_height` for Y). up: "x", "y" (default) or
+    "z", or 0..2. The detection runs in the C core (``mlr_contacts_detect``).
     """
-    from .motion import Motion
-    if not isinstance(motion, Motion):
-        raise InvalidArgumentError("detect_contacts: motion must be a mlayer.Motion")
-    for v, name in ((speed, "speed"), (height, "height"), (min_duration, "min_duration")):
+    _check_motion(motion, "detect_contacts")
+    ax = axis(up, "detect_contacts")
+    opts = []
+    for key, v, name in ((lib.MLR_CONTACTS_OPT_SPEED, speed, "speed"),
+                         (lib.MLR_CONTACTS_OPT_HEIGHT, height, "height"),
+                         (lib.MLR_CONTACTS_OPT_MIN_DURATION, min_duration, "min_duration")):
+        try:
+            v = float(v)
+        except (TypeError, ValueError):
+            raise InvalidArgumentError(f"detect_contacts: {name} must be a number, got {v!r}") \
+                from None
         if not (np.isfinite(v) and v > 0):
             raise InvalidArgumentError(f"detect_contacts: {name} must be finite and > 0, got {v}")
+        opts.append((key, v))
     N = motion.n_frames
     if N < 3:
         raise InvalidArgumentError(f"detect_contacts needs at least 3 frames, got {N}")
+    sk = motion.skeleton
     pos, wrot = motion.forward_kinematics()
     if joints is None:
-        names = []
-        for a, t in find_feet(motion, pos):
-            names += [a] if t is None else [a, t]
+        pts = [p for p in _c_feet(motion, pos, ax) if p[0] >= 0]
     else:
-        names = _resolve_names(motion, joints)
-    H = body_height(pos)
-    if not H > 0:
-        raise InvalidArgumentError("detect_contacts: the motion has no vertical extent (flat "
-                                   "skeleton), so no body size to scale thresholds by")
-    fps = motion.fps
-    p = contact_positions(motion, names, pos, wrot)
-    k = max(1, int(round(fps / 60.0)))
-    v = np.empty(p.shape[:2])
-    if N > 2 * k:
-        v[k:N - k] = np.linalg.norm(p[2 * k:] - p[:N - 2 * k], axis=-1) / (2 * k / fps)
-        v[:k], v[N - k:] = v[k], v[N - k - 1]
-    else:
-        v[:] = np.linalg.norm(p[-1] - p[0], axis=-1) / ((N - 1) / fps)
-    y = p[..., 1]
-    floor = _moving_min(y, int(round(_FLOOR_WINDOW * fps)))
-    h = y - floor
-    on = (v < speed * H) & (h < height * H)
-    off = (v > 2.0 * speed * H) | (h > 1.5 * height * H)
-    c = _hysteresis(on, off)
-    gap = int(round(_MAX_GAP * fps))
-    shortest = max(2, int(round(min_duration * fps)))
-    for col in range(c.shape[1]):
-        s, e = _runs(~c[:, col])
-        for a, b in zip(s, e):
-            if a > 0 and b < N and b - a <= gap:
-                c[a:b, col] = True
-        s, e = _runs(c[:, col])
-        for a, b in zip(s, e):
-            if b - a < shortest:
-                c[a:b, col] = False
-    return names, c
+        pts = [_point(sk, n) for n in _resolve_names(motion, joints)]
+    names = [_point_name(sk, j, e) for j, e in pts]
+    jts, ends = _point_arrays(pts)
+    copts = ffi.new("mlr_contacts_option[]", len(opts))
+    for i, (key, v) in enumerate(opts):
+        copts[i].key, copts[i].value = key, v
+    out = np.zeros((N, len(pts)), dtype=np.uint8)
+    rig, keep = c_rig(sk)
+    diag = ffi.new("mlr_diag *")
+    code = lib.mlr_contacts_detect(
+        rig, motion.fps, ax, N, ptr(pos, "const double *"), ptr(wrot, "const double *"),
+        len(pts), ffi.cast("const int32_t *", ffi.from_buffer(jts)),
+        ffi.cast("const int32_t *", ffi.from_buffer(ends)), copts, len(opts),
+        ffi.cast("uint8_t *", ffi.from_buffer(out, require_writable=True)), ffi.NULL, diag)
+    del keep
+    check(code, "detect_contacts", diag)
+    return names, out.view(np.bool_)
 
 
 # The cleanup (fix_contacts, keep_contacts, keep_contacts_retimed) lives in the C core now

@@ -1,5 +1,7 @@
 """Pose features for the motion manifold (paper 2, section 2): forward-kinematics joint
-positions with the root position and heading removed, one 3J vector per frame."""
+positions with the body's position and heading removed, one 3J vector per frame. The body is
+the joint that carries the body translation (:func:`mlayer.layers.body_translation_joint`):
+the root, or on rigs with a static root above a moving pelvis (Bandai) that pelvis."""
 from __future__ import annotations
 
 import numpy as np
@@ -18,17 +20,30 @@ def heading(rot_root) -> np.ndarray:
     return np.arctan2(fx, fz)
 
 
-def _one(m: Motion) -> np.ndarray:
-    pos, wrot = m.forward_kinematics()  # (N, J, 3), (N, J, 4)
-    rel = pos - pos[:, :1, :]           # root position removed
-    yaw = heading(wrot[:, 0])
+def _one(m: Motion, body: int) -> np.ndarray:
+    pos, wrot = m.forward_kinematics()     # (N, J, 3), (N, J, 4)
+    rel = pos - pos[:, body:body + 1, :]   # the body joint's position removed
+    yaw = heading(wrot[:, body])
     c, s = np.cos(yaw)[:, None], np.sin(yaw)[:, None]
     out = np.empty_like(rel)
     # rotate by -yaw about Y: x' = c x - s z, z' = s x + c z
     out[..., 0] = c * rel[..., 0] - s * rel[..., 2]
     out[..., 1] = rel[..., 1]
     out[..., 2] = s * rel[..., 0] + c * rel[..., 2]
+    if body != 0:
+        # joints outside the body joint's subtree (the static root above it) stay where the
+        # body left them: relative to the body they only hold the path, not the pose
+        out[:, ~_subtree(m.skeleton.parents, body)] = 0.0
     return out.reshape(m.n_frames, -1)
+
+
+def _subtree(parents, body: int) -> np.ndarray:
+    """(J,) mask of the body joint and its descendants (parents before children)."""
+    inside = np.zeros(len(parents), dtype=bool)
+    inside[body] = True
+    for j in range(body + 1, len(parents)):
+        inside[j] = inside[parents[j]]
+    return inside
 
 
 def pose_features(motion) -> np.ndarray:
@@ -36,10 +51,14 @@ def pose_features(motion) -> np.ndarray:
     of Motions, stacked in order; "one skeleton" means the same hierarchy, i.e. equal parent
     arrays: joint names may differ between exports, e.g. CMU's LeftHip / LeftUpLeg).
 
-    For each frame: world joint positions by forward kinematics, minus the root joint's world
-    position, rotated about +Y by minus the root's heading (:func:`heading`), so a clip moved
-    on the floor or turned about the vertical axis gives the same features. Units are those of
-    the clip. Joint j's coordinates are columns 3j .. 3j+2.
+    For each frame: world joint positions by forward kinematics, minus the body joint's world
+    position, rotated about +Y by minus the body joint's heading (:func:`heading` of its world
+    rotation), so a clip moved on the floor or turned about the vertical axis gives the same
+    features. The body joint is the root on most rigs; where a joint below a static root
+    carries the translation (Bandai's Hips) it is that joint
+    (:func:`mlayer.layers.body_translation_joint`, one joint for all the clips), and the
+    joints outside its subtree (that static root) get zero features. Units are those of the
+    clip. Joint j's coordinates are columns 3j .. 3j+2.
     """
     clips = list(motion) if isinstance(motion, (list, tuple)) else [motion]
     if not clips:
@@ -51,7 +70,9 @@ def pose_features(motion) -> np.ndarray:
     for i, m in enumerate(clips[1:], 1):
         if not np.array_equal(m.skeleton.parents, sk.parents):
             raise InvalidArgumentError(f"pose_features: clip {i} has another skeleton than clip 0")
-    return np.concatenate([_one(m) for m in clips], axis=0)
+    from .layers import body_translation_joint
+    body = body_translation_joint(clips)
+    return np.concatenate([_one(m, body) for m in clips], axis=0)
 
 
 __all__ = ["pose_features", "heading"]

@@ -19,6 +19,7 @@ import numpy as np
 
 from . import _arrays
 from ._native import ffi, lib
+from ._rig import c_rig
 from .errors import InvalidArgumentError, check
 
 __all__ = ["leg_chain", "two_bone", "from_to", "apply_leg", "rotate_to", "bend_axis_local"]
@@ -37,30 +38,6 @@ def _i32(a):
     return ffi.cast("const int32_t *", ffi.from_buffer(a))
 
 
-def rig_of(skeleton):
-    """(mlr_rig *, keepalive) for a Skeleton: the C view of its arrays (borrowed)."""
-    keep = []
-    parents = np.ascontiguousarray(skeleton.parents, dtype=np.int32)
-    offsets = np.ascontiguousarray(skeleton.offsets, dtype=np.float64)
-    names = [ffi.new("char[]", n.encode("utf-8")) for n in skeleton.joint_names]
-    name_arr = ffi.new("const char *[]", names)
-    tj = np.ascontiguousarray(skeleton.trans_joints, dtype=np.int32)
-    ep = np.ascontiguousarray(skeleton.end_site_parents, dtype=np.int32)
-    eo = np.ascontiguousarray(np.asarray(skeleton.end_site_offsets, dtype=np.float64).reshape(-1, 3))
-    keep += [parents, offsets, names, name_arr, tj, ep, eo]
-    rig = ffi.new("mlr_rig *")
-    rig.n_joints = parents.shape[0]
-    rig.parents = _i32(parents)
-    rig.offsets = ffi.cast("const double *", ffi.from_buffer(offsets))
-    rig.names = name_arr
-    rig.n_trans = tj.shape[0]
-    rig.trans_joints = _i32(tj) if tj.size else ffi.NULL
-    rig.n_end_sites = ep.shape[0]
-    rig.end_site_parents = _i32(ep) if ep.size else ffi.NULL
-    rig.end_site_offsets = ffi.cast("const double *", ffi.from_buffer(eo)) if ep.size else ffi.NULL
-    return rig, keep
-
-
 def leg_chain(skeleton, end: int) -> tuple[int, int, int]:
     """(hip, knee, end) joint indices for a two-bone chain ending at joint ``end``.
 
@@ -69,7 +46,7 @@ def leg_chain(skeleton, end: int) -> tuple[int, int, int]:
     knee. Raises InvalidArgumentError when the chain does not exist (a joint too close to the
     root).
     """
-    rig, keep = rig_of(skeleton)
+    rig, keep = c_rig(skeleton)
     hip, knee = ffi.new("int32_t *"), ffi.new("int32_t *")
     diag = ffi.new("mlr_diag *")
     check(lib.mlr_ik_leg_chain(rig, int(end), hip, knee, diag), "leg_chain", diag)

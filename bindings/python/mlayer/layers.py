@@ -23,9 +23,12 @@ How the smoothing is chosen (all in the C core, see mlr_layers.h):
   lam_c = sigma_c = 1 was tuned on 24 fps data and barely smooths 120 fps captures; pass
   lam_c / sigma_c to use fixed values instead.
 
-Joints with position channels other than the root (Bandai files put 6 channels on every
-joint) keep their translations unchanged: the layers act on the root translation and on the
-rotations.
+The translation group (index 0 of control, residual and the parameters) is the body
+translation: the root's, or, on rigs whose root stays put while a joint below it carries the
+walk in its position channels (Bandai: a static ``joint_Root`` above ``Hips``), that joint's
+(:func:`body_translation_joint`, ``Layers.body_joint``). Denoising smooths it and style
+modulation scales it wherever it lives. Other position channels (Bandai files put 6 channels on
+every joint, repeating the OFFSETs) keep their values.
 """
 from __future__ import annotations
 
@@ -38,6 +41,7 @@ import numpy as np
 from . import _arrays
 from ._files import atomic_output
 from ._native import ffi, lib
+from ._rig import c_rig
 from .errors import InvalidArgumentError, check
 
 _PARAMS = {
@@ -63,27 +67,88 @@ def _option(key, value, name):
     return (key, v)
 
 
+def body_translation_joint(motion) -> int:
+    """The joint that carries the body translation of a Motion (or of a list of Motions of one
+    skeleton): the root when its translation varies beyond rounding, else the topmost joint with
+    position channels whose translation does (Bandai: ``Hips`` under a static ``joint_Root``),
+    else the root. "Beyond rounding": a coordinate spans more than 1e-5 of the rest pose's size
+    (mlr_rig_body_translation_joint in the C core). For several clips: the first non-root
+    answer among them, else the root."""
+    from .motion import Motion
+    clips = list(motion) if isinstance(motion, (list, tuple)) else [motion]
+    for m in clips:
+        if not isinstance(m, Motion):
+            raise InvalidArgumentError(f"body_translation_joint: expected a Motion, got "
+                                       f"{type(m).__name__}")
+    for m in clips:
+        j = _body_joint_one(m)
+        if j != 0:
+            return j
+    return 0
+
+
+def _body_joint_one(m) -> int:
+    sk = m.skeleton
+    P = int(sk.trans_joints.shape[0])
+    if P == 0 or m.n_frames == 0:
+        return 0
+    root, _, trans = m._frames()
+    rig, _keep = c_rig(sk)
+    out = ffi.new("int32_t *")
+    diag = ffi.new("mlr_diag *")
+    check(lib.mlr_rig_body_translation_joint(rig, m.n_frames, _arrays.ptr(root),
+                                             _arrays.ptr(trans), out, diag),
+          "body_translation_joint", diag)
+    return int(out[0])
+
+
+def body_translation(motion, joint: int) -> np.ndarray:
+    """The (N, 3) translation of `joint` in a Motion: root_pos for the root, else its position
+    channels (the joint must have them)."""
+    if joint == 0:
+        return motion.root_pos
+    hits = np.flatnonzero(motion.skeleton.trans_joints == joint)
+    if hits.size != 1:
+        raise InvalidArgumentError(f"joint {joint} has no position channels")
+    return motion.trans[:, int(hits[0])]
+
+
+def _with_body_translation(motion, joint: int, t: np.ndarray, rot: np.ndarray):
+    """motion.with_frames with rotations rot and the body translation t written to `joint`
+    (the root's translation when joint is 0, else that joint's position channels; the root and
+    the other channels keep motion's values)."""
+    if joint == 0:
+        return motion.with_frames(root_pos=t, rot=rot)
+    trans = np.array(motion.trans, dtype=np.float64, order="C", copy=True)
+    trans[:, int(np.flatnonzero(motion.skeleton.trans_joints == joint)[0])] = t
+    return motion.with_frames(rot=rot, trans=trans)
+
+
 class Layers:
     """The layers of one motion. Made by :func:`decompose`; read-only.
 
-    Attributes (groups: index 0 is the root translation, 1 + j is joint j)
+    Attributes (groups: index 0 is the body translation, 1 + j is joint j)
       motion          the input Motion
+      body_joint      the joint whose translation is group 0: 0 (the root) on most rigs; the
+                      joint below a static root that carries the walk otherwise (Bandai: Hips);
+                      see :func:`body_translation_joint`
       base            the base layer, a Motion on the same skeleton
-      control         controllable layer, (N, 1 + J, 3): root translation offsets, then one
+      control         controllable layer, (N, 1 + J, 3): body translation offsets, then one
                       rotation vector (radians, axis times angle) per joint
       residual        residual layer, laid out like control
       lam, sigma      base-layer LGS parameters per group, (1 + J,)
       base_s          lam^2 sigma^2 of the base layer per group (the smoothing strength)
       base_max_angle  largest displacement per group: radians for joints, length units for
-                      the root translation
+                      the body translation
       lam_c, sigma_c  controllable-layer LGS parameters per group, (1 + J,)
       control_s       lam_c^2 sigma_c^2 per group
       control_gcv     GCV score at the chosen setting (NaN when lam_c/sigma_c were given)
       control_dof     effective degrees of freedom of the control smoother per channel
     """
 
-    def __init__(self, motion, handle, params: dict):
+    def __init__(self, motion, handle, params: dict, body_joint: int = 0):
         self.motion = motion
+        self.body_joint = int(body_joint)
         self._h = handle
         for name, values in params.items():
             values.flags.writeable = False
@@ -98,11 +163,11 @@ class Layers:
         root, rot = np.empty((n, 3)), np.empty((n, j, 4))
         check(lib.mlr_layers_get_base(self._h, _arrays.ptr_out(root), root.size,
                                       _arrays.ptr_out(rot), rot.size), "layers base")
-        return self.motion.with_frames(root_pos=root, rot=rot)
+        return _with_body_translation(self.motion, self.body_joint, root, rot)
 
     @functools.cached_property
     def control(self) -> np.ndarray:
-        """The controllable layer, (N, 1 + J, 3): root translation, then rotation vectors."""
+        """The controllable layer, (N, 1 + J, 3): body translation, then rotation vectors."""
         return self._groups(lib.mlr_layers_get_control, "layers control")
 
     @functools.cached_property
@@ -123,7 +188,7 @@ class Layers:
     def alphas(self, alpha=1.0, joints=None, root_alpha=None) -> np.ndarray:
         """The (1 + J,) alpha vector synthesize uses: `alpha` everywhere, then each pattern of
         `joints` (a dict of joint name or glob -> alpha, applied in order; later patterns win),
-        and `root_alpha` for the root translation (default: alpha)."""
+        and `root_alpha` for the body translation (default: alpha)."""
         names = self.motion.joint_names
         out = np.full(1 + len(names), _finite(alpha, "alpha"))
         if root_alpha is not None:
@@ -139,10 +204,11 @@ class Layers:
     def synthesize(self, alpha=1.0, joints=None, *, root_alpha=None):
         """M' = Mb (+) W control (paper eq. 16, 17), as a Motion on the same skeleton.
 
-        alpha       scale of the controllable layer for every joint and the root translation
+        alpha       scale of the controllable layer for every joint and the body translation
                     (1: denoised, > 1 exaggerated, 0: the base layer)
         joints      dict mapping a joint name or a glob such as "Left*" to its own alpha
-        root_alpha  alpha of the root translation (default: alpha)
+        root_alpha  alpha of the body translation (default: alpha): the root's, or that of
+                    ``body_joint`` when a joint below a static root carries it
         """
         w = self.alphas(alpha, joints, root_alpha)
         return self._frames(lambda r, q: lib.mlr_layers_synthesize(
@@ -160,12 +226,14 @@ class Layers:
         n, j = self.n_frames, self.motion.n_joints
         root, rot = np.empty((n, 3)), np.empty((n, j, 4))
         check(call(root, rot), where)
-        return self.motion.with_frames(root_pos=root, rot=rot)
+        return _with_body_translation(self.motion, self.body_joint, root, rot)
 
     def save_npz(self, path) -> None:
         """Write every layer and parameter to a .npz file (atomically): base_root_pos, base_rot,
-        control, residual, the parameter arrays, joint_names and fps."""
+        base_trans (the base layer's position channels of non-root joints), control, residual,
+        the parameter arrays, body_joint, joint_names and fps."""
         arrays = {"base_root_pos": self.base.root_pos, "base_rot": self.base.rot,
+                  "base_trans": self.base.trans, "body_joint": np.int64(self.body_joint),
                   "control": self.control, "residual": self.residual,
                   "joint_names": np.array(self.motion.joint_names), "fps": self.motion.fps}
         arrays.update({name: getattr(self, name) for name in _PARAMS})
@@ -173,8 +241,10 @@ class Layers:
             np.savez(tmp, **arrays)
 
     def __repr__(self) -> str:
+        body = "" if self.body_joint == 0 else \
+            f"; body translation on {self.motion.joint_names[self.body_joint]!r}"
         return (f"<mlayer.Layers of {self.n_frames} frames, {self.motion.n_joints} joints; "
-                f"lam_c median {np.median(self.lam_c):.3g}>")
+                f"lam_c median {np.median(self.lam_c):.3g}{body}>")
 
 
 def _finite(v, name) -> float:
@@ -189,14 +259,19 @@ def _finite(v, name) -> float:
 
 def base_s_max(fps: float, cutoff_hz: float) -> float:
     """The base-layer smoothing s = lam^2 sigma^2 whose LGS (second-difference prior, identity
-    observations) halves the power at cutoff_hz for a clip at fps: the response
-    1 / (1 + s (2 sin(pi f / fps))^4) is 1/2 there."""
+    observations) halves the amplitude at cutoff_hz for a clip at fps: the gain
+    1 / (1 + s (2 sin(pi f / fps))^4) is 1/2 there. The C core computes the same upper end of
+    the base search from MLR_LAYERS_OPT_FPS and MLR_LAYERS_OPT_BASE_CUTOFF (decompose passes
+    those); this formula is kept as the reference."""
     return (2.0 * math.sin(math.pi * cutoff_hz / fps)) ** -4
 
 
 def decompose(motion, *, gamma: float = math.pi / 2, lam_c=None, sigma_c=None, lam_b=None,
               sigma_b=None, base_cutoff: float | None = 0.25) -> Layers:
-    """Split a Motion into base, controllable and residual layers (see the module docs).
+    """Split a Motion into base, controllable and residual layers (see the module docs). The
+    translation group is the body translation (:func:`body_translation_joint`): the root's, or
+    that of the joint below a static root that carries it, which then also lends its base
+    smoothing to the translation (MLR_LAYERS_OPT_BODY_JOINT).
 
     gamma           largest displacement angle the base layer may leave, radians, in
                     [pi/2, pi) (paper eq. 14)
@@ -224,18 +299,20 @@ def decompose(motion, *, gamma: float = math.pi / 2, lam_c=None, sigma_c=None, l
         _option(lib.MLR_LAYERS_OPT_LAM_B, lam_b, "lam_b"),
         _option(lib.MLR_LAYERS_OPT_SIGMA_B, sigma_b, "sigma_b")) if o is not None]
     if base_cutoff is not None and lam_b is None and sigma_b is None:
+        # the floor is the C default given the frame rate (mlr_layers.h, "The base floor")
         cutoff = _finite(base_cutoff, "base_cutoff")
         if not 0.0 < cutoff < 0.5 * motion.fps:
             raise InvalidArgumentError(f"base_cutoff must be in (0, fps/2) = (0, "
                                        f"{0.5 * motion.fps:g}) Hz, got {base_cutoff!r}")
-        s_max = base_s_max(motion.fps, cutoff)
-        opts.append((lib.MLR_LAYERS_OPT_BASE_S_MAX, s_max))
-        if s_max <= 1e-2:  # the C default lower end of the search range
-            opts.append((lib.MLR_LAYERS_OPT_BASE_S_MIN, s_max / 10.0))
+        opts += [(lib.MLR_LAYERS_OPT_FPS, _finite(motion.fps, "fps")),
+                 (lib.MLR_LAYERS_OPT_BASE_CUTOFF, cutoff)]
+    body = body_translation_joint(motion)
+    if body != 0:
+        opts.append((lib.MLR_LAYERS_OPT_BODY_JOINT, float(body)))
     copts = ffi.new("mlr_layers_option[]", max(1, len(opts)))
     for k, (key, value) in enumerate(opts):
         copts[k].key, copts[k].value = key, value
-    root = _arrays.as_f64(motion.root_pos, "root_pos")
+    root = _arrays.as_f64(body_translation(motion, body), "root_pos")
     rot = _arrays.as_f64(motion.rot, "rot")
     out = ffi.new("mlr_layers **")
     diag = ffi.new("mlr_diag *")
@@ -247,7 +324,7 @@ def decompose(motion, *, gamma: float = math.pi / 2, lam_c=None, sigma_c=None, l
         a = np.empty(1 + j)
         check(lib.mlr_layers_get_param(handle, which, _arrays.ptr_out(a), a.size), name)
         params[name] = a
-    return Layers(motion, handle, params)
+    return Layers(motion, handle, params, body)
 
 
 def denoise(motion, *, keep_contacts=True, **kw):

@@ -7,9 +7,14 @@
    components (``manifold="pca"``);
 2. primitives: k-means of the manifold points, k chosen by the elbow rule when k="auto";
 3. their dynamics: a :class:`mlayer.Markov` model of consecutive frame labels;
-4. the generative GRBF mapping (:class:`mlayer.GRBF`) from manifold points to poses: root
-   height, root velocity and turning rate in the heading frame, joint rotations (quaternions,
-   the root's without its heading) and joint positions (the pose features).
+4. the generative GRBF mapping (:class:`mlayer.GRBF`) from manifold points to poses: body
+   height, body velocity and turning rate in the heading frame, joint rotations (quaternions,
+   the body joint's without its heading) and joint positions (the pose features).
+
+The body joint is the joint that carries the body translation
+(:func:`mlayer.layers.body_translation_joint`): the root on most rigs; on rigs with a static
+root above a moving pelvis (Bandai: ``joint_Root`` above ``Hips``) that pelvis, whose position
+channels the generated motion then drives (the root keeps its training translation).
 
 :meth:`PrimitiveModel.generate` turns a sequence of primitives (sampled from the Markov model or
 followed by equation 5) or a list of key poses into a smooth path on the manifold (the LGS
@@ -75,7 +80,8 @@ def _say(progress, msg: str) -> None:
 class PrimitiveModel:
     """A learned motion manifold with primitives; build it with :meth:`fit` or :meth:`load`.
 
-    Attributes: ``skeleton``, ``frame_time``, ``manifold`` ("som" or "pca"), ``points``
+    Attributes: ``skeleton``, ``frame_time``, ``body_joint`` (the joint whose translation and
+    heading the mapping drives; 0 for the root), ``manifold`` ("som" or "pca"), ``points``
     (n, 2) manifold point of every training frame, ``clip_starts`` (first frame of each clip),
     ``labels`` (n,), ``centers`` (k, 2) primitive centres on the manifold, ``markov``,
     ``grbf``, ``bounds`` (the manifold box the GRBF lattice spans), ``elbow_ks`` and
@@ -110,9 +116,11 @@ class PrimitiveModel:
                 raise InvalidArgumentError("PrimitiveModel.fit: every clip needs >= 2 frames")
         if manifold not in ("som", "pca"):
             raise InvalidArgumentError(f"manifold must be 'som' or 'pca', got {manifold!r}")
+        from .layers import body_translation_joint
         self = cls()
         self.skeleton = clips[0].skeleton
         self.frame_time = float(np.median([m.frame_time for m in clips]))
+        self._set_body(body_translation_joint(clips), clips)
         _say(progress, f"features: {len(clips)} clip(s), "
                        f"{sum(m.n_frames for m in clips)} frames")
         X = pose_features(clips)
@@ -165,15 +173,37 @@ class PrimitiveModel:
         _say(progress, f"GRBF: mean joint position error on the training frames {err:.4g}")
         return self
 
+    def _set_body(self, body: int, clips=None) -> None:
+        """The body joint and, when it is not the root, the translations the generated motion
+        keeps: the root's and the other position channels' medians over the training frames."""
+        self.body_joint = int(body)
+        P = self.skeleton.trans_joints.shape[0]
+        if clips is None or self.body_joint == 0:
+            self.rest_root_pos = np.zeros(3)
+            self.rest_trans = np.asarray(self.skeleton.offsets[self.skeleton.trans_joints],
+                                         dtype=np.float64).reshape(P, 3)
+            return
+        self.rest_root_pos = np.median(np.concatenate([m.root_pos for m in clips]), axis=0)
+        self.rest_trans = np.median(np.concatenate([m.trans for m in clips]), axis=0)
+
+    def _body_slot(self) -> int:
+        """Index of the body joint in skeleton.trans_joints (body_joint != 0)."""
+        return int(np.flatnonzero(self.skeleton.trans_joints == self.body_joint)[0])
+
     def _targets(self, clips, X) -> np.ndarray:
-        """Per frame: [root height, vx, vz (heading frame, per frame), yaw rate, J*4
-        quaternions (root without heading), 3J positions]."""
+        """Per frame: [body height, vx, vz (heading frame, per frame), yaw rate, J*4
+        quaternions (body joint without heading), 3J positions]. The body's translation and
+        heading are the root's, or on rigs with a static root those of body_joint in its
+        parent's frame (its position channels and local rotation)."""
+        from .layers import body_translation
+        b = self.body_joint
         parts = []
         for m in clips:
-            yaw, rest = split_heading(m.rot[:, 0])
+            yaw, rest = split_heading(m.rot[:, b])
             rot = m.rot.copy()
-            rot[:, 0] = rest
-            dp = np.diff(m.root_pos, axis=0)
+            rot[:, b] = rest
+            t = body_translation(m, b)
+            dp = np.diff(t, axis=0)
             dyaw = np.angle(np.exp(1j * np.diff(yaw)))
             c, s = np.cos(yaw[:-1]), np.sin(yaw[:-1])
             # world step rotated by -yaw: the step in the heading frame
@@ -181,7 +211,7 @@ class PrimitiveModel:
             vz = s * dp[:, 0] + c * dp[:, 2]
             vel = np.stack([vx, vz, dyaw], axis=1)
             vel = np.vstack([vel, vel[-1:]])
-            parts.append((m.root_pos[:, 1:2], vel, rot))
+            parts.append((t[:, 1:2], vel, rot))
         rot = _hemisphere(np.concatenate([p[2] for p in parts]))
         return np.hstack([np.concatenate([p[0] for p in parts]),
                           np.concatenate([p[1] for p in parts]),
@@ -356,11 +386,20 @@ class PrimitiveModel:
         v = out["velocity"]
         step = np.stack([c * v[:, 0] + s * v[:, 1], -s * v[:, 0] + c * v[:, 1]], axis=1)
         xz = np.vstack([np.zeros((1, 2)), np.cumsum(step[:-1], axis=0)])
-        root_pos = np.stack([xz[:, 0], out["height"], xz[:, 1]], axis=1)
+        body_pos = np.stack([xz[:, 0], out["height"], xz[:, 1]], axis=1)
+        b = getattr(self, "body_joint", 0)
         rot = out["rot"]
-        rot[:, 0] = quat.mul(heading_quat(yaw), rot[:, 0])
+        rot[:, b] = quat.mul(heading_quat(yaw), rot[:, b])
         rot = quat.normalize(rot)
-        return Motion(self.skeleton, self.frame_time, root_pos, rot)
+        if b == 0:
+            return Motion(self.skeleton, self.frame_time, body_pos, rot)
+        # a static root above the body joint: the root and the other position channels keep
+        # their training values, the body joint's position channels walk
+        n = body_pos.shape[0]
+        trans = np.repeat(self.rest_trans[None], n, axis=0)
+        trans[:, self._body_slot()] = body_pos
+        root_pos = np.repeat(self.rest_root_pos[None], n, axis=0)
+        return Motion(self.skeleton, self.frame_time, root_pos, rot, trans)
 
     # -- persistence -----------------------------------------------------------------------------
 
@@ -380,7 +419,8 @@ class PrimitiveModel:
             grbf_kernel=np.str_(self.grbf.kernel), grbf_centers=self.grbf.centers_,
             grbf_lattice=np.array(self.grbf.lattice), grbf_coef=self.grbf.coef_,
             grbf_width=np.float64(getattr(self.grbf, "width_", 0.0)),
-            fit_error=np.float64(self.fit_error))
+            fit_error=np.float64(self.fit_error), body_joint=np.int64(self.body_joint),
+            rest_root_pos=self.rest_root_pos, rest_trans=self.rest_trans)
         if self.manifold == "som":
             arrays["som_codebook"] = self.som_codebook
         else:
@@ -420,6 +460,11 @@ class PrimitiveModel:
                 g.n_outputs_ = g.coef_.shape[1]
                 self.grbf = g
                 self.fit_error = float(z["fit_error"])
+                # models written before the body joint was stored drive the root
+                self._set_body(int(z["body_joint"]) if "body_joint" in z else 0)
+                if self.body_joint != 0:
+                    self.rest_root_pos = np.asarray(z["rest_root_pos"], dtype=np.float64)
+                    self.rest_trans = np.asarray(z["rest_trans"], dtype=np.float64)
                 if self.manifold == "som":
                     self.som_codebook = z["som_codebook"]
                 else:

@@ -82,11 +82,14 @@ def test_stylize_keeps_contacts(mocap, name):
     # no frame where a foot jumps ("jump": a per-frame step of a contact point far above the
     # clip's own largest step): within 1.5 times the uncleaned clip's largest step
     assert _jumps(fixed, names) <= 1.5 * _jumps(raw, names), body_height(m)
-    # bone lengths unchanged
+    # bone lengths unchanged (not the "bone" from a static root to the joint that carries the
+    # body translation, Bandai's joint_Root -> Hips: stylize scales that path)
+    from mlayer.layers import body_translation_joint
     p0, p1 = m.positions(), fixed.positions()
-    par = m.parents[1:]
-    np.testing.assert_allclose(np.linalg.norm(p1[:, 1:] - p1[:, par], axis=-1),
-                               np.linalg.norm(p0[:, 1:] - p0[:, par], axis=-1), atol=1e-6)
+    kids = np.array([j for j in range(1, m.n_joints) if j != body_translation_joint(m)])
+    par = m.parents[kids]
+    np.testing.assert_allclose(np.linalg.norm(p1[:, kids] - p1[:, par], axis=-1),
+                               np.linalg.norm(p0[:, kids] - p0[:, par], axis=-1), atol=1e-6)
 
 
 @pytest.mark.parametrize("name", WALKS)
@@ -215,3 +218,240 @@ def test_retiming_keeps_contacts(mocap, name, kind):
     assert foot_sliding(fixed, c2, names) <= 1.5 * foot_sliding(ref, c2, names)
     assert jitter(fixed) <= 1.1 * jitter(raw)
     assert _jumps(fixed, names) <= 1.5 * _jumps(raw, names)
+
+
+# ---- the C detection against the numpy implementation it replaced --------------------------
+# The numpy code below is the detection as it was before it moved to the C core (Y up), kept as
+# an independent reference: the C results must be identical.
+import re  # noqa: E402
+
+from mlayer import ik  # noqa: E402
+
+_REF_FOOT = re.compile(r"foot|ankle|paw|hoof", re.IGNORECASE)
+_REF_TOE = re.compile(r"toe|ball", re.IGNORECASE)
+_REF_HAND = re.compile(r"hand|wrist", re.IGNORECASE)
+
+
+def _ref_has_ancestor_in(parents, j, group):
+    p = int(parents[j])
+    while p >= 0:
+        if p in group:
+            return True
+        p = int(parents[p])
+    return False
+
+
+def _ref_descendants(parents, j):
+    out, frontier = [], {j}
+    for k in range(j + 1, len(parents)):
+        if int(parents[k]) in frontier:
+            frontier.add(k)
+            out.append(k)
+    return out
+
+
+def _ref_path_between(parents, a, k):
+    path = []
+    while k != a and k >= 0:
+        path.append(k)
+        k = int(parents[k])
+    return path[::-1]
+
+
+def _ref_end_site_of(sk, j):
+    hits = np.flatnonzero(sk.end_site_parents == j)
+    return int(hits[0]) if hits.size else -1
+
+
+def ref_find_feet(motion, positions=None):
+    sk = motion.skeleton
+    names, parents = sk.joint_names, sk.parents
+    found = {j for j, n in enumerate(names) if _REF_FOOT.search(n)}
+    ankles = [j for j in sorted(found) if not _ref_has_ancestor_in(parents, j, found)]
+    if not ankles:
+        raise mlayer.InvalidArgumentError("no feet found")
+    hands = [j for j, n in enumerate(names) if _REF_HAND.search(n)]
+    hands = [j for j in hands if not _ref_has_ancestor_in(parents, j, set(hands))]
+    if hands and motion.n_frames:
+        p = motion.positions() if positions is None else positions
+        H = float(np.median(p[..., 1].max(axis=1) - p[..., 1].min(axis=1))) or 1.0
+        ground = p[..., 1].min(axis=1)
+        foot_h = np.median(p[:, ankles, 1] - ground[:, None])
+        for j in hands:
+            if np.median(p[:, j, 1] - ground) <= foot_h + 0.2 * H:
+                ankles.append(j)
+    ankles.sort()
+    lengths = np.linalg.norm(sk.offsets, axis=1)
+    feet = []
+    for a in ankles:
+        kids = [k for k in sk.children(a) if _REF_TOE.search(names[k])]
+        if not kids:
+            kids = [k for k in _ref_descendants(parents, a) if _REF_TOE.search(names[k])
+                    and all(lengths[x] <= 1e-9 for x in _ref_path_between(parents, a, k)[:-1])]
+        if kids:
+            toe = names[max(kids, key=lambda k: lengths[k])]
+        elif _ref_end_site_of(sk, a) >= 0:
+            toe = names[a] + "/End"
+        else:
+            toe = None
+        feet.append((names[a], toe))
+    return feet
+
+
+def ref_contact_positions(motion, names, pos, wrot):
+    sk = motion.skeleton
+    pts = [C._point(sk, n) for n in names]
+    out = np.empty((pos.shape[0], len(pts), 3))
+    for c, (j, e) in enumerate(pts):
+        out[:, c] = pos[:, j]
+        if e >= 0:
+            out[:, c] += ik._rotate(wrot[:, j], np.broadcast_to(sk.end_site_offsets[e],
+                                                                (pos.shape[0], 3)))
+    return out
+
+
+def ref_moving_min(x, half):
+    n = x.shape[0]
+    if half <= 0 or n <= 1:
+        return x.copy()
+    w = 2 * half + 1
+    pad = np.concatenate([np.full((half,) + x.shape[1:], np.inf), x,
+                          np.full((half + (-(n + 2 * half)) % w,) + x.shape[1:], np.inf)])
+    blocks = pad.reshape((-1, w) + x.shape[1:])
+    fwd = np.minimum.accumulate(blocks, axis=1).reshape(pad.shape)
+    bwd = np.minimum.accumulate(blocks[:, ::-1], axis=1)[:, ::-1].reshape(pad.shape)
+    i = np.arange(n)
+    return np.minimum(bwd[i], fwd[i + w - 1])
+
+
+def ref_runs(mask):
+    d = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
+    return np.flatnonzero(d == 1), np.flatnonzero(d == -1)
+
+
+def ref_hysteresis(on, off):
+    n = on.shape[0]
+    event = np.where(on, 1, np.where(off, 0, -1))
+    idx = np.where(event >= 0, np.arange(n)[:, None], -1)
+    last = np.maximum.accumulate(idx, axis=0)
+    state = np.take_along_axis(event, np.maximum(last, 0), axis=0)
+    return (state == 1) & (last >= 0)
+
+
+def ref_detect_contacts(motion, joints=None, *, speed=0.25, height=0.06, min_duration=0.08):
+    N = motion.n_frames
+    pos, wrot = motion.forward_kinematics()
+    if joints is None:
+        names = []
+        for a, t in ref_find_feet(motion, pos):
+            names += [a] if t is None else [a, t]
+    else:
+        names = C._resolve_names(motion, joints)
+    H = body_height(pos)
+    fps = motion.fps
+    p = ref_contact_positions(motion, names, pos, wrot)
+    k = max(1, int(round(fps / 60.0)))
+    v = np.empty(p.shape[:2])
+    if N > 2 * k:
+        v[k:N - k] = np.linalg.norm(p[2 * k:] - p[:N - 2 * k], axis=-1) / (2 * k / fps)
+        v[:k], v[N - k:] = v[k], v[N - k - 1]
+    else:
+        v[:] = np.linalg.norm(p[-1] - p[0], axis=-1) / ((N - 1) / fps)
+    y = p[..., 1]
+    floor = ref_moving_min(y, int(round(0.75 * fps)))
+    h = y - floor
+    on = (v < speed * H) & (h < height * H)
+    off = (v > 2.0 * speed * H) | (h > 1.5 * height * H)
+    c = ref_hysteresis(on, off)
+    gap = int(round(0.05 * fps))
+    shortest = max(2, int(round(min_duration * fps)))
+    for col in range(c.shape[1]):
+        s, e = ref_runs(~c[:, col])
+        for a, b in zip(s, e):
+            if a > 0 and b < N and b - a <= gap:
+                c[a:b, col] = True
+        s, e = ref_runs(c[:, col])
+        for a, b in zip(s, e):
+            if b - a < shortest:
+                c[a:b, col] = False
+    return names, c
+
+
+def _z_up(m):
+    """The clip turned +90 degrees about X, so that Z is up: (x, y, z) -> (x, -z, y) on every
+    translation, q -> R q R^-1 = (w, x, -z, y) on every rotation (exact permutations)."""
+    def turn(v):
+        v = np.asarray(v, dtype=np.float64)
+        return np.stack([v[..., 0], -v[..., 2], v[..., 1]], axis=-1)
+    sk = m.skeleton
+    sk2 = mlayer.Skeleton(sk.joint_names, sk.parents, turn(sk.offsets), sk.channels,
+                          sk.end_site_parents, turn(sk.end_site_offsets.reshape(-1, 3)))
+    rot = m.rot
+    rot2 = np.stack([rot[..., 0], rot[..., 1], -rot[..., 3], rot[..., 2]], axis=-1)
+    trans = None if m.trans is None else turn(m.trans)
+    return mlayer.Motion(sk2, m.frame_time, turn(m.root_pos), rot2, trans)
+
+
+@pytest.mark.parametrize("name", ALL)
+def test_c_detection_equals_the_numpy_reference(mocap, name):
+    m = _read(mocap, name)
+    names, c = mlayer.detect_contacts(m)
+    rnames, rc = ref_detect_contacts(m)
+    assert names == rnames
+    assert C.find_feet(m) == ref_find_feet(m)
+    assert c.dtype == np.bool_ and np.array_equal(c, rc), (c != rc).sum()
+    # other options, and an override list with an End Site
+    kw = dict(speed=0.4, height=0.03, min_duration=0.2)
+    _, c2 = mlayer.detect_contacts(m, names[::-1], **kw)
+    _, r2 = ref_detect_contacts(m, names[::-1], **kw)
+    assert np.array_equal(c2, r2) and not np.array_equal(c2, c[:, ::-1])
+    # the same clip with Z up: up="z" gives the Y-up clip's feet and contacts
+    z = _z_up(m)
+    np.testing.assert_allclose(z.positions()[..., 2], m.positions()[..., 1], atol=1e-9)
+    assert C.find_feet(z, up="z") == C.find_feet(m)
+    zn, zc = mlayer.detect_contacts(z, up="z")
+    assert zn == names and np.array_equal(zc, rc), (zc != rc).sum()
+    _, zc2 = mlayer.detect_contacts(z, names[::-1], up=2, **kw)
+    assert np.array_equal(zc2, r2)
+    # ... while Y, sideways on the turned clip, is not the up axis
+    if not name.startswith("ai4a_dog"):
+        _, zy = mlayer.detect_contacts(z, names)
+        assert not np.array_equal(zy, rc)
+
+
+def test_contact_positions_equal_the_numpy_rotation(mocap):
+    m = _read(mocap, "cmu_10_01_soccer_kick.bvh", 300)
+    names = ["rFoot", "rFoot/End", "lFoot/End"]
+    pos, wrot = m.forward_kinematics()
+    np.testing.assert_allclose(C.contact_positions(m, names),
+                               ref_contact_positions(m, names, pos, wrot), rtol=0, atol=1e-12)
+    with pytest.raises(mlayer.InvalidArgumentError, match="contact_positions: pos"):
+        C.contact_positions(m, names, pos[:-1], wrot)
+    with pytest.raises(mlayer.InvalidArgumentError, match="contact_positions: wrot"):
+        C.contact_positions(m, names, pos, wrot[..., :3])
+
+
+def test_bad_input_names_the_argument(mocap):
+    m = _read(mocap, "lafan1_clip_a.bvh", 100)
+    for bad in ("w", 3, -1, True, None, 1.0):
+        with pytest.raises(mlayer.InvalidArgumentError, match="detect_contacts: up must be"):
+            mlayer.detect_contacts(m, up=bad)
+        with pytest.raises(mlayer.InvalidArgumentError, match="find_feet: up must be"):
+            C.find_feet(m, up=bad)
+    for opt in ("speed", "height", "min_duration"):
+        for v in (float("nan"), float("inf"), 0.0, -1.0, "x"):
+            with pytest.raises(mlayer.InvalidArgumentError, match=f"detect_contacts: {opt}"):
+                mlayer.detect_contacts(m, **{opt: v})
+    with pytest.raises(mlayer.InvalidArgumentError, match="motion must be"):
+        mlayer.detect_contacts(m.positions())
+    with pytest.raises(mlayer.InvalidArgumentError, match="find_feet: positions"):
+        C.find_feet(m, m.positions()[:, :-1])
+    with pytest.raises(mlayer.InvalidArgumentError, match="joint index 99"):
+        mlayer.detect_contacts(m, joints=[99])
+    # a flat skeleton along the chosen axis: the C message
+    flat = mlayer.Motion.from_arrays(["LeftFoot", "b"], [-1, 0], [[0, 0, 0], [1, 0, 0]],
+                                     np.zeros((5, 3)), np.tile([1.0, 0, 0, 0], (5, 2, 1)))
+    with pytest.raises(mlayer.InvalidArgumentError, match="no extent along the up axis"):
+        mlayer.detect_contacts(flat)
+    names, c = mlayer.detect_contacts(flat, up="x")
+    assert names == ["LeftFoot"] and c.all()

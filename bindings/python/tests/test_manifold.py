@@ -435,3 +435,40 @@ def test_cli_primitives_generate(mocap, tmp_path, capsys):
     other = str(mocap / "cmu_10_01_soccer_kick.bvh")
     assert main(["primitives", clip, other, "-o", str(tmp_path / "y.npz")]) == 1
     assert "another skeleton" in capsys.readouterr().err
+
+
+def test_generated_bandai_walk_moves_its_hips(mocap, tmp_path):
+    # Bandai: a static joint_Root, the walk in the Hips channels. The model drives Hips (its
+    # height, velocity and heading), so the generated hips walk at the training speed
+    from mlayer.primitives import PrimitiveModel
+    b = mlayer.read_bvh(mocap / "bandai1_walk_happy_001.bvh")
+    hips = b.joint_names.index("Hips")
+    model = PrimitiveModel.fit([b], som=(8, 8), epochs=8, lattice=(6, 6), k="auto",
+                               ks=range(2, 7))
+    assert model.body_joint == hips
+    out = model.generate(150, start_frame=10, seed=1)
+    hp, tp = out.positions()[:, hips], b.positions()[:, hips]
+    speed = np.linalg.norm(np.diff(hp[:, [0, 2]], axis=0), axis=1).mean()
+    train = np.linalg.norm(np.diff(tp[:, [0, 2]], axis=0), axis=1).mean()
+    assert 0.7 * train < speed < 1.3 * train, (speed, train)  # measured 4.43 vs 4.57 cm/frame
+    travel = np.linalg.norm(hp[-1, [0, 2]] - hp[0, [0, 2]])
+    assert travel > 0.5 * train * 149
+    assert abs(hp[:, 1].mean() - tp[:, 1].mean()) < 0.05 * np.ptp(tp[:, 1]) + 2.0
+    # the root keeps its (static) training translation; other channels their medians
+    np.testing.assert_array_equal(out.root_pos, np.broadcast_to(np.median(b.root_pos, axis=0),
+                                                                out.root_pos.shape))
+    # save / load keeps the body joint and the generation
+    model.save(tmp_path / "b.npz")
+    loaded = PrimitiveModel.load(tmp_path / "b.npz")
+    assert loaded.body_joint == hips
+    again = loaded.generate(150, start_frame=10, seed=1)
+    np.testing.assert_allclose(again.trans, out.trans, atol=1e-9)
+    np.testing.assert_allclose(again.rot, out.rot, atol=1e-12)
+
+
+def test_root_clip_model_drives_the_root(walk_model):
+    m, model = walk_model
+    assert model.body_joint == 0
+    out = model.generate(60, start_frame=30, seed=3)
+    assert out.trans.shape == (60, 0, 3)
+    assert np.linalg.norm(out.root_pos[-1, [0, 2]] - out.root_pos[0, [0, 2]]) > 0

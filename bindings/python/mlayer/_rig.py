@@ -1,0 +1,42 @@
+"""A skeleton as the C core's ``mlr_rig``: borrowed pointers into the Skeleton's arrays."""
+from __future__ import annotations
+
+import numpy as np
+
+from ._native import ffi
+from .errors import InvalidArgumentError
+
+
+def c_rig(skeleton):
+    """``(rig, keep)``: an ``mlr_rig *`` over the skeleton's names, parents, offsets, trans
+    joints and End Sites, and the objects that must stay referenced while it is used."""
+    names = [ffi.new("char[]", n.encode("utf-8", errors="surrogateescape"))
+             for n in skeleton.joint_names]
+    cnames = ffi.new("const char *[]", names)
+    parents = np.ascontiguousarray(skeleton.parents, dtype=np.int32)
+    offsets = np.ascontiguousarray(skeleton.offsets, dtype=np.float64)
+    trans = np.ascontiguousarray(skeleton.trans_joints, dtype=np.int32)
+    ends = np.ascontiguousarray(skeleton.end_site_parents, dtype=np.int32)
+    end_off = np.ascontiguousarray(skeleton.end_site_offsets, dtype=np.float64).reshape(-1, 3)
+    r = ffi.new("mlr_rig *")
+    r.n_joints = parents.shape[0]
+    r.parents = ffi.cast("const int32_t *", ffi.from_buffer(parents))
+    r.offsets = ffi.cast("const double *", ffi.from_buffer(offsets))
+    r.names = cnames
+    r.n_trans = trans.shape[0]
+    r.trans_joints = ffi.cast("const int32_t *", ffi.from_buffer(trans)) if trans.size else ffi.NULL
+    r.n_end_sites = ends.shape[0]
+    if ends.size:
+        r.end_site_parents = ffi.cast("const int32_t *", ffi.from_buffer(ends))
+        r.end_site_offsets = ffi.cast("const double *", ffi.from_buffer(end_off))
+    return r, (names, cnames, parents, offsets, trans, ends, end_off)
+
+
+def axis(up, where: str) -> int:
+    """An up axis given as "x", "y", "z" (any case) or 0, 1, 2."""
+    if isinstance(up, str) and up.lower() in ("x", "y", "z"):
+        return "xyz".index(up.lower())
+    if isinstance(up, (int, np.integer)) and not isinstance(up, bool) and 0 <= int(up) <= 2:
+        return int(up)
+    raise InvalidArgumentError(f"{where}: up must be 'x', 'y', 'z' or 0..2, got {up!r}")
+

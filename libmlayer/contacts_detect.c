@@ -1,0 +1,242 @@
+/*
+ * Foot contact detection: slow and low points, with hysteresis, gap closing and a minimum
+ * duration; thresholds relative to the body height and to seconds.
+ */
+#include "mlr_internal.h"
+
+#include <math.h>
+
+#define SPEED_ON 0.25      /* body heights per second */
+#define HEIGHT_ON 0.06     /* body heights above the local floor level */
+#define MIN_CONTACT 0.08   /* seconds */
+#define MAX_GAP 0.05       /* seconds */
+#define FLOOR_WINDOW 0.75  /* seconds each side for the local floor level */
+#define SPEED_STEP 60.0    /* k = round(fps / 60): central differences over about 1/30 s */
+
+/* Python's round() of a value >= 0 to an integer: to nearest, ties to even. */
+static size_t round_half_even(double x)
+{
+    double r = floor(x);
+    const double d = x - r;
+    if (d > 0.5 || (d == 0.5 && fmod(r, 2.0) != 0.0))
+        r += 1.0;
+    return (size_t)r;
+}
+
+/* out[t] = min x[t - half .. t + half] (clipped to [0, n)), van Herk / Gil-Werman on x padded
+ * with +inf to whole blocks of w = 2 half + 1: O(n) for any half. pad, fwd, bwd hold
+ * padded_len(n, half) doubles each. */
+static size_t padded_len(size_t n, size_t half)
+{
+    const size_t w = 2 * half + 1, len = n + 2 * half;
+    return len + (w - len % w) % w;
+}
+
+static void moving_min(const double *x, size_t n, size_t half, double *pad, double *fwd,
+                       double *bwd, double *out)
+{
+    if (half == 0 || n <= 1) {
+        for (size_t t = 0; t < n; t++)
+            out[t] = x[t];
+        return;
+    }
+    const size_t w = 2 * half + 1, L = padded_len(n, half);
+    for (size_t i = 0; i < L; i++)
+        pad[i] = i >= half && i < half + n ? x[i - half] : INFINITY;
+    for (size_t b = 0; b < L; b += w) {
+        fwd[b] = pad[b];
+        for (size_t i = b + 1; i < b + w; i++)
+            fwd[i] = pad[i] < fwd[i - 1] ? pad[i] : fwd[i - 1];
+        bwd[b + w - 1] = pad[b + w - 1];
+        for (size_t i = b + w - 1; i-- > b;)
+            bwd[i] = pad[i] < bwd[i + 1] ? pad[i] : bwd[i + 1];
+    }
+    /* the window starting at t (padded coordinates) covers t .. t + w - 1 */
+    for (size_t t = 0; t < n; t++) {
+        const double a = bwd[t], b = fwd[t + w - 1];
+        out[t] = a < b ? a : b;
+    }
+}
+
+static mlr_status parse_options(const mlr_contacts_option *opts, size_t n_opts, double *speed,
+                                double *height, double *min_duration, mlr_diag *diag)
+{
+    if (n_opts && !opts)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "contacts: opts is NULL");
+    unsigned seen = 0;
+    for (size_t i = 0; i < n_opts; i++) {
+        const int key = opts[i].key;
+        const double v = opts[i].value;
+        const char *name = key == MLR_CONTACTS_OPT_SPEED          ? "speed"
+                           : key == MLR_CONTACTS_OPT_HEIGHT       ? "height"
+                           : key == MLR_CONTACTS_OPT_MIN_DURATION ? "min_duration"
+                                                                  : NULL;
+        if (!name)
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "contacts: unknown option key %d", key);
+        if (seen & (1u << key))
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "contacts: option %s given twice", name);
+        seen |= 1u << key;
+        if (!(isfinite(v) && v > 0))
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "contacts: %s must be finite and > 0, got %g", name, v);
+        *(key == MLR_CONTACTS_OPT_SPEED ? speed
+          : key == MLR_CONTACTS_OPT_HEIGHT ? height : min_duration) = v;
+    }
+    return MLR_OK;
+}
+
+/* Close gaps of at most `gap` frames inside a column (stride s), then drop contacts shorter
+ * than `shortest` frames. */
+static void clean_column(uint8_t *c, size_t N, size_t s, size_t gap, size_t shortest)
+{
+    for (size_t t = 0; t < N;) {
+        if (c[t * s]) {
+            t++;
+            continue;
+        }
+        size_t b = t;
+        while (b < N && !c[b * s])
+            b++;
+        if (t > 0 && b < N && b - t <= gap)
+            for (size_t i = t; i < b; i++)
+                c[i * s] = 1;
+        t = b;
+    }
+    for (size_t t = 0; t < N;) {
+        if (!c[t * s]) {
+            t++;
+            continue;
+        }
+        size_t b = t;
+        while (b < N && c[b * s])
+            b++;
+        if (b - t < shortest)
+            for (size_t i = t; i < b; i++)
+                c[i * s] = 0;
+        t = b;
+    }
+}
+
+mlr_status mlr_contacts_detect(const mlr_rig *rig, double fps, int up, size_t n_frames,
+                               const double *world_pos, const double *world_rot,
+                               size_t n_points, const int32_t *joints, const int32_t *end_sites,
+                               const mlr_contacts_option *opts, size_t n_opts,
+                               uint8_t *contacts, const mlr_allocator *alloc, mlr_diag *diag)
+{
+    mlr_status st = mlr_rig_check(rig, diag);
+    if (st != MLR_OK)
+        return st;
+    const size_t N = n_frames, C = n_points, J = rig->n_joints;
+    if (!(isfinite(fps) && fps > 0))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "contacts: fps must be finite and > 0, got %g", fps);
+    if (up < MLR_AXIS_X || up > MLR_AXIS_Z)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "contacts: up axis %d is not 0 (X), 1 (Y) or 2 (Z)", up);
+    if (N < 3)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "contacts: detection needs at least 3 frames, got %zu", N);
+    if (C == 0)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "contacts: no contact points");
+    if (!world_pos || !joints || !contacts)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "contacts: NULL argument");
+    double speed = SPEED_ON, height = HEIGHT_ON, min_duration = MIN_CONTACT;
+    st = parse_options(opts, n_opts, &speed, &height, &min_duration, diag);
+    if (st != MLR_OK)
+        return st;
+    for (size_t c = 0; c < C; c++)
+        for (size_t d = 0; d < c; d++)
+            if (joints[c] == joints[d] &&
+                (end_sites ? end_sites[c] : -1) == (end_sites ? end_sites[d] : -1))
+                return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "contacts: points %zu and %zu are the same", d, c);
+    /* validates the points; positions first, so that bad points fail before the allocation */
+    st = mlr_rig_point_positions(rig, 0, world_pos, world_rot, C, joints, end_sites, NULL,
+                                 diag);
+    if (st != MLR_OK)
+        return st;
+
+    mlr_allocator a;
+    mlr_allocator_resolve(alloc, &a);
+    double H;
+    st = mlr_rig_body_height(N, J, world_pos, up, &H, &a, diag);
+    if (st != MLR_OK)
+        return st;
+    if (!(H > 0))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "contacts: the motion has no extent along the up axis (a flat "
+                            "skeleton), so no body size to scale thresholds by");
+
+    const size_t half_raw = round_half_even(FLOOR_WINDOW * fps);
+    const size_t half = half_raw < N - 1 ? half_raw : N - 1; /* a wider window adds nothing */
+    const size_t L = padded_len(N, half);
+    size_t NC, bytes;
+    if (mlr_mul_size(N, C, &NC) != MLR_OK || NC > SIZE_MAX / 4 - 3 * L - 2 * N ||
+        mlr_mul_size(4 * NC + 3 * L + 2 * N, sizeof(double), &bytes) != MLR_OK)
+        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "contacts: too many frames");
+    double *p = mlr_alloc(&a, bytes);
+    if (!p)
+        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "contacts: out of memory");
+    double *v = p + 3 * NC, *pad = v + NC, *fwd = pad + L, *bwd = fwd + L, *y = bwd + L,
+           *fl = y + N;
+    mlr_rig_point_positions(rig, N, world_pos, world_rot, C, joints, end_sites, p, NULL);
+    for (size_t i = 0; i < 3 * NC; i++)
+        if (!isfinite(p[i])) {
+            mlr_free(&a, p, bytes);
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "contacts: position of point %zu at frame %zu is not finite",
+                                (i / 3) % C, i / (3 * C));
+        }
+
+    /* speeds: central differences over 2 k frames */
+    const size_t k0 = round_half_even(fps / SPEED_STEP), k = k0 > 1 ? k0 : 1;
+    if (N > 2 * k) {
+        const double dt = (double)(2 * k) / fps;
+        for (size_t t = k; t < N - k; t++)
+            for (size_t c = 0; c < C; c++) {
+                const double *a1 = p + 3 * ((t + k) * C + c), *a0 = p + 3 * ((t - k) * C + c);
+                const double dx = a1[0] - a0[0], dy = a1[1] - a0[1], dz = a1[2] - a0[2];
+                v[t * C + c] = sqrt(dx * dx + dy * dy + dz * dz) / dt;
+            }
+        for (size_t t = 0; t < k; t++)
+            for (size_t c = 0; c < C; c++) {
+                v[t * C + c] = v[k * C + c];
+                v[(N - 1 - t) * C + c] = v[(N - k - 1) * C + c];
+            }
+    } else {
+        const double dt = (double)(N - 1) / fps;
+        for (size_t c = 0; c < C; c++) {
+            const double *a1 = p + 3 * ((N - 1) * C + c), *a0 = p + 3 * c;
+            const double dx = a1[0] - a0[0], dy = a1[1] - a0[1], dz = a1[2] - a0[2];
+            const double s = sqrt(dx * dx + dy * dy + dz * dz) / dt;
+            for (size_t t = 0; t < N; t++)
+                v[t * C + c] = s;
+        }
+    }
+
+    /* in the order of the reference: (2 speed) H and (1.5 height) H */
+    const double v_on = speed * H, v_off = 2.0 * speed * H;
+    const double h_on = height * H, h_off = 1.5 * height * H;
+    const size_t gap = round_half_even(MAX_GAP * fps);
+    const size_t shortest0 = round_half_even(min_duration * fps);
+    const size_t shortest = shortest0 > 2 ? shortest0 : 2;
+    for (size_t c = 0; c < C; c++) {
+        for (size_t t = 0; t < N; t++)
+            y[t] = p[3 * (t * C + c) + (size_t)up];
+        moving_min(y, N, half, pad, fwd, bwd, fl);
+        uint8_t state = 0;
+        for (size_t t = 0; t < N; t++) {
+            const double h = y[t] - fl[t], s = v[t * C + c];
+            if (s < v_on && h < h_on)
+                state = 1;
+            else if (s > v_off || h > h_off)
+                state = 0;
+            contacts[t * C + c] = state;
+        }
+        clean_column(contacts + c, N, C, gap, shortest);
+    }
+    mlr_free(&a, p, bytes);
+    return MLR_OK;
+}

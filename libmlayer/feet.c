@@ -1,0 +1,273 @@
+/*
+ * The feet of a rig found by joint name: ankles, toes (or End Sites), and hands that stay low.
+ */
+#include "mlr_internal.h"
+
+#include <math.h>
+#include <stdlib.h>
+
+static const char *const foot_patterns[] = {"foot", "ankle", "paw", "hoof", NULL};
+static const char *const toe_patterns[] = {"toe", "ball", NULL};
+static const char *const hand_patterns[] = {"hand", "wrist", NULL};
+
+#define HAND_LOW 0.2       /* hands within this (body heights) of the feet's height are feet */
+#define ZERO_LENGTH 1e-9   /* a joint this short is passed through on the way to a toe */
+
+/* Bytes of s that match pattern character c (lower-case ASCII) at s, 0 when none: ASCII
+ * case-insensitively, and the non-ASCII letters Python's re.IGNORECASE folds to i, s and k. */
+static size_t match_char(const unsigned char *s, char c)
+{
+    unsigned char b = s[0];
+    if (b >= 'A' && b <= 'Z')
+        b = (unsigned char)(b - 'A' + 'a');
+    if (b == (unsigned char)c)
+        return 1;
+    if (c == 'i' && s[0] == 0xC4 && (s[1] == 0xB0 || s[1] == 0xB1))  /* U+0130, U+0131 */
+        return 2;
+    if (c == 's' && s[0] == 0xC5 && s[1] == 0xBF)  /* U+017F long s */
+        return 2;
+    if (c == 'k' && s[0] == 0xE2 && s[1] == 0x84 && s[2] == 0xAA)  /* U+212A Kelvin sign */
+        return 3;
+    return 0;
+}
+
+/* Whether name contains one of the patterns (NULL-terminated list). */
+static int name_matches(const char *name, const char *const *patterns)
+{
+    if (!name)
+        return 0;
+    for (const unsigned char *start = (const unsigned char *)name; *start; start++)
+        for (const char *const *p = patterns; *p; p++) {
+            const unsigned char *s = start;
+            const char *c = *p;
+            size_t n;
+            while (*c && (n = match_char(s, *c)) != 0)
+                s += n, c++;
+            if (!*c)
+                return 1;
+        }
+    return 0;
+}
+
+static double offset_length(const mlr_rig *rig, size_t j)
+{
+    const double *o = rig->offsets + 3 * j;
+    return sqrt(o[0] * o[0] + o[1] * o[1] + o[2] * o[2]);
+}
+
+static int cmp_double(const void *a, const void *b)
+{
+    const double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+/* Reorders v[0..n) so that v[k] is the value a sort would put there, everything before it no
+ * larger and everything after it no smaller: quickselect (median-of-three pivots, Hoare
+ * partition), O(n) on average; after 2 log2(n) + 8 rounds the rest is sorted (bounded worst
+ * case). Values are finite. */
+static void select_kth(double *v, size_t n, size_t k)
+{
+    size_t lo = 0, hi = n - 1, rounds = 8;
+    for (size_t m = n; m > 1; m >>= 1)
+        rounds += 2;
+    while (hi > lo) {
+        if (rounds-- == 0) {
+            qsort(v + lo, hi - lo + 1, sizeof(double), cmp_double);
+            return;
+        }
+        const size_t mid = lo + (hi - lo) / 2;
+        double a = v[lo], b = v[mid], c = v[hi];
+        const double pivot = a < b ? (b < c ? b : (a < c ? c : a)) : (a < c ? a : (b < c ? c : b));
+        size_t i = lo, j = hi;
+        for (;;) {
+            while (v[i] < pivot)
+                i++;
+            while (v[j] > pivot)
+                j--;
+            if (i >= j)
+                break;
+            const double t = v[i];
+            v[i] = v[j], v[j] = t;
+            i++, j--;
+        }
+        /* now v[lo..j] <= pivot <= v[j+1..hi] */
+        if (k <= j)
+            hi = j;
+        else
+            lo = j + 1;
+    }
+}
+
+/* numpy's median of n >= 1 finite values (reorders v). */
+static double median(double *v, size_t n)
+{
+    select_kth(v, n, n / 2);
+    if (n % 2)
+        return v[n / 2];
+    double below = v[0]; /* the largest of v[0 .. n/2), all <= v[n/2] */
+    for (size_t i = 1; i < n / 2; i++)
+        below = v[i] > below ? v[i] : below;
+    return 0.5 * (below + v[n / 2]);
+}
+
+/* The toe of ankle a: (joint, -1), (a, End Site) or (-1, -1). */
+static void find_toe(const mlr_rig *rig, int32_t a, int32_t *joint, int32_t *end_site)
+{
+    const size_t J = rig->n_joints;
+    int32_t best = -1;
+    double best_len = 0.0;
+    for (int pass = 0; pass < 2 && best < 0; pass++)
+        for (size_t k = (size_t)a + 1; k < J; k++) {
+            if (!name_matches(rig->names[k], toe_patterns))
+                continue;
+            int32_t p = rig->parents[k];
+            if (pass == 0 && p != a)
+                continue;
+            /* pass 1: a descendant reached only through zero-length joints */
+            while (pass == 1 && p > a && offset_length(rig, (size_t)p) <= ZERO_LENGTH)
+                p = rig->parents[p];
+            if (p != a)
+                continue;
+            const double len = offset_length(rig, k);
+            if (best < 0 || len > best_len)
+                best = (int32_t)k, best_len = len;
+        }
+    *joint = best;
+    *end_site = -1;
+    if (best >= 0)
+        return;
+    for (size_t e = 0; e < rig->n_end_sites; e++)
+        if (rig->end_site_parents[e] == a) {
+            *joint = a;
+            *end_site = (int32_t)e;
+            return;
+        }
+}
+
+/* Flags: 1 foot (ankle), 2 hand candidate, 4 a foot joint matched (for the topmost rule),
+ * 8 a hand joint matched. */
+enum { IS_ANKLE = 1, IS_HAND = 2, FOOT_NAME = 4, HAND_NAME = 8, FOOT_BELOW = 16,
+       HAND_BELOW = 32 };
+
+/* Adds the hands that stay low to the ankles (flags). */
+static mlr_status low_hands(const mlr_rig *rig, size_t N, const double *world_pos, int up,
+                            unsigned char *flags, size_t n_ankles, const mlr_allocator *a,
+                            mlr_diag *diag)
+{
+    const size_t J = rig->n_joints;
+    double H;
+    mlr_status st = mlr_rig_body_height(N, J, world_pos, up, &H, a, diag);
+    if (st != MLR_OK)
+        return st;
+    if (H == 0.0)
+        H = 1.0;
+    size_t count, bytes;
+    if (mlr_mul_size(N, n_ankles + 2, &count) != MLR_OK ||
+        mlr_mul_size(count, sizeof(double), &bytes) != MLR_OK)
+        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "find_feet: too many frames");
+    double *ground = mlr_alloc(a, bytes);
+    if (!ground)
+        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "find_feet: out of memory");
+    double *rel = ground + N, *tmp = rel + N * n_ankles;
+    for (size_t f = 0; f < N; f++) {
+        const double *p = world_pos + 3 * f * J + (size_t)up;
+        double lo = p[0];
+        for (size_t j = 1; j < J; j++)
+            lo = p[3 * j] < lo ? p[3 * j] : lo;
+        ground[f] = lo;
+    }
+    size_t i = 0;
+    for (size_t f = 0; f < N; f++)
+        for (size_t j = 0; j < J; j++)
+            if (flags[j] & IS_ANKLE)
+                rel[i++] = world_pos[3 * (f * J + j) + (size_t)up] - ground[f];
+    const double foot_h = median(rel, i);
+    for (size_t j = 0; j < J; j++) {
+        if (!(flags[j] & IS_HAND))
+            continue;
+        for (size_t f = 0; f < N; f++)
+            tmp[f] = world_pos[3 * (f * J + j) + (size_t)up] - ground[f];
+        if (median(tmp, N) <= foot_h + HAND_LOW * H)
+            flags[j] |= IS_ANKLE;
+    }
+    mlr_free(a, ground, bytes);
+    return MLR_OK;
+}
+
+mlr_status mlr_contacts_find_feet(const mlr_rig *rig, size_t n_frames, const double *world_pos,
+                                  int up, size_t capacity, int32_t *joints, int32_t *end_sites,
+                                  size_t *n_feet, const mlr_allocator *alloc, mlr_diag *diag)
+{
+    mlr_status st = mlr_rig_check(rig, diag);
+    if (st != MLR_OK)
+        return st;
+    if (!n_feet || (capacity && (!joints || !end_sites)) || (n_frames && !world_pos))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "find_feet: NULL argument");
+    *n_feet = 0;
+    if (!rig->names)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "find_feet: the rig has no joint names");
+    if (up < MLR_AXIS_X || up > MLR_AXIS_Z)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "find_feet: up axis %d is not 0 (X), 1 (Y) or 2 (Z)", up);
+    const size_t J = rig->n_joints;
+    mlr_allocator a;
+    mlr_allocator_resolve(alloc, &a);
+    unsigned char *flags = mlr_alloc(&a, J);
+    if (!flags)
+        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "find_feet: out of memory");
+    size_t n_ankles = 0, n_hands = 0;
+    for (size_t j = 0; j < J; j++) {
+        const int32_t p = rig->parents[j];
+        unsigned char f = 0;
+        if (p >= 0) {
+            f |= (flags[p] & (FOOT_NAME | FOOT_BELOW)) ? FOOT_BELOW : 0;
+            f |= (flags[p] & (HAND_NAME | HAND_BELOW)) ? HAND_BELOW : 0;
+        }
+        if (name_matches(rig->names[j], foot_patterns)) {
+            f |= FOOT_NAME;
+            if (!(f & FOOT_BELOW))
+                f |= IS_ANKLE, n_ankles++;
+        }
+        if (name_matches(rig->names[j], hand_patterns)) {
+            f |= HAND_NAME;
+            if (!(f & HAND_BELOW) && !(f & IS_ANKLE))
+                f |= IS_HAND, n_hands++;
+        }
+        flags[j] = f;
+    }
+    if (n_ankles == 0) {
+        mlr_free(&a, flags, J);
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "no feet found: no joint name contains foot, ankle, paw or hoof "
+                            "(case-insensitive; toes: toe or ball below a foot); name the "
+                            "contact points yourself ('Joint/End' names a joint's End Site)");
+    }
+    if (n_hands && n_frames) {
+        st = low_hands(rig, n_frames, world_pos, up, flags, n_ankles, &a, diag);
+        if (st != MLR_OK) {
+            mlr_free(&a, flags, J);
+            return st;
+        }
+    }
+    size_t F = 0;
+    for (size_t j = 0; j < J; j++)
+        F += (flags[j] & IS_ANKLE) != 0;
+    if (F > capacity) {
+        mlr_free(&a, flags, J);
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "find_feet: %zu feet found, room for %zu", F, capacity);
+    }
+    size_t f = 0;
+    for (size_t j = 0; j < J; j++) {
+        if (!(flags[j] & IS_ANKLE))
+            continue;
+        joints[2 * f] = (int32_t)j;
+        end_sites[2 * f] = -1;
+        find_toe(rig, (int32_t)j, joints + 2 * f + 1, end_sites + 2 * f + 1);
+        f++;
+    }
+    *n_feet = F;
+    mlr_free(&a, flags, J);
+    return MLR_OK;
+}

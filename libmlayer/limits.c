@@ -1,0 +1,661 @@
+/* Joint limits: ranges per joint learned from clips (or given), applied with a soft saturation
+ * (mlr_limits.h). The human table and the anatomical classes are in limits_human.c. */
+#include "limits_internal.h"
+
+#include <float.h>
+#include <string.h>
+
+#include "mlr_internal.h"
+
+#define PI 3.14159265358979323846
+#define DEG (PI / 180.0)
+#define MIN_INPUT_BOUND (5.0 * DEG)
+
+/* ---------------------------------------------------------------------------------------- */
+/* Small vector helpers                                                                     */
+
+static double dot3(mlr_vec3 a, mlr_vec3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+static double norm3(mlr_vec3 a) { return sqrt(dot3(a, a)); }
+static mlr_vec3 cross3(mlr_vec3 a, mlr_vec3 b)
+{
+    mlr_vec3 c = {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
+    return c;
+}
+static mlr_vec3 scale3(mlr_vec3 a, double s)
+{
+    mlr_vec3 c = {a.x * s, a.y * s, a.z * s};
+    return c;
+}
+static mlr_vec3 vec3_at(const double *p)
+{
+    mlr_vec3 v = {p[0], p[1], p[2]};
+    return v;
+}
+static mlr_quat qconj(mlr_quat q)
+{
+    mlr_quat c = {q.w, -q.x, -q.y, -q.z};
+    return c;
+}
+static mlr_quat qmul(mlr_quat a, mlr_quat b)
+{
+    mlr_quat c;
+    mlr_quat_mul(&a, &b, &c);
+    return c;
+}
+static mlr_vec3 qrot(mlr_quat q, mlr_vec3 v)
+{
+    mlr_vec3 o;
+    mlr_quat_rotate(&q, &v, &o);
+    return o;
+}
+/* Rotation by angle about the unit axis n. */
+static mlr_quat axis_angle(mlr_vec3 n, double angle)
+{
+    const double s = sin(0.5 * angle);
+    mlr_quat q = {cos(0.5 * angle), n.x * s, n.y * s, n.z * s};
+    return q;
+}
+
+/* Signed angle about n from a to s, both projected on the plane normal to n. */
+static double hinge_phi(mlr_vec3 n, mlr_vec3 a, mlr_vec3 s)
+{
+    const double y = dot3(n, cross3(a, s));
+    const double x = dot3(a, s) - dot3(a, n) * dot3(s, n);
+    return atan2(y, x);
+}
+
+/* Swing angle, twist angle (about unit t) of r with r.w >= 0; swing axis direction in *sv
+ * (unnormalized vector part of the swing). */
+static void swing_twist(mlr_quat r, mlr_vec3 t, double *swing, double *twist, mlr_quat *sw)
+{
+    const double p = r.x * t.x + r.y * t.y + r.z * t.z;
+    double tw_w = r.w, tw_n = sqrt(tw_w * tw_w + p * p);
+    mlr_quat tw = {1, 0, 0, 0};
+    if (tw_n > 1e-300) {
+        tw.w = tw_w / tw_n;
+        tw.x = p * t.x / tw_n, tw.y = p * t.y / tw_n, tw.z = p * t.z / tw_n;
+    }
+    *twist = 2.0 * atan2(p / (tw_n > 1e-300 ? tw_n : 1.0), tw.w);
+    if (*twist > PI)
+        *twist -= 2.0 * PI;
+    else if (*twist < -PI)
+        *twist += 2.0 * PI;
+    mlr_quat s = qmul(r, qconj(tw));
+    if (s.w < 0)
+        s.w = -s.w, s.x = -s.x, s.y = -s.y, s.z = -s.z;
+    *swing = 2.0 * atan2(sqrt(s.x * s.x + s.y * s.y + s.z * s.z), s.w);
+    *sw = s;
+}
+
+/* Quaternion with the vector part of q (any length > 0) as axis and the given angle. */
+static mlr_quat with_angle(mlr_quat q, double angle)
+{
+    const double vn = sqrt(q.x * q.x + q.y * q.y + q.z * q.z);
+    if (!(vn > 0))
+        return q;
+    const double s = sin(0.5 * angle) / vn;
+    mlr_quat o = {cos(0.5 * angle), q.x * s, q.y * s, q.z * s};
+    return o;
+}
+
+/* The largest eigenvalue and its vector of a symmetric PSD 3 x 3 matrix (power iteration
+ * from the largest column; enough for a concentration ratio). */
+static double top_eigen(const double *m, mlr_vec3 *e)
+{
+    int best = 0;
+    for (int i = 1; i < 3; i++)
+        if (m[4 * i] > m[4 * best])
+            best = i;
+    mlr_vec3 v = vec3_at(m + 3 * best);
+    double lam = 0.0;
+    for (int it = 0; it < 200; it++) {
+        mlr_vec3 w = {m[0] * v.x + m[1] * v.y + m[2] * v.z, m[3] * v.x + m[4] * v.y + m[5] * v.z,
+                      m[6] * v.x + m[7] * v.y + m[8] * v.z};
+        const double n = norm3(w);
+        if (!(n > 0))
+            break;
+        lam = n / (norm3(v) > 0 ? norm3(v) : 1.0);
+        v = scale3(w, 1.0 / n);
+    }
+    *e = v;
+    return lam;
+}
+
+/* ---------------------------------------------------------------------------------------- */
+/* Create                                                                                   */
+
+static mlr_status check_clips(const mlr_rig *rig, const mlr_limits_clip *clips, size_t n_clips,
+                              mlr_diag *diag)
+{
+    const size_t J = rig->n_joints, P = rig->n_trans;
+    if (!clips || n_clips == 0)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "limits: no clips");
+    for (size_t k = 0; k < n_clips; k++) {
+        const mlr_limits_clip *c = &clips[k];
+        if (c->n_frames == 0 || !c->rot)
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "limits: clip %zu has %s", k, c->rot ? "no frames" : "rot NULL");
+        size_t nq;
+        if (mlr_mul_size(c->n_frames, J, &nq) != MLR_OK || nq > SIZE_MAX / 4)
+            return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "limits: clip %zu too large", k);
+        for (size_t i = 0; i < nq; i++) {
+            const double *q = c->rot + 4 * i;
+            const double n2 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3];
+            if (!isfinite(n2) || !(n2 > 0))
+                return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "limits: clip %zu rot[%zu][%zu] is %s", k, i / J, i % J,
+                                    isfinite(n2) ? "zero" : "not finite");
+        }
+        if (c->trans && P > 0)
+            for (size_t i = 0; i < c->n_frames * P * 3; i++)
+                if (!isfinite(c->trans[i]))
+                    return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                        "limits: clip %zu trans[%zu][%zu] is not finite", k,
+                                        i / (3 * P), (i / 3) % P);
+    }
+    return MLR_OK;
+}
+
+typedef struct create_opts {
+    int human;
+    double fold, soft, rev_soft;
+} create_opts;
+
+static mlr_status read_opts(const mlr_limits_option *opts, size_t n_opts, create_opts *o,
+                            mlr_diag *diag)
+{
+    o->human = -1, o->fold = 150.0 * DEG, o->soft = 0.15, o->rev_soft = 10.0 * DEG;
+    if (n_opts > 0 && !opts)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "limits: opts NULL");
+    unsigned seen = 0;
+    for (size_t i = 0; i < n_opts; i++) {
+        const int key = opts[i].key;
+        const double v = opts[i].value;
+        if (key < MLR_LIMITS_OPT_HUMAN || key > MLR_LIMITS_OPT_REVERSAL_SOFT)
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "limits: unknown option key %d",
+                                key);
+        if (seen & (1u << key))
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "limits: option key %d repeated",
+                                key);
+        seen |= 1u << key;
+        int ok = isfinite(v);
+        switch (key) {
+        case MLR_LIMITS_OPT_HUMAN:
+            ok = ok && (v == -1.0 || v == 0.0 || v == 1.0);
+            o->human = (int)v;
+            break;
+        case MLR_LIMITS_OPT_FOLD:
+            ok = ok && v > 0 && v <= PI;
+            o->fold = v;
+            break;
+        case MLR_LIMITS_OPT_SOFT:
+            ok = ok && v > 0 && v < 1;
+            o->soft = v;
+            break;
+        default:
+            ok = ok && v > 0 && v <= 0.5 * PI;
+            o->rev_soft = v;
+            break;
+        }
+        if (!ok)
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "limits: option key %d has a value out of range: %g", key, v);
+    }
+    return MLR_OK;
+}
+
+static int name_contains(const mlr_rig *rig, const char *word)
+{
+    if (!rig->names)
+        return 0;
+    const size_t n = strlen(word);
+    for (size_t j = 0; j < rig->n_joints; j++) {
+        const char *s = rig->names[j];
+        for (; s && *s; s++) {
+            size_t i = 0;
+            while (i < n && s[i] && (s[i] | 0x20) == word[i])
+                i++;
+            if (i == n)
+                return 1;
+        }
+    }
+    return 0;
+}
+
+/* Per-joint accumulators during create (scratch). */
+typedef struct acc {
+    mlr_quat qsum;
+    mlr_vec3 xsum;
+    double m[9];
+} acc;
+
+mlr_status mlr_limits_create(const mlr_rig *rig, const mlr_limits_clip *clips, size_t n_clips,
+                             const mlr_limits_option *opts, size_t n_opts,
+                             const mlr_allocator *alloc, mlr_limits **out, mlr_diag *diag)
+{
+    if (out)
+        *out = NULL;
+    if (!out)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "limits: out is NULL");
+    mlr_status st = mlr_rig_check(rig, diag);
+    if (st != MLR_OK)
+        return st;
+    create_opts o;
+    if ((st = read_opts(opts, n_opts, &o, diag)) != MLR_OK)
+        return st;
+    if ((st = check_clips(rig, clips, n_clips, diag)) != MLR_OK)
+        return st;
+    const size_t J = rig->n_joints, P = rig->n_trans;
+    mlr_allocator a;
+    mlr_allocator_resolve(alloc, &a);
+    size_t jbytes, sbytes;
+    if (mlr_mul_size(J, sizeof(mlr_limits_joint), &jbytes) != MLR_OK ||
+        mlr_mul_size(J, sizeof(acc) + 3 * sizeof(int32_t), &sbytes) != MLR_OK)
+        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "limits: too many joints");
+    mlr_limits *lim = mlr_alloc(&a, sizeof *lim);
+    if (!lim)
+        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "limits: out of memory");
+    memset(lim, 0, sizeof *lim);
+    lim->alloc = a;
+    lim->n_joints = J;
+    lim->soft = o.soft;
+    lim->rev_soft = o.rev_soft;
+    lim->joints = mlr_alloc(&a, jbytes);
+    void *scratch = mlr_alloc(&a, sbytes);
+    if (!lim->joints || !scratch) {
+        mlr_free(&a, scratch, sbytes);
+        mlr_limits_destroy(lim);
+        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "limits: out of memory");
+    }
+    memset(lim->joints, 0, jbytes);
+    memset(scratch, 0, sbytes);
+    acc *ac = scratch;
+    int32_t *main_child = (int32_t *)(ac + J);
+    int *is_hinge = (int *)(main_child + J), *cls = is_hinge + J;
+    mlr_limits_joint *jt = lim->joints;
+
+    /* bones: offsets, or the mean translation of a trans joint over the clips */
+    for (size_t j = 0; j < J; j++)
+        jt[j].bone_in = vec3_at(rig->offsets + 3 * j);
+    if (P > 0) {
+        size_t n_tot = 0;
+        for (size_t k = 0; k < n_clips; k++)
+            if (clips[k].trans)
+                n_tot += clips[k].n_frames;
+        if (n_tot > 0)
+            for (size_t p = 0; p < P; p++) {
+                mlr_vec3 s = {0, 0, 0};
+                for (size_t k = 0; k < n_clips; k++)
+                    for (size_t f = 0; clips[k].trans && f < clips[k].n_frames; f++) {
+                        const double *t = clips[k].trans + 3 * (f * P + p);
+                        s.x += t[0], s.y += t[1], s.z += t[2];
+                    }
+                jt[rig->trans_joints[p]].bone_in = scale3(s, 1.0 / (double)n_tot);
+            }
+    }
+    for (size_t j = 0; j < J; j++)
+        main_child[j] = -1;
+    for (size_t c = 1; c < J; c++) {
+        const int32_t p = rig->parents[c];
+        const double lc = norm3(jt[c].bone_in);
+        if (lc > 0 && (main_child[p] < 0 || lc > norm3(jt[p].bone_out))) {
+            main_child[p] = (int32_t)c;
+            jt[p].bone_out = jt[c].bone_in;
+        }
+    }
+    for (size_t e = 0; e < rig->n_end_sites; e++) {
+        const int32_t p = rig->end_site_parents[e];
+        const mlr_vec3 v = vec3_at(rig->end_site_offsets + 3 * e);
+        if (main_child[p] < 0 && norm3(v) > norm3(jt[p].bone_out))
+            jt[p].bone_out = v;
+    }
+
+    /* pass 1: centres (sign-aligned sums) and hinge axes (sum of a x q b) */
+    for (size_t k = 0; k < n_clips; k++)
+        for (size_t f = 0; f < clips[k].n_frames; f++)
+            for (size_t j = 0; j < J; j++) {
+                const double *p = clips[k].rot + 4 * (f * J + j);
+                const double n = sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2] + p[3] * p[3]);
+                mlr_quat q = {p[0] / n, p[1] / n, p[2] / n, p[3] / n};
+                acc *c = &ac[j];
+                const double d = c->qsum.w * q.w + c->qsum.x * q.x + c->qsum.y * q.y +
+                                 c->qsum.z * q.z;
+                const double sg = d < 0 ? -1.0 : 1.0;
+                c->qsum.w += sg * q.w, c->qsum.x += sg * q.x, c->qsum.y += sg * q.y,
+                    c->qsum.z += sg * q.z;
+                const mlr_vec3 x = cross3(jt[j].bone_in, qrot(q, jt[j].bone_out));
+                c->xsum.x += x.x, c->xsum.y += x.y, c->xsum.z += x.z;
+            }
+    for (size_t j = 0; j < J; j++) {
+        mlr_quat s = ac[j].qsum;
+        const double n = sqrt(s.w * s.w + s.x * s.x + s.y * s.y + s.z * s.z);
+        if (n > 0)
+            jt[j].centre = (mlr_quat){s.w / n, s.x / n, s.y / n, s.z / n};
+        else
+            jt[j].centre = (mlr_quat){1, 0, 0, 0};
+        if (jt[j].centre.w < 0)
+            jt[j].centre = (mlr_quat){-jt[j].centre.w, -jt[j].centre.x, -jt[j].centre.y,
+                                      -jt[j].centre.z};
+        const double xn = norm3(ac[j].xsum);
+        const double scale = norm3(jt[j].bone_in) * norm3(jt[j].bone_out);
+        if (scale > 0 && xn > 1e-9 * scale)
+            jt[j].axis = scale3(ac[j].xsum, 1.0 / xn);
+        jt[j].stats[0] = DBL_MAX, jt[j].stats[1] = -DBL_MAX;
+    }
+
+    /* pass 2: moments of the centred rotation vectors, hinge angle, swing and twist maxima */
+    for (size_t k = 0; k < n_clips; k++)
+        for (size_t f = 0; f < clips[k].n_frames; f++)
+            for (size_t j = 0; j < J; j++) {
+                const double *p = clips[k].rot + 4 * (f * J + j);
+                const double n = sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2] + p[3] * p[3]);
+                mlr_quat q = {p[0] / n, p[1] / n, p[2] / n, p[3] / n};
+                mlr_limits_joint *g = &jt[j];
+                mlr_quat r = qmul(qconj(g->centre), q);
+                if (r.w < 0)
+                    r = (mlr_quat){-r.w, -r.x, -r.y, -r.z};
+                mlr_vec3 v;
+                (void)mlr_quat_log_array(&r, 1, &v);
+                double *m = ac[j].m;
+                const double vv[3] = {v.x, v.y, v.z};
+                for (int a3 = 0; a3 < 3; a3++)
+                    for (int b3 = 0; b3 < 3; b3++)
+                        m[3 * a3 + b3] += vv[a3] * vv[b3];
+                if (norm3(g->axis) > 0) {
+                    const double phi = hinge_phi(g->axis, g->bone_in, qrot(q, g->bone_out));
+                    g->stats[0] = fmin(g->stats[0], phi);
+                    g->stats[1] = fmax(g->stats[1], phi);
+                }
+                const double bl = norm3(g->bone_out);
+                if (bl > 0) {
+                    double sw, tw;
+                    mlr_quat sq;
+                    swing_twist(r, scale3(g->bone_out, 1.0 / bl), &sw, &tw, &sq);
+                    g->stats[2] = fmax(g->stats[2], sw);
+                    g->stats[3] = fmax(g->stats[3], fabs(tw));
+                } else {
+                    g->stats[2] = fmax(g->stats[2], norm3(v)); /* the whole angle of r */
+                }
+            }
+
+    /* hinges */
+    const double cos35 = cos(35.0 * DEG);
+    double arm_len = 0, leg_len = 0;
+    int n_arm = 0, n_leg = 0;
+    for (size_t j = 1; j < J; j++) {
+        mlr_limits_joint *g = &jt[j];
+        if (!(norm3(g->axis) > 0)) {
+            g->stats[0] = g->stats[1] = 0.0;
+            continue;
+        }
+        const double *m = ac[j].m;
+        const double tr = m[0] + m[4] + m[8];
+        mlr_vec3 e = {0, 0, 0};
+        const double l1 = tr > 0 ? top_eigen(m, &e) : 0.0;
+        const double conc = tr > 0 ? l1 / tr : 0.0;
+        const double along = fabs(dot3(e, g->axis));
+        const int named = rig->names ? mlr_limits_hinge_name(rig->names[j]) : 0;
+        if (named && conc >= 0.5 && along >= cos35)
+            is_hinge[j] = named;
+        else if (!rig->names && conc >= 0.9 && along >= cos35 &&
+                 g->stats[1] - g->stats[0] >= 30.0 * DEG && rig->parents[j] > 0)
+            is_hinge[j] = 1;
+        if (named && is_hinge[j]) {
+            const double len = norm3(g->bone_in) + norm3(g->bone_out);
+            if (named == 1)
+                leg_len += len, n_leg++;
+            else
+                arm_len += len, n_arm++;
+        }
+    }
+    if (o.human >= 0)
+        lim->human = o.human;
+    else
+        lim->human = rig->names && !name_contains(rig, "tail") && n_leg > 0 && n_arm > 0 &&
+                     (arm_len / n_arm) < 0.85 * (leg_len / n_leg);
+
+    /* classes and ranges */
+    mlr_limits_classify(rig, is_hinge, main_child, cls);
+    size_t count[MLR_LIMITS_CLASS_COUNT] = {0};
+    for (size_t j = 0; j < J; j++)
+        count[cls[j]]++;
+    for (size_t j = 0; j < J; j++) {
+        mlr_limits_joint *g = &jt[j];
+        g->cls = cls[j];
+        mlr_limits_range *r = &g->range;
+        if (cls[j] == MLR_LIMITS_CLASS_FREE) {
+            r->kind = MLR_LIMITS_FREE, r->source = MLR_LIMITS_SOURCE_NONE;
+            continue;
+        }
+        if (is_hinge[j]) {
+            r->kind = MLR_LIMITS_HINGE;
+            r->lo = fmin(0.0, g->stats[0]);
+            r->hi = fmax(o.fold, g->stats[1]);
+            r->source = lim->human ? MLR_LIMITS_SOURCE_TABLE : MLR_LIMITS_SOURCE_INPUT;
+            continue;
+        }
+        r->kind = MLR_LIMITS_SWING_TWIST;
+        /* the input's own extent sits at the knee point (a relative 1e-12 above it, so that
+         * rounding never moves an input frame) */
+        const double grow = (1.0 + 1e-12) / (1.0 - o.soft);
+        const double in_sw = fmin(PI, fmax(MIN_INPUT_BOUND, g->stats[2] * grow));
+        const double in_tw = fmin(PI, fmax(MIN_INPUT_BOUND, g->stats[3] * grow));
+        double t_sw, t_tw;
+        if (lim->human && mlr_limits_table(cls[j], count[cls[j]], &t_sw, &t_tw)) {
+            r->swing = fmin(PI, fmax(t_sw, g->stats[2] * grow));
+            r->twist = fmin(PI, fmax(t_tw, g->stats[3] * grow));
+            r->widen = 0, r->source = MLR_LIMITS_SOURCE_TABLE;
+        } else {
+            r->swing = in_sw, r->twist = in_tw;
+            r->widen = 1, r->source = MLR_LIMITS_SOURCE_INPUT;
+        }
+    }
+    mlr_free(&a, scratch, sbytes);
+    *out = lim;
+    return MLR_OK;
+}
+
+/* ---------------------------------------------------------------------------------------- */
+/* Access                                                                                   */
+
+size_t mlr_limits_n_joints(const mlr_limits *lim) { return lim ? lim->n_joints : 0; }
+int mlr_limits_is_human(const mlr_limits *lim) { return lim ? lim->human : 0; }
+
+mlr_status mlr_limits_get_range(const mlr_limits *lim, size_t joint, mlr_limits_range *out)
+{
+    if (!lim || !out || joint >= lim->n_joints)
+        return MLR_E_INVALID_ARG;
+    *out = lim->joints[joint].range;
+    return MLR_OK;
+}
+
+mlr_status mlr_limits_set_range(mlr_limits *lim, size_t joint, const mlr_limits_range *range,
+                                mlr_diag *diag)
+{
+    if (!lim || !range)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "limits: %s is NULL",
+                            lim ? "range" : "limits");
+    if (joint >= lim->n_joints)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "limits: joint %zu out of range (J = %zu)", joint, lim->n_joints);
+    mlr_limits_joint *g = &lim->joints[joint];
+    mlr_limits_range r = *range;
+    switch (r.kind) {
+    case MLR_LIMITS_FREE:
+        break;
+    case MLR_LIMITS_HINGE:
+        if (!(norm3(g->axis) > 0) || !(norm3(g->bone_out) > 0))
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "limits: joint %zu has no thigh and shin vectors for a hinge",
+                                joint);
+        if (!isfinite(r.lo) || !isfinite(r.hi) || !(r.lo > -PI) || !(r.hi <= PI) ||
+            !(r.lo < r.hi))
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "limits: joint %zu hinge range [%g, %g] must satisfy "
+                                "-pi < lo < hi <= pi", joint, r.lo, r.hi);
+        break;
+    case MLR_LIMITS_SWING_TWIST:
+        if (!isfinite(r.swing) || !isfinite(r.twist) || !(r.swing > 0) || !(r.swing <= PI) ||
+            !(r.twist > 0) || !(r.twist <= PI))
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "limits: joint %zu swing %g and twist %g must be in (0, pi]",
+                                joint, r.swing, r.twist);
+        break;
+    default:
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "limits: joint %zu unknown kind %d",
+                            joint, r.kind);
+    }
+    r.widen = r.widen != 0;
+    r.source = MLR_LIMITS_SOURCE_USER;
+    g->range = r;
+    return MLR_OK;
+}
+
+mlr_status mlr_limits_get_geometry(const mlr_limits *lim, size_t joint, double *centre,
+                                   double *axis, double *bone_in, double *bone_out,
+                                   double *stats)
+{
+    if (!lim || joint >= lim->n_joints)
+        return MLR_E_INVALID_ARG;
+    const mlr_limits_joint *g = &lim->joints[joint];
+    if (centre)
+        centre[0] = g->centre.w, centre[1] = g->centre.x, centre[2] = g->centre.y,
+        centre[3] = g->centre.z;
+    if (axis)
+        axis[0] = g->axis.x, axis[1] = g->axis.y, axis[2] = g->axis.z;
+    if (bone_in)
+        bone_in[0] = g->bone_in.x, bone_in[1] = g->bone_in.y, bone_in[2] = g->bone_in.z;
+    if (bone_out)
+        bone_out[0] = g->bone_out.x, bone_out[1] = g->bone_out.y, bone_out[2] = g->bone_out.z;
+    if (stats)
+        memcpy(stats, g->stats, sizeof g->stats);
+    return MLR_OK;
+}
+
+void mlr_limits_destroy(mlr_limits *lim)
+{
+    if (!lim)
+        return;
+    mlr_allocator a = lim->alloc;
+    if (lim->joints)
+        mlr_free(&a, lim->joints, lim->n_joints * sizeof(mlr_limits_joint));
+    mlr_free(&a, lim, sizeof *lim);
+}
+
+/* ---------------------------------------------------------------------------------------- */
+/* Apply                                                                                    */
+
+/* Limit one unit quaternion of joint g; returns 1 when changed. */
+static int limit_joint(const mlr_limits *lim, const mlr_limits_joint *g, double alpha,
+                       mlr_quat *q)
+{
+    const mlr_limits_range *r = &g->range;
+    const mlr_quat q0 = *q;
+    if (r->kind == MLR_LIMITS_HINGE) {
+        const double span = r->hi - r->lo;
+        double w_hi = lim->soft * span, w_lo = fmin(lim->rev_soft, 0.5 * span);
+        if (w_hi + w_lo > span)
+            w_hi = span - w_lo;
+        const mlr_vec3 s = qrot(*q, g->bone_out);
+        double phi = hinge_phi(g->axis, g->bone_in, s);
+        const double mid = 0.5 * (r->hi + r->lo) + PI; /* middle of the excluded arc */
+        if (phi >= mid)
+            phi -= 2.0 * PI;
+        else if (phi < mid - 2.0 * PI)
+            phi += 2.0 * PI;
+        double phi2 = phi;
+        if (phi > r->hi - w_hi)
+            phi2 = mlr_limits_soft(phi, r->hi, w_hi);
+        else if (phi < r->lo + w_lo)
+            phi2 = -mlr_limits_soft(-phi, -r->lo, w_lo);
+        if (phi2 == phi)
+            return 0;
+        *q = qmul(axis_angle(g->axis, phi2 - phi), *q);
+    } else if (r->kind == MLR_LIMITS_SWING_TWIST) {
+        const double wide = r->widen ? fmax(1.0, fabs(alpha)) : 1.0;
+        const double smax = fmin(PI, r->swing * wide), tmax = fmin(PI, r->twist * wide);
+        const double ws = lim->soft * smax, wt = lim->soft * tmax;
+        mlr_quat rr = qmul(qconj(g->centre), *q);
+        if (rr.w < 0)
+            rr = (mlr_quat){-rr.w, -rr.x, -rr.y, -rr.z};
+        const double bl = norm3(g->bone_out);
+        if (bl > 0) {
+            const mlr_vec3 t = scale3(g->bone_out, 1.0 / bl);
+            double sw, tw;
+            mlr_quat sq;
+            swing_twist(rr, t, &sw, &tw, &sq);
+            const double sw2 = sw > smax - ws ? mlr_limits_soft(sw, smax, ws) : sw;
+            const double atw = fabs(tw);
+            const double tw2 = atw > tmax - wt ? copysign(mlr_limits_soft(atw, tmax, wt), tw) : tw;
+            if (sw2 == sw && tw2 == tw)
+                return 0;
+            const mlr_quat s2 = sw2 == sw ? sq : with_angle(sq, sw2);
+            *q = qmul(g->centre, qmul(s2, axis_angle(t, tw2)));
+        } else {
+            const double ang = 2.0 * atan2(sqrt(rr.x * rr.x + rr.y * rr.y + rr.z * rr.z), rr.w);
+            if (!(ang > smax - ws))
+                return 0;
+            *q = qmul(g->centre, with_angle(rr, mlr_limits_soft(ang, smax, ws)));
+        }
+    } else {
+        return 0;
+    }
+    if (q->w * q0.w + q->x * q0.x + q->y * q0.y + q->z * q0.z < 0)
+        *q = (mlr_quat){-q->w, -q->x, -q->y, -q->z};
+    return 1;
+}
+
+void mlr_limits_apply_frame(const mlr_limits *lim, mlr_quat *q, const double *alpha,
+                            size_t stride, size_t *counts)
+{
+    for (size_t j = 0; j < lim->n_joints; j++) {
+        const double a = alpha ? alpha[stride * j] : 1.0;
+        if (limit_joint(lim, &lim->joints[j], a, &q[j]) && counts)
+            counts[j]++;
+    }
+}
+
+mlr_status mlr_limits_apply(const mlr_limits *lim, size_t n_frames, const double *rot_in,
+                            double *rot_out, const double *alpha, size_t n_alpha,
+                            size_t *counts, size_t n_counts, mlr_diag *diag)
+{
+    if (!lim)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "limits: limits is NULL");
+    const size_t J = lim->n_joints;
+    if (n_frames > 0 && (!rot_in || !rot_out))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "limits: rot_%s is NULL",
+                            rot_in ? "out" : "in");
+    if (!(n_alpha == 0 && !alpha) && !(alpha && (n_alpha == 1 || n_alpha == 1 + J)))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "limits: alpha must have 1 or 1 + J = %zu values, got %zu", 1 + J,
+                            alpha ? n_alpha : 0);
+    for (size_t i = 0; i < n_alpha; i++)
+        if (!isfinite(alpha[i]))
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "limits: alpha[%zu] is not finite",
+                                i);
+    if (counts && n_counts != J)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "limits: counts must have J = %zu values, got %zu", J, n_counts);
+    if (counts)
+        memset(counts, 0, J * sizeof *counts);
+    const double *aj = alpha ? (n_alpha == 1 ? alpha : alpha + 1) : NULL;
+    const size_t stride = n_alpha == 1 ? 0 : 1;
+    for (size_t f = 0; f < n_frames; f++) {
+        const double *src = rot_in + 4 * J * f;
+        double *dst = rot_out + 4 * J * f;
+        for (size_t j = 0; j < J; j++) {
+            const double *p = src + 4 * j;
+            const double n2 = p[0] * p[0] + p[1] * p[1] + p[2] * p[2] + p[3] * p[3];
+            if (!isfinite(n2) || !(n2 > 0))
+                return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "limits: rot_in[%zu][%zu] is %s", f, j,
+                                    isfinite(n2) ? "zero" : "not finite");
+        }
+        if (dst != src)
+            memmove(dst, src, 4 * J * sizeof(double));
+        mlr_quat *q = (mlr_quat *)dst;
+        (void)mlr_quat_normalize_array(q, J, q);
+        mlr_limits_apply_frame(lim, q, aj, stride, counts);
+    }
+    return MLR_OK;
+}

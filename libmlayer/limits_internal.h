@@ -1,0 +1,69 @@
+/* Joint limits: private parts shared by limits.c, limits_human.c and stream.c. */
+#ifndef MLR_LIMITS_INTERNAL_H
+#define MLR_LIMITS_INTERNAL_H
+
+#include <math.h>
+
+#include "mlayer/mlr_limits.h"
+#include "mlayer/mlr_quat.h"
+
+/* Anatomical class of a joint, from the rig's structure and names (limits_human.c). */
+typedef enum mlr_limits_class {
+    MLR_LIMITS_CLASS_OTHER = 0, /* no table entry: ranges from the input */
+    MLR_LIMITS_CLASS_FREE,      /* root segment, pelvis */
+    MLR_LIMITS_CLASS_LEG_HINGE, /* knee */
+    MLR_LIMITS_CLASS_ARM_HINGE, /* elbow */
+    MLR_LIMITS_CLASS_HIP,
+    MLR_LIMITS_CLASS_ANKLE,
+    MLR_LIMITS_CLASS_TOE,
+    MLR_LIMITS_CLASS_SHOULDER,
+    MLR_LIMITS_CLASS_CLAVICLE,
+    MLR_LIMITS_CLASS_WRIST,
+    MLR_LIMITS_CLASS_SPINE,
+    MLR_LIMITS_CLASS_NECK,
+    MLR_LIMITS_CLASS_COUNT
+} mlr_limits_class;
+
+typedef struct mlr_limits_joint {
+    mlr_limits_range range;
+    mlr_quat centre;
+    mlr_vec3 axis;     /* hinge axis (parent frame), unit or zero */
+    mlr_vec3 bone_in;  /* a: the joint's translation */
+    mlr_vec3 bone_out; /* b: main child's translation (joint frame), or zero */
+    double stats[4];   /* min phi, max phi, max swing, max |twist| */
+    int cls;           /* an mlr_limits_class */
+} mlr_limits_joint;
+
+struct mlr_limits {
+    mlr_allocator alloc;
+    size_t n_joints;
+    int human;
+    double soft, rev_soft;
+    mlr_limits_joint *joints;
+};
+
+/* Is the name (NULL allowed) a hinge name, and which kind: 0 none, 1 leg, 2 arm. */
+int mlr_limits_hinge_name(const char *name);
+/* Is it a free (pelvis/root) name. */
+int mlr_limits_free_name(const char *name);
+/* Classify every joint (cls[J]) from the structure and names, given the hinge flags
+ * (is_hinge[J]: 1 leg, 2 arm, 0 not); joint 0 is FREE. */
+void mlr_limits_classify(const mlr_rig *rig, const int *is_hinge, const int32_t *main_child,
+                         int *cls);
+/* Table swing and twist half-ranges (radians) of a class, shared among n joints of the class
+ * for the spine and the neck; returns 0 when the class has no table entry. */
+int mlr_limits_table(int cls, size_t n_of_class, double *swing, double *twist);
+
+/* The soft saturation: identity up to k = b - w, then k + w tanh((x - k) / w) (< b). */
+static inline double mlr_limits_soft(double x, double b, double w)
+{
+    const double k = b - w;
+    return x <= k ? x : k + w * tanh((x - k) / w);
+}
+
+/* Limit the J unit quaternions of one frame in place; joint j's alpha is alpha[stride * j]
+ * (alpha NULL: 1). counts[j] (optional) is incremented where the joint changed. */
+void mlr_limits_apply_frame(const mlr_limits *lim, mlr_quat *q, const double *alpha,
+                            size_t stride, size_t *counts);
+
+#endif /* MLR_LIMITS_INTERNAL_H */
