@@ -20,5 +20,6 @@
 #include "mlr_limits.h"
 #include "mlr_ik.h"
 #include "mlr_cleanup.h"
+#include "mlr_guards.h"
 
 #endif /* MLAYER_H */

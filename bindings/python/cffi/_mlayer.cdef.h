@@ -455,3 +455,48 @@ mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t n_frames, double fps,
                                 mlr_cleanup_report *report, const mlr_allocator *alloc,
                                 mlr_diag *diag);
 
+
+/* mlr_guards.h */
+typedef struct mlr_guards mlr_guards;
+typedef enum mlr_guards_limits_mode {
+    MLR_GUARDS_LIMITS_OFF = 0,
+    MLR_GUARDS_LIMITS_AUTO = 1,
+    MLR_GUARDS_LIMITS_ALWAYS = 2
+} mlr_guards_limits_mode;
+typedef enum mlr_guards_key {
+    MLR_GUARDS_OPT_UP = 1,
+    MLR_GUARDS_OPT_LIMITS = 2,
+    MLR_GUARDS_OPT_CONTACTS = 3,
+    MLR_GUARDS_OPT_FLOOR = 4,
+    MLR_GUARDS_OPT_FLOOR_HEIGHT = 5
+} mlr_guards_key;
+typedef struct mlr_guards_option {
+    int key;
+    double value;
+} mlr_guards_option;
+typedef struct mlr_guards_report {
+    int limits_applied;
+    size_t limited_joints;
+    size_t limited_frames;
+    size_t contact_frames;
+    size_t floor_frames;
+    double floor_height;
+    double root_shift_max;
+} mlr_guards_report;
+mlr_status mlr_guards_create(const mlr_rig *rig, double fps, size_t n_frames,
+                             const double *root_pos, const double *rot, const double *trans,
+                             const mlr_guards_option *opts, size_t n_opts,
+                             const mlr_allocator *alloc, mlr_guards **out, mlr_diag *diag);
+size_t mlr_guards_n_points(const mlr_guards *g);
+mlr_status mlr_guards_get_contacts(const mlr_guards *g, int32_t *joints, int32_t *end_sites,
+                                   uint8_t *contacts);
+mlr_status mlr_guards_set_contacts(mlr_guards *g, size_t n_points, const int32_t *joints,
+                                   const int32_t *end_sites, const uint8_t *contacts,
+                                   mlr_diag *diag);
+mlr_status mlr_guards_set_limits(mlr_guards *g, const mlr_limits *limits, mlr_diag *diag);
+mlr_status mlr_guards_apply(const mlr_guards *g, const double *alpha, size_t n_alpha,
+                            const double *ref_root_pos, const double *ref_rot,
+                            const double *ref_trans, double *root_pos, double *rot,
+                            const double *trans, size_t *limited, size_t n_limited,
+                            mlr_guards_report *report, mlr_diag *diag);
+void mlr_guards_destroy(mlr_guards *g);

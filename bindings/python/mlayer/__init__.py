@@ -20,7 +20,8 @@ from . import ik
 from .contacts import detect_contacts, fix_contacts
 from .resample import (resample, slerp_resample, timewarp, timewarp_map, timewarp_speed)
 from . import data
-from .layers import Layers, decompose, denoise, stylize
+from .layers import Layers, decompose
+from .pipeline import GuardReport, Synthesis, denoise, stylize
 from .limits import JointLimits, joint_limits
 from .kmeans import KMeansResult, elbow, kmeans
 from .som import SOM
@@ -46,7 +47,7 @@ __all__ = ["__version__", "library_version", "Error", "InvalidArgumentError", "P
            "SingularMatrixError", "MlayerIOError", "UnsupportedError", "MlayerWarning", "LGS",
            "lgs", "have_cholmod", "quat", "Motion", "Skeleton", "read_bvh", "write_bvh",
            "read_bvh_string", "write_bvh_string", "metrics", "data", "Layers", "decompose",
-           "denoise", "stylize", "JointLimits", "joint_limits", "Stream", "stream_motion", "ik", "detect_contacts",
+           "denoise", "stylize", "Synthesis", "GuardReport", "JointLimits", "joint_limits", "Stream", "stream_motion", "ik", "detect_contacts",
            "fix_contacts", "resample", "slerp_resample", "timewarp", "timewarp_map",
            "timewarp_speed", "kmeans", "KMeansResult", "elbow", "SOM", "pose_features", "batch",
            "PCA", "GRBF", "fuzzy_cmeans", "GaussianMixture", "Markov", "PrimitiveModel"]

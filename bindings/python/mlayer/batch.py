@@ -118,21 +118,16 @@ def _split_layer_kw(options):
 
 
 def _op_denoise(motion, variants, keep_contacts=True, **options):
-    from .layers import denoise
+    from .pipeline import denoise
     return [denoise(motion, keep_contacts=keep_contacts, **options) for _ in variants]
 
 
 def _op_stylize(motion, variants, keep_contacts=True, joints=None, root_alpha=None, **options):
-    """mlayer.stylize for every alpha, sharing one decomposition (stylize is
-    decompose(...).synthesize(alpha) followed by the contact cleanup)."""
-    from .layers import _keep_contacts, decompose
-    layers = decompose(motion, **options)
-    out = []
-    den = layers.synthesize(1.0) if keep_contacts else None
-    for v in variants:
-        m = layers.synthesize(v["alpha"], joints, root_alpha=root_alpha)
-        out.append(_keep_contacts(motion, m, den) if keep_contacts else m)
-    return out
+    """mlayer.stylize for every alpha, sharing one decomposition and one set of guards
+    (mlayer.pipeline.Synthesis)."""
+    from .pipeline import Synthesis
+    s = Synthesis(motion, keep_contacts=keep_contacts, **options)
+    return [s.run(v["alpha"], joints, root_alpha=root_alpha)[0] for v in variants]
 
 
 def _op_features(motion, variants, keep_contacts=True, **options):

@@ -28,8 +28,7 @@ def _arguments(p) -> None:
 @command("demo", "decompose, denoise, exaggerate and render the bundled clip into a folder")
 def _cmd_demo(args) -> int:
     from . import data
-    from .layers import decompose
-    from .contacts import detect_contacts, keep_contacts
+    from .pipeline import Synthesis
     from .plot import plot_layers
     from .render import render_gif
 
@@ -41,11 +40,12 @@ def _cmd_demo(args) -> int:
           f"{m.n_joints} joints")
 
     t0 = time.perf_counter()
-    layers = decompose(m)
+    s = Synthesis(m)
+    layers = s.layers
     t_dec = time.perf_counter() - t0
-    den = keep_contacts(m, layers.synthesize(1.0))
+    den, _ = s.run(1.0)
     sty_raw = layers.synthesize(args.alpha)
-    sty = keep_contacts(m, sty_raw)
+    sty, report = s.run(args.alpha)
     print(f"layers    decomposed in {1e3 * t_dec:.1f} ms (gamma heuristic + GCV per joint)")
     write_bvh(den, out("denoised.bvh"))
     write_bvh(sty, out(f"stylized_alpha{args.alpha:g}.bvh"))
@@ -53,11 +53,13 @@ def _cmd_demo(args) -> int:
     shown = plot_layers(m, layers, out("layers.png"), title=f"{os.path.basename(clip)}: layers")
 
     h = body_height(m)
-    names, contacts = detect_contacts(m)
+    names, contacts = s.contacts()
     print(f"contacts  {', '.join(names)}: {int(contacts.sum())} contact frames, pinned "
           f"after synthesis")
+    print(f"guards    alpha {args.alpha:g}: {len(report.limited)} joints softly limited, feet "
+          f"raised to the floor on {report.floor_frames} frames")
     print(f"{'motion':28s} {'jitter (heights/s^3)':>21s} {'foot sliding (heights/s)':>25s}")
-    rows = (("original", m), ("denoised", den), (f"alpha = {args.alpha:g}, no cleanup", sty_raw),
+    rows = (("original", m), ("denoised", den), (f"alpha = {args.alpha:g}, no guards", sty_raw),
             (f"alpha = {args.alpha:g}", sty))
     for name, mm in rows:
         print(f"{name:28s} {jitter(mm, fps=mm.fps) / h:21.3g} "

@@ -26,6 +26,10 @@ from .metrics import body_height, jitter
 def _contact_option(p) -> None:
     p.add_argument("--no-contacts", action="store_true",
                    help="do not pin the feet during the contacts detected on the input")
+    p.add_argument("--no-limits", action="store_true",
+                   help="do not apply joint limits (applied by default when some alpha > 1)")
+    p.add_argument("--no-floor", action="store_true",
+                   help="let the feet go below the floor of the input's contacts")
 
 
 def _layer_options(p) -> None:
@@ -38,17 +42,31 @@ def _layer_options(p) -> None:
                    help="control-layer sigma (default: chosen per joint by GCV)")
 
 
-def _contacts(args, original, out):
-    """Foot contacts kept by default (mlayer.contacts); --no-contacts skips it."""
-    if getattr(args, "no_contacts", False):
-        return out
-    from .contacts import keep_contacts
-    return keep_contacts(original, out)
+def _synthesis(args, motion):
+    """The input's layers and guards (mlayer.pipeline.Synthesis) as the options say."""
+    from .pipeline import Synthesis
+    return Synthesis(motion, limits=None if getattr(args, "no_limits", False) else "auto",
+                     floor=None if getattr(args, "no_floor", False) else "auto",
+                     keep_contacts=not getattr(args, "no_contacts", False),
+                     gamma=args.gamma, lam_c=args.lam_c, sigma_c=args.sigma_c)
 
 
 def _decompose(args, motion):
     from .layers import decompose
     return decompose(motion, gamma=args.gamma, lam_c=args.lam_c, sigma_c=args.sigma_c)
+
+
+def _guard_summary(report) -> None:
+    """One line per guard that did something (mlayer.pipeline.GuardReport)."""
+    if report.limited:
+        worst = sorted(report.limited.items(), key=lambda kv: -kv[1])[:4]
+        print(f"  joint limits: {len(report.limited)} joints limited ("
+              + ", ".join(f"{n} {k} frames" for n, k in worst)
+              + (", ..." if len(report.limited) > 4 else "") + ")")
+    if report.contact_frames:
+        print(f"  contacts: feet pinned on {report.contact_frames} frames")
+    if report.floor_frames:
+        print(f"  floor at {report.floor_height:.4g}: feet raised on {report.floor_frames} frames")
 
 
 def parse_joint_alphas(items) -> dict:
@@ -89,11 +107,11 @@ def _arguments_denoise(p) -> None:
 @command("denoise", "smooth a clip: the base and controllable layers, without the residual")
 def _cmd_denoise(args) -> int:
     m = read_bvh(args.input)
-    layers = _decompose(args, m)
-    out = layers.synthesize(1.0)
-    out = _contacts(args, m, out)
+    s = _synthesis(args, m)
+    out, report = s.run(1.0)
     write_bvh(out, args.output)
-    _summary(args.input, m, out, layers)
+    _summary(args.input, m, out, s.layers)
+    _guard_summary(report)
     print(f"  wrote {args.output}")
     return 0
 
@@ -120,11 +138,11 @@ def _cmd_stylize(args) -> int:
         raise InvalidArgumentError(f"--alpha must be finite, got {args.alpha}")
     joints = parse_joint_alphas(args.joint)
     m = read_bvh(args.input)
-    layers = _decompose(args, m)
-    out = layers.synthesize(args.alpha, joints=joints or None)
-    out = _contacts(args, m, out)
+    s = _synthesis(args, m)
+    out, report = s.run(args.alpha, joints or None)
     write_bvh(out, args.output)
-    _summary(args.input, m, out, layers)
+    _summary(args.input, m, out, s.layers)
+    _guard_summary(report)
     print(f"  alpha {args.alpha:g}" + "".join(f", {k}={v:g}" for k, v in joints.items()))
     print(f"  wrote {args.output}")
     return 0

@@ -20,7 +20,7 @@ from .bvh import read_bvh, write_bvh
 from .cli import command
 from .cli_layers import _contact_option
 from .errors import InvalidArgumentError, MlayerIOError
-from .layers import stylize
+from .pipeline import stylize
 from .resample import (resample, slerp_resample, timewarp, timewarp_map, timewarp_speed)
 
 

@@ -325,37 +325,3 @@ def decompose(motion, *, gamma: float = math.pi / 2, lam_c=None, sigma_c=None, l
         check(lib.mlr_layers_get_param(handle, which, _arrays.ptr_out(a), a.size), name)
         params[name] = a
     return Layers(motion, handle, params, body)
-
-
-def denoise(motion, *, keep_contacts=True, **kw):
-    """The denoised motion: decompose(motion, **kw).synthesize(1.0).
-
-    keep_contacts: pin the feet during the contacts detected on `motion` (mlayer.contacts,
-    paper 1 eq. 18); False skips it. Skeletons without recognisable feet are left as they are."""
-    out = decompose(motion, **kw).synthesize(1.0)
-    return _keep_contacts(motion, out, out) if keep_contacts else out
-
-
-def stylize(motion, alpha, joints=None, *, root_alpha=None, keep_contacts=True, **kw):
-    """Scale the style (controllable layer) of a motion: decompose(motion, **kw)
-    .synthesize(alpha, joints, root_alpha=root_alpha). alpha = 2 exaggerates, 0.5 flattens;
-    joints maps joint names or globs ("Left*") to their own alpha.
-
-    keep_contacts: pin the feet during the contacts detected on `motion` (mlayer.contacts,
-    paper 1 eq. 18); False skips it. Skeletons without recognisable feet are left as they are."""
-    layers = decompose(motion, **kw)
-    out = layers.synthesize(alpha, joints, root_alpha=root_alpha)
-    return _keep_contacts(motion, out, layers) if keep_contacts else out
-
-
-def _keep_contacts(original, synthesized, denoised=None):
-    """The default cleanup of stylize/denoise (mlayer.cleanup.keep_contacts): contacts
-    detected on the original; the feet follow the denoised motion (a Motion, or Layers to
-    synthesize it from) unsmoothed, which carries no capture noise, so an input that does not
-    slide comes out of denoise as it went in; the floor is on."""
-    from .cleanup import keep_contacts
-    if denoised is None:
-        return keep_contacts(original, synthesized)
-    if isinstance(denoised, Layers):
-        denoised = denoised.synthesize(1.0)
-    return keep_contacts(original, synthesized, reference=denoised, ref_smooth=0.0)

@@ -152,7 +152,7 @@ def _stylized(motion: Motion, style, where: str) -> Motion:
     dict of stylize's arguments ({"alpha": 2, "joints": {"Left*": 3}, ...})."""
     if style is None:
         return motion
-    from .layers import stylize
+    from .pipeline import stylize
     if isinstance(style, dict):
         kw = dict(style)
         if "alpha" not in kw:

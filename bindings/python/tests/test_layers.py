@@ -76,7 +76,8 @@ def test_synthesis_alphas(walk):
     assert np.allclose(v[small], 2 * L.control[:, 1:][small], atol=1e-9)
     # denoise / stylize are the same computations
     assert np.array_equal(mlayer.denoise(walk, keep_contacts=False).rot, den.rot)
-    assert np.array_equal(mlayer.stylize(walk, 2.0, keep_contacts=False).rot, two.rot)
+    assert np.array_equal(mlayer.stylize(walk, 2.0, keep_contacts=False, limits=None,
+                                         floor=None).rot, two.rot)
     # the skeleton and frame rate are kept
     assert two.skeleton == walk.skeleton and two.fps == walk.fps
 

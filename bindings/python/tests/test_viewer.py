@@ -14,7 +14,7 @@ import pytest
 
 import mlayer
 from mlayer import quat
-from mlayer.contacts import detect_contacts, fix_contacts
+from mlayer.contacts import detect_contacts
 from mlayer.metrics import body_height, foot_sliding
 from mlayer.viewer import body_parts, is_loopback, make_server, parse_params
 from mlayer.viewer.session import PARAMS, ParamError
@@ -217,16 +217,14 @@ def _process(server, q):
 
 
 def test_process_matches_the_library(server, mocap):
-    """The viewer's pipeline is synthesize -> fix_contacts (contacts of the original): check it
-    against those calls made here, with per-part alphas given as explicit joint names."""
+    """The viewer's pipeline is mlayer.Synthesis (synthesize, then the guards): check it
+    against the library's stylize, with per-part alphas given as explicit joint names."""
     m = mlayer.read_bvh(mocap / WALK)
-    L = mlayer.decompose(m)
     parts = body_parts(m.joint_names, m.parents)
     joints = {n: (0.5 if p == "arms" else 1.8) for n, p in zip(m.joint_names, parts)
               if p in ("arms", "legs")}
-    ref = L.synthesize(1.3, joints)
+    ref = mlayer.stylize(m, 1.3, joints, root_alpha=1.3)
     names, c = detect_contacts(m)
-    ref = fix_contacts(ref, c, names, reference=m)
     d = _process(server, "alpha=1.3&arms=0.5&legs=1.8")
     J, E = m.n_joints, m.skeleton.n_end_sites
     pts = f32(d["positions"], (m.n_frames, J + E, 3))

@@ -6,7 +6,7 @@ are computed once and cached; a request is then only
 
     synthesize(alpha per joint)                    C core, eq. 16-17
     (+ residual when denoising is off)             q * exp(residual), C quaternion kernels
-    fix_contacts with the original's contacts      LGS displacement map + two-bone IK
+    the guards (mlayer.pipeline.Synthesis)         joint limits, contacts, floor (mlr_guards)
     timewarp (length, strength), resample (fps)    C LGS solves
 
 followed by forward kinematics for the figure and the metrics.
@@ -27,9 +27,9 @@ import numpy as np
 
 from .. import quat
 from ..bvh import read_bvh, write_bvh_string
-from ..contacts import detect_contacts, find_feet, fix_contacts
 from ..errors import Error, InvalidArgumentError
 from ..layers import decompose
+from ..pipeline import Synthesis
 from ..metrics import body_height, foot_sliding, jitter
 from ..render import body_side
 from ..resample import resample, timewarp
@@ -212,11 +212,12 @@ class Clip:
             self._layers = decompose(m)
             self._decompose_ms = 1e3 * (time.perf_counter() - t0)
             self._height = body_height(m) or 1.0
-            try:
-                find_feet(m)
-                self._contacts = detect_contacts(m)
-            except InvalidArgumentError:
-                self._contacts = ([], np.zeros((m.n_frames, 0), dtype=bool))
+            # the guards with and without the foot cleanup (contacts and floor), sharing the
+            # layers; the joint limits apply in both when some alpha > 1
+            self._synth = {on: Synthesis(m, layers=self._layers, keep_contacts=on,
+                                         floor="auto" if on else None)
+                           for on in (True, False)}
+            self._contacts = self._synth[True].contacts()
             names, c = self._contacts
             self._parts = body_parts(m.joint_names, m.parents)
             ctrl = np.asarray(self._layers.control)
@@ -299,14 +300,9 @@ class Clip:
             if p.get(part) is not None:
                 joints[_glob_escape(name)] = p[part]
         # the root translation follows the global alpha
-        out = L.synthesize(alpha, joints or None, root_alpha=alpha)
-        if not p["denoise"]:
-            r = np.asarray(L.residual)
-            out = out.with_frames(root_pos=out.root_pos + r[:, 0],
-                                  rot=quat.normalize(quat.mul(out.rot, quat.exp(r[:, 1:]))))
+        out, _report = self._synth[bool(p["contacts"])].run(
+            alpha, joints or None, root_alpha=alpha, residual=not p["denoise"])
         names, c = self._contacts
-        if p["contacts"] and names and c.any():
-            out = fix_contacts(out, c, names, reference=m)
         src = np.arange(m.n_frames, dtype=np.float64)   # input frame of each output frame
         N = m.n_frames
         n_len = N

@@ -1,0 +1,252 @@
+"""The synthesis pipeline: decompose once, synthesize, then make the result plausible.
+
+This is the one place that composes the layers (:mod:`mlayer.layers`) with the plausibility
+guards of the C core (``mlr_guards.h``): joint limits (:mod:`mlayer.limits`), foot contacts
+and the floor (:mod:`mlayer.cleanup`). :func:`stylize` and :func:`denoise`, the command line,
+batch runs and the viewer all go through :class:`Synthesis`, so they give the same motion, and
+the same motion as a game runtime that calls ``mlr_layers_decompose``,
+``mlr_layers_synthesize`` and ``mlr_guards_apply`` with their defaults.
+
+What runs, in order, on ``M' = Mb (+) alpha delta_c``:
+
+1. joint limits, when some ``|alpha| > 1`` (``limits="auto"``): knees and elbows never bend the
+   other way beyond the input's own and never fold past 150 degrees (or the input's largest
+   angle); other joints stay within published human ranges of motion (human rigs) or within
+   the input's range widened by alpha (a dog); a soft saturation, so the motion stays smooth;
+2. the foot contacts of the input (detected once, on the input) pinned by two-bone IK, the feet
+   following the denoised motion's trajectories, with the corrections blended in time;
+3. the floor of the input's contacts: no foot point goes below it where the denoised motion's
+   did not.
+
+Each :class:`Synthesis` holds one input's decomposition, denoised motion and guards, so a
+second alpha (a slider move, an augmentation sweep) costs a synthesis and the guards only.
+"""
+from __future__ import annotations
+
+import functools
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from . import _arrays
+from ._native import ffi, lib
+from ._rig import axis, c_rig
+from .errors import InvalidArgumentError, check
+from .layers import Layers, decompose
+from .limits import JointLimits
+
+__all__ = ["Synthesis", "GuardReport", "stylize", "denoise"]
+
+
+@dataclass(frozen=True)
+class GuardReport:
+    """What the guards did to one synthesized motion.
+
+    limited         joint name -> frames in which the joint limits changed it (limited joints
+                    only); empty when the limits did not run
+    limits_applied  whether the joint limits ran (by default only when some |alpha| > 1)
+    contact_frames  frames where some foot was pinned to its contact
+    floor_frames    frames where some foot was raised to the floor
+    floor_height    the floor used along the up axis (NaN when the floor guard was off)
+    root_shift_max  largest root correction of the contact cleanup, in the clip's units
+    """
+    limited: dict = field(default_factory=dict)
+    limits_applied: bool = False
+    contact_frames: int = 0
+    floor_frames: int = 0
+    floor_height: float = float("nan")
+    root_shift_max: float = 0.0
+
+
+def _limits_mode(limits):
+    """(C mode, JointLimits or None) for the ``limits`` argument."""
+    if limits is None or limits is False:
+        return lib.MLR_GUARDS_LIMITS_OFF, None
+    if isinstance(limits, str) and limits == "auto":
+        return lib.MLR_GUARDS_LIMITS_AUTO, None
+    if limits is True:
+        return lib.MLR_GUARDS_LIMITS_ALWAYS, None
+    if isinstance(limits, JointLimits):
+        return lib.MLR_GUARDS_LIMITS_ALWAYS, limits
+    raise InvalidArgumentError(f"limits: expected 'auto', True, None/False or a JointLimits "
+                               f"(mlayer.joint_limits), got {limits!r}")
+
+
+def _floor(floor):
+    """(on, height or None) for the ``floor`` argument."""
+    if floor is None or floor is False:
+        return False, None
+    if isinstance(floor, str) and floor == "auto":
+        return True, None
+    if isinstance(floor, bool) or not isinstance(floor, (int, float, np.floating, np.integer)):
+        raise InvalidArgumentError(f"floor: expected 'auto', None or a height, got {floor!r}")
+    h = float(floor)
+    if not math.isfinite(h):
+        raise InvalidArgumentError(f"floor: the height must be finite, got {floor!r}")
+    return True, h
+
+
+class Synthesis:
+    """The layers and the guards of one input Motion, for any number of syntheses.
+
+    motion          the input
+    limits          "auto" (default: learned from the input, applied when some |alpha| > 1),
+                    True (always), None or False (never), or a JointLimits
+                    (:func:`mlayer.joint_limits`: explicit ranges, several clips), always applied
+    floor           "auto" (default: from the input's contacts), a height along the up axis,
+                    or None (off)
+    keep_contacts   pin the feet during the input's contacts (default True)
+    contact_joints  the contact points instead of the feet found by name: joint names or
+                    "Joint/End" for a joint's End Site
+    up              the up axis: "x", "y" (default) or "z"
+    layers          the input's Layers when they are at hand (else decomposed here)
+    layer options   gamma, lam_c, sigma_c, lam_b, sigma_b, base_cutoff: see
+                    :func:`mlayer.decompose`
+
+    Raises InvalidArgumentError (naming the argument) for bad options or input.
+    """
+
+    def __init__(self, motion, *, limits="auto", floor="auto", keep_contacts=True,
+                 contact_joints=None, up="y", layers=None, **layer_options):
+        from .motion import Motion
+        if not isinstance(motion, Motion):
+            raise InvalidArgumentError(f"motion: expected a mlayer.Motion, got "
+                                       f"{type(motion).__name__}")
+        if not isinstance(keep_contacts, (bool, np.bool_)):
+            raise InvalidArgumentError(f"keep_contacts: expected True or False, got "
+                                       f"{keep_contacts!r}")
+        self.motion = motion
+        self._mode, self._limits = _limits_mode(limits)
+        self._floor_on, self._floor_height = _floor(floor)
+        self._keep_contacts = bool(keep_contacts)
+        self._contact_joints = contact_joints
+        self._up = axis(up, "up")
+        if layers is not None and (not isinstance(layers, Layers) or layers.motion is not motion):
+            raise InvalidArgumentError("layers: expected the Layers of this motion "
+                                       "(mlayer.decompose(motion))")
+        self.layers = layers if layers is not None else decompose(motion, **layer_options)
+
+    @functools.cached_property
+    def denoised(self):
+        """The layers synthesized at alpha = 1: the reference the pinned feet follow."""
+        return self.layers.synthesize(1.0)
+
+    @functools.cached_property
+    def _guards(self):
+        m = self.motion
+        root, rot, trans = m._frames()
+        opts = [(lib.MLR_GUARDS_OPT_UP, self._up), (lib.MLR_GUARDS_OPT_LIMITS, self._mode),
+                (lib.MLR_GUARDS_OPT_CONTACTS, float(self._keep_contacts)),
+                (lib.MLR_GUARDS_OPT_FLOOR, float(self._floor_on))]
+        if self._floor_height is not None:
+            opts.append((lib.MLR_GUARDS_OPT_FLOOR_HEIGHT, self._floor_height))
+        copts = ffi.new("mlr_guards_option[]", len(opts))
+        for k, (key, v) in enumerate(opts):
+            copts[k].key, copts[k].value = key, v
+        rig, keep = c_rig(m.skeleton)
+        out = ffi.new("mlr_guards **")
+        diag = ffi.new("mlr_diag *")
+        check(lib.mlr_guards_create(rig, m.fps, m.n_frames, _arrays.ptr(root), _arrays.ptr(rot),
+                                    _arrays.ptr(trans) if trans.size else ffi.NULL, copts,
+                                    len(opts), ffi.NULL, out, diag), "guards", diag)
+        g = ffi.gc(out[0], lib.mlr_guards_destroy)
+        if self._contact_joints is not None and self._keep_contacts:
+            from .contacts import _point, detect_contacts
+            names, c = detect_contacts(m, self._contact_joints, up="xyz"[self._up])
+            pts = [_point(m.skeleton, n) for n in names]
+            j = np.array([p[0] for p in pts], dtype=np.int32)
+            e = np.array([p[1] for p in pts], dtype=np.int32)
+            cu = np.ascontiguousarray(c, dtype=np.uint8)
+            check(lib.mlr_guards_set_contacts(
+                g, len(pts), ffi.cast("const int32_t *", ffi.from_buffer(j)),
+                ffi.cast("const int32_t *", ffi.from_buffer(e)),
+                ffi.cast("const uint8_t *", ffi.from_buffer(cu)), diag), "contact_joints", diag)
+        if self._limits is not None:
+            if self._limits.joint_names != m.joint_names:
+                raise InvalidArgumentError("limits: made for another skeleton than the motion's")
+            check(lib.mlr_guards_set_limits(g, self._limits._h, diag), "limits", diag)
+        return g
+
+    def contacts(self):
+        """``(names, contacts)`` the guards pin: the contact point names ("Joint" or
+        "Joint/End") and the input's contacts, bool (N, C)."""
+        g, sk = self._guards, self.motion.skeleton
+        C = int(lib.mlr_guards_n_points(g))
+        j = np.zeros(C, dtype=np.int32)
+        e = np.zeros(C, dtype=np.int32)
+        c = np.zeros((self.motion.n_frames, C), dtype=np.uint8)
+        if C:
+            check(lib.mlr_guards_get_contacts(
+                g, ffi.cast("int32_t *", ffi.from_buffer(j)),
+                ffi.cast("int32_t *", ffi.from_buffer(e)),
+                ffi.cast("uint8_t *", ffi.from_buffer(c))), "guards contacts")
+        names = [sk.joint_names[a] + ("/End" if b >= 0 else "") for a, b in zip(j, e)]
+        return names, c.astype(bool)
+
+    def guard(self, synthesized, alphas, reference=None):
+        """``(motion, GuardReport)``: the guards applied to ``synthesized`` (a Motion on the
+        input's frames made with the (1 + J,) ``alphas``, as :meth:`Layers.alphas` gives them);
+        the feet follow ``reference`` (default: :attr:`denoised`)."""
+        a = np.ascontiguousarray(alphas, dtype=np.float64).reshape(-1)
+        ref = self.denoised if reference is None else reference
+        root, rot, trans = (x.copy() for x in synthesized._frames())
+        rr, rq, rt = ref._frames()
+        J = self.motion.n_joints
+        limited = np.zeros(J, dtype=np.uintp)
+        rep = ffi.new("mlr_guards_report *")
+        diag = ffi.new("mlr_diag *")
+        tptr = _arrays.ptr(trans) if trans.size else ffi.NULL
+        check(lib.mlr_guards_apply(
+            self._guards, _arrays.ptr(a), a.size, _arrays.ptr(rr), _arrays.ptr(rq),
+            _arrays.ptr(rt) if rt.size else ffi.NULL, _arrays.ptr_out(root), _arrays.ptr_out(rot),
+            tptr, ffi.cast("size_t *", ffi.from_buffer(limited)), J, rep, diag), "guards", diag)
+        report = GuardReport(
+            limited={n: int(k) for n, k in zip(self.motion.joint_names, limited) if k},
+            limits_applied=bool(rep.limits_applied), contact_frames=int(rep.contact_frames),
+            floor_frames=int(rep.floor_frames), floor_height=float(rep.floor_height),
+            root_shift_max=float(rep.root_shift_max))
+        return synthesized.with_frames(root_pos=root, rot=rot), report
+
+    def run(self, alpha=1.0, joints=None, *, root_alpha=None, residual=False):
+        """``(motion, GuardReport)``: ``Mb (+) alpha delta_c`` (alpha per joint from the
+        ``joints`` patterns, ``root_alpha`` for the body translation, as
+        :meth:`Layers.synthesize`), the residual added back when ``residual`` (the input's
+        noise kept, as the viewer's "denoise off"), then the guards."""
+        L: Layers = self.layers
+        a = L.alphas(alpha, joints, root_alpha)
+        out = L.synthesize(alpha, joints, root_alpha=root_alpha)
+        if residual:
+            from . import quat
+            r = np.asarray(L.residual)
+            out = out.with_frames(root_pos=out.root_pos + r[:, 0],
+                                  rot=quat.normalize(quat.mul(out.rot, quat.exp(r[:, 1:]))))
+        if not residual and np.all(a == 1.0):
+            self.__dict__.setdefault("denoised", out)  # denoising: the output is the reference
+        return self.guard(out, a)
+
+
+def denoise(motion, *, limits="auto", floor="auto", keep_contacts=True, contact_joints=None,
+            up="y", return_report=False, **layer_options):
+    """The denoised motion: the layers of ``motion`` synthesized at alpha = 1, with the feet
+    kept on their contacts and above the floor (see :class:`Synthesis` for the switches and
+    :func:`mlayer.decompose` for the layer options). With ``return_report``, returns
+    ``(motion, GuardReport)``."""
+    s = Synthesis(motion, limits=limits, floor=floor, keep_contacts=keep_contacts,
+                  contact_joints=contact_joints, up=up, **layer_options)
+    out, report = s.run(1.0)
+    return (out, report) if return_report else out
+
+
+def stylize(motion, alpha, joints=None, *, root_alpha=None, limits="auto", floor="auto",
+            keep_contacts=True, contact_joints=None, up="y", return_report=False,
+            **layer_options):
+    """Scale the style (the controllable layer) of a motion: ``alpha`` = 2 exaggerates, 0.5
+    flattens; ``joints`` maps joint names or globs ("Left*") to their own alpha and
+    ``root_alpha`` is the body translation's (default: alpha). The guards (joint limits when
+    some |alpha| > 1, foot contacts, floor; see :class:`Synthesis`) keep the result within what
+    a body can do. With ``return_report``, returns ``(motion, GuardReport)``."""
+    s = Synthesis(motion, limits=limits, floor=floor, keep_contacts=keep_contacts,
+                  contact_joints=contact_joints, up=up, **layer_options)
+    out, report = s.run(alpha, joints, root_alpha=root_alpha)
+    return (out, report) if return_report else out

@@ -1,0 +1,167 @@
+"""The synthesis pipeline (mlayer.pipeline): the C defaults give the Python API's motion, the
+guards keep stylized real clips within what a body does, and bad switches are refused."""
+import math
+
+import numpy as np
+import pytest
+
+import mlayer
+from mlayer import _arrays, plausibility as pl
+from mlayer._native import ffi, lib
+from mlayer._rig import c_rig
+from mlayer.metrics import body_height
+
+CLIPS = ["ai4a_dog_D1_008_KAN01_002.bvh", "bandai1_walk_happy_001.bvh",
+         "cmu_01_01_playground_jumps.bvh", "cmu_02_03_run_jog_25fps.bvh",
+         "cmu_10_01_soccer_kick.bvh", "cmu_131_01_mj_style_walk.bvh",
+         "cmu_60_10_salsa_dance.bvh", "lafan1_clip_a.bvh"]
+
+
+def _read(mocap, name, frames=1800):
+    m = mlayer.read_bvh(mocap / name)
+    return m[:frames] if frames and m.n_frames > frames else m
+
+
+def _c_stylize(m, alpha):
+    """What a runtime on the C ABI does with every default: decompose (the frame rate is the
+    only option), synthesize at alpha and at 1 (the reference), create the guards with no
+    option and apply them. The body translation goes where mlr_rig_body_translation_joint
+    says (group 0 of the layers)."""
+    N, J = m.n_frames, m.n_joints
+    root, rot, trans = m._frames()
+    rig, keep = c_rig(m.skeleton)
+    diag = ffi.new("mlr_diag *")
+    bj = ffi.new("int32_t *")
+    assert lib.mlr_rig_body_translation_joint(rig, N, _arrays.ptr(root),
+                                              _arrays.ptr(trans) if trans.size else ffi.NULL,
+                                              bj, diag) == 0
+    body = int(bj[0])
+    if body == 0:
+        group0 = root
+    else:
+        group0 = np.ascontiguousarray(trans[:, list(m.skeleton.trans_joints).index(body)])
+    opts = ffi.new("mlr_layers_option[]", 2)
+    opts[0].key, opts[0].value = lib.MLR_LAYERS_OPT_FPS, m.fps
+    opts[1].key, opts[1].value = lib.MLR_LAYERS_OPT_BODY_JOINT, body
+    h = ffi.new("mlr_layers **")
+    assert lib.mlr_layers_decompose(N, J, _arrays.ptr(group0), _arrays.ptr(rot), opts,
+                                    2 if body else 1, ffi.NULL, h, diag) == 0, \
+        ffi.string(diag.message)
+    layers = ffi.gc(h[0], lib.mlr_layers_destroy)
+
+    def synth(a):
+        g0, q = np.empty((N, 3)), np.empty((N, J, 4))
+        w = np.array([a], dtype=np.float64)
+        assert lib.mlr_layers_synthesize(layers, 0, N, _arrays.ptr(w), 1, _arrays.ptr_out(g0),
+                                         3 * N, _arrays.ptr_out(q), 4 * N * J) == 0
+        r, t = root.copy(), trans.copy()
+        if body == 0:
+            r = g0
+        else:
+            t[:, list(m.skeleton.trans_joints).index(body)] = g0
+        return r, q, t
+
+    ref_r, ref_q, ref_t = synth(1.0)
+    out_r, out_q, out_t = synth(alpha)
+    g = ffi.new("mlr_guards **")
+    tp = _arrays.ptr(trans) if trans.size else ffi.NULL
+    assert lib.mlr_guards_create(rig, m.fps, N, _arrays.ptr(root), _arrays.ptr(rot), tp,
+                                 ffi.NULL, 0, ffi.NULL, g, diag) == 0, ffi.string(diag.message)
+    guards = ffi.gc(g[0], lib.mlr_guards_destroy)
+    w = np.array([alpha], dtype=np.float64)
+    assert lib.mlr_guards_apply(
+        guards, _arrays.ptr(w), 1, _arrays.ptr(ref_r), _arrays.ptr(ref_q),
+        _arrays.ptr(ref_t) if trans.size else ffi.NULL, _arrays.ptr_out(out_r),
+        _arrays.ptr_out(out_q), _arrays.ptr(out_t) if trans.size else ffi.NULL, ffi.NULL, 0,
+        ffi.NULL, diag) == 0, ffi.string(diag.message)
+    return m.with_frames(root_pos=out_r, rot=out_q, trans=out_t)
+
+
+@pytest.mark.parametrize("name", ["cmu_131_01_mj_style_walk.bvh", "bandai1_walk_happy_001.bvh",
+                                  "ai4a_dog_D1_008_KAN01_002.bvh"])
+@pytest.mark.parametrize("alpha", [1.0, 2.5])
+def test_c_defaults_give_the_python_motion(mocap, name, alpha):
+    m = _read(mocap, name, 900)
+    py = mlayer.stylize(m, alpha) if alpha != 1.0 else mlayer.denoise(m)
+    c = _c_stylize(m, alpha)
+    p1, p2 = py.positions(), c.positions()
+    H = body_height(m)
+    assert np.max(np.abs(p1 - p2)) <= 1e-9 * H
+    assert np.max(np.abs(py.trans - c.trans), initial=0.0) <= 1e-9 * H
+
+
+@pytest.mark.parametrize("name", CLIPS)
+@pytest.mark.parametrize("alpha", [2.0, 3.0])
+def test_stylize_keeps_knees_and_elbows_plausible(mocap, name, alpha):
+    m = _read(mocap, name)
+    out, report = mlayer.stylize(m, alpha, return_report=True)
+    lim = mlayer.joint_limits(m)
+    v = pl.hinge_violations(m, out, lim)
+    assert report.limits_applied
+    assert v["fold_frames"] == 0 and v["reversal_frames"] == 0, v["joints"]
+    raw = mlayer.stylize(m, alpha, limits=None, floor=None, keep_contacts=False)
+    assert np.max(np.abs(raw.positions() - out.positions())) > 0.01 * body_height(m)
+
+
+@pytest.mark.parametrize("name", ["cmu_131_01_mj_style_walk.bvh", "cmu_60_10_salsa_dance.bvh"])
+def test_switches_turn_each_guard_off(mocap, name):
+    m = _read(mocap, name, 600)
+    raw = mlayer.decompose(m).synthesize(2.0)
+    off = mlayer.stylize(m, 2.0, limits=None, floor=None, keep_contacts=False)
+    np.testing.assert_allclose(off.positions(), raw.positions(), atol=1e-9)
+    _, rep = mlayer.stylize(m, 2.0, limits=None, return_report=True)
+    assert not rep.limits_applied and rep.limited == {}
+    _, rep = mlayer.stylize(m, 0.5, return_report=True)
+    assert not rep.limits_applied  # the limits run by default only when some |alpha| > 1
+    _, rep = mlayer.stylize(m, 0.5, limits=True, return_report=True)
+    assert rep.limits_applied
+    _, rep = mlayer.stylize(m, 2.0, floor=None, return_report=True)
+    assert math.isnan(rep.floor_height) and rep.floor_frames == 0
+
+
+def test_one_synthesis_serves_many_alphas(mocap):
+    m = _read(mocap, "cmu_131_01_mj_style_walk.bvh", 600)
+    s = mlayer.Synthesis(m)
+    for a in (0.5, 2.0):
+        out, _ = s.run(a)
+        np.testing.assert_allclose(out.positions(), mlayer.stylize(m, a).positions(),
+                                   atol=1e-12 * body_height(m))
+    names, c = s.contacts()
+    ref_names, ref_c = mlayer.detect_contacts(m)
+    assert names == ref_names and np.array_equal(c, ref_c)
+
+
+def test_explicit_limits_and_contact_joints(mocap):
+    m = _read(mocap, "cmu_131_01_mj_style_walk.bvh", 600)
+    lim = mlayer.joint_limits(m)
+    knee = lim.hinges()[0]
+    name = m.joint_names[knee]
+    lo, hi = lim.range(name)["lo"], lim.range(name)["hi"]
+    lim.set_range(name, kind="hinge", lo=lo, hi=min(hi, math.radians(60)))
+    out, rep = mlayer.stylize(m, 2.0, limits=lim, return_report=True)
+    assert name in rep.limited
+    flex = pl.hinge_angles(out, lim)[name]["flexion"]
+    assert flex.max() < 60.0 + 1e-6
+    out2, rep2 = mlayer.stylize(m, 2.0, contact_joints=["LeftAnkle", "RightAnkle"],
+                                return_report=True)
+    assert rep2.contact_frames > 0
+
+
+@pytest.mark.parametrize("kw, word", [({"limits": "sometimes"}, "limits"),
+                                      ({"floor": float("nan")}, "floor"),
+                                      ({"floor": "low"}, "floor"),
+                                      ({"keep_contacts": "yes"}, "keep_contacts"),
+                                      ({"up": "w"}, "up"),
+                                      ({"contact_joints": ["NoSuchJoint"]}, "NoSuchJoint")])
+def test_bad_switches_name_the_argument(mocap, kw, word):
+    m = _read(mocap, "cmu_131_01_mj_style_walk.bvh", 200)
+    with pytest.raises(mlayer.InvalidArgumentError, match=word):
+        mlayer.stylize(m, 2.0, **kw)
+
+
+def test_nan_alpha_is_refused(mocap):
+    m = _read(mocap, "cmu_131_01_mj_style_walk.bvh", 200)
+    with pytest.raises(mlayer.InvalidArgumentError, match="alpha"):
+        mlayer.stylize(m, float("nan"))
+    with pytest.raises(mlayer.InvalidArgumentError, match="alpha"):
+        mlayer.stylize(m, 2.0, {"Left*": float("inf")})

@@ -1,0 +1,560 @@
+/*
+ * Plausibility guards of a synthesized motion (see include/mlayer/mlr_guards.h): joint limits,
+ * foot contacts and the floor, composed with the defaults of mlayer's Python package.
+ */
+#include "mlr_internal.h"
+
+#include <math.h>
+
+#ifndef GUARDS_ROUNDS
+#define GUARDS_ROUNDS 2
+#endif
+
+struct mlr_guards {
+    mlr_allocator alloc;
+    /* the rig, copied */
+    mlr_rig rig;
+    int32_t *parents, *trans_joints, *end_site_parents;
+    double *offsets, *end_site_offsets;
+    char **names;
+    const char **name_ptrs;
+    /* the input, copied */
+    double fps;
+    size_t n_frames, n_joints, n_trans;
+    double *root_pos, *rot, *trans;
+    /* contacts */
+    size_t n_points;
+    int32_t *joints, *end_sites;
+    uint8_t *contacts;
+    /* settings */
+    int up, limits_mode, contacts_on, floor_on, floor_given;
+    double floor_height;
+    mlr_limits *learned;
+    const mlr_limits *limits; /* learned or borrowed */
+};
+
+static void *alloc_array(const mlr_allocator *a, size_t count, size_t size, mlr_status *st)
+{
+    size_t bytes;
+    if (*st != MLR_OK || count == 0)
+        return NULL;
+    if (mlr_mul_size(count, size, &bytes) != MLR_OK) {
+        *st = MLR_E_OVERFLOW;
+        return NULL;
+    }
+    void *p = mlr_alloc(a, bytes);
+    if (!p)
+        *st = MLR_E_NO_MEMORY;
+    return p;
+}
+
+static void free_array(const mlr_allocator *a, void *p, size_t count, size_t size)
+{
+    if (p)
+        mlr_free(a, p, count * size);
+}
+
+static void free_names(mlr_guards *g)
+{
+    if (!g->names)
+        return;
+    for (size_t j = 0; j < g->n_joints; j++)
+        if (g->names[j])
+            mlr_free(&g->alloc, g->names[j], strlen(g->names[j]) + 1);
+    free_array(&g->alloc, g->names, g->n_joints, sizeof(char *));
+    free_array(&g->alloc, g->name_ptrs, g->n_joints, sizeof(char *));
+}
+
+static void free_contacts(mlr_guards *g)
+{
+    free_array(&g->alloc, g->joints, g->n_points, sizeof(int32_t));
+    free_array(&g->alloc, g->end_sites, g->n_points, sizeof(int32_t));
+    free_array(&g->alloc, g->contacts, g->n_points * g->n_frames, 1);
+    g->joints = g->end_sites = NULL;
+    g->contacts = NULL;
+    g->n_points = 0;
+}
+
+void mlr_guards_destroy(mlr_guards *g)
+{
+    if (!g)
+        return;
+    const size_t J = g->n_joints, N = g->n_frames, P = g->n_trans, E = g->rig.n_end_sites;
+    free_names(g);
+    free_array(&g->alloc, g->parents, J, sizeof(int32_t));
+    free_array(&g->alloc, g->offsets, 3 * J, sizeof(double));
+    free_array(&g->alloc, g->trans_joints, P, sizeof(int32_t));
+    free_array(&g->alloc, g->end_site_parents, E, sizeof(int32_t));
+    free_array(&g->alloc, g->end_site_offsets, 3 * E, sizeof(double));
+    free_array(&g->alloc, g->root_pos, 3 * N, sizeof(double));
+    free_array(&g->alloc, g->rot, 4 * N * J, sizeof(double));
+    free_array(&g->alloc, g->trans, 3 * N * P, sizeof(double));
+    free_contacts(g);
+    mlr_limits_destroy(g->learned);
+    mlr_allocator a = g->alloc;
+    mlr_free(&a, g, sizeof *g);
+}
+
+/* Copy the rig's arrays into the handle; g->rig then points at the copies. */
+static mlr_status copy_rig(mlr_guards *g, const mlr_rig *src)
+{
+    const size_t J = src->n_joints, P = src->n_trans, E = src->n_end_sites;
+    mlr_status st = MLR_OK;
+    const mlr_allocator *a = &g->alloc;
+    g->parents = alloc_array(a, J, sizeof(int32_t), &st);
+    g->offsets = alloc_array(a, 3 * J, sizeof(double), &st);
+    g->trans_joints = alloc_array(a, P, sizeof(int32_t), &st);
+    g->end_site_parents = alloc_array(a, E, sizeof(int32_t), &st);
+    g->end_site_offsets = alloc_array(a, 3 * E, sizeof(double), &st);
+    if (src->names) {
+        g->names = alloc_array(a, J, sizeof(char *), &st);
+        if (g->names)
+            memset(g->names, 0, J * sizeof(char *));
+        g->name_ptrs = alloc_array(a, J, sizeof(char *), &st);
+        for (size_t j = 0; st == MLR_OK && j < J; j++) {
+            const char *s = src->names[j] ? src->names[j] : "";
+            const size_t n = strlen(s) + 1;
+            g->names[j] = mlr_alloc(a, n);
+            if (!g->names[j])
+                st = MLR_E_NO_MEMORY;
+            else
+                memcpy(g->names[j], s, n);
+            g->name_ptrs[j] = g->names[j];
+        }
+    }
+    if (st != MLR_OK)
+        return st;
+    memcpy(g->parents, src->parents, J * sizeof(int32_t));
+    memcpy(g->offsets, src->offsets, 3 * J * sizeof(double));
+    if (P)
+        memcpy(g->trans_joints, src->trans_joints, P * sizeof(int32_t));
+    if (E) {
+        memcpy(g->end_site_parents, src->end_site_parents, E * sizeof(int32_t));
+        memcpy(g->end_site_offsets, src->end_site_offsets, 3 * E * sizeof(double));
+    }
+    g->rig = (mlr_rig){J,
+                       g->parents,
+                       g->offsets,
+                       src->names ? (const char *const *)g->name_ptrs : NULL,
+                       P,
+                       P ? g->trans_joints : NULL,
+                       E,
+                       E ? g->end_site_parents : NULL,
+                       E ? g->end_site_offsets : NULL};
+    return MLR_OK;
+}
+
+static mlr_status read_options(mlr_guards *g, const mlr_guards_option *opts, size_t n_opts,
+                               mlr_diag *diag)
+{
+    unsigned seen = 0;
+    if (n_opts && !opts)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "guards: opts is NULL");
+    for (size_t k = 0; k < n_opts; k++) {
+        const int key = opts[k].key;
+        const double v = opts[k].value;
+        if (key < MLR_GUARDS_OPT_UP || key > MLR_GUARDS_OPT_FLOOR_HEIGHT)
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "guards: unknown option key %d",
+                                key);
+        if (seen & (1u << key))
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "guards: option %d given twice",
+                                key);
+        seen |= 1u << key;
+        if (!isfinite(v))
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "guards: option %d is not finite", key);
+        switch (key) {
+        case MLR_GUARDS_OPT_UP:
+            if (v != 0.0 && v != 1.0 && v != 2.0)
+                return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "guards: up axis %g is not 0 (X), 1 (Y) or 2 (Z)", v);
+            g->up = (int)v;
+            break;
+        case MLR_GUARDS_OPT_LIMITS:
+            if (v != 0.0 && v != 1.0 && v != 2.0)
+                return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "guards: limits mode %g is not 0 (off), 1 (auto) or 2 "
+                                    "(always)", v);
+            g->limits_mode = (int)v;
+            break;
+        case MLR_GUARDS_OPT_CONTACTS:
+        case MLR_GUARDS_OPT_FLOOR:
+            if (v != 0.0 && v != 1.0)
+                return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "guards: option %d must be 0 or 1, got %g", key, v);
+            *(key == MLR_GUARDS_OPT_CONTACTS ? &g->contacts_on : &g->floor_on) = (int)v;
+            break;
+        default: /* MLR_GUARDS_OPT_FLOOR_HEIGHT */
+            g->floor_height = v;
+            g->floor_given = 1;
+        }
+    }
+    return MLR_OK;
+}
+
+static mlr_status estimate_floor(mlr_guards *g, mlr_diag *diag)
+{
+    if (g->floor_given)
+        return MLR_OK;
+    g->floor_height = NAN;
+    if (g->n_points == 0)
+        return MLR_OK;
+    return mlr_cleanup_floor_height(&g->rig, g->n_frames, g->root_pos, g->rot, g->trans,
+                                    g->n_points, g->joints, g->end_sites, g->contacts, g->up,
+                                    0.05, &g->floor_height, &g->alloc, diag);
+}
+
+/* Feet by name and their contacts on the input; a rig without feet gets none. */
+static mlr_status find_contacts(mlr_guards *g, const double *world_pos, const double *world_rot,
+                                mlr_diag *diag)
+{
+    const size_t J = g->n_joints, N = g->n_frames;
+    if (!g->rig.names)
+        return MLR_OK;
+    mlr_status st = MLR_OK;
+    int32_t *fj = alloc_array(&g->alloc, 2 * J, sizeof(int32_t), &st);
+    int32_t *fe = alloc_array(&g->alloc, 2 * J, sizeof(int32_t), &st);
+    size_t n_feet = 0;
+    if (st == MLR_OK) {
+        mlr_diag quiet;
+        st = mlr_contacts_find_feet(&g->rig, N, world_pos, g->up, J, fj, fe, &n_feet,
+                                    &g->alloc, &quiet);
+        if (st == MLR_E_INVALID_ARG) { /* no feet by name: nothing to pin */
+            st = MLR_OK;
+            n_feet = 0;
+        } else if (st != MLR_OK) {
+            mlr_diag_set(diag, st, 0, 0, "guards: finding the feet: %s", quiet.message);
+        }
+    }
+    size_t C = 0;
+    for (size_t k = 0; st == MLR_OK && k < 2 * n_feet; k++)
+        if (fj[k] >= 0)
+            fj[C] = fj[k], fe[C] = fe[k], C++;
+    if (st == MLR_OK && C) {
+        g->joints = alloc_array(&g->alloc, C, sizeof(int32_t), &st);
+        g->end_sites = alloc_array(&g->alloc, C, sizeof(int32_t), &st);
+        g->contacts = alloc_array(&g->alloc, C * N, 1, &st);
+        g->n_points = C;
+        if (st == MLR_OK) {
+            memcpy(g->joints, fj, C * sizeof(int32_t));
+            memcpy(g->end_sites, fe, C * sizeof(int32_t));
+            st = mlr_contacts_detect(&g->rig, g->fps, g->up, N, world_pos, world_rot, C,
+                                     g->joints, g->end_sites, NULL, 0, g->contacts, &g->alloc,
+                                     diag);
+            if (st == MLR_E_INVALID_ARG) /* a flat skeleton: no body size, nothing to pin */
+                st = MLR_OK, free_contacts(g);
+        }
+    }
+    free_array(&g->alloc, fj, 2 * J, sizeof(int32_t));
+    free_array(&g->alloc, fe, 2 * J, sizeof(int32_t));
+    return st;
+}
+
+static mlr_status check_finite(const double *x, size_t n, const char *what, mlr_diag *diag)
+{
+    for (size_t k = 0; k < n; k++)
+        if (!isfinite(x[k]))
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "guards: %s value %zu is not "
+                                "finite", what, k);
+    return MLR_OK;
+}
+
+mlr_status mlr_guards_create(const mlr_rig *rig, double fps, size_t n_frames,
+                             const double *root_pos, const double *rot, const double *trans,
+                             const mlr_guards_option *opts, size_t n_opts,
+                             const mlr_allocator *alloc, mlr_guards **out, mlr_diag *diag)
+{
+    if (!out)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "guards: out is NULL");
+    *out = NULL;
+    mlr_status st = mlr_rig_check(rig, diag);
+    if (st != MLR_OK)
+        return st;
+    const size_t J = rig->n_joints, N = n_frames, P = rig->n_trans;
+    if (!(isfinite(fps) && fps > 0.0))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "guards: fps must be finite and > 0, "
+                            "got %g", fps);
+    if (N < 3)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "guards: need at least 3 frames, "
+                            "got %zu", N);
+    if (!root_pos || !rot || (P && !trans))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "guards: NULL frames");
+    size_t n_rot, n_pos;
+    if (mlr_mul_size(4 * J, N, &n_rot) != MLR_OK || mlr_mul_size(3 * J, N, &n_pos) != MLR_OK)
+        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "guards: frames too large");
+    if ((st = check_finite(root_pos, 3 * N, "root_pos", diag)) != MLR_OK ||
+        (st = check_finite(rot, n_rot, "rot", diag)) != MLR_OK ||
+        (P && (st = check_finite(trans, 3 * N * P, "trans", diag)) != MLR_OK))
+        return st;
+
+    mlr_allocator a;
+    mlr_allocator_resolve(alloc, &a);
+    mlr_guards *g = mlr_alloc(&a, sizeof *g);
+    if (!g)
+        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "guards: out of memory");
+    memset(g, 0, sizeof *g);
+    g->alloc = a;
+    g->fps = fps;
+    g->n_frames = N;
+    g->n_joints = J;
+    g->n_trans = P;
+    g->rig.n_end_sites = 0; /* for destroy until the copy is made */
+    g->up = MLR_AXIS_Y;
+    g->limits_mode = MLR_GUARDS_LIMITS_AUTO;
+    g->contacts_on = g->floor_on = 1;
+    g->floor_height = NAN;
+    if ((st = read_options(g, opts, n_opts, diag)) != MLR_OK) {
+        mlr_guards_destroy(g);
+        return st;
+    }
+    g->rig.n_end_sites = rig->n_end_sites;
+    st = copy_rig(g, rig);
+    g->root_pos = alloc_array(&a, 3 * N, sizeof(double), &st);
+    g->rot = alloc_array(&a, n_rot, sizeof(double), &st);
+    g->trans = alloc_array(&a, 3 * N * P, sizeof(double), &st);
+    double *wpos = alloc_array(&a, n_pos, sizeof(double), &st);
+    double *wrot = alloc_array(&a, n_rot, sizeof(double), &st);
+    if (st != MLR_OK) {
+        mlr_diag_set(diag, st, 0, 0, "guards: out of memory");
+        goto done;
+    }
+    memcpy(g->root_pos, root_pos, 3 * N * sizeof(double));
+    if (P)
+        memcpy(g->trans, trans, 3 * N * P * sizeof(double));
+    /* unit rotations, as the layers, the limits and the cleanup take them */
+    st = mlr_quat_normalize_array((const mlr_quat *)rot, N * J, (mlr_quat *)g->rot);
+    if (st != MLR_OK) {
+        mlr_diag_set(diag, st, 0, 0, "guards: a rotation of the input is zero");
+        goto done;
+    }
+    st = mlr_fk_arrays(N, J, g->parents, g->offsets, g->root_pos, g->rot, P, g->trans_joints,
+                       g->trans, wpos, wrot, &a);
+    if (st != MLR_OK) {
+        mlr_diag_set(diag, st, 0, 0, "guards: forward kinematics of the input failed");
+        goto done;
+    }
+    if (g->contacts_on || g->floor_on)
+        if ((st = find_contacts(g, wpos, wrot, diag)) != MLR_OK ||
+            (st = estimate_floor(g, diag)) != MLR_OK)
+            goto done;
+    if (g->limits_mode != MLR_GUARDS_LIMITS_OFF) {
+        const mlr_limits_clip clip = {N, g->rot, P ? g->trans : NULL};
+        st = mlr_limits_create(&g->rig, &clip, 1, NULL, 0, &a, &g->learned, diag);
+        if (st != MLR_OK)
+            goto done;
+        g->limits = g->learned;
+    }
+done:
+    free_array(&a, wpos, n_pos, sizeof(double));
+    free_array(&a, wrot, n_rot, sizeof(double));
+    if (st != MLR_OK) {
+        mlr_guards_destroy(g);
+        return st;
+    }
+    *out = g;
+    return MLR_OK;
+}
+
+size_t mlr_guards_n_points(const mlr_guards *g)
+{
+    return g && g->contacts_on ? g->n_points : 0;
+}
+
+mlr_status mlr_guards_get_contacts(const mlr_guards *g, int32_t *joints, int32_t *end_sites,
+                                   uint8_t *contacts)
+{
+    if (!g)
+        return MLR_E_INVALID_ARG;
+    const size_t C = mlr_guards_n_points(g);
+    if (C && joints)
+        memcpy(joints, g->joints, C * sizeof(int32_t));
+    if (C && end_sites)
+        memcpy(end_sites, g->end_sites, C * sizeof(int32_t));
+    if (C && contacts)
+        memcpy(contacts, g->contacts, C * g->n_frames);
+    return MLR_OK;
+}
+
+mlr_status mlr_guards_set_contacts(mlr_guards *g, size_t n_points, const int32_t *joints,
+                                   const int32_t *end_sites, const uint8_t *contacts,
+                                   mlr_diag *diag)
+{
+    if (!g || (n_points && (!joints || !contacts)))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "guards: NULL argument");
+    const size_t N = g->n_frames, C = n_points;
+    for (size_t c = 0; c < C; c++) {
+        const int32_t j = joints[c], e = end_sites ? end_sites[c] : -1;
+        if (j < 0 || (size_t)j >= g->n_joints || e < -1 ||
+            (e >= 0 && ((size_t)e >= g->rig.n_end_sites || g->rig.end_site_parents[e] != j)))
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "guards: contact point %zu (joint %d, End Site %d) names nothing "
+                                "in the rig", c, (int)j, (int)e);
+        for (size_t d = 0; d < c; d++)
+            if (joints[d] == j && (end_sites ? end_sites[d] : -1) == e)
+                return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "guards: contact point %zu is listed twice", c);
+    }
+    mlr_status st = MLR_OK;
+    int32_t *nj = alloc_array(&g->alloc, C, sizeof(int32_t), &st);
+    int32_t *ne = alloc_array(&g->alloc, C, sizeof(int32_t), &st);
+    uint8_t *nc = alloc_array(&g->alloc, C * N, 1, &st);
+    if (st != MLR_OK) {
+        free_array(&g->alloc, nj, C, sizeof(int32_t));
+        free_array(&g->alloc, ne, C, sizeof(int32_t));
+        free_array(&g->alloc, nc, C * N, 1);
+        return mlr_diag_set(diag, st, 0, 0, "guards: out of memory");
+    }
+    for (size_t c = 0; c < C; c++) {
+        nj[c] = joints[c];
+        ne[c] = end_sites ? end_sites[c] : -1;
+    }
+    for (size_t k = 0; k < C * N; k++)
+        nc[k] = contacts[k] != 0;
+    free_contacts(g);
+    g->joints = nj, g->end_sites = ne, g->contacts = nc, g->n_points = C;
+    return estimate_floor(g, diag);
+}
+
+mlr_status mlr_guards_set_limits(mlr_guards *g, const mlr_limits *limits, mlr_diag *diag)
+{
+    if (!g)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "guards: NULL handle");
+    if (limits && mlr_limits_n_joints(limits) != g->n_joints)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "guards: limits for %zu joints, the rig has %zu",
+                            mlr_limits_n_joints(limits), g->n_joints);
+    g->limits = limits ? limits : g->learned;
+    return MLR_OK;
+}
+
+static int limits_wanted(const mlr_guards *g, const double *alpha, size_t n_alpha)
+{
+    if (!g->limits || g->limits_mode == MLR_GUARDS_LIMITS_OFF)
+        return 0;
+    if (g->limits_mode == MLR_GUARDS_LIMITS_ALWAYS)
+        return 1;
+    for (size_t k = 0; k < n_alpha; k++)
+        if (fabs(alpha[k]) > 1.0)
+            return 1;
+    return 0;
+}
+
+mlr_status mlr_guards_apply(const mlr_guards *g, const double *alpha, size_t n_alpha,
+                            const double *ref_root_pos, const double *ref_rot,
+                            const double *ref_trans, double *root_pos, double *rot,
+                            const double *trans, size_t *limited, size_t n_limited,
+                            mlr_guards_report *report, mlr_diag *diag)
+{
+    if (!g || !alpha || !root_pos || !rot || (g->n_trans && !trans))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "guards apply: NULL argument");
+    const size_t N = g->n_frames, J = g->n_joints, P = g->n_trans;
+    if (n_alpha != 1 && n_alpha != 1 + J)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "guards apply: %zu alphas, expected 1 or %zu", n_alpha, 1 + J);
+    if (limited && n_limited != J)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "guards apply: limited holds %zu counts, expected %zu", n_limited,
+                            J);
+    const int has_ref = ref_root_pos || ref_rot || ref_trans;
+    if (has_ref && (!ref_root_pos || !ref_rot || (P && !ref_trans)))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "guards apply: give the whole reference (root_pos, rot and trans) or "
+                            "none");
+    for (size_t k = 0; k < n_alpha; k++)
+        if (!isfinite(alpha[k]))
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "guards apply: alpha %zu is not finite", k);
+    mlr_status st;
+    if ((st = check_finite(root_pos, 3 * N, "root_pos", diag)) != MLR_OK ||
+        (st = check_finite(rot, 4 * N * J, "rot", diag)) != MLR_OK)
+        return st;
+
+    mlr_guards_report rep = {0, 0, 0, 0, 0, NAN, 0.0};
+    st = MLR_OK;
+    double *work = alloc_array(&g->alloc, 4 * N * J, sizeof(double), &st);
+    double *work_root = alloc_array(&g->alloc, 3 * N, sizeof(double), &st);
+    size_t *counts = alloc_array(&g->alloc, J, sizeof(size_t), &st);
+    size_t *counts2 = alloc_array(&g->alloc, J, sizeof(size_t), &st);
+    if (st != MLR_OK) {
+        mlr_diag_set(diag, st, 0, 0, "guards apply: out of memory");
+        goto done;
+    }
+    memcpy(work_root, root_pos, 3 * N * sizeof(double));
+    memset(counts, 0, J * sizeof(size_t));
+    if (limits_wanted(g, alpha, n_alpha)) {
+        /* the limits take 1 or 1 + J alphas, as the layers' synthesis */
+        st = mlr_limits_apply(g->limits, N, rot, work, alpha, n_alpha, counts, J, diag);
+        if (st != MLR_OK)
+            goto done;
+        rep.limits_applied = 1;
+    } else {
+        memcpy(work, rot, 4 * N * J * sizeof(double));
+    }
+    const size_t C = g->contacts_on ? g->n_points : 0;
+    const int floor_on = g->floor_on && isfinite(g->floor_height) && g->n_points > 0;
+    if (C > 0 || floor_on) {
+        /* floor alone: the feet with no contact frame, so only the floor constrains them */
+        uint8_t *none = NULL;
+        if (C == 0) {
+            none = alloc_array(&g->alloc, g->n_points * N, 1, &st);
+            if (st != MLR_OK) {
+                mlr_diag_set(diag, st, 0, 0, "guards apply: out of memory");
+                goto done;
+            }
+            memset(none, 0, g->n_points * N);
+        }
+        mlr_cleanup_option copts[3];
+        size_t n_copts = 0;
+        /* a given reference (the denoised motion) is followed as it is; the input is
+         * smoothed against its capture noise first (the cleanup's default) */
+        if (has_ref)
+            copts[n_copts++] = (mlr_cleanup_option){MLR_CLEANUP_OPT_REF_SMOOTH, 0.0};
+        copts[n_copts++] = (mlr_cleanup_option){MLR_CLEANUP_OPT_FLOOR, floor_on ? 1.0 : 0.0};
+        if (floor_on)
+            copts[n_copts++] = (mlr_cleanup_option){MLR_CLEANUP_OPT_FLOOR_HEIGHT,
+                                                    g->floor_height};
+        mlr_cleanup_report crep;
+        /* IK may bend a knee past its range again (a foot pinned closer to the hip than the
+         * limited leg reaches): after the cleanup the limits run once more, and the cleanup
+         * and the limits alternate GUARDS_ROUNDS times in all */
+        const int rounds = rep.limits_applied ? GUARDS_ROUNDS : 1;
+        for (int round = 0; round < rounds; round++) {
+        st = mlr_cleanup_contacts(&g->rig, N, g->fps, g->up, work_root, work, trans,
+                                  has_ref ? ref_root_pos : g->root_pos,
+                                  has_ref ? ref_rot : g->rot,
+                                  has_ref ? ref_trans : (P ? g->trans : NULL), g->n_points,
+                                  g->joints, g->end_sites, C ? g->contacts : none, copts,
+                                  n_copts, work_root, work, &crep, &g->alloc, diag);
+        if (st == MLR_OK && rep.limits_applied) {
+            st = mlr_limits_apply(g->limits, N, work, work, alpha, n_alpha, counts2, J, diag);
+            for (size_t j = 0; st == MLR_OK && j < J; j++)
+                counts[j] = counts2[j] > counts[j] ? counts2[j] : counts[j];
+        }
+        if (st != MLR_OK)
+            break;
+        }
+        free_array(&g->alloc, none, g->n_points * N, 1);
+        if (st != MLR_OK)
+            goto done;
+        rep.contact_frames = crep.contact_frames;
+        rep.floor_frames = crep.floor_frames;
+        rep.floor_height = floor_on ? crep.floor_height : NAN;
+        rep.root_shift_max = crep.root_shift_max;
+    }
+    for (size_t j = 0; j < J; j++) {
+        rep.limited_joints += counts[j] > 0;
+        rep.limited_frames = counts[j] > rep.limited_frames ? counts[j] : rep.limited_frames;
+    }
+    memcpy(root_pos, work_root, 3 * N * sizeof(double));
+    memcpy(rot, work, 4 * N * J * sizeof(double));
+    if (limited)
+        memcpy(limited, counts, J * sizeof(size_t));
+    if (report)
+        *report = rep;
+done:
+    free_array(&g->alloc, work, 4 * N * J, sizeof(double));
+    free_array(&g->alloc, work_root, 3 * N, sizeof(double));
+    free_array(&g->alloc, counts, J, sizeof(size_t));
+    free_array(&g->alloc, counts2, J, sizeof(size_t));
+    return st;
+}
