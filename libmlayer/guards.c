@@ -27,7 +27,7 @@ struct mlr_guards {
     int32_t *joints, *end_sites;
     uint8_t *contacts;
     /* settings */
-    int up, limits_mode, contacts_on, floor_on, floor_given;
+    int up, limits_mode, contacts_on, floor_on, floor_given, follow;
     double floor_height;
     mlr_limits *learned;
     const mlr_limits *limits; /* learned or borrowed */
@@ -153,7 +153,7 @@ static mlr_status read_options(mlr_guards *g, const mlr_guards_option *opts, siz
     for (size_t k = 0; k < n_opts; k++) {
         const int key = opts[k].key;
         const double v = opts[k].value;
-        if (key < MLR_GUARDS_OPT_UP || key > MLR_GUARDS_OPT_FLOOR_HEIGHT)
+        if (key < MLR_GUARDS_OPT_UP || key > MLR_GUARDS_OPT_FOLLOW)
             return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "guards: unknown option key %d",
                                 key);
         if (seen & (1u << key))
@@ -179,10 +179,13 @@ static mlr_status read_options(mlr_guards *g, const mlr_guards_option *opts, siz
             break;
         case MLR_GUARDS_OPT_CONTACTS:
         case MLR_GUARDS_OPT_FLOOR:
+        case MLR_GUARDS_OPT_FOLLOW:
             if (v != 0.0 && v != 1.0)
                 return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                                     "guards: option %d must be 0 or 1, got %g", key, v);
-            *(key == MLR_GUARDS_OPT_CONTACTS ? &g->contacts_on : &g->floor_on) = (int)v;
+            *(key == MLR_GUARDS_OPT_CONTACTS ? &g->contacts_on
+              : key == MLR_GUARDS_OPT_FLOOR  ? &g->floor_on
+                                             : &g->follow) = (int)v;
             break;
         default: /* MLR_GUARDS_OPT_FLOOR_HEIGHT */
             g->floor_height = v;
@@ -301,7 +304,7 @@ mlr_status mlr_guards_create(const mlr_rig *rig, double fps, size_t n_frames,
     g->rig.n_end_sites = 0; /* for destroy until the copy is made */
     g->up = MLR_AXIS_Y;
     g->limits_mode = MLR_GUARDS_LIMITS_AUTO;
-    g->contacts_on = g->floor_on = 1;
+    g->contacts_on = g->floor_on = g->follow = 1;
     g->floor_height = NAN;
     if ((st = read_options(g, opts, n_opts, diag)) != MLR_OK) {
         mlr_guards_destroy(g);
@@ -507,7 +510,7 @@ mlr_status mlr_guards_apply(const mlr_guards *g, const double *alpha, size_t n_a
         size_t n_copts = 0;
         /* a given reference (the denoised motion) is followed as it is; the input is
          * smoothed against its capture noise first (the cleanup's default) */
-        if (has_ref)
+        if (has_ref && g->follow)
             copts[n_copts++] = (mlr_cleanup_option){MLR_CLEANUP_OPT_REF_SMOOTH, 0.0};
         copts[n_copts++] = (mlr_cleanup_option){MLR_CLEANUP_OPT_FLOOR, floor_on ? 1.0 : 0.0};
         if (floor_on)
@@ -519,10 +522,11 @@ mlr_status mlr_guards_apply(const mlr_guards *g, const double *alpha, size_t n_a
          * and the limits alternate GUARDS_ROUNDS times in all */
         const int rounds = rep.limits_applied ? GUARDS_ROUNDS : 1;
         for (int round = 0; round < rounds; round++) {
-        st = mlr_cleanup_contacts(&g->rig, N, g->fps, g->up, work_root, work, trans,
-                                  has_ref ? ref_root_pos : g->root_pos,
-                                  has_ref ? ref_rot : g->rot,
-                                  has_ref ? ref_trans : (P ? g->trans : NULL), g->n_points,
+        const double *rr = !g->follow ? NULL : has_ref ? ref_root_pos : g->root_pos;
+        const double *rq = !g->follow ? NULL : has_ref ? ref_rot : g->rot;
+        const double *rt = !g->follow || !P ? NULL : has_ref ? ref_trans : g->trans;
+        st = mlr_cleanup_contacts(&g->rig, N, g->fps, g->up, work_root, work, trans, rr, rq,
+                                  rt, g->n_points,
                                   g->joints, g->end_sites, C ? g->contacts : none, copts,
                                   n_copts, work_root, work, &crep, &g->alloc, diag);
         if (st == MLR_OK && rep.limits_applied) {

@@ -468,7 +468,8 @@ typedef enum mlr_guards_key {
     MLR_GUARDS_OPT_LIMITS = 2,
     MLR_GUARDS_OPT_CONTACTS = 3,
     MLR_GUARDS_OPT_FLOOR = 4,
-    MLR_GUARDS_OPT_FLOOR_HEIGHT = 5
+    MLR_GUARDS_OPT_FLOOR_HEIGHT = 5,
+    MLR_GUARDS_OPT_FOLLOW = 6
 } mlr_guards_key;
 typedef struct mlr_guards_option {
     int key;

@@ -1,0 +1,331 @@
+/* Plausibility guards (mlr_guards.h): contacts, floor and joint limits of a real clip applied to
+ * its stylized frames; switches; bad input; allocation failures. */
+#include "mlr_test.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+typedef struct clip {
+    mlr_motion *m;
+    mlr_rig rig;
+    const char **names;
+    size_t n, j, p;
+    double fps;
+} clip;
+
+static int load(const char *file, size_t max_frames, clip *c)
+{
+    const char *dir = mlr_test_mocap_dir();
+    if (!dir)
+        return 0;
+    char path[1024];
+    snprintf(path, sizeof path, "%s/%s", dir, file);
+    FILE *fp = fopen(path, "rb");
+    if (!fp)
+        return 0;
+    fclose(fp);
+    mlr_diag d;
+    ck_assert_msg(mlr_bvh_read_file(path, NULL, &c->m, &d) == MLR_OK, "%s", d.message);
+    c->n = mlr_motion_n_frames(c->m);
+    if (c->n > max_frames)
+        c->n = max_frames;
+    c->j = mlr_motion_n_joints(c->m);
+    c->p = mlr_motion_n_trans(c->m);
+    c->fps = 1.0 / mlr_motion_frame_time(c->m);
+    c->names = malloc(c->j * sizeof *c->names);
+    for (size_t j = 0; j < c->j; j++)
+        c->names[j] = mlr_motion_joint_name(c->m, j);
+    mlr_rig g = {c->j, mlr_motion_parents(c->m), mlr_motion_offsets(c->m), c->names,
+                 c->p, mlr_motion_trans_joints(c->m), mlr_motion_n_end_sites(c->m),
+                 mlr_motion_end_site_parents(c->m), mlr_motion_end_site_offsets(c->m)};
+    c->rig = g;
+    return 1;
+}
+
+static void unload(clip *c)
+{
+    free(c->names);
+    mlr_motion_destroy(c->m);
+}
+
+static mlr_guards *guards_of(const clip *c, const mlr_guards_option *opts, size_t n_opts)
+{
+    mlr_guards *g;
+    mlr_diag d;
+    ck_assert_msg(mlr_guards_create(&c->rig, c->fps, c->n, mlr_motion_root_pos(c->m),
+                                    mlr_motion_rot(c->m), mlr_motion_trans(c->m), opts, n_opts,
+                                    NULL, &g, &d) == MLR_OK, "%s", d.message);
+    return g;
+}
+
+/* Frames of the clip synthesized at alpha (root translation group 0 is the root here). */
+static void stylized(const clip *c, double alpha, double *root, double *rot)
+{
+    mlr_layers *L;
+    mlr_diag d;
+    const mlr_layers_option o = {MLR_LAYERS_OPT_FPS, c->fps};
+    ck_assert_msg(mlr_layers_decompose(c->n, c->j, mlr_motion_root_pos(c->m),
+                                       mlr_motion_rot(c->m), &o, 1, NULL, &L, &d) == MLR_OK,
+                  "%s", d.message);
+    ck_assert_int_eq(mlr_layers_synthesize(L, 0, c->n, &alpha, 1, root, 3 * c->n, rot,
+                                           4 * c->n * c->j), MLR_OK);
+    mlr_layers_destroy(L);
+}
+
+/* Flexion (degrees) of the chain a-b-c at frame f of world positions p (J x 3 per frame). */
+static double flexion(const double *p, size_t J, size_t f, int a, int b, int c)
+{
+    const double *pa = p + 3 * (f * J + (size_t)a), *pb = p + 3 * (f * J + (size_t)b);
+    const double *pc = p + 3 * (f * J + (size_t)c);
+    double u[3], v[3], uu = 0, vv = 0, uv = 0;
+    for (int k = 0; k < 3; k++) {
+        u[k] = pb[k] - pa[k], v[k] = pc[k] - pb[k];
+        uu += u[k] * u[k], vv += v[k] * v[k], uv += u[k] * v[k];
+    }
+    double cs = uv / sqrt(uu * vv);
+    cs = cs > 1 ? 1 : cs < -1 ? -1 : cs;
+    return acos(cs) * (45.0 / atan(1.0));
+}
+
+static int joint_named(const clip *c, const char *name)
+{
+    for (size_t j = 0; j < c->j; j++)
+        if (strcmp(c->names[j], name) == 0)
+            return (int)j;
+    ck_abort_msg("no joint %s", name);
+    return -1;
+}
+
+START_TEST(stylized_knees_stay_within_the_fold_limit_and_feet_above_the_floor)
+{
+    clip c;
+    if (!load("cmu_131_01_mj_style_walk.bvh", 994, &c))
+        return;
+    const size_t N = c.n, J = c.j;
+    double *root = malloc(3 * N * sizeof(double)), *rot = malloc(4 * N * J * sizeof(double));
+    double *ref_root = malloc(3 * N * sizeof(double));
+    double *ref_rot = malloc(4 * N * J * sizeof(double));
+    double *pos = malloc(3 * N * J * sizeof(double));
+    stylized(&c, 3.0, root, rot);
+    stylized(&c, 1.0, ref_root, ref_rot);
+    const int hip = joint_named(&c, "RightHip"), knee = joint_named(&c, "RightKnee");
+    const int ankle = joint_named(&c, "RightAnkle");
+    /* the raw synthesis folds the knee past 150 degrees (the input does not) */
+    double in_max = 0, raw_max = 0, out_max = 0;
+    ck_assert_int_eq(mlr_fk_arrays(N, J, c.rig.parents, c.rig.offsets, mlr_motion_root_pos(c.m),
+                                   mlr_motion_rot(c.m), 0, NULL, NULL, pos, NULL, NULL), MLR_OK);
+    for (size_t f = 0; f < N; f++)
+        in_max = fmax(in_max, flexion(pos, J, f, hip, knee, ankle));
+    ck_assert_int_eq(mlr_fk_arrays(N, J, c.rig.parents, c.rig.offsets, root, rot, 0, NULL, NULL,
+                                   pos, NULL, NULL), MLR_OK);
+    for (size_t f = 0; f < N; f++)
+        raw_max = fmax(raw_max, flexion(pos, J, f, hip, knee, ankle));
+    ck_assert_double_lt(in_max, 150.0);
+    ck_assert_double_gt(raw_max, 160.0);
+
+    mlr_guards *g = guards_of(&c, NULL, 0);
+    ck_assert_uint_eq(mlr_guards_n_points(g), 4); /* two ankles, two toes */
+    size_t *limited = malloc(J * sizeof(size_t));
+    mlr_guards_report rep;
+    mlr_diag d;
+    const double alpha = 3.0;
+    ck_assert_msg(mlr_guards_apply(g, &alpha, 1, ref_root, ref_rot, NULL, root, rot, NULL,
+                                   limited, J, &rep, &d) == MLR_OK, "%s", d.message);
+    ck_assert_int_eq(rep.limits_applied, 1);
+    ck_assert_uint_gt(limited[knee], 0);
+    ck_assert_uint_gt(rep.contact_frames, N / 2);
+    ck_assert(isfinite(rep.floor_height));
+    ck_assert_int_eq(mlr_fk_arrays(N, J, c.rig.parents, c.rig.offsets, root, rot, 0, NULL, NULL,
+                                   pos, NULL, NULL), MLR_OK);
+    double lowest = INFINITY, height;
+    ck_assert_int_eq(mlr_rig_body_height(N, J, pos, MLR_AXIS_Y, &height, NULL, &d), MLR_OK);
+    for (size_t f = 0; f < N; f++) {
+        out_max = fmax(out_max, flexion(pos, J, f, hip, knee, ankle));
+        lowest = fmin(lowest, pos[3 * (f * J + (size_t)ankle) + 1]);
+    }
+    ck_assert_double_le(out_max, 150.0);
+    ck_assert_double_ge(lowest, rep.floor_height - 0.005 * height);
+    /* bone lengths: the thigh keeps its length in every frame */
+    const double *o = c.rig.offsets + 3 * knee;
+    const double thigh = sqrt(o[0] * o[0] + o[1] * o[1] + o[2] * o[2]);
+    for (size_t f = 0; f < N; f += 37) {
+        const double *a = pos + 3 * (f * J + (size_t)hip), *b = pos + 3 * (f * J + (size_t)knee);
+        ck_assert_double_eq_tol(hypot(hypot(b[0] - a[0], b[1] - a[1]), b[2] - a[2]), thigh,
+                                1e-9 * thigh);
+    }
+    mlr_guards_destroy(g);
+    free(limited), free(pos), free(root), free(rot), free(ref_root), free(ref_rot);
+    unload(&c);
+}
+END_TEST
+
+START_TEST(every_guard_switched_off_leaves_the_frames_alone)
+{
+    clip c;
+    if (!load("cmu_131_01_mj_style_walk.bvh", 300, &c))
+        return;
+    const size_t N = c.n, J = c.j;
+    double *root = malloc(3 * N * sizeof(double)), *rot = malloc(4 * N * J * sizeof(double));
+    double *root0 = malloc(3 * N * sizeof(double)), *rot0 = malloc(4 * N * J * sizeof(double));
+    stylized(&c, 2.0, root, rot);
+    memcpy(root0, root, 3 * N * sizeof(double));
+    memcpy(rot0, rot, 4 * N * J * sizeof(double));
+    const mlr_guards_option off[3] = {{MLR_GUARDS_OPT_LIMITS, 0}, {MLR_GUARDS_OPT_CONTACTS, 0},
+                                      {MLR_GUARDS_OPT_FLOOR, 0}};
+    mlr_guards *g = guards_of(&c, off, 3);
+    ck_assert_uint_eq(mlr_guards_n_points(g), 0);
+    mlr_guards_report rep;
+    const double alpha = 2.0;
+    ck_assert_int_eq(mlr_guards_apply(g, &alpha, 1, NULL, NULL, NULL, root, rot, NULL, NULL, 0,
+                                      &rep, NULL), MLR_OK);
+    ck_assert_int_eq(rep.limits_applied, 0);
+    ck_assert(isnan(rep.floor_height));
+    ck_assert_int_eq(memcmp(root, root0, 3 * N * sizeof(double)), 0);
+    ck_assert_int_eq(memcmp(rot, rot0, 4 * N * J * sizeof(double)), 0);
+    mlr_guards_destroy(g);
+    /* limits on by default, but only when some |alpha| > 1 */
+    const mlr_guards_option only_limits[2] = {{MLR_GUARDS_OPT_CONTACTS, 0},
+                                              {MLR_GUARDS_OPT_FLOOR, 0}};
+    g = guards_of(&c, only_limits, 2);
+    const double half = 0.5;
+    ck_assert_int_eq(mlr_guards_apply(g, &half, 1, NULL, NULL, NULL, root, rot, NULL, NULL, 0,
+                                      &rep, NULL), MLR_OK);
+    ck_assert_int_eq(rep.limits_applied, 0);
+    ck_assert_int_eq(memcmp(rot, rot0, 4 * N * J * sizeof(double)), 0);
+    ck_assert_int_eq(mlr_guards_apply(g, &alpha, 1, NULL, NULL, NULL, root, rot, NULL, NULL, 0,
+                                      &rep, NULL), MLR_OK);
+    ck_assert_int_eq(rep.limits_applied, 1);
+    ck_assert_int_ne(memcmp(rot, rot0, 4 * N * J * sizeof(double)), 0);
+    ck_assert_int_eq(memcmp(root, root0, 3 * N * sizeof(double)), 0);
+    mlr_guards_destroy(g);
+    free(root), free(rot), free(root0), free(rot0);
+    unload(&c);
+}
+END_TEST
+
+START_TEST(bad_input_gets_the_right_status_and_message)
+{
+    clip c;
+    if (!load("cmu_131_01_mj_style_walk.bvh", 120, &c))
+        return;
+    const size_t N = c.n, J = c.j;
+    mlr_guards *g = NULL;
+    mlr_diag d;
+    const double *r = mlr_motion_root_pos(c.m), *q = mlr_motion_rot(c.m);
+    ck_assert_int_eq(mlr_guards_create(&c.rig, 0.0, N, r, q, NULL, NULL, 0, NULL, &g, &d),
+                     MLR_E_INVALID_ARG);
+    ck_assert_ptr_nonnull(strstr(d.message, "fps"));
+    ck_assert_ptr_null(g);
+    ck_assert_int_eq(mlr_guards_create(&c.rig, c.fps, 2, r, q, NULL, NULL, 0, NULL, &g, &d),
+                     MLR_E_INVALID_ARG);
+    const mlr_guards_option bad_key = {99, 1}, bad_up = {MLR_GUARDS_OPT_UP, 3},
+                            nan_floor = {MLR_GUARDS_OPT_FLOOR_HEIGHT, NAN};
+    ck_assert_int_eq(mlr_guards_create(&c.rig, c.fps, N, r, q, NULL, &bad_key, 1, NULL, &g, &d),
+                     MLR_E_INVALID_ARG);
+    ck_assert_ptr_nonnull(strstr(d.message, "unknown"));
+    ck_assert_int_eq(mlr_guards_create(&c.rig, c.fps, N, r, q, NULL, &bad_up, 1, NULL, &g, &d),
+                     MLR_E_INVALID_ARG);
+    ck_assert_ptr_nonnull(strstr(d.message, "up axis"));
+    ck_assert_int_eq(mlr_guards_create(&c.rig, c.fps, N, r, q, NULL, &nan_floor, 1, NULL, &g,
+                                       &d), MLR_E_INVALID_ARG);
+    ck_assert_ptr_nonnull(strstr(d.message, "not finite"));
+    double *rot = malloc(4 * N * J * sizeof(double)), *root = malloc(3 * N * sizeof(double));
+    memcpy(rot, q, 4 * N * J * sizeof(double));
+    memcpy(root, r, 3 * N * sizeof(double));
+    rot[4 * J * 7 + 1] = NAN;
+    ck_assert_int_eq(mlr_guards_create(&c.rig, c.fps, N, root, rot, NULL, NULL, 0, NULL, &g, &d),
+                     MLR_E_INVALID_ARG);
+    ck_assert_ptr_nonnull(strstr(d.message, "rot"));
+    rot[4 * J * 7 + 1] = 0.0;
+    g = guards_of(&c, NULL, 0);
+    const double alpha = 2.0, bad_alpha = INFINITY;
+    ck_assert_int_eq(mlr_guards_apply(g, &bad_alpha, 1, NULL, NULL, NULL, root, rot, NULL, NULL,
+                                      0, NULL, &d), MLR_E_INVALID_ARG);
+    ck_assert_ptr_nonnull(strstr(d.message, "alpha"));
+    ck_assert_int_eq(mlr_guards_apply(g, &alpha, 5, NULL, NULL, NULL, root, rot, NULL, NULL, 0,
+                                      NULL, &d), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_guards_apply(g, &alpha, 1, root, NULL, NULL, root, rot, NULL, NULL, 0,
+                                      NULL, &d), MLR_E_INVALID_ARG);
+    ck_assert_ptr_nonnull(strstr(d.message, "reference"));
+    /* contacts that name nothing, limits of another rig: nothing changes */
+    const int32_t joints[2] = {0, (int32_t)J + 3};
+    const uint8_t *contacts = calloc(2 * N, 1);
+    const size_t before = mlr_guards_n_points(g);
+    ck_assert_int_eq(mlr_guards_set_contacts(g, 2, joints, NULL, contacts, &d),
+                     MLR_E_INVALID_ARG);
+    ck_assert_ptr_nonnull(strstr(d.message, "names nothing"));
+    ck_assert_uint_eq(mlr_guards_n_points(g), before);
+    const int32_t twice[2] = {3, 3};
+    ck_assert_int_eq(mlr_guards_set_contacts(g, 2, twice, NULL, contacts, &d),
+                     MLR_E_INVALID_ARG);
+    ck_assert_ptr_nonnull(strstr(d.message, "twice"));
+    ck_assert_int_eq(mlr_guards_set_limits(NULL, NULL, &d), MLR_E_INVALID_ARG);
+    mlr_guards_destroy(g);
+    mlr_guards_destroy(NULL);
+    free((void *)contacts), free(rot), free(root);
+    unload(&c);
+}
+END_TEST
+
+START_TEST(every_allocation_failure_returns_no_memory_without_leaks)
+{
+    clip c;
+    if (!load("cmu_131_01_mj_style_walk.bvh", 120, &c))
+        return;
+    const size_t N = c.n, J = c.j;
+    double *root = malloc(3 * N * sizeof(double)), *rot = malloc(4 * N * J * sizeof(double));
+    stylized(&c, 2.5, root, rot);
+    const double alpha = 2.5;
+    size_t failures = 0;
+    for (size_t k = 0;; k++) {
+        mlr_test_allocator ta;
+        mlr_test_allocator_init(&ta, k);
+        mlr_guards *g = NULL;
+        mlr_status st = mlr_guards_create(&c.rig, c.fps, N, mlr_motion_root_pos(c.m),
+                                          mlr_motion_rot(c.m), NULL, NULL, 0, &ta.base, &g, NULL);
+        if (st == MLR_OK) {
+            double *r2 = malloc(3 * N * sizeof(double)), *q2 = malloc(4 * N * J * sizeof(double));
+            memcpy(r2, root, 3 * N * sizeof(double));
+            memcpy(q2, rot, 4 * N * J * sizeof(double));
+            st = mlr_guards_apply(g, &alpha, 1, NULL, NULL, NULL, r2, q2, NULL, NULL, 0, NULL,
+                                  NULL);
+            if (st != MLR_OK) {
+                /* a failed apply leaves the frames as they were */
+                ck_assert_int_eq(memcmp(r2, root, 3 * N * sizeof(double)), 0);
+                ck_assert_int_eq(memcmp(q2, rot, 4 * N * J * sizeof(double)), 0);
+            }
+            free(r2), free(q2);
+            mlr_guards_destroy(g);
+        }
+        ck_assert_uint_eq(ta.live_blocks, 0);
+        if (k >= ta.n_calls) { /* the k-th allocation was never reached: all done */
+            ck_assert_int_eq(st, MLR_OK);
+            break;
+        }
+        ck_assert_int_eq(st, MLR_E_NO_MEMORY);
+        failures++;
+    }
+    ck_assert_uint_gt(failures, 10);
+    free(root), free(rot);
+    unload(&c);
+}
+END_TEST
+
+static Suite *guards_suite(void)
+{
+    Suite *s = suite_create("guards");
+    TCase *tc = tcase_create("guards");
+    tcase_add_test(tc, stylized_knees_stay_within_the_fold_limit_and_feet_above_the_floor);
+    tcase_add_test(tc, every_guard_switched_off_leaves_the_frames_alone);
+    tcase_add_test(tc, bad_input_gets_the_right_status_and_message);
+    tcase_add_test(tc, every_allocation_failure_returns_no_memory_without_leaks);
+    suite_add_tcase(s, tc);
+    return s;
+}
+
+int main(void)
+{
+    return mlr_test_run(guards_suite());
+}
