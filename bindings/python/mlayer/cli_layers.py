@@ -38,12 +38,13 @@ def _layer_options(p) -> None:
                    help="control-layer sigma (default: chosen per joint by GCV)")
 
 
-def _contacts(args, original, out):
-    """Foot contacts kept by default (mlayer.contacts); --no-contacts skips it."""
+def _contacts(args, original, out, layers=None):
+    """Foot contacts kept by default as mlayer.denoise / stylize keep them (the feet follow
+    the denoised motion synthesized from layers); --no-contacts skips it."""
     if getattr(args, "no_contacts", False):
         return out
-    from .contacts import keep_contacts
-    return keep_contacts(original, out)
+    from .layers import _keep_contacts
+    return _keep_contacts(original, out, layers)
 
 
 def _decompose(args, motion):
@@ -91,7 +92,7 @@ def _cmd_denoise(args) -> int:
     m = read_bvh(args.input)
     layers = _decompose(args, m)
     out = layers.synthesize(1.0)
-    out = _contacts(args, m, out)
+    out = _contacts(args, m, out, layers)
     write_bvh(out, args.output)
     _summary(args.input, m, out, layers)
     print(f"  wrote {args.output}")
@@ -122,7 +123,7 @@ def _cmd_stylize(args) -> int:
     m = read_bvh(args.input)
     layers = _decompose(args, m)
     out = layers.synthesize(args.alpha, joints=joints or None)
-    out = _contacts(args, m, out)
+    out = _contacts(args, m, out, layers)
     write_bvh(out, args.output)
     _summary(args.input, m, out, layers)
     print(f"  alpha {args.alpha:g}" + "".join(f", {k}={v:g}" for k, v in joints.items()))
