@@ -51,9 +51,9 @@ static mlr_status parse_options(const mlr_cleanup_option *opts, size_t n_opts, c
                                 mlr_diag *diag)
 {
     int seen[16] = {0};
-    cfg->blend = 0.1, cfg->reach = 0.98, cfg->passes = 2, cfg->floor_on = 1;
+    cfg->blend = 0.2, cfg->reach = 0.98, cfg->passes = 2, cfg->floor_on = 1;
     cfg->floor_given = 0, cfg->floor_height = NAN, cfg->floor_q = 0.05;
-    cfg->ref_smooth = 0.02, cfg->pin_smooth = 0.01, cfg->root_on = 1;
+    cfg->ref_smooth = 0.02, cfg->pin_smooth = 0.02, cfg->root_on = 1;
     if (n_opts && !opts)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "opts is NULL but n_opts is %zu",
                             n_opts);
@@ -291,9 +291,39 @@ typedef struct work {
     double fps;
     int up;
     const config *cfg;
-    mlr_lgs *pin;
+    mlr_band *pin;                     /* N x N, 2 sub-diagonals */
+    double *ab;                        /* N x 3: its lower band */
     double *map_val, *map_y, *map_out; /* N x 9 */
 } work;
+
+/* The map's smoothing with the constrained frames held: x = argmin sum over the free frames of
+   (x - y)^2 + s |D2 x|^2 with x = y on the frames of mask (a weight of PIN_HOLD there), s the
+   LGS's lam^2 for the time scale PIN_SMOOTH. The blend's corners are rounded on the free side
+   only, so the constrained frames keep the IK's values to ~1e-10 relative and one pass
+   reaches the targets. */
+#define PIN_HOLD 1e10
+static mlr_status smooth_held(work *w, const uint8_t *mask, double *y, size_t m)
+{
+    const size_t N = w->N;
+    const double lam = (w->cfg->pin_smooth * w->fps) * (w->cfg->pin_smooth * w->fps);
+    const double sc = lam * lam;
+    double *ab = w->ab;
+    for (size_t f = 0; f < N; f++)
+        ab[3 * f] = mask[f] ? PIN_HOLD : 1.0, ab[3 * f + 1] = ab[3 * f + 2] = 0.0;
+    static const double c[3] = {1.0, -2.0, 1.0};
+    for (size_t r = 0; r + 2 < N; r++) /* D2^T D2, row by row of D2 */
+        for (size_t a = 0; a < 3; a++)
+            for (size_t b = a; b < 3; b++)
+                ab[3 * (r + a) + (b - a)] += sc * c[a] * c[b];
+    mlr_status st = mlr_band_factor(w->pin, ab, 3);
+    if (st < 0)
+        return st;
+    for (size_t f = 0; f < N; f++)
+        if (mask[f])
+            for (size_t k = 0; k < m; k++)
+                y[f * m + k] *= PIN_HOLD;
+    return mlr_band_solve(w->pin, y, m, m);
+}
 
 /* Spread the corrections new * inv(rot) of the listed joints, known on the frames of mask. */
 static mlr_status spread_rotations(work *w, double *rot, const double *newr, const int32_t *js,
@@ -312,9 +342,10 @@ static mlr_status spread_rotations(work *w, double *rot, const double *newr, con
         }
     }
     design_map(N, m, mask, w->map_val, w->cfg->blend * w->fps, w->map_y);
-    mlr_status st = mlr_lgs_solve(w->pin, w->map_y, m, m, w->map_out, m);
+    mlr_status st = smooth_held(w, mask, w->map_y, m);
     if (st != MLR_OK)
         return st;
+    memcpy(w->map_out, w->map_y, N * m * sizeof(double));
     for (size_t f = 0; f < N; f++)
         for (size_t i = 0; i < nj; i++) {
             double *r = rot + 4 * (f * J + (size_t)js[i]), e[4], o[4];
@@ -523,9 +554,16 @@ mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t N, double fps, int up
         mlr_lgs_destroy(ref_lgs);
     }
     {
-        const double lam = (cfg.pin_smooth * fps) * (cfg.pin_smooth * fps);
-        if ((st = mlr_lgs_create(N, 2, lam, 1.0, NULL, N, MLR_LGS_BANDED, &A, &w.pin, diag)) < 0)
+        w.ab = take(&ar, N * 3, sizeof(double));
+        if (ar.st != MLR_OK)
+            goto fail;
+        if ((st = mlr_band_create(N, 2, &A, &w.pin)) != MLR_OK) {
+            if (st == MLR_E_NO_MEMORY) {
+                ar.st = st;
+                goto fail;
+            }
             goto fail_st;
+        }
     }
 
     /* ---- targets per foot ---- */
@@ -700,11 +738,26 @@ mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t N, double fps, int up
                 memcpy(wide + 3 * f, need + 3 * best, 3 * sizeof(double));
                 nmask[f] = bn > 0.0;
             }
-            design_map(N, 3, nmask, wide, cfg.blend * fps, ysh);
-            if ((st = mlr_lgs_solve(w.pin, ysh, 3, 3, wide, 3)) != MLR_OK)
-                goto fail_st;
+            /* ... then average over the same +-0.1 s with a raised-cosine window: a smooth
+               shift (no steps where the widest need changes) that still covers each need at its
+               own frame, since the window sees only values at least as large; zero farther
+               than 0.2 s from every need */
+            for (size_t f = 0; f < N; f++) {
+                const size_t lo = f > half ? f - half : 0, hi = f + half < N ? f + half : N - 1;
+                double acc[3] = {0, 0, 0}, wsum = 0.0;
+                for (size_t g = lo; g <= hi; g++) {
+                    const double x = ((double)g - (double)f) / (double)(half + 1);
+                    const double wt = 0.5 * (1.0 + cos(3.14159265358979323846 * x));
+                    wsum += wt;
+                    if (nmask[g])
+                        for (int d = 0; d < 3; d++)
+                            acc[d] += wt * wide[3 * g + (size_t)d];
+                }
+                for (int d = 0; d < 3; d++)
+                    ysh[3 * f + (size_t)d] = acc[d] / wsum;
+            }
             for (size_t i = 0; i < 3 * N; i++)
-                shift[i] += wide[i];
+                shift[i] += ysh[i];
         }
         for (size_t f = 0; f < N; f++) {
             for (int d = 0; d < 3; d++)
@@ -842,17 +895,17 @@ mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t N, double fps, int up
             report->floor_frames += anyF[f];
         }
     }
-    mlr_lgs_destroy(w.pin);
+    mlr_band_destroy(w.pin);
     release(&ar);
     return MLR_OK;
 fail:
-    mlr_lgs_destroy(w.pin);
+    mlr_band_destroy(w.pin);
     release(&ar);
     return mlr_diag_set(diag, ar.st, 0, 0, "cleanup: out of memory");
 fail_st:
     mlr_diag_set(diag, st, 0, 0, "cleanup: internal solve failed (status %d)", (int)st);
 fail_st_keep:
-    mlr_lgs_destroy(w.pin);
+    mlr_band_destroy(w.pin);
     release(&ar);
     return st;
 }

@@ -28,18 +28,23 @@
  *
  * Correction: the root moves only where a leg would have to stretch beyond REACH of its length
  * (or beyond its current extension where it is straighter already) to reach a contact target:
- * the need, widened over +-0.1 s, blended and repeated on what is left (5 times). Per frame,
+ * the need, widened over +-0.1 s (the largest need there) and averaged over the same window
+ * with a raised cosine (a smooth shift that still covers each need at its frame, zero farther
+ * than 0.2 s from every need), repeated on what is left (5 times). Per frame,
  * two-bone IK on each leg (hip, knee, ankle from mlr_ik_leg_chain) reaches the ankle target,
  * and a turn of the ankle the placed point's target. The changes of the local rotations of hip,
  * knee and ankle (rotation vectors of new * inv(old)), known on the constrained frames, make a
  * displacement map: on the frames between two constrained frames less than BLEND seconds apart
  * it goes from one value to the other along a smoothstep; elsewhere it fades from the nearest
- * constrained frame's value to zero along a smoothstep over BLEND seconds; then the LGS (order
- * 2, time scale PIN_SMOOTH seconds) smooths the blend's corners. Every channel of the map stays
- * within the range of its values at the two nearest constrained frames and zero, so a foot out
- * of contact moves no further than the blend requires, and frames farther than BLEND from every
- * constrained frame keep the synthesized motion (up to the LGS's tails, ~exp(-d / PIN_SMOOTH)).
- * PASSES passes repeat IK and spread on what the smoothing left. Bone lengths never change;
+ * constrained frame's value to zero along a smoothstep over BLEND seconds; then a smoothing
+ * with the constrained frames held (min sum over the other frames of (x - y)^2 + lam^2 |D2 x|^2,
+ * lam = (PIN_SMOOTH fps)^2, x = y on the constrained frames up to ~1e-10 relative) rounds the
+ * blend's corners on the free side only, so the constrained frames get the IK's values. The map
+ * stays close to the range of its values at the two nearest constrained frames and zero, so a
+ * foot out of contact moves no further than the blend requires, and frames farther than BLEND
+ * from every constrained frame keep the synthesized motion (up to the smoothing's tails,
+ * ~exp(-d / PIN_SMOOTH)). PASSES passes repeat IK and spread on what the floor check of the
+ * previous pass found. Bone lengths never change;
  * translations of non-root joints (trans) are kept as they are.
  */
 #ifndef MLR_CLEANUP_H
@@ -57,7 +62,7 @@ extern "C" {
 /** Option keys of mlr_cleanup_contacts. Values pinned; new options get new values. */
 typedef enum mlr_cleanup_key {
     MLR_CLEANUP_OPT_BLEND = 1,          /* seconds, > 0: the map's fade outside constrained
-                                           frames; default 0.1 */
+                                           frames; default 0.2 */
     MLR_CLEANUP_OPT_REACH = 2,          /* (0, 1]: the root moves where a leg needs more than
                                            this of its length; default 0.98 */
     MLR_CLEANUP_OPT_PASSES = 3,         /* integer in [1, 10]: IK + spread passes; default 2 */
@@ -67,7 +72,8 @@ typedef enum mlr_cleanup_key {
     MLR_CLEANUP_OPT_FLOOR_QUANTILE = 6, /* [0, 1]: quantile of contact heights; default 0.05 */
     MLR_CLEANUP_OPT_REF_SMOOTH = 7,     /* seconds, >= 0: LGS smoothing of the reference's
                                            contact trajectories; default 0.02; 0: none */
-    MLR_CLEANUP_OPT_PIN_SMOOTH = 8,     /* seconds, > 0: LGS time scale of the map; 0.01 */
+    MLR_CLEANUP_OPT_PIN_SMOOTH = 8,     /* seconds, > 0: time scale of the map's smoothing
+                                           outside the constrained frames; default 0.02 */
     MLR_CLEANUP_OPT_ROOT = 9            /* 1: the root may move (default), 0: never */
 } mlr_cleanup_key;
 

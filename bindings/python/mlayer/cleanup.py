@@ -7,7 +7,7 @@ the reference's own contact trajectories shifted by one horizontal offset per co
 reference: each point pinned to its mean); the root moves only where a leg cannot reach; two-bone
 IK (:mod:`mlayer.ik`) reaches the targets, and the rotation changes are spread in time by a
 displacement map that blends to zero within ``blend`` seconds of the constrained frames (then
-smoothed by the LGS), so frames farther from every contact keep the synthesized motion.
+smoothed outside them, the constrained frames held), so frames farther from every contact keep the synthesized motion.
 
 Floor (``floor="auto"``, the default): a flat floor at :func:`floor_height` of the reference (the
 5% quantile of the contact points' heights on their contact frames); no foot point goes below
@@ -106,8 +106,8 @@ def fix_contacts(motion, contacts, names, reference=None, *, floor="auto", up="y
     optional Motion with the same frames (normally the original before synthesis, or its
     denoised version) whose contact trajectories and heights the feet follow.
     floor: "auto" (the reference's :func:`floor_height`, or the motion's without one), None
-    (off) or a finite height. options: blend (seconds, 0.1), reach (0.98), passes (2),
-    floor_quantile (0.05), ref_smooth (seconds, 0.02), pin_smooth (seconds, 0.01), root (True).
+    (off) or a finite height. options: blend (seconds, 0.2), reach (0.98), passes (2),
+    floor_quantile (0.05), ref_smooth (seconds, 0.02), pin_smooth (seconds, 0.02), root (True).
     Returns a new Motion (and with return_report=True a dict of what was done); bone lengths
     and the translations of non-root joints are unchanged.
     """
@@ -196,7 +196,8 @@ def keep_contacts_retimed(original, retimed, reference, source_frames, joints=No
     contacts detected on ``original``, carried to the output frames: output frame k takes the
     contacts of input frame ``round(source_frames[k])`` (its fractional input frame).
     ``reference`` is the original at the output frames without smoothing (a SLERP resampling
-    on the same time map), whose contact trajectories the feet follow. Skeletons without
+    on the same time map), whose contact trajectories, smoothed over half an output frame (at
+    least 0.02 s), the feet follow. Skeletons without
     recognisable feet (and no ``joints``) and clips of fewer than 3 frames come back
     unchanged, as in :func:`keep_contacts`."""
     from .contacts import detect_contacts
@@ -204,7 +205,13 @@ def keep_contacts_retimed(original, retimed, reference, source_frames, joints=No
         return retimed
     names, c = detect_contacts(original, joints)
     k = np.clip(np.rint(np.asarray(source_frames, dtype=np.float64)), 0, original.n_frames - 1)
-    return fix_contacts(retimed, c[k.astype(np.int64)], names, reference=reference, floor=floor)
+    # the reference is a SLERP retiming, without the low-pass of the retimed motion (resample
+    # filters at 0.38 of the new Nyquist when downsampling): its contact trajectories are
+    # smoothed over half an output frame (at least the default 0.02 s), or the feet would carry
+    # the aliased capture noise the rest of the body does not (jitter 1.11x on lafan1 at 15 fps)
+    smooth = max(0.02, 0.5 * float(retimed.frame_time))
+    return fix_contacts(retimed, c[k.astype(np.int64)], names, reference=reference, floor=floor,
+                        ref_smooth=smooth)
 
 
 def keep_contacts(original, synthesized, joints=None, *, reference=None, floor="auto",
