@@ -43,7 +43,7 @@ static void release(arena *ar)
 }
 
 typedef struct config {
-    double blend, reach, floor_height, floor_q, ref_smooth, pin_smooth;
+    double blend, reach, floor_height, floor_q, ref_smooth, pin_smooth, max_fold;
     int passes, floor_on, floor_given, root_on;
 } config;
 
@@ -54,13 +54,14 @@ static mlr_status parse_options(const mlr_cleanup_option *opts, size_t n_opts, c
     cfg->blend = 0.2, cfg->reach = 0.98, cfg->passes = 2, cfg->floor_on = 1;
     cfg->floor_given = 0, cfg->floor_height = NAN, cfg->floor_q = 0.05;
     cfg->ref_smooth = 0.02, cfg->pin_smooth = 0.02, cfg->root_on = 1;
+    cfg->max_fold = 3.14159265358979323846;
     if (n_opts && !opts)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "opts is NULL but n_opts is %zu",
                             n_opts);
     for (size_t i = 0; i < n_opts; i++) {
         const int key = opts[i].key;
         const double v = opts[i].value;
-        if (key < MLR_CLEANUP_OPT_BLEND || key > MLR_CLEANUP_OPT_ROOT)
+        if (key < MLR_CLEANUP_OPT_BLEND || key > MLR_CLEANUP_OPT_MAX_FOLD)
             return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "unknown option key %d", key);
         if (seen[key])
             return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "option key %d given twice", key);
@@ -81,6 +82,10 @@ static mlr_status parse_options(const mlr_cleanup_option *opts, size_t n_opts, c
         case MLR_CLEANUP_OPT_FLOOR_QUANTILE: ok = v >= 0.0 && v <= 1.0; cfg->floor_q = v; break;
         case MLR_CLEANUP_OPT_REF_SMOOTH: ok = v >= 0.0; cfg->ref_smooth = v; break;
         case MLR_CLEANUP_OPT_PIN_SMOOTH: ok = v > 0.0; cfg->pin_smooth = v; break;
+        case MLR_CLEANUP_OPT_MAX_FOLD:
+            ok = v > 0.0 && v <= 3.14159265358979323846;
+            cfg->max_fold = v;
+            break;
         default: ok = v == 0.0 || v == 1.0; cfg->root_on = v != 0.0; break;
         }
         if (!ok)
@@ -680,7 +685,8 @@ mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t N, double fps, int up
             anyU[f] |= ft->U[f];
     }
 
-    /* ---- root shift: legs that cannot reach their contact targets ---- */
+    /* ---- root shift: legs that cannot reach their contact targets, or would have to fold
+       their knee past MAX_FOLD to reach them or the floor ---- */
     if (cfg.root_on) {
         double *need = take(&ar, N * 3, sizeof(double));
         double *wide = take(&ar, N * 3, sizeof(double));
@@ -698,24 +704,51 @@ mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t N, double fps, int up
                     continue;
                 const size_t h = (size_t)ft->hip, kn = (size_t)ft->knee, e = (size_t)ft->anchor;
                 for (size_t f = 0; f < N; f++) {
-                    if (!ft->U[f])
-                        continue;
                     const double *ph = pos + 3 * (f * J + h), *pk = pos + 3 * (f * J + kn),
                                  *pe = pos + 3 * (f * J + e);
-                    const double length = dist3(pk, ph) + dist3(pe, pk);
+                    double target[3];
+                    if (ft->U[f]) {
+                        memcpy(target, ft->at + 3 * f, sizeof target);
+                    } else if (floor_active && cfg.max_fold < 3.14159265358979323846) {
+                        /* a floor frame: the ankle raised by the largest shortfall */
+                        double lift = 0.0;
+                        for (size_t i = 0; i < ft->n_cols; i++) {
+                            const size_t c = ft->cols[i];
+                            lift = fmax(lift, lim[f * C + c] - P[3 * (f * C + c) + (size_t)up]);
+                        }
+                        if (!(lift > 0.0))
+                            continue;
+                        memcpy(target, pe, sizeof target);
+                        target[up] += lift;
+                    } else {
+                        continue;
+                    }
+                    const double l1 = dist3(pk, ph), l2 = dist3(pe, pk);
+                    const double length = l1 + l2;
                     const double now = dist3(pe, ph);
                     const double reach = fmax(cfg.reach * length, now);
+                    /* the hip-ankle distance of a knee folded to max_fold: a target nearer
+                       than that would fold the knee past its limit */
+                    const double fold = fmin(sqrt(fmax(l1 * l1 + l2 * l2 +
+                                                       2.0 * l1 * l2 * cos(cfg.max_fold), 0.0)),
+                                             now);
                     double v[3];
                     for (int d = 0; d < 3; d++)
-                        v[d] = ft->at[3 * f + (size_t)d] - (ph[d] + shift[3 * f + (size_t)d]);
+                        v[d] = target[d] - (ph[d] + shift[3 * f + (size_t)d]);
                     const double dist = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
-                    const double excess = dist - reach;
-                    if (!(excess > 0.0))
+                    /* > 0: the hip moves toward a target out of reach; < 0: away from one
+                       too near */
+                    double excess = 0.0;
+                    if (dist - reach > 0.0)
+                        excess = dist - reach;
+                    else if (fold - dist > 0.0)
+                        excess = dist - fold;
+                    if (excess == 0.0)
                         continue;
                     const double cur = sqrt(need[3 * f] * need[3 * f] +
                                             need[3 * f + 1] * need[3 * f + 1] +
                                             need[3 * f + 2] * need[3 * f + 2]);
-                    if (excess > cur) {
+                    if (fabs(excess) > cur) {
                         for (int d = 0; d < 3; d++)
                             need[3 * f + (size_t)d] = v[d] * excess / fmax(dist, 1e-12);
                         any = 1;

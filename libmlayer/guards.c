@@ -9,6 +9,7 @@
 #ifndef GUARDS_ROUNDS
 #define GUARDS_ROUNDS 2
 #endif
+#define GUARDS_LIMITS_SOFT 0.15 /* mlr_limits' default MLR_LIMITS_OPT_SOFT */
 
 struct mlr_guards {
     mlr_allocator alloc;
@@ -430,6 +431,116 @@ mlr_status mlr_guards_set_limits(mlr_guards *g, const mlr_limits *limits, mlr_di
     return MLR_OK;
 }
 
+/* The largest knee flexion the cleanup's IK may use while the limits are on: the knee point of
+ * the fold side of the legs' hinges (hi - soft (hi - lo), the limits' default soft width),
+ * where the limits' saturation begins, so the limits after the cleanup leave the IK's knees
+ * as they are; pi when no leg of a contact point has a hinge knee. */
+static double knee_fold_limit(const mlr_guards *g)
+{
+    double fold = 3.14159265358979323846;
+    for (size_t c = 0; c < g->n_points; c++) {
+        int32_t hip, knee;
+        mlr_limits_range r;
+        if (g->end_sites[c] >= 0 ||
+            mlr_ik_leg_chain(&g->rig, g->joints[c], &hip, &knee, NULL) != MLR_OK ||
+            mlr_limits_get_range(g->limits, (size_t)knee, &r) != MLR_OK ||
+            r.kind != MLR_LIMITS_HINGE)
+            continue;
+        const double k = r.hi - GUARDS_LIMITS_SOFT * (r.hi - r.lo);
+        if (k > 0.0 && k < fold)
+            fold = k;
+    }
+    return fold;
+}
+
+/* Heights along up of the contact points of frames (root, rot, trans): N x C into h. */
+static mlr_status point_heights(const mlr_guards *g, const double *root, const double *rot,
+                                const double *trans, double *pos, double *wrot, double *pts,
+                                double *h)
+{
+    const size_t N = g->n_frames, J = g->n_joints, C = g->n_points;
+    mlr_status st = mlr_fk_arrays(N, J, g->parents, g->offsets, root, rot, g->n_trans,
+                                  g->trans_joints, trans, pos, wrot, &g->alloc);
+    if (st == MLR_OK)
+        st = mlr_rig_point_positions(&g->rig, N, pos, wrot, C, g->joints, g->end_sites, pts,
+                                     NULL);
+    for (size_t k = 0; st == MLR_OK && k < N * C; k++)
+        h[k] = pts[3 * k + (size_t)g->up];
+    return st;
+}
+
+/* The last word of the floor guard: where a foot point of the result is still below
+ * min(floor, the reference's height of that point), by more than nothing, the whole body is
+ * raised along up by a smooth envelope of the shortfall (the largest shortfall within
+ * +-0.1 s, averaged with a raised-cosine window of the same width: every value it averages
+ * at a frame is at least that frame's shortfall, so it covers it, and it is zero farther than
+ * 0.2 s from any). Joint angles do not change, so the
+ * limits stay met; a foot that the joint limits or IK could not keep above the floor is
+ * lifted with the body. Adds the raised frames to *raised. */
+static mlr_status raise_to_floor(const mlr_guards *g, const double *ref_root,
+                                 const double *ref_rot, const double *ref_trans, double *root,
+                                 const double *rot, const double *trans, size_t *raised)
+{
+    const size_t N = g->n_frames, J = g->n_joints, C = g->n_points;
+    mlr_status st = MLR_OK;
+    double *pos = alloc_array(&g->alloc, 3 * N * J, sizeof(double), &st);
+    double *wrot = alloc_array(&g->alloc, 4 * N * J, sizeof(double), &st);
+    double *pts = alloc_array(&g->alloc, 3 * N * C, sizeof(double), &st);
+    double *href = alloc_array(&g->alloc, N * C, sizeof(double), &st);
+    double *hout = alloc_array(&g->alloc, N * C, sizeof(double), &st);
+    double *need = alloc_array(&g->alloc, 2 * N, sizeof(double), &st);
+    if (st == MLR_OK && ref_root)
+        st = point_heights(g, ref_root, ref_rot, ref_trans, pos, wrot, pts, href);
+    for (size_t k = 0; st == MLR_OK && !ref_root && k < N * C; k++)
+        href[k] = INFINITY; /* no reference: the floor alone */
+    if (st == MLR_OK)
+        st = point_heights(g, root, rot, trans, pos, wrot, pts, hout);
+    if (st == MLR_OK) {
+        double *wide = need + N;
+        int any = 0;
+        for (size_t f = 0; f < N; f++) {
+            double d = 0.0;
+            for (size_t c = 0; c < C; c++) {
+                const double lim = fmin(g->floor_height, href[f * C + c]);
+                d = fmax(d, lim - hout[f * C + c]);
+            }
+            need[f] = d;
+            any |= d > 0.0;
+        }
+        if (any) {
+            const size_t half = (size_t)fmax(1.0, round(0.1 * g->fps));
+            for (size_t f = 0; f < N; f++) {
+                const size_t lo = f > half ? f - half : 0, hi = f + half < N ? f + half : N - 1;
+                double m = 0.0;
+                for (size_t k = lo; k <= hi; k++)
+                    m = fmax(m, need[k]);
+                wide[f] = m;
+            }
+            for (size_t f = 0; f < N; f++) {
+                const size_t lo = f > half ? f - half : 0, hi = f + half < N ? f + half : N - 1;
+                double acc = 0.0, wsum = 0.0;
+                for (size_t k = lo; k <= hi; k++) {
+                    const double x = ((double)k - (double)f) / (double)(half + 1);
+                    const double w = 0.5 * (1.0 + cos(3.14159265358979323846 * x));
+                    acc += w * wide[k], wsum += w;
+                }
+                const double lift = acc / wsum;
+                root[3 * f + (size_t)g->up] += lift;
+                *raised += need[f] > 0.0;
+            }
+        }
+    } else if (st != MLR_E_NO_MEMORY && st != MLR_E_OVERFLOW) {
+        st = MLR_E_INVALID_ARG;
+    }
+    free_array(&g->alloc, pos, 3 * N * J, sizeof(double));
+    free_array(&g->alloc, wrot, 4 * N * J, sizeof(double));
+    free_array(&g->alloc, pts, 3 * N * C, sizeof(double));
+    free_array(&g->alloc, href, N * C, sizeof(double));
+    free_array(&g->alloc, hout, N * C, sizeof(double));
+    free_array(&g->alloc, need, 2 * N, sizeof(double));
+    return st;
+}
+
 static int limits_wanted(const mlr_guards *g, const double *alpha, size_t n_alpha)
 {
     if (!g->limits || g->limits_mode == MLR_GUARDS_LIMITS_OFF)
@@ -472,12 +583,13 @@ mlr_status mlr_guards_apply(const mlr_guards *g, const double *alpha, size_t n_a
         (st = check_finite(rot, 4 * N * J, "rot", diag)) != MLR_OK)
         return st;
 
-    mlr_guards_report rep = {0, 0, 0, 0, 0, NAN, 0.0};
+    mlr_guards_report rep = {0, 0, 0, 0, 0, NAN, 0.0, 0};
     st = MLR_OK;
     double *work = alloc_array(&g->alloc, 4 * N * J, sizeof(double), &st);
     double *work_root = alloc_array(&g->alloc, 3 * N, sizeof(double), &st);
     size_t *counts = alloc_array(&g->alloc, J, sizeof(size_t), &st);
     size_t *counts2 = alloc_array(&g->alloc, J, sizeof(size_t), &st);
+    double *hinge_tmp = alloc_array(&g->alloc, 4 * N * J, sizeof(double), &st);
     if (st != MLR_OK) {
         mlr_diag_set(diag, st, 0, 0, "guards apply: out of memory");
         goto done;
@@ -506,13 +618,16 @@ mlr_status mlr_guards_apply(const mlr_guards *g, const double *alpha, size_t n_a
             }
             memset(none, 0, g->n_points * N);
         }
-        mlr_cleanup_option copts[3];
+        mlr_cleanup_option copts[4];
         size_t n_copts = 0;
         /* a given reference (the denoised motion) is followed as it is; the input is
          * smoothed against its capture noise first (the cleanup's default) */
         if (has_ref && g->follow)
             copts[n_copts++] = (mlr_cleanup_option){MLR_CLEANUP_OPT_REF_SMOOTH, 0.0};
         copts[n_copts++] = (mlr_cleanup_option){MLR_CLEANUP_OPT_FLOOR, floor_on ? 1.0 : 0.0};
+        if (rep.limits_applied)
+            copts[n_copts++] = (mlr_cleanup_option){MLR_CLEANUP_OPT_MAX_FOLD,
+                                                    knee_fold_limit(g)};
         if (floor_on)
             copts[n_copts++] = (mlr_cleanup_option){MLR_CLEANUP_OPT_FLOOR_HEIGHT,
                                                     g->floor_height};
@@ -530,9 +645,23 @@ mlr_status mlr_guards_apply(const mlr_guards *g, const double *alpha, size_t n_a
                                   g->joints, g->end_sites, C ? g->contacts : none, copts,
                                   n_copts, work_root, work, &crep, &g->alloc, diag);
         if (st == MLR_OK && rep.limits_applied) {
-            st = mlr_limits_apply(g->limits, N, work, work, alpha, n_alpha, counts2, J, diag);
-            for (size_t j = 0; st == MLR_OK && j < J; j++)
+            /* the last round limits the hinges only (knees, elbows: a rotation about the
+               hinge axis each), so the feet the cleanup pinned stay where IK put them
+               unless a knee left its range; earlier rounds limit every joint */
+            const int last = round + 1 == rounds;
+            st = mlr_limits_apply(g->limits, N, work, last ? hinge_tmp : work, alpha, n_alpha,
+                                  counts2, J, diag);
+            for (size_t j = 0; st == MLR_OK && j < J; j++) {
+                mlr_limits_range r;
+                if (last && (mlr_limits_get_range(g->limits, j, &r) != MLR_OK ||
+                             r.kind != MLR_LIMITS_HINGE))
+                    continue;
+                if (last)
+                    for (size_t f = 0; f < N; f++)
+                        memcpy(work + 4 * (f * J + j), hinge_tmp + 4 * (f * J + j),
+                               4 * sizeof(double));
                 counts[j] = counts2[j] > counts[j] ? counts2[j] : counts[j];
+            }
         }
         if (st != MLR_OK)
             break;
@@ -544,6 +673,17 @@ mlr_status mlr_guards_apply(const mlr_guards *g, const double *alpha, size_t n_a
         rep.floor_frames = crep.floor_frames;
         rep.floor_height = floor_on ? crep.floor_height : NAN;
         rep.root_shift_max = crep.root_shift_max;
+    }
+    if (floor_on) {
+        const double *rr = !g->follow ? NULL : has_ref ? ref_root_pos : g->root_pos;
+        const double *rq = !g->follow ? NULL : has_ref ? ref_rot : g->rot;
+        const double *rt = !g->follow || !P ? NULL : has_ref ? ref_trans : g->trans;
+        st = raise_to_floor(g, rr, rq, rt, work_root, work, trans, &rep.floor_raised);
+        if (st != MLR_OK) {
+            mlr_diag_set(diag, st, 0, 0, "guards apply: %s", st == MLR_E_NO_MEMORY
+                         ? "out of memory" : "forward kinematics of the result failed");
+            goto done;
+        }
     }
     for (size_t j = 0; j < J; j++) {
         rep.limited_joints += counts[j] > 0;
@@ -560,5 +700,6 @@ done:
     free_array(&g->alloc, work_root, 3 * N, sizeof(double));
     free_array(&g->alloc, counts, J, sizeof(size_t));
     free_array(&g->alloc, counts2, J, sizeof(size_t));
+    free_array(&g->alloc, hinge_tmp, 4 * N * J, sizeof(double));
     return st;
 }

@@ -9,7 +9,9 @@
  *   2. foot contacts (mlr_contacts.h, mlr_cleanup.h): the contacts of the input, found once at
  *      create, pinned by two-bone IK with the corrections blended in time;
  *   3. the floor (mlr_cleanup.h): a flat floor from the input's contacts (or given); no foot
- *      point goes below it where the reference's did not.
+ *      point goes below it where the reference's did not: IK on the legs first, and where the
+ *      limited legs cannot keep a foot up (an exaggerated crouch would need a knee folded
+ *      past its range), the whole body is raised, smoothly.
  *
  * Use, per input clip (the handle keeps copies of everything it needs):
  *
@@ -86,6 +88,8 @@ typedef struct mlr_guards_report {
     size_t floor_frames;    /* frames where some foot was raised to the floor */
     double floor_height;    /* the floor used; NaN when the floor guard was off or unknown */
     double root_shift_max;  /* largest root correction of the cleanup (length units) */
+    size_t floor_raised;    /* frames where a foot point was still below the floor after the
+                               cleanup and the limits, so the whole body was raised */
 } mlr_guards_report;
 
 /**

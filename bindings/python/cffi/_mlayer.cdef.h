@@ -426,7 +426,8 @@ typedef enum mlr_cleanup_key {
     MLR_CLEANUP_OPT_FLOOR_QUANTILE = 6,
     MLR_CLEANUP_OPT_REF_SMOOTH = 7,
     MLR_CLEANUP_OPT_PIN_SMOOTH = 8,
-    MLR_CLEANUP_OPT_ROOT = 9
+    MLR_CLEANUP_OPT_ROOT = 9,
+    MLR_CLEANUP_OPT_MAX_FOLD = 10
 } mlr_cleanup_key;
 typedef struct mlr_cleanup_option {
     int key;
@@ -483,6 +484,7 @@ typedef struct mlr_guards_report {
     size_t floor_frames;
     double floor_height;
     double root_shift_max;
+    size_t floor_raised;
 } mlr_guards_report;
 mlr_status mlr_guards_create(const mlr_rig *rig, double fps, size_t n_frames,
                              const double *root_pos, const double *rot, const double *trans,

@@ -50,6 +50,8 @@ class GuardReport:
     floor_frames    frames where some foot was raised to the floor
     floor_height    the floor used along the up axis (NaN when the floor guard was off)
     root_shift_max  largest root correction of the contact cleanup, in the clip's units
+    floor_raised    frames where the whole body was raised because a foot the limited legs
+                    could not keep up was still below the floor
     """
     limited: dict = field(default_factory=dict)
     limits_applied: bool = False
@@ -57,6 +59,7 @@ class GuardReport:
     floor_frames: int = 0
     floor_height: float = float("nan")
     root_shift_max: float = 0.0
+    floor_raised: int = 0
 
 
 def _limits_mode(limits):
@@ -205,7 +208,7 @@ class Synthesis:
             limited={n: int(k) for n, k in zip(self.motion.joint_names, limited) if k},
             limits_applied=bool(rep.limits_applied), contact_frames=int(rep.contact_frames),
             floor_frames=int(rep.floor_frames), floor_height=float(rep.floor_height),
-            root_shift_max=float(rep.root_shift_max))
+            root_shift_max=float(rep.root_shift_max), floor_raised=int(rep.floor_raised))
         return synthesized.with_frames(root_pos=root, rot=rot), report
 
     def run(self, alpha=1.0, joints=None, *, root_alpha=None, residual=False):
