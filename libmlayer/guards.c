@@ -658,6 +658,9 @@ mlr_status mlr_guards_apply(const mlr_guards *g, const double *alpha, size_t n_a
                                   rt, g->n_points,
                                   g->joints, g->end_sites, C ? g->contacts : none, copts,
                                   n_copts, work_root, work, &crep, &g->alloc, diag);
+        if (st == MLR_OK) /* the root's total correction is the sum over the rounds; its
+                             largest value is bounded by the sum of each round's largest */
+            rep.root_shift_max += crep.root_shift_max;
         if (st == MLR_OK && rep.limits_applied) {
             /* the last round limits the hinges only (knees, elbows: a rotation about the
                hinge axis each), so the feet the cleanup pinned stay where IK put them
@@ -686,7 +689,6 @@ mlr_status mlr_guards_apply(const mlr_guards *g, const double *alpha, size_t n_a
         rep.contact_frames = crep.contact_frames;
         rep.floor_frames = crep.floor_frames;
         rep.floor_height = floor_on ? crep.floor_height : NAN;
-        rep.root_shift_max = crep.root_shift_max;
     }
     if (floor_on) {
         const double *rr = !g->follow ? NULL : has_ref ? ref_root_pos : g->root_pos;
