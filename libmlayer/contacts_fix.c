@@ -430,7 +430,7 @@ mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t N, double fps, int up
     /* ---- feet ---- */
     foot feet[64];
     size_t nf = 0;
-    work w = {rig, N, J, C, fps, up, &cfg, NULL, NULL, NULL, NULL};
+    work w = {rig, N, J, C, fps, up, &cfg, NULL, NULL, NULL, NULL, NULL};
     mlr_allocator A;
     mlr_allocator_resolve(alloc, &A);
     arena ar = {.a = &A, .st = MLR_OK};
@@ -936,7 +936,10 @@ fail:
     release(&ar);
     return mlr_diag_set(diag, ar.st, 0, 0, "cleanup: out of memory");
 fail_st:
-    mlr_diag_set(diag, st, 0, 0, "cleanup: internal solve failed (status %d)", (int)st);
+    if (st == MLR_E_NO_MEMORY)
+        mlr_diag_set(diag, st, 0, 0, "cleanup: out of memory");
+    else
+        mlr_diag_set(diag, st, 0, 0, "cleanup: internal solve failed (status %d)", (int)st);
 fail_st_keep:
     mlr_band_destroy(w.pin);
     release(&ar);
