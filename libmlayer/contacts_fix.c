@@ -161,6 +161,30 @@ static double quantile_of(double *v, size_t n, double q)
 /* Forward kinematics of the joints marked in need (closed under parents) of frame f, with the arithmetic of mlr_fk_arrays (mlr_fk.h), so each computed
    value is bit for bit what the full FK gives; the other joints are not written. tidx[j]: j's
    index among the rig's trans joints, or -1. wp, wrot_f: J x 3 and J x 4, the frame's. */
+/* mlr_quat_mul and mlr_quat_rotate (quat.c), the same expressions (the library builds with
+   -ffp-contract=off, so the same bits), inlined into the FK below */
+static inline void fk_qmul(const mlr_quat *a, const mlr_quat *b, mlr_quat *out)
+{
+    const double aw = a->w, ax = a->x, ay = a->y, az = a->z;
+    const double bw = b->w, bx = b->x, by = b->y, bz = b->z;
+    out->w = aw * bw - ax * bx - ay * by - az * bz;
+    out->x = aw * bx + ax * bw + ay * bz - az * by;
+    out->y = aw * by - ax * bz + ay * bw + az * bx;
+    out->z = aw * bz + ax * by - ay * bx + az * bw;
+}
+
+static inline void fk_qrot(const mlr_quat *q, const double *v, double *o)
+{
+    const double w = q->w, ux = q->x, uy = q->y, uz = q->z;
+    const double vx = v[0], vy = v[1], vz = v[2];
+    const double tx = 2.0 * (uy * vz - uz * vy);
+    const double ty = 2.0 * (uz * vx - ux * vz);
+    const double tz = 2.0 * (ux * vy - uy * vx);
+    o[0] = vx + w * tx + (uy * tz - uz * ty);
+    o[1] = vy + w * ty + (uz * tx - ux * tz);
+    o[2] = vz + w * tz + (ux * ty - uy * tx);
+}
+
 static void fk_masked_frame(const mlr_rig *rig, size_t f, const uint8_t *need,
                             const int32_t *tidx, const double *root_pos, const double *rot,
                             const double *trans, double *wp, double *wrot_f)
@@ -179,13 +203,12 @@ static void fk_masked_frame(const mlr_rig *rig, size_t f, const uint8_t *need,
         const size_t p = (size_t)parents[j];
         const double *t = tidx[j] >= 0 ? trans + 3 * (P * f + (size_t)tidx[j]) : offsets + 3 * j;
         const mlr_quat q = {r[4 * j], r[4 * j + 1], r[4 * j + 2], r[4 * j + 3]};
-        mlr_quat_mul(&wr[p], &q, &wr[j]);
-        const mlr_vec3 v = {t[0], t[1], t[2]};
-        mlr_vec3 o;
-        mlr_quat_rotate(&wr[p], &v, &o);
-        wp[3 * j] = wp[3 * p] + o.x;
-        wp[3 * j + 1] = wp[3 * p + 1] + o.y;
-        wp[3 * j + 2] = wp[3 * p + 2] + o.z;
+        fk_qmul(&wr[p], &q, &wr[j]);
+        double o[3];
+        fk_qrot(&wr[p], t, o);
+        wp[3 * j] = wp[3 * p] + o[0];
+        wp[3 * j + 1] = wp[3 * p + 1] + o[1];
+        wp[3 * j + 2] = wp[3 * p + 2] + o[2];
     }
 }
 
@@ -644,15 +667,15 @@ mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t N, double fps, int up
     uint8_t *anyF = take(&ar, N, 1);
     if (ar.st != MLR_OK)
         goto fail;
+    /* the feet's arrays, one block each for all feet (the arena holds MAX_BLOCKS blocks) */
+    uint8_t *all_uf = take(&ar, N * nf, 2);
+    double *all_at = take(&ar, N * nf, 7 * sizeof(double));
+    if (ar.st != MLR_OK)
+        goto fail;
     for (size_t k = 0; k < nf; k++) {
         foot *ft = &feet[k];
-        ft->U = take(&ar, N, 1);
-        ft->F = take(&ar, N, 1);
-        ft->at = take(&ar, N * 3, sizeof(double));
-        ft->tt = take(&ar, N * 3, sizeof(double));
-        ft->lift = take(&ar, N, sizeof(double));
-        if (ar.st != MLR_OK)
-            goto fail;
+        ft->U = all_uf + 2 * N * k, ft->F = ft->U + N;
+        ft->at = all_at + 7 * N * k, ft->tt = ft->at + 3 * N, ft->lift = ft->tt + 3 * N;
         size_t nu = 0;
         for (size_t f = 0; f < N; f++) {
             for (size_t i = 0; i < ft->n_cols; i++)
@@ -765,6 +788,8 @@ mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t N, double fps, int up
         const size_t half = (size_t)fmax(1.0, round(0.1 * fps));
         /* the raised-cosine window's weights, by offset g - f + half */
         double *wtab = take(&ar, 2 * half + 1, sizeof(double));
+        double *n2s = take(&ar, N, sizeof(double));
+        size_t *dq = take(&ar, N, sizeof(size_t));
         if (ar.st != MLR_OK)
             goto fail;
         for (size_t i = 0; i <= 2 * half; i++) {
@@ -834,18 +859,24 @@ mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t N, double fps, int up
             if (!any)
                 break;
             /* widen each need to +-0.1 s (the largest need there), then blend and smooth */
+            /* (a sliding-window maximum: a queue of frames whose squared needs decrease, ties
+               kept in frame order, so the front is the first largest, as a scan would find) */
+            for (size_t g = 0; g < N; g++)
+                n2s[g] = need[3 * g] * need[3 * g] + need[3 * g + 1] * need[3 * g + 1] +
+                         need[3 * g + 2] * need[3 * g + 2];
+            size_t qh = 0, qt = 0, next = 0;
             for (size_t f = 0; f < N; f++) {
-                size_t best = f;
-                double bn = -1.0;
                 const size_t lo = f > half ? f - half : 0, hi = f + half < N ? f + half : N - 1;
-                for (size_t g = lo; g <= hi; g++) {
-                    const double n2 = need[3 * g] * need[3 * g] + need[3 * g + 1] * need[3 * g + 1] +
-                                      need[3 * g + 2] * need[3 * g + 2];
-                    if (n2 > bn)
-                        bn = n2, best = g;
+                for (; next <= hi; next++) {
+                    while (qt > qh && n2s[dq[qt - 1]] < n2s[next])
+                        qt--;
+                    dq[qt++] = next;
                 }
+                while (dq[qh] < lo)
+                    qh++;
+                const size_t best = dq[qh];
                 memcpy(wide + 3 * f, need + 3 * best, 3 * sizeof(double));
-                nmask[f] = bn > 0.0;
+                nmask[f] = n2s[best] > 0.0;
             }
             /* ... then average over the same +-0.1 s with a raised-cosine window: a smooth
                shift (no steps where the widest need changes) that still covers each need at its

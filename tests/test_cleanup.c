@@ -613,6 +613,68 @@ START_TEST(every_allocation_failure_returns_no_memory_without_leaks)
 }
 END_TEST
 
+START_TEST(a_rig_with_eight_feet_is_cleaned_up)
+{
+    /* a crab: the root with 8 legs (hip, knee, ankle); every ankle a contact point. Scratch
+       blocks no longer grow with the number of feet (they did: 5 or more feet ran out of the
+       arena's blocks and returned MLR_E_NO_MEMORY) */
+    enum { L = 8, JC = 1 + 3 * L, NC = 120 };
+    int32_t par[JC];
+    double off[3 * JC];
+    const char *nm[JC];
+    char buf[JC][16];
+    par[0] = -1, off[0] = off[1] = off[2] = 0.0, nm[0] = "Body";
+    int32_t pts[L];
+    for (int l = 0; l < L; l++) {
+        const double a = 2.0 * PI * l / L;
+        for (int b = 0; b < 3; b++) {
+            const int j = 1 + 3 * l + b;
+            par[j] = b == 0 ? 0 : j - 1;
+            snprintf(buf[j], sizeof buf[j], "leg%d_%d", l, b);
+            nm[j] = buf[j];
+            off[3 * j] = b == 0 ? cos(a) : b == 1 ? 2.0 * cos(a) : 0.3 * cos(a);
+            off[3 * j + 1] = b == 0 ? 0.0 : b == 1 ? 1.0 : -3.0;
+            off[3 * j + 2] = b == 0 ? sin(a) : b == 1 ? 2.0 * sin(a) : 0.3 * sin(a);
+        }
+        pts[l] = 3 + 3 * l;
+    }
+    mlr_rig rg = {JC, par, off, nm, 0, NULL, 0, NULL, NULL};
+    double *root = malloc(3 * NC * sizeof(double)), *rot = malloc(4 * NC * JC * sizeof(double));
+    double *oroot = malloc(3 * NC * sizeof(double)), *orot = malloc(4 * NC * JC * sizeof(double));
+    uint8_t *c = malloc(NC * L);
+    for (size_t f = 0; f < NC; f++) {
+        root[3 * f] = 0.01 * (double)f, root[3 * f + 1] = 2.0, root[3 * f + 2] = 0.0;
+        for (size_t j = 0; j < JC; j++)
+            qx(0.0, rot + 4 * (f * JC + j));
+        for (int l = 0; l < L; l++)
+            c[f * L + (size_t)l] = f >= 20 + 5 * (size_t)l && f < 60 + 5 * (size_t)l;
+    }
+    mlr_cleanup_report rep;
+    mlr_diag d;
+    ck_assert_msg(mlr_cleanup_contacts(&rg, NC, 60.0, MLR_AXIS_Y, root, rot, NULL, NULL, NULL,
+                                       NULL, L, pts, NULL, c, NULL, 0, oroot, orot, &rep, NULL,
+                                       &d) == MLR_OK, "%s", d.message);
+    ck_assert_uint_eq(rep.contact_frames, 75);
+    /* every ankle pinned to its mean over its contact */
+    double *pos = malloc(3 * NC * JC * sizeof(double)), *wr = malloc(4 * NC * JC * sizeof(double));
+    double *pos0 = malloc(3 * NC * JC * sizeof(double));
+    ck_assert_int_eq(mlr_fk_arrays(NC, JC, par, off, root, rot, 0, NULL, NULL, pos0, wr, NULL),
+                     MLR_OK);
+    ck_assert_int_eq(mlr_fk_arrays(NC, JC, par, off, oroot, orot, 0, NULL, NULL, pos, wr, NULL),
+                     MLR_OK);
+    for (int l = 0; l < L; l++) {
+        const size_t lo = 20 + 5 * (size_t)l, a = (size_t)pts[l];
+        double m[3] = {0, 0, 0};
+        for (size_t f = lo; f < lo + 40; f++)
+            for (int k = 0; k < 3; k++)
+                m[k] += pos0[3 * (f * JC + a) + (size_t)k] / 40.0;
+        for (size_t f = lo; f < lo + 40; f++)
+            ck_assert_msg(dist(pos + 3 * (f * JC + a), m) < 1e-7, "leg %d frame %zu", l, f);
+    }
+    free(pos), free(wr), free(pos0), free(root), free(rot), free(oroot), free(orot), free(c);
+}
+END_TEST
+
 static Suite *cleanup_suite(void)
 {
     Suite *s = suite_create("cleanup");
@@ -623,6 +685,7 @@ static Suite *cleanup_suite(void)
     tcase_add_test(tc, max_fold_moves_the_root_away_from_a_near_target);
     tcase_add_test(tc, floor_height_is_the_quantile_of_contact_heights);
     tcase_add_loop_test(tc, real_clips_pinned_and_above_the_floor, 0, (int)MLR_COUNTOF(clips));
+    tcase_add_test(tc, a_rig_with_eight_feet_is_cleaned_up);
     tcase_add_test(tc, bad_input_gets_the_right_status_and_message);
     tcase_add_test(tc, every_allocation_failure_returns_no_memory_without_leaks);
     suite_add_tcase(s, tc);
