@@ -89,7 +89,8 @@ int main(int argc, char **argv)
                             {mlr_bench_stream_cases, &mlr_bench_stream_count},
                             {mlr_bench_layers_cases, &mlr_bench_layers_count},
                             {mlr_bench_cluster_cases, &mlr_bench_cluster_count},
-                            {mlr_bench_grbf_cases, &mlr_bench_grbf_count}};
+                            {mlr_bench_grbf_cases, &mlr_bench_grbf_count},
+                            {mlr_bench_guards_cases, &mlr_bench_guards_count}};
     printf("name\tn\tmedian_ns\tmin_ns\tns_per_elem\tchecksum\n");
     int failures = 0;
     for (size_t t = 0; t < sizeof tables / sizeof tables[0]; t++) {

@@ -34,5 +34,7 @@ extern const mlr_bench_case mlr_bench_cluster_cases[];
 extern const size_t mlr_bench_cluster_count;
 extern const mlr_bench_case mlr_bench_grbf_cases[];
 extern const size_t mlr_bench_grbf_count;
+extern const mlr_bench_case mlr_bench_guards_cases[];
+extern const size_t mlr_bench_guards_count;
 
 #endif

@@ -45,6 +45,7 @@ static void release(arena *ar)
 typedef struct config {
     double blend, reach, floor_height, floor_q, ref_smooth, pin_smooth, max_fold;
     int passes, floor_on, floor_given, root_on;
+    double keep_stiller;
 } config;
 
 static mlr_status parse_options(const mlr_cleanup_option *opts, size_t n_opts, config *cfg,
@@ -55,13 +56,14 @@ static mlr_status parse_options(const mlr_cleanup_option *opts, size_t n_opts, c
     cfg->floor_given = 0, cfg->floor_height = NAN, cfg->floor_q = 0.05;
     cfg->ref_smooth = 0.02, cfg->pin_smooth = 0.02, cfg->root_on = 1;
     cfg->max_fold = 3.14159265358979323846;
+    cfg->keep_stiller = 0;
     if (n_opts && !opts)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "opts is NULL but n_opts is %zu",
                             n_opts);
     for (size_t i = 0; i < n_opts; i++) {
         const int key = opts[i].key;
         const double v = opts[i].value;
-        if (key < MLR_CLEANUP_OPT_BLEND || key > MLR_CLEANUP_OPT_MAX_FOLD)
+        if (key < MLR_CLEANUP_OPT_BLEND || key > MLR_CLEANUP_OPT_KEEP_STILLER)
             return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "unknown option key %d", key);
         if (seen[key])
             return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "option key %d given twice", key);
@@ -82,6 +84,10 @@ static mlr_status parse_options(const mlr_cleanup_option *opts, size_t n_opts, c
         case MLR_CLEANUP_OPT_FLOOR_QUANTILE: ok = v >= 0.0 && v <= 1.0; cfg->floor_q = v; break;
         case MLR_CLEANUP_OPT_REF_SMOOTH: ok = v >= 0.0; cfg->ref_smooth = v; break;
         case MLR_CLEANUP_OPT_PIN_SMOOTH: ok = v > 0.0; cfg->pin_smooth = v; break;
+        case MLR_CLEANUP_OPT_KEEP_STILLER:
+            ok = v == 0.0 || v >= 1.0;
+            cfg->keep_stiller = v;
+            break;
         case MLR_CLEANUP_OPT_MAX_FOLD:
             ok = v > 0.0 && v <= 3.14159265358979323846;
             cfg->max_fold = v;
@@ -434,6 +440,29 @@ static mlr_status spread_rotations(work *w, double *rot, const double *newr, con
     return MLR_OK;
 }
 
+/* Horizontal path length of a foot's contact points (P: N x C x 3) over consecutive contact
+   frames of the run [s, e). */
+static double run_sliding(const double *P, const uint8_t *contacts, size_t C, const foot *ft,
+                          size_t s, size_t e, int up)
+{
+    double len = 0.0;
+    for (size_t f = s; f + 1 < e; f++)
+        for (size_t i = 0; i < ft->n_cols; i++) {
+            const size_t c = ft->cols[i];
+            if (!contacts[f * C + c] || !contacts[(f + 1) * C + c])
+                continue;
+            double d2 = 0.0;
+            for (int d = 0; d < 3; d++)
+                if (d != up) {
+                    const double x = P[3 * ((f + 1) * C + c) + (size_t)d] -
+                                     P[3 * (f * C + c) + (size_t)d];
+                    d2 += x * x;
+                }
+            len += sqrt(d2);
+        }
+    return len;
+}
+
 static int has_ancestor_in(const int32_t *parents, int32_t j, const uint8_t *listed)
 {
     for (int32_t p = parents[j]; p >= 0; p = parents[p])
@@ -703,6 +732,12 @@ mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t N, double fps, int up
             size_t e = s;
             while (e < N && ft->U[e])
                 e++;
+            if (have_ref && cfg.keep_stiller > 0.0 &&
+                run_sliding(P, contacts, C, ft, s, e, up) <=
+                    cfg.keep_stiller * run_sliding(Pr, contacts, C, ft, s, e, up)) {
+                s = e; /* the foot's own trajectory slides no more than the reference's: kept */
+                continue;
+            }
             if (have_ref) {
                 double o[3] = {0, 0, 0};
                 size_t cnt = 0;

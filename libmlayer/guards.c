@@ -9,6 +9,9 @@
 #ifndef GUARDS_ROUNDS
 #define GUARDS_ROUNDS 2
 #endif
+#ifndef GUARDS_KEEP_STILLER
+#define GUARDS_KEEP_STILLER 1.25
+#endif
 #define GUARDS_LIMITS_SOFT 0.15 /* mlr_limits' default MLR_LIMITS_OPT_SOFT */
 
 struct mlr_guards {
@@ -618,12 +621,23 @@ mlr_status mlr_guards_apply(const mlr_guards *g, const double *alpha, size_t n_a
             }
             memset(none, 0, g->n_points * N);
         }
-        mlr_cleanup_option copts[4];
+        mlr_cleanup_option copts[5];
         size_t n_copts = 0;
         /* a given reference (the denoised motion) is followed as it is; the input is
          * smoothed against its capture noise first (the cleanup's default) */
         if (has_ref && g->follow)
             copts[n_copts++] = (mlr_cleanup_option){MLR_CLEANUP_OPT_REF_SMOOTH, 0.0};
+        /* a contact whose synthesized foot slides no more than the reference's keeps its own
+           trajectory; when denoising (every alpha 1) up to GUARDS_KEEP_STILLER times as much,
+           so that an input that does not slide comes out of denoise as it went in (the
+           denoised feet then differ from the input's by smoothing alone) */
+        if (g->follow) {
+            int denoising = 1;
+            for (size_t k = 0; k < n_alpha; k++)
+                denoising &= alpha[k] == 1.0;
+            copts[n_copts++] = (mlr_cleanup_option){MLR_CLEANUP_OPT_KEEP_STILLER,
+                                                    denoising ? GUARDS_KEEP_STILLER : 1.0};
+        }
         copts[n_copts++] = (mlr_cleanup_option){MLR_CLEANUP_OPT_FLOOR, floor_on ? 1.0 : 0.0};
         if (rep.limits_applied)
             copts[n_copts++] = (mlr_cleanup_option){MLR_CLEANUP_OPT_MAX_FOLD,

@@ -75,9 +75,13 @@ typedef enum mlr_cleanup_key {
     MLR_CLEANUP_OPT_PIN_SMOOTH = 8,     /* seconds, > 0: time scale of the map's smoothing
                                            outside the constrained frames; default 0.02 */
     MLR_CLEANUP_OPT_ROOT = 9,           /* 1: the root may move (default), 0: never */
-    MLR_CLEANUP_OPT_MAX_FOLD = 10       /* radians in (0, pi]: the largest knee flexion IK may
+    MLR_CLEANUP_OPT_MAX_FOLD = 10,      /* radians in (0, pi]: the largest knee flexion IK may
                                            use; a target nearer the hip moves the root away
                                            (on contact and floor frames); default pi (none) */
+    MLR_CLEANUP_OPT_KEEP_STILLER = 11   /* k >= 1: a foot's contact run whose own contact
+                                           points slide (horizontal path length) at most k
+                                           times the reference's keeps its own trajectory; 0
+                                           (default): every run follows the reference */
 } mlr_cleanup_key;
 
 /** One option: key (an mlr_cleanup_key) and its value. A frozen value type. */

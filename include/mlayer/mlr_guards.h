@@ -18,13 +18,15 @@
  *     mlr_layers_decompose(...)                    the layers of the input
  *     mlr_guards_create(rig, fps, input, ...)      contacts, floor and limits of the input
  *     mlr_layers_synthesize(layers, alpha, ...)    M' = Mb (+) alpha delta_c
- *     mlr_guards_apply(guards, alpha, ref, M')     M' made plausible, in place
+ *     mlr_guards_apply(guards, alpha, NULL, M')    M' made plausible, in place
  *
  * The reference of apply is the motion whose foot trajectories the pinned feet follow during
  * contacts (shifted horizontally by one offset per contact, toward where the synthesized foot
- * is): mlayer passes the denoised motion (the layers synthesized at alpha = 1), so the feet get
- * no capture noise back and slide no more than the denoised motion; it is followed as it is. NULL
- * uses the input, smoothed over 0.02 s against its capture noise first.
+ * is). NULL (what mlayer uses) is the input, smoothed over 0.02 s against its capture noise;
+ * a given reference is followed as it is. Per foot and contact, the synthesized foot keeps its
+ * own trajectory where that slides no more than the reference's (MLR_CLEANUP_OPT_KEEP_STILLER):
+ * so the feet slide at most as much as the input's, and an input that does not slide comes out
+ * of denoise as it went in.
  *
  * Rigs whose body translation rides on a non-root joint (position channels of "Hips" under a
  * static root): the frames here are whole motions (root_pos, rot and every trans joint), so

@@ -30,7 +30,8 @@ _AXES = {"x": 0, "y": 1, "z": 2, 0: 0, 1: 1, 2: 2}
 _OPT = {"blend": lib.MLR_CLEANUP_OPT_BLEND, "reach": lib.MLR_CLEANUP_OPT_REACH,
         "passes": lib.MLR_CLEANUP_OPT_PASSES, "floor_quantile": lib.MLR_CLEANUP_OPT_FLOOR_QUANTILE,
         "ref_smooth": lib.MLR_CLEANUP_OPT_REF_SMOOTH, "pin_smooth": lib.MLR_CLEANUP_OPT_PIN_SMOOTH,
-        "root": lib.MLR_CLEANUP_OPT_ROOT, "max_fold": lib.MLR_CLEANUP_OPT_MAX_FOLD}
+        "root": lib.MLR_CLEANUP_OPT_ROOT, "max_fold": lib.MLR_CLEANUP_OPT_MAX_FOLD,
+        "keep_stiller": lib.MLR_CLEANUP_OPT_KEEP_STILLER}
 
 
 def _up(up) -> int:

@@ -4,12 +4,14 @@ then synthesize new motion from it (paper 2).
     mlayer primitives CLIPS... -o model.npz [--k auto|K] [--som 30x30] [--pca] [--epochs 20]
                                [--lattice 15x15] [--kernel thin_plate|gaussian] [--plots PREFIX]
     mlayer generate model.npz --frames 300 [--start-frame T] [--noise S] [--seed N]
-                              [--most-likely] -o new.bvh
+                              [--most-likely] [--no-guards] -o new.bvh
 
 `primitives` writes, next to the model (or at --plots PREFIX): PREFIX_som.png (the lattice with
 the first clip's trajectory and the primitive centres, like paper Figure 1), PREFIX_elbow.png
 (inertia against k, when --k auto) and PREFIX_transitions.png (the transition matrix, like
-Figure 3). Progress goes to stderr. Bad input: one line on stderr and exit status 1.
+Figure 3). `generate` applies the guards of the training clips (their contacts, joint limits
+and floor; `--no-guards`: the raw mapping) and says what they did. Progress goes to stderr.
+Bad input: one line on stderr and exit status 1.
 """
 from __future__ import annotations
 
@@ -207,11 +209,17 @@ def _cmd_generate(args) -> int:
     model = PrimitiveModel.load(args.model)
     motion, info = model.generate(args.frames, start_frame=args.start_frame, noise=args.noise,
                                   seed=args.seed, most_likely=args.most_likely,
-                                  return_info=True)
+                                  guards=not args.no_guards, return_info=True)
     write_bvh(motion, args.output)
     seq = " ".join(str(int(s)) for s in info["primitives"])
     print(f"generate: wrote {args.output} ({motion.n_frames} frames at {motion.fps:g} fps; "
           f"primitives {seq})")
+    r = info["guards"]
+    if r is not None:
+        lim = ", ".join(f"{n} {k}" for n, k in r.limited.items()) or "none"
+        print(f"generate: guards: contacts of the training frames pinned on {r.contact_frames} "
+              f"frames, floor {r.floor_height:.4g} ({r.floor_frames} frames raised to it, "
+              f"{r.floor_raised} with the whole body), joints limited (frames): {lim}")
     return 0
 
 
@@ -225,6 +233,8 @@ def _generate_args(p) -> None:
     p.add_argument("--most-likely", action="store_true",
                    help="follow the most likely next primitive (eq. 5) instead of sampling")
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--no-guards", action="store_true",
+                   help="the raw mapping: no joint limits, contact cleanup or floor")
     p.add_argument("-o", "--output", required=True, help="output BVH")
 
 

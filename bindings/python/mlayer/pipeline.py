@@ -14,11 +14,12 @@ What runs, in order, on ``M' = Mb (+) alpha delta_c``:
    angle); other joints stay within published human ranges of motion (human rigs) or within
    the input's range widened by alpha (a dog); a soft saturation, so the motion stays smooth;
 2. the foot contacts of the input (detected once, on the input) pinned by two-bone IK, the feet
-   following the denoised motion's trajectories, with the corrections blended in time;
-3. the floor of the input's contacts: no foot point goes below it where the denoised motion's
-   did not.
+   following the input's trajectories (smoothed over 0.02 s), or keeping their own where those
+   slide less, with the corrections blended in time;
+3. the floor of the input's contacts: no foot point goes below it where the input's did not
+   (IK on the legs; where the limited legs cannot keep a foot up, the whole body rises).
 
-Each :class:`Synthesis` holds one input's decomposition, denoised motion and guards, so a
+Each :class:`Synthesis` holds one input's decomposition and guards, so a
 second alpha (a slider move, an augmentation sweep) costs a synthesis and the guards only.
 """
 from __future__ import annotations
@@ -131,11 +132,6 @@ class Synthesis:
         self.layers = layers if layers is not None else decompose(motion, **layer_options)
 
     @functools.cached_property
-    def denoised(self):
-        """The layers synthesized at alpha = 1: the reference the pinned feet follow."""
-        return self.layers.synthesize(1.0)
-
-    @functools.cached_property
     def _guards(self):
         m = self.motion
         root, rot, trans = m._frames()
@@ -189,20 +185,24 @@ class Synthesis:
 
     def guard(self, synthesized, alphas, reference=None):
         """``(motion, GuardReport)``: the guards applied to ``synthesized`` (a Motion on the
-        input's frames made with the (1 + J,) ``alphas``, as :meth:`Layers.alphas` gives them);
-        the feet follow ``reference`` (default: :attr:`denoised`)."""
+        input's frames made with the (1 + J,) ``alphas``, as :meth:`Layers.alphas` gives them).
+        During contacts the feet follow ``reference`` (default: the input, smoothed over
+        0.02 s against capture noise), or keep their own trajectory where it slides less."""
         a = np.ascontiguousarray(alphas, dtype=np.float64).reshape(-1)
-        ref = self.denoised if reference is None else reference
         root, rot, trans = (x.copy() for x in synthesized._frames())
-        rr, rq, rt = ref._frames()
+        if reference is None:
+            rr = rq = rt = None
+        else:
+            rr, rq, rt = reference._frames()
+        ref_ptr = (lambda x: ffi.NULL if x is None or not x.size else _arrays.ptr(x))
         J = self.motion.n_joints
         limited = np.zeros(J, dtype=np.uintp)
         rep = ffi.new("mlr_guards_report *")
         diag = ffi.new("mlr_diag *")
         tptr = _arrays.ptr(trans) if trans.size else ffi.NULL
         check(lib.mlr_guards_apply(
-            self._guards, _arrays.ptr(a), a.size, _arrays.ptr(rr), _arrays.ptr(rq),
-            _arrays.ptr(rt) if rt.size else ffi.NULL, _arrays.ptr_out(root), _arrays.ptr_out(rot),
+            self._guards, _arrays.ptr(a), a.size, ref_ptr(rr), ref_ptr(rq), ref_ptr(rt),
+            _arrays.ptr_out(root), _arrays.ptr_out(rot),
             tptr, ffi.cast("size_t *", ffi.from_buffer(limited)), J, rep, diag), "guards", diag)
         report = GuardReport(
             limited={n: int(k) for n, k in zip(self.motion.joint_names, limited) if k},
@@ -224,8 +224,6 @@ class Synthesis:
             r = np.asarray(L.residual)
             out = out.with_frames(root_pos=out.root_pos + r[:, 0],
                                   rot=quat.normalize(quat.mul(out.rot, quat.exp(r[:, 1:]))))
-        if not residual and np.all(a == 1.0):
-            self.__dict__.setdefault("denoised", out)  # denoising: the output is the reference
         return self.guard(out, a)
 
 

@@ -20,6 +20,15 @@ channels the generated motion then drives (the root keeps its training translati
 followed by equation 5) or a list of key poses into a smooth path on the manifold (the LGS
 spline through the primitives' centres, paced by their mean durations), resampled to N frames,
 mapped to poses with the GRBF, smoothed with the LGS and returned as a :class:`mlayer.Motion`.
+
+The guards (:meth:`PrimitiveModel.guard`, on by default) then make the generated motion fit for
+a body, as :func:`mlayer.stylize` does: fit stores the contacts of every training frame, the
+training clips' floor and what their joint limits are learned from; each generated frame gets
+the contacts of the training frames nearest to its manifold point (a contact is cut where the
+generated foot drifts more than a quarter of the body height from where it started: a pin there
+would drag the foot), and the C guards (``mlr_guards.h``, :mod:`mlayer.generate_guards`) pin
+each contact point at its mean position, keep the feet above the training floor and the joints
+within the training clips' limits.
 """
 from __future__ import annotations
 
@@ -38,6 +47,10 @@ from .motion import Motion, Skeleton
 __all__ = ["PrimitiveModel", "heading_quat", "split_heading"]
 
 _FORMAT = 1
+# generated contacts: a pin holds while the generated foot drifts at most this many body heights
+# from where the contact started; a new contact starts after a gap of _PIN_GAP seconds
+_PIN_DRIFT = 0.25
+_PIN_GAP = 0.1
 
 
 def _yaw(rot_root: np.ndarray) -> np.ndarray:
@@ -171,7 +184,97 @@ class PrimitiveModel:
         err = np.sqrt(((fit[:, -3 * J:] - X) ** 2).reshape(-1, J, 3).sum(-1)).mean()
         self.fit_error = float(err)
         _say(progress, f"GRBF: mean joint position error on the training frames {err:.4g}")
+        self._set_guards(clips)
+        _say(progress, f"guards: {len(self.contact_names)} contact points, floor "
+                       f"{self.floor_height:.4g}")
         return self
+
+    def _set_guards(self, clips) -> None:
+        """What the guards of generated motion need from the training clips: the contacts of
+        every training frame (:func:`mlayer.detect_contacts`, the points of the first clip),
+        the floor (:func:`mlayer.cleanup.floor_height` of those contacts over all clips) and
+        the rotations and translations the joint limits are learned from."""
+        from .cleanup import floor_height
+        from .contacts import detect_contacts
+        names = None
+        parts = []
+        for m in clips:
+            if m.n_frames >= 3:
+                names, _ = detect_contacts(m, names) if names is not None \
+                    else detect_contacts(m)
+                break
+        names = list(names) if names is not None else []
+        for m in clips:
+            if names and m.n_frames >= 3:
+                parts.append(detect_contacts(m, names)[1])
+            else:
+                parts.append(np.zeros((m.n_frames, len(names)), dtype=bool))
+        self.contact_names = names
+        self.contacts = np.concatenate(parts).astype(bool)
+        frames = [m._frames() for m in clips]
+        self.train_rot = np.concatenate([f[1] for f in frames])
+        self.train_trans = np.concatenate([f[2] for f in frames])
+        self.floor_height = float("nan")
+        if names and self.contacts.any():
+            whole = Motion(self.skeleton, self.frame_time,
+                           np.concatenate([f[0] for f in frames]), self.train_rot,
+                           self.train_trans)
+            self.floor_height = floor_height(whole, self.contacts, names)
+        self.__dict__.pop("_limits_cache", None)
+
+    @property
+    def has_guards(self) -> bool:
+        """Whether the model holds what the guards of generated motion need (models written
+        before the guards did not)."""
+        return getattr(self, "contacts", None) is not None
+
+    def training_clips(self) -> list:
+        """The training clips' rotations and translations as Motions (the root at its rest
+        translation): what the joint limits are learned from."""
+        ends = list(self.clip_starts[1:]) + [self.train_rot.shape[0]]
+        n = self.train_rot.shape[0]
+        root = np.repeat(np.asarray(self.rest_root_pos, dtype=np.float64)[None], n, axis=0)
+        return [Motion(self.skeleton, self.frame_time, root[a:b], self.train_rot[a:b],
+                       self.train_trans[a:b]) for a, b in zip(self.clip_starts, ends)]
+
+    def joint_limits(self):
+        """:func:`mlayer.joint_limits` of the training clips (made once, kept)."""
+        lim = self.__dict__.get("_limits_cache")
+        if lim is None:
+            from .limits import joint_limits
+            lim = joint_limits(self.training_clips())
+            self.__dict__["_limits_cache"] = lim
+        return lim
+
+    def contacts_along(self, traj) -> np.ndarray:
+        """Contacts (n, C) bool of generated frames at the manifold points traj (n, 2): those
+        of the nearest training frames on the manifold
+        (:func:`mlayer.generate_guards.contacts_along`); C = len(contact_names)."""
+        from .generate_guards import contacts_along
+        return contacts_along(self.points, self.clamp(traj), self.contacts,
+                              1.0 / self.frame_time)
+
+    def guard(self, motion, traj):
+        """``(motion, GuardReport, contacts)``: the guards on a Motion generated along the
+        manifold points traj: the training frames' contacts pinned (each contact point at its
+        mean position over the contact), the training limits (always), the training floor."""
+        from .generate_guards import guard_motion
+        if not self.has_guards:
+            raise InvalidArgumentError("guards: the model was written before generated motion "
+                                       "had guards; fit it again, or generate without guards "
+                                       "(guards=False, --no-guards)")
+        from .contacts import contact_positions
+        from .generate_guards import split_drifting
+        from .metrics import body_height
+        c = self.contacts_along(traj)
+        if c.shape[1]:
+            c = split_drifting(c, contact_positions(motion, self.contact_names),
+                               _PIN_DRIFT * body_height(motion),
+                               round(_PIN_GAP / self.frame_time))
+        floor = self.floor_height if math.isfinite(self.floor_height) else None
+        out, report = guard_motion(motion, self.contact_names, c, limits=self.joint_limits(),
+                                   floor=floor)
+        return out, report, c
 
     def _set_body(self, body: int, clips=None) -> None:
         """The body joint and, when it is not the root, the translations the generated motion
@@ -307,7 +410,7 @@ class PrimitiveModel:
 
     def generate(self, n_frames: int, *, start_frame: int | None = None, start: int | None = None,
                  path=None, key_poses=None, noise: float = 0.0, seed: int = 0,
-                 most_likely: bool = False, smooth: float = 2.0,
+                 most_likely: bool = False, smooth: float = 2.0, guards: bool = True,
                  return_info: bool = False):
         """Synthesize n_frames frames.
 
@@ -318,9 +421,23 @@ class PrimitiveModel:
         Motion), their manifold points (:meth:`to_manifold`) spread evenly over the frames.
         The LGS spline through the knots, clipped to the manifold box, is mapped to poses by
         the GRBF, smoothed by the LGS with lam = smooth, quaternions renormalized; root
-        height, turning and forward motion come from the mapping too. Returns a Motion (and a
-        dict with the manifold path, knots and primitive sequence when return_info).
+        height, turning and forward motion come from the mapping too.
+
+        guards (default True): the plausibility guards of the training clips (:meth:`guard`):
+        the contacts of the training frames nearest to each generated frame's manifold point
+        pinned by IK, the training clips' joint limits, their floor. False gives the raw
+        mapping. Returns a Motion (and a dict with the manifold path, knots and primitive
+        sequence, and with ``contact_names``/``contacts`` (the generated frames' contacts)
+        and ``guards`` (a :class:`mlayer.pipeline.GuardReport`, None when the guards did not
+        run) when return_info).
         """
+        if not isinstance(guards, (bool, np.bool_)):
+            raise InvalidArgumentError(f"generate: guards must be True or False, got "
+                                       f"{guards!r}")
+        if guards and not self.has_guards:
+            raise InvalidArgumentError("generate: the model was written before generated motion "
+                                       "had guards; fit it again, or generate without guards "
+                                       "(guards=False, --no-guards)")
         if isinstance(n_frames, bool) or not isinstance(n_frames, (int, np.integer)) \
                 or n_frames < 2:
             raise InvalidArgumentError(f"generate: frames must be an integer >= 2, got "
@@ -369,9 +486,16 @@ class PrimitiveModel:
             raise InvalidArgumentError("generate: more key poses than frames")
         traj = self.clamp(self.spline(knots, times, n_frames))
         motion = self.motion_along(traj, smooth=smooth)
+        report, contacts = None, None
+        if guards:
+            motion, report, contacts = self.guard(motion, traj)
         if return_info:
+            if contacts is None and self.has_guards:
+                contacts = self.contacts_along(traj)
             return motion, {"trajectory": traj, "knots": knots, "times": times,
-                            "primitives": seq}
+                            "primitives": seq, "guards": report,
+                            "contact_names": list(getattr(self, "contact_names", [])),
+                            "contacts": contacts}
         return motion
 
     def motion_along(self, traj, *, smooth: float = 2.0) -> Motion:
@@ -421,6 +545,11 @@ class PrimitiveModel:
             grbf_width=np.float64(getattr(self.grbf, "width_", 0.0)),
             fit_error=np.float64(self.fit_error), body_joint=np.int64(self.body_joint),
             rest_root_pos=self.rest_root_pos, rest_trans=self.rest_trans)
+        if self.has_guards:
+            arrays.update(contact_names=np.array(self.contact_names, dtype=np.str_),
+                          contacts=self.contacts.astype(np.uint8),
+                          floor_height=np.float64(self.floor_height), train_rot=self.train_rot,
+                          train_trans=self.train_trans)
         if self.manifold == "som":
             arrays["som_codebook"] = self.som_codebook
         else:
@@ -465,6 +594,15 @@ class PrimitiveModel:
                 if self.body_joint != 0:
                     self.rest_root_pos = np.asarray(z["rest_root_pos"], dtype=np.float64)
                     self.rest_trans = np.asarray(z["rest_trans"], dtype=np.float64)
+                # models written before the guards of generated motion have no contacts
+                self.contacts = None
+                if "contacts" in z:
+                    self.contact_names = [str(v) for v in z["contact_names"]]
+                    self.contacts = np.asarray(z["contacts"]).astype(bool).reshape(
+                        self.points.shape[0], len(self.contact_names))
+                    self.floor_height = float(z["floor_height"])
+                    self.train_rot = np.asarray(z["train_rot"], dtype=np.float64)
+                    self.train_trans = np.asarray(z["train_trans"], dtype=np.float64)
                 if self.manifold == "som":
                     self.som_codebook = z["som_codebook"]
                 else:

@@ -75,7 +75,7 @@ def test_synthesis_alphas(walk):
     small = np.linalg.norm(L.control[:, 1:], axis=-1) < 1.4  # 2 |v| < pi: no wrap
     assert np.allclose(v[small], 2 * L.control[:, 1:][small], atol=1e-9)
     # denoise / stylize are the same computations
-    assert np.array_equal(mlayer.denoise(walk, keep_contacts=False).rot, den.rot)
+    assert np.array_equal(mlayer.denoise(walk, keep_contacts=False, floor=None).rot, den.rot)
     assert np.array_equal(mlayer.stylize(walk, 2.0, keep_contacts=False, limits=None,
                                          floor=None).rot, two.rot)
     # the skeleton and frame rate are kept
@@ -280,7 +280,7 @@ def test_denoise_smooths_the_body_translation_where_it_lives(mocap, bandai):
     trans = bandai.trans.copy()
     trans[:, p] += rng.normal(scale=1.0, size=trans[:, p].shape)
     noisy = bandai.with_frames(trans=trans)
-    den = mlayer.denoise(noisy, keep_contacts=False)
+    den = mlayer.denoise(noisy, keep_contacts=False, floor=None)
     drop = _jitter(noisy, hips) / _jitter(den, hips)
     assert drop > 8.0, drop  # measured 14.6; the layers left these channels alone before (1.0)
     # the static root and the other position channels keep their values
@@ -290,7 +290,7 @@ def test_denoise_smooths_the_body_translation_where_it_lives(mocap, bandai):
     cmu = mlayer.read_bvh(mocap / "cmu_131_01_mj_style_walk.bvh")[::4]
     scale = 1.0 * 24.0 / 170.0
     ncmu = cmu.with_frames(root_pos=cmu.root_pos + rng.normal(scale=scale, size=cmu.root_pos.shape))
-    dcmu = mlayer.denoise(ncmu, keep_contacts=False)
+    dcmu = mlayer.denoise(ncmu, keep_contacts=False, floor=None)
     assert _jitter(ncmu, 0) / _jitter(dcmu, 0) > 8.0
     np.testing.assert_array_equal(dcmu.trans, ncmu.trans)
 
@@ -299,8 +299,9 @@ def test_stylize_scales_the_body_translation(bandai):
     hips = bandai.joint_names.index("Hips")
     L = mlayer.decompose(bandai)
     base = body_translation(L.base, hips)
-    den = body_translation(mlayer.stylize(bandai, 1.0, keep_contacts=False), hips)
-    two = mlayer.stylize(bandai, 2.0, keep_contacts=False)
+    den = body_translation(mlayer.stylize(bandai, 1.0, keep_contacts=False, floor=None), hips)
+    two = mlayer.stylize(bandai, 2.0, keep_contacts=False, floor=None,
+                         limits=None)
     d1, d2 = den - base, body_translation(two, hips) - base
     assert np.abs(d1).max() > 1.0  # cm: there is style in the Hips translation to scale
     np.testing.assert_allclose(d2, 2.0 * d1, rtol=0, atol=1e-9 * np.abs(base).max())

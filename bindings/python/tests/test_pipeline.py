@@ -24,8 +24,8 @@ def _read(mocap, name, frames=1800):
 
 def _c_stylize(m, alpha):
     """What a runtime on the C ABI does with every default: decompose (the frame rate is the
-    only option), synthesize at alpha and at 1 (the reference), create the guards with no
-    option and apply them. The body translation goes where mlr_rig_body_translation_joint
+    only option), synthesize at alpha, create the guards with no option and apply them (no
+    reference: the input's). The body translation goes where mlr_rig_body_translation_joint
     says (group 0 of the layers)."""
     N, J = m.n_frames, m.n_joints
     root, rot, trans = m._frames()
@@ -61,7 +61,6 @@ def _c_stylize(m, alpha):
             t[:, list(m.skeleton.trans_joints).index(body)] = g0
         return r, q, t
 
-    ref_r, ref_q, ref_t = synth(1.0)
     out_r, out_q, out_t = synth(alpha)
     g = ffi.new("mlr_guards **")
     tp = _arrays.ptr(trans) if trans.size else ffi.NULL
@@ -70,8 +69,7 @@ def _c_stylize(m, alpha):
     guards = ffi.gc(g[0], lib.mlr_guards_destroy)
     w = np.array([alpha], dtype=np.float64)
     assert lib.mlr_guards_apply(
-        guards, _arrays.ptr(w), 1, _arrays.ptr(ref_r), _arrays.ptr(ref_q),
-        _arrays.ptr(ref_t) if trans.size else ffi.NULL, _arrays.ptr_out(out_r),
+        guards, _arrays.ptr(w), 1, ffi.NULL, ffi.NULL, ffi.NULL, _arrays.ptr_out(out_r),
         _arrays.ptr_out(out_q), _arrays.ptr(out_t) if trans.size else ffi.NULL, ffi.NULL, 0,
         ffi.NULL, diag) == 0, ffi.string(diag.message)
     return m.with_frames(root_pos=out_r, rot=out_q, trans=out_t)

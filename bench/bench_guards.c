@@ -1,0 +1,141 @@
+/* The whole stylize of a runtime on the C ABI against the decomposition alone, on real capture
+ * data: cmu_01_01 (31 joints, 120 fps), the first 2,526 frames after its T-pose frame.
+ *   guards.decompose      mlr_layers_decompose with the frame rate (the C defaults)
+ *   guards.stylize        that, then synthesize at alpha 2 and 1 (the reference), create the
+ *                         guards (contacts, floor, limits of the input) and apply them: every
+ *                         guard on, what mlayer.stylize(m, 2) computes
+ *   guards.apply          mlr_guards_apply alone (a slider move with the guards made once)
+ * n is frames x joints. */
+#include "bench.h"
+
+#include <mlayer/mlayer.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+typedef struct guards_state {
+    mlr_motion *m;
+    mlr_rig rig;
+    const char **names;
+    size_t n, j;
+    double fps;
+    const double *root, *rot; /* frames 1 .. n of the clip */
+    double *out_root, *out_rot, *ref_root, *ref_rot;
+    mlr_layers *layers;
+    mlr_guards *guards;
+} guards_state;
+
+static void teardown(void *p)
+{
+    guards_state *s = p;
+    mlr_guards_destroy(s->guards);
+    mlr_layers_destroy(s->layers);
+    free(s->out_root), free(s->out_rot), free(s->ref_root), free(s->ref_rot);
+    free(s->names);
+    mlr_motion_destroy(s->m);
+    free(s);
+}
+
+static void *setup(size_t n)
+{
+    char path[4096];
+    snprintf(path, sizeof path, "%s/cmu_01_01_playground_jumps.bvh", mlr_bench_mocap_dir());
+    guards_state *s = calloc(1, sizeof *s);
+    if (!s || mlr_bvh_read_file(path, NULL, &s->m, NULL) != MLR_OK) {
+        free(s);
+        return NULL;
+    }
+    s->j = mlr_motion_n_joints(s->m);
+    s->n = n / s->j;
+    if (s->n + 1 > mlr_motion_n_frames(s->m)) {
+        teardown(s);
+        return NULL;
+    }
+    s->fps = 1.0 / mlr_motion_frame_time(s->m);
+    s->names = malloc(s->j * sizeof *s->names);
+    for (size_t k = 0; s->names && k < s->j; k++)
+        s->names[k] = mlr_motion_joint_name(s->m, k);
+    mlr_rig r = {s->j, mlr_motion_parents(s->m), mlr_motion_offsets(s->m), s->names, 0, NULL,
+                 mlr_motion_n_end_sites(s->m), mlr_motion_end_site_parents(s->m),
+                 mlr_motion_end_site_offsets(s->m)};
+    s->rig = r;
+    s->root = mlr_motion_root_pos(s->m) + 3;
+    s->rot = mlr_motion_rot(s->m) + 4 * s->j;
+    s->out_root = malloc(3 * s->n * sizeof(double));
+    s->ref_root = malloc(3 * s->n * sizeof(double));
+    s->out_rot = malloc(4 * s->n * s->j * sizeof(double));
+    s->ref_rot = malloc(4 * s->n * s->j * sizeof(double));
+    if (!s->names || !s->out_root || !s->ref_root || !s->out_rot || !s->ref_rot) {
+        teardown(s);
+        return NULL;
+    }
+    return s;
+}
+
+static int decompose(guards_state *s)
+{
+    const mlr_layers_option o = {MLR_LAYERS_OPT_FPS, s->fps};
+    mlr_layers_destroy(s->layers);
+    s->layers = NULL;
+    return mlr_layers_decompose(s->n, s->j, s->root, s->rot, &o, 1, NULL, &s->layers, NULL);
+}
+
+static int synthesize(guards_state *s, double alpha, double *root, double *rot)
+{
+    return mlr_layers_synthesize(s->layers, 0, s->n, &alpha, 1, root, 3 * s->n, rot,
+                                 4 * s->n * s->j);
+}
+
+static int create_guards(guards_state *s)
+{
+    mlr_guards_destroy(s->guards);
+    s->guards = NULL;
+    return mlr_guards_create(&s->rig, s->fps, s->n, s->root, s->rot, NULL, NULL, 0, NULL,
+                             &s->guards, NULL);
+}
+
+static double apply(guards_state *s)
+{
+    const double alpha = 2.0;
+    mlr_guards_report rep;
+    if (synthesize(s, alpha, s->out_root, s->out_rot) < 0 ||
+        mlr_guards_apply(s->guards, &alpha, 1, s->ref_root, s->ref_rot, NULL, s->out_root,
+                         s->out_rot, NULL, NULL, 0, &rep, NULL) < 0)
+        return -1.0;
+    return s->out_root[3 * (s->n / 2) + 1] + (double)rep.contact_frames;
+}
+
+static double run_decompose(void *p)
+{
+    guards_state *s = p;
+    return decompose(s) < 0 ? -1.0 : (double)mlr_layers_n_frames(s->layers);
+}
+
+static double run_stylize(void *p)
+{
+    guards_state *s = p;
+    if (decompose(s) < 0 || synthesize(s, 1.0, s->ref_root, s->ref_rot) < 0 ||
+        create_guards(s) < 0)
+        return -1.0;
+    return apply(s);
+}
+
+static void *setup_ready(size_t n)
+{
+    guards_state *s = setup(n);
+    if (s && (decompose(s) < 0 || synthesize(s, 1.0, s->ref_root, s->ref_rot) < 0 ||
+              create_guards(s) < 0)) {
+        teardown(s);
+        return NULL;
+    }
+    return s;
+}
+
+static double run_apply(void *p) { return apply(p); }
+
+const mlr_bench_case mlr_bench_guards_cases[] = {
+    {"guards.decompose/n=2526,j=31", 2526 * 31, setup, run_decompose, teardown},
+    {"guards.stylize/n=2526,j=31", 2526 * 31, setup, run_stylize, teardown},
+    {"guards.apply/n=2526,j=31", 2526 * 31, setup_ready, run_apply, teardown},
+};
+const size_t mlr_bench_guards_count = sizeof mlr_bench_guards_cases / sizeof mlr_bench_guards_cases[0];

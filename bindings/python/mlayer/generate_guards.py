@@ -1,0 +1,196 @@
+"""Plausibility guards of generated motion (paper 2 synthesis, :mod:`mlayer.primitives`).
+
+Motion generated from a manifold has no input clip of its own: its contacts, floor and joint
+limits come from the training clips.
+
+* contacts: each generated frame comes from a manifold point; the training frames nearest to it
+  on the manifold (:func:`contacts_along`) vote on each contact point (a foot is in contact
+  where most of them had it in contact), then gaps shorter than 0.05 s are closed and contacts
+  shorter than 0.08 s dropped, as :func:`mlayer.detect_contacts` does;
+* floor: the training clips' floor (:func:`mlayer.cleanup.floor_height` of their contacts);
+* joint limits: :func:`mlayer.joint_limits` of the training clips, always applied (alpha 1).
+
+:func:`guard_motion` runs the C guards (``mlr_guards.h``) on the generated motion itself with
+``MLR_GUARDS_OPT_FOLLOW = 0``: each contact point is pinned at its mean position over the
+contact (the generated feet skate, so there is no trajectory to follow), two-bone IK reaches
+it, the corrections blended in time; no foot point goes below the floor. The composition
+follows :class:`mlayer.pipeline.Synthesis`.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from . import _arrays
+from ._native import ffi, lib
+from ._rig import axis, c_rig
+from .errors import InvalidArgumentError, check
+from .limits import JointLimits
+from .pipeline import GuardReport
+
+__all__ = ["contacts_along", "guard_motion", "clean_contacts", "split_drifting"]
+
+_GAP = 0.05          # seconds: contact gaps closed (as mlr_contacts_detect)
+_MIN_CONTACT = 0.08  # seconds: shorter contacts dropped (as mlr_contacts_detect)
+
+
+def _runs(col: np.ndarray):
+    """(start, end) of the runs of True in a bool column, end exclusive."""
+    d = np.diff(np.r_[0, col.astype(np.int8), 0])
+    return list(zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1)))
+
+
+def clean_contacts(contacts, fps: float, *, gap: float = _GAP,
+                   min_duration: float = _MIN_CONTACT) -> np.ndarray:
+    """Contacts (N, C) bool with gaps shorter than ``gap`` seconds closed, then contacts
+    shorter than ``min_duration`` seconds (at least 2 frames) dropped."""
+    c = np.array(contacts, dtype=bool)
+    g = int(round(gap * fps))
+    m = max(2, int(math.ceil(min_duration * fps - 1e-9)))
+    for k in range(c.shape[1]):
+        col = c[:, k]
+        runs = _runs(col)
+        for (a0, b0), (a1, _) in zip(runs[:-1], runs[1:]):
+            if a1 - b0 <= g:
+                col[b0:a1] = True
+        for a, b in _runs(col):
+            if b - a < m:
+                col[a:b] = False
+    return c
+
+
+def contacts_along(points, traj, contacts, fps: float, *, neighbours: int = 8) -> np.ndarray:
+    """Contacts (n, C) bool of the generated frames at manifold points ``traj`` (n, 2): per
+    frame, the ``neighbours`` training frames nearest on the manifold (``points`` (N, 2), their
+    ``contacts`` (N, C) bool; every training frame tied with the farthest of them counts too,
+    so the SOM's shared units vote whole) vote with equal weight; in contact where more than
+    half of them were. Then :func:`clean_contacts`."""
+    from scipy.spatial import cKDTree
+    pts = np.asarray(points, dtype=np.float64)
+    t = np.asarray(traj, dtype=np.float64)
+    c = np.asarray(contacts, dtype=bool)
+    if c.ndim != 2 or c.shape[0] != pts.shape[0]:
+        raise InvalidArgumentError(f"contacts: expected ({pts.shape[0]}, C), got {c.shape}")
+    n = t.shape[0]
+    if c.shape[1] == 0 or n == 0:
+        return np.zeros((n, c.shape[1]), dtype=bool)
+    tree = cKDTree(pts)
+    k = int(min(max(1, neighbours), pts.shape[0]))
+    d, _ = tree.query(t, k=k)
+    d = d.reshape(n, -1)
+    radius = d[:, -1] * (1.0 + 1e-9) + 1e-12
+    out = np.zeros((n, c.shape[1]), dtype=bool)
+    for i in range(n):
+        idx = tree.query_ball_point(t[i], radius[i])
+        out[i] = c[idx].mean(axis=0) > 0.5
+    return clean_contacts(out, fps)
+
+
+def split_drifting(contacts, positions, radius: float, gap: int) -> np.ndarray:
+    """Contacts (N, C) bool cut where a pin cannot hold: within each contact run of a point,
+    a new run starts where the point's horizontal position (X-Z of ``positions`` (N, C, 3),
+    the generated motion before the guards) has drifted more than ``radius`` from where the
+    current run started; the ``gap`` frames before the cut leave contact (the foot lifts and
+    re-plants). Runs shorter than 2 frames are dropped. The contacts come from training frames
+    in which the body may have stood still, while the generated body walks through the same
+    poses: one pin over such a run would drag the foot behind the body."""
+    c = np.array(contacts, dtype=bool)
+    p = np.asarray(positions, dtype=np.float64)[:, :, [0, 2]]
+    gap = max(1, int(gap))
+    for k in range(c.shape[1]):
+        for a, b in _runs(c[:, k]):
+            start = a
+            t = a + 1
+            while t < b:
+                if np.linalg.norm(p[t, k] - p[start, k]) > radius:
+                    c[max(start + 1, t - gap):t, k] = False
+                    start = t
+                t += 1
+        for a, b in _runs(c[:, k]):
+            if b - a < 2:
+                c[a:b, k] = False
+    return c
+
+
+def _i32(a):
+    return ffi.cast("const int32_t *", ffi.from_buffer(a))
+
+
+def guard_motion(motion, names, contacts, *, limits=None, floor=None, up="y"):
+    """``(motion, GuardReport)``: the C guards on a generated Motion with given contacts.
+
+    names, contacts  C contact point names ("Joint" or "Joint/End") and bool (N, C) contacts
+                     of the motion's frames (C may be 0: no pinning)
+    limits           a JointLimits (applied always, alpha 1) or None (no joint limits)
+    floor            the floor height along ``up`` (finite) or None (no floor guard)
+    Each contact point is pinned at its mean position over the contact
+    (``MLR_GUARDS_OPT_FOLLOW = 0``); no reference motion.
+    """
+    from .contacts import _point
+    from .motion import Motion
+    if not isinstance(motion, Motion):
+        raise InvalidArgumentError(f"motion: expected a mlayer.Motion, got "
+                                   f"{type(motion).__name__}")
+    names = [names] if isinstance(names, str) else list(names)
+    c = np.asarray(contacts)
+    if c.dtype != np.bool_ or c.shape != (motion.n_frames, len(names)):
+        raise InvalidArgumentError(f"contacts: expected a bool array ({motion.n_frames}, "
+                                   f"{len(names)}), got {c.dtype} {c.shape}")
+    if limits is not None and not isinstance(limits, JointLimits):
+        raise InvalidArgumentError(f"limits: expected a JointLimits or None, got {limits!r}")
+    if limits is not None and limits.joint_names != motion.joint_names:
+        raise InvalidArgumentError("limits: made for another skeleton than the motion's")
+    if floor is not None:
+        if isinstance(floor, bool):
+            raise InvalidArgumentError(f"floor: expected a height or None, got {floor!r}")
+        floor = float(floor)
+        if not math.isfinite(floor):
+            raise InvalidArgumentError(f"floor: the height must be finite, got {floor!r}")
+    up_ax = axis(up, "up")
+    opts = [(lib.MLR_GUARDS_OPT_UP, up_ax),
+            (lib.MLR_GUARDS_OPT_LIMITS, lib.MLR_GUARDS_LIMITS_ALWAYS if limits is not None
+             else lib.MLR_GUARDS_LIMITS_OFF),
+            (lib.MLR_GUARDS_OPT_CONTACTS, 1.0 if names else 0.0),
+            (lib.MLR_GUARDS_OPT_FLOOR, 1.0 if floor is not None else 0.0),
+            (lib.MLR_GUARDS_OPT_FOLLOW, 0.0)]
+    if floor is not None:
+        opts.append((lib.MLR_GUARDS_OPT_FLOOR_HEIGHT, floor))
+    copts = ffi.new("mlr_guards_option[]", len(opts))
+    for k, (key, v) in enumerate(opts):
+        copts[k].key, copts[k].value = key, v
+    root, rot, trans = motion._frames()
+    rig, keep = c_rig(motion.skeleton)
+    out = ffi.new("mlr_guards **")
+    diag = ffi.new("mlr_diag *")
+    tptr = _arrays.ptr(trans) if trans.size else ffi.NULL
+    check(lib.mlr_guards_create(rig, motion.fps, motion.n_frames, _arrays.ptr(root),
+                                _arrays.ptr(rot), tptr, copts, len(opts), ffi.NULL, out, diag),
+          "guards", diag)
+    g = ffi.gc(out[0], lib.mlr_guards_destroy)
+    pts = [_point(motion.skeleton, n) for n in names]
+    j = np.array([p[0] for p in pts], dtype=np.int32).reshape(-1)
+    e = np.array([p[1] for p in pts], dtype=np.int32).reshape(-1)
+    cu = np.ascontiguousarray(c, dtype=np.uint8)
+    if names:
+        check(lib.mlr_guards_set_contacts(g, len(pts), _i32(j), _i32(e),
+                                          ffi.cast("const uint8_t *", ffi.from_buffer(cu)),
+                                          diag), "contacts", diag)
+    if limits is not None:
+        check(lib.mlr_guards_set_limits(g, limits._h, diag), "limits", diag)
+    a = np.ones(1)
+    r, q = root.copy(), rot.copy()
+    J = motion.n_joints
+    limited = np.zeros(J, dtype=np.uintp)
+    rep = ffi.new("mlr_guards_report *")
+    check(lib.mlr_guards_apply(
+        g, _arrays.ptr(a), 1, ffi.NULL, ffi.NULL, ffi.NULL, _arrays.ptr_out(r),
+        _arrays.ptr_out(q), tptr, ffi.cast("size_t *", ffi.from_buffer(limited)), J, rep, diag),
+        "guards", diag)
+    del keep
+    report = GuardReport(
+        limited={n: int(k) for n, k in zip(motion.joint_names, limited) if k},
+        limits_applied=bool(rep.limits_applied), contact_frames=int(rep.contact_frames),
+        floor_frames=int(rep.floor_frames), floor_height=float(rep.floor_height),
+        root_shift_max=float(rep.root_shift_max), floor_raised=int(rep.floor_raised))
+    return motion.with_frames(root_pos=r, rot=q), report
