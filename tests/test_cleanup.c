@@ -516,7 +516,7 @@ START_TEST(bad_input_gets_the_right_status_and_message)
     /* options */
     const struct { mlr_cleanup_option o[2]; size_t n; const char *msg; } bad[] = {
         {{{0, 1.0}}, 1, "unknown option key 0"},
-        {{{11, 1.0}}, 1, "unknown option key 11"},
+        {{{12, 1.0}}, 1, "unknown option key 12"},
         {{{MLR_CLEANUP_OPT_BLEND, 0.1}, {MLR_CLEANUP_OPT_BLEND, 0.2}}, 2,
          "option key 1 given twice"},
         {{{MLR_CLEANUP_OPT_BLEND, NAN}}, 1, "option key 1: value nan is not finite"},
@@ -533,6 +533,8 @@ START_TEST(bad_input_gets_the_right_status_and_message)
         {{{MLR_CLEANUP_OPT_ROOT, 2}}, 1, "option key 9: value 2 out of range"},
         {{{MLR_CLEANUP_OPT_MAX_FOLD, 0}}, 1, "option key 10: value 0 out of range"},
         {{{MLR_CLEANUP_OPT_MAX_FOLD, 3.2}}, 1, "option key 10: value 3.2 out of range"},
+        {{{MLR_CLEANUP_OPT_KEEP_STILLER, 0.5}}, 1, "option key 11: value 0.5 out of range"},
+        {{{MLR_CLEANUP_OPT_KEEP_STILLER, NAN}}, 1, "option key 11: value nan is not finite"},
     };
     for (size_t i = 0; i < MLR_COUNTOF(bad); i++)
         EXPECT(CL(s->root, s->rot, NULL, NULL, C, pj, NULL, s->c, bad[i].o, bad[i].n, 60.0, 1),
