@@ -164,14 +164,84 @@ static double quantile_of(double *v, size_t n, double q)
     return v[i] + f * (v[i + 1] - v[i]);
 }
 
-/* FK + points of one motion into caller arrays. */
+/* Forward kinematics of the joints marked in need (closed under parents) of frame f, with the arithmetic of mlr_fk_arrays (mlr_fk.h), so each computed
+   value is bit for bit what the full FK gives; the other joints are not written. tidx[j]: j's
+   index among the rig's trans joints, or -1. wp, wrot_f: J x 3 and J x 4, the frame's. */
+/* mlr_quat_mul and mlr_quat_rotate (quat.c), the same expressions (the library builds with
+   -ffp-contract=off, so the same bits), inlined into the FK below */
+static inline void fk_qmul(const mlr_quat *a, const mlr_quat *b, mlr_quat *out)
+{
+    const double aw = a->w, ax = a->x, ay = a->y, az = a->z;
+    const double bw = b->w, bx = b->x, by = b->y, bz = b->z;
+    out->w = aw * bw - ax * bx - ay * by - az * bz;
+    out->x = aw * bx + ax * bw + ay * bz - az * by;
+    out->y = aw * by - ax * bz + ay * bw + az * bx;
+    out->z = aw * bz + ax * by - ay * bx + az * bw;
+}
+
+static inline void fk_qrot(const mlr_quat *q, const double *v, double *o)
+{
+    const double w = q->w, ux = q->x, uy = q->y, uz = q->z;
+    const double vx = v[0], vy = v[1], vz = v[2];
+    const double tx = 2.0 * (uy * vz - uz * vy);
+    const double ty = 2.0 * (uz * vx - ux * vz);
+    const double tz = 2.0 * (ux * vy - uy * vx);
+    o[0] = vx + w * tx + (uy * tz - uz * ty);
+    o[1] = vy + w * ty + (uz * tx - ux * tz);
+    o[2] = vz + w * tz + (ux * ty - uy * tx);
+}
+
+static void fk_masked_frame(const mlr_rig *rig, size_t f, const uint8_t *need,
+                            const int32_t *tidx, const double *root_pos, const double *rot,
+                            const double *trans, double *wp, double *wrot_f)
+{
+    const size_t J = rig->n_joints, P = rig->n_trans;
+    const int32_t *parents = rig->parents;
+    const double *offsets = rig->offsets;
+    const double *r = rot + 4 * J * f;
+    mlr_quat *wr = (mlr_quat *)(void *)wrot_f;
+    wr[0].w = r[0], wr[0].x = r[1], wr[0].y = r[2], wr[0].z = r[3];
+    const double *t0 = root_pos ? root_pos + 3 * f : offsets;
+    wp[0] = t0[0], wp[1] = t0[1], wp[2] = t0[2];
+    for (size_t j = 1; j < J; j++) {
+        if (!need[j])
+            continue;
+        const size_t p = (size_t)parents[j];
+        const double *t = tidx[j] >= 0 ? trans + 3 * (P * f + (size_t)tidx[j]) : offsets + 3 * j;
+        const mlr_quat q = {r[4 * j], r[4 * j + 1], r[4 * j + 2], r[4 * j + 3]};
+        fk_qmul(&wr[p], &q, &wr[j]);
+        double o[3];
+        fk_qrot(&wr[p], t, o);
+        wp[3 * j] = wp[3 * p] + o[0];
+        wp[3 * j + 1] = wp[3 * p + 1] + o[1];
+        wp[3 * j + 2] = wp[3 * p + 2] + o[2];
+    }
+}
+
+static void fk_masked(const mlr_rig *rig, size_t N, const uint8_t *need, const int32_t *tidx,
+                      const double *root_pos, const double *rot, const double *trans,
+                      double *pos, double *wrot)
+{
+    const size_t J = rig->n_joints;
+    for (size_t f = 0; f < N; f++)
+        fk_masked_frame(rig, f, need, tidx, root_pos, rot, trans, pos + 3 * J * f,
+                        wrot + 4 * J * f);
+}
+
+/* FK + points of one motion into caller arrays; with need (and tidx), only the joints marked
+   there (fk_masked). */
 static mlr_status fk_points(const mlr_rig *rig, size_t N, const double *root_pos,
                             const double *rot, const double *trans, size_t C,
                             const int32_t *joints, const int32_t *end_sites, double *pos,
-                            double *wrot, double *pts, const mlr_allocator *alloc)
+                            double *wrot, double *pts, const mlr_allocator *alloc,
+                            const uint8_t *need, const int32_t *tidx)
 {
-    mlr_status st = mlr_fk_arrays(N, rig->n_joints, rig->parents, rig->offsets, root_pos, rot,
-                                  rig->n_trans, rig->trans_joints, trans, pos, wrot, alloc);
+    mlr_status st = MLR_OK;
+    if (need)
+        fk_masked(rig, N, need, tidx, root_pos, rot, trans, pos, wrot);
+    else
+        st = mlr_fk_arrays(N, rig->n_joints, rig->parents, rig->offsets, root_pos, rot,
+                           rig->n_trans, rig->trans_joints, trans, pos, wrot, alloc);
     if (st != MLR_OK || !pts)
         return st;
     return mlr_rig_point_positions(rig, N, pos, wrot, C, joints, end_sites, pts, NULL);
@@ -210,7 +280,8 @@ mlr_status mlr_cleanup_floor_height(const mlr_rig *rig, size_t N, const double *
         release(&ar);
         return mlr_diag_set(diag, ar.st, 0, 0, "floor_height: out of memory");
     }
-    st = fk_points(rig, N, root_pos, rot, trans, C, joints, end_sites, pos, wrot, pts, &A);
+    st = fk_points(rig, N, root_pos, rot, trans, C, joints, end_sites, pos, wrot, pts, &A,
+                   NULL, NULL);
     if (st == MLR_OK) {
         size_t k = 0;
         for (size_t i = 0; i < N * C; i++)
@@ -459,7 +530,7 @@ mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t N, double fps, int up
     /* ---- feet ---- */
     foot feet[64];
     size_t nf = 0;
-    work w = {rig, N, J, C, fps, up, &cfg, NULL, NULL, NULL, NULL};
+    work w = {rig, N, J, C, fps, up, &cfg, NULL, NULL, NULL, NULL, NULL};
     mlr_allocator A;
     mlr_allocator_resolve(alloc, &A);
     arena ar = {.a = &A, .st = MLR_OK};
@@ -529,19 +600,40 @@ mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t N, double fps, int up
     w.map_y = take(&ar, N * 9, sizeof(double));
     w.map_out = take(&ar, N * 9, sizeof(double));
     if (have_ref) {
-        pos_ref = take(&ar, N * J * 3, sizeof(double));
+        pos_ref = take(&ar, N * nf * 3, sizeof(double)); /* the feet's anchors, N x nf x 3 */
         Pr = take(&ar, N * C * 3, sizeof(double));
     }
+    /* forward kinematics of the joints the cleanup reads only: the contact points, the
+       feet's anchors and their ancestors (hips, knees and the joints above them) */
+    uint8_t *need = take(&ar, J, 1);
+    int32_t *tidx = take(&ar, J, sizeof(int32_t));
+    uint8_t *fk_frames = take(&ar, N, 1);
+    double *pos2 = take(&ar, J * 3, sizeof(double)); /* one frame's FK */
+    double *wrot2 = take(&ar, J * 4, sizeof(double));
     if (ar.st != MLR_OK)
         goto fail;
-    if ((st = fk_points(rig, N, root_pos, rot, trans, C, joints, end_sites, pos, wrot, P, &A)) !=
-        MLR_OK)
+    for (size_t j = 0; j < J; j++)
+        tidx[j] = -1;
+    for (size_t k = 0; k < rig->n_trans; k++)
+        tidx[rig->trans_joints[k]] = (int32_t)k;
+    for (size_t i = 0; i < C + nf; i++)
+        for (int32_t j = i < C ? joints[i] : feet[i - C].anchor; j >= 0 && !need[j];
+             j = rig->parents[j])
+            need[j] = 1;
+    if ((st = fk_points(rig, N, root_pos, rot, trans, C, joints, end_sites, pos, wrot, P, &A,
+                        need, tidx)) != MLR_OK)
         goto fail_st;
     const double *src_pts = P;
     if (have_ref) {
-        if ((st = fk_points(rig, N, ref_root_pos, ref_rot, ref_trans, C, joints, end_sites,
-                            pos_ref, newr, Pr, &A)) != MLR_OK)
-            goto fail_st;
+        for (size_t f = 0; f < N; f++) { /* frame by frame: the points and the anchors */
+            fk_masked_frame(rig, f, need, tidx, ref_root_pos, ref_rot, ref_trans, pos2, wrot2);
+            if ((st = mlr_rig_point_positions(rig, 1, pos2, wrot2, C, joints, end_sites,
+                                              Pr + 3 * C * f, NULL)) != MLR_OK)
+                goto fail_st;
+            for (size_t k = 0; k < nf; k++)
+                memcpy(pos_ref + 3 * (f * nf + k), pos2 + 3 * (size_t)feet[k].anchor,
+                       3 * sizeof(double));
+        }
         src_pts = Pr;
     }
     /* floor and the per-point limits (from the unsmoothed reference) */
@@ -580,10 +672,9 @@ mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t N, double fps, int up
         mlr_lgs_solve(ref_lgs, Pr, 3 * C, 3 * C, tmp, 3 * C);
         memcpy(Pr, tmp, N * C * 3 * sizeof(double));
         for (size_t k = 0; k < nf; k++) { /* the ankles' trajectories */
-            const size_t a = (size_t)feet[k].anchor;
-            mlr_lgs_solve(ref_lgs, pos_ref + 3 * a, 3 * J, 3, tmp, 3);
+            mlr_lgs_solve(ref_lgs, pos_ref + 3 * k, 3 * nf, 3, tmp, 3);
             for (size_t f = 0; f < N; f++)
-                memcpy(pos_ref + 3 * (f * J + a), tmp + 3 * f, 3 * sizeof(double));
+                memcpy(pos_ref + 3 * (f * nf + k), tmp + 3 * f, 3 * sizeof(double));
         }
         mlr_lgs_destroy(ref_lgs);
     }
@@ -605,15 +696,15 @@ mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t N, double fps, int up
     uint8_t *anyF = take(&ar, N, 1);
     if (ar.st != MLR_OK)
         goto fail;
+    /* the feet's arrays, one block each for all feet (the arena holds MAX_BLOCKS blocks) */
+    uint8_t *all_uf = take(&ar, N * nf, 2);
+    double *all_at = take(&ar, N * nf, 7 * sizeof(double));
+    if (ar.st != MLR_OK)
+        goto fail;
     for (size_t k = 0; k < nf; k++) {
         foot *ft = &feet[k];
-        ft->U = take(&ar, N, 1);
-        ft->F = take(&ar, N, 1);
-        ft->at = take(&ar, N * 3, sizeof(double));
-        ft->tt = take(&ar, N * 3, sizeof(double));
-        ft->lift = take(&ar, N, sizeof(double));
-        if (ar.st != MLR_OK)
-            goto fail;
+        ft->U = all_uf + 2 * N * k, ft->F = ft->U + N;
+        ft->at = all_at + 7 * N * k, ft->tt = ft->at + 3 * N, ft->lift = ft->tt + 3 * N;
         size_t nu = 0;
         for (size_t f = 0; f < N; f++) {
             for (size_t i = 0; i < ft->n_cols; i++)
@@ -663,7 +754,7 @@ mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t N, double fps, int up
                     o[d] = d == up ? 0.0 : o[d] / (double)cnt;
                 for (size_t f = s; f < e; f++)
                     for (int d = 0; d < 3; d++) {
-                        ft->at[3 * f + (size_t)d] = pos_ref[3 * (f * J + a) + (size_t)d] + o[d];
+                        ft->at[3 * f + (size_t)d] = pos_ref[3 * (f * nf + k) + (size_t)d] + o[d];
                         if (has_toe)
                             ft->tt[3 * f + (size_t)d] = Pr[3 * (f * C + toe) + (size_t)d] + o[d];
                     }
@@ -730,6 +821,16 @@ mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t N, double fps, int up
         if (ar.st != MLR_OK)
             goto fail;
         const size_t half = (size_t)fmax(1.0, round(0.1 * fps));
+        /* the raised-cosine window's weights, by offset g - f + half */
+        double *wtab = take(&ar, 2 * half + 1, sizeof(double));
+        double *n2s = take(&ar, N, sizeof(double));
+        size_t *dq = take(&ar, N, sizeof(size_t));
+        if (ar.st != MLR_OK)
+            goto fail;
+        for (size_t i = 0; i <= 2 * half; i++) {
+            const double x = ((double)i - (double)half) / (double)(half + 1);
+            wtab[i] = 0.5 * (1.0 + cos(3.14159265358979323846 * x));
+        }
         for (int it = 0; it < 5; it++) {
             memset(need, 0, N * 3 * sizeof(double));
             int any = 0;
@@ -793,18 +894,24 @@ mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t N, double fps, int up
             if (!any)
                 break;
             /* widen each need to +-0.1 s (the largest need there), then blend and smooth */
+            /* (a sliding-window maximum: a queue of frames whose squared needs decrease, ties
+               kept in frame order, so the front is the first largest, as a scan would find) */
+            for (size_t g = 0; g < N; g++)
+                n2s[g] = need[3 * g] * need[3 * g] + need[3 * g + 1] * need[3 * g + 1] +
+                         need[3 * g + 2] * need[3 * g + 2];
+            size_t qh = 0, qt = 0, next = 0;
             for (size_t f = 0; f < N; f++) {
-                size_t best = f;
-                double bn = -1.0;
                 const size_t lo = f > half ? f - half : 0, hi = f + half < N ? f + half : N - 1;
-                for (size_t g = lo; g <= hi; g++) {
-                    const double n2 = need[3 * g] * need[3 * g] + need[3 * g + 1] * need[3 * g + 1] +
-                                      need[3 * g + 2] * need[3 * g + 2];
-                    if (n2 > bn)
-                        bn = n2, best = g;
+                for (; next <= hi; next++) {
+                    while (qt > qh && n2s[dq[qt - 1]] < n2s[next])
+                        qt--;
+                    dq[qt++] = next;
                 }
+                while (dq[qh] < lo)
+                    qh++;
+                const size_t best = dq[qh];
                 memcpy(wide + 3 * f, need + 3 * best, 3 * sizeof(double));
-                nmask[f] = bn > 0.0;
+                nmask[f] = n2s[best] > 0.0;
             }
             /* ... then average over the same +-0.1 s with a raised-cosine window: a smooth
                shift (no steps where the widest need changes) that still covers each need at its
@@ -814,8 +921,7 @@ mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t N, double fps, int up
                 const size_t lo = f > half ? f - half : 0, hi = f + half < N ? f + half : N - 1;
                 double acc[3] = {0, 0, 0}, wsum = 0.0;
                 for (size_t g = lo; g <= hi; g++) {
-                    const double x = ((double)g - (double)f) / (double)(half + 1);
-                    const double wt = 0.5 * (1.0 + cos(3.14159265358979323846 * x));
+                    const double wt = wtab[g + half - f];
                     wsum += wt;
                     if (nmask[g])
                         for (int d = 0; d < 3; d++)
@@ -841,15 +947,13 @@ mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t N, double fps, int up
 
     /* ---- passes: IK on the constrained frames, then the spread ---- */
     double *P2 = take(&ar, N * C * 3, sizeof(double));
-    double *pos2 = take(&ar, N * J * 3, sizeof(double));
-    double *wrot2 = take(&ar, N * J * 4, sizeof(double));
     uint8_t *mask = take(&ar, N, 1);
     if (ar.st != MLR_OK)
         goto fail;
     const double *tr = trans;
     for (int pass = 0; pass < cfg.passes; pass++) {
         if ((st = fk_points(rig, N, out_root_pos, out_rot, tr, C, joints, end_sites, pos, wrot, P2,
-                            &A)) != MLR_OK)
+                            &A, need, tidx)) != MLR_OK)
             goto fail_st;
         /* floor frames: a point below its limit, the foot not in contact */
         memset(anyF, 0, N);
@@ -902,35 +1006,38 @@ mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t N, double fps, int up
         }
         /* placed points (toes) by turning the ankle; on floor frames the ankle keeps its world
            rotation, so the whole foot rises with it */
-        if ((st = mlr_fk_arrays(N, J, rig->parents, rig->offsets, out_root_pos, newr,
-                                rig->n_trans, rig->trans_joints, tr, pos2, wrot2, &A)) != MLR_OK)
-            goto fail_st;
-        for (size_t k = 0; k < nf; k++) {
-            const foot *ft = &feet[k];
-            if (!ft->active || ft->n_cols == ft->n_own)
+        /* (only on the frames where some foot with a placed point is constrained) */
+        memset(fk_frames, 0, N);
+        for (size_t k = 0; k < nf; k++)
+            if (feet[k].active && feet[k].n_cols > feet[k].n_own)
+                for (size_t f = 0; f < N; f++)
+                    fk_frames[f] |= feet[k].U[f] | feet[k].F[f];
+        for (size_t f = 0; f < N; f++) {
+            if (!fk_frames[f])
                 continue;
-            const size_t a = (size_t)ft->anchor;
-            const int32_t pa = rig->parents[a];
-            const size_t c = ft->cols[ft->n_own];
-            const int32_t e = end_sites ? end_sites[c] : -1;
-            const size_t j = (size_t)joints[c];
-            for (size_t f = 0; f < N; f++) {
-                if (!ft->U[f] && !ft->F[f])
+            fk_masked_frame(rig, f, need, tidx, out_root_pos, newr, tr, pos2, wrot2);
+            for (size_t k = 0; k < nf; k++) {
+                const foot *ft = &feet[k];
+                if (!ft->active || ft->n_cols == ft->n_own || (!ft->U[f] && !ft->F[f]))
                     continue;
-                const double *ga = wrot2 + 4 * (f * J + a);
-                const double *gp = pa >= 0 ? wrot2 + 4 * (f * J + (size_t)pa) : NULL;
+                const size_t a = (size_t)ft->anchor;
+                const int32_t pa = rig->parents[a];
+                const size_t c = ft->cols[ft->n_own];
+                const int32_t e = end_sites ? end_sites[c] : -1;
+                const size_t j = (size_t)joints[c];
+                const double *ga = wrot2 + 4 * a;
+                const double *gp = pa >= 0 ? wrot2 + 4 * (size_t)pa : NULL;
                 double r[4];
                 if (ft->U[f]) {
                     double now[3], u[3], v[3];
                     if (e >= 0)
-                        mlr_ik_qrot(wrot2 + 4 * (f * J + j), rig->end_site_offsets + 3 * (size_t)e,
-                                    now);
+                        mlr_ik_qrot(wrot2 + 4 * j, rig->end_site_offsets + 3 * (size_t)e, now);
                     else
                         now[0] = now[1] = now[2] = 0.0;
                     for (int d = 0; d < 3; d++) {
-                        now[d] += pos2[3 * (f * J + j) + (size_t)d];
-                        u[d] = now[d] - pos2[3 * (f * J + a) + (size_t)d];
-                        v[d] = ft->tt[3 * f + (size_t)d] - pos2[3 * (f * J + a) + (size_t)d];
+                        now[d] += pos2[3 * j + (size_t)d];
+                        u[d] = now[d] - pos2[3 * a + (size_t)d];
+                        v[d] = ft->tt[3 * f + (size_t)d] - pos2[3 * a + (size_t)d];
                     }
                     mlr_ik_from_to_1(u, v, r);
                 } else { /* r * ga = the old world rotation */
@@ -971,7 +1078,10 @@ fail:
     release(&ar);
     return mlr_diag_set(diag, ar.st, 0, 0, "cleanup: out of memory");
 fail_st:
-    mlr_diag_set(diag, st, 0, 0, "cleanup: internal solve failed (status %d)", (int)st);
+    if (st == MLR_E_NO_MEMORY)
+        mlr_diag_set(diag, st, 0, 0, "cleanup: out of memory");
+    else
+        mlr_diag_set(diag, st, 0, 0, "cleanup: internal solve failed (status %d)", (int)st);
 fail_st_keep:
     mlr_band_destroy(w.pin);
     release(&ar);

@@ -146,8 +146,8 @@ MLR_API mlr_status mlr_cleanup_floor_height(const mlr_rig *rig, size_t n_frames,
  *         nothing, a contact foot without a two-bone chain, non-finite input, unknown or
  *         repeated option, option values out of range or not finite; reason in diag; outputs
  *         then unspecified); MLR_E_NO_MEMORY; MLR_E_OVERFLOW
- * Allocates: scratch of about N (14 J + 12 C + 40) doubles, released before return. Cost
- * O(N J) per pass. Threads: any; inputs only read.
+ * Allocates: scratch of about N (11 J + 14 C + 10 F + 42) doubles (F feet), released before
+ * return. Cost O(N J) per pass. Threads: any; inputs only read.
  */
 MLR_API mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t n_frames, double fps,
                                         int up, const double *root_pos, const double *rot,

@@ -1,0 +1,140 @@
+"""mlayer.cleanup (mlr_cleanup.h): the wrapper against a direct cffi call on a real clip, the
+floor height against numpy's quantile, argument errors, and denoise on the shared clips: the
+cleanup and the floor move joints by at most 0.5% of body height."""
+import numpy as np
+import pytest
+
+import mlayer
+from mlayer import cleanup
+from mlayer._native import ffi, lib
+from mlayer._rig import c_rig
+from mlayer.contacts import _point, detect_contacts
+from mlayer.errors import InvalidArgumentError
+from mlayer.metrics import body_height
+
+CLIPS = ["ai4a_dog_D1_008_KAN01_002.bvh", "bandai1_walk_happy_001.bvh",
+         "cmu_01_01_playground_jumps.bvh", "cmu_02_03_run_jog_25fps.bvh",
+         "cmu_10_01_soccer_kick.bvh", "cmu_131_01_mj_style_walk.bvh",
+         "cmu_60_10_salsa_dance.bvh", "lafan1_clip_a.bvh"]
+
+
+@pytest.fixture(scope="module")
+def walk(mocap):
+    m = mlayer.read_bvh(mocap / "cmu_131_01_mj_style_walk.bvh")[:600]
+    synth = mlayer.decompose(m).synthesize(2.0)
+    names, c = detect_contacts(m)
+    return m, synth, names, c
+
+
+def _ptr(a):
+    return ffi.cast("double *", ffi.from_buffer(a)) if a.size else ffi.NULL
+
+
+def test_fix_contacts_equals_a_direct_c_call(walk):
+    m, synth, names, c = walk
+    opts = {"blend": 0.3, "max_fold": 2.5}
+    out, rep = cleanup.fix_contacts(synth, c, names, reference=m, return_report=True, **opts)
+    pts = [_point(m.skeleton, n) for n in names]
+    j = np.array([p[0] for p in pts], dtype=np.int32)
+    e = np.array([p[1] for p in pts], dtype=np.int32)
+    cu = np.ascontiguousarray(c, dtype=np.uint8)
+    copts = ffi.new("mlr_cleanup_option[]", 2)
+    copts[0].key, copts[0].value = lib.MLR_CLEANUP_OPT_BLEND, 0.3
+    copts[1].key, copts[1].value = lib.MLR_CLEANUP_OPT_MAX_FOLD, 2.5
+    root, rot = (np.ascontiguousarray(x, dtype=np.float64) for x in (synth.root_pos, synth.rot))
+    rr, rq = (np.ascontiguousarray(x, dtype=np.float64) for x in (m.root_pos, m.rot))
+    assert m.trans.shape[1] == 0
+    o_root, o_rot = np.empty_like(root), np.empty_like(rot)
+    crep = ffi.new("mlr_cleanup_report *")
+    diag = ffi.new("mlr_diag *")
+    rig, keep = c_rig(m.skeleton)
+    st = lib.mlr_cleanup_contacts(
+        rig, m.n_frames, float(m.fps), 1, _ptr(root), _ptr(rot), ffi.NULL, _ptr(rr), _ptr(rq),
+        ffi.NULL, len(names), ffi.cast("const int32_t *", ffi.from_buffer(j)),
+        ffi.cast("const int32_t *", ffi.from_buffer(e)),
+        ffi.cast("const uint8_t *", ffi.from_buffer(cu)), copts, 2, _ptr(o_root), _ptr(o_rot),
+        crep, ffi.NULL, diag)
+    del keep
+    assert st == lib.MLR_OK, ffi.string(diag.message).decode()
+    np.testing.assert_array_equal(out.root_pos, o_root)
+    np.testing.assert_array_equal(out.rot, o_rot)
+    assert rep["floor_height"] == crep.floor_height
+    assert rep["contact_frames"] == crep.contact_frames > 0
+    assert rep["root_shift_max"] == crep.root_shift_max
+    # the cleanup did something: the output differs from the synthesized motion
+    assert np.abs(out.rot - synth.rot).max() > 1e-3
+
+
+def test_floor_height_is_numpys_quantile(walk):
+    m, _, names, c = walk
+    p = m.positions()
+    e = m.end_site_positions()
+    heights = []
+    for k, n in enumerate(names):
+        j, es = _point(m.skeleton, n)
+        y = (e[:, es, 1] if es >= 0 else p[:, j, 1])
+        heights.append(y[c[:, k]])
+    h = np.concatenate(heights)
+    assert h.size > 100
+    for q in (0.0, 0.05, 0.5, 0.93, 1.0):
+        assert cleanup.floor_height(m, c, names, quantile=q) == pytest.approx(
+            np.quantile(h, q), abs=1e-12 * body_height(m))
+    # detected here when not given
+    assert cleanup.floor_height(m) == pytest.approx(np.quantile(h, 0.05), abs=1e-12)
+
+
+def test_argument_errors_name_the_argument(walk):
+    m, synth, names, c = walk
+    with pytest.raises(InvalidArgumentError, match="fix_contacts: motion"):
+        cleanup.fix_contacts(np.zeros(3), c, names)
+    with pytest.raises(InvalidArgumentError, match="contacts must be a bool array"):
+        cleanup.fix_contacts(synth, c.astype(np.uint8), names)
+    with pytest.raises(InvalidArgumentError, match="contacts must be a bool array"):
+        cleanup.fix_contacts(synth, c[:, :1], names)
+    with pytest.raises(InvalidArgumentError, match="reference has 10 frames"):
+        cleanup.fix_contacts(synth, c, names, reference=m[:10])
+    with pytest.raises(InvalidArgumentError, match="reference must be a mlayer.Motion"):
+        cleanup.fix_contacts(synth, c, names, reference="m")
+    with pytest.raises(InvalidArgumentError, match="unknown option 'blnd'"):
+        cleanup.fix_contacts(synth, c, names, blnd=0.1)
+    with pytest.raises(InvalidArgumentError, match="blend must be finite"):
+        cleanup.fix_contacts(synth, c, names, blend=float("nan"))
+    with pytest.raises(InvalidArgumentError, match="option key 1: value -0.1 out of range"):
+        cleanup.fix_contacts(synth, c, names, blend=-0.1)
+    with pytest.raises(InvalidArgumentError, match="floor: expected 'auto', None or a height"):
+        cleanup.fix_contacts(synth, c, names, floor="low")
+    with pytest.raises(InvalidArgumentError, match="floor: the height must be finite"):
+        cleanup.fix_contacts(synth, c, names, floor=float("inf"))
+    with pytest.raises(InvalidArgumentError, match="up: expected"):
+        cleanup.fix_contacts(synth, c, names, up="w")
+    with pytest.raises(InvalidArgumentError, match="Nowhere"):
+        cleanup.fix_contacts(synth, c, ["Nowhere"] + list(names[1:]))
+    with pytest.raises(InvalidArgumentError, match="floor_height: quantile"):
+        cleanup.floor_height(m, c, names, quantile=1.5)
+    with pytest.raises(InvalidArgumentError, match="floor_height: motion"):
+        cleanup.floor_height(None)
+
+
+# Known to fail since main 35516c5 (the guards follow the input, smoothed over 0.02 s, with
+# KEEP_STILLER 1.25 when denoising, instead of the denoised motion): measured max joint
+# change / body height of denoise with vs without the cleanup and floor, whole clips
+# (before 35516c5 these were <= 2.1e-14, and 2.0e-4 on cmu_131_01). Strict: an XPASS fails, so
+# the marks go when the guards meet the 0.5% again.
+_OVER = {"ai4a_dog_D1_008_KAN01_002.bvh": 0.0203, "cmu_01_01_playground_jumps.bvh": 0.0179,
+         "cmu_10_01_soccer_kick.bvh": 0.0249, "cmu_60_10_salsa_dance.bvh": 0.0481}
+
+
+@pytest.mark.parametrize("name", [
+    pytest.param(n, marks=pytest.mark.xfail(
+        strict=True, reason=f"{_OVER[n]:.2%} of body height since main 35516c5")) if n in _OVER
+    else n for n in CLIPS])
+def test_denoise_keeps_within_half_a_percent_of_no_cleanup(mocap, name):
+    path = mocap / name
+    if not path.exists():
+        pytest.skip(f"{name} absent")
+    m = mlayer.read_bvh(path)
+    a, rep = mlayer.denoise(m, return_report=True)
+    b = mlayer.denoise(m, keep_contacts=False, floor=None)
+    assert rep.contact_frames > 0 and np.isfinite(rep.floor_height)  # the cleanup did run
+    d = np.linalg.norm(a.positions() - b.positions(), axis=-1).max() / body_height(m)
+    assert d <= 0.005, f"{name}: {d:.4%} of body height"
