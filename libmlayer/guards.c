@@ -3,6 +3,7 @@
  * foot contacts and the floor, composed with the defaults of mlayer's Python package.
  */
 #include "mlr_internal.h"
+#include "limits_internal.h"
 
 #include <math.h>
 
@@ -592,7 +593,6 @@ mlr_status mlr_guards_apply(const mlr_guards *g, const double *alpha, size_t n_a
     double *work_root = alloc_array(&g->alloc, 3 * N, sizeof(double), &st);
     size_t *counts = alloc_array(&g->alloc, J, sizeof(size_t), &st);
     size_t *counts2 = alloc_array(&g->alloc, J, sizeof(size_t), &st);
-    double *hinge_tmp = alloc_array(&g->alloc, 4 * N * J, sizeof(double), &st);
     if (st != MLR_OK) {
         mlr_diag_set(diag, st, 0, 0, "guards apply: out of memory");
         goto done;
@@ -651,37 +651,33 @@ mlr_status mlr_guards_apply(const mlr_guards *g, const double *alpha, size_t n_a
          * and the limits alternate GUARDS_ROUNDS times in all */
         const int rounds = rep.limits_applied ? GUARDS_ROUNDS : 1;
         for (int round = 0; round < rounds; round++) {
-        const double *rr = !g->follow ? NULL : has_ref ? ref_root_pos : g->root_pos;
-        const double *rq = !g->follow ? NULL : has_ref ? ref_rot : g->rot;
-        const double *rt = !g->follow || !P ? NULL : has_ref ? ref_trans : g->trans;
-        st = mlr_cleanup_contacts(&g->rig, N, g->fps, g->up, work_root, work, trans, rr, rq,
-                                  rt, g->n_points,
-                                  g->joints, g->end_sites, C ? g->contacts : none, copts,
-                                  n_copts, work_root, work, &crep, &g->alloc, diag);
-        if (st == MLR_OK) /* the root's total correction is the sum over the rounds; its
-                             largest value is bounded by the sum of each round's largest */
-            rep.root_shift_max += crep.root_shift_max;
-        if (st == MLR_OK && rep.limits_applied) {
-            /* the last round limits the hinges only (knees, elbows: a rotation about the
-               hinge axis each), so the feet the cleanup pinned stay where IK put them
-               unless a knee left its range; earlier rounds limit every joint */
-            const int last = round + 1 == rounds;
-            st = mlr_limits_apply(g->limits, N, work, last ? hinge_tmp : work, alpha, n_alpha,
-                                  counts2, J, diag);
-            for (size_t j = 0; st == MLR_OK && j < J; j++) {
-                mlr_limits_range r;
-                if (last && (mlr_limits_get_range(g->limits, j, &r) != MLR_OK ||
-                             r.kind != MLR_LIMITS_HINGE))
-                    continue;
-                if (last)
-                    for (size_t f = 0; f < N; f++)
-                        memcpy(work + 4 * (f * J + j), hinge_tmp + 4 * (f * J + j),
-                               4 * sizeof(double));
-                counts[j] = counts2[j] > counts[j] ? counts2[j] : counts[j];
+            const double *rr = !g->follow ? NULL : has_ref ? ref_root_pos : g->root_pos;
+            const double *rq = !g->follow ? NULL : has_ref ? ref_rot : g->rot;
+            const double *rt = !g->follow || !P ? NULL : has_ref ? ref_trans : g->trans;
+            st = mlr_cleanup_contacts(&g->rig, N, g->fps, g->up, work_root, work, trans, rr, rq,
+                                      rt, g->n_points,
+                                      g->joints, g->end_sites, C ? g->contacts : none, copts,
+                                      n_copts, work_root, work, &crep, &g->alloc, diag);
+            if (st == MLR_OK) /* the root's total correction is the sum over the rounds; its
+                                 largest value is bounded by the sum of each round's largest */
+                rep.root_shift_max += crep.root_shift_max;
+            if (st == MLR_OK && rep.limits_applied) {
+                /* the last round limits the hinges only (knees, elbows: a rotation about the
+                   hinge axis each), so the feet the cleanup pinned stay where IK put them
+                   unless a knee left its range; earlier rounds limit every joint */
+                if (round + 1 == rounds) {
+                    memset(counts2, 0, J * sizeof(size_t));
+                    mlr_limits_apply_kind(g->limits, N, (mlr_quat *)work, alpha, n_alpha, counts2,
+                                          MLR_LIMITS_HINGE);
+                } else {
+                    st = mlr_limits_apply(g->limits, N, work, work, alpha, n_alpha, counts2, J,
+                                          diag);
+                }
+                for (size_t j = 0; st == MLR_OK && j < J; j++)
+                    counts[j] = counts2[j] > counts[j] ? counts2[j] : counts[j];
             }
-        }
-        if (st != MLR_OK)
-            break;
+            if (st != MLR_OK)
+                break;
         }
         free_array(&g->alloc, none, g->n_points * N, 1);
         if (st != MLR_OK)
@@ -716,6 +712,5 @@ done:
     free_array(&g->alloc, work_root, 3 * N, sizeof(double));
     free_array(&g->alloc, counts, J, sizeof(size_t));
     free_array(&g->alloc, counts2, J, sizeof(size_t));
-    free_array(&g->alloc, hinge_tmp, 4 * N * J, sizeof(double));
     return st;
 }

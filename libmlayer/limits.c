@@ -615,6 +615,23 @@ void mlr_limits_apply_frame(const mlr_limits *lim, mlr_quat *q, const double *al
     }
 }
 
+void mlr_limits_apply_kind(const mlr_limits *lim, size_t n_frames, mlr_quat *rot,
+                           const double *alpha, size_t n_alpha, size_t *counts, int kind)
+{
+    const size_t J = lim->n_joints;
+    const double *aj = alpha ? (n_alpha == 1 ? alpha : alpha + 1) : NULL;
+    const size_t stride = n_alpha == 1 ? 0 : 1;
+    for (size_t j = 0; j < J; j++) {
+        const mlr_limits_joint *lj = &lim->joints[j];
+        if (lj->range.kind != kind)
+            continue;
+        const double a = aj ? aj[stride * j] : 1.0;
+        for (size_t f = 0; f < n_frames; f++)
+            if (limit_joint(lim, lj, a, &rot[f * J + j]) && counts)
+                counts[j]++;
+    }
+}
+
 mlr_status mlr_limits_apply(const mlr_limits *lim, size_t n_frames, const double *rot_in,
                             double *rot_out, const double *alpha, size_t n_alpha,
                             size_t *counts, size_t n_counts, mlr_diag *diag)

@@ -63,6 +63,10 @@ static inline double mlr_limits_soft(double x, double b, double w)
 
 /* Limit the J unit quaternions of one frame in place; joint j's alpha is alpha[stride * j]
  * (alpha NULL: 1). counts[j] (optional) is incremented where the joint changed. */
+/* mlr_limits_apply on the joints of one kind (an mlr_limits_kind) only, in place, on unit
+ * quaternions, with arguments the caller has checked; counts (J, or NULL) are added to. */
+void mlr_limits_apply_kind(const mlr_limits *lim, size_t n_frames, mlr_quat *rot,
+                           const double *alpha, size_t n_alpha, size_t *counts, int kind);
 void mlr_limits_apply_frame(const mlr_limits *lim, mlr_quat *q, const double *alpha,
                             size_t stride, size_t *counts);
 

@@ -87,10 +87,14 @@ class Stream(NativeHandle):
     lam_base, sigma_base : float, optional
         Parameters of a base layer (normally stronger smoothing); giving either one makes a
         layered stream (the other defaults to the main layer's value).
+    limits : JointLimits, optional
+        Joint limits (:func:`mlayer.joint_limits`) applied to every output frame with the
+        stream's alphas (``mlr_stream_set_limits``): a soft saturation of each frame on its
+        own, so a live exaggeration stays within the ranges as the offline one does.
     """
 
     def __init__(self, skeleton_or_motion, *, lam: float, sigma: float, lag: int, alpha=None,
-                 lam_base: float | None = None, sigma_base: float | None = None):
+                 lam_base: float | None = None, sigma_base: float | None = None, limits=None):
         if isinstance(skeleton_or_motion, Motion):
             sk = skeleton_or_motion.skeleton
         elif isinstance(skeleton_or_motion, Skeleton):
@@ -142,6 +146,14 @@ class Stream(NativeHandle):
             if isinstance(skeleton_or_motion, Motion) else None
         self._alpha = (1.0, np.ones(J))
         self._last_kind = "tuple"
+        self.limits = None
+        if limits is not None:
+            from .limits import JointLimits
+            if not isinstance(limits, JointLimits) or limits.joint_names != sk.joint_names:
+                raise InvalidArgumentError("Stream: limits must be the JointLimits of this "
+                                           "skeleton (mlayer.joint_limits(clip))")
+            check(lib.mlr_stream_set_limits(self._h, limits._h), "mlayer.Stream limits")
+            self.limits = limits  # the C stream borrows the handle: keep it alive
         if alpha is not None:
             self.set_alpha(alpha)
 
@@ -338,7 +350,8 @@ def motion_channels(motion: Motion) -> np.ndarray:
 
 
 def stream_motion(motion: Motion, *, lam: float, sigma: float, lag: int, alpha=None,
-                  lam_base: float | None = None, sigma_base: float | None = None) -> Motion:
+                  lam_base: float | None = None, sigma_base: float | None = None,
+                  limits=None) -> Motion:
     """Stream a whole clip through a new :class:`Stream` (frame by frame, then flush) and return
     the streamed motion (same skeleton, frame time and frame count). Frame f of the result is
     what a live stream outputs for frame f: the smoothed frame given frames 0 .. f + lag."""
@@ -346,7 +359,7 @@ def stream_motion(motion: Motion, *, lam: float, sigma: float, lag: int, alpha=N
         raise InvalidArgumentError(
             f"stream_motion: expected a mlayer.Motion, got {type(motion).__name__}")
     st = Stream(motion, lam=lam, sigma=sigma, lag=lag, alpha=alpha, lam_base=lam_base,
-                sigma_base=sigma_base)
+                sigma_base=sigma_base, limits=limits)
     with st:
         y = motion_channels(motion)
         out = np.empty_like(y)

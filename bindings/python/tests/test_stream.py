@@ -322,3 +322,20 @@ def test_empty_and_short_clips(walk):
     out = mlayer.stream_motion(short, lam=1.0, sigma=1.0, lag=5)
     assert out.n_frames == 3
     assert gap(short, motion_channels(out), offline(short, 1.0, 1.0)) <= 1e-9
+
+
+def test_a_stream_with_limits_keeps_exaggerated_knees_in_range(mocap):
+    from mlayer import plausibility as pl
+    m = mlayer.read_bvh(mocap / "cmu_131_01_mj_style_walk.bvh")
+    lim = mlayer.joint_limits(m)
+    kw = dict(lam=1.0, sigma=1.0, lag=8, lam_base=30.0, sigma_base=30.0, alpha=3.0)
+    free = mlayer.stream_motion(m, **kw)
+    held = mlayer.stream_motion(m, limits=lim, **kw)
+    assert pl.hinge_violations(m, free, lim)["fold_frames"] > 0
+    v = pl.hinge_violations(m, held, lim)
+    assert v["fold_frames"] == 0 and v["reversal_frames"] == 0
+    # the same soft saturation as offline: the limited stream is the free one, limited
+    offline, _ = mlayer.limits.apply_limits(free, lim, 3.0)
+    np.testing.assert_allclose(held.positions(), offline.positions(), atol=1e-9 * 25)
+    with pytest.raises(mlayer.InvalidArgumentError, match="limits"):
+        mlayer.Stream(m, lam=1.0, sigma=1.0, lag=2, limits="auto")
