@@ -164,33 +164,10 @@ static double quantile_of(double *v, size_t n, double q)
     return v[i] + f * (v[i + 1] - v[i]);
 }
 
-/* Forward kinematics of the joints marked in need (closed under parents) of frame f, with the arithmetic of mlr_fk_arrays (mlr_fk.h), so each computed
-   value is bit for bit what the full FK gives; the other joints are not written. tidx[j]: j's
+/* Forward kinematics of the joints marked in need (closed under parents) of frame f, with the
+   arithmetic of mlr_fk_arrays (mlr_fk.h: mlr_quat_mul / mlr_quat_rotate, inlined), so each
+   computed value is bit for bit what the full FK gives; the other joints are not written. tidx[j]: j's
    index among the rig's trans joints, or -1. wp, wrot_f: J x 3 and J x 4, the frame's. */
-/* mlr_quat_mul and mlr_quat_rotate (quat.c), the same expressions (the library builds with
-   -ffp-contract=off, so the same bits), inlined into the FK below */
-static inline void fk_qmul(const mlr_quat *a, const mlr_quat *b, mlr_quat *out)
-{
-    const double aw = a->w, ax = a->x, ay = a->y, az = a->z;
-    const double bw = b->w, bx = b->x, by = b->y, bz = b->z;
-    out->w = aw * bw - ax * bx - ay * by - az * bz;
-    out->x = aw * bx + ax * bw + ay * bz - az * by;
-    out->y = aw * by - ax * bz + ay * bw + az * bx;
-    out->z = aw * bz + ax * by - ay * bx + az * bw;
-}
-
-static inline void fk_qrot(const mlr_quat *q, const double *v, double *o)
-{
-    const double w = q->w, ux = q->x, uy = q->y, uz = q->z;
-    const double vx = v[0], vy = v[1], vz = v[2];
-    const double tx = 2.0 * (uy * vz - uz * vy);
-    const double ty = 2.0 * (uz * vx - ux * vz);
-    const double tz = 2.0 * (ux * vy - uy * vx);
-    o[0] = vx + w * tx + (uy * tz - uz * ty);
-    o[1] = vy + w * ty + (uz * tx - ux * tz);
-    o[2] = vz + w * tz + (ux * ty - uy * tx);
-}
-
 static void fk_masked_frame(const mlr_rig *rig, size_t f, const uint8_t *need,
                             const int32_t *tidx, const double *root_pos, const double *rot,
                             const double *trans, double *wp, double *wrot_f)
@@ -209,9 +186,9 @@ static void fk_masked_frame(const mlr_rig *rig, size_t f, const uint8_t *need,
         const size_t p = (size_t)parents[j];
         const double *t = tidx[j] >= 0 ? trans + 3 * (P * f + (size_t)tidx[j]) : offsets + 3 * j;
         const mlr_quat q = {r[4 * j], r[4 * j + 1], r[4 * j + 2], r[4 * j + 3]};
-        fk_qmul(&wr[p], &q, &wr[j]);
+        mlr_quat_mul_inline(&wr[p], &q, &wr[j]);
         double o[3];
-        fk_qrot(&wr[p], t, o);
+        mlr_quat_rotate_inline(&wr[p], t, o);
         wp[3 * j] = wp[3 * p] + o[0];
         wp[3 * j + 1] = wp[3 * p + 1] + o[1];
         wp[3 * j + 2] = wp[3 * p + 2] + o[2];

@@ -44,6 +44,32 @@ mlr_status mlr_diag_set(mlr_diag *diag, mlr_status status, size_t line, size_t c
 #endif
     ;
 
+/* The quaternion product and rotation, inlined into loops (mlr_quat_mul and mlr_quat_rotate
+ * are these; the library builds with -ffp-contract=off, so every caller gets the same bits).
+ * out may alias a or b; o must not alias v. */
+static inline void mlr_quat_mul_inline(const mlr_quat *a, const mlr_quat *b, mlr_quat *out)
+{
+    const double aw = a->w, ax = a->x, ay = a->y, az = a->z;
+    const double bw = b->w, bx = b->x, by = b->y, bz = b->z;
+    out->w = aw * bw - ax * bx - ay * by - az * bz;
+    out->x = aw * bx + ax * bw + ay * bz - az * by;
+    out->y = aw * by - ax * bz + ay * bw + az * bx;
+    out->z = aw * bz + ax * by - ay * bx + az * bw;
+}
+
+/* v' = v + 2w (u x v) + 2 u x (u x v), u = (x, y, z); v and o are 3 doubles. */
+static inline void mlr_quat_rotate_inline(const mlr_quat *q, const double *v, double *o)
+{
+    const double w = q->w, ux = q->x, uy = q->y, uz = q->z;
+    const double vx = v[0], vy = v[1], vz = v[2];
+    const double tx = 2.0 * (uy * vz - uz * vy);
+    const double ty = 2.0 * (uz * vx - ux * vz);
+    const double tz = 2.0 * (ux * vy - uy * vx);
+    o[0] = vx + w * tx + (uy * tz - uz * ty);
+    o[1] = vy + w * ty + (uz * tx - ux * tz);
+    o[2] = vz + w * tz + (ux * ty - uy * tx);
+}
+
 /* Predictive sign continuity of row f of q (n_frames x n_tracks) given rows f-3 .. f-1 (those
  * that exist) already made continuous: mlr_quat_continue_sign per track (quat.c). */
 void mlr_quat_continue_frame(mlr_quat *q, size_t f, size_t n_tracks);

@@ -115,38 +115,21 @@ static double wrap_pi(double a)
     return a;
 }
 
-/* The product, inlined into the array loops (no call through the exported symbol); out may
- * alias a or b. */
-static inline void quat_mul(const mlr_quat *a, const mlr_quat *b, mlr_quat *out)
-{
-    const double aw = a->w, ax = a->x, ay = a->y, az = a->z;
-    const double bw = b->w, bx = b->x, by = b->y, bz = b->z;
-    out->w = aw * bw - ax * bx - ay * by - az * bz;
-    out->x = aw * bx + ax * bw + ay * bz - az * by;
-    out->y = aw * by - ax * bz + ay * bw + az * bx;
-    out->z = aw * bz + ax * by - ay * bx + az * bw;
-}
-
 void mlr_quat_mul(const mlr_quat *a, const mlr_quat *b, mlr_quat *out)
 {
     if (!a || !b || !out)
         return;
-    quat_mul(a, b, out);
+    mlr_quat_mul_inline(a, b, out);
 }
 
 void mlr_quat_rotate(const mlr_quat *q, const mlr_vec3 *v, mlr_vec3 *out)
 {
     if (!q || !v || !out)
         return;
-    /* v' = v + 2w (u x v) + 2 u x (u x v), u = (x, y, z). */
-    const double w = q->w, ux = q->x, uy = q->y, uz = q->z;
-    const double vx = v->x, vy = v->y, vz = v->z;
-    const double tx = 2.0 * (uy * vz - uz * vy);
-    const double ty = 2.0 * (uz * vx - ux * vz);
-    const double tz = 2.0 * (ux * vy - uy * vx);
-    out->x = vx + w * tx + (uy * tz - uz * ty);
-    out->y = vy + w * ty + (uz * tx - ux * tz);
-    out->z = vz + w * tz + (ux * ty - uy * tx);
+    const double vv[3] = {v->x, v->y, v->z};
+    double o[3];
+    mlr_quat_rotate_inline(q, vv, o);
+    out->x = o[0], out->y = o[1], out->z = o[2];
 }
 
 void mlr_quat_mul_array(const mlr_quat *a, const mlr_quat *b, size_t count, mlr_quat *out)
@@ -154,7 +137,7 @@ void mlr_quat_mul_array(const mlr_quat *a, const mlr_quat *b, size_t count, mlr_
     if (!a || !b || !out)
         return;
     for (size_t i = 0; i < count; i++)
-        quat_mul(&a[i], &b[i], &out[i]);
+        mlr_quat_mul_inline(&a[i], &b[i], &out[i]);
 }
 
 void mlr_quat_conj_array(const mlr_quat *q, size_t count, mlr_quat *out)

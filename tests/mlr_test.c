@@ -144,3 +144,37 @@ double mlr_test_dist2(const double *a, const double *b, size_t d)
         s += (a[t] - b[t]) * (a[t] - b[t]);
     return s;
 }
+
+int mlr_test_clip_load(const char *file, mlr_test_clip *c)
+{
+    const char *dir = mlr_test_mocap_dir();
+    if (!dir)
+        return 0;
+    char path[1024];
+    snprintf(path, sizeof path, "%s/%s", dir, file);
+    FILE *fp = fopen(path, "rb");
+    if (!fp)
+        return 0;
+    fclose(fp);
+    mlr_diag d;
+    ck_assert_msg(mlr_bvh_read_file(path, NULL, &c->m, &d) == MLR_OK, "%s", d.message);
+    c->n = mlr_motion_n_frames(c->m);
+    c->j = mlr_motion_n_joints(c->m);
+    c->fps = 1.0 / mlr_motion_frame_time(c->m);
+    c->names = malloc(c->j * sizeof *c->names);
+    ck_assert_ptr_nonnull(c->names);
+    for (size_t j = 0; j < c->j; j++)
+        c->names[j] = mlr_motion_joint_name(c->m, j);
+    const mlr_rig g = {c->j, mlr_motion_parents(c->m), mlr_motion_offsets(c->m), c->names,
+                       mlr_motion_n_trans(c->m), mlr_motion_trans_joints(c->m),
+                       mlr_motion_n_end_sites(c->m), mlr_motion_end_site_parents(c->m),
+                       mlr_motion_end_site_offsets(c->m)};
+    c->rig = g;
+    return 1;
+}
+
+void mlr_test_clip_unload(mlr_test_clip *c)
+{
+    free(c->names);
+    mlr_motion_destroy(c->m);
+}

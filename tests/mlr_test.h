@@ -41,6 +41,18 @@ typedef struct mlr_test_temp { char dir[64], path[192]; } mlr_test_temp;
 void mlr_test_temp_write(mlr_test_temp *t, const char *name, const void *data, size_t n);
 void mlr_test_temp_remove(const mlr_test_temp *t);
 
+/* A shared real clip with its rig view (names borrowed from the motion). */
+typedef struct mlr_test_clip {
+    mlr_motion *m;
+    mlr_rig rig;
+    const char **names;
+    size_t n, j;   /* frames, joints */
+    double fps;
+} mlr_test_clip;
+/* Read file from mlr_test_mocap_dir(); 0 (nothing to release) when the clips are absent. */
+int mlr_test_clip_load(const char *file, mlr_test_clip *c);
+void mlr_test_clip_unload(mlr_test_clip *c);
+
 /* Run a suite, print Check's summary line, return the process exit code. */
 int mlr_test_run(Suite *s);
 

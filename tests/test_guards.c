@@ -7,48 +7,19 @@
 #include <stdlib.h>
 #include <string.h>
 
-typedef struct clip {
-    mlr_motion *m;
-    mlr_rig rig;
-    const char **names;
-    size_t n, j, p;
-    double fps;
-} clip;
+typedef mlr_test_clip clip;
 
+/* The first max_frames frames of a shared clip (0 when the clips are absent). */
 static int load(const char *file, size_t max_frames, clip *c)
 {
-    const char *dir = mlr_test_mocap_dir();
-    if (!dir)
+    if (!mlr_test_clip_load(file, c))
         return 0;
-    char path[1024];
-    snprintf(path, sizeof path, "%s/%s", dir, file);
-    FILE *fp = fopen(path, "rb");
-    if (!fp)
-        return 0;
-    fclose(fp);
-    mlr_diag d;
-    ck_assert_msg(mlr_bvh_read_file(path, NULL, &c->m, &d) == MLR_OK, "%s", d.message);
-    c->n = mlr_motion_n_frames(c->m);
     if (c->n > max_frames)
         c->n = max_frames;
-    c->j = mlr_motion_n_joints(c->m);
-    c->p = mlr_motion_n_trans(c->m);
-    c->fps = 1.0 / mlr_motion_frame_time(c->m);
-    c->names = malloc(c->j * sizeof *c->names);
-    for (size_t j = 0; j < c->j; j++)
-        c->names[j] = mlr_motion_joint_name(c->m, j);
-    mlr_rig g = {c->j, mlr_motion_parents(c->m), mlr_motion_offsets(c->m), c->names,
-                 c->p, mlr_motion_trans_joints(c->m), mlr_motion_n_end_sites(c->m),
-                 mlr_motion_end_site_parents(c->m), mlr_motion_end_site_offsets(c->m)};
-    c->rig = g;
     return 1;
 }
 
-static void unload(clip *c)
-{
-    free(c->names);
-    mlr_motion_destroy(c->m);
-}
+static void unload(clip *c) { mlr_test_clip_unload(c); }
 
 static mlr_guards *guards_of(const clip *c, const mlr_guards_option *opts, size_t n_opts)
 {

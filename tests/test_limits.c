@@ -451,44 +451,9 @@ END_TEST
 
 /* ---- real clips ------------------------------------------------------------------------- */
 
-typedef struct real {
-    mlr_motion *m;
-    mlr_rig rig;
-    const char **names;
-    size_t n, j;
-} real;
-
-static int load(const char *file, real *r)
-{
-    const char *dir = mlr_test_mocap_dir();
-    if (!dir)
-        return 0;
-    char path[1024];
-    snprintf(path, sizeof path, "%s/%s", dir, file);
-    FILE *fp = fopen(path, "rb");
-    if (!fp)
-        return 0;
-    fclose(fp);
-    mlr_diag d;
-    ck_assert_msg(mlr_bvh_read_file(path, NULL, &r->m, &d) == MLR_OK, "%s", d.message);
-    r->n = mlr_motion_n_frames(r->m);
-    r->j = mlr_motion_n_joints(r->m);
-    r->names = malloc(r->j * sizeof *r->names);
-    for (size_t j = 0; j < r->j; j++)
-        r->names[j] = mlr_motion_joint_name(r->m, j);
-    mlr_rig g = {r->j, mlr_motion_parents(r->m), mlr_motion_offsets(r->m), r->names,
-                 mlr_motion_n_trans(r->m), mlr_motion_trans_joints(r->m),
-                 mlr_motion_n_end_sites(r->m), mlr_motion_end_site_parents(r->m),
-                 mlr_motion_end_site_offsets(r->m)};
-    r->rig = g;
-    return 1;
-}
-
-static void unload(real *r)
-{
-    free(r->names);
-    mlr_motion_destroy(r->m);
-}
+typedef mlr_test_clip real;
+#define load(file, r) mlr_test_clip_load(file, r)
+#define unload(r) mlr_test_clip_unload(r)
 
 static mlr_limits *real_limits(const real *r)
 {

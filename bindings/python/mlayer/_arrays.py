@@ -5,6 +5,8 @@ every check happens here before a pointer crosses into C.
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ._native import ffi
@@ -60,3 +62,14 @@ def ptr_out(arr: np.ndarray, ctype: str = "double *"):
 def require_finite(a: np.ndarray, name: str) -> None:
     if not np.isfinite(a).all():
         raise InvalidArgumentError(f"{name}: contains NaN or infinite values")
+
+
+def finite(v, name: str) -> float:
+    """``float(v)``, or InvalidArgumentError naming ``name`` when v is not a finite number."""
+    try:
+        f = float(v)
+    except (TypeError, ValueError):
+        raise InvalidArgumentError(f"{name} must be a number, got {v!r}") from None
+    if not math.isfinite(f):
+        raise InvalidArgumentError(f"{name} must be finite, got {v!r}")
+    return f

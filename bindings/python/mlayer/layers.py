@@ -61,7 +61,7 @@ def _option(key, value, name):
     """An (option key, value) pair for the C call, or None when value is None."""
     if value is None:
         return None
-    v = _finite(value, name)
+    v = _arrays.finite(value, name)
     if name != "gamma" and v <= 0.0:
         raise InvalidArgumentError(f"{name} must be > 0, got {value!r}")
     return (key, v)
@@ -190,15 +190,15 @@ class Layers:
         `joints` (a dict of joint name or glob -> alpha, applied in order; later patterns win),
         and `root_alpha` for the body translation (default: alpha)."""
         names = self.motion.joint_names
-        out = np.full(1 + len(names), _finite(alpha, "alpha"))
+        out = np.full(1 + len(names), _arrays.finite(alpha, "alpha"))
         if root_alpha is not None:
-            out[0] = _finite(root_alpha, "root_alpha")
+            out[0] = _arrays.finite(root_alpha, "root_alpha")
         for pattern, a in (joints or {}).items():
             hits = [k for k, n in enumerate(names) if fnmatch.fnmatchcase(n, pattern)]
             if not hits:
                 raise InvalidArgumentError(
                     f"joint pattern {pattern!r} matches no joint; joints: {', '.join(names)}")
-            out[1 + np.asarray(hits)] = _finite(a, f"alpha of {pattern!r}")
+            out[1 + np.asarray(hits)] = _arrays.finite(a, f"alpha of {pattern!r}")
         return out
 
     def synthesize(self, alpha=1.0, joints=None, *, root_alpha=None):
@@ -247,16 +247,6 @@ class Layers:
                 f"lam_c median {np.median(self.lam_c):.3g}{body}>")
 
 
-def _finite(v, name) -> float:
-    try:
-        f = float(v)
-    except (TypeError, ValueError):
-        raise InvalidArgumentError(f"{name} must be a number, got {v!r}") from None
-    if not math.isfinite(f):
-        raise InvalidArgumentError(f"{name} must be finite, got {v!r}")
-    return f
-
-
 def base_s_max(fps: float, cutoff_hz: float) -> float:
     """The base-layer smoothing s = lam^2 sigma^2 whose LGS (second-difference prior, identity
     observations) halves the amplitude at cutoff_hz for a clip at fps: the gain
@@ -300,11 +290,11 @@ def decompose(motion, *, gamma: float = math.pi / 2, lam_c=None, sigma_c=None, l
         _option(lib.MLR_LAYERS_OPT_SIGMA_B, sigma_b, "sigma_b")) if o is not None]
     if base_cutoff is not None and lam_b is None and sigma_b is None:
         # the floor is the C default given the frame rate (mlr_layers.h, "The base floor")
-        cutoff = _finite(base_cutoff, "base_cutoff")
+        cutoff = _arrays.finite(base_cutoff, "base_cutoff")
         if not 0.0 < cutoff < 0.5 * motion.fps:
             raise InvalidArgumentError(f"base_cutoff must be in (0, fps/2) = (0, "
                                        f"{0.5 * motion.fps:g}) Hz, got {base_cutoff!r}")
-        opts += [(lib.MLR_LAYERS_OPT_FPS, _finite(motion.fps, "fps")),
+        opts += [(lib.MLR_LAYERS_OPT_FPS, _arrays.finite(motion.fps, "fps")),
                  (lib.MLR_LAYERS_OPT_BASE_CUTOFF, cutoff)]
     body = body_translation_joint(motion)
     if body != 0:

@@ -29,16 +29,6 @@ SOURCES = {lib.MLR_LIMITS_SOURCE_NONE: "-", lib.MLR_LIMITS_SOURCE_TABLE: "table"
            lib.MLR_LIMITS_SOURCE_INPUT: "input", lib.MLR_LIMITS_SOURCE_USER: "user"}
 
 
-def _finite(v, name) -> float:
-    try:
-        f = float(v)
-    except (TypeError, ValueError):
-        raise InvalidArgumentError(f"{name} must be a number, got {v!r}") from None
-    if not math.isfinite(f):
-        raise InvalidArgumentError(f"{name} must be finite, got {v!r}")
-    return f
-
-
 class JointLimits:
     """Ranges per joint for one skeleton (a handle on the C model). Angles in radians."""
 
@@ -102,7 +92,7 @@ class JointLimits:
             raise InvalidArgumentError(f"kind must be one of {sorted(_KIND_CODES)}, got {kind!r}")
         r.kind = _KIND_CODES[k]
         for field, v in (("lo", lo), ("hi", hi), ("swing", swing), ("twist", twist)):
-            setattr(r, field, cur[field] if v is None else _finite(v, field))
+            setattr(r, field, cur[field] if v is None else _arrays.finite(v, field))
         r.widen = int(cur["widen"] if widen is None else bool(widen))
         diag = ffi.new("mlr_diag *")
         check(lib.mlr_limits_set_range(self._h, j, r, diag),
@@ -178,10 +168,11 @@ def joint_limits(motions, *, human=None, fold_degrees: float = 150.0, soft: floa
     opts = []
     if human is not None:
         opts.append((lib.MLR_LIMITS_OPT_HUMAN, 1.0 if human else 0.0))
-    opts.append((lib.MLR_LIMITS_OPT_FOLD, math.radians(_finite(fold_degrees, "fold_degrees"))))
-    opts.append((lib.MLR_LIMITS_OPT_SOFT, _finite(soft, "soft")))
+    opts.append((lib.MLR_LIMITS_OPT_FOLD,
+                 math.radians(_arrays.finite(fold_degrees, "fold_degrees"))))
+    opts.append((lib.MLR_LIMITS_OPT_SOFT, _arrays.finite(soft, "soft")))
     opts.append((lib.MLR_LIMITS_OPT_REVERSAL_SOFT,
-                 math.radians(_finite(reversal_soft_degrees, "reversal_soft_degrees"))))
+                 math.radians(_arrays.finite(reversal_soft_degrees, "reversal_soft_degrees"))))
     copts = ffi.new("mlr_limits_option[]", len(opts))
     for k, (key, v) in enumerate(opts):
         copts[k].key, copts[k].value = key, v
