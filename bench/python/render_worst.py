@@ -126,7 +126,7 @@ def render(path, op="stylize", alpha=3.0, out_png="worst.png", dpi=90):
     captions, axes = [], []
     for r, (kind, t, j, cap_u, cap_g) in enumerate(rows):
         for c, (pos, lab, cap) in enumerate(((pu_all[t], "unguarded", cap_u),
-                                             (pg_all[t], f"guarded ({glabel})",
+                                             (pg_all[t], "guarded",
                                               f"same frame: {cap_g}"))):
             for v, (h_ax, v_ax) in enumerate((side, front)):
                 ax = fig.add_subplot(len(rows), 4, 4 * r + 2 * c + v + 1)
@@ -134,8 +134,8 @@ def render(path, op="stylize", alpha=3.0, out_png="worst.png", dpi=90):
                 _draw(ax, pos, m.parents, h_ax, v_ax, f0, [j],
                       f"{lab}, {'side' if v == 0 else 'front'}", center)
             captions.append((r, c, (f"frame {t}: " if c == 0 else "") + cap))
-    fig.suptitle(f"{path.split('/')[-1]}: {opname}, worst frames (red: offending joint; "
-                 f"dashed: input floor)", fontsize=8)
+    fig.suptitle(f"{path.split('/')[-1]}: {opname}, worst frames, unguarded and guarded\n"
+                 f"({glabel}) (red: offending joint; dashed: input floor)", fontsize=8)
     fig.tight_layout(rect=(0, 0, 1, 0.95), h_pad=4.5)
     for r, c, text in captions:
         a0, a1 = fig.axes[4 * r + 2 * c], fig.axes[4 * r + 2 * c + 1]
