@@ -24,9 +24,12 @@ frames and skeleton):
   frame; positive is the input's own bending direction. A reversal is a frame where the
   output's signed flexion is below min(0, the input's smallest signed flexion) - 1 degree (the
   limb bends the other way further than the input ever did; 1 degree absorbs rounding).
-- Floor: the median height of the input's foot points (ankles and toes of find_feet) during
-  the input's detected contacts (:func:`mlayer.detect_contacts`); without contacts, the 1st
-  percentile of the lowest foot point per frame. A penetration frame has a foot point more than
+- Floor: the 5% quantile of the heights of the input's foot points (ankles and toes of
+  find_feet) on their contact frames (:func:`mlayer.detect_contacts`): the level the lowest
+  points rest on, the floor the guards document (mlr_cleanup_floor_height), computed here in
+  numpy. (The median, used before, mixes ankles, which stand an ankle's height above the
+  ground, with toes, so it sits above the ground and counts toes resting on it as below it.)
+  Without contacts, the 1st percentile of the lowest foot point per frame. A penetration frame has a foot point more than
   0.5 % of H below that floor in the output while the same point was not below
   (floor - 0.5 % H) in the input; the depth reported is the largest such (floor - height).
 - Exaggeration kept per body part: RMS over frames and the part's joints of the rotation
@@ -221,7 +224,7 @@ def floor_level(inp, names, contacts=None) -> float:
     """The input's floor height (see the module docstring)."""
     y = _contacts.contact_positions(inp, names)[..., 1]
     if contacts is not None and contacts.any():
-        return float(np.median(y[contacts]))
+        return float(np.quantile(y[contacts], 0.05))
     return float(np.percentile(y.min(axis=1), 1.0))
 
 
