@@ -6,6 +6,13 @@ import pytest
 REPO = pathlib.Path(__file__).resolve().parents[3]
 
 
+#: the eight shared clips (../shared/data/mocap/README.md)
+SHARED_CLIPS = ["ai4a_dog_D1_008_KAN01_002.bvh", "bandai1_walk_happy_001.bvh",
+                "cmu_01_01_playground_jumps.bvh", "cmu_02_03_run_jog_25fps.bvh",
+                "cmu_10_01_soccer_kick.bvh", "cmu_131_01_mj_style_walk.bvh",
+                "cmu_60_10_salsa_dance.bvh", "lafan1_clip_a.bvh"]
+
+
 def mocap_dir() -> pathlib.Path:
     """The shared real clips: $MLR_TEST_MOCAP_DIR, or ../shared/data/mocap beside the repo."""
     env = os.environ.get("MLR_TEST_MOCAP_DIR")

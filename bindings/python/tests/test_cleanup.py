@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 import mlayer
+from conftest import SHARED_CLIPS
 from mlayer import cleanup
 from mlayer._native import ffi, lib
 from mlayer._rig import c_rig
@@ -12,10 +13,7 @@ from mlayer.contacts import _point, detect_contacts
 from mlayer.errors import InvalidArgumentError
 from mlayer.metrics import body_height
 
-CLIPS = ["ai4a_dog_D1_008_KAN01_002.bvh", "bandai1_walk_happy_001.bvh",
-         "cmu_01_01_playground_jumps.bvh", "cmu_02_03_run_jog_25fps.bvh",
-         "cmu_10_01_soccer_kick.bvh", "cmu_131_01_mj_style_walk.bvh",
-         "cmu_60_10_salsa_dance.bvh", "lafan1_clip_a.bvh"]
+CLIPS = SHARED_CLIPS
 
 
 @pytest.fixture(scope="module")

@@ -6,15 +6,13 @@ import numpy as np
 import pytest
 
 import mlayer
+from conftest import SHARED_CLIPS
 from mlayer import _arrays, plausibility as pl
 from mlayer._native import ffi, lib
 from mlayer._rig import c_rig
 from mlayer.metrics import body_height
 
-CLIPS = ["ai4a_dog_D1_008_KAN01_002.bvh", "bandai1_walk_happy_001.bvh",
-         "cmu_01_01_playground_jumps.bvh", "cmu_02_03_run_jog_25fps.bvh",
-         "cmu_10_01_soccer_kick.bvh", "cmu_131_01_mj_style_walk.bvh",
-         "cmu_60_10_salsa_dance.bvh", "lafan1_clip_a.bvh"]
+CLIPS = SHARED_CLIPS
 
 
 def _read(mocap, name, frames=1800):
