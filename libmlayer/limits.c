@@ -545,9 +545,21 @@ void mlr_limits_destroy(mlr_limits *lim)
 /* ---------------------------------------------------------------------------------------- */
 /* Apply                                                                                    */
 
-/* Limit one unit quaternion of joint g; returns 1 when changed. */
+/* x + 2 pi k nearest prev, when that is within a quarter turn of prev; else x. */
+static double unwrap_near(double x, double prev)
+{
+    const double y = x + 2.0 * PI * round((prev - x) / (2.0 * PI));
+    return fabs(y - prev) <= 0.5 * PI ? y : x;
+}
+
+/* Limit one unit quaternion of joint g; returns 1 when changed. prev: for a hinge in a run of
+ * frames, the angle read at the frame before (NAN for none; updated). The angle is read in
+ * [m - 2 pi, m), m the middle of the excluded arc; outside [lo, hi] and with a frame before,
+ * in the branch nearest that frame's (unwrapped in time), so a trajectory that crosses the
+ * middle of the excluded arc stays on its side instead of snapping to the other bound. A swing-twist joint's
+ * twist is unwrapped the same way (it would snap from +twist to -twist at a half turn). */
 static int limit_joint(const mlr_limits *lim, const mlr_limits_joint *g, double alpha,
-                       mlr_quat *q)
+                       mlr_quat *q, double *prev)
 {
     const mlr_limits_range *r = &g->range;
     const mlr_quat q0 = *q;
@@ -563,6 +575,12 @@ static int limit_joint(const mlr_limits *lim, const mlr_limits_joint *g, double 
             phi -= 2.0 * PI;
         else if (phi < mid - 2.0 * PI)
             phi += 2.0 * PI;
+        /* outside the range, on the side the frame before was on (no drift inside it), unless
+           the step from there is a jump (over a quarter turn: a glitch frame, a T-pose) */
+        if (prev && isfinite(*prev) && (phi < r->lo || phi > r->hi))
+            phi = unwrap_near(phi, *prev);
+        if (prev)
+            *prev = phi;
         double phi2 = phi;
         if (phi > r->hi - w_hi)
             phi2 = mlr_limits_soft(phi, r->hi, w_hi);
@@ -584,6 +602,11 @@ static int limit_joint(const mlr_limits *lim, const mlr_limits_joint *g, double 
             double sw, tw;
             mlr_quat sq;
             swing_twist(rr, t, &sw, &tw, &sq);
+            if (prev) { /* beyond its bound, the twist unwrapped in time as a hinge's angle */
+                if (isfinite(*prev) && fabs(tw) > tmax)
+                    tw = unwrap_near(tw, *prev);
+                *prev = tw;
+            }
             const double sw2 = sw > smax - ws ? mlr_limits_soft(sw, smax, ws) : sw;
             const double atw = fabs(tw);
             const double tw2 = atw > tmax - wt ? copysign(mlr_limits_soft(atw, tmax, wt), tw) : tw;
@@ -610,7 +633,7 @@ void mlr_limits_apply_frame(const mlr_limits *lim, mlr_quat *q, const double *al
 {
     for (size_t j = 0; j < lim->n_joints; j++) {
         const double a = alpha ? alpha[stride * j] : 1.0;
-        if (limit_joint(lim, &lim->joints[j], a, &q[j]) && counts)
+        if (limit_joint(lim, &lim->joints[j], a, &q[j], NULL) && counts)
             counts[j]++;
     }
 }
@@ -626,8 +649,9 @@ void mlr_limits_apply_kind(const mlr_limits *lim, size_t n_frames, mlr_quat *rot
         if (lj->range.kind != kind)
             continue;
         const double a = aj ? aj[stride * j] : 1.0;
+        double prev = NAN;
         for (size_t f = 0; f < n_frames; f++)
-            if (limit_joint(lim, lj, a, &rot[f * J + j]) && counts)
+            if (limit_joint(lim, lj, a, &rot[f * J + j], &prev) && counts)
                 counts[j]++;
     }
 }
@@ -655,24 +679,21 @@ mlr_status mlr_limits_apply(const mlr_limits *lim, size_t n_frames, const double
                             "limits: counts must have J = %zu values, got %zu", J, n_counts);
     if (counts)
         memset(counts, 0, J * sizeof *counts);
-    const double *aj = alpha ? (n_alpha == 1 ? alpha : alpha + 1) : NULL;
-    const size_t stride = n_alpha == 1 ? 0 : 1;
-    for (size_t f = 0; f < n_frames; f++) {
-        const double *src = rot_in + 4 * J * f;
-        double *dst = rot_out + 4 * J * f;
+    for (size_t f = 0; f < n_frames; f++)
         for (size_t j = 0; j < J; j++) {
-            const double *p = src + 4 * j;
+            const double *p = rot_in + 4 * (J * f + j);
             const double n2 = p[0] * p[0] + p[1] * p[1] + p[2] * p[2] + p[3] * p[3];
             if (!isfinite(n2) || !(n2 > 0))
                 return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                                     "limits: rot_in[%zu][%zu] is %s", f, j,
                                     isfinite(n2) ? "zero" : "not finite");
         }
-        if (dst != src)
-            memmove(dst, src, 4 * J * sizeof(double));
-        mlr_quat *q = (mlr_quat *)dst;
-        (void)mlr_quat_normalize_array(q, J, q);
-        mlr_limits_apply_frame(lim, q, aj, stride, counts);
-    }
+    if (rot_out != rot_in)
+        memmove(rot_out, rot_in, 4 * J * n_frames * sizeof(double));
+    mlr_quat *q = (mlr_quat *)rot_out;
+    (void)mlr_quat_normalize_array(q, J * n_frames, q);
+    /* joint by joint, so that hinge angles are unwrapped along the frames */
+    for (int kind = MLR_LIMITS_HINGE; kind <= MLR_LIMITS_SWING_TWIST; kind++)
+        mlr_limits_apply_kind(lim, n_frames, q, alpha, n_alpha, counts, kind);
     return MLR_OK;
 }

@@ -18,8 +18,12 @@
  *                hi = max(fold, the input's largest phi), fold = 150 degrees by default (what a
  *                human knee or elbow reaches). Limiting rotates q_j about n only:
  *                q' = R(n, phi' - phi) q_j, so the other components of the rotation are kept.
- *                Angles are read in [m - 2 pi, m), m the middle of the excluded arc (hi, lo + 2 pi),
- *                so a fold past 180 degrees is still a fold.
+ *                Angles are read in [m - 2 pi, m), m the middle of the excluded arc
+ *                (hi, lo + 2 pi), so a fold past 180 degrees is still a fold; over the frames
+ *                of one call, an angle outside [lo, hi] is read in the branch nearest the
+ *                frame before (unwrapped in time), so a trajectory that swings through the
+ *                excluded arc stays on its side (streams read each frame on its own). Twists
+ *                beyond their bound are unwrapped alike.
  *   swing-twist  every other joint with a bone: r = conj(c_j) q_j is the rotation from the
  *                joint's centre c_j (the input's mean rotation), split as r = swing * twist
  *                with the twist about the bone direction b (the main child's translation, in
@@ -195,7 +199,7 @@ MLR_API mlr_status mlr_limits_get_geometry(const mlr_limits *lim, size_t joint, 
  * @param counts   [out] J counts: frames in which the joint was changed; NULL to skip
  * @param n_counts [in] J when counts is not NULL
  * @return MLR_OK; MLR_E_INVALID_ARG (NULL handle or arrays, wrong counts, alpha non-finite,
- *         a non-finite or zero quaternion: nothing written past the frame before it, reason in
+ *         a non-finite or zero quaternion: nothing written, reason in
  *         diag)
  * Allocates: never. Threads: handle only read; outputs distinct per thread.
  */
