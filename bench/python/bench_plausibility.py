@@ -1,6 +1,6 @@
 """Plausibility of denoise / stylize output, with and without the guards (issue 18, item 7).
 
-    python bench/python/bench_plausibility.py [--wild /work/wild] [--json out.json]
+    python bench/python/bench_plausibility.py [--wild WILD] [--json out.json]
         [--alphas 0.5,2,3] [--clips PATTERN]
 
 For every clip of ../shared/data/mocap (and every .bvh of --wild), for denoise and for
