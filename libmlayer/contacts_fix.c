@@ -1,6 +1,7 @@
 /*
  * Contact cleanup and floor guard of a synthesized motion (mlr_cleanup.h).
  */
+#include "cleanup_internal.h"
 #include "ik_internal.h"
 
 #include <math.h>
@@ -252,22 +253,41 @@ mlr_status mlr_cleanup_floor_height(const mlr_rig *rig, size_t N, const double *
     double *pos = take(&ar, N * J * 3, sizeof(double));
     double *wrot = take(&ar, N * J * 4, sizeof(double));
     double *pts = take(&ar, N * C * 3, sizeof(double));
-    double *v = take(&ar, N * C, sizeof(double));
     if (ar.st != MLR_OK) {
         release(&ar);
         return mlr_diag_set(diag, ar.st, 0, 0, "floor_height: out of memory");
     }
     st = fk_points(rig, N, root_pos, rot, trans, C, joints, end_sites, pos, wrot, pts, &A,
                    NULL, NULL);
-    if (st == MLR_OK) {
-        size_t k = 0;
-        for (size_t i = 0; i < N * C; i++)
-            if (contacts[i])
-                v[k++] = pts[3 * i + (size_t)up];
-        *height = k ? quantile_of(v, k, quantile) : NAN;
-    }
+    if (st == MLR_OK)
+        st = mlr_cleanup_floor_of_points(N, C, pts, contacts, up, quantile, height, &A);
     release(&ar);
-    return st == MLR_OK ? MLR_OK : mlr_diag_set(diag, st, 0, 0, "floor_height: FK failed");
+    if (st == MLR_OK)
+        return MLR_OK;
+    return mlr_diag_set(diag, st, 0, 0, st == MLR_E_NO_MEMORY ? "floor_height: out of memory"
+                                                              : "floor_height: FK failed");
+}
+
+mlr_status mlr_cleanup_floor_of_points(size_t n_frames, size_t n_points, const double *pts,
+                                       const uint8_t *contacts, int up, double quantile,
+                                       double *height, const mlr_allocator *a)
+{
+    size_t k = 0;
+    for (size_t i = 0; i < n_frames * n_points; i++)
+        k += contacts[i] != 0;
+    *height = NAN;
+    if (k == 0)
+        return MLR_OK;
+    double *v = mlr_alloc(a, k * sizeof(double));
+    if (!v)
+        return MLR_E_NO_MEMORY;
+    k = 0;
+    for (size_t i = 0; i < n_frames * n_points; i++)
+        if (contacts[i])
+            v[k++] = pts[3 * i + (size_t)up];
+    *height = quantile_of(v, k, quantile);
+    mlr_free(a, v, k * sizeof(double));
+    return MLR_OK;
 }
 
 /* ---- the displacement map ---- */

@@ -3,6 +3,7 @@
  * foot contacts and the floor, composed with the defaults of mlayer's Python package.
  */
 #include "mlr_internal.h"
+#include "cleanup_internal.h"
 #include "limits_internal.h"
 
 #include <math.h>
@@ -212,6 +213,26 @@ static mlr_status estimate_floor(mlr_guards *g, mlr_diag *diag)
                                     0.05, &g->floor_height, &g->alloc, diag);
 }
 
+/* estimate_floor from the input's world positions, which create has already computed. */
+static mlr_status floor_from_positions(mlr_guards *g, const double *wpos, const double *wrot,
+                                       mlr_diag *diag)
+{
+    if (g->floor_given || g->n_points == 0)
+        return estimate_floor(g, diag);
+    mlr_status st = MLR_OK;
+    double *pts = alloc_array(&g->alloc, 3 * g->n_frames * g->n_points, sizeof(double), &st);
+    if (st == MLR_OK)
+        st = mlr_rig_point_positions(&g->rig, g->n_frames, wpos, wrot, g->n_points, g->joints,
+                                     g->end_sites, pts, diag);
+    if (st == MLR_OK)
+        st = mlr_cleanup_floor_of_points(g->n_frames, g->n_points, pts, g->contacts, g->up, 0.05,
+                                         &g->floor_height, &g->alloc);
+    free_array(&g->alloc, pts, 3 * g->n_frames * g->n_points, sizeof(double));
+    return st == MLR_OK ? MLR_OK : mlr_diag_set(diag, st, 0, 0, "guards: the floor: %s",
+                                                st == MLR_E_NO_MEMORY ? "out of memory"
+                                                                      : "bad points");
+}
+
 /* Feet by name and their contacts on the input; a rig without feet gets none. */
 static mlr_status find_contacts(mlr_guards *g, const double *world_pos, const double *world_rot,
                                 mlr_diag *diag)
@@ -343,7 +364,7 @@ mlr_status mlr_guards_create(const mlr_rig *rig, double fps, size_t n_frames,
     }
     if (g->contacts_on || g->floor_on)
         if ((st = find_contacts(g, wpos, wrot, diag)) != MLR_OK ||
-            (st = estimate_floor(g, diag)) != MLR_OK)
+            (st = floor_from_positions(g, wpos, wrot, diag)) != MLR_OK)
             goto done;
     if (g->limits_mode != MLR_GUARDS_LIMITS_OFF) {
         const mlr_limits_clip clip = {N, g->rot, P ? g->trans : NULL};
