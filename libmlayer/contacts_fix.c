@@ -225,6 +225,42 @@ static mlr_status fk_points(const mlr_rig *rig, size_t N, const double *root_pos
     return mlr_rig_point_positions(rig, N, pos, wrot, C, joints, end_sites, pts, NULL);
 }
 
+mlr_status mlr_cleanup_point_heights(const mlr_rig *rig, size_t N, const double *root_pos,
+                                     const double *rot, const double *trans, size_t C,
+                                     const int32_t *joints, const int32_t *end_sites, int up,
+                                     double *h, const mlr_allocator *a)
+{
+    const size_t J = rig->n_joints;
+    size_t bytes;
+    if (mlr_mul_size(J, 7 * sizeof(double) + sizeof(int32_t) + 1, &bytes) != MLR_OK ||
+        C > (SIZE_MAX - bytes) / (3 * sizeof(double)))
+        return MLR_E_OVERFLOW;
+    bytes += 3 * C * sizeof(double);
+    double *wp = mlr_alloc(a, bytes);
+    if (!wp)
+        return MLR_E_NO_MEMORY;
+    double *wr = wp + 3 * J, *pts = wr + 4 * J;
+    int32_t *tidx = (int32_t *)(void *)(pts + 3 * C);
+    uint8_t *need = (uint8_t *)(tidx + J);
+    memset(need, 0, J);
+    for (size_t j = 0; j < J; j++)
+        tidx[j] = -1;
+    for (size_t k = 0; k < rig->n_trans; k++)
+        tidx[rig->trans_joints[k]] = (int32_t)k;
+    for (size_t c = 0; c < C; c++)
+        for (int32_t j = joints[c]; j >= 0 && !need[j]; j = rig->parents[j])
+            need[j] = 1;
+    mlr_status st = MLR_OK;
+    for (size_t f = 0; st == MLR_OK && f < N; f++) {
+        fk_masked_frame(rig, f, need, tidx, root_pos, rot, trans, wp, wr);
+        st = mlr_rig_point_positions(rig, 1, wp, wr, C, joints, end_sites, pts, NULL);
+        for (size_t c = 0; st == MLR_OK && c < C; c++)
+            h[f * C + c] = pts[3 * c + (size_t)up];
+    }
+    mlr_free(a, wp, bytes);
+    return st;
+}
+
 mlr_status mlr_cleanup_floor_height(const mlr_rig *rig, size_t N, const double *root_pos,
                                     const double *rot, const double *trans, size_t C,
                                     const int32_t *joints, const int32_t *end_sites,

@@ -478,22 +478,6 @@ static double knee_fold_limit(const mlr_guards *g)
     return fold;
 }
 
-/* Heights along up of the contact points of frames (root, rot, trans): N x C into h. */
-static mlr_status point_heights(const mlr_guards *g, const double *root, const double *rot,
-                                const double *trans, double *pos, double *wrot, double *pts,
-                                double *h)
-{
-    const size_t N = g->n_frames, J = g->n_joints, C = g->n_points;
-    mlr_status st = mlr_fk_arrays(N, J, g->parents, g->offsets, root, rot, g->n_trans,
-                                  g->trans_joints, trans, pos, wrot, &g->alloc);
-    if (st == MLR_OK)
-        st = mlr_rig_point_positions(&g->rig, N, pos, wrot, C, g->joints, g->end_sites, pts,
-                                     NULL);
-    for (size_t k = 0; st == MLR_OK && k < N * C; k++)
-        h[k] = pts[3 * k + (size_t)g->up];
-    return st;
-}
-
 /* The last word of the floor guard: where a foot point of the result is still below
  * min(floor, the reference's height of that point), by more than nothing, the whole body is
  * raised along up by a smooth envelope of the shortfall (the largest shortfall within
@@ -506,20 +490,19 @@ static mlr_status raise_to_floor(const mlr_guards *g, const double *ref_root,
                                  const double *ref_rot, const double *ref_trans, double *root,
                                  const double *rot, const double *trans, size_t *raised)
 {
-    const size_t N = g->n_frames, J = g->n_joints, C = g->n_points;
+    const size_t N = g->n_frames, C = g->n_points;
     mlr_status st = MLR_OK;
-    double *pos = alloc_array(&g->alloc, 3 * N * J, sizeof(double), &st);
-    double *wrot = alloc_array(&g->alloc, 4 * N * J, sizeof(double), &st);
-    double *pts = alloc_array(&g->alloc, 3 * N * C, sizeof(double), &st);
     double *href = alloc_array(&g->alloc, N * C, sizeof(double), &st);
     double *hout = alloc_array(&g->alloc, N * C, sizeof(double), &st);
     double *need = alloc_array(&g->alloc, 2 * N, sizeof(double), &st);
     if (st == MLR_OK && ref_root)
-        st = point_heights(g, ref_root, ref_rot, ref_trans, pos, wrot, pts, href);
+        st = mlr_cleanup_point_heights(&g->rig, N, ref_root, ref_rot, ref_trans, C, g->joints,
+                                       g->end_sites, g->up, href, &g->alloc);
     for (size_t k = 0; st == MLR_OK && !ref_root && k < N * C; k++)
         href[k] = INFINITY; /* no reference: the floor alone */
     if (st == MLR_OK)
-        st = point_heights(g, root, rot, trans, pos, wrot, pts, hout);
+        st = mlr_cleanup_point_heights(&g->rig, N, root, rot, trans, C, g->joints, g->end_sites,
+                                       g->up, hout, &g->alloc);
     if (st == MLR_OK) {
         double *wide = need + N;
         int any = 0;
@@ -557,9 +540,6 @@ static mlr_status raise_to_floor(const mlr_guards *g, const double *ref_root,
     } else if (st != MLR_E_NO_MEMORY && st != MLR_E_OVERFLOW) {
         st = MLR_E_INVALID_ARG;
     }
-    free_array(&g->alloc, pos, 3 * N * J, sizeof(double));
-    free_array(&g->alloc, wrot, 4 * N * J, sizeof(double));
-    free_array(&g->alloc, pts, 3 * N * C, sizeof(double));
     free_array(&g->alloc, href, N * C, sizeof(double));
     free_array(&g->alloc, hout, N * C, sizeof(double));
     free_array(&g->alloc, need, 2 * N, sizeof(double));
