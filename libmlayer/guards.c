@@ -515,8 +515,14 @@ static mlr_status raise_to_floor(const mlr_guards *g, const double *ref_root,
             need[f] = d;
             any |= d > 0.0;
         }
-        if (any) {
-            const size_t half = (size_t)fmax(1.0, round(0.1 * g->fps));
+        const size_t half = (size_t)fmax(1.0, round(0.1 * g->fps));
+        double *wtab = any ? alloc_array(&g->alloc, 2 * half + 1, sizeof(double), &st) : NULL;
+        if (any && st == MLR_OK) {
+            /* the raised-cosine window's weights, by offset k - f + half */
+            for (size_t i = 0; i <= 2 * half; i++) {
+                const double x = ((double)i - (double)half) / (double)(half + 1);
+                wtab[i] = 0.5 * (1.0 + cos(3.14159265358979323846 * x));
+            }
             for (size_t f = 0; f < N; f++) {
                 const size_t lo = f > half ? f - half : 0, hi = f + half < N ? f + half : N - 1;
                 double m = 0.0;
@@ -528,8 +534,7 @@ static mlr_status raise_to_floor(const mlr_guards *g, const double *ref_root,
                 const size_t lo = f > half ? f - half : 0, hi = f + half < N ? f + half : N - 1;
                 double acc = 0.0, wsum = 0.0;
                 for (size_t k = lo; k <= hi; k++) {
-                    const double x = ((double)k - (double)f) / (double)(half + 1);
-                    const double w = 0.5 * (1.0 + cos(3.14159265358979323846 * x));
+                    const double w = wtab[k + half - f];
                     acc += w * wide[k], wsum += w;
                 }
                 const double lift = acc / wsum;
@@ -537,6 +542,7 @@ static mlr_status raise_to_floor(const mlr_guards *g, const double *ref_root,
                 *raised += need[f] > 0.0;
             }
         }
+        free_array(&g->alloc, wtab, 2 * half + 1, sizeof(double));
     } else if (st != MLR_E_NO_MEMORY && st != MLR_E_OVERFLOW) {
         st = MLR_E_INVALID_ARG;
     }

@@ -230,6 +230,7 @@ typedef struct acc {
     /* the largest swing and |twist| so far as (sine-like, cosine-like) pairs: the angle is
        2 atan2(s, c), monotonic in s / c, so the atan2 is taken once at the end */
     double sw_s, sw_c, tw_s, tw_c;
+    double ms[9]; /* moments of the swings' vector parts (the twist about the bone removed) */
 } acc;
 
 /* Is the angle of (s, c) larger than that of (bs, bc)? (s, bs >= 0, c, bc >= 0) */
@@ -401,6 +402,11 @@ mlr_status mlr_limits_create(const mlr_rig *rig, const mlr_limits_clip *clips, s
                                  sc = fabs(sq.w);
                     if (wider(ss, sc, c->sw_s, c->sw_c))
                         c->sw_s = ss, c->sw_c = sc;
+                    const double sv[3] = {sq.w < 0 ? -sq.x : sq.x, sq.w < 0 ? -sq.y : sq.y,
+                                          sq.w < 0 ? -sq.z : sq.z};
+                    for (int a3 = 0; a3 < 3; a3++)
+                        for (int b3 = 0; b3 < 3; b3++)
+                            c->ms[3 * a3 + b3] += sv[a3] * sv[b3];
                     const double ts = fabs(pp) / (tn > 1e-300 ? tn : 1.0), tc = tw.w;
                     if (wider(ts, tc, c->tw_s, c->tw_c))
                         c->tw_s = ts, c->tw_c = tc;
@@ -432,8 +438,19 @@ mlr_status mlr_limits_create(const mlr_rig *rig, const mlr_limits_clip *clips, s
         const double conc = tr > 0 ? l1 / tr : 0.0;
         const double along = fabs(dot3(e, g->axis));
         const int named = rig->names ? mlr_limits_hinge_name(rig->names[j]) : 0;
-        if (named && conc >= 0.5 && along >= cos35)
+        if (named && conc >= 0.5 && along >= cos35) {
             is_hinge[j] = named;
+        } else if (named) {
+            /* a hinge that also twists about its bone (a forearm's pronation, a capture's
+               twist noise) turns about another axis as a whole; its swing (the bone's
+               direction) still turns about the hinge axis */
+            const double *ms = ac[j].ms;
+            const double trs = ms[0] + ms[4] + ms[8];
+            mlr_vec3 es = {0, 0, 0};
+            const double ls = trs > 0 ? top_eigen(ms, &es) : 0.0;
+            if (trs > 0 && ls / trs >= 0.5 && fabs(dot3(es, g->axis)) >= cos35)
+                is_hinge[j] = named;
+        }
         else if (!rig->names && conc >= 0.9 && along >= cos35 &&
                  g->stats[1] - g->stats[0] >= 30.0 * DEG && rig->parents[j] > 0)
             is_hinge[j] = 1;
