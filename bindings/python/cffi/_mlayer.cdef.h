@@ -324,6 +324,14 @@ mlr_status mlr_rig_body_height(size_t n_frames, size_t n_joints, const double *w
 mlr_status mlr_rig_body_translation_joint(const mlr_rig *rig, size_t n_frames,
                                           const double *root_pos, const double *trans,
                                           int32_t *joint, mlr_diag *diag);
+typedef struct mlr_up_guess {
+    int axis;
+    int sign;
+    double confidence;
+    int method;
+} mlr_up_guess;
+mlr_status mlr_rig_up_axis(const mlr_rig *rig, size_t n_frames, const double *world_pos,
+                           mlr_up_guess *out, const mlr_allocator *alloc, mlr_diag *diag);
 
 /* mlr_contacts.h */
 mlr_status mlr_contacts_find_feet(const mlr_rig *rig, size_t n_frames, const double *world_pos,
