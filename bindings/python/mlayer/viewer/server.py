@@ -112,11 +112,11 @@ class ViewerServer(HTTPServer):
                  cache_bytes: int = DEFAULT_CACHE_BYTES, timeout: float = DEFAULT_TIMEOUT,
                  threads: int = DEFAULT_THREADS):
         self.max_values = _int_option("max_values", max_values, 1000)
-        self.cache = ResultCache(_int_option("cache_bytes", cache_bytes, 0))
+        self.cache = ResultCache(_int_option("cache_bytes", cache_bytes, 0))  # --cache-mb
         if not (isinstance(timeout, (int, float)) and math.isfinite(timeout) and
                 0 < timeout <= 86400):
-            raise InvalidArgumentError(f"timeout must be a number of seconds in (0, 86400], "
-                                       f"got {timeout!r}")
+            raise InvalidArgumentError(f"timeout (--timeout of mlayer view) must be a number of "
+                                       f"seconds in (0, 86400], got {timeout!r}")
         self.timeout = float(timeout)
         self.threads = _int_option("threads", threads, 1, 256)
         self.clips = clips
@@ -231,7 +231,9 @@ def _int_option(name: str, value, low: int, high: int | None = None) -> int:
     if isinstance(value, bool) or not isinstance(value, int) or value < low or \
             (high is not None and value > high):
         rng = f">= {low}" if high is None else f"in {low}..{high}"
-        raise InvalidArgumentError(f"{name} must be an integer {rng}, got {value!r}")
+        flag = "--" + name.replace("_", "-")
+        raise InvalidArgumentError(f"{name} ({flag} of mlayer view) must be an integer {rng}, "
+                                   f"got {value!r}")
     return value
 
 

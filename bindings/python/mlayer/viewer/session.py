@@ -401,6 +401,9 @@ class Clip:
                                  f"{m.fps:.6g} fps ({lo:.6g} to {hi:.6g}) for {self.name}, got "
                                  f"{p['fps']:g}")
             n_out = max(2, int(round((n_len - 1) * r)) + 1)
+            if n_out < 4:
+                raise ParamError(f"fps {p['fps']:g} would leave {n_out} frames of {self.name}; "
+                                 f"the viewer needs at least 4: raise fps or length")
         most = max(int(self.max_values), m.n_frames * self.n_points)
         frames = max(n_len, n_out)
         if frames * self.n_points > most:
