@@ -115,6 +115,10 @@ class Conn:
     __slots__ = ("sock", "addr", "rfile", "wfile", "since")
 
     def __init__(self, sock: socket.socket, addr, timeout: float):
+        try:  # the head and the body are separate writes: no Nagle wait for the ACK between
+            sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        except OSError:
+            pass
         self.sock = sock
         self.addr = addr
         self.rfile = _Reader(sock)

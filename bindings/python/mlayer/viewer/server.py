@@ -280,8 +280,13 @@ class _Handler(BaseHTTPRequestHandler):
         self.send_header("Referrer-Policy", "no-referrer")
         for k, v in (extra or {}).items():
             self.send_header(k, v)
-        self.end_headers()
-        if self.command != "HEAD":
+        if self.command == "HEAD":
+            self.end_headers()
+        elif len(body) <= 65536:  # one write (one packet) for the head and a small body
+            self._headers_buffer.append(b"\r\n" + body)
+            self.flush_headers()
+        else:
+            self.end_headers()
             self.wfile.write(body)
 
     def _json(self, obj, status: int = 200) -> None:
