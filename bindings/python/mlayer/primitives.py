@@ -237,6 +237,13 @@ class PrimitiveModel:
         return [Motion(self.skeleton, self.frame_time, root[a:b], self.train_rot[a:b],
                        self.train_trans[a:b]) for a, b in zip(self.clip_starts, ends)]
 
+    def __getstate__(self):
+        # copies and pickles leave out the cached JointLimits (a C model that cannot be copied);
+        # joint_limits() makes it again when it is needed
+        state = self.__dict__.copy()
+        state.pop("_limits_cache", None)
+        return state
+
     def joint_limits(self):
         """:func:`mlayer.joint_limits` of the training clips (made once, kept)."""
         lim = self.__dict__.get("_limits_cache")
