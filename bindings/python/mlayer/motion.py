@@ -30,7 +30,8 @@ from . import _arrays
 from ._native import ReadOnlyAttributes, ffi, lib
 from .errors import InvalidArgumentError, check
 
-__all__ = ["Motion", "Skeleton", "DEFAULT_ROOT_CHANNELS", "DEFAULT_JOINT_CHANNELS"]
+__all__ = ["Motion", "Skeleton", "DEFAULT_ROOT_CHANNELS", "DEFAULT_JOINT_CHANNELS",
+           "MIN_FRAME_TIME"]
 
 DEFAULT_ROOT_CHANNELS = "Xposition Yposition Zposition Zrotation Yrotation Xrotation"
 DEFAULT_JOINT_CHANNELS = "Zrotation Yrotation Xrotation"
@@ -218,10 +219,17 @@ class _CFrames:
         return np.asarray(self)
 
 
+MIN_FRAME_TIME = 1e-6
+"""The shortest frame time a Motion takes, in seconds (a million frames per second). Shorter
+ones are mistakes or hostile files (a BVH with Frame Time 1e-300 made every rate-dependent
+step overflow) and are refused with InvalidArgumentError (ParseError from the readers)."""
+
+
 def _frame_time_arg(v, name: str) -> float:
     ft = _arrays.finite(v, name)
-    if not ft > 0:
-        raise InvalidArgumentError(f"{name} must be finite and > 0, got {v!r}")
+    if not ft >= MIN_FRAME_TIME:
+        raise InvalidArgumentError(f"{name} must be at least {MIN_FRAME_TIME:g} s (finite, "
+                                   f"at most 1e6 frames per second), got {v!r}")
     return ft
 
 
