@@ -118,6 +118,11 @@ class Synthesis(ReadOnlyAttributes):
     _readonly = ("motion", "layers", "_mode", "_limits", "_floor_on", "_floor_height",
                  "_keep_contacts", "_contact_joints", "_up")
 
+    def __copy__(self) -> "Synthesis":
+        new = object.__new__(type(self))
+        new.__dict__.update(self.__dict__)  # the same layers, limits and guards handle
+        return new
+
     def __deepcopy__(self, memo):
         raise refuse_copy(self, "deep-copy", "make a new Synthesis of the motion")
 
