@@ -19,7 +19,7 @@ import os
 from ._native import ffi, lib
 from .errors import ParseError, check
 from .kmeans import _c_threads
-from .motion import Motion
+from .motion import MIN_FRAME_TIME, Motion
 
 __all__ = ["read_bvh", "write_bvh", "read_bvh_string", "write_bvh_string"]
 
@@ -46,7 +46,11 @@ def _motion_or_raise(code: int, out, diag, name: str) -> Motion:
         e.reason = reason
         raise e
     check(code, f"mlayer.read_bvh({name})", diag)
-    return Motion._adopt_c(out[0])  # the frames stay in the C block: no copy
+    m = Motion._adopt_c(out[0])  # the frames stay in the C block: no copy
+    if not m.frame_time >= MIN_FRAME_TIME:
+        raise ParseError(f"{name}: Frame Time {m.frame_time:g} s is below {MIN_FRAME_TIME:g} s "
+                         "(over a million frames per second): not a frame time", path=name)
+    return m
 
 
 def read_bvh(path, *, threads=None) -> Motion:

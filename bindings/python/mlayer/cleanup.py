@@ -63,9 +63,7 @@ def _i32(a):
 
 
 def _frames(m):
-    root, rot, trans = (np.ascontiguousarray(x, dtype=np.float64)
-                        for x in (m.root_pos, m.rot, m.trans))
-    return root, rot, trans
+    return m._frames()  # checked against m's skeleton and frame count
 
 
 def floor_height(motion, contacts=None, names=None, *, quantile: float = 0.05, up="y") -> float:

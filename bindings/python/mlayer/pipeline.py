@@ -31,7 +31,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import _arrays
-from ._native import ffi, lib
+from ._native import ReadOnlyAttributes, ffi, lib, refuse_copy
 from ._rig import axis, c_rig
 from .errors import InvalidArgumentError, check
 from .layers import Layers, decompose
@@ -91,8 +91,12 @@ def _floor(floor):
     return True, h
 
 
-class Synthesis:
+class Synthesis(ReadOnlyAttributes):
     """The layers and the guards of one input Motion, for any number of syntheses.
+    ``motion`` and ``layers`` are read-only. ``copy.copy`` shares the guards' C handle (it is
+    not changed after it is made and is freed with the last user); ``copy.deepcopy`` and
+    pickling raise TypeError (the guards and joint limits are C models that cannot be
+    duplicated: make a new Synthesis).
 
     motion          the input
     limits          "auto" (default: learned from the input, applied when some |alpha| > 1),
@@ -110,6 +114,20 @@ class Synthesis:
 
     Raises InvalidArgumentError (naming the argument) for bad options or input.
     """
+
+    _readonly = ("motion", "layers", "_mode", "_limits", "_floor_on", "_floor_height",
+                 "_keep_contacts", "_contact_joints", "_up")
+
+    def __copy__(self) -> "Synthesis":
+        new = object.__new__(type(self))
+        new.__dict__.update(self.__dict__)  # the same layers, limits and guards handle
+        return new
+
+    def __deepcopy__(self, memo):
+        raise refuse_copy(self, "deep-copy", "make a new Synthesis of the motion")
+
+    def __reduce_ex__(self, protocol):
+        raise refuse_copy(self, "pickle", "pickle the motion and make a new Synthesis")
 
     def __init__(self, motion, *, limits="auto", floor="auto", keep_contacts=True,
                  contact_joints=None, up="y", layers=None, **layer_options):
@@ -183,12 +201,28 @@ class Synthesis:
         names = [sk.joint_names[a] + ("/End" if b >= 0 else "") for a, b in zip(j, e)]
         return names, c.astype(bool)
 
+    def _same_frames(self, m, name: str) -> None:
+        """The C guards read a synthesis (and its reference) on the input's frames and
+        skeleton: anything else is refused before the call."""
+        from .motion import Motion
+        if m is None and name == "reference":
+            return
+        if not isinstance(m, Motion):
+            raise InvalidArgumentError(f"{name}: expected a mlayer.Motion, got "
+                                       f"{type(m).__name__}")
+        if m.skeleton != self.motion.skeleton or m.n_frames != self.motion.n_frames:
+            raise InvalidArgumentError(f"{name}: expected a Motion on the input's skeleton and "
+                                       f"its {self.motion.n_frames} frames, got "
+                                       f"{m.n_frames} frames")
+
     def guard(self, synthesized, alphas, reference=None):
         """``(motion, GuardReport)``: the guards applied to ``synthesized`` (a Motion on the
         input's frames made with the (1 + J,) ``alphas``, as :meth:`Layers.alphas` gives them).
         During contacts the feet follow ``reference`` (default: the input, smoothed over
         0.02 s against capture noise), or keep their own trajectory where it slides less."""
         a = np.ascontiguousarray(alphas, dtype=np.float64).reshape(-1)
+        for m, name in ((synthesized, "synthesized"), (reference, "reference")):
+            self._same_frames(m, name)
         root, rot, trans = (x.copy() for x in synthesized._frames())
         if reference is None:
             rr = rq = rt = None

@@ -37,7 +37,7 @@ import sys
 
 import numpy as np
 
-from . import quat
+from . import _arrays, quat
 from .errors import InvalidArgumentError, MlayerIOError
 from .lgs import lgs
 from .manifold import GRBF, PCA
@@ -83,6 +83,15 @@ def _hemisphere(q: np.ndarray) -> np.ndarray:
         ref = np.linalg.eigh(M)[1][:, -1]
         out[:, j] *= np.where(q[:, j] @ ref < 0, -1.0, 1.0)[:, None]
     return out
+
+
+def _non_negative(v, name: str) -> float:
+    """A finite number >= 0, else InvalidArgumentError naming it (NaN compares false with
+    everything, so ``smooth=nan`` used to pass ``smooth > 0`` checks silently)."""
+    f = _arrays.finite(v, name)
+    if f < 0:
+        raise InvalidArgumentError(f"{name} must be >= 0, got {v!r}")
+    return f
 
 
 def _say(progress, msg: str) -> None:
@@ -236,6 +245,13 @@ class PrimitiveModel:
         root = np.repeat(np.asarray(self.rest_root_pos, dtype=np.float64)[None], n, axis=0)
         return [Motion(self.skeleton, self.frame_time, root[a:b], self.train_rot[a:b],
                        self.train_trans[a:b]) for a, b in zip(self.clip_starts, ends)]
+
+    def __getstate__(self):
+        # copies and pickles leave out the cached JointLimits (a C model that cannot be copied);
+        # joint_limits() makes it again when it is needed
+        state = self.__dict__.copy()
+        state.pop("_limits_cache", None)
+        return state
 
     def joint_limits(self):
         """:func:`mlayer.joint_limits` of the training clips (made once, kept)."""
@@ -442,6 +458,13 @@ class PrimitiveModel:
                 or n_frames < 2:
             raise InvalidArgumentError(f"generate: frames must be an integer >= 2, got "
                                        f"{n_frames!r}")
+        smooth = _non_negative(smooth, "generate: smooth")
+        noise = _non_negative(noise, "generate: noise")
+        if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+            raise InvalidArgumentError(f"generate: seed must be an integer >= 0, got {seed!r}")
+        # the mapping's outputs, their smoothing and the guards: a few copies of n_frames poses
+        per_frame = getattr(self.grbf, "n_outputs_", 0) + 8 * self.skeleton.n_joints
+        _arrays.check_memory(64.0 * n_frames * per_frame, f"generate: n_frames={n_frames}")
         n = self.points.shape[0]
         if key_poses is not None:
             knots = self.to_manifold(key_poses)
@@ -501,6 +524,7 @@ class PrimitiveModel:
     def motion_along(self, traj, *, smooth: float = 2.0) -> Motion:
         """The Motion whose frames the GRBF maps from the manifold points traj (n, 2)."""
         traj = np.asarray(traj, dtype=np.float64)
+        smooth = _non_negative(smooth, "motion_along: smooth")
         Y = self.grbf.predict(traj)
         if smooth > 0 and Y.shape[0] > 2:
             Y = lgs(Y, lam=smooth, sigma=1.0, order=2)

@@ -74,6 +74,14 @@ def _factor_check(factor: float, what: str, where: str, allow_extreme: bool) -> 
             "mean it")
 
 
+def _out_memory(motion: Motion, n_out: int, name: str, where: str) -> int:
+    """n_out, after checking that its output frames (and the solver's copy of them) fit in
+    memory: MemoryError naming the argument before anything is allocated."""
+    m = 3 + 4 * motion.n_joints + 3 * motion.skeleton.trans_joints.shape[0]
+    _arrays.check_memory(16.0 * n_out * m, f"{where}: {name} ({n_out} output frames)")
+    return n_out
+
+
 def _frame_count(n, name: str, where: str) -> int:
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)):
         raise InvalidArgumentError(f"{where}: {name} must be an integer, got {n!r}")
@@ -102,9 +110,10 @@ def _target(motion: Motion, fps, n_frames, allow_extreme: bool, where: str):
         diag = ffi.new("mlr_diag *")
         _check(lib.mlr_resample_n_out(N, motion.fps, fps, _flags(allow_extreme), n, diag),
                where, diag)
-        return int(n[0]), 1.0 / fps
+        return _out_memory(motion, int(n[0]), "fps", where), 1.0 / fps
     n_out = _frame_count(n_frames, "n_frames", where)
     _factor_check((n_out - 1) / (N - 1), f"{N} -> {n_out} frames", where, allow_extreme)
+    _out_memory(motion, n_out, "n_frames", where)
     return n_out, motion.frame_time * (N - 1) / (n_out - 1)
 
 
@@ -262,6 +271,7 @@ def slerp_resample(motion: Motion, *, fps: float | None = None, n_frames: int | 
         if fps is not None:
             raise InvalidArgumentError(f"{where}: give fps or time_map, not both")
         t, n_out = _time_map(time_map, motion.n_frames, n_frames, allow_extreme, where)
+        _out_memory(motion, n_out, "time_map / n_frames", where)
         frame_time = motion.frame_time
     else:
         t = None
@@ -404,6 +414,7 @@ def timewarp(motion: Motion, *, strength: float = 1.0, n_frames: int | None = No
                          smooth_seconds=smooth_seconds, root_weight=root_weight,
                          joint_weights=joint_weights, allow_extreme=allow_extreme)
         n_out = int(round(t[-1])) + 1
+    _out_memory(motion, n_out, "time_map / n_frames", where)
     lam, sigma = _lam_sigma(lam, sigma, where)
     original, motion = motion, _stylized(motion, style, where)
     res = _solve(motion, t, n_out, motion.frame_time, lam, sigma, _flags(allow_extreme),
