@@ -504,3 +504,8 @@ mlr_status mlr_guards_apply(const mlr_guards *g, const double *alpha, size_t n_a
                             const double *trans, size_t *limited, size_t n_limited,
                             mlr_guards_report *report, mlr_diag *diag);
 void mlr_guards_destroy(mlr_guards *g);
+
+/* Exact retiming (issue 20, MLAYER_0.11). */
+enum { MLR_RESAMPLE_OPEN_END = 4 };
+mlr_status mlr_resample_rate_map(size_t n_frames, double fps_in, double fps_out,
+                                 unsigned flags, double *t, size_t *n_out, mlr_diag *diag);
