@@ -51,7 +51,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 # Subcommands that read no clip (no --strict).
-_NO_CLIPS = {"version"}
+_NO_CLIPS = {"version", "generate", "batch"}  # (batch reads in its workers)
 
 
 def _show_parse_warning(command: str):
