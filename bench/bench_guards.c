@@ -4,7 +4,10 @@
  *   guards.stylize        that, then synthesize at alpha 2 and 1 (the reference), create the
  *                         guards (contacts, floor, limits of the input) and apply them: every
  *                         guard on, what mlayer.stylize(m, 2) computes
- *   guards.apply          mlr_guards_apply alone (a slider move with the guards made once)
+ *   guards.apply          synthesize at alpha 2 and mlr_guards_apply (a slider move with the
+ *                         guards made once)
+ *   guards.synthesize     mlr_layers_synthesize at alpha 2 alone
+ *   guards.create         mlr_guards_create alone (contacts, floor and limits of the input)
  * n is frames x joints. */
 #include "bench.h"
 
@@ -133,9 +136,23 @@ static void *setup_ready(size_t n)
 
 static double run_apply(void *p) { return apply(p); }
 
+static double run_synthesize(void *p)
+{
+    guards_state *s = p;
+    return synthesize(s, 2.0, s->out_root, s->out_rot) < 0 ? -1.0 : s->out_rot[4 * s->j * (s->n / 2)];
+}
+
+static double run_create(void *p)
+{
+    guards_state *s = p;
+    return create_guards(s) < 0 ? -1.0 : 1.0;
+}
+
 const mlr_bench_case mlr_bench_guards_cases[] = {
     {"guards.decompose/n=2526,j=31", 2526 * 31, setup, run_decompose, teardown},
     {"guards.stylize/n=2526,j=31", 2526 * 31, setup, run_stylize, teardown},
     {"guards.apply/n=2526,j=31", 2526 * 31, setup_ready, run_apply, teardown},
+    {"guards.synthesize/n=2526,j=31", 2526 * 31, setup_ready, run_synthesize, teardown},
+    {"guards.create/n=2526,j=31", 2526 * 31, setup_ready, run_create, teardown},
 };
 const size_t mlr_bench_guards_count = sizeof mlr_bench_guards_cases / sizeof mlr_bench_guards_cases[0];

@@ -12,4 +12,12 @@ mlr_status mlr_cleanup_floor_of_points(size_t n_frames, size_t n_points, const d
                                        const uint8_t *contacts, int up, double quantile,
                                        double *height, const mlr_allocator *a);
 
+/* Heights along up of the contact points (N x C into h) of frames (root_pos, rot, trans), by
+ * forward kinematics of the points' chains only, bit for bit what mlr_fk_arrays and
+ * mlr_rig_point_positions give. Arguments checked by the caller; scratch of a few J from a. */
+mlr_status mlr_cleanup_point_heights(const mlr_rig *rig, size_t N, const double *root_pos,
+                                     const double *rot, const double *trans, size_t C,
+                                     const int32_t *joints, const int32_t *end_sites, int up,
+                                     double *h, const mlr_allocator *a);
+
 #endif

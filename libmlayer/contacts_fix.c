@@ -225,6 +225,42 @@ static mlr_status fk_points(const mlr_rig *rig, size_t N, const double *root_pos
     return mlr_rig_point_positions(rig, N, pos, wrot, C, joints, end_sites, pts, NULL);
 }
 
+mlr_status mlr_cleanup_point_heights(const mlr_rig *rig, size_t N, const double *root_pos,
+                                     const double *rot, const double *trans, size_t C,
+                                     const int32_t *joints, const int32_t *end_sites, int up,
+                                     double *h, const mlr_allocator *a)
+{
+    const size_t J = rig->n_joints;
+    size_t bytes;
+    if (mlr_mul_size(J, 7 * sizeof(double) + sizeof(int32_t) + 1, &bytes) != MLR_OK ||
+        C > (SIZE_MAX - bytes) / (3 * sizeof(double)))
+        return MLR_E_OVERFLOW;
+    bytes += 3 * C * sizeof(double);
+    double *wp = mlr_alloc(a, bytes);
+    if (!wp)
+        return MLR_E_NO_MEMORY;
+    double *wr = wp + 3 * J, *pts = wr + 4 * J;
+    int32_t *tidx = (int32_t *)(void *)(pts + 3 * C);
+    uint8_t *need = (uint8_t *)(tidx + J);
+    memset(need, 0, J);
+    for (size_t j = 0; j < J; j++)
+        tidx[j] = -1;
+    for (size_t k = 0; k < rig->n_trans; k++)
+        tidx[rig->trans_joints[k]] = (int32_t)k;
+    for (size_t c = 0; c < C; c++)
+        for (int32_t j = joints[c]; j >= 0 && !need[j]; j = rig->parents[j])
+            need[j] = 1;
+    mlr_status st = MLR_OK;
+    for (size_t f = 0; st == MLR_OK && f < N; f++) {
+        fk_masked_frame(rig, f, need, tidx, root_pos, rot, trans, wp, wr);
+        st = mlr_rig_point_positions(rig, 1, wp, wr, C, joints, end_sites, pts, NULL);
+        for (size_t c = 0; st == MLR_OK && c < C; c++)
+            h[f * C + c] = pts[3 * c + (size_t)up];
+    }
+    mlr_free(a, wp, bytes);
+    return st;
+}
+
 mlr_status mlr_cleanup_floor_height(const mlr_rig *rig, size_t N, const double *root_pos,
                                     const double *rot, const double *trans, size_t C,
                                     const int32_t *joints, const int32_t *end_sites,
@@ -359,7 +395,7 @@ typedef struct foot {
     int32_t anchor, hip, knee;
     size_t n_cols, n_own;
     size_t cols[16]; /* own first, then the placed points */
-    uint8_t *U, *F;
+    uint8_t *U, *F, *K; /* in contact, a floor frame, in a kept contact (no IK there) */
     double *at, *tt, *lift;
     int active;
 } foot;
@@ -428,7 +464,10 @@ static mlr_status spread_rotations(work *w, double *rot, const double *newr, con
     for (size_t f = 0; f < N; f++)
         for (size_t i = 0; i < nj; i++) {
             double *r = rot + 4 * (f * J + (size_t)js[i]), e[4], o[4];
-            qexp(w->map_out + f * m + 3 * i, e);
+            const double *v = w->map_out + f * m + 3 * i;
+            if (v[0] == 0.0 && v[1] == 0.0 && v[2] == 0.0)
+                continue; /* outside the blend: the frame is left as it is */
+            qexp(v, e);
             mlr_ik_qmul(e, r, o);
             const double n = sqrt(o[0] * o[0] + o[1] * o[1] + o[2] * o[2] + o[3] * o[3]);
             for (int k = 0; k < 4; k++)
@@ -694,13 +733,13 @@ mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t N, double fps, int up
     if (ar.st != MLR_OK)
         goto fail;
     /* the feet's arrays, one block each for all feet (the arena holds MAX_BLOCKS blocks) */
-    uint8_t *all_uf = take(&ar, N * nf, 2);
+    uint8_t *all_uf = take(&ar, N * nf, 3);
     double *all_at = take(&ar, N * nf, 7 * sizeof(double));
     if (ar.st != MLR_OK)
         goto fail;
     for (size_t k = 0; k < nf; k++) {
         foot *ft = &feet[k];
-        ft->U = all_uf + 2 * N * k, ft->F = ft->U + N;
+        ft->U = all_uf + 3 * N * k, ft->F = ft->U + N, ft->K = ft->F + N;
         ft->at = all_at + 7 * N * k, ft->tt = ft->at + 3 * N, ft->lift = ft->tt + 3 * N;
         size_t nu = 0;
         for (size_t f = 0; f < N; f++) {
@@ -732,7 +771,10 @@ mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t N, double fps, int up
             if (have_ref && cfg.keep_stiller > 0.0 &&
                 run_sliding(P, contacts, C, ft, s, e, up) <=
                     cfg.keep_stiller * run_sliding(Pr, contacts, C, ft, s, e, up)) {
-                s = e; /* the foot's own trajectory slides no more than the reference's: kept */
+                /* the foot's own trajectory slides no more than the reference's: kept (its
+                   frames stay held, with no correction, so IK is not needed there) */
+                memset(ft->K + s, 1, e - s);
+                s = e;
                 continue;
             }
             if (have_ref) {
@@ -942,6 +984,13 @@ mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t N, double fps, int up
         }
     }
 
+    /* a kept contact needs IK only where the root moved (the leg is held otherwise: the
+       ankle is where its target is) */
+    for (size_t k = 0; k < nf; k++)
+        for (size_t f = 0; feet[k].active && f < N; f++)
+            if (shift[3 * f] != 0.0 || shift[3 * f + 1] != 0.0 || shift[3 * f + 2] != 0.0)
+                feet[k].K[f] = 0;
+
     /* ---- passes: IK on the constrained frames, then the spread ---- */
     double *P2 = take(&ar, N * C * 3, sizeof(double));
     uint8_t *mask = take(&ar, N, 1);
@@ -981,7 +1030,7 @@ mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t N, double fps, int up
             mlr_ik_bend_axis_local(N, J, pos, wrot, ft->hip, ft->knee, ft->anchor, local);
             const int have_local = local[0] != 0.0 || local[1] != 0.0 || local[2] != 0.0;
             for (size_t f = 0; f < N; f++) {
-                if (!ft->U[f] && !ft->F[f])
+                if ((!ft->U[f] && !ft->F[f]) || ft->K[f])
                     continue;
                 const double *Pf = pos + 3 * f * J, *G = wrot + 4 * f * J;
                 double target[3], ax[3], rh[4], rk[4];
@@ -1008,14 +1057,15 @@ mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t N, double fps, int up
         for (size_t k = 0; k < nf; k++)
             if (feet[k].active && feet[k].n_cols > feet[k].n_own)
                 for (size_t f = 0; f < N; f++)
-                    fk_frames[f] |= feet[k].U[f] | feet[k].F[f];
+                    fk_frames[f] |= (feet[k].U[f] | feet[k].F[f]) & !feet[k].K[f];
         for (size_t f = 0; f < N; f++) {
             if (!fk_frames[f])
                 continue;
             fk_masked_frame(rig, f, need, tidx, out_root_pos, newr, tr, pos2, wrot2);
             for (size_t k = 0; k < nf; k++) {
                 const foot *ft = &feet[k];
-                if (!ft->active || ft->n_cols == ft->n_own || (!ft->U[f] && !ft->F[f]))
+                if (!ft->active || ft->n_cols == ft->n_own || (!ft->U[f] && !ft->F[f]) ||
+                    ft->K[f])
                     continue;
                 const size_t a = (size_t)ft->anchor;
                 const int32_t pa = rig->parents[a];

@@ -478,22 +478,6 @@ static double knee_fold_limit(const mlr_guards *g)
     return fold;
 }
 
-/* Heights along up of the contact points of frames (root, rot, trans): N x C into h. */
-static mlr_status point_heights(const mlr_guards *g, const double *root, const double *rot,
-                                const double *trans, double *pos, double *wrot, double *pts,
-                                double *h)
-{
-    const size_t N = g->n_frames, J = g->n_joints, C = g->n_points;
-    mlr_status st = mlr_fk_arrays(N, J, g->parents, g->offsets, root, rot, g->n_trans,
-                                  g->trans_joints, trans, pos, wrot, &g->alloc);
-    if (st == MLR_OK)
-        st = mlr_rig_point_positions(&g->rig, N, pos, wrot, C, g->joints, g->end_sites, pts,
-                                     NULL);
-    for (size_t k = 0; st == MLR_OK && k < N * C; k++)
-        h[k] = pts[3 * k + (size_t)g->up];
-    return st;
-}
-
 /* The last word of the floor guard: where a foot point of the result is still below
  * min(floor, the reference's height of that point), by more than nothing, the whole body is
  * raised along up by a smooth envelope of the shortfall (the largest shortfall within
@@ -506,20 +490,19 @@ static mlr_status raise_to_floor(const mlr_guards *g, const double *ref_root,
                                  const double *ref_rot, const double *ref_trans, double *root,
                                  const double *rot, const double *trans, size_t *raised)
 {
-    const size_t N = g->n_frames, J = g->n_joints, C = g->n_points;
+    const size_t N = g->n_frames, C = g->n_points;
     mlr_status st = MLR_OK;
-    double *pos = alloc_array(&g->alloc, 3 * N * J, sizeof(double), &st);
-    double *wrot = alloc_array(&g->alloc, 4 * N * J, sizeof(double), &st);
-    double *pts = alloc_array(&g->alloc, 3 * N * C, sizeof(double), &st);
     double *href = alloc_array(&g->alloc, N * C, sizeof(double), &st);
     double *hout = alloc_array(&g->alloc, N * C, sizeof(double), &st);
     double *need = alloc_array(&g->alloc, 2 * N, sizeof(double), &st);
     if (st == MLR_OK && ref_root)
-        st = point_heights(g, ref_root, ref_rot, ref_trans, pos, wrot, pts, href);
+        st = mlr_cleanup_point_heights(&g->rig, N, ref_root, ref_rot, ref_trans, C, g->joints,
+                                       g->end_sites, g->up, href, &g->alloc);
     for (size_t k = 0; st == MLR_OK && !ref_root && k < N * C; k++)
         href[k] = INFINITY; /* no reference: the floor alone */
     if (st == MLR_OK)
-        st = point_heights(g, root, rot, trans, pos, wrot, pts, hout);
+        st = mlr_cleanup_point_heights(&g->rig, N, root, rot, trans, C, g->joints, g->end_sites,
+                                       g->up, hout, &g->alloc);
     if (st == MLR_OK) {
         double *wide = need + N;
         int any = 0;
@@ -532,8 +515,14 @@ static mlr_status raise_to_floor(const mlr_guards *g, const double *ref_root,
             need[f] = d;
             any |= d > 0.0;
         }
-        if (any) {
-            const size_t half = (size_t)fmax(1.0, round(0.1 * g->fps));
+        const size_t half = (size_t)fmax(1.0, round(0.1 * g->fps));
+        double *wtab = any ? alloc_array(&g->alloc, 2 * half + 1, sizeof(double), &st) : NULL;
+        if (any && st == MLR_OK) {
+            /* the raised-cosine window's weights, by offset k - f + half */
+            for (size_t i = 0; i <= 2 * half; i++) {
+                const double x = ((double)i - (double)half) / (double)(half + 1);
+                wtab[i] = 0.5 * (1.0 + cos(3.14159265358979323846 * x));
+            }
             for (size_t f = 0; f < N; f++) {
                 const size_t lo = f > half ? f - half : 0, hi = f + half < N ? f + half : N - 1;
                 double m = 0.0;
@@ -545,8 +534,7 @@ static mlr_status raise_to_floor(const mlr_guards *g, const double *ref_root,
                 const size_t lo = f > half ? f - half : 0, hi = f + half < N ? f + half : N - 1;
                 double acc = 0.0, wsum = 0.0;
                 for (size_t k = lo; k <= hi; k++) {
-                    const double x = ((double)k - (double)f) / (double)(half + 1);
-                    const double w = 0.5 * (1.0 + cos(3.14159265358979323846 * x));
+                    const double w = wtab[k + half - f];
                     acc += w * wide[k], wsum += w;
                 }
                 const double lift = acc / wsum;
@@ -554,12 +542,10 @@ static mlr_status raise_to_floor(const mlr_guards *g, const double *ref_root,
                 *raised += need[f] > 0.0;
             }
         }
+        free_array(&g->alloc, wtab, 2 * half + 1, sizeof(double));
     } else if (st != MLR_E_NO_MEMORY && st != MLR_E_OVERFLOW) {
         st = MLR_E_INVALID_ARG;
     }
-    free_array(&g->alloc, pos, 3 * N * J, sizeof(double));
-    free_array(&g->alloc, wrot, 4 * N * J, sizeof(double));
-    free_array(&g->alloc, pts, 3 * N * C, sizeof(double));
     free_array(&g->alloc, href, N * C, sizeof(double));
     free_array(&g->alloc, hout, N * C, sizeof(double));
     free_array(&g->alloc, need, 2 * N, sizeof(double));

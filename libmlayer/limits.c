@@ -227,7 +227,14 @@ typedef struct acc {
     mlr_quat qsum;
     mlr_vec3 xsum;
     double m[9];
+    /* the largest swing and |twist| so far as (sine-like, cosine-like) pairs: the angle is
+       2 atan2(s, c), monotonic in s / c, so the atan2 is taken once at the end */
+    double sw_s, sw_c, tw_s, tw_c;
+    double ms[9]; /* moments of the swings' vector parts (the twist about the bone removed) */
 } acc;
+
+/* Is the angle of (s, c) larger than that of (bs, bc)? (s, bs >= 0, c, bc >= 0) */
+static int wider(double s, double c, double bs, double bc) { return s * bc > bs * c; }
 
 mlr_status mlr_limits_create(const mlr_rig *rig, const mlr_limits_clip *clips, size_t n_clips,
                              const mlr_limits_option *opts, size_t n_opts,
@@ -250,7 +257,8 @@ mlr_status mlr_limits_create(const mlr_rig *rig, const mlr_limits_clip *clips, s
     mlr_allocator_resolve(alloc, &a);
     size_t jbytes, sbytes;
     if (mlr_mul_size(J, sizeof(mlr_limits_joint), &jbytes) != MLR_OK ||
-        mlr_mul_size(J, sizeof(acc) + 3 * sizeof(int32_t), &sbytes) != MLR_OK)
+        mlr_mul_size(J, sizeof(acc) + 4 * sizeof(int32_t) + sizeof(mlr_quat) + sizeof(mlr_vec3),
+                     &sbytes) != MLR_OK)
         return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "limits: too many joints");
     mlr_limits *lim = mlr_alloc(&a, sizeof *lim);
     if (!lim)
@@ -272,6 +280,8 @@ mlr_status mlr_limits_create(const mlr_rig *rig, const mlr_limits_clip *clips, s
     acc *ac = scratch;
     int32_t *main_child = (int32_t *)(ac + J);
     int *is_hinge = (int *)(main_child + J), *cls = is_hinge + J;
+    mlr_quat *rq = (mlr_quat *)(void *)(cls + J + (J & 1)); /* one frame's centred rotations */
+    mlr_vec3 *rv = (mlr_vec3 *)(void *)(rq + J);            /* ... and their logs */
     mlr_limits_joint *jt = lim->joints;
 
     /* bones: offsets, or the mean translation of a trans joint over the clips */
@@ -343,40 +353,73 @@ mlr_status mlr_limits_create(const mlr_rig *rig, const mlr_limits_clip *clips, s
         jt[j].stats[0] = DBL_MAX, jt[j].stats[1] = -DBL_MAX;
     }
 
-    /* pass 2: moments of the centred rotation vectors, hinge angle, swing and twist maxima */
+    /* pass 2: moments of the centred rotation vectors, hinge angle, swing and twist maxima
+       (a frame's logs in one array call) */
+    for (size_t j = 0; j < J; j++)
+        ac[j].sw_s = ac[j].tw_s = 0.0, ac[j].sw_c = ac[j].tw_c = 1.0;
     for (size_t k = 0; k < n_clips; k++)
-        for (size_t f = 0; f < clips[k].n_frames; f++)
+        for (size_t f = 0; f < clips[k].n_frames; f++) {
             for (size_t j = 0; j < J; j++) {
                 const double *p = clips[k].rot + 4 * (f * J + j);
                 const double n = sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2] + p[3] * p[3]);
-                mlr_quat q = {p[0] / n, p[1] / n, p[2] / n, p[3] / n};
-                mlr_limits_joint *g = &jt[j];
-                mlr_quat r = qmul(qconj(g->centre), q);
+                const mlr_quat q = {p[0] / n, p[1] / n, p[2] / n, p[3] / n};
+                mlr_quat r = qmul(qconj(jt[j].centre), q);
                 if (r.w < 0)
                     r = (mlr_quat){-r.w, -r.x, -r.y, -r.z};
-                mlr_vec3 v;
-                (void)mlr_quat_log_array(&r, 1, &v);
+                rq[j] = r;
+            }
+            (void)mlr_quat_log_array(rq, J, rv);
+            for (size_t j = 0; j < J; j++) {
+                mlr_limits_joint *g = &jt[j];
+                const mlr_vec3 v = rv[j];
+                const mlr_quat r = rq[j];
                 double *m = ac[j].m;
                 const double vv[3] = {v.x, v.y, v.z};
                 for (int a3 = 0; a3 < 3; a3++)
                     for (int b3 = 0; b3 < 3; b3++)
                         m[3 * a3 + b3] += vv[a3] * vv[b3];
                 if (norm3(g->axis) > 0) {
+                    const double *p = clips[k].rot + 4 * (f * J + j);
+                    const double n = sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2] + p[3] * p[3]);
+                    const mlr_quat q = {p[0] / n, p[1] / n, p[2] / n, p[3] / n};
                     const double phi = hinge_phi(g->axis, g->bone_in, qrot(q, g->bone_out));
                     g->stats[0] = fmin(g->stats[0], phi);
                     g->stats[1] = fmax(g->stats[1], phi);
                 }
                 const double bl = norm3(g->bone_out);
+                acc *c = &ac[j];
                 if (bl > 0) {
-                    double sw, tw;
-                    mlr_quat sq;
-                    swing_twist(r, scale3(g->bone_out, 1.0 / bl), &sw, &tw, &sq);
-                    g->stats[2] = fmax(g->stats[2], sw);
-                    g->stats[3] = fmax(g->stats[3], fabs(tw));
+                    /* swing_twist's angles without their atan2: twist 2 atan2(|p|, w) (r.w >= 0),
+                       swing 2 atan2(|s.v|, s.w) of s = r conj(twist) */
+                    const mlr_vec3 t = scale3(g->bone_out, 1.0 / bl);
+                    const double pp = r.x * t.x + r.y * t.y + r.z * t.z;
+                    const double tn = sqrt(r.w * r.w + pp * pp);
+                    mlr_quat tw = {1, 0, 0, 0};
+                    if (tn > 1e-300)
+                        tw = (mlr_quat){r.w / tn, pp * t.x / tn, pp * t.y / tn, pp * t.z / tn};
+                    mlr_quat sq = qmul(r, qconj(tw));
+                    const double ss = sqrt(sq.x * sq.x + sq.y * sq.y + sq.z * sq.z),
+                                 sc = fabs(sq.w);
+                    if (wider(ss, sc, c->sw_s, c->sw_c))
+                        c->sw_s = ss, c->sw_c = sc;
+                    const double sv[3] = {sq.w < 0 ? -sq.x : sq.x, sq.w < 0 ? -sq.y : sq.y,
+                                          sq.w < 0 ? -sq.z : sq.z};
+                    for (int a3 = 0; a3 < 3; a3++)
+                        for (int b3 = 0; b3 < 3; b3++)
+                            c->ms[3 * a3 + b3] += sv[a3] * sv[b3];
+                    const double ts = fabs(pp) / (tn > 1e-300 ? tn : 1.0), tc = tw.w;
+                    if (wider(ts, tc, c->tw_s, c->tw_c))
+                        c->tw_s = ts, c->tw_c = tc;
                 } else {
                     g->stats[2] = fmax(g->stats[2], norm3(v)); /* the whole angle of r */
                 }
             }
+        }
+    for (size_t j = 0; j < J; j++)
+        if (norm3(jt[j].bone_out) > 0) {
+            jt[j].stats[2] = 2.0 * atan2(ac[j].sw_s, ac[j].sw_c);
+            jt[j].stats[3] = 2.0 * atan2(ac[j].tw_s, ac[j].tw_c);
+        }
 
     /* hinges */
     const double cos35 = cos(35.0 * DEG);
@@ -395,8 +438,19 @@ mlr_status mlr_limits_create(const mlr_rig *rig, const mlr_limits_clip *clips, s
         const double conc = tr > 0 ? l1 / tr : 0.0;
         const double along = fabs(dot3(e, g->axis));
         const int named = rig->names ? mlr_limits_hinge_name(rig->names[j]) : 0;
-        if (named && conc >= 0.5 && along >= cos35)
+        if (named && conc >= 0.5 && along >= cos35) {
             is_hinge[j] = named;
+        } else if (named) {
+            /* a hinge that also twists about its bone (a forearm's pronation, a capture's
+               twist noise) turns about another axis as a whole; its swing (the bone's
+               direction) still turns about the hinge axis */
+            const double *ms = ac[j].ms;
+            const double trs = ms[0] + ms[4] + ms[8];
+            mlr_vec3 es = {0, 0, 0};
+            const double ls = trs > 0 ? top_eigen(ms, &es) : 0.0;
+            if (trs > 0 && ls / trs >= 0.5 && fabs(dot3(es, g->axis)) >= cos35)
+                is_hinge[j] = named;
+        }
         else if (!rig->names && conc >= 0.9 && along >= cos35 &&
                  g->stats[1] - g->stats[0] >= 30.0 * DEG && rig->parents[j] > 0)
             is_hinge[j] = 1;
@@ -552,6 +606,52 @@ static double unwrap_near(double x, double prev)
     return fabs(y - prev) <= 0.5 * PI ? y : x;
 }
 
+/* The angle a joint read at the frame before, for unwrapping in time: v (NAN for none), or,
+ * when that frame took the fast path of limit_joint (well inside the range, so its twist was
+ * not needed there), the frame's centred rotation rr whose twist is read only if a later frame
+ * needs it. */
+typedef struct prev_angle {
+    double v;
+    int pending;
+    mlr_quat rr;
+} prev_angle;
+
+/* The twist of unit rr (w >= 0) about unit t, as swing_twist computes it. */
+static double twist_of(mlr_quat rr, mlr_vec3 t)
+{
+    double sw, tw;
+    mlr_quat sq;
+    swing_twist(rr, t, &sw, &tw, &sq);
+    return tw;
+}
+
+/* The value of *pv, reading a pending twist about t. */
+static double prev_value(prev_angle *pv, mlr_vec3 t)
+{
+    if (pv->pending) {
+        pv->v = twist_of(pv->rr, t);
+        pv->pending = 0;
+    }
+    return pv->v;
+}
+
+/* sin^2 of half the smallest knee point (where the soft saturation begins) of a swing-twist
+ * joint at alpha: a centred rotation whose whole angle is below it has swing and |twist|
+ * below their knee points (both are at most the whole angle), so the limits leave it as it
+ * is. A relative margin covers the rounding of the angles' computation. */
+static double fast_bound(const mlr_limits *lim, const mlr_limits_joint *g, double alpha)
+{
+    const mlr_limits_range *r = &g->range;
+    const double wide = r->widen ? fmax(1.0, fabs(alpha)) : 1.0;
+    const double smax = fmin(PI, r->swing * wide), tmax = fmin(PI, r->twist * wide);
+    const double k = norm3(g->bone_out) > 0 ? fmin(smax - lim->soft * smax, tmax - lim->soft * tmax)
+                                            : smax - lim->soft * smax;
+    if (!(k > 0))
+        return -1.0;
+    const double sh = sin(0.5 * k);
+    return sh * sh * (1.0 - 1e-9);
+}
+
 /* Limit one unit quaternion of joint g; returns 1 when changed. prev: for a hinge in a run of
  * frames, the angle read at the frame before (NAN for none; updated). The angle is read in
  * [m - 2 pi, m), m the middle of the excluded arc; outside [lo, hi] and with a frame before,
@@ -559,7 +659,7 @@ static double unwrap_near(double x, double prev)
  * middle of the excluded arc stays on its side instead of snapping to the other bound. A swing-twist joint's
  * twist is unwrapped the same way (it would snap from +twist to -twist at a half turn). */
 static int limit_joint(const mlr_limits *lim, const mlr_limits_joint *g, double alpha,
-                       mlr_quat *q, double *prev)
+                       double fast, mlr_quat *q, prev_angle *prev)
 {
     const mlr_limits_range *r = &g->range;
     const mlr_quat q0 = *q;
@@ -577,10 +677,10 @@ static int limit_joint(const mlr_limits *lim, const mlr_limits_joint *g, double 
             phi += 2.0 * PI;
         /* outside the range, on the side the frame before was on (no drift inside it), unless
            the step from there is a jump (over a quarter turn: a glitch frame, a T-pose) */
-        if (prev && isfinite(*prev) && (phi < r->lo || phi > r->hi))
-            phi = unwrap_near(phi, *prev);
+        if (prev && isfinite(prev->v) && (phi < r->lo || phi > r->hi))
+            phi = unwrap_near(phi, prev->v);
         if (prev)
-            *prev = phi;
+            prev->v = phi;
         double phi2 = phi;
         if (phi > r->hi - w_hi)
             phi2 = mlr_limits_soft(phi, r->hi, w_hi);
@@ -597,15 +697,23 @@ static int limit_joint(const mlr_limits *lim, const mlr_limits_joint *g, double 
         if (rr.w < 0)
             rr = (mlr_quat){-rr.w, -rr.x, -rr.y, -rr.z};
         const double bl = norm3(g->bone_out);
+        if (rr.x * rr.x + rr.y * rr.y + rr.z * rr.z < fast) { /* well inside: unchanged */
+            if (prev && bl > 0)
+                prev->pending = 1, prev->rr = rr;
+            return 0;
+        }
         if (bl > 0) {
             const mlr_vec3 t = scale3(g->bone_out, 1.0 / bl);
             double sw, tw;
             mlr_quat sq;
             swing_twist(rr, t, &sw, &tw, &sq);
             if (prev) { /* beyond its bound, the twist unwrapped in time as a hinge's angle */
-                if (isfinite(*prev) && fabs(tw) > tmax)
-                    tw = unwrap_near(tw, *prev);
-                *prev = tw;
+                if (fabs(tw) > tmax) {
+                    const double pv = prev_value(prev, t);
+                    if (isfinite(pv))
+                        tw = unwrap_near(tw, pv);
+                }
+                prev->v = tw, prev->pending = 0;
             }
             const double sw2 = sw > smax - ws ? mlr_limits_soft(sw, smax, ws) : sw;
             const double atw = fabs(tw);
@@ -633,7 +741,9 @@ void mlr_limits_apply_frame(const mlr_limits *lim, mlr_quat *q, const double *al
 {
     for (size_t j = 0; j < lim->n_joints; j++) {
         const double a = alpha ? alpha[stride * j] : 1.0;
-        if (limit_joint(lim, &lim->joints[j], a, &q[j], NULL) && counts)
+        const mlr_limits_joint *g = &lim->joints[j];
+        const double fast = g->range.kind == MLR_LIMITS_SWING_TWIST ? fast_bound(lim, g, a) : -1.0;
+        if (limit_joint(lim, g, a, fast, &q[j], NULL) && counts)
             counts[j]++;
     }
 }
@@ -649,9 +759,10 @@ void mlr_limits_apply_kind(const mlr_limits *lim, size_t n_frames, mlr_quat *rot
         if (lj->range.kind != kind)
             continue;
         const double a = aj ? aj[stride * j] : 1.0;
-        double prev = NAN;
+        prev_angle prev = {NAN, 0, {1, 0, 0, 0}};
+        const double fast = kind == MLR_LIMITS_SWING_TWIST ? fast_bound(lim, lj, a) : -1.0;
         for (size_t f = 0; f < n_frames; f++)
-            if (limit_joint(lim, lj, a, &rot[f * J + j], &prev) && counts)
+            if (limit_joint(lim, lj, a, fast, &rot[f * J + j], &prev) && counts)
                 counts[j]++;
     }
 }

@@ -25,7 +25,9 @@ def test_hinges_on_knees_and_elbows(mocap, name):
     hinges = [m.joint_names[j] for j in lim.hinges()]
     dog = "dog" in name
     assert lim.human is not dog
-    assert len(hinges) == (2 if dog else 4), hinges
+    # knees and elbows; the dog's front-leg elbows twist about their bones by up to 103 degrees
+    # and are found from their swing
+    assert len(hinges) == 4, hinges
     for h in hinges:
         assert any(w in h.lower() for w in ("leg", "knee", "shin", "forearm", "elbow",
                                             "lowerarm")), h
