@@ -1204,10 +1204,15 @@ mlr_status bvh_read_memory_ex(const char *text, size_t len, size_t n_threads, in
     return bvh_read(text, len, n_threads, kernels, &strict_mode, alloc, out, NULL, diag);
 }
 
-/* The options of a lenient read into mode. */
+/* The options of a lenient read into mode; out and warnings cleared first (the outputs of a
+ * failed call). */
 static mlr_status read_options(const mlr_bvh_read_option *opts, size_t n_opts, read_mode *mode,
-                               mlr_diag *diag)
+                               mlr_motion **out, mlr_bvh_warnings *warnings, mlr_diag *diag)
 {
+    if (warnings)
+        warnings->count = 0;
+    if (out)
+        *out = NULL;
     mode->strict = mode->keep_truncated = 0;
     if (n_opts > 0 && !opts)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "opts is NULL with n_opts %zu",
@@ -1241,12 +1246,8 @@ mlr_status mlr_bvh_read_memory_opts(const char *text, size_t len, size_t n_threa
                                     const mlr_allocator *alloc, mlr_motion **out,
                                     mlr_bvh_warnings *warnings, mlr_diag *diag)
 {
-    if (warnings)
-        warnings->count = 0;
-    if (out)
-        *out = NULL;
     read_mode mode;
-    mlr_status s = read_options(opts, n_opts, &mode, diag);
+    mlr_status s = read_options(opts, n_opts, &mode, out, warnings, diag);
     if (s != MLR_OK)
         return s;
     return bvh_read(text, len, n_threads, BVH_KERNELS_BEST, &mode, alloc, out, warnings, diag);
@@ -1302,12 +1303,8 @@ mlr_status mlr_bvh_read_file_opts(const char *path, size_t n_threads,
                                   const mlr_allocator *alloc, mlr_motion **out,
                                   mlr_bvh_warnings *warnings, mlr_diag *diag)
 {
-    if (warnings)
-        warnings->count = 0;
-    if (out)
-        *out = NULL;
     read_mode mode;
-    mlr_status s = read_options(opts, n_opts, &mode, diag);
+    mlr_status s = read_options(opts, n_opts, &mode, out, warnings, diag);
     if (s != MLR_OK)
         return s;
     return read_file(path, n_threads, &mode, alloc, out, warnings, diag);
