@@ -53,7 +53,9 @@ typedef enum mlr_bvh_channel {
  * Accepts LF, CRLF or CR line ends, tabs and any whitespace, a UTF-8 byte order mark, keywords
  * in any case, 0 to 6 channels per joint in any order, position channels on any joint and a
  * different Euler order on every joint. One ROOT per file. Every frame is one line holding
- * exactly as many values as the hierarchy declares channels.
+ * exactly as many values as the hierarchy declares channels, and there are exactly as many as
+ * "Frames:" declares (strict; mlr_bvh_read_memory_opts reads the usual deviations with
+ * warnings).
  * Never allocates from an unchecked count: "Frames:" is bounded by the bytes that follow it.
  * @param text   [in] the file's bytes, need not be NUL-terminated; not kept
  * @param len    [in] number of bytes
@@ -105,6 +107,97 @@ MLR_API mlr_status mlr_bvh_read_memory_mt(const char *text, size_t len, size_t n
 MLR_API mlr_status mlr_bvh_read_file_mt(const char *path, size_t n_threads,
                                         const mlr_allocator *alloc, mlr_motion **out,
                                         mlr_diag *diag);
+
+/* ---------------------------------------------------------------------------------------- */
+/* Lenient reading with warnings                                                            */
+/*                                                                                          */
+/* The readers above are strict: any deviation from the layout is an MLR_E_PARSE. Files     */
+/* from the wild often deviate in the MOTION section only; mlr_bvh_read_memory_opts and     */
+/* mlr_bvh_read_file_opts read those and report each deviation as a warning:                */
+/* - more frame lines than "Frames:" declares (any number): every complete frame line is    */
+/*   read (as Blender's importer and bvhio do), MLR_BVH_WARN_EXTRA_FRAMES;                  */
+/* - up to MLR_BVH_MAX_MISSING_FRAMES fewer frame lines, the file ending with a line end:   */
+/*   the frames present are read, MLR_BVH_WARN_MISSING_FRAMES;                              */
+/* - data after the frames that is not a frame line (a line that does not start with a     */
+/*   number, or any line once all declared frames are read): ignored from that line on,    */
+/*   MLR_BVH_WARN_TRAILING_DATA;                                                            */
+/* - no line end after the last frame line: read, MLR_BVH_WARN_NO_FINAL_NEWLINE (also in    */
+/*   strict mode, where it is not an error either).                                         */
+/* A truncated file stays an error (MLR_E_PARSE, today's reason and "truncated file"): more */
+/* than MLR_BVH_MAX_MISSING_FRAMES frames missing, or fewer frames than declared and the    */
+/* last line incomplete or without a line end. With MLR_BVH_OPT_KEEP_TRUNCATED it gives    */
+/* the complete frames instead, MLR_BVH_WARN_TRUNCATED. A malformed frame line followed by  */
+/* more lines is an error in every mode, and so is anything wrong before the frames.        */
+
+/** Option keys of mlr_bvh_read_memory_opts / mlr_bvh_read_file_opts (value 0 or 1 for the
+ *  switches). Values pinned; new options get new values. */
+typedef enum mlr_bvh_read_key {
+    MLR_BVH_OPT_STRICT = 1,          /* 1: every deviation is an error, as mlr_bvh_read_memory;
+                                        default 0 (lenient, with warnings) */
+    MLR_BVH_OPT_KEEP_TRUNCATED = 2   /* 1: a truncated file gives its complete frames (with a
+                                        warning); default 0 (an error). Ignored when strict. */
+} mlr_bvh_read_key;
+
+/** One option: key (an mlr_bvh_read_key) and its value. A frozen value type. */
+typedef struct mlr_bvh_read_option {
+    int key;
+    double value;
+} mlr_bvh_read_option;
+
+/** Warning codes. Values pinned. */
+typedef enum mlr_bvh_warning_code {
+    MLR_BVH_WARN_EXTRA_FRAMES = 1,     /* more frame lines than Frames: declares; all read */
+    MLR_BVH_WARN_MISSING_FRAMES = 2,   /* a few fewer; the frames present read */
+    MLR_BVH_WARN_TRAILING_DATA = 3,    /* data after the frames, ignored */
+    MLR_BVH_WARN_NO_FINAL_NEWLINE = 4, /* the last frame line has no line end */
+    MLR_BVH_WARN_TRUNCATED = 5         /* KEEP_TRUNCATED: the complete frames of a cut file */
+} mlr_bvh_warning_code;
+
+/** Most frames that may be missing against "Frames:" without making the file truncated. */
+#define MLR_BVH_MAX_MISSING_FRAMES 3
+/** Warnings kept in an mlr_bvh_warnings (more are counted). */
+#define MLR_BVH_WARNINGS_KEPT 8
+
+/** One warning: its code, the 1-based line and column it refers to (column 0 for a whole
+ *  line) and the reason, NUL-terminated. A frozen value type. */
+typedef struct mlr_bvh_warning {
+    int32_t code;
+    size_t line, column;
+    char message[160];
+} mlr_bvh_warning;
+
+/** The warnings of one read, in the order of the lines. A frozen value type. */
+typedef struct mlr_bvh_warnings {
+    size_t count;                                   /* warnings issued */
+    mlr_bvh_warning first[MLR_BVH_WARNINGS_KEPT];   /* the first min(count, KEPT) */
+} mlr_bvh_warnings;
+
+/**
+ * Parse BVH text from memory with options (see above): lenient by default.
+ * @param text, len, n_threads, alloc, out  as mlr_bvh_read_memory_mt (n_threads 1 for the
+ *                  calling thread only, 0 automatic); frames are bit-identical for every count
+ * @param opts      [in] n_opts options; NULL when n_opts is 0. A key may appear once.
+ * @param warnings  [out] optional: set on every return (count 0 on errors and clean files)
+ * @param diag      [out] optional: as mlr_bvh_read_memory; on MLR_E_INVALID_ARG the bad option
+ * @return MLR_OK (possibly with warnings); MLR_E_PARSE; MLR_E_NO_MEMORY; MLR_E_OVERFLOW;
+ *         MLR_E_INVALID_ARG (as mlr_bvh_read_memory; an unknown or repeated key, a switch not
+ *         0 or 1)
+ * Allocates: as mlr_bvh_read_memory_mt; a file with extra or missing frames is copied once
+ * into a motion of the right size. Threads: as mlr_bvh_read_memory_mt.
+ */
+MLR_API mlr_status mlr_bvh_read_memory_opts(const char *text, size_t len, size_t n_threads,
+                                            const mlr_bvh_read_option *opts, size_t n_opts,
+                                            const mlr_allocator *alloc, mlr_motion **out,
+                                            mlr_bvh_warnings *warnings, mlr_diag *diag);
+
+/**
+ * mlr_bvh_read_file_mt with options and warnings (as mlr_bvh_read_memory_opts).
+ * @return as mlr_bvh_read_memory_opts, plus MLR_E_IO (as mlr_bvh_read_file)
+ */
+MLR_API mlr_status mlr_bvh_read_file_opts(const char *path, size_t n_threads,
+                                          const mlr_bvh_read_option *opts, size_t n_opts,
+                                          const mlr_allocator *alloc, mlr_motion **out,
+                                          mlr_bvh_warnings *warnings, mlr_diag *diag);
 
 /* ---------------------------------------------------------------------------------------- */
 /* Writing                                                                                  */

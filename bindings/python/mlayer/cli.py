@@ -41,8 +41,24 @@ def build_parser() -> argparse.ArgumentParser:
         add = getattr(run, "arguments", None)
         if add is not None:
             add(sp)
+        if name not in _NO_CLIPS:
+            sp.add_argument("--strict", action="store_true",
+                            help="refuse BVH files that deviate from the format (extra or "
+                                 "missing frame lines, data after the frames) instead of "
+                                 "reading them with a warning")
         sp.set_defaults(_run=run)
     return p
+
+
+# Subcommands that read no clip (no --strict).
+_NO_CLIPS = {"version", "generate", "batch"}  # (batch reads in its workers)
+
+
+def _show_parse_warning(command: str):
+    """warnings.showwarning for the CLI: one line on stderr per warning."""
+    def show(message, category, filename, lineno, file=None, line=None):
+        print(f"mlayer {command}: warning: {message}", file=sys.stderr)
+    return show
 
 
 # Modules that define subcommands, one per line (cli_demo last: it uses the others).
@@ -74,8 +90,14 @@ def main(argv: list[str] | None = None) -> int:
     if not getattr(args, "_run", None):
         parser.print_help(sys.stderr)
         return 2
+    import warnings
+    from .bvh import strict_reading
+    from .errors import MlayerWarning
     try:
-        return int(args._run(args) or 0)
+        with warnings.catch_warnings(), strict_reading(getattr(args, "strict", False)):
+            warnings.simplefilter("always", MlayerWarning)
+            warnings.showwarning = _show_parse_warning(args.command)
+            return int(args._run(args) or 0)
     except Error as e:
         where = ""
         path, line = getattr(e, "path", None), getattr(e, "line", None)

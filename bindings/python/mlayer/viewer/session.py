@@ -33,7 +33,7 @@ from ..layers import decompose
 from ..pipeline import Synthesis
 from ..metrics import body_height, foot_sliding, jitter
 from ..render import body_side
-from ..resample import resample, timewarp
+from ..resample import frames_at_rate, resample, timewarp
 
 __all__ = ["Clip", "load_clips", "body_parts", "parse_params", "ParamError", "PARAMS",
            "PART_NAMES", "ResultCache", "json_bytes", "DEFAULT_MAX_VALUES",
@@ -400,7 +400,7 @@ class Clip:
                 raise ParamError(f"fps must be within {_MAX_FPS_FACTOR:g}x of the clip's "
                                  f"{m.fps:.6g} fps ({lo:.6g} to {hi:.6g}) for {self.name}, got "
                                  f"{p['fps']:g}")
-            n_out = max(2, int(round((n_len - 1) * r)) + 1)
+            n_out = frames_at_rate(n_len, m.fps, p["fps"])
             if n_out < 4:
                 raise ParamError(f"fps {p['fps']:g} would leave {n_out} frames of {self.name}; "
                                  f"the viewer needs at least 4: raise fps or length")
