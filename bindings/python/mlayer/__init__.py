@@ -23,6 +23,7 @@ from .resample import (resample, slerp_resample, timewarp, timewarp_map, timewar
 from . import data
 from .layers import Layers, decompose
 from .pipeline import GuardReport, Synthesis, denoise, stylize
+from .up_axis import UpGuess, detect_up
 from .limits import JointLimits, joint_limits
 from .kmeans import KMeansResult, elbow, kmeans
 from .som import SOM
@@ -52,4 +53,4 @@ __all__ = ["__version__", "library_version", "Error", "InvalidArgumentError", "P
            "fix_contacts", "resample", "slerp_resample", "timewarp", "timewarp_map",
            "timewarp_speed", "kmeans", "KMeansResult", "elbow", "SOM", "pose_features", "batch",
            "PCA", "GRBF", "fuzzy_cmeans", "GaussianMixture", "Markov", "PrimitiveModel"]
-__all__ += ["ParseWarning"]
+__all__ += ["ParseWarning", "UpGuess", "detect_up"]

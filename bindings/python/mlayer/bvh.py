@@ -111,7 +111,7 @@ def _motion_or_raise(code: int, out, diag, name: str) -> Motion:
     return m
 
 
-def read_bvh(path, *, strict=None, keep_truncated=False, threads=None) -> Motion:
+def read_bvh(path, *, strict=None, keep_truncated=False, threads=None, up=None) -> Motion:
     """Read a BVH file. ``path``: a str, bytes or os.PathLike.
 
     ``strict=False`` (the default; None means False unless inside :func:`strict_reading`)
@@ -121,6 +121,9 @@ def read_bvh(path, *, strict=None, keep_truncated=False, threads=None) -> Motion
     A truncated file (more frames missing, or the last line cut) still raises ParseError
     unless ``keep_truncated=True``, which keeps its complete frames with a warning.
     ``strict=True`` raises ParseError for every deviation, as earlier versions did.
+
+    ``up``: the clip's up axis ("x", "y" or "z"), kept as :attr:`Motion.up_axis`; None (the
+    default, unless inside :func:`mlayer.up_axis.reading_up`) detects it from the motion.
 
     ``threads``: how many threads parse the frame lines (the result is the same for every
     count); None (default) picks one per 512 KiB of frames, at most the machine's processors
@@ -138,6 +141,7 @@ def read_bvh(path, *, strict=None, keep_truncated=False, threads=None) -> Motion
     if b"\0" in bpath:
         raise ValueError(f"mlayer.read_bvh: embedded null byte in the path {name!r}")
     opts, n_opts = _options(strict, keep_truncated, "mlayer.read_bvh")
+    up_given = _up_arg(up, "mlayer.read_bvh")
     out = ffi.new("mlr_motion **")
     diag = ffi.new("mlr_diag *")
     w = ffi.new("mlr_bvh_warnings *")
@@ -150,17 +154,28 @@ def read_bvh(path, *, strict=None, keep_truncated=False, threads=None) -> Motion
             f.read(1)
     m = _motion_or_raise(code, out, diag, name)
     _warn(w, name)
+    m.up_axis = up_given
     return m
 
 
+def _up_arg(up, where: str):
+    """The up axis a read clip gets: up, or the CLI's --up (reading_up), or None (detect)."""
+    from .up_axis import axis_name, default_up
+    up = axis_name(up, where)
+    return default_up() if up is None else up
+
+
 def read_bvh_string(text, name: str = "<string>", *, strict=None, keep_truncated=False,
-                    threads=None) -> Motion:
+                    threads=None, up=None) -> Motion:
     """Parse BVH text given as str or bytes; ``name`` stands for the path in error and warning
-    messages; ``strict``, ``keep_truncated`` and ``threads`` as for :func:`read_bvh`."""
+    messages; ``strict``, ``keep_truncated``, ``threads`` and ``up`` as for :func:`read_bvh`."""
     n_threads = _c_threads(threads)
+    up_given = _up_arg(up, "mlayer.read_bvh_string")
     if isinstance(text, str):
         text = text.encode("utf-8", errors="surrogateescape")
-    return _parse(text, name, n_threads, strict, keep_truncated)
+    m = _parse(text, name, n_threads, strict, keep_truncated)
+    m.up_axis = up_given
+    return m
 
 
 def write_bvh(motion: Motion, path) -> None:

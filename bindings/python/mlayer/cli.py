@@ -46,11 +46,14 @@ def build_parser() -> argparse.ArgumentParser:
                             help="refuse BVH files that deviate from the format (extra or "
                                  "missing frame lines, data after the frames) instead of "
                                  "reading them with a warning")
+            sp.add_argument("--up", choices=("auto", "x", "y", "z"), default="auto",
+                            help="the clips' up axis (default auto: detected from the feet, "
+                                 "or the floor; `mlayer info` shows what was found)")
         sp.set_defaults(_run=run)
     return p
 
 
-# Subcommands that read no clip (no --strict).
+# Subcommands that read no clip (no --strict, no --up).
 _NO_CLIPS = {"version", "generate", "batch"}  # (batch reads in its workers)
 
 
@@ -92,9 +95,12 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     import warnings
     from .bvh import strict_reading
+    from .up_axis import reading_up
     from .errors import MlayerWarning
     try:
-        with warnings.catch_warnings(), strict_reading(getattr(args, "strict", False)):
+        up = getattr(args, "up", "auto")
+        with warnings.catch_warnings(), strict_reading(getattr(args, "strict", False)), \
+                reading_up(None if up == "auto" else up):
             warnings.simplefilter("always", MlayerWarning)
             warnings.showwarning = _show_parse_warning(args.command)
             return int(args._run(args) or 0)

@@ -278,13 +278,14 @@ class Motion:
     multiplies the frame time by k); ``len(m)`` is the number of frames.
     """
 
-    __slots__ = ("_skeleton", "_frame_time", "_root_pos", "_rot", "_trans")
+    __slots__ = ("_skeleton", "_frame_time", "_root_pos", "_rot", "_trans", "_up")
 
     def __init__(self, skeleton: Skeleton, frame_time: float, root_pos, rot, trans=None, *,
                  _trusted: bool = False):
         if not isinstance(skeleton, Skeleton):
             raise InvalidArgumentError("Motion: skeleton must be a mlayer.Skeleton")
         self._skeleton = skeleton
+        self._up = None
         if _trusted:
             self._frame_time, self._root_pos, self._rot, self._trans = \
                 frame_time, root_pos, rot, trans
@@ -363,6 +364,28 @@ class Motion:
         self._trans = _frame_array(a, "Motion.trans",
                                    (self._skeleton.trans_joints.shape[0], 3))
 
+    @property
+    def up_axis(self) -> str:
+        """The world axis that points up: "x", "y" or "z". Given by ``read_bvh(path, up=...)``
+        or by assigning it; else detected from the motion (:func:`mlayer.detect_up`: from the
+        feet by name, or the floor), and "y" (the BVH convention) when the detection is not
+        sure. Every threshold along up (contacts, floor, body height) follows it. Assign None
+        to detect again."""
+        if self._up is not None:
+            return self._up
+        from .up_axis import detect_up
+        g = detect_up(self)
+        return g.axis if g.sure else "y"
+
+    @up_axis.setter
+    def up_axis(self, up) -> None:
+        from .up_axis import axis_name
+        self._up = axis_name(up, "Motion.up_axis")
+
+    def _same_up(self, other: "Motion") -> "Motion":
+        self._up = other._up
+        return self
+
     # ---- construction ----------------------------------------------------------------------
 
     @classmethod
@@ -401,12 +424,12 @@ class Motion:
         return Motion(self.skeleton, self.frame_time if frame_time is None else frame_time,
                       self.root_pos.copy() if root_pos is None else root_pos,
                       self.rot.copy() if rot is None else rot,
-                      self.trans.copy() if trans is None else trans)
+                      self.trans.copy() if trans is None else trans)._same_up(self)
 
     def copy(self) -> "Motion":
         """A deep copy of the frames (the immutable skeleton is shared)."""
         return Motion(self.skeleton, self.frame_time, self.root_pos.copy(), self.rot.copy(),
-                      self.trans.copy(), _trusted=True)
+                      self.trans.copy(), _trusted=True)._same_up(self)
 
     # ---- sizes and skeleton shortcuts ------------------------------------------------------
 
@@ -477,7 +500,7 @@ class Motion:
         return Motion(self.skeleton, self.frame_time * step,
                       self.root_pos[start:stop:step].copy(order="C"),
                       self.rot[start:stop:step].copy(order="C"),
-                      self.trans[start:stop:step].copy(order="C"), _trusted=True)
+                      self.trans[start:stop:step].copy(order="C"), _trusted=True)._same_up(self)
 
     # ---- kinematics ------------------------------------------------------------------------
 

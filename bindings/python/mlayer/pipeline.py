@@ -32,7 +32,7 @@ import numpy as np
 
 from . import _arrays
 from ._native import ReadOnlyAttributes, ffi, lib, refuse_copy
-from ._rig import axis, c_rig
+from ._rig import c_rig, motion_axis
 from .errors import InvalidArgumentError, check
 from .layers import Layers, decompose
 from .limits import JointLimits
@@ -107,7 +107,7 @@ class Synthesis(ReadOnlyAttributes):
     keep_contacts   pin the feet during the input's contacts (default True)
     contact_joints  the contact points instead of the feet found by name: joint names or
                     "Joint/End" for a joint's End Site
-    up              the up axis: "x", "y" (default) or "z"
+    up              the up axis: "x", "y" or "z"; None (default): the input's Motion.up_axis
     layers          the input's Layers when they are at hand (else decomposed here)
     layer options   gamma, lam_c, sigma_c, lam_b, sigma_b, base_cutoff: see
                     :func:`mlayer.decompose`
@@ -130,7 +130,7 @@ class Synthesis(ReadOnlyAttributes):
         raise refuse_copy(self, "pickle", "pickle the motion and make a new Synthesis")
 
     def __init__(self, motion, *, limits="auto", floor="auto", keep_contacts=True,
-                 contact_joints=None, up="y", layers=None, **layer_options):
+                 contact_joints=None, up=None, layers=None, **layer_options):
         from .motion import Motion
         if not isinstance(motion, Motion):
             raise InvalidArgumentError(f"motion: expected a mlayer.Motion, got "
@@ -143,7 +143,7 @@ class Synthesis(ReadOnlyAttributes):
         self._floor_on, self._floor_height = _floor(floor)
         self._keep_contacts = bool(keep_contacts)
         self._contact_joints = contact_joints
-        self._up = axis(up, "up")
+        self._up = motion_axis(motion, up, "up")
         if layers is not None and (not isinstance(layers, Layers) or layers.motion is not motion):
             raise InvalidArgumentError("layers: expected the Layers of this motion "
                                        "(mlayer.decompose(motion))")
@@ -262,7 +262,7 @@ class Synthesis(ReadOnlyAttributes):
 
 
 def denoise(motion, *, limits="auto", floor="auto", keep_contacts=True, contact_joints=None,
-            up="y", return_report=False, **layer_options):
+            up=None, return_report=False, **layer_options):
     """The denoised motion: the layers of ``motion`` synthesized at alpha = 1, with the feet
     kept on their contacts and above the floor (see :class:`Synthesis` for the switches and
     :func:`mlayer.decompose` for the layer options). With ``return_report``, returns
@@ -274,7 +274,7 @@ def denoise(motion, *, limits="auto", floor="auto", keep_contacts=True, contact_
 
 
 def stylize(motion, alpha, joints=None, *, root_alpha=None, limits="auto", floor="auto",
-            keep_contacts=True, contact_joints=None, up="y", return_report=False,
+            keep_contacts=True, contact_joints=None, up=None, return_report=False,
             **layer_options):
     """Scale the style (the controllable layer) of a motion: ``alpha`` = 2 exaggerates, 0.5
     flattens; ``joints`` maps joint names or globs ("Left*") to their own alpha and

@@ -16,6 +16,8 @@ import re
 
 import numpy as np
 
+from .up_axis import to_y_up
+
 from ._files import atomic_output
 from .errors import InvalidArgumentError
 
@@ -105,7 +107,8 @@ def render_gif(motions, path, *, labels=None, fps: float = 30.0, panel_size=(320
         raise InvalidArgumentError(f"render_gif: {len(labels)} labels for {len(motions)} motions")
     if not (math.isfinite(fps) and fps > 0):
         raise InvalidArgumentError(f"render_gif: fps must be positive, got {fps}")
-    pos = [np.asarray(m.positions(), dtype=np.float64) for m in motions]
+    pos = [to_y_up(getattr(m, "up_axis", "y"), np.asarray(m.positions(), dtype=np.float64))
+           for m in motions]
     for p, m in zip(pos, motions):
         if p.shape[0] == 0:
             raise InvalidArgumentError("render_gif: a motion has no frames")
