@@ -11,6 +11,7 @@ import os
 import numpy as np
 
 from . import _arrays
+from ._files import atomic_output
 from ._native import NativeHandle, ReadOnlyAttributes, ffi, lib
 from .errors import InvalidArgumentError, check
 from .kmeans import _count, default_threads
@@ -164,11 +165,9 @@ class SOM(ReadOnlyAttributes, NativeHandle):
 
     def save(self, path) -> None:
         """Write the codebook blob to path (a temporary file renamed into place)."""
-        path = os.fspath(path)
-        tmp = f"{path}.tmp{os.getpid()}"
-        with open(tmp, "wb") as f:
-            f.write(self.to_bytes())
-        os.replace(tmp, path)
+        blob = self.to_bytes()
+        with atomic_output(path) as tmp, open(tmp, "wb") as f:
+            f.write(blob)
 
     @classmethod
     def load(cls, path, **kwargs) -> "SOM":
