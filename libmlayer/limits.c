@@ -437,7 +437,9 @@ mlr_status mlr_limits_create(const mlr_rig *rig, const mlr_limits_clip *clips, s
         mlr_vec3 e = {0, 0, 0};
         const double l1 = tr > 0 ? top_eigen(m, &e) : 0.0;
         const double conc = tr > 0 ? l1 / tr : 0.0;
-        const double along = fabs(dot3(e, g->axis));
+        /* e is an axis of the centred rotations conj(centre) q; the hinge axis lives in the
+           parent's frame, where the rotations about e turn about centre e */
+        const double along = fabs(dot3(qrot(g->centre, e), g->axis));
         const int named = rig->names ? mlr_limits_hinge_name(rig->names[j]) : 0;
         if (named && conc >= 0.5 && along >= cos35) {
             is_hinge[j] = named;
@@ -449,7 +451,7 @@ mlr_status mlr_limits_create(const mlr_rig *rig, const mlr_limits_clip *clips, s
             const double trs = ms[0] + ms[4] + ms[8];
             mlr_vec3 es = {0, 0, 0};
             const double ls = trs > 0 ? top_eigen(ms, &es) : 0.0;
-            if (trs > 0 && ls / trs >= 0.5 && fabs(dot3(es, g->axis)) >= cos35)
+            if (trs > 0 && ls / trs >= 0.5 && fabs(dot3(qrot(g->centre, es), g->axis)) >= cos35)
                 is_hinge[j] = named;
         }
         else if (!rig->names && conc >= 0.9 && along >= cos35 &&
