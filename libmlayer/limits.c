@@ -39,14 +39,15 @@ static mlr_quat qconj(mlr_quat q)
 static mlr_quat qmul(mlr_quat a, mlr_quat b)
 {
     mlr_quat c;
-    mlr_quat_mul(&a, &b, &c);
+    mlr_quat_mul_inline(&a, &b, &c);
     return c;
 }
 static mlr_vec3 qrot(mlr_quat q, mlr_vec3 v)
 {
-    mlr_vec3 o;
-    mlr_quat_rotate(&q, &v, &o);
-    return o;
+    const double vv[3] = {v.x, v.y, v.z};
+    double o[3];
+    mlr_quat_rotate_inline(&q, vv, o);
+    return (mlr_vec3){o[0], o[1], o[2]};
 }
 /* Rotation by angle about the unit axis n. */
 static mlr_quat axis_angle(mlr_vec3 n, double angle)

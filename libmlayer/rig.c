@@ -161,10 +161,9 @@ mlr_status mlr_rig_point_positions(const mlr_rig *rig, size_t n_frames,
             const double *q = world_rot + 4 * (f * J + j);
             const mlr_quat qq = {q[0], q[1], q[2], q[3]};
             const double *v = rig->end_site_offsets + 3 * (size_t)e;
-            const mlr_vec3 vv = {v[0], v[1], v[2]};
-            mlr_vec3 r;
-            mlr_quat_rotate(&qq, &vv, &r);
-            o[0] = p[0] + r.x, o[1] = p[1] + r.y, o[2] = p[2] + r.z;
+            double r[3];
+            mlr_quat_rotate_inline(&qq, v, r);
+            o[0] = p[0] + r[0], o[1] = p[1] + r[1], o[2] = p[2] + r[2];
         }
     return MLR_OK;
 }

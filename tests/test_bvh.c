@@ -271,6 +271,7 @@ static void assert_same_frames(const mlr_motion *a, const mlr_motion *b, const c
 
 START_TEST(every_value_of_every_clip_is_strtods)
 {
+    MLR_TEST_NEED_CLIPS();
     const clip_info *ci = &clips[_i];
     size_t len;
     char *text = slurp(clip_path(ci->file), &len);
@@ -293,6 +294,7 @@ END_TEST
 
 START_TEST(every_clip_parses_with_readme_counts)
 {
+    MLR_TEST_NEED_CLIPS();
     const clip_info *ci = &clips[_i];
     mlr_motion *m = read_clip(ci);
     ck_assert_uint_eq(mlr_motion_n_frames(m), ci->frames);
@@ -331,6 +333,7 @@ END_TEST
  * nothing written; NULL motions give 0. */
 START_TEST(packed_accessors_match_per_joint_ones)
 {
+    MLR_TEST_NEED_CLIPS();
     mlr_motion *m = read_clip(&clips[_i]);
     const size_t J = mlr_motion_n_joints(m);
     for (int which = 0; which < 2; which++) {
@@ -369,6 +372,7 @@ END_TEST
 
 START_TEST(per_joint_euler_orders)
 {
+    MLR_TEST_NEED_CLIPS();
     /* cmu_131_01: 19 ZYX (root included) and 12 ZXY joints; Daz files: root ZYX, rest ZXY */
     mlr_motion *m = read_clip(&clips[1]);
     size_t zyx = 0, zxy = 0;
@@ -396,6 +400,7 @@ END_TEST
 
 START_TEST(bandai_position_channels_replace_offsets)
 {
+    MLR_TEST_NEED_CLIPS();
     mlr_motion *m = read_clip(&clips[6]);
     size_t J = mlr_motion_n_joints(m), P = mlr_motion_n_trans(m), N = mlr_motion_n_frames(m);
     ck_assert_uint_eq(P, J - 1);
@@ -465,6 +470,7 @@ static char *write_to_memory(const mlr_motion *m, size_t *len)
 
 START_TEST(round_trip_every_clip)
 {
+    MLR_TEST_NEED_CLIPS();
     mlr_motion *a = read_clip(&clips[_i]);
     size_t len;
     char *text = write_to_memory(a, &len);
@@ -515,6 +521,7 @@ static void remove_tmpdir(void)
 
 START_TEST(write_file_is_atomic_and_matches_memory)
 {
+    MLR_TEST_NEED_CLIPS();
     make_tmpdir();
     mlr_motion *a = read_clip(&clips[1]);
     char path[512];
@@ -563,6 +570,7 @@ static int stop_after_first(void *user, const char *data, size_t len)
 
 START_TEST(write_memory_overflow_and_callback_stop)
 {
+    MLR_TEST_NEED_CLIPS();
     mlr_motion *a = read_clip(&clips[7]);
     size_t len, len2;
     ck_assert_int_eq(mlr_bvh_write_memory(a, NULL, 0, &len), MLR_OK);
@@ -584,6 +592,7 @@ END_TEST
 
 START_TEST(copy_frames_slices)
 {
+    MLR_TEST_NEED_CLIPS();
     mlr_motion *a = read_clip(&clips[6]), *b = NULL;
     size_t J = mlr_motion_n_joints(a), P = mlr_motion_n_trans(a);
     ck_assert_int_eq(mlr_motion_copy_frames(a, 10, 40, &b), MLR_OK);
@@ -1270,6 +1279,7 @@ END_TEST
  * the clean file. */
 START_TEST(lenient_real_clip_extra_and_cut)
 {
+    MLR_TEST_NEED_CLIPS();
     size_t len;
     char *text = slurp(clip_path("cmu_131_01_mj_style_walk.bvh"), &len);
     ck_assert_ptr_nonnull(text);
@@ -1679,6 +1689,7 @@ END_TEST
  * in parallel chunks. */
 START_TEST(read_file_mt_matches_read_file)
 {
+    MLR_TEST_NEED_CLIPS();
     mlr_motion *b = NULL;
     mlr_diag d;
     for (size_t c = 0; c < MLR_COUNTOF(clips); c++) {

@@ -612,6 +612,7 @@ static double mpjpe(size_t N, size_t J, const double *a, const double *b)
  * the SLERP round trip (decimation, then slerp) is reported alongside. */
 START_TEST(real_clip_round_trip_120_30_120)
 {
+    MLR_TEST_NEED_CLIPS();
     const char *dir = mlr_test_mocap_dir();
     ck_assert_ptr_nonnull(dir);
     char path[4096];
@@ -724,6 +725,7 @@ END_TEST
 /* On a real kick: a valid map, slowest around the fastest part of the clip. */
 START_TEST(timewarp_real_clip)
 {
+    MLR_TEST_NEED_CLIPS();
     const char *dir = mlr_test_mocap_dir();
     ck_assert_ptr_nonnull(dir);
     char path[4096];

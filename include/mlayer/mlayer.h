@@ -7,6 +7,7 @@
 #include "mlr_band.h"
 #include "mlr_lgs.h"
 #include "mlr_quat.h"
+#include "mlr_motion.h"
 #include "mlr_bvh.h"
 #include "mlr_fk.h"
 #include "mlr_resample.h"

@@ -47,12 +47,20 @@ def body_height(m, up=None) -> float:
     joints' extent along the up axis (End Sites excluded, so the head top and toe tips are not
     counted); up: "x", "y", "z" or None for the motion's :attr:`~mlayer.Motion.up_axis`.
     Units: the clip's length unit; a standing CMU subject is about 24 units."""
+    from . import _arrays
+    from ._native import ffi, lib
     from ._rig import axis
-    p = _positions(m)
+    from .errors import check
+    p = np.ascontiguousarray(_positions(m), dtype=np.float64)
     if p.shape[0] == 0:
         raise InvalidArgumentError("body_height needs at least one frame")
     k = axis(up if up is not None else getattr(m, "up_axis", "y"), "body_height")
-    return float(np.median(p[..., k].max(axis=1) - p[..., k].min(axis=1)))
+    h = ffi.new("double *")
+    diag = ffi.new("mlr_diag *")
+    # the C core's body size (mlr_rig_body_height), the one every C threshold uses
+    check(lib.mlr_rig_body_height(p.shape[0], p.shape[1], _arrays.ptr(p), k, h, ffi.NULL, diag),
+          "body_height", diag)
+    return float(h[0])
 
 
 # Body heights (a person or an animal standing: 0.3 to 2.5 m) in each length unit.

@@ -16,6 +16,7 @@ import re
 
 import numpy as np
 
+from .metrics import body_height
 from .up_axis import to_y_up
 
 from ._files import atomic_output
@@ -76,7 +77,7 @@ def followed_joint(positions: np.ndarray) -> int:
     over the clip; joint 0 when none does. Rigs such as Bandai's keep a ``joint_Root`` at the
     origin and move the body with the hips below it."""
     p = np.asarray(positions, dtype=np.float64)
-    height = float(np.median(p[:, :, 1].max(axis=1) - p[:, :, 1].min(axis=1))) or 1.0
+    height = body_height(p, "y") or 1.0
     xz = p[:, :, [0, 2]]
     moved = np.linalg.norm(xz - xz[:1], axis=-1).max(axis=0) > 0.01 * height
     return int(np.argmax(moved)) if moved.any() else 0
