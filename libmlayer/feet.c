@@ -62,8 +62,8 @@ static void select_kth(double *v, size_t n, size_t k)
     }
 }
 
-/* numpy's median of n >= 1 finite values (reorders v). */
-static double median(double *v, size_t n)
+/* numpy's median of n >= 1 finite values (reorders v); mlr_internal.h. */
+double mlr_median(double *v, size_t n)
 {
     select_kth(v, n, n / 2);
     if (n % 2)
@@ -145,13 +145,13 @@ static mlr_status low_hands(const mlr_rig *rig, size_t N, const double *world_po
         for (size_t j = 0; j < J; j++)
             if (flags[j] & IS_ANKLE)
                 rel[i++] = world_pos[3 * (f * J + j) + (size_t)up] - ground[f];
-    const double foot_h = median(rel, i);
+    const double foot_h = mlr_median(rel, i);
     for (size_t j = 0; j < J; j++) {
         if (!(flags[j] & IS_HAND))
             continue;
         for (size_t f = 0; f < N; f++)
             tmp[f] = world_pos[3 * (f * J + j) + (size_t)up] - ground[f];
-        if (median(tmp, N) <= foot_h + HAND_LOW * H)
+        if (mlr_median(tmp, N) <= foot_h + HAND_LOW * H)
             flags[j] |= IS_ANKLE;
     }
     mlr_free(a, ground, bytes);

@@ -105,4 +105,7 @@ static inline void mlr_quat_from_euler_half(double ca, double sa, double cb, dou
  * i, s and k (rig.c). */
 int mlr_name_matches(const char *name, const char *const *patterns);
 
+/* numpy's median of n >= 1 finite values, in O(n) on average; reorders v (feet.c). */
+double mlr_median(double *v, size_t n);
+
 #endif

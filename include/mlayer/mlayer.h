@@ -22,5 +22,6 @@
 #include "mlr_ik.h"
 #include "mlr_cleanup.h"
 #include "mlr_guards.h"
+#include "mlr_trim.h"
 
 #endif /* MLAYER_H */

@@ -333,6 +333,16 @@ typedef struct mlr_up_guess {
 mlr_status mlr_rig_up_axis(const mlr_rig *rig, size_t n_frames, const double *world_pos,
                            mlr_up_guess *out, const mlr_allocator *alloc, mlr_diag *diag);
 
+/* mlr_trim.h */
+typedef struct mlr_trim_lead {
+    size_t n_frames;
+    size_t n_held;
+    double distance;
+} mlr_trim_lead;
+mlr_status mlr_trim_lead_in(const mlr_rig *rig, size_t n_frames, const double *root_pos,
+                            const double *rot, const double *trans, int up, mlr_trim_lead *out,
+                            const mlr_allocator *alloc, mlr_diag *diag);
+
 /* mlr_contacts.h */
 mlr_status mlr_contacts_find_feet(const mlr_rig *rig, size_t n_frames, const double *world_pos,
                                   int up, size_t capacity, int32_t *joints, int32_t *end_sites,

@@ -24,6 +24,7 @@ from . import data
 from .layers import Layers, decompose
 from .pipeline import GuardReport, Synthesis, denoise, stylize
 from .up_axis import UpGuess, detect_up
+from .trimming import LeadIn, lead_in, trim
 from .limits import JointLimits, joint_limits
 from .kmeans import KMeansResult, elbow, kmeans
 from .som import SOM
@@ -54,3 +55,4 @@ __all__ = ["__version__", "library_version", "Error", "InvalidArgumentError", "P
            "timewarp_speed", "kmeans", "KMeansResult", "elbow", "SOM", "pose_features", "batch",
            "PCA", "GRBF", "fuzzy_cmeans", "GaussianMixture", "Markov", "PrimitiveModel"]
 __all__ += ["ParseWarning", "UpGuess", "detect_up"]
+__all__ += ["LeadIn", "lead_in", "trim"]

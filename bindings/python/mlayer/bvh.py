@@ -23,6 +23,7 @@ from ._native import ffi, lib
 from .errors import InvalidArgumentError, ParseError, ParseWarning, check
 from .kmeans import _c_threads
 from .motion import MIN_FRAME_TIME, Motion
+from .trimming import _read as trimmed_read, frames_arg
 
 __all__ = ["read_bvh", "write_bvh", "read_bvh_string", "write_bvh_string", "strict_reading"]
 
@@ -111,7 +112,8 @@ def _motion_or_raise(code: int, out, diag, name: str) -> Motion:
     return m
 
 
-def read_bvh(path, *, strict=None, keep_truncated=False, threads=None, up=None) -> Motion:
+def read_bvh(path, *, strict=None, keep_truncated=False, threads=None, up=None,
+             trim=None) -> Motion:
     """Read a BVH file. ``path``: a str, bytes or os.PathLike.
 
     ``strict=False`` (the default; None means False unless inside :func:`strict_reading`)
@@ -124,6 +126,11 @@ def read_bvh(path, *, strict=None, keep_truncated=False, threads=None, up=None) 
 
     ``up``: the clip's up axis ("x", "y" or "z"), kept as :attr:`Motion.up_axis`; None (the
     default, unless inside :func:`mlayer.up_axis.reading_up`) detects it from the motion.
+
+    ``trim``: ``"auto"`` drops the T-pose and blend frames a converter put at the start
+    (:func:`mlayer.lead_in`; the CMU conversions have them), an int N the first N frames;
+    None (the default, unless inside :func:`mlayer.trimming.reading_trim`, the CLI's
+    ``--trim``) keeps every frame.
 
     ``threads``: how many threads parse the frame lines (the result is the same for every
     count); None (default) picks one per 512 KiB of frames, at most the machine's processors
@@ -142,6 +149,7 @@ def read_bvh(path, *, strict=None, keep_truncated=False, threads=None, up=None) 
         raise ValueError(f"mlayer.read_bvh: embedded null byte in the path {name!r}")
     opts, n_opts = _options(strict, keep_truncated, "mlayer.read_bvh")
     up_given = _up_arg(up, "mlayer.read_bvh")
+    trim = frames_arg(trim, "mlayer.read_bvh")
     out = ffi.new("mlr_motion **")
     diag = ffi.new("mlr_diag *")
     w = ffi.new("mlr_bvh_warnings *")
@@ -155,7 +163,7 @@ def read_bvh(path, *, strict=None, keep_truncated=False, threads=None, up=None) 
     m = _motion_or_raise(code, out, diag, name)
     _warn(w, name)
     m.up_axis = up_given
-    return m
+    return trimmed_read(m, trim, name)
 
 
 def _up_arg(up, where: str):
@@ -166,16 +174,18 @@ def _up_arg(up, where: str):
 
 
 def read_bvh_string(text, name: str = "<string>", *, strict=None, keep_truncated=False,
-                    threads=None, up=None) -> Motion:
+                    threads=None, up=None, trim=None) -> Motion:
     """Parse BVH text given as str or bytes; ``name`` stands for the path in error and warning
-    messages; ``strict``, ``keep_truncated``, ``threads`` and ``up`` as for :func:`read_bvh`."""
+    messages; ``strict``, ``keep_truncated``, ``threads``, ``up`` and ``trim`` as for
+    :func:`read_bvh`."""
     n_threads = _c_threads(threads)
     up_given = _up_arg(up, "mlayer.read_bvh_string")
+    trim = frames_arg(trim, "mlayer.read_bvh_string")
     if isinstance(text, str):
         text = text.encode("utf-8", errors="surrogateescape")
     m = _parse(text, name, n_threads, strict, keep_truncated)
     m.up_axis = up_given
-    return m
+    return trimmed_read(m, trim, name)
 
 
 def write_bvh(motion: Motion, path) -> None:
