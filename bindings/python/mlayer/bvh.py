@@ -30,6 +30,8 @@ __all__ = ["read_bvh", "write_bvh", "read_bvh_string", "write_bvh_string", "stri
 
 # The default of strict=None: False, unless inside strict_reading() (the CLI's --strict).
 _STRICT = contextvars.ContextVar("mlayer_bvh_strict", default=False)
+# The length unit of clips read with units=None: None, unless inside reading_units().
+_UNITS = contextvars.ContextVar("mlayer_bvh_units", default=None)
 
 _WARNING_KINDS = {1: "extra_frames", 2: "missing_frames", 3: "trailing_data",
                   4: "no_final_newline", 5: "truncated"}
@@ -113,7 +115,7 @@ def _motion_or_raise(code: int, out, diag, name: str) -> Motion:
 
 
 def read_bvh(path, *, strict=None, keep_truncated=False, threads=None, up=None,
-             trim=None) -> Motion:
+             trim=None, units=None) -> Motion:
     """Read a BVH file. ``path``: a str, bytes or os.PathLike.
 
     ``strict=False`` (the default; None means False unless inside :func:`strict_reading`)
@@ -126,6 +128,10 @@ def read_bvh(path, *, strict=None, keep_truncated=False, threads=None, up=None,
 
     ``up``: the clip's up axis ("x", "y" or "z"), kept as :attr:`Motion.up_axis`; None (the
     default, unless inside :func:`mlayer.up_axis.reading_up`) detects it from the motion.
+
+    ``units``: the clip's length unit ("m", "cm", "mm", "in" or "ft"), kept as
+    :attr:`Motion.units`; None (the default, unless inside :func:`reading_units`, the CLI's
+    ``--units``) leaves it to the body height's suggestion.
 
     ``trim``: ``"auto"`` drops the T-pose and blend frames a converter put at the start
     (:func:`mlayer.lead_in`; the CMU conversions have them), an int N the first N frames;
@@ -149,6 +155,7 @@ def read_bvh(path, *, strict=None, keep_truncated=False, threads=None, up=None,
         raise ValueError(f"mlayer.read_bvh: embedded null byte in the path {name!r}")
     opts, n_opts = _options(strict, keep_truncated, "mlayer.read_bvh")
     up_given = _up_arg(up, "mlayer.read_bvh")
+    units = _units_arg(units, "mlayer.read_bvh")
     trim = frames_arg(trim, "mlayer.read_bvh")
     out = ffi.new("mlr_motion **")
     diag = ffi.new("mlr_diag *")
@@ -162,8 +169,27 @@ def read_bvh(path, *, strict=None, keep_truncated=False, threads=None, up=None,
             f.read(1)
     m = _motion_or_raise(code, out, diag, name)
     _warn(w, name)
-    m.up_axis = up_given
+    m.up_axis, m.units = up_given, units
     return trimmed_read(m, trim, name)
+
+
+def _units_arg(units, where: str):
+    """The length unit a read clip gets: units, or the CLI's --units (reading_units), or None."""
+    from .metrics import units_arg
+    units = units_arg(units, where)
+    return _UNITS.get() if units is None else units
+
+
+@contextlib.contextmanager
+def reading_units(units):
+    """Within the block, clips read with ``units=None`` get this length unit (the CLI's
+    ``--units``)."""
+    from .metrics import units_arg
+    token = _UNITS.set(units_arg(units, "--units"))
+    try:
+        yield
+    finally:
+        _UNITS.reset(token)
 
 
 def _up_arg(up, where: str):
@@ -174,17 +200,18 @@ def _up_arg(up, where: str):
 
 
 def read_bvh_string(text, name: str = "<string>", *, strict=None, keep_truncated=False,
-                    threads=None, up=None, trim=None) -> Motion:
+                    threads=None, up=None, trim=None, units=None) -> Motion:
     """Parse BVH text given as str or bytes; ``name`` stands for the path in error and warning
-    messages; ``strict``, ``keep_truncated``, ``threads``, ``up`` and ``trim`` as for
+    messages; ``strict``, ``keep_truncated``, ``threads``, ``up``, ``trim`` and ``units`` as for
     :func:`read_bvh`."""
     n_threads = _c_threads(threads)
     up_given = _up_arg(up, "mlayer.read_bvh_string")
+    units = _units_arg(units, "mlayer.read_bvh_string")
     trim = frames_arg(trim, "mlayer.read_bvh_string")
     if isinstance(text, str):
         text = text.encode("utf-8", errors="surrogateescape")
     m = _parse(text, name, n_threads, strict, keep_truncated)
-    m.up_axis = up_given
+    m.up_axis, m.units = up_given, units
     return trimmed_read(m, trim, name)
 
 

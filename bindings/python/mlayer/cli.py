@@ -53,6 +53,9 @@ def build_parser() -> argparse.ArgumentParser:
                             help="drop frames at the start of each clip read: auto drops the "
                                  "T-pose and blend frames a converter put there (CMU files), N "
                                  "the first N frames (default: keep every frame)")
+            sp.add_argument("--units", choices=("m", "cm", "mm", "in", "ft"), default=None,
+                            help="the clips' length unit (default: the one their body height "
+                                 "suggests, when it does; thresholds do not depend on it)")
         sp.set_defaults(_run=run)
     return p
 
@@ -78,7 +81,7 @@ def _show_trim(command: str):
     return show
 
 
-# Subcommands that read no clip (no --strict, no --up, no --trim).
+# Subcommands that read no clip (no --strict, no --up, no --trim, no --units).
 _NO_CLIPS = {"version", "generate", "batch"}  # (batch reads in its workers)
 
 
@@ -119,7 +122,7 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help(sys.stderr)
         return 2
     import warnings
-    from .bvh import strict_reading
+    from .bvh import reading_units, strict_reading
     from .up_axis import reading_up
     from .trimming import reading_trim
     from .errors import MlayerWarning
@@ -127,7 +130,8 @@ def main(argv: list[str] | None = None) -> int:
         up = getattr(args, "up", "auto")
         with warnings.catch_warnings(), strict_reading(getattr(args, "strict", False)), \
                 reading_up(None if up == "auto" else up), \
-                reading_trim(getattr(args, "trim", None), _show_trim(args.command)):
+                reading_trim(getattr(args, "trim", None), _show_trim(args.command)), \
+                reading_units(getattr(args, "units", None)):
             warnings.simplefilter("always", MlayerWarning)
             warnings.showwarning = _show_parse_warning(args.command)
             return int(args._run(args) or 0)

@@ -12,7 +12,7 @@ import sys
 import numpy as np
 
 from .bvh import read_bvh
-from .metrics import body_height, length_unit
+from .metrics import UNITS, body_height, length_unit
 from .up_axis import detect_up
 from .cli import command
 from .errors import Error, ParseError
@@ -76,9 +76,11 @@ def describe(m, path: str | None = None, tree: bool = True) -> str:
         lines.append(f"up        {up.upper()} ({how}){flip}")
         h = body_height(p, up)
         unit = length_unit(h)
+        given = m._units
+        tail = (f", {given} (given): {_fmt(h * UNITS[given])} m)" if given
+                else f", which look like {unit})" if unit else ")")
         lines.append(f"height    ~{_fmt(h)} (median over frames of the joints' extent along "
-                     f"{up.upper()}; End Sites excluded; file units"
-                     + (f", which look like {unit})" if unit else ")"))
+                     f"{up.upper()}; End Sites excluded; file units" + tail)
     if tree:
         lines.append("skeleton")
         depth = sk.depth()

@@ -63,6 +63,20 @@ def body_height(m, up=None) -> float:
     return float(h[0])
 
 
+#: Length units a clip may be in, and their size in metres (Motion.units, read_bvh(units=)).
+UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001, "in": 0.0254, "ft": 0.3048}
+
+
+def units_arg(units, where: str):
+    """A length unit argument: one of :data:`UNITS` (any case) or None."""
+    if units is None:
+        return None
+    if isinstance(units, str) and units.lower() in UNITS:
+        return units.lower()
+    raise InvalidArgumentError(f"{where}: units must be one of {', '.join(UNITS)} or None, got "
+                               f"{units!r}")
+
+
 # Body heights (a person or an animal standing: 0.3 to 2.5 m) in each length unit.
 _UNIT_RANGES = (("m", 0.3, 2.5), ("cm", 30.0, 250.0), ("mm", 300.0, 2500.0))
 

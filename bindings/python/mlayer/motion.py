@@ -278,14 +278,14 @@ class Motion:
     multiplies the frame time by k); ``len(m)`` is the number of frames.
     """
 
-    __slots__ = ("_skeleton", "_frame_time", "_root_pos", "_rot", "_trans", "_up")
+    __slots__ = ("_skeleton", "_frame_time", "_root_pos", "_rot", "_trans", "_up", "_units")
 
     def __init__(self, skeleton: Skeleton, frame_time: float, root_pos, rot, trans=None, *,
                  _trusted: bool = False):
         if not isinstance(skeleton, Skeleton):
             raise InvalidArgumentError("Motion: skeleton must be a mlayer.Skeleton")
         self._skeleton = skeleton
-        self._up = None
+        self._up = self._units = None
         if _trusted:
             self._frame_time, self._root_pos, self._rot, self._trans = \
                 frame_time, root_pos, rot, trans
@@ -382,8 +382,33 @@ class Motion:
         from .up_axis import axis_name
         self._up = axis_name(up, "Motion.up_axis")
 
+    @property
+    def units(self) -> str | None:
+        """The clip's length unit: "m", "cm", "mm", "in" or "ft" when given
+        (``read_bvh(path, units=...)``, ``--units``, or assigned), else the unit the body height
+        suggests (:func:`mlayer.metrics.length_unit`: "m", "cm" or "mm" when the height is a
+        person's or an animal's in just that unit), else None. Thresholds do not depend on it
+        (they are relative to the body height); conversions to metres do."""
+        if self._units is not None:
+            return self._units
+        from .metrics import body_height, length_unit
+        return length_unit(body_height(self)) if self.n_frames else None
+
+    @units.setter
+    def units(self, units) -> None:
+        from .metrics import units_arg
+        self._units = units_arg(units, "Motion.units")
+
+    @property
+    def metres_per_unit(self) -> float | None:
+        """The size of the clip's length unit in metres (from :attr:`units`), or None."""
+        from .metrics import UNITS
+        u = self.units
+        return UNITS[u] if u else None
+
     def _same_up(self, other: "Motion") -> "Motion":
-        self._up = other._up
+        """Carry what was said about other (up axis, units) over to this motion of its frames."""
+        self._up, self._units = other._up, other._units
         return self
 
     # ---- construction ----------------------------------------------------------------------

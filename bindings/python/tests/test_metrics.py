@@ -52,3 +52,31 @@ def test_jitter_hand_made():
     assert metrics.jitter(p, fps=10) == pytest.approx(3000.0, rel=1e-12)
     with pytest.raises(mlayer.InvalidArgumentError):
         metrics.jitter(p[:3])
+
+
+def test_units_are_guessed_from_the_body_height_or_given(mocap):
+    from mlayer.metrics import length_unit
+    assert length_unit(1.7) == "m" and length_unit(170.0) == "cm" and length_unit(1700.0) == "mm"
+    assert length_unit(24.0) is None and length_unit(0.01) is None  # CMU's ~24 units: unclear
+    lafan = mlayer.read_bvh(mocap / "lafan1_clip_a.bvh")
+    assert lafan.units == "cm" and lafan.metres_per_unit == 0.01
+    cmu = mlayer.read_bvh(mocap / "cmu_131_01_mj_style_walk.bvh")
+    assert cmu.units is None and cmu.metres_per_unit is None
+    cmu = mlayer.read_bvh(mocap / "cmu_131_01_mj_style_walk.bvh", units="IN")
+    assert cmu.units == "in" and cmu[3:9].units == "in" and cmu.copy().metres_per_unit == 0.0254
+    with mlayer.bvh.reading_units("ft"):
+        assert mlayer.read_bvh(mocap / "lafan1_clip_a.bvh").units == "ft"
+    for bad in ("furlong", 1.0, True):
+        with pytest.raises(mlayer.InvalidArgumentError, match="units must be one of"):
+            mlayer.read_bvh(mocap / "lafan1_clip_a.bvh", units=bad)
+
+
+def test_info_says_the_given_units(mocap):
+    import subprocess
+    import sys
+    run = [sys.executable, "-m", "mlayer", "info", "--no-tree",
+           str(mocap / "cmu_131_01_mj_style_walk.bvh")]
+    out = subprocess.run(run + ["--units", "in"], capture_output=True, text=True, check=True)
+    assert "in (given): 0.57" in out.stdout
+    r = subprocess.run(run + ["--units", "parsec"], capture_output=True, text=True)
+    assert r.returncode == 2 and "invalid choice" in r.stderr
