@@ -895,6 +895,18 @@ static mlr_layers *decompose_ok(const clip *c, const mlr_layers_option *opt, siz
     return L;
 }
 
+/* decompose_ok with the outlier search off (FPS also sets the search's smoother, so layers
+ * with and without FPS differ on clips with outliers). */
+static mlr_layers *decompose_plain(const clip *c, const mlr_layers_option *opt, size_t n_opt)
+{
+    mlr_layers_option o[8];
+    ck_assert_uint_lt(n_opt, 8);
+    for (size_t i = 0; i < n_opt; i++)
+        o[i] = opt[i];
+    o[n_opt] = (mlr_layers_option){MLR_LAYERS_OPT_ROBUST, 0.0};
+    return decompose_ok(c, o, n_opt + 1);
+}
+
 /* The gain of the mean of the LGS (I + s L^T L)^-1 on a sinusoid of frequency f at fps, measured
  * with mlr_lgs in the middle of a long clip (the ends are left out). */
 static double lgs_gain(double s, double f, double fps)
@@ -931,7 +943,7 @@ START_TEST(fps_gives_the_base_floor)
             const double smax = pow(2.0 * sin(PI * fcs[k] / fps), -4.0);
             mlr_layers_option o_fps[2] = {{MLR_LAYERS_OPT_FPS, fps}, {MLR_LAYERS_OPT_BASE_CUTOFF, fcs[k]}};
             mlr_layers_option o_s = {MLR_LAYERS_OPT_BASE_S_MAX, smax};
-            mlr_layers *A = decompose_ok(c, o_fps, k == 0 ? 1 : 2), *B = decompose_ok(c, &o_s, 1);
+            mlr_layers *A = decompose_plain(c, o_fps, k == 0 ? 1 : 2), *B = decompose_plain(c, &o_s, 1);
             ck_assert_msg(same_layers(A, B), "%s: FPS %g, cutoff %g differs from BASE_S_MAX %g",
                           c->name, fps, fcs[k], smax);
             double *s = malloc((1 + c->j) * sizeof *s);
@@ -968,17 +980,17 @@ START_TEST(base_floor_precedence)
     mlr_layers *A, *B;
     mlr_layers_option o1[3] = {{MLR_LAYERS_OPT_FPS, fps}, {MLR_LAYERS_OPT_LAM_B, 3.0},
                                {MLR_LAYERS_OPT_BASE_CUTOFF, 0.5}};
-    A = decompose_ok(c, o1, 3), B = decompose_ok(c, o1 + 1, 1);
+    A = decompose_plain(c, o1, 3), B = decompose_plain(c, o1 + 1, 1);
     ck_assert(same_layers(A, B));
     mlr_layers_destroy(A), mlr_layers_destroy(B);
     mlr_layers_option o2[2] = {{MLR_LAYERS_OPT_BASE_S_MAX, 1e10}, {MLR_LAYERS_OPT_FPS, fps}};
-    A = decompose_ok(c, o2, 2), B = decompose_ok(c, NULL, 0);
+    A = decompose_plain(c, o2, 2), B = decompose_plain(c, NULL, 0);
     ck_assert(same_layers(A, B));
     mlr_layers_destroy(A), mlr_layers_destroy(B);
     const double smax = pow(2.0 * sin(PI * 0.25 / fps), -4.0);
     mlr_layers_option o3[2] = {{MLR_LAYERS_OPT_FPS, fps}, {MLR_LAYERS_OPT_BASE_S_MIN, 3.0}};
     mlr_layers_option o4[2] = {{MLR_LAYERS_OPT_BASE_S_MAX, smax}, {MLR_LAYERS_OPT_BASE_S_MIN, 3.0}};
-    A = decompose_ok(c, o3, 2), B = decompose_ok(c, o4, 2);
+    A = decompose_plain(c, o3, 2), B = decompose_plain(c, o4, 2);
     ck_assert(same_layers(A, B));
     double *s = malloc((1 + c->j) * sizeof *s);
     ck_assert_int_eq(mlr_layers_get_param(A, MLR_LAYERS_PARAM_BASE_S, s, 1 + c->j), MLR_OK);
@@ -1055,7 +1067,14 @@ START_TEST(base_floor_bad_options)
         {{{MLR_LAYERS_OPT_BODY_JOINT, 0.5}, {0, 0}}, 1, "joint index"},
         {{{MLR_LAYERS_OPT_BODY_JOINT, NAN}, {0, 0}}, 1, "not finite"},
         {{{MLR_LAYERS_OPT_BODY_JOINT, 13.0}, {MLR_LAYERS_OPT_FPS, 30.0}}, 2, "joint index"},
-        {{{13, 1.0}, {0, 0}}, 1, "unknown"},
+        {{{16, 1.0}, {0, 0}}, 1, "unknown"},
+        {{{MLR_LAYERS_OPT_ROBUST, 0.5}, {0, 0}}, 1, "neither 0"},
+        {{{MLR_LAYERS_OPT_ROBUST, -1.0}, {0, 0}}, 1, "neither 0"},
+        {{{MLR_LAYERS_OPT_ROBUST, NAN}, {0, 0}}, 1, "not finite"},
+        {{{MLR_LAYERS_OPT_BODY_HEIGHT, 0.0}, {0, 0}}, 1, "not > 0"},
+        {{{MLR_LAYERS_OPT_BODY_HEIGHT, INFINITY}, {0, 0}}, 1, "not finite"},
+        {{{MLR_LAYERS_OPT_ROBUST_ANGLE, 0.0}, {0, 0}}, 1, "not > 0"},
+        {{{MLR_LAYERS_OPT_ROBUST_ANGLE, 3.5}, {0, 0}}, 1, "(0, pi]"},
     };
     for (size_t i = 0; i < MLR_COUNTOF(bad); i++) {
         mlr_layers *L = (mlr_layers *)(void *)rot;
