@@ -93,6 +93,7 @@ static mlr_status parse_options(const mlr_layers_option *opts, size_t n_opts, si
         /* at fps below twice the cutoff: the weakest smoother there is, s of fps / 4 */
         const double fc = fmin(MLR_LAYERS_ROBUST_CUTOFF, 0.25 * fps);
         cfg->robust_s = floor_s_max(fps, fc);
+        cfg->robust_window = fps >= 32.0 ? (size_t)fmin(0.25 * fps + 0.5, 256.0) : 8;
     }
     cfg->base_s_min = seen[MLR_LAYERS_OPT_BASE_S_MIN] ? val[MLR_LAYERS_OPT_BASE_S_MIN] : 1e-2;
     cfg->base_s_max = seen[MLR_LAYERS_OPT_BASE_S_MAX] ? val[MLR_LAYERS_OPT_BASE_S_MAX] : 1e10;
@@ -151,7 +152,11 @@ static mlr_status compute_sizes(size_t n, size_t j, int robust, sizes *z)
     z->fac = z->grp; /* three n x (1 + j) factor arrays */
     z->comp = z->rot > z->grp ? z->rot : z->grp; /* compacted channels of the searches */
     z->col = ng;
-    z->rhs = robust ? z->comp : 0;
+    z->rhs = 0;
+    if (robust && (mlr_mul_size(n, j, &t) || t > SIZE_MAX - z->comp))
+        return MLR_E_OVERFLOW;
+    if (robust)
+        z->rhs = z->comp + t; /* right-hand sides (4 n j) and leverages (n j) */
     if (mlr_mul_size(n, ng, &z->flags) || mlr_mul_size(z->flags, robust ? 2 : 0, &z->weights))
         return MLR_E_OVERFLOW;
     size_t total = z->pos;

@@ -531,6 +531,11 @@ void mlr_lay_sum_sq_diff(size_t n, size_t mm, const double *y, const double *x, 
  */
 void mlr_lay_batch_trace(const mlr_lay_batch *b, double *trace, double *work)
 {
+    mlr_lay_batch_leverage(b, trace, NULL, work);
+}
+
+void mlr_lay_batch_leverage(const mlr_lay_batch *b, double *trace, double *lev, double *work)
+{
     const size_t n = b->n, ns = b->ns, kc = b->k - 1;
     double *restrict za = work, *restrict zb = work + ns, *restrict zc = work + 2 * ns;
     const double *dl = b->dinv + mlr_lay_row(b, n - 1) * ns;
@@ -540,6 +545,8 @@ void mlr_lay_batch_trace(const mlr_lay_batch *b, double *trace, double *work)
         zb[k] = 0.0;   /* Z(i+1, i+2) */
         zc[k] = 0.0;   /* Z(i+2, i+2) */
         trace[k] = wt ? wt[(n - 1) * ns + k] * dl[k] : dl[k];
+        if (lev)
+            lev[(n - 1) * ns + k] = trace[k];
     }
     for (size_t i = n - 1; i-- > 0;) {
         const size_t r0 = mlr_lay_row(b, i), r1 = mlr_lay_row(b, i + 1);
@@ -555,10 +562,13 @@ void mlr_lay_batch_trace(const mlr_lay_batch *b, double *trace, double *work)
             zc[k] = za[k];
             zb[k] = z01;
             za[k] = z00;
-            trace[k] += wt ? wt[i * ns + k] * z00 : z00;
+            const double h = wt ? wt[i * ns + k] * z00 : z00;
+            trace[k] += h;
+            if (lev)
+                lev[i * ns + k] = h;
         }
         /* rows i-1 .. kc have the factor rows of row i: the same update, the same Z(i, i) */
-        if (!moved && b->k < n && i > kc && i + 2 <= n - 3) {
+        if (!moved && !lev && b->k < n && i > kc && i + 2 <= n - 3) {
             const double rows = (double)(i - kc);
             for (size_t k = 0; k < ns; k++)
                 trace[k] += rows * za[k];

@@ -35,6 +35,7 @@ typedef struct mlr_layers_cfg {
     double robust_s;            /* s of the detection smoother */
     double robust_angle;        /* gate of the joints' residual angle, radians */
     double robust_length;       /* gate of the translation residual; 0: relative to its median */
+    size_t robust_window;       /* frames a realignment looks back over */
 } mlr_layers_cfg;
 
 /* Observation weights of a robust decomposition: w (n x (1 + j), group g of frame i at
@@ -53,10 +54,11 @@ void mlr_layers_pack_weighted(size_t n, size_t ng, const mlr_lay_robust *rb, siz
 
 /* Find the outlier frames of every group (layers_robust.c): iteratively reweighted LGS at
  * cfg->robust_s, per joint on the quaternions q (n x j x 4, unit, sign-continuous; realigned
- * here so that a frame takes the hemisphere of the last frame that is not an outlier) and on
+ * here so that a frame takes the hemisphere of the most similar of its last robust_window
+ * frames that are not outliers) and on
  * the translation root_pos (NULL: none). Weights into rb->w, flags into L->outliers; *any is 1
- * when some weight is below 1. fac: 3 n j doubles; fit, rhs: 4 n j doubles each (and at least
- * 4 n); work: 14 j doubles. */
+ * when some weight is below 1. fac: 3 n j doubles; fit: 4 n j doubles; rhs: 5 n j doubles;
+ * work: 14 j doubles. */
 mlr_status mlr_layers_robust_weights(mlr_layers *L, const mlr_layers_cfg *cfg, double *q,
                                      const double *root_pos, const mlr_lay_robust *rb,
                                      double *fac, double *fit, double *rhs, double *work,
@@ -109,6 +111,10 @@ void mlr_lay_sum_sq_diff(size_t n, size_t mm, const double *y, const double *x, 
 /* tr(A_k^-1 W_k) for every system (W_k = I without weights) by selected inversion over the
  * factor (rolling, O(n ns) at most); work holds 3 ns doubles. */
 void mlr_lay_batch_trace(const mlr_lay_batch *b, double *trace, double *work);
+
+/* mlr_lay_batch_trace that also writes the leverages, the diagonal of A_k^-1 W_k, into lev
+ * (n rows of ns values, [i * ns + k]; every row visited, O(n ns)). */
+void mlr_lay_batch_leverage(const mlr_lay_batch *b, double *trace, double *lev, double *work);
 
 /* The stages of mlr_layers_decompose; work areas are owned by the caller. */
 

@@ -4,23 +4,28 @@
  *
  * Per group, a light LGS (s = cfg->robust_s, about a 2 Hz half-power point) is fitted to the
  * observations; the residual r_i of frame i is the rotation angle between the input and the
- * renormalized fit for a joint, the distance for the translation. A frame whose residual is
+ * renormalized fit for a joint, the distance for the translation, divided by 1 - h_i (h_i the
+ * leverage of the frame, the diagonal of the smoother A^-1 W: the deleted residual of a linear
+ * smoother, what the fit would leave without the frame; it matters at the clip's ends, where
+ * the prior lets a fit follow a few frames). A frame whose residual is
  * within the gate G keeps the weight 1; past it the weight falls as exp(-8 ((r/G)^2 - 1)) (a
- * redescending, Welsch-type M-estimator weight: a glitch of twice the gate weighs e^-24), with a
- * floor of ROBUST_W_MIN so that the systems stay positive definite. The fit is redone with the
+ * redescending, Welsch-type M-estimator weight: a glitch of twice the gate weighs e^-24, a gross
+ * one 0, so that it drops out of the fits and of GCV's residual sums; the prior bridges it).
+ * A system stays positive definite while two frames keep a weight: a group with fewer than
+ * three frames of weight 1/2 or more keeps the weights 1. The fit is redone with the
  * new weights until the set of outlier frames (weight below 1/2) stops changing. Where nothing
  * passes the gate on the first fit, the weights stay 1 and the decomposition is the plain one.
  *
  * A glitch of 180 degrees leaves the hemisphere alignment of the frames after it to chance (the
  * flipped quaternion is orthogonal to its neighbours), so whenever new outliers are found the
- * quaternions are realigned with the last frame that is not an outlier.
+ * quaternions are realigned: each frame with the most similar of its last frames (a quarter
+ * of a second, at least 8 frames) that are not outliers.
  */
 #include "layers_internal.h"
 
 #include <math.h>
 
 #define ROBUST_MAX_IT 12
-#define ROBUST_W_MIN 1e-8
 /* without a length gate: the translation's gate is this many times the median residual */
 #define ROBUST_REL_GATE 100.0
 
@@ -29,7 +34,7 @@ static double robust_weight(double r, double gate)
     if (!(r > gate))
         return 1.0;
     const double t = r / gate, e = 8.0 * (t * t - 1.0);
-    return e > 18.0 ? ROBUST_W_MIN : fmax(exp(-e), ROBUST_W_MIN); /* e^-18 ~ 1.5e-8 */
+    return e < 700.0 ? exp(-e) : 0.0;
 }
 
 /* Median of x[0..n) (x reordered). */
@@ -63,21 +68,30 @@ static double median_of(double *x, size_t n)
     return x[kth];
 }
 
-/* Each joint's quaternions in the hemisphere of its last frame that is not an outlier
- * (frames before the first such frame: of their predecessor). */
-static void realign(size_t n, size_t j, double *q, const unsigned char *flag, size_t ldf)
+/* Each joint's quaternions in the hemisphere of the most similar (largest |<q_i, q_f>|) of
+ * its last `window` frames that are not outliers (frames with none such: of their
+ * predecessor). Where the steps are small that is the predecessor, as in the plain alignment;
+ * across a glitch it is a frame before the glitch, whatever the glitch frames were. */
+static void realign(size_t n, size_t j, double *q, const unsigned char *flag, size_t ldf,
+                    size_t window)
 {
     for (size_t k = 0; k < j; k++) {
-        const double *last = q + 4 * k;
-        int seen = !flag[1 + k];
         for (size_t i = 1; i < n; i++) {
             double *c = q + 4 * (i * j + k);
-            if (c[0] * last[0] + c[1] * last[1] + c[2] * last[2] + c[3] * last[3] < 0.0)
+            const double *ref = c - 4 * j;
+            double best = -1.0;
+            for (size_t f = i; f-- > 0 && f + window >= i;) {
+                if (flag[f * ldf + 1 + k])
+                    continue;
+                const double *p = q + 4 * (f * j + k);
+                const double d = fabs(c[0] * p[0] + c[1] * p[1] + c[2] * p[2] + c[3] * p[3]);
+                if (d > best)
+                    best = d, ref = p;
+                if (d > 0.866) /* within 60 degrees: no older frame is looked at */
+                    break;
+            }
+            if (c[0] * ref[0] + c[1] * ref[1] + c[2] * ref[2] + c[3] * ref[3] < 0.0)
                 c[0] = -c[0], c[1] = -c[1], c[2] = -c[2], c[3] = -c[3];
-            const int ok = !flag[i * ldf + 1 + k];
-            if (ok || !seen)
-                last = c;
-            seen |= ok;
         }
     }
 }
@@ -102,11 +116,12 @@ static double residual_of(const double *y, const double *f, size_t m)
 }
 
 /* The reweighting loop of one kind; gate: per system (ns values); q: y itself when y holds
- * quaternions (realigned here), else NULL; buf: 3 m ns doubles. *any: some weight < 1. */
+ * quaternions (realigned here), else NULL; buf: 3 m ns doubles; lev: n ns doubles. *any:
+ * some weight < 1. */
 static mlr_status reweight(mlr_layers *L, const mlr_layers_cfg *cfg, const rgroups *gk,
                            const double *y, double *q, const mlr_lay_robust *rb, double *fac,
-                           double *fit, double *rhs, double *s, double *gate, double *buf,
-                           int *any, mlr_diag *diag)
+                           double *fit, double *rhs, double *lev, double *s, double *gate,
+                           double *buf, int *any, mlr_diag *diag)
 {
     const size_t n = L->n, j = L->j, ng = 1 + j, ns = gk->ns, m = gk->m, mm = m * ns;
     mlr_lay_batch b = {n, ns, n, fac, fac + n * ns, fac + 2 * n * ns, NULL};
@@ -128,11 +143,12 @@ static mlr_status reweight(mlr_layers *L, const mlr_layers_cfg *cfg, const rgrou
             obs = rhs;
         }
         mlr_lay_batch_solve(&b, m, obs, mm, fit, mm, buf);
+        mlr_lay_batch_leverage(&b, buf, lev, buf + ns);
         if (it == 0 && gk->g0 == 0 && cfg->robust_length <= 0.0) {
             /* the translation's gate relative to its median residual */
             double *r = rhs;
             for (size_t i = 0; i < n; i++)
-                r[i] = residual_of(y + i * mm, fit + i * mm, 3);
+                r[i] = residual_of(y + i * mm, fit + i * mm, 3) / (1.0 - lev[i]);
             const double med = median_of(r, n);
             double scale = 0.0;
             for (size_t i = 0; i < n; i++)
@@ -143,7 +159,8 @@ static mlr_status reweight(mlr_layers *L, const mlr_layers_cfg *cfg, const rgrou
         for (size_t i = 0; i < n; i++) {
             unsigned char *fl = L->outliers + i * ng + gk->g0;
             for (size_t k = 0; k < ns; k++) {
-                const double r = residual_of(y + i * mm + k * m, fit + i * mm + k * m, m);
+                const double r = residual_of(y + i * mm + k * m, fit + i * mm + k * m, m) /
+                                 (1.0 - lev[i * ns + k]);
                 const double w = robust_weight(r, gate[k]);
                 const unsigned char f = w < 0.5;
                 changed |= f != fl[k];
@@ -153,11 +170,25 @@ static mlr_status reweight(mlr_layers *L, const mlr_layers_cfg *cfg, const rgrou
                 wk[i * ns + k] = w;
             }
         }
+        for (size_t k = 0; k < ns; k++) { /* nearly every frame an outlier: not a glitch */
+            size_t kept = 0;
+            for (size_t i = 0; i < n && kept < 3; i++)
+                kept += wk[i * ns + k] >= 0.5;
+            if (kept < 3) {
+                for (size_t i = 0; i < n; i++) {
+                    wk[i * ns + k] = 1.0;
+                    L->outliers[i * ng + gk->g0 + k] = 0;
+                }
+            }
+        }
+        some = 0;
+        for (size_t i = 0; i < n * ns && !some; i++)
+            some = wk[i] < 1.0;
         *any = some;
         if (!some || (it > 0 && !changed))
             break;
         if (fresh && q)
-            realign(n, j, q, L->outliers, ng);
+            realign(n, j, q, L->outliers, ng, cfg->robust_window);
     }
     for (size_t i = 0; i < n; i++)
         for (size_t k = 0; k < ns; k++)
@@ -179,15 +210,16 @@ mlr_status mlr_layers_robust_weights(mlr_layers *L, const mlr_layers_cfg *cfg, d
         gate[k] = cfg->robust_angle;
     const rgroups joints = {j, 4, 1};
     int any_j = 0, any_r = 0;
-    mlr_status rc = reweight(L, cfg, &joints, q, q, rb, fac, fit, rhs, s, gate, buf, &any_j,
-                             diag);
+    double *lev = rhs + 4 * n * j; /* rhs holds 5 n j doubles */
+    mlr_status rc = reweight(L, cfg, &joints, q, q, rb, fac, fit, rhs, lev, s, gate, buf,
+                             &any_j, diag);
     if (rc != MLR_OK)
         return rc;
     if (root_pos) {
         const rgroups root = {1, 3, 0};
         gate[0] = cfg->robust_length;
-        rc = reweight(L, cfg, &root, root_pos, NULL, rb, fac, fit, rhs, s, gate, buf, &any_r,
-                      diag);
+        rc = reweight(L, cfg, &root, root_pos, NULL, rb, fac, fit, rhs, lev, s, gate, buf,
+                      &any_r, diag);
         if (rc != MLR_OK)
             return rc;
     }

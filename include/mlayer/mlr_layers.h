@@ -66,14 +66,18 @@
  * the smoothing of their joint for the whole clip. Before the layers, each group (the body
  * translation, each joint) is fitted by a light LGS (half power at 2 Hz given FPS, else as at
  * 30 fps); a frame whose residual (the rotation angle to the renormalized fit for a joint, the
- * distance for the translation) passes the gate (ROBUST_ANGLE, default pi/2; for the
+ * distance for the translation, over 1 - the frame's leverage: the deleted residual) passes
+ * the gate (ROBUST_ANGLE, default pi/2; for the
  * translation 0.2 BODY_HEIGHT, or 100 times the median residual without BODY_HEIGHT) gets the
- * weight exp(-8 ((r/gate)^2 - 1)) (at least 1e-8; 1 within the gate), and the fit is redone with
+ * weight exp(-8 ((r/gate)^2 - 1)) (1 within the gate, 0 for a gross outlier; a group with
+ * fewer than 3 frames of weight 1/2 or more keeps the weights 1), and the fit is redone with
  * the weights until the outlier frames (weight below 1/2) stop changing (at most 12 fits).
  * When a weight is below 1, every LGS of the decomposition weights its observations,
  * (W + s L^T L) x = W y, the base heuristic's bound and MLR_LAYERS_PARAM_BASE_MAX_ANGLE skip the
- * outlier frames, GCV counts a frame by its weight, and a joint's quaternions take the
- * hemisphere of its last frame that is not an outlier. The glitch then stays in the residual
+ * outlier frames, GCV counts a frame by its weight, and a joint's quaternion takes the
+ * hemisphere of the most similar of its last frames (a quarter second, at least 8, at most 256
+ * frames) that are not outliers (a 180-degree flip leaves the plain alignment of the frames
+ * after it to chance). The glitch then stays in the residual
  * layer (the identity still holds) and synthesis and denoising pass over it. When no residual
  * passes its gate the decomposition is the plain one, bit for bit; the search costs one light
  * LGS solve of every channel. mlr_layers_get_outliers reports the outlier frames.
@@ -163,7 +167,7 @@ typedef enum mlr_layers_param {
  *         (0, pi]); MLR_E_SINGULAR (a factorization
  *         failed: s far too large for the clip); MLR_E_NO_MEMORY; MLR_E_OVERFLOW
  * Allocates: the handle, one block of about (10 J + 9) N doubles and (J + 1) N bytes, and
- * while running one block of about (11 J + 6) N doubles of scratch (robust: (17 J + 8) N).
+ * while running one block of about (11 J + 6) N doubles of scratch (robust: (18 J + 8) N).
  * Cost O(N J) per search step (a few dozen steps; robust with outliers: a few more, and the
  * weighted solves cost about twice as much).
  * Threads: any; inputs only read.
