@@ -40,6 +40,28 @@ def _layer_options(p) -> None:
                    help="control-layer lambda (default: chosen per joint by GCV)")
     p.add_argument("--sigma-c", type=float, default=None,
                    help="control-layer sigma (default: chosen per joint by GCV)")
+    p.add_argument("--no-robust", action="store_true",
+                   help="do not look for outlier frames (glitches, flips) to down-weight")
+
+
+def frame_ranges(frames) -> str:
+    """[0, 1, 2, 3, 4, 9] -> '0-4, 9'."""
+    out, frames = [], [int(f) for f in frames]
+    for f in frames:
+        if out and f == out[-1][1] + 1:
+            out[-1][1] = f
+        else:
+            out.append([f, f])
+    return ", ".join(f"{a}" if a == b else f"{a}-{b}" for a, b in out)
+
+
+def _outlier_note(layers) -> None:
+    """One line on stderr when the robust decomposition down-weighted frames."""
+    bad = layers.outlier_frames
+    if bad.size:
+        shown = frame_ranges(bad[:200]) + (", ..." if bad.size > 200 else "")
+        print(f"mlayer: {bad.size} outlier frame{'s' if bad.size != 1 else ''} down-weighted "
+              f"(frames {shown})", file=sys.stderr)
 
 
 def _synthesis(args, motion):
@@ -48,12 +70,16 @@ def _synthesis(args, motion):
     return Synthesis(motion, limits=None if getattr(args, "no_limits", False) else "auto",
                      floor=None if getattr(args, "no_floor", False) else "auto",
                      keep_contacts=not getattr(args, "no_contacts", False),
-                     gamma=args.gamma, lam_c=args.lam_c, sigma_c=args.sigma_c)
+                     gamma=args.gamma, lam_c=args.lam_c, sigma_c=args.sigma_c,
+                     robust=not args.no_robust)
 
 
 def _decompose(args, motion):
     from .layers import decompose
-    return decompose(motion, gamma=args.gamma, lam_c=args.lam_c, sigma_c=args.sigma_c)
+    layers = decompose(motion, gamma=args.gamma, lam_c=args.lam_c, sigma_c=args.sigma_c,
+                       robust=not args.no_robust)
+    _outlier_note(layers)
+    return layers
 
 
 def _guard_summary(report) -> None:
@@ -108,6 +134,7 @@ def _arguments_denoise(p) -> None:
 def _cmd_denoise(args) -> int:
     m = read_bvh(args.input)
     s = _synthesis(args, m)
+    _outlier_note(s.layers)
     out, report = s.run(1.0)
     write_bvh(out, args.output)
     _summary(args.input, m, out, s.layers)
@@ -139,6 +166,7 @@ def _cmd_stylize(args) -> int:
     joints = parse_joint_alphas(args.joint)
     m = read_bvh(args.input)
     s = _synthesis(args, m)
+    _outlier_note(s.layers)
     out, report = s.run(args.alpha, joints or None)
     write_bvh(out, args.output)
     _summary(args.input, m, out, s.layers)
