@@ -76,10 +76,8 @@ def _synthesis(args, motion):
 
 def _decompose(args, motion):
     from .layers import decompose
-    layers = decompose(motion, gamma=args.gamma, lam_c=args.lam_c, sigma_c=args.sigma_c,
-                       robust=not args.no_robust)
-    _outlier_note(layers)
-    return layers
+    return decompose(motion, gamma=args.gamma, lam_c=args.lam_c, sigma_c=args.sigma_c,
+                     robust=not args.no_robust)
 
 
 def _guard_summary(report) -> None:
@@ -134,12 +132,12 @@ def _arguments_denoise(p) -> None:
 def _cmd_denoise(args) -> int:
     m = read_bvh(args.input)
     s = _synthesis(args, m)
-    _outlier_note(s.layers)
     out, report = s.run(1.0)
     write_bvh(out, args.output)
     _summary(args.input, m, out, s.layers)
     _guard_summary(report)
     print(f"  wrote {args.output}")
+    _outlier_note(s.layers)
     return 0
 
 
@@ -166,13 +164,13 @@ def _cmd_stylize(args) -> int:
     joints = parse_joint_alphas(args.joint)
     m = read_bvh(args.input)
     s = _synthesis(args, m)
-    _outlier_note(s.layers)
     out, report = s.run(args.alpha, joints or None)
     write_bvh(out, args.output)
     _summary(args.input, m, out, s.layers)
     _guard_summary(report)
     print(f"  alpha {args.alpha:g}" + "".join(f", {k}={v:g}" for k, v in joints.items()))
     print(f"  wrote {args.output}")
+    _outlier_note(s.layers)
     return 0
 
 
@@ -213,6 +211,7 @@ def _cmd_layers(args) -> int:
         shown = plot_layers(m, layers, args.plot, joint=args.joint,
                             title=f"{args.input}: layers")
         print(f"wrote {args.plot} (root {'XYZ'[shown['root_axis']]}, joint {shown['joint']})")
+    _outlier_note(layers)
     return 0
 
 
