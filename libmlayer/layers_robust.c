@@ -102,13 +102,21 @@ typedef struct rgroups {
     size_t ns, m, g0;
 } rgroups;
 
+#define MLR_PI_R 3.14159265358979323846
+
+/* cos^2 of half the rotation angle between a unit quaternion y and the direction of f. */
+static inline double cos2_of(const double *y, const double *f)
+{
+    const double d = y[0] * f[0] + y[1] * f[1] + y[2] * f[2] + y[3] * f[3];
+    const double nn = f[0] * f[0] + f[1] * f[1] + f[2] * f[2] + f[3] * f[3];
+    return d * d / (nn > 1e-300 ? nn : 1e-300);
+}
+
 /* Residual of frame i, system k: angle (m == 4) or distance (m == 3) to the fit. */
 static double residual_of(const double *y, const double *f, size_t m)
 {
     if (m == 4) {
-        const double d = y[0] * f[0] + y[1] * f[1] + y[2] * f[2] + y[3] * f[3];
-        const double nn = f[0] * f[0] + f[1] * f[1] + f[2] * f[2] + f[3] * f[3];
-        const double c2 = d * d / (nn > 1e-300 ? nn : 1e-300);
+        const double c2 = cos2_of(y, f);
         return 2.0 * acos(sqrt(c2 < 1.0 ? c2 : 1.0));
     }
     const double a = y[0] - f[0], b = y[1] - f[1], c = y[2] - f[2];
@@ -155,13 +163,28 @@ static mlr_status reweight(mlr_layers *L, const mlr_layers_cfg *cfg, const rgrou
                 scale = fmax(scale, fabs(y[i * mm]) + fabs(y[i * mm + 1]) + fabs(y[i * mm + 2]));
             gate[0] = fmax(ROBUST_REL_GATE * med, 1e-9 * scale + 1e-300);
         }
+        /* a cheap test first: a joint's deleted residual passes its gate only where the
+         * residual angle passes gate (1 - largest leverage), a bound on the cosine, no acos */
+        double *c2min = buf + 4 * ns; /* buf holds 12 ns doubles; [ns, 4 ns) the leverage's */
+        if (m == 4) {
+            for (size_t k = 0; k < ns; k++)
+                c2min[k] = 0.0;
+            for (size_t i = 0; i < n; i++)
+                for (size_t k = 0; k < ns; k++)
+                    c2min[k] = fmax(c2min[k], lev[i * ns + k]);
+            for (size_t k = 0; k < ns; k++) {
+                const double c = cos(0.5 * fmin(gate[k] * (1.0 - c2min[k]), MLR_PI_R));
+                c2min[k] = c * c;
+            }
+        }
         int changed = 0, fresh = 0, some = 0;
         for (size_t i = 0; i < n; i++) {
             unsigned char *fl = L->outliers + i * ng + gk->g0;
             for (size_t k = 0; k < ns; k++) {
-                const double r = residual_of(y + i * mm + k * m, fit + i * mm + k * m, m) /
-                                 (1.0 - lev[i * ns + k]);
-                const double w = robust_weight(r, gate[k]);
+                const double *yk = y + i * mm + k * m, *fk = fit + i * mm + k * m;
+                double w = 1.0;
+                if (m != 4 || cos2_of(yk, fk) < c2min[k])
+                    w = robust_weight(residual_of(yk, fk, m) / (1.0 - lev[i * ns + k]), gate[k]);
                 const unsigned char f = w < 0.5;
                 changed |= f != fl[k];
                 fresh |= f && !fl[k];
