@@ -72,6 +72,11 @@ typedef struct parser {
     mlr_diag *diag;
     mlr_allocator a;
     vec joints, ends, names;
+    /* lenient reading (mlr_bvh_read_memory_opts) */
+    int strict, keep_truncated;
+    mlr_bvh_warnings *warn;                  /* NULL: warnings not wanted */
+    size_t fail_frame, fail_line_no;         /* where the frame loop stopped with an error */
+    const char *fail_line;
 } parser;
 
 static int is_blank(char c) { return c == ' ' || c == '\t' || c == '\v' || c == '\f'; }
@@ -457,14 +462,23 @@ typedef struct frames_plan {
     bvh_kernels k;
     mlr_motion *m;
     const char *text; /* start of the input: the line kernel reads up to 16 bytes back */
+    size_t n_declared; /* the count of Frames: (m may hold fewer frames when lenient) */
 } frames_plan;
+
+/* Remember where the frame loop failed (frame f, on the current line) for the lenient tail. */
+static void note_fail(parser *ps, size_t f)
+{
+    ps->fail_frame = f;
+    ps->fail_line = ps->line_start;
+    ps->fail_line_no = ps->line;
+}
 
 /* Frames [f0, f1) from ps->p on, the careful way where the line kernel declines a line (a
  * blank line, an exponent, an error, ...). Returns with ps->p after the last frame's line. */
 static mlr_status frames_loop(parser *ps, const frames_plan *pl, const bvh_scratch *s,
                               size_t f0, size_t f1)
 {
-    const size_t C = pl->cv.C, J = pl->cv.J, P = pl->cv.P, N = pl->m->n_frames;
+    const size_t C = pl->cv.C, J = pl->cv.J, P = pl->cv.P, N = pl->n_declared;
     mlr_motion *m = pl->m;
     const bvh_line_fn line = pl->k.line;
     const bvh_frame_fn frame = pl->k.frame;
@@ -481,11 +495,15 @@ static mlr_status frames_loop(parser *ps, const frames_plan *pl, const bvh_scrat
                 else
                     break;
             }
-            if (ps->p >= ps->end)
+            if (ps->p >= ps->end) {
+                note_fail(ps, f);
                 return fail_at(ps, ps->p, "unexpected end of file: %zu of %zu frames", f, N);
+            }
             mlr_status st = parse_row(ps, f, C, s->row);
-            if (st != MLR_OK)
+            if (st != MLR_OK) {
+                note_fail(ps, f);
                 return st;
+            }
         }
         if (ps->p < ps->end)
             eat_eol(ps);
@@ -776,6 +794,236 @@ static mlr_status build_motion(parser *ps, size_t n_frames, double frame_time,
     return MLR_OK;
 }
 
+/* ---- lenient reading: what follows the declared frames ------------------------------------ */
+
+static void warn_add(parser *ps, int code, size_t line, size_t column, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 5, 6)))
+#endif
+    ;
+
+static void warn_add(parser *ps, int code, size_t line, size_t column, const char *fmt, ...)
+{
+    mlr_bvh_warnings *w = ps->warn;
+    if (!w)
+        return;
+    if (w->count < MLR_BVH_WARNINGS_KEPT) {
+        mlr_bvh_warning *x = &w->first[w->count];
+        va_list ap;
+        va_start(ap, fmt);
+        x->code = code;
+        x->line = line;
+        x->column = column;
+        vsnprintf(x->message, sizeof x->message, fmt, ap);
+        va_end(ap);
+    }
+    w->count++;
+}
+
+/* Only whitespace and NUL bytes in [p, end). */
+static int rest_is_blank(const char *p, const char *end)
+{
+    for (; p < end; p++)
+        if (!is_blank(*p) && !is_eol(*p) && *p != '\0')
+            return 0;
+    return 1;
+}
+
+/* The text's last byte other than blanks and NULs is a line end. */
+static int ends_with_eol(const char *begin, const char *end)
+{
+    while (end > begin && (is_blank(end[-1]) || end[-1] == '\0'))
+        end--;
+    return end > begin && is_eol(end[-1]);
+}
+
+static const char *line_end(const char *p, const char *end)
+{
+    while (p < end && !is_eol(*p))
+        p++;
+    return p;
+}
+
+/* The line at p starts (after blanks) with a whole number token. */
+static int starts_with_number(const char *p, const char *end)
+{
+    while (p < end && is_blank(*p))
+        p++;
+    double v;
+    size_t k = mlr_parse_decimal(p, end, &v);
+    return k > 0 && (p + k == end || is_blank(p[k]) || is_eol(p[k]));
+}
+
+/* Complete frame lines of C values from ps->p on (blank lines between them skipped), parsed
+ * into row and dropped: their number, the line of the first, and where the first line that is
+ * not one starts (or end). ps is not moved. */
+static size_t count_frame_lines(const parser *ps, size_t C, double *row, size_t *first_line,
+                                const char **stop, size_t *stop_line)
+{
+    parser q = *ps;
+    q.diag = NULL;
+    size_t X = 0;
+    *first_line = 0;
+    for (;;) {
+        for (;;) {
+            skip_blank(&q);
+            if (q.p < q.end && is_eol(*q.p))
+                eat_eol(&q);
+            else
+                break;
+        }
+        if (q.p >= q.end) {
+            *stop = q.end;
+            break;
+        }
+        const size_t line = q.line;
+        if (parse_row(&q, X, C, row) != MLR_OK) {
+            *stop = q.line_start;
+            break;
+        }
+        if (X++ == 0)
+            *first_line = line;
+        if (q.p < q.end)
+            eat_eol(&q);
+    }
+    *stop_line = q.line;
+    return X;
+}
+
+/* Read X more frame lines from ps->p into a motion of n_frames + X frames that replaces *mp. */
+static mlr_status read_extra_frames(parser *ps, frames_plan *pl, const bvh_scratch *scr,
+                                    mlr_motion **mp, size_t X)
+{
+    mlr_motion *m = *mp, *g;
+    const size_t F = m->n_frames, J = m->n_joints, P = m->n_trans;
+    mlr_status s = build_motion(ps, F + X, m->frame_time, &g);
+    if (s != MLR_OK)
+        return s;
+    if (F > 0) {
+        memcpy(g->root_pos, m->root_pos, 3 * F * sizeof(double));
+        memcpy(g->rot, m->rot, 4 * J * F * sizeof(double));
+        if (P)
+            memcpy(g->trans, m->trans, 3 * P * F * sizeof(double));
+    }
+    pl->m = g;
+    s = frames_loop(ps, pl, scr, F, F + X); /* the lines were checked: cannot fail */
+    pl->m = m;
+    if (s != MLR_OK) {
+        mlr_motion_destroy(g);
+        return s;
+    }
+    mlr_motion_destroy(m);
+    *mp = g;
+    return MLR_OK;
+}
+
+/* The lenient end of the MOTION section (mlr_bvh.h), after the frame loop returned s: extra
+ * frame lines, a few missing ones, trailing data, a missing final line end, a truncated file.
+ * On MLR_OK *mp may be a new motion (of the frames read) and ps->p is at the end. */
+static mlr_status lenient_tail(parser *ps, frames_plan *pl, const bvh_scratch *scr,
+                               mlr_motion **mp, mlr_status s)
+{
+    mlr_motion *m = *mp;
+    const size_t declared = pl->n_declared, C = pl->cv.C;
+    const int eol_at_end = ends_with_eol(ps->begin, ps->end);
+    if (s == MLR_OK && m->n_frames == declared) {
+        size_t X = 0, first_line = 0, stop_line;
+        const char *stop = ps->end;
+        if (C > 0)
+            X = count_frame_lines(ps, C, scr->row, &first_line, &stop, &stop_line);
+        if (X > 0) {
+            if ((s = read_extra_frames(ps, pl, scr, mp, X)) != MLR_OK)
+                return s;
+            warn_add(ps, MLR_BVH_WARN_EXTRA_FRAMES, first_line, 0,
+                     "%zu frame lines, but Frames: declares %zu; all %zu are read",
+                     declared + X, declared, declared + X);
+        }
+        parser q = *ps;
+        skip_ws(&q);
+        if (!rest_is_blank(q.p, q.end)) {
+            const char *e = line_end(q.p, q.end);
+            warn_add(ps, MLR_BVH_WARN_TRAILING_DATA, q.line, (size_t)(q.p - q.line_start) + 1,
+                     "data after the last frame ('%s'), ignored from here on",
+                     show(q.p, (size_t)(e - q.p)).s);
+        } else if ((*mp)->n_frames > 0 && !eol_at_end) {
+            warn_add(ps, MLR_BVH_WARN_NO_FINAL_NEWLINE, ps->line, 0,
+                     "no line end after the last frame line (was the file cut short?)");
+        }
+        ps->p = ps->end;
+        return MLR_OK;
+    }
+    size_t F;
+    const char *bad;
+    size_t bad_line;
+    if (s == MLR_OK) { /* fewer frames fitted than declared (Frames: beyond the bytes): the
+                        * next line, too short for a frame, gives the reason */
+        F = m->n_frames;
+        parser q = *ps;
+        for (;;) {
+            skip_blank(&q);
+            if (q.p < q.end && is_eol(*q.p))
+                eat_eol(&q);
+            else
+                break;
+        }
+        if (q.p >= q.end || (s = parse_row(&q, F, C, scr->row)) == MLR_OK)
+            s = fail_at(&q, q.p, "unexpected end of file: %zu of %zu frames", F, declared);
+        bad = q.line_start;
+        bad_line = q.line;
+    } else if (s == MLR_E_PARSE) {
+        F = ps->fail_frame;
+        bad = ps->fail_line;
+        bad_line = ps->fail_line_no;
+    } else {
+        return s;
+    }
+    const size_t missing = declared - F;
+    const char *junk = NULL;
+    int truncated;
+    if (rest_is_blank(bad, ps->end)) {
+        truncated = missing > MLR_BVH_MAX_MISSING_FRAMES || !eol_at_end;
+    } else if (starts_with_number(bad, ps->end)) {
+        if (!rest_is_blank(line_end(bad, ps->end), ps->end))
+            return s; /* a malformed frame line with more after it */
+        truncated = 1; /* the last line is incomplete */
+    } else {
+        junk = bad;
+        truncated = missing > MLR_BVH_MAX_MISSING_FRAMES;
+    }
+    mlr_diag *d = ps->diag; /* the reader always gives one (bvh_read) */
+    if (truncated && !ps->keep_truncated) {
+        const size_t n = strlen(d->message);
+        snprintf(d->message + n, sizeof d->message - n, " (truncated file: %zu of %zu frames)",
+                 F, declared);
+        return s;
+    }
+    mlr_motion *g;
+    if ((s = mlr_motion_copy_frames(m, 0, F, &g)) != MLR_OK)
+        return s;
+    mlr_motion_destroy(m);
+    *mp = g;
+    if (truncated)
+        warn_add(ps, MLR_BVH_WARN_TRUNCATED, d->line, d->column,
+                 "truncated file: kept the %zu complete frames of %zu (%s)", F, declared,
+                 d->message);
+    else
+        warn_add(ps, MLR_BVH_WARN_MISSING_FRAMES, bad_line, 0,
+                 "Frames: declares %zu, but the file has %zu frame lines; they are read",
+                 declared, F);
+    if (junk) {
+        const char *t = junk;
+        while (t < ps->end && is_blank(*t))
+            t++;
+        warn_add(ps, MLR_BVH_WARN_TRAILING_DATA, bad_line, (size_t)(t - junk) + 1,
+                 "data after the last frame ('%s'), ignored from here on",
+                 show(t, (size_t)(line_end(t, ps->end) - t)).s);
+    }
+    d->line = d->column = 0;
+    d->message[0] = '\0';
+    ps->p = ps->end;
+    return MLR_OK;
+}
+
 static mlr_status parse(parser *ps, size_t n_threads, int kernels, mlr_motion **out)
 {
     mlr_status s = parse_hierarchy(ps);
@@ -833,26 +1081,31 @@ static mlr_status parse(parser *ps, size_t n_threads, int kernels, mlr_motion **
         return fail_at(ps, NULL, "Frames: %zu, but the hierarchy declares no channels",
                        n_frames);
     }
+    size_t n_alloc = n_frames; /* frames to allocate: fewer when lenient and they cannot fit */
     if (n_frames > 0) {
         /* N frames of C values take at least 2 N C - 1 bytes */
         size_t per = 2 * C, most = left / per + (left % per == per - 1);
-        if (n_frames > most) {
+        if (n_frames > most && ps->strict) {
             ps->line = frames_line;
             return fail_at(ps, NULL,
                            "Frames: %zu, but the %zu bytes that follow hold at most %zu frames "
                            "of %zu values", n_frames, left, most, C);
         }
+        if (n_frames > most)
+            n_alloc = most;
     }
 
     mlr_motion *m;
-    if ((s = build_motion(ps, n_frames, frame_time, &m)) != MLR_OK)
+    if ((s = build_motion(ps, n_alloc, frame_time, &m)) != MLR_OK)
         return s;
-    if (n_frames > 0) {
+    if (n_alloc > 0 || (!ps->strict && C > 0)) {
         size_t T = n_threads ? n_threads : auto_threads(left);
         if (T > BVH_MAX_THREADS)
             T = BVH_MAX_THREADS;
-        if (T > n_frames)
-            T = n_frames;
+        if (T > n_alloc)
+            T = n_alloc;
+        if (T == 0)
+            T = 1;
         frames_plan pl;
         bvh_scratch scratch[BVH_MAX_THREADS];
         unsigned char *block = NULL;
@@ -862,7 +1115,11 @@ static mlr_status parse(parser *ps, size_t n_threads, int kernels, mlr_motion **
             bvh_kernels_pick(&pl.k, kernels);
             pl.m = m;
             pl.text = ps->begin;
-            s = parse_frames(ps, &pl, scratch, T);
+            pl.n_declared = n_frames;
+            if (n_alloc > 0)
+                s = parse_frames(ps, &pl, scratch, T);
+            if (!ps->strict)
+                s = lenient_tail(ps, &pl, scratch, &m, s);
             mlr_free(&ps->a, block, bytes);
         }
         if (s != MLR_OK) {
@@ -881,13 +1138,29 @@ static mlr_status parse(parser *ps, size_t n_threads, int kernels, mlr_motion **
             return fail_at(ps, ps->p, "data after the %zu frames declared by Frames:", n_frames);
         }
     }
+    if (ps->strict && n_frames > 0 && !ends_with_eol(ps->begin, ps->end))
+        warn_add(ps, MLR_BVH_WARN_NO_FINAL_NEWLINE, ps->line, 0,
+                 "no line end after the last frame line (was the file cut short?)");
     *out = m;
     return MLR_OK;
 }
 
-mlr_status bvh_read_memory_ex(const char *text, size_t len, size_t n_threads, int kernels,
-                              const mlr_allocator *alloc, mlr_motion **out, mlr_diag *diag)
+/* How a read treats deviations (mlr_bvh_read_option). */
+typedef struct read_mode {
+    int strict, keep_truncated;
+} read_mode;
+
+static const read_mode strict_mode = {1, 0};
+
+/* The reader of every entry point. diag_user and warnings optional. */
+static mlr_status bvh_read(const char *text, size_t len, size_t n_threads, int kernels,
+                           const read_mode *mode, const mlr_allocator *alloc, mlr_motion **out,
+                           mlr_bvh_warnings *warnings, mlr_diag *diag_user)
 {
+    /* the lenient tail reads the reason of a frame error back: always keep one */
+    mlr_diag local, *diag = diag_user ? diag_user : &local;
+    if (warnings)
+        warnings->count = 0;
     if (!out)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "out is NULL");
     *out = NULL;
@@ -905,6 +1178,9 @@ mlr_status bvh_read_memory_ex(const char *text, size_t len, size_t n_threads, in
     ps.line_start = ps.p;
     ps.line = 1;
     ps.diag = diag;
+    ps.strict = mode->strict;
+    ps.keep_truncated = mode->keep_truncated;
+    ps.warn = warnings;
     ps.joints.elsize = sizeof(tjoint);
     ps.ends.elsize = sizeof(tend);
     ps.names.elsize = 1;
@@ -917,7 +1193,64 @@ mlr_status bvh_read_memory_ex(const char *text, size_t len, size_t n_threads, in
     vec_free(&ps.names, &ps.a);
     if (s == MLR_E_NO_MEMORY || s == MLR_E_OVERFLOW)
         mlr_diag_set(diag, s, 0, 0, "%s", mlr_status_string(s));
+    if (s != MLR_OK && warnings)
+        warnings->count = 0;
     return s;
+}
+
+mlr_status bvh_read_memory_ex(const char *text, size_t len, size_t n_threads, int kernels,
+                              const mlr_allocator *alloc, mlr_motion **out, mlr_diag *diag)
+{
+    return bvh_read(text, len, n_threads, kernels, &strict_mode, alloc, out, NULL, diag);
+}
+
+/* The options of a lenient read into mode; out and warnings cleared first (the outputs of a
+ * failed call). */
+static mlr_status read_options(const mlr_bvh_read_option *opts, size_t n_opts, read_mode *mode,
+                               mlr_motion **out, mlr_bvh_warnings *warnings, mlr_diag *diag)
+{
+    if (warnings)
+        warnings->count = 0;
+    if (out)
+        *out = NULL;
+    mode->strict = mode->keep_truncated = 0;
+    if (n_opts > 0 && !opts)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "opts is NULL with n_opts %zu",
+                            n_opts);
+    unsigned seen = 0;
+    for (size_t i = 0; i < n_opts; i++) {
+        const int key = opts[i].key;
+        const double v = opts[i].value;
+        if (key != MLR_BVH_OPT_STRICT && key != MLR_BVH_OPT_KEEP_TRUNCATED)
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "unknown option key %d", key);
+        if (seen & (1u << key))
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "option key %d given twice", key);
+        seen |= 1u << key;
+        if (v != 0.0 && v != 1.0)
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "option %s must be 0 or 1, got %g",
+                                key == MLR_BVH_OPT_STRICT ? "MLR_BVH_OPT_STRICT"
+                                                          : "MLR_BVH_OPT_KEEP_TRUNCATED", v);
+        if (key == MLR_BVH_OPT_STRICT)
+            mode->strict = v != 0.0;
+        else
+            mode->keep_truncated = v != 0.0;
+    }
+    if (mode->strict)
+        mode->keep_truncated = 0;
+    return MLR_OK;
+}
+
+mlr_status mlr_bvh_read_memory_opts(const char *text, size_t len, size_t n_threads,
+                                    const mlr_bvh_read_option *opts, size_t n_opts,
+                                    const mlr_allocator *alloc, mlr_motion **out,
+                                    mlr_bvh_warnings *warnings, mlr_diag *diag)
+{
+    read_mode mode;
+    mlr_status s = read_options(opts, n_opts, &mode, out, warnings, diag);
+    if (s != MLR_OK)
+        return s;
+    return bvh_read(text, len, n_threads, BVH_KERNELS_BEST, &mode, alloc, out, warnings, diag);
 }
 
 mlr_status mlr_bvh_read_memory(const char *text, size_t len, const mlr_allocator *alloc,
@@ -934,9 +1267,13 @@ mlr_status mlr_bvh_read_memory_mt(const char *text, size_t len, size_t n_threads
 
 /* ---- files ------------------------------------------------------------------------------- */
 
-mlr_status mlr_bvh_read_file_mt(const char *path, size_t n_threads, const mlr_allocator *alloc,
-                                mlr_motion **out, mlr_diag *diag)
+/* mlr_bvh_read_file_mt and mlr_bvh_read_file_opts. */
+static mlr_status read_file(const char *path, size_t n_threads, const read_mode *mode,
+                            const mlr_allocator *alloc, mlr_motion **out,
+                            mlr_bvh_warnings *warnings, mlr_diag *diag)
 {
+    if (warnings)
+        warnings->count = 0;
     if (!out)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "out is NULL");
     *out = NULL;
@@ -950,9 +1287,27 @@ mlr_status mlr_bvh_read_file_mt(const char *path, size_t n_threads, const mlr_al
     mlr_status s = mlr_read_file(path, n_threads, &a, &buf, &len, &cap, diag);
     if (s != MLR_OK)
         return s;
-    s = bvh_read_memory_ex(buf, len, n_threads, BVH_KERNELS_BEST, &a, out, diag);
+    s = bvh_read(buf, len, n_threads, BVH_KERNELS_BEST, mode, &a, out, warnings, diag);
     mlr_free(&a, buf, cap);
     return s;
+}
+
+mlr_status mlr_bvh_read_file_mt(const char *path, size_t n_threads, const mlr_allocator *alloc,
+                                mlr_motion **out, mlr_diag *diag)
+{
+    return read_file(path, n_threads, &strict_mode, alloc, out, NULL, diag);
+}
+
+mlr_status mlr_bvh_read_file_opts(const char *path, size_t n_threads,
+                                  const mlr_bvh_read_option *opts, size_t n_opts,
+                                  const mlr_allocator *alloc, mlr_motion **out,
+                                  mlr_bvh_warnings *warnings, mlr_diag *diag)
+{
+    read_mode mode;
+    mlr_status s = read_options(opts, n_opts, &mode, out, warnings, diag);
+    if (s != MLR_OK)
+        return s;
+    return read_file(path, n_threads, &mode, alloc, out, warnings, diag);
 }
 
 mlr_status mlr_bvh_read_file(const char *path, const mlr_allocator *alloc, mlr_motion **out,

@@ -13,42 +13,6 @@ static const char *const hand_patterns[] = {"hand", "wrist", NULL};
 #define HAND_LOW 0.2       /* hands within this (body heights) of the feet's height are feet */
 #define ZERO_LENGTH 1e-9   /* a joint this short is passed through on the way to a toe */
 
-/* Bytes of s that match pattern character c (lower-case ASCII) at s, 0 when none: ASCII
- * case-insensitively, and the non-ASCII letters Python's re.IGNORECASE folds to i, s and k. */
-static size_t match_char(const unsigned char *s, char c)
-{
-    unsigned char b = s[0];
-    if (b >= 'A' && b <= 'Z')
-        b = (unsigned char)(b - 'A' + 'a');
-    if (b == (unsigned char)c)
-        return 1;
-    if (c == 'i' && s[0] == 0xC4 && (s[1] == 0xB0 || s[1] == 0xB1))  /* U+0130, U+0131 */
-        return 2;
-    if (c == 's' && s[0] == 0xC5 && s[1] == 0xBF)  /* U+017F long s */
-        return 2;
-    if (c == 'k' && s[0] == 0xE2 && s[1] == 0x84 && s[2] == 0xAA)  /* U+212A Kelvin sign */
-        return 3;
-    return 0;
-}
-
-/* Whether name contains one of the patterns (NULL-terminated list). */
-static int name_matches(const char *name, const char *const *patterns)
-{
-    if (!name)
-        return 0;
-    for (const unsigned char *start = (const unsigned char *)name; *start; start++)
-        for (const char *const *p = patterns; *p; p++) {
-            const unsigned char *s = start;
-            const char *c = *p;
-            size_t n;
-            while (*c && (n = match_char(s, *c)) != 0)
-                s += n, c++;
-            if (!*c)
-                return 1;
-        }
-    return 0;
-}
-
 static double offset_length(const mlr_rig *rig, size_t j)
 {
     const double *o = rig->offsets + 3 * j;
@@ -98,8 +62,8 @@ static void select_kth(double *v, size_t n, size_t k)
     }
 }
 
-/* numpy's median of n >= 1 finite values (reorders v). */
-static double median(double *v, size_t n)
+/* numpy's median of n >= 1 finite values (reorders v); mlr_internal.h. */
+double mlr_median(double *v, size_t n)
 {
     select_kth(v, n, n / 2);
     if (n % 2)
@@ -118,7 +82,7 @@ static void find_toe(const mlr_rig *rig, int32_t a, int32_t *joint, int32_t *end
     double best_len = 0.0;
     for (int pass = 0; pass < 2 && best < 0; pass++)
         for (size_t k = (size_t)a + 1; k < J; k++) {
-            if (!name_matches(rig->names[k], toe_patterns))
+            if (!mlr_name_matches(rig->names[k], toe_patterns))
                 continue;
             int32_t p = rig->parents[k];
             if (pass == 0 && p != a)
@@ -181,13 +145,13 @@ static mlr_status low_hands(const mlr_rig *rig, size_t N, const double *world_po
         for (size_t j = 0; j < J; j++)
             if (flags[j] & IS_ANKLE)
                 rel[i++] = world_pos[3 * (f * J + j) + (size_t)up] - ground[f];
-    const double foot_h = median(rel, i);
+    const double foot_h = mlr_median(rel, i);
     for (size_t j = 0; j < J; j++) {
         if (!(flags[j] & IS_HAND))
             continue;
         for (size_t f = 0; f < N; f++)
             tmp[f] = world_pos[3 * (f * J + j) + (size_t)up] - ground[f];
-        if (median(tmp, N) <= foot_h + HAND_LOW * H)
+        if (mlr_median(tmp, N) <= foot_h + HAND_LOW * H)
             flags[j] |= IS_ANKLE;
     }
     mlr_free(a, ground, bytes);
@@ -224,12 +188,12 @@ mlr_status mlr_contacts_find_feet(const mlr_rig *rig, size_t n_frames, const dou
             f |= (flags[p] & (FOOT_NAME | FOOT_BELOW)) ? FOOT_BELOW : 0;
             f |= (flags[p] & (HAND_NAME | HAND_BELOW)) ? HAND_BELOW : 0;
         }
-        if (name_matches(rig->names[j], foot_patterns)) {
+        if (mlr_name_matches(rig->names[j], foot_patterns)) {
             f |= FOOT_NAME;
             if (!(f & FOOT_BELOW))
                 f |= IS_ANKLE, n_ankles++;
         }
-        if (name_matches(rig->names[j], hand_patterns)) {
+        if (mlr_name_matches(rig->names[j], hand_patterns)) {
             f |= HAND_NAME;
             if (!(f & HAND_BELOW) && !(f & IS_ANKLE))
                 f |= IS_HAND, n_hands++;

@@ -451,7 +451,7 @@ mlr_status mlr_layers_synthesize(const mlr_layers *L, size_t begin, size_t count
                     const size_t k = k0 + t;
                     const double *qb = L->base_rot + 4 * (i * j + k);
                     mlr_quat o;
-                    mlr_quat_mul((const mlr_quat *)(const void *)qb, &e[t], &o);
+                    mlr_quat_mul_inline((const mlr_quat *)(const void *)qb, &e[t], &o);
                     double *out = rot + 4 * (f * j + k);
                     const double sgn =
                         o.w * qb[0] + o.x * qb[1] + o.y * qb[2] + o.z * qb[3] < 0.0 ? -1.0 : 1.0;

@@ -39,14 +39,15 @@ static mlr_quat qconj(mlr_quat q)
 static mlr_quat qmul(mlr_quat a, mlr_quat b)
 {
     mlr_quat c;
-    mlr_quat_mul(&a, &b, &c);
+    mlr_quat_mul_inline(&a, &b, &c);
     return c;
 }
 static mlr_vec3 qrot(mlr_quat q, mlr_vec3 v)
 {
-    mlr_vec3 o;
-    mlr_quat_rotate(&q, &v, &o);
-    return o;
+    const double vv[3] = {v.x, v.y, v.z};
+    double o[3];
+    mlr_quat_rotate_inline(&q, vv, o);
+    return (mlr_vec3){o[0], o[1], o[2]};
 }
 /* Rotation by angle about the unit axis n. */
 static mlr_quat axis_angle(mlr_vec3 n, double angle)
@@ -436,7 +437,9 @@ mlr_status mlr_limits_create(const mlr_rig *rig, const mlr_limits_clip *clips, s
         mlr_vec3 e = {0, 0, 0};
         const double l1 = tr > 0 ? top_eigen(m, &e) : 0.0;
         const double conc = tr > 0 ? l1 / tr : 0.0;
-        const double along = fabs(dot3(e, g->axis));
+        /* e is an axis of the centred rotations conj(centre) q; the hinge axis lives in the
+           parent's frame, where the rotations about e turn about centre e */
+        const double along = fabs(dot3(qrot(g->centre, e), g->axis));
         const int named = rig->names ? mlr_limits_hinge_name(rig->names[j]) : 0;
         if (named && conc >= 0.5 && along >= cos35) {
             is_hinge[j] = named;
@@ -448,7 +451,7 @@ mlr_status mlr_limits_create(const mlr_rig *rig, const mlr_limits_clip *clips, s
             const double trs = ms[0] + ms[4] + ms[8];
             mlr_vec3 es = {0, 0, 0};
             const double ls = trs > 0 ? top_eigen(ms, &es) : 0.0;
-            if (trs > 0 && ls / trs >= 0.5 && fabs(dot3(es, g->axis)) >= cos35)
+            if (trs > 0 && ls / trs >= 0.5 && fabs(dot3(qrot(g->centre, es), g->axis)) >= cos35)
                 is_hinge[j] = named;
         }
         else if (!rig->names && conc >= 0.9 && along >= cos35 &&

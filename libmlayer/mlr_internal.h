@@ -100,4 +100,12 @@ static inline void mlr_quat_from_euler_half(double ca, double sa, double cb, dou
     out->z = v[2];
 }
 
+/* Whether name (NULL allowed) contains one of the patterns (lower-case ASCII, a NULL-terminated
+ * list), ASCII case-insensitively and with the non-ASCII letters Python's re.IGNORECASE folds to
+ * i, s and k (rig.c). */
+int mlr_name_matches(const char *name, const char *const *patterns);
+
+/* numpy's median of n >= 1 finite values, in O(n) on average; reorders v (feet.c). */
+double mlr_median(double *v, size_t n);
+
 #endif

@@ -12,7 +12,17 @@
  * map at exactly 100x, computed in floating point, passes. */
 #define FACTOR_SLACK 1e-9
 
+/* A last position within this relative distance below an integer counts as that integer in
+ * the exact count of a frame rate change (rounding of i fps_out / fps_in). */
+#define RATE_SNAP 1e-9
+
 static int extreme_ok(unsigned flags) { return (flags & MLR_RESAMPLE_ALLOW_EXTREME) != 0; }
+
+/* Position of the last input frame on the exact grid of fps_out (as mlr_resample_rate_map). */
+static double exact_last(size_t n_frames, double fps_in, double fps_out)
+{
+    return (double)(n_frames - 1) * fps_out / fps_in;
+}
 
 static mlr_status check_factor(double r, unsigned flags, mlr_diag *diag)
 {
@@ -28,7 +38,8 @@ static mlr_status check_factor(double r, unsigned flags, mlr_diag *diag)
 
 static mlr_status check_flags(unsigned flags, mlr_diag *diag)
 {
-    if (flags & ~(unsigned)(MLR_RESAMPLE_ALLOW_EXTREME | MLR_RESAMPLE_NEAREST_SIGN))
+    if (flags & ~(unsigned)(MLR_RESAMPLE_ALLOW_EXTREME | MLR_RESAMPLE_NEAREST_SIGN |
+                            MLR_RESAMPLE_OPEN_END))
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "unknown flags 0x%x", flags);
     return MLR_OK;
 }
@@ -54,10 +65,39 @@ mlr_status mlr_resample_n_out(size_t n_frames, double fps_in, double fps_out, un
     mlr_status st = check_factor(r, flags, diag);
     if (st != MLR_OK)
         return st;
+    if (flags & MLR_RESAMPLE_OPEN_END) {
+        const double x = exact_last(n_frames, fps_in, fps_out);
+        const double n = floor(x + RATE_SNAP * (x > 1.0 ? x : 1.0)) + 1.0;
+        if (!(n < (double)SIZE_MAX / 2))
+            return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "output frame count overflows");
+        if (n < 2.0)
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "%zu frames at %g fps last %g s, less than one frame at %g fps",
+                                n_frames, fps_in, (double)(n_frames - 1) / fps_in, fps_out);
+        *n_out = (size_t)n;
+        return MLR_OK;
+    }
     const double n = round((double)(n_frames - 1) * r) + 1.0;
     if (!(n < (double)SIZE_MAX / 2))
         return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "output frame count overflows");
     *n_out = n < 2.0 ? 2 : (size_t)n;
+    return MLR_OK;
+}
+
+mlr_status mlr_resample_rate_map(size_t n_frames, double fps_in, double fps_out, unsigned flags,
+                                 double *t, size_t *n_out, mlr_diag *diag)
+{
+    if (!t || !n_out)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "t or n_out is NULL");
+    mlr_status st = mlr_resample_n_out(n_frames, fps_in, fps_out, flags | MLR_RESAMPLE_OPEN_END,
+                                       n_out, diag);
+    if (st != MLR_OK)
+        return st;
+    for (size_t i = 0; i < n_frames; i++)
+        t[i] = (double)i * fps_out / fps_in;
+    const double last = (double)(*n_out - 1);
+    if (t[n_frames - 1] < last)
+        t[n_frames - 1] = last; /* within RATE_SNAP below: the count took it as that integer */
     return MLR_OK;
 }
 
@@ -75,19 +115,26 @@ mlr_status mlr_timemap_validate(const double *t, size_t n_frames, size_t n_out, 
     if (!t)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "time map is NULL");
     const double last = (double)(n_out - 1);
-    mlr_status st = check_factor(last / (double)(n_frames - 1), flags, diag);
-    if (st != MLR_OK)
-        return st;
     for (size_t i = 0; i < n_frames; i++)
         if (!isfinite(t[i]))
             return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "time map: t[%zu] is not finite", i);
     if (t[0] != 0.0)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                             "time map: t[0] must be 0 (the first frame stays put), got %g", t[0]);
-    if (t[n_frames - 1] != last)
+    if (flags & MLR_RESAMPLE_OPEN_END) {
+        if (!(t[n_frames - 1] >= last && t[n_frames - 1] < last + 1.0))
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "time map: t[%zu] must lie in [n_out - 1, n_out) = [%zu, %zu) "
+                                "(open end), got %g", n_frames - 1, n_out - 1, n_out,
+                                t[n_frames - 1]);
+    } else if (t[n_frames - 1] != last) {
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                             "time map: t[%zu] must be n_out - 1 = %zu (the last frame stays put), got %g",
                             n_frames - 1, n_out - 1, t[n_frames - 1]);
+    }
+    mlr_status st = check_factor(t[n_frames - 1] / (double)(n_frames - 1), flags, diag);
+    if (st != MLR_OK)
+        return st;
     const double lo = (1.0 - FACTOR_SLACK) / MLR_RESAMPLE_MAX_FACTOR;
     const double hi = MLR_RESAMPLE_MAX_FACTOR * (1.0 + FACTOR_SLACK);
     for (size_t i = 1; i < n_frames; i++) {
@@ -105,13 +152,18 @@ mlr_status mlr_timemap_validate(const double *t, size_t n_frames, size_t n_out, 
     return MLR_OK;
 }
 
+/* The automatic s for r output frames per input frame. */
+static double auto_smoothness(double r)
+{
+    const double up = MLR_RESAMPLE_KAPPA_UP * r * r * r, down = MLR_RESAMPLE_KAPPA_DOWN / r;
+    return up > down ? up : down;
+}
+
 double mlr_resample_auto_smoothness(size_t n_frames, size_t n_out)
 {
     if (n_frames < 2 || n_out < 2)
         return 0.0;
-    const double r = (double)(n_out - 1) / (double)(n_frames - 1);
-    const double up = MLR_RESAMPLE_KAPPA_UP * r * r * r, down = MLR_RESAMPLE_KAPPA_DOWN / r;
-    return up > down ? up : down;
+    return auto_smoothness((double)(n_out - 1) / (double)(n_frames - 1));
 }
 
 /* Shared argument checks of the resampling entry points (everything but the time map). */
@@ -216,22 +268,42 @@ mlr_status mlr_resample_arrays(size_t n_frames, size_t n_joints, size_t n_trans,
     st = check_translations(n_frames, n_trans, root_pos, trans, diag);
     if (st != MLR_OK)
         return st;
+    /* an open end past the last output frame: the LGS solves one hidden frame more */
+    const size_t n_grid = t && (flags & MLR_RESAMPLE_OPEN_END) &&
+                                  t[n_frames - 1] > (double)(n_out - 1) ? n_out + 1 : n_out;
     if (lam < 0.0)
-        lam = sqrt(mlr_resample_auto_smoothness(n_frames, n_out)) / sigma;
+        lam = sqrt(auto_smoothness((t ? t[n_frames - 1] : (double)(n_out - 1)) /
+                                   (double)(n_frames - 1))) / sigma;
 
     mlr_allocator a;
     mlr_allocator_resolve(alloc, &a);
-    double *tu = NULL, *q = NULL;
-    size_t tu_bytes = 0, q_bytes = 0;
+    double *tu = NULL, *q = NULL, *grid = NULL;
+    size_t tu_bytes = 0, q_bytes = 0, grid_bytes = 0;
     mlr_lgs *lgs = NULL;
     const size_t n_rot = n_joints * 4;
+    double *g_root = root_out, *g_rot = rot_out, *g_trans = trans_out, *g_var = var_out;
+    if (n_grid > n_out) {
+        /* sizes checked in check_motion for n_out rows; one more row stays far from SIZE_MAX */
+        const size_t row = 3 + n_rot + 3 * n_trans + 1;
+        if (mlr_mul_size(n_grid, row * sizeof(double), &grid_bytes) != MLR_OK)
+            return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "array sizes overflow");
+        grid = mlr_alloc(&a, grid_bytes);
+        if (!grid)
+            return MLR_E_NO_MEMORY;
+        g_root = grid;
+        g_rot = g_root + 3 * n_grid;
+        g_trans = g_rot + n_rot * n_grid;
+        g_var = var_out ? g_trans + 3 * n_trans * n_grid : NULL;
+    }
 
     /* the uniform map, unless it is the identity */
     if (!t && n_out != n_frames) {
         tu_bytes = n_frames * sizeof(double);
         tu = mlr_alloc(&a, tu_bytes);
-        if (!tu)
-            return MLR_E_NO_MEMORY;
+        if (!tu) {
+            st = MLR_E_NO_MEMORY;
+            goto done;
+        }
         const double step = (double)(n_out - 1) / (double)(n_frames - 1);
         for (size_t i = 0; i + 1 < n_frames; i++)
             tu[i] = (double)i * step;
@@ -264,20 +336,29 @@ mlr_status mlr_resample_arrays(size_t n_frames, size_t n_joints, size_t n_trans,
         }
     }
 
-    st = mlr_lgs_create(n_out, n_out >= 3 ? 2 : 1, lam, sigma, t, n_frames, MLR_LGS_BANDED, &a,
-                        &lgs, diag);
+    st = mlr_lgs_create(n_grid, n_grid >= 3 ? 2 : 1, lam, sigma, t, n_frames, MLR_LGS_BANDED,
+                        &a, &lgs, diag);
     if (st < 0)
         goto done;
     const mlr_status created = st;
-    st = mlr_lgs_solve(lgs, root_pos, 3, 3, root_out, 3);
+    st = mlr_lgs_solve(lgs, root_pos, 3, 3, g_root, 3);
     if (st == MLR_OK && n_joints > 0)
-        st = mlr_lgs_solve(lgs, q, n_rot, n_rot, rot_out, n_rot);
+        st = mlr_lgs_solve(lgs, q, n_rot, n_rot, g_rot, n_rot);
     if (st == MLR_OK && n_trans > 0)
-        st = mlr_lgs_solve(lgs, trans, 3 * n_trans, 3 * n_trans, trans_out, 3 * n_trans);
+        st = mlr_lgs_solve(lgs, trans, 3 * n_trans, 3 * n_trans, g_trans, 3 * n_trans);
     if (st == MLR_OK && var_out)
-        st = mlr_lgs_variance(lgs, var_out, n_out);
+        st = mlr_lgs_variance(lgs, g_var, n_grid);
     if (st != MLR_OK)
         goto done;
+    if (grid) { /* the first n_out frames of the grid */
+        memcpy(root_out, g_root, 3 * n_out * sizeof(double));
+        if (n_joints > 0)
+            memcpy(rot_out, g_rot, n_rot * n_out * sizeof(double));
+        if (n_trans > 0)
+            memcpy(trans_out, g_trans, 3 * n_trans * n_out * sizeof(double));
+        if (var_out)
+            memcpy(var_out, g_var, n_out * sizeof(double));
+    }
     if (n_joints > 0 &&
         mlr_quat_normalize_array((const mlr_quat *)rot_out, n_out * n_joints,
                                  (mlr_quat *)rot_out) != MLR_OK) {
@@ -290,6 +371,7 @@ done:
     mlr_lgs_destroy(lgs);
     mlr_free(&a, q, q_bytes);
     mlr_free(&a, tu, tu_bytes);
+    mlr_free(&a, grid, grid_bytes);
     return st;
 }
 

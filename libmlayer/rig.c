@@ -7,6 +7,42 @@
 #include <math.h>
 #include <stdlib.h>
 
+/* Bytes of s that match pattern character c (lower-case ASCII) at s, 0 when none: ASCII
+ * case-insensitively, and the non-ASCII letters Python's re.IGNORECASE folds to i, s and k. */
+static size_t match_char(const unsigned char *s, char c)
+{
+    unsigned char b = s[0];
+    if (b >= 'A' && b <= 'Z')
+        b = (unsigned char)(b - 'A' + 'a');
+    if (b == (unsigned char)c)
+        return 1;
+    if (c == 'i' && s[0] == 0xC4 && (s[1] == 0xB0 || s[1] == 0xB1))  /* U+0130, U+0131 */
+        return 2;
+    if (c == 's' && s[0] == 0xC5 && s[1] == 0xBF)  /* U+017F long s */
+        return 2;
+    if (c == 'k' && s[0] == 0xE2 && s[1] == 0x84 && s[2] == 0xAA)  /* U+212A Kelvin sign */
+        return 3;
+    return 0;
+}
+
+/* mlr_internal.h */
+int mlr_name_matches(const char *name, const char *const *patterns)
+{
+    if (!name)
+        return 0;
+    for (const unsigned char *start = (const unsigned char *)name; *start; start++)
+        for (const char *const *p = patterns; *p; p++) {
+            const unsigned char *s = start;
+            const char *c = *p;
+            size_t n;
+            while (*c && (n = match_char(s, *c)) != 0)
+                s += n, c++;
+            if (!*c)
+                return 1;
+        }
+    return 0;
+}
+
 mlr_status mlr_rig_check(const mlr_rig *rig, mlr_diag *diag)
 {
     if (!rig)
@@ -125,10 +161,9 @@ mlr_status mlr_rig_point_positions(const mlr_rig *rig, size_t n_frames,
             const double *q = world_rot + 4 * (f * J + j);
             const mlr_quat qq = {q[0], q[1], q[2], q[3]};
             const double *v = rig->end_site_offsets + 3 * (size_t)e;
-            const mlr_vec3 vv = {v[0], v[1], v[2]};
-            mlr_vec3 r;
-            mlr_quat_rotate(&qq, &vv, &r);
-            o[0] = p[0] + r.x, o[1] = p[1] + r.y, o[2] = p[2] + r.z;
+            double r[3];
+            mlr_quat_rotate_inline(&qq, v, r);
+            o[0] = p[0] + r[0], o[1] = p[1] + r[1], o[2] = p[2] + r[2];
         }
     return MLR_OK;
 }

@@ -36,8 +36,9 @@ python -m pip install -q "bvhio>=1.5"
 python -m pip install -q scikit-learn minisom
 # test-only: drives Debian's chromium (apt, /usr/bin/chromedriver) for the viewer's browser tests
 python -m pip install -q "selenium>=4.10"
-# mlayer.batch (the `batch` extra) runs on Dask; its tests start LocalClusters
-python -m pip install -q "dask[distributed]>=2024.1"
+# mlayer.batch (the `batch` extra) runs on Dask; its tests start LocalClusters, secured by TLS
+# with temporary credentials (distributed.security.Security.temporary needs cryptography)
+python -m pip install -q "dask[distributed]>=2024.1" cryptography
 echo "setup: building and installing the mlayer package"
 python -m pip install -q --no-build-isolation .
 echo "setup: $(mlayer --version)"

@@ -53,6 +53,16 @@ typedef struct mlr_test_clip {
 int mlr_test_clip_load(const char *file, mlr_test_clip *c);
 void mlr_test_clip_unload(mlr_test_clip *c);
 
+/* 1 when the shared real clips are there (mlr_test_mocap_dir() holds the README's clips); 0
+ * otherwise, after printing once that the tests that need them are skipped. */
+int mlr_test_have_clips(void);
+/* At the start of a test that reads the shared clips: return (skip) when they are absent. */
+#define MLR_TEST_NEED_CLIPS()                                                                \
+    do {                                                                                     \
+        if (!mlr_test_have_clips())                                                          \
+            return;                                                                          \
+    } while (0)
+
 /* Run a suite, print Check's summary line, return the process exit code. */
 int mlr_test_run(Suite *s);
 

@@ -271,6 +271,7 @@ static void assert_same_frames(const mlr_motion *a, const mlr_motion *b, const c
 
 START_TEST(every_value_of_every_clip_is_strtods)
 {
+    MLR_TEST_NEED_CLIPS();
     const clip_info *ci = &clips[_i];
     size_t len;
     char *text = slurp(clip_path(ci->file), &len);
@@ -293,6 +294,7 @@ END_TEST
 
 START_TEST(every_clip_parses_with_readme_counts)
 {
+    MLR_TEST_NEED_CLIPS();
     const clip_info *ci = &clips[_i];
     mlr_motion *m = read_clip(ci);
     ck_assert_uint_eq(mlr_motion_n_frames(m), ci->frames);
@@ -331,6 +333,7 @@ END_TEST
  * nothing written; NULL motions give 0. */
 START_TEST(packed_accessors_match_per_joint_ones)
 {
+    MLR_TEST_NEED_CLIPS();
     mlr_motion *m = read_clip(&clips[_i]);
     const size_t J = mlr_motion_n_joints(m);
     for (int which = 0; which < 2; which++) {
@@ -369,6 +372,7 @@ END_TEST
 
 START_TEST(per_joint_euler_orders)
 {
+    MLR_TEST_NEED_CLIPS();
     /* cmu_131_01: 19 ZYX (root included) and 12 ZXY joints; Daz files: root ZYX, rest ZXY */
     mlr_motion *m = read_clip(&clips[1]);
     size_t zyx = 0, zxy = 0;
@@ -396,6 +400,7 @@ END_TEST
 
 START_TEST(bandai_position_channels_replace_offsets)
 {
+    MLR_TEST_NEED_CLIPS();
     mlr_motion *m = read_clip(&clips[6]);
     size_t J = mlr_motion_n_joints(m), P = mlr_motion_n_trans(m), N = mlr_motion_n_frames(m);
     ck_assert_uint_eq(P, J - 1);
@@ -465,6 +470,7 @@ static char *write_to_memory(const mlr_motion *m, size_t *len)
 
 START_TEST(round_trip_every_clip)
 {
+    MLR_TEST_NEED_CLIPS();
     mlr_motion *a = read_clip(&clips[_i]);
     size_t len;
     char *text = write_to_memory(a, &len);
@@ -515,6 +521,7 @@ static void remove_tmpdir(void)
 
 START_TEST(write_file_is_atomic_and_matches_memory)
 {
+    MLR_TEST_NEED_CLIPS();
     make_tmpdir();
     mlr_motion *a = read_clip(&clips[1]);
     char path[512];
@@ -563,6 +570,7 @@ static int stop_after_first(void *user, const char *data, size_t len)
 
 START_TEST(write_memory_overflow_and_callback_stop)
 {
+    MLR_TEST_NEED_CLIPS();
     mlr_motion *a = read_clip(&clips[7]);
     size_t len, len2;
     ck_assert_int_eq(mlr_bvh_write_memory(a, NULL, 0, &len), MLR_OK);
@@ -584,6 +592,7 @@ END_TEST
 
 START_TEST(copy_frames_slices)
 {
+    MLR_TEST_NEED_CLIPS();
     mlr_motion *a = read_clip(&clips[6]), *b = NULL;
     size_t J = mlr_motion_n_joints(a), P = mlr_motion_n_trans(a);
     ck_assert_int_eq(mlr_motion_copy_frames(a, 10, 40, &b), MLR_OK);
@@ -1048,6 +1057,310 @@ START_TEST(malformed_input_reports_line_and_reason)
 }
 END_TEST
 
+/* ---- lenient reading (mlr_bvh_read_memory_opts) -------------------------------------------- */
+
+enum { LENIENT = 0, STRICT = 1, KEEP = 2 };
+
+/* Frame line k holds "k 0 0" (Xrotation k degrees), so the frames read are known by angle. */
+static const struct lenient_case {
+    const char *text;        /* "%H" stands for hier: MOTION on line 7, Frames: 8, the first
+                                frame line 10 */
+    int mode;
+    mlr_status status;
+    size_t n_frames;         /* on MLR_OK; frames 1..n_frames */
+    int codes[3];            /* warning codes in order, 0-terminated */
+    size_t line;             /* line of the first warning, or of the error */
+    const char *reason;      /* in the first warning, or in the error */
+} lenient_cases[] = {
+    /* one motion line more than Frames: (an assimp test file; Blender and bvhio read it) */
+    {"%HFrames: 2\nFrame Time: 1\n1 0 0\n2 0 0\n3 0 0\n", LENIENT, MLR_OK, 3,
+     {MLR_BVH_WARN_EXTRA_FRAMES}, 12, "3 frame lines, but Frames: declares 2"},
+    {"%HFrames: 2\nFrame Time: 1\n1 0 0\n2 0 0\n3 0 0\n", STRICT, MLR_E_PARSE, 0, {0}, 12,
+     "data after the 2 frames"},
+    {"%HFrames: 1\nFrame Time: 1\n1 0 0\n2 0 0\n\n3 0 0\n4 0 0\n5 0 0\n", LENIENT, MLR_OK, 5,
+     {MLR_BVH_WARN_EXTRA_FRAMES}, 11, "all 5 are read"},
+    {"%HFrames: 0\nFrame Time: 1\n1 0 0\n2 0 0\n", LENIENT, MLR_OK, 2,
+     {MLR_BVH_WARN_EXTRA_FRAMES}, 10, "declares 0"},
+    /* missing lines: up to MLR_BVH_MAX_MISSING_FRAMES */
+    {"%HFrames: 3\nFrame Time: 1\n1 0 0\n2 0 0\n", LENIENT, MLR_OK, 2,
+     {MLR_BVH_WARN_MISSING_FRAMES}, 12, "declares 3, but the file has 2 frame lines"},
+    {"%HFrames: 3\nFrame Time: 1\n1 0 0\n2 0 0\n", STRICT, MLR_E_PARSE, 0, {0}, 8,
+     "hold at most 2 frames"},
+    {"%HFrames: 3\nFrame Time: 1\n1 0 0\n2 0 0\n\n\n\n\n\n", STRICT, MLR_E_PARSE, 0, {0}, 17,
+     "2 of 3 frames"},
+    {"%HFrames: 3\nFrame Time: 1\n1 0 0\n2 0 0\n\n\n\n\n\n", LENIENT, MLR_OK, 2,
+     {MLR_BVH_WARN_MISSING_FRAMES}, 17, "declares 3"},
+    {"%HFrames: 5\nFrame Time: 1\n1 0 0\n2 0 0\n", LENIENT, MLR_OK, 2,
+     {MLR_BVH_WARN_MISSING_FRAMES}, 12, "declares 5"},
+    {"%HFrames: 6\nFrame Time: 1\n1 0 0\n2 0 0\n", LENIENT, MLR_E_PARSE, 0, {0}, 12,
+     "truncated file: 2 of 6 frames"},
+    {"%HFrames: 6\nFrame Time: 1\n1 0 0\n2 0 0\n", KEEP, MLR_OK, 2,
+     {MLR_BVH_WARN_TRUNCATED}, 12, "kept the 2 complete frames of 6"},
+    {"%HFrames: 1000000000\nFrame Time: 1\n1 0 0\n", LENIENT, MLR_E_PARSE, 0, {0}, 11,
+     "1 of 1000000000 frames"},
+    {"%HFrames: 1000000000\nFrame Time: 1\n1 0 0\n", KEEP, MLR_OK, 1,
+     {MLR_BVH_WARN_TRUNCATED}, 11, "kept the 1 complete frames"},
+    /* trailing data */
+    {"%HFrames: 2\nFrame Time: 1\n1 0 0\n2 0 0\nEND\n", LENIENT, MLR_OK, 2,
+     {MLR_BVH_WARN_TRAILING_DATA}, 12, "data after the last frame ('END')"},
+    {"%HFrames: 2\nFrame Time: 1\n1 0 0\n2 0 0\nEND\n", STRICT, MLR_E_PARSE, 0, {0}, 12,
+     "data after the 2 frames"},
+    {"%HFrames: 3\nFrame Time: 1\n1 0 0\n2 0 0\n# exported by X\n7 7 7\n", LENIENT, MLR_OK, 2,
+     {MLR_BVH_WARN_MISSING_FRAMES, MLR_BVH_WARN_TRAILING_DATA}, 12, "declares 3"},
+    {"%HFrames: 1\nFrame Time: 1\n1 0 0\n2 0 0\nfoo bar\n", LENIENT, MLR_OK, 2,
+     {MLR_BVH_WARN_EXTRA_FRAMES, MLR_BVH_WARN_TRAILING_DATA}, 11, "declares 1"},
+    {"%HFrames: 2\nFrame Time: 1\n1 0 0\n2 0 0\n3 0\n", LENIENT, MLR_OK, 2,
+     {MLR_BVH_WARN_TRAILING_DATA}, 12, "('3 0')"},
+    {"%HFrames: 1\nFrame Time: 1\n1 0 0\n\x01\x02\x03", LENIENT, MLR_OK, 1,
+     {MLR_BVH_WARN_TRAILING_DATA}, 11, "('?" "?" "?')"},
+    /* the final line end */
+    {"%HFrames: 2\nFrame Time: 1\n1 0 0\n2 0 0", LENIENT, MLR_OK, 2,
+     {MLR_BVH_WARN_NO_FINAL_NEWLINE}, 11, "no line end after the last frame line"},
+    {"%HFrames: 2\nFrame Time: 1\n1 0 0\n2 0 0  \t", STRICT, MLR_OK, 2,
+     {MLR_BVH_WARN_NO_FINAL_NEWLINE}, 11, "no line end"},
+    {"%HFrames: 2\r\nFrame Time: 1\r\n1 0 0\r\n2 0 0\r\n\r\n  \n\0\0", LENIENT, MLR_OK, 2, {0},
+     0, NULL},
+    /* truncated: the last line incomplete, or frames missing and no final line end */
+    {"%HFrames: 3\nFrame Time: 1\n1 0 0\n2 0 0\n3 0", LENIENT, MLR_E_PARSE, 0, {0}, 12,
+     "frame 3 has 2 values, expected 3 (truncated file: 2 of 3 frames)"},
+    {"%HFrames: 3\nFrame Time: 1\n1 0 0\n2 0 0\n3 0", KEEP, MLR_OK, 2,
+     {MLR_BVH_WARN_TRUNCATED}, 12, "frame 3 has 2 values"},
+    {"%HFrames: 3\nFrame Time: 1\n1 0 0\n2 0 0\n3 0\n", KEEP, MLR_OK, 2,
+     {MLR_BVH_WARN_TRUNCATED}, 12, "kept the 2 complete frames of 3"},
+    {"%HFrames: 4\nFrame Time: 1\n1 0 0\n2 0 0\n3 0 0", LENIENT, MLR_E_PARSE, 0, {0}, 12,
+     "truncated file: 3 of 4 frames"},
+    {"%HFrames: 4\nFrame Time: 1\n1 0 0\n2 0 0\n3 0 0", KEEP, MLR_OK, 3,
+     {MLR_BVH_WARN_TRUNCATED}, 12, "kept the 3 complete frames of 4"},
+    /* a malformed frame line with more after it stays an error in every mode */
+    {"%HFrames: 3\nFrame Time: 1\n1 0 0\n2 x 0\n3 0 0\n", LENIENT, MLR_E_PARSE, 0, {0}, 11,
+     "invalid number 'x'"},
+    {"%HFrames: 3\nFrame Time: 1\n1 0 0\n2 0\n3 0 0\n", KEEP, MLR_E_PARSE, 0, {0}, 11,
+     "frame 2 has 2 values"},
+    {"%HFrames: 3\nFrame Time: 1\n1 0 0\n2 0 0 0\n3 0 0\n", LENIENT, MLR_E_PARSE, 0, {0}, 11,
+     "more than 3 values"},
+};
+
+static mlr_status read_lenient(const char *text, size_t len, size_t threads, int mode,
+                               mlr_motion **m, mlr_bvh_warnings *w, mlr_diag *d)
+{
+    mlr_bvh_read_option o[1] = {{mode == STRICT ? MLR_BVH_OPT_STRICT : MLR_BVH_OPT_KEEP_TRUNCATED,
+                                 1.0}};
+    return mlr_bvh_read_memory_opts(text, len, threads, o, mode == LENIENT ? 0 : 1, NULL, m, w, d);
+}
+
+START_TEST(lenient_reading_warns_and_strict_keeps_the_errors)
+{
+    const struct lenient_case *lc = &lenient_cases[_i];
+    char text[512];
+    size_t len;
+    if (strncmp(lc->text, "%H", 2) == 0) {
+        /* the cases may hold NUL bytes at the end: copy up to the end of the literal */
+        len = strlen(hier);
+        memcpy(text, hier, len);
+        size_t n = strlen(lc->text + 2);
+        memcpy(text + len, lc->text + 2, n);
+        len += n;
+        if (strstr(lc->text, "\r\n\r\n  \n")) { /* the NUL padding case */
+            text[len++] = '\0';
+            text[len++] = '\0';
+        }
+    } else {
+        len = strlen(lc->text);
+        memcpy(text, lc->text, len);
+    }
+    for (size_t threads = 1; threads <= 3; threads += 2) {
+        mlr_diag d;
+        mlr_bvh_warnings w;
+        memset(&w, 0x55, sizeof w);
+        mlr_motion *m = NULL;
+        mlr_status s = read_lenient(text, len, threads, lc->mode, &m, &w, &d);
+        ck_assert_msg(s == lc->status, "case %d: %s (%s), expected %s", _i, mlr_status_name(s),
+                      d.message, mlr_status_name(lc->status));
+        if (s != MLR_OK) {
+            ck_assert_ptr_null(m);
+            ck_assert_uint_eq(w.count, 0);
+            ck_assert_msg(strstr(d.message, lc->reason) != NULL, "case %d: '%s' lacks '%s'", _i,
+                          d.message, lc->reason);
+            ck_assert_msg(d.line == lc->line, "case %d: line %zu, expected %zu", _i, d.line,
+                          lc->line);
+            continue;
+        }
+        ck_assert_uint_eq(d.line, 0);
+        ck_assert_str_eq(d.message, "");
+        ck_assert_uint_eq(mlr_motion_n_frames(m), lc->n_frames);
+        const double *q = mlr_motion_rot(m);
+        for (size_t f = 0; f < lc->n_frames; f++) /* frame f + 1 turns f + 1 degrees */
+            ck_assert_double_eq_tol(q[4 * f], cos(0.5 * (double)(f + 1) * 0.017453292519943295), 1e-15);
+        size_t n_codes = 0;
+        while (n_codes < 3 && lc->codes[n_codes])
+            n_codes++;
+        ck_assert_msg(w.count == n_codes, "case %d: %zu warnings (%s), expected %zu", _i, w.count,
+                      w.count ? w.first[0].message : "", n_codes);
+        for (size_t k = 0; k < n_codes; k++)
+            ck_assert_int_eq(w.first[k].code, lc->codes[k]);
+        if (n_codes) {
+            ck_assert_msg(strstr(w.first[0].message, lc->reason) != NULL,
+                          "case %d: '%s' lacks '%s'", _i, w.first[0].message, lc->reason);
+            ck_assert_msg(w.first[0].line == lc->line, "case %d: warning on line %zu, expected %zu",
+                          _i, w.first[0].line, lc->line);
+        }
+        /* the strict reader of old says the same: OK without warnings, or an error */
+        if (lc->mode == STRICT || n_codes == 0) {
+            mlr_motion *m2 = NULL;
+            ck_assert_int_eq(mlr_bvh_read_memory(text, len, NULL, &m2, &d), MLR_OK);
+            mlr_motion_destroy(m2);
+        } else if (lc->codes[0] != MLR_BVH_WARN_NO_FINAL_NEWLINE) {
+            mlr_motion *m2 = NULL;
+            ck_assert_int_eq(mlr_bvh_read_memory(text, len, NULL, &m2, &d), MLR_E_PARSE);
+        }
+        mlr_motion_destroy(m);
+    }
+}
+END_TEST
+
+START_TEST(lenient_options_are_checked)
+{
+    const char *text = "HIERARCHY\nROOT r\n{\nOFFSET 0 0 0\nCHANNELS 1 Xrotation\n}\nMOTION\n"
+                       "Frames: 1\nFrame Time: 1\n5\n";
+    mlr_motion *m = NULL;
+    mlr_diag d;
+    mlr_bvh_warnings w;
+    const mlr_bvh_read_option unknown[1] = {{3, 1.0}}, twice[2] = {{1, 1.0}, {1, 0.0}},
+                              half[1] = {{2, 0.5}};
+    ck_assert_int_eq(mlr_bvh_read_memory_opts(text, strlen(text), 1, unknown, 1, NULL, &m, &w, &d),
+                     MLR_E_INVALID_ARG);
+    ck_assert_ptr_nonnull(strstr(d.message, "unknown option key 3"));
+    ck_assert_int_eq(mlr_bvh_read_memory_opts(text, strlen(text), 1, twice, 2, NULL, &m, &w, &d),
+                     MLR_E_INVALID_ARG);
+    ck_assert_ptr_nonnull(strstr(d.message, "given twice"));
+    ck_assert_int_eq(mlr_bvh_read_memory_opts(text, strlen(text), 1, half, 1, NULL, &m, &w, &d),
+                     MLR_E_INVALID_ARG);
+    ck_assert_ptr_nonnull(strstr(d.message, "MLR_BVH_OPT_KEEP_TRUNCATED must be 0 or 1"));
+    ck_assert_int_eq(mlr_bvh_read_memory_opts(text, strlen(text), 1, NULL, 1, NULL, &m, &w, &d),
+                     MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_bvh_read_memory_opts(text, strlen(text), 1, NULL, 0, NULL, NULL, &w, &d),
+                     MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_bvh_read_memory_opts(NULL, 3, 1, NULL, 0, NULL, &m, &w, &d),
+                     MLR_E_INVALID_ARG);
+    ck_assert_ptr_null(m);
+    /* no diag and no warnings wanted: still lenient */
+    const char *extra = "HIERARCHY\nROOT r\n{\nOFFSET 0 0 0\nCHANNELS 1 Xrotation\n}\nMOTION\n"
+                        "Frames: 1\nFrame Time: 1\n5\n6\n";
+    ck_assert_int_eq(mlr_bvh_read_memory_opts(extra, strlen(extra), 1, NULL, 0, NULL, &m, NULL,
+                                              NULL), MLR_OK);
+    ck_assert_uint_eq(mlr_motion_n_frames(m), 2);
+    mlr_motion_destroy(m);
+    const char *cut = "HIERARCHY\nROOT r\n{\nOFFSET 0 0 0\nCHANNELS 2 Xrotation Yrotation\n}\n"
+                      "MOTION\nFrames: 2\nFrame Time: 1\n5 1\n6";
+    ck_assert_int_eq(mlr_bvh_read_memory_opts(cut, strlen(cut), 1, NULL, 0, NULL, &m, NULL, NULL),
+                     MLR_E_PARSE);
+    ck_assert_ptr_null(m);
+    /* the file reader with options */
+    mlr_test_temp tmp;
+    mlr_test_temp_write(&tmp, "extra.bvh", extra, strlen(extra));
+    const mlr_bvh_read_option strict[1] = {{MLR_BVH_OPT_STRICT, 1.0}};
+    ck_assert_int_eq(mlr_bvh_read_file_opts(tmp.path, 2, strict, 1, NULL, &m, &w, &d),
+                     MLR_E_PARSE);
+    ck_assert_ptr_nonnull(strstr(d.message, "data after the 1 frames"));
+    ck_assert_int_eq(mlr_bvh_read_file_opts(tmp.path, 2, NULL, 0, NULL, &m, &w, &d), MLR_OK);
+    ck_assert_uint_eq(mlr_motion_n_frames(m), 2);
+    ck_assert_uint_eq(w.count, 1);
+    ck_assert_int_eq(w.first[0].code, MLR_BVH_WARN_EXTRA_FRAMES);
+    ck_assert_uint_eq(w.first[0].line, 11);
+    mlr_motion_destroy(m);
+    mlr_test_temp_remove(&tmp);
+    ck_assert_int_eq(mlr_bvh_read_file_opts("/nonexistent/x.bvh", 1, NULL, 0, NULL, &m, &w, &d),
+                     MLR_E_IO);
+}
+END_TEST
+
+/* A real clip with one motion line more than Frames: (its last line again, as in assimp's
+ * test file) and cut inside its last line: on 1 and 2 threads the frames read are those of
+ * the clean file. */
+START_TEST(lenient_real_clip_extra_and_cut)
+{
+    MLR_TEST_NEED_CLIPS();
+    size_t len;
+    char *text = slurp(clip_path("cmu_131_01_mj_style_walk.bvh"), &len);
+    ck_assert_ptr_nonnull(text);
+    mlr_motion *ref = NULL;
+    mlr_diag d;
+    ck_assert_int_eq(mlr_bvh_read_memory(text, len, NULL, &ref, &d), MLR_OK);
+    const size_t N = mlr_motion_n_frames(ref), J = mlr_motion_n_joints(ref);
+    /* the last line (CRLF), then the file with it twice */
+    const char *last = text + len - 2;
+    while (last > text && last[-1] != '\n')
+        last--;
+    const size_t last_len = (size_t)(text + len - last);
+    char *more = malloc(len + last_len);
+    memcpy(more, text, len);
+    memcpy(more + len, last, last_len);
+    size_t lines = 0; /* line of the extra frame */
+    for (size_t i = 0; i < len; i++)
+        lines += text[i] == '\n';
+    for (size_t threads = 1; threads <= 2; threads++) {
+        mlr_motion *m = NULL;
+        mlr_bvh_warnings w;
+        ck_assert_int_eq(read_lenient(more, len + last_len, threads, LENIENT, &m, &w, &d), MLR_OK);
+        ck_assert_uint_eq(mlr_motion_n_frames(m), N + 1);
+        ck_assert_uint_eq(w.count, 1);
+        ck_assert_int_eq(w.first[0].code, MLR_BVH_WARN_EXTRA_FRAMES);
+        ck_assert_uint_eq(w.first[0].line, lines + 1);
+        ck_assert_mem_eq(mlr_motion_rot(m), mlr_motion_rot(ref), N * J * 4 * sizeof(double));
+        ck_assert_mem_eq(mlr_motion_rot(m) + N * J * 4, mlr_motion_rot(ref) + (N - 1) * J * 4,
+                         J * 4 * sizeof(double));
+        ck_assert_mem_eq(mlr_motion_root_pos(m), mlr_motion_root_pos(ref), N * 3 * sizeof(double));
+        mlr_motion_destroy(m);
+        /* cut in the middle of the last line: an error, or N - 1 frames when kept */
+        const size_t cut = len - last_len / 2;
+        ck_assert_int_eq(read_lenient(text, cut, threads, LENIENT, &m, &w, &d), MLR_E_PARSE);
+        ck_assert_ptr_nonnull(strstr(d.message, "truncated file"));
+        ck_assert_uint_eq(d.line, lines);
+        ck_assert_int_eq(read_lenient(text, cut, threads, KEEP, &m, &w, &d), MLR_OK);
+        ck_assert_uint_eq(mlr_motion_n_frames(m), N - 1);
+        ck_assert_int_eq(w.first[0].code, MLR_BVH_WARN_TRUNCATED);
+        ck_assert_mem_eq(mlr_motion_rot(m), mlr_motion_rot(ref), (N - 1) * J * 4 * sizeof(double));
+        mlr_motion_destroy(m);
+    }
+    free(more);
+    free(text);
+    mlr_motion_destroy(ref);
+}
+END_TEST
+
+START_TEST(lenient_allocation_failures_are_clean)
+{
+    static const char *const texts[] = {
+        "%HFrames: 1\nFrame Time: 1\n1 0 0\n2 0 0\n",     /* extra: a bigger motion */
+        "%HFrames: 3\nFrame Time: 1\n1 0 0\n2 0 0\n",     /* missing: a smaller copy */
+    };
+    for (size_t c = 0; c < MLR_COUNTOF(texts); c++) {
+        char text[256];
+        snprintf(text, sizeof text, "%s%s", hier, texts[c] + 2);
+        size_t fail_at;
+        for (fail_at = 0;; fail_at++) {
+            mlr_test_allocator ta;
+            mlr_test_allocator_init(&ta, fail_at);
+            mlr_motion *m = NULL;
+            mlr_diag d;
+            mlr_bvh_warnings w;
+            mlr_status s = mlr_bvh_read_memory_opts(text, strlen(text), 1, NULL, 0, &ta.base, &m,
+                                                    &w, &d);
+            mlr_motion_destroy(m);
+            ck_assert_uint_eq(ta.live_blocks, 0);
+            if (s == MLR_OK) {
+                ck_assert_uint_eq(w.count, 1);
+                break;
+            }
+            ck_assert_int_eq(s, MLR_E_NO_MEMORY);
+            ck_assert_uint_eq(w.count, 0);
+            ck_assert(fail_at < 1000);
+        }
+        ck_assert_uint_gt(fail_at, 0);
+    }
+}
+END_TEST
+
 START_TEST(every_truncation_and_mutation_is_handled)
 {
     /* each prefix of a valid file, and seeded byte mutations: OK or PARSE, never a crash */
@@ -1376,6 +1689,7 @@ END_TEST
  * in parallel chunks. */
 START_TEST(read_file_mt_matches_read_file)
 {
+    MLR_TEST_NEED_CLIPS();
     mlr_motion *b = NULL;
     mlr_diag d;
     for (size_t c = 0; c < MLR_COUNTOF(clips); c++) {
@@ -1609,6 +1923,7 @@ static Suite *bvh_suite(void)
     tcase_add_test(tc, write_file_is_atomic_and_matches_memory);
     tcase_add_test(tc, write_memory_overflow_and_callback_stop);
     tcase_add_test(tc, copy_frames_slices);
+    tcase_add_test(tc, lenient_real_clip_extra_and_cut);
     suite_add_tcase(s, tc);
 
     TCase *syn = tcase_create("syntax");
@@ -1627,11 +1942,15 @@ static Suite *bvh_suite(void)
     tcase_add_loop_test(syn, malformed_input_reports_line_and_reason, 0,
                         (int)MLR_COUNTOF(bad_cases));
     tcase_add_test(syn, every_truncation_and_mutation_is_handled);
+    tcase_add_loop_test(syn, lenient_reading_warns_and_strict_keeps_the_errors, 0,
+                        (int)MLR_COUNTOF(lenient_cases));
+    tcase_add_test(syn, lenient_options_are_checked);
     tcase_add_test(syn, null_arguments);
     suite_add_tcase(s, syn);
 
     TCase *mem = tcase_create("memory");
     tcase_add_test(mem, every_allocation_failure_is_clean);
+    tcase_add_test(mem, lenient_allocation_failures_are_clean);
     tcase_add_test(mem, every_allocation_failure_is_clean_on_threads);
     tcase_add_test(mem, every_allocation_failure_is_clean_for_files);
     tcase_add_test(mem, create_from_arrays_writes_and_reads_back);

@@ -158,6 +158,7 @@ static size_t simple_line(mlr_test_rng *r, size_t C, char *buf)
 
 START_TEST(line_kernel_takes_every_line_of_every_clip)
 {
+    MLR_TEST_NEED_CLIPS();
     static const char *const files[] = {
         "cmu_01_01_playground_jumps.bvh", "cmu_131_01_mj_style_walk.bvh",
         "cmu_10_01_soccer_kick.bvh",      "cmu_60_10_salsa_dance.bvh",

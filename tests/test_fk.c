@@ -157,6 +157,7 @@ static const char *const clip_files[] = {
  * of the whole, and each bone keeps the length of its local translation. */
 START_TEST(clips_motion_and_arrays_agree)
 {
+    MLR_TEST_NEED_CLIPS();
     const char *dir = mlr_test_mocap_dir();
     ck_assert_ptr_nonnull(dir);
     char path[4096];

@@ -153,6 +153,7 @@ END_TEST
 
 START_TEST(real_clip_positions_match_naive_lloyd)
 {
+    MLR_TEST_NEED_CLIPS();
     const char *dir = mlr_test_mocap_dir();
     if (!dir)
         return;

@@ -112,14 +112,19 @@ static void smooth_motion(size_t N, size_t J, size_t P, uint64_t seed, double *r
 /* Cases of the dense comparison: counts and the time map kind. */
 static const struct {
     size_t N, n_out;
-    int warped;     /* 0 uniform (t = NULL), 1 a non-uniform monotone map */
+    int warped;     /* 0 uniform (t = NULL), 1 a non-uniform monotone map, 2 the exact map of
+                       a frame rate change by the factor rate (open end) */
     double lam;     /* < 0: automatic */
+    double rate;
 } dense_cases[] = {
-    {9, 33, 0, -1.0},   /* upsampling */
-    {30, 8, 0, -1.0},   /* downsampling */
-    {12, 12, 1, -1.0},  /* warp, same length */
-    {15, 21, 1, 0.7},   /* warp, explicit lam */
-    {10, 2, 0, -1.0},   /* two output frames (order 1) */
+    {30, 9, 2, -1.0, 0.3},  /* exact rate, downsampling: t[N-1] = 8.7, one hidden frame */
+    {9, 30, 2, -1.0, 3.7},  /* exact rate, upsampling: t[N-1] = 29.6 */
+    {13, 4, 2, 0.4, 0.25},  /* exact rate landing on the grid: t[N-1] = 3, no hidden frame */
+    {9, 33, 0, -1.0, 0.0},   /* upsampling */
+    {30, 8, 0, -1.0, 0.0},   /* downsampling */
+    {12, 12, 1, -1.0, 0.0},  /* warp, same length */
+    {15, 21, 1, 0.7, 0.0},   /* warp, explicit lam */
+    {10, 2, 0, -1.0, 0.0},   /* two output frames (order 1) */
 };
 
 START_TEST(matches_dense_reference)
@@ -129,7 +134,16 @@ START_TEST(matches_dense_reference)
     double *root = malloc(N * 3 * sizeof(double)), *rot = malloc(N * J * 4 * sizeof(double));
     double *trans = malloc(N * P * 3 * sizeof(double)), *t = malloc(N * sizeof(double));
     smooth_motion(N, J, P, 11 + _i, root, rot, trans);
-    if (dense_cases[_i].warped) {
+    const int open_end = dense_cases[_i].warped == 2;
+    if (open_end) {
+        size_t n_rate = 0;
+        mlr_diag d0;
+        ck_assert_int_eq(mlr_resample_rate_map(N, 1.0, dense_cases[_i].rate, 0, t, &n_rate, &d0),
+                         MLR_OK);
+        ck_assert_uint_eq(n_rate, n);
+        for (size_t i = 0; i < N; i++)
+            ck_assert_double_eq_tol(t[i], (double)i * dense_cases[_i].rate, 1e-12);
+    } else if (dense_cases[_i].warped) {
         double acc = 0.0;
         for (size_t i = 0; i < N; i++) {
             t[i] = acc;
@@ -147,17 +161,24 @@ START_TEST(matches_dense_reference)
     double *to = malloc(n * P * 3 * sizeof(double)), *var = malloc(n * sizeof(double));
     mlr_diag d;
     mlr_status st = mlr_resample_arrays(N, J, P, root, rot, trans, dense_cases[_i].warped ? t : NULL,
-                                        n, dense_cases[_i].lam, sigma, 0, ro, qo, to, var, NULL, &d);
+                                        n, dense_cases[_i].lam, sigma,
+                                        open_end ? MLR_RESAMPLE_OPEN_END : 0, ro, qo, to, var,
+                                        NULL, &d);
     ck_assert_msg(st == MLR_OK, "%s: %s", mlr_status_name(st), d.message);
 
     /* reference: all channels in one matrix, quaternions made continuous by the nearest sign
-     * (the steps of this motion are small, where the predictive rule agrees) */
-    const double lam = dense_cases[_i].lam >= 0 ? dense_cases[_i].lam
-                                                 : sqrt(mlr_resample_auto_smoothness(N, n)) / sigma;
+     * (the steps of this motion are small, where the predictive rule agrees); an open end is
+     * solved on a grid of one frame more whose last frame is dropped */
+    const double r = open_end ? dense_cases[_i].rate : (double)(n - 1) / (double)(N - 1);
+    const double s_auto = fmax(MLR_RESAMPLE_KAPPA_UP * r * r * r, MLR_RESAMPLE_KAPPA_DOWN / r);
+    if (!open_end)
+        ck_assert_double_eq_tol(s_auto, mlr_resample_auto_smoothness(N, n), 1e-12 * s_auto);
+    const double lam = dense_cases[_i].lam >= 0 ? dense_cases[_i].lam : sqrt(s_auto) / sigma;
     const double s = lam * lam * sigma * sigma;
     const size_t m = 3 + 4 * J + 3 * P;
-    double *y = malloc(N * m * sizeof(double)), *x = malloc(n * m * sizeof(double));
-    double *vr = malloc(n * sizeof(double));
+    const size_t n_grid = open_end && t[N - 1] > (double)(n - 1) ? n + 1 : n;
+    double *y = malloc(N * m * sizeof(double)), *x = malloc(n_grid * m * sizeof(double));
+    double *vr = malloc(n_grid * sizeof(double));
     for (size_t i = 0; i < N; i++) {
         memcpy(y + i * m, root + 3 * i, 3 * sizeof(double));
         for (size_t j = 0; j < J; j++) {
@@ -169,7 +190,7 @@ START_TEST(matches_dense_reference)
         }
         memcpy(y + i * m + 3 + 4 * J, trans + 3 * P * i, 3 * P * sizeof(double));
     }
-    dense_reference(N, t, n, n >= 3 ? 2 : 1, s, sigma, y, m, x, vr); /* order 1 for 2 frames */
+    dense_reference(N, t, n_grid, n_grid >= 3 ? 2 : 1, s, sigma, y, m, x, vr); /* order 1 for 2 */
     for (size_t i = 0; i < n; i++) {
         for (size_t c = 0; c < 3; c++)
             ck_assert_close(ro[3 * i + c], x[i * m + c], 1e-9 * (1 + fabs(x[i * m + c])));
@@ -185,6 +206,114 @@ START_TEST(matches_dense_reference)
     }
     free(root), free(rot), free(trans), free(t), free(ro), free(qo), free(to), free(var);
     free(y), free(x), free(vr);
+}
+END_TEST
+
+/* The exact map of a frame rate change puts output frame k at time k / fps_out: a root moving
+ * linearly in time comes out on the line at those times (the order-2 prior does not bend a
+ * line), with the last output frame the last grid time within the input. */
+START_TEST(exact_rate_frames_lie_at_their_times)
+{
+    enum { N = 994 };
+    static double root[N * 3], rot[N * 4], t[N];
+    const double fps_in = 120.0, rates[] = {30.0, 29.97, 24.0, 240.0};
+    for (size_t i = 0; i < N; i++) {
+        const double time = (double)i / fps_in;
+        root[3 * i] = 1.0 + 3.0 * time;
+        root[3 * i + 1] = -2.0 * time;
+        root[3 * i + 2] = 0.5;
+        axis_angle(0.0, 1.0, 0.0, 0.2, rot + 4 * i);
+    }
+    for (size_t r = 0; r < MLR_COUNTOF(rates); r++) {
+        size_t n = 0, n2 = 0;
+        mlr_diag d;
+        ck_assert_int_eq(mlr_resample_rate_map(N, fps_in, rates[r], 0, t, &n, &d), MLR_OK);
+        ck_assert_int_eq(mlr_resample_n_out(N, fps_in, rates[r], MLR_RESAMPLE_OPEN_END, &n2, &d),
+                         MLR_OK);
+        ck_assert_uint_eq(n, n2);
+        /* the last output time is within the input and the next one is past it */
+        const double dur = (double)(N - 1) / fps_in;
+        ck_assert((double)(n - 1) / rates[r] <= dur * (1 + 1e-12));
+        ck_assert((double)n / rates[r] > dur);
+        double *ro = malloc(n * 3 * sizeof(double)), *qo = malloc(n * 4 * sizeof(double));
+        for (int method = 0; method < 2; method++) {
+            mlr_status st = method == 0
+                ? mlr_resample_arrays(N, 1, 0, root, rot, NULL, t, n, MLR_RESAMPLE_AUTO, 1.0,
+                                      MLR_RESAMPLE_OPEN_END, ro, qo, NULL, NULL, NULL, &d)
+                : mlr_slerp_resample_arrays(N, 1, 0, root, rot, NULL, t, n,
+                                            MLR_RESAMPLE_OPEN_END, ro, qo, NULL, &d);
+            ck_assert_msg(st == MLR_OK, "%s", d.message);
+            for (size_t k = 0; k < n; k++) {
+                const double time = (double)k / rates[r];
+                ck_assert_double_eq_tol(ro[3 * k], 1.0 + 3.0 * time, 1e-9);
+                ck_assert_double_eq_tol(ro[3 * k + 1], -2.0 * time, 1e-9);
+                ck_assert_double_eq_tol(ro[3 * k + 2], 0.5, 1e-9);
+                ck_assert_double_eq_tol(qo[4 * k], cos(0.1), 1e-9);
+            }
+        }
+        free(ro), free(qo);
+    }
+}
+END_TEST
+
+/* Two cuts of one clip, of different lengths (and one starting a whole output frame later),
+ * resampled separately: frames at the same time agree, exactly for SLERP and for the LGS away
+ * from the shorter cut's ends, where the two solves see different data. */
+START_TEST(cuts_of_one_clip_agree_at_the_same_times)
+{
+    enum { N = 480, J = 3, P = 1, NB = 301, SC = 8 }; /* cut C starts at input frame 8 */
+    static double root[N * 3], rot[N * J * 4], trans[N * P * 3], t[N];
+    smooth_motion(N, J, P, 21, root, rot, trans);
+    for (size_t i = 0; i < N * 3; i++) /* slower than smooth_motion's per-frame waves */
+        root[i] = 0.0;
+    for (size_t i = 0; i < N; i++)
+        root[3 * i] = 10 * sin(0.02 * (double)i), root[3 * i + 1] = 0.01 * (double)i;
+    const double fps_in = 120.0, fps_out = 30.0;
+    static double ro[3][N * 3], qo[3][N * J * 4], to[3][N * P * 3];
+    size_t n[3];
+    const size_t start[3] = {0, 0, SC}, len[3] = {N, NB, N - SC};
+    for (int method = 0; method < 2; method++) {
+        for (int c = 0; c < 3; c++) {
+            mlr_diag d;
+            const size_t b = start[c];
+            ck_assert_int_eq(mlr_resample_rate_map(len[c], fps_in, fps_out, 0, t, &n[c], &d), MLR_OK);
+            mlr_status st = method == 0
+                ? mlr_resample_arrays(len[c], J, P, root + 3 * b, rot + 4 * J * b, trans + 3 * P * b, t,
+                                      n[c], MLR_RESAMPLE_AUTO, 1.0, MLR_RESAMPLE_OPEN_END, ro[c],
+                                      qo[c], to[c], NULL, NULL, &d)
+                : mlr_slerp_resample_arrays(len[c], J, P, root + 3 * b, rot + 4 * J * b,
+                                            trans + 3 * P * b, t, n[c], MLR_RESAMPLE_OPEN_END,
+                                            ro[c], qo[c], to[c], &d);
+            ck_assert_msg(st == MLR_OK, "%s", d.message);
+        }
+        ck_assert_uint_eq(n[0], (N - 1) / 4 + 1);
+        ck_assert_uint_eq(n[1], (NB - 1) / 4 + 1);
+        /* the LGS's end effects decay by about 10x every 3 output frames (measured on the
+         * root: 1e-2 at the ends, 2e-7 at 12 frames, 2e-11 at 24): compare from 24 frames in */
+        const size_t margin = method == 0 ? 24 : 0;
+        const double tol = method == 0 ? 1e-8 : 0.0;
+        double worst = 0.0;
+        for (int c = 1; c < 3; c++) {
+            const size_t shift = start[c] / 4; /* output frames */
+            for (size_t k = margin; k + margin < n[c]; k++) {
+                const size_t ka = k + shift;
+                for (size_t x = 0; x < 3; x++)
+                    worst = fmax(worst, fabs(ro[c][3 * k + x] - ro[0][3 * ka + x]));
+                for (size_t j = 0; j < J; j++) { /* up to the sign each cut started with */
+                    const double *qa = qo[0] + 4 * (J * ka + j), *qc = qo[c] + 4 * (J * k + j);
+                    double dm = 0.0, dp = 0.0;
+                    for (int x = 0; x < 4; x++)
+                        dm = fmax(dm, fabs(qc[x] - qa[x])), dp = fmax(dp, fabs(qc[x] + qa[x]));
+                    worst = fmax(worst, fmin(dm, dp));
+                }
+                for (size_t x = 0; x < 3 * P; x++)
+                    worst = fmax(worst, fabs(to[c][3 * P * k + x] - to[0][3 * P * ka + x]));
+            }
+        }
+        fprintf(stderr, "cuts: %s, largest difference at the same times %.3g\n",
+                method == 0 ? "LGS" : "SLERP", worst);
+        ck_assert_msg(worst <= tol, "%s: %g", method == 0 ? "LGS" : "SLERP", worst);
+    }
 }
 END_TEST
 
@@ -483,6 +612,7 @@ static double mpjpe(size_t N, size_t J, const double *a, const double *b)
  * the SLERP round trip (decimation, then slerp) is reported alongside. */
 START_TEST(real_clip_round_trip_120_30_120)
 {
+    MLR_TEST_NEED_CLIPS();
     const char *dir = mlr_test_mocap_dir();
     ck_assert_ptr_nonnull(dir);
     char path[4096];
@@ -595,6 +725,7 @@ END_TEST
 /* On a real kick: a valid map, slowest around the fastest part of the clip. */
 START_TEST(timewarp_real_clip)
 {
+    MLR_TEST_NEED_CLIPS();
     const char *dir = mlr_test_mocap_dir();
     ck_assert_ptr_nonnull(dir);
     char path[4096];
@@ -646,9 +777,33 @@ START_TEST(bad_input_is_rejected_with_a_reason)
     BAD(mlr_resample_n_out(6, 120.0, INFINITY, 0, &n, &d));
     BAD(mlr_resample_n_out(1, 120.0, 30.0, 0, &n, &d));
     BAD(mlr_resample_n_out(6, 1.0, 101.0, 0, &n, &d));
-    BAD(mlr_resample_n_out(6, 120.0, 30.0, 4u, &n, &d));
+    BAD(mlr_resample_n_out(6, 120.0, 30.0, 8u, &n, &d));
     ck_assert_int_eq(mlr_resample_n_out(6, 1.0, 101.0, MLR_RESAMPLE_ALLOW_EXTREME, &n, &d), MLR_OK);
     ck_assert_uint_eq(n, 506);
+    {
+        /* the exact grid: an input shorter than one output frame, NULL outputs, open ends */
+        double tm[6] = {0}, tt[6];
+        BAD(mlr_resample_n_out(3, 120.0, 30.0, MLR_RESAMPLE_OPEN_END, &n, &d));
+        ck_assert_ptr_nonnull(strstr(d.message, "less than one frame"));
+        BAD(mlr_resample_rate_map(3, 120.0, 30.0, 0, tm, &n, &d));
+        BAD(mlr_resample_rate_map(6, 120.0, 30.0, 0, NULL, &n, &d));
+        BAD(mlr_resample_rate_map(6, 120.0, 30.0, 0, tm, NULL, &d));
+        BAD(mlr_resample_rate_map(6, 120.0, 0.0, 0, tm, &n, &d));
+        ck_assert_int_eq(mlr_resample_rate_map(6, 120.0, 30.0, 0, tm, &n, &d), MLR_OK);
+        ck_assert_uint_eq(n, 2); /* t[5] = 1.25 */
+        ck_assert_int_eq(mlr_timemap_validate(tm, 6, 2, MLR_RESAMPLE_OPEN_END, &d), MLR_OK);
+        BAD(mlr_timemap_validate(tm, 6, 2, 0, &d)); /* without the flag the end must be 1 */
+        for (int i = 0; i < 6; i++)
+            tt[i] = 0.5 * i; /* t[5] = 2.5: n_out 3 fits, 2 (beyond by 1.5) and 4 (short) not */
+        ck_assert_int_eq(mlr_timemap_validate(tt, 6, 3, MLR_RESAMPLE_OPEN_END, &d), MLR_OK);
+        BAD(mlr_timemap_validate(tt, 6, 2, MLR_RESAMPLE_OPEN_END, &d));
+        ck_assert_ptr_nonnull(strstr(d.message, "open end"));
+        BAD(mlr_timemap_validate(tt, 6, 4, MLR_RESAMPLE_OPEN_END, &d));
+        /* a value a hair below an integer counts as that integer */
+        ck_assert_int_eq(mlr_resample_n_out(301, 3.0, 1.0 - 1e-13, MLR_RESAMPLE_OPEN_END,
+                                            &n, &d), MLR_OK);
+        ck_assert_uint_eq(n, 101);
+    }
     ck_assert_int_eq(mlr_resample_n_out(6, 1.0, 100.0, 0, &n, &d), MLR_OK);
     /* fewer than 2 frames, factor, NULLs, lam, sigma */
     BAD(mlr_resample_arrays(1, 1, 0, root, rot, NULL, NULL, 5, -1, 1, 0, ro, qo, NULL, NULL, NULL, &d));
@@ -715,7 +870,11 @@ START_TEST(every_allocation_failure_is_clean)
     double root[40 * 3], rot[40 * 3 * 4], trans[40 * 3], t[40];
     double ro[90 * 3], qo[90 * 3 * 4], to[90 * 3], var[90];
     smooth_motion(N, J, P, 9, root, rot, trans);
-    for (int which = 0; which < 3; which++) {
+    double tr[40];
+    size_t n_rate = 0;
+    ck_assert_int_eq(mlr_resample_rate_map(N, 1.0, 1.9, 0, tr, &n_rate, NULL), MLR_OK);
+    ck_assert(tr[N - 1] > (double)(n_rate - 1)); /* a hidden frame */
+    for (int which = 0; which < 4; which++) {
         size_t fail_at;
         for (fail_at = 0;; fail_at++) {
             mlr_test_allocator ta;
@@ -727,8 +886,12 @@ START_TEST(every_allocation_failure_is_clean)
             else if (which == 1)
                 s = mlr_resample_arrays(N, J, P, root, rot, trans, NULL, N, MLR_RESAMPLE_AUTO, 1.0, 0,
                                         ro, qo, to, var, &ta.base, NULL);
-            else
+            else if (which == 2)
                 s = mlr_timewarp_map(N, J, root, rot, NULL, 0.1, 1.0, 5.0, 60, 0, t, &ta.base, NULL);
+            else
+                s = mlr_resample_arrays(N, J, P, root, rot, trans, tr, n_rate, MLR_RESAMPLE_AUTO,
+                                        1.0, MLR_RESAMPLE_OPEN_END, ro, qo, to, var, &ta.base,
+                                        NULL);
             ck_assert_uint_eq(ta.live_blocks, 0);
             if (s == MLR_OK)
                 break;
@@ -751,6 +914,8 @@ static Suite *resample_suite(void)
     tcase_add_test(num, variance_grows_where_sparse);
     tcase_add_test(num, downsampling_does_not_alias);
     tcase_add_test(num, timewarp_slows_large_motion_with_easing);
+    tcase_add_test(num, exact_rate_frames_lie_at_their_times);
+    tcase_add_test(num, cuts_of_one_clip_agree_at_the_same_times);
     suite_add_tcase(s, num);
     TCase *clips = tcase_create("clips");
     tcase_set_timeout(clips, 120);

@@ -355,6 +355,7 @@ END_TEST
  * real clips. */
 START_TEST(online_cutoff_keeps_quantization_error)
 {
+    MLR_TEST_NEED_CLIPS();
     const char *dir = mlr_test_mocap_dir();
     if (!dir)
         return;

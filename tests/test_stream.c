@@ -215,6 +215,7 @@ END_TEST
  * shorter lag the flushed tail is exact too. Every real clip. */
 START_TEST(flush_equals_offline_on_clips)
 {
+    MLR_TEST_NEED_CLIPS();
     clip c;
     clip_load(&c, (size_t)_i);
     double *ref = malloc(c.N * c.m * sizeof(double)), *x = malloc(c.N * c.m * sizeof(double));
@@ -240,6 +241,7 @@ END_TEST
  * against lag within 20 % of log rho). */
 START_TEST(gap_decays_geometrically)
 {
+    MLR_TEST_NEED_CLIPS();
     clip c;
     clip_load(&c, 1); /* cmu_131_01: 994 frames, 31 joints */
     double *ref = malloc(c.N * c.m * sizeof(double)), *x = malloc(c.N * c.m * sizeof(double));
@@ -304,6 +306,7 @@ END_TEST
  * bytes; a clip streamed a second time into a fresh stream too. */
 START_TEST(reset_repeats_bitwise)
 {
+    MLR_TEST_NEED_CLIPS();
     clip c;
     clip_load(&c, 6); /* bandai: 22 joints with 21 extra translations */
     double *x1 = malloc(c.N * c.m * sizeof(double)), *x2 = malloc(c.N * c.m * sizeof(double));
@@ -399,6 +402,7 @@ END_TEST
  * offline base (+) alpha (main (-) base), composed here from the offline layers. */
 START_TEST(layers_match_offline_composition)
 {
+    MLR_TEST_NEED_CLIPS();
     clip c;
     clip_load(&c, 2); /* cmu_10_01: 43 joints */
     const size_t N = c.N, m = c.m, J = c.J, nt = 3 + 3 * c.P;
@@ -464,6 +468,7 @@ END_TEST
 
 START_TEST(no_allocation_after_create)
 {
+    MLR_TEST_NEED_CLIPS();
     clip c;
     clip_load(&c, 1);
     double *x = malloc(c.N * c.m * sizeof(double));
@@ -519,6 +524,7 @@ END_TEST
  * never saw it. */
 START_TEST(non_finite_frame_rejected)
 {
+    MLR_TEST_NEED_CLIPS();
     clip c;
     clip_load(&c, 7); /* dog */
     const size_t m = c.m;

@@ -25,8 +25,9 @@ Columns (definitions in plausibility.py's docstring; H = mlayer.metrics.body_hei
   t_* (ms)               decompose, synthesize, and each guard stage: the time of the API
                          call with that guard alone minus the unguarded call
 Clips that cannot be processed (parse errors, fewer than 3 frames, ...) are listed with the
-reason. Clips whose up axis (plausibility.up_axis) is not +Y are flagged: the library and
-these measures take Y as vertical today.
+reason. The up column is the clip's Motion.up_axis, which the library and these measures
+take as vertical; clips where plausibility.up_axis (hips above feet) finds another axis
+are flagged.
 """
 from __future__ import annotations
 
@@ -72,7 +73,8 @@ def _call(op, m, alpha, kw):
 
 def measure_clip(m, alphas, name="") -> list[dict]:
     H = mlayer.metrics.body_height(m)
-    up = P.up_axis(m)
+    up = m.up_axis.upper()
+    up_check = P.up_axis(m).lstrip("-")
     chains = P.limb_chains(m)
     parts = P.body_parts(m, chains)
     fk_in = m.forward_kinematics()
@@ -113,6 +115,7 @@ def measure_clip(m, alphas, name="") -> list[dict]:
                         if rms_raw[k] > 0 else float("nan")) for k, v in parts.items()}
             row = {
                 "clip": name, "frames": m.n_frames, "fps": round(m.fps, 3), "up": up,
+                "up_check": up_check,
                 "H": H, "op": op if op == "denoise" else f"stylize {alpha:g}",
                 "guards": label if out is guarded else "none",
                 "guards_requested": "limits+floor+contacts",
@@ -178,10 +181,11 @@ def print_table(rows, skipped, file=sys.stdout):
         print(" ".join(cells), file=file)
     for name, why in skipped:
         print(f"skipped {name}: {why}", file=file)
-    flagged = sorted({r["clip"] for r in rows if r["up"] != "Y"})
+    flagged = sorted({f"{r['clip']} ({r['up']}, hips above feet along {r['up_check']})"
+                      for r in rows if r.get("up_check", r["up"]) != r["up"]})
     if flagged:
-        print("up axis not +Y (floor, height and contact figures measured on Y like the "
-              "library): " + ", ".join(flagged), file=file)
+        print("up axis of the clip differs from the hips-above-feet estimate: "
+              + ", ".join(flagged), file=file)
 
 
 def clip_paths(wild, pattern):

@@ -6,9 +6,10 @@ Definitions (all on world positions from forward kinematics; the output has the 
 frames and skeleton):
 
 - Body height H: :func:`mlayer.metrics.body_height` of the input (median over frames of the
-  joints' vertical extent, End Sites excluded). Vertical is Y, as in the library today; clips
-  detected as Z-up (:func:`up_axis`) are flagged by the bench because their floor and height
-  figures are then measured on the wrong axis, like the library's own heuristics.
+  joints' vertical extent, End Sites excluded). Vertical is the input's
+  :attr:`mlayer.Motion.up_axis` (detected, or given to read_bvh), for the height, the floor
+  and the penetration depths alike; :func:`up_axis` is this module's own estimate, shown by
+  the bench beside it.
 - Limb chains: legs from :func:`mlayer.contacts.find_feet` (each ankle, the "foot" joints that
   are not hands) and arms from joints named /hand|wrist/ that are not feet, each turned into
   (upper, middle, end) by :func:`mlayer.ik.leg_chain` (the nearest ancestors at a non-zero
@@ -220,9 +221,14 @@ def foot_points(inp) -> list[str]:
     return names
 
 
+def _up_index(motion) -> int:
+    """0..2: the axis of motion.up_axis ("x", "y" or "z"; Y for objects without one)."""
+    return "xyz".index(str(getattr(motion, "up_axis", "y")).lower())
+
+
 def floor_level(inp, names, contacts=None) -> float:
-    """The input's floor height (see the module docstring)."""
-    y = _contacts.contact_positions(inp, names)[..., 1]
+    """The input's floor height along its up axis (see the module docstring)."""
+    y = _contacts.contact_positions(inp, names)[..., _up_index(inp)]
     if contacts is not None and contacts.any():
         return float(np.quantile(y[contacts], 0.05))
     return float(np.percentile(y.min(axis=1), 1.0))
@@ -232,8 +238,9 @@ def floor_report(inp, out, names, floor: float, H: float) -> dict:
     """Penetration frames (count), deepest depth in % of H, and the worst (frame, point)."""
     if not names:
         return {"frames": 0, "deepest_pct": 0.0, "worst": None}
-    yi = _contacts.contact_positions(inp, names)[..., 1]
-    yo = _contacts.contact_positions(out, names)[..., 1]
+    k = _up_index(inp)
+    yi = _contacts.contact_positions(inp, names)[..., k]
+    yo = _contacts.contact_positions(out, names)[..., k]
     tol = FLOOR_TOL * H
     ok_in = yi >= floor - tol
     depth = np.where(ok_in, floor - yo, -np.inf)

@@ -7,6 +7,7 @@
 #include "mlr_band.h"
 #include "mlr_lgs.h"
 #include "mlr_quat.h"
+#include "mlr_motion.h"
 #include "mlr_bvh.h"
 #include "mlr_fk.h"
 #include "mlr_resample.h"
@@ -21,5 +22,6 @@
 #include "mlr_ik.h"
 #include "mlr_cleanup.h"
 #include "mlr_guards.h"
+#include "mlr_trim.h"
 
 #endif /* MLAYER_H */

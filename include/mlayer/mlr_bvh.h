@@ -1,7 +1,7 @@
 /*
- * BVH motion files: a motion handle (skeleton + frames), a reader and a writer.
+ * BVH motion files: a reader and a writer of motion handles (mlr_motion.h).
  *
- * Data model (DESIGN.md):
+ * Data model of a motion read from BVH (DESIGN.md; the handle is in mlr_motion.h):
  * - J joints (ROOT and JOINT entries) in BVH depth-first order: joint 0 is the root and every
  *   joint's parent comes before it. parents[0] == -1.
  * - offsets: J x 3, the OFFSET of each joint as written in the file.
@@ -30,20 +30,11 @@
 #include <stdint.h>
 
 #include "mlr_common.h"
-#include "mlr_quat.h"
+#include "mlr_motion.h"
 
 #ifdef __cplusplus
 extern "C" {
 #endif
-
-/** A skeleton and its frames. Opaque; created by the readers or mlr_motion_create. */
-typedef struct mlr_motion mlr_motion;
-
-/** Channel kinds, as named on a CHANNELS line. Values pinned. */
-typedef enum mlr_bvh_channel {
-    MLR_BVH_XPOSITION = 0, MLR_BVH_YPOSITION = 1, MLR_BVH_ZPOSITION = 2,
-    MLR_BVH_XROTATION = 3, MLR_BVH_YROTATION = 4, MLR_BVH_ZROTATION = 5
-} mlr_bvh_channel;
 
 /* ---------------------------------------------------------------------------------------- */
 /* Reading                                                                                  */
@@ -53,7 +44,9 @@ typedef enum mlr_bvh_channel {
  * Accepts LF, CRLF or CR line ends, tabs and any whitespace, a UTF-8 byte order mark, keywords
  * in any case, 0 to 6 channels per joint in any order, position channels on any joint and a
  * different Euler order on every joint. One ROOT per file. Every frame is one line holding
- * exactly as many values as the hierarchy declares channels.
+ * exactly as many values as the hierarchy declares channels, and there are exactly as many as
+ * "Frames:" declares (strict; mlr_bvh_read_memory_opts reads the usual deviations with
+ * warnings).
  * Never allocates from an unchecked count: "Frames:" is bounded by the bytes that follow it.
  * @param text   [in] the file's bytes, need not be NUL-terminated; not kept
  * @param len    [in] number of bytes
@@ -107,6 +100,97 @@ MLR_API mlr_status mlr_bvh_read_file_mt(const char *path, size_t n_threads,
                                         mlr_diag *diag);
 
 /* ---------------------------------------------------------------------------------------- */
+/* Lenient reading with warnings                                                            */
+/*                                                                                          */
+/* The readers above are strict: any deviation from the layout is an MLR_E_PARSE. Files     */
+/* from the wild often deviate in the MOTION section only; mlr_bvh_read_memory_opts and     */
+/* mlr_bvh_read_file_opts read those and report each deviation as a warning:                */
+/* - more frame lines than "Frames:" declares (any number): every complete frame line is    */
+/*   read (as Blender's importer and bvhio do), MLR_BVH_WARN_EXTRA_FRAMES;                  */
+/* - up to MLR_BVH_MAX_MISSING_FRAMES fewer frame lines, the file ending with a line end:   */
+/*   the frames present are read, MLR_BVH_WARN_MISSING_FRAMES;                              */
+/* - data after the frames that is not a frame line (a line that does not start with a     */
+/*   number, or any line once all declared frames are read): ignored from that line on,    */
+/*   MLR_BVH_WARN_TRAILING_DATA;                                                            */
+/* - no line end after the last frame line: read, MLR_BVH_WARN_NO_FINAL_NEWLINE (also in    */
+/*   strict mode, where it is not an error either).                                         */
+/* A truncated file stays an error (MLR_E_PARSE, today's reason and "truncated file"): more */
+/* than MLR_BVH_MAX_MISSING_FRAMES frames missing, or fewer frames than declared and the    */
+/* last line incomplete or without a line end. With MLR_BVH_OPT_KEEP_TRUNCATED it gives    */
+/* the complete frames instead, MLR_BVH_WARN_TRUNCATED. A malformed frame line followed by  */
+/* more lines is an error in every mode, and so is anything wrong before the frames.        */
+
+/** Option keys of mlr_bvh_read_memory_opts / mlr_bvh_read_file_opts (value 0 or 1 for the
+ *  switches). Values pinned; new options get new values. */
+typedef enum mlr_bvh_read_key {
+    MLR_BVH_OPT_STRICT = 1,          /* 1: every deviation is an error, as mlr_bvh_read_memory;
+                                        default 0 (lenient, with warnings) */
+    MLR_BVH_OPT_KEEP_TRUNCATED = 2   /* 1: a truncated file gives its complete frames (with a
+                                        warning); default 0 (an error). Ignored when strict. */
+} mlr_bvh_read_key;
+
+/** One option: key (an mlr_bvh_read_key) and its value. A frozen value type. */
+typedef struct mlr_bvh_read_option {
+    int key;
+    double value;
+} mlr_bvh_read_option;
+
+/** Warning codes. Values pinned. */
+typedef enum mlr_bvh_warning_code {
+    MLR_BVH_WARN_EXTRA_FRAMES = 1,     /* more frame lines than Frames: declares; all read */
+    MLR_BVH_WARN_MISSING_FRAMES = 2,   /* a few fewer; the frames present read */
+    MLR_BVH_WARN_TRAILING_DATA = 3,    /* data after the frames, ignored */
+    MLR_BVH_WARN_NO_FINAL_NEWLINE = 4, /* the last frame line has no line end */
+    MLR_BVH_WARN_TRUNCATED = 5         /* KEEP_TRUNCATED: the complete frames of a cut file */
+} mlr_bvh_warning_code;
+
+/** Most frames that may be missing against "Frames:" without making the file truncated. */
+#define MLR_BVH_MAX_MISSING_FRAMES 3
+/** Warnings kept in an mlr_bvh_warnings (more are counted). */
+#define MLR_BVH_WARNINGS_KEPT 8
+
+/** One warning: its code, the 1-based line and column it refers to (column 0 for a whole
+ *  line) and the reason, NUL-terminated. A frozen value type. */
+typedef struct mlr_bvh_warning {
+    int32_t code;
+    size_t line, column;
+    char message[160];
+} mlr_bvh_warning;
+
+/** The warnings of one read, in the order of the lines. A frozen value type. */
+typedef struct mlr_bvh_warnings {
+    size_t count;                                   /* warnings issued */
+    mlr_bvh_warning first[MLR_BVH_WARNINGS_KEPT];   /* the first min(count, KEPT) */
+} mlr_bvh_warnings;
+
+/**
+ * Parse BVH text from memory with options (see above): lenient by default.
+ * @param text, len, n_threads, alloc, out  as mlr_bvh_read_memory_mt (n_threads 1 for the
+ *                  calling thread only, 0 automatic); frames are bit-identical for every count
+ * @param opts      [in] n_opts options; NULL when n_opts is 0. A key may appear once.
+ * @param warnings  [out] optional: set on every return (count 0 on errors and clean files)
+ * @param diag      [out] optional: as mlr_bvh_read_memory; on MLR_E_INVALID_ARG the bad option
+ * @return MLR_OK (possibly with warnings); MLR_E_PARSE; MLR_E_NO_MEMORY; MLR_E_OVERFLOW;
+ *         MLR_E_INVALID_ARG (as mlr_bvh_read_memory; an unknown or repeated key, a switch not
+ *         0 or 1)
+ * Allocates: as mlr_bvh_read_memory_mt; a file with extra or missing frames is copied once
+ * into a motion of the right size. Threads: as mlr_bvh_read_memory_mt.
+ */
+MLR_API mlr_status mlr_bvh_read_memory_opts(const char *text, size_t len, size_t n_threads,
+                                            const mlr_bvh_read_option *opts, size_t n_opts,
+                                            const mlr_allocator *alloc, mlr_motion **out,
+                                            mlr_bvh_warnings *warnings, mlr_diag *diag);
+
+/**
+ * mlr_bvh_read_file_mt with options and warnings (as mlr_bvh_read_memory_opts).
+ * @return as mlr_bvh_read_memory_opts, plus MLR_E_IO (as mlr_bvh_read_file)
+ */
+MLR_API mlr_status mlr_bvh_read_file_opts(const char *path, size_t n_threads,
+                                          const mlr_bvh_read_option *opts, size_t n_opts,
+                                          const mlr_allocator *alloc, mlr_motion **out,
+                                          mlr_bvh_warnings *warnings, mlr_diag *diag);
+
+/* ---------------------------------------------------------------------------------------- */
 /* Writing                                                                                  */
 
 /**
@@ -153,118 +237,6 @@ MLR_API mlr_status mlr_bvh_write_memory(const mlr_motion *motion, char *buf, siz
  */
 MLR_API mlr_status mlr_bvh_write_file(const mlr_motion *motion, const char *path,
                                       mlr_diag *diag);
-
-/* ---------------------------------------------------------------------------------------- */
-/* Building a motion from arrays                                                            */
-
-/**
- * Create a motion from a skeleton; its frames start as the rest pose (identity rotations,
- * root_pos and trans equal to the OFFSETs). Fill them through mlr_motion_root_pos_mut,
- * mlr_motion_rot_mut and mlr_motion_trans_mut.
- * @param n_joints    [in] J >= 1
- * @param names       [in] J NUL-terminated names: not empty, no control characters except
- *                    tabs, no braces, no leading or trailing blanks; copied
- * @param parents     [in] J parent indices: parents[0] == -1, and the joints in depth-first
- *                    order (each parents[j] is j-1 or one of j-1's ancestors)
- * @param offsets     [in] J x 3 OFFSETs, finite
- * @param channels    [in] J channel lists as on a CHANNELS line without the count, e.g.
- *                    "Xposition Yposition Zposition Zrotation Xrotation Yrotation" (any case,
- *                    any order, each kind at most once; "" for none); or NULL for the common
- *                    layout: the root "Xposition Yposition Zposition Zrotation Yrotation
- *                    Xrotation", the others "Zrotation Yrotation Xrotation"
- * @param n_end_sites [in] number of End Sites E
- * @param end_parents [in] E joint indices, non-decreasing (an End Site is written right
- *                    after its joint's CHANNELS line)
- * @param end_offsets [in] E x 3 End Site OFFSETs, finite
- * @param n_frames    [in] N (0 allowed)
- * @param frame_time  [in] seconds per frame, finite and > 0
- * @param alloc       [in] allocator, copied; NULL for malloc/free
- * @param out         [out] new motion, or NULL on failure
- * @param diag        [out] optional: which argument is wrong, on MLR_E_INVALID_ARG (line 0)
- * @return MLR_OK; MLR_E_INVALID_ARG; MLR_E_NO_MEMORY; MLR_E_OVERFLOW
- * Allocates: yes. Threads: any.
- */
-MLR_API mlr_status mlr_motion_create(size_t n_joints, const char *const *names,
-                                     const int32_t *parents, const double *offsets,
-                                     const char *const *channels, size_t n_end_sites,
-                                     const int32_t *end_parents, const double *end_offsets,
-                                     size_t n_frames, double frame_time,
-                                     const mlr_allocator *alloc, mlr_motion **out,
-                                     mlr_diag *diag);
-
-/**
- * Deep copy of frames [begin, begin + count) of a motion (the skeleton is copied whole).
- * @return MLR_OK; MLR_E_INVALID_ARG (out of range, NULL); MLR_E_NO_MEMORY
- * Allocates: yes, with the allocator of src. Threads: src is only read.
- */
-MLR_API mlr_status mlr_motion_copy_frames(const mlr_motion *src, size_t begin, size_t count,
-                                          mlr_motion **out);
-
-/** Release a motion. NULL is a no-op. */
-MLR_API void mlr_motion_destroy(mlr_motion *motion);
-
-/* ---------------------------------------------------------------------------------------- */
-/* Accessors. None allocates or fails; out-of-range indices give 0, NULL or -1 as stated.    */
-/* Returned pointers live as long as the motion.                                            */
-
-MLR_API size_t mlr_motion_n_joints(const mlr_motion *motion);
-MLR_API size_t mlr_motion_n_frames(const mlr_motion *motion);
-/** Total number of channels (values per frame line). */
-MLR_API size_t mlr_motion_n_channels(const mlr_motion *motion);
-/** Seconds per frame ("Frame Time:"). */
-MLR_API double mlr_motion_frame_time(const mlr_motion *motion);
-/** Set the frame time. @return MLR_OK; MLR_E_INVALID_ARG (not finite or <= 0) */
-MLR_API mlr_status mlr_motion_set_frame_time(mlr_motion *motion, double frame_time);
-
-/** Name of joint j, NUL-terminated; NULL when j >= J. */
-MLR_API const char *mlr_motion_joint_name(const mlr_motion *motion, size_t j);
-/** J parent indices, -1 for the root. */
-MLR_API const int32_t *mlr_motion_parents(const mlr_motion *motion);
-/** J x 3 OFFSETs. */
-MLR_API const double *mlr_motion_offsets(const mlr_motion *motion);
-
-/** Number of channels of joint j (0..6; 0 when j >= J). */
-MLR_API size_t mlr_motion_joint_n_channels(const mlr_motion *motion, size_t j);
-/** Channel j's kinds in file order into codes (room for 6); returns their number. */
-MLR_API size_t mlr_motion_joint_channel_codes(const mlr_motion *motion, size_t j,
-                                              unsigned char *codes);
-/** Channel list of joint j as on a CHANNELS line without the count, "" for none, NULL when
- *  j >= J. */
-MLR_API const char *mlr_motion_joint_channels(const mlr_motion *motion, size_t j);
-/** 1 when joint j has at least one position channel, else 0. */
-MLR_API int mlr_motion_joint_has_position(const mlr_motion *motion, size_t j);
-/** Euler order of joint j's rotation channels (completed as described at the top). */
-MLR_API mlr_euler_order mlr_motion_joint_euler_order(const mlr_motion *motion, size_t j);
-
-/** All J joint names at once: each followed by a NUL, in joint order, into buf when cap is at
- *  least the size returned (nothing is written otherwise; buf may then be NULL).
- *  @return the bytes the names take with their NULs (0 for NULL) */
-MLR_API size_t mlr_motion_joint_names_packed(const mlr_motion *motion, char *buf, size_t cap);
-/** All J channel lists at once (as mlr_motion_joint_channels), as mlr_motion_joint_names_packed
- *  does for the names. */
-MLR_API size_t mlr_motion_joint_channels_packed(const mlr_motion *motion, char *buf,
-                                                size_t cap);
-/** The J Euler orders (as mlr_motion_joint_euler_order) into out (room for J).
- *  @return J (0 for NULL) */
-MLR_API size_t mlr_motion_joint_euler_orders(const mlr_motion *motion, int32_t *out);
-
-/** End Sites: E, their parent joints (sorted) and E x 3 OFFSETs. */
-MLR_API size_t mlr_motion_n_end_sites(const mlr_motion *motion);
-MLR_API const int32_t *mlr_motion_end_site_parents(const mlr_motion *motion);
-MLR_API const double *mlr_motion_end_site_offsets(const mlr_motion *motion);
-
-/** Root translation, N x 3 (NULL when N == 0). The _mut form allows changing the values. */
-MLR_API const double *mlr_motion_root_pos(const mlr_motion *motion);
-MLR_API double *mlr_motion_root_pos_mut(mlr_motion *motion);
-/** Local rotations, N x J x 4 scalar-first quaternions (NULL when N == 0). */
-MLR_API const double *mlr_motion_rot(const mlr_motion *motion);
-MLR_API double *mlr_motion_rot_mut(mlr_motion *motion);
-/** P, the number of non-root joints with position channels, and those joints (increasing). */
-MLR_API size_t mlr_motion_n_trans(const mlr_motion *motion);
-MLR_API const int32_t *mlr_motion_trans_joints(const mlr_motion *motion);
-/** Their local translations, N x P x 3 (NULL when N == 0 or P == 0). */
-MLR_API const double *mlr_motion_trans(const mlr_motion *motion);
-MLR_API double *mlr_motion_trans_mut(mlr_motion *motion);
 
 #ifdef __cplusplus
 }

@@ -7,8 +7,13 @@
  * t[i] of an output grid of n_out frames; t is a time map:
  * - strictly increasing, finite, t[0] == 0 and t[N-1] == n_out - 1 exactly (boundary frames stay
  *   put);
- * - uniform (t == NULL: t[i] = i (n_out-1)/(N-1)) for a change of frame rate or frame count;
- *   any such monotone map for a time warp.
+ * - uniform (t == NULL: t[i] = i (n_out-1)/(N-1)) for a change of frame count that keeps the
+ *   duration; any such monotone map for a time warp;
+ * - with MLR_RESAMPLE_OPEN_END, the last position may lie up to one output frame after the last
+ *   output frame, n_out - 1 <= t[N-1] < n_out: the exact grid of a change of frame rate
+ *   (mlr_resample_rate_map), where output frame k is at time k / fps_out after the input's first
+ *   frame and the output ends at the last such time within the input (the LGS then solves one
+ *   hidden frame more, at n_out, which is not returned).
  * The ratio of the frame counts, (n_out-1)/(N-1), and every local step t[i+1]-t[i] must lie in
  * [1/100, 100] unless MLR_RESAMPLE_ALLOW_EXTREME is given (an absurd factor is usually a unit
  * mistake, e.g. a frame time passed as a frame rate).
@@ -20,7 +25,7 @@
  * renormalized after.
  *
  * Automatic smoothness (lam < 0): only s = lam^2 sigma^2 changes the mean. With r =
- * (n_out-1)/(N-1) output frames per input frame, the order-2 LGS behaves as a low-pass filter of
+ * t[N-1]/(N-1) output frames per input frame ((n_out-1)/(N-1) for the uniform map), the order-2 LGS behaves as a low-pass filter of
  * gain about 1 / (1 + (w / w_c)^4) with w_c^4 = 1 / (s r) (w in radians per output frame).
  * mlayer takes
  *     s = max(MLR_RESAMPLE_KAPPA_UP * r^3, MLR_RESAMPLE_KAPPA_DOWN / r):
@@ -58,17 +63,22 @@ extern "C" {
 /** Flags of the resampling functions (bitwise or). Values pinned. */
 enum {
     MLR_RESAMPLE_ALLOW_EXTREME = 1u, /* accept factors beyond MLR_RESAMPLE_MAX_FACTOR */
-    MLR_RESAMPLE_NEAREST_SIGN = 2u   /* nearest-sign continuity only (no prediction) */
+    MLR_RESAMPLE_NEAREST_SIGN = 2u,  /* nearest-sign continuity only (no prediction) */
+    MLR_RESAMPLE_OPEN_END = 4u       /* t[N-1] may lie in [n_out - 1, n_out) (see the top) */
 };
 
 /**
  * Number of output frames for a change of frame rate: round((N-1) fps_out / fps_in) + 1, at
  * least 2. With the uniform map the first and last frames are kept, so the duration changes by
- * less than half an output frame (the exact rate fps_out is kept in the file header).
+ * less than half an output frame (the exact rate fps_out is kept in the file header) and the
+ * output frames are not exactly 1 / fps_out apart. With MLR_RESAMPLE_OPEN_END, the count of the
+ * exact grid instead: floor((N-1) fps_out / fps_in) + 1 (a value within 1e-9 below an integer
+ * counts as that integer), as mlr_resample_rate_map gives it; MLR_E_INVALID_ARG when that is
+ * below 2 (the input lasts less than one output frame).
  * @param n_frames [in] N >= 2
  * @param fps_in   [in] frames per second of the input, finite, > 0
  * @param fps_out  [in] wanted frames per second, finite, > 0
- * @param flags    [in] MLR_RESAMPLE_ALLOW_EXTREME or 0
+ * @param flags    [in] MLR_RESAMPLE_ALLOW_EXTREME, MLR_RESAMPLE_OPEN_END or 0
  * @param n_out    [out] output frame count
  * @param diag     [out] optional: the reason of an error
  * @return MLR_OK; MLR_E_INVALID_ARG (N < 2, fps not finite or <= 0, factor beyond 100 without
@@ -79,11 +89,34 @@ MLR_API mlr_status mlr_resample_n_out(size_t n_frames, double fps_in, double fps
                                       unsigned flags, size_t *n_out, mlr_diag *diag);
 
 /**
+ * The exact time map of a change of frame rate: t[i] = i fps_out / fps_in, input frame i at its
+ * own time on the output grid, so output frame k lies at time k / fps_out after the input's
+ * first frame; n_out as mlr_resample_n_out with MLR_RESAMPLE_OPEN_END (the last output frame
+ * is the last grid time within the input; when t[N-1] lies within 1e-9 below n_out - 1 it is
+ * set to n_out - 1). Pass t, n_out and MLR_RESAMPLE_OPEN_END to mlr_resample_arrays or
+ * mlr_slerp_resample_arrays. Two cuts of one clip that start on the same frame get the same
+ * output frames at the same times, whatever their lengths.
+ * @param n_frames [in] N >= 2
+ * @param fps_in   [in] frames per second of the input, finite, > 0
+ * @param fps_out  [in] wanted frames per second, finite, > 0
+ * @param flags    [in] MLR_RESAMPLE_ALLOW_EXTREME, MLR_RESAMPLE_OPEN_END (implied) or 0
+ * @param t        [out] N positions
+ * @param n_out    [out] output frame count
+ * @param diag     [out] optional: the reason of an error
+ * @return MLR_OK; MLR_E_INVALID_ARG (as mlr_resample_n_out, NULL t or n_out; an input shorter
+ *         than one output frame); MLR_E_OVERFLOW
+ * Allocates: never. Threads: any.
+ */
+MLR_API mlr_status mlr_resample_rate_map(size_t n_frames, double fps_in, double fps_out,
+                                         unsigned flags, double *t, size_t *n_out,
+                                         mlr_diag *diag);
+
+/**
  * Check a time map as described at the top of this header.
  * @param t        [in] N positions
  * @param n_frames [in] N >= 2
  * @param n_out    [in] output frames >= 2
- * @param flags    [in] MLR_RESAMPLE_ALLOW_EXTREME or 0
+ * @param flags    [in] MLR_RESAMPLE_ALLOW_EXTREME, MLR_RESAMPLE_OPEN_END or 0
  * @return MLR_OK; MLR_E_INVALID_ARG with the first offending index in diag
  * Allocates: never. Threads: any.
  */
@@ -109,14 +142,16 @@ MLR_API double mlr_resample_auto_smoothness(size_t n_frames, size_t n_out);
  *                  the automatic rule (lam = sqrt(s) / sigma)
  * @param sigma     [in] observation noise, finite, > 0: scales var_out only (the mean depends
  *                  on lam^2 sigma^2); 1 gives the variance relative to one observation's
- * @param flags     [in] MLR_RESAMPLE_ALLOW_EXTREME, MLR_RESAMPLE_NEAREST_SIGN
+ * @param flags     [in] MLR_RESAMPLE_ALLOW_EXTREME, MLR_RESAMPLE_NEAREST_SIGN,
+ *                  MLR_RESAMPLE_OPEN_END (with a time map t)
  * @param root_out  [out] n_out x 3
  * @param rot_out   [out] n_out x J x 4 unit quaternions (NULL when J == 0)
  * @param trans_out [out] n_out x P x 3 (NULL when P == 0)
  * @param var_out   [out] optional n_out posterior variances (the same for every channel), or
  *                  NULL; grows where the observations are sparse
  * @param alloc     [in] allocator for the LGS and a sign-continuous copy of rot (N x J x 4
- *                  doubles); NULL for malloc/free
+ *                  doubles), with an open end also (n_out + 1) x (4 J + 3 P + 4) doubles for
+ *                  the solve on the grid with the hidden frame; NULL for malloc/free
  * @param diag      [out] optional: the reason of an error
  * @return MLR_OK; MLR_W_ILL_CONDITIONED (result usable); MLR_E_INVALID_ARG (bad counts, NULL
  *         arrays, bad time map or factor, bad lam/sigma, non-finite input, zero quaternion;

@@ -121,6 +121,50 @@ MLR_API mlr_status mlr_rig_body_translation_joint(const mlr_rig *rig, size_t n_f
                                                   const double *root_pos, const double *trans,
                                                   int32_t *joint, mlr_diag *diag);
 
+/** How mlr_rig_up_axis decided (pinned values). */
+typedef enum mlr_up_method {
+    MLR_UP_NONE = 0,  /**< nothing to go by (no frames, a flat skeleton): Y, confidence 0 */
+    MLR_UP_FEET = 1,  /**< the feet (joints named foot, ankle, toe, paw or hoof) hang below
+                           their hips: up is opposite their mean offset from them */
+    MLR_UP_FLOOR = 2  /**< no foot names: the side along which the lowest joint stays at one
+                           height (the floor) while the other sides move */
+} mlr_up_method;
+
+/** The answer of mlr_rig_up_axis. */
+typedef struct mlr_up_guess {
+    int axis;          /**< an mlr_axis */
+    int sign;          /**< +1: up is +axis; -1: up is -axis (the file stands upside down) */
+    double confidence; /**< 0..1; MLR_RIG_UP_SURE or more: trust it */
+    int method;        /**< an mlr_up_method */
+} mlr_up_guess;
+
+/** Confidence from which mlr_rig_up_axis's guess is taken rather than reported as unsure. */
+#define MLR_RIG_UP_SURE 0.8
+
+/**
+ * The up axis of a motion, from its world positions (Y-up, Z-up and X-up files alike).
+ *  - With feet by name: d, the sum over frames and feet of the foot's offset from the joint
+ *    its leg hangs from (its grandparent: ankle, knee, hip; a leg of a biped or a quadruped,
+ *    whatever the torso does), points down; the axis is d's largest component, up its
+ *    opposite sign; confidence is that component over |d| (1: straight down the axis; 0.58:
+ *    along a diagonal).
+ *  - Without: for each axis and side, the spread over frames (5% to 95% quantile) of the
+ *    lowest (or highest) joint along it, over the body's median extent along it; the floor is
+ *    the side with the smallest spread; confidence 1 - smallest / smallest of the other axes.
+ * @param rig        [in] a valid rig (names used when present)
+ * @param n_frames   [in] N
+ * @param world_pos  [in] N x J x 3 (mlr_fk_arrays)
+ * @param out        [out] the guess; Y with confidence 0 and MLR_UP_NONE when N is 0 or the
+ *                   positions have no extent
+ * @param alloc      [in] for scratch (3 N doubles, without feet names); NULL: malloc/free
+ * @return MLR_OK; MLR_E_INVALID_ARG (NULL arguments, an invalid rig, non-finite positions:
+ *         reason in diag); MLR_E_NO_MEMORY
+ * Allocates: scratch only, released before return. Cost O(N J). Threads: any.
+ */
+MLR_API mlr_status mlr_rig_up_axis(const mlr_rig *rig, size_t n_frames, const double *world_pos,
+                                   mlr_up_guess *out, const mlr_allocator *alloc,
+                                   mlr_diag *diag);
+
 #ifdef __cplusplus
 }
 #endif

@@ -4,6 +4,7 @@
 # Builds with clang in build-fuzz/ (override with MLR_FUZZ_BUILD), takes the clips from
 # ../shared/data/mocap (override with MLR_TEST_MOCAP_DIR) and copies them, plus short versions
 # of them (first frames only), into a temporary corpus; nothing is copied into the repository.
+# The mutations use the BVH keyword dictionary tests/fuzz/bvh.dict (libFuzzer's -dict=).
 # A crash leaves its input as crash-* in the current directory and makes the script fail.
 set -euo pipefail
 secs="${1:-60}"
@@ -38,4 +39,4 @@ for f in "$mocap"/*.bvh; do
 done
 echo "fuzzing for ${secs}s with $(ls "$corpus" | wc -l) seeds"
 "$build/tests/fuzz/fuzz_bvh" -max_total_time="$secs" -max_len=131072 -timeout=10 \
-  -rss_limit_mb=2048 -print_final_stats=1 "$corpus"
+  -rss_limit_mb=2048 -print_final_stats=1 -dict="$root/tests/fuzz/bvh.dict" "$corpus"

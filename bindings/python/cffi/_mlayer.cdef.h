@@ -327,6 +327,24 @@ mlr_status mlr_rig_body_height(size_t n_frames, size_t n_joints, const double *w
 mlr_status mlr_rig_body_translation_joint(const mlr_rig *rig, size_t n_frames,
                                           const double *root_pos, const double *trans,
                                           int32_t *joint, mlr_diag *diag);
+typedef struct mlr_up_guess {
+    int axis;
+    int sign;
+    double confidence;
+    int method;
+} mlr_up_guess;
+mlr_status mlr_rig_up_axis(const mlr_rig *rig, size_t n_frames, const double *world_pos,
+                           mlr_up_guess *out, const mlr_allocator *alloc, mlr_diag *diag);
+
+/* mlr_trim.h */
+typedef struct mlr_trim_lead {
+    size_t n_frames;
+    size_t n_held;
+    double distance;
+} mlr_trim_lead;
+mlr_status mlr_trim_lead_in(const mlr_rig *rig, size_t n_frames, const double *root_pos,
+                            const double *rot, const double *trans, int up, mlr_trim_lead *out,
+                            const mlr_allocator *alloc, mlr_diag *diag);
 
 /* mlr_contacts.h */
 mlr_status mlr_contacts_find_feet(const mlr_rig *rig, size_t n_frames, const double *world_pos,
@@ -507,6 +525,39 @@ mlr_status mlr_guards_apply(const mlr_guards *g, const double *alpha, size_t n_a
                             const double *trans, size_t *limited, size_t n_limited,
                             mlr_guards_report *report, mlr_diag *diag);
 void mlr_guards_destroy(mlr_guards *g);
+
+/* Exact retiming (issue 20, MLAYER_0.11). */
+enum { MLR_RESAMPLE_OPEN_END = 4 };
+mlr_status mlr_resample_rate_map(size_t n_frames, double fps_in, double fps_out,
+                                 unsigned flags, double *t, size_t *n_out, mlr_diag *diag);
+
+/* Lenient BVH reading with warnings (issue 20, MLAYER_0.11). */
+typedef enum mlr_bvh_read_key {
+    MLR_BVH_OPT_STRICT = 1, MLR_BVH_OPT_KEEP_TRUNCATED = 2
+} mlr_bvh_read_key;
+typedef struct mlr_bvh_read_option { int key; double value; } mlr_bvh_read_option;
+typedef enum mlr_bvh_warning_code {
+    MLR_BVH_WARN_EXTRA_FRAMES = 1, MLR_BVH_WARN_MISSING_FRAMES = 2,
+    MLR_BVH_WARN_TRAILING_DATA = 3, MLR_BVH_WARN_NO_FINAL_NEWLINE = 4,
+    MLR_BVH_WARN_TRUNCATED = 5
+} mlr_bvh_warning_code;
+typedef struct mlr_bvh_warning {
+    int32_t code;
+    size_t line, column;
+    char message[160];
+} mlr_bvh_warning;
+typedef struct mlr_bvh_warnings {
+    size_t count;
+    mlr_bvh_warning first[8];
+} mlr_bvh_warnings;
+mlr_status mlr_bvh_read_memory_opts(const char *text, size_t len, size_t n_threads,
+                                    const mlr_bvh_read_option *opts, size_t n_opts,
+                                    const mlr_allocator *alloc, mlr_motion **out,
+                                    mlr_bvh_warnings *warnings, mlr_diag *diag);
+mlr_status mlr_bvh_read_file_opts(const char *path, size_t n_threads,
+                                  const mlr_bvh_read_option *opts, size_t n_opts,
+                                  const mlr_allocator *alloc, mlr_motion **out,
+                                  mlr_bvh_warnings *warnings, mlr_diag *diag);
 
 /* Robust layers (issue 20) */
 mlr_status mlr_layers_get_outliers(const mlr_layers *layers, unsigned char *out, size_t count);

@@ -10,6 +10,7 @@ from importlib.metadata import PackageNotFoundError, version as _dist_version
 from ._native import ffi as _ffi, lib as _lib
 from .errors import (Error, InvalidArgumentError, MlayerIOError, MlayerWarning, ParseError,
                      SingularMatrixError, UnsupportedError)
+from .errors import ParseWarning
 from . import quat
 from .lgs import LGS, have_cholmod, lgs
 from .motion import Motion, Skeleton
@@ -22,6 +23,8 @@ from .resample import (resample, slerp_resample, timewarp, timewarp_map, timewar
 from . import data
 from .layers import Layers, decompose
 from .pipeline import GuardReport, Synthesis, denoise, stylize
+from .up_axis import UpGuess, detect_up
+from .trimming import LeadIn, lead_in, trim
 from .limits import JointLimits, joint_limits
 from .kmeans import KMeansResult, elbow, kmeans
 from .som import SOM
@@ -51,3 +54,5 @@ __all__ = ["__version__", "library_version", "Error", "InvalidArgumentError", "P
            "fix_contacts", "resample", "slerp_resample", "timewarp", "timewarp_map",
            "timewarp_speed", "kmeans", "KMeansResult", "elbow", "SOM", "pose_features", "batch",
            "PCA", "GRBF", "fuzzy_cmeans", "GaussianMixture", "Markov", "PrimitiveModel"]
+__all__ += ["ParseWarning", "UpGuess", "detect_up"]
+__all__ += ["LeadIn", "lead_in", "trim"]

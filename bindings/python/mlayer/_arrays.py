@@ -43,9 +43,16 @@ def check_out(arr: np.ndarray, name: str, shape: tuple[int, ...]) -> np.ndarray:
     return arr
 
 
+def _c_layout(arr) -> None:
+    # a real check, not an assert: ffi.from_buffer would reinterpret another dtype's bytes
+    if not isinstance(arr, np.ndarray) or arr.dtype != np.float64 or not arr.flags.c_contiguous:
+        raise TypeError("mlayer internal: a C pointer needs a C-contiguous float64 array, got "
+                        f"{getattr(arr, 'dtype', type(arr).__name__)}")
+
+
 def ptr(arr: np.ndarray, ctype: str = "double *"):
     """A C pointer into a checked float64 C-contiguous array (the array must stay referenced)."""
-    assert arr.dtype == np.float64 and arr.flags.c_contiguous
+    _c_layout(arr)
     if arr.size == 0:
         return ffi.NULL
     return ffi.cast(ctype, ffi.from_buffer(arr))
@@ -53,7 +60,7 @@ def ptr(arr: np.ndarray, ctype: str = "double *"):
 
 def ptr_out(arr: np.ndarray, ctype: str = "double *"):
     """Like ptr, for an output array (refuses read-only buffers)."""
-    assert arr.dtype == np.float64 and arr.flags.c_contiguous
+    _c_layout(arr)
     if arr.size == 0:
         return ffi.NULL
     return ffi.cast(ctype, ffi.from_buffer(arr, require_writable=True))
@@ -73,3 +80,29 @@ def finite(v, name: str) -> float:
     if not math.isfinite(f):
         raise InvalidArgumentError(f"{name} must be finite, got {v!r}")
     return f
+
+
+def available_memory() -> int | None:
+    """Bytes of memory available to a new allocation (MemAvailable of /proc/meminfo, else the
+    free physical pages), None when the system does not say."""
+    try:
+        with open("/proc/meminfo", "rb") as f:
+            for line in f:
+                if line.startswith(b"MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        import os
+        return int(os.sysconf("SC_AVPHYS_PAGES")) * int(os.sysconf("SC_PAGE_SIZE"))
+    except (AttributeError, OSError, ValueError):
+        return None
+
+
+def check_memory(n_bytes: float, what: str) -> None:
+    """MemoryError naming ``what`` (the argument that sets the size) when an allocation of
+    n_bytes would not fit in the memory available now; call it before allocating."""
+    avail = available_memory()
+    if avail is not None and n_bytes > avail:
+        raise MemoryError(f"{what} needs about {n_bytes / 2**30:.3g} GiB, more than the "
+                          f"{avail / 2**30:.3g} GiB of memory available; use a smaller value")

@@ -8,6 +8,25 @@ from __future__ import annotations
 import contextlib
 import os
 import tempfile
+import threading
+
+_UMASK_LOCK = threading.Lock()
+
+
+def umask() -> int:
+    """The process's umask, without changing it for other threads where the system says it
+    (Linux: /proc/self/status); else by setting and restoring it under a lock."""
+    try:
+        with open("/proc/self/status", encoding="ascii") as f:
+            for line in f:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError, IndexError):
+        pass
+    with _UMASK_LOCK:
+        mask = os.umask(0o022)
+        os.umask(mask)
+    return mask
 
 
 @contextlib.contextmanager
@@ -18,6 +37,10 @@ def atomic_output(path, suffix: str | None = None):
     temporary file replaces ``path`` (``os.replace``, atomic on POSIX). ``suffix`` is the
     temporary file's extension (default: the target's), for writers that pick the format by
     extension (matplotlib, Pillow, numpy).
+
+    The file gets the mode a plain ``open`` would give it (0666 less the umask: 0644 under
+    umask 022), not the 0600 of ``mkstemp``, so outputs written this way read like the BVH
+    files the C writer creates.
     """
     path = os.fspath(path)
     directory = os.path.dirname(os.path.abspath(path))
@@ -28,6 +51,7 @@ def atomic_output(path, suffix: str | None = None):
     os.close(fd)
     try:
         yield tmp
+        os.chmod(tmp, 0o666 & ~umask())
         os.replace(tmp, path)
     except BaseException:
         with contextlib.suppress(OSError):

@@ -32,6 +32,12 @@ def c_rig(skeleton):
     return r, (names, cnames, parents, offsets, trans, ends, end_off)
 
 
+def motion_axis(motion, up, where: str) -> int:
+    """The up axis argument ``up`` as 0..2; None: the motion's own (:attr:`Motion.up_axis`,
+    given when it was read or detected)."""
+    return axis(motion.up_axis if up is None else up, where)
+
+
 def axis(up, where: str) -> int:
     """An up axis given as "x", "y", "z" (any case) or 0, 1, 2."""
     if isinstance(up, str) and up.lower() in ("x", "y", "z"):

@@ -10,7 +10,8 @@ paths and records travel through the scheduler; the clips are read and written b
 so with a remote cluster the input and output folders must be visible to every worker under
 the same paths (a shared file system), and the workers need mlayer installed.
 
-Without ``scheduler``, an embedded ``dask.distributed.LocalCluster`` is started on loopback,
+Without ``scheduler``, an embedded ``dask.distributed.LocalCluster`` is started on loopback
+(mutual TLS with temporary credentials: no other process can submit work to it),
 one single-threaded worker process per CPU (``n_workers`` to change it), and closed at the end.
 
 Nothing is lost:
@@ -58,6 +59,9 @@ __all__ = ["batch", "BatchResult", "Operation", "register_operation", "operation
 SIDECAR_DIR = ".mlayer-batch"
 
 STATUS_OK, STATUS_SKIPPED, STATUS_FAILED = "ok", "skipped", "failed"
+#: records of symbolic links that were not read as clips (links to folders, dangling links);
+#: the record's error field says which and whether it was followed
+STATUS_LINK = "link"
 
 #: report columns, in order
 FIELDS = ("input", "output", "variant", "status", "error", "frames", "frames_out", "fps",
@@ -250,28 +254,92 @@ def _is_bvh(p: pathlib.Path) -> bool:
     return p.suffix.lower() == ".bvh" and p.is_file()
 
 
-def find_inputs(inputs) -> list[tuple[pathlib.Path, pathlib.PurePath]]:
+def _under(path, folder) -> bool:
+    """Whether path (resolved) is folder (resolved) or inside it."""
+    if folder is None:
+        return False
+    p, f = os.path.realpath(path), os.path.realpath(folder)
+    return p == f or p.startswith(f.rstrip(os.sep) + os.sep)
+
+
+def _walk(folder: pathlib.Path, exclude, links):
+    """The .bvh files below folder (hidden parts and `exclude` left out). Symbolic links to
+    folders are not followed (a link may lead out of the tree or back into it) and dangling
+    links cannot be read: both are appended to ``links`` as (path, note)."""
+    if _under(folder, exclude):
+        exclude = None  # the output folder is this folder (or holds it): the overwrite check
+    out = []
+    for f in sorted(folder.rglob("*")):
+        rel = f.relative_to(folder)
+        if any(part.startswith(".") for part in rel.parts) or _under(f, exclude):
+            continue
+        if f.is_symlink():
+            if not f.exists():
+                links.append((f, "dangling link (its target does not exist): skipped"))
+                continue
+            if f.is_dir():
+                links.append((f, "link to a folder: not followed, its clips are skipped"))
+                continue
+        if _is_bvh(f):
+            out.append((f, rel))
+    return out
+
+
+def _glob(pattern: str, exclude, links):
+    """The .bvh files matching a glob, relative to its fixed prefix. Python's glob follows
+    links to folders ("**" included): each one crossed is noted in ``links``, as are dangling
+    links that match."""
+    root = pathlib.Path(pattern)
+    while glob.has_magic(str(root)):
+        root = root.parent
+    if _under(root, exclude):
+        exclude = None
+    out, crossed = [], set()
+    for name in sorted(glob.glob(pattern, recursive=True)):
+        f = pathlib.Path(name)
+        if _under(f, exclude):
+            continue
+        if f.is_symlink() and not f.exists():
+            links.append((f, "dangling link (its target does not exist): skipped"))
+            continue
+        if not _is_bvh(f):
+            continue
+        rel = f.relative_to(root)
+        for k in range(1, len(rel.parts)):
+            d = root.joinpath(*rel.parts[:k])
+            if d.is_symlink() and d not in crossed:
+                crossed.add(d)
+                links.append((d, "link to a folder: followed (the glob reaches its clips)"))
+        out.append((f, rel))
+    return out
+
+
+def find_inputs(inputs, *, exclude=None, links=None) -> list[tuple[pathlib.Path, pathlib.PurePath]]:
     """(input path, output path relative to OUT_DIR without extension) for every clip: a
     folder (every .bvh below it, sub-folders kept), a glob pattern ("**" recurses; paths
     relative to the pattern's fixed prefix), a file, or a list of these. Sorted, no
-    duplicates."""
+    duplicates.
+
+    exclude: a folder whose files are never inputs (batch passes its output folder, so an
+    output folder inside the input folder can be resumed). links: a list that receives
+    (path, note) for each symbolic link that was not simply read: links to folders (not
+    followed in a folder walk; followed by a glob, as Python's glob does) and dangling links
+    (skipped). Links to files are read as clips (each link a clip of its own)."""
     if isinstance(inputs, (str, os.PathLike)):
         inputs = [inputs]
+    links = [] if links is None else links
     found: dict[pathlib.Path, pathlib.PurePath] = {}
     for item in inputs:
         s = os.fspath(item)
         p = pathlib.Path(s)
         if p.is_dir():
-            pairs = [(f, f.relative_to(p)) for f in sorted(p.rglob("*")) if _is_bvh(f)
-                     and not any(part.startswith(".") for part in f.relative_to(p).parts)]
+            pairs = _walk(p, exclude, links)
         elif glob.has_magic(s):
-            root = pathlib.Path(s)
-            while glob.has_magic(str(root)):
-                root = root.parent
-            pairs = [(pathlib.Path(f), pathlib.Path(f).relative_to(root))
-                     for f in sorted(glob.glob(s, recursive=True)) if _is_bvh(pathlib.Path(f))]
+            pairs = _glob(s, exclude, links)
         elif p.is_file():
             pairs = [(p, pathlib.PurePath(p.name))]
+        elif p.is_symlink():
+            raise InvalidArgumentError(f"{s}: dangling link (its target does not exist)")
         else:
             raise InvalidArgumentError(f"{s}: no such file, folder or matching glob")
         for f, rel in pairs:
@@ -425,7 +493,8 @@ def _write_sidecar(src, out, sidecar, key, record) -> None:
 @dataclasses.dataclass
 class BatchResult:
     """What :func:`batch` did: one record per output (dicts with the keys of FIELDS), in input
-    order, and the wall time."""
+    order, then one record per symbolic link that was not read as a clip (status "link": a
+    link to a folder or a dangling link, its note in ``error``), and the wall time."""
     operation: str
     records: list
     seconds: float
@@ -434,6 +503,15 @@ class BatchResult:
 
     def count(self, status: str) -> int:
         return sum(1 for r in self.records if r["status"] == status)
+
+    @property
+    def outputs(self) -> list:
+        """The records of outputs (without the link records)."""
+        return [r for r in self.records if r["status"] != STATUS_LINK]
+
+    @property
+    def links(self) -> int:
+        return self.count(STATUS_LINK)
 
     @property
     def ok(self) -> int:
@@ -472,10 +550,12 @@ class BatchResult:
         for r in self.records:
             if r["status"] == STATUS_FAILED:
                 out.append(f"FAILED {r['input']}: {r.get('error', '')}")
+            elif r["status"] == STATUS_LINK:
+                out.append(f"LINK {r['input']}: {r.get('error', '')}")
         done = [r for r in self.records if r["status"] == STATUS_OK]
         clips = len({r["input"] for r in done})
         busy = sum({r["input"]: r.get("seconds") or 0.0 for r in done}.values())
-        out.append(f"{self.operation}: {len(self.records)} outputs: {self.ok} done, "
+        out.append(f"{self.operation}: {len(self.outputs)} outputs: {self.ok} done, "
                    f"{self.skipped} up to date (skipped), {self.failed} failed; "
                    f"{clips} clips in {self.seconds:.2f} s wall "
                    f"({busy:.2f} s in tasks, {self.n_workers} workers)")
@@ -488,8 +568,9 @@ class BatchResult:
         if path.lower().endswith(".json"):
             doc = {"operation": self.operation, "seconds": self.seconds,
                    "n_workers": self.n_workers, "scheduler": self.scheduler,
-                   "summary": {"outputs": len(self.records), "ok": self.ok,
-                               "skipped": self.skipped, "failed": self.failed},
+                   "summary": {"outputs": len(self.outputs), "ok": self.ok,
+                               "skipped": self.skipped, "failed": self.failed,
+                               "links": self.links},
                    "records": self.records}
             text = json.dumps(doc, indent=1, default=_json_default)
         else:
@@ -600,9 +681,27 @@ def _client(scheduler, n_workers):
                 yield client
         return
     with LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
-                      host="127.0.0.1", dashboard_address=None,
+                      host="127.0.0.1", protocol="tls://", security=_embedded_security(),
+                      dashboard_address=None,
                       silence_logs=logging.ERROR) as cluster, Client(cluster) as client:
         yield client
+
+
+def _embedded_security():
+    """Mutual TLS with credentials made for this run only (``Security.temporary()``: a new
+    self-signed CA, certificate and key, held by this process and handed to the workers it
+    starts). The embedded scheduler runs
+    arbitrary tasks for whoever connects to it, and loopback is open to every user of the
+    machine: with TLS, only this process and the workers it starts hold a certificate the
+    scheduler accepts (a client without one, or with its own, is disconnected in the TLS
+    handshake)."""
+    try:
+        from distributed.security import Security
+        return Security.temporary()
+    except ImportError as e:  # Security.temporary needs the cryptography package
+        raise ImportError("mlayer.batch secures its embedded Dask cluster with TLS, which needs "
+                          "the cryptography package: pip install cryptography (or the "
+                          f"mlayer[batch] extra) [{e}]") from None
 
 
 def batch(operation, inputs, out_dir, *, alphas=None, scheduler=None, n_workers=None,
@@ -617,8 +716,17 @@ def batch(operation, inputs, out_dir, *, alphas=None, scheduler=None, n_workers=
                <rel>.npz for features
     alphas     stylize only: one alpha or several (a list, a range such as np.arange, or a
                string "0.5:2.5:0.5" or "1,1.5,2"); default 2
-    scheduler  None: an embedded LocalCluster on loopback; "tcp://host:8786": an existing
-               cluster (a dask Client or LocalCluster object also works)
+    scheduler  None: an embedded LocalCluster on loopback, secured by mutual TLS with
+               credentials made for this run (other users of the machine cannot connect);
+               "tls://host:8786" or "tcp://host:8786": an existing cluster (a dask Client or
+               LocalCluster object also works). Securing that one is its owner's business:
+               a tcp:// scheduler runs the tasks of anyone who can reach its port. Start it
+               with TLS (``dask scheduler --tls-ca-file ca.pem --tls-cert sched.pem --tls-key
+               sched.key``, the workers likewise) and give this process its credentials in the
+               Dask configuration (``distributed.comm.tls.ca-file`` and
+               ``distributed.comm.tls.client.cert`` / ``.key``, e.g. the environment variables
+               DASK_DISTRIBUTED__COMM__TLS__CA_FILE, ..._CLIENT__CERT, ..._CLIENT__KEY), or
+               pass ``Client(address, security=Security(...))`` as ``scheduler``
     n_workers  worker processes of the embedded cluster (default: one per CPU, at most one per
                clip)
     report     write the records there: .json, or CSV for any other extension
@@ -652,10 +760,11 @@ def batch(operation, inputs, out_dir, *, alphas=None, scheduler=None, n_workers=
                                        "`scheduler` has its own workers")
         if isinstance(n_workers, bool) or int(n_workers) != n_workers or n_workers < 1:
             raise InvalidArgumentError(f"n_workers must be an integer >= 1, got {n_workers!r}")
-    clips = find_inputs(inputs)
+    out_root = pathlib.Path(out_dir).resolve()
+    links: list = []
+    clips = find_inputs(inputs, exclude=out_root, links=links)
     if not clips:
         raise InvalidArgumentError(f"no .bvh files in {inputs!r}")
-    out_root = pathlib.Path(out_dir).resolve()
     inputs_set = {str(src) for src, _ in clips} | {os.path.realpath(src) for src, _ in clips}
     plan, seen = [], {}
     for src, rel in clips:
@@ -726,6 +835,11 @@ def batch(operation, inputs, out_dir, *, alphas=None, scheduler=None, n_workers=
     for o in all_outs:
         r = records_by_out[str(o)]
         records.append({k: r.get(k) for k in FIELDS})
+    for path, note in links:  # links to folders and dangling links: said, not silently lost
+        rec = dict.fromkeys(FIELDS)
+        rec.update(input=os.path.abspath(path), output="", variant={}, status=STATUS_LINK,
+                   error=note)
+        records.append(rec)
     result = BatchResult(op.name, records, time.perf_counter() - t0, n_used, address)
     if report is not None:
         result.write_report(report)

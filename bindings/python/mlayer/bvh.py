@@ -14,25 +14,84 @@ replaces the destination atomically (a temporary file in the same directory, the
 """
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import os
+import warnings
 
 from ._native import ffi, lib
-from .errors import ParseError, check
+from .errors import InvalidArgumentError, ParseError, ParseWarning, check
 from .kmeans import _c_threads
-from .motion import Motion
+from .motion import MIN_FRAME_TIME, Motion
+from .trimming import _read as trimmed_read, frames_arg
 
-__all__ = ["read_bvh", "write_bvh", "read_bvh_string", "write_bvh_string"]
+__all__ = ["read_bvh", "write_bvh", "read_bvh_string", "write_bvh_string", "strict_reading"]
 
 
-def _parse(data, name: str, threads: int) -> Motion:
+# The default of strict=None: False, unless inside strict_reading() (the CLI's --strict).
+_STRICT = contextvars.ContextVar("mlayer_bvh_strict", default=False)
+
+_WARNING_KINDS = {1: "extra_frames", 2: "missing_frames", 3: "trailing_data",
+                  4: "no_final_newline", 5: "truncated"}
+
+
+@contextlib.contextmanager
+def strict_reading(strict: bool = True):
+    """Within the block, read_bvh / read_bvh_string with ``strict=None`` read strictly (or
+    leniently with ``strict_reading(False)``); the CLI's ``--strict`` uses it."""
+    token = _STRICT.set(bool(strict))
+    try:
+        yield
+    finally:
+        _STRICT.reset(token)
+
+
+def _options(strict, keep_truncated, where: str):
+    """The C options (and how many) for the strict / keep_truncated keywords."""
+    if strict is None:
+        strict = _STRICT.get()
+    for name, v in (("strict", strict), ("keep_truncated", keep_truncated)):
+        if not isinstance(v, bool):
+            raise InvalidArgumentError(f"{where}: {name} must be True or False, got {v!r}")
+    if strict and keep_truncated:
+        raise InvalidArgumentError(f"{where}: keep_truncated=True needs strict=False")
+    opts = ffi.new("mlr_bvh_read_option[1]")
+    opts[0].key = lib.MLR_BVH_OPT_STRICT if strict else lib.MLR_BVH_OPT_KEEP_TRUNCATED
+    opts[0].value = 1.0
+    return opts, 1 if (strict or keep_truncated) else 0
+
+
+def _warn(w, name: str) -> None:
+    """One ParseWarning per C warning (file and line in the message)."""
+    kept = min(int(w.count), len(w.first))
+    for i in range(kept):
+        x = w.first[i]
+        line = int(x.line) or None
+        msg = ffi.string(x.message).decode("utf-8", errors="replace")
+        where = f"{name}:{line}: " if line else f"{name}: "
+        warnings.warn(ParseWarning(where + msg, path=name, line=line,
+                                   column=int(x.column) or None,
+                                   kind=_WARNING_KINDS.get(int(x.code), str(int(x.code)))),
+                      stacklevel=3)
+    if int(w.count) > kept:
+        warnings.warn(ParseWarning(f"{name}: {int(w.count) - kept} more warnings", path=name),
+                      stacklevel=3)
+
+
+def _parse(data, name: str, threads: int, strict, keep_truncated) -> Motion:
+    opts, n_opts = _options(strict, keep_truncated, "mlayer.read_bvh_string")
     out = ffi.new("mlr_motion **")
     diag = ffi.new("mlr_diag *")
+    w = ffi.new("mlr_bvh_warnings *")
     buf = ffi.from_buffer(data)
     try:
-        code = lib.mlr_bvh_read_memory_mt(buf, len(buf), threads, ffi.NULL, out, diag)
+        code = lib.mlr_bvh_read_memory_opts(buf, len(buf), threads, opts, n_opts, ffi.NULL, out,
+                                            w, diag)
     finally:
         ffi.release(buf)
-    return _motion_or_raise(code, out, diag, name)
+    m = _motion_or_raise(code, out, diag, name)
+    _warn(w, name)
+    return m
 
 
 def _motion_or_raise(code: int, out, diag, name: str) -> Motion:
@@ -46,11 +105,32 @@ def _motion_or_raise(code: int, out, diag, name: str) -> Motion:
         e.reason = reason
         raise e
     check(code, f"mlayer.read_bvh({name})", diag)
-    return Motion._adopt_c(out[0])  # the frames stay in the C block: no copy
+    m = Motion._adopt_c(out[0])  # the frames stay in the C block: no copy
+    if not m.frame_time >= MIN_FRAME_TIME:
+        raise ParseError(f"{name}: Frame Time {m.frame_time:g} s is below {MIN_FRAME_TIME:g} s "
+                         "(over a million frames per second): not a frame time", path=name)
+    return m
 
 
-def read_bvh(path, *, threads=None) -> Motion:
+def read_bvh(path, *, strict=None, keep_truncated=False, threads=None, up=None,
+             trim=None) -> Motion:
     """Read a BVH file. ``path``: a str, bytes or os.PathLike.
+
+    ``strict=False`` (the default; None means False unless inside :func:`strict_reading`)
+    reads the usual deviations of files from the wild and issues a :class:`ParseWarning`
+    (``file:line: reason``) for each: more frame lines than ``Frames:`` declares (all are
+    read), up to 3 fewer, data after the frames (ignored), no line end after the last frame.
+    A truncated file (more frames missing, or the last line cut) still raises ParseError
+    unless ``keep_truncated=True``, which keeps its complete frames with a warning.
+    ``strict=True`` raises ParseError for every deviation, as earlier versions did.
+
+    ``up``: the clip's up axis ("x", "y" or "z"), kept as :attr:`Motion.up_axis`; None (the
+    default, unless inside :func:`mlayer.up_axis.reading_up`) detects it from the motion.
+
+    ``trim``: ``"auto"`` drops the T-pose and blend frames a converter put at the start
+    (:func:`mlayer.lead_in`; the CMU conversions have them), an int N the first N frames;
+    None (the default, unless inside :func:`mlayer.trimming.reading_trim`, the CLI's
+    ``--trim``) keeps every frame.
 
     ``threads``: how many threads parse the frame lines (the result is the same for every
     count); None (default) picks one per 512 KiB of frames, at most the machine's processors
@@ -67,25 +147,45 @@ def read_bvh(path, *, threads=None) -> Motion:
     bpath = os.fsencode(path)
     if b"\0" in bpath:
         raise ValueError(f"mlayer.read_bvh: embedded null byte in the path {name!r}")
+    opts, n_opts = _options(strict, keep_truncated, "mlayer.read_bvh")
+    up_given = _up_arg(up, "mlayer.read_bvh")
+    trim = frames_arg(trim, "mlayer.read_bvh")
     out = ffi.new("mlr_motion **")
     diag = ffi.new("mlr_diag *")
+    w = ffi.new("mlr_bvh_warnings *")
     # the C reader reads the file itself (a large one on the parsing threads, each its share)
-    code = lib.mlr_bvh_read_file_mt(bpath, n_threads, ffi.NULL, out, diag)
+    code = lib.mlr_bvh_read_file_opts(bpath, n_threads, opts, n_opts, ffi.NULL, out, w, diag)
     if code == lib.MLR_E_IO:
         # the OSError subclass that fits (FileNotFoundError, PermissionError, IsADirectoryError,
         # ...) comes from Python's own open and read; if those work now, the C reason stands
         with open(path, "rb") as f:
             f.read(1)
-    return _motion_or_raise(code, out, diag, name)
+    m = _motion_or_raise(code, out, diag, name)
+    _warn(w, name)
+    m.up_axis = up_given
+    return trimmed_read(m, trim, name)
 
 
-def read_bvh_string(text, name: str = "<string>", *, threads=None) -> Motion:
-    """Parse BVH text given as str or bytes; ``name`` stands for the path in error messages;
-    ``threads`` as for :func:`read_bvh`."""
+def _up_arg(up, where: str):
+    """The up axis a read clip gets: up, or the CLI's --up (reading_up), or None (detect)."""
+    from .up_axis import axis_name, default_up
+    up = axis_name(up, where)
+    return default_up() if up is None else up
+
+
+def read_bvh_string(text, name: str = "<string>", *, strict=None, keep_truncated=False,
+                    threads=None, up=None, trim=None) -> Motion:
+    """Parse BVH text given as str or bytes; ``name`` stands for the path in error and warning
+    messages; ``strict``, ``keep_truncated``, ``threads``, ``up`` and ``trim`` as for
+    :func:`read_bvh`."""
     n_threads = _c_threads(threads)
+    up_given = _up_arg(up, "mlayer.read_bvh_string")
+    trim = frames_arg(trim, "mlayer.read_bvh_string")
     if isinstance(text, str):
         text = text.encode("utf-8", errors="surrogateescape")
-    return _parse(text, name, n_threads)
+    m = _parse(text, name, n_threads, strict, keep_truncated)
+    m.up_axis = up_given
+    return trimmed_read(m, trim, name)
 
 
 def write_bvh(motion: Motion, path) -> None:

@@ -13,7 +13,8 @@ Floor (``floor="auto"``, the default): a flat floor at :func:`floor_height` of t
 5% quantile of the contact points' heights on their contact frames); no foot point goes below
 min(floor, the reference's own height of that point in that frame); a foot that would is raised
 by IK on its leg, spread in time like the contact correction. ``floor=None`` turns it off, a
-number sets the height. The up axis is Y unless ``up`` says otherwise.
+number sets the height. The up axis is the motion's (:attr:`Motion.up_axis`) unless ``up``
+says otherwise.
 """
 from __future__ import annotations
 
@@ -22,23 +23,15 @@ import numpy as np
 from . import _arrays
 from ._native import ffi, lib
 from .errors import InvalidArgumentError, check
-from ._rig import c_rig
+from ._rig import c_rig, motion_axis
 
 __all__ = ["fix_contacts", "keep_contacts", "keep_contacts_retimed", "floor_height"]
 
-_AXES = {"x": 0, "y": 1, "z": 2, 0: 0, 1: 1, 2: 2}
 _OPT = {"blend": lib.MLR_CLEANUP_OPT_BLEND, "reach": lib.MLR_CLEANUP_OPT_REACH,
         "passes": lib.MLR_CLEANUP_OPT_PASSES, "floor_quantile": lib.MLR_CLEANUP_OPT_FLOOR_QUANTILE,
         "ref_smooth": lib.MLR_CLEANUP_OPT_REF_SMOOTH, "pin_smooth": lib.MLR_CLEANUP_OPT_PIN_SMOOTH,
         "root": lib.MLR_CLEANUP_OPT_ROOT, "max_fold": lib.MLR_CLEANUP_OPT_MAX_FOLD,
         "keep_stiller": lib.MLR_CLEANUP_OPT_KEEP_STILLER}
-
-
-def _up(up) -> int:
-    key = up.lower() if isinstance(up, str) else up
-    if key not in _AXES:
-        raise InvalidArgumentError(f"up: expected 'x', 'y', 'z' or 0, 1, 2, got {up!r}")
-    return _AXES[key]
 
 
 def _points(skeleton, names):
@@ -63,12 +56,10 @@ def _i32(a):
 
 
 def _frames(m):
-    root, rot, trans = (np.ascontiguousarray(x, dtype=np.float64)
-                        for x in (m.root_pos, m.rot, m.trans))
-    return root, rot, trans
+    return m._frames()  # checked against m's skeleton and frame count
 
 
-def floor_height(motion, contacts=None, names=None, *, quantile: float = 0.05, up="y") -> float:
+def floor_height(motion, contacts=None, names=None, *, quantile: float = 0.05, up=None) -> float:
     """The floor height of a motion along the up axis: the ``quantile`` quantile of the heights
     of its contact points on their contact frames (contacts, names as from
     :func:`mlayer.detect_contacts`; detected here when not given). NaN when nothing touches.
@@ -91,13 +82,13 @@ def floor_height(motion, contacts=None, names=None, *, quantile: float = 0.05, u
     check(lib.mlr_cleanup_floor_height(
         rig, motion.n_frames, _arrays.ptr(root), _arrays.ptr(rot),
         _arrays.ptr(trans) if trans.size else ffi.NULL, len(names), _i32(j), _i32(e),
-        ffi.cast("const uint8_t *", ffi.from_buffer(c)), _up(up), float(quantile), out,
+        ffi.cast("const uint8_t *", ffi.from_buffer(c)), motion_axis(motion, up, "floor_height"), float(quantile), out,
         ffi.NULL, diag), "floor_height", diag)
     del keep
     return float(out[0])
 
 
-def fix_contacts(motion, contacts, names, reference=None, *, floor="auto", up="y",
+def fix_contacts(motion, contacts, names, reference=None, *, floor="auto", up=None,
                  return_report=False, **options):
     """Pin the feet of a synthesized motion during its contacts (paper 1, eq. 18) and keep them
     above the floor (mlr_cleanup_contacts).
@@ -167,7 +158,7 @@ def fix_contacts(motion, contacts, names, reference=None, *, floor="auto", up="y
     rep = ffi.new("mlr_cleanup_report *")
     diag = ffi.new("mlr_diag *")
     check(lib.mlr_cleanup_contacts(
-        rig, N, float(motion.fps), _up(up), _arrays.ptr(root), _arrays.ptr(rot),
+        rig, N, float(motion.fps), motion_axis(motion, up, "fix_contacts"), _arrays.ptr(root), _arrays.ptr(rot),
         _arrays.ptr(trans) if P else ffi.NULL, *refp, len(names), _i32(j), _i32(e),
         ffi.cast("const uint8_t *", ffi.from_buffer(c)) if c.size else ffi.NULL, copts,
         len(opts), _arrays.ptr_out(out_root), _arrays.ptr_out(out_rot), rep, ffi.NULL, diag),

@@ -41,8 +41,52 @@ def build_parser() -> argparse.ArgumentParser:
         add = getattr(run, "arguments", None)
         if add is not None:
             add(sp)
+        if name not in _NO_CLIPS:
+            sp.add_argument("--strict", action="store_true",
+                            help="refuse BVH files that deviate from the format (extra or "
+                                 "missing frame lines, data after the frames) instead of "
+                                 "reading them with a warning")
+            sp.add_argument("--up", choices=("auto", "x", "y", "z"), default="auto",
+                            help="the clips' up axis (default auto: detected from the feet, "
+                                 "or the floor; `mlayer info` shows what was found)")
+            sp.add_argument("--trim", type=_trim_arg, default=None, metavar="auto|N",
+                            help="drop frames at the start of each clip read: auto drops the "
+                                 "T-pose and blend frames a converter put there (CMU files), N "
+                                 "the first N frames (default: keep every frame)")
         sp.set_defaults(_run=run)
     return p
+
+
+def _trim_arg(text: str):
+    """--trim: "auto" or a frame count >= 0."""
+    if text == "auto":
+        return text
+    try:
+        n = int(text)
+    except ValueError:
+        n = -1
+    if n < 0:
+        raise argparse.ArgumentTypeError(f"expected 'auto' or a frame count >= 0, got {text!r}")
+    return n
+
+
+def _show_trim(command: str):
+    """The report of reading_trim for the CLI: one line on stderr per clip trimmed."""
+    def show(name: str, n: int) -> None:
+        print(f"mlayer {command}: {name}: trimmed {n} frame{'s' if n != 1 else ''} at the start",
+              file=sys.stderr)
+    return show
+
+
+# Subcommands that read no clip (no --strict, no --up, no --trim).
+_NO_CLIPS = {"version", "generate", "batch"}  # (batch reads in its workers)
+
+
+def _show_parse_warning(command: str):
+    """warnings.showwarning for the CLI: one line on stderr per warning."""
+    def show(message, category, filename, lineno, file=None, line=None):
+        print(f"mlayer {command}: warning: {message}", file=sys.stderr)
+    return show
 
 
 # Modules that define subcommands, one per line (cli_demo last: it uses the others).
@@ -74,8 +118,19 @@ def main(argv: list[str] | None = None) -> int:
     if not getattr(args, "_run", None):
         parser.print_help(sys.stderr)
         return 2
+    import warnings
+    from .bvh import strict_reading
+    from .up_axis import reading_up
+    from .trimming import reading_trim
+    from .errors import MlayerWarning
     try:
-        return int(args._run(args) or 0)
+        up = getattr(args, "up", "auto")
+        with warnings.catch_warnings(), strict_reading(getattr(args, "strict", False)), \
+                reading_up(None if up == "auto" else up), \
+                reading_trim(getattr(args, "trim", None), _show_trim(args.command)):
+            warnings.simplefilter("always", MlayerWarning)
+            warnings.showwarning = _show_parse_warning(args.command)
+            return int(args._run(args) or 0)
     except Error as e:
         where = ""
         path, line = getattr(e, "path", None), getattr(e, "line", None)

@@ -82,7 +82,7 @@ def _cmd_batch(args) -> int:
     if args.report:
         print(f"wrote {args.report}")
     if result.failed:
-        print(f"mlayer batch: {result.failed} of {len(result.records)} outputs failed",
+        print(f"mlayer batch: {result.failed} of {len(result.outputs)} outputs failed",
               file=sys.stderr)
     return result.exit_code
 

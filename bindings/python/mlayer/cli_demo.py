@@ -33,7 +33,6 @@ def _cmd_demo(args) -> int:
     from .render import render_gif
 
     clip = args.clip or data.sample_path()
-    os.makedirs(args.output_dir, exist_ok=True)
     out = lambda name: os.path.join(args.output_dir, name)  # noqa: E731
     m = read_bvh(clip)
     print(f"clip      {clip}\n          {m.n_frames} frames at {m.fps:g} fps, "
@@ -47,6 +46,7 @@ def _cmd_demo(args) -> int:
     sty_raw = layers.synthesize(args.alpha)
     sty, report = s.run(args.alpha)
     print(f"layers    decomposed in {1e3 * t_dec:.1f} ms (gamma heuristic + GCV per joint)")
+    os.makedirs(args.output_dir, exist_ok=True)  # after the decomposition: it may refuse a clip
     write_bvh(den, out("denoised.bvh"))
     write_bvh(sty, out(f"stylized_alpha{args.alpha:g}.bvh"))
     layers.save_npz(out("layers.npz"))
@@ -62,7 +62,8 @@ def _cmd_demo(args) -> int:
     rows = (("original", m), ("denoised", den), (f"alpha = {args.alpha:g}, no guards", sty_raw),
             (f"alpha = {args.alpha:g}", sty))
     for name, mm in rows:
-        print(f"{name:28s} {jitter(mm, fps=mm.fps) / h:21.3g} "
+        jit = jitter(mm, fps=mm.fps) / h if mm.n_frames >= 4 else float("nan")  # n/a
+        print(f"{name:28s} {jit:21.3g} "
               f"{foot_sliding(mm, contacts, names) / h:25.3g}")
     print(f"figure    layers.png shows root {'XYZ'[shown['root_axis']]} and {shown['joint']}")
     if not args.no_gif:

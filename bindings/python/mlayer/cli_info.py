@@ -12,7 +12,8 @@ import sys
 import numpy as np
 
 from .bvh import read_bvh
-from .metrics import body_height
+from .metrics import body_height, length_unit
+from .up_axis import detect_up
 from .cli import command
 from .errors import Error, ParseError
 
@@ -59,8 +60,25 @@ def describe(m, path: str | None = None, tree: bool = True) -> str:
             f"{a} [{_fmt(lo[i])}, {_fmt(hi[i])}]" for i, a in enumerate("xyz"))
             + f"  (world joint positions over all frames; size {_fmt(size[0])} x "
               f"{_fmt(size[1])} x {_fmt(size[2])})")
-        lines.append(f"height    ~{_fmt(body_height(p))} (median over frames of the "
-                     "joints' vertical (Y) extent; End Sites excluded; file units)")
+        g = detect_up(m, p)
+        up = m.up_axis
+        if m._up is not None:
+            how = "given"
+        elif g.sure:
+            how = f"detected from the {g.method}, confidence {g.confidence:.2f}"
+        else:
+            how = (f"unsure: the {'feet suggest' if g.method == 'feet' else 'floor suggests'} "
+                   f"{g.axis.upper()} with confidence "
+                   f"{g.confidence:.2f}; Y assumed, pass --up to say" if g.method != "none"
+                   else "nothing to go by; Y assumed")
+        flip = " (the clip stands upside down along it)" if g.sure and g.sign < 0 and \
+            g.axis == up and m._up is None else ""
+        lines.append(f"up        {up.upper()} ({how}){flip}")
+        h = body_height(p, up)
+        unit = length_unit(h)
+        lines.append(f"height    ~{_fmt(h)} (median over frames of the joints' extent along "
+                     f"{up.upper()}; End Sites excluded; file units"
+                     + (f", which look like {unit})" if unit else ")"))
     if tree:
         lines.append("skeleton")
         depth = sk.depth()

@@ -107,9 +107,20 @@ def parse_joint_alphas(items) -> dict:
     return out
 
 
-def _summary(name, before, after, layers=None) -> None:
+def _jitter_line(before, after) -> str:
+    """The jitter before and after in body heights / s^3; 'n/a' for clips under 4 frames, no
+    percentage for a static clip (jitter 0)."""
+    if before.n_frames < 4 or after.n_frames < 4:
+        return "  jitter n/a (fewer than 4 frames)"
     h = body_height(before)
+    h = h if h > 0 else 1.0
     jb, ja = jitter(before, fps=before.fps) / h, jitter(after, fps=after.fps) / h
+    change = f" ({100 * (ja / jb - 1):+.1f}%)" if jb > 0 else " (the input does not move)"
+    return f"  jitter {jb:.3g} -> {ja:.3g} body heights / s^3{change}"
+
+
+def _summary(name, before, after, layers=None) -> None:
+    jitter_line = _jitter_line(before, after)
     print(f"{name}: {before.n_frames} frames at {before.fps:g} fps, {before.n_joints} joints")
     if layers is not None:
         lam_c = np.asarray(layers.lam_c)
@@ -118,7 +129,7 @@ def _summary(name, before, after, layers=None) -> None:
         s_b = np.asarray(layers.base_s)
         print(f"  base smoothing (gamma heuristic per joint): s median {np.median(s_b):.3g}, "
               f"range [{s_b.min():.3g}, {s_b.max():.3g}]")
-    print(f"  jitter {jb:.3g} -> {ja:.3g} body heights / s^3 ({100 * (ja / jb - 1):+.1f}%)")
+    print(jitter_line)
 
 
 def _arguments_denoise(p) -> None:
@@ -133,8 +144,8 @@ def _cmd_denoise(args) -> int:
     m = read_bvh(args.input)
     s = _synthesis(args, m)
     out, report = s.run(1.0)
-    write_bvh(out, args.output)
     _summary(args.input, m, out, s.layers)
+    write_bvh(out, args.output)
     _guard_summary(report)
     print(f"  wrote {args.output}")
     _outlier_note(s.layers)
@@ -165,8 +176,8 @@ def _cmd_stylize(args) -> int:
     m = read_bvh(args.input)
     s = _synthesis(args, m)
     out, report = s.run(args.alpha, joints or None)
-    write_bvh(out, args.output)
     _summary(args.input, m, out, s.layers)
+    write_bvh(out, args.output)
     _guard_summary(report)
     print(f"  alpha {args.alpha:g}" + "".join(f", {k}={v:g}" for k, v in joints.items()))
     print(f"  wrote {args.output}")

@@ -1,8 +1,12 @@
 """`mlayer primitives` and `mlayer generate`: learn a motion manifold with primitives from clips,
 then synthesize new motion from it (paper 2).
 
-    mlayer primitives CLIPS... -o model.npz [--k auto|K] [--som 30x30] [--pca] [--epochs 20]
-                               [--lattice 15x15] [--kernel thin_plate|gaussian] [--plots PREFIX]
+    mlayer primitives CLIPS... -o model.npz [--k auto|K] [--som RxC] [--pca] [--epochs 20]
+                               [--lattice RxC] [--kernel thin_plate|gaussian] [--plots PREFIX]
+
+The SOM and GRBF lattices default to sizes that scale with the training frames (30x30 and 15x15
+from 900 frames on; see mlayer.primitives.default_lattices); clips in other units than the
+first (body heights a factor of 2 or more apart) are scaled to its size, with a warning.
     mlayer generate model.npz --frames 300 [--start-frame T] [--noise S] [--seed N]
                               [--most-likely] [--no-guards] -o new.bvh
 
@@ -187,10 +191,13 @@ def _primitives_args(p) -> None:
     p.add_argument("clips", nargs="+", metavar="CLIP.bvh", help="clips of one skeleton")
     p.add_argument("-o", "--output", required=True, help="model file (.npz)")
     p.add_argument("--k", type=_k, default="auto", help="primitives: 'auto' (elbow) or K")
-    p.add_argument("--som", type=_size, default=(30, 30), help="SOM lattice ROWSxCOLS")
+    p.add_argument("--som", type=_size, default=None,
+                   help="SOM lattice ROWSxCOLS (default: SxS, S = min(30, sqrt(frames)))")
     p.add_argument("--pca", action="store_true", help="PCA manifold instead of a SOM")
     p.add_argument("--epochs", type=int, default=20, help="SOM batch epochs (default 20)")
-    p.add_argument("--lattice", type=_size, default=(15, 15), help="GRBF centres ROWSxCOLS")
+    p.add_argument("--lattice", type=_size, default=None,
+                   help="GRBF centres ROWSxCOLS (default: GxG, G = min(15, sqrt(frames / 4)), "
+                        "at most the SOM's)")
     p.add_argument("--kernel", choices=("thin_plate", "gaussian"), default="thin_plate")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--plots", metavar="PREFIX", default=None,

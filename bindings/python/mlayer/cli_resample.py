@@ -122,7 +122,9 @@ def variance_figure(var: np.ndarray, fps: float, obs_t: np.ndarray, title: str):
 def _resample_arguments(p) -> None:
     p.add_argument("input", metavar="IN.bvh", help="BVH file to resample")
     g = p.add_mutually_exclusive_group(required=True)
-    g.add_argument("--fps", type=float, help="new frame rate")
+    g.add_argument("--fps", type=float,
+                   help="new frame rate, exactly: output frame k at k / FPS s after the first "
+                        "frame, up to the last such time within the input")
     g.add_argument("--frames", type=_int, metavar="N",
                    help="new frame count (the first and last frames keep their times)")
     p.add_argument("-o", "--output", required=True, metavar="OUT.bvh", help="output BVH file")

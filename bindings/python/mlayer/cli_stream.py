@@ -138,7 +138,6 @@ def run(args) -> int:
             raise InvalidArgumentError(f"--euro-min-cutoff must be > 0, got "
                                        f"{args.euro_min_cutoff:g}")
     out = stream_motion(motion, lam=args.lam, sigma=args.sigma, lag=args.lag)
-    write_bvh(out, args.output)
     x = motion_channels(out)
     ref = offline_channels(motion, args.lam, args.sigma)
     gt, gq = _gaps(motion, x, ref)
@@ -160,6 +159,7 @@ def run(args) -> int:
         _plot(args.plot, motion, y, ref, x, euro, joint, comp, args.lag, args.lam, args.sigma,
               cutoff, args.euro_beta)
         print(f"{args.plot}: {motion.joint_names[joint]} q.{_COMPONENTS[comp]}", file=sys.stdout)
+    write_bvh(out, args.output)  # last: a failure above leaves no output
     return 0
 
 

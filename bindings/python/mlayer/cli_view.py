@@ -5,6 +5,10 @@ original and the processed motion as stick figures, with sliders for alpha (glob
 body part), denoising, contact cleanup and retiming; prints the address and serves until
 Ctrl-C. Opens a browser only with --open. A clip that fails to parse is reported here and on
 the page; the others are served.
+
+Limits: --max-values (the output of one request, frames x points), --cache-mb (the result
+cache), --threads (the worker pool), --timeout (idle and slow connections); the API needs the
+session token of the page and refuses other sites (see mlayer.viewer.server).
 """
 from __future__ import annotations
 
@@ -21,6 +25,23 @@ def _arguments(p) -> None:
                    help="address to bind (default 127.0.0.1; anything but loopback exposes "
                         "the clips to the network)")
     p.add_argument("--open", action="store_true", help="open the page in a web browser")
+    from .viewer.server import (DEFAULT_CACHE_BYTES, DEFAULT_MAX_VALUES, DEFAULT_THREADS,
+                                DEFAULT_TIMEOUT)
+    p.add_argument("--max-values", type=int, default=DEFAULT_MAX_VALUES, metavar="N",
+                   help="the most output one request may produce, in frames x points (joints "
+                        "and End Sites), checked before any work; longer lengths or higher "
+                        "fps are refused with 413 (default %(default)s; a clip is always "
+                        "served at its own size)")
+    p.add_argument("--cache-mb", type=float, default=DEFAULT_CACHE_BYTES / 2**20, metavar="MB",
+                   help="memory for cached results (processed motions and answers), least "
+                        "recently used dropped first (default %(default)g)")
+    p.add_argument("--threads", type=int, default=DEFAULT_THREADS, metavar="N",
+                   help="worker threads serving requests, whatever the number of connections "
+                        "(default %(default)s)")
+    p.add_argument("--timeout", type=float, default=DEFAULT_TIMEOUT, metavar="SECONDS",
+                   help="close a connection idle this long; a request must arrive whole "
+                        "within it (default %(default)g). Every /api/ request needs the page's "
+                        "session token; requests from other sites are refused")
 
 
 @command("view", "interactive viewer in the browser: alpha sliders, cleanup, retiming")
@@ -33,7 +54,11 @@ def run(args) -> int:
         print(f"mlayer view: warning: serving on {args.host}, not on loopback: anyone who can "
               f"reach this address can view the clips and run computations on this machine",
               file=sys.stderr)
-    server = make_server(args.inputs, args.host, args.port)
+    if not (args.cache_mb >= 0 and args.cache_mb < 2**40):
+        raise InvalidArgumentError(f"--cache-mb must be a number of MB >= 0, got {args.cache_mb}")
+    server = make_server(args.inputs, args.host, args.port, max_values=args.max_values,
+                         cache_bytes=int(args.cache_mb * 2**20), threads=args.threads,
+                         timeout=args.timeout)
     good = [c for c in server.clips if c.ok]
     for c in server.clips:
         if not c.ok:

@@ -29,7 +29,7 @@ import numpy as np
 from . import ik, quat
 from ._arrays import as_f64, ptr, ptr_out
 from ._native import ffi, lib
-from ._rig import axis, c_rig
+from ._rig import c_rig, motion_axis
 from .errors import InvalidArgumentError, check
 from .lgs import lgs
 from .metrics import body_height
@@ -122,7 +122,7 @@ def _point_name(sk, j: int, e: int) -> str:
 
 
 def find_feet(motion, positions: np.ndarray | None = None, *,
-              up="y") -> list[tuple[str, str | None]]:
+              up=None) -> list[tuple[str, str | None]]:
     """The feet of a skeleton found by joint name: a list of (ankle, toe or None) names.
 
     Ankles: the topmost joint of each chain whose name matches :data:`FOOT_PATTERN`. A toe:
@@ -132,12 +132,12 @@ def find_feet(motion, positions: np.ndarray | None = None, *,
     paw of the AI4Animation dog). Joints matching :data:`HAND_PATTERN` are feet too when they
     stay low (median height along ``up`` within 0.2 body heights of the feet's: a quadruped's
     front feet); positions (N, J, 3) are the motion's own when not given. up: the up axis,
-    "x", "y" or "z" or 0..2. Raises InvalidArgumentError naming the patterns and the
+    "x", "y" or "z" or 0..2, None (default) the motion's :attr:`~mlayer.Motion.up_axis`. Raises InvalidArgumentError naming the patterns and the
     skeleton's joints when no foot is found. The rules run in the C core
     (``mlr_contacts_find_feet``).
     """
     _check_motion(motion, "find_feet")
-    ax = axis(up, "find_feet")
+    ax = motion_axis(motion, up, "find_feet")
     if motion.n_frames:
         pos = motion.positions() if positions is None else \
             _positions_arg(motion, positions, "find_feet: positions", 3)
@@ -237,7 +237,7 @@ def _resolve_names(motion, joints) -> list[str]:
 
 
 def detect_contacts(motion, joints=None, *, speed: float = _SPEED_ON,
-                    height: float = _HEIGHT_ON, min_duration: float = _MIN_CONTACT, up="y"):
+                    height: float = _HEIGHT_ON, min_duration: float = _MIN_CONTACT, up=None):
     """Foot contacts of a motion: ``(names, contacts)``, contacts a bool array (N, C).
 
     joints: the contact points: joint names or indices, or "Joint/End" for a joint's End Site (a
@@ -249,11 +249,11 @@ def detect_contacts(motion, joints=None, *, speed: float = _SPEED_ON,
     1.5 times ``height`` (hysteresis). Gaps shorter than 0.05 s are closed, then contacts
     shorter than ``min_duration`` seconds dropped. Speeds are central differences over about
     1/30 s, so the same defaults hold at 25-120 fps; body height is the median extent of the
-    joints along ``up`` (:func:`mlayer.metrics.body_height` for Y). up: "x", "y" (default) or
-    "z", or 0..2. The detection runs in the C core (``mlr_contacts_detect``).
+    joints along ``up`` (:func:`mlayer.metrics.body_height`). up: "x", "y" or "z", or 0..2;
+    None (default): the motion's :attr:`~mlayer.Motion.up_axis`. The detection runs in the C core (``mlr_contacts_detect``).
     """
     _check_motion(motion, "detect_contacts")
-    ax = axis(up, "detect_contacts")
+    ax = motion_axis(motion, up, "detect_contacts")
     opts = []
     for key, v, name in ((lib.MLR_CONTACTS_OPT_SPEED, speed, "speed"),
                          (lib.MLR_CONTACTS_OPT_HEIGHT, height, "height"),

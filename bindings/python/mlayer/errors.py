@@ -60,6 +60,18 @@ class MlayerWarning(UserWarning):
     """A result is usable but deserves attention (e.g. an ill-conditioned system)."""
 
 
+class ParseWarning(MlayerWarning):
+    """A BVH file was read although it deviates from the format (extra or missing frame lines,
+    data after the frames, no final line end, a truncated file kept on request). The message
+    starts with ``file:line:``; ``path``, ``line``, ``column`` and ``kind`` (the C warning
+    code's name, e.g. ``"extra_frames"``) are set as attributes."""
+
+    def __init__(self, message: str, path=None, line: int | None = None,
+                 column: int | None = None, kind: str | None = None):
+        super().__init__(message)
+        self.path, self.line, self.column, self.kind = path, line, column, kind
+
+
 _BY_CODE = {
     lib.MLR_E_INVALID_ARG: InvalidArgumentError,
     lib.MLR_E_OVERFLOW: InvalidArgumentError,

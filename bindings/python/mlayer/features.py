@@ -8,6 +8,7 @@ import numpy as np
 
 from .errors import InvalidArgumentError
 from .motion import Motion
+from .up_axis import to_y_up
 
 
 def heading(rot_root) -> np.ndarray:
@@ -22,6 +23,7 @@ def heading(rot_root) -> np.ndarray:
 
 def _one(m: Motion, body: int) -> np.ndarray:
     pos, wrot = m.forward_kinematics()     # (N, J, 3), (N, J, 4)
+    pos, wrot = to_y_up(m.up_axis, pos, wrot)  # Z-up and X-up clips turned to Y-up
     rel = pos - pos[:, body:body + 1, :]   # the body joint's position removed
     yaw = heading(wrot[:, body])
     c, s = np.cos(yaw)[:, None], np.sin(yaw)[:, None]

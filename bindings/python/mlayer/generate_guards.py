@@ -24,7 +24,7 @@ import numpy as np
 
 from . import _arrays
 from ._native import ffi, lib
-from ._rig import axis, c_rig
+from ._rig import c_rig, motion_axis
 from .errors import InvalidArgumentError, check
 from .limits import JointLimits
 from .pipeline import GuardReport
@@ -117,7 +117,7 @@ def _i32(a):
     return ffi.cast("const int32_t *", ffi.from_buffer(a))
 
 
-def guard_motion(motion, names, contacts, *, limits=None, floor=None, up="y"):
+def guard_motion(motion, names, contacts, *, limits=None, floor=None, up=None):
     """``(motion, GuardReport)``: the C guards on a generated Motion with given contacts.
 
     names, contacts  C contact point names ("Joint" or "Joint/End") and bool (N, C) contacts
@@ -147,7 +147,7 @@ def guard_motion(motion, names, contacts, *, limits=None, floor=None, up="y"):
         floor = float(floor)
         if not math.isfinite(floor):
             raise InvalidArgumentError(f"floor: the height must be finite, got {floor!r}")
-    up_ax = axis(up, "up")
+    up_ax = motion_axis(motion, up, "up")
     opts = [(lib.MLR_GUARDS_OPT_UP, up_ax),
             (lib.MLR_GUARDS_OPT_LIMITS, lib.MLR_GUARDS_LIMITS_ALWAYS if limits is not None
              else lib.MLR_GUARDS_LIMITS_OFF),

@@ -40,7 +40,7 @@ import numpy as np
 
 from . import _arrays
 from ._files import atomic_output
-from ._native import ffi, lib
+from ._native import ReadOnlyAttributes, ffi, lib
 from ._rig import c_rig
 from .errors import InvalidArgumentError, check
 
@@ -124,8 +124,13 @@ def _with_body_translation(motion, joint: int, t: np.ndarray, rot: np.ndarray):
     return motion.with_frames(rot=rot, trans=trans)
 
 
-class Layers:
-    """The layers of one motion. Made by :func:`decompose`; read-only.
+class Layers(ReadOnlyAttributes):
+    """The layers of one motion. Made by :func:`decompose`; read-only (assigning an attribute
+    raises AttributeError).
+
+    Copies: the C handle is never changed after :func:`decompose` and is freed when the last
+    Layers using it goes, so ``copy.copy`` and ``copy.deepcopy`` share it (a deep copy also
+    copies ``motion``). Pickling raises TypeError: write the layers with :meth:`save_npz`.
 
     Attributes (groups: index 0 is the body translation, 1 + j is joint j)
       motion          the input Motion
@@ -149,6 +154,8 @@ class Layers:
       outlier_frames  the frames that are an outlier of some group, sorted (an int array)
     """
 
+    _readonly = ("motion", "body_joint", "_h", "base", "control", "residual") + tuple(_PARAMS)
+
     def __init__(self, motion, handle, params: dict, body_joint: int = 0):
         self.motion = motion
         self.body_joint = int(body_joint)
@@ -156,6 +163,20 @@ class Layers:
         for name, values in params.items():
             values.flags.writeable = False
             setattr(self, name, values)
+
+    def _share(self, motion) -> "Layers":
+        params = {name: getattr(self, name) for name in _PARAMS}
+        return Layers(motion, self._h, params, self.body_joint)
+
+    def __copy__(self) -> "Layers":
+        return self._share(self.motion)
+
+    def __deepcopy__(self, memo) -> "Layers":
+        return self._share(self.motion.copy())
+
+    def __reduce_ex__(self, protocol):
+        raise TypeError("cannot pickle mlayer.Layers (they own a C handle); write them with "
+                        "Layers.save_npz")
 
     # The layers are read from the C handle on first use: synthesize() and denoise() need
     # none of them, and a 2,526 x 31 clip's three copies take about 1.5 ms.
@@ -337,8 +358,9 @@ def decompose(motion, *, gamma: float = math.pi / 2, lam_c=None, sigma_c=None, l
     copts = ffi.new("mlr_layers_option[]", max(1, len(opts)))
     for k, (key, value) in enumerate(opts):
         copts[k].key, copts[k].value = key, value
-    root = _arrays.as_f64(body_translation(motion, body), "root_pos")
-    rot = _arrays.as_f64(motion.rot, "rot")
+    root_pos, rot, trans = motion._frames()  # checked against the skeleton and each other
+    root = root_pos if body == 0 else np.ascontiguousarray(
+        trans[:, int(np.flatnonzero(motion.skeleton.trans_joints == body)[0])])
     out = ffi.new("mlr_layers **")
     diag = ffi.new("mlr_diag *")
     check(lib.mlr_layers_decompose(n, j, _arrays.ptr(root), _arrays.ptr(rot), copts, len(opts),

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import _arrays
-from ._native import NativeHandle, ffi, lib
+from ._native import NativeHandle, ReadOnlyAttributes, ffi, lib
 from .errors import InvalidArgumentError, check
 from .kmeans import _c_threads
 
@@ -24,12 +24,17 @@ def have_cholmod() -> bool:
     return bool(lib.mlr_lgs_have_cholmod())
 
 
-class LGS(NativeHandle):
+class LGS(ReadOnlyAttributes, NativeHandle):
     """A factored system, reusable for many right-hand sides with the same positions.
 
     Create it once and call :meth:`solve` for every batch of channels; :meth:`variance` gives
-    the posterior variance per output frame. ``close()`` frees it now rather than at collection.
+    the posterior variance per output frame. ``close()`` frees it now rather than at collection;
+    a closed LGS raises InvalidArgumentError. ``n_out``, ``n_obs``, ``order``, ``solver``,
+    ``lam`` and ``sigma`` are read-only. ``copy.copy``, ``copy.deepcopy`` and pickling make an
+    independent system (factored again from the same parameters and positions).
     """
+
+    _readonly = ("n_out", "n_obs", "order", "solver", "lam", "sigma", "_t")
 
     def __init__(self, n_out: int, lam: float = 1.0, sigma: float = 1.0, *, order: int = 2,
                  t=None, n_obs: int | None = None, solver: str = "banded"):
@@ -44,7 +49,8 @@ class LGS(NativeHandle):
             n_obs = int(n_out) if n_obs is None else int(n_obs)
             tp = ffi.NULL
         else:
-            self._t = _arrays.as_f64(t, "t", ndim=1)
+            self._t = _arrays.as_f64(t, "t", ndim=1).copy()
+            self._t.setflags(write=False)
             n_obs = self._t.shape[0]
             tp = _arrays.ptr(self._t)
         out = ffi.new("mlr_lgs **")
@@ -56,6 +62,16 @@ class LGS(NativeHandle):
         self.n_out, self.n_obs, self.order, self.solver = int(n_out), n_obs, int(order), solver
         self.lam, self.sigma = float(lam), float(sigma)
 
+    def _args(self):
+        return (self.n_out, self.lam, self.sigma, self.order, self._t, self.n_obs, self.solver)
+
+    def _clone(self) -> "LGS":
+        return _make_lgs(*self._args())
+
+    def __reduce_ex__(self, protocol):
+        self._live()
+        return (_make_lgs, self._args())
+
     def solve(self, y, out: np.ndarray | None = None, *, threads=None) -> np.ndarray:
         """Posterior mean for y of shape (n_obs,) or (n_obs, m); returns (n_out,) or (n_out, m).
 
@@ -63,6 +79,7 @@ class LGS(NativeHandle):
         or more) while this one solves, when the machine has two processors; 1 solves on this
         thread only. The result is the same, bit for bit.
         """
+        h = self._live()
         n_threads = _c_threads(threads)
         y = _arrays.as_f64(y, "y", ndim=(1, 2))
         if y.shape[0] != self.n_obs:
@@ -76,7 +93,7 @@ class LGS(NativeHandle):
             _arrays.check_out(out, "out", shape)
         if m == 0 or self.n_out == 0:
             return out
-        code = lib.mlr_lgs_solve_mt(self._h, _arrays.ptr(y), m, m, _arrays.ptr_out(out), m,
+        code = lib.mlr_lgs_solve_mt(h, _arrays.ptr(y), m, m, _arrays.ptr_out(out), m,
                                     n_threads)
         if code == lib.MLR_E_INVALID_ARG:
             raise InvalidArgumentError("mlayer.lgs: y contains NaN or infinite values "
@@ -86,10 +103,16 @@ class LGS(NativeHandle):
 
     def variance(self) -> np.ndarray:
         """Posterior variance per output frame, shape (n_out,), for observation noise sigma."""
+        h = self._live()
         var = np.empty(self.n_out)
-        check(lib.mlr_lgs_variance(self._h, _arrays.ptr_out(var), self.n_out),
+        check(lib.mlr_lgs_variance(h, _arrays.ptr_out(var), self.n_out),
               "mlayer.LGS.variance")
         return var
+
+
+def _make_lgs(n_out, lam, sigma, order, t, n_obs, solver) -> LGS:
+    """An LGS from its parameters (copies and unpickling)."""
+    return LGS(n_out, lam, sigma, order=order, t=t, n_obs=n_obs, solver=solver)
 
 
 def lgs(y, lam: float = 1.0, sigma: float = 1.0, *, order: int = 2, t=None,

@@ -18,7 +18,7 @@ import math
 import numpy as np
 
 from . import _arrays
-from ._native import ffi, lib
+from ._native import ReadOnlyAttributes, ffi, lib, refuse_copy
 from ._rig import c_rig
 from .errors import InvalidArgumentError, check
 
@@ -29,16 +29,37 @@ SOURCES = {lib.MLR_LIMITS_SOURCE_NONE: "-", lib.MLR_LIMITS_SOURCE_TABLE: "table"
            lib.MLR_LIMITS_SOURCE_INPUT: "input", lib.MLR_LIMITS_SOURCE_USER: "user"}
 
 
-class JointLimits:
-    """Ranges per joint for one skeleton (a handle on the C model). Angles in radians."""
+class JointLimits(ReadOnlyAttributes):
+    """Ranges per joint for one skeleton (a handle on the C model). Angles in radians.
+
+    Streams and syntheses borrow the C model, so it has no ``close()``: it is freed with the
+    last reference. ``copy.copy``, ``copy.deepcopy`` and pickling raise TypeError (a copy that
+    shared the model would see the other's :meth:`set_range`; make another with
+    :func:`joint_limits`).
+    """
+
+    _readonly = ("_h", "_names")
 
     def __init__(self, handle, joint_names):
         self._h = handle
-        self.joint_names = list(joint_names)
+        self._names = tuple(joint_names)
+
+    @property
+    def joint_names(self) -> list[str]:
+        return list(self._names)
+
+    def __copy__(self):
+        raise refuse_copy(self, hint="make another with mlayer.joint_limits")
+
+    def __deepcopy__(self, memo):
+        raise refuse_copy(self, hint="make another with mlayer.joint_limits")
+
+    def __reduce_ex__(self, protocol):
+        raise refuse_copy(self, "pickle", hint="make another with mlayer.joint_limits")
 
     @property
     def n_joints(self) -> int:
-        return len(self.joint_names)
+        return len(self._names)
 
     @property
     def human(self) -> bool:
@@ -48,7 +69,7 @@ class JointLimits:
     def _index(self, joint, name="joint") -> int:
         if isinstance(joint, str):
             try:
-                return self.joint_names.index(joint)
+                return self._names.index(joint)
             except ValueError:
                 raise InvalidArgumentError(f"{name}: no joint named {joint!r}") from None
         if isinstance(joint, (int, np.integer)) and 0 <= int(joint) < self.n_joints:

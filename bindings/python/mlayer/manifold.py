@@ -207,17 +207,19 @@ class GRBF:
         """[phi(|x - c_j|) ...] (and 1, x with poly) for the rows of X, by the C core, into the
         first columns of the first rows of out (C-contiguous float64, at least that large; a
         new (n, cols) array when None). Returns out."""
-        C = self.centers_
+        kernel, width, threads = self._c_params()
+        C = self._centers()
         N, e = C.shape
+        X = self._points(X, e)
         cols = N + (1 + e if poly else 0)
         if out is None:
             out = np.empty((X.shape[0], cols))
-        assert out.flags.c_contiguous and out.shape[0] >= X.shape[0] and out.shape[1] >= cols
+        if not (out.flags.c_contiguous and out.shape[0] >= X.shape[0] and out.shape[1] >= cols):
+            raise InvalidArgumentError("GRBF: internal basis buffer too small")
         diag = ffi.new("mlr_diag *")
-        check(lib.mlr_grbf_basis(_KERNEL_IDS[self.kernel], float(getattr(self, "width_", 0.0)),
-                                 _arrays.ptr(C), N, e, _arrays.ptr(X), X.shape[0], e, e,
-                                 int(poly), self.n_threads, _arrays.ptr_out(out), out.shape[1],
-                                 ffi.NULL, diag), "mlayer.GRBF", diag)
+        check(lib.mlr_grbf_basis(kernel, width, _arrays.ptr(C), N, e, _arrays.ptr(X),
+                                 X.shape[0], e, e, int(poly), threads, _arrays.ptr_out(out),
+                                 out.shape[1], ffi.NULL, diag), "mlayer.GRBF", diag)
         return out
 
     def design(self, X) -> np.ndarray:
@@ -226,12 +228,34 @@ class GRBF:
             raise InvalidArgumentError("GRBF: call fit first")
         return self._basis(self._points(X), True)
 
-    def _points(self, X) -> np.ndarray:
+    def _points(self, X, e: int | None = None) -> np.ndarray:
         X = _data(X, "points")
-        if self.coef_ is not None and X.shape[1] != self.centers_.shape[1]:
+        if e is None and self.coef_ is not None:
+            e = self._centers().shape[1]
+        if e is not None and X.shape[1] != e:
             raise InvalidArgumentError(f"GRBF: dimension mismatch, points have {X.shape[1]} "
-                                       f"columns, the centres {self.centers_.shape[1]}")
+                                       f"columns, the centres {e}")
         return X
+
+    # The fitted attributes are public (and saved by PrimitiveModel); they are checked again
+    # before each C call, which reads them with the sizes given here.
+    def _centers(self) -> np.ndarray:
+        C = getattr(self, "centers_", None)
+        if C is None:
+            raise InvalidArgumentError("GRBF: call fit first")
+        return _data(C, "GRBF.centers_")
+
+    def _c_params(self) -> tuple[int, float, int]:
+        """(kernel id, width, threads) for the C calls, checked."""
+        if self.kernel not in _KERNEL_IDS:
+            raise InvalidArgumentError(f"GRBF.kernel must be one of {_KERNELS}, got "
+                                       f"{self.kernel!r}")
+        width = 0.0
+        if self.kernel == "gaussian":
+            width = _arrays.finite(getattr(self, "width_", 0.0), "GRBF.width_")
+            if not width > 0:
+                raise InvalidArgumentError(f"GRBF.width_ must be > 0, got {width!r}")
+        return _KERNEL_IDS[self.kernel], width, _count(self.n_threads, "GRBF.n_threads", 1, 64)
 
     # -- fit and predict -----------------------------------------------------------------------
 
@@ -322,9 +346,9 @@ class GRBF:
         Y = np.ascontiguousarray(Y)
         coef = np.empty((R * Cn + 3, d))
         diag = ffi.new("mlr_diag *")
-        check(lib.mlr_grbf_fit_lattice(_KERNEL_IDS[self.kernel],
-                                       float(getattr(self, "width_", 0.0)), _arrays.ptr(xs), R,
-                                       _arrays.ptr(ys), Cn, _arrays.ptr(Y), d, d, self.n_threads,
+        kernel, width, threads = self._c_params()
+        check(lib.mlr_grbf_fit_lattice(kernel, width, _arrays.ptr(xs), R,
+                                       _arrays.ptr(ys), Cn, _arrays.ptr(Y), d, d, threads,
                                        _arrays.ptr_out(coef), d, ffi.NULL, diag),
               "mlayer.GRBF.fit", diag)
         return coef
@@ -360,18 +384,21 @@ class GRBF:
         psi never stored)."""
         if self.coef_ is None:
             raise InvalidArgumentError("GRBF: call fit first")
-        X = self._points(points)
-        C = self.centers_
-        coef = np.ascontiguousarray(self.coef_, dtype=np.float64)
+        kernel, width, threads = self._c_params()
+        C = self._centers()
         N, e = C.shape
+        X = self._points(points, e)
+        coef = _arrays.as_f64(self.coef_, "GRBF.coef_", ndim=2)
+        if coef.shape[0] != N + 1 + e or coef.shape[1] == 0:
+            raise InvalidArgumentError(f"GRBF.coef_ must be ({N + 1 + e}, d) for {N} centres of "
+                                       f"dimension {e}, got {coef.shape}")
         d = coef.shape[1]
         out = np.empty((X.shape[0], d))
         diag = ffi.new("mlr_diag *")
-        check(lib.mlr_grbf_eval(_KERNEL_IDS[self.kernel], float(getattr(self, "width_", 0.0)),
-                                _arrays.ptr(C), N, e, _arrays.ptr(coef), d, d, _arrays.ptr(X),
-                                X.shape[0], e, e, self.n_threads, _arrays.ptr_out(out), d,
-                                ffi.NULL, diag), "mlayer.GRBF.predict", diag)
-        return out[:, 0] if self._vector else out
+        check(lib.mlr_grbf_eval(kernel, width, _arrays.ptr(C), N, e, _arrays.ptr(coef), d, d,
+                                _arrays.ptr(X), X.shape[0], e, e, threads, _arrays.ptr_out(out),
+                                d, ffi.NULL, diag), "mlayer.GRBF.predict", diag)
+        return out[:, 0] if getattr(self, "_vector", False) and d == 1 else out
 
     __call__ = predict
 

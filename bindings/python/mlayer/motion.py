@@ -27,10 +27,11 @@ from __future__ import annotations
 import numpy as np
 
 from . import _arrays
-from ._native import ffi, lib
+from ._native import ReadOnlyAttributes, ffi, lib
 from .errors import InvalidArgumentError, check
 
-__all__ = ["Motion", "Skeleton", "DEFAULT_ROOT_CHANNELS", "DEFAULT_JOINT_CHANNELS"]
+__all__ = ["Motion", "Skeleton", "DEFAULT_ROOT_CHANNELS", "DEFAULT_JOINT_CHANNELS",
+           "MIN_FRAME_TIME"]
 
 DEFAULT_ROOT_CHANNELS = "Xposition Yposition Zposition Zrotation Yrotation Xrotation"
 DEFAULT_JOINT_CHANNELS = "Zrotation Yrotation Xrotation"
@@ -69,8 +70,9 @@ class _Handle:
         self.ptr = ffi.NULL
 
 
-class Skeleton:
-    """Joint names, parents, OFFSETs, channel layout and End Sites; immutable.
+class Skeleton(ReadOnlyAttributes):
+    """Joint names, parents, OFFSETs, channel layout and End Sites; immutable (assigning an
+    attribute raises AttributeError, the arrays are read-only).
 
     Joints are in BVH depth-first order: joint 0 is the root (parent -1) and every parent comes
     before its children. End Sites are kept only so that a written file has the same hierarchy;
@@ -79,6 +81,7 @@ class Skeleton:
 
     __slots__ = ("_names", "parents", "offsets", "channels", "euler_orders",
                  "end_site_parents", "end_site_offsets", "trans_joints", "n_channels")
+    _readonly = __slots__
 
     def __init__(self, joint_names, parents, offsets, channels=None, end_site_parents=(),
                  end_site_offsets=None):
@@ -216,6 +219,30 @@ class _CFrames:
         return np.asarray(self)
 
 
+MIN_FRAME_TIME = 1e-6
+"""The shortest frame time a Motion takes, in seconds (a million frames per second). Shorter
+ones are mistakes or hostile files (a BVH with Frame Time 1e-300 made every rate-dependent
+step overflow) and are refused with InvalidArgumentError (ParseError from the readers)."""
+
+
+def _frame_time_arg(v, name: str) -> float:
+    ft = _arrays.finite(v, name)
+    if not ft >= MIN_FRAME_TIME:
+        raise InvalidArgumentError(f"{name} must be at least {MIN_FRAME_TIME:g} s (finite, "
+                                   f"at most 1e6 frames per second), got {v!r}")
+    return ft
+
+
+def _frame_array(a, name: str, tail: tuple) -> np.ndarray:
+    """A frame array as C-contiguous float64 of shape (N,) + tail, with finite values."""
+    a = _arrays.as_f64(a, name, ndim=1 + len(tail))
+    if a.shape[1:] != tail:
+        raise InvalidArgumentError(f"{name} must have shape (N, {', '.join(map(str, tail))}), "
+                                   f"got {a.shape}")
+    _arrays.require_finite(a, name)
+    return a
+
+
 def _create_handle(names, parents, offsets, channels, end_parents, end_offsets, n_frames,
                    frame_time) -> _Handle:
     J, E = len(names), end_parents.shape[0]
@@ -251,25 +278,23 @@ class Motion:
     multiplies the frame time by k); ``len(m)`` is the number of frames.
     """
 
-    __slots__ = ("skeleton", "frame_time", "root_pos", "rot", "trans")
+    __slots__ = ("_skeleton", "_frame_time", "_root_pos", "_rot", "_trans", "_up")
 
     def __init__(self, skeleton: Skeleton, frame_time: float, root_pos, rot, trans=None, *,
                  _trusted: bool = False):
         if not isinstance(skeleton, Skeleton):
             raise InvalidArgumentError("Motion: skeleton must be a mlayer.Skeleton")
-        self.skeleton = skeleton
+        self._skeleton = skeleton
+        self._up = None
         if _trusted:
-            self.frame_time, self.root_pos, self.rot, self.trans = frame_time, root_pos, rot, trans
+            self._frame_time, self._root_pos, self._rot, self._trans = \
+                frame_time, root_pos, rot, trans
             return
-        ft = float(frame_time)
-        if not (np.isfinite(ft) and ft > 0):
-            raise InvalidArgumentError(f"Motion: frame_time must be finite and > 0, got {ft}")
+        ft = _frame_time_arg(frame_time, "Motion: frame_time")
         J, P = skeleton.n_joints, skeleton.trans_joints.shape[0]
-        rot = _arrays.as_f64(rot, "rot", ndim=3)
-        if rot.shape[1:] != (J, 4):
-            raise InvalidArgumentError(f"Motion: rot must be (N, {J}, 4), got {rot.shape}")
+        rot = _frame_array(rot, "Motion: rot", (J, 4))
         N = rot.shape[0]
-        root_pos = _arrays.as_f64(root_pos, "root_pos", ndim=2, last=(3,))
+        root_pos = _frame_array(root_pos, "Motion: root_pos", (3,))
         if root_pos.shape[0] != N:
             raise InvalidArgumentError(f"Motion: root_pos must be ({N}, 3), got {root_pos.shape}")
         if trans is None:
@@ -277,11 +302,9 @@ class Motion:
                 trans = np.broadcast_to(skeleton.offsets[skeleton.trans_joints], (N, P, 3)).copy()
             else:
                 trans = np.zeros((N, 0, 3))
-        trans = _arrays.as_f64(trans, "trans", ndim=3, last=(3,))
+        trans = _frame_array(trans, "Motion: trans", (P, 3))
         if trans.shape != (N, P, 3):
             raise InvalidArgumentError(f"Motion: trans must be ({N}, {P}, 3), got {trans.shape}")
-        for a, name in ((root_pos, "root_pos"), (rot, "rot"), (trans, "trans")):
-            _arrays.require_finite(a, f"Motion: {name}")
         if N:
             norm = np.sqrt(np.einsum("...i,...i->...", rot, rot))
             bad = np.abs(norm - 1.0) > 1e-6
@@ -290,7 +313,78 @@ class Motion:
                 raise InvalidArgumentError(
                     f"Motion: rot[{f}, {j}] has norm {norm[f, j]:.9g}, expected unit quaternions "
                     "(mlayer.quat.normalize)")
-        self.frame_time, self.root_pos, self.rot, self.trans = ft, root_pos, rot, trans
+        self._frame_time, self._root_pos, self._rot, self._trans = ft, root_pos, rot, trans
+
+    # ---- the attributes, checked when they are assigned ------------------------------------
+    # An assignment is checked on its own (dtype, dimensions, the skeleton's joints, finite
+    # values) and converted to C-contiguous float64; the frame counts of the three arrays are
+    # compared by _frames() before every C call, since they may be replaced one at a time.
+
+    @property
+    def skeleton(self) -> Skeleton:
+        return self._skeleton
+
+    @skeleton.setter
+    def skeleton(self, sk) -> None:
+        if not isinstance(sk, Skeleton):
+            raise InvalidArgumentError("Motion.skeleton must be a mlayer.Skeleton, got "
+                                       f"{type(sk).__name__}")
+        self._skeleton = sk
+
+    @property
+    def frame_time(self) -> float:
+        return self._frame_time
+
+    @frame_time.setter
+    def frame_time(self, v) -> None:
+        self._frame_time = _frame_time_arg(v, "Motion.frame_time")
+
+    @property
+    def root_pos(self) -> np.ndarray:
+        return self._root_pos
+
+    @root_pos.setter
+    def root_pos(self, a) -> None:
+        self._root_pos = _frame_array(a, "Motion.root_pos", (3,))
+
+    @property
+    def rot(self) -> np.ndarray:
+        return self._rot
+
+    @rot.setter
+    def rot(self, a) -> None:
+        self._rot = _frame_array(a, "Motion.rot", (self._skeleton.n_joints, 4))
+
+    @property
+    def trans(self) -> np.ndarray:
+        return self._trans
+
+    @trans.setter
+    def trans(self, a) -> None:
+        self._trans = _frame_array(a, "Motion.trans",
+                                   (self._skeleton.trans_joints.shape[0], 3))
+
+    @property
+    def up_axis(self) -> str:
+        """The world axis that points up: "x", "y" or "z". Given by ``read_bvh(path, up=...)``
+        or by assigning it; else detected from the motion (:func:`mlayer.detect_up`: from the
+        feet by name, or the floor), and "y" (the BVH convention) when the detection is not
+        sure. Every threshold along up (contacts, floor, body height) follows it. Assign None
+        to detect again."""
+        if self._up is not None:
+            return self._up
+        from .up_axis import detect_up
+        g = detect_up(self)
+        return g.axis if g.sure else "y"
+
+    @up_axis.setter
+    def up_axis(self, up) -> None:
+        from .up_axis import axis_name
+        self._up = axis_name(up, "Motion.up_axis")
+
+    def _same_up(self, other: "Motion") -> "Motion":
+        self._up = other._up
+        return self
 
     # ---- construction ----------------------------------------------------------------------
 
@@ -330,12 +424,12 @@ class Motion:
         return Motion(self.skeleton, self.frame_time if frame_time is None else frame_time,
                       self.root_pos.copy() if root_pos is None else root_pos,
                       self.rot.copy() if rot is None else rot,
-                      self.trans.copy() if trans is None else trans)
+                      self.trans.copy() if trans is None else trans)._same_up(self)
 
     def copy(self) -> "Motion":
         """A deep copy of the frames (the immutable skeleton is shared)."""
         return Motion(self.skeleton, self.frame_time, self.root_pos.copy(), self.rot.copy(),
-                      self.trans.copy(), _trusted=True)
+                      self.trans.copy(), _trusted=True)._same_up(self)
 
     # ---- sizes and skeleton shortcuts ------------------------------------------------------
 
@@ -406,7 +500,7 @@ class Motion:
         return Motion(self.skeleton, self.frame_time * step,
                       self.root_pos[start:stop:step].copy(order="C"),
                       self.rot[start:stop:step].copy(order="C"),
-                      self.trans[start:stop:step].copy(order="C"), _trusted=True)
+                      self.trans[start:stop:step].copy(order="C"), _trusted=True)._same_up(self)
 
     # ---- kinematics ------------------------------------------------------------------------
 
@@ -419,16 +513,29 @@ class Motion:
             t[:, self.skeleton.trans_joints] = self.trans
         return t
 
-    def _frames(self):
-        """The frame arrays as C-contiguous float64 of the right shapes (they are public and
-        may have been replaced), without a copy when they already are."""
-        N, J, P = self.n_frames, self.n_joints, self.skeleton.trans_joints.shape[0]
+    def _frames(self, finite: bool = False):
+        """(root_pos, rot, trans) checked for a C call: C-contiguous float64 arrays of the
+        shapes (N, 3), (N, J, 4), (N, P, 3) of the skeleton, without a copy when they already
+        are; with ``finite``, also free of NaN and infinities. The attributes are public and
+        may have been replaced (or reshaped in place) since the motion was made, so every
+        wrapper that hands a motion's frames to C takes them from here: an array C would read
+        past its end raises InvalidArgumentError instead."""
+        sk = self._skeleton
+        if not isinstance(sk, Skeleton):
+            raise InvalidArgumentError("Motion.skeleton must be a mlayer.Skeleton")
+        _frame_time_arg(self._frame_time, "Motion.frame_time")
+        J, P = sk.n_joints, sk.trans_joints.shape[0]
+        rot = _arrays.as_f64(self._rot, "Motion.rot", ndim=3)
+        N = rot.shape[0]
         out = []
-        for a, name, shape in ((self.root_pos, "root_pos", (N, 3)), (self.rot, "rot", (N, J, 4)),
-                               (self.trans, "trans", (N, P, 3))):
+        for a, name, shape in ((self._root_pos, "root_pos", (N, 3)), (rot, "rot", (N, J, 4)),
+                               (self._trans, "trans", (N, P, 3))):
             a = _arrays.as_f64(a, f"Motion.{name}")
             if a.shape != shape:
-                raise InvalidArgumentError(f"Motion.{name}: expected shape {shape}, got {a.shape}")
+                raise InvalidArgumentError(f"Motion.{name}: expected shape {shape} (the "
+                                           f"skeleton's joints, {N} frames as rot), got {a.shape}")
+            if finite:
+                _arrays.require_finite(a, f"Motion.{name}")
             out.append(a)
         return out
 
@@ -482,9 +589,7 @@ class Motion:
         """A C motion handle holding a copy of this motion (for the writers)."""
         sk = self.skeleton
         N = self.n_frames
-        root_pos, rot, trans = self._frames()
-        for a, name in ((root_pos, "root_pos"), (rot, "rot"), (trans, "trans")):
-            _arrays.require_finite(a, f"Motion.{name}")
+        root_pos, rot, trans = self._frames(finite=True)
         h = _create_handle(list(sk._names), sk.parents, sk.offsets, sk.channels,
                            sk.end_site_parents, sk.end_site_offsets, N, self.frame_time)
         if N:

@@ -31,8 +31,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import _arrays
-from ._native import ffi, lib
-from ._rig import axis, c_rig
+from ._native import ReadOnlyAttributes, ffi, lib, refuse_copy
+from ._rig import c_rig, motion_axis
 from .errors import InvalidArgumentError, check
 from .layers import Layers, decompose
 from .limits import JointLimits
@@ -91,8 +91,12 @@ def _floor(floor):
     return True, h
 
 
-class Synthesis:
+class Synthesis(ReadOnlyAttributes):
     """The layers and the guards of one input Motion, for any number of syntheses.
+    ``motion`` and ``layers`` are read-only. ``copy.copy`` shares the guards' C handle (it is
+    not changed after it is made and is freed with the last user); ``copy.deepcopy`` and
+    pickling raise TypeError (the guards and joint limits are C models that cannot be
+    duplicated: make a new Synthesis).
 
     motion          the input
     limits          "auto" (default: learned from the input, applied when some |alpha| > 1),
@@ -103,7 +107,7 @@ class Synthesis:
     keep_contacts   pin the feet during the input's contacts (default True)
     contact_joints  the contact points instead of the feet found by name: joint names or
                     "Joint/End" for a joint's End Site
-    up              the up axis: "x", "y" (default) or "z"
+    up              the up axis: "x", "y" or "z"; None (default): the input's Motion.up_axis
     layers          the input's Layers when they are at hand (else decomposed here)
     layer options   gamma, lam_c, sigma_c, lam_b, sigma_b, base_cutoff, robust (default True:
                     outlier frames down-weighted, see Layers.outliers): see
@@ -112,8 +116,22 @@ class Synthesis:
     Raises InvalidArgumentError (naming the argument) for bad options or input.
     """
 
+    _readonly = ("motion", "layers", "_mode", "_limits", "_floor_on", "_floor_height",
+                 "_keep_contacts", "_contact_joints", "_up")
+
+    def __copy__(self) -> "Synthesis":
+        new = object.__new__(type(self))
+        new.__dict__.update(self.__dict__)  # the same layers, limits and guards handle
+        return new
+
+    def __deepcopy__(self, memo):
+        raise refuse_copy(self, "deep-copy", "make a new Synthesis of the motion")
+
+    def __reduce_ex__(self, protocol):
+        raise refuse_copy(self, "pickle", "pickle the motion and make a new Synthesis")
+
     def __init__(self, motion, *, limits="auto", floor="auto", keep_contacts=True,
-                 contact_joints=None, up="y", layers=None, **layer_options):
+                 contact_joints=None, up=None, layers=None, **layer_options):
         from .motion import Motion
         if not isinstance(motion, Motion):
             raise InvalidArgumentError(f"motion: expected a mlayer.Motion, got "
@@ -126,7 +144,7 @@ class Synthesis:
         self._floor_on, self._floor_height = _floor(floor)
         self._keep_contacts = bool(keep_contacts)
         self._contact_joints = contact_joints
-        self._up = axis(up, "up")
+        self._up = motion_axis(motion, up, "up")
         if layers is not None and (not isinstance(layers, Layers) or layers.motion is not motion):
             raise InvalidArgumentError("layers: expected the Layers of this motion "
                                        "(mlayer.decompose(motion))")
@@ -199,12 +217,28 @@ class Synthesis:
         names = [sk.joint_names[a] + ("/End" if b >= 0 else "") for a, b in zip(j, e)]
         return names, c.astype(bool)
 
+    def _same_frames(self, m, name: str) -> None:
+        """The C guards read a synthesis (and its reference) on the input's frames and
+        skeleton: anything else is refused before the call."""
+        from .motion import Motion
+        if m is None and name == "reference":
+            return
+        if not isinstance(m, Motion):
+            raise InvalidArgumentError(f"{name}: expected a mlayer.Motion, got "
+                                       f"{type(m).__name__}")
+        if m.skeleton != self.motion.skeleton or m.n_frames != self.motion.n_frames:
+            raise InvalidArgumentError(f"{name}: expected a Motion on the input's skeleton and "
+                                       f"its {self.motion.n_frames} frames, got "
+                                       f"{m.n_frames} frames")
+
     def guard(self, synthesized, alphas, reference=None):
         """``(motion, GuardReport)``: the guards applied to ``synthesized`` (a Motion on the
         input's frames made with the (1 + J,) ``alphas``, as :meth:`Layers.alphas` gives them).
         During contacts the feet follow ``reference`` (default: the input, smoothed over
         0.02 s against capture noise), or keep their own trajectory where it slides less."""
         a = np.ascontiguousarray(alphas, dtype=np.float64).reshape(-1)
+        for m, name in ((synthesized, "synthesized"), (reference, "reference")):
+            self._same_frames(m, name)
         root, rot, trans = (x.copy() for x in synthesized._frames())
         if reference is None:
             rr = rq = rt = None
@@ -244,7 +278,7 @@ class Synthesis:
 
 
 def denoise(motion, *, limits="auto", floor="auto", keep_contacts=True, contact_joints=None,
-            up="y", return_report=False, **layer_options):
+            up=None, return_report=False, **layer_options):
     """The denoised motion: the layers of ``motion`` synthesized at alpha = 1, with the feet
     kept on their contacts and above the floor (see :class:`Synthesis` for the switches and
     :func:`mlayer.decompose` for the layer options). With ``return_report``, returns
@@ -256,7 +290,7 @@ def denoise(motion, *, limits="auto", floor="auto", keep_contacts=True, contact_
 
 
 def stylize(motion, alpha, joints=None, *, root_alpha=None, limits="auto", floor="auto",
-            keep_contacts=True, contact_joints=None, up="y", return_report=False,
+            keep_contacts=True, contact_joints=None, up=None, return_report=False,
             **layer_options):
     """Scale the style (the controllable layer) of a motion: ``alpha`` = 2 exaggerates, 0.5
     flattens; ``joints`` maps joint names or globs ("Left*") to their own alpha and

@@ -37,14 +37,14 @@ import sys
 
 import numpy as np
 
-from . import quat
+from . import _arrays, quat
 from .errors import InvalidArgumentError, MlayerIOError
 from .lgs import lgs
 from .manifold import GRBF, PCA
 from .markov import Markov
 from .motion import Motion, Skeleton
 
-__all__ = ["PrimitiveModel", "heading_quat", "split_heading"]
+__all__ = ["PrimitiveModel", "heading_quat", "split_heading", "default_lattices", "same_units"]
 
 _FORMAT = 1
 # generated contacts: a pin holds while the generated foot drifts at most this many body heights
@@ -85,6 +85,58 @@ def _hemisphere(q: np.ndarray) -> np.ndarray:
     return out
 
 
+def _non_negative(v, name: str) -> float:
+    """A finite number >= 0, else InvalidArgumentError naming it (NaN compares false with
+    everything, so ``smooth=nan`` used to pass ``smooth > 0`` checks silently)."""
+    f = _arrays.finite(v, name)
+    if f < 0:
+        raise InvalidArgumentError(f"{name} must be >= 0, got {v!r}")
+    return f
+
+
+# The defaults of fit scale with the training frames from these (the paper's sizes) down.
+MIN_FRAMES = 16
+UNIT_RATIO = 2.0
+
+
+def default_lattices(n_frames: int) -> tuple[tuple[int, int], tuple[int, int]]:
+    """The default SOM lattice and GRBF centre lattice of :meth:`PrimitiveModel.fit` for
+    n_frames training frames: (s, s) with s = min(30, isqrt(n)) and (g, g) with
+    g = min(15, isqrt(n // 4)). InvalidArgumentError below MIN_FRAMES frames."""
+    n = int(n_frames)
+    if n < MIN_FRAMES:
+        raise InvalidArgumentError(
+            f"primitives: {n} training frames are too few for the default lattices (at least "
+            f"{MIN_FRAMES}; give som= and lattice=, --som and --lattice, to try smaller ones)")
+    s, g = min(30, math.isqrt(n)), min(15, math.isqrt(n // 4))
+    return (s, s), (g, g)
+
+
+def same_units(clips) -> list:
+    """The clips with those in other units than the first scaled to its body height (a ratio
+    of UNIT_RATIO or more; see :meth:`PrimitiveModel.fit`), each scaling warned about."""
+    import warnings
+    from .errors import MlayerWarning
+    from .metrics import body_height
+    h0 = body_height(clips[0])
+    out = [clips[0]]
+    for i, m in enumerate(clips[1:], 1):
+        h = body_height(m)
+        if not (h0 > 0 and h > 0) or max(h / h0, h0 / h) < UNIT_RATIO:
+            out.append(m)
+            continue
+        f = h0 / h
+        sk = m.skeleton
+        scaled = Skeleton(sk.joint_names, sk.parents, sk.offsets * f, sk.channels,
+                          sk.end_site_parents, sk.end_site_offsets * f)
+        out.append(Motion(scaled, m.frame_time, m.root_pos * f, m.rot, m.trans * f)
+                   ._same_up(m))
+        warnings.warn(MlayerWarning(
+            f"primitives: clip {i} is in other units than clip 0 (body height {h:.4g} against "
+            f"{h0:.4g}): scaled by {f:.4g} to clip 0's size"), stacklevel=3)
+    return out
+
+
 def _say(progress, msg: str) -> None:
     if progress:
         print(msg, file=sys.stderr if progress is True else progress, flush=True)
@@ -105,8 +157,8 @@ class PrimitiveModel:
     # -- learning ------------------------------------------------------------------------------
 
     @classmethod
-    def fit(cls, clips, *, k="auto", ks=range(2, 21), manifold: str = "som", som=(30, 30),
-            epochs: int = 20, lattice=(15, 15), kernel: str = "thin_plate",
+    def fit(cls, clips, *, k="auto", ks=range(2, 21), manifold: str = "som", som=None,
+            epochs: int = 20, lattice=None, kernel: str = "thin_plate",
             smoothing: float = 1e-6, seed: int = 0, progress=None) -> "PrimitiveModel":
         """Learn a model from one Motion or a list of Motions of one skeleton.
 
@@ -115,6 +167,20 @@ class PrimitiveModel:
         (a small relative ridge keeps the weights of lattice centres with no training frame
         nearby determined). progress: True prints the
         steps on stderr (or give a file).
+
+        Defaults that scale with n, the number of training frames (:func:`default_lattices`):
+        ``som`` s x s units with s = min(30, isqrt(n)) (about one frame per unit; the paper's
+        30 x 30 from 900 frames on), ``lattice`` g x g GRBF centres with
+        g = min(15, isqrt(n // 4)) (at least 4 frames per centre; the paper's 15 x 15 from 900
+        frames on), and never more centres per side than the SOM has units. They need
+        :data:`MIN_FRAMES` (16) frames; with fewer, give both ``som`` and ``lattice``.
+
+        Units: a clip whose body height (:func:`mlayer.metrics.body_height`, along its up axis)
+        differs from the first clip's by a factor of :data:`UNIT_RATIO` (2) or more is in
+        other units (cm and m, CMU's 5.6 cm units and cm, inches and cm; people differ by less):
+        it is scaled (its OFFSETs, root and position channels) to the first clip's height, with
+        an :class:`mlayer.MlayerWarning` that says by how much. The model is in the first
+        clip's units.
         """
         from .features import pose_features
         from .kmeans import elbow, kmeans
@@ -130,6 +196,13 @@ class PrimitiveModel:
         if manifold not in ("som", "pca"):
             raise InvalidArgumentError(f"manifold must be 'som' or 'pca', got {manifold!r}")
         from .layers import body_translation_joint
+        if lattice is None or (manifold == "som" and som is None):
+            som_d, lattice_d = default_lattices(sum(m.n_frames for m in clips))
+            som = som_d if som is None else som
+            if lattice is None:
+                lattice = lattice_d if manifold != "som" else tuple(
+                    min(g, int(s)) for g, s in zip(lattice_d, som))
+        clips = same_units(clips)
         self = cls()
         self.skeleton = clips[0].skeleton
         self.frame_time = float(np.median([m.frame_time for m in clips]))
@@ -236,6 +309,13 @@ class PrimitiveModel:
         root = np.repeat(np.asarray(self.rest_root_pos, dtype=np.float64)[None], n, axis=0)
         return [Motion(self.skeleton, self.frame_time, root[a:b], self.train_rot[a:b],
                        self.train_trans[a:b]) for a, b in zip(self.clip_starts, ends)]
+
+    def __getstate__(self):
+        # copies and pickles leave out the cached JointLimits (a C model that cannot be copied);
+        # joint_limits() makes it again when it is needed
+        state = self.__dict__.copy()
+        state.pop("_limits_cache", None)
+        return state
 
     def joint_limits(self):
         """:func:`mlayer.joint_limits` of the training clips (made once, kept)."""
@@ -442,6 +522,13 @@ class PrimitiveModel:
                 or n_frames < 2:
             raise InvalidArgumentError(f"generate: frames must be an integer >= 2, got "
                                        f"{n_frames!r}")
+        smooth = _non_negative(smooth, "generate: smooth")
+        noise = _non_negative(noise, "generate: noise")
+        if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+            raise InvalidArgumentError(f"generate: seed must be an integer >= 0, got {seed!r}")
+        # the mapping's outputs, their smoothing and the guards: a few copies of n_frames poses
+        per_frame = getattr(self.grbf, "n_outputs_", 0) + 8 * self.skeleton.n_joints
+        _arrays.check_memory(64.0 * n_frames * per_frame, f"generate: n_frames={n_frames}")
         n = self.points.shape[0]
         if key_poses is not None:
             knots = self.to_manifold(key_poses)
@@ -501,6 +588,7 @@ class PrimitiveModel:
     def motion_along(self, traj, *, smooth: float = 2.0) -> Motion:
         """The Motion whose frames the GRBF maps from the manifold points traj (n, 2)."""
         traj = np.asarray(traj, dtype=np.float64)
+        smooth = _non_negative(smooth, "motion_along: smooth")
         Y = self.grbf.predict(traj)
         if smooth > 0 and Y.shape[0] > 2:
             Y = lgs(Y, lam=smooth, sigma=1.0, order=2)

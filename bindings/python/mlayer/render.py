@@ -16,6 +16,9 @@ import re
 
 import numpy as np
 
+from .metrics import body_height
+from .up_axis import to_y_up
+
 from ._files import atomic_output
 from .errors import InvalidArgumentError
 
@@ -74,7 +77,7 @@ def followed_joint(positions: np.ndarray) -> int:
     over the clip; joint 0 when none does. Rigs such as Bandai's keep a ``joint_Root`` at the
     origin and move the body with the hips below it."""
     p = np.asarray(positions, dtype=np.float64)
-    height = float(np.median(p[:, :, 1].max(axis=1) - p[:, :, 1].min(axis=1))) or 1.0
+    height = body_height(p, "y") or 1.0
     xz = p[:, :, [0, 2]]
     moved = np.linalg.norm(xz - xz[:1], axis=-1).max(axis=0) > 0.01 * height
     return int(np.argmax(moved)) if moved.any() else 0
@@ -105,7 +108,8 @@ def render_gif(motions, path, *, labels=None, fps: float = 30.0, panel_size=(320
         raise InvalidArgumentError(f"render_gif: {len(labels)} labels for {len(motions)} motions")
     if not (math.isfinite(fps) and fps > 0):
         raise InvalidArgumentError(f"render_gif: fps must be positive, got {fps}")
-    pos = [np.asarray(m.positions(), dtype=np.float64) for m in motions]
+    pos = [to_y_up(getattr(m, "up_axis", "y"), np.asarray(m.positions(), dtype=np.float64))
+           for m in motions]
     for p, m in zip(pos, motions):
         if p.shape[0] == 0:
             raise InvalidArgumentError("render_gif: a motion has no frames")

@@ -18,7 +18,9 @@ retiming composes with everything else that takes a motion (e.g. retime, then st
 - :func:`slerp_resample`: the classic baseline (SLERP of rotations between the two nearest
   input frames, linear interpolation of translations).
 
-The first and the last frame always stay put. Factors beyond 100x (either way, or any local
+The first frame always stays put; with ``n_frames`` (and time maps) the last one too, while
+``fps`` keeps the exact rate: output frame k at time k / fps, ending at the last such time
+within the input (up to one output frame before the input's last frame). Factors beyond 100x (either way, or any local
 step of a time map) are refused unless ``allow_extreme=True``: they are usually a unit mistake.
 """
 from __future__ import annotations
@@ -74,6 +76,14 @@ def _factor_check(factor: float, what: str, where: str, allow_extreme: bool) -> 
             "mean it")
 
 
+def _out_memory(motion: Motion, n_out: int, name: str, where: str) -> int:
+    """n_out, after checking that its output frames (and the solver's copy of them) fit in
+    memory: MemoryError naming the argument before anything is allocated."""
+    m = 3 + 4 * motion.n_joints + 3 * motion.skeleton.trans_joints.shape[0]
+    _arrays.check_memory(16.0 * n_out * m, f"{where}: {name} ({n_out} output frames)")
+    return n_out
+
+
 def _frame_count(n, name: str, where: str) -> int:
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)):
         raise InvalidArgumentError(f"{where}: {name} must be an integer, got {n!r}")
@@ -83,9 +93,11 @@ def _frame_count(n, name: str, where: str) -> int:
 
 
 def _target(motion: Motion, fps, n_frames, allow_extreme: bool, where: str):
-    """(n_out, frame_time) for exactly one of fps / n_frames; the uniform map keeps the first
-    and last frames, so n_frames keeps the duration of frames 0..N-1 (the frame time
-    changes) and fps keeps the rate given (the duration moves by under half a frame)."""
+    """(n_out, frame_time, t) for exactly one of fps / n_frames. fps: the exact grid of the
+    rate (C mlr_resample_rate_map): t[i] = i fps / motion.fps, output frame k at time k / fps
+    after the first frame, ending at the last such time within the input (pass t with
+    MLR_RESAMPLE_OPEN_END). n_frames: t None, the uniform map that keeps the first and last
+    frames, so the duration of frames 0..N-1 stays (the frame time changes)."""
     if (fps is None) == (n_frames is None):
         raise InvalidArgumentError(f"{where}: give exactly one of fps or n_frames")
     N = motion.n_frames
@@ -99,13 +111,32 @@ def _target(motion: Motion, fps, n_frames, allow_extreme: bool, where: str):
         _factor_check(fps / motion.fps, f"{motion.fps:.6g} -> {fps:.6g} fps", where,
                       allow_extreme)
         n = ffi.new("size_t *")
+        t = np.empty(N)
         diag = ffi.new("mlr_diag *")
-        _check(lib.mlr_resample_n_out(N, motion.fps, fps, _flags(allow_extreme), n, diag),
-               where, diag)
-        return int(n[0]), 1.0 / fps
+        _check(lib.mlr_resample_rate_map(N, motion.fps, fps, _flags(allow_extreme),
+                                         _arrays.ptr_out(t), n, diag), where, diag)
+        return _out_memory(motion, int(n[0]), "fps", where), 1.0 / fps, t
     n_out = _frame_count(n_frames, "n_frames", where)
     _factor_check((n_out - 1) / (N - 1), f"{N} -> {n_out} frames", where, allow_extreme)
-    return n_out, motion.frame_time * (N - 1) / (n_out - 1)
+    _out_memory(motion, n_out, "n_frames", where)
+    return n_out, motion.frame_time * (N - 1) / (n_out - 1), None
+
+
+def frames_at_rate(n_frames: int, fps_in: float, fps_out: float) -> int:
+    """How many frames ``resample(m, fps=fps_out)`` gives for a clip of ``n_frames`` at
+    ``fps_in``: the output frames k / fps_out within the input's duration (the C core's count,
+    any factor)."""
+    n = ffi.new("size_t *")
+    diag = ffi.new("mlr_diag *")
+    _check(lib.mlr_resample_n_out(int(n_frames), float(fps_in), float(fps_out),
+                                  lib.MLR_RESAMPLE_OPEN_END | lib.MLR_RESAMPLE_ALLOW_EXTREME, n,
+                                  diag), "frames_at_rate", diag)
+    return int(n[0])
+
+
+def _grid_flags(t) -> int:
+    """MLR_RESAMPLE_OPEN_END for the exact grid of a rate (a time map from _target)."""
+    return 0 if t is None else lib.MLR_RESAMPLE_OPEN_END
 
 
 def _lam_sigma(lam, sigma, where: str):
@@ -195,11 +226,17 @@ def resample(motion: Motion, *, fps: float | None = None, n_frames: int | None =
     Parameters
     ----------
     fps : float
-        The new frame rate; the output has ``round((N-1) fps / motion.fps) + 1`` frames and
-        frame time ``1 / fps``.
+        The new frame rate, exactly: output frame k lies at time ``k / fps`` after the input's
+        first frame, and the output ends at the last such time within the input, so it has
+        ``floor((N-1) fps / motion.fps) + 1`` frames (a value within 1e-9 below an integer
+        counts as that integer) of frame time ``1 / fps``. The last input frame may fall
+        between two output frames; then the output ends up to one output frame earlier than
+        the input. Round trips (120 -> 30 -> 120 fps) do not drift, and two cuts of one clip
+        resampled separately have the same frames at the same times.
     n_frames : int
         The new frame count (>= 2); the frame time is scaled so that the first and last frames
-        keep their times. Give exactly one of ``fps`` and ``n_frames``.
+        keep their times (the duration fits exactly). Give exactly one of ``fps`` and
+        ``n_frames``.
     lam, sigma : float, optional
         Smoothness and observation noise. ``lam=None`` (default) picks the smoothness from the
         factor (C ``MLR_RESAMPLE_AUTO``: low-pass at 0.38 of the new Nyquist when downsampling,
@@ -228,15 +265,19 @@ def resample(motion: Motion, *, fps: float | None = None, n_frames: int | None =
     """
     where = "mlayer.resample"
     motion = _motion(motion, where)
-    n_out, frame_time = _target(motion, fps, n_frames, allow_extreme, where)
+    n_out, frame_time, t = _target(motion, fps, n_frames, allow_extreme, where)
     lam, sigma = _lam_sigma(lam, sigma, where)
     original, motion = motion, _stylized(motion, style, where)
-    res = _solve(motion, None, n_out, frame_time, lam, sigma,
-                 _flags(allow_extreme, nearest_sign), return_var, where)
+    res = _solve(motion, t, n_out, frame_time, lam, sigma,
+                 _flags(allow_extreme, nearest_sign) | _grid_flags(t), return_var, where)
     if not keep_contacts:
         return res
-    src = np.arange(n_out) * ((original.n_frames - 1) / max(n_out - 1, 1))
-    ref = slerp_resample(original, n_frames=n_out, allow_extreme=allow_extreme)
+    if t is None:
+        src = np.arange(n_out) * ((original.n_frames - 1) / max(n_out - 1, 1))
+        ref = slerp_resample(original, n_frames=n_out, allow_extreme=allow_extreme)
+    else:  # the input frame (fractional) at each output frame's time
+        src = np.arange(n_out) * (original.fps / fps)
+        ref = slerp_resample(original, fps=fps, allow_extreme=allow_extreme)
     return _pinned(original, res, ref, src)
 
 
@@ -253,7 +294,9 @@ def slerp_resample(motion: Motion, *, fps: float | None = None, n_frames: int | 
     """The baseline: every output frame is the SLERP (shorter arc) of the two input frames
     around it, translations are linearly interpolated; no smoothing, no anti-aliasing.
 
-    Same ``fps`` / ``n_frames`` / ``allow_extreme`` rules as :func:`resample`; ``time_map``
+    Same ``fps`` / ``n_frames`` / ``allow_extreme`` rules as :func:`resample` (``fps``: output
+    frame k at time ``k / fps`` after the first frame, up to the last such time within the
+    input); ``time_map``
     (optional, as in :func:`timewarp`) retimes the same way as the LGS does with that map.
     """
     where = "mlayer.slerp_resample"
@@ -262,10 +305,11 @@ def slerp_resample(motion: Motion, *, fps: float | None = None, n_frames: int | 
         if fps is not None:
             raise InvalidArgumentError(f"{where}: give fps or time_map, not both")
         t, n_out = _time_map(time_map, motion.n_frames, n_frames, allow_extreme, where)
-        frame_time = motion.frame_time
+        _out_memory(motion, n_out, "time_map / n_frames", where)
+        frame_time, grid = motion.frame_time, 0
     else:
-        t = None
-        n_out, frame_time = _target(motion, fps, n_frames, allow_extreme, where)
+        n_out, frame_time, t = _target(motion, fps, n_frames, allow_extreme, where)
+        grid = _grid_flags(t)
     root, rot, trans = motion._frames()
     # (the C core checks every value: non-finite data is reported with its frame and joint)
     N, J, P = motion.n_frames, motion.n_joints, trans.shape[1]
@@ -274,7 +318,7 @@ def slerp_resample(motion: Motion, *, fps: float | None = None, n_frames: int | 
     diag = ffi.new("mlr_diag *")
     code = lib.mlr_slerp_resample_arrays(
         N, J, P, _arrays.ptr(root), _arrays.ptr(rot), _arrays.ptr(trans),
-        ffi.NULL if t is None else _arrays.ptr(t), n_out, _flags(allow_extreme),
+        ffi.NULL if t is None else _arrays.ptr(t), n_out, _flags(allow_extreme) | grid,
         _arrays.ptr_out(root_out), _arrays.ptr_out(rot_out), _arrays.ptr_out(trans_out), diag)
     _check(code, where, diag)
     return Motion(motion.skeleton, frame_time, root_out, rot_out, trans_out, _trusted=True)
@@ -404,6 +448,7 @@ def timewarp(motion: Motion, *, strength: float = 1.0, n_frames: int | None = No
                          smooth_seconds=smooth_seconds, root_weight=root_weight,
                          joint_weights=joint_weights, allow_extreme=allow_extreme)
         n_out = int(round(t[-1])) + 1
+    _out_memory(motion, n_out, "time_map / n_frames", where)
     lam, sigma = _lam_sigma(lam, sigma, where)
     original, motion = motion, _stylized(motion, style, where)
     res = _solve(motion, t, n_out, motion.frame_time, lam, sigma, _flags(allow_extreme),

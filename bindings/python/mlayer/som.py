@@ -11,14 +11,15 @@ import os
 import numpy as np
 
 from . import _arrays
-from ._native import ffi, lib
+from ._files import atomic_output
+from ._native import NativeHandle, ReadOnlyAttributes, ffi, lib
 from .errors import InvalidArgumentError, check
 from .kmeans import _count, default_threads
 
 _MODES = {"batch": lib.MLR_SOM_BATCH, "online": lib.MLR_SOM_ONLINE}
 
 
-class SOM:
+class SOM(ReadOnlyAttributes, NativeHandle):
     """A rows x cols map of dim-dimensional codebook vectors.
 
     sigma0/sigma1: neighbourhood radius at the start/end of a training call (lattice units;
@@ -26,7 +27,14 @@ class SOM:
     0.01). cutoff: online training leaves a unit alone when its Gaussian factor is below it
     (1e-3; 0 updates every unit, as MiniSom does). n_threads: default
     :func:`mlayer.kmeans.default_threads`; results do not depend on it.
+
+    ``rows``, ``cols``, ``dim`` and ``n_threads`` are read-only. ``copy.copy``,
+    ``copy.deepcopy`` and pickling make an independent map (its own C handle, through
+    :meth:`to_bytes`: the same codebook and options). ``close()`` frees the map now; a closed
+    map raises InvalidArgumentError.
     """
+
+    _readonly = ("rows", "cols", "dim", "n_threads", "_options")
 
     def __init__(self, rows: int, cols: int, dim: int, *, seed: int = 0,
                  sigma0: float | None = None, sigma1: float = 1.0, alpha0: float = 0.5,
@@ -45,6 +53,8 @@ class SOM:
         self.rows, self.cols, self.dim = int(rows), int(cols), int(dim)
         self.n_threads = default_threads() if n_threads is None else _count(n_threads,
                                                                             "n_threads")
+        self._options = dict(seed=seed, sigma0=sigma0, sigma1=sigma1, alpha0=alpha0,
+                             alpha1=alpha1, cutoff=cutoff, n_threads=self.n_threads)
         opts = [(lib.MLR_SOM_SEED, _count(seed, "seed", 0)),
                 (lib.MLR_SOM_N_THREADS, self.n_threads),
                 (lib.MLR_SOM_SIGMA1, sigma1), (lib.MLR_SOM_ALPHA0, alpha0),
@@ -54,16 +64,11 @@ class SOM:
         for key, v in opts:
             check(lib.mlr_som_set(self._h, key, float(v), diag), "mlayer.SOM", diag)
 
-    def close(self) -> None:
-        """Free the map now rather than at garbage collection."""
-        if self._h is not None:
-            ffi.release(self._h)
-            self._h = None
+    def _clone(self) -> "SOM":
+        return _som_from_blob(self.to_bytes(), self._options)
 
-    def _live(self):
-        if self._h is None:
-            raise InvalidArgumentError("mlayer.SOM: the map is closed")
-        return self._h
+    def __reduce_ex__(self, protocol):
+        return (_som_from_blob, (self.to_bytes(), self._options))
 
     def _data(self, X) -> np.ndarray:
         X = _arrays.as_f64(X, "X", ndim=2)
@@ -156,17 +161,13 @@ class SOM:
         diag = ffi.new("mlr_diag *")
         check(lib.mlr_som_import(blob, len(blob), ffi.NULL, out, diag), "mlayer.SOM.from_bytes",
               diag)
-        h = out[0]
-        rows, cols, dim = lib.mlr_som_rows(h), lib.mlr_som_cols(h), lib.mlr_som_dim(h)
-        return cls(rows, cols, dim, seed=seed, n_threads=n_threads, _handle=h)
+        return _som_from_blob(blob, dict(seed=seed, n_threads=n_threads), out[0])
 
     def save(self, path) -> None:
         """Write the codebook blob to path (a temporary file renamed into place)."""
-        path = os.fspath(path)
-        tmp = f"{path}.tmp{os.getpid()}"
-        with open(tmp, "wb") as f:
-            f.write(self.to_bytes())
-        os.replace(tmp, path)
+        blob = self.to_bytes()
+        with atomic_output(path) as tmp, open(tmp, "wb") as f:
+            f.write(blob)
 
     @classmethod
     def load(cls, path, **kwargs) -> "SOM":
@@ -176,6 +177,19 @@ class SOM:
 
     def __repr__(self) -> str:
         return f"SOM({self.rows}, {self.cols}, {self.dim})"
+
+
+def _som_from_blob(blob: bytes, options: dict, handle=None) -> SOM:
+    """A map from an export blob (or the handle imported from it) and the constructor's
+    options: from_bytes, copies, unpickling."""
+    if handle is None:
+        out = ffi.new("mlr_som **")
+        diag = ffi.new("mlr_diag *")
+        check(lib.mlr_som_import(bytes(blob), len(blob), ffi.NULL, out, diag), "mlayer.SOM",
+              diag)
+        handle = out[0]
+    rows, cols = lib.mlr_som_rows(handle), lib.mlr_som_cols(handle)
+    return SOM(rows, cols, lib.mlr_som_dim(handle), _handle=handle, **options)
 
 
 __all__ = ["SOM"]

@@ -40,7 +40,7 @@ from typing import NamedTuple
 import numpy as np
 
 from . import _arrays
-from ._native import NativeHandle, ffi, lib
+from ._native import NativeHandle, ReadOnlyAttributes, ffi, lib
 from .errors import Error, InvalidArgumentError, check
 from .motion import Motion, Skeleton
 
@@ -64,14 +64,28 @@ def decay_rate(lam: float, sigma: float) -> float:
     return r
 
 
+MAX_LAG = 10**6
+"""The largest lag a Stream takes: 2.3 hours at 120 fps, far beyond any lag whose gap to the
+offline solve is measurable (``decay_rate ** lag``), and about 1 GB of buffers for a 31-joint
+skeleton. A larger lag is taken as a mistake (frames given for seconds, say)."""
+
+
 def _as_lag(lag) -> int:
     if isinstance(lag, bool) or not isinstance(lag, (int, np.integer)) or lag < 0:
         raise InvalidArgumentError(f"Stream: lag must be an integer >= 0, got {lag!r}")
+    if lag > MAX_LAG:
+        raise InvalidArgumentError(f"Stream: lag must be at most {MAX_LAG} frames "
+                                   f"(mlayer.stream.MAX_LAG), got {lag!r}")
     return int(lag)
 
 
-class Stream(NativeHandle):
+class Stream(ReadOnlyAttributes, NativeHandle):
     """A fixed-lag LGS smoother for one skeleton (see the module docstring).
+
+    ``skeleton``, ``lam``, ``sigma``, ``lam_base``, ``sigma_base`` and ``limits`` are read-only
+    (the C stream was made with them and borrows the limits). A stream cannot be copied or
+    pickled (TypeError: its pushed frames live in the C handle; make a new Stream and push the
+    frames again); after ``close()`` its methods raise InvalidArgumentError.
 
     Parameters
     ----------
@@ -93,6 +107,10 @@ class Stream(NativeHandle):
         own, so a live exaggeration stays within the ranges as the offline one does.
     """
 
+    _readonly = ("skeleton", "lam", "sigma", "lam_base", "sigma_base", "limits", "_layered",
+                 "_J", "_P", "_m", "_q0", "_in", "_out", "_in_buf", "_out_buf", "_pin", "_pout",
+                 "_ready", "_in_root", "_in_trans", "_in_rot", "_default_trans")
+
     def __init__(self, skeleton_or_motion, *, lam: float, sigma: float, lag: int, alpha=None,
                  lam_base: float | None = None, sigma_base: float | None = None, limits=None):
         if isinstance(skeleton_or_motion, Motion):
@@ -107,6 +125,11 @@ class Stream(NativeHandle):
         if alpha is not None and not self._layered:
             raise InvalidArgumentError("Stream: alpha needs a base layer (lam_base, sigma_base)")
         J, P = sk.n_joints, int(sk.trans_joints.shape[0])
+        # the C stream keeps max(lag + 1, 4) frames per smoother (and lag more when layered) and
+        # clears them at once: refuse a lag whose buffers cannot fit before asking for them
+        m, n_sm = 3 + 3 * P + 4 * J, 2 if self._layered else 1
+        _arrays.check_memory(8.0 * (max(lag + 1, 4) * (m + 3) * n_sm + self._layered * lag * m),
+                             f"Stream: lag={lag} ({m} values per frame)")
         out = ffi.new("mlr_stream **")
         diag = ffi.new("mlr_diag *")
         try:
@@ -146,14 +169,13 @@ class Stream(NativeHandle):
             if isinstance(skeleton_or_motion, Motion) else None
         self._alpha = (1.0, np.ones(J))
         self._last_kind = "tuple"
-        self.limits = None
         if limits is not None:
             from .limits import JointLimits
             if not isinstance(limits, JointLimits) or limits.joint_names != sk.joint_names:
                 raise InvalidArgumentError("Stream: limits must be the JointLimits of this "
                                            "skeleton (mlayer.joint_limits(clip))")
             check(lib.mlr_stream_set_limits(self._h, limits._h), "mlayer.Stream limits")
-            self.limits = limits  # the C stream borrows the handle: keep it alive
+        self.limits = limits  # the C stream borrows the handle: keep it alive
         if alpha is not None:
             self.set_alpha(alpha)
 
@@ -162,7 +184,7 @@ class Stream(NativeHandle):
     @property
     def lag(self) -> int:
         """Output delay in frames."""
-        return int(lib.mlr_stream_lag(self._h))
+        return int(lib.mlr_stream_lag(self._live()))
 
     @property
     def decay_rate(self) -> float:
@@ -177,12 +199,12 @@ class Stream(NativeHandle):
     @property
     def n_pushed(self) -> int:
         """Frames pushed since creation or the last reset."""
-        return int(lib.mlr_stream_n_pushed(self._h))
+        return int(lib.mlr_stream_n_pushed(self._live()))
 
     @property
     def pending(self) -> int:
         """Frames pushed but not yet output (what flush would return)."""
-        return int(lib.mlr_stream_pending(self._h))
+        return int(lib.mlr_stream_pending(self._live()))
 
     @property
     def layered(self) -> bool:
@@ -268,7 +290,7 @@ class Stream(NativeHandle):
         (the stream is then unchanged) and Error after :meth:`flush` (call :meth:`reset`)."""
         kind = self._load(frame)
         self._last_kind = kind
-        code = lib.mlr_stream_push(self._h, self._pin, self._m, self._pout, self._m, self._ready)
+        code = lib.mlr_stream_push(self._live(), self._pin, self._m, self._pout, self._m, self._ready)
         if code:
             self._check_status(code, "mlayer.Stream.push")
         if not self._ready[0]:
@@ -282,14 +304,14 @@ class Stream(NativeHandle):
         k = self.pending
         x = np.empty((k, self._m))
         n = ffi.new("size_t *")
-        code = lib.mlr_stream_flush(self._h, _arrays.ptr_out(x) if k else ffi.NULL, x.size, n)
+        code = lib.mlr_stream_flush(self._live(), _arrays.ptr_out(x) if k else ffi.NULL, x.size, n)
         if code:
             self._check_status(code, "mlayer.Stream.flush")
         return self._wrap(x, getattr(self, "_last_kind", "tuple"))
 
     def reset(self) -> None:
         """Forget every pushed frame (the alphas are kept): the stream is as new."""
-        lib.mlr_stream_reset(self._h)
+        lib.mlr_stream_reset(self._live())
 
     def set_alpha(self, alpha, alpha_trans: float | None = None) -> None:
         """Layer scales of a layered stream, used from the next output on: ``alpha`` a float
@@ -309,7 +331,7 @@ class Stream(NativeHandle):
         else:
             raise InvalidArgumentError(
                 f"Stream.set_alpha: alpha must be a float or ({self._J},), got shape {a.shape}")
-        code = lib.mlr_stream_set_alpha(self._h, at, _arrays.ptr(a), self._J)
+        code = lib.mlr_stream_set_alpha(self._live(), at, _arrays.ptr(a), self._J)
         if code == lib.MLR_E_INVALID_ARG:
             raise InvalidArgumentError("Stream.set_alpha: alpha values must be finite "
                                        "[MLR_E_INVALID_ARG]", code)
@@ -322,7 +344,7 @@ class Stream(NativeHandle):
         """Push the N rows of y (N, m), flush; the N outputs into out (N, m), in frame order."""
         N, m = y.shape
         py, po = _arrays.ptr(y), _arrays.ptr_out(out)
-        push, h, ready = lib.mlr_stream_push, self._h, self._ready
+        push, h, ready = lib.mlr_stream_push, self._live(), self._ready
         done = 0
         for f in range(N):
             code = push(h, py + f * m, m, po + done * m, m, ready)

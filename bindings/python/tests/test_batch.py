@@ -133,7 +133,7 @@ def test_whole_corpus_embedded_cluster(mocap, tmp_path):
     res = run_batch("denoise", mocap, out, n_workers=2, report=report, progress=False)
     names = sorted(p.name for p in mocap.glob("*.bvh"))
     assert res.exit_code == 0 and res.ok == len(names) == 8 and res.n_workers == 2
-    assert res.scheduler.startswith("tcp://127.0.0.1:")
+    assert res.scheduler.startswith("tls://127.0.0.1:")  # the embedded cluster: TLS
     assert_clean(out, names)
     for name in names:
         got = read_text(out / name)
@@ -141,9 +141,9 @@ def test_whole_corpus_embedded_cluster(mocap, tmp_path):
         m = mlayer.read_bvh(out / name)
         assert m.n_frames == mlayer.read_bvh(mocap / name).n_frames
     doc = json.loads(read_text(report))
-    assert doc["summary"] == {"outputs": 8, "ok": 8, "skipped": 0, "failed": 0}
+    assert doc["summary"] == {"outputs": 8, "ok": 8, "skipped": 0, "failed": 0, "links": 0}
     workers = {r["worker"] for r in doc["records"]}
-    assert all(w.startswith("tcp://127.0.0.1:") for w in workers)
+    assert all(w.startswith("tls://127.0.0.1:") for w in workers)
     for r in doc["records"]:
         assert r["frames"] == r["frames_out"] > 0
         assert r["jitter_before"] > 0 and r["jitter_after"] > 0

@@ -372,7 +372,7 @@ def test_bad_input_raises_parse_error_with_path_and_line(name, text, line, words
     f = tmp_path / f"{name}.bvh"
     f.write_bytes(text.encode("latin-1"))
     with pytest.raises(mlayer.ParseError) as ei:
-        mlayer.read_bvh(f)
+        mlayer.read_bvh(f, strict=True)
     e = ei.value
     assert isinstance(e, mlayer.Error) and isinstance(e, ValueError)
     assert e.path == str(f)
@@ -380,6 +380,90 @@ def test_bad_input_raises_parse_error_with_path_and_line(name, text, line, words
     assert str(e).startswith(f"{f}:{line}: "), str(e)
     assert words.lower() in str(e).lower(), str(e)
     assert "\n" not in str(e)
+
+
+# Lenient reading (the default). SMALL: line 17 "Frames: 2", 18 "Frame Time:", 19 and 20 the
+# frames. (id, text, frames read, [(warning kind, line)], or None for a ParseError)
+FRAME2 = "1 2 3 90 0 0 0 45 0"
+LENIENT = [
+    ("extra-line", SMALL.replace("Frames: 2", "Frames: 1"), 2, [("extra_frames", 20)]),
+    ("assimp-like", SMALL + FRAME2 + "\n", 3, [("extra_frames", 21)]),
+    ("missing-line", SMALL.replace("Frames: 2", "Frames: 3"), 2, [("missing_frames", 21)]),
+    ("missing-three", SMALL.replace("Frames: 2", "Frames: 5"), 2, [("missing_frames", 21)]),
+    ("missing-four", SMALL.replace("Frames: 2", "Frames: 6"), None, []),
+    ("trailing-junk", SMALL + "END OF FILE\n", 2, [("trailing_data", 21)]),
+    ("junk-after-extra", SMALL + FRAME2 + "\n\x1a", 3,
+     [("extra_frames", 21), ("trailing_data", 22)]),
+    ("no-final-newline", SMALL.rstrip("\n"), 2, [("no_final_newline", 20)]),
+    ("truncated-mid-frame", SMALL[: SMALL.index("1 2 3 90") + 17], None, []),
+    ("bad-number-before-last", _replace_line(SMALL, 19, "1 2 3 0 0 0 0 4x5 0"), None, []),
+]
+
+
+@pytest.mark.parametrize("name,text,n,kinds", LENIENT, ids=[c[0] for c in LENIENT])
+def test_lenient_reading_warns_with_file_and_line(name, text, n, kinds, tmp_path):
+    f = tmp_path / f"{name}.bvh"
+    f.write_bytes(text.encode("latin-1"))
+    if n is None:
+        with pytest.raises(mlayer.ParseError) as ei:
+            mlayer.read_bvh(f)
+        assert str(ei.value).startswith(f"{f}:")
+        return
+    for read in (lambda: mlayer.read_bvh(f),
+                 lambda: mlayer.read_bvh_string(text.encode("latin-1"), name=str(f)),
+                 lambda: mlayer.read_bvh(f, threads=2)):
+        with pytest.warns(mlayer.ParseWarning) as rec:
+            m = read()
+        assert m.n_frames == n
+        got = [(w.message.kind, w.message.line) for w in rec]
+        assert got == kinds
+        for w in rec:
+            assert str(w.message).startswith(f"{f}:{w.message.line}: ")
+            assert isinstance(w.message, mlayer.MlayerWarning) and w.message.path == str(f)
+        # frames read agree with the clean file's
+        ref = mlayer.read_bvh_string(SMALL)
+        k = min(n, 2)
+        np.testing.assert_array_equal(m.rot[:k], ref.rot[:k])
+    # strict keeps the old errors (a missing final line end is no error there either)
+    if kinds[0][0] == "no_final_newline":
+        with pytest.warns(mlayer.ParseWarning):
+            assert mlayer.read_bvh(f, strict=True).n_frames == 2
+    else:
+        with pytest.raises(mlayer.ParseError):
+            mlayer.read_bvh(f, strict=True)
+        with mlayer.bvh.strict_reading(), pytest.raises(mlayer.ParseError):
+            mlayer.read_bvh(f)
+
+
+def test_truncated_file_is_an_error_unless_kept(tmp_path):
+    cut = SMALL[: SMALL.index("1 2 3 90") + 17]  # inside the last frame line
+    with pytest.raises(mlayer.ParseError, match="truncated file: 1 of 2 frames"):
+        mlayer.read_bvh_string(cut, name="cut.bvh")
+    with pytest.warns(mlayer.ParseWarning, match=r"cut\.bvh:20: truncated file: kept the 1 "):
+        m = mlayer.read_bvh_string(cut, name="cut.bvh", keep_truncated=True)
+    assert m.n_frames == 1
+    with pytest.raises(mlayer.InvalidArgumentError, match="keep_truncated=True needs strict"):
+        mlayer.read_bvh_string(cut, strict=True, keep_truncated=True)
+    with pytest.raises(mlayer.InvalidArgumentError, match="strict must be True or False"):
+        mlayer.read_bvh_string(SMALL, strict="yes")
+
+
+def test_cli_prints_one_line_per_warning_and_strict_refuses(tmp_path):
+    import subprocess
+    import sys
+    f = tmp_path / "extra.bvh"
+    f.write_text(SMALL + FRAME2 + "\nEND\n")
+    r = subprocess.run([sys.executable, "-m", "mlayer", "info", str(f)], capture_output=True,
+                       text=True)
+    assert r.returncode == 0, r.stderr
+    lines = r.stderr.splitlines()
+    assert len(lines) == 2 and all(ln.startswith("mlayer info: warning: ") for ln in lines)
+    assert f"{f}:21: 3 frame lines" in lines[0] and f"{f}:22: data after" in lines[1]
+    assert "frames    3" in r.stdout
+    r = subprocess.run([sys.executable, "-m", "mlayer", "info", "--strict", str(f)],
+                       capture_output=True, text=True)
+    assert r.returncode == 1 and "data after the 2 frames" in r.stderr
+    assert "Traceback" not in r.stderr and len(r.stderr.splitlines()) == 1
 
 
 def test_random_binary_junk_never_crashes(rng, tmp_path):

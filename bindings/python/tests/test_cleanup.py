@@ -103,7 +103,7 @@ def test_argument_errors_name_the_argument(walk):
         cleanup.fix_contacts(synth, c, names, floor="low")
     with pytest.raises(InvalidArgumentError, match="floor: the height must be finite"):
         cleanup.fix_contacts(synth, c, names, floor=float("inf"))
-    with pytest.raises(InvalidArgumentError, match="up: expected"):
+    with pytest.raises(InvalidArgumentError, match="fix_contacts: up must be"):
         cleanup.fix_contacts(synth, c, names, up="w")
     with pytest.raises(InvalidArgumentError, match="Nowhere"):
         cleanup.fix_contacts(synth, c, ["Nowhere"] + list(names[1:]))

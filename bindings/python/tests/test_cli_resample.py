@@ -76,12 +76,13 @@ def test_resample_report_prints_and_plots_the_variance(capsys, tmp_path):
     code, text, err = run(capsys, "resample", SAMPLE, "--fps", 240, "-o", out, "--report", png)
     assert code == 0 and err == ""
     lines = text.splitlines()
-    assert lines[0].startswith("posterior variance per output frame (1987 frames")
+    # 993 frames of 1 / 120.0005 s: the last 240 fps frame within them is frame 1985
+    assert lines[0].startswith("posterior variance per output frame (1986 frames")
     vals = {ln.split()[0]: float(ln.split()[1]) for ln in lines[1:4]}
     assert 0 < vals["min"] <= vals["median"] <= vals["max"]
     assert "at frame" in lines[1] and "at frame" in lines[3]
     assert lines[4].startswith("  within 5 % of the max: frames ")
-    assert len(mlayer.read_bvh(out)) == 1987
+    assert len(mlayer.read_bvh(out)) == 1986
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     # without a plot path: the summary only
     code, text, _ = run(capsys, "resample", SAMPLE, "--frames", 100, "-o", out, "--report")

@@ -411,7 +411,7 @@ def test_model_bad_input(walk_model):
     with pytest.raises(InvalidArgumentError, match="primitives 0"):
         model.generate(50, start_frame=0, path=[0, 99])
     with pytest.raises(InvalidArgumentError, match="exceeds"):
-        type(model).fit([m[:5]], k=6, som=(3, 3), epochs=1)
+        type(model).fit([m[:5]], k=6, som=(3, 3), epochs=1, lattice=(2, 2))
 
 
 def test_cli_primitives_generate(mocap, tmp_path, capsys):

@@ -246,6 +246,8 @@ def test_edited_arrays_are_used(tree):
     m.root_pos = m.root_pos + 5.0  # replaced, not only edited in place
     ref, _ = reference_fk(m)
     np.testing.assert_allclose(m.positions(), ref, atol=1e-12)
-    m.rot = m.rot[:, :4]
-    with pytest.raises(mlayer.InvalidArgumentError):
+    with pytest.raises(mlayer.InvalidArgumentError, match="Motion.rot"):
+        m.rot = m.rot[:, :4]  # refused where it is assigned: the skeleton has more joints
+    m.root_pos = m.root_pos[:5]  # a shape of its own, but not rot's frame count
+    with pytest.raises(mlayer.InvalidArgumentError, match="Motion.root_pos"):
         m.positions()

@@ -41,12 +41,17 @@ def server(mocap, bad_clip):
     t.join(5)
 
 
-def get(srv, path, host=None):
-    """(status, headers, body bytes) of GET path, sent as is (no normalization)."""
+def get(srv, path, host=None, headers=None, token=True):
+    """(status, headers, body bytes) of GET path, sent as is (no normalization), with the
+    session token the page carries (unless ``token`` is False)."""
     c = http.client.HTTPConnection("127.0.0.1", srv.server_address[1], timeout=30)
     try:
         c.putrequest("GET", path, skip_host=True)
         c.putheader("Host", host or f"127.0.0.1:{srv.server_address[1]}")
+        if token:
+            c.putheader("X-Mlayer-Token", srv.token)
+        for k, v in (headers or {}).items():
+            c.putheader(k, v)
         c.endheaders()
         r = c.getresponse()
         return r.status, dict(r.getheaders()), r.read()
@@ -266,7 +271,7 @@ def test_process_retiming(server, mocap):
     d = _process(server, f"length={2 * m.duration}")
     assert d["frames"] == 2 * m.n_frames and d["fps"] == pytest.approx(m.fps)
     d = _process(server, "fps=30")
-    assert d["frames"] == round((m.n_frames - 1) * 30 / m.fps) + 1 and d["fps"] == 30.0
+    assert d["frames"] == int((m.n_frames - 1) * 30 / m.fps + 1e-9) + 1 and d["fps"] == 30.0
     c = np.frombuffer(__import__("base64").b64decode(d["contacts"]), np.uint8)
     assert c.size == d["frames"] * 4 and c.any()
     w = _process(server, "warp=2")
@@ -325,6 +330,17 @@ def _start_cli(args):
     return p
 
 
+def page_token(host, port):
+    """The session token of the page a server at host:port serves (as the page's script reads
+    it)."""
+    import re
+    c = http.client.HTTPConnection(host, port, timeout=30)
+    c.request("GET", "/")
+    html = c.getresponse().read().decode()
+    c.close()
+    return re.search(r'<meta name="mlayer-token" content="([^"]+)">', html).group(1)
+
+
 def test_cli_prints_address_reports_bad_clip_and_serves(mocap, bad_clip):
     p = _start_cli([str(mocap / WALK), str(bad_clip)])
     try:
@@ -333,7 +349,7 @@ def test_cli_prints_address_reports_bad_clip_and_serves(mocap, bad_clip):
         url = line.split(" at ")[1].split()[0]
         host, port = urllib.parse.urlsplit(url).netloc.rsplit(":", 1)
         c = http.client.HTTPConnection(host, int(port), timeout=30)
-        c.request("GET", "/api/clips")
+        c.request("GET", "/api/clips", headers={"X-Mlayer-Token": page_token(host, int(port))})
         clips = json.loads(c.getresponse().read())["clips"]
         assert clips[0]["error"] is None and "broken.bvh" in clips[1]["error"]
     finally:
@@ -349,7 +365,7 @@ def test_cli_serves_an_error_page_when_no_clip_parses(bad_clip, tmp_path):
         assert "serving 0 of 2 clip(s)" in line
         port = int(line.split(" at ")[1].split()[0].rstrip("/").rsplit(":", 1)[1])
         c = http.client.HTTPConnection("127.0.0.1", port, timeout=30)
-        c.request("GET", "/api/clips")
+        c.request("GET", "/api/clips", headers={"X-Mlayer-Token": page_token("127.0.0.1", port)})
         clips = json.loads(c.getresponse().read())["clips"]
         assert "No such file" in clips[1]["error"]
     finally:

@@ -203,6 +203,12 @@ def test_page_plays_and_alpha_slider_changes_the_pose(browser, server, mocap, do
     assert got.joint_names == m.joint_names and got.n_frames == m.n_frames
     np.testing.assert_allclose(got.positions()[400], after, atol=1e-3 * h)
 
+    # the layer figure: an <img> cannot send a header, its URL carries the session token
+    d.find_element("css selector", "#figure-details summary").click()
+    wait(lambda: js(d, "document.getElementById('layers-png').naturalWidth") > 100, 60,
+         "the layer figure")
+    assert "token=" in js(d, "document.getElementById('layers-png').src")
+
 
 def test_parts_denoise_retiming_and_camera(browser, server, mocap):
     from selenium.webdriver.common.action_chains import ActionChains

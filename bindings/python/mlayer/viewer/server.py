@@ -1,11 +1,11 @@
 """The viewer's HTTP server (Python stdlib ``http.server``): the page, its script and style, and
 a small JSON API over :mod:`mlayer.viewer.session`.
 
-Routes (GET only; every other path is 404, no path from a request ever reaches the file
-system: the static files are a fixed table, clips are addressed by their index on the command
-line)::
+Routes (GET and HEAD only; every other path is 404, no path from a request ever reaches the
+file system: the static files are a fixed table, clips are addressed by their index on the
+command line)::
 
-    /                    the page (index.html)
+    /                    the page (index.html, with this server's session token)
     /viewer.js, /viewer.css
     /api/clips           the clips: name, frames, fps, or the error that stopped them
     /api/clip?clip=I     the original: skeleton, positions, contacts, metrics
@@ -15,26 +15,62 @@ line)::
     /api/download?...    the processed motion as a BVH attachment (same parameters)
     /api/layers.png?clip=I  the layer figure of `mlayer layers` (matplotlib)
 
-Errors are JSON ``{"error": message}``: 400 for a bad or unknown parameter, 404 for an unknown
-clip or path, 409 for a clip that failed to load, 500 for a failure inside mlayer (also printed
-on stderr).
+Errors are JSON ``{"error": message}``: 400 for a bad or unknown parameter, 403 for a request
+from another site or without the session token, 404 for an unknown clip or path, 409 for a
+clip that failed to load, 413 for a request over the output limit (or with a body), 500 for a
+failure inside mlayer (also printed on stderr).
+
+Limits (options of :class:`ViewerServer`, and of ``mlayer view``):
+
+- ``max_values``: one request may produce at most this many frames x points (joints and End
+  Sites) out, checked from the parameters before any work (413, saying which frame count fits);
+  a clip is always served at its own size.
+- ``cache_bytes``: the processed motions and encoded answers kept, by bytes (LRU).
+- Every ``/api/`` request needs the session token, a random string made when the server starts
+  and embedded in the page (``<meta name="mlayer-token">``): the page's script sends it in the
+  ``X-Mlayer-Token`` header (or ``token=`` in the query, for links and images). Requests with an
+  ``Origin`` other than the server's own or ``Sec-Fetch-Site: cross-site`` are refused (and
+  ``same-site`` on the API: another port of localhost is the same site), as are, on loopback,
+  requests naming another host (DNS rebinding).
+- ``threads`` workers serve the requests (a bounded pool, not a thread per connection); idle
+  connections wait in one watcher thread; the listen backlog is :data:`BACKLOG`.
+- ``timeout``: a connection idle that long is closed, a request must arrive whole within it and
+  each MiB of an answer must be taken within it.
+- A GET or HEAD with a body: a ``Content-Length`` up to 64 KiB is read and ignored, a larger
+  one or a ``Transfer-Encoding`` is refused (413 / 400) and the connection closed, so a body is
+  never read as a second request. Other methods: 405, connection closed.
 """
 from __future__ import annotations
 
+import hmac
 import ipaddress
-import json
 import math
+import secrets
+import socket
 import sys
 import threading
+import time
 import traceback
-from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
+from http.server import BaseHTTPRequestHandler, HTTPServer
 from importlib import resources
-from urllib.parse import urlsplit
+from urllib.parse import unquote, urlsplit
 
-from ..errors import Error
-from .session import PARAMS, Clip, ParamError, load_clips, parse_params
+from ..errors import Error, InvalidArgumentError
+from ._net import Conn, Pool, Reactor
+from .session import (DEFAULT_CACHE_BYTES, DEFAULT_MAX_VALUES, PARAMS, Clip, ParamError,
+                      ResultCache, json_bytes, load_clips, parse_params)
 
-__all__ = ["ViewerServer", "make_server", "is_loopback"]
+__all__ = ["ViewerServer", "make_server", "is_loopback", "BACKLOG", "DEFAULT_MAX_VALUES",
+           "DEFAULT_CACHE_BYTES", "DEFAULT_TIMEOUT", "DEFAULT_THREADS"]
+
+#: the listen queue (the kernel caps it at net.core.somaxconn)
+BACKLOG = 1024
+DEFAULT_TIMEOUT = 10.0   # seconds
+DEFAULT_THREADS = 8
+MAX_PENDING = 1024       # connections with a request waiting for a worker
+_MAX_BODY = 65536        # a GET body up to this is read and ignored
+_TOKEN_HEADER = "X-Mlayer-Token"
+_TOKEN_META = b'<meta name="mlayer-token" content="">'
 
 _STATIC = {  # URL path -> (package file, content type)
     "/": ("index.html", "text/html; charset=utf-8"),
@@ -61,35 +97,41 @@ def _static(name: str) -> bytes:
     return (resources.files(__package__) / name).read_bytes()
 
 
-def _json_default(o):
-    raise TypeError(f"not JSON serializable: {type(o).__name__}")
+class ViewerServer(HTTPServer):
+    """An HTTP server holding the clips; ``url`` is the address to open, ``token`` the session
+    token the page carries. See the module's doc for the limits (``max_values``,
+    ``cache_bytes``, ``timeout``, ``threads``). Requests are served by a pool of ``threads``
+    workers; ``serve_forever()`` runs the accept loop (``shutdown()`` stops it, ``server_close()``
+    releases everything)."""
 
-
-def _clean(o):
-    """JSON has no NaN/inf: map them to null."""
-    if isinstance(o, float):
-        return o if math.isfinite(o) else None
-    if isinstance(o, dict):
-        return {k: _clean(v) for k, v in o.items()}
-    if isinstance(o, list):
-        return [_clean(v) for v in o]
-    return o
-
-
-class ViewerServer(ThreadingHTTPServer):
-    """A ThreadingHTTPServer holding the clips; ``url`` is the address to open."""
-
-    daemon_threads = True
     allow_reuse_address = True
+    request_queue_size = BACKLOG
 
     def __init__(self, clips: list[Clip], host: str = "127.0.0.1", port: int = 0, *,
-                 log=None):
+                 log=None, max_values: int = DEFAULT_MAX_VALUES,
+                 cache_bytes: int = DEFAULT_CACHE_BYTES, timeout: float = DEFAULT_TIMEOUT,
+                 threads: int = DEFAULT_THREADS):
+        self.max_values = _int_option("max_values", max_values, 1000)
+        self.cache = ResultCache(_int_option("cache_bytes", cache_bytes, 0))  # --cache-mb
+        if not (isinstance(timeout, (int, float)) and math.isfinite(timeout) and
+                0 < timeout <= 86400):
+            raise InvalidArgumentError(f"timeout (--timeout of mlayer view) must be a number of "
+                                       f"seconds in (0, 86400], got {timeout!r}")
+        self.timeout = float(timeout)
+        self.threads = _int_option("threads", threads, 1, 256)
         self.clips = clips
+        for c in clips:
+            c.cache, c.max_values = self.cache, self.max_values
         self.log = log or sys.stderr
+        self.token = secrets.token_urlsafe(24)
         self._log_lock = threading.Lock()
+        self._page = None
+        self._reactor = None
+        self._pool = Pool(self._serve_conn, self.threads, MAX_PENDING)
+        self._start_lock = threading.Lock()
+        self._closing = False
         family_v6 = ":" in host
         if family_v6:
-            import socket
             self.address_family = socket.AF_INET6
         super().__init__((host.strip("[]"), port), _Handler)
         self.host = host
@@ -101,6 +143,72 @@ class ViewerServer(ThreadingHTTPServer):
         if is_loopback(host):
             self.allowed_hosts = {f"{h}:{port}" for h in ("127.0.0.1", "localhost", "[::1]",
                                                          shown)}
+
+    # -- connections: accepted -> watcher -> (readable) pool -> watcher or closed --
+
+    def process_request(self, request, client_address):
+        with self._start_lock:
+            if self._reactor is None:
+                self._reactor = Reactor(self._dispatch, self.timeout)
+                self._reactor.start()
+        self._reactor.add(Conn(request, client_address, self.timeout))
+
+    def _dispatch(self, conn: Conn) -> None:
+        if self._closing or not self._pool.submit(conn):
+            conn.refuse_busy()
+
+    def _serve_conn(self, conn: Conn) -> None:
+        """One worker's turn on a connection: the requests it has sent, then back to the
+        watcher (or closed)."""
+        try:
+            while True:
+                conn.rfile.deadline = time.monotonic() + self.timeout
+                h = _Handler(conn, conn.addr, self)
+                if h.close_connection or self._closing:
+                    conn.close()
+                    return
+                if not conn.rfile.pending():
+                    break
+            self._reactor.add(conn)
+        except OSError:
+            conn.close()
+        except Exception:
+            traceback.print_exc(file=self.log)
+            conn.close()
+
+    @property
+    def n_workers(self) -> int:
+        """Worker threads started (at most ``threads``)."""
+        return self._pool.n_threads
+
+    @property
+    def n_idle(self) -> int:
+        """Connections waiting in the watcher."""
+        return 0 if self._reactor is None else self._reactor.n_idle
+
+    def server_close(self) -> None:
+        self._closing = True
+        super().server_close()
+        if self._reactor is not None:
+            self._reactor.stop()
+            self._reactor.join(5)
+        self._pool.stop()
+
+    # -- the page and the clips --
+
+    def page(self) -> bytes:
+        """index.html with this server's token."""
+        if self._page is None:
+            html = _static("index.html")
+            assert _TOKEN_META in html, "index.html lost its token meta tag"
+            self._page = html.replace(_TOKEN_META, _TOKEN_META.replace(
+                b'content=""', b'content="' + self.token.encode() + b'"'))
+        return self._page
+
+    def own_origins(self, host_header: str) -> set:
+        if self.allowed_hosts is not None:
+            return {f"http://{h}" for h in self.allowed_hosts}
+        return {f"http://{host_header}"}
 
     def warm(self) -> threading.Thread:
         """Decompose every clip in a background thread, so the first slider move is fast."""
@@ -119,16 +227,43 @@ class ViewerServer(ThreadingHTTPServer):
             print(text, file=self.log, flush=True)
 
 
-def make_server(paths, host: str = "127.0.0.1", port: int = 0, *, log=None) -> ViewerServer:
+def _int_option(name: str, value, low: int, high: int | None = None) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or value < low or \
+            (high is not None and value > high):
+        rng = f">= {low}" if high is None else f"in {low}..{high}"
+        flag = "--" + name.replace("_", "-")
+        raise InvalidArgumentError(f"{name} ({flag} of mlayer view) must be an integer {rng}, "
+                                   f"got {value!r}")
+    return value
+
+
+def make_server(paths, host: str = "127.0.0.1", port: int = 0, *, log=None,
+                **limits) -> ViewerServer:
     """Load the clips (a failing clip keeps its error) and bind the server (not started:
-    call ``serve_forever()``, in a thread if needed; ``shutdown()`` stops it)."""
-    return ViewerServer(load_clips(paths), host, port, log=log)
+    call ``serve_forever()``, in a thread if needed; ``shutdown()`` stops it). ``limits``:
+    ``max_values``, ``cache_bytes``, ``timeout``, ``threads`` (see :class:`ViewerServer`)."""
+    return ViewerServer(load_clips(paths), host, port, log=log, **limits)
 
 
 class _Handler(BaseHTTPRequestHandler):
+    """One request on a :class:`Conn` (the server's worker loop makes one per request)."""
+
     server: ViewerServer
     server_version = "mlayer-view"
     protocol_version = "HTTP/1.1"
+
+    def setup(self):
+        conn = self.request
+        self.connection = conn.sock
+        self.rfile = conn.rfile
+        self.wfile = conn.wfile
+
+    def handle(self):
+        self.close_connection = True
+        self.handle_one_request()
+
+    def finish(self):
+        pass
 
     def log_message(self, fmt, *args):  # quiet: errors are reported by _fail
         pass
@@ -145,36 +280,102 @@ class _Handler(BaseHTTPRequestHandler):
         self.send_header("Referrer-Policy", "no-referrer")
         for k, v in (extra or {}).items():
             self.send_header(k, v)
-        self.end_headers()
-        if self.command != "HEAD":
+        if self.command == "HEAD":
+            self.end_headers()
+        elif len(body) <= 65536:  # one write (one packet) for the head and a small body
+            self._headers_buffer.append(b"\r\n" + body)
+            self.flush_headers()
+        else:
+            self.end_headers()
             self.wfile.write(body)
 
     def _json(self, obj, status: int = 200) -> None:
-        body = json.dumps(_clean(obj), separators=(",", ":"), allow_nan=False,
-                          default=_json_default).encode()
-        self._send(status, body, "application/json")
+        self._send(status, json_bytes(obj), "application/json")
 
-    def _fail(self, status: int, message: str) -> None:
+    def _fail(self, status: int, message: str, close: bool = False) -> None:
         if status >= 500:
             self.server.say(f"mlayer view: error: {message}")
-        self._json({"error": message}, status)
+        self._send(status, json_bytes({"error": message}), "application/json",
+                   {"Connection": "close"} if close else None)
 
     # -- routing --
 
     def do_GET(self):  # noqa: N802 (http.server's naming)
         try:
+            if not self._read_body():
+                return
             self._route()
         except ParamError as e:
             self._fail(e.status, str(e))
-        except Error as e:  # mlayer rejected the values (e.g. a resampling factor over 100x)
+        except Error as e:  # mlayer rejected the values
             self._fail(400, str(e))
-        except (BrokenPipeError, ConnectionResetError):
-            pass
+        except (BrokenPipeError, ConnectionResetError, TimeoutError):
+            self.close_connection = True
         except Exception as e:  # a bug: report it, keep serving
             traceback.print_exc(file=self.server.log)
             self._fail(500, f"{type(e).__name__}: {e}")
 
     do_HEAD = do_GET
+
+    def _other(self):
+        self._fail(405, f"the viewer answers GET and HEAD only, not {self.command}", close=True)
+
+    do_POST = do_PUT = do_DELETE = do_PATCH = do_OPTIONS = _other
+
+    def _read_body(self) -> bool:
+        """Read and drop a small body of a GET / HEAD; refuse (and close) otherwise, so a body
+        is never taken for the next request. False when refused."""
+        if self.headers.get("Transfer-Encoding") is not None:
+            self._fail(400, "a GET request takes no body (Transfer-Encoding is not accepted)",
+                       close=True)
+            return False
+        lengths = self.headers.get_all("Content-Length") or []
+        if not lengths:
+            return True
+        if len(set(v.strip() for v in lengths)) != 1 or \
+                not lengths[0].strip().isdigit() or len(lengths[0].strip()) > 18:
+            self._fail(400, f"bad Content-Length {', '.join(lengths)[:100]!r}", close=True)
+            return False
+        n = int(lengths[0])
+        if n > _MAX_BODY:
+            self._fail(413, f"a GET request takes no body; got Content-Length {n} (at most "
+                            f"{_MAX_BODY} bytes are read and ignored)", close=True)
+            return False
+        got = self.rfile.read(n)
+        if len(got) < n:
+            self.close_connection = True
+            return False
+        return True
+
+    def _check_site(self, api: bool) -> None:
+        site = (self.headers.get("Sec-Fetch-Site") or "").strip().lower()
+        if site == "cross-site" or (api and site == "same-site"):
+            raise ParamError(f"refused a {site} request: the viewer answers only its own page "
+                             f"({self.server.url})", 403)
+        origin = self.headers.get("Origin")
+        if origin is not None and origin not in self.server.own_origins(
+                self.headers.get("Host", "")):
+            raise ParamError(f"refused a request from the origin {origin[:100]!r}: the viewer "
+                             f"answers only its own page ({self.server.url})", 403)
+
+    def _take_token(self, query: str) -> str:
+        """Check the session token (header or ``token=``); returns the query without it."""
+        parts = query.split("&") if query else []
+        given = [unquote(p[6:]) for p in parts if p.startswith("token=")]
+        rest = "&".join(p for p in parts if not p.startswith("token="))
+        header = self.headers.get(_TOKEN_HEADER)
+        if header is not None:
+            given.append(header.strip())
+        if not given:
+            raise ParamError(f"missing the session token: use the viewer from its page "
+                             f"({self.server.url}); a script takes the token from the page's "
+                             f'<meta name="mlayer-token"> and sends it as {_TOKEN_HEADER}', 403)
+        want = self.server.token.encode()
+        if len(given) > 2 or not all(
+                hmac.compare_digest(g.encode("utf-8", "surrogateescape"), want) for g in given):
+            raise ParamError("wrong session token: the server was restarted; reload the page "
+                             f"({self.server.url})", 403)
+        return rest
 
     def _route(self) -> None:
         allowed = self.server.allowed_hosts
@@ -182,18 +383,20 @@ class _Handler(BaseHTTPRequestHandler):
             raise ParamError(f"unexpected Host header {self.headers.get('Host')!r}", 403)
         url = urlsplit(self.path)
         path = url.path
+        self._check_site(path.startswith("/api/"))
         if path in _STATIC:
             if url.query:
                 raise ParamError(f"{path} takes no parameters")
             name, ctype = _STATIC[path]
-            self._send(200, _static(name), ctype)
+            self._send(200, self.server.page() if name == "index.html" else _static(name),
+                       ctype)
             return
         api = {"/api/clips": self._clips, "/api/clip": self._clip,
                "/api/process": self._process, "/api/download": self._download,
                "/api/layers.png": self._layers_png}.get(path)
         if api is None:
             raise ParamError(f"no such page: {path[:200]}", 404)
-        api(url.query)
+        api(self._take_token(url.query))
 
     def _clip_of(self, p: dict) -> Clip:
         i = p["clip"]
@@ -213,12 +416,12 @@ class _Handler(BaseHTTPRequestHandler):
         self._json({"clips": [c.summary() for c in self.server.clips]})
 
     def _clip(self, query: str) -> None:
-        self._json(self._clip_of(parse_params(query, ("clip",))).original())
+        body = self._clip_of(parse_params(query, ("clip",))).original_body()
+        self._send(200, body, "application/json")
 
     def _process(self, query: str) -> None:
         p = parse_params(query, _PROCESS_KEYS)
-        data, _ = self._clip_of(p).process(p)
-        self._json(data)
+        self._send(200, self._clip_of(p).process_body(p), "application/json")
 
     def _download(self, query: str) -> None:
         p = parse_params(query, _PROCESS_KEYS)

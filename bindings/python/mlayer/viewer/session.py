@@ -14,6 +14,7 @@ followed by forward kinematics for the figure and the metrics.
 from __future__ import annotations
 
 import base64
+import json
 import math
 import os
 import re
@@ -32,10 +33,17 @@ from ..layers import decompose
 from ..pipeline import Synthesis
 from ..metrics import body_height, foot_sliding, jitter
 from ..render import body_side
-from ..resample import resample, timewarp
+from ..resample import frames_at_rate, resample, timewarp
 
 __all__ = ["Clip", "load_clips", "body_parts", "parse_params", "ParamError", "PARAMS",
-           "PART_NAMES"]
+           "PART_NAMES", "ResultCache", "json_bytes", "DEFAULT_MAX_VALUES",
+           "DEFAULT_CACHE_BYTES"]
+
+#: the most output one request may produce: frames x points (joints and End Sites), checked
+#: before any work (a clip is always served at its own size, whatever the limit)
+DEFAULT_MAX_VALUES = 2_000_000
+#: the byte bound of the result cache (processed motions and encoded answers)
+DEFAULT_CACHE_BYTES = 256 << 20
 
 #: body parts with their own alpha slider; every joint belongs to exactly one
 PART_NAMES = ("arms", "legs", "spine")
@@ -74,7 +82,8 @@ def body_parts(names, parents) -> list[str]:
 
 class ParamError(Exception):
     """A bad request: ``status`` is the HTTP status (400 bad parameter, 404 unknown clip,
-    409 a clip that failed to load), the message says what and why."""
+    409 a clip that failed to load, 413 a request over the output limit), the message says
+    what and why."""
 
     def __init__(self, message: str, status: int = 400):
         super().__init__(message)
@@ -96,6 +105,7 @@ PARAMS = {
     "joint": ("int", 0, None, None),            # the joint of the layer chart
 }
 _LENGTH_RATIO = (0.1, 10.0)   # target length / clip length
+_MAX_FPS_FACTOR = 100.0       # new fps / clip fps, either way (mlayer.resample's limit)
 
 
 def parse_params(query: str, allowed) -> dict:
@@ -144,6 +154,80 @@ def parse_params(query: str, allowed) -> dict:
     return out
 
 
+# ---- answers and the result cache ----------------------------------------------------------
+
+def _json_default(o):
+    raise TypeError(f"not JSON serializable: {type(o).__name__}")
+
+
+def _clean(o):
+    """JSON has no NaN/inf: map them to null."""
+    if isinstance(o, float):
+        return o if math.isfinite(o) else None
+    if isinstance(o, dict):
+        return {k: _clean(v) for k, v in o.items()}
+    if isinstance(o, list):
+        return [_clean(v) for v in o]
+    return o
+
+
+def json_bytes(obj) -> bytes:
+    """``obj`` as compact JSON (NaN and infinities as null)."""
+    return json.dumps(_clean(obj), separators=(",", ":"), allow_nan=False,
+                      default=_json_default).encode()
+
+
+class ResultCache:
+    """A thread-safe LRU cache bounded by bytes: ``put(key, value, nbytes)`` evicts the least
+    recently used entries until the total is at most ``max_bytes``; an entry larger than the
+    bound is not kept. ``nbytes`` is the caller's measure of the value (its arrays, its
+    encoded bytes)."""
+
+    def __init__(self, max_bytes: int = DEFAULT_CACHE_BYTES):
+        self.max_bytes = int(max_bytes)
+        self.bytes = 0
+        self._d: OrderedDict = OrderedDict()
+        self._lock = threading.Lock()
+
+    def __len__(self) -> int:
+        return len(self._d)
+
+    def get(self, key):
+        with self._lock:
+            hit = self._d.get(key)
+            if hit is None:
+                return None
+            self._d.move_to_end(key)
+            return hit[0]
+
+    def put(self, key, value, nbytes: int) -> None:
+        nbytes = int(nbytes)
+        with self._lock:
+            old = self._d.pop(key, None)
+            if old is not None:
+                self.bytes -= old[1]
+            if nbytes > self.max_bytes:
+                return
+            self._d[key] = (value, nbytes)
+            self.bytes += nbytes
+            while self.bytes > self.max_bytes:
+                _, (_, n) = self._d.popitem(last=False)
+                self.bytes -= n
+
+
+def _nbytes(*objs) -> int:
+    """The bytes of the arrays in ``objs`` (Motions: root_pos, rot, trans), plus 1 KiB each."""
+    total = 0
+    for o in objs:
+        if hasattr(o, "rot"):
+            total += sum(np.asarray(a).nbytes for a in (o.root_pos, o.rot, o.trans)
+                         if a is not None)
+        elif o is not None:
+            total += np.asarray(o).nbytes
+        total += 1024
+    return total
+
+
 # ---- clips ----------------------------------------------------------------------------------
 
 def _b64(a, dtype) -> str:
@@ -168,20 +252,28 @@ def _decimate(n: int, most: int = 1500) -> np.ndarray:
 
 class Clip:
     """One clip named on the command line: its motion (or the error that stopped it) and the
-    per-clip caches. Thread-safe: one lock serializes the work on a clip."""
+    per-clip caches. Thread-safe: one lock serializes the work on a clip; answers already in
+    the cache are served without it.
 
-    def __init__(self, index: int, path: str):
+    ``cache`` (a :class:`ResultCache`, shared by the clips of a server) keeps processed
+    motions and encoded answers; ``max_values`` caps the frames x points of one request's
+    output (and of its intermediate retiming), never below the clip's own size."""
+
+    def __init__(self, index: int, path: str, *, cache: ResultCache | None = None,
+                 max_values: int = DEFAULT_MAX_VALUES):
         self.index = index
         self.path = path
         self.name = os.path.basename(path)
         self.motion = None
         self.error = None
+        self.cache = cache if cache is not None else ResultCache()
+        self.max_values = max_values
         self._lock = threading.Lock()
         self._layers = None
         self._contacts = None
         self._original = None
+        self._original_body = None
         self._plot_png = None
-        self._results: OrderedDict = OrderedDict()
         try:
             self.motion = read_bvh(path)
             if self.motion.n_frames < 4:
@@ -265,31 +357,106 @@ class Clip:
                 }
             return self._original
 
+    def original_body(self) -> bytes:
+        """:meth:`original` as JSON bytes (encoded once)."""
+        if self._original_body is None:
+            body = json_bytes(self.original())
+            with self._lock:
+                self._original_body = body
+        return self._original_body
+
     def _contact_points(self, m, names) -> np.ndarray:
         if not names:
             return np.zeros((m.n_frames, 0, 3))
         from ..contacts import contact_positions
         return contact_positions(m, names)
 
+    @property
+    def n_points(self) -> int:
+        """Joints plus End Sites: the points of the figure (the unit of the output cap)."""
+        return self.motion.n_joints + self.motion.skeleton.n_end_sites
+
+    def plan(self, p: dict) -> tuple[int, int]:
+        """(frames after the time warp, frames out) of the request ``p``, from the parameters
+        alone (no work). Raises ParamError: 400 for a length or fps out of range for this clip,
+        413 for more than :attr:`max_values` frames x points."""
+        m = self.motion
+        n_len = m.n_frames
+        if p["length"] is not None:
+            ratio = p["length"] / m.duration if m.duration > 0 else 1.0
+            if not _LENGTH_RATIO[0] <= ratio <= _LENGTH_RATIO[1]:
+                lo, hi = (r * m.duration for r in _LENGTH_RATIO)
+                raise ParamError(f"length must be within {_LENGTH_RATIO[0]:g}x to "
+                                 f"{_LENGTH_RATIO[1]:g}x of the clip's {m.duration:.3f} s "
+                                 f"({lo:.3f} to {hi:.3f} s) for {self.name}, got "
+                                 f"{p['length']:g} s")
+            n_len = max(4, int(round(p["length"] * m.fps)))
+        n_out = n_len
+        if p["fps"] is not None and abs(p["fps"] - m.fps) > 1e-9 * m.fps:
+            r = p["fps"] / m.fps
+            if not 1.0 / _MAX_FPS_FACTOR <= r <= _MAX_FPS_FACTOR:
+                lo = max(PARAMS["fps"][1], m.fps / _MAX_FPS_FACTOR)
+                hi = min(PARAMS["fps"][2], m.fps * _MAX_FPS_FACTOR)
+                raise ParamError(f"fps must be within {_MAX_FPS_FACTOR:g}x of the clip's "
+                                 f"{m.fps:.6g} fps ({lo:.6g} to {hi:.6g}) for {self.name}, got "
+                                 f"{p['fps']:g}")
+            n_out = frames_at_rate(n_len, m.fps, p["fps"])
+            if n_out < 4:
+                raise ParamError(f"fps {p['fps']:g} would leave {n_out} frames of {self.name}; "
+                                 f"the viewer needs at least 4: raise fps or length")
+        most = max(int(self.max_values), m.n_frames * self.n_points)
+        frames = max(n_len, n_out)
+        if frames * self.n_points > most:
+            fit = most // self.n_points
+            raise ParamError(
+                f"this request would produce {frames:,} frames x {self.n_points} points = "
+                f"{frames * self.n_points:,} values, over the viewer's limit of {most:,} "
+                f"({fit:,} frames of {self.name}); choose a shorter length or a lower fps, or "
+                f"restart mlayer view with a larger --max-values", 413)
+        return n_len, n_out
+
+    def _key(self, p: dict) -> tuple:
+        return tuple(sorted((k, v) for k, v in p.items() if k not in ("clip", "joint")))
+
+    def _result(self, L, p: dict):
+        """(info, processed motion, source frame per output frame) of ``p``: from the cache,
+        or computed and cached (call with the lock held)."""
+        key = ("result", self.index, self._key(p))
+        hit = self.cache.get(key)
+        if hit is None:
+            hit = self._run(L, p)
+            info, out, src = hit
+            self.cache.put(key, hit, _nbytes(out, src, info["contacts"]))
+        return hit
+
     def process(self, p: dict) -> tuple[dict, object]:
         """Run the pipeline for validated parameters ``p`` (see :func:`parse_params`); returns
-        (figure data for the page, the processed Motion). The last few results are cached."""
-        key = tuple(sorted((k, v) for k, v in p.items() if k not in ("clip", "joint")))
+        (figure data for the page, the processed Motion). Results are cached (see ``cache``).
+        The request is checked against the output cap (:meth:`plan`) before any work."""
+        self.plan(p)
+        key = ("result", self.index, self._key(p))
+        cached = self.cache.get(key) is not None
         with self._lock:
             L = self._ensure()
-            hit = self._results.get(key)
-            cached = hit is not None
-            if hit is None:
-                hit = self._run(L, p)
-                self._results[key] = hit
-                while len(self._results) > 4:
-                    self._results.popitem(last=False)
-            else:
-                self._results.move_to_end(key)
-            info, out, src = hit
+            info, out, src = self._result(L, p)
             data = self._response(info, out, src, p)
-            data["cached"] = cached
-            return data, out
+        data["cached"] = cached
+        return data, out
+
+    def process_body(self, p: dict) -> bytes:
+        """:meth:`process`'s figure data as JSON bytes, the encoded answer cached too: a
+        repeated request is a cache look-up, without the clip's lock."""
+        key = ("body", self.index, self._key(p), p.get("joint"))
+        body = self.cache.get(key)
+        if body is None:
+            data, _ = self.process(p)
+            cached = data.pop("cached")
+            body = json_bytes(data)
+            self.cache.put(key, body, len(body) + 1024)
+        else:
+            cached = True
+        # the flag first: {"cached":true,...}
+        return b'{"cached":' + (b"true," if cached else b"false,") + body[1:]
 
     def _run(self, L, p):
         m = self.motion
@@ -305,16 +472,12 @@ class Clip:
         names, c = self._contacts
         src = np.arange(m.n_frames, dtype=np.float64)   # input frame of each output frame
         N = m.n_frames
-        n_len = N
-        if p["length"] is not None:
-            ratio = p["length"] / m.duration if m.duration > 0 else 1.0
-            if not _LENGTH_RATIO[0] <= ratio <= _LENGTH_RATIO[1]:
-                raise ParamError(f"length must be within {_LENGTH_RATIO[0]:g}x to "
-                                 f"{_LENGTH_RATIO[1]:g}x of the clip's {m.duration:.3f} s, got "
-                                 f"{p['length']:g} s")
-            n_len = max(4, int(round(p["length"] * m.fps)))
+        n_len, _ = self.plan(p)
         if n_len != N or p["warp"] > 0:
-            out, t = timewarp(out, strength=p["warp"], n_frames=n_len, return_map=True)
+            # allow_extreme: a strong warp may slow a calm stretch by over 100x locally; the
+            # output length is fixed (and capped by plan), so this is what the slider asks for
+            out, t = timewarp(out, strength=p["warp"], n_frames=n_len, return_map=True,
+                              allow_extreme=True)
             src = np.interp(np.arange(out.n_frames), t, src)
         if p["fps"] is not None and abs(p["fps"] - out.fps) > 1e-9 * out.fps:
             n1 = out.n_frames
@@ -384,6 +547,10 @@ def _glob_escape(name: str) -> str:
     return "".join(f"[{ch}]" if ch in "*?[" else ch for ch in name)
 
 
-def load_clips(paths) -> list[Clip]:
-    """Parse every path; a clip that fails keeps its error (see :attr:`Clip.error`)."""
-    return [Clip(i, os.fspath(p)) for i, p in enumerate(paths)]
+def load_clips(paths, *, cache: ResultCache | None = None,
+               max_values: int = DEFAULT_MAX_VALUES) -> list[Clip]:
+    """Parse every path; a clip that fails keeps its error (see :attr:`Clip.error`). The clips
+    share ``cache`` (a new :class:`ResultCache` of the default size if None)."""
+    cache = cache if cache is not None else ResultCache()
+    return [Clip(i, os.fspath(p), cache=cache, max_values=max_values)
+            for i, p in enumerate(paths)]

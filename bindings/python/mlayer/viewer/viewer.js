@@ -14,6 +14,10 @@
   const $ = (id) => document.getElementById(id);
   const PARTS = ["arms", "legs", "spine"];
   const COLORS = { left: [38, 110, 200], right: [205, 60, 50], center: [70, 70, 78] };
+  // the session token the server put in the page: every /api/ request carries it (the
+  // X-Mlayer-Token header for fetch, token= for the download link and the layer image)
+  const TOKEN = (document.querySelector('meta[name="mlayer-token"]') || {}).content || "";
+  const withToken = (url) => `${url}${url.includes("?") ? "&" : "?"}token=${encodeURIComponent(TOKEN)}`;
 
   const S = {
     clips: [], clip: -1, orig: null, proc: null,
@@ -44,7 +48,7 @@
   }
 
   async function getJSON(url) {
-    const r = await fetch(url, { cache: "no-store" });
+    const r = await fetch(url, { cache: "no-store", headers: { "X-Mlayer-Token": TOKEN } });
     let body = null;
     try { body = await r.json(); } catch (e) { body = { error: `HTTP ${r.status}` }; }
     if (!r.ok) throw new Error(body && body.error ? body.error : `HTTP ${r.status}`);
@@ -178,7 +182,7 @@
       S.t = u * S.proc.duration;
       S.lastQuery = q;
       S.lastError = null;
-      $("download").href = `/api/download?${q}`;
+      $("download").href = withToken(`/api/download?${q}`);
       $("download").classList.remove("disabled");
       $("slide-proc").textContent = fmt(d.metrics.sliding);
       $("jitter-proc").textContent = fmt(d.metrics.jitter);
@@ -277,7 +281,7 @@
   function showPng() {
     if (S.pngClip === S.clip || S.clip < 0) return;
     S.pngClip = S.clip;
-    $("layers-png").src = `/api/layers.png?clip=${S.clip}`;
+    $("layers-png").src = withToken(`/api/layers.png?clip=${S.clip}`);
   }
 
   function play() { S.playing = true; $("play").textContent = "pause"; }

@@ -1,0 +1,120 @@
+"""mlayer.batch on a shared machine: the embedded scheduler refuses foreign clients, output
+files honour the umask, an output folder inside the input folder resumes, and symbolic links
+that are not read as clips are recorded in the report."""
+from __future__ import annotations
+
+import json
+import os
+import stat
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+pytest.importorskip("distributed")
+pytest.importorskip("cryptography")
+
+import mlayer  # noqa: E402
+import importlib  # noqa: E402
+B = importlib.import_module("mlayer.batch")  # the module (mlayer.batch is the function)
+from mlayer._files import atomic_output, umask  # noqa: E402
+
+CLIPS = ["cmu_01_01_playground_jumps.bvh", "lafan1_clip_a.bvh", "cmu_10_01_soccer_kick.bvh"]
+
+# the attacker: another process on the same machine that knows the scheduler's port. It tries
+# the address as given, plain TCP on the same port, and TLS with its own temporary certificate
+ATTACK = r"""
+import sys
+from distributed import Client
+from distributed.security import Security
+addr = sys.argv[1]
+tries = [("as given", addr, None), ("tcp", addr.replace("tls://", "tcp://"), None),
+         ("own certificate", addr, Security.temporary())]
+for name, a, sec in tries:
+    try:
+        kw = {"security": sec} if sec is not None else {}
+        with Client(a, timeout="5s", **kw) as c:
+            print("CONNECTED", name, c.submit(sum, [20, 22]).result(), flush=True)
+    except Exception as e:
+        print("REFUSED", name, type(e).__name__, flush=True)
+"""
+
+
+def test_embedded_scheduler_refuses_foreign_clients():
+    with B._client(None, 1) as client:
+        addr = client.scheduler.address
+        assert addr.startswith("tls://127.0.0.1:"), addr
+        assert client.submit(sum, [1, 2]).result(timeout=60) == 3  # the batch's own client works
+        p = subprocess.run([sys.executable, "-c", ATTACK, addr], capture_output=True, text=True,
+                           timeout=180)
+        lines = p.stdout.splitlines()
+        assert not [ln for ln in lines if ln.startswith("CONNECTED")], p.stdout
+        assert len([ln for ln in lines if ln.startswith("REFUSED")]) == 3, (p.stdout, p.stderr)
+        assert client.submit(sum, [2, 2]).result(timeout=60) == 4  # and still works
+
+
+def test_atomic_output_honours_umask(tmp_path):
+    old = os.umask(0o027)
+    try:
+        assert umask() == 0o027
+        with atomic_output(tmp_path / "a.json") as tmp:
+            with open(tmp, "w") as f:
+                f.write("{}")
+    finally:
+        os.umask(old)
+    assert stat.S_IMODE(os.stat(tmp_path / "a.json").st_mode) == 0o640
+
+
+@pytest.fixture
+def corpus(tmp_path, mocap):
+    """captures/ with three short clips (one in a sub-folder), a link to a folder outside it
+    (with a clip), a dangling link; the output folder is captures/out."""
+    root = tmp_path / "captures"
+    (root / "sub").mkdir(parents=True)
+    (tmp_path / "elsewhere").mkdir()
+    for k, name in enumerate(CLIPS):
+        m = mlayer.read_bvh(mocap / name)[:40]
+        folder = root / "sub" if k == 2 else root
+        mlayer.write_bvh(m, folder / name)
+    mlayer.write_bvh(mlayer.read_bvh(mocap / CLIPS[0])[:40], tmp_path / "elsewhere" / "x.bvh")
+    os.symlink(tmp_path / "elsewhere", root / "linked")
+    os.symlink(tmp_path / "missing.bvh", root / "ghost.bvh")
+    return root
+
+
+def test_batch_outputs_inside_inputs_modes_links(corpus):
+    out = corpus / "out"
+    report = corpus / "out" / "report.json"
+    old = os.umask(0o022)
+    try:
+        r1 = mlayer.batch("features", corpus, out, n_workers=1, progress=False, metrics=False,
+                          report=report)
+        assert r1.exit_code == 0 and r1.ok == 3, r1.table()
+        # symbolic links: the folder link is not followed, the dangling one skipped, both said
+        links = {os.path.basename(r["input"]): r["error"] for r in r1.records
+                 if r["status"] == B.STATUS_LINK}
+        assert set(links) == {"linked", "ghost.bvh"}, r1.records
+        assert "not followed" in links["linked"] and "dangling" in links["ghost.bvh"]
+        doc = json.loads(report.read_text())
+        assert doc["summary"]["links"] == 2 and doc["summary"]["outputs"] == 3
+        assert "LINK" in r1.table()
+        # every file batch wrote: 0644 under umask 022, as the BVH outputs
+        written = [p for p in out.rglob("*") if p.is_file()]
+        assert {p.suffix for p in written} == {".npz", ".json"}
+        assert len([p for p in written if B.SIDECAR_DIR in p.parts]) == 3
+        for p in written:
+            assert stat.S_IMODE(p.stat().st_mode) == 0o644, p
+        # the second run resumes: the outputs inside captures/ are not inputs
+        r2 = mlayer.batch("features", corpus, out, n_workers=1, progress=False, metrics=False)
+        assert r2.exit_code == 0 and r2.skipped == 3 and r2.ok == 0, r2.table()
+        assert sorted(os.path.basename(r["input"]) for r in r2.outputs) == sorted(CLIPS)
+        # a glob follows the folder link (Python's glob does) and says so
+        r3 = mlayer.batch("features", str(corpus / "**" / "*.bvh"), out, n_workers=1,
+                          progress=False, metrics=False)
+        notes = [r["error"] for r in r3.records if r["status"] == B.STATUS_LINK]
+        assert any("followed" in n and "not followed" not in n for n in notes), r3.records
+        assert r3.ok == 1 and r3.skipped == 3, r3.table()  # linked/x.bvh is new
+        np.load(out / "linked" / "x.npz")
+    finally:
+        os.umask(old)
