@@ -1,5 +1,5 @@
-/* Layer decomposition cases: the full decomposition (base heuristic, displacements, GCV
- * control layer, residual) of real capture data, cmu_01_01 (31 joints, 120 fps): the first
+/* Layer decomposition cases: the full decomposition (outlier search, base heuristic,
+ * displacements, GCV control layer, residual) of real capture data, cmu_01_01 (31 joints, 120 fps): the first
  * 2,526 frames after its T-pose frame (the paper's clip length), and a 100,000-frame tiling of
  * the clip (mirrored back and forth so it stays continuous); "capped" cases pass the base s
  * range the Python wrapper passes by default. n is frames x joints. */
@@ -58,6 +58,27 @@ static void *setup_frames(size_t n)
 
 static void *setup_clip(size_t n) { return setup_frames(n / 31); }
 
+/* The clip with a 5-frame glitch in the middle (the root 2,400 units off, alternating, every
+ * joint turned by 180 degrees about a fixed axis): the robust decomposition's weighted path. */
+static void *setup_clip_glitch(size_t n)
+{
+    layers_state *s = setup_frames(n / 31);
+    if (!s)
+        return NULL;
+    const size_t at = s->n / 2, j = s->j;
+    for (size_t f = 0; f < 5; f++) {
+        s->pos[3 * (at + f)] += f % 2 ? -2400.0 : 2400.0;
+        for (size_t k = 0; k < j; k++) { /* q * (0, 0.6, 0, 0.8) */
+            double *q = s->rot + 4 * ((at + f) * j + k), w = q[0], x = q[1], y = q[2], z = q[3];
+            q[0] = -0.6 * x - 0.8 * z;
+            q[1] = 0.6 * w + 0.8 * y;
+            q[2] = -0.8 * x + 0.6 * z;
+            q[3] = 0.8 * w - 0.6 * y;
+        }
+    }
+    return s;
+}
+
 static void *setup_clip_fixed(size_t n)
 {
     layers_state *s = setup_frames(n / 31);
@@ -111,6 +132,7 @@ static double run_decompose(void *p)
 
 const mlr_bench_case mlr_bench_layers_cases[] = {
     {"layers.decompose/n=2526,j=31", 2526 * 31, setup_clip, run_decompose, teardown},
+    {"layers.decompose_glitch/n=2526,j=31", 2526 * 31, setup_clip_glitch, run_decompose, teardown},
     {"layers.decompose_fixed_c/n=2526,j=31", 2526 * 31, setup_clip_fixed, run_decompose, teardown},
     {"layers.decompose_fixed_bc/n=2526,j=31", 2526 * 31, setup_clip_fixed_both, run_decompose, teardown},
     {"layers.decompose/n=100000,j=31", 100000 * 31, setup_clip, run_decompose, teardown},

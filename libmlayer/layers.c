@@ -17,7 +17,10 @@ static double floor_s_max(double fps, double cutoff)
 }
 
 #define MLR_LAYERS_DEFAULT_CUTOFF 0.25 /* Hz */
-#define MLR_LAYERS_N_KEYS (MLR_LAYERS_OPT_BODY_JOINT + 1)
+#define MLR_LAYERS_N_KEYS (MLR_LAYERS_OPT_ROBUST_ANGLE + 1)
+#define MLR_LAYERS_ROBUST_CUTOFF 2.0        /* Hz: the detection smoother's half-power point */
+#define MLR_LAYERS_ROBUST_FPS 30.0          /* the frame rate assumed for it without FPS */
+#define MLR_LAYERS_ROBUST_HEIGHT_GATE 0.2   /* translation gate, in body heights */
 
 static mlr_status parse_options(const mlr_layers_option *opts, size_t n_opts, size_t n_joints,
                                 mlr_layers_cfg *cfg, mlr_diag *diag)
@@ -26,7 +29,7 @@ static mlr_status parse_options(const mlr_layers_option *opts, size_t n_opts, si
     int seen[MLR_LAYERS_N_KEYS] = {0};
     for (size_t i = 0; i < n_opts; i++) {
         const int key = opts[i].key;
-        if (key < MLR_LAYERS_OPT_GAMMA || key > MLR_LAYERS_OPT_BODY_JOINT)
+        if (key < MLR_LAYERS_OPT_GAMMA || key > MLR_LAYERS_OPT_ROBUST_ANGLE)
             return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "unknown option key %d", key);
         if (seen[key])
             return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "option key %d given twice", key);
@@ -35,7 +38,8 @@ static mlr_status parse_options(const mlr_layers_option *opts, size_t n_opts, si
         if (!isfinite(val[key]))
             return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "option key %d: value %g is not finite",
                                 key, val[key]);
-        if (key != MLR_LAYERS_OPT_GAMMA && key != MLR_LAYERS_OPT_BODY_JOINT && !(val[key] > 0.0))
+        if (key != MLR_LAYERS_OPT_GAMMA && key != MLR_LAYERS_OPT_BODY_JOINT &&
+            key != MLR_LAYERS_OPT_ROBUST && !(val[key] > 0.0))
             return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "option key %d: value %g is not > 0",
                                 key, val[key]);
     }
@@ -67,6 +71,29 @@ static mlr_status parse_options(const mlr_layers_option *opts, size_t n_opts, si
             return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                                 "body joint %g is not a joint index in [0, %zu)", b, n_joints);
         cfg->body_joint = (size_t)b;
+    }
+    cfg->robust = 1;
+    if (seen[MLR_LAYERS_OPT_ROBUST]) {
+        const double r = val[MLR_LAYERS_OPT_ROBUST];
+        if (r != 0.0 && r != 1.0)
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "robust = %g is neither 0 (off) nor 1 (on)", r);
+        cfg->robust = r == 1.0;
+    }
+    cfg->robust_angle = seen[MLR_LAYERS_OPT_ROBUST_ANGLE] ? val[MLR_LAYERS_OPT_ROBUST_ANGLE]
+                                                          : 0.5 * MLR_PI;
+    if (!(cfg->robust_angle <= MLR_PI))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "robust angle %g is outside (0, pi]", cfg->robust_angle);
+    cfg->robust_length = seen[MLR_LAYERS_OPT_BODY_HEIGHT]
+                             ? MLR_LAYERS_ROBUST_HEIGHT_GATE * val[MLR_LAYERS_OPT_BODY_HEIGHT]
+                             : 0.0;
+    {
+        const double fps = seen[MLR_LAYERS_OPT_FPS] ? val[MLR_LAYERS_OPT_FPS] : MLR_LAYERS_ROBUST_FPS;
+        /* at fps below twice the cutoff: the weakest smoother there is, s of fps / 4 */
+        const double fc = fmin(MLR_LAYERS_ROBUST_CUTOFF, 0.25 * fps);
+        cfg->robust_s = floor_s_max(fps, fc);
+        cfg->robust_window = fps >= 32.0 ? (size_t)fmin(0.25 * fps + 0.5, 256.0) : 8;
     }
     cfg->base_s_min = seen[MLR_LAYERS_OPT_BASE_S_MIN] ? val[MLR_LAYERS_OPT_BASE_S_MIN] : 1e-2;
     cfg->base_s_max = seen[MLR_LAYERS_OPT_BASE_S_MAX] ? val[MLR_LAYERS_OPT_BASE_S_MAX] : 1e10;
@@ -108,11 +135,12 @@ static mlr_status parse_options(const mlr_layers_option *opts, size_t n_opts, si
 
 /* Sizes (in doubles) of the handle's arrays and of the scratch, overflow-checked. */
 typedef struct sizes {
-    size_t pos, rot, grp, param, handle_bytes;
-    size_t q, fac, comp, work, col, scratch_bytes;
+    size_t pos, rot, grp, param, flags, handle_bytes;
+    size_t q, fac, comp, work, col, rhs, weights, scratch_bytes;
 } sizes;
 
-static mlr_status compute_sizes(size_t n, size_t j, sizes *z)
+/* robust: the scratch holds the weights and the right-hand sides of the outlier search */
+static mlr_status compute_sizes(size_t n, size_t j, int robust, sizes *z)
 {
     size_t ng = j + 1, t;
     if (ng == 0 || mlr_mul_size(n, 3, &z->pos) || mlr_mul_size(n, j, &t) ||
@@ -124,6 +152,13 @@ static mlr_status compute_sizes(size_t n, size_t j, sizes *z)
     z->fac = z->grp; /* three n x (1 + j) factor arrays */
     z->comp = z->rot > z->grp ? z->rot : z->grp; /* compacted channels of the searches */
     z->col = ng;
+    z->rhs = 0;
+    if (robust && (mlr_mul_size(n, j, &t) || t > SIZE_MAX - z->comp))
+        return MLR_E_OVERFLOW;
+    if (robust)
+        z->rhs = z->comp + t; /* right-hand sides (4 n j) and leverages (n j) */
+    if (mlr_mul_size(n, ng, &z->flags) || mlr_mul_size(z->flags, robust ? 2 : 0, &z->weights))
+        return MLR_E_OVERFLOW;
     size_t total = z->pos;
     const size_t parts[] = {z->rot, z->grp, z->grp, z->param};
     for (size_t i = 0; i < MLR_COUNTOF(parts); i++) {
@@ -131,11 +166,12 @@ static mlr_status compute_sizes(size_t n, size_t j, sizes *z)
             return MLR_E_OVERFLOW;
         total += parts[i];
     }
-    if (mlr_mul_size(total, sizeof(double), &t) || t > SIZE_MAX - sizeof(mlr_layers) - 64)
+    if (mlr_mul_size(total, sizeof(double), &t) ||
+        t > SIZE_MAX - sizeof(mlr_layers) - 64 - z->flags)
         return MLR_E_OVERFLOW;
-    z->handle_bytes = t + sizeof(mlr_layers) + 64;
+    z->handle_bytes = t + sizeof(mlr_layers) + 64 + z->flags;
     total = z->q;
-    const size_t sparts[] = {z->fac, z->comp, z->work, z->col};
+    const size_t sparts[] = {z->fac, z->comp, z->work, z->col, z->rhs, z->weights};
     for (size_t i = 0; i < MLR_COUNTOF(sparts); i++) {
         if (total > SIZE_MAX - sparts[i])
             return MLR_E_OVERFLOW;
@@ -147,10 +183,10 @@ static mlr_status compute_sizes(size_t n, size_t j, sizes *z)
 }
 
 /* Displacements: root u0 = p - pb; joints v = log(conj(qb) q). On return q holds the products
- * conj(qb) q (needed again by the residual) and the largest |u0|, |v_j| are in the params.
- * tmp: 1 + j doubles. */
-static void displacements(mlr_layers *L, const double *root_pos, double *q, double *delta,
-                          double *tmp)
+ * conj(qb) q (needed again by the residual) and the largest |u0|, |v_j| are in the params
+ * (over the frames that are not outliers of the group when robust). tmp: 1 + j doubles. */
+static void displacements(mlr_layers *L, const double *root_pos, int robust, double *q,
+                          double *delta, double *tmp)
 {
     const size_t n = L->n, j = L->j, ld = 3 * (1 + j);
     double *amax = mlr_layers_param_slot(L, MLR_LAYERS_PARAM_BASE_MAX_ANGLE, 0);
@@ -165,8 +201,10 @@ static void displacements(mlr_layers *L, const double *root_pos, double *q, doub
         mlr_quat *qi = (mlr_quat *)(void *)(q + 4 * j * i);
         mlr_quat_conj_mul_log((const mlr_quat *)(const void *)(L->base_rot + 4 * j * i), qi, j,
                               qi, (mlr_vec3 *)(void *)(di + 3));
+        const unsigned char *fl = L->outliers + i * (1 + j);
         for (size_t g = 0; g <= j; g++) {
-            const double *v = di + 3 * g, r = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
+            const double *v = di + 3 * g;
+            const double r = robust && fl[g] ? 0.0 : v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
             a2[g] = r > a2[g] ? r : a2[g];
         }
     }
@@ -223,7 +261,7 @@ mlr_status mlr_layers_decompose(size_t n_frames, size_t n_joints, const double *
     if (st != MLR_OK)
         return st;
     sizes z;
-    if (compute_sizes(n_frames, n_joints, &z) != MLR_OK)
+    if (compute_sizes(n_frames, n_joints, cfg.robust, &z) != MLR_OK)
         return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "%zu frames x %zu joints overflow a size",
                             n_frames, n_joints);
     size_t bad;
@@ -252,17 +290,28 @@ mlr_status mlr_layers_decompose(size_t n_frames, size_t n_joints, const double *
     L->base_rot = d, d += z.rot;
     L->control = d, d += z.grp;
     L->residual = d, d += z.grp;
-    L->param = d;
+    L->param = d, d += z.param;
+    L->outliers = (unsigned char *)(void *)d;
+    memset(L->outliers, 0, z.flags);
 
     double *q = scratch, *fac = q + z.q, *comp = fac + z.fac, *work = comp + z.comp;
     size_t *col = (size_t *)(void *)(work + z.work);
+    double *rhs = (double *)(void *)(col + z.col);
+    const mlr_lay_robust weights = {rhs + z.rhs, rhs + z.rhs + z.flags};
+    const mlr_lay_robust *rb = NULL;
 
     st = mlr_layers_prepare_rot(n_frames, n_joints, rot, q, diag);
+    if (st == MLR_OK && cfg.robust) {
+        int any = 0;
+        st = mlr_layers_robust_weights(L, &cfg, q, root_pos, &weights, fac, comp, rhs, work,
+                                       &any, diag);
+        rb = any ? &weights : NULL;
+    }
     if (st == MLR_OK)
-        st = mlr_layers_base(L, &cfg, q, root_pos, fac, comp, work, col, diag);
+        st = mlr_layers_base(L, &cfg, q, root_pos, rb, fac, comp, work, col, diag);
     if (st == MLR_OK) {
-        displacements(L, root_pos, q, L->residual, fac);
-        st = mlr_layers_control(L, &cfg, L->residual, fac, comp, work, col, diag);
+        displacements(L, root_pos, rb != NULL, q, L->residual, fac);
+        st = mlr_layers_control(L, &cfg, L->residual, rb, fac, comp, work, col, diag);
     }
     if (st == MLR_OK)
         residuals(L, q, L->residual, fac);
@@ -295,6 +344,14 @@ mlr_status mlr_layers_get_base(const mlr_layers *L, double *root_pos, size_t n_r
         memcpy(root_pos, L->base_pos, n_root_pos * sizeof(double));
     if (rot)
         memcpy(rot, L->base_rot, n_rot * sizeof(double));
+    return MLR_OK;
+}
+
+mlr_status mlr_layers_get_outliers(const mlr_layers *L, unsigned char *out, size_t count)
+{
+    if (!L || !out || count != L->n * (1 + L->j))
+        return MLR_E_INVALID_ARG;
+    memcpy(out, L->outliers, count);
     return MLR_OK;
 }
 

@@ -56,6 +56,47 @@ static void min_cos2(size_t n, size_t ns, const double *q, size_t ldq, const dou
     }
 }
 
+/* min_cos2 of a weighted evaluation: the ns joints col[k] / 4 of q in the full layout (stride
+ * 4 j), the base packed (stride 4 ns), frames that are outliers of their joint skipped. */
+static void min_cos2_inliers(size_t n, size_t j, size_t ns, const size_t *col, const double *q,
+                             const double *qb, const unsigned char *flag, double *out)
+{
+    for (size_t k = 0; k < ns; k++)
+        out[k] = 1.0;
+    for (size_t i = 0; i < n; i++) {
+        const double *qi = q + i * 4 * j, *bi = qb + i * 4 * ns;
+        const unsigned char *fi = flag + i * (1 + j) + 1;
+        for (size_t k = 0; k < ns; k++) {
+            if (fi[col[k] / 4])
+                continue;
+            const double *a = qi + col[k], *b = bi + 4 * k;
+            const double d = a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3];
+            const double nn = b[0] * b[0] + b[1] * b[1] + b[2] * b[2] + b[3] * b[3];
+            const double r = d * d / (nn > 1e-300 ? nn : 1e-300);
+            out[k] = r < out[k] ? r : out[k];
+        }
+    }
+}
+
+/* The weights of group g0 + col[k] / cw of rb->w packed into rb->wpk (n x ns), and the
+ * observations y (channel col[k] + c of the rows, stride ldy) times them into comp (stride
+ * m ns). */
+void mlr_layers_pack_weighted(size_t n, size_t ng, const mlr_lay_robust *rb, size_t g0,
+                              size_t cw, const size_t *col, size_t ns, size_t m, const double *y,
+                              size_t ldy, double *comp)
+{
+    for (size_t i = 0; i < n; i++) {
+        const double *wi = rb->w + i * ng + g0, *yi = y + i * ldy;
+        double *wp = rb->wpk + i * ns, *ci = comp + i * m * ns;
+        for (size_t k = 0; k < ns; k++) {
+            const double w = wi[col[k] / cw];
+            wp[k] = w;
+            for (size_t c = 0; c < m; c++)
+                ci[m * k + c] = w * yi[col[k] + c];
+        }
+    }
+}
+
 static double angle_of_cos2(double c2)
 {
     return 2.0 * acos(sqrt(c2 < 1.0 ? c2 : 1.0));
@@ -65,16 +106,27 @@ static double angle_of_cos2(double c2)
  * (unnormalized) into L->base_rot, the ns joints packed (row stride 4 ns: the full layout
  * when every joint is evaluated); largest angles into angle. comp: 4 n ns doubles when some
  * joint is left out; ebuf: 12 ns doubles. */
-static mlr_status eval_angles(mlr_layers *L, const double *q, mlr_lay_batch *b, const size_t *col,
-                              const double *s, double *angle, double *comp, double *ebuf,
-                              mlr_diag *diag)
+static mlr_status eval_angles(mlr_layers *L, const double *q, const mlr_lay_robust *rb,
+                              mlr_lay_batch *b, const size_t *col, const double *s,
+                              double *angle, double *comp, double *ebuf, mlr_diag *diag)
 {
     const size_t n = L->n, j = L->j, ns = b->ns;
+    if (rb) { /* weighted: W q packed into comp; the bound over the frames that are inliers */
+        mlr_layers_pack_weighted(n, 1 + j, rb, 1, 4, col, ns, 4, q, 4 * j, comp);
+        b->w = rb->wpk;
+    }
     size_t bad = mlr_lay_batch_factor(b, s);
     if (bad)
         return mlr_diag_set(diag, MLR_E_SINGULAR, 0, 0,
                             "base smoothing of joint %zu failed at s = %g: s is too large for "
                             "%zu frames", col[bad - 1] / 4, s[bad - 1], n);
+    if (rb) {
+        mlr_lay_batch_solve(b, 4, comp, 4 * ns, L->base_rot, 4 * ns, ebuf);
+        min_cos2_inliers(n, j, ns, col, q, L->base_rot, L->outliers, angle);
+        for (size_t k = 0; k < ns; k++)
+            angle[k] = angle_of_cos2(angle[k]);
+        return MLR_OK;
+    }
     const double *y = q;
     if (ns < j) {
         for (size_t i = 0; i < n; i++) {
@@ -98,11 +150,11 @@ static double h_of(double angle, double gamma)
 }
 
 mlr_status mlr_layers_base(mlr_layers *L, const mlr_layers_cfg *cfg, const double *q,
-                           const double *root_pos, double *fac, double *comp, double *work,
-                           size_t *col, mlr_diag *diag)
+                           const double *root_pos, const mlr_lay_robust *rb, double *fac,
+                           double *comp, double *work, size_t *col, mlr_diag *diag)
 {
     const size_t n = L->n, j = L->j;
-    mlr_lay_batch b = {n, j, n, fac, fac + n * j, fac + 2 * n * j};
+    mlr_lay_batch b = {n, j, n, fac, fac + n * j, fac + 2 * n * j, NULL};
     /* per system k (packed): s, angle; per joint: the rest */
     double *s = work, *angle = work + j, *s_best = work + 2 * j;
     double *u_lo = work + 3 * j, *u_hi = work + 4 * j, *h_lo = work + 5 * j, *h_hi = work + 6 * j;
@@ -123,7 +175,7 @@ mlr_status mlr_layers_base(mlr_layers *L, const mlr_layers_cfg *cfg, const doubl
         /* the strongest setting first: joints within the bound there are done */
         for (size_t k = 0; k < j; k++)
             s[k] = cfg->base_s_max;
-        if (eval_angles(L, q, &b, col, s, angle, comp, ebuf, NULL) < 0) { /* s_max too large */
+        if (eval_angles(L, q, rb, &b, col, s, angle, comp, ebuf, NULL) < 0) { /* s_max too large */
             for (size_t k = 0; k < j; k++)
                 angle[k] = INFINITY;
         } else {
@@ -144,7 +196,7 @@ mlr_status mlr_layers_base(mlr_layers *L, const mlr_layers_cfg *cfg, const doubl
             s[k] = cfg->base_s_min;
         if (na > 0) {
             fresh = 0;
-            if ((rc = eval_angles(L, q, &b, col, s, angle, comp, ebuf, diag)) < 0)
+            if ((rc = eval_angles(L, q, rb, &b, col, s, angle, comp, ebuf, diag)) < 0)
                 return rc;
         }
         size_t nb = 0;
@@ -173,7 +225,7 @@ mlr_status mlr_layers_base(mlr_layers *L, const mlr_layers_cfg *cfg, const doubl
                     u = c - margin;
                 s[k] = exp(u);
             }
-            if ((rc = eval_angles(L, q, &b, col, s, angle, comp, ebuf, diag)) < 0)
+            if ((rc = eval_angles(L, q, rb, &b, col, s, angle, comp, ebuf, diag)) < 0)
                 return rc;
             size_t nn = 0;
             for (size_t k = 0; k < nb; k++) {
@@ -204,7 +256,7 @@ mlr_status mlr_layers_base(mlr_layers *L, const mlr_layers_cfg *cfg, const doubl
     b.ns = j;
     for (size_t k = 0; k < j; k++)
         col[k] = 4 * k;
-    if (!fresh && (rc = eval_angles(L, q, &b, col, s_best, angle, comp, ebuf, diag)) < 0)
+    if (!fresh && (rc = eval_angles(L, q, rb, &b, col, s_best, angle, comp, ebuf, diag)) < 0)
         return rc;
     for (size_t k = 0; k < j; k++) {
         const double sk = s_best[k], kk = sqrt(sqrt(100.0 * sk));
@@ -240,9 +292,15 @@ mlr_status mlr_layers_base(mlr_layers *L, const mlr_layers_cfg *cfg, const doubl
     }
     b.ns = 1;
     col[0] = 0;
+    const double *y = root_pos;
+    if (rb) {
+        mlr_layers_pack_weighted(n, 1 + j, rb, 0, 1, col, 1, 3, root_pos, 3, comp);
+        b.w = rb->wpk;
+        y = comp;
+    }
     if (mlr_lay_batch_factor(&b, &s0))
         return mlr_diag_set(diag, MLR_E_SINGULAR, 0, 0,
                             "base smoothing of the root translation failed at s = %g", s0);
-    mlr_lay_batch_solve(&b, 3, root_pos, 3, L->base_pos, 3, ebuf);
+    mlr_lay_batch_solve(&b, 3, y, 3, L->base_pos, 3, ebuf);
     return MLR_OK;
 }

@@ -29,6 +29,25 @@ static void ltl_row(size_t n, size_t i, double *d0, double *d1, double *d2)
     *d2 = i >= 2 ? mlr_lgs_ltl_entry(n, 2, i, i - 2) : 0.0;
 }
 
+/* factor_row with observation weights: the diagonal is w_i + s c0 instead of 1 + s c0. */
+static void factor_row_weighted(mlr_lay_batch *b, const double *restrict s, size_t i, size_t r,
+                                size_t p1, size_t p2, double c0, double c1, double c2)
+{
+    const size_t ns = b->ns;
+    const double *restrict w = b->w + i * ns;
+    double *restrict di = b->dinv + r * ns, *restrict l1 = b->l1 + r * ns;
+    double *restrict l2 = b->l2 + r * ns;
+    const double *restrict dp = b->dinv + p1 * ns, *restrict dpp = b->dinv + p2 * ns;
+    const double *restrict l1p = b->l1 + p1 * ns;
+    for (size_t k = 0; k < ns; k++) {
+        const double a2 = i >= 2 ? s[k] * c2 : 0.0;
+        const double a1 = i >= 1 ? s[k] * c1 - (i >= 2 ? a2 * l1p[k] : 0.0) : 0.0;
+        l2[k] = i >= 2 ? a2 * dpp[k] : 0.0;
+        l1[k] = i >= 1 ? a1 * dp[k] : 0.0;
+        di[k] = 1.0 / (w[k] + s[k] * c0 - l2[k] * a2 - l1[k] * a1);
+    }
+}
+
 /* Factor row i of every system into storage row r from storage rows p1 (row i-1) and p2
  * (row i-2). */
 static void factor_row(mlr_lay_batch *b, const double *restrict s, size_t i, size_t r,
@@ -37,6 +56,10 @@ static void factor_row(mlr_lay_batch *b, const double *restrict s, size_t i, siz
     const size_t ns = b->ns;
     double c0, c1, c2;
     ltl_row(b->n, i, &c0, &c1, &c2);
+    if (b->w) {
+        factor_row_weighted(b, s, i, r, p1, p2, c0, c1, c2);
+        return;
+    }
     double *restrict di = b->dinv + r * ns, *restrict l1 = b->l1 + r * ns;
     double *restrict l2 = b->l2 + r * ns;
     if (i == 0) {
@@ -93,7 +116,7 @@ size_t mlr_lay_batch_factor(mlr_lay_batch *b, const double *s)
         factor_row(b, s, i, i, i >= 1 ? i - 1 : 0, i >= 2 ? i - 2 : 0);
         /* rows i+1 .. n-3 are interior rows with the inputs of row i: all equal row i
          * (checked every fourth row: a fixed point found a few rows late stores those rows) */
-        if (i >= 4 && i + 4 <= n && (i & 3) == 0 && row_repeats(b, i)) {
+        if (!b->w && i >= 4 && i + 4 <= n && (i & 3) == 0 && row_repeats(b, i)) {
             b->k = i + 1;
             break;
         }
@@ -105,7 +128,7 @@ size_t mlr_lay_batch_factor(mlr_lay_batch *b, const double *s)
         factor_row(b, s, n - 1, k + 1, k, k - 1);
         stored = k + 2;
     }
-    /* I + s L^T L is SPD: a pivot that is not positive and finite is rounding at a huge s */
+    /* W + s L^T L is SPD (weights > 0): a pivot that is not positive and finite is rounding at a huge s */
     for (size_t r = 0; r < stored; r++) {
         const double *di = b->dinv + r * ns;
         int bad = 0;
@@ -508,14 +531,22 @@ void mlr_lay_sum_sq_diff(size_t n, size_t mm, const double *y, const double *x, 
  */
 void mlr_lay_batch_trace(const mlr_lay_batch *b, double *trace, double *work)
 {
+    mlr_lay_batch_leverage(b, trace, NULL, work);
+}
+
+void mlr_lay_batch_leverage(const mlr_lay_batch *b, double *trace, double *lev, double *work)
+{
     const size_t n = b->n, ns = b->ns, kc = b->k - 1;
     double *restrict za = work, *restrict zb = work + ns, *restrict zc = work + 2 * ns;
     const double *dl = b->dinv + mlr_lay_row(b, n - 1) * ns;
+    const double *wt = b->w;
     for (size_t k = 0; k < ns; k++) {
         za[k] = dl[k]; /* Z(i+1, i+1) */
         zb[k] = 0.0;   /* Z(i+1, i+2) */
         zc[k] = 0.0;   /* Z(i+2, i+2) */
-        trace[k] = dl[k];
+        trace[k] = wt ? wt[(n - 1) * ns + k] * dl[k] : dl[k];
+        if (lev)
+            lev[(n - 1) * ns + k] = trace[k];
     }
     for (size_t i = n - 1; i-- > 0;) {
         const size_t r0 = mlr_lay_row(b, i), r1 = mlr_lay_row(b, i + 1);
@@ -531,10 +562,13 @@ void mlr_lay_batch_trace(const mlr_lay_batch *b, double *trace, double *work)
             zc[k] = za[k];
             zb[k] = z01;
             za[k] = z00;
-            trace[k] += z00;
+            const double h = wt ? wt[i * ns + k] * z00 : z00;
+            trace[k] += h;
+            if (lev)
+                lev[i * ns + k] = h;
         }
         /* rows i-1 .. kc have the factor rows of row i: the same update, the same Z(i, i) */
-        if (!moved && b->k < n && i > kc && i + 2 <= n - 3) {
+        if (!moved && !lev && b->k < n && i > kc && i + 2 <= n - 3) {
             const double rows = (double)(i - kc);
             for (size_t k = 0; k < ns; k++)
                 trace[k] += rows * za[k];

@@ -128,6 +128,48 @@ static mlr_status eval_gcv(const mlr_layers *L, mlr_lay_batch *b, const double *
     return MLR_OK;
 }
 
+/*
+ * eval_gcv with observation weights: one system per group (the weights differ by group), the
+ * groups col[k] / 3 of delta (stride 3 ng_all) weighted into comp, the solution packed into x
+ * (stride 3 na). GCV(s) = (RSS_w / 3 n_w) / (1 - tr(H W) / n_w)^2 with RSS_w the weighted
+ * residual sum and n_w the sum of the weights (an outlier frame counts for its weight).
+ */
+static mlr_status eval_gcv_weighted(const mlr_layers *L, mlr_lay_batch *b, const double *s,
+                                    size_t na, const size_t *col, const double *delta,
+                                    const mlr_lay_robust *rb, double *comp, double *x,
+                                    double *gcv, double *dof, const gcv_work *w, mlr_diag *diag)
+{
+    const size_t n = L->n, ng = 1 + L->j, ld = 3 * ng, mm = 3 * na;
+    b->ns = na;
+    mlr_layers_pack_weighted(n, ng, rb, 0, 3, col, na, 3, delta, ld, comp);
+    b->w = rb->wpk;
+    size_t bad = mlr_lay_batch_factor(b, s);
+    if (bad)
+        return mlr_diag_set(diag, MLR_E_SINGULAR, 0, 0,
+                            "control smoothing of group %zu failed at s = %g: s is too large "
+                            "for %zu frames", col[bad - 1] / 3, s[bad - 1], n);
+    mlr_lay_batch_solve(b, 3, comp, mm, x, mm, w->ebuf);
+    double *rss = w->acc, *nw = w->acc + na; /* acc holds 3 ng doubles */
+    for (size_t k = 0; k < na; k++)
+        rss[k] = nw[k] = 0.0;
+    for (size_t i = 0; i < n; i++) {
+        const double *di = delta + i * ld, *xi = x + i * mm, *wi = rb->wpk + i * na;
+        for (size_t k = 0; k < na; k++) {
+            const double *y = di + col[k], *f = xi + 3 * k;
+            const double a = y[0] - f[0], c = y[1] - f[1], e = y[2] - f[2];
+            rss[k] += wi[k] * (a * a + c * c + e * e);
+            nw[k] += wi[k];
+        }
+    }
+    mlr_lay_batch_trace(b, w->trace, w->tw);
+    for (size_t k = 0; k < na; k++) {
+        const double tr = w->trace[k], den = 1.0 - tr / nw[k];
+        dof[k] = tr;
+        gcv[k] = den > 0.0 ? rss[k] / (3.0 * nw[k]) / (den * den) : INFINITY;
+    }
+    return MLR_OK;
+}
+
 /* The groups col[0..na) of delta (row stride 3 ng_all) packed into comp (row stride 3 na). */
 static void gather(size_t n, size_t ng_all, const double *delta, const size_t *col, size_t na,
                    double *comp)
@@ -141,11 +183,11 @@ static void gather(size_t n, size_t ng_all, const double *delta, const size_t *c
 }
 
 mlr_status mlr_layers_control(mlr_layers *L, const mlr_layers_cfg *cfg, const double *delta,
-                              double *fac, double *comp, double *work, size_t *col,
-                              mlr_diag *diag)
+                              const mlr_lay_robust *rb, double *fac, double *comp, double *work,
+                              size_t *col, mlr_diag *diag)
 {
     const size_t n = L->n, ng = 1 + L->j, ld = 3 * ng;
-    mlr_lay_batch b = {n, ng, n, fac, fac + n * ng, fac + 2 * n * ng};
+    mlr_lay_batch b = {n, ng, n, fac, fac + n * ng, fac + 2 * n * ng, NULL};
     double *s = work, *gcv = work + ng, *dof = work + 2 * ng;
     double *s_best = work + 3 * ng, *searched = work + 4 * ng;
     brent *br = (brent *)(void *)(work + 5 * ng); /* 11 ng doubles */
@@ -177,7 +219,7 @@ mlr_status mlr_layers_control(mlr_layers *L, const mlr_layers_cfg *cfg, const do
         /* the groups searched, packed (delta itself when every group is) */
         size_t packed = na;
         const double *y = delta;
-        if (na > 0 && na < ng) {
+        if (na > 0 && na < ng && !rb) {
             gather(n, ng, delta, col, na, comp);
             y = comp;
         }
@@ -191,7 +233,15 @@ mlr_status mlr_layers_control(mlr_layers *L, const mlr_layers_cfg *cfg, const do
         for (size_t p = 0; p < n_grid && na > 0; p++) {
             const double u = p + 1 == n_grid ? u1 : u0 + step * (double)p;
             s[0] = exp(u);
-            if ((rc = eval_gcv(L, &b, s, na, col, y, x, 0, gcv, dof, &w, diag)) < 0)
+            if (rb) { /* one system per group, every one at s */
+                for (size_t k = 1; k < na; k++)
+                    s[k] = s[0];
+                rc = eval_gcv_weighted(L, &b, s, na, col, delta, rb, comp, x, gcv, dof, &w,
+                                       diag);
+            } else {
+                rc = eval_gcv(L, &b, s, na, col, y, x, 0, gcv, dof, &w, diag);
+            }
+            if (rc < 0)
                 return rc;
             for (size_t k = 0; k < na; k++) {
                 const size_t g = col[k] / 3;
@@ -242,12 +292,18 @@ mlr_status mlr_layers_control(mlr_layers *L, const mlr_layers_cfg *cfg, const do
 #endif
             if (na == 0)
                 break;
-            if (na != packed) {
-                gather(n, ng, delta, col, na, comp);
-                y = comp;
-                packed = na;
+            if (rb) {
+                rc = eval_gcv_weighted(L, &b, s, na, col, delta, rb, comp, x, gcv, dof, &w,
+                                       diag);
+            } else {
+                if (na != packed) {
+                    gather(n, ng, delta, col, na, comp);
+                    y = comp;
+                    packed = na;
+                }
+                rc = eval_gcv(L, &b, s, na, col, y, x, 0, gcv, dof, &w, diag);
             }
-            if ((rc = eval_gcv(L, &b, s, na, col, y, x, 0, gcv, dof, &w, diag)) < 0)
+            if (rc < 0)
                 return rc;
             for (size_t k = 0; k < na; k++)
                 brent_update(&br[col[k] / 3], gcv[k]);
@@ -261,7 +317,9 @@ mlr_status mlr_layers_control(mlr_layers *L, const mlr_layers_cfg *cfg, const do
     b.ns = ng;
     for (size_t g = 0; g < ng; g++)
         col[g] = 3 * g;
-    if ((rc = eval_gcv(L, &b, s_best, ng, col, delta, x, 1, gcv, dof, &w, diag)) < 0)
+    rc = rb ? eval_gcv_weighted(L, &b, s_best, ng, col, delta, rb, comp, x, gcv, dof, &w, diag)
+            : eval_gcv(L, &b, s_best, ng, col, delta, x, 1, gcv, dof, &w, diag);
+    if (rc < 0)
         return rc;
     for (size_t g = 0; g < ng; g++) {
         const double sg = s_best[g], k = sqrt(sqrt(sg));

@@ -61,6 +61,27 @@
  * gets s = 1. Explicit lam_c / sigma_c options replace GCV for every group (the paper uses
  * lam_c = sigma_c = 1). The reported pair is lam_c = sigma_c = s^(1/4).
  *
+ * Outliers (MLR_LAYERS_OPT_ROBUST, on by default). Decoder glitches, marker swaps and one-frame
+ * flips would pull every LGS towards them and, through the base heuristic's angle bound, weaken
+ * the smoothing of their joint for the whole clip. Before the layers, each group (the body
+ * translation, each joint) is fitted by a light LGS (half power at 2 Hz given FPS, else as at
+ * 30 fps); a frame whose residual (the rotation angle to the renormalized fit for a joint, the
+ * distance for the translation, over 1 - the frame's leverage: the deleted residual) passes
+ * the gate (ROBUST_ANGLE, default pi/2; for the
+ * translation 0.2 BODY_HEIGHT, or 100 times the median residual without BODY_HEIGHT) gets the
+ * weight exp(-8 ((r/gate)^2 - 1)) (1 within the gate, 0 for a gross outlier; a group with
+ * fewer than 3 frames of weight 1/2 or more keeps the weights 1), and the fit is redone with
+ * the weights until the outlier frames (weight below 1/2) stop changing (at most 12 fits).
+ * When a weight is below 1, every LGS of the decomposition weights its observations,
+ * (W + s L^T L) x = W y, the base heuristic's bound and MLR_LAYERS_PARAM_BASE_MAX_ANGLE skip the
+ * outlier frames, GCV counts a frame by its weight, and a joint's quaternion takes the
+ * hemisphere of the most similar of its last frames (a quarter second, at least 8, at most 256
+ * frames) that are not outliers (a 180-degree flip leaves the plain alignment of the frames
+ * after it to chance). The glitch then stays in the residual
+ * layer (the identity still holds) and synthesis and denoising pass over it. When no residual
+ * passes its gate the decomposition is the plain one, bit for bit; the search costs one light
+ * LGS solve of every channel. mlr_layers_get_outliers reports the outlier frames.
+ *
  * Arrays are row-major float64; quaternions scalar-first (w, x, y, z). Joint 0 is the root
  * segment; root_pos is the body translation (its translation, unless BODY_JOINT names another
  * joint). Rotations are normalized on input, and the layers
@@ -95,8 +116,14 @@ typedef enum mlr_layers_key {
     MLR_LAYERS_OPT_FPS = 10,           /* frame rate in Hz, finite > 0: turns on the base floor
                                           (BASE_CUTOFF, default 0.25 Hz) */
     MLR_LAYERS_OPT_BASE_CUTOFF = 11,   /* base floor in Hz, in (0, fps/2); needs FPS */
-    MLR_LAYERS_OPT_BODY_JOINT = 12     /* joint whose base s the translation group takes, an
+    MLR_LAYERS_OPT_BODY_JOINT = 12,    /* joint whose base s the translation group takes, an
                                           integer in [0, J); default 0 (the root) */
+    MLR_LAYERS_OPT_ROBUST = 13,        /* 1 (default): find outlier frames and down-weight them
+                                          (see "Outliers" above); 0: off */
+    MLR_LAYERS_OPT_BODY_HEIGHT = 14,   /* body height in root_pos units, > 0: the translation's
+                                          outlier gate is 0.2 of it (default: 100 times its
+                                          median residual) */
+    MLR_LAYERS_OPT_ROBUST_ANGLE = 15   /* the joints' outlier gate in radians, (0, pi]; pi/2 */
 } mlr_layers_key;
 
 /** One option: key (an mlr_layers_key) and its value. A frozen value type. */
@@ -136,10 +163,13 @@ typedef enum mlr_layers_param {
  *         unknown or repeated key, gamma outside [pi/2, pi), a lam/sigma not finite and > 0,
  *         an s range not finite, positive and ordered, fps not finite and > 0, BASE_CUTOFF
  *         outside (0, fps/2) or without FPS or together with BASE_S_MAX, BODY_JOINT not an
- *         integer in [0, J)); MLR_E_SINGULAR (a factorization
+ *         integer in [0, J), ROBUST not 0 or 1, BODY_HEIGHT not > 0, ROBUST_ANGLE outside
+ *         (0, pi]); MLR_E_SINGULAR (a factorization
  *         failed: s far too large for the clip); MLR_E_NO_MEMORY; MLR_E_OVERFLOW
- * Allocates: the handle, one block of about (10 J + 9) N doubles, and while running one block
- * of about (11 J + 6) N doubles of scratch. Cost O(N J) per search step (a few dozen steps).
+ * Allocates: the handle, one block of about (10 J + 9) N doubles and (J + 1) N bytes, and
+ * while running one block of about (11 J + 6) N doubles of scratch (robust: (18 J + 8) N).
+ * Cost O(N J) per search step (a few dozen steps; robust with outliers: a few more, and the
+ * weighted solves cost about twice as much).
  * Threads: any; inputs only read.
  */
 MLR_API mlr_status mlr_layers_decompose(size_t n_frames, size_t n_joints,
@@ -179,6 +209,18 @@ MLR_API mlr_status mlr_layers_get_residual(const mlr_layers *layers, double *out
  *  @return MLR_OK; MLR_E_INVALID_ARG (NULL, wrong count, unknown which). Allocates: never. */
 MLR_API mlr_status mlr_layers_get_param(const mlr_layers *layers, mlr_layers_param which,
                                         double *out, size_t count);
+
+/**
+ * The outlier frames found (see "Outliers"): out[i (1 + J) + g] is 1 where frame i of group g
+ * (0 the body translation, 1 + k joint k) was down-weighted (weight below 1/2), else 0. All 0
+ * when robust is off or nothing passed a gate.
+ * @param out    [out] N (1 + J) bytes
+ * @param count  [in] must be N (1 + J)
+ * @return MLR_OK; MLR_E_INVALID_ARG (NULL, wrong count). Allocates: never. Threads: handle
+ *         only read.
+ */
+MLR_API mlr_status mlr_layers_get_outliers(const mlr_layers *layers, unsigned char *out,
+                                           size_t count);
 
 /**
  * Synthesize frames [begin, begin + count) of M' = Mb (+) W delta_c (eq. 16, 17): the root

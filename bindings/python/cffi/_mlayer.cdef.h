@@ -205,7 +205,10 @@ typedef enum mlr_layers_key {
     MLR_LAYERS_OPT_LAM_C = 4, MLR_LAYERS_OPT_SIGMA_C = 5, MLR_LAYERS_OPT_BASE_S_MIN = 6,
     MLR_LAYERS_OPT_BASE_S_MAX = 7, MLR_LAYERS_OPT_CONTROL_S_MIN = 8,
     MLR_LAYERS_OPT_CONTROL_S_MAX = 9, MLR_LAYERS_OPT_FPS = 10, MLR_LAYERS_OPT_BASE_CUTOFF = 11,
-    MLR_LAYERS_OPT_BODY_JOINT = 12
+    MLR_LAYERS_OPT_BODY_JOINT = 12,
+    MLR_LAYERS_OPT_ROBUST = 13,
+    MLR_LAYERS_OPT_BODY_HEIGHT = 14,
+    MLR_LAYERS_OPT_ROBUST_ANGLE = 15
 } mlr_layers_key;
 typedef struct mlr_layers_option { int key; double value; } mlr_layers_option;
 typedef enum mlr_layers_param {
@@ -555,3 +558,6 @@ mlr_status mlr_bvh_read_file_opts(const char *path, size_t n_threads,
                                   const mlr_bvh_read_option *opts, size_t n_opts,
                                   const mlr_allocator *alloc, mlr_motion **out,
                                   mlr_bvh_warnings *warnings, mlr_diag *diag);
+
+/* Robust layers (issue 20) */
+mlr_status mlr_layers_get_outliers(const mlr_layers *layers, unsigned char *out, size_t count);

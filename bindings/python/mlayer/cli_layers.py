@@ -40,6 +40,28 @@ def _layer_options(p) -> None:
                    help="control-layer lambda (default: chosen per joint by GCV)")
     p.add_argument("--sigma-c", type=float, default=None,
                    help="control-layer sigma (default: chosen per joint by GCV)")
+    p.add_argument("--no-robust", action="store_true",
+                   help="do not look for outlier frames (glitches, flips) to down-weight")
+
+
+def frame_ranges(frames) -> str:
+    """[0, 1, 2, 3, 4, 9] -> '0-4, 9'."""
+    out, frames = [], [int(f) for f in frames]
+    for f in frames:
+        if out and f == out[-1][1] + 1:
+            out[-1][1] = f
+        else:
+            out.append([f, f])
+    return ", ".join(f"{a}" if a == b else f"{a}-{b}" for a, b in out)
+
+
+def _outlier_note(layers) -> None:
+    """One line on stderr when the robust decomposition down-weighted frames."""
+    bad = layers.outlier_frames
+    if bad.size:
+        shown = frame_ranges(bad[:200]) + (", ..." if bad.size > 200 else "")
+        print(f"mlayer: {bad.size} outlier frame{'s' if bad.size != 1 else ''} down-weighted "
+              f"(frames {shown})", file=sys.stderr)
 
 
 def _synthesis(args, motion):
@@ -48,12 +70,14 @@ def _synthesis(args, motion):
     return Synthesis(motion, limits=None if getattr(args, "no_limits", False) else "auto",
                      floor=None if getattr(args, "no_floor", False) else "auto",
                      keep_contacts=not getattr(args, "no_contacts", False),
-                     gamma=args.gamma, lam_c=args.lam_c, sigma_c=args.sigma_c)
+                     gamma=args.gamma, lam_c=args.lam_c, sigma_c=args.sigma_c,
+                     robust=not args.no_robust)
 
 
 def _decompose(args, motion):
     from .layers import decompose
-    return decompose(motion, gamma=args.gamma, lam_c=args.lam_c, sigma_c=args.sigma_c)
+    return decompose(motion, gamma=args.gamma, lam_c=args.lam_c, sigma_c=args.sigma_c,
+                     robust=not args.no_robust)
 
 
 def _guard_summary(report) -> None:
@@ -124,6 +148,7 @@ def _cmd_denoise(args) -> int:
     write_bvh(out, args.output)
     _guard_summary(report)
     print(f"  wrote {args.output}")
+    _outlier_note(s.layers)
     return 0
 
 
@@ -156,6 +181,7 @@ def _cmd_stylize(args) -> int:
     _guard_summary(report)
     print(f"  alpha {args.alpha:g}" + "".join(f", {k}={v:g}" for k, v in joints.items()))
     print(f"  wrote {args.output}")
+    _outlier_note(s.layers)
     return 0
 
 
@@ -196,6 +222,7 @@ def _cmd_layers(args) -> int:
         shown = plot_layers(m, layers, args.plot, joint=args.joint,
                             title=f"{args.input}: layers")
         print(f"wrote {args.plot} (root {'XYZ'[shown['root_axis']]}, joint {shown['joint']})")
+    _outlier_note(layers)
     return 0
 
 

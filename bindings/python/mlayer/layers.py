@@ -149,6 +149,9 @@ class Layers(ReadOnlyAttributes):
       control_s       lam_c^2 sigma_c^2 per group
       control_gcv     GCV score at the chosen setting (NaN when lam_c/sigma_c were given)
       control_dof     effective degrees of freedom of the control smoother per channel
+      outliers        bool (N, 1 + J): frames down-weighted as outliers per group (robust
+                      decomposition; all False when robust is off or nothing was found)
+      outlier_frames  the frames that are an outlier of some group, sorted (an int array)
     """
 
     _readonly = ("motion", "body_joint", "_h", "base", "control", "residual") + tuple(_PARAMS)
@@ -201,6 +204,23 @@ class Layers(ReadOnlyAttributes):
         check(getter(self._h, _arrays.ptr_out(a), a.size), where)
         a.flags.writeable = False
         return a
+
+    @functools.cached_property
+    def outliers(self) -> np.ndarray:
+        """bool (N, 1 + J): True where a frame of a group (0 the body translation, 1 + j joint
+        j) was found an outlier and down-weighted by the robust decomposition."""
+        a = np.zeros((self.motion.n_frames, 1 + self.motion.n_joints), dtype=np.uint8)
+        check(lib.mlr_layers_get_outliers(self._h, ffi.from_buffer("unsigned char[]", a,
+                                                                   require_writable=True),
+                                          a.size), "layers outliers")
+        out = a.astype(bool)
+        out.flags.writeable = False
+        return out
+
+    @property
+    def outlier_frames(self) -> np.ndarray:
+        """The frames that are an outlier of some group, sorted."""
+        return np.flatnonzero(self.outliers.any(axis=1))
 
     @property
     def n_frames(self) -> int:
@@ -278,7 +298,7 @@ def base_s_max(fps: float, cutoff_hz: float) -> float:
 
 
 def decompose(motion, *, gamma: float = math.pi / 2, lam_c=None, sigma_c=None, lam_b=None,
-              sigma_b=None, base_cutoff: float | None = 0.25) -> Layers:
+              sigma_b=None, base_cutoff: float | None = 0.25, robust: bool = True) -> Layers:
     """Split a Motion into base, controllable and residual layers (see the module docs). The
     translation group is the body translation (:func:`body_translation_joint`): the root's, or
     that of the joint below a static root that carries it, which then also lends its base
@@ -297,6 +317,13 @@ def decompose(motion, *, gamma: float = math.pi / 2, lam_c=None, sigma_c=None, l
                     the root far off its path. The paper's windowed solves (120 frames at
                     24 fps) had a similar floor built in. None lifts the floor (the C
                     library's default range).
+    robust          find outlier frames (decoder glitches, marker swaps, one-frame flips) per
+                    joint and for the body translation, and down-weight them in every LGS, so
+                    that a glitch stays in the residual layer and its effect on the other
+                    layers stays local (default True; see "Outliers" in mlr_layers.h). The
+                    frames found are ``Layers.outliers``. The translation's gate is 0.2 of
+                    :func:`mlayer.metrics.body_height`. Clips without outliers decompose as
+                    with robust=False.
     Raises InvalidArgumentError for fewer than 3 frames, bad parameters or non-finite data.
     """
     n, j = motion.n_frames, motion.n_joints
@@ -317,6 +344,14 @@ def decompose(motion, *, gamma: float = math.pi / 2, lam_c=None, sigma_c=None, l
                                        f"{0.5 * motion.fps:g}) Hz, got {base_cutoff!r}")
         opts += [(lib.MLR_LAYERS_OPT_FPS, _arrays.finite(motion.fps, "fps")),
                  (lib.MLR_LAYERS_OPT_BASE_CUTOFF, cutoff)]
+    if not isinstance(robust, (bool, np.bool_)):
+        raise InvalidArgumentError(f"robust: expected True or False, got {robust!r}")
+    opts.append((lib.MLR_LAYERS_OPT_ROBUST, float(bool(robust))))
+    if robust:
+        from .metrics import body_height
+        h = body_height(motion)
+        if math.isfinite(h) and h > 0.0:
+            opts.append((lib.MLR_LAYERS_OPT_BODY_HEIGHT, h))
     body = body_translation_joint(motion)
     if body != 0:
         opts.append((lib.MLR_LAYERS_OPT_BODY_JOINT, float(body)))

@@ -109,7 +109,8 @@ class Synthesis(ReadOnlyAttributes):
                     "Joint/End" for a joint's End Site
     up              the up axis: "x", "y" or "z"; None (default): the input's Motion.up_axis
     layers          the input's Layers when they are at hand (else decomposed here)
-    layer options   gamma, lam_c, sigma_c, lam_b, sigma_b, base_cutoff: see
+    layer options   gamma, lam_c, sigma_c, lam_b, sigma_b, base_cutoff, robust (default True:
+                    outlier frames down-weighted, see Layers.outliers): see
                     :func:`mlayer.decompose`
 
     Raises InvalidArgumentError (naming the argument) for bad options or input.
@@ -149,9 +150,24 @@ class Synthesis(ReadOnlyAttributes):
                                        "(mlayer.decompose(motion))")
         self.layers = layers if layers is not None else decompose(motion, **layer_options)
 
+    def _guard_input(self):
+        """The input the guards learn from (contacts, floor, limits): the input, with the frames
+        the robust decomposition found to be outliers (``Layers.outliers``) replaced by the
+        denoised ones, so that a glitch does not break a contact or move the floor."""
+        m = self.motion
+        bad = self.layers.outlier_frames
+        if bad.size == 0:
+            return m
+        den = self.layers.synthesize(1.0)
+        root, rot, trans = m.root_pos.copy(), m.rot.copy(), m.trans.copy()
+        root[bad], rot[bad] = den.root_pos[bad], den.rot[bad]
+        if trans.size:
+            trans[bad] = den.trans[bad]
+        return m.with_frames(root_pos=root, rot=rot, trans=trans)
+
     @functools.cached_property
     def _guards(self):
-        m = self.motion
+        m = self._guard_input()
         root, rot, trans = m._frames()
         opts = [(lib.MLR_GUARDS_OPT_UP, self._up), (lib.MLR_GUARDS_OPT_LIMITS, self._mode),
                 (lib.MLR_GUARDS_OPT_CONTACTS, float(self._keep_contacts)),

@@ -33,6 +33,8 @@ def plot_layers(motion, layers, path, *, joint=None, root_axis=None, title=None)
     controllable layer, with the residual under it. Bottom: the same for one joint's rotation
     angle (degrees). `joint` is a joint name (default: the joint whose controllable layer moves
     most); `root_axis` 0, 1 or 2 (default: the axis whose controllable layer moves most).
+    Outlier frames of the robust decomposition (``layers.outliers``) are marked with red ticks
+    on the residual panels (the translation's on the root panel, the joint's on the joint's).
     Returns what was plotted: {"joint": name, "root_axis": axis}.
     """
     plt = _pyplot()
@@ -75,6 +77,14 @@ def plot_layers(motion, layers, path, *, joint=None, root_axis=None, title=None)
     ax[3].plot(t, np.degrees(np.linalg.norm(resid[:, 1 + j], axis=-1)), color="tab:green",
                lw=0.8)
     ax[3].set_ylabel("|residual| (deg)")
+    out = np.asarray(getattr(layers, "outliers", np.zeros((motion.n_frames, 1 + len(names)),
+                                                          dtype=bool)))
+    for a, g in ((ax[1], 0), (ax[3], 1 + j)):
+        hit = np.flatnonzero(out[:, g])
+        if hit.size:
+            a.plot(t[hit], np.zeros(hit.size), "|", color="tab:red", ms=10,
+                   label=f"outliers ({hit.size} frames)")
+            a.legend(loc="best", fontsize=7)
     ax[3].set_xlabel("time (s)")
     fig.suptitle(title or "motion layers: base, controllable, residual")
     fig.tight_layout()

@@ -118,7 +118,8 @@ def _decompose_old_formula(m, root_pos, extra=()):
     search computed here (base_s_max at 0.25 Hz) and passed as MLR_LAYERS_OPT_BASE_S_MAX."""
     from mlayer._native import ffi, lib
     opts = [(lib.MLR_LAYERS_OPT_GAMMA, math.pi / 2),
-            (lib.MLR_LAYERS_OPT_BASE_S_MAX, base_s_max(m.fps, 0.25))] + list(extra)
+            (lib.MLR_LAYERS_OPT_BASE_S_MAX, base_s_max(m.fps, 0.25)),
+            (lib.MLR_LAYERS_OPT_ROBUST, 0.0)] + list(extra)
     copts = ffi.new("mlr_layers_option[]", len(opts))
     for k, (key, value) in enumerate(opts):
         copts[k].key, copts[k].value = key, value
@@ -147,7 +148,7 @@ def test_floor_in_c_gives_the_layers_of_the_python_formula(mocap, clip):
     # decompose now passes the frame rate (MLR_LAYERS_OPT_FPS, default cutoff 0.25 Hz) and the
     # C core derives the floor: bit for bit what the Python formula gave
     m = mlayer.read_bvh(mocap / f"{clip}.bvh")
-    L = mlayer.decompose(m)
+    L = mlayer.decompose(m, robust=False)   # the outlier search also takes the frame rate
     old = _decompose_old_formula(m, m.root_pos)
     np.testing.assert_array_equal(L.base.rot, old["base_rot"])
     np.testing.assert_array_equal(L.control[:, 1:], old["control"][:, 1:])

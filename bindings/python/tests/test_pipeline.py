@@ -21,8 +21,8 @@ def _read(mocap, name, frames=1800):
 
 
 def _c_stylize(m, alpha):
-    """What a runtime on the C ABI does with every default: decompose (the frame rate is the
-    only option), synthesize at alpha, create the guards with no option and apply them (no
+    """What a runtime on the C ABI does with every default: decompose (the frame rate and the
+    body height are the options), synthesize at alpha, create the guards with no option and apply them (no
     reference: the input's). The body translation goes where mlr_rig_body_translation_joint
     says (group 0 of the layers)."""
     N, J = m.n_frames, m.n_joints
@@ -38,12 +38,14 @@ def _c_stylize(m, alpha):
         group0 = root
     else:
         group0 = np.ascontiguousarray(trans[:, list(m.skeleton.trans_joints).index(body)])
-    opts = ffi.new("mlr_layers_option[]", 2)
+    # the body height sets the translation's outlier gate (robust decomposition, on by default)
+    opts = ffi.new("mlr_layers_option[]", 3)
     opts[0].key, opts[0].value = lib.MLR_LAYERS_OPT_FPS, m.fps
-    opts[1].key, opts[1].value = lib.MLR_LAYERS_OPT_BODY_JOINT, body
+    opts[1].key, opts[1].value = lib.MLR_LAYERS_OPT_BODY_HEIGHT, body_height(m)
+    opts[2].key, opts[2].value = lib.MLR_LAYERS_OPT_BODY_JOINT, body
     h = ffi.new("mlr_layers **")
     assert lib.mlr_layers_decompose(N, J, _arrays.ptr(group0), _arrays.ptr(rot), opts,
-                                    2 if body else 1, ffi.NULL, h, diag) == 0, \
+                                    3 if body else 2, ffi.NULL, h, diag) == 0, \
         ffi.string(diag.message)
     layers = ffi.gc(h[0], lib.mlr_layers_destroy)
 
@@ -60,9 +62,21 @@ def _c_stylize(m, alpha):
         return r, q, t
 
     out_r, out_q, out_t = synth(alpha)
+    # the guards learn from the input with its outlier frames replaced by denoised ones
+    flags = np.zeros((N, 1 + J), dtype=np.uint8)
+    assert lib.mlr_layers_get_outliers(layers, ffi.from_buffer("unsigned char[]", flags,
+                                                               require_writable=True),
+                                       flags.size) == 0
+    bad = np.flatnonzero(flags.any(axis=1))
+    gr, gq, gt = root.copy(), rot.copy(), trans.copy()
+    if bad.size:
+        dr, dq, dt = synth(1.0)
+        gr[bad], gq[bad] = dr[bad], dq[bad]
+        if gt.size:
+            gt[bad] = dt[bad]
     g = ffi.new("mlr_guards **")
-    tp = _arrays.ptr(trans) if trans.size else ffi.NULL
-    assert lib.mlr_guards_create(rig, m.fps, N, _arrays.ptr(root), _arrays.ptr(rot), tp,
+    tp = _arrays.ptr(gt) if gt.size else ffi.NULL
+    assert lib.mlr_guards_create(rig, m.fps, N, _arrays.ptr(gr), _arrays.ptr(gq), tp,
                                  ffi.NULL, 0, ffi.NULL, g, diag) == 0, ffi.string(diag.message)
     guards = ffi.gc(g[0], lib.mlr_guards_destroy)
     w = np.array([alpha], dtype=np.float64)

@@ -1,0 +1,100 @@
+"""Robust decomposition (issue 20, item 3): a glitch is found, down-weighted and stays local."""
+import math
+
+import numpy as np
+import pytest
+
+import mlayer
+from mlayer import metrics
+from mlayer.cli import main
+from mlayer.cli_layers import frame_ranges
+from mlayer.errors import InvalidArgumentError
+
+
+def glitch(m, at, length=5, seed=0):
+    """A decoder glitch: `length` frames from `at` with the root 1000 body heights off
+    (alternating in sign) and every joint turned by 180 degrees about a random axis."""
+    rng = np.random.default_rng(seed)
+    h = metrics.body_height(m)
+    root, rot = m.root_pos.copy(), m.rot.copy()
+    for k, i in enumerate(range(at, at + length)):
+        root[i] += (1 if k % 2 == 0 else -1) * 1000 * h * np.array([1.0, 0.3, -0.5])
+        ax = rng.normal(size=(m.n_joints, 3))
+        ax /= np.linalg.norm(ax, axis=1, keepdims=True)
+        rot[i] = mlayer.quat.mul(rot[i], mlayer.quat.exp(math.pi * ax))
+    return m.with_frames(root_pos=root, rot=rot)
+
+
+@pytest.fixture(scope="module")
+def lafan(mocap):
+    m = mlayer.read_bvh(mocap / "lafan1_clip_a.bvh")
+    return m[:1800]   # one minute at 30 fps keeps the test quick
+
+
+@pytest.fixture(scope="module")
+def jumps(mocap):
+    return mlayer.read_bvh(mocap / "cmu_01_01_playground_jumps.bvh")[1:]   # T-pose frame off
+
+
+@pytest.mark.parametrize("clip", ["lafan", "jumps"])
+@pytest.mark.parametrize("where", ["start", "middle"])
+def test_glitch_stays_within_half_a_second(request, clip, where):
+    m = request.getfixturevalue(clip)
+    at = 0 if where == "start" else m.n_frames // 2
+    g = glitch(m, at)
+    h = metrics.body_height(m)
+    clean, den = mlayer.denoise(m), mlayer.denoise(g)
+    err = np.linalg.norm(clean.positions() - den.positions(), axis=-1).max(axis=1) / h
+    far = np.ones(m.n_frames, bool)
+    w = int(math.ceil(0.5 * m.fps))
+    far[max(0, at - w):at + 5 + w] = False
+    assert err[far].max() < 0.01
+    layers = mlayer.decompose(g)
+    assert list(layers.outlier_frames) == list(range(at, at + 5))
+    assert layers.outliers[at:at + 5, 0].all()        # the translation group
+    assert layers.outliers.shape == (m.n_frames, 1 + m.n_joints)
+    assert layers.outliers.dtype == np.bool_
+    # the layers still rebuild the glitched input
+    rec = layers.reconstruct()
+    assert np.abs(rec.root_pos - g.root_pos).max() < 1e-9 * 1000 * h
+
+
+def test_without_robust_the_glitch_spreads(lafan):
+    m, at = lafan, 0
+    g = glitch(m, at)
+    h = metrics.body_height(m)
+    clean, den = mlayer.denoise(m, robust=False), mlayer.denoise(g, robust=False)
+    err = np.linalg.norm(clean.positions() - den.positions(), axis=-1).max(axis=1) / h
+    assert err[int(math.ceil(0.5 * m.fps)) + 5:].max() > 0.05   # what the robust mode repairs
+    assert not mlayer.decompose(g, robust=False).outliers.any()
+
+
+def test_clean_clip_robust_changes_nothing(lafan):
+    a, b = mlayer.decompose(lafan), mlayer.decompose(lafan, robust=False)
+    assert not a.outliers.any() and a.outlier_frames.size == 0
+    np.testing.assert_array_equal(a.control, b.control)
+    np.testing.assert_array_equal(a.base.rot, b.base.rot)
+
+
+def test_robust_argument_is_checked(lafan):
+    with pytest.raises(InvalidArgumentError, match="robust"):
+        mlayer.decompose(lafan[:30], robust="yes")
+
+
+def test_frame_ranges():
+    assert frame_ranges([0, 1, 2, 3, 4, 9, 11, 12]) == "0-4, 9, 11-12"
+    assert frame_ranges([]) == ""
+
+
+def test_cli_reports_outliers_and_no_robust(capsys, tmp_path, lafan):
+    src, out = tmp_path / "g.bvh", tmp_path / "o.bvh"
+    mlayer.write_bvh(glitch(lafan[:300], 0), src)
+    assert main(["denoise", str(src), "-o", str(out)]) == 0
+    err = capsys.readouterr().err
+    assert "mlayer: 5 outlier frames down-weighted (frames 0-4)" in err
+    assert main(["denoise", str(src), "-o", str(out), "--no-robust"]) == 0
+    assert "outlier" not in capsys.readouterr().err
+    fig = tmp_path / "layers.png"
+    assert main(["layers", str(src), "--plot", str(fig)]) == 0
+    assert fig.stat().st_size > 0
+    assert "5 outlier frames" in capsys.readouterr().err
