@@ -180,6 +180,7 @@ static void free_clips(clip *c, size_t n)
 
 START_TEST(identity_on_every_clip)
 {
+    MLR_TEST_NEED_CLIPS();
     clip clips[16];
     size_t nc = load_clips(clips, 16);
     for (size_t ci = 0; ci < nc; ci++) {
@@ -219,6 +220,7 @@ END_TEST
 
 START_TEST(alpha_zero_is_base_and_one_is_denoised)
 {
+    MLR_TEST_NEED_CLIPS();
     clip clips[16];
     size_t nc = load_clips(clips, 16);
     for (size_t ci = 0; ci < nc; ci++) {
@@ -284,6 +286,7 @@ END_TEST
  * is the LGS of u0 = control + residual at the reported control s. */
 START_TEST(root_layers_match_lgs)
 {
+    MLR_TEST_NEED_CLIPS();
     clip clips[16];
     size_t nc = load_clips(clips, 16);
     for (size_t ci = 0; ci < nc; ci++) {
@@ -410,6 +413,7 @@ END_TEST
 
 START_TEST(gamma_bound_real_clips)
 {
+    MLR_TEST_NEED_CLIPS();
     clip clips[16];
     size_t nc = load_clips(clips, 16);
     for (size_t ci = 0; ci < nc; ci++) {
@@ -511,6 +515,7 @@ static double banded_gcv(size_t n, const double *y, double s)
  * beats it. */
 START_TEST(gcv_long_clip_matches_banded_scan)
 {
+    MLR_TEST_NEED_CLIPS();
     clip clips[16];
     size_t nc = load_clips(clips, 16), li = 0;
     for (size_t i = 1; i < nc; i++)
@@ -583,6 +588,7 @@ END_TEST
 
 START_TEST(explicit_control_parameters)
 {
+    MLR_TEST_NEED_CLIPS();
     clip clips[16];
     size_t nc = load_clips(clips, 16);
     const clip *c = &clips[0];
@@ -933,6 +939,7 @@ static double lgs_gain(double s, double f, double fps)
  * halves a 0.25 Hz sinusoid; BASE_CUTOFF moves it; every joint's s stays within it. */
 START_TEST(fps_gives_the_base_floor)
 {
+    MLR_TEST_NEED_CLIPS();
     clip clips[16];
     size_t nc = load_clips(clips, 16);
     for (size_t ci = 0; ci < nc; ci++) {
@@ -970,6 +977,7 @@ END_TEST
  * with FPS is the C default range again); an explicit BASE_S_MIN is kept. */
 START_TEST(base_floor_precedence)
 {
+    MLR_TEST_NEED_CLIPS();
     clip clips[16];
     size_t nc = load_clips(clips, 16);
     const clip *c = NULL;
