@@ -12,10 +12,6 @@
 #include "layers_internal.h"
 
 #include <math.h>
-#ifdef MLR_DEBUG_GCV
-#include <stdio.h>
-#endif
-
 #define GCV_GRID_STEP 4.605170185988091 /* ln 100: one grid point per two decades */
 #define GCV_TOL 0.012197083360807     /* ln(1.05) / 4: Brent stops with a bracket < 5% in s */
 #define GCV_MAX_STEPS 100
@@ -287,9 +283,6 @@ mlr_status mlr_layers_control(mlr_layers *L, const mlr_layers_cfg *cfg, const do
                 }
             }
             na = b.ns = nb;
-#ifdef MLR_DEBUG_GCV
-            fprintf(stderr, "it %d na %zu\n", it, na);
-#endif
             if (na == 0)
                 break;
             if (rb) {

@@ -115,12 +115,6 @@ def operations() -> dict[str, Operation]:
 _LAYER_OPTIONS = frozenset({"gamma", "lam_c", "sigma_c", "lam_b", "sigma_b", "base_cutoff"})
 
 
-def _split_layer_kw(options):
-    layer_kw = {k: v for k, v in options.items() if k in _LAYER_OPTIONS}
-    rest = {k: v for k, v in options.items() if k not in _LAYER_OPTIONS}
-    return layer_kw, rest
-
-
 def _op_denoise(motion, variants, keep_contacts=True, **options):
     from .pipeline import denoise
     return [denoise(motion, keep_contacts=keep_contacts, **options) for _ in variants]
@@ -188,23 +182,19 @@ register_operation(Operation(
 
 
 def _register_resampling() -> None:
-    """resample and timewarp, when this mlayer has them (mlayer.resample); called lazily,
-    once the package is fully imported."""
-    import mlayer
+    """resample and timewarp; called lazily, once the package is fully imported."""
     if "resample" in _OPERATIONS:
         return
-    if hasattr(mlayer, "resample"):
-        register_operation(Operation(
-            "resample", _op_resample, ".bvh",
-            frozenset({"keep_contacts", "fps", "n_frames", "lam", "sigma", "allow_extreme",
-                       "style"}),
-            help="resample each clip to a new frame rate or frame count (mlayer.resample)"))
-    if hasattr(mlayer, "timewarp"):
-        register_operation(Operation(
-            "timewarp", _op_timewarp, ".bvh",
-            frozenset({"keep_contacts", "strength", "n_frames", "lam", "sigma",
-                       "smooth_seconds", "root_weight", "allow_extreme", "style"}),
-            help="retime each clip along its automatic time map (mlayer.timewarp)"))
+    register_operation(Operation(
+        "resample", _op_resample, ".bvh",
+        frozenset({"keep_contacts", "fps", "n_frames", "lam", "sigma", "allow_extreme",
+                   "style"}),
+        help="resample each clip to a new frame rate or frame count (mlayer.resample)"))
+    register_operation(Operation(
+        "timewarp", _op_timewarp, ".bvh",
+        frozenset({"keep_contacts", "strength", "n_frames", "lam", "sigma",
+                   "smooth_seconds", "root_weight", "allow_extreme", "style"}),
+        help="retime each clip along its automatic time map (mlayer.timewarp)"))
 
 
 

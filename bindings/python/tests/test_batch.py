@@ -198,11 +198,9 @@ def test_features_npz(clips, tmp_path, cluster):
             assert list(z["contact_names"]) == cn
             assert list(z["joint_names"]) == m.joint_names
             assert float(z["fps"]) == m.fps
-            if hasattr(mlayer, "pose_features"):
-                np.testing.assert_array_equal(z["pose_features"], mlayer.pose_features(m))
+            np.testing.assert_array_equal(z["pose_features"], mlayer.pose_features(m))
 
 
-@pytest.mark.skipif(not hasattr(mlayer, "resample"), reason="mlayer.resample not in this tree")
 def test_resample_and_timewarp(clips, tmp_path, cluster):
     addr = cluster.scheduler_address
     res = run_batch("resample", clips, tmp_path / "r", fps=24, scheduler=addr, progress=False)
