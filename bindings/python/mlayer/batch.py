@@ -427,16 +427,18 @@ def _write(result, out: str) -> int:
     raise TypeError(f"operation returned {type(result).__name__}, expected a Motion or a dict")
 
 
-def process_clip(op: Operation, src: str, jobs: list, options: dict, metrics: bool = True):
+def process_clip(op: Operation, src: str, jobs: list, options: dict, metrics: bool = True,
+                 read: dict | None = None):
     """Run `op` on one clip for every job (variant, output path, sidecar path, options key);
-    returns one record per job. Never raises for a bad clip: the error goes in the records."""
+    ``read``: read_bvh's keyword arguments (strict, up, trim, units). Returns one record per
+    job. Never raises for a bad clip: the error goes in the records."""
     t0 = time.perf_counter()
     worker = _worker_name()
     records = [{"input": src, "output": out, "variant": variant, "status": STATUS_FAILED,
                 "error": "", "worker": worker} for variant, out, _, _ in jobs]
     try:
         from .bvh import read_bvh
-        motion = read_bvh(src, threads=1)  # the workers are the parallelism here
+        motion = read_bvh(src, threads=1, **(read or {}))  # the workers are the parallelism
         for r in records:
             r["frames"], r["fps"] = motion.n_frames, motion.fps
         before = _metrics_before(motion) if metrics else None
@@ -584,10 +586,12 @@ def _json_default(o):
     return str(o)
 
 
-def _options_key(op: Operation, options: dict, variant: dict) -> str:
+def _options_key(op: Operation, options: dict, variant: dict, read: dict | None = None) -> str:
     from . import __version__
     doc = {"operation": op.name, "run": f"{op.run.__module__}.{op.run.__qualname__}",
            "options": options, "variant": variant, "mlayer": __version__}
+    if read:  # (absent when the clips are read as they are: earlier keys stay valid)
+        doc["read"] = read
     text = json.dumps(doc, sort_keys=True, default=repr)
     return hashlib.sha256(text.encode()).hexdigest()
 
@@ -694,8 +698,38 @@ def _embedded_security():
                           f"mlayer[batch] extra) [{e}]") from None
 
 
+#: read_bvh's keywords that batch(read=...) passes to the workers.
+READ_OPTIONS = ("strict", "up", "trim", "units")
+
+
+def _read_options(read) -> dict:
+    """batch's ``read``: checked here, before anything runs, with read_bvh's own rules."""
+    if read is None:
+        return {}
+    if not isinstance(read, dict):
+        raise InvalidArgumentError(f"batch: read must be a dict of read_bvh options, got "
+                                   f"{type(read).__name__}")
+    bad = sorted(set(read) - set(READ_OPTIONS))
+    if bad:
+        raise InvalidArgumentError(f"batch: unknown read option(s) {', '.join(bad)}; accepted: "
+                                   f"{', '.join(READ_OPTIONS)}")
+    from .bvh import _options
+    from .metrics import units_arg
+    from .trimming import frames_arg
+    from .up_axis import axis_name
+    out = {}
+    if read.get("strict") is not None:
+        _options(read["strict"], False, "batch: read")
+        out["strict"] = read["strict"]
+    for name, check_arg in (("up", axis_name), ("trim", frames_arg), ("units", units_arg)):
+        if read.get(name) is not None:
+            out[name] = check_arg(read[name], f"batch: read {name}")
+    return out
+
+
 def batch(operation, inputs, out_dir, *, alphas=None, scheduler=None, n_workers=None,
-          report=None, progress=True, force=False, metrics=True, **options) -> BatchResult:
+          report=None, progress=True, force=False, metrics=True, read=None,
+          **options) -> BatchResult:
     """Run an operation over every clip of `inputs` on Dask, writing into `out_dir`.
 
     operation  "denoise", "stylize", "features", "resample", "timewarp" (when this mlayer has
@@ -723,6 +757,8 @@ def batch(operation, inputs, out_dir, *, alphas=None, scheduler=None, n_workers=
     progress   a progress bar on stderr
     force      redo outputs that are up to date
     metrics    compute jitter and foot sliding before/after (costs a few forward kinematics)
+    read       how the workers read each clip: read_bvh's strict, up, trim and units (for
+               example ``{"trim": "auto", "up": "z"}``); part of the outputs' up-to-date key
     options    the operation's keyword arguments: keep_contacts=False, gamma, lam_c, sigma_c,
                joints and root_alpha (stylize), fps / n_frames / lam (resample), strength ...
     Returns a :class:`BatchResult`; ``result.exit_code`` is 1 when any clip failed. Raises
@@ -730,6 +766,7 @@ def batch(operation, inputs, out_dir, *, alphas=None, scheduler=None, n_workers=
     or outputs that would collide or overwrite an input.
     """
     t0 = time.perf_counter()
+    read = _read_options(read)
     op = operations().get(operation) if isinstance(operation, str) else operation
     if not isinstance(op, Operation):
         raise InvalidArgumentError(f"unknown batch operation {operation!r}; available: "
@@ -769,7 +806,7 @@ def batch(operation, inputs, out_dir, *, alphas=None, scheduler=None, n_workers=
                                            f"{out}")
             seen[str(out)] = src
             jobs.append((v, str(out), str(_sidecar_path(out_root, out)),
-                         _options_key(op, options, v)))
+                         _options_key(op, options, v, read)))
         plan.append((str(src), jobs))
 
     all_outs = [pathlib.Path(o) for _, jobs in plan for _, o, _, _ in jobs]
@@ -802,7 +839,8 @@ def batch(operation, inputs, out_dir, *, alphas=None, scheduler=None, n_workers=
             bar = _Progress(len(todo), progress)
             futures = {}
             for src, need in todo:
-                fut = client.submit(process_clip, op, src, need, options, metrics, pure=False)
+                fut = client.submit(process_clip, op, src, need, options, metrics, read,
+                                    pure=False)
                 futures[fut] = (src, need)
             try:
                 for fut in as_completed(futures):

@@ -82,7 +82,7 @@ def _show_trim(command: str):
 
 
 # Subcommands that read no clip (no --strict, no --up, no --trim, no --units).
-_NO_CLIPS = {"version", "generate", "batch"}  # (batch reads in its workers)
+_NO_CLIPS = {"version", "generate"}  # (batch passes them to its workers)
 
 
 def _show_parse_warning(command: str):

@@ -74,7 +74,12 @@ def _cmd_batch(args) -> int:
         alphas = list(args.alpha or []) + (parse_alphas(args.alphas) if args.alphas else [])
     if args.workers is not None and args.workers < 1:
         raise InvalidArgumentError(f"--workers must be >= 1, got {args.workers}")
-    result = batch(args.operation, args.inputs, args.output_dir, alphas=alphas,
+    # the reading options of every command that reads clips (cli.py adds them), passed to the
+    # workers: a context variable of this process does not reach them
+    read = {"strict": True if args.strict else None,
+            "up": None if args.up == "auto" else args.up, "trim": args.trim,
+            "units": args.units}
+    result = batch(args.operation, args.inputs, args.output_dir, alphas=alphas, read=read,
                    scheduler=args.scheduler, n_workers=args.workers, report=args.report,
                    progress=not args.no_progress, force=args.force,
                    metrics=not args.no_metrics, **options)

@@ -358,3 +358,28 @@ def test_cli_usage_errors(clips, tmp_path, capsys):
     with pytest.raises(SystemExit) as e:
         main(["batch", "blur", str(clips), "-o", str(tmp_path / "o")])
     assert e.value.code == 2
+
+
+def test_read_options_reach_the_workers_and_the_up_to_date_key(clips, tmp_path, cluster):
+    addr = cluster.scheduler_address
+    name = "cmu_02_03_run_jog_25fps.bvh"  # a CMU conversion with a lead-in at its start
+    lead = mlayer.lead_in(mlayer.read_bvh(clips / name)).n_frames
+    assert lead > 0
+    out = tmp_path / "t"
+    res = run_batch("denoise", clips, out, read={"trim": "auto"}, scheduler=addr,
+                    progress=False)
+    assert res.ok == len(SHORT)
+    n = mlayer.read_bvh(clips / name).n_frames
+    assert mlayer.read_bvh(out / name).n_frames == n - lead
+    # the same run again is up to date; other read options make the outputs stale
+    again = run_batch("denoise", clips, out, read={"trim": "auto"}, scheduler=addr,
+                      progress=False)
+    assert again.skipped == len(SHORT)
+    redo = run_batch("denoise", clips, out, read={"trim": 2}, scheduler=addr, progress=False)
+    assert redo.ok == len(SHORT) and mlayer.read_bvh(out / name).n_frames == n - 2
+    for bad, msg in (({"trim": -1}, "read trim"), ({"up": "w"}, "read up"),
+                     ({"units": "furlong"}, "read units"), ({"depth": 1}, "unknown read option"),
+                     ("auto", "read must be a dict")):
+        with pytest.raises(mlayer.InvalidArgumentError, match=msg):
+            run_batch("denoise", clips, tmp_path / "bad", read=bad, scheduler=addr,
+                      progress=False)
