@@ -47,6 +47,10 @@ def _cmd_render(args) -> int:
         w, h = (int(v) for v in args.size.lower().split("x"))
     except ValueError:
         raise InvalidArgumentError(f"--size expects WxH, got {args.size!r}") from None
+    out_ext = os.path.splitext(args.output)[1].lower()
+    if args.output == "-" or out_ext != ".gif":
+        raise InvalidArgumentError(f"-o {args.output}: mlayer render writes an animated GIF "
+                                   "file; give a path ending in .gif")
     motions = [read_bvh(f) for f in args.inputs]
     labels = (args.labels.split(",") if args.labels
               else [os.path.splitext(os.path.basename(f))[0] for f in args.inputs])

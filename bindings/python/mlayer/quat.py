@@ -19,7 +19,39 @@ from ._native import ffi, lib
 from .errors import InvalidArgumentError, check
 
 __all__ = ["mul", "conj", "normalize", "exp", "log", "slerp", "from_euler", "to_euler",
-           "continuous", "euler_order"]
+           "continuous", "euler_order", "to_scalar_last", "from_scalar_last", "to_scipy",
+           "from_scipy"]
+
+
+def to_scalar_last(q) -> np.ndarray:
+    """mlayer's scalar-first ``(..., 4)`` quaternions as scalar-last ``(x, y, z, w)``, the order
+    of ``scipy.spatial.transform.Rotation.from_quat`` (and glTF). ``Rotation.from_quat(m.rot)``
+    without it is wrong: the scalar is read as z."""
+    q = _quats(q, "q")
+    return np.ascontiguousarray(np.concatenate([q[..., 1:], q[..., :1]], axis=-1))
+
+
+def from_scalar_last(q) -> np.ndarray:
+    """Scalar-last ``(x, y, z, w)`` quaternions (scipy's ``Rotation.as_quat``) as mlayer's
+    scalar-first ``(w, x, y, z)``."""
+    q = _quats(q, "q")
+    return np.ascontiguousarray(np.concatenate([q[..., 3:], q[..., :3]], axis=-1))
+
+
+def to_scipy(q):
+    """A ``scipy.spatial.transform.Rotation`` of scalar-first quaternions (any leading shape is
+    flattened, as scipy holds a 1-D stack). Needs scipy."""
+    try:
+        from scipy.spatial.transform import Rotation
+    except ImportError:
+        raise ImportError("mlayer.quat.to_scipy needs scipy: pip install scipy") from None
+    return Rotation.from_quat(to_scalar_last(q).reshape(-1, 4))
+
+
+def from_scipy(rotation) -> np.ndarray:
+    """Scalar-first ``(N, 4)`` quaternions of a ``scipy.spatial.transform.Rotation`` stack
+    (``(4,)`` for a single rotation)."""
+    return from_scalar_last(rotation.as_quat())
 
 
 def _quats(q, name: str) -> np.ndarray:

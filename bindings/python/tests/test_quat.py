@@ -426,3 +426,20 @@ def test_nan_raises(call):
         call()
     assert isinstance(e.value, ValueError)
     assert e.value.code == lib.MLR_E_INVALID_ARG
+
+
+def test_scipy_bridge_round_trips_and_agrees_with_our_rotations(rng):
+    from scipy.spatial.transform import Rotation
+    q = mlayer.quat.normalize(rng.normal(size=(50, 4)))
+    r = mlayer.quat.to_scipy(q)
+    v = rng.normal(size=(50, 3))
+    # scipy applies the same rotation as mlayer's exp/log convention: compare rotation vectors
+    np.testing.assert_allclose(r.as_rotvec(), mlayer.quat.log(np.where(q[:, :1] < 0, -q, q)),
+                               atol=1e-12)
+    back = mlayer.quat.from_scipy(r)
+    np.testing.assert_allclose(np.abs(np.einsum("ij,ij->i", back, q)), 1.0, atol=1e-12)
+    assert mlayer.quat.from_scipy(Rotation.identity()).tolist() == [1.0, 0.0, 0.0, 0.0]
+    # the naive call reads the scalar as z: a different rotation
+    naive = Rotation.from_quat(q)
+    assert np.degrees((naive.inv() * r).magnitude()).mean() > 30
+    np.testing.assert_array_equal(mlayer.quat.from_scalar_last(mlayer.quat.to_scalar_last(q)), q)

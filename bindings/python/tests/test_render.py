@@ -94,3 +94,15 @@ def test_camera_follows_the_first_joint_that_moves(tmp_path, mocap):
         ink |= np.abs(last - rgb).sum(-1) < 10
     cols = np.flatnonzero(ink.any(axis=0))
     assert ink.sum() > 100 and 40 < cols.mean() < 120
+
+
+def test_cli_refuses_outputs_that_are_not_gif_files(tmp_path, mocap):
+    import subprocess
+    import sys
+    clip = str(mocap / "cmu_131_01_mj_style_walk.bvh")
+    for out in ("x.mp4", "-", "noext"):
+        r = subprocess.run([sys.executable, "-m", "mlayer", "render", clip, "-o", out],
+                           capture_output=True, text=True, cwd=tmp_path)
+        assert r.returncode == 1 and "give a path ending in .gif" in r.stderr, r.stderr
+        assert r.stderr.count("\n") == 1 and "Traceback" not in r.stderr
+        assert not (tmp_path / out).exists()
