@@ -12,7 +12,8 @@ import sys
 import numpy as np
 
 from .bvh import read_bvh
-from .metrics import UNITS, body_height, length_unit
+from .metrics import body_height
+from .units import UNITS, length_unit
 from .up_axis import detect_up
 from .cli import command
 from .errors import Error, ParseError

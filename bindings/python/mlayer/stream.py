@@ -41,7 +41,8 @@ import numpy as np
 
 from . import _arrays
 from ._args import integer
-from ._native import NativeHandle, ReadOnlyAttributes, ffi, lib
+from ._handles import NativeHandle, ReadOnlyAttributes
+from ._native import ffi, lib
 from .errors import Error, InvalidArgumentError, check
 from .motion import Motion, Skeleton
 
@@ -307,7 +308,7 @@ class Stream(ReadOnlyAttributes, NativeHandle):
         code = lib.mlr_stream_flush(self._live(), _arrays.ptr_out(x) if k else ffi.NULL, x.size, n)
         if code:
             self._check_status(code, "mlayer.Stream.flush")
-        return self._wrap(x, getattr(self, "_last_kind", "tuple"))
+        return self._wrap(x, self._last_kind)
 
     def reset(self) -> None:
         """Forget every pushed frame (the alphas are kept): the stream is as new."""
