@@ -17,10 +17,10 @@ import sys
 
 import numpy as np
 
-from .bvh import read_bvh
-from .cli import command
-from .errors import InvalidArgumentError
-from .pipeline import Clip
+from ..bvh import read_bvh
+from ..errors import InvalidArgumentError
+from ..pipeline import Clip
+from ._command import BVH, FIGURE, NPZ, command
 
 
 def _contact_option(p) -> None:
@@ -74,7 +74,7 @@ def _synthesis_options(args) -> dict:
 
 
 def _decompose(args, motion):
-    from .layers import decompose
+    from ..layers import decompose
     return decompose(motion, gamma=args.gamma, lam_c=args.lam_c, sigma_c=args.sigma_c,
                      robust=not args.no_robust)
 
@@ -137,8 +137,10 @@ def _arguments_denoise(p) -> None:
     _contact_option(p)
 
 
-@command("denoise", "smooth a clip: the base and controllable layers, without the residual")
-def _cmd_denoise(args) -> int:
+@command("denoise", "smooth a clip: the base and controllable layers, without the residual",
+         arguments=_arguments_denoise, reads_clips=True, inputs=("input",),
+         outputs={"output": BVH})
+def cmd_denoise(args) -> int:
     clip = Clip.read(args.input)
     s = clip.synthesis(**_synthesis_options(args))
     out, report = s.run(1.0)
@@ -148,9 +150,6 @@ def _cmd_denoise(args) -> int:
     print(f"  wrote {args.output}")
     _outlier_note(s.layers)
     return 0
-
-
-_cmd_denoise.arguments = _arguments_denoise
 
 
 def _arguments_stylize(p) -> None:
@@ -166,8 +165,10 @@ def _arguments_stylize(p) -> None:
     _contact_option(p)
 
 
-@command("stylize", "exaggerate or flatten a clip's style by scaling its controllable layer")
-def _cmd_stylize(args) -> int:
+@command("stylize", "exaggerate or flatten a clip's style by scaling its controllable layer",
+         arguments=_arguments_stylize, reads_clips=True, inputs=("input",),
+         outputs={"output": BVH})
+def cmd_stylize(args) -> int:
     if not math.isfinite(args.alpha):
         raise InvalidArgumentError(f"--alpha must be finite, got {args.alpha}")
     joints = parse_joint_alphas(args.joint)
@@ -183,9 +184,6 @@ def _cmd_stylize(args) -> int:
     return 0
 
 
-_cmd_stylize.arguments = _arguments_stylize
-
-
 def _arguments_layers(p) -> None:
     p.add_argument("input", metavar="IN.bvh")
     p.add_argument("--plot", metavar="FIG.png", help="figure of the layers (png, svg, pdf)")
@@ -195,8 +193,10 @@ def _arguments_layers(p) -> None:
     _layer_options(p)
 
 
-@command("layers", "decompose a clip into base, controllable and residual layers")
-def _cmd_layers(args) -> int:
+@command("layers", "decompose a clip into base, controllable and residual layers",
+         arguments=_arguments_layers, reads_clips=True, inputs=("input",),
+         outputs={"plot": FIGURE, "npz": NPZ})
+def cmd_layers(args) -> int:
     if not args.plot and not args.npz:
         print("mlayer layers: nothing to write; give --plot and/or --npz (showing the "
               "chosen parameters only)", file=sys.stderr)
@@ -216,12 +216,9 @@ def _cmd_layers(args) -> int:
         layers.save_npz(args.npz)
         print(f"wrote {args.npz}")
     if args.plot:
-        from .plot import plot_layers
+        from ..plot import plot_layers
         shown = plot_layers(m, layers, args.plot, joint=args.joint,
                             title=f"{args.input}: layers")
         print(f"wrote {args.plot} (root {'XYZ'[shown['root_axis']]}, joint {shown['joint']})")
     _outlier_note(layers)
     return 0
-
-
-_cmd_layers.arguments = _arguments_layers
