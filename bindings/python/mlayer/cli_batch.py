@@ -13,12 +13,12 @@ from __future__ import annotations
 
 import sys
 
+from .batching import batch, operations, parse_alphas
 from .cli import command
 from .errors import InvalidArgumentError
 
 
 def _arguments(p) -> None:
-    from .batch import operations
     ops = operations()
     p.add_argument("operation", choices=sorted(ops), metavar="OPERATION",
                    help="; ".join(f"{k}: {v.help}" for k, v in sorted(ops.items())))
@@ -58,7 +58,6 @@ def _arguments(p) -> None:
 
 @command("batch", "run denoise, stylize, features, resample or timewarp over a corpus on Dask")
 def _cmd_batch(args) -> int:
-    from .batch import batch, parse_alphas
     from .cli_layers import parse_joint_alphas
     options = {}
     for name in ("gamma", "lam_c", "sigma_c", "fps", "n_frames", "strength", "lam"):
