@@ -4,7 +4,7 @@
  * mlr_bvh_write_file follow the naming rule of mlr_bvh.h and the files honour the umask. The
  * writer as a whole (round trips of every clip, locales, atomic files) is checked in
  * test_bvh.c. */
-#define _POSIX_C_SOURCE 200809L /* mkdtemp, popen */
+#define _POSIX_C_SOURCE 200809L /* mkdtemp */
 #include "bvh_write.c"
 #include "common.c"   /* the allocator and diag helpers */
 #include "numparse.c" /* mlr_parse_decimal */
@@ -165,17 +165,6 @@ static const char tiny_bvh[] =
 
 static char dir[64];
 
-static size_t entries(void)
-{
-    char cmd[128];
-    snprintf(cmd, sizeof cmd, "ls -A '%s' | wc -l", dir);
-    FILE *p = popen(cmd, "r");
-    unsigned long n = 0;
-    ck_assert_int_eq(fscanf(p, "%lu", &n), 1);
-    pclose(p);
-    return (size_t)n;
-}
-
 static int exists(const char *path)
 {
     struct stat st;
@@ -199,7 +188,7 @@ START_TEST(write_file_temporary_is_named_by_the_rule)
     ck_assert_msg(spy.name[0], "no temporary name was released");
     ck_assert_msg(is_temporary_of(spy.name + strlen(dir) + 1, "out.bvh"), "%s", spy.name);
     ck_assert(!exists(spy.name) && exists(path)); /* renamed into place */
-    ck_assert_uint_eq(entries(), 1);
+    ck_assert_uint_eq(mlr_test_dir_entries(dir), 1);
 
     /* a failing write: its temporary (named by the rule) is removed, the file is kept */
     spy.name[0] = '\0';
@@ -207,14 +196,14 @@ START_TEST(write_file_temporary_is_named_by_the_rule)
     ck_assert_int_eq(mlr_bvh_write_file(m, path, &d), MLR_E_INVALID_ARG);
     ck_assert(is_temporary_of(spy.name + strlen(dir) + 1, "out.bvh"));
     ck_assert(!exists(spy.name) && exists(path));
-    ck_assert_uint_eq(entries(), 1);
+    ck_assert_uint_eq(mlr_test_dir_entries(dir), 1);
     mlr_motion_rot_mut(m)[1] = 0.0;
 
     /* a path that names a folder is refused before anything is created */
     snprintf(path, sizeof path, "%s/", dir);
     ck_assert_int_eq(mlr_bvh_write_file(m, path, &d), MLR_E_INVALID_ARG);
     ck_assert_ptr_nonnull(strstr(d.message, "folder"));
-    ck_assert_uint_eq(entries(), 1);
+    ck_assert_uint_eq(mlr_test_dir_entries(dir), 1);
 
     mlr_motion_destroy(m);
     snprintf(path, sizeof path, "%s/out.bvh", dir);
