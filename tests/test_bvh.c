@@ -501,17 +501,6 @@ static void make_tmpdir(void)
     ck_assert_ptr_nonnull(mkdtemp(tmpdir));
 }
 
-static size_t count_dir_entries(const char *dir)
-{
-    char cmd[512];
-    snprintf(cmd, sizeof cmd, "ls -A '%s' | wc -l", dir);
-    FILE *p = popen(cmd, "r");
-    unsigned long n = 0;
-    ck_assert_int_eq(fscanf(p, "%lu", &n), 1);
-    pclose(p);
-    return (size_t)n;
-}
-
 static void remove_tmpdir(void)
 {
     char cmd[512];
@@ -528,7 +517,7 @@ START_TEST(write_file_is_atomic_and_matches_memory)
     snprintf(path, sizeof path, "%s/out.bvh", tmpdir);
     mlr_diag d;
     ck_assert_int_eq(mlr_bvh_write_file(a, path, &d), MLR_OK);
-    ck_assert_uint_eq(count_dir_entries(tmpdir), 1); /* no temporary left behind */
+    ck_assert_uint_eq(mlr_test_dir_entries(tmpdir), 1); /* no temporary left behind */
     size_t flen, mlen;
     char *ftext = slurp(path, &flen), *mtext = write_to_memory(a, &mlen);
     ck_assert_uint_eq(flen, mlen);
@@ -544,7 +533,7 @@ START_TEST(write_file_is_atomic_and_matches_memory)
     char *ftext2 = slurp(path, &flen2);
     ck_assert_uint_eq(flen2, flen);
     ck_assert_int_eq(memcmp(ftext, ftext2, flen), 0);
-    ck_assert_uint_eq(count_dir_entries(tmpdir), 1);
+    ck_assert_uint_eq(mlr_test_dir_entries(tmpdir), 1);
     mlr_motion_destroy(b);
 
     /* a missing directory is an I/O error */
@@ -1782,7 +1771,7 @@ START_TEST(every_allocation_failure_is_clean_for_files)
             s = mlr_bvh_write_file(m, path, &d);
         mlr_motion_destroy(m);
         ck_assert_uint_eq(ta.live_blocks, 0);
-        ck_assert_uint_eq(count_dir_entries(tmpdir), 1);
+        ck_assert_uint_eq(mlr_test_dir_entries(tmpdir), 1);
         if (s == MLR_OK)
             break;
         ck_assert_int_eq(s, MLR_E_NO_MEMORY);
