@@ -1235,7 +1235,7 @@ START_TEST(lenient_options_are_checked)
     ck_assert_ptr_nonnull(strstr(d.message, "given twice"));
     ck_assert_int_eq(mlr_bvh_read_memory_opts(text, strlen(text), 1, half, 1, NULL, &m, &w, &d),
                      MLR_E_INVALID_ARG);
-    ck_assert_ptr_nonnull(strstr(d.message, "MLR_BVH_OPT_KEEP_TRUNCATED must be 0 or 1"));
+    ck_assert_ptr_nonnull(strstr(d.message, "option keep_truncated = 0.5 is not 0 or 1"));
     ck_assert_int_eq(mlr_bvh_read_memory_opts(text, strlen(text), 1, NULL, 1, NULL, &m, &w, &d),
                      MLR_E_INVALID_ARG);
     ck_assert_int_eq(mlr_bvh_read_memory_opts(text, strlen(text), 1, NULL, 0, NULL, NULL, &w, &d),

@@ -143,7 +143,7 @@ START_TEST(every_guard_switched_off_leaves_the_frames_alone)
     stylized(&c, 2.0, root, rot);
     memcpy(root0, root, 3 * N * sizeof(double));
     memcpy(rot0, rot, 4 * N * J * sizeof(double));
-    const mlr_guards_option off[3] = {{MLR_GUARDS_OPT_LIMITS, 0}, {MLR_GUARDS_OPT_CONTACTS, 0},
+    const mlr_guards_option off[3] = {{MLR_GUARDS_OPT_LIMITS, 0}, {MLR_GUARDS_OPT_KEEP_CONTACTS, 0},
                                       {MLR_GUARDS_OPT_FLOOR, 0}};
     mlr_guards *g = guards_of(&c, off, 3);
     ck_assert_uint_eq(mlr_guards_n_points(g), 0);
@@ -157,7 +157,7 @@ START_TEST(every_guard_switched_off_leaves_the_frames_alone)
     ck_assert_int_eq(memcmp(rot, rot0, 4 * N * J * sizeof(double)), 0);
     mlr_guards_destroy(g);
     /* limits on by default, but only when some |alpha| > 1 */
-    const mlr_guards_option only_limits[2] = {{MLR_GUARDS_OPT_CONTACTS, 0},
+    const mlr_guards_option only_limits[2] = {{MLR_GUARDS_OPT_KEEP_CONTACTS, 0},
                                               {MLR_GUARDS_OPT_FLOOR, 0}};
     g = guards_of(&c, only_limits, 2);
     const double half = 0.5;

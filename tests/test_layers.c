@@ -1078,12 +1078,12 @@ START_TEST(base_floor_bad_options)
         {{{MLR_LAYERS_OPT_BODY_JOINT, NAN}, {0, 0}}, 1, "not finite"},
         {{{MLR_LAYERS_OPT_BODY_JOINT, 13.0}, {MLR_LAYERS_OPT_FPS, 30.0}}, 2, "joint index"},
         {{{16, 1.0}, {0, 0}}, 1, "unknown"},
-        {{{MLR_LAYERS_OPT_ROBUST, 0.5}, {0, 0}}, 1, "neither 0"},
-        {{{MLR_LAYERS_OPT_ROBUST, -1.0}, {0, 0}}, 1, "neither 0"},
+        {{{MLR_LAYERS_OPT_ROBUST, 0.5}, {0, 0}}, 1, "not 0 or 1"},
+        {{{MLR_LAYERS_OPT_ROBUST, -1.0}, {0, 0}}, 1, "not 0 or 1"},
         {{{MLR_LAYERS_OPT_ROBUST, NAN}, {0, 0}}, 1, "not finite"},
         {{{MLR_LAYERS_OPT_BODY_HEIGHT, 0.0}, {0, 0}}, 1, "not > 0"},
         {{{MLR_LAYERS_OPT_BODY_HEIGHT, INFINITY}, {0, 0}}, 1, "not finite"},
-        {{{MLR_LAYERS_OPT_ROBUST_ANGLE, 0.0}, {0, 0}}, 1, "not > 0"},
+        {{{MLR_LAYERS_OPT_ROBUST_ANGLE, 0.0}, {0, 0}}, 1, "not in (0, pi]"},
         {{{MLR_LAYERS_OPT_ROBUST_ANGLE, 3.5}, {0, 0}}, 1, "(0, pi]"},
     };
     for (size_t i = 0; i < MLR_COUNTOF(bad); i++) {

@@ -489,7 +489,7 @@ typedef enum mlr_guards_limits_mode {
 typedef enum mlr_guards_key {
     MLR_GUARDS_OPT_UP = 1,
     MLR_GUARDS_OPT_LIMITS = 2,
-    MLR_GUARDS_OPT_CONTACTS = 3,
+    MLR_GUARDS_OPT_KEEP_CONTACTS = 3,
     MLR_GUARDS_OPT_FLOOR = 4,
     MLR_GUARDS_OPT_FLOOR_HEIGHT = 5,
     MLR_GUARDS_OPT_FOLLOW = 6
