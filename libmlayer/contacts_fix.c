@@ -696,10 +696,10 @@ mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t N, double fps, int up
             mlr_lgs_destroy(ref_lgs);
             goto fail;
         }
-        mlr_lgs_solve(ref_lgs, Pr, 3 * C, 3 * C, tmp, 3 * C);
+        mlr_lgs_solve(ref_lgs, Pr, 3 * C, 3 * C, tmp, 3 * C, NULL);
         memcpy(Pr, tmp, N * C * 3 * sizeof(double));
         for (size_t k = 0; k < nf; k++) { /* the ankles' trajectories */
-            mlr_lgs_solve(ref_lgs, pos_ref + 3 * k, 3 * nf, 3, tmp, 3);
+            mlr_lgs_solve(ref_lgs, pos_ref + 3 * k, 3 * nf, 3, tmp, 3, NULL);
             for (size_t f = 0; f < N; f++)
                 memcpy(pos_ref + 3 * (f * nf + k), tmp + 3 * f, 3 * sizeof(double));
         }

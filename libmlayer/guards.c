@@ -331,7 +331,7 @@ mlr_status mlr_guards_create(const mlr_rig *rig, double fps, size_t n_frames,
     if (P)
         memcpy(g->trans, trans, 3 * N * P * sizeof(double));
     /* unit rotations, as the layers, the limits and the cleanup take them */
-    st = mlr_quat_normalize_array((const mlr_quat *)rot, N * J, (mlr_quat *)g->rot);
+    st = mlr_quat_normalize_array((const mlr_quat *)rot, N * J, (mlr_quat *)g->rot, NULL);
     if (st != MLR_OK) {
         mlr_diag_set(diag, st, 0, 0, "guards: a rotation of the input is zero");
         goto done;

@@ -216,7 +216,7 @@ static void residuals(mlr_layers *L, const double *p, double *delta, double *tmp
         const double *ci = L->control + i * ld;
         for (size_t c = 0; c < 3; c++)
             ri[c] -= ci[c];
-        mlr_quat_exp_array((const mlr_vec3 *)(const void *)(ci + 3), j, e);
+        mlr_quat_exp_array((const mlr_vec3 *)(const void *)(ci + 3), j, e, NULL);
         mlr_quat_conj_mul_log(e, (const mlr_quat *)(const void *)(p + 4 * j * i), j, r,
                               (mlr_vec3 *)(void *)(ri + 3));
     }
@@ -393,10 +393,10 @@ static void displace(const double *qb, const double *v, double alpha, const doub
 {
     const mlr_vec3 av = {alpha * v[0], alpha * v[1], alpha * v[2]};
     mlr_quat e, o;
-    mlr_quat_exp_array(&av, 1, &e);
+    mlr_quat_exp_array(&av, 1, &e, NULL);
     mlr_quat_mul((const mlr_quat *)(const void *)qb, &e, &o);
     if (r) {
-        mlr_quat_exp_array((const mlr_vec3 *)(const void *)r, 1, &e);
+        mlr_quat_exp_array((const mlr_vec3 *)(const void *)r, 1, &e, NULL);
         mlr_quat_mul(&o, &e, &o);
     }
     const double sgn = o.w * qb[0] + o.x * qb[1] + o.y * qb[2] + o.z * qb[3] < 0.0 ? -1.0 : 1.0;
@@ -437,7 +437,7 @@ mlr_status mlr_layers_synthesize(const mlr_layers *L, size_t begin, size_t count
                     const double *v = ci + 3 + 3 * k;
                     av[t] = (mlr_vec3){ak * v[0], ak * v[1], ak * v[2]};
                 }
-                mlr_quat_exp_array(av, m, e);
+                mlr_quat_exp_array(av, m, e, NULL);
                 for (size_t t = 0; t < m; t++) {
                     const size_t k = k0 + t;
                     const double *qb = L->base_rot + 4 * (i * j + k);

@@ -348,7 +348,7 @@ mlr_status mlr_limits_create(const mlr_rig *rig, const mlr_limits_clip *clips, s
                     r = (mlr_quat){-r.w, -r.x, -r.y, -r.z};
                 rq[j] = r;
             }
-            (void)mlr_quat_log_array(rq, J, rv);
+            (void)mlr_quat_log_array(rq, J, rv, NULL);
             for (size_t j = 0; j < J; j++) {
                 mlr_limits_joint *g = &jt[j];
                 const mlr_vec3 v = rv[j];
@@ -784,7 +784,7 @@ mlr_status mlr_limits_apply(const mlr_limits *lim, size_t n_frames, const double
     if (rot_out != rot_in)
         memmove(rot_out, rot_in, 4 * J * n_frames * sizeof(double));
     mlr_quat *q = (mlr_quat *)rot_out;
-    (void)mlr_quat_normalize_array(q, J * n_frames, q);
+    (void)mlr_quat_normalize_array(q, J * n_frames, q, NULL);
     /* joint by joint, so that hinge angles are unwrapped along the frames */
     for (int kind = MLR_LIMITS_HINGE; kind <= MLR_LIMITS_SWING_TWIST; kind++)
         mlr_limits_apply_kind(lim, n_frames, q, alpha, n_alpha, counts, kind);

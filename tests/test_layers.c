@@ -119,7 +119,7 @@ static double base_max_angle(size_t n, size_t j, const double *rot, size_t k, do
     mlr_quat_make_continuous((mlr_quat *)(void *)y, n, 1);
     mlr_lgs *g = NULL;
     ck_assert_int_ge(mlr_lgs_create(n, 2, sqrt(s), 1.0, NULL, n, MLR_LGS_BANDED, NULL, &g, NULL), 0);
-    ck_assert_int_eq(mlr_lgs_solve(g, y, 4, 4, x, 4), MLR_OK);
+    ck_assert_int_eq(mlr_lgs_solve(g, y, 4, 4, x, 4, NULL), MLR_OK);
     mlr_lgs_destroy(g);
     double amax = 0.0;
     for (size_t i = 0; i < n; i++) {
@@ -306,7 +306,7 @@ START_TEST(root_layers_match_lgs)
         ck_assert_int_eq(mlr_layers_get_residual(L, res, ng), MLR_OK);
         mlr_lgs *g = NULL;
         ck_assert_int_ge(mlr_lgs_create(n, 2, sqrt(bs[0]), 1.0, NULL, n, MLR_LGS_BANDED, NULL, &g, NULL), 0);
-        ck_assert_int_eq(mlr_lgs_solve(g, c->pos, 3, 3, x, 3), MLR_OK);
+        ck_assert_int_eq(mlr_lgs_solve(g, c->pos, 3, 3, x, 3, NULL), MLR_OK);
         mlr_lgs_destroy(g);
         double e = 0.0, scale = 1.0;
         for (size_t i = 0; i < 3 * n; i++) {
@@ -319,7 +319,7 @@ START_TEST(root_layers_match_lgs)
             for (size_t k = 0; k < 3; k++)
                 u[3 * i + k] = ctl[i * ld + k] + res[i * ld + k];
         ck_assert_int_ge(mlr_lgs_create(n, 2, sqrt(cs[0]), 1.0, NULL, n, MLR_LGS_BANDED, NULL, &g, NULL), 0);
-        ck_assert_int_eq(mlr_lgs_solve(g, u, 3, 3, x, 3), MLR_OK);
+        ck_assert_int_eq(mlr_lgs_solve(g, u, 3, 3, x, 3, NULL), MLR_OK);
         mlr_lgs_destroy(g);
         e = 0.0;
         for (size_t i = 0; i < n; i++)
@@ -388,7 +388,7 @@ static void synthetic_big(size_t n, double fps, double *pos, double *rot, uint64
         for (size_t k = 0; k < 3; k++) {
             for (size_t a = 0; a < 3; a++)
                 ang[k][a] += 0.01 * mlr_test_rng_normal(&rng);
-            mlr_quat_from_euler_array(ang[k], 1, MLR_EULER_ZYX, (mlr_quat *)(void *)(rot + 4 * (3 * i + k)));
+            mlr_quat_from_euler_array(ang[k], 1, MLR_EULER_ZYX, (mlr_quat *)(void *)(rot + 4 * (3 * i + k)), NULL);
         }
         pos[3 * i] = 10.0 * sin(0.3 * t);
         pos[3 * i + 1] = 90.0 + 3.0 * sin(4.0 * t);
@@ -442,7 +442,7 @@ START_TEST(gcv_matches_dense_scan)
             double ang[3] = {0.8 * sin(2.0 * t) + noise * mlr_test_rng_normal(&rng),
                              0.3 * t + noise * mlr_test_rng_normal(&rng),
                              0.2 * cos(3.0 * t) + noise * mlr_test_rng_normal(&rng)};
-            mlr_quat_from_euler_array(ang, 1, MLR_EULER_XYZ, (mlr_quat *)(void *)(rot + 4 * i));
+            mlr_quat_from_euler_array(ang, 1, MLR_EULER_XYZ, (mlr_quat *)(void *)(rot + 4 * i), NULL);
             for (size_t k = 0; k < 3; k++)
                 pos[3 * i + k] = sin(1.5 * t + (double)k) + 10.0 * noise * mlr_test_rng_normal(&rng);
         }
@@ -465,7 +465,7 @@ START_TEST(gcv_matches_dense_scan)
                 y[0][3 * i + k] = ctl[6 * i + k] + res[6 * i + k];
             mlr_quat cb = {br[4 * i], -br[4 * i + 1], -br[4 * i + 2], -br[4 * i + 3]}, p;
             mlr_quat_mul(&cb, (const mlr_quat *)(const void *)(unit + 4 * i), &p);
-            mlr_quat_log_array(&p, 1, (mlr_vec3 *)(void *)(y[1] + 3 * i));
+            mlr_quat_log_array(&p, 1, (mlr_vec3 *)(void *)(y[1] + 3 * i), NULL);
         }
         for (size_t g = 0; g < 2; g++) {
             double d_dof, d_gcv = dense_gcv(n, y[g], 3, cs[g], &d_dof);
@@ -496,8 +496,8 @@ static double banded_gcv(size_t n, const double *y, double s)
     mlr_lgs *g = NULL;
     double *x = malloc(n * 3 * sizeof *x), *var = malloc(n * sizeof *var), rss = 0.0, tr = 0.0;
     ck_assert_int_ge(mlr_lgs_create(n, 2, sqrt(s), 1.0, NULL, n, MLR_LGS_BANDED, NULL, &g, NULL), 0);
-    ck_assert_int_eq(mlr_lgs_solve(g, y, 3, 3, x, 3), MLR_OK);
-    ck_assert_int_eq(mlr_lgs_variance(g, var, n), MLR_OK);
+    ck_assert_int_eq(mlr_lgs_solve(g, y, 3, 3, x, 3, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_lgs_variance(g, var, n, NULL), MLR_OK);
     for (size_t i = 0; i < n; i++) {
         tr += var[i];
         for (size_t c = 0; c < 3; c++)
@@ -536,7 +536,7 @@ START_TEST(gcv_long_clip_matches_banded_scan)
         for (int k = 0; k < 3; k++)
             v[k] = 1.5 * PI / 180.0 * mlr_test_rng_normal(&rng);
         mlr_quat dq;
-        ck_assert_int_eq(mlr_quat_exp_array((const mlr_vec3 *)(const void *)v, 1, &dq), MLR_OK);
+        ck_assert_int_eq(mlr_quat_exp_array((const mlr_vec3 *)(const void *)v, 1, &dq, NULL), MLR_OK);
         mlr_quat_mul((const mlr_quat *)(const void *)(c->rot + 4 * i), &dq,
                      (mlr_quat *)(void *)(rot + 4 * i));
     }
@@ -563,7 +563,7 @@ START_TEST(gcv_long_clip_matches_banded_scan)
                 const double *b = br + 4 * (i * J + g - 1);
                 mlr_quat cb = {b[0], -b[1], -b[2], -b[3]}, p;
                 mlr_quat_mul(&cb, (const mlr_quat *)(const void *)(unit + 4 * (i * J + g - 1)), &p);
-                mlr_quat_log_array(&p, 1, (mlr_vec3 *)(void *)(y + 3 * i));
+                mlr_quat_log_array(&p, 1, (mlr_vec3 *)(void *)(y + 3 * i), NULL);
             }
         }
         const double at = banded_gcv(n, y, cs[g]);
@@ -614,7 +614,7 @@ START_TEST(explicit_control_parameters)
             u[3 * i + k] = ctl[ld * i + k] + res[ld * i + k];
     mlr_lgs *g = NULL;
     ck_assert_int_ge(mlr_lgs_create(n, 2, 2.0, 0.25, NULL, n, MLR_LGS_BANDED, NULL, &g, NULL), 0);
-    ck_assert_int_eq(mlr_lgs_solve(g, u, 3, 3, x, 3), MLR_OK);
+    ck_assert_int_eq(mlr_lgs_solve(g, u, 3, 3, x, 3, NULL), MLR_OK);
     mlr_lgs_destroy(g);
     for (size_t i = 0; i < n; i++)
         for (size_t k = 0; k < 3; k++)
@@ -659,11 +659,11 @@ START_TEST(denoises_synthetic_motion)
                 double ang[3] = {0.6 * sin(2 * PI * fk * t), 0.4 * cos(2 * PI * 0.7 * fk * t + 1.0),
                                  0.3 * sin(2 * PI * 1.3 * fk * t + 2.0)};
                 mlr_quat *qc = (mlr_quat *)(void *)(clean + 4 * (i * j + k));
-                mlr_quat_from_euler_array(ang, 1, MLR_EULER_ZYX, qc);
+                mlr_quat_from_euler_array(ang, 1, MLR_EULER_ZYX, qc, NULL);
                 mlr_vec3 e = {sigma * mlr_test_rng_normal(&rng), sigma * mlr_test_rng_normal(&rng),
                               sigma * mlr_test_rng_normal(&rng)};
                 mlr_quat qe;
-                mlr_quat_exp_array(&e, 1, &qe);
+                mlr_quat_exp_array(&e, 1, &qe, NULL);
                 mlr_quat_mul(qc, &qe, (mlr_quat *)(void *)(noisy + 4 * (i * j + k)));
             }
             pos[3 * i] = pos[3 * i + 1] = pos[3 * i + 2] = 0.0;
@@ -925,7 +925,7 @@ static double lgs_gain(double s, double f, double fps)
         y[i] = sin(2.0 * PI * f * (double)i / fps);
     mlr_lgs *g = NULL;
     ck_assert_int_ge(mlr_lgs_create(n, 2, sqrt(s), 1.0, NULL, n, MLR_LGS_BANDED, NULL, &g, NULL), 0);
-    ck_assert_int_eq(mlr_lgs_solve(g, y, 1, 1, x, 1), MLR_OK);
+    ck_assert_int_eq(mlr_lgs_solve(g, y, 1, 1, x, 1, NULL), MLR_OK);
     mlr_lgs_destroy(g);
     double xy = 0.0, yy = 0.0;
     for (size_t i = n / 4; i < 3 * n / 4; i++)
@@ -1036,7 +1036,7 @@ START_TEST(body_joint_sets_the_translation_s)
         ck_assert_int_eq(mlr_layers_get_base(L, bp, 3 * n, NULL, 0), MLR_OK);
         mlr_lgs *g = NULL;
         ck_assert_int_ge(mlr_lgs_create(n, 2, sqrt(bs[0]), 1.0, NULL, n, MLR_LGS_BANDED, NULL, &g, NULL), 0);
-        ck_assert_int_eq(mlr_lgs_solve(g, pos, 3, 3, x, 3), MLR_OK);
+        ck_assert_int_eq(mlr_lgs_solve(g, pos, 3, 3, x, 3, NULL), MLR_OK);
         mlr_lgs_destroy(g);
         for (size_t i = 0; i < 3 * n; i++)
             ck_assert_double_le(fabs(x[i] - bp[i]), 1e-14 * (1.0 + 16.0 * bs[0]) * 200.0);

@@ -464,18 +464,18 @@ START_TEST(streams_apply_the_limits_to_every_output_frame)
     ck_assert_int_eq(mlr_stream_create_layered(4, 0, 0, 1, 1, 10, 10, 5, NULL, &a, NULL), MLR_OK);
     ck_assert_int_eq(mlr_stream_create_layered(4, 0, 0, 1, 1, 10, 10, 5, NULL, &b, NULL), MLR_OK);
     const double alpha[4] = {3, 3, 3, 3};
-    ck_assert_int_eq(mlr_stream_set_alpha(a, 1, alpha, 4), MLR_OK);
-    ck_assert_int_eq(mlr_stream_set_alpha(b, 1, alpha, 4), MLR_OK);
-    ck_assert_int_eq(mlr_stream_set_limits(a, lim), MLR_OK);
+    ck_assert_int_eq(mlr_stream_set_alpha(a, 1, alpha, 4, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_stream_set_alpha(b, 1, alpha, 4, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_stream_set_limits(a, lim, NULL), MLR_OK);
     double *xa = malloc(300 * 16 * sizeof(double)), *xb = malloc(300 * 16 * sizeof(double));
     size_t done = 0, ready, w;
     for (size_t f = 0; f < 300; f++) {
-        ck_assert_int_eq(mlr_stream_push(a, rot + 16 * f, 16, xa + 16 * done, 16, &ready), MLR_OK);
-        ck_assert_int_eq(mlr_stream_push(b, rot + 16 * f, 16, xb + 16 * done, 16, &ready), MLR_OK);
+        ck_assert_int_eq(mlr_stream_push(a, rot + 16 * f, 16, xa + 16 * done, 16, &ready, NULL), MLR_OK);
+        ck_assert_int_eq(mlr_stream_push(b, rot + 16 * f, 16, xb + 16 * done, 16, &ready, NULL), MLR_OK);
         done += ready;
     }
-    ck_assert_int_eq(mlr_stream_flush(a, xa + 16 * done, 16 * (300 - done), &w), MLR_OK);
-    ck_assert_int_eq(mlr_stream_flush(b, xb + 16 * done, 16 * (300 - done), &w), MLR_OK);
+    ck_assert_int_eq(mlr_stream_flush(a, xa + 16 * done, 16 * (300 - done), &w, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_stream_flush(b, xb + 16 * done, 16 * (300 - done), &w, NULL), MLR_OK);
     size_t counts[4];
     const double alpha5 = 3.0;
     ck_assert_int_eq(mlr_limits_apply(lim, 300, xb, xb, &alpha5, 1, counts, 4, NULL), MLR_OK);
@@ -485,9 +485,9 @@ START_TEST(streams_apply_the_limits_to_every_output_frame)
     /* wrong joint count, detach */
     mlr_stream *c;
     ck_assert_int_eq(mlr_stream_create(3, 0, 0, 1, 1, 2, NULL, &c, NULL), MLR_OK);
-    ck_assert_int_eq(mlr_stream_set_limits(c, lim), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_stream_set_limits(c, NULL), MLR_OK);
-    ck_assert_int_eq(mlr_stream_set_limits(NULL, NULL), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_stream_set_limits(c, lim, NULL), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_stream_set_limits(c, NULL, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_stream_set_limits(NULL, NULL, NULL), MLR_E_INVALID_ARG);
     mlr_stream_destroy(a), mlr_stream_destroy(b), mlr_stream_destroy(c);
     free(xa), free(xb), free(rot);
     mlr_limits_destroy(lim);

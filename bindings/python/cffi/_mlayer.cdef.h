@@ -46,10 +46,10 @@ mlr_status mlr_lgs_create(size_t n_out, unsigned order, double lam, double sigma
                           const double *t, size_t n_obs, mlr_lgs_solver solver,
                           const mlr_allocator *alloc, mlr_lgs **out, mlr_diag *diag);
 mlr_status mlr_lgs_solve(const mlr_lgs *lgs, const double *y, size_t ldy, size_t m,
-                         double *x, size_t ldx);
+                         double *x, size_t ldx, mlr_diag *diag);
 mlr_status mlr_lgs_solve_mt(const mlr_lgs *lgs, const double *y, size_t ldy, size_t m,
-                            double *x, size_t ldx, size_t n_threads);
-mlr_status mlr_lgs_variance(const mlr_lgs *lgs, double *var, size_t n_out);
+                            double *x, size_t ldx, size_t n_threads, mlr_diag *diag);
+mlr_status mlr_lgs_variance(const mlr_lgs *lgs, double *var, size_t n_out, mlr_diag *diag);
 size_t mlr_lgs_n_out(const mlr_lgs *lgs);
 size_t mlr_lgs_n_obs(const mlr_lgs *lgs);
 void mlr_lgs_destroy(mlr_lgs *lgs);
@@ -65,17 +65,18 @@ void mlr_quat_mul(const mlr_quat *a, const mlr_quat *b, mlr_quat *out);
 void mlr_quat_rotate(const mlr_quat *q, const mlr_vec3 *v, mlr_vec3 *out);
 void mlr_quat_mul_array(const mlr_quat *a, const mlr_quat *b, size_t count, mlr_quat *out);
 void mlr_quat_conj_array(const mlr_quat *q, size_t count, mlr_quat *out);
-mlr_status mlr_quat_normalize_array(const mlr_quat *q, size_t count, mlr_quat *out);
-mlr_status mlr_quat_exp_array(const mlr_vec3 *v, size_t count, mlr_quat *out);
-mlr_status mlr_quat_log_array(const mlr_quat *q, size_t count, mlr_vec3 *out);
+mlr_status mlr_quat_normalize_array(const mlr_quat *q, size_t count, mlr_quat *out,
+                                    mlr_diag *diag);
+mlr_status mlr_quat_exp_array(const mlr_vec3 *v, size_t count, mlr_quat *out, mlr_diag *diag);
+mlr_status mlr_quat_log_array(const mlr_quat *q, size_t count, mlr_vec3 *out, mlr_diag *diag);
 mlr_status mlr_quat_slerp_array(const mlr_quat *a, const mlr_quat *b, const double *t,
-                                size_t count, mlr_quat *out);
+                                size_t count, mlr_quat *out, mlr_diag *diag);
 mlr_status mlr_quat_from_euler_array(const double *angles, size_t count,
-                                     mlr_euler_order order, mlr_quat *out);
+                                     mlr_euler_order order, mlr_quat *out, mlr_diag *diag);
 mlr_status mlr_quat_to_euler_array(const mlr_quat *q, size_t count,
-                                   mlr_euler_order order, double *angles);
+                                   mlr_euler_order order, double *angles, mlr_diag *diag);
 void mlr_quat_make_continuous(mlr_quat *q, size_t n_frames, size_t n_tracks);
-mlr_status mlr_euler_order_parse(const char *name, mlr_euler_order *out);
+mlr_status mlr_euler_order_parse(const char *name, mlr_euler_order *out, mlr_diag *diag);
 
 /* mlr_bvh.h */
 typedef struct mlr_motion mlr_motion;
@@ -186,11 +187,12 @@ mlr_status mlr_stream_create_layered(size_t n_joints, int root, size_t n_trans,
                                      const mlr_allocator *alloc, mlr_stream **out,
                                      mlr_diag *diag);
 mlr_status mlr_stream_push(mlr_stream *st, const double *frame, size_t n_values,
-                           double *out, size_t out_len, size_t *n_ready);
-mlr_status mlr_stream_flush(mlr_stream *st, double *out, size_t out_len, size_t *n_written);
+                           double *out, size_t out_len, size_t *n_ready, mlr_diag *diag);
+mlr_status mlr_stream_flush(mlr_stream *st, double *out, size_t out_len, size_t *n_written,
+                            mlr_diag *diag);
 void mlr_stream_reset(mlr_stream *st);
 mlr_status mlr_stream_set_alpha(mlr_stream *st, double alpha_trans, const double *alpha,
-                                size_t n_joints);
+                                size_t n_joints, mlr_diag *diag);
 size_t mlr_stream_frame_size(const mlr_stream *st);
 size_t mlr_stream_lag(const mlr_stream *st);
 size_t mlr_stream_n_pushed(const mlr_stream *st);
@@ -417,7 +419,7 @@ mlr_status mlr_limits_apply(const mlr_limits *lim, size_t n_frames, const double
                             double *rot_out, const double *alpha, size_t n_alpha,
                             size_t *counts, size_t n_counts, mlr_diag *diag);
 void mlr_limits_destroy(mlr_limits *lim);
-mlr_status mlr_stream_set_limits(mlr_stream *st, const mlr_limits *limits);
+mlr_status mlr_stream_set_limits(mlr_stream *st, const mlr_limits *limits, mlr_diag *diag);
 
 /* mlr_ik.h */
 mlr_status mlr_ik_two_bone(size_t n, const double *hip, const double *knee, const double *end,

@@ -61,10 +61,7 @@ def _option(key, value, name):
     """An (option key, value) pair for the C call, or None when value is None."""
     if value is None:
         return None
-    v = _arrays.finite(value, name)
-    if name != "gamma" and v <= 0.0:
-        raise InvalidArgumentError(f"{name} must be > 0, got {value!r}")
-    return (key, v)
+    return (key, _arrays.number(value, name))  # the range is checked in C, named by name
 
 
 def body_translation_joint(motion) -> int:
@@ -338,12 +335,8 @@ def decompose(motion, *, gamma: float = math.pi / 2, lam_c=None, sigma_c=None, l
         _option(lib.MLR_LAYERS_OPT_SIGMA_B, sigma_b, "sigma_b")) if o is not None]
     if base_cutoff is not None and lam_b is None and sigma_b is None:
         # the floor is the C default given the frame rate (mlr_layers.h, "The base floor")
-        cutoff = _arrays.finite(base_cutoff, "base_cutoff")
-        if not 0.0 < cutoff < 0.5 * motion.fps:
-            raise InvalidArgumentError(f"base_cutoff must be in (0, fps/2) = (0, "
-                                       f"{0.5 * motion.fps:g}) Hz, got {base_cutoff!r}")
-        opts += [(lib.MLR_LAYERS_OPT_FPS, _arrays.finite(motion.fps, "fps")),
-                 (lib.MLR_LAYERS_OPT_BASE_CUTOFF, cutoff)]
+        opts += [(lib.MLR_LAYERS_OPT_FPS, motion.fps),
+                 (lib.MLR_LAYERS_OPT_BASE_CUTOFF, _arrays.number(base_cutoff, "base_cutoff"))]
     if not isinstance(robust, (bool, np.bool_)):
         raise InvalidArgumentError(f"robust: expected True or False, got {robust!r}")
     opts.append((lib.MLR_LAYERS_OPT_ROBUST, float(bool(robust))))
