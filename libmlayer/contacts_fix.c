@@ -210,7 +210,7 @@ static mlr_status fk_points(const mlr_rig *rig, size_t N, const double *root_pos
         fk_masked(rig, N, need, tidx, root_pos, rot, trans, pos, wrot);
     else
         st = mlr_fk_arrays(N, rig->n_joints, rig->parents, rig->offsets, root_pos, rot,
-                           rig->n_trans, rig->trans_joints, trans, pos, wrot, alloc);
+                           rig->n_trans, rig->trans_joints, trans, pos, wrot, alloc, NULL);
     if (st != MLR_OK || !pts)
         return st;
     return mlr_rig_point_positions(rig, N, pos, wrot, C, joints, end_sites, pts, NULL);

@@ -337,7 +337,7 @@ mlr_status mlr_guards_create(const mlr_rig *rig, double fps, size_t n_frames,
         goto done;
     }
     st = mlr_fk_arrays(N, J, g->parents, g->offsets, g->root_pos, g->rot, P, g->trans_joints,
-                       g->trans, wpos, wrot, &a);
+                       g->trans, wpos, wrot, &a, NULL);
     if (st != MLR_OK) {
         mlr_diag_set(diag, st, 0, 0, "guards: forward kinematics of the input failed");
         goto done;

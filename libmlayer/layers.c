@@ -374,14 +374,23 @@ mlr_status mlr_layers_get_param(const mlr_layers *L, mlr_layers_param which, dou
 }
 
 static mlr_status check_range(const mlr_layers *L, size_t begin, size_t count, double *root_pos,
-                              size_t n_root_pos, double *rot, size_t n_rot)
+                              size_t n_root_pos, double *rot, size_t n_rot, const char *fn,
+                              mlr_diag *diag)
 {
-    if (!L || begin > L->n || count > L->n - begin)
-        return MLR_E_INVALID_ARG;
+    if (!L)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "layers %s: the handle is NULL", fn);
+    if (begin > L->n || count > L->n - begin)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "layers %s: frames [%zu, %zu + %zu) are not within the %zu frames",
+                            fn, begin, begin, count, L->n);
     if (root_pos && n_root_pos != 3 * count)
-        return MLR_E_INVALID_ARG;
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "layers %s: n_root_pos is %zu, 3 count is %zu", fn, n_root_pos,
+                            3 * count);
     if (rot && n_rot != 4 * L->j * count)
-        return MLR_E_INVALID_ARG;
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "layers %s: n_rot is %zu, 4 J count is %zu", fn, n_rot,
+                            4 * L->j * count);
     return MLR_OK;
 }
 
@@ -405,17 +414,21 @@ static void displace(const double *qb, const double *v, double alpha, const doub
 
 mlr_status mlr_layers_synthesize(const mlr_layers *L, size_t begin, size_t count,
                                  const double *alpha, size_t n_alpha, double *root_pos,
-                                 size_t n_root_pos, double *rot, size_t n_rot)
+                                 size_t n_root_pos, double *rot, size_t n_rot, mlr_diag *diag)
 {
-    mlr_status st = check_range(L, begin, count, root_pos, n_root_pos, rot, n_rot);
+    mlr_status st =
+        check_range(L, begin, count, root_pos, n_root_pos, rot, n_rot, "synthesize", diag);
     if (st != MLR_OK)
         return st;
     const size_t j = L->j, ld = 3 * (1 + j);
     if (!alpha || (n_alpha != 1 && n_alpha != 1 + j))
-        return MLR_E_INVALID_ARG;
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "layers synthesize: %zu alphas (NULL: %d), not 1 or 1 + J = %zu",
+                            n_alpha, !alpha, 1 + j);
     for (size_t g = 0; g < n_alpha; g++)
         if (!isfinite(alpha[g]))
-            return MLR_E_INVALID_ARG;
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "layers synthesize: alpha[%zu] is NaN or infinite", g);
     for (size_t f = 0; f < count; f++) {
         const size_t i = begin + f;
         const double *ci = L->control + i * ld;
@@ -455,9 +468,11 @@ mlr_status mlr_layers_synthesize(const mlr_layers *L, size_t begin, size_t count
 }
 
 mlr_status mlr_layers_reconstruct(const mlr_layers *L, size_t begin, size_t count,
-                                  double *root_pos, size_t n_root_pos, double *rot, size_t n_rot)
+                                  double *root_pos, size_t n_root_pos, double *rot, size_t n_rot,
+                                  mlr_diag *diag)
 {
-    mlr_status st = check_range(L, begin, count, root_pos, n_root_pos, rot, n_rot);
+    mlr_status st =
+        check_range(L, begin, count, root_pos, n_root_pos, rot, n_rot, "reconstruct", diag);
     if (st != MLR_OK)
         return st;
     const size_t j = L->j, ld = 3 * (1 + j);

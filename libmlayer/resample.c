@@ -31,7 +31,7 @@ static mlr_status check_factor(double r, unsigned flags, mlr_diag *diag)
         return MLR_OK;
     if (r > lim * (1.0 + FACTOR_SLACK) || r < (1.0 - FACTOR_SLACK) / lim)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "resampling factor %g is beyond %gx (pass MLR_RESAMPLE_ALLOW_EXTREME "
+                            "resampling factor %g is beyond %gx (set the flag allow_extreme "
                             "if this is intended)", r >= 1.0 ? r : 1.0 / r, lim);
     return MLR_OK;
 }
@@ -146,7 +146,7 @@ mlr_status mlr_timemap_validate(const double *t, size_t n_frames, size_t n_out, 
         if (!extreme_ok(flags) && (d < lo || d > hi))
             return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                                 "time map step t[%zu] - t[%zu] = %g is beyond the %gx factor limit "
-                                "(pass MLR_RESAMPLE_ALLOW_EXTREME if this is intended)",
+                                "(set the flag allow_extreme if this is intended)",
                                 i, i - 1, d, MLR_RESAMPLE_MAX_FACTOR);
     }
     return MLR_OK;

@@ -662,7 +662,7 @@ START_TEST(real_clips_feet_and_contacts)
                    mlr_motion_n_trans(m), mlr_motion_trans_joints(m), mlr_motion_n_end_sites(m),
                    mlr_motion_end_site_parents(m), mlr_motion_end_site_offsets(m)};
     double *wp = malloc(3 * N * J * sizeof(double)), *wr = malloc(4 * N * J * sizeof(double));
-    ck_assert_int_eq(mlr_fk_motion(m, 0, N, wp, wr), MLR_OK);
+    ck_assert_int_eq(mlr_fk_motion(m, 0, N, wp, wr, NULL), MLR_OK);
     int32_t *jt = malloc(2 * J * sizeof(int32_t)), *es = malloc(2 * J * sizeof(int32_t));
     size_t F;
     ck_assert_int_eq(mlr_contacts_find_feet(&rig, N, wp, MLR_AXIS_Y, J, jt, es, &F, NULL, &d),

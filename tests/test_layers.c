@@ -195,7 +195,7 @@ START_TEST(identity_on_every_clip)
         double *pos = malloc(3 * n * sizeof *pos), *rot = malloc(nr * sizeof *rot);
         double *unit = malloc(nr * sizeof *unit);
         normalize_copy(c->rot, unit, n * j);
-        ck_assert_int_eq(mlr_layers_reconstruct(L, 0, n, pos, 3 * n, rot, nr), MLR_OK);
+        ck_assert_int_eq(mlr_layers_reconstruct(L, 0, n, pos, 3 * n, rot, nr, NULL), MLR_OK);
         double ep = 0.0, scale = 1.0;
         for (size_t i = 0; i < 3 * n; i++) {
             ep = fmax(ep, fabs(pos[i] - c->pos[i]));
@@ -207,7 +207,7 @@ START_TEST(identity_on_every_clip)
         /* a sub-range reproduces the same frames */
         size_t b0 = n / 3, cnt = n / 4;
         double *pos2 = malloc(3 * cnt * sizeof *pos2), *rot2 = malloc(4 * cnt * j * sizeof *rot2);
-        ck_assert_int_eq(mlr_layers_reconstruct(L, b0, cnt, pos2, 3 * cnt, rot2, 4 * cnt * j), MLR_OK);
+        ck_assert_int_eq(mlr_layers_reconstruct(L, b0, cnt, pos2, 3 * cnt, rot2, 4 * cnt * j, NULL), MLR_OK);
         ck_assert(memcmp(pos2, pos + 3 * b0, 3 * cnt * sizeof *pos2) == 0);
         ck_assert(memcmp(rot2, rot + 4 * j * b0, 4 * cnt * j * sizeof *rot2) == 0);
         free(pos2), free(rot2);
@@ -239,10 +239,10 @@ START_TEST(alpha_zero_is_base_and_one_is_denoised)
         for (size_t i = 0; i < n * j; i++)  /* base quaternions are unit */
             ck_assert_close(qdot(br + 4 * i, br + 4 * i), 1.0, 1e-14);
         const double zero = 0.0, one = 1.0;
-        ck_assert_int_eq(mlr_layers_synthesize(L, 0, n, &zero, 1, sp, 3 * n, sr, nr), MLR_OK);
+        ck_assert_int_eq(mlr_layers_synthesize(L, 0, n, &zero, 1, sp, 3 * n, sr, nr, NULL), MLR_OK);
         ck_assert(memcmp(sp, bp, 3 * n * sizeof *sp) == 0);
         ck_assert_double_le(qdiff_sign(sr, br, n * j), 1e-15);
-        ck_assert_int_eq(mlr_layers_synthesize(L, 0, n, &one, 1, sp, 3 * n, sr, nr), MLR_OK);
+        ck_assert_int_eq(mlr_layers_synthesize(L, 0, n, &one, 1, sp, 3 * n, sr, nr, NULL), MLR_OK);
         /* alpha = 1: the input minus exactly the residual */
         double ep = 0.0, ea = 0.0, scale = 1.0;
         for (size_t i = 0; i < n; i++) {
@@ -263,7 +263,7 @@ START_TEST(alpha_zero_is_base_and_one_is_denoised)
         double *alpha = calloc(1 + j, sizeof *alpha);
         const size_t pick = j / 2;
         alpha[1 + pick] = 2.0;
-        ck_assert_int_eq(mlr_layers_synthesize(L, 0, n, alpha, 1 + j, sp, 3 * n, sr, nr), MLR_OK);
+        ck_assert_int_eq(mlr_layers_synthesize(L, 0, n, alpha, 1 + j, sp, 3 * n, sr, nr, NULL), MLR_OK);
         ck_assert(memcmp(sp, bp, 3 * n * sizeof *sp) == 0);
         for (size_t i = 0; i < n; i++) {
             for (size_t k = 0; k < j; k++) {
@@ -671,7 +671,7 @@ START_TEST(denoises_synthetic_motion)
         mlr_layers *L = NULL;
         ck_assert_int_eq(mlr_layers_decompose(n, j, pos, noisy, NULL, 0, NULL, &L, NULL), MLR_OK);
         const double one = 1.0;
-        ck_assert_int_eq(mlr_layers_synthesize(L, 0, n, &one, 1, NULL, 0, out, 4 * n * j), MLR_OK);
+        ck_assert_int_eq(mlr_layers_synthesize(L, 0, n, &one, 1, NULL, 0, out, 4 * n * j, NULL), MLR_OK);
         double e_noisy = 0.0, e_out = 0.0;
         for (size_t i = 0; i < n * j; i++) {
             e_noisy += qangle(noisy + 4 * i, clean + 4 * i);
@@ -745,23 +745,23 @@ START_TEST(bad_arguments)
     ck_assert_int_eq(mlr_layers_get_param(L, MLR_LAYERS_PARAM_BASE_S, buf, 2), MLR_E_INVALID_ARG);
     ck_assert_int_eq(mlr_layers_get_param(L, (mlr_layers_param)9, buf, 3), MLR_E_INVALID_ARG);
     ck_assert_int_eq(mlr_layers_get_param(L, (mlr_layers_param)-1, buf, 3), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_layers_synthesize(L, 0, 8, alpha, 2, buf, 24, NULL, 0), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_layers_synthesize(L, 0, 8, NULL, 1, buf, 24, NULL, 0), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_layers_synthesize(L, 4, 5, alpha, 3, NULL, 0, NULL, 0), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_layers_synthesize(L, 9, 0, alpha, 3, NULL, 0, NULL, 0), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_layers_synthesize(L, 0, 8, alpha, 3, buf, 23, NULL, 0), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_layers_synthesize(L, 0, 8, alpha, 3, NULL, 0, buf, 60), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_layers_synthesize(L, 0, 8, alpha, 2, buf, 24, NULL, 0, NULL), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_layers_synthesize(L, 0, 8, NULL, 1, buf, 24, NULL, 0, NULL), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_layers_synthesize(L, 4, 5, alpha, 3, NULL, 0, NULL, 0, NULL), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_layers_synthesize(L, 9, 0, alpha, 3, NULL, 0, NULL, 0, NULL), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_layers_synthesize(L, 0, 8, alpha, 3, buf, 23, NULL, 0, NULL), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_layers_synthesize(L, 0, 8, alpha, 3, NULL, 0, buf, 60, NULL), MLR_E_INVALID_ARG);
     for (int v = 0; v < 3; v++) {
         alpha[1] = v == 0 ? NAN : v == 1 ? INFINITY : -INFINITY;
         buf[0] = 42.0;
-        ck_assert_int_eq(mlr_layers_synthesize(L, 0, 8, alpha, 3, buf, 24, NULL, 0), MLR_E_INVALID_ARG);
+        ck_assert_int_eq(mlr_layers_synthesize(L, 0, 8, alpha, 3, buf, 24, NULL, 0, NULL), MLR_E_INVALID_ARG);
         ck_assert_double_eq(buf[0], 42.0); /* nothing written */
     }
     alpha[1] = -3.0; /* any finite value works */
-    ck_assert_int_eq(mlr_layers_synthesize(L, 0, 8, alpha, 3, buf, 24, buf + 24, 64), MLR_OK);
-    ck_assert_int_eq(mlr_layers_reconstruct(L, 7, 2, buf, 6, NULL, 0), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_layers_reconstruct(NULL, 0, 1, buf, 3, NULL, 0), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_layers_reconstruct(L, 8, 0, NULL, 0, NULL, 0), MLR_OK);
+    ck_assert_int_eq(mlr_layers_synthesize(L, 0, 8, alpha, 3, buf, 24, buf + 24, 64, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_layers_reconstruct(L, 7, 2, buf, 6, NULL, 0, NULL), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_layers_reconstruct(NULL, 0, 1, buf, 3, NULL, 0, NULL), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_layers_reconstruct(L, 8, 0, NULL, 0, NULL, 0, NULL), MLR_OK);
     ck_assert_uint_eq(mlr_layers_n_frames(NULL), 0);
     ck_assert_uint_eq(mlr_layers_n_joints(NULL), 0);
     mlr_layers_destroy(L);
@@ -785,7 +785,7 @@ START_TEST(constant_motion_and_no_root)
     ck_assert_int_eq(mlr_layers_decompose(n, j, NULL, rot, NULL, 0, NULL, &L, NULL), MLR_OK);
     double pos[60], r[160], unit[160];
     normalize_copy(rot, unit, n * j);
-    ck_assert_int_eq(mlr_layers_reconstruct(L, 0, n, pos, 60, r, 160), MLR_OK);
+    ck_assert_int_eq(mlr_layers_reconstruct(L, 0, n, pos, 60, r, 160, NULL), MLR_OK);
     for (size_t i = 0; i < 60; i++)
         ck_assert_double_le(fabs(pos[i]), 1e-300);
     ck_assert_double_le(qdiff_sign(r, unit, n * j), 1e-14);
@@ -832,7 +832,7 @@ static void *synth_thread(void *p)
     t->status = 0;
     for (int rep = 0; rep < 5 && t->status == 0; rep++)
         t->status = mlr_layers_synthesize(t->L, 0, t->n, &t->alpha, 1, t->pos, 3 * t->n, t->rot,
-                                          4 * t->n * t->j);
+                                          4 * t->n * t->j, NULL);
     return NULL;
 }
 
@@ -856,7 +856,7 @@ START_TEST(threads_synthesize_identically)
         ck_assert_int_eq(pthread_join(th[t], NULL), 0);
     for (int t = 0; t < NT; t++) {
         ck_assert_int_eq(jobs[t].status, MLR_OK);
-        ck_assert_int_eq(mlr_layers_synthesize(L, 0, n, &jobs[t].alpha, 1, ref_p, 3 * n, ref_r, 4 * n * j), MLR_OK);
+        ck_assert_int_eq(mlr_layers_synthesize(L, 0, n, &jobs[t].alpha, 1, ref_p, 3 * n, ref_r, 4 * n * j, NULL), MLR_OK);
         ck_assert(memcmp(ref_r, jobs[t].rot, 4 * n * j * sizeof *ref_r) == 0);
         ck_assert(memcmp(ref_p, jobs[t].pos, 3 * n * sizeof *ref_p) == 0);
         free(jobs[t].rot), free(jobs[t].pos);
@@ -1248,7 +1248,7 @@ START_TEST(robust_glitch_is_found_and_local)
         for (size_t i = 0; i < n * ng; i++)
             ck_assert_uint_eq(fl[i], 0);
         /* the identity */
-        ck_assert_int_eq(mlr_layers_reconstruct(G, 0, n, p1, 3 * n, q1, 4 * n * j), MLR_OK);
+        ck_assert_int_eq(mlr_layers_reconstruct(G, 0, n, p1, 3 * n, q1, 4 * n * j, NULL), MLR_OK);
         double e = 0.0;
         for (size_t i = 0; i < 3 * n; i++)
             e = fmax(e, fabs(p1[i] - gp[i]));
@@ -1258,8 +1258,8 @@ START_TEST(robust_glitch_is_found_and_local)
         ck_assert_double_le(qdiff_sign(q1, gn, n * j), 1e-9);
         free(gn);
         /* far from the glitch the denoised motion is the clean clip's */
-        ck_assert_int_eq(mlr_layers_synthesize(C, 0, n, (double[]){1.0}, 1, p0, 3 * n, q0, 4 * n * j), MLR_OK);
-        ck_assert_int_eq(mlr_layers_synthesize(G, 0, n, (double[]){1.0}, 1, p1, 3 * n, q1, 4 * n * j), MLR_OK);
+        ck_assert_int_eq(mlr_layers_synthesize(C, 0, n, (double[]){1.0}, 1, p0, 3 * n, q0, 4 * n * j, NULL), MLR_OK);
+        ck_assert_int_eq(mlr_layers_synthesize(G, 0, n, (double[]){1.0}, 1, p1, 3 * n, q1, 4 * n * j, NULL), MLR_OK);
         double ep = 0.0, eq = 0.0;
         const size_t half = (size_t)(0.5 * fps);
         for (size_t i = 0; i < n; i++) {

@@ -608,7 +608,7 @@ static void count_violations(const real *r, const mlr_limits *lim, const double 
     double *pos = malloc(N * J * 3 * sizeof(double)), *wr = malloc(N * J * 4 * sizeof(double));
     ck_assert_int_eq(mlr_fk_arrays(N, J, r->rig.parents, r->rig.offsets,
                                    mlr_motion_root_pos(r->m), rot, r->rig.n_trans,
-                                   r->rig.trans_joints, mlr_motion_trans(r->m), pos, wr, NULL),
+                                   r->rig.trans_joints, mlr_motion_trans(r->m), pos, wr, NULL, NULL),
                      MLR_OK);
     *fold = *rev = 0;
     for (size_t f = 0; f < N; f++) {
@@ -648,7 +648,7 @@ START_TEST(a_stylized_real_clip_at_alpha_3_neither_folds_nor_reverses_after_limi
             ck_assert_int_eq(mlr_fk_arrays(N, J, r.rig.parents, r.rig.offsets,
                                            mlr_motion_root_pos(r.m), mlr_motion_rot(r.m),
                                            r.rig.n_trans, r.rig.trans_joints,
-                                           mlr_motion_trans(r.m), pos, wr, NULL),
+                                           mlr_motion_trans(r.m), pos, wr, NULL, NULL),
                              MLR_OK);
             for (size_t j = 0; j < J; j++) {
                 mlr_limits_range g;
@@ -670,7 +670,7 @@ START_TEST(a_stylized_real_clip_at_alpha_3_neither_folds_nor_reverses_after_limi
                          MLR_OK);
         double *syn = malloc(N * J * 4 * sizeof(double));
         const double alpha = 3.0;
-        ck_assert_int_eq(mlr_layers_synthesize(lay, 0, N, &alpha, 1, NULL, 0, syn, N * J * 4),
+        ck_assert_int_eq(mlr_layers_synthesize(lay, 0, N, &alpha, 1, NULL, 0, syn, N * J * 4, NULL),
                          MLR_OK);
         size_t fold0, rev0, fold1, rev1;
         count_violations(&r, lim, syn, in_max, in_min, &fold0, &rev0);

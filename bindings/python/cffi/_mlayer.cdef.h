@@ -140,9 +140,9 @@ mlr_status mlr_fk_arrays(size_t n_frames, size_t n_joints, const int32_t *parent
                          const double *rot, size_t n_trans,
                          const int32_t *trans_joints, const double *trans,
                          double *world_pos, double *world_rot,
-                         const mlr_allocator *alloc);
+                         const mlr_allocator *alloc, mlr_diag *diag);
 mlr_status mlr_fk_motion(const mlr_motion *motion, size_t begin, size_t count,
-                         double *world_pos, double *world_rot);
+                         double *world_pos, double *world_rot, mlr_diag *diag);
 
 /* mlr_quat.h: predictive sign continuity (MLAYER_0.3) */
 void mlr_quat_continue_sign(const mlr_quat *prev, size_t n_prev, const mlr_quat *q,
@@ -232,9 +232,10 @@ mlr_status mlr_layers_get_param(const mlr_layers *layers, mlr_layers_param which
                                 size_t count);
 mlr_status mlr_layers_synthesize(const mlr_layers *layers, size_t begin, size_t count,
                                  const double *alpha, size_t n_alpha, double *root_pos,
-                                 size_t n_root_pos, double *rot, size_t n_rot);
+                                 size_t n_root_pos, double *rot, size_t n_rot, mlr_diag *diag);
 mlr_status mlr_layers_reconstruct(const mlr_layers *layers, size_t begin, size_t count,
-                                  double *root_pos, size_t n_root_pos, double *rot, size_t n_rot);
+                                  double *root_pos, size_t n_root_pos, double *rot, size_t n_rot,
+                                  mlr_diag *diag);
 void mlr_layers_destroy(mlr_layers *layers);
 /* mlr_kmeans.h */
 typedef struct mlr_kmeans mlr_kmeans;

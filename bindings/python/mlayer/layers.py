@@ -249,21 +249,22 @@ class Layers(ReadOnlyAttributes):
                     ``body_joint`` when a joint below a static root carries it
         """
         w = self.alphas(alpha, joints, root_alpha)
-        return self._frames(lambda r, q: lib.mlr_layers_synthesize(
+        return self._frames(lambda r, q, d: lib.mlr_layers_synthesize(
             self._h, 0, self.n_frames, _arrays.ptr(w), w.size, _arrays.ptr_out(r), r.size,
-            _arrays.ptr_out(q), q.size), "synthesize")
+            _arrays.ptr_out(q), q.size, d), "synthesize")
 
     def reconstruct(self):
         """(Mb (+) control) (+) residual: the input motion again, to rounding (a rotation may
         come back as -q)."""
-        return self._frames(lambda r, q: lib.mlr_layers_reconstruct(
-            self._h, 0, self.n_frames, _arrays.ptr_out(r), r.size, _arrays.ptr_out(q), q.size),
-            "reconstruct")
+        return self._frames(lambda r, q, d: lib.mlr_layers_reconstruct(
+            self._h, 0, self.n_frames, _arrays.ptr_out(r), r.size, _arrays.ptr_out(q), q.size,
+            d), "reconstruct")
 
     def _frames(self, call, where):
         n, j = self.n_frames, self.motion.n_joints
         root, rot = np.empty((n, 3)), np.empty((n, j, 4))
-        check(call(root, rot), where)
+        diag = ffi.new("mlr_diag *")
+        check(call(root, rot, diag), where, diag)
         return _with_body_translation(self.motion, self.body_joint, root, rot)
 
     def save_npz(self, path) -> None:
