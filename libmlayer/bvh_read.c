@@ -999,7 +999,7 @@ static mlr_status lenient_tail(parser *ps, frames_plan *pl, const bvh_scratch *s
         return s;
     }
     mlr_motion *g;
-    if ((s = mlr_motion_copy_frames(m, 0, F, &g)) != MLR_OK)
+    if ((s = mlr_motion_copy_frames(m, 0, F, &g, NULL)) != MLR_OK)
         return s;
     mlr_motion_destroy(m);
     *mp = g;

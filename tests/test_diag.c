@@ -305,6 +305,30 @@ static mlr_status fk_motion_range(mlr_diag *d)
     return s;
 }
 
+static mlr_status copy_range(mlr_diag *d)
+{
+    mlr_motion *m = NULL, *c = NULL;
+    ck_assert_int_eq(mlr_bvh_read_memory(tiny_bvh, strlen(tiny_bvh), NULL, &m, NULL), MLR_OK);
+    const mlr_status s = mlr_motion_copy_frames(m, 2, 1, &c, d);
+    ck_assert_ptr_null(c);
+    mlr_motion_destroy(m);
+    return s;
+}
+
+static mlr_status copy_no_memory(mlr_diag *d)
+{
+    mlr_test_allocator ta;
+    mlr_test_allocator_init(&ta, SIZE_MAX);
+    mlr_motion *m = NULL, *c = NULL;
+    ck_assert_int_eq(mlr_bvh_read_memory(tiny_bvh, strlen(tiny_bvh), &ta.base, &m, NULL), MLR_OK);
+    ta.fail_at = ta.n_calls; /* the copy's first allocation (the copy takes src's allocator) */
+    const mlr_status s = mlr_motion_copy_frames(m, 0, 2, &c, d);
+    ck_assert_ptr_null(c);
+    mlr_motion_destroy(m);
+    ck_assert_uint_eq(ta.live_blocks, 0);
+    return s;
+}
+
 /* ---- options: the one reader's format ------------------------------------------------------ */
 
 static mlr_status bvh_option_twice(mlr_diag *d)
@@ -427,6 +451,8 @@ static const diag_case cases[] = {
     {"fk trans joint", fk_trans_joint, MLR_E_INVALID_ARG, "trans_joints[0] is 0"},
     {"fk no memory", fk_no_memory, MLR_E_NO_MEMORY, "fk: out of memory"},
     {"fk motion range", fk_motion_range, MLR_E_INVALID_ARG, "frames [1, 1 + 3) are not within"},
+    {"copy range", copy_range, MLR_E_INVALID_ARG, "frames [2, 2 + 1) are not within the 2"},
+    {"copy no memory", copy_no_memory, MLR_E_NO_MEMORY, "motion copy: 2 frames of 1 joints"},
     {"bvh option twice", bvh_option_twice, MLR_E_INVALID_ARG, "option strict given twice"},
     {"bvh option value", bvh_option_value, MLR_E_INVALID_ARG, "option strict = 2 is not 0 or 1"},
     {"bvh option NULL", bvh_option_null, MLR_E_INVALID_ARG, "opts is NULL but n_opts is 1"},

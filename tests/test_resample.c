@@ -621,7 +621,7 @@ START_TEST(real_clip_round_trip_120_30_120)
     mlr_diag d;
     ck_assert_int_eq(mlr_bvh_read_file(path, NULL, &full, &d), MLR_OK);
     /* skip the converter's T-pose and blend frames */
-    ck_assert_int_eq(mlr_motion_copy_frames(full, 6, mlr_motion_n_frames(full) - 6, &m), MLR_OK);
+    ck_assert_int_eq(mlr_motion_copy_frames(full, 6, mlr_motion_n_frames(full) - 6, &m, NULL), MLR_OK);
     mlr_motion_destroy(full);
     const size_t N = mlr_motion_n_frames(m), J = mlr_motion_n_joints(m), P = mlr_motion_n_trans(m);
     const double fps = 1.0 / mlr_motion_frame_time(m);
@@ -732,7 +732,7 @@ START_TEST(timewarp_real_clip)
     snprintf(path, sizeof path, "%s/cmu_10_01_soccer_kick.bvh", dir);
     mlr_motion *full = NULL, *m = NULL;
     ck_assert_int_eq(mlr_bvh_read_file(path, NULL, &full, NULL), MLR_OK);
-    ck_assert_int_eq(mlr_motion_copy_frames(full, 6, mlr_motion_n_frames(full) - 6, &m), MLR_OK);
+    ck_assert_int_eq(mlr_motion_copy_frames(full, 6, mlr_motion_n_frames(full) - 6, &m, NULL), MLR_OK);
     mlr_motion_destroy(full);
     const size_t N = mlr_motion_n_frames(m), J = mlr_motion_n_joints(m), n = N * 5 / 4;
     double *t = malloc(N * sizeof(double)), *speed = malloc(N * sizeof(double));

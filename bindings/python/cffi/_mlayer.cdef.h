@@ -103,7 +103,7 @@ mlr_status mlr_motion_create(size_t n_joints, const char *const *names,
                              size_t n_frames, double frame_time,
                              const mlr_allocator *alloc, mlr_motion **out, mlr_diag *diag);
 mlr_status mlr_motion_copy_frames(const mlr_motion *src, size_t begin, size_t count,
-                                  mlr_motion **out);
+                                  mlr_motion **out, mlr_diag *diag);
 void mlr_motion_destroy(mlr_motion *motion);
 size_t mlr_motion_n_joints(const mlr_motion *motion);
 size_t mlr_motion_n_frames(const mlr_motion *motion);
