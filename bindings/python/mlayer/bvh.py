@@ -21,7 +21,7 @@ import warnings
 
 from ._native import ffi, lib
 from .errors import InvalidArgumentError, ParseError, ParseWarning, check
-from .kmeans import _c_threads
+from ._args import threads as _c_threads
 from .motion import MIN_FRAME_TIME, Motion
 from .trimming import _read as trimmed_read, frames_arg
 

@@ -21,7 +21,7 @@ from .cli import command
 from .cli_layers import _contact_option
 from .errors import InvalidArgumentError, MlayerIOError
 from .pipeline import stylize
-from .resample import (resample, slerp_resample, timewarp, timewarp_map, timewarp_speed)
+from .retiming import (resample, slerp_resample, timewarp, timewarp_map, timewarp_speed)
 
 
 def _pyplot():

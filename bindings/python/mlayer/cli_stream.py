@@ -19,7 +19,7 @@ from ._files import atomic_output
 from .bvh import read_bvh, write_bvh
 from .cli import command
 from .errors import InvalidArgumentError
-from .lgs import lgs
+from .smoothing import lgs
 from .one_euro import one_euro
 from .stream import decay_rate, motion_channels, stream_motion
 

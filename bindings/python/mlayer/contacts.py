@@ -31,7 +31,7 @@ from ._arrays import as_f64, number, ptr, ptr_out
 from ._native import ffi, lib
 from ._rig import c_rig, motion_axis
 from .errors import InvalidArgumentError, check
-from .lgs import lgs
+from .smoothing import lgs
 from .metrics import body_height
 
 __all__ = ["find_feet", "detect_contacts", "fix_contacts", "keep_contacts", "contact_intervals",

@@ -40,6 +40,7 @@ from typing import NamedTuple
 import numpy as np
 
 from . import _arrays
+from ._args import integer
 from ._native import NativeHandle, ReadOnlyAttributes, ffi, lib
 from .errors import InvalidArgumentError, check
 from .motion import Motion, Skeleton
@@ -71,8 +72,7 @@ skeleton. A larger lag is taken as a mistake (frames given for seconds, say)."""
 
 
 def _as_lag(lag) -> int:
-    if isinstance(lag, bool) or not isinstance(lag, (int, np.integer)) or lag < 0:
-        raise InvalidArgumentError(f"Stream: lag must be an integer >= 0, got {lag!r}")
+    lag = integer(lag, "Stream: lag", 0)
     if lag > MAX_LAG:
         raise InvalidArgumentError(f"Stream: lag must be at most {MAX_LAG} frames "
                                    f"(mlayer.stream.MAX_LAG), got {lag!r}")

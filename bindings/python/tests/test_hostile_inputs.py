@@ -143,7 +143,7 @@ def _motion_calls(tmp):
     import mlayer
     from mlayer import cleanup, contacts, features, generate_guards, layers, limits, metrics
     from mlayer import plausibility
-    from mlayer.resample import body_size
+    from mlayer.retiming import body_size
     feet = ["LeftFoot", "RightFoot"]
     return [
         ("positions", lambda m: m.positions()),

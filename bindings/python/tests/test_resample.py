@@ -6,7 +6,7 @@ from scipy.spatial.transform import Rotation, Slerp
 
 import mlayer
 from mlayer import quat
-from mlayer.resample import body_size
+from mlayer.retiming import body_size
 
 # converter-inserted T-pose and blend frames at the start of the CMU clips (mocap README)
 SKIP = {"cmu_01_01_playground_jumps.bvh": 1, "cmu_131_01_mj_style_walk.bvh": 0,
@@ -435,7 +435,7 @@ def test_bad_input_gives_clear_errors():
             mlayer.resample(m, fps=bad)
         with pytest.raises(E, match="fps must be finite and > 0"):
             mlayer.slerp_resample(m, fps=bad)
-    with pytest.raises(E, match="at least 2"):
+    with pytest.raises(E, match="n_frames must be an integer >= 2"):
         mlayer.resample(m, n_frames=1)
     with pytest.raises(E, match="must be an integer"):
         mlayer.resample(m, n_frames=20.5)

@@ -33,7 +33,7 @@ from ..layers import decompose
 from ..pipeline import Synthesis
 from ..metrics import body_height, foot_sliding, jitter
 from ..render import body_side
-from ..resample import frames_at_rate, resample, timewarp
+from ..retiming import frames_at_rate, resample, timewarp
 
 __all__ = ["Clip", "load_clips", "body_parts", "parse_params", "ParamError", "PARAMS",
            "PART_NAMES", "ResultCache", "json_bytes", "DEFAULT_MAX_VALUES",

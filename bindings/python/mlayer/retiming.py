@@ -30,6 +30,7 @@ import math
 import numpy as np
 
 from . import _arrays
+from ._args import integer
 from ._native import ffi, lib
 from .errors import InvalidArgumentError, check
 from .motion import Motion
@@ -76,11 +77,7 @@ def _out_memory(motion: Motion, n_out: int, name: str, where: str) -> int:
 
 
 def _frame_count(n, name: str, where: str) -> int:
-    if isinstance(n, bool) or not isinstance(n, (int, np.integer)):
-        raise InvalidArgumentError(f"{where}: {name} must be an integer, got {n!r}")
-    if n < 2:
-        raise InvalidArgumentError(f"{where}: {name} must be at least 2, got {n}")
-    return int(n)
+    return integer(n, f"{where}: {name}", 2)
 
 
 def _target(motion: Motion, fps, n_frames, allow_extreme: bool, where: str):
