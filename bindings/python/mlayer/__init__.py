@@ -18,7 +18,8 @@ from .bvh import read_bvh, read_bvh_string, write_bvh, write_bvh_string
 from . import metrics
 from .stream import Stream, stream_motion
 from . import ik
-from .contacts import detect_contacts, fix_contacts
+from .contacts import detect_contacts
+from .cleanup import fix_contacts
 from .retiming import (resample, slerp_resample, timewarp, timewarp_map, timewarp_speed)
 from . import data
 from .layers import Layers, decompose

@@ -715,7 +715,7 @@ def _read_options(read) -> dict:
         raise InvalidArgumentError(f"batch: unknown read option(s) {', '.join(bad)}; accepted: "
                                    f"{', '.join(READ_OPTIONS)}")
     from .bvh import _options
-    from .metrics import units_arg
+    from .units import units_arg
     from .trimming import frames_arg
     from .up_axis import axis_name
     out = {}

@@ -175,7 +175,7 @@ def read_bvh(path, *, strict=None, keep_truncated=False, threads=None, up=None,
 
 def _units_arg(units, where: str):
     """The length unit a read clip gets: units, or the CLI's --units (reading_units), or None."""
-    from .metrics import units_arg
+    from .units import units_arg
     units = units_arg(units, where)
     return _UNITS.get() if units is None else units
 
@@ -184,7 +184,7 @@ def _units_arg(units, where: str):
 def reading_units(units):
     """Within the block, clips read with ``units=None`` get this length unit (the CLI's
     ``--units``)."""
-    from .metrics import units_arg
+    from .units import units_arg
     token = _UNITS.set(units_arg(units, "--units"))
     try:
         yield

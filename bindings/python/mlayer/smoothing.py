@@ -12,7 +12,8 @@ from __future__ import annotations
 import numpy as np
 
 from . import _arrays
-from ._native import NativeHandle, ReadOnlyAttributes, ffi, lib
+from ._handles import NativeHandle, ReadOnlyAttributes
+from ._native import ffi, lib
 from .errors import InvalidArgumentError, check
 from ._args import integer, threads as _c_threads
 

@@ -12,7 +12,8 @@ import numpy as np
 
 from . import _arrays
 from ._files import atomic_output
-from ._native import NativeHandle, ReadOnlyAttributes, ffi, lib
+from ._handles import NativeHandle, ReadOnlyAttributes
+from ._native import ffi, lib
 from .errors import InvalidArgumentError, check
 from ._args import default_threads, integer
 

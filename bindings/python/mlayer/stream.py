@@ -41,7 +41,8 @@ import numpy as np
 
 from . import _arrays
 from ._args import integer
-from ._native import NativeHandle, ReadOnlyAttributes, ffi, lib
+from ._handles import NativeHandle, ReadOnlyAttributes
+from ._native import ffi, lib
 from .errors import InvalidArgumentError, check
 from .motion import Motion, Skeleton
 
@@ -301,7 +302,7 @@ class Stream(ReadOnlyAttributes, NativeHandle):
                                     self._diag)
         if code:
             check(code, "mlayer.Stream.flush", self._diag)
-        return self._wrap(x, getattr(self, "_last_kind", "tuple"))
+        return self._wrap(x, self._last_kind)
 
     def reset(self) -> None:
         """Forget every pushed frame (the alphas are kept): the stream is as new."""

@@ -164,7 +164,7 @@ def test_bad_maps_and_files_leave_nothing(capsys, tmp_path):
 
 def test_a_failed_write_leaves_no_figure(capsys, tmp_path, monkeypatch):
     """The figure and the BVH appear together or not at all."""
-    from mlayer import cli_resample
+    from mlayer.cli import retiming as cli_resample
 
     def fail(motion, path):
         raise mlayer.MlayerIOError(f"{path}: disk full")
