@@ -86,7 +86,7 @@ static int decompose(guards_state *s)
 static int synthesize(guards_state *s, double alpha, double *root, double *rot)
 {
     return mlr_layers_synthesize(s->layers, 0, s->n, &alpha, 1, root, 3 * s->n, rot,
-                                 4 * s->n * s->j);
+                                 4 * s->n * s->j, NULL);
 }
 
 static int create_guards(guards_state *s)

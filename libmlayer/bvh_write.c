@@ -278,7 +278,7 @@ static void write_frames(const mlr_motion *m, sink *s)
                 } else {
                     if (!have_ang) {
                         mlr_quat q = {rot[4 * j], rot[4 * j + 1], rot[4 * j + 2], rot[4 * j + 3]};
-                        mlr_quat_to_euler_array(&q, 1, (mlr_euler_order)m->order[j], ang);
+                        mlr_quat_to_euler_array(&q, 1, (mlr_euler_order)m->order[j], ang, NULL);
                         have_ang = 1;
                     }
                     double deg = ang[m->rot_idx[3 * j + ch[k] - 3]] * BVH_RAD2DEG;

@@ -44,7 +44,7 @@ def _arguments(p) -> None:
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--no-metrics", action="store_true",
                    help="skip the jitter and foot-sliding figures (a little faster)")
-    p.add_argument("--no-contacts", action="store_true",
+    p.add_argument("--no-keep-contacts", "--no-contacts", dest="no_contacts", action="store_true",
                    help="denoise/stylize: do not pin the feet during detected contacts")
     g = p.add_argument_group("layer options (denoise, stylize, features)")
     g.add_argument("--gamma", type=float, help="base-layer largest displacement angle, radians")

@@ -44,15 +44,16 @@ def _int(text: str) -> int:
 
 
 def _cli_flags(run):
-    """Run a subcommand with the API's keyword names in messages replaced by the options."""
+    """Run a subcommand with the flag allow_extreme in messages named as the CLI spells it
+    (--allow-extreme: the mechanical rule of docs/OPTIONS.md)."""
     def wrapped(args):
         try:
             return run(args)
         except InvalidArgumentError as e:
             msg = str(e)
-            if "allow_extreme=True" not in msg:
+            if "flag allow_extreme" not in msg:
                 raise
-            raise InvalidArgumentError(msg.replace("allow_extreme=True", "--allow-extreme"),
+            raise InvalidArgumentError(msg.replace("flag allow_extreme", "--allow-extreme"),
                                        e.code) from None
     wrapped.__name__ = run.__name__
     return wrapped
