@@ -32,13 +32,14 @@ within the training clips' limits.
 """
 from __future__ import annotations
 
+import logging
 import math
-import sys
 
 import numpy as np
 
 from . import _arrays, quat
 from ._args import integer
+from ._progress import resolve
 from .errors import InvalidArgumentError, MlayerIOError
 from .smoothing import lgs
 from .manifold import GRBF, PCA
@@ -138,9 +139,19 @@ def same_units(clips) -> list:
     return out
 
 
-def _say(progress, msg: str) -> None:
-    if progress:
-        print(msg, file=sys.stderr if progress is True else progress, flush=True)
+#: the steps of PrimitiveModel.fit are logged here (INFO); the command line shows them
+_log = logging.getLogger("mlayer.primitives")
+
+#: the steps PrimitiveModel.fit's progress bar counts: features, manifold, primitives, GRBF,
+#: guards
+_FIT_STEPS = 5
+
+
+def _say(msg: str, bar=None) -> None:
+    """Log one step of the fit (and advance its progress bar when given)."""
+    _log.info(msg)
+    if bar is not None:
+        bar.update(1)
 
 
 class PrimitiveModel:
@@ -166,8 +177,9 @@ class PrimitiveModel:
         k: number of primitives, or "auto" (elbow rule over ks). manifold: "som" (a rows x
         cols SOM, batch training for epochs) or "pca". lattice, kernel, smoothing: the GRBF
         (a small relative ridge keeps the weights of lattice centres with no training frame
-        nearby determined). progress: True prints the
-        steps on stderr (or give a file).
+        nearby determined). The steps are logged (INFO) to the ``mlayer.primitives`` logger;
+        progress: a bar over them (None: on when stderr is a terminal and tqdm is installed;
+        True, False, a stream, or a callable(done, total); see ``mlayer._progress``).
 
         Defaults that scale with n, the number of training frames (:func:`default_lattices`):
         ``som`` s x s units with s = min(30, isqrt(n)) (about one frame per unit; the paper's
@@ -183,8 +195,6 @@ class PrimitiveModel:
         an :class:`mlayer.MlayerWarning` that says by how much. The model is in the first
         clip's units.
         """
-        from .features import pose_features
-        from .clustering import elbow, kmeans
         clips = list(clips) if isinstance(clips, (list, tuple)) else [clips]
         if not clips:
             raise InvalidArgumentError("PrimitiveModel.fit: no clips")
@@ -196,45 +206,56 @@ class PrimitiveModel:
                 raise InvalidArgumentError("PrimitiveModel.fit: every clip needs >= 2 frames")
         if manifold not in ("som", "pca"):
             raise InvalidArgumentError(f"manifold must be 'som' or 'pca', got {manifold!r}")
-        from .layers import body_translation_joint
         if lattice is None or (manifold == "som" and som is None):
             som_d, lattice_d = default_lattices(sum(m.n_frames for m in clips))
             som = som_d if som is None else som
             if lattice is None:
                 lattice = lattice_d if manifold != "som" else tuple(
                     min(g, int(s)) for g, s in zip(lattice_d, som))
+        make_bar = resolve(progress, "PrimitiveModel.fit")
         clips = same_units(clips)
-        self = cls()
+        with make_bar(_FIT_STEPS, "primitives", "step") as bar:
+            return cls()._fit(clips, bar, k=k, ks=ks, manifold=manifold, som=som, epochs=epochs,
+                              lattice=lattice, kernel=kernel, smoothing=smoothing, seed=seed)
+
+    def _fit(self, clips, bar, *, k, ks, manifold, som, epochs, lattice, kernel, smoothing,
+             seed) -> "PrimitiveModel":
+        """The steps of :meth:`fit` on checked arguments (clips in one unit)."""
+        from .features import pose_features
+        from .clustering import elbow, kmeans
+        from .layers import body_translation_joint
         self.skeleton = clips[0].skeleton
         self.frame_time = float(np.median([m.frame_time for m in clips]))
         self._set_body(body_translation_joint(clips), clips)
-        _say(progress, f"features: {len(clips)} clip(s), "
-                       f"{sum(m.n_frames for m in clips)} frames")
+        _say(f"features: {len(clips)} clip(s), "
+             f"{sum(m.n_frames for m in clips)} frames")
         X = pose_features(clips)
+        bar.update(1)
         self.clip_starts = np.cumsum([0] + [m.n_frames for m in clips[:-1]]).astype(np.int64)
         self.manifold = manifold
         if manifold == "som":
             from .som import SOM
             rows, cols = (int(v) for v in som)
-            _say(progress, f"SOM {rows}x{cols}: {epochs} batch epochs on {X.shape[0]} x "
-                           f"{X.shape[1]}")
+            _say(f"SOM {rows}x{cols}: {epochs} batch epochs on {X.shape[0]} x "
+                 f"{X.shape[1]}")
             s = SOM(rows, cols, X.shape[1], seed=seed)
             s.train(X, epochs, mode="batch")
             self.som_codebook = s.codebook
             self.points = s.bmu(X).astype(np.float64)
             self.bounds = ((0.0, rows - 1.0), (0.0, cols - 1.0))
-            _say(progress, f"SOM: quantization error {s.quantization_error(X):.4g}, "
-                           f"topographic error {s.topographic_error(X):.3f}, "
-                           f"{len(np.unique(s.bmu_index(X)))} units used")
+            _say(f"SOM: quantization error {s.quantization_error(X):.4g}, "
+                 f"topographic error {s.topographic_error(X):.3f}, "
+                 f"{len(np.unique(s.bmu_index(X)))} units used")
         else:
             p = PCA(2).fit(X)
             self.pca_mean, self.pca_components = p.mean_, p.components_
             self.points = p.transform(X)
             self.bounds = tuple((float(self.points[:, j].min()), float(self.points[:, j].max()))
                                 for j in range(2))
+        bar.update(1)
         if k == "auto":
             ks = [q for q in ks if q <= X.shape[0]]
-            _say(progress, f"elbow: k-means for k = {ks[0]} .. {ks[-1]}")
+            _say(f"elbow: k-means for k = {ks[0]} .. {ks[-1]}")
             e = elbow(self.points, ks, seed=seed, n_init=3)
             self.elbow_ks, self.elbow_inertia = np.asarray(e.ks), np.asarray(e.inertia)
             km = e.results[list(e.ks).index(e.k)]
@@ -244,23 +265,23 @@ class PrimitiveModel:
         self.centers = np.asarray(km.centers, dtype=np.float64)
         self.labels = np.asarray(km.labels, dtype=np.int64)
         k = self.centers.shape[0]
-        _say(progress, f"primitives: k = {k}")
+        _say(f"primitives: k = {k}", bar)
         ends = list(self.clip_starts[1:]) + [X.shape[0]]
         self.markov = Markov.fit([self.labels[a:b] for a, b in zip(self.clip_starts, ends)],
                                  n_states=k)
         Y = self._targets(clips, X)
-        _say(progress, f"GRBF: {kernel}, {lattice[0]}x{lattice[1]} centres, "
-                       f"{X.shape[0]} frames -> {Y.shape[1]} outputs")
+        _say(f"GRBF: {kernel}, {lattice[0]}x{lattice[1]} centres, "
+             f"{X.shape[0]} frames -> {Y.shape[1]} outputs")
         self.grbf = GRBF(kernel, lattice, bounds=self.bounds,
                          smoothing=smoothing).fit(self.points, Y)
         fit = self.grbf.predict(self.points)
         J = self.skeleton.n_joints
         err = np.sqrt(((fit[:, -3 * J:] - X) ** 2).reshape(-1, J, 3).sum(-1)).mean()
         self.fit_error = float(err)
-        _say(progress, f"GRBF: mean joint position error on the training frames {err:.4g}")
+        _say(f"GRBF: mean joint position error on the training frames {err:.4g}", bar)
         self._set_guards(clips)
-        _say(progress, f"guards: {len(self.contact_names)} contact points, floor "
-                       f"{self.floor_height:.4g}")
+        _say(f"guards: {len(self.contact_names)} contact points, floor "
+             f"{self.floor_height:.4g}", bar)
         return self
 
     def _set_guards(self, clips) -> None:
@@ -645,7 +666,21 @@ class PrimitiveModel:
 
     @classmethod
     def load(cls, path) -> "PrimitiveModel":
-        """Read a model written by :meth:`save`."""
+        """Read a model written by :meth:`save` (a .npz file). Anything else (a BVH file, a
+        pickle, a .npy array) raises MlayerIOError with one line saying a .npz model is
+        expected; the file's first bytes are checked before numpy reads it, and nothing is
+        unpickled."""
+        try:
+            with open(path, "rb") as f:
+                head = f.read(512)
+        except OSError as e:
+            raise MlayerIOError(f"{path}: cannot read a model ({e.strerror or e})") from None
+        if not head.startswith(b"PK\x03\x04"):  # a .npz is a zip archive
+            what = "a BVH file" if head.lstrip().upper().startswith(b"HIERARCHY") else \
+                "a .npy array" if head.startswith(b"\x93NUMPY") else \
+                "an empty file" if not head else "not a zip archive"
+            raise MlayerIOError(f"{path}: not a primitives model ({what}); expected the .npz "
+                                "file `mlayer primitives` writes")
         try:
             z = np.load(path, allow_pickle=False)
         except (OSError, ValueError) as e:
