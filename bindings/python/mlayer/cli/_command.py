@@ -280,6 +280,11 @@ def stdout_outputs(cmd: Command, args) -> list:
             if spec.stdout and getattr(args, dest, None) == "-"]
 
 
+def output_name(path) -> str:
+    """An output path as the command's summary names it: '-' is "(standard output)"."""
+    return "(standard output)" if path == "-" else str(path)
+
+
 def write_bvh_output(args, motion, dest: str = "output", write=None) -> None:
     """Write `motion` to the output `dest` of the command: the file, atomically (`write`,
     default mlayer.write_bvh), or the standard output for '-' (the stream _main kept aside, as

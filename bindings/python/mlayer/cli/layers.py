@@ -20,7 +20,7 @@ import numpy as np
 from ..bvh import read_bvh
 from ..errors import InvalidArgumentError
 from ..pipeline import Clip
-from ._command import BVH_OR_STDOUT, FIGURE, NPZ, Needs, command, write_bvh_output
+from ._command import BVH_OR_STDOUT, FIGURE, NPZ, Needs, command, output_name, write_bvh_output
 
 
 def _contact_option(p) -> None:
@@ -148,7 +148,7 @@ def cmd_denoise(args) -> int:
     _summary(args.input, clip, out, s.layers)
     write_bvh_output(args, out)
     _guard_summary(report)
-    print(f"  wrote {args.output}")
+    print(f"  wrote {output_name(args.output)}")
     _outlier_note(s.layers)
     return 0
 
@@ -181,7 +181,7 @@ def cmd_stylize(args) -> int:
     write_bvh_output(args, out)
     _guard_summary(report)
     print(f"  alpha {args.alpha:g}" + "".join(f", {k}={v:g}" for k, v in joints.items()))
-    print(f"  wrote {args.output}")
+    print(f"  wrote {output_name(args.output)}")
     _outlier_note(s.layers)
     return 0
 

@@ -28,7 +28,7 @@ import numpy as np
 from ..bvh import read_bvh
 from ..errors import InvalidArgumentError
 from ..plot import new_figure, save_figure
-from ._command import BVH_OR_STDOUT, NPZ, PREFIX, Needs, command, write_bvh_output
+from ._command import BVH_OR_STDOUT, NPZ, PREFIX, Needs, command, output_name, write_bvh_output
 
 #: what needs matplotlib in the message without it
 _FEATURE = "mlayer primitives --plots (on by default; --plots '' for none)"
@@ -222,7 +222,8 @@ def cmd_generate(args) -> int:
                                   guards=not args.no_guards, return_info=True)
     write_bvh_output(args, motion)
     seq = " ".join(str(int(s)) for s in info["primitives"])
-    print(f"generate: wrote {args.output} ({motion.n_frames} frames at {motion.fps:g} fps; "
+    print(f"generate: wrote {output_name(args.output)} ({motion.n_frames} frames at "
+          f"{motion.fps:g} fps; "
           f"primitives {seq})")
     r = info["guards"]
     if r is not None:

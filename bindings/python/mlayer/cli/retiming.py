@@ -21,7 +21,7 @@ from ..errors import InvalidArgumentError
 from ..pipeline import stylize
 from ..retiming import (resample, slerp_resample, timewarp, timewarp_map, timewarp_speed)
 from ..plot import new_figure, save_figure
-from ._command import BVH_OR_STDOUT, FIGURE, Needs, command, write_bvh_output
+from ._command import BVH_OR_STDOUT, FIGURE, Needs, command, output_name, write_bvh_output
 from .layers import _contact_option
 
 
@@ -166,7 +166,8 @@ def cmd_resample(args) -> int:
                                   f"{os.path.basename(args.input)}: {N} frames at "
                                   f"{m.fps:.6g} fps -> {n} at {out.fps:.6g} fps (LGS)")
     _write(args, out, fig, args.report if isinstance(args.report, str) else None)
-    print(f"{args.output}: {out.n_frames} frames at {out.fps:.6g} fps ({method}; from "
+    print(f"{output_name(args.output)}: {out.n_frames} frames at {out.fps:.6g} fps ({method}; "
+          f"from "
           f"{m.n_frames} frames at {m.fps:.6g} fps)")
     return 0
 
@@ -265,7 +266,8 @@ def cmd_timewarp(args) -> int:
                              f"{m.n_frames} -> {out.n_frames} frames at {out.fps:.6g} fps")
     _write(args, out, fig, args.plot)
     rate = np.diff(t)
-    print(f"{args.output}: {out.n_frames} frames at {out.fps:.6g} fps ({how}); local rate "
+    print(f"{output_name(args.output)}: {out.n_frames} frames at {out.fps:.6g} fps ({how}); "
+          f"local rate "
           f"{rate.min():.3g} to {rate.max():.3g} output frames per input frame, slowest at "
           f"input frame {int(np.argmax(rate)) + 1} ({(np.argmax(rate) + 1) * m.frame_time:.2f} s)")
     return 0

@@ -20,7 +20,7 @@ from ..errors import InvalidArgumentError
 from ..smoothing import lgs
 from ..one_euro import one_euro
 from ..stream import decay_rate, motion_channels, stream_motion
-from ._command import BVH_OR_STDOUT, PNG, Needs, command, write_bvh_output
+from ._command import BVH_OR_STDOUT, PNG, Needs, command, output_name, write_bvh_output
 
 _COMPONENTS = "wxyz"
 
@@ -144,7 +144,8 @@ def cmd_stream(args) -> int:
     x = motion_channels(out)
     ref = offline_channels(motion, args.lam, args.sigma)
     gt, gq = _gaps(motion, x, ref)
-    print(f"{args.output}: {out.n_frames} frames streamed with lag {args.lag} (lam {args.lam:g}, "
+    print(f"{output_name(args.output)}: {out.n_frames} frames streamed with lag {args.lag} "
+          f"(lam {args.lam:g}, "
           f"sigma {args.sigma:g}, decay rate {decay_rate(args.lam, args.sigma):.3f}); largest "
           f"gap to the offline solve: {gt:.3g} of the clip size (translations), {gq:.3g} "
           "(quaternion components)")
