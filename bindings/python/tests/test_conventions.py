@@ -23,14 +23,6 @@ PACKAGE = pathlib.Path(mlayer.__file__).parent
 
 
 @pytest.fixture(scope="module")
-def short_clip(tmp_path_factory):
-    """The first second of the bundled walk, as a file."""
-    p = tmp_path_factory.mktemp("clip") / "walk.bvh"
-    mlayer.write_bvh(mlayer.data.load_sample()[:120], p)
-    return p
-
-
-@pytest.fixture(scope="module")
 def small_model(tmp_path_factory):
     """A small primitives model of the bundled walk, saved."""
     m = mlayer.data.load_sample()[:240]
@@ -120,15 +112,15 @@ def test_the_package_logger_has_a_null_handler():
     assert any(isinstance(h, logging.NullHandler) for h in logging.getLogger("mlayer").handlers)
 
 
-def test_batch_progress_callable_and_quiet_default(tmp_path, capsys, short_clip):
+def test_batch_progress_callable_and_quiet_default(tmp_path, capsys, walk_1s):
     pytest.importorskip("distributed")
     pytest.importorskip("cryptography")
     seen = []
-    res = mlayer.batch("features", [str(short_clip)], tmp_path / "a", n_workers=1,
+    res = mlayer.batch("features", [str(walk_1s)], tmp_path / "a", n_workers=1,
                        metrics=False, progress=lambda d, t: seen.append((d, t)))
     assert res.exit_code == 0 and seen == [(1, 1)]
     assert capsys.readouterr().err == ""  # no bar, no line: stderr is not a terminal
-    res = mlayer.batch("features", [str(short_clip)], tmp_path / "b", n_workers=1,
+    res = mlayer.batch("features", [str(walk_1s)], tmp_path / "b", n_workers=1,
                        metrics=False)
     assert res.exit_code == 0 and capsys.readouterr().err == ""
 
@@ -194,20 +186,20 @@ def test_plot_layers_writes_only_when_given_a_path(tmp_path):
 # ---- outputs honour the umask ----------------------------------------------------------------
 
 @pytest.mark.parametrize("mask", [0o022, 0o077])
-def test_every_cli_output_honours_the_umask(tmp_path, capsys, short_clip, small_model, mask):
+def test_every_cli_output_honours_the_umask(tmp_path, capsys, walk_1s, small_model, mask):
     pytest.importorskip("matplotlib")
     pytest.importorskip("imageio_ffmpeg")
     runs = [
-        (["layers", short_clip, "--plot", "l.png", "--npz", "l.npz"], ["l.png", "l.npz"]),
-        (["layers", short_clip, "--plot", "l.svg"], ["l.svg"]),
-        (["contacts", short_clip, "--plot", "c.pdf"], ["c.pdf"]),
-        (["render", short_clip, "-o", "r.gif", "--fps", "5"], ["r.gif"]),
-        (["render", short_clip, "-o", "r.mp4", "--fps", "5"], ["r.mp4"]),
-        (["render", short_clip, "-o", "r.png", "--strip-frames", "3"], ["r.png"]),
-        (["stream", short_clip, "-o", "s.bvh", "--plot", "s.png"], ["s.bvh", "s.png"]),
-        (["resample", short_clip, "--fps", "60", "-o", "rs.bvh", "--report", "v.png"],
+        (["layers", walk_1s, "--plot", "l.png", "--npz", "l.npz"], ["l.png", "l.npz"]),
+        (["layers", walk_1s, "--plot", "l.svg"], ["l.svg"]),
+        (["contacts", walk_1s, "--plot", "c.pdf"], ["c.pdf"]),
+        (["render", walk_1s, "-o", "r.gif", "--fps", "5"], ["r.gif"]),
+        (["render", walk_1s, "-o", "r.mp4", "--fps", "5"], ["r.mp4"]),
+        (["render", walk_1s, "-o", "r.png", "--strip-frames", "3"], ["r.png"]),
+        (["stream", walk_1s, "-o", "s.bvh", "--plot", "s.png"], ["s.bvh", "s.png"]),
+        (["resample", walk_1s, "--fps", "60", "-o", "rs.bvh", "--report", "v.png"],
          ["rs.bvh", "v.png"]),
-        (["timewarp", short_clip, "-o", "t.bvh", "--plot", "t.png"], ["t.bvh", "t.png"]),
+        (["timewarp", walk_1s, "-o", "t.bvh", "--plot", "t.png"], ["t.bvh", "t.png"]),
         (["generate", small_model, "--frames", "20", "-o", "g.bvh"], ["g.bvh"]),
     ]
     old_cwd, old = os.getcwd(), os.umask(mask)
@@ -227,17 +219,17 @@ def test_every_cli_output_honours_the_umask(tmp_path, capsys, short_clip, small_
 
 # ---- render by extension ---------------------------------------------------------------------
 
-def test_render_writes_what_the_extension_says(tmp_path, capsys, short_clip):
+def test_render_writes_what_the_extension_says(tmp_path, capsys, walk_1s):
     from PIL import Image
     gif, mp4, png = tmp_path / "a.GIF", tmp_path / "a.mp4", tmp_path / "a.png"
-    code, out, err = run(capsys, "render", short_clip, short_clip, "-o", gif, "--fps", "10",
+    code, out, err = run(capsys, "render", walk_1s, walk_1s, "-o", gif, "--fps", "10",
                          "--size", "100x120")
     assert code == 0, err
     assert gif.read_bytes()[:6] in (b"GIF87a", b"GIF89a")
     n_gif = Image.open(gif).n_frames
     assert n_gif == 10 and f"({n_gif} frames at 10 fps)" in out
 
-    code, out, err = run(capsys, "render", short_clip, short_clip, "--labels", "a,b", "-o",
+    code, out, err = run(capsys, "render", walk_1s, walk_1s, "--labels", "a,b", "-o",
                          png, "--size", "100x120", "--strip-frames", "4")
     assert code == 0, err
     im = Image.open(png)
@@ -253,7 +245,7 @@ def test_render_writes_what_the_extension_says(tmp_path, capsys, short_clip):
     assert "(4 frames in the strip)" in out
 
     ffmpeg = pytest.importorskip("imageio_ffmpeg")
-    code, out, err = run(capsys, "render", short_clip, "-o", mp4, "--fps", "10",
+    code, out, err = run(capsys, "render", walk_1s, "-o", mp4, "--fps", "10",
                          "--size", "100x120")
     assert code == 0, err
     head = mp4.read_bytes()[:12]
@@ -291,10 +283,10 @@ def _stdout_cases(clip, model):
 
 @pytest.mark.parametrize("name", ["denoise", "stylize", "resample", "timewarp", "stream",
                                   "generate"])
-def test_dash_writes_the_bvh_to_stdout(tmp_path, short_clip, small_model, name):
+def test_dash_writes_the_bvh_to_stdout(tmp_path, walk_1s, small_model, name):
     """`mlayer CMD ... -o - > x.bvh` gives the file `-o x.bvh` gives; the summary goes to
     stderr."""
-    argv = [str(a) for a in _stdout_cases(short_clip, small_model)[name]]
+    argv = [str(a) for a in _stdout_cases(walk_1s, small_model)[name]]
     cmd = [sys.executable, "-m", "mlayer", *argv]
     with open(tmp_path / "piped.bvh", "wb") as f:
         r = subprocess.run(cmd + ["-o", "-"], stdout=f, stderr=subprocess.PIPE, text=True,
@@ -310,9 +302,9 @@ def test_dash_writes_the_bvh_to_stdout(tmp_path, short_clip, small_model, name):
     assert sorted(os.listdir(tmp_path)) == ["file.bvh", "piped.bvh"]  # no file named '-'
 
 
-def test_dash_is_refused_where_the_output_is_not_one_bvh(tmp_path, capsys, short_clip):
-    for argv in (["layers", short_clip, "--npz", "-"], ["render", short_clip, "-o", "-"],
-                 ["contacts", short_clip, "--plot", "-"]):
+def test_dash_is_refused_where_the_output_is_not_one_bvh(tmp_path, capsys, walk_1s):
+    for argv in (["layers", walk_1s, "--npz", "-"], ["render", walk_1s, "-o", "-"],
+                 ["contacts", walk_1s, "--plot", "-"]):
         code, out, err = run(capsys, *argv)
         assert code == 1 and err.count("\n") == 1, err
     assert os.listdir(tmp_path) == []
@@ -320,10 +312,10 @@ def test_dash_is_refused_where_the_output_is_not_one_bvh(tmp_path, capsys, short
 
 # ---- mlayer generate on a file that is not a model -------------------------------------------
 
-def test_generate_on_a_bvh_is_one_clear_line(tmp_path, short_clip):
+def test_generate_on_a_bvh_is_one_clear_line(tmp_path, walk_1s):
     np.save(tmp_path / "a.npy", np.zeros(3))
     (tmp_path / "empty.npz").write_bytes(b"")
-    for model, what in ((short_clip, "a BVH file"), (tmp_path / "a.npy", "a .npy array"),
+    for model, what in ((walk_1s, "a BVH file"), (tmp_path / "a.npy", "a .npy array"),
                         (tmp_path / "empty.npz", "an empty file")):
         r = subprocess.run([sys.executable, "-W", "always", "-m", "mlayer", "generate",
                             str(model), "-o", "g.bvh"], capture_output=True, text=True,
@@ -334,4 +326,4 @@ def test_generate_on_a_bvh_is_one_clear_line(tmp_path, short_clip):
             r.stderr
         assert "pickle" not in r.stderr and not (tmp_path / "g.bvh").exists()
     with pytest.raises(mlayer.MlayerIOError, match="not a primitives model"):
-        mlayer.PrimitiveModel.load(short_clip)
+        mlayer.PrimitiveModel.load(walk_1s)

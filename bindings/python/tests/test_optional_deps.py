@@ -19,14 +19,6 @@ from mlayer import _optional
 from conftest import REPO
 
 
-@pytest.fixture(scope="module")
-def short_clip(tmp_path_factory):
-    """The first second of the bundled walk, as a file."""
-    p = tmp_path_factory.mktemp("clip") / "walk.bvh"
-    mlayer.write_bvh(mlayer.data.load_sample()[:120], p)
-    return p
-
-
 def hide(monkeypatch, *modules):
     for m in modules:
         monkeypatch.setitem(sys.modules, m, None)
@@ -78,21 +70,21 @@ def test_render_without_pillow_or_ffmpeg(monkeypatch, tmp_path):
     assert os.listdir(tmp_path) == []
 
 
-def test_batch_without_dask_writes_nothing(monkeypatch, tmp_path, short_clip):
+def test_batch_without_dask_writes_nothing(monkeypatch, tmp_path, walk_1s):
     out = tmp_path / "out"
     hide(monkeypatch, "distributed")
     with pytest.raises(ImportError) as e:
-        mlayer.batch("denoise", [str(short_clip)], out, progress=False)
+        mlayer.batch("denoise", [str(walk_1s)], out, progress=False)
     check_error(e, "batch", "distributed")
     assert not out.exists()
 
 
-def test_batch_embedded_cluster_without_cryptography(monkeypatch, tmp_path, short_clip):
+def test_batch_embedded_cluster_without_cryptography(monkeypatch, tmp_path, walk_1s):
     pytest.importorskip("distributed")
     out = tmp_path / "out"
     hide(monkeypatch, "cryptography")
     with pytest.raises(ImportError) as e:
-        mlayer.batch("denoise", [str(short_clip)], out, progress=False)
+        mlayer.batch("denoise", [str(walk_1s)], out, progress=False)
     check_error(e, "batch", "cryptography")
     assert "TLS" in str(e.value) and not out.exists()
 
@@ -185,8 +177,8 @@ def cli_cases(clip):
 
 
 @pytest.mark.parametrize("case", range(12))
-def test_cli_without_an_optional_module(tmp_path, short_clip, case):
-    hidden, argv, line = cli_cases(str(short_clip))[case]
+def test_cli_without_an_optional_module(tmp_path, walk_1s, case):
+    hidden, argv, line = cli_cases(str(walk_1s))[case]
     if hidden == ["cryptography"]:
         pytest.importorskip("distributed")
     r = run_hidden(tmp_path, hidden, *argv)
@@ -196,13 +188,13 @@ def test_cli_without_an_optional_module(tmp_path, short_clip, case):
     assert os.listdir(tmp_path) == [], "nothing is written"
 
 
-def test_cli_needs_only_what_the_flags_use(tmp_path, short_clip):
+def test_cli_needs_only_what_the_flags_use(tmp_path, walk_1s):
     """Without matplotlib and Pillow, the commands that draw nothing run as before, and so do
     the drawing commands without their drawing options."""
     hidden = ["matplotlib", "PIL", "tqdm", "pandas"]
-    for argv, out in ((["denoise", short_clip, "-o", "d.bvh"], "d.bvh"),
-                      (["layers", short_clip, "--npz", "l.npz"], "l.npz"),
-                      (["contacts", short_clip], None)):
+    for argv, out in ((["denoise", walk_1s, "-o", "d.bvh"], "d.bvh"),
+                      (["layers", walk_1s, "--npz", "l.npz"], "l.npz"),
+                      (["contacts", walk_1s], None)):
         r = run_hidden(tmp_path, hidden, *argv)
         assert r.returncode == 0, r.stderr
         if out:

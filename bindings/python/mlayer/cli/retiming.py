@@ -34,22 +34,6 @@ def _int(text: str) -> int:
     return v
 
 
-def _cli_flags(run):
-    """Run a subcommand with the flag allow_extreme in messages named as the CLI spells it
-    (--allow-extreme: the mechanical rule of docs/OPTIONS.md)."""
-    def wrapped(args):
-        try:
-            return run(args)
-        except InvalidArgumentError as e:
-            msg = str(e)
-            if "flag allow_extreme" not in msg:
-                raise
-            raise InvalidArgumentError(msg.replace("flag allow_extreme", "--allow-extreme"),
-                                       e.code) from None
-    wrapped.__name__ = run.__name__
-    return wrapped
-
-
 def _write(args, motion, figure=None, figure_path: str | None = None) -> None:
     """Write the figure (if any) and the BVH (args.output: a file, or '-' for the standard
     output) so that either both appear or neither does."""
@@ -139,7 +123,6 @@ def _style(args):
          outputs={"output": BVH_OR_STDOUT, "report": FIGURE},
          requires=(Needs("matplotlib", when=lambda a: isinstance(a.report, str),
                          feature="--report PLOT"),))
-@_cli_flags
 def cmd_resample(args) -> int:
     if args.report is not None and args.slerp:
         raise InvalidArgumentError("--report needs the LGS: --slerp has no posterior variance")
@@ -242,7 +225,6 @@ def _timewarp_arguments(p) -> None:
          arguments=_timewarp_arguments, reads_clips=True, inputs=("input", "map"),
          outputs={"output": BVH_OR_STDOUT, "plot": FIGURE},
          requires=(Needs("matplotlib", when="plot"),))
-@_cli_flags
 def cmd_timewarp(args) -> int:
     m = read_bvh(args.input)
     if args.map is not None:
