@@ -513,67 +513,15 @@ static double dist3(const double *a, const double *b)
     return sqrt(x * x + y * y + z * z);
 }
 
-mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t N, double fps, int up,
-                                const double *root_pos, const double *rot, const double *trans,
-                                const double *ref_root_pos, const double *ref_rot,
-                                const double *ref_trans, size_t C, const int32_t *joints,
-                                const int32_t *end_sites, const uint8_t *contacts,
-                                const mlr_cleanup_option *opts, size_t n_opts,
-                                double *out_root_pos, double *out_rot,
-                                mlr_cleanup_report *report, const mlr_allocator *alloc,
-                                mlr_diag *diag)
+/* The feet of the contact points: each listed joint with no listed ancestor is an ankle (an
+   anchor) with its own points; the other points (toes, End Sites) are placed on the foot of
+   their nearest anchor ancestor. listed (J) and assigned (C): zeroed scratch. */
+static mlr_status assign_feet(const mlr_rig *rig, size_t C, const int32_t *joints,
+                              const int32_t *end_sites, foot *feet, size_t *nf_out,
+                              uint8_t *listed, uint8_t *assigned, mlr_diag *diag)
 {
-    mlr_status st = mlr_rig_check(rig, diag);
-    if (st != MLR_OK)
-        return st;
-    config cfg;
-    if ((st = parse_options(opts, n_opts, &cfg, diag)) != MLR_OK)
-        return st;
-    if (N == 0 || !out_root_pos || !out_rot || (C && !contacts))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "cleanup: no frames, or NULL outputs or contacts");
-    if (!(isfinite(fps) && fps > 0.0))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "cleanup: fps %g is not finite "
-                            "and > 0", fps);
-    if (up < 0 || up > 2)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "cleanup: up axis %d is not 0 (X), "
-                            "1 (Y) or 2 (Z)", up);
-    const int have_ref = ref_root_pos || ref_rot || ref_trans;
-    if ((st = check_points(rig, C, joints, end_sites, diag)) != MLR_OK ||
-        (st = check_motion(rig, N, root_pos, rot, trans, "motion", diag)) != MLR_OK ||
-        (have_ref && (st = check_motion(rig, N, ref_root_pos, ref_rot, ref_trans, "reference",
-                                        diag)) != MLR_OK))
-        return st;
-    const size_t J = rig->n_joints;
-    if (C > 64)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "cleanup: at most 64 contact "
-                            "points, got %zu", C);
-    if (report) {
-        report->floor_height = NAN;
-        report->contact_frames = report->floor_frames = 0;
-        report->root_shift_max = 0.0;
-    }
-    if (out_root_pos != root_pos)
-        memmove(out_root_pos, root_pos, 3 * N * sizeof(double));
-    if (out_rot != rot)
-        memmove(out_rot, rot, 4 * N * J * sizeof(double));
-    size_t any_contact = 0;
-    for (size_t i = 0; i < N * C; i++)
-        any_contact += contacts[i] != 0;
-    if (N < 3 || C == 0 || (!any_contact && !(cfg.floor_on && cfg.floor_given)))
-        return MLR_OK;
-
-    /* ---- feet ---- */
-    foot feet[64];
+    mlr_status st = MLR_OK;
     size_t nf = 0;
-    work w = {rig, N, J, C, fps, up, &cfg, NULL, NULL, NULL, NULL, NULL};
-    mlr_allocator A;
-    mlr_allocator_resolve(alloc, &A);
-    arena ar = {.a = &A, .st = MLR_OK};
-    uint8_t *listed = take(&ar, J, 1);
-    uint8_t *assigned = take(&ar, C, 1);
-    if (ar.st != MLR_OK)
-        goto fail;
     for (size_t c = 0; c < C; c++)
         if (!end_sites || end_sites[c] < 0)
             listed[joints[c]] = 1;
@@ -591,7 +539,7 @@ mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t N, double fps, int up
         if (feet[k].n_cols == 16) {
             st = mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "cleanup: more than 16 contact "
                               "points on the foot of joint %d", (int)j);
-            goto fail_st_keep;
+            return st;
         }
         feet[k].cols[feet[k].n_cols++] = c, feet[k].n_own++;
         assigned[c] = 1;
@@ -620,25 +568,223 @@ mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t N, double fps, int up
         if (feet[k].n_cols == 16) {
             st = mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "cleanup: more than 16 contact "
                               "points on the foot of joint %d", (int)anchor);
-            goto fail_st_keep;
+            return st;
         }
         feet[k].cols[feet[k].n_cols++] = c;
     }
+
+    *nf_out = nf;
+    return st;
+}
+
+void mlr_cleanup_ref_destroy(mlr_cleanup_ref *ref)
+{
+    if (!ref)
+        return;
+    const size_t N = ref->n_frames, C = ref->n_points, F = ref->n_feet;
+    mlr_allocator a = ref->alloc;
+    if (ref->h)
+        mlr_free(&a, ref->h, N * C * sizeof(double));
+    if (ref->pts)
+        mlr_free(&a, ref->pts, 3 * N * C * sizeof(double));
+    if (ref->anchors)
+        mlr_free(&a, ref->anchors, 3 * N * F * sizeof(double));
+    mlr_free(&a, ref, sizeof *ref);
+}
+
+mlr_status mlr_cleanup_ref_create(const mlr_rig *rig, size_t N, double fps, int up,
+                                  const double *root_pos, const double *rot, const double *trans,
+                                  const double *world_pos, const double *world_rot, size_t C,
+                                  const int32_t *joints, const int32_t *end_sites,
+                                  const mlr_cleanup_option *opts, size_t n_opts,
+                                  const mlr_allocator *alloc, mlr_cleanup_ref **out,
+                                  mlr_diag *diag)
+{
+    *out = NULL;
+    config cfg;
+    mlr_status st = parse_options(opts, n_opts, &cfg, diag);
+    if (st != MLR_OK)
+        return st;
+    if (C > 64)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "cleanup: at most 64 contact "
+                            "points, got %zu", C);
+    if (C == 0 || N == 0)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "cleanup reference: %zu points, %zu "
+                            "frames", C, N);
+    mlr_allocator A;
+    mlr_allocator_resolve(alloc, &A);
+    const size_t J = rig->n_joints;
+    foot feet[64];
+    size_t nf = 0;
+    arena ar = {.a = &A, .st = MLR_OK};
+    uint8_t *listed = take(&ar, J, 1);
+    uint8_t *assigned = take(&ar, C, 1);
+    uint8_t *need = take(&ar, J, 1);
+    int32_t *tidx = take(&ar, J, sizeof(int32_t));
+    double *pos2 = take(&ar, J * 3, sizeof(double)); /* one frame's FK */
+    double *wrot2 = take(&ar, J * 4, sizeof(double));
+    if (ar.st != MLR_OK) {
+        release(&ar);
+        return mlr_diag_set(diag, ar.st, 0, 0, "cleanup: out of memory");
+    }
+    if ((st = assign_feet(rig, C, joints, end_sites, feet, &nf, listed, assigned, diag)) !=
+        MLR_OK) {
+        release(&ar);
+        return st;
+    }
+    mlr_cleanup_ref *r = mlr_alloc(&A, sizeof *r);
+    if (r) {
+        memset(r, 0, sizeof *r);
+        r->alloc = A, r->n_frames = N, r->n_points = C, r->n_feet = nf, r->up = up;
+        r->smooth = cfg.ref_smooth;
+        r->h = mlr_alloc(&A, N * C * sizeof(double));
+        r->pts = mlr_alloc(&A, 3 * N * C * sizeof(double));
+        r->anchors = nf ? mlr_alloc(&A, 3 * N * nf * sizeof(double)) : NULL;
+    }
+    double *tmp = take(&ar, N * 3 * (C > nf ? C : nf), sizeof(double));
+    if (!r || !r->h || !r->pts || (nf && !r->anchors) || ar.st != MLR_OK) {
+        mlr_cleanup_ref_destroy(r);
+        release(&ar);
+        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "cleanup: out of memory");
+    }
+    double *Pr = r->pts, *pos_ref = r->anchors;
+    if (world_pos) {
+        st = mlr_rig_point_positions(rig, N, world_pos, world_rot, C, joints, end_sites, Pr,
+                                     NULL);
+        for (size_t f = 0; st == MLR_OK && f < N; f++)
+            for (size_t k = 0; k < nf; k++)
+                memcpy(pos_ref + 3 * (f * nf + k), world_pos + 3 * (f * J + (size_t)feet[k].anchor),
+                       3 * sizeof(double));
+    } else {
+        /* forward kinematics of the contact points, the anchors and their ancestors only */
+        for (size_t j = 0; j < J; j++)
+            tidx[j] = -1;
+        for (size_t k = 0; k < rig->n_trans; k++)
+            tidx[rig->trans_joints[k]] = (int32_t)k;
+        for (size_t i = 0; i < C + nf; i++)
+            for (int32_t j = i < C ? joints[i] : feet[i - C].anchor; j >= 0 && !need[j];
+                 j = rig->parents[j])
+                need[j] = 1;
+        for (size_t f = 0; st == MLR_OK && f < N; f++) { /* the points and the anchors */
+            fk_masked_frame(rig, f, need, tidx, root_pos, rot, trans, pos2, wrot2);
+            st = mlr_rig_point_positions(rig, 1, pos2, wrot2, C, joints, end_sites,
+                                         Pr + 3 * C * f, NULL);
+            for (size_t k = 0; k < nf; k++)
+                memcpy(pos_ref + 3 * (f * nf + k), pos2 + 3 * (size_t)feet[k].anchor,
+                       3 * sizeof(double));
+        }
+    }
+    if (st != MLR_OK) {
+        mlr_cleanup_ref_destroy(r);
+        release(&ar);
+        return mlr_diag_set(diag, st, 0, 0, "cleanup: the reference's points failed");
+    }
+    for (size_t i = 0; i < N * C; i++)
+        r->h[i] = Pr[3 * i + (size_t)up];
+    if (cfg.ref_smooth > 0.0) {
+        mlr_lgs *ref_lgs = NULL;
+        const double lam = (cfg.ref_smooth * fps) * (cfg.ref_smooth * fps);
+        if ((st = mlr_lgs_create(N, 2, lam, 1.0, NULL, N, MLR_LGS_BANDED, &A, &ref_lgs, diag)) <
+            0) {
+            mlr_cleanup_ref_destroy(r);
+            release(&ar);
+            return st;
+        }
+        mlr_lgs_solve(ref_lgs, Pr, 3 * C, 3 * C, tmp, 3 * C);
+        memcpy(Pr, tmp, N * C * 3 * sizeof(double));
+        for (size_t k = 0; k < nf; k++) { /* the ankles' trajectories */
+            mlr_lgs_solve(ref_lgs, pos_ref + 3 * k, 3 * nf, 3, tmp, 3);
+            for (size_t f = 0; f < N; f++)
+                memcpy(pos_ref + 3 * (f * nf + k), tmp + 3 * f, 3 * sizeof(double));
+        }
+        mlr_lgs_destroy(ref_lgs);
+    }
+    release(&ar);
+    *out = r;
+    return MLR_OK;
+}
+
+static mlr_status cleanup_run(const mlr_rig *rig, size_t N, double fps, int up,
+                              const double *root_pos, const double *rot, const double *trans,
+                              const double *ref_root_pos, const double *ref_rot,
+                              const double *ref_trans, const mlr_cleanup_ref *pre, int trusted,
+                              size_t C, const int32_t *joints, const int32_t *end_sites,
+                              const uint8_t *contacts, const mlr_cleanup_option *opts,
+                              size_t n_opts, double *out_root_pos, double *out_rot,
+                              mlr_cleanup_report *report, const mlr_allocator *alloc,
+                              mlr_diag *diag)
+{
+    mlr_status st = trusted ? MLR_OK : mlr_rig_check(rig, diag);
+    if (st != MLR_OK)
+        return st;
+    config cfg;
+    if ((st = parse_options(opts, n_opts, &cfg, diag)) != MLR_OK)
+        return st;
+    if (N == 0 || !out_root_pos || !out_rot || (C && !contacts))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "cleanup: no frames, or NULL outputs or contacts");
+    if (!(isfinite(fps) && fps > 0.0))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "cleanup: fps %g is not finite "
+                            "and > 0", fps);
+    if (up < 0 || up > 2)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "cleanup: up axis %d is not 0 (X), "
+                            "1 (Y) or 2 (Z)", up);
+    const int have_arrays = ref_root_pos || ref_rot || ref_trans, have_ref = have_arrays || pre;
+    if (!trusted &&
+        ((st = check_points(rig, C, joints, end_sites, diag)) != MLR_OK ||
+         (st = check_motion(rig, N, root_pos, rot, trans, "motion", diag)) != MLR_OK ||
+         (have_arrays && (st = check_motion(rig, N, ref_root_pos, ref_rot, ref_trans,
+                                            "reference", diag)) != MLR_OK)))
+        return st;
+    if (pre && (pre->n_frames != N || pre->n_points != C || pre->up != up ||
+                pre->smooth != cfg.ref_smooth))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "cleanup: the reference was made for other frames or options");
+    const size_t J = rig->n_joints;
+    if (C > 64)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "cleanup: at most 64 contact "
+                            "points, got %zu", C);
+    if (report) {
+        report->floor_height = NAN;
+        report->contact_frames = report->floor_frames = 0;
+        report->root_shift_max = 0.0;
+    }
+    if (out_root_pos != root_pos)
+        memmove(out_root_pos, root_pos, 3 * N * sizeof(double));
+    if (out_rot != rot)
+        memmove(out_rot, rot, 4 * N * J * sizeof(double));
+    size_t any_contact = 0;
+    for (size_t i = 0; i < N * C; i++)
+        any_contact += contacts[i] != 0;
+    if (N < 3 || C == 0 || (!any_contact && !(cfg.floor_on && cfg.floor_given)))
+        return MLR_OK;
+
+    /* ---- feet ---- */
+    foot feet[64];
+    size_t nf = 0;
+    mlr_cleanup_ref *owned = NULL; /* the reference's trajectories when made here */
+    work w = {rig, N, J, C, fps, up, &cfg, NULL, NULL, NULL, NULL, NULL};
+    mlr_allocator A;
+    mlr_allocator_resolve(alloc, &A);
+    arena ar = {.a = &A, .st = MLR_OK};
+    uint8_t *listed = take(&ar, J, 1);
+    uint8_t *assigned = take(&ar, C, 1);
+    if (ar.st != MLR_OK)
+        goto fail;
+    if ((st = assign_feet(rig, C, joints, end_sites, feet, &nf, listed, assigned, diag)) !=
+        MLR_OK)
+        goto fail_st_keep;
 
     /* ---- forward kinematics, points, reference ---- */
     double *pos = take(&ar, N * J * 3, sizeof(double));
     double *wrot = take(&ar, N * J * 4, sizeof(double));
     double *P = take(&ar, N * C * 3, sizeof(double));
-    double *pos_ref = NULL, *Pr = NULL, *lim = take(&ar, N * C, sizeof(double));
+    double *lim = take(&ar, N * C, sizeof(double));
     double *newr = take(&ar, N * J * 4, sizeof(double));
     double *shift = take(&ar, N * 3, sizeof(double));
     w.map_val = take(&ar, N * 9, sizeof(double));
     w.map_y = take(&ar, N * 9, sizeof(double));
     w.map_out = take(&ar, N * 9, sizeof(double));
-    if (have_ref) {
-        pos_ref = take(&ar, N * nf * 3, sizeof(double)); /* the feet's anchors, N x nf x 3 */
-        Pr = take(&ar, N * C * 3, sizeof(double));
-    }
     /* forward kinematics of the joints the cleanup reads only: the contact points, the
        feet's anchors and their ancestors (hips, knees and the joints above them) */
     uint8_t *need = take(&ar, J, 1);
@@ -659,19 +805,15 @@ mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t N, double fps, int up
     if ((st = fk_points(rig, N, root_pos, rot, trans, C, joints, end_sites, pos, wrot, P, &A,
                         need, tidx)) != MLR_OK)
         goto fail_st;
-    const double *src_pts = P;
-    if (have_ref) {
-        for (size_t f = 0; f < N; f++) { /* frame by frame: the points and the anchors */
-            fk_masked_frame(rig, f, need, tidx, ref_root_pos, ref_rot, ref_trans, pos2, wrot2);
-            if ((st = mlr_rig_point_positions(rig, 1, pos2, wrot2, C, joints, end_sites,
-                                              Pr + 3 * C * f, NULL)) != MLR_OK)
-                goto fail_st;
-            for (size_t k = 0; k < nf; k++)
-                memcpy(pos_ref + 3 * (f * nf + k), pos2 + 3 * (size_t)feet[k].anchor,
-                       3 * sizeof(double));
-        }
-        src_pts = Pr;
+    /* the reference's trajectories: given made, or made here from its frames */
+    if (have_arrays && !pre) {
+        if ((st = mlr_cleanup_ref_create(rig, N, fps, up, ref_root_pos, ref_rot, ref_trans, NULL,
+                                         NULL, C, joints, end_sites, opts, n_opts, &A, &owned,
+                                         diag)) != MLR_OK)
+            goto fail_st_keep;
+        pre = owned;
     }
+    const double *Pr = pre ? pre->pts : NULL, *pos_ref = pre ? pre->anchors : NULL;
     /* floor and the per-point limits (from the unsmoothed reference) */
     double floor_h = NAN;
     if (cfg.floor_on) {
@@ -684,36 +826,16 @@ mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t N, double fps, int up
             size_t k = 0;
             for (size_t i = 0; i < N * C; i++)
                 if (contacts[i])
-                    v[k++] = src_pts[3 * i + (size_t)up];
+                    v[k++] = pre ? pre->h[i] : P[3 * i + (size_t)up];
             if (k)
                 floor_h = quantile_of(v, k, cfg.floor_q);
         }
         for (size_t i = 0; i < N * C; i++)
-            lim[i] = have_ref ? fmin(floor_h, Pr[3 * i + (size_t)up]) : floor_h;
+            lim[i] = pre ? fmin(floor_h, pre->h[i]) : floor_h;
     }
     const int floor_active = cfg.floor_on && isfinite(floor_h);
     if (report)
         report->floor_height = floor_active ? floor_h : NAN;
-    mlr_lgs *ref_lgs = NULL;
-    if (have_ref && cfg.ref_smooth > 0.0) {
-        const double lam = (cfg.ref_smooth * fps) * (cfg.ref_smooth * fps);
-        if ((st = mlr_lgs_create(N, 2, lam, 1.0, NULL, N, MLR_LGS_BANDED, &A, &ref_lgs, diag)) <
-            0)
-            goto fail_st;
-        double *tmp = take(&ar, N * 3 * (C > nf ? C : nf), sizeof(double));
-        if (ar.st != MLR_OK) {
-            mlr_lgs_destroy(ref_lgs);
-            goto fail;
-        }
-        mlr_lgs_solve(ref_lgs, Pr, 3 * C, 3 * C, tmp, 3 * C);
-        memcpy(Pr, tmp, N * C * 3 * sizeof(double));
-        for (size_t k = 0; k < nf; k++) { /* the ankles' trajectories */
-            mlr_lgs_solve(ref_lgs, pos_ref + 3 * k, 3 * nf, 3, tmp, 3);
-            for (size_t f = 0; f < N; f++)
-                memcpy(pos_ref + 3 * (f * nf + k), tmp + 3 * f, 3 * sizeof(double));
-        }
-        mlr_lgs_destroy(ref_lgs);
-    }
     {
         w.ab = take(&ar, N * 3, sizeof(double));
         if (ar.st != MLR_OK)
@@ -1118,10 +1240,12 @@ mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t N, double fps, int up
         }
     }
     mlr_band_destroy(w.pin);
+    mlr_cleanup_ref_destroy(owned);
     release(&ar);
     return MLR_OK;
 fail:
     mlr_band_destroy(w.pin);
+    mlr_cleanup_ref_destroy(owned);
     release(&ar);
     return mlr_diag_set(diag, ar.st, 0, 0, "cleanup: out of memory");
 fail_st:
@@ -1131,6 +1255,36 @@ fail_st:
         mlr_diag_set(diag, st, 0, 0, "cleanup: internal solve failed (status %d)", (int)st);
 fail_st_keep:
     mlr_band_destroy(w.pin);
+    mlr_cleanup_ref_destroy(owned);
     release(&ar);
     return st;
+}
+
+mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t N, double fps, int up,
+                                const double *root_pos, const double *rot, const double *trans,
+                                const double *ref_root_pos, const double *ref_rot,
+                                const double *ref_trans, size_t C, const int32_t *joints,
+                                const int32_t *end_sites, const uint8_t *contacts,
+                                const mlr_cleanup_option *opts, size_t n_opts,
+                                double *out_root_pos, double *out_rot,
+                                mlr_cleanup_report *report, const mlr_allocator *alloc,
+                                mlr_diag *diag)
+{
+    return cleanup_run(rig, N, fps, up, root_pos, rot, trans, ref_root_pos, ref_rot, ref_trans,
+                       NULL, 0, C, joints, end_sites, contacts, opts, n_opts, out_root_pos,
+                       out_rot, report, alloc, diag);
+}
+
+mlr_status mlr_cleanup_contacts_ref(const mlr_rig *rig, size_t N, double fps, int up,
+                                    const double *root_pos, const double *rot,
+                                    const double *trans, const mlr_cleanup_ref *ref, int trusted,
+                                    size_t C, const int32_t *joints, const int32_t *end_sites,
+                                    const uint8_t *contacts, const mlr_cleanup_option *opts,
+                                    size_t n_opts, double *out_root_pos, double *out_rot,
+                                    mlr_cleanup_report *report, const mlr_allocator *alloc,
+                                    mlr_diag *diag)
+{
+    return cleanup_run(rig, N, fps, up, root_pos, rot, trans, NULL, NULL, NULL, ref, trusted, C,
+                       joints, end_sites, contacts, opts, n_opts, out_root_pos, out_rot, report,
+                       alloc, diag);
 }
