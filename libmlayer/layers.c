@@ -355,6 +355,34 @@ mlr_status mlr_layers_get_outliers(const mlr_layers *L, unsigned char *out, size
     return MLR_OK;
 }
 
+mlr_status mlr_layers_repair(const mlr_layers *L, size_t begin, size_t count, double *root_pos,
+                             size_t n_root_pos, double *rot, size_t n_rot, size_t *n_repaired)
+{
+    if (n_repaired)
+        *n_repaired = 0;
+    if (!L || begin > L->n || count > L->n - begin || (root_pos && n_root_pos != 3 * count) ||
+        (rot && n_rot != 4 * L->j * count))
+        return MLR_E_INVALID_ARG;
+    const size_t g = 1 + L->j;
+    const double one = 1.0;
+    size_t n = 0;
+    for (size_t f = 0; f < count; f++) {
+        const unsigned char *o = L->outliers + (begin + f) * g;
+        size_t k = 0;
+        while (k < g && !o[k])
+            k++;
+        if (k == g)
+            continue;
+        /* one frame of the synthesis at alpha 1: the same arithmetic, so the same bits */
+        (void)mlr_layers_synthesize(L, begin + f, 1, &one, 1, root_pos ? root_pos + 3 * f : NULL,
+                                    3, rot ? rot + 4 * L->j * f : NULL, 4 * L->j);
+        n++;
+    }
+    if (n_repaired)
+        *n_repaired = n;
+    return MLR_OK;
+}
+
 static mlr_status copy_groups(const mlr_layers *L, const double *src, double *out, size_t count)
 {
     if (!L || !out || count != 3 * L->n * (1 + L->j))
