@@ -17,7 +17,9 @@ typedef struct arena {
     mlr_status st;
 } arena;
 
-static void *take(arena *ar, size_t count, size_t elem)
+/* A block of count elements, zeroed (take) or not (take_raw: for the big arrays that are
+   written before they are read). */
+static void *take_block(arena *ar, size_t count, size_t elem, int zero)
 {
     size_t bytes;
     if (ar->st != MLR_OK)
@@ -31,9 +33,17 @@ static void *take(arena *ar, size_t count, size_t elem)
         ar->st = MLR_E_NO_MEMORY;
         return NULL;
     }
-    memset(p, 0, bytes);
+    if (zero)
+        memset(p, 0, bytes);
     ar->p[ar->count] = p, ar->n[ar->count] = bytes, ar->count++;
     return p;
+}
+
+static void *take(arena *ar, size_t count, size_t elem) { return take_block(ar, count, elem, 1); }
+
+static void *take_raw(arena *ar, size_t count, size_t elem)
+{
+    return take_block(ar, count, elem, 0);
 }
 
 static void release(arena *ar)
@@ -185,6 +195,44 @@ static void fk_masked_frame(const mlr_rig *rig, size_t f, const uint8_t *need,
         if (!need[j])
             continue;
         const size_t p = (size_t)parents[j];
+        const double *t = tidx[j] >= 0 ? trans + 3 * (P * f + (size_t)tidx[j]) : offsets + 3 * j;
+        const mlr_quat q = {r[4 * j], r[4 * j + 1], r[4 * j + 2], r[4 * j + 3]};
+        mlr_quat_mul_inline(&wr[p], &q, &wr[j]);
+        double o[3];
+        mlr_quat_rotate_inline(&wr[p], t, o);
+        wp[3 * j] = wp[3 * p] + o[0];
+        wp[3 * j + 1] = wp[3 * p + 1] + o[1];
+        wp[3 * j + 2] = wp[3 * p + 2] + o[2];
+    }
+}
+
+/* fk_masked_frame on the joints of a chain only (top-down: chain[0] and then each a child of
+   the one before), the world values of chain[0]'s parent read from pos_f / wrot_f (the frame's
+   forward kinematics, J x 3 and J x 4): the same arithmetic, so the same values at the chain's
+   joints when the joints above it have the same rotations. wp / wrot_out: J x 3 and J x 4,
+   written at the chain's joints (and chain[0]'s parent). */
+static void fk_chain_frame(const mlr_rig *rig, size_t f, const int32_t *chain, size_t n,
+                           const int32_t *tidx, const double *rot, const double *trans,
+                           const double *pos_f, const double *wrot_f, double *wp,
+                           double *wrot_out)
+{
+    const size_t J = rig->n_joints, P = rig->n_trans;
+    const double *offsets = rig->offsets;
+    const double *r = rot + 4 * J * f;
+    mlr_quat *wr = (mlr_quat *)(void *)wrot_out;
+    const int32_t top = rig->parents[chain[0]];
+    if (top >= 0) {
+        memcpy(wp + 3 * (size_t)top, pos_f + 3 * (size_t)top, 3 * sizeof(double));
+        memcpy(wrot_out + 4 * (size_t)top, wrot_f + 4 * (size_t)top, 4 * sizeof(double));
+    }
+    for (size_t i = 0; i < n; i++) {
+        const size_t j = (size_t)chain[i];
+        if (j == 0) { /* the root: as fk_masked_frame */
+            wr[0].w = r[0], wr[0].x = r[1], wr[0].y = r[2], wr[0].z = r[3];
+            memcpy(wp, pos_f, 3 * sizeof(double));
+            continue;
+        }
+        const size_t p = (size_t)rig->parents[j];
         const double *t = tidx[j] >= 0 ? trans + 3 * (P * f + (size_t)tidx[j]) : offsets + 3 * j;
         const mlr_quat q = {r[4 * j], r[4 * j + 1], r[4 * j + 2], r[4 * j + 3]};
         mlr_quat_mul_inline(&wr[p], &q, &wr[j]);
@@ -409,6 +457,7 @@ typedef struct work {
     mlr_band *pin;                     /* N x N, 2 sub-diagonals */
     double *ab;                        /* N x 3: its lower band */
     double *map_val, *map_y, *map_out; /* N x 9 */
+    uint8_t *dirty;                    /* N: frames whose rotations the spread changed */
 } work;
 
 /* The map's smoothing with the constrained frames held: x = argmin sum over the free frames of
@@ -467,6 +516,7 @@ static mlr_status spread_rotations(work *w, double *rot, const double *newr, con
             const double *v = w->map_out + f * m + 3 * i;
             if (v[0] == 0.0 && v[1] == 0.0 && v[2] == 0.0)
                 continue; /* outside the blend: the frame is left as it is */
+            w->dirty[f] = 1;
             qexp(v, e);
             mlr_ik_qmul(e, r, o);
             const double n = sqrt(o[0] * o[0] + o[1] * o[1] + o[2] * o[2] + o[3] * o[3]);
@@ -763,7 +813,7 @@ static mlr_status cleanup_run(const mlr_rig *rig, size_t N, double fps, int up,
     foot feet[64];
     size_t nf = 0;
     mlr_cleanup_ref *owned = NULL; /* the reference's trajectories when made here */
-    work w = {rig, N, J, C, fps, up, &cfg, NULL, NULL, NULL, NULL, NULL};
+    work w = {rig, N, J, C, fps, up, &cfg, NULL, NULL, NULL, NULL, NULL, NULL};
     mlr_allocator A;
     mlr_allocator_resolve(alloc, &A);
     arena ar = {.a = &A, .st = MLR_OK};
@@ -776,15 +826,17 @@ static mlr_status cleanup_run(const mlr_rig *rig, size_t N, double fps, int up,
         goto fail_st_keep;
 
     /* ---- forward kinematics, points, reference ---- */
-    double *pos = take(&ar, N * J * 3, sizeof(double));
-    double *wrot = take(&ar, N * J * 4, sizeof(double));
-    double *P = take(&ar, N * C * 3, sizeof(double));
+    /* (not zeroed: the forward kinematics write every joint that is read, the other arrays
+       are written whole, or on the frames that are read, before they are read) */
+    double *pos = take_raw(&ar, N * J * 3, sizeof(double));
+    double *wrot = take_raw(&ar, N * J * 4, sizeof(double));
+    double *P = take_raw(&ar, N * C * 3, sizeof(double));
     double *lim = take(&ar, N * C, sizeof(double));
-    double *newr = take(&ar, N * J * 4, sizeof(double));
+    double *newr = take_raw(&ar, N * J * 4, sizeof(double));
     double *shift = take(&ar, N * 3, sizeof(double));
-    w.map_val = take(&ar, N * 9, sizeof(double));
-    w.map_y = take(&ar, N * 9, sizeof(double));
-    w.map_out = take(&ar, N * 9, sizeof(double));
+    w.map_val = take_raw(&ar, N * 9, sizeof(double));
+    w.map_y = take_raw(&ar, N * 9, sizeof(double));
+    w.map_out = take_raw(&ar, N * 9, sizeof(double));
     /* forward kinematics of the joints the cleanup reads only: the contact points, the
        feet's anchors and their ancestors (hips, knees and the joints above them) */
     uint8_t *need = take(&ar, J, 1);
@@ -1114,15 +1166,67 @@ static mlr_status cleanup_run(const mlr_rig *rig, size_t N, double fps, int up,
                 feet[k].K[f] = 0;
 
     /* ---- passes: IK on the constrained frames, then the spread ---- */
-    double *P2 = take(&ar, N * C * 3, sizeof(double));
+    /* pos, wrot and the points P hold the forward kinematics of (root_pos, rot): a pass
+       computes it again only on the frames that changed since (the root shift before the
+       first pass, the spread of the pass before), the others are the same values */
+    double *P2 = P;
     uint8_t *mask = take(&ar, N, 1);
+    uint8_t *dirty = take(&ar, N, 1);
+    /* the toes' chains (the hip down to the placed point's joint), when no other foot's leg
+       joint lies on them: the turn of the ankle then needs the forward kinematics of the chain
+       only, and newr is read at the legs' joints only */
+    int32_t *chains = take(&ar, nf * J, sizeof(int32_t));
+    size_t *chain_len = take(&ar, nf, sizeof(size_t));
     if (ar.st != MLR_OK)
         goto fail;
+    int chained = 1;
+    for (size_t k = 0; k < nf; k++) {
+        const foot *ft = &feet[k];
+        if (!ft->active)
+            continue;
+        /* the chain bottom-up: the placed point's joint (or the anchor) to the hip */
+        const int32_t bottom = ft->n_cols > ft->n_own ? joints[ft->cols[ft->n_own]] : ft->anchor;
+        size_t n = 0;
+        int32_t j = bottom;
+        for (; j >= 0 && n < J; j = rig->parents[j]) {
+            chains[k * J + n++] = j;
+            if (j == ft->hip)
+                break;
+        }
+        if (j != ft->hip) {
+            chained = 0;
+            break;
+        }
+        for (size_t i = 0; i < n / 2; i++) { /* top-down */
+            const int32_t t = chains[k * J + i];
+            chains[k * J + i] = chains[k * J + n - 1 - i], chains[k * J + n - 1 - i] = t;
+        }
+        chain_len[k] = n;
+        /* ... and above the hip, up to the root: no other foot's hip, knee or anchor */
+        for (size_t q = 0; chained && q < nf; q++) {
+            if (q == k || !feet[q].active)
+                continue;
+            for (int32_t u = bottom; u >= 0; u = rig->parents[u])
+                if (u == feet[q].hip || u == feet[q].knee || u == feet[q].anchor)
+                    chained = 0;
+        }
+    }
+    for (size_t f = 0; f < N; f++)
+        dirty[f] = shift[3 * f] != 0.0 || shift[3 * f + 1] != 0.0 || shift[3 * f + 2] != 0.0;
+    w.dirty = dirty;
     const double *tr = trans;
     for (int pass = 0; pass < cfg.passes; pass++) {
-        if ((st = fk_points(rig, N, out_root_pos, out_rot, tr, C, joints, end_sites, pos, wrot, P2,
-                            &A, need, tidx)) != MLR_OK)
-            goto fail_st;
+        for (size_t f = 0; f < N; f++) {
+            if (!dirty[f])
+                continue;
+            fk_masked_frame(rig, f, need, tidx, out_root_pos, out_rot, tr, pos + 3 * J * f,
+                            wrot + 4 * J * f);
+            if ((st = mlr_rig_point_positions(rig, 1, pos + 3 * J * f, wrot + 4 * J * f, C,
+                                              joints, end_sites, P2 + 3 * C * f, NULL)) !=
+                MLR_OK)
+                goto fail_st;
+        }
+        memset(dirty, 0, N);
         /* floor frames: a point below its limit, the foot not in contact */
         memset(anyF, 0, N);
         for (size_t k = 0; k < nf; k++) {
@@ -1141,7 +1245,17 @@ static mlr_status cleanup_run(const mlr_rig *rig, size_t N, double fps, int up,
                 anyF[f] |= ft->F[f] && lift > 0.0;
             }
         }
-        memcpy(newr, out_rot, N * J * 4 * sizeof(double));
+        if (!chained) {
+            memcpy(newr, out_rot, N * J * 4 * sizeof(double));
+        } else { /* what is read of newr: the chains' joints (the legs' hips, knees, anchors) */
+            for (size_t k = 0; k < nf; k++)
+                for (size_t i = 0; feet[k].active && i < chain_len[k]; i++) {
+                    const size_t j = (size_t)chains[k * J + i];
+                    for (size_t f = 0; f < N; f++)
+                        memcpy(newr + 4 * (f * J + j), out_rot + 4 * (f * J + j),
+                               4 * sizeof(double));
+                }
+        }
         for (size_t k = 0; k < nf; k++) {
             const foot *ft = &feet[k];
             if (!ft->active)
@@ -1183,12 +1297,16 @@ static mlr_status cleanup_run(const mlr_rig *rig, size_t N, double fps, int up,
         for (size_t f = 0; f < N; f++) {
             if (!fk_frames[f])
                 continue;
-            fk_masked_frame(rig, f, need, tidx, out_root_pos, newr, tr, pos2, wrot2);
+            if (!chained)
+                fk_masked_frame(rig, f, need, tidx, out_root_pos, newr, tr, pos2, wrot2);
             for (size_t k = 0; k < nf; k++) {
                 const foot *ft = &feet[k];
                 if (!ft->active || ft->n_cols == ft->n_own || (!ft->U[f] && !ft->F[f]) ||
                     ft->K[f])
                     continue;
+                if (chained) /* the same values as the whole frame's at the chain's joints */
+                    fk_chain_frame(rig, f, chains + k * J, chain_len[k], tidx, newr, tr,
+                                   pos + 3 * J * f, wrot + 4 * J * f, pos2, wrot2);
                 const size_t a = (size_t)ft->anchor;
                 const int32_t pa = rig->parents[a];
                 const size_t c = ft->cols[ft->n_own];

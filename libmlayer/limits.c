@@ -661,19 +661,50 @@ static double fast_bound(const mlr_limits *lim, const mlr_limits_joint *g, doubl
  * in the branch nearest that frame's (unwrapped in time), so a trajectory that crosses the
  * middle of the excluded arc stays on its side instead of snapping to the other bound. A swing-twist joint's
  * twist is unwrapped the same way (it would snap from +twist to -twist at a half turn). */
-static int limit_joint(const mlr_limits *lim, const mlr_limits_joint *g, double alpha,
-                       double fast, mlr_quat *q, prev_angle *prev)
+/* What limit_joint reads of a joint at one alpha, the same for every frame: worked out once
+ * per joint and alpha (bounds_of) instead of at every frame. */
+typedef struct joint_bounds {
+    double w_hi, w_lo, mid;          /* hinge: the soft widths, the excluded arc's middle */
+    double smax, tmax, ws, wt, fast; /* swing-twist: the bounds at alpha, their soft widths,
+                                        fast_bound */
+    double bl;                       /* |bone_out| */
+    mlr_vec3 t;                      /* bone_out / bl (bl > 0) */
+} joint_bounds;
+
+static joint_bounds bounds_of(const mlr_limits *lim, const mlr_limits_joint *g, double alpha)
+{
+    const mlr_limits_range *r = &g->range;
+    joint_bounds b;
+    memset(&b, 0, sizeof b);
+    b.fast = -1.0;
+    b.bl = norm3(g->bone_out);
+    if (b.bl > 0)
+        b.t = scale3(g->bone_out, 1.0 / b.bl);
+    if (r->kind == MLR_LIMITS_HINGE) {
+        const double span = r->hi - r->lo;
+        b.w_hi = lim->soft * span, b.w_lo = fmin(lim->rev_soft, 0.5 * span);
+        if (b.w_hi + b.w_lo > span)
+            b.w_hi = span - b.w_lo;
+        b.mid = 0.5 * (r->hi + r->lo) + PI; /* middle of the excluded arc */
+    } else if (r->kind == MLR_LIMITS_SWING_TWIST) {
+        const double wide = r->widen ? fmax(1.0, fabs(alpha)) : 1.0;
+        b.smax = fmin(PI, r->swing * wide), b.tmax = fmin(PI, r->twist * wide);
+        b.ws = lim->soft * b.smax, b.wt = lim->soft * b.tmax;
+        b.fast = fast_bound(lim, g, alpha);
+    }
+    return b;
+}
+
+static int limit_joint(const mlr_limits_joint *g, const joint_bounds *b, mlr_quat *q,
+                       prev_angle *prev)
 {
     const mlr_limits_range *r = &g->range;
     const mlr_quat q0 = *q;
     if (r->kind == MLR_LIMITS_HINGE) {
-        const double span = r->hi - r->lo;
-        double w_hi = lim->soft * span, w_lo = fmin(lim->rev_soft, 0.5 * span);
-        if (w_hi + w_lo > span)
-            w_hi = span - w_lo;
+        const double w_hi = b->w_hi, w_lo = b->w_lo;
         const mlr_vec3 s = qrot(*q, g->bone_out);
         double phi = hinge_phi(g->axis, g->bone_in, s);
-        const double mid = 0.5 * (r->hi + r->lo) + PI; /* middle of the excluded arc */
+        const double mid = b->mid; /* middle of the excluded arc */
         if (phi >= mid)
             phi -= 2.0 * PI;
         else if (phi < mid - 2.0 * PI)
@@ -693,20 +724,18 @@ static int limit_joint(const mlr_limits *lim, const mlr_limits_joint *g, double 
             return 0;
         *q = qmul(axis_angle(g->axis, phi2 - phi), *q);
     } else if (r->kind == MLR_LIMITS_SWING_TWIST) {
-        const double wide = r->widen ? fmax(1.0, fabs(alpha)) : 1.0;
-        const double smax = fmin(PI, r->swing * wide), tmax = fmin(PI, r->twist * wide);
-        const double ws = lim->soft * smax, wt = lim->soft * tmax;
+        const double smax = b->smax, tmax = b->tmax, ws = b->ws, wt = b->wt;
         mlr_quat rr = qmul(qconj(g->centre), *q);
         if (rr.w < 0)
             rr = (mlr_quat){-rr.w, -rr.x, -rr.y, -rr.z};
-        const double bl = norm3(g->bone_out);
-        if (rr.x * rr.x + rr.y * rr.y + rr.z * rr.z < fast) { /* well inside: unchanged */
+        const double bl = b->bl;
+        if (rr.x * rr.x + rr.y * rr.y + rr.z * rr.z < b->fast) { /* well inside: unchanged */
             if (prev && bl > 0)
                 prev->pending = 1, prev->rr = rr;
             return 0;
         }
         if (bl > 0) {
-            const mlr_vec3 t = scale3(g->bone_out, 1.0 / bl);
+            const mlr_vec3 t = b->t;
             double sw, tw;
             mlr_quat sq;
             swing_twist(rr, t, &sw, &tw, &sq);
@@ -745,8 +774,8 @@ void mlr_limits_apply_frame(const mlr_limits *lim, mlr_quat *q, const double *al
     for (size_t j = 0; j < lim->n_joints; j++) {
         const double a = alpha ? alpha[stride * j] : 1.0;
         const mlr_limits_joint *g = &lim->joints[j];
-        const double fast = g->range.kind == MLR_LIMITS_SWING_TWIST ? fast_bound(lim, g, a) : -1.0;
-        if (limit_joint(lim, g, a, fast, &q[j], NULL) && counts)
+        const joint_bounds b = bounds_of(lim, g, a);
+        if (limit_joint(g, &b, &q[j], NULL) && counts)
             counts[j]++;
     }
 }
@@ -763,9 +792,9 @@ void mlr_limits_apply_kind(const mlr_limits *lim, size_t n_frames, mlr_quat *rot
             continue;
         const double a = aj ? aj[stride * j] : 1.0;
         prev_angle prev = {NAN, 0, {1, 0, 0, 0}};
-        const double fast = kind == MLR_LIMITS_SWING_TWIST ? fast_bound(lim, lj, a) : -1.0;
+        const joint_bounds b = bounds_of(lim, lj, a);
         for (size_t f = 0; f < n_frames; f++)
-            if (limit_joint(lim, lj, a, fast, &rot[f * J + j], &prev) && counts)
+            if (limit_joint(lj, &b, &rot[f * J + j], &prev) && counts)
                 counts[j]++;
     }
 }
