@@ -1044,6 +1044,7 @@ static mlr_status cleanup_run(const mlr_rig *rig, size_t N, double fps, int up,
             const double x = ((double)i - (double)half) / (double)(half + 1);
             wtab[i] = 0.5 * (1.0 + cos(3.14159265358979323846 * x));
         }
+        const double cos_fold = cos(cfg.max_fold);
         for (int it = 0; it < 5; it++) {
             memset(need, 0, N * 3 * sizeof(double));
             int any = 0;
@@ -1079,7 +1080,7 @@ static mlr_status cleanup_run(const mlr_rig *rig, size_t N, double fps, int up,
                     /* the hip-ankle distance of a knee folded to max_fold: a target nearer
                        than that would fold the knee past its limit */
                     const double fold = fmin(sqrt(fmax(l1 * l1 + l2 * l2 +
-                                                       2.0 * l1 * l2 * cos(cfg.max_fold), 0.0)),
+                                                       2.0 * l1 * l2 * cos_fold, 0.0)),
                                              now);
                     double v[3];
                     for (int d = 0; d < 3; d++)
@@ -1130,8 +1131,17 @@ static mlr_status cleanup_run(const mlr_rig *rig, size_t N, double fps, int up,
                shift (no steps where the widest need changes) that still covers each need at its
                own frame, since the window sees only values at least as large; zero farther
                than 0.2 s from every need */
+            size_t in_window = 0, next_in = 0, next_out = 0; /* needs within the window */
             for (size_t f = 0; f < N; f++) {
                 const size_t lo = f > half ? f - half : 0, hi = f + half < N ? f + half : N - 1;
+                for (; next_in <= hi; next_in++)
+                    in_window += nmask[next_in];
+                for (; next_out < lo; next_out++)
+                    in_window -= nmask[next_out];
+                if (!in_window) { /* what the sum gives: 0 / wsum */
+                    ysh[3 * f] = ysh[3 * f + 1] = ysh[3 * f + 2] = 0.0;
+                    continue;
+                }
                 double acc[3] = {0, 0, 0}, wsum = 0.0;
                 for (size_t g = lo; g <= hi; g++) {
                     const double wt = wtab[g + half - f];

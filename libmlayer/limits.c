@@ -258,8 +258,8 @@ mlr_status mlr_limits_create(const mlr_rig *rig, const mlr_limits_clip *clips, s
     mlr_allocator_resolve(alloc, &a);
     size_t jbytes, sbytes;
     if (mlr_mul_size(J, sizeof(mlr_limits_joint), &jbytes) != MLR_OK ||
-        mlr_mul_size(J, sizeof(acc) + 4 * sizeof(int32_t) + sizeof(mlr_quat) + sizeof(mlr_vec3),
-                     &sbytes) != MLR_OK)
+        mlr_mul_size(J, sizeof(acc) + 4 * sizeof(int32_t) + 2 * sizeof(mlr_quat) +
+                            sizeof(mlr_vec3), &sbytes) != MLR_OK)
         return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "limits: too many joints");
     mlr_limits *lim = mlr_alloc(&a, sizeof *lim);
     if (!lim)
@@ -283,6 +283,7 @@ mlr_status mlr_limits_create(const mlr_rig *rig, const mlr_limits_clip *clips, s
     int *is_hinge = (int *)(main_child + J), *cls = is_hinge + J;
     mlr_quat *rq = (mlr_quat *)(void *)(cls + J + (J & 1)); /* one frame's centred rotations */
     mlr_vec3 *rv = (mlr_vec3 *)(void *)(rq + J);            /* ... and their logs */
+    mlr_quat *qn = (mlr_quat *)(void *)(rv + J);            /* ... and the frame's unit q */
     mlr_limits_joint *jt = lim->joints;
 
     /* bones: offsets, or the mean translation of a trans joint over the clips */
@@ -368,6 +369,7 @@ mlr_status mlr_limits_create(const mlr_rig *rig, const mlr_limits_clip *clips, s
                 if (r.w < 0)
                     r = (mlr_quat){-r.w, -r.x, -r.y, -r.z};
                 rq[j] = r;
+                qn[j] = q;
             }
             (void)mlr_quat_log_array(rq, J, rv);
             for (size_t j = 0; j < J; j++) {
@@ -380,10 +382,7 @@ mlr_status mlr_limits_create(const mlr_rig *rig, const mlr_limits_clip *clips, s
                     for (int b3 = 0; b3 < 3; b3++)
                         m[3 * a3 + b3] += vv[a3] * vv[b3];
                 if (norm3(g->axis) > 0) {
-                    const double *p = clips[k].rot + 4 * (f * J + j);
-                    const double n = sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2] + p[3] * p[3]);
-                    const mlr_quat q = {p[0] / n, p[1] / n, p[2] / n, p[3] / n};
-                    const double phi = hinge_phi(g->axis, g->bone_in, qrot(q, g->bone_out));
+                    const double phi = hinge_phi(g->axis, g->bone_in, qrot(qn[j], g->bone_out));
                     g->stats[0] = fmin(g->stats[0], phi);
                     g->stats[1] = fmax(g->stats[1], phi);
                 }
