@@ -1257,14 +1257,15 @@ static mlr_status cleanup_run(const mlr_rig *rig, size_t N, double fps, int up,
         }
         if (!chained) {
             memcpy(newr, out_rot, N * J * 4 * sizeof(double));
-        } else { /* what is read of newr: the chains' joints (the legs' hips, knees, anchors) */
-            for (size_t k = 0; k < nf; k++)
-                for (size_t i = 0; feet[k].active && i < chain_len[k]; i++) {
-                    const size_t j = (size_t)chains[k * J + i];
-                    for (size_t f = 0; f < N; f++)
+        } else { /* what is read of newr: the chains' joints (the legs' hips, knees, anchors),
+                    frame by frame (each frame's rotations are read once) */
+            for (size_t f = 0; f < N; f++)
+                for (size_t k = 0; k < nf; k++)
+                    for (size_t i = 0; feet[k].active && i < chain_len[k]; i++) {
+                        const size_t j = (size_t)chains[k * J + i];
                         memcpy(newr + 4 * (f * J + j), out_rot + 4 * (f * J + j),
                                4 * sizeof(double));
-                }
+                    }
         }
         for (size_t k = 0; k < nf; k++) {
             const foot *ft = &feet[k];

@@ -785,16 +785,30 @@ void mlr_limits_apply_kind(const mlr_limits *lim, size_t n_frames, mlr_quat *rot
     const size_t J = lim->n_joints;
     const double *aj = alpha ? (n_alpha == 1 ? alpha : alpha + 1) : NULL;
     const size_t stride = n_alpha == 1 ? 0 : 1;
-    for (size_t j = 0; j < J; j++) {
-        const mlr_limits_joint *lj = &lim->joints[j];
-        if (lj->range.kind != kind)
-            continue;
-        const double a = aj ? aj[stride * j] : 1.0;
-        prev_angle prev = {NAN, 0, {1, 0, 0, 0}};
-        const joint_bounds b = bounds_of(lim, lj, a);
+    /* each joint along the frames with its own unwrapping state, as if joint by joint; the
+       joints of a block side by side within a frame, so the frames are read in order */
+    enum { BLOCK = 32 };
+    size_t js[BLOCK];
+    prev_angle prev[BLOCK];
+    joint_bounds b[BLOCK];
+    for (size_t j0 = 0; j0 < J;) {
+        size_t m = 0;
+        for (; j0 < J && m < BLOCK; j0++) {
+            const mlr_limits_joint *lj = &lim->joints[j0];
+            if (lj->range.kind != kind)
+                continue;
+            const double a = aj ? aj[stride * j0] : 1.0;
+            js[m] = j0;
+            prev[m] = (prev_angle){NAN, 0, {1, 0, 0, 0}};
+            b[m] = bounds_of(lim, lj, a);
+            m++;
+        }
         for (size_t f = 0; f < n_frames; f++)
-            if (limit_joint(lj, &b, &rot[f * J + j], &prev) && counts)
-                counts[j]++;
+            for (size_t i = 0; i < m; i++) {
+                const size_t j = js[i];
+                if (limit_joint(&lim->joints[j], &b[i], &rot[f * J + j], &prev[i]) && counts)
+                    counts[j]++;
+            }
     }
 }
 
