@@ -12,21 +12,22 @@ from .errors import (Error, InvalidArgumentError, MlayerIOError, MlayerWarning, 
                      SingularMatrixError, UnsupportedError)
 from .errors import ParseWarning
 from . import quat
-from .lgs import LGS, have_cholmod, lgs
+from .smoothing import LGS, have_cholmod, lgs
 from .motion import Motion, Skeleton
 from .bvh import read_bvh, read_bvh_string, write_bvh, write_bvh_string
 from . import metrics
 from .stream import Stream, stream_motion
 from . import ik
-from .contacts import detect_contacts, fix_contacts
-from .resample import (resample, slerp_resample, timewarp, timewarp_map, timewarp_speed)
+from .contacts import detect_contacts
+from .cleanup import fix_contacts
+from .retiming import (resample, slerp_resample, timewarp, timewarp_map, timewarp_speed)
 from . import data
 from .layers import Layers, decompose
 from .pipeline import GuardReport, Synthesis, denoise, stylize
 from .up_axis import UpGuess, detect_up
 from .trimming import LeadIn, lead_in, trim
 from .limits import JointLimits, joint_limits
-from .kmeans import KMeansResult, elbow, kmeans
+from .clustering import KMeansResult, elbow, kmeans
 from .som import SOM
 from .features import pose_features
 from .batch import batch

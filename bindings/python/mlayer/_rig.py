@@ -3,8 +3,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._native import ffi
-from .errors import InvalidArgumentError
+from . import _arrays
+from ._native import ffi, lib
+from .errors import InvalidArgumentError, check
 
 
 def c_rig(skeleton):
@@ -46,3 +47,16 @@ def axis(up, where: str) -> int:
         return int(up)
     raise InvalidArgumentError(f"{where}: up must be 'x', 'y', 'z' or 0..2, got {up!r}")
 
+
+
+def body_height_of(positions, k: int) -> float:
+    """The C core's body size (mlr_rig_body_height, the one every C threshold uses) of (N, J, 3)
+    world positions along axis k (0..2): the median over frames of the joints' extent."""
+    p = np.ascontiguousarray(positions, dtype=np.float64)
+    if p.shape[0] == 0:
+        raise InvalidArgumentError("body_height needs at least one frame")
+    h = ffi.new("double *")
+    diag = ffi.new("mlr_diag *")
+    check(lib.mlr_rig_body_height(p.shape[0], p.shape[1], _arrays.ptr(p), k, h, ffi.NULL, diag),
+          "body_height", diag)
+    return float(h[0])

@@ -50,6 +50,7 @@ from typing import Any, Callable
 import numpy as np
 
 from ._files import atomic_output
+from ._args import integer
 from .errors import InvalidArgumentError
 
 __all__ = ["batch", "BatchResult", "Operation", "register_operation", "operations",
@@ -714,7 +715,7 @@ def _read_options(read) -> dict:
         raise InvalidArgumentError(f"batch: unknown read option(s) {', '.join(bad)}; accepted: "
                                    f"{', '.join(READ_OPTIONS)}")
     from .bvh import _options
-    from .metrics import units_arg
+    from .units import units_arg
     from .trimming import frames_arg
     from .up_axis import axis_name
     out = {}
@@ -785,8 +786,7 @@ def batch(operation, inputs, out_dir, *, alphas=None, scheduler=None, n_workers=
         if scheduler is not None:
             raise InvalidArgumentError("n_workers sizes the embedded cluster; the cluster at "
                                        "`scheduler` has its own workers")
-        if isinstance(n_workers, bool) or int(n_workers) != n_workers or n_workers < 1:
-            raise InvalidArgumentError(f"n_workers must be an integer >= 1, got {n_workers!r}")
+        integer(n_workers, "n_workers", 1)
     out_root = pathlib.Path(out_dir).resolve()
     links: list = []
     clips = find_inputs(inputs, exclude=out_root, links=links)

@@ -21,7 +21,7 @@ import warnings
 
 from ._native import ffi, lib
 from .errors import InvalidArgumentError, ParseError, ParseWarning, check
-from .kmeans import _c_threads
+from ._args import threads as _c_threads
 from .motion import MIN_FRAME_TIME, Motion
 from .trimming import _read as trimmed_read, frames_arg
 
@@ -175,7 +175,7 @@ def read_bvh(path, *, strict=None, keep_truncated=False, threads=None, up=None,
 
 def _units_arg(units, where: str):
     """The length unit a read clip gets: units, or the CLI's --units (reading_units), or None."""
-    from .metrics import units_arg
+    from .units import units_arg
     units = units_arg(units, where)
     return _UNITS.get() if units is None else units
 
@@ -184,7 +184,7 @@ def _units_arg(units, where: str):
 def reading_units(units):
     """Within the block, clips read with ``units=None`` get this length unit (the CLI's
     ``--units``)."""
-    from .metrics import units_arg
+    from .units import units_arg
     token = _UNITS.set(units_arg(units, "--units"))
     try:
         yield

@@ -183,7 +183,7 @@ def _has_feet(original, joints) -> bool:
 
 
 def keep_contacts_retimed(original, retimed, reference, source_frames, joints=None, *,
-                          floor="auto"):
+                          floor="auto", contacts=None):
     """``retimed`` (resampled or time-warped from ``original``) with the feet pinned during the
     contacts detected on ``original``, carried to the output frames: output frame k takes the
     contacts of input frame ``round(source_frames[k])`` (its fractional input frame).
@@ -191,11 +191,20 @@ def keep_contacts_retimed(original, retimed, reference, source_frames, joints=No
     on the same time map), whose contact trajectories, smoothed over half an output frame (at
     least 0.02 s), the feet follow. Skeletons without
     recognisable feet (and no ``joints``) and clips of fewer than 3 frames come back
-    unchanged, as in :func:`keep_contacts`."""
+    unchanged, as in :func:`keep_contacts`. ``contacts``: ``(names, contacts)`` of
+    ``original`` when already at hand (:attr:`mlayer.pipeline.Clip.contacts`), instead of
+    detecting them (at ``joints``) here."""
     from .contacts import detect_contacts
-    if original.n_frames < 3 or retimed.n_frames < 2 or not _has_feet(original, joints):
+    if original.n_frames < 3 or retimed.n_frames < 2:
         return retimed
-    names, c = detect_contacts(original, joints)
+    if contacts is not None:
+        names, c = contacts
+        if not names:
+            return retimed
+    elif not _has_feet(original, joints):
+        return retimed
+    else:
+        names, c = detect_contacts(original, joints)
     k = np.clip(np.rint(np.asarray(source_frames, dtype=np.float64)), 0, original.n_frames - 1)
     # the reference is a SLERP retiming, without the low-pass of the retimed motion (resample
     # filters at 0.38 of the new Nyquist when downsampling): its contact trajectories are

@@ -8,17 +8,18 @@ seconds, so the defaults work in any length unit and at any frame rate. Height i
 the joint's own local floor level (its lowest height within +-0.75 s), so an ankle that sits
 above the sole, a dog's raised hock, slopes and a lying phase need no calibration.
 
-Cleanup (:func:`fix_contacts`) implements eq. 18, ``M* = M' (+) delta_e``. Targets: on the
-frames where a foot touches, it follows the original's own contact trajectory (smoothed over
-0.02 s to drop capture noise), shifted horizontally by one offset per contact toward where the
-synthesized foot is, at the original's heights; so the foot keeps the original's heel roll and
-settling and slides no more than the original did. The root moves by a smoothed correction
-only where a leg would have to stretch beyond 98% of its length; analytic two-bone IK on each
-leg (:mod:`mlayer.ik`) reaches the targets on the contact frames (a toe is placed by turning
-its ankle), and the resulting changes of the hip, knee and ankle rotations are spread over
-the neighbouring frames by the LGS as a displacement map on rotation vectors (interpolating
-the contact frames, back to zero 0.3 s away), so the rotations stay smooth and nothing pops
-at contact boundaries. Y is up.
+Cleanup (:func:`mlayer.cleanup.fix_contacts`, in the C core: mlr_cleanup.h) implements eq. 18,
+``M* = M' (+) delta_e``. Targets: on the frames where a foot touches, it follows the original's
+own contact trajectory (smoothed over 0.02 s to drop capture noise), shifted horizontally by one
+offset per contact toward where the synthesized foot is, at the original's heights; so the foot
+keeps the original's heel roll and settling and slides no more than the original did. The root
+moves by a smoothed correction only where a leg would have to stretch beyond 98% of its length;
+analytic two-bone IK on each leg (:mod:`mlayer.ik`) reaches the targets on the contact frames (a
+toe is placed by turning its ankle), and the resulting changes of the hip, knee and ankle
+rotations are spread over the neighbouring frames by the LGS as a displacement map on rotation
+vectors (interpolating the contact frames, back to zero 0.3 s away), so the rotations stay
+smooth and nothing pops at contact boundaries. Heights are along the motion's up axis
+(:attr:`mlayer.Motion.up_axis`).
 """
 from __future__ import annotations
 
@@ -26,17 +27,12 @@ import re
 
 import numpy as np
 
-from . import ik, quat
 from ._arrays import as_f64, ptr, ptr_out
 from ._native import ffi, lib
 from ._rig import c_rig, motion_axis
 from .errors import InvalidArgumentError, check
-from .lgs import lgs
-from .metrics import body_height
 
-__all__ = ["find_feet", "detect_contacts", "fix_contacts", "keep_contacts", "contact_intervals",
-           "keep_contacts_retimed",
-           "contact_positions", "END_SUFFIX",
+__all__ = ["find_feet", "detect_contacts", "contact_intervals", "contact_positions", "END_SUFFIX",
            "FOOT_PATTERN", "TOE_PATTERN", "HAND_PATTERN"]
 
 #: joint names taken as ankles (case-insensitive search): CMU "LeftFoot"/"LeftAnkle", Daz
@@ -237,7 +233,8 @@ def _resolve_names(motion, joints) -> list[str]:
 
 
 def detect_contacts(motion, joints=None, *, speed: float = _SPEED_ON,
-                    height: float = _HEIGHT_ON, min_duration: float = _MIN_CONTACT, up=None):
+                    height: float = _HEIGHT_ON, min_duration: float = _MIN_CONTACT, up=None,
+                    pos=None, wrot=None):
     """Foot contacts of a motion: ``(names, contacts)``, contacts a bool array (N, C).
 
     joints: the contact points: joint names or indices, or "Joint/End" for a joint's End Site (a
@@ -250,7 +247,9 @@ def detect_contacts(motion, joints=None, *, speed: float = _SPEED_ON,
     shorter than ``min_duration`` seconds dropped. Speeds are central differences over about
     1/30 s, so the same defaults hold at 25-120 fps; body height is the median extent of the
     joints along ``up`` (:func:`mlayer.metrics.body_height`). up: "x", "y" or "z", or 0..2;
-    None (default): the motion's :attr:`~mlayer.Motion.up_axis`. The detection runs in the C core (``mlr_contacts_detect``).
+    None (default): the motion's :attr:`~mlayer.Motion.up_axis`. pos (N, J, 3) and wrot
+    (N, J, 4): the motion's forward kinematics when already at hand (both, or neither). The
+    detection runs in the C core (``mlr_contacts_detect``).
     """
     _check_motion(motion, "detect_contacts")
     ax = motion_axis(motion, up, "detect_contacts")
@@ -270,7 +269,10 @@ def detect_contacts(motion, joints=None, *, speed: float = _SPEED_ON,
     if N < 3:
         raise InvalidArgumentError(f"detect_contacts needs at least 3 frames, got {N}")
     sk = motion.skeleton
-    pos, wrot = motion.forward_kinematics()
+    if pos is None or wrot is None:
+        pos, wrot = motion.forward_kinematics()
+    pos = _positions_arg(motion, pos, "detect_contacts: pos", 3)
+    wrot = _positions_arg(motion, wrot, "detect_contacts: wrot", 4)
     if joints is None:
         pts = [p for p in _c_feet(motion, pos, ax) if p[0] >= 0]
     else:
@@ -291,8 +293,3 @@ def detect_contacts(motion, joints=None, *, speed: float = _SPEED_ON,
     del keep
     check(code, "detect_contacts", diag)
     return names, out.view(np.bool_)
-
-
-# The cleanup (fix_contacts, keep_contacts, keep_contacts_retimed) lives in the C core now
-# (mlr_cleanup.h), wrapped by mlayer.cleanup; re-exported here so existing imports keep working.
-from .cleanup import fix_contacts, keep_contacts, keep_contacts_retimed  # noqa: E402,F401

@@ -40,7 +40,8 @@ import numpy as np
 
 from . import _arrays
 from ._files import atomic_output
-from ._native import ReadOnlyAttributes, ffi, lib
+from ._handles import ReadOnlyAttributes
+from ._native import ffi, lib
 from ._rig import c_rig
 from .errors import InvalidArgumentError, check
 
@@ -317,7 +318,8 @@ def base_s_max(fps: float, cutoff_hz: float) -> float:
 
 
 def decompose(motion, *, gamma: float = math.pi / 2, lam_c=None, sigma_c=None, lam_b=None,
-              sigma_b=None, base_cutoff: float | None = 0.25, robust: bool = True) -> Layers:
+              sigma_b=None, base_cutoff: float | None = 0.25, robust: bool = True,
+              body_height: float | None = None) -> Layers:
     """Split a Motion into base, controllable and residual layers (see the module docs). The
     translation group is the body translation (:func:`body_translation_joint`): the root's, or
     that of the joint below a static root that carries it, which then also lends its base
@@ -343,6 +345,9 @@ def decompose(motion, *, gamma: float = math.pi / 2, lam_c=None, sigma_c=None, l
                     frames found are ``Layers.outliers``. The translation's gate is 0.2 of
                     :func:`mlayer.metrics.body_height`. Clips without outliers decompose as
                     with robust=False.
+    body_height     the body size that gate scales with, in the clip's units (default:
+                    :func:`mlayer.metrics.body_height` of the motion, one forward-kinematics
+                    pass; :class:`mlayer.pipeline.Clip` passes the one it has)
     Raises InvalidArgumentError for fewer than 3 frames, bad parameters or non-finite data.
     """
     n, j = motion.n_frames, motion.n_joints
@@ -367,8 +372,11 @@ def decompose(motion, *, gamma: float = math.pi / 2, lam_c=None, sigma_c=None, l
         raise InvalidArgumentError(f"robust: expected True or False, got {robust!r}")
     opts.append((lib.MLR_LAYERS_OPT_ROBUST, float(bool(robust))))
     if robust:
-        from .metrics import body_height
-        h = body_height(motion)
+        if body_height is None:
+            from .metrics import body_height as measure
+            h = measure(motion)
+        else:
+            h = _arrays.finite(body_height, "body_height")
         if math.isfinite(h) and h > 0.0:
             opts.append((lib.MLR_LAYERS_OPT_BODY_HEIGHT, h))
     body = body_translation_joint(motion)

@@ -18,7 +18,8 @@ import math
 import numpy as np
 
 from . import _arrays
-from ._native import ReadOnlyAttributes, ffi, lib, refuse_copy
+from ._handles import ReadOnlyAttributes, refuse_copy
+from ._native import ffi, lib
 from ._rig import c_rig
 from .errors import InvalidArgumentError, check
 

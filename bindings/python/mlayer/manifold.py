@@ -13,7 +13,7 @@ import numpy as np
 from . import _arrays
 from ._native import ffi, lib
 from .errors import InvalidArgumentError, SingularMatrixError, check
-from .kmeans import _count, default_threads
+from ._args import default_threads, integer
 
 __all__ = ["PCA", "GRBF", "lattice_points"]
 
@@ -37,11 +37,7 @@ class PCA:
     """
 
     def __init__(self, n_components: int = 2):
-        if isinstance(n_components, bool) or int(n_components) != n_components \
-                or n_components < 1:
-            raise InvalidArgumentError(f"PCA: n_components must be an integer >= 1, got "
-                                       f"{n_components!r}")
-        self.n_components = int(n_components)
+        self.n_components = integer(n_components, "PCA: n_components", 1)
 
     def fit(self, X) -> "PCA":
         X = _data(X, min_rows=2)
@@ -104,14 +100,11 @@ def lattice_points(lattice, bounds) -> np.ndarray:
 
 def _lattice(lattice) -> tuple[int, int]:
     try:
-        rows, cols = (int(v) for v in lattice)
-        ok = all(int(v) == v and not isinstance(v, bool) for v in lattice)
+        rows, cols = lattice
     except (TypeError, ValueError):
         raise InvalidArgumentError(f"lattice must be two integers (rows, cols), got "
                                    f"{lattice!r}") from None
-    if not ok or rows < 1 or cols < 1:
-        raise InvalidArgumentError(f"lattice must be at least 1 x 1, got {tuple(lattice)!r}")
-    return rows, cols
+    return integer(rows, "lattice rows", 1), integer(cols, "lattice cols", 1)
 
 
 _KERNELS = ("thin_plate", "gaussian")
@@ -198,7 +191,7 @@ class GRBF:
                                        f"{smoothing!r}")
         self.smoothing = float(smoothing)
         self.n_threads = (default_threads() if n_threads is None
-                          else _count(n_threads, "GRBF: n_threads", 1, 64))
+                          else integer(n_threads, "GRBF: n_threads", 1, 64))
         self.coef_ = None
 
     # -- basis ---------------------------------------------------------------------------------
@@ -255,7 +248,7 @@ class GRBF:
             width = _arrays.finite(getattr(self, "width_", 0.0), "GRBF.width_")
             if not width > 0:
                 raise InvalidArgumentError(f"GRBF.width_ must be > 0, got {width!r}")
-        return _KERNEL_IDS[self.kernel], width, _count(self.n_threads, "GRBF.n_threads", 1, 64)
+        return _KERNEL_IDS[self.kernel], width, integer(self.n_threads, "GRBF.n_threads", 1, 64)
 
     # -- fit and predict -----------------------------------------------------------------------
 

@@ -12,6 +12,7 @@ import math
 import numpy as np
 
 from .errors import InvalidArgumentError
+from ._args import integer
 
 __all__ = ["Markov"]
 
@@ -30,8 +31,7 @@ def _labels(a, name: str) -> np.ndarray:
 
 
 def _state(j, n: int, name: str = "state") -> int:
-    if isinstance(j, bool) or not isinstance(j, (int, np.integer)):
-        raise InvalidArgumentError(f"{name} must be an integer, got {j!r}")
+    j = integer(j, name)
     if not 0 <= j < n:
         raise InvalidArgumentError(f"{name} {j} out of range: the model has {n} states "
                                    f"(0 .. {n - 1})")
@@ -84,11 +84,7 @@ class Markov:
         hi = max(int(s.max()) for s in seqs if s.size)
         if n_states is None:
             n_states = hi + 1
-        elif isinstance(n_states, bool) or not isinstance(n_states, (int, np.integer)) \
-                or n_states < 1:
-            raise InvalidArgumentError(f"Markov.fit: n_states must be an integer >= 1, got "
-                                       f"{n_states!r}")
-        n = int(n_states)
+        n = integer(n_states, "Markov.fit: n_states", 1)
         if lo < 0 or hi >= n:
             raise InvalidArgumentError(f"Markov.fit: labels out of range: found {lo} .. {hi} "
                                        f"for {n} states (0 .. {n - 1})")
@@ -139,8 +135,7 @@ class Markov:
         if not (math.isfinite(scale) and scale >= 0):
             raise InvalidArgumentError(f"Markov: noise scale must be finite and >= 0, got "
                                        f"{scale!r}")
-        if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-            raise InvalidArgumentError(f"Markov: seed must be an integer >= 0, got {seed!r}")
+        seed = integer(seed, "Markov: seed", 0)
         rng = np.random.default_rng(seed)
         Q = self.P + scale * rng.random(self.P.shape)
         Q /= Q.sum(axis=1, keepdims=True)
@@ -168,8 +163,7 @@ class Markov:
         the same sequence.
         """
         s = _state(start, self.n_states, "start")
-        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
-            raise InvalidArgumentError(f"sample: n must be an integer >= 1, got {n!r}")
+        n = integer(n, "sample: n", 1)
         if not (math.isfinite(noise) and noise >= 0):
             raise InvalidArgumentError(f"sample: noise must be finite and >= 0, got {noise!r}")
         model = self.perturbed(noise, seed) if noise > 0 else self

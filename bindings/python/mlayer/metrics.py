@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ._rig import axis, body_height_of, motion_axis
+from .contacts import contact_positions
 from .errors import InvalidArgumentError
 
 
@@ -45,51 +47,15 @@ def jitter(m, fps: float | None = None) -> float:
 def body_height(m, up=None) -> float:
     """Body size used to make thresholds and errors unit-free: the median over frames of the
     joints' extent along the up axis (End Sites excluded, so the head top and toe tips are not
-    counted); up: "x", "y", "z" or None for the motion's :attr:`~mlayer.Motion.up_axis`.
-    Units: the clip's length unit; a standing CMU subject is about 24 units."""
-    from . import _arrays
-    from ._native import ffi, lib
-    from ._rig import axis
-    from .errors import check
-    p = np.ascontiguousarray(_positions(m), dtype=np.float64)
-    if p.shape[0] == 0:
-        raise InvalidArgumentError("body_height needs at least one frame")
-    k = axis(up if up is not None else getattr(m, "up_axis", "y"), "body_height")
-    h = ffi.new("double *")
-    diag = ffi.new("mlr_diag *")
-    # the C core's body size (mlr_rig_body_height), the one every C threshold uses
-    check(lib.mlr_rig_body_height(p.shape[0], p.shape[1], _arrays.ptr(p), k, h, ffi.NULL, diag),
-          "body_height", diag)
-    return float(h[0])
+    counted); up: "x", "y", "z" or None for the motion's :attr:`~mlayer.Motion.up_axis` ("y"
+    for a positions array). Units: the clip's length unit; a standing CMU subject is about 24
+    units."""
+    p = _positions(m)
+    return body_height_of(p, axis(up if up is not None else getattr(m, "up_axis", "y"),
+                                  "body_height"))
 
 
-#: Length units a clip may be in, and their size in metres (Motion.units, read_bvh(units=)).
-UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001, "in": 0.0254, "ft": 0.3048}
-
-
-def units_arg(units, where: str):
-    """A length unit argument: one of :data:`UNITS` (any case) or None."""
-    if units is None:
-        return None
-    if isinstance(units, str) and units.lower() in UNITS:
-        return units.lower()
-    raise InvalidArgumentError(f"{where}: units must be one of {', '.join(UNITS)} or None, got "
-                               f"{units!r}")
-
-
-# Body heights (a person or an animal standing: 0.3 to 2.5 m) in each length unit.
-_UNIT_RANGES = (("m", 0.3, 2.5), ("cm", 30.0, 250.0), ("mm", 300.0, 2500.0))
-
-
-def length_unit(height: float) -> str | None:
-    """A guess at a clip's length unit from its body height in file units: "m", "cm" or "mm"
-    when the height is one of a person's or an animal's (0.3 to 2.5 m) in just that unit, else
-    None (CMU's converted files, about 24 units for a person, are in none of them)."""
-    found = [u for u, lo, hi in _UNIT_RANGES if lo <= height <= hi]
-    return found[0] if len(found) == 1 else None
-
-
-def foot_sliding(m, contacts, names, up=None) -> float:
+def foot_sliding(m, contacts, names, up=None, *, pos=None, wrot=None) -> float:
     """Mean horizontal speed of the contact joints while they are in contact.
 
     m: a Motion; contacts: bool (N, C) as returned by :func:`mlayer.detect_contacts`; names: the
@@ -98,7 +64,8 @@ def foot_sliding(m, contacts, names, up=None) -> float:
     "x", "y", "z", or None for the motion's :attr:`~mlayer.Motion.up_axis`) times the
     frame rate; the mean over all such pairs of all joints. Units: the clip's length unit per
     second (cm/s for LaFAN1 and Bandai). 0 for a perfectly planted foot; NaN when no joint has
-    two consecutive contact frames.
+    two consecutive contact frames. pos, wrot: m's forward kinematics when already at hand
+    (:func:`mlayer.contacts.contact_positions`).
     """
     if not hasattr(m, "positions") or not hasattr(m, "skeleton"):
         raise InvalidArgumentError("foot_sliding: m must be a mlayer.Motion")
@@ -108,10 +75,8 @@ def foot_sliding(m, contacts, names, up=None) -> float:
         raise InvalidArgumentError(
             f"foot_sliding: contacts must be a bool array ({m.n_frames}, {len(names)}), got "
             f"{c.dtype} {c.shape}")
-    from .contacts import contact_positions
-    from ._rig import motion_axis
     k = motion_axis(m, up, "foot_sliding")
-    p = contact_positions(m, names)[:, :, [a for a in range(3) if a != k]]
+    p = contact_positions(m, names, pos, wrot)[:, :, [a for a in range(3) if a != k]]
     if p.shape[0] < 2:
         return float("nan")
     speed = np.linalg.norm(np.diff(p, axis=0), axis=-1) * m.fps

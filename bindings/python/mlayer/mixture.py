@@ -8,6 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import _arrays
+from ._args import integer
 from .errors import InvalidArgumentError
 
 __all__ = ["fuzzy_cmeans", "FuzzyResult", "GaussianMixture"]
@@ -23,12 +24,6 @@ def _data(X, k: int, what: str, name: str = "X") -> np.ndarray:
     return X
 
 
-def _count(v, name: str, lo: int = 1) -> int:
-    if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
-        raise InvalidArgumentError(f"{name} must be an integer >= {lo}, got {v!r}")
-    return int(v)
-
-
 def _sqdist(X: np.ndarray, C: np.ndarray) -> np.ndarray:
     d2 = (X * X).sum(1)[:, None] - 2.0 * (X @ C.T) + (C * C).sum(1)[None, :]
     np.maximum(d2, 0.0, out=d2)
@@ -40,7 +35,7 @@ def _initial_centers(X: np.ndarray, k: int, init, seed: int, who: str) -> np.nda
         if init != "k-means++":
             raise InvalidArgumentError(f"{who}: init must be 'k-means++' or an array of "
                                        f"centres, got {init!r}")
-        from .kmeans import kmeans  # the C core's seeding and Lloyd
+        from .clustering import kmeans  # the C core's seeding and Lloyd
         return kmeans(X, k, seed=seed).centers
     C = _arrays.as_f64(init, "init", ndim=2)
     if C.shape != (k, X.shape[1]):
@@ -96,16 +91,16 @@ def fuzzy_cmeans(X, c: int, m: float = 2.0, *, init=None, max_iter: int = 300,
     v_k = sum u^m x / sum u^m and memberships until the largest membership change is below
     tol or max_iter. Deterministic for a given seed.
     """
-    c = _count(c, "c")
+    c = integer(c, "c", 1)
     X = _data(X, c, "c")
     m = float(m)
     if not (math.isfinite(m) and m > 1.0):
         raise InvalidArgumentError(f"fuzzy_cmeans: m must be finite and > 1, got {m}")
-    max_iter = _count(max_iter, "max_iter")
+    max_iter = integer(max_iter, "max_iter", 1)
     if not (math.isfinite(tol) and tol >= 0):
         raise InvalidArgumentError(f"fuzzy_cmeans: tol must be >= 0, got {tol}")
     if init is None:
-        u = np.random.default_rng(_count(seed, "seed", 0)).dirichlet(np.ones(c), X.shape[0])
+        u = np.random.default_rng(integer(seed, "seed", 0)).dirichlet(np.ones(c), X.shape[0])
     else:
         V = _initial_centers(X, c, init, seed, "fuzzy_cmeans")
         u = _memberships(_sqdist(X, V), m)
@@ -150,7 +145,7 @@ class GaussianMixture:
     def __init__(self, k: int, covariance: str = "full", *, init="k-means++",
                  weights_init=None, covariances_init=None, max_iter: int = 100,
                  tol: float = 1e-3, reg_covar: float = 1e-6, seed: int = 0):
-        self.k = _count(k, "k")
+        self.k = integer(k, "k", 1)
         if covariance not in ("full", "diag"):
             raise InvalidArgumentError(f"GaussianMixture: covariance must be 'full' or 'diag', "
                                        f"got {covariance!r}")
@@ -158,14 +153,14 @@ class GaussianMixture:
         self.init = init
         self.weights_init = weights_init
         self.covariances_init = covariances_init
-        self.max_iter = _count(max_iter, "max_iter")
+        self.max_iter = integer(max_iter, "max_iter", 1)
         if not (math.isfinite(tol) and tol >= 0):
             raise InvalidArgumentError(f"GaussianMixture: tol must be >= 0, got {tol}")
         if not (math.isfinite(reg_covar) and reg_covar >= 0):
             raise InvalidArgumentError(f"GaussianMixture: reg_covar must be >= 0, got "
                                        f"{reg_covar}")
         self.tol, self.reg_covar = float(tol), float(reg_covar)
-        self.seed = _count(seed, "seed", 0)
+        self.seed = integer(seed, "seed", 0)
 
     # -- EM pieces -----------------------------------------------------------------------------
 

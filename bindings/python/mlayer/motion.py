@@ -27,7 +27,8 @@ from __future__ import annotations
 import numpy as np
 
 from . import _arrays
-from ._native import ReadOnlyAttributes, ffi, lib
+from ._handles import ReadOnlyAttributes
+from ._native import ffi, lib
 from .errors import InvalidArgumentError, check
 
 __all__ = ["Motion", "Skeleton", "DEFAULT_ROOT_CHANNELS", "DEFAULT_JOINT_CHANNELS",
@@ -278,7 +279,8 @@ class Motion:
     multiplies the frame time by k); ``len(m)`` is the number of frames.
     """
 
-    __slots__ = ("_skeleton", "_frame_time", "_root_pos", "_rot", "_trans", "_up", "_units")
+    __slots__ = ("_skeleton", "_frame_time", "_root_pos", "_rot", "_trans", "_up", "_units",
+                 "_found")
 
     def __init__(self, skeleton: Skeleton, frame_time: float, root_pos, rot, trans=None, *,
                  _trusted: bool = False):
@@ -286,6 +288,7 @@ class Motion:
             raise InvalidArgumentError("Motion: skeleton must be a mlayer.Skeleton")
         self._skeleton = skeleton
         self._up = self._units = None
+        self._found = {}  # what was detected from the frames: "up", "units"
         if _trusted:
             self._frame_time, self._root_pos, self._rot, self._trans = \
                 frame_time, root_pos, rot, trans
@@ -346,6 +349,7 @@ class Motion:
     @root_pos.setter
     def root_pos(self, a) -> None:
         self._root_pos = _frame_array(a, "Motion.root_pos", (3,))
+        self._found.clear()
 
     @property
     def rot(self) -> np.ndarray:
@@ -354,6 +358,7 @@ class Motion:
     @rot.setter
     def rot(self, a) -> None:
         self._rot = _frame_array(a, "Motion.rot", (self._skeleton.n_joints, 4))
+        self._found.clear()
 
     @property
     def trans(self) -> np.ndarray:
@@ -363,46 +368,58 @@ class Motion:
     def trans(self, a) -> None:
         self._trans = _frame_array(a, "Motion.trans",
                                    (self._skeleton.trans_joints.shape[0], 3))
+        self._found.clear()
 
     @property
     def up_axis(self) -> str:
         """The world axis that points up: "x", "y" or "z". Given by ``read_bvh(path, up=...)``
         or by assigning it; else detected from the motion (:func:`mlayer.detect_up`: from the
         feet by name, or the floor), and "y" (the BVH convention) when the detection is not
-        sure. Every threshold along up (contacts, floor, body height) follows it. Assign None
-        to detect again."""
+        sure. Every threshold along up (contacts, floor, body height) follows it. The detection
+        runs once, on first use (one forward-kinematics pass), and is kept; assign None to
+        detect again (after editing the frames in place, say)."""
         if self._up is not None:
             return self._up
-        from .up_axis import detect_up
-        g = detect_up(self)
-        return g.axis if g.sure else "y"
+        if "up" not in self._found:
+            from .up_axis import detect_up
+            g = detect_up(self)
+            self._found["up"] = g.axis if g.sure else "y"
+        return self._found["up"]
 
     @up_axis.setter
     def up_axis(self, up) -> None:
         from .up_axis import axis_name
         self._up = axis_name(up, "Motion.up_axis")
+        self._found.clear()
 
     @property
     def units(self) -> str | None:
         """The clip's length unit: "m", "cm", "mm", "in" or "ft" when given
         (``read_bvh(path, units=...)``, ``--units``, or assigned), else the unit the body height
-        suggests (:func:`mlayer.metrics.length_unit`: "m", "cm" or "mm" when the height is a
+        suggests (:func:`mlayer.units.length_unit`: "m", "cm" or "mm" when the height is a
         person's or an animal's in just that unit), else None. Thresholds do not depend on it
-        (they are relative to the body height); conversions to metres do."""
+        (they are relative to the body height); conversions to metres do. Found once, on
+        first use, and kept (assign None to look again)."""
         if self._units is not None:
             return self._units
-        from .metrics import body_height, length_unit
-        return length_unit(body_height(self)) if self.n_frames else None
+        if "units" not in self._found:
+            from ._rig import axis, body_height_of
+            from .units import length_unit
+            self._found["units"] = (length_unit(body_height_of(self.positions(),
+                                                               axis(self.up_axis, "units")))
+                                    if self.n_frames else None)
+        return self._found["units"]
 
     @units.setter
     def units(self, units) -> None:
-        from .metrics import units_arg
+        from .units import units_arg
         self._units = units_arg(units, "Motion.units")
+        self._found.pop("units", None)
 
     @property
     def metres_per_unit(self) -> float | None:
         """The size of the clip's length unit in metres (from :attr:`units`), or None."""
-        from .metrics import UNITS
+        from .units import UNITS
         u = self.units
         return UNITS[u] if u else None
 
@@ -597,8 +614,11 @@ class Motion:
 
     def end_site_positions(self) -> np.ndarray:
         """(N, E, 3) world positions of the End Sites."""
+        return self._end_sites(*self._fk(True))
+
+    def _end_sites(self, pos: np.ndarray, wrot: np.ndarray) -> np.ndarray:
+        """(N, E, 3) End Site positions from this motion's forward kinematics (pos, wrot)."""
         from . import quat
-        pos, wrot = self._fk(True)
         sk = self.skeleton
         if sk.n_end_sites == 0:
             return np.zeros((self.n_frames, 0, 3))

@@ -21,6 +21,15 @@ What runs, in order, on ``M' = Mb (+) alpha delta_c``:
 
 Each :class:`Synthesis` holds one input's decomposition and guards, so a
 second alpha (a slider move, an augmentation sweep) costs a synthesis and the guards only.
+
+A run from file to file (the command line, batch workers, the viewer) holds its input in a
+:class:`Clip`: read (with the reading options: strict, up, trim, units), then what every later
+step needs from the input is computed once there: its forward kinematics, up axis and body
+height, its layers and guards (one :class:`Synthesis` per set of options), its jitter and the
+foot sliding of its contacts; outputs are written with :meth:`Clip.write`. One ``mlayer
+stylize`` run does two forward-kinematics passes over the input (this module's and the C
+guards' own, which take frames, not positions) and one over the output for its figures
+(``bench/python/bench_pipeline_passes.py`` counts them).
 """
 from __future__ import annotations
 
@@ -31,13 +40,14 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import _arrays
-from ._native import ReadOnlyAttributes, ffi, lib, refuse_copy
+from ._handles import ReadOnlyAttributes, refuse_copy
+from ._native import ffi, lib
 from ._rig import c_rig, motion_axis
 from .errors import InvalidArgumentError, check
 from .layers import Layers, decompose
 from .limits import JointLimits
 
-__all__ = ["Synthesis", "GuardReport", "stylize", "denoise"]
+__all__ = ["Clip", "Synthesis", "GuardReport", "stylize", "denoise"]
 
 
 @dataclass(frozen=True)
@@ -275,9 +285,8 @@ def denoise(motion, *, limits="auto", floor="auto", keep_contacts=True, contact_
     kept on their contacts and above the floor (see :class:`Synthesis` for the switches and
     :func:`mlayer.decompose` for the layer options). With ``return_report``, returns
     ``(motion, GuardReport)``."""
-    s = Synthesis(motion, limits=limits, floor=floor, keep_contacts=keep_contacts,
-                  contact_joints=contact_joints, up=up, **layer_options)
-    out, report = s.run(1.0)
+    out, report = Clip(motion).denoise(limits=limits, floor=floor, keep_contacts=keep_contacts,
+                                       contact_joints=contact_joints, up=up, **layer_options)
     return (out, report) if return_report else out
 
 
@@ -289,7 +298,160 @@ def stylize(motion, alpha, joints=None, *, root_alpha=None, limits="auto", floor
     ``root_alpha`` is the body translation's (default: alpha). The guards (joint limits when
     some |alpha| > 1, foot contacts, floor; see :class:`Synthesis`) keep the result within what
     a body can do. With ``return_report``, returns ``(motion, GuardReport)``."""
-    s = Synthesis(motion, limits=limits, floor=floor, keep_contacts=keep_contacts,
-                  contact_joints=contact_joints, up=up, **layer_options)
-    out, report = s.run(alpha, joints, root_alpha=root_alpha)
+    out, report = Clip(motion).stylize(alpha, joints, root_alpha=root_alpha, limits=limits,
+                                       floor=floor, keep_contacts=keep_contacts,
+                                       contact_joints=contact_joints, up=up, **layer_options)
     return (out, report) if return_report else out
+
+
+class Clip:
+    """One input of a run and what is computed from it once.
+
+    ``Clip.read(path, strict=, up=, trim=, units=)`` or ``Clip(motion)``. The forward
+    kinematics of the input (:attr:`positions`), its up axis (:attr:`up`, detected from those
+    positions unless the motion says it), its body height, jitter and foot sliding are computed
+    on first use and kept; :meth:`synthesis` keeps one :class:`Synthesis` (layers and guards)
+    per set of options, so denoising and any number of alphas share one decomposition.
+    The input is not modified; do not modify it in place while the clip is in use (the kept
+    figures would not follow).
+    """
+
+    def __init__(self, motion, *, name: str | None = None):
+        from .motion import Motion
+        if not isinstance(motion, Motion):
+            raise InvalidArgumentError(f"motion: expected a mlayer.Motion, got "
+                                       f"{type(motion).__name__}")
+        self.motion = motion
+        self.name = name if name is not None else "<motion>"
+        self._syntheses: dict = {}
+        self._layers: dict = {}
+
+    @classmethod
+    def read(cls, path, **read_options) -> "Clip":
+        """The clip of a BVH file (``mlayer.read_bvh(path, **read_options)``)."""
+        from .bvh import read_bvh
+        return cls(read_bvh(path, **read_options), name=str(path))
+
+    @functools.cached_property
+    def forward_kinematics(self) -> tuple[np.ndarray, np.ndarray]:
+        """World positions (N, J, 3) and world rotations (N, J, 4) of the input's joints, from
+        one forward-kinematics pass (read-only arrays)."""
+        pos, wrot = self.motion.forward_kinematics()
+        pos.flags.writeable = wrot.flags.writeable = False
+        return pos, wrot
+
+    @property
+    def positions(self) -> np.ndarray:
+        """(N, J, 3) world positions of the input's joints (read-only)."""
+        return self.forward_kinematics[0]
+
+    @functools.cached_property
+    def up(self) -> str:
+        """The input's up axis: the motion's when it was given (``read_bvh(up=)``, ``--up``),
+        else detected from :attr:`positions` ("y" when the detection is not sure)."""
+        m = self.motion
+        if m._up is not None:
+            return m._up
+        from .up_axis import detect_up
+        g = detect_up(m, self.positions)
+        return g.axis if g.sure else "y"
+
+    @functools.cached_property
+    def body_height(self) -> float:
+        """:func:`mlayer.metrics.body_height` of the input along :attr:`up` (NaN for an
+        empty clip)."""
+        from .metrics import body_height
+        return body_height(self.positions, up=self.up) if self.motion.n_frames else math.nan
+
+    @functools.cached_property
+    def contacts(self) -> tuple[list, np.ndarray]:
+        """``(names, contacts)``: :func:`mlayer.detect_contacts` of the input (its feet, along
+        :attr:`up`), from :attr:`forward_kinematics`; no points for a skeleton without feet
+        (:func:`mlayer.contacts.find_feet`)."""
+        from .contacts import detect_contacts, find_feet
+        m = self.motion
+        try:
+            find_feet(m, self.positions, up=self.up)
+        except InvalidArgumentError:  # no feet by name: nothing to pin (as stylize does)
+            return [], np.zeros((m.n_frames, 0), dtype=bool)
+        pos, wrot = self.forward_kinematics
+        names, c = detect_contacts(m, up=self.up, pos=pos, wrot=wrot)
+        c.flags.writeable = False
+        return names, c
+
+    def layers(self, **layer_options) -> Layers:
+        """The input's :func:`mlayer.decompose` with these options, made once per set."""
+        key = tuple(sorted((k, repr(v)) for k, v in layer_options.items()))
+        L = self._layers.get(key)
+        if L is None:
+            if layer_options.get("robust", True) and "body_height" not in layer_options:
+                h = self.body_height
+                if math.isfinite(h) and h > 0.0:
+                    layer_options["body_height"] = h
+            L = self._layers[key] = decompose(self.motion, **layer_options)
+        return L
+
+    def synthesis(self, *, limits="auto", floor="auto", keep_contacts=True,
+                  contact_joints=None, up=None, **layer_options) -> Synthesis:
+        """The input's :class:`Synthesis` for these guard options and layer options (see
+        there), made once per set; syntheses with the same layer options share one
+        decomposition (:meth:`layers`)."""
+        guard = dict(limits=limits, floor=floor, keep_contacts=keep_contacts,
+                     contact_joints=contact_joints, up=up)
+        key = tuple(sorted((k, repr(v)) for k, v in guard.items())) + \
+            tuple(sorted((k, repr(v)) for k, v in layer_options.items()))
+        s = self._syntheses.get(key)
+        if s is None:
+            if up is not None and layer_options.get("robust", True) \
+                    and "body_height" not in layer_options and self.motion.n_frames:
+                from .metrics import body_height
+                h = body_height(self.positions, up=up)  # along the axis asked for
+                if math.isfinite(h) and h > 0.0:
+                    layer_options["body_height"] = h
+            guard["up"] = self.up if up is None else up
+            s = self._syntheses[key] = Synthesis(self.motion, layers=self.layers(**layer_options),
+                                                 **guard)
+        return s
+
+    def denoise(self, **options):
+        """``(motion, GuardReport)``: :func:`denoise` of the input."""
+        return self.synthesis(**options).run(1.0)
+
+    def stylize(self, alpha, joints=None, *, root_alpha=None, **options):
+        """``(motion, GuardReport)``: :func:`stylize` of the input."""
+        return self.synthesis(**options).run(alpha, joints, root_alpha=root_alpha)
+
+    def jitter(self, motion=None) -> float:
+        """Jitter of the input (or of ``motion``, an output of this clip) in body heights per
+        s^3 (:func:`mlayer.metrics.jitter`); NaN under 4 frames or without a body height."""
+        from .metrics import jitter
+        m = self.motion if motion is None else motion
+        h = self.body_height
+        if m.n_frames < 4 or not (h > 0.0):
+            return math.nan
+        return jitter(self.positions if motion is None else m, fps=m.fps) / h
+
+    def foot_sliding(self, motion=None) -> float:
+        """Foot sliding (:func:`mlayer.metrics.foot_sliding`) during the input's
+        :attr:`contacts`, of the input or of ``motion`` (an output on the input's frames; one
+        on other frames is measured during its own contacts), in body heights per second; NaN
+        without contacts or a body height."""
+        from .metrics import foot_sliding
+        names, c = self.contacts
+        h = self.body_height
+        if not names or not (h > 0.0):
+            return math.nan
+        if motion is None:
+            pos, wrot = self.forward_kinematics
+            return foot_sliding(self.motion, c, names, up=self.up, pos=pos, wrot=wrot) / h
+        if motion.n_frames != c.shape[0]:
+            from .contacts import detect_contacts
+            names, c = detect_contacts(motion, up=self.up)
+            if not names:
+                return math.nan
+        return foot_sliding(motion, c, names, up=self.up) / h
+
+    def write(self, motion, path) -> None:
+        """Write an output of this clip to ``path`` as BVH, atomically (``mlayer.write_bvh``)."""
+        from .bvh import write_bvh
+        write_bvh(motion, path)

@@ -38,8 +38,9 @@ import sys
 import numpy as np
 
 from . import _arrays, quat
+from ._args import integer
 from .errors import InvalidArgumentError, MlayerIOError
-from .lgs import lgs
+from .smoothing import lgs
 from .manifold import GRBF, PCA
 from .markov import Markov
 from .motion import Motion, Skeleton
@@ -183,7 +184,7 @@ class PrimitiveModel:
         clip's units.
         """
         from .features import pose_features
-        from .kmeans import elbow, kmeans
+        from .clustering import elbow, kmeans
         clips = list(clips) if isinstance(clips, (list, tuple)) else [clips]
         if not clips:
             raise InvalidArgumentError("PrimitiveModel.fit: no clips")
@@ -518,14 +519,10 @@ class PrimitiveModel:
             raise InvalidArgumentError("generate: the model was written before generated motion "
                                        "had guards; fit it again, or generate without guards "
                                        "(guards=False, --no-guards)")
-        if isinstance(n_frames, bool) or not isinstance(n_frames, (int, np.integer)) \
-                or n_frames < 2:
-            raise InvalidArgumentError(f"generate: frames must be an integer >= 2, got "
-                                       f"{n_frames!r}")
+        n_frames = integer(n_frames, "generate: frames", 2)
         smooth = _non_negative(smooth, "generate: smooth")
         noise = _non_negative(noise, "generate: noise")
-        if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-            raise InvalidArgumentError(f"generate: seed must be an integer >= 0, got {seed!r}")
+        seed = integer(seed, "generate: seed", 0)
         # the mapping's outputs, their smoothing and the guards: a few copies of n_frames poses
         per_frame = getattr(self.grbf, "n_outputs_", 0) + 8 * self.skeleton.n_joints
         _arrays.check_memory(64.0 * n_frames * per_frame, f"generate: n_frames={n_frames}")

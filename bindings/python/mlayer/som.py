@@ -12,9 +12,10 @@ import numpy as np
 
 from . import _arrays
 from ._files import atomic_output
-from ._native import NativeHandle, ReadOnlyAttributes, ffi, lib
+from ._handles import NativeHandle, ReadOnlyAttributes
+from ._native import ffi, lib
 from .errors import InvalidArgumentError, check
-from .kmeans import _count, default_threads
+from ._args import default_threads, integer
 
 _MODES = {"batch": lib.MLR_SOM_BATCH, "online": lib.MLR_SOM_ONLINE}
 
@@ -26,7 +27,7 @@ class SOM(ReadOnlyAttributes, NativeHandle):
     default max(rows, cols)/2 and 1); alpha0/alpha1: learning rate of online training (0.5,
     0.01). cutoff: online training leaves a unit alone when its Gaussian factor is below it
     (1e-3; 0 updates every unit, as MiniSom does). n_threads: default
-    :func:`mlayer.kmeans.default_threads`; results do not depend on it.
+    :func:`mlayer.clustering.default_threads`; results do not depend on it.
 
     ``rows``, ``cols``, ``dim`` and ``n_threads`` are read-only. ``copy.copy``,
     ``copy.deepcopy`` and pickling make an independent map (its own C handle, through
@@ -40,9 +41,8 @@ class SOM(ReadOnlyAttributes, NativeHandle):
                  sigma0: float | None = None, sigma1: float = 1.0, alpha0: float = 0.5,
                  alpha1: float = 0.01, cutoff: float = 1e-3, n_threads: int | None = None,
                  _handle=None):
-        for v, nm in ((rows, "rows"), (cols, "cols"), (dim, "dim")):
-            if isinstance(v, bool) or int(v) != v or v < 0:
-                raise InvalidArgumentError(f"{nm} must be a non-negative integer, got {v!r}")
+        rows, cols, dim = (integer(v, nm, 0) for v, nm in ((rows, "rows"), (cols, "cols"),
+                                                            (dim, "dim")))
         diag = ffi.new("mlr_diag *")
         if _handle is None:
             out = ffi.new("mlr_som **")
@@ -51,11 +51,11 @@ class SOM(ReadOnlyAttributes, NativeHandle):
             _handle = out[0]
         self._h = ffi.gc(_handle, lib.mlr_som_destroy)
         self.rows, self.cols, self.dim = int(rows), int(cols), int(dim)
-        self.n_threads = default_threads() if n_threads is None else _count(n_threads,
-                                                                            "n_threads")
+        self.n_threads = default_threads() if n_threads is None else integer(n_threads,
+                                                                             "n_threads", 1)
         self._options = dict(seed=seed, sigma0=sigma0, sigma1=sigma1, alpha0=alpha0,
                              alpha1=alpha1, cutoff=cutoff, n_threads=self.n_threads)
-        opts = [(lib.MLR_SOM_SEED, _count(seed, "seed", 0)),
+        opts = [(lib.MLR_SOM_SEED, integer(seed, "seed", 0)),
                 (lib.MLR_SOM_N_THREADS, self.n_threads),
                 (lib.MLR_SOM_SIGMA1, sigma1), (lib.MLR_SOM_ALPHA0, alpha0),
                 (lib.MLR_SOM_ALPHA1, alpha1), (lib.MLR_SOM_CUTOFF, cutoff)]
@@ -87,7 +87,7 @@ class SOM(ReadOnlyAttributes, NativeHandle):
             raise InvalidArgumentError(f"mode must be 'batch' or 'online', got {mode!r}")
         diag = ffi.new("mlr_diag *")
         check(lib.mlr_som_train(self._live(), _arrays.ptr(X), X.shape[0], self.dim,
-                                _count(epochs, "epochs"), _MODES[mode], diag),
+                                integer(epochs, "epochs", 1), _MODES[mode], diag),
               "mlayer.SOM.train", diag)
         return self
 

@@ -40,7 +40,9 @@ from typing import NamedTuple
 import numpy as np
 
 from . import _arrays
-from ._native import NativeHandle, ReadOnlyAttributes, ffi, lib
+from ._args import integer
+from ._handles import NativeHandle, ReadOnlyAttributes
+from ._native import ffi, lib
 from .errors import Error, InvalidArgumentError, check
 from .motion import Motion, Skeleton
 
@@ -71,8 +73,7 @@ skeleton. A larger lag is taken as a mistake (frames given for seconds, say)."""
 
 
 def _as_lag(lag) -> int:
-    if isinstance(lag, bool) or not isinstance(lag, (int, np.integer)) or lag < 0:
-        raise InvalidArgumentError(f"Stream: lag must be an integer >= 0, got {lag!r}")
+    lag = integer(lag, "Stream: lag", 0)
     if lag > MAX_LAG:
         raise InvalidArgumentError(f"Stream: lag must be at most {MAX_LAG} frames "
                                    f"(mlayer.stream.MAX_LAG), got {lag!r}")
@@ -307,7 +308,7 @@ class Stream(ReadOnlyAttributes, NativeHandle):
         code = lib.mlr_stream_flush(self._live(), _arrays.ptr_out(x) if k else ffi.NULL, x.size, n)
         if code:
             self._check_status(code, "mlayer.Stream.flush")
-        return self._wrap(x, getattr(self, "_last_kind", "tuple"))
+        return self._wrap(x, self._last_kind)
 
     def reset(self) -> None:
         """Forget every pushed frame (the alphas are kept): the stream is as new."""

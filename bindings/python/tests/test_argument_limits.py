@@ -72,7 +72,7 @@ def test_resample_to_two_frames(mocap):
             out = fn()
             assert out.n_frames == 2, name
             assert np.isfinite(out.positions()).all(), name
-        with pytest.raises(mlayer.InvalidArgumentError, match="n_frames must be at least 2"):
+        with pytest.raises(mlayer.InvalidArgumentError, match="n_frames must be an integer >= 2"):
             mlayer.resample(m, n_frames=1)
 
 

@@ -80,14 +80,14 @@ def test_demo_on_the_bundled_clip(capsys, tmp_path):
     (["denoise", "{clip}", "--gamma", "4", "-o", "{out}"], "gamma"),
     (["denoise", "{bad}", "-o", "{out}"], "bad.bvh:"),
     (["denoise", "{missing}", "-o", "{out}"], "missing.bvh"),
-    (["render", "{clip}", "--size", "big", "-o", "{out}"], "--size"),
+    (["render", "{clip}", "--size", "big", "-o", "{gif}"], "--size"),
 ])
 def test_errors_are_one_line_and_leave_no_output(capsys, tmp_path, short_clip, argv, needle):
     bad = tmp_path / "bad.bvh"
     bad.write_text("HIERARCHY\nROOT a\n{\nOFFSET 0 0\n")
     out = tmp_path / "out.bvh"
     subs = {"{clip}": str(short_clip), "{out}": str(out), "{bad}": str(bad),
-            "{missing}": str(tmp_path / "missing.bvh")}
+            "{missing}": str(tmp_path / "missing.bvh"), "{gif}": str(tmp_path / "out.gif")}
     code, text, err = run(capsys, *[subs.get(a, a) for a in argv])
     assert code == 1
     assert len(err.strip().splitlines()) == 1 and needle in err, err

@@ -114,7 +114,7 @@ def test_timewarp(capsys, tmp_path):
     (["resample", SAMPLE, "--fps", "0"], "fps must be finite and > 0"),
     (["resample", SAMPLE, "--fps", "-30"], "fps must be finite and > 0"),
     (["resample", SAMPLE, "--fps", "0.0083333"], "beyond 100x"),
-    (["resample", SAMPLE, "--frames", "1"], "at least 2"),
+    (["resample", SAMPLE, "--frames", "1"], "an integer >= 2"),
     (["resample", SAMPLE, "--fps", "30", "--slerp", "--report"], "--report needs the LGS"),
     (["resample", "NOFILE.bvh", "--fps", "30"], "NOFILE.bvh"),
     (["timewarp", SAMPLE, "--strength", "20"], "strength must be in [0, 10]"),
@@ -164,7 +164,7 @@ def test_bad_maps_and_files_leave_nothing(capsys, tmp_path):
 
 def test_a_failed_write_leaves_no_figure(capsys, tmp_path, monkeypatch):
     """The figure and the BVH appear together or not at all."""
-    from mlayer import cli_resample
+    from mlayer.cli import retiming as cli_resample
 
     def fail(motion, path):
         raise mlayer.MlayerIOError(f"{path}: disk full")

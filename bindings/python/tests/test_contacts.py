@@ -171,7 +171,7 @@ def test_no_feet_message():
     with pytest.raises(mlayer.InvalidArgumentError, match=r"no feet found.*joints=.*root, a, b"):
         mlayer.detect_contacts(m)
     # stylize's default cleanup leaves such skeletons alone
-    assert C.keep_contacts(m, m) is m
+    assert mlayer.cleanup.keep_contacts(m, m) is m
 
 
 def test_bad_input(mocap):

@@ -143,7 +143,6 @@ def _motion_calls(tmp):
     import mlayer
     from mlayer import cleanup, contacts, features, generate_guards, layers, limits, metrics
     from mlayer import plausibility
-    from mlayer.resample import body_size
     feet = ["LeftFoot", "RightFoot"]
     return [
         ("positions", lambda m: m.positions()),
@@ -164,7 +163,6 @@ def _motion_calls(tmp):
         ("slerp_resample", lambda m: mlayer.slerp_resample(m, n_frames=20)),
         ("timewarp", lambda m: mlayer.timewarp(m, strength=0.5)),
         ("timewarp_speed", lambda m: mlayer.timewarp_speed(m)),
-        ("body_size", lambda m: body_size(m)),
         ("detect_contacts", lambda m: mlayer.detect_contacts(m)),
         ("find_feet", lambda m: contacts.find_feet(m)),
         ("contact_positions", lambda m: contacts.contact_positions(m, feet)),

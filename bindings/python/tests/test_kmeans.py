@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import mlayer
-from mlayer.kmeans import elbow_point, predict
+from mlayer.clustering import elbow_point, predict
 
 sklearn_cluster = pytest.importorskip("sklearn.cluster")
 

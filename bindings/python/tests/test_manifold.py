@@ -337,7 +337,7 @@ def test_bad_input_messages(rng):
         (lambda: GaussianMixture(2, init=X[:2]).fit(X).predict(np.zeros((3, 5))),
          "dimension mismatch"),
         (lambda: PCA(2).fit(X).transform(np.zeros((3, 4))), "dimension mismatch"),
-        (lambda: GRBF(lattice=(0, 15)), "at least 1 x 1"),
+        (lambda: GRBF(lattice=(0, 15)), "lattice rows must be an integer >= 1"),
         (lambda: GRBF(lattice=(15,)), "two integers"),
         (lambda: GRBF(lattice=(3, 3)).fit(X, X[:5]), "10 points but 5 rows"),
         (lambda: GRBF(lattice=(5, 5)).fit(X, X), "underdetermined"),

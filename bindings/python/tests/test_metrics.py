@@ -55,7 +55,7 @@ def test_jitter_hand_made():
 
 
 def test_units_are_guessed_from_the_body_height_or_given(mocap):
-    from mlayer.metrics import length_unit
+    from mlayer.units import length_unit
     assert length_unit(1.7) == "m" and length_unit(170.0) == "cm" and length_unit(1700.0) == "mm"
     assert length_unit(24.0) is None and length_unit(0.01) is None  # CMU's ~24 units: unclear
     lafan = mlayer.read_bvh(mocap / "lafan1_clip_a.bvh")

@@ -175,3 +175,65 @@ def test_nan_alpha_is_refused(mocap):
         mlayer.stylize(m, float("nan"))
     with pytest.raises(mlayer.InvalidArgumentError, match="alpha"):
         mlayer.stylize(m, 2.0, {"Left*": float("inf")})
+
+
+def _count_fk(monkeypatch, inputs):
+    """Count Motion._fk passes: (over the given motions' frames, over anything else)."""
+    from mlayer import motion as M
+    counts = {"input": 0, "other": 0}
+    orig = M.Motion._fk
+
+    def counting(self, want_rot):
+        same = any(self.rot is m.rot for m in inputs)
+        counts["input" if same else "other"] += 1
+        return orig(self, want_rot)
+    monkeypatch.setattr(M.Motion, "_fk", counting)
+    return counts
+
+
+def test_a_clip_computes_the_input_fk_once(mocap, monkeypatch):
+    """One Clip: the up axis, body height, decomposition's gate, contacts, jitter and sliding
+    of the input, and a stylize and a denoise, from one forward-kinematics pass of the input;
+    the results are those of the separate functions."""
+    m = _read(mocap, "lafan1_clip_a.bvh", 600)
+    counts = _count_fk(monkeypatch, [m])
+    clip = mlayer.pipeline.Clip(m)
+    out, rep = clip.stylize(2.0)
+    den, _ = clip.denoise()
+    figures = (clip.up, clip.body_height, clip.jitter(), clip.foot_sliding())
+    names, c = clip.contacts
+    assert counts == {"input": 1, "other": 0}
+    monkeypatch.undo()
+    assert figures[0] == m.up_axis
+    assert figures[1] == body_height(m)
+    assert figures[2] == pytest.approx(mlayer.metrics.jitter(m, fps=m.fps) / body_height(m),
+                                       rel=1e-12)
+    n2, c2 = mlayer.detect_contacts(m)
+    assert names == n2 and np.array_equal(c, c2)
+    assert figures[3] == pytest.approx(mlayer.metrics.foot_sliding(m, c2, n2) / body_height(m),
+                                       rel=1e-12)
+    ref = mlayer.stylize(m, 2.0)
+    assert np.array_equal(out.rot, ref.rot) and np.array_equal(out.root_pos, ref.root_pos)
+    assert np.array_equal(den.rot, mlayer.denoise(m).rot)
+    # one decomposition serves both (same layer options); other guard options share it too
+    assert clip.synthesis().layers is clip.synthesis(keep_contacts=False).layers
+    assert clip.synthesis(gamma=2.0).layers is not clip.synthesis().layers
+
+
+def test_stylize_runs_one_python_fk_pass_over_the_input(mocap, monkeypatch):
+    m = _read(mocap, "cmu_01_01_playground_jumps.bvh", 600)
+    counts = _count_fk(monkeypatch, [m])
+    mlayer.stylize(m, 2.0)
+    assert counts["input"] == 1
+
+
+def test_up_axis_is_detected_once_and_kept(mocap, monkeypatch):
+    m = _read(mocap, "lafan1_clip_a.bvh", 300)
+    counts = _count_fk(monkeypatch, [m])
+    ups = {m.up_axis for _ in range(3)}
+    assert ups == {"y"} and counts["input"] == 1
+    m.up_axis = None          # detect again
+    assert m.up_axis == "y" and counts["input"] == 2
+    m.rot = m.rot.copy()      # new frames: detect again
+    assert m.up_axis == "y" and counts["input"] == 3
+    assert m.up_axis == "y" and counts == {"input": 3, "other": 0}

@@ -6,7 +6,7 @@ from scipy.spatial.transform import Rotation, Slerp
 
 import mlayer
 from mlayer import quat
-from mlayer.resample import body_size
+from mlayer.metrics import body_height
 
 # converter-inserted T-pose and blend frames at the start of the CMU clips (mocap README)
 SKIP = {"cmu_01_01_playground_jumps.bvh": 1, "cmu_131_01_mj_style_walk.bvh": 0,
@@ -182,10 +182,10 @@ def test_per_joint_translations_are_resampled(mocap):
     for p in range(21):
         for c in range(3):
             ref = np.interp(t[inside], np.arange(len(out)), out.trans[:, p, c])
-            assert rms(ref - m.trans[inside, p, c]) < 0.002 * body_size(m)
+            assert rms(ref - m.trans[inside, p, c]) < 0.002 * body_height(m)
     back = mlayer.resample(out, fps=m.fps)
     assert len(m) - 2 <= len(back) <= len(m)
-    assert mlayer.metrics.mpjpe(m[:len(back)], back) < 0.005 * body_size(m)
+    assert mlayer.metrics.mpjpe(m[:len(back)], back) < 0.005 * body_height(m)
 
 
 # ---- the SLERP baseline against scipy --------------------------------------------------------
@@ -294,7 +294,7 @@ def test_round_trip_120_30_120_on_real_clips(mocap, name):
     bound leaves 1.5x margin over the worst clip (salsa spins). The SLERP round trip
     (decimation, then interpolation) is measured alongside and is of the same order."""
     m = load(mocap, name)
-    size = body_size(m)
+    size = body_height(m)
     m30 = mlayer.resample(m, fps=30)
     assert 0 <= (len(m) - 1) * 30 / m.fps - (len(m30) - 1) < 1
     back = mlayer.resample(m30, fps=m.fps)  # the exact grid: frame k at k / fps both ways
@@ -435,7 +435,7 @@ def test_bad_input_gives_clear_errors():
             mlayer.resample(m, fps=bad)
         with pytest.raises(E, match="fps must be finite and > 0"):
             mlayer.slerp_resample(m, fps=bad)
-    with pytest.raises(E, match="at least 2"):
+    with pytest.raises(E, match="n_frames must be an integer >= 2"):
         mlayer.resample(m, n_frames=1)
     with pytest.raises(E, match="must be an integer"):
         mlayer.resample(m, n_frames=20.5)
@@ -533,7 +533,7 @@ def test_retime_then_stylize_or_both_in_one_call():
     b = mlayer.resample(m, fps=30, style={"alpha": 2.0, "keep_contacts": False},
                         keep_contacts=False)
     moved = mlayer.metrics.mpjpe(a, plain)
-    assert moved > 0.05 * body_size(m)  # the style really is exaggerated
+    assert moved > 0.05 * body_height(m)  # the style really is exaggerated
     assert mlayer.metrics.mpjpe(a, b) < 0.05 * moved
     # time warps compose the same way; a dict passes stylize's other arguments
     c = mlayer.timewarp(m, strength=1.0, n_frames=1200, style={"alpha": 0.5, "joints": {"*": 0.5}},

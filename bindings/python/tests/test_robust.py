@@ -7,7 +7,7 @@ import pytest
 import mlayer
 from mlayer import metrics
 from mlayer.cli import main
-from mlayer.cli_layers import frame_ranges
+from mlayer.cli.layers import frame_ranges
 from mlayer.errors import InvalidArgumentError
 
 

@@ -60,8 +60,7 @@ def main(jobs_path, results_path) -> int:
     if fork:
         import matplotlib
         matplotlib.use("Agg")
-        from mlayer import cli
-        cli._load_subcommands()  # every subcommand module imported once, before the forks
+        from mlayer import cli  # noqa: F401  every command module imported once, before the forks
     results = {}
     for job in jobs:
         t0 = time.perf_counter()

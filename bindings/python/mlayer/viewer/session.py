@@ -29,11 +29,10 @@ import numpy as np
 from .. import quat
 from ..bvh import read_bvh, write_bvh_string
 from ..errors import Error, InvalidArgumentError
-from ..layers import decompose
-from ..pipeline import Synthesis
-from ..metrics import body_height, foot_sliding, jitter
+from .. import pipeline
+from ..metrics import foot_sliding, jitter
 from ..render import body_side
-from ..resample import frames_at_rate, resample, timewarp
+from ..retiming import frames_at_rate, resample, timewarp
 
 __all__ = ["Clip", "load_clips", "body_parts", "parse_params", "ParamError", "PARAMS",
            "PART_NAMES", "ResultCache", "json_bytes", "DEFAULT_MAX_VALUES",
@@ -234,12 +233,13 @@ def _b64(a, dtype) -> str:
     return base64.b64encode(np.ascontiguousarray(a, dtype=dtype).tobytes()).decode("ascii")
 
 
-def _points(m) -> np.ndarray:
-    """(N, J + E, 3): joint positions, then End Site positions (the figure's points)."""
-    pos = m.positions()
+def _points(m, fk=None) -> np.ndarray:
+    """(N, J + E, 3): joint positions, then End Site positions (the figure's points), from one
+    forward-kinematics pass (or from fk, the motion's (positions, world rotations))."""
+    pos, wrot = m.forward_kinematics() if fk is None else fk
     if m.skeleton.n_end_sites == 0:
         return pos
-    return np.concatenate([pos, m.end_site_positions()], axis=1)
+    return np.concatenate([pos, m._end_sites(pos, wrot)], axis=1)
 
 
 def _angle_deg(q) -> np.ndarray:
@@ -300,14 +300,14 @@ class Clip:
     def _ensure(self):
         if self._layers is None:
             m = self.motion
+            clip = pipeline.Clip(m, name=self.path)
             t0 = time.perf_counter()
-            self._layers = decompose(m)
+            self._layers = clip.layers()
             self._decompose_ms = 1e3 * (time.perf_counter() - t0)
-            self._height = body_height(m) or 1.0
+            self._height = clip.body_height or 1.0
             # the guards with and without the foot cleanup (contacts and floor), sharing the
             # layers; the joint limits apply in both when some alpha > 1
-            self._synth = {on: Synthesis(m, layers=self._layers, keep_contacts=on,
-                                         floor="auto" if on else None)
+            self._synth = {on: clip.synthesis(keep_contacts=on, floor="auto" if on else None)
                            for on in (True, False)}
             self._contacts = self._synth[True].contacts()
             names, c = self._contacts
@@ -315,13 +315,17 @@ class Clip:
             ctrl = np.asarray(self._layers.control)
             self._plot_joint = int(np.argmax(np.linalg.norm(ctrl[:, 1:, :], axis=-1)
                                              .std(axis=0)))
-            self._original_metrics = self._metrics(m, c, names)
+            self._fk = clip.forward_kinematics
+            self._original_metrics = self._metrics(m, c, names, self._fk)
         return self._layers
 
-    def _metrics(self, m, c, names) -> dict:
+    def _metrics(self, m, c, names, fk=None) -> dict:
+        """Jitter and foot sliding of m in body heights, from one forward-kinematics pass (or
+        from fk, m's (positions, world rotations))."""
         h = self._height
-        slide = foot_sliding(m, c, names) / h if names else float("nan")
-        return {"jitter": jitter(m, fps=m.fps) / h,
+        pos, wrot = m.forward_kinematics() if fk is None else fk
+        slide = foot_sliding(m, c, names, pos=pos, wrot=wrot) / h if names else float("nan")
+        return {"jitter": jitter(pos, fps=m.fps) / h,
                 "sliding": None if not math.isfinite(slide) else slide}
 
     def warm(self) -> None:
@@ -338,7 +342,7 @@ class Clip:
                 m = self.motion
                 sk = m.skeleton
                 names, c = self._contacts
-                pts = _points(m)
+                pts = _points(m, self._fk)
                 parents = list(map(int, sk.parents)) + list(map(int, sk.end_site_parents))
                 sides = [body_side(n) for n in m.joint_names]
                 sides += [sides[p] for p in map(int, sk.end_site_parents)]
@@ -349,7 +353,8 @@ class Clip:
                     "parts": self._parts, "n_points": pts.shape[1],
                     "positions": _b64(pts, np.float32),
                     "contact_names": names,
-                    "contact_points": _b64(self._contact_points(m, names), np.float32),
+                    "contact_points": _b64(self._contact_points(m, names, self._fk),
+                                             np.float32),
                     "contacts": _b64(c, np.uint8),
                     "metrics": self._original_metrics,
                     "decompose_ms": self._decompose_ms,
@@ -365,11 +370,12 @@ class Clip:
                 self._original_body = body
         return self._original_body
 
-    def _contact_points(self, m, names) -> np.ndarray:
+    def _contact_points(self, m, names, fk) -> np.ndarray:
+        """(N, C, 3) positions of the contact points of m, from its forward kinematics fk."""
         if not names:
             return np.zeros((m.n_frames, 0, 3))
         from ..contacts import contact_positions
-        return contact_positions(m, names)
+        return contact_positions(m, names, *fk)
 
     @property
     def n_points(self) -> int:
@@ -498,13 +504,14 @@ class Clip:
         if j >= m.n_joints:
             raise ParamError(f"joint must be below {m.n_joints} for {self.name}, got {j}")
         L = self._layers
+        fk = out.forward_kinematics()
         io, ip = _decimate(m.n_frames), _decimate(out.n_frames)
         q_ctrl = quat.mul(L.base.rot[:, j], quat.exp(np.asarray(L.control)[:, 1 + j]))
         return {
             "clip": self.index, "frames": out.n_frames, "fps": out.fps,
             "duration": out.duration, "n_points": m.n_joints + m.skeleton.n_end_sites,
-            "positions": _b64(_points(out), np.float32),
-            "contact_points": _b64(self._contact_points(out, names), np.float32),
+            "positions": _b64(_points(out, fk), np.float32),
+            "contact_points": _b64(self._contact_points(out, names, fk), np.float32),
             "contacts": _b64(info["contacts"], np.uint8),
             "source_frame": _b64(src, np.float32),
             "metrics": info["metrics"], "compute_ms": info["compute_ms"],

@@ -15,13 +15,13 @@ import os
 
 import numpy as np
 
-from ._files import atomic_output
-from .bvh import read_bvh, write_bvh
-from .cli import command
-from .cli_layers import _contact_option
-from .errors import InvalidArgumentError, MlayerIOError
-from .pipeline import stylize
-from .resample import (resample, slerp_resample, timewarp, timewarp_map, timewarp_speed)
+from .._files import atomic_output
+from ..bvh import read_bvh, write_bvh
+from ..errors import InvalidArgumentError
+from ..pipeline import stylize
+from ..retiming import (resample, slerp_resample, timewarp, timewarp_map, timewarp_speed)
+from ._command import BVH, FIGURE, command
+from .layers import _contact_option
 
 
 def _pyplot():
@@ -41,15 +41,6 @@ def _int(text: str) -> int:
     except ValueError:
         raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
     return v
-
-
-def _check_dirs(*paths) -> None:
-    """Fail before any work when an output's directory does not exist."""
-    for p in paths:
-        if isinstance(p, str):
-            d = os.path.dirname(os.path.abspath(p))
-            if not os.path.isdir(d):
-                raise MlayerIOError(f"{p}: directory {d} does not exist")
 
 
 def _cli_flags(run):
@@ -150,12 +141,13 @@ def _style(args):
     return {"alpha": args.style, "keep_contacts": False}
 
 
-@command("resample", "resample a BVH file to a new frame rate or frame count (LGS)")
+@command("resample", "resample a BVH file to a new frame rate or frame count (LGS)",
+         arguments=_resample_arguments, reads_clips=True, inputs=("input",),
+         outputs={"output": BVH, "report": FIGURE})
 @_cli_flags
-def run_resample(args) -> int:
+def cmd_resample(args) -> int:
     if args.report is not None and args.slerp:
         raise InvalidArgumentError("--report needs the LGS: --slerp has no posterior variance")
-    _check_dirs(args.output, args.report)
     m = read_bvh(args.input)
     kw = dict(fps=args.fps, n_frames=args.frames, allow_extreme=args.allow_extreme)
     if args.slerp:
@@ -182,9 +174,6 @@ def run_resample(args) -> int:
     print(f"{args.output}: {out.n_frames} frames at {out.fps:.6g} fps ({method}; from "
           f"{m.n_frames} frames at {m.fps:.6g} fps)")
     return 0
-
-
-run_resample.arguments = _resample_arguments
 
 
 # ---- mlayer timewarp -------------------------------------------------------------------------
@@ -250,10 +239,11 @@ def _timewarp_arguments(p) -> None:
     _contact_option(p)
 
 
-@command("timewarp", "slow down large motion and speed up calm motion (automatic time warp)")
+@command("timewarp", "slow down large motion and speed up calm motion (automatic time warp)",
+         arguments=_timewarp_arguments, reads_clips=True, inputs=("input", "map"),
+         outputs={"output": BVH, "plot": FIGURE})
 @_cli_flags
-def run_timewarp(args) -> int:
-    _check_dirs(args.output, args.plot)
+def cmd_timewarp(args) -> int:
     m = read_bvh(args.input)
     if args.map is not None:
         t_user = _load_map(args.map)
@@ -280,6 +270,3 @@ def run_timewarp(args) -> int:
           f"{rate.min():.3g} to {rate.max():.3g} output frames per input frame, slowest at "
           f"input frame {int(np.argmax(rate)) + 1} ({(np.argmax(rate) + 1) * m.frame_time:.2f} s)")
     return 0
-
-
-run_timewarp.arguments = _timewarp_arguments

@@ -30,12 +30,13 @@ import math
 import numpy as np
 
 from . import _arrays
+from ._args import integer
 from ._native import ffi, lib
 from .errors import InvalidArgumentError, check
 from .motion import Motion
 
 __all__ = ["resample", "slerp_resample", "timewarp", "timewarp_map", "timewarp_speed",
-           "body_size", "MAX_FACTOR"]
+           "MAX_FACTOR"]
 
 #: The largest resampling factor (either way) accepted without ``allow_extreme=True``.
 MAX_FACTOR = 100.0
@@ -85,11 +86,7 @@ def _out_memory(motion: Motion, n_out: int, name: str, where: str) -> int:
 
 
 def _frame_count(n, name: str, where: str) -> int:
-    if isinstance(n, bool) or not isinstance(n, (int, np.integer)):
-        raise InvalidArgumentError(f"{where}: {name} must be an integer, got {n!r}")
-    if n < 2:
-        raise InvalidArgumentError(f"{where}: {name} must be at least 2, got {n}")
-    return int(n)
+    return integer(n, f"{where}: {name}", 2)
 
 
 def _target(motion: Motion, fps, n_frames, allow_extreme: bool, where: str):
@@ -178,24 +175,29 @@ def _time_map(time_map, N: int, n_frames, allow_extreme: bool, where: str):
     return t, n_out
 
 
-def _stylized(motion: Motion, style, where: str) -> Motion:
-    """motion with its style scaled first (mlayer.stylize), when style is given: an alpha, or a
-    dict of stylize's arguments ({"alpha": 2, "joints": {"Left*": 3}, ...})."""
+def _stylized(motion: Motion, style, where: str):
+    """``(clip, motion)``: the input as a :class:`mlayer.pipeline.Clip` (its forward kinematics
+    and contacts computed once for the style and the contacts' retiming) and the motion with
+    its style scaled first (:meth:`Clip.stylize`), when style is given: an alpha, or a dict of
+    stylize's arguments ({"alpha": 2, "joints": {"Left*": 3}, ...})."""
+    from .pipeline import Clip
+    clip = Clip(motion)
     if style is None:
-        return motion
-    from .pipeline import stylize
+        return clip, motion
     if isinstance(style, dict):
         kw = dict(style)
         if "alpha" not in kw:
             raise InvalidArgumentError(f"{where}: a style dict needs an 'alpha' entry")
-        return stylize(motion, kw.pop("alpha"), **kw)
+        alpha = kw.pop("alpha")
+        return clip, clip.stylize(alpha, kw.pop("joints", None),
+                                  root_alpha=kw.pop("root_alpha", None), **kw)[0]
     try:
         alpha = float(style)
     except (TypeError, ValueError):
         raise InvalidArgumentError(
             f"{where}: style must be an alpha or a dict of stylize arguments, got {style!r}") \
             from None
-    return stylize(motion, alpha)
+    return clip, clip.stylize(alpha)[0]
 
 
 def _solve(motion: Motion, t, n_out: int, frame_time: float, lam: float, sigma: float,
@@ -256,7 +258,7 @@ def resample(motion: Motion, *, fps: float | None = None, n_frames: int | None =
         other order is ``mlayer.stylize(mlayer.resample(motion, ...), alpha)``.
     keep_contacts : bool
         Pin the feet during the contacts detected on ``motion``, carried to the new frames
-        (:func:`mlayer.contacts.keep_contacts_retimed`, following the SLERP resampling of
+        (:func:`mlayer.cleanup.keep_contacts_retimed`, following the SLERP resampling of
         ``motion``); False skips it. Skeletons without recognisable feet are left as they are.
 
     Returns the new :class:`Motion` (same skeleton), or ``(motion, var)`` with ``return_var``.
@@ -267,7 +269,8 @@ def resample(motion: Motion, *, fps: float | None = None, n_frames: int | None =
     motion = _motion(motion, where)
     n_out, frame_time, t = _target(motion, fps, n_frames, allow_extreme, where)
     lam, sigma = _lam_sigma(lam, sigma, where)
-    original, motion = motion, _stylized(motion, style, where)
+    clip, motion = _stylized(motion, style, where)
+    original = clip.motion
     res = _solve(motion, t, n_out, frame_time, lam, sigma,
                  _flags(allow_extreme, nearest_sign) | _grid_flags(t), return_var, where)
     if not keep_contacts:
@@ -278,15 +281,19 @@ def resample(motion: Motion, *, fps: float | None = None, n_frames: int | None =
     else:  # the input frame (fractional) at each output frame's time
         src = np.arange(n_out) * (original.fps / fps)
         ref = slerp_resample(original, fps=fps, allow_extreme=allow_extreme)
-    return _pinned(original, res, ref, src)
+    return _pinned(clip, res, ref, src)
 
 
-def _pinned(original, res, reference, source_frames):
-    """res (a motion, or a tuple starting with one) with the feet pinned (keep_contacts)."""
-    from .contacts import keep_contacts_retimed
+def _pinned(clip, res, reference, source_frames):
+    """res (a motion, or a tuple starting with one) with the feet pinned during the contacts
+    of the input (a :class:`mlayer.pipeline.Clip`), carried to the new frames."""
+    from .cleanup import keep_contacts_retimed
+    original = clip.motion
+    contacts = clip.contacts if original.n_frames >= 3 else ([], None)
     if isinstance(res, tuple):
-        return (keep_contacts_retimed(original, res[0], reference, source_frames), *res[1:])
-    return keep_contacts_retimed(original, res, reference, source_frames)
+        return (keep_contacts_retimed(original, res[0], reference, source_frames,
+                                      contacts=contacts), *res[1:])
+    return keep_contacts_retimed(original, res, reference, source_frames, contacts=contacts)
 
 
 def slerp_resample(motion: Motion, *, fps: float | None = None, n_frames: int | None = None,
@@ -324,28 +331,16 @@ def slerp_resample(motion: Motion, *, fps: float | None = None, n_frames: int | 
     return Motion(motion.skeleton, frame_time, root_out, rot_out, trans_out, _trusted=True)
 
 
-def body_size(motion: Motion) -> float:
-    """The size of the body in the motion's length units: the median over (up to 256 evenly
-    spaced) frames of the largest side of the box around the joints. For a standing person this
-    is the height; it needs no knowledge of the units or of the up axis. 1.0 when the joints
-    have no extent (e.g. a single joint)."""
-    N = motion.n_frames
-    if N == 0:
-        raise InvalidArgumentError("body_size: the motion has no frames")
-    idx = np.unique(np.linspace(0, N - 1, min(N, 256)).round().astype(np.int64))
-    sub = Motion(motion.skeleton, motion.frame_time, motion.root_pos[idx], motion.rot[idx],
-                 motion.trans[idx], _trusted=True)
-    p = sub.positions()
-    ext = (p.max(axis=1) - p.min(axis=1)).max(axis=1)
-    s = float(np.median(ext))
-    return s if s > 0 and math.isfinite(s) else 1.0
-
-
 def _speed_args(motion: Motion, root_weight: float, joint_weights, where: str):
     rw = float(root_weight)
     if not (math.isfinite(rw) and rw >= 0):
         raise InvalidArgumentError(f"{where}: root_weight must be finite and >= 0, got {rw:g}")
-    root_w = rw / body_size(motion) if rw > 0 else 0.0
+    if rw > 0:
+        from .metrics import body_height  # the one body size (C mlr_rig_body_height)
+        h = body_height(motion) if motion.n_frames else 0.0
+        root_w = rw / (h if h > 0 and math.isfinite(h) else 1.0)
+    else:
+        root_w = 0.0
     if joint_weights is None:
         return root_w, None
     w = _arrays.as_f64(joint_weights, "joint_weights", ndim=1)
@@ -359,7 +354,8 @@ def timewarp_speed(motion: Motion, *, root_weight: float = 1.0, joint_weights=No
     """Per-frame motion magnitude that drives the automatic time warp, shape ``(N,)``:
     the (weighted) mean rotation angle of the joints' local rotation change per frame
     (radians, central differences) plus ``root_weight`` times the root's displacement per
-    frame measured in body sizes (:func:`body_size`), so no length unit is involved.
+    frame measured in body heights (:func:`mlayer.metrics.body_height`; 1 length unit for a
+    body with no height), so no length unit is involved.
     ``joint_weights``: J weights >= 0 (default equal)."""
     where = "mlayer.timewarp_speed"
     motion = _motion(motion, where)
@@ -437,7 +433,7 @@ def timewarp(motion: Motion, *, strength: float = 1.0, n_frames: int | None = No
     The first and the last frame stay put; boundaries between slow and fast intervals are
     eased, so there are no jumps. ``keep_contacts`` (default True) pins the feet during the
     contacts detected on ``motion``, carried through the time map
-    (:func:`mlayer.contacts.keep_contacts_retimed`, following the SLERP retiming of ``motion``).
+    (:func:`mlayer.cleanup.keep_contacts_retimed`, following the SLERP retiming of ``motion``).
     """
     where = "mlayer.timewarp"
     motion = _motion(motion, where)
@@ -450,13 +446,14 @@ def timewarp(motion: Motion, *, strength: float = 1.0, n_frames: int | None = No
         n_out = int(round(t[-1])) + 1
     _out_memory(motion, n_out, "time_map / n_frames", where)
     lam, sigma = _lam_sigma(lam, sigma, where)
-    original, motion = motion, _stylized(motion, style, where)
+    clip, motion = _stylized(motion, style, where)
+    original = clip.motion
     res = _solve(motion, t, n_out, motion.frame_time, lam, sigma, _flags(allow_extreme),
                  return_var, where)
     if keep_contacts:
         ref = slerp_resample(original, time_map=t, allow_extreme=allow_extreme)
         src = np.interp(np.arange(n_out), t, np.arange(original.n_frames))
-        res = _pinned(original, res, ref, src)
+        res = _pinned(clip, res, ref, src)
     if not return_map:
         return res
     return (*res, t) if return_var else (res, t)

@@ -17,10 +17,10 @@ import sys
 
 import numpy as np
 
-from .bvh import read_bvh, write_bvh
-from .cli import command
-from .errors import InvalidArgumentError
-from .metrics import body_height, jitter
+from ..bvh import read_bvh
+from ..errors import InvalidArgumentError
+from ..pipeline import Clip
+from ._command import BVH, FIGURE, NPZ, command
 
 
 def _contact_option(p) -> None:
@@ -64,18 +64,17 @@ def _outlier_note(layers) -> None:
               f"(frames {shown})", file=sys.stderr)
 
 
-def _synthesis(args, motion):
-    """The input's layers and guards (mlayer.pipeline.Synthesis) as the options say."""
-    from .pipeline import Synthesis
-    return Synthesis(motion, limits=None if getattr(args, "no_limits", False) else "auto",
-                     floor=None if getattr(args, "no_floor", False) else "auto",
-                     keep_contacts=not getattr(args, "no_contacts", False),
-                     gamma=args.gamma, lam_c=args.lam_c, sigma_c=args.sigma_c,
-                     robust=not args.no_robust)
+def _synthesis_options(args) -> dict:
+    """The options of mlayer.pipeline.Clip.synthesis that the command line gives."""
+    return dict(limits=None if getattr(args, "no_limits", False) else "auto",
+                floor=None if getattr(args, "no_floor", False) else "auto",
+                keep_contacts=not getattr(args, "no_contacts", False),
+                gamma=args.gamma, lam_c=args.lam_c, sigma_c=args.sigma_c,
+                robust=not args.no_robust)
 
 
 def _decompose(args, motion):
-    from .layers import decompose
+    from ..layers import decompose
     return decompose(motion, gamma=args.gamma, lam_c=args.lam_c, sigma_c=args.sigma_c,
                      robust=not args.no_robust)
 
@@ -107,20 +106,19 @@ def parse_joint_alphas(items) -> dict:
     return out
 
 
-def _jitter_line(before, after) -> str:
+def _jitter_line(clip, after) -> str:
     """The jitter before and after in body heights / s^3; 'n/a' for clips under 4 frames, no
     percentage for a static clip (jitter 0)."""
-    if before.n_frames < 4 or after.n_frames < 4:
+    if clip.motion.n_frames < 4 or after.n_frames < 4:
         return "  jitter n/a (fewer than 4 frames)"
-    h = body_height(before)
-    h = h if h > 0 else 1.0
-    jb, ja = jitter(before, fps=before.fps) / h, jitter(after, fps=after.fps) / h
+    jb, ja = clip.jitter(), clip.jitter(after)
     change = f" ({100 * (ja / jb - 1):+.1f}%)" if jb > 0 else " (the input does not move)"
     return f"  jitter {jb:.3g} -> {ja:.3g} body heights / s^3{change}"
 
 
-def _summary(name, before, after, layers=None) -> None:
-    jitter_line = _jitter_line(before, after)
+def _summary(name, clip, after, layers=None) -> None:
+    before = clip.motion
+    jitter_line = _jitter_line(clip, after)
     print(f"{name}: {before.n_frames} frames at {before.fps:g} fps, {before.n_joints} joints")
     if layers is not None:
         lam_c = np.asarray(layers.lam_c)
@@ -139,20 +137,19 @@ def _arguments_denoise(p) -> None:
     _contact_option(p)
 
 
-@command("denoise", "smooth a clip: the base and controllable layers, without the residual")
-def _cmd_denoise(args) -> int:
-    m = read_bvh(args.input)
-    s = _synthesis(args, m)
+@command("denoise", "smooth a clip: the base and controllable layers, without the residual",
+         arguments=_arguments_denoise, reads_clips=True, inputs=("input",),
+         outputs={"output": BVH})
+def cmd_denoise(args) -> int:
+    clip = Clip.read(args.input)
+    s = clip.synthesis(**_synthesis_options(args))
     out, report = s.run(1.0)
-    _summary(args.input, m, out, s.layers)
-    write_bvh(out, args.output)
+    _summary(args.input, clip, out, s.layers)
+    clip.write(out, args.output)
     _guard_summary(report)
     print(f"  wrote {args.output}")
     _outlier_note(s.layers)
     return 0
-
-
-_cmd_denoise.arguments = _arguments_denoise
 
 
 def _arguments_stylize(p) -> None:
@@ -168,24 +165,23 @@ def _arguments_stylize(p) -> None:
     _contact_option(p)
 
 
-@command("stylize", "exaggerate or flatten a clip's style by scaling its controllable layer")
-def _cmd_stylize(args) -> int:
+@command("stylize", "exaggerate or flatten a clip's style by scaling its controllable layer",
+         arguments=_arguments_stylize, reads_clips=True, inputs=("input",),
+         outputs={"output": BVH})
+def cmd_stylize(args) -> int:
     if not math.isfinite(args.alpha):
         raise InvalidArgumentError(f"--alpha must be finite, got {args.alpha}")
     joints = parse_joint_alphas(args.joint)
-    m = read_bvh(args.input)
-    s = _synthesis(args, m)
+    clip = Clip.read(args.input)
+    s = clip.synthesis(**_synthesis_options(args))
     out, report = s.run(args.alpha, joints or None)
-    _summary(args.input, m, out, s.layers)
-    write_bvh(out, args.output)
+    _summary(args.input, clip, out, s.layers)
+    clip.write(out, args.output)
     _guard_summary(report)
     print(f"  alpha {args.alpha:g}" + "".join(f", {k}={v:g}" for k, v in joints.items()))
     print(f"  wrote {args.output}")
     _outlier_note(s.layers)
     return 0
-
-
-_cmd_stylize.arguments = _arguments_stylize
 
 
 def _arguments_layers(p) -> None:
@@ -197,8 +193,10 @@ def _arguments_layers(p) -> None:
     _layer_options(p)
 
 
-@command("layers", "decompose a clip into base, controllable and residual layers")
-def _cmd_layers(args) -> int:
+@command("layers", "decompose a clip into base, controllable and residual layers",
+         arguments=_arguments_layers, reads_clips=True, inputs=("input",),
+         outputs={"plot": FIGURE, "npz": NPZ})
+def cmd_layers(args) -> int:
     if not args.plot and not args.npz:
         print("mlayer layers: nothing to write; give --plot and/or --npz (showing the "
               "chosen parameters only)", file=sys.stderr)
@@ -218,12 +216,9 @@ def _cmd_layers(args) -> int:
         layers.save_npz(args.npz)
         print(f"wrote {args.npz}")
     if args.plot:
-        from .plot import plot_layers
+        from ..plot import plot_layers
         shown = plot_layers(m, layers, args.plot, joint=args.joint,
                             title=f"{args.input}: layers")
         print(f"wrote {args.plot} (root {'XYZ'[shown['root_axis']]}, joint {shown['joint']})")
     _outlier_note(layers)
     return 0
-
-
-_cmd_layers.arguments = _arguments_layers

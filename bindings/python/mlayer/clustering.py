@@ -6,43 +6,17 @@ columns of X, as in scikit-learn. Seeds drive mlayer's own generator, not NumPy'
 """
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass
 
 import numpy as np
 
 from . import _arrays
+from ._args import default_threads, integer
 from ._native import ffi, lib
 from .errors import InvalidArgumentError, check
 
 _ALGORITHMS = {"auto": lib.MLR_KMEANS_AUTO, "lloyd": lib.MLR_KMEANS_LLOYD,
                "hamerly": lib.MLR_KMEANS_HAMERLY}
-
-
-def default_threads() -> int:
-    """Threads used when none is asked for: the CPUs this process may run on (at most 64).
-    Results do not depend on the thread count."""
-    try:
-        n = len(os.sched_getaffinity(0))
-    except AttributeError:  # not on Linux
-        n = os.cpu_count() or 1
-    return max(1, min(64, n))
-
-
-def _count(v, name: str, lo: int = 1, hi: int | None = None) -> int:
-    try:
-        ok = not isinstance(v, bool) and int(v) == v and v >= lo and (hi is None or v <= hi)
-    except (TypeError, ValueError):
-        ok = False
-    if not ok:
-        bounds = f">= {lo}" if hi is None else f"in {lo} .. {hi}"
-        raise InvalidArgumentError(f"{name} must be an integer {bounds}, got {v!r}")
-    return int(v)
-
-
-def _c_threads(threads) -> int:
-    """A C function's thread count: None -> 0 (the library picks), else an int >= 1."""
-    return 0 if threads is None else _count(threads, "threads")
 
 
 @dataclass(frozen=True)
@@ -80,13 +54,13 @@ def kmeans(X, k: int, *, init="k-means++", n_init: int = 1, max_iter: int = 300,
     """
     X = _prepare_data(X)
     n, d = X.shape
-    k = _count(k, "k")
+    k = integer(k, "k", 1)
     if k > n:
         raise InvalidArgumentError(f"k = {k} exceeds the number of rows n = {n}")
     if algorithm not in _ALGORITHMS:
         raise InvalidArgumentError(f"algorithm must be one of {sorted(_ALGORITHMS)}, "
                                    f"got {algorithm!r}")
-    n_threads = default_threads() if n_threads is None else _count(n_threads, "n_threads")
+    n_threads = default_threads() if n_threads is None else integer(n_threads, "n_threads", 1)
     if isinstance(init, str):
         if init != "k-means++":
             raise InvalidArgumentError(f"init must be 'k-means++' or an array, got {init!r}")
@@ -100,10 +74,10 @@ def kmeans(X, k: int, *, init="k-means++", n_init: int = 1, max_iter: int = 300,
     check(lib.mlr_kmeans_create(k, d, ffi.NULL, out, diag), "mlayer.kmeans", diag)
     h = ffi.gc(out[0], lib.mlr_kmeans_destroy)
     try:
-        for key, v, nm in ((lib.MLR_KMEANS_MAX_ITER, _count(max_iter, "max_iter"), "max_iter"),
+        for key, v, nm in ((lib.MLR_KMEANS_MAX_ITER, integer(max_iter, "max_iter", 1), "max_iter"),
                            (lib.MLR_KMEANS_TOL, float(tol), "tol"),
-                           (lib.MLR_KMEANS_N_INIT, _count(n_init, "n_init"), "n_init"),
-                           (lib.MLR_KMEANS_SEED, _count(seed, "seed", 0), "seed"),
+                           (lib.MLR_KMEANS_N_INIT, integer(n_init, "n_init", 1), "n_init"),
+                           (lib.MLR_KMEANS_SEED, integer(seed, "seed", 0), "seed"),
                            (lib.MLR_KMEANS_N_THREADS, n_threads, "n_threads"),
                            (lib.MLR_KMEANS_ALGORITHM, _ALGORITHMS[algorithm], "algorithm")):
             check(lib.mlr_kmeans_set(h, key, float(v), diag), f"mlayer.kmeans ({nm})", diag)
@@ -132,17 +106,17 @@ def predict(centers, X) -> np.ndarray:
                                    f"of dimension {d}")
     out = ffi.new("mlr_kmeans **")
     diag = ffi.new("mlr_diag *")
-    check(lib.mlr_kmeans_create(k, d, ffi.NULL, out, diag), "mlayer.kmeans.predict", diag)
+    check(lib.mlr_kmeans_create(k, d, ffi.NULL, out, diag), "mlayer.clustering.predict", diag)
     h = ffi.gc(out[0], lib.mlr_kmeans_destroy)
     try:
-        check(lib.mlr_kmeans_set_centers(h, _arrays.ptr(C), d, diag), "mlayer.kmeans.predict",
+        check(lib.mlr_kmeans_set_centers(h, _arrays.ptr(C), d, diag), "mlayer.clustering.predict",
               diag)
         labels = np.empty(X.shape[0], dtype=np.int32)
         if X.shape[0]:
             check(lib.mlr_kmeans_predict(
                 h, _arrays.ptr(X), X.shape[0], d,
                 ffi.cast("int32_t *", ffi.from_buffer(labels, require_writable=True)),
-                ffi.NULL, diag), "mlayer.kmeans.predict", diag)
+                ffi.NULL, diag), "mlayer.clustering.predict", diag)
         return labels
     finally:
         ffi.release(h)
@@ -199,7 +173,7 @@ def elbow_point(ks, inertia) -> tuple[int, np.ndarray]:
 def elbow(X, ks, **kwargs) -> ElbowResult:
     """Run :func:`kmeans` for every k in ks (keyword arguments are passed on) and choose k by
     the elbow rule (:func:`elbow_point`). Returns an :class:`ElbowResult` with the curve."""
-    ks = [_count(k, "k") for k in ks]
+    ks = [integer(k, "k", 1) for k in ks]
     if not ks:
         raise InvalidArgumentError("ks is empty")
     if len(set(ks)) != len(ks):

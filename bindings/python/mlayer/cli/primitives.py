@@ -25,10 +25,10 @@ import sys
 
 import numpy as np
 
-from ._files import atomic_output
-from .bvh import read_bvh, write_bvh
-from .cli import command
-from .errors import InvalidArgumentError, MlayerIOError
+from .._files import atomic_output
+from ..bvh import read_bvh, write_bvh
+from ..errors import InvalidArgumentError
+from ._command import BVH, NPZ, PREFIX, command
 
 
 def _size(text: str) -> tuple[int, int]:
@@ -54,12 +54,6 @@ def _k(text: str):
     if k < 1:
         raise argparse.ArgumentTypeError(f"--k must be >= 1, got {k}")
     return k
-
-
-def _check_dir(path: str) -> None:
-    d = os.path.dirname(os.path.abspath(path))
-    if not os.path.isdir(d):
-        raise MlayerIOError(f"{path}: directory {d} does not exist")
 
 
 def _pyplot():
@@ -154,13 +148,30 @@ def plot_transitions(model, path: str) -> None:
     _save(fig, path)
 
 
-@command("primitives", "learn a motion manifold, primitives and their Markov model from clips")
-def _cmd_primitives(args) -> int:
-    from .primitives import PrimitiveModel
-    _check_dir(args.output)
+def _primitives_args(p) -> None:
+    p.add_argument("clips", nargs="+", metavar="CLIP.bvh", help="clips of one skeleton")
+    p.add_argument("-o", "--output", required=True, help="model file (.npz)")
+    p.add_argument("--k", type=_k, default="auto", help="primitives: 'auto' (elbow) or K")
+    p.add_argument("--som", type=_size, default=None,
+                   help="SOM lattice ROWSxCOLS (default: SxS, S = min(30, sqrt(frames)))")
+    p.add_argument("--pca", action="store_true", help="PCA manifold instead of a SOM")
+    p.add_argument("--epochs", type=int, default=20, help="SOM batch epochs (default 20)")
+    p.add_argument("--lattice", type=_size, default=None,
+                   help="GRBF centres ROWSxCOLS (default: GxG, G = min(15, sqrt(frames / 4)), "
+                        "at most the SOM's)")
+    p.add_argument("--kernel", choices=("thin_plate", "gaussian"), default="thin_plate")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--plots", metavar="PREFIX", default=None,
+                   help="figure path prefix (default: the model path without .npz; '' for none)")
+
+
+@command("primitives", "learn a motion manifold, primitives and their Markov model from clips",
+         arguments=_primitives_args, reads_clips=True, inputs=("clips",),
+         outputs={"output": NPZ, "plots": PREFIX})
+def cmd_primitives(args) -> int:
+    from ..primitives import PrimitiveModel
+    # the default prefix (the model path without .npz) is in the model's folder, checked
     prefix = args.plots if args.plots is not None else os.path.splitext(args.output)[0]
-    if prefix:
-        _check_dir(prefix + "_som.png")
     clips = []
     for path in args.clips:
         print(f"primitives: reading {path}", file=sys.stderr, flush=True)
@@ -187,30 +198,26 @@ def _cmd_primitives(args) -> int:
     return 0
 
 
-def _primitives_args(p) -> None:
-    p.add_argument("clips", nargs="+", metavar="CLIP.bvh", help="clips of one skeleton")
-    p.add_argument("-o", "--output", required=True, help="model file (.npz)")
-    p.add_argument("--k", type=_k, default="auto", help="primitives: 'auto' (elbow) or K")
-    p.add_argument("--som", type=_size, default=None,
-                   help="SOM lattice ROWSxCOLS (default: SxS, S = min(30, sqrt(frames)))")
-    p.add_argument("--pca", action="store_true", help="PCA manifold instead of a SOM")
-    p.add_argument("--epochs", type=int, default=20, help="SOM batch epochs (default 20)")
-    p.add_argument("--lattice", type=_size, default=None,
-                   help="GRBF centres ROWSxCOLS (default: GxG, G = min(15, sqrt(frames / 4)), "
-                        "at most the SOM's)")
-    p.add_argument("--kernel", choices=("thin_plate", "gaussian"), default="thin_plate")
+def _generate_args(p) -> None:
+    p.add_argument("model", help="model written by `mlayer primitives`")
+    p.add_argument("--frames", type=int, default=300)
+    p.add_argument("--start-frame", type=int, default=None,
+                   help="training frame to start from (default: a seeded random frame)")
+    p.add_argument("--noise", type=float, default=0.0,
+                   help="scale of the perturbation of the transition matrix")
+    p.add_argument("--most-likely", action="store_true",
+                   help="follow the most likely next primitive (eq. 5) instead of sampling")
     p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--plots", metavar="PREFIX", default=None,
-                   help="figure path prefix (default: the model path without .npz; '' for none)")
+    p.add_argument("--no-guards", action="store_true",
+                   help="the raw mapping: no joint limits, contact cleanup or floor")
+    p.add_argument("-o", "--output", required=True, help="output BVH")
 
 
-_cmd_primitives.arguments = _primitives_args
-
-
-@command("generate", "synthesize a new motion from a primitives model")
-def _cmd_generate(args) -> int:
-    from .primitives import PrimitiveModel
-    _check_dir(args.output)
+@command("generate", "synthesize a new motion from a primitives model",
+         arguments=_generate_args, reads_clips=False, inputs=("model",),
+         outputs={"output": BVH})
+def cmd_generate(args) -> int:
+    from ..primitives import PrimitiveModel
     if args.frames < 2:
         raise InvalidArgumentError(f"--frames must be >= 2, got {args.frames}")
     model = PrimitiveModel.load(args.model)
@@ -228,21 +235,3 @@ def _cmd_generate(args) -> int:
               f"frames, floor {r.floor_height:.4g} ({r.floor_frames} frames raised to it, "
               f"{r.floor_raised} with the whole body), joints limited (frames): {lim}")
     return 0
-
-
-def _generate_args(p) -> None:
-    p.add_argument("model", help="model written by `mlayer primitives`")
-    p.add_argument("--frames", type=int, default=300)
-    p.add_argument("--start-frame", type=int, default=None,
-                   help="training frame to start from (default: a seeded random frame)")
-    p.add_argument("--noise", type=float, default=0.0,
-                   help="scale of the perturbation of the transition matrix")
-    p.add_argument("--most-likely", action="store_true",
-                   help="follow the most likely next primitive (eq. 5) instead of sampling")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--no-guards", action="store_true",
-                   help="the raw mapping: no joint limits, contact cleanup or floor")
-    p.add_argument("-o", "--output", required=True, help="output BVH")
-
-
-_cmd_generate.arguments = _generate_args

@@ -13,12 +13,12 @@ from __future__ import annotations
 
 import sys
 
-from .cli import command
-from .errors import InvalidArgumentError
+from ..errors import InvalidArgumentError
+from ._command import FOLDER, Output, command
 
 
 def _arguments(p) -> None:
-    from .batch import operations
+    from ..batch import operations
     ops = operations()
     p.add_argument("operation", choices=sorted(ops), metavar="OPERATION",
                    help="; ".join(f"{k}: {v.help}" for k, v in sorted(ops.items())))
@@ -56,10 +56,13 @@ def _arguments(p) -> None:
     g.add_argument("--lam", type=float, help="resample/timewarp: LGS smoothness (default auto)")
 
 
-@command("batch", "run denoise, stylize, features, resample or timewarp over a corpus on Dask")
-def _cmd_batch(args) -> int:
-    from .batch import batch, parse_alphas
-    from .cli_layers import parse_joint_alphas
+@command("batch", "run denoise, stylize, features, resample or timewarp over a corpus on Dask",
+         arguments=_arguments, reads_clips=True, inputs=("inputs",),
+         outputs={"output_dir": FOLDER,
+                  "report": Output((".json", ".csv"), "a JSON or CSV report", makes_dirs=True)})
+def cmd_batch(args) -> int:
+    from ..batch import batch, parse_alphas
+    from .layers import parse_joint_alphas
     options = {}
     for name in ("gamma", "lam_c", "sigma_c", "fps", "n_frames", "strength", "lam"):
         v = getattr(args, name)
@@ -74,7 +77,7 @@ def _cmd_batch(args) -> int:
         alphas = list(args.alpha or []) + (parse_alphas(args.alphas) if args.alphas else [])
     if args.workers is not None and args.workers < 1:
         raise InvalidArgumentError(f"--workers must be >= 1, got {args.workers}")
-    # the reading options of every command that reads clips (cli.py adds them), passed to the
+    # the reading options of every command that reads clips (_command adds them), passed to the
     # workers: a context variable of this process does not reach them
     read = {"strict": True if args.strict else None,
             "up": None if args.up == "auto" else args.up, "trim": args.trim,
@@ -90,6 +93,3 @@ def _cmd_batch(args) -> int:
         print(f"mlayer batch: {result.failed} of {len(result.outputs)} outputs failed",
               file=sys.stderr)
     return result.exit_code
-
-
-_cmd_batch.arguments = _arguments

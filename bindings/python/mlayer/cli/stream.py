@@ -14,14 +14,14 @@ import sys
 
 import numpy as np
 
-from . import quat
-from ._files import atomic_output
-from .bvh import read_bvh, write_bvh
-from .cli import command
-from .errors import InvalidArgumentError
-from .lgs import lgs
-from .one_euro import one_euro
-from .stream import decay_rate, motion_channels, stream_motion
+from .. import quat
+from .._files import atomic_output
+from ..bvh import read_bvh, write_bvh
+from ..errors import InvalidArgumentError
+from ..smoothing import lgs
+from ..one_euro import one_euro
+from ..stream import decay_rate, motion_channels, stream_motion
+from ._command import BVH, PNG, command
 
 _COMPONENTS = "wxyz"
 
@@ -122,8 +122,10 @@ def _plot(path, motion, y, ref, x, euro, joint: int, comp: int, lag: int, lam: f
 
 
 @command("stream", "stream a clip through the fixed-lag LGS smoother (live filtering), write it "
-                   "and compare it with the offline solve")
-def run(args) -> int:
+                   "and compare it with the offline solve",
+         arguments=_arguments, reads_clips=True, inputs=("input",),
+         outputs={"output": BVH, "plot": PNG})
+def cmd_stream(args) -> int:
     motion = read_bvh(args.input)
     if motion.n_frames == 0:
         raise InvalidArgumentError(f"{args.input}: the clip has no frames")
@@ -161,6 +163,3 @@ def run(args) -> int:
         print(f"{args.plot}: {motion.joint_names[joint]} q.{_COMPONENTS[comp]}", file=sys.stdout)
     write_bvh(out, args.output)  # last: a failure above leaves no output
     return 0
-
-
-run.arguments = _arguments

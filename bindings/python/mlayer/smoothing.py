@@ -12,9 +12,10 @@ from __future__ import annotations
 import numpy as np
 
 from . import _arrays
-from ._native import NativeHandle, ReadOnlyAttributes, ffi, lib
+from ._handles import NativeHandle, ReadOnlyAttributes
+from ._native import ffi, lib
 from .errors import InvalidArgumentError, check
-from .kmeans import _c_threads
+from ._args import integer, threads as _c_threads
 
 _SOLVERS = {"banded": lib.MLR_LGS_BANDED, "cholmod": lib.MLR_LGS_CHOLMOD}
 
@@ -40,10 +41,8 @@ class LGS(ReadOnlyAttributes, NativeHandle):
                  t=None, n_obs: int | None = None, solver: str = "banded"):
         if solver not in _SOLVERS:
             raise InvalidArgumentError(f"solver must be one of {sorted(_SOLVERS)}, got {solver!r}")
-        if int(order) != order or order not in (1, 2):
-            raise InvalidArgumentError(f"order must be 1 or 2, got {order!r}")
-        if n_out is None or int(n_out) != n_out or n_out < 0:
-            raise InvalidArgumentError(f"n_out must be a non-negative integer, got {n_out!r}")
+        integer(order, "order", 1, 2)
+        n_out = integer(n_out, "n_out", 0)
         if t is None:
             self._t = None
             n_obs = int(n_out) if n_obs is None else int(n_obs)

@@ -11,11 +11,12 @@ import sys
 
 import numpy as np
 
-from .bvh import read_bvh
-from .metrics import UNITS, body_height, length_unit
-from .up_axis import detect_up
-from .cli import command
-from .errors import Error, ParseError
+from ..bvh import read_bvh
+from ..metrics import body_height
+from ..units import UNITS, length_unit
+from ..up_axis import detect_up
+from ..errors import Error, ParseError
+from ._command import command
 
 
 def _arguments(p) -> None:
@@ -97,8 +98,9 @@ def describe(m, path: str | None = None, tree: bool = True) -> str:
     return "\n".join(lines)
 
 
-@command("info", "describe BVH files: joints, channels, frames, fps, extent, skeleton tree")
-def run(args) -> int:
+@command("info", "describe BVH files: joints, channels, frames, fps, extent, skeleton tree",
+         arguments=_arguments, reads_clips=True, inputs=("files",))
+def cmd_info(args) -> int:
     status = 0
     for i, path in enumerate(args.files):
         try:
@@ -120,6 +122,3 @@ def run(args) -> int:
             print()
         print(describe(m, path, tree=not args.no_tree))
     return status
-
-
-run.arguments = _arguments

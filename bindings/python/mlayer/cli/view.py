@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import sys
 
-from .cli import command
+from ._command import command
 
 
 def _arguments(p) -> None:
@@ -25,7 +25,7 @@ def _arguments(p) -> None:
                    help="address to bind (default 127.0.0.1; anything but loopback exposes "
                         "the clips to the network)")
     p.add_argument("--open", action="store_true", help="open the page in a web browser")
-    from .viewer.server import (DEFAULT_CACHE_BYTES, DEFAULT_MAX_VALUES, DEFAULT_THREADS,
+    from ..viewer.server import (DEFAULT_CACHE_BYTES, DEFAULT_MAX_VALUES, DEFAULT_THREADS,
                                 DEFAULT_TIMEOUT)
     p.add_argument("--max-values", type=int, default=DEFAULT_MAX_VALUES, metavar="N",
                    help="the most output one request may produce, in frames x points (joints "
@@ -44,10 +44,11 @@ def _arguments(p) -> None:
                         "session token; requests from other sites are refused")
 
 
-@command("view", "interactive viewer in the browser: alpha sliders, cleanup, retiming")
-def run(args) -> int:
-    from .errors import InvalidArgumentError
-    from .viewer import is_loopback, make_server
+@command("view", "interactive viewer in the browser: alpha sliders, cleanup, retiming",
+         arguments=_arguments, reads_clips=True, inputs=("inputs",))
+def cmd_view(args) -> int:
+    from ..errors import InvalidArgumentError
+    from ..viewer import is_loopback, make_server
     if not 0 <= args.port <= 65535:
         raise InvalidArgumentError(f"--port must be in 0..65535, got {args.port}")
     if not is_loopback(args.host):
@@ -79,6 +80,3 @@ def run(args) -> int:
     finally:
         server.server_close()
     return 0
-
-
-run.arguments = _arguments

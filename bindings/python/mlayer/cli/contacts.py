@@ -8,10 +8,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._files import atomic_output
-from .bvh import read_bvh
-from .cli import command
-from .contacts import contact_intervals, detect_contacts
+from .._files import atomic_output
+from ..bvh import read_bvh
+from ..contacts import contact_intervals, detect_contacts
+from ._command import FIGURE, command
 
 
 def _arguments(p) -> None:
@@ -43,8 +43,9 @@ def plot_contacts(names, contacts, fps, path) -> None:
     plt.close(fig)
 
 
-@command("contacts", "detect foot contacts: counts, duty factors, optional timeline plot")
-def run(args) -> int:
+@command("contacts", "detect foot contacts: counts, duty factors, optional timeline plot",
+         arguments=_arguments, reads_clips=True, inputs=("input",), outputs={"plot": FIGURE})
+def cmd_contacts(args) -> int:
     m = read_bvh(args.input)
     names, c = detect_contacts(m, args.joints)
     print(f"{args.input}: {len(m)} frames at {m.fps:.6g} fps")
@@ -58,6 +59,3 @@ def run(args) -> int:
         plot_contacts(names, c, m.fps, args.plot)
         print(f"  wrote {args.plot}")
     return 0
-
-
-run.arguments = _arguments

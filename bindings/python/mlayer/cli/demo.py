@@ -10,10 +10,10 @@ import os
 import sys
 import time
 
-from .bvh import read_bvh, write_bvh
-from .cli import command
-from .cli_render import progress_bar
-from .metrics import body_height, foot_sliding, jitter
+from ..bvh import read_bvh, write_bvh
+from ..metrics import body_height, foot_sliding, jitter
+from ._command import FOLDER, command
+from .render import progress_bar
 
 
 def _arguments(p) -> None:
@@ -25,12 +25,14 @@ def _arguments(p) -> None:
     p.add_argument("--no-gif", action="store_true", help="skip the GIF (the slowest step)")
 
 
-@command("demo", "decompose, denoise, exaggerate and render the bundled clip into a folder")
-def _cmd_demo(args) -> int:
-    from . import data
-    from .pipeline import Synthesis
-    from .plot import plot_layers
-    from .render import render_gif
+@command("demo", "decompose, denoise, exaggerate and render the bundled clip into a folder",
+         arguments=_arguments, reads_clips=True, inputs=("clip",),
+         outputs={"output_dir": FOLDER})
+def cmd_demo(args) -> int:
+    from .. import data
+    from ..pipeline import Synthesis
+    from ..plot import plot_layers
+    from ..render import render_gif
 
     clip = args.clip or data.sample_path()
     out = lambda name: os.path.join(args.output_dir, name)  # noqa: E731
@@ -73,6 +75,3 @@ def _cmd_demo(args) -> int:
                    progress=progress_bar("rendering compare.gif"))
     print(f"wrote     {', '.join(sorted(os.listdir(args.output_dir)))} in {args.output_dir}/")
     return 0
-
-
-_cmd_demo.arguments = _arguments

@@ -4,8 +4,8 @@ from __future__ import annotations
 import os
 import sys
 
-from .bvh import read_bvh
-from .cli import command
+from ..bvh import read_bvh
+from ._command import GIF, command
 
 
 def progress_bar(label: str, stream=None):
@@ -39,18 +39,15 @@ def _arguments(p) -> None:
     p.add_argument("--elevation", type=float, default=12.0, help="camera elevation, degrees")
 
 
-@command("render", "render clips as stick figures side by side into an animated GIF")
-def _cmd_render(args) -> int:
-    from .errors import InvalidArgumentError
-    from .render import render_gif
+@command("render", "render clips as stick figures side by side into an animated GIF",
+         arguments=_arguments, reads_clips=True, inputs=("inputs",), outputs={"output": GIF})
+def cmd_render(args) -> int:
+    from ..errors import InvalidArgumentError
+    from ..render import render_gif
     try:
         w, h = (int(v) for v in args.size.lower().split("x"))
     except ValueError:
         raise InvalidArgumentError(f"--size expects WxH, got {args.size!r}") from None
-    out_ext = os.path.splitext(args.output)[1].lower()
-    if args.output == "-" or out_ext != ".gif":
-        raise InvalidArgumentError(f"-o {args.output}: mlayer render writes an animated GIF "
-                                   "file; give a path ending in .gif")
     motions = [read_bvh(f) for f in args.inputs]
     labels = (args.labels.split(",") if args.labels
               else [os.path.splitext(os.path.basename(f))[0] for f in args.inputs])
@@ -59,6 +56,3 @@ def _cmd_render(args) -> int:
                    progress=progress_bar("rendering"))
     print(f"wrote {args.output} ({n} frames at {args.fps:g} fps)")
     return 0
-
-
-_cmd_render.arguments = _arguments

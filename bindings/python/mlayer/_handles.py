@@ -1,0 +1,96 @@
+"""The lifetime of the C handles Python objects own: read-only attributes that describe a C
+object, closing, and refusing copies that would share a handle."""
+from ._native import ffi
+from .errors import InvalidArgumentError
+
+__all__ = ["NativeHandle", "ReadOnlyAttributes", "refuse_copy"]
+
+
+class ReadOnlyAttributes:
+    """Mixin: the attribute names in ``_readonly`` can be set once (by ``__init__``) and
+    raise AttributeError when assigned again or deleted. For the sizes and parameters a C
+    handle was made with: a reassigned ``n_out`` or ``rows`` would make the wrapper hand C a
+    buffer of the wrong size."""
+
+    __slots__ = ()
+    _readonly: tuple = ()
+
+    def __setattr__(self, name, value):
+        if name in type(self)._readonly and _is_set(self, name):
+            raise AttributeError(f"{type(self).__name__}.{name} is read-only (it describes the "
+                                 "C object; make a new one instead)")
+        object.__setattr__(self, name, value)
+
+    def __delattr__(self, name):
+        if name in type(self)._readonly:
+            raise AttributeError(f"{type(self).__name__}.{name} is read-only")
+        object.__delattr__(self, name)
+
+
+def _is_set(obj, name) -> bool:
+    try:
+        object.__getattribute__(obj, name)
+    except AttributeError:
+        return False
+    return True
+
+
+def refuse_copy(obj, what: str = "copy", hint: str = "make a new one") -> TypeError:
+    """The TypeError of a copy or pickle of an object whose C handle cannot be duplicated."""
+    return TypeError(f"cannot {what} a mlayer.{type(obj).__name__}: it owns a C handle that "
+                     f"cannot be duplicated ({hint})")
+
+
+class NativeHandle:
+    """Mixin for objects owning a C handle in ``self._h``, made with ``ffi.gc(ptr, destroy)``:
+    the handle is freed when the object is collected, or at once by :meth:`close` or at the
+    end of a ``with`` block. Every use goes through :meth:`_live`, so a closed object raises
+    InvalidArgumentError instead of reaching freed memory.
+
+    Copies: a copy that shared the handle would be left on freed memory when the other one is
+    closed, so ``copy.copy``, ``copy.deepcopy`` and pickling raise TypeError unless the class
+    defines ``_clone`` (a new object with its own handle, built from this one) and
+    ``__reduce__``.
+    """
+
+    _h = None
+
+    def close(self) -> None:
+        """Free the C handle now. The object is unusable afterwards (its methods raise
+        InvalidArgumentError)."""
+        if self._h is not None:
+            h, self._h = self._h, None
+            ffi.release(h)
+
+    @property
+    def closed(self) -> bool:
+        """Whether :meth:`close` (or the end of a ``with`` block) has freed the handle."""
+        return self._h is None
+
+    def _live(self):
+        """The C handle; InvalidArgumentError when the object is closed."""
+        h = self._h
+        if h is None:
+            raise InvalidArgumentError(f"mlayer.{type(self).__name__}: the object is closed "
+                                       "(close() or the end of its with block freed it)")
+        return h
+
+    def _clone(self):
+        raise refuse_copy(self)
+
+    def __copy__(self):
+        self._live()
+        return self._clone()
+
+    def __deepcopy__(self, memo):
+        self._live()
+        return self._clone()
+
+    def __reduce_ex__(self, protocol):
+        raise refuse_copy(self, "pickle")
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()

@@ -1,0 +1,215 @@
+"""How a command of the `mlayer` command line is declared, and the checks every command shares.
+
+A command is declared once, by the :func:`command` decorator over its ``run(args) -> int``::
+
+    @command("stylize", "exaggerate or flatten a clip's style ...", arguments=_arguments,
+             reads_clips=True, inputs=("input",), outputs={"output": BVH})
+    def cmd_stylize(args) -> int: ...
+
+- ``arguments(parser)`` adds the command's own arguments (argparse);
+- ``reads_clips`` adds the shared reading options --strict, --up, --trim and --units (their
+  values reach read_bvh through context variables set by main, see ``_main.py``);
+- ``inputs`` names the arguments that hold input paths (a string or a list of strings);
+- ``outputs`` maps each argument that holds an output path to an :class:`Output`: the
+  extensions it accepts, whether '-' means standard output, whether the command creates
+  missing folders itself.
+
+Before any work, :func:`check_outputs` checks each output given: its extension, that its
+folder exists, and that it is not one of the inputs. A failure is an error of exit status 1
+with one line naming the option (the same status as the library errors the commands raise).
+The module imports nothing of the package's commands, so the commands import it and the
+package's main imports the commands: no circle.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from dataclasses import dataclass, field
+from typing import Callable
+
+from ..errors import InvalidArgumentError, MlayerIOError
+
+
+@dataclass(frozen=True)
+class Output:
+    """What an output argument accepts.
+
+    extensions    accepted endings, lower case with the dot (case-insensitive match); () for
+                  any (folders and path prefixes)
+    what          the output in words, for the error message ("a BVH file")
+    stdout        '-' means standard output (no file is checked)
+    kind          "file"; "dir" (a folder the command writes into); "prefix" (a path prefix
+                  the command appends names to; '' means no such output)
+    makes_dirs    the command creates missing folders, so a missing folder is no error
+    """
+    extensions: tuple = ()
+    what: str = "a file"
+    stdout: bool = False
+    kind: str = "file"
+    makes_dirs: bool = False
+
+    def __post_init__(self):
+        if self.kind not in ("file", "dir", "prefix"):
+            raise ValueError(f"Output kind must be file, dir or prefix, got {self.kind!r}")
+        if self.kind != "file" and self.extensions:
+            raise ValueError("only a file output has extensions")
+        if any(not e.startswith(".") or e != e.lower() for e in self.extensions):
+            raise ValueError(f"extensions are lower case with the dot, got {self.extensions}")
+
+
+BVH = Output((".bvh",), "a BVH file")
+GIF = Output((".gif",), "an animated GIF file")
+NPZ = Output((".npz",), "a numpy .npz file")
+PNG = Output((".png",), "a PNG figure")
+FIGURE = Output((".png", ".svg", ".pdf"), "a figure")
+FOLDER = Output(kind="dir", makes_dirs=True)
+PREFIX = Output(kind="prefix")
+
+
+@dataclass(frozen=True)
+class Command:
+    """One subcommand: what the parser and the shared checks need, and its run(args)."""
+    name: str
+    help: str
+    run: Callable
+    arguments: Callable | None = None
+    reads_clips: bool = True
+    inputs: tuple = ()
+    outputs: dict = field(default_factory=dict)
+
+    def __call__(self, args) -> int:
+        return self.run(args)
+
+
+def command(name: str, help: str, *, reads_clips: bool, arguments: Callable | None = None,
+            inputs: tuple = (), outputs: dict | None = None):
+    """Decorator declaring `run(args) -> int` as the subcommand `name` (see the module's
+    docstring); returns the :class:`Command`. An output given as a tuple of extensions is
+    ``Output(extensions)``."""
+    outs = {}
+    for dest, spec in (outputs or {}).items():
+        outs[dest] = spec if isinstance(spec, Output) else \
+            Output(tuple(spec), f"a {'/'.join(spec)} file")
+
+    def wrap(run) -> Command:
+        return Command(name, help, run, arguments, reads_clips, tuple(inputs), outs)
+    return wrap
+
+
+# ---- the parser ------------------------------------------------------------------------------
+
+def add_parser(sub, cmd: Command) -> argparse.ArgumentParser:
+    """The subparser of `cmd`: its arguments, then the reading options if it reads clips."""
+    sp = sub.add_parser(cmd.name, help=cmd.help, description=cmd.help)
+    if cmd.arguments is not None:
+        cmd.arguments(sp)
+    if cmd.reads_clips:
+        add_reading_options(sp)
+    # how the user writes each argument: its first option string (-o), or its metavar
+    written = {a.dest: a.option_strings[0] if a.option_strings else (a.metavar or a.dest)
+               for a in sp._actions}
+    for dest in (*cmd.inputs, *cmd.outputs):
+        if dest not in written:
+            raise ValueError(f"mlayer {cmd.name}: no argument {dest!r} (inputs/outputs)")
+    sp.set_defaults(_command=cmd, _written=written)
+    return sp
+
+
+def add_reading_options(sp) -> None:
+    """--strict, --up, --trim and --units: how the clips are read (every command that reads
+    clips; batch passes them to its workers)."""
+    sp.add_argument("--strict", action="store_true",
+                    help="refuse BVH files that deviate from the format (extra or "
+                         "missing frame lines, data after the frames) instead of "
+                         "reading them with a warning")
+    sp.add_argument("--up", choices=("auto", "x", "y", "z"), default="auto",
+                    help="the clips' up axis (default auto: detected from the feet, "
+                         "or the floor; `mlayer info` shows what was found)")
+    sp.add_argument("--trim", type=trim_arg, default=None, metavar="auto|N",
+                    help="drop frames at the start of each clip read: auto drops the "
+                         "T-pose and blend frames a converter put there (CMU files), N "
+                         "the first N frames (default: keep every frame)")
+    sp.add_argument("--units", choices=("m", "cm", "mm", "in", "ft"), default=None,
+                    help="the clips' length unit (default: the one their body height "
+                         "suggests, when it does; thresholds do not depend on it)")
+
+
+def trim_arg(text: str):
+    """--trim: "auto" or a frame count >= 0."""
+    if text == "auto":
+        return text
+    try:
+        n = int(text)
+    except ValueError:
+        n = -1
+    if n < 0:
+        raise argparse.ArgumentTypeError(f"expected 'auto' or a frame count >= 0, got {text!r}")
+    return n
+
+
+def show_trim(command: str):
+    """The report of reading_trim for the CLI: one line on stderr per clip trimmed."""
+    def show(name: str, n: int) -> None:
+        print(f"mlayer {command}: {name}: trimmed {n} frame{'s' if n != 1 else ''} at the start",
+              file=sys.stderr)
+    return show
+
+
+def show_parse_warning(command: str):
+    """warnings.showwarning for the CLI: one line on stderr per warning."""
+    def show(message, category, filename, lineno, file=None, line=None):
+        print(f"mlayer {command}: warning: {message}", file=sys.stderr)
+    return show
+
+
+# ---- the output check ------------------------------------------------------------------------
+
+def _paths(value) -> list:
+    if isinstance(value, (str, os.PathLike)):
+        return [os.fspath(value)]
+    if isinstance(value, (list, tuple)):
+        return [os.fspath(v) for v in value if isinstance(v, (str, os.PathLike))]
+    return []  # None, or a flag's True (resample --report without a file)
+
+
+def _same_file(a: str, b: str) -> bool:
+    try:
+        if os.path.exists(a) and os.path.exists(b):
+            return os.path.samefile(a, b)
+    except OSError:
+        pass
+    return os.path.realpath(a) == os.path.realpath(b)
+
+
+def check_outputs(cmd: Command, args) -> None:
+    """Refuse, before any work, an output path that the command cannot write: an extension it
+    does not accept (InvalidArgumentError), a folder that does not exist (MlayerIOError), or
+    one of the inputs (InvalidArgumentError)."""
+    inputs = [p for dest in cmd.inputs for p in _paths(getattr(args, dest, None))]
+    written = getattr(args, "_written", {})
+    for dest, spec in cmd.outputs.items():
+        for path in _paths(getattr(args, dest, None)):
+            opt = written.get(dest, dest)
+            if spec.stdout and path == "-":
+                continue
+            if spec.kind == "prefix" and path == "":
+                continue
+            if spec.extensions and os.path.splitext(path)[1].lower() not in spec.extensions:
+                ends = spec.extensions[0] if len(spec.extensions) == 1 else \
+                    ", ".join(spec.extensions[:-1]) + " or " + spec.extensions[-1]
+                raise InvalidArgumentError(f"{opt} {path}: mlayer {cmd.name} writes {spec.what}"
+                                           f"{'' if not spec.stdout else ' or to -'}; give a "
+                                           f"path ending in {ends}")
+            if not spec.makes_dirs:
+                # a prefix's files are PREFIX + a name: "figs/" writes into figs
+                d = os.path.dirname(os.path.abspath(path + "_" if spec.kind == "prefix"
+                                                    else path))
+                if not os.path.isdir(d):
+                    raise MlayerIOError(f"{path}: directory {d} does not exist")
+            if spec.kind == "prefix":
+                continue
+            for src in inputs:
+                if _same_file(path, src):
+                    raise InvalidArgumentError(f"{opt} {path}: the same file as the input "
+                                               f"{src}; give another output path")

@@ -1,0 +1,94 @@
+"""The `mlayer` command line: argparse over the Python API.
+
+Exit codes: 0 success, 1 a library or data error (one line on stderr naming the file, the
+line and the status), 2 a usage error. Outputs are written to a temporary file and renamed
+into place, so a failed run never leaves a half-written file; before any work, every output
+path is checked (its extension, its folder, not an input: ``_command.check_outputs``).
+
+The commands are declared in their modules (``_command.command``) and listed in COMMANDS.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+
+from .. import __version__, library_version
+from ..errors import Error
+from . import batch, contacts, demo, info, layers, primitives, render, retiming, stream, view
+from ._command import add_parser, check_outputs, command, show_parse_warning, show_trim
+
+
+@command("version", "print the package and C library versions", reads_clips=False)
+def cmd_version(args) -> int:
+    print(f"mlayer {__version__} (C library {library_version()})")
+    return 0
+
+
+#: Every subcommand, in the order of `mlayer --help`.
+COMMANDS = (
+    cmd_version,
+    info.cmd_info,
+    layers.cmd_denoise,
+    layers.cmd_stylize,
+    layers.cmd_layers,
+    render.cmd_render,
+    stream.cmd_stream,
+    contacts.cmd_contacts,
+    retiming.cmd_resample,
+    retiming.cmd_timewarp,
+    view.cmd_view,
+    batch.cmd_batch,
+    primitives.cmd_primitives,
+    primitives.cmd_generate,
+    demo.cmd_demo,
+)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="mlayer",
+                                description="Smooth motion layers for character animation.")
+    p.add_argument("--version", action="version",
+                   version=f"mlayer {__version__} (C library {library_version()})")
+    sub = p.add_subparsers(dest="command", metavar="COMMAND")
+    for cmd in COMMANDS:
+        add_parser(sub, cmd)
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    cmd = getattr(args, "_command", None)
+    if cmd is None:
+        parser.print_help(sys.stderr)
+        return 2
+    import warnings
+    from ..bvh import reading_units, strict_reading
+    from ..up_axis import reading_up
+    from ..trimming import reading_trim
+    from ..errors import MlayerWarning
+    try:
+        check_outputs(cmd, args)
+        up = getattr(args, "up", "auto")
+        with warnings.catch_warnings(), strict_reading(getattr(args, "strict", False)), \
+                reading_up(None if up == "auto" else up), \
+                reading_trim(getattr(args, "trim", None), show_trim(args.command)), \
+                reading_units(getattr(args, "units", None)):
+            warnings.simplefilter("always", MlayerWarning)
+            warnings.showwarning = show_parse_warning(args.command)
+            return int(cmd.run(args) or 0)
+    except Error as e:
+        where = ""
+        path, line = getattr(e, "path", None), getattr(e, "line", None)
+        if path:
+            where = f"{path}:{line}: " if line else f"{path}: "
+            if str(e).startswith(where):  # e.g. ParseError messages already say where
+                where = ""
+        print(f"mlayer {args.command}: error: {where}{e}", file=sys.stderr)
+        return 1
+    except OSError as e:
+        print(f"mlayer {args.command}: error: {e}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print(f"mlayer {args.command}: interrupted", file=sys.stderr)
+        return 130
