@@ -293,9 +293,13 @@ static mlr_status make_input_ref(const mlr_guards *g, size_t C, const int32_t *j
     *out = NULL;
     if (!g->follow || C == 0 || C > 64)
         return MLR_OK;
-    return mlr_cleanup_ref_create(&g->rig, g->n_frames, g->fps, g->up, g->root_pos, g->rot,
-                                  g->trans, wpos, wrot, C, joints, end_sites, NULL, 0,
-                                  &g->alloc, out, diag);
+    mlr_diag d = {0, 0, ""};
+    const mlr_status st = mlr_cleanup_ref_create(&g->rig, g->n_frames, g->fps, g->up,
+                                                 g->root_pos, g->rot, g->trans, wpos, wrot, C,
+                                                 joints, end_sites, NULL, 0, &g->alloc, out, &d);
+    if (st == MLR_E_INVALID_ARG) /* points the cleanup refuses (over 16 on a foot): apply says so */
+        return MLR_OK;
+    return st == MLR_OK ? MLR_OK : mlr_diag_set(diag, st, 0, 0, "guards: %s", d.message);
 }
 
 static mlr_status check_finite(const double *x, size_t n, const char *what, mlr_diag *diag)
