@@ -175,6 +175,24 @@ static double quantile_of(double *v, size_t n, double q)
     return v[i] + f * (v[i + 1] - v[i]);
 }
 
+/* One joint's world rotation and position at frame f from its parent's (already in wr / wp),
+   its local rotation r[4 j ..] (r: the frame's J x 4) and its offset or translation, with the
+   arithmetic of mlr_fk_arrays. */
+static inline void fk_joint(const mlr_rig *rig, size_t f, size_t j, const int32_t *tidx,
+                            const double *r, const double *trans, double *wp, mlr_quat *wr)
+{
+    const size_t p = (size_t)rig->parents[j];
+    const double *t = tidx[j] >= 0 ? trans + 3 * (rig->n_trans * f + (size_t)tidx[j])
+                                   : rig->offsets + 3 * j;
+    const mlr_quat q = {r[4 * j], r[4 * j + 1], r[4 * j + 2], r[4 * j + 3]};
+    mlr_quat_mul_inline(&wr[p], &q, &wr[j]);
+    double o[3];
+    mlr_quat_rotate_inline(&wr[p], t, o);
+    wp[3 * j] = wp[3 * p] + o[0];
+    wp[3 * j + 1] = wp[3 * p + 1] + o[1];
+    wp[3 * j + 2] = wp[3 * p + 2] + o[2];
+}
+
 /* Forward kinematics of the joints marked in need (closed under parents) of frame f, with the
    arithmetic of mlr_fk_arrays (mlr_fk.h: mlr_quat_mul / mlr_quat_rotate, inlined), so each
    computed value is bit for bit what the full FK gives; the other joints are not written. tidx[j]: j's
@@ -183,8 +201,7 @@ static void fk_masked_frame(const mlr_rig *rig, size_t f, const uint8_t *need,
                             const int32_t *tidx, const double *root_pos, const double *rot,
                             const double *trans, double *wp, double *wrot_f)
 {
-    const size_t J = rig->n_joints, P = rig->n_trans;
-    const int32_t *parents = rig->parents;
+    const size_t J = rig->n_joints;
     const double *offsets = rig->offsets;
     const double *r = rot + 4 * J * f;
     mlr_quat *wr = (mlr_quat *)(void *)wrot_f;
@@ -194,15 +211,7 @@ static void fk_masked_frame(const mlr_rig *rig, size_t f, const uint8_t *need,
     for (size_t j = 1; j < J; j++) {
         if (!need[j])
             continue;
-        const size_t p = (size_t)parents[j];
-        const double *t = tidx[j] >= 0 ? trans + 3 * (P * f + (size_t)tidx[j]) : offsets + 3 * j;
-        const mlr_quat q = {r[4 * j], r[4 * j + 1], r[4 * j + 2], r[4 * j + 3]};
-        mlr_quat_mul_inline(&wr[p], &q, &wr[j]);
-        double o[3];
-        mlr_quat_rotate_inline(&wr[p], t, o);
-        wp[3 * j] = wp[3 * p] + o[0];
-        wp[3 * j + 1] = wp[3 * p + 1] + o[1];
-        wp[3 * j + 2] = wp[3 * p + 2] + o[2];
+        fk_joint(rig, f, j, tidx, r, trans, wp, wr);
     }
 }
 
@@ -216,8 +225,7 @@ static void fk_chain_frame(const mlr_rig *rig, size_t f, const int32_t *chain, s
                            const double *pos_f, const double *wrot_f, double *wp,
                            double *wrot_out)
 {
-    const size_t J = rig->n_joints, P = rig->n_trans;
-    const double *offsets = rig->offsets;
+    const size_t J = rig->n_joints;
     const double *r = rot + 4 * J * f;
     mlr_quat *wr = (mlr_quat *)(void *)wrot_out;
     const int32_t top = rig->parents[chain[0]];
@@ -232,15 +240,7 @@ static void fk_chain_frame(const mlr_rig *rig, size_t f, const int32_t *chain, s
             memcpy(wp, pos_f, 3 * sizeof(double));
             continue;
         }
-        const size_t p = (size_t)rig->parents[j];
-        const double *t = tidx[j] >= 0 ? trans + 3 * (P * f + (size_t)tidx[j]) : offsets + 3 * j;
-        const mlr_quat q = {r[4 * j], r[4 * j + 1], r[4 * j + 2], r[4 * j + 3]};
-        mlr_quat_mul_inline(&wr[p], &q, &wr[j]);
-        double o[3];
-        mlr_quat_rotate_inline(&wr[p], t, o);
-        wp[3 * j] = wp[3 * p] + o[0];
-        wp[3 * j + 1] = wp[3 * p + 1] + o[1];
-        wp[3 * j + 2] = wp[3 * p + 2] + o[2];
+        fk_joint(rig, f, j, tidx, r, trans, wp, wr);
     }
 }
 
@@ -563,6 +563,22 @@ static double dist3(const double *a, const double *b)
     return sqrt(x * x + y * y + z * z);
 }
 
+/* The joints the cleanup's forward kinematics computes (need, J, zeroed by the caller): the
+   contact points, the feet's anchors and their ancestors; tidx (J): each joint's index among
+   the rig's trans joints, or -1. */
+static void fk_need(const mlr_rig *rig, size_t C, const int32_t *joints, const foot *feet,
+                    size_t nf, uint8_t *need, int32_t *tidx)
+{
+    for (size_t j = 0; j < rig->n_joints; j++)
+        tidx[j] = -1;
+    for (size_t k = 0; k < rig->n_trans; k++)
+        tidx[rig->trans_joints[k]] = (int32_t)k;
+    for (size_t i = 0; i < C + nf; i++)
+        for (int32_t j = i < C ? joints[i] : feet[i - C].anchor; j >= 0 && !need[j];
+             j = rig->parents[j])
+            need[j] = 1;
+}
+
 /* The feet of the contact points: each listed joint with no listed ancestor is an ankle (an
    anchor) with its own points; the other points (toes, End Sites) are placed on the foot of
    their nearest anchor ancestor. listed (J) and assigned (C): zeroed scratch. */
@@ -707,14 +723,7 @@ mlr_status mlr_cleanup_ref_create(const mlr_rig *rig, size_t N, double fps, int 
                        3 * sizeof(double));
     } else {
         /* forward kinematics of the contact points, the anchors and their ancestors only */
-        for (size_t j = 0; j < J; j++)
-            tidx[j] = -1;
-        for (size_t k = 0; k < rig->n_trans; k++)
-            tidx[rig->trans_joints[k]] = (int32_t)k;
-        for (size_t i = 0; i < C + nf; i++)
-            for (int32_t j = i < C ? joints[i] : feet[i - C].anchor; j >= 0 && !need[j];
-                 j = rig->parents[j])
-                need[j] = 1;
+        fk_need(rig, C, joints, feet, nf, need, tidx);
         for (size_t f = 0; st == MLR_OK && f < N; f++) { /* the points and the anchors */
             fk_masked_frame(rig, f, need, tidx, root_pos, rot, trans, pos2, wrot2);
             st = mlr_rig_point_positions(rig, 1, pos2, wrot2, C, joints, end_sites,
@@ -846,14 +855,7 @@ static mlr_status cleanup_run(const mlr_rig *rig, size_t N, double fps, int up,
     double *wrot2 = take(&ar, J * 4, sizeof(double));
     if (ar.st != MLR_OK)
         goto fail;
-    for (size_t j = 0; j < J; j++)
-        tidx[j] = -1;
-    for (size_t k = 0; k < rig->n_trans; k++)
-        tidx[rig->trans_joints[k]] = (int32_t)k;
-    for (size_t i = 0; i < C + nf; i++)
-        for (int32_t j = i < C ? joints[i] : feet[i - C].anchor; j >= 0 && !need[j];
-             j = rig->parents[j])
-            need[j] = 1;
+    fk_need(rig, C, joints, feet, nf, need, tidx);
     if ((st = fk_points(rig, N, root_pos, rot, trans, C, joints, end_sites, pos, wrot, P, &A,
                         need, tidx)) != MLR_OK)
         goto fail_st;
