@@ -48,7 +48,7 @@ static double *mocap_rows(size_t *rows)
             continue;
         }
         double *grown = realloc(all, (total + nf) * 93 * sizeof *all);
-        if (!grown || mlr_fk_motion(m, 0, nf, grown + total * 93, NULL) != MLR_OK) {
+        if (!grown || mlr_fk_motion(m, 0, nf, grown + total * 93, NULL, NULL) != MLR_OK) {
             mlr_motion_destroy(m);
             free(grown ? grown : all);
             return NULL;

@@ -93,7 +93,7 @@ static int decompose(guards_state *s)
 static int synthesize(guards_state *s, double alpha, double *root, double *rot)
 {
     return mlr_layers_synthesize(s->layers, 0, s->n, &alpha, 1, root, 3 * s->n, rot,
-                                 4 * s->n * s->j);
+                                 4 * s->n * s->j, NULL);
 }
 
 /* The guards of the input with its outlier frames repaired (what mlayer's pipeline does). */
@@ -104,7 +104,7 @@ static int create_guards(guards_state *s)
     memcpy(s->in_root, s->root, 3 * s->n * sizeof(double));
     memcpy(s->in_rot, s->rot, 4 * s->n * s->j * sizeof(double));
     if (mlr_layers_repair(s->layers, 0, s->n, s->in_root, 3 * s->n, s->in_rot,
-                          4 * s->n * s->j, NULL) < 0)
+                          4 * s->n * s->j, NULL, NULL) < 0)
         return -1;
     return mlr_guards_create(&s->rig, s->fps, s->n, s->in_root, s->in_rot, NULL, NULL, 0, NULL,
                              &s->guards, NULL);

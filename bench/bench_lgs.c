@@ -50,7 +50,7 @@ static double solve_order(lgs_state *s, unsigned order)
     mlr_lgs *g = NULL;
     if (mlr_lgs_create(s->n, order, 4.0, 1.0, NULL, s->n, MLR_LGS_BANDED, NULL, &g, NULL) < 0)
         return -1.0;
-    mlr_lgs_solve(g, s->y, s->m, s->m, s->x, s->m);
+    mlr_lgs_solve(g, s->y, s->m, s->m, s->x, s->m, NULL);
     mlr_lgs_destroy(g);
     return s->x[(s->n / 2) * s->m];
 }
@@ -65,7 +65,7 @@ static double solve_new_x(lgs_state *s, size_t n_threads)
         free(x);
         return -1.0;
     }
-    mlr_lgs_solve_mt(g, s->y, s->m, s->m, x, s->m, n_threads);
+    mlr_lgs_solve_mt(g, s->y, s->m, s->m, x, s->m, n_threads, NULL);
     mlr_lgs_destroy(g);
     const double v = x[(s->n / 2) * s->m];
     free(x);
@@ -103,7 +103,7 @@ static double run_variance(void *p)
     mlr_lgs *g = NULL;
     if (mlr_lgs_create(s->n, 2, 4.0, 1.0, NULL, s->n, MLR_LGS_BANDED, NULL, &g, NULL) < 0)
         return -1.0;
-    mlr_lgs_variance(g, s->x, s->n);
+    mlr_lgs_variance(g, s->x, s->n, NULL);
     mlr_lgs_destroy(g);
     return s->x[s->n / 2];
 }

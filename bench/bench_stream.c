@@ -51,7 +51,7 @@ static void *setup(size_t joints, size_t lag, int layered)
         double *alpha = malloc(joints * sizeof(double));
         for (size_t j = 0; j < joints; j++)
             alpha[j] = j % 3 ? 1.0 : 1.5;
-        mlr_stream_set_alpha(s->st, 1.2, alpha, joints);
+        mlr_stream_set_alpha(s->st, 1.2, alpha, joints, NULL);
         free(alpha);
     }
     return s;
@@ -71,7 +71,7 @@ static double run(void *p)
     size_t ready = 0;
     mlr_stream_reset(s->st);
     for (size_t f = 0; f < STREAM_FRAMES; f++) {
-        mlr_stream_push(s->st, s->y + f * s->m, s->m, s->out, s->m, &ready);
+        mlr_stream_push(s->st, s->y + f * s->m, s->m, s->out, s->m, &ready, NULL);
         sum += ready ? s->out[3] : 0.0;
     }
     return sum;

@@ -59,7 +59,7 @@ static void normalize(const clip *c, double *x)
 {
     for (size_t f = 0; f < c->N; f++) {
         mlr_quat *q = (mlr_quat *)(x + f * c->m + 3 + 3 * c->P);
-        mlr_quat_normalize_array(q, c->J, q);
+        mlr_quat_normalize_array(q, c->J, q, NULL);
     }
 }
 
@@ -72,10 +72,10 @@ static double gap(const clip *c, double lam, double sigma, size_t lag, const dou
         return INFINITY;
     size_t done = 0, ready = 0, w = 0;
     for (size_t f = 0; f < c->N; f++) {
-        mlr_stream_push(st, c->y + f * c->m, c->m, x + done * c->m, c->m, &ready);
+        mlr_stream_push(st, c->y + f * c->m, c->m, x + done * c->m, c->m, &ready, NULL);
         done += ready;
     }
-    mlr_stream_flush(st, x + done * c->m, (c->N - done) * c->m, &w);
+    mlr_stream_flush(st, x + done * c->m, (c->N - done) * c->m, &w, NULL);
     mlr_stream_destroy(st);
     const size_t nt = 3 + 3 * c->P;
     double e = 0.0;
@@ -132,7 +132,7 @@ int main(int argc, char **argv)
             mlr_lgs *g = NULL;
             if (mlr_lgs_create(c.N, 2, lam, sigma, NULL, c.N, MLR_LGS_BANDED, NULL, &g, NULL) < 0)
                 return 1;
-            mlr_lgs_solve(g, c.ya, c.m, c.m, ref, c.m);
+            mlr_lgs_solve(g, c.ya, c.m, c.m, ref, c.m, NULL);
             mlr_lgs_destroy(g);
             normalize(&c, ref);
             const double rho = mlr_stream_decay_rate(lam, sigma);

@@ -358,13 +358,15 @@ mlr_status mlr_motion_create(size_t n_joints, const char *const *names, const in
 }
 
 mlr_status mlr_motion_copy_frames(const mlr_motion *src, size_t begin, size_t count,
-                                  mlr_motion **out)
+                                  mlr_motion **out, mlr_diag *diag)
 {
-    if (!out)
-        return MLR_E_INVALID_ARG;
+    if (!out || !src)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "motion copy: src or out is NULL");
     *out = NULL;
-    if (!src || begin > src->n_frames || count > src->n_frames - begin)
-        return MLR_E_INVALID_ARG;
+    if (begin > src->n_frames || count > src->n_frames - begin)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "motion copy: frames [%zu, %zu + %zu) are not within the %zu frames",
+                            begin, begin, count, src->n_frames);
     size_t J = src->n_joints, E = src->n_end, P = src->n_trans;
     size_t name_bytes = 0;
     for (size_t j = 0; j < J; j++)
@@ -372,7 +374,8 @@ mlr_status mlr_motion_copy_frames(const mlr_motion *src, size_t begin, size_t co
     mlr_motion *m;
     mlr_status s = bvh_motion_alloc(&src->alloc, J, E, name_bytes, count, P, &m);
     if (s != MLR_OK)
-        return s;
+        return mlr_diag_set(diag, s, 0, 0, "motion copy: %zu frames of %zu joints: %s", count, J,
+                            mlr_status_string(s));
     m->frame_time = src->frame_time;
     m->n_channels = src->n_channels;
     memcpy(m->name_buf, src->name_buf, name_bytes);

@@ -6,6 +6,7 @@
 #include "file_read_internal.h"
 #include "parallel_internal.h"
 #include "numparse.h"
+#include "options_internal.h"
 
 #include <float.h>
 #include <locale.h>
@@ -998,7 +999,7 @@ static mlr_status lenient_tail(parser *ps, frames_plan *pl, const bvh_scratch *s
         return s;
     }
     mlr_motion *g;
-    if ((s = mlr_motion_copy_frames(m, 0, F, &g)) != MLR_OK)
+    if ((s = mlr_motion_copy_frames(m, 0, F, &g, NULL)) != MLR_OK)
         return s;
     mlr_motion_destroy(m);
     *mp = g;
@@ -1206,6 +1207,11 @@ mlr_status bvh_read_memory_ex(const char *text, size_t len, size_t n_threads, in
 
 /* The options of a lenient read into mode; out and warnings cleared first (the outputs of a
  * failed call). */
+static const mlr_opt_spec bvh_read_opts[] = {
+    {MLR_BVH_OPT_STRICT, "strict", MLR_OPT_BOOL, 0.0, 1.0, 0, 0, 0.0, NULL},
+    {MLR_BVH_OPT_KEEP_TRUNCATED, "keep_truncated", MLR_OPT_BOOL, 0.0, 1.0, 0, 0, 0.0, NULL},
+};
+
 static mlr_status read_options(const mlr_bvh_read_option *opts, size_t n_opts, read_mode *mode,
                                mlr_motion **out, mlr_bvh_warnings *warnings, mlr_diag *diag)
 {
@@ -1213,32 +1219,11 @@ static mlr_status read_options(const mlr_bvh_read_option *opts, size_t n_opts, r
         warnings->count = 0;
     if (out)
         *out = NULL;
-    mode->strict = mode->keep_truncated = 0;
-    if (n_opts > 0 && !opts)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "opts is NULL with n_opts %zu",
-                            n_opts);
-    unsigned seen = 0;
-    for (size_t i = 0; i < n_opts; i++) {
-        const int key = opts[i].key;
-        const double v = opts[i].value;
-        if (key != MLR_BVH_OPT_STRICT && key != MLR_BVH_OPT_KEEP_TRUNCATED)
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "unknown option key %d", key);
-        if (seen & (1u << key))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "option key %d given twice", key);
-        seen |= 1u << key;
-        if (v != 0.0 && v != 1.0)
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "option %s must be 0 or 1, got %g",
-                                key == MLR_BVH_OPT_STRICT ? "MLR_BVH_OPT_STRICT"
-                                                          : "MLR_BVH_OPT_KEEP_TRUNCATED", v);
-        if (key == MLR_BVH_OPT_STRICT)
-            mode->strict = v != 0.0;
-        else
-            mode->keep_truncated = v != 0.0;
-    }
-    if (mode->strict)
-        mode->keep_truncated = 0;
-    return MLR_OK;
+    mlr_opt_values o;
+    mlr_status st = MLR_OPTIONS_READ("bvh read", bvh_read_opts, opts, n_opts, &o, diag);
+    mode->strict = o.v[MLR_BVH_OPT_STRICT] != 0.0;
+    mode->keep_truncated = !mode->strict && o.v[MLR_BVH_OPT_KEEP_TRUNCATED] != 0.0;
+    return st;
 }
 
 mlr_status mlr_bvh_read_memory_opts(const char *text, size_t len, size_t n_threads,

@@ -278,7 +278,7 @@ static void write_frames(const mlr_motion *m, sink *s)
                 } else {
                     if (!have_ang) {
                         mlr_quat q = {rot[4 * j], rot[4 * j + 1], rot[4 * j + 2], rot[4 * j + 3]};
-                        mlr_quat_to_euler_array(&q, 1, (mlr_euler_order)m->order[j], ang);
+                        mlr_quat_to_euler_array(&q, 1, (mlr_euler_order)m->order[j], ang, NULL);
                         have_ang = 1;
                     }
                     double deg = ang[m->rot_idx[3 * j + ch[k] - 3]] * BVH_RAD2DEG;
@@ -369,6 +369,31 @@ static int replace_file(const char *from, const char *to)
 #endif
 }
 
+/* The name of path's temporary by the rule of mlr_bvh.h (mlr_bvh_write_file):
+ * "DIR/.NAME.tmp-" and nonce as 16 lowercase hexadecimal digits. base is where NAME starts in
+ * path; out holds at least strlen(path) + 23 bytes. */
+static void temp_name(char *out, size_t cap, const char *path, const char *base, uint64_t nonce)
+{
+    const size_t dlen = (size_t)(base - path);
+    memcpy(out, path, dlen);
+    snprintf(out + dlen, cap - dlen, ".%s.tmp-%016llx", base, (unsigned long long)nonce);
+}
+
+/* Where the file name starts in path: after the last path separator. */
+static const char *base_name(const char *path)
+{
+    const char *base = path;
+    for (const char *p = path; *p; p++) {
+#ifdef _WIN32
+        if (*p == '\\' || *p == ':')
+            base = p + 1;
+#endif
+        if (*p == '/')
+            base = p + 1;
+    }
+    return base;
+}
+
 mlr_status mlr_bvh_write_file(const mlr_motion *m, const char *path, mlr_diag *diag)
 {
     if (diag) {
@@ -377,8 +402,12 @@ mlr_status mlr_bvh_write_file(const mlr_motion *m, const char *path, mlr_diag *d
     }
     if (!m || !path || !*path)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "motion or path is NULL or empty");
+    const char *base = base_name(path);
+    if (!*base)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "path names a folder (it ends with a "
+                            "path separator)");
     size_t plen = strlen(path);
-    const size_t suffix = 24; /* ".tmp-" + 16 hex digits + NUL, rounded up */
+    const size_t suffix = 24; /* "." + ".tmp-" + 16 hex digits + NUL, rounded up */
     if (plen > SIZE_MAX - suffix)
         return MLR_E_OVERFLOW;
     char *tmp = mlr_alloc(&m->alloc, plen + suffix);
@@ -392,7 +421,7 @@ mlr_status mlr_bvh_write_file(const mlr_motion *m, const char *path, mlr_diag *d
     int err = 0;
     for (int attempt = 0; attempt < 32 && !fp; attempt++) {
         seed = seed * 6364136223846793005ull + 1442695040888963407ull;
-        snprintf(tmp, plen + suffix, "%s.tmp-%016llx", path, (unsigned long long)(seed >> 1));
+        temp_name(tmp, plen + suffix, path, base, seed >> 1);
         errno = 0;
         fp = fopen(tmp, "wbx");
         err = errno;

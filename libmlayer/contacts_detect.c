@@ -3,6 +3,7 @@
  * duration; thresholds relative to the body height and to seconds.
  */
 #include "mlr_internal.h"
+#include "options_internal.h"
 
 #include <math.h>
 
@@ -58,33 +59,22 @@ static void moving_min(const double *x, size_t n, size_t half, double *pad, doub
     }
 }
 
+static const mlr_opt_spec contacts_opts[] = {
+    {MLR_CONTACTS_OPT_SPEED, "speed", MLR_OPT_DOUBLE, 0.0, INFINITY, 1, 0, SPEED_ON, NULL},
+    {MLR_CONTACTS_OPT_HEIGHT, "height", MLR_OPT_DOUBLE, 0.0, INFINITY, 1, 0, HEIGHT_ON, NULL},
+    {MLR_CONTACTS_OPT_MIN_DURATION, "min_duration", MLR_OPT_DOUBLE, 0.0, INFINITY, 1, 0,
+     MIN_CONTACT, NULL},
+};
+
 static mlr_status parse_options(const mlr_contacts_option *opts, size_t n_opts, double *speed,
                                 double *height, double *min_duration, mlr_diag *diag)
 {
-    if (n_opts && !opts)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "contacts: opts is NULL");
-    unsigned seen = 0;
-    for (size_t i = 0; i < n_opts; i++) {
-        const int key = opts[i].key;
-        const double v = opts[i].value;
-        const char *name = key == MLR_CONTACTS_OPT_SPEED          ? "speed"
-                           : key == MLR_CONTACTS_OPT_HEIGHT       ? "height"
-                           : key == MLR_CONTACTS_OPT_MIN_DURATION ? "min_duration"
-                                                                  : NULL;
-        if (!name)
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "contacts: unknown option key %d", key);
-        if (seen & (1u << key))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "contacts: option %s given twice", name);
-        seen |= 1u << key;
-        if (!(isfinite(v) && v > 0))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "contacts: %s must be finite and > 0, got %g", name, v);
-        *(key == MLR_CONTACTS_OPT_SPEED ? speed
-          : key == MLR_CONTACTS_OPT_HEIGHT ? height : min_duration) = v;
-    }
-    return MLR_OK;
+    mlr_opt_values o;
+    mlr_status st = MLR_OPTIONS_READ("contacts", contacts_opts, opts, n_opts, &o, diag);
+    *speed = o.v[MLR_CONTACTS_OPT_SPEED];
+    *height = o.v[MLR_CONTACTS_OPT_HEIGHT];
+    *min_duration = o.v[MLR_CONTACTS_OPT_MIN_DURATION];
+    return st;
 }
 
 /* Close gaps of at most `gap` frames inside a column (stride s), then drop contacts shorter

@@ -3,6 +3,7 @@
  */
 #include "cleanup_internal.h"
 #include "ik_internal.h"
+#include "options_internal.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -59,56 +60,46 @@ typedef struct config {
     double keep_stiller;
 } config;
 
+#define PI 3.14159265358979323846
+static const mlr_opt_spec cleanup_opts[] = {
+    {MLR_CLEANUP_OPT_BLEND, "blend", MLR_OPT_DOUBLE, 0.0, INFINITY, 1, 0, 0.2, NULL},
+    {MLR_CLEANUP_OPT_REACH, "reach", MLR_OPT_DOUBLE, 0.0, 1.0, 1, 0, 0.98, NULL},
+    {MLR_CLEANUP_OPT_PASSES, "passes", MLR_OPT_INT, 1.0, 10.0, 0, 0, 2.0, NULL},
+    {MLR_CLEANUP_OPT_FLOOR, "floor", MLR_OPT_BOOL, 0.0, 1.0, 0, 0, 1.0, NULL},
+    {MLR_CLEANUP_OPT_FLOOR_HEIGHT, "floor_height", MLR_OPT_DOUBLE, -INFINITY, INFINITY, 0, 0, NAN,
+     NULL},
+    {MLR_CLEANUP_OPT_FLOOR_QUANTILE, "floor_quantile", MLR_OPT_DOUBLE, 0.0, 1.0, 0, 0, 0.05, NULL},
+    {MLR_CLEANUP_OPT_REF_SMOOTH, "ref_smooth", MLR_OPT_DOUBLE, 0.0, INFINITY, 0, 0, 0.02, NULL},
+    {MLR_CLEANUP_OPT_PIN_SMOOTH, "pin_smooth", MLR_OPT_DOUBLE, 0.0, INFINITY, 1, 0, 0.02, NULL},
+    {MLR_CLEANUP_OPT_ROOT, "root", MLR_OPT_BOOL, 0.0, 1.0, 0, 0, 1.0, NULL},
+    {MLR_CLEANUP_OPT_MAX_FOLD, "max_fold", MLR_OPT_DOUBLE, 0.0, PI, 1, 0, PI, "in (0, pi]"},
+    {MLR_CLEANUP_OPT_KEEP_STILLER, "keep_stiller", MLR_OPT_DOUBLE, 0.0, INFINITY, 0, 0, 0.0,
+     "0 (off) or >= 1"},
+};
+#undef PI
+
 static mlr_status parse_options(const mlr_cleanup_option *opts, size_t n_opts, config *cfg,
                                 mlr_diag *diag)
 {
-    int seen[16] = {0};
-    cfg->blend = 0.2, cfg->reach = 0.98, cfg->passes = 2, cfg->floor_on = 1;
-    cfg->floor_given = 0, cfg->floor_height = NAN, cfg->floor_q = 0.05;
-    cfg->ref_smooth = 0.02, cfg->pin_smooth = 0.02, cfg->root_on = 1;
-    cfg->max_fold = 3.14159265358979323846;
-    cfg->keep_stiller = 0;
-    if (n_opts && !opts)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "opts is NULL but n_opts is %zu",
-                            n_opts);
-    for (size_t i = 0; i < n_opts; i++) {
-        const int key = opts[i].key;
-        const double v = opts[i].value;
-        if (key < MLR_CLEANUP_OPT_BLEND || key > MLR_CLEANUP_OPT_KEEP_STILLER)
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "unknown option key %d", key);
-        if (seen[key])
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "option key %d given twice", key);
-        seen[key] = 1;
-        if (!isfinite(v))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "option key %d: value %g is not finite", key, v);
-        int ok = 1;
-        switch (key) {
-        case MLR_CLEANUP_OPT_BLEND: ok = v > 0.0; cfg->blend = v; break;
-        case MLR_CLEANUP_OPT_REACH: ok = v > 0.0 && v <= 1.0; cfg->reach = v; break;
-        case MLR_CLEANUP_OPT_PASSES:
-            ok = v >= 1.0 && v <= 10.0 && v == floor(v);
-            cfg->passes = (int)v;
-            break;
-        case MLR_CLEANUP_OPT_FLOOR: ok = v == 0.0 || v == 1.0; cfg->floor_on = v != 0.0; break;
-        case MLR_CLEANUP_OPT_FLOOR_HEIGHT: cfg->floor_given = 1; cfg->floor_height = v; break;
-        case MLR_CLEANUP_OPT_FLOOR_QUANTILE: ok = v >= 0.0 && v <= 1.0; cfg->floor_q = v; break;
-        case MLR_CLEANUP_OPT_REF_SMOOTH: ok = v >= 0.0; cfg->ref_smooth = v; break;
-        case MLR_CLEANUP_OPT_PIN_SMOOTH: ok = v > 0.0; cfg->pin_smooth = v; break;
-        case MLR_CLEANUP_OPT_KEEP_STILLER:
-            ok = v == 0.0 || v >= 1.0;
-            cfg->keep_stiller = v;
-            break;
-        case MLR_CLEANUP_OPT_MAX_FOLD:
-            ok = v > 0.0 && v <= 3.14159265358979323846;
-            cfg->max_fold = v;
-            break;
-        default: ok = v == 0.0 || v == 1.0; cfg->root_on = v != 0.0; break;
-        }
-        if (!ok)
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "option key %d: value %g out of range", key, v);
-    }
+    mlr_opt_values o;
+    mlr_status st = MLR_OPTIONS_READ("cleanup", cleanup_opts, opts, n_opts, &o, diag);
+    if (st != MLR_OK)
+        return st;
+    const double ks = o.v[MLR_CLEANUP_OPT_KEEP_STILLER];
+    if (ks > 0.0 && ks < 1.0)
+        return mlr_option_reject(diag, "cleanup", "keep_stiller", ks, "0 (off) or >= 1");
+    cfg->blend = o.v[MLR_CLEANUP_OPT_BLEND];
+    cfg->reach = o.v[MLR_CLEANUP_OPT_REACH];
+    cfg->passes = (int)o.v[MLR_CLEANUP_OPT_PASSES];
+    cfg->floor_on = o.v[MLR_CLEANUP_OPT_FLOOR] != 0.0;
+    cfg->floor_given = o.given[MLR_CLEANUP_OPT_FLOOR_HEIGHT];
+    cfg->floor_height = o.v[MLR_CLEANUP_OPT_FLOOR_HEIGHT];
+    cfg->floor_q = o.v[MLR_CLEANUP_OPT_FLOOR_QUANTILE];
+    cfg->ref_smooth = o.v[MLR_CLEANUP_OPT_REF_SMOOTH];
+    cfg->pin_smooth = o.v[MLR_CLEANUP_OPT_PIN_SMOOTH];
+    cfg->root_on = o.v[MLR_CLEANUP_OPT_ROOT] != 0.0;
+    cfg->max_fold = o.v[MLR_CLEANUP_OPT_MAX_FOLD];
+    cfg->keep_stiller = ks;
     return MLR_OK;
 }
 
@@ -267,7 +258,7 @@ static mlr_status fk_points(const mlr_rig *rig, size_t N, const double *root_pos
         fk_masked(rig, N, need, tidx, root_pos, rot, trans, pos, wrot);
     else
         st = mlr_fk_arrays(N, rig->n_joints, rig->parents, rig->offsets, root_pos, rot,
-                           rig->n_trans, rig->trans_joints, trans, pos, wrot, alloc);
+                           rig->n_trans, rig->trans_joints, trans, pos, wrot, alloc, NULL);
     if (st != MLR_OK || !pts)
         return st;
     return mlr_rig_point_positions(rig, N, pos, wrot, C, joints, end_sites, pts, NULL);
@@ -668,6 +659,7 @@ mlr_status mlr_cleanup_ref_create(const mlr_rig *rig, size_t N, double fps, int 
 {
     *out = NULL;
     config cfg;
+    memset(&cfg, 0, sizeof cfg);
     mlr_status st = parse_options(opts, n_opts, &cfg, diag);
     if (st != MLR_OK)
         return st;
@@ -749,10 +741,10 @@ mlr_status mlr_cleanup_ref_create(const mlr_rig *rig, size_t N, double fps, int 
             release(&ar);
             return st;
         }
-        mlr_lgs_solve(ref_lgs, Pr, 3 * C, 3 * C, tmp, 3 * C);
+        mlr_lgs_solve(ref_lgs, Pr, 3 * C, 3 * C, tmp, 3 * C, NULL);
         memcpy(Pr, tmp, N * C * 3 * sizeof(double));
         for (size_t k = 0; k < nf; k++) { /* the ankles' trajectories */
-            mlr_lgs_solve(ref_lgs, pos_ref + 3 * k, 3 * nf, 3, tmp, 3);
+            mlr_lgs_solve(ref_lgs, pos_ref + 3 * k, 3 * nf, 3, tmp, 3, NULL);
             for (size_t f = 0; f < N; f++)
                 memcpy(pos_ref + 3 * (f * nf + k), tmp + 3 * f, 3 * sizeof(double));
         }

@@ -5,17 +5,24 @@
 #define FK_STACK_JOINTS 256
 
 static mlr_status check_skeleton(size_t n_joints, const int32_t *parents, size_t n_trans,
-                                 const int32_t *trans_joints)
+                                 const int32_t *trans_joints, mlr_diag *diag)
 {
-    if (n_joints == 0 || n_joints > BVH_MAX_JOINTS || parents[0] != -1)
-        return MLR_E_INVALID_ARG;
+    if (n_joints == 0 || n_joints > BVH_MAX_JOINTS)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "fk: %zu joints, not in [1, %zu]",
+                            n_joints, BVH_MAX_JOINTS);
+    if (parents[0] != -1)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "fk: parents[0] is %d, not -1",
+                            (int)parents[0]);
     for (size_t j = 1; j < n_joints; j++)
         if (parents[j] < 0 || (size_t)parents[j] >= j)
-            return MLR_E_INVALID_ARG;
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "fk: parents[%zu] is %d, not in [0, %zu)", j, (int)parents[j], j);
     for (size_t k = 0; k < n_trans; k++)
         if (trans_joints[k] < 1 || (size_t)trans_joints[k] >= n_joints ||
             (k && trans_joints[k] <= trans_joints[k - 1]))
-            return MLR_E_INVALID_ARG;
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "fk: trans_joints[%zu] is %d: not in [1, %zu) or not increasing",
+                                k, (int)trans_joints[k], n_joints);
     return MLR_OK;
 }
 
@@ -51,7 +58,7 @@ static void fk_frame(size_t J, const int32_t *parents, const double *offsets,
 static mlr_status fk_run(size_t N, size_t J, const int32_t *parents, const double *offsets,
                          const double *root_pos, const double *rot, size_t P,
                          const int32_t *trans_joints, const double *trans, double *world_pos,
-                         double *world_rot, const mlr_allocator *alloc)
+                         double *world_rot, const mlr_allocator *alloc, mlr_diag *diag)
 {
     mlr_quat stack_scratch[FK_STACK_JOINTS];
     mlr_quat *scratch = stack_scratch;
@@ -60,10 +67,11 @@ static mlr_status fk_run(size_t N, size_t J, const int32_t *parents, const doubl
     if (!world_rot && J > FK_STACK_JOINTS && N > 0) {
         mlr_allocator_resolve(alloc, &a);
         if (mlr_mul_size(J, sizeof(mlr_quat), &scratch_bytes) != MLR_OK)
-            return MLR_E_OVERFLOW;
+            return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "fk: %zu joints overflow a size", J);
         scratch = mlr_alloc(&a, scratch_bytes);
         if (!scratch)
-            return MLR_E_NO_MEMORY;
+            return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                                "fk: out of memory for %zu world rotations of scratch", J);
     }
     for (size_t f = 0; f < N; f++) {
         mlr_quat *wr = world_rot ? (mlr_quat *)(void *)(world_rot + 4 * J * f) : scratch;
@@ -78,29 +86,37 @@ static mlr_status fk_run(size_t N, size_t J, const int32_t *parents, const doubl
 mlr_status mlr_fk_arrays(size_t n_frames, size_t n_joints, const int32_t *parents,
                          const double *offsets, const double *root_pos, const double *rot,
                          size_t n_trans, const int32_t *trans_joints, const double *trans,
-                         double *world_pos, double *world_rot, const mlr_allocator *alloc)
+                         double *world_pos, double *world_rot, const mlr_allocator *alloc,
+                         mlr_diag *diag)
 {
     if (!parents || !offsets || (n_trans && (!trans_joints || !trans)) ||
         (n_frames && (!rot || !world_pos)))
-        return MLR_E_INVALID_ARG;
-    mlr_status s = check_skeleton(n_joints, parents, n_trans, trans_joints);
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "fk: parents, offsets, rot, world_pos%s is NULL",
+                            n_trans ? ", trans_joints or trans" : "");
+    mlr_status s = check_skeleton(n_joints, parents, n_trans, trans_joints, diag);
     if (s != MLR_OK)
         return s;
     size_t nj;
     if (mlr_mul_size(n_frames, n_joints, &nj) || mlr_mul_size(nj, 4, &nj))
-        return MLR_E_OVERFLOW;
+        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "fk: %zu frames x %zu joints overflow",
+                            n_frames, n_joints);
     return fk_run(n_frames, n_joints, parents, offsets, root_pos, rot, n_trans, trans_joints,
-                  trans, world_pos, world_rot, alloc);
+                  trans, world_pos, world_rot, alloc, diag);
 }
 
 mlr_status mlr_fk_motion(const mlr_motion *m, size_t begin, size_t count, double *world_pos,
-                         double *world_rot)
+                         double *world_rot, mlr_diag *diag)
 {
-    if (!m || begin > m->n_frames || count > m->n_frames - begin || (count && !world_pos))
-        return MLR_E_INVALID_ARG;
+    if (!m || (count && !world_pos))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "fk: motion or world_pos is NULL");
+    if (begin > m->n_frames || count > m->n_frames - begin)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "fk: frames [%zu, %zu + %zu) are not within the motion's %zu", begin,
+                            begin, count, m->n_frames);
     const size_t J = m->n_joints, P = m->n_trans;
     return fk_run(count, J, m->parents, m->offsets, count ? m->root_pos + 3 * begin : NULL,
                   count ? m->rot + 4 * J * begin : NULL, P, m->trans_joints,
                   (count && P) ? m->trans + 3 * P * begin : NULL, world_pos, world_rot,
-                  &m->alloc);
+                  &m->alloc, diag);
 }

@@ -5,6 +5,7 @@
 #include "mlr_internal.h"
 #include "cleanup_internal.h"
 #include "limits_internal.h"
+#include "options_internal.h"
 
 #include <math.h>
 
@@ -154,54 +155,33 @@ static mlr_status copy_rig(mlr_guards *g, const mlr_rig *src)
     return MLR_OK;
 }
 
+static const mlr_opt_spec guards_opts[] = {
+    {MLR_GUARDS_OPT_UP, "up", MLR_OPT_INT, 0.0, 2.0, 0, 0, MLR_AXIS_Y,
+     "an up axis: 0 (X), 1 (Y) or 2 (Z)"},
+    {MLR_GUARDS_OPT_LIMITS, "limits", MLR_OPT_INT, 0.0, 2.0, 0, 0, MLR_GUARDS_LIMITS_AUTO,
+     "0 (off), 1 (auto) or 2 (always)"},
+    {MLR_GUARDS_OPT_KEEP_CONTACTS, "keep_contacts", MLR_OPT_BOOL, 0.0, 1.0, 0, 0, 1.0, NULL},
+    {MLR_GUARDS_OPT_FLOOR, "floor", MLR_OPT_BOOL, 0.0, 1.0, 0, 0, 1.0, NULL},
+    {MLR_GUARDS_OPT_FLOOR_HEIGHT, "floor_height", MLR_OPT_DOUBLE, -INFINITY, INFINITY, 0, 0, NAN,
+     NULL},
+    {MLR_GUARDS_OPT_FOLLOW, "follow", MLR_OPT_BOOL, 0.0, 1.0, 0, 0, 1.0, NULL},
+};
+
 static mlr_status read_options(mlr_guards *g, const mlr_guards_option *opts, size_t n_opts,
                                mlr_diag *diag)
 {
-    unsigned seen = 0;
-    if (n_opts && !opts)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "guards: opts is NULL");
-    for (size_t k = 0; k < n_opts; k++) {
-        const int key = opts[k].key;
-        const double v = opts[k].value;
-        if (key < MLR_GUARDS_OPT_UP || key > MLR_GUARDS_OPT_FOLLOW)
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "guards: unknown option key %d",
-                                key);
-        if (seen & (1u << key))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "guards: option %d given twice",
-                                key);
-        seen |= 1u << key;
-        if (!isfinite(v))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "guards: option %d is not finite", key);
-        switch (key) {
-        case MLR_GUARDS_OPT_UP:
-            if (v != 0.0 && v != 1.0 && v != 2.0)
-                return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                    "guards: up axis %g is not 0 (X), 1 (Y) or 2 (Z)", v);
-            g->up = (int)v;
-            break;
-        case MLR_GUARDS_OPT_LIMITS:
-            if (v != 0.0 && v != 1.0 && v != 2.0)
-                return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                    "guards: limits mode %g is not 0 (off), 1 (auto) or 2 "
-                                    "(always)", v);
-            g->limits_mode = (int)v;
-            break;
-        case MLR_GUARDS_OPT_CONTACTS:
-        case MLR_GUARDS_OPT_FLOOR:
-        case MLR_GUARDS_OPT_FOLLOW:
-            if (v != 0.0 && v != 1.0)
-                return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                    "guards: option %d must be 0 or 1, got %g", key, v);
-            *(key == MLR_GUARDS_OPT_CONTACTS ? &g->contacts_on
-              : key == MLR_GUARDS_OPT_FLOOR  ? &g->floor_on
-                                             : &g->follow) = (int)v;
-            break;
-        default: /* MLR_GUARDS_OPT_FLOOR_HEIGHT */
-            g->floor_height = v;
-            g->floor_given = 1;
-        }
-    }
+    mlr_opt_values o;
+    mlr_status st = MLR_OPTIONS_READ("guards", guards_opts, opts, n_opts, &o, diag);
+    if (st != MLR_OK)
+        return st;
+    g->up = (int)o.v[MLR_GUARDS_OPT_UP];
+    g->limits_mode = (int)o.v[MLR_GUARDS_OPT_LIMITS];
+    g->contacts_on = (int)o.v[MLR_GUARDS_OPT_KEEP_CONTACTS];
+    g->floor_on = (int)o.v[MLR_GUARDS_OPT_FLOOR];
+    g->follow = (int)o.v[MLR_GUARDS_OPT_FOLLOW];
+    g->floor_given = o.given[MLR_GUARDS_OPT_FLOOR_HEIGHT];
+    if (g->floor_given)
+        g->floor_height = o.v[MLR_GUARDS_OPT_FLOOR_HEIGHT];
     return MLR_OK;
 }
 
@@ -374,13 +354,13 @@ mlr_status mlr_guards_create(const mlr_rig *rig, double fps, size_t n_frames,
     if (P)
         memcpy(g->trans, trans, 3 * N * P * sizeof(double));
     /* unit rotations, as the layers, the limits and the cleanup take them */
-    st = mlr_quat_normalize_array((const mlr_quat *)rot, N * J, (mlr_quat *)g->rot);
+    st = mlr_quat_normalize_array((const mlr_quat *)rot, N * J, (mlr_quat *)g->rot, NULL);
     if (st != MLR_OK) {
         mlr_diag_set(diag, st, 0, 0, "guards: a rotation of the input is zero");
         goto done;
     }
     st = mlr_fk_arrays(N, J, g->parents, g->offsets, g->root_pos, g->rot, P, g->trans_joints,
-                       g->trans, wpos, wrot, &a);
+                       g->trans, wpos, wrot, &a, NULL);
     if (st != MLR_OK) {
         mlr_diag_set(diag, st, 0, 0, "guards: forward kinematics of the input failed");
         goto done;

@@ -4,6 +4,7 @@
  * layer in layers_control.c, the batched solves in layers_batch.c.
  */
 #include "layers_internal.h"
+#include "options_internal.h"
 
 #include <math.h>
 
@@ -17,121 +18,113 @@ static double floor_s_max(double fps, double cutoff)
 }
 
 #define MLR_LAYERS_DEFAULT_CUTOFF 0.25 /* Hz */
-#define MLR_LAYERS_N_KEYS (MLR_LAYERS_OPT_ROBUST_ANGLE + 1)
 #define MLR_LAYERS_ROBUST_CUTOFF 2.0        /* Hz: the detection smoother's half-power point */
 #define MLR_LAYERS_ROBUST_FPS 30.0          /* the frame rate assumed for it without FPS */
 #define MLR_LAYERS_ROBUST_HEIGHT_GATE 0.2   /* translation gate, in body heights */
 
+#define S "layers"
+#define INF INFINITY
+static const mlr_opt_spec layers_opts[] = {
+    {MLR_LAYERS_OPT_GAMMA, "gamma", MLR_OPT_DOUBLE, 0.5 * MLR_PI, MLR_PI, 0, 1, 0.5 * MLR_PI,
+     "in [pi/2, pi)"},
+    {MLR_LAYERS_OPT_LAM_B, "lam_b", MLR_OPT_DOUBLE, 0.0, INF, 1, 0, 1.0, NULL},
+    {MLR_LAYERS_OPT_SIGMA_B, "sigma_b", MLR_OPT_DOUBLE, 0.0, INF, 1, 0, 0.1, NULL},
+    {MLR_LAYERS_OPT_LAM_C, "lam_c", MLR_OPT_DOUBLE, 0.0, INF, 1, 0, 1.0, NULL},
+    {MLR_LAYERS_OPT_SIGMA_C, "sigma_c", MLR_OPT_DOUBLE, 0.0, INF, 1, 0, 1.0, NULL},
+    {MLR_LAYERS_OPT_BASE_S_MIN, "base_s_min", MLR_OPT_DOUBLE, 0.0, INF, 1, 0, 1e-2, NULL},
+    {MLR_LAYERS_OPT_BASE_S_MAX, "base_s_max", MLR_OPT_DOUBLE, 0.0, INF, 1, 0, 1e10, NULL},
+    {MLR_LAYERS_OPT_CONTROL_S_MIN, "control_s_min", MLR_OPT_DOUBLE, 0.0, INF, 1, 0, 1e-2, NULL},
+    {MLR_LAYERS_OPT_CONTROL_S_MAX, "control_s_max", MLR_OPT_DOUBLE, 0.0, INF, 1, 0, 1e8, NULL},
+    {MLR_LAYERS_OPT_FPS, "fps", MLR_OPT_DOUBLE, 0.0, INF, 1, 0, MLR_LAYERS_ROBUST_FPS, NULL},
+    {MLR_LAYERS_OPT_BASE_CUTOFF, "base_cutoff", MLR_OPT_DOUBLE, 0.0, INF, 1, 0,
+     MLR_LAYERS_DEFAULT_CUTOFF, NULL},
+    {MLR_LAYERS_OPT_BODY_JOINT, "body_joint", MLR_OPT_INT, 0.0, INF, 0, 0, 0.0, "a joint index"},
+    {MLR_LAYERS_OPT_ROBUST, "robust", MLR_OPT_BOOL, 0.0, 1.0, 0, 0, 1.0, NULL},
+    {MLR_LAYERS_OPT_BODY_HEIGHT, "body_height", MLR_OPT_DOUBLE, 0.0, INF, 1, 0, 0.0, NULL},
+    {MLR_LAYERS_OPT_ROBUST_ANGLE, "robust_angle", MLR_OPT_DOUBLE, 0.0, MLR_PI, 1, 0,
+     0.5 * MLR_PI, "in (0, pi]"},
+};
+#undef INF
+
 static mlr_status parse_options(const mlr_layers_option *opts, size_t n_opts, size_t n_joints,
                                 mlr_layers_cfg *cfg, mlr_diag *diag)
 {
-    double val[MLR_LAYERS_N_KEYS];
-    int seen[MLR_LAYERS_N_KEYS] = {0};
-    for (size_t i = 0; i < n_opts; i++) {
-        const int key = opts[i].key;
-        if (key < MLR_LAYERS_OPT_GAMMA || key > MLR_LAYERS_OPT_ROBUST_ANGLE)
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "unknown option key %d", key);
-        if (seen[key])
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "option key %d given twice", key);
-        seen[key] = 1;
-        val[key] = opts[i].value;
-        if (!isfinite(val[key]))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "option key %d: value %g is not finite",
-                                key, val[key]);
-        if (key != MLR_LAYERS_OPT_GAMMA && key != MLR_LAYERS_OPT_BODY_JOINT &&
-            key != MLR_LAYERS_OPT_ROBUST && !(val[key] > 0.0))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "option key %d: value %g is not > 0",
-                                key, val[key]);
-    }
-    cfg->gamma = seen[MLR_LAYERS_OPT_GAMMA] ? val[MLR_LAYERS_OPT_GAMMA] : 0.5 * MLR_PI;
-    if (!(cfg->gamma >= 0.5 * MLR_PI && cfg->gamma < MLR_PI))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "gamma = %g is outside [pi/2, pi)", cfg->gamma);
+    mlr_opt_values o;
+    mlr_status st = MLR_OPTIONS_READ(S, layers_opts, opts, n_opts, &o, diag);
+    if (st != MLR_OK)
+        return st;
+    const double *val = o.v;
+    const unsigned char *seen = o.given;
+    cfg->gamma = val[MLR_LAYERS_OPT_GAMMA];
     cfg->base_s = cfg->control_s = 0.0;
     if (seen[MLR_LAYERS_OPT_LAM_B] || seen[MLR_LAYERS_OPT_SIGMA_B]) {
-        const double lam = seen[MLR_LAYERS_OPT_LAM_B] ? val[MLR_LAYERS_OPT_LAM_B] : 1.0;
-        const double sig = seen[MLR_LAYERS_OPT_SIGMA_B] ? val[MLR_LAYERS_OPT_SIGMA_B] : 0.1;
+        const double lam = val[MLR_LAYERS_OPT_LAM_B], sig = val[MLR_LAYERS_OPT_SIGMA_B];
         cfg->base_s = lam * lam * sig * sig;
         if (!(cfg->base_s > 0.0) || !isfinite(cfg->base_s))
             return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "base lam^2 sigma^2 = %g is not finite and > 0", cfg->base_s);
+                                S ": lam_b^2 sigma_b^2 = %g is not finite and > 0", cfg->base_s);
     }
     if (seen[MLR_LAYERS_OPT_LAM_C] || seen[MLR_LAYERS_OPT_SIGMA_C]) {
-        const double lam = seen[MLR_LAYERS_OPT_LAM_C] ? val[MLR_LAYERS_OPT_LAM_C] : 1.0;
-        const double sig = seen[MLR_LAYERS_OPT_SIGMA_C] ? val[MLR_LAYERS_OPT_SIGMA_C] : 1.0;
+        const double lam = val[MLR_LAYERS_OPT_LAM_C], sig = val[MLR_LAYERS_OPT_SIGMA_C];
         cfg->control_s = lam * lam * sig * sig;
         if (!(cfg->control_s > 0.0) || !isfinite(cfg->control_s))
             return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "control lam^2 sigma^2 = %g is not finite and > 0", cfg->control_s);
+                                S ": lam_c^2 sigma_c^2 = %g is not finite and > 0",
+                                cfg->control_s);
     }
-    cfg->body_joint = 0;
-    if (seen[MLR_LAYERS_OPT_BODY_JOINT]) {
-        const double b = val[MLR_LAYERS_OPT_BODY_JOINT];
-        if (!(b >= 0.0 && b < (double)n_joints && b == floor(b)))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "body joint %g is not a joint index in [0, %zu)", b, n_joints);
-        cfg->body_joint = (size_t)b;
-    }
-    cfg->robust = 1;
-    if (seen[MLR_LAYERS_OPT_ROBUST]) {
-        const double r = val[MLR_LAYERS_OPT_ROBUST];
-        if (r != 0.0 && r != 1.0)
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "robust = %g is neither 0 (off) nor 1 (on)", r);
-        cfg->robust = r == 1.0;
-    }
-    cfg->robust_angle = seen[MLR_LAYERS_OPT_ROBUST_ANGLE] ? val[MLR_LAYERS_OPT_ROBUST_ANGLE]
-                                                          : 0.5 * MLR_PI;
-    if (!(cfg->robust_angle <= MLR_PI))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "robust angle %g is outside (0, pi]", cfg->robust_angle);
+    const double b = val[MLR_LAYERS_OPT_BODY_JOINT];
+    if (!(b < (double)n_joints))
+        return mlr_option_reject(diag, S, "body_joint", b, "a joint index in [0, %zu)", n_joints);
+    cfg->body_joint = (size_t)b;
+    cfg->robust = val[MLR_LAYERS_OPT_ROBUST] == 1.0;
+    cfg->robust_angle = val[MLR_LAYERS_OPT_ROBUST_ANGLE];
     cfg->robust_length = seen[MLR_LAYERS_OPT_BODY_HEIGHT]
                              ? MLR_LAYERS_ROBUST_HEIGHT_GATE * val[MLR_LAYERS_OPT_BODY_HEIGHT]
                              : 0.0;
     {
-        const double fps = seen[MLR_LAYERS_OPT_FPS] ? val[MLR_LAYERS_OPT_FPS] : MLR_LAYERS_ROBUST_FPS;
+        const double fps = val[MLR_LAYERS_OPT_FPS]; /* MLR_LAYERS_ROBUST_FPS when not given */
         /* at fps below twice the cutoff: the weakest smoother there is, s of fps / 4 */
         const double fc = fmin(MLR_LAYERS_ROBUST_CUTOFF, 0.25 * fps);
         cfg->robust_s = floor_s_max(fps, fc);
         cfg->robust_window = fps >= 32.0 ? (size_t)fmin(0.25 * fps + 0.5, 256.0) : 8;
     }
-    cfg->base_s_min = seen[MLR_LAYERS_OPT_BASE_S_MIN] ? val[MLR_LAYERS_OPT_BASE_S_MIN] : 1e-2;
-    cfg->base_s_max = seen[MLR_LAYERS_OPT_BASE_S_MAX] ? val[MLR_LAYERS_OPT_BASE_S_MAX] : 1e10;
+    cfg->base_s_min = val[MLR_LAYERS_OPT_BASE_S_MIN];
+    cfg->base_s_max = val[MLR_LAYERS_OPT_BASE_S_MAX];
     if (seen[MLR_LAYERS_OPT_BASE_CUTOFF] && !seen[MLR_LAYERS_OPT_FPS])
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "base cutoff %g Hz needs the frame rate (MLR_LAYERS_OPT_FPS)",
+                            S ": option base_cutoff = %g (Hz) needs the frame rate (option fps)",
                             val[MLR_LAYERS_OPT_BASE_CUTOFF]);
     if (seen[MLR_LAYERS_OPT_FPS]) {
         const double fps = val[MLR_LAYERS_OPT_FPS];
-        const double fc = seen[MLR_LAYERS_OPT_BASE_CUTOFF] ? val[MLR_LAYERS_OPT_BASE_CUTOFF]
-                                                           : MLR_LAYERS_DEFAULT_CUTOFF;
+        const double fc = val[MLR_LAYERS_OPT_BASE_CUTOFF];
         if (!(fc < 0.5 * fps))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "base cutoff %g Hz is not in (0, fps/2) = (0, %g)", fc, 0.5 * fps);
+            return mlr_option_reject(diag, S, "base_cutoff", fc, "in (0, fps/2) = (0, %g) Hz",
+                                     0.5 * fps);
         if (seen[MLR_LAYERS_OPT_BASE_CUTOFF] && seen[MLR_LAYERS_OPT_BASE_S_MAX])
             return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "base cutoff and BASE_S_MAX both set the upper end of the base "
-                                "search: give one");
+                                S ": options base_cutoff and base_s_max both set the upper end "
+                                "of the base search: give one");
         if (!seen[MLR_LAYERS_OPT_BASE_S_MAX]) {
             cfg->base_s_max = floor_s_max(fps, fc); /* >= 1/16 > the default BASE_S_MIN */
             if (!(cfg->base_s_min < cfg->base_s_max))
-                return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                    "BASE_S_MIN %g is not below the base floor's s %g "
-                                    "(cutoff %g Hz at %g fps)", cfg->base_s_min,
-                                    cfg->base_s_max, fc, fps);
+                return mlr_option_reject(diag, S, "base_s_min", cfg->base_s_min,
+                                         "below the base floor's s %g (cutoff %g Hz at %g fps)",
+                                         cfg->base_s_max, fc, fps);
         }
     }
-    cfg->control_s_min = seen[MLR_LAYERS_OPT_CONTROL_S_MIN] ? val[MLR_LAYERS_OPT_CONTROL_S_MIN] : 1e-2;
-    cfg->control_s_max = seen[MLR_LAYERS_OPT_CONTROL_S_MAX] ? val[MLR_LAYERS_OPT_CONTROL_S_MAX] : 1e8;
+    cfg->control_s_min = val[MLR_LAYERS_OPT_CONTROL_S_MIN];
+    cfg->control_s_max = val[MLR_LAYERS_OPT_CONTROL_S_MAX];
     if (!(cfg->base_s_min < cfg->base_s_max))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "base s range [%g, %g] is not ordered",
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            S ": options base_s_min %g and base_s_max %g are not ordered",
                             cfg->base_s_min, cfg->base_s_max);
     if (!(cfg->control_s_min < cfg->control_s_max))
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "control s range [%g, %g] is not ordered", cfg->control_s_min,
-                            cfg->control_s_max);
+                            S ": options control_s_min %g and control_s_max %g are not ordered",
+                            cfg->control_s_min, cfg->control_s_max);
     return MLR_OK;
 }
+#undef S
 
 /* Sizes (in doubles) of the handle's arrays and of the scratch, overflow-checked. */
 typedef struct sizes {
@@ -223,7 +216,7 @@ static void residuals(mlr_layers *L, const double *p, double *delta, double *tmp
         const double *ci = L->control + i * ld;
         for (size_t c = 0; c < 3; c++)
             ri[c] -= ci[c];
-        mlr_quat_exp_array((const mlr_vec3 *)(const void *)(ci + 3), j, e);
+        mlr_quat_exp_array((const mlr_vec3 *)(const void *)(ci + 3), j, e, NULL);
         mlr_quat_conj_mul_log(e, (const mlr_quat *)(const void *)(p + 4 * j * i), j, r,
                               (mlr_vec3 *)(void *)(ri + 3));
     }
@@ -254,8 +247,6 @@ mlr_status mlr_layers_decompose(size_t n_frames, size_t n_joints, const double *
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "no joints");
     if (!rot)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "rot is NULL");
-    if (n_opts > 0 && !opts)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "opts is NULL but n_opts is %zu", n_opts);
     mlr_layers_cfg cfg;
     mlr_status st = parse_options(opts, n_opts, n_joints, &cfg, diag);
     if (st != MLR_OK)
@@ -355,34 +346,6 @@ mlr_status mlr_layers_get_outliers(const mlr_layers *L, unsigned char *out, size
     return MLR_OK;
 }
 
-mlr_status mlr_layers_repair(const mlr_layers *L, size_t begin, size_t count, double *root_pos,
-                             size_t n_root_pos, double *rot, size_t n_rot, size_t *n_repaired)
-{
-    if (n_repaired)
-        *n_repaired = 0;
-    if (!L || begin > L->n || count > L->n - begin || (root_pos && n_root_pos != 3 * count) ||
-        (rot && n_rot != 4 * L->j * count))
-        return MLR_E_INVALID_ARG;
-    const size_t g = 1 + L->j;
-    const double one = 1.0;
-    size_t n = 0;
-    for (size_t f = 0; f < count; f++) {
-        const unsigned char *o = L->outliers + (begin + f) * g;
-        size_t k = 0;
-        while (k < g && !o[k])
-            k++;
-        if (k == g)
-            continue;
-        /* one frame of the synthesis at alpha 1: the same arithmetic, so the same bits */
-        (void)mlr_layers_synthesize(L, begin + f, 1, &one, 1, root_pos ? root_pos + 3 * f : NULL,
-                                    3, rot ? rot + 4 * L->j * f : NULL, 4 * L->j);
-        n++;
-    }
-    if (n_repaired)
-        *n_repaired = n;
-    return MLR_OK;
-}
-
 static mlr_status copy_groups(const mlr_layers *L, const double *src, double *out, size_t count)
 {
     if (!L || !out || count != 3 * L->n * (1 + L->j))
@@ -411,14 +374,52 @@ mlr_status mlr_layers_get_param(const mlr_layers *L, mlr_layers_param which, dou
 }
 
 static mlr_status check_range(const mlr_layers *L, size_t begin, size_t count, double *root_pos,
-                              size_t n_root_pos, double *rot, size_t n_rot)
+                              size_t n_root_pos, double *rot, size_t n_rot, const char *fn,
+                              mlr_diag *diag)
 {
-    if (!L || begin > L->n || count > L->n - begin)
-        return MLR_E_INVALID_ARG;
+    if (!L)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "layers %s: the handle is NULL", fn);
+    if (begin > L->n || count > L->n - begin)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "layers %s: frames [%zu, %zu + %zu) are not within the %zu frames",
+                            fn, begin, begin, count, L->n);
     if (root_pos && n_root_pos != 3 * count)
-        return MLR_E_INVALID_ARG;
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "layers %s: n_root_pos is %zu, 3 count is %zu", fn, n_root_pos,
+                            3 * count);
     if (rot && n_rot != 4 * L->j * count)
-        return MLR_E_INVALID_ARG;
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "layers %s: n_rot is %zu, 4 J count is %zu", fn, n_rot,
+                            4 * L->j * count);
+    return MLR_OK;
+}
+
+mlr_status mlr_layers_repair(const mlr_layers *L, size_t begin, size_t count, double *root_pos,
+                             size_t n_root_pos, double *rot, size_t n_rot, size_t *n_repaired,
+                             mlr_diag *diag)
+{
+    if (n_repaired)
+        *n_repaired = 0;
+    mlr_status st = check_range(L, begin, count, root_pos, n_root_pos, rot, n_rot, "repair", diag);
+    if (st != MLR_OK)
+        return st;
+    const size_t g = 1 + L->j;
+    const double one = 1.0;
+    size_t n = 0;
+    for (size_t f = 0; f < count; f++) {
+        const unsigned char *o = L->outliers + (begin + f) * g;
+        size_t k = 0;
+        while (k < g && !o[k])
+            k++;
+        if (k == g)
+            continue;
+        /* one frame of the synthesis at alpha 1: the same arithmetic, so the same bits */
+        (void)mlr_layers_synthesize(L, begin + f, 1, &one, 1, root_pos ? root_pos + 3 * f : NULL,
+                                    3, rot ? rot + 4 * L->j * f : NULL, 4 * L->j, NULL);
+        n++;
+    }
+    if (n_repaired)
+        *n_repaired = n;
     return MLR_OK;
 }
 
@@ -430,10 +431,10 @@ static void displace(const double *qb, const double *v, double alpha, const doub
 {
     const mlr_vec3 av = {alpha * v[0], alpha * v[1], alpha * v[2]};
     mlr_quat e, o;
-    mlr_quat_exp_array(&av, 1, &e);
+    mlr_quat_exp_array(&av, 1, &e, NULL);
     mlr_quat_mul((const mlr_quat *)(const void *)qb, &e, &o);
     if (r) {
-        mlr_quat_exp_array((const mlr_vec3 *)(const void *)r, 1, &e);
+        mlr_quat_exp_array((const mlr_vec3 *)(const void *)r, 1, &e, NULL);
         mlr_quat_mul(&o, &e, &o);
     }
     const double sgn = o.w * qb[0] + o.x * qb[1] + o.y * qb[2] + o.z * qb[3] < 0.0 ? -1.0 : 1.0;
@@ -442,17 +443,21 @@ static void displace(const double *qb, const double *v, double alpha, const doub
 
 mlr_status mlr_layers_synthesize(const mlr_layers *L, size_t begin, size_t count,
                                  const double *alpha, size_t n_alpha, double *root_pos,
-                                 size_t n_root_pos, double *rot, size_t n_rot)
+                                 size_t n_root_pos, double *rot, size_t n_rot, mlr_diag *diag)
 {
-    mlr_status st = check_range(L, begin, count, root_pos, n_root_pos, rot, n_rot);
+    mlr_status st =
+        check_range(L, begin, count, root_pos, n_root_pos, rot, n_rot, "synthesize", diag);
     if (st != MLR_OK)
         return st;
     const size_t j = L->j, ld = 3 * (1 + j);
     if (!alpha || (n_alpha != 1 && n_alpha != 1 + j))
-        return MLR_E_INVALID_ARG;
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "layers synthesize: %zu alphas (NULL: %d), not 1 or 1 + J = %zu",
+                            n_alpha, !alpha, 1 + j);
     for (size_t g = 0; g < n_alpha; g++)
         if (!isfinite(alpha[g]))
-            return MLR_E_INVALID_ARG;
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "layers synthesize: alpha[%zu] is NaN or infinite", g);
     for (size_t f = 0; f < count; f++) {
         const size_t i = begin + f;
         const double *ci = L->control + i * ld;
@@ -474,7 +479,7 @@ mlr_status mlr_layers_synthesize(const mlr_layers *L, size_t begin, size_t count
                     const double *v = ci + 3 + 3 * k;
                     av[t] = (mlr_vec3){ak * v[0], ak * v[1], ak * v[2]};
                 }
-                mlr_quat_exp_array(av, m, e);
+                mlr_quat_exp_array(av, m, e, NULL);
                 for (size_t t = 0; t < m; t++) {
                     const size_t k = k0 + t;
                     const double *qb = L->base_rot + 4 * (i * j + k);
@@ -492,9 +497,11 @@ mlr_status mlr_layers_synthesize(const mlr_layers *L, size_t begin, size_t count
 }
 
 mlr_status mlr_layers_reconstruct(const mlr_layers *L, size_t begin, size_t count,
-                                  double *root_pos, size_t n_root_pos, double *rot, size_t n_rot)
+                                  double *root_pos, size_t n_root_pos, double *rot, size_t n_rot,
+                                  mlr_diag *diag)
 {
-    mlr_status st = check_range(L, begin, count, root_pos, n_root_pos, rot, n_rot);
+    mlr_status st =
+        check_range(L, begin, count, root_pos, n_root_pos, rot, n_rot, "reconstruct", diag);
     if (st != MLR_OK)
         return st;
     const size_t j = L->j, ld = 3 * (1 + j);

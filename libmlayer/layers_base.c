@@ -21,7 +21,8 @@
 mlr_status mlr_layers_prepare_rot(size_t n, size_t j, const double *rot_in, double *q,
                                   mlr_diag *diag)
 {
-    if (mlr_quat_normalize_array((const mlr_quat *)rot_in, n * j, (mlr_quat *)q) != MLR_OK) {
+    if (mlr_quat_normalize_array((const mlr_quat *)rot_in, n * j, (mlr_quat *)q, NULL) !=
+        MLR_OK) {
         for (size_t i = 0; i < n * j; i++) {
             const double *r = rot_in + 4 * i;
             const double nn = r[0] * r[0] + r[1] * r[1] + r[2] * r[2] + r[3] * r[3];

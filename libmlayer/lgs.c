@@ -155,7 +155,7 @@ mlr_status mlr_lgs_create(size_t n_out, unsigned order, double lam, double sigma
     mlr_allocator_resolve(alloc, &a);
     mlr_lgs *g = mlr_alloc(&a, sizeof *g);
     if (!g)
-        return MLR_E_NO_MEMORY;
+        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "lgs: out of memory for the handle");
     memset(g, 0, sizeof *g);
     g->alloc = a;
     g->n_out = n_out;
@@ -177,7 +177,9 @@ mlr_status mlr_lgs_create(size_t n_out, unsigned order, double lam, double sigma
             mlr_mul_size(n_obs, sizeof(double), &g->f_bytes) ||
             mlr_mul_size(n_out, 2 * sizeof(double), &ata_bytes)) {
             lgs_free(g);
-            return MLR_E_OVERFLOW;
+            return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0,
+                                "lgs: %zu output frames, %zu observations overflow a size", n_out,
+                                n_obs);
         }
         g->first = mlr_alloc(&a, g->first_bytes);
         g->f = mlr_alloc(&a, g->f_bytes);
@@ -185,7 +187,9 @@ mlr_status mlr_lgs_create(size_t n_out, unsigned order, double lam, double sigma
         if (!g->first || !g->f || !ata) {
             mlr_free(&a, ata, ata_bytes);
             lgs_free(g);
-            return MLR_E_NO_MEMORY;
+            return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                                "lgs: out of memory for the observation map (%zu observations)",
+                                n_obs);
         }
         double *ata_d = ata, *ata_o = ata + n_out;
         memset(ata, 0, ata_bytes);
@@ -241,7 +245,9 @@ mlr_status mlr_lgs_create(size_t n_out, unsigned order, double lam, double sigma
             return mlr_diag_set(diag, st, 0, 0,
                                 "the system is singular: some output frames are not determined "
                                 "by the observations and the prior (lam = 0 with unobserved frames?)");
-        return st;
+        return mlr_diag_set(diag, st, 0, 0, "lgs: the %s factorization of %zu frames: %s",
+                            solver == MLR_LGS_BANDED ? "banded" : "CHOLMOD", n_out,
+                            mlr_status_string(st));
     }
     *out = g;
     return st;
@@ -308,22 +314,38 @@ static int row_finite(const double *x, size_t m)
 }
 
 mlr_status mlr_lgs_solve(const mlr_lgs *g, const double *y, size_t ldy, size_t m, double *x,
-                         size_t ldx)
+                         size_t ldx, mlr_diag *diag)
 {
-    return mlr_lgs_solve_mt(g, y, ldy, m, x, ldx, 1);
+    return mlr_lgs_solve_mt(g, y, ldy, m, x, ldx, 1, diag);
+}
+
+/* The first non-finite value of y (n rows of m, stride ldy): the message of a failed solve. */
+static mlr_status bad_y(const double *y, size_t n, size_t m, size_t ldy, mlr_diag *diag)
+{
+    for (size_t i = 0; i < n; i++)
+        for (size_t c = 0; c < m; c++)
+            if (!isfinite(y[i * ldy + c]))
+                return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "lgs solve: y[%zu][%zu] is NaN or infinite", i, c);
+    return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                        "lgs solve: the solution is not finite (y too large)");
 }
 
 mlr_status mlr_lgs_solve_mt(const mlr_lgs *g, const double *y, size_t ldy, size_t m, double *x,
-                            size_t ldx, size_t n_threads)
+                            size_t ldx, size_t n_threads, mlr_diag *diag)
 {
     if (!g)
-        return MLR_E_INVALID_ARG;
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "lgs solve: the handle is NULL");
     if (m == 0)
         return MLR_OK;
-    if (!y || !x || ldy < m || ldx < m)
-        return MLR_E_INVALID_ARG;
+    if (!y || !x)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "lgs solve: y or x is NULL");
+    if (ldy < m || ldx < m)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "lgs solve: ldy %zu or ldx %zu is below m = %zu columns", ldy, ldx, m);
     if (g->first && x == y)
-        return MLR_E_INVALID_ARG;
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "lgs solve: x is y, but an in-place solve needs t == NULL");
     const size_t n = g->n_out;
     if (g->solver == MLR_LGS_BANDED) {
         solve_ctx ctx = {g, y, ldy};
@@ -342,7 +364,7 @@ mlr_status mlr_lgs_solve_mt(const mlr_lgs *g, const double *y, size_t ldy, size_
         /* a sparse factor need not connect every row with every other: check y itself */
         for (size_t i = 0; i < g->n_obs; i++)
             if (!row_finite(y + i * ldy, m))
-                return MLR_E_INVALID_ARG;
+                return bad_y(y, g->n_obs, m, ldy, diag);
         for (size_t r = 0; r < n; r++) {
             double *xr = x + r * ldx;
             if (g->first)
@@ -352,27 +374,33 @@ mlr_status mlr_lgs_solve_mt(const mlr_lgs *g, const double *y, size_t ldy, size_
         }
         mlr_status st = mlr_sparse_spd_solve(g->sparse, x, ldx, m);
         if (st != MLR_OK)
-            return st;
+            return mlr_diag_set(diag, st, 0, 0, "lgs solve: CHOLMOD: %s", mlr_status_string(st));
 #else
-        return MLR_E_UNSUPPORTED;
+        return mlr_diag_set(diag, MLR_E_UNSUPPORTED, 0, 0, "lgs solve: no CHOLMOD in this build");
 #endif
     }
     /* Any NaN or inf in y reaches every output row through the two sweeps (0 * inf and
      * 0 * NaN are NaN), so the first and last rows tell whether y was finite. */
     if (!row_finite(x, m) || !row_finite(x + (n - 1) * ldx, m))
-        return MLR_E_INVALID_ARG;
+        return bad_y(y, g->n_obs, m, ldy, diag);
     return MLR_OK;
 }
 
-mlr_status mlr_lgs_variance(const mlr_lgs *g, double *var, size_t n_out)
+mlr_status mlr_lgs_variance(const mlr_lgs *g, double *var, size_t n_out, mlr_diag *diag)
 {
-    if (!g || !var || n_out != g->n_out)
-        return MLR_E_INVALID_ARG;
+    if (!g || !var)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "lgs variance: the handle or var is NULL");
+    if (n_out != g->n_out)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "lgs variance: n_out is %zu, the handle has %zu output frames", n_out,
+                            g->n_out);
     if (g->solver != MLR_LGS_BANDED)
-        return MLR_E_UNSUPPORTED;
+        return mlr_diag_set(diag, MLR_E_UNSUPPORTED, 0, 0,
+                            "lgs variance: needs the banded solver, the handle is CHOLMOD's");
     mlr_status st = mlr_band_inverse_diagonal(g->band, var, n_out);
     if (st != MLR_OK)
-        return st;
+        return mlr_diag_set(diag, st, 0, 0, "lgs variance: %s", mlr_status_string(st));
     for (size_t i = 0; i < n_out; i++)
         var[i] *= g->sigma2;
     return MLR_OK;

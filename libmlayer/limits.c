@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "mlr_internal.h"
+#include "options_internal.h"
 
 #define PI 3.14159265358979323846
 #define DEG (PI / 180.0)
@@ -162,47 +163,25 @@ typedef struct create_opts {
     double fold, soft, rev_soft;
 } create_opts;
 
+static const mlr_opt_spec limits_opts[] = {
+    {MLR_LIMITS_OPT_HUMAN, "human", MLR_OPT_INT, -1.0, 1.0, 0, 0, -1.0,
+     "-1 (decide), 0 (not human) or 1 (human)"},
+    {MLR_LIMITS_OPT_FOLD, "fold", MLR_OPT_DOUBLE, 0.0, PI, 1, 0, 150.0 * DEG, "in (0, pi]"},
+    {MLR_LIMITS_OPT_SOFT, "soft", MLR_OPT_DOUBLE, 0.0, 1.0, 1, 1, 0.15, NULL},
+    {MLR_LIMITS_OPT_REVERSAL_SOFT, "reversal_soft", MLR_OPT_DOUBLE, 0.0, 0.5 * PI, 1, 0,
+     10.0 * DEG, "in (0, pi/2]"},
+};
+
 static mlr_status read_opts(const mlr_limits_option *opts, size_t n_opts, create_opts *o,
                             mlr_diag *diag)
 {
-    o->human = -1, o->fold = 150.0 * DEG, o->soft = 0.15, o->rev_soft = 10.0 * DEG;
-    if (n_opts > 0 && !opts)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "limits: opts NULL");
-    unsigned seen = 0;
-    for (size_t i = 0; i < n_opts; i++) {
-        const int key = opts[i].key;
-        const double v = opts[i].value;
-        if (key < MLR_LIMITS_OPT_HUMAN || key > MLR_LIMITS_OPT_REVERSAL_SOFT)
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "limits: unknown option key %d",
-                                key);
-        if (seen & (1u << key))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "limits: option key %d repeated",
-                                key);
-        seen |= 1u << key;
-        int ok = isfinite(v);
-        switch (key) {
-        case MLR_LIMITS_OPT_HUMAN:
-            ok = ok && (v == -1.0 || v == 0.0 || v == 1.0);
-            o->human = (int)v;
-            break;
-        case MLR_LIMITS_OPT_FOLD:
-            ok = ok && v > 0 && v <= PI;
-            o->fold = v;
-            break;
-        case MLR_LIMITS_OPT_SOFT:
-            ok = ok && v > 0 && v < 1;
-            o->soft = v;
-            break;
-        default:
-            ok = ok && v > 0 && v <= 0.5 * PI;
-            o->rev_soft = v;
-            break;
-        }
-        if (!ok)
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "limits: option key %d has a value out of range: %g", key, v);
-    }
-    return MLR_OK;
+    mlr_opt_values v;
+    mlr_status st = MLR_OPTIONS_READ("limits", limits_opts, opts, n_opts, &v, diag);
+    o->human = (int)v.v[MLR_LIMITS_OPT_HUMAN];
+    o->fold = v.v[MLR_LIMITS_OPT_FOLD];
+    o->soft = v.v[MLR_LIMITS_OPT_SOFT];
+    o->rev_soft = v.v[MLR_LIMITS_OPT_REVERSAL_SOFT];
+    return st;
 }
 
 static int name_contains(const mlr_rig *rig, const char *word)
@@ -371,7 +350,7 @@ mlr_status mlr_limits_create(const mlr_rig *rig, const mlr_limits_clip *clips, s
                 rq[j] = r;
                 qn[j] = q;
             }
-            (void)mlr_quat_log_array(rq, J, rv);
+            (void)mlr_quat_log_array(rq, J, rv, NULL);
             for (size_t j = 0; j < J; j++) {
                 mlr_limits_joint *g = &jt[j];
                 const mlr_vec3 v = rv[j];
@@ -847,7 +826,7 @@ mlr_status mlr_limits_apply(const mlr_limits *lim, size_t n_frames, const double
     if (rot_out != rot_in)
         memmove(rot_out, rot_in, 4 * J * n_frames * sizeof(double));
     mlr_quat *q = (mlr_quat *)rot_out;
-    (void)mlr_quat_normalize_array(q, J * n_frames, q);
+    (void)mlr_quat_normalize_array(q, J * n_frames, q, NULL);
     /* joint by joint, so that hinge angles are unwrapped along the frames */
     for (int kind = MLR_LIMITS_HINGE; kind <= MLR_LIMITS_SWING_TWIST; kind++)
         mlr_limits_apply_kind(lim, n_frames, q, alpha, n_alpha, counts, kind);

@@ -225,13 +225,26 @@ static int normalize_fast(const mlr_quat *q, size_t m, mlr_quat *out)
     return 1;
 }
 
-mlr_status mlr_quat_normalize_array(const mlr_quat *q, size_t count, mlr_quat *out)
+/* The diag of an array function that met n_bad bad elements of arg, the first at index first:
+ * "quat log: q: 1 of 40 quaternions zero, NaN or infinite, the first at index 7". */
+static mlr_status bad_elements(mlr_diag *diag, const char *fn, const char *arg, const char *what,
+                               size_t first, size_t n_bad, size_t count)
+{
+    return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                        "%s: %s: %zu of %zu %s %s, the first at index %zu", fn, arg, n_bad, count,
+                        what, strcmp(what, "quaternions") ? "NaN or infinite"
+                                                          : "zero, NaN or infinite",
+                        first);
+}
+
+mlr_status mlr_quat_normalize_array(const mlr_quat *q, size_t count, mlr_quat *out,
+                                    mlr_diag *diag)
 {
     if (count == 0)
         return MLR_OK;
     if (!q || !out)
-        return MLR_E_INVALID_ARG;
-    mlr_status status = MLR_OK;
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "quat normalize: q or out is NULL");
+    size_t n_bad = 0, first = 0;
     for (size_t i0 = 0; i0 < count; i0 += QBLK) {
         const size_t m = count - i0 < QBLK ? count - i0 : QBLK;
         if (normalize_fast(q + i0, m, out + i0))
@@ -239,11 +252,14 @@ mlr_status mlr_quat_normalize_array(const mlr_quat *q, size_t count, mlr_quat *o
         for (size_t i = i0; i < i0 + m; i++) {
             if (!quat_unit(&q[i], &out[i])) {
                 out[i] = quat_identity;
-                status = MLR_E_INVALID_ARG;
+                first = n_bad++ ? first : i;
             }
         }
     }
-    return status;
+    if (n_bad)
+        return bad_elements(diag, "quat normalize", "q", "quaternions", first, n_bad,
+                            count);
+    return MLR_OK;
 }
 
 /* exp of m rotation vectors whose components are all finite and below MLR_SINCOS_LIMIT / 2
@@ -282,13 +298,13 @@ static int exp_fast(const mlr_vec3 *v, size_t m, mlr_quat *out)
     return 1;
 }
 
-mlr_status mlr_quat_exp_array(const mlr_vec3 *v, size_t count, mlr_quat *out)
+mlr_status mlr_quat_exp_array(const mlr_vec3 *v, size_t count, mlr_quat *out, mlr_diag *diag)
 {
     if (count == 0)
         return MLR_OK;
     if (!v || !out)
-        return MLR_E_INVALID_ARG;
-    mlr_status status = MLR_OK;
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "quat exp: v or out is NULL");
+    size_t n_bad = 0, first = 0;
     for (size_t i0 = 0; i0 < count; i0 += QBLK) {
         const size_t m = count - i0 < QBLK ? count - i0 : QBLK;
         if (exp_fast(v + i0, m, out + i0))
@@ -297,7 +313,7 @@ mlr_status mlr_quat_exp_array(const mlr_vec3 *v, size_t count, mlr_quat *out)
             const double x = v[i].x, y = v[i].y, z = v[i].z;
             if (!(isfinite(x) && isfinite(y) && isfinite(z))) {
                 out[i] = quat_identity;
-                status = MLR_E_INVALID_ARG;
+                first = n_bad++ ? first : i;
                 continue;
             }
             const double angle = norm3(x, y, z);
@@ -317,7 +333,10 @@ mlr_status mlr_quat_exp_array(const mlr_vec3 *v, size_t count, mlr_quat *out)
             out[i].z = k * z;
         }
     }
-    return status;
+    if (n_bad)
+        return bad_elements(diag, "quat exp", "v", "rotation vectors", first, n_bad,
+                            count);
+    return MLR_OK;
 }
 
 /* 2 atan(r) / (r w) for r = s / w below LOG_SERIES_ARG: Taylor in r to r^12, the first
@@ -431,22 +450,25 @@ static int log_fast(const mlr_quat *q, size_t m, mlr_vec3 *out)
     return 1;
 }
 
-mlr_status mlr_quat_log_array(const mlr_quat *q, size_t count, mlr_vec3 *out)
+mlr_status mlr_quat_log_array(const mlr_quat *q, size_t count, mlr_vec3 *out, mlr_diag *diag)
 {
     if (count == 0)
         return MLR_OK;
     if (!q || !out)
-        return MLR_E_INVALID_ARG;
-    mlr_status status = MLR_OK;
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "quat log: q or out is NULL");
+    size_t n_bad = 0, first = 0;
     for (size_t i0 = 0; i0 < count; i0 += QBLK) {
         const size_t m = count - i0 < QBLK ? count - i0 : QBLK;
         if (log_fast(q + i0, m, out + i0))
             continue;
         for (size_t i = i0; i < i0 + m; i++)
             if (log_one(&q[i], &out[i]) != MLR_OK)
-                status = MLR_E_INVALID_ARG;
+                first = n_bad++ ? first : i;
     }
-    return status;
+    if (n_bad)
+        return bad_elements(diag, "quat log", "q", "quaternions", first, n_bad,
+                            count);
+    return MLR_OK;
 }
 
 /* prod = conj(a) b, out = log(prod) for m <= QBLK quaternions; the SoA path when the
@@ -489,19 +511,25 @@ void mlr_quat_conj_mul_log(const mlr_quat *a, const mlr_quat *b, size_t count, m
 }
 
 mlr_status mlr_quat_slerp_array(const mlr_quat *a, const mlr_quat *b, const double *t,
-                                size_t count, mlr_quat *out)
+                                size_t count, mlr_quat *out, mlr_diag *diag)
 {
     if (count == 0)
         return MLR_OK;
     if (!a || !b || !t || !out)
-        return MLR_E_INVALID_ARG;
-    mlr_status status = MLR_OK;
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "quat slerp: a, b, t or out is NULL");
+    size_t n_bad = 0, first = 0;
+    const char *what = "";
     for (size_t i = 0; i < count; i++) {
         mlr_quat p, r;
         const double ti = t[i];
-        if (!isfinite(ti) || !quat_unit(&a[i], &p) || !quat_unit(&b[i], &r)) {
+        const char *bad = !isfinite(ti)              ? "t is NaN or infinite"
+                          : !quat_unit(&a[i], &p)    ? "a is a zero, NaN or infinite quaternion"
+                          : !quat_unit(&b[i], &r)    ? "b is a zero, NaN or infinite quaternion"
+                                                     : NULL;
+        if (bad) {
             out[i] = quat_identity;
-            status = MLR_E_INVALID_ARG;
+            if (!n_bad++)
+                first = i, what = bad;
             continue;
         }
         if (p.w * r.w + p.x * r.x + p.y * r.y + p.z * r.z < 0.0) { /* shorter arc */
@@ -523,12 +551,16 @@ mlr_status mlr_quat_slerp_array(const mlr_quat *a, const mlr_quat *b, const doub
         const double kb = ti * sinc(ti * theta) / sinc_theta;
         mlr_quat m = {ka * p.w + kb * r.w, ka * p.x + kb * r.x, ka * p.y + kb * r.y,
                       ka * p.z + kb * r.z};
-        if (!quat_unit(&m, &out[i])) { /* only for a non-finite t far outside [0, 1] */
+        if (!quat_unit(&m, &out[i])) { /* only for a t far outside [0, 1] */
             out[i] = quat_identity;
-            status = MLR_E_INVALID_ARG;
+            if (!n_bad++)
+                first = i, what = "t is too far outside [0, 1]";
         }
     }
-    return status;
+    return n_bad ? mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "quat slerp: %zu of %zu bad, the first at index %zu: %s", n_bad,
+                                count, first, what)
+                 : MLR_OK;
 }
 
 static int order_is_valid(mlr_euler_order order)
@@ -536,50 +568,60 @@ static int order_is_valid(mlr_euler_order order)
     return (int)order >= 0 && (int)order < 6;
 }
 
+static mlr_status bad_order(mlr_diag *diag, const char *fn, mlr_euler_order order)
+{
+    return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: order %d is not an mlr_euler_order",
+                        fn, (int)order);
+}
+
 mlr_status mlr_quat_from_euler_array(const double *angles, size_t count, mlr_euler_order order,
-                                     mlr_quat *out)
+                                     mlr_quat *out, mlr_diag *diag)
 {
     if (!order_is_valid(order))
-        return MLR_E_INVALID_ARG;
+        return bad_order(diag, "quat from_euler", order);
     if (count == 0)
         return MLR_OK;
     if (!angles || !out)
-        return MLR_E_INVALID_ARG;
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "quat from_euler: angles or out is NULL");
     const unsigned char *axes = mlr_euler_axes[order];
     const double s = mlr_euler_parity[order];
-    mlr_status status = MLR_OK;
+    size_t n_bad = 0, first = 0;
     for (size_t n = 0; n < count; n++) {
         const double a0 = angles[3 * n], a1 = angles[3 * n + 1], a2 = angles[3 * n + 2];
         if (!(isfinite(a0) && isfinite(a1) && isfinite(a2))) {
             out[n] = quat_identity;
-            status = MLR_E_INVALID_ARG;
+            first = n_bad++ ? first : n;
             continue;
         }
         mlr_quat_from_euler_half(cos(0.5 * a0), sin(0.5 * a0), cos(0.5 * a1), sin(0.5 * a1),
                                  cos(0.5 * a2), sin(0.5 * a2), axes, s, &out[n]);
     }
-    return status;
+    if (n_bad)
+        return bad_elements(diag, "quat from_euler", "angles", "angle triples", first, n_bad,
+                            count);
+    return MLR_OK;
 }
 
 mlr_status mlr_quat_to_euler_array(const mlr_quat *q, size_t count, mlr_euler_order order,
-                                   double *angles)
+                                   double *angles, mlr_diag *diag)
 {
     if (!order_is_valid(order))
-        return MLR_E_INVALID_ARG;
+        return bad_order(diag, "quat to_euler", order);
     if (count == 0)
         return MLR_OK;
     if (!q || !angles)
-        return MLR_E_INVALID_ARG;
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "quat to_euler: q or angles is NULL");
     const unsigned ia = mlr_euler_axes[order][0], ja = mlr_euler_axes[order][1],
                    ka = mlr_euler_axes[order][2];
     const double s = mlr_euler_parity[order];
-    mlr_status status = MLR_OK;
+    size_t n_bad = 0, first = 0;
     for (size_t n = 0; n < count; n++) {
         double *out = &angles[3 * n];
         mlr_quat p;
         if (!quat_unit(&q[n], &p)) {
             out[0] = out[1] = out[2] = 0.0;
-            status = MLR_E_INVALID_ARG;
+            first = n_bad++ ? first : n;
             continue;
         }
         /* Direct from the quaternion (the method of Bernardes & Viollet 2022, as in SciPy),
@@ -610,7 +652,10 @@ mlr_status mlr_quat_to_euler_array(const mlr_quat *q, size_t count, mlr_euler_or
         out[1] = a1;
         out[2] = wrap_pi(a2);
     }
-    return status;
+    if (n_bad)
+        return bad_elements(diag, "quat to_euler", "q", "quaternions", first, n_bad,
+                            count);
+    return MLR_OK;
 }
 
 void mlr_quat_make_continuous(mlr_quat *q, size_t n_frames, size_t n_tracks)
@@ -736,21 +781,24 @@ void mlr_quat_make_continuous_predictive(mlr_quat *q, size_t n_frames, size_t n_
         mlr_quat_continue_frame(q, f, n_tracks);
 }
 
-mlr_status mlr_euler_order_parse(const char *name, mlr_euler_order *out)
+mlr_status mlr_euler_order_parse(const char *name, mlr_euler_order *out, mlr_diag *diag)
 {
     if (!name || !out)
-        return MLR_E_INVALID_ARG;
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "euler order: name or out is NULL");
     int axis[3];
     for (int k = 0; k < 3; k++) {
         switch (name[k]) {
         case 'X': case 'x': axis[k] = 0; break;
         case 'Y': case 'y': axis[k] = 1; break;
         case 'Z': case 'z': axis[k] = 2; break;
-        default: return MLR_E_INVALID_ARG; /* also stops at a NUL before the third letter */
+        default: /* also stops at a NUL before the third letter */
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "euler order \"%.8s\" is not three of the letters X, Y, Z", name);
         }
     }
     if (name[3] != '\0')
-        return MLR_E_INVALID_ARG;
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "euler order \"%.8s\" is longer than three letters", name);
     for (int o = 0; o < 6; o++) {
         if (mlr_euler_axes[o][0] == axis[0] && mlr_euler_axes[o][1] == axis[1] &&
             mlr_euler_axes[o][2] == axis[2]) {
@@ -758,5 +806,8 @@ mlr_status mlr_euler_order_parse(const char *name, mlr_euler_order *out)
             return MLR_OK;
         }
     }
-    return MLR_E_INVALID_ARG; /* a repeated axis ("XYX"): proper Euler orders are not used */
+    /* a repeated axis ("XYX"): proper Euler orders are not used */
+    return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                        "euler order \"%s\" repeats an axis (XYZ, XZY, YXZ, YZX, ZXY or ZYX)",
+                        name);
 }

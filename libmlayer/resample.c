@@ -31,7 +31,7 @@ static mlr_status check_factor(double r, unsigned flags, mlr_diag *diag)
         return MLR_OK;
     if (r > lim * (1.0 + FACTOR_SLACK) || r < (1.0 - FACTOR_SLACK) / lim)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "resampling factor %g is beyond %gx (pass MLR_RESAMPLE_ALLOW_EXTREME "
+                            "resampling factor %g is beyond %gx (set the flag allow_extreme "
                             "if this is intended)", r >= 1.0 ? r : 1.0 / r, lim);
     return MLR_OK;
 }
@@ -146,7 +146,7 @@ mlr_status mlr_timemap_validate(const double *t, size_t n_frames, size_t n_out, 
         if (!extreme_ok(flags) && (d < lo || d > hi))
             return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                                 "time map step t[%zu] - t[%zu] = %g is beyond the %gx factor limit "
-                                "(pass MLR_RESAMPLE_ALLOW_EXTREME if this is intended)",
+                                "(set the flag allow_extreme if this is intended)",
                                 i, i - 1, d, MLR_RESAMPLE_MAX_FACTOR);
     }
     return MLR_OK;
@@ -341,13 +341,13 @@ mlr_status mlr_resample_arrays(size_t n_frames, size_t n_joints, size_t n_trans,
     if (st < 0)
         goto done;
     const mlr_status created = st;
-    st = mlr_lgs_solve(lgs, root_pos, 3, 3, g_root, 3);
+    st = mlr_lgs_solve(lgs, root_pos, 3, 3, g_root, 3, diag);
     if (st == MLR_OK && n_joints > 0)
-        st = mlr_lgs_solve(lgs, q, n_rot, n_rot, g_rot, n_rot);
+        st = mlr_lgs_solve(lgs, q, n_rot, n_rot, g_rot, n_rot, diag);
     if (st == MLR_OK && n_trans > 0)
-        st = mlr_lgs_solve(lgs, trans, 3 * n_trans, 3 * n_trans, g_trans, 3 * n_trans);
+        st = mlr_lgs_solve(lgs, trans, 3 * n_trans, 3 * n_trans, g_trans, 3 * n_trans, diag);
     if (st == MLR_OK && var_out)
-        st = mlr_lgs_variance(lgs, g_var, n_grid);
+        st = mlr_lgs_variance(lgs, g_var, n_grid, diag);
     if (st != MLR_OK)
         goto done;
     if (grid) { /* the first n_out frames of the grid */
@@ -361,7 +361,7 @@ mlr_status mlr_resample_arrays(size_t n_frames, size_t n_joints, size_t n_trans,
     }
     if (n_joints > 0 &&
         mlr_quat_normalize_array((const mlr_quat *)rot_out, n_out * n_joints,
-                                 (mlr_quat *)rot_out) != MLR_OK) {
+                                 (mlr_quat *)rot_out, NULL) != MLR_OK) {
         st = mlr_diag_set(diag, MLR_E_SINGULAR, 0, 0,
                           "an interpolated quaternion vanished (a key step near 360 degrees?)");
         goto done;
@@ -426,7 +426,8 @@ mlr_status mlr_slerp_resample_arrays(size_t n_frames, size_t n_joints, size_t n_
             const size_t cnt = n_joints - j0 < CHUNK ? n_joints - j0 : CHUNK;
             const mlr_quat *qa = (const mlr_quat *)(rot + 4 * (n_joints * k + j0));
             const mlr_quat *qb = qa + n_joints;
-            mlr_quat_slerp_array(qa, qb, u_rep, cnt, (mlr_quat *)(rot_out + 4 * (n_joints * j + j0)));
+            mlr_quat_slerp_array(qa, qb, u_rep, cnt, (mlr_quat *)(rot_out + 4 * (n_joints * j + j0)),
+                                 NULL);
         }
     }
     return MLR_OK;

@@ -303,7 +303,7 @@ static void finish_row(const mlr_stream *st, double *x, double *xb)
 {
     const size_t J = st->n_joints;
     mlr_quat *q = (mlr_quat *)(x + st->q_off);
-    (void)mlr_quat_normalize_array(q, J, q); /* a zero mean gives the identity */
+    (void)mlr_quat_normalize_array(q, J, q, NULL); /* a zero mean gives the identity */
     if (st->layered)
         compose_layers(st, x, xb, q);
     if (st->limits)
@@ -318,7 +318,7 @@ static void compose_layers(const mlr_stream *st, double *x, double *xb, mlr_quat
         for (size_t c = 0; c < st->q_off; c++)
             x[c] = xb[c] + st->alpha_trans * (x[c] - xb[c]);
     mlr_quat *b = (mlr_quat *)(xb + st->q_off);
-    (void)mlr_quat_normalize_array(b, J, b);
+    (void)mlr_quat_normalize_array(b, J, b, NULL);
     for (size_t j = 0; j < J; j++) {
         const double a = st->alpha[j];
         if (a == 1.0)
@@ -327,9 +327,9 @@ static void compose_layers(const mlr_stream *st, double *x, double *xb, mlr_quat
         mlr_vec3 v;
         const mlr_quat bc = {b[j].w, -b[j].x, -b[j].y, -b[j].z};
         mlr_quat_mul(&bc, &q[j], &d);
-        (void)mlr_quat_log_array(&d, 1, &v); /* angle in [0, pi]: the shorter way */
+        (void)mlr_quat_log_array(&d, 1, &v, NULL); /* angle in [0, pi]: the shorter way */
         v.x *= a, v.y *= a, v.z *= a;
-        (void)mlr_quat_exp_array(&v, 1, &e);
+        (void)mlr_quat_exp_array(&v, 1, &e, NULL);
         mlr_quat_mul(&b[j], &e, &q[j]);
     }
 }
@@ -458,18 +458,43 @@ void mlr_stream_destroy(mlr_stream *st)
     mlr_free(&a, st, sizeof *st);
 }
 
+static mlr_status flushed(mlr_diag *diag, const char *fn)
+{
+    return mlr_diag_set(diag, MLR_E_BAD_STATE, 0, 0,
+                        "stream %s: the stream was flushed; reset it before pushing again", fn);
+}
+
+/* The first non-finite value of v[0 .. n): the message of a rejected frame or alpha. */
+static mlr_status not_finite(mlr_diag *diag, const char *fn, const char *what, const double *v,
+                             size_t n)
+{
+    size_t i = 0;
+    while (i < n && isfinite(v[i]))
+        i++;
+    return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                        "stream %s: %s[%zu] is NaN or infinite (rejected; the stream is "
+                        "unchanged)", fn, what, i);
+}
+
 mlr_status mlr_stream_push(mlr_stream *st, const double *frame, size_t n_values, double *out,
-                           size_t out_len, size_t *n_ready)
+                           size_t out_len, size_t *n_ready, mlr_diag *diag)
 {
     if (n_ready)
         *n_ready = 0;
     if (!st || !frame || !out || !n_ready)
-        return MLR_E_INVALID_ARG;
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "stream push: st, frame, out or n_ready is NULL");
     if (st->finished)
-        return MLR_E_BAD_STATE;
+        return flushed(diag, "push");
     const size_t m = st->m, R = st->ring, i = st->n;
-    if (n_values != m || out_len < m || !values_finite(frame, m))
-        return MLR_E_INVALID_ARG;
+    if (n_values != m)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "stream push: n_values is %zu, a frame has %zu", n_values, m);
+    if (out_len < m)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "stream push: out_len %zu is below the frame size %zu", out_len, m);
+    if (!values_finite(frame, m))
+        return not_finite(diag, "push", "frame", frame, m);
     double *yi = st->y + (i % 3) * m;
     memcpy(yi, frame, m * sizeof(double));
     align_signs(st, i, yi);
@@ -496,20 +521,25 @@ mlr_status mlr_stream_push(mlr_stream *st, const double *frame, size_t n_values,
     return MLR_OK;
 }
 
-mlr_status mlr_stream_flush(mlr_stream *st, double *out, size_t out_len, size_t *n_written)
+mlr_status mlr_stream_flush(mlr_stream *st, double *out, size_t out_len, size_t *n_written,
+                            mlr_diag *diag)
 {
     if (n_written)
         *n_written = 0;
     if (!st || !n_written)
-        return MLR_E_INVALID_ARG;
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "stream flush: st or n_written is NULL");
     if (st->finished)
-        return MLR_E_BAD_STATE;
+        return mlr_diag_set(diag, MLR_E_BAD_STATE, 0, 0,
+                            "stream flush: the stream was flushed already; reset it first");
     const size_t pending = st->n - st->n_out, m = st->m; /* pending <= lag: fits (create) */
     if (pending > 0) {
         if (!out)
-            return MLR_E_INVALID_ARG;
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "stream flush: out is NULL with %zu frames pending", pending);
         if (out_len / m < pending)
-            return MLR_E_OVERFLOW;
+            return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0,
+                                "stream flush: out_len %zu is below %zu pending frames of %zu",
+                                out_len, pending, m);
         smoother_tail(st, &st->sm[0], st->n_out, out);
         if (st->layered)
             smoother_tail(st, &st->sm[1], st->n_out, st->flush_base);
@@ -531,24 +561,37 @@ void mlr_stream_reset(mlr_stream *st)
 }
 
 mlr_status mlr_stream_set_alpha(mlr_stream *st, double alpha_trans, const double *alpha,
-                                size_t n_joints)
+                                size_t n_joints, mlr_diag *diag)
 {
-    if (!st || n_joints != st->n_joints || (n_joints > 0 && !alpha) || !isfinite(alpha_trans))
-        return MLR_E_INVALID_ARG;
+    if (!st || (n_joints > 0 && !alpha))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "stream set_alpha: st or alpha is NULL");
+    if (n_joints != st->n_joints)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "stream set_alpha: %zu alphas for a stream of %zu joints", n_joints,
+                            st->n_joints);
+    if (!isfinite(alpha_trans))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "stream set_alpha: alpha_trans = %g is NaN or infinite", alpha_trans);
     if (!st->layered)
-        return MLR_E_BAD_STATE;
+        return mlr_diag_set(diag, MLR_E_BAD_STATE, 0, 0,
+                            "stream set_alpha: the stream has no base layer (create it with "
+                            "mlr_stream_create_layered)");
     if (n_joints > 0 && !values_finite(alpha, n_joints))
-        return MLR_E_INVALID_ARG;
+        return not_finite(diag, "set_alpha", "alpha", alpha, n_joints);
     st->alpha_trans = alpha_trans;
     if (n_joints > 0)
         memcpy(st->alpha, alpha, n_joints * sizeof(double));
     return MLR_OK;
 }
 
-mlr_status mlr_stream_set_limits(mlr_stream *st, const mlr_limits *limits)
+mlr_status mlr_stream_set_limits(mlr_stream *st, const mlr_limits *limits, mlr_diag *diag)
 {
-    if (!st || (limits && mlr_limits_n_joints(limits) != st->n_joints))
-        return MLR_E_INVALID_ARG;
+    if (!st)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "stream set_limits: st is NULL");
+    if (limits && mlr_limits_n_joints(limits) != st->n_joints)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "stream set_limits: limits of %zu joints for a stream of %zu",
+                            mlr_limits_n_joints(limits), st->n_joints);
     st->limits = limits;
     return MLR_OK;
 }

@@ -117,7 +117,7 @@ mlr_status mlr_timewarp_map(size_t n_frames, size_t n_joints, const double *root
                             diag);
         if (st < 0)
             return st;
-        st = mlr_lgs_solve(lgs, t, 1, 1, t, 1);
+        st = mlr_lgs_solve(lgs, t, 1, 1, t, 1, diag);
         mlr_lgs_destroy(lgs);
         if (st != MLR_OK)
             return st;

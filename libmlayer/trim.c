@@ -128,7 +128,7 @@ mlr_status mlr_trim_lead_in(const mlr_rig *rig, size_t n_frames, const double *r
     for (size_t f = 0; f < N; f++) {
         st = mlr_fk_arrays(1, J, rig->parents, rig->offsets, root_pos ? root_pos + 3 * f : NULL,
                            rot + 4 * J * f, P, rig->trans_joints, P ? trans + 3 * P * f : NULL,
-                           wp, wr, &A);
+                           wp, wr, &A, NULL);
         if (st != MLR_OK) {
             mlr_diag_set(diag, st, 0, 0, "lead_in: forward kinematics of frame %zu: %s", f,
                          mlr_status_string(st));

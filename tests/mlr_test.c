@@ -1,9 +1,11 @@
 #define _POSIX_C_SOURCE 200809L /* mkdtemp */
 #include "mlr_test.h"
 
+#include <dirent.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 #include <unistd.h>
 
 void mlr_test_temp_write(mlr_test_temp *t, const char *name, const void *data, size_t n)
@@ -21,6 +23,17 @@ void mlr_test_temp_remove(const mlr_test_temp *t)
 {
     unlink(t->path);
     rmdir(t->dir);
+}
+
+size_t mlr_test_dir_entries(const char *dir)
+{
+    DIR *d = opendir(dir);
+    ck_assert_ptr_nonnull(d);
+    size_t n = 0;
+    for (struct dirent *e; (e = readdir(d)) != NULL;)
+        n += strcmp(e->d_name, ".") != 0 && strcmp(e->d_name, "..") != 0;
+    closedir(d);
+    return n;
 }
 
 void mlr_test_rng_seed(mlr_test_rng *r, uint64_t seed) { r->state = seed; }

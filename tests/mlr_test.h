@@ -40,6 +40,8 @@ void mlr_test_cholesky_solve(size_t n, const double *c, double *b, size_t m);
 typedef struct mlr_test_temp { char dir[64], path[192]; } mlr_test_temp;
 void mlr_test_temp_write(mlr_test_temp *t, const char *name, const void *data, size_t n);
 void mlr_test_temp_remove(const mlr_test_temp *t);
+/* Entries of a folder, hidden ones included ("." and ".." not counted). */
+size_t mlr_test_dir_entries(const char *dir);
 
 /* A shared real clip with its rig view (names borrowed from the motion). */
 typedef struct mlr_test_clip {

@@ -1,7 +1,10 @@
 /* The BVH writer's number formatting (libmlayer/bvh_write.c, compiled in here): the fast
  * "%.9g" gives printf's text, but for a last digit off by one where the scaled value lies
- * within an ulp of a half, and declines what it does not cover. The writer as a whole (round
- * trips of every clip, locales, atomic files) is checked in test_bvh.c. */
+ * within an ulp of a half, and declines what it does not cover. The temporaries of
+ * mlr_bvh_write_file follow the naming rule of mlr_bvh.h and the files honour the umask. The
+ * writer as a whole (round trips of every clip, locales, atomic files) is checked in
+ * test_bvh.c. */
+#define _POSIX_C_SOURCE 200809L /* mkdtemp */
 #include "bvh_write.c"
 #include "common.c"   /* the allocator and diag helpers */
 #include "numparse.c" /* mlr_parse_decimal */
@@ -10,6 +13,8 @@
 
 #include <stdio.h>
 #include <stdlib.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 /* format_g9_fast on v against snprintf("%.9g"): *same = 1 for the same text; 0 when it
  * declined; otherwise the two must read back within one unit of the ninth digit. */
@@ -83,11 +88,167 @@ START_TEST(g9_matches_printf)
 }
 END_TEST
 
+/* ---- the temporary's name and the file's mode ---------------------------------------------- */
+
+/* Whether name (a file name, no folder) is a temporary of target by the rule of mlr_bvh.h:
+ * "." target ".tmp-" and 16 lowercase hexadecimal digits, nothing after (the C writer appends
+ * no extension). */
+static int is_temporary_of(const char *name, const char *target)
+{
+    const size_t t = strlen(target);
+    if (strlen(name) != 1 + t + 5 + 16 || name[0] != '.' || memcmp(name + 1, target, t) != 0 ||
+        memcmp(name + 1 + t, ".tmp-", 5) != 0)
+        return 0;
+    for (const char *h = name + 1 + t + 5; *h; h++)
+        if (!((*h >= '0' && *h <= '9') || (*h >= 'a' && *h <= 'f')))
+            return 0;
+    return 1;
+}
+
+START_TEST(temporary_names_follow_the_rule)
+{
+    static const struct { const char *path, *want; } cases[] = {
+        {"out.bvh", ".out.bvh.tmp-0000000000abcdef"},
+        {"dir/sub/out.bvh", "dir/sub/.out.bvh.tmp-0000000000abcdef"},
+        {"/abs/x", "/abs/.x.tmp-0000000000abcdef"},
+        {"./.hidden.bvh", "./..hidden.bvh.tmp-0000000000abcdef"},
+        {"a//b", "a//.b.tmp-0000000000abcdef"},
+    };
+    for (size_t i = 0; i < MLR_COUNTOF(cases); i++) {
+        char out[64];
+        const char *path = cases[i].path, *base = base_name(path);
+        ck_assert_uint_le(strlen(path) + 23, sizeof out);
+        memset(out, 'x', sizeof out);
+        temp_name(out, strlen(path) + 23, path, base, 0xabcdefu);
+        ck_assert_str_eq(out, cases[i].want);
+        ck_assert(is_temporary_of(out + (base - path), base));
+    }
+    char out[64];
+    temp_name(out, 3 + 23, "a/b", base_name("a/b"), UINT64_MAX >> 1);
+    ck_assert_str_eq(out, "a/.b.tmp-7fffffffffffffff"); /* the longest: 23 bytes added */
+    ck_assert_str_eq(base_name("dir/"), "");
+}
+END_TEST
+
+/* An allocator that remembers the last released block that held a temporary's name (a string
+ * starting with prefix): mlr_bvh_write_file allocates the name from the motion's allocator. */
+typedef struct {
+    mlr_allocator base;
+    const char *prefix;
+    char name[512];
+} name_spy;
+
+static void *spy_allocate(void *user, size_t size, size_t align)
+{
+    (void)user;
+    (void)align;
+    return malloc(size);
+}
+
+static void spy_release(void *user, void *ptr, size_t size)
+{
+    name_spy *spy = user;
+    const size_t n = strlen(spy->prefix);
+    if (ptr && size > n && memcmp(ptr, spy->prefix, n) == 0 && memchr(ptr, '\0', size) &&
+        strlen(ptr) < sizeof spy->name)
+        strcpy(spy->name, ptr);
+    free(ptr);
+}
+
+static const char tiny_bvh[] =
+    "HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n"
+    "  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n"
+    "  JOINT Leg\n  {\n    OFFSET 0 -10 0\n    CHANNELS 3 Zrotation Xrotation Yrotation\n"
+    "    End Site\n    {\n      OFFSET 0 -5 0\n    }\n  }\n}\n"
+    "MOTION\nFrames: 2\nFrame Time: 0.0333333\n"
+    "0 90 0 0 0 0 10 20 30\n1 91 2 5 6 7 11 21 31\n";
+
+static char dir[64];
+
+static int exists(const char *path)
+{
+    struct stat st;
+    return stat(path, &st) == 0;
+}
+
+START_TEST(write_file_temporary_is_named_by_the_rule)
+{
+    snprintf(dir, sizeof dir, "/tmp/mlr_test_bvh_write_XXXXXX");
+    ck_assert_ptr_nonnull(mkdtemp(dir));
+    char path[128], prefix[128];
+    snprintf(path, sizeof path, "%s/out.bvh", dir);
+    snprintf(prefix, sizeof prefix, "%s/.out.bvh.tmp-", dir);
+    name_spy spy = {{spy_allocate, spy_release, NULL}, prefix, ""};
+    spy.base.user = &spy;
+    mlr_motion *m = NULL;
+    mlr_diag d;
+    ck_assert_int_eq(mlr_bvh_read_memory(tiny_bvh, strlen(tiny_bvh), &spy.base, &m, &d), MLR_OK);
+
+    ck_assert_int_eq(mlr_bvh_write_file(m, path, &d), MLR_OK);
+    ck_assert_msg(spy.name[0], "no temporary name was released");
+    ck_assert_msg(is_temporary_of(spy.name + strlen(dir) + 1, "out.bvh"), "%s", spy.name);
+    ck_assert(!exists(spy.name) && exists(path)); /* renamed into place */
+    ck_assert_uint_eq(mlr_test_dir_entries(dir), 1);
+
+    /* a failing write: its temporary (named by the rule) is removed, the file is kept */
+    spy.name[0] = '\0';
+    mlr_motion_rot_mut(m)[1] = NAN;
+    ck_assert_int_eq(mlr_bvh_write_file(m, path, &d), MLR_E_INVALID_ARG);
+    ck_assert(is_temporary_of(spy.name + strlen(dir) + 1, "out.bvh"));
+    ck_assert(!exists(spy.name) && exists(path));
+    ck_assert_uint_eq(mlr_test_dir_entries(dir), 1);
+    mlr_motion_rot_mut(m)[1] = 0.0;
+
+    /* a path that names a folder is refused before anything is created */
+    snprintf(path, sizeof path, "%s/", dir);
+    ck_assert_int_eq(mlr_bvh_write_file(m, path, &d), MLR_E_INVALID_ARG);
+    ck_assert_ptr_nonnull(strstr(d.message, "folder"));
+    ck_assert_uint_eq(mlr_test_dir_entries(dir), 1);
+
+    mlr_motion_destroy(m);
+    snprintf(path, sizeof path, "%s/out.bvh", dir);
+    ck_assert_int_eq(remove(path), 0);
+    ck_assert_int_eq(rmdir(dir), 0);
+}
+END_TEST
+
+START_TEST(write_file_honours_the_umask)
+{
+    snprintf(dir, sizeof dir, "/tmp/mlr_test_bvh_write_XXXXXX");
+    ck_assert_ptr_nonnull(mkdtemp(dir));
+    mlr_motion *m = NULL;
+    mlr_diag d;
+    ck_assert_int_eq(mlr_bvh_read_memory(tiny_bvh, strlen(tiny_bvh), NULL, &m, &d), MLR_OK);
+    char path[128];
+    snprintf(path, sizeof path, "%s/out.bvh", dir);
+    static const struct { mode_t mask, mode; } cases[] = {
+        {022, 0644}, {077, 0600}, {027, 0640}, {022, 0644}};
+    const mode_t old = umask(022);
+    for (size_t i = 0; i < MLR_COUNTOF(cases); i++) { /* a new file, then replacing it */
+        umask(cases[i].mask);
+        ck_assert_int_eq(mlr_bvh_write_file(m, path, &d), MLR_OK);
+        struct stat st;
+        ck_assert_int_eq(stat(path, &st), 0);
+        ck_assert_msg((st.st_mode & 07777) == cases[i].mode, "umask %03o: mode %03o",
+                      (unsigned)cases[i].mask, (unsigned)(st.st_mode & 07777));
+    }
+    umask(old);
+    mlr_motion_destroy(m);
+    ck_assert_int_eq(remove(path), 0);
+    ck_assert_int_eq(rmdir(dir), 0);
+}
+END_TEST
+
 static Suite *bvh_write_suite(void)
 {
     Suite *s = suite_create("bvh_write");
     TCase *tc = tcase_create("format");
     tcase_add_test(tc, g9_matches_printf);
+    suite_add_tcase(s, tc);
+    tc = tcase_create("file");
+    tcase_add_test(tc, temporary_names_follow_the_rule);
+    tcase_add_test(tc, write_file_temporary_is_named_by_the_rule);
+    tcase_add_test(tc, write_file_honours_the_umask);
     suite_add_tcase(s, tc);
     return s;
 }

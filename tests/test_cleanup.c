@@ -70,7 +70,7 @@ static void fk_pts(const double *root, const double *rot, double *pos, double *p
     mlr_rig r = rig();
     double *wrot = malloc(4 * N * J * sizeof(double));
     ck_assert_int_eq(mlr_fk_arrays(N, J, parents, offsets, root, rot, 0, NULL, NULL, pos, wrot,
-                                   NULL), MLR_OK);
+                                   NULL, NULL), MLR_OK);
     ck_assert_int_eq(mlr_rig_point_positions(&r, N, pos, wrot, C, pj, NULL, pts, NULL), MLR_OK);
     free(wrot);
 }
@@ -342,7 +342,7 @@ START_TEST(floor_height_is_the_quantile_of_contact_heights)
     s->c[7 * C + 1] = 1; /* one End Site sample: its height */
     double wr[4 * N * J], ep[3 * N * C];
     ck_assert_int_eq(mlr_fk_arrays(N, J, parents, offsets, s->root, s->rot, 0, NULL, NULL, s->pos,
-                                   wr, NULL), MLR_OK);
+                                   wr, NULL, NULL), MLR_OK);
     ck_assert_int_eq(mlr_rig_point_positions(&rg, N, s->pos, wr, C, pj, es, ep, NULL), MLR_OK);
     ck_assert_int_eq(mlr_cleanup_floor_height(&rg, N, s->root, s->rot, NULL, C, pj, es, s->c,
                                               MLR_AXIS_Y, 0.5, &h, NULL, NULL), MLR_OK);
@@ -384,7 +384,7 @@ START_TEST(real_clips_pinned_and_above_the_floor)
     const double *root = mlr_motion_root_pos(m), *rot = mlr_motion_rot(m);
     double *wp = malloc(3 * n * j * sizeof(double)), *wr = malloc(4 * n * j * sizeof(double));
     ck_assert_int_eq(mlr_fk_arrays(n, j, rg.parents, rg.offsets, root, rot, 0, NULL, NULL, wp, wr,
-                                   NULL), MLR_OK);
+                                   NULL, NULL), MLR_OK);
     double H;
     ck_assert_int_eq(mlr_rig_body_height(n, j, wp, MLR_AXIS_Y, &H, NULL, &d), MLR_OK);
     int32_t *jt = malloc(2 * j * sizeof(int32_t)), *es = malloc(2 * j * sizeof(int32_t));
@@ -403,7 +403,7 @@ START_TEST(real_clips_pinned_and_above_the_floor)
     ck_assert_int_eq(mlr_layers_decompose(n, j, root, rot, &lo, 1, NULL, &L, &d), MLR_OK);
     double *sr = malloc(3 * n * sizeof(double)), *sq = malloc(4 * n * j * sizeof(double));
     const double alpha = 2.0;
-    ck_assert_int_eq(mlr_layers_synthesize(L, 0, n, &alpha, 1, sr, 3 * n, sq, 4 * n * j), MLR_OK);
+    ck_assert_int_eq(mlr_layers_synthesize(L, 0, n, &alpha, 1, sr, 3 * n, sq, 4 * n * j, NULL), MLR_OK);
     mlr_layers_destroy(L);
     double *orr = malloc(3 * n * sizeof(double)), *oq = malloc(4 * n * j * sizeof(double));
     mlr_cleanup_report rep;
@@ -418,7 +418,7 @@ START_TEST(real_clips_pinned_and_above_the_floor)
     double *pos2 = malloc(3 * n * j * sizeof(double)), *wr2 = malloc(4 * n * j * sizeof(double));
     for (int which = 0; which < 2; which++) {
         ck_assert_int_eq(mlr_fk_arrays(n, j, rg.parents, rg.offsets, which ? orr : sr,
-                                       which ? oq : sq, 0, NULL, NULL, pos2, wr2, NULL), MLR_OK);
+                                       which ? oq : sq, 0, NULL, NULL, pos2, wr2, NULL, NULL), MLR_OK);
         ck_assert_int_eq(mlr_rig_point_positions(&rg, n, pos2, wr2, Cn, jt, es,
                                                  which ? p_out : p_in, NULL), MLR_OK);
     }
@@ -518,23 +518,23 @@ START_TEST(bad_input_gets_the_right_status_and_message)
         {{{0, 1.0}}, 1, "unknown option key 0"},
         {{{12, 1.0}}, 1, "unknown option key 12"},
         {{{MLR_CLEANUP_OPT_BLEND, 0.1}, {MLR_CLEANUP_OPT_BLEND, 0.2}}, 2,
-         "option key 1 given twice"},
-        {{{MLR_CLEANUP_OPT_BLEND, NAN}}, 1, "option key 1: value nan is not finite"},
-        {{{MLR_CLEANUP_OPT_FLOOR_HEIGHT, INFINITY}}, 1, "option key 5: value inf is not finite"},
-        {{{MLR_CLEANUP_OPT_MAX_FOLD, -INFINITY}}, 1, "option key 10: value -inf is not finite"},
-        {{{MLR_CLEANUP_OPT_BLEND, 0.0}}, 1, "option key 1: value 0 out of range"},
-        {{{MLR_CLEANUP_OPT_REACH, 1.5}}, 1, "option key 2: value 1.5 out of range"},
-        {{{MLR_CLEANUP_OPT_PASSES, 2.5}}, 1, "option key 3: value 2.5 out of range"},
-        {{{MLR_CLEANUP_OPT_PASSES, 11}}, 1, "option key 3: value 11 out of range"},
-        {{{MLR_CLEANUP_OPT_FLOOR, 0.5}}, 1, "option key 4: value 0.5 out of range"},
-        {{{MLR_CLEANUP_OPT_FLOOR_QUANTILE, -0.1}}, 1, "option key 6: value -0.1 out of range"},
-        {{{MLR_CLEANUP_OPT_REF_SMOOTH, -1}}, 1, "option key 7: value -1 out of range"},
-        {{{MLR_CLEANUP_OPT_PIN_SMOOTH, 0}}, 1, "option key 8: value 0 out of range"},
-        {{{MLR_CLEANUP_OPT_ROOT, 2}}, 1, "option key 9: value 2 out of range"},
-        {{{MLR_CLEANUP_OPT_MAX_FOLD, 0}}, 1, "option key 10: value 0 out of range"},
-        {{{MLR_CLEANUP_OPT_MAX_FOLD, 3.2}}, 1, "option key 10: value 3.2 out of range"},
-        {{{MLR_CLEANUP_OPT_KEEP_STILLER, 0.5}}, 1, "option key 11: value 0.5 out of range"},
-        {{{MLR_CLEANUP_OPT_KEEP_STILLER, NAN}}, 1, "option key 11: value nan is not finite"},
+         "cleanup: option blend given twice"},
+        {{{MLR_CLEANUP_OPT_BLEND, NAN}}, 1, "option blend = nan is not finite"},
+        {{{MLR_CLEANUP_OPT_FLOOR_HEIGHT, INFINITY}}, 1, "option floor_height = inf is not finite"},
+        {{{MLR_CLEANUP_OPT_MAX_FOLD, -INFINITY}}, 1, "option max_fold = -inf is not finite"},
+        {{{MLR_CLEANUP_OPT_BLEND, 0.0}}, 1, "option blend = 0 is not > 0"},
+        {{{MLR_CLEANUP_OPT_REACH, 1.5}}, 1, "option reach = 1.5 is not in (0, 1]"},
+        {{{MLR_CLEANUP_OPT_PASSES, 2.5}}, 1, "option passes = 2.5 is not an integer in [1, 10]"},
+        {{{MLR_CLEANUP_OPT_PASSES, 11}}, 1, "option passes = 11 is not an integer in [1, 10]"},
+        {{{MLR_CLEANUP_OPT_FLOOR, 0.5}}, 1, "option floor = 0.5 is not 0 or 1"},
+        {{{MLR_CLEANUP_OPT_FLOOR_QUANTILE, -0.1}}, 1, "option floor_quantile = -0.1 is not in [0, 1]"},
+        {{{MLR_CLEANUP_OPT_REF_SMOOTH, -1}}, 1, "option ref_smooth = -1 is not >= 0"},
+        {{{MLR_CLEANUP_OPT_PIN_SMOOTH, 0}}, 1, "option pin_smooth = 0 is not > 0"},
+        {{{MLR_CLEANUP_OPT_ROOT, 2}}, 1, "option root = 2 is not 0 or 1"},
+        {{{MLR_CLEANUP_OPT_MAX_FOLD, 0}}, 1, "option max_fold = 0 is not in (0, pi]"},
+        {{{MLR_CLEANUP_OPT_MAX_FOLD, 3.2}}, 1, "option max_fold = 3.2 is not in (0, pi]"},
+        {{{MLR_CLEANUP_OPT_KEEP_STILLER, 0.5}}, 1, "option keep_stiller = 0.5 is not 0 (off) or >= 1"},
+        {{{MLR_CLEANUP_OPT_KEEP_STILLER, NAN}}, 1, "option keep_stiller = nan is not finite"},
     };
     for (size_t i = 0; i < MLR_COUNTOF(bad); i++)
         EXPECT(CL(s->root, s->rot, NULL, NULL, C, pj, NULL, s->c, bad[i].o, bad[i].n, 60.0, 1),
@@ -660,9 +660,9 @@ START_TEST(a_rig_with_eight_feet_is_cleaned_up)
     /* every ankle pinned to its mean over its contact */
     double *pos = malloc(3 * NC * JC * sizeof(double)), *wr = malloc(4 * NC * JC * sizeof(double));
     double *pos0 = malloc(3 * NC * JC * sizeof(double));
-    ck_assert_int_eq(mlr_fk_arrays(NC, JC, par, off, root, rot, 0, NULL, NULL, pos0, wr, NULL),
+    ck_assert_int_eq(mlr_fk_arrays(NC, JC, par, off, root, rot, 0, NULL, NULL, pos0, wr, NULL, NULL),
                      MLR_OK);
-    ck_assert_int_eq(mlr_fk_arrays(NC, JC, par, off, oroot, orot, 0, NULL, NULL, pos, wr, NULL),
+    ck_assert_int_eq(mlr_fk_arrays(NC, JC, par, off, oroot, orot, 0, NULL, NULL, pos, wr, NULL, NULL),
                      MLR_OK);
     for (int l = 0; l < L; l++) {
         const size_t lo = 20 + 5 * (size_t)l, a = (size_t)pts[l];

@@ -557,13 +557,13 @@ START_TEST(bad_input_says_why)
     EXPECT(DETECT(60.0, 1, KN, NULL, 2, pts, es, NULL, 0), "is not below joint");
     es[1] = -1;
     mlr_contacts_option o[2] = {{MLR_CONTACTS_OPT_SPEED, INFINITY}, {9, 1.0}};
-    EXPECT(DETECT(60.0, 1, KN, NULL, 2, pts, es, o, 1), "speed must be finite and > 0");
+    EXPECT(DETECT(60.0, 1, KN, NULL, 2, pts, es, o, 1), "contacts: option speed = inf is not finite");
     o[0].value = -1;
-    EXPECT(DETECT(60.0, 1, KN, NULL, 2, pts, es, o, 1), "speed must be finite and > 0");
+    EXPECT(DETECT(60.0, 1, KN, NULL, 2, pts, es, o, 1), "option speed = -1 is not > 0");
     o[0].key = MLR_CONTACTS_OPT_HEIGHT, o[0].value = NAN;
-    EXPECT(DETECT(60.0, 1, KN, NULL, 2, pts, es, o, 1), "height must be finite");
+    EXPECT(DETECT(60.0, 1, KN, NULL, 2, pts, es, o, 1), "option height = nan is not finite");
     o[0].key = MLR_CONTACTS_OPT_MIN_DURATION, o[0].value = 0;
-    EXPECT(DETECT(60.0, 1, KN, NULL, 2, pts, es, o, 1), "min_duration must be finite");
+    EXPECT(DETECT(60.0, 1, KN, NULL, 2, pts, es, o, 1), "option min_duration = 0 is not > 0");
     o[0].value = 0.1;
     EXPECT(DETECT(60.0, 1, KN, NULL, 2, pts, es, o, 2), "unknown option key 9");
     o[1] = o[0];
@@ -662,7 +662,7 @@ START_TEST(real_clips_feet_and_contacts)
                    mlr_motion_n_trans(m), mlr_motion_trans_joints(m), mlr_motion_n_end_sites(m),
                    mlr_motion_end_site_parents(m), mlr_motion_end_site_offsets(m)};
     double *wp = malloc(3 * N * J * sizeof(double)), *wr = malloc(4 * N * J * sizeof(double));
-    ck_assert_int_eq(mlr_fk_motion(m, 0, N, wp, wr), MLR_OK);
+    ck_assert_int_eq(mlr_fk_motion(m, 0, N, wp, wr, NULL), MLR_OK);
     int32_t *jt = malloc(2 * J * sizeof(int32_t)), *es = malloc(2 * J * sizeof(int32_t));
     size_t F;
     ck_assert_int_eq(mlr_contacts_find_feet(&rig, N, wp, MLR_AXIS_Y, J, jt, es, &F, NULL, &d),

@@ -41,7 +41,7 @@ static void stylized(const clip *c, double alpha, double *root, double *rot)
                                        mlr_motion_rot(c->m), &o, 1, NULL, &L, &d) == MLR_OK,
                   "%s", d.message);
     ck_assert_int_eq(mlr_layers_synthesize(L, 0, c->n, &alpha, 1, root, 3 * c->n, rot,
-                                           4 * c->n * c->j), MLR_OK);
+                                           4 * c->n * c->j, NULL), MLR_OK);
     mlr_layers_destroy(L);
 }
 
@@ -86,11 +86,11 @@ START_TEST(stylized_knees_stay_within_the_fold_limit_and_feet_above_the_floor)
     /* the raw synthesis folds the knee past 150 degrees (the input does not) */
     double in_max = 0, raw_max = 0, out_max = 0;
     ck_assert_int_eq(mlr_fk_arrays(N, J, c.rig.parents, c.rig.offsets, mlr_motion_root_pos(c.m),
-                                   mlr_motion_rot(c.m), 0, NULL, NULL, pos, NULL, NULL), MLR_OK);
+                                   mlr_motion_rot(c.m), 0, NULL, NULL, pos, NULL, NULL, NULL), MLR_OK);
     for (size_t f = 0; f < N; f++)
         in_max = fmax(in_max, flexion(pos, J, f, hip, knee, ankle));
     ck_assert_int_eq(mlr_fk_arrays(N, J, c.rig.parents, c.rig.offsets, root, rot, 0, NULL, NULL,
-                                   pos, NULL, NULL), MLR_OK);
+                                   pos, NULL, NULL, NULL), MLR_OK);
     for (size_t f = 0; f < N; f++)
         raw_max = fmax(raw_max, flexion(pos, J, f, hip, knee, ankle));
     ck_assert_double_lt(in_max, 150.0);
@@ -109,7 +109,7 @@ START_TEST(stylized_knees_stay_within_the_fold_limit_and_feet_above_the_floor)
     ck_assert_uint_gt(rep.contact_frames, N / 2);
     ck_assert(isfinite(rep.floor_height));
     ck_assert_int_eq(mlr_fk_arrays(N, J, c.rig.parents, c.rig.offsets, root, rot, 0, NULL, NULL,
-                                   pos, NULL, NULL), MLR_OK);
+                                   pos, NULL, NULL, NULL), MLR_OK);
     double lowest = INFINITY, height;
     ck_assert_int_eq(mlr_rig_body_height(N, J, pos, MLR_AXIS_Y, &height, NULL, &d), MLR_OK);
     for (size_t f = 0; f < N; f++) {
@@ -143,7 +143,7 @@ START_TEST(every_guard_switched_off_leaves_the_frames_alone)
     stylized(&c, 2.0, root, rot);
     memcpy(root0, root, 3 * N * sizeof(double));
     memcpy(rot0, rot, 4 * N * J * sizeof(double));
-    const mlr_guards_option off[3] = {{MLR_GUARDS_OPT_LIMITS, 0}, {MLR_GUARDS_OPT_CONTACTS, 0},
+    const mlr_guards_option off[3] = {{MLR_GUARDS_OPT_LIMITS, 0}, {MLR_GUARDS_OPT_KEEP_CONTACTS, 0},
                                       {MLR_GUARDS_OPT_FLOOR, 0}};
     mlr_guards *g = guards_of(&c, off, 3);
     ck_assert_uint_eq(mlr_guards_n_points(g), 0);
@@ -157,7 +157,7 @@ START_TEST(every_guard_switched_off_leaves_the_frames_alone)
     ck_assert_int_eq(memcmp(rot, rot0, 4 * N * J * sizeof(double)), 0);
     mlr_guards_destroy(g);
     /* limits on by default, but only when some |alpha| > 1 */
-    const mlr_guards_option only_limits[2] = {{MLR_GUARDS_OPT_CONTACTS, 0},
+    const mlr_guards_option only_limits[2] = {{MLR_GUARDS_OPT_KEEP_CONTACTS, 0},
                                               {MLR_GUARDS_OPT_FLOOR, 0}};
     g = guards_of(&c, only_limits, 2);
     const double half = 0.5;

@@ -346,7 +346,7 @@ START_TEST(apply_leg_moves_the_end_onto_the_target_through_fk)
                 q[k] /= sqrt(n);
         }
     }
-    ck_assert_int_eq(mlr_fk_arrays(N, J, par, off, root, rot, 0, NULL, NULL, pos, wrot, NULL),
+    ck_assert_int_eq(mlr_fk_arrays(N, J, par, off, root, rot, 0, NULL, NULL, pos, wrot, NULL, NULL),
                      MLR_OK);
     double L1 = 0, L2 = 0, x[3];
     sub(off + 9, (double[3]){0, 0, 0}, x), L1 = nrm(x);
@@ -362,7 +362,7 @@ START_TEST(apply_leg_moves_the_end_onto_the_target_through_fk)
     mlr_diag d;
     ck_assert_int_eq(mlr_ik_apply_leg(N, J, par, rot, pos, wrot, 2, 3, 4, tgt, NULL, &d), MLR_OK);
     double pos2[3 * N * J], wrot2[4 * N * J];
-    ck_assert_int_eq(mlr_fk_arrays(N, J, par, off, root, rot, 0, NULL, NULL, pos2, wrot2, NULL),
+    ck_assert_int_eq(mlr_fk_arrays(N, J, par, off, root, rot, 0, NULL, NULL, pos2, wrot2, NULL, NULL),
                      MLR_OK);
     for (size_t f = 0; f < N; f++) {
         sub(pos2 + 3 * (f * J + 4), tgt + 3 * f, x);

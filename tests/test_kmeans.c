@@ -167,7 +167,7 @@ START_TEST(real_clip_positions_match_naive_lloyd)
     if (n > 1500)
         n = 1500;
     double *x = malloc(n * d * sizeof *x);
-    ck_assert_int_eq(mlr_fk_motion(m, 0, n, x, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_fk_motion(m, 0, n, x, NULL, NULL), MLR_OK);
     double *init = malloc(k * d * sizeof *init), *c = malloc(k * d * sizeof *c);
     for (size_t j = 0; j < k; j++)
         memcpy(init + j * d, x + (j * (n / k)) * d, d * sizeof *init);

@@ -119,7 +119,7 @@ static double base_max_angle(size_t n, size_t j, const double *rot, size_t k, do
     mlr_quat_make_continuous((mlr_quat *)(void *)y, n, 1);
     mlr_lgs *g = NULL;
     ck_assert_int_ge(mlr_lgs_create(n, 2, sqrt(s), 1.0, NULL, n, MLR_LGS_BANDED, NULL, &g, NULL), 0);
-    ck_assert_int_eq(mlr_lgs_solve(g, y, 4, 4, x, 4), MLR_OK);
+    ck_assert_int_eq(mlr_lgs_solve(g, y, 4, 4, x, 4, NULL), MLR_OK);
     mlr_lgs_destroy(g);
     double amax = 0.0;
     for (size_t i = 0; i < n; i++) {
@@ -195,7 +195,7 @@ START_TEST(identity_on_every_clip)
         double *pos = malloc(3 * n * sizeof *pos), *rot = malloc(nr * sizeof *rot);
         double *unit = malloc(nr * sizeof *unit);
         normalize_copy(c->rot, unit, n * j);
-        ck_assert_int_eq(mlr_layers_reconstruct(L, 0, n, pos, 3 * n, rot, nr), MLR_OK);
+        ck_assert_int_eq(mlr_layers_reconstruct(L, 0, n, pos, 3 * n, rot, nr, NULL), MLR_OK);
         double ep = 0.0, scale = 1.0;
         for (size_t i = 0; i < 3 * n; i++) {
             ep = fmax(ep, fabs(pos[i] - c->pos[i]));
@@ -207,7 +207,7 @@ START_TEST(identity_on_every_clip)
         /* a sub-range reproduces the same frames */
         size_t b0 = n / 3, cnt = n / 4;
         double *pos2 = malloc(3 * cnt * sizeof *pos2), *rot2 = malloc(4 * cnt * j * sizeof *rot2);
-        ck_assert_int_eq(mlr_layers_reconstruct(L, b0, cnt, pos2, 3 * cnt, rot2, 4 * cnt * j), MLR_OK);
+        ck_assert_int_eq(mlr_layers_reconstruct(L, b0, cnt, pos2, 3 * cnt, rot2, 4 * cnt * j, NULL), MLR_OK);
         ck_assert(memcmp(pos2, pos + 3 * b0, 3 * cnt * sizeof *pos2) == 0);
         ck_assert(memcmp(rot2, rot + 4 * j * b0, 4 * cnt * j * sizeof *rot2) == 0);
         free(pos2), free(rot2);
@@ -239,10 +239,10 @@ START_TEST(alpha_zero_is_base_and_one_is_denoised)
         for (size_t i = 0; i < n * j; i++)  /* base quaternions are unit */
             ck_assert_close(qdot(br + 4 * i, br + 4 * i), 1.0, 1e-14);
         const double zero = 0.0, one = 1.0;
-        ck_assert_int_eq(mlr_layers_synthesize(L, 0, n, &zero, 1, sp, 3 * n, sr, nr), MLR_OK);
+        ck_assert_int_eq(mlr_layers_synthesize(L, 0, n, &zero, 1, sp, 3 * n, sr, nr, NULL), MLR_OK);
         ck_assert(memcmp(sp, bp, 3 * n * sizeof *sp) == 0);
         ck_assert_double_le(qdiff_sign(sr, br, n * j), 1e-15);
-        ck_assert_int_eq(mlr_layers_synthesize(L, 0, n, &one, 1, sp, 3 * n, sr, nr), MLR_OK);
+        ck_assert_int_eq(mlr_layers_synthesize(L, 0, n, &one, 1, sp, 3 * n, sr, nr, NULL), MLR_OK);
         /* alpha = 1: the input minus exactly the residual */
         double ep = 0.0, ea = 0.0, scale = 1.0;
         for (size_t i = 0; i < n; i++) {
@@ -263,7 +263,7 @@ START_TEST(alpha_zero_is_base_and_one_is_denoised)
         double *alpha = calloc(1 + j, sizeof *alpha);
         const size_t pick = j / 2;
         alpha[1 + pick] = 2.0;
-        ck_assert_int_eq(mlr_layers_synthesize(L, 0, n, alpha, 1 + j, sp, 3 * n, sr, nr), MLR_OK);
+        ck_assert_int_eq(mlr_layers_synthesize(L, 0, n, alpha, 1 + j, sp, 3 * n, sr, nr, NULL), MLR_OK);
         ck_assert(memcmp(sp, bp, 3 * n * sizeof *sp) == 0);
         for (size_t i = 0; i < n; i++) {
             for (size_t k = 0; k < j; k++) {
@@ -306,7 +306,7 @@ START_TEST(root_layers_match_lgs)
         ck_assert_int_eq(mlr_layers_get_residual(L, res, ng), MLR_OK);
         mlr_lgs *g = NULL;
         ck_assert_int_ge(mlr_lgs_create(n, 2, sqrt(bs[0]), 1.0, NULL, n, MLR_LGS_BANDED, NULL, &g, NULL), 0);
-        ck_assert_int_eq(mlr_lgs_solve(g, c->pos, 3, 3, x, 3), MLR_OK);
+        ck_assert_int_eq(mlr_lgs_solve(g, c->pos, 3, 3, x, 3, NULL), MLR_OK);
         mlr_lgs_destroy(g);
         double e = 0.0, scale = 1.0;
         for (size_t i = 0; i < 3 * n; i++) {
@@ -319,7 +319,7 @@ START_TEST(root_layers_match_lgs)
             for (size_t k = 0; k < 3; k++)
                 u[3 * i + k] = ctl[i * ld + k] + res[i * ld + k];
         ck_assert_int_ge(mlr_lgs_create(n, 2, sqrt(cs[0]), 1.0, NULL, n, MLR_LGS_BANDED, NULL, &g, NULL), 0);
-        ck_assert_int_eq(mlr_lgs_solve(g, u, 3, 3, x, 3), MLR_OK);
+        ck_assert_int_eq(mlr_lgs_solve(g, u, 3, 3, x, 3, NULL), MLR_OK);
         mlr_lgs_destroy(g);
         e = 0.0;
         for (size_t i = 0; i < n; i++)
@@ -388,7 +388,7 @@ static void synthetic_big(size_t n, double fps, double *pos, double *rot, uint64
         for (size_t k = 0; k < 3; k++) {
             for (size_t a = 0; a < 3; a++)
                 ang[k][a] += 0.01 * mlr_test_rng_normal(&rng);
-            mlr_quat_from_euler_array(ang[k], 1, MLR_EULER_ZYX, (mlr_quat *)(void *)(rot + 4 * (3 * i + k)));
+            mlr_quat_from_euler_array(ang[k], 1, MLR_EULER_ZYX, (mlr_quat *)(void *)(rot + 4 * (3 * i + k)), NULL);
         }
         pos[3 * i] = 10.0 * sin(0.3 * t);
         pos[3 * i + 1] = 90.0 + 3.0 * sin(4.0 * t);
@@ -442,7 +442,7 @@ START_TEST(gcv_matches_dense_scan)
             double ang[3] = {0.8 * sin(2.0 * t) + noise * mlr_test_rng_normal(&rng),
                              0.3 * t + noise * mlr_test_rng_normal(&rng),
                              0.2 * cos(3.0 * t) + noise * mlr_test_rng_normal(&rng)};
-            mlr_quat_from_euler_array(ang, 1, MLR_EULER_XYZ, (mlr_quat *)(void *)(rot + 4 * i));
+            mlr_quat_from_euler_array(ang, 1, MLR_EULER_XYZ, (mlr_quat *)(void *)(rot + 4 * i), NULL);
             for (size_t k = 0; k < 3; k++)
                 pos[3 * i + k] = sin(1.5 * t + (double)k) + 10.0 * noise * mlr_test_rng_normal(&rng);
         }
@@ -465,7 +465,7 @@ START_TEST(gcv_matches_dense_scan)
                 y[0][3 * i + k] = ctl[6 * i + k] + res[6 * i + k];
             mlr_quat cb = {br[4 * i], -br[4 * i + 1], -br[4 * i + 2], -br[4 * i + 3]}, p;
             mlr_quat_mul(&cb, (const mlr_quat *)(const void *)(unit + 4 * i), &p);
-            mlr_quat_log_array(&p, 1, (mlr_vec3 *)(void *)(y[1] + 3 * i));
+            mlr_quat_log_array(&p, 1, (mlr_vec3 *)(void *)(y[1] + 3 * i), NULL);
         }
         for (size_t g = 0; g < 2; g++) {
             double d_dof, d_gcv = dense_gcv(n, y[g], 3, cs[g], &d_dof);
@@ -496,8 +496,8 @@ static double banded_gcv(size_t n, const double *y, double s)
     mlr_lgs *g = NULL;
     double *x = malloc(n * 3 * sizeof *x), *var = malloc(n * sizeof *var), rss = 0.0, tr = 0.0;
     ck_assert_int_ge(mlr_lgs_create(n, 2, sqrt(s), 1.0, NULL, n, MLR_LGS_BANDED, NULL, &g, NULL), 0);
-    ck_assert_int_eq(mlr_lgs_solve(g, y, 3, 3, x, 3), MLR_OK);
-    ck_assert_int_eq(mlr_lgs_variance(g, var, n), MLR_OK);
+    ck_assert_int_eq(mlr_lgs_solve(g, y, 3, 3, x, 3, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_lgs_variance(g, var, n, NULL), MLR_OK);
     for (size_t i = 0; i < n; i++) {
         tr += var[i];
         for (size_t c = 0; c < 3; c++)
@@ -536,7 +536,7 @@ START_TEST(gcv_long_clip_matches_banded_scan)
         for (int k = 0; k < 3; k++)
             v[k] = 1.5 * PI / 180.0 * mlr_test_rng_normal(&rng);
         mlr_quat dq;
-        ck_assert_int_eq(mlr_quat_exp_array((const mlr_vec3 *)(const void *)v, 1, &dq), MLR_OK);
+        ck_assert_int_eq(mlr_quat_exp_array((const mlr_vec3 *)(const void *)v, 1, &dq, NULL), MLR_OK);
         mlr_quat_mul((const mlr_quat *)(const void *)(c->rot + 4 * i), &dq,
                      (mlr_quat *)(void *)(rot + 4 * i));
     }
@@ -563,7 +563,7 @@ START_TEST(gcv_long_clip_matches_banded_scan)
                 const double *b = br + 4 * (i * J + g - 1);
                 mlr_quat cb = {b[0], -b[1], -b[2], -b[3]}, p;
                 mlr_quat_mul(&cb, (const mlr_quat *)(const void *)(unit + 4 * (i * J + g - 1)), &p);
-                mlr_quat_log_array(&p, 1, (mlr_vec3 *)(void *)(y + 3 * i));
+                mlr_quat_log_array(&p, 1, (mlr_vec3 *)(void *)(y + 3 * i), NULL);
             }
         }
         const double at = banded_gcv(n, y, cs[g]);
@@ -614,7 +614,7 @@ START_TEST(explicit_control_parameters)
             u[3 * i + k] = ctl[ld * i + k] + res[ld * i + k];
     mlr_lgs *g = NULL;
     ck_assert_int_ge(mlr_lgs_create(n, 2, 2.0, 0.25, NULL, n, MLR_LGS_BANDED, NULL, &g, NULL), 0);
-    ck_assert_int_eq(mlr_lgs_solve(g, u, 3, 3, x, 3), MLR_OK);
+    ck_assert_int_eq(mlr_lgs_solve(g, u, 3, 3, x, 3, NULL), MLR_OK);
     mlr_lgs_destroy(g);
     for (size_t i = 0; i < n; i++)
         for (size_t k = 0; k < 3; k++)
@@ -659,11 +659,11 @@ START_TEST(denoises_synthetic_motion)
                 double ang[3] = {0.6 * sin(2 * PI * fk * t), 0.4 * cos(2 * PI * 0.7 * fk * t + 1.0),
                                  0.3 * sin(2 * PI * 1.3 * fk * t + 2.0)};
                 mlr_quat *qc = (mlr_quat *)(void *)(clean + 4 * (i * j + k));
-                mlr_quat_from_euler_array(ang, 1, MLR_EULER_ZYX, qc);
+                mlr_quat_from_euler_array(ang, 1, MLR_EULER_ZYX, qc, NULL);
                 mlr_vec3 e = {sigma * mlr_test_rng_normal(&rng), sigma * mlr_test_rng_normal(&rng),
                               sigma * mlr_test_rng_normal(&rng)};
                 mlr_quat qe;
-                mlr_quat_exp_array(&e, 1, &qe);
+                mlr_quat_exp_array(&e, 1, &qe, NULL);
                 mlr_quat_mul(qc, &qe, (mlr_quat *)(void *)(noisy + 4 * (i * j + k)));
             }
             pos[3 * i] = pos[3 * i + 1] = pos[3 * i + 2] = 0.0;
@@ -671,7 +671,7 @@ START_TEST(denoises_synthetic_motion)
         mlr_layers *L = NULL;
         ck_assert_int_eq(mlr_layers_decompose(n, j, pos, noisy, NULL, 0, NULL, &L, NULL), MLR_OK);
         const double one = 1.0;
-        ck_assert_int_eq(mlr_layers_synthesize(L, 0, n, &one, 1, NULL, 0, out, 4 * n * j), MLR_OK);
+        ck_assert_int_eq(mlr_layers_synthesize(L, 0, n, &one, 1, NULL, 0, out, 4 * n * j, NULL), MLR_OK);
         double e_noisy = 0.0, e_out = 0.0;
         for (size_t i = 0; i < n * j; i++) {
             e_noisy += qangle(noisy + 4 * i, clean + 4 * i);
@@ -745,23 +745,23 @@ START_TEST(bad_arguments)
     ck_assert_int_eq(mlr_layers_get_param(L, MLR_LAYERS_PARAM_BASE_S, buf, 2), MLR_E_INVALID_ARG);
     ck_assert_int_eq(mlr_layers_get_param(L, (mlr_layers_param)9, buf, 3), MLR_E_INVALID_ARG);
     ck_assert_int_eq(mlr_layers_get_param(L, (mlr_layers_param)-1, buf, 3), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_layers_synthesize(L, 0, 8, alpha, 2, buf, 24, NULL, 0), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_layers_synthesize(L, 0, 8, NULL, 1, buf, 24, NULL, 0), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_layers_synthesize(L, 4, 5, alpha, 3, NULL, 0, NULL, 0), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_layers_synthesize(L, 9, 0, alpha, 3, NULL, 0, NULL, 0), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_layers_synthesize(L, 0, 8, alpha, 3, buf, 23, NULL, 0), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_layers_synthesize(L, 0, 8, alpha, 3, NULL, 0, buf, 60), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_layers_synthesize(L, 0, 8, alpha, 2, buf, 24, NULL, 0, NULL), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_layers_synthesize(L, 0, 8, NULL, 1, buf, 24, NULL, 0, NULL), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_layers_synthesize(L, 4, 5, alpha, 3, NULL, 0, NULL, 0, NULL), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_layers_synthesize(L, 9, 0, alpha, 3, NULL, 0, NULL, 0, NULL), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_layers_synthesize(L, 0, 8, alpha, 3, buf, 23, NULL, 0, NULL), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_layers_synthesize(L, 0, 8, alpha, 3, NULL, 0, buf, 60, NULL), MLR_E_INVALID_ARG);
     for (int v = 0; v < 3; v++) {
         alpha[1] = v == 0 ? NAN : v == 1 ? INFINITY : -INFINITY;
         buf[0] = 42.0;
-        ck_assert_int_eq(mlr_layers_synthesize(L, 0, 8, alpha, 3, buf, 24, NULL, 0), MLR_E_INVALID_ARG);
+        ck_assert_int_eq(mlr_layers_synthesize(L, 0, 8, alpha, 3, buf, 24, NULL, 0, NULL), MLR_E_INVALID_ARG);
         ck_assert_double_eq(buf[0], 42.0); /* nothing written */
     }
     alpha[1] = -3.0; /* any finite value works */
-    ck_assert_int_eq(mlr_layers_synthesize(L, 0, 8, alpha, 3, buf, 24, buf + 24, 64), MLR_OK);
-    ck_assert_int_eq(mlr_layers_reconstruct(L, 7, 2, buf, 6, NULL, 0), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_layers_reconstruct(NULL, 0, 1, buf, 3, NULL, 0), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_layers_reconstruct(L, 8, 0, NULL, 0, NULL, 0), MLR_OK);
+    ck_assert_int_eq(mlr_layers_synthesize(L, 0, 8, alpha, 3, buf, 24, buf + 24, 64, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_layers_reconstruct(L, 7, 2, buf, 6, NULL, 0, NULL), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_layers_reconstruct(NULL, 0, 1, buf, 3, NULL, 0, NULL), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_layers_reconstruct(L, 8, 0, NULL, 0, NULL, 0, NULL), MLR_OK);
     ck_assert_uint_eq(mlr_layers_n_frames(NULL), 0);
     ck_assert_uint_eq(mlr_layers_n_joints(NULL), 0);
     mlr_layers_destroy(L);
@@ -785,7 +785,7 @@ START_TEST(constant_motion_and_no_root)
     ck_assert_int_eq(mlr_layers_decompose(n, j, NULL, rot, NULL, 0, NULL, &L, NULL), MLR_OK);
     double pos[60], r[160], unit[160];
     normalize_copy(rot, unit, n * j);
-    ck_assert_int_eq(mlr_layers_reconstruct(L, 0, n, pos, 60, r, 160), MLR_OK);
+    ck_assert_int_eq(mlr_layers_reconstruct(L, 0, n, pos, 60, r, 160, NULL), MLR_OK);
     for (size_t i = 0; i < 60; i++)
         ck_assert_double_le(fabs(pos[i]), 1e-300);
     ck_assert_double_le(qdiff_sign(r, unit, n * j), 1e-14);
@@ -832,7 +832,7 @@ static void *synth_thread(void *p)
     t->status = 0;
     for (int rep = 0; rep < 5 && t->status == 0; rep++)
         t->status = mlr_layers_synthesize(t->L, 0, t->n, &t->alpha, 1, t->pos, 3 * t->n, t->rot,
-                                          4 * t->n * t->j);
+                                          4 * t->n * t->j, NULL);
     return NULL;
 }
 
@@ -856,7 +856,7 @@ START_TEST(threads_synthesize_identically)
         ck_assert_int_eq(pthread_join(th[t], NULL), 0);
     for (int t = 0; t < NT; t++) {
         ck_assert_int_eq(jobs[t].status, MLR_OK);
-        ck_assert_int_eq(mlr_layers_synthesize(L, 0, n, &jobs[t].alpha, 1, ref_p, 3 * n, ref_r, 4 * n * j), MLR_OK);
+        ck_assert_int_eq(mlr_layers_synthesize(L, 0, n, &jobs[t].alpha, 1, ref_p, 3 * n, ref_r, 4 * n * j, NULL), MLR_OK);
         ck_assert(memcmp(ref_r, jobs[t].rot, 4 * n * j * sizeof *ref_r) == 0);
         ck_assert(memcmp(ref_p, jobs[t].pos, 3 * n * sizeof *ref_p) == 0);
         free(jobs[t].rot), free(jobs[t].pos);
@@ -925,7 +925,7 @@ static double lgs_gain(double s, double f, double fps)
         y[i] = sin(2.0 * PI * f * (double)i / fps);
     mlr_lgs *g = NULL;
     ck_assert_int_ge(mlr_lgs_create(n, 2, sqrt(s), 1.0, NULL, n, MLR_LGS_BANDED, NULL, &g, NULL), 0);
-    ck_assert_int_eq(mlr_lgs_solve(g, y, 1, 1, x, 1), MLR_OK);
+    ck_assert_int_eq(mlr_lgs_solve(g, y, 1, 1, x, 1, NULL), MLR_OK);
     mlr_lgs_destroy(g);
     double xy = 0.0, yy = 0.0;
     for (size_t i = n / 4; i < 3 * n / 4; i++)
@@ -1036,7 +1036,7 @@ START_TEST(body_joint_sets_the_translation_s)
         ck_assert_int_eq(mlr_layers_get_base(L, bp, 3 * n, NULL, 0), MLR_OK);
         mlr_lgs *g = NULL;
         ck_assert_int_ge(mlr_lgs_create(n, 2, sqrt(bs[0]), 1.0, NULL, n, MLR_LGS_BANDED, NULL, &g, NULL), 0);
-        ck_assert_int_eq(mlr_lgs_solve(g, pos, 3, 3, x, 3), MLR_OK);
+        ck_assert_int_eq(mlr_lgs_solve(g, pos, 3, 3, x, 3, NULL), MLR_OK);
         mlr_lgs_destroy(g);
         for (size_t i = 0; i < 3 * n; i++)
             ck_assert_double_le(fabs(x[i] - bp[i]), 1e-14 * (1.0 + 16.0 * bs[0]) * 200.0);
@@ -1078,12 +1078,12 @@ START_TEST(base_floor_bad_options)
         {{{MLR_LAYERS_OPT_BODY_JOINT, NAN}, {0, 0}}, 1, "not finite"},
         {{{MLR_LAYERS_OPT_BODY_JOINT, 13.0}, {MLR_LAYERS_OPT_FPS, 30.0}}, 2, "joint index"},
         {{{16, 1.0}, {0, 0}}, 1, "unknown"},
-        {{{MLR_LAYERS_OPT_ROBUST, 0.5}, {0, 0}}, 1, "neither 0"},
-        {{{MLR_LAYERS_OPT_ROBUST, -1.0}, {0, 0}}, 1, "neither 0"},
+        {{{MLR_LAYERS_OPT_ROBUST, 0.5}, {0, 0}}, 1, "not 0 or 1"},
+        {{{MLR_LAYERS_OPT_ROBUST, -1.0}, {0, 0}}, 1, "not 0 or 1"},
         {{{MLR_LAYERS_OPT_ROBUST, NAN}, {0, 0}}, 1, "not finite"},
         {{{MLR_LAYERS_OPT_BODY_HEIGHT, 0.0}, {0, 0}}, 1, "not > 0"},
         {{{MLR_LAYERS_OPT_BODY_HEIGHT, INFINITY}, {0, 0}}, 1, "not finite"},
-        {{{MLR_LAYERS_OPT_ROBUST_ANGLE, 0.0}, {0, 0}}, 1, "not > 0"},
+        {{{MLR_LAYERS_OPT_ROBUST_ANGLE, 0.0}, {0, 0}}, 1, "not in (0, pi]"},
         {{{MLR_LAYERS_OPT_ROBUST_ANGLE, 3.5}, {0, 0}}, 1, "(0, pi]"},
     };
     for (size_t i = 0; i < MLR_COUNTOF(bad); i++) {
@@ -1248,7 +1248,7 @@ START_TEST(robust_glitch_is_found_and_local)
         for (size_t i = 0; i < n * ng; i++)
             ck_assert_uint_eq(fl[i], 0);
         /* the identity */
-        ck_assert_int_eq(mlr_layers_reconstruct(G, 0, n, p1, 3 * n, q1, 4 * n * j), MLR_OK);
+        ck_assert_int_eq(mlr_layers_reconstruct(G, 0, n, p1, 3 * n, q1, 4 * n * j, NULL), MLR_OK);
         double e = 0.0;
         for (size_t i = 0; i < 3 * n; i++)
             e = fmax(e, fabs(p1[i] - gp[i]));
@@ -1258,8 +1258,8 @@ START_TEST(robust_glitch_is_found_and_local)
         ck_assert_double_le(qdiff_sign(q1, gn, n * j), 1e-9);
         free(gn);
         /* far from the glitch the denoised motion is the clean clip's */
-        ck_assert_int_eq(mlr_layers_synthesize(C, 0, n, (double[]){1.0}, 1, p0, 3 * n, q0, 4 * n * j), MLR_OK);
-        ck_assert_int_eq(mlr_layers_synthesize(G, 0, n, (double[]){1.0}, 1, p1, 3 * n, q1, 4 * n * j), MLR_OK);
+        ck_assert_int_eq(mlr_layers_synthesize(C, 0, n, (double[]){1.0}, 1, p0, 3 * n, q0, 4 * n * j, NULL), MLR_OK);
+        ck_assert_int_eq(mlr_layers_synthesize(G, 0, n, (double[]){1.0}, 1, p1, 3 * n, q1, 4 * n * j, NULL), MLR_OK);
         double ep = 0.0, eq = 0.0;
         const size_t half = (size_t)(0.5 * fps);
         for (size_t i = 0; i < n; i++) {
@@ -1329,10 +1329,11 @@ START_TEST(repair_replaces_the_outlier_frames)
     ck_assert_int_eq(mlr_layers_decompose(n, j, pos, rot, o, 2, NULL, &G, NULL), MLR_OK);
     ck_assert_int_eq(mlr_layers_get_outliers(G, fl, n * ng), MLR_OK);
     double ones[1 + 3] = {1.0, 1.0, 1.0, 1.0};
-    ck_assert_int_eq(mlr_layers_synthesize(G, 0, n, ones, ng, dp, 3 * n, dq, 4 * n * j), MLR_OK);
+    ck_assert_int_eq(mlr_layers_synthesize(G, 0, n, ones, ng, dp, 3 * n, dq, 4 * n * j, NULL),
+                     MLR_OK);
     memcpy(rp, pos, 3 * n * sizeof *rp), memcpy(rq, rot, 4 * n * j * sizeof *rq);
     size_t nr = 99;
-    ck_assert_int_eq(mlr_layers_repair(G, 0, n, rp, 3 * n, rq, 4 * n * j, &nr), MLR_OK);
+    ck_assert_int_eq(mlr_layers_repair(G, 0, n, rp, 3 * n, rq, 4 * n * j, &nr, NULL), MLR_OK);
     size_t bad = 0;
     for (size_t i = 0; i < n; i++) {
         int b = 0;
@@ -1347,7 +1348,8 @@ START_TEST(repair_replaces_the_outlier_frames)
     ck_assert_uint_eq(nr, bad);
     /* a sub-range over the glitch's end, rotations only */
     memcpy(rq, rot, 4 * n * j * sizeof *rq);
-    ck_assert_int_eq(mlr_layers_repair(G, at + 2, 10, NULL, 0, rq + 4 * j * (at + 2), 40 * j, &nr),
+    ck_assert_int_eq(mlr_layers_repair(G, at + 2, 10, NULL, 0, rq + 4 * j * (at + 2), 40 * j, &nr,
+                                       NULL),
                      MLR_OK);
     ck_assert_uint_eq(nr, 3);
     for (size_t i = 0; i < n; i++) {
@@ -1356,20 +1358,27 @@ START_TEST(repair_replaces_the_outlier_frames)
     }
     /* bad arguments: nothing written */
     memcpy(rp, pos, 3 * n * sizeof *rp);
-    ck_assert_int_eq(mlr_layers_repair(NULL, 0, n, rp, 3 * n, NULL, 0, &nr), MLR_E_INVALID_ARG);
-    ck_assert_uint_eq(nr, 0);
-    ck_assert_int_eq(mlr_layers_repair(G, 0, n, rp, 3 * n - 1, NULL, 0, NULL), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_layers_repair(G, 0, n, rp, 3 * n, rq, 4 * n * j + 4, NULL),
+    mlr_diag d;
+    ck_assert_int_eq(mlr_layers_repair(NULL, 0, n, rp, 3 * n, NULL, 0, &nr, &d),
                      MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_layers_repair(G, 1, n, rp, 3 * n, NULL, 0, NULL), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_layers_repair(G, n + 1, 0, NULL, 0, NULL, 0, NULL), MLR_E_INVALID_ARG);
+    ck_assert_uint_eq(nr, 0);
+    ck_assert_str_eq(d.message, "layers repair: the handle is NULL");
+    ck_assert_int_eq(mlr_layers_repair(G, 0, n, rp, 3 * n - 1, NULL, 0, NULL, &d),
+                     MLR_E_INVALID_ARG);
+    ck_assert_str_eq(d.message, "layers repair: n_root_pos is 1799, 3 count is 1800");
+    ck_assert_int_eq(mlr_layers_repair(G, 0, n, rp, 3 * n, rq, 4 * n * j + 4, NULL, NULL),
+                     MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_layers_repair(G, 1, n, rp, 3 * n, NULL, 0, NULL, &d), MLR_E_INVALID_ARG);
+    ck_assert_ptr_nonnull(strstr(d.message, "are not within the 600 frames"));
+    ck_assert_int_eq(mlr_layers_repair(G, n + 1, 0, NULL, 0, NULL, 0, NULL, NULL),
+                     MLR_E_INVALID_ARG);
     ck_assert_mem_eq(rp, pos, 3 * n * sizeof *rp);
     /* a clip without outliers: nothing changes */
     mlr_layers *C = NULL;
     synthetic_big(n, fps, pos, rot, 5);
     ck_assert_int_eq(mlr_layers_decompose(n, j, pos, rot, o, 2, NULL, &C, NULL), MLR_OK);
     memcpy(rp, pos, 3 * n * sizeof *rp), memcpy(rq, rot, 4 * n * j * sizeof *rq);
-    ck_assert_int_eq(mlr_layers_repair(C, 0, n, rp, 3 * n, rq, 4 * n * j, &nr), MLR_OK);
+    ck_assert_int_eq(mlr_layers_repair(C, 0, n, rp, 3 * n, rq, 4 * n * j, &nr, NULL), MLR_OK);
     ck_assert_uint_eq(nr, 0);
     ck_assert_mem_eq(rp, pos, 3 * n * sizeof *rp);
     ck_assert_mem_eq(rq, rot, 4 * n * j * sizeof *rq);

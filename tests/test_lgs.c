@@ -124,8 +124,8 @@ START_TEST(mean_and_variance_match_dense)
                                     n_obs, MLR_LGS_BANDED, NULL, &g, &d),
                      MLR_OK);
     ck_assert_uint_eq(mlr_lgs_n_out(g), n_out);
-    ck_assert_int_eq(mlr_lgs_solve(g, y, m, m, x, m), MLR_OK);
-    ck_assert_int_eq(mlr_lgs_variance(g, var, n_out), MLR_OK);
+    ck_assert_int_eq(mlr_lgs_solve(g, y, m, m, x, m, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_lgs_variance(g, var, n_out, NULL), MLR_OK);
     dense_lgs(n_out, cases[_i].order, cases[_i].lam, cases[_i].sigma, t, n_obs, y, m, xr, varr);
     for (size_t i = 0; i < n_out * m; i++)
         ck_assert_close(x[i], xr[i], 1e-9 * (1.0 + fabs(xr[i])));
@@ -146,8 +146,8 @@ START_TEST(in_place_identity_solve)
         y[i] = mlr_test_rng_normal(&r);
     mlr_lgs *g = NULL;
     ck_assert_int_eq(mlr_lgs_create(n, 2, 3.0, 1.0, NULL, n, MLR_LGS_BANDED, NULL, &g, NULL), MLR_OK);
-    ck_assert_int_eq(mlr_lgs_solve(g, y, m, m, x, m), MLR_OK);
-    ck_assert_int_eq(mlr_lgs_solve(g, y, m, m, y, m), MLR_OK);
+    ck_assert_int_eq(mlr_lgs_solve(g, y, m, m, x, m, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_lgs_solve(g, y, m, m, y, m, NULL), MLR_OK);
     for (size_t i = 0; i < n * m; i++)
         ck_assert_close(x[i], y[i], 0.0);
     mlr_lgs_destroy(g);
@@ -163,7 +163,7 @@ START_TEST(smoothing_keeps_lines_for_order_2)
         y[i] = 3.0 - 0.25 * (double)i;
     mlr_lgs *g = NULL;
     ck_assert_int_eq(mlr_lgs_create(n, 2, 1e3, 1.0, NULL, n, MLR_LGS_BANDED, NULL, &g, NULL), MLR_OK);
-    ck_assert_int_eq(mlr_lgs_solve(g, y, 1, 1, x, 1), MLR_OK);
+    ck_assert_int_eq(mlr_lgs_solve(g, y, 1, 1, x, 1, NULL), MLR_OK);
     for (size_t i = 0; i < n; i++)
         ck_assert_close(x[i], y[i], 1e-8);
     mlr_lgs_destroy(g);
@@ -187,14 +187,14 @@ START_TEST(cholmod_agrees_with_banded)
                                     n_obs, MLR_LGS_BANDED, NULL, &gb, NULL), MLR_OK);
     ck_assert_int_eq(mlr_lgs_create(n_out, cases[_i].order, cases[_i].lam, cases[_i].sigma, t,
                                     n_obs, MLR_LGS_CHOLMOD, NULL, &gs, NULL), MLR_OK);
-    ck_assert_int_eq(mlr_lgs_solve(gb, y, m, m, xb, m), MLR_OK);
-    ck_assert_int_eq(mlr_lgs_solve(gs, y, m, m, xs, m), MLR_OK);
+    ck_assert_int_eq(mlr_lgs_solve(gb, y, m, m, xb, m, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_lgs_solve(gs, y, m, m, xs, m, NULL), MLR_OK);
     for (size_t i = 0; i < n_out * m; i++)
         scale = fmax(scale, fabs(xb[i]));
     for (size_t i = 0; i < n_out * m; i++)
         ck_assert_close(xs[i], xb[i], 1e-10 * scale);
     double *v = malloc(n_out * sizeof *v);
-    ck_assert_int_eq(mlr_lgs_variance(gs, v, n_out), MLR_E_UNSUPPORTED);
+    ck_assert_int_eq(mlr_lgs_variance(gs, v, n_out, NULL), MLR_E_UNSUPPORTED);
     free(v);
     mlr_lgs_destroy(gb);
     mlr_lgs_destroy(gs);
@@ -250,13 +250,13 @@ START_TEST(non_finite_observations_are_rejected)
     mlr_lgs *g = NULL;
     ck_assert_int_eq(mlr_lgs_create(n, 2, 1.0, 1.0, NULL, n, MLR_LGS_BANDED, NULL, &g, NULL), MLR_OK);
     y[2 * 7 + 1] = NAN;
-    ck_assert_int_eq(mlr_lgs_solve(g, y, 2, 2, x, 2), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_lgs_solve(g, y, 2, 2, x, 2, NULL), MLR_E_INVALID_ARG);
     y[2 * 7 + 1] = INFINITY;
-    ck_assert_int_eq(mlr_lgs_solve(g, y, 2, 2, x, 2), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_lgs_solve(g, y, 2, 2, x, 2, NULL), MLR_E_INVALID_ARG);
     y[2 * 7 + 1] = 1.0;
-    ck_assert_int_eq(mlr_lgs_solve(g, y, 2, 2, x, 2), MLR_OK);
-    ck_assert_int_eq(mlr_lgs_solve(g, y, 1, 2, x, 2), MLR_E_INVALID_ARG); /* ldy < m */
-    ck_assert_int_eq(mlr_lgs_solve(g, NULL, 2, 2, x, 2), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_lgs_solve(g, y, 2, 2, x, 2, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_lgs_solve(g, y, 1, 2, x, 2, NULL), MLR_E_INVALID_ARG); /* ldy < m */
+    ck_assert_int_eq(mlr_lgs_solve(g, NULL, 2, 2, x, 2, NULL), MLR_E_INVALID_ARG);
     mlr_lgs_destroy(g);
 }
 END_TEST
@@ -271,7 +271,7 @@ START_TEST(non_finite_observations_are_rejected_when_chunked)
         y[i] = sin(0.001 * (double)i);
     mlr_lgs *g = NULL;
     ck_assert_int_eq(mlr_lgs_create(n, 2, 4.0, 1.0, NULL, n, MLR_LGS_BANDED, NULL, &g, NULL), MLR_OK);
-    ck_assert_int_eq(mlr_lgs_solve(g, y, m, m, x, m), MLR_OK);
+    ck_assert_int_eq(mlr_lgs_solve(g, y, m, m, x, m, NULL), MLR_OK);
     const size_t rows[] = {0, n / 3, n / 2 + 7, n - 2, n - 1};
     const double bad[] = {NAN, INFINITY, -INFINITY};
     for (size_t r = 0; r < MLR_COUNTOF(rows); r++) {
@@ -279,7 +279,7 @@ START_TEST(non_finite_observations_are_rejected_when_chunked)
             const size_t at = rows[r] * m + (r * 5 + b) % m;
             const double keep = y[at];
             y[at] = bad[b];
-            ck_assert_int_eq(mlr_lgs_solve(g, y, m, m, x, m), MLR_E_INVALID_ARG);
+            ck_assert_int_eq(mlr_lgs_solve(g, y, m, m, x, m, NULL), MLR_E_INVALID_ARG);
             y[at] = keep;
         }
     }
@@ -307,27 +307,27 @@ START_TEST(helper_thread_changes_no_bits)
         mlr_lgs *g = NULL;
         ck_assert_int_eq(mlr_lgs_create(n, 2, 3.0, 1.0, interp ? t : NULL, n, MLR_LGS_BANDED,
                                         NULL, &g, NULL), MLR_OK);
-        ck_assert_int_eq(mlr_lgs_solve(g, y, m, m, ref, m), MLR_OK);
+        ck_assert_int_eq(mlr_lgs_solve(g, y, m, m, ref, m, NULL), MLR_OK);
         for (size_t threads = 0; threads < 4; threads++) {
             double *x = malloc(n * m * sizeof *x); /* new pages each time */
-            ck_assert_int_eq(mlr_lgs_solve_mt(g, y, m, m, x, m, threads), MLR_OK);
+            ck_assert_int_eq(mlr_lgs_solve_mt(g, y, m, m, x, m, threads, NULL), MLR_OK);
             ck_assert_msg(memcmp(x, ref, n * m * sizeof *x) == 0, "threads %zu", threads);
             free(x);
             double *xs = malloc((n * ld + 1) * sizeof *xs), *x1 = xs + 1; /* odd offset */
-            ck_assert_int_eq(mlr_lgs_solve_mt(g, y, m, m, x1, ld, threads), MLR_OK);
+            ck_assert_int_eq(mlr_lgs_solve_mt(g, y, m, m, x1, ld, threads, NULL), MLR_OK);
             for (size_t i = 0; i < n; i++)
                 ck_assert_msg(memcmp(x1 + i * ld, ref + i * m, m * sizeof *x1) == 0,
                               "threads %zu, row %zu", threads, i);
             if (!interp) {
                 double *yy = malloc(n * m * sizeof *yy);
                 memcpy(yy, y, n * m * sizeof *yy);
-                ck_assert_int_eq(mlr_lgs_solve_mt(g, yy, m, m, yy, m, threads), MLR_OK);
+                ck_assert_int_eq(mlr_lgs_solve_mt(g, yy, m, m, yy, m, threads, NULL), MLR_OK);
                 ck_assert(memcmp(yy, ref, n * m * sizeof *yy) == 0);
                 free(yy);
             }
             const double keep = y[(n / 2) * m + 3];
             y[(n / 2) * m + 3] = NAN;
-            ck_assert_int_eq(mlr_lgs_solve_mt(g, y, m, m, x1, ld, threads), MLR_E_INVALID_ARG);
+            ck_assert_int_eq(mlr_lgs_solve_mt(g, y, m, m, x1, ld, threads, NULL), MLR_E_INVALID_ARG);
             y[(n / 2) * m + 3] = keep;
             free(xs);
         }
@@ -347,7 +347,7 @@ START_TEST(every_allocation_failure_is_clean)
         mlr_status s = mlr_lgs_create(10, 2, 1.0, 1.0, t, 5, MLR_LGS_BANDED, &ta.base, &g, NULL);
         double var[10];
         if (s == MLR_OK) {
-            mlr_status sv = mlr_lgs_variance(g, var, 10);
+            mlr_status sv = mlr_lgs_variance(g, var, 10, NULL);
             ck_assert(sv == MLR_OK || sv == MLR_E_NO_MEMORY);
         }
         mlr_lgs_destroy(g);
@@ -368,7 +368,7 @@ START_TEST(variance_grows_between_sparse_keys)
     double t[5] = {0, 10, 20, 30, 40}, var[41];
     mlr_lgs *g = NULL;
     ck_assert_int_eq(mlr_lgs_create(n_out, 2, 1.0, 0.1, t, 5, MLR_LGS_BANDED, NULL, &g, NULL), MLR_OK);
-    ck_assert_int_eq(mlr_lgs_variance(g, var, n_out), MLR_OK);
+    ck_assert_int_eq(mlr_lgs_variance(g, var, n_out, NULL), MLR_OK);
     ck_assert(var[15] > 10.0 * var[10]);   /* mid-gap far less certain than at a key */
     ck_assert(var[20] < var[19]);
     mlr_lgs_destroy(g);
@@ -406,12 +406,12 @@ START_TEST(chunked_solve_matches_column_by_column)
     mlr_lgs *g = NULL;
     ck_assert_int_eq(mlr_lgs_create(n, big[_i].order, big[_i].lam, 1.0, t, n_obs, MLR_LGS_BANDED,
                                     NULL, &g, NULL), MLR_OK);
-    ck_assert_int_eq(mlr_lgs_solve(g, y, m, m, x, m), MLR_OK);
+    ck_assert_int_eq(mlr_lgs_solve(g, y, m, m, x, m, NULL), MLR_OK);
     for (size_t c = 0; c < m; c++) {
         double scale = 0.0;
         for (size_t i = 0; i < n_obs; i++)
             col[i] = y[i * m + c];
-        ck_assert_int_eq(mlr_lgs_solve(g, col, 1, 1, xc, 1), MLR_OK);
+        ck_assert_int_eq(mlr_lgs_solve(g, col, 1, 1, xc, 1, NULL), MLR_OK);
         for (size_t i = 0; i < n; i++)
             scale = fmax(scale, fabs(xc[i]));
         for (size_t i = 0; i < n; i++)
@@ -420,7 +420,7 @@ START_TEST(chunked_solve_matches_column_by_column)
     /* into a strided output: the same bits */
     const size_t ldw = m + 3;
     double *w = malloc(n * ldw * sizeof *w);
-    ck_assert_int_eq(mlr_lgs_solve(g, y, m, m, w, ldw), MLR_OK);
+    ck_assert_int_eq(mlr_lgs_solve(g, y, m, m, w, ldw, NULL), MLR_OK);
     for (size_t i = 0; i < n; i++)
         for (size_t c = 0; c < m; c++)
             ck_assert_close(w[i * ldw + c], x[i * m + c], 0.0);
@@ -431,13 +431,13 @@ START_TEST(chunked_solve_matches_column_by_column)
     ck_assert_int_eq(mlr_lgs_create(n, big[_i].order, big[_i].lam, 1.0, t, n_obs,
                                     MLR_LGS_BANDED, &ta.base, &gf, NULL), MLR_OK);
     const size_t calls = ta.n_calls, live = ta.live_blocks;
-    ck_assert_int_eq(mlr_lgs_solve(gf, y, m, m, w, m), MLR_OK); /* ring freed again */
+    ck_assert_int_eq(mlr_lgs_solve(gf, y, m, m, w, m, NULL), MLR_OK); /* ring freed again */
     ck_assert_uint_eq(ta.live_blocks, live);
     for (size_t i = 0; i < n * m; i++)
         ck_assert_close(w[i], x[i], 0.0);
     if (ta.n_calls > calls) { /* the chunked path asked for its ring: now refuse it */
         ta.fail_at = ta.n_calls;
-        ck_assert_int_eq(mlr_lgs_solve(gf, y, m, m, w, m), MLR_OK);
+        ck_assert_int_eq(mlr_lgs_solve(gf, y, m, m, w, m, NULL), MLR_OK);
         ck_assert_uint_eq(ta.live_blocks, live);
         double scale = 0.0;
         for (size_t i = 0; i < n * m; i++)
@@ -448,7 +448,7 @@ START_TEST(chunked_solve_matches_column_by_column)
     mlr_lgs_destroy(gf);
     free(w);
     if (!big[_i].interp) { /* in place gives the same bits as out of place */
-        ck_assert_int_eq(mlr_lgs_solve(g, y, m, m, y, m), MLR_OK);
+        ck_assert_int_eq(mlr_lgs_solve(g, y, m, m, y, m, NULL), MLR_OK);
         for (size_t i = 0; i < n * m; i++)
             ck_assert_close(y[i], x[i], 0.0);
     }

@@ -263,7 +263,7 @@ START_TEST(normalize_unit_and_in_place)
         q[n].y *= s;
         q[n].z *= s;
     }
-    ck_assert_int_eq(mlr_quat_normalize_array(q, 64, q), MLR_OK);
+    ck_assert_int_eq(mlr_quat_normalize_array(q, 64, q, NULL), MLR_OK);
     for (int n = 0; n < 64; n++) {
         ck_assert_close(norm4(&q[n]), 1.0, 1e-15);
         /* the subnormal scale loses digits in the input itself */
@@ -284,7 +284,7 @@ START_TEST(exp_matches_rodrigues)
         mlr_vec3 v = {ax.x * th, ax.y * th, ax.z * th};
         mlr_vec3 p = {mlr_test_rng_normal(&r), mlr_test_rng_normal(&r), mlr_test_rng_normal(&r)};
         mlr_quat q;
-        ck_assert_int_eq(mlr_quat_exp_array(&v, 1, &q), MLR_OK);
+        ck_assert_int_eq(mlr_quat_exp_array(&v, 1, &q, NULL), MLR_OK);
         ck_assert_close(norm4(&q), 1.0, 1e-15);
         mlr_vec3 a = rodrigues(v, p), b;
         mlr_quat_rotate(&q, &p, &b);
@@ -294,7 +294,7 @@ START_TEST(exp_matches_rodrigues)
     }
     mlr_vec3 zero = {0, 0, 0};
     mlr_quat q;
-    ck_assert_int_eq(mlr_quat_exp_array(&zero, 1, &q), MLR_OK);
+    ck_assert_int_eq(mlr_quat_exp_array(&zero, 1, &q, NULL), MLR_OK);
     ck_assert(q.w == 1 && q.x == 0 && q.y == 0 && q.z == 0);
 }
 END_TEST
@@ -315,8 +315,8 @@ START_TEST(log_exp_round_trip)
         mlr_vec3 ax = random_axis(&r);
         mlr_vec3 v = {ax.x * th, ax.y * th, ax.z * th}, back;
         mlr_quat q;
-        ck_assert_int_eq(mlr_quat_exp_array(&v, 1, &q), MLR_OK);
-        ck_assert_int_eq(mlr_quat_log_array(&q, 1, &back), MLR_OK);
+        ck_assert_int_eq(mlr_quat_exp_array(&v, 1, &q, NULL), MLR_OK);
+        ck_assert_int_eq(mlr_quat_log_array(&q, 1, &back, NULL), MLR_OK);
         /* relative to the angle, plus 2 ulp of pi where w is rounded near the pole */
         double t = tol * th * 2.0 + (th > 3.0 ? 1e-15 : 0.0);
         ck_assert_close(back.x, v.x, t);
@@ -325,7 +325,7 @@ START_TEST(log_exp_round_trip)
         /* log(-q) = log(q) */
         mlr_quat mq = {-q.w, -q.x, -q.y, -q.z};
         mlr_vec3 back2;
-        ck_assert_int_eq(mlr_quat_log_array(&mq, 1, &back2), MLR_OK);
+        ck_assert_int_eq(mlr_quat_log_array(&mq, 1, &back2, NULL), MLR_OK);
         ck_assert(back2.x == back.x && back2.y == back.y && back2.z == back.z);
     }
 }
@@ -339,19 +339,19 @@ START_TEST(exp_log_round_trip_on_quaternions)
     mlr_vec3 v[256];
     for (int n = 0; n < 256; n++)
         q[n] = random_unit(&r);
-    ck_assert_int_eq(mlr_quat_log_array(q, 256, v), MLR_OK);
+    ck_assert_int_eq(mlr_quat_log_array(q, 256, v, NULL), MLR_OK);
     for (int n = 0; n < 256; n++) {
         double th = sqrt(v[n].x * v[n].x + v[n].y * v[n].y + v[n].z * v[n].z);
         ck_assert(th <= PI);
     }
-    ck_assert_int_eq(mlr_quat_exp_array(v, 256, back), MLR_OK);
+    ck_assert_int_eq(mlr_quat_exp_array(v, 256, back, NULL), MLR_OK);
     for (int n = 0; n < 256; n++)
         ck_assert_msg(rot_dist(&q[n], &back[n]) < 1e-14, "n = %d: %g", n,
                       rot_dist(&q[n], &back[n]));
     /* log of a slightly unnormalized q is the log of its rotation */
     mlr_quat s = {q[0].w * 1.001, q[0].x * 1.001, q[0].y * 1.001, q[0].z * 1.001};
     mlr_vec3 vs;
-    ck_assert_int_eq(mlr_quat_log_array(&s, 1, &vs), MLR_OK);
+    ck_assert_int_eq(mlr_quat_log_array(&s, 1, &vs, NULL), MLR_OK);
     ck_assert_close(vs.x, v[0].x, 1e-15);
     ck_assert_close(vs.y, v[0].y, 1e-15);
     ck_assert_close(vs.z, v[0].z, 1e-15);
@@ -362,11 +362,11 @@ START_TEST(log_at_pi)
 {
     mlr_quat q = {0, 0, 0, 1}, mq = {0, 0, 0, -1};
     mlr_vec3 v;
-    ck_assert_int_eq(mlr_quat_log_array(&q, 1, &v), MLR_OK);
+    ck_assert_int_eq(mlr_quat_log_array(&q, 1, &v, NULL), MLR_OK);
     ck_assert_close(v.x, 0.0, 0.0);
     ck_assert_close(v.y, 0.0, 0.0);
     ck_assert_close(fabs(v.z), PI, 1e-15);
-    ck_assert_int_eq(mlr_quat_log_array(&mq, 1, &v), MLR_OK);
+    ck_assert_int_eq(mlr_quat_log_array(&mq, 1, &v, NULL), MLR_OK);
     ck_assert_close(fabs(v.z), PI, 1e-15);
 }
 END_TEST
@@ -397,12 +397,12 @@ START_TEST(array_paths_agree)
     memcpy(v2, v, sizeof v);
     q2[BAD].w = NAN;
     v2[BAD].x = INFINITY;
-    ck_assert_int_eq(mlr_quat_log_array(q, N, l1), MLR_OK);
-    ck_assert_int_eq(mlr_quat_log_array(q2, N, l2), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_quat_exp_array(v, N, e1), MLR_OK);
-    ck_assert_int_eq(mlr_quat_exp_array(v2, N, e2), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_quat_normalize_array(q, N, n1), MLR_OK);
-    ck_assert_int_eq(mlr_quat_normalize_array(q2, N, n2), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_quat_log_array(q, N, l1, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_quat_log_array(q2, N, l2, NULL), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_quat_exp_array(v, N, e1, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_quat_exp_array(v2, N, e2, NULL), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_quat_normalize_array(q, N, n1, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_quat_normalize_array(q2, N, n2, NULL), MLR_E_INVALID_ARG);
     for (int i = 0; i < N; i++) {
         if (i == BAD)
             continue;
@@ -450,11 +450,11 @@ static mlr_quat slerp_reference(const mlr_quat *a, const mlr_quat *b, double t)
     mlr_quat ac = {a->w, -a->x, -a->y, -a->z}, d, e, out;
     mlr_vec3 v;
     mlr_quat_mul(&ac, b, &d);
-    mlr_quat_log_array(&d, 1, &v);
+    mlr_quat_log_array(&d, 1, &v, NULL);
     v.x *= t;
     v.y *= t;
     v.z *= t;
-    mlr_quat_exp_array(&v, 1, &e);
+    mlr_quat_exp_array(&v, 1, &e, NULL);
     mlr_quat_mul(a, &e, &out);
     return out;
 }
@@ -471,7 +471,7 @@ START_TEST(slerp_unit_endpoints_and_reference)
         b[n] = random_unit(&r);
         t[n] = n % 10 == 0 ? 0.0 : n % 10 == 1 ? 1.0 : mlr_test_rng_uniform(&r);
     }
-    ck_assert_int_eq(mlr_quat_slerp_array(a, b, t, N, out), MLR_OK);
+    ck_assert_int_eq(mlr_quat_slerp_array(a, b, t, N, out, NULL), MLR_OK);
     for (int n = 0; n < N; n++) {
         ck_assert_close(norm4(&out[n]), 1.0, 1e-15);
         if (t[n] == 0.0)
@@ -494,8 +494,8 @@ START_TEST(slerp_sign_of_b_does_not_matter)
         mlr_quat a = random_unit(&r), b = random_unit(&r), mb = {-b.w, -b.x, -b.y, -b.z};
         double t = mlr_test_rng_uniform(&r);
         mlr_quat o1, o2;
-        ck_assert_int_eq(mlr_quat_slerp_array(&a, &b, &t, 1, &o1), MLR_OK);
-        ck_assert_int_eq(mlr_quat_slerp_array(&a, &mb, &t, 1, &o2), MLR_OK);
+        ck_assert_int_eq(mlr_quat_slerp_array(&a, &b, &t, 1, &o1, NULL), MLR_OK);
+        ck_assert_int_eq(mlr_quat_slerp_array(&a, &mb, &t, 1, &o2, NULL), MLR_OK);
         ck_assert(rot_dist(&o1, &o2) < 1e-15);
         /* and it is the shorter arc: no further from a than b is */
         ck_assert(rot_dist(&a, &o1) <= rot_dist(&a, &b) + 1e-15);
@@ -513,12 +513,12 @@ START_TEST(slerp_nearly_equal_and_opposite)
             mlr_quat a = random_unit(&r), e, b, out;
             mlr_vec3 ax = random_axis(&r);
             mlr_vec3 v = {ax.x * gaps[g], ax.y * gaps[g], ax.z * gaps[g]};
-            mlr_quat_exp_array(&v, 1, &e);
+            mlr_quat_exp_array(&v, 1, &e, NULL);
             mlr_quat_mul(&a, &e, &b);
             double t = mlr_test_rng_uniform(&r);
             for (int sign = 1; sign >= -1; sign -= 2) { /* b and then -b: a ~ -b */
                 mlr_quat bs = {sign * b.w, sign * b.x, sign * b.y, sign * b.z};
-                ck_assert_int_eq(mlr_quat_slerp_array(&a, &bs, &t, 1, &out), MLR_OK);
+                ck_assert_int_eq(mlr_quat_slerp_array(&a, &bs, &t, 1, &out, NULL), MLR_OK);
                 ck_assert(isfinite(out.w) && isfinite(out.x));
                 ck_assert_close(norm4(&out), 1.0, 1e-15);
                 mlr_quat ref = slerp_reference(&a, &b, t);
@@ -540,8 +540,8 @@ START_TEST(slerp_in_place)
         b[n] = random_unit(&r);
         t[n] = mlr_test_rng_uniform(&r);
     }
-    ck_assert_int_eq(mlr_quat_slerp_array(a, b, t, 8, ref), MLR_OK);
-    ck_assert_int_eq(mlr_quat_slerp_array(a, b, t, 8, a), MLR_OK);
+    ck_assert_int_eq(mlr_quat_slerp_array(a, b, t, 8, ref, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_quat_slerp_array(a, b, t, 8, a, NULL), MLR_OK);
     for (int n = 0; n < 8; n++)
         quat_close(&a[n], &ref[n], 0.0);
 }
@@ -559,7 +559,7 @@ START_TEST(from_euler_matches_matrix_product)
     mlr_quat q[N];
     for (int k = 0; k < 3 * N; k++)
         ang[k] = (2.0 * mlr_test_rng_uniform(&r) - 1.0) * 4.0; /* beyond (-pi, pi] too */
-    ck_assert_int_eq(mlr_quat_from_euler_array(ang, N, (mlr_euler_order)order, q), MLR_OK);
+    ck_assert_int_eq(mlr_quat_from_euler_array(ang, N, (mlr_euler_order)order, q, NULL), MLR_OK);
     for (int n = 0; n < N; n++) {
         mat3 ref, m;
         euler_matrix(order, &ang[3 * n], ref);
@@ -592,8 +592,8 @@ START_TEST(to_euler_round_trip)
     double ang[3 * N];
     for (int n = 0; n < N; n++)
         q[n] = random_unit(&r);
-    ck_assert_int_eq(mlr_quat_to_euler_array(q, N, (mlr_euler_order)order, ang), MLR_OK);
-    ck_assert_int_eq(mlr_quat_from_euler_array(ang, N, (mlr_euler_order)order, back), MLR_OK);
+    ck_assert_int_eq(mlr_quat_to_euler_array(q, N, (mlr_euler_order)order, ang, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_quat_from_euler_array(ang, N, (mlr_euler_order)order, back, NULL), MLR_OK);
     for (int n = 0; n < N; n++) {
         check_euler_ranges(&ang[3 * n], 0);
         ck_assert_msg(rot_dist(&q[n], &back[n]) < 2e-15, "%s n=%d: %g", order_names[order], n,
@@ -606,8 +606,8 @@ START_TEST(to_euler_round_trip)
         ang[3 * n + 2] = (2.0 * mlr_test_rng_uniform(&r) - 1.0) * (PI - 1e-6);
     }
     double again[3 * N];
-    ck_assert_int_eq(mlr_quat_from_euler_array(ang, N, (mlr_euler_order)order, q), MLR_OK);
-    ck_assert_int_eq(mlr_quat_to_euler_array(q, N, (mlr_euler_order)order, again), MLR_OK);
+    ck_assert_int_eq(mlr_quat_from_euler_array(ang, N, (mlr_euler_order)order, q, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_quat_to_euler_array(q, N, (mlr_euler_order)order, again, NULL), MLR_OK);
     for (int k = 0; k < 3 * N; k++)
         ck_assert_close(again[k], ang[k], 1e-12);
 }
@@ -628,11 +628,11 @@ START_TEST(to_euler_gimbal_lock)
                              (2.0 * mlr_test_rng_uniform(&r) - 1.0) * PI};
             double out[3];
             mlr_quat q, back;
-            ck_assert_int_eq(mlr_quat_from_euler_array(ang, 1, (mlr_euler_order)order, &q),
+            ck_assert_int_eq(mlr_quat_from_euler_array(ang, 1, (mlr_euler_order)order, &q, NULL),
                              MLR_OK);
-            ck_assert_int_eq(mlr_quat_to_euler_array(&q, 1, (mlr_euler_order)order, out),
+            ck_assert_int_eq(mlr_quat_to_euler_array(&q, 1, (mlr_euler_order)order, out, NULL),
                              MLR_OK);
-            ck_assert_int_eq(mlr_quat_from_euler_array(out, 1, (mlr_euler_order)order, &back),
+            ck_assert_int_eq(mlr_quat_from_euler_array(out, 1, (mlr_euler_order)order, &back, NULL),
                              MLR_OK);
             check_euler_ranges(out, m < 5);
             ck_assert_msg(rot_dist(&q, &back) < 1e-12, "%s middle %.17g n=%d: %g",
@@ -653,8 +653,8 @@ START_TEST(to_euler_scale_and_sign_invariant)
             mlr_quat s[2] = {{3.7 * q.w, 3.7 * q.x, 3.7 * q.y, 3.7 * q.z},
                              {-q.w, -q.x, -q.y, -q.z}};
             double a[3], b[6];
-            ck_assert_int_eq(mlr_quat_to_euler_array(&q, 1, (mlr_euler_order)order, a), MLR_OK);
-            ck_assert_int_eq(mlr_quat_to_euler_array(s, 2, (mlr_euler_order)order, b), MLR_OK);
+            ck_assert_int_eq(mlr_quat_to_euler_array(&q, 1, (mlr_euler_order)order, a, NULL), MLR_OK);
+            ck_assert_int_eq(mlr_quat_to_euler_array(s, 2, (mlr_euler_order)order, b, NULL), MLR_OK);
             for (int k = 0; k < 3; k++) {
                 ck_assert_close(b[k], a[k], 1e-14);
                 /* a wrapped angle near +-pi may come back as the other end */
@@ -675,7 +675,7 @@ START_TEST(euler_order_parse_names)
     for (int o = 0; o < 6; o++) {
         for (int v = 0; v < 3; v++) {
             mlr_euler_order out = (mlr_euler_order)99;
-            ck_assert_int_eq(mlr_euler_order_parse(variants[o][v], &out), MLR_OK);
+            ck_assert_int_eq(mlr_euler_order_parse(variants[o][v], &out, NULL), MLR_OK);
             ck_assert_int_eq((int)out, o);
         }
     }
@@ -683,12 +683,12 @@ START_TEST(euler_order_parse_names)
     static const char *const bad[] = {"", "X", "XY", "XYZW", "XXY", "XYX", "ABC", "XY ", " XYZ"};
     for (size_t b = 0; b < MLR_COUNTOF(bad); b++) {
         mlr_euler_order out = MLR_EULER_ZYX;
-        ck_assert_int_eq(mlr_euler_order_parse(bad[b], &out), MLR_E_INVALID_ARG);
+        ck_assert_int_eq(mlr_euler_order_parse(bad[b], &out, NULL), MLR_E_INVALID_ARG);
         ck_assert_int_eq((int)out, MLR_EULER_ZYX); /* untouched */
     }
     mlr_euler_order out;
-    ck_assert_int_eq(mlr_euler_order_parse(NULL, &out), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_euler_order_parse("XYZ", NULL), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_euler_order_parse(NULL, &out, NULL), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_euler_order_parse("XYZ", NULL, NULL), MLR_E_INVALID_ARG);
 }
 END_TEST
 
@@ -706,7 +706,7 @@ START_TEST(make_continuous_flips_per_track)
         for (int f = 0; f < F; f++) { /* a rotation turning 0.2 rad per frame */
             mlr_vec3 v = {ax.x * 0.2 * f, ax.y * 0.2 * f, ax.z * 0.2 * f};
             mlr_quat e;
-            mlr_quat_exp_array(&v, 1, &e);
+            mlr_quat_exp_array(&v, 1, &e, NULL);
             mlr_quat_mul(&a, &e, &smooth[f * T + j]);
         }
     }
@@ -743,54 +743,54 @@ START_TEST(bad_input_is_rejected)
 {
     const double qnan = NAN, pinf = INFINITY;
     mlr_quat q[3] = {{1, 2, 3, 4}, {0, 0, 0, 0}, {qnan, 0, 0, 0}}, out[3];
-    ck_assert_int_eq(mlr_quat_normalize_array(q, 3, out), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_quat_normalize_array(q, 3, out, NULL), MLR_E_INVALID_ARG);
     ck_assert_close(norm4(&out[0]), 1.0, 1e-15); /* the good one is still normalized */
     ck_assert(out[1].w == 1 && out[1].x == 0 && out[2].w == 1 && out[2].z == 0);
     mlr_quat qi = {pinf, 0, 0, 0};
-    ck_assert_int_eq(mlr_quat_normalize_array(&qi, 1, out), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_quat_normalize_array(&qi, 1, out, NULL), MLR_E_INVALID_ARG);
 
     mlr_vec3 v[2] = {{0.1, 0.2, 0.3}, {0, pinf, 0}}, vo[3];
-    ck_assert_int_eq(mlr_quat_exp_array(v, 2, out), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_quat_exp_array(v, 2, out, NULL), MLR_E_INVALID_ARG);
     ck_assert_close(norm4(&out[0]), 1.0, 1e-15);
     ck_assert(out[1].w == 1);
-    ck_assert_int_eq(mlr_quat_log_array(q, 3, vo), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_quat_log_array(q, 3, vo, NULL), MLR_E_INVALID_ARG);
     ck_assert(vo[1].x == 0 && vo[2].x == 0 && vo[2].y == 0);
-    ck_assert_int_eq(mlr_quat_log_array(&qi, 1, vo), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_quat_log_array(&qi, 1, vo, NULL), MLR_E_INVALID_ARG);
 
     mlr_quat a = {1, 0, 0, 0}, b = {0, 1, 0, 0};
     double t[3] = {0.5, qnan, pinf};
-    ck_assert_int_eq(mlr_quat_slerp_array(&a, &b, &t[1], 1, out), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_quat_slerp_array(&a, &b, &t[2], 1, out), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_quat_slerp_array(&a, &q[1], &t[0], 1, out), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_quat_slerp_array(&q[2], &b, &t[0], 1, out), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_quat_slerp_array(&a, &b, &t[1], 1, out, NULL), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_quat_slerp_array(&a, &b, &t[2], 1, out, NULL), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_quat_slerp_array(&a, &q[1], &t[0], 1, out, NULL), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_quat_slerp_array(&q[2], &b, &t[0], 1, out, NULL), MLR_E_INVALID_ARG);
 
     double ang[6] = {0.1, 0.2, 0.3, 0.1, qnan, 0.3}, ao[9];
-    ck_assert_int_eq(mlr_quat_from_euler_array(ang, 2, (mlr_euler_order)6, out),
+    ck_assert_int_eq(mlr_quat_from_euler_array(ang, 2, (mlr_euler_order)6, out, NULL),
                      MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_quat_from_euler_array(ang, 2, (mlr_euler_order)-1, out),
+    ck_assert_int_eq(mlr_quat_from_euler_array(ang, 2, (mlr_euler_order)-1, out, NULL),
                      MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_quat_from_euler_array(ang, 2, MLR_EULER_XYZ, out), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_quat_from_euler_array(ang, 2, MLR_EULER_XYZ, out, NULL), MLR_E_INVALID_ARG);
     ck_assert_close(norm4(&out[0]), 1.0, 1e-15);
     ck_assert(out[1].w == 1);
-    ck_assert_int_eq(mlr_quat_to_euler_array(q, 1, (mlr_euler_order)7, ao), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_quat_to_euler_array(q, 3, MLR_EULER_ZXY, ao), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_quat_to_euler_array(q, 1, (mlr_euler_order)7, ao, NULL), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_quat_to_euler_array(q, 3, MLR_EULER_ZXY, ao, NULL), MLR_E_INVALID_ARG);
     for (int k = 3; k < 9; k++)
         ck_assert(ao[k] == 0.0);
 
     /* NULL with a count is an error; a zero count accepts anything */
-    ck_assert_int_eq(mlr_quat_normalize_array(NULL, 1, out), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_quat_normalize_array(q, 1, NULL), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_quat_exp_array(NULL, 1, out), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_quat_log_array(q, 1, NULL), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_quat_slerp_array(&a, &b, NULL, 1, out), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_quat_from_euler_array(NULL, 1, MLR_EULER_XYZ, out), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_quat_to_euler_array(q, 1, MLR_EULER_XYZ, NULL), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_quat_normalize_array(NULL, 0, NULL), MLR_OK);
-    ck_assert_int_eq(mlr_quat_exp_array(NULL, 0, NULL), MLR_OK);
-    ck_assert_int_eq(mlr_quat_log_array(NULL, 0, NULL), MLR_OK);
-    ck_assert_int_eq(mlr_quat_slerp_array(NULL, NULL, NULL, 0, NULL), MLR_OK);
-    ck_assert_int_eq(mlr_quat_from_euler_array(NULL, 0, MLR_EULER_XYZ, NULL), MLR_OK);
-    ck_assert_int_eq(mlr_quat_to_euler_array(NULL, 0, MLR_EULER_XYZ, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_quat_normalize_array(NULL, 1, out, NULL), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_quat_normalize_array(q, 1, NULL, NULL), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_quat_exp_array(NULL, 1, out, NULL), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_quat_log_array(q, 1, NULL, NULL), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_quat_slerp_array(&a, &b, NULL, 1, out, NULL), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_quat_from_euler_array(NULL, 1, MLR_EULER_XYZ, out, NULL), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_quat_to_euler_array(q, 1, MLR_EULER_XYZ, NULL, NULL), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_quat_normalize_array(NULL, 0, NULL, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_quat_exp_array(NULL, 0, NULL, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_quat_log_array(NULL, 0, NULL, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_quat_slerp_array(NULL, NULL, NULL, 0, NULL, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_quat_from_euler_array(NULL, 0, MLR_EULER_XYZ, NULL, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_quat_to_euler_array(NULL, 0, MLR_EULER_XYZ, NULL, NULL), MLR_OK);
 }
 END_TEST
 

@@ -621,7 +621,7 @@ START_TEST(real_clip_round_trip_120_30_120)
     mlr_diag d;
     ck_assert_int_eq(mlr_bvh_read_file(path, NULL, &full, &d), MLR_OK);
     /* skip the converter's T-pose and blend frames */
-    ck_assert_int_eq(mlr_motion_copy_frames(full, 6, mlr_motion_n_frames(full) - 6, &m), MLR_OK);
+    ck_assert_int_eq(mlr_motion_copy_frames(full, 6, mlr_motion_n_frames(full) - 6, &m, NULL), MLR_OK);
     mlr_motion_destroy(full);
     const size_t N = mlr_motion_n_frames(m), J = mlr_motion_n_joints(m), P = mlr_motion_n_trans(m);
     const double fps = 1.0 / mlr_motion_frame_time(m);
@@ -635,7 +635,7 @@ START_TEST(real_clip_round_trip_120_30_120)
     double *pb = malloc((N * P * 3 + 1) * sizeof(double));
     double *w0 = malloc(N * J * 3 * sizeof(double)), *w1 = malloc(N * J * 3 * sizeof(double));
     const double *root = mlr_motion_root_pos(m), *rot = mlr_motion_rot(m), *tr = mlr_motion_trans(m);
-    ck_assert_int_eq(mlr_fk_motion(m, 0, N, w0, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_fk_motion(m, 0, N, w0, NULL, NULL), MLR_OK);
     double ymin = INFINITY, ymax = -INFINITY;
     for (size_t j = 0; j < J; j++) {
         ymin = fmin(ymin, w0[3 * j + 1]);
@@ -659,7 +659,7 @@ START_TEST(real_clip_round_trip_120_30_120)
         }
         ck_assert_msg(st == MLR_OK, "%s", d.message);
         ck_assert_int_eq(mlr_fk_arrays(N, J, mlr_motion_parents(m), mlr_motion_offsets(m), rb, qb,
-                                       P, mlr_motion_trans_joints(m), pb, w1, NULL, NULL), MLR_OK);
+                                       P, mlr_motion_trans_joints(m), pb, w1, NULL, NULL, NULL), MLR_OK);
         err[method] = mpjpe(N, J, w0, w1);
     }
     fprintf(stderr, "%s: %zu -> %zu -> %zu frames, height %.3f: MPJPE LGS %.4f (%.3f %%), "
@@ -732,7 +732,7 @@ START_TEST(timewarp_real_clip)
     snprintf(path, sizeof path, "%s/cmu_10_01_soccer_kick.bvh", dir);
     mlr_motion *full = NULL, *m = NULL;
     ck_assert_int_eq(mlr_bvh_read_file(path, NULL, &full, NULL), MLR_OK);
-    ck_assert_int_eq(mlr_motion_copy_frames(full, 6, mlr_motion_n_frames(full) - 6, &m), MLR_OK);
+    ck_assert_int_eq(mlr_motion_copy_frames(full, 6, mlr_motion_n_frames(full) - 6, &m, NULL), MLR_OK);
     mlr_motion_destroy(full);
     const size_t N = mlr_motion_n_frames(m), J = mlr_motion_n_joints(m), n = N * 5 / 4;
     double *t = malloc(N * sizeof(double)), *speed = malloc(N * sizeof(double));

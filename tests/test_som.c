@@ -368,7 +368,7 @@ START_TEST(online_cutoff_keeps_quantization_error)
     if (n > 2000)
         n = 2000;
     double *x = malloc(n * d * sizeof *x);
-    ck_assert_int_eq(mlr_fk_motion(m, 0, n, x, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_fk_motion(m, 0, n, x, NULL, NULL), MLR_OK);
     double qe[2];
     for (int full = 0; full < 2; full++) {
         mlr_som *s = NULL;

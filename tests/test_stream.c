@@ -108,7 +108,7 @@ static void normalize_rows(const clip *c, double *x)
 {
     for (size_t f = 0; f < c->N; f++) {
         mlr_quat *q = (mlr_quat *)(x + f * c->m + 3 + 3 * c->P);
-        ck_assert_int_eq(mlr_quat_normalize_array(q, c->J, q), MLR_OK);
+        ck_assert_int_eq(mlr_quat_normalize_array(q, c->J, q, NULL), MLR_OK);
     }
 }
 
@@ -118,7 +118,7 @@ static void offline(const clip *c, double lam, double sigma, double *x)
     mlr_lgs *g = NULL;
     ck_assert_int_ge(mlr_lgs_create(c->N, 2, lam, sigma, NULL, c->N, MLR_LGS_BANDED, NULL, &g,
                                     NULL), 0);
-    ck_assert_int_eq(mlr_lgs_solve(g, c->ya, c->m, c->m, x, c->m), MLR_OK);
+    ck_assert_int_eq(mlr_lgs_solve(g, c->ya, c->m, c->m, x, c->m, NULL), MLR_OK);
     mlr_lgs_destroy(g);
     normalize_rows(c, x);
 }
@@ -128,12 +128,12 @@ static void stream_all(mlr_stream *st, const double *y, size_t n, size_t m, doub
 {
     size_t done = 0, ready = 0;
     for (size_t f = 0; f < n; f++) {
-        ck_assert_int_eq(mlr_stream_push(st, y + f * m, m, x + done * m, m, &ready), MLR_OK);
+        ck_assert_int_eq(mlr_stream_push(st, y + f * m, m, x + done * m, m, &ready, NULL), MLR_OK);
         done += ready;
     }
     ck_assert_uint_eq(done, n > mlr_stream_lag(st) ? n - mlr_stream_lag(st) : 0);
     size_t w = 0;
-    ck_assert_int_eq(mlr_stream_flush(st, x + done * m, (n - done) * m, &w), MLR_OK);
+    ck_assert_int_eq(mlr_stream_flush(st, x + done * m, (n - done) * m, &w, NULL), MLR_OK);
     ck_assert_uint_eq(done + w, n);
 }
 
@@ -174,7 +174,7 @@ START_TEST(outputs_equal_dense_prefix)
         ck_assert_uint_eq(mlr_stream_frame_size(st), m);
         for (size_t p = 1; p <= n; p++) {
             size_t ready = 9;
-            ck_assert_int_eq(mlr_stream_push(st, y + (p - 1) * m, m, out, m, &ready), MLR_OK);
+            ck_assert_int_eq(mlr_stream_push(st, y + (p - 1) * m, m, out, m, &ready, NULL), MLR_OK);
             ck_assert_uint_eq(ready, p > lag);
             ck_assert_uint_eq(mlr_stream_pending(st), p > lag ? lag : p);
             if (!ready)
@@ -184,7 +184,7 @@ START_TEST(outputs_equal_dense_prefix)
                 ck_assert_close(out[k], ref[(p - 1 - lag) * m + k], 1e-10 * (1 + fabs(ref[k])));
         }
         size_t w = 0;
-        ck_assert_int_eq(mlr_stream_flush(st, out, n * m, &w), MLR_OK);
+        ck_assert_int_eq(mlr_stream_flush(st, out, n * m, &w, NULL), MLR_OK);
         ck_assert_uint_eq(w, lag < n ? lag : n);
         dense_smooth(n, s, y, m, ref);
         for (size_t r = 0; r < w; r++)
@@ -195,11 +195,11 @@ START_TEST(outputs_equal_dense_prefix)
             mlr_stream_reset(st);
             for (size_t f = 0; f < p; f++) {
                 size_t ready;
-                ck_assert_int_eq(mlr_stream_push(st, y + f * m, m, out + f * m, m, &ready), MLR_OK);
+                ck_assert_int_eq(mlr_stream_push(st, y + f * m, m, out + f * m, m, &ready, NULL), MLR_OK);
             }
             if (p > lag)
                 continue;
-            ck_assert_int_eq(mlr_stream_flush(st, out, p * m, &w), MLR_OK);
+            ck_assert_int_eq(mlr_stream_flush(st, out, p * m, &w, NULL), MLR_OK);
             ck_assert_uint_eq(w, p);
             dense_smooth(p, s, y, m, ref);
             for (size_t k = 0; k < p * m; k++)
@@ -428,7 +428,7 @@ START_TEST(layers_match_offline_composition)
                                                    &st, NULL), MLR_OK);
         for (size_t j = 0; j < J; j++)
             alpha[j] = j % 2 ? a_list[t] : 1.0; /* every other joint modulated */
-        ck_assert_int_eq(mlr_stream_set_alpha(st, a_list[t], alpha, J), MLR_OK);
+        ck_assert_int_eq(mlr_stream_set_alpha(st, a_list[t], alpha, J, NULL), MLR_OK);
         stream_all(st, c.y, N, m, x);
         mlr_stream_destroy(st);
         for (size_t f = 0; f < N; f++) {
@@ -442,9 +442,9 @@ START_TEST(layers_match_offline_composition)
                 mlr_quat bc = {qb->w, -qb->x, -qb->y, -qb->z}, d, e, want;
                 mlr_vec3 v;
                 mlr_quat_mul(&bc, qm, &d);
-                mlr_quat_log_array(&d, 1, &v);
+                mlr_quat_log_array(&d, 1, &v, NULL);
                 v.x *= alpha[j], v.y *= alpha[j], v.z *= alpha[j];
-                mlr_quat_exp_array(&v, 1, &e);
+                mlr_quat_exp_array(&v, 1, &e, NULL);
                 mlr_quat_mul(qb, &e, &want);
                 if (alpha[j] == 1.0)
                     want = *qm;
@@ -486,7 +486,7 @@ START_TEST(no_allocation_after_create)
         ta.fail_at = calls; /* the next allocation, if any, fails */
         double *alpha = calloc(c.J, sizeof(double));
         if (layered)
-            ck_assert_int_eq(mlr_stream_set_alpha(st, 0.5, alpha, c.J), MLR_OK);
+            ck_assert_int_eq(mlr_stream_set_alpha(st, 0.5, alpha, c.J, NULL), MLR_OK);
         stream_all(st, c.y, c.N, c.m, x);
         mlr_stream_reset(st);
         stream_all(st, c.y, c.N, c.m, x);
@@ -542,17 +542,17 @@ START_TEST(non_finite_frame_rejected)
             bad[(f * 7) % m] = poison[f % 3];
             const size_t before = mlr_stream_n_pushed(st), pend = mlr_stream_pending(st);
             ready = 5;
-            ck_assert_int_eq(mlr_stream_push(st, bad, m, x2 + done * m, m, &ready),
+            ck_assert_int_eq(mlr_stream_push(st, bad, m, x2 + done * m, m, &ready, NULL),
                              MLR_E_INVALID_ARG);
             ck_assert_uint_eq(ready, 0);
             ck_assert_uint_eq(mlr_stream_n_pushed(st), before);
             ck_assert_uint_eq(mlr_stream_pending(st), pend);
         }
-        ck_assert_int_eq(mlr_stream_push(st, c.y + f * m, m, x2 + done * m, m, &ready), MLR_OK);
+        ck_assert_int_eq(mlr_stream_push(st, c.y + f * m, m, x2 + done * m, m, &ready, NULL), MLR_OK);
         done += ready;
     }
     size_t w;
-    ck_assert_int_eq(mlr_stream_flush(st, x2 + done * m, (c.N - done) * m, &w), MLR_OK);
+    ck_assert_int_eq(mlr_stream_flush(st, x2 + done * m, (c.N - done) * m, &w, NULL), MLR_OK);
     ck_assert_int_eq(memcmp(x1, x2, c.N * m * sizeof(double)), 0);
     mlr_stream_destroy(st);
     free(x1), free(x2), free(bad);
@@ -583,42 +583,42 @@ START_TEST(bad_arguments)
     ck_assert_uint_eq(m, 11);
     double f[11] = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0}, out[3 * 11];
     size_t ready;
-    ck_assert_int_eq(mlr_stream_push(st, f, m - 1, out, m, &ready), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_stream_push(st, f, m + 1, out, m, &ready), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_stream_push(st, f, m, out, m - 1, &ready), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_stream_push(st, NULL, m, out, m, &ready), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_stream_push(st, f, m, NULL, m, &ready), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_stream_push(st, f, m, out, m, NULL), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_stream_push(NULL, f, m, out, m, &ready), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_stream_push(st, f, m - 1, out, m, &ready, NULL), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_stream_push(st, f, m + 1, out, m, &ready, NULL), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_stream_push(st, f, m, out, m - 1, &ready, NULL), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_stream_push(st, NULL, m, out, m, &ready, NULL), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_stream_push(st, f, m, NULL, m, &ready, NULL), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_stream_push(st, f, m, out, m, NULL, NULL), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_stream_push(NULL, f, m, out, m, &ready, NULL), MLR_E_INVALID_ARG);
     ck_assert_uint_eq(mlr_stream_n_pushed(st), 0);
-    ck_assert_int_eq(mlr_stream_set_alpha(st, 1.0, f, 2), MLR_E_BAD_STATE);
+    ck_assert_int_eq(mlr_stream_set_alpha(st, 1.0, f, 2, NULL), MLR_E_BAD_STATE);
     for (int k = 0; k < 3; k++)
-        ck_assert_int_eq(mlr_stream_push(st, f, m, out, m, &ready), MLR_OK);
+        ck_assert_int_eq(mlr_stream_push(st, f, m, out, m, &ready, NULL), MLR_OK);
     ck_assert_uint_eq(ready, 1);
     ck_assert_uint_eq(mlr_stream_pending(st), 2);
     size_t w = 7;
-    ck_assert_int_eq(mlr_stream_flush(st, out, 2 * m - 1, &w), MLR_E_OVERFLOW);
+    ck_assert_int_eq(mlr_stream_flush(st, out, 2 * m - 1, &w, NULL), MLR_E_OVERFLOW);
     ck_assert_uint_eq(w, 0);
     ck_assert_uint_eq(mlr_stream_pending(st), 2);
-    ck_assert_int_eq(mlr_stream_flush(st, NULL, 0, &w), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_stream_flush(st, out, 2 * m, NULL), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_stream_flush(st, out, 2 * m, &w), MLR_OK);
+    ck_assert_int_eq(mlr_stream_flush(st, NULL, 0, &w, NULL), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_stream_flush(st, out, 2 * m, NULL, NULL), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_stream_flush(st, out, 2 * m, &w, NULL), MLR_OK);
     ck_assert_uint_eq(w, 2);
     for (size_t k = 0; k < 2 * m; k++) /* constant input: the output is that input */
         ck_assert_close(out[k], f[k % m], 1e-15);
-    ck_assert_int_eq(mlr_stream_flush(st, out, 2 * m, &w), MLR_E_BAD_STATE);
-    ck_assert_int_eq(mlr_stream_push(st, f, m, out, m, &ready), MLR_E_BAD_STATE);
+    ck_assert_int_eq(mlr_stream_flush(st, out, 2 * m, &w, NULL), MLR_E_BAD_STATE);
+    ck_assert_int_eq(mlr_stream_push(st, f, m, out, m, &ready, NULL), MLR_E_BAD_STATE);
     mlr_stream_reset(st);
-    ck_assert_int_eq(mlr_stream_push(st, f, m, out, m, &ready), MLR_OK);
+    ck_assert_int_eq(mlr_stream_push(st, f, m, out, m, &ready, NULL), MLR_OK);
     mlr_stream_destroy(st);
 
     ck_assert_int_eq(mlr_stream_create_layered(2, 0, 0, 1, 1, 9, 1, 0, NULL, &st, &d), MLR_OK);
     double al[2] = {1, 2};
-    ck_assert_int_eq(mlr_stream_set_alpha(st, 1.0, al, 3), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_stream_set_alpha(st, 1.0, NULL, 2), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_stream_set_alpha(st, NAN, al, 2), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_stream_set_alpha(st, 1.0, al, 3, NULL), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_stream_set_alpha(st, 1.0, NULL, 2, NULL), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_stream_set_alpha(st, NAN, al, 2, NULL), MLR_E_INVALID_ARG);
     al[1] = INFINITY;
-    ck_assert_int_eq(mlr_stream_set_alpha(st, 1.0, al, 2), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_stream_set_alpha(st, 1.0, al, 2, NULL), MLR_E_INVALID_ARG);
     mlr_stream_destroy(st);
     mlr_stream_destroy(NULL);
     mlr_stream_reset(NULL);

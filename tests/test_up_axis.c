@@ -17,7 +17,7 @@ static const char *const clips[] = {
 static double *turned_positions(const mlr_test_clip *c, size_t n, int axis, int sign)
 {
     double *wp = malloc(3 * n * c->j * sizeof(double));
-    ck_assert_int_eq(mlr_fk_motion(c->m, 0, n, wp, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_fk_motion(c->m, 0, n, wp, NULL, NULL), MLR_OK);
     for (size_t i = 0; i < n * c->j; i++) {
         double *p = wp + 3 * i;
         const double x = p[0], y = p[1], z = p[2];

@@ -20,7 +20,9 @@ import tempfile
 import time
 
 import mlayer
-from mlayer.batch import batch, operations
+from mlayer.batching import batch, operations
+# the task's writer (write_bvh, or np.savez atomically) and its figures
+from mlayer.batching.task import _metrics_before, _write
 
 
 def main():
@@ -55,14 +57,12 @@ def main():
               f"{', with metrics' if a.metrics else ''}; {os.cpu_count()} CPUs")
 
         # plain loop over the same functions the tasks call
-        from mlayer.batch import _write  # the task's writer: write_bvh, or np.savez atomically
         out = tmp / "loop"
         out.mkdir()
         t0 = time.perf_counter()
         for f in clips:
             m = mlayer.read_bvh(f)
             if a.metrics:
-                from mlayer.batch import _metrics_before
                 _metrics_before(m)
             res = op.run(m, variants, **options)
             _write(res[0], str(out / (f.stem + op.extension)))

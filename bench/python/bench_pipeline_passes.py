@@ -49,11 +49,12 @@ def python_passes(argv):
     try:
         from mlayer.cli import main
         with open(os.devnull, "w") as null:
-            old, sys.stdout = sys.stdout, null
+            old = sys.stdout, sys.stderr
+            sys.stdout = sys.stderr = null
             try:
                 rc = main(argv)
             finally:
-                sys.stdout = old
+                sys.stdout, sys.stderr = old
     finally:
         M.Motion._fk = orig
         mlayer.bvh.read_bvh = mlayer.read_bvh = read

@@ -230,10 +230,29 @@ MLR_API mlr_status mlr_bvh_write_memory(const mlr_motion *motion, char *buf, siz
 /**
  * Write the motion to a BVH file atomically: the text goes to a new temporary file in the same
  * directory, which then replaces path by a rename. On any failure the temporary file is
- * removed and path is left as it was.
- * @param diag   [out] optional: the reason on MLR_E_IO
- * @return MLR_OK; MLR_E_IO; MLR_E_INVALID_ARG
- * Allocates: yes (a buffer for the temporary name). Threads: motion is only read.
+ * removed and path is left as it was. The file gets the mode a plain fopen gives it (0666
+ * less the umask: 0644 under umask 022).
+ *
+ * The temporary's name is part of this contract, so that a caller can clean up after a writer
+ * that was killed: the temporary of DIR/NAME is
+ *
+ *     DIR/.NAME.tmp-HHHHHHHHHHHHHHHH
+ *
+ * where HHHHHHHHHHHHHHHH are 16 lowercase hexadecimal digits (random), created exclusively
+ * (another writer's temporary is never reused). Other writers of the project follow the same
+ * rule and may append an extension (a dot and 1 to 16 characters, none a dot or a path
+ * separator) for libraries that choose a format by it; this function appends none. A
+ * temporary exists only while a writer runs: one whose writer is gone may be removed (the
+ * Python package's batch runs do, mlayer._files.stale_temporaries lists them). NAME must
+ * leave room for the 22 characters added within the file system's name limit.
+ * @param path   [in] the file to write; NUL-terminated, not ending with a path separator
+ * @param diag   [out] optional: the reason on MLR_E_IO and MLR_E_INVALID_ARG
+ * @return MLR_OK; MLR_E_IO (the temporary cannot be created, written or renamed);
+ *         MLR_E_INVALID_ARG (motion or path NULL or empty, path ends with a separator, the
+ *         motion holds a non-finite value or a zero quaternion); MLR_E_NO_MEMORY;
+ *         MLR_E_OVERFLOW (path is longer than SIZE_MAX - 24)
+ * Allocates: yes (a buffer for the temporary name, from the motion's allocator).
+ * Threads: motion is only read.
  */
 MLR_API mlr_status mlr_bvh_write_file(const mlr_motion *motion, const char *path,
                                       mlr_diag *diag);

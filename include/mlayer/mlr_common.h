@@ -7,6 +7,27 @@
  * - Arrays are row-major float64, frames along the first axis; quaternions are scalar-first.
  * - The library never prints, exits or aborts and keeps no global mutable state. Every
  *   function is safe to call from several threads on separate data.
+ * - Diagnostics: a function that can fail for more than one reason takes an optional
+ *   mlr_diag * (last, or before out/alloc where those come last) and fills it on every failure,
+ *   allocation and overflow included, with a message that names the argument, the element or
+ *   the option. The status functions without one are the getters of a handle (a NULL handle
+ *   or a count other than the documented one), mlr_ik_from_to and mlr_motion_set_frame_time
+ *   (one reason each); mlr_band_*, mlr_bvh_write / mlr_bvh_write_memory and
+ *   mlr_ik_bend_axis_local do not take one in 0.1.0 (their statuses are documented).
+ * - Options: a function with several tunables takes an array of {int key; double value;}
+ *   (mlr_layers_option, mlr_guards_option, ...), keys pinned, a key at most once; one reader
+ *   checks them all, and its messages name an option by the lower-case suffix of its key
+ *   ("layers: option lam_c = -1 is not > 0" for MLR_LAYERS_OPT_LAM_C), which is also the
+ *   Python keyword (lam_c) and, with '-' for '_', the command-line flag (--lam-c). Booleans
+ *   of functions without tunables are flags in an unsigned bitmask (MLR_RESAMPLE_*), named in
+ *   messages the same way ("allow_extreme"). The rule: flags for booleans, key/value options
+ *   for tunables. See docs/OPTIONS.md.
+ * - Matrix arguments: a strided matrix is (pointer, rows, leading dimension) followed by its
+ *   column count; a count fixed by a handle or shared with an earlier matrix is left out
+ *   (mlr_kmeans_fit(km, x, n, ldx, ...), mlr_lgs_solve(lgs, y, ldy, m, x, ldx, ...),
+ *   mlr_grbf_basis(..., centers, n_centers, ldc, x, n, ldx, dim, ...)). Contiguous motion
+ *   arrays (frames x joints x components) take their shape first (n_frames, n_joints, ...),
+ *   then the arrays; flat element arrays are (pointer, count).
  */
 #ifndef MLR_COMMON_H
 #define MLR_COMMON_H

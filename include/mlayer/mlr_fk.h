@@ -36,6 +36,7 @@ extern "C" {
  * @param world_rot    [out] N x J x 4 world rotations, or NULL when not wanted
  * @param alloc        [in] used only when world_rot is NULL and J > 256, for J x 4 doubles of
  *                     scratch; NULL for malloc/free
+ * @param diag         [out] optional: the reason of an error (which parent or trans joint)
  * @return MLR_OK; MLR_E_INVALID_ARG (bad parents or trans_joints, NULL arrays);
  *         MLR_E_NO_MEMORY; MLR_E_OVERFLOW
  * Allocates: only as said for alloc. Threads: any; outputs must not alias inputs.
@@ -45,18 +46,19 @@ MLR_API mlr_status mlr_fk_arrays(size_t n_frames, size_t n_joints, const int32_t
                                  const double *rot, size_t n_trans,
                                  const int32_t *trans_joints, const double *trans,
                                  double *world_pos, double *world_rot,
-                                 const mlr_allocator *alloc);
+                                 const mlr_allocator *alloc, mlr_diag *diag);
 
 /**
  * Forward kinematics of frames [begin, begin + count) of a motion.
  * @param world_pos    [out] count x J x 3
  * @param world_rot    [out] count x J x 4, or NULL (then scratch is taken from the motion's
  *                     allocator when J > 256)
+ * @param diag         [out] optional: the reason of an error
  * @return MLR_OK; MLR_E_INVALID_ARG (frame range out of bounds, NULL); MLR_E_NO_MEMORY
  * Allocates: only as said. Threads: motion is only read.
  */
 MLR_API mlr_status mlr_fk_motion(const mlr_motion *motion, size_t begin, size_t count,
-                                 double *world_pos, double *world_rot);
+                                 double *world_pos, double *world_rot, mlr_diag *diag);
 
 #ifdef __cplusplus
 }

@@ -62,18 +62,18 @@ typedef enum mlr_guards_limits_mode {
 
 /** Option keys of mlr_guards_create. Values pinned; new options get new values. */
 typedef enum mlr_guards_key {
-    MLR_GUARDS_OPT_UP = 1,           /* the up axis, an mlr_axis; default MLR_AXIS_Y */
-    MLR_GUARDS_OPT_LIMITS = 2,       /* an mlr_guards_limits_mode; default AUTO */
-    MLR_GUARDS_OPT_CONTACTS = 3,     /* 1: pin the feet during the input's contacts (default),
-                                        0: do not */
-    MLR_GUARDS_OPT_FLOOR = 4,        /* 1: keep the feet above the floor (default), 0: do not */
-    MLR_GUARDS_OPT_FLOOR_HEIGHT = 5, /* finite: the floor's height along the up axis; default:
-                                        from the input's contacts (mlr_cleanup_floor_height,
-                                        quantile 0.05) */
-    MLR_GUARDS_OPT_FOLLOW = 6        /* 1: pinned feet follow the reference's trajectories
-                                        (default); 0: each contact point is pinned at its mean
-                                        position over the contact, and no reference is used
-                                        (generated motion, whose own feet skate) */
+    MLR_GUARDS_OPT_UP = 1,            /* the up axis, an mlr_axis; default MLR_AXIS_Y */
+    MLR_GUARDS_OPT_LIMITS = 2,        /* an mlr_guards_limits_mode; default AUTO */
+    MLR_GUARDS_OPT_KEEP_CONTACTS = 3, /* 1: pin the feet during the input's contacts (default),
+                                         0: do not */
+    MLR_GUARDS_OPT_FLOOR = 4,         /* 1: keep the feet above the floor (default), 0: do not */
+    MLR_GUARDS_OPT_FLOOR_HEIGHT = 5,  /* finite: the floor's height along the up axis; default:
+                                         from the input's contacts (mlr_cleanup_floor_height,
+                                         quantile 0.05) */
+    MLR_GUARDS_OPT_FOLLOW = 6         /* 1: pinned feet follow the reference's trajectories
+                                         (default); 0: each contact point is pinned at its mean
+                                         position over the contact, and no reference is used
+                                         (generated motion, whose own feet skate) */
 } mlr_guards_key;
 
 /** One option: key (an mlr_guards_key) and its value. A frozen value type. */

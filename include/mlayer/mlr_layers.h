@@ -238,13 +238,14 @@ MLR_API mlr_status mlr_layers_get_outliers(const mlr_layers *layers, unsigned ch
  * @param rot         [in/out] count x J x 4 of the input's rotations, or NULL to skip
  * @param n_rot       [in] must be 4 J count when rot is not NULL
  * @param n_repaired  [out] optional: how many frames were outliers (and so rewritten)
+ * @param diag        [out] optional: the reason of an error
  * @return MLR_OK; MLR_E_INVALID_ARG (NULL layers, range outside the frames, wrong sizes;
  *         nothing written)
  * Allocates: never. Threads: handle only read.
  */
 MLR_API mlr_status mlr_layers_repair(const mlr_layers *layers, size_t begin, size_t count,
                                      double *root_pos, size_t n_root_pos, double *rot,
-                                     size_t n_rot, size_t *n_repaired);
+                                     size_t n_rot, size_t *n_repaired, mlr_diag *diag);
 
 /**
  * Synthesize frames [begin, begin + count) of M' = Mb (+) W delta_c (eq. 16, 17): the root
@@ -256,13 +257,15 @@ MLR_API mlr_status mlr_layers_repair(const mlr_layers *layers, size_t begin, siz
  * @param n_root_pos  [in] must be 3 count when root_pos is not NULL
  * @param rot         [out] count x J x 4, or NULL to skip
  * @param n_rot       [in] must be 4 J count when rot is not NULL
+ * @param diag        [out] optional: the reason of an error
  * @return MLR_OK; MLR_E_INVALID_ARG (NULL handle, frame range outside [0, N), wrong counts,
  *         alpha NaN or infinite: nothing is written)
  * Allocates: never. Threads: handle only read, so threads may synthesize concurrently.
  */
 MLR_API mlr_status mlr_layers_synthesize(const mlr_layers *layers, size_t begin, size_t count,
                                          const double *alpha, size_t n_alpha, double *root_pos,
-                                         size_t n_root_pos, double *rot, size_t n_rot);
+                                         size_t n_root_pos, double *rot, size_t n_rot,
+                                         mlr_diag *diag);
 
 /**
  * Rebuild frames [begin, begin + count) of the input as (Mb (+) delta_c) (+) delta_r. It equals
@@ -271,7 +274,7 @@ MLR_API mlr_status mlr_layers_synthesize(const mlr_layers *layers, size_t begin,
  */
 MLR_API mlr_status mlr_layers_reconstruct(const mlr_layers *layers, size_t begin, size_t count,
                                           double *root_pos, size_t n_root_pos, double *rot,
-                                          size_t n_rot);
+                                          size_t n_rot, mlr_diag *diag);
 
 /** Release the handle. NULL is a no-op. */
 MLR_API void mlr_layers_destroy(mlr_layers *layers);

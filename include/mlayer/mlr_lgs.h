@@ -61,13 +61,15 @@ MLR_API mlr_status mlr_lgs_create(size_t n_out, unsigned order, double lam, doub
  * @param y    [in] n_obs x m observations, row stride ldy >= m; every value finite
  * @param x    [out] n_out x m result, row stride ldx >= m. With t == NULL, x may be y itself
  *             (same pointer and stride) for an in-place solve; other overlaps are not allowed.
+ * @param diag [out] optional: the reason of an error (for a non-finite y, the first such value:
+ *             "lgs solve: y[12][0] is NaN or infinite")
  * @return MLR_OK; MLR_E_INVALID_ARG (NULL, strides, non-finite y: x is then unspecified);
  *         MLR_E_NO_MEMORY (CHOLMOD path only)
  * Allocates: banded path never; CHOLMOD path O(n m). Threads: the banded handle is only read,
  * so threads may share it; a CHOLMOD handle serves one thread at a time.
  */
 MLR_API mlr_status mlr_lgs_solve(const mlr_lgs *lgs, const double *y, size_t ldy, size_t m,
-                                 double *x, size_t ldx);
+                                 double *x, size_t ldx, mlr_diag *diag);
 
 /**
  * mlr_lgs_solve with help from a second thread for large outputs: while the calling thread
@@ -84,17 +86,20 @@ MLR_API mlr_status mlr_lgs_solve(const mlr_lgs *lgs, const double *y, size_t ldy
  * (pthread_create); if it cannot start, the solve runs alone. Threads: as mlr_lgs_solve.
  */
 MLR_API mlr_status mlr_lgs_solve_mt(const mlr_lgs *lgs, const double *y, size_t ldy, size_t m,
-                                    double *x, size_t ldx, size_t n_threads);
+                                    double *x, size_t ldx, size_t n_threads, mlr_diag *diag);
 
 /**
  * Posterior variance per output frame: the diagonal of the inverse system matrix, in O(n_out)
  * by selected inversion of the banded factor. It is the variance of a channel whose
  * observation noise is sigma; it grows where observations are sparse.
- * @param var [out] n_out values
- * @return MLR_OK; MLR_E_INVALID_ARG; MLR_E_UNSUPPORTED (CHOLMOD handle); MLR_E_NO_MEMORY
+ * @param var  [out] n_out values
+ * @param diag [out] optional: the reason of an error
+ * @return MLR_OK; MLR_E_INVALID_ARG (NULL, n_out not the handle's); MLR_E_UNSUPPORTED (CHOLMOD
+ *         handle); MLR_E_NO_MEMORY
  * Allocates: O(n_out) workspace, released before return. Threads: handle only read.
  */
-MLR_API mlr_status mlr_lgs_variance(const mlr_lgs *lgs, double *var, size_t n_out);
+MLR_API mlr_status mlr_lgs_variance(const mlr_lgs *lgs, double *var, size_t n_out,
+                                    mlr_diag *diag);
 
 /** Output frames of the handle. */
 MLR_API size_t mlr_lgs_n_out(const mlr_lgs *lgs);

@@ -66,11 +66,12 @@ MLR_API mlr_status mlr_motion_create(size_t n_joints, const char *const *names,
 
 /**
  * Deep copy of frames [begin, begin + count) of a motion (the skeleton is copied whole).
- * @return MLR_OK; MLR_E_INVALID_ARG (out of range, NULL); MLR_E_NO_MEMORY
+ * @param diag [out] optional: the reason of an error
+ * @return MLR_OK; MLR_E_INVALID_ARG (out of range, NULL); MLR_E_NO_MEMORY; MLR_E_OVERFLOW
  * Allocates: yes, with the allocator of src. Threads: src is only read.
  */
 MLR_API mlr_status mlr_motion_copy_frames(const mlr_motion *src, size_t begin, size_t count,
-                                          mlr_motion **out);
+                                          mlr_motion **out, mlr_diag *diag);
 
 /** Release a motion. NULL is a no-op. */
 MLR_API void mlr_motion_destroy(mlr_motion *motion);

@@ -38,27 +38,36 @@ MLR_API void mlr_quat_mul_array(const mlr_quat *a, const mlr_quat *b, size_t cou
                                 mlr_quat *out);
 /** out[i] = conj(q[i]). */
 MLR_API void mlr_quat_conj_array(const mlr_quat *q, size_t count, mlr_quat *out);
+/*
+ * The array functions below take an optional diag last: on MLR_E_INVALID_ARG it names the
+ * argument, how many elements were bad and the first of them ("quat log: q: 1 of 40
+ * quaternions zero, NaN or infinite, the first at index 7"). Allocates: never. Threads: any, on separate data.
+ */
 /**
  * out[i] = q[i] / |q[i]|.
- * @return MLR_OK; MLR_E_INVALID_ARG (a zero or non-finite quaternion: out[i] for that i is
- *         set to the identity and the others are still normalized)
+ * @return MLR_OK; MLR_E_INVALID_ARG (NULL arrays with count > 0; a zero or non-finite
+ *         quaternion: out[i] for that i is set to the identity and the others are still
+ *         normalized)
  */
-MLR_API mlr_status mlr_quat_normalize_array(const mlr_quat *q, size_t count, mlr_quat *out);
+MLR_API mlr_status mlr_quat_normalize_array(const mlr_quat *q, size_t count, mlr_quat *out,
+                                            mlr_diag *diag);
 /** out[i] = exp(v[i]): the rotation by |v| about v/|v|, accurate near 0.
  *  @return MLR_OK; MLR_E_INVALID_ARG (non-finite input: that out[i] is the identity) */
-MLR_API mlr_status mlr_quat_exp_array(const mlr_vec3 *v, size_t count, mlr_quat *out);
+MLR_API mlr_status mlr_quat_exp_array(const mlr_vec3 *v, size_t count, mlr_quat *out,
+                                      mlr_diag *diag);
 /** out[i] = log(q[i]) as a full-angle rotation vector of the unit quaternion q[i] (its angle
  *  taken in [0, pi], so q and -q give the same vector). Accurate near 0 and near pi. The result
  *  does not depend on |q[i]|: an unnormalized q gives the log of its rotation.
  *  @return MLR_OK; MLR_E_INVALID_ARG (non-finite or zero input: that out[i] is zero) */
-MLR_API mlr_status mlr_quat_log_array(const mlr_quat *q, size_t count, mlr_vec3 *out);
+MLR_API mlr_status mlr_quat_log_array(const mlr_quat *q, size_t count, mlr_vec3 *out,
+                                      mlr_diag *diag);
 /** out[i] = slerp(a[i], b[i], t[i]) along the shorter arc, unit-norm output. a and b are
  *  normalized first; t outside [0, 1] extrapolates. Exact limit as a -> b (no 0/0), and a ~ -b
  *  is the same rotation as b, so it is handled like a ~ b.
  *  @return MLR_OK; MLR_E_INVALID_ARG (non-finite input, or a zero a or b: that out[i] is the
  *          identity) */
 MLR_API mlr_status mlr_quat_slerp_array(const mlr_quat *a, const mlr_quat *b, const double *t,
-                                        size_t count, mlr_quat *out);
+                                        size_t count, mlr_quat *out, mlr_diag *diag);
 /**
  * From intrinsic Euler angles in radians, angles[3*i + k] about the k-th axis of order.
  * Any finite angles are accepted (no range restriction).
@@ -66,7 +75,8 @@ MLR_API mlr_status mlr_quat_slerp_array(const mlr_quat *a, const mlr_quat *b, co
  *         is the identity)
  */
 MLR_API mlr_status mlr_quat_from_euler_array(const double *angles, size_t count,
-                                             mlr_euler_order order, mlr_quat *out);
+                                             mlr_euler_order order, mlr_quat *out,
+                                             mlr_diag *diag);
 /** To intrinsic Euler angles in radians; the middle angle in [-pi/2, pi/2], the others in
  *  (-pi, pi]. At gimbal lock (middle angle within 1e-13 of +-pi/2) the third angle is 0 and the
  *  first carries the whole rotation about the locked axis. q need not be normalized; q and -q
@@ -74,7 +84,8 @@ MLR_API mlr_status mlr_quat_from_euler_array(const double *angles, size_t count,
  *  @return MLR_OK; MLR_E_INVALID_ARG (bad order: nothing written; zero or non-finite q: those
  *          three angles are 0) */
 MLR_API mlr_status mlr_quat_to_euler_array(const mlr_quat *q, size_t count,
-                                           mlr_euler_order order, double *angles);
+                                           mlr_euler_order order, double *angles,
+                                           mlr_diag *diag);
 /**
  * Sign continuity in place along a sequence: q is n_frames x n_tracks (row-major), and each
  * track is flipped (q -> -q) where needed so that consecutive samples have a non-negative dot
@@ -126,8 +137,11 @@ MLR_API void mlr_quat_continue_sign(const mlr_quat *prev, size_t n_prev, const m
  */
 MLR_API void mlr_quat_make_continuous_predictive(mlr_quat *q, size_t n_frames, size_t n_tracks);
 
-/** Parse "XYZ".."ZYX" (case-insensitive) into an order. @return MLR_OK, MLR_E_INVALID_ARG */
-MLR_API mlr_status mlr_euler_order_parse(const char *name, mlr_euler_order *out);
+/** Parse "XYZ".."ZYX" (case-insensitive) into an order.
+ *  @return MLR_OK; MLR_E_INVALID_ARG (NULL, not three letters of X, Y and Z, a repeated axis;
+ *          diag, optional, says which) */
+MLR_API mlr_status mlr_euler_order_parse(const char *name, mlr_euler_order *out,
+                                         mlr_diag *diag);
 
 #ifdef __cplusplus
 }

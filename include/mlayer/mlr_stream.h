@@ -119,13 +119,14 @@ MLR_API mlr_status mlr_stream_create_layered(size_t n_joints, int root, size_t n
  * @param out_len  [in] doubles available at out
  * @param n_ready  [out] 1 when out holds a frame (frame number mlr_stream_n_pushed - 1 - lag),
  *                 0 while fewer than lag + 1 frames have been pushed
+ * @param diag     [out] optional: the reason of an error (the first non-finite value)
  * @return MLR_OK; MLR_E_INVALID_ARG (NULL pointer, wrong n_values, out_len too small, or a
  *         NaN/inf value in frame: the frame is rejected and the stream's state is unchanged);
  *         MLR_E_BAD_STATE (the stream was flushed: reset it first)
  * Allocates: never. Threads: one caller at a time per stream.
  */
 MLR_API mlr_status mlr_stream_push(mlr_stream *st, const double *frame, size_t n_values,
-                                   double *out, size_t out_len, size_t *n_ready);
+                                   double *out, size_t out_len, size_t *n_ready, mlr_diag *diag);
 
 /**
  * End of the clip: write the mlr_stream_pending(st) frames not yet output (min(lag, frames
@@ -133,13 +134,14 @@ MLR_API mlr_status mlr_stream_push(mlr_stream *st, const double *frame, size_t n
  * stream is then finished: push returns MLR_E_BAD_STATE until mlr_stream_reset.
  * @param out       [out] room for the pending frames, out_len >= pending * n_values
  * @param n_written [out] frames written
+ * @param diag      [out] optional: the reason of an error
  * @return MLR_OK; MLR_E_INVALID_ARG (NULL; out may be NULL when nothing is pending);
  *         MLR_E_OVERFLOW (out_len too small: nothing written, state unchanged);
  *         MLR_E_BAD_STATE (already flushed)
  * Allocates: never. Threads: one caller at a time per stream.
  */
 MLR_API mlr_status mlr_stream_flush(mlr_stream *st, double *out, size_t out_len,
-                                    size_t *n_written);
+                                    size_t *n_written, mlr_diag *diag);
 
 /** Forget every pushed frame: the stream behaves as just created (the alphas are kept).
  *  NULL is a no-op. Allocates: never. */
@@ -150,22 +152,25 @@ MLR_API void mlr_stream_reset(mlr_stream *st);
  * @param alpha_trans [in] scale of every translation channel (root and extra), finite
  * @param alpha       [in] n_joints scales, one per joint quaternion, finite (NULL when
  *                    n_joints is 0)
+ * @param diag        [out] optional: the reason of an error
  * @return MLR_OK; MLR_E_INVALID_ARG (NULL, count mismatch, non-finite: nothing changed);
  *         MLR_E_BAD_STATE (the stream has no base layer)
  * Allocates: never.
  */
 MLR_API mlr_status mlr_stream_set_alpha(mlr_stream *st, double alpha_trans, const double *alpha,
-                                        size_t n_joints);
+                                        size_t n_joints, mlr_diag *diag);
 
 /**
  * Attach joint limits to the stream's output from the next output frame on (push and flush),
  * or detach them with NULL. The limits are borrowed: they must outlive the stream or be
  * detached first, and not be changed (mlr_limits_set_range) while a push or flush runs.
  * @param limits [in] limits for the stream's n_joints joints, or NULL
+ * @param diag   [out] optional: the reason of an error
  * @return MLR_OK; MLR_E_INVALID_ARG (NULL stream, mlr_limits_n_joints(limits) != n_joints)
  * Allocates: never. Threads: one caller at a time per stream.
  */
-MLR_API mlr_status mlr_stream_set_limits(mlr_stream *st, const mlr_limits *limits);
+MLR_API mlr_status mlr_stream_set_limits(mlr_stream *st, const mlr_limits *limits,
+                                         mlr_diag *diag);
 
 /** Values per frame (3 root + 3 n_trans + 4 n_joints); 0 for NULL. */
 MLR_API size_t mlr_stream_frame_size(const mlr_stream *st);

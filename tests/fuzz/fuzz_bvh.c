@@ -109,7 +109,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     size_t J = mlr_motion_n_joints(m), N = mlr_motion_n_frames(m);
     if (N * J <= 100000) {
         double *wp = malloc(3 * (N * J + 1) * sizeof(double));
-        check(mlr_fk_motion(m, 0, N, wp, NULL) == MLR_OK || J > 256);
+        check(mlr_fk_motion(m, 0, N, wp, NULL, NULL) == MLR_OK || J > 256);
         free(wp);
     }
     mlr_motion_destroy(m);

@@ -16,7 +16,7 @@ int main(void)
     mlr_lgs *lgs = NULL;
     if (mlr_lgs_create(5, 2, 1.0, 1.0, NULL, 5, MLR_LGS_BANDED, NULL, &lgs, NULL) != MLR_OK)
         return 1;
-    mlr_status s = mlr_lgs_solve(lgs, y, 1, 1, x, 1);
+    mlr_status s = mlr_lgs_solve(lgs, y, 1, 1, x, 1, NULL);
     mlr_lgs_destroy(lgs);
     for (int i = 0; i < 5; i++)
         if (s != MLR_OK || x[i] < i - 1e-9 || x[i] > i + 1e-9)

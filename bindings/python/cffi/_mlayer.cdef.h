@@ -46,10 +46,10 @@ mlr_status mlr_lgs_create(size_t n_out, unsigned order, double lam, double sigma
                           const double *t, size_t n_obs, mlr_lgs_solver solver,
                           const mlr_allocator *alloc, mlr_lgs **out, mlr_diag *diag);
 mlr_status mlr_lgs_solve(const mlr_lgs *lgs, const double *y, size_t ldy, size_t m,
-                         double *x, size_t ldx);
+                         double *x, size_t ldx, mlr_diag *diag);
 mlr_status mlr_lgs_solve_mt(const mlr_lgs *lgs, const double *y, size_t ldy, size_t m,
-                            double *x, size_t ldx, size_t n_threads);
-mlr_status mlr_lgs_variance(const mlr_lgs *lgs, double *var, size_t n_out);
+                            double *x, size_t ldx, size_t n_threads, mlr_diag *diag);
+mlr_status mlr_lgs_variance(const mlr_lgs *lgs, double *var, size_t n_out, mlr_diag *diag);
 size_t mlr_lgs_n_out(const mlr_lgs *lgs);
 size_t mlr_lgs_n_obs(const mlr_lgs *lgs);
 void mlr_lgs_destroy(mlr_lgs *lgs);
@@ -65,17 +65,18 @@ void mlr_quat_mul(const mlr_quat *a, const mlr_quat *b, mlr_quat *out);
 void mlr_quat_rotate(const mlr_quat *q, const mlr_vec3 *v, mlr_vec3 *out);
 void mlr_quat_mul_array(const mlr_quat *a, const mlr_quat *b, size_t count, mlr_quat *out);
 void mlr_quat_conj_array(const mlr_quat *q, size_t count, mlr_quat *out);
-mlr_status mlr_quat_normalize_array(const mlr_quat *q, size_t count, mlr_quat *out);
-mlr_status mlr_quat_exp_array(const mlr_vec3 *v, size_t count, mlr_quat *out);
-mlr_status mlr_quat_log_array(const mlr_quat *q, size_t count, mlr_vec3 *out);
+mlr_status mlr_quat_normalize_array(const mlr_quat *q, size_t count, mlr_quat *out,
+                                    mlr_diag *diag);
+mlr_status mlr_quat_exp_array(const mlr_vec3 *v, size_t count, mlr_quat *out, mlr_diag *diag);
+mlr_status mlr_quat_log_array(const mlr_quat *q, size_t count, mlr_vec3 *out, mlr_diag *diag);
 mlr_status mlr_quat_slerp_array(const mlr_quat *a, const mlr_quat *b, const double *t,
-                                size_t count, mlr_quat *out);
+                                size_t count, mlr_quat *out, mlr_diag *diag);
 mlr_status mlr_quat_from_euler_array(const double *angles, size_t count,
-                                     mlr_euler_order order, mlr_quat *out);
+                                     mlr_euler_order order, mlr_quat *out, mlr_diag *diag);
 mlr_status mlr_quat_to_euler_array(const mlr_quat *q, size_t count,
-                                   mlr_euler_order order, double *angles);
+                                   mlr_euler_order order, double *angles, mlr_diag *diag);
 void mlr_quat_make_continuous(mlr_quat *q, size_t n_frames, size_t n_tracks);
-mlr_status mlr_euler_order_parse(const char *name, mlr_euler_order *out);
+mlr_status mlr_euler_order_parse(const char *name, mlr_euler_order *out, mlr_diag *diag);
 
 /* mlr_bvh.h */
 typedef struct mlr_motion mlr_motion;
@@ -102,7 +103,7 @@ mlr_status mlr_motion_create(size_t n_joints, const char *const *names,
                              size_t n_frames, double frame_time,
                              const mlr_allocator *alloc, mlr_motion **out, mlr_diag *diag);
 mlr_status mlr_motion_copy_frames(const mlr_motion *src, size_t begin, size_t count,
-                                  mlr_motion **out);
+                                  mlr_motion **out, mlr_diag *diag);
 void mlr_motion_destroy(mlr_motion *motion);
 size_t mlr_motion_n_joints(const mlr_motion *motion);
 size_t mlr_motion_n_frames(const mlr_motion *motion);
@@ -139,9 +140,9 @@ mlr_status mlr_fk_arrays(size_t n_frames, size_t n_joints, const int32_t *parent
                          const double *rot, size_t n_trans,
                          const int32_t *trans_joints, const double *trans,
                          double *world_pos, double *world_rot,
-                         const mlr_allocator *alloc);
+                         const mlr_allocator *alloc, mlr_diag *diag);
 mlr_status mlr_fk_motion(const mlr_motion *motion, size_t begin, size_t count,
-                         double *world_pos, double *world_rot);
+                         double *world_pos, double *world_rot, mlr_diag *diag);
 
 /* mlr_quat.h: predictive sign continuity (MLAYER_0.3) */
 void mlr_quat_continue_sign(const mlr_quat *prev, size_t n_prev, const mlr_quat *q,
@@ -186,11 +187,12 @@ mlr_status mlr_stream_create_layered(size_t n_joints, int root, size_t n_trans,
                                      const mlr_allocator *alloc, mlr_stream **out,
                                      mlr_diag *diag);
 mlr_status mlr_stream_push(mlr_stream *st, const double *frame, size_t n_values,
-                           double *out, size_t out_len, size_t *n_ready);
-mlr_status mlr_stream_flush(mlr_stream *st, double *out, size_t out_len, size_t *n_written);
+                           double *out, size_t out_len, size_t *n_ready, mlr_diag *diag);
+mlr_status mlr_stream_flush(mlr_stream *st, double *out, size_t out_len, size_t *n_written,
+                            mlr_diag *diag);
 void mlr_stream_reset(mlr_stream *st);
 mlr_status mlr_stream_set_alpha(mlr_stream *st, double alpha_trans, const double *alpha,
-                                size_t n_joints);
+                                size_t n_joints, mlr_diag *diag);
 size_t mlr_stream_frame_size(const mlr_stream *st);
 size_t mlr_stream_lag(const mlr_stream *st);
 size_t mlr_stream_n_pushed(const mlr_stream *st);
@@ -230,9 +232,10 @@ mlr_status mlr_layers_get_param(const mlr_layers *layers, mlr_layers_param which
                                 size_t count);
 mlr_status mlr_layers_synthesize(const mlr_layers *layers, size_t begin, size_t count,
                                  const double *alpha, size_t n_alpha, double *root_pos,
-                                 size_t n_root_pos, double *rot, size_t n_rot);
+                                 size_t n_root_pos, double *rot, size_t n_rot, mlr_diag *diag);
 mlr_status mlr_layers_reconstruct(const mlr_layers *layers, size_t begin, size_t count,
-                                  double *root_pos, size_t n_root_pos, double *rot, size_t n_rot);
+                                  double *root_pos, size_t n_root_pos, double *rot, size_t n_rot,
+                                  mlr_diag *diag);
 void mlr_layers_destroy(mlr_layers *layers);
 /* mlr_kmeans.h */
 typedef struct mlr_kmeans mlr_kmeans;
@@ -417,7 +420,7 @@ mlr_status mlr_limits_apply(const mlr_limits *lim, size_t n_frames, const double
                             double *rot_out, const double *alpha, size_t n_alpha,
                             size_t *counts, size_t n_counts, mlr_diag *diag);
 void mlr_limits_destroy(mlr_limits *lim);
-mlr_status mlr_stream_set_limits(mlr_stream *st, const mlr_limits *limits);
+mlr_status mlr_stream_set_limits(mlr_stream *st, const mlr_limits *limits, mlr_diag *diag);
 
 /* mlr_ik.h */
 mlr_status mlr_ik_two_bone(size_t n, const double *hip, const double *knee, const double *end,
@@ -489,7 +492,7 @@ typedef enum mlr_guards_limits_mode {
 typedef enum mlr_guards_key {
     MLR_GUARDS_OPT_UP = 1,
     MLR_GUARDS_OPT_LIMITS = 2,
-    MLR_GUARDS_OPT_CONTACTS = 3,
+    MLR_GUARDS_OPT_KEEP_CONTACTS = 3,
     MLR_GUARDS_OPT_FLOOR = 4,
     MLR_GUARDS_OPT_FLOOR_HEIGHT = 5,
     MLR_GUARDS_OPT_FOLLOW = 6
@@ -563,4 +566,4 @@ mlr_status mlr_bvh_read_file_opts(const char *path, size_t n_threads,
 mlr_status mlr_layers_get_outliers(const mlr_layers *layers, unsigned char *out, size_t count);
 mlr_status mlr_layers_repair(const mlr_layers *layers, size_t begin, size_t count,
                              double *root_pos, size_t n_root_pos, double *rot, size_t n_rot,
-                             size_t *n_repaired);
+                             size_t *n_repaired, mlr_diag *diag);

@@ -5,9 +5,7 @@ along the first axis; quaternions are scalar-first (w, x, y, z).
 """
 from __future__ import annotations
 
-from importlib.metadata import PackageNotFoundError, version as _dist_version
-
-from ._native import ffi as _ffi, lib as _lib
+from ._version import __version__, library_version
 from .errors import (Error, InvalidArgumentError, MlayerIOError, MlayerWarning, ParseError,
                      SingularMatrixError, UnsupportedError)
 from .errors import ParseWarning
@@ -30,21 +28,11 @@ from .limits import JointLimits, joint_limits
 from .clustering import KMeansResult, elbow, kmeans
 from .som import SOM
 from .features import pose_features
-from .batch import batch
+from .batching import batch
 from .manifold import GRBF, PCA
 from .mixture import GaussianMixture, fuzzy_cmeans
 from .markov import Markov
 from .primitives import PrimitiveModel
-
-try:
-    __version__ = _dist_version("mlayer")
-except PackageNotFoundError:  # running from a build tree
-    __version__ = _ffi.string(_lib.mlr_version_string()).decode()
-
-
-def library_version() -> str:
-    """Version of the C library that is actually loaded."""
-    return _ffi.string(_lib.mlr_version_string()).decode()
 
 
 __all__ = ["__version__", "library_version", "Error", "InvalidArgumentError", "ParseError",

@@ -71,6 +71,15 @@ def require_finite(a: np.ndarray, name: str) -> None:
         raise InvalidArgumentError(f"{name}: contains NaN or infinite values")
 
 
+def number(v, name: str) -> float:
+    """``float(v)``, or InvalidArgumentError naming ``name`` when v is not a number. For values
+    the C core checks itself (its message names the option by the same name)."""
+    try:
+        return float(v)
+    except (TypeError, ValueError):
+        raise InvalidArgumentError(f"{name} must be a number, got {v!r}") from None
+
+
 def finite(v, name: str) -> float:
     """``float(v)``, or InvalidArgumentError naming ``name`` when v is not a finite number."""
     try:

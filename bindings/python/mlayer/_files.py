@@ -1,16 +1,33 @@
 """Atomic output files: write to a temporary file beside the target, rename on success.
 
 A failed or interrupted writer leaves the target as it was (absent or the old version) and no
-temporary file behind, so a half-written output can never be mistaken for a result.
+temporary file behind, so a half-written output can never be mistaken for a result. A writer
+that is killed leaves its temporary: :func:`stale_temporaries` finds them.
+
+The temporaries are named by the rule of the C writer (``mlr_bvh_write_file`` in
+``include/mlayer/mlr_bvh.h``, where the rule is written down): the temporary of
+``DIR/NAME`` is ``DIR/.NAME.tmp-HHHHHHHHHHHHHHHH`` (16 lowercase hexadecimal digits), here
+followed by an extension for the writers that choose a format by it; it is created
+exclusively, with the mode a plain ``open`` gives (0666 less the umask).
 """
 from __future__ import annotations
 
 import contextlib
+import glob
 import os
-import tempfile
+import re
+import secrets
 import threading
 
+__all__ = ["atomic_output", "stale_temporaries", "temporary_name", "umask"]
+
 _UMASK_LOCK = threading.Lock()
+
+#: what follows ".NAME" in a temporary's name (the rule of mlr_bvh.h): ".tmp-", 16 lowercase
+#: hexadecimal digits, then nothing or an extension (a dot and 1 to 16 characters, none of
+#: them a dot or a path separator)
+_TEMP_TAIL = r"\.tmp-[0-9a-f]{16}(\.[^./\\]{1,16})?"
+_EXTENSION = re.compile(r"(\.[^./\\]{1,16})?")
 
 
 def umask() -> int:
@@ -29,6 +46,26 @@ def umask() -> int:
     return mask
 
 
+def temporary_name(path, suffix: str = "") -> str:
+    """A new temporary name for `path` by the rule: ``DIR/.NAME.tmp-<16 hex><suffix>``."""
+    path = os.fspath(path)
+    if _EXTENSION.fullmatch(suffix) is None:
+        raise ValueError(f"atomic_output: suffix {suffix!r} is not an extension (a dot and 1 "
+                         "to 16 characters other than dots and path separators)")
+    directory, name = os.path.split(os.path.abspath(path))
+    return os.path.join(directory, f".{name}.tmp-{secrets.token_hex(8)}{suffix}")
+
+
+def stale_temporaries(path) -> list[str]:
+    """The temporaries of `path` that exist: those a writer of it that was killed left (or
+    those of a writer still running), whether the C writer or :func:`atomic_output` made
+    them. Sorted."""
+    directory, name = os.path.split(os.path.abspath(os.fspath(path)))
+    rule = re.compile(re.escape("." + name) + _TEMP_TAIL)
+    found = glob.glob(os.path.join(glob.escape(directory), glob.escape("." + name) + ".tmp-*"))
+    return sorted(p for p in found if rule.fullmatch(os.path.basename(p)))
+
+
 @contextlib.contextmanager
 def atomic_output(path, suffix: str | None = None):
     """Context manager yielding a temporary path in the target's directory.
@@ -38,20 +75,26 @@ def atomic_output(path, suffix: str | None = None):
     temporary file's extension (default: the target's), for writers that pick the format by
     extension (matplotlib, Pillow, numpy).
 
-    The file gets the mode a plain ``open`` would give it (0666 less the umask: 0644 under
-    umask 022), not the 0600 of ``mkstemp``, so outputs written this way read like the BVH
-    files the C writer creates.
+    The file is created (empty, exclusively) with the mode a plain ``open`` would give it
+    (0666 less the umask: 0644 under umask 022), like the BVH files the C writer creates.
     """
     path = os.fspath(path)
-    directory = os.path.dirname(os.path.abspath(path))
     if suffix is None:
         suffix = os.path.splitext(path)[1]
-    fd, tmp = tempfile.mkstemp(prefix="." + os.path.basename(path) + ".", suffix=suffix + ".tmp"
-                               if not suffix else suffix, dir=directory)
-    os.close(fd)
+        if _EXTENSION.fullmatch(suffix) is None:  # an unusual extension: none
+            suffix = ""
+    for _ in range(32):
+        tmp = temporary_name(path, suffix)
+        try:
+            os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL
+                             | getattr(os, "O_BINARY", 0), 0o666))
+            break
+        except FileExistsError:
+            continue
+    else:
+        raise FileExistsError(f"atomic_output: no free temporary name beside {path}")
     try:
         yield tmp
-        os.chmod(tmp, 0o666 & ~umask())
         os.replace(tmp, path)
     except BaseException:
         with contextlib.suppress(OSError):

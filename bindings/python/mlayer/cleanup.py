@@ -125,10 +125,7 @@ def fix_contacts(motion, contacts, names, reference=None, *, floor="auto", up=No
         if k not in _OPT:
             raise InvalidArgumentError(f"fix_contacts: unknown option {k!r} (known: "
                                        + ", ".join(sorted(_OPT)) + ")")
-        v = float(v)
-        if not np.isfinite(v):
-            raise InvalidArgumentError(f"fix_contacts: {k} must be finite, got {v}")
-        opts.append((_OPT[k], v))
+        opts.append((_OPT[k], float(v)))  # the range is checked in C (named by k)
     if floor is None:
         opts.append((lib.MLR_CLEANUP_OPT_FLOOR, 0.0))
     elif isinstance(floor, str):

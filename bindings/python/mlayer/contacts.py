@@ -27,7 +27,7 @@ import re
 
 import numpy as np
 
-from ._arrays import as_f64, ptr, ptr_out
+from ._arrays import as_f64, number, ptr, ptr_out
 from ._native import ffi, lib
 from ._rig import c_rig, motion_axis
 from .errors import InvalidArgumentError, check
@@ -257,14 +257,7 @@ def detect_contacts(motion, joints=None, *, speed: float = _SPEED_ON,
     for key, v, name in ((lib.MLR_CONTACTS_OPT_SPEED, speed, "speed"),
                          (lib.MLR_CONTACTS_OPT_HEIGHT, height, "height"),
                          (lib.MLR_CONTACTS_OPT_MIN_DURATION, min_duration, "min_duration")):
-        try:
-            v = float(v)
-        except (TypeError, ValueError):
-            raise InvalidArgumentError(f"detect_contacts: {name} must be a number, got {v!r}") \
-                from None
-        if not (np.isfinite(v) and v > 0):
-            raise InvalidArgumentError(f"detect_contacts: {name} must be finite and > 0, got {v}")
-        opts.append((key, v))
+        opts.append((key, number(v, f"detect_contacts: {name}")))  # the range is checked in C
     N = motion.n_frames
     if N < 3:
         raise InvalidArgumentError(f"detect_contacts needs at least 3 frames, got {N}")

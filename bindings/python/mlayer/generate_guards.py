@@ -151,7 +151,7 @@ def guard_motion(motion, names, contacts, *, limits=None, floor=None, up=None):
     opts = [(lib.MLR_GUARDS_OPT_UP, up_ax),
             (lib.MLR_GUARDS_OPT_LIMITS, lib.MLR_GUARDS_LIMITS_ALWAYS if limits is not None
              else lib.MLR_GUARDS_LIMITS_OFF),
-            (lib.MLR_GUARDS_OPT_CONTACTS, 1.0 if names else 0.0),
+            (lib.MLR_GUARDS_OPT_KEEP_CONTACTS, 1.0 if names else 0.0),
             (lib.MLR_GUARDS_OPT_FLOOR, 1.0 if floor is not None else 0.0),
             (lib.MLR_GUARDS_OPT_FOLLOW, 0.0)]
     if floor is not None:

@@ -62,10 +62,7 @@ def _option(key, value, name):
     """An (option key, value) pair for the C call, or None when value is None."""
     if value is None:
         return None
-    v = _arrays.finite(value, name)
-    if name != "gamma" and v <= 0.0:
-        raise InvalidArgumentError(f"{name} must be > 0, got {value!r}")
-    return (key, v)
+    return (key, _arrays.number(value, name))  # the range is checked in C, named by name
 
 
 def body_translation_joint(motion) -> int:
@@ -238,8 +235,10 @@ class Layers(ReadOnlyAttributes):
             col = int(np.flatnonzero(m.skeleton.trans_joints == body)[0])
             t = np.ascontiguousarray(m.trans[:, col], dtype=np.float64).copy()
         rot = np.array(m.rot, dtype=np.float64, order="C", copy=True)
+        diag = ffi.new("mlr_diag *")
         check(lib.mlr_layers_repair(self._h, 0, self.n_frames, _arrays.ptr_out(t), t.size,
-                                    _arrays.ptr_out(rot), rot.size, ffi.NULL), "layers repair")
+                                    _arrays.ptr_out(rot), rot.size, ffi.NULL, diag),
+              "layers repair", diag)
         return _with_body_translation(m, body, t, rot)
 
     @property
@@ -272,21 +271,22 @@ class Layers(ReadOnlyAttributes):
                     ``body_joint`` when a joint below a static root carries it
         """
         w = self.alphas(alpha, joints, root_alpha)
-        return self._frames(lambda r, q: lib.mlr_layers_synthesize(
+        return self._frames(lambda r, q, d: lib.mlr_layers_synthesize(
             self._h, 0, self.n_frames, _arrays.ptr(w), w.size, _arrays.ptr_out(r), r.size,
-            _arrays.ptr_out(q), q.size), "synthesize")
+            _arrays.ptr_out(q), q.size, d), "synthesize")
 
     def reconstruct(self):
         """(Mb (+) control) (+) residual: the input motion again, to rounding (a rotation may
         come back as -q)."""
-        return self._frames(lambda r, q: lib.mlr_layers_reconstruct(
-            self._h, 0, self.n_frames, _arrays.ptr_out(r), r.size, _arrays.ptr_out(q), q.size),
-            "reconstruct")
+        return self._frames(lambda r, q, d: lib.mlr_layers_reconstruct(
+            self._h, 0, self.n_frames, _arrays.ptr_out(r), r.size, _arrays.ptr_out(q), q.size,
+            d), "reconstruct")
 
     def _frames(self, call, where):
         n, j = self.n_frames, self.motion.n_joints
         root, rot = np.empty((n, 3)), np.empty((n, j, 4))
-        check(call(root, rot), where)
+        diag = ffi.new("mlr_diag *")
+        check(call(root, rot, diag), where, diag)
         return _with_body_translation(self.motion, self.body_joint, root, rot)
 
     def save_npz(self, path) -> None:
@@ -362,12 +362,8 @@ def decompose(motion, *, gamma: float = math.pi / 2, lam_c=None, sigma_c=None, l
         _option(lib.MLR_LAYERS_OPT_SIGMA_B, sigma_b, "sigma_b")) if o is not None]
     if base_cutoff is not None and lam_b is None and sigma_b is None:
         # the floor is the C default given the frame rate (mlr_layers.h, "The base floor")
-        cutoff = _arrays.finite(base_cutoff, "base_cutoff")
-        if not 0.0 < cutoff < 0.5 * motion.fps:
-            raise InvalidArgumentError(f"base_cutoff must be in (0, fps/2) = (0, "
-                                       f"{0.5 * motion.fps:g}) Hz, got {base_cutoff!r}")
-        opts += [(lib.MLR_LAYERS_OPT_FPS, _arrays.finite(motion.fps, "fps")),
-                 (lib.MLR_LAYERS_OPT_BASE_CUTOFF, cutoff)]
+        opts += [(lib.MLR_LAYERS_OPT_FPS, motion.fps),
+                 (lib.MLR_LAYERS_OPT_BASE_CUTOFF, _arrays.number(base_cutoff, "base_cutoff"))]
     if not isinstance(robust, (bool, np.bool_)):
         raise InvalidArgumentError(f"robust: expected True or False, got {robust!r}")
     opts.append((lib.MLR_LAYERS_OPT_ROBUST, float(bool(robust))))

@@ -190,11 +190,15 @@ def joint_limits(motions, *, human=None, fold_degrees: float = 150.0, soft: floa
     opts = []
     if human is not None:
         opts.append((lib.MLR_LIMITS_OPT_HUMAN, 1.0 if human else 0.0))
-    opts.append((lib.MLR_LIMITS_OPT_FOLD,
-                 math.radians(_arrays.finite(fold_degrees, "fold_degrees"))))
-    opts.append((lib.MLR_LIMITS_OPT_SOFT, _arrays.finite(soft, "soft")))
-    opts.append((lib.MLR_LIMITS_OPT_REVERSAL_SOFT,
-                 math.radians(_arrays.finite(reversal_soft_degrees, "reversal_soft_degrees"))))
+    # C takes fold and reversal_soft in radians: the degree ranges are checked here, by the
+    # Python names (docs/OPTIONS.md); soft goes to C as it is, which checks it by that name
+    for name, v, hi in (("fold_degrees", fold_degrees, 180.0),
+                        ("reversal_soft_degrees", reversal_soft_degrees, 90.0)):
+        if not 0.0 < _arrays.finite(v, name) <= hi:
+            raise InvalidArgumentError(f"{name} must be in (0, {hi:g}], got {v!r}")
+    opts.append((lib.MLR_LIMITS_OPT_FOLD, math.radians(fold_degrees)))
+    opts.append((lib.MLR_LIMITS_OPT_SOFT, _arrays.number(soft, "soft")))
+    opts.append((lib.MLR_LIMITS_OPT_REVERSAL_SOFT, math.radians(reversal_soft_degrees)))
     copts = ffi.new("mlr_limits_option[]", len(opts))
     for k, (key, v) in enumerate(opts):
         copts[k].key, copts[k].value = key, v

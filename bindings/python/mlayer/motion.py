@@ -590,13 +590,14 @@ class Motion:
         if N == 0:
             return pos, wrot
         P = sk.trans_joints.shape[0]
+        diag = ffi.new("mlr_diag *")
         code = lib.mlr_fk_arrays(
             N, J, ffi.cast("const int32_t *", ffi.from_buffer(sk.parents)),
             _arrays.ptr(sk.offsets), _arrays.ptr(root_pos), _arrays.ptr(rot), P,
             ffi.cast("const int32_t *", ffi.from_buffer(sk.trans_joints)) if P else ffi.NULL,
             _arrays.ptr(trans) if P else ffi.NULL, _arrays.ptr_out(pos),
-            _arrays.ptr_out(wrot) if want_rot else ffi.NULL, ffi.NULL)
-        check(code, "mlayer.Motion.positions")
+            _arrays.ptr_out(wrot) if want_rot else ffi.NULL, ffi.NULL, diag)
+        check(code, "mlayer.Motion.positions", diag)
         return pos, wrot
 
     def positions(self) -> np.ndarray:

@@ -172,7 +172,7 @@ class Synthesis(ReadOnlyAttributes):
         m = self._guard_input()
         root, rot, trans = m._frames()
         opts = [(lib.MLR_GUARDS_OPT_UP, self._up), (lib.MLR_GUARDS_OPT_LIMITS, self._mode),
-                (lib.MLR_GUARDS_OPT_CONTACTS, float(self._keep_contacts)),
+                (lib.MLR_GUARDS_OPT_KEEP_CONTACTS, float(self._keep_contacts)),
                 (lib.MLR_GUARDS_OPT_FLOOR, float(self._floor_on))]
         if self._floor_height is not None:
             opts.append((lib.MLR_GUARDS_OPT_FLOOR_HEIGHT, self._floor_height))

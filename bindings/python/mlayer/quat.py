@@ -79,12 +79,6 @@ def _broadcast(name: str, *parts):
     return batch, out
 
 
-def _check(code: int, where: str, what: str) -> None:
-    if code == lib.MLR_E_INVALID_ARG:
-        raise InvalidArgumentError(f"{where}: {what} [MLR_E_INVALID_ARG]", code)
-    check(code, where)
-
-
 def euler_order(order: str) -> int:
     """The C enum value (``lib.MLR_EULER_*``) of an order name such as ``"ZXY"``."""
     if not isinstance(order, str):
@@ -94,11 +88,9 @@ def euler_order(order: str) -> int:
             f"order {order!r}: give intrinsic orders in uppercase ('{order.upper()}'); mlayer "
             "has no extrinsic (lowercase, scipy-style) orders")
     out = ffi.new("mlr_euler_order *")
-    code = lib.mlr_euler_order_parse(order.encode("ascii", errors="replace"), out)
-    if code == lib.MLR_E_INVALID_ARG:
-        raise InvalidArgumentError(
-            f"order must be a permutation of 'XYZ' such as 'ZXY', got {order!r}", code)
-    check(code, "mlayer.quat.euler_order")
+    diag = ffi.new("mlr_diag *")
+    check(lib.mlr_euler_order_parse(order.encode("ascii", errors="replace"), out, diag),
+          "mlayer.quat.euler_order", diag)
     return int(out[0])
 
 
@@ -131,9 +123,10 @@ def normalize(q) -> np.ndarray:
     q = _quats(q, "q")
     out = np.empty(q.shape)
     if out.size:
+        diag = ffi.new("mlr_diag *")
         code = lib.mlr_quat_normalize_array(_arrays.ptr(q, "mlr_quat *"), out.size // 4,
-                                            _arrays.ptr_out(out, "mlr_quat *"))
-        _check(code, "mlayer.quat.normalize", "q holds a zero, NaN or infinite quaternion")
+                                            _arrays.ptr_out(out, "mlr_quat *"), diag)
+        check(code, "mlayer.quat.normalize", diag)
     return out
 
 
@@ -143,9 +136,10 @@ def exp(v) -> np.ndarray:
     v = _vecs(v, "v")
     out = np.empty(v.shape[:-1] + (4,))
     if out.size:
+        diag = ffi.new("mlr_diag *")
         code = lib.mlr_quat_exp_array(_arrays.ptr(v, "mlr_vec3 *"), out.size // 4,
-                                      _arrays.ptr_out(out, "mlr_quat *"))
-        _check(code, "mlayer.quat.exp", "v contains NaN or infinite values")
+                                      _arrays.ptr_out(out, "mlr_quat *"), diag)
+        check(code, "mlayer.quat.exp", diag)
     return out
 
 
@@ -155,9 +149,10 @@ def log(q) -> np.ndarray:
     q = _quats(q, "q")
     out = np.empty(q.shape[:-1] + (3,))
     if out.size:
+        diag = ffi.new("mlr_diag *")
         code = lib.mlr_quat_log_array(_arrays.ptr(q, "mlr_quat *"), out.size // 3,
-                                      _arrays.ptr_out(out, "mlr_vec3 *"))
-        _check(code, "mlayer.quat.log", "q holds a zero, NaN or infinite quaternion")
+                                      _arrays.ptr_out(out, "mlr_vec3 *"), diag)
+        check(code, "mlayer.quat.log", diag)
     return out
 
 
@@ -176,11 +171,11 @@ def slerp(a, b, t) -> np.ndarray:
     batch, (a, b, t) = _broadcast("mlayer.quat.slerp", (a, 1), (b, 1), (t, 0))
     out = np.empty(batch + (4,))
     if out.size:
+        diag = ffi.new("mlr_diag *")
         code = lib.mlr_quat_slerp_array(_arrays.ptr(a, "mlr_quat *"),
                                         _arrays.ptr(b, "mlr_quat *"), _arrays.ptr(t),
-                                        out.size // 4, _arrays.ptr_out(out, "mlr_quat *"))
-        _check(code, "mlayer.quat.slerp",
-               "a, b or t contains NaN or infinite values, or a or b a zero quaternion")
+                                        out.size // 4, _arrays.ptr_out(out, "mlr_quat *"), diag)
+        check(code, "mlayer.quat.slerp", diag)
     return out
 
 
@@ -193,9 +188,10 @@ def from_euler(angles, order: str, degrees: bool = True) -> np.ndarray:
         angles = np.deg2rad(angles)
     out = np.empty(angles.shape[:-1] + (4,))
     if out.size:
+        diag = ffi.new("mlr_diag *")
         code = lib.mlr_quat_from_euler_array(_arrays.ptr(angles), out.size // 4, o,
-                                             _arrays.ptr_out(out, "mlr_quat *"))
-        _check(code, "mlayer.quat.from_euler", "angles contains NaN or infinite values")
+                                             _arrays.ptr_out(out, "mlr_quat *"), diag)
+        check(code, "mlayer.quat.from_euler", diag)
     return out
 
 
@@ -207,9 +203,10 @@ def to_euler(q, order: str, degrees: bool = True) -> np.ndarray:
     q = _quats(q, "q")
     out = np.empty(q.shape[:-1] + (3,))
     if out.size:
+        diag = ffi.new("mlr_diag *")
         code = lib.mlr_quat_to_euler_array(_arrays.ptr(q, "mlr_quat *"), out.size // 3, o,
-                                           _arrays.ptr_out(out))
-        _check(code, "mlayer.quat.to_euler", "q holds a zero, NaN or infinite quaternion")
+                                           _arrays.ptr_out(out), diag)
+        check(code, "mlayer.quat.to_euler", diag)
     if degrees:
         np.rad2deg(out, out=out)
     return out

@@ -43,15 +43,6 @@ MAX_FACTOR = 100.0
 _SLACK = 1e-9  # as the C core: a factor of exactly 100 passes despite rounding
 
 
-def _check(code: int, where: str, diag) -> None:
-    """check() with the C flag names in the message replaced by the Python keyword."""
-    if code < 0 and diag is not None and diag.message[0] != b"\0":
-        msg = ffi.string(diag.message).replace(b"MLR_RESAMPLE_ALLOW_EXTREME",
-                                               b"allow_extreme=True")
-        diag.message = msg
-    check(code, where, diag)
-
-
 def _motion(motion, where: str) -> Motion:
     if not isinstance(motion, Motion):
         raise TypeError(f"{where}: expected a mlayer.Motion, got {type(motion).__name__}")
@@ -73,8 +64,8 @@ def _factor_check(factor: float, what: str, where: str, allow_extreme: bool) -> 
     if f > MAX_FACTOR * (1.0 + _SLACK):
         raise InvalidArgumentError(
             f"{where}: {what} is a factor of {f:.6g}, beyond {MAX_FACTOR:g}x (usually a unit "
-            "mistake, e.g. a frame time given as a frame rate); pass allow_extreme=True if you "
-            "mean it")
+            "mistake, e.g. a frame time given as a frame rate); set the flag allow_extreme if "
+            "this is intended")
 
 
 def _out_memory(motion: Motion, n_out: int, name: str, where: str) -> int:
@@ -110,7 +101,7 @@ def _target(motion: Motion, fps, n_frames, allow_extreme: bool, where: str):
         n = ffi.new("size_t *")
         t = np.empty(N)
         diag = ffi.new("mlr_diag *")
-        _check(lib.mlr_resample_rate_map(N, motion.fps, fps, _flags(allow_extreme),
+        check(lib.mlr_resample_rate_map(N, motion.fps, fps, _flags(allow_extreme),
                                          _arrays.ptr_out(t), n, diag), where, diag)
         return _out_memory(motion, int(n[0]), "fps", where), 1.0 / fps, t
     n_out = _frame_count(n_frames, "n_frames", where)
@@ -125,7 +116,7 @@ def frames_at_rate(n_frames: int, fps_in: float, fps_out: float) -> int:
     any factor)."""
     n = ffi.new("size_t *")
     diag = ffi.new("mlr_diag *")
-    _check(lib.mlr_resample_n_out(int(n_frames), float(fps_in), float(fps_out),
+    check(lib.mlr_resample_n_out(int(n_frames), float(fps_in), float(fps_out),
                                   lib.MLR_RESAMPLE_OPEN_END | lib.MLR_RESAMPLE_ALLOW_EXTREME, n,
                                   diag), "frames_at_rate", diag)
     return int(n[0])
@@ -170,7 +161,7 @@ def _time_map(time_map, N: int, n_frames, allow_extreme: bool, where: str):
         n_out = _frame_count(n_frames, "n_frames", where)
     _factor_check((n_out - 1) / (N - 1), f"{N} -> {n_out} frames", where, allow_extreme)
     diag = ffi.new("mlr_diag *")
-    _check(lib.mlr_timemap_validate(_arrays.ptr(t), N, n_out, _flags(allow_extreme), diag),
+    check(lib.mlr_timemap_validate(_arrays.ptr(t), N, n_out, _flags(allow_extreme), diag),
            where, diag)
     return t, n_out
 
@@ -214,7 +205,7 @@ def _solve(motion: Motion, t, n_out: int, frame_time: float, lam: float, sigma: 
         ffi.NULL if t is None else _arrays.ptr(t), n_out, lam, sigma, flags,
         _arrays.ptr_out(root_out), _arrays.ptr_out(rot_out), _arrays.ptr_out(trans_out),
         _arrays.ptr_out(var) if want_var else ffi.NULL, ffi.NULL, diag)
-    _check(code, where, diag)
+    check(code, where, diag)
     out = Motion(motion.skeleton, frame_time, root_out, rot_out, trans_out, _trusted=True)
     return (out, var) if want_var else out
 
@@ -327,7 +318,7 @@ def slerp_resample(motion: Motion, *, fps: float | None = None, n_frames: int | 
         N, J, P, _arrays.ptr(root), _arrays.ptr(rot), _arrays.ptr(trans),
         ffi.NULL if t is None else _arrays.ptr(t), n_out, _flags(allow_extreme) | grid,
         _arrays.ptr_out(root_out), _arrays.ptr_out(rot_out), _arrays.ptr_out(trans_out), diag)
-    _check(code, where, diag)
+    check(code, where, diag)
     return Motion(motion.skeleton, frame_time, root_out, rot_out, trans_out, _trusted=True)
 
 
@@ -363,7 +354,7 @@ def timewarp_speed(motion: Motion, *, root_weight: float = 1.0, joint_weights=No
     root, rot, _ = motion._frames()
     speed = np.empty(motion.n_frames)
     diag = ffi.new("mlr_diag *")
-    _check(lib.mlr_timewarp_speed(motion.n_frames, motion.n_joints, _arrays.ptr(root),
+    check(lib.mlr_timewarp_speed(motion.n_frames, motion.n_joints, _arrays.ptr(root),
                                   _arrays.ptr(rot), ffi.NULL if w is None else _arrays.ptr(w),
                                   root_w, _arrays.ptr_out(speed), diag), where, diag)
     return speed
@@ -398,7 +389,7 @@ def timewarp_map(motion: Motion, *, strength: float = 1.0, n_frames: int | None 
     root, rot, _ = motion._frames()
     t = np.empty(N)
     diag = ffi.new("mlr_diag *")
-    _check(lib.mlr_timewarp_map(N, motion.n_joints, _arrays.ptr(root), _arrays.ptr(rot),
+    check(lib.mlr_timewarp_map(N, motion.n_joints, _arrays.ptr(root), _arrays.ptr(rot),
                                 ffi.NULL if w is None else _arrays.ptr(w), root_w, strength,
                                 max(1.0, smooth_seconds * motion.fps), n_out,
                                 _flags(allow_extreme), _arrays.ptr_out(t), ffi.NULL, diag),

@@ -92,20 +92,18 @@ class LGS(ReadOnlyAttributes, NativeHandle):
             _arrays.check_out(out, "out", shape)
         if m == 0 or self.n_out == 0:
             return out
-        code = lib.mlr_lgs_solve_mt(h, _arrays.ptr(y), m, m, _arrays.ptr_out(out), m,
-                                    n_threads)
-        if code == lib.MLR_E_INVALID_ARG:
-            raise InvalidArgumentError("mlayer.lgs: y contains NaN or infinite values "
-                                       "[MLR_E_INVALID_ARG]", code)
-        check(code, "mlayer.lgs")
+        diag = ffi.new("mlr_diag *")
+        check(lib.mlr_lgs_solve_mt(h, _arrays.ptr(y), m, m, _arrays.ptr_out(out), m, n_threads,
+                                   diag), "mlayer.lgs", diag)
         return out
 
     def variance(self) -> np.ndarray:
         """Posterior variance per output frame, shape (n_out,), for observation noise sigma."""
         h = self._live()
         var = np.empty(self.n_out)
-        check(lib.mlr_lgs_variance(h, _arrays.ptr_out(var), self.n_out),
-              "mlayer.LGS.variance")
+        diag = ffi.new("mlr_diag *")
+        check(lib.mlr_lgs_variance(h, _arrays.ptr_out(var), self.n_out, diag),
+              "mlayer.LGS.variance", diag)
         return var
 
 

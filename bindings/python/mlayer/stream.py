@@ -43,7 +43,7 @@ from . import _arrays
 from ._args import integer
 from ._handles import NativeHandle, ReadOnlyAttributes
 from ._native import ffi, lib
-from .errors import Error, InvalidArgumentError, check
+from .errors import InvalidArgumentError, check
 from .motion import Motion, Skeleton
 
 __all__ = ["Stream", "Frame", "stream_motion", "decay_rate"]
@@ -161,6 +161,7 @@ class Stream(ReadOnlyAttributes, NativeHandle):
         self._pin = ffi.cast("double *", self._in_buf)
         self._pout = ffi.cast("double *", self._out_buf)
         self._ready = ffi.new("size_t *")
+        self._diag = ffi.new("mlr_diag *")
         self._in_root = self._in[:3]
         self._in_trans = self._in[3:self._q0].reshape(P, 3)
         self._in_rot = self._in[self._q0:].reshape(J, 4)
@@ -175,7 +176,8 @@ class Stream(ReadOnlyAttributes, NativeHandle):
             if not isinstance(limits, JointLimits) or limits.joint_names != sk.joint_names:
                 raise InvalidArgumentError("Stream: limits must be the JointLimits of this "
                                            "skeleton (mlayer.joint_limits(clip))")
-            check(lib.mlr_stream_set_limits(self._h, limits._h), "mlayer.Stream limits")
+            check(lib.mlr_stream_set_limits(self._h, limits._h, self._diag), "mlayer.Stream limits",
+                  self._diag)
         self.limits = limits  # the C stream borrows the handle: keep it alive
         if alpha is not None:
             self.set_alpha(alpha)
@@ -258,16 +260,6 @@ class Stream(ReadOnlyAttributes, NativeHandle):
             dst[...] = a
         return kind
 
-    def _check_status(self, code: int, where: str) -> None:
-        if code == lib.MLR_E_INVALID_ARG:
-            raise InvalidArgumentError(f"{where}: the frame contains NaN or infinite values "
-                                       "(rejected; the stream is unchanged) [MLR_E_INVALID_ARG]",
-                                       code)
-        if code == lib.MLR_E_BAD_STATE:
-            raise Error(f"{where}: the stream was flushed; call reset() before pushing again "
-                        "[MLR_E_BAD_STATE]", code)
-        check(code, where)
-
     def _wrap(self, x: np.ndarray, kind: str):
         """Output rows x ((m,) or (k, m), owned) in the form of the input."""
         if kind == "flat":
@@ -291,9 +283,10 @@ class Stream(ReadOnlyAttributes, NativeHandle):
         (the stream is then unchanged) and Error after :meth:`flush` (call :meth:`reset`)."""
         kind = self._load(frame)
         self._last_kind = kind
-        code = lib.mlr_stream_push(self._live(), self._pin, self._m, self._pout, self._m, self._ready)
+        code = lib.mlr_stream_push(self._live(), self._pin, self._m, self._pout, self._m,
+                                   self._ready, self._diag)
         if code:
-            self._check_status(code, "mlayer.Stream.push")
+            check(code, "mlayer.Stream.push", self._diag)
         if not self._ready[0]:
             return None
         return self._wrap(self._out.copy(), kind)
@@ -305,9 +298,10 @@ class Stream(ReadOnlyAttributes, NativeHandle):
         k = self.pending
         x = np.empty((k, self._m))
         n = ffi.new("size_t *")
-        code = lib.mlr_stream_flush(self._live(), _arrays.ptr_out(x) if k else ffi.NULL, x.size, n)
+        code = lib.mlr_stream_flush(self._live(), _arrays.ptr_out(x) if k else ffi.NULL, x.size, n,
+                                    self._diag)
         if code:
-            self._check_status(code, "mlayer.Stream.flush")
+            check(code, "mlayer.Stream.flush", self._diag)
         return self._wrap(x, self._last_kind)
 
     def reset(self) -> None:
@@ -332,11 +326,8 @@ class Stream(ReadOnlyAttributes, NativeHandle):
         else:
             raise InvalidArgumentError(
                 f"Stream.set_alpha: alpha must be a float or ({self._J},), got shape {a.shape}")
-        code = lib.mlr_stream_set_alpha(self._live(), at, _arrays.ptr(a), self._J)
-        if code == lib.MLR_E_INVALID_ARG:
-            raise InvalidArgumentError("Stream.set_alpha: alpha values must be finite "
-                                       "[MLR_E_INVALID_ARG]", code)
-        check(code, "mlayer.Stream.set_alpha")
+        check(lib.mlr_stream_set_alpha(self._live(), at, _arrays.ptr(a), self._J, self._diag),
+              "mlayer.Stream.set_alpha", self._diag)
         self._alpha = (at, a.copy())
 
     # ---- whole clips -----------------------------------------------------------------------
@@ -345,18 +336,18 @@ class Stream(ReadOnlyAttributes, NativeHandle):
         """Push the N rows of y (N, m), flush; the N outputs into out (N, m), in frame order."""
         N, m = y.shape
         py, po = _arrays.ptr(y), _arrays.ptr_out(out)
-        push, h, ready = lib.mlr_stream_push, self._live(), self._ready
+        push, h, ready, diag = lib.mlr_stream_push, self._live(), self._ready, self._diag
         done = 0
         for f in range(N):
-            code = push(h, py + f * m, m, po + done * m, m, ready)
+            code = push(h, py + f * m, m, po + done * m, m, ready, diag)
             if code:
-                self._check_status(code, f"mlayer.stream_motion (frame {f})")
+                check(code, f"mlayer.stream_motion (frame {f})", diag)
             done += ready[0]
         n = ffi.new("size_t *")
         code = lib.mlr_stream_flush(h, po + done * m if done < N else ffi.NULL,
-                                    (N - done) * m, n)
+                                    (N - done) * m, n, diag)
         if code:
-            self._check_status(code, "mlayer.stream_motion")
+            check(code, "mlayer.stream_motion", diag)
         assert done + n[0] == N
 
     def __repr__(self) -> str:

@@ -19,9 +19,8 @@ import pytest
 distributed = pytest.importorskip("distributed")
 
 import mlayer  # noqa: E402
-from mlayer.batch import (SIDECAR_DIR, Operation, find_inputs, operations,  # noqa: E402
-                          parse_alphas, process_clip)
-from mlayer.batch import batch as run_batch  # noqa: E402
+from mlayer.batching import SIDECAR_DIR, Operation, operations, process_clip  # noqa: E402
+from mlayer.batching import batch as run_batch  # noqa: E402
 
 SHORT = ("bandai1_walk_happy_001.bvh", "cmu_02_03_run_jog_25fps.bvh",
          "cmu_131_01_mj_style_walk.bvh")
@@ -65,32 +64,6 @@ def read_text(p) -> str:
 
 
 # ---- no cluster needed ----------------------------------------------------------------------
-
-def test_parse_alphas():
-    assert parse_alphas("0.5:2.5:0.5") == [0.5, 1.0, 1.5, 2.0, 2.5]
-    assert parse_alphas("0:1:0.3") == [0.0, 0.3, 0.6, 0.9]
-    assert parse_alphas("1,1.5,2") == [1.0, 1.5, 2.0]
-    assert parse_alphas(2) == [2.0]
-    assert parse_alphas(np.arange(0.5, 1.6, 0.5)) == [0.5, 1.0, 1.5]
-    for bad in ("1:0:0.5", "0:1:0", "0:1", "a:b:c", [float("nan")], "inf"):
-        with pytest.raises(mlayer.InvalidArgumentError):
-            parse_alphas(bad)
-
-
-def test_find_inputs_folder_glob_files(tmp_path):
-    (tmp_path / "a" / "b").mkdir(parents=True)
-    for rel in ("x.bvh", "a/y.BVH", "a/b/z.bvh", "a/notes.txt", ".hidden/w.bvh"):
-        p = tmp_path / rel
-        p.parent.mkdir(parents=True, exist_ok=True)
-        p.write_text("x")
-    rels = [str(r) for _, r in find_inputs(tmp_path)]
-    assert rels == ["a/b/z", "a/y", "x"]
-    rels = [str(r) for _, r in find_inputs(str(tmp_path / "a" / "**" / "*.bvh"))]
-    assert rels == ["b/z"]  # glob is case-sensitive; paths relative to the fixed prefix "a"
-    assert [str(r) for _, r in find_inputs([tmp_path / "x.bvh"])] == ["x"]
-    with pytest.raises(mlayer.InvalidArgumentError):
-        find_inputs(tmp_path / "missing")
-
 
 def test_bad_arguments_fail_before_running(clips, tmp_path):
     out = tmp_path / "out"
@@ -318,10 +291,13 @@ def test_bad_files_reported_cli_exit_code(clips, tmp_path, cluster, capsys):
         "HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 3 Zrotation Xrotation Yrotation\n"
         " End Site\n {\n  OFFSET 0 1 0\n }\n}\nMOTION\nFrames: 2\nFrame Time: 0.1\n0 0 0\n"
         "1 1 1\n")
-    # a leftover temporary file of a killed writer of one of our outputs: swept
+    # leftover temporary files of killed writers of our outputs and sidecars (named by the
+    # rule of mlr_bvh.h, the C writer's and atomic_output's): swept
     out = tmp_path / "out"
-    out.mkdir()
-    (out / "broken.bvh.tmp-0123456789abcdef").write_text("partial")
+    (out / SIDECAR_DIR).mkdir(parents=True)
+    (out / ".broken.bvh.tmp-0123456789abcdef").write_text("partial")
+    (out / f".{SHORT[0]}.tmp-fedcba9876543210.bvh").write_text("partial")
+    (out / SIDECAR_DIR / f".{SHORT[1]}.json.tmp-00112233445566ff.json").write_text("{")
     report = tmp_path / "report.csv"
     from mlayer.cli import main
     code = main(["batch", "denoise", str(clips), "-o", str(out), "--scheduler",

@@ -16,9 +16,8 @@ pytest.importorskip("distributed")
 pytest.importorskip("cryptography")
 
 import mlayer  # noqa: E402
-import importlib  # noqa: E402
-B = importlib.import_module("mlayer.batch")  # the module (mlayer.batch is the function)
-from mlayer._files import atomic_output, umask  # noqa: E402
+import mlayer.batching as B  # noqa: E402  (the subpackage; mlayer.batch is the function)
+from mlayer.batching.run import _client  # noqa: E402
 
 CLIPS = ["cmu_01_01_playground_jumps.bvh", "lafan1_clip_a.bvh", "cmu_10_01_soccer_kick.bvh"]
 
@@ -42,7 +41,7 @@ for name, a, sec in tries:
 
 
 def test_embedded_scheduler_refuses_foreign_clients():
-    with B._client(None, 1) as client:
+    with _client(None, 1) as client:
         addr = client.scheduler.address
         assert addr.startswith("tls://127.0.0.1:"), addr
         assert client.submit(sum, [1, 2]).result(timeout=60) == 3  # the batch's own client works
@@ -52,18 +51,6 @@ def test_embedded_scheduler_refuses_foreign_clients():
         assert not [ln for ln in lines if ln.startswith("CONNECTED")], p.stdout
         assert len([ln for ln in lines if ln.startswith("REFUSED")]) == 3, (p.stdout, p.stderr)
         assert client.submit(sum, [2, 2]).result(timeout=60) == 4  # and still works
-
-
-def test_atomic_output_honours_umask(tmp_path):
-    old = os.umask(0o027)
-    try:
-        assert umask() == 0o027
-        with atomic_output(tmp_path / "a.json") as tmp:
-            with open(tmp, "w") as f:
-                f.write("{}")
-    finally:
-        os.umask(old)
-    assert stat.S_IMODE(os.stat(tmp_path / "a.json").st_mode) == 0o640
 
 
 @pytest.fixture
@@ -118,3 +105,51 @@ def test_batch_outputs_inside_inputs_modes_links(corpus):
         np.load(out / "linked" / "x.npz")
     finally:
         os.umask(old)
+
+
+@pytest.mark.parametrize("mask", [0o022, 0o077])
+def test_every_file_batch_writes_honours_the_umask(tmp_path, mocap, mask):
+    """The task's writers in this process: BVH (the C writer), .npz, the .json sidecars, and
+    the CSV and JSON reports; 0644 under umask 022, 0600 under 077."""
+    src = tmp_path / "in.bvh"
+    mlayer.write_bvh(mlayer.read_bvh(mocap / CLIPS[1])[:40], src)
+    out = tmp_path / "out"
+    out.mkdir()  # (batch makes the output folders before the tasks run)
+    old = os.umask(mask)
+    try:
+        recs = []
+        for name, ext in (("denoise", ".bvh"), ("features", ".npz")):
+            jobs = [({}, str(out / f"{name}{ext}"), str(out / B.SIDECAR_DIR / f"{name}.json"),
+                     "k")]
+            recs += B.process_clip(B.operations()[name], str(src), jobs, {}, metrics=False)
+        assert [r["status"] for r in recs] == ["ok", "ok"], recs
+        result = B.BatchResult("denoise", recs, 1.0)
+        result.write_report(out / "report.csv")
+        result.write_report(out / "report.json")
+    finally:
+        os.umask(old)
+    written = sorted(p.relative_to(out).as_posix() for p in out.rglob("*") if p.is_file())
+    assert written == [f"{B.SIDECAR_DIR}/denoise.json", f"{B.SIDECAR_DIR}/features.json",
+                       "denoise.bvh", "features.npz", "report.csv", "report.json"]
+    for p in written:
+        assert stat.S_IMODE((out / p).stat().st_mode) == 0o666 & ~mask, (p, oct(mask))
+
+
+def test_batch_on_workers_honours_umask_077(tmp_path, mocap):
+    """The embedded cluster's workers inherit the umask: BVH outputs, sidecars and the CSV
+    report are 0600 under umask 077."""
+    src = tmp_path / "in"
+    src.mkdir()
+    mlayer.write_bvh(mlayer.read_bvh(mocap / CLIPS[1])[:40], src / "a.bvh")
+    out = tmp_path / "out"
+    old = os.umask(0o077)
+    try:
+        res = mlayer.batch("denoise", src, out, n_workers=1, progress=False, metrics=False,
+                           report=tmp_path / "report.csv")
+    finally:
+        os.umask(old)
+    assert res.ok == 1, res.table()
+    written = [p for p in out.rglob("*") if p.is_file()] + [tmp_path / "report.csv"]
+    assert sorted(p.suffix for p in written) == [".bvh", ".csv", ".json"]
+    for p in written:
+        assert stat.S_IMODE(p.stat().st_mode) == 0o600, p

@@ -12,12 +12,9 @@ import pytest
 
 PACKAGE = pathlib.Path(__file__).resolve().parents[1] / "mlayer"
 
-# Cycles known to be fixed by the integrator (issue 21, deliverable 2): remove an entry when
-# its cycle is gone (the test fails on an entry that no longer matches, and on any new cycle).
-KNOWN_CYCLES = {
-    # mlayer/__init__ imports batch.batch; batch imports mlayer inside functions
-    frozenset({"mlayer", "mlayer.batch"}),
-}
+# Import circles allowed for now: none (issue 21 removed the last ones). An entry that no longer
+# matches fails the test, as does any new circle.
+KNOWN_CYCLES: set = set()
 
 
 def modules(root: pathlib.Path) -> dict:

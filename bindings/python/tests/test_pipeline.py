@@ -53,7 +53,7 @@ def _c_stylize(m, alpha):
         g0, q = np.empty((N, 3)), np.empty((N, J, 4))
         w = np.array([a], dtype=np.float64)
         assert lib.mlr_layers_synthesize(layers, 0, N, _arrays.ptr(w), 1, _arrays.ptr_out(g0),
-                                         3 * N, _arrays.ptr_out(q), 4 * N * J) == 0
+                                         3 * N, _arrays.ptr_out(q), 4 * N * J, ffi.NULL) == 0
         r, t = root.copy(), trans.copy()
         if body == 0:
             r = g0

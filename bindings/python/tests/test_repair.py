@@ -87,13 +87,15 @@ def test_c_repair_bad_arguments(glitched):
     t = np.array(glitched.root_pos, order="C")
     q = np.array(glitched.rot, order="C")
     n = ffi.new("size_t *")
+    diag = ffi.new("mlr_diag *")
     assert lib.mlr_layers_repair(layers._h, 0, N, _arrays.ptr_out(t), t.size - 1, ffi.NULL, 0,
-                                 n) == lib.MLR_E_INVALID_ARG
+                                 n, diag) == lib.MLR_E_INVALID_ARG
+    assert "n_root_pos" in ffi.string(diag.message).decode()
     assert lib.mlr_layers_repair(layers._h, 1, N, ffi.NULL, 0, _arrays.ptr_out(q), q.size,
-                                 n) == lib.MLR_E_INVALID_ARG
+                                 n, ffi.NULL) == lib.MLR_E_INVALID_ARG
     assert np.array_equal(q, glitched.rot) and np.array_equal(t, glitched.root_pos)
     assert lib.mlr_layers_repair(layers._h, 0, N, _arrays.ptr_out(t), t.size, _arrays.ptr_out(q),
-                                 q.size, n) == lib.MLR_OK
+                                 q.size, n, ffi.NULL) == lib.MLR_OK
     assert n[0] == layers.outlier_frames.size
     assert 4 * J * N == q.size
 
@@ -120,7 +122,7 @@ def _c_stylize_repaired(m, alpha):
     layers = ffi.gc(h[0], lib.mlr_layers_destroy)
     g0, gq = group0.copy(), rot.copy()
     assert lib.mlr_layers_repair(layers, 0, N, _arrays.ptr_out(g0), g0.size, _arrays.ptr_out(gq),
-                                 gq.size, ffi.NULL) == 0
+                                 gq.size, ffi.NULL, ffi.NULL) == 0
     gr, gt = (g0, trans) if body == 0 else (root, trans.copy())
     if body:
         gt[:, col] = g0
@@ -132,7 +134,7 @@ def _c_stylize_repaired(m, alpha):
     s0, q = np.empty((N, 3)), np.empty((N, J, 4))
     w = np.array([alpha], dtype=np.float64)
     assert lib.mlr_layers_synthesize(layers, 0, N, _arrays.ptr(w), 1, _arrays.ptr_out(s0),
-                                     3 * N, _arrays.ptr_out(q), 4 * N * J) == 0
+                                     3 * N, _arrays.ptr_out(q), 4 * N * J, ffi.NULL) == 0
     out_r, out_t = (s0, trans.copy()) if body == 0 else (root.copy(), trans.copy())
     if body:
         out_t[:, col] = s0

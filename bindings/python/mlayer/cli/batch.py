@@ -13,12 +13,13 @@ from __future__ import annotations
 
 import sys
 
+from ..batching import batch, operations, parse_alphas
 from ..errors import InvalidArgumentError
 from ._command import FOLDER, Output, command
+from .layers import parse_joint_alphas
 
 
 def _arguments(p) -> None:
-    from ..batch import operations
     ops = operations()
     p.add_argument("operation", choices=sorted(ops), metavar="OPERATION",
                    help="; ".join(f"{k}: {v.help}" for k, v in sorted(ops.items())))
@@ -43,7 +44,7 @@ def _arguments(p) -> None:
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--no-metrics", action="store_true",
                    help="skip the jitter and foot-sliding figures (a little faster)")
-    p.add_argument("--no-contacts", action="store_true",
+    p.add_argument("--no-keep-contacts", "--no-contacts", dest="no_contacts", action="store_true",
                    help="denoise/stylize: do not pin the feet during detected contacts")
     g = p.add_argument_group("layer options (denoise, stylize, features)")
     g.add_argument("--gamma", type=float, help="base-layer largest displacement angle, radians")
@@ -61,8 +62,6 @@ def _arguments(p) -> None:
          outputs={"output_dir": FOLDER,
                   "report": Output((".json", ".csv"), "a JSON or CSV report", makes_dirs=True)})
 def cmd_batch(args) -> int:
-    from ..batch import batch, parse_alphas
-    from .layers import parse_joint_alphas
     options = {}
     for name in ("gamma", "lam_c", "sigma_c", "fps", "n_frames", "strength", "lam"):
         v = getattr(args, name)

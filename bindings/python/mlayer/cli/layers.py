@@ -24,7 +24,7 @@ from ._command import BVH, FIGURE, NPZ, command
 
 
 def _contact_option(p) -> None:
-    p.add_argument("--no-contacts", action="store_true",
+    p.add_argument("--no-keep-contacts", "--no-contacts", dest="no_contacts", action="store_true",
                    help="do not pin the feet during the contacts detected on the input")
     p.add_argument("--no-limits", action="store_true",
                    help="do not apply joint limits (applied by default when some alpha > 1)")

@@ -1,0 +1,167 @@
+"""What a batch run reports: one record per output (the columns of :data:`FIELDS`), the
+:class:`BatchResult` with its summary table and its CSV or JSON report, and the progress bar
+over clips."""
+from __future__ import annotations
+
+import csv
+import dataclasses
+import io
+import json
+import math
+import os
+import sys
+import time
+
+import numpy as np
+
+from .._files import atomic_output
+
+__all__ = ["BatchResult", "FIELDS", "STATUS_OK", "STATUS_SKIPPED", "STATUS_FAILED",
+           "STATUS_LINK"]
+
+STATUS_OK, STATUS_SKIPPED, STATUS_FAILED = "ok", "skipped", "failed"
+#: records of symbolic links that were not read as clips (links to folders, dangling links);
+#: the record's error field says which and whether it was followed
+STATUS_LINK = "link"
+
+#: report columns, in order
+FIELDS = ("input", "output", "variant", "status", "error", "frames", "frames_out", "fps",
+          "seconds", "jitter_before", "jitter_after", "sliding_before", "sliding_after",
+          "worker")
+
+
+@dataclasses.dataclass
+class BatchResult:
+    """What :func:`batch` did: one record per output (dicts with the keys of FIELDS), in input
+    order, then one record per symbolic link that was not read as a clip (status "link": a
+    link to a folder or a dangling link, its note in ``error``), and the wall time."""
+    operation: str
+    records: list
+    seconds: float
+    n_workers: int = 0
+    scheduler: str = ""
+
+    def count(self, status: str) -> int:
+        return sum(1 for r in self.records if r["status"] == status)
+
+    @property
+    def outputs(self) -> list:
+        """The records of outputs (without the link records)."""
+        return [r for r in self.records if r["status"] != STATUS_LINK]
+
+    @property
+    def links(self) -> int:
+        return self.count(STATUS_LINK)
+
+    @property
+    def ok(self) -> int:
+        return self.count(STATUS_OK)
+
+    @property
+    def skipped(self) -> int:
+        return self.count(STATUS_SKIPPED)
+
+    @property
+    def failed(self) -> int:
+        return self.count(STATUS_FAILED)
+
+    @property
+    def exit_code(self) -> int:
+        """0 when every output is done (now or by an earlier run), 1 when any failed."""
+        return 1 if self.failed else 0
+
+    def table(self) -> str:
+        """A summary table: one line per output, then the totals."""
+        def f(x, fmt="{:.3g}"):
+            return "-" if x is None or (isinstance(x, float) and not math.isfinite(x)) \
+                else fmt.format(x)
+        rows = []
+        for r in self.records:
+            name = os.path.basename(r.get("output") or r["input"])
+            rows.append((name, r["status"], f(r.get("frames"), "{:d}"),
+                         f(r.get("seconds"), "{:.2f}"),
+                         f"{f(r.get('jitter_before'))} -> {f(r.get('jitter_after'))}",
+                         f"{f(r.get('sliding_before'))} -> {f(r.get('sliding_after'))}"))
+        head = ("output", "status", "frames", "s", "jitter (h/s^3)", "foot sliding (h/s)")
+        w = [max(len(str(x)) for x in col) for col in zip(head, *rows)]
+        line = "  ".join
+        out = [line(h.ljust(w[k]) for k, h in enumerate(head))]
+        out += [line(str(x).ljust(w[k]) for k, x in enumerate(row)) for row in rows]
+        for r in self.records:
+            if r["status"] == STATUS_FAILED:
+                out.append(f"FAILED {r['input']}: {r.get('error', '')}")
+            elif r["status"] == STATUS_LINK:
+                out.append(f"LINK {r['input']}: {r.get('error', '')}")
+        done = [r for r in self.records if r["status"] == STATUS_OK]
+        clips = len({r["input"] for r in done})
+        busy = sum({r["input"]: r.get("seconds") or 0.0 for r in done}.values())
+        out.append(f"{self.operation}: {len(self.outputs)} outputs: {self.ok} done, "
+                   f"{self.skipped} up to date (skipped), {self.failed} failed; "
+                   f"{clips} clips in {self.seconds:.2f} s wall "
+                   f"({busy:.2f} s in tasks, {self.n_workers} workers)")
+        return "\n".join(out)
+
+    def write_report(self, path) -> None:
+        """The records as JSON (.json: {"operation", "seconds", "summary", "records"}) or CSV
+        (any other extension), written atomically."""
+        path = os.fspath(path)
+        if path.lower().endswith(".json"):
+            doc = {"operation": self.operation, "seconds": self.seconds,
+                   "n_workers": self.n_workers, "scheduler": self.scheduler,
+                   "summary": {"outputs": len(self.outputs), "ok": self.ok,
+                               "skipped": self.skipped, "failed": self.failed,
+                               "links": self.links},
+                   "records": self.records}
+            text = json.dumps(doc, indent=1, default=_json_default)
+        else:
+            buf = io.StringIO()
+            w = csv.DictWriter(buf, fieldnames=FIELDS, extrasaction="ignore")
+            w.writeheader()
+            for r in self.records:
+                w.writerow({k: (json.dumps(v) if k == "variant" else v)
+                            for k, v in r.items()})
+            text = buf.getvalue()
+        parent = os.path.dirname(os.path.abspath(path))
+        os.makedirs(parent, exist_ok=True)
+        with atomic_output(path) as tmp:
+            with open(tmp, "w", encoding="utf-8", newline="") as f:
+                f.write(text)
+
+
+def _json_default(o):
+    if isinstance(o, (np.floating, np.integer)):
+        return o.item()
+    return str(o)
+
+
+class Progress:
+    """A progress bar over clips on stderr (redrawn in place on a terminal, a line per tenth
+    otherwise)."""
+
+    def __init__(self, total: int, enabled: bool, stream=None):
+        self.total, self.enabled = total, enabled and total > 0
+        self.stream = stream or sys.stderr
+        self.tty = self.enabled and hasattr(self.stream, "isatty") and self.stream.isatty()
+        self.t0 = time.perf_counter()
+        self.done = self.failed = 0
+        self._next_line = 0
+
+    def update(self, failed: bool) -> None:
+        self.done += 1
+        self.failed += bool(failed)
+        if not self.enabled:
+            return
+        el = time.perf_counter() - self.t0
+        rate = self.done / el if el > 0 else 0.0
+        eta = (self.total - self.done) / rate if rate > 0 else float("nan")
+        frac = self.done / self.total
+        bar = "#" * int(30 * frac) + "." * (30 - int(30 * frac))
+        text = (f"[{bar}] {self.done}/{self.total} clips, {self.failed} failed, "
+                f"{rate:.2f} clips/s, eta {eta:.0f} s")
+        if self.tty:
+            self.stream.write("\r" + text + ("\n" if self.done == self.total else ""))
+            self.stream.flush()
+        elif self.done >= self._next_line or self.done == self.total:
+            self.stream.write(text + "\n")
+            self.stream.flush()
+            self._next_line = self.done + max(1, self.total // 10)

@@ -1,0 +1,208 @@
+"""Running a batch: the plan of outputs, the Dask cluster (embedded, or the caller's), the
+scheduling of one task per clip, and the records gathered into a :class:`BatchResult`."""
+from __future__ import annotations
+
+import contextlib
+import logging
+import os
+import pathlib
+import time
+
+from .._args import integer
+from ..errors import InvalidArgumentError
+from .cache import options_key, sidecar_path, sweep, up_to_date
+from .inputs import find_inputs
+from .registry import lookup, variant_tag, variants
+from .report import FIELDS, STATUS_FAILED, STATUS_LINK, STATUS_SKIPPED, BatchResult, Progress
+from .task import process_clip, read_options
+
+__all__ = ["batch"]
+
+
+def _default_workers() -> int:
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:
+        return max(1, os.cpu_count() or 1)
+
+
+@contextlib.contextmanager
+def _client(scheduler, n_workers):
+    try:
+        from distributed import Client, LocalCluster
+    except ImportError:
+        raise ImportError("mlayer.batch needs Dask: pip install 'dask[distributed]' "
+                          "(or the mlayer[batch] extra)") from None
+    if scheduler is not None:
+        if hasattr(scheduler, "scheduler_address"):  # a Cluster object
+            with Client(scheduler) as client:
+                yield client
+        elif hasattr(scheduler, "submit"):  # a Client
+            yield scheduler
+        else:
+            with Client(str(scheduler), timeout="30s") as client:
+                yield client
+        return
+    with LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
+                      host="127.0.0.1", protocol="tls://", security=_embedded_security(),
+                      dashboard_address=None,
+                      silence_logs=logging.ERROR) as cluster, Client(cluster) as client:
+        yield client
+
+
+def _embedded_security():
+    """Mutual TLS with credentials made for this run only (``Security.temporary()``: a new
+    self-signed CA, certificate and key, held by this process and handed to the workers it
+    starts). The embedded scheduler runs
+    arbitrary tasks for whoever connects to it, and loopback is open to every user of the
+    machine: with TLS, only this process and the workers it starts hold a certificate the
+    scheduler accepts (a client without one, or with its own, is disconnected in the TLS
+    handshake)."""
+    try:
+        from distributed.security import Security
+        return Security.temporary()
+    except ImportError as e:  # Security.temporary needs the cryptography package
+        raise ImportError("mlayer.batch secures its embedded Dask cluster with TLS, which needs "
+                          "the cryptography package: pip install cryptography (or the "
+                          f"mlayer[batch] extra) [{e}]") from None
+
+
+def batch(operation, inputs, out_dir, *, alphas=None, scheduler=None, n_workers=None,
+          report=None, progress=True, force=False, metrics=True, read=None,
+          **options) -> BatchResult:
+    """Run an operation over every clip of `inputs` on Dask, writing into `out_dir`.
+
+    operation  "denoise", "stylize", "features", "resample", "timewarp", another name
+               registered with :func:`register_operation` (see :func:`operations`), or an
+               :class:`Operation`
+    inputs     a folder (every .bvh below it), a glob ("captures/**/*.bvh"), a file, or a list
+               of these; outputs keep the paths relative to the folder (the glob's fixed part)
+    out_dir    created if needed. Outputs: <rel>.bvh, <rel>_alpha<A>.bvh per alpha for stylize,
+               <rel>.npz for features
+    alphas     stylize only: one alpha or several (a list, a range such as np.arange, or a
+               string "0.5:2.5:0.5" or "1,1.5,2"); default 2
+    scheduler  None: an embedded LocalCluster on loopback, secured by mutual TLS with
+               credentials made for this run (other users of the machine cannot connect);
+               "tls://host:8786" or "tcp://host:8786": an existing cluster (a dask Client or
+               LocalCluster object also works). Securing that one is its owner's business:
+               a tcp:// scheduler runs the tasks of anyone who can reach its port. Start it
+               with TLS (``dask scheduler --tls-ca-file ca.pem --tls-cert sched.pem --tls-key
+               sched.key``, the workers likewise) and give this process its credentials in the
+               Dask configuration (``distributed.comm.tls.ca-file`` and
+               ``distributed.comm.tls.client.cert`` / ``.key``, e.g. the environment variables
+               DASK_DISTRIBUTED__COMM__TLS__CA_FILE, ..._CLIENT__CERT, ..._CLIENT__KEY), or
+               pass ``Client(address, security=Security(...))`` as ``scheduler``
+    n_workers  worker processes of the embedded cluster (default: one per CPU, at most one per
+               clip)
+    report     write the records there: .json, or CSV for any other extension
+    progress   a progress bar on stderr
+    force      redo outputs that are up to date
+    metrics    compute jitter and foot sliding before/after (costs a few forward kinematics)
+    read       how the workers read each clip: read_bvh's strict, up, trim and units (for
+               example ``{"trim": "auto", "up": "z"}``); part of the outputs' up-to-date key
+    options    the operation's keyword arguments: keep_contacts=False, gamma, lam_c, sigma_c,
+               joints and root_alpha (stylize), fps / n_frames / lam (resample), strength ...
+    Returns a :class:`BatchResult`; ``result.exit_code`` is 1 when any clip failed. Raises
+    InvalidArgumentError before anything runs for an unknown operation or option, no inputs,
+    or outputs that would collide or overwrite an input.
+    """
+    t0 = time.perf_counter()
+    read = read_options(read)
+    op = lookup(operation)
+    bad = sorted(set(options) - set(op.options))
+    if bad:
+        raise InvalidArgumentError(f"batch {op.name}: unknown option(s) {', '.join(bad)}; "
+                                   f"accepted: {', '.join(sorted(op.options)) or 'none'}")
+    runs = variants(op, alphas)
+    if n_workers is not None:
+        if scheduler is not None:
+            raise InvalidArgumentError("n_workers sizes the embedded cluster; the cluster at "
+                                       "`scheduler` has its own workers")
+        integer(n_workers, "n_workers", 1)
+    out_root = pathlib.Path(out_dir).resolve()
+    links: list = []
+    clips = find_inputs(inputs, exclude=out_root, links=links)
+    if not clips:
+        raise InvalidArgumentError(f"no .bvh files in {inputs!r}")
+    inputs_set = {str(src) for src, _ in clips} | {os.path.realpath(src) for src, _ in clips}
+    plan, seen = [], {}
+    for src, rel in clips:
+        jobs = []
+        for v in runs:
+            out = out_root / rel.parent / (rel.name + variant_tag(v) + op.extension)
+            if str(out) in inputs_set or os.path.realpath(out) in inputs_set:
+                raise InvalidArgumentError(f"batch: output {out} would overwrite an input; "
+                                           "choose another output folder")
+            if str(out) in seen:
+                raise InvalidArgumentError(f"batch: {src} and {seen[str(out)]} both map to "
+                                           f"{out}")
+            seen[str(out)] = src
+            jobs.append((v, str(out), str(sidecar_path(out_root, out)),
+                         options_key(op, options, v, read)))
+        plan.append((str(src), jobs))
+
+    all_outs = [pathlib.Path(o) for _, jobs in plan for _, o, _, _ in jobs]
+    # the outputs and their sidecars: what a killed writer may have left temporaries of
+    written = all_outs + [pathlib.Path(s) for _, jobs in plan for _, _, s, _ in jobs]
+    records_by_out: dict[str, dict] = {}
+    todo = []
+    for src, jobs in plan:
+        need = []
+        for job in jobs:
+            v, out, side, key = job
+            prev = None if force else up_to_date(src, pathlib.Path(out), pathlib.Path(side), key)
+            if prev is None:
+                need.append(job)
+            else:
+                rec = {k: prev.get(k) for k in FIELDS}
+                rec.update(input=src, output=out, variant=v, status=STATUS_SKIPPED, error="")
+                records_by_out[out] = rec
+        if need:
+            todo.append((src, need))
+    for d in {p.parent for p in all_outs}:
+        d.mkdir(parents=True, exist_ok=True)
+    sweep(written)
+
+    n_used, address = 0, ""
+    if todo:
+        workers = n_workers or min(_default_workers(), len(todo))
+        with _client(scheduler, workers if scheduler is None else None) as client:
+            from distributed import as_completed
+            address = client.scheduler.address if client.scheduler else ""
+            n_used = len(client.scheduler_info().get("workers", {})) or workers
+            bar = Progress(len(todo), progress)
+            futures = {}
+            for src, need in todo:
+                fut = client.submit(process_clip, op, src, need, options, metrics, read,
+                                    pure=False)
+                futures[fut] = (src, need)
+            try:
+                for fut in as_completed(futures):
+                    src, need = futures[fut]
+                    try:
+                        recs = fut.result()
+                    except Exception as e:  # noqa: BLE001  (e.g. KilledWorker)
+                        recs = [{"input": src, "output": out, "variant": v,
+                                 "status": STATUS_FAILED,
+                                 "error": f"{type(e).__name__}: {e}"} for v, out, _, _ in need]
+                    for r in recs:
+                        records_by_out[r["output"]] = r
+                    bar.update(any(r["status"] == STATUS_FAILED for r in recs))
+            except BaseException:
+                client.cancel(list(futures))
+                raise
+            finally:
+                sweep(written)
+    records = []
+    for o in all_outs:
+        r = records_by_out[str(o)]
+        records.append({k: r.get(k) for k in FIELDS})
+    for path, note in links:  # links to folders and dangling links: said, not silently lost
+        rec = dict.fromkeys(FIELDS)
+        rec.update(input=os.path.abspath(path), output="", variant={}, status=STATUS_LINK,
+                   error=note)
+        records.append(rec)
+    result = BatchResult(op.name, records, time.perf_counter() - t0, n_used, address)
+    if report is not None:
+        result.write_report(report)
+    return result
