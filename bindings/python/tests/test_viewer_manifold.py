@@ -4,9 +4,6 @@ start frames against PrimitiveModel's own functions, the BVH download, bad input
 side is in test_viewer_browser.py."""
 import base64
 import json
-import sys
-import threading
-import urllib.parse
 
 import numpy as np
 import pytest
@@ -15,34 +12,22 @@ import mlayer
 from mlayer.features import pose_features
 from mlayer.markov import Markov
 from mlayer.metrics import body_height
-from mlayer.viewer import make_server
 from mlayer.viewer.manifold import (ManifoldSession, ranked_chain, ranked_cycle, ranked_next,
                                     u_matrix)
 from mlayer.viewer.session import ResultCache, load_clips
 
-from test_viewer import get, get_json
+from test_viewer import bad_clip, get, get_json, server  # noqa: F401 (fixtures)
 
 WALK = "cmu_131_01_mj_style_walk.bvh"
-BANDAI = "bandai1_walk_happy_001.bvh"
 TRAIN_FRAMES = 300   # the walk's 994 frames at every 4th: 249 training frames
 
 
 @pytest.fixture(scope="module")
-def server(mocap, tmp_path_factory):
-    bad = tmp_path_factory.mktemp("bad") / "broken.bvh"
-    bad.write_text("HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n  CHANNELS 3 Xposition\n")
-    srv = make_server([mocap / WALK, bad, mocap / BANDAI], log=sys.stderr,
-                      manifold_frames=TRAIN_FRAMES)
-    t = threading.Thread(target=srv.serve_forever, kwargs={"poll_interval": 0.05}, daemon=True)
-    t.start()
-    yield srv
-    srv.shutdown()
-    srv.server_close()
-    t.join(5)
-
-
-@pytest.fixture(scope="module")
 def trained(server):
+    # test_viewer's server (the walk, a broken clip, Bandai), its manifold on a few hundred
+    # frames
+    server.manifold.max_frames = TRAIN_FRAMES
+    server.manifold.plan()
     before = get_json(server, "/api/manifold")
     assert before["state"] == "idle" and before["steps"] == []
     # a motion before the training: 409 with what to do

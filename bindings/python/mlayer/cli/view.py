@@ -7,8 +7,9 @@ Ctrl-C. Opens a browser only with --open. A clip that fails to parse is reported
 the page; the others are served.
 
 Limits: --max-values (the output of one request, frames x points), --cache-mb (the result
-cache), --manifold-frames (the training frames of the motion manifold panel), --threads (the worker pool), --timeout (idle and slow connections); the API needs the
-session token of the page and refuses other sites (see mlayer.viewer.server).
+cache), --manifold-frames (the training frames of the motion manifold panel), --threads (the
+worker pool), --timeout (idle and slow connections); the API needs the session token of the
+page and refuses other sites (see mlayer.viewer.server).
 """
 from __future__ import annotations
 

@@ -33,14 +33,12 @@ import math
 import threading
 import time
 import warnings
-from urllib.parse import parse_qsl
-
 import numpy as np
 
 from ..bvh import write_bvh_string
 from ..errors import Error
 from ..render import body_side
-from .session import ParamError, _b64, _points, json_bytes
+from .session import ParamError, _b64, _points, finite_number, json_bytes, query_pairs
 
 __all__ = ["ManifoldSession", "ranked_next", "ranked_chain", "ranked_cycle", "u_matrix",
            "DEFAULT_MANIFOLD_FRAMES", "MAX_MOTION_FRAMES", "MAX_KNOTS"]
@@ -125,19 +123,7 @@ _MOTION_KEYS = ("points", "keys", "start", "chain", "noise", "seed", "frames", "
 
 
 def _pairs(query: str) -> dict:
-    try:
-        pairs = parse_qsl(query, keep_blank_values=True, strict_parsing=bool(query),
-                          max_num_fields=len(_MOTION_KEYS) + 1)
-    except ValueError as e:
-        raise ParamError(f"malformed query string: {e}") from None
-    out: dict = {}
-    for k, v in pairs:
-        if k not in _MOTION_KEYS:
-            raise ParamError(f"unknown parameter {k!r}; expected: {', '.join(_MOTION_KEYS)}")
-        if k in out:
-            raise ParamError(f"parameter {k!r} given twice")
-        out[k] = v.strip()
-    return out
+    return {k: v.strip() for k, v in query_pairs(query, _MOTION_KEYS).items()}
 
 
 def _int(raw: str, name: str, lo: int, hi: int) -> int:
@@ -146,16 +132,6 @@ def _int(raw: str, name: str, lo: int, hi: int) -> int:
     v = int(raw)
     if not lo <= v <= hi:
         raise ParamError(f"{name} must be in {lo}..{hi}, got {v}")
-    return v
-
-
-def _float(raw: str, name: str) -> float:
-    try:
-        v = float(raw)
-    except ValueError:
-        raise ParamError(f"{name} must be a number, got {raw[:40]!r}") from None
-    if not math.isfinite(v):
-        raise ParamError(f"{name} must be finite, got {raw[:40]!r}")
     return v
 
 
@@ -414,7 +390,7 @@ class ManifoldSession:
                                      f"{q['chain'][:40]!r}")
                 p["chain"] = q["chain"]
             if "noise" in q:
-                v = _float(q["noise"], "noise")
+                v = finite_number(q["noise"], "noise")
                 if not 0.0 <= v <= 10.0:
                     raise ParamError(f"noise must be in [0, 10], got {q['noise'][:40]!r}")
                 p["noise"] = v
@@ -433,7 +409,7 @@ class ManifoldSession:
             parts = s.split(",")
             if len(parts) != 2:
                 raise ParamError(f"point {i + 1}: expected ROW,COL, got {s[:40]!r}")
-            r, c = (_float(v.strip(), f"point {i + 1}") for v in parts)
+            r, c = (finite_number(v.strip(), f"point {i + 1}") for v in parts)
             if not (0 <= r <= rows - 1 and 0 <= c <= cols - 1):
                 raise ParamError(f"point {i + 1} ({r:g}, {c:g}) is outside the map: rows 0 to "
                                  f"{rows - 1}, columns 0 to {cols - 1}")

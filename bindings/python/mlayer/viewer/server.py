@@ -25,8 +25,9 @@ command line)::
 
 Errors are JSON ``{"error": message}``: 400 for a bad or unknown parameter, 403 for a request
 from another site or without the session token, 404 for an unknown clip or path, 409 for a
-clip that failed to load (or the manifold before it is learned), 413 for a request over the output limit (or with a body), 500 for a
-failure inside mlayer (also printed on stderr).
+clip that failed to load (or a manifold motion before the manifold is learned), 413 for a
+request over the output limit (or with a body), 500 for a failure inside mlayer (also printed
+on stderr).
 
 Limits (options of :class:`ViewerServer`, and of ``mlayer view``):
 

@@ -712,13 +712,18 @@
     return [r, c];
   }
 
-  function drawMapBase() {
-    const cv = $("m-map");
+  function hidpi(cv) {  // the canvas at the screen's pixel density, drawn in CSS pixels
     const dpr = window.devicePixelRatio || 1;
     cv.width = Math.round(cv.clientWidth * dpr);
     cv.height = Math.round(cv.clientHeight * dpr);
     const ctx = cv.getContext("2d");
     ctx.setTransform(dpr, 0, 0, dpr, 0, 0);
+    return ctx;
+  }
+
+  function drawMapBase() {
+    const cv = $("m-map");
+    const ctx = hidpi(cv);
     const d = M.map, g = mapSize();
     for (let r = 0; r < d.rows; r++) {
       for (let c = 0; c < d.cols; c++) {
@@ -783,11 +788,7 @@
 
   function drawTransitions() {
     const cv = $("m-trans");
-    const dpr = window.devicePixelRatio || 1;
-    cv.width = Math.round(cv.clientWidth * dpr);
-    cv.height = Math.round(cv.clientHeight * dpr);
-    const ctx = cv.getContext("2d");
-    ctx.setTransform(dpr, 0, 0, dpr, 0, 0);
+    const ctx = hidpi(cv);
     const W = cv.clientWidth, H = cv.clientHeight, L = 22, T = 22;
     const k = M.map.k, P = M.map.P;
     const cw = (W - L) / k, ch = (H - T) / k;
