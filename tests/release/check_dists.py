@@ -33,9 +33,13 @@ def tracked(repo: str) -> list[str]:
 
 
 def export_ignored(repo: str, files: list[str]) -> set[str]:
-    out = git(repo, "check-attr", "--stdin", "export-ignore", stdin="\n".join(files) + "\n")
-    return {line.split(": export-ignore: ")[0] for line in out.splitlines()
-            if line.endswith(": export-ignore: set")}
+    """Files git archive leaves out: marked themselves or through a folder (`/.ci`)."""
+    dirs = {"/".join(f.split("/")[:i]) for f in files for i in range(1, f.count("/") + 1)}
+    paths = sorted(dirs | set(files))
+    out = git(repo, "check-attr", "--stdin", "export-ignore", stdin="\n".join(paths) + "\n")
+    marked = {line.split(": export-ignore: ")[0] for line in out.splitlines()
+              if line.endswith(": export-ignore: set")}
+    return {f for f in files if f in marked or any(f.startswith(d + "/") for d in marked)}
 
 
 def compare(what: str, got: set[str], want: set[str]) -> list[str]:
