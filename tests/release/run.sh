@@ -63,13 +63,15 @@ smoke() {  # smoke INTERPRETER NAME
   "$venv/bin/python" -m pip install -q "$wheel" >"$out/pip-$2.log" 2>&1 \
     || { tail -20 "$out/pip-$2.log"; echo "release: pip install of the wheel failed ($2)" >&2; exit 1; }
   if [ "${#unshare_cmd[@]}" -gt 0 ]; then
-    local control=true
+    local control=true note=""
     if [ -n "$dev_ext" ] && ldd "$dev_ext" | grep -q libcholmod; then
       # the checkout's build links CHOLMOD: with the library hidden it must not import
-      control="! \"$root/.venv/bin/python\" -c 'import mlayer' 2>/dev/null"
+      control="if \"$root/.venv/bin/python\" -c 'import mlayer' 2>/dev/null; then
+                 echo 'release: libcholmod is not hidden: the CHOLMOD build imports' >&2; exit 1; fi"
+      note="; the checkout's CHOLMOD build failed to import there"
     fi
     (cd "$out" && "${unshare_cmd[@]}" bash -c "set -e; $hide; $control; \"$venv/bin/python\" \"$here/smoke.py\" $version \"$out/smoke-$2\"")
-    echo "release: ($2) ran with ${cholmod_files[*]} hidden"
+    echo "release: ($2) ran with ${cholmod_files[*]} hidden$note"
   else
     (cd "$out" && "$venv/bin/python" "$here/smoke.py" "$version" "$out/smoke-$2")
     echo "release: ($2) libcholmod not hidden (${#cholmod_files[@]} files; no unshare here): the extension needs none and smoke.py found none loaded"
