@@ -149,7 +149,8 @@ mlr_status mlr_lgs_create(size_t n_out, unsigned order, double lam, double sigma
     if (solver != MLR_LGS_BANDED && solver != MLR_LGS_CHOLMOD)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "unknown solver %d", (int)solver);
     if (solver == MLR_LGS_CHOLMOD && !mlr_lgs_have_cholmod())
-        return mlr_diag_set(diag, MLR_E_UNSUPPORTED, 0, 0, "this build of mlayer has no CHOLMOD");
+        return mlr_diag_set(diag, MLR_E_UNSUPPORTED, 0, 0, "this build of mlayer has no CHOLMOD "
+                            "(build it with SuiteSparse and -Dcholmod=enabled)");
 
     mlr_allocator a;
     mlr_allocator_resolve(alloc, &a);

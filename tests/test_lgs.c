@@ -170,6 +170,25 @@ START_TEST(smoothing_keeps_lines_for_order_2)
 }
 END_TEST
 
+/* A build without CHOLMOD (the Python wheels) refuses the solver with a message saying how to
+ * get it; a build with it accepts the same call. */
+START_TEST(cholmod_solver_matches_the_build)
+{
+    mlr_lgs *g = (mlr_lgs *)&g; /* not NULL: create must reset it */
+    mlr_diag d = {0};
+    mlr_status st = mlr_lgs_create(20, 2, 1.0, 1.0, NULL, 20, MLR_LGS_CHOLMOD, NULL, &g, &d);
+    if (mlr_lgs_have_cholmod()) {
+        ck_assert_int_eq(st, MLR_OK);
+        ck_assert_ptr_nonnull(g);
+        mlr_lgs_destroy(g);
+    } else {
+        ck_assert_int_eq(st, MLR_E_UNSUPPORTED);
+        ck_assert_ptr_null(g);
+        ck_assert_msg(strstr(d.message, "-Dcholmod=enabled"), "message: %s", d.message);
+    }
+}
+END_TEST
+
 START_TEST(cholmod_agrees_with_banded)
 {
     if (!mlr_lgs_have_cholmod())
@@ -465,6 +484,7 @@ static Suite *lgs_suite(void)
     tcase_add_test(num, in_place_identity_solve);
     tcase_add_test(num, smoothing_keeps_lines_for_order_2);
     tcase_add_loop_test(num, cholmod_agrees_with_banded, 0, (int)MLR_COUNTOF(cases));
+    tcase_add_test(num, cholmod_solver_matches_the_build);
     tcase_add_test(num, variance_grows_between_sparse_keys);
     tcase_add_loop_test(num, chunked_solve_matches_column_by_column, 0, (int)MLR_COUNTOF(big));
     tcase_add_test(num, non_finite_observations_are_rejected_when_chunked);

@@ -27,7 +27,15 @@ typedef enum mlr_lgs_solver {
     MLR_LGS_CHOLMOD = 1  /* sparse Cholesky through SuiteSparse CHOLMOD (optional at build) */
 } mlr_lgs_solver;
 
-/** 1 when the library was built with the CHOLMOD path, 0 otherwise. */
+/**
+ * 1 when the library was built with the CHOLMOD path, 0 otherwise. CHOLMOD is chosen when the
+ * library is built (meson -Dcholmod=auto|enabled|disabled; auto: when SuiteSparse is found) and
+ * linked, not loaded at run time: CHOLMOD's structures differ between SuiteSparse versions, and
+ * the library keeps no global state in which a loaded copy could live. The Python wheels are
+ * built with -Dcholmod=disabled, so that they need no SuiteSparse where they are installed.
+ * @return 1 or 0, the same for every call.
+ * Allocates: no. Threads: any.
+ */
 MLR_API int mlr_lgs_have_cholmod(void);
 
 /**
@@ -47,8 +55,8 @@ MLR_API int mlr_lgs_have_cholmod(void);
  * @return MLR_OK; MLR_W_ILL_CONDITIONED (usable, very small pivot); MLR_E_INVALID_ARG (bad
  *         shape or parameter, t not sorted, not finite or out of range); MLR_E_SINGULAR (the
  *         observations do not pin the prior's null space: fewer than `order` distinct
- *         positions, or lam == 0 with unobserved frames); MLR_E_UNSUPPORTED (CHOLMOD asked for
- *         but not built in); MLR_E_NO_MEMORY; MLR_E_OVERFLOW
+ *         positions, or lam == 0 with unobserved frames); MLR_E_UNSUPPORTED (MLR_LGS_CHOLMOD
+ *         in a build without CHOLMOD, see mlr_lgs_have_cholmod); MLR_E_NO_MEMORY; MLR_E_OVERFLOW
  * Allocates: yes, O(n_out + n_obs). Threads: any.
  */
 MLR_API mlr_status mlr_lgs_create(size_t n_out, unsigned order, double lam, double sigma,

@@ -6,6 +6,14 @@ L is the first (order=1) or second (order=2) difference matrix on the output gri
 frames; A is the identity, or has linear-interpolation rows that place observation i at the
 fractional output frame t[i]. Only s = lam^2 sigma^2 changes the mean; sigma also scales the
 posterior variance.
+
+Solvers: "banded" (the library's own banded LDL^T, always there and the fastest) and
+"cholmod" (SuiteSparse CHOLMOD's sparse Cholesky, a reference path). The wheels on PyPI are
+built without CHOLMOD, so that they need no SuiteSparse on the machine that installs them:
+there ``have_cholmod()`` is False and ``solver="cholmod"`` raises UnsupportedError. A source
+build has it when SuiteSparse is installed (Debian: ``libsuitesparse-dev``), e.g.
+``pip install --no-binary mlayer -Csetup-args=-Dcholmod=enabled mlayer``, or
+``pip install -Csetup-args=-Dcholmod=enabled .`` in a checkout.
 """
 from __future__ import annotations
 
@@ -14,14 +22,17 @@ import numpy as np
 from . import _arrays
 from ._handles import NativeHandle, ReadOnlyAttributes
 from ._native import ffi, lib
-from .errors import InvalidArgumentError, check
+from .errors import InvalidArgumentError, UnsupportedError, check
 from ._args import integer, threads as _c_threads
 
 _SOLVERS = {"banded": lib.MLR_LGS_BANDED, "cholmod": lib.MLR_LGS_CHOLMOD}
+NO_CHOLMOD = ("solver='cholmod': this mlayer was built without CHOLMOD (the wheels leave it out); "
+              "install SuiteSparse (Debian: libsuitesparse-dev) and build from source: "
+              "pip install --no-binary mlayer -Csetup-args=-Dcholmod=enabled mlayer")
 
 
 def have_cholmod() -> bool:
-    """True when this build of mlayer includes the CHOLMOD sparse path."""
+    """True when this build of mlayer includes the CHOLMOD sparse path (never in the wheels)."""
     return bool(lib.mlr_lgs_have_cholmod())
 
 
@@ -41,6 +52,8 @@ class LGS(ReadOnlyAttributes, NativeHandle):
                  t=None, n_obs: int | None = None, solver: str = "banded"):
         if solver not in _SOLVERS:
             raise InvalidArgumentError(f"solver must be one of {sorted(_SOLVERS)}, got {solver!r}")
+        if solver == "cholmod" and not have_cholmod():
+            raise UnsupportedError(NO_CHOLMOD)
         integer(order, "order", 1, 2)
         n_out = integer(n_out, "n_out", 0)
         if t is None:
@@ -133,7 +146,8 @@ def lgs(y, lam: float = 1.0, sigma: float = 1.0, *, order: int = 2, t=None,
     return_var : bool
         Also return the posterior variance per output frame, shape (n_out,).
     solver : "banded" or "cholmod"
-        The library's banded LDL^T (default, O(n m)) or the CHOLMOD sparse path.
+        The library's banded LDL^T (default, O(n m)) or the CHOLMOD sparse path; "cholmod"
+        raises UnsupportedError where ``have_cholmod()`` is False (the wheels).
     threads : None or int
         None (default): on a machine with two or more processors, a second thread maps the
         pages of a large result (8 MiB or more) while the solve fills it, which saves the page
@@ -141,7 +155,8 @@ def lgs(y, lam: float = 1.0, sigma: float = 1.0, *, order: int = 2, t=None,
 
     Returns x of shape (n_out,) or (n_out, m); with return_var, (x, var).
     Raises InvalidArgumentError (also a ValueError) for bad shapes, parameters or non-finite
-    values, SingularMatrixError when the observations do not determine the result.
+    values, SingularMatrixError when the observations do not determine the result,
+    UnsupportedError for solver="cholmod" in a build without CHOLMOD.
     """
     y = _arrays.as_f64(y, "y", ndim=(1, 2))
     n_obs = y.shape[0]

@@ -67,8 +67,8 @@ def browser(downloads):
     d.quit()
 
 
-def _serve(paths):
-    srv = make_server(paths, log=sys.stderr)
+def _serve(paths, **limits):
+    srv = make_server(paths, log=sys.stderr, **limits)
     t = threading.Thread(target=srv.serve_forever, kwargs={"poll_interval": 0.05}, daemon=True)
     t.start()
     return srv, t
@@ -78,7 +78,7 @@ def _serve(paths):
 def server(mocap, tmp_path_factory):
     bad = tmp_path_factory.mktemp("bad") / "broken.bvh"
     bad.write_text("HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 zero\n}\n")
-    srv, t = _serve([mocap / WALK, bad])
+    srv, t = _serve([mocap / WALK, bad], manifold_frames=300)  # the manifold: 249 frames
     srv.warm().join(60)
     yield srv
     srv.shutdown()
@@ -288,5 +288,113 @@ def test_error_page_when_no_clip_parses(browser, tmp_path):
 def test_no_console_errors(browser, server):
     d = browser
     open_page(d, server)
+    logs = [e for e in d.get_log("browser") if e["level"] == "SEVERE"]
+    assert logs == []
+
+
+def test_manifold_click_play_and_download(browser, server, mocap, downloads):
+    """Learn the manifold, click two points on the map: the spline's motion plays in the
+    manifold figure (it moves, and it is the server's motion), the download parses; then the
+    key-frame picker and the second-likely chain."""
+    from selenium.webdriver.common.action_chains import ActionChains
+    from selenium.webdriver.support.ui import Select
+    from mlayer.viewer.manifold import ranked_chain
+    d = browser
+    open_page(d, server)
+    d.find_element("id", "m-train").click()
+    wait(lambda: js(d, "mlayerViewer.manifold.state.state") in ("ready", "failed"), 120,
+         "the manifold to be learned")
+    assert js(d, "mlayerViewer.manifold.state.state") == "ready", \
+        d.find_element("id", "m-status").text
+    assert "SOM 15×15 on 249 frames" in d.find_element("id", "m-status").text
+    md = server.manifold.model
+    cv = d.find_element("id", "m-map")
+    w, h = cv.size["width"], cv.size["height"]
+
+    def responses():
+        return js(d, "mlayerViewer.manifold.state.responses")
+
+    def click_map(fx, fy):
+        n = responses()
+        ActionChains(d).move_to_element_with_offset(cv, int((fx - 0.5) * w),
+                                                    int((fy - 0.5) * h)).click().perform()
+        wait(lambda: responses() > n and not js(d, "mlayerViewer.manifold.state.inflight"),
+             60, "the manifold motion")
+        assert js(d, "mlayerViewer.manifold.state.lastError") is None
+
+    # the map canvas: the regions in colour under the U-matrix
+    from PIL import Image
+    img = np.asarray(Image.open(io.BytesIO(cv.screenshot_as_png)).convert("RGB")).astype(int)
+    assert len(np.unique(img.reshape(-1, 3) // 16, axis=0)) > 2 * md.centers.shape[0]
+    assert (img.max(-1) - img.min(-1)).mean() > 10, "no colour on the map"
+
+    click_map(0.15, 0.85)   # low left: row small, column small
+    click_map(0.85, 0.2)    # up right
+    pts = np.array(js(d, "mlayerViewer.manifold.state.points"))
+    assert pts.shape == (2, 2)
+    assert pts[0, 0] < 4 and pts[0, 1] < 4 and pts[1, 0] > 10 and pts[1, 1] > 10
+    q = js(d, "mlayerViewer.manifold.state.lastQuery")
+    assert q.startswith("points=") and "frames=120" in q
+    assert js(d, "mlayerViewer.manifold.state.motion.frames") == 120
+
+    def drawn(frame):
+        d.execute_script(f"mlayerViewer.manifold.pause(); "
+                         f"mlayerViewer.manifold.setFrame({frame});")
+        wait(lambda: js(d, f"mlayerViewer.manifold.drawn.frame === {frame}"),
+             what=f"manifold frame {frame}")
+        return np.array(js(d, "mlayerViewer.manifold.drawn.positions"))
+
+    a, b = drawn(0), drawn(119)
+    _, ref = server.manifold.motion(q)
+    hgt = mlayer.metrics.body_height(ref)
+    assert np.linalg.norm(b - a, axis=1).max() > 0.05 * hgt, "the figure does not move"
+    np.testing.assert_allclose(a, ref.positions()[0], atol=1e-4 * hgt)
+    np.testing.assert_allclose(b, ref.positions()[119], atol=1e-4 * hgt)
+    # the figure canvas shows it
+    fig = np.asarray(Image.open(io.BytesIO(
+        d.find_element("id", "m-figure").screenshot_as_png)).convert("RGB")).astype(int)
+    assert 0.002 < (fig < 235).any(-1).mean() < 0.6
+
+    # download: a real click, the file parses, the requested frames
+    for f in downloads.iterdir():
+        f.unlink()
+    d.find_element("id", "m-download").click()
+    done = wait(lambda: [f for f in downloads.iterdir() if f.suffix == ".bvh"], 30,
+                "the manifold download")
+    assert done[0].name == "manifold_points.bvh"
+    got = mlayer.read_bvh_string(done[0].read_text(), done[0].name)
+    assert got.n_frames == 120 and got.joint_names == ref.joint_names
+    np.testing.assert_allclose(got.positions()[119], b, atol=1e-3 * hgt)
+
+    # key frames from the loaded clip: their BMUs are the knots
+    for frame in (20, 600):
+        el = d.find_element("id", "m-key-frame")
+        el.clear()
+        el.send_keys(str(frame))
+        d.find_element("id", "m-key-add").click()
+    assert d.find_element("id", "m-keys").text == "0:20, 0:600"
+    n = responses()
+    d.find_element("id", "m-key-go").click()
+    wait(lambda: responses() > n and not js(d, "mlayerViewer.manifold.state.inflight"), 60,
+         "the key-frame motion")
+    assert js(d, "mlayerViewer.manifold.state.lastError") is None
+    from mlayer.features import pose_features
+    walk = mlayer.read_bvh(mocap / WALK)
+    np.testing.assert_allclose(js(d, "mlayerViewer.manifold.state.motion.knots"),
+                               md.to_manifold(pose_features(walk)[[20, 600]]))
+
+    # a start frame with the second most likely transitions
+    el = d.find_element("id", "m-start-frame")
+    el.clear()
+    el.send_keys("400")
+    Select(d.find_element("id", "m-chain")).select_by_value("second")
+    n = responses()
+    d.find_element("id", "m-generate").click()
+    wait(lambda: responses() > n and not js(d, "mlayerViewer.manifold.state.inflight"), 60,
+         "the generated motion")
+    assert js(d, "mlayerViewer.manifold.state.lastError") is None
+    assert "chain=second" in js(d, "mlayerViewer.manifold.state.lastQuery")
+    want = ranked_chain(md.markov, int(md.labels[100]), 120, 2)
+    assert js(d, "mlayerViewer.manifold.state.motion.primitives") == [int(v) for v in want]
     logs = [e for e in d.get_log("browser") if e["level"] == "SEVERE"]
     assert logs == []

@@ -7,8 +7,9 @@ Ctrl-C. Opens a browser only with --open. A clip that fails to parse is reported
 the page; the others are served.
 
 Limits: --max-values (the output of one request, frames x points), --cache-mb (the result
-cache), --threads (the worker pool), --timeout (idle and slow connections); the API needs the
-session token of the page and refuses other sites (see mlayer.viewer.server).
+cache), --manifold-frames (the training frames of the motion manifold panel), --threads (the
+worker pool), --timeout (idle and slow connections); the API needs the session token of the
+page and refuses other sites (see mlayer.viewer.server).
 """
 from __future__ import annotations
 
@@ -25,8 +26,8 @@ def _arguments(p) -> None:
                    help="address to bind (default 127.0.0.1; anything but loopback exposes "
                         "the clips to the network)")
     p.add_argument("--open", action="store_true", help="open the page in a web browser")
-    from ..viewer.server import (DEFAULT_CACHE_BYTES, DEFAULT_MAX_VALUES, DEFAULT_THREADS,
-                                DEFAULT_TIMEOUT)
+    from ..viewer.server import (DEFAULT_CACHE_BYTES, DEFAULT_MANIFOLD_FRAMES,
+                                DEFAULT_MAX_VALUES, DEFAULT_THREADS, DEFAULT_TIMEOUT)
     p.add_argument("--max-values", type=int, default=DEFAULT_MAX_VALUES, metavar="N",
                    help="the most output one request may produce, in frames x points (joints "
                         "and End Sites), checked before any work; longer lengths or higher "
@@ -42,6 +43,9 @@ def _arguments(p) -> None:
                    help="close a connection idle this long; a request must arrive whole "
                         "within it (default %(default)g). Every /api/ request needs the page's "
                         "session token; requests from other sites are refused")
+    p.add_argument("--manifold-frames", type=int, default=DEFAULT_MANIFOLD_FRAMES, metavar="N",
+                   help="the most training frames of the page's motion manifold (the clips "
+                        "decimated by one stride; default %(default)s)")
 
 
 @command("view", "interactive viewer in the browser: alpha sliders, cleanup, retiming",
@@ -59,7 +63,7 @@ def cmd_view(args) -> int:
         raise InvalidArgumentError(f"--cache-mb must be a number of MB >= 0, got {args.cache_mb}")
     server = make_server(args.inputs, args.host, args.port, max_values=args.max_values,
                          cache_bytes=int(args.cache_mb * 2**20), threads=args.threads,
-                         timeout=args.timeout)
+                         timeout=args.timeout, manifold_frames=args.manifold_frames)
     good = [c for c in server.clips if c.ok]
     for c in server.clips:
         if not c.ok:

@@ -14,17 +14,28 @@ command line)::
                          the processed motion (same fields), metrics and the layer chart data
     /api/download?...    the processed motion as a BVH attachment (same parameters)
     /api/layers.png?clip=I  the layer figure of `mlayer layers` (matplotlib)
+    /api/manifold[?train=1]  the motion manifold of the clips (mlayer.viewer.manifold): its
+                         state and training progress (train=1 starts the training in the
+                         background); when learned, the lattice, trajectories, primitives
+                         and transition matrix
+    /api/manifold/motion?points=R,C;..|keys=CLIP:FRAME,..|start=CLIP:FRAME&chain=..
+                 &noise=..&seed=..&frames=N&guards=0|1
+                         a motion on the manifold: its figure data, path and primitives
+    /api/manifold/download?...  that motion as a BVH attachment
 
 Errors are JSON ``{"error": message}``: 400 for a bad or unknown parameter, 403 for a request
 from another site or without the session token, 404 for an unknown clip or path, 409 for a
-clip that failed to load, 413 for a request over the output limit (or with a body), 500 for a
-failure inside mlayer (also printed on stderr).
+clip that failed to load (or a manifold motion before the manifold is learned), 413 for a
+request over the output limit (or with a body), 500 for a failure inside mlayer (also printed
+on stderr).
 
 Limits (options of :class:`ViewerServer`, and of ``mlayer view``):
 
 - ``max_values``: one request may produce at most this many frames x points (joints and End
   Sites) out, checked from the parameters before any work (413, saying which frame count fits);
   a clip is always served at its own size.
+- ``manifold_frames``: the most training frames of the manifold (the clips decimated by one
+  stride; frames x points also within ``max_values``).
 - ``cache_bytes``: the processed motions and encoded answers kept, by bytes (LRU).
 - Every ``/api/`` request needs the session token, a random string made when the server starts
   and embedded in the page (``<meta name="mlayer-token">``): the page's script sends it in the
@@ -57,11 +68,13 @@ from urllib.parse import unquote, urlsplit
 
 from ..errors import Error, InvalidArgumentError
 from ._net import Conn, Pool, Reactor
+from .manifold import DEFAULT_MANIFOLD_FRAMES, ManifoldSession
 from .session import (DEFAULT_CACHE_BYTES, DEFAULT_MAX_VALUES, PARAMS, Clip, ParamError,
                       ResultCache, json_bytes, load_clips, parse_params)
 
 __all__ = ["ViewerServer", "make_server", "is_loopback", "BACKLOG", "DEFAULT_MAX_VALUES",
-           "DEFAULT_CACHE_BYTES", "DEFAULT_TIMEOUT", "DEFAULT_THREADS"]
+           "DEFAULT_CACHE_BYTES", "DEFAULT_TIMEOUT", "DEFAULT_THREADS",
+           "DEFAULT_MANIFOLD_FRAMES"]
 
 #: the listen queue (the kernel caps it at net.core.somaxconn)
 BACKLOG = 1024
@@ -110,7 +123,8 @@ class ViewerServer(HTTPServer):
     def __init__(self, clips: list[Clip], host: str = "127.0.0.1", port: int = 0, *,
                  log=None, max_values: int = DEFAULT_MAX_VALUES,
                  cache_bytes: int = DEFAULT_CACHE_BYTES, timeout: float = DEFAULT_TIMEOUT,
-                 threads: int = DEFAULT_THREADS):
+                 threads: int = DEFAULT_THREADS,
+                 manifold_frames: int = DEFAULT_MANIFOLD_FRAMES):
         self.max_values = _int_option("max_values", max_values, 1000)
         self.cache = ResultCache(_int_option("cache_bytes", cache_bytes, 0))  # --cache-mb
         if not (isinstance(timeout, (int, float)) and math.isfinite(timeout) and
@@ -123,6 +137,9 @@ class ViewerServer(HTTPServer):
         for c in clips:
             c.cache, c.max_values = self.cache, self.max_values
         self.log = log or sys.stderr
+        self.manifold = ManifoldSession(
+            clips, cache=self.cache, max_values=self.max_values, log=self.log,
+            max_frames=_int_option("manifold_frames", manifold_frames, 16, 1_000_000))
         self.token = secrets.token_urlsafe(24)
         self._log_lock = threading.Lock()
         self._page = None
@@ -241,7 +258,8 @@ def make_server(paths, host: str = "127.0.0.1", port: int = 0, *, log=None,
                 **limits) -> ViewerServer:
     """Load the clips (a failing clip keeps its error) and bind the server (not started:
     call ``serve_forever()``, in a thread if needed; ``shutdown()`` stops it). ``limits``:
-    ``max_values``, ``cache_bytes``, ``timeout``, ``threads`` (see :class:`ViewerServer`)."""
+    ``max_values``, ``cache_bytes``, ``timeout``, ``threads``, ``manifold_frames`` (see
+    :class:`ViewerServer`)."""
     return ViewerServer(load_clips(paths), host, port, log=log, **limits)
 
 
@@ -393,7 +411,9 @@ class _Handler(BaseHTTPRequestHandler):
             return
         api = {"/api/clips": self._clips, "/api/clip": self._clip,
                "/api/process": self._process, "/api/download": self._download,
-               "/api/layers.png": self._layers_png}.get(path)
+               "/api/layers.png": self._layers_png, "/api/manifold": self._manifold,
+               "/api/manifold/motion": self._manifold_motion,
+               "/api/manifold/download": self._manifold_download}.get(path)
         if api is None:
             raise ParamError(f"no such page: {path[:200]}", 404)
         api(self._take_token(url.query))
@@ -436,6 +456,22 @@ class _Handler(BaseHTTPRequestHandler):
         except ImportError as e:
             raise ParamError(f"the layer figure needs matplotlib: {e}", 503) from None
         self._send(200, png, "image/png")
+
+
+    def _manifold(self, query: str) -> None:
+        if query not in ("", "train=0", "train=1"):
+            raise ParamError(f"/api/manifold takes only train=0 or train=1, got "
+                             f"{query[:100]!r}")
+        self._send(200, self.server.manifold.status(start=query == "train=1"),
+                   "application/json")
+
+    def _manifold_motion(self, query: str) -> None:
+        self._send(200, self.server.manifold.motion(query)[0], "application/json")
+
+    def _manifold_download(self, query: str) -> None:
+        name, text = self.server.manifold.download(query)
+        self._send(200, text.encode(), "application/octet-stream",
+                   {"Content-Disposition": f'attachment; filename="{_ascii(name)}"'})
 
 
 def _ascii(name: str) -> str:

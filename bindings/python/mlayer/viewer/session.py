@@ -106,10 +106,9 @@ _LENGTH_RATIO = (0.1, 10.0)   # target length / clip length
 _MAX_FPS_FACTOR = 100.0       # new fps / clip fps, either way (mlayer.resample's limit)
 
 
-def parse_params(query: str, allowed) -> dict:
-    """Validate a query string against :data:`PARAMS`: every key known and in ``allowed``,
-    given once, a number that is finite and in range (or 0/1/true/false). Returns name ->
-    value for every allowed key (defaults filled in). Raises ParamError (400)."""
+def query_pairs(query: str, allowed) -> dict:
+    """The raw values of a query string by name: every key in ``allowed``, given once.
+    Raises ParamError (400)."""
     try:
         pairs = parse_qsl(query, keep_blank_values=True, strict_parsing=bool(query),
                           max_num_fields=len(allowed) + 1)
@@ -122,6 +121,25 @@ def parse_params(query: str, allowed) -> dict:
         if key in seen:
             raise ParamError(f"parameter {key!r} given twice")
         seen[key] = raw
+    return seen
+
+
+def finite_number(raw: str, name: str) -> float:
+    """A parameter's value as a finite float; ParamError (400) naming it otherwise."""
+    try:
+        v = float(raw)
+    except ValueError:
+        raise ParamError(f"{name} must be a number, got {raw!r}") from None
+    if not math.isfinite(v):
+        raise ParamError(f"{name} must be finite, got {raw!r}")
+    return v
+
+
+def parse_params(query: str, allowed) -> dict:
+    """Validate a query string against :data:`PARAMS`: every key known and in ``allowed``,
+    given once, a number that is finite and in range (or 0/1/true/false). Returns name ->
+    value for every allowed key (defaults filled in). Raises ParamError (400)."""
+    seen = query_pairs(query, allowed)
     out = {}
     for key in allowed:
         kind, lo, hi, default = PARAMS[key]
@@ -140,12 +158,7 @@ def parse_params(query: str, allowed) -> dict:
                 raise ParamError(f"{key} must be a non-negative integer, got {raw!r}")
             out[key] = int(raw)
             continue
-        try:
-            v = float(raw)
-        except ValueError:
-            raise ParamError(f"{key} must be a number, got {raw!r}") from None
-        if not math.isfinite(v):
-            raise ParamError(f"{key} must be finite, got {raw!r}")
+        v = finite_number(raw, key)
         if not lo <= v <= hi:
             raise ParamError(f"{key} must be in [{lo:g}, {hi:g}], got {raw!r}")
         out[key] = v

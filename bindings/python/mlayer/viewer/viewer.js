@@ -65,6 +65,7 @@
 
   async function start() {
     bindControls();
+    bindManifold();
     let list;
     try {
       list = (await getJSON("/api/clips")).clips;
@@ -306,16 +307,17 @@
   const cross = (a, b) => [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
   const norm = (a) => { const l = Math.hypot(a[0], a[1], a[2]) || 1; return [a[0] / l, a[1] / l, a[2] / l]; };
 
-  function camera(target, w, h) {
-    const c = S.cam;
-    const dist = 2.6 * S.orig.height * c.zoom;
+  function camera(target, w, h, height, cam) {
+    const c = cam || S.cam;
+    height = height || S.orig.height;
+    const dist = 2.6 * height * c.zoom;
     const eye = [target[0] + dist * Math.cos(c.pitch) * Math.sin(c.yaw), target[1] + dist * Math.sin(c.pitch),
       target[2] + dist * Math.cos(c.pitch) * Math.cos(c.yaw)];
     const f = norm(sub(target, eye));
     const r = norm(cross(f, [0, 1, 0]));
     const u = cross(r, f);
     const focal = h / (2 * Math.tan((40 * Math.PI) / 360));
-    const near = 0.02 * S.orig.height;
+    const near = 0.02 * height;
     return { eye, f, r, u, focal, near, cx: w / 2, cy: h * 0.55 };
   }
   function toCam(cam, p) { const d = sub(p, cam.eye); return [dot(d, cam.r), dot(d, cam.u), dot(d, cam.f)]; }
@@ -341,7 +343,7 @@
   }
 
   function drawFigure(ctx, cam, m, f, off, faded, label) {
-    const o = S.orig;
+    const o = m.sk || S.orig;  // the skeleton: the clip's, or a manifold motion's own
     ctx.lineCap = "round";
     for (let k = 1; k < m.nPoints; k++) {
       const p = o.parents[k];
@@ -395,8 +397,8 @@
     return (m < 1.5 ? 1 : m < 3.5 ? 2 : m < 7.5 ? 5 : 10) * p;
   }
 
-  function drawGrid(ctx, cam, center) {
-    const o = S.orig;
+  function drawGrid(ctx, cam, center, o) {
+    o = o || S.orig;
     const step = niceStep(o.height / 2);
     const K = 14;
     const cx = Math.round(center[0] / step) * step, cz = Math.round(center[2] / step) * step;
@@ -427,6 +429,7 @@
       if (S.t * S.proc.fps > S.proc.frames - 1 + 1e-6) S.t = 0;
     }
     draw();
+    manifoldTick(dt);
     requestAnimationFrame(tick);
   }
 
@@ -521,12 +524,334 @@
     ctx.beginPath(); ctx.moveTo(x, ch.T); ctx.lineTo(x, ch.H - ch.B); ctx.stroke();
   }
 
+
+  // ---------- the motion manifold (paper 2: the SOM lattice, primitives, synthesis) ----------
+  //
+  // /api/manifold?train=1 starts the training on the server; the page polls /api/manifold until
+  // the map arrives, then draws the lattice (U-matrix in grey, each unit tinted by its
+  // primitive), the training clips' trajectories, the primitives' centres and the transition
+  // matrix. A click on the map adds a lattice point; the spline through the points, the key
+  // frames' BMUs or a generated primitive sequence come back as a motion with its path, played
+  // in its own figure (one request in flight; the newest waiting one is sent next).
+
+  const PALETTE = [[31, 119, 180], [255, 127, 14], [44, 160, 44], [214, 39, 40], [148, 103, 189],
+    [140, 86, 75], [227, 119, 194], [127, 127, 127], [188, 189, 34], [23, 190, 207]];
+  const colorOf = (i) => {
+    const c = PALETTE[i % PALETTE.length];
+    const k = Math.floor(i / PALETTE.length) % 3;
+    return k === 0 ? c : c.map((v) => Math.round(k === 1 ? v * 0.6 : 255 - (255 - v) * 0.5));
+  };
+  const M = {
+    state: "idle", map: null, points: [], keys: [], motion: null, t: 0, playing: true,
+    requests: 0, responses: 0, inflight: false, pending: null, lastError: null, lastQuery: "",
+    lastKind: null, drawn: null, target: null, mapImage: null,
+    cam: { yaw: 0.7, pitch: 0.28, zoom: 1 },
+  };
+
+  function bindManifold() {
+    $("m-train").addEventListener("click", manifoldTrain);
+    $("m-map").addEventListener("click", (e) => {
+      if (!M.map) return;
+      const rect = $("m-map").getBoundingClientRect();
+      const p = toLattice(e.clientX - rect.left, e.clientY - rect.top);
+      M.points.push(p);
+      manifoldRequest("points");
+    });
+    $("m-clear").addEventListener("click", () => { M.points = []; drawMapOverlay(); });
+    $("m-play").addEventListener("click", () => {
+      M.playing = !M.playing;
+      $("m-play").textContent = M.playing ? "pause" : "play";
+    });
+    $("m-frames").addEventListener("change", () => { if (M.lastKind) manifoldRequest(M.lastKind); });
+    $("m-guards").addEventListener("change", () => { if (M.lastKind) manifoldRequest(M.lastKind); });
+    $("m-noise").addEventListener("input", () => {
+      $("m-noise-out").textContent = (+$("m-noise").value).toFixed(2);
+    });
+    $("m-noise").addEventListener("change", () => { if (M.lastKind === "start") manifoldRequest("start"); });
+    for (const id of ["m-key-clip", "m-start-clip"]) {
+      $(id).addEventListener("change", () => setFrameMax(id));
+    }
+    $("m-key-add").addEventListener("click", () => {
+      M.keys.push(`${$("m-key-clip").value}:${Math.max(0, Math.floor(+$("m-key-frame").value))}`);
+      $("m-keys").textContent = M.keys.join(", ");
+    });
+    $("m-key-clear").addEventListener("click", () => { M.keys = []; $("m-keys").textContent = "none"; });
+    $("m-key-go").addEventListener("click", () => { if (M.keys.length) manifoldRequest("keys"); });
+    $("m-generate").addEventListener("click", () => manifoldRequest("start"));
+    $("m-download").classList.add("disabled");
+  }
+
+  function setFrameMax(id) {
+    const c = S.clips.find((x) => String(x.index) === $(id).value);
+    const input = $(id === "m-key-clip" ? "m-key-frame" : "m-start-frame");
+    if (c) input.max = c.frames - 1;
+  }
+
+  function mStatus(text, kind) {
+    $("m-status").textContent = text;
+    $("m-status").className = kind || "";
+  }
+
+  async function manifoldTrain() {
+    if (M.state === "training" || M.state === "ready") return;
+    M.state = "training";
+    $("m-train").disabled = true;
+    let d;
+    try {
+      d = await getJSON("/api/manifold?train=1");
+      while (d.state === "training") {
+        const last = d.steps.length ? d.steps[d.steps.length - 1] : "starting";
+        mStatus(`learning… ${Math.round(100 * d.progress)}% · ${last}`, "busy");
+        await new Promise((r) => setTimeout(r, 300));
+        d = await getJSON("/api/manifold");
+      }
+    } catch (e) {
+      d = { state: "failed", error: e.message };
+    }
+    M.state = d.state;
+    if (d.state !== "ready") {
+      mStatus(`the manifold could not be learned: ${d.error}`, "bad");
+      $("m-train").disabled = false;
+      return;
+    }
+    M.map = d;
+    $("m-train").hidden = true;
+    $("m-body").hidden = false;
+    const ex = d.excluded.length ? ` · left out: ${d.excluded.map((e) => `${e.name} (${e.reason})`).join(", ")}` : "";
+    mStatus(`SOM ${d.rows}×${d.cols} on ${d.frames} frames (every ${d.stride}. frame of ${d.clips.length} clip(s)), ` +
+      `${d.k} primitives, learned in ${d.seconds.toFixed(1)} s${ex}`);
+    for (const id of ["m-key-clip", "m-start-clip"]) {
+      const sel = $(id);
+      sel.textContent = "";
+      for (const i of d.clips) {
+        const o = document.createElement("option");
+        o.value = i;
+        o.textContent = S.clips[i] ? S.clips[i].name : `clip ${i}`;
+        sel.appendChild(o);
+      }
+      setFrameMax(id);
+    }
+    $("m-frames").max = d.max_frames;
+    const cyc = (c) => c.map((p) => p.join("→")).join(", ");
+    $("m-cycles").textContent = `most likely next (eq. 5): ${cyc(d.cycles.most)}; second most likely: ${cyc(d.cycles.second)}`;
+    drawMapBase();
+    drawTransitions();
+  }
+
+  function manifoldQuery(kind) {
+    const q = new URLSearchParams();
+    if (kind === "points") q.set("points", M.points.map((p) => `${p[0].toFixed(3)},${p[1].toFixed(3)}`).join(";"));
+    else if (kind === "keys") q.set("keys", M.keys.join(","));
+    else {
+      q.set("start", `${$("m-start-clip").value}:${Math.max(0, Math.floor(+$("m-start-frame").value))}`);
+      q.set("chain", $("m-chain").value);
+      if (+$("m-noise").value > 0) q.set("noise", $("m-noise").value);
+      q.set("seed", Math.max(0, Math.floor(+$("m-seed").value)));
+    }
+    q.set("frames", Math.max(2, Math.floor(+$("m-frames").value)));
+    if (!$("m-guards").checked) q.set("guards", "0");
+    return q.toString();
+  }
+
+  function manifoldRequest(kind) {
+    if (!M.map) return;
+    if (kind === "points" && !M.points.length) return;
+    M.lastKind = kind;
+    const q = manifoldQuery(kind);
+    drawMapOverlay();
+    if (M.inflight) { M.pending = kind; return; }
+    M.inflight = true;
+    M.pending = null;
+    M.requests++;
+    mStatus("computing the motion…", "busy");
+    getJSON(`/api/manifold/motion?${q}`).then((d) => {
+      const m = decodeMotion(d, d.n_points);
+      m.sk = { parents: d.parents, sides: d.sides, nJoints: d.joint_names.length, height: d.height };
+      let ymin = Infinity;
+      for (let k = 1; k < m.pos.length; k += 3) ymin = Math.min(ymin, m.pos[k]);
+      m.sk.floor = ymin;
+      Object.assign(m, { kind: d.kind, traj: d.trajectory, knots: d.knots, primitives: d.primitives });
+      M.motion = m;
+      M.t = 0;
+      M.target = null;
+      M.lastQuery = q;
+      M.lastError = null;
+      $("m-download").href = withToken(`/api/manifold/download?${q}`);
+      $("m-download").classList.remove("disabled");
+      const what = d.kind === "points" ? `the spline through ${d.knots.length} point(s)` :
+        d.kind === "keys" ? `the spline through the BMUs of ${d.knots.length} key frame(s)` :
+          `from training frame ${d.start_training_frame}`;
+      $("m-info").textContent = `${what}: ${d.frames} frames @ ${fpsText(d.fps)} fps, primitives ${d.primitives.join(" → ")}; ` +
+        `computed in ${d.compute_ms.toFixed(0)} ms`;
+      mStatus("");
+      M.responses++;
+    }).catch((e) => {
+      M.lastError = e.message;
+      M.responses++;
+      mStatus(e.message, "bad");
+    }).finally(() => {
+      M.inflight = false;
+      if (M.pending) manifoldRequest(M.pending);
+    });
+  }
+
+  // map geometry: unit (r, c) is drawn at the centre of cell c from the left, row r from the
+  // bottom (as `mlayer primitives`' figure); canvas pixels <-> lattice coordinates
+  function mapSize() {
+    const cv = $("m-map");
+    return { W: cv.clientWidth, H: cv.clientHeight, cw: cv.clientWidth / M.map.cols, ch: cv.clientHeight / M.map.rows };
+  }
+  function toCanvas(r, c) {
+    const g = mapSize();
+    return [(c + 0.5) * g.cw, g.H - (r + 0.5) * g.ch];
+  }
+  function toLattice(x, y) {
+    const g = mapSize();
+    const c = Math.max(0, Math.min(M.map.cols - 1, x / g.cw - 0.5));
+    const r = Math.max(0, Math.min(M.map.rows - 1, (g.H - y) / g.ch - 0.5));
+    return [r, c];
+  }
+
+  function hidpi(cv) {  // the canvas at the screen's pixel density, drawn in CSS pixels
+    const dpr = window.devicePixelRatio || 1;
+    cv.width = Math.round(cv.clientWidth * dpr);
+    cv.height = Math.round(cv.clientHeight * dpr);
+    const ctx = cv.getContext("2d");
+    ctx.setTransform(dpr, 0, 0, dpr, 0, 0);
+    return ctx;
+  }
+
+  function drawMapBase() {
+    const cv = $("m-map");
+    const ctx = hidpi(cv);
+    const d = M.map, g = mapSize();
+    for (let r = 0; r < d.rows; r++) {
+      for (let c = 0; c < d.cols; c++) {
+        const u = d.umatrix[r * d.cols + c];
+        const grey = 250 - 170 * u;
+        const pc = colorOf(d.regions[r * d.cols + c]);
+        const mix = (a) => Math.round(0.62 * grey + 0.38 * a);
+        ctx.fillStyle = `rgb(${mix(pc[0])},${mix(pc[1])},${mix(pc[2])})`;
+        const [x, y] = toCanvas(r, c);
+        ctx.fillRect(x - g.cw / 2, y - g.ch / 2, g.cw + 0.5, g.ch + 0.5);
+      }
+    }
+    ctx.lineWidth = 1;
+    for (const t of d.trajectories) {
+      ctx.strokeStyle = "rgba(20,20,20,0.45)";
+      ctx.beginPath();
+      t.points.forEach((p, i) => { const [x, y] = toCanvas(p[0], p[1]); if (i) ctx.lineTo(x, y); else ctx.moveTo(x, y); });
+      ctx.stroke();
+    }
+    ctx.font = "11px system-ui, sans-serif";
+    ctx.textAlign = "center";
+    d.centers.forEach((p, i) => {
+      const [x, y] = toCanvas(p[0], p[1]);
+      const c = colorOf(i);
+      ctx.fillStyle = `rgb(${c[0]},${c[1]},${c[2]})`;
+      ctx.strokeStyle = "#111";
+      ctx.beginPath(); ctx.arc(x, y, 7, 0, 2 * Math.PI); ctx.fill(); ctx.stroke();
+      ctx.fillStyle = "#fff";
+      ctx.fillText(String(i), x, y + 4);
+    });
+    M.mapImage = ctx.getImageData(0, 0, cv.width, cv.height);
+    drawMapOverlay();
+  }
+
+  function drawMapOverlay() {  // clicked points, the motion's path and its current frame
+    if (!M.map || !M.mapImage) return;
+    const cv = $("m-map");
+    const ctx = cv.getContext("2d");
+    ctx.putImageData(M.mapImage, 0, 0);
+    const m = M.motion;
+    if (m) {
+      ctx.strokeStyle = "rgba(0,170,200,0.95)";
+      ctx.lineWidth = 2.5;
+      ctx.beginPath();
+      m.traj.forEach((p, i) => { const [x, y] = toCanvas(p[0], p[1]); if (i) ctx.lineTo(x, y); else ctx.moveTo(x, y); });
+      ctx.stroke();
+      if (m.kind !== "points") {
+        ctx.fillStyle = "rgba(200,30,30,0.9)";
+        for (const p of m.knots) { const [x, y] = toCanvas(p[0], p[1]); ctx.fillRect(x - 4, y - 4, 8, 8); }
+      }
+      const f = manifoldFrame();
+      const [x, y] = toCanvas(m.traj[f][0], m.traj[f][1]);
+      ctx.fillStyle = "#0a6";
+      ctx.beginPath(); ctx.arc(x, y, 5, 0, 2 * Math.PI); ctx.fill();
+    }
+    M.points.forEach((p, i) => {
+      const [x, y] = toCanvas(p[0], p[1]);
+      ctx.fillStyle = i === M.points.length - 1 ? "#d62728" : "#1f4fb4";
+      ctx.beginPath(); ctx.arc(x, y, 5, 0, 2 * Math.PI); ctx.fill();
+    });
+  }
+
+  function drawTransitions() {
+    const cv = $("m-trans");
+    const ctx = hidpi(cv);
+    const W = cv.clientWidth, H = cv.clientHeight, L = 22, T = 22;
+    const k = M.map.k, P = M.map.P;
+    const cw = (W - L) / k, ch = (H - T) / k;
+    ctx.fillStyle = "#fff";
+    ctx.fillRect(0, 0, W, H);
+    ctx.font = "10px system-ui, sans-serif";
+    ctx.textAlign = "center";
+    for (let i = 0; i < k; i++) {
+      const c = colorOf(i);
+      ctx.fillStyle = `rgb(${c[0]},${c[1]},${c[2]})`;
+      ctx.fillText(String(i), L + (i + 0.5) * cw, 14);
+      ctx.fillText(String(i), 10, T + (i + 0.5) * ch + 4);
+      for (let j = 0; j < k; j++) {
+        const v = Math.sqrt(P[i][j]);  // square root: the small off-diagonal entries show
+        const g = Math.round(255 * (1 - v));
+        ctx.fillStyle = `rgb(${g},${g},${g})`;
+        ctx.fillRect(L + j * cw, T + i * ch, cw + 0.5, ch + 0.5);
+      }
+    }
+  }
+
+  function manifoldFrame() {
+    const m = M.motion;
+    return m ? Math.min(m.frames - 1, Math.max(0, Math.floor(M.t * m.fps + 1e-6))) : 0;
+  }
+
+  function manifoldTick(dt) {
+    const m = M.motion;
+    if (!m) return;
+    if (M.playing) {
+      M.t += dt;
+      if (M.t * m.fps > m.frames - 1 + 1e-6) M.t = 0;
+    }
+    const cv = $("m-figure");
+    const dpr = window.devicePixelRatio || 1;
+    const w = Math.round(cv.clientWidth * dpr);
+    if (cv.width !== w || cv.height !== w) { cv.width = w; cv.height = w; }
+    const ctx = cv.getContext("2d");
+    ctx.fillStyle = "#fff";
+    ctx.fillRect(0, 0, cv.width, cv.height);
+    const f = manifoldFrame();
+    const root = point(m, f, 0, [0, 0, 0]);
+    const want = [root[0], m.sk.floor + 0.5 * m.sk.height, root[2]];
+    if (!M.target) M.target = want;
+    else for (let a = 0; a < 3; a++) M.target[a] += 0.15 * (want[a] - M.target[a]);
+    const cam = camera(M.target, cv.width, cv.height, m.sk.height, M.cam);
+    drawGrid(ctx, cam, M.target, m.sk);
+    drawFigure(ctx, cam, m, f, [0, 0, 0], false, null);
+    $("m-time").textContent = `${f + 1} / ${m.frames} · ${(f / m.fps).toFixed(2)} s`;
+    M.drawn = { frame: f, positions: Array.from({ length: m.sk.nJoints }, (_, k) => point(m, f, k, [0, 0, 0])) };
+    drawMapOverlay();
+  }
+
   window.addEventListener("resize", () => { if (S.proc) drawChart(); });
 
   window.mlayerViewer = {
     state: S, play, pause, setFrame, request,
     get ready() { return S.ready; },
     get drawn() { return S.drawn; },
+    manifold: { state: M, train: manifoldTrain, request: manifoldRequest, toLattice, toCanvas,
+      pause: () => { M.playing = false; $("m-play").textContent = "play"; },
+      setFrame: (f) => { if (M.motion) M.t = Math.max(0, Math.min(M.motion.frames - 1, f)) / M.motion.fps; },
+      get drawn() { return M.drawn; } },
   };
   document.addEventListener("DOMContentLoaded", start);
 })();
