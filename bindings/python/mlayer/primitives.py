@@ -147,9 +147,11 @@ _log = logging.getLogger("mlayer.primitives")
 _FIT_STEPS = 5
 
 
-def _say(msg: str, bar=None) -> None:
-    """Log one step of the fit (and advance its progress bar when given)."""
+def _log_step(msg: str, bar=None, on_step=None) -> None:
+    """Log one step of the fit (advance its progress bar and call on_step when given)."""
     _log.info(msg)
+    if on_step is not None:
+        on_step(msg)
     if bar is not None:
         bar.update(1)
 
@@ -171,7 +173,8 @@ class PrimitiveModel:
     @classmethod
     def fit(cls, clips, *, k="auto", ks=range(2, 21), manifold: str = "som", som=None,
             epochs: int = 20, lattice=None, kernel: str = "thin_plate",
-            smoothing: float = 1e-6, seed: int = 0, progress=None) -> "PrimitiveModel":
+            smoothing: float = 1e-6, seed: int = 0, progress=None,
+            on_step=None) -> "PrimitiveModel":
         """Learn a model from one Motion or a list of Motions of one skeleton.
 
         k: number of primitives, or "auto" (elbow rule over ks). manifold: "som" (a rows x
@@ -180,6 +183,8 @@ class PrimitiveModel:
         nearby determined). The steps are logged (INFO) to the ``mlayer.primitives`` logger;
         progress: a bar over them (None: on when stderr is a terminal and tqdm is installed;
         True, False, a stream, or a callable(done, total); see ``mlayer._progress``).
+        on_step: a callable(line) also given each step's line as it is logged (the viewer
+        shows them).
 
         Defaults that scale with n, the number of training frames (:func:`default_lattices`):
         ``som`` s x s units with s = min(30, isqrt(n)) (about one frame per unit; the paper's
@@ -215,12 +220,16 @@ class PrimitiveModel:
         make_bar = resolve(progress, "PrimitiveModel.fit")
         clips = same_units(clips)
         with make_bar(_FIT_STEPS, "primitives", "step") as bar:
-            return cls()._fit(clips, bar, k=k, ks=ks, manifold=manifold, som=som, epochs=epochs,
-                              lattice=lattice, kernel=kernel, smoothing=smoothing, seed=seed)
+            return cls()._fit(clips, bar, on_step, k=k, ks=ks, manifold=manifold, som=som,
+                              epochs=epochs, lattice=lattice, kernel=kernel,
+                              smoothing=smoothing, seed=seed)
 
-    def _fit(self, clips, bar, *, k, ks, manifold, som, epochs, lattice, kernel, smoothing,
-             seed) -> "PrimitiveModel":
+    def _fit(self, clips, bar, on_step, *, k, ks, manifold, som, epochs, lattice, kernel,
+             smoothing, seed) -> "PrimitiveModel":
         """The steps of :meth:`fit` on checked arguments (clips in one unit)."""
+        def _say(msg: str, advance=None) -> None:
+            _log_step(msg, advance, on_step)
+
         from .features import pose_features
         from .clustering import elbow, kmeans
         from .layers import body_translation_joint

@@ -42,12 +42,12 @@ def run(capsys, *argv):
 # ---- progress and logging --------------------------------------------------------------------
 
 def test_library_code_does_not_print():
-    """No print() in the package outside the command line (cli/) and the viewer's request log
-    (viewer/server.py, which writes to the log stream it is given)."""
+    """No print() in the package outside the command line (cli/) and the viewer's log
+    (viewer/server.py and viewer/manifold.py write to the log stream the server is given)."""
     found = []
     for path in PACKAGE.rglob("*.py"):
         rel = path.relative_to(PACKAGE).as_posix()
-        if rel.startswith("cli/") or rel == "viewer/server.py":
+        if rel.startswith("cli/") or rel in ("viewer/server.py", "viewer/manifold.py"):
             continue
         for node in ast.walk(ast.parse(path.read_text())):
             if isinstance(node, ast.Call) and getattr(node.func, "id", None) == "print":
