@@ -666,8 +666,8 @@ class PrimitiveModel:
             if f >= n:
                 raise InvalidArgumentError(f"option keys: frame {f} is beyond {what} ({n} "
                                            f"frames, 0 .. {n - 1})")
-            out.append(self.to_manifold(clip[f:f + 1])[0] if first is None
-                       else self.points[first + f])
+            # a Motion's features as a whole clip (its up axis and heading from all frames)
+            out.append(self.to_manifold(clip)[f] if first is None else self.points[first + f])
         return np.array(out, dtype=np.float64)
 
     def spline(self, knots, times, n_frames: int, *, stiffness: float = 1e-3) -> np.ndarray:

@@ -260,7 +260,7 @@ def _primitives_args(p) -> None:
                    help="what picks k when --k auto (default elbow)")
     p.add_argument("--cluster", choices=("kmeans", "fcm", "gmm"), default="kmeans",
                    help="what labels the frames: k-means, fuzzy c-means or a Gaussian mixture")
-    p.add_argument("--order", type=_order, default=1, metavar="1|2|3|auto",
+    p.add_argument("--order", default="1", metavar="1|2|3|auto",
                    help="order of the Markov jump model (auto: best held-out likelihood)")
     p.add_argument("--min-count", type=int, default=1,
                    help="back off to a shorter context seen fewer times than this (default 1: "
@@ -294,7 +294,8 @@ def cmd_primitives(args) -> int:
         if not np.array_equal(m.skeleton.parents, sk.parents):
             raise InvalidArgumentError(f"{path}: another skeleton than {args.clips[0]}")
     model = PrimitiveModel.fit(clips, k=args.k, ks=args.ks, criterion=args.criterion,
-                               cluster=args.cluster, order=args.order, min_count=args.min_count,
+                               cluster=args.cluster, order=_order(args.order),
+                               min_count=args.min_count,
                                manifold="pca" if args.pca else "som", som=args.som,
                                epochs=args.epochs, lattice=args.lattice, kernel=args.kernel,
                                seed=args.seed, progress=True,
