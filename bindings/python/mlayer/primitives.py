@@ -7,7 +7,7 @@
    components (``manifold="pca"``);
 2. primitives: clusters of the manifold points (k-means, fuzzy c-means or a Gaussian mixture,
    ``cluster=``), k given or chosen (k="auto") by the elbow rule, the silhouette or the BIC of
-   a Gaussian mixture (``criterion=``; :func:`mlayer.clustering.k_criteria` computes all three
+   a Gaussian mixture (``criterion=``; :func:`mlayer.mixture.k_criteria` computes all three
    side by side);
 3. their dynamics: a :class:`mlayer.Markov` model of consecutive frame labels, its jump model
    of the distinct primitives of order 1 .. 3 (``order=``, "auto": the best held-out
@@ -153,7 +153,7 @@ def _check_plan(n: int, k, ks, criterion, cluster, order, min_count, manifold, s
     """The arguments of :meth:`PrimitiveModel.fit` checked against the n training frames before
     any training: k at most the frames and the SOM's units (the distinct manifold points a SOM
     can give), the candidate ks cut to that bound, the GRBF lattice at most n centres."""
-    from .clustering import CRITERIA
+    from .mixture import CRITERIA
     if criterion not in CRITERIA:
         raise InvalidArgumentError(f"option criterion must be one of {', '.join(CRITERIA)}, "
                                    f"got {criterion!r}")
@@ -323,7 +323,8 @@ class PrimitiveModel:
 
     def _set_primitives(self, plan: dict, seed: int, progress) -> None:
         """Primitives (labels, centres), the k criteria and the Markov model of the labels."""
-        from .clustering import k_criteria, kmeans
+        from .clustering import kmeans
+        from .mixture import k_criteria
         ks, k = plan["ks"], plan["k"]
         reg = _SOM_REG_COVAR if self.manifold == "som" else 1e-6 * float(
             max(self.points.var(axis=0).max(), 1e-300))
@@ -835,7 +836,7 @@ class PrimitiveModel:
     def _load_dynamics(self, z, fmt: int) -> None:
         """The Markov model, the k criteria and the clip names of a model file; format 1 files
         (before orders and criteria) load as order 1, clips named by their index."""
-        from .clustering import KCriteria
+        from .mixture import KCriteria
         from .markov import contexts_from_arrays
         if fmt == 1:
             self.markov = Markov(z["P"], z["counts"], z["run_length"])

@@ -6,7 +6,7 @@ import pytest
 
 import mlayer
 from mlayer import InvalidArgumentError, PrimitiveModel
-from mlayer.clustering import elbow_point, k_criteria, silhouette_score
+from mlayer.clustering import elbow_point, silhouette_score
 
 CLIPS = [("cmu_131_01_mj_style_walk.bvh", None), ("lafan1_clip_a.bvh", 1200),
          ("bandai1_walk_happy_001.bvh", None), ("ai4a_dog_D1_008_KAN01_002.bvh", None)]
