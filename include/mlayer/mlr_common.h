@@ -71,7 +71,7 @@ MLR_API const char *mlr_status_name(mlr_status s);
 /** One sentence describing a status, static storage. Never NULL. */
 MLR_API const char *mlr_status_string(mlr_status s);
 
-/** Version of the library that is actually loaded, e.g. "0.1.0" (static storage). */
+/** Version of the library that is actually loaded, e.g. "0.2.0" (static storage). */
 MLR_API const char *mlr_version_string(void);
 /** MLR_VERSION_NUMBER of the loaded library: major*10000 + minor*100 + patch. */
 MLR_API int mlr_version_number(void);

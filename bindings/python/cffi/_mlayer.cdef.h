@@ -144,12 +144,12 @@ mlr_status mlr_fk_arrays(size_t n_frames, size_t n_joints, const int32_t *parent
 mlr_status mlr_fk_motion(const mlr_motion *motion, size_t begin, size_t count,
                          double *world_pos, double *world_rot, mlr_diag *diag);
 
-/* mlr_quat.h: predictive sign continuity (MLAYER_0.3) */
+/* mlr_quat.h: predictive sign continuity */
 void mlr_quat_continue_sign(const mlr_quat *prev, size_t n_prev, const mlr_quat *q,
                             mlr_quat *out);
 void mlr_quat_make_continuous_predictive(mlr_quat *q, size_t n_frames, size_t n_tracks);
 
-/* mlr_resample.h (MLAYER_0.3); MLR_RESAMPLE_AUTO is -1.0, KAPPA_DOWN 0.5, KAPPA_UP 0.01,
+/* mlr_resample.h; MLR_RESAMPLE_AUTO is -1.0, KAPPA_DOWN 0.5, KAPPA_UP 0.01,
  * MAX_FACTOR 100 (floating-point macros are not visible through cffi) */
 enum { MLR_RESAMPLE_ALLOW_EXTREME = 1, MLR_RESAMPLE_NEAREST_SIGN = 2 };
 mlr_status mlr_resample_n_out(size_t n_frames, double fps_in, double fps_out, unsigned flags,
@@ -200,7 +200,7 @@ size_t mlr_stream_pending(const mlr_stream *st);
 double mlr_stream_decay_rate(double lam, double sigma);
 void mlr_stream_destroy(mlr_stream *st);
 
-/* mlr_layers.h (MLAYER_0.2) */
+/* mlr_layers.h */
 typedef struct mlr_layers mlr_layers;
 typedef enum mlr_layers_key {
     MLR_LAYERS_OPT_GAMMA = 1, MLR_LAYERS_OPT_LAM_B = 2, MLR_LAYERS_OPT_SIGMA_B = 3,
@@ -529,12 +529,12 @@ mlr_status mlr_guards_apply(const mlr_guards *g, const double *alpha, size_t n_a
                             mlr_guards_report *report, mlr_diag *diag);
 void mlr_guards_destroy(mlr_guards *g);
 
-/* Exact retiming (issue 20, MLAYER_0.11). */
+/* Exact retiming (issue 20). */
 enum { MLR_RESAMPLE_OPEN_END = 4 };
 mlr_status mlr_resample_rate_map(size_t n_frames, double fps_in, double fps_out,
                                  unsigned flags, double *t, size_t *n_out, mlr_diag *diag);
 
-/* Lenient BVH reading with warnings (issue 20, MLAYER_0.11). */
+/* Lenient BVH reading with warnings (issue 20). */
 typedef enum mlr_bvh_read_key {
     MLR_BVH_OPT_STRICT = 1, MLR_BVH_OPT_KEEP_TRUNCATED = 2
 } mlr_bvh_read_key;

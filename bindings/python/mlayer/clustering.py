@@ -188,5 +188,46 @@ def elbow(X, ks, **kwargs) -> ElbowResult:
     return ElbowResult(k, np.array(ks), inertia, score, results)
 
 
+def silhouette_score(X, labels) -> float:
+    """Mean silhouette of the rows of X (n, d) for labels (n,) (Euclidean distances), as
+    scikit-learn's ``silhouette_score``: s_i = (b_i - a_i) / max(a_i, b_i) with a_i the mean
+    distance to the other rows of i's cluster and b_i the smallest mean distance to another
+    cluster's rows; 0 for a row alone in its cluster. Needs 2 <= clusters <= n - 1.
+
+    Exact, and cheap on manifold points with many repeats (SOM lattice positions): equal rows
+    with equal labels are counted once, with their multiplicity."""
+    X = _prepare_data(X)
+    _arrays.require_finite(X, "X")
+    lab = np.asarray(labels)
+    if lab.shape != (X.shape[0],) or (lab.size and not np.issubdtype(lab.dtype, np.integer)):
+        raise InvalidArgumentError(f"labels: need {X.shape[0]} integers, got shape {lab.shape}")
+    _, lab = np.unique(lab, return_inverse=True)
+    k = int(lab.max()) + 1
+    if not 2 <= k <= X.shape[0] - 1:
+        raise InvalidArgumentError(f"silhouette: {k} clusters for {X.shape[0]} rows (needs "
+                                   f"2 .. n - 1)")
+    rows, inv, w = np.unique(np.column_stack([X, lab]), axis=0, return_inverse=True,
+                             return_counts=True)
+    U, ul = rows[:, :-1], rows[:, -1].astype(np.int64)
+    W = np.bincount(lab, minlength=k).astype(np.float64)
+    onehot = np.zeros((U.shape[0], k))
+    onehot[np.arange(U.shape[0]), ul] = w
+    s = np.empty(U.shape[0])
+    for a in range(0, U.shape[0], 256):
+        b = min(a + 256, U.shape[0])
+        D = np.sqrt(np.maximum(((U[a:b, None, :] - U[None, :, :]) ** 2).sum(-1), 0.0))
+        S = D @ onehot  # (chunk, k): sum of distances to each cluster's rows
+        own = ul[a:b]
+        n_own = W[own] - 1.0
+        ai = np.where(n_own > 0, S[np.arange(b - a), own] / np.maximum(n_own, 1.0), 0.0)
+        M = S / W[None, :]
+        M[np.arange(b - a), own] = np.inf
+        bi = M.min(axis=1)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            si = (bi - ai) / np.maximum(ai, bi)
+        s[a:b] = np.where(n_own > 0, np.nan_to_num(si), 0.0)
+    return float((s * w).sum() / X.shape[0])
+
+
 __all__ = ["kmeans", "KMeansResult", "predict", "elbow", "elbow_point", "ElbowResult",
-           "default_threads"]
+           "default_threads", "silhouette_score"]

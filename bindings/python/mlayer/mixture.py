@@ -11,7 +11,8 @@ from . import _arrays
 from ._args import integer
 from .errors import InvalidArgumentError
 
-__all__ = ["fuzzy_cmeans", "FuzzyResult", "GaussianMixture"]
+__all__ = ["fuzzy_cmeans", "FuzzyResult", "GaussianMixture", "k_criteria", "KCriteria",
+           "CRITERIA"]
 
 
 def _data(X, k: int, what: str, name: str = "X") -> np.ndarray:
@@ -304,3 +305,57 @@ class GaussianMixture:
         cov_p = self.k * d * (d + 1) / 2 if self.covariance == "full" else self.k * d
         p = cov_p + self.k * d + self.k - 1
         return -2.0 * self.log_likelihood(X) + p * math.log(X.shape[0])
+
+
+# ---------------------------------------------------------------------------------------------
+# how many clusters
+
+
+@dataclass(frozen=True)
+class KCriteria:
+    """How many clusters, by three criteria side by side (see :func:`k_criteria`): the ks,
+    k-means inertia, silhouette of the k-means labels, BIC of a Gaussian mixture; the k each
+    criterion picks (``picks``: {"elbow": k, "silhouette": k, "bic": k}) and the k-means
+    results."""
+    ks: np.ndarray
+    inertia: np.ndarray
+    silhouette: np.ndarray
+    bic: np.ndarray
+    picks: dict
+    results: tuple
+
+
+CRITERIA = ("elbow", "silhouette", "bic")
+
+
+def k_criteria(X, ks, *, seed: int = 0, n_init: int = 3, reg_covar: float = 1e-6) -> KCriteria:
+    """For every k in ks: k-means (n_init seeded runs), its inertia and the silhouette of its
+    labels (:func:`mlayer.clustering.silhouette_score`; nan for k = 1 or k >= n), and the BIC of a full-covariance
+    :class:`GaussianMixture` started from the k-means centres (reg_covar added to its
+    covariances). Picks: the elbow of the inertia (:func:`mlayer.clustering.elbow_point`), the largest
+    silhouette, the smallest BIC (the smaller k on ties)."""
+    from .clustering import elbow_point, kmeans, silhouette_score
+    X = _data(X, 1, "k")
+    ks = sorted(integer(k, "k", 1) for k in ks)
+    if not ks:
+        raise InvalidArgumentError("ks is empty")
+    if len(set(ks)) != len(ks):
+        raise InvalidArgumentError("ks has repeated values")
+    n = X.shape[0]
+    results = tuple(kmeans(X, k, seed=seed, n_init=n_init) for k in ks)
+    inertia = np.array([r.inertia for r in results])
+    sil = np.full(len(ks), np.nan)
+    bic = np.full(len(ks), np.nan)
+    for i, (k, r) in enumerate(zip(ks, results)):
+        if 2 <= len(np.unique(r.labels)) <= n - 1:
+            sil[i] = silhouette_score(X, r.labels)
+        try:
+            g = GaussianMixture(k, init=r.centers, reg_covar=reg_covar, seed=seed).fit(X)
+            bic[i] = g.bic(X)
+        except InvalidArgumentError:  # a collapsed component: no BIC for this k
+            pass
+    picks = {"elbow": elbow_point(ks, inertia)[0]}
+    for name, v, sign in (("silhouette", sil, -1.0), ("bic", bic, 1.0)):
+        ok = np.isfinite(v)
+        picks[name] = int(np.array(ks)[ok][np.argmin(sign * v[ok])]) if ok.any() else ks[0]
+    return KCriteria(np.array(ks), inertia, sil, bic, picks, results)

@@ -5,8 +5,13 @@
 1. pose features (:func:`mlayer.pose_features`) and their 2-D manifold points: the best-matching
    unit of each frame on a SOM lattice (``manifold="som"``), or the first two principal
    components (``manifold="pca"``);
-2. primitives: k-means of the manifold points, k chosen by the elbow rule when k="auto";
-3. their dynamics: a :class:`mlayer.Markov` model of consecutive frame labels;
+2. primitives: clusters of the manifold points (k-means, fuzzy c-means or a Gaussian mixture,
+   ``cluster=``), k given or chosen (k="auto") by the elbow rule, the silhouette or the BIC of
+   a Gaussian mixture (``criterion=``; :func:`mlayer.mixture.k_criteria` computes all three
+   side by side);
+3. their dynamics: a :class:`mlayer.Markov` model of consecutive frame labels, its jump model
+   of the distinct primitives of order 1 .. 3 (``order=``, "auto": the best held-out
+   log-likelihood, :func:`mlayer.markov.heldout_loglik`) with back-off (``min_count=``);
 4. the generative GRBF mapping (:class:`mlayer.GRBF`) from manifold points to poses: body
    height, body velocity and turning rate in the heading frame, joint rotations (quaternions,
    the body joint's without its heading) and joint positions (the pose features).
@@ -48,7 +53,12 @@ from .motion import Motion, Skeleton
 
 __all__ = ["PrimitiveModel", "heading_quat", "split_heading", "default_lattices", "same_units"]
 
-_FORMAT = 1
+_FORMAT = 2  # 2: jump contexts of order 1 .. 3, the k criteria, clip names; 1 loads as order 1
+_FORMATS = (1, 2)
+# SOM manifold points are lattice positions (the BMU's, rounded to the unit): the GMM of the BIC
+# criterion adds the variance of that rounding, 1/12 per axis, to its covariances
+_SOM_REG_COVAR = 1.0 / 12.0
+CLUSTERS = ("kmeans", "fcm", "gmm")
 # generated contacts: a pin holds while the generated foot drifts at most this many body heights
 # from where the contact started; a new contact starts after a gap of _PIN_GAP seconds
 _PIN_DRIFT = 0.25
@@ -139,6 +149,55 @@ def same_units(clips) -> list:
     return out
 
 
+def _check_plan(n: int, k, ks, criterion, cluster, order, min_count, manifold, som, lattice,
+                names, n_clips: int) -> dict:
+    """The arguments of :meth:`PrimitiveModel.fit` checked against the n training frames before
+    any training: k at most the frames and the SOM's units (the distinct manifold points a SOM
+    can give), the candidate ks cut to that bound, the GRBF lattice at most n centres."""
+    from .mixture import CRITERIA
+    if criterion not in CRITERIA:
+        raise InvalidArgumentError(f"option criterion must be one of {', '.join(CRITERIA)}, "
+                                   f"got {criterion!r}")
+    if cluster not in CLUSTERS:
+        raise InvalidArgumentError(f"option cluster must be one of {', '.join(CLUSTERS)}, got "
+                                   f"{cluster!r}")
+    if order != "auto":
+        from .markov import MAX_ORDER
+        order = integer(order, "option order", 1, MAX_ORDER)
+    min_count = integer(min_count, "option min_count", 1)
+    limit, where = n, f"the number of training frames ({n})"
+    if manifold == "som":
+        units = int(som[0]) * int(som[1])
+        if units < limit:
+            limit, where = units, (f"the SOM's {int(som[0])}x{int(som[1])} = {units} units (a "
+                                   f"SOM gives at most that many distinct manifold points)")
+    if k != "auto":
+        k = integer(k, "option k", 1)
+        if k > limit:
+            raise InvalidArgumentError(f"option k = {k} exceeds {where}")
+    if ks is None:
+        ks = range(2, 21) if k == "auto" else ()
+    ks = sorted({integer(q, "option ks", 1) for q in ks})
+    cut = [q for q in ks if q <= limit]
+    if k == "auto" and not cut:
+        raise InvalidArgumentError(f"option ks: every candidate k exceeds {where}")
+    if lattice is not None:
+        cells = int(lattice[0]) * int(lattice[1])
+        if cells > n:
+            raise InvalidArgumentError(
+                f"option lattice {int(lattice[0])}x{int(lattice[1])} = {cells} GRBF centres "
+                f"exceeds the number of training frames ({n}); give a smaller lattice")
+    if names is None:
+        names = [str(i) for i in range(n_clips)]
+    else:
+        names = [str(v) for v in names]
+        if len(names) != n_clips or len(set(names)) != n_clips:
+            raise InvalidArgumentError(f"names: need {n_clips} distinct clip names, got "
+                                       f"{names!r}")
+    return dict(k=k, ks=cut, criterion=criterion, cluster=cluster, order=order,
+                min_count=min_count, names=names)
+
+
 #: the steps of PrimitiveModel.fit are logged here (INFO); the command line shows them
 _log = logging.getLogger("mlayer.primitives")
 
@@ -147,13 +206,24 @@ _log = logging.getLogger("mlayer.primitives")
 _FIT_STEPS = 5
 
 
-def _log_step(msg: str, bar=None, on_step=None) -> None:
-    """Log one step of the fit (advance its progress bar and call on_step when given)."""
-    _log.info(msg)
-    if on_step is not None:
-        on_step(msg)
-    if bar is not None:
-        bar.update(1)
+class _Steps:
+    """Where the steps of a fit go: the ``mlayer.primitives`` logger (INFO), fit's on_step
+    callable, and its progress bar (advanced after each of the :data:`_FIT_STEPS` steps)."""
+
+    def __init__(self, bar, on_step=None):
+        self.bar, self.on_step = bar, on_step
+
+    def say(self, msg: str, advance: bool = False) -> None:
+        _log.info(msg)
+        if self.on_step is not None:
+            self.on_step(msg)
+        if advance:
+            self.bar.update(1)
+
+
+def _say(steps: _Steps, msg: str, advance: bool = False) -> None:
+    """One step of a fit (see :class:`_Steps`)."""
+    steps.say(msg, advance)
 
 
 class PrimitiveModel:
@@ -171,13 +241,23 @@ class PrimitiveModel:
     # -- learning ------------------------------------------------------------------------------
 
     @classmethod
-    def fit(cls, clips, *, k="auto", ks=range(2, 21), manifold: str = "som", som=None,
-            epochs: int = 20, lattice=None, kernel: str = "thin_plate",
+    def fit(cls, clips, *, k="auto", ks=None, criterion: str = "elbow",
+            cluster: str = "kmeans", order=1, min_count: int = 1, manifold: str = "som",
+            som=None, epochs: int = 20, lattice=None, kernel: str = "thin_plate",
             smoothing: float = 1e-6, seed: int = 0, progress=None,
-            on_step=None) -> "PrimitiveModel":
+            names=None, on_step=None) -> "PrimitiveModel":
         """Learn a model from one Motion or a list of Motions of one skeleton.
 
-        k: number of primitives, or "auto" (elbow rule over ks). manifold: "som" (a rows x
+        k: number of primitives, or "auto": the pick of criterion ("elbow", "silhouette" or
+        "bic") over ks (default 2 .. 20; ks given with an integer k: the criteria are computed
+        and stored all the same, in ``criteria``). cluster: what labels the frames and places
+        the primitives' centres: "kmeans", "fcm" (fuzzy c-means, each frame in its cluster of
+        largest membership) or "gmm" (Gaussian mixture, the most responsible component), both
+        started from the k-means centres; clusters that get no frame are dropped. order: 1 .. 3
+        or "auto" (the order of best held-out log-likelihood), min_count: the back-off rule of
+        the jump model (:class:`mlayer.Markov`). names: the clips' names (default their index),
+        for :meth:`generate`'s keys. k, ks and the lattices are checked against the number of
+        frames before any training. manifold: "som" (a rows x
         cols SOM, batch training for epochs) or "pca". lattice, kernel, smoothing: the GRBF
         (a small relative ridge keeps the weights of lattice centres with no training frame
         nearby determined). The steps are logged (INFO) to the ``mlayer.primitives`` logger;
@@ -217,81 +297,139 @@ class PrimitiveModel:
             if lattice is None:
                 lattice = lattice_d if manifold != "som" else tuple(
                     min(g, int(s)) for g, s in zip(lattice_d, som))
-        make_bar = resolve(progress, "PrimitiveModel.fit")
+        n_frames = sum(m.n_frames for m in clips)
+        plan = _check_plan(n_frames, k, ks, criterion, cluster, order, min_count, manifold,
+                           som, lattice, names, len(clips))
+        make_bar = resolve(progress, "PrimitiveModel.fit")  # before any work
         clips = same_units(clips)
         with make_bar(_FIT_STEPS, "primitives", "step") as bar:
-            return cls()._fit(clips, bar, on_step, k=k, ks=ks, manifold=manifold, som=som,
+            return cls()._fit(clips, plan, _Steps(bar, on_step), manifold=manifold, som=som,
                               epochs=epochs, lattice=lattice, kernel=kernel,
                               smoothing=smoothing, seed=seed)
 
-    def _fit(self, clips, bar, on_step, *, k, ks, manifold, som, epochs, lattice, kernel,
-             smoothing, seed) -> "PrimitiveModel":
-        """The steps of :meth:`fit` on checked arguments (clips in one unit)."""
-        def _say(msg: str, advance=None) -> None:
-            _log_step(msg, advance, on_step)
-
+    def _fit(self, clips, plan: dict, progress: _Steps, *, manifold, som, epochs, lattice,
+             kernel, smoothing, seed) -> "PrimitiveModel":
+        """The steps of :meth:`fit` on checked arguments (`plan`: _check_plan's; clips in one
+        unit; `progress`: where the steps go)."""
         from .features import pose_features
-        from .clustering import elbow, kmeans
         from .layers import body_translation_joint
+        self.clip_names = plan["names"]
         self.skeleton = clips[0].skeleton
         self.frame_time = float(np.median([m.frame_time for m in clips]))
         self._set_body(body_translation_joint(clips), clips)
-        _say(f"features: {len(clips)} clip(s), "
-             f"{sum(m.n_frames for m in clips)} frames")
+        _say(progress, f"features: {len(clips)} clip(s), "
+                       f"{sum(m.n_frames for m in clips)} frames")
         X = pose_features(clips)
-        bar.update(1)
+        progress.bar.update(1)
         self.clip_starts = np.cumsum([0] + [m.n_frames for m in clips[:-1]]).astype(np.int64)
         self.manifold = manifold
         if manifold == "som":
             from .som import SOM
             rows, cols = (int(v) for v in som)
-            _say(f"SOM {rows}x{cols}: {epochs} batch epochs on {X.shape[0]} x "
-                 f"{X.shape[1]}")
+            _say(progress, f"SOM {rows}x{cols}: {epochs} batch epochs on {X.shape[0]} x "
+                           f"{X.shape[1]}")
             s = SOM(rows, cols, X.shape[1], seed=seed)
             s.train(X, epochs, mode="batch")
             self.som_codebook = s.codebook
             self.points = s.bmu(X).astype(np.float64)
             self.bounds = ((0.0, rows - 1.0), (0.0, cols - 1.0))
-            _say(f"SOM: quantization error {s.quantization_error(X):.4g}, "
-                 f"topographic error {s.topographic_error(X):.3f}, "
-                 f"{len(np.unique(s.bmu_index(X)))} units used")
+            _say(progress, f"SOM: quantization error {s.quantization_error(X):.4g}, "
+                           f"topographic error {s.topographic_error(X):.3f}, "
+                           f"{len(np.unique(s.bmu_index(X)))} units used")
         else:
             p = PCA(2).fit(X)
             self.pca_mean, self.pca_components = p.mean_, p.components_
             self.points = p.transform(X)
             self.bounds = tuple((float(self.points[:, j].min()), float(self.points[:, j].max()))
                                 for j in range(2))
-        bar.update(1)
-        if k == "auto":
-            ks = [q for q in ks if q <= X.shape[0]]
-            _say(f"elbow: k-means for k = {ks[0]} .. {ks[-1]}")
-            e = elbow(self.points, ks, seed=seed, n_init=3)
-            self.elbow_ks, self.elbow_inertia = np.asarray(e.ks), np.asarray(e.inertia)
-            km = e.results[list(e.ks).index(e.k)]
-        else:
-            self.elbow_ks = self.elbow_inertia = np.zeros(0)
-            km = kmeans(self.points, k, seed=seed, n_init=3)
-        self.centers = np.asarray(km.centers, dtype=np.float64)
-        self.labels = np.asarray(km.labels, dtype=np.int64)
-        k = self.centers.shape[0]
-        _say(f"primitives: k = {k}", bar)
-        ends = list(self.clip_starts[1:]) + [X.shape[0]]
-        self.markov = Markov.fit([self.labels[a:b] for a, b in zip(self.clip_starts, ends)],
-                                 n_states=k)
+        progress.bar.update(1)
+        self._set_primitives(plan, seed, progress)
         Y = self._targets(clips, X)
-        _say(f"GRBF: {kernel}, {lattice[0]}x{lattice[1]} centres, "
-             f"{X.shape[0]} frames -> {Y.shape[1]} outputs")
+        _say(progress, f"GRBF: {kernel}, {lattice[0]}x{lattice[1]} centres, "
+                       f"{X.shape[0]} frames -> {Y.shape[1]} outputs")
         self.grbf = GRBF(kernel, lattice, bounds=self.bounds,
                          smoothing=smoothing).fit(self.points, Y)
         fit = self.grbf.predict(self.points)
         J = self.skeleton.n_joints
         err = np.sqrt(((fit[:, -3 * J:] - X) ** 2).reshape(-1, J, 3).sum(-1)).mean()
         self.fit_error = float(err)
-        _say(f"GRBF: mean joint position error on the training frames {err:.4g}", bar)
+        _say(progress, f"GRBF: mean joint position error on the training frames {err:.4g}",
+             True)
         self._set_guards(clips)
-        _say(f"guards: {len(self.contact_names)} contact points, floor "
-             f"{self.floor_height:.4g}", bar)
+        _say(progress, f"guards: {len(self.contact_names)} contact points, floor "
+                       f"{self.floor_height:.4g}", True)
         return self
+
+    def _set_primitives(self, plan: dict, seed: int, progress) -> None:
+        """Primitives (labels, centres), the k criteria and the Markov model of the labels."""
+        from .clustering import kmeans
+        from .mixture import k_criteria
+        ks, k = plan["ks"], plan["k"]
+        reg = _SOM_REG_COVAR if self.manifold == "som" else 1e-6 * float(
+            max(self.points.var(axis=0).max(), 1e-300))
+        self.criterion, self.cluster = plan["criterion"], plan["cluster"]
+        km = None
+        if ks:
+            _say(progress, f"k criteria (elbow, silhouette, GMM BIC): k = {ks[0]} .. {ks[-1]}")
+            c = k_criteria(self.points, ks, seed=seed, n_init=3, reg_covar=reg)
+            self.criteria = c
+            self.elbow_ks, self.elbow_inertia = np.asarray(c.ks), np.asarray(c.inertia)
+            if k == "auto":
+                k = c.picks[self.criterion]
+            if k in list(c.ks):
+                km = c.results[list(c.ks).index(k)]
+        else:
+            self.criteria = None
+            self.elbow_ks = self.elbow_inertia = np.zeros(0)
+        if km is None:
+            km = kmeans(self.points, k, seed=seed, n_init=3)
+        centers, labels = np.asarray(km.centers, np.float64), np.asarray(km.labels, np.int64)
+        if self.cluster == "fcm":
+            from .mixture import fuzzy_cmeans
+            f = fuzzy_cmeans(self.points, k, init=centers, seed=seed)
+            centers, labels = f.centers, np.asarray(f.labels, np.int64)
+        elif self.cluster == "gmm":
+            from .mixture import GaussianMixture
+            g = GaussianMixture(k, init=centers, reg_covar=reg, seed=seed).fit(self.points)
+            centers, labels = g.means_, np.asarray(g.predict(self.points), np.int64)
+        used = np.unique(labels)  # a cluster that got no frame is no primitive
+        self.centers = np.ascontiguousarray(centers[used], dtype=np.float64)
+        self.labels = np.searchsorted(used, labels).astype(np.int64)
+        k = self.centers.shape[0]
+        _say(progress, f"primitives: k = {k} ({self.cluster}"
+                       + (f", {self.criterion}" if plan["k"] == "auto" else "") + ")", True)
+        from .markov import best_order, heldout_loglik
+        seqs = self.clip_labels()
+        self.order_loglik = heldout_loglik(seqs, k, (1, 2, 3), min_count=plan["min_count"])
+        order = best_order(self.order_loglik) if plan["order"] == "auto" else plan["order"]
+        self.markov = Markov.fit(seqs, n_states=k, order=order, min_count=plan["min_count"])
+        _say(progress, f"Markov: order {order}, min_count {plan['min_count']}")
+
+    def clip_labels(self) -> list:
+        """The primitive labels of each training clip."""
+        ends = list(self.clip_starts[1:]) + [self.labels.shape[0]]
+        return [self.labels[a:b] for a, b in zip(self.clip_starts, ends)]
+
+    def clip_frames(self, clip) -> tuple[int, int]:
+        """(first training frame, number of frames) of a training clip given by index or name
+        (:attr:`clip_names`); InvalidArgumentError naming the keys otherwise."""
+        n = len(self.clip_starts)
+        names = list(getattr(self, "clip_names", []) or [str(i) for i in range(n)])
+        if isinstance(clip, (int, np.integer)) and not isinstance(clip, (bool, np.bool_)):
+            i = int(clip)
+        elif isinstance(clip, str) and clip in names:
+            i = names.index(clip)
+        elif isinstance(clip, str) and clip.isdigit():
+            i = int(clip)
+        else:
+            raise InvalidArgumentError(f"option keys: no training clip {clip!r} (the model's "
+                                       f"clips: {', '.join(names)}, or their index 0 .. "
+                                       f"{n - 1})")
+        if not 0 <= i < n:
+            raise InvalidArgumentError(f"option keys: clip index {i} out of range (the model "
+                                       f"has {n} clips, 0 .. {n - 1})")
+        end = int(self.clip_starts[i + 1]) if i + 1 < n else self.points.shape[0]
+        return int(self.clip_starts[i]), end - int(self.clip_starts[i])
 
     def _set_guards(self, clips) -> None:
         """What the guards of generated motion need from the training clips: the contacts of
@@ -485,30 +623,92 @@ class PrimitiveModel:
     # -- synthesis -------------------------------------------------------------------------------
 
     def primitive_path(self, start: int, n_frames: int, *, noise: float = 0.0, seed: int = 0,
-                       most_likely: bool = False) -> np.ndarray:
+                       most_likely: bool = False, second_likely: bool = False,
+                       allow_unseen: bool = False) -> np.ndarray:
         """Primitives from start, enough to fill n_frames at their mean durations: sampled
-        from the chain of distinct primitives (perturbed by noise), or following equation 5."""
-        dur = np.maximum(self.markov.run_length, 1.0)
+        from the chain of distinct primitives (of the model's order), or following the most
+        likely (equation 5) or the second most likely next primitive (paper Figure 3 (c)). The
+        chain is perturbed first when noise > 0 (:meth:`mlayer.Markov.perturbed`, seed,
+        allow_unseen): the most likely path of a perturbed chain is paper Figure 3 (d)."""
+        if most_likely and second_likely:
+            raise InvalidArgumentError("generate: most_likely and second_likely exclude each "
+                                       "other (--most-likely, --second-likely)")
+        noise = _non_negative(noise, "generate: noise")
+        mk = self.markov.perturbed(noise, seed, allow_unseen=allow_unseen) \
+            if noise > 0 or allow_unseen else self.markov
+        rank = 1 if most_likely else 2 if second_likely else 0
+        dur = np.maximum(mk.run_length, 1.0)
         path = [int(start)]
         total = 0.0
         chunk = 64
         i = 0
         while total < n_frames:
-            if most_likely:
-                nxt = self.markov.most_likely_next(path[-1])
+            if rank:
+                nxt = mk.ranked_next(path[-mk.order:], rank)
                 if nxt < 0:
                     break
                 path.append(nxt)
             else:
                 if i % chunk == 0:
-                    seq = self.markov.sample(path[-1], chunk + 1, noise=noise, seed=seed + i,
-                                             distinct=True)[1:]
+                    seq = mk.sample(path[-1], chunk + 1, seed=seed + i, distinct=True,
+                                    history=path[:-1][-(mk.order - 1):] if mk.order > 1
+                                    else None)[1:]
                 path.append(int(seq[i % chunk]))
             i += 1
             total += (dur[path[-2]] + dur[path[-1]]) / 2.0
             if i > 100000:
                 break
         return np.array(path, dtype=np.int64)
+
+    def through_points(self, points) -> np.ndarray:
+        """Manifold points (K, 2) (row, column of the lattice; PCA: PC 1, PC 2) checked to be
+        finite and on the map (the box the GRBF spans); InvalidArgumentError naming through."""
+        p = np.asarray(points, dtype=np.float64) if not isinstance(points, str) else None
+        if p is None or p.ndim != 2 or p.shape[1] != 2 or p.shape[0] < 1:
+            raise InvalidArgumentError(f"option through: need points (K, 2), K >= 1, got "
+                                       f"{points!r}")
+        if not np.isfinite(p).all():
+            raise InvalidArgumentError("option through: points must be finite")
+        (r0, r1), (c0, c1) = self.bounds
+        for i, (r, c) in enumerate(p):
+            if not (r0 - 1e-9 <= r <= r1 + 1e-9 and c0 - 1e-9 <= c <= c1 + 1e-9):
+                what = "rows" if self.manifold == "som" else "PC 1"
+                other = "columns" if self.manifold == "som" else "PC 2"
+                raise InvalidArgumentError(
+                    f"option through: point {i} (row {r:g}, column {c:g}) is outside the map "
+                    f"({what} {r0:g} .. {r1:g}, {other} {c0:g} .. {c1:g})")
+        if p.shape[0] > 1 and (np.linalg.norm(np.diff(p, axis=0), axis=1) == 0).any():
+            raise InvalidArgumentError("option through: two consecutive points are the same")
+        return p
+
+    def key_points(self, keys) -> np.ndarray:
+        """Manifold points (K, 2) of key frames: each key a pair (clip, frame), clip a
+        training clip's index or name (:attr:`clip_names`) or a Motion of the model's skeleton
+        (its frame's BMU, :meth:`to_manifold`), frame an index into that clip."""
+        if isinstance(keys, (str, bytes)) or not hasattr(keys, "__len__") or len(keys) == 0:
+            raise InvalidArgumentError(f"option keys: need a list of (clip, frame) pairs, got "
+                                       f"{keys!r}")
+        out = []
+        for key in keys:
+            if not isinstance(key, (tuple, list)) or len(key) != 2:
+                raise InvalidArgumentError(f"option keys: {key!r} is not a (clip, frame) pair")
+            clip, frame = key
+            if isinstance(clip, Motion):
+                if clip.skeleton.n_joints != self.skeleton.n_joints or not np.array_equal(
+                        clip.skeleton.parents, self.skeleton.parents):
+                    raise InvalidArgumentError("option keys: the key clip has another skeleton "
+                                               "than the model")
+                n, first, what = clip.n_frames, None, "the key clip"
+            else:
+                first, n = self.clip_frames(clip)
+                what = f"clip {clip!r}"
+            f = integer(frame, "option keys: frame", 0)
+            if f >= n:
+                raise InvalidArgumentError(f"option keys: frame {f} is beyond {what} ({n} "
+                                           f"frames, 0 .. {n - 1})")
+            # a Motion's features as a whole clip (its up axis and heading from all frames)
+            out.append(self.to_manifold(clip)[f] if first is None else self.points[first + f])
+        return np.array(out, dtype=np.float64)
 
     def spline(self, knots, times, n_frames: int, *, stiffness: float = 1e-3) -> np.ndarray:
         """The LGS smoothing spline (second-difference prior) through knots (K, 2) at
@@ -520,10 +720,18 @@ class PrimitiveModel:
         return lgs(knots, lam=math.sqrt(stiffness), sigma=1.0, order=2, t=t, n_out=n_frames)
 
     def generate(self, n_frames: int, *, start_frame: int | None = None, start: int | None = None,
-                 path=None, key_poses=None, noise: float = 0.0, seed: int = 0,
-                 most_likely: bool = False, smooth: float = 2.0, guards: bool = True,
+                 path=None, key_poses=None, through=None, keys=None, noise: float = 0.0,
+                 seed: int = 0, most_likely: bool = False, second_likely: bool = False,
+                 allow_unseen: bool = False, smooth: float = 2.0, guards: bool = True,
                  return_info: bool = False):
         """Synthesize n_frames frames.
+
+        Paths given on the manifold (at most one of them): through, points (K, 2) on the map
+        (:meth:`through_points`), spaced by their distance along the polyline (paper Figure
+        4); keys, key frames (clip, frame) of the training clips (or of a Motion,
+        :meth:`key_points`), spread evenly over the frames (paper Figure 5); key_poses.
+        Otherwise the primitives' path from a start frame (:meth:`primitive_path`: sampled, or
+        most_likely / second_likely; noise, seed and allow_unseen perturb the chain).
 
         Knots of the manifold path: the manifold point of training frame start_frame (default
         a seeded random frame) followed by the centres of the primitives of ``path`` (default
@@ -557,7 +765,28 @@ class PrimitiveModel:
         per_frame = getattr(self.grbf, "n_outputs_", 0) + 8 * self.skeleton.n_joints
         _arrays.check_memory(64.0 * n_frames * per_frame, f"generate: n_frames={n_frames}")
         n = self.points.shape[0]
-        if key_poses is not None:
+        given = [nm for nm, v in (("path", path), ("key_poses", key_poses),
+                                  ("through", through), ("keys", keys)) if v is not None]
+        if len(given) > 1:
+            raise InvalidArgumentError(f"generate: {' and '.join(given)} exclude each other")
+        if most_likely and second_likely:
+            raise InvalidArgumentError("generate: most_likely and second_likely exclude each "
+                                       "other (--most-likely, --second-likely)")
+        if through is not None or keys is not None:
+            knots = self.through_points(through) if through is not None \
+                else self.key_points(keys)
+            if knots.shape[0] > n_frames:
+                raise InvalidArgumentError(f"generate: {knots.shape[0]} points for {n_frames} "
+                                           f"frames (option frames)")
+            if knots.shape[0] == 1:
+                times = np.zeros(1)
+            elif through is not None:
+                arc = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(knots, axis=0), axis=1))]
+                times = arc * (n_frames - 1) / arc[-1]
+            else:
+                times = np.linspace(0, n_frames - 1, knots.shape[0])
+            seq = np.array([int(np.argmin(((self.centers - p) ** 2).sum(1))) for p in knots])
+        elif key_poses is not None:
             knots = self.to_manifold(key_poses)
             if knots.shape[0] < 1:
                 raise InvalidArgumentError("generate: no key poses")
@@ -574,7 +803,8 @@ class PrimitiveModel:
             first = int(self.labels[start_frame]) if start is None else int(start)
             if path is None:
                 seq = self.primitive_path(first, n_frames, noise=noise, seed=seed,
-                                          most_likely=most_likely)
+                                          most_likely=most_likely, second_likely=second_likely,
+                                          allow_unseen=allow_unseen)
             else:
                 seq = np.asarray(path, dtype=np.int64)
                 if seq.ndim != 1 or seq.size == 0 or seq.min() < 0 \
@@ -642,6 +872,30 @@ class PrimitiveModel:
 
     # -- persistence -----------------------------------------------------------------------------
 
+    def _load_dynamics(self, z, fmt: int) -> None:
+        """The Markov model, the k criteria and the clip names of a model file; format 1 files
+        (before orders and criteria) load as order 1, clips named by their index."""
+        from .mixture import KCriteria
+        from .markov import contexts_from_arrays
+        if fmt == 1:
+            self.markov = Markov(z["P"], z["counts"], z["run_length"])
+            self.criterion, self.cluster, self.criteria = "elbow", "kmeans", None
+            self.clip_names = [str(i) for i in range(len(z["clip_starts"]))]
+            self.order_loglik = {}
+            return
+        self.markov = Markov(z["P"], z["counts"], z["run_length"],
+                             order=int(z["markov_order"]), min_count=int(z["markov_min_count"]),
+                             contexts=contexts_from_arrays(z["markov_ctx_keys"],
+                                                           z["markov_ctx_counts"]))
+        self.criterion, self.cluster = str(z["criterion"]), str(z["cluster"])
+        self.clip_names = [str(v) for v in z["clip_names"]]
+        self.order_loglik = {int(o): (float(v), int(m)) for o, v, m in z["order_loglik"]}
+        self.criteria = None
+        if "crit_ks" in z:
+            picks = dict(zip(("elbow", "silhouette", "bic"), (int(v) for v in z["crit_picks"])))
+            self.criteria = KCriteria(z["crit_ks"], z["crit_inertia"], z["crit_silhouette"],
+                                      z["crit_bic"], picks, ())
+
     def save(self, path) -> None:
         """Write the model as a .npz file (numpy arrays only, no pickle), atomically."""
         from ._files import atomic_output
@@ -660,6 +914,19 @@ class PrimitiveModel:
             grbf_width=np.float64(getattr(self.grbf, "width_", 0.0)),
             fit_error=np.float64(self.fit_error), body_joint=np.int64(self.body_joint),
             rest_root_pos=self.rest_root_pos, rest_trans=self.rest_trans)
+        K, R = self.markov.context_arrays()
+        arrays.update(markov_order=np.int64(self.markov.order),
+                      markov_min_count=np.int64(self.markov.min_count), markov_ctx_keys=K,
+                      markov_ctx_counts=R, criterion=np.str_(self.criterion),
+                      cluster=np.str_(self.cluster),
+                      clip_names=np.array(self.clip_names, dtype=np.str_),
+                      order_loglik=np.array([[o, *self.order_loglik[o]]
+                                             for o in sorted(self.order_loglik)]).reshape(-1, 3))
+        c = self.criteria
+        if c is not None:
+            arrays.update(crit_ks=c.ks, crit_inertia=c.inertia, crit_silhouette=c.silhouette,
+                          crit_bic=c.bic, crit_picks=np.array([c.picks[q] for q in
+                                                               ("elbow", "silhouette", "bic")]))
         if self.has_guards:
             arrays.update(contact_names=np.array(self.contact_names, dtype=np.str_),
                           contacts=self.contacts.astype(np.uint8),
@@ -696,9 +963,10 @@ class PrimitiveModel:
             raise MlayerIOError(f"{path}: cannot read a model ({e})") from None
         with z:
             try:
-                if int(z["format"]) != _FORMAT:
-                    raise MlayerIOError(f"{path}: model format {int(z['format'])}, expected "
-                                        f"{_FORMAT}")
+                fmt = int(z["format"])
+                if fmt not in _FORMATS:
+                    raise MlayerIOError(f"{path}: model format {fmt}, expected one of "
+                                        f"{', '.join(map(str, _FORMATS))}")
                 self = cls()
                 self.skeleton = Skeleton([str(s) for s in z["joint_names"]], z["parents"],
                                          z["offsets"], [str(s) for s in z["channels"]],
@@ -709,7 +977,7 @@ class PrimitiveModel:
                              "elbow_inertia"):
                     setattr(self, name, z[name])
                 self.bounds = tuple(tuple(float(v) for v in b) for b in z["bounds"])
-                self.markov = Markov(z["P"], z["counts"], z["run_length"])
+                self._load_dynamics(z, fmt)
                 g = GRBF(str(z["grbf_kernel"]), tuple(int(v) for v in z["grbf_lattice"]),
                          bounds=self.bounds)
                 g.centers_, g.coef_, g._vector = z["grbf_centers"], z["grbf_coef"], False

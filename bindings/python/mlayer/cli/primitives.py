@@ -1,18 +1,32 @@
 """`mlayer primitives` and `mlayer generate`: learn a motion manifold with primitives from clips,
 then synthesize new motion from it (paper 2).
 
-    mlayer primitives CLIPS... -o model.npz [--k auto|K] [--som RxC] [--pca] [--epochs 20]
-                               [--lattice RxC] [--kernel thin_plate|gaussian] [--plots PREFIX]
+    mlayer primitives CLIPS... -o model.npz [--k auto|K] [--ks 2..20]
+                               [--criterion elbow|silhouette|bic] [--cluster kmeans|fcm|gmm]
+                               [--order 1|2|3|auto] [--min-count M] [--som RxC] [--pca]
+                               [--epochs 20] [--lattice RxC] [--kernel thin_plate|gaussian]
+                               [--plots PREFIX]
 
 The SOM and GRBF lattices default to sizes that scale with the training frames (30x30 and 15x15
 from 900 frames on; see mlayer.primitives.default_lattices); clips in other units than the
 first (body heights a factor of 2 or more apart) are scaled to its size, with a warning.
     mlayer generate model.npz --frames 300 [--start-frame T] [--noise S] [--seed N]
-                              [--most-likely] [--no-guards] -o new.bvh
+                              [--most-likely | --second-likely] [--allow-unseen]
+                              [--through "x1,y1;x2,y2;..." | --keys CLIP:FRAME,...]
+                              [--no-guards] -o new.bvh
+
+`primitives` prints, for the candidate ks, the k-means inertia (elbow), the silhouette and the
+GMM BIC side by side with the k each picks, and the held-out log-likelihood of the Markov jump
+model of orders 1 to 3 (5-fold blocked cross-validation, mlayer.markov.heldout_loglik), so
+that --k / --criterion and --order can be chosen. k, --ks and the lattices are checked against
+the frames before the SOM trains. `generate --through` takes points on the map in the
+coordinates of PREFIX_som.png (x the lattice column, y the row; PCA: x = PC 2, y = PC 1);
+`--keys` key frames CLIP:FRAME, CLIP a training clip's file name or index (or another BVH
+file of the model's skeleton), FRAME its frame (0-based, after any --trim at training).
 
 `primitives` writes, next to the model (or at --plots PREFIX): PREFIX_som.png (the lattice with
 the first clip's trajectory and the primitive centres, like paper Figure 1), PREFIX_elbow.png
-(inertia against k, when --k auto) and PREFIX_transitions.png (the transition matrix, like
+(inertia, silhouette and BIC against k) and PREFIX_transitions.png (the transition matrix, like
 Figure 3). `generate` applies the guards of the training clips (their contacts, joint limits
 and floor; `--no-guards`: the raw mapping) and says what they did. Progress goes to stderr.
 Bad input: one line on stderr and exit status 1.
@@ -59,6 +73,76 @@ def _k(text: str):
     return k
 
 
+def _ks(text: str) -> range:
+    try:
+        a, b = text.split("..")
+        lo, hi = int(a), int(b)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected LO..HI such as 2..20, got {text!r}") \
+            from None
+    if not 1 <= lo <= hi:
+        raise argparse.ArgumentTypeError(f"expected 1 <= LO <= HI, got {text!r}")
+    return range(lo, hi + 1)
+
+
+def _order(text: str):
+    """--order: 'auto' or an integer; its range is checked by the library (one line)."""
+    if text == "auto":
+        return text
+    try:
+        return int(text)
+    except ValueError:
+        raise InvalidArgumentError(f"--order must be 1, 2, 3 or auto, got {text!r}") from None
+
+
+def parse_through(text: str) -> np.ndarray:
+    """--through "x1,y1;x2,y2;...": points (K, 2) as (row, column) = (y, x)."""
+    pts = []
+    for i, part in enumerate(p for p in text.split(";") if p.strip()):
+        try:
+            x, y = (float(v) for v in part.split(","))
+        except ValueError:
+            raise InvalidArgumentError(f"--through: point {i} {part.strip()!r} is not x,y") \
+                from None
+        pts.append((y, x))
+    if not pts:
+        raise InvalidArgumentError(f"--through: no points in {text!r}; give x1,y1;x2,y2;...")
+    return np.array(pts)
+
+
+def parse_keys(text: str, model) -> list:
+    """--keys CLIP:FRAME,...: (clip, frame) pairs for PrimitiveModel.generate(keys=...); CLIP a
+    training clip's name or index, or a BVH file of the model's skeleton (read here)."""
+    keys = []
+    for part in (p.strip() for p in text.split(",") if p.strip()):
+        clip, sep, frame = part.rpartition(":")
+        try:
+            f = int(frame)
+        except ValueError:
+            f = None
+        if not sep or not clip or f is None:
+            raise InvalidArgumentError(f"--keys: {part!r} is not CLIP:FRAME")
+        names = list(model.clip_names)
+        if clip in names or os.path.basename(clip) in names:
+            keys.append((clip if clip in names else os.path.basename(clip), f))
+        elif clip.isdigit():
+            keys.append((int(clip), f))
+        elif os.path.isfile(clip):
+            m = read_bvh(clip)
+            if m.skeleton.n_joints != model.skeleton.n_joints or not np.array_equal(
+                    m.skeleton.parents, model.skeleton.parents):
+                raise InvalidArgumentError(f"--keys: {clip} has another skeleton than the "
+                                           f"model ({m.skeleton.n_joints} joints, the model "
+                                           f"{model.skeleton.n_joints})")
+            keys.append((m, f))
+        else:
+            raise InvalidArgumentError(f"--keys: no training clip {clip!r} (the model's clips: "
+                                       f"{', '.join(names)}, or their index) and no such file")
+    if not keys:
+        raise InvalidArgumentError(f"--keys: no key frames in {text!r}")
+    return keys
+
+
 def plot_som(model, path=None, clip: int = 0, title: str | None = None):
     """The manifold with one clip's trajectory (paper Figure 1) and the primitive centres; a
     matplotlib Figure, written to `path` if given."""
@@ -95,6 +179,9 @@ def plot_som(model, path=None, clip: int = 0, title: str | None = None):
                edgecolors="k", zorder=3, label="primitive centres")
     for i, (r, q) in enumerate(c):
         ax.annotate(str(i), (q, r), xytext=(4, 4), textcoords="offset points", fontsize=8)
+    if model.manifold != "som":
+        ax.set_xlabel("PC 2")
+        ax.set_ylabel("PC 1")
     ax.set_title(title or f"motion manifold ({model.manifold})")
     ax.legend(loc="upper right", fontsize=7)
     fig.tight_layout()
@@ -103,18 +190,30 @@ def plot_som(model, path=None, clip: int = 0, title: str | None = None):
 
 
 def plot_elbow(model, path=None):
-    """k-means inertia against k with the chosen k (the elbow) marked; a matplotlib Figure,
-    written to `path` if given."""
-    fig = new_figure(_FEATURE, figsize=(5, 3.5))
-    ax = fig.subplots()
-    ax.plot(model.elbow_ks, model.elbow_inertia, "o-")
+    """The criteria for the number of primitives side by side: k-means inertia (elbow),
+    silhouette, GMM BIC against k, each criterion's pick circled, the model's k a line. A
+    matplotlib Figure, written to `path` if given."""
     k = model.centers.shape[0]
-    i = int(np.flatnonzero(model.elbow_ks == k)[0])
-    ax.plot([k], [model.elbow_inertia[i]], "o", ms=12, mfc="none", color="tab:red",
-            label=f"elbow: k = {k}")
-    ax.set_xlabel("k")
-    ax.set_ylabel("k-means inertia")
-    ax.legend()
+    c = getattr(model, "criteria", None)
+    rows = [("k-means inertia", model.elbow_inertia, "elbow")]
+    if c is not None:
+        rows += [("silhouette", c.silhouette, "silhouette"), ("GMM BIC", c.bic, "bic")]
+    fig = new_figure(_FEATURE, figsize=(5, 2.2 * len(rows) + 0.6))
+    axes = fig.subplots(len(rows), 1, sharex=True, squeeze=False)
+    ks = model.elbow_ks
+    for ax, (label, v, name) in zip(axes[:, 0], rows):
+        ax.plot(ks, v, "o-")
+        pick = c.picks[name] if c is not None else int(ks[0])
+        if name == "elbow" and c is None:
+            from ..clustering import elbow_point
+            pick = elbow_point(ks, v)[0]
+        i = int(np.flatnonzero(ks == pick)[0])
+        ax.plot([pick], [v[i]], "o", ms=12, mfc="none", color="tab:red",
+                label=f"{name}: k = {pick}")
+        ax.axvline(k, color="tab:green", lw=1, ls="--")
+        ax.set_ylabel(label)
+        ax.legend(fontsize=8)
+    axes[-1, 0].set_xlabel(f"k (dashed: the model's k = {k})")
     fig.tight_layout()
     save_figure(fig, path)
     return fig
@@ -145,7 +244,19 @@ def plot_transitions(model, path=None):
 def _primitives_args(p) -> None:
     p.add_argument("clips", nargs="+", metavar="CLIP.bvh", help="clips of one skeleton")
     p.add_argument("-o", "--output", required=True, help="model file (.npz)")
-    p.add_argument("--k", type=_k, default="auto", help="primitives: 'auto' (elbow) or K")
+    p.add_argument("--k", type=_k, default="auto",
+                   help="primitives: 'auto' (the pick of --criterion) or K")
+    p.add_argument("--ks", type=_ks, default=range(2, 21), metavar="LO..HI",
+                   help="candidate ks for the criteria (default 2..20)")
+    p.add_argument("--criterion", choices=("elbow", "silhouette", "bic"), default="elbow",
+                   help="what picks k when --k auto (default elbow)")
+    p.add_argument("--cluster", choices=("kmeans", "fcm", "gmm"), default="kmeans",
+                   help="what labels the frames: k-means, fuzzy c-means or a Gaussian mixture")
+    p.add_argument("--order", default="1", metavar="1|2|3|auto",
+                   help="order of the Markov jump model (auto: best held-out likelihood)")
+    p.add_argument("--min-count", type=int, default=1,
+                   help="back off to a shorter context seen fewer times than this (default 1: "
+                        "fixed order; larger: variable length)")
     p.add_argument("--som", type=_size, default=None,
                    help="SOM lattice ROWSxCOLS (default: SxS, S = min(30, sqrt(frames)))")
     p.add_argument("--pca", action="store_true", help="PCA manifold instead of a SOM")
@@ -176,10 +287,15 @@ def cmd_primitives(args) -> int:
     for path, m in zip(args.clips[1:], clips[1:]):
         if not np.array_equal(m.skeleton.parents, sk.parents):
             raise InvalidArgumentError(f"{path}: another skeleton than {args.clips[0]}")
-    model = PrimitiveModel.fit(clips, k=args.k, manifold="pca" if args.pca else "som",
-                               som=args.som, epochs=args.epochs, lattice=args.lattice,
-                               kernel=args.kernel, seed=args.seed)
+    model = PrimitiveModel.fit(clips, k=args.k, ks=args.ks, criterion=args.criterion,
+                               cluster=args.cluster, order=_order(args.order),
+                               min_count=args.min_count,
+                               manifold="pca" if args.pca else "som", som=args.som,
+                               epochs=args.epochs, lattice=args.lattice, kernel=args.kernel,
+                               seed=args.seed,
+                               names=_clip_names(args.clips))
     model.save(args.output)
+    print_criteria(model)
     print(f"primitives: wrote {args.output} (k = {model.centers.shape[0]}, "
           f"{model.points.shape[0]} frames)")
     if prefix:
@@ -194,15 +310,58 @@ def cmd_primitives(args) -> int:
     return 0
 
 
+def _clip_names(paths) -> list:
+    """The clips' names in the model: their file names, the paths where file names repeat."""
+    base = [os.path.basename(p) for p in paths]
+    return base if len(set(base)) == len(base) else list(paths)
+
+
+def print_criteria(model) -> None:
+    """The k criteria side by side and the held-out log-likelihood of each Markov order."""
+    c = model.criteria
+    k = model.centers.shape[0]
+    if c is not None:
+        print("primitives: how many (k-means inertia: elbow; silhouette: larger is better; "
+              "GMM BIC: smaller is better)")
+        print("      k     inertia  silhouette         BIC")
+        for i, q in enumerate(c.ks):
+            marks = [n for n in ("elbow", "silhouette", "bic") if c.picks[n] == q]
+            print(f"  {int(q):5d} {c.inertia[i]:11.4g} {c.silhouette[i]:11.4f} "
+                  f"{c.bic[i]:11.5g}  {' '.join('<- ' + m for m in marks)}")
+    print(f"primitives: k = {k} (cluster {model.cluster}"
+          + (f", picked by {model.criterion}" if c is not None and c.picks.get(
+              model.criterion) == k else "") + ")")
+    ll = model.order_loglik
+    if ll:
+        n = next(iter(ll.values()))[1]
+        print(f"primitives: Markov jump model, held-out log-likelihood per jump (5-fold blocked "
+              f"cross-validation, {n} jumps, min count {model.markov.min_count}):")
+        for o in sorted(ll):
+            mark = "  <- used" if o == model.markov.order else ""
+            print(f"  order {o}: {ll[o][0]:.4f} nats{mark}")
+
+
 def _generate_args(p) -> None:
     p.add_argument("model", help="model written by `mlayer primitives`")
     p.add_argument("--frames", type=int, default=300)
     p.add_argument("--start-frame", type=int, default=None,
                    help="training frame to start from (default: a seeded random frame)")
     p.add_argument("--noise", type=float, default=0.0,
-                   help="scale of the perturbation of the transition matrix")
+                   help="perturbation of the Markov chain: each row redrawn from a Dirichlet "
+                        "centred on it with concentration 1/S (0: the learned chain)")
     p.add_argument("--most-likely", action="store_true",
                    help="follow the most likely next primitive (eq. 5) instead of sampling")
+    p.add_argument("--second-likely", action="store_true",
+                   help="follow the second most likely next primitive (paper Figure 3 c)")
+    p.add_argument("--allow-unseen", action="store_true",
+                   help="let the noise open transitions the data never showed (a prior mass "
+                        "of 0.02 per row)")
+    p.add_argument("--through", default=None, metavar="x1,y1;x2,y2;...",
+                   help="a spline through these points of the map (x the lattice column, y the "
+                        "row, as in PREFIX_som.png)")
+    p.add_argument("--keys", default=None, metavar="CLIP:FRAME,...",
+                   help="a path through these key frames (CLIP a training clip's file name or "
+                        "index, or a BVH file of the model's skeleton)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--no-guards", action="store_true",
                    help="the raw mapping: no joint limits, contact cleanup or floor")
@@ -216,9 +375,26 @@ def cmd_generate(args) -> int:
     from ..primitives import PrimitiveModel
     if args.frames < 2:
         raise InvalidArgumentError(f"--frames must be >= 2, got {args.frames}")
+    if args.through is not None and args.keys is not None:
+        raise InvalidArgumentError("--through and --keys exclude each other")
+    if args.most_likely and args.second_likely:
+        raise InvalidArgumentError("--most-likely and --second-likely exclude each other")
+    if args.through is not None or args.keys is not None:
+        given = [f for f, v in (("--start-frame", args.start_frame is not None),
+                                ("--most-likely", args.most_likely),
+                                ("--second-likely", args.second_likely),
+                                ("--noise", args.noise != 0), ("--allow-unseen",
+                                                               args.allow_unseen)) if v]
+        if given:
+            raise InvalidArgumentError(f"{given[0]} applies to the primitives' path, not to "
+                                       f"{'--through' if args.through is not None else '--keys'}")
+    through = parse_through(args.through) if args.through is not None else None
     model = PrimitiveModel.load(args.model)
+    keys = parse_keys(args.keys, model) if args.keys is not None else None
     motion, info = model.generate(args.frames, start_frame=args.start_frame, noise=args.noise,
                                   seed=args.seed, most_likely=args.most_likely,
+                                  second_likely=args.second_likely,
+                                  allow_unseen=args.allow_unseen, through=through, keys=keys,
                                   guards=not args.no_guards, return_info=True)
     write_bvh_output(args, motion)
     seq = " ".join(str(int(s)) for s in info["primitives"])
