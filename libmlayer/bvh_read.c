@@ -6,12 +6,11 @@
 #include "numparse.h"
 #include "options_internal.h"
 
-static mlr_status parse(parser *ps, size_t n_threads, int kernels, mlr_motion **out)
+/* "MOTION", "Frames: N" and "Frame Time: T" up to the end of their line; *frames_line is the
+ * line of Frames:. */
+static mlr_status parse_motion_header(parser *ps, size_t *n_frames_out, double *frame_time_out,
+                                      size_t *frames_line)
 {
-    mlr_status s = bvh__parse_hierarchy(ps);
-    if (s != MLR_OK)
-        return s;
-
     const char *t;
     size_t n;
     int r = bvh__next_token(ps, &t, &n);
@@ -27,9 +26,10 @@ static mlr_status parse(parser *ps, size_t n_threads, int kernels, mlr_motion **
 
     const char *vt;
     size_t vn;
+    mlr_status s;
     if ((s = bvh__read_header_value(ps, "Frames:", &vt, &vn)) != MLR_OK)
         return s;
-    size_t frames_line = ps->line;
+    *frames_line = ps->line;
     size_t n_frames = 0;
     for (size_t i = 0; i < vn; i++) {
         if (vt[i] < '0' || vt[i] > '9')
@@ -54,18 +54,28 @@ static mlr_status parse(parser *ps, size_t n_threads, int kernels, mlr_motion **
         return bvh__fail_at(ps, ps->p, "unexpected data after Frame Time:");
     if (ps->p < ps->end)
         eat_eol(ps);
+    *n_frames_out = n_frames;
+    *frame_time_out = frame_time;
+    return MLR_OK;
+}
 
-    /* Every value takes a byte and a separator: bound N by what is left. */
+/* The frames to allocate for the n_frames that Frames: declares, bounded by the bytes left
+ * (every value takes a byte and a separator): fewer when lenient and they cannot fit, an error
+ * when strict. *C gets the channel count. */
+static mlr_status frames_to_allocate(parser *ps, size_t n_frames, size_t frames_line,
+                                     size_t *C_out, size_t *n_alloc)
+{
     size_t C = 0, J = ps->joints.len;
     for (size_t j = 0; j < J; j++)
         C += ((tjoint *)ps->joints.data)[j].n_ch;
+    *C_out = C;
     size_t left = (size_t)(ps->end - ps->p);
     if (n_frames > 0 && C == 0) {
         ps->line = frames_line;
         return bvh__fail_at(ps, NULL, "Frames: %zu, but the hierarchy declares no channels",
                             n_frames);
     }
-    size_t n_alloc = n_frames; /* frames to allocate: fewer when lenient and they cannot fit */
+    *n_alloc = n_frames;
     if (n_frames > 0) {
         /* N frames of C values take at least 2 N C - 1 bytes */
         size_t per = 2 * C, most = left / per + (left % per == per - 1);
@@ -76,56 +86,85 @@ static mlr_status parse(parser *ps, size_t n_threads, int kernels, mlr_motion **
                                 "frames of %zu values", n_frames, left, most, C);
         }
         if (n_frames > most)
-            n_alloc = most;
+            *n_alloc = most;
     }
+    return MLR_OK;
+}
 
-    mlr_motion *m;
-    if ((s = bvh__build_motion(ps, n_alloc, frame_time, &m)) != MLR_OK)
+/* The frame lines into *mp (n_alloc frames allocated of the n_frames declared) on up to
+ * n_threads threads (0: by the size), then, when lenient, what follows them (*mp may then be
+ * replaced). */
+static mlr_status read_frames(parser *ps, size_t n_threads, int kernels, size_t n_frames,
+                              size_t n_alloc, mlr_motion **mp)
+{
+    size_t T = n_threads ? n_threads : bvh__auto_threads((size_t)(ps->end - ps->p));
+    if (T > BVH_MAX_THREADS)
+        T = BVH_MAX_THREADS;
+    if (T > n_alloc)
+        T = n_alloc;
+    if (T == 0)
+        T = 1;
+    frames_plan pl;
+    bvh_scratch scratch[BVH_MAX_THREADS];
+    unsigned char *block = NULL;
+    size_t bytes = 0;
+    mlr_status s = bvh__frames_setup(ps, *mp, T, &pl, scratch, &block, &bytes);
+    if (s != MLR_OK)
         return s;
-    if (n_alloc > 0 || (!ps->strict && C > 0)) {
-        size_t T = n_threads ? n_threads : bvh__auto_threads(left);
-        if (T > BVH_MAX_THREADS)
-            T = BVH_MAX_THREADS;
-        if (T > n_alloc)
-            T = n_alloc;
-        if (T == 0)
-            T = 1;
-        frames_plan pl;
-        bvh_scratch scratch[BVH_MAX_THREADS];
-        unsigned char *block = NULL;
-        size_t bytes = 0;
-        s = bvh__frames_setup(ps, m, T, &pl, scratch, &block, &bytes);
-        if (s == MLR_OK) {
-            bvh_kernels_pick(&pl.k, kernels);
-            pl.m = m;
-            pl.text = ps->begin;
-            pl.n_declared = n_frames;
-            if (n_alloc > 0)
-                s = bvh__parse_frames(ps, &pl, scratch, T);
-            if (!ps->strict)
-                s = bvh__lenient_tail(ps, &pl, scratch, &m, s);
-            mlr_free(&ps->a, block, bytes);
-        }
-        if (s != MLR_OK) {
-            mlr_motion_destroy(m);
-            return s;
-        }
-    }
-    /* only whitespace (and NUL padding) may follow */
+    bvh_kernels_pick(&pl.k, kernels);
+    pl.m = *mp;
+    pl.text = ps->begin;
+    pl.n_declared = n_frames;
+    if (n_alloc > 0)
+        s = bvh__parse_frames(ps, &pl, scratch, T);
+    if (!ps->strict)
+        s = bvh__lenient_tail(ps, &pl, scratch, mp, s);
+    mlr_free(&ps->a, block, bytes);
+    return s;
+}
+
+/* Only whitespace (and NUL padding) may follow the frames; a strict read warns when the last
+ * frame line has no line end. */
+static mlr_status check_end(parser *ps, size_t n_frames)
+{
     skip_ws(ps);
     if (ps->p < ps->end) {
         const char *t = ps->p;
         while (t < ps->end && *t == '\0')
             t++;
-        if (t < ps->end) {
-            mlr_motion_destroy(m);
+        if (t < ps->end)
             return bvh__fail_at(ps, ps->p, "data after the %zu frames declared by Frames:",
                                 n_frames);
-        }
     }
     if (ps->strict && n_frames > 0 && !bvh__ends_with_eol(ps->begin, ps->end))
         bvh__warn_add(ps, MLR_BVH_WARN_NO_FINAL_NEWLINE, ps->line, 0,
                       "no line end after the last frame line (was the file cut short?)");
+    return MLR_OK;
+}
+
+/* The whole text: hierarchy, MOTION header, frames, end. */
+static mlr_status parse(parser *ps, size_t n_threads, int kernels, mlr_motion **out)
+{
+    size_t n_frames = 0, frames_line = 0, C = 0, n_alloc = 0;
+    double frame_time = 0.0;
+    mlr_status s = bvh__parse_hierarchy(ps);
+    if (s == MLR_OK)
+        s = parse_motion_header(ps, &n_frames, &frame_time, &frames_line);
+    if (s == MLR_OK)
+        s = frames_to_allocate(ps, n_frames, frames_line, &C, &n_alloc);
+    if (s != MLR_OK)
+        return s;
+    mlr_motion *m;
+    if ((s = bvh__build_motion(ps, n_alloc, frame_time, &m)) != MLR_OK)
+        return s;
+    if (n_alloc > 0 || (!ps->strict && C > 0))
+        s = read_frames(ps, n_threads, kernels, n_frames, n_alloc, &m);
+    if (s == MLR_OK)
+        s = check_end(ps, n_frames);
+    if (s != MLR_OK) {
+        mlr_motion_destroy(m);
+        return s;
+    }
     *out = m;
     return MLR_OK;
 }

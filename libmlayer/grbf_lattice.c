@@ -235,6 +235,100 @@ static void lattice_class_task(void *ctx, size_t cls)
     householder_rows(X, k, mp, v, beta, t); /* w = H [0; w'] */
 }
 
+/* The workspace of a rows x cols lattice with n_out outputs, in doubles, one part per array:
+ * transposed centres (2 N), representatives (2 nr), kernel rows (nr N), and per class a matrix
+ * (<= nr^2), the right-hand sides (nr mp), work (LATTICE_WORK); the three polynomial
+ * coefficients (n_out each). MLR_E_OVERFLOW when it does not fit a size_t of bytes. */
+#define LATTICE_PARTS 16
+static mlr_status lattice_workspace(size_t rows, size_t cols, size_t ldy, size_t n_out,
+                                    size_t ldcoef, size_t parts[LATTICE_PARTS], size_t *total,
+                                    mlr_diag *diag)
+{
+    const size_t Rh = (rows + 1) / 2, Ch = (cols + 1) / 2;
+    size_t N, nr, nkrow, kk;
+    *total = 0;
+    if (mlr_mul_size(rows, cols, &N) || N > SIZE_MAX / 4 - 3 || mlr_mul_size(Rh, Ch, &nr) ||
+        mlr_mul_size(nr, N, &nkrow) || mlr_mul_size(nr, nr, &kk) || grbf__rows_overflow(N, ldy) ||
+        grbf__rows_overflow(N + 3, ldcoef))
+        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "lattice workspace overflows");
+    if (n_out > SIZE_MAX / 16 - PANEL || nr > SIZE_MAX / (4 * (PANEL + 2)))
+        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "lattice workspace overflows");
+    const size_t mp = (n_out + PANEL - 1) / PANEL * PANEL;
+    const size_t fixed[LATTICE_PARTS] = {2 * N, 2 * nr, nkrow, kk, kk, kk, kk, 0, 0, 0, 0,
+                                         0, 0, 0, 0, 3 * n_out};
+    memcpy(parts, fixed, sizeof fixed);
+    for (size_t q = 7; q < 11; q++)
+        if (mlr_mul_size(nr, mp, &parts[q]))
+            return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "lattice workspace overflows");
+    for (size_t q = 11; q < 15; q++)
+        parts[q] = LATTICE_WORK(nr, mp);
+    for (size_t q = 0; q < LATTICE_PARTS; q++) {
+        if (parts[q] > SIZE_MAX / sizeof(double) - *total)
+            return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "lattice workspace overflows");
+        *total += parts[q];
+    }
+    return MLR_OK;
+}
+
+/* The coordinates are finite and symmetric about their middle (xm, ym), y is finite. */
+static mlr_status check_lattice_data(const double *xs, size_t rows, const double *ys,
+                                     size_t cols, const double *y, size_t ldy, size_t n_out,
+                                     mlr_diag *diag)
+{
+    size_t bad = grbf__first_bad_row(xs, 1, rows, rows);
+    if (bad == 0 || grbf__first_bad_row(ys, 1, cols, cols) == 0)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "lattice coordinates hold a NaN, an infinity or a value beyond 1e150");
+    /* the reflections must map the lattice onto itself */
+    double xm = 0.5 * (xs[0] + xs[rows - 1]), ym = 0.5 * (ys[0] + ys[cols - 1]);
+    double xe = fabs(xs[rows - 1] - xs[0]), ye = fabs(ys[cols - 1] - ys[0]);
+    for (size_t r = 0; r < rows; r++)
+        if (!(fabs(xs[r] + xs[rows - 1 - r] - 2.0 * xm) <= 1e-12 * xe))
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "xs is not symmetric about its middle (xs[%zu] + xs[%zu])", r,
+                                rows - 1 - r);
+    for (size_t c = 0; c < cols; c++)
+        if (!(fabs(ys[c] + ys[cols - 1 - c] - 2.0 * ym) <= 1e-12 * ye))
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "ys is not symmetric about its middle (ys[%zu] + ys[%zu])", c,
+                                cols - 1 - c);
+    const size_t N = rows * cols;
+    bad = mlr_first_nonfinite_row(y, N, n_out, ldy);
+    if (bad < N)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "y row %zu holds a NaN or an infinity",
+                            bad);
+    return MLR_OK;
+}
+
+/* coef from the solved classes: each representative's weights spread to its four reflections
+ * with the class characters, then the polynomial terms. */
+static void lattice_coefficients(const lattice_ctx *lc, double *coef, size_t ldcoef)
+{
+    const size_t rows = lc->R, cols = lc->C, N = rows * cols, n_out = lc->n_out, mp = lc->mp;
+    for (size_t u = 0; u < N + 3; u++)
+        memset(coef + u * ldcoef, 0, n_out * sizeof(double));
+    for (size_t cls = 0; cls < 4; cls++) {
+        const double sx = cls & 1 ? -1.0 : 1.0, sy = cls & 2 ? -1.0 : 1.0;
+        const size_t rv = sx > 0 ? lc->Rh : rows / 2, cv = sy > 0 ? lc->Ch : cols / 2;
+        for (size_t i = 0; i < rv * cv; i++) {
+            const size_t ri = i / cv, ci = i % cv, rr = rows - 1 - ri, cr = cols - 1 - ci;
+            const double f = 1.0 / (2.0 * lattice_scale(lc, ri, ci));
+            const double *w = lc->x[cls] + i * mp;
+            /* w[g i] += chi(g) w_i / (2 sqrt(s_i)); a fixed centre gets its share twice */
+            axpy_sub(coef + (ri * cols + ci) * ldcoef, -f, w, n_out);
+            axpy_sub(coef + (rr * cols + ci) * ldcoef, -sx * f, w, n_out);
+            axpy_sub(coef + (ri * cols + cr) * ldcoef, -sy * f, w, n_out);
+            axpy_sub(coef + (rr * cols + cr) * ldcoef, -sx * sy * f, w, n_out);
+        }
+    }
+    double *c0 = coef + N * ldcoef, *c1 = c0 + ldcoef, *c2 = c1 + ldcoef;
+    for (size_t o = 0; o < n_out; o++) { /* a0 + ax (x - xm) + ay (y - ym) */
+        c1[o] = lc->poly_a[1][o];
+        c2[o] = lc->poly_a[2][o];
+        c0[o] = lc->poly_a[0][o] - (c1[o] * lc->xm + c2[o] * lc->ym);
+    }
+}
+
 mlr_status mlr_grbf_fit_lattice(int kernel, double width, const double *xs, size_t rows,
                                 const double *ys, size_t cols, const double *y, size_t ldy,
                                 size_t n_out, size_t n_threads, double *coef, size_t ldcoef,
@@ -257,59 +351,23 @@ mlr_status mlr_grbf_fit_lattice(int kernel, double width, const double *xs, size
     if (n_threads < 1 || n_threads > MLR_MAX_THREADS)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "n_threads %zu not in 1 .. %d",
                             n_threads, MLR_MAX_THREADS);
-    const size_t Rh = (rows + 1) / 2, Ch = (cols + 1) / 2;
-    size_t N, nr, nkrow, kk, total = 0;
-    if (mlr_mul_size(rows, cols, &N) || N > SIZE_MAX / 4 - 3 || mlr_mul_size(Rh, Ch, &nr) ||
-        mlr_mul_size(nr, N, &nkrow) || mlr_mul_size(nr, nr, &kk) || grbf__rows_overflow(N, ldy) ||
-        grbf__rows_overflow(N + 3, ldcoef))
-        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "lattice workspace overflows");
-    /* workspace: transposed centres (2 N), representatives (2 nr), kernel rows (nr N), and per
-     * class a matrix (<= nr^2), the right-hand sides (<= nr n_out), work (2 nr + n_out); the
-     * three polynomial coefficients (n_out each) */
-    if (n_out > SIZE_MAX / 16 - PANEL || nr > SIZE_MAX / (4 * (PANEL + 2)))
-        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "lattice workspace overflows");
+    size_t parts[LATTICE_PARTS], total;
+    if ((st = lattice_workspace(rows, cols, ldy, n_out, ldcoef, parts, &total, diag)) ||
+        (st = check_lattice_data(xs, rows, ys, cols, y, ldy, n_out, diag)))
+        return st;
+    const size_t Rh = (rows + 1) / 2, Ch = (cols + 1) / 2, N = rows * cols, nr = Rh * Ch;
     const size_t mp = (n_out + PANEL - 1) / PANEL * PANEL;
-    size_t parts[] = {2 * N, 2 * nr, nkrow, kk, kk, kk, kk, 0, 0, 0, 0, 0, 0, 0, 0, 3 * n_out};
-    for (size_t q = 7; q < 11; q++)
-        if (mlr_mul_size(nr, mp, &parts[q]))
-            return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "lattice workspace overflows");
-    for (size_t q = 11; q < 15; q++)
-        parts[q] = LATTICE_WORK(nr, mp);
-    for (size_t q = 0; q < MLR_COUNTOF(parts); q++) {
-        if (parts[q] > SIZE_MAX / sizeof(double) - total)
-            return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "lattice workspace overflows");
-        total += parts[q];
-    }
-    size_t bad = grbf__first_bad_row(xs, 1, rows, rows);
-    if (bad == 0 || grbf__first_bad_row(ys, 1, cols, cols) == 0)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "lattice coordinates hold a NaN, an infinity or a value beyond 1e150");
-    /* the reflections must map the lattice onto itself */
-    double xm = 0.5 * (xs[0] + xs[rows - 1]), ym = 0.5 * (ys[0] + ys[cols - 1]);
-    double xe = fabs(xs[rows - 1] - xs[0]), ye = fabs(ys[cols - 1] - ys[0]);
-    for (size_t r = 0; r < rows; r++)
-        if (!(fabs(xs[r] + xs[rows - 1 - r] - 2.0 * xm) <= 1e-12 * xe))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "xs is not symmetric about its middle (xs[%zu] + xs[%zu])", r,
-                                rows - 1 - r);
-    for (size_t c = 0; c < cols; c++)
-        if (!(fabs(ys[c] + ys[cols - 1 - c] - 2.0 * ym) <= 1e-12 * ye))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "ys is not symmetric about its middle (ys[%zu] + ys[%zu])", c,
-                                cols - 1 - c);
-    bad = mlr_first_nonfinite_row(y, N, n_out, ldy);
-    if (bad < N)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "y row %zu holds a NaN or an infinity",
-                            bad);
+    const double xm = 0.5 * (xs[0] + xs[rows - 1]), ym = 0.5 * (ys[0] + ys[cols - 1]);
     mlr_allocator a;
     mlr_allocator_resolve(alloc, &a);
     double *ws = mlr_alloc(&a, total * sizeof(double));
     if (!ws)
         return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
                             "no memory for the lattice workspace (%zu doubles)", total);
-    double *ptr[MLR_COUNTOF(parts)];
-    for (size_t q = 0, off = 0; q < MLR_COUNTOF(parts); off += parts[q], q++)
+    double *ptr[LATTICE_PARTS];
+    for (size_t q = 0, off = 0; q < LATTICE_PARTS; off += parts[q], q++)
         ptr[q] = ws + off;
+    /* the kernel values of the representatives against every centre, then the four classes */
     double *ct = ptr[0], *rep = ptr[1], *krow = ptr[2];
     for (size_t u = 0; u < N; u++) {
         ct[u] = xs[u / cols];
@@ -321,8 +379,10 @@ mlr_status mlr_grbf_fit_lattice(int kernel, double width, const double *xs, size
     }
     basis_ctx bc = {kernel, 0, kernel == MLR_GRBF_GAUSSIAN ? 1.0 / (width * width) : 0.0,
                     ct, rep, N, 2, nr, 2, N, krow};
-    mlr_parallel_run(n_threads, (nr + GRBF_TASK_ROWS - 1) / GRBF_TASK_ROWS, grbf__basis_task, &bc);
-    lattice_ctx lc = {rows, cols, Rh, Ch, n_out, mp, ldy, xs, ys, y, krow, xm, ym, grbf__cpu_wide(),
+    mlr_parallel_run(n_threads, (nr + GRBF_TASK_ROWS - 1) / GRBF_TASK_ROWS, grbf__basis_task,
+                     &bc);
+    lattice_ctx lc = {rows, cols, Rh, Ch, n_out, mp, ldy, xs, ys, y, krow, xm, ym,
+                      grbf__cpu_wide(),
                       {ptr[3], ptr[4], ptr[5], ptr[6]}, {ptr[7], ptr[8], ptr[9], ptr[10]},
                       {ptr[11], ptr[12], ptr[13], ptr[14]},
                       {ptr[15], ptr[15] + n_out, ptr[15] + 2 * n_out}, {0, 0, 0, 0}};
@@ -334,30 +394,8 @@ mlr_status mlr_grbf_fit_lattice(int kernel, double width, const double *xs, size
                               "symmetry class %zu of the kernel matrix is not numerically "
                               "positive definite (coincident centres or a too wide Gaussian)",
                               cls);
-    if (!st) {
-        for (size_t u = 0; u < N + 3; u++)
-            memset(coef + u * ldcoef, 0, n_out * sizeof(double));
-        for (size_t cls = 0; cls < 4; cls++) {
-            const double sx = cls & 1 ? -1.0 : 1.0, sy = cls & 2 ? -1.0 : 1.0;
-            const size_t rv = sx > 0 ? Rh : rows / 2, cv = sy > 0 ? Ch : cols / 2;
-            for (size_t i = 0; i < rv * cv; i++) {
-                const size_t ri = i / cv, ci = i % cv, rr = rows - 1 - ri, cr = cols - 1 - ci;
-                const double f = 1.0 / (2.0 * lattice_scale(&lc, ri, ci));
-                const double *w = lc.x[cls] + i * mp;
-                /* w[g i] += chi(g) w_i / (2 sqrt(s_i)); a fixed centre gets its share twice */
-                axpy_sub(coef + (ri * cols + ci) * ldcoef, -f, w, n_out);
-                axpy_sub(coef + (rr * cols + ci) * ldcoef, -sx * f, w, n_out);
-                axpy_sub(coef + (ri * cols + cr) * ldcoef, -sy * f, w, n_out);
-                axpy_sub(coef + (rr * cols + cr) * ldcoef, -sx * sy * f, w, n_out);
-            }
-        }
-        double *c0 = coef + N * ldcoef, *c1 = c0 + ldcoef, *c2 = c1 + ldcoef;
-        for (size_t o = 0; o < n_out; o++) { /* a0 + ax (x - xm) + ay (y - ym) */
-            c1[o] = lc.poly_a[1][o];
-            c2[o] = lc.poly_a[2][o];
-            c0[o] = lc.poly_a[0][o] - (c1[o] * xm + c2[o] * ym);
-        }
-    }
+    if (!st)
+        lattice_coefficients(&lc, coef, ldcoef);
     mlr_free(&a, ws, total * sizeof(double));
     return st;
 }
