@@ -1,13 +1,16 @@
 /* The whole stylize of a runtime on the C ABI against the decomposition alone, on real capture
  * data: cmu_01_01 (31 joints, 120 fps), the first 2,526 frames after its T-pose frame.
  *   guards.decompose      mlr_layers_decompose with the frame rate (the C defaults)
- *   guards.stylize        that, then synthesize at alpha 2 and 1 (the reference), create the
- *                         guards (contacts, floor, limits of the input) and apply them: every
- *                         guard on, what mlayer.stylize(m, 2) computes
+ *   guards.stylize        that, then repair the input's outlier frames (mlr_layers_repair),
+ *                         create the guards on it (contacts, floor, limits of the input),
+ *                         synthesize at alpha 2 and apply the guards with the input as the
+ *                         reference (NULL): every guard on, what mlayer.stylize(m, 2) computes
  *   guards.apply          synthesize at alpha 2 and mlr_guards_apply (a slider move with the
- *                         guards made once)
+ *                         guards made once), the input as the reference, as mlayer.stylize
+ *   guards.apply_ref      the same with a given reference (the synthesis at alpha 1)
  *   guards.synthesize     mlr_layers_synthesize at alpha 2 alone
- *   guards.create         mlr_guards_create alone (contacts, floor and limits of the input)
+ *   guards.create         the input copied and repaired, and mlr_guards_create (contacts, floor
+ *                         and limits of the input)
  * n is frames x joints. */
 #include "bench.h"
 
@@ -23,7 +26,7 @@ typedef struct guards_state {
     size_t n, j;
     double fps;
     const double *root, *rot; /* frames 1 .. n of the clip */
-    double *out_root, *out_rot, *ref_root, *ref_rot;
+    double *out_root, *out_rot, *ref_root, *ref_rot, *in_root, *in_rot;
     mlr_layers *layers;
     mlr_guards *guards;
 } guards_state;
@@ -34,6 +37,7 @@ static void teardown(void *p)
     mlr_guards_destroy(s->guards);
     mlr_layers_destroy(s->layers);
     free(s->out_root), free(s->out_rot), free(s->ref_root), free(s->ref_rot);
+    free(s->in_root), free(s->in_rot);
     free(s->names);
     mlr_motion_destroy(s->m);
     free(s);
@@ -68,7 +72,10 @@ static void *setup(size_t n)
     s->ref_root = malloc(3 * s->n * sizeof(double));
     s->out_rot = malloc(4 * s->n * s->j * sizeof(double));
     s->ref_rot = malloc(4 * s->n * s->j * sizeof(double));
-    if (!s->names || !s->out_root || !s->ref_root || !s->out_rot || !s->ref_rot) {
+    s->in_root = malloc(3 * s->n * sizeof(double));
+    s->in_rot = malloc(4 * s->n * s->j * sizeof(double));
+    if (!s->names || !s->out_root || !s->ref_root || !s->out_rot || !s->ref_rot || !s->in_root ||
+        !s->in_rot) {
         teardown(s);
         return NULL;
     }
@@ -89,24 +96,33 @@ static int synthesize(guards_state *s, double alpha, double *root, double *rot)
                                  4 * s->n * s->j, NULL);
 }
 
+/* The guards of the input with its outlier frames repaired (what mlayer's pipeline does). */
 static int create_guards(guards_state *s)
 {
     mlr_guards_destroy(s->guards);
     s->guards = NULL;
-    return mlr_guards_create(&s->rig, s->fps, s->n, s->root, s->rot, NULL, NULL, 0, NULL,
+    memcpy(s->in_root, s->root, 3 * s->n * sizeof(double));
+    memcpy(s->in_rot, s->rot, 4 * s->n * s->j * sizeof(double));
+    if (mlr_layers_repair(s->layers, 0, s->n, s->in_root, 3 * s->n, s->in_rot,
+                          4 * s->n * s->j, NULL, NULL) < 0)
+        return -1;
+    return mlr_guards_create(&s->rig, s->fps, s->n, s->in_root, s->in_rot, NULL, NULL, 0, NULL,
                              &s->guards, NULL);
 }
 
-static double apply(guards_state *s)
+static double apply_with(guards_state *s, int given_ref)
 {
     const double alpha = 2.0;
     mlr_guards_report rep;
     if (synthesize(s, alpha, s->out_root, s->out_rot) < 0 ||
-        mlr_guards_apply(s->guards, &alpha, 1, s->ref_root, s->ref_rot, NULL, s->out_root,
-                         s->out_rot, NULL, NULL, 0, &rep, NULL) < 0)
+        mlr_guards_apply(s->guards, &alpha, 1, given_ref ? s->ref_root : NULL,
+                         given_ref ? s->ref_rot : NULL, NULL, s->out_root, s->out_rot, NULL,
+                         NULL, 0, &rep, NULL) < 0)
         return -1.0;
     return s->out_root[3 * (s->n / 2) + 1] + (double)rep.contact_frames;
 }
+
+static double apply(guards_state *s) { return apply_with(s, 0); }
 
 static double run_decompose(void *p)
 {
@@ -117,8 +133,7 @@ static double run_decompose(void *p)
 static double run_stylize(void *p)
 {
     guards_state *s = p;
-    if (decompose(s) < 0 || synthesize(s, 1.0, s->ref_root, s->ref_rot) < 0 ||
-        create_guards(s) < 0)
+    if (decompose(s) < 0 || create_guards(s) < 0)
         return -1.0;
     return apply(s);
 }
@@ -136,6 +151,8 @@ static void *setup_ready(size_t n)
 
 static double run_apply(void *p) { return apply(p); }
 
+static double run_apply_ref(void *p) { return apply_with(p, 1); }
+
 static double run_synthesize(void *p)
 {
     guards_state *s = p;
@@ -152,6 +169,7 @@ const mlr_bench_case mlr_bench_guards_cases[] = {
     {"guards.decompose/n=2526,j=31", 2526 * 31, setup, run_decompose, teardown},
     {"guards.stylize/n=2526,j=31", 2526 * 31, setup, run_stylize, teardown},
     {"guards.apply/n=2526,j=31", 2526 * 31, setup_ready, run_apply, teardown},
+    {"guards.apply_ref/n=2526,j=31", 2526 * 31, setup_ready, run_apply_ref, teardown},
     {"guards.synthesize/n=2526,j=31", 2526 * 31, setup_ready, run_synthesize, teardown},
     {"guards.create/n=2526,j=31", 2526 * 31, setup_ready, run_create, teardown},
 };

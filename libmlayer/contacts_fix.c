@@ -18,7 +18,9 @@ typedef struct arena {
     mlr_status st;
 } arena;
 
-static void *take(arena *ar, size_t count, size_t elem)
+/* A block of count elements, zeroed (take) or not (take_raw: for the big arrays that are
+   written before they are read). */
+static void *take_block(arena *ar, size_t count, size_t elem, int zero)
 {
     size_t bytes;
     if (ar->st != MLR_OK)
@@ -32,9 +34,17 @@ static void *take(arena *ar, size_t count, size_t elem)
         ar->st = MLR_E_NO_MEMORY;
         return NULL;
     }
-    memset(p, 0, bytes);
+    if (zero)
+        memset(p, 0, bytes);
     ar->p[ar->count] = p, ar->n[ar->count] = bytes, ar->count++;
     return p;
+}
+
+static void *take(arena *ar, size_t count, size_t elem) { return take_block(ar, count, elem, 1); }
+
+static void *take_raw(arena *ar, size_t count, size_t elem)
+{
+    return take_block(ar, count, elem, 0);
 }
 
 static void release(arena *ar)
@@ -156,6 +166,24 @@ static double quantile_of(double *v, size_t n, double q)
     return v[i] + f * (v[i + 1] - v[i]);
 }
 
+/* One joint's world rotation and position at frame f from its parent's (already in wr / wp),
+   its local rotation r[4 j ..] (r: the frame's J x 4) and its offset or translation, with the
+   arithmetic of mlr_fk_arrays. */
+static inline void fk_joint(const mlr_rig *rig, size_t f, size_t j, const int32_t *tidx,
+                            const double *r, const double *trans, double *wp, mlr_quat *wr)
+{
+    const size_t p = (size_t)rig->parents[j];
+    const double *t = tidx[j] >= 0 ? trans + 3 * (rig->n_trans * f + (size_t)tidx[j])
+                                   : rig->offsets + 3 * j;
+    const mlr_quat q = {r[4 * j], r[4 * j + 1], r[4 * j + 2], r[4 * j + 3]};
+    mlr_quat_mul_inline(&wr[p], &q, &wr[j]);
+    double o[3];
+    mlr_quat_rotate_inline(&wr[p], t, o);
+    wp[3 * j] = wp[3 * p] + o[0];
+    wp[3 * j + 1] = wp[3 * p + 1] + o[1];
+    wp[3 * j + 2] = wp[3 * p + 2] + o[2];
+}
+
 /* Forward kinematics of the joints marked in need (closed under parents) of frame f, with the
    arithmetic of mlr_fk_arrays (mlr_fk.h: mlr_quat_mul / mlr_quat_rotate, inlined), so each
    computed value is bit for bit what the full FK gives; the other joints are not written. tidx[j]: j's
@@ -164,8 +192,7 @@ static void fk_masked_frame(const mlr_rig *rig, size_t f, const uint8_t *need,
                             const int32_t *tidx, const double *root_pos, const double *rot,
                             const double *trans, double *wp, double *wrot_f)
 {
-    const size_t J = rig->n_joints, P = rig->n_trans;
-    const int32_t *parents = rig->parents;
+    const size_t J = rig->n_joints;
     const double *offsets = rig->offsets;
     const double *r = rot + 4 * J * f;
     mlr_quat *wr = (mlr_quat *)(void *)wrot_f;
@@ -175,15 +202,36 @@ static void fk_masked_frame(const mlr_rig *rig, size_t f, const uint8_t *need,
     for (size_t j = 1; j < J; j++) {
         if (!need[j])
             continue;
-        const size_t p = (size_t)parents[j];
-        const double *t = tidx[j] >= 0 ? trans + 3 * (P * f + (size_t)tidx[j]) : offsets + 3 * j;
-        const mlr_quat q = {r[4 * j], r[4 * j + 1], r[4 * j + 2], r[4 * j + 3]};
-        mlr_quat_mul_inline(&wr[p], &q, &wr[j]);
-        double o[3];
-        mlr_quat_rotate_inline(&wr[p], t, o);
-        wp[3 * j] = wp[3 * p] + o[0];
-        wp[3 * j + 1] = wp[3 * p + 1] + o[1];
-        wp[3 * j + 2] = wp[3 * p + 2] + o[2];
+        fk_joint(rig, f, j, tidx, r, trans, wp, wr);
+    }
+}
+
+/* fk_masked_frame on the joints of a chain only (top-down: chain[0] and then each a child of
+   the one before), the world values of chain[0]'s parent read from pos_f / wrot_f (the frame's
+   forward kinematics, J x 3 and J x 4): the same arithmetic, so the same values at the chain's
+   joints when the joints above it have the same rotations. wp / wrot_out: J x 3 and J x 4,
+   written at the chain's joints (and chain[0]'s parent). */
+static void fk_chain_frame(const mlr_rig *rig, size_t f, const int32_t *chain, size_t n,
+                           const int32_t *tidx, const double *rot, const double *trans,
+                           const double *pos_f, const double *wrot_f, double *wp,
+                           double *wrot_out)
+{
+    const size_t J = rig->n_joints;
+    const double *r = rot + 4 * J * f;
+    mlr_quat *wr = (mlr_quat *)(void *)wrot_out;
+    const int32_t top = rig->parents[chain[0]];
+    if (top >= 0) {
+        memcpy(wp + 3 * (size_t)top, pos_f + 3 * (size_t)top, 3 * sizeof(double));
+        memcpy(wrot_out + 4 * (size_t)top, wrot_f + 4 * (size_t)top, 4 * sizeof(double));
+    }
+    for (size_t i = 0; i < n; i++) {
+        const size_t j = (size_t)chain[i];
+        if (j == 0) { /* the root: as fk_masked_frame */
+            wr[0].w = r[0], wr[0].x = r[1], wr[0].y = r[2], wr[0].z = r[3];
+            memcpy(wp, pos_f, 3 * sizeof(double));
+            continue;
+        }
+        fk_joint(rig, f, j, tidx, r, trans, wp, wr);
     }
 }
 
@@ -400,6 +448,7 @@ typedef struct work {
     mlr_band *pin;                     /* N x N, 2 sub-diagonals */
     double *ab;                        /* N x 3: its lower band */
     double *map_val, *map_y, *map_out; /* N x 9 */
+    uint8_t *dirty;                    /* N: frames whose rotations the spread changed */
 } work;
 
 /* The map's smoothing with the constrained frames held: x = argmin sum over the free frames of
@@ -458,6 +507,7 @@ static mlr_status spread_rotations(work *w, double *rot, const double *newr, con
             const double *v = w->map_out + f * m + 3 * i;
             if (v[0] == 0.0 && v[1] == 0.0 && v[2] == 0.0)
                 continue; /* outside the blend: the frame is left as it is */
+            w->dirty[f] = 1;
             qexp(v, e);
             mlr_ik_qmul(e, r, o);
             const double n = sqrt(o[0] * o[0] + o[1] * o[1] + o[2] * o[2] + o[3] * o[3]);
@@ -504,67 +554,31 @@ static double dist3(const double *a, const double *b)
     return sqrt(x * x + y * y + z * z);
 }
 
-mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t N, double fps, int up,
-                                const double *root_pos, const double *rot, const double *trans,
-                                const double *ref_root_pos, const double *ref_rot,
-                                const double *ref_trans, size_t C, const int32_t *joints,
-                                const int32_t *end_sites, const uint8_t *contacts,
-                                const mlr_cleanup_option *opts, size_t n_opts,
-                                double *out_root_pos, double *out_rot,
-                                mlr_cleanup_report *report, const mlr_allocator *alloc,
-                                mlr_diag *diag)
+/* The joints the cleanup's forward kinematics computes (need, J, zeroed by the caller): the
+   contact points, the feet's anchors and their ancestors; tidx (J): each joint's index among
+   the rig's trans joints, or -1. */
+static void fk_need(const mlr_rig *rig, size_t C, const int32_t *joints, const foot *feet,
+                    size_t nf, uint8_t *need, int32_t *tidx)
 {
-    mlr_status st = mlr_rig_check(rig, diag);
-    if (st != MLR_OK)
-        return st;
-    config cfg;
-    if ((st = parse_options(opts, n_opts, &cfg, diag)) != MLR_OK)
-        return st;
-    if (N == 0 || !out_root_pos || !out_rot || (C && !contacts))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "cleanup: no frames, or NULL outputs or contacts");
-    if (!(isfinite(fps) && fps > 0.0))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "cleanup: fps %g is not finite "
-                            "and > 0", fps);
-    if (up < 0 || up > 2)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "cleanup: up axis %d is not 0 (X), "
-                            "1 (Y) or 2 (Z)", up);
-    const int have_ref = ref_root_pos || ref_rot || ref_trans;
-    if ((st = check_points(rig, C, joints, end_sites, diag)) != MLR_OK ||
-        (st = check_motion(rig, N, root_pos, rot, trans, "motion", diag)) != MLR_OK ||
-        (have_ref && (st = check_motion(rig, N, ref_root_pos, ref_rot, ref_trans, "reference",
-                                        diag)) != MLR_OK))
-        return st;
-    const size_t J = rig->n_joints;
-    if (C > 64)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "cleanup: at most 64 contact "
-                            "points, got %zu", C);
-    if (report) {
-        report->floor_height = NAN;
-        report->contact_frames = report->floor_frames = 0;
-        report->root_shift_max = 0.0;
-    }
-    if (out_root_pos != root_pos)
-        memmove(out_root_pos, root_pos, 3 * N * sizeof(double));
-    if (out_rot != rot)
-        memmove(out_rot, rot, 4 * N * J * sizeof(double));
-    size_t any_contact = 0;
-    for (size_t i = 0; i < N * C; i++)
-        any_contact += contacts[i] != 0;
-    if (N < 3 || C == 0 || (!any_contact && !(cfg.floor_on && cfg.floor_given)))
-        return MLR_OK;
+    for (size_t j = 0; j < rig->n_joints; j++)
+        tidx[j] = -1;
+    for (size_t k = 0; k < rig->n_trans; k++)
+        tidx[rig->trans_joints[k]] = (int32_t)k;
+    for (size_t i = 0; i < C + nf; i++)
+        for (int32_t j = i < C ? joints[i] : feet[i - C].anchor; j >= 0 && !need[j];
+             j = rig->parents[j])
+            need[j] = 1;
+}
 
-    /* ---- feet ---- */
-    foot feet[64];
+/* The feet of the contact points: each listed joint with no listed ancestor is an ankle (an
+   anchor) with its own points; the other points (toes, End Sites) are placed on the foot of
+   their nearest anchor ancestor. listed (J) and assigned (C): zeroed scratch. */
+static mlr_status assign_feet(const mlr_rig *rig, size_t C, const int32_t *joints,
+                              const int32_t *end_sites, foot *feet, size_t *nf_out,
+                              uint8_t *listed, uint8_t *assigned, mlr_diag *diag)
+{
+    mlr_status st = MLR_OK;
     size_t nf = 0;
-    work w = {rig, N, J, C, fps, up, &cfg, NULL, NULL, NULL, NULL, NULL};
-    mlr_allocator A;
-    mlr_allocator_resolve(alloc, &A);
-    arena ar = {.a = &A, .st = MLR_OK};
-    uint8_t *listed = take(&ar, J, 1);
-    uint8_t *assigned = take(&ar, C, 1);
-    if (ar.st != MLR_OK)
-        goto fail;
     for (size_t c = 0; c < C; c++)
         if (!end_sites || end_sites[c] < 0)
             listed[joints[c]] = 1;
@@ -582,7 +596,7 @@ mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t N, double fps, int up
         if (feet[k].n_cols == 16) {
             st = mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "cleanup: more than 16 contact "
                               "points on the foot of joint %d", (int)j);
-            goto fail_st_keep;
+            return st;
         }
         feet[k].cols[feet[k].n_cols++] = c, feet[k].n_own++;
         assigned[c] = 1;
@@ -611,25 +625,219 @@ mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t N, double fps, int up
         if (feet[k].n_cols == 16) {
             st = mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "cleanup: more than 16 contact "
                               "points on the foot of joint %d", (int)anchor);
-            goto fail_st_keep;
+            return st;
         }
         feet[k].cols[feet[k].n_cols++] = c;
     }
 
-    /* ---- forward kinematics, points, reference ---- */
-    double *pos = take(&ar, N * J * 3, sizeof(double));
-    double *wrot = take(&ar, N * J * 4, sizeof(double));
-    double *P = take(&ar, N * C * 3, sizeof(double));
-    double *pos_ref = NULL, *Pr = NULL, *lim = take(&ar, N * C, sizeof(double));
-    double *newr = take(&ar, N * J * 4, sizeof(double));
-    double *shift = take(&ar, N * 3, sizeof(double));
-    w.map_val = take(&ar, N * 9, sizeof(double));
-    w.map_y = take(&ar, N * 9, sizeof(double));
-    w.map_out = take(&ar, N * 9, sizeof(double));
-    if (have_ref) {
-        pos_ref = take(&ar, N * nf * 3, sizeof(double)); /* the feet's anchors, N x nf x 3 */
-        Pr = take(&ar, N * C * 3, sizeof(double));
+    *nf_out = nf;
+    return st;
+}
+
+void mlr_cleanup_ref_destroy(mlr_cleanup_ref *ref)
+{
+    if (!ref)
+        return;
+    const size_t N = ref->n_frames, C = ref->n_points, F = ref->n_feet;
+    mlr_allocator a = ref->alloc;
+    if (ref->h)
+        mlr_free(&a, ref->h, N * C * sizeof(double));
+    if (ref->pts)
+        mlr_free(&a, ref->pts, 3 * N * C * sizeof(double));
+    if (ref->anchors)
+        mlr_free(&a, ref->anchors, 3 * N * F * sizeof(double));
+    mlr_free(&a, ref, sizeof *ref);
+}
+
+mlr_status mlr_cleanup_ref_create(const mlr_rig *rig, size_t N, double fps, int up,
+                                  const double *root_pos, const double *rot, const double *trans,
+                                  const double *world_pos, const double *world_rot, size_t C,
+                                  const int32_t *joints, const int32_t *end_sites,
+                                  const mlr_cleanup_option *opts, size_t n_opts,
+                                  const mlr_allocator *alloc, mlr_cleanup_ref **out,
+                                  mlr_diag *diag)
+{
+    *out = NULL;
+    config cfg;
+    memset(&cfg, 0, sizeof cfg);
+    mlr_status st = parse_options(opts, n_opts, &cfg, diag);
+    if (st != MLR_OK)
+        return st;
+    if (C > 64)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "cleanup: at most 64 contact "
+                            "points, got %zu", C);
+    if (C == 0 || N == 0)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "cleanup reference: %zu points, %zu "
+                            "frames", C, N);
+    mlr_allocator A;
+    mlr_allocator_resolve(alloc, &A);
+    const size_t J = rig->n_joints;
+    foot feet[64];
+    size_t nf = 0;
+    arena ar = {.a = &A, .st = MLR_OK};
+    uint8_t *listed = take(&ar, J, 1);
+    uint8_t *assigned = take(&ar, C, 1);
+    uint8_t *need = take(&ar, J, 1);
+    int32_t *tidx = take(&ar, J, sizeof(int32_t));
+    double *pos2 = take(&ar, J * 3, sizeof(double)); /* one frame's FK */
+    double *wrot2 = take(&ar, J * 4, sizeof(double));
+    if (ar.st != MLR_OK) {
+        release(&ar);
+        return mlr_diag_set(diag, ar.st, 0, 0, "cleanup: out of memory");
     }
+    if ((st = assign_feet(rig, C, joints, end_sites, feet, &nf, listed, assigned, diag)) !=
+        MLR_OK) {
+        release(&ar);
+        return st;
+    }
+    mlr_cleanup_ref *r = mlr_alloc(&A, sizeof *r);
+    if (r) {
+        memset(r, 0, sizeof *r);
+        r->alloc = A, r->n_frames = N, r->n_points = C, r->n_feet = nf, r->up = up;
+        r->smooth = cfg.ref_smooth;
+        r->h = mlr_alloc(&A, N * C * sizeof(double));
+        r->pts = mlr_alloc(&A, 3 * N * C * sizeof(double));
+        r->anchors = nf ? mlr_alloc(&A, 3 * N * nf * sizeof(double)) : NULL;
+    }
+    double *tmp = take(&ar, N * 3 * (C > nf ? C : nf), sizeof(double));
+    if (!r || !r->h || !r->pts || (nf && !r->anchors) || ar.st != MLR_OK) {
+        mlr_cleanup_ref_destroy(r);
+        release(&ar);
+        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "cleanup: out of memory");
+    }
+    double *Pr = r->pts, *pos_ref = r->anchors;
+    if (world_pos) {
+        st = mlr_rig_point_positions(rig, N, world_pos, world_rot, C, joints, end_sites, Pr,
+                                     NULL);
+        for (size_t f = 0; st == MLR_OK && f < N; f++)
+            for (size_t k = 0; k < nf; k++)
+                memcpy(pos_ref + 3 * (f * nf + k), world_pos + 3 * (f * J + (size_t)feet[k].anchor),
+                       3 * sizeof(double));
+    } else {
+        /* forward kinematics of the contact points, the anchors and their ancestors only */
+        fk_need(rig, C, joints, feet, nf, need, tidx);
+        for (size_t f = 0; st == MLR_OK && f < N; f++) { /* the points and the anchors */
+            fk_masked_frame(rig, f, need, tidx, root_pos, rot, trans, pos2, wrot2);
+            st = mlr_rig_point_positions(rig, 1, pos2, wrot2, C, joints, end_sites,
+                                         Pr + 3 * C * f, NULL);
+            for (size_t k = 0; k < nf; k++)
+                memcpy(pos_ref + 3 * (f * nf + k), pos2 + 3 * (size_t)feet[k].anchor,
+                       3 * sizeof(double));
+        }
+    }
+    if (st != MLR_OK) {
+        mlr_cleanup_ref_destroy(r);
+        release(&ar);
+        return mlr_diag_set(diag, st, 0, 0, "cleanup: the reference's points failed");
+    }
+    for (size_t i = 0; i < N * C; i++)
+        r->h[i] = Pr[3 * i + (size_t)up];
+    if (cfg.ref_smooth > 0.0) {
+        mlr_lgs *ref_lgs = NULL;
+        const double lam = (cfg.ref_smooth * fps) * (cfg.ref_smooth * fps);
+        if ((st = mlr_lgs_create(N, 2, lam, 1.0, NULL, N, MLR_LGS_BANDED, &A, &ref_lgs, diag)) <
+            0) {
+            mlr_cleanup_ref_destroy(r);
+            release(&ar);
+            return st;
+        }
+        mlr_lgs_solve(ref_lgs, Pr, 3 * C, 3 * C, tmp, 3 * C, NULL);
+        memcpy(Pr, tmp, N * C * 3 * sizeof(double));
+        for (size_t k = 0; k < nf; k++) { /* the ankles' trajectories */
+            mlr_lgs_solve(ref_lgs, pos_ref + 3 * k, 3 * nf, 3, tmp, 3, NULL);
+            for (size_t f = 0; f < N; f++)
+                memcpy(pos_ref + 3 * (f * nf + k), tmp + 3 * f, 3 * sizeof(double));
+        }
+        mlr_lgs_destroy(ref_lgs);
+    }
+    release(&ar);
+    *out = r;
+    return MLR_OK;
+}
+
+static mlr_status cleanup_run(const mlr_rig *rig, size_t N, double fps, int up,
+                              const double *root_pos, const double *rot, const double *trans,
+                              const double *ref_root_pos, const double *ref_rot,
+                              const double *ref_trans, const mlr_cleanup_ref *pre, int trusted,
+                              size_t C, const int32_t *joints, const int32_t *end_sites,
+                              const uint8_t *contacts, const mlr_cleanup_option *opts,
+                              size_t n_opts, double *out_root_pos, double *out_rot,
+                              mlr_cleanup_report *report, const mlr_allocator *alloc,
+                              mlr_diag *diag)
+{
+    mlr_status st = trusted ? MLR_OK : mlr_rig_check(rig, diag);
+    if (st != MLR_OK)
+        return st;
+    config cfg;
+    if ((st = parse_options(opts, n_opts, &cfg, diag)) != MLR_OK)
+        return st;
+    if (N == 0 || !out_root_pos || !out_rot || (C && !contacts))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "cleanup: no frames, or NULL outputs or contacts");
+    if (!(isfinite(fps) && fps > 0.0))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "cleanup: fps %g is not finite "
+                            "and > 0", fps);
+    if (up < 0 || up > 2)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "cleanup: up axis %d is not 0 (X), "
+                            "1 (Y) or 2 (Z)", up);
+    const int have_arrays = ref_root_pos || ref_rot || ref_trans, have_ref = have_arrays || pre;
+    if (!trusted &&
+        ((st = check_points(rig, C, joints, end_sites, diag)) != MLR_OK ||
+         (st = check_motion(rig, N, root_pos, rot, trans, "motion", diag)) != MLR_OK ||
+         (have_arrays && (st = check_motion(rig, N, ref_root_pos, ref_rot, ref_trans,
+                                            "reference", diag)) != MLR_OK)))
+        return st;
+    if (pre && (pre->n_frames != N || pre->n_points != C || pre->up != up ||
+                pre->smooth != cfg.ref_smooth))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "cleanup: the reference was made for other frames or options");
+    const size_t J = rig->n_joints;
+    if (C > 64)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "cleanup: at most 64 contact "
+                            "points, got %zu", C);
+    if (report) {
+        report->floor_height = NAN;
+        report->contact_frames = report->floor_frames = 0;
+        report->root_shift_max = 0.0;
+    }
+    if (out_root_pos != root_pos)
+        memmove(out_root_pos, root_pos, 3 * N * sizeof(double));
+    if (out_rot != rot)
+        memmove(out_rot, rot, 4 * N * J * sizeof(double));
+    size_t any_contact = 0;
+    for (size_t i = 0; i < N * C; i++)
+        any_contact += contacts[i] != 0;
+    if (N < 3 || C == 0 || (!any_contact && !(cfg.floor_on && cfg.floor_given)))
+        return MLR_OK;
+
+    /* ---- feet ---- */
+    foot feet[64];
+    size_t nf = 0;
+    mlr_cleanup_ref *owned = NULL; /* the reference's trajectories when made here */
+    work w = {rig, N, J, C, fps, up, &cfg, NULL, NULL, NULL, NULL, NULL, NULL};
+    mlr_allocator A;
+    mlr_allocator_resolve(alloc, &A);
+    arena ar = {.a = &A, .st = MLR_OK};
+    uint8_t *listed = take(&ar, J, 1);
+    uint8_t *assigned = take(&ar, C, 1);
+    if (ar.st != MLR_OK)
+        goto fail;
+    if ((st = assign_feet(rig, C, joints, end_sites, feet, &nf, listed, assigned, diag)) !=
+        MLR_OK)
+        goto fail_st_keep;
+
+    /* ---- forward kinematics, points, reference ---- */
+    /* (not zeroed: the forward kinematics write every joint that is read, the other arrays
+       are written whole, or on the frames that are read, before they are read) */
+    double *pos = take_raw(&ar, N * J * 3, sizeof(double));
+    double *wrot = take_raw(&ar, N * J * 4, sizeof(double));
+    double *P = take_raw(&ar, N * C * 3, sizeof(double));
+    double *lim = take(&ar, N * C, sizeof(double));
+    double *newr = take_raw(&ar, N * J * 4, sizeof(double));
+    double *shift = take(&ar, N * 3, sizeof(double));
+    w.map_val = take_raw(&ar, N * 9, sizeof(double));
+    w.map_y = take_raw(&ar, N * 9, sizeof(double));
+    w.map_out = take_raw(&ar, N * 9, sizeof(double));
     /* forward kinematics of the joints the cleanup reads only: the contact points, the
        feet's anchors and their ancestors (hips, knees and the joints above them) */
     uint8_t *need = take(&ar, J, 1);
@@ -639,30 +847,19 @@ mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t N, double fps, int up
     double *wrot2 = take(&ar, J * 4, sizeof(double));
     if (ar.st != MLR_OK)
         goto fail;
-    for (size_t j = 0; j < J; j++)
-        tidx[j] = -1;
-    for (size_t k = 0; k < rig->n_trans; k++)
-        tidx[rig->trans_joints[k]] = (int32_t)k;
-    for (size_t i = 0; i < C + nf; i++)
-        for (int32_t j = i < C ? joints[i] : feet[i - C].anchor; j >= 0 && !need[j];
-             j = rig->parents[j])
-            need[j] = 1;
+    fk_need(rig, C, joints, feet, nf, need, tidx);
     if ((st = fk_points(rig, N, root_pos, rot, trans, C, joints, end_sites, pos, wrot, P, &A,
                         need, tidx)) != MLR_OK)
         goto fail_st;
-    const double *src_pts = P;
-    if (have_ref) {
-        for (size_t f = 0; f < N; f++) { /* frame by frame: the points and the anchors */
-            fk_masked_frame(rig, f, need, tidx, ref_root_pos, ref_rot, ref_trans, pos2, wrot2);
-            if ((st = mlr_rig_point_positions(rig, 1, pos2, wrot2, C, joints, end_sites,
-                                              Pr + 3 * C * f, NULL)) != MLR_OK)
-                goto fail_st;
-            for (size_t k = 0; k < nf; k++)
-                memcpy(pos_ref + 3 * (f * nf + k), pos2 + 3 * (size_t)feet[k].anchor,
-                       3 * sizeof(double));
-        }
-        src_pts = Pr;
+    /* the reference's trajectories: given made, or made here from its frames */
+    if (have_arrays && !pre) {
+        if ((st = mlr_cleanup_ref_create(rig, N, fps, up, ref_root_pos, ref_rot, ref_trans, NULL,
+                                         NULL, C, joints, end_sites, opts, n_opts, &A, &owned,
+                                         diag)) != MLR_OK)
+            goto fail_st_keep;
+        pre = owned;
     }
+    const double *Pr = pre ? pre->pts : NULL, *pos_ref = pre ? pre->anchors : NULL;
     /* floor and the per-point limits (from the unsmoothed reference) */
     double floor_h = NAN;
     if (cfg.floor_on) {
@@ -675,36 +872,16 @@ mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t N, double fps, int up
             size_t k = 0;
             for (size_t i = 0; i < N * C; i++)
                 if (contacts[i])
-                    v[k++] = src_pts[3 * i + (size_t)up];
+                    v[k++] = pre ? pre->h[i] : P[3 * i + (size_t)up];
             if (k)
                 floor_h = quantile_of(v, k, cfg.floor_q);
         }
         for (size_t i = 0; i < N * C; i++)
-            lim[i] = have_ref ? fmin(floor_h, Pr[3 * i + (size_t)up]) : floor_h;
+            lim[i] = pre ? fmin(floor_h, pre->h[i]) : floor_h;
     }
     const int floor_active = cfg.floor_on && isfinite(floor_h);
     if (report)
         report->floor_height = floor_active ? floor_h : NAN;
-    mlr_lgs *ref_lgs = NULL;
-    if (have_ref && cfg.ref_smooth > 0.0) {
-        const double lam = (cfg.ref_smooth * fps) * (cfg.ref_smooth * fps);
-        if ((st = mlr_lgs_create(N, 2, lam, 1.0, NULL, N, MLR_LGS_BANDED, &A, &ref_lgs, diag)) <
-            0)
-            goto fail_st;
-        double *tmp = take(&ar, N * 3 * (C > nf ? C : nf), sizeof(double));
-        if (ar.st != MLR_OK) {
-            mlr_lgs_destroy(ref_lgs);
-            goto fail;
-        }
-        mlr_lgs_solve(ref_lgs, Pr, 3 * C, 3 * C, tmp, 3 * C, NULL);
-        memcpy(Pr, tmp, N * C * 3 * sizeof(double));
-        for (size_t k = 0; k < nf; k++) { /* the ankles' trajectories */
-            mlr_lgs_solve(ref_lgs, pos_ref + 3 * k, 3 * nf, 3, tmp, 3, NULL);
-            for (size_t f = 0; f < N; f++)
-                memcpy(pos_ref + 3 * (f * nf + k), tmp + 3 * f, 3 * sizeof(double));
-        }
-        mlr_lgs_destroy(ref_lgs);
-    }
     {
         w.ab = take(&ar, N * 3, sizeof(double));
         if (ar.st != MLR_OK)
@@ -861,6 +1038,7 @@ mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t N, double fps, int up
             const double x = ((double)i - (double)half) / (double)(half + 1);
             wtab[i] = 0.5 * (1.0 + cos(3.14159265358979323846 * x));
         }
+        const double cos_fold = cos(cfg.max_fold);
         for (int it = 0; it < 5; it++) {
             memset(need, 0, N * 3 * sizeof(double));
             int any = 0;
@@ -896,7 +1074,7 @@ mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t N, double fps, int up
                     /* the hip-ankle distance of a knee folded to max_fold: a target nearer
                        than that would fold the knee past its limit */
                     const double fold = fmin(sqrt(fmax(l1 * l1 + l2 * l2 +
-                                                       2.0 * l1 * l2 * cos(cfg.max_fold), 0.0)),
+                                                       2.0 * l1 * l2 * cos_fold, 0.0)),
                                              now);
                     double v[3];
                     for (int d = 0; d < 3; d++)
@@ -947,8 +1125,17 @@ mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t N, double fps, int up
                shift (no steps where the widest need changes) that still covers each need at its
                own frame, since the window sees only values at least as large; zero farther
                than 0.2 s from every need */
+            size_t in_window = 0, next_in = 0, next_out = 0; /* needs within the window */
             for (size_t f = 0; f < N; f++) {
                 const size_t lo = f > half ? f - half : 0, hi = f + half < N ? f + half : N - 1;
+                for (; next_in <= hi; next_in++)
+                    in_window += nmask[next_in];
+                for (; next_out < lo; next_out++)
+                    in_window -= nmask[next_out];
+                if (!in_window) { /* what the sum gives: 0 / wsum */
+                    ysh[3 * f] = ysh[3 * f + 1] = ysh[3 * f + 2] = 0.0;
+                    continue;
+                }
                 double acc[3] = {0, 0, 0}, wsum = 0.0;
                 for (size_t g = lo; g <= hi; g++) {
                     const double wt = wtab[g + half - f];
@@ -983,15 +1170,67 @@ mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t N, double fps, int up
                 feet[k].K[f] = 0;
 
     /* ---- passes: IK on the constrained frames, then the spread ---- */
-    double *P2 = take(&ar, N * C * 3, sizeof(double));
+    /* pos, wrot and the points P hold the forward kinematics of (root_pos, rot): a pass
+       computes it again only on the frames that changed since (the root shift before the
+       first pass, the spread of the pass before), the others are the same values */
+    double *P2 = P;
     uint8_t *mask = take(&ar, N, 1);
+    uint8_t *dirty = take(&ar, N, 1);
+    /* the toes' chains (the hip down to the placed point's joint), when no other foot's leg
+       joint lies on them: the turn of the ankle then needs the forward kinematics of the chain
+       only, and newr is read at the legs' joints only */
+    int32_t *chains = take(&ar, nf * J, sizeof(int32_t));
+    size_t *chain_len = take(&ar, nf, sizeof(size_t));
     if (ar.st != MLR_OK)
         goto fail;
+    int chained = 1;
+    for (size_t k = 0; k < nf; k++) {
+        const foot *ft = &feet[k];
+        if (!ft->active)
+            continue;
+        /* the chain bottom-up: the placed point's joint (or the anchor) to the hip */
+        const int32_t bottom = ft->n_cols > ft->n_own ? joints[ft->cols[ft->n_own]] : ft->anchor;
+        size_t n = 0;
+        int32_t j = bottom;
+        for (; j >= 0 && n < J; j = rig->parents[j]) {
+            chains[k * J + n++] = j;
+            if (j == ft->hip)
+                break;
+        }
+        if (j != ft->hip) {
+            chained = 0;
+            break;
+        }
+        for (size_t i = 0; i < n / 2; i++) { /* top-down */
+            const int32_t t = chains[k * J + i];
+            chains[k * J + i] = chains[k * J + n - 1 - i], chains[k * J + n - 1 - i] = t;
+        }
+        chain_len[k] = n;
+        /* ... and above the hip, up to the root: no other foot's hip, knee or anchor */
+        for (size_t q = 0; chained && q < nf; q++) {
+            if (q == k || !feet[q].active)
+                continue;
+            for (int32_t u = bottom; u >= 0; u = rig->parents[u])
+                if (u == feet[q].hip || u == feet[q].knee || u == feet[q].anchor)
+                    chained = 0;
+        }
+    }
+    for (size_t f = 0; f < N; f++)
+        dirty[f] = shift[3 * f] != 0.0 || shift[3 * f + 1] != 0.0 || shift[3 * f + 2] != 0.0;
+    w.dirty = dirty;
     const double *tr = trans;
     for (int pass = 0; pass < cfg.passes; pass++) {
-        if ((st = fk_points(rig, N, out_root_pos, out_rot, tr, C, joints, end_sites, pos, wrot, P2,
-                            &A, need, tidx)) != MLR_OK)
-            goto fail_st;
+        for (size_t f = 0; f < N; f++) {
+            if (!dirty[f])
+                continue;
+            fk_masked_frame(rig, f, need, tidx, out_root_pos, out_rot, tr, pos + 3 * J * f,
+                            wrot + 4 * J * f);
+            if ((st = mlr_rig_point_positions(rig, 1, pos + 3 * J * f, wrot + 4 * J * f, C,
+                                              joints, end_sites, P2 + 3 * C * f, NULL)) !=
+                MLR_OK)
+                goto fail_st;
+        }
+        memset(dirty, 0, N);
         /* floor frames: a point below its limit, the foot not in contact */
         memset(anyF, 0, N);
         for (size_t k = 0; k < nf; k++) {
@@ -1010,7 +1249,18 @@ mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t N, double fps, int up
                 anyF[f] |= ft->F[f] && lift > 0.0;
             }
         }
-        memcpy(newr, out_rot, N * J * 4 * sizeof(double));
+        if (!chained) {
+            memcpy(newr, out_rot, N * J * 4 * sizeof(double));
+        } else { /* what is read of newr: the chains' joints (the legs' hips, knees, anchors),
+                    frame by frame (each frame's rotations are read once) */
+            for (size_t f = 0; f < N; f++)
+                for (size_t k = 0; k < nf; k++)
+                    for (size_t i = 0; feet[k].active && i < chain_len[k]; i++) {
+                        const size_t j = (size_t)chains[k * J + i];
+                        memcpy(newr + 4 * (f * J + j), out_rot + 4 * (f * J + j),
+                               4 * sizeof(double));
+                    }
+        }
         for (size_t k = 0; k < nf; k++) {
             const foot *ft = &feet[k];
             if (!ft->active)
@@ -1052,12 +1302,16 @@ mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t N, double fps, int up
         for (size_t f = 0; f < N; f++) {
             if (!fk_frames[f])
                 continue;
-            fk_masked_frame(rig, f, need, tidx, out_root_pos, newr, tr, pos2, wrot2);
+            if (!chained)
+                fk_masked_frame(rig, f, need, tidx, out_root_pos, newr, tr, pos2, wrot2);
             for (size_t k = 0; k < nf; k++) {
                 const foot *ft = &feet[k];
                 if (!ft->active || ft->n_cols == ft->n_own || (!ft->U[f] && !ft->F[f]) ||
                     ft->K[f])
                     continue;
+                if (chained) /* the same values as the whole frame's at the chain's joints */
+                    fk_chain_frame(rig, f, chains + k * J, chain_len[k], tidx, newr, tr,
+                                   pos + 3 * J * f, wrot + 4 * J * f, pos2, wrot2);
                 const size_t a = (size_t)ft->anchor;
                 const int32_t pa = rig->parents[a];
                 const size_t c = ft->cols[ft->n_own];
@@ -1109,10 +1363,12 @@ mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t N, double fps, int up
         }
     }
     mlr_band_destroy(w.pin);
+    mlr_cleanup_ref_destroy(owned);
     release(&ar);
     return MLR_OK;
 fail:
     mlr_band_destroy(w.pin);
+    mlr_cleanup_ref_destroy(owned);
     release(&ar);
     return mlr_diag_set(diag, ar.st, 0, 0, "cleanup: out of memory");
 fail_st:
@@ -1122,6 +1378,36 @@ fail_st:
         mlr_diag_set(diag, st, 0, 0, "cleanup: internal solve failed (status %d)", (int)st);
 fail_st_keep:
     mlr_band_destroy(w.pin);
+    mlr_cleanup_ref_destroy(owned);
     release(&ar);
     return st;
+}
+
+mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t N, double fps, int up,
+                                const double *root_pos, const double *rot, const double *trans,
+                                const double *ref_root_pos, const double *ref_rot,
+                                const double *ref_trans, size_t C, const int32_t *joints,
+                                const int32_t *end_sites, const uint8_t *contacts,
+                                const mlr_cleanup_option *opts, size_t n_opts,
+                                double *out_root_pos, double *out_rot,
+                                mlr_cleanup_report *report, const mlr_allocator *alloc,
+                                mlr_diag *diag)
+{
+    return cleanup_run(rig, N, fps, up, root_pos, rot, trans, ref_root_pos, ref_rot, ref_trans,
+                       NULL, 0, C, joints, end_sites, contacts, opts, n_opts, out_root_pos,
+                       out_rot, report, alloc, diag);
+}
+
+mlr_status mlr_cleanup_contacts_ref(const mlr_rig *rig, size_t N, double fps, int up,
+                                    const double *root_pos, const double *rot,
+                                    const double *trans, const mlr_cleanup_ref *ref, int trusted,
+                                    size_t C, const int32_t *joints, const int32_t *end_sites,
+                                    const uint8_t *contacts, const mlr_cleanup_option *opts,
+                                    size_t n_opts, double *out_root_pos, double *out_rot,
+                                    mlr_cleanup_report *report, const mlr_allocator *alloc,
+                                    mlr_diag *diag)
+{
+    return cleanup_run(rig, N, fps, up, root_pos, rot, trans, NULL, NULL, NULL, ref, trusted, C,
+                       joints, end_sites, contacts, opts, n_opts, out_root_pos, out_rot, report,
+                       alloc, diag);
 }

@@ -38,6 +38,9 @@ struct mlr_guards {
     double floor_height;
     mlr_limits *learned;
     const mlr_limits *limits; /* learned or borrowed */
+    /* the input's trajectories as the cleanup's reference (the pinned feet follow them):
+       made at create (and again when the contacts change) when the feet follow the input */
+    mlr_cleanup_ref *input_ref;
 };
 
 static void *alloc_array(const mlr_allocator *a, size_t count, size_t size, mlr_status *st)
@@ -97,6 +100,7 @@ void mlr_guards_destroy(mlr_guards *g)
     free_array(&g->alloc, g->rot, 4 * N * J, sizeof(double));
     free_array(&g->alloc, g->trans, 3 * N * P, sizeof(double));
     free_contacts(g);
+    mlr_cleanup_ref_destroy(g->input_ref);
     mlr_limits_destroy(g->learned);
     mlr_allocator a = g->alloc;
     mlr_free(&a, g, sizeof *g);
@@ -259,6 +263,25 @@ static mlr_status find_contacts(mlr_guards *g, const double *world_pos, const do
     return st;
 }
 
+/* The input's trajectories for C points (NULL when the feet do not follow the input or there
+ * is no point, or more than the cleanup takes: apply then reports that). wpos, wrot: the
+ * input's forward kinematics, or NULL. */
+static mlr_status make_input_ref(const mlr_guards *g, size_t C, const int32_t *joints,
+                                 const int32_t *end_sites, const double *wpos,
+                                 const double *wrot, mlr_cleanup_ref **out, mlr_diag *diag)
+{
+    *out = NULL;
+    if (!g->follow || C == 0 || C > 64)
+        return MLR_OK;
+    mlr_diag d = {0, 0, ""};
+    const mlr_status st = mlr_cleanup_ref_create(&g->rig, g->n_frames, g->fps, g->up,
+                                                 g->root_pos, g->rot, g->trans, wpos, wrot, C,
+                                                 joints, end_sites, NULL, 0, &g->alloc, out, &d);
+    if (st == MLR_E_INVALID_ARG) /* points the cleanup refuses (over 16 on a foot): apply says so */
+        return MLR_OK;
+    return st == MLR_OK ? MLR_OK : mlr_diag_set(diag, st, 0, 0, "guards: %s", d.message);
+}
+
 static mlr_status check_finite(const double *x, size_t n, const char *what, mlr_diag *diag)
 {
     for (size_t k = 0; k < n; k++)
@@ -344,7 +367,9 @@ mlr_status mlr_guards_create(const mlr_rig *rig, double fps, size_t n_frames,
     }
     if (g->contacts_on || g->floor_on)
         if ((st = find_contacts(g, wpos, wrot, diag)) != MLR_OK ||
-            (st = floor_from_positions(g, wpos, wrot, diag)) != MLR_OK)
+            (st = floor_from_positions(g, wpos, wrot, diag)) != MLR_OK ||
+            (st = make_input_ref(g, g->n_points, g->joints, g->end_sites, wpos, wrot,
+                                 &g->input_ref, diag)) != MLR_OK)
             goto done;
     if (g->limits_mode != MLR_GUARDS_LIMITS_OFF) {
         const mlr_limits_clip clip = {N, g->rot, P ? g->trans : NULL};
@@ -419,7 +444,17 @@ mlr_status mlr_guards_set_contacts(mlr_guards *g, size_t n_points, const int32_t
     }
     for (size_t k = 0; k < C * N; k++)
         nc[k] = contacts[k] != 0;
+    mlr_cleanup_ref *ref = NULL;
+    if ((g->contacts_on || g->floor_on) &&
+        (st = make_input_ref(g, C, nj, ne, NULL, NULL, &ref, diag)) != MLR_OK) {
+        free_array(&g->alloc, nj, C, sizeof(int32_t));
+        free_array(&g->alloc, ne, C, sizeof(int32_t));
+        free_array(&g->alloc, nc, C * N, 1);
+        return st;
+    }
     free_contacts(g);
+    mlr_cleanup_ref_destroy(g->input_ref);
+    g->input_ref = ref;
     g->joints = nj, g->end_sites = ne, g->contacts = nc, g->n_points = C;
     return estimate_floor(g, diag);
 }
@@ -466,20 +501,13 @@ static double knee_fold_limit(const mlr_guards *g)
  * 0.2 s from any). Joint angles do not change, so the
  * limits stay met; a foot that the joint limits or IK could not keep above the floor is
  * lifted with the body. Adds the raised frames to *raised. */
-static mlr_status raise_to_floor(const mlr_guards *g, const double *ref_root,
-                                 const double *ref_rot, const double *ref_trans, double *root,
+static mlr_status raise_to_floor(const mlr_guards *g, const mlr_cleanup_ref *ref, double *root,
                                  const double *rot, const double *trans, size_t *raised)
 {
     const size_t N = g->n_frames, C = g->n_points;
     mlr_status st = MLR_OK;
-    double *href = alloc_array(&g->alloc, N * C, sizeof(double), &st);
     double *hout = alloc_array(&g->alloc, N * C, sizeof(double), &st);
     double *need = alloc_array(&g->alloc, 2 * N, sizeof(double), &st);
-    if (st == MLR_OK && ref_root)
-        st = mlr_cleanup_point_heights(&g->rig, N, ref_root, ref_rot, ref_trans, C, g->joints,
-                                       g->end_sites, g->up, href, &g->alloc);
-    for (size_t k = 0; st == MLR_OK && !ref_root && k < N * C; k++)
-        href[k] = INFINITY; /* no reference: the floor alone */
     if (st == MLR_OK)
         st = mlr_cleanup_point_heights(&g->rig, N, root, rot, trans, C, g->joints, g->end_sites,
                                        g->up, hout, &g->alloc);
@@ -489,7 +517,9 @@ static mlr_status raise_to_floor(const mlr_guards *g, const double *ref_root,
         for (size_t f = 0; f < N; f++) {
             double d = 0.0;
             for (size_t c = 0; c < C; c++) {
-                const double lim = fmin(g->floor_height, href[f * C + c]);
+                /* no reference: the floor alone */
+                const double lim = ref ? fmin(g->floor_height, ref->h[f * C + c])
+                                       : g->floor_height;
                 d = fmax(d, lim - hout[f * C + c]);
             }
             need[f] = d;
@@ -526,10 +556,28 @@ static mlr_status raise_to_floor(const mlr_guards *g, const double *ref_root,
     } else if (st != MLR_E_NO_MEMORY && st != MLR_E_OVERFLOW) {
         st = MLR_E_INVALID_ARG;
     }
-    free_array(&g->alloc, href, N * C, sizeof(double));
     free_array(&g->alloc, hout, N * C, sizeof(double));
     free_array(&g->alloc, need, 2 * N, sizeof(double));
     return st;
+}
+
+/* The given reference as the cleanup checks it (the same message). */
+static mlr_status check_reference(const mlr_guards *g, const double *root, const double *rot,
+                                  const double *trans, mlr_diag *diag)
+{
+    const size_t N = g->n_frames, J = g->n_joints, P = g->n_trans;
+    for (size_t k = 0; k < 3 * N; k++)
+        if (!isfinite(root[k]))
+            goto bad;
+    for (size_t k = 0; k < 4 * N * J; k++)
+        if (!isfinite(rot[k]))
+            goto bad;
+    for (size_t k = 0; k < 3 * N * P; k++)
+        if (!isfinite(trans[k]))
+            goto bad;
+    return MLR_OK;
+bad:
+    return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "reference contains NaN or infinite values");
 }
 
 static int limits_wanted(const mlr_guards *g, const double *alpha, size_t n_alpha)
@@ -575,6 +623,8 @@ mlr_status mlr_guards_apply(const mlr_guards *g, const double *alpha, size_t n_a
         return st;
 
     mlr_guards_report rep = {0, 0, 0, 0, 0, NAN, 0.0, 0};
+    mlr_cleanup_ref *made_ref = NULL;
+    const mlr_cleanup_ref *ref = NULL;
     st = MLR_OK;
     double *work = alloc_array(&g->alloc, 4 * N * J, sizeof(double), &st);
     double *work_root = alloc_array(&g->alloc, 3 * N, sizeof(double), &st);
@@ -598,6 +648,24 @@ mlr_status mlr_guards_apply(const mlr_guards *g, const double *alpha, size_t n_a
     const size_t C = g->contacts_on ? g->n_points : 0;
     const int floor_on = g->floor_on && isfinite(g->floor_height) && g->n_points > 0;
     if (C > 0 || floor_on) {
+        /* the reference the pinned feet follow: the input's trajectories (made at create), or
+           those of the given reference, made here once for every round */
+        if (g->follow && has_ref) {
+            const mlr_cleanup_option smooth0 = {MLR_CLEANUP_OPT_REF_SMOOTH, 0.0};
+            if ((st = check_reference(g, ref_root_pos, ref_rot, ref_trans, diag)) != MLR_OK ||
+                (st = mlr_cleanup_ref_create(&g->rig, N, g->fps, g->up, ref_root_pos, ref_rot,
+                                             P ? ref_trans : NULL, NULL, NULL, g->n_points,
+                                             g->joints, g->end_sites, &smooth0, 1, &g->alloc,
+                                             &made_ref, diag)) != MLR_OK)
+                goto done;
+            ref = made_ref;
+        } else if (g->follow) {
+            ref = g->input_ref;
+            if (!ref && (st = make_input_ref(g, g->n_points, g->joints, g->end_sites, NULL, NULL,
+                                             &made_ref, diag)) != MLR_OK)
+                goto done;
+            ref = ref ? ref : made_ref;
+        }
         /* floor alone: the feet with no contact frame, so only the floor constrains them */
         uint8_t *none = NULL;
         if (C == 0) {
@@ -638,13 +706,12 @@ mlr_status mlr_guards_apply(const mlr_guards *g, const double *alpha, size_t n_a
          * and the limits alternate GUARDS_ROUNDS times in all */
         const int rounds = rep.limits_applied ? GUARDS_ROUNDS : 1;
         for (int round = 0; round < rounds; round++) {
-            const double *rr = !g->follow ? NULL : has_ref ? ref_root_pos : g->root_pos;
-            const double *rq = !g->follow ? NULL : has_ref ? ref_rot : g->rot;
-            const double *rt = !g->follow || !P ? NULL : has_ref ? ref_trans : g->trans;
-            st = mlr_cleanup_contacts(&g->rig, N, g->fps, g->up, work_root, work, trans, rr, rq,
-                                      rt, g->n_points,
-                                      g->joints, g->end_sites, C ? g->contacts : none, copts,
-                                      n_copts, work_root, work, &crep, &g->alloc, diag);
+            /* every round (the motion changed, the reference did not) reads the reference's
+               trajectories made once: the input's at create, a given one here */
+            st = mlr_cleanup_contacts_ref(&g->rig, N, g->fps, g->up, work_root, work, trans, ref,
+                                          round > 0, g->n_points, g->joints, g->end_sites,
+                                          C ? g->contacts : none, copts, n_copts, work_root,
+                                          work, &crep, &g->alloc, diag);
             if (st == MLR_OK) /* the root's total correction is the sum over the rounds; its
                                  largest value is bounded by the sum of each round's largest */
                 rep.root_shift_max += crep.root_shift_max;
@@ -674,10 +741,7 @@ mlr_status mlr_guards_apply(const mlr_guards *g, const double *alpha, size_t n_a
         rep.floor_height = floor_on ? crep.floor_height : NAN;
     }
     if (floor_on) {
-        const double *rr = !g->follow ? NULL : has_ref ? ref_root_pos : g->root_pos;
-        const double *rq = !g->follow ? NULL : has_ref ? ref_rot : g->rot;
-        const double *rt = !g->follow || !P ? NULL : has_ref ? ref_trans : g->trans;
-        st = raise_to_floor(g, rr, rq, rt, work_root, work, trans, &rep.floor_raised);
+        st = raise_to_floor(g, ref, work_root, work, trans, &rep.floor_raised);
         if (st != MLR_OK) {
             mlr_diag_set(diag, st, 0, 0, "guards apply: %s", st == MLR_E_NO_MEMORY
                          ? "out of memory" : "forward kinematics of the result failed");
@@ -695,6 +759,7 @@ mlr_status mlr_guards_apply(const mlr_guards *g, const double *alpha, size_t n_a
     if (report)
         *report = rep;
 done:
+    mlr_cleanup_ref_destroy(made_ref);
     free_array(&g->alloc, work, 4 * N * J, sizeof(double));
     free_array(&g->alloc, work_root, 3 * N, sizeof(double));
     free_array(&g->alloc, counts, J, sizeof(size_t));

@@ -394,6 +394,35 @@ static mlr_status check_range(const mlr_layers *L, size_t begin, size_t count, d
     return MLR_OK;
 }
 
+mlr_status mlr_layers_repair(const mlr_layers *L, size_t begin, size_t count, double *root_pos,
+                             size_t n_root_pos, double *rot, size_t n_rot, size_t *n_repaired,
+                             mlr_diag *diag)
+{
+    if (n_repaired)
+        *n_repaired = 0;
+    mlr_status st = check_range(L, begin, count, root_pos, n_root_pos, rot, n_rot, "repair", diag);
+    if (st != MLR_OK)
+        return st;
+    const size_t g = 1 + L->j;
+    const double one = 1.0;
+    size_t n = 0;
+    for (size_t f = 0; f < count; f++) {
+        const unsigned char *o = L->outliers + (begin + f) * g;
+        size_t k = 0;
+        while (k < g && !o[k])
+            k++;
+        if (k == g)
+            continue;
+        /* one frame of the synthesis at alpha 1: the same arithmetic, so the same bits */
+        (void)mlr_layers_synthesize(L, begin + f, 1, &one, 1, root_pos ? root_pos + 3 * f : NULL,
+                                    3, rot ? rot + 4 * L->j * f : NULL, 4 * L->j, NULL);
+        n++;
+    }
+    if (n_repaired)
+        *n_repaired = n;
+    return MLR_OK;
+}
+
 /* joints per exp kernel call in mlr_layers_synthesize */
 #define SYNTH_BLOCK 32
 

@@ -237,8 +237,8 @@ mlr_status mlr_limits_create(const mlr_rig *rig, const mlr_limits_clip *clips, s
     mlr_allocator_resolve(alloc, &a);
     size_t jbytes, sbytes;
     if (mlr_mul_size(J, sizeof(mlr_limits_joint), &jbytes) != MLR_OK ||
-        mlr_mul_size(J, sizeof(acc) + 4 * sizeof(int32_t) + sizeof(mlr_quat) + sizeof(mlr_vec3),
-                     &sbytes) != MLR_OK)
+        mlr_mul_size(J, sizeof(acc) + 4 * sizeof(int32_t) + 2 * sizeof(mlr_quat) +
+                            sizeof(mlr_vec3), &sbytes) != MLR_OK)
         return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "limits: too many joints");
     mlr_limits *lim = mlr_alloc(&a, sizeof *lim);
     if (!lim)
@@ -262,6 +262,7 @@ mlr_status mlr_limits_create(const mlr_rig *rig, const mlr_limits_clip *clips, s
     int *is_hinge = (int *)(main_child + J), *cls = is_hinge + J;
     mlr_quat *rq = (mlr_quat *)(void *)(cls + J + (J & 1)); /* one frame's centred rotations */
     mlr_vec3 *rv = (mlr_vec3 *)(void *)(rq + J);            /* ... and their logs */
+    mlr_quat *qn = (mlr_quat *)(void *)(rv + J);            /* ... and the frame's unit q */
     mlr_limits_joint *jt = lim->joints;
 
     /* bones: offsets, or the mean translation of a trans joint over the clips */
@@ -347,6 +348,7 @@ mlr_status mlr_limits_create(const mlr_rig *rig, const mlr_limits_clip *clips, s
                 if (r.w < 0)
                     r = (mlr_quat){-r.w, -r.x, -r.y, -r.z};
                 rq[j] = r;
+                qn[j] = q;
             }
             (void)mlr_quat_log_array(rq, J, rv, NULL);
             for (size_t j = 0; j < J; j++) {
@@ -359,10 +361,7 @@ mlr_status mlr_limits_create(const mlr_rig *rig, const mlr_limits_clip *clips, s
                     for (int b3 = 0; b3 < 3; b3++)
                         m[3 * a3 + b3] += vv[a3] * vv[b3];
                 if (norm3(g->axis) > 0) {
-                    const double *p = clips[k].rot + 4 * (f * J + j);
-                    const double n = sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2] + p[3] * p[3]);
-                    const mlr_quat q = {p[0] / n, p[1] / n, p[2] / n, p[3] / n};
-                    const double phi = hinge_phi(g->axis, g->bone_in, qrot(q, g->bone_out));
+                    const double phi = hinge_phi(g->axis, g->bone_in, qrot(qn[j], g->bone_out));
                     g->stats[0] = fmin(g->stats[0], phi);
                     g->stats[1] = fmax(g->stats[1], phi);
                 }
@@ -640,19 +639,50 @@ static double fast_bound(const mlr_limits *lim, const mlr_limits_joint *g, doubl
  * in the branch nearest that frame's (unwrapped in time), so a trajectory that crosses the
  * middle of the excluded arc stays on its side instead of snapping to the other bound. A swing-twist joint's
  * twist is unwrapped the same way (it would snap from +twist to -twist at a half turn). */
-static int limit_joint(const mlr_limits *lim, const mlr_limits_joint *g, double alpha,
-                       double fast, mlr_quat *q, prev_angle *prev)
+/* What limit_joint reads of a joint at one alpha, the same for every frame: worked out once
+ * per joint and alpha (bounds_of) instead of at every frame. */
+typedef struct joint_bounds {
+    double w_hi, w_lo, mid;          /* hinge: the soft widths, the excluded arc's middle */
+    double smax, tmax, ws, wt, fast; /* swing-twist: the bounds at alpha, their soft widths,
+                                        fast_bound */
+    double bl;                       /* |bone_out| */
+    mlr_vec3 t;                      /* bone_out / bl (bl > 0) */
+} joint_bounds;
+
+static joint_bounds bounds_of(const mlr_limits *lim, const mlr_limits_joint *g, double alpha)
+{
+    const mlr_limits_range *r = &g->range;
+    joint_bounds b;
+    memset(&b, 0, sizeof b);
+    b.fast = -1.0;
+    b.bl = norm3(g->bone_out);
+    if (b.bl > 0)
+        b.t = scale3(g->bone_out, 1.0 / b.bl);
+    if (r->kind == MLR_LIMITS_HINGE) {
+        const double span = r->hi - r->lo;
+        b.w_hi = lim->soft * span, b.w_lo = fmin(lim->rev_soft, 0.5 * span);
+        if (b.w_hi + b.w_lo > span)
+            b.w_hi = span - b.w_lo;
+        b.mid = 0.5 * (r->hi + r->lo) + PI; /* middle of the excluded arc */
+    } else if (r->kind == MLR_LIMITS_SWING_TWIST) {
+        const double wide = r->widen ? fmax(1.0, fabs(alpha)) : 1.0;
+        b.smax = fmin(PI, r->swing * wide), b.tmax = fmin(PI, r->twist * wide);
+        b.ws = lim->soft * b.smax, b.wt = lim->soft * b.tmax;
+        b.fast = fast_bound(lim, g, alpha);
+    }
+    return b;
+}
+
+static int limit_joint(const mlr_limits_joint *g, const joint_bounds *b, mlr_quat *q,
+                       prev_angle *prev)
 {
     const mlr_limits_range *r = &g->range;
     const mlr_quat q0 = *q;
     if (r->kind == MLR_LIMITS_HINGE) {
-        const double span = r->hi - r->lo;
-        double w_hi = lim->soft * span, w_lo = fmin(lim->rev_soft, 0.5 * span);
-        if (w_hi + w_lo > span)
-            w_hi = span - w_lo;
+        const double w_hi = b->w_hi, w_lo = b->w_lo;
         const mlr_vec3 s = qrot(*q, g->bone_out);
         double phi = hinge_phi(g->axis, g->bone_in, s);
-        const double mid = 0.5 * (r->hi + r->lo) + PI; /* middle of the excluded arc */
+        const double mid = b->mid; /* middle of the excluded arc */
         if (phi >= mid)
             phi -= 2.0 * PI;
         else if (phi < mid - 2.0 * PI)
@@ -672,20 +702,18 @@ static int limit_joint(const mlr_limits *lim, const mlr_limits_joint *g, double 
             return 0;
         *q = qmul(axis_angle(g->axis, phi2 - phi), *q);
     } else if (r->kind == MLR_LIMITS_SWING_TWIST) {
-        const double wide = r->widen ? fmax(1.0, fabs(alpha)) : 1.0;
-        const double smax = fmin(PI, r->swing * wide), tmax = fmin(PI, r->twist * wide);
-        const double ws = lim->soft * smax, wt = lim->soft * tmax;
+        const double smax = b->smax, tmax = b->tmax, ws = b->ws, wt = b->wt;
         mlr_quat rr = qmul(qconj(g->centre), *q);
         if (rr.w < 0)
             rr = (mlr_quat){-rr.w, -rr.x, -rr.y, -rr.z};
-        const double bl = norm3(g->bone_out);
-        if (rr.x * rr.x + rr.y * rr.y + rr.z * rr.z < fast) { /* well inside: unchanged */
+        const double bl = b->bl;
+        if (rr.x * rr.x + rr.y * rr.y + rr.z * rr.z < b->fast) { /* well inside: unchanged */
             if (prev && bl > 0)
                 prev->pending = 1, prev->rr = rr;
             return 0;
         }
         if (bl > 0) {
-            const mlr_vec3 t = scale3(g->bone_out, 1.0 / bl);
+            const mlr_vec3 t = b->t;
             double sw, tw;
             mlr_quat sq;
             swing_twist(rr, t, &sw, &tw, &sq);
@@ -724,8 +752,8 @@ void mlr_limits_apply_frame(const mlr_limits *lim, mlr_quat *q, const double *al
     for (size_t j = 0; j < lim->n_joints; j++) {
         const double a = alpha ? alpha[stride * j] : 1.0;
         const mlr_limits_joint *g = &lim->joints[j];
-        const double fast = g->range.kind == MLR_LIMITS_SWING_TWIST ? fast_bound(lim, g, a) : -1.0;
-        if (limit_joint(lim, g, a, fast, &q[j], NULL) && counts)
+        const joint_bounds b = bounds_of(lim, g, a);
+        if (limit_joint(g, &b, &q[j], NULL) && counts)
             counts[j]++;
     }
 }
@@ -736,16 +764,30 @@ void mlr_limits_apply_kind(const mlr_limits *lim, size_t n_frames, mlr_quat *rot
     const size_t J = lim->n_joints;
     const double *aj = alpha ? (n_alpha == 1 ? alpha : alpha + 1) : NULL;
     const size_t stride = n_alpha == 1 ? 0 : 1;
-    for (size_t j = 0; j < J; j++) {
-        const mlr_limits_joint *lj = &lim->joints[j];
-        if (lj->range.kind != kind)
-            continue;
-        const double a = aj ? aj[stride * j] : 1.0;
-        prev_angle prev = {NAN, 0, {1, 0, 0, 0}};
-        const double fast = kind == MLR_LIMITS_SWING_TWIST ? fast_bound(lim, lj, a) : -1.0;
+    /* each joint along the frames with its own unwrapping state, as if joint by joint; the
+       joints of a block side by side within a frame, so the frames are read in order */
+    enum { BLOCK = 32 };
+    size_t js[BLOCK];
+    prev_angle prev[BLOCK];
+    joint_bounds b[BLOCK];
+    for (size_t j0 = 0; j0 < J;) {
+        size_t m = 0;
+        for (; j0 < J && m < BLOCK; j0++) {
+            const mlr_limits_joint *lj = &lim->joints[j0];
+            if (lj->range.kind != kind)
+                continue;
+            const double a = aj ? aj[stride * j0] : 1.0;
+            js[m] = j0;
+            prev[m] = (prev_angle){NAN, 0, {1, 0, 0, 0}};
+            b[m] = bounds_of(lim, lj, a);
+            m++;
+        }
         for (size_t f = 0; f < n_frames; f++)
-            if (limit_joint(lim, lj, a, fast, &rot[f * J + j], &prev) && counts)
-                counts[j]++;
+            for (size_t i = 0; i < m; i++) {
+                const size_t j = js[i];
+                if (limit_joint(&lim->joints[j], &b[i], &rot[f * J + j], &prev[i]) && counts)
+                    counts[j]++;
+            }
     }
 }
 

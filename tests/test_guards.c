@@ -284,6 +284,91 @@ START_TEST(every_allocation_failure_returns_no_memory_without_leaks)
 }
 END_TEST
 
+/* The input's trajectories (the default reference) are made at create from the input's forward
+ * kinematics, and again by set_contacts through the cleanup's own: the same points and contacts
+ * set again give the same motion bit for bit. A given reference is made once per apply for
+ * both rounds: its allocation failures, and set_contacts', are clean too. */
+START_TEST(reference_trajectories_are_the_same_however_made)
+{
+    clip c;
+    if (!load("cmu_131_01_mj_style_walk.bvh", 240, &c))
+        return;
+    const size_t N = c.n, J = c.j;
+    double *root = malloc(3 * N * sizeof(double)), *rot = malloc(4 * N * J * sizeof(double));
+    double *r1 = malloc(3 * N * sizeof(double)), *q1 = malloc(4 * N * J * sizeof(double));
+    double *r2 = malloc(3 * N * sizeof(double)), *q2 = malloc(4 * N * J * sizeof(double));
+    double *rr = malloc(3 * N * sizeof(double)), *rq = malloc(4 * N * J * sizeof(double));
+    stylized(&c, 2.5, root, rot);
+    stylized(&c, 1.0, rr, rq);
+    const double alpha = 2.5;
+    mlr_guards *g = guards_of(&c, NULL, 0);
+    const size_t C = mlr_guards_n_points(g);
+    ck_assert_uint_gt(C, 0);
+    int32_t *pj = malloc(C * sizeof(int32_t)), *pe = malloc(C * sizeof(int32_t));
+    uint8_t *pc = malloc(N * C);
+    ck_assert_int_eq(mlr_guards_get_contacts(g, pj, pe, pc), MLR_OK);
+    memcpy(r1, root, 3 * N * sizeof(double)), memcpy(q1, rot, 4 * N * J * sizeof(double));
+    mlr_guards_report rep1, rep2;
+    ck_assert_int_eq(mlr_guards_apply(g, &alpha, 1, NULL, NULL, NULL, r1, q1, NULL, NULL, 0,
+                                      &rep1, NULL), MLR_OK);
+    ck_assert_uint_gt(rep1.contact_frames, 0);
+    mlr_diag d;
+    ck_assert_msg(mlr_guards_set_contacts(g, C, pj, pe, pc, &d) == MLR_OK, "%s", d.message);
+    memcpy(r2, root, 3 * N * sizeof(double)), memcpy(q2, rot, 4 * N * J * sizeof(double));
+    ck_assert_int_eq(mlr_guards_apply(g, &alpha, 1, NULL, NULL, NULL, r2, q2, NULL, NULL, 0,
+                                      &rep2, NULL), MLR_OK);
+    ck_assert_int_eq(memcmp(r1, r2, 3 * N * sizeof(double)), 0);
+    ck_assert_int_eq(memcmp(q1, q2, 4 * N * J * sizeof(double)), 0);
+    ck_assert_uint_eq(rep1.contact_frames, rep2.contact_frames);
+    /* a given reference is followed as it is: another motion than the input's default */
+    memcpy(r2, root, 3 * N * sizeof(double)), memcpy(q2, rot, 4 * N * J * sizeof(double));
+    ck_assert_int_eq(mlr_guards_apply(g, &alpha, 1, rr, rq, NULL, r2, q2, NULL, NULL, 0, &rep2,
+                                      NULL), MLR_OK);
+    ck_assert_int_ne(memcmp(r1, r2, 3 * N * sizeof(double)), 0);
+    mlr_guards_destroy(g);
+    /* allocation failures: create, set_contacts, apply with a given reference */
+    size_t failures = 0;
+    for (size_t k = 0;; k++) {
+        mlr_test_allocator ta;
+        mlr_test_allocator_init(&ta, k);
+        mlr_guards *h = NULL;
+        mlr_status st = mlr_guards_create(&c.rig, c.fps, N, mlr_motion_root_pos(c.m),
+                                          mlr_motion_rot(c.m), NULL, NULL, 0, &ta.base, &h, NULL);
+        if (st == MLR_OK)
+            st = mlr_guards_set_contacts(h, C, pj, pe, pc, NULL);
+        if (st == MLR_OK) {
+            memcpy(r2, root, 3 * N * sizeof(double)), memcpy(q2, rot, 4 * N * J * sizeof(double));
+            st = mlr_guards_apply(h, &alpha, 1, rr, rq, NULL, r2, q2, NULL, NULL, 0, NULL, NULL);
+            if (st != MLR_OK) {
+                ck_assert_int_eq(memcmp(r2, root, 3 * N * sizeof(double)), 0);
+                ck_assert_int_eq(memcmp(q2, rot, 4 * N * J * sizeof(double)), 0);
+            }
+        }
+        mlr_guards_destroy(h);
+        ck_assert_uint_eq(ta.live_blocks, 0);
+        if (k >= ta.n_calls) {
+            ck_assert_int_eq(st, MLR_OK);
+            break;
+        }
+        ck_assert_int_eq(st, MLR_E_NO_MEMORY);
+        failures++;
+    }
+    ck_assert_uint_gt(failures, 10);
+    /* a non-finite reference is refused before anything is written */
+    rq[4 * J * 7 + 2] = NAN;
+    memcpy(r2, root, 3 * N * sizeof(double)), memcpy(q2, rot, 4 * N * J * sizeof(double));
+    g = guards_of(&c, NULL, 0);
+    ck_assert_int_eq(mlr_guards_apply(g, &alpha, 1, rr, rq, NULL, r2, q2, NULL, NULL, 0, NULL,
+                                      &d), MLR_E_INVALID_ARG);
+    ck_assert_ptr_nonnull(strstr(d.message, "reference contains NaN"));
+    ck_assert_int_eq(memcmp(q2, rot, 4 * N * J * sizeof(double)), 0);
+    mlr_guards_destroy(g);
+    free(pj), free(pe), free(pc);
+    free(root), free(rot), free(r1), free(q1), free(r2), free(q2), free(rr), free(rq);
+    unload(&c);
+}
+END_TEST
+
 static Suite *guards_suite(void)
 {
     Suite *s = suite_create("guards");
@@ -292,6 +377,7 @@ static Suite *guards_suite(void)
     tcase_add_test(tc, every_guard_switched_off_leaves_the_frames_alone);
     tcase_add_test(tc, bad_input_gets_the_right_status_and_message);
     tcase_add_test(tc, every_allocation_failure_returns_no_memory_without_leaks);
+    tcase_add_test(tc, reference_trajectories_are_the_same_however_made);
     suite_add_tcase(s, tc);
     return s;
 }

@@ -1310,6 +1310,83 @@ START_TEST(robust_glitch_is_found_and_local)
 END_TEST
 
 /* The robust path under a failing allocator: every failure is MLR_E_NO_MEMORY, no leak. */
+/* mlr_layers_repair against the straightforward composition: the whole synthesis at alpha 1
+ * (every alpha given, 1 + J ones), written over the frames that get_outliers flags in some
+ * group; the other frames bit for bit the input; on a sub-range and with one array skipped;
+ * bad arguments write nothing. */
+START_TEST(repair_replaces_the_outlier_frames)
+{
+    const size_t n = 600, j = 3, ng = 1 + j, at = 300;
+    const double fps = 30.0;
+    double *pos = malloc(3 * n * sizeof *pos), *rot = malloc(4 * n * j * sizeof *rot);
+    double *dp = malloc(3 * n * sizeof *dp), *dq = malloc(4 * n * j * sizeof *dq);
+    double *rp = malloc(3 * n * sizeof *rp), *rq = malloc(4 * n * j * sizeof *rq);
+    unsigned char *fl = malloc(n * ng);
+    synthetic_big(n, fps, pos, rot, 5);
+    inject_glitch(at, j, pos, rot, 21);
+    const mlr_layers_option o[2] = {{MLR_LAYERS_OPT_FPS, fps}, {MLR_LAYERS_OPT_BODY_HEIGHT, 100.0}};
+    mlr_layers *G = NULL;
+    ck_assert_int_eq(mlr_layers_decompose(n, j, pos, rot, o, 2, NULL, &G, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_layers_get_outliers(G, fl, n * ng), MLR_OK);
+    double ones[1 + 3] = {1.0, 1.0, 1.0, 1.0};
+    ck_assert_int_eq(mlr_layers_synthesize(G, 0, n, ones, ng, dp, 3 * n, dq, 4 * n * j, NULL),
+                     MLR_OK);
+    memcpy(rp, pos, 3 * n * sizeof *rp), memcpy(rq, rot, 4 * n * j * sizeof *rq);
+    size_t nr = 99;
+    ck_assert_int_eq(mlr_layers_repair(G, 0, n, rp, 3 * n, rq, 4 * n * j, &nr, NULL), MLR_OK);
+    size_t bad = 0;
+    for (size_t i = 0; i < n; i++) {
+        int b = 0;
+        for (size_t g = 0; g < ng; g++)
+            b |= fl[i * ng + g];
+        bad += b != 0;
+        const double *ep = b ? dp : pos, *eq = b ? dq : rot;
+        ck_assert_mem_eq(rp + 3 * i, ep + 3 * i, 3 * sizeof *rp);
+        ck_assert_mem_eq(rq + 4 * j * i, eq + 4 * j * i, 4 * j * sizeof *rq);
+    }
+    ck_assert_uint_eq(bad, 5);
+    ck_assert_uint_eq(nr, bad);
+    /* a sub-range over the glitch's end, rotations only */
+    memcpy(rq, rot, 4 * n * j * sizeof *rq);
+    ck_assert_int_eq(mlr_layers_repair(G, at + 2, 10, NULL, 0, rq + 4 * j * (at + 2), 40 * j, &nr,
+                                       NULL),
+                     MLR_OK);
+    ck_assert_uint_eq(nr, 3);
+    for (size_t i = 0; i < n; i++) {
+        const int b = i >= at + 2 && i < at + 5;
+        ck_assert_mem_eq(rq + 4 * j * i, (b ? dq : rot) + 4 * j * i, 4 * j * sizeof *rq);
+    }
+    /* bad arguments: nothing written */
+    memcpy(rp, pos, 3 * n * sizeof *rp);
+    mlr_diag d;
+    ck_assert_int_eq(mlr_layers_repair(NULL, 0, n, rp, 3 * n, NULL, 0, &nr, &d),
+                     MLR_E_INVALID_ARG);
+    ck_assert_uint_eq(nr, 0);
+    ck_assert_str_eq(d.message, "layers repair: the handle is NULL");
+    ck_assert_int_eq(mlr_layers_repair(G, 0, n, rp, 3 * n - 1, NULL, 0, NULL, &d),
+                     MLR_E_INVALID_ARG);
+    ck_assert_str_eq(d.message, "layers repair: n_root_pos is 1799, 3 count is 1800");
+    ck_assert_int_eq(mlr_layers_repair(G, 0, n, rp, 3 * n, rq, 4 * n * j + 4, NULL, NULL),
+                     MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_layers_repair(G, 1, n, rp, 3 * n, NULL, 0, NULL, &d), MLR_E_INVALID_ARG);
+    ck_assert_ptr_nonnull(strstr(d.message, "are not within the 600 frames"));
+    ck_assert_int_eq(mlr_layers_repair(G, n + 1, 0, NULL, 0, NULL, 0, NULL, NULL),
+                     MLR_E_INVALID_ARG);
+    ck_assert_mem_eq(rp, pos, 3 * n * sizeof *rp);
+    /* a clip without outliers: nothing changes */
+    mlr_layers *C = NULL;
+    synthetic_big(n, fps, pos, rot, 5);
+    ck_assert_int_eq(mlr_layers_decompose(n, j, pos, rot, o, 2, NULL, &C, NULL), MLR_OK);
+    memcpy(rp, pos, 3 * n * sizeof *rp), memcpy(rq, rot, 4 * n * j * sizeof *rq);
+    ck_assert_int_eq(mlr_layers_repair(C, 0, n, rp, 3 * n, rq, 4 * n * j, &nr, NULL), MLR_OK);
+    ck_assert_uint_eq(nr, 0);
+    ck_assert_mem_eq(rp, pos, 3 * n * sizeof *rp);
+    ck_assert_mem_eq(rq, rot, 4 * n * j * sizeof *rq);
+    mlr_layers_destroy(G), mlr_layers_destroy(C);
+    free(pos), free(rot), free(dp), free(dq), free(rp), free(rq), free(fl);
+}
+END_TEST
+
 START_TEST(robust_allocation_failures_are_clean)
 {
     const size_t n = 60, j = 3;
@@ -1359,6 +1436,7 @@ static Suite *layers_suite(void)
     tcase_add_test(num, body_joint_sets_the_translation_s);
     tcase_add_test(num, robust_without_outliers_is_plain);
     tcase_add_test(num, robust_glitch_is_found_and_local);
+    tcase_add_test(num, repair_replaces_the_outlier_frames);
     suite_add_tcase(s, num);
     TCase *args = tcase_create("arguments");
     tcase_add_test(args, bad_arguments);

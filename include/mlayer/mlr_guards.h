@@ -16,7 +16,9 @@
  * Use, per input clip (the handle keeps copies of everything it needs):
  *
  *     mlr_layers_decompose(...)                    the layers of the input
- *     mlr_guards_create(rig, fps, input, ...)      contacts, floor and limits of the input
+ *     mlr_layers_repair(layers, copy of input)     its outlier frames replaced by the
+ *                                                  denoised ones (what mlayer does)
+ *     mlr_guards_create(rig, fps, repaired, ...)   contacts, floor and limits of the input
  *     mlr_layers_synthesize(layers, alpha, ...)    M' = Mb (+) alpha delta_c
  *     mlr_guards_apply(guards, alpha, NULL, M')    M' made plausible, in place
  *
@@ -115,8 +117,10 @@ typedef struct mlr_guards_report {
  * @param diag      [out] optional: the reason of an error
  * @return MLR_OK; MLR_E_INVALID_ARG (bad rig, fps, N < 3, NULL or non-finite frames, unknown
  *         or repeated key, bad option value); MLR_E_NO_MEMORY; MLR_E_OVERFLOW
- * Allocates: the handle with copies of the rig and the frames (about N (4 J + 3 P + 3) doubles)
- * and the contacts (N C bytes); while running, forward kinematics (7 N J doubles).
+ * Allocates: the handle with copies of the rig and the frames (about N (4 J + 3 P + 3) doubles),
+ * the contacts (N C bytes) and the input's contact point and ankle trajectories that apply
+ * reads as its default reference (about N (4 C + 6) doubles); while running, forward
+ * kinematics (7 N J doubles).
  * Threads: any; inputs only read.
  */
 MLR_API mlr_status mlr_guards_create(const mlr_rig *rig, double fps, size_t n_frames,
@@ -146,7 +150,8 @@ MLR_API mlr_status mlr_guards_get_contacts(const mlr_guards *g, int32_t *joints,
  * @param contacts  [in] N x C, nonzero in contact
  * @return MLR_OK; MLR_E_INVALID_ARG (NULL handle or arrays, a point that names nothing, a point
  *         listed twice; nothing changed); MLR_E_NO_MEMORY (nothing changed)
- * Allocates: N C bytes and C indices. Threads: one writer, no concurrent apply.
+ * Allocates: N C bytes, C indices and the new points' trajectories (about N (4 C + 6)
+ * doubles). Threads: one writer, no concurrent apply.
  */
 MLR_API mlr_status mlr_guards_set_contacts(mlr_guards *g, size_t n_points, const int32_t *joints,
                                            const int32_t *end_sites, const uint8_t *contacts,

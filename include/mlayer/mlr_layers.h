@@ -223,6 +223,31 @@ MLR_API mlr_status mlr_layers_get_outliers(const mlr_layers *layers, unsigned ch
                                            size_t count);
 
 /**
+ * Repair the input at its outlier frames: frames [begin, begin + count) of the input, in the
+ * layout given to mlr_layers_decompose (root_pos the body translation, rot the rotations),
+ * are rewritten in place where the frame is an outlier of some group (mlr_layers_get_outliers)
+ * by the denoised frame, the synthesis at alpha 1 (the same values mlr_layers_synthesize
+ * gives); the other frames are left as they are. What the guards (mlr_guards_create) should
+ * learn from, so that a glitch does not break a contact, move the floor or widen a joint's
+ * range; mlayer's Python pipeline does this before making the guards. On a rig whose body
+ * translation rides on a non-root joint, root_pos holds that joint's translations (as given
+ * to decompose with MLR_LAYERS_OPT_BODY_JOINT): copy them back to its position channels.
+ * @param layers      [in] the layers of the input
+ * @param root_pos    [in/out] count x 3 of the input's body translations, or NULL to skip
+ * @param n_root_pos  [in] must be 3 count when root_pos is not NULL
+ * @param rot         [in/out] count x J x 4 of the input's rotations, or NULL to skip
+ * @param n_rot       [in] must be 4 J count when rot is not NULL
+ * @param n_repaired  [out] optional: how many frames were outliers (and so rewritten)
+ * @param diag        [out] optional: the reason of an error
+ * @return MLR_OK; MLR_E_INVALID_ARG (NULL layers, range outside the frames, wrong sizes;
+ *         nothing written)
+ * Allocates: never. Threads: handle only read.
+ */
+MLR_API mlr_status mlr_layers_repair(const mlr_layers *layers, size_t begin, size_t count,
+                                     double *root_pos, size_t n_root_pos, double *rot,
+                                     size_t n_rot, size_t *n_repaired, mlr_diag *diag);
+
+/**
  * Synthesize frames [begin, begin + count) of M' = Mb (+) W delta_c (eq. 16, 17): the root
  * translation pb + alpha_0 uc, joint j's rotation qb_j * exp(alpha_{1+j} vc_j).
  * @param alpha       [in] n_alpha finite scales: 1 + J values (root translation first), or a

@@ -220,6 +220,27 @@ class Layers(ReadOnlyAttributes):
         """The frames that are an outlier of some group, sorted."""
         return np.flatnonzero(self.outliers.any(axis=1))
 
+    def repaired(self):
+        """The input with the frames that are an outlier of some group (:attr:`outlier_frames`)
+        replaced by the denoised ones (the synthesis at alpha 1; ``mlr_layers_repair``): what
+        the guards learn from, so that a glitch does not break a contact or move the floor.
+        The input itself when there is no outlier."""
+        m = self.motion
+        if self.outlier_frames.size == 0:
+            return m
+        body = self.body_joint
+        if body == 0:
+            t = np.array(m.root_pos, dtype=np.float64, order="C", copy=True)
+        else:
+            col = int(np.flatnonzero(m.skeleton.trans_joints == body)[0])
+            t = np.ascontiguousarray(m.trans[:, col], dtype=np.float64).copy()
+        rot = np.array(m.rot, dtype=np.float64, order="C", copy=True)
+        diag = ffi.new("mlr_diag *")
+        check(lib.mlr_layers_repair(self._h, 0, self.n_frames, _arrays.ptr_out(t), t.size,
+                                    _arrays.ptr_out(rot), rot.size, ffi.NULL, diag),
+              "layers repair", diag)
+        return _with_body_translation(m, body, t, rot)
+
     @property
     def n_frames(self) -> int:
         return self.motion.n_frames

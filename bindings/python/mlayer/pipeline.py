@@ -163,17 +163,9 @@ class Synthesis(ReadOnlyAttributes):
     def _guard_input(self):
         """The input the guards learn from (contacts, floor, limits): the input, with the frames
         the robust decomposition found to be outliers (``Layers.outliers``) replaced by the
-        denoised ones, so that a glitch does not break a contact or move the floor."""
-        m = self.motion
-        bad = self.layers.outlier_frames
-        if bad.size == 0:
-            return m
-        den = self.layers.synthesize(1.0)
-        root, rot, trans = m.root_pos.copy(), m.rot.copy(), m.trans.copy()
-        root[bad], rot[bad] = den.root_pos[bad], den.rot[bad]
-        if trans.size:
-            trans[bad] = den.trans[bad]
-        return m.with_frames(root_pos=root, rot=rot, trans=trans)
+        denoised ones (:meth:`Layers.repaired`, ``mlr_layers_repair``), so that a glitch does
+        not break a contact or move the floor."""
+        return self.layers.repaired()
 
     @functools.cached_property
     def _guards(self):

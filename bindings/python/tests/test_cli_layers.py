@@ -93,3 +93,18 @@ def test_errors_are_one_line_and_leave_no_output(capsys, tmp_path, short_clip, a
     assert len(err.strip().splitlines()) == 1 and needle in err, err
     assert not out.exists()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.bvh"]
+
+
+def test_option_names_in_messages_are_spelled_as_flags(capsys, tmp_path, short_clip):
+    """A library message quoting an option ("option lam_c", C's and Python's name) reaches the
+    user with the command's own flag (--lam-c), by one rule for every command."""
+    from mlayer.cli._main import cli_spelling
+    out = tmp_path / "x.bvh"
+    code, _, err = run(capsys, "stylize", short_clip, "--lam-c", "-1", "-o", str(out))
+    assert code == 1 and "--lam-c" in err and "lam_c" not in err, err
+    assert not out.exists()
+    flags = {"--lam-c", "--allow-extreme"}
+    assert cli_spelling("layers: option lam_c = -1 is not > 0", flags) == \
+        "layers: --lam-c = -1 is not > 0"
+    assert cli_spelling("set the flag allow_extreme", flags) == "set --allow-extreme"
+    assert cli_spelling("option gamma = 9", flags) == "option gamma = 9"  # not a flag here

@@ -10,6 +10,7 @@ The commands are declared in their modules (``_command.command``) and listed in 
 from __future__ import annotations
 
 import argparse
+import re
 import sys
 
 from .. import __version__, library_version
@@ -55,6 +56,29 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+_NAMED = re.compile(r"\b(?:the )?(?:option|flag) ([a-z][a-z0-9_]*)\b")
+
+
+def cli_spelling(message: str, flags) -> str:
+    """A library message with the option and flag names it quotes ("option lam_c", "flag
+    allow_extreme": the C and Python name) spelled as the command line does ("--lam-c"), for
+    the names that are flags of the command (``flags``: its option strings). The rule is the
+    mechanical one of docs/OPTIONS.md, so no message is rewritten case by case."""
+    def spell(m):
+        flag = "--" + m.group(1).replace("_", "-")
+        return flag if flag in flags else m.group(0)
+    return _NAMED.sub(spell, message)
+
+
+def _flags(parser: argparse.ArgumentParser, command: str) -> set:
+    """The option strings of a subcommand's parser."""
+    for action in parser._subparsers._group_actions:  # argparse keeps the subparsers here
+        sp = action.choices.get(command)
+        if sp is not None:
+            return set(sp._option_string_actions)
+    return set()
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
@@ -84,7 +108,8 @@ def main(argv: list[str] | None = None) -> int:
             where = f"{path}:{line}: " if line else f"{path}: "
             if str(e).startswith(where):  # e.g. ParseError messages already say where
                 where = ""
-        print(f"mlayer {args.command}: error: {where}{e}", file=sys.stderr)
+        msg = cli_spelling(str(e), _flags(parser, args.command))
+        print(f"mlayer {args.command}: error: {where}{msg}", file=sys.stderr)
         return 1
     except OSError as e:
         print(f"mlayer {args.command}: error: {e}", file=sys.stderr)

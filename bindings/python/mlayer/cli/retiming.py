@@ -43,22 +43,6 @@ def _int(text: str) -> int:
     return v
 
 
-def _cli_flags(run):
-    """Run a subcommand with the flag allow_extreme in messages named as the CLI spells it
-    (--allow-extreme: the mechanical rule of docs/OPTIONS.md)."""
-    def wrapped(args):
-        try:
-            return run(args)
-        except InvalidArgumentError as e:
-            msg = str(e)
-            if "flag allow_extreme" not in msg:
-                raise
-            raise InvalidArgumentError(msg.replace("flag allow_extreme", "--allow-extreme"),
-                                       e.code) from None
-    wrapped.__name__ = run.__name__
-    return wrapped
-
-
 def _write(motion, out: str, figure=None, figure_path: str | None = None) -> None:
     """Write the figure (if any) and the BVH so that either both appear or neither does."""
     if figure is None:
@@ -145,7 +129,6 @@ def _style(args):
 @command("resample", "resample a BVH file to a new frame rate or frame count (LGS)",
          arguments=_resample_arguments, reads_clips=True, inputs=("input",),
          outputs={"output": BVH, "report": FIGURE})
-@_cli_flags
 def cmd_resample(args) -> int:
     if args.report is not None and args.slerp:
         raise InvalidArgumentError("--report needs the LGS: --slerp has no posterior variance")
@@ -243,7 +226,6 @@ def _timewarp_arguments(p) -> None:
 @command("timewarp", "slow down large motion and speed up calm motion (automatic time warp)",
          arguments=_timewarp_arguments, reads_clips=True, inputs=("input", "map"),
          outputs={"output": BVH, "plot": FIGURE})
-@_cli_flags
 def cmd_timewarp(args) -> int:
     m = read_bvh(args.input)
     if args.map is not None:
