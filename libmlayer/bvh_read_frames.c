@@ -60,13 +60,7 @@ mlr_status bvh__frames_loop(parser *ps, const frames_plan *pl, const bvh_scratch
             line(ps->p, ps->end, C, s->ends, s->row, &le)) {
             ps->p = le;
         } else {
-            for (;;) { /* skip blank lines */
-                skip_blank(ps);
-                if (ps->p < ps->end && is_eol(*ps->p))
-                    eat_eol(ps);
-                else
-                    break;
-            }
+            skip_blank_lines(ps);
             if (ps->p >= ps->end) {
                 note_fail(ps, f);
                 return bvh__fail_at(ps, ps->p, "unexpected end of file: %zu of %zu frames", f, N);

@@ -67,6 +67,18 @@ static inline void skip_blank(parser *ps)
         ps->p++;
 }
 
+/* Past blank lines (and the blanks that start the next line). */
+static inline void skip_blank_lines(parser *ps)
+{
+    for (;;) {
+        skip_blank(ps);
+        if (ps->p < ps->end && is_eol(*ps->p))
+            eat_eol(ps);
+        else
+            break;
+    }
+}
+
 static inline void skip_ws(parser *ps)
 {
     while (ps->p < ps->end) {

@@ -72,13 +72,7 @@ static size_t count_frame_lines(const parser *ps, size_t C, double *row, size_t 
     size_t X = 0;
     *first_line = 0;
     for (;;) {
-        for (;;) {
-            skip_blank(&q);
-            if (q.p < q.end && is_eol(*q.p))
-                eat_eol(&q);
-            else
-                break;
-        }
+        skip_blank_lines(&q);
         if (q.p >= q.end) {
             *stop = q.end;
             break;
@@ -168,13 +162,7 @@ static mlr_status where_frames_stop(parser *ps, const frames_plan *pl, const bvh
                         * next line, too short for a frame, gives the reason */
         *F = pl->m->n_frames;
         parser q = *ps;
-        for (;;) {
-            skip_blank(&q);
-            if (q.p < q.end && is_eol(*q.p))
-                eat_eol(&q);
-            else
-                break;
-        }
+        skip_blank_lines(&q);
         if (q.p >= q.end || (s = bvh__parse_row(&q, *F, pl->cv.C, scr->row)) == MLR_OK)
             s = bvh__fail_at(&q, q.p, "unexpected end of file: %zu of %zu frames", *F,
                              pl->n_declared);

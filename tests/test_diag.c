@@ -420,6 +420,14 @@ static mlr_status band_inverse_no_memory(mlr_diag *d)
 
 /* ---- BVH writer ---------------------------------------------------------------------------- */
 
+/* The two frames of tiny_bvh. */
+static mlr_motion *tiny_motion(void)
+{
+    mlr_motion *m = NULL;
+    ck_assert_int_eq(mlr_bvh_read_memory(tiny_bvh, strlen(tiny_bvh), NULL, &m, NULL), MLR_OK);
+    return m;
+}
+
 static int sink_stop(void *user, const char *data, size_t len)
 {
     (void)user, (void)data, (void)len;
@@ -428,8 +436,7 @@ static int sink_stop(void *user, const char *data, size_t len)
 
 static mlr_status bvh_write_null_fn(mlr_diag *d)
 {
-    mlr_motion *m = NULL;
-    ck_assert_int_eq(mlr_bvh_read_memory(tiny_bvh, strlen(tiny_bvh), NULL, &m, NULL), MLR_OK);
+    mlr_motion *m = tiny_motion();
     const mlr_status s = mlr_bvh_write(m, NULL, NULL, d);
     mlr_motion_destroy(m);
     return s;
@@ -437,8 +444,7 @@ static mlr_status bvh_write_null_fn(mlr_diag *d)
 
 static mlr_status bvh_write_sink_stops(mlr_diag *d)
 {
-    mlr_motion *m = NULL;
-    ck_assert_int_eq(mlr_bvh_read_memory(tiny_bvh, strlen(tiny_bvh), NULL, &m, NULL), MLR_OK);
+    mlr_motion *m = tiny_motion();
     const mlr_status s = mlr_bvh_write(m, sink_stop, NULL, d);
     mlr_motion_destroy(m);
     return s;
@@ -446,8 +452,7 @@ static mlr_status bvh_write_sink_stops(mlr_diag *d)
 
 static mlr_status bvh_write_zero_quat(mlr_diag *d)
 {
-    mlr_motion *m = NULL;
-    ck_assert_int_eq(mlr_bvh_read_memory(tiny_bvh, strlen(tiny_bvh), NULL, &m, NULL), MLR_OK);
+    mlr_motion *m = tiny_motion();
     double *rot = mlr_motion_rot_mut(m);
     rot[4] = rot[5] = rot[6] = rot[7] = 0.0; /* frame 1 */
     size_t len;
@@ -458,8 +463,7 @@ static mlr_status bvh_write_zero_quat(mlr_diag *d)
 
 static mlr_status bvh_write_root_nan(mlr_diag *d)
 {
-    mlr_motion *m = NULL;
-    ck_assert_int_eq(mlr_bvh_read_memory(tiny_bvh, strlen(tiny_bvh), NULL, &m, NULL), MLR_OK);
+    mlr_motion *m = tiny_motion();
     mlr_motion_root_pos_mut(m)[4] = NAN; /* frame 1, y */
     const mlr_status s = mlr_bvh_write(m, sink_stop, NULL, d);
     mlr_motion_destroy(m);
@@ -468,8 +472,7 @@ static mlr_status bvh_write_root_nan(mlr_diag *d)
 
 static mlr_status bvh_write_memory_cap(mlr_diag *d)
 {
-    mlr_motion *m = NULL;
-    ck_assert_int_eq(mlr_bvh_read_memory(tiny_bvh, strlen(tiny_bvh), NULL, &m, NULL), MLR_OK);
+    mlr_motion *m = tiny_motion();
     char buf[16];
     size_t len;
     const mlr_status s = mlr_bvh_write_memory(m, buf, sizeof buf, &len, d);
@@ -479,8 +482,7 @@ static mlr_status bvh_write_memory_cap(mlr_diag *d)
 
 static mlr_status bvh_write_memory_len(mlr_diag *d)
 {
-    mlr_motion *m = NULL;
-    ck_assert_int_eq(mlr_bvh_read_memory(tiny_bvh, strlen(tiny_bvh), NULL, &m, NULL), MLR_OK);
+    mlr_motion *m = tiny_motion();
     const mlr_status s = mlr_bvh_write_memory(m, NULL, 0, NULL, d);
     mlr_motion_destroy(m);
     return s;
