@@ -4,6 +4,7 @@
 #define MLR_GRBF_INTERNAL_H
 
 #include "cluster_internal.h" /* mlr_first_nonfinite_row, mlr_parallel_run */
+#include "grbf_panel.h"       /* PANEL, panel() */
 
 /* The kernel loops get AVX-512 and AVX2 clones chosen at load time with GCC on x86-64 (the
  * build itself assumes only the baseline ISA); the loops are written branch-free, with the bit
@@ -18,11 +19,6 @@
 /* Rows per task of the parallel loop. */
 #define GRBF_TASK_ROWS 32
 
-/* The product kernel of the evaluation and of the lattice solves: acc[p * lda + l] += sum_k
- * a[p * sp + k * sk] b[k * ldb + l] for p < rows, l < 24 (PANEL), k = 0 .. kc-1 in order. */
-#define PANEL 24
-void grbf__panel(int wide, const double *a, size_t sp, size_t sk, size_t rows, size_t kc,
-                     const double *b, size_t ldb, double *acc, size_t lda);
 /* 1 when the AVX-512 product kernel may run. */
 int grbf__cpu_wide(void);
 

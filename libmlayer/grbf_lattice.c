@@ -50,7 +50,7 @@ static int cholesky_lower(double *a, size_t n, size_t lda, double *pk, int wide)
         for (size_t i0 = j0; i0 < n && j0 > 0; i0 += 8) {
             const size_t rb = n - i0 < 8 ? n - i0 : 8;
             memset(acc, 0, sizeof acc);
-            grbf__panel(wide, a + i0 * lda, lda, 1, rb, j0, pk, PANEL, acc, PANEL);
+            panel(wide, a + i0 * lda, lda, 1, rb, j0, pk, PANEL, acc, PANEL);
             for (size_t p = 0; p < rb; p++) {
                 double *ai = a + (i0 + p) * lda + j0;
                 const size_t cmax = i0 + p - j0 + 1 < jb ? i0 + p - j0 + 1 : jb;
@@ -90,7 +90,7 @@ static void cholesky_solve(const double *l, size_t n, size_t ldl, double *x, siz
         const size_t rb = n - i0 < 8 ? n - i0 : 8;
         memset(acc, 0, rb * w * sizeof(double));
         for (size_t q = 0; q < np && i0 > 0; q++)
-            grbf__panel(wide, l + i0 * ldl, ldl, 1, rb, i0, x + q * PANEL, ldx, acc + q * PANEL, w);
+            panel(wide, l + i0 * ldl, ldl, 1, rb, i0, x + q * PANEL, ldx, acc + q * PANEL, w);
         for (size_t p = 0; p < rb; p++) {
             double *xi = x + (i0 + p) * ldx;
             const double *li = l + (i0 + p) * ldl;
@@ -107,7 +107,7 @@ static void cholesky_solve(const double *l, size_t n, size_t ldl, double *x, siz
         const size_t rb = e % 8 ? e % 8 : 8, i0 = e - rb, done = n - e;
         memset(acc, 0, rb * w * sizeof(double));
         for (size_t q = 0; q < np && done > 0; q++) /* sum_{k >= e} L[k][i] x_k */
-            grbf__panel(wide, l + e * ldl + i0, 1, ldl, rb, done, x + e * ldx + q * PANEL, ldx,
+            panel(wide, l + e * ldl + i0, 1, ldl, rb, done, x + e * ldx + q * PANEL, ldx,
                         acc + q * PANEL, w);
         for (size_t p = rb; p-- > 0;) {
             double *xi = x + (i0 + p) * ldx;
