@@ -93,7 +93,7 @@ static double run_write(void *p)
     if (mlr_bvh_read_memory(s->text, s->len, NULL, &m, NULL) != MLR_OK)
         return -1.0;
     size_t len = 0;
-    mlr_bvh_write_memory(m, NULL, 0, &len);
+    mlr_bvh_write_memory(m, NULL, 0, &len, NULL);
     mlr_motion_destroy(m);
     return (double)len;
 }

@@ -13,30 +13,35 @@
 #endif
 #include <stdlib.h>
 
-mlr_status mlr_band_create(size_t n, size_t kd, const mlr_allocator *alloc, mlr_band **out)
+mlr_status mlr_band_create(size_t n, size_t kd, const mlr_allocator *alloc, mlr_band **out,
+                           mlr_diag *diag)
 {
     if (!out)
-        return MLR_E_INVALID_ARG;
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "band create: out is NULL");
     *out = NULL;
     if (n == 0 || kd >= n)
-        return MLR_E_INVALID_ARG;
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "band create: n %zu, kd %zu: needs n >= 1 and kd < n", n, kd);
     mlr_allocator a;
     mlr_allocator_resolve(alloc, &a);
     size_t nl, bytes;
     if (mlr_mul_size(n, kd, &nl) || mlr_mul_size(nl + n, sizeof(double), &bytes))
-        return MLR_E_OVERFLOW;
+        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0,
+                            "band create: n %zu x (kd %zu + 1) doubles overflow a size_t", n, kd);
     mlr_band *b = mlr_alloc(&a, sizeof *b);
     if (!b)
-        return MLR_E_NO_MEMORY;
+        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "band create: no memory for the handle");
     b->alloc = a;
     b->n = n;
     b->kd = kd;
     b->factored = 0;
+    b->bad_row = 0;
     b->storage_bytes = bytes;
     b->dinv = mlr_alloc(&a, bytes);
     if (!b->dinv) {
         mlr_free(&a, b, sizeof *b);
-        return MLR_E_NO_MEMORY;
+        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                            "band create: no memory for the factor (%zu bytes)", bytes);
     }
     b->l = b->dinv + n;
     *out = b;
@@ -79,8 +84,10 @@ mlr_status mlr_band_factor_in_place(mlr_band *b)
             double d = mlr_band_ldl2_row(i, aii, a1, a2, i >= 2 ? l[2 * (i - 1)] : 0.0,
                                          i >= 1 ? dinv[i - 1] : 0.0, i >= 2 ? dinv[i - 2] : 0.0,
                                          &li[0], &li[1]);
-            if (!pivot_ok(d, aii, &status))
+            if (!pivot_ok(d, aii, &status)) {
+                b->bad_row = i;
                 return MLR_E_SINGULAR;
+            }
             dinv[i] = 1.0 / d;
             /* A Toeplitz stretch (the interior of every smoothing prior) drives the recurrence
              * to a fixed point within a few hundred rows: once a row repeats the previous one
@@ -119,8 +126,10 @@ mlr_status mlr_band_factor_in_place(mlr_band *b)
                 double lik = l[i * kd + k - 1];
                 d -= lik * lik / dinv[i - k];
             }
-            if (!pivot_ok(d, aii, &status))
+            if (!pivot_ok(d, aii, &status)) {
+                b->bad_row = i;
                 return MLR_E_SINGULAR;
+            }
             dinv[i] = 1.0 / d;
         }
     }
@@ -128,17 +137,26 @@ mlr_status mlr_band_factor_in_place(mlr_band *b)
     return status;
 }
 
-mlr_status mlr_band_factor(mlr_band *b, const double *ab, size_t ldab)
+mlr_status mlr_band_factor(mlr_band *b, const double *ab, size_t ldab, mlr_diag *diag)
 {
-    if (!b || !ab || ldab < b->kd + 1)
-        return MLR_E_INVALID_ARG;
+    if (!b || !ab)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "band factor: %s is NULL",
+                            !b ? "band" : "ab");
+    if (ldab < b->kd + 1)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "band factor: ldab %zu < kd + 1 = %zu",
+                            ldab, b->kd + 1);
     const size_t n = b->n, kd = b->kd;
     for (size_t i = 0; i < n; i++) {
         b->dinv[i] = ab[i * ldab];
         for (size_t k = 1; k <= kd; k++)
             b->l[i * kd + k - 1] = k <= i ? ab[(i - k) * ldab + k] : 0.0;
     }
-    return mlr_band_factor_in_place(b);
+    const mlr_status st = mlr_band_factor_in_place(b);
+    if (st == MLR_E_SINGULAR)
+        return mlr_diag_set(diag, st, 0, 0,
+                            "band factor: ab is not positive definite (the pivot of row %zu is "
+                            "<= 0 or not finite)", b->bad_row);
+    return st;
 }
 
 /* Row kernels: the rows are distinct, so restrict lets the compiler vectorize over channels. */
@@ -417,16 +435,28 @@ static void forward_in_place(const void *vctx, size_t r, double *xr, size_t ld, 
     mlr_band_forward_row_any(ctx->b, r, ctx->y + r * ctx->ldy, xr, ld, m);
 }
 
-mlr_status mlr_band_solve(const mlr_band *b, double *x, size_t ldx, size_t m)
+/* MLR_E_BAD_STATE for a handle without a factor (fn names the function). */
+static mlr_status not_factored(mlr_diag *diag, const char *fn)
+{
+    return mlr_diag_set(diag, MLR_E_BAD_STATE, 0, 0,
+                        "band %s: band is not factored (mlr_band_factor failed or was not "
+                        "called)", fn);
+}
+
+mlr_status mlr_band_solve(const mlr_band *b, double *x, size_t ldx, size_t m, mlr_diag *diag)
 {
     if (!b)
-        return MLR_E_INVALID_ARG;
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "band solve: band is NULL");
     if (!b->factored)
-        return MLR_E_BAD_STATE;
+        return not_factored(diag, "solve");
     if (m == 0)
         return MLR_OK;
-    if (!x || ldx < m)
-        return MLR_E_INVALID_ARG;
+    if (!x)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "band solve: x is NULL with m %zu",
+                            m);
+    if (ldx < m)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "band solve: ldx %zu < m %zu", ldx,
+                            m);
     inplace_ctx ctx = {b, x, ldx};
     mlr_band_solve_rows(b, forward_in_place, &ctx, x, ldx, m);
     return MLR_OK;
@@ -438,19 +468,27 @@ mlr_status mlr_band_solve(const mlr_band *b, double *x, size_t ldx, size_t m)
  *   Z(i,i) = 1/D(i) - sum_{k=1..kd} L(i+k, i) Z(i+k, i),
  * and only entries inside the band are needed. z[i*(kd+1) + d] holds Z(i, i+d), d = 0..kd.
  */
-mlr_status mlr_band_inverse_diagonal(const mlr_band *b, double *var, size_t n)
+mlr_status mlr_band_inverse_diagonal(const mlr_band *b, double *var, size_t n, mlr_diag *diag)
 {
-    if (!b || !var || n != b->n)
-        return MLR_E_INVALID_ARG;
+    if (!b || !var)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "band inverse_diagonal: %s is NULL",
+                            !b ? "band" : "var");
+    if (n != b->n)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "band inverse_diagonal: n %zu is not the order %zu of band", n, b->n);
     if (!b->factored)
-        return MLR_E_BAD_STATE;
+        return not_factored(diag, "inverse_diagonal");
     const size_t kd = b->kd, w = kd + 1;
     size_t nz, bytes;
     if (mlr_mul_size(n, w, &nz) || mlr_mul_size(nz, sizeof(double), &bytes))
-        return MLR_E_OVERFLOW;
+        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0,
+                            "band inverse_diagonal: workspace of n %zu x (kd %zu + 1) doubles "
+                            "overflows", n, kd);
     double *z = mlr_alloc(&b->alloc, bytes);
     if (!z)
-        return MLR_E_NO_MEMORY;
+        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                            "band inverse_diagonal: no memory for the workspace (%zu bytes)",
+                            bytes);
     const double *l = b->l;
     for (size_t i = n; i-- > 0;) {
         size_t kmax = n - 1 - i < kd ? n - 1 - i : kd;

@@ -9,6 +9,7 @@ struct mlr_band {
     mlr_allocator alloc;
     size_t n, kd;
     int factored;
+    size_t bad_row; /* after MLR_E_SINGULAR: the row whose pivot failed */
     size_t storage_bytes;
     double *dinv; /* n values, 1 / D(i); start of the single allocation */
     double *l;    /* n * kd values, L(i, i-k) at l[i*kd + k-1] */

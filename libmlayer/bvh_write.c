@@ -180,23 +180,55 @@ static void put_vec3(sink *s, const char *label, const double *v)
     put(s, "\n", 1);
 }
 
-static int all_finite(const double *v, size_t n)
+/* Index of the first non-finite value of v, or n. */
+static size_t first_nonfinite(const double *v, size_t n)
 {
     for (size_t i = 0; i < n; i++)
         if (!isfinite(v[i]))
-            return 0;
-    return 1;
+            return i;
+    return n;
 }
 
-static int quats_usable(const double *q, size_t n)
+/* Index of the first quaternion of q that is not finite or is zero, or n. */
+static size_t first_unusable_quat(const double *q, size_t n)
 {
     for (size_t i = 0; i < n; i++, q += 4) {
         if (!isfinite(q[0]) || !isfinite(q[1]) || !isfinite(q[2]) || !isfinite(q[3]))
-            return 0;
+            return i;
         if (q[0] == 0.0 && q[1] == 0.0 && q[2] == 0.0 && q[3] == 0.0)
-            return 0;
+            return i;
     }
-    return 1;
+    return n;
+}
+
+/* MLR_OK when every value of m can be written, else MLR_E_INVALID_ARG naming the first bad one
+ * (checked before anything is written). */
+static mlr_status check_writable(const mlr_motion *m, mlr_diag *diag)
+{
+    const size_t J = m->n_joints, N = m->n_frames, P = m->n_trans, E = m->n_end;
+    size_t i;
+    if (!isfinite(m->frame_time) || !(m->frame_time > 0.0))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "bvh write: frame_time %g is not finite and > 0", m->frame_time);
+    if ((i = first_nonfinite(m->offsets, 3 * J)) < 3 * J)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "bvh write: offsets: joint %zu ('%s') is NaN or infinite", i / 3,
+                            m->names[i / 3]);
+    if ((i = first_nonfinite(m->end_offsets, 3 * E)) < 3 * E)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "bvh write: end site offsets: End Site %zu is NaN or infinite", i / 3);
+    if ((i = first_nonfinite(m->root_pos, 3 * N)) < 3 * N)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "bvh write: root_pos: frame %zu is NaN or infinite", i / 3);
+    if ((i = first_nonfinite(m->trans, 3 * N * P)) < 3 * N * P)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "bvh write: trans: frame %zu, joint '%s' is NaN or infinite",
+                            i / (3 * P), m->names[m->trans_joints[i / 3 % P]]);
+    if ((i = first_unusable_quat(m->rot, N * J)) < N * J)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "bvh write: rot: frame %zu, joint '%s' is a zero, NaN or infinite "
+                            "quaternion", i / J, m->names[i % J]);
+    return MLR_OK;
 }
 
 static void write_hierarchy(const mlr_motion *m, sink *s)
@@ -290,16 +322,15 @@ static void write_frames(const mlr_motion *m, sink *s)
     }
 }
 
-mlr_status mlr_bvh_write(const mlr_motion *m, mlr_bvh_write_fn fn, void *user)
+mlr_status mlr_bvh_write(const mlr_motion *m, mlr_bvh_write_fn fn, void *user, mlr_diag *diag)
 {
     if (!m || !fn)
-        return MLR_E_INVALID_ARG;
-    const size_t J = m->n_joints, N = m->n_frames, P = m->n_trans;
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "bvh write: %s is NULL",
+                            !m ? "motion" : "fn");
     /* Validate everything first so that nothing is written for bad data. */
-    if (!isfinite(m->frame_time) || !(m->frame_time > 0.0) || !all_finite(m->offsets, 3 * J) ||
-        !all_finite(m->end_offsets, 3 * m->n_end) || !all_finite(m->root_pos, 3 * N) ||
-        !all_finite(m->trans, 3 * N * P) || !quats_usable(m->rot, N * J))
-        return MLR_E_INVALID_ARG;
+    mlr_status st = check_writable(m, diag);
+    if (st != MLR_OK)
+        return st;
     sink s;
     s.fn = fn;
     s.user = user;
@@ -315,7 +346,9 @@ mlr_status mlr_bvh_write(const mlr_motion *m, mlr_bvh_write_fn fn, void *user)
     write_hierarchy(m, &s);
     write_frames(m, &s);
     flush(&s);
-    return s.failed ? MLR_E_IO : MLR_OK;
+    if (s.failed)
+        return mlr_diag_set(diag, MLR_E_IO, 0, 0, "bvh write: fn returned nonzero (stop)");
+    return MLR_OK;
 }
 
 /* ---- memory ------------------------------------------------------------------------------ */
@@ -338,19 +371,24 @@ static int mem_write(void *user, const char *data, size_t len)
     return 0;
 }
 
-mlr_status mlr_bvh_write_memory(const mlr_motion *m, char *buf, size_t cap, size_t *len)
+mlr_status mlr_bvh_write_memory(const mlr_motion *m, char *buf, size_t cap, size_t *len,
+                                mlr_diag *diag)
 {
     if (!len)
-        return MLR_E_INVALID_ARG;
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "bvh write_memory: len is NULL");
     *len = 0;
     mem_sink ms = {buf, buf ? cap : 0, 0};
-    mlr_status s = mlr_bvh_write(m, mem_write, &ms);
-    if (s == MLR_E_IO)
-        return MLR_E_OVERFLOW;
+    mlr_status s = mlr_bvh_write(m, mem_write, &ms, diag);
+    if (s == MLR_E_IO) /* mem_write stops only when the length overflows a size_t */
+        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0,
+                            "bvh write_memory: the text is longer than SIZE_MAX bytes");
     if (s != MLR_OK)
         return s;
     *len = ms.len;
-    return (buf && ms.len > cap) ? MLR_E_OVERFLOW : MLR_OK;
+    if (buf && ms.len > cap)
+        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0,
+                            "bvh write_memory: cap %zu < the %zu bytes of the text", cap, ms.len);
+    return MLR_OK;
 }
 
 /* ---- files ------------------------------------------------------------------------------- */
@@ -433,11 +471,9 @@ mlr_status mlr_bvh_write_file(const mlr_motion *m, const char *path, mlr_diag *d
         return mlr_diag_set(diag, MLR_E_IO, 0, 0, "cannot create a temporary file next to the "
                             "target: %s", strerror(err ? err : EEXIST));
     }
-    mlr_status s = mlr_bvh_write(m, file_write, fp);
+    mlr_status s = mlr_bvh_write(m, file_write, fp, diag); /* names the first bad value */
     if (s == MLR_E_IO)
         mlr_diag_set(diag, s, 0, 0, "write failed: %s", strerror(errno));
-    else if (s != MLR_OK)
-        mlr_diag_set(diag, s, 0, 0, "the motion holds a non-finite value or a zero quaternion");
     if (fclose(fp) != 0 && s == MLR_OK)
         s = mlr_diag_set(diag, MLR_E_IO, 0, 0, "write failed: %s", strerror(errno));
     if (s == MLR_OK && replace_file(tmp, path) != 0)

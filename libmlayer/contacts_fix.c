@@ -470,14 +470,14 @@ static mlr_status smooth_held(work *w, const uint8_t *mask, double *y, size_t m)
         for (size_t a = 0; a < 3; a++)
             for (size_t b = a; b < 3; b++)
                 ab[3 * (r + a) + (b - a)] += sc * c[a] * c[b];
-    mlr_status st = mlr_band_factor(w->pin, ab, 3);
+    mlr_status st = mlr_band_factor(w->pin, ab, 3, NULL);
     if (st < 0)
         return st;
     for (size_t f = 0; f < N; f++)
         if (mask[f])
             for (size_t k = 0; k < m; k++)
                 y[f * m + k] *= PIN_HOLD;
-    return mlr_band_solve(w->pin, y, m, m);
+    return mlr_band_solve(w->pin, y, m, m, NULL);
 }
 
 /* Spread the corrections new * inv(rot) of the listed joints, known on the frames of mask. */
@@ -886,7 +886,7 @@ static mlr_status cleanup_run(const mlr_rig *rig, size_t N, double fps, int up,
         w.ab = take(&ar, N * 3, sizeof(double));
         if (ar.st != MLR_OK)
             goto fail;
-        if ((st = mlr_band_create(N, 2, &A, &w.pin)) != MLR_OK) {
+        if ((st = mlr_band_create(N, 2, &A, &w.pin, NULL)) != MLR_OK) {
             if (st == MLR_E_NO_MEMORY) {
                 ar.st = st;
                 goto fail;
@@ -1268,7 +1268,7 @@ static mlr_status cleanup_run(const mlr_rig *rig, size_t N, double fps, int up,
             const size_t h = (size_t)ft->hip, kn = (size_t)ft->knee, a = (size_t)ft->anchor;
             const int32_t pk = rig->parents[kn], ph = rig->parents[h];
             double local[3] = {0, 0, 0};
-            mlr_ik_bend_axis_local(N, J, pos, wrot, ft->hip, ft->knee, ft->anchor, local);
+            mlr_ik_bend_axis_local(N, J, pos, wrot, ft->hip, ft->knee, ft->anchor, local, NULL);
             const int have_local = local[0] != 0.0 || local[1] != 0.0 || local[2] != 0.0;
             for (size_t f = 0; f < N; f++) {
                 if ((!ft->U[f] && !ft->F[f]) || ft->K[f])

@@ -222,11 +222,19 @@ mlr_status mlr_ik_leg_chain(const mlr_rig *rig, int32_t end, int32_t *hip, int32
 }
 
 mlr_status mlr_ik_bend_axis_local(size_t n, size_t J, const double *pos, const double *wrot,
-                                  int32_t hip, int32_t knee, int32_t end, double axis[3])
+                                  int32_t hip, int32_t knee, int32_t end, double axis[3],
+                                  mlr_diag *diag)
 {
-    if (!axis || (n && (!pos || !wrot)) || hip < 0 || knee < 0 || end < 0 ||
-        (size_t)hip >= J || (size_t)knee >= J || (size_t)end >= J)
-        return MLR_E_INVALID_ARG;
+    if (!axis || (n && (!pos || !wrot)))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "bend_axis_local: %s is NULL",
+                            !axis ? "axis" : !pos ? "world_pos" : "world_rot");
+    const int32_t joint[3] = {hip, knee, end};
+    static const char *const role[3] = {"hip", "knee", "end"};
+    for (int r = 0; r < 3; r++)
+        if (joint[r] < 0 || (size_t)joint[r] >= J)
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "bend_axis_local: %s joint %d outside [0, %zu)", role[r],
+                                (int)joint[r], J);
     double s[3] = {0.0, 0.0, 0.0};
     for (size_t f = 0; f < n; f++) {
         const double *ph = pos + 3 * (f * J + (size_t)hip), *pk = pos + 3 * (f * J + (size_t)knee),
@@ -294,7 +302,7 @@ mlr_status mlr_ik_apply_leg(size_t n, size_t J, const int32_t *parents, double *
     double local[3] = {0.0, 0.0, 0.0};
     int have_local = 0;
     if (!bend_axis) {
-        mlr_ik_bend_axis_local(n, J, pos, wrot, hip, knee, end, local);
+        mlr_ik_bend_axis_local(n, J, pos, wrot, hip, knee, end, local, NULL);
         have_local = local[0] != 0.0 || local[1] != 0.0 || local[2] != 0.0;
     }
     const size_t h = (size_t)hip, k = (size_t)knee, e = (size_t)end;

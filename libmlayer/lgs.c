@@ -211,7 +211,7 @@ mlr_status mlr_lgs_create(size_t n_out, unsigned order, double lam, double sigma
     }
 
     if (solver == MLR_LGS_BANDED) {
-        st = mlr_band_create(n_out, order, &a, &g->band);
+        st = mlr_band_create(n_out, order, &a, &g->band, NULL);
         if (st == MLR_OK) {
             mlr_band *b = g->band;
             /* interior rows of L^T L are constant: (6, -4, 1) for order 2, (2, -1) for 1 */
@@ -399,7 +399,7 @@ mlr_status mlr_lgs_variance(const mlr_lgs *g, double *var, size_t n_out, mlr_dia
     if (g->solver != MLR_LGS_BANDED)
         return mlr_diag_set(diag, MLR_E_UNSUPPORTED, 0, 0,
                             "lgs variance: needs the banded solver, the handle is CHOLMOD's");
-    mlr_status st = mlr_band_inverse_diagonal(g->band, var, n_out);
+    mlr_status st = mlr_band_inverse_diagonal(g->band, var, n_out, NULL);
     if (st != MLR_OK)
         return mlr_diag_set(diag, st, 0, 0, "lgs variance: %s", mlr_status_string(st));
     for (size_t i = 0; i < n_out; i++)

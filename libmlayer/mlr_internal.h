@@ -71,7 +71,7 @@ static inline void mlr_quat_rotate_inline(const mlr_quat *q, const double *v, do
 }
 
 /* Predictive sign continuity of row f of q (n_frames x n_tracks) given rows f-3 .. f-1 (those
- * that exist) already made continuous: mlr_quat_continue_sign per track (quat.c). */
+ * that exist) already made continuous: mlr_quat_continue_sign per track (quat_continuity.c). */
 void mlr_quat_continue_frame(mlr_quat *q, size_t f, size_t n_tracks);
 
 /* prod[k] = conj(a[k]) b[k] and out[k] = log(prod[k]) as mlr_quat_log_array (zero for a zero
@@ -79,7 +79,7 @@ void mlr_quat_continue_frame(mlr_quat *q, size_t f, size_t n_tracks);
 void mlr_quat_conj_mul_log(const mlr_quat *a, const mlr_quat *b, size_t count, mlr_quat *prod,
                            mlr_vec3 *out);
 
-/* Intrinsic Euler orders (quat.c): axes (0 = X, 1 = Y, 2 = Z) in the order of mlr_euler_order,
+/* Intrinsic Euler orders (euler.c): axes (0 = X, 1 = Y, 2 = Z) in the order of mlr_euler_order,
  * and the sign of each permutation (+1 cyclic, -1 anticyclic). */
 extern const unsigned char mlr_euler_axes[6][3];
 extern const double mlr_euler_parity[6];

@@ -53,9 +53,9 @@ START_TEST(solve_matches_dense)
         for (size_t c = 0; c < m; c++)
             x[i * (m + 1) + c] = b[i * m + c];
     mlr_band *band = NULL;
-    ck_assert_int_eq(mlr_band_create(n, kd, NULL, &band), MLR_OK);
-    ck_assert_int_eq(mlr_band_factor(band, ab, ldab), MLR_OK);
-    ck_assert_int_eq(mlr_band_solve(band, x, m + 1, m), MLR_OK);
+    ck_assert_int_eq(mlr_band_create(n, kd, NULL, &band, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_band_factor(band, ab, ldab, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_band_solve(band, x, m + 1, m, NULL), MLR_OK);
     dense_solve(n, dense, b, m);
     for (size_t i = 0; i < n; i++)
         for (size_t c = 0; c < m; c++)
@@ -90,9 +90,9 @@ START_TEST(long_toeplitz_stretches_solve_exactly)
     for (size_t i = 0; i < n * m; i++)
         x[i] = b[i] = mlr_test_rng_normal(&rng);
     mlr_band *band = NULL;
-    ck_assert_int_eq(mlr_band_create(n, 2, NULL, &band), MLR_OK);
-    ck_assert_int_eq(mlr_band_factor(band, ab, ldab), MLR_OK);
-    ck_assert_int_eq(mlr_band_solve(band, x, m, m), MLR_OK);
+    ck_assert_int_eq(mlr_band_create(n, 2, NULL, &band, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_band_factor(band, ab, ldab, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_band_solve(band, x, m, m, NULL), MLR_OK);
     for (size_t i = 0; i < n; i++)
         for (size_t c = 0; c < m; c++) {
             double ax = ab[i * ldab] * x[i * m + c];
@@ -120,9 +120,9 @@ START_TEST(inverse_diagonal_matches_dense_inverse)
     for (size_t i = 0; i < n; i++)
         eye[i * n + i] = 1.0;
     mlr_band *band = NULL;
-    ck_assert_int_eq(mlr_band_create(n, kd, NULL, &band), MLR_OK);
-    ck_assert_int_eq(mlr_band_factor(band, ab, ldab), MLR_OK);
-    ck_assert_int_eq(mlr_band_inverse_diagonal(band, var, n), MLR_OK);
+    ck_assert_int_eq(mlr_band_create(n, kd, NULL, &band, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_band_factor(band, ab, ldab, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_band_inverse_diagonal(band, var, n, NULL), MLR_OK);
     dense_solve(n, dense, eye, n); /* eye becomes A^{-1} */
     for (size_t i = 0; i < n; i++)
         ck_assert_close(var[i], eye[i * n + i], 1e-13);
@@ -137,7 +137,7 @@ START_TEST(create_rejects_bad_shape)
 {
     static char sentinel;
     mlr_band *b = (mlr_band *)&sentinel;
-    ck_assert_int_eq(mlr_band_create(bad_shape[_i].n, bad_shape[_i].kd, NULL, &b),
+    ck_assert_int_eq(mlr_band_create(bad_shape[_i].n, bad_shape[_i].kd, NULL, &b, NULL),
                      MLR_E_INVALID_ARG);
     ck_assert_ptr_null(b);
 }
@@ -149,13 +149,13 @@ START_TEST(not_positive_definite_is_singular)
     double ab[4] = {1, 2, 1, 0};
     mlr_band *b = NULL;
     double x[2] = {1, 1};
-    ck_assert_int_eq(mlr_band_create(2, 1, NULL, &b), MLR_OK);
-    ck_assert_int_eq(mlr_band_solve(b, x, 1, 1), MLR_E_BAD_STATE);
-    ck_assert_int_eq(mlr_band_factor(b, ab, 2), MLR_E_SINGULAR);
-    ck_assert_int_eq(mlr_band_solve(b, x, 1, 1), MLR_E_BAD_STATE);
-    ck_assert_int_eq(mlr_band_factor(b, ab, 1), MLR_E_INVALID_ARG); /* ldab < kd + 1 */
+    ck_assert_int_eq(mlr_band_create(2, 1, NULL, &b, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_band_solve(b, x, 1, 1, NULL), MLR_E_BAD_STATE);
+    ck_assert_int_eq(mlr_band_factor(b, ab, 2, NULL), MLR_E_SINGULAR);
+    ck_assert_int_eq(mlr_band_solve(b, x, 1, 1, NULL), MLR_E_BAD_STATE);
+    ck_assert_int_eq(mlr_band_factor(b, ab, 1, NULL), MLR_E_INVALID_ARG); /* ldab < kd + 1 */
     double nan_ab[4] = {NAN, 0, 1, 0};
-    ck_assert_int_eq(mlr_band_factor(b, nan_ab, 2), MLR_E_SINGULAR);
+    ck_assert_int_eq(mlr_band_factor(b, nan_ab, 2, NULL), MLR_E_SINGULAR);
     mlr_band_destroy(b);
 }
 END_TEST
@@ -166,7 +166,7 @@ START_TEST(every_allocation_failure_is_clean)
         mlr_test_allocator ta;
         mlr_test_allocator_init(&ta, fail_at);
         mlr_band *b = NULL;
-        mlr_status s = mlr_band_create(64, 2, &ta.base, &b);
+        mlr_status s = mlr_band_create(64, 2, &ta.base, &b, NULL);
         mlr_band_destroy(b);
         ck_assert_uint_eq(ta.live_blocks, 0);
         if (s == MLR_OK)
@@ -180,7 +180,7 @@ END_TEST
 START_TEST(size_overflow_is_reported)
 {
     mlr_band *b = NULL;
-    ck_assert_int_eq(mlr_band_create(SIZE_MAX / 2, 3, NULL, &b), MLR_E_OVERFLOW);
+    ck_assert_int_eq(mlr_band_create(SIZE_MAX / 2, 3, NULL, &b, NULL), MLR_E_OVERFLOW);
     ck_assert_ptr_null(b);
 }
 END_TEST

@@ -459,10 +459,10 @@ static void assert_same_motion(const mlr_motion *a, const mlr_motion *b, double 
 
 static char *write_to_memory(const mlr_motion *m, size_t *len)
 {
-    ck_assert_int_eq(mlr_bvh_write_memory(m, NULL, 0, len), MLR_OK);
+    ck_assert_int_eq(mlr_bvh_write_memory(m, NULL, 0, len, NULL), MLR_OK);
     char *buf = malloc(*len + 1);
     size_t len2 = 0;
-    ck_assert_int_eq(mlr_bvh_write_memory(m, buf, *len, &len2), MLR_OK);
+    ck_assert_int_eq(mlr_bvh_write_memory(m, buf, *len, &len2, NULL), MLR_OK);
     ck_assert_uint_eq(len2, *len);
     buf[*len] = '\0';
     return buf;
@@ -562,19 +562,19 @@ START_TEST(write_memory_overflow_and_callback_stop)
     MLR_TEST_NEED_CLIPS();
     mlr_motion *a = read_clip(&clips[7]);
     size_t len, len2;
-    ck_assert_int_eq(mlr_bvh_write_memory(a, NULL, 0, &len), MLR_OK);
+    ck_assert_int_eq(mlr_bvh_write_memory(a, NULL, 0, &len, NULL), MLR_OK);
     char small[100];
-    ck_assert_int_eq(mlr_bvh_write_memory(a, small, sizeof small, &len2), MLR_E_OVERFLOW);
+    ck_assert_int_eq(mlr_bvh_write_memory(a, small, sizeof small, &len2, NULL), MLR_E_OVERFLOW);
     ck_assert_uint_eq(len2, len);
     ck_assert_int_eq(memcmp(small, "HIERARCHY\n", 10), 0);
     int calls = 0;
-    ck_assert_int_eq(mlr_bvh_write(a, stop_after_first, &calls), MLR_E_IO);
+    ck_assert_int_eq(mlr_bvh_write(a, stop_after_first, &calls, NULL), MLR_E_IO);
     ck_assert_int_eq(calls, 2);
-    ck_assert_int_eq(mlr_bvh_write(NULL, stop_after_first, &calls), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_bvh_write_memory(a, NULL, 0, NULL), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_bvh_write(NULL, stop_after_first, &calls, NULL), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_bvh_write_memory(a, NULL, 0, NULL, NULL), MLR_E_INVALID_ARG);
     /* a zero quaternion cannot be written */
     memset(mlr_motion_rot_mut(a), 0, 4 * sizeof(double));
-    ck_assert_int_eq(mlr_bvh_write_memory(a, NULL, 0, &len), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_bvh_write_memory(a, NULL, 0, &len, NULL), MLR_E_INVALID_ARG);
     mlr_motion_destroy(a);
 }
 END_TEST
@@ -1376,7 +1376,7 @@ START_TEST(every_truncation_and_mutation_is_handled)
         ck_assert(s == MLR_OK || s == MLR_E_PARSE);
         if (s == MLR_OK) {
             size_t len;
-            ck_assert_int_eq(mlr_bvh_write_memory(m, NULL, 0, &len), MLR_OK);
+            ck_assert_int_eq(mlr_bvh_write_memory(m, NULL, 0, &len, NULL), MLR_OK);
         }
         mlr_motion_destroy(m);
     }

@@ -329,6 +329,181 @@ static mlr_status copy_no_memory(mlr_diag *d)
     return s;
 }
 
+/* ---- banded solver ------------------------------------------------------------------------ */
+
+static mlr_status band_create_shape(mlr_diag *d)
+{
+    mlr_band *b = NULL;
+    return mlr_band_create(3, 3, NULL, &b, d);
+}
+
+static mlr_status band_create_overflow(mlr_diag *d)
+{
+    mlr_band *b = NULL;
+    return mlr_band_create(SIZE_MAX / 2, 3, NULL, &b, d);
+}
+
+static mlr_status band_create_no_memory(mlr_diag *d)
+{
+    mlr_test_allocator ta;
+    mlr_test_allocator_init(&ta, 1); /* the handle is allocated, the factor's storage is not */
+    mlr_band *b = NULL;
+    const mlr_status s = mlr_band_create(8, 2, &ta.base, &b, d);
+    ck_assert_ptr_null(b);
+    ck_assert_uint_eq(ta.live_blocks, 0);
+    return s;
+}
+
+/* A factor call on a new 3 x 3 handle of bandwidth 1 with the given band (ldab 2). */
+static mlr_status band_factor_with(const double *ab, size_t ldab, mlr_diag *d)
+{
+    mlr_band *b = NULL;
+    ck_assert_int_eq(mlr_band_create(3, 1, NULL, &b, NULL), MLR_OK);
+    const mlr_status s = mlr_band_factor(b, ab, ldab, d);
+    mlr_band_destroy(b);
+    return s;
+}
+
+static mlr_status band_factor_ldab(mlr_diag *d)
+{
+    const double ab[6] = {2, -1, 2, -1, 2, 0};
+    return band_factor_with(ab, 1, d);
+}
+
+static mlr_status band_factor_singular(mlr_diag *d)
+{
+    const double ab[6] = {1, 1, 1, 1, 2, 0}; /* [[1 1 0] [1 1 1] [0 1 2]]: row 1's pivot is 0 */
+    return band_factor_with(ab, 2, d);
+}
+
+static mlr_status band_solve_unfactored(mlr_diag *d)
+{
+    mlr_band *b = NULL;
+    ck_assert_int_eq(mlr_band_create(3, 1, NULL, &b, NULL), MLR_OK);
+    double x[3] = {1, 2, 3};
+    const mlr_status s = mlr_band_solve(b, x, 1, 1, d);
+    mlr_band_destroy(b);
+    return s;
+}
+
+/* A solve or an inverse diagonal on a factored 3 x 3 handle (ldx 1, m 2 for the solve). */
+static mlr_status band_factored_call(int inverse, size_t n, mlr_diag *d)
+{
+    const double ab[6] = {2, -1, 2, -1, 2, 0};
+    mlr_band *b = NULL;
+    ck_assert_int_eq(mlr_band_create(3, 1, NULL, &b, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_band_factor(b, ab, 2, NULL), MLR_OK);
+    double x[6] = {0};
+    const mlr_status s =
+        inverse ? mlr_band_inverse_diagonal(b, x, n, d) : mlr_band_solve(b, x, 1, 2, d);
+    mlr_band_destroy(b);
+    return s;
+}
+
+static mlr_status band_solve_ldx(mlr_diag *d) { return band_factored_call(0, 3, d); }
+static mlr_status band_inverse_n(mlr_diag *d) { return band_factored_call(1, 4, d); }
+
+static mlr_status band_inverse_no_memory(mlr_diag *d)
+{
+    const double ab[6] = {2, -1, 2, -1, 2, 0};
+    mlr_test_allocator ta;
+    mlr_test_allocator_init(&ta, 2); /* the handle and its storage, then the workspace fails */
+    mlr_band *b = NULL;
+    ck_assert_int_eq(mlr_band_create(3, 1, &ta.base, &b, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_band_factor(b, ab, 2, NULL), MLR_OK);
+    double var[3];
+    const mlr_status s = mlr_band_inverse_diagonal(b, var, 3, d);
+    mlr_band_destroy(b);
+    ck_assert_uint_eq(ta.live_blocks, 0);
+    return s;
+}
+
+/* ---- BVH writer ---------------------------------------------------------------------------- */
+
+/* The two frames of tiny_bvh. */
+static mlr_motion *tiny_motion(void)
+{
+    mlr_motion *m = NULL;
+    ck_assert_int_eq(mlr_bvh_read_memory(tiny_bvh, strlen(tiny_bvh), NULL, &m, NULL), MLR_OK);
+    return m;
+}
+
+static int sink_stop(void *user, const char *data, size_t len)
+{
+    (void)user, (void)data, (void)len;
+    return 1;
+}
+
+static mlr_status bvh_write_null_fn(mlr_diag *d)
+{
+    mlr_motion *m = tiny_motion();
+    const mlr_status s = mlr_bvh_write(m, NULL, NULL, d);
+    mlr_motion_destroy(m);
+    return s;
+}
+
+static mlr_status bvh_write_sink_stops(mlr_diag *d)
+{
+    mlr_motion *m = tiny_motion();
+    const mlr_status s = mlr_bvh_write(m, sink_stop, NULL, d);
+    mlr_motion_destroy(m);
+    return s;
+}
+
+static mlr_status bvh_write_zero_quat(mlr_diag *d)
+{
+    mlr_motion *m = tiny_motion();
+    double *rot = mlr_motion_rot_mut(m);
+    rot[4] = rot[5] = rot[6] = rot[7] = 0.0; /* frame 1 */
+    size_t len;
+    const mlr_status s = mlr_bvh_write_memory(m, NULL, 0, &len, d);
+    mlr_motion_destroy(m);
+    return s;
+}
+
+static mlr_status bvh_write_root_nan(mlr_diag *d)
+{
+    mlr_motion *m = tiny_motion();
+    mlr_motion_root_pos_mut(m)[4] = NAN; /* frame 1, y */
+    const mlr_status s = mlr_bvh_write(m, sink_stop, NULL, d);
+    mlr_motion_destroy(m);
+    return s;
+}
+
+static mlr_status bvh_write_memory_cap(mlr_diag *d)
+{
+    mlr_motion *m = tiny_motion();
+    char buf[16];
+    size_t len;
+    const mlr_status s = mlr_bvh_write_memory(m, buf, sizeof buf, &len, d);
+    mlr_motion_destroy(m);
+    return s;
+}
+
+static mlr_status bvh_write_memory_len(mlr_diag *d)
+{
+    mlr_motion *m = tiny_motion();
+    const mlr_status s = mlr_bvh_write_memory(m, NULL, 0, NULL, d);
+    mlr_motion_destroy(m);
+    return s;
+}
+
+/* ---- IK -------------------------------------------------------------------------------------- */
+
+static mlr_status bend_axis_knee(mlr_diag *d)
+{
+    const double pos[9] = {0}, rot[12] = {1, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0};
+    double axis[3];
+    return mlr_ik_bend_axis_local(1, 3, pos, rot, 0, 3, 2, axis, d);
+}
+
+static mlr_status bend_axis_null(mlr_diag *d)
+{
+    const double rot[12] = {1, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0};
+    double axis[3];
+    return mlr_ik_bend_axis_local(1, 3, NULL, rot, 0, 1, 2, axis, d);
+}
+
 /* ---- options: the one reader's format ------------------------------------------------------ */
 
 static mlr_status bvh_option_twice(mlr_diag *d)
@@ -468,6 +643,26 @@ static const diag_case cases[] = {
      "2 alphas (NULL: 0), not 1 or 1 + J = 3"},
     {"synthesize range", synthesize_range, MLR_E_INVALID_ARG, "frames [6, 6 + 3) are not within"},
     {"reconstruct NULL", reconstruct_null, MLR_E_INVALID_ARG, "the handle is NULL"},
+    {"band create shape", band_create_shape, MLR_E_INVALID_ARG,
+     "n 3, kd 3: needs n >= 1 and kd < n"},
+    {"band create overflow", band_create_overflow, MLR_E_OVERFLOW, "overflow a size_t"},
+    {"band create no memory", band_create_no_memory, MLR_E_NO_MEMORY, "no memory for the factor"},
+    {"band factor ldab", band_factor_ldab, MLR_E_INVALID_ARG, "ldab 1 < kd + 1 = 2"},
+    {"band factor singular", band_factor_singular, MLR_E_SINGULAR, "the pivot of row 1"},
+    {"band solve unfactored", band_solve_unfactored, MLR_E_BAD_STATE, "band is not factored"},
+    {"band solve ldx", band_solve_ldx, MLR_E_INVALID_ARG, "ldx 1 < m 2"},
+    {"band inverse n", band_inverse_n, MLR_E_INVALID_ARG, "n 4 is not the order 3 of band"},
+    {"band inverse no memory", band_inverse_no_memory, MLR_E_NO_MEMORY,
+     "no memory for the workspace"},
+    {"bvh write NULL fn", bvh_write_null_fn, MLR_E_INVALID_ARG, "bvh write: fn is NULL"},
+    {"bvh write sink stops", bvh_write_sink_stops, MLR_E_IO, "fn returned nonzero"},
+    {"bvh write zero quaternion", bvh_write_zero_quat, MLR_E_INVALID_ARG,
+     "rot: frame 1, joint 'Hips' is a zero, NaN or infinite quaternion"},
+    {"bvh write root NaN", bvh_write_root_nan, MLR_E_INVALID_ARG, "root_pos: frame 1 is NaN"},
+    {"bvh write_memory cap", bvh_write_memory_cap, MLR_E_OVERFLOW, "cap 16 < the"},
+    {"bvh write_memory len", bvh_write_memory_len, MLR_E_INVALID_ARG, "len is NULL"},
+    {"bend axis knee", bend_axis_knee, MLR_E_INVALID_ARG, "knee joint 3 outside [0, 3)"},
+    {"bend axis NULL", bend_axis_null, MLR_E_INVALID_ARG, "world_pos is NULL"},
 };
 
 START_TEST(every_failure_fills_the_diag)

@@ -421,7 +421,7 @@ START_TEST(bad_input_gets_the_right_status_and_message)
     }
     ck_assert_int_eq(mlr_ik_two_bone(0, NULL, NULL, NULL, NULL, NULL, 0.5, NULL, NULL, &d), MLR_OK);
     double ax[3];
-    ck_assert_int_eq(mlr_ik_bend_axis_local(1, 1, a, rh, 0, 0, 1, ax), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_ik_bend_axis_local(1, 1, a, rh, 0, 0, 1, ax, NULL), MLR_E_INVALID_ARG);
 }
 END_TEST
 

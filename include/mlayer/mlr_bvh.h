@@ -208,11 +208,14 @@ typedef int (*mlr_bvh_write_fn)(void *user, const char *data, size_t len);
  * @param motion [in] the motion; rot need not be normalized
  * @param fn     [in] sink, called many times with pieces of at most a few KiB
  * @param user   [in] passed to fn
+ * @param diag   [out] optional: the reason of a failure (the NULL argument; the array, frame
+ *               and joint of the first value that cannot be written)
  * @return MLR_OK; MLR_E_IO (fn asked to stop); MLR_E_INVALID_ARG (NULL arguments; a
- *         non-finite value, for which nothing more is written)
+ *         non-finite value or a zero quaternion, checked before anything is written)
  * Allocates: never (works in a few KiB of stack). Threads: motion is only read.
  */
-MLR_API mlr_status mlr_bvh_write(const mlr_motion *motion, mlr_bvh_write_fn fn, void *user);
+MLR_API mlr_status mlr_bvh_write(const mlr_motion *motion, mlr_bvh_write_fn fn, void *user,
+                                 mlr_diag *diag);
 
 /**
  * Write the BVH text into caller memory.
@@ -220,12 +223,14 @@ MLR_API mlr_status mlr_bvh_write(const mlr_motion *motion, mlr_bvh_write_fn fn, 
  * @param cap    [in] bytes available at buf
  * @param len    [out] bytes the text takes (always set on MLR_OK and MLR_E_OVERFLOW); no NUL
  *               terminator is written or counted
+ * @param diag   [out] optional: the reason of a failure, as mlr_bvh_write (cap and the size on
+ *               MLR_E_OVERFLOW)
  * @return MLR_OK; MLR_E_OVERFLOW (buf is not NULL and cap < *len; buf holds the first cap
  *         bytes); MLR_E_INVALID_ARG (as mlr_bvh_write, or len NULL)
  * Allocates: never. Threads: motion is only read.
  */
 MLR_API mlr_status mlr_bvh_write_memory(const mlr_motion *motion, char *buf, size_t cap,
-                                        size_t *len);
+                                        size_t *len, mlr_diag *diag);
 
 /**
  * Write the motion to a BVH file atomically: the text goes to a new temporary file in the same
@@ -246,7 +251,8 @@ MLR_API mlr_status mlr_bvh_write_memory(const mlr_motion *motion, char *buf, siz
  * Python package's batch runs do, mlayer._files.stale_temporaries lists them). NAME must
  * leave room for the 22 characters added within the file system's name limit.
  * @param path   [in] the file to write; NUL-terminated, not ending with a path separator
- * @param diag   [out] optional: the reason on MLR_E_IO and MLR_E_INVALID_ARG
+ * @param diag   [out] optional: the reason of a failure (for a value that cannot be written,
+ *               as mlr_bvh_write)
  * @return MLR_OK; MLR_E_IO (the temporary cannot be created, written or renamed);
  *         MLR_E_INVALID_ARG (motion or path NULL or empty, path ends with a separator, the
  *         motion holds a non-finite value or a zero quaternion); MLR_E_NO_MEMORY;

@@ -12,8 +12,7 @@
  *   allocation and overflow included, with a message that names the argument, the element or
  *   the option. The status functions without one are the getters of a handle (a NULL handle
  *   or a count other than the documented one), mlr_ik_from_to and mlr_motion_set_frame_time
- *   (one reason each); mlr_band_*, mlr_bvh_write / mlr_bvh_write_memory and
- *   mlr_ik_bend_axis_local do not take one in 0.1.0 (their statuses are documented).
+ *   (one reason each).
  * - Options: a function with several tunables takes an array of {int key; double value;}
  *   (mlr_layers_option, mlr_guards_option, ...), keys pinned, a key at most once; one reader
  *   checks them all, and its messages name an option by the lower-case suffix of its key

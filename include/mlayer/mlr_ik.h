@@ -79,12 +79,13 @@ MLR_API mlr_status mlr_ik_leg_chain(const mlr_rig *rig, int32_t end, int32_t *hi
  * the leg never bends.
  * @param world_pos [in] N x J x 3; @param world_rot [in] N x J x 4
  * @param axis [out] 3 values
+ * @param diag [out] optional: the reason of a failure (the NULL array, the joint out of range)
  * @return MLR_OK; MLR_E_INVALID_ARG (NULL, joint out of range)
  * Allocates: never. Threads: any.
  */
 MLR_API mlr_status mlr_ik_bend_axis_local(size_t n, size_t n_joints, const double *world_pos,
                                           const double *world_rot, int32_t hip, int32_t knee,
-                                          int32_t end, double axis[3]);
+                                          int32_t end, double axis[3], mlr_diag *diag);
 
 /**
  * Apply a world-space delta r_world (N x 4) to `joint` in the local rotations rot (N x J x 4,

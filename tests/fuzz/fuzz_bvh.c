@@ -81,10 +81,10 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         return 0;
     }
     size_t len = 0;
-    if (mlr_bvh_write_memory(m, NULL, 0, &len) == MLR_OK && len < ((size_t)32 << 20)) {
+    if (mlr_bvh_write_memory(m, NULL, 0, &len, NULL) == MLR_OK && len < ((size_t)32 << 20)) {
         char *text = malloc(len ? len : 1);
         size_t len2;
-        check(mlr_bvh_write_memory(m, text, len, &len2) == MLR_OK && len2 == len);
+        check(mlr_bvh_write_memory(m, text, len, &len2, NULL) == MLR_OK && len2 == len);
         mlr_motion *b = NULL;
         s = mlr_bvh_read_memory(text, len, &a, &b, &d);
         check(s == MLR_OK || s == MLR_E_NO_MEMORY);

@@ -32,10 +32,11 @@ typedef struct mlr_diag {
 
 /* mlr_band.h */
 typedef struct mlr_band mlr_band;
-mlr_status mlr_band_create(size_t n, size_t kd, const mlr_allocator *alloc, mlr_band **out);
-mlr_status mlr_band_factor(mlr_band *band, const double *ab, size_t ldab);
-mlr_status mlr_band_solve(const mlr_band *band, double *x, size_t ldx, size_t m);
-mlr_status mlr_band_inverse_diagonal(const mlr_band *band, double *var, size_t n);
+mlr_status mlr_band_create(size_t n, size_t kd, const mlr_allocator *alloc, mlr_band **out,
+                           mlr_diag *diag);
+mlr_status mlr_band_factor(mlr_band *band, const double *ab, size_t ldab, mlr_diag *diag);
+mlr_status mlr_band_solve(const mlr_band *band, double *x, size_t ldx, size_t m, mlr_diag *diag);
+mlr_status mlr_band_inverse_diagonal(const mlr_band *band, double *var, size_t n, mlr_diag *diag);
 void mlr_band_destroy(mlr_band *band);
 
 /* mlr_lgs.h */
@@ -93,8 +94,9 @@ mlr_status mlr_bvh_read_memory_mt(const char *text, size_t len, size_t n_threads
 mlr_status mlr_bvh_read_file_mt(const char *path, size_t n_threads, const mlr_allocator *alloc,
                                 mlr_motion **out, mlr_diag *diag);
 typedef int (*mlr_bvh_write_fn)(void *user, const char *data, size_t len);
-mlr_status mlr_bvh_write(const mlr_motion *motion, mlr_bvh_write_fn fn, void *user);
-mlr_status mlr_bvh_write_memory(const mlr_motion *motion, char *buf, size_t cap, size_t *len);
+mlr_status mlr_bvh_write(const mlr_motion *motion, mlr_bvh_write_fn fn, void *user, mlr_diag *diag);
+mlr_status mlr_bvh_write_memory(const mlr_motion *motion, char *buf, size_t cap, size_t *len,
+                                mlr_diag *diag);
 mlr_status mlr_bvh_write_file(const mlr_motion *motion, const char *path, mlr_diag *diag);
 mlr_status mlr_motion_create(size_t n_joints, const char *const *names,
                              const int32_t *parents, const double *offsets,
@@ -431,7 +433,7 @@ mlr_status mlr_ik_leg_chain(const mlr_rig *rig, int32_t end, int32_t *hip, int32
                             mlr_diag *diag);
 mlr_status mlr_ik_bend_axis_local(size_t n, size_t n_joints, const double *world_pos,
                                   const double *world_rot, int32_t hip, int32_t knee,
-                                  int32_t end, double axis[3]);
+                                  int32_t end, double axis[3], mlr_diag *diag);
 mlr_status mlr_ik_rotate_to(size_t n, size_t n_joints, const int32_t *parents, double *rot,
                             const double *world_rot, int32_t joint, const double *r_world,
                             mlr_diag *diag);

@@ -240,9 +240,10 @@ def write_bvh_string(motion: Motion) -> str:
         sk = motion.skeleton
         cap = 4096 + 160 * (sk.n_joints + sk.n_end_sites) + 16 * sk.n_channels * motion.n_frames
         buf = ffi.new("char[]", cap)
-        code = lib.mlr_bvh_write_memory(h, buf, cap, n)
+        diag = ffi.new("mlr_diag *")
+        code = lib.mlr_bvh_write_memory(h, buf, cap, n, diag)
         if code == lib.MLR_E_OVERFLOW:
             buf = ffi.new("char[]", max(int(n[0]), 1))
-            code = lib.mlr_bvh_write_memory(h, buf, int(n[0]), n)
-        check(code, "mlayer.write_bvh_string")
+            code = lib.mlr_bvh_write_memory(h, buf, int(n[0]), n, diag)
+        check(code, "mlayer.write_bvh_string", diag)
         return ffi.unpack(buf, int(n[0])).decode("utf-8", errors="surrogateescape")

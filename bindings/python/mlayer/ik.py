@@ -138,8 +138,9 @@ def bend_axis_local(hip_wrot, hip, knee, end) -> np.ndarray:
     n = pos.shape[0]
     g3 = np.ascontiguousarray(np.broadcast_to(g, (n, 3, 4)))
     out = ffi.new("double[3]")
-    check(lib.mlr_ik_bend_axis_local(n, 3, _arrays.ptr(pos), _arrays.ptr(g3), 0, 1, 2, out),
-          "bend_axis_local")
+    diag = ffi.new("mlr_diag *")
+    check(lib.mlr_ik_bend_axis_local(n, 3, _arrays.ptr(pos), _arrays.ptr(g3), 0, 1, 2, out, diag),
+          "bend_axis_local", diag)
     return np.array([out[0], out[1], out[2]])
 
 
