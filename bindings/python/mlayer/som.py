@@ -192,4 +192,21 @@ def _som_from_blob(blob: bytes, options: dict, handle=None) -> SOM:
     return SOM(rows, cols, lib.mlr_som_dim(handle), _handle=handle, **options)
 
 
-__all__ = ["SOM"]
+__all__ = ["SOM", "u_matrix"]
+
+
+def u_matrix(codebook) -> np.ndarray:
+    """(rows, cols): the mean distance of each SOM unit's codebook vector to those of its 4
+    lattice neighbours."""
+    w = np.asarray(codebook, dtype=np.float64)
+    rows, cols = w.shape[:2]
+    u = np.zeros((rows, cols))
+    cnt = np.zeros((rows, cols))
+    for axis in (0, 1):
+        d = np.linalg.norm(np.diff(w, axis=axis), axis=-1)
+        lo = (slice(None, -1), slice(None)) if axis == 0 else (slice(None), slice(None, -1))
+        hi = (slice(1, None), slice(None)) if axis == 0 else (slice(None), slice(1, None))
+        for s in (lo, hi):
+            u[s] += d
+            cnt[s] += 1
+    return u / np.maximum(cnt, 1)

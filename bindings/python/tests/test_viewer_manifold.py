@@ -12,8 +12,8 @@ import mlayer
 from mlayer.features import pose_features
 from mlayer.markov import Markov
 from mlayer.metrics import body_height
-from mlayer.viewer.manifold import (ManifoldSession, ranked_chain, ranked_cycle, ranked_next,
-                                    u_matrix)
+from mlayer.som import u_matrix
+from mlayer.viewer.manifold import ManifoldSession, ranked_chain, ranked_cycle, ranked_next
 from mlayer.viewer.session import ResultCache, load_clips
 
 from test_viewer import bad_clip, get, get_json, server  # noqa: F401 (fixtures)

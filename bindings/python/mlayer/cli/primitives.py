@@ -42,6 +42,7 @@ import numpy as np
 from ..bvh import read_bvh
 from ..errors import InvalidArgumentError
 from ..plot import new_figure, save_figure
+from ..som import u_matrix
 from ._command import BVH_OR_STDOUT, NPZ, PREFIX, Needs, command, output_name, write_bvh_output
 
 #: what needs matplotlib in the message without it
@@ -155,16 +156,7 @@ def plot_som(model, path=None, clip: int = 0, title: str | None = None):
     if model.manifold == "som":
         rows, cols, _ = model.som_codebook.shape
         # U-matrix shading: mean distance of each unit to its lattice neighbours
-        w = model.som_codebook
-        u = np.zeros((rows, cols))
-        cnt = np.zeros((rows, cols))
-        for dr, dc in ((0, 1), (1, 0)):
-            d = np.linalg.norm(w[dr:, dc:] - w[:rows - dr, :cols - dc], axis=-1)
-            u[dr:, dc:] += d
-            cnt[dr:, dc:] += 1
-            u[:rows - dr, :cols - dc] += d
-            cnt[:rows - dr, :cols - dc] += 1
-        ax.imshow(u / np.maximum(cnt, 1), cmap="Greys", origin="lower",
+        ax.imshow(u_matrix(model.som_codebook), cmap="Greys", origin="lower",
                   extent=(-0.5, cols - 0.5, -0.5, rows - 0.5))
         ax.set_xlabel("lattice column")
         ax.set_ylabel("lattice row")

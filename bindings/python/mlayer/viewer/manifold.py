@@ -38,9 +38,10 @@ import numpy as np
 from ..bvh import write_bvh_string
 from ..errors import Error
 from ..render import body_side
+from ..som import u_matrix
 from .session import ParamError, _b64, _points, finite_number, json_bytes, query_pairs
 
-__all__ = ["ManifoldSession", "ranked_next", "ranked_chain", "ranked_cycle", "u_matrix",
+__all__ = ["ManifoldSession", "ranked_next", "ranked_chain", "ranked_cycle",
            "DEFAULT_MANIFOLD_FRAMES", "MAX_MOTION_FRAMES", "MAX_KNOTS"]
 
 #: the most training frames (all clips together, after decimation)
@@ -98,23 +99,6 @@ def ranked_cycle(P, start: int, rank: int = 1) -> list[int]:
         if nxt in path[:-1]:
             break
     return path
-
-
-def u_matrix(codebook) -> np.ndarray:
-    """(rows, cols): the mean distance of each SOM unit's codebook vector to those of its 4
-    lattice neighbours."""
-    w = np.asarray(codebook, dtype=np.float64)
-    rows, cols = w.shape[:2]
-    u = np.zeros((rows, cols))
-    cnt = np.zeros((rows, cols))
-    for axis in (0, 1):
-        d = np.linalg.norm(np.diff(w, axis=axis), axis=-1)
-        lo = (slice(None, -1), slice(None)) if axis == 0 else (slice(None), slice(None, -1))
-        hi = (slice(1, None), slice(None)) if axis == 0 else (slice(None), slice(1, None))
-        for s in (lo, hi):
-            u[s] += d
-            cnt[s] += 1
-    return u / np.maximum(cnt, 1)
 
 
 # ---- request parameters -------------------------------------------------------------------
