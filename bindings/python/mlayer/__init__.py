@@ -9,6 +9,7 @@ from ._version import __version__, library_version
 from .errors import (Error, InvalidArgumentError, MlayerIOError, MlayerWarning, ParseError,
                      SingularMatrixError, UnsupportedError)
 from .errors import ParseWarning
+from .errors import MissingDependencyError
 from . import quat
 from .smoothing import LGS, have_cholmod, lgs
 from .motion import Motion, Skeleton
@@ -45,3 +46,9 @@ __all__ = ["__version__", "library_version", "Error", "InvalidArgumentError", "P
            "PCA", "GRBF", "fuzzy_cmeans", "GaussianMixture", "Markov", "PrimitiveModel"]
 __all__ += ["ParseWarning", "UpGuess", "detect_up"]
 __all__ += ["LeadIn", "lead_in", "trim"]
+__all__ += ["MissingDependencyError"]
+
+import logging as _logging
+# the library logs (the `mlayer` logger and its children) and never prints: nothing shows
+# until the application configures logging (the command line shows INFO on stderr)
+_logging.getLogger("mlayer").addHandler(_logging.NullHandler())

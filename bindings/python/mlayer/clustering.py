@@ -133,7 +133,10 @@ class ElbowResult:
     results: tuple
 
     def plot(self, ax=None):
-        """Inertia against k with the chosen k marked (matplotlib); returns the axes."""
+        """Inertia against k with the chosen k marked (matplotlib); returns the axes (a new
+        pyplot figure's when `ax` is None)."""
+        from ._optional import require
+        require("matplotlib", feature="mlayer.ElbowResult.plot")
         import matplotlib.pyplot as plt
         if ax is None:
             ax = plt.figure(figsize=(5, 3.5)).add_subplot()

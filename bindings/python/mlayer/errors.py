@@ -56,6 +56,19 @@ class UnsupportedError(Error, NotImplementedError):
     """Not available in this build (e.g. mlayer built without CHOLMOD) or for this object."""
 
 
+class MissingDependencyError(Error, ImportError):
+    """A feature needs an optional dependency that is not installed. The message is one line
+    naming the feature and the extra that installs it (``... pip install 'mlayer[plot]'``);
+    ``module`` is the module that could not be imported, ``extra`` the package extra, and
+    ``feature`` what needed it. Raised by :func:`mlayer._optional.require` before any work; an
+    ImportError, so ``except ImportError`` keeps working."""
+
+    def __init__(self, message: str, module: str = "", extra: str = "", feature: str = ""):
+        super().__init__(message)
+        self.name = module  # ImportError's attribute: the module that was not found
+        self.module, self.extra, self.feature = module, extra, feature
+
+
 class MlayerWarning(UserWarning):
     """A result is usable but deserves attention (e.g. an ill-conditioned system)."""
 
@@ -101,4 +114,4 @@ def check(code: int, where: str, diag=None) -> int:
 
 
 __all__ = ["Error", "InvalidArgumentError", "SingularMatrixError", "ParseError",
-           "MlayerIOError", "UnsupportedError", "MlayerWarning", "check"]
+           "MlayerIOError", "UnsupportedError", "MissingDependencyError", "MlayerWarning", "check"]

@@ -24,6 +24,8 @@ its OFFSET as ``root_pos`` in every frame.
 """
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from . import _arrays
@@ -31,8 +33,8 @@ from ._handles import ReadOnlyAttributes
 from ._native import ffi, lib
 from .errors import InvalidArgumentError, check
 
-__all__ = ["Motion", "Skeleton", "DEFAULT_ROOT_CHANNELS", "DEFAULT_JOINT_CHANNELS",
-           "MIN_FRAME_TIME"]
+__all__ = ["Motion", "Skeleton", "ScipyFrames", "DEFAULT_ROOT_CHANNELS",
+           "DEFAULT_JOINT_CHANNELS", "MIN_FRAME_TIME"]
 
 DEFAULT_ROOT_CHANNELS = "Xposition Yposition Zposition Zrotation Yrotation Xrotation"
 DEFAULT_JOINT_CHANNELS = "Zrotation Yrotation Xrotation"
@@ -69,6 +71,14 @@ class _Handle:
     def __exit__(self, *exc):
         lib.mlr_motion_destroy(self.ptr)
         self.ptr = ffi.NULL
+
+
+class ScipyFrames(NamedTuple):
+    """:meth:`Motion.to_scipy`: root_pos (N, 3), rotations (a list of J scipy ``Rotation``
+    stacks of N frames, one per joint), trans (N, P, 3)."""
+    root_pos: np.ndarray
+    rotations: list
+    trans: np.ndarray
 
 
 class Skeleton(ReadOnlyAttributes):
@@ -628,6 +638,97 @@ class Motion:
                             np.broadcast_to(sk.end_site_offsets, q.shape[:-1] + (3,))], axis=-1)
         r = quat.mul(quat.mul(q, v), quat.conj(q))[..., 1:]
         return pos[:, sk.end_site_parents] + r
+
+    # ---- bridges to scipy and pandas -------------------------------------------------------
+
+    def to_scipy(self) -> "ScipyFrames":
+        """The frames with the rotations as scipy rotations, one stack per joint:
+        ``ScipyFrames(root_pos, rotations, trans)``, ``rotations[j]`` a
+        ``scipy.spatial.transform.Rotation`` of the N local rotations of joint j
+        (:func:`mlayer.quat.to_scipy` of ``rot[:, j]``: scalar-first turned scalar-last), so
+        ``rotations[j].as_euler("ZXY", degrees=True)`` or ``rotations[j][f].apply(v)`` work
+        with any scipy; root_pos (N, 3) and trans (N, P, 3) are copies. :meth:`from_scipy` is
+        the inverse: ``Motion.from_scipy(m.skeleton, m.frame_time, *m.to_scipy())``. Needs
+        scipy (the ``scipy`` extra)."""
+        from ._optional import require
+        from .quat import to_scipy
+        require("scipy", feature="mlayer.Motion.to_scipy")
+        root_pos, rot, trans = self._frames()
+        return ScipyFrames(root_pos.copy(), [to_scipy(rot[:, j]) for j in range(rot.shape[1])],
+                           trans.copy())
+
+    @classmethod
+    def from_scipy(cls, skeleton: Skeleton, frame_time: float, root_pos, rotations,
+                   trans=None) -> "Motion":
+        """A motion of `skeleton` from scipy rotations (the inverse of :meth:`to_scipy`).
+
+        rotations   a list of J ``Rotation`` stacks of N frames each (one per joint, as
+                    :meth:`to_scipy` gives), a ``Rotation`` stack of N * J rotations in
+                    frame-major order (as ``mlayer.quat.to_scipy(m.rot)`` gives), or a
+                    ``Rotation`` of shape (N, J) (scipy 1.17 and later)
+        root_pos    (N, 3); trans (N, P, 3) as for :class:`Motion` (default: the OFFSETs)
+        """
+        from .quat import from_scalar_last
+        if not isinstance(skeleton, Skeleton):
+            raise InvalidArgumentError("Motion.from_scipy: skeleton must be a mlayer.Skeleton")
+        J = skeleton.n_joints
+        root = _frame_array(root_pos, "Motion.from_scipy: root_pos", (3,))
+        N = root.shape[0]
+        if isinstance(rotations, (list, tuple)):
+            if len(rotations) != J:
+                raise InvalidArgumentError(f"Motion.from_scipy: {len(rotations)} per-joint "
+                                           f"rotation stacks for {J} joints")
+            q = np.stack([np.asarray(r.as_quat()).reshape(-1, 4) for r in rotations], axis=1) \
+                if J else np.zeros((N, 0, 4))
+        elif hasattr(rotations, "as_quat"):
+            q = np.asarray(rotations.as_quat())
+        else:
+            raise InvalidArgumentError("Motion.from_scipy: rotations must be a "
+                                       "scipy.spatial.transform.Rotation or a list of them, got "
+                                       f"{type(rotations).__name__}")
+        if q.size != N * J * 4:
+            raise InvalidArgumentError(f"Motion.from_scipy: {q.size // 4} rotations for {N} "
+                                       f"frames of {J} joints (root_pos has {N} frames)")
+        q = from_scalar_last(q.reshape(N, J, 4))
+        q /= np.linalg.norm(q, axis=-1, keepdims=True)
+        return cls(skeleton, frame_time, root, q, trans)
+
+    def to_dataframe(self):
+        """The frames as a ``pandas.DataFrame`` like the BVH file's MOTION section: one row per
+        frame (index ``frame``, 0 .. N-1), one column per channel in the file's order, named by
+        a two-level index (joint, channel), e.g. ``df["Hips", "Xposition"]``,
+        ``df["LeftUpLeg", "Zrotation"]``. Positions are in the file's units; rotations are
+        Euler angles in degrees in each joint's channel order (:func:`mlayer.quat.to_euler`:
+        the middle angle in [-90, 90], the others in (-180, 180], as the BVH writer writes
+        them). ``df.attrs`` holds ``frame_time`` and ``fps``; for flat column names,
+        ``df.columns = ["/".join(c) for c in df.columns]``. Needs pandas (the ``dataframe``
+        extra)."""
+        from ._optional import require
+        from .quat import to_euler
+        pd = require("pandas", feature="mlayer.Motion.to_dataframe")
+        root_pos, rot, trans = self._frames()
+        sk = self.skeleton
+        where = {int(j): p for p, j in enumerate(sk.trans_joints)}
+        columns, values = [], []
+        for j, name in enumerate(sk._names):
+            chans = sk.channels[j].split()
+            order = sk.euler_orders[j]
+            angles = None
+            for c in chans:
+                axis = "XYZ".index(c[0].upper())
+                if c[1:].lower() == "position":
+                    v = root_pos[:, axis] if j == 0 else trans[:, where[j], axis]
+                else:
+                    if angles is None:
+                        angles = to_euler(rot[:, j], order)
+                    v = angles[:, order.index(c[0].upper())]
+                columns.append((name, c))
+                values.append(v)
+        data = np.stack(values, axis=1) if values else np.zeros((self.n_frames, 0))
+        df = pd.DataFrame(data, index=pd.RangeIndex(self.n_frames, name="frame"),
+                          columns=pd.MultiIndex.from_tuples(columns, names=["joint", "channel"]))
+        df.attrs.update(frame_time=self.frame_time, fps=self.fps)
+        return df
 
     # ---- output ----------------------------------------------------------------------------
 

@@ -1,6 +1,13 @@
-"""Figures of the motion layers (like paper 1, Figures 1 and 2), drawn with matplotlib.
+"""Figures of the motion layers (like paper 1, Figures 1 and 2), drawn with matplotlib, and
+the two helpers every figure of the package is made and saved with.
 
-Only imported when a figure is asked for: the rest of mlayer does not need matplotlib.
+Only imported when a figure is asked for: the rest of mlayer does not need matplotlib (the
+``plot`` extra). Figures are ``matplotlib.figure.Figure`` objects made directly, without
+pyplot: the user's backend is left alone (nothing calls ``matplotlib.use``), no window opens,
+and a figure is not kept by pyplot's figure manager (it goes away with its last reference).
+Every figure function returns its Figure and writes it to ``path`` when one is given
+(atomically, by extension: PNG, SVG or PDF; the file honours the umask). In a notebook,
+display the returned figure; in a script, ``fig.savefig(...)``.
 """
 from __future__ import annotations
 
@@ -8,17 +15,32 @@ import numpy as np
 
 from . import quat
 from ._files import atomic_output
+from ._optional import require
 from .errors import InvalidArgumentError
 
+__all__ = ["new_figure", "save_figure", "plot_layers", "layer_choice"]
 
-def _pyplot():
-    try:
-        import matplotlib
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError as e:  # pragma: no cover - matplotlib is an optional dependency
-        raise InvalidArgumentError("plotting needs matplotlib (pip install matplotlib)") from e
-    return plt
+
+def new_figure(feature: str = "mlayer.plot", **kwargs):
+    """A ``matplotlib.figure.Figure(**kwargs)`` (no pyplot, no backend switch); raises
+    mlayer.MissingDependencyError naming the ``plot`` extra without matplotlib."""
+    require("matplotlib", feature=feature)
+    from matplotlib.figure import Figure
+    return Figure(**kwargs)
+
+
+def save_figure(fig, path, *, dpi: float = 110) -> None:
+    """Write `fig` to `path` atomically, in the format of its extension (PNG when it has none
+    matplotlib knows); nothing when path is None."""
+    if path is None:
+        return
+    import os
+    path = os.fspath(path)
+    ext = os.path.splitext(path)[1].lower()
+    fmt = ext[1:] if ext in (".png", ".svg", ".pdf", ".jpg", ".jpeg", ".eps", ".ps", ".tif",
+                             ".tiff", ".webp") else "png"
+    with atomic_output(path) as tmp:
+        fig.savefig(tmp, dpi=dpi, format=fmt)
 
 
 def _angle(q):
@@ -26,23 +48,12 @@ def _angle(q):
     return np.degrees(np.linalg.norm(quat.log(q), axis=-1))
 
 
-def plot_layers(motion, layers, path, *, joint=None, root_axis=None, title=None) -> dict:
-    """Write a figure of the layers of `motion` to `path` (PNG, SVG or PDF, by extension).
-
-    Top: one root translation channel through the original, the base layer and base plus the
-    controllable layer, with the residual under it. Bottom: the same for one joint's rotation
-    angle (degrees). `joint` is a joint name (default: the joint whose controllable layer moves
-    most); `root_axis` 0, 1 or 2 (default: the axis whose controllable layer moves most).
-    Outlier frames of the robust decomposition (``layers.outliers``) are marked with red ticks
-    on the residual panels (the translation's on the root panel, the joint's on the joint's).
-    Returns what was plotted: {"joint": name, "root_axis": axis}.
-    """
-    plt = _pyplot()
+def layer_choice(motion, layers, joint=None, root_axis=None) -> tuple[str, int]:
+    """What :func:`plot_layers` shows: (joint name, root axis). `joint` is a joint name
+    (default: the joint whose controllable layer moves most); `root_axis` 0, 1 or 2 (default:
+    the axis whose controllable layer moves most)."""
     names = list(motion.joint_names)
     ctrl = np.asarray(layers.control)
-    resid = np.asarray(layers.residual)
-    base = layers.base
-    t = np.arange(motion.n_frames) / motion.fps
     if root_axis is None:
         root_axis = int(np.argmax(ctrl[:, 0, :].std(axis=0)))
     if root_axis not in (0, 1, 2):
@@ -53,11 +64,33 @@ def plot_layers(motion, layers, path, *, joint=None, root_axis=None, title=None)
         j = names.index(joint)
     else:
         raise InvalidArgumentError(f"no joint {joint!r}; joints: {', '.join(names)}")
+    return names[j], int(root_axis)
+
+
+def plot_layers(motion, layers, path=None, *, joint=None, root_axis=None, title=None):
+    """A figure of the layers of `motion` (a ``matplotlib.figure.Figure``), also written to
+    `path` when given (PNG, SVG or PDF, by extension).
+
+    Top: one root translation channel through the original, the base layer and base plus the
+    controllable layer, with the residual under it. Bottom: the same for one joint's rotation
+    angle (degrees). `joint` is a joint name (default: the joint whose controllable layer moves
+    most); `root_axis` 0, 1 or 2 (default: the axis whose controllable layer moves most).
+    Outlier frames of the robust decomposition (``layers.outliers``) are marked with red ticks
+    on the residual panels (the translation's on the root panel, the joint's on the joint's).
+    :func:`layer_choice` says which joint and axis are shown (the CLI prints them).
+    """
+    fig = new_figure("mlayer.plot.plot_layers", figsize=(9, 8.5))
+    names = list(motion.joint_names)
+    ctrl = np.asarray(layers.control)
+    resid = np.asarray(layers.residual)
+    base = layers.base
+    t = np.arange(motion.n_frames) / motion.fps
+    shown, root_axis = layer_choice(motion, layers, joint, root_axis)
+    j = names.index(shown)
 
     axis_name = "XYZ"[root_axis]
     pb = base.root_pos[:, root_axis]
-    fig, ax = plt.subplots(4, 1, figsize=(9, 8.5), sharex=True,
-                           gridspec_kw={"height_ratios": [3, 1, 3, 1]})
+    ax = fig.subplots(4, 1, sharex=True, gridspec_kw={"height_ratios": [3, 1, 3, 1]})
     ax[0].plot(t, motion.root_pos[:, root_axis], color="0.55", lw=2.2, label="original M")
     ax[0].plot(t, pb, color="tab:blue", lw=1.2, label="base Mb")
     ax[0].plot(t, pb + ctrl[:, 0, root_axis], color="tab:red", lw=1.0, ls="--",
@@ -88,7 +121,5 @@ def plot_layers(motion, layers, path, *, joint=None, root_axis=None, title=None)
     ax[3].set_xlabel("time (s)")
     fig.suptitle(title or "motion layers: base, controllable, residual")
     fig.tight_layout()
-    with atomic_output(path) as tmp:
-        fig.savefig(tmp, dpi=110)
-    plt.close(fig)
-    return {"joint": names[j], "root_axis": root_axis}
+    save_figure(fig, path)
+    return fig

@@ -37,13 +37,14 @@ within the training clips' limits.
 """
 from __future__ import annotations
 
+import logging
 import math
-import sys
 
 import numpy as np
 
 from . import _arrays, quat
 from ._args import integer
+from ._progress import resolve
 from .errors import InvalidArgumentError, MlayerIOError
 from .smoothing import lgs
 from .manifold import GRBF, PCA
@@ -197,9 +198,32 @@ def _check_plan(n: int, k, ks, criterion, cluster, order, min_count, manifold, s
                 min_count=min_count, names=names)
 
 
-def _say(progress, msg: str) -> None:
-    if progress:
-        print(msg, file=sys.stderr if progress is True else progress, flush=True)
+#: the steps of PrimitiveModel.fit are logged here (INFO); the command line shows them
+_log = logging.getLogger("mlayer.primitives")
+
+#: the steps PrimitiveModel.fit's progress bar counts: features, manifold, primitives, GRBF,
+#: guards
+_FIT_STEPS = 5
+
+
+class _Steps:
+    """Where the steps of a fit go: the ``mlayer.primitives`` logger (INFO), fit's on_step
+    callable, and its progress bar (advanced after each of the :data:`_FIT_STEPS` steps)."""
+
+    def __init__(self, bar, on_step=None):
+        self.bar, self.on_step = bar, on_step
+
+    def say(self, msg: str, advance: bool = False) -> None:
+        _log.info(msg)
+        if self.on_step is not None:
+            self.on_step(msg)
+        if advance:
+            self.bar.update(1)
+
+
+def _say(steps: _Steps, msg: str, advance: bool = False) -> None:
+    """One step of a fit (see :class:`_Steps`)."""
+    steps.say(msg, advance)
 
 
 class PrimitiveModel:
@@ -221,7 +245,7 @@ class PrimitiveModel:
             cluster: str = "kmeans", order=1, min_count: int = 1, manifold: str = "som",
             som=None, epochs: int = 20, lattice=None, kernel: str = "thin_plate",
             smoothing: float = 1e-6, seed: int = 0, progress=None,
-            names=None) -> "PrimitiveModel":
+            names=None, on_step=None) -> "PrimitiveModel":
         """Learn a model from one Motion or a list of Motions of one skeleton.
 
         k: number of primitives, or "auto": the pick of criterion ("elbow", "silhouette" or
@@ -236,8 +260,11 @@ class PrimitiveModel:
         frames before any training. manifold: "som" (a rows x
         cols SOM, batch training for epochs) or "pca". lattice, kernel, smoothing: the GRBF
         (a small relative ridge keeps the weights of lattice centres with no training frame
-        nearby determined). progress: True prints the
-        steps on stderr (or give a file).
+        nearby determined). The steps are logged (INFO) to the ``mlayer.primitives`` logger;
+        progress: a bar over them (None: on when stderr is a terminal and tqdm is installed;
+        True, False, a stream, or a callable(done, total); see ``mlayer._progress``).
+        on_step: a callable(line) also given each step's line as it is logged (the viewer
+        shows them).
 
         Defaults that scale with n, the number of training frames (:func:`default_lattices`):
         ``som`` s x s units with s = min(30, isqrt(n)) (about one frame per unit; the paper's
@@ -253,7 +280,6 @@ class PrimitiveModel:
         an :class:`mlayer.MlayerWarning` that says by how much. The model is in the first
         clip's units.
         """
-        from .features import pose_features
         clips = list(clips) if isinstance(clips, (list, tuple)) else [clips]
         if not clips:
             raise InvalidArgumentError("PrimitiveModel.fit: no clips")
@@ -265,7 +291,6 @@ class PrimitiveModel:
                 raise InvalidArgumentError("PrimitiveModel.fit: every clip needs >= 2 frames")
         if manifold not in ("som", "pca"):
             raise InvalidArgumentError(f"manifold must be 'som' or 'pca', got {manifold!r}")
-        from .layers import body_translation_joint
         if lattice is None or (manifold == "som" and som is None):
             som_d, lattice_d = default_lattices(sum(m.n_frames for m in clips))
             som = som_d if som is None else som
@@ -275,8 +300,19 @@ class PrimitiveModel:
         n_frames = sum(m.n_frames for m in clips)
         plan = _check_plan(n_frames, k, ks, criterion, cluster, order, min_count, manifold,
                            som, lattice, names, len(clips))
+        make_bar = resolve(progress, "PrimitiveModel.fit")  # before any work
         clips = same_units(clips)
-        self = cls()
+        with make_bar(_FIT_STEPS, "primitives", "step") as bar:
+            return cls()._fit(clips, plan, _Steps(bar, on_step), manifold=manifold, som=som,
+                              epochs=epochs, lattice=lattice, kernel=kernel,
+                              smoothing=smoothing, seed=seed)
+
+    def _fit(self, clips, plan: dict, progress: _Steps, *, manifold, som, epochs, lattice,
+             kernel, smoothing, seed) -> "PrimitiveModel":
+        """The steps of :meth:`fit` on checked arguments (`plan`: _check_plan's; clips in one
+        unit; `progress`: where the steps go)."""
+        from .features import pose_features
+        from .layers import body_translation_joint
         self.clip_names = plan["names"]
         self.skeleton = clips[0].skeleton
         self.frame_time = float(np.median([m.frame_time for m in clips]))
@@ -284,6 +320,7 @@ class PrimitiveModel:
         _say(progress, f"features: {len(clips)} clip(s), "
                        f"{sum(m.n_frames for m in clips)} frames")
         X = pose_features(clips)
+        progress.bar.update(1)
         self.clip_starts = np.cumsum([0] + [m.n_frames for m in clips[:-1]]).astype(np.int64)
         self.manifold = manifold
         if manifold == "som":
@@ -305,6 +342,7 @@ class PrimitiveModel:
             self.points = p.transform(X)
             self.bounds = tuple((float(self.points[:, j].min()), float(self.points[:, j].max()))
                                 for j in range(2))
+        progress.bar.update(1)
         self._set_primitives(plan, seed, progress)
         Y = self._targets(clips, X)
         _say(progress, f"GRBF: {kernel}, {lattice[0]}x{lattice[1]} centres, "
@@ -315,10 +353,11 @@ class PrimitiveModel:
         J = self.skeleton.n_joints
         err = np.sqrt(((fit[:, -3 * J:] - X) ** 2).reshape(-1, J, 3).sum(-1)).mean()
         self.fit_error = float(err)
-        _say(progress, f"GRBF: mean joint position error on the training frames {err:.4g}")
+        _say(progress, f"GRBF: mean joint position error on the training frames {err:.4g}",
+             True)
         self._set_guards(clips)
         _say(progress, f"guards: {len(self.contact_names)} contact points, floor "
-                       f"{self.floor_height:.4g}")
+                       f"{self.floor_height:.4g}", True)
         return self
 
     def _set_primitives(self, plan: dict, seed: int, progress) -> None:
@@ -358,7 +397,7 @@ class PrimitiveModel:
         self.labels = np.searchsorted(used, labels).astype(np.int64)
         k = self.centers.shape[0]
         _say(progress, f"primitives: k = {k} ({self.cluster}"
-                       + (f", {self.criterion}" if plan["k"] == "auto" else "") + ")")
+                       + (f", {self.criterion}" if plan["k"] == "auto" else "") + ")", True)
         from .markov import best_order, heldout_loglik
         seqs = self.clip_labels()
         self.order_loglik = heldout_loglik(seqs, k, (1, 2, 3), min_count=plan["min_count"])
@@ -903,7 +942,21 @@ class PrimitiveModel:
 
     @classmethod
     def load(cls, path) -> "PrimitiveModel":
-        """Read a model written by :meth:`save`."""
+        """Read a model written by :meth:`save` (a .npz file). Anything else (a BVH file, a
+        pickle, a .npy array) raises MlayerIOError with one line saying a .npz model is
+        expected; the file's first bytes are checked before numpy reads it, and nothing is
+        unpickled."""
+        try:
+            with open(path, "rb") as f:
+                head = f.read(512)
+        except OSError as e:
+            raise MlayerIOError(f"{path}: cannot read a model ({e.strerror or e})") from None
+        if not head.startswith(b"PK\x03\x04"):  # a .npz is a zip archive
+            what = "a BVH file" if head.lstrip().upper().startswith(b"HIERARCHY") else \
+                "a .npy array" if head.startswith(b"\x93NUMPY") else \
+                "an empty file" if not head else "not a zip archive"
+            raise MlayerIOError(f"{path}: not a primitives model ({what}); expected the .npz "
+                                "file `mlayer primitives` writes")
         try:
             z = np.load(path, allow_pickle=False)
         except (OSError, ValueError) as e:

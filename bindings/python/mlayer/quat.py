@@ -41,10 +41,9 @@ def from_scalar_last(q) -> np.ndarray:
 def to_scipy(q):
     """A ``scipy.spatial.transform.Rotation`` of scalar-first quaternions (any leading shape is
     flattened, as scipy holds a 1-D stack). Needs scipy."""
-    try:
-        from scipy.spatial.transform import Rotation
-    except ImportError:
-        raise ImportError("mlayer.quat.to_scipy needs scipy: pip install scipy") from None
+    from ._optional import require
+    require("scipy", feature="mlayer.quat.to_scipy")
+    from scipy.spatial.transform import Rotation
     return Rotation.from_quat(to_scalar_last(q).reshape(-1, 4))
 
 

@@ -1,8 +1,10 @@
-"""Stick-figure animations of motions, side by side under one camera, written as GIF.
+"""Stick-figure animations of motions, side by side under one camera: an animated GIF, an MP4
+video or a PNG strip of frames (:func:`render`, by the path's extension).
 
 Drawing is done with Pillow directly (an orthographic camera, one panel per motion, a ground
-grid), which is fast enough to render a whole clip in a second or two and needs nothing beyond
-the package's dependencies. Motions are assumed Y-up, as BVH files almost always are.
+grid), which is fast enough to render a whole clip in a second or two. Pillow is the
+``render`` extra; MP4 needs imageio-ffmpeg too (the ``video`` extra, which carries an ffmpeg
+binary). Motions are drawn Y-up (a clip's detected up axis is turned to Y).
 
 Every panel uses the same camera: the same scale, the same view direction and the same target,
 which follows the first motion across the ground (its first joint that moves: the root, or the
@@ -19,7 +21,10 @@ import numpy as np
 from .metrics import body_height
 from .up_axis import to_y_up
 
+from ._args import integer
 from ._files import atomic_output
+from ._optional import require
+from ._progress import resolve
 from .errors import InvalidArgumentError
 
 # Fixed palette (GIF frames are drawn in "P" mode: no per-frame quantization needed).
@@ -83,69 +88,67 @@ def followed_joint(positions: np.ndarray) -> int:
     return int(np.argmax(moved)) if moved.any() else 0
 
 
-def render_gif(motions, path, *, labels=None, fps: float = 30.0, panel_size=(320, 380),
-               azimuth: float = 35.0, elevation: float = 12.0, max_seconds: float | None = None,
-               progress=None) -> int:
-    """Render motions side by side into an animated GIF at `path` (written atomically).
+class _Scene:
+    """What every frame of a render shares: the motions in Y-up, the camera, the palette."""
 
-    motions      Motion objects (anything with `positions()`, `parents`, `joint_names`, `fps`).
-    labels       one caption per panel (default "0", "1", ...).
-    fps          frame rate of the GIF; each panel shows its motion's frame nearest in time.
-    panel_size   (width, height) of one panel in pixels.
-    azimuth, elevation   camera direction in degrees (azimuth about the vertical axis).
-    max_seconds  render only the first seconds of the clips.
-    progress     optional callable(done, total) called as frames are drawn.
-    Returns the number of GIF frames written.
-    """
-    from PIL import Image, ImageDraw  # Pillow comes with matplotlib
+    def __init__(self, motions, labels, fps, panel_size, azimuth, elevation, max_seconds,
+                 where: str):
+        from PIL import Image
+        motions = list(motions)
+        if not motions:
+            raise InvalidArgumentError(f"{where}: no motions given")
+        if labels is None:
+            labels = [str(i) for i in range(len(motions))]
+        labels = list(labels)
+        if len(labels) != len(motions):
+            raise InvalidArgumentError(f"{where}: {len(labels)} labels for {len(motions)} "
+                                       "motions")
+        if not (math.isfinite(fps) and fps > 0):
+            raise InvalidArgumentError(f"{where}: fps must be positive, got {fps}")
+        pos = [to_y_up(getattr(m, "up_axis", "y"), np.asarray(m.positions(), dtype=np.float64))
+               for m in motions]
+        for p, m in zip(pos, motions):
+            if p.shape[0] == 0:
+                raise InvalidArgumentError(f"{where}: a motion has no frames")
+        duration = max(p.shape[0] / m.fps for p, m in zip(pos, motions))
+        if max_seconds is not None:
+            duration = min(duration, max_seconds)
+        self.n_out = max(1, int(round(duration * fps)))
+        self.motions, self.labels, self.pos, self.fps = motions, labels, pos, fps
 
-    motions = list(motions)
-    if not motions:
-        raise InvalidArgumentError("render_gif: no motions given")
-    if labels is None:
-        labels = [str(i) for i in range(len(motions))]
-    if len(labels) != len(motions):
-        raise InvalidArgumentError(f"render_gif: {len(labels)} labels for {len(motions)} motions")
-    if not (math.isfinite(fps) and fps > 0):
-        raise InvalidArgumentError(f"render_gif: fps must be positive, got {fps}")
-    pos = [to_y_up(getattr(m, "up_axis", "y"), np.asarray(m.positions(), dtype=np.float64))
-           for m in motions]
-    for p, m in zip(pos, motions):
-        if p.shape[0] == 0:
-            raise InvalidArgumentError("render_gif: a motion has no frames")
-    duration = max(p.shape[0] / m.fps for p, m in zip(pos, motions))
-    if max_seconds is not None:
-        duration = min(duration, max_seconds)
-    n_out = max(1, int(round(duration * fps)))
+        # one camera for every panel: scale from the first motion's height, target following it
+        self.cam = _camera(azimuth, elevation)
+        p0 = pos[0]
+        self.ground = min(float(np.percentile(p[:, :, 1], 0.5)) for p in pos)
+        self.height = float(np.percentile(p0[:, :, 1].max(axis=1) - self.ground, 50)) or 1.0
+        self.w, self.h = panel_size
+        self.scale = 0.62 * self.h / self.height
+        self.track = _smooth_track(p0[:, followed_joint(p0), [0, 2]],
+                                   max(1, int(motions[0].fps)))
+        self.spacing = self.height / 2.0
+        self.palette = [c for rgb in _PALETTE.values() for c in rgb]
+        self.blank = Image.new("P", (self.w, self.h), _INDEX["background"])
+        self.blank.putpalette(self.palette)
+        self.sides = [[body_side(n) for n in m.joint_names] for m in motions]
 
-    # one camera for every panel: scale from the first motion's height, target following it
-    cam = _camera(azimuth, elevation)
-    p0 = pos[0]
-    ground = min(float(np.percentile(p[:, :, 1], 0.5)) for p in pos)
-    height = float(np.percentile(p0[:, :, 1].max(axis=1) - ground, 50)) or 1.0
-    w, h = panel_size
-    scale = 0.62 * h / height
-    track = _smooth_track(p0[:, followed_joint(p0), [0, 2]], max(1, int(motions[0].fps)))
-
-    spacing = height / 2.0
-    palette = [c for rgb in _PALETTE.values() for c in rgb]
-    blank = Image.new("P", (w, h), _INDEX["background"])
-    blank.putpalette(palette)
-    sides = [[body_side(n) for n in m.joint_names] for m in motions]
-    frames = []
-    for k in range(n_out):
-        t = k / fps
+    def frame(self, k: int):
+        """Output frame k (time k / fps): the panels side by side, a "P" mode image."""
+        from PIL import Image, ImageDraw
+        w, h, motions, p0 = self.w, self.h, self.motions, self.pos[0]
+        t = k / self.fps
         f0 = min(int(round(t * motions[0].fps)), p0.shape[0] - 1)
-        target = np.array([track[f0, 0], ground + 0.45 * height, track[f0, 1]])
+        target = np.array([self.track[f0, 0], self.ground + 0.45 * self.height,
+                           self.track[f0, 1]])
+        cam, scale, ground, spacing = self.cam, self.scale, self.ground, self.spacing
 
         def project(world):
             v = (np.asarray(world) - target) @ cam.T
             return np.stack([w / 2 + scale * v[..., 0], h / 2 - scale * v[..., 1]], -1)
 
         frame = Image.new("P", (w * len(motions), h), _INDEX["background"])
-        frame.putpalette(palette)
-        for i, (p, m) in enumerate(zip(pos, motions)):
-            panel = blank.copy()  # each panel is drawn on its own, clipped to its box
+        frame.putpalette(self.palette)
+        for i, (p, m) in enumerate(zip(self.pos, motions)):
+            panel = self.blank.copy()  # each panel is drawn on its own, clipped to its box
             draw = ImageDraw.Draw(panel)
             cx = math.floor(target[0] / spacing) * spacing
             cz = math.floor(target[2] / spacing) * spacing
@@ -159,20 +162,132 @@ def render_gif(motions, path, *, labels=None, fps: float = 30.0, panel_size=(320
             xy = project(p[fi])
             for j, par in enumerate(m.parents):
                 if par >= 0:
-                    draw.line([tuple(xy[par]), tuple(xy[j])], fill=_INDEX[sides[i][j]], width=3)
+                    draw.line([tuple(xy[par]), tuple(xy[j])], fill=_INDEX[self.sides[i][j]],
+                              width=3)
             for x, y in xy:
                 draw.ellipse([x - 1.5, y - 1.5, x + 1.5, y + 1.5], fill=_INDEX["joint"])
-            draw.text((8, 6), f"{labels[i]}", fill=_INDEX["text"])
+            draw.text((8, 6), f"{self.labels[i]}", fill=_INDEX["text"])
             if i:
                 draw.line([(0, 0), (0, h)], fill=_INDEX["grid"], width=1)
             else:
                 draw.text((8, h - 16), f"{t:5.2f} s", fill=_INDEX["text"])
             frame.paste(panel, (i * w, 0))
-        frames.append(frame)
-        if progress is not None:
-            progress(k + 1, n_out)
+        return frame
 
+
+#: the formats :func:`render` writes, by the path's extension (lower case)
+FORMATS = {".gif": "an animated GIF", ".mp4": "an MP4 video (H.264; needs imageio-ffmpeg)",
+           ".png": "a PNG strip of frames (time left to right, one row per motion)"}
+
+
+def render(motions, path, *, labels=None, fps: float = 30.0, panel_size=(320, 380),
+           azimuth: float = 35.0, elevation: float = 12.0, max_seconds: float | None = None,
+           strip_frames: int = 8, progress=None) -> int:
+    """Render motions side by side under one camera into `path`, in the format its extension
+    names (written atomically; the file honours the umask):
+
+    - ``.gif``: an animated GIF (:func:`render_gif`);
+    - ``.mp4``: an H.264 video at `fps` (needs imageio-ffmpeg: the ``video`` extra), its size
+      padded with the background to multiples of 16 pixels;
+    - ``.png``: a strip of `strip_frames` frames evenly spaced over the clip (the first and
+      the last included): time runs left to right, one row per motion, each panel
+      ``panel_size``; the first row shows the times.
+
+    Other extensions raise InvalidArgumentError; a missing Pillow or imageio-ffmpeg raises
+    mlayer.MissingDependencyError, both before any work. The other arguments are those of
+    :func:`render_gif`. Returns the number of frames written (for a strip, its frames).
+    """
+    import os
+    ext = os.path.splitext(os.fspath(path))[1].lower()
+    if ext not in FORMATS:
+        what = ext or "a path without an extension"
+        raise InvalidArgumentError(f"render: {os.fspath(path)}: cannot write {what}; give a "
+                                   "path ending in .gif, .mp4 or .png")
+    if ext == ".gif":
+        return render_gif(motions, path, labels=labels, fps=fps, panel_size=panel_size,
+                          azimuth=azimuth, elevation=elevation, max_seconds=max_seconds,
+                          progress=progress)
+    require("PIL", feature="mlayer.render")
+    if ext == ".mp4":
+        ffmpeg = require("imageio_ffmpeg", feature="mlayer.render to .mp4", extra="video")
+        make_bar = resolve(progress, "mlayer.render")
+        scene = _Scene(motions, labels, fps, panel_size, azimuth, elevation, max_seconds,
+                       "render")
+        return _write_mp4(scene, path, ffmpeg, make_bar)
+    strip_frames = integer(strip_frames, "strip_frames", 1)
+    make_bar = resolve(progress, "mlayer.render")
+    scene = _Scene(motions, labels, fps, panel_size, azimuth, elevation, max_seconds, "render")
+    return _write_strip(scene, path, strip_frames, make_bar)
+
+
+def _write_mp4(scene: _Scene, path, ffmpeg, make_bar) -> int:
+    from PIL import Image
+    w, h = scene.w * len(scene.motions), scene.h
+    W, H = -(-w // 16) * 16, -(-h // 16) * 16  # H.264 (yuv420p) in whole macro blocks
+    back = _PALETTE["background"]
+    with make_bar(scene.n_out, "rendering", "frame") as bar, \
+            atomic_output(path, ".mp4") as tmp:
+        writer = ffmpeg.write_frames(tmp, (W, H), fps=scene.fps, codec="libx264",
+                                     pix_fmt_in="rgb24", macro_block_size=16,
+                                     ffmpeg_log_level="error")
+        writer.send(None)
+        try:
+            for k in range(scene.n_out):
+                img = Image.new("RGB", (W, H), back)
+                img.paste(scene.frame(k).convert("RGB"), (0, 0))
+                writer.send(img.tobytes())
+                bar.update(1)
+        finally:
+            writer.close()
+    return scene.n_out
+
+
+def _write_strip(scene: _Scene, path, n: int, make_bar) -> int:
+    from PIL import Image
+    n = min(n, scene.n_out)
+    ks = np.unique(np.round(np.linspace(0, scene.n_out - 1, n)).astype(int))
+    w, h, M = scene.w, scene.h, len(scene.motions)
+    strip = Image.new("P", (w * len(ks), h * M), _INDEX["background"])
+    strip.putpalette(scene.palette)
+    with make_bar(len(ks), "rendering", "frame") as bar:
+        for c, k in enumerate(ks):
+            frame = scene.frame(int(k))
+            for i in range(M):
+                strip.paste(frame.crop((i * w, 0, (i + 1) * w, h)), (c * w, i * h))
+            bar.update(1)
+    with atomic_output(path, ".png") as tmp:
+        strip.save(tmp, format="PNG")
+    return len(ks)
+
+
+def render_gif(motions, path, *, labels=None, fps: float = 30.0, panel_size=(320, 380),
+               azimuth: float = 35.0, elevation: float = 12.0, max_seconds: float | None = None,
+               progress=None) -> int:
+    """Render motions side by side into an animated GIF at `path` (written atomically,
+    whatever its extension; :func:`render` chooses the format by extension).
+
+    motions      Motion objects (anything with `positions()`, `parents`, `joint_names`, `fps`).
+    labels       one caption per panel (default "0", "1", ...).
+    fps          frame rate of the GIF; each panel shows its motion's frame nearest in time.
+    panel_size   (width, height) of one panel in pixels.
+    azimuth, elevation   camera direction in degrees (azimuth about the vertical axis).
+    max_seconds  render only the first seconds of the clips.
+    progress     a progress bar over the frames: None (on stderr when it is a terminal and
+                 tqdm is installed), True, False, a stream, or a callable(done, total) called
+                 as frames are drawn (see mlayer._progress).
+    Returns the number of GIF frames written. Needs Pillow (the ``render`` extra: raises
+    mlayer.MissingDependencyError before any work without it).
+    """
+    require("PIL", feature="mlayer.render_gif")
+    make_bar = resolve(progress, "mlayer.render_gif")
+    scene = _Scene(motions, labels, fps, panel_size, azimuth, elevation, max_seconds,
+                   "render_gif")
+    frames = []
+    with make_bar(scene.n_out, "rendering", "frame") as bar:
+        for k in range(scene.n_out):
+            frames.append(scene.frame(k))
+            bar.update(1)
     with atomic_output(path, ".gif") as tmp:
         frames[0].save(tmp, format="GIF", save_all=True, append_images=frames[1:],
                        duration=int(round(1000 / fps)), loop=0, optimize=False)
-    return n_out
+    return scene.n_out

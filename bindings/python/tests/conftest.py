@@ -32,3 +32,12 @@ def rng():
     import numpy as np
     return np.random.default_rng(12345)
 
+
+
+@pytest.fixture(scope="session")
+def walk_1s(tmp_path_factory):
+    """The first second (120 frames) of the bundled walk, as a BVH file."""
+    import mlayer
+    p = tmp_path_factory.mktemp("walk_1s") / "walk.bvh"
+    mlayer.write_bvh(mlayer.data.load_sample()[:120], p)
+    return p

@@ -39,7 +39,8 @@ The function is :func:`mlayer.batch` (this subpackage has another name, so that
 - :mod:`.inputs`: finding the clips (folders, globs, files, exclusions, symbolic links);
 - :mod:`.task`: the task of one clip on a worker (read, operation, write, figures);
 - :mod:`.cache`: the outputs' up-to-date key, their sidecars, stale temporaries;
-- :mod:`.report`: the records, the summary table, the CSV/JSON report, the progress bar;
+- :mod:`.report`: the records, the summary table, the CSV/JSON report (the progress bar over
+  clips is tqdm's, through mlayer._progress);
 - :mod:`.run`: the Dask cluster, the scheduling of the tasks, ``batch`` itself.
 """
 from __future__ import annotations

@@ -9,8 +9,6 @@ import io
 import json
 import math
 import os
-import sys
-import time
 
 import numpy as np
 
@@ -132,36 +130,3 @@ def _json_default(o):
     if isinstance(o, (np.floating, np.integer)):
         return o.item()
     return str(o)
-
-
-class Progress:
-    """A progress bar over clips on stderr (redrawn in place on a terminal, a line per tenth
-    otherwise)."""
-
-    def __init__(self, total: int, enabled: bool, stream=None):
-        self.total, self.enabled = total, enabled and total > 0
-        self.stream = stream or sys.stderr
-        self.tty = self.enabled and hasattr(self.stream, "isatty") and self.stream.isatty()
-        self.t0 = time.perf_counter()
-        self.done = self.failed = 0
-        self._next_line = 0
-
-    def update(self, failed: bool) -> None:
-        self.done += 1
-        self.failed += bool(failed)
-        if not self.enabled:
-            return
-        el = time.perf_counter() - self.t0
-        rate = self.done / el if el > 0 else 0.0
-        eta = (self.total - self.done) / rate if rate > 0 else float("nan")
-        frac = self.done / self.total
-        bar = "#" * int(30 * frac) + "." * (30 - int(30 * frac))
-        text = (f"[{bar}] {self.done}/{self.total} clips, {self.failed} failed, "
-                f"{rate:.2f} clips/s, eta {eta:.0f} s")
-        if self.tty:
-            self.stream.write("\r" + text + ("\n" if self.done == self.total else ""))
-            self.stream.flush()
-        elif self.done >= self._next_line or self.done == self.total:
-            self.stream.write(text + "\n")
-            self.stream.flush()
-            self._next_line = self.done + max(1, self.total // 10)

@@ -13,7 +13,9 @@ from ..errors import InvalidArgumentError
 from .cache import options_key, sidecar_path, sweep, up_to_date
 from .inputs import find_inputs
 from .registry import lookup, variant_tag, variants
-from .report import FIELDS, STATUS_FAILED, STATUS_LINK, STATUS_SKIPPED, BatchResult, Progress
+from .._optional import require
+from .._progress import resolve
+from .report import FIELDS, STATUS_FAILED, STATUS_LINK, STATUS_SKIPPED, BatchResult
 from .task import process_clip, read_options
 
 __all__ = ["batch"]
@@ -28,11 +30,7 @@ def _default_workers() -> int:
 
 @contextlib.contextmanager
 def _client(scheduler, n_workers):
-    try:
-        from distributed import Client, LocalCluster
-    except ImportError:
-        raise ImportError("mlayer.batch needs Dask: pip install 'dask[distributed]' "
-                          "(or the mlayer[batch] extra)") from None
+    from distributed import Client, LocalCluster  # checked by batch() (require)
     if scheduler is not None:
         if hasattr(scheduler, "scheduler_address"):  # a Cluster object
             with Client(scheduler) as client:
@@ -58,17 +56,11 @@ def _embedded_security():
     machine: with TLS, only this process and the workers it starts hold a certificate the
     scheduler accepts (a client without one, or with its own, is disconnected in the TLS
     handshake)."""
-    try:
-        from distributed.security import Security
-        return Security.temporary()
-    except ImportError as e:  # Security.temporary needs the cryptography package
-        raise ImportError("mlayer.batch secures its embedded Dask cluster with TLS, which needs "
-                          "the cryptography package: pip install cryptography (or the "
-                          f"mlayer[batch] extra) [{e}]") from None
-
+    from distributed.security import Security  # cryptography: checked by batch() (require)
+    return Security.temporary()
 
 def batch(operation, inputs, out_dir, *, alphas=None, scheduler=None, n_workers=None,
-          report=None, progress=True, force=False, metrics=True, read=None,
+          report=None, progress=None, force=False, metrics=True, read=None,
           **options) -> BatchResult:
     """Run an operation over every clip of `inputs` on Dask, writing into `out_dir`.
 
@@ -95,7 +87,8 @@ def batch(operation, inputs, out_dir, *, alphas=None, scheduler=None, n_workers=
     n_workers  worker processes of the embedded cluster (default: one per CPU, at most one per
                clip)
     report     write the records there: .json, or CSV for any other extension
-    progress   a progress bar on stderr
+    progress   a progress bar over clips (tqdm): None (default) on stderr when it is a terminal,
+               True, False, a stream, or a callable(done, total) (see mlayer._progress)
     force      redo outputs that are up to date
     metrics    compute jitter and foot sliding before/after (costs a few forward kinematics)
     read       how the workers read each clip: read_bvh's strict, up, trim and units (for
@@ -104,9 +97,15 @@ def batch(operation, inputs, out_dir, *, alphas=None, scheduler=None, n_workers=
                joints and root_alpha (stylize), fps / n_frames / lam (resample), strength ...
     Returns a :class:`BatchResult`; ``result.exit_code`` is 1 when any clip failed. Raises
     InvalidArgumentError before anything runs for an unknown operation or option, no inputs,
-    or outputs that would collide or overwrite an input.
+    or outputs that would collide or overwrite an input; mlayer.MissingDependencyError (the
+    ``batch`` extra) before anything runs without Dask, or without cryptography for the
+    embedded cluster.
     """
     t0 = time.perf_counter()
+    require("distributed", feature="mlayer.batch")
+    if scheduler is None:  # the embedded cluster's TLS: Security.temporary needs cryptography
+        require("cryptography", feature="mlayer.batch's embedded Dask cluster (TLS)")
+    make_bar = resolve(progress, "mlayer.batch")
     read = read_options(read)
     op = lookup(operation)
     bad = sorted(set(options) - set(op.options))
@@ -170,7 +169,8 @@ def batch(operation, inputs, out_dir, *, alphas=None, scheduler=None, n_workers=
             from distributed import as_completed
             address = client.scheduler.address if client.scheduler else ""
             n_used = len(client.scheduler_info().get("workers", {})) or workers
-            bar = Progress(len(todo), progress)
+            bar = make_bar(len(todo), op.name, "clip")
+            failed = 0
             futures = {}
             for src, need in todo:
                 fut = client.submit(process_clip, op, src, need, options, metrics, read,
@@ -187,11 +187,15 @@ def batch(operation, inputs, out_dir, *, alphas=None, scheduler=None, n_workers=
                                  "error": f"{type(e).__name__}: {e}"} for v, out, _, _ in need]
                     for r in recs:
                         records_by_out[r["output"]] = r
-                    bar.update(any(r["status"] == STATUS_FAILED for r in recs))
+                    if any(r["status"] == STATUS_FAILED for r in recs):
+                        failed += 1
+                        bar.set_postfix_str(f"{failed} failed")
+                    bar.update(1)
             except BaseException:
                 client.cancel(list(futures))
                 raise
             finally:
+                bar.close()
                 sweep(written)
     records = []
     for o in all_outs:

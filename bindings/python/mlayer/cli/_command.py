@@ -12,11 +12,21 @@ A command is declared once, by the :func:`command` decorator over its ``run(args
 - ``inputs`` names the arguments that hold input paths (a string or a list of strings);
 - ``outputs`` maps each argument that holds an output path to an :class:`Output`: the
   extensions it accepts, whether '-' means standard output, whether the command creates
-  missing folders itself.
+  missing folders itself;
+- ``requires`` lists the optional modules the command needs (:class:`Needs`), each
+  unconditionally or when an argument is given (``Needs("matplotlib", when="plot")``) or when
+  a test of the arguments holds.
 
 Before any work, :func:`check_outputs` checks each output given: its extension, that its
-folder exists, and that it is not one of the inputs. A failure is an error of exit status 1
-with one line naming the option (the same status as the library errors the commands raise).
+folder exists, and that it is not one of the inputs; then :func:`check_requires` imports each
+optional module needed (``mlayer._optional.require``). A failure is an error of exit status 1
+with one line naming the option or the extra to install (the same status as the library errors
+the commands raise), and nothing is written.
+
+An output declared with ``stdout=True`` given as ``-``: the command writes its BVH with
+:func:`write_bvh_output`, which puts it on the standard output, and everything else the
+command prints goes to stderr (``_main`` redirects it), so the standard output is the BVH
+only.
 The module imports nothing of the package's commands, so the commands import it and the
 package's main imports the commands: no circle.
 """
@@ -28,6 +38,7 @@ import sys
 from dataclasses import dataclass, field
 from typing import Callable
 
+from .._optional import require
 from ..errors import InvalidArgumentError, MlayerIOError
 
 
@@ -59,12 +70,39 @@ class Output:
 
 
 BVH = Output((".bvh",), "a BVH file")
+#: a BVH output that may be '-', the standard output (the commands that write one BVH)
+BVH_OR_STDOUT = Output((".bvh",), "a BVH file", stdout=True)
 GIF = Output((".gif",), "an animated GIF file")
 NPZ = Output((".npz",), "a numpy .npz file")
 PNG = Output((".png",), "a PNG figure")
 FIGURE = Output((".png", ".svg", ".pdf"), "a figure")
 FOLDER = Output(kind="dir", makes_dirs=True)
 PREFIX = Output(kind="prefix")
+
+
+@dataclass(frozen=True)
+class Needs:
+    """An optional module a command needs (see mlayer._optional).
+
+    module   the module imported to check it ("matplotlib", "PIL", "distributed", ...)
+    when     None: always; an argument's dest: when that argument is given (not None, False
+             or ''); a callable(args) -> bool
+    feature  what needs it, for the message (default: the option as the user writes it when
+             `when` is a dest, "mlayer CMD" otherwise)
+    extra    the mlayer extra to install (default: the module's in mlayer._optional.EXTRAS)
+    """
+    module: str
+    when: object = None
+    feature: str = ""
+    extra: str | None = None
+
+    def applies(self, args) -> bool:
+        if self.when is None:
+            return True
+        if callable(self.when):
+            return bool(self.when(args))
+        v = getattr(args, self.when, None)
+        return v is not None and v is not False and v != ""
 
 
 @dataclass(frozen=True)
@@ -77,23 +115,25 @@ class Command:
     reads_clips: bool = True
     inputs: tuple = ()
     outputs: dict = field(default_factory=dict)
+    requires: tuple = ()
 
     def __call__(self, args) -> int:
         return self.run(args)
 
 
 def command(name: str, help: str, *, reads_clips: bool, arguments: Callable | None = None,
-            inputs: tuple = (), outputs: dict | None = None):
+            inputs: tuple = (), outputs: dict | None = None, requires: tuple = ()):
     """Decorator declaring `run(args) -> int` as the subcommand `name` (see the module's
     docstring); returns the :class:`Command`. An output given as a tuple of extensions is
-    ``Output(extensions)``."""
+    ``Output(extensions)``; a requirement given as a module name is ``Needs(module)``."""
+    needs = tuple(n if isinstance(n, Needs) else Needs(n) for n in requires)
     outs = {}
     for dest, spec in (outputs or {}).items():
         outs[dest] = spec if isinstance(spec, Output) else \
             Output(tuple(spec), f"a {'/'.join(spec)} file")
 
     def wrap(run) -> Command:
-        return Command(name, help, run, arguments, reads_clips, tuple(inputs), outs)
+        return Command(name, help, run, arguments, reads_clips, tuple(inputs), outs, needs)
     return wrap
 
 
@@ -109,9 +149,10 @@ def add_parser(sub, cmd: Command) -> argparse.ArgumentParser:
     # how the user writes each argument: its first option string (-o), or its metavar
     written = {a.dest: a.option_strings[0] if a.option_strings else (a.metavar or a.dest)
                for a in sp._actions}
-    for dest in (*cmd.inputs, *cmd.outputs):
+    whens = [n.when for n in cmd.requires if isinstance(n.when, str)]
+    for dest in (*cmd.inputs, *cmd.outputs, *whens):
         if dest not in written:
-            raise ValueError(f"mlayer {cmd.name}: no argument {dest!r} (inputs/outputs)")
+            raise ValueError(f"mlayer {cmd.name}: no argument {dest!r} (inputs/outputs/requires)")
     sp.set_defaults(_command=cmd, _written=written)
     return sp
 
@@ -213,3 +254,53 @@ def check_outputs(cmd: Command, args) -> None:
                 if _same_file(path, src):
                     raise InvalidArgumentError(f"{opt} {path}: the same file as the input "
                                                f"{src}; give another output path")
+
+
+# ---- the optional dependencies ---------------------------------------------------------------
+
+def check_requires(cmd: Command, args) -> None:
+    """Import, before any work, every optional module the command needs with these arguments
+    (its :class:`Needs`); a missing one raises mlayer.MissingDependencyError, one line naming
+    the extra to install."""
+    written = getattr(args, "_written", {})
+    for need in cmd.requires:
+        if not need.applies(args):
+            continue
+        feature = need.feature or (written.get(need.when, need.when)
+                                   if isinstance(need.when, str) else f"mlayer {cmd.name}")
+        require(need.module, feature=feature, extra=need.extra)
+
+
+# ---- standard output -------------------------------------------------------------------------
+
+def stdout_outputs(cmd: Command, args) -> list:
+    """The dests of the outputs given as '-' (standard output) that the command declares
+    with stdout=True."""
+    return [dest for dest, spec in cmd.outputs.items()
+            if spec.stdout and getattr(args, dest, None) == "-"]
+
+
+def output_name(path) -> str:
+    """An output path as the command's summary names it: '-' is "(standard output)"."""
+    return "(standard output)" if path == "-" else str(path)
+
+
+def write_bvh_output(args, motion, dest: str = "output", write=None) -> None:
+    """Write `motion` to the output `dest` of the command: the file, atomically (`write`,
+    default mlayer.write_bvh), or the standard output for '-' (the stream _main kept aside, as
+    bytes so the text is the file's byte for byte)."""
+    from ..bvh import write_bvh, write_bvh_string
+    path = getattr(args, dest)
+    if path != "-":
+        (write or write_bvh)(motion, path)
+        return
+    out = getattr(args, "_stdout", None) or sys.stdout
+    text = write_bvh_string(motion)
+    buf = getattr(out, "buffer", None)
+    if buf is not None:
+        out.flush()
+        buf.write(text.encode("utf-8", errors="surrogateescape"))
+        buf.flush()
+    else:
+        out.write(text)
+        out.flush()

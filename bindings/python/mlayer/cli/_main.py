@@ -3,20 +3,29 @@
 Exit codes: 0 success, 1 a library or data error (one line on stderr naming the file, the
 line and the status), 2 a usage error. Outputs are written to a temporary file and renamed
 into place, so a failed run never leaves a half-written file; before any work, every output
-path is checked (its extension, its folder, not an input: ``_command.check_outputs``).
+path is checked (its extension, its folder, not an input: ``_command.check_outputs``) and
+every optional module the command needs with its arguments is imported
+(``_command.check_requires``: a missing one is one line naming the extra to install).
+
+The library's steps (the ``mlayer`` logger, INFO and above) are shown on stderr, one line
+each, as the message alone. A BVH output given as ``-`` goes to the standard output; what the
+command prints then goes to stderr.
 
 The commands are declared in their modules (``_command.command``) and listed in COMMANDS.
 """
 from __future__ import annotations
 
 import argparse
+import contextlib
+import logging
 import re
 import sys
 
 from .. import __version__, library_version
 from ..errors import Error
 from . import batch, contacts, demo, info, layers, primitives, render, retiming, stream, view
-from ._command import add_parser, check_outputs, command, show_parse_warning, show_trim
+from ._command import (add_parser, check_outputs, check_requires, command, show_parse_warning,
+                       show_trim, stdout_outputs)
 
 
 @command("version", "print the package and C library versions", reads_clips=False)
@@ -56,6 +65,34 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+class _StderrHandler(logging.Handler):
+    """The library's log records as lines on the current sys.stderr (looked up at each
+    record, so a redirected or captured stderr gets them)."""
+
+    def emit(self, record) -> None:
+        try:
+            print(self.format(record), file=sys.stderr, flush=True)
+        except Exception:  # noqa: BLE001  (logging must not raise)
+            self.handleError(record)
+
+
+@contextlib.contextmanager
+def _showing_log():
+    """The `mlayer` logger's INFO records on stderr for one command."""
+    log = logging.getLogger("mlayer")
+    handler = _StderrHandler(logging.INFO)
+    handler.setFormatter(logging.Formatter("%(message)s"))
+    old = log.level
+    log.addHandler(handler)
+    if log.getEffectiveLevel() > logging.INFO:
+        log.setLevel(logging.INFO)
+    try:
+        yield
+    finally:
+        log.removeHandler(handler)
+        log.setLevel(old)
+
+
 _NAMED = re.compile(r"\b(?:the )?(?:option|flag) ([a-z][a-z0-9_]*)\b")
 
 
@@ -93,11 +130,16 @@ def main(argv: list[str] | None = None) -> int:
     from ..errors import MlayerWarning
     try:
         check_outputs(cmd, args)
+        check_requires(cmd, args)
         up = getattr(args, "up", "auto")
+        # a BVH on the standard output: the command's own lines go to stderr
+        args._stdout = sys.stdout
+        to_stderr = contextlib.redirect_stdout(sys.stderr) if stdout_outputs(cmd, args) \
+            else contextlib.nullcontext()
         with warnings.catch_warnings(), strict_reading(getattr(args, "strict", False)), \
                 reading_up(None if up == "auto" else up), \
                 reading_trim(getattr(args, "trim", None), show_trim(args.command)), \
-                reading_units(getattr(args, "units", None)):
+                reading_units(getattr(args, "units", None)), _showing_log(), to_stderr:
             warnings.simplefilter("always", MlayerWarning)
             warnings.showwarning = show_parse_warning(args.command)
             return int(cmd.run(args) or 0)

@@ -4,7 +4,8 @@
     mlayer batch stylize 'cmu/**/*.bvh' -o augmented/ --alphas 0.5:2.5:0.5 --report report.json
     mlayer batch resample captures/ -o at30/ --fps 30 --scheduler tcp://10.0.0.5:8786
 
-Prints a progress bar over clips on stderr, then a summary table (status, frames, seconds,
+Shows a progress bar over clips on stderr when it is a terminal (tqdm; --no-progress: none),
+then a summary table (status, frames, seconds,
 jitter and foot sliding before -> after per output). Exit status 0 when every output is done
 (now or by an earlier run: outputs up to date are skipped), 1 when any clip failed (the others
 are still done), 2 on a usage error.
@@ -15,7 +16,7 @@ import sys
 
 from ..batching import batch, operations, parse_alphas
 from ..errors import InvalidArgumentError
-from ._command import FOLDER, Output, command
+from ._command import FOLDER, Needs, Output, command
 from .layers import parse_joint_alphas
 
 
@@ -60,7 +61,10 @@ def _arguments(p) -> None:
 @command("batch", "run denoise, stylize, features, resample or timewarp over a corpus on Dask",
          arguments=_arguments, reads_clips=True, inputs=("inputs",),
          outputs={"output_dir": FOLDER,
-                  "report": Output((".json", ".csv"), "a JSON or CSV report", makes_dirs=True)})
+                  "report": Output((".json", ".csv"), "a JSON or CSV report", makes_dirs=True)},
+         requires=(Needs("distributed", feature="mlayer batch"),
+                   Needs("cryptography", when=lambda a: a.scheduler is None,
+                         feature="mlayer batch's embedded Dask cluster (TLS)")))
 def cmd_batch(args) -> int:
     options = {}
     for name in ("gamma", "lam_c", "sigma_c", "fps", "n_frames", "strength", "lam"):
@@ -83,7 +87,7 @@ def cmd_batch(args) -> int:
             "units": args.units}
     result = batch(args.operation, args.inputs, args.output_dir, alphas=alphas, read=read,
                    scheduler=args.scheduler, n_workers=args.workers, report=args.report,
-                   progress=not args.no_progress, force=args.force,
+                   progress=False if args.no_progress else None, force=args.force,
                    metrics=not args.no_metrics, **options)
     print(result.table())
     if args.report:

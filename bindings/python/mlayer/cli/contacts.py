@@ -8,10 +8,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._files import atomic_output
 from ..bvh import read_bvh
 from ..contacts import contact_intervals, detect_contacts
-from ._command import FIGURE, command
+from ._command import FIGURE, Needs, command
 
 
 def _arguments(p) -> None:
@@ -22,12 +21,12 @@ def _arguments(p) -> None:
     p.add_argument("--plot", metavar="contacts.png", help="timeline per contact point")
 
 
-def plot_contacts(names, contacts, fps, path) -> None:
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+def plot_contacts(names, contacts, fps, path=None):
+    """A timeline per contact point (a matplotlib Figure), written to `path` if given."""
+    from ..plot import new_figure, save_figure
     n, c = contacts.shape
-    fig, ax = plt.subplots(figsize=(10, 0.45 * c + 1.0))
+    fig = new_figure("mlayer contacts --plot", figsize=(10, 0.45 * c + 1.0))
+    ax = fig.subplots()
     for i in range(c):
         for a, b in contact_intervals(contacts[:, i]):
             ax.broken_barh([(a / fps, (b - a) / fps)], (c - 1 - i + 0.1, 0.8), color="C0")
@@ -37,14 +36,13 @@ def plot_contacts(names, contacts, fps, path) -> None:
     ax.set_xlabel("time (s)")
     ax.set_title("foot contacts")
     fig.tight_layout()
-    suffix = "." + path.rsplit(".", 1)[-1] if "." in path else ".png"
-    with atomic_output(path, suffix) as tmp:
-        fig.savefig(tmp, format=suffix[1:], dpi=100)
-    plt.close(fig)
+    save_figure(fig, path, dpi=100)
+    return fig
 
 
 @command("contacts", "detect foot contacts: counts, duty factors, optional timeline plot",
-         arguments=_arguments, reads_clips=True, inputs=("input",), outputs={"plot": FIGURE})
+         arguments=_arguments, reads_clips=True, inputs=("input",), outputs={"plot": FIGURE},
+         requires=(Needs("matplotlib", when="plot"),))
 def cmd_contacts(args) -> int:
     m = read_bvh(args.input)
     names, c = detect_contacts(m, args.joints)

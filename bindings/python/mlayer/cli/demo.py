@@ -12,8 +12,7 @@ import time
 
 from ..bvh import read_bvh, write_bvh
 from ..metrics import body_height, foot_sliding, jitter
-from ._command import FOLDER, command
-from .render import progress_bar
+from ._command import FOLDER, Needs, command
 
 
 def _arguments(p) -> None:
@@ -27,11 +26,14 @@ def _arguments(p) -> None:
 
 @command("demo", "decompose, denoise, exaggerate and render the bundled clip into a folder",
          arguments=_arguments, reads_clips=True, inputs=("clip",),
-         outputs={"output_dir": FOLDER})
+         outputs={"output_dir": FOLDER},
+         requires=(Needs("matplotlib", feature="mlayer demo (its layer figure)"),
+                   Needs("PIL", when=lambda a: not a.no_gif,
+                         feature="mlayer demo (its GIF; --no-gif for none)")))
 def cmd_demo(args) -> int:
     from .. import data
     from ..pipeline import Synthesis
-    from ..plot import plot_layers
+    from ..plot import layer_choice, plot_layers
     from ..render import render_gif
 
     clip = args.clip or data.sample_path()
@@ -52,7 +54,9 @@ def cmd_demo(args) -> int:
     write_bvh(den, out("denoised.bvh"))
     write_bvh(sty, out(f"stylized_alpha{args.alpha:g}.bvh"))
     layers.save_npz(out("layers.npz"))
-    shown = plot_layers(m, layers, out("layers.png"), title=f"{os.path.basename(clip)}: layers")
+    joint, axis = layer_choice(m, layers)
+    plot_layers(m, layers, out("layers.png"), joint=joint, root_axis=axis,
+                title=f"{os.path.basename(clip)}: layers")
 
     h = body_height(m)
     names, contacts = s.contacts()
@@ -67,11 +71,10 @@ def cmd_demo(args) -> int:
         jit = jitter(mm, fps=mm.fps) / h if mm.n_frames >= 4 else float("nan")  # n/a
         print(f"{name:28s} {jit:21.3g} "
               f"{foot_sliding(mm, contacts, names) / h:25.3g}")
-    print(f"figure    layers.png shows root {'XYZ'[shown['root_axis']]} and {shown['joint']}")
+    print(f"figure    layers.png shows root {'XYZ'[axis]} and {joint}")
     if not args.no_gif:
-        sys.stdout.flush()  # the progress bar goes to stderr
+        sys.stdout.flush()  # the progress bar (on a terminal) goes to stderr
         render_gif([m, den, sty], out("compare.gif"),
-                   labels=["original", "denoised", f"alpha = {args.alpha:g}"],
-                   progress=progress_bar("rendering compare.gif"))
+                   labels=["original", "denoised", f"alpha = {args.alpha:g}"])
     print(f"wrote     {', '.join(sorted(os.listdir(args.output_dir)))} in {args.output_dir}/")
     return 0

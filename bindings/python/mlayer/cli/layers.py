@@ -20,7 +20,7 @@ import numpy as np
 from ..bvh import read_bvh
 from ..errors import InvalidArgumentError
 from ..pipeline import Clip
-from ._command import BVH, FIGURE, NPZ, command
+from ._command import BVH_OR_STDOUT, FIGURE, NPZ, Needs, command, output_name, write_bvh_output
 
 
 def _contact_option(p) -> None:
@@ -132,29 +132,31 @@ def _summary(name, clip, after, layers=None) -> None:
 
 def _arguments_denoise(p) -> None:
     p.add_argument("input", metavar="IN.bvh")
-    p.add_argument("-o", "--output", required=True, metavar="OUT.bvh")
+    p.add_argument("-o", "--output", required=True, metavar="OUT.bvh",
+                   help="the output BVH file; - for the standard output")
     _layer_options(p)
     _contact_option(p)
 
 
 @command("denoise", "smooth a clip: the base and controllable layers, without the residual",
          arguments=_arguments_denoise, reads_clips=True, inputs=("input",),
-         outputs={"output": BVH})
+         outputs={"output": BVH_OR_STDOUT})
 def cmd_denoise(args) -> int:
     clip = Clip.read(args.input)
     s = clip.synthesis(**_synthesis_options(args))
     out, report = s.run(1.0)
     _summary(args.input, clip, out, s.layers)
-    clip.write(out, args.output)
+    write_bvh_output(args, out)
     _guard_summary(report)
-    print(f"  wrote {args.output}")
+    print(f"  wrote {output_name(args.output)}")
     _outlier_note(s.layers)
     return 0
 
 
 def _arguments_stylize(p) -> None:
     p.add_argument("input", metavar="IN.bvh")
-    p.add_argument("-o", "--output", required=True, metavar="OUT.bvh")
+    p.add_argument("-o", "--output", required=True, metavar="OUT.bvh",
+                   help="the output BVH file; - for the standard output")
     p.add_argument("--alpha", type=float, default=2.0,
                    help="scale of the controllable layer for every joint (default 2: "
                         "exaggerate; 0 gives the base layer, 1 the denoised clip)")
@@ -167,7 +169,7 @@ def _arguments_stylize(p) -> None:
 
 @command("stylize", "exaggerate or flatten a clip's style by scaling its controllable layer",
          arguments=_arguments_stylize, reads_clips=True, inputs=("input",),
-         outputs={"output": BVH})
+         outputs={"output": BVH_OR_STDOUT})
 def cmd_stylize(args) -> int:
     if not math.isfinite(args.alpha):
         raise InvalidArgumentError(f"--alpha must be finite, got {args.alpha}")
@@ -176,10 +178,10 @@ def cmd_stylize(args) -> int:
     s = clip.synthesis(**_synthesis_options(args))
     out, report = s.run(args.alpha, joints or None)
     _summary(args.input, clip, out, s.layers)
-    clip.write(out, args.output)
+    write_bvh_output(args, out)
     _guard_summary(report)
     print(f"  alpha {args.alpha:g}" + "".join(f", {k}={v:g}" for k, v in joints.items()))
-    print(f"  wrote {args.output}")
+    print(f"  wrote {output_name(args.output)}")
     _outlier_note(s.layers)
     return 0
 
@@ -195,7 +197,7 @@ def _arguments_layers(p) -> None:
 
 @command("layers", "decompose a clip into base, controllable and residual layers",
          arguments=_arguments_layers, reads_clips=True, inputs=("input",),
-         outputs={"plot": FIGURE, "npz": NPZ})
+         outputs={"plot": FIGURE, "npz": NPZ}, requires=(Needs("matplotlib", when="plot"),))
 def cmd_layers(args) -> int:
     if not args.plot and not args.npz:
         print("mlayer layers: nothing to write; give --plot and/or --npz (showing the "
@@ -212,13 +214,15 @@ def cmd_layers(args) -> int:
         ang_txt = f"{math.degrees(ang):9.1f}d" if g else f"{ang:10.3g}"
         print(f"{name:24s} {layers.base_s[g]:10.3g} {ang_txt} {layers.lam_c[g]:8.3g} "
               f"{layers.sigma_c[g]:8.3g} {layers.control_dof[g]:8.1f}")
+    if args.plot:  # the figure's joint is checked before anything is written
+        from ..plot import layer_choice, plot_layers
+        joint, axis = layer_choice(m, layers, args.joint)
     if args.npz:
         layers.save_npz(args.npz)
         print(f"wrote {args.npz}")
     if args.plot:
-        from ..plot import plot_layers
-        shown = plot_layers(m, layers, args.plot, joint=args.joint,
-                            title=f"{args.input}: layers")
-        print(f"wrote {args.plot} (root {'XYZ'[shown['root_axis']]}, joint {shown['joint']})")
+        plot_layers(m, layers, args.plot, joint=joint, root_axis=axis,
+                    title=f"{args.input}: layers")
+        print(f"wrote {args.plot} (root {'XYZ'[axis]}, joint {joint})")
     _outlier_note(layers)
     return 0

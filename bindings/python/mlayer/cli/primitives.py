@@ -39,10 +39,13 @@ import sys
 
 import numpy as np
 
-from .._files import atomic_output
-from ..bvh import read_bvh, write_bvh
+from ..bvh import read_bvh
 from ..errors import InvalidArgumentError
-from ._command import BVH, NPZ, PREFIX, command
+from ..plot import new_figure, save_figure
+from ._command import BVH_OR_STDOUT, NPZ, PREFIX, Needs, command, output_name, write_bvh_output
+
+#: what needs matplotlib in the message without it
+_FEATURE = "mlayer primitives --plots (on by default; --plots '' for none)"
 
 
 def _size(text: str) -> tuple[int, int]:
@@ -140,30 +143,15 @@ def parse_keys(text: str, model) -> list:
     return keys
 
 
-def _pyplot():
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    return plt
-
-
-def _save(fig, path: str) -> None:
-    plt = _pyplot()
-    try:
-        with atomic_output(path) as tmp:
-            fig.savefig(tmp, dpi=110)
-    finally:
-        plt.close(fig)
-
-
-def plot_som(model, path: str, clip: int = 0, title: str | None = None) -> None:
-    """The manifold with one clip's trajectory (paper Figure 1) and the primitive centres."""
-    plt = _pyplot()
+def plot_som(model, path=None, clip: int = 0, title: str | None = None):
+    """The manifold with one clip's trajectory (paper Figure 1) and the primitive centres; a
+    matplotlib Figure, written to `path` if given."""
     a = int(model.clip_starts[clip])
     b = int(model.clip_starts[clip + 1]) if clip + 1 < len(model.clip_starts) \
         else model.points.shape[0]
     p = model.points[a:b]
-    fig, ax = plt.subplots(figsize=(5.5, 5.2))
+    fig = new_figure(_FEATURE, figsize=(5.5, 5.2))
+    ax = fig.subplots()
     if model.manifold == "som":
         rows, cols, _ = model.som_codebook.shape
         # U-matrix shading: mean distance of each unit to its lattice neighbours
@@ -197,20 +185,21 @@ def plot_som(model, path: str, clip: int = 0, title: str | None = None) -> None:
     ax.set_title(title or f"motion manifold ({model.manifold})")
     ax.legend(loc="upper right", fontsize=7)
     fig.tight_layout()
-    _save(fig, path)
+    save_figure(fig, path)
+    return fig
 
 
-def plot_elbow(model, path: str) -> None:
+def plot_elbow(model, path=None):
     """The criteria for the number of primitives side by side: k-means inertia (elbow),
-    silhouette, GMM BIC against k, each criterion's pick circled, the model's k a line."""
-    plt = _pyplot()
+    silhouette, GMM BIC against k, each criterion's pick circled, the model's k a line. A
+    matplotlib Figure, written to `path` if given."""
     k = model.centers.shape[0]
     c = getattr(model, "criteria", None)
     rows = [("k-means inertia", model.elbow_inertia, "elbow")]
     if c is not None:
         rows += [("silhouette", c.silhouette, "silhouette"), ("GMM BIC", c.bic, "bic")]
-    fig, axes = plt.subplots(len(rows), 1, figsize=(5, 2.2 * len(rows) + 0.6), sharex=True,
-                             squeeze=False)
+    fig = new_figure(_FEATURE, figsize=(5, 2.2 * len(rows) + 0.6))
+    axes = fig.subplots(len(rows), 1, sharex=True, squeeze=False)
     ks = model.elbow_ks
     for ax, (label, v, name) in zip(axes[:, 0], rows):
         ax.plot(ks, v, "o-")
@@ -226,16 +215,18 @@ def plot_elbow(model, path: str) -> None:
         ax.legend(fontsize=8)
     axes[-1, 0].set_xlabel(f"k (dashed: the model's k = {k})")
     fig.tight_layout()
-    _save(fig, path)
+    save_figure(fig, path)
+    return fig
 
 
-def plot_transitions(model, path: str) -> None:
+def plot_transitions(model, path=None):
     """The transition matrix (paper Figure 3): bright = likely; the most likely next distinct
-    primitive of each row (equation 5) is marked."""
-    plt = _pyplot()
+    primitive of each row (equation 5) is marked. A matplotlib Figure, written to `path` if
+    given."""
     P = model.markov.P
     k = P.shape[0]
-    fig, ax = plt.subplots(figsize=(5.2, 4.5))
+    fig = new_figure(_FEATURE, figsize=(5.2, 4.5))
+    ax = fig.subplots()
     im = ax.imshow(P, cmap="gray", vmin=0, vmax=1)
     nxt = [model.markov.most_likely_next(j) for j in range(k)]
     ax.plot(nxt, range(k), "x", color="tab:red", label="most likely next (eq. 5)")
@@ -246,7 +237,8 @@ def plot_transitions(model, path: str) -> None:
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.12), fontsize=8)
     fig.colorbar(im, ax=ax, label="P(next | current)")
     fig.tight_layout()
-    _save(fig, path)
+    save_figure(fig, path)
+    return fig
 
 
 def _primitives_args(p) -> None:
@@ -280,7 +272,9 @@ def _primitives_args(p) -> None:
 
 @command("primitives", "learn a motion manifold, primitives and their Markov model from clips",
          arguments=_primitives_args, reads_clips=True, inputs=("clips",),
-         outputs={"output": NPZ, "plots": PREFIX})
+         outputs={"output": NPZ, "plots": PREFIX},
+         requires=(Needs("matplotlib", when=lambda a: a.plots is None or a.plots != "",
+                         feature=_FEATURE),))
 def cmd_primitives(args) -> int:
     from ..primitives import PrimitiveModel
     # the default prefix (the model path without .npz) is in the model's folder, checked
@@ -298,7 +292,7 @@ def cmd_primitives(args) -> int:
                                min_count=args.min_count,
                                manifold="pca" if args.pca else "som", som=args.som,
                                epochs=args.epochs, lattice=args.lattice, kernel=args.kernel,
-                               seed=args.seed, progress=True,
+                               seed=args.seed,
                                names=_clip_names(args.clips))
     model.save(args.output)
     print_criteria(model)
@@ -371,12 +365,12 @@ def _generate_args(p) -> None:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--no-guards", action="store_true",
                    help="the raw mapping: no joint limits, contact cleanup or floor")
-    p.add_argument("-o", "--output", required=True, help="output BVH")
+    p.add_argument("-o", "--output", required=True, help="output BVH; - for the standard output")
 
 
 @command("generate", "synthesize a new motion from a primitives model",
          arguments=_generate_args, reads_clips=False, inputs=("model",),
-         outputs={"output": BVH})
+         outputs={"output": BVH_OR_STDOUT})
 def cmd_generate(args) -> int:
     from ..primitives import PrimitiveModel
     if args.frames < 2:
@@ -402,9 +396,10 @@ def cmd_generate(args) -> int:
                                   second_likely=args.second_likely,
                                   allow_unseen=args.allow_unseen, through=through, keys=keys,
                                   guards=not args.no_guards, return_info=True)
-    write_bvh(motion, args.output)
+    write_bvh_output(args, motion)
     seq = " ".join(str(int(s)) for s in info["primitives"])
-    print(f"generate: wrote {args.output} ({motion.n_frames} frames at {motion.fps:g} fps; "
+    print(f"generate: wrote {output_name(args.output)} ({motion.n_frames} frames at "
+          f"{motion.fps:g} fps; "
           f"primitives {seq})")
     r = info["guards"]
     if r is not None:

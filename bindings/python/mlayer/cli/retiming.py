@@ -20,18 +20,9 @@ from ..bvh import read_bvh, write_bvh
 from ..errors import InvalidArgumentError
 from ..pipeline import stylize
 from ..retiming import (resample, slerp_resample, timewarp, timewarp_map, timewarp_speed)
-from ._command import BVH, FIGURE, command
+from ..plot import new_figure, save_figure
+from ._command import BVH_OR_STDOUT, FIGURE, Needs, command, output_name, write_bvh_output
 from .layers import _contact_option
-
-
-def _pyplot():
-    try:
-        import matplotlib
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:  # pragma: no cover - matplotlib is optional
-        raise InvalidArgumentError("plotting needs matplotlib (pip install matplotlib)") from None
-    return plt
 
 
 def _int(text: str) -> int:
@@ -43,18 +34,15 @@ def _int(text: str) -> int:
     return v
 
 
-def _write(motion, out: str, figure=None, figure_path: str | None = None) -> None:
-    """Write the figure (if any) and the BVH so that either both appear or neither does."""
+def _write(args, motion, figure=None, figure_path: str | None = None) -> None:
+    """Write the figure (if any) and the BVH (args.output: a file, or '-' for the standard
+    output) so that either both appear or neither does."""
     if figure is None:
-        write_bvh(motion, out)
+        write_bvh_output(args, motion, write=write_bvh)
         return
-    plt = _pyplot()
-    try:
-        with atomic_output(figure_path) as tmp:
-            figure.savefig(tmp, dpi=110)
-            write_bvh(motion, out)
-    finally:
-        plt.close(figure)
+    with atomic_output(figure_path) as tmp:
+        figure.savefig(tmp, dpi=110)
+        write_bvh_output(args, motion, write=write_bvh)
 
 
 # ---- mlayer resample -------------------------------------------------------------------------
@@ -79,9 +67,11 @@ def variance_summary(var: np.ndarray, fps: float) -> str:
     ])
 
 
-def variance_figure(var: np.ndarray, fps: float, obs_t: np.ndarray, title: str):
-    plt = _pyplot()
-    fig, ax = plt.subplots(figsize=(9, 3.6))
+def variance_figure(var: np.ndarray, fps: float, obs_t: np.ndarray, title: str, path=None):
+    """The posterior variance per output frame (`mlayer resample --report PLOT.png`), a
+    matplotlib Figure; written to `path` if given."""
+    fig = new_figure("mlayer resample --report PLOT", figsize=(9, 3.6))
+    ax = fig.subplots()
     t = np.arange(var.shape[0]) / fps
     ax.plot(t, var, color="tab:red", lw=1.3, label="posterior variance")
     ax.plot(obs_t / fps, np.full(obs_t.shape, var.min()), "|", color="0.4", ms=9,
@@ -92,6 +82,7 @@ def variance_figure(var: np.ndarray, fps: float, obs_t: np.ndarray, title: str):
     ax.legend(loc="upper right", fontsize=8)
     ax.grid(alpha=0.3)
     fig.tight_layout()
+    save_figure(fig, path)
     return fig
 
 
@@ -103,7 +94,8 @@ def _resample_arguments(p) -> None:
                         "frame, up to the last such time within the input")
     g.add_argument("--frames", type=_int, metavar="N",
                    help="new frame count (the first and last frames keep their times)")
-    p.add_argument("-o", "--output", required=True, metavar="OUT.bvh", help="output BVH file")
+    p.add_argument("-o", "--output", required=True, metavar="OUT.bvh",
+                   help="output BVH file; - for the standard output")
     p.add_argument("--slerp", action="store_true",
                    help="the SLERP + linear interpolation baseline instead of the LGS")
     p.add_argument("--lam", type=float, default=None,
@@ -128,7 +120,9 @@ def _style(args):
 
 @command("resample", "resample a BVH file to a new frame rate or frame count (LGS)",
          arguments=_resample_arguments, reads_clips=True, inputs=("input",),
-         outputs={"output": BVH, "report": FIGURE})
+         outputs={"output": BVH_OR_STDOUT, "report": FIGURE},
+         requires=(Needs("matplotlib", when=lambda a: isinstance(a.report, str),
+                         feature="--report PLOT"),))
 def cmd_resample(args) -> int:
     if args.report is not None and args.slerp:
         raise InvalidArgumentError("--report needs the LGS: --slerp has no posterior variance")
@@ -154,19 +148,21 @@ def cmd_resample(args) -> int:
             fig = variance_figure(var, out.fps, obs,
                                   f"{os.path.basename(args.input)}: {N} frames at "
                                   f"{m.fps:.6g} fps -> {n} at {out.fps:.6g} fps (LGS)")
-    _write(out, args.output, fig, args.report if isinstance(args.report, str) else None)
-    print(f"{args.output}: {out.n_frames} frames at {out.fps:.6g} fps ({method}; from "
+    _write(args, out, fig, args.report if isinstance(args.report, str) else None)
+    print(f"{output_name(args.output)}: {out.n_frames} frames at {out.fps:.6g} fps ({method}; "
+          f"from "
           f"{m.n_frames} frames at {m.fps:.6g} fps)")
     return 0
 
 
 # ---- mlayer timewarp -------------------------------------------------------------------------
 
-def timemap_figure(m, warped, t, speed, title: str):
+def timemap_figure(m, warped, t, speed, title: str, path=None):
     """Like paper 1, Figure 9: the time map (output time against input time) with the motion
-    speed under it, and the root height of the original and of the warped motion."""
-    plt = _pyplot()
-    fig, ax = plt.subplots(3, 1, figsize=(9, 8), gridspec_kw={"height_ratios": [3, 1.3, 2]})
+    speed under it, and the root height of the original and of the warped motion; a matplotlib
+    Figure, written to `path` if given."""
+    fig = new_figure("mlayer timewarp --plot", figsize=(9, 8))
+    ax = fig.subplots(3, 1, gridspec_kw={"height_ratios": [3, 1.3, 2]})
     tin = np.arange(m.n_frames) * m.frame_time
     tout = t * warped.frame_time
     ax[0].plot(tin, tin * (tout[-1] / tin[-1]), "--", color="0.6", lw=1, label="uniform")
@@ -188,6 +184,7 @@ def timemap_figure(m, warped, t, speed, title: str):
     ax[2].legend(loc="upper right", fontsize=8)
     ax[2].grid(alpha=0.3)
     fig.tight_layout()
+    save_figure(fig, path)
     return fig
 
 
@@ -203,7 +200,8 @@ def _load_map(path: str) -> np.ndarray:
 
 def _timewarp_arguments(p) -> None:
     p.add_argument("input", metavar="IN.bvh", help="BVH file to time-warp")
-    p.add_argument("-o", "--output", required=True, metavar="OUT.bvh", help="output BVH file")
+    p.add_argument("-o", "--output", required=True, metavar="OUT.bvh",
+                   help="output BVH file; - for the standard output")
     p.add_argument("--strength", type=float, default=1.0,
                    help="0 uniform, 1 dwell time follows the motion magnitude, more exaggerates "
                         "(default 1; at most 10)")
@@ -225,7 +223,8 @@ def _timewarp_arguments(p) -> None:
 
 @command("timewarp", "slow down large motion and speed up calm motion (automatic time warp)",
          arguments=_timewarp_arguments, reads_clips=True, inputs=("input", "map"),
-         outputs={"output": BVH, "plot": FIGURE})
+         outputs={"output": BVH_OR_STDOUT, "plot": FIGURE},
+         requires=(Needs("matplotlib", when="plot"),))
 def cmd_timewarp(args) -> int:
     m = read_bvh(args.input)
     if args.map is not None:
@@ -247,9 +246,10 @@ def cmd_timewarp(args) -> int:
         fig = timemap_figure(m, out, t, timewarp_speed(m),
                              f"{os.path.basename(args.input)}: time warp, {how}; "
                              f"{m.n_frames} -> {out.n_frames} frames at {out.fps:.6g} fps")
-    _write(out, args.output, fig, args.plot)
+    _write(args, out, fig, args.plot)
     rate = np.diff(t)
-    print(f"{args.output}: {out.n_frames} frames at {out.fps:.6g} fps ({how}); local rate "
+    print(f"{output_name(args.output)}: {out.n_frames} frames at {out.fps:.6g} fps ({how}); "
+          f"local rate "
           f"{rate.min():.3g} to {rate.max():.3g} output frames per input frame, slowest at "
           f"input frame {int(np.argmax(rate)) + 1} ({(np.argmax(rate) + 1) * m.frame_time:.2f} s)")
     return 0

@@ -15,13 +15,12 @@ import sys
 import numpy as np
 
 from .. import quat
-from .._files import atomic_output
-from ..bvh import read_bvh, write_bvh
+from ..bvh import read_bvh
 from ..errors import InvalidArgumentError
 from ..smoothing import lgs
 from ..one_euro import one_euro
 from ..stream import decay_rate, motion_channels, stream_motion
-from ._command import BVH, PNG, command
+from ._command import BVH_OR_STDOUT, PNG, Needs, command, output_name, write_bvh_output
 
 _COMPONENTS = "wxyz"
 
@@ -29,7 +28,7 @@ _COMPONENTS = "wxyz"
 def _arguments(p) -> None:
     p.add_argument("input", metavar="IN.bvh", help="the clip to stream")
     p.add_argument("-o", "--output", required=True, metavar="OUT.bvh",
-                   help="where to write the streamed motion (BVH)")
+                   help="where to write the streamed motion (BVH; - for the standard output)")
     p.add_argument("--lag", type=int, default=10, help="output delay in frames (default 10)")
     p.add_argument("--lam", type=float, default=1.0, help="smoothness weight lam (default 1)")
     p.add_argument("--sigma", type=float, default=1.0, help="observation noise sigma (default 1)")
@@ -91,16 +90,18 @@ def _gaps(motion, x: np.ndarray, ref: np.ndarray) -> tuple[float, float]:
     return gt, gq
 
 
-def _plot(path, motion, y, ref, x, euro, joint: int, comp: int, lag: int, lam: float,
-          sigma: float, cutoff: float, beta: float) -> None:
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+def stream_figure(motion, y, ref, x, euro, joint: int, comp: int, lag: int, lam: float,
+                  sigma: float, cutoff: float, beta: float, path=None):
+    """The comparison figure of `mlayer stream --plot` (a matplotlib Figure): one rotation
+    channel (joint, quaternion component) of the input y, the offline solve ref, the stream x
+    and the One Euro filter euro, and each one's difference to ref; written to `path` if
+    given."""
+    from ..plot import new_figure, save_figure
     col = y.shape[1] - 4 * motion.n_joints + 4 * joint + comp
     t = np.arange(len(y)) * motion.frame_time
     name = f"{motion.joint_names[joint]} q.{_COMPONENTS[comp]}"
-    fig, (a1, a2) = plt.subplots(2, 1, figsize=(11, 6.5), sharex=True,
-                                 gridspec_kw={"height_ratios": [3, 2]})
+    fig = new_figure("mlayer stream --plot", figsize=(11, 6.5))
+    a1, a2 = fig.subplots(2, 1, sharex=True, gridspec_kw={"height_ratios": [3, 2]})
     a1.plot(t, y[:, col], color="0.75", lw=1.0, label="input")
     a1.plot(t, ref[:, col], color="k", lw=1.4, label=f"offline LGS (lam {lam:g}, sigma {sigma:g})")
     a1.plot(t, x[:, col], color="tab:blue", lw=1.0, ls="--", label=f"streamed, lag {lag}")
@@ -116,15 +117,15 @@ def _plot(path, motion, y, ref, x, euro, joint: int, comp: int, lag: int, lam: f
     a2.set_ylabel("difference")
     a2.legend(loc="best", fontsize=8)
     fig.tight_layout()
-    with atomic_output(path, suffix=".png") as tmp:
-        fig.savefig(tmp, dpi=110, format="png")
-    plt.close(fig)
+    save_figure(fig, path)
+    return fig
 
 
 @command("stream", "stream a clip through the fixed-lag LGS smoother (live filtering), write it "
                    "and compare it with the offline solve",
          arguments=_arguments, reads_clips=True, inputs=("input",),
-         outputs={"output": BVH, "plot": PNG})
+         outputs={"output": BVH_OR_STDOUT, "plot": PNG},
+         requires=(Needs("matplotlib", when="plot"),))
 def cmd_stream(args) -> int:
     motion = read_bvh(args.input)
     if motion.n_frames == 0:
@@ -143,7 +144,8 @@ def cmd_stream(args) -> int:
     x = motion_channels(out)
     ref = offline_channels(motion, args.lam, args.sigma)
     gt, gq = _gaps(motion, x, ref)
-    print(f"{args.output}: {out.n_frames} frames streamed with lag {args.lag} (lam {args.lam:g}, "
+    print(f"{output_name(args.output)}: {out.n_frames} frames streamed with lag {args.lag} "
+          f"(lam {args.lam:g}, "
           f"sigma {args.sigma:g}, decay rate {decay_rate(args.lam, args.sigma):.3f}); largest "
           f"gap to the offline solve: {gt:.3g} of the clip size (translations), {gq:.3g} "
           "(quaternion components)")
@@ -158,8 +160,8 @@ def cmd_stream(args) -> int:
             joint = int(np.argmax(moves.sum(axis=1)))
         if comp is None:
             comp = int(np.argmax(moves[joint]))
-        _plot(args.plot, motion, y, ref, x, euro, joint, comp, args.lag, args.lam, args.sigma,
-              cutoff, args.euro_beta)
+        stream_figure(motion, y, ref, x, euro, joint, comp, args.lag, args.lam, args.sigma,
+                      cutoff, args.euro_beta, path=args.plot)
         print(f"{args.plot}: {motion.joint_names[joint]} q.{_COMPONENTS[comp]}", file=sys.stdout)
-    write_bvh(out, args.output)  # last: a failure above leaves no output
+    write_bvh_output(args, out)  # last: a failure above leaves no output
     return 0

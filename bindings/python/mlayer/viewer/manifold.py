@@ -154,7 +154,7 @@ def _clip_frames(raw: str, name: str) -> list[tuple[int, int]]:
 # ---- the session --------------------------------------------------------------------------
 
 class _Progress:
-    """A file for fit(progress=...): keeps the lines it is given."""
+    """The lines of a training: fit's steps (on_step) and the session's own notes."""
 
     def __init__(self):
         self.lines: list[str] = []
@@ -233,7 +233,8 @@ class ManifoldSession:
                 self._progress.write(f"training set: {len(train)} clip(s), "
                                      f"{sum(m.n_frames for m in train)} frames (every "
                                      f"{self.stride}. frame)\n")
-                model = PrimitiveModel.fit(train, seed=self.seed, progress=self._progress)
+                model = PrimitiveModel.fit(train, seed=self.seed, progress=False,
+                                           on_step=lambda line: self._progress.write(line + "\n"))
             for w in caught:
                 self._progress.write(f"warning: {w.message}\n")
             self._motions = motions

@@ -18,7 +18,6 @@ import json
 import math
 import os
 import re
-import tempfile
 import threading
 import time
 from collections import OrderedDict
@@ -550,15 +549,12 @@ class Clip:
         with self._lock:
             L = self._ensure()
             if self._plot_png is None:
+                import io
                 from ..plot import plot_layers
-                fd, tmp = tempfile.mkstemp(suffix=".png")
-                os.close(fd)
-                try:
-                    plot_layers(self.motion, L, tmp, title=f"{self.name}: layers")
-                    with open(tmp, "rb") as f:
-                        self._plot_png = f.read()
-                finally:
-                    os.unlink(tmp)
+                fig = plot_layers(self.motion, L, title=f"{self.name}: layers")
+                buf = io.BytesIO()
+                fig.savefig(buf, format="png", dpi=110)
+                self._plot_png = buf.getvalue()
             return self._plot_png
 
 

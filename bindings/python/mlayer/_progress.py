@@ -1,0 +1,102 @@
+"""Progress of long library calls, and the package's logger.
+
+Library code does not print: it reports steps to the ``mlayer`` logger (``logging``; the
+package adds a NullHandler, so nothing shows unless the application configures logging, as the
+command line does) and draws progress bars with tqdm through :func:`progress_bar`.
+
+The ``progress=`` argument of the calls that take one (``mlayer.batch``,
+``mlayer.render.render``/``render_gif``, ``PrimitiveModel.fit``):
+
+- ``None`` (the default): a bar on stderr when stderr is a terminal and tqdm is installed;
+  nothing otherwise;
+- ``False``: no bar; ``True``: a bar on stderr (needs tqdm: the ``progress`` extra; checked
+  before any work, :class:`mlayer.MissingDependencyError` without it);
+- a stream (anything with ``write``): a bar on it (needs tqdm);
+- a callable ``f(done, total)``: called after each step instead of a bar.
+"""
+from __future__ import annotations
+
+import logging
+import sys
+
+from ._optional import available, require
+from .errors import InvalidArgumentError
+
+__all__ = ["logger", "progress_bar", "resolve"]
+
+#: the package's logger (children: ``mlayer.primitives``, ``mlayer.batch``, ...)
+logger = logging.getLogger("mlayer")
+
+
+class _Off:
+    """No bar."""
+
+    def update(self, n: int = 1) -> None:
+        pass
+
+    def set_description_str(self, text: str) -> None:
+        pass
+
+    def set_postfix_str(self, text: str) -> None:
+        pass
+
+    def close(self) -> None:
+        pass
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+class _Callback(_Off):
+    """progress= a callable(done, total): called after each update."""
+
+    def __init__(self, fn, total: int):
+        self.fn, self.total, self.done = fn, total, 0
+
+    def update(self, n: int = 1) -> None:
+        self.done += n
+        self.fn(self.done, self.total)
+
+
+def _is_terminal(stream) -> bool:
+    try:
+        return bool(stream.isatty())
+    except (AttributeError, ValueError):  # no isatty, or a closed stream
+        return False
+
+
+def resolve(progress, feature: str):
+    """Check a ``progress=`` argument before any work and return a factory
+    ``make(total, desc, unit) -> bar`` (a tqdm bar, a callback or nothing, each with
+    ``update(n)``, ``set_description_str``, ``set_postfix_str``, ``close`` and a context
+    manager). Raises MissingDependencyError when a bar is asked for explicitly and tqdm is
+    missing, InvalidArgumentError for a value of another kind."""
+    if progress is None:
+        stream = sys.stderr
+        on = stream is not None and _is_terminal(stream) and available("tqdm")
+    elif progress is False or progress is True:
+        stream, on = sys.stderr, progress
+    elif hasattr(progress, "write"):
+        stream, on = progress, True
+    elif callable(progress):
+        return lambda total, desc="", unit="it": _Callback(progress, total)
+    else:
+        raise InvalidArgumentError(f"{feature}: progress must be None, True, False, a stream or "
+                                   f"a callable(done, total), got {type(progress).__name__}")
+    if not on:
+        return lambda total, desc="", unit="it": _Off()
+    tqdm = require("tqdm", feature=f"{feature} with progress=True").tqdm
+
+    def make(total: int, desc: str = "", unit: str = "it"):
+        return tqdm(total=total, desc=desc, unit=unit, file=stream, leave=True,
+                    dynamic_ncols=True)
+    return make
+
+
+def progress_bar(progress, total: int, desc: str = "", unit: str = "it", *,
+                 feature: str = "mlayer"):
+    """``resolve(progress, feature)(total, desc, unit)``: the bar of one loop."""
+    return resolve(progress, feature)(total, desc, unit)
