@@ -592,11 +592,12 @@ static int limits_wanted(const mlr_guards *g, const double *alpha, size_t n_alph
     return 0;
 }
 
-mlr_status mlr_guards_apply(const mlr_guards *g, const double *alpha, size_t n_alpha,
-                            const double *ref_root_pos, const double *ref_rot,
-                            const double *ref_trans, double *root_pos, double *rot,
-                            const double *trans, size_t *limited, size_t n_limited,
-                            mlr_guards_report *report, mlr_diag *diag)
+/* The arguments of mlr_guards_apply, checked. */
+static mlr_status apply_check(const mlr_guards *g, const double *alpha, size_t n_alpha,
+                              const double *ref_root_pos, const double *ref_rot,
+                              const double *ref_trans, const double *root_pos, const double *rot,
+                              const double *trans, const size_t *limited, size_t n_limited,
+                              mlr_diag *diag)
 {
     if (!g || !alpha || !root_pos || !rot || (g->n_trans && !trans))
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "guards apply: NULL argument");
@@ -621,6 +622,131 @@ mlr_status mlr_guards_apply(const mlr_guards *g, const double *alpha, size_t n_a
     if ((st = check_finite(root_pos, 3 * N, "root_pos", diag)) != MLR_OK ||
         (st = check_finite(rot, 4 * N * J, "rot", diag)) != MLR_OK)
         return st;
+    return MLR_OK;
+}
+
+/* The reference the pinned feet follow: the input's trajectories (made at create), or those
+   of the given reference, made here once for every round (*made, released by the caller);
+   *ref NULL when the feet do not follow. */
+static mlr_status apply_reference(const mlr_guards *g, const double *ref_root_pos,
+                                  const double *ref_rot, const double *ref_trans,
+                                  const mlr_cleanup_ref **ref, mlr_cleanup_ref **made,
+                                  mlr_diag *diag)
+{
+    const int has_ref = ref_root_pos || ref_rot || ref_trans;
+    mlr_status st;
+    if (g->follow && has_ref) {
+        const mlr_cleanup_option smooth0 = {MLR_CLEANUP_OPT_REF_SMOOTH, 0.0};
+        if ((st = check_reference(g, ref_root_pos, ref_rot, ref_trans, diag)) != MLR_OK ||
+            (st = mlr_cleanup_ref_create(&g->rig, g->n_frames, g->fps, g->up, ref_root_pos,
+                                         ref_rot, g->n_trans ? ref_trans : NULL, NULL, NULL,
+                                         g->n_points, g->joints, g->end_sites, &smooth0, 1,
+                                         &g->alloc, made, diag)) != MLR_OK)
+            return st;
+        *ref = *made;
+    } else if (g->follow) {
+        *ref = g->input_ref;
+        if (!*ref && (st = make_input_ref(g, g->n_points, g->joints, g->end_sites, NULL, NULL,
+                                          made, diag)) != MLR_OK)
+            return st;
+        *ref = *ref ? *ref : *made;
+    }
+    return MLR_OK;
+}
+
+/* The cleanup's options for this apply (at most 5, in copts); returns their count. */
+static size_t cleanup_options(const mlr_guards *g, int has_ref, const double *alpha,
+                              size_t n_alpha, int floor_on, int limits_applied,
+                              mlr_cleanup_option copts[5])
+{
+    size_t n_copts = 0;
+    /* a given reference (the denoised motion) is followed as it is; the input is
+     * smoothed against its capture noise first (the cleanup's default) */
+    if (has_ref && g->follow)
+        copts[n_copts++] = (mlr_cleanup_option){MLR_CLEANUP_OPT_REF_SMOOTH, 0.0};
+    /* a contact whose synthesized foot slides no more than the reference's keeps its own
+       trajectory; when denoising (every alpha 1) up to GUARDS_KEEP_STILLER times as much,
+       so that an input that does not slide comes out of denoise as it went in (the
+       denoised feet then differ from the input's by smoothing alone) */
+    if (g->follow) {
+        int denoising = 1;
+        for (size_t k = 0; k < n_alpha; k++)
+            denoising &= alpha[k] == 1.0;
+        copts[n_copts++] = (mlr_cleanup_option){MLR_CLEANUP_OPT_KEEP_STILLER,
+                                                denoising ? GUARDS_KEEP_STILLER : 1.0};
+    }
+    copts[n_copts++] = (mlr_cleanup_option){MLR_CLEANUP_OPT_FLOOR, floor_on ? 1.0 : 0.0};
+    if (limits_applied)
+        copts[n_copts++] = (mlr_cleanup_option){MLR_CLEANUP_OPT_MAX_FOLD, knee_fold_limit(g)};
+    if (floor_on)
+        copts[n_copts++] = (mlr_cleanup_option){MLR_CLEANUP_OPT_FLOOR_HEIGHT, g->floor_height};
+    return n_copts;
+}
+
+/* The working frames of one apply and the limits' counts (the largest per joint over the
+   rounds, and one round's). */
+typedef struct apply_work {
+    double *rot, *root;
+    size_t *counts, *counts2;
+} apply_work;
+
+/* The cleanup on the working frames, alternating with the limits when they ran: IK may bend
+   a knee past its range again (a foot pinned closer to the hip than the limited leg reaches),
+   so after the cleanup the limits run once more, and the cleanup and the limits alternate
+   GUARDS_ROUNDS times in all. rep: root_shift_max summed, *crep the last round's. */
+static mlr_status clean_and_limit(const mlr_guards *g, const apply_work *w, const double *alpha,
+                                  size_t n_alpha, const double *trans, const mlr_cleanup_ref *ref,
+                                  const uint8_t *contacts, const mlr_cleanup_option *copts,
+                                  size_t n_copts, mlr_guards_report *rep,
+                                  mlr_cleanup_report *crep, mlr_diag *diag)
+{
+    const size_t N = g->n_frames, J = g->n_joints;
+    double *work = w->rot, *work_root = w->root;
+    size_t *counts = w->counts, *counts2 = w->counts2;
+    mlr_status st = MLR_OK;
+    const int rounds = rep->limits_applied ? GUARDS_ROUNDS : 1;
+    for (int round = 0; round < rounds; round++) {
+        /* every round (the motion changed, the reference did not) reads the reference's
+           trajectories made once: the input's at create, a given one here */
+        st = mlr_cleanup_contacts_ref(&g->rig, N, g->fps, g->up, work_root, work, trans, ref,
+                                      round > 0, g->n_points, g->joints, g->end_sites, contacts,
+                                      copts, n_copts, work_root, work, crep, &g->alloc, diag);
+        if (st == MLR_OK) /* the root's total correction is the sum over the rounds; its
+                             largest value is bounded by the sum of each round's largest */
+            rep->root_shift_max += crep->root_shift_max;
+        if (st == MLR_OK && rep->limits_applied) {
+            /* the last round limits the hinges only (knees, elbows: a rotation about the
+               hinge axis each), so the feet the cleanup pinned stay where IK put them
+               unless a knee left its range; earlier rounds limit every joint */
+            if (round + 1 == rounds) {
+                memset(counts2, 0, J * sizeof(size_t));
+                mlr_limits_apply_kind(g->limits, N, (mlr_quat *)work, alpha, n_alpha, counts2,
+                                      MLR_LIMITS_HINGE);
+            } else {
+                st = mlr_limits_apply(g->limits, N, work, work, alpha, n_alpha, counts2, J,
+                                      diag);
+            }
+            for (size_t j = 0; st == MLR_OK && j < J; j++)
+                counts[j] = counts2[j] > counts[j] ? counts2[j] : counts[j];
+        }
+        if (st != MLR_OK)
+            break;
+    }
+    return st;
+}
+
+mlr_status mlr_guards_apply(const mlr_guards *g, const double *alpha, size_t n_alpha,
+                            const double *ref_root_pos, const double *ref_rot,
+                            const double *ref_trans, double *root_pos, double *rot,
+                            const double *trans, size_t *limited, size_t n_limited,
+                            mlr_guards_report *report, mlr_diag *diag)
+{
+    mlr_status st = apply_check(g, alpha, n_alpha, ref_root_pos, ref_rot, ref_trans, root_pos,
+                                rot, trans, limited, n_limited, diag);
+    if (st != MLR_OK)
+        return st;
+    const size_t N = g->n_frames, J = g->n_joints;
+    const int has_ref = ref_root_pos || ref_rot || ref_trans;
 
     mlr_guards_report rep = {0, 0, 0, 0, 0, NAN, 0.0, 0};
     mlr_cleanup_ref *made_ref = NULL;
@@ -648,24 +774,9 @@ mlr_status mlr_guards_apply(const mlr_guards *g, const double *alpha, size_t n_a
     const size_t C = g->contacts_on ? g->n_points : 0;
     const int floor_on = g->floor_on && isfinite(g->floor_height) && g->n_points > 0;
     if (C > 0 || floor_on) {
-        /* the reference the pinned feet follow: the input's trajectories (made at create), or
-           those of the given reference, made here once for every round */
-        if (g->follow && has_ref) {
-            const mlr_cleanup_option smooth0 = {MLR_CLEANUP_OPT_REF_SMOOTH, 0.0};
-            if ((st = check_reference(g, ref_root_pos, ref_rot, ref_trans, diag)) != MLR_OK ||
-                (st = mlr_cleanup_ref_create(&g->rig, N, g->fps, g->up, ref_root_pos, ref_rot,
-                                             P ? ref_trans : NULL, NULL, NULL, g->n_points,
-                                             g->joints, g->end_sites, &smooth0, 1, &g->alloc,
-                                             &made_ref, diag)) != MLR_OK)
-                goto done;
-            ref = made_ref;
-        } else if (g->follow) {
-            ref = g->input_ref;
-            if (!ref && (st = make_input_ref(g, g->n_points, g->joints, g->end_sites, NULL, NULL,
-                                             &made_ref, diag)) != MLR_OK)
-                goto done;
-            ref = ref ? ref : made_ref;
-        }
+        if ((st = apply_reference(g, ref_root_pos, ref_rot, ref_trans, &ref, &made_ref, diag)) !=
+            MLR_OK)
+            goto done;
         /* floor alone: the feet with no contact frame, so only the floor constrains them */
         uint8_t *none = NULL;
         if (C == 0) {
@@ -677,62 +788,12 @@ mlr_status mlr_guards_apply(const mlr_guards *g, const double *alpha, size_t n_a
             memset(none, 0, g->n_points * N);
         }
         mlr_cleanup_option copts[5];
-        size_t n_copts = 0;
-        /* a given reference (the denoised motion) is followed as it is; the input is
-         * smoothed against its capture noise first (the cleanup's default) */
-        if (has_ref && g->follow)
-            copts[n_copts++] = (mlr_cleanup_option){MLR_CLEANUP_OPT_REF_SMOOTH, 0.0};
-        /* a contact whose synthesized foot slides no more than the reference's keeps its own
-           trajectory; when denoising (every alpha 1) up to GUARDS_KEEP_STILLER times as much,
-           so that an input that does not slide comes out of denoise as it went in (the
-           denoised feet then differ from the input's by smoothing alone) */
-        if (g->follow) {
-            int denoising = 1;
-            for (size_t k = 0; k < n_alpha; k++)
-                denoising &= alpha[k] == 1.0;
-            copts[n_copts++] = (mlr_cleanup_option){MLR_CLEANUP_OPT_KEEP_STILLER,
-                                                    denoising ? GUARDS_KEEP_STILLER : 1.0};
-        }
-        copts[n_copts++] = (mlr_cleanup_option){MLR_CLEANUP_OPT_FLOOR, floor_on ? 1.0 : 0.0};
-        if (rep.limits_applied)
-            copts[n_copts++] = (mlr_cleanup_option){MLR_CLEANUP_OPT_MAX_FOLD,
-                                                    knee_fold_limit(g)};
-        if (floor_on)
-            copts[n_copts++] = (mlr_cleanup_option){MLR_CLEANUP_OPT_FLOOR_HEIGHT,
-                                                    g->floor_height};
+        const size_t n_copts = cleanup_options(g, has_ref, alpha, n_alpha, floor_on,
+                                               rep.limits_applied, copts);
         mlr_cleanup_report crep;
-        /* IK may bend a knee past its range again (a foot pinned closer to the hip than the
-         * limited leg reaches): after the cleanup the limits run once more, and the cleanup
-         * and the limits alternate GUARDS_ROUNDS times in all */
-        const int rounds = rep.limits_applied ? GUARDS_ROUNDS : 1;
-        for (int round = 0; round < rounds; round++) {
-            /* every round (the motion changed, the reference did not) reads the reference's
-               trajectories made once: the input's at create, a given one here */
-            st = mlr_cleanup_contacts_ref(&g->rig, N, g->fps, g->up, work_root, work, trans, ref,
-                                          round > 0, g->n_points, g->joints, g->end_sites,
-                                          C ? g->contacts : none, copts, n_copts, work_root,
-                                          work, &crep, &g->alloc, diag);
-            if (st == MLR_OK) /* the root's total correction is the sum over the rounds; its
-                                 largest value is bounded by the sum of each round's largest */
-                rep.root_shift_max += crep.root_shift_max;
-            if (st == MLR_OK && rep.limits_applied) {
-                /* the last round limits the hinges only (knees, elbows: a rotation about the
-                   hinge axis each), so the feet the cleanup pinned stay where IK put them
-                   unless a knee left its range; earlier rounds limit every joint */
-                if (round + 1 == rounds) {
-                    memset(counts2, 0, J * sizeof(size_t));
-                    mlr_limits_apply_kind(g->limits, N, (mlr_quat *)work, alpha, n_alpha, counts2,
-                                          MLR_LIMITS_HINGE);
-                } else {
-                    st = mlr_limits_apply(g->limits, N, work, work, alpha, n_alpha, counts2, J,
-                                          diag);
-                }
-                for (size_t j = 0; st == MLR_OK && j < J; j++)
-                    counts[j] = counts2[j] > counts[j] ? counts2[j] : counts[j];
-            }
-            if (st != MLR_OK)
-                break;
-        }
+        const apply_work w = {work, work_root, counts, counts2};
+        st = clean_and_limit(g, &w, alpha, n_alpha, trans, ref, C ? g->contacts : none, copts,
+                             n_copts, &rep, &crep, diag);
         free_array(&g->alloc, none, g->n_points * N, 1);
         if (st != MLR_OK)
             goto done;

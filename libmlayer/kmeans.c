@@ -258,6 +258,93 @@ static void prepare_centres(fit_ws *w, double xmax2, double eps_d)
     }
 }
 
+/* The assignment's partial sums and counts reduced in block order, into cnew and cnt. */
+static void reduce_sums(fit_ws *w)
+{
+    const size_t k = w->k, dim = w->dim;
+    memcpy(w->cnew, w->psum, k * dim * sizeof(double));
+    for (size_t j = 0; j < k; j++)
+        w->cnt[j] = w->pcnt[j];
+    for (size_t b = 1; b < w->nblk; b++) {
+        const double *ps = w->psum + b * k * dim;
+        for (size_t q = 0; q < k * dim; q++)
+            w->cnew[q] += ps[q];
+        for (size_t j = 0; j < k; j++)
+            w->cnt[j] += w->pcnt[b * k + j];
+    }
+}
+
+/* Empty clusters take the rows farthest from their centres (scikit-learn's rule); a relocated
+ * row is marked (l = -inf) so that it is not taken twice. */
+static void relocate_empty(fit_ws *w)
+{
+    const size_t n = w->n, k = w->k, dim = w->dim;
+    size_t n_reloc = 0;
+    for (size_t j = 0; j < k; j++) {
+        if (w->cnt[j] != 0)
+            continue;
+        size_t far = SIZE_MAX;
+        double fd = -1;
+        for (size_t i = 0; i < n; i++) {
+            if (w->l[i] == -INFINITY)
+                continue;
+            double d = mlr_dist2(w->x + i * w->ldx, w->c + (size_t)w->lab[i] * dim, dim);
+            if (d > fd) {
+                fd = d;
+                far = i;
+            }
+        }
+        if (far == SIZE_MAX)
+            continue;
+        size_t old = (size_t)w->lab[far];
+        const double *xf = w->x + far * w->ldx;
+        for (size_t t = 0; t < dim; t++) {
+            w->cnew[old * dim + t] -= xf[t];
+            w->cnew[j * dim + t] = xf[t];
+        }
+        w->cnt[old]--;
+        w->cnt[j] = 1;
+        w->l[far] = -INFINITY;
+        n_reloc++;
+    }
+    if (n_reloc) /* unmark; the relocated rows are searched again next iteration */
+        for (size_t i = 0; i < n; i++)
+            if (w->l[i] == -INFINITY) {
+                w->l[i] = 0;
+                w->u[i] = INFINITY;
+            }
+}
+
+/* The new centres (cnew: sums to means) and each centre's shift (p, the largest two and
+ * jmax); returns the sum of the squared shifts. */
+static double new_centres(fit_ws *w, double eps_d)
+{
+    const size_t k = w->k, dim = w->dim;
+    double tot = 0;
+    w->pmax = w->pmax2 = 0;
+    w->jmax = 0;
+    for (size_t j = 0; j < k; j++) {
+        double *cn = w->cnew + j * dim;
+        if (w->cnt[j] > 0) {
+            double inv = 1.0 / (double)w->cnt[j];
+            for (size_t t = 0; t < dim; t++)
+                cn[t] *= inv;
+        }
+        double d2 = mlr_dist2(cn, w->c + j * dim, dim);
+        tot += d2;
+        double d = sqrt(d2) * (1.0 + eps_d);
+        w->p[j] = d;
+        if (d > w->pmax) {
+            w->pmax2 = w->pmax;
+            w->pmax = d;
+            w->jmax = j;
+        } else if (d > w->pmax2) {
+            w->pmax2 = d;
+        }
+    }
+    return tot;
+}
+
 /* One Lloyd run from the centres in w->c. */
 static void run_lloyd(fit_ws *w, double tol_abs, double xmax2, double *inertia, size_t *n_iter,
                       size_t *n_skipped)
@@ -292,75 +379,9 @@ static void run_lloyd(fit_ws *w, double tol_abs, double xmax2, double *inertia, 
          * upkeep costs more than they save; labels are the same either way */
         if (w->hamerly && km->algorithm == MLR_KMEANS_AUTO && it >= 4 && skip_it * 32 < n)
             w->hamerly = 0;
-        /* reduce the partial sums in block order */
-        memcpy(w->cnew, w->psum, k * dim * sizeof(double));
-        for (size_t j = 0; j < k; j++)
-            w->cnt[j] = w->pcnt[j];
-        for (size_t b = 1; b < w->nblk; b++) {
-            const double *ps = w->psum + b * k * dim;
-            for (size_t q = 0; q < k * dim; q++)
-                w->cnew[q] += ps[q];
-            for (size_t j = 0; j < k; j++)
-                w->cnt[j] += w->pcnt[b * k + j];
-        }
-        /* empty clusters take the rows farthest from their centres (scikit-learn's rule);
-         * a relocated row is marked (l = -inf) so that it is not taken twice */
-        size_t n_reloc = 0;
-        for (size_t j = 0; j < k; j++) {
-            if (w->cnt[j] != 0)
-                continue;
-            size_t far = SIZE_MAX;
-            double fd = -1;
-            for (size_t i = 0; i < n; i++) {
-                if (w->l[i] == -INFINITY)
-                    continue;
-                double d = mlr_dist2(w->x + i * w->ldx, w->c + (size_t)w->lab[i] * dim, dim);
-                if (d > fd) {
-                    fd = d;
-                    far = i;
-                }
-            }
-            if (far == SIZE_MAX)
-                continue;
-            size_t old = (size_t)w->lab[far];
-            const double *xf = w->x + far * w->ldx;
-            for (size_t t = 0; t < dim; t++) {
-                w->cnew[old * dim + t] -= xf[t];
-                w->cnew[j * dim + t] = xf[t];
-            }
-            w->cnt[old]--;
-            w->cnt[j] = 1;
-            w->l[far] = -INFINITY;
-            n_reloc++;
-        }
-        if (n_reloc) /* unmark; the relocated rows are searched again next iteration */
-            for (size_t i = 0; i < n; i++)
-                if (w->l[i] == -INFINITY) {
-                    w->l[i] = 0;
-                    w->u[i] = INFINITY;
-                }
-        double tot = 0;
-        w->pmax = w->pmax2 = 0;
-        w->jmax = 0;
-        for (size_t j = 0; j < k; j++) {
-            double *cn = w->cnew + j * dim;
-            if (w->cnt[j] > 0) {
-                double inv = 1.0 / (double)w->cnt[j];
-                for (size_t t = 0; t < dim; t++)
-                    cn[t] *= inv;
-            }
-            double d2 = mlr_dist2(cn, w->c + j * dim, dim);
-            tot += d2;
-            double d = sqrt(d2) * (1.0 + eps_d);
-            w->p[j] = d;
-            if (d > w->pmax) {
-                w->pmax2 = w->pmax;
-                w->pmax = d;
-                w->jmax = j;
-            } else if (d > w->pmax2) {
-                w->pmax2 = d;
-            }
-        }
+        reduce_sums(w);
+        relocate_empty(w);
+        const double tot = new_centres(w, eps_d);
         memcpy(w->c, w->cnew, k * dim * sizeof(double));
         if (changed == 0) {
             strict = 1;
@@ -549,13 +570,9 @@ mlr_status mlr_kmeans_predict(const mlr_kmeans *km, const double *x, size_t n, s
     return MLR_OK;
 }
 
-typedef struct ws_block {
-    void **slot;
-    size_t bytes;
-} ws_block;
-
-mlr_status mlr_kmeans_fit(mlr_kmeans *km, const double *x, size_t n, size_t ldx,
-                          const double *init, size_t ldinit, int32_t *labels, mlr_diag *diag)
+/* The arguments of mlr_kmeans_fit, checked. */
+static mlr_status fit_check(const mlr_kmeans *km, const double *x, size_t n, size_t ldx,
+                            const double *init, size_t ldinit, mlr_diag *diag)
 {
     if (!km)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "km is NULL");
@@ -580,6 +597,95 @@ mlr_status mlr_kmeans_fit(mlr_kmeans *km, const double *x, size_t n, size_t ldx,
     size_t tmp;
     if (mlr_mul_size(n, ldx, &tmp) || mlr_mul_size(n, 4 * sizeof(double), &tmp))
         return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "n = %zu rows overflow", n);
+    return MLR_OK;
+}
+
+/* The squared row norms (w->xn), their largest (*xmax2), and the absolute tolerance
+ * (scikit-learn: tol * mean of the column variances); w->c and w->cnew are scratch. */
+static double data_stats(fit_ws *w, double *xmax_out)
+{
+    const size_t n = w->n, ldx = w->ldx, dim = w->dim;
+    const double *x = w->x;
+    double xmax2 = 0, mvar = 0, *mean = w->c, *var = w->cnew; /* dim each, before the runs */
+    memset(mean, 0, dim * sizeof(double));
+    memset(var, 0, dim * sizeof(double));
+    for (size_t i = 0; i < n; i++) { /* row by row: the column sums still run over i in order */
+        const double *xi = x + i * ldx;
+        w->xn[i] = mlr_norm2(xi, dim);
+        xmax2 = w->xn[i] > xmax2 ? w->xn[i] : xmax2;
+        for (size_t t = 0; t < dim; t++)
+            mean[t] += xi[t];
+    }
+    for (size_t t = 0; t < dim; t++)
+        mean[t] /= (double)n;
+    for (size_t i = 0; i < n; i++) {
+        const double *xi = x + i * ldx;
+        for (size_t t = 0; t < dim; t++) {
+            double e = xi[t] - mean[t];
+            var[t] += e * e;
+        }
+    }
+    for (size_t t = 0; t < dim; t++)
+        mvar += var[t] / (double)n;
+    *xmax_out = xmax2;
+    return w->km->tol * mvar / (double)dim;
+}
+
+/* The runs of a fit (one from init, else n_init from k-means++, seeded in turn): w->c and
+ * w->lab those of the lowest inertia (best_lab, best_c: the kept run's copies when several
+ * runs are made, else NULL). */
+static void fit_runs(fit_ws *w, const double *init, size_t ldinit, double tol_abs, double xmax2,
+                     int32_t *best_lab, double *best_c, double *best_in_out, size_t *best_it_out,
+                     size_t *best_skip_out)
+{
+    const mlr_kmeans *km = w->km;
+    const size_t n = w->n, k = w->k, dim = w->dim;
+    const int multi = !init && km->n_init > 1;
+    mlr_rng rng;
+    mlr_rng_seed(&rng, km->seed);
+    size_t runs = init ? 1 : km->n_init;
+    double best_in = INFINITY;
+    size_t best_it = 0, best_skip = 0;
+    for (size_t r = 0; r < runs; r++) {
+        if (init) {
+            for (size_t j = 0; j < k; j++)
+                memcpy(w->c + j * dim, init + j * ldinit, dim * sizeof(double));
+        } else {
+            kmeans_pp(w, &rng);
+        }
+        double in;
+        size_t it, skip;
+        run_lloyd(w, tol_abs, xmax2, &in, &it, &skip);
+        if (r == 0 || in < best_in) {
+            best_in = in;
+            best_it = it;
+            best_skip = skip;
+            if (multi && r + 1 < runs) {
+                memcpy(best_lab, w->lab, n * sizeof(int32_t));
+                memcpy(best_c, w->c, k * dim * sizeof(double));
+            }
+        } else if (multi && r + 1 == runs) { /* the kept run is an earlier one */
+            memcpy(w->lab, best_lab, n * sizeof(int32_t));
+            memcpy(w->c, best_c, k * dim * sizeof(double));
+        }
+    }
+    *best_in_out = best_in;
+    *best_it_out = best_it;
+    *best_skip_out = best_skip;
+}
+
+typedef struct ws_block {
+    void **slot;
+    size_t bytes;
+} ws_block;
+
+mlr_status mlr_kmeans_fit(mlr_kmeans *km, const double *x, size_t n, size_t ldx,
+                          const double *init, size_t ldinit, int32_t *labels, mlr_diag *diag)
+{
+    mlr_status st = fit_check(km, x, n, ldx, init, ldinit, diag);
+    if (st != MLR_OK)
+        return st;
+    const size_t k = km->k, dim = km->dim;
 
     fit_ws w;
     memset(&w, 0, sizeof w);
@@ -621,7 +727,6 @@ mlr_status mlr_kmeans_fit(mlr_kmeans *km, const double *x, size_t n, size_t ldx,
         {(void **)&best_lab, multi ? n * sizeof(int32_t) : 0},
         {(void **)&best_c, multi ? k * dim * sizeof(double) : 0},
     };
-    mlr_status st = MLR_OK;
     for (size_t q = 0; q < MLR_COUNTOF(blocks); q++) {
         if (blocks[q].bytes == 0)
             continue;
@@ -635,58 +740,13 @@ mlr_status mlr_kmeans_fit(mlr_kmeans *km, const double *x, size_t n, size_t ldx,
     w.pk.kpad = kpad;
     w.pk.dim = dim;
 
-    /* norms, tolerance (scikit-learn: tol * mean of the column variances) */
-    double xmax2 = 0, mvar = 0, *mean = w.c, *var = w.cnew; /* dim each, before the runs */
-    memset(mean, 0, dim * sizeof(double));
-    memset(var, 0, dim * sizeof(double));
-    for (size_t i = 0; i < n; i++) { /* row by row: the column sums still run over i in order */
-        const double *xi = x + i * ldx;
-        w.xn[i] = mlr_norm2(xi, dim);
-        xmax2 = w.xn[i] > xmax2 ? w.xn[i] : xmax2;
-        for (size_t t = 0; t < dim; t++)
-            mean[t] += xi[t];
-    }
-    for (size_t t = 0; t < dim; t++)
-        mean[t] /= (double)n;
-    for (size_t i = 0; i < n; i++) {
-        const double *xi = x + i * ldx;
-        for (size_t t = 0; t < dim; t++) {
-            double e = xi[t] - mean[t];
-            var[t] += e * e;
-        }
-    }
-    for (size_t t = 0; t < dim; t++)
-        mvar += var[t] / (double)n;
-    double tol_abs = km->tol * mvar / (double)dim;
+    /* norms, tolerance */
+    double xmax2;
+    const double tol_abs = data_stats(&w, &xmax2);
 
-    mlr_rng rng;
-    mlr_rng_seed(&rng, km->seed);
-    size_t runs = init ? 1 : km->n_init;
-    double best_in = INFINITY;
-    size_t best_it = 0, best_skip = 0;
-    for (size_t r = 0; r < runs; r++) {
-        if (init) {
-            for (size_t j = 0; j < k; j++)
-                memcpy(w.c + j * dim, init + j * ldinit, dim * sizeof(double));
-        } else {
-            kmeans_pp(&w, &rng);
-        }
-        double in;
-        size_t it, skip;
-        run_lloyd(&w, tol_abs, xmax2, &in, &it, &skip);
-        if (r == 0 || in < best_in) {
-            best_in = in;
-            best_it = it;
-            best_skip = skip;
-            if (multi && r + 1 < runs) {
-                memcpy(best_lab, w.lab, n * sizeof(int32_t));
-                memcpy(best_c, w.c, k * dim * sizeof(double));
-            }
-        } else if (multi && r + 1 == runs) { /* the kept run is an earlier one */
-            memcpy(w.lab, best_lab, n * sizeof(int32_t));
-            memcpy(w.c, best_c, k * dim * sizeof(double));
-        }
-    }
+    double best_in;
+    size_t best_it, best_skip;
+    fit_runs(&w, init, ldinit, tol_abs, xmax2, best_lab, best_c, &best_in, &best_it, &best_skip);
     memcpy(km->centers, w.c, k * dim * sizeof(double));
     mlr_packed_fill(&km->packed, km->centers, dim);
     km->inertia = best_in;

@@ -150,123 +150,135 @@ static double h_of(double angle, double gamma)
     return log(fmax(angle, 1e-300) / gamma);
 }
 
-mlr_status mlr_layers_base(mlr_layers *L, const mlr_layers_cfg *cfg, const double *q,
-                           const double *root_pos, const mlr_lay_robust *rb, double *fac,
-                           double *comp, double *work, size_t *col, mlr_diag *diag)
+/* The search of the base s per joint: the largest s whose base keeps every joint within
+ * gamma of the input, by bracketing in u = log s. */
+typedef struct base_search {
+    mlr_layers *L;
+    const mlr_layers_cfg *cfg;
+    const double *q;
+    const mlr_lay_robust *rb;
+    mlr_lay_batch *b;
+    size_t *col;
+    /* per system k (packed): s, angle; per joint: the rest */
+    double *s, *angle, *s_best;
+    double *u_lo, *u_hi, *h_lo, *h_hi;
+    double *side; /* -1 the ok end moved last, +1 the broken end, 0 none */
+    double *comp, *ebuf;
+} base_search;
+
+/* The ends of the brackets: the strongest setting first (joints within the bound there are
+ * done; *fresh: L->base_rot holds every joint's solution there), then the weakest (joints
+ * beyond the bound even there keep s_min). The *nb joints with a bracket are left in col. */
+static mlr_status bracket_ends(const base_search *bs, int *fresh, size_t *nb_out,
+                               mlr_diag *diag)
+{
+    mlr_layers *L = bs->L;
+    const mlr_layers_cfg *cfg = bs->cfg;
+    const size_t j = L->j;
+    const double gamma = cfg->gamma;
+    size_t *col = bs->col;
+    double *s = bs->s, *angle = bs->angle, *s_best = bs->s_best;
+    double *u_lo = bs->u_lo, *u_hi = bs->u_hi, *h_lo = bs->h_lo, *h_hi = bs->h_hi;
+    mlr_status rc;
+    for (size_t k = 0; k < j; k++)
+        s[k] = cfg->base_s_max;
+    if (eval_angles(L, bs->q, bs->rb, bs->b, col, s, angle, bs->comp, bs->ebuf, NULL) < 0) {
+        /* s_max too large */
+        for (size_t k = 0; k < j; k++)
+            angle[k] = INFINITY;
+    } else {
+        *fresh = 1;
+    }
+    size_t na = 0;
+    for (size_t k = 0; k < j; k++) {
+        s_best[k] = cfg->base_s_max;
+        if (angle[k] > gamma) {
+            u_hi[k] = log(cfg->base_s_max);
+            h_hi[k] = isfinite(angle[k]) ? h_of(angle[k], gamma) : INFINITY;
+            col[na++] = 4 * k;
+        }
+    }
+    bs->b->ns = na;
+    for (size_t k = 0; k < na; k++)
+        s[k] = cfg->base_s_min;
+    if (na > 0) {
+        *fresh = 0;
+        if ((rc = eval_angles(L, bs->q, bs->rb, bs->b, col, s, angle, bs->comp, bs->ebuf,
+                              diag)) < 0)
+            return rc;
+    }
+    size_t nb = 0;
+    for (size_t k = 0; k < na; k++) {
+        const size_t jj = col[k] / 4;
+        s_best[jj] = cfg->base_s_min;
+        if (angle[k] <= gamma) {
+            u_lo[jj] = log(cfg->base_s_min);
+            h_lo[jj] = h_of(angle[k], gamma);
+            bs->side[jj] = 0.0;
+            col[nb++] = col[k];
+        }
+    }
+    *nb_out = nb;
+    return MLR_OK;
+}
+
+/* Illinois on the nb joints with a bracket (in col), until each bracket is narrower than
+ * tol or BASE_MAX_STEPS steps; s_best the last s within the bound. */
+static mlr_status illinois(const base_search *bs, size_t nb, double tol, mlr_diag *diag)
+{
+    const double gamma = bs->cfg->gamma;
+    size_t *col = bs->col;
+    double *s = bs->s, *angle = bs->angle, *s_best = bs->s_best, *side = bs->side;
+    double *u_lo = bs->u_lo, *u_hi = bs->u_hi, *h_lo = bs->h_lo, *h_hi = bs->h_hi;
+    mlr_status rc;
+    for (int step = 0; nb > 0 && step < BASE_MAX_STEPS; step++) {
+        bs->b->ns = nb;
+        for (size_t k = 0; k < nb; k++) {
+            const size_t jj = col[k] / 4;
+            const double a = u_lo[jj], c = u_hi[jj], ha = h_lo[jj], hc = h_hi[jj];
+            double u = isfinite(hc) && hc > ha ? a - ha * (c - a) / (hc - ha) : 0.5 * (a + c);
+            /* stay clear of the ends so that the bracket shrinks on both sides */
+            const double margin = fmin(0.25 * tol, 0.25 * (c - a));
+            if (!(u > a + margin))
+                u = a + margin;
+            if (!(u < c - margin))
+                u = c - margin;
+            s[k] = exp(u);
+        }
+        if ((rc = eval_angles(bs->L, bs->q, bs->rb, bs->b, col, s, angle, bs->comp, bs->ebuf,
+                              diag)) < 0)
+            return rc;
+        size_t nn = 0;
+        for (size_t k = 0; k < nb; k++) {
+            const size_t jj = col[k] / 4;
+            const double u = log(s[k]), h = h_of(angle[k], gamma);
+            if (angle[k] <= gamma) {
+                u_lo[jj] = u;
+                h_lo[jj] = h;
+                s_best[jj] = s[k];
+                if (side[jj] < 0.0)
+                    h_hi[jj] *= 0.5;
+                side[jj] = -1.0;
+            } else {
+                u_hi[jj] = u;
+                h_hi[jj] = h;
+                if (side[jj] > 0.0)
+                    h_lo[jj] *= 0.5;
+                side[jj] = 1.0;
+            }
+            if (u_hi[jj] - u_lo[jj] > tol)
+                col[nn++] = col[k];
+        }
+        nb = nn;
+    }
+    return MLR_OK;
+}
+
+/* The base rotations renormalized; a vanishing mean (only possible when even s_min breaks
+ * the bound) falls back to the input rotation q. */
+static void renormalize_base(mlr_layers *L, const double *q)
 {
     const size_t n = L->n, j = L->j;
-    mlr_lay_batch b = {n, j, n, fac, fac + n * j, fac + 2 * n * j, NULL};
-    /* per system k (packed): s, angle; per joint: the rest */
-    double *s = work, *angle = work + j, *s_best = work + 2 * j;
-    double *u_lo = work + 3 * j, *u_hi = work + 4 * j, *h_lo = work + 5 * j, *h_hi = work + 6 * j;
-    double *side = work + 7 * j; /* -1 the ok end moved last, +1 the broken end, 0 none */
-    double *ebuf = work + 8 * j;  /* 12 j doubles for the solves */
-    int fresh = 0; /* L->base_rot holds every joint's solution at s_best (full layout) */
-    mlr_status rc;
-
-    for (size_t k = 0; k < j; k++)
-        col[k] = 4 * k;
-    const double gamma = cfg->gamma;
-
-    if (cfg->base_s > 0.0) {
-        for (size_t k = 0; k < j; k++)
-            s_best[k] = cfg->base_s;
-    } else {
-        const double tol = log(BASE_BRACKET_RATIO);
-        /* the strongest setting first: joints within the bound there are done */
-        for (size_t k = 0; k < j; k++)
-            s[k] = cfg->base_s_max;
-        if (eval_angles(L, q, rb, &b, col, s, angle, comp, ebuf, NULL) < 0) { /* s_max too large */
-            for (size_t k = 0; k < j; k++)
-                angle[k] = INFINITY;
-        } else {
-            fresh = 1;
-        }
-        size_t na = 0;
-        for (size_t k = 0; k < j; k++) {
-            s_best[k] = cfg->base_s_max;
-            if (angle[k] > gamma) {
-                u_hi[k] = log(cfg->base_s_max);
-                h_hi[k] = isfinite(angle[k]) ? h_of(angle[k], gamma) : INFINITY;
-                col[na++] = 4 * k;
-            }
-        }
-        /* then the weakest: joints beyond the bound even there keep s_min */
-        b.ns = na;
-        for (size_t k = 0; k < na; k++)
-            s[k] = cfg->base_s_min;
-        if (na > 0) {
-            fresh = 0;
-            if ((rc = eval_angles(L, q, rb, &b, col, s, angle, comp, ebuf, diag)) < 0)
-                return rc;
-        }
-        size_t nb = 0;
-        for (size_t k = 0; k < na; k++) {
-            const size_t jj = col[k] / 4;
-            s_best[jj] = cfg->base_s_min;
-            if (angle[k] <= gamma) {
-                u_lo[jj] = log(cfg->base_s_min);
-                h_lo[jj] = h_of(angle[k], gamma);
-                side[jj] = 0.0;
-                col[nb++] = col[k];
-            }
-        }
-        /* Illinois on the joints with a bracket */
-        for (int step = 0; nb > 0 && step < BASE_MAX_STEPS; step++) {
-            b.ns = nb;
-            for (size_t k = 0; k < nb; k++) {
-                const size_t jj = col[k] / 4;
-                const double a = u_lo[jj], c = u_hi[jj], ha = h_lo[jj], hc = h_hi[jj];
-                double u = isfinite(hc) && hc > ha ? a - ha * (c - a) / (hc - ha) : 0.5 * (a + c);
-                /* stay clear of the ends so that the bracket shrinks on both sides */
-                const double margin = fmin(0.25 * tol, 0.25 * (c - a));
-                if (!(u > a + margin))
-                    u = a + margin;
-                if (!(u < c - margin))
-                    u = c - margin;
-                s[k] = exp(u);
-            }
-            if ((rc = eval_angles(L, q, rb, &b, col, s, angle, comp, ebuf, diag)) < 0)
-                return rc;
-            size_t nn = 0;
-            for (size_t k = 0; k < nb; k++) {
-                const size_t jj = col[k] / 4;
-                const double u = log(s[k]), h = h_of(angle[k], gamma);
-                if (angle[k] <= gamma) {
-                    u_lo[jj] = u;
-                    h_lo[jj] = h;
-                    s_best[jj] = s[k];
-                    if (side[jj] < 0.0)
-                        h_hi[jj] *= 0.5;
-                    side[jj] = -1.0;
-                } else {
-                    u_hi[jj] = u;
-                    h_hi[jj] = h;
-                    if (side[jj] > 0.0)
-                        h_lo[jj] *= 0.5;
-                    side[jj] = 1.0;
-                }
-                if (u_hi[jj] - u_lo[jj] > tol)
-                    col[nn++] = col[k];
-            }
-            nb = nn;
-        }
-    }
-
-    /* final pass at the chosen s of every joint */
-    b.ns = j;
-    for (size_t k = 0; k < j; k++)
-        col[k] = 4 * k;
-    if (!fresh && (rc = eval_angles(L, q, rb, &b, col, s_best, angle, comp, ebuf, diag)) < 0)
-        return rc;
-    for (size_t k = 0; k < j; k++) {
-        const double sk = s_best[k], kk = sqrt(sqrt(100.0 * sk));
-        *mlr_layers_param_slot(L, MLR_LAYERS_PARAM_BASE_S, 1 + k) = sk;
-        *mlr_layers_param_slot(L, MLR_LAYERS_PARAM_BASE_LAM, 1 + k) = kk;
-        *mlr_layers_param_slot(L, MLR_LAYERS_PARAM_BASE_SIGMA, 1 + k) = 0.1 * kk;
-    }
-    /* renormalize; a vanishing mean (only possible when even s_min breaks the bound) falls
-     * back to the input rotation */
     double *qb = L->base_rot;
     int vanished = 0;
     for (size_t i = 0; i < n * j; i++) { /* branch-free, so that it vectorizes */
@@ -281,8 +293,15 @@ mlr_status mlr_layers_base(mlr_layers *L, const mlr_layers_cfg *cfg, const doubl
         if (!(r[0] * r[0] + r[1] * r[1] + r[2] * r[2] + r[3] * r[3] > 1e-200))
             memcpy(r, q + 4 * i, 4 * sizeof(double));
     }
+}
 
-    /* root translation with the body joint's s (joint 0 unless told) */
+/* The root translation's base with the body joint's s (joint 0 unless told); zeros without
+ * a root_pos. */
+static mlr_status smooth_root(mlr_layers *L, const mlr_layers_cfg *cfg, const double *root_pos,
+                              const mlr_lay_robust *rb, mlr_lay_batch *b, size_t *col,
+                              double *comp, double *ebuf, const double *s_best, mlr_diag *diag)
+{
+    const size_t n = L->n, j = L->j;
     const double s0 = s_best[cfg->body_joint], k0 = sqrt(sqrt(100.0 * s0));
     *mlr_layers_param_slot(L, MLR_LAYERS_PARAM_BASE_S, 0) = s0;
     *mlr_layers_param_slot(L, MLR_LAYERS_PARAM_BASE_LAM, 0) = k0;
@@ -291,17 +310,61 @@ mlr_status mlr_layers_base(mlr_layers *L, const mlr_layers_cfg *cfg, const doubl
         memset(L->base_pos, 0, 3 * n * sizeof(double));
         return MLR_OK;
     }
-    b.ns = 1;
+    b->ns = 1;
     col[0] = 0;
     const double *y = root_pos;
     if (rb) {
         mlr_layers_pack_weighted(n, 1 + j, rb, 0, 1, col, 1, 3, root_pos, 3, comp);
-        b.w = rb->wpk;
+        b->w = rb->wpk;
         y = comp;
     }
-    if (mlr_lay_batch_factor(&b, &s0))
+    if (mlr_lay_batch_factor(b, &s0))
         return mlr_diag_set(diag, MLR_E_SINGULAR, 0, 0,
                             "base smoothing of the root translation failed at s = %g", s0);
-    mlr_lay_batch_solve(&b, 3, y, 3, L->base_pos, 3, ebuf);
+    mlr_lay_batch_solve(b, 3, y, 3, L->base_pos, 3, ebuf);
     return MLR_OK;
+}
+
+mlr_status mlr_layers_base(mlr_layers *L, const mlr_layers_cfg *cfg, const double *q,
+                           const double *root_pos, const mlr_lay_robust *rb, double *fac,
+                           double *comp, double *work, size_t *col, mlr_diag *diag)
+{
+    const size_t n = L->n, j = L->j;
+    mlr_lay_batch b = {n, j, n, fac, fac + n * j, fac + 2 * n * j, NULL};
+    base_search bs = {L, cfg, q, rb, &b, col,
+                      work, work + j, work + 2 * j,
+                      work + 3 * j, work + 4 * j, work + 5 * j, work + 6 * j,
+                      work + 7 * j,
+                      comp, work + 8 * j /* 12 j doubles for the solves */};
+    double *s_best = bs.s_best;
+    int fresh = 0; /* L->base_rot holds every joint's solution at s_best (full layout) */
+    mlr_status rc;
+
+    for (size_t k = 0; k < j; k++)
+        col[k] = 4 * k;
+
+    if (cfg->base_s > 0.0) {
+        for (size_t k = 0; k < j; k++)
+            s_best[k] = cfg->base_s;
+    } else {
+        size_t nb;
+        if ((rc = bracket_ends(&bs, &fresh, &nb, diag)) < 0 ||
+            (rc = illinois(&bs, nb, log(BASE_BRACKET_RATIO), diag)) < 0)
+            return rc;
+    }
+
+    /* final pass at the chosen s of every joint */
+    b.ns = j;
+    for (size_t k = 0; k < j; k++)
+        col[k] = 4 * k;
+    if (!fresh && (rc = eval_angles(L, q, rb, &b, col, s_best, bs.angle, comp, bs.ebuf, diag)) < 0)
+        return rc;
+    for (size_t k = 0; k < j; k++) {
+        const double sk = s_best[k], kk = sqrt(sqrt(100.0 * sk));
+        *mlr_layers_param_slot(L, MLR_LAYERS_PARAM_BASE_S, 1 + k) = sk;
+        *mlr_layers_param_slot(L, MLR_LAYERS_PARAM_BASE_LAM, 1 + k) = kk;
+        *mlr_layers_param_slot(L, MLR_LAYERS_PARAM_BASE_SIGMA, 1 + k) = 0.1 * kk;
+    }
+    renormalize_base(L, q);
+    return smooth_root(L, cfg, root_pos, rb, &b, col, comp, bs.ebuf, s_best, diag);
 }

@@ -178,18 +178,157 @@ static void gather(size_t n, size_t ng_all, const double *delta, const size_t *c
     }
 }
 
+/* The GCV search of the control s per group: a shared grid in u = log s, then Brent per
+ * group from the grid's best. */
+typedef struct gcv_search {
+    mlr_layers *L;
+    const double *delta;       /* N x ng x 3 */
+    const mlr_lay_robust *rb;
+    mlr_lay_batch *b;
+    size_t *col;               /* the groups evaluated (3 g each) */
+    double *comp, *x;          /* packed input, packed solutions */
+    double *s, *gcv, *dof;     /* per system */
+    double *searched;          /* per group: 1 when its s is searched */
+    brent *br;
+    const gcv_work *w;
+    double *f_lo, *f_hi, *f_prev; /* per group: the grid's values around its best */
+} gcv_search;
+
+/* The groups with a nonzero displacement into col (their count returned; searched set);
+ * the others have nothing to choose: s = 1. */
+static size_t select_groups(const gcv_search *gs, double *s_best)
+{
+    const size_t n = gs->L->n, ng = 1 + gs->L->j, ld = 3 * ng;
+    size_t na = 0;
+    for (size_t g = 0; g < ng; g++) {
+        int zero = 1;
+        for (size_t i = 0; i < n && zero; i++) {
+            const double *y = gs->delta + i * ld + 3 * g;
+            zero = y[0] == 0.0 && y[1] == 0.0 && y[2] == 0.0;
+        }
+        s_best[g] = 1.0;
+        if (!zero) {
+            gs->col[na++] = 3 * g;
+            gs->searched[g] = 1.0;
+        }
+    }
+    return na;
+}
+
+/* GCV of the na groups in col at s (y: those groups packed, unless weighted). */
+static mlr_status eval_groups(const gcv_search *gs, size_t na, const double *y, mlr_diag *diag)
+{
+    if (gs->rb)
+        return eval_gcv_weighted(gs->L, gs->b, gs->s, na, gs->col, gs->delta, gs->rb, gs->comp,
+                                 gs->x, gs->gcv, gs->dof, gs->w, diag);
+    return eval_gcv(gs->L, gs->b, gs->s, na, gs->col, y, gs->x, 0, gs->gcv,
+                    gs->dof, gs->w, diag);
+}
+
+/* The shared grid from control_s_min to control_s_max (one system for every group): each
+ * group's best grid point, its bracket and the values next to it. */
+static mlr_status grid_search(const gcv_search *gs, const mlr_layers_cfg *cfg, size_t na,
+                              const double *y, mlr_diag *diag)
+{
+    double *s = gs->s, *gcv = gs->gcv;
+    double *f_lo = gs->f_lo, *f_hi = gs->f_hi, *f_prev = gs->f_prev;
+    mlr_status rc;
+    const double u0 = log(cfg->control_s_min), u1 = log(cfg->control_s_max);
+    size_t n_grid = (size_t)ceil((u1 - u0) / GCV_GRID_STEP - 1e-9) + 1;
+    if (n_grid < 2)
+        n_grid = 2;
+    const double step = (u1 - u0) / (double)(n_grid - 1);
+    gs->b->ns = 1;
+    for (size_t p = 0; p < n_grid && na > 0; p++) {
+        const double u = p + 1 == n_grid ? u1 : u0 + step * (double)p;
+        s[0] = exp(u);
+        if (gs->rb) /* one system per group, every one at s */
+            for (size_t k = 1; k < na; k++)
+                s[k] = s[0];
+        if ((rc = eval_groups(gs, na, y, diag)) < 0)
+            return rc;
+        for (size_t k = 0; k < na; k++) {
+            const size_t g = gs->col[k] / 3;
+            brent *r = &gs->br[g];
+            if (p == 0 || gcv[k] < r->fx) {
+                r->x = u, r->fx = gcv[k];
+                r->a = p == 0 ? u0 : u - step;
+                r->b = p + 1 == n_grid ? u1 : u + step;
+                f_lo[g] = p == 0 ? NAN : f_prev[g];
+                f_hi[g] = NAN;
+            } else if (isnan(f_hi[g])) { /* the point right after the best so far */
+                f_hi[g] = gcv[k];
+            }
+            f_prev[g] = gcv[k];
+        }
+    }
+    for (size_t k = 0; k < na; k++) {
+        const size_t g = gs->col[k] / 3;
+        brent *r = &gs->br[g];
+        if (r->b > u1)
+            r->b = u1;
+        r->w = r->v = r->x;
+        r->fw = r->fv = r->fx;
+        r->d = r->e = 0.0;
+        /* an interior best: its two neighbours on the grid seed the parabola, so that the
+         * first step is already a parabolic one (Brent starts with golden steps
+         * otherwise); the step history is set to the grid step so that it is accepted
+         * when it falls inside the bracket */
+        if (isfinite(f_lo[g]) && isfinite(f_hi[g]) && r->a < r->x && r->x < r->b) {
+            r->w = r->a, r->fw = f_lo[g];
+            r->v = r->b, r->fv = f_hi[g];
+            r->d = r->e = r->b - r->a;
+        }
+    }
+    return MLR_OK;
+}
+
+/* Brent in lockstep, one system per group, from the grid's brackets (packed: the groups
+ * packed in y when it is comp). */
+static mlr_status brent_search(const gcv_search *gs, size_t na, size_t packed,
+                               const double *y, mlr_diag *diag)
+{
+    const size_t n = gs->L->n, ng = 1 + gs->L->j;
+    size_t *col = gs->col;
+    mlr_status rc;
+    for (int it = 0; na > 0 && it < GCV_MAX_STEPS; it++) {
+        size_t nb = 0;
+        for (size_t k = 0; k < na; k++) {
+            brent *r = &gs->br[col[k] / 3];
+            if (brent_next(r)) {
+                gs->s[nb] = exp(r->u);
+                col[nb++] = col[k];
+            }
+        }
+        na = gs->b->ns = nb;
+        if (na == 0)
+            break;
+        if (!gs->rb && na != packed) {
+            gather(n, ng, gs->delta, col, na, gs->comp);
+            y = gs->comp;
+            packed = na;
+        }
+        if ((rc = eval_groups(gs, na, y, diag)) < 0)
+            return rc;
+        for (size_t k = 0; k < na; k++)
+            brent_update(&gs->br[col[k] / 3], gs->gcv[k]);
+    }
+    return MLR_OK;
+}
+
 mlr_status mlr_layers_control(mlr_layers *L, const mlr_layers_cfg *cfg, const double *delta,
                               const mlr_lay_robust *rb, double *fac, double *comp, double *work,
                               size_t *col, mlr_diag *diag)
 {
-    const size_t n = L->n, ng = 1 + L->j, ld = 3 * ng;
+    const size_t n = L->n, ng = 1 + L->j;
     mlr_lay_batch b = {n, ng, n, fac, fac + n * ng, fac + 2 * n * ng, NULL};
     double *s = work, *gcv = work + ng, *dof = work + 2 * ng;
     double *s_best = work + 3 * ng, *searched = work + 4 * ng;
     brent *br = (brent *)(void *)(work + 5 * ng); /* 11 ng doubles */
     const gcv_work w = {work + 16 * ng, work + 17 * ng, work + 20 * ng, work + 23 * ng};
-    double *f_lo = work + 41 * ng, *f_hi = work + 42 * ng, *f_prev = work + 43 * ng;
     double *x = L->control; /* packed solutions during the search; the layer at the end */
+    const gcv_search gs = {L, delta, rb, &b, col, comp, x, s, gcv, dof, searched, br, &w,
+                           work + 41 * ng, work + 42 * ng, work + 43 * ng};
     mlr_status rc;
 
     for (size_t g = 0; g < ng; g++)
@@ -198,109 +337,16 @@ mlr_status mlr_layers_control(mlr_layers *L, const mlr_layers_cfg *cfg, const do
         for (size_t g = 0; g < ng; g++)
             s_best[g] = cfg->control_s;
     } else {
-        /* groups with an identically zero displacement have nothing to choose: s = 1 */
-        size_t na = 0;
-        for (size_t g = 0; g < ng; g++) {
-            int zero = 1;
-            for (size_t i = 0; i < n && zero; i++) {
-                const double *y = delta + i * ld + 3 * g;
-                zero = y[0] == 0.0 && y[1] == 0.0 && y[2] == 0.0;
-            }
-            s_best[g] = 1.0;
-            if (!zero) {
-                col[na++] = 3 * g;
-                searched[g] = 1.0;
-            }
-        }
+        const size_t na = select_groups(&gs, s_best);
         /* the groups searched, packed (delta itself when every group is) */
-        size_t packed = na;
         const double *y = delta;
         if (na > 0 && na < ng && !rb) {
             gather(n, ng, delta, col, na, comp);
             y = comp;
         }
-        /* the shared grid: one system for every group */
-        const double u0 = log(cfg->control_s_min), u1 = log(cfg->control_s_max);
-        size_t n_grid = (size_t)ceil((u1 - u0) / GCV_GRID_STEP - 1e-9) + 1;
-        if (n_grid < 2)
-            n_grid = 2;
-        const double step = (u1 - u0) / (double)(n_grid - 1);
-        b.ns = 1;
-        for (size_t p = 0; p < n_grid && na > 0; p++) {
-            const double u = p + 1 == n_grid ? u1 : u0 + step * (double)p;
-            s[0] = exp(u);
-            if (rb) { /* one system per group, every one at s */
-                for (size_t k = 1; k < na; k++)
-                    s[k] = s[0];
-                rc = eval_gcv_weighted(L, &b, s, na, col, delta, rb, comp, x, gcv, dof, &w,
-                                       diag);
-            } else {
-                rc = eval_gcv(L, &b, s, na, col, y, x, 0, gcv, dof, &w, diag);
-            }
-            if (rc < 0)
-                return rc;
-            for (size_t k = 0; k < na; k++) {
-                const size_t g = col[k] / 3;
-                brent *r = &br[g];
-                if (p == 0 || gcv[k] < r->fx) {
-                    r->x = u, r->fx = gcv[k];
-                    r->a = p == 0 ? u0 : u - step;
-                    r->b = p + 1 == n_grid ? u1 : u + step;
-                    f_lo[g] = p == 0 ? NAN : f_prev[g];
-                    f_hi[g] = NAN;
-                } else if (isnan(f_hi[g])) { /* the point right after the best so far */
-                    f_hi[g] = gcv[k];
-                }
-                f_prev[g] = gcv[k];
-            }
-        }
-        for (size_t k = 0; k < na; k++) {
-            const size_t g = col[k] / 3;
-            brent *r = &br[g];
-            if (r->b > u1)
-                r->b = u1;
-            r->w = r->v = r->x;
-            r->fw = r->fv = r->fx;
-            r->d = r->e = 0.0;
-            /* an interior best: its two neighbours on the grid seed the parabola, so that the
-             * first step is already a parabolic one (Brent starts with golden steps
-             * otherwise); the step history is set to the grid step so that it is accepted
-             * when it falls inside the bracket */
-            if (isfinite(f_lo[g]) && isfinite(f_hi[g]) && r->a < r->x && r->x < r->b) {
-                r->w = r->a, r->fw = f_lo[g];
-                r->v = r->b, r->fv = f_hi[g];
-                r->d = r->e = r->b - r->a;
-            }
-        }
-        /* Brent in lockstep, one system per group */
-        for (int it = 0; na > 0 && it < GCV_MAX_STEPS; it++) {
-            size_t nb = 0;
-            for (size_t k = 0; k < na; k++) {
-                brent *r = &br[col[k] / 3];
-                if (brent_next(r)) {
-                    s[nb] = exp(r->u);
-                    col[nb++] = col[k];
-                }
-            }
-            na = b.ns = nb;
-            if (na == 0)
-                break;
-            if (rb) {
-                rc = eval_gcv_weighted(L, &b, s, na, col, delta, rb, comp, x, gcv, dof, &w,
-                                       diag);
-            } else {
-                if (na != packed) {
-                    gather(n, ng, delta, col, na, comp);
-                    y = comp;
-                    packed = na;
-                }
-                rc = eval_gcv(L, &b, s, na, col, y, x, 0, gcv, dof, &w, diag);
-            }
-            if (rc < 0)
-                return rc;
-            for (size_t k = 0; k < na; k++)
-                brent_update(&br[col[k] / 3], gcv[k]);
-        }
+        if ((rc = grid_search(&gs, cfg, na, y, diag)) < 0 ||
+            (rc = brent_search(&gs, na, na, y, diag)) < 0)
+            return rc;
         for (size_t g = 0; g < ng; g++) {
             if (searched[g] != 0.0)
                 s_best[g] = exp(br[g].x);

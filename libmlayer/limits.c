@@ -216,56 +216,31 @@ typedef struct acc {
 /* Is the angle of (s, c) larger than that of (bs, bc)? (s, bs >= 0, c, bc >= 0) */
 static int wider(double s, double c, double bs, double bc) { return s * bc > bs * c; }
 
-mlr_status mlr_limits_create(const mlr_rig *rig, const mlr_limits_clip *clips, size_t n_clips,
-                             const mlr_limits_option *opts, size_t n_opts,
-                             const mlr_allocator *alloc, mlr_limits **out, mlr_diag *diag)
-{
-    if (out)
-        *out = NULL;
-    if (!out)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "limits: out is NULL");
-    mlr_status st = mlr_rig_check(rig, diag);
-    if (st != MLR_OK)
-        return st;
-    create_opts o;
-    if ((st = read_opts(opts, n_opts, &o, diag)) != MLR_OK)
-        return st;
-    if ((st = check_clips(rig, clips, n_clips, diag)) != MLR_OK)
-        return st;
-    const size_t J = rig->n_joints, P = rig->n_trans;
-    mlr_allocator a;
-    mlr_allocator_resolve(alloc, &a);
-    size_t jbytes, sbytes;
-    if (mlr_mul_size(J, sizeof(mlr_limits_joint), &jbytes) != MLR_OK ||
-        mlr_mul_size(J, sizeof(acc) + 4 * sizeof(int32_t) + 2 * sizeof(mlr_quat) +
-                            sizeof(mlr_vec3), &sbytes) != MLR_OK)
-        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "limits: too many joints");
-    mlr_limits *lim = mlr_alloc(&a, sizeof *lim);
-    if (!lim)
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "limits: out of memory");
-    memset(lim, 0, sizeof *lim);
-    lim->alloc = a;
-    lim->n_joints = J;
-    lim->soft = o.soft;
-    lim->rev_soft = o.rev_soft;
-    lim->joints = mlr_alloc(&a, jbytes);
-    void *scratch = mlr_alloc(&a, sbytes);
-    if (!lim->joints || !scratch) {
-        mlr_free(&a, scratch, sbytes);
-        mlr_limits_destroy(lim);
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "limits: out of memory");
-    }
-    memset(lim->joints, 0, jbytes);
-    memset(scratch, 0, sbytes);
-    acc *ac = scratch;
-    int32_t *main_child = (int32_t *)(ac + J);
-    int *is_hinge = (int *)(main_child + J), *cls = is_hinge + J;
-    mlr_quat *rq = (mlr_quat *)(void *)(cls + J + (J & 1)); /* one frame's centred rotations */
-    mlr_vec3 *rv = (mlr_vec3 *)(void *)(rq + J);            /* ... and their logs */
-    mlr_quat *qn = (mlr_quat *)(void *)(rv + J);            /* ... and the frame's unit q */
-    mlr_limits_joint *jt = lim->joints;
+/* The scratch and inputs of learning a rig's limits, shared by the steps of
+   mlr_limits_create. */
+typedef struct learner {
+    const mlr_rig *rig;
+    const mlr_limits_clip *clips;
+    size_t n_clips;
+    mlr_limits_joint *jt;
+    acc *ac;
+    int32_t *main_child;
+    int *is_hinge, *cls;
+    mlr_quat *rq; /* one frame's centred rotations */
+    mlr_vec3 *rv; /* ... and their logs */
+    mlr_quat *qn; /* ... and the frame's unit q */
+} learner;
 
-    /* bones: offsets, or the mean translation of a trans joint over the clips */
+/* Bones: offsets, or the mean translation of a trans joint over the clips; each joint's main
+   child (the longest bone) and bone_out. */
+static void measure_bones(const learner *L)
+{
+    const mlr_rig *rig = L->rig;
+    const mlr_limits_clip *clips = L->clips;
+    const size_t n_clips = L->n_clips, J = rig->n_joints;
+    mlr_limits_joint *jt = L->jt;
+    const size_t P = rig->n_trans;
+    int32_t *main_child = L->main_child;
     for (size_t j = 0; j < J; j++)
         jt[j].bone_in = vec3_at(rig->offsets + 3 * j);
     if (P > 0) {
@@ -300,8 +275,16 @@ mlr_status mlr_limits_create(const mlr_rig *rig, const mlr_limits_clip *clips, s
         if (main_child[p] < 0 && norm3(v) > norm3(jt[p].bone_out))
             jt[p].bone_out = v;
     }
+}
 
-    /* pass 1: centres (sign-aligned sums) and hinge axes (sum of a x q b) */
+/* Pass 1: centres (sign-aligned sums) and hinge axes (sum of a x q b). */
+static void learn_centres(const learner *L)
+{
+    const mlr_rig *rig = L->rig;
+    const mlr_limits_clip *clips = L->clips;
+    const size_t n_clips = L->n_clips, J = rig->n_joints;
+    mlr_limits_joint *jt = L->jt;
+    acc *ac = L->ac;
     for (size_t k = 0; k < n_clips; k++)
         for (size_t f = 0; f < clips[k].n_frames; f++)
             for (size_t j = 0; j < J; j++) {
@@ -333,9 +316,19 @@ mlr_status mlr_limits_create(const mlr_rig *rig, const mlr_limits_clip *clips, s
             jt[j].axis = scale3(ac[j].xsum, 1.0 / xn);
         jt[j].stats[0] = DBL_MAX, jt[j].stats[1] = -DBL_MAX;
     }
+}
 
-    /* pass 2: moments of the centred rotation vectors, hinge angle, swing and twist maxima
-       (a frame's logs in one array call) */
+/* Pass 2: moments of the centred rotation vectors, hinge angle, swing and twist maxima (a
+   frame's logs in one array call). */
+static void measure_extents(const learner *L)
+{
+    const mlr_rig *rig = L->rig;
+    const mlr_limits_clip *clips = L->clips;
+    const size_t n_clips = L->n_clips, J = rig->n_joints;
+    mlr_limits_joint *jt = L->jt;
+    acc *ac = L->ac;
+    mlr_quat *rq = L->rq, *qn = L->qn;
+    mlr_vec3 *rv = L->rv;
     for (size_t j = 0; j < J; j++)
         ac[j].sw_s = ac[j].tw_s = 0.0, ac[j].sw_c = ac[j].tw_c = 1.0;
     for (size_t k = 0; k < n_clips; k++)
@@ -399,8 +392,17 @@ mlr_status mlr_limits_create(const mlr_rig *rig, const mlr_limits_clip *clips, s
             jt[j].stats[2] = 2.0 * atan2(ac[j].sw_s, ac[j].sw_c);
             jt[j].stats[3] = 2.0 * atan2(ac[j].tw_s, ac[j].tw_c);
         }
+}
 
-    /* hinges */
+/* Hinges (is_hinge: by name and concentration about the learned axis, or without names by
+   concentration and range); 1 when the rig is human (or as opts say). */
+static int find_hinges(const learner *L, int human_opt)
+{
+    const mlr_rig *rig = L->rig;
+    const size_t J = rig->n_joints;
+    mlr_limits_joint *jt = L->jt;
+    const acc *ac = L->ac;
+    int *is_hinge = L->is_hinge;
     const double cos35 = cos(35.0 * DEG);
     double arm_len = 0, leg_len = 0;
     int n_arm = 0, n_leg = 0;
@@ -443,13 +445,21 @@ mlr_status mlr_limits_create(const mlr_rig *rig, const mlr_limits_clip *clips, s
                 arm_len += len, n_arm++;
         }
     }
-    if (o.human >= 0)
-        lim->human = o.human;
-    else
-        lim->human = rig->names && !name_contains(rig, "tail") && n_leg > 0 && n_arm > 0 &&
-                     (arm_len / n_arm) < 0.85 * (leg_len / n_leg);
+    if (human_opt >= 0)
+        return human_opt;
+    return rig->names && !name_contains(rig, "tail") && n_leg > 0 && n_arm > 0 &&
+           (arm_len / n_arm) < 0.85 * (leg_len / n_leg);
+}
 
-    /* classes and ranges */
+/* Classes and ranges of every joint. */
+static void set_ranges(const learner *L, const mlr_limits *lim, const create_opts *o)
+{
+    const mlr_rig *rig = L->rig;
+    const size_t J = rig->n_joints;
+    mlr_limits_joint *jt = L->jt;
+    int *cls = L->cls;
+    const int *is_hinge = L->is_hinge;
+    const int32_t *main_child = L->main_child;
     mlr_limits_classify(rig, is_hinge, main_child, cls);
     size_t count[MLR_LIMITS_CLASS_COUNT] = {0};
     for (size_t j = 0; j < J; j++)
@@ -465,14 +475,14 @@ mlr_status mlr_limits_create(const mlr_rig *rig, const mlr_limits_clip *clips, s
         if (is_hinge[j]) {
             r->kind = MLR_LIMITS_HINGE;
             r->lo = fmin(0.0, g->stats[0]);
-            r->hi = fmax(o.fold, g->stats[1]);
+            r->hi = fmax(o->fold, g->stats[1]);
             r->source = lim->human ? MLR_LIMITS_SOURCE_TABLE : MLR_LIMITS_SOURCE_INPUT;
             continue;
         }
         r->kind = MLR_LIMITS_SWING_TWIST;
         /* the input's own extent sits at the knee point (a relative 1e-12 above it, so that
          * rounding never moves an input frame) */
-        const double grow = (1.0 + 1e-12) / (1.0 - o.soft);
+        const double grow = (1.0 + 1e-12) / (1.0 - o->soft);
         const double in_sw = fmin(PI, fmax(MIN_INPUT_BOUND, g->stats[2] * grow));
         const double in_tw = fmin(PI, fmax(MIN_INPUT_BOUND, g->stats[3] * grow));
         double t_sw, t_tw;
@@ -485,6 +495,61 @@ mlr_status mlr_limits_create(const mlr_rig *rig, const mlr_limits_clip *clips, s
             r->widen = 1, r->source = MLR_LIMITS_SOURCE_INPUT;
         }
     }
+}
+
+mlr_status mlr_limits_create(const mlr_rig *rig, const mlr_limits_clip *clips, size_t n_clips,
+                             const mlr_limits_option *opts, size_t n_opts,
+                             const mlr_allocator *alloc, mlr_limits **out, mlr_diag *diag)
+{
+    if (out)
+        *out = NULL;
+    if (!out)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "limits: out is NULL");
+    mlr_status st = mlr_rig_check(rig, diag);
+    if (st != MLR_OK)
+        return st;
+    create_opts o;
+    if ((st = read_opts(opts, n_opts, &o, diag)) != MLR_OK)
+        return st;
+    if ((st = check_clips(rig, clips, n_clips, diag)) != MLR_OK)
+        return st;
+    const size_t J = rig->n_joints;
+    mlr_allocator a;
+    mlr_allocator_resolve(alloc, &a);
+    size_t jbytes, sbytes;
+    if (mlr_mul_size(J, sizeof(mlr_limits_joint), &jbytes) != MLR_OK ||
+        mlr_mul_size(J, sizeof(acc) + 4 * sizeof(int32_t) + 2 * sizeof(mlr_quat) +
+                            sizeof(mlr_vec3), &sbytes) != MLR_OK)
+        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "limits: too many joints");
+    mlr_limits *lim = mlr_alloc(&a, sizeof *lim);
+    if (!lim)
+        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "limits: out of memory");
+    memset(lim, 0, sizeof *lim);
+    lim->alloc = a;
+    lim->n_joints = J;
+    lim->soft = o.soft;
+    lim->rev_soft = o.rev_soft;
+    lim->joints = mlr_alloc(&a, jbytes);
+    void *scratch = mlr_alloc(&a, sbytes);
+    if (!lim->joints || !scratch) {
+        mlr_free(&a, scratch, sbytes);
+        mlr_limits_destroy(lim);
+        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "limits: out of memory");
+    }
+    memset(lim->joints, 0, jbytes);
+    memset(scratch, 0, sbytes);
+    learner L = {rig, clips, n_clips, lim->joints, scratch, NULL, NULL, NULL, NULL, NULL, NULL};
+    L.main_child = (int32_t *)(L.ac + J);
+    L.is_hinge = (int *)(L.main_child + J), L.cls = L.is_hinge + J;
+    L.rq = (mlr_quat *)(void *)(L.cls + J + (J & 1));
+    L.rv = (mlr_vec3 *)(void *)(L.rq + J);
+    L.qn = (mlr_quat *)(void *)(L.rv + J);
+
+    measure_bones(&L);
+    learn_centres(&L);
+    measure_extents(&L);
+    lim->human = find_hinges(&L, o.human);
+    set_ranges(&L, lim, &o);
     mlr_free(&a, scratch, sbytes);
     *out = lim;
     return MLR_OK;
