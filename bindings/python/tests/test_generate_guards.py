@@ -16,6 +16,8 @@ WALKS = [
     ("cmu_131_01_mj_style_walk.bvh", None, dict(som=(12, 12), lattice=(8, 8), ks=range(2, 9))),
     ("bandai1_walk_happy_001.bvh", None, dict(som=(8, 8), lattice=(6, 6), ks=range(2, 7))),
     ("lafan1_clip_a.bvh", 1800, dict(som=(12, 12), lattice=(8, 8), ks=range(2, 9))),
+    # a quadruped (issue 23: "the shared walks and the dog"): four paws to keep on the ground
+    ("ai4a_dog_D1_008_KAN01_002.bvh", None, dict(som=(12, 12), lattice=(8, 8), ks=range(2, 9))),
 ]
 STARTS = [(10, 1), (30, 3), (100, 5)]
 
