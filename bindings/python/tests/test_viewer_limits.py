@@ -404,10 +404,23 @@ def test_the_pool_is_bounded(mocap):
         for s in idle + slow:
             _closed_within(s, 10 * timeout + 10)
             s.close()
+        assert _settles(lambda: r.srv.n_idle == 0, 2.0), r.srv.n_idle
         t0 = time.perf_counter()
         assert r.get("/api/clips")[0] == 200
         assert time.perf_counter() - t0 < 2.0
-        assert r.srv.n_idle == 0
+        # that request's keep-alive connection is parked idle until the server sees the client
+        # close it (asynchronously: checking at once raced with the watcher)
+        assert _settles(lambda: r.srv.n_idle == 0, 2.0), r.srv.n_idle
+
+
+def _settles(condition, seconds: float) -> bool:
+    """Whether condition() becomes true within seconds (polled every 10 ms)."""
+    t_end = time.monotonic() + seconds
+    while not condition():
+        if time.monotonic() > t_end:
+            return False
+        time.sleep(0.01)
+    return True
 
 
 def test_a_full_queue_is_answered_503(mocap, monkeypatch):
