@@ -264,11 +264,13 @@ mlr_status mlr_layers_decompose(size_t n_frames, size_t n_joints, const double *
     mlr_allocator_resolve(alloc, &a);
     unsigned char *block = mlr_alloc(&a, z.handle_bytes);
     if (!block)
-        return MLR_E_NO_MEMORY;
+        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                            "decompose: out of memory (%zu bytes for the layers)", z.handle_bytes);
     double *scratch = mlr_alloc(&a, z.scratch_bytes);
     if (!scratch) {
         mlr_free(&a, block, z.handle_bytes);
-        return MLR_E_NO_MEMORY;
+        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                            "decompose: out of memory (%zu bytes of scratch)", z.scratch_bytes);
     }
     mlr_layers *L = (mlr_layers *)(void *)block;
     memset(L, 0, sizeof *L);

@@ -289,7 +289,9 @@ mlr_status mlr_resample_arrays(size_t n_frames, size_t n_joints, size_t n_trans,
             return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "array sizes overflow");
         grid = mlr_alloc(&a, grid_bytes);
         if (!grid)
-            return MLR_E_NO_MEMORY;
+            return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                                "resample: out of memory (%zu bytes for the output grid)",
+                                grid_bytes);
         g_root = grid;
         g_rot = g_root + 3 * n_grid;
         g_trans = g_rot + n_rot * n_grid;
@@ -301,7 +303,8 @@ mlr_status mlr_resample_arrays(size_t n_frames, size_t n_joints, size_t n_trans,
         tu_bytes = n_frames * sizeof(double);
         tu = mlr_alloc(&a, tu_bytes);
         if (!tu) {
-            st = MLR_E_NO_MEMORY;
+            st = mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                              "resample: out of memory (%zu bytes for the time map)", tu_bytes);
             goto done;
         }
         const double step = (double)(n_out - 1) / (double)(n_frames - 1);
@@ -315,7 +318,8 @@ mlr_status mlr_resample_arrays(size_t n_frames, size_t n_joints, size_t n_trans,
         q_bytes = n_frames * n_rot * sizeof(double);
         q = mlr_alloc(&a, q_bytes);
         if (!q) {
-            st = MLR_E_NO_MEMORY;
+            st = mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                              "resample: out of memory (%zu bytes for the rotations)", q_bytes);
             goto done;
         }
         const int nearest = (flags & MLR_RESAMPLE_NEAREST_SIGN) != 0;

@@ -376,11 +376,11 @@ static mlr_status stream_create(size_t n_joints, int root, size_t n_trans, doubl
         return st;
     size_t m = root ? 3 : 0;
     if (add_size(&m, n_trans, 3) || add_size(&m, n_joints, 4))
-        return MLR_E_OVERFLOW;
+        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "stream: the state's size overflows");
     if (m == 0)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "a frame needs at least one channel");
     if (lag == SIZE_MAX)
-        return MLR_E_OVERFLOW;
+        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "stream: the state's size overflows");
     const size_t ring = lag + 1 > 4 ? lag + 1 : 4, n_sm = layered ? 2 : 1;
     /* doubles: per smoother ring x m + 3 ring; y 3m; coef 2 (ring + 4); raw_base, zh m each;
      * qhist 16 J; flush_base lag m; alpha J. Then ring + 4 pointers. */
@@ -388,21 +388,22 @@ static mlr_status stream_create(size_t n_joints, int root, size_t n_trans, doubl
     if (add_size(&per_sm, ring, m) || add_size(&per_sm, ring, 3) || add_size(&nd, per_sm, n_sm) ||
         add_size(&nd, m, 5) || add_size(&nd, ring + 4, 2) || add_size(&nd, n_joints, 17) ||
         (layered && add_size(&nd, lag, m)))
-        return MLR_E_OVERFLOW;
+        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "stream: the state's size overflows");
     size_t bytes = 0;
     if (add_size(&bytes, nd, sizeof(double)) || add_size(&bytes, ring + 4, sizeof(double *)))
-        return MLR_E_OVERFLOW;
+        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "stream: the state's size overflows");
 
     mlr_allocator a;
     mlr_allocator_resolve(alloc, &a);
     mlr_stream *s = mlr_alloc(&a, sizeof *s);
     if (!s)
-        return MLR_E_NO_MEMORY;
+        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "stream: out of memory");
     memset(s, 0, sizeof *s);
     double *p = mlr_alloc(&a, bytes);
     if (!p) {
         mlr_free(&a, s, sizeof *s);
-        return MLR_E_NO_MEMORY;
+        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                            "stream: out of memory (%zu bytes for the state)", bytes);
     }
     memset(p, 0, bytes);
     s->alloc = a;
