@@ -8,11 +8,12 @@ The public API is walked at run time:
   is walked);
 - a module's public names: its ``__all__``, or, without one, the names not starting with an
   underscore of the functions and classes defined in it;
-- of each public class: the class (its constructor's parameters), and the public methods,
+- of each public class: the class (the parameters of a constructor defined in its own body),
+  and the public methods,
   class and static methods and properties defined in its own body (plus ``__call__``).
 
 A docstring is numpy-style when it has a one-line summary, a ``Parameters`` section (underlined
-with dashes) naming every parameter when the callable takes any (for a class: the
+with dashes) naming every parameter (but those starting with an underscore) when the callable takes any (for a class: the
 constructor's, in a ``Parameters`` or ``Attributes`` section of the class docstring), and a
 ``Returns`` (or ``Yields``) section when it returns something (the return annotation is not
 ``None``; properties and classes are exempt). Annotations: every parameter but ``self`` /
@@ -120,7 +121,7 @@ def _check_doc(entry: Entry, obj: Any, params: list[str], returns: bool,
             named: set[str] = set()
             for s in have:
                 named |= _documented_names(sections[s])
-            missing = [p for p in params if p not in named]
+            missing = [p for p in params if p not in named and not p.startswith("_")]
             if missing:
                 entry.problems_doc.append(f"parameters not documented: {missing}")
     if returns and "Returns" not in sections and "Yields" not in sections:
@@ -173,15 +174,10 @@ def _check_class(entry: Entry, cls: type) -> None:
         return
     init = None
     for name in ("__init__", "__new__"):
-        for klass in cls.__mro__:
-            if klass is object or klass.__module__ == "builtins":
-                break
-            if name in vars(klass):
-                init = getattr(cls, name)
-                break
-        if init is not None:
+        if name in vars(cls):
+            init = getattr(cls, name)
             break
-    if init is None:
+    if init is None:  # inherited: documented and checked with the class that defines it
         _check_doc(entry, cls, [], False)
         return
     sig = _signature(init)
