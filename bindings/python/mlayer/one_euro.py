@@ -21,8 +21,10 @@ the LGS stream does. Pure numpy: O(channels) per sample.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from . import _arrays
 from .errors import InvalidArgumentError
@@ -30,20 +32,32 @@ from .errors import InvalidArgumentError
 __all__ = ["OneEuroFilter", "one_euro"]
 
 
-def _alpha(rate: float, cutoff):
+def _alpha(rate: float, cutoff: Any) -> Any:
     return 1.0 / (1.0 + rate / (2.0 * math.pi * cutoff))
 
 
 class OneEuroFilter:
     """A One Euro filter over m channels, one sample at a time (:meth:`__call__`).
 
-    rate: samples per second (> 0); min_cutoff (Hz, > 0): cutoff at rest; beta (>= 0): how fast
-    the cutoff grows with speed (per unit of the channel per second); d_cutoff (Hz, > 0): cutoff
-    of the speed estimate.
+    Parameters
+    ----------
+    rate : float
+        Samples per second (> 0).
+    min_cutoff : float, optional
+        Cutoff at rest, Hz (> 0).
+    beta : float, optional
+        How fast the cutoff grows with speed (per unit of the channel per second; >= 0).
+    d_cutoff : float, optional
+        Cutoff of the speed estimate, Hz (> 0).
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        For parameters out of range.
     """
 
     def __init__(self, rate: float, min_cutoff: float = 1.0, beta: float = 0.0,
-                 d_cutoff: float = 1.0):
+                 d_cutoff: float = 1.0) -> None:
         vals = {"rate": rate, "min_cutoff": min_cutoff, "d_cutoff": d_cutoff}
         for name, v in vals.items():
             if not (isinstance(v, (int, float, np.floating, np.integer)) and math.isfinite(v)
@@ -62,8 +76,24 @@ class OneEuroFilter:
         self._x = None
         self._dx = None
 
-    def __call__(self, x) -> np.ndarray:
-        """Filter the next sample (any shape, the same every call); return the output (a copy)."""
+    def __call__(self, x: ArrayLike) -> NDArray[np.float64]:
+        """Filter the next sample.
+
+        Parameters
+        ----------
+        x : array_like
+            Any shape, the same every call; finite.
+
+        Returns
+        -------
+        numpy.ndarray
+            The output (a copy).
+
+        Raises
+        ------
+        mlayer.InvalidArgumentError
+            For a non-numeric or non-finite sample, or another shape than the first.
+        """
         try:
             x = np.asarray(x, dtype=np.float64)  # keeps a scalar 0-d
         except (TypeError, ValueError) as e:
@@ -82,10 +112,22 @@ class OneEuroFilter:
         return self._x.copy()
 
 
-def one_euro(y, rate: float, min_cutoff: float = 1.0, beta: float = 0.0,
-             d_cutoff: float = 1.0) -> np.ndarray:
-    """One Euro filter along axis 0 of y (N, ...): every other index is its own channel.
-    Returns an array of y's shape."""
+def one_euro(y: ArrayLike, rate: float, min_cutoff: float = 1.0, beta: float = 0.0,
+             d_cutoff: float = 1.0) -> NDArray[np.float64]:
+    """One Euro filter along axis 0: every other index is its own channel.
+
+    Parameters
+    ----------
+    y : array_like, shape (N, ...)
+        The samples.
+    rate, min_cutoff, beta, d_cutoff : float
+        As for :class:`OneEuroFilter`.
+
+    Returns
+    -------
+    numpy.ndarray
+        Of ``y``'s shape.
+    """
     y = _arrays.as_f64(y, "one_euro: y")
     if y.ndim < 1:
         raise InvalidArgumentError("one_euro: y needs a frame axis")
