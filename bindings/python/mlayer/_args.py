@@ -37,8 +37,15 @@ def integer(v, name: str, lo: int | None = None, hi: int | None = None) -> int:
 
 
 def default_threads() -> int:
-    """Threads used when none is asked for: the CPUs this process may run on (at most 64).
-    Results do not depend on the thread count."""
+    """Threads used when none is asked for.
+
+    Results do not depend on the thread count.
+
+    Returns
+    -------
+    int
+        The CPUs this process may run on, at most 64.
+    """
     try:
         n = len(os.sched_getaffinity(0))
     except AttributeError:  # not on Linux

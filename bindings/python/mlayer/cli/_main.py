@@ -55,6 +55,13 @@ COMMANDS = (
 
 
 def build_parser() -> argparse.ArgumentParser:
+    """The parser of the ``mlayer`` command line, with every command of :data:`COMMANDS`.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        A new parser.
+    """
     p = argparse.ArgumentParser(prog="mlayer",
                                 description="Smooth motion layers for character animation.")
     p.add_argument("--version", action="version",
@@ -117,6 +124,21 @@ def _flags(parser: argparse.ArgumentParser, command: str) -> set:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run the ``mlayer`` command line (the console script and ``python -m mlayer``).
+
+    Errors of mlayer and of the operating system become one line on stderr
+    (``mlayer COMMAND: error: ...``) and exit status 1; an interrupt gives 130.
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        The arguments without the program name; default ``sys.argv[1:]``.
+
+    Returns
+    -------
+    int
+        The exit status: 0 on success, 2 without a command.
+    """
     parser = build_parser()
     args = parser.parse_args(argv)
     cmd = getattr(args, "_command", None)
