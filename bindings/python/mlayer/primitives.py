@@ -653,7 +653,7 @@ class PrimitiveModel:
                               1.0 / self.frame_time)
 
     def guard(self, motion: Motion, traj: ArrayLike
-              ) -> tuple[Motion, GuardReport | None, NDArray[np.bool_]]:
+              ) -> tuple[Motion, GuardReport, NDArray[np.bool_]]:
         """The guards on a motion generated along manifold points.
 
         The training frames' contacts pinned (each contact point at its mean position over the
@@ -670,7 +670,7 @@ class PrimitiveModel:
         -------
         motion : Motion
             The guarded motion.
-        report : GuardReport or None
+        report : GuardReport
             What the guards did.
         contacts : numpy.ndarray of bool, shape (n, C)
             The generated frames' contacts.

@@ -5,6 +5,7 @@ from __future__ import annotations
 import glob
 import os
 import pathlib
+from collections.abc import Iterable
 
 from ..errors import InvalidArgumentError
 
@@ -15,18 +16,15 @@ def _is_bvh(p: pathlib.Path) -> bool:
     return p.suffix.lower() == ".bvh" and p.is_file()
 
 
-def _under(path, folder) -> bool:
-    """Whether path (resolved) is folder (resolved) or inside it."""
+def _under(path: str | os.PathLike[str], folder: str | os.PathLike[str] | None) -> bool:
     if folder is None:
         return False
     p, f = os.path.realpath(path), os.path.realpath(folder)
     return p == f or p.startswith(f.rstrip(os.sep) + os.sep)
 
 
-def _walk(folder: pathlib.Path, exclude, links):
-    """The .bvh files below folder (hidden parts and `exclude` left out). Symbolic links to
-    folders are not followed (a link may lead out of the tree or back into it) and dangling
-    links cannot be read: both are appended to ``links`` as (path, note)."""
+def _walk(folder: pathlib.Path, exclude: str | os.PathLike[str] | None,
+          links: list[tuple[str | pathlib.Path, str]]) -> list[tuple[pathlib.Path, pathlib.PurePath]]:
     if _under(folder, exclude):
         exclude = None  # the output folder is this folder (or holds it): the overwrite check
     out = []
@@ -46,10 +44,8 @@ def _walk(folder: pathlib.Path, exclude, links):
     return out
 
 
-def _glob(pattern: str, exclude, links):
-    """The .bvh files matching a glob, relative to its fixed prefix. Python's glob follows
-    links to folders ("**" included): each one crossed is noted in ``links``, as are dangling
-    links that match."""
+def _glob(pattern: str, exclude: str | os.PathLike[str] | None,
+          links: list[tuple[str | pathlib.Path, str]]) -> list[tuple[pathlib.Path, pathlib.PurePath]]:
     root = pathlib.Path(pattern)
     while glob.has_magic(str(root)):
         root = root.parent
@@ -75,17 +71,37 @@ def _glob(pattern: str, exclude, links):
     return out
 
 
-def find_inputs(inputs, *, exclude=None, links=None) -> list[tuple[pathlib.Path, pathlib.PurePath]]:
-    """(input path, output path relative to OUT_DIR without extension) for every clip: a
-    folder (every .bvh below it, sub-folders kept), a glob pattern ("**" recurses; paths
-    relative to the pattern's fixed prefix), a file, or a list of these. Sorted, no
-    duplicates.
+def find_inputs(inputs: str | os.PathLike[str] | Iterable[str | os.PathLike[str]], *,
+                exclude: str | os.PathLike[str] | None = None,
+                links: list[tuple[str | pathlib.Path, str]] | None = None
+                ) -> list[tuple[pathlib.Path, pathlib.PurePath]]:
+    """The clips of a batch.
 
-    exclude: a folder whose files are never inputs (batch passes its output folder, so an
-    output folder inside the input folder can be resumed). links: a list that receives
-    (path, note) for each symbolic link that was not simply read: links to folders (not
-    followed in a folder walk; followed by a glob, as Python's glob does) and dangling links
-    (skipped). Links to files are read as clips (each link a clip of its own)."""
+    Parameters
+    ----------
+    inputs : str, os.PathLike or a list of them
+        A folder (every .bvh below it, sub-folders kept), a glob pattern (``**`` recurses;
+        paths relative to the pattern's fixed prefix), a file, or a list of these.
+    exclude : str or os.PathLike, optional
+        A folder whose files are never inputs (batch passes its output folder, so an output
+        folder inside the input folder can be resumed).
+    links : list, optional
+        Receives (path, note) for each symbolic link that was not simply read: links to
+        folders (not followed in a folder walk; followed by a glob, as Python's glob does)
+        and dangling links (skipped). Links to files are read as clips (each link a clip of
+        its own).
+
+    Returns
+    -------
+    list of (pathlib.Path, pathlib.PurePath)
+        (input path, output path relative to OUT_DIR without extension) for every clip;
+        sorted, no duplicates.
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        For an input that is no file, folder or matching glob, or a dangling link.
+    """
     if isinstance(inputs, (str, os.PathLike)):
         inputs = [inputs]
     links = [] if links is None else links
