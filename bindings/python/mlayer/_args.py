@@ -8,6 +8,7 @@ Every failure is an :class:`~mlayer.errors.InvalidArgumentError` that names the 
 from __future__ import annotations
 
 import os
+from typing import Any
 
 import numpy as np
 
@@ -16,9 +17,7 @@ from .errors import InvalidArgumentError
 __all__ = ["integer", "threads", "default_threads"]
 
 
-def integer(v, name: str, lo: int | None = None, hi: int | None = None) -> int:
-    """``v`` as an int when it is an integer in ``[lo, hi]`` (either bound optional); else
-    InvalidArgumentError: ``"{name} must be an integer >= lo, got v"``."""
+def integer(v: Any, name: str, lo: int | None = None, hi: int | None = None) -> int:
     ok = isinstance(v, (int, np.integer)) and not isinstance(v, (bool, np.bool_))
     if ok:
         v = int(v)
@@ -53,6 +52,5 @@ def default_threads() -> int:
     return max(1, min(64, n))
 
 
-def threads(v, name: str = "threads") -> int:
-    """A C function's thread count: None -> 0 (the library picks), else an integer >= 1."""
+def threads(v: int | None, name: str = "threads") -> int:
     return 0 if v is None else integer(v, name, 1)

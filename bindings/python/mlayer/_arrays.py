@@ -6,19 +6,17 @@ every check happens here before a pointer crosses into C.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from ._native import ffi
 from .errors import InvalidArgumentError
 
 
-def as_f64(arr, name: str, *, ndim: tuple[int, ...] | int | None = None,
-           last: tuple[int, ...] | None = None) -> np.ndarray:
-    """Convert an input once to a C-contiguous float64 array (no copy when it already is one).
-
-    ndim: allowed numbers of dimensions; last: required trailing shape, e.g. (4,).
-    """
+def as_f64(arr: Any, name: str, *, ndim: tuple[int, ...] | int | None = None,
+           last: tuple[int, ...] | None = None) -> NDArray[np.float64]:
     try:
         a = np.ascontiguousarray(arr, dtype=np.float64)
     except (TypeError, ValueError) as e:
@@ -43,23 +41,20 @@ def check_out(arr: np.ndarray, name: str, shape: tuple[int, ...]) -> np.ndarray:
     return arr
 
 
-def _c_layout(arr) -> None:
-    # a real check, not an assert: ffi.from_buffer would reinterpret another dtype's bytes
+def _c_layout(arr: Any) -> None:
     if not isinstance(arr, np.ndarray) or arr.dtype != np.float64 or not arr.flags.c_contiguous:
         raise TypeError("mlayer internal: a C pointer needs a C-contiguous float64 array, got "
                         f"{getattr(arr, 'dtype', type(arr).__name__)}")
 
 
-def ptr(arr: np.ndarray, ctype: str = "double *"):
-    """A C pointer into a checked float64 C-contiguous array (the array must stay referenced)."""
+def ptr(arr: NDArray[Any], ctype: str = "double *") -> Any:
     _c_layout(arr)
     if arr.size == 0:
         return ffi.NULL
     return ffi.cast(ctype, ffi.from_buffer(arr))
 
 
-def ptr_out(arr: np.ndarray, ctype: str = "double *"):
-    """Like ptr, for an output array (refuses read-only buffers)."""
+def ptr_out(arr: NDArray[Any], ctype: str = "double *") -> Any:
     _c_layout(arr)
     if arr.size == 0:
         return ffi.NULL
@@ -71,17 +66,14 @@ def require_finite(a: np.ndarray, name: str) -> None:
         raise InvalidArgumentError(f"{name}: contains NaN or infinite values")
 
 
-def number(v, name: str) -> float:
-    """``float(v)``, or InvalidArgumentError naming ``name`` when v is not a number. For values
-    the C core checks itself (its message names the option by the same name)."""
+def number(v: Any, name: str) -> float:
     try:
         return float(v)
     except (TypeError, ValueError):
         raise InvalidArgumentError(f"{name} must be a number, got {v!r}") from None
 
 
-def finite(v, name: str) -> float:
-    """``float(v)``, or InvalidArgumentError naming ``name`` when v is not a finite number."""
+def finite(v: Any, name: str) -> float:
     try:
         f = float(v)
     except (TypeError, ValueError):

@@ -18,6 +18,7 @@ import os
 import re
 import secrets
 import threading
+from collections.abc import Iterator
 
 __all__ = ["atomic_output", "stale_temporaries", "temporary_name", "umask"]
 
@@ -46,8 +47,7 @@ def umask() -> int:
     return mask
 
 
-def temporary_name(path, suffix: str = "") -> str:
-    """A new temporary name for `path` by the rule: ``DIR/.NAME.tmp-<16 hex><suffix>``."""
+def temporary_name(path: str | os.PathLike[str], suffix: str = "") -> str:
     path = os.fspath(path)
     if _EXTENSION.fullmatch(suffix) is None:
         raise ValueError(f"atomic_output: suffix {suffix!r} is not an extension (a dot and 1 "
@@ -56,10 +56,7 @@ def temporary_name(path, suffix: str = "") -> str:
     return os.path.join(directory, f".{name}.tmp-{secrets.token_hex(8)}{suffix}")
 
 
-def stale_temporaries(path) -> list[str]:
-    """The temporaries of `path` that exist: those a writer of it that was killed left (or
-    those of a writer still running), whether the C writer or :func:`atomic_output` made
-    them. Sorted."""
+def stale_temporaries(path: str | os.PathLike[str]) -> list[str]:
     directory, name = os.path.split(os.path.abspath(os.fspath(path)))
     rule = re.compile(re.escape("." + name) + _TEMP_TAIL)
     found = glob.glob(os.path.join(glob.escape(directory), glob.escape("." + name) + ".tmp-*"))
@@ -67,17 +64,7 @@ def stale_temporaries(path) -> list[str]:
 
 
 @contextlib.contextmanager
-def atomic_output(path, suffix: str | None = None):
-    """Context manager yielding a temporary path in the target's directory.
-
-    Write the whole output to the yielded path; when the block ends without an exception the
-    temporary file replaces ``path`` (``os.replace``, atomic on POSIX). ``suffix`` is the
-    temporary file's extension (default: the target's), for writers that pick the format by
-    extension (matplotlib, Pillow, numpy).
-
-    The file is created (empty, exclusively) with the mode a plain ``open`` would give it
-    (0666 less the umask: 0644 under umask 022), like the BVH files the C writer creates.
-    """
+def atomic_output(path: str | os.PathLike[str], suffix: str | None = None) -> Iterator[str]:
     path = os.fspath(path)
     if suffix is None:
         suffix = os.path.splitext(path)[1]

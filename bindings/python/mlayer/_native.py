@@ -5,9 +5,9 @@ signatures are checked by the C compiler against the cdef, not by mypy).
 """
 from typing import Any
 
-from . import _mlayer
+from ._mlayer import ffi as _ffi, lib as _lib
 
-ffi: Any = _mlayer.ffi
-lib: Any = _mlayer.lib
+ffi: Any = _ffi
+lib: Any = _lib
 
 __all__ = ["ffi", "lib"]

@@ -1,16 +1,20 @@
 """A skeleton as the C core's ``mlr_rig``: borrowed pointers into the Skeleton's arrays."""
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Any
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 from . import _arrays
 from ._native import ffi, lib
 from .errors import InvalidArgumentError, check
 
+if TYPE_CHECKING:
+    from .motion import Motion, Skeleton
 
-def c_rig(skeleton):
-    """``(rig, keep)``: an ``mlr_rig *`` over the skeleton's names, parents, offsets, trans
-    joints and End Sites, and the objects that must stay referenced while it is used."""
+
+def c_rig(skeleton: Skeleton) -> tuple[Any, tuple[Any, ...]]:
     names = [ffi.new("char[]", n.encode("utf-8", errors="surrogateescape"))
              for n in skeleton.joint_names]
     cnames = ffi.new("const char *[]", names)
@@ -33,14 +37,11 @@ def c_rig(skeleton):
     return r, (names, cnames, parents, offsets, trans, ends, end_off)
 
 
-def motion_axis(motion, up, where: str) -> int:
-    """The up axis argument ``up`` as 0..2; None: the motion's own (:attr:`Motion.up_axis`,
-    given when it was read or detected)."""
+def motion_axis(motion: Motion, up: str | int | None, where: str) -> int:
     return axis(motion.up_axis if up is None else up, where)
 
 
-def axis(up, where: str) -> int:
-    """An up axis given as "x", "y", "z" (any case) or 0, 1, 2."""
+def axis(up: str | int | None, where: str) -> int:
     if isinstance(up, str) and up.lower() in ("x", "y", "z"):
         return "xyz".index(up.lower())
     if isinstance(up, (int, np.integer)) and not isinstance(up, bool) and 0 <= int(up) <= 2:
@@ -49,9 +50,7 @@ def axis(up, where: str) -> int:
 
 
 
-def body_height_of(positions, k: int) -> float:
-    """The C core's body size (mlr_rig_body_height, the one every C threshold uses) of (N, J, 3)
-    world positions along axis k (0..2): the median over frames of the joints' extent."""
+def body_height_of(positions: ArrayLike, k: int) -> float:
     p = np.ascontiguousarray(positions, dtype=np.float64)
     if p.shape[0] == 0:
         raise InvalidArgumentError("body_height needs at least one frame")

@@ -33,7 +33,8 @@ __all__ = ["read_bvh", "write_bvh", "read_bvh_string", "write_bvh_string", "stri
 # The default of strict=None: False, unless inside strict_reading() (the CLI's --strict).
 _STRICT = contextvars.ContextVar("mlayer_bvh_strict", default=False)
 # The length unit of clips read with units=None: None, unless inside reading_units().
-_UNITS = contextvars.ContextVar("mlayer_bvh_units", default=None)
+_UNITS: contextvars.ContextVar[str | None] = contextvars.ContextVar("mlayer_bvh_units",
+                                                                  default=None)
 
 _WARNING_KINDS = {1: "extra_frames", 2: "missing_frames", 3: "trailing_data",
                   4: "no_final_newline", 5: "truncated"}

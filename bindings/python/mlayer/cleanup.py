@@ -126,16 +126,16 @@ def floor_height(motion: Motion, contacts: ArrayLike | None = None,
 def fix_contacts(motion: Motion, contacts: ArrayLike, names: str | Sequence[str],
                  reference: Motion | None = None, *, floor: str | float | None = "auto",
                  up: str | int | None = None, return_report: Literal[False] = False,
-                 **options: float) -> Motion: ...
+                 **options: Any) -> Motion: ...
 @overload
 def fix_contacts(motion: Motion, contacts: ArrayLike, names: str | Sequence[str],
                  reference: Motion | None = None, *, floor: str | float | None = "auto",
                  up: str | int | None = None, return_report: Literal[True],
-                 **options: float) -> tuple[Motion, dict[str, float]]: ...
+                 **options: Any) -> tuple[Motion, dict[str, float]]: ...
 def fix_contacts(motion: Motion, contacts: ArrayLike, names: str | Sequence[str],
                  reference: Motion | None = None, *, floor: str | float | None = "auto",
                  up: str | int | None = None, return_report: bool = False,
-                 **options: float) -> Motion | tuple[Motion, dict[str, float]]:
+                 **options: Any) -> Motion | tuple[Motion, dict[str, float]]:
     """Pin the feet of a synthesized motion during its contacts (paper 1, eq. 18).
 
     Also keeps them above the floor (``mlr_cleanup_contacts``). Bone lengths and the
@@ -254,7 +254,7 @@ def keep_contacts_retimed(original: Motion, retimed: Motion, reference: Motion,
                           source_frames: ArrayLike,
                           joints: str | Sequence[str | int] | None = None, *,
                           floor: str | float | None = "auto",
-                          contacts: tuple[list[str], NDArray[np.bool_]] | None = None
+                          contacts: tuple[list[str], NDArray[np.bool_] | None] | None = None
                           ) -> Motion:
     """A retimed motion with the feet pinned during the contacts of the original.
 
@@ -292,7 +292,7 @@ def keep_contacts_retimed(original: Motion, retimed: Motion, reference: Motion,
         return retimed
     if contacts is not None:
         names, c = contacts
-        if not names:
+        if not names or c is None:
             return retimed
     elif not _has_feet(original, joints):
         return retimed
@@ -311,7 +311,7 @@ def keep_contacts_retimed(original: Motion, retimed: Motion, reference: Motion,
 def keep_contacts(original: Motion, synthesized: Motion,
                   joints: str | Sequence[str | int] | None = None, *,
                   reference: Motion | None = None, floor: str | float | None = "auto",
-                  **options: float) -> Motion:
+                  **options: Any) -> Motion:
     """A synthesized motion with the feet pinned during the contacts of the original.
 
     :func:`mlayer.detect_contacts` then :func:`fix_contacts`. stylize/denoise pass the

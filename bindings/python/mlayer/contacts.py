@@ -24,8 +24,8 @@ smooth and nothing pops at contact boundaries. Heights are along the motion's up
 from __future__ import annotations
 
 import re
-from collections.abc import Sequence
-from typing import TYPE_CHECKING
+from collections.abc import Collection, Iterable, Sequence
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -36,7 +36,7 @@ from ._rig import c_rig, motion_axis
 from .errors import InvalidArgumentError, check
 
 if TYPE_CHECKING:
-    from .motion import Motion
+    from .motion import Motion, Skeleton
 
 __all__ = ["find_feet", "detect_contacts", "contact_intervals", "contact_positions", "END_SUFFIX",
            "FOOT_PATTERN", "TOE_PATTERN", "HAND_PATTERN"]
@@ -55,7 +55,7 @@ _HEIGHT_ON = 0.06    # body heights above the local floor level
 _MIN_CONTACT = 0.08  # seconds
 
 
-def _has_ancestor_in(parents, j: int, group) -> bool:
+def _has_ancestor_in(parents: NDArray[np.int32], j: int, group: Collection[int]) -> bool:
     p = int(parents[j])
     while p >= 0:
         if p in group:
@@ -67,19 +67,19 @@ def _has_ancestor_in(parents, j: int, group) -> bool:
 END_SUFFIX = "/End"
 
 
-def _end_site_of(sk, j: int) -> int:
-    """Index of the first End Site below joint j, or -1."""
+def _end_site_of(sk: Skeleton, j: int) -> int:
     hits = np.flatnonzero(sk.end_site_parents == j)
     return int(hits[0]) if hits.size else -1
 
 
-def _check_motion(motion, where: str):
+def _check_motion(motion: Any, where: str) -> None:
     from .motion import Motion
     if not isinstance(motion, Motion):
         raise InvalidArgumentError(f"{where}: motion must be a mlayer.Motion")
 
 
-def _positions_arg(motion, positions, name: str, last: int) -> np.ndarray:
+def _positions_arg(motion: Motion, positions: ArrayLike, name: str, last: int
+                   ) -> NDArray[np.float64]:
     shape = (motion.n_frames, motion.n_joints, last)
     a = as_f64(positions, name)
     if a.shape != shape:
@@ -87,9 +87,7 @@ def _positions_arg(motion, positions, name: str, last: int) -> np.ndarray:
     return a
 
 
-def _c_feet(motion, pos, up: int) -> list[tuple[int, int]]:
-    """Contact points (joint, End Site or -1) of the feet, ankle then toe, by the C core;
-    (-1, -1) for a foot without a toe."""
+def _c_feet(motion: Motion, pos: NDArray[np.float64] | None, up: int) -> list[tuple[int, int]]:
     sk = motion.skeleton
     J = sk.n_joints
     rig, keep = c_rig(sk)
@@ -99,7 +97,7 @@ def _c_feet(motion, pos, up: int) -> list[tuple[int, int]]:
     diag = ffi.new("mlr_diag *")
     N = pos.shape[0] if pos is not None else 0
     code = lib.mlr_contacts_find_feet(
-        rig, N, ptr(pos, "const double *") if N else ffi.NULL, up, J,
+        rig, N, ptr(pos, "const double *") if pos is not None and N else ffi.NULL, up, J,
         ffi.cast("int32_t *", ffi.from_buffer(joints, require_writable=True)),
         ffi.cast("int32_t *", ffi.from_buffer(ends, require_writable=True)), n_feet, ffi.NULL,
         diag)
@@ -119,7 +117,7 @@ def _c_feet(motion, pos, up: int) -> list[tuple[int, int]]:
     return list(zip(joints[:n].tolist(), ends[:n].tolist()))
 
 
-def _point_name(sk, j: int, e: int) -> str:
+def _point_name(sk: Skeleton, j: int, e: int) -> str:
     return sk.joint_names[j] + (END_SUFFIX if e >= 0 else "")
 
 
@@ -168,8 +166,7 @@ def find_feet(motion: Motion, positions: NDArray[np.float64] | None = None, *,
             for i in range(0, len(pts), 2)]
 
 
-def _point(sk, name) -> tuple[int, int]:
-    """(joint, End Site or -1) of a contact point name ("Joint" or "Joint/End") or index."""
+def _point(sk: Skeleton, name: str | int) -> tuple[int, int]:
     if isinstance(name, (int, np.integer)):
         if not 0 <= int(name) < sk.n_joints:
             raise InvalidArgumentError(f"joint index {name} out of range for {sk.n_joints} joints")
@@ -190,7 +187,8 @@ def _point(sk, name) -> tuple[int, int]:
         "skeleton: " + ", ".join(names))
 
 
-def _point_arrays(pts):
+def _point_arrays(pts: Sequence[tuple[int, int]]
+                  ) -> tuple[NDArray[np.int32], NDArray[np.int32]]:
     joints = np.ascontiguousarray([j for j, _ in pts], dtype=np.int32)
     ends = np.ascontiguousarray([e for _, e in pts], dtype=np.int32)
     return joints, ends
@@ -246,8 +244,7 @@ def contact_positions(motion: Motion, names: str | Sequence[str | int],
     return out
 
 
-def _runs(mask: np.ndarray):
-    """(starts, ends) of the True runs of a 1-D bool array, ends exclusive."""
+def _runs(mask: NDArray[np.bool_]) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
     d = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
     return np.flatnonzero(d == 1), np.flatnonzero(d == -1)
 
@@ -269,7 +266,7 @@ def contact_intervals(contacts_column: ArrayLike) -> list[tuple[int, int]]:
     return list(zip(s.tolist(), e.tolist()))
 
 
-def _resolve_names(motion, joints) -> list[str]:
+def _resolve_names(motion: Motion, joints: str | Iterable[str | int]) -> list[str]:
     sk = motion.skeleton
     if isinstance(joints, str):
         joints = [x for x in joints.replace(",", " ").split() if x]

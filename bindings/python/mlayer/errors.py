@@ -65,6 +65,10 @@ class ParseError(Error, ValueError):
         The line (1-based) where parsing failed.
     """
 
+    #: set by the BVH readers: the column (1-based) and the reason without the place
+    column: int | None
+    reason: str
+
     def __init__(self, message: str, code: int = 0, path: str | os.PathLike[str] | None = None,
                  line: int | None = None) -> None:
         super().__init__(message, code)

@@ -5,6 +5,7 @@ the root, or on rigs with a static root above a moving pelvis (Bandai) that pelv
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -54,7 +55,7 @@ def _one(m: Motion, body: int) -> NDArray[np.float64]:
     return out.reshape(m.n_frames, -1)
 
 
-def _subtree(parents: ArrayLike, body: int) -> NDArray[np.bool_]:
+def _subtree(parents: NDArray[np.int32], body: int) -> NDArray[np.bool_]:
     """(J,) mask of the body joint and its descendants (parents before children)."""
     inside = np.zeros(len(parents), dtype=bool)
     inside[body] = True
@@ -92,7 +93,7 @@ def pose_features(motion: Motion | Sequence[Motion]) -> NDArray[np.float64]:
     mlayer.InvalidArgumentError
         For no clips, something else than Motions, or clips of other skeletons.
     """
-    clips = list(motion) if isinstance(motion, (list, tuple)) else [motion]
+    clips: list[Any] = list(motion) if isinstance(motion, (list, tuple)) else [motion]
     if not clips:
         raise InvalidArgumentError("pose_features: no clips")
     for m in clips:

@@ -97,7 +97,7 @@ def body_translation_joint(motion: Motion | Sequence[Motion]) -> int:
         For something else than Motions.
     """
     from .motion import Motion
-    clips = list(motion) if isinstance(motion, (list, tuple)) else [motion]
+    clips: list[Any] = list(motion) if isinstance(motion, (list, tuple)) else [motion]
     for m in clips:
         if not isinstance(m, Motion):
             raise InvalidArgumentError(f"body_translation_joint: expected a Motion, got "
@@ -208,6 +208,16 @@ class Layers(ReadOnlyAttributes):
     control_dof : numpy.ndarray, shape (1 + J,)
         Effective degrees of freedom of the control smoother per channel.
     """
+
+    lam: NDArray[np.float64]
+    sigma: NDArray[np.float64]
+    base_s: NDArray[np.float64]
+    base_max_angle: NDArray[np.float64]
+    lam_c: NDArray[np.float64]
+    sigma_c: NDArray[np.float64]
+    control_s: NDArray[np.float64]
+    control_gcv: NDArray[np.float64]
+    control_dof: NDArray[np.float64]
 
     _readonly = ("motion", "body_joint", "_h", "base", "control", "residual") + tuple(_PARAMS)
 

@@ -8,7 +8,7 @@ values come from the C core (``mlr_grbf_basis``); the solves are numpy's LAPACK.
 """
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -270,7 +270,8 @@ class GRBF:
         if kernel not in _KERNELS:
             raise InvalidArgumentError(f"GRBF: kernel must be one of {_KERNELS}, got {kernel!r}")
         self.kernel = kernel
-        self.lattice = None if centers is not None else _lattice(lattice)
+        self.lattice: tuple[int, int] | None = None if centers is not None \
+            else _lattice(lattice)
         self.bounds = None if bounds is None else tuple(tuple(float(v) for v in b)
                                                         for b in bounds)
         if self.bounds is not None and (len(self.bounds) != 2 or any(
@@ -287,7 +288,7 @@ class GRBF:
         self.smoothing = float(smoothing)
         self.n_threads = (default_threads() if n_threads is None
                           else integer(n_threads, "GRBF: n_threads", 1, 64))
-        self.coef_ = None
+        self.coef_: NDArray[np.float64] | None = None
 
     # -- basis ---------------------------------------------------------------------------------
 
@@ -399,7 +400,8 @@ class GRBF:
             bounds = self.bounds or tuple((float(P[:, j].min()), float(P[:, j].max()))
                                           for j in range(2))
             self.bounds_ = bounds
-            C = lattice_points(self.lattice, bounds)
+            assert self.lattice is not None  # no explicit centres: a lattice
+            C = lattice_points(self.lattice, cast(Any, bounds))
         self.centers_ = C
         N, e = C.shape
         if self.kernel == "gaussian":
@@ -450,6 +452,7 @@ class GRBF:
         return self
 
     def _fit_lattice_c(self, Y: NDArray[np.float64]) -> NDArray[np.float64]:
+        assert self.lattice is not None  # called for a lattice of centres only
         R, Cn = self.lattice
         C3 = self.centers_.reshape(R, Cn, 2)
         xs = np.ascontiguousarray(C3[:, 0, 0])
@@ -480,7 +483,7 @@ class GRBF:
         if extra:
             lam = self.smoothing * float(np.mean(np.sum(M[:n, m:N] ** 2, axis=0)))
             M[n:, m:N] = np.sqrt(lam) * np.eye(N - m)
-        Rm = np.linalg.qr(M, mode="r")
+        Rm = cast(NDArray[np.float64], np.linalg.qr(M, mode="r"))
         R = Rm[:N, :N]
         diag = np.abs(np.diag(R))
         if not diag.min() > np.finfo(float).eps * max(M.shape) * diag.max():

@@ -51,7 +51,7 @@ HELDOUT_FOLDS = 5      # the blocks of each clip in heldout_loglik's cross-valid
 HELDOUT_FLOOR = 1e-3    # mixed into each held-out prediction: see heldout_loglik
 
 
-def _labels(a: ArrayLike, name: str) -> NDArray[np.int64]:
+def _labels(a: Any, name: str) -> NDArray[np.int64]:
     arr = np.asarray(a)
     if arr.ndim != 1:
         raise InvalidArgumentError(f"{name}: labels must be 1-D, got shape {arr.shape}")
@@ -317,7 +317,8 @@ class Markov:
                 return L
         return 1
 
-    def next_distribution(self, history: int | Sequence[int]) -> NDArray[np.float64]:
+    def next_distribution(self, history: int | Sequence[int] | NDArray[np.integer[Any]]
+                          ) -> NDArray[np.float64]:
         """Probabilities of the next distinct state, by the back-off rule.
 
         Parameters
@@ -343,7 +344,8 @@ class Markov:
             self._jumps = self.jump_matrix()
         return self._jumps[j].copy()
 
-    def ranked_next(self, history: int | Sequence[int], rank: int = 1) -> int:
+    def ranked_next(self, history: int | Sequence[int] | NDArray[np.integer[Any]],
+                    rank: int = 1) -> int:
         """The rank-th most likely next distinct state after a history.
 
         Rank 1: equation 5; rank 2: the second most likely, paper Figure 3 (c); lowest index

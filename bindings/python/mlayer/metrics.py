@@ -86,7 +86,7 @@ def jitter(m: Motion | ArrayLike, fps: float | None = None) -> float:
     return float(j * fps**3) if fps else float(j)
 
 
-def body_height(m: Motion | ArrayLike, up: str | None = None) -> float:
+def body_height(m: Motion | ArrayLike, up: str | int | None = None) -> float:
     """Body size used to make thresholds and errors unit-free.
 
     The median over frames of the joints' extent along the up axis (End Sites excluded, so

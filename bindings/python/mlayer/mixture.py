@@ -79,6 +79,7 @@ class FuzzyResult:
     labels: NDArray[np.int32]
     objective: float
     n_iter: int
+    _m = 2.0  # the fuzzifier of the fit (set by fuzzy_cmeans; not a field)
 
     def predict_proba(self, X: ArrayLike, m: float | None = None) -> NDArray[np.float64]:
         """Memberships of new rows to the fitted centres.

@@ -25,7 +25,7 @@ its OFFSET as ``root_pos`` in every frame.
 from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
-from typing import TYPE_CHECKING, Any, NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -171,10 +171,10 @@ class Skeleton(ReadOnlyAttributes):
             channels = [DEFAULT_ROOT_CHANNELS] + [DEFAULT_JOINT_CHANNELS] * (J - 1)
         elif isinstance(channels, str):
             raise InvalidArgumentError("Skeleton: channels must be a list of one string per joint")
-        channels = [" ".join(c) if not isinstance(c, str) else c for c in channels]
-        if len(channels) != J:
+        chans: list[str] = [c if isinstance(c, str) else " ".join(c) for c in channels]
+        if len(chans) != J:
             raise InvalidArgumentError(
-                f"Skeleton: channels must list {J} joints, got {len(channels)}")
+                f"Skeleton: channels must list {J} joints, got {len(chans)}")
         ep = np.asarray(end_site_parents if end_site_parents is not None else ())
         if ep.size == 0:
             ep = np.zeros(0, dtype=np.int32)
@@ -192,7 +192,7 @@ class Skeleton(ReadOnlyAttributes):
                                        f"{eo.shape}")
         # Let the C core judge names, parents, channel lists and End Sites; read back its
         # canonical channel lists, Euler orders and the joints with position channels.
-        with _create_handle(names, par, off, channels, ep, eo, 0, 1.0) as h:
+        with _create_handle(names, par, off, chans, ep, eo, 0, 1.0) as h:
             self._from_handle(h)
 
     @classmethod
@@ -300,7 +300,7 @@ class Skeleton(ReadOnlyAttributes):
                 and np.array_equal(self.end_site_parents, other.end_site_parents)
                 and np.array_equal(self.end_site_offsets, other.end_site_offsets))
 
-    __hash__ = None
+    __hash__ = None  # type: ignore[assignment]  # equal skeletons compare equal: unhashable
 
     def __repr__(self) -> str:
         return (f"Skeleton({self.n_joints} joints, {self.n_end_sites} End Sites, "
@@ -410,6 +410,13 @@ class Motion:
 
     __slots__ = ("_skeleton", "_frame_time", "_root_pos", "_rot", "_trans", "_up", "_units",
                  "_found")
+    _skeleton: Skeleton
+    _frame_time: float
+    _root_pos: NDArray[np.float64]
+    _rot: NDArray[np.float64]
+    _trans: NDArray[np.float64]
+    _up: str | None
+    _units: str | None
 
     def __init__(self, skeleton: Skeleton, frame_time: float, root_pos: ArrayLike,
                  rot: ArrayLike, trans: ArrayLike | None = None, *,
@@ -417,11 +424,13 @@ class Motion:
         if not isinstance(skeleton, Skeleton):
             raise InvalidArgumentError("Motion: skeleton must be a mlayer.Skeleton")
         self._skeleton = skeleton
-        self._up = self._units = None
+        self._up = None
+        self._units = None
         self._found: dict[str, Any] = {}  # what was detected from the frames: "up", "units"
         if _trusted:
+            # the readers and the library's own copies: arrays already checked
             self._frame_time, self._root_pos, self._rot, self._trans = \
-                frame_time, root_pos, rot, trans
+                frame_time, cast(Any, root_pos), cast(Any, rot), cast(Any, trans)
             return
         ft = _frame_time_arg(frame_time, "Motion: frame_time")
         J, P = skeleton.n_joints, skeleton.trans_joints.shape[0]
@@ -794,7 +803,7 @@ class Motion:
             out.append(a)
         return out
 
-    def _fk(self, want_rot: bool) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
+    def _fk(self, want_rot: bool) -> tuple[NDArray[np.float64], Any]:
         N, J = self.n_frames, self.n_joints
         sk = self.skeleton
         root_pos, rot, trans = self._frames()
@@ -809,7 +818,7 @@ class Motion:
             _arrays.ptr(sk.offsets), _arrays.ptr(root_pos), _arrays.ptr(rot), P,
             ffi.cast("const int32_t *", ffi.from_buffer(sk.trans_joints)) if P else ffi.NULL,
             _arrays.ptr(trans) if P else ffi.NULL, _arrays.ptr_out(pos),
-            _arrays.ptr_out(wrot) if want_rot else ffi.NULL, ffi.NULL, diag)
+            _arrays.ptr_out(wrot) if wrot is not None else ffi.NULL, ffi.NULL, diag)
         check(code, "mlayer.Motion.positions", diag)
         return pos, wrot
 

@@ -73,8 +73,8 @@ class OneEuroFilter:
 
     def reset(self) -> None:
         """Forget the past samples."""
-        self._x = None
-        self._dx = None
+        self._x: NDArray[np.float64] | None = None
+        self._dx: NDArray[np.float64] | None = None
 
     def __call__(self, x: ArrayLike) -> NDArray[np.float64]:
         """Filter the next sample.
@@ -105,11 +105,13 @@ class OneEuroFilter:
         if x.shape != self._x.shape:
             raise InvalidArgumentError(
                 f"OneEuroFilter: sample shape {x.shape} differs from the first {self._x.shape}")
-        dx = (x - self._x) * self.rate
-        self._dx += self._a_d * (dx - self._dx)
-        a = _alpha(self.rate, self.min_cutoff + self.beta * np.abs(self._dx))
-        self._x += a * (x - self._x)
-        return self._x.copy()
+        x0, dx0 = self._x, self._dx
+        assert dx0 is not None  # set with _x
+        dx = (x - x0) * self.rate
+        dx0 += self._a_d * (dx - dx0)
+        a = _alpha(self.rate, self.min_cutoff + self.beta * np.abs(dx0))
+        x0 += a * (x - x0)
+        return x0.copy()
 
 
 def one_euro(y: ArrayLike, rate: float, min_cutoff: float = 1.0, beta: float = 0.0,

@@ -592,7 +592,7 @@ class Clip:
         Synthesis
             The synthesis (the same object for the same options).
         """
-        guard = dict(limits=limits, floor=floor, keep_contacts=keep_contacts,
+        guard: dict[str, Any] = dict(limits=limits, floor=floor, keep_contacts=keep_contacts,
                      contact_joints=contact_joints, up=up)
         key = tuple(sorted((k, repr(v)) for k, v in guard.items())) + \
             tuple(sorted((k, repr(v)) for k, v in layer_options.items()))

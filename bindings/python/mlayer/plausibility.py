@@ -39,7 +39,7 @@ def _rotate(q: NDArray[np.float64], v: NDArray[np.float64]) -> NDArray[np.float6
     return v + w * t + np.cross(u, t)
 
 
-def _main_child(motion: Motion, j: int) -> int | None:
+def _main_child(motion: Motion, j: int) -> Any:
     sk = motion.skeleton
     t = motion.local_translations().mean(axis=0)
     kids = [c for c in range(sk.n_joints) if sk.parents[c] == j]
@@ -119,7 +119,11 @@ def hinge_angles(motion: Motion, limits_or_chains: JointLimits | Iterable[Sequen
     out = {}
     for p, j, c, axis in hinge_chains(limits_or_chains, motion):
         thigh = pos[:, j] - pos[:, p]
-        child = ends[:, c[1]] if isinstance(c, tuple) else pos[:, c]
+        if isinstance(c, tuple):
+            assert ends is not None  # an End Site child exists only when there are End Sites
+            child = ends[:, c[1]]
+        else:
+            child = pos[:, c]
         shin = child - pos[:, j]
         nt = np.linalg.norm(thigh, axis=1)
         ns = np.linalg.norm(shin, axis=1)
@@ -205,7 +209,7 @@ def body_parts(motion: Motion, limits: JointLimits) -> dict[str, list[int]]:
         for the arm hinges), ``"trunk"`` (the other joints but the root).
     """
     sk = motion.skeleton
-    parts = {"legs": set(), "arms": set()}
+    parts: dict[str, set[int]] = {"legs": set(), "arms": set()}
     hinge_info = hinge_angles(motion[:1], limits) if motion.n_frames else {}
     for j in limits.hinges():
         top = int(sk.parents[j])

@@ -41,14 +41,14 @@ import logging
 import math
 import os
 from collections.abc import Callable, Iterable, Sequence
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from . import _arrays, quat
 from ._args import integer
-from ._progress import ProgressArg, resolve
+from ._progress import Bar, ProgressArg, resolve
 from .errors import InvalidArgumentError, MlayerIOError
 from .smoothing import lgs
 from .manifold import GRBF, PCA
@@ -57,6 +57,7 @@ from .motion import Motion, Skeleton
 
 if TYPE_CHECKING:
     from .limits import JointLimits
+    from .mixture import KCriteria
     from .pipeline import GuardReport
 
 __all__ = ["PrimitiveModel", "heading_quat", "split_heading", "default_lattices", "same_units"]
@@ -73,7 +74,7 @@ _PIN_DRIFT = 0.25
 _PIN_GAP = 0.1
 
 
-def _yaw(rot_root: NDArray[np.float64]) -> NDArray[np.float64]:
+def _yaw(rot_root: ArrayLike) -> NDArray[np.float64]:
     from .features import heading
     return heading(rot_root)
 
@@ -212,11 +213,9 @@ def same_units(clips: Sequence[Motion]) -> list[Motion]:
     return out
 
 
-def _check_plan(n: int, k, ks, criterion, cluster, order, min_count, manifold, som, lattice,
-                names, n_clips: int) -> dict:
-    """The arguments of :meth:`PrimitiveModel.fit` checked against the n training frames before
-    any training: k at most the frames and the SOM's units (the distinct manifold points a SOM
-    can give), the candidate ks cut to that bound, the GRBF lattice at most n centres."""
+def _check_plan(n: int, k: int | str, ks: Iterable[int] | None, criterion: str, cluster: str,
+                order: int | str, min_count: int, manifold: str, som: Any, lattice: Any,
+                names: Sequence[str] | None, n_clips: int) -> dict[str, Any]:
     from .mixture import CRITERIA
     if criterion not in CRITERIA:
         raise InvalidArgumentError(f"option criterion must be one of {', '.join(CRITERIA)}, "
@@ -273,7 +272,7 @@ class _Steps:
     """Where the steps of a fit go: the ``mlayer.primitives`` logger (INFO), fit's on_step
     callable, and its progress bar (advanced after each of the :data:`_FIT_STEPS` steps)."""
 
-    def __init__(self, bar, on_step=None):
+    def __init__(self, bar: Bar, on_step: Callable[[str], object] | None = None) -> None:
         self.bar, self.on_step = bar, on_step
 
     def say(self, msg: str, advance: bool = False) -> None:
@@ -300,6 +299,12 @@ class PrimitiveModel:
     ``elbow_inertia`` (the curve when k was chosen automatically), ``som_codebook``
     (rows, cols, dim) or ``pca_mean``/``pca_components``.
     """
+
+    criteria: KCriteria | None
+    contacts: NDArray[np.bool_] | None
+    elbow_ks: NDArray[Any]
+    elbow_inertia: NDArray[Any]
+    bounds: Any
 
     # -- learning ------------------------------------------------------------------------------
 
@@ -384,7 +389,7 @@ class PrimitiveModel:
         mlayer.InvalidArgumentError
             For no clips, clips too short, or a plan that does not fit the frames.
         """
-        clips = list(clips) if isinstance(clips, (list, tuple)) else [clips]
+        clips = list(clips) if isinstance(clips, (list, tuple)) else [cast(Motion, clips)]
         if not clips:
             raise InvalidArgumentError("PrimitiveModel.fit: no clips")
         for m in clips:
@@ -399,8 +404,8 @@ class PrimitiveModel:
             som_d, lattice_d = default_lattices(sum(m.n_frames for m in clips))
             som = som_d if som is None else som
             if lattice is None:
-                lattice = lattice_d if manifold != "som" else tuple(
-                    min(g, int(s)) for g, s in zip(lattice_d, som))
+                lattice = lattice_d if manifold != "som" else cast(tuple[int, int], tuple(
+                    min(g, int(s)) for g, s in zip(lattice_d, som)))
         n_frames = sum(m.n_frames for m in clips)
         plan = _check_plan(n_frames, k, ks, criterion, cluster, order, min_count, manifold,
                            som, lattice, names, len(clips))
@@ -411,10 +416,9 @@ class PrimitiveModel:
                               epochs=epochs, lattice=lattice, kernel=kernel,
                               smoothing=smoothing, seed=seed)
 
-    def _fit(self, clips, plan: dict, progress: _Steps, *, manifold, som, epochs, lattice,
-             kernel, smoothing, seed) -> "PrimitiveModel":
-        """The steps of :meth:`fit` on checked arguments (`plan`: _check_plan's; clips in one
-        unit; `progress`: where the steps go)."""
+    def _fit(self, clips: list[Motion], plan: dict[str, Any], progress: _Steps, *,
+             manifold: str, som: Any, epochs: int, lattice: Any, kernel: str,
+             smoothing: float, seed: int) -> PrimitiveModel:
         from .features import pose_features
         from .layers import body_translation_joint
         self.clip_names = plan["names"]
@@ -464,8 +468,7 @@ class PrimitiveModel:
                        f"{self.floor_height:.4g}", True)
         return self
 
-    def _set_primitives(self, plan: dict, seed: int, progress) -> None:
-        """Primitives (labels, centres), the k criteria and the Markov model of the labels."""
+    def _set_primitives(self, plan: dict[str, Any], seed: int, progress: _Steps) -> None:
         from .clustering import kmeans
         from .mixture import k_criteria
         ks, k = plan["ks"], plan["k"]
@@ -556,11 +559,7 @@ class PrimitiveModel:
         end = int(self.clip_starts[i + 1]) if i + 1 < n else self.points.shape[0]
         return int(self.clip_starts[i]), end - int(self.clip_starts[i])
 
-    def _set_guards(self, clips) -> None:
-        """What the guards of generated motion need from the training clips: the contacts of
-        every training frame (:func:`mlayer.detect_contacts`, the points of the first clip),
-        the floor (:func:`mlayer.cleanup.floor_height` of those contacts over all clips) and
-        the rotations and translations the joint limits are learned from."""
+    def _set_guards(self, clips: list[Motion]) -> None:
         from .cleanup import floor_height
         from .contacts import detect_contacts
         names = None
@@ -611,9 +610,7 @@ class PrimitiveModel:
         return [Motion(self.skeleton, self.frame_time, root[a:b], self.train_rot[a:b],
                        self.train_trans[a:b]) for a, b in zip(self.clip_starts, ends)]
 
-    def __getstate__(self):
-        # copies and pickles leave out the cached JointLimits (a C model that cannot be copied);
-        # joint_limits() makes it again when it is needed
+    def __getstate__(self) -> dict[str, Any]:
         state = self.__dict__.copy()
         state.pop("_limits_cache", None)
         return state
@@ -649,7 +646,7 @@ class PrimitiveModel:
             C = len(contact_names).
         """
         from .generate_guards import contacts_along
-        return contacts_along(self.points, self.clamp(traj), self.contacts,
+        return contacts_along(self.points, self.clamp(traj), np.asarray(self.contacts),
                               1.0 / self.frame_time)
 
     def guard(self, motion: Motion, traj: ArrayLike
@@ -1073,7 +1070,7 @@ class PrimitiveModel:
                                        "other (--most-likely, --second-likely)")
         if through is not None or keys is not None:
             knots = self.through_points(through) if through is not None \
-                else self.key_points(keys)
+                else self.key_points(keys or [])
             if knots.shape[0] > n_frames:
                 raise InvalidArgumentError(f"generate: {knots.shape[0]} points for {n_frames} "
                                            f"frames (option frames)")
@@ -1184,9 +1181,7 @@ class PrimitiveModel:
 
     # -- persistence -----------------------------------------------------------------------------
 
-    def _load_dynamics(self, z, fmt: int) -> None:
-        """The Markov model, the k criteria and the clip names of a model file; format 1 files
-        (before orders and criteria) load as order 1, clips named by their index."""
+    def _load_dynamics(self, z: Any, fmt: int) -> None:
         from .mixture import KCriteria
         from .markov import contexts_from_arrays
         if fmt == 1:
@@ -1247,7 +1242,7 @@ class PrimitiveModel:
                                                                ("elbow", "silhouette", "bic")]))
         if self.has_guards:
             arrays.update(contact_names=np.array(self.contact_names, dtype=np.str_),
-                          contacts=self.contacts.astype(np.uint8),
+                          contacts=np.asarray(self.contacts).astype(np.uint8),
                           floor_height=np.float64(self.floor_height), train_rot=self.train_rot,
                           train_trans=self.train_trans)
         if self.manifold == "som":
@@ -1312,7 +1307,8 @@ class PrimitiveModel:
                     setattr(self, name, z[name])
                 self.bounds = tuple(tuple(float(v) for v in b) for b in z["bounds"])
                 self._load_dynamics(z, fmt)
-                g = GRBF(str(z["grbf_kernel"]), tuple(int(v) for v in z["grbf_lattice"]),
+                g = GRBF(str(z["grbf_kernel"]),
+                         cast(tuple[int, int], tuple(int(v) for v in z["grbf_lattice"])),
                          bounds=self.bounds)
                 g.centers_, g.coef_, g._vector = z["grbf_centers"], z["grbf_coef"], False
                 g.bounds_ = self.bounds

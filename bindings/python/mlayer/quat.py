@@ -373,13 +373,13 @@ def from_euler(angles: ArrayLike, order: str, degrees: bool = True) -> NDArray[n
         For a bad order (see :func:`euler_order`) or non-finite angles.
     """
     o = euler_order(order)
-    angles = _arrays.as_f64(angles, "angles", last=(3,))
+    a = _arrays.as_f64(angles, "angles", last=(3,))
     if degrees:
-        angles = np.deg2rad(angles)
-    out = np.empty(angles.shape[:-1] + (4,))
+        a = np.deg2rad(a)
+    out = np.empty(a.shape[:-1] + (4,))
     if out.size:
         diag = ffi.new("mlr_diag *")
-        code = lib.mlr_quat_from_euler_array(_arrays.ptr(angles), out.size // 4, o,
+        code = lib.mlr_quat_from_euler_array(_arrays.ptr(a), out.size // 4, o,
                                              _arrays.ptr_out(out, "mlr_quat *"), diag)
         check(code, "mlayer.quat.from_euler", diag)
     return out

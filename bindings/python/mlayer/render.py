@@ -20,7 +20,7 @@ from collections.abc import Iterable
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from .metrics import body_height
 from .up_axis import to_y_up
@@ -125,8 +125,9 @@ def followed_joint(positions: ArrayLike) -> int:
 class _Scene:
     """What every frame of a render shares: the motions in Y-up, the camera, the palette."""
 
-    def __init__(self, motions, labels, fps, panel_size, azimuth, elevation, max_seconds,
-                 where: str):
+    def __init__(self, motions: Iterable[Motion], labels: Iterable[str] | None, fps: float,
+                 panel_size: tuple[int, int], azimuth: float, elevation: float,
+                 max_seconds: float | None, where: str) -> None:
         from PIL import Image
         motions = list(motions)
         if not motions:
@@ -165,8 +166,7 @@ class _Scene:
         self.blank.putpalette(self.palette)
         self.sides = [[body_side(n) for n in m.joint_names] for m in motions]
 
-    def frame(self, k: int):
-        """Output frame k (time k / fps): the panels side by side, a "P" mode image."""
+    def frame(self, k: int) -> Any:
         from PIL import Image, ImageDraw
         w, h, motions, p0 = self.w, self.h, self.motions, self.pos[0]
         t = k / self.fps
@@ -175,7 +175,7 @@ class _Scene:
                            self.track[f0, 1]])
         cam, scale, ground, spacing = self.cam, self.scale, self.ground, self.spacing
 
-        def project(world):
+        def project(world: Any) -> NDArray[np.float64]:
             v = (np.asarray(world) - target) @ cam.T
             return np.stack([w / 2 + scale * v[..., 0], h / 2 - scale * v[..., 1]], -1)
 

@@ -48,7 +48,7 @@ MAX_FACTOR = 100.0
 _SLACK = 1e-9  # as the C core: a factor of exactly 100 passes despite rounding
 
 
-def _motion(motion, where: str) -> Motion:
+def _motion(motion: Any, where: str) -> Motion:
     if not isinstance(motion, Motion):
         raise TypeError(f"{where}: expected a mlayer.Motion, got {type(motion).__name__}")
     if motion.n_frames < 2:
@@ -81,16 +81,12 @@ def _out_memory(motion: Motion, n_out: int, name: str, where: str) -> int:
     return n_out
 
 
-def _frame_count(n, name: str, where: str) -> int:
+def _frame_count(n: Any, name: str, where: str) -> int:
     return integer(n, f"{where}: {name}", 2)
 
 
-def _target(motion: Motion, fps, n_frames, allow_extreme: bool, where: str):
-    """(n_out, frame_time, t) for exactly one of fps / n_frames. fps: the exact grid of the
-    rate (C mlr_resample_rate_map): t[i] = i fps / motion.fps, output frame k at time k / fps
-    after the first frame, ending at the last such time within the input (pass t with
-    MLR_RESAMPLE_OPEN_END). n_frames: t None, the uniform map that keeps the first and last
-    frames, so the duration of frames 0..N-1 stays (the frame time changes)."""
+def _target(motion: Motion, fps: float | None, n_frames: int | None, allow_extreme: bool,
+            where: str) -> tuple[int, float, NDArray[np.float64] | None]:
     if (fps is None) == (n_frames is None):
         raise InvalidArgumentError(f"{where}: give exactly one of fps or n_frames")
     N = motion.n_frames
@@ -127,12 +123,11 @@ def frames_at_rate(n_frames: int, fps_in: float, fps_out: float) -> int:
     return int(n[0])
 
 
-def _grid_flags(t) -> int:
-    """MLR_RESAMPLE_OPEN_END for the exact grid of a rate (a time map from _target)."""
+def _grid_flags(t: NDArray[np.float64] | None) -> int:
     return 0 if t is None else lib.MLR_RESAMPLE_OPEN_END
 
 
-def _lam_sigma(lam, sigma, where: str):
+def _lam_sigma(lam: float | None, sigma: float | None, where: str) -> tuple[float, float]:
     if lam is None:
         lam = -1.0  # MLR_RESAMPLE_AUTO
     else:
@@ -147,8 +142,8 @@ def _lam_sigma(lam, sigma, where: str):
     return lam, sigma
 
 
-def _time_map(time_map, N: int, n_frames, allow_extreme: bool, where: str):
-    """The user's map as float64 and the output count (n_frames, or t[-1] + 1)."""
+def _time_map(time_map: ArrayLike, N: int, n_frames: int | None, allow_extreme: bool,
+              where: str) -> tuple[NDArray[np.float64], int]:
     t = _arrays.as_f64(time_map, "time_map", ndim=1)
     if t.shape[0] != N:
         raise InvalidArgumentError(
@@ -171,11 +166,8 @@ def _time_map(time_map, N: int, n_frames, allow_extreme: bool, where: str):
     return t, n_out
 
 
-def _stylized(motion: Motion, style, where: str):
-    """``(clip, motion)``: the input as a :class:`mlayer.pipeline.Clip` (its forward kinematics
-    and contacts computed once for the style and the contacts' retiming) and the motion with
-    its style scaled first (:meth:`Clip.stylize`), when style is given: an alpha, or a dict of
-    stylize's arguments ({"alpha": 2, "joints": {"Left*": 3}, ...})."""
+def _stylized(motion: Motion, style: float | dict[str, Any] | None, where: str
+              ) -> tuple[Clip, Motion]:
     from .pipeline import Clip
     clip = Clip(motion)
     if style is None:
@@ -196,8 +188,8 @@ def _stylized(motion: Motion, style, where: str):
     return clip, clip.stylize(alpha)[0]
 
 
-def _solve(motion: Motion, t, n_out: int, frame_time: float, lam: float, sigma: float,
-           flags: int, want_var: bool, where: str):
+def _solve(motion: Motion, t: NDArray[np.float64] | None, n_out: int, frame_time: float,
+           lam: float, sigma: float, flags: int, want_var: bool, where: str) -> Any:
     root, rot, trans = motion._frames()
     # (the C core checks every value: non-finite data is reported with its frame and joint)
     N, J, P = motion.n_frames, motion.n_joints, trans.shape[1]
@@ -209,7 +201,7 @@ def _solve(motion: Motion, t, n_out: int, frame_time: float, lam: float, sigma: 
         N, J, P, _arrays.ptr(root), _arrays.ptr(rot), _arrays.ptr(trans),
         ffi.NULL if t is None else _arrays.ptr(t), n_out, lam, sigma, flags,
         _arrays.ptr_out(root_out), _arrays.ptr_out(rot_out), _arrays.ptr_out(trans_out),
-        _arrays.ptr_out(var) if want_var else ffi.NULL, ffi.NULL, diag)
+        _arrays.ptr_out(var) if var is not None else ffi.NULL, ffi.NULL, diag)
     check(code, where, diag)
     out = Motion(motion.skeleton, frame_time, root_out, rot_out, trans_out, _trusted=True)
     return (out, var) if want_var else out
@@ -285,12 +277,13 @@ def resample(motion: Motion, *, fps: float | None = None, n_frames: int | None =
         src = np.arange(n_out) * ((original.n_frames - 1) / max(n_out - 1, 1))
         ref = slerp_resample(original, n_frames=n_out, allow_extreme=allow_extreme)
     else:  # the input frame (fractional) at each output frame's time
+        assert fps is not None  # a grid of times comes from fps
         src = np.arange(n_out) * (original.fps / fps)
         ref = slerp_resample(original, fps=fps, allow_extreme=allow_extreme)
     return _pinned(clip, res, ref, src)
 
 
-def _pinned(clip: Clip, res: Any, reference: Motion, source_frames: NDArray[np.float64]
+def _pinned(clip: Clip, res: Any, reference: Motion, source_frames: NDArray[Any]
             ) -> Any:
     """res (a motion, or a tuple starting with one) with the feet pinned during the contacts
     of the input (a :class:`mlayer.pipeline.Clip`), carried to the new frames."""
@@ -333,6 +326,7 @@ def slerp_resample(motion: Motion, *, fps: float | None = None, n_frames: int | 
     """
     where = "mlayer.slerp_resample"
     motion = _motion(motion, where)
+    t: NDArray[np.float64] | None
     if time_map is not None:
         if fps is not None:
             raise InvalidArgumentError(f"{where}: give fps or time_map, not both")

@@ -17,7 +17,7 @@ build has it when SuiteSparse is installed (Debian: ``libsuitesparse-dev``), e.g
 """
 from __future__ import annotations
 
-from typing import Any, SupportsIndex
+from typing import Any, Literal, SupportsIndex, overload
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -188,6 +188,15 @@ def _make_lgs(n_out: int, lam: float, sigma: float, order: int, t: ArrayLike | N
     return LGS(n_out, lam, sigma, order=order, t=t, n_obs=n_obs, solver=solver)
 
 
+@overload
+def lgs(y: ArrayLike, lam: float = 1.0, sigma: float = 1.0, *, order: int = 2,
+        t: ArrayLike | None = None, n_out: int | None = None, return_var: Literal[False] = False,
+        solver: str = "banded", threads: int | None = None) -> NDArray[np.float64]: ...
+@overload
+def lgs(y: ArrayLike, lam: float = 1.0, sigma: float = 1.0, *, order: int = 2,
+        t: ArrayLike | None = None, n_out: int | None = None, return_var: Literal[True],
+        solver: str = "banded", threads: int | None = None
+        ) -> tuple[NDArray[np.float64], NDArray[np.float64]]: ...
 def lgs(y: ArrayLike, lam: float = 1.0, sigma: float = 1.0, *, order: int = 2,
         t: ArrayLike | None = None, n_out: int | None = None, return_var: bool = False,
         solver: str = "banded", threads: int | None = None

@@ -7,7 +7,7 @@ across runs and thread counts.
 from __future__ import annotations
 
 import os
-from typing import Any, SupportsIndex
+from typing import Any, Literal, SupportsIndex, overload
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -142,6 +142,11 @@ class SOM(ReadOnlyAttributes, NativeHandle):
         check(lib.mlr_som_set_codebook(self._live(), _arrays.ptr(w), self.dim, diag),
               "mlayer.SOM.codebook", diag)
 
+    @overload
+    def bmu_index(self, X: ArrayLike, *, second: Literal[False] = False) -> NDArray[np.int32]: ...
+    @overload
+    def bmu_index(self, X: ArrayLike, *, second: Literal[True]
+                  ) -> tuple[NDArray[np.int32], NDArray[np.int32]]: ...
     def bmu_index(self, X: ArrayLike, *, second: bool = False
                   ) -> NDArray[np.int32] | tuple[NDArray[np.int32], NDArray[np.int32]]:
         """Unit index (r * cols + c) of each row's best-matching unit.
@@ -166,7 +171,7 @@ class SOM(ReadOnlyAttributes, NativeHandle):
         i32 = lambda a: ffi.cast("int32_t *", ffi.from_buffer(a, require_writable=True))  # noqa: E731
         check(lib.mlr_som_bmu(self._live(), _arrays.ptr(X), n, self.dim, i32(b), ffi.NULL,
                               i32(s) if second else ffi.NULL, diag), "mlayer.SOM.bmu", diag)
-        return (b, s) if second else b
+        return (b, s) if s is not None else b
 
     def bmu(self, X: ArrayLike) -> NDArray[np.int64]:
         """Best-matching unit of each row on the lattice.

@@ -34,7 +34,8 @@ __all__ = ["LeadIn", "lead_in", "trim", "reading_trim"]
 
 # The trim of clips read with trim=None while the CLI's --trim is given (None: no trim), and a
 # function told (name, frames dropped) for each clip trimmed.
-_TRIM = contextvars.ContextVar("mlayer_trim", default=(None, None))
+_TRIM: contextvars.ContextVar[tuple[str | int | None, Callable[[str, int], object] | None]] = \
+    contextvars.ContextVar("mlayer_trim", default=(None, None))
 
 
 class LeadIn(NamedTuple):
@@ -123,7 +124,7 @@ def trim(motion: Motion, frames: str | int | None = "auto") -> Motion:
     frames = frames_arg(frames, "trim")
     if frames is None:
         return motion
-    n = lead_in(motion).n_frames if frames == "auto" else frames
+    n = lead_in(motion).n_frames if isinstance(frames, str) else frames
     if n >= motion.n_frames:
         raise InvalidArgumentError(f"trim: {n} frames dropped from a clip of {motion.n_frames} "
                                    "leave nothing")

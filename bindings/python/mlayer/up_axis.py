@@ -126,7 +126,7 @@ def to_y_up(up: str, positions: ArrayLike | None = None,
     """World positions (..., 3) and world rotations (..., 4) of a clip whose up axis is ``up``,
     turned so that up is +Y (a proper rotation: the clip is not mirrored); None passes through.
     The features, the renderer and the primitives' heading work in this frame."""
-    q = _TO_Y_UP[axis_name(up, "to_y_up")]
+    q = _TO_Y_UP[axis_name(up, "to_y_up") or "y"]
     out = []
     if positions is not None:
         p = np.asarray(positions, dtype=np.float64)

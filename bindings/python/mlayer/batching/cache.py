@@ -13,9 +13,14 @@ import hashlib
 import json
 import os
 import pathlib
+from collections.abc import Iterable
+from typing import TYPE_CHECKING, Any
 
 from .._files import atomic_output, stale_temporaries
 from .._version import __version__
+
+if TYPE_CHECKING:
+    from .registry import Operation
 
 __all__ = ["SIDECAR_DIR"]
 
@@ -23,8 +28,8 @@ __all__ = ["SIDECAR_DIR"]
 SIDECAR_DIR = ".mlayer-batch"
 
 
-def options_key(op, options: dict, variant: dict, read: dict | None = None) -> str:
-    """The hash of what an output of `op` depends on besides its input."""
+def options_key(op: Operation, options: dict[str, Any], variant: dict[str, Any],
+                read: dict[str, Any] | None = None) -> str:
     doc = {"operation": op.name, "run": f"{op.run.__module__}.{op.run.__qualname__}",
            "options": options, "variant": variant, "mlayer": __version__}
     if read:  # (absent when the clips are read as they are: earlier keys stay valid)
@@ -38,13 +43,13 @@ def sidecar_path(out_dir: pathlib.Path, out: pathlib.Path) -> pathlib.Path:
     return out_dir / SIDECAR_DIR / rel.parent / (rel.name + ".json")
 
 
-def _stat(path):
+def _stat(path: str | os.PathLike[str]) -> tuple[int, int]:
     st = os.stat(path)
     return st.st_size, st.st_mtime_ns
 
 
-def up_to_date(src: str, out: pathlib.Path, sidecar: pathlib.Path, key: str):
-    """The stored record when `out` is complete and up to date, else None."""
+def up_to_date(src: str, out: pathlib.Path, sidecar: pathlib.Path, key: str
+               ) -> dict[str, Any] | None:
     try:
         with open(sidecar, encoding="utf-8") as f:
             side = json.load(f)
@@ -59,7 +64,7 @@ def up_to_date(src: str, out: pathlib.Path, sidecar: pathlib.Path, key: str):
     return None
 
 
-def write_sidecar(src, out, sidecar, key, record) -> None:
+def write_sidecar(src: str, out: str, sidecar: str, key: str, record: dict[str, Any]) -> None:
     in_size, in_mtime = _stat(src)
     out_size, out_mtime = _stat(out)
     side = {"options": key, "input": src, "input_size": in_size, "input_mtime_ns": in_mtime,
@@ -70,9 +75,7 @@ def write_sidecar(src, out, sidecar, key, record) -> None:
             json.dump(side, f, indent=1)
 
 
-def sweep(paths) -> None:
-    """Remove the temporaries that killed writers of these outputs left
-    (:func:`mlayer._files.stale_temporaries`)."""
+def sweep(paths: Iterable[pathlib.Path]) -> None:
     for out in paths:
         for t in stale_temporaries(out):
             with contextlib.suppress(OSError):

@@ -27,7 +27,7 @@ def _walk(folder: pathlib.Path, exclude: str | os.PathLike[str] | None,
           links: list[tuple[str | pathlib.Path, str]]) -> list[tuple[pathlib.Path, pathlib.PurePath]]:
     if _under(folder, exclude):
         exclude = None  # the output folder is this folder (or holds it): the overwrite check
-    out = []
+    out: list[tuple[pathlib.Path, pathlib.PurePath]] = []
     for f in sorted(folder.rglob("*")):
         rel = f.relative_to(folder)
         if any(part.startswith(".") for part in rel.parts) or _under(f, exclude):
@@ -51,7 +51,8 @@ def _glob(pattern: str, exclude: str | os.PathLike[str] | None,
         root = root.parent
     if _under(root, exclude):
         exclude = None
-    out, crossed = [], set()
+    out: list[tuple[pathlib.Path, pathlib.PurePath]] = []
+    crossed: set[pathlib.Path] = set()
     for name in sorted(glob.glob(pattern, recursive=True)):
         f = pathlib.Path(name)
         if _under(f, exclude):

@@ -108,7 +108,7 @@ class BatchResult:
         str
             One line per output, the failures and links, then the totals.
         """
-        def f(x, fmt="{:.3g}"):
+        def f(x: Any, fmt: str = "{:.3g}") -> str:
             return "-" if x is None or (isinstance(x, float) and not math.isfinite(x)) \
                 else fmt.format(x)
         rows = []

@@ -148,43 +148,45 @@ def batch(operation: str | Operation,
                                        "`scheduler` has its own workers")
         integer(n_workers, "n_workers", 1)
     out_root = pathlib.Path(out_dir).resolve()
-    links: list = []
+    links: list[tuple[str | pathlib.Path, str]] = []
     clips = find_inputs(inputs, exclude=out_root, links=links)
     if not clips:
         raise InvalidArgumentError(f"no .bvh files in {inputs!r}")
     inputs_set = {str(src) for src, _ in clips} | {os.path.realpath(src) for src, _ in clips}
-    plan, seen = [], {}
-    for src, rel in clips:
-        jobs = []
+    plan: list[tuple[str, list[tuple[dict[str, Any], str, str, str]]]] = []
+    seen: dict[str, pathlib.Path] = {}
+    for src_path, rel in clips:
+        jobs: list[tuple[dict[str, Any], str, str, str]] = []
         for v in runs:
             out = out_root / rel.parent / (rel.name + variant_tag(v) + op.extension)
             if str(out) in inputs_set or os.path.realpath(out) in inputs_set:
                 raise InvalidArgumentError(f"batch: output {out} would overwrite an input; "
                                            "choose another output folder")
             if str(out) in seen:
-                raise InvalidArgumentError(f"batch: {src} and {seen[str(out)]} both map to "
-                                           f"{out}")
-            seen[str(out)] = src
+                raise InvalidArgumentError(f"batch: {src_path} and {seen[str(out)]} both map "
+                                           f"to {out}")
+            seen[str(out)] = src_path
             jobs.append((v, str(out), str(sidecar_path(out_root, out)),
                          options_key(op, options, v, read)))
-        plan.append((str(src), jobs))
+        plan.append((str(src_path), jobs))
 
     all_outs = [pathlib.Path(o) for _, jobs in plan for _, o, _, _ in jobs]
     # the outputs and their sidecars: what a killed writer may have left temporaries of
     written = all_outs + [pathlib.Path(s) for _, jobs in plan for _, _, s, _ in jobs]
-    records_by_out: dict[str, dict] = {}
-    todo = []
+    records_by_out: dict[str, dict[str, Any]] = {}
+    todo: list[tuple[str, list[tuple[dict[str, Any], str, str, str]]]] = []
     for src, jobs in plan:
         need = []
         for job in jobs:
-            v, out, side, key = job
-            prev = None if force else up_to_date(src, pathlib.Path(out), pathlib.Path(side), key)
+            v, out_s, side, key = job
+            prev = None if force else up_to_date(src, pathlib.Path(out_s), pathlib.Path(side),
+                                                 key)
             if prev is None:
                 need.append(job)
             else:
                 rec = {k: prev.get(k) for k in FIELDS}
-                rec.update(input=src, output=out, variant=v, status=STATUS_SKIPPED, error="")
-                records_by_out[out] = rec
+                rec.update(input=src, output=out_s, variant=v, status=STATUS_SKIPPED, error="")
+                records_by_out[out_s] = rec
         if need:
             todo.append((src, need))
     for d in {p.parent for p in all_outs}:

@@ -123,7 +123,7 @@ def process_clip(op: Operation, src: str, jobs: list[tuple[dict[str, Any], str, 
     """
     t0 = time.perf_counter()
     worker = _worker_name()
-    records = [{"input": src, "output": out, "variant": variant, "status": STATUS_FAILED,
+    records: list[dict[str, Any]] = [{"input": src, "output": out, "variant": variant, "status": STATUS_FAILED,
                 "error": "", "worker": worker} for variant, out, _, _ in jobs]
     try:
         motion = read_bvh(src, threads=1, **(read or {}))  # the workers are the parallelism
