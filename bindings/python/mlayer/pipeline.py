@@ -38,7 +38,7 @@ import math
 import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, NoReturn, SupportsIndex, Union
+from typing import TYPE_CHECKING, Any, Literal, NoReturn, SupportsIndex, Union, overload
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -367,6 +367,16 @@ class Synthesis(ReadOnlyAttributes):
         return self.guard(out, a)
 
 
+@overload
+def denoise(motion: Motion, *, limits: LimitsArg = "auto", floor: FloorArg = "auto",
+            keep_contacts: bool = True, contact_joints: str | Sequence[str | int] | None = None,
+            up: str | int | None = None, return_report: Literal[False] = False,
+            **layer_options: Any) -> Motion: ...
+@overload
+def denoise(motion: Motion, *, limits: LimitsArg = "auto", floor: FloorArg = "auto",
+            keep_contacts: bool = True, contact_joints: str | Sequence[str | int] | None = None,
+            up: str | int | None = None, return_report: Literal[True],
+            **layer_options: Any) -> tuple[Motion, GuardReport]: ...
 def denoise(motion: Motion, *, limits: LimitsArg = "auto", floor: FloorArg = "auto",
             keep_contacts: bool = True, contact_joints: str | Sequence[str | int] | None = None,
             up: str | int | None = None, return_report: bool = False,
@@ -410,6 +420,20 @@ def denoise(motion: Motion, *, limits: LimitsArg = "auto", floor: FloorArg = "au
     return (out, report) if return_report else out
 
 
+@overload
+def stylize(motion: Motion, alpha: float, joints: Mapping[str, float] | None = None, *,
+            root_alpha: float | None = None, limits: LimitsArg = "auto",
+            floor: FloorArg = "auto", keep_contacts: bool = True,
+            contact_joints: str | Sequence[str | int] | None = None,
+            up: str | int | None = None, return_report: Literal[False] = False,
+            **layer_options: Any) -> Motion: ...
+@overload
+def stylize(motion: Motion, alpha: float, joints: Mapping[str, float] | None = None, *,
+            root_alpha: float | None = None, limits: LimitsArg = "auto",
+            floor: FloorArg = "auto", keep_contacts: bool = True,
+            contact_joints: str | Sequence[str | int] | None = None,
+            up: str | int | None = None, return_report: Literal[True],
+            **layer_options: Any) -> tuple[Motion, GuardReport]: ...
 def stylize(motion: Motion, alpha: float, joints: Mapping[str, float] | None = None, *,
             root_alpha: float | None = None, limits: LimitsArg = "auto",
             floor: FloorArg = "auto", keep_contacts: bool = True,

@@ -992,7 +992,7 @@ class PrimitiveModel:
                  noise: float = 0.0, seed: int = 0, most_likely: bool = False,
                  second_likely: bool = False, allow_unseen: bool = False, smooth: float = 2.0,
                  guards: bool = True, return_info: bool = False
-                 ) -> Motion | tuple[Motion, dict[str, Any]]:
+                 ) -> Any:
         """Synthesize n_frames frames.
 
         Paths given on the manifold (at most one of them): ``through``, ``keys``,

@@ -26,7 +26,7 @@ step of a time map) are refused unless ``allow_extreme=True``: they are usually 
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Literal, overload
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -207,6 +207,18 @@ def _solve(motion: Motion, t: NDArray[np.float64] | None, n_out: int, frame_time
     return (out, var) if want_var else out
 
 
+@overload
+def resample(motion: Motion, *, fps: float | None = None, n_frames: int | None = None,
+             lam: float | None = None, sigma: float | None = None,
+             return_var: Literal[False] = False, allow_extreme: bool = False,
+             nearest_sign: bool = False, style: float | dict[str, Any] | None = None,
+             keep_contacts: bool = True) -> Motion: ...
+@overload
+def resample(motion: Motion, *, fps: float | None = None, n_frames: int | None = None,
+             lam: float | None = None, sigma: float | None = None, return_var: Literal[True],
+             allow_extreme: bool = False, nearest_sign: bool = False,
+             style: float | dict[str, Any] | None = None,
+             keep_contacts: bool = True) -> tuple[Motion, NDArray[np.float64]]: ...
 def resample(motion: Motion, *, fps: float | None = None, n_frames: int | None = None,
              lam: float | None = None, sigma: float | None = None, return_var: bool = False,
              allow_extreme: bool = False, nearest_sign: bool = False,
@@ -472,7 +484,7 @@ def timewarp(motion: Motion, *, strength: float = 1.0, n_frames: int | None = No
              smooth_seconds: float = 0.25, root_weight: float = 1.0,
              joint_weights: ArrayLike | None = None, allow_extreme: bool = False,
              style: float | dict[str, Any] | None = None, keep_contacts: bool = True
-             ) -> Motion | tuple[Any, ...]:
+             ) -> Any:
     """Retime ``motion`` along a monotone time map, solved by the LGS; the frame rate stays.
 
     Automatic (default): :func:`timewarp_map` with ``strength`` (0 uniform, 1 natural, more

@@ -101,7 +101,7 @@ class Needs:
             return True
         if callable(self.when):
             return bool(self.when(args))
-        v = getattr(args, self.when, None)
+        v = getattr(args, str(self.when), None)
         return v is not None and v is not False and v != ""
 
 

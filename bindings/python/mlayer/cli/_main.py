@@ -15,6 +15,8 @@ The commands are declared in their modules (``_command.command``) and listed in 
 """
 from __future__ import annotations
 
+from typing import Any
+
 import argparse
 import contextlib
 import logging
@@ -116,7 +118,8 @@ def cli_spelling(message: str, flags) -> str:
 
 def _flags(parser: argparse.ArgumentParser, command: str) -> set:
     """The option strings of a subcommand's parser."""
-    for action in parser._subparsers._group_actions:  # argparse keeps the subparsers here
+    p: Any = parser  # argparse keeps the subparsers in private attributes
+    for action in p._subparsers._group_actions:
         sp = action.choices.get(command)
         if sp is not None:
             return set(sp._option_string_actions)

@@ -33,7 +33,7 @@ import math
 import threading
 import time
 import warnings
-from typing import IO, TYPE_CHECKING, Any
+from typing import IO, TYPE_CHECKING, Any, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -65,7 +65,7 @@ _STEPS = ("features:", "SOM ", "SOM:", "elbow:", "primitives:", "GRBF: ", "GRBF:
 
 # ---- the ranked chains (paper Figure 3 (c)) ---------------------------------------------------
 
-def ranked_next(P: ArrayLike, j: int, rank: int = 1) -> int:
+def ranked_next(P: NDArray[np.float64], j: int, rank: int = 1) -> int:
     """The rank-th most likely next primitive other than j in a transition matrix.
 
     Rank 1: equation 5, argmax over k != j of P[j, k]; rank 2: the runner-up; lowest index on
@@ -130,7 +130,7 @@ def ranked_chain(markov: Markov, start: int, n_frames: int, rank: int = 1) -> ND
     return np.array(path, dtype=np.int64)
 
 
-def ranked_cycle(P: ArrayLike, start: int, rank: int = 1) -> list[int]:
+def ranked_cycle(P: NDArray[np.float64], start: int, rank: int = 1) -> list[int]:
     """Follow :func:`ranked_next` until a primitive repeats (that one included).
 
     The sequence of paper Figure 3 (c).
@@ -238,15 +238,17 @@ class ManifoldSession:
         self.seed = seed
         self.log = log
         self.state = "idle"
-        self.error = None
-        self.model = None
+        self.error: str | None = None
+        # Any: None until trained (``state == "ready"``); read only in that state
+        self.model: Any = None
         self._progress = _Progress()
-        self._t0 = self._t1 = None
+        self._t0: float | None = None
+        self._t1: float | None = None
         self._lock = threading.Lock()      # the state
         self._work = threading.Lock()      # the model in use (one motion at a time)
-        self._thread = None
-        self._map_body = None
-        self._features: dict = {}
+        self._thread: threading.Thread | None = None
+        self._map_body: bytes | None = None
+        self._features: dict[Any, Any] = {}
         self.plan()
 
     # -- the training set --
@@ -401,7 +403,7 @@ class ManifoldSession:
         sk = md.skeleton
         return {
             "state": "ready", "error": None, "progress": 1.0, "steps": self._progress.lines,
-            "seconds": (self._t1 or time.monotonic()) - self._t0,
+            "seconds": (self._t1 or time.monotonic()) - cast(float, self._t0),
             "rows": rows, "cols": cols,
             "umatrix": ((u - u.min()) / span if span > 0 else np.zeros_like(u)).ravel().tolist(),
             "regions": np.argmin(d, axis=1).tolist(), "k": k,
@@ -452,7 +454,7 @@ class ManifoldSession:
         sk = md.skeleton
         n_pts = sk.n_joints + sk.n_end_sites
         most = min(MAX_MOTION_FRAMES, max(2, self.max_values // n_pts))
-        p = {"kind": kind, "frames": 120, "guards": True, "chain": "most", "noise": 0.0,
+        p: dict[str, Any] = {"kind": kind, "frames": 120, "guards": True, "chain": "most", "noise": 0.0,
              "seed": 0}
         if "frames" in q:
             raw = q["frames"]

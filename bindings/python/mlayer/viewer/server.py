@@ -66,7 +66,7 @@ import traceback
 from collections.abc import Iterable
 from http.server import BaseHTTPRequestHandler, HTTPServer
 from importlib import resources
-from typing import IO, Any
+from typing import IO, Any, cast
 from urllib.parse import unquote, urlsplit
 
 from ..errors import Error, InvalidArgumentError
@@ -179,8 +179,8 @@ class ViewerServer(HTTPServer):
             max_frames=_int_option("manifold_frames", manifold_frames, 16, 1_000_000))
         self.token = secrets.token_urlsafe(24)
         self._log_lock = threading.Lock()
-        self._page = None
-        self._reactor = None
+        self._page: bytes | None = None
+        self._reactor: Reactor | None = None
         self._pool = Pool(self._serve_conn, self.threads, MAX_PENDING)
         self._start_lock = threading.Lock()
         self._closing = False
@@ -193,7 +193,7 @@ class ViewerServer(HTTPServer):
         shown = f"[{host.strip('[]')}]" if family_v6 else host
         self.url = f"http://{shown}:{port}/"
         # DNS rebinding guard: on loopback, only requests naming a loopback host are served
-        self.allowed_hosts = None
+        self.allowed_hosts: set[str] | None = None
         if is_loopback(host):
             self.allowed_hosts = {f"{h}:{port}" for h in ("127.0.0.1", "localhost", "[::1]",
                                                          shown)}
@@ -212,9 +212,10 @@ class ViewerServer(HTTPServer):
         """
         with self._start_lock:
             if self._reactor is None:
-                self._reactor = Reactor(self._dispatch, self.timeout)
+                self._reactor = Reactor(self._dispatch, cast(float, self.timeout))
                 self._reactor.start()
-        self._reactor.add(Conn(request, client_address, self.timeout))
+            reactor = self._reactor
+        reactor.add(Conn(request, client_address, cast(float, self.timeout)))
 
     def _dispatch(self, conn: Conn) -> None:
         if self._closing or not self._pool.submit(conn):
@@ -225,13 +226,14 @@ class ViewerServer(HTTPServer):
         watcher (or closed)."""
         try:
             while True:
-                conn.rfile.deadline = time.monotonic() + self.timeout
-                h = _Handler(conn, conn.addr, self)
+                conn.rfile.deadline = time.monotonic() + cast(float, self.timeout)
+                h = _Handler(cast(Any, conn), conn.addr, self)
                 if h.close_connection or self._closing:
                     conn.close()
                     return
                 if not conn.rfile.pending():
                     break
+            assert self._reactor is not None  # started by process_request
             self._reactor.add(conn)
         except OSError:
             conn.close()
@@ -399,7 +401,8 @@ class _Handler(BaseHTTPRequestHandler):
         if self.command == "HEAD":
             self.end_headers()
         elif len(body) <= 65536:  # one write (one packet) for the head and a small body
-            self._headers_buffer.append(b"\r\n" + body)
+            # BaseHTTPRequestHandler's own header buffer (CPython; no stub declares it)
+            self._headers_buffer.append(b"\r\n" + body)  # type: ignore[attr-defined]
             self.flush_headers()
         else:
             self.end_headers()

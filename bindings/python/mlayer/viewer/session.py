@@ -204,6 +204,7 @@ def parse_params(query: str, allowed: Collection[str]) -> dict[str, Any]:
             out[key] = int(raw)
             continue
         v = finite_number(raw, key)
+        assert lo is not None and hi is not None  # every number parameter has a range
         if not lo <= v <= hi:
             raise ParamError(f"{key} must be in [{lo:g}, {hi:g}], got {raw!r}")
         out[key] = v
@@ -372,16 +373,18 @@ class Clip:
         self.index = index
         self.path = path
         self.name = os.path.basename(path)
-        self.motion = None
-        self.error = None
+        # Any: None until read (``ok``); the methods that use it run only for a clip that is ok
+        self.motion: Any = None
+        self.error: str | None = None
         self.cache = cache if cache is not None else ResultCache()
         self.max_values = max_values
         self._lock = threading.Lock()
-        self._layers = None
-        self._contacts = None
-        self._original = None
-        self._original_body = None
-        self._plot_png = None
+        # made on first use (under the lock)
+        self._layers: Any = None
+        self._contacts: Any = None
+        self._original: Any = None
+        self._original_body: Any = None
+        self._plot_png: Any = None
         try:
             self.motion = read_bvh(path)
             if self.motion.n_frames < 4:
@@ -662,7 +665,7 @@ class Clip:
             src = np.interp(np.minimum(k, n1 - 1), np.arange(n1), src)
         c_out = c[np.clip(np.rint(src).astype(np.int64), 0, N - 1)] if names else \
             np.zeros((out.n_frames, 0), dtype=bool)
-        info = {"compute_ms": 1e3 * (time.perf_counter() - t0)}
+        info: dict[str, Any] = {"compute_ms": 1e3 * (time.perf_counter() - t0)}
         info["metrics"] = self._metrics(out, c_out, names)
         info["contacts"] = c_out
         return info, out, src
