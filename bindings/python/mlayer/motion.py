@@ -404,8 +404,8 @@ class Motion:
     --------
     >>> import mlayer
     >>> m = mlayer.data.load_sample()
-    >>> m[:120].duration
-    1.0
+    >>> len(m[:120]), m[:120:2].n_frames
+    (120, 60)
     """
 
     __slots__ = ("_skeleton", "_frame_time", "_root_pos", "_rot", "_trans", "_up", "_units",

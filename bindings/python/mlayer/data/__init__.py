@@ -40,8 +40,8 @@ def load_sample() -> Motion:
     --------
     >>> import mlayer
     >>> m = mlayer.data.load_sample()
-    >>> m.n_frames, m.fps
-    (994, 120.0)
+    >>> m.n_frames, round(m.fps)
+    (994, 120)
     """
     from ..bvh import read_bvh
     return read_bvh(sample_path())
