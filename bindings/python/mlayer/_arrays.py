@@ -25,7 +25,8 @@ def as_f64(arr: Any, name: str, *, ndim: tuple[int, ...] | int | None = None,
         allowed = (ndim,) if isinstance(ndim, int) else tuple(ndim)
         if a.ndim not in allowed:
             raise InvalidArgumentError(
-                f"{name}: expected {' or '.join(map(str, allowed))} dimensions, got shape {a.shape}")
+                f"{name}: expected {' or '.join(map(str, allowed))} dimensions, got shape "
+                f"{a.shape}")
     if last is not None and a.shape[a.ndim - len(last):] != tuple(last):
         raise InvalidArgumentError(
             f"{name}: expected a trailing shape {tuple(last)}, got shape {a.shape}")

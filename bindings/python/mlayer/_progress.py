@@ -19,7 +19,7 @@ from __future__ import annotations
 import logging
 import sys
 from collections.abc import Callable
-from typing import IO, Any, Protocol, Union
+from typing import IO, Any, Protocol
 
 from ._optional import available, require
 from .errors import InvalidArgumentError
@@ -27,7 +27,7 @@ from .errors import InvalidArgumentError
 __all__ = ["logger", "progress_bar", "resolve", "ProgressArg", "Bar", "BarFactory"]
 
 #: what a ``progress=`` argument may be (see the module's docstring)
-ProgressArg = Union[bool, IO[str], Callable[[int, int], object], None]
+ProgressArg = bool | IO[str] | Callable[[int, int], object] | None
 
 
 class Bar(Protocol):

@@ -29,7 +29,8 @@ def c_rig(skeleton: Skeleton) -> tuple[Any, tuple[Any, ...]]:
     r.offsets = ffi.cast("const double *", ffi.from_buffer(offsets))
     r.names = cnames
     r.n_trans = trans.shape[0]
-    r.trans_joints = ffi.cast("const int32_t *", ffi.from_buffer(trans)) if trans.size else ffi.NULL
+    r.trans_joints = ffi.cast("const int32_t *", ffi.from_buffer(trans)) if trans.size \
+        else ffi.NULL
     r.n_end_sites = ends.shape[0]
     if ends.size:
         r.end_site_parents = ffi.cast("const int32_t *", ffi.from_buffer(ends))

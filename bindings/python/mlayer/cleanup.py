@@ -7,7 +7,8 @@ the reference's own contact trajectories shifted by one horizontal offset per co
 reference: each point pinned to its mean); the root moves only where a leg cannot reach; two-bone
 IK (:mod:`mlayer.ik`) reaches the targets, and the rotation changes are spread in time by a
 displacement map that blends to zero within ``blend`` seconds of the constrained frames (then
-smoothed outside them, the constrained frames held), so frames farther from every contact keep the synthesized motion.
+smoothed outside them, the constrained frames held), so frames farther from every contact keep
+the synthesized motion.
 
 Floor (``floor="auto"``, the default): a flat floor at :func:`floor_height` of the reference (the
 5% quantile of the contact points' heights on their contact frames); no foot point goes below
@@ -116,7 +117,8 @@ def floor_height(motion: Motion, contacts: ArrayLike | None = None,
     check(lib.mlr_cleanup_floor_height(
         rig, motion.n_frames, _arrays.ptr(root), _arrays.ptr(rot),
         _arrays.ptr(trans) if trans.size else ffi.NULL, len(names), _i32(j), _i32(e),
-        ffi.cast("const uint8_t *", ffi.from_buffer(c)), motion_axis(motion, up, "floor_height"), float(quantile), out,
+        ffi.cast("const uint8_t *", ffi.from_buffer(c)), motion_axis(motion, up, "floor_height"),
+        float(quantile), out,
         ffi.NULL, diag), "floor_height", diag)
     del keep
     return float(out[0])
@@ -226,7 +228,8 @@ def fix_contacts(motion: Motion, contacts: ArrayLike, names: str | Sequence[str]
     rep = ffi.new("mlr_cleanup_report *")
     diag = ffi.new("mlr_diag *")
     check(lib.mlr_cleanup_contacts(
-        rig, N, float(motion.fps), motion_axis(motion, up, "fix_contacts"), _arrays.ptr(root), _arrays.ptr(rot),
+        rig, N, float(motion.fps), motion_axis(motion, up, "fix_contacts"), _arrays.ptr(root),
+        _arrays.ptr(rot),
         _arrays.ptr(trans) if P else ffi.NULL, *refp, len(names), _i32(j), _i32(e),
         ffi.cast("const uint8_t *", ffi.from_buffer(c)) if c.size else ffi.NULL, copts,
         len(opts), _arrays.ptr_out(out_root), _arrays.ptr_out(out_rot), rep, ffi.NULL, diag),

@@ -73,7 +73,7 @@ def clean_contacts(contacts: ArrayLike, fps: float, *, gap: float = _GAP,
     for k in range(c.shape[1]):
         col = c[:, k]
         runs = _runs(col)
-        for (a0, b0), (a1, _) in zip(runs[:-1], runs[1:]):
+        for (_, b0), (a1, _) in zip(runs[:-1], runs[1:]):
             if a1 - b0 <= g:
                 col[b0:a1] = True
         for a, b in _runs(col):

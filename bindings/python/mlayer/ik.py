@@ -110,7 +110,8 @@ def from_to(u: ArrayLike, v: ArrayLike) -> NDArray[np.float64]:
     u = np.ascontiguousarray(u.reshape(-1, 3))
     v = np.ascontiguousarray(np.asarray(v, dtype=np.float64).reshape(-1, 3))
     if u.shape != v.shape:
-        raise InvalidArgumentError(f"from_to: u and v must have one shape, got {u.shape}, {v.shape}")
+        raise InvalidArgumentError(f"from_to: u and v must have one shape, got {u.shape}, "
+                                   f"{v.shape}")
     out = np.empty((u.shape[0], 4))
     check(lib.mlr_ik_from_to(u.shape[0], _arrays.ptr(u), _arrays.ptr(v), _arrays.ptr_out(out)),
           "from_to")
@@ -205,8 +206,8 @@ def bend_axis_local(hip_wrot: ArrayLike, hip: ArrayLike, knee: ArrayLike, end: A
         A unit axis; zeros when the leg never bends.
     """
     g = np.ascontiguousarray(np.asarray(hip_wrot, dtype=np.float64).reshape(-1, 1, 4))
-    pos = np.ascontiguousarray(np.stack([np.asarray(x, dtype=np.float64) for x in (hip, knee, end)],
-                                        axis=1))
+    pos = np.ascontiguousarray(np.stack([np.asarray(x, dtype=np.float64)
+                                         for x in (hip, knee, end)], axis=1))
     n = pos.shape[0]
     g3 = np.ascontiguousarray(np.broadcast_to(g, (n, 3, 4)))
     out = ffi.new("double[3]")

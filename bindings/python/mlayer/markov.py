@@ -22,7 +22,8 @@ and of each context is redrawn from a Dirichlet distribution centred on it:
 ``E[r'] = r`` and ``Var[r'_k] = r_k (1 - r_k) noise / (1 + noise)``. The concentration
 1 / noise is a number of transitions: at noise = 1 / N a row varies as much as it would if it
 had been estimated from N transitions drawn from it (noise 0.01: a probability of 0.5 varies
-by about +-0.05; noise 1: by +-0.35). Transitions never seen stay impossible. With ``allow_unseen=True`` the centre of each row first gives
+by about +-0.05; noise 1: by +-0.35). Transitions never seen stay impossible. With
+``allow_unseen=True`` the centre of each row first gives
 :data:`UNSEEN_MASS` (0.02) of its mass, in equal parts, to the transitions the data never saw
 (of the jump rows: to the other primitives), then the same draw.
 

@@ -166,7 +166,8 @@ def fuzzy_cmeans(X: ArrayLike, c: int, m: float = 2.0, *, init: str | ArrayLike 
         V = _initial_centers(X, c, init, seed, "fuzzy_cmeans")
         u = _memberships(_sqdist(X, V), m)
     n_iter = 0
-    for n_iter in range(1, max_iter + 1):
+    for it in range(1, max_iter + 1):
+        n_iter = it
         um = u ** m
         V = (um.T @ X) / um.sum(axis=0)[:, None]
         u_new = _memberships(_sqdist(X, V), m)

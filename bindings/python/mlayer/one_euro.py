@@ -65,7 +65,8 @@ class OneEuroFilter:
                 raise InvalidArgumentError(f"OneEuroFilter: {name} must be finite and > 0, "
                                            f"got {v!r}")
         if not (math.isfinite(beta) and beta >= 0):
-            raise InvalidArgumentError(f"OneEuroFilter: beta must be finite and >= 0, got {beta!r}")
+            raise InvalidArgumentError(f"OneEuroFilter: beta must be finite and >= 0, got "
+                                       f"{beta!r}")
         self.rate, self.min_cutoff, self.beta, self.d_cutoff = (float(rate), float(min_cutoff),
                                                                 float(beta), float(d_cutoff))
         self._a_d = _alpha(self.rate, self.d_cutoff)

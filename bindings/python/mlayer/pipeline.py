@@ -38,7 +38,7 @@ import math
 import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Literal, NoReturn, SupportsIndex, Union, overload
+from typing import TYPE_CHECKING, Any, Literal, NoReturn, SupportsIndex, overload
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -57,9 +57,9 @@ if TYPE_CHECKING:
 __all__ = ["Clip", "Synthesis", "GuardReport", "stylize", "denoise"]
 
 #: the ``limits`` argument: "auto", True, None/False or a JointLimits
-LimitsArg = Union[str, bool, JointLimits, None]
+LimitsArg = str | bool | JointLimits | None
 #: the ``floor`` argument: "auto", a height, or None/False
-FloorArg = Union[str, float, bool, None]
+FloorArg = str | float | bool | None
 
 
 @dataclass(frozen=True)
@@ -313,7 +313,8 @@ class Synthesis(ReadOnlyAttributes):
             rr = rq = rt = None
         else:
             rr, rq, rt = reference._frames()
-        ref_ptr = (lambda x: ffi.NULL if x is None or not x.size else _arrays.ptr(x))
+        def ref_ptr(x: NDArray[np.float64] | None) -> Any:
+            return ffi.NULL if x is None or not x.size else _arrays.ptr(x)
         J = self.motion.n_joints
         limited = np.zeros(J, dtype=np.uintp)
         rep = ffi.new("mlr_guards_report *")

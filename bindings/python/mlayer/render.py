@@ -50,8 +50,10 @@ _INDEX = {name: i for i, name in enumerate(_PALETTE)}
 
 _SIDE_PATTERNS = {
     # case-insensitive prefixes/suffixes, and Daz's case-sensitive "lThigh" / "rShldr"
-    "left": (re.compile(r"(^left|left$|^l_|_l$|\.l$)", re.IGNORECASE), re.compile(r"^[lL](?=[A-Z])")),
-    "right": (re.compile(r"(^right|right$|^r_|_r$|\.r$)", re.IGNORECASE), re.compile(r"^[rR](?=[A-Z])")),
+    "left": (re.compile(r"(^left|left$|^l_|_l$|\.l$)", re.IGNORECASE),
+             re.compile(r"^[lL](?=[A-Z])")),
+    "right": (re.compile(r"(^right|right$|^r_|_r$|\.r$)", re.IGNORECASE),
+              re.compile(r"^[rR](?=[A-Z])")),
 }
 
 
@@ -142,7 +144,7 @@ class _Scene:
             raise InvalidArgumentError(f"{where}: fps must be positive, got {fps}")
         pos = [to_y_up(getattr(m, "up_axis", "y"), np.asarray(m.positions(), dtype=np.float64))
                for m in motions]
-        for p, m in zip(pos, motions):
+        for p in pos:
             if p.shape[0] == 0:
                 raise InvalidArgumentError(f"{where}: a motion has no frames")
         duration = max(p.shape[0] / m.fps for p, m in zip(pos, motions))

@@ -20,7 +20,8 @@ retiming composes with everything else that takes a motion (e.g. retime, then st
 
 The first frame always stays put; with ``n_frames`` (and time maps) the last one too, while
 ``fps`` keeps the exact rate: output frame k at time k / fps, ending at the last such time
-within the input (up to one output frame before the input's last frame). Factors beyond 100x (either way, or any local
+within the input (up to one output frame before the input's last frame). Factors beyond 100x
+(either way, or any local
 step of a time map) are refused unless ``allow_extreme=True``: they are usually a unit mistake.
 """
 from __future__ import annotations

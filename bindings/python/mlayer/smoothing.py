@@ -115,7 +115,7 @@ class LGS(ReadOnlyAttributes, NativeHandle):
     def _args(self) -> tuple[Any, ...]:
         return (self.n_out, self.lam, self.sigma, self.order, self._t, self.n_obs, self.solver)
 
-    def _clone(self) -> "LGS":
+    def _clone(self) -> LGS:
         return _make_lgs(*self._args())
 
     def __reduce_ex__(self, protocol: SupportsIndex) -> tuple[Any, ...]:

@@ -36,7 +36,7 @@ A stream is not thread-safe; separate streams are independent.
 from __future__ import annotations
 
 
-from typing import TYPE_CHECKING, Any, NamedTuple, Union
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -72,9 +72,9 @@ class Frame(NamedTuple):
 
 
 #: what :meth:`Stream.push` takes: a (root_pos, rot[, trans]) tuple, a Motion, a flat array
-FrameInput = Union[tuple[ArrayLike, ...], Motion, NDArray[Any]]
+FrameInput = tuple[ArrayLike, ...] | Motion | NDArray[Any]
 #: what :meth:`Stream.push` and :meth:`Stream.flush` give back: the form of the input
-FrameOutput = Union[Frame, Motion, NDArray[np.float64]]
+FrameOutput = Frame | Motion | NDArray[np.float64]
 
 
 def decay_rate(lam: float, sigma: float) -> float:
@@ -216,8 +216,8 @@ class Stream(ReadOnlyAttributes, NativeHandle):
             if not isinstance(limits, JointLimits) or limits.joint_names != sk.joint_names:
                 raise InvalidArgumentError("Stream: limits must be the JointLimits of this "
                                            "skeleton (mlayer.joint_limits(clip))")
-            check(lib.mlr_stream_set_limits(self._h, limits._h, self._diag), "mlayer.Stream limits",
-                  self._diag)
+            check(lib.mlr_stream_set_limits(self._h, limits._h, self._diag),
+                  "mlayer.Stream limits", self._diag)
         self.limits = limits  # the C stream borrows the handle: keep it alive
         if alpha is not None:
             self.set_alpha(alpha)

@@ -103,7 +103,8 @@ def detect_up(motion: Motion, positions: ArrayLike | None = None) -> UpGuess:
 
 
 def axis_name(up: str | int | None, where: str) -> str | None:
-    """An up axis argument ("x", "y", "z" in any case, 0..2, or None) as "x" / "y" / "z" or None."""
+    """An up axis argument ("x", "y", "z" in any case, 0..2, or None) as "x" / "y" / "z" or
+    None."""
     if up is None:
         return None
     if isinstance(up, str) and up.lower() in ("x", "y", "z"):

@@ -13,8 +13,9 @@ The public API is walked at run time:
   class and static methods and properties defined in its own body (plus ``__call__``).
 
 A docstring is numpy-style when it has a one-line summary, a ``Parameters`` section (underlined
-with dashes) naming every parameter (but those starting with an underscore) when the callable takes any (for a class: the
-constructor's, in a ``Parameters`` or ``Attributes`` section of the class docstring), and a
+with dashes) naming every parameter (but those starting with an underscore) when the callable
+takes any (for a class: the constructor's, in a ``Parameters`` or ``Attributes`` section of the
+class docstring), and a
 ``Returns`` (or ``Yields``) section when it returns something (the return annotation is not
 ``None``; properties and classes are exempt). Annotations: every parameter but ``self`` /
 ``cls`` and the return.
@@ -247,8 +248,9 @@ def entries() -> list[Entry]:
 def test_the_walk_finds_the_api(entries: list[Entry]) -> None:
     names = {e.name for e in entries}
     # a few that must be there, so that an empty or broken walk cannot pass
-    for expected in ("mlayer.bvh.read_bvh", "mlayer.motion.Motion", "mlayer.motion.Motion.positions",
-                     "mlayer.quat.mul", "mlayer.errors.check", "mlayer.layers.decompose"):
+    for expected in ("mlayer.bvh.read_bvh", "mlayer.motion.Motion",
+                     "mlayer.motion.Motion.positions", "mlayer.quat.mul", "mlayer.errors.check",
+                     "mlayer.layers.decompose"):
         assert expected in names
     assert len(entries) > 150
 

@@ -24,7 +24,8 @@ def _under(path: str | os.PathLike[str], folder: str | os.PathLike[str] | None) 
 
 
 def _walk(folder: pathlib.Path, exclude: str | os.PathLike[str] | None,
-          links: list[tuple[str | pathlib.Path, str]]) -> list[tuple[pathlib.Path, pathlib.PurePath]]:
+          links: list[tuple[str | pathlib.Path, str]]
+          ) -> list[tuple[pathlib.Path, pathlib.PurePath]]:
     if _under(folder, exclude):
         exclude = None  # the output folder is this folder (or holds it): the overwrite check
     out: list[tuple[pathlib.Path, pathlib.PurePath]] = []
@@ -45,7 +46,8 @@ def _walk(folder: pathlib.Path, exclude: str | os.PathLike[str] | None,
 
 
 def _glob(pattern: str, exclude: str | os.PathLike[str] | None,
-          links: list[tuple[str | pathlib.Path, str]]) -> list[tuple[pathlib.Path, pathlib.PurePath]]:
+          links: list[tuple[str | pathlib.Path, str]]
+          ) -> list[tuple[pathlib.Path, pathlib.PurePath]]:
     root = pathlib.Path(pattern)
     while glob.has_magic(str(root)):
         root = root.parent

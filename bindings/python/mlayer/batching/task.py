@@ -123,8 +123,9 @@ def process_clip(op: Operation, src: str, jobs: list[tuple[dict[str, Any], str, 
     """
     t0 = time.perf_counter()
     worker = _worker_name()
-    records: list[dict[str, Any]] = [{"input": src, "output": out, "variant": variant, "status": STATUS_FAILED,
-                "error": "", "worker": worker} for variant, out, _, _ in jobs]
+    records: list[dict[str, Any]] = [
+        {"input": src, "output": out, "variant": variant, "status": STATUS_FAILED,
+         "error": "", "worker": worker} for variant, out, _, _ in jobs]
     try:
         motion = read_bvh(src, threads=1, **(read or {}))  # the workers are the parallelism
         for r in records:
@@ -136,7 +137,7 @@ def process_clip(op: Operation, src: str, jobs: list[tuple[dict[str, Any], str, 
         if len(results) != len(jobs):
             raise RuntimeError(f"operation {op.name} returned {len(results)} results for "
                                f"{len(jobs)} variants")
-        for r, res, (variant, out, sidecar, key) in zip(records, results, jobs):
+        for r, res, (_variant, out, _sidecar, _key) in zip(records, results, jobs):
             r["frames_out"] = _write(res, out)
             if before is not None:
                 r["jitter_before"], r["sliding_before"] = map(_fin, before)

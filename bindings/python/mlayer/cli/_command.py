@@ -36,7 +36,7 @@ import argparse
 import os
 import sys
 from dataclasses import dataclass, field
-from typing import Callable
+from collections.abc import Callable
 
 from .._optional import require
 from ..errors import InvalidArgumentError, MlayerIOError

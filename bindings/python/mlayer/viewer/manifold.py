@@ -36,7 +36,7 @@ import warnings
 from typing import IO, TYPE_CHECKING, Any, cast
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
 from ..bvh import write_bvh_string
 from ..errors import Error
@@ -454,7 +454,8 @@ class ManifoldSession:
         sk = md.skeleton
         n_pts = sk.n_joints + sk.n_end_sites
         most = min(MAX_MOTION_FRAMES, max(2, self.max_values // n_pts))
-        p: dict[str, Any] = {"kind": kind, "frames": 120, "guards": True, "chain": "most", "noise": 0.0,
+        p: dict[str, Any] = {"kind": kind, "frames": 120, "guards": True, "chain": "most",
+                             "noise": 0.0,
              "seed": 0}
         if "frames" in q:
             raw = q["frames"]
