@@ -18,6 +18,7 @@ sys.path.insert(0, str(DOCS / "_ext"))
 
 import mlayer  # noqa: E402  (the built package: autodoc documents what `import mlayer` gives)
 import mlayer_cdoc  # noqa: E402
+import mlayer_pydoc  # noqa: E402,F401  (registered below: docstrings from before the numpy style)
 
 project = "mlayer"
 author = "the mlayer authors"
@@ -32,6 +33,7 @@ extensions = [
     "myst_parser",
     "hawkmoth",
     "mlayer_cdoc",
+    "mlayer_pydoc",
 ]
 
 source_suffix = {".rst": "restructuredtext", ".md": "markdown"}

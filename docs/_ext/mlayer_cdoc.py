@@ -31,7 +31,8 @@ logger = logging.getLogger(__name__)
 _PLAIN_OPEN = re.compile(r"^(\s*)/\*(?![*/])")
 _DECL_START = re.compile(r"^\s*(typedef\b|enum\b|struct\b|MLR_API\b)")
 _BODY_OPEN = re.compile(r"^\s*(typedef\s+)?(enum|struct)\b[^;]*\{\s*(/\*.*)?$")
-_MEMBER = re.compile(r"^(\s*)([A-Za-z_].*?)\s*(/\*(?!\*).*)?$")
+_MEMBER = re.compile(r"^(\s*)([A-Za-z_].*?)\s*(/\*(?:\*<)?(?!\*).*)?$")
+_ONE_LINE_ENUM = re.compile(r"^(\s*typedef\s+(enum|struct)\s+\w+\s*)\{(.*)\}(\s*\w+;.*)$")
 
 
 def _comment_text(first: str, rest: list[str]) -> tuple[str, int]:
@@ -40,6 +41,8 @@ def _comment_text(first: str, rest: list[str]) -> tuple[str, int]:
     Returns the text without markers and the number of lines of ``rest`` it used.
     """
     body = first[first.index("/*") + 2:]
+    if body.startswith("*<"):
+        body = body[2:]
     used = 0
     parts = []
     while "*/" not in body:
@@ -71,6 +74,23 @@ def _doc_comments(text: str) -> str:
     depth = 0
     while i < len(lines):
         line = lines[i]
+        one = _ONE_LINE_ENUM.match(line) if depth == 0 else None
+        if one:
+            # typedef enum x { A = 0, B = 1 } x;  ->  one enumerator (or member) a line, each
+            # listed, and the type too
+            if not (out and out[-1].strip().endswith("*/")):
+                out.append("/** */")
+            out.append(one.group(1) + "{")
+            sep = "," if one.group(2) == "enum" else ";"
+            for item in (e.strip() for e in one.group(3).split(sep)):
+                if item:
+                    out += ["    /** */", f"    {item}{sep}"]
+            out.append("}" + one.group(4))
+            i += 1
+            continue
+        if depth == 0 and line.startswith("MLR_API") and \
+                not (out and out[-1].strip().endswith("*/")):
+            out.append("/** */")  # an undocumented function (a getter of a group) is listed
         if depth == 0:
             m = _PLAIN_OPEN.match(line)
             if m:
