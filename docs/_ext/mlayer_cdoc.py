@@ -196,6 +196,7 @@ def prepare_headers(src: Path, dst: Path, version: str) -> list[str]:
 
 _ESCAPE = re.compile(r"([\\*`|_\[\]<>:])")
 _FIELD = re.compile(r"^@(param|return)\s*(.*)$")
+_STAR = re.compile(r"^\s*\*(?: {1,2}|$)")
 _LABEL = re.compile(r"\b(Allocates|Threads):")
 
 
@@ -237,6 +238,9 @@ def _paragraph(par: list[str]) -> list[str]:
 
 def javadoc_to_rst(lines: list[str]) -> list[str]:
     """reST for the lines of one header comment (markers already removed by hawkmoth)."""
+    # hawkmoth strips the ' * ' of comments that open with '/**' alone on a line; comments
+    # whose text starts on the '/**' line keep theirs (aligned under the text: ' *  ')
+    lines = [_STAR.sub("", line) for line in lines]
     out: list[str] = []
     i = 0
     n = len(lines)
@@ -255,12 +259,18 @@ def javadoc_to_rst(lines: list[str]) -> list[str]:
                 body.append(lines[i].strip())
                 i += 1
             text = " ".join(body)
+            tail = ""
+            label = _LABEL.search(text)
+            if label:  # "@return ... Allocates: never. Threads: any." on one line
+                text, tail = text[:label.start()], text[label.start():]
             if m.group(1) == "param":
                 name, _, rest = text.partition(" ")
                 out.append(f":param {name}: {_esc(rest.strip())}".rstrip())
             else:
                 out.append(f":returns: {_esc(text.strip())}".rstrip())
-            if i >= n or not _FIELD.match(lines[i].strip()):
+            if tail:
+                out += [""] + _paragraph([tail])
+            elif i >= n or not _FIELD.match(lines[i].strip()):
                 out.append("")
             continue
         par = []
