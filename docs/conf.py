@@ -41,6 +41,7 @@ root_doc = "index"
 exclude_patterns = ["_build", "_ext", "Thumbs.db", ".DS_Store"]
 templates_path: list[str] = []
 
+highlight_language = "none"  # literal blocks of the headers and docstrings are text
 html_theme = "furo"
 html_title = f"mlayer {release}"
 html_static_path: list[str] = []

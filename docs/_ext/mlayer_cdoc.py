@@ -310,9 +310,14 @@ def threads_rows(include: Path) -> list[tuple[str, str, str, str]]:
     """(header, function, Allocates, Threads) for every documented function of the headers."""
     rows = []
     for header in sorted(include.glob("*.h")):
+        documented = {}
         for doc, name in _DOC_BLOCK.findall(header.read_text()):
             doc = doc.split("/**")[-1]
-            rows.append((header.name, name, _clause(doc, "Allocates"), _clause(doc, "Threads")))
+            documented[name] = (_clause(doc, "Allocates"), _clause(doc, "Threads"))
+        for name in header_functions(header):
+            # a getter listed under its group's comment has no lines of its own
+            alloc, threads = documented.get(name, ("", ""))
+            rows.append((header.name, name, alloc, threads))
     return rows
 
 
@@ -353,8 +358,8 @@ class ThreadsTable(Directive):
             ref += nodes.literal(text=name + "()")
             para = nodes.paragraph()
             para += ref
-            body += row([para, nodes.paragraph(text=alloc or "-"),
-                         nodes.paragraph(text=threads or "-")])
+            body += row([para, nodes.paragraph(text=alloc or "(no line)"),
+                         nodes.paragraph(text=threads or "(no line: the general rule)")])
         return [table]
 
 
