@@ -218,6 +218,7 @@ class GRBF:
     psi(x) B in the C core (``mlr_grbf_eval``), psi never stored.
 
     How the fit solves:
+
     - training points equal to a lattice of centres (interpolation on the lattice), in the C
       core (``mlr_grbf_fit_lattice``): the lattice is symmetric under the reflections
       x -> x0 + x1 - x and y -> y0 + y1 - y, and so is the kernel matrix, so in the basis of
