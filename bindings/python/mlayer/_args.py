@@ -18,6 +18,8 @@ __all__ = ["integer", "threads", "default_threads"]
 
 
 def integer(v: Any, name: str, lo: int | None = None, hi: int | None = None) -> int:
+    """``v`` as an int when it is an integer in ``[lo, hi]`` (either bound optional); else
+    InvalidArgumentError: ``"{name} must be an integer >= lo, got v"``."""
     ok = isinstance(v, (int, np.integer)) and not isinstance(v, (bool, np.bool_))
     if ok:
         v = int(v)
@@ -53,4 +55,5 @@ def default_threads() -> int:
 
 
 def threads(v: int | None, name: str = "threads") -> int:
+    """A C function's thread count: None -> 0 (the library picks), else an integer >= 1."""
     return 0 if v is None else integer(v, name, 1)

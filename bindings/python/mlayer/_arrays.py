@@ -17,6 +17,10 @@ from .errors import InvalidArgumentError
 
 def as_f64(arr: Any, name: str, *, ndim: tuple[int, ...] | int | None = None,
            last: tuple[int, ...] | None = None) -> NDArray[np.float64]:
+    """Convert an input once to a C-contiguous float64 array (no copy when it already is one).
+
+    ndim: allowed numbers of dimensions; last: required trailing shape, e.g. (4,).
+    """
     try:
         a = np.ascontiguousarray(arr, dtype=np.float64)
     except (TypeError, ValueError) as e:
@@ -49,6 +53,7 @@ def _c_layout(arr: Any) -> None:
 
 
 def ptr(arr: NDArray[Any], ctype: str = "double *") -> Any:
+    """A C pointer into a checked float64 C-contiguous array (the array must stay referenced)."""
     _c_layout(arr)
     if arr.size == 0:
         return ffi.NULL
@@ -56,6 +61,7 @@ def ptr(arr: NDArray[Any], ctype: str = "double *") -> Any:
 
 
 def ptr_out(arr: NDArray[Any], ctype: str = "double *") -> Any:
+    """Like ptr, for an output array (refuses read-only buffers)."""
     _c_layout(arr)
     if arr.size == 0:
         return ffi.NULL
@@ -68,6 +74,8 @@ def require_finite(a: np.ndarray, name: str) -> None:
 
 
 def number(v: Any, name: str) -> float:
+    """``float(v)``, or InvalidArgumentError naming ``name`` when v is not a number. For values
+    the C core checks itself (its message names the option by the same name)."""
     try:
         return float(v)
     except (TypeError, ValueError):
@@ -75,6 +83,7 @@ def number(v: Any, name: str) -> float:
 
 
 def finite(v: Any, name: str) -> float:
+    """``float(v)``, or InvalidArgumentError naming ``name`` when v is not a finite number."""
     try:
         f = float(v)
     except (TypeError, ValueError):

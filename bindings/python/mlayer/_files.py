@@ -48,6 +48,7 @@ def umask() -> int:
 
 
 def temporary_name(path: str | os.PathLike[str], suffix: str = "") -> str:
+    """A new temporary name for `path` by the rule: ``DIR/.NAME.tmp-<16 hex><suffix>``."""
     path = os.fspath(path)
     if _EXTENSION.fullmatch(suffix) is None:
         raise ValueError(f"atomic_output: suffix {suffix!r} is not an extension (a dot and 1 "
@@ -57,6 +58,9 @@ def temporary_name(path: str | os.PathLike[str], suffix: str = "") -> str:
 
 
 def stale_temporaries(path: str | os.PathLike[str]) -> list[str]:
+    """The temporaries of `path` that exist: those a writer of it that was killed left (or
+    those of a writer still running), whether the C writer or :func:`atomic_output` made
+    them. Sorted."""
     directory, name = os.path.split(os.path.abspath(os.fspath(path)))
     rule = re.compile(re.escape("." + name) + _TEMP_TAIL)
     found = glob.glob(os.path.join(glob.escape(directory), glob.escape("." + name) + ".tmp-*"))
@@ -65,6 +69,16 @@ def stale_temporaries(path: str | os.PathLike[str]) -> list[str]:
 
 @contextlib.contextmanager
 def atomic_output(path: str | os.PathLike[str], suffix: str | None = None) -> Iterator[str]:
+    """Context manager yielding a temporary path in the target's directory.
+
+    Write the whole output to the yielded path; when the block ends without an exception the
+    temporary file replaces ``path`` (``os.replace``, atomic on POSIX). ``suffix`` is the
+    temporary file's extension (default: the target's), for writers that pick the format by
+    extension (matplotlib, Pillow, numpy).
+
+    The file is created (empty, exclusively) with the mode a plain ``open`` would give it
+    (0666 less the umask: 0644 under umask 022), like the BVH files the C writer creates.
+    """
     path = os.fspath(path)
     if suffix is None:
         suffix = os.path.splitext(path)[1]

@@ -43,6 +43,7 @@ def _is_set(obj: Any, name: str) -> bool:
 
 
 def refuse_copy(obj: Any, what: str = "copy", hint: str = "make a new one") -> TypeError:
+    """The TypeError of a copy or pickle of an object whose C handle cannot be duplicated."""
     return TypeError(f"cannot {what} a mlayer.{type(obj).__name__}: it owns a C handle that "
                      f"cannot be duplicated ({hint})")
 
@@ -74,6 +75,7 @@ class NativeHandle:
         return self._h is None
 
     def _live(self) -> Any:
+        """The C handle; InvalidArgumentError when the object is closed."""
         h = self._h
         if h is None:
             raise InvalidArgumentError(f"mlayer.{type(self).__name__}: the object is closed "

@@ -70,6 +70,9 @@ def message(module: str, feature: str, extra: str | None = None) -> str:
 
 
 def require(module: str, *, feature: str, extra: str | None = None) -> ModuleType:
+    """Import `module` and return it, or raise :class:`mlayer.MissingDependencyError` with the
+    one line of :func:`message` (`feature`: what needs it, e.g. "mlayer layers --plot"; `extra`:
+    the mlayer extra, by default the one of :data:`EXTRAS`)."""
     mod = _import(module)
     if mod is None:
         extra = extra or EXTRAS.get(module, (module, None))[1]

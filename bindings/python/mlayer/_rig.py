@@ -1,7 +1,11 @@
-"""A skeleton as the C core's ``mlr_rig``: borrowed pointers into the Skeleton's arrays."""
+"""A skeleton as the C core's ``mlr_rig``: borrowed pointers into the Skeleton's arrays.
+
+The skeleton and motion arguments are typed ``Any``: :mod:`mlayer.motion` imports this module,
+and an import back (even for types only) would be an import circle (test_import_graph).
+"""
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -10,11 +14,10 @@ from . import _arrays
 from ._native import ffi, lib
 from .errors import InvalidArgumentError, check
 
-if TYPE_CHECKING:
-    from .motion import Motion, Skeleton
 
-
-def c_rig(skeleton: Skeleton) -> tuple[Any, tuple[Any, ...]]:
+def c_rig(skeleton: Any) -> tuple[Any, tuple[Any, ...]]:
+    """``(rig, keep)``: an ``mlr_rig *`` over the skeleton's names, parents, offsets, trans
+    joints and End Sites, and the objects that must stay referenced while it is used."""
     names = [ffi.new("char[]", n.encode("utf-8", errors="surrogateescape"))
              for n in skeleton.joint_names]
     cnames = ffi.new("const char *[]", names)
@@ -38,11 +41,14 @@ def c_rig(skeleton: Skeleton) -> tuple[Any, tuple[Any, ...]]:
     return r, (names, cnames, parents, offsets, trans, ends, end_off)
 
 
-def motion_axis(motion: Motion, up: str | int | None, where: str) -> int:
+def motion_axis(motion: Any, up: str | int | None, where: str) -> int:
+    """The up axis argument ``up`` as 0..2; None: the motion's own (:attr:`Motion.up_axis`,
+    given when it was read or detected)."""
     return axis(motion.up_axis if up is None else up, where)
 
 
 def axis(up: str | int | None, where: str) -> int:
+    """An up axis given as "x", "y", "z" (any case) or 0, 1, 2."""
     if isinstance(up, str) and up.lower() in ("x", "y", "z"):
         return "xyz".index(up.lower())
     if isinstance(up, (int, np.integer)) and not isinstance(up, bool) and 0 <= int(up) <= 2:
@@ -52,6 +58,8 @@ def axis(up: str | int | None, where: str) -> int:
 
 
 def body_height_of(positions: ArrayLike, k: int) -> float:
+    """The C core's body size (mlr_rig_body_height, the one every C threshold uses) of (N, J, 3)
+    world positions along axis k (0..2): the median over frames of the joints' extent."""
     p = np.ascontiguousarray(positions, dtype=np.float64)
     if p.shape[0] == 0:
         raise InvalidArgumentError("body_height needs at least one frame")

@@ -68,6 +68,7 @@ END_SUFFIX = "/End"
 
 
 def _end_site_of(sk: Skeleton, j: int) -> int:
+    """Index of the first End Site below joint j, or -1."""
     hits = np.flatnonzero(sk.end_site_parents == j)
     return int(hits[0]) if hits.size else -1
 
@@ -88,6 +89,8 @@ def _positions_arg(motion: Motion, positions: ArrayLike, name: str, last: int
 
 
 def _c_feet(motion: Motion, pos: NDArray[np.float64] | None, up: int) -> list[tuple[int, int]]:
+    """Contact points (joint, End Site or -1) of the feet, ankle then toe, by the C core;
+    (-1, -1) for a foot without a toe."""
     sk = motion.skeleton
     J = sk.n_joints
     rig, keep = c_rig(sk)
@@ -167,6 +170,7 @@ def find_feet(motion: Motion, positions: NDArray[np.float64] | None = None, *,
 
 
 def _point(sk: Skeleton, name: str | int) -> tuple[int, int]:
+    """(joint, End Site or -1) of a contact point name ("Joint" or "Joint/End") or index."""
     if isinstance(name, (int, np.integer)):
         if not 0 <= int(name) < sk.n_joints:
             raise InvalidArgumentError(f"joint index {name} out of range for {sk.n_joints} joints")
@@ -245,6 +249,7 @@ def contact_positions(motion: Motion, names: str | Sequence[str | int],
 
 
 def _runs(mask: NDArray[np.bool_]) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+    """(starts, ends) of the True runs of a 1-D bool array, ends exclusive."""
     d = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
     return np.flatnonzero(d == 1), np.flatnonzero(d == -1)
 

@@ -295,6 +295,9 @@ class GRBF:
 
     def _basis(self, X: NDArray[np.float64], poly: bool,
                out: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
+        """[phi(|x - c_j|) ...] (and 1, x with poly) for the rows of X, by the C core, into the
+        first columns of the first rows of out (C-contiguous float64, at least that large; a
+        new (n, cols) array when None). Returns out."""
         kernel, width, threads = self._c_params()
         C = self._centers()
         N, e = C.shape
@@ -453,6 +456,9 @@ class GRBF:
         return self
 
     def _fit_lattice_c(self, Y: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Interpolation on the lattice by the C core (``mlr_grbf_fit_lattice``: the four
+        symmetry classes of the class notes, each by Cholesky after a Householder reflection
+        removes its side condition, one thread per class)."""
         assert self.lattice is not None  # called for a lattice of centres only
         R, Cn = self.lattice
         C3 = self.centers_.reshape(R, Cn, 2)
@@ -472,6 +478,8 @@ class GRBF:
     def _fit_least_squares(self, P: NDArray[np.float64], Y: NDArray[np.float64],
                            V: NDArray[np.float64], T: NDArray[np.float64], m: int
                            ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """More points than centres (or a ridge): least squares in (a, beta) by QR of the
+        augmented matrix [Pp, Phi Z, Y] (rows of sqrt(lam) I under Phi Z for the ridge)."""
         N = self.centers_.shape[0]
         n, d = Y.shape
         extra = N - m if self.smoothing > 0 else 0
@@ -541,6 +549,9 @@ def _poly(X: NDArray[np.float64]) -> NDArray[np.float64]:
 
 
 def _householder(Pc: NDArray[np.float64]) -> Any:
+    """Compact WY form of the Householder QR of Pc (N, m): Q = I - V T V^T (V unit lower
+    trapezoidal (N, m), T upper triangular (m, m)). Refuses a rank-deficient Pc (centres on a
+    line: the linear terms are not determined)."""
     h, tau = np.linalg.qr(Pc, mode="raw")
     H = h.T
     m = Pc.shape[1]

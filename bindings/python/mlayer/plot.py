@@ -79,6 +79,7 @@ def save_figure(fig: Figure, path: str | os.PathLike[str] | None, *, dpi: float 
 
 
 def _angle(q: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Rotation angle in degrees of unit quaternions (..., 4)."""
     return np.degrees(np.linalg.norm(quat.log(q), axis=-1))
 
 

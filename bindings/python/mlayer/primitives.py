@@ -216,6 +216,9 @@ def same_units(clips: Sequence[Motion]) -> list[Motion]:
 def _check_plan(n: int, k: int | str, ks: Iterable[int] | None, criterion: str, cluster: str,
                 order: int | str, min_count: int, manifold: str, som: Any, lattice: Any,
                 names: Sequence[str] | None, n_clips: int) -> dict[str, Any]:
+    """The arguments of :meth:`PrimitiveModel.fit` checked against the n training frames before
+    any training: k at most the frames and the SOM's units (the distinct manifold points a SOM
+    can give), the candidate ks cut to that bound, the GRBF lattice at most n centres."""
     from .mixture import CRITERIA
     if criterion not in CRITERIA:
         raise InvalidArgumentError(f"option criterion must be one of {', '.join(CRITERIA)}, "
@@ -419,6 +422,8 @@ class PrimitiveModel:
     def _fit(self, clips: list[Motion], plan: dict[str, Any], progress: _Steps, *,
              manifold: str, som: Any, epochs: int, lattice: Any, kernel: str,
              smoothing: float, seed: int) -> PrimitiveModel:
+        """The steps of :meth:`fit` on checked arguments (`plan`: _check_plan's; clips in one
+        unit; `progress`: where the steps go)."""
         from .features import pose_features
         from .layers import body_translation_joint
         self.clip_names = plan["names"]
@@ -469,6 +474,7 @@ class PrimitiveModel:
         return self
 
     def _set_primitives(self, plan: dict[str, Any], seed: int, progress: _Steps) -> None:
+        """Primitives (labels, centres), the k criteria and the Markov model of the labels."""
         from .clustering import kmeans
         from .mixture import k_criteria
         ks, k = plan["ks"], plan["k"]
@@ -560,6 +566,10 @@ class PrimitiveModel:
         return int(self.clip_starts[i]), end - int(self.clip_starts[i])
 
     def _set_guards(self, clips: list[Motion]) -> None:
+        """What the guards of generated motion need from the training clips: the contacts of
+        every training frame (:func:`mlayer.detect_contacts`, the points of the first clip),
+        the floor (:func:`mlayer.cleanup.floor_height` of those contacts over all clips) and
+        the rotations and translations the joint limits are learned from."""
         from .cleanup import floor_height
         from .contacts import detect_contacts
         names = None
@@ -691,6 +701,8 @@ class PrimitiveModel:
         return out, report, c
 
     def _set_body(self, body: int, clips: Sequence[Motion] | None = None) -> None:
+        """The body joint and, when it is not the root, the translations the generated motion
+        keeps: the root's and the other position channels' medians over the training frames."""
         self.body_joint = int(body)
         P = self.skeleton.trans_joints.shape[0]
         if clips is None or self.body_joint == 0:
@@ -706,6 +718,10 @@ class PrimitiveModel:
         return int(np.flatnonzero(self.skeleton.trans_joints == self.body_joint)[0])
 
     def _targets(self, clips: Sequence[Motion], X: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Per frame: [body height, vx, vz (heading frame, per frame), yaw rate, J*4
+        quaternions (body joint without heading), 3J positions]. The body's translation and
+        heading are the root's, or on rigs with a static root those of body_joint in its
+        parent's frame (its position channels and local rotation)."""
         from .layers import body_translation
         b = self.body_joint
         parts = []
@@ -1182,6 +1198,8 @@ class PrimitiveModel:
     # -- persistence -----------------------------------------------------------------------------
 
     def _load_dynamics(self, z: Any, fmt: int) -> None:
+        """The Markov model, the k criteria and the clip names of a model file; format 1 files
+        (before orders and criteria) load as order 1, clips named by their index."""
         from .mixture import KCriteria
         from .markov import contexts_from_arrays
         if fmt == 1:

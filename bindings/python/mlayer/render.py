@@ -169,6 +169,7 @@ class _Scene:
         self.sides = [[body_side(n) for n in m.joint_names] for m in motions]
 
     def frame(self, k: int) -> Any:
+        """Output frame k (time k / fps): the panels side by side, a "P" mode image."""
         from PIL import Image, ImageDraw
         w, h, motions, p0 = self.w, self.h, self.motions, self.pos[0]
         t = k / self.fps

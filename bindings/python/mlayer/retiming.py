@@ -88,6 +88,11 @@ def _frame_count(n: Any, name: str, where: str) -> int:
 
 def _target(motion: Motion, fps: float | None, n_frames: int | None, allow_extreme: bool,
             where: str) -> tuple[int, float, NDArray[np.float64] | None]:
+    """(n_out, frame_time, t) for exactly one of fps / n_frames. fps: the exact grid of the
+    rate (C mlr_resample_rate_map): t[i] = i fps / motion.fps, output frame k at time k / fps
+    after the first frame, ending at the last such time within the input (pass t with
+    MLR_RESAMPLE_OPEN_END). n_frames: t None, the uniform map that keeps the first and last
+    frames, so the duration of frames 0..N-1 stays (the frame time changes)."""
     if (fps is None) == (n_frames is None):
         raise InvalidArgumentError(f"{where}: give exactly one of fps or n_frames")
     N = motion.n_frames
@@ -125,6 +130,7 @@ def frames_at_rate(n_frames: int, fps_in: float, fps_out: float) -> int:
 
 
 def _grid_flags(t: NDArray[np.float64] | None) -> int:
+    """MLR_RESAMPLE_OPEN_END for the exact grid of a rate (a time map from _target)."""
     return 0 if t is None else lib.MLR_RESAMPLE_OPEN_END
 
 
@@ -145,6 +151,7 @@ def _lam_sigma(lam: float | None, sigma: float | None, where: str) -> tuple[floa
 
 def _time_map(time_map: ArrayLike, N: int, n_frames: int | None, allow_extreme: bool,
               where: str) -> tuple[NDArray[np.float64], int]:
+    """The user's map as float64 and the output count (n_frames, or t[-1] + 1)."""
     t = _arrays.as_f64(time_map, "time_map", ndim=1)
     if t.shape[0] != N:
         raise InvalidArgumentError(
@@ -169,6 +176,10 @@ def _time_map(time_map: ArrayLike, N: int, n_frames: int | None, allow_extreme: 
 
 def _stylized(motion: Motion, style: float | dict[str, Any] | None, where: str
               ) -> tuple[Clip, Motion]:
+    """``(clip, motion)``: the input as a :class:`mlayer.pipeline.Clip` (its forward kinematics
+    and contacts computed once for the style and the contacts' retiming) and the motion with
+    its style scaled first (:meth:`Clip.stylize`), when style is given: an alpha, or a dict of
+    stylize's arguments ({"alpha": 2, "joints": {"Left*": 3}, ...})."""
     from .pipeline import Clip
     clip = Clip(motion)
     if style is None:

@@ -30,6 +30,7 @@ SIDECAR_DIR = ".mlayer-batch"
 
 def options_key(op: Operation, options: dict[str, Any], variant: dict[str, Any],
                 read: dict[str, Any] | None = None) -> str:
+    """The hash of what an output of `op` depends on besides its input."""
     doc = {"operation": op.name, "run": f"{op.run.__module__}.{op.run.__qualname__}",
            "options": options, "variant": variant, "mlayer": __version__}
     if read:  # (absent when the clips are read as they are: earlier keys stay valid)
@@ -50,6 +51,7 @@ def _stat(path: str | os.PathLike[str]) -> tuple[int, int]:
 
 def up_to_date(src: str, out: pathlib.Path, sidecar: pathlib.Path, key: str
                ) -> dict[str, Any] | None:
+    """The stored record when `out` is complete and up to date, else None."""
     try:
         with open(sidecar, encoding="utf-8") as f:
             side = json.load(f)
@@ -76,6 +78,8 @@ def write_sidecar(src: str, out: str, sidecar: str, key: str, record: dict[str, 
 
 
 def sweep(paths: Iterable[pathlib.Path]) -> None:
+    """Remove the temporaries that killed writers of these outputs left
+    (:func:`mlayer._files.stale_temporaries`)."""
     for out in paths:
         for t in stale_temporaries(out):
             with contextlib.suppress(OSError):

@@ -17,6 +17,7 @@ def _is_bvh(p: pathlib.Path) -> bool:
 
 
 def _under(path: str | os.PathLike[str], folder: str | os.PathLike[str] | None) -> bool:
+    """Whether path (resolved) is folder (resolved) or inside it."""
     if folder is None:
         return False
     p, f = os.path.realpath(path), os.path.realpath(folder)
@@ -26,6 +27,9 @@ def _under(path: str | os.PathLike[str], folder: str | os.PathLike[str] | None) 
 def _walk(folder: pathlib.Path, exclude: str | os.PathLike[str] | None,
           links: list[tuple[str | pathlib.Path, str]]
           ) -> list[tuple[pathlib.Path, pathlib.PurePath]]:
+    """The .bvh files below folder (hidden parts and `exclude` left out). Symbolic links to
+    folders are not followed (a link may lead out of the tree or back into it) and dangling
+    links cannot be read: both are appended to ``links`` as (path, note)."""
     if _under(folder, exclude):
         exclude = None  # the output folder is this folder (or holds it): the overwrite check
     out: list[tuple[pathlib.Path, pathlib.PurePath]] = []
@@ -48,6 +52,9 @@ def _walk(folder: pathlib.Path, exclude: str | os.PathLike[str] | None,
 def _glob(pattern: str, exclude: str | os.PathLike[str] | None,
           links: list[tuple[str | pathlib.Path, str]]
           ) -> list[tuple[pathlib.Path, pathlib.PurePath]]:
+    """The .bvh files matching a glob, relative to its fixed prefix. Python's glob follows
+    links to folders ("**" included): each one crossed is noted in ``links``, as are dangling
+    links that match."""
     root = pathlib.Path(pattern)
     while glob.has_magic(str(root)):
         root = root.parent

@@ -103,6 +103,7 @@ def operations() -> dict[str, Operation]:
 
 
 def lookup(operation: str | Operation) -> Operation:
+    """The operation named `operation` (or `operation` itself when it is an Operation)."""
     op = _OPERATIONS.get(operation) if isinstance(operation, str) else operation
     if not isinstance(op, Operation):
         raise InvalidArgumentError(f"unknown batch operation {operation!r}; available: "
@@ -115,6 +116,7 @@ _LAYER_OPTIONS = frozenset({"gamma", "lam_c", "sigma_c", "lam_b", "sigma_b", "ba
 
 def _op_denoise(clip: Clip, variants: list[dict[str, Any]], keep_contacts: bool = True,
                 **options: Any) -> list[Motion]:
+    """mlayer.denoise of the input (one synthesis, whatever the number of variants)."""
     out = clip.denoise(keep_contacts=keep_contacts, **options)[0]
     return [out for _ in variants]
 
@@ -122,12 +124,16 @@ def _op_denoise(clip: Clip, variants: list[dict[str, Any]], keep_contacts: bool 
 def _op_stylize(clip: Clip, variants: list[dict[str, Any]], keep_contacts: bool = True,
                 joints: Any = None, root_alpha: float | None = None,
                 **options: Any) -> list[Motion]:
+    """mlayer.stylize for every alpha, sharing one decomposition and one set of guards
+    (mlayer.pipeline.Clip.synthesis)."""
     s = clip.synthesis(keep_contacts=keep_contacts, **options)
     return [s.run(v["alpha"], joints, root_alpha=root_alpha)[0] for v in variants]
 
 
 def _op_features(clip: Clip, variants: list[dict[str, Any]], keep_contacts: bool = True,
                  **options: Any) -> list[dict[str, Any]]:
+    """Arrays for machine learning: the input frames, world joint positions, foot contacts,
+    every layer and its parameters (as Layers.save_npz), and mlayer.pose_features."""
     del keep_contacts  # accepted for a uniform CLI; nothing is synthesized
     motion = clip.motion
     layers = clip.layers(**options)
