@@ -277,7 +277,7 @@ class Layers(ReadOnlyAttributes):
 
     @functools.cached_property
     def outliers(self) -> NDArray[np.bool_]:
-        """bool (N, 1 + J): frames down-weighted as outliers per group.
+        """bool (N, 1 + J), the frames down-weighted as outliers per group.
 
         True where a frame of a group (0 the body translation, 1 + j joint j) was found an
         outlier and down-weighted by the robust decomposition; all False when robust is off or

@@ -464,7 +464,7 @@ class Motion:
 
     @property
     def skeleton(self) -> Skeleton:
-        """The :class:`Skeleton` (assignable: another Skeleton)."""
+        """The :class:`Skeleton` (assignable, to another Skeleton)."""
         return self._skeleton
 
     @skeleton.setter
@@ -516,7 +516,7 @@ class Motion:
 
     @property
     def up_axis(self) -> str:
-        """The world axis that points up: ``"x"``, ``"y"`` or ``"z"``.
+        """The world axis that points up, ``"x"``, ``"y"`` or ``"z"``.
 
         Given by ``read_bvh(path, up=...)`` or by assigning it; else detected from the motion
         (:func:`mlayer.detect_up`: from the feet by name, or the floor), and ``"y"`` (the BVH
@@ -541,7 +541,7 @@ class Motion:
 
     @property
     def units(self) -> str | None:
-        """The clip's length unit: ``"m"``, ``"cm"``, ``"mm"``, ``"in"``, ``"ft"`` or None.
+        """The clip's length unit, ``"m"``, ``"cm"``, ``"mm"``, ``"in"``, ``"ft"`` or None.
 
         The unit when given (``read_bvh(path, units=...)``, ``--units``, or assigned), else
         the unit the body height suggests (:func:`mlayer.units.length_unit`: ``"m"``, ``"cm"``
@@ -737,7 +737,7 @@ class Motion:
 
     @property
     def duration(self) -> float:
-        """Length in seconds: N frame times (each frame stands for one frame time)."""
+        """Length in seconds, N frame times (each frame stands for one frame time)."""
         return self.n_frames * self.frame_time
 
     def __len__(self) -> int:

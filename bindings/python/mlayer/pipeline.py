@@ -542,7 +542,7 @@ class Clip:
 
     @functools.cached_property
     def up(self) -> str:
-        """The input's up axis: the motion's when it was given (``read_bvh(up=)``, ``--up``),
+        """The input's up axis, the motion's when it was given (``read_bvh(up=)``, ``--up``),
         else detected from :attr:`positions` ("y" when the detection is not sure)."""
         m = self.motion
         if m._up is not None:
@@ -560,9 +560,11 @@ class Clip:
 
     @functools.cached_property
     def contacts(self) -> tuple[list[str], NDArray[np.bool_]]:
-        """``(names, contacts)``: :func:`mlayer.detect_contacts` of the input (its feet, along
-        :attr:`up`), from :attr:`forward_kinematics`; no points for a skeleton without feet
-        (:func:`mlayer.contacts.find_feet`)."""
+        """``(names, contacts)``, :func:`mlayer.detect_contacts` of the input.
+
+        Its feet, along :attr:`up`, from :attr:`forward_kinematics`; no points for a skeleton
+        without feet (:func:`mlayer.contacts.find_feet`).
+        """
         from .contacts import detect_contacts, find_feet
         m = self.motion
         try:

@@ -236,7 +236,7 @@ class Stream(ReadOnlyAttributes, NativeHandle):
 
     @property
     def frame_size(self) -> int:
-        """Values per flat frame: 3 + 3 P + 4 J."""
+        """Values per flat frame, 3 + 3 P + 4 J."""
         return self._m
 
     @property

@@ -62,7 +62,7 @@ class UpGuess(NamedTuple):
 
     @property
     def sure(self) -> bool:
-        """Whether the guess can be trusted: a method found it with confidence >= :data:`SURE`."""
+        """Whether the guess can be trusted, found by a method with confidence >= :data:`SURE`."""
         return self.method != "none" and self.confidence >= SURE
 
 

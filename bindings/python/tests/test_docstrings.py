@@ -24,6 +24,7 @@ Run as a script (``python test_docstrings.py``) to print the counts and what fai
 """
 from __future__ import annotations
 
+import functools
 import importlib
 import inspect
 import pkgutil
@@ -129,6 +130,11 @@ def _check_doc(entry: Entry, obj: Any, params: list[str], returns: bool,
         entry.problems_doc.append("no Returns section")
     if doc.count("``") % 2:
         entry.problems_doc.append("unbalanced ``")
+    if isinstance(obj, property) or type(obj).__name__ == "cached_property":
+        # napoleon reads "TYPE: text" in a property's first line as its type
+        first = re.sub(r":[a-z]+:`[^`]*`|``[^`]*``|`[^`]*`", "", doc.splitlines()[0])
+        if ":" in first:
+            entry.problems_doc.append("a colon in the first line (napoleon reads a type)")
 
 
 def _signature(obj: Any) -> inspect.Signature | None:
@@ -198,11 +204,12 @@ def _class_members(cls: type, qual: str) -> Iterator[Entry]:
     for name, raw in vars(cls).items():
         if name.startswith("_") and name != "__call__":
             continue
-        if isinstance(raw, property):
+        if isinstance(raw, (property, functools.cached_property)):
             entry = Entry(f"{qual}.{name}", "property")
-            if raw.fget is None:
+            fget = raw.fget if isinstance(raw, property) else raw.func
+            if fget is None:
                 continue
-            sig = _signature(raw.fget)
+            sig = _signature(fget)
             if sig is not None and sig.return_annotation is inspect.Signature.empty:
                 entry.problems_hints.append("return not annotated")
             _check_doc(entry, raw, [], False)

@@ -511,7 +511,7 @@ class Clip:
 
     @property
     def n_points(self) -> int:
-        """Joints plus End Sites: the points of the figure (the unit of the output cap)."""
+        """Joints plus End Sites, the points of the figure (the unit of the output cap)."""
         return self.motion.n_joints + self.motion.skeleton.n_end_sites
 
     def plan(self, p: dict[str, Any]) -> tuple[int, int]:
