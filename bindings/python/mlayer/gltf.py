@@ -902,7 +902,9 @@ def _read_doc(doc: dict, data: _Data, animation: int, fps: float | None, name: s
         if hint is not None and "position" in hint[k] and (order[k], "translation") in tracks:
             moving[k] = True
     trans_k = [k for k in range(1, J) if moving[k]]
-    offsets = T[0].copy()
+    offsets = T[0].copy()  # a translation animated to a constant: that constant
+    for k in trans_k:  # with position channels: the node's own translation, the rest pose
+        offsets[k] = C[par[k]] * trs[order[k]][0]
     offsets[0] = root_pos[0]
     default = [DEFAULT_ROOT_CHANNELS] + [_TRANS_CHANNELS if moving[k] else
                                          DEFAULT_JOINT_CHANNELS for k in range(1, J)]
