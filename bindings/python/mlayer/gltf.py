@@ -106,6 +106,17 @@ def reframe(motion: Motion, rotation: np.ndarray, scale: float) -> Motion:
         When ``rotation`` is not a signed permutation of determinant +1 or ``scale`` is not a
         finite positive number.
     """
+    sk, root_pos, rot, trans = _reframed(motion, rotation, scale)
+    if rot is motion.rot:
+        rot = rot.copy()
+    return Motion(sk, motion.frame_time, root_pos.copy() if root_pos is motion.root_pos
+                  else root_pos, rot, trans.copy() if trans is motion.trans else trans,
+                  _trusted=True)
+
+
+def _reframed(motion: Motion, rotation, scale):
+    """reframe's skeleton and frames (root_pos, rot, trans), the input's own arrays where
+    nothing changes them (the rotations for a Y-up clip)."""
     M = np.asarray(rotation, dtype=np.float64)
     if M.shape != (3, 3) or not np.array_equal(np.abs(M).sum(axis=0), np.ones(3)) or \
             not np.array_equal(np.abs(M).sum(axis=1), np.ones(3)) or \
@@ -117,15 +128,23 @@ def reframe(motion: Motion, rotation: np.ndarray, scale: float) -> Motion:
     s = float(scale)
     sk = motion.skeleton
     root_pos, rot, trans = motion._frames(finite=True)
+    identity = np.array_equal(M, np.eye(3))
+    perm = np.argmax(np.abs(M), axis=1)  # v' = sign * v[perm]: no arithmetic but the scale
+    sign = M[np.arange(3), perm]
 
     def turn(v: np.ndarray) -> np.ndarray:
-        return (v @ M.T) * s if s != 1.0 else v @ M.T
+        if identity:
+            return v * s if s != 1.0 else v
+        return v[..., perm] * (sign * s)
 
     new_sk = Skeleton(sk.joint_names, sk.parents, turn(sk.offsets), list(sk.channels),
                       sk.end_site_parents, turn(sk.end_site_offsets))
-    r = rot.copy()
-    r[..., 1:] = rot[..., 1:] @ M.T
-    return Motion(new_sk, motion.frame_time, turn(root_pos), r, turn(trans), _trusted=True)
+    if not identity:
+        r = np.empty_like(rot)
+        r[..., 0] = rot[..., 0]
+        r[..., 1:] = rot[..., 1 + perm] * sign
+        rot = r
+    return new_sk, turn(root_pos), rot, turn(trans)
 
 
 def _source_frame(motion: Motion, up, units) -> tuple[str, str | None, float]:
@@ -182,33 +201,32 @@ class _Bin:
         return b"".join(self.parts)
 
 
-def _bones(rest: np.ndarray, parents: np.ndarray, tails: list[tuple[int, np.ndarray]],
-           size: float, J: int):
-    """The bones mesh: an octahedron from each joint to each child / End Site (rest pose)."""
-    verts, joints, tris = [], [], []
-    for p, tail in tails:
-        head = rest[p]
-        d = tail - head
-        L = float(np.linalg.norm(d))
-        if not L > 1e-4 * size:
-            continue  # a zero-length bone (CMU's hip and shoulder joints) draws nothing
-        d = d / L
-        a = np.array([1.0, 0.0, 0.0]) if abs(d[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-        u = np.cross(d, a)
-        u /= np.linalg.norm(u)
-        v = np.cross(d, u)
-        r = 0.08 * L
-        mid = head + 0.15 * L * d
-        base = len(verts)
-        verts += [head, mid + r * u, mid + r * v, mid - r * u, mid - r * v, tail]
-        joints += [p] * 6
-        for i in range(4):
-            a_, b_ = base + 1 + i, base + 1 + (i + 1) % 4
-            tris += [(base, b_, a_), (base + 5, a_, b_)]
-    if not verts:
+def _bones(rest: np.ndarray, tails: list[tuple[int, np.ndarray]], size: float):
+    """The bones mesh: an octahedron from each joint to each child / End Site (rest pose):
+    positions (V, 3) float32, the joint of each vertex (V,), triangle indices (3T,)."""
+    par = np.array([p for p, _ in tails], dtype=np.int64)
+    head = rest[par]
+    tail = np.array([t for _, t in tails])
+    d = tail - head
+    L = np.linalg.norm(d, axis=1)
+    keep = L > 1e-4 * size  # a zero-length bone (CMU's hip and shoulder joints) draws nothing
+    if not keep.any():
         return None
-    return (np.asarray(verts, dtype=np.float32), np.asarray(joints),
-            np.asarray(tris, dtype=np.int64).reshape(-1))
+    par, head, tail, d, L = par[keep], head[keep], tail[keep], d[keep], L[keep]
+    d = d / L[:, None]
+    a = np.where((np.abs(d[:, 0]) < 0.9)[:, None], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])
+    u = np.cross(d, a)
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    v = np.cross(d, u)
+    r = (0.08 * L)[:, None]
+    mid = head + (0.15 * L)[:, None] * d
+    verts = np.stack([head, mid + r * u, mid + r * v, mid - r * u, mid - r * v, tail],
+                     axis=1)  # (B, 6, 3)
+    B = par.shape[0]
+    ring = np.array([[0, 2, 1], [0, 3, 2], [0, 4, 3], [0, 1, 4],
+                     [5, 1, 2], [5, 2, 3], [5, 3, 4], [5, 4, 1]], dtype=np.int64)
+    tris = (np.arange(B)[:, None, None] * 6 + ring[None]).reshape(-1)
+    return verts.reshape(-1, 3).astype(np.float32), np.repeat(par, 6), tris
 
 
 def gltf_bytes(motion: Motion, *, binary: bool = True, up=None, units=None,
@@ -237,13 +255,13 @@ def gltf_bytes(motion: Motion, *, binary: bool = True, up=None, units=None,
     if not isinstance(motion, Motion):
         raise TypeError(f"write_gltf: expected a mlayer.Motion, got {type(motion).__name__}")
     up, units, mpu = _source_frame(motion, up, units)
-    m = reframe(motion, _TO_Y[up], mpu)
-    sk = m.skeleton
-    J, E, N = sk.n_joints, sk.n_end_sites, m.n_frames
+    sk, root_pos, rot, trans = _reframed(motion, _TO_Y[up], mpu)
+    J, E, N = sk.n_joints, sk.n_end_sites, rot.shape[0]
+    frame_time = motion.frame_time
     names = sk.joint_names
-    root0 = m.root_pos[0] if N else sk.offsets[0]
+    root0 = root_pos[0] if N else sk.offsets[0]
     # the rest pose (identity rotations; the root where the first frame has it): the bind pose
-    rest_m = Motion(sk, m.frame_time, root0[None].copy(), np.tile([1.0, 0.0, 0.0, 0.0], (1, J, 1)),
+    rest_m = Motion(sk, frame_time, root0[None].copy(), np.tile([1.0, 0.0, 0.0, 0.0], (1, J, 1)),
                     np.broadcast_to(sk.offsets[sk.trans_joints], (1, len(sk.trans_joints), 3))
                     .copy(), _trusted=True)
     rest, wrot = rest_m.forward_kinematics()
@@ -282,7 +300,7 @@ def gltf_bytes(motion: Motion, *, binary: bool = True, up=None, units=None,
                 [(int(sk.end_site_parents[e]), rest_end[e]) for e in range(E)]
         ext = np.concatenate([rest, rest_end]) if E else rest
         size = float(np.max(ext.max(axis=0) - ext.min(axis=0))) if J > 1 or E else 0.0
-        bones = _bones(rest, sk.parents, tails, size, J) if size > 0 else None
+        bones = _bones(rest, tails, size) if size > 0 else None
         if bones is not None:
             pos, vj, idx = bones
             V = pos.shape[0]
@@ -306,15 +324,19 @@ def gltf_bytes(motion: Motion, *, binary: bool = True, up=None, units=None,
             nodes.append({"name": "bones", "mesh": 0, "skin": 0})
             doc["scenes"][0]["nodes"].append(len(nodes) - 1)
     if N:
-        times = (np.arange(N, dtype=np.float64) * m.frame_time).astype(np.float32)
+        times = (np.arange(N, dtype=np.float64) * frame_time).astype(np.float32)
         a_t = b.accessor(b.view(times.tobytes()), 0, _FLOAT, N, "SCALAR", times[:, None])
         rot_j = [j for j in range(J) if j == 0 or "rotation" in sk.channels[j]]
         tr_j = [0] + [int(j) for j in sk.trans_joints]
-        q = quat.continuous(m.rot[:, rot_j])  # (N, R, 4): consecutive keys on the short arc
-        q = np.ascontiguousarray(q[..., [1, 2, 3, 0]].transpose(1, 0, 2), dtype=np.float32)
-        tr = np.concatenate([m.root_pos[:, None], m.trans], axis=1) if len(tr_j) > 1 \
-            else m.root_pos[:, None]
-        tr = np.ascontiguousarray(tr.transpose(1, 0, 2), dtype=np.float32)
+        qc = quat.continuous(rot)  # consecutive keys on the short arc
+        q = np.empty((len(rot_j), N, 4), dtype=np.float32)  # one track per joint, x y z w
+        tr = np.empty((len(tr_j), N, 3), dtype=np.float32)
+        for k, j in enumerate(rot_j):
+            q[k, :, :3] = qc[:, j, 1:]
+            q[k, :, 3] = qc[:, j, 0]
+        tr[0] = root_pos
+        for k in range(1, len(tr_j)):
+            tr[k] = trans[:, k - 1]
         v_q, v_t = b.view(q.tobytes()), b.view(tr.tobytes())
         samplers, channels = [], []
         for k, j in enumerate(tr_j):
@@ -329,7 +351,7 @@ def gltf_bytes(motion: Motion, *, binary: bool = True, up=None, units=None,
                              "target": {"node": j, "path": "rotation"}})
         doc["animations"] = [{"name": "motion", "samplers": samplers, "channels": channels,
                               "extras": {"mlayer": {
-                                  "frame_time": m.frame_time, "channels": list(sk.channels),
+                                  "frame_time": frame_time, "channels": list(sk.channels),
                                   "source_up": up, "source_units": units,
                                   "metres_per_unit": mpu}}}]
     data = b.data()
@@ -444,9 +466,10 @@ def _container(data: bytes) -> tuple[dict, bytes | None]:
     try:
         doc = json.loads(text.decode("utf-8-sig"))
     except UnicodeDecodeError as e:
-        raise _Bad(f"not glTF: neither a GLB nor UTF-8 JSON ({e.reason} at byte {e.start})")
+        raise _Bad(f"not glTF: neither a GLB nor UTF-8 JSON ({e.reason} at byte "
+                   f"{e.start})") from None
     except json.JSONDecodeError as e:
-        raise _Bad(f"broken JSON at line {e.lineno} column {e.colno}: {e.msg}")
+        raise _Bad(f"broken JSON at line {e.lineno} column {e.colno}: {e.msg}") from None
     _need(isinstance(doc, dict), "the JSON is not an object: not a glTF document")
     asset = doc.get("asset")
     _need(isinstance(asset, dict) and isinstance(asset.get("version"), str),
@@ -655,8 +678,8 @@ def _sample(keys: np.ndarray, values: np.ndarray, mode: str, t: np.ndarray,
     v = values[:, 1] if mode == "CUBICSPLINE" else values
     if K == 1:
         return np.broadcast_to(v[0], (t.shape[0],) + v.shape[1:]).copy()
-    if mode != "CUBICSPLINE" and np.array_equal(keys, t):
-        return v.copy()
+    if mode != "CUBICSPLINE" and (keys is t or np.array_equal(keys, t)):
+        return v
     if mode == "STEP":
         return v[np.clip(np.searchsorted(keys, t, side="right") - 1, 0, K - 1)]
     i = np.clip(np.searchsorted(keys, t, side="right") - 1, 0, K - 2)
@@ -722,6 +745,7 @@ def _read_doc(doc: dict, data: _Data, animation: int, fps: float | None, name: s
     _need(isinstance(samplers, list) and isinstance(channels, list),
           f"{aw} has no samplers or channels lists")
     tracks: dict[tuple[int, str], tuple[np.ndarray, np.ndarray, str]] = {}
+    key_cache: dict[int, np.ndarray] = {}
     for c_i, ch in enumerate(channels):
         cw = f"{aw}.channels[{c_i}]"
         _need(isinstance(ch, dict) and isinstance(ch.get("target"), dict), f"{cw} has no target")
@@ -738,9 +762,12 @@ def _read_doc(doc: dict, data: _Data, animation: int, fps: float | None, name: s
         mode = smp.get("interpolation", "LINEAR")
         _need(mode in ("LINEAR", "STEP", "CUBICSPLINE"),
               f"{sw}.interpolation {mode!r}: not LINEAR, STEP or CUBICSPLINE")
-        keys = data.read(_index(smp, "input", len(data.accessors), sw), f"{sw}.input",
-                         ("SCALAR",))[:, 0]
-        _need(bool(np.all(np.diff(keys) > 0)), f"{sw}.input: key times are not increasing")
+        ki = _index(smp, "input", len(data.accessors), sw)
+        if ki not in key_cache:  # the samplers of a clip mostly share one accessor of times
+            k_ = data.read(ki, f"{sw}.input", ("SCALAR",))[:, 0]
+            _need(bool(np.all(k_[1:] > k_[:-1])), f"{sw}.input: key times are not increasing")
+            key_cache[ki] = k_
+        keys = key_cache[ki]
         rot = path == "rotation"
         vals = data.read(_index(smp, "output", len(data.accessors), sw), f"{sw}.output",
                          ("VEC4",) if rot else ("VEC3",), floats_only=not rot)
@@ -751,9 +778,9 @@ def _read_doc(doc: dict, data: _Data, animation: int, fps: float | None, name: s
         if rot:
             vals = vals[:, [3, 0, 1, 2]]
             if mode != "CUBICSPLINE":
-                n = np.linalg.norm(vals, axis=1)
+                n = np.sqrt(np.einsum("ij,ij->i", vals, vals))
                 _need(bool(np.all(n > 0)), f"{sw}.output holds a zero quaternion")
-                vals = vals / n[:, None]
+                vals /= n[:, None]
         if mode == "CUBICSPLINE":
             vals = vals.reshape(K, 3, -1)
         _need((node, path) not in tracks, f"{aw} animates {path} of nodes[{node}] twice")
@@ -820,10 +847,11 @@ def _read_doc(doc: dict, data: _Data, animation: int, fps: float | None, name: s
         Bs = Bs * sa
 
     # the frame times
-    key_sets = [tracks[(n, p)][0] for n in order for p in ("translation", "rotation", "scale")
-                if (n, p) in tracks]
+    key_sets = {id(tracks[(n, p)][0]): tracks[(n, p)][0] for n in order
+                for p in ("translation", "rotation", "scale") if (n, p) in tracks}
     _need(bool(key_sets), f"{aw} animates none of the skeleton's nodes")
-    allk = np.unique(np.concatenate(key_sets))
+    allk = next(iter(key_sets.values())) if len(key_sets) == 1 else \
+        np.unique(np.concatenate(list(key_sets.values())))
     tol = max(1e-7, 8 * float(np.finfo(np.float32).eps) * float(np.max(np.abs(allk))))
     keep = np.concatenate([[True], np.diff(allk) > tol])
     allk = allk[keep]
@@ -856,19 +884,21 @@ def _read_doc(doc: dict, data: _Data, animation: int, fps: float | None, name: s
             times = allk[0] + np.arange(n_out) * frame_time
     N = times.shape[0]
 
-    # sample every joint's translation, rotation and scale
-    T = np.empty((N, J, 3))
-    Q = np.empty((N, J, 4))
+    # sample every joint's translation, rotation and scale (a track per joint, contiguous)
+    T: list[np.ndarray] = []  # (N, 3) where animated, else the static (3,)
+    Q = np.empty((J, N, 4))
     S = np.empty(J)
     moving = np.zeros(J, dtype=bool)
     for k, n in enumerate(order):
         t0, r0, s0 = trs[n]
         tt = tracks.get((n, "translation"))
-        T[:, k] = t0 if tt is None else _sample(tt[0], tt[1], tt[2], times, False)
-        if tt is not None:
-            moving[k] = bool(np.any(T[:, k] != T[0, k]))
+        if tt is None:
+            T.append(t0 if k else np.broadcast_to(t0, (N, 3)))
+        else:
+            T.append(_sample(tt[0], tt[1], tt[2], times, False))
+            moving[k] = bool(np.any(T[k] != T[k][0]))
         rr = tracks.get((n, "rotation"))
-        Q[:, k] = r0 if rr is None else _sample(rr[0], rr[1], rr[2], times, True)
+        Q[k] = r0 if rr is None else _sample(rr[0], rr[1], rr[2], times, True)
         ss = tracks.get((n, "scale"))
         sv = s0[None] if ss is None else _sample(ss[0], ss[1], ss[2], times, False)
         S[k] = _uniform_scale(sv, f"{name}: nodes[{n}] ({nodes[n].get('name', 'unnamed')})")
@@ -878,9 +908,12 @@ def _read_doc(doc: dict, data: _Data, animation: int, fps: float | None, name: s
     for k in range(J):
         C[k] = (Bs if k == 0 else C[par[k]]) * S[k]
     for k in range(1, J):
-        T[:, k] *= C[par[k]]
-    root_pos = Bt + Bs * (T[:, 0] @ _rot_matrix(Bq).T)
-    Q[:, 0] = quat.mul(Bq, Q[:, 0])
+        if C[par[k]] != 1.0:
+            T[k] = T[k] * C[par[k]]
+    root_pos = T[0] @ _rot_matrix(Bq).T * Bs + Bt if (Bs != 1.0 or np.any(Bt) or
+                                                     Bq[0] != 1.0) else T[0].copy()
+    if Bq[0] != 1.0:
+        Q[0] = quat.mul(Bq, Q[0])
     # End Sites: leaf children outside the skeleton with nothing else to them
     end_par, end_off = [], []
     for k, n in enumerate(order):
@@ -902,7 +935,8 @@ def _read_doc(doc: dict, data: _Data, animation: int, fps: float | None, name: s
         if hint is not None and "position" in hint[k] and (order[k], "translation") in tracks:
             moving[k] = True
     trans_k = [k for k in range(1, J) if moving[k]]
-    offsets = T[0].copy()  # a translation animated to a constant: that constant
+    # a translation animated to a constant: that constant
+    offsets = np.array([T[k] if T[k].ndim == 1 else T[k][0] for k in range(J)])
     for k in trans_k:  # with position channels: the node's own translation, the rest pose
         offsets[k] = C[par[k]] * trs[order[k]][0]
     offsets[0] = root_pos[0]
@@ -918,9 +952,11 @@ def _read_doc(doc: dict, data: _Data, animation: int, fps: float | None, name: s
     except InvalidArgumentError:
         skel = Skeleton(names, par, offsets, default, np.asarray(end_par, dtype=np.int32),
                         np.asarray(end_off).reshape(-1, 3))
-    trans = np.ascontiguousarray(T[:, trans_k]) if trans_k else np.zeros((N, 0, 3))
-    Q /= np.linalg.norm(Q, axis=-1, keepdims=True)
-    m = Motion(skel, frame_time, np.ascontiguousarray(root_pos), Q, trans)
+    trans = np.stack([T[k] for k in trans_k], axis=1) if trans_k else np.zeros((N, 0, 3))
+    Q /= np.sqrt(np.einsum("...i,...i->...", Q, Q))[..., None]
+    # the arrays are checked: finite (every accessor read is), unit rotations, their shapes
+    m = Motion(skel, frame_time, np.ascontiguousarray(root_pos),
+               np.ascontiguousarray(Q.transpose(1, 0, 2)), trans, _trusted=True)
     m.up_axis, m.units = "y", "m"
     return m
 

@@ -41,7 +41,7 @@ WILD = REPO / "tests" / "data" / "wild"
 F32 = float(np.finfo(np.float32).eps)
 
 
-# ---- helpers ----------------------------------------------------------------------------------
+# ---- helpers ---------------------------------------------------------------------------------
 
 def _expected(m, up=None, units=None):
     """The motion turned to Y-up metres the way the file must hold it."""
@@ -88,7 +88,7 @@ def _clip(mocap, name):
     return mlayer.read_bvh(mocap / name)
 
 
-# ---- round trips on the shared clips ------------------------------------------------------------
+# ---- round trips on the shared clips -----------------------------------------------------------
 
 @pytest.mark.parametrize("name", SHARED_CLIPS)
 def test_shared_clip_round_trip(mocap, tmp_path, name):
@@ -144,7 +144,7 @@ def test_round_trip_bvh_text(mocap, tmp_path):
     assert np.abs(c.positions() - m.positions()).max() < 1e-6 * size
 
 
-# ---- up axis and units ---------------------------------------------------------------------------
+# ---- up axis and units --------------------------------------------------------------------------
 
 def _zup_inches(m):
     """m (Y-up cm) as a Z-up clip in inches, same motion."""
@@ -202,7 +202,7 @@ def test_real_zup_clip(tmp_path):
     assert ext[1] > 2 * max(ext[0], ext[2])  # standing along Y
 
 
-# ---- the validator -----------------------------------------------------------------------------
+# ---- the validator ----------------------------------------------------------------------------
 
 def test_validator_no_errors_no_warnings(mocap, tmp_path):
     paths = []
@@ -216,7 +216,7 @@ def test_validator_no_errors_no_warnings(mocap, tmp_path):
     m = _clip(mocap, "cmu_10_01_soccer_kick.bvh")
     mlayer.write_gltf(m, tmp_path / "nomesh.glb", mesh=False)
     paths.append(tmp_path / "nomesh.glb")
-    for p, rep in zip(paths, validate(*paths)):
+    for p, rep in zip(paths, validate(*paths), strict=True):
         assert rep["numErrors"] == 0, (p, rep["messages"])
         assert rep["numWarnings"] == 0, (p, rep["messages"])
         codes = {x["code"] for x in rep["messages"] if x["severity"] == 2}
@@ -226,7 +226,7 @@ def test_validator_no_errors_no_warnings(mocap, tmp_path):
         assert codes <= allowed, (p, codes)
 
 
-# ---- files written by others ---------------------------------------------------------------------
+# ---- files written by others --------------------------------------------------------------------
 
 def test_khronos_simple_skin():
     """The Khronos SimpleSkin sample (CC0, tests/data/gltf): 2 joints, 4 buffers, a stride."""
@@ -406,7 +406,7 @@ def test_animation_choice(tmp_path, mocap):
         mlayer.read_gltf(tmp_path / "b.gltf", animation=2)
 
 
-# ---- bad input -----------------------------------------------------------------------------------
+# ---- bad input ----------------------------------------------------------------------------------
 
 def _small(tmp_path, mocap):
     m = _clip(mocap, "bandai1_walk_happy_001.bvh")[:5]
@@ -541,7 +541,7 @@ def test_write_errors(tmp_path, mocap):
     assert [p.name for p in tmp_path.iterdir()] == ["keep.glb"]
 
 
-# ---- the command line ----------------------------------------------------------------------------
+# ---- the command line ---------------------------------------------------------------------------
 
 def _cli(*args):
     from mlayer.cli import main
