@@ -8,7 +8,8 @@
 - Z-up and inch clips converted to Y-up metres (and back with read_gltf(up=, units=));
 - the Khronos validator (npm gltf-validator, run by gltf_validate.js under node) finds no
   error and no warning (skipped only when node is absent);
-- files written by others: the Khronos SimpleSkin sample (CC0) and files built here the way
+- files written by others: the Khronos SimpleSkin (CC0) and RiggedSimple (CC BY 4.0) samples
+  (tests/data/gltf/README.md) and files built here the way
   exporters write them (an Armature matrix node turning Z-up centimetres, STEP, CUBICSPLINE,
   non-uniform key times, normalized integer rotations, sparse accessors, a side .bin file);
 - bad input: a ParseError naming the file and the reason, never a KeyError or IndexError.
@@ -240,6 +241,27 @@ def test_khronos_simple_skin():
     # the rotation track: about Z by up to 90 degrees
     z = quat.log(m.rot[:, 1])[:, 2]
     assert np.degrees(z).max() == pytest.approx(90.0, abs=0.1)
+
+
+def test_khronos_rigged_simple():
+    """The Khronos RiggedSimple sample (CC BY 4.0, Cesium; a COLLADA2GLTF export): a root
+    matrix node turning Z-up to Y-up above an empty group node, scales of 0.9999999."""
+    path = DATA / "RiggedSimple.gltf"
+    m = mlayer.read_gltf(path)
+    assert m.n_joints == 2 and m.n_frames == 3
+    g = E.Gltf(str(path))
+    keys = E.key_times(g)  # 0.0417, 1.0417, 2.0833: not uniform, resampled at the median step
+    assert m.frame_time == pytest.approx(float(np.median(np.diff(keys))), rel=1e-9)
+    t = keys[0] + np.arange(3) * m.frame_time
+    wp = E.world_positions(g, t, nodes=[2, 3])
+    want = np.stack([wp[2], wp[3]], axis=1)
+    size = float(np.ptp(want.reshape(-1, 3), axis=0).max())
+    # the scales (1, 0.99999988, 0.99999988) are taken as their mean: 4e-8 of the size
+    assert np.abs(m.positions() - want).max() <= 1e-7 * size
+    # the root matrix's turn is folded into the root: the bone hangs along -Y (it stood along
+    # Z before the matrix turned it)
+    d = m.positions()[0, 1] - m.positions()[0, 0]
+    assert abs(d[1]) > 0.99 * np.linalg.norm(d)
 
 
 def _pack(doc, chunks, path, binary=False, side=None):
