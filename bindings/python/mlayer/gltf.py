@@ -59,7 +59,8 @@ from ._files import atomic_output
 from ._version import __version__
 from .errors import (InvalidArgumentError, MlayerIOError, MlayerWarning, ParseError,
                      UnsupportedError)
-from .motion import DEFAULT_JOINT_CHANNELS, DEFAULT_ROOT_CHANNELS, Motion, Skeleton
+from .motion import (DEFAULT_JOINT_CHANNELS, DEFAULT_ROOT_CHANNELS, MIN_FRAME_TIME, Motion,
+                     Skeleton)
 
 __all__ = ["write_gltf", "read_gltf", "gltf_bytes", "reframe"]
 
@@ -69,6 +70,8 @@ _CHUNK_BIN = 0x004E4942
 _FLOAT, _UBYTE, _USHORT, _UINT = 5126, 5121, 5123, 5125
 _ARRAY_BUFFER, _ELEMENT_ARRAY_BUFFER = 34962, 34963
 _TRANS_CHANNELS = "Xposition Yposition Zposition Zrotation Yrotation Xrotation"
+_MAX_FRAMES = 50_000_000  # frames read_gltf resamples to at most (fps=)
+_MAX_VALUES = 1 << 27  # values of an accessor without a bufferView (zeros, sparse) at most
 
 # Signed permutation matrices of the proper rotations taking each up axis to +Y (as
 # mlayer.up_axis.to_y_up): Z-up: (x, y, z) -> (x, z, -y); X-up: (x, y, z) -> (-y, x, z).
@@ -573,6 +576,8 @@ class _Data:
             vi = _index(a, "bufferView", len(self.views), where)
             out = self._raw(vi, a.get("byteOffset", 0), dtype, count, ncomp, where)
         else:
+            _need(count * ncomp <= _MAX_VALUES, f"{where}: {count} elements without a "
+                                                "bufferView: too many")
             out = np.zeros((count, ncomp), dtype=dtype)
         sp = a.get("sparse")
         if sp is not None:
@@ -852,9 +857,13 @@ def _read_doc(doc: dict, data: _Data, animation: int, fps: float | None, name: s
     _need(bool(key_sets), f"{aw} animates none of the skeleton's nodes")
     allk = next(iter(key_sets.values())) if len(key_sets) == 1 else \
         np.unique(np.concatenate(list(key_sets.values())))
-    tol = max(1e-7, 8 * float(np.finfo(np.float32).eps) * float(np.max(np.abs(allk))))
-    keep = np.concatenate([[True], np.diff(allk) > tol])
+    # keys of different accessors a few float32 steps apart are one key; a key time may be
+    # off its frame by as much (the uniformity test below)
+    e32 = 8 * float(np.finfo(np.float32).eps)
+    keep = np.concatenate([[True], np.diff(allk) > e32 * np.maximum(np.abs(allk[1:]),
+                                                                    np.abs(allk[:-1]))])
     allk = allk[keep]
+    tol = e32 * float(np.max(np.abs(allk)))
     extras = an.get("extras", {})
     mx = extras.get("mlayer", {}) if isinstance(extras, dict) else {}
     mx = mx if isinstance(mx, dict) else {}
@@ -862,12 +871,11 @@ def _read_doc(doc: dict, data: _Data, animation: int, fps: float | None, name: s
     ft_hint = float(ft_hint) if isinstance(ft_hint, (int, float)) and not \
         isinstance(ft_hint, bool) and math.isfinite(ft_hint) and ft_hint > 0 else None
     if fps is not None:
-        if not (isinstance(fps, (int, float)) and not isinstance(fps, bool) and
-                math.isfinite(fps) and fps > 0):
-            raise InvalidArgumentError(f"mlayer.read_gltf: fps must be finite and > 0, got "
-                                       f"{fps!r}")
         frame_time = 1.0 / float(fps)
         n_out = int(math.floor((allk[-1] - allk[0]) / frame_time + 1e-9)) + 1
+        if n_out > _MAX_FRAMES:
+            raise InvalidArgumentError(f"mlayer.read_gltf: fps={fps!r} makes {n_out} frames of "
+                                       f"{allk[-1] - allk[0]:.6g} s (at most {_MAX_FRAMES})")
         times = allk[0] + np.arange(n_out) * frame_time
     elif allk.shape[0] == 1:
         frame_time, times = ft_hint or 1.0 / 30.0, allk
@@ -881,8 +889,13 @@ def _read_doc(doc: dict, data: _Data, animation: int, fps: float | None, name: s
         else:
             frame_time = float(np.median(np.diff(allk)))
             n_out = int(math.floor((allk[-1] - allk[0]) / frame_time + 1e-9)) + 1
+            _need(n_out <= max(100 * allk.shape[0], 10000),
+                  f"{aw}: key times too uneven to resample at their median interval "
+                  f"({frame_time:.3g} s over {allk[-1] - allk[0]:.6g} s); pass fps=")
             times = allk[0] + np.arange(n_out) * frame_time
     N = times.shape[0]
+    _need(frame_time >= MIN_FRAME_TIME, f"{aw}: key times {frame_time:.3g} s apart: below "
+                                        f"{MIN_FRAME_TIME:g} s, not frames of a motion")
 
     # sample every joint's translation, rotation and scale (a track per joint, contiguous)
     T: list[np.ndarray] = []  # (N, 3) where animated, else the static (3,)
@@ -1009,6 +1022,9 @@ def read_gltf(path, animation: int = 0, *, fps: float | None = None, up=None,
     name = os.fsdecode(path)
     up = axis_name(up, "mlayer.read_gltf") or "y"
     units = units_arg(units, "mlayer.read_gltf") or "m"
+    if fps is not None and not (isinstance(fps, (int, float)) and not isinstance(fps, bool)
+                                and math.isfinite(fps) and fps > 0):
+        raise InvalidArgumentError(f"mlayer.read_gltf: fps must be finite and > 0, got {fps!r}")
     with open(path, "rb") as f:
         raw = f.read()
     try:
@@ -1017,10 +1033,14 @@ def read_gltf(path, animation: int = 0, *, fps: float | None = None, up=None,
         m = _read_doc(doc, data, animation, fps, name)
     except _Bad as e:
         raise ParseError(f"{name}: {e}", path=name) from None
+    except InvalidArgumentError as e:
+        if str(e).startswith("mlayer.read_gltf:"):
+            raise  # the caller's arguments (animation=, fps=)
+        # what the file describes is not a skeleton mlayer takes (a name, a count)
+        raise ParseError(f"{name}: {e}", path=name) from None
     except (KeyError, IndexError, TypeError, ValueError, AttributeError, struct.error) as e:
-        if isinstance(e, (InvalidArgumentError, UnsupportedError)):
-            if isinstance(e, UnsupportedError) or "read_gltf" in str(e):
-                raise
+        # a safety net: every check above names its reason; this keeps a case they missed a
+        # ParseError too, never a bare KeyError or IndexError
         raise ParseError(f"{name}: malformed glTF ({type(e).__name__}: {e})",
                          path=name) from None
     if up != "y" or units != "m":

@@ -606,3 +606,89 @@ def test_cli_convert(tmp_path, mocap, capsys):
     assert not any((tmp_path / n).exists() for n in ("e.fbx", "f.bvh", "h.bvh"))
     assert _cli("convert", src, tmp_path / "x.bvh") == 1  # BVH to BVH: not a conversion
     assert "glTF" in capsys.readouterr().err
+
+
+# ---- small and odd skeletons -------------------------------------------------------------------
+
+def _odd_motions():
+    rng = np.random.default_rng(7)
+    q = lambda n, j: quat.exp(rng.normal(0, 0.4, (n, j, 3)))  # noqa: E731
+    out = {}
+    out["one_joint"] = mlayer.Motion.from_arrays(["Root"], [-1], [[0, 0, 0]],
+                                                 rng.normal(0, 1, (5, 3)), q(5, 1))
+    out["one_frame"] = mlayer.Motion.from_arrays(["Hips", "Leg", "Foot"], [-1, 0, 1],
+                                                 [[0, 0, 0], [0, -0.4, 0], [0, -0.4, 0]],
+                                                 [[0, 0.9, 0]], q(1, 3))
+    chans = ["Xposition Yposition Zposition Zrotation Xrotation Yrotation", "", "Zrotation",
+             "Xposition Yposition Zposition"]
+    r = q(6, 4)
+    r[:, 1] = r[:, 3] = [1, 0, 0, 0]
+    out["channel_mix"] = mlayer.Motion.from_arrays(
+        ["Hips", "Fixed", "Spin", "Slide"], [-1, 0, 1, 2],
+        [[0, 0, 0], [0, 0.2, 0], [0, 0.3, 0], [0.1, 0, 0]], rng.normal(0, 1, (6, 3)), r,
+        channels=chans, trans=rng.normal(0, 0.1, (6, 1, 3)), end_site_parents=[3],
+        end_site_offsets=[[0, 0, 0.1]])
+    for m in out.values():
+        m.units = "m"
+    return out
+
+
+def test_odd_skeletons(tmp_path):
+    paths = []
+    for name, m in _odd_motions().items():
+        p = tmp_path / f"{name}.glb"
+        mlayer.write_gltf(m, p)
+        paths.append(p)
+        r = mlayer.read_gltf(p)
+        assert r.skeleton.channels == m.skeleton.channels, name
+        assert r.n_frames == m.n_frames and r.frame_time == m.frame_time
+        size = max(_size(m.positions()), 1.0)
+        assert np.abs(r.positions() - m.positions()).max() <= 1e-6 * size, name
+        _, got = _file_positions(p, m.n_joints)
+        assert np.abs(got - m.positions()).max() <= 1e-6 * size, name
+    # no frames: the skeleton without an animation, which read_gltf refuses
+    m0 = _odd_motions()["one_frame"][0:0]
+    mlayer.write_gltf(m0, tmp_path / "empty.glb")
+    paths.append(tmp_path / "empty.glb")
+    with pytest.raises(mlayer.ParseError, match="no animations"):
+        mlayer.read_gltf(tmp_path / "empty.glb")
+    for p, rep in zip(paths, validate(*paths), strict=True):
+        assert rep["numErrors"] == 0 and rep["numWarnings"] == 0, (p, rep["messages"])
+
+
+def _with_times(path, times):
+    """The exporter-style file at path with its key times replaced (bufferView 0)."""
+    doc = json.loads(path.read_text())
+    uri = doc["buffers"][0]["uri"]
+    head, payload = uri.split(",", 1)
+    buf = bytearray(base64.b64decode(payload))
+    t = np.asarray(times, dtype=np.float32)
+    buf[:t.nbytes] = t.tobytes()
+    doc["buffers"][0]["uri"] = head + "," + base64.b64encode(bytes(buf)).decode()
+    doc["accessors"][0]["min"], doc["accessors"][0]["max"] = [float(t[0])], [float(t[-1])]
+    path.write_text(json.dumps(doc))
+
+
+def test_hostile_key_times(tmp_path, rng):
+    path = tmp_path / "x.gltf"
+    _exporter_file(path, rng)
+    _with_times(path, [0, 1e-9, 2e-9, 3e-9, 4e-9, 5e-9, 6e-9, 7e-9, 8e-9])
+    with pytest.raises(mlayer.ParseError, match="below 1e-06 s"):
+        mlayer.read_gltf(path)
+    _with_times(path, [0, 0.01, 0.02, 0.03, 0.04, 0.05, 0.06, 0.07, 1e9])
+    with pytest.raises(mlayer.ParseError, match="too uneven"):
+        mlayer.read_gltf(path)
+    with pytest.raises(mlayer.InvalidArgumentError, match="fps=1000.0 makes"):
+        mlayer.read_gltf(path, fps=1000.0)
+    _with_times(path, [0, 0.01, 0.02, 0.03, 0.04, 0.05, 0.06, 0.05, 0.08])
+    with pytest.raises(mlayer.ParseError, match="not increasing"):
+        mlayer.read_gltf(path)
+    with pytest.raises(mlayer.InvalidArgumentError, match="fps must be"):
+        mlayer.read_gltf(path, fps=0)
+    _with_times(path, np.arange(9) / 30)
+    doc = json.loads(path.read_text())
+    doc["accessors"].append({"componentType": 5126, "count": 10 ** 12, "type": "VEC4"})
+    doc["animations"][0]["samplers"][0]["output"] = len(doc["accessors"]) - 1
+    path.write_text(json.dumps(doc))
+    with pytest.raises(mlayer.ParseError, match="too many"):
+        mlayer.read_gltf(path)
