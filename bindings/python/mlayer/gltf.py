@@ -170,17 +170,18 @@ class _Bin:
     """The binary buffer being built: bufferViews (4-byte aligned) and accessors."""
 
     def __init__(self) -> None:
-        self.parts: list[bytes] = []
+        self.parts: list[Any] = []  # bytes and C-contiguous numpy arrays, written as they are
         self.size = 0
         self.views: list[dict] = []
         self.accessors: list[dict] = []
 
-    def view(self, data: bytes, target: int | None = None) -> int:
-        v: dict[str, Any] = {"buffer": 0, "byteOffset": self.size, "byteLength": len(data)}
+    def view(self, data: np.ndarray, target: int | None = None) -> int:
+        data = np.ascontiguousarray(data)
+        v: dict[str, Any] = {"buffer": 0, "byteOffset": self.size, "byteLength": data.nbytes}
         if target is not None:
             v["target"] = target
         self.parts.append(data)
-        self.size += len(data)
+        self.size += data.nbytes
         pad = (-self.size) % 4
         if pad:
             self.parts.append(b"\0" * pad)
@@ -201,7 +202,8 @@ class _Bin:
         return len(self.accessors) - 1
 
     def data(self) -> bytes:
-        return b"".join(self.parts)
+        return b"".join(memoryview(p).cast("B") if isinstance(p, np.ndarray) else p
+                        for p in self.parts)
 
 
 def _bones(rest: np.ndarray, tails: list[tuple[int, np.ndarray]], size: float):
@@ -255,6 +257,13 @@ def gltf_bytes(motion: Motion, *, binary: bool = True, up=None, units=None,
     InvalidArgumentError
         For a motion with non-finite values, or bad ``up`` / ``units``.
     """
+    return b"".join(memoryview(p).cast("B") if isinstance(p, np.ndarray) else p
+                    for p in _gltf_parts(motion, binary, up, units, mesh))
+
+
+def _gltf_parts(motion: Motion, binary: bool, up, units, mesh: bool) -> list:
+    """The file as a list of buffers (bytes, numpy arrays) to write one after the other: the
+    frames are not copied into one block first."""
     if not isinstance(motion, Motion):
         raise TypeError(f"write_gltf: expected a mlayer.Motion, got {type(motion).__name__}")
     up, units, mpu = _source_frame(motion, up, units)
@@ -291,7 +300,7 @@ def gltf_bytes(motion: Motion, *, binary: bool = True, up=None, units=None,
     # inverse bind matrices: the inverse of each joint's rest world transform (a translation)
     ibm = np.tile(np.eye(4, dtype=np.float32), (J, 1, 1))
     ibm[:, 3, :3] = -rest.astype(np.float32)  # column-major: the translation is column 3
-    ibm_acc = b.accessor(b.view(ibm.tobytes()), 0, _FLOAT, J, "MAT4")
+    ibm_acc = b.accessor(b.view(ibm), 0, _FLOAT, J, "MAT4")
     skin: dict[str, Any] = {"name": "skeleton", "joints": list(range(J)),
                             "inverseBindMatrices": ibm_acc, "skeleton": 0}
     doc: dict[str, Any] = {
@@ -313,10 +322,10 @@ def gltf_bytes(motion: Motion, *, binary: bool = True, up=None, units=None,
             weights = np.zeros((V, 4), dtype=np.float32)
             weights[:, 0] = 1.0
             it, itype = (np.uint16, _USHORT) if V < 65535 else (np.uint32, _UINT)
-            a_pos = b.accessor(b.view(pos.tobytes(), _ARRAY_BUFFER), 0, _FLOAT, V, "VEC3", pos)
-            a_j = b.accessor(b.view(joints.tobytes(), _ARRAY_BUFFER), 0, jtype, V, "VEC4")
-            a_w = b.accessor(b.view(weights.tobytes(), _ARRAY_BUFFER), 0, _FLOAT, V, "VEC4")
-            a_i = b.accessor(b.view(idx.astype(it).tobytes(), _ELEMENT_ARRAY_BUFFER), 0, itype,
+            a_pos = b.accessor(b.view(pos, _ARRAY_BUFFER), 0, _FLOAT, V, "VEC3", pos)
+            a_j = b.accessor(b.view(joints, _ARRAY_BUFFER), 0, jtype, V, "VEC4")
+            a_w = b.accessor(b.view(weights, _ARRAY_BUFFER), 0, _FLOAT, V, "VEC4")
+            a_i = b.accessor(b.view(idx.astype(it), _ELEMENT_ARRAY_BUFFER), 0, itype,
                              idx.shape[0], "SCALAR")
             doc["meshes"] = [{"name": "bones", "primitives": [{
                 "attributes": {"POSITION": a_pos, "JOINTS_0": a_j, "WEIGHTS_0": a_w},
@@ -328,7 +337,7 @@ def gltf_bytes(motion: Motion, *, binary: bool = True, up=None, units=None,
             doc["scenes"][0]["nodes"].append(len(nodes) - 1)
     if N:
         times = (np.arange(N, dtype=np.float64) * frame_time).astype(np.float32)
-        a_t = b.accessor(b.view(times.tobytes()), 0, _FLOAT, N, "SCALAR", times[:, None])
+        a_t = b.accessor(b.view(times), 0, _FLOAT, N, "SCALAR", times[:, None])
         rot_j = [j for j in range(J) if j == 0 or "rotation" in sk.channels[j]]
         tr_j = [0] + [int(j) for j in sk.trans_joints]
         qc = quat.continuous(rot)  # consecutive keys on the short arc
@@ -340,7 +349,7 @@ def gltf_bytes(motion: Motion, *, binary: bool = True, up=None, units=None,
         tr[0] = root_pos
         for k in range(1, len(tr_j)):
             tr[k] = trans[:, k - 1]
-        v_q, v_t = b.view(q.tobytes()), b.view(tr.tobytes())
+        v_q, v_t = b.view(q), b.view(tr)
         samplers, channels = [], []
         for k, j in enumerate(tr_j):
             a = b.accessor(v_t, k * N * 12, _FLOAT, N, "VEC3")
@@ -357,19 +366,18 @@ def gltf_bytes(motion: Motion, *, binary: bool = True, up=None, units=None,
                                   "frame_time": frame_time, "channels": list(sk.channels),
                                   "source_up": up, "source_units": units,
                                   "metres_per_unit": mpu}}}]
-    data = b.data()
     doc["bufferViews"], doc["accessors"] = b.views, b.accessors
     if binary:
-        doc["buffers"] = [{"byteLength": len(data)}]
+        doc["buffers"] = [{"byteLength": b.size}]
         js = json.dumps(doc, separators=(",", ":"), allow_nan=False).encode("utf-8")
         js += b" " * ((-len(js)) % 4)
-        total = 12 + 8 + len(js) + 8 + len(data)
-        return b"".join([struct.pack("<4sII", _GLB_MAGIC, 2, total),
-                         struct.pack("<II", len(js), _CHUNK_JSON), js,
-                         struct.pack("<II", len(data), _CHUNK_BIN), data])
-    doc["buffers"] = [{"byteLength": len(data), "uri": "data:application/octet-stream;base64,"
-                       + base64.b64encode(data).decode("ascii")}]
-    return json.dumps(doc, separators=(",", ":"), allow_nan=False).encode("utf-8")
+        total = 12 + 8 + len(js) + 8 + b.size
+        return [struct.pack("<4sII", _GLB_MAGIC, 2, total),
+                struct.pack("<II", len(js), _CHUNK_JSON), js,
+                struct.pack("<II", b.size, _CHUNK_BIN), *b.parts]
+    doc["buffers"] = [{"byteLength": b.size, "uri": "data:application/octet-stream;base64,"
+                       + base64.b64encode(b.data()).decode("ascii")}]
+    return [json.dumps(doc, separators=(",", ":"), allow_nan=False).encode("utf-8")]
 
 
 def write_gltf(motion: Motion, path, *, up=None, units=None, mesh: bool = True) -> None:
@@ -405,10 +413,11 @@ def write_gltf(motion: Motion, path, *, up=None, units=None, mesh: bool = True) 
     if ext not in (".glb", ".gltf"):
         raise InvalidArgumentError(f"mlayer.write_gltf: {os.fsdecode(path)}: the path must end "
                                    "in .glb or .gltf")
-    data = gltf_bytes(motion, binary=ext == ".glb", up=up, units=units, mesh=mesh)
+    parts = _gltf_parts(motion, ext == ".glb", up, units, mesh)
     try:
         with atomic_output(path) as tmp, open(tmp, "wb") as f:
-            f.write(data)
+            for p in parts:
+                f.write(p)
     except OSError as e:
         raise MlayerIOError(f"mlayer.write_gltf({os.fsdecode(path)}): {e.strerror or e}") from e
 
@@ -442,7 +451,7 @@ def _list(doc: dict, key: str) -> list:
     return v
 
 
-def _container(data: bytes) -> tuple[dict, bytes | None]:
+def _container(data: bytes) -> tuple[dict, memoryview | None]:
     """The JSON document and the GLB BIN chunk (None for a .gltf)."""
     if data[:4] == _GLB_MAGIC:
         _need(len(data) >= 20, f"truncated GLB: {len(data)} bytes, not even a header and chunk")
@@ -455,7 +464,7 @@ def _container(data: bytes) -> tuple[dict, bytes | None]:
             clen, ctype = struct.unpack_from("<II", data, pos)
             _need(pos + 8 + clen <= length, f"truncated GLB: a chunk of {clen} bytes at byte "
                                             f"{pos} runs past the end ({length} bytes)")
-            chunk = data[pos + 8: pos + 8 + clen]
+            chunk = memoryview(data)[pos + 8: pos + 8 + clen]  # no copy of the BIN chunk
             if js is None:
                 _need(ctype == _CHUNK_JSON, "GLB: the first chunk is not JSON")
                 js = chunk
@@ -467,7 +476,7 @@ def _container(data: bytes) -> tuple[dict, bytes | None]:
     else:
         text, binary = data, None
     try:
-        doc = json.loads(text.decode("utf-8-sig"))
+        doc = json.loads(bytes(text).decode("utf-8-sig"))
     except UnicodeDecodeError as e:
         raise _Bad(f"not glTF: neither a GLB nor UTF-8 JSON ({e.reason} at byte "
                    f"{e.start})") from None
@@ -489,14 +498,14 @@ class _Data:
              5123: (np.uint16, 65535.0), 5125: (np.uint32, None), 5126: (np.float32, None)}
     _NCOMP = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT4": 16}
 
-    def __init__(self, doc: dict, binary: bytes | None, directory: str | None) -> None:
+    def __init__(self, doc: dict, binary: memoryview | None, directory: str | None) -> None:
         self.doc, self.binary, self.dir = doc, binary, directory
         self.buffers = _list(doc, "buffers")
         self.views = _list(doc, "bufferViews")
         self.accessors = _list(doc, "accessors")
-        self.cache: dict[int, bytes] = {}
+        self.cache: dict[int, bytes | memoryview] = {}
 
-    def buffer(self, i: int) -> bytes:
+    def buffer(self, i: int) -> bytes | memoryview:
         if i in self.cache:
             return self.cache[i]
         b = self.buffers[i]
@@ -553,9 +562,8 @@ class _Data:
               f"{where}: {count} elements do not fit in bufferViews[{view_i}] "
               f"({vl} bytes)")
         _need((vo + offset) % np.dtype(dtype).itemsize == 0, f"{where} is not aligned")
-        a = np.ndarray((count, ncomp), dtype=np.dtype(dtype).newbyteorder("<"), buffer=buf,
-                       offset=vo + offset, strides=(stride, np.dtype(dtype).itemsize))
-        return a.copy()
+        return np.ndarray((count, ncomp), dtype=np.dtype(dtype).newbyteorder("<"), buffer=buf,
+                          offset=vo + offset, strides=(stride, np.dtype(dtype).itemsize))
 
     def read(self, i: int, where: str, types: tuple, floats_only: bool = True) -> np.ndarray:
         """Accessor i as float64 (count, ncomp); normalized integers dequantized."""
@@ -581,6 +589,7 @@ class _Data:
             out = np.zeros((count, ncomp), dtype=dtype)
         sp = a.get("sparse")
         if sp is not None:
+            out = out.copy()  # a view of the file until here
             _need(isinstance(sp, dict), f"{where}.sparse is not an object")
             n = sp.get("count")
             _need(isinstance(n, int) and 1 <= n <= count, f"{where}.sparse.count is bad")
