@@ -340,15 +340,19 @@ def _gltf_parts(motion: Motion, binary: bool, up, units, mesh: bool) -> list:
         a_t = b.accessor(b.view(times), 0, _FLOAT, N, "SCALAR", times[:, None])
         rot_j = [j for j in range(J) if j == 0 or "rotation" in sk.channels[j]]
         tr_j = [0] + [int(j) for j in sk.trans_joints]
-        qc = quat.continuous(rot)  # consecutive keys on the short arc
-        q = np.empty((len(rot_j), N, 4), dtype=np.float32)  # one track per joint, x y z w
+        # consecutive keys on the short arc, as float32 first (a contiguous cast), then one
+        # track per joint, x y z w (strided float32 copies: 8x faster than from float64)
+        q32 = quat.continuous(rot).astype(np.float32)
+        if len(rot_j) < J:
+            q32 = q32[:, rot_j]
+        qt = q32.transpose(1, 0, 2)
+        q = np.empty((len(rot_j), N, 4), dtype=np.float32)
+        q[:, :, :3] = qt[:, :, 1:]
+        q[:, :, 3] = qt[:, :, 0]
         tr = np.empty((len(tr_j), N, 3), dtype=np.float32)
-        for k, j in enumerate(rot_j):
-            q[k, :, :3] = qc[:, j, 1:]
-            q[k, :, 3] = qc[:, j, 0]
         tr[0] = root_pos
-        for k in range(1, len(tr_j)):
-            tr[k] = trans[:, k - 1]
+        if len(tr_j) > 1:
+            tr[1:] = trans.astype(np.float32).transpose(1, 0, 2)
         v_q, v_t = b.view(q), b.view(tr)
         samplers, channels = [], []
         for k, j in enumerate(tr_j):
