@@ -4,6 +4,12 @@ Prints the median of the repeats and the peer's time divided by mlayer's.
 
     python bench/python/bench_gltf.py [--clips lafan1_clip_a.bvh,cmu_01_01_playground_jumps.bvh]
                                       [--repeat 9] [--mocap DIR]
+    python bench/python/bench_gltf.py --accuracy     # every shared clip: the file's error
+
+``--accuracy`` writes every shared clip as GLB and prints the largest distance between the
+joint positions that the tests' independent evaluator (bindings/python/tests/gltf_eval.py)
+computes from the file and ``motion.positions()`` turned to Y-up metres, relative to the body
+size, and the largest rotation error after read_gltf.
 
 What each side does, so that the rows compare like with like:
 
@@ -116,12 +122,47 @@ def _seconds(fn, *args, **kw) -> float:
     return time.perf_counter() - t0
 
 
+def accuracy(mocap: pathlib.Path, tmp: str) -> None:
+    """The file's position error and the read-back rotation error on every shared clip."""
+    import sys
+    import warnings
+    sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[2] / "bindings" / "python"
+                           / "tests"))
+    import gltf_eval as E
+    from mlayer.gltf import _TO_Y, reframe
+    from mlayer.units import UNITS
+    out = os.path.join(tmp, "a.glb")
+    for p in sorted(mocap.glob("*.bvh")):
+        m = mlayer.read_bvh(p)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", mlayer.MlayerWarning)  # CMU: unit unknown
+            mlayer.write_gltf(m, out)
+        x = reframe(m, _TO_Y[m.up_axis], UNITS[m.units] if m.units else 1.0)
+        want = x.positions()
+        g = E.Gltf(out)
+        wp = E.world_positions(g, E.key_times(g), nodes=range(m.n_joints))
+        got = np.stack([wp[j] for j in range(m.n_joints)], axis=1)
+        size = float(np.median(np.ptp(want, axis=1).max(axis=1)))
+        r = mlayer.read_gltf(out)
+        d = np.abs(np.sum(r.rot * x.rot, axis=-1))
+        ang = 2 * np.arccos(np.minimum(d, 1.0))
+        print(f"{p.name:36s} up {m.up_axis} units {m.units or '?':2s}  file positions: max "
+              f"error {np.abs(got - want).max() / size:.2e} of the body size; read back: "
+              f"{np.abs(r.positions() - want).max() / size:.2e}, rotations {ang.max():.2e} rad")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--clips", default="lafan1_clip_a.bvh,cmu_01_01_playground_jumps.bvh")
     ap.add_argument("--repeat", type=int, default=9)
     ap.add_argument("--mocap", type=pathlib.Path, default=mocap_dir())
+    ap.add_argument("--accuracy", action="store_true",
+                    help="print the files' position and rotation errors instead of timing")
     args = ap.parse_args()
+    if args.accuracy:
+        with tempfile.TemporaryDirectory() as tmp:
+            accuracy(args.mocap, tmp)
+        return
     import pygltflib  # noqa: F401  (fails here, before any work, when it is missing)
     with tempfile.TemporaryDirectory() as tmp:
         for name in args.clips.split(","):
