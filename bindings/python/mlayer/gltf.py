@@ -117,7 +117,8 @@ def reframe(motion: Motion, rotation: np.ndarray, scale: float) -> Motion:
                   _trusted=True)
 
 
-def _reframed(motion: Motion, rotation, scale):
+def _reframed(motion: Motion, rotation: np.ndarray,
+              scale: float) -> tuple[Skeleton, np.ndarray, np.ndarray, np.ndarray]:
     """reframe's skeleton and frames (root_pos, rot, trans), the input's own arrays where
     nothing changes them (the rotations for a Y-up clip)."""
     M = np.asarray(rotation, dtype=np.float64)
@@ -150,7 +151,8 @@ def _reframed(motion: Motion, rotation, scale):
     return new_sk, turn(root_pos), rot, turn(trans)
 
 
-def _source_frame(motion: Motion, up, units) -> tuple[str, str | None, float]:
+def _source_frame(motion: Motion, up: str | None,
+                  units: str | None) -> tuple[str, str | None, float]:
     """The clip's up axis and unit (given or the motion's) and its size in metres."""
     from .units import UNITS, units_arg
     from .up_axis import axis_name
@@ -202,7 +204,7 @@ class _Bin:
         return len(self.accessors) - 1
 
     def data(self) -> bytes:
-        return b"".join(memoryview(p).cast("B") if isinstance(p, np.ndarray) else p
+        return b"".join(p.data.cast("B") if isinstance(p, np.ndarray) else p
                         for p in self.parts)
 
 
@@ -234,8 +236,8 @@ def _bones(rest: np.ndarray, tails: list[tuple[int, np.ndarray]], size: float):
     return verts.reshape(-1, 3).astype(np.float32), np.repeat(par, 6), tris
 
 
-def gltf_bytes(motion: Motion, *, binary: bool = True, up=None, units=None,
-               mesh: bool = True) -> bytes:
+def gltf_bytes(motion: Motion, *, binary: bool = True, up: str | None = None,
+               units: str | None = None, mesh: bool = True) -> bytes:
     """The glTF 2.0 file of ``motion`` as bytes (what :func:`write_gltf` writes).
 
     Parameters
@@ -257,11 +259,12 @@ def gltf_bytes(motion: Motion, *, binary: bool = True, up=None, units=None,
     InvalidArgumentError
         For a motion with non-finite values, or bad ``up`` / ``units``.
     """
-    return b"".join(memoryview(p).cast("B") if isinstance(p, np.ndarray) else p
+    return b"".join(p.data.cast("B") if isinstance(p, np.ndarray) else p
                     for p in _gltf_parts(motion, binary, up, units, mesh))
 
 
-def _gltf_parts(motion: Motion, binary: bool, up, units, mesh: bool) -> list:
+def _gltf_parts(motion: Motion, binary: bool, up: str | None, units: str | None,
+                mesh: bool) -> list:
     """The file as a list of buffers (bytes, numpy arrays) to write one after the other: the
     frames are not copied into one block first."""
     if not isinstance(motion, Motion):
@@ -384,7 +387,8 @@ def _gltf_parts(motion: Motion, binary: bool, up, units, mesh: bool) -> list:
     return [json.dumps(doc, separators=(",", ":"), allow_nan=False).encode("utf-8")]
 
 
-def write_gltf(motion: Motion, path, *, up=None, units=None, mesh: bool = True) -> None:
+def write_gltf(motion: Motion, path: str | os.PathLike[str], *, up: str | None = None,
+               units: str | None = None, mesh: bool = True) -> None:
     """Write ``motion`` as a glTF 2.0 file, atomically (the old file, if any, stays intact when
     writing fails).
 
@@ -437,7 +441,7 @@ def _need(cond: bool, reason: str) -> None:
         raise _Bad(reason)
 
 
-def _index(obj: dict, key: str, n: int, where: str, required: bool = True) -> int | None:
+def _index(obj: dict, key: str, n: int, where: str, required: bool = True) -> Any:
     """obj[key] as an index into a list of n items."""
     v = obj.get(key)
     if v is None:
@@ -463,7 +467,9 @@ def _container(data: bytes) -> tuple[dict, memoryview | None]:
         _need(version == 2, f"GLB version {version}: only glTF 2.0 is read")
         _need(length <= len(data), f"truncated GLB: the header says {length} bytes, the file "
                                    f"has {len(data)}")
-        pos, js, binary = 12, None, None
+        pos = 12
+        js: memoryview | None = None
+        binary: memoryview | None = None
         while pos + 8 <= length:
             clen, ctype = struct.unpack_from("<II", data, pos)
             _need(pos + 8 + clen <= length, f"truncated GLB: a chunk of {clen} bytes at byte "
@@ -475,8 +481,9 @@ def _container(data: bytes) -> tuple[dict, memoryview | None]:
             elif ctype == _CHUNK_BIN and binary is None:
                 binary = chunk
             pos += 8 + clen + ((-clen) % 4 if pos + 8 + clen < length else 0)
-        _need(js is not None, "GLB without a JSON chunk")
-        text = js
+        if js is None:
+            raise _Bad("GLB without a JSON chunk")
+        text: bytes | memoryview = js
     else:
         text, binary = data, None
     try:
@@ -514,9 +521,10 @@ class _Data:
             return self.cache[i]
         b = self.buffers[i]
         uri = b.get("uri")
+        data: bytes | memoryview
         if uri is None:
-            _need(i == 0 and self.binary is not None,
-                  f"buffers[{i}] has no uri and there is no GLB BIN chunk")
+            if i != 0 or self.binary is None:
+                raise _Bad(f"buffers[{i}] has no uri and there is no GLB BIN chunk")
             data = self.binary
         else:
             _need(isinstance(uri, str), f"buffers[{i}].uri is not a string")
@@ -530,9 +538,9 @@ class _Data:
                     raise _Bad(f"buffers[{i}]: broken base64 ({e})") from None
             else:
                 rel = urllib.parse.unquote(uri)
-                _need("://" not in rel and not os.path.isabs(rel) and self.dir is not None,
-                      f"buffers[{i}].uri {uri!r}: only data: URIs and files beside the glTF "
-                      "file are read")
+                if "://" in rel or os.path.isabs(rel) or self.dir is None:
+                    raise _Bad(f"buffers[{i}].uri {uri!r}: only data: URIs and files beside "
+                               "the glTF file are read")
                 full = os.path.join(self.dir, rel)
                 try:
                     with open(full, "rb") as f:
@@ -547,7 +555,8 @@ class _Data:
         self.cache[i] = data
         return data
 
-    def _raw(self, view_i: int, offset: int, dtype, count: int, ncomp: int, where: str):
+    def _raw(self, view_i: int, offset: int, dtype: Any, count: int, ncomp: int,
+             where: str) -> np.ndarray:
         v = self.views[view_i]
         bi = _index(v, "buffer", len(self.buffers), f"bufferViews[{view_i}]")
         _need(not v.get("extensions", {}).keys() & {"EXT_meshopt_compression",
@@ -634,8 +643,8 @@ def _quat_of_matrix(R: np.ndarray) -> np.ndarray:
     else:
         s = math.sqrt(1.0 + R[2, 2] - R[0, 0] - R[1, 1]) * 2
         q = [(R[1, 0] - R[0, 1]) / s, (R[0, 2] + R[2, 0]) / s, (R[1, 2] + R[2, 1]) / s, 0.25 * s]
-    q = np.asarray(q)
-    return q / np.linalg.norm(q)
+    out = np.asarray(q)
+    return out / np.linalg.norm(out)
 
 
 def _rot_matrix(q: np.ndarray) -> np.ndarray:
@@ -645,7 +654,7 @@ def _rot_matrix(q: np.ndarray) -> np.ndarray:
                      [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
 
 
-def _num_list(v, n: int, where: str) -> np.ndarray:
+def _num_list(v: Any, n: int, where: str) -> np.ndarray:
     _need(isinstance(v, list) and len(v) == n and
           all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in v),
           f"{where} is not a list of {n} numbers")
@@ -682,7 +691,7 @@ def _node_trs(node: dict, i: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     r = _num_list(node["rotation"], 4, f"{where}.rotation")[[3, 0, 1, 2]] if "rotation" in \
         node else np.array([1.0, 0.0, 0.0, 0.0])
     n = np.linalg.norm(r)
-    _need(n > 0, f"{where}.rotation is a zero quaternion")
+    _need(bool(n > 0), f"{where}.rotation is a zero quaternion")
     s = _num_list(node["scale"], 3, f"{where}.scale") if "scale" in node else np.ones(3)
     return t, r / n, s
 
@@ -987,8 +996,8 @@ def _read_doc(doc: dict, data: _Data, animation: int, fps: float | None, name: s
     return m
 
 
-def read_gltf(path, animation: int = 0, *, fps: float | None = None, up=None,
-              units=None) -> Motion:
+def read_gltf(path: str | os.PathLike[str], animation: int = 0, *, fps: float | None = None,
+              up: str | None = None, units: str | None = None) -> Motion:
     """Read one skeletal animation of a glTF 2.0 file (``.glb`` or ``.gltf``) as a Motion.
 
     Parameters

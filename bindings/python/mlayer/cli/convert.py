@@ -11,6 +11,7 @@ atomically; bad input gives one line on stderr and exit status 1, and no file.
 """
 from __future__ import annotations
 
+import argparse
 import os
 
 from ..bvh import read_bvh, write_bvh
@@ -21,7 +22,7 @@ from ._command import Output, command
 _GLTF = (".glb", ".gltf")
 
 
-def _arguments(p) -> None:
+def _arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("input", metavar="IN", help="a .bvh, .glb or .gltf file")
     p.add_argument("output", metavar="OUT", help="a .glb or .gltf file for a BVH input, a "
                                                  ".bvh file for a glTF input")
@@ -41,7 +42,7 @@ def _kind(path: str) -> str:
          arguments=_arguments, reads_clips=True, inputs=("input",),
          outputs={"output": Output((".bvh",) + _GLTF, "a BVH or glTF file (.bvh, .glb, "
                                                       ".gltf)")})
-def cmd_convert(args) -> int:
+def cmd_convert(args: argparse.Namespace) -> int:
     src, dst = _kind(args.input), _kind(args.output)
     if src not in (".bvh",) + _GLTF:
         raise InvalidArgumentError(f"{args.input}: mlayer convert reads .bvh, .glb or .gltf "
