@@ -13,11 +13,9 @@ static mlr_status parse_motion_header(parser *ps, size_t *n_frames_out, double *
 {
     const char *t;
     size_t n;
-    int r = bvh__next_token(ps, &t, &n);
-    if (r < 0)
-        return r;
-    if (r == 0)
-        return bvh__fail_at(ps, ps->p, "unexpected end of file: expected MOTION");
+    mlr_status s = bvh__need_token(ps, &t, &n, "unexpected end of file: expected MOTION");
+    if (s != MLR_OK)
+        return s;
     if (bvh__tok_is(t, n, "ROOT"))
         return bvh__fail_at(ps, t, "more than one ROOT: not supported");
     if (!bvh__tok_is(t, n, "MOTION"))
@@ -26,7 +24,6 @@ static mlr_status parse_motion_header(parser *ps, size_t *n_frames_out, double *
 
     const char *vt;
     size_t vn;
-    mlr_status s;
     if ((s = bvh__read_header_value(ps, "Frames:", &vt, &vn)) != MLR_OK)
         return s;
     *frames_line = ps->line;
