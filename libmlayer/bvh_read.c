@@ -213,7 +213,7 @@ static mlr_status bvh_read(const char *text, size_t len, size_t n_threads, int k
     bvh__vec_free(&ps.ends, &ps.a);
     bvh__vec_free(&ps.names, &ps.a);
     if (s == MLR_E_NO_MEMORY || s == MLR_E_OVERFLOW)
-        mlr_diag_set(diag, s, 0, 0, "%s", mlr_status_string(s));
+        mlr_diag_set(diag, s, 0, 0, "bvh read: %s", mlr_status_string(s));
     if (s != MLR_OK && warnings)
         warnings->count = 0;
     return s;
@@ -290,6 +290,8 @@ static mlr_status read_file(const char *path, size_t n_threads, const read_mode 
     size_t len, cap;
     /* a large file is read in parallel chunks (n_threads permitting), then parsed */
     mlr_status s = mlr_read_file(path, n_threads, &a, &buf, &len, &cap, diag);
+    if (s == MLR_E_NO_MEMORY || s == MLR_E_OVERFLOW)
+        return mlr_diag_prefix(diag, s, "bvh read");
     if (s != MLR_OK)
         return s;
     s = bvh_read(buf, len, n_threads, BVH_KERNELS_BEST, mode, &a, out, warnings, diag);

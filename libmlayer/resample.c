@@ -370,7 +370,7 @@ static mlr_status solve_grid(resample_work *w, size_t n_frames, size_t n_joints,
     mlr_status st = mlr_lgs_create(n_grid, n_grid >= 3 ? 2 : 1, lam, sigma, t, n_frames,
                                    MLR_LGS_BANDED, &w->a, &lgs, diag);
     if (st < 0)
-        return st;
+        return mlr_diag_prefix(diag, st, "resample");
     *created = st;
     st = mlr_lgs_solve(lgs, root_pos, 3, 3, g->root, 3, diag);
     if (st == MLR_OK && n_joints > 0)
@@ -380,7 +380,7 @@ static mlr_status solve_grid(resample_work *w, size_t n_frames, size_t n_joints,
     if (st == MLR_OK && g->var)
         st = mlr_lgs_variance(lgs, g->var, n_grid, diag);
     mlr_lgs_destroy(lgs);
-    return st;
+    return st == MLR_OK ? st : mlr_diag_prefix(diag, st, "resample");
 }
 
 mlr_status mlr_resample_arrays(size_t n_frames, size_t n_joints, size_t n_trans,

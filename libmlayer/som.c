@@ -47,13 +47,13 @@ mlr_status mlr_som_create(size_t rows, size_t cols, size_t dim, const mlr_alloca
     mlr_allocator_resolve(alloc, &a);
     mlr_som *s = mlr_alloc(&a, sizeof *s);
     if (!s)
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "no memory for the map");
+        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "som create: out of memory for the map");
     memset(s, 0, sizeof *s);
     s->a = a;
     s->w = mlr_alloc(&a, bytes);
     if (!s->w) {
         mlr_free(&a, s, sizeof *s);
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "no memory for %zu x %zu codebook", units,
+        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "som create: out of memory for a %zu x %zu codebook", units,
                             dim);
     }
     s->bytes = bytes;
@@ -507,7 +507,7 @@ mlr_status mlr_som_train(mlr_som *som, const double *x, size_t n, size_t ldx, si
     double *sum = sbytes ? mlr_alloc(&som->a, sbytes) : NULL;
     double *tmp = mode == MLR_SOM_BATCH ? mlr_alloc(&som->a, sbytes) : NULL;
     if (!g || !idx || !sum || (mode == MLR_SOM_BATCH && !tmp)) {
-        st = mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "no memory for the training workspace");
+        st = mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "som train: out of memory for the workspace");
         goto done;
     }
     if (!som->initialized)
@@ -670,7 +670,7 @@ mlr_status mlr_som_import(const void *buf, size_t size, const mlr_allocator *all
     mlr_som *s;
     st = mlr_som_create((size_t)dims[0], (size_t)dims[1], (size_t)dims[2], alloc, &s, diag);
     if (st)
-        return st;
+        return mlr_diag_prefix(diag, st, "som import");
     memcpy(s->w, payload, np * sizeof(double));
     if (mlr_first_nonfinite_row(s->w, s->units, s->dim, s->dim) < s->units) {
         mlr_som_destroy(s);
