@@ -30,7 +30,8 @@ mlr_status mlr_band_create(size_t n, size_t kd, const mlr_allocator *alloc, mlr_
                             "band create: n %zu x (kd %zu + 1) doubles overflow a size_t", n, kd);
     mlr_band *b = mlr_alloc(&a, sizeof *b);
     if (!b)
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "band create: out of memory for the handle");
+        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                            "band create: out of memory for the handle");
     b->alloc = a;
     b->n = n;
     b->kd = kd;

@@ -53,8 +53,8 @@ mlr_status mlr_som_create(size_t rows, size_t cols, size_t dim, const mlr_alloca
     s->w = mlr_alloc(&a, bytes);
     if (!s->w) {
         mlr_free(&a, s, sizeof *s);
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "som create: out of memory for a %zu x %zu codebook", units,
-                            dim);
+        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                            "som create: out of memory for a %zu x %zu codebook", units, dim);
     }
     s->bytes = bytes;
     s->rows = rows;

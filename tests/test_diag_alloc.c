@@ -606,99 +606,69 @@ END_TEST
 
 /* ---- size overflows reachable from the arguments ------------------------------------------- */
 
-typedef mlr_status (*diag_call)(mlr_diag *d);
+/* The handles a refused call does not create (shared by the tables below). */
+static struct {
+    mlr_motion *m;
+    mlr_band *band;
+    mlr_lgs *lgs;
+    mlr_layers *layers;
+    mlr_kmeans *km;
+    mlr_som *som;
+    mlr_stream *st;
+    mlr_guards *g;
+    mlr_limits *lim;
+} no;
 
-typedef struct diag_case {
-    const char *name;
-    diag_call call;
-    mlr_status want;
-    const char *says; /* a substring of the message */
-} diag_case;
-
-static mlr_status overflow_band(mlr_diag *d)
+/* Call i with sizes whose product overflows a size_t (n_overflow_calls of them). */
+enum { n_overflow_calls = 8 };
+static mlr_status overflow_call(int i, mlr_diag *d)
 {
-    mlr_band *b = NULL;
-    return mlr_band_create(SIZE_MAX / 2, 3, NULL, &b, d);
+    static const int32_t parents[1] = {-1};
+    static const double offsets[3] = {0}, rot[4] = {1, 0, 0, 0};
+    double out[8], h;
+    switch (i) {
+    case 0: return mlr_band_create(SIZE_MAX / 2, 3, NULL, &no.band, d);
+    case 1: return mlr_stream_create(SIZE_MAX / 8, 1, 0, 1.0, 1.0, 2, NULL, &no.st, d);
+    case 2: { /* n_out near SIZE_MAX: the observation map's size */
+        const double t[2] = {0.0, 1.0};
+        return mlr_lgs_create(SIZE_MAX / 4, 1, 0.0, 1.0, t, 2, MLR_LGS_BANDED, NULL, &no.lgs, d);
+    }
+    case 3: return mlr_fk_arrays(SIZE_MAX / 2, 1, parents, offsets, NULL, rot, 0, NULL, NULL, out,
+                                 NULL, NULL, d);
+    case 4: return mlr_rig_body_height(SIZE_MAX / 2, 2, f_wp, MLR_AXIS_Y, &h, NULL, d);
+    case 5: return mlr_resample_arrays(2, SIZE_MAX / 8, 0, f_root, f_rot, NULL, NULL, 2, 1.0, 1.0,
+                                       0, out, out, NULL, NULL, NULL, d);
+    case 6: return mlr_layers_decompose(SIZE_MAX / 8, 4, f_root, f_rot, NULL, 0, NULL,
+                                        &no.layers, d);
+    case 7: return mlr_grbf_basis(MLR_GRBF_THIN_PLATE, 1.0, xs, SIZE_MAX / 4, XD, xs, 1, XD, XD,
+                                  0, 1, out, SIZE_MAX / 4, NULL, d);
+    default: break;
+    }
+    ck_abort_msg("no call %d", i);
+    return MLR_OK;
 }
 
-static mlr_status overflow_stream(mlr_diag *d)
-{
-    mlr_stream *st = NULL;
-    return mlr_stream_create(SIZE_MAX / 8, 1, 0, 1.0, 1.0, 2, NULL, &st, d);
-}
-
-static mlr_status overflow_lgs(mlr_diag *d)
-{
-    /* n_out near SIZE_MAX: the observation map's size (t of 2 positions, both 0) */
-    const double t[2] = {0.0, 1.0};
-    mlr_lgs *g = NULL;
-    return mlr_lgs_create(SIZE_MAX / 4, 1, 0.0, 1.0, t, 2, MLR_LGS_BANDED, NULL, &g, d);
-}
-
-static mlr_status overflow_fk(mlr_diag *d)
-{
-    const int32_t parents[1] = {-1};
-    const double offsets[3] = {0}, rot[4] = {1, 0, 0, 0};
-    double wp[3];
-    return mlr_fk_arrays(SIZE_MAX / 2, 1, parents, offsets, NULL, rot, 0, NULL, NULL, wp, NULL,
-                         NULL, d);
-}
-
-static mlr_status overflow_body_height(mlr_diag *d)
-{
-    double h;
-    return mlr_rig_body_height(SIZE_MAX / 2, 2, f_wp, MLR_AXIS_Y, &h, NULL, d);
-}
-
-static mlr_status overflow_resample(mlr_diag *d)
-{
-    double ro[6], qo[8];
-    return mlr_resample_arrays(2, SIZE_MAX / 8, 0, f_root, f_rot, NULL, NULL, 2, 1.0, 1.0, 0,
-                               ro, qo, NULL, NULL, NULL, d);
-}
-
-static mlr_status overflow_decompose(mlr_diag *d)
-{
-    mlr_layers *L = NULL;
-    return mlr_layers_decompose(SIZE_MAX / 8, 4, f_root, f_rot, NULL, 0, NULL, &L, d);
-}
-
-static mlr_status overflow_grbf_basis(mlr_diag *d)
-{
-    double out[4];
-    return mlr_grbf_basis(MLR_GRBF_THIN_PLATE, 1.0, xs, SIZE_MAX / 4, XD, xs, 1, XD, XD, 0, 1,
-                          out, SIZE_MAX / 4, NULL, d);
-}
-
-static const diag_case overflow_cases[] = {
-    {"band", overflow_band, MLR_E_OVERFLOW, "overflow"},
-    {"stream", overflow_stream, MLR_E_OVERFLOW, "overflow"},
-    {"lgs", overflow_lgs, MLR_E_OVERFLOW, "overflow"},
-    {"fk", overflow_fk, MLR_E_OVERFLOW, "overflow"},
-    {"body_height", overflow_body_height, MLR_E_OVERFLOW, "overflow"},
-    {"resample", overflow_resample, MLR_E_OVERFLOW, "overflow"},
-    {"decompose", overflow_decompose, MLR_E_OVERFLOW, "overflow"},
-    {"grbf basis", overflow_grbf_basis, MLR_E_OVERFLOW, "overflow"},
-};
-
-static void run_diag_case(const diag_case *c)
+/* Call i of a table refuses with want (or any error when want is MLR_OK) and a message that
+ * contains says (any message when says is NULL); the same status with a NULL diag. */
+static void refused(mlr_status (*call)(int, mlr_diag *), int i, mlr_status want,
+                    const char *says)
 {
     mlr_diag d;
     memset(&d, 0, sizeof d);
-    const mlr_status s = c->call(&d);
-    ck_assert_msg(s == c->want, "%s: status %s, expected %s ('%s')", c->name,
-                  mlr_status_name(s), mlr_status_name(c->want), d.message);
-    ck_assert_msg(d.message[0] != '\0', "%s: empty diag", c->name);
-    ck_assert_msg(strstr(d.message, c->says), "%s: '%s' lacks '%s'", c->name, d.message,
-                  c->says);
-    ck_assert_int_eq(c->call(NULL), c->want);
+    const mlr_status s = call(i, &d);
+    ck_assert_msg(want == MLR_OK ? s < 0 : s == want, "call %d: status %s ('%s')", i,
+                  mlr_status_name(s), d.message);
+    ck_assert_msg(d.message[0] != '\0', "call %d: %s with an empty diag", i, mlr_status_name(s));
+    ck_assert_msg(!says || strstr(d.message, says), "call %d: '%s' lacks '%s'", i, d.message,
+                  says);
+    ck_assert_int_eq(call(i, NULL), s);
 }
 
 START_TEST(a_size_overflow_says_what_overflowed)
 {
     figure_init();
     points_init();
-    run_diag_case(&overflow_cases[_i]);
+    refused(overflow_call, _i, MLR_E_OVERFLOW, "overflow");
 }
 END_TEST
 
@@ -715,15 +685,6 @@ static mlr_status null_call(int i, mlr_diag *d)
     double *a = buf_a, *b = buf_b;
     int32_t *ij = ibuf;
     size_t n;
-    mlr_motion *m = NULL;
-    mlr_band *band = NULL;
-    mlr_lgs *lgs = NULL;
-    mlr_layers *layers = NULL;
-    mlr_kmeans *km = NULL;
-    mlr_som *som = NULL;
-    mlr_stream *st = NULL;
-    mlr_guards *g = NULL;
-    mlr_limits *lim = NULL;
     mlr_up_guess up;
     mlr_trim_lead lead;
     mlr_euler_order order;
@@ -732,13 +693,13 @@ static mlr_status null_call(int i, mlr_diag *d)
     case 1: return mlr_band_factor(NULL, a, 2, d);
     case 2: return mlr_band_solve(NULL, a, 1, 1, d);
     case 3: return mlr_band_inverse_diagonal(NULL, a, 3, d);
-    case 4: return mlr_bvh_read_memory(NULL, 10, NULL, &m, d);
+    case 4: return mlr_bvh_read_memory(NULL, 10, NULL, &no.m, d);
     case 5: return mlr_bvh_read_memory(three_bvh, strlen(three_bvh), NULL, NULL, d);
-    case 6: return mlr_bvh_read_file(NULL, NULL, &m, d);
-    case 7: return mlr_bvh_read_memory_mt(NULL, 10, 2, NULL, &m, d);
-    case 8: return mlr_bvh_read_file_mt(NULL, 2, NULL, &m, d);
-    case 9: return mlr_bvh_read_memory_opts(NULL, 10, 1, NULL, 0, NULL, &m, NULL, d);
-    case 10: return mlr_bvh_read_file_opts(NULL, 1, NULL, 0, NULL, &m, NULL, d);
+    case 6: return mlr_bvh_read_file(NULL, NULL, &no.m, d);
+    case 7: return mlr_bvh_read_memory_mt(NULL, 10, 2, NULL, &no.m, d);
+    case 8: return mlr_bvh_read_file_mt(NULL, 2, NULL, &no.m, d);
+    case 9: return mlr_bvh_read_memory_opts(NULL, 10, 1, NULL, 0, NULL, &no.m, NULL, d);
+    case 10: return mlr_bvh_read_file_opts(NULL, 1, NULL, 0, NULL, &no.m, NULL, d);
     case 11: return mlr_bvh_write(NULL, NULL, NULL, d);
     case 12: return mlr_bvh_write_memory(NULL, NULL, 0, &n, d);
     case 13: return mlr_bvh_write_file(NULL, "x.bvh", d);
@@ -758,7 +719,8 @@ static mlr_status null_call(int i, mlr_diag *d)
                                   b, 1, NULL, d);
     case 22: return mlr_grbf_fit_lattice(MLR_GRBF_THIN_PLATE, 1.0, NULL, 3, a, 3, a, 1, 1, 1, b,
                                          1, NULL, d);
-    case 23: return mlr_guards_create(NULL, 60.0, FN, f_root, f_rot, NULL, NULL, 0, NULL, &g, d);
+    case 23: return mlr_guards_create(NULL, 60.0, FN, f_root, f_rot, NULL, NULL, 0, NULL, &no.g,
+                                      d);
     case 24: return mlr_guards_set_contacts(NULL, 0, NULL, NULL, NULL, d);
     case 25: return mlr_guards_set_limits(NULL, NULL, d);
     case 26: return mlr_guards_apply(NULL, a, 1, NULL, NULL, NULL, a, b, NULL, NULL, 0, NULL, d);
@@ -772,7 +734,7 @@ static mlr_status null_call(int i, mlr_diag *d)
     case 34: return mlr_kmeans_fit(NULL, a, 4, 2, NULL, 0, ij, d);
     case 35: return mlr_kmeans_predict(NULL, a, 4, 2, ij, NULL, d);
     case 36: return mlr_kmeans_set_centers(NULL, a, 2, d);
-    case 37: return mlr_layers_decompose(8, 2, NULL, NULL, NULL, 0, NULL, &layers, d);
+    case 37: return mlr_layers_decompose(8, 2, NULL, NULL, NULL, 0, NULL, &no.layers, d);
     case 38: return mlr_layers_repair(NULL, 0, 1, a, 3, b, 8, &n, d);
     case 39: return mlr_layers_synthesize(NULL, 0, 1, NULL, 0, a, 3, b, 8, d);
     case 40: return mlr_layers_reconstruct(NULL, 0, 1, a, 3, b, 8, d);
@@ -780,11 +742,11 @@ static mlr_status null_call(int i, mlr_diag *d)
     case 42: return mlr_lgs_solve(NULL, a, 1, 1, b, 1, d);
     case 43: return mlr_lgs_solve_mt(NULL, a, 1, 1, b, 1, 2, d);
     case 44: return mlr_lgs_variance(NULL, a, 5, d);
-    case 45: return mlr_limits_create(NULL, NULL, 0, NULL, 0, NULL, &lim, d);
+    case 45: return mlr_limits_create(NULL, NULL, 0, NULL, 0, NULL, &no.lim, d);
     case 46: return mlr_limits_set_range(NULL, 0, NULL, d);
     case 47: return mlr_limits_apply(NULL, 1, a, b, NULL, 0, NULL, 0, d);
-    case 48: return mlr_motion_create(3, NULL, ij, a, NULL, 0, NULL, NULL, 1, 0.1, NULL, &m, d);
-    case 49: return mlr_motion_copy_frames(NULL, 0, 1, &m, d);
+    case 48: return mlr_motion_create(3, NULL, ij, a, NULL, 0, NULL, NULL, 1, 0.1, NULL, &no.m, d);
+    case 49: return mlr_motion_copy_frames(NULL, 0, 1, &no.m, d);
     case 50: return mlr_quat_normalize_array(NULL, 1, (mlr_quat *)a, d);
     case 51: return mlr_quat_exp_array(NULL, 1, (mlr_quat *)a, d);
     case 52: return mlr_quat_log_array(NULL, 1, (mlr_vec3 *)a, d);
@@ -814,7 +776,7 @@ static mlr_status null_call(int i, mlr_diag *d)
     case 75: return mlr_som_errors(NULL, a, 4, 2, a, b, d);
     case 76: return mlr_som_set_codebook(NULL, a, 2, d);
     case 77: return mlr_som_export(NULL, a, 64, d);
-    case 78: return mlr_som_import(NULL, 64, NULL, &som, d);
+    case 78: return mlr_som_import(NULL, 64, NULL, &no.som, d);
     case 79: return mlr_stream_create(1, 1, 0, 1.0, 1.0, 2, NULL, NULL, d);
     case 80: return mlr_stream_create_layered(1, 1, 0, 1.0, 1.0, 10.0, 1.0, 2, NULL, NULL, d);
     case 81: return mlr_stream_push(NULL, a, 7, b, 7, &n, d);
@@ -824,7 +786,6 @@ static mlr_status null_call(int i, mlr_diag *d)
     case 85: return mlr_trim_lead_in(NULL, FN, f_root, f_rot, NULL, 1, &lead, NULL, d);
     default: break;
     }
-    (void)band, (void)lgs, (void)km, (void)st;
     ck_abort_msg("no call %d", i);
     return MLR_OK;
 }
@@ -833,13 +794,7 @@ START_TEST(a_null_required_pointer_leaves_a_message)
 {
     figure_init();
     contacts_init();
-    mlr_diag d;
-    memset(&d, 0, sizeof d);
-    const mlr_status s = null_call(_i, &d);
-    ck_assert_msg(s < 0, "call %d: status %s", _i, mlr_status_name(s));
-    ck_assert_msg(strstr(d.message, "NULL"), "call %d: %s, '%s' does not say what is NULL", _i,
-                  mlr_status_name(s), d.message);
-    ck_assert_int_eq(null_call(_i, NULL), s);
+    refused(null_call, _i, MLR_OK, "NULL");
 }
 END_TEST
 
@@ -848,32 +803,25 @@ enum { n_zero_calls = 14 };
 static mlr_status zero_call(int i, mlr_diag *d)
 {
     double *a = buf_a, *b = buf_b;
-    mlr_band *band = NULL;
-    mlr_lgs *lgs = NULL;
-    mlr_kmeans *km = NULL;
-    mlr_som *som = NULL;
-    mlr_stream *st = NULL;
-    mlr_motion *m = NULL;
-    mlr_layers *layers = NULL;
     double h;
     size_t n;
     switch (i) {
-    case 0: return mlr_band_create(0, 0, NULL, &band, d);
-    case 1: return mlr_lgs_create(0, 2, 1.0, 1.0, NULL, 0, MLR_LGS_BANDED, NULL, &lgs, d);
-    case 2: return mlr_kmeans_create(0, 2, NULL, &km, d);
-    case 3: return mlr_kmeans_create(2, 0, NULL, &km, d);
-    case 4: return mlr_som_create(0, 3, 2, NULL, &som, d);
-    case 5: return mlr_som_create(3, 3, 0, NULL, &som, d);
-    case 6: return mlr_stream_create(0, 0, 0, 1.0, 1.0, 2, NULL, &st, d);
+    case 0: return mlr_band_create(0, 0, NULL, &no.band, d);
+    case 1: return mlr_lgs_create(0, 2, 1.0, 1.0, NULL, 0, MLR_LGS_BANDED, NULL, &no.lgs, d);
+    case 2: return mlr_kmeans_create(0, 2, NULL, &no.km, d);
+    case 3: return mlr_kmeans_create(2, 0, NULL, &no.km, d);
+    case 4: return mlr_som_create(0, 3, 2, NULL, &no.som, d);
+    case 5: return mlr_som_create(3, 3, 0, NULL, &no.som, d);
+    case 6: return mlr_stream_create(0, 0, 0, 1.0, 1.0, 2, NULL, &no.st, d);
     case 7: return mlr_motion_create(0, f_names, f_parents, f_offsets, NULL, 0, NULL, NULL, 1,
-                                     0.1, NULL, &m, d);
+                                     0.1, NULL, &no.m, d);
     case 8: return mlr_rig_body_height(0, 2, a, 1, &h, NULL, d);
     case 9: return mlr_resample_arrays(0, 1, 0, a, a, NULL, NULL, 8, 1.0, 1.0, 0, b, b, NULL,
                                        NULL, NULL, d);
     case 10: return mlr_resample_n_out(0, 30.0, 60.0, 0, &n, d);
     case 11: return mlr_grbf_basis(MLR_GRBF_THIN_PLATE, 1.0, a, 0, 2, a, 4, 2, 2, 0, 1, b, 4,
                                    NULL, d);
-    case 12: return mlr_layers_decompose(0, 2, NULL, a, NULL, 0, NULL, &layers, d);
+    case 12: return mlr_layers_decompose(0, 2, NULL, a, NULL, 0, NULL, &no.layers, d);
     case 13: return mlr_som_train(NULL, a, 0, 2, 1, MLR_SOM_BATCH, d);
     default: break;
     }
@@ -883,13 +831,7 @@ static mlr_status zero_call(int i, mlr_diag *d)
 
 START_TEST(a_refused_zero_size_leaves_a_message)
 {
-    mlr_diag d;
-    memset(&d, 0, sizeof d);
-    const mlr_status s = zero_call(_i, &d);
-    ck_assert_msg(s < 0, "call %d: status %s", _i, mlr_status_name(s));
-    ck_assert_msg(d.message[0] != '\0', "call %d: %s with an empty diag", _i,
-                  mlr_status_name(s));
-    ck_assert_int_eq(zero_call(_i, NULL), s);
+    refused(zero_call, _i, MLR_OK, NULL);
 }
 END_TEST
 
@@ -899,8 +841,7 @@ static Suite *diag_alloc_suite(void)
     TCase *tc = tcase_create("alloc");
     tcase_add_loop_test(tc, every_allocation_of_every_allocating_function_fails_with_a_message,
                         0, (int)MLR_COUNTOF(alloc_cases));
-    tcase_add_loop_test(tc, a_size_overflow_says_what_overflowed, 0,
-                        (int)MLR_COUNTOF(overflow_cases));
+    tcase_add_loop_test(tc, a_size_overflow_says_what_overflowed, 0, n_overflow_calls);
     tcase_add_loop_test(tc, a_null_required_pointer_leaves_a_message, 0, n_null_calls);
     tcase_add_loop_test(tc, a_refused_zero_size_leaves_a_message, 0, n_zero_calls);
     suite_add_tcase(s, tc);
