@@ -34,6 +34,7 @@ from .manifold import GRBF, PCA
 from .mixture import GaussianMixture, fuzzy_cmeans
 from .markov import Markov
 from .primitives import PrimitiveModel
+from .amass import read_amass, write_amass
 
 
 __all__ = ["__version__", "library_version", "Error", "InvalidArgumentError", "ParseError",
@@ -47,6 +48,7 @@ __all__ = ["__version__", "library_version", "Error", "InvalidArgumentError", "P
 __all__ += ["ParseWarning", "UpGuess", "detect_up"]
 __all__ += ["LeadIn", "lead_in", "trim"]
 __all__ += ["MissingDependencyError"]
+__all__ += ["read_amass", "write_amass"]
 
 import logging as _logging
 # the library logs (the `mlayer` logger and its children) and never prints: nothing shows
