@@ -24,7 +24,7 @@ import numpy as np
 from . import quat, smpl
 from ._files import atomic_output
 from .errors import InvalidArgumentError, MlayerIOError, ParseError
-from .motion import MIN_FRAME_TIME, Motion
+from .motion import MIN_FRAME_TIME, Motion, Skeleton
 
 __all__ = ["read_amass", "write_amass", "MODELS"]
 
@@ -66,8 +66,7 @@ def _get(z, path: str, key: str) -> np.ndarray:
 
 
 def _numeric(a: np.ndarray, path: str, key: str, ndim: int) -> np.ndarray:
-    if not (np.issubdtype(a.dtype, np.floating) or np.issubdtype(a.dtype, np.integer)) \
-            or a.dtype == np.bool_:
+    if not (np.issubdtype(a.dtype, np.floating) or np.issubdtype(a.dtype, np.integer)):
         raise _fail(path, f"{key!r} must hold numbers, got dtype {a.dtype}")
     if a.ndim != ndim:
         raise _fail(path, f"{key!r} must have {ndim} dimension{'s' * (ndim > 1)}, got shape "
@@ -225,8 +224,13 @@ def read_amass(path, *, joint_positions=None, model: str = "auto") -> Motion:
         a, b = _HANDS[model]
         cols = np.concatenate([cols, poses[:, a:b]], axis=1)
     offsets = _rest_offsets(joint_positions, names, parents, default, model)
-    rot = quat.exp(np.ascontiguousarray(cols).reshape(F, len(names), 3))
-    m = Motion.from_arrays(names, parents, offsets, trans + offsets[0], rot, fps=fps)
+    sk = Skeleton(names, parents, offsets)  # reordered to depth-first: sk.source_order
+    # the rotation vectors put in the skeleton's order before exp (a third smaller than the
+    # quaternions); every value was checked above and exp's output is unit, so the Motion
+    # takes the arrays as they are
+    vecs = np.take(cols.reshape(F, len(names), 3), sk.source_order, axis=1)
+    m = Motion(sk, 1.0 / fps, trans + offsets[0], quat.exp(vecs), np.zeros((F, 0, 3)),
+               _trusted=True)
     m.up_axis = "z"
     m.units = "m"
     return m

@@ -324,7 +324,7 @@ def _frames_in_order(skel: Skeleton, order: np.ndarray, rot, trans):
     ``rot`` (N, J, 4) by ``order``; ``trans`` (N, P, 3), one column per joint with position
     channels in increasing *input* index, reordered to the skeleton's ``trans_joints``."""
     J = skel.n_joints
-    rot = _frame_array(rot, "Motion: rot", (J, 4))[:, order]
+    rot = np.take(_frame_array(rot, "Motion: rot", (J, 4)), order, axis=1)
     if trans is not None:
         P = skel.trans_joints.shape[0]
         trans = _frame_array(trans, "Motion: trans", (P, 3))
