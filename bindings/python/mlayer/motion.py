@@ -33,7 +33,7 @@ from ._handles import ReadOnlyAttributes
 from ._native import ffi, lib
 from .errors import InvalidArgumentError, check
 
-__all__ = ["Motion", "Skeleton", "ScipyFrames", "DEFAULT_ROOT_CHANNELS",
+__all__ = ["Motion", "Skeleton", "ScipyFrames", "depth_first_order", "DEFAULT_ROOT_CHANNELS",
            "DEFAULT_JOINT_CHANNELS", "MIN_FRAME_TIME"]
 
 DEFAULT_ROOT_CHANNELS = "Xposition Yposition Zposition Zrotation Yrotation Xrotation"
@@ -124,7 +124,7 @@ def depth_first_order(parents, joint_names=None, where: str = "Skeleton") -> np.
             f"{roots.size} roots: joints {name(int(roots[0]))} and {name(int(roots[1]))} "
             "both have parent -1")
         raise InvalidArgumentError(f"{where}: the joints must form one tree, found {what}")
-    if J and (par[0] == -1) and np.all(_is_preorder(par)):
+    if par[0] == -1 and _is_preorder(par):
         return np.arange(J)
     children: list[list[int]] = [[] for _ in range(J)]
     for j in range(J):
@@ -147,13 +147,15 @@ def depth_first_order(parents, joint_names=None, where: str = "Skeleton") -> np.
 
 
 def _is_preorder(par: np.ndarray) -> bool:
-    """Whether every parents[j] is j-1 or an ancestor of j-1 (the C core's depth-first rule)."""
-    for j in range(1, par.shape[0]):
-        p, a = par[j], j - 1
-        while a >= 0 and a != p:
-            a = par[a]
-        if p < 0 or a != p:
+    """Whether every parents[j] is j-1 or an ancestor of j-1 (the C core's depth-first rule),
+    in O(J): ``path`` holds the ancestors of j-1 and j-1 itself, root first."""
+    path = [0]
+    for j, p in enumerate(par.tolist()[1:], start=1):
+        while path and path[-1] != p:
+            path.pop()
+        if not path:
             return False
+        path.append(j)
     return True
 
 

@@ -399,3 +399,19 @@ def test_layers_on_amass_walk(tmp_path):
     assert (ps[:, head, 2] - ps[:, foot, 2]).min() > 1.0
     mlayer.write_amass(st, tmp_path / "styled.npz")
     assert mlayer.read_amass(tmp_path / "styled.npz").n_frames == F
+
+
+def test_large_trees_in_linear_time():
+    import time
+    # a chain of 20,000 joints, then 20,000 children of the root: depth-first already, and
+    # checking it must not walk the chain for every child (that was J x depth steps)
+    J = 40000
+    parents = np.concatenate([[-1], np.arange(19999), np.zeros(20000, dtype=np.int64)])
+    t0 = time.perf_counter()
+    order = mlayer.motion.depth_first_order(parents)
+    assert np.array_equal(order, np.arange(J))
+    # the same tree listed backwards (every parent after its children) is reordered
+    rev = np.where(parents[::-1] < 0, -1, J - 1 - parents[::-1])
+    order = mlayer.motion.depth_first_order(rev)
+    assert order[0] == J - 1 and np.array_equal(np.sort(order), np.arange(J))
+    assert time.perf_counter() - t0 < 5.0
