@@ -33,8 +33,8 @@ from ._handles import ReadOnlyAttributes
 from ._native import ffi, lib
 from .errors import InvalidArgumentError, check
 
-__all__ = ["Motion", "Skeleton", "ScipyFrames", "depth_first_order", "DEFAULT_ROOT_CHANNELS",
-           "DEFAULT_JOINT_CHANNELS", "MIN_FRAME_TIME"]
+__all__ = ["Motion", "Skeleton", "ScipyFrames", "DEFAULT_ROOT_CHANNELS",
+           "DEFAULT_JOINT_CHANNELS", "MIN_FRAME_TIME", "depth_first_order"]
 
 DEFAULT_ROOT_CHANNELS = "Xposition Yposition Zposition Zrotation Yrotation Xrotation"
 DEFAULT_JOINT_CHANNELS = "Zrotation Yrotation Xrotation"
