@@ -17,20 +17,21 @@ the offsets come from published code instead:
   2023 Jonathan Tseng. Permission is hereby granted, free of charge, to any person obtaining
   a copy of this software [...] The above copyright notice and this permission notice shall
   be included in all copies or substantial portions of the Software." EDGE does not say
-  which SMPL model (neutral, male, female) they were taken from; the same numbers are the
-  ``m_avg_*`` bones of the SMPL rig for Unity (x mirrored), i.e. most likely the mean *male*
-  body (betas 0), not the gender-neutral model. Like EDGE, the pelvis sits at ``trans``
-  (its rest location is taken as the origin): the SMPL model itself puts it at
-  ``trans + J[0]``, J[0] a few centimetres to 0.24 m from the origin depending on the model
-  and betas. Pass ``joint_positions`` to :func:`mlayer.read_amass` for an exact body.
-- the 30 finger joints of SMPL-H have no published permissive source that was found. They
-  are derived here (:func:`_hand_offsets`) from a documented alternative: the finger segment
-  lengths as fractions of hand length of Buchholz, Armstrong and Goldstein, "Anthropometric
-  data for describing the kinematics of the human hand", Ergonomics 35(3), 1992 (the
-  commonly quoted table), for a hand of 0.19 m (about 11% of a 1.7 m stature), the palm
-  down and the fingers straight along the arm as in the SMPL-H T-pose. They place the finger
-  joints to about a centimetre, which is what the layers need (the fingers' rotations are
-  the data); pass ``joint_positions`` for the subject's hands.
+  which SMPL model (neutral, male, female) they were taken from; they agree to 0.3 mm with
+  the ``m_avg_*`` bones of the SMPL rig for Unity (x mirrored; hips to feet, as quoted in
+  other projects), i.e. most likely the mean *male* body (betas 0), not the gender-neutral
+  model. Like EDGE, the pelvis sits at ``trans`` (its rest location is taken as the origin):
+  the SMPL models put it at ``trans + J[0]``, J[0] about 0.22 m from the origin, mostly
+  along the template's -Y (the models' ``J`` as quoted in GPL-licensed code, not copied
+  here). Pass ``joint_positions`` to :func:`mlayer.read_amass` for an exact body.
+- the 30 finger joints of SMPL-H have no permissively licensed published source that was
+  found. They are derived here (:func:`_hand_offsets`) from a documented alternative: the
+  finger segment lengths as fractions of hand length of Buchholz, Armstrong and Goldstein,
+  "Anthropometric data for describing the kinematics of the human hand", Ergonomics 35(3),
+  1992 (the commonly quoted table), for a hand of 0.19 m (about 11% of a 1.7 m stature), the
+  palm down and the fingers straight along the arm as in the SMPL-H T-pose, the knuckles
+  spread across a 6 cm palm. They are an approximation, not checked against the SMPL-H
+  model; pass ``joint_positions`` for the subject's hands.
 """
 from __future__ import annotations
 
