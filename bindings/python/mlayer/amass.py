@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import os
 import zipfile
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -26,7 +26,7 @@ from ._files import atomic_output
 from .errors import InvalidArgumentError, MlayerIOError, ParseError
 from .motion import MIN_FRAME_TIME, Motion, Skeleton
 
-__all__ = ["read_amass", "write_amass", "MODELS"]
+__all__ = ["read_amass", "write_amass", "AmassBody", "MODELS"]
 
 MODELS = ("smpl", "smplh", "smplx")
 """The body models :func:`read_amass` takes (``model=``), besides ``"auto"``."""
@@ -35,6 +35,33 @@ MODELS = ("smpl", "smplh", "smplx")
 _WIDTH = {"smpl": 72, "smplh": 156, "smplx": 165}
 _HANDS = {"smplh": (66, 156), "smplx": (75, 165)}  # SMPL-X: jaw [66, 69), eyes [69, 75)
 _BODY = 66
+
+
+class AmassBody(NamedTuple):
+    """What an AMASS file says about the body (``read_amass(..., return_body=True)``), to
+    pass back to :func:`write_amass`: ``write_amass(m, out, betas=body.betas,
+    gender=body.gender)``."""
+
+    betas: np.ndarray | None
+    """The shape coefficients (1-D), or None when the file has none."""
+    gender: str | None
+    """``gender`` as stored ("male", "female", "neutral"), or None when absent or not a
+    plain string (an object array would need pickle)."""
+    model: str
+    """The body model the poses were read as: "smpl", "smplh" or "smplx"."""
+
+
+def _gender(z) -> str | None:
+    if "gender" not in z.files:
+        return None
+    try:
+        g = z["gender"]
+    except (ValueError, OSError, EOFError, zipfile.BadZipFile):
+        return None
+    if g.dtype.kind not in "US" or g.size != 1:
+        return None
+    v = g.reshape(()).item()
+    return v.decode("utf-8", "replace") if isinstance(v, bytes) else str(v)
 
 
 def _fail(path: str, reason: str) -> ParseError:
@@ -157,7 +184,8 @@ def _rest_offsets(joint_positions, names: tuple[str, ...], parents: tuple[int, .
     return off
 
 
-def read_amass(path, *, joint_positions=None, model: str = "auto") -> Motion:
+def read_amass(path, *, joint_positions=None, model: str = "auto",
+               return_body: bool = False) -> Motion | tuple[Motion, AmassBody]:
     """Read an AMASS-style ``.npz`` file into a Motion on the SMPL or SMPL-H tree.
 
     Parameters
@@ -175,6 +203,8 @@ def read_amass(path, *, joint_positions=None, model: str = "auto") -> Motion:
     model : {"auto", "smpl", "smplh", "smplx"}
         The body model the poses are for. ``"auto"``: ``surface_model_type`` when the file
         has it, else by the width of ``poses`` (72 or 66: SMPL, 156: SMPL-H, 165: SMPL-X).
+    return_body : bool
+        Also return the file's :class:`AmassBody` (betas, gender, model), to write them back.
 
     Returns
     -------
@@ -185,8 +215,10 @@ def read_amass(path, *, joint_positions=None, model: str = "auto") -> Motion:
         (``Pelvis``, ``L_Hip``, ..., ``L_Index1``, ...); the joints are in depth-first order
         (``motion.skeleton.source_order[k]`` is the SMPL index of joint k). Rotations are the
         quaternions of the rotation vectors (:func:`mlayer.quat.exp`); ``up_axis`` is ``"z"``
-        and the units metres, as AMASS's. ``betas``, ``gender`` and the other keys are not
-        used (mlayer has no body shape model), but ``betas`` is checked when present.
+        and the units metres, as AMASS's. ``betas`` and ``gender`` do not change the
+        skeleton (mlayer has no body shape model); ``betas`` is checked when present.
+    AmassBody
+        With ``return_body``: ``(motion, body)``.
 
     Raises
     ------
@@ -209,10 +241,12 @@ def read_amass(path, *, joint_positions=None, model: str = "auto") -> Motion:
             raise _fail(path, "no 'trans' (F x 3 root translations)")
         trans = _numeric(_get(z, path, "trans"), path, "trans", 2)
         fps = _framerate(z, path)
+        betas = None
         if "betas" in z.files:
             b = _get(z, path, "betas")
-            _numeric(b.reshape(-1) if b.ndim <= 2 else b, path, "betas", 1)
+            betas = _numeric(b.reshape(-1) if b.ndim <= 2 else b, path, "betas", 1)
         model = _model_of(z, path, poses.shape[1], model)
+        gender = _gender(z)
     F = poses.shape[0]
     if trans.shape != (F, 3):
         raise _fail(path, f"'trans' must be ({F}, 3) for {F} frames of 'poses', got "
@@ -233,7 +267,7 @@ def read_amass(path, *, joint_positions=None, model: str = "auto") -> Motion:
                _trusted=True)
     m.up_axis = "z"
     m.units = "m"
-    return m
+    return (m, AmassBody(betas, gender, model)) if return_body else m
 
 
 def _tree_of(motion: Motion) -> tuple[tuple[str, ...], np.ndarray]:
@@ -266,7 +300,7 @@ def _tree_of(motion: Motion) -> tuple[tuple[str, ...], np.ndarray]:
     return tree_names, index
 
 
-def write_amass(motion: Motion, path, *, betas=None, gender: str = "neutral") -> None:
+def write_amass(motion: Motion, path, *, betas=None, gender: str | None = "neutral") -> None:
     """Write a motion on the SMPL (22) or SMPL-H (52 joints) tree as an AMASS ``.npz``.
 
     The inverse of :func:`read_amass`: ``poses`` (rotation vectors, :func:`mlayer.quat.log`,
@@ -285,8 +319,8 @@ def write_amass(motion: Motion, path, *, betas=None, gender: str = "neutral") ->
         The output file, written as is (no ``.npz`` is appended) and atomically.
     betas : array_like, optional
         Shape coefficients to store (default: 16 zeros, the mean body).
-    gender : str
-        Stored as ``gender`` (default ``"neutral"``).
+    gender : str or None
+        Stored as ``gender`` (default ``"neutral"``; None: the same).
 
     Raises
     ------
@@ -318,7 +352,7 @@ def write_amass(motion: Motion, path, *, betas=None, gender: str = "neutral") ->
     trans = root_pos - motion.skeleton.offsets[root]
     path = os.fspath(path)
     arrays = dict(poses=poses, trans=trans, mocap_framerate=np.array(motion.fps), betas=b,
-                  gender=np.array(str(gender)),
+                  gender=np.array("neutral" if gender is None else str(gender)),
                   surface_model_type=np.array("smplh" if hands else "smpl"))
     try:
         with atomic_output(path, suffix=".npz") as tmp:

@@ -415,3 +415,23 @@ def test_large_trees_in_linear_time():
     order = mlayer.motion.depth_first_order(rev)
     assert order[0] == J - 1 and np.array_equal(np.sort(order), np.arange(J))
     assert time.perf_counter() - t0 < 5.0
+
+
+def test_body_kept_through_a_round_trip(tmp_path):
+    betas = RNG.normal(size=16)
+    path, _ = _file(tmp_path, width=165, betas=betas, gender=np.array("female"),
+                    surface_model_type=np.array("smplx"))
+    m, body = mlayer.read_amass(path, return_body=True)
+    assert body.gender == "female" and body.model == "smplx"
+    np.testing.assert_array_equal(body.betas, betas)
+    mlayer.write_amass(m, tmp_path / "o.npz", betas=body.betas, gender=body.gender)
+    m2, body2 = mlayer.read_amass(tmp_path / "o.npz", return_body=True)
+    assert body2.gender == "female" and body2.model == "smplh"  # hands kept, jaw/eyes not
+    np.testing.assert_array_equal(body2.betas, betas)
+    # no betas, and a gender stored as a pickled object: both None, the motion still reads
+    F = 5
+    with open(tmp_path / "p.npz", "wb") as f:
+        np.savez(f, poses=_poses(F, 72), trans=np.zeros((F, 3)), mocap_framerate=np.array(30.0),
+                 gender=np.array([b"male"], dtype=object))
+    m3, body3 = mlayer.read_amass(tmp_path / "p.npz", return_body=True)
+    assert body3 == (None, None, "smpl") and m3.n_joints == 22
