@@ -82,7 +82,28 @@ def _load(path: str) -> Any:
     return z
 
 
+def _declared_size_ok(z, key: str) -> bool:
+    """Whether the array's header declares no more bytes than its zip member holds (a
+    hostile header must not make numpy allocate terabytes before the read fails)."""
+    name = key if key in z.zip.namelist() else key + ".npy"
+    try:
+        info = z.zip.getinfo(name)
+        with z.zip.open(name) as f:
+            version = np.lib.format.read_magic(f)
+            read = (np.lib.format.read_array_header_1_0 if version == (1, 0)
+                    else np.lib.format.read_array_header_2_0)
+            shape, _, dtype = read(f)
+            header = f.tell()
+    except Exception:  # noqa: BLE001 - anything wrong here is reported by the read itself
+        return True
+    if dtype.hasobject:
+        return True  # refused by the read (pickle)
+    return int(np.prod(shape, dtype=object)) * dtype.itemsize <= info.file_size - header
+
+
 def _get(z, path: str, key: str) -> np.ndarray:
+    if not _declared_size_ok(z, key):
+        raise _fail(path, f"{key!r} declares a larger array than the file holds (damaged)")
     try:
         return z[key]
     except ValueError as e:  # object arrays need pickle

@@ -435,3 +435,20 @@ def test_body_kept_through_a_round_trip(tmp_path):
                  gender=np.array([b"male"], dtype=object))
     m3, body3 = mlayer.read_amass(tmp_path / "p.npz", return_body=True)
     assert body3 == (None, None, "smpl") and m3.n_joints == 22
+
+
+def test_hostile_header_is_refused_before_allocating(tmp_path):
+    # an .npz whose 'poses' header declares 10^12 x 156 doubles over a few bytes of data
+    header = {"descr": "<f8", "fortran_order": False, "shape": (10 ** 12, 156)}
+    buf = __import__("io").BytesIO()
+    np.lib.format.write_array_header_1_0(buf, header)
+    buf.write(b"\0" * 64)
+    import zipfile
+    path = tmp_path / "hostile.npz"
+    with zipfile.ZipFile(path, "w") as zf:
+        zf.writestr("poses.npy", buf.getvalue())
+        b2 = __import__("io").BytesIO()
+        np.save(b2, np.zeros((3, 3)))
+        zf.writestr("trans.npy", b2.getvalue())
+    with pytest.raises(mlayer.ParseError, match="declares a larger array"):
+        mlayer.read_amass(path)
