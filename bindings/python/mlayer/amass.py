@@ -31,7 +31,8 @@ __all__ = ["read_amass", "write_amass", "AmassBody", "MODELS"]
 MODELS = ("smpl", "smplh", "smplx")
 """The body models :func:`read_amass` takes (``model=``), besides ``"auto"``."""
 
-# poses columns per model: (total width, hand columns or None); the body is always [0, 66)
+# columns of poses: the width per model, the hands' [first, end) where there are hands; the
+# body is always [0, 66) (the pelvis first)
 _WIDTH = {"smpl": 72, "smplh": 156, "smplx": 165}
 _HANDS = {"smplh": (66, 156), "smplx": (75, 165)}  # SMPL-X: jaw [66, 69), eyes [69, 75)
 _BODY = 66
