@@ -35,6 +35,7 @@ from .mixture import GaussianMixture, fuzzy_cmeans
 from .markov import Markov
 from .primitives import PrimitiveModel
 from .gltf import read_gltf, write_gltf
+from .amass import read_amass, write_amass
 
 
 __all__ = ["__version__", "library_version", "Error", "InvalidArgumentError", "ParseError",
@@ -49,6 +50,7 @@ __all__ += ["ParseWarning", "UpGuess", "detect_up"]
 __all__ += ["LeadIn", "lead_in", "trim"]
 __all__ += ["MissingDependencyError"]
 __all__ += ["read_gltf", "write_gltf"]
+__all__ += ["read_amass", "write_amass"]
 
 import logging as _logging
 # the library logs (the `mlayer` logger and its children) and never prints: nothing shows
