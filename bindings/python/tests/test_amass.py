@@ -452,3 +452,27 @@ def test_hostile_header_is_refused_before_allocating(tmp_path):
         zf.writestr("trans.npy", b2.getvalue())
     with pytest.raises(mlayer.ParseError, match="declares a larger array"):
         mlayer.read_amass(path)
+
+
+def test_cli_convert_amass(tmp_path, capsys):
+    """`mlayer convert` reads .npz files as AMASS and writes motions on the SMPL tree back."""
+    from mlayer.cli import main
+    src, _ = _file(tmp_path, width=156, F=30)
+    ref = mlayer.read_amass(src)
+    assert main(["convert", str(src), str(tmp_path / "a.bvh")]) == 0
+    via_bvh = mlayer.read_bvh(tmp_path / "a.bvh", up="z", units="m")
+    np.testing.assert_allclose(via_bvh.positions(), ref.positions(), rtol=0, atol=1e-6)
+    assert main(["convert", str(tmp_path / "a.bvh"), str(tmp_path / "b.npz")]) == 0
+    back = mlayer.read_amass(tmp_path / "b.npz")
+    np.testing.assert_allclose(back.positions(), ref.positions(), rtol=0, atol=1e-6)
+    assert main(["convert", str(src), str(tmp_path / "c.glb")]) == 0
+    assert (tmp_path / "c.glb").stat().st_size > 0
+    capsys.readouterr()
+    # a clip that is not on the SMPL tree: one line naming the joint, exit 1, no file
+    assert main(["convert", str(mlayer.data.sample_path()), str(tmp_path / "d.npz")]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "Hips" in err[0], err
+    assert not (tmp_path / "d.npz").exists()
+    # npz to npz is not a conversion
+    assert main(["convert", str(src), str(tmp_path / "e.npz")]) == 1
+    assert not (tmp_path / "e.npz").exists()
