@@ -422,17 +422,13 @@ static inline void reflect4(const double *q, int a, double *o)
 }
 
 /* Rows j and k = partner(j) of a table of width w (3 or 4): out[j] = f(in[k]), out[k] = f(in[j])
- * (reflected or, with copy, as they are); in place when out == in. */
-static inline void swap_rows(const double *in, double *out, size_t j, size_t k, int w, int a,
-                             int copy)
+ * with f the reflection; in place when out == in. */
+static inline void swap_rows(const double *in, double *out, size_t j, size_t k, int w, int a)
 {
     double x[4], y[4];
     memcpy(x, in + (size_t)w * j, (size_t)w * sizeof *x);
     memcpy(y, in + (size_t)w * k, (size_t)w * sizeof *y);
-    if (copy) {
-        memcpy(out + (size_t)w * j, y, (size_t)w * sizeof *y);
-        memcpy(out + (size_t)w * k, x, (size_t)w * sizeof *x);
-    } else if (w == 3) {
+    if (w == 3) {
         reflect3(y, a, out + 3 * j);
         reflect3(x, a, out + 3 * k);
     } else {
@@ -468,28 +464,32 @@ mlr_status mlr_mirror_motion(const mlr_rig *rig, const int32_t *partner, int axi
     st = mlr_mirror_check_partner(rig, partner, diag);
     if (st != MLR_OK)
         return st;
-    const int keep = (flags & MLR_MIRROR_KEEP_SKELETON) != 0;
-    if (out_offsets)
-        for (size_t j = 0; j < J; j++)
+    if (flags & MLR_MIRROR_KEEP_SKELETON) {
+        if (out_offsets && out_offsets != rig->offsets)
+            memcpy(out_offsets, rig->offsets, 3 * J * sizeof(double));
+        if (out_end_site_offsets && E && out_end_site_offsets != rig->end_site_offsets)
+            memcpy(out_end_site_offsets, rig->end_site_offsets, 3 * E * sizeof(double));
+    } else {
+        for (size_t j = 0; out_offsets && j < J; j++)
             if ((size_t)partner[j] >= j)
-                swap_rows(rig->offsets, out_offsets, j, (size_t)partner[j], 3, axis, keep);
-    if (out_end_site_offsets)
-        for (size_t e = 0; e < E; e++) {
+                swap_rows(rig->offsets, out_offsets, j, (size_t)partner[j], 3, axis);
+        for (size_t e = 0; out_end_site_offsets && e < E; e++) {
             const size_t f = (size_t)mirror_end_site(rig, partner, e);
             if (f >= e)
-                swap_rows(rig->end_site_offsets, out_end_site_offsets, e, f, 3, axis, keep);
+                swap_rows(rig->end_site_offsets, out_end_site_offsets, e, f, 3, axis);
         }
+    }
     for (size_t n = 0; n < N; n++) {
         reflect3(root_pos + 3 * n, axis, out_root_pos + 3 * n);
         const double *r = rot + 4 * J * n;
         double *o = out_rot + 4 * J * n;
         for (size_t j = 0; j < J; j++)
             if ((size_t)partner[j] >= j)
-                swap_rows(r, o, j, (size_t)partner[j], 4, axis, 0);
+                swap_rows(r, o, j, (size_t)partner[j], 4, axis);
         for (size_t p = 0; p < P; p++) {
             const size_t q = (size_t)mlr_rig_trans_row(rig, partner[rig->trans_joints[p]]);
             if (q >= p)
-                swap_rows(trans + 3 * P * n, out_trans + 3 * P * n, p, q, 3, axis, 0);
+                swap_rows(trans + 3 * P * n, out_trans + 3 * P * n, p, q, 3, axis);
         }
     }
     return MLR_OK;

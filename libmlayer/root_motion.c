@@ -186,14 +186,11 @@ mlr_status mlr_root_motion_extract(const mlr_rig *rig, double fps, int up, int m
     const size_t J = rig->n_joints;
     if (bj >= (double)J)
         return mlr_option_reject(diag, SUBJECT, "body_joint", bj, "-1 or below %zu joints", J);
-    int32_t b = (int32_t)bj;
-    if (b < 0) {
-        st = mlr_rig_body_translation_joint(rig, N, root_pos, trans, &b, diag);
-        if (st != MLR_OK)
-            return st;
-    }
     st = check_finite(rig, N, root_pos, rot, trans, diag);
     if (st != MLR_OK)
+        return st;
+    int32_t b = (int32_t)bj;
+    if (b < 0 && (st = mlr_rig_body_translation_joint(rig, N, root_pos, trans, &b, diag)) != 0)
         return st;
     const int ground = mode == MLR_ROOT_MOTION_GROUND;
     const int g1 = (up + 1) % 3, g2 = (up + 2) % 3;
