@@ -102,9 +102,9 @@ def test_contacts_swap_sides(mocap, name):
     assert np.array_equal(c_m, expected)
 
 
-def _z_up(m: mlayer.Motion) -> mlayer.Motion:
+def native_z_up(m: mlayer.Motion) -> mlayer.Motion:
     """The clip as a native Z-up rig: offsets, translations and rotations turned by +90
-    degrees about X (Y to Z)."""
+    degrees about X (Y to Z). Used by test_root_motion.py too."""
     Q = np.array([[1.0, 0, 0], [0, 0, -1], [0, 1, 0]])
     q = np.array([np.cos(np.pi / 4), np.sin(np.pi / 4), 0, 0])
     sk = m.skeleton
@@ -121,7 +121,7 @@ def _z_up(m: mlayer.Motion) -> mlayer.Motion:
 
 def test_a_z_up_clip_mirrors_the_same_way(mocap):
     m = clip(mocap, "cmu_131_01_mj_style_walk.bvh")
-    z = _z_up(m)
+    z = native_z_up(m)
     assert mirror_plane(z) == "x"
     mz = mlayer.mirror(z)
     h = body_height(z)

@@ -11,6 +11,7 @@ from mlayer._native import ffi, lib
 from mlayer._rig import c_rig
 from mlayer.cli import main
 from conftest import SHARED_CLIPS
+from test_mirror import native_z_up
 
 #: the clips that travel (walks, a run, the jumps, the dog's walk); the kick and the salsa stay
 WALKS = ["ai4a_dog_D1_008_KAN01_002.bvh", "bandai1_walk_happy_001.bvh",
@@ -102,25 +103,9 @@ def test_without_smoothing_the_track_is_the_ground_path(mocap):
     assert np.std(step(smooth)) < 0.5 * np.std(step(track))
 
 
-def _z_up(m: mlayer.Motion) -> mlayer.Motion:
-    """The clip as a native Z-up rig (offsets, translations and rotations turned by +90
-    degrees about X)."""
-    Q = np.array([[1.0, 0, 0], [0, 0, -1], [0, 1, 0]])
-    q = np.array([np.cos(np.pi / 4), np.sin(np.pi / 4), 0, 0])
-    sk = m.skeleton
-    z_sk = mlayer.Skeleton(sk.joint_names, sk.parents, sk.offsets @ Q.T, sk.channels,
-                           sk.end_site_parents, sk.end_site_offsets @ Q.T)
-    rot = mlayer.quat.mul(mlayer.quat.mul(np.broadcast_to(q, m.rot.shape), m.rot),
-                          np.broadcast_to(q * [1, -1, -1, -1], m.rot.shape))
-    out = mlayer.Motion(z_sk, m.frame_time, m.root_pos @ Q.T, mlayer.quat.normalize(rot),
-                        m.trans @ Q.T)
-    out.up_axis = "z"
-    return out
-
-
 def test_a_z_up_clip_gives_the_turned_track(mocap):
     m = clip(mocap, "cmu_131_01_mj_style_walk.bvh")
-    z = _z_up(m)
+    z = native_z_up(m)
     in_y, ty = mlayer.extract_root_motion(m)
     in_z, tz = mlayer.extract_root_motion(z)
     assert tz.up_axis == "z" and ty.up_axis == "y"
