@@ -46,17 +46,10 @@ _CSV_HEADER = ["frame", "time", "x", "y", "z", "heading"]
 class RootTrack:
     """A root track: positions on the ground plane and headings about the up axis, per frame.
 
-    Attributes
-    ----------
-    positions : numpy.ndarray
-        (F, 3) world positions; the up component is 0.
-    heading : numpy.ndarray
-        (F,) radians about the up axis (right-handed), continuous; 0 faces the ground axis
-        after up (Y-up: +Z, Z-up: +X, X-up: +Y).
-    fps : float
-        Frames per second.
-    up_axis : str
-        "x", "y" or "z".
+    Its attributes: ``positions``, (F, 3) world positions whose up component is 0;
+    ``heading``, (F,) radians about the up axis (right-handed), continuous, 0 facing the ground
+    axis after up (Y-up: +Z, Z-up: +X, X-up: +Y); ``fps``, frames per second; ``up_axis``,
+    "x", "y" or "z".
     """
 
     __slots__ = ("positions", "heading", "fps", "up_axis")
