@@ -24,6 +24,7 @@ import sys
 from .. import __version__, library_version
 from ..errors import Error
 from . import batch, contacts, demo, info, layers, primitives, render, retiming, stream, view
+from . import convert
 from . import mirror, rootmotion
 from ._command import (add_parser, check_outputs, check_requires, command, show_parse_warning,
                        show_trim, stdout_outputs)
@@ -54,6 +55,7 @@ COMMANDS = (
     primitives.cmd_primitives,
     primitives.cmd_generate,
     demo.cmd_demo,
+    convert.cmd_convert,
 )
 
 
