@@ -95,7 +95,8 @@ class ScipyFrames(NamedTuple):
     trans: np.ndarray
 
 
-def depth_first_order(parents, joint_names=None, where: str = "Skeleton") -> np.ndarray:
+def depth_first_order(parents: ArrayLike, joint_names: Sequence[str] | None = None,
+                      where: str = "Skeleton") -> NDArray[np.int64]:
     """The depth-first (BVH) order of a joint tree given in any order.
 
     Parameters
@@ -399,7 +400,9 @@ class Skeleton(ReadOnlyAttributes):
                 f"{self.n_channels} channels, root {self._names[0]!r})")
 
 
-def _reordered(order, names, par, off, channels, ep, eo):
+def _reordered(order: NDArray[np.int64], names: list[str], par: NDArray[Any],
+               off: NDArray[np.float64], channels: list[str], ep: NDArray[Any],
+               eo: NDArray[np.float64]) -> tuple[Any, ...]:
     """The skeleton arrays in the joint order ``order`` (from :func:`depth_first_order`):
     parents renumbered, End Sites renumbered and sorted by their new parent (stable)."""
     inv = np.empty_like(order)
@@ -418,7 +421,8 @@ def _reordered(order, names, par, off, channels, ep, eo):
     return names, par, off, channels, ep, eo
 
 
-def _frames_in_order(skel: Skeleton, order: np.ndarray, rot, trans):
+def _frames_in_order(skel: Skeleton, order: NDArray[np.int64], rot: ArrayLike,
+                     trans: ArrayLike | None) -> tuple[NDArray[np.float64], Any]:
     """Frames given in the input joint order of a reordered skeleton, in its own order:
     ``rot`` (N, J, 4) by ``order``; ``trans`` (N, P, 3), one column per joint with position
     channels in increasing *input* index, reordered to the skeleton's ``trans_joints``."""
