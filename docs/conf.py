@@ -54,6 +54,9 @@ autodoc_default_options = {"members": True, "undoc-members": False, "show-inheri
 napoleon_google_docstring = False
 napoleon_numpy_docstring = True
 napoleon_use_rtype = False
+# "Attributes" sections as :ivar: fields: autodoc documents a dataclass's or NamedTuple's fields
+# itself, and attribute directives for them would describe each object twice
+napoleon_use_ivar = True
 
 if release != mlayer.__version__:
     raise RuntimeError(f"the installed mlayer is {mlayer.__version__}, this checkout {release}: "

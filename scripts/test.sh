@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Set up (scripts/setup.sh), then run every test: the Check suites of the C core through meson,
+# Set up (scripts/setup.sh), then run every test: the static checks (scripts/lint.sh: ruff, mypy,
+# clang-format), the Check suites of the C core through meson,
 # the install check, the release check (sdist and abi3 wheel, installed into a fresh venv
 # without libcholmod), the same C suites again under AddressSanitizer +
 # UndefinedBehaviorSanitizer, a bounded fuzzing run of the BVH reader, then pytest (the Python
@@ -9,6 +10,9 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
 . .venv/bin/activate
+
+echo "== Lint: ruff, mypy, clang-format (scripts/lint.sh) =="
+bash scripts/lint.sh
 
 echo "== C core: Check suites and ABI checks =="
 meson setup build-test -Dtests=enabled -Dcholmod=enabled --reconfigure >/dev/null 2>&1 \

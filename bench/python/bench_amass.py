@@ -98,7 +98,7 @@ def main() -> None:
                  ("numpy glue (scipy)", lambda: numpy_glue(path)),
                  ("np.load alone", lambda: load_only(path)))
         times: dict[str, list[float]] = {label: [] for label, _ in sides}
-        for label, fn in sides:
+        for _label, fn in sides:
             fn()  # warm up (imports, page cache)
         for _ in range(args.repeat):  # in turns, so that a slow spell falls on both
             for label, fn in sides:

@@ -84,7 +84,8 @@ def main():
             over = (res.seconds * w - busy) / n
             print(f"{'dask, ' + str(w) + ' worker' + ('s' if w > 1 else ''):22} "
                   f"{res.seconds:7.2f} s  {n / res.seconds:7.1f} clips/s  (cluster start "
-                  f"{t_start:.2f} s; tasks {busy:.2f} s; idle+scheduling {1e3 * over:.1f} ms/clip)")
+                  f"{t_start:.2f} s; tasks {busy:.2f} s; "
+                  f"idle+scheduling {1e3 * over:.1f} ms/clip)")
         if 1 in rows:
             print(f"scheduling overhead vs the loop, 1 worker: "
                   f"{1e3 * (rows[1] - t_loop) / n:.1f} ms/clip")

@@ -10,7 +10,8 @@ k-means: n = 200,000 rows, k = 64, 20 Lloyd iterations (tol = 0) from the same i
     ../shared/data/mocap of the CMU skeleton, tiled to 200,000 rows, plus Gaussian jitter of
     1% of each column's standard deviation (near-duplicate rows, as 120 fps captures have);
   - random normal data, d = 96 (the worst case: no structure for the bounds to exploit).
-SOM: 65 x 65 lattice on 10,000 x 93 pose features (tiled with the same jitter), batch training, time per epoch; somoclu
+SOM: 65 x 65 lattice on 10,000 x 93 pose features (tiled with the same jitter), batch training,
+time per epoch; somoclu
 (batch, Gaussian, planar, rectangular; `pip install --no-build-isolation somoclu`, optional)
 with the same thread count (OMP_NUM_THREADS); MiniSom (online, one row per step, pure NumPy)
 timed over 1,000 steps and scaled to one epoch of 10,000 rows, compared with mlayer's online

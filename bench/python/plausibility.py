@@ -30,7 +30,8 @@ frames and skeleton):
   points rest on, the floor the guards document (mlr_cleanup_floor_height), computed here in
   numpy. (The median, used before, mixes ankles, which stand an ankle's height above the
   ground, with toes, so it sits above the ground and counts toes resting on it as below it.)
-  Without contacts, the 1st percentile of the lowest foot point per frame. A penetration frame has a foot point more than
+  Without contacts, the 1st percentile of the lowest foot point per frame. A penetration frame
+  has a foot point more than
   0.5 % of H below that floor in the output while the same point was not below
   (floor - 0.5 % H) in the input; the depth reported is the largest such (floor - height).
 - Exaggeration kept per body part: RMS over frames and the part's joints of the rotation
@@ -61,7 +62,8 @@ FLOOR_TOL = 0.005          # of body height
 def up_axis(motion) -> str:
     """'X', 'Y' or 'Z', with '-' when up is the negative direction: the dominant component of
     the median over frames of (mean position of the hips - mean position of the feet of
-    find_feet; hips from mlayer.ik.leg_chain): the hips are above the feet along the up axis in every frame, while the horizontal components
+    find_feet; hips from mlayer.ik.leg_chain): the hips are above the feet along the up axis
+    in every frame, while the horizontal components
     change sign with the heading. Without feet: the axis of the largest median extent of the
     joints over frames."""
     sk = motion.skeleton

@@ -54,7 +54,7 @@ def worst_frames(m, un, gu, chains, feet, floor, H):
     names = m.joint_names
     out = []
     hr_u = P.hinge_report(m, un, chains)
-    hr_g = P.hinge_report(m, gu, chains)
+    P.hinge_report(m, gu, chains)  # checks the guarded motion's chains as the unguarded's
     pi, wi = m.forward_kinematics()
     pu, wu = un.forward_kinematics()
     pg, wg = gu.forward_kinematics()
@@ -123,8 +123,8 @@ def render(path, op="stylize", alpha=3.0, out_png="worst.png", dpi=90):
     pu_all, pg_all = un.positions() / H, gu.positions() / H
     f0 = floor / H
     opname = op if op == "denoise" else f"stylize alpha {alpha:g}"
-    captions, axes = [], []
-    for r, (kind, t, j, cap_u, cap_g) in enumerate(rows):
+    captions = []
+    for r, (_kind, t, j, cap_u, cap_g) in enumerate(rows):
         for c, (pos, lab, cap) in enumerate(((pu_all[t], "unguarded", cap_u),
                                              (pg_all[t], "guarded",
                                               f"same frame: {cap_g}"))):

@@ -20,6 +20,8 @@ REQUIRED_IN_SDIST = ["LICENSE", "CHANGELOG.md", "README.md", "pyproject.toml", "
                      "tests/abi/check_exports.py", "bindings/python/tests/conftest.py",
                      "bindings/python/mlayer/data/cmu_131_01_mj_style_walk.bvh",
                      "docs/VERSIONING.md"]
+#: PEP 561: the marker that tells type checkers the package has inline type hints
+REQUIRED_IN_WHEEL = ["mlayer/py.typed"]
 FORBIDDEN_IN_SDIST = [".ci/", "docs/img/", "build", ".venv/", "bench/python/plausibility_results"]
 
 
@@ -82,6 +84,7 @@ def main() -> None:
     want |= {dist_info + f for f in ("METADATA", "WHEEL", "RECORD", "entry_points.txt",
                                      "licenses/LICENSE")}
     errors += compare("wheel", got, want)
+    errors += [f"wheel: {f} missing" for f in REQUIRED_IN_WHEEL if f not in got]
     for extra in ("plot", "batch", "test", "all"):
         if f"Provides-Extra: {extra}" not in metadata:
             errors.append(f"wheel: no extra {extra!r} in METADATA")

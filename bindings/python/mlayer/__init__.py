@@ -5,6 +5,8 @@ along the first axis; quaternions are scalar-first (w, x, y, z).
 """
 from __future__ import annotations
 
+import logging as _logging
+
 from ._version import __version__, library_version
 from .errors import (Error, InvalidArgumentError, MlayerIOError, MlayerWarning, ParseError,
                      SingularMatrixError, UnsupportedError)
@@ -44,7 +46,8 @@ __all__ = ["__version__", "library_version", "Error", "InvalidArgumentError", "P
            "SingularMatrixError", "MlayerIOError", "UnsupportedError", "MlayerWarning", "LGS",
            "lgs", "have_cholmod", "quat", "Motion", "Skeleton", "read_bvh", "write_bvh",
            "read_bvh_string", "write_bvh_string", "metrics", "data", "Layers", "decompose",
-           "denoise", "stylize", "Synthesis", "GuardReport", "JointLimits", "joint_limits", "Stream", "stream_motion", "ik", "detect_contacts",
+           "denoise", "stylize", "Synthesis", "GuardReport", "JointLimits", "joint_limits",
+           "Stream", "stream_motion", "ik", "detect_contacts",
            "fix_contacts", "resample", "slerp_resample", "timewarp", "timewarp_map",
            "timewarp_speed", "kmeans", "KMeansResult", "elbow", "SOM", "pose_features", "batch",
            "PCA", "GRBF", "fuzzy_cmeans", "GaussianMixture", "Markov", "PrimitiveModel"]
@@ -55,7 +58,6 @@ __all__ += ["read_gltf", "write_gltf"]
 __all__ += ["read_amass", "write_amass"]
 __all__ += ["mirror", "mirror_pairs", "RootTrack", "extract_root_motion", "apply_root_motion"]
 
-import logging as _logging
 # the library logs (the `mlayer` logger and its children) and never prints: nothing shows
 # until the application configures logging (the command line shows INFO on stderr)
 _logging.getLogger("mlayer").addHandler(_logging.NullHandler())

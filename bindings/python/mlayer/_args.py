@@ -8,6 +8,7 @@ Every failure is an :class:`~mlayer.errors.InvalidArgumentError` that names the 
 from __future__ import annotations
 
 import os
+from typing import Any
 
 import numpy as np
 
@@ -16,7 +17,7 @@ from .errors import InvalidArgumentError
 __all__ = ["integer", "threads", "default_threads"]
 
 
-def integer(v, name: str, lo: int | None = None, hi: int | None = None) -> int:
+def integer(v: Any, name: str, lo: int | None = None, hi: int | None = None) -> int:
     """``v`` as an int when it is an integer in ``[lo, hi]`` (either bound optional); else
     InvalidArgumentError: ``"{name} must be an integer >= lo, got v"``."""
     ok = isinstance(v, (int, np.integer)) and not isinstance(v, (bool, np.bool_))
@@ -37,8 +38,15 @@ def integer(v, name: str, lo: int | None = None, hi: int | None = None) -> int:
 
 
 def default_threads() -> int:
-    """Threads used when none is asked for: the CPUs this process may run on (at most 64).
-    Results do not depend on the thread count."""
+    """Threads used when none is asked for.
+
+    Results do not depend on the thread count.
+
+    Returns
+    -------
+    int
+        The CPUs this process may run on, at most 64.
+    """
     try:
         n = len(os.sched_getaffinity(0))
     except AttributeError:  # not on Linux
@@ -46,6 +54,6 @@ def default_threads() -> int:
     return max(1, min(64, n))
 
 
-def threads(v, name: str = "threads") -> int:
+def threads(v: int | None, name: str = "threads") -> int:
     """A C function's thread count: None -> 0 (the library picks), else an integer >= 1."""
     return 0 if v is None else integer(v, name, 1)

@@ -6,15 +6,17 @@ every check happens here before a pointer crosses into C.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from ._native import ffi
 from .errors import InvalidArgumentError
 
 
-def as_f64(arr, name: str, *, ndim: tuple[int, ...] | int | None = None,
-           last: tuple[int, ...] | None = None) -> np.ndarray:
+def as_f64(arr: Any, name: str, *, ndim: tuple[int, ...] | int | None = None,
+           last: tuple[int, ...] | None = None) -> NDArray[np.float64]:
     """Convert an input once to a C-contiguous float64 array (no copy when it already is one).
 
     ndim: allowed numbers of dimensions; last: required trailing shape, e.g. (4,).
@@ -27,7 +29,8 @@ def as_f64(arr, name: str, *, ndim: tuple[int, ...] | int | None = None,
         allowed = (ndim,) if isinstance(ndim, int) else tuple(ndim)
         if a.ndim not in allowed:
             raise InvalidArgumentError(
-                f"{name}: expected {' or '.join(map(str, allowed))} dimensions, got shape {a.shape}")
+                f"{name}: expected {' or '.join(map(str, allowed))} dimensions, got shape "
+                f"{a.shape}")
     if last is not None and a.shape[a.ndim - len(last):] != tuple(last):
         raise InvalidArgumentError(
             f"{name}: expected a trailing shape {tuple(last)}, got shape {a.shape}")
@@ -43,14 +46,13 @@ def check_out(arr: np.ndarray, name: str, shape: tuple[int, ...]) -> np.ndarray:
     return arr
 
 
-def _c_layout(arr) -> None:
-    # a real check, not an assert: ffi.from_buffer would reinterpret another dtype's bytes
+def _c_layout(arr: Any) -> None:
     if not isinstance(arr, np.ndarray) or arr.dtype != np.float64 or not arr.flags.c_contiguous:
         raise TypeError("mlayer internal: a C pointer needs a C-contiguous float64 array, got "
                         f"{getattr(arr, 'dtype', type(arr).__name__)}")
 
 
-def ptr(arr: np.ndarray, ctype: str = "double *"):
+def ptr(arr: NDArray[Any], ctype: str = "double *") -> Any:
     """A C pointer into a checked float64 C-contiguous array (the array must stay referenced)."""
     _c_layout(arr)
     if arr.size == 0:
@@ -58,7 +60,7 @@ def ptr(arr: np.ndarray, ctype: str = "double *"):
     return ffi.cast(ctype, ffi.from_buffer(arr))
 
 
-def ptr_out(arr: np.ndarray, ctype: str = "double *"):
+def ptr_out(arr: NDArray[Any], ctype: str = "double *") -> Any:
     """Like ptr, for an output array (refuses read-only buffers)."""
     _c_layout(arr)
     if arr.size == 0:
@@ -71,7 +73,7 @@ def require_finite(a: np.ndarray, name: str) -> None:
         raise InvalidArgumentError(f"{name}: contains NaN or infinite values")
 
 
-def number(v, name: str) -> float:
+def number(v: Any, name: str) -> float:
     """``float(v)``, or InvalidArgumentError naming ``name`` when v is not a number. For values
     the C core checks itself (its message names the option by the same name)."""
     try:
@@ -80,7 +82,7 @@ def number(v, name: str) -> float:
         raise InvalidArgumentError(f"{name} must be a number, got {v!r}") from None
 
 
-def finite(v, name: str) -> float:
+def finite(v: Any, name: str) -> float:
     """``float(v)``, or InvalidArgumentError naming ``name`` when v is not a finite number."""
     try:
         f = float(v)

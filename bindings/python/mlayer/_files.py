@@ -18,6 +18,7 @@ import os
 import re
 import secrets
 import threading
+from collections.abc import Iterator
 
 __all__ = ["atomic_output", "stale_temporaries", "temporary_name", "umask"]
 
@@ -46,7 +47,7 @@ def umask() -> int:
     return mask
 
 
-def temporary_name(path, suffix: str = "") -> str:
+def temporary_name(path: str | os.PathLike[str], suffix: str = "") -> str:
     """A new temporary name for `path` by the rule: ``DIR/.NAME.tmp-<16 hex><suffix>``."""
     path = os.fspath(path)
     if _EXTENSION.fullmatch(suffix) is None:
@@ -56,7 +57,7 @@ def temporary_name(path, suffix: str = "") -> str:
     return os.path.join(directory, f".{name}.tmp-{secrets.token_hex(8)}{suffix}")
 
 
-def stale_temporaries(path) -> list[str]:
+def stale_temporaries(path: str | os.PathLike[str]) -> list[str]:
     """The temporaries of `path` that exist: those a writer of it that was killed left (or
     those of a writer still running), whether the C writer or :func:`atomic_output` made
     them. Sorted."""
@@ -67,7 +68,7 @@ def stale_temporaries(path) -> list[str]:
 
 
 @contextlib.contextmanager
-def atomic_output(path, suffix: str | None = None):
+def atomic_output(path: str | os.PathLike[str], suffix: str | None = None) -> Iterator[str]:
     """Context manager yielding a temporary path in the target's directory.
 
     Write the whole output to the yielded path; when the block ends without an exception the

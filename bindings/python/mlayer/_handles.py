@@ -1,7 +1,14 @@
 """The lifetime of the C handles Python objects own: read-only attributes that describe a C
 object, closing, and refusing copies that would share a handle."""
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any, SupportsIndex
+
 from ._native import ffi
 from .errors import InvalidArgumentError
+
+if TYPE_CHECKING:
+    from typing_extensions import Self
 
 __all__ = ["NativeHandle", "ReadOnlyAttributes", "refuse_copy"]
 
@@ -15,19 +22,19 @@ class ReadOnlyAttributes:
     __slots__ = ()
     _readonly: tuple = ()
 
-    def __setattr__(self, name, value):
+    def __setattr__(self, name: str, value: Any) -> None:
         if name in type(self)._readonly and _is_set(self, name):
             raise AttributeError(f"{type(self).__name__}.{name} is read-only (it describes the "
                                  "C object; make a new one instead)")
         object.__setattr__(self, name, value)
 
-    def __delattr__(self, name):
+    def __delattr__(self, name: str) -> None:
         if name in type(self)._readonly:
             raise AttributeError(f"{type(self).__name__}.{name} is read-only")
         object.__delattr__(self, name)
 
 
-def _is_set(obj, name) -> bool:
+def _is_set(obj: Any, name: str) -> bool:
     try:
         object.__getattribute__(obj, name)
     except AttributeError:
@@ -35,7 +42,7 @@ def _is_set(obj, name) -> bool:
     return True
 
 
-def refuse_copy(obj, what: str = "copy", hint: str = "make a new one") -> TypeError:
+def refuse_copy(obj: Any, what: str = "copy", hint: str = "make a new one") -> TypeError:
     """The TypeError of a copy or pickle of an object whose C handle cannot be duplicated."""
     return TypeError(f"cannot {what} a mlayer.{type(obj).__name__}: it owns a C handle that "
                      f"cannot be duplicated ({hint})")
@@ -67,7 +74,7 @@ class NativeHandle:
         """Whether :meth:`close` (or the end of a ``with`` block) has freed the handle."""
         return self._h is None
 
-    def _live(self):
+    def _live(self) -> Any:
         """The C handle; InvalidArgumentError when the object is closed."""
         h = self._h
         if h is None:
@@ -75,22 +82,22 @@ class NativeHandle:
                                        "(close() or the end of its with block freed it)")
         return h
 
-    def _clone(self):
+    def _clone(self) -> Any:
         raise refuse_copy(self)
 
-    def __copy__(self):
+    def __copy__(self) -> Any:
         self._live()
         return self._clone()
 
-    def __deepcopy__(self, memo):
+    def __deepcopy__(self, memo: dict[int, Any]) -> Any:
         self._live()
         return self._clone()
 
-    def __reduce_ex__(self, protocol):
+    def __reduce_ex__(self, protocol: SupportsIndex) -> Any:
         raise refuse_copy(self, "pickle")
 
-    def __enter__(self):
+    def __enter__(self) -> Self:
         return self
 
-    def __exit__(self, *exc):
+    def __exit__(self, *exc: object) -> None:
         self.close()

@@ -30,6 +30,7 @@ missing module is one line on stderr and exit status 1, and nothing is written.
 from __future__ import annotations
 
 import importlib
+from types import ModuleType
 
 from .errors import MissingDependencyError
 
@@ -48,7 +49,7 @@ EXTRAS = {
 }
 
 
-def _import(module: str):
+def _import(module: str) -> ModuleType | None:
     try:
         return importlib.import_module(module)
     except ImportError:
@@ -68,7 +69,7 @@ def message(module: str, feature: str, extra: str | None = None) -> str:
     return f"{feature} needs {dist}: {how}"
 
 
-def require(module: str, *, feature: str, extra: str | None = None):
+def require(module: str, *, feature: str, extra: str | None = None) -> ModuleType:
     """Import `module` and return it, or raise :class:`mlayer.MissingDependencyError` with the
     one line of :func:`message` (`feature`: what needs it, e.g. "mlayer layers --plot"; `extra`:
     the mlayer extra, by default the one of :data:`EXTRAS`)."""

@@ -18,11 +18,31 @@ from __future__ import annotations
 
 import logging
 import sys
+from collections.abc import Callable
+from typing import IO, Any, Protocol
 
 from ._optional import available, require
 from .errors import InvalidArgumentError
 
-__all__ = ["logger", "progress_bar", "resolve"]
+__all__ = ["logger", "progress_bar", "resolve", "ProgressArg", "Bar", "BarFactory"]
+
+#: what a ``progress=`` argument may be (see the module's docstring)
+ProgressArg = bool | IO[str] | Callable[[int, int], object] | None
+
+
+class Bar(Protocol):
+    """What :func:`resolve`'s factory makes: a tqdm bar, a callback or nothing."""
+
+    def update(self, n: int = 1) -> Any: ...
+    def set_description_str(self, text: str) -> Any: ...
+    def set_postfix_str(self, text: str) -> Any: ...
+    def close(self) -> Any: ...
+    def __enter__(self) -> Bar: ...
+    def __exit__(self, *exc: object) -> Any: ...
+
+
+#: ``make(total, desc="", unit="it") -> Bar``
+BarFactory = Callable[..., Bar]
 
 #: the package's logger (children: ``mlayer.primitives``, ``mlayer.batch``, ...)
 logger = logging.getLogger("mlayer")
@@ -43,17 +63,17 @@ class _Off:
     def close(self) -> None:
         pass
 
-    def __enter__(self):
+    def __enter__(self) -> _Off:
         return self
 
-    def __exit__(self, *exc) -> None:
+    def __exit__(self, *exc: object) -> None:
         self.close()
 
 
 class _Callback(_Off):
     """progress= a callable(done, total): called after each update."""
 
-    def __init__(self, fn, total: int):
+    def __init__(self, fn: Callable[[int, int], object], total: int) -> None:
         self.fn, self.total, self.done = fn, total, 0
 
     def update(self, n: int = 1) -> None:
@@ -61,14 +81,14 @@ class _Callback(_Off):
         self.fn(self.done, self.total)
 
 
-def _is_terminal(stream) -> bool:
+def _is_terminal(stream: Any) -> bool:
     try:
         return bool(stream.isatty())
     except (AttributeError, ValueError):  # no isatty, or a closed stream
         return False
 
 
-def resolve(progress, feature: str):
+def resolve(progress: ProgressArg, feature: str) -> BarFactory:
     """Check a ``progress=`` argument before any work and return a factory
     ``make(total, desc, unit) -> bar`` (a tqdm bar, a callback or nothing, each with
     ``update(n)``, ``set_description_str``, ``set_postfix_str``, ``close`` and a context
@@ -90,13 +110,13 @@ def resolve(progress, feature: str):
         return lambda total, desc="", unit="it": _Off()
     tqdm = require("tqdm", feature=f"{feature} with progress=True").tqdm
 
-    def make(total: int, desc: str = "", unit: str = "it"):
+    def make(total: int, desc: str = "", unit: str = "it") -> Bar:
         return tqdm(total=total, desc=desc, unit=unit, file=stream, leave=True,
                     dynamic_ncols=True)
     return make
 
 
-def progress_bar(progress, total: int, desc: str = "", unit: str = "it", *,
-                 feature: str = "mlayer"):
+def progress_bar(progress: ProgressArg, total: int, desc: str = "", unit: str = "it", *,
+                 feature: str = "mlayer") -> Bar:
     """``resolve(progress, feature)(total, desc, unit)``: the bar of one loop."""
     return resolve(progress, feature)(total, desc, unit)

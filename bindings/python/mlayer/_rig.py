@@ -1,14 +1,21 @@
-"""A skeleton as the C core's ``mlr_rig``: borrowed pointers into the Skeleton's arrays."""
+"""A skeleton as the C core's ``mlr_rig``: borrowed pointers into the Skeleton's arrays.
+
+The skeleton and motion arguments are typed ``Any``: :mod:`mlayer.motion` imports this module,
+and an import back (even for types only) would be an import circle (test_import_graph).
+"""
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 from . import _arrays
 from ._native import ffi, lib
 from .errors import InvalidArgumentError, check
 
 
-def c_rig(skeleton):
+def c_rig(skeleton: Any) -> tuple[Any, tuple[Any, ...]]:
     """``(rig, keep)``: an ``mlr_rig *`` over the skeleton's names, parents, offsets, trans
     joints and End Sites, and the objects that must stay referenced while it is used."""
     names = [ffi.new("char[]", n.encode("utf-8", errors="surrogateescape"))
@@ -25,7 +32,8 @@ def c_rig(skeleton):
     r.offsets = ffi.cast("const double *", ffi.from_buffer(offsets))
     r.names = cnames
     r.n_trans = trans.shape[0]
-    r.trans_joints = ffi.cast("const int32_t *", ffi.from_buffer(trans)) if trans.size else ffi.NULL
+    r.trans_joints = ffi.cast("const int32_t *", ffi.from_buffer(trans)) if trans.size \
+        else ffi.NULL
     r.n_end_sites = ends.shape[0]
     if ends.size:
         r.end_site_parents = ffi.cast("const int32_t *", ffi.from_buffer(ends))
@@ -33,13 +41,13 @@ def c_rig(skeleton):
     return r, (names, cnames, parents, offsets, trans, ends, end_off)
 
 
-def motion_axis(motion, up, where: str) -> int:
+def motion_axis(motion: Any, up: str | int | None, where: str) -> int:
     """The up axis argument ``up`` as 0..2; None: the motion's own (:attr:`Motion.up_axis`,
     given when it was read or detected)."""
     return axis(motion.up_axis if up is None else up, where)
 
 
-def axis(up, where: str) -> int:
+def axis(up: str | int | None, where: str) -> int:
     """An up axis given as "x", "y", "z" (any case) or 0, 1, 2."""
     if isinstance(up, str) and up.lower() in ("x", "y", "z"):
         return "xyz".index(up.lower())
@@ -49,7 +57,7 @@ def axis(up, where: str) -> int:
 
 
 
-def body_height_of(positions, k: int) -> float:
+def body_height_of(positions: ArrayLike, k: int) -> float:
     """The C core's body size (mlr_rig_body_height, the one every C threshold uses) of (N, J, 3)
     world positions along axis k (0..2): the median over frames of the joints' extent."""
     p = np.ascontiguousarray(positions, dtype=np.float64)

@@ -10,7 +10,13 @@ __all__ = ["__version__", "library_version"]
 
 
 def library_version() -> str:
-    """Version of the C library that is actually loaded."""
+    """Version of the C library that is actually loaded.
+
+    Returns
+    -------
+    str
+        E.g. ``"0.2.0"`` (``mlr_version_string``).
+    """
     return _ffi.string(_lib.mlr_version_string()).decode()
 
 

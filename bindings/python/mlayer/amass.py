@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import os
 import zipfile
-from typing import Any, NamedTuple
+from typing import Any, Literal, NamedTuple, overload
 
 import numpy as np
 
@@ -39,9 +39,20 @@ _BODY = 66
 
 
 class AmassBody(NamedTuple):
-    """What an AMASS file says about the body (``read_amass(..., return_body=True)``), to
-    pass back to :func:`write_amass`: ``write_amass(m, out, betas=body.betas,
-    gender=body.gender)``."""
+    """What an AMASS file says about the body (``read_amass(..., return_body=True)``).
+
+    To pass back to :func:`write_amass`:
+    ``write_amass(m, out, betas=body.betas, gender=body.gender)``.
+
+    Parameters
+    ----------
+    betas : numpy.ndarray or None
+        The shape coefficients.
+    gender : str or None
+        ``gender`` as stored.
+    model : str
+        The body model the poses were read as.
+    """
 
     betas: np.ndarray | None
     """The shape coefficients (1-D), or None when the file has none."""
@@ -52,7 +63,7 @@ class AmassBody(NamedTuple):
     """The body model the poses were read as: "smpl", "smplh" or "smplx"."""
 
 
-def _gender(z) -> str | None:
+def _gender(z: Any) -> str | None:
     if "gender" not in z.files:
         return None
     try:
@@ -83,7 +94,7 @@ def _load(path: str) -> Any:
     return z
 
 
-def _declared_size_ok(z, key: str) -> bool:
+def _declared_size_ok(z: Any, key: str) -> bool:
     """Whether the array's header declares no more bytes than its zip member holds (a
     hostile header must not make numpy allocate terabytes before the read fails)."""
     name = key if key in z.zip.namelist() else key + ".npy"
@@ -102,7 +113,7 @@ def _declared_size_ok(z, key: str) -> bool:
     return int(np.prod(shape, dtype=object)) * dtype.itemsize <= info.file_size - header
 
 
-def _get(z, path: str, key: str) -> np.ndarray:
+def _get(z: Any, path: str, key: str) -> np.ndarray:
     if not _declared_size_ok(z, key):
         raise _fail(path, f"{key!r} declares a larger array than the file holds (damaged)")
     try:
@@ -127,7 +138,7 @@ def _numeric(a: np.ndarray, path: str, key: str, ndim: int) -> np.ndarray:
     return a
 
 
-def _framerate(z, path: str) -> float:
+def _framerate(z: Any, path: str) -> float:
     keys = [k for k in ("mocap_framerate", "mocap_frame_rate") if k in z.files]
     if not keys:
         raise _fail(path, "no frame rate: neither 'mocap_framerate' nor 'mocap_frame_rate'")
@@ -141,7 +152,7 @@ def _framerate(z, path: str) -> float:
     return fps
 
 
-def _model_of(z, path: str, width: int, model: str) -> str:
+def _model_of(z: Any, path: str, width: int, model: str) -> str:
     if model == "auto" and "surface_model_type" in z.files:
         t = _get(z, path, "surface_model_type")
         if t.dtype.kind in "US" and t.size == 1:
@@ -163,7 +174,7 @@ def _model_of(z, path: str, width: int, model: str) -> str:
     return model
 
 
-def _poses(z, path: str) -> np.ndarray:
+def _poses(z: Any, path: str) -> np.ndarray:
     """(F, W) poses: the ``poses`` key, or AMASS's split keys (root_orient, pose_body and
     optionally pose_hand) when it is absent."""
     if "poses" in z.files:
@@ -179,7 +190,7 @@ def _poses(z, path: str) -> np.ndarray:
     raise _fail(path, "no 'poses' (nor 'root_orient' and 'pose_body'): not an AMASS file")
 
 
-def _rest_offsets(joint_positions, names: tuple[str, ...], parents: tuple[int, ...],
+def _rest_offsets(joint_positions: Any, names: tuple[str, ...], parents: tuple[int, ...],
                   default: np.ndarray, model: str) -> np.ndarray:
     if joint_positions is None:
         return np.array(default)
@@ -206,7 +217,14 @@ def _rest_offsets(joint_positions, names: tuple[str, ...], parents: tuple[int, .
     return off
 
 
-def read_amass(path, *, joint_positions=None, model: str = "auto",
+@overload
+def read_amass(path: str | os.PathLike[str], *, joint_positions: Any = None,
+               model: str = "auto", return_body: Literal[False] = False) -> Motion: ...
+@overload
+def read_amass(path: str | os.PathLike[str], *, joint_positions: Any = None,
+               model: str = "auto", return_body: Literal[True]) -> tuple[Motion, AmassBody]: ...
+def read_amass(path: str | os.PathLike[str], *, joint_positions: Any = None,
+               model: str = "auto",
                return_body: bool = False) -> Motion | tuple[Motion, AmassBody]:
     """Read an AMASS-style ``.npz`` file into a Motion on the SMPL or SMPL-H tree.
 
@@ -277,8 +295,8 @@ def read_amass(path, *, joint_positions=None, model: str = "auto",
     names, parents, default = smpl.tree(hands)
     cols = poses[:, :_BODY]
     if hands:
-        a, b = _HANDS[model]
-        cols = np.concatenate([cols, poses[:, a:b]], axis=1)
+        lo, hi = _HANDS[model]
+        cols = np.concatenate([cols, poses[:, lo:hi]], axis=1)
     offsets = _rest_offsets(joint_positions, names, parents, default, model)
     sk = Skeleton(names, parents, offsets)  # reordered to depth-first: sk.source_order
     # the rotation vectors put in the skeleton's order before exp (a third smaller than the
@@ -322,7 +340,8 @@ def _tree_of(motion: Motion) -> tuple[tuple[str, ...], np.ndarray]:
     return tree_names, index
 
 
-def write_amass(motion: Motion, path, *, betas=None, gender: str | None = "neutral") -> None:
+def write_amass(motion: Motion, path: str | os.PathLike[str], *, betas: Any = None,
+                gender: str | None = "neutral") -> None:
     """Write a motion on the SMPL (22) or SMPL-H (52 joints) tree as an AMASS ``.npz``.
 
     The inverse of :func:`read_amass`: ``poses`` (rotation vectors, :func:`mlayer.quat.log`,

@@ -18,6 +18,8 @@ import contextlib
 import contextvars
 import os
 import warnings
+from collections.abc import Iterator
+from typing import Any
 
 from ._native import ffi, lib
 from .errors import InvalidArgumentError, ParseError, ParseWarning, check
@@ -31,16 +33,30 @@ __all__ = ["read_bvh", "write_bvh", "read_bvh_string", "write_bvh_string", "stri
 # The default of strict=None: False, unless inside strict_reading() (the CLI's --strict).
 _STRICT = contextvars.ContextVar("mlayer_bvh_strict", default=False)
 # The length unit of clips read with units=None: None, unless inside reading_units().
-_UNITS = contextvars.ContextVar("mlayer_bvh_units", default=None)
+_UNITS: contextvars.ContextVar[str | None] = contextvars.ContextVar("mlayer_bvh_units",
+                                                                  default=None)
 
 _WARNING_KINDS = {1: "extra_frames", 2: "missing_frames", 3: "trailing_data",
                   4: "no_final_newline", 5: "truncated"}
 
 
 @contextlib.contextmanager
-def strict_reading(strict: bool = True):
-    """Within the block, read_bvh / read_bvh_string with ``strict=None`` read strictly (or
-    leniently with ``strict_reading(False)``); the CLI's ``--strict`` uses it."""
+def strict_reading(strict: bool = True) -> Iterator[None]:
+    """A context in which the readers' ``strict=None`` means ``strict``.
+
+    Within the block, :func:`read_bvh` / :func:`read_bvh_string` with ``strict=None`` read
+    strictly (or leniently with ``strict_reading(False)``); the CLI's ``--strict`` uses it.
+
+    Parameters
+    ----------
+    strict : bool, optional
+        What ``strict=None`` means within the block.
+
+    Yields
+    ------
+    None
+        Nothing; the setting ends with the block.
+    """
     token = _STRICT.set(bool(strict))
     try:
         yield
@@ -48,7 +64,7 @@ def strict_reading(strict: bool = True):
         _STRICT.reset(token)
 
 
-def _options(strict, keep_truncated, where: str):
+def _options(strict: bool | None, keep_truncated: bool, where: str) -> tuple[Any, int]:
     """The C options (and how many) for the strict / keep_truncated keywords."""
     if strict is None:
         strict = _STRICT.get()
@@ -63,7 +79,7 @@ def _options(strict, keep_truncated, where: str):
     return opts, 1 if (strict or keep_truncated) else 0
 
 
-def _warn(w, name: str) -> None:
+def _warn(w: Any, name: str) -> None:
     """One ParseWarning per C warning (file and line in the message)."""
     kept = min(int(w.count), len(w.first))
     for i in range(kept):
@@ -80,7 +96,8 @@ def _warn(w, name: str) -> None:
                       stacklevel=3)
 
 
-def _parse(data, name: str, threads: int, strict, keep_truncated) -> Motion:
+def _parse(data: bytes, name: str, threads: int, strict: bool | None,
+           keep_truncated: bool) -> Motion:
     opts, n_opts = _options(strict, keep_truncated, "mlayer.read_bvh_string")
     out = ffi.new("mlr_motion **")
     diag = ffi.new("mlr_diag *")
@@ -96,7 +113,7 @@ def _parse(data, name: str, threads: int, strict, keep_truncated) -> Motion:
     return m
 
 
-def _motion_or_raise(code: int, out, diag, name: str) -> Motion:
+def _motion_or_raise(code: int, out: Any, diag: Any, name: str) -> Motion:
     """The Motion a C reader returned, or the exception for its status."""
     if code == lib.MLR_E_PARSE:
         line = int(diag.line)
@@ -114,38 +131,66 @@ def _motion_or_raise(code: int, out, diag, name: str) -> Motion:
     return m
 
 
-def read_bvh(path, *, strict=None, keep_truncated=False, threads=None, up=None,
-             trim=None, units=None) -> Motion:
-    """Read a BVH file. ``path``: a str, bytes or os.PathLike.
+def read_bvh(path: str | bytes | os.PathLike[str] | os.PathLike[bytes], *,
+             strict: bool | None = None, keep_truncated: bool = False,
+             threads: int | None = None, up: str | None = None, trim: str | int | None = None,
+             units: str | None = None) -> Motion:
+    """Read a BVH file.
 
-    ``strict=False`` (the default; None means False unless inside :func:`strict_reading`)
-    reads the usual deviations of files from the wild and issues a :class:`ParseWarning`
-    (``file:line: reason``) for each: more frame lines than ``Frames:`` declares (all are
-    read), up to 3 fewer, data after the frames (ignored), no line end after the last frame.
-    A truncated file (more frames missing, or the last line cut) still raises ParseError
-    unless ``keep_truncated=True``, which keeps its complete frames with a warning.
-    ``strict=True`` raises ParseError for every deviation, as earlier versions did.
+    ``strict=False`` (the default) reads the usual deviations of files from the wild and
+    issues a :class:`~mlayer.ParseWarning` (``file:line: reason``) for each: more frame lines
+    than ``Frames:`` declares (all are read), up to 3 fewer, data after the frames (ignored),
+    no line end after the last frame. A truncated file (more frames missing, or the last line
+    cut) still raises ParseError unless ``keep_truncated=True``, which keeps its complete
+    frames with a warning. ``strict=True`` raises ParseError for every deviation, as earlier
+    versions did.
 
-    ``up``: the clip's up axis ("x", "y" or "z"), kept as :attr:`Motion.up_axis`; None (the
-    default, unless inside :func:`mlayer.up_axis.reading_up`) detects it from the motion.
+    Parameters
+    ----------
+    path : str, bytes or os.PathLike
+        The file.
+    strict : bool, optional
+        None means False unless inside :func:`strict_reading`.
+    keep_truncated : bool, optional
+        Keep the complete frames of a truncated file (needs ``strict=False``).
+    threads : int, optional
+        How many threads parse the frame lines (the result is the same for every count);
+        None (default) picks one per 512 KiB of frames, at most the machine's processors and
+        8, so small files use one. The file is read into memory first, a large one (1 MiB or
+        more) by the same threads, each its share (not memory-mapped: a file truncated by
+        another process while it is parsed must not crash this one).
+    up : {"x", "y", "z"}, optional
+        The clip's up axis, kept as :attr:`Motion.up_axis`; None (the default, unless inside
+        :func:`mlayer.up_axis.reading_up`) detects it from the motion.
+    trim : "auto" or int, optional
+        ``"auto"`` drops the T-pose and blend frames a converter put at the start
+        (:func:`mlayer.lead_in`; the CMU conversions have them), an int N the first N frames;
+        None (the default, unless inside :func:`mlayer.trimming.reading_trim`, the CLI's
+        ``--trim``) keeps every frame.
+    units : {"m", "cm", "mm", "in", "ft"}, optional
+        The clip's length unit, kept as :attr:`Motion.units`; None (the default, unless the
+        CLI's ``--units`` says otherwise) leaves it to the body height's suggestion.
 
-    ``units``: the clip's length unit ("m", "cm", "mm", "in" or "ft"), kept as
-    :attr:`Motion.units`; None (the default, unless inside :func:`reading_units`, the CLI's
-    ``--units``) leaves it to the body height's suggestion.
+    Returns
+    -------
+    Motion
+        The clip.
 
-    ``trim``: ``"auto"`` drops the T-pose and blend frames a converter put at the start
-    (:func:`mlayer.lead_in`; the CMU conversions have them), an int N the first N frames;
-    None (the default, unless inside :func:`mlayer.trimming.reading_trim`, the CLI's
-    ``--trim``) keeps every frame.
+    Raises
+    ------
+    mlayer.ParseError
+        (with ``path``, ``line``, ``column``) When the file is not valid BVH.
+    OSError
+        When it cannot be read (``FileNotFoundError``, ``PermissionError``, ...).
+    MemoryError
+        When it does not fit in memory.
 
-    ``threads``: how many threads parse the frame lines (the result is the same for every
-    count); None (default) picks one per 512 KiB of frames, at most the machine's processors
-    and 8, so small files use one. The file is read into memory first, a large one (1 MiB or
-    more) by the same threads, each its share (not memory-mapped: a file truncated by another
-    process while it is parsed must not crash this one).
-
-    Raises ParseError (with path, line, column) when the file is not valid BVH, OSError when it
-    cannot be read, MemoryError when it does not fit in memory.
+    Examples
+    --------
+    >>> import mlayer
+    >>> m = mlayer.read_bvh(mlayer.data.sample_path())
+    >>> m.n_joints
+    31
     """
     n_threads = _c_threads(threads)
     path = os.fspath(path)
@@ -173,7 +218,7 @@ def read_bvh(path, *, strict=None, keep_truncated=False, threads=None, up=None,
     return trimmed_read(m, trim, name)
 
 
-def _units_arg(units, where: str):
+def _units_arg(units: str | None, where: str) -> str | None:
     """The length unit a read clip gets: units, or the CLI's --units (reading_units), or None."""
     from .units import units_arg
     units = units_arg(units, where)
@@ -181,7 +226,7 @@ def _units_arg(units, where: str):
 
 
 @contextlib.contextmanager
-def reading_units(units):
+def reading_units(units: str | None) -> Iterator[None]:
     """Within the block, clips read with ``units=None`` get this length unit (the CLI's
     ``--units``)."""
     from .units import units_arg
@@ -192,18 +237,38 @@ def reading_units(units):
         _UNITS.reset(token)
 
 
-def _up_arg(up, where: str):
+def _up_arg(up: str | None, where: str) -> str | None:
     """The up axis a read clip gets: up, or the CLI's --up (reading_up), or None (detect)."""
     from .up_axis import axis_name, default_up
     up = axis_name(up, where)
     return default_up() if up is None else up
 
 
-def read_bvh_string(text, name: str = "<string>", *, strict=None, keep_truncated=False,
-                    threads=None, up=None, trim=None, units=None) -> Motion:
-    """Parse BVH text given as str or bytes; ``name`` stands for the path in error and warning
-    messages; ``strict``, ``keep_truncated``, ``threads``, ``up``, ``trim`` and ``units`` as for
-    :func:`read_bvh`."""
+def read_bvh_string(text: str | bytes, name: str = "<string>", *, strict: bool | None = None,
+                    keep_truncated: bool = False, threads: int | None = None,
+                    up: str | None = None, trim: str | int | None = None,
+                    units: str | None = None) -> Motion:
+    """Parse BVH text.
+
+    Parameters
+    ----------
+    text : str or bytes
+        The text of a BVH file.
+    name : str, optional
+        Stands for the path in error and warning messages.
+    strict, keep_truncated, threads, up, trim, units
+        As for :func:`read_bvh`.
+
+    Returns
+    -------
+    Motion
+        The clip.
+
+    Raises
+    ------
+    mlayer.ParseError
+        When the text is not valid BVH.
+    """
     n_threads = _c_threads(threads)
     up_given = _up_arg(up, "mlayer.read_bvh_string")
     units = _units_arg(units, "mlayer.read_bvh_string")
@@ -215,10 +280,28 @@ def read_bvh_string(text, name: str = "<string>", *, strict=None, keep_truncated
     return trimmed_read(m, trim, name)
 
 
-def write_bvh(motion: Motion, path) -> None:
-    """Write ``motion`` to ``path`` as BVH, atomically (the old file, if any, stays intact
-    when writing fails). Raises MlayerIOError (an OSError) when the file cannot be written,
-    InvalidArgumentError when the motion holds non-finite values."""
+def write_bvh(motion: Motion, path: str | bytes | os.PathLike[str] | os.PathLike[bytes]
+              ) -> None:
+    """Write a motion as BVH, atomically.
+
+    The old file, if any, stays intact when writing fails.
+
+    Parameters
+    ----------
+    motion : Motion
+        The motion.
+    path : str, bytes or os.PathLike
+        The destination.
+
+    Raises
+    ------
+    mlayer.MlayerIOError
+        (an OSError) When the file cannot be written.
+    mlayer.InvalidArgumentError
+        When the motion holds non-finite values.
+    TypeError
+        When ``motion`` is not a Motion.
+    """
     if not isinstance(motion, Motion):
         raise TypeError(f"write_bvh: expected a mlayer.Motion, got {type(motion).__name__}")
     path = os.fspath(path)
@@ -230,7 +313,23 @@ def write_bvh(motion: Motion, path) -> None:
 
 
 def write_bvh_string(motion: Motion) -> str:
-    """The BVH text of ``motion`` (LF line ends)."""
+    """The BVH text of a motion.
+
+    Parameters
+    ----------
+    motion : Motion
+        The motion.
+
+    Returns
+    -------
+    str
+        The text, with LF line ends.
+
+    Raises
+    ------
+    TypeError
+        When ``motion`` is not a Motion.
+    """
     if not isinstance(motion, Motion):
         raise TypeError(f"write_bvh_string: expected a mlayer.Motion, got {type(motion).__name__}")
     with motion._handle() as h:

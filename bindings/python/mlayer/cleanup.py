@@ -7,7 +7,8 @@ the reference's own contact trajectories shifted by one horizontal offset per co
 reference: each point pinned to its mean); the root moves only where a leg cannot reach; two-bone
 IK (:mod:`mlayer.ik`) reaches the targets, and the rotation changes are spread in time by a
 displacement map that blends to zero within ``blend`` seconds of the constrained frames (then
-smoothed outside them, the constrained frames held), so frames farther from every contact keep the synthesized motion.
+smoothed outside them, the constrained frames held), so frames farther from every contact keep
+the synthesized motion.
 
 Floor (``floor="auto"``, the default): a flat floor at :func:`floor_height` of the reference (the
 5% quantile of the contact points' heights on their contact frames); no foot point goes below
@@ -18,12 +19,19 @@ says otherwise.
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any, Literal, overload
+
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from . import _arrays
 from ._native import ffi, lib
 from .errors import InvalidArgumentError, check
 from ._rig import c_rig, motion_axis
+
+if TYPE_CHECKING:
+    from .motion import Motion, Skeleton
 
 __all__ = ["fix_contacts", "keep_contacts", "keep_contacts_retimed", "floor_height"]
 
@@ -34,7 +42,8 @@ _OPT = {"blend": lib.MLR_CLEANUP_OPT_BLEND, "reach": lib.MLR_CLEANUP_OPT_REACH,
         "keep_stiller": lib.MLR_CLEANUP_OPT_KEEP_STILLER}
 
 
-def _points(skeleton, names):
+def _points(skeleton: Skeleton, names: Sequence[str | int]
+            ) -> tuple[NDArray[np.int32], NDArray[np.int32]]:
     from .contacts import _point
     pts = [_point(skeleton, n) for n in names]
     j = np.array([p[0] for p in pts], dtype=np.int32)
@@ -42,7 +51,8 @@ def _points(skeleton, names):
     return j, e
 
 
-def _contacts(contacts, n, names, where):
+def _contacts(contacts: ArrayLike, n: int, names: Sequence[str], where: str
+              ) -> NDArray[np.uint8]:
     c = np.asarray(contacts)
     if c.dtype != np.bool_ or c.shape != (n, len(names)):
         raise InvalidArgumentError(
@@ -51,19 +61,44 @@ def _contacts(contacts, n, names, where):
     return np.ascontiguousarray(c.astype(np.uint8))
 
 
-def _i32(a):
+def _i32(a: NDArray[np.int32]) -> Any:
     return ffi.cast("const int32_t *", ffi.from_buffer(a)) if a.size else ffi.NULL
 
 
-def _frames(m):
+def _frames(m: Motion) -> list[NDArray[np.float64]]:
     return m._frames()  # checked against m's skeleton and frame count
 
 
-def floor_height(motion, contacts=None, names=None, *, quantile: float = 0.05, up=None) -> float:
-    """The floor height of a motion along the up axis: the ``quantile`` quantile of the heights
-    of its contact points on their contact frames (contacts, names as from
-    :func:`mlayer.detect_contacts`; detected here when not given). NaN when nothing touches.
-    (mlr_cleanup_floor_height)"""
+def floor_height(motion: Motion, contacts: ArrayLike | None = None,
+                 names: str | Sequence[str] | None = None, *, quantile: float = 0.05,
+                 up: str | int | None = None) -> float:
+    """The floor height of a motion along the up axis (``mlr_cleanup_floor_height``).
+
+    The ``quantile`` quantile of the heights of its contact points on their contact frames.
+
+    Parameters
+    ----------
+    motion : Motion
+        The motion.
+    contacts : array_like of bool, shape (N, C), optional
+        As from :func:`mlayer.detect_contacts`; detected here when not given.
+    names : str or sequence of str, optional
+        The C contact point names that go with ``contacts``.
+    quantile : float, optional
+        In [0, 1].
+    up : {"x", "y", "z", 0, 1, 2}, optional
+        The up axis; None: the motion's :attr:`~mlayer.Motion.up_axis`.
+
+    Returns
+    -------
+    float
+        The height; NaN when nothing touches.
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        For a bad motion, contacts array or quantile.
+    """
     from .contacts import detect_contacts
     from .motion import Motion
     if not isinstance(motion, Motion):
@@ -82,26 +117,64 @@ def floor_height(motion, contacts=None, names=None, *, quantile: float = 0.05, u
     check(lib.mlr_cleanup_floor_height(
         rig, motion.n_frames, _arrays.ptr(root), _arrays.ptr(rot),
         _arrays.ptr(trans) if trans.size else ffi.NULL, len(names), _i32(j), _i32(e),
-        ffi.cast("const uint8_t *", ffi.from_buffer(c)), motion_axis(motion, up, "floor_height"), float(quantile), out,
+        ffi.cast("const uint8_t *", ffi.from_buffer(c)), motion_axis(motion, up, "floor_height"),
+        float(quantile), out,
         ffi.NULL, diag), "floor_height", diag)
     del keep
     return float(out[0])
 
 
-def fix_contacts(motion, contacts, names, reference=None, *, floor="auto", up=None,
-                 return_report=False, **options):
-    """Pin the feet of a synthesized motion during its contacts (paper 1, eq. 18) and keep them
-    above the floor (mlr_cleanup_contacts).
+@overload
+def fix_contacts(motion: Motion, contacts: ArrayLike, names: str | Sequence[str],
+                 reference: Motion | None = None, *, floor: str | float | None = "auto",
+                 up: str | int | None = None, return_report: Literal[False] = False,
+                 **options: Any) -> Motion: ...
+@overload
+def fix_contacts(motion: Motion, contacts: ArrayLike, names: str | Sequence[str],
+                 reference: Motion | None = None, *, floor: str | float | None = "auto",
+                 up: str | int | None = None, return_report: Literal[True],
+                 **options: Any) -> tuple[Motion, dict[str, float]]: ...
+def fix_contacts(motion: Motion, contacts: ArrayLike, names: str | Sequence[str],
+                 reference: Motion | None = None, *, floor: str | float | None = "auto",
+                 up: str | int | None = None, return_report: bool = False,
+                 **options: Any) -> Motion | tuple[Motion, dict[str, float]]:
+    """Pin the feet of a synthesized motion during its contacts (paper 1, eq. 18).
 
-    motion: the synthesized Motion; contacts, names: bool (N, C) and C contact point names as
-    from :func:`mlayer.detect_contacts` (usually detected on the original); reference: an
-    optional Motion with the same frames (normally the original before synthesis, or its
-    denoised version) whose contact trajectories and heights the feet follow.
-    floor: "auto" (the reference's :func:`floor_height`, or the motion's without one), None
-    (off) or a finite height. options: blend (seconds, 0.2), reach (0.98), passes (2),
-    floor_quantile (0.05), ref_smooth (seconds, 0.02), pin_smooth (seconds, 0.02), root (True).
-    Returns a new Motion (and with return_report=True a dict of what was done); bone lengths
-    and the translations of non-root joints are unchanged.
+    Also keeps them above the floor (``mlr_cleanup_contacts``). Bone lengths and the
+    translations of non-root joints are unchanged.
+
+    Parameters
+    ----------
+    motion : Motion
+        The synthesized motion.
+    contacts : array_like of bool, shape (N, C)
+        As from :func:`mlayer.detect_contacts` (usually detected on the original).
+    names : str or sequence of str
+        The C contact point names.
+    reference : Motion, optional
+        A motion with the same frames (normally the original before synthesis, or its
+        denoised version) whose contact trajectories and heights the feet follow.
+    floor : "auto", None or float, optional
+        ``"auto"`` (the reference's :func:`floor_height`, or the motion's without one), None
+        (off) or a finite height.
+    up : {"x", "y", "z", 0, 1, 2}, optional
+        The up axis; None: the motion's :attr:`~mlayer.Motion.up_axis`.
+    return_report : bool, optional
+        Also return a dict of what was done (``floor_height``, ``contact_frames``,
+        ``floor_frames``, ``root_shift_max``).
+    **options : float
+        blend (seconds, 0.2), reach (0.98), passes (2), floor_quantile (0.05), ref_smooth
+        (seconds, 0.02), pin_smooth (seconds, 0.02), root (True), max_fold, keep_stiller.
+
+    Returns
+    -------
+    Motion or (Motion, dict)
+        The new motion, with the report when ``return_report`` is true.
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        For bad arguments, an unknown option or an option out of range.
     """
     from .contacts import _resolve_names
     from .motion import Motion
@@ -155,7 +228,8 @@ def fix_contacts(motion, contacts, names, reference=None, *, floor="auto", up=No
     rep = ffi.new("mlr_cleanup_report *")
     diag = ffi.new("mlr_diag *")
     check(lib.mlr_cleanup_contacts(
-        rig, N, float(motion.fps), motion_axis(motion, up, "fix_contacts"), _arrays.ptr(root), _arrays.ptr(rot),
+        rig, N, float(motion.fps), motion_axis(motion, up, "fix_contacts"), _arrays.ptr(root),
+        _arrays.ptr(rot),
         _arrays.ptr(trans) if P else ffi.NULL, *refp, len(names), _i32(j), _i32(e),
         ffi.cast("const uint8_t *", ffi.from_buffer(c)) if c.size else ffi.NULL, copts,
         len(opts), _arrays.ptr_out(out_root), _arrays.ptr_out(out_rot), rep, ffi.NULL, diag),
@@ -168,7 +242,7 @@ def fix_contacts(motion, contacts, names, reference=None, *, floor="auto", up=No
     return out
 
 
-def _has_feet(original, joints) -> bool:
+def _has_feet(original: Motion, joints: Any) -> bool:
     from .contacts import find_feet
     if joints is not None:
         return True
@@ -179,24 +253,49 @@ def _has_feet(original, joints) -> bool:
     return True
 
 
-def keep_contacts_retimed(original, retimed, reference, source_frames, joints=None, *,
-                          floor="auto", contacts=None):
-    """``retimed`` (resampled or time-warped from ``original``) with the feet pinned during the
-    contacts detected on ``original``, carried to the output frames: output frame k takes the
-    contacts of input frame ``round(source_frames[k])`` (its fractional input frame).
-    ``reference`` is the original at the output frames without smoothing (a SLERP resampling
-    on the same time map), whose contact trajectories, smoothed over half an output frame (at
-    least 0.02 s), the feet follow. Skeletons without
-    recognisable feet (and no ``joints``) and clips of fewer than 3 frames come back
-    unchanged, as in :func:`keep_contacts`. ``contacts``: ``(names, contacts)`` of
-    ``original`` when already at hand (:attr:`mlayer.pipeline.Clip.contacts`), instead of
-    detecting them (at ``joints``) here."""
+def keep_contacts_retimed(original: Motion, retimed: Motion, reference: Motion,
+                          source_frames: ArrayLike,
+                          joints: str | Sequence[str | int] | None = None, *,
+                          floor: str | float | None = "auto",
+                          contacts: tuple[list[str], NDArray[np.bool_] | None] | None = None
+                          ) -> Motion:
+    """A retimed motion with the feet pinned during the contacts of the original.
+
+    Output frame k takes the contacts of input frame ``round(source_frames[k])`` (its
+    fractional input frame). Skeletons without recognisable feet (and no ``joints``) and clips
+    of fewer than 3 frames come back unchanged, as in :func:`keep_contacts`.
+
+    Parameters
+    ----------
+    original : Motion
+        The input of the retiming.
+    retimed : Motion
+        Resampled or time-warped from ``original``.
+    reference : Motion
+        The original at the output frames without smoothing (a SLERP resampling on the same
+        time map), whose contact trajectories, smoothed over half an output frame (at least
+        0.02 s), the feet follow.
+    source_frames : array_like, shape (N_out,)
+        The fractional input frame of each output frame.
+    joints : str or sequence, optional
+        The contact points (as for :func:`mlayer.detect_contacts`).
+    floor : "auto", None or float, optional
+        As for :func:`fix_contacts`.
+    contacts : (list of str, numpy.ndarray), optional
+        ``(names, contacts)`` of ``original`` when already at hand
+        (:attr:`mlayer.pipeline.Clip.contacts`), instead of detecting them here.
+
+    Returns
+    -------
+    Motion
+        The cleaned retimed motion (``retimed`` itself when there is nothing to pin).
+    """
     from .contacts import detect_contacts
     if original.n_frames < 3 or retimed.n_frames < 2:
         return retimed
     if contacts is not None:
         names, c = contacts
-        if not names:
+        if not names or c is None:
             return retimed
     elif not _has_feet(original, joints):
         return retimed
@@ -212,15 +311,39 @@ def keep_contacts_retimed(original, retimed, reference, source_frames, joints=No
                         ref_smooth=smooth)
 
 
-def keep_contacts(original, synthesized, joints=None, *, reference=None, floor="auto",
-                  **options):
-    """``synthesized`` with the feet pinned during the contacts detected on ``original`` (same
-    frames): :func:`mlayer.detect_contacts` then :func:`fix_contacts` with ``reference``
-    (default: ``original``). stylize/denoise pass the denoised motion as the reference (with
-    ref_smooth=0): its feet carry no capture noise, so an input that does not slide comes out
-    of denoise as it went in. A skeleton without recognisable feet (and no ``joints``), or a
-    clip of fewer than 3 frames, is returned unchanged: this is the default step of
-    stylize/denoise, which also work on skeletons that have no feet."""
+def keep_contacts(original: Motion, synthesized: Motion,
+                  joints: str | Sequence[str | int] | None = None, *,
+                  reference: Motion | None = None, floor: str | float | None = "auto",
+                  **options: Any) -> Motion:
+    """A synthesized motion with the feet pinned during the contacts of the original.
+
+    :func:`mlayer.detect_contacts` then :func:`fix_contacts`. stylize/denoise pass the
+    denoised motion as the reference (with ref_smooth=0): its feet carry no capture noise, so
+    an input that does not slide comes out of denoise as it went in. A skeleton without
+    recognisable feet (and no ``joints``), or a clip of fewer than 3 frames, is returned
+    unchanged: this is the default step of stylize/denoise, which also work on skeletons that
+    have no feet.
+
+    Parameters
+    ----------
+    original : Motion
+        The motion the contacts are detected on.
+    synthesized : Motion
+        A motion of the same frames.
+    joints : str or sequence, optional
+        The contact points (as for :func:`mlayer.detect_contacts`).
+    reference : Motion, optional
+        Default: ``original``.
+    floor : "auto", None or float, optional
+        As for :func:`fix_contacts`.
+    **options : float
+        As for :func:`fix_contacts`.
+
+    Returns
+    -------
+    Motion
+        The cleaned motion (``synthesized`` itself when there is nothing to pin).
+    """
     from .contacts import detect_contacts
     if original.n_frames < 3 or not _has_feet(original, joints):
         return synthesized

@@ -6,14 +6,20 @@ columns of X, as in scikit-learn. Seeds drive mlayer's own generator, not NumPy'
 """
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from . import _arrays
 from ._args import default_threads, integer
 from ._native import ffi, lib
 from .errors import InvalidArgumentError, check
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
 
 _ALGORITHMS = {"auto": lib.MLR_KMEANS_AUTO, "lloyd": lib.MLR_KMEANS_LLOYD,
                "hamerly": lib.MLR_KMEANS_HAMERLY}
@@ -21,36 +27,86 @@ _ALGORITHMS = {"auto": lib.MLR_KMEANS_AUTO, "lloyd": lib.MLR_KMEANS_LLOYD,
 
 @dataclass(frozen=True)
 class KMeansResult:
-    """Result of :func:`kmeans`: centres (k, d), labels (n,) int32, inertia (sum of squared
-    distances to the centres), n_iter (Lloyd iterations of the kept run) and n_skipped (rows
-    whose search the Hamerly bounds skipped, over all iterations)."""
-    centers: np.ndarray
-    labels: np.ndarray
+    """Result of :func:`kmeans`.
+
+    Attributes
+    ----------
+    centers : numpy.ndarray, shape (k, d)
+        The centres.
+    labels : numpy.ndarray of int32, shape (n,)
+        The centre of each row.
+    inertia : float
+        Sum of squared distances to the centres.
+    n_iter : int
+        Lloyd iterations of the kept run.
+    n_skipped : int
+        Rows whose search the Hamerly bounds skipped, over all iterations.
+    """
+    centers: NDArray[np.float64]
+    labels: NDArray[np.int32]
     inertia: float
     n_iter: int
     n_skipped: int = 0
 
-    def predict(self, X) -> np.ndarray:
-        """Index of the nearest centre of each row of X (lowest index on exact ties)."""
+    def predict(self, X: ArrayLike) -> NDArray[np.int32]:
+        """Index of the nearest centre of each row (lowest index on exact ties).
+
+        Parameters
+        ----------
+        X : array_like, shape (n, d)
+            Rows.
+
+        Returns
+        -------
+        numpy.ndarray of int32, shape (n,)
+            The labels.
+        """
         return predict(self.centers, X)
 
 
-def _prepare_data(X, name="X") -> np.ndarray:
+def _prepare_data(X: ArrayLike, name: str = "X") -> NDArray[np.float64]:
     X = _arrays.as_f64(X, name, ndim=2)
     if X.shape[0] == 0 or X.shape[1] == 0:
         raise InvalidArgumentError(f"{name}: empty data, shape {X.shape}")
     return X
 
 
-def kmeans(X, k: int, *, init="k-means++", n_init: int = 1, max_iter: int = 300,
-           tol: float = 1e-4, seed: int = 0, algorithm: str = "auto",
+def kmeans(X: ArrayLike, k: int, *, init: str | ArrayLike = "k-means++", n_init: int = 1,
+           max_iter: int = 300, tol: float = 1e-4, seed: int = 0, algorithm: str = "auto",
            n_threads: int | None = None) -> KMeansResult:
-    """Cluster the rows of X (n, d) into k groups.
+    """Cluster rows into k groups.
 
-    init: "k-means++" (seeded; n_init runs, the lowest inertia kept) or a (k, d) array of
-    initial centres (one run). algorithm: "auto" (Hamerly bounds when k >= 4), "lloyd" or
-    "hamerly": all give the same labels. n_threads: default :func:`default_threads`; the
-    result is bit-identical for every thread count.
+    Parameters
+    ----------
+    X : array_like, shape (n, d)
+        The rows.
+    k : int
+        Clusters, 1 <= k <= n.
+    init : "k-means++" or array_like, shape (k, d), optional
+        ``"k-means++"`` (seeded; ``n_init`` runs, the lowest inertia kept) or initial centres
+        (one run).
+    n_init : int, optional
+        Runs of k-means++.
+    max_iter : int, optional
+        Iterations per run.
+    tol : float, optional
+        Relative to the mean variance of the columns of X, as in scikit-learn.
+    seed : int, optional
+        Seed of mlayer's own generator (not NumPy's).
+    algorithm : {"auto", "lloyd", "hamerly"}, optional
+        ``"auto"``: Hamerly bounds when k >= 4; all give the same labels.
+    n_threads : int, optional
+        Default :func:`default_threads`; the result is bit-identical for every thread count.
+
+    Returns
+    -------
+    KMeansResult
+        Centres, labels, inertia and counts.
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        For empty data, k > n, or bad options.
     """
     X = _prepare_data(X)
     n, d = X.shape
@@ -96,8 +152,26 @@ def kmeans(X, k: int, *, init="k-means++", n_init: int = 1, max_iter: int = 300,
         ffi.release(h)
 
 
-def predict(centers, X) -> np.ndarray:
-    """Index of the nearest of the (k, d) centres for each row of X (n, d), int32."""
+def predict(centers: ArrayLike, X: ArrayLike) -> NDArray[np.int32]:
+    """Index of the nearest centre for each row.
+
+    Parameters
+    ----------
+    centers : array_like, shape (k, d)
+        The centres.
+    X : array_like, shape (n, d)
+        The rows.
+
+    Returns
+    -------
+    numpy.ndarray of int32, shape (n,)
+        The labels (lowest index on exact ties).
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        For a dimension mismatch.
+    """
     C = _prepare_data(centers, "centers")
     X = _arrays.as_f64(X, "X", ndim=2)
     k, d = C.shape
@@ -124,17 +198,40 @@ def predict(centers, X) -> np.ndarray:
 
 @dataclass(frozen=True)
 class ElbowResult:
-    """The elbow rule's choice: k, the ks tried, their inertias, the normalized curve and the
-    distance of each of its points below the chord (the criterion)."""
-    k: int
-    ks: np.ndarray
-    inertia: np.ndarray
-    score: np.ndarray
-    results: tuple
+    """The elbow rule's choice (:func:`elbow`).
 
-    def plot(self, ax=None):
-        """Inertia against k with the chosen k marked (matplotlib); returns the axes (a new
-        pyplot figure's when `ax` is None)."""
+    Attributes
+    ----------
+    k : int
+        The chosen k.
+    ks : numpy.ndarray
+        The ks tried, increasing.
+    inertia : numpy.ndarray
+        Their inertias.
+    score : numpy.ndarray
+        The distance of each point of the normalized curve below the chord (the criterion).
+    results : tuple of KMeansResult
+        One per k.
+    """
+    k: int
+    ks: NDArray[np.int64]
+    inertia: NDArray[np.float64]
+    score: NDArray[np.float64]
+    results: tuple[KMeansResult, ...]
+
+    def plot(self, ax: Axes | None = None) -> Axes:
+        """Inertia against k with the chosen k marked (matplotlib).
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Where to draw; default a new pyplot figure's axes.
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+            The axes.
+        """
         from ._optional import require
         require("matplotlib", feature="mlayer.ElbowResult.plot")
         import matplotlib.pyplot as plt
@@ -150,14 +247,28 @@ class ElbowResult:
         return ax
 
 
-def elbow_point(ks, inertia) -> tuple[int, np.ndarray]:
+def elbow_point(ks: ArrayLike, inertia: ArrayLike) -> tuple[int, NDArray[np.float64]]:
     """The elbow of a decreasing curve inertia(k): the kneedle rule.
 
     Both axes are scaled to [0, 1] (k by its range, inertia by its range), so the curve runs
     from (0, 1) to (1, 0); the elbow is the k whose point lies farthest below the chord
     joining the end points, i.e. that maximizes (1 - x) - y, the vertical gap to the chord
     (proportional to the Euclidean distance to it). Ties go to the smaller k. With fewer than
-    3 ks, or a flat curve, the smallest k is returned. Returns (k, scores).
+    3 ks, or a flat curve, the smallest k is returned.
+
+    Parameters
+    ----------
+    ks : array_like, shape (m,)
+        The ks.
+    inertia : array_like, shape (m,)
+        Their inertias.
+
+    Returns
+    -------
+    k : int
+        The elbow.
+    scores : numpy.ndarray, shape (m,)
+        The criterion of each k, in increasing k.
     """
     ks = np.asarray(ks, dtype=np.float64)
     y = np.asarray(inertia, dtype=np.float64)
@@ -173,9 +284,23 @@ def elbow_point(ks, inertia) -> tuple[int, np.ndarray]:
     return int(ks[int(np.argmax(score))]), score
 
 
-def elbow(X, ks, **kwargs) -> ElbowResult:
-    """Run :func:`kmeans` for every k in ks (keyword arguments are passed on) and choose k by
-    the elbow rule (:func:`elbow_point`). Returns an :class:`ElbowResult` with the curve."""
+def elbow(X: ArrayLike, ks: Iterable[int], **kwargs: Any) -> ElbowResult:
+    """Run :func:`kmeans` for every k and choose k by the elbow rule (:func:`elbow_point`).
+
+    Parameters
+    ----------
+    X : array_like, shape (n, d)
+        The rows.
+    ks : iterable of int
+        Distinct ks.
+    **kwargs
+        Passed to :func:`kmeans`.
+
+    Returns
+    -------
+    ElbowResult
+        The choice with the curve.
+    """
     ks = [integer(k, "k", 1) for k in ks]
     if not ks:
         raise InvalidArgumentError("ks is empty")
@@ -188,14 +313,27 @@ def elbow(X, ks, **kwargs) -> ElbowResult:
     return ElbowResult(k, np.array(ks), inertia, score, results)
 
 
-def silhouette_score(X, labels) -> float:
-    """Mean silhouette of the rows of X (n, d) for labels (n,) (Euclidean distances), as
-    scikit-learn's ``silhouette_score``: s_i = (b_i - a_i) / max(a_i, b_i) with a_i the mean
-    distance to the other rows of i's cluster and b_i the smallest mean distance to another
-    cluster's rows; 0 for a row alone in its cluster. Needs 2 <= clusters <= n - 1.
+def silhouette_score(X: ArrayLike, labels: ArrayLike) -> float:
+    """Mean silhouette of rows for labels (Euclidean distances).
 
-    Exact, and cheap on manifold points with many repeats (SOM lattice positions): equal rows
-    with equal labels are counted once, with their multiplicity."""
+    As scikit-learn's ``silhouette_score``: ``s_i = (b_i - a_i) / max(a_i, b_i)`` with a_i the
+    mean distance to the other rows of i's cluster and b_i the smallest mean distance to
+    another cluster's rows; 0 for a row alone in its cluster. Exact, and cheap on manifold
+    points with many repeats (SOM lattice positions): equal rows with equal labels are
+    counted once, with their multiplicity.
+
+    Parameters
+    ----------
+    X : array_like, shape (n, d)
+        The rows, finite.
+    labels : array_like of int, shape (n,)
+        Their clusters: 2 <= clusters <= n - 1.
+
+    Returns
+    -------
+    float
+        The mean silhouette, in [-1, 1].
+    """
     X = _prepare_data(X)
     _arrays.require_finite(X, "X")
     lab = np.asarray(labels)

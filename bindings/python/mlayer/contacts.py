@@ -24,13 +24,19 @@ smooth and nothing pops at contact boundaries. Heights are along the motion's up
 from __future__ import annotations
 
 import re
+from collections.abc import Collection, Iterable, Sequence
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from ._arrays import as_f64, number, ptr, ptr_out
 from ._native import ffi, lib
 from ._rig import c_rig, motion_axis
 from .errors import InvalidArgumentError, check
+
+if TYPE_CHECKING:
+    from .motion import Motion, Skeleton
 
 __all__ = ["find_feet", "detect_contacts", "contact_intervals", "contact_positions", "END_SUFFIX",
            "FOOT_PATTERN", "TOE_PATTERN", "HAND_PATTERN"]
@@ -49,7 +55,7 @@ _HEIGHT_ON = 0.06    # body heights above the local floor level
 _MIN_CONTACT = 0.08  # seconds
 
 
-def _has_ancestor_in(parents, j: int, group) -> bool:
+def _has_ancestor_in(parents: NDArray[np.int32], j: int, group: Collection[int]) -> bool:
     p = int(parents[j])
     while p >= 0:
         if p in group:
@@ -61,19 +67,20 @@ def _has_ancestor_in(parents, j: int, group) -> bool:
 END_SUFFIX = "/End"
 
 
-def _end_site_of(sk, j: int) -> int:
+def _end_site_of(sk: Skeleton, j: int) -> int:
     """Index of the first End Site below joint j, or -1."""
     hits = np.flatnonzero(sk.end_site_parents == j)
     return int(hits[0]) if hits.size else -1
 
 
-def _check_motion(motion, where: str):
+def _check_motion(motion: Any, where: str) -> None:
     from .motion import Motion
     if not isinstance(motion, Motion):
         raise InvalidArgumentError(f"{where}: motion must be a mlayer.Motion")
 
 
-def _positions_arg(motion, positions, name: str, last: int) -> np.ndarray:
+def _positions_arg(motion: Motion, positions: ArrayLike, name: str, last: int
+                   ) -> NDArray[np.float64]:
     shape = (motion.n_frames, motion.n_joints, last)
     a = as_f64(positions, name)
     if a.shape != shape:
@@ -81,7 +88,7 @@ def _positions_arg(motion, positions, name: str, last: int) -> np.ndarray:
     return a
 
 
-def _c_feet(motion, pos, up: int) -> list[tuple[int, int]]:
+def _c_feet(motion: Motion, pos: NDArray[np.float64] | None, up: int) -> list[tuple[int, int]]:
     """Contact points (joint, End Site or -1) of the feet, ankle then toe, by the C core;
     (-1, -1) for a foot without a toe."""
     sk = motion.skeleton
@@ -93,7 +100,7 @@ def _c_feet(motion, pos, up: int) -> list[tuple[int, int]]:
     diag = ffi.new("mlr_diag *")
     N = pos.shape[0] if pos is not None else 0
     code = lib.mlr_contacts_find_feet(
-        rig, N, ptr(pos, "const double *") if N else ffi.NULL, up, J,
+        rig, N, ptr(pos, "const double *") if pos is not None and N else ffi.NULL, up, J,
         ffi.cast("int32_t *", ffi.from_buffer(joints, require_writable=True)),
         ffi.cast("int32_t *", ffi.from_buffer(ends, require_writable=True)), n_feet, ffi.NULL,
         diag)
@@ -113,13 +120,13 @@ def _c_feet(motion, pos, up: int) -> list[tuple[int, int]]:
     return list(zip(joints[:n].tolist(), ends[:n].tolist()))
 
 
-def _point_name(sk, j: int, e: int) -> str:
+def _point_name(sk: Skeleton, j: int, e: int) -> str:
     return sk.joint_names[j] + (END_SUFFIX if e >= 0 else "")
 
 
-def find_feet(motion, positions: np.ndarray | None = None, *,
-              up=None) -> list[tuple[str, str | None]]:
-    """The feet of a skeleton found by joint name: a list of (ankle, toe or None) names.
+def find_feet(motion: Motion, positions: NDArray[np.float64] | None = None, *,
+              up: str | int | None = None) -> list[tuple[str, str | None]]:
+    """The feet of a skeleton found by joint name.
 
     Ankles: the topmost joint of each chain whose name matches :data:`FOOT_PATTERN`. A toe:
     the child of that ankle matching :data:`TOE_PATTERN` (the one with the longest OFFSET when
@@ -127,10 +134,26 @@ def find_feet(motion, positions: np.ndarray | None = None, *,
     one, the ankle's End Site, named ``"<ankle>/End"`` (the toe tip of the Daz skeletons, the
     paw of the AI4Animation dog). Joints matching :data:`HAND_PATTERN` are feet too when they
     stay low (median height along ``up`` within 0.2 body heights of the feet's: a quadruped's
-    front feet); positions (N, J, 3) are the motion's own when not given. up: the up axis,
-    "x", "y" or "z" or 0..2, None (default) the motion's :attr:`~mlayer.Motion.up_axis`. Raises InvalidArgumentError naming the patterns and the
-    skeleton's joints when no foot is found. The rules run in the C core
-    (``mlr_contacts_find_feet``).
+    front feet). The rules run in the C core (``mlr_contacts_find_feet``).
+
+    Parameters
+    ----------
+    motion : Motion
+        The motion.
+    positions : numpy.ndarray, shape (N, J, 3), optional
+        Its world positions when already at hand.
+    up : {"x", "y", "z", 0, 1, 2}, optional
+        The up axis; None (default): the motion's :attr:`~mlayer.Motion.up_axis`.
+
+    Returns
+    -------
+    list of (str, str or None)
+        (ankle, toe or None) names, one pair per foot.
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        Naming the patterns and the skeleton's joints, when no foot is found.
     """
     _check_motion(motion, "find_feet")
     ax = motion_axis(motion, up, "find_feet")
@@ -146,7 +169,7 @@ def find_feet(motion, positions: np.ndarray | None = None, *,
             for i in range(0, len(pts), 2)]
 
 
-def _point(sk, name) -> tuple[int, int]:
+def _point(sk: Skeleton, name: str | int) -> tuple[int, int]:
     """(joint, End Site or -1) of a contact point name ("Joint" or "Joint/End") or index."""
     if isinstance(name, (int, np.integer)):
         if not 0 <= int(name) < sk.n_joints:
@@ -168,16 +191,37 @@ def _point(sk, name) -> tuple[int, int]:
         "skeleton: " + ", ".join(names))
 
 
-def _point_arrays(pts):
+def _point_arrays(pts: Sequence[tuple[int, int]]
+                  ) -> tuple[NDArray[np.int32], NDArray[np.int32]]:
     joints = np.ascontiguousarray([j for j, _ in pts], dtype=np.int32)
     ends = np.ascontiguousarray([e for _, e in pts], dtype=np.int32)
     return joints, ends
 
 
-def contact_positions(motion, names, pos=None, wrot=None) -> np.ndarray:
-    """(N, C, 3) world positions of contact points: joints, or End Sites ("Joint/End"), by
-    the C core (``mlr_rig_point_positions``). pos (N, J, 3) and wrot (N, J, 4): the motion's
-    forward kinematics when already at hand."""
+def contact_positions(motion: Motion, names: str | Sequence[str | int],
+                      pos: NDArray[np.float64] | None = None,
+                      wrot: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
+    """World positions of contact points, by the C core (``mlr_rig_point_positions``).
+
+    Parameters
+    ----------
+    motion : Motion
+        The motion.
+    names : str or sequence of (str or int)
+        Joints (names or indices), or End Sites (``"Joint/End"``).
+    pos, wrot : numpy.ndarray, shape (N, J, 3) and (N, J, 4), optional
+        The motion's forward kinematics when already at hand.
+
+    Returns
+    -------
+    numpy.ndarray, shape (N, C, 3)
+        The positions.
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        For an unknown joint or a joint without End Site.
+    """
     _check_motion(motion, "contact_positions")
     sk = motion.skeleton
     names = [names] if isinstance(names, str) else list(names)
@@ -204,19 +248,30 @@ def contact_positions(motion, names, pos=None, wrot=None) -> np.ndarray:
     return out
 
 
-def _runs(mask: np.ndarray):
+def _runs(mask: NDArray[np.bool_]) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
     """(starts, ends) of the True runs of a 1-D bool array, ends exclusive."""
     d = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
     return np.flatnonzero(d == 1), np.flatnonzero(d == -1)
 
 
-def contact_intervals(contacts_column) -> list[tuple[int, int]]:
-    """The contact intervals [start, end) of one column of a contact array."""
+def contact_intervals(contacts_column: ArrayLike) -> list[tuple[int, int]]:
+    """The contact intervals of one column of a contact array.
+
+    Parameters
+    ----------
+    contacts_column : array_like of bool, shape (N,)
+        One contact point's flags.
+
+    Returns
+    -------
+    list of (int, int)
+        The intervals [start, end), end exclusive.
+    """
     s, e = _runs(np.asarray(contacts_column, dtype=bool))
     return list(zip(s.tolist(), e.tolist()))
 
 
-def _resolve_names(motion, joints) -> list[str]:
+def _resolve_names(motion: Motion, joints: str | Iterable[str | int]) -> list[str]:
     sk = motion.skeleton
     if isinstance(joints, str):
         joints = [x for x in joints.replace(",", " ").split() if x]
@@ -232,24 +287,54 @@ def _resolve_names(motion, joints) -> list[str]:
     return out
 
 
-def detect_contacts(motion, joints=None, *, speed: float = _SPEED_ON,
-                    height: float = _HEIGHT_ON, min_duration: float = _MIN_CONTACT, up=None,
-                    pos=None, wrot=None):
-    """Foot contacts of a motion: ``(names, contacts)``, contacts a bool array (N, C).
+def detect_contacts(motion: Motion, joints: str | Sequence[str | int] | None = None, *,
+                    speed: float = _SPEED_ON, height: float = _HEIGHT_ON,
+                    min_duration: float = _MIN_CONTACT, up: str | int | None = None,
+                    pos: NDArray[np.float64] | None = None,
+                    wrot: NDArray[np.float64] | None = None
+                    ) -> tuple[list[str], NDArray[np.bool_]]:
+    """Foot contacts of a motion.
 
-    joints: the contact points: joint names or indices, or "Joint/End" for a joint's End Site (a
-    string may list names separated by commas); default: every foot of :func:`find_feet`,
-    ankle then toe (or the ankle's End Site when the skeleton has no toe joint).
     A joint enters contact where its speed is below ``speed`` body heights per second and its
     height along ``up`` above its local floor level (the lowest height within +-0.75 s) below
     ``height`` body heights; it leaves where the speed exceeds twice ``speed`` or the height
     1.5 times ``height`` (hysteresis). Gaps shorter than 0.05 s are closed, then contacts
     shorter than ``min_duration`` seconds dropped. Speeds are central differences over about
     1/30 s, so the same defaults hold at 25-120 fps; body height is the median extent of the
-    joints along ``up`` (:func:`mlayer.metrics.body_height`). up: "x", "y" or "z", or 0..2;
-    None (default): the motion's :attr:`~mlayer.Motion.up_axis`. pos (N, J, 3) and wrot
-    (N, J, 4): the motion's forward kinematics when already at hand (both, or neither). The
-    detection runs in the C core (``mlr_contacts_detect``).
+    joints along ``up`` (:func:`mlayer.metrics.body_height`). The detection runs in the C core
+    (``mlr_contacts_detect``).
+
+    Parameters
+    ----------
+    motion : Motion
+        The motion (at least 3 frames).
+    joints : str or sequence of (str or int), optional
+        The contact points: joint names or indices, or ``"Joint/End"`` for a joint's End Site
+        (a string may list names separated by commas); default: every foot of
+        :func:`find_feet`, ankle then toe (or the ankle's End Site when the skeleton has no
+        toe joint).
+    speed : float, optional
+        Body heights per second.
+    height : float, optional
+        Body heights above the local floor level.
+    min_duration : float, optional
+        Seconds.
+    up : {"x", "y", "z", 0, 1, 2}, optional
+        The up axis; None (default): the motion's :attr:`~mlayer.Motion.up_axis`.
+    pos, wrot : numpy.ndarray, shape (N, J, 3) and (N, J, 4), optional
+        The motion's forward kinematics when already at hand (both, or neither).
+
+    Returns
+    -------
+    names : list of str
+        The C contact points.
+    contacts : numpy.ndarray of bool, shape (N, C)
+        Whether each point is in contact in each frame.
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        For fewer than 3 frames, unknown joints, thresholds out of range, or no foot found.
     """
     _check_motion(motion, "detect_contacts")
     ax = motion_axis(motion, up, "detect_contacts")

@@ -6,7 +6,9 @@ Every exception derives from :class:`Error` and also from the matching builtin, 
 """
 from __future__ import annotations
 
+import os
 import warnings
+from typing import Any
 
 from ._native import ffi, lib
 
@@ -20,14 +22,23 @@ def _text(code: int) -> str:
 
 
 class Error(Exception):
-    """Base class of every mlayer error. ``code`` is the C status (0 when raised in Python)."""
+    """Base class of every mlayer error.
 
-    def __init__(self, message: str, code: int = 0):
+    Parameters
+    ----------
+    message : str
+        The error text.
+    code : int, optional
+        The C status (an ``mlr_status``; 0, the default, when raised in Python).
+    """
+
+    def __init__(self, message: str, code: int = 0) -> None:
         super().__init__(message)
         self.code = code
 
     @property
     def status_name(self) -> str:
+        """The C name of :attr:`code` (e.g. ``"MLR_E_INVALID_ARG"``), ``""`` when it is 0."""
         return _name(self.code) if self.code else ""
 
 
@@ -40,9 +51,26 @@ class SingularMatrixError(Error, ArithmeticError):
 
 
 class ParseError(Error, ValueError):
-    """A file could not be parsed; ``path`` and ``line`` say where."""
+    """A file could not be parsed; ``path`` and ``line`` say where.
 
-    def __init__(self, message: str, code: int = 0, path=None, line: int | None = None):
+    Parameters
+    ----------
+    message : str
+        The error text.
+    code : int, optional
+        The C status (0 when raised in Python).
+    path : str or os.PathLike, optional
+        The file.
+    line : int, optional
+        The line (1-based) where parsing failed.
+    """
+
+    #: set by the BVH readers: the column (1-based) and the reason without the place
+    column: int | None
+    reason: str
+
+    def __init__(self, message: str, code: int = 0, path: str | os.PathLike[str] | None = None,
+                 line: int | None = None) -> None:
         super().__init__(message, code)
         self.path = path
         self.line = line
@@ -57,13 +85,26 @@ class UnsupportedError(Error, NotImplementedError):
 
 
 class MissingDependencyError(Error, ImportError):
-    """A feature needs an optional dependency that is not installed. The message is one line
-    naming the feature and the extra that installs it (``... pip install 'mlayer[plot]'``);
-    ``module`` is the module that could not be imported, ``extra`` the package extra, and
-    ``feature`` what needed it. Raised by :func:`mlayer._optional.require` before any work; an
-    ImportError, so ``except ImportError`` keeps working."""
+    """A feature needs an optional dependency that is not installed.
 
-    def __init__(self, message: str, module: str = "", extra: str = "", feature: str = ""):
+    Raised by ``mlayer._optional.require`` before any work; an ImportError, so
+    ``except ImportError`` keeps working.
+
+    Parameters
+    ----------
+    message : str
+        One line naming the feature and the extra that installs it
+        (``... pip install 'mlayer[plot]'``).
+    module : str, optional
+        The module that could not be imported (also set as ImportError's ``name``).
+    extra : str, optional
+        The mlayer extra that installs it.
+    feature : str, optional
+        What needed it.
+    """
+
+    def __init__(self, message: str, module: str = "", extra: str = "",
+                 feature: str = "") -> None:
         super().__init__(message)
         self.name = module  # ImportError's attribute: the module that was not found
         self.module, self.extra, self.feature = module, extra, feature
@@ -74,13 +115,26 @@ class MlayerWarning(UserWarning):
 
 
 class ParseWarning(MlayerWarning):
-    """A BVH file was read although it deviates from the format (extra or missing frame lines,
-    data after the frames, no final line end, a truncated file kept on request). The message
-    starts with ``file:line:``; ``path``, ``line``, ``column`` and ``kind`` (the C warning
-    code's name, e.g. ``"extra_frames"``) are set as attributes."""
+    """A BVH file was read although it deviates from the format.
 
-    def __init__(self, message: str, path=None, line: int | None = None,
-                 column: int | None = None, kind: str | None = None):
+    For instance extra or missing frame lines, data after the frames, no final line end, or a
+    truncated file kept on request. The arguments are kept as attributes of the same names.
+
+    Parameters
+    ----------
+    message : str
+        The warning text; it starts with ``file:line:``.
+    path : str or os.PathLike, optional
+        The file.
+    line, column : int, optional
+        Where in the file (1-based).
+    kind : str, optional
+        The C warning code's name, e.g. ``"extra_frames"``.
+    """
+
+    def __init__(self, message: str, path: str | os.PathLike[str] | None = None,
+                 line: int | None = None, column: int | None = None,
+                 kind: str | None = None) -> None:
         super().__init__(message)
         self.path, self.line, self.column, self.kind = path, line, column, kind
 
@@ -95,10 +149,31 @@ _BY_CODE = {
 }
 
 
-def check(code: int, where: str, diag=None) -> int:
+def check(code: int, where: str, diag: Any = None) -> int:
     """Raise for a negative status, warn for a positive one, return the code otherwise.
 
-    ``diag`` is an optional ``mlr_diag *`` whose message is appended to the error.
+    Parameters
+    ----------
+    code : int
+        An ``mlr_status`` returned by the C library.
+    where : str
+        What was called; the message starts with it.
+    diag : cffi ``mlr_diag *``, optional
+        Its message, when not empty, is appended to the error's.
+
+    Returns
+    -------
+    int
+        ``code`` (0 or a positive status, after a :class:`MlayerWarning` for the latter).
+
+    Raises
+    ------
+    MemoryError
+        For ``MLR_E_NO_MEMORY``.
+    Error
+        For any other negative status: the subclass of :class:`Error` that matches it
+        (:class:`InvalidArgumentError`, :class:`SingularMatrixError`, :class:`ParseError`,
+        :class:`MlayerIOError`, :class:`UnsupportedError`), or :class:`Error` itself.
     """
     if code < 0:
         if code == lib.MLR_E_NO_MEMORY:

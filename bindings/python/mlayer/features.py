@@ -4,16 +4,32 @@ the joint that carries the body translation (:func:`mlayer.layers.body_translati
 the root, or on rigs with a static root above a moving pelvis (Bandai) that pelvis."""
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import Any
+
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from .errors import InvalidArgumentError
 from .motion import Motion
 from .up_axis import to_y_up
 
 
-def heading(rot_root) -> np.ndarray:
-    """Yaw (radians, about +Y) of root rotations (N, 4) scalar-first: the angle of the rotated
-    +Z axis projected on the XZ plane, atan2(f_x, f_z)."""
+def heading(rot_root: ArrayLike) -> NDArray[np.float64]:
+    """Yaw of root rotations about +Y.
+
+    The angle of the rotated +Z axis projected on the XZ plane, ``atan2(f_x, f_z)``.
+
+    Parameters
+    ----------
+    rot_root : array_like, shape (N, 4)
+        Scalar-first world rotations.
+
+    Returns
+    -------
+    numpy.ndarray, shape (N,)
+        Radians.
+    """
     q = np.asarray(rot_root, dtype=np.float64)
     w, x, y, z = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
     fx = 2.0 * (x * z + w * y)
@@ -21,7 +37,7 @@ def heading(rot_root) -> np.ndarray:
     return np.arctan2(fx, fz)
 
 
-def _one(m: Motion, body: int) -> np.ndarray:
+def _one(m: Motion, body: int) -> NDArray[np.float64]:
     pos, wrot = m.forward_kinematics()     # (N, J, 3), (N, J, 4)
     pos, wrot = to_y_up(m.up_axis, pos, wrot)  # Z-up and X-up clips turned to Y-up
     rel = pos - pos[:, body:body + 1, :]   # the body joint's position removed
@@ -39,7 +55,7 @@ def _one(m: Motion, body: int) -> np.ndarray:
     return out.reshape(m.n_frames, -1)
 
 
-def _subtree(parents, body: int) -> np.ndarray:
+def _subtree(parents: NDArray[np.int32], body: int) -> NDArray[np.bool_]:
     """(J,) mask of the body joint and its descendants (parents before children)."""
     inside = np.zeros(len(parents), dtype=bool)
     inside[body] = True
@@ -48,10 +64,8 @@ def _subtree(parents, body: int) -> np.ndarray:
     return inside
 
 
-def pose_features(motion) -> np.ndarray:
-    """(N, 3J) pose features of a Motion, or of several clips of one skeleton (a list or tuple
-    of Motions, stacked in order; "one skeleton" means the same hierarchy, i.e. equal parent
-    arrays: joint names may differ between exports, e.g. CMU's LeftHip / LeftUpLeg).
+def pose_features(motion: Motion | Sequence[Motion]) -> NDArray[np.float64]:
+    """Pose features of a motion, or of several clips of one skeleton.
 
     For each frame: world joint positions by forward kinematics, minus the body joint's world
     position, rotated about +Y by minus the body joint's heading (:func:`heading` of its world
@@ -60,9 +74,26 @@ def pose_features(motion) -> np.ndarray:
     carries the translation (Bandai's Hips) it is that joint
     (:func:`mlayer.layers.body_translation_joint`, one joint for all the clips), and the
     joints outside its subtree (that static root) get zero features. Units are those of the
-    clip. Joint j's coordinates are columns 3j .. 3j+2.
+    clip.
+
+    Parameters
+    ----------
+    motion : Motion or list or tuple of Motion
+        One clip, or clips stacked in order; "one skeleton" means the same hierarchy, i.e.
+        equal parent arrays (joint names may differ between exports, e.g. CMU's LeftHip /
+        LeftUpLeg).
+
+    Returns
+    -------
+    numpy.ndarray, shape (N, 3J)
+        Joint j's coordinates are columns 3j .. 3j+2.
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        For no clips, something else than Motions, or clips of other skeletons.
     """
-    clips = list(motion) if isinstance(motion, (list, tuple)) else [motion]
+    clips: list[Any] = list(motion) if isinstance(motion, (list, tuple)) else [motion]
     if not clips:
         raise InvalidArgumentError("pose_features: no clips")
     for m in clips:

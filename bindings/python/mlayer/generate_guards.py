@@ -19,8 +19,11 @@ follows :class:`mlayer.pipeline.Synthesis`.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from . import _arrays
 from ._native import ffi, lib
@@ -29,29 +32,48 @@ from .errors import InvalidArgumentError, check
 from .limits import JointLimits
 from .pipeline import GuardReport
 
+if TYPE_CHECKING:
+    from .motion import Motion
+
 __all__ = ["contacts_along", "guard_motion", "clean_contacts", "split_drifting"]
 
 _GAP = 0.05          # seconds: contact gaps closed (as mlr_contacts_detect)
 _MIN_CONTACT = 0.08  # seconds: shorter contacts dropped (as mlr_contacts_detect)
 
 
-def _runs(col: np.ndarray):
+def _runs(col: NDArray[np.bool_]) -> list[tuple[int, int]]:
     """(start, end) of the runs of True in a bool column, end exclusive."""
     d = np.diff(np.r_[0, col.astype(np.int8), 0])
     return list(zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1)))
 
 
-def clean_contacts(contacts, fps: float, *, gap: float = _GAP,
-                   min_duration: float = _MIN_CONTACT) -> np.ndarray:
-    """Contacts (N, C) bool with gaps shorter than ``gap`` seconds closed, then contacts
-    shorter than ``min_duration`` seconds (at least 2 frames) dropped."""
+def clean_contacts(contacts: ArrayLike, fps: float, *, gap: float = _GAP,
+                   min_duration: float = _MIN_CONTACT) -> NDArray[np.bool_]:
+    """Contacts with short gaps closed, then short contacts dropped.
+
+    Parameters
+    ----------
+    contacts : array_like of bool, shape (N, C)
+        The contacts.
+    fps : float
+        The frame rate.
+    gap : float, optional
+        Gaps shorter than this many seconds are closed.
+    min_duration : float, optional
+        Contacts shorter than this many seconds (at least 2 frames) are dropped.
+
+    Returns
+    -------
+    numpy.ndarray of bool, shape (N, C)
+        The cleaned contacts.
+    """
     c = np.array(contacts, dtype=bool)
     g = int(round(gap * fps))
     m = max(2, int(math.ceil(min_duration * fps - 1e-9)))
     for k in range(c.shape[1]):
         col = c[:, k]
         runs = _runs(col)
-        for (a0, b0), (a1, _) in zip(runs[:-1], runs[1:]):
+        for (_, b0), (a1, _) in zip(runs[:-1], runs[1:]):
             if a1 - b0 <= g:
                 col[b0:a1] = True
         for a, b in _runs(col):
@@ -60,12 +82,33 @@ def clean_contacts(contacts, fps: float, *, gap: float = _GAP,
     return c
 
 
-def contacts_along(points, traj, contacts, fps: float, *, neighbours: int = 8) -> np.ndarray:
-    """Contacts (n, C) bool of the generated frames at manifold points ``traj`` (n, 2): per
-    frame, the ``neighbours`` training frames nearest on the manifold (``points`` (N, 2), their
-    ``contacts`` (N, C) bool; every training frame tied with the farthest of them counts too,
-    so the SOM's shared units vote whole) vote with equal weight; in contact where more than
-    half of them were. Then :func:`clean_contacts`."""
+def contacts_along(points: ArrayLike, traj: ArrayLike, contacts: ArrayLike, fps: float, *,
+                   neighbours: int = 8) -> NDArray[np.bool_]:
+    """Contacts of generated frames from the training frames nearest on the manifold.
+
+    Per frame, the ``neighbours`` training frames nearest on the manifold vote with equal
+    weight (every training frame tied with the farthest of them counts too, so the SOM's
+    shared units vote whole); in contact where more than half of them were. Then
+    :func:`clean_contacts`.
+
+    Parameters
+    ----------
+    points : array_like, shape (N, 2)
+        The training frames' manifold points.
+    traj : array_like, shape (n, 2)
+        The generated frames' manifold points.
+    contacts : array_like of bool, shape (N, C)
+        The training frames' contacts.
+    fps : float
+        The frame rate.
+    neighbours : int, optional
+        Voters per frame.
+
+    Returns
+    -------
+    numpy.ndarray of bool, shape (n, C)
+        The generated frames' contacts.
+    """
     from scipy.spatial import cKDTree
     pts = np.asarray(points, dtype=np.float64)
     t = np.asarray(traj, dtype=np.float64)
@@ -87,14 +130,34 @@ def contacts_along(points, traj, contacts, fps: float, *, neighbours: int = 8) -
     return clean_contacts(out, fps)
 
 
-def split_drifting(contacts, positions, radius: float, gap: int) -> np.ndarray:
-    """Contacts (N, C) bool cut where a pin cannot hold: within each contact run of a point,
-    a new run starts where the point's horizontal position (X-Z of ``positions`` (N, C, 3),
-    the generated motion before the guards) has drifted more than ``radius`` from where the
-    current run started; the ``gap`` frames before the cut leave contact (the foot lifts and
-    re-plants). Runs shorter than 2 frames are dropped. The contacts come from training frames
-    in which the body may have stood still, while the generated body walks through the same
-    poses: one pin over such a run would drag the foot behind the body."""
+def split_drifting(contacts: ArrayLike, positions: ArrayLike, radius: float, gap: int
+                   ) -> NDArray[np.bool_]:
+    """Contacts cut where a pin cannot hold.
+
+    Within each contact run of a point, a new run starts where the point's horizontal
+    position has drifted more than ``radius`` from where the current run started; the ``gap``
+    frames before the cut leave contact (the foot lifts and re-plants). Runs shorter than 2
+    frames are dropped. The contacts come from training frames in which the body may have
+    stood still, while the generated body walks through the same poses: one pin over such a
+    run would drag the foot behind the body.
+
+    Parameters
+    ----------
+    contacts : array_like of bool, shape (N, C)
+        The contacts.
+    positions : array_like, shape (N, C, 3)
+        The contact points' positions in the generated motion before the guards (X-Z is
+        horizontal).
+    radius : float
+        Largest drift of a pin.
+    gap : int
+        Frames out of contact before a cut.
+
+    Returns
+    -------
+    numpy.ndarray of bool, shape (N, C)
+        The cut contacts.
+    """
     c = np.array(contacts, dtype=bool)
     p = np.asarray(positions, dtype=np.float64)[:, :, [0, 2]]
     gap = max(1, int(gap))
@@ -113,19 +176,44 @@ def split_drifting(contacts, positions, radius: float, gap: int) -> np.ndarray:
     return c
 
 
-def _i32(a):
+def _i32(a: NDArray[np.int32]) -> Any:
     return ffi.cast("const int32_t *", ffi.from_buffer(a))
 
 
-def guard_motion(motion, names, contacts, *, limits=None, floor=None, up=None):
-    """``(motion, GuardReport)``: the C guards on a generated Motion with given contacts.
+def guard_motion(motion: Motion, names: Sequence[str], contacts: ArrayLike, *,
+                 limits: JointLimits | None = None, floor: float | None = None,
+                 up: str | int | None = None) -> tuple[Motion, GuardReport]:
+    """The C guards on a generated motion with given contacts.
 
-    names, contacts  C contact point names ("Joint" or "Joint/End") and bool (N, C) contacts
-                     of the motion's frames (C may be 0: no pinning)
-    limits           a JointLimits (applied always, alpha 1) or None (no joint limits)
-    floor            the floor height along ``up`` (finite) or None (no floor guard)
     Each contact point is pinned at its mean position over the contact
     (``MLR_GUARDS_OPT_FOLLOW = 0``); no reference motion.
+
+    Parameters
+    ----------
+    motion : Motion
+        The generated motion.
+    names : sequence of str
+        C contact point names (``"Joint"`` or ``"Joint/End"``); C may be 0 (no pinning).
+    contacts : array_like of bool, shape (N, C)
+        Contacts of the motion's frames.
+    limits : JointLimits, optional
+        Applied always, alpha 1; None: no joint limits.
+    floor : float, optional
+        The floor height along ``up`` (finite); None: no floor guard.
+    up : {"x", "y", "z"}, optional
+        The up axis; default the motion's.
+
+    Returns
+    -------
+    motion : Motion
+        The guarded motion.
+    report : GuardReport
+        What the guards did.
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        For bad arguments.
     """
     from .contacts import _point
     from .motion import Motion

@@ -208,7 +208,8 @@ class _Bin:
                         for p in self.parts)
 
 
-def _bones(rest: np.ndarray, tails: list[tuple[int, np.ndarray]], size: float):
+def _bones(rest: np.ndarray, tails: list[tuple[int, np.ndarray]], size: float
+           ) -> Any:
     """The bones mesh: an octahedron from each joint to each child / End Site (rest pose):
     positions (V, 3) float32, the joint of each vertex (V,), triangle indices (3T,)."""
     par = np.array([p for p, _ in tails], dtype=np.int64)

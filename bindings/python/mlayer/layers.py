@@ -35,8 +35,12 @@ from __future__ import annotations
 import fnmatch
 import functools
 import math
+import os
+from collections.abc import Callable, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, NoReturn, SupportsIndex
 
 import numpy as np
+from numpy.typing import NDArray
 
 from . import _arrays
 from ._files import atomic_output
@@ -44,6 +48,9 @@ from ._handles import ReadOnlyAttributes
 from ._native import ffi, lib
 from ._rig import c_rig
 from .errors import InvalidArgumentError, check
+
+if TYPE_CHECKING:
+    from .motion import Motion
 
 _PARAMS = {
     "base_s": lib.MLR_LAYERS_PARAM_BASE_S,
@@ -58,22 +65,39 @@ _PARAMS = {
 }
 
 
-def _option(key, value, name):
+def _option(key: int, value: Any, name: str) -> tuple[int, float] | None:
     """An (option key, value) pair for the C call, or None when value is None."""
     if value is None:
         return None
     return (key, _arrays.number(value, name))  # the range is checked in C, named by name
 
 
-def body_translation_joint(motion) -> int:
-    """The joint that carries the body translation of a Motion (or of a list of Motions of one
-    skeleton): the root when its translation varies beyond rounding, else the topmost joint with
-    position channels whose translation does (Bandai: ``Hips`` under a static ``joint_Root``),
-    else the root. "Beyond rounding": a coordinate spans more than 1e-5 of the rest pose's size
-    (mlr_rig_body_translation_joint in the C core). For several clips: the first non-root
-    answer among them, else the root."""
+def body_translation_joint(motion: Motion | Sequence[Motion]) -> int:
+    """The joint that carries the body translation (``mlr_rig_body_translation_joint``).
+
+    The root when its translation varies beyond rounding, else the topmost joint with
+    position channels whose translation does (Bandai: ``Hips`` under a static
+    ``joint_Root``), else the root. "Beyond rounding": a coordinate spans more than 1e-5 of
+    the rest pose's size.
+
+    Parameters
+    ----------
+    motion : Motion or list or tuple of Motion
+        A clip, or clips of one skeleton: then the first non-root answer among them, else the
+        root.
+
+    Returns
+    -------
+    int
+        The joint index.
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        For something else than Motions.
+    """
     from .motion import Motion
-    clips = list(motion) if isinstance(motion, (list, tuple)) else [motion]
+    clips: list[Any] = list(motion) if isinstance(motion, (list, tuple)) else [motion]
     for m in clips:
         if not isinstance(m, Motion):
             raise InvalidArgumentError(f"body_translation_joint: expected a Motion, got "
@@ -85,7 +109,7 @@ def body_translation_joint(motion) -> int:
     return 0
 
 
-def _body_joint_one(m) -> int:
+def _body_joint_one(m: Motion) -> int:
     sk = m.skeleton
     P = int(sk.trans_joints.shape[0])
     if P == 0 or m.n_frames == 0:
@@ -100,9 +124,26 @@ def _body_joint_one(m) -> int:
     return int(out[0])
 
 
-def body_translation(motion, joint: int) -> np.ndarray:
-    """The (N, 3) translation of `joint` in a Motion: root_pos for the root, else its position
-    channels (the joint must have them)."""
+def body_translation(motion: Motion, joint: int) -> NDArray[np.float64]:
+    """The translation of a joint in a motion.
+
+    Parameters
+    ----------
+    motion : Motion
+        The motion.
+    joint : int
+        0 (the root), or a joint with position channels.
+
+    Returns
+    -------
+    numpy.ndarray, shape (N, 3)
+        ``root_pos`` for the root, else the joint's position channels.
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        When the joint has no position channels.
+    """
     if joint == 0:
         return motion.root_pos
     hits = np.flatnonzero(motion.skeleton.trans_joints == joint)
@@ -111,7 +152,8 @@ def body_translation(motion, joint: int) -> np.ndarray:
     return motion.trans[:, int(hits[0])]
 
 
-def _with_body_translation(motion, joint: int, t: np.ndarray, rot: np.ndarray):
+def _with_body_translation(motion: Motion, joint: int, t: NDArray[np.float64],
+                           rot: NDArray[np.float64]) -> Motion:
     """motion.with_frames with rotations rot and the body translation t written to `joint`
     (the root's translation when joint is 0, else that joint's position channels; the root and
     the other channels keep motion's values)."""
@@ -123,38 +165,64 @@ def _with_body_translation(motion, joint: int, t: np.ndarray, rot: np.ndarray):
 
 
 class Layers(ReadOnlyAttributes):
-    """The layers of one motion. Made by :func:`decompose`; read-only (assigning an attribute
-    raises AttributeError).
+    """The layers of one motion. Made by :func:`decompose`; read-only.
 
-    Copies: the C handle is never changed after :func:`decompose` and is freed when the last
-    Layers using it goes, so ``copy.copy`` and ``copy.deepcopy`` share it (a deep copy also
-    copies ``motion``). Pickling raises TypeError: write the layers with :meth:`save_npz`.
+    Assigning an attribute raises AttributeError. Copies: the C handle is never changed after
+    :func:`decompose` and is freed when the last Layers using it goes, so ``copy.copy`` and
+    ``copy.deepcopy`` share it (a deep copy also copies ``motion``). Pickling raises
+    TypeError: write the layers with :meth:`save_npz`. Groups: index 0 is the body
+    translation, 1 + j is joint j.
 
-    Attributes (groups: index 0 is the body translation, 1 + j is joint j)
-      motion          the input Motion
-      body_joint      the joint whose translation is group 0: 0 (the root) on most rigs; the
-                      joint below a static root that carries the walk otherwise (Bandai: Hips);
-                      see :func:`body_translation_joint`
-      base            the base layer, a Motion on the same skeleton
-      control         controllable layer, (N, 1 + J, 3): body translation offsets, then one
-                      rotation vector (radians, axis times angle) per joint
-      residual        residual layer, laid out like control
-      lam, sigma      base-layer LGS parameters per group, (1 + J,)
-      base_s          lam^2 sigma^2 of the base layer per group (the smoothing strength)
-      base_max_angle  largest displacement per group: radians for joints, length units for
-                      the body translation
-      lam_c, sigma_c  controllable-layer LGS parameters per group, (1 + J,)
-      control_s       lam_c^2 sigma_c^2 per group
-      control_gcv     GCV score at the chosen setting (NaN when lam_c/sigma_c were given)
-      control_dof     effective degrees of freedom of the control smoother per channel
-      outliers        bool (N, 1 + J): frames down-weighted as outliers per group (robust
-                      decomposition; all False when robust is off or nothing was found)
-      outlier_frames  the frames that are an outlier of some group, sorted (an int array)
+    Parameters
+    ----------
+    motion : Motion
+        The decomposed motion.
+    handle : cffi ``mlr_layers *``
+        The C layers (owned, with its finalizer).
+    params : dict of str to numpy.ndarray
+        The parameter arrays below, by name (made read-only).
+    body_joint : int, optional
+        The joint of group 0.
+
+    Attributes
+    ----------
+    motion : Motion
+        The input motion.
+    body_joint : int
+        The joint whose translation is group 0: 0 (the root) on most rigs; the joint below a
+        static root that carries the walk otherwise (Bandai: Hips); see
+        :func:`body_translation_joint`.
+    lam, sigma : numpy.ndarray, shape (1 + J,)
+        Base-layer LGS parameters per group.
+    base_s : numpy.ndarray, shape (1 + J,)
+        ``lam^2 sigma^2`` of the base layer per group (the smoothing strength).
+    base_max_angle : numpy.ndarray, shape (1 + J,)
+        Largest displacement per group: radians for joints, length units for the body
+        translation.
+    lam_c, sigma_c : numpy.ndarray, shape (1 + J,)
+        Controllable-layer LGS parameters per group.
+    control_s : numpy.ndarray, shape (1 + J,)
+        ``lam_c^2 sigma_c^2`` per group.
+    control_gcv : numpy.ndarray, shape (1 + J,)
+        GCV score at the chosen setting (NaN when lam_c/sigma_c were given).
+    control_dof : numpy.ndarray, shape (1 + J,)
+        Effective degrees of freedom of the control smoother per channel.
     """
+
+    lam: NDArray[np.float64]
+    sigma: NDArray[np.float64]
+    base_s: NDArray[np.float64]
+    base_max_angle: NDArray[np.float64]
+    lam_c: NDArray[np.float64]
+    sigma_c: NDArray[np.float64]
+    control_s: NDArray[np.float64]
+    control_gcv: NDArray[np.float64]
+    control_dof: NDArray[np.float64]
 
     _readonly = ("motion", "body_joint", "_h", "base", "control", "residual") + tuple(_PARAMS)
 
-    def __init__(self, motion, handle, params: dict, body_joint: int = 0):
+    def __init__(self, motion: Motion, handle: Any, params: dict[str, NDArray[Any]],
+                 body_joint: int = 0) -> None:
         self.motion = motion
         self.body_joint = int(body_joint)
         self._h = handle
@@ -162,24 +230,24 @@ class Layers(ReadOnlyAttributes):
             values.flags.writeable = False
             setattr(self, name, values)
 
-    def _share(self, motion) -> "Layers":
+    def _share(self, motion: Motion) -> Layers:
         params = {name: getattr(self, name) for name in _PARAMS}
         return Layers(motion, self._h, params, self.body_joint)
 
-    def __copy__(self) -> "Layers":
+    def __copy__(self) -> Layers:
         return self._share(self.motion)
 
-    def __deepcopy__(self, memo) -> "Layers":
+    def __deepcopy__(self, memo: dict[int, Any]) -> Layers:
         return self._share(self.motion.copy())
 
-    def __reduce_ex__(self, protocol):
+    def __reduce_ex__(self, protocol: SupportsIndex) -> NoReturn:
         raise TypeError("cannot pickle mlayer.Layers (they own a C handle); write them with "
                         "Layers.save_npz")
 
     # The layers are read from the C handle on first use: synthesize() and denoise() need
     # none of them, and a 2,526 x 31 clip's three copies take about 1.5 ms.
     @functools.cached_property
-    def base(self):
+    def base(self) -> Motion:
         """The base layer Mb as a Motion on the same skeleton."""
         n, j = self.motion.n_frames, self.motion.n_joints
         root, rot = np.empty((n, 3)), np.empty((n, j, 4))
@@ -188,25 +256,33 @@ class Layers(ReadOnlyAttributes):
         return _with_body_translation(self.motion, self.body_joint, root, rot)
 
     @functools.cached_property
-    def control(self) -> np.ndarray:
-        """The controllable layer, (N, 1 + J, 3): body translation, then rotation vectors."""
+    def control(self) -> NDArray[np.float64]:
+        """The controllable layer, (N, 1 + J, 3).
+
+        Body translation offsets, then one rotation vector (radians, axis times angle) per
+        joint.
+        """
         return self._groups(lib.mlr_layers_get_control, "layers control")
 
     @functools.cached_property
-    def residual(self) -> np.ndarray:
-        """The residual layer, (N, 1 + J, 3), as control."""
+    def residual(self) -> NDArray[np.float64]:
+        """The residual layer, (N, 1 + J, 3), laid out like :attr:`control`."""
         return self._groups(lib.mlr_layers_get_residual, "layers residual")
 
-    def _groups(self, getter, where) -> np.ndarray:
+    def _groups(self, getter: Any, where: str) -> NDArray[np.float64]:
         a = np.empty((self.motion.n_frames, 1 + self.motion.n_joints, 3))
         check(getter(self._h, _arrays.ptr_out(a), a.size), where)
         a.flags.writeable = False
         return a
 
     @functools.cached_property
-    def outliers(self) -> np.ndarray:
-        """bool (N, 1 + J): True where a frame of a group (0 the body translation, 1 + j joint
-        j) was found an outlier and down-weighted by the robust decomposition."""
+    def outliers(self) -> NDArray[np.bool_]:
+        """bool (N, 1 + J), the frames down-weighted as outliers per group.
+
+        True where a frame of a group (0 the body translation, 1 + j joint j) was found an
+        outlier and down-weighted by the robust decomposition; all False when robust is off or
+        nothing was found.
+        """
         a = np.zeros((self.motion.n_frames, 1 + self.motion.n_joints), dtype=np.uint8)
         check(lib.mlr_layers_get_outliers(self._h, ffi.from_buffer("unsigned char[]", a,
                                                                    require_writable=True),
@@ -216,15 +292,22 @@ class Layers(ReadOnlyAttributes):
         return out
 
     @property
-    def outlier_frames(self) -> np.ndarray:
+    def outlier_frames(self) -> NDArray[np.intp]:
         """The frames that are an outlier of some group, sorted."""
         return np.flatnonzero(self.outliers.any(axis=1))
 
-    def repaired(self):
-        """The input with the frames that are an outlier of some group (:attr:`outlier_frames`)
-        replaced by the denoised ones (the synthesis at alpha 1; ``mlr_layers_repair``): what
-        the guards learn from, so that a glitch does not break a contact or move the floor.
-        The input itself when there is no outlier."""
+    def repaired(self) -> Motion:
+        """The input with its outlier frames replaced by the denoised ones.
+
+        The frames of :attr:`outlier_frames` take the synthesis at alpha 1
+        (``mlr_layers_repair``): what the guards learn from, so that a glitch does not break a
+        contact or move the floor.
+
+        Returns
+        -------
+        Motion
+            The repaired motion; the input itself when there is no outlier.
+        """
         m = self.motion
         if self.outlier_frames.size == 0:
             return m
@@ -243,12 +326,32 @@ class Layers(ReadOnlyAttributes):
 
     @property
     def n_frames(self) -> int:
+        """The number of frames N."""
         return self.motion.n_frames
 
-    def alphas(self, alpha=1.0, joints=None, root_alpha=None) -> np.ndarray:
-        """The (1 + J,) alpha vector synthesize uses: `alpha` everywhere, then each pattern of
-        `joints` (a dict of joint name or glob -> alpha, applied in order; later patterns win),
-        and `root_alpha` for the body translation (default: alpha)."""
+    def alphas(self, alpha: float = 1.0, joints: Mapping[str, float] | None = None,
+               root_alpha: float | None = None) -> NDArray[np.float64]:
+        """The alpha vector :meth:`synthesize` uses.
+
+        Parameters
+        ----------
+        alpha : float, optional
+            The alpha everywhere.
+        joints : dict of str to float, optional
+            Joint name or glob -> alpha, applied in order; later patterns win.
+        root_alpha : float, optional
+            The body translation's alpha (default: ``alpha``).
+
+        Returns
+        -------
+        numpy.ndarray, shape (1 + J,)
+            The alphas per group.
+
+        Raises
+        ------
+        mlayer.InvalidArgumentError
+            For a pattern that matches no joint or a non-finite alpha.
+        """
         names = self.motion.joint_names
         out = np.full(1 + len(names), _arrays.finite(alpha, "alpha"))
         if root_alpha is not None:
@@ -261,38 +364,62 @@ class Layers(ReadOnlyAttributes):
             out[1 + np.asarray(hits)] = _arrays.finite(a, f"alpha of {pattern!r}")
         return out
 
-    def synthesize(self, alpha=1.0, joints=None, *, root_alpha=None):
-        """M' = Mb (+) W control (paper eq. 16, 17), as a Motion on the same skeleton.
+    def synthesize(self, alpha: float = 1.0, joints: Mapping[str, float] | None = None, *,
+                   root_alpha: float | None = None) -> Motion:
+        """``M' = Mb (+) W control`` (paper eq. 16, 17), as a Motion on the same skeleton.
 
-        alpha       scale of the controllable layer for every joint and the body translation
-                    (1: denoised, > 1 exaggerated, 0: the base layer)
-        joints      dict mapping a joint name or a glob such as "Left*" to its own alpha
-        root_alpha  alpha of the body translation (default: alpha): the root's, or that of
-                    ``body_joint`` when a joint below a static root carries it
+        Parameters
+        ----------
+        alpha : float, optional
+            Scale of the controllable layer for every joint and the body translation (1:
+            denoised, > 1 exaggerated, 0: the base layer).
+        joints : dict of str to float, optional
+            Maps a joint name or a glob such as ``"Left*"`` to its own alpha.
+        root_alpha : float, optional
+            Alpha of the body translation (default: alpha): the root's, or that of
+            ``body_joint`` when a joint below a static root carries it.
+
+        Returns
+        -------
+        Motion
+            The synthesized motion.
         """
         w = self.alphas(alpha, joints, root_alpha)
         return self._frames(lambda r, q, d: lib.mlr_layers_synthesize(
             self._h, 0, self.n_frames, _arrays.ptr(w), w.size, _arrays.ptr_out(r), r.size,
             _arrays.ptr_out(q), q.size, d), "synthesize")
 
-    def reconstruct(self):
-        """(Mb (+) control) (+) residual: the input motion again, to rounding (a rotation may
-        come back as -q)."""
+    def reconstruct(self) -> Motion:
+        """``(Mb (+) control) (+) residual``: the input motion again, to rounding.
+
+        Returns
+        -------
+        Motion
+            The reconstruction (a rotation may come back as -q).
+        """
         return self._frames(lambda r, q, d: lib.mlr_layers_reconstruct(
             self._h, 0, self.n_frames, _arrays.ptr_out(r), r.size, _arrays.ptr_out(q), q.size,
             d), "reconstruct")
 
-    def _frames(self, call, where):
+    def _frames(self, call: Callable[[Any, Any, Any], int], where: str) -> Motion:
         n, j = self.n_frames, self.motion.n_joints
         root, rot = np.empty((n, 3)), np.empty((n, j, 4))
         diag = ffi.new("mlr_diag *")
         check(call(root, rot, diag), where, diag)
         return _with_body_translation(self.motion, self.body_joint, root, rot)
 
-    def save_npz(self, path) -> None:
-        """Write every layer and parameter to a .npz file (atomically): base_root_pos, base_rot,
-        base_trans (the base layer's position channels of non-root joints), control, residual,
-        the parameter arrays, body_joint, joint_names and fps."""
+    def save_npz(self, path: str | os.PathLike[str]) -> None:
+        """Write every layer and parameter to a .npz file, atomically.
+
+        The arrays: base_root_pos, base_rot, base_trans (the base layer's position channels of
+        non-root joints), control, residual, the parameter arrays, body_joint, joint_names and
+        fps.
+
+        Parameters
+        ----------
+        path : str or os.PathLike
+            The file.
+        """
         arrays = {"base_root_pos": self.base.root_pos, "base_rot": self.base.rot,
                   "base_trans": self.base.trans, "body_joint": np.int64(self.body_joint),
                   "control": self.control, "residual": self.residual,
@@ -309,46 +436,88 @@ class Layers(ReadOnlyAttributes):
 
 
 def base_s_max(fps: float, cutoff_hz: float) -> float:
-    """The base-layer smoothing s = lam^2 sigma^2 whose LGS (second-difference prior, identity
-    observations) halves the amplitude at cutoff_hz for a clip at fps: the gain
-    1 / (1 + s (2 sin(pi f / fps))^4) is 1/2 there. The C core computes the same upper end of
-    the base search from MLR_LAYERS_OPT_FPS and MLR_LAYERS_OPT_BASE_CUTOFF (decompose passes
-    those); this formula is kept as the reference."""
+    """The base-layer smoothing that halves the amplitude at a frequency.
+
+    The s = lam^2 sigma^2 whose LGS (second-difference prior, identity observations) halves
+    the amplitude at ``cutoff_hz`` for a clip at ``fps``: the gain
+    ``1 / (1 + s (2 sin(pi f / fps))^4)`` is 1/2 there. The C core computes the same upper end
+    of the base search from MLR_LAYERS_OPT_FPS and MLR_LAYERS_OPT_BASE_CUTOFF (decompose
+    passes those); this formula is kept as the reference.
+
+    Parameters
+    ----------
+    fps : float
+        The clip's frame rate.
+    cutoff_hz : float
+        The half-power frequency.
+
+    Returns
+    -------
+    float
+        s.
+    """
     return (2.0 * math.sin(math.pi * cutoff_hz / fps)) ** -4
 
 
-def decompose(motion, *, gamma: float = math.pi / 2, lam_c=None, sigma_c=None, lam_b=None,
-              sigma_b=None, base_cutoff: float | None = 0.25, robust: bool = True,
-              body_height: float | None = None) -> Layers:
-    """Split a Motion into base, controllable and residual layers (see the module docs). The
-    translation group is the body translation (:func:`body_translation_joint`): the root's, or
-    that of the joint below a static root that carries it, which then also lends its base
-    smoothing to the translation (MLR_LAYERS_OPT_BODY_JOINT).
+def decompose(motion: Motion, *, gamma: float = math.pi / 2, lam_c: float | None = None,
+              sigma_c: float | None = None, lam_b: float | None = None,
+              sigma_b: float | None = None, base_cutoff: float | None = 0.25,
+              robust: bool = True, body_height: float | None = None) -> Layers:
+    """Split a motion into base, controllable and residual layers (see the module docs).
 
-    gamma           largest displacement angle the base layer may leave, radians, in
-                    [pi/2, pi) (paper eq. 14)
-    lam_c, sigma_c  fixed controllable-layer parameters instead of GCV (the paper used 1, 1
-                    at 24 fps); giving one sets the other to 1
-    lam_b, sigma_b  fixed base-layer parameters instead of the gamma heuristic
-    base_cutoff     lowest half-power frequency, in Hz, the gamma heuristic may smooth the base
-                    layer down to (default 0.25 Hz: trends slower than about 4 s). Human joints
-                    rarely move 90 degrees from their mean, so without a floor the heuristic
-                    picks the strongest setting for every joint and the base layer becomes a
-                    straight line or parabola through the whole clip; exaggerating then pushes
-                    the root far off its path. The paper's windowed solves (120 frames at
-                    24 fps) had a similar floor built in. None lifts the floor (the C
-                    library's default range).
-    robust          find outlier frames (decoder glitches, marker swaps, one-frame flips) per
-                    joint and for the body translation, and down-weight them in every LGS, so
-                    that a glitch stays in the residual layer and its effect on the other
-                    layers stays local (default True; see "Outliers" in mlr_layers.h). The
-                    frames found are ``Layers.outliers``. The translation's gate is 0.2 of
-                    :func:`mlayer.metrics.body_height`. Clips without outliers decompose as
-                    with robust=False.
-    body_height     the body size that gate scales with, in the clip's units (default:
-                    :func:`mlayer.metrics.body_height` of the motion, one forward-kinematics
-                    pass; :class:`mlayer.pipeline.Clip` passes the one it has)
-    Raises InvalidArgumentError for fewer than 3 frames, bad parameters or non-finite data.
+    The translation group is the body translation (:func:`body_translation_joint`): the
+    root's, or that of the joint below a static root that carries it, which then also lends
+    its base smoothing to the translation (MLR_LAYERS_OPT_BODY_JOINT).
+
+    Parameters
+    ----------
+    motion : Motion
+        The clip (at least 3 frames).
+    gamma : float, optional
+        Largest displacement angle the base layer may leave, radians, in [pi/2, pi) (paper
+        eq. 14).
+    lam_c, sigma_c : float, optional
+        Fixed controllable-layer parameters instead of GCV (the paper used 1, 1 at 24 fps);
+        giving one sets the other to 1.
+    lam_b, sigma_b : float, optional
+        Fixed base-layer parameters instead of the gamma heuristic.
+    base_cutoff : float or None, optional
+        Lowest half-power frequency, in Hz, the gamma heuristic may smooth the base layer
+        down to (default 0.25 Hz: trends slower than about 4 s). Human joints rarely move 90
+        degrees from their mean, so without a floor the heuristic picks the strongest setting
+        for every joint and the base layer becomes a straight line or parabola through the
+        whole clip; exaggerating then pushes the root far off its path. The paper's windowed
+        solves (120 frames at 24 fps) had a similar floor built in. None lifts the floor (the
+        C library's default range).
+    robust : bool, optional
+        Find outlier frames (decoder glitches, marker swaps, one-frame flips) per joint and
+        for the body translation, and down-weight them in every LGS, so that a glitch stays in
+        the residual layer and its effect on the other layers stays local (default True; see
+        "Outliers" in mlr_layers.h). The frames found are ``Layers.outliers``. The
+        translation's gate is 0.2 of :func:`mlayer.metrics.body_height`. Clips without
+        outliers decompose as with robust=False.
+    body_height : float, optional
+        The body size that gate scales with, in the clip's units (default:
+        :func:`mlayer.metrics.body_height` of the motion, one forward-kinematics pass;
+        :class:`mlayer.pipeline.Clip` passes the one it has).
+
+    Returns
+    -------
+    Layers
+        The layers.
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        For fewer than 3 frames, bad parameters or non-finite data.
+
+    Examples
+    --------
+    >>> import mlayer
+    >>> m = mlayer.data.load_sample()[:240]
+    >>> layers = mlayer.decompose(m)
+    >>> layers.control.shape == (240, 1 + m.n_joints, 3)
+    True
     """
     n, j = motion.n_frames, motion.n_joints
     if n < 3:

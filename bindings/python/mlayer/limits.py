@@ -14,14 +14,20 @@ rotation, from published human ranges of motion on human rigs and from the input
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Mapping
+from typing import TYPE_CHECKING, Any, NoReturn, SupportsIndex
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from . import _arrays
 from ._handles import ReadOnlyAttributes, refuse_copy
 from ._native import ffi, lib
 from ._rig import c_rig
 from .errors import InvalidArgumentError, check
+
+if TYPE_CHECKING:
+    from .motion import Motion
 
 KINDS = {lib.MLR_LIMITS_FREE: "free", lib.MLR_LIMITS_HINGE: "hinge",
          lib.MLR_LIMITS_SWING_TWIST: "swing-twist"}
@@ -33,33 +39,42 @@ SOURCES = {lib.MLR_LIMITS_SOURCE_NONE: "-", lib.MLR_LIMITS_SOURCE_TABLE: "table"
 class JointLimits(ReadOnlyAttributes):
     """Ranges per joint for one skeleton (a handle on the C model). Angles in radians.
 
-    Streams and syntheses borrow the C model, so it has no ``close()``: it is freed with the
-    last reference. ``copy.copy``, ``copy.deepcopy`` and pickling raise TypeError (a copy that
-    shared the model would see the other's :meth:`set_range`; make another with
-    :func:`joint_limits`).
+    Made by :func:`joint_limits`. Streams and syntheses borrow the C model, so it has no
+    ``close()``: it is freed with the last reference. ``copy.copy``, ``copy.deepcopy`` and
+    pickling raise TypeError (a copy that shared the model would see the other's
+    :meth:`set_range`; make another with :func:`joint_limits`).
+
+    Parameters
+    ----------
+    handle : cffi ``mlr_limits *``
+        The C model (owned, with its finalizer).
+    joint_names : iterable of str
+        The skeleton's joint names.
     """
 
     _readonly = ("_h", "_names")
 
-    def __init__(self, handle, joint_names):
+    def __init__(self, handle: Any, joint_names: Iterable[str]) -> None:
         self._h = handle
         self._names = tuple(joint_names)
 
     @property
     def joint_names(self) -> list[str]:
+        """The skeleton's joint names."""
         return list(self._names)
 
-    def __copy__(self):
+    def __copy__(self) -> NoReturn:
         raise refuse_copy(self, hint="make another with mlayer.joint_limits")
 
-    def __deepcopy__(self, memo):
+    def __deepcopy__(self, memo: dict[int, Any]) -> NoReturn:
         raise refuse_copy(self, hint="make another with mlayer.joint_limits")
 
-    def __reduce_ex__(self, protocol):
+    def __reduce_ex__(self, protocol: SupportsIndex) -> NoReturn:
         raise refuse_copy(self, "pickle", hint="make another with mlayer.joint_limits")
 
     @property
     def n_joints(self) -> int:
+        """The number of joints J."""
         return len(self._names)
 
     @property
@@ -67,7 +82,7 @@ class JointLimits(ReadOnlyAttributes):
         """Whether the rig was taken as human (ranges from the published table)."""
         return bool(lib.mlr_limits_is_human(self._h))
 
-    def _index(self, joint, name="joint") -> int:
+    def _index(self, joint: str | int, name: str = "joint") -> int:
         if isinstance(joint, str):
             try:
                 return self._names.index(joint)
@@ -78,18 +93,41 @@ class JointLimits(ReadOnlyAttributes):
         raise InvalidArgumentError(f"{name}: expected a joint name or an index in "
                                    f"[0, {self.n_joints}), got {joint!r}")
 
-    def range(self, joint) -> dict:
-        """The range of a joint: kind, lo/hi (hinge), swing/twist (swing-twist), widen, source."""
+    def range(self, joint: str | int) -> dict[str, Any]:
+        """The range of a joint.
+
+        Parameters
+        ----------
+        joint : str or int
+            A joint name or index.
+
+        Returns
+        -------
+        dict
+            ``kind`` ("free", "hinge", "swing-twist"), ``lo``/``hi`` (hinge), ``swing``/
+            ``twist`` (swing-twist), ``widen`` (bool), ``source``.
+        """
         j = self._index(joint)
         r = ffi.new("mlr_limits_range *")
         check(lib.mlr_limits_get_range(self._h, j, r), "JointLimits.range")
         return {"kind": KINDS[r.kind], "lo": r.lo, "hi": r.hi, "swing": r.swing,
                 "twist": r.twist, "widen": bool(r.widen), "source": SOURCES[r.source]}
 
-    def geometry(self, joint) -> dict:
-        """The learned geometry of a joint: centre (4), hinge axis (3, parent frame; zero when
-        none), bone_in (3), bone_out (3), and the input's stats (min/max hinge angle, largest
-        swing, largest |twist|)."""
+    def geometry(self, joint: str | int) -> dict[str, Any]:
+        """The learned geometry of a joint.
+
+        Parameters
+        ----------
+        joint : str or int
+            A joint name or index.
+
+        Returns
+        -------
+        dict
+            ``centre`` (4,), ``axis`` (3,: the hinge axis in the parent frame; zero when
+            none), ``bone_in`` (3,), ``bone_out`` (3,), and the input's stats ``min_angle``,
+            ``max_angle`` (hinge angle), ``max_swing``, ``max_twist`` (largest |twist|).
+        """
         j = self._index(joint)
         c, ax, bi, bo, st = (np.empty(4), np.empty(3), np.empty(3), np.empty(3), np.empty(4))
         check(lib.mlr_limits_get_geometry(self._h, j, _arrays.ptr_out(c), _arrays.ptr_out(ax),
@@ -99,13 +137,38 @@ class JointLimits(ReadOnlyAttributes):
                 "min_angle": st[0], "max_angle": st[1], "max_swing": st[2], "max_twist": st[3]}
 
     def hinges(self) -> list[int]:
-        """Indices of the hinge joints."""
+        """Indices of the hinge joints.
+
+        Returns
+        -------
+        list of int
+            The joints whose range kind is "hinge".
+        """
         return [j for j in range(self.n_joints) if self.range(j)["kind"] == "hinge"]
 
-    def set_range(self, joint, *, kind=None, lo=None, hi=None, swing=None, twist=None,
-                  widen=None) -> None:
-        """Set a joint's range explicitly (unspecified fields keep their current values; kind
-        'free', 'hinge' or 'swing-twist')."""
+    def set_range(self, joint: str | int, *, kind: str | None = None, lo: float | None = None,
+                  hi: float | None = None, swing: float | None = None,
+                  twist: float | None = None, widen: bool | None = None) -> None:
+        """Set a joint's range explicitly; unspecified fields keep their current values.
+
+        Parameters
+        ----------
+        joint : str or int
+            A joint name or index.
+        kind : {"free", "hinge", "swing-twist"}, optional
+            The kind of range.
+        lo, hi : float, optional
+            Hinge bounds, radians.
+        swing, twist : float, optional
+            Swing-twist bounds, radians.
+        widen : bool, optional
+            Whether the bounds widen with the synthesis' alpha.
+
+        Raises
+        ------
+        mlayer.InvalidArgumentError
+            For an unknown joint or kind, or values the C core refuses.
+        """
         j = self._index(joint)
         cur = self.range(j)
         r = ffi.new("mlr_limits_range *")
@@ -121,7 +184,13 @@ class JointLimits(ReadOnlyAttributes):
               f"JointLimits.set_range({self.joint_names[j]!r})", diag)
 
     def table(self) -> str:
-        """A readable table of the ranges per joint (degrees)."""
+        """A readable table of the ranges per joint (degrees).
+
+        Returns
+        -------
+        str
+            One line per joint after a header.
+        """
         rows = [f"{'joint':<18} {'kind':<11} {'range (deg)':<28} {'source':<6}"]
         for j, n in enumerate(self.joint_names):
             r = self.range(j)
@@ -141,8 +210,24 @@ class JointLimits(ReadOnlyAttributes):
                 f", {kinds.count('hinge')} hinges, {kinds.count('swing-twist')} swing-twist>\n"
                 + self.table())
 
-    def apply(self, rot, alphas=1.0):
-        """Limit (N, J, 4) local rotations; returns (limited rotations, counts per joint)."""
+    def apply(self, rot: ArrayLike, alphas: float | ArrayLike = 1.0
+              ) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+        """Limit local rotations.
+
+        Parameters
+        ----------
+        rot : array_like, shape (N, J, 4)
+            Local rotations.
+        alphas : float or array_like, optional
+            A number, J or 1 + J values: the synthesis' alphas the ranges widen with.
+
+        Returns
+        -------
+        rotations : numpy.ndarray, shape (N, J, 4)
+            The limited rotations.
+        counts : numpy.ndarray of int64, shape (J,)
+            Frames limited per joint.
+        """
         rot = _arrays.as_f64(rot, "rot", ndim=3, last=(4,))
         if rot.shape[1] != self.n_joints:
             raise InvalidArgumentError(f"rot: expected {self.n_joints} joints, got "
@@ -156,7 +241,7 @@ class JointLimits(ReadOnlyAttributes):
               "apply_limits", diag)
         return out, np.array([counts[j] for j in range(self.n_joints)], dtype=np.int64)
 
-    def _alphas(self, alphas) -> np.ndarray:
+    def _alphas(self, alphas: float | ArrayLike) -> NDArray[np.float64]:
         a = np.atleast_1d(_arrays.as_f64(alphas, "alphas"))
         if a.ndim != 1 or a.size not in (1, self.n_joints, 1 + self.n_joints):
             raise InvalidArgumentError(f"alphas: expected a number, J = {self.n_joints} or "
@@ -168,16 +253,36 @@ class JointLimits(ReadOnlyAttributes):
         return np.ascontiguousarray(a)
 
 
-def joint_limits(motions, *, human=None, fold_degrees: float = 150.0, soft: float = 0.15,
-                 reversal_soft_degrees: float = 10.0, ranges=None) -> JointLimits:
-    """Joint limits for the skeleton of a Motion (or a list of Motions of one skeleton).
+def joint_limits(motions: Motion | Iterable[Motion], *, human: bool | None = None,
+                 fold_degrees: float = 150.0, soft: float = 0.15,
+                 reversal_soft_degrees: float = 10.0,
+                 ranges: Mapping[str, Mapping[str, Any]] | None = None) -> JointLimits:
+    """Joint limits for the skeleton of a motion (or a list of motions of one skeleton).
 
-    human                  None: decide from the names and proportions; True/False: force
-    fold_degrees           the fold bound of knees and elbows (raised to the input's largest)
-    soft                   soft width as a fraction of a bound, in (0, 1)
-    reversal_soft_degrees  soft width at a hinge's reversal bound
-    ranges                 dict joint name -> dict of set_range arguments
-    Raises InvalidArgumentError for bad arguments, skeletons that differ, non-finite data.
+    Parameters
+    ----------
+    motions : Motion or iterable of Motion
+        The clips the ranges are learned from.
+    human : bool, optional
+        None: decide from the names and proportions; True/False: force.
+    fold_degrees : float, optional
+        The fold bound of knees and elbows (raised to the input's largest), in (0, 180].
+    soft : float, optional
+        Soft width as a fraction of a bound, in (0, 1).
+    reversal_soft_degrees : float, optional
+        Soft width at a hinge's reversal bound, in (0, 90].
+    ranges : dict, optional
+        Joint name -> dict of :meth:`JointLimits.set_range` arguments.
+
+    Returns
+    -------
+    JointLimits
+        The model.
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        For bad arguments, skeletons that differ, non-finite data.
     """
     from .motion import Motion
     ms = [motions] if isinstance(motions, Motion) else list(motions)
@@ -226,9 +331,31 @@ def joint_limits(motions, *, human=None, fold_degrees: float = 150.0, soft: floa
     return lim
 
 
-def apply_limits(motion, limits: JointLimits, alphas=1.0):
-    """Limit a (synthesized) Motion's local rotations: returns (Motion, report) where report is
-    a dict joint name -> frames limited (joints never limited left out) plus 'frames'."""
+def apply_limits(motion: Motion, limits: JointLimits, alphas: float | ArrayLike = 1.0
+                 ) -> tuple[Motion, dict[str, int]]:
+    """Limit a (synthesized) motion's local rotations.
+
+    Parameters
+    ----------
+    motion : Motion
+        The motion.
+    limits : JointLimits
+        Made for its skeleton.
+    alphas : float or array_like, optional
+        As for :meth:`JointLimits.apply`.
+
+    Returns
+    -------
+    motion : Motion
+        The limited motion.
+    report : dict of str to int
+        Joint name -> frames limited (joints never limited left out), plus ``"frames"``.
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        For something else than a Motion and JointLimits, or limits of another skeleton.
+    """
     from .motion import Motion
     if not isinstance(motion, Motion):
         raise InvalidArgumentError(f"motion: expected a Motion, got {type(motion).__name__}")

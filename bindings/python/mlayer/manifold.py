@@ -8,7 +8,10 @@ values come from the C core (``mlr_grbf_basis``); the solves are numpy's LAPACK.
 """
 from __future__ import annotations
 
+from typing import Any, cast
+
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from . import _arrays
 from ._native import ffi, lib
@@ -18,7 +21,7 @@ from ._args import default_threads, integer
 __all__ = ["PCA", "GRBF", "lattice_points"]
 
 
-def _data(X, name: str = "X", *, min_rows: int = 1) -> np.ndarray:
+def _data(X: ArrayLike, name: str = "X", *, min_rows: int = 1) -> NDArray[np.float64]:
     X = _arrays.as_f64(X, name, ndim=2)
     if X.shape[0] < min_rows or X.shape[1] == 0:
         raise InvalidArgumentError(f"{name}: empty data, shape {X.shape}" if X.size == 0 else
@@ -34,12 +37,34 @@ class PCA:
     sign fixed so that the largest entry of each row is positive), ``singular_values_``,
     ``explained_variance_`` (variance along each component, ddof=1) and
     ``explained_variance_ratio_``.
+
+    Parameters
+    ----------
+    n_components : int, optional
+        Components kept (>= 1).
     """
 
-    def __init__(self, n_components: int = 2):
+    def __init__(self, n_components: int = 2) -> None:
         self.n_components = integer(n_components, "PCA: n_components", 1)
 
-    def fit(self, X) -> "PCA":
+    def fit(self, X: ArrayLike) -> PCA:
+        """Fit the components to the rows of X.
+
+        Parameters
+        ----------
+        X : array_like, shape (n, d)
+            At least 2 finite rows; ``n_components <= min(n, d)``.
+
+        Returns
+        -------
+        PCA
+            ``self``.
+
+        Raises
+        ------
+        mlayer.InvalidArgumentError
+            For too few rows or too many components.
+        """
         X = _data(X, min_rows=2)
         n, d = X.shape
         if self.n_components > min(n, d):
@@ -59,12 +84,28 @@ class PCA:
             else np.zeros(self.n_components)
         return self
 
-    def _fitted(self):
+    def _fitted(self) -> None:
         if not hasattr(self, "components_"):
             raise InvalidArgumentError("PCA: call fit first")
 
-    def transform(self, X) -> np.ndarray:
-        """Coordinates (n, n_components) of the rows of X in the principal axes."""
+    def transform(self, X: ArrayLike) -> NDArray[np.float64]:
+        """Coordinates of rows in the principal axes.
+
+        Parameters
+        ----------
+        X : array_like, shape (n, d)
+            The rows.
+
+        Returns
+        -------
+        numpy.ndarray, shape (n, n_components)
+            The coordinates.
+
+        Raises
+        ------
+        mlayer.InvalidArgumentError
+            Before :meth:`fit`, or for another dimension.
+        """
         self._fitted()
         X = _data(X)
         if X.shape[1] != self.mean_.shape[0]:
@@ -72,11 +113,34 @@ class PCA:
                                        f"the model {self.mean_.shape[0]}")
         return (X - self.mean_) @ self.components_.T
 
-    def fit_transform(self, X) -> np.ndarray:
+    def fit_transform(self, X: ArrayLike) -> NDArray[np.float64]:
+        """:meth:`fit`, then :meth:`transform` of the same rows.
+
+        Parameters
+        ----------
+        X : array_like, shape (n, d)
+            The rows.
+
+        Returns
+        -------
+        numpy.ndarray, shape (n, n_components)
+            The coordinates.
+        """
         return self.fit(X).transform(X)
 
-    def inverse_transform(self, Z) -> np.ndarray:
-        """Points of the data space (n, d) for coordinates Z (n, n_components)."""
+    def inverse_transform(self, Z: ArrayLike) -> NDArray[np.float64]:
+        """Points of the data space for coordinates in the principal axes.
+
+        Parameters
+        ----------
+        Z : array_like, shape (n, n_components)
+            The coordinates.
+
+        Returns
+        -------
+        numpy.ndarray, shape (n, d)
+            The points.
+        """
         self._fitted()
         Z = _arrays.as_f64(Z, "Z", ndim=2)
         if Z.shape[1] != self.n_components:
@@ -85,9 +149,23 @@ class PCA:
         return Z @ self.components_ + self.mean_
 
 
-def lattice_points(lattice, bounds) -> np.ndarray:
-    """The (rows * cols, 2) points of a regular rows x cols lattice spanning
-    bounds ((x0, x1), (y0, y1)), row-major: point r * cols + c is (x0 + r dx, y0 + c dy)."""
+def lattice_points(lattice: tuple[int, int],
+                   bounds: tuple[tuple[float, float], tuple[float, float]]
+                   ) -> NDArray[np.float64]:
+    """The points of a regular rows x cols lattice.
+
+    Parameters
+    ----------
+    lattice : tuple of int
+        (rows, cols).
+    bounds : ((float, float), (float, float))
+        ((x0, x1), (y0, y1)): the span.
+
+    Returns
+    -------
+    numpy.ndarray, shape (rows * cols, 2)
+        Row-major: point r * cols + c is (x0 + r dx, y0 + c dy).
+    """
     rows, cols = _lattice(lattice)
     (x0, x1), (y0, y1) = bounds
     xs = np.linspace(x0, x1, rows) if rows > 1 else np.array([(x0 + x1) / 2.0])
@@ -98,7 +176,7 @@ def lattice_points(lattice, bounds) -> np.ndarray:
     return g.reshape(-1, 2)
 
 
-def _lattice(lattice) -> tuple[int, int]:
+def _lattice(lattice: Any) -> tuple[int, int]:
     try:
         rows, cols = lattice
     except (TypeError, ValueError):
@@ -110,7 +188,7 @@ def _lattice(lattice) -> tuple[int, int]:
 _KERNELS = ("thin_plate", "gaussian")
 
 
-def _sqdist(X: np.ndarray, C: np.ndarray) -> np.ndarray:
+def _sqdist(X: NDArray[np.float64], C: NDArray[np.float64]) -> NDArray[np.float64]:
     """Squared distances (n, N) between the rows of X and C (2-D: written out, exact 0 on
     coincident points)."""
     d = X[:, None, 0] - C[None, :, 0]
@@ -130,18 +208,7 @@ _TRI_BLOCK = 256
 
 class GRBF:
     """Generalized radial basis function mapping from e-dimensional points (e = 2 for the
-    manifold) to d outputs: f(x) = sum_i w_i phi(|x - c_i|) + a0 + a . x.
-
-    kernel   "thin_plate" (phi(u) = u^2 log u) or "gaussian" (phi(u) = exp(-(u / width)^2);
-             width defaults to the larger lattice spacing).
-    lattice  (rows, cols) of the regular lattice of centres (the paper uses 15 x 15), spanning
-             ``bounds`` ((x0, x1), (y0, y1)); default bounds: the box of the training points.
-    centers  an explicit (N, e) array of centres instead of a lattice.
-    smoothing  ridge weight on the kernel weights w, relative to the mean squared norm of the
-             basis columns (scale-free; default 0).
-    n_threads  threads of the C core's kernel values, lattice fit and evaluation (default: the
-             CPUs available; the values do not depend on it). numpy's BLAS, used by the other
-             fits, has its own threads.
+    manifold) to d outputs: ``f(x) = sum_i w_i phi(|x - c_i|) + a0 + a . x``.
 
     :meth:`fit` solves for B = [w; a] with the side conditions sum w_i = 0, sum w_i c_i = 0
     (which make thin-plate interpolation unique). With as many training points as centres the
@@ -151,6 +218,7 @@ class GRBF:
     psi(x) B in the C core (``mlr_grbf_eval``), psi never stored.
 
     How the fit solves:
+
     - training points equal to a lattice of centres (interpolation on the lattice), in the C
       core (``mlr_grbf_fit_lattice``): the lattice is symmetric under the reflections
       x -> x0 + x1 - x and y -> y0 + y1 - y, and so is the kernel matrix, so in the basis of
@@ -167,15 +235,44 @@ class GRBF:
       update), then least squares in (a, beta) by numpy's QR factorization of
       [Pp, Phi Z | Y] (R and Q^T Y at once, no explicit Q), with rows sqrt(lam) I under Phi Z
       for the ridge.
+
+    Parameters
+    ----------
+    kernel : {"thin_plate", "gaussian"}, optional
+        ``phi(u) = u^2 log u`` or ``phi(u) = exp(-(u / width)^2)``.
+    lattice : tuple of int, optional
+        (rows, cols) of the regular lattice of centres (the paper uses 15 x 15), spanning
+        ``bounds``.
+    centers : array_like, shape (N, e), optional
+        Explicit centres instead of a lattice.
+    bounds : ((float, float), (float, float)), optional
+        ((x0, x1), (y0, y1)) of the lattice; default: the box of the training points.
+    width : float, optional
+        The Gaussian's width; default the larger lattice spacing.
+    smoothing : float, optional
+        Ridge weight on the kernel weights w, relative to the mean squared norm of the basis
+        columns (scale-free; default 0).
+    n_threads : int, optional
+        Threads of the C core's kernel values, lattice fit and evaluation (default: the CPUs
+        available; the values do not depend on it). numpy's BLAS, used by the other fits, has
+        its own threads.
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        For an unknown kernel or bad lattice, centres, bounds, width or smoothing.
     """
 
-    def __init__(self, kernel: str = "thin_plate", lattice=(15, 15), *, centers=None,
-                 bounds=None, width: float | None = None, smoothing: float = 0.0,
-                 n_threads: int | None = None):
+    def __init__(self, kernel: str = "thin_plate", lattice: tuple[int, int] = (15, 15), *,
+                 centers: ArrayLike | None = None,
+                 bounds: tuple[tuple[float, float], tuple[float, float]] | None = None,
+                 width: float | None = None, smoothing: float = 0.0,
+                 n_threads: int | None = None) -> None:
         if kernel not in _KERNELS:
             raise InvalidArgumentError(f"GRBF: kernel must be one of {_KERNELS}, got {kernel!r}")
         self.kernel = kernel
-        self.lattice = None if centers is not None else _lattice(lattice)
+        self.lattice: tuple[int, int] | None = None if centers is not None \
+            else _lattice(lattice)
         self.bounds = None if bounds is None else tuple(tuple(float(v) for v in b)
                                                         for b in bounds)
         if self.bounds is not None and (len(self.bounds) != 2 or any(
@@ -192,11 +289,12 @@ class GRBF:
         self.smoothing = float(smoothing)
         self.n_threads = (default_threads() if n_threads is None
                           else integer(n_threads, "GRBF: n_threads", 1, 64))
-        self.coef_ = None
+        self.coef_: NDArray[np.float64] | None = None
 
     # -- basis ---------------------------------------------------------------------------------
 
-    def _basis(self, X: np.ndarray, poly: bool, out: np.ndarray | None = None) -> np.ndarray:
+    def _basis(self, X: NDArray[np.float64], poly: bool,
+               out: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
         """[phi(|x - c_j|) ...] (and 1, x with poly) for the rows of X, by the C core, into the
         first columns of the first rows of out (C-contiguous float64, at least that large; a
         new (n, cols) array when None). Returns out."""
@@ -215,13 +313,24 @@ class GRBF:
                                  out.shape[1], ffi.NULL, diag), "mlayer.GRBF", diag)
         return out
 
-    def design(self, X) -> np.ndarray:
-        """psi(X): the (n, N + 1 + e) basis matrix [phi(|x - c_i|) ..., 1, x]."""
+    def design(self, X: ArrayLike) -> NDArray[np.float64]:
+        """The basis matrix psi(X).
+
+        Parameters
+        ----------
+        X : array_like, shape (n, e)
+            Points.
+
+        Returns
+        -------
+        numpy.ndarray, shape (n, N + 1 + e)
+            ``[phi(|x - c_i|) ..., 1, x]``.
+        """
         if self.coef_ is None:
             raise InvalidArgumentError("GRBF: call fit first")
         return self._basis(self._points(X), True)
 
-    def _points(self, X, e: int | None = None) -> np.ndarray:
+    def _points(self, X: ArrayLike, e: int | None = None) -> NDArray[np.float64]:
         X = _data(X, "points")
         if e is None and self.coef_ is not None:
             e = self._centers().shape[1]
@@ -232,7 +341,7 @@ class GRBF:
 
     # The fitted attributes are public (and saved by PrimitiveModel); they are checked again
     # before each C call, which reads them with the sizes given here.
-    def _centers(self) -> np.ndarray:
+    def _centers(self) -> NDArray[np.float64]:
         C = getattr(self, "centers_", None)
         if C is None:
             raise InvalidArgumentError("GRBF: call fit first")
@@ -252,8 +361,26 @@ class GRBF:
 
     # -- fit and predict -----------------------------------------------------------------------
 
-    def fit(self, points, values) -> "GRBF":
-        """Fit B to values (n, d) (or (n,)) at points (n, e). Returns self."""
+    def fit(self, points: ArrayLike, values: ArrayLike) -> GRBF:
+        """Fit the coefficients B to values at points.
+
+        Parameters
+        ----------
+        points : array_like, shape (n, e)
+            The training points (at least as many as the centres).
+        values : array_like, shape (n, d) or (n,)
+            The values there.
+
+        Returns
+        -------
+        GRBF
+            ``self``.
+
+        Raises
+        ------
+        mlayer.InvalidArgumentError
+            For fewer points than centres, a rank-deficient system or bad shapes.
+        """
         P = _data(points, "points")
         Y = _arrays.as_f64(values, "values", ndim=(1, 2))
         self._vector = Y.ndim == 1
@@ -277,7 +404,8 @@ class GRBF:
             bounds = self.bounds or tuple((float(P[:, j].min()), float(P[:, j].max()))
                                           for j in range(2))
             self.bounds_ = bounds
-            C = lattice_points(self.lattice, bounds)
+            assert self.lattice is not None  # no explicit centres: a lattice
+            C = lattice_points(self.lattice, cast(Any, bounds))
         self.centers_ = C
         N, e = C.shape
         if self.kernel == "gaussian":
@@ -327,10 +455,11 @@ class GRBF:
         self.n_outputs_ = Y.shape[1]
         return self
 
-    def _fit_lattice_c(self, Y: np.ndarray) -> np.ndarray:
+    def _fit_lattice_c(self, Y: NDArray[np.float64]) -> NDArray[np.float64]:
         """Interpolation on the lattice by the C core (``mlr_grbf_fit_lattice``: the four
         symmetry classes of the class notes, each by Cholesky after a Householder reflection
         removes its side condition, one thread per class)."""
+        assert self.lattice is not None  # called for a lattice of centres only
         R, Cn = self.lattice
         C3 = self.centers_.reshape(R, Cn, 2)
         xs = np.ascontiguousarray(C3[:, 0, 0])
@@ -346,7 +475,9 @@ class GRBF:
               "mlayer.GRBF.fit", diag)
         return coef
 
-    def _fit_least_squares(self, P, Y, V, T, m):
+    def _fit_least_squares(self, P: NDArray[np.float64], Y: NDArray[np.float64],
+                           V: NDArray[np.float64], T: NDArray[np.float64], m: int
+                           ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """More points than centres (or a ridge): least squares in (a, beta) by QR of the
         augmented matrix [Pp, Phi Z, Y] (rows of sqrt(lam) I under Phi Z for the ridge)."""
         N = self.centers_.shape[0]
@@ -361,7 +492,7 @@ class GRBF:
         if extra:
             lam = self.smoothing * float(np.mean(np.sum(M[:n, m:N] ** 2, axis=0)))
             M[n:, m:N] = np.sqrt(lam) * np.eye(N - m)
-        Rm = np.linalg.qr(M, mode="r")
+        Rm = cast(NDArray[np.float64], np.linalg.qr(M, mode="r"))
         R = Rm[:N, :N]
         diag = np.abs(np.diag(R))
         if not diag.min() > np.finfo(float).eps * max(M.shape) * diag.max():
@@ -371,10 +502,27 @@ class GRBF:
         sol = _solve_upper(R, Rm[:N, N:])
         return sol[:m], sol[m:]
 
-    def predict(self, points) -> np.ndarray:
-        """Values (n, d) at points (n, e) (shape (n,) if fit was given a vector): psi(x) B in
-        one pass of the C core (``mlr_grbf_eval``: kernel values and products block by block,
-        psi never stored)."""
+    def predict(self, points: ArrayLike) -> NDArray[np.float64]:
+        """Values at points: psi(x) B in one pass of the C core (``mlr_grbf_eval``).
+
+        Kernel values and products are computed block by block, psi never stored.
+        ``model(points)`` is the same.
+
+        Parameters
+        ----------
+        points : array_like, shape (n, e)
+            The points.
+
+        Returns
+        -------
+        numpy.ndarray, shape (n, d) or (n,)
+            The values; (n,) if :meth:`fit` was given a vector.
+
+        Raises
+        ------
+        mlayer.InvalidArgumentError
+            Before :meth:`fit`, or for points of another dimension.
+        """
         if self.coef_ is None:
             raise InvalidArgumentError("GRBF: call fit first")
         kernel, width, threads = self._c_params()
@@ -396,11 +544,11 @@ class GRBF:
     __call__ = predict
 
 
-def _poly(X: np.ndarray) -> np.ndarray:
+def _poly(X: NDArray[np.float64]) -> NDArray[np.float64]:
     return np.hstack([np.ones((X.shape[0], 1)), X])
 
 
-def _householder(Pc: np.ndarray):
+def _householder(Pc: NDArray[np.float64]) -> Any:
     """Compact WY form of the Householder QR of Pc (N, m): Q = I - V T V^T (V unit lower
     trapezoidal (N, m), T upper triangular (m, m)). Refuses a rank-deficient Pc (centres on a
     line: the linear terms are not determined)."""

@@ -22,7 +22,8 @@ and of each context is redrawn from a Dirichlet distribution centred on it:
 ``E[r'] = r`` and ``Var[r'_k] = r_k (1 - r_k) noise / (1 + noise)``. The concentration
 1 / noise is a number of transitions: at noise = 1 / N a row varies as much as it would if it
 had been estimated from N transitions drawn from it (noise 0.01: a probability of 0.5 varies
-by about +-0.05; noise 1: by +-0.35). Transitions never seen stay impossible. With ``allow_unseen=True`` the centre of each row first gives
+by about +-0.05; noise 1: by +-0.35). Transitions never seen stay impossible. With
+``allow_unseen=True`` the centre of each row first gives
 :data:`UNSEEN_MASS` (0.02) of its mass, in equal parts, to the transitions the data never saw
 (of the jump rows: to the other primitives), then the same draw.
 
@@ -34,8 +35,11 @@ at the last 20% of each clip would score nothing on clips that end standing stil
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Mapping, Sequence
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from .errors import InvalidArgumentError
 from ._args import integer
@@ -48,7 +52,7 @@ HELDOUT_FOLDS = 5      # the blocks of each clip in heldout_loglik's cross-valid
 HELDOUT_FLOOR = 1e-3    # mixed into each held-out prediction: see heldout_loglik
 
 
-def _labels(a, name: str) -> np.ndarray:
+def _labels(a: Any, name: str) -> NDArray[np.int64]:
     arr = np.asarray(a)
     if arr.ndim != 1:
         raise InvalidArgumentError(f"{name}: labels must be 1-D, got shape {arr.shape}")
@@ -61,7 +65,7 @@ def _labels(a, name: str) -> np.ndarray:
     return arr.astype(np.int64, copy=False)
 
 
-def _runs(s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _runs(s: NDArray[np.int64]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
     """The distinct symbols of a label sequence (runs collapsed) and the frame each run starts."""
     if s.size == 0:
         return s[:0], np.zeros(0, dtype=np.int64)
@@ -69,11 +73,11 @@ def _runs(s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return s[starts], starts
 
 
-def _order(order, name: str = "order") -> int:
+def _order(order: int, name: str = "order") -> int:
     return integer(order, name, 1, MAX_ORDER)
 
 
-def _noise(noise, name: str) -> float:
+def _noise(noise: float, name: str) -> float:
     try:
         f = float(noise)
     except (TypeError, ValueError):
@@ -83,10 +87,32 @@ def _noise(noise, name: str) -> float:
     return f
 
 
-def dirichlet_rows(R, noise: float, rng, *, allowed=None, allow_unseen: bool = False):
-    """Each row r of R (m, n) (summing to 1) redrawn from Dirichlet(r / noise) over its
-    entries > 0 (see the module's docstring). allowed (m, n) bool: the entries that
-    allow_unseen may open (default all). noise 0 returns a copy of R (after allow_unseen)."""
+def dirichlet_rows(R: ArrayLike, noise: float, rng: np.random.Generator, *,
+                   allowed: NDArray[np.bool_] | None = None,
+                   allow_unseen: bool = False) -> NDArray[np.float64]:
+    """Rows of a stochastic matrix redrawn from Dirichlet distributions centred on them.
+
+    Each row r of R (summing to 1) is redrawn from Dirichlet(r / noise) over its entries > 0
+    (see the module's docstring).
+
+    Parameters
+    ----------
+    R : array_like, shape (m, n)
+        Rows summing to 1.
+    noise : float
+        The scale; 0 returns a copy of R (after allow_unseen).
+    rng : numpy.random.Generator
+        The generator.
+    allowed : numpy.ndarray of bool, shape (m, n), optional
+        The entries that allow_unseen may open (default all).
+    allow_unseen : bool, optional
+        Give the entries that are 0 some mass (UNSEEN_MASS).
+
+    Returns
+    -------
+    numpy.ndarray, shape (m, n)
+        The redrawn rows.
+    """
     R = np.array(R, dtype=np.float64)
     out = np.zeros_like(R)
     allowed = np.ones(R.shape, bool) if allowed is None else allowed
@@ -109,7 +135,7 @@ def dirichlet_rows(R, noise: float, rng, *, allowed=None, allow_unseen: bool = F
     return out
 
 
-def _state(j, n: int, name: str = "state") -> int:
+def _state(j: Any, n: int, name: str = "state") -> int:
     j = integer(j, name)
     if not 0 <= j < n:
         raise InvalidArgumentError(f"{name} {j} out of range: the model has {n} states "
@@ -118,14 +144,41 @@ def _state(j, n: int, name: str = "state") -> int:
 
 
 class Markov:
-    """A transition matrix ``P`` (n, n), rows summing to 1, plus the transition counts and the
+    """A Markov model of primitive labels.
+
+    A transition matrix ``P`` (n, n), rows summing to 1, plus the transition counts and the
     mean run length (frames spent in a state before leaving it) of each state; and the jump
     model of the distinct primitives: ``order`` (1 .. 3), ``min_count`` (the back-off rule)
-    and ``contexts`` (a dict: tuple of 2 .. order distinct states, the last the current one ->
-    (times seen, probabilities (n,) of the next distinct state))."""
+    and ``contexts``.
 
-    def __init__(self, P, counts=None, run_length=None, *, order: int = 1, min_count: int = 1,
-                 contexts=None, jumps=None):
+    Parameters
+    ----------
+    P : array_like, shape (n, n)
+        Finite, non-negative, rows summing to 1.
+    counts : array_like, shape (n, n), optional
+        Transition counts (default zeros).
+    run_length : array_like, shape (n,), optional
+        Mean run length per state (default ``1 / (1 - P[j, j])``).
+    order : int, optional
+        Order of the jump model, 1 .. 3.
+    min_count : int, optional
+        Times a context must have been followed to be used (the back-off rule).
+    contexts : dict, optional
+        Tuple of 2 .. order distinct states, the last the current one -> (times seen,
+        probabilities (n,) of the next distinct state).
+    jumps : array_like, shape (n, n), optional
+        A jump matrix of its own (a perturbed model's); default from P.
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        For a P that is not a stochastic matrix or parameters out of range.
+    """
+
+    def __init__(self, P: ArrayLike, counts: ArrayLike | None = None,
+                 run_length: ArrayLike | None = None, *, order: int = 1, min_count: int = 1,
+                 contexts: Mapping[tuple[int, ...], tuple[float, NDArray[np.float64]]]
+                 | None = None, jumps: ArrayLike | None = None) -> None:
         P = np.array(P, dtype=np.float64)
         if P.ndim != 2 or P.shape[0] != P.shape[1] or P.shape[0] == 0:
             raise InvalidArgumentError(f"Markov: P must be a non-empty square matrix, got "
@@ -149,19 +202,38 @@ class Markov:
 
     @property
     def n_states(self) -> int:
+        """The number of states n."""
         return self.P.shape[0]
 
     @classmethod
-    def fit(cls, labels, n_states: int | None = None, *, order: int = 1,
-            min_count: int = 1) -> "Markov":
+    def fit(cls, labels: ArrayLike | Sequence[ArrayLike], n_states: int | None = None, *,
+            order: int = 1, min_count: int = 1) -> Markov:
         """Count transitions between consecutive labels.
 
-        labels: a 1-D integer array, or a list of them (one per clip: no transition is counted
-        across clips). n_states: default max label + 1. A state that is never left in the data
-        (no outgoing transition) gets a uniform row. ``run_length[j]`` is the mean length of
-        the runs of label j in the data (1 if j never occurs). order (1 .. 3) and min_count
-        (>= 1): the jump model of the distinct primitives and its back-off rule (see the
-        module's docstring).
+        A state that is never left in the data (no outgoing transition) gets a uniform row.
+        ``run_length[j]`` is the mean length of the runs of label j in the data (1 if j never
+        occurs).
+
+        Parameters
+        ----------
+        labels : array_like of int, or a list of them
+            One sequence, or one per clip (no transition is counted across clips).
+        n_states : int, optional
+            Default max label + 1.
+        order : int, optional
+            1 .. 3: the jump model of the distinct primitives (see the module's docstring).
+        min_count : int, optional
+            >= 1: its back-off rule.
+
+        Returns
+        -------
+        Markov
+            The model.
+
+        Raises
+        ------
+        mlayer.InvalidArgumentError
+            For no labels or labels out of range.
         """
         order = _order(order)
         min_count = integer(min_count, "min_count", 1)
@@ -205,9 +277,15 @@ class Markov:
 
     # -- the jump model --------------------------------------------------------------------------
 
-    def jump_matrix(self) -> np.ndarray:
-        """Transitions between distinct states: P with the diagonal removed, rows renormalized
-        (a state that only stays goes uniformly to the others); a perturbed model's own."""
+    def jump_matrix(self) -> NDArray[np.float64]:
+        """Transitions between distinct states.
+
+        Returns
+        -------
+        numpy.ndarray, shape (n, n)
+            P with the diagonal removed, rows renormalized (a state that only stays goes
+            uniformly to the others); a perturbed model's own.
+        """
         if self._jumps is not None:
             return self._jumps.copy()
         n = self.n_states
@@ -219,10 +297,20 @@ class Markov:
         uniform = (1.0 - np.eye(n)) / (n - 1)
         return np.where(s > 0, Q / np.where(s > 0, s, 1.0), uniform)
 
-    def context_length(self, history) -> int:
-        """The length of the context :meth:`next_distribution` uses after history (the
-        distinct states so far, the current one last): the longest L <= order whose context
-        was followed at least min_count times in the data, else 1."""
+    def context_length(self, history: Sequence[int]) -> int:
+        """The length of the context :meth:`next_distribution` uses after a history.
+
+        Parameters
+        ----------
+        history : sequence of int
+            The distinct states so far, the current one last.
+
+        Returns
+        -------
+        int
+            The longest L <= order whose context was followed at least min_count times in the
+            data, else 1.
+        """
         h = tuple(int(v) for v in history)
         for L in range(min(self.order, len(h)), 1, -1):
             got = self.contexts.get(h[-L:])
@@ -230,9 +318,20 @@ class Markov:
                 return L
         return 1
 
-    def next_distribution(self, history) -> np.ndarray:
-        """Probabilities (n,) of the next distinct state after history (a sequence of distinct
-        states, the current one last), by the back-off rule (:meth:`context_length`)."""
+    def next_distribution(self, history: int | Sequence[int] | NDArray[np.integer[Any]]
+                          ) -> NDArray[np.float64]:
+        """Probabilities of the next distinct state, by the back-off rule.
+
+        Parameters
+        ----------
+        history : int or sequence of int
+            Distinct states, the current one last (:meth:`context_length`).
+
+        Returns
+        -------
+        numpy.ndarray, shape (n,)
+            The probabilities.
+        """
         h = [_state(v, self.n_states) for v in np.atleast_1d(history)]
         if not h:
             raise InvalidArgumentError("next_distribution: empty history")
@@ -241,16 +340,31 @@ class Markov:
             return self._jump_row(h[-1])
         return self.contexts[tuple(h[-L:])][1].copy()
 
-    def _jump_row(self, j: int) -> np.ndarray:
+    def _jump_row(self, j: int) -> NDArray[np.float64]:
         if self._jumps is None:
             self._jumps = self.jump_matrix()
         return self._jumps[j].copy()
 
-    def ranked_next(self, history, rank: int = 1) -> int:
-        """The rank-th most likely next distinct state after history (rank 1: equation 5;
-        rank 2: the second most likely, paper Figure 3 (c)); lowest index on ties. When fewer
-        than rank other states have a probability > 0, the least likely of those that have.
-        Returns -1 when the model has one state."""
+    def ranked_next(self, history: int | Sequence[int] | NDArray[np.integer[Any]],
+                    rank: int = 1) -> int:
+        """The rank-th most likely next distinct state after a history.
+
+        Rank 1: equation 5; rank 2: the second most likely, paper Figure 3 (c); lowest index
+        on ties. When fewer than rank other states have a probability > 0, the least likely of
+        those that have.
+
+        Parameters
+        ----------
+        history : int or sequence of int
+            Distinct states, the current one last.
+        rank : int, optional
+            >= 1.
+
+        Returns
+        -------
+        int
+            The state; -1 when the model has one state.
+        """
         rank = integer(rank, "rank", 1)
         h = np.atleast_1d(history)
         if self.n_states == 1:
@@ -262,18 +376,44 @@ class Markov:
         possible = int((p > 0).sum())
         return int(order[min(rank, max(possible, 1)) - 1])
 
-    def most_likely_next(self, j: int, history=None) -> int:
-        """Equation 5: k* = argmax_{k != j} P[j, k], the most likely next distinct primitive
-        (lowest index on ties), given the distinct states before j (history, for order > 1).
-        Returns -1 when the model has one state."""
+    def most_likely_next(self, j: int, history: Sequence[int] | None = None) -> int:
+        """Equation 5: ``k* = argmax_{k != j} P[j, k]``, the most likely next distinct primitive.
+
+        Parameters
+        ----------
+        j : int
+            The current state.
+        history : sequence of int, optional
+            The distinct states before j (for order > 1).
+
+        Returns
+        -------
+        int
+            The state (lowest index on ties); -1 when the model has one state.
+        """
         j = _state(j, self.n_states)
         h = [] if history is None else [int(v) for v in history]
         return self.ranked_next(h + [j], 1)
 
-    def most_likely_path(self, start: int, n: int | None = None, *, rank: int = 1) -> np.ndarray:
-        """Follow :meth:`ranked_next` (rank 1: equation 5; 2: the second most likely) from
-        start: n states (default: until a state repeats, the cycle of paper Figure 3 (c), the
-        repeated state included; for order > 1 until a context repeats)."""
+    def most_likely_path(self, start: int, n: int | None = None, *, rank: int = 1
+                         ) -> NDArray[np.int64]:
+        """Follow :meth:`ranked_next` from a state.
+
+        Parameters
+        ----------
+        start : int
+            The first state.
+        n : int, optional
+            States in the path; default: until a state repeats, the cycle of paper Figure 3
+            (c), the repeated state included (for order > 1 until a context repeats).
+        rank : int, optional
+            1: equation 5; 2: the second most likely.
+
+        Returns
+        -------
+        numpy.ndarray of int64
+            The path.
+        """
         s = _state(start, self.n_states, "start")
         rank = integer(rank, "rank", 1)
         path = [s]
@@ -293,12 +433,28 @@ class Markov:
 
     # -- noise -----------------------------------------------------------------------------------
 
-    def perturbed(self, scale: float, seed: int = 0, *, allow_unseen: bool = False) -> "Markov":
-        """A model whose rows (of P, of the jump matrix and of every context) are redrawn from
-        Dirichlet distributions centred on them with concentration 1 / scale (the module's
-        docstring; paper section 5.2: the scale controls the deviation from the data).
-        Transitions never seen stay impossible unless allow_unseen. scale 0: the same
-        probabilities (with allow_unseen: the centres that give UNSEEN_MASS to the unseen)."""
+    def perturbed(self, scale: float, seed: int = 0, *, allow_unseen: bool = False) -> Markov:
+        """A model with redrawn rows (paper section 5.2).
+
+        The rows of P, of the jump matrix and of every context are redrawn from Dirichlet
+        distributions centred on them with concentration 1 / scale (the module's docstring:
+        the scale controls the deviation from the data).
+
+        Parameters
+        ----------
+        scale : float
+            >= 0; 0: the same probabilities (with allow_unseen: the centres that give
+            UNSEEN_MASS to the unseen).
+        seed : int, optional
+            Seed.
+        allow_unseen : bool, optional
+            Transitions never seen stay impossible unless this is true.
+
+        Returns
+        -------
+        Markov
+            The new model.
+        """
         scale = _noise(scale, "Markov: noise scale")
         seed = integer(seed, "Markov: seed", 0)
         if not isinstance(allow_unseen, (bool, np.bool_)):
@@ -323,14 +479,34 @@ class Markov:
     # -- sampling --------------------------------------------------------------------------------
 
     def sample(self, start: int, n: int, noise: float = 0.0, seed: int = 0, *,
-               distinct: bool = False, history=None, allow_unseen: bool = False) -> np.ndarray:
-        """A seeded sequence of n states beginning with start.
+               distinct: bool = False, history: Sequence[int] | None = None,
+               allow_unseen: bool = False) -> NDArray[np.int64]:
+        """A seeded sequence of states; the same arguments give the same sequence.
 
-        noise: scale of the perturbation (:meth:`perturbed`, same seed, allow_unseen) before
-        sampling. distinct: sample the chain of distinct primitives (each step leaves the
-        current state; of order ``order``, with the distinct states of history before start
-        as the first context) rather than frame-to-frame transitions (first order, P). The
-        same arguments give the same sequence.
+        Parameters
+        ----------
+        start : int
+            The first state.
+        n : int
+            States in the sequence (>= 1).
+        noise : float, optional
+            Scale of the perturbation (:meth:`perturbed`, same seed, allow_unseen) before
+            sampling.
+        seed : int, optional
+            Seed.
+        distinct : bool, optional
+            Sample the chain of distinct primitives (each step leaves the current state; of
+            order ``order``, with the distinct states of history before start as the first
+            context) rather than frame-to-frame transitions (first order, P).
+        history : sequence of int, optional
+            Distinct states before start.
+        allow_unseen : bool, optional
+            As for :meth:`perturbed`.
+
+        Returns
+        -------
+        numpy.ndarray of int64, shape (n,)
+            The states.
         """
         s = _state(start, self.n_states, "start")
         n = integer(n, "sample: n", 1)
@@ -358,17 +534,30 @@ class Markov:
             out[i] = s
         return out
 
-    def stationary(self) -> np.ndarray:
-        """Stationary distribution (left eigenvector of P for eigenvalue 1, normalized)."""
+    def stationary(self) -> NDArray[np.float64]:
+        """Stationary distribution of P.
+
+        Returns
+        -------
+        numpy.ndarray, shape (n,)
+            The left eigenvector of P for eigenvalue 1, normalized.
+        """
         w, v = np.linalg.eig(self.P.T)
         p = np.abs(np.real(v[:, np.argmin(np.abs(w - 1.0))]))
         return p / p.sum()
 
     # -- persistence helpers ---------------------------------------------------------------------
 
-    def context_arrays(self) -> tuple[np.ndarray, np.ndarray]:
-        """The contexts as arrays: keys (m, order) (left-padded with -1) and the counts
-        (m, n) of the next distinct state (for saving; :func:`contexts_from_arrays`)."""
+    def context_arrays(self) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
+        """The contexts as arrays (for saving; :func:`contexts_from_arrays`).
+
+        Returns
+        -------
+        keys : numpy.ndarray of int64, shape (m, order)
+            Left-padded with -1.
+        counts : numpy.ndarray, shape (m, n)
+            Counts of the next distinct state.
+        """
         keys = sorted(self.contexts)
         K = np.full((len(keys), self.order), -1, dtype=np.int64)
         R = np.zeros((len(keys), self.n_states))
@@ -379,32 +568,64 @@ class Markov:
         return K, R
 
 
-def _normalized(ctx_counts: dict) -> dict:
+def _normalized(ctx_counts: dict[tuple[int, ...], NDArray[np.float64]]
+                ) -> dict[tuple[int, ...], tuple[float, NDArray[np.float64]]]:
     return {k: (float(v.sum()), v / v.sum()) for k, v in ctx_counts.items()}
 
 
-def contexts_from_arrays(keys, counts) -> dict:
-    """The contexts dict of :class:`Markov` from :meth:`Markov.context_arrays`."""
+def contexts_from_arrays(keys: ArrayLike, counts: ArrayLike
+                         ) -> dict[tuple[int, ...], tuple[float, NDArray[np.float64]]]:
+    """The contexts dict of :class:`Markov` from :meth:`Markov.context_arrays`.
+
+    Parameters
+    ----------
+    keys : array_like of int, shape (m, order)
+        Left-padded with -1.
+    counts : array_like, shape (m, n)
+        Counts of the next distinct state.
+
+    Returns
+    -------
+    dict
+        Context -> (times seen, probabilities).
+    """
     keys = np.asarray(keys, dtype=np.int64)
     counts = np.asarray(counts, dtype=np.float64)
     return _normalized({tuple(int(v) for v in k if v >= 0): c.copy()
                         for k, c in zip(keys, counts)})
 
 
-def heldout_loglik(labels, n_states: int, orders=(1, 2, 3), *, min_count: int = 1,
-                   folds: int = HELDOUT_FOLDS) -> dict:
-    """The held-out log-likelihood of the jump model of each order, by blocked
-    cross-validation.
+def heldout_loglik(labels: Sequence[ArrayLike], n_states: int,
+                   orders: Iterable[int] = (1, 2, 3), *, min_count: int = 1,
+                   folds: int = HELDOUT_FOLDS) -> dict[int, tuple[float, int]]:
+    """The held-out log-likelihood of the jump model of each order, by blocked cross-validation.
 
-    labels: one label sequence per clip. Each clip is cut into ``folds`` (5) consecutive blocks
-    of equal length; for fold f the models are fitted on the other blocks of every clip (each
-    block a sequence of its own: no transition is counted across a removed block), and every
-    jump (a change of label) arriving in block f is predicted from its full history in the
-    clip (the distinct primitives before it). The probability p given to the jump scores
-    log((1 - 1e-3) p + 1e-3 / (n_states - 1)): the floor HELDOUT_FLOOR keeps a jump the other
-    blocks never showed finite, at the same cost for every order. Returns {order: (mean
-    log-likelihood per held-out jump in nats, number of held-out jumps)}; nan when no clip
-    has a jump.
+    Each clip is cut into ``folds`` consecutive blocks of equal length; for fold f the models
+    are fitted on the other blocks of every clip (each block a sequence of its own: no
+    transition is counted across a removed block), and every jump (a change of label)
+    arriving in block f is predicted from its full history in the clip (the distinct
+    primitives before it). The probability p given to the jump scores
+    ``log((1 - 1e-3) p + 1e-3 / (n_states - 1))``: the floor HELDOUT_FLOOR keeps a jump the
+    other blocks never showed finite, at the same cost for every order.
+
+    Parameters
+    ----------
+    labels : sequence of array_like of int
+        One label sequence per clip.
+    n_states : int
+        States.
+    orders : iterable of int, optional
+        The orders to score.
+    min_count : int, optional
+        The back-off rule.
+    folds : int, optional
+        Blocks per clip (>= 2).
+
+    Returns
+    -------
+    dict of int to (float, int)
+        ``{order: (mean log-likelihood per held-out jump in nats, number of held-out
+        jumps)}``; NaN when no clip has a jump.
     """
     seqs = [_labels(s, f"labels[{i}]") for i, s in enumerate(labels)]
     n = integer(n_states, "n_states", 1)
@@ -432,9 +653,19 @@ def heldout_loglik(labels, n_states: int, orders=(1, 2, 3), *, min_count: int = 
     return {o: (ll[o] / m if m else float("nan"), m) for o in orders}
 
 
-def best_order(scores: dict) -> int:
-    """The order of highest held-out log-likelihood in :func:`heldout_loglik`'s scores (the
-    lowest on ties, 1 when none is finite)."""
+def best_order(scores: Mapping[int, tuple[float, int]]) -> int:
+    """The order of highest held-out log-likelihood.
+
+    Parameters
+    ----------
+    scores : dict
+        :func:`heldout_loglik`'s scores.
+
+    Returns
+    -------
+    int
+        The order (the lowest on ties, 1 when none is finite).
+    """
     best, val = 1, -math.inf
     for order in sorted(scores):
         v = scores[order][0]

@@ -6,36 +6,78 @@ Bandai in cm).
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from ._rig import axis, body_height_of, motion_axis
 from .contacts import contact_positions
 from .errors import InvalidArgumentError
 
+if TYPE_CHECKING:
+    from .motion import Motion
 
-def _positions(m) -> np.ndarray:
+__all__ = ["mpjpe", "jitter", "body_height", "foot_sliding"]
+
+
+def _positions(m: Motion | ArrayLike) -> NDArray[np.float64]:
     p = m.positions() if hasattr(m, "positions") else np.asarray(m, dtype=np.float64)
     if p.ndim != 3 or p.shape[-1] != 3:
         raise InvalidArgumentError(f"expected a Motion or an (N, J, 3) array, got shape {p.shape}")
     return p
 
 
-def mpjpe(a, b) -> float:
-    """Mean per-joint position error: the mean over frames and joints of the Euclidean distance
-    between corresponding world positions of a and b (same skeleton, same frame count).
-    Units: the clips' length unit."""
+def mpjpe(a: Motion | ArrayLike, b: Motion | ArrayLike) -> float:
+    """Mean per-joint position error.
+
+    The mean over frames and joints of the Euclidean distance between corresponding world
+    positions of ``a`` and ``b`` (same skeleton, same frame count).
+
+    Parameters
+    ----------
+    a, b : Motion or array_like, shape (N, J, 3)
+        Motions or world joint positions.
+
+    Returns
+    -------
+    float
+        The error, in the clips' length unit.
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        When the positions are not (N, J, 3) or their shapes differ.
+    """
     pa, pb = _positions(a), _positions(b)
     if pa.shape != pb.shape:
         raise InvalidArgumentError(f"mpjpe: shapes differ: {pa.shape} vs {pb.shape}")
     return float(np.linalg.norm(pa - pb, axis=-1).mean())
 
 
-def jitter(m, fps: float | None = None) -> float:
+def jitter(m: Motion | ArrayLike, fps: float | None = None) -> float:
     """Mean magnitude of the third finite difference of world joint positions.
 
-    Without fps: length units per frame^3, the mean over frames and joints of
-    |p[t+3] - 3 p[t+2] + 3 p[t+1] - p[t]|. With fps: scaled by fps^3 to length units per
-    second^3, comparable across frame rates.
+    The mean over frames and joints of ``|p[t+3] - 3 p[t+2] + 3 p[t+1] - p[t]|``.
+
+    Parameters
+    ----------
+    m : Motion or array_like, shape (N, J, 3)
+        A motion or world joint positions (at least 4 frames).
+    fps : float, optional
+        When given, the result is scaled by ``fps**3``: length units per second cubed,
+        comparable across frame rates. Without it: length units per frame cubed.
+
+    Returns
+    -------
+    float
+        The jitter.
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        For fewer than 4 frames or positions that are not (N, J, 3).
     """
     p = _positions(m)
     if p.shape[0] < 4:
@@ -44,28 +86,63 @@ def jitter(m, fps: float | None = None) -> float:
     return float(j * fps**3) if fps else float(j)
 
 
-def body_height(m, up=None) -> float:
-    """Body size used to make thresholds and errors unit-free: the median over frames of the
-    joints' extent along the up axis (End Sites excluded, so the head top and toe tips are not
-    counted); up: "x", "y", "z" or None for the motion's :attr:`~mlayer.Motion.up_axis` ("y"
-    for a positions array). Units: the clip's length unit; a standing CMU subject is about 24
-    units."""
+def body_height(m: Motion | ArrayLike, up: str | int | None = None) -> float:
+    """Body size used to make thresholds and errors unit-free.
+
+    The median over frames of the joints' extent along the up axis (End Sites excluded, so
+    the head top and toe tips are not counted).
+
+    Parameters
+    ----------
+    m : Motion or array_like, shape (N, J, 3)
+        A motion or world joint positions.
+    up : {"x", "y", "z"}, optional
+        The up axis; by default the motion's :attr:`~mlayer.Motion.up_axis` (``"y"`` for a
+        positions array).
+
+    Returns
+    -------
+    float
+        The height in the clip's length unit (a standing CMU subject is about 24 units).
+    """
     p = _positions(m)
     return body_height_of(p, axis(up if up is not None else getattr(m, "up_axis", "y"),
                                   "body_height"))
 
 
-def foot_sliding(m, contacts, names, up=None, *, pos=None, wrot=None) -> float:
+def foot_sliding(m: Motion, contacts: ArrayLike, names: str | Sequence[str],
+                 up: str | None = None, *, pos: NDArray[np.float64] | None = None,
+                 wrot: NDArray[np.float64] | None = None) -> float:
     """Mean horizontal speed of the contact joints while they are in contact.
 
-    m: a Motion; contacts: bool (N, C) as returned by :func:`mlayer.detect_contacts`; names: the
-    C contact point names (joints, or "Joint/End" for a joint's End Site). For every joint c and every pair of consecutive frames (t, t+1) that are both
-    in contact, the horizontal displacement |p_c(t+1) - p_c(t)| (in the plane normal to up:
-    "x", "y", "z", or None for the motion's :attr:`~mlayer.Motion.up_axis`) times the
-    frame rate; the mean over all such pairs of all joints. Units: the clip's length unit per
-    second (cm/s for LaFAN1 and Bandai). 0 for a perfectly planted foot; NaN when no joint has
-    two consecutive contact frames. pos, wrot: m's forward kinematics when already at hand
-    (:func:`mlayer.contacts.contact_positions`).
+    For every contact point c and every pair of consecutive frames (t, t+1) that are both in
+    contact, the horizontal displacement ``|p_c(t+1) - p_c(t)|`` (in the plane normal to the
+    up axis) times the frame rate; the mean over all such pairs of all points.
+
+    Parameters
+    ----------
+    m : Motion
+        The motion.
+    contacts : array_like of bool, shape (N, C)
+        As returned by :func:`mlayer.detect_contacts`.
+    names : str or sequence of str
+        The C contact point names (joints, or ``"Joint/End"`` for a joint's End Site).
+    up : {"x", "y", "z"}, optional
+        The up axis; by default the motion's :attr:`~mlayer.Motion.up_axis`.
+    pos, wrot : numpy.ndarray, optional
+        ``m``'s forward kinematics when already at hand
+        (:func:`mlayer.contacts.contact_positions`).
+
+    Returns
+    -------
+    float
+        The clip's length unit per second (cm/s for LaFAN1 and Bandai); 0 for a perfectly
+        planted foot, NaN when no point has two consecutive contact frames.
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        When ``m`` is not a Motion or ``contacts`` is not a bool array of shape (N, C).
     """
     if not hasattr(m, "positions") or not hasattr(m, "skeleton"):
         raise InvalidArgumentError("foot_sliding: m must be a mlayer.Motion")

@@ -21,7 +21,7 @@ back exactly (only signs and joint order change).
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
-from typing import TYPE_CHECKING, Union
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -36,7 +36,7 @@ if TYPE_CHECKING:
 __all__ = ["mirror", "mirror_pairs", "mirror_plane", "parse_pairs"]
 
 #: what ``pairs`` accepts: "auto", a mapping {left: right}, (a, b) pairs, or "A=B,C=D"
-PairsArg = Union[str, Mapping[str, str], Iterable[tuple[str, str]]]
+PairsArg = str | Mapping[str, str] | Iterable[tuple[str, str]]
 
 _PLANES = {"auto": -1, "x": 0, "y": 1, "z": 2}
 
@@ -81,10 +81,10 @@ def _given_pairs(pairs: PairsArg) -> list[tuple[str, str]]:
     for p in out:
         if len(p) != 2 or not all(isinstance(n, str) for n in p):
             raise InvalidArgumentError(f"mirror: pairs: {p!r} is not a pair of joint names")
-    return out  # type: ignore[return-value]
+    return out
 
 
-def _partner(skeleton: "Skeleton", pairs: PairsArg, by_name: bool) -> tuple[np.ndarray,
+def _partner(skeleton: Skeleton, pairs: PairsArg, by_name: bool) -> tuple[np.ndarray,
                                                                             np.ndarray]:
     """(partner, side) of every joint by the C core (mlr_mirror_pairs)."""
     J = skeleton.n_joints
@@ -107,7 +107,7 @@ def _partner(skeleton: "Skeleton", pairs: PairsArg, by_name: bool) -> tuple[np.n
     return partner, side
 
 
-def _skeleton_of(obj, where: str) -> "Skeleton":
+def _skeleton_of(obj: Any, where: str) -> Skeleton:
     from .motion import Motion, Skeleton
     if isinstance(obj, Motion):
         return obj.skeleton
@@ -117,7 +117,7 @@ def _skeleton_of(obj, where: str) -> "Skeleton":
                                f"{type(obj).__name__}")
 
 
-def mirror_pairs(motion: "Motion | Skeleton", pairs: PairsArg = "auto", *,
+def mirror_pairs(motion: Motion | Skeleton, pairs: PairsArg = "auto", *,
                  by_name: bool = True) -> list[tuple[str, str]]:
     """The left/right joint pairs :func:`mirror` uses, as (left, right) names.
 
@@ -155,7 +155,7 @@ def mirror_pairs(motion: "Motion | Skeleton", pairs: PairsArg = "auto", *,
     return out
 
 
-def _plane_arg(plane) -> int:
+def _plane_arg(plane: Any) -> int:
     key = plane.lower() if isinstance(plane, str) else plane
     if key not in _PLANES:
         raise InvalidArgumentError(f"mirror: plane must be 'auto', 'x', 'y' or 'z', got "
@@ -163,7 +163,7 @@ def _plane_arg(plane) -> int:
     return _PLANES[key]
 
 
-def mirror_plane(motion: "Motion | Skeleton", pairs: PairsArg = "auto", *,
+def mirror_plane(motion: Motion | Skeleton, pairs: PairsArg = "auto", *,
                  by_name: bool = True) -> str:
     """The axis normal to the mirror plane that ``plane="auto"`` picks: "x", "y" or "z".
 
@@ -190,7 +190,7 @@ def mirror_plane(motion: "Motion | Skeleton", pairs: PairsArg = "auto", *,
     return "xyz"[_c_plane(sk, partner, -1)]
 
 
-def _c_plane(sk: "Skeleton", partner: np.ndarray, plane: int) -> int:
+def _c_plane(sk: Skeleton, partner: np.ndarray, plane: int) -> int:
     rig, keep = c_rig(sk)
     ax = ffi.new("int *")
     diag = ffi.new("mlr_diag *")
@@ -201,8 +201,8 @@ def _c_plane(sk: "Skeleton", partner: np.ndarray, plane: int) -> int:
     return int(ax[0])
 
 
-def mirror(motion: "Motion", *, plane: str = "auto", pairs: PairsArg = "auto",
-           keep_skeleton: bool = False, by_name: bool = True) -> "Motion":
+def mirror(motion: Motion, *, plane: str = "auto", pairs: PairsArg = "auto",
+           keep_skeleton: bool = False, by_name: bool = True) -> Motion:
     """The motion mirrored across the body's sagittal plane, left and right swapped.
 
     Parameters

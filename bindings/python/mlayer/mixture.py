@@ -3,19 +3,25 @@ mixture fitted by EM, numpy only. Hard k-means is :func:`mlayer.kmeans` (C core)
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from . import _arrays
 from ._args import integer
 from .errors import InvalidArgumentError
 
+if TYPE_CHECKING:
+    from .clustering import KMeansResult
+
 __all__ = ["fuzzy_cmeans", "FuzzyResult", "GaussianMixture", "k_criteria", "KCriteria",
            "CRITERIA"]
 
 
-def _data(X, k: int, what: str, name: str = "X") -> np.ndarray:
+def _data(X: ArrayLike, k: int, what: str, name: str = "X") -> NDArray[np.float64]:
     X = _arrays.as_f64(X, name, ndim=2)
     if X.shape[0] == 0 or X.shape[1] == 0:
         raise InvalidArgumentError(f"{name}: empty data, shape {X.shape}")
@@ -25,13 +31,14 @@ def _data(X, k: int, what: str, name: str = "X") -> np.ndarray:
     return X
 
 
-def _sqdist(X: np.ndarray, C: np.ndarray) -> np.ndarray:
+def _sqdist(X: NDArray[np.float64], C: NDArray[np.float64]) -> NDArray[np.float64]:
     d2 = (X * X).sum(1)[:, None] - 2.0 * (X @ C.T) + (C * C).sum(1)[None, :]
     np.maximum(d2, 0.0, out=d2)
     return d2
 
 
-def _initial_centers(X: np.ndarray, k: int, init, seed: int, who: str) -> np.ndarray:
+def _initial_centers(X: NDArray[np.float64], k: int, init: str | ArrayLike, seed: int,
+                     who: str) -> NDArray[np.float64]:
     if isinstance(init, str):
         if init != "k-means++":
             raise InvalidArgumentError(f"{who}: init must be 'k-means++' or an array of "
@@ -52,16 +59,43 @@ def _initial_centers(X: np.ndarray, k: int, init, seed: int, who: str) -> np.nda
 
 @dataclass(frozen=True)
 class FuzzyResult:
-    """Result of :func:`fuzzy_cmeans`: centers (c, d), memberships u (n, c) (rows sum to 1),
-    labels (n,) = argmax of u, objective J_m = sum u^m |x - v|^2, n_iter."""
-    centers: np.ndarray
-    u: np.ndarray
-    labels: np.ndarray
+    """Result of :func:`fuzzy_cmeans`.
+
+    Attributes
+    ----------
+    centers : numpy.ndarray, shape (c, d)
+        The centres.
+    u : numpy.ndarray, shape (n, c)
+        Memberships (rows sum to 1).
+    labels : numpy.ndarray of int32, shape (n,)
+        Argmax of u.
+    objective : float
+        ``J_m = sum u^m |x - v|^2``.
+    n_iter : int
+        Iterations.
+    """
+    centers: NDArray[np.float64]
+    u: NDArray[np.float64]
+    labels: NDArray[np.int32]
     objective: float
     n_iter: int
+    _m = 2.0  # the fuzzifier of the fit (set by fuzzy_cmeans; not a field)
 
-    def predict_proba(self, X, m: float | None = None) -> np.ndarray:
-        """Memberships of new rows to the fitted centres (the exponent m of the fit)."""
+    def predict_proba(self, X: ArrayLike, m: float | None = None) -> NDArray[np.float64]:
+        """Memberships of new rows to the fitted centres.
+
+        Parameters
+        ----------
+        X : array_like, shape (n, d)
+            The rows.
+        m : float, optional
+            The fuzzifier; default the exponent of the fit.
+
+        Returns
+        -------
+        numpy.ndarray, shape (n, c)
+            Memberships (rows sum to 1).
+        """
         X = _data(X, 1, "c")
         if X.shape[1] != self.centers.shape[1]:
             raise InvalidArgumentError(f"X: dimension mismatch, {X.shape[1]} columns for "
@@ -69,7 +103,7 @@ class FuzzyResult:
         return _memberships(_sqdist(X, self.centers), self._m if m is None else m)
 
 
-def _memberships(d2: np.ndarray, m: float) -> np.ndarray:
+def _memberships(d2: NDArray[np.float64], m: float) -> NDArray[np.float64]:
     """u_ik = 1 / sum_j (d_ik / d_ij)^(2 / (m - 1)); a row on a centre belongs to it alone."""
     zero = d2 <= 0.0
     with np.errstate(divide="ignore"):
@@ -83,14 +117,40 @@ def _memberships(d2: np.ndarray, m: float) -> np.ndarray:
     return w
 
 
-def fuzzy_cmeans(X, c: int, m: float = 2.0, *, init=None, max_iter: int = 300,
-                 tol: float = 1e-6, seed: int = 0) -> FuzzyResult:
-    """Fuzzy c-means (Bezdek) of the rows of X (n, d) into c clusters with fuzzifier m > 1.
+def fuzzy_cmeans(X: ArrayLike, c: int, m: float = 2.0, *, init: str | ArrayLike | None = None,
+                 max_iter: int = 300, tol: float = 1e-6, seed: int = 0) -> FuzzyResult:
+    """Fuzzy c-means (Bezdek) of rows into c clusters.
 
-    init: None (memberships drawn from a seeded Dirichlet distribution), "k-means++" (centres
-    of :func:`mlayer.kmeans`) or a (c, d) array of initial centres. Iterates centres
-    v_k = sum u^m x / sum u^m and memberships until the largest membership change is below
-    tol or max_iter. Deterministic for a given seed.
+    Iterates centres ``v_k = sum u^m x / sum u^m`` and memberships until the largest
+    membership change is below tol or max_iter. Deterministic for a given seed.
+
+    Parameters
+    ----------
+    X : array_like, shape (n, d)
+        The rows, finite.
+    c : int
+        Clusters, 1 <= c <= n.
+    m : float, optional
+        Fuzzifier, > 1.
+    init : None, "k-means++" or array_like, shape (c, d), optional
+        None (memberships drawn from a seeded Dirichlet distribution), ``"k-means++"``
+        (centres of :func:`mlayer.kmeans`) or initial centres.
+    max_iter : int, optional
+        Iterations at most.
+    tol : float, optional
+        Largest membership change to stop at.
+    seed : int, optional
+        Seed.
+
+    Returns
+    -------
+    FuzzyResult
+        Centres, memberships, labels, objective, iterations.
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        For parameters out of range.
     """
     c = integer(c, "c", 1)
     X = _data(X, c, "c")
@@ -106,7 +166,8 @@ def fuzzy_cmeans(X, c: int, m: float = 2.0, *, init=None, max_iter: int = 300,
         V = _initial_centers(X, c, init, seed, "fuzzy_cmeans")
         u = _memberships(_sqdist(X, V), m)
     n_iter = 0
-    for n_iter in range(1, max_iter + 1):
+    for it in range(1, max_iter + 1):
+        n_iter = it
         um = u ** m
         V = (um.T @ X) / um.sum(axis=0)[:, None]
         u_new = _memberships(_sqdist(X, V), m)
@@ -131,21 +192,41 @@ _LOG_2PI = math.log(2.0 * math.pi)
 class GaussianMixture:
     """Gaussian mixture of k components fitted by EM.
 
-    covariance  "full" (k, d, d) or "diag" (k, d).
-    init        "k-means++" (the centres of :func:`mlayer.kmeans`, seeded) or a (k, d) array of
-                initial means. weights_init (k,) and covariances_init ((k, d, d) or (k, d))
-                complete it; when they are missing they come from the hard assignment of the
-                rows to the nearest initial mean, as scikit-learn does.
-    reg_covar   added to the diagonal of every covariance (keeps them positive definite).
-    tol         EM stops when the mean log-likelihood per row changes by less than tol.
-
     After :meth:`fit`: ``weights_``, ``means_``, ``covariances_``, ``converged_``,
     ``n_iter_``, ``lower_bound_`` (mean log-likelihood of the training rows).
+
+    Parameters
+    ----------
+    k : int
+        Components (>= 1).
+    covariance : {"full", "diag"}, optional
+        Covariances (k, d, d) or (k, d).
+    init : "k-means++" or array_like, shape (k, d), optional
+        ``"k-means++"`` (the centres of :func:`mlayer.kmeans`, seeded) or initial means.
+    weights_init : array_like, shape (k,), optional
+        Initial weights, non-negative, summing to 1.
+    covariances_init : array_like, shape (k, d, d) or (k, d), optional
+        Initial covariances. Missing initial weights and covariances come from the hard
+        assignment of the rows to the nearest initial mean, as scikit-learn does.
+    max_iter : int, optional
+        EM iterations at most.
+    tol : float, optional
+        EM stops when the mean log-likelihood per row changes by less than tol.
+    reg_covar : float, optional
+        Added to the diagonal of every covariance (keeps them positive definite).
+    seed : int, optional
+        Seed of the k-means++ initialization.
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        For parameters out of range.
     """
 
-    def __init__(self, k: int, covariance: str = "full", *, init="k-means++",
-                 weights_init=None, covariances_init=None, max_iter: int = 100,
-                 tol: float = 1e-3, reg_covar: float = 1e-6, seed: int = 0):
+    def __init__(self, k: int, covariance: str = "full", *,
+                 init: str | ArrayLike = "k-means++", weights_init: ArrayLike | None = None,
+                 covariances_init: ArrayLike | None = None, max_iter: int = 100,
+                 tol: float = 1e-3, reg_covar: float = 1e-6, seed: int = 0) -> None:
         self.k = integer(k, "k", 1)
         if covariance not in ("full", "diag"):
             raise InvalidArgumentError(f"GaussianMixture: covariance must be 'full' or 'diag', "
@@ -223,7 +304,7 @@ class GaussianMixture:
 
     # -- public --------------------------------------------------------------------------------
 
-    def _check_X(self, X) -> np.ndarray:
+    def _check_X(self, X: ArrayLike) -> NDArray[np.float64]:
         if not hasattr(self, "means_"):
             raise InvalidArgumentError("GaussianMixture: call fit first")
         X = _data(X, 1, "k")
@@ -232,7 +313,24 @@ class GaussianMixture:
                                        f"model of dimension {self.means_.shape[1]}")
         return X
 
-    def fit(self, X) -> "GaussianMixture":
+    def fit(self, X: ArrayLike) -> GaussianMixture:
+        """Fit the mixture to rows by EM.
+
+        Parameters
+        ----------
+        X : array_like, shape (n, d)
+            The rows, finite, n >= k.
+
+        Returns
+        -------
+        GaussianMixture
+            ``self``.
+
+        Raises
+        ------
+        mlayer.InvalidArgumentError
+            For bad data or initial parameters.
+        """
         X = _data(X, self.k, "k")
         n, d = X.shape
         means = _initial_centers(X, self.k, self.init, self.seed, "GaussianMixture")
@@ -275,31 +373,97 @@ class GaussianMixture:
         self.lower_bound_ = lower
         return self
 
-    def predict_proba(self, X) -> np.ndarray:
-        """Responsibilities (n, k); rows sum to 1."""
+    def predict_proba(self, X: ArrayLike) -> NDArray[np.float64]:
+        """Responsibilities of the components for rows.
+
+        Parameters
+        ----------
+        X : array_like, shape (n, d)
+            The rows.
+
+        Returns
+        -------
+        numpy.ndarray, shape (n, k)
+            Rows sum to 1.
+        """
         X = self._check_X(X)
         lw = self._weighted(X)
         return np.exp(lw - self._logsumexp(lw)[:, None])
 
-    def predict(self, X) -> np.ndarray:
-        """Most responsible component of each row, int32 (n,)."""
+    def predict(self, X: ArrayLike) -> NDArray[np.int32]:
+        """Most responsible component of each row.
+
+        Parameters
+        ----------
+        X : array_like, shape (n, d)
+            The rows.
+
+        Returns
+        -------
+        numpy.ndarray of int32, shape (n,)
+            The components.
+        """
         X = self._check_X(X)
         return np.argmax(self._weighted(X), axis=1).astype(np.int32)
 
-    def score_samples(self, X) -> np.ndarray:
-        """log p(x) of each row (n,)."""
+    def score_samples(self, X: ArrayLike) -> NDArray[np.float64]:
+        """log p(x) of each row.
+
+        Parameters
+        ----------
+        X : array_like, shape (n, d)
+            The rows.
+
+        Returns
+        -------
+        numpy.ndarray, shape (n,)
+            The log densities.
+        """
         return self._logsumexp(self._weighted(self._check_X(X)))
 
-    def score(self, X) -> float:
-        """Mean log-likelihood per row (scikit-learn's ``score``)."""
+    def score(self, X: ArrayLike) -> float:
+        """Mean log-likelihood per row (scikit-learn's ``score``).
+
+        Parameters
+        ----------
+        X : array_like, shape (n, d)
+            The rows.
+
+        Returns
+        -------
+        float
+            The mean of :meth:`score_samples`.
+        """
         return float(self.score_samples(X).mean())
 
-    def log_likelihood(self, X) -> float:
-        """Total log-likelihood of the rows of X."""
+    def log_likelihood(self, X: ArrayLike) -> float:
+        """Total log-likelihood of rows.
+
+        Parameters
+        ----------
+        X : array_like, shape (n, d)
+            The rows.
+
+        Returns
+        -------
+        float
+            The sum of :meth:`score_samples`.
+        """
         return float(self.score_samples(X).sum())
 
-    def bic(self, X) -> float:
-        """Bayesian information criterion (lower is better)."""
+    def bic(self, X: ArrayLike) -> float:
+        """Bayesian information criterion (lower is better).
+
+        Parameters
+        ----------
+        X : array_like, shape (n, d)
+            The rows.
+
+        Returns
+        -------
+        float
+            ``-2 log L + p log n`` with p the free parameters.
+        """
         X = self._check_X(X)
         d = X.shape[1]
         cov_p = self.k * d * (d + 1) / 2 if self.covariance == "full" else self.k * d
@@ -313,27 +477,63 @@ class GaussianMixture:
 
 @dataclass(frozen=True)
 class KCriteria:
-    """How many clusters, by three criteria side by side (see :func:`k_criteria`): the ks,
-    k-means inertia, silhouette of the k-means labels, BIC of a Gaussian mixture; the k each
-    criterion picks (``picks``: {"elbow": k, "silhouette": k, "bic": k}) and the k-means
-    results."""
-    ks: np.ndarray
-    inertia: np.ndarray
-    silhouette: np.ndarray
-    bic: np.ndarray
-    picks: dict
-    results: tuple
+    """How many clusters, by three criteria side by side (see :func:`k_criteria`).
+
+    Attributes
+    ----------
+    ks : numpy.ndarray
+        The ks, increasing.
+    inertia : numpy.ndarray
+        k-means inertia per k.
+    silhouette : numpy.ndarray
+        Silhouette of the k-means labels per k (NaN where undefined).
+    bic : numpy.ndarray
+        BIC of a Gaussian mixture per k (NaN where it failed).
+    picks : dict of str to int
+        The k each criterion picks: ``{"elbow": k, "silhouette": k, "bic": k}``.
+    results : tuple of KMeansResult
+        The k-means results.
+    """
+    ks: NDArray[np.int64]
+    inertia: NDArray[np.float64]
+    silhouette: NDArray[np.float64]
+    bic: NDArray[np.float64]
+    picks: dict[str, int]
+    results: tuple[KMeansResult, ...]
 
 
 CRITERIA = ("elbow", "silhouette", "bic")
 
 
-def k_criteria(X, ks, *, seed: int = 0, n_init: int = 3, reg_covar: float = 1e-6) -> KCriteria:
-    """For every k in ks: k-means (n_init seeded runs), its inertia and the silhouette of its
-    labels (:func:`mlayer.clustering.silhouette_score`; nan for k = 1 or k >= n), and the BIC of a full-covariance
-    :class:`GaussianMixture` started from the k-means centres (reg_covar added to its
-    covariances). Picks: the elbow of the inertia (:func:`mlayer.clustering.elbow_point`), the largest
-    silhouette, the smallest BIC (the smaller k on ties)."""
+def k_criteria(X: ArrayLike, ks: Iterable[int], *, seed: int = 0, n_init: int = 3,
+               reg_covar: float = 1e-6) -> KCriteria:
+    """How many clusters: three criteria for every k.
+
+    For every k: k-means (``n_init`` seeded runs), its inertia and the silhouette of its
+    labels (:func:`mlayer.clustering.silhouette_score`; NaN for k = 1 or k >= n), and the BIC
+    of a full-covariance :class:`GaussianMixture` started from the k-means centres
+    (``reg_covar`` added to its covariances). Picks: the elbow of the inertia
+    (:func:`mlayer.clustering.elbow_point`), the largest silhouette, the smallest BIC (the
+    smaller k on ties).
+
+    Parameters
+    ----------
+    X : array_like, shape (n, d)
+        The rows.
+    ks : iterable of int
+        Distinct ks.
+    seed : int, optional
+        Seed of k-means and the mixtures.
+    n_init : int, optional
+        k-means++ runs per k.
+    reg_covar : float, optional
+        Added to the mixtures' covariances.
+
+    Returns
+    -------
+    KCriteria
+        The curves and the picks.
+    """
     from .clustering import elbow_point, kmeans, silhouette_score
     X = _data(X, 1, "k")
     ks = sorted(integer(k, "k", 1) for k in ks)

@@ -24,14 +24,19 @@ its OFFSET as ``root_pos`` in every frame.
 """
 from __future__ import annotations
 
-from typing import NamedTuple
+from collections.abc import Iterable, Sequence
+from typing import TYPE_CHECKING, Any, NamedTuple, cast
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from . import _arrays
 from ._handles import ReadOnlyAttributes
 from ._native import ffi, lib
 from .errors import InvalidArgumentError, check
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 __all__ = ["Motion", "Skeleton", "ScipyFrames", "DEFAULT_ROOT_CHANNELS",
            "DEFAULT_JOINT_CHANNELS", "MIN_FRAME_TIME", "depth_first_order"]
@@ -42,7 +47,7 @@ DEFAULT_JOINT_CHANNELS = "Zrotation Yrotation Xrotation"
 _ORDER_NAMES = ("XYZ", "XZY", "YXZ", "YZX", "ZXY", "ZYX")  # mlr_euler_order values 0..5
 
 
-def _readonly(a: np.ndarray) -> np.ndarray:
+def _readonly(a: NDArray[Any]) -> NDArray[Any]:
     a.setflags(write=False)
     return a
 
@@ -51,7 +56,7 @@ def _enc(s: str) -> bytes:
     return s.encode("utf-8", errors="surrogateescape")
 
 
-def _packed(fn, h, J: int) -> tuple:
+def _packed(fn: Any, h: Any, J: int) -> tuple[str, ...]:
     """The J strings of a C ``*_packed`` accessor (each NUL-terminated, one call for all)."""
     n = fn(h, ffi.NULL, 0)
     buf = ffi.new("char[]", max(n, 1))
@@ -62,26 +67,36 @@ def _packed(fn, h, J: int) -> tuple:
 class _Handle:
     """An ``mlr_motion *`` owned for the duration of a ``with`` block."""
 
-    def __init__(self, ptr):
+    def __init__(self, ptr: Any) -> None:
         self.ptr = ptr
 
-    def __enter__(self):
+    def __enter__(self) -> Any:
         return self.ptr
 
-    def __exit__(self, *exc):
+    def __exit__(self, *exc: object) -> None:
         lib.mlr_motion_destroy(self.ptr)
         self.ptr = ffi.NULL
 
 
 class ScipyFrames(NamedTuple):
-    """:meth:`Motion.to_scipy`: root_pos (N, 3), rotations (a list of J scipy ``Rotation``
-    stacks of N frames, one per joint), trans (N, P, 3)."""
+    """What :meth:`Motion.to_scipy` returns.
+
+    Attributes
+    ----------
+    root_pos : numpy.ndarray, shape (N, 3)
+        Root translations (a copy).
+    rotations : list of scipy.spatial.transform.Rotation
+        J stacks of N local rotations, one per joint.
+    trans : numpy.ndarray, shape (N, P, 3)
+        Translations of the joints with position channels (a copy).
+    """
     root_pos: np.ndarray
-    rotations: list
+    rotations: list[Any]
     trans: np.ndarray
 
 
-def depth_first_order(parents, joint_names=None, where: str = "Skeleton") -> np.ndarray:
+def depth_first_order(parents: ArrayLike, joint_names: Sequence[str] | None = None,
+                      where: str = "Skeleton") -> NDArray[np.int64]:
     """The depth-first (BVH) order of a joint tree given in any order.
 
     Parameters
@@ -160,17 +175,62 @@ def _is_preorder(par: np.ndarray) -> bool:
 
 
 class Skeleton(ReadOnlyAttributes):
-    """Joint names, parents, OFFSETs, channel layout and End Sites; immutable (assigning an
-    attribute raises AttributeError, the arrays are read-only).
+    """Joint names, parents, OFFSETs, channel layout and End Sites; immutable.
 
-    Joints are in BVH depth-first order: joint 0 is the root (parent -1) and every parent comes
-    before its children, each joint's subtree right after it. Joints given in another order
-    (any tree: SMPL's order, a glTF node list, parents after their children) are reordered to
-    the depth-first order when the skeleton is made (:func:`depth_first_order`; children keep
+    Assigning an attribute raises AttributeError, the arrays are read-only. Joints are in BVH
+    depth-first order: joint 0 is the root (parent -1) and every parent comes before its
+    children, each joint's subtree right after it. Joints given in another order (any tree:
+    SMPL's order, a glTF node list, parents after their children) are reordered to the
+    depth-first order when the skeleton is made (:func:`depth_first_order`; children keep
     their relative order); ``source_order[k]`` is then the input index of joint k, so frames
     in the input order become the skeleton's with ``rot[:, skeleton.source_order]``
     (:meth:`Motion.from_arrays` does that itself). End Sites are kept only so that a written
-    file has the same hierarchy; they are not joints (forward kinematics leaves them out).
+    file has the same hierarchy; they are not joints (forward kinematics leaves them out). The
+    C core checks the skeleton when it is created, so a skeleton that exists can be written.
+
+    Parameters
+    ----------
+    joint_names : iterable of str
+        J names (J >= 1).
+    parents : array_like of int, shape (J,)
+        The parent of every joint, -1 for the root; any tree order.
+    offsets : array_like, shape (J, 3)
+        The OFFSETs.
+    channels : sequence of str, optional
+        One string per joint as on a CHANNELS line without the count (e.g.
+        ``"Zrotation Xrotation Yrotation"``; a sequence of channel names is joined); default:
+        :data:`DEFAULT_ROOT_CHANNELS` for the root, :data:`DEFAULT_JOINT_CHANNELS` for the
+        others.
+    end_site_parents : array_like of int, shape (E,), optional
+        The joint of each End Site (non-decreasing).
+    end_site_offsets : array_like, shape (E, 3), optional
+        Their OFFSETs (default zeros).
+
+    Attributes
+    ----------
+    parents : numpy.ndarray of int32, shape (J,)
+        As given.
+    offsets : numpy.ndarray, shape (J, 3)
+        As given.
+    channels : tuple of str
+        The canonical channel list of each joint.
+    euler_orders : tuple of str
+        Each joint's Euler order, e.g. ``"ZXY"``, from its rotation channels.
+    end_site_parents : numpy.ndarray of int32, shape (E,)
+        As given.
+    end_site_offsets : numpy.ndarray, shape (E, 3)
+        As given.
+    trans_joints : numpy.ndarray of int32, shape (P,)
+        The non-root joints with position channels.
+    n_channels : int
+        Channels per frame.
+    source_order : numpy.ndarray of int64, shape (J,)
+        The input index of each joint (the identity for joints given in depth-first order).
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        For names, parents, offsets, channels or End Sites the C core refuses.
     """
 
     __slots__ = ("_names", "parents", "offsets", "channels", "euler_orders",
@@ -178,8 +238,10 @@ class Skeleton(ReadOnlyAttributes):
                  "source_order")
     _readonly = __slots__
 
-    def __init__(self, joint_names, parents, offsets, channels=None, end_site_parents=(),
-                 end_site_offsets=None):
+    def __init__(self, joint_names: Iterable[str], parents: ArrayLike, offsets: ArrayLike,
+                 channels: Sequence[str | Sequence[str]] | None = None,
+                 end_site_parents: ArrayLike = (),
+                 end_site_offsets: ArrayLike | None = None) -> None:
         names = [str(n) for n in joint_names]
         J = len(names)
         if J == 0:
@@ -197,10 +259,10 @@ class Skeleton(ReadOnlyAttributes):
                         for p in par.tolist()]
         elif isinstance(channels, str):
             raise InvalidArgumentError("Skeleton: channels must be a list of one string per joint")
-        channels = [" ".join(c) if not isinstance(c, str) else c for c in channels]
-        if len(channels) != J:
+        chans: list[str] = [c if isinstance(c, str) else " ".join(c) for c in channels]
+        if len(chans) != J:
             raise InvalidArgumentError(
-                f"Skeleton: channels must list {J} joints, got {len(channels)}")
+                f"Skeleton: channels must list {J} joints, got {len(chans)}")
         ep = np.asarray(end_site_parents if end_site_parents is not None else ())
         if ep.size == 0:
             ep = np.zeros(0, dtype=np.int32)
@@ -218,22 +280,21 @@ class Skeleton(ReadOnlyAttributes):
                                        f"{eo.shape}")
         order = depth_first_order(par, names)
         if not np.array_equal(order, np.arange(J)):
-            names, par, off, channels, ep, eo = _reordered(order, names, par, off, channels,
-                                                           ep, eo)
+            names, par, off, chans, ep, eo = _reordered(order, names, par, off, chans, ep, eo)
         # Let the C core judge names, parents, channel lists and End Sites; read back its
         # canonical channel lists, Euler orders and the joints with position channels.
-        with _create_handle(names, par, off, channels, ep, eo, 0, 1.0) as h:
+        with _create_handle(names, par, off, chans, ep, eo, 0, 1.0) as h:
             self._from_handle(h)
         self.source_order = _readonly(order)
 
     @classmethod
-    def _from_c(cls, h) -> "Skeleton":
+    def _from_c(cls, h: Any) -> Skeleton:
         self = cls.__new__(cls)
         self._from_handle(h)
         self.source_order = _readonly(np.arange(self.n_joints))
         return self
 
-    def _from_handle(self, h) -> None:
+    def _from_handle(self, h: Any) -> None:
         J = lib.mlr_motion_n_joints(h)
         self._names = _packed(lib.mlr_motion_joint_names_packed, h, J)
         self.parents = _readonly(np.frombuffer(
@@ -259,34 +320,71 @@ class Skeleton(ReadOnlyAttributes):
 
     @property
     def joint_names(self) -> list[str]:
+        """The J joint names (a new list)."""
         return list(self._names)
 
     @property
     def n_joints(self) -> int:
+        """The number of joints J."""
         return len(self._names)
 
     @property
     def n_end_sites(self) -> int:
+        """The number of End Sites E."""
         return int(self.end_site_parents.shape[0])
 
     def index(self, name: str) -> int:
-        """Index of the joint called ``name`` (ValueError when there is none)."""
+        """Index of a joint.
+
+        Parameters
+        ----------
+        name : str
+            The joint's name.
+
+        Returns
+        -------
+        int
+            Its index.
+
+        Raises
+        ------
+        mlayer.InvalidArgumentError
+            (a ValueError) When there is no such joint.
+        """
         try:
             return self._names.index(name)
         except ValueError:
             raise InvalidArgumentError(f"no joint named {name!r}") from None
 
     def children(self, j: int) -> list[int]:
+        """The children of a joint.
+
+        Parameters
+        ----------
+        j : int
+            A joint index.
+
+        Returns
+        -------
+        list of int
+            The joints whose parent is ``j``, in order.
+        """
         return [k for k in range(self.n_joints) if self.parents[k] == j]
 
-    def depth(self) -> np.ndarray:
-        """Depth of every joint in the tree (root 0)."""
+    def depth(self) -> NDArray[np.int64]:
+        """Depth of every joint in the tree.
+
+        Returns
+        -------
+        numpy.ndarray of int64, shape (J,)
+            0 for the root.
+        """
         d = np.zeros(self.n_joints, dtype=np.int64)
         for j in range(1, self.n_joints):
             d[j] = d[self.parents[j]] + 1
         return d
 
-    def __eq__(self, other) -> bool:
+    def __eq__(self, other: object) -> bool:
         if not isinstance(other, Skeleton):
             return NotImplemented
         return (self._names == other._names and self.channels == other.channels
@@ -295,14 +393,16 @@ class Skeleton(ReadOnlyAttributes):
                 and np.array_equal(self.end_site_parents, other.end_site_parents)
                 and np.array_equal(self.end_site_offsets, other.end_site_offsets))
 
-    __hash__ = None
+    __hash__ = None  # type: ignore[assignment]  # equal skeletons compare equal: unhashable
 
     def __repr__(self) -> str:
         return (f"Skeleton({self.n_joints} joints, {self.n_end_sites} End Sites, "
                 f"{self.n_channels} channels, root {self._names[0]!r})")
 
 
-def _reordered(order, names, par, off, channels, ep, eo):
+def _reordered(order: NDArray[np.int64], names: list[str], par: NDArray[Any],
+               off: NDArray[np.float64], channels: list[str], ep: NDArray[Any],
+               eo: NDArray[np.float64]) -> tuple[Any, ...]:
     """The skeleton arrays in the joint order ``order`` (from :func:`depth_first_order`):
     parents renumbered, End Sites renumbered and sorted by their new parent (stable)."""
     inv = np.empty_like(order)
@@ -321,7 +421,8 @@ def _reordered(order, names, par, off, channels, ep, eo):
     return names, par, off, channels, ep, eo
 
 
-def _frames_in_order(skel: Skeleton, order: np.ndarray, rot, trans):
+def _frames_in_order(skel: Skeleton, order: NDArray[np.int64], rot: ArrayLike,
+                     trans: ArrayLike | None) -> tuple[NDArray[np.float64], Any]:
     """Frames given in the input joint order of a reordered skeleton, in its own order:
     ``rot`` (N, J, 4) by ``order``; ``trans`` (N, P, 3), one column per joint with position
     channels in increasing *input* index, reordered to the skeleton's ``trans_joints``."""
@@ -345,12 +446,12 @@ class _CFrames:
 
     __slots__ = ("__array_interface__", "_owner")
 
-    def __init__(self, owner, ptr, shape):
+    def __init__(self, owner: Any, ptr: Any, shape: tuple[int, ...]) -> None:
         self._owner = owner
         self.__array_interface__ = {"shape": tuple(shape), "typestr": np.dtype(np.float64).str,
                                     "version": 3, "data": (int(ffi.cast("uintptr_t", ptr)), False)}
 
-    def array(self) -> np.ndarray:
+    def array(self) -> NDArray[np.float64]:
         return np.asarray(self)
 
 
@@ -360,7 +461,7 @@ ones are mistakes or hostile files (a BVH with Frame Time 1e-300 made every rate
 step overflow) and are refused with InvalidArgumentError (ParseError from the readers)."""
 
 
-def _frame_time_arg(v, name: str) -> float:
+def _frame_time_arg(v: Any, name: str) -> float:
     ft = _arrays.finite(v, name)
     if not ft >= MIN_FRAME_TIME:
         raise InvalidArgumentError(f"{name} must be at least {MIN_FRAME_TIME:g} s (finite, "
@@ -368,7 +469,7 @@ def _frame_time_arg(v, name: str) -> float:
     return ft
 
 
-def _frame_array(a, name: str, tail: tuple) -> np.ndarray:
+def _frame_array(a: ArrayLike, name: str, tail: tuple[int, ...]) -> NDArray[np.float64]:
     """A frame array as C-contiguous float64 of shape (N,) + tail, with finite values."""
     a = _arrays.as_f64(a, name, ndim=1 + len(tail))
     if a.shape[1:] != tail:
@@ -378,8 +479,10 @@ def _frame_array(a, name: str, tail: tuple) -> np.ndarray:
     return a
 
 
-def _create_handle(names, parents, offsets, channels, end_parents, end_offsets, n_frames,
-                   frame_time) -> _Handle:
+def _create_handle(names: Sequence[str], parents: NDArray[np.int32],
+                   offsets: NDArray[np.float64], channels: Sequence[str],
+                   end_parents: NDArray[np.int32], end_offsets: NDArray[np.float64],
+                   n_frames: int, frame_time: float) -> _Handle:
     J, E = len(names), end_parents.shape[0]
     keep = [ffi.new("char[]", _enc(n)) for n in names]
     keep_ch = [ffi.new("char[]", _enc(c)) for c in channels]
@@ -399,33 +502,64 @@ def _create_handle(names, parents, offsets, channels, end_parents, end_offsets, 
 class Motion:
     """A skeleton and N frames. See the module docstring for the data model.
 
-    Attributes (numpy arrays are the data; edit them in place or build a new motion with
-    :meth:`with_frames`):
+    The numpy arrays are the data; edit them in place or build a new motion with
+    :meth:`with_frames`. Assigned arrays are checked (dtype, dimensions, the skeleton's
+    joints, finite values) and converted to C-contiguous float64. ``m[a:b]`` (or
+    ``m[a:b:k]``) is a new motion holding copies of those frames (a step k multiplies the
+    frame time by k); ``len(m)`` is the number of frames.
 
-    - ``skeleton``: the :class:`Skeleton` (shared, immutable)
-    - ``frame_time``: seconds per frame (``fps`` is its inverse)
-    - ``root_pos``: (N, 3) root translation
-    - ``rot``: (N, J, 4) local rotations, scalar-first unit quaternions
-    - ``trans``: (N, P, 3) translations of the joints ``skeleton.trans_joints`` (the non-root
-      joints with position channels; they replace those joints' OFFSETs). P is usually 0.
+    Parameters
+    ----------
+    skeleton : Skeleton
+        The skeleton (shared, immutable).
+    frame_time : float
+        Seconds per frame, at least :data:`MIN_FRAME_TIME`.
+    root_pos : array_like, shape (N, 3)
+        Root translations.
+    rot : array_like, shape (N, J, 4)
+        Local rotations, scalar-first unit quaternions.
+    trans : array_like, shape (N, P, 3), optional
+        Translations of the joints ``skeleton.trans_joints`` (the non-root joints with
+        position channels; they replace those joints' OFFSETs); default: their OFFSETs. P is
+        usually 0.
 
-    ``m[a:b]`` (or ``m[a:b:k]``) is a new motion holding copies of those frames (a step k
-    multiplies the frame time by k); ``len(m)`` is the number of frames.
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        For arrays of other shapes, non-finite values, quaternions that are not unit, or a
+        frame time out of range.
+
+    Examples
+    --------
+    >>> import mlayer
+    >>> m = mlayer.data.load_sample()
+    >>> len(m[:120]), m[:120:2].n_frames
+    (120, 60)
     """
 
     __slots__ = ("_skeleton", "_frame_time", "_root_pos", "_rot", "_trans", "_up", "_units",
                  "_found")
+    _skeleton: Skeleton
+    _frame_time: float
+    _root_pos: NDArray[np.float64]
+    _rot: NDArray[np.float64]
+    _trans: NDArray[np.float64]
+    _up: str | None
+    _units: str | None
 
-    def __init__(self, skeleton: Skeleton, frame_time: float, root_pos, rot, trans=None, *,
-                 _trusted: bool = False):
+    def __init__(self, skeleton: Skeleton, frame_time: float, root_pos: ArrayLike,
+                 rot: ArrayLike, trans: ArrayLike | None = None, *,
+                 _trusted: bool = False) -> None:
         if not isinstance(skeleton, Skeleton):
             raise InvalidArgumentError("Motion: skeleton must be a mlayer.Skeleton")
         self._skeleton = skeleton
-        self._up = self._units = None
-        self._found = {}  # what was detected from the frames: "up", "units"
+        self._up = None
+        self._units = None
+        self._found: dict[str, Any] = {}  # what was detected from the frames: "up", "units"
         if _trusted:
+            # the readers and the library's own copies: arrays already checked
             self._frame_time, self._root_pos, self._rot, self._trans = \
-                frame_time, root_pos, rot, trans
+                frame_time, cast(Any, root_pos), cast(Any, rot), cast(Any, trans)
             return
         ft = _frame_time_arg(frame_time, "Motion: frame_time")
         J, P = skeleton.n_joints, skeleton.trans_joints.shape[0]
@@ -459,10 +593,11 @@ class Motion:
 
     @property
     def skeleton(self) -> Skeleton:
+        """The :class:`Skeleton` (assignable, to another Skeleton)."""
         return self._skeleton
 
     @skeleton.setter
-    def skeleton(self, sk) -> None:
+    def skeleton(self, sk: Skeleton) -> None:
         if not isinstance(sk, Skeleton):
             raise InvalidArgumentError("Motion.skeleton must be a mlayer.Skeleton, got "
                                        f"{type(sk).__name__}")
@@ -470,48 +605,55 @@ class Motion:
 
     @property
     def frame_time(self) -> float:
+        """Seconds per frame (:attr:`fps` is its inverse)."""
         return self._frame_time
 
     @frame_time.setter
-    def frame_time(self, v) -> None:
+    def frame_time(self, v: float) -> None:
         self._frame_time = _frame_time_arg(v, "Motion.frame_time")
 
     @property
-    def root_pos(self) -> np.ndarray:
+    def root_pos(self) -> NDArray[np.float64]:
+        """(N, 3) root translations."""
         return self._root_pos
 
     @root_pos.setter
-    def root_pos(self, a) -> None:
+    def root_pos(self, a: ArrayLike) -> None:
         self._root_pos = _frame_array(a, "Motion.root_pos", (3,))
         self._found.clear()
 
     @property
-    def rot(self) -> np.ndarray:
+    def rot(self) -> NDArray[np.float64]:
+        """(N, J, 4) local rotations, scalar-first unit quaternions."""
         return self._rot
 
     @rot.setter
-    def rot(self, a) -> None:
+    def rot(self, a: ArrayLike) -> None:
         self._rot = _frame_array(a, "Motion.rot", (self._skeleton.n_joints, 4))
         self._found.clear()
 
     @property
-    def trans(self) -> np.ndarray:
+    def trans(self) -> NDArray[np.float64]:
+        """(N, P, 3) translations of the joints ``skeleton.trans_joints``."""
         return self._trans
 
     @trans.setter
-    def trans(self, a) -> None:
+    def trans(self, a: ArrayLike) -> None:
         self._trans = _frame_array(a, "Motion.trans",
                                    (self._skeleton.trans_joints.shape[0], 3))
         self._found.clear()
 
     @property
     def up_axis(self) -> str:
-        """The world axis that points up: "x", "y" or "z". Given by ``read_bvh(path, up=...)``
-        or by assigning it; else detected from the motion (:func:`mlayer.detect_up`: from the
-        feet by name, or the floor), and "y" (the BVH convention) when the detection is not
-        sure. Every threshold along up (contacts, floor, body height) follows it. The detection
-        runs once, on first use (one forward-kinematics pass), and is kept; assign None to
-        detect again (after editing the frames in place, say)."""
+        """The world axis that points up, ``"x"``, ``"y"`` or ``"z"``.
+
+        Given by ``read_bvh(path, up=...)`` or by assigning it; else detected from the motion
+        (:func:`mlayer.detect_up`: from the feet by name, or the floor), and ``"y"`` (the BVH
+        convention) when the detection is not sure. Every threshold along up (contacts, floor,
+        body height) follows it. The detection runs once, on first use (one
+        forward-kinematics pass), and is kept; assign None to detect again (after editing the
+        frames in place, say).
+        """
         if self._up is not None:
             return self._up
         if "up" not in self._found:
@@ -521,19 +663,21 @@ class Motion:
         return self._found["up"]
 
     @up_axis.setter
-    def up_axis(self, up) -> None:
+    def up_axis(self, up: str | None) -> None:
         from .up_axis import axis_name
         self._up = axis_name(up, "Motion.up_axis")
         self._found.clear()
 
     @property
     def units(self) -> str | None:
-        """The clip's length unit: "m", "cm", "mm", "in" or "ft" when given
-        (``read_bvh(path, units=...)``, ``--units``, or assigned), else the unit the body height
-        suggests (:func:`mlayer.units.length_unit`: "m", "cm" or "mm" when the height is a
-        person's or an animal's in just that unit), else None. Thresholds do not depend on it
-        (they are relative to the body height); conversions to metres do. Found once, on
-        first use, and kept (assign None to look again)."""
+        """The clip's length unit, ``"m"``, ``"cm"``, ``"mm"``, ``"in"``, ``"ft"`` or None.
+
+        The unit when given (``read_bvh(path, units=...)``, ``--units``, or assigned), else
+        the unit the body height suggests (:func:`mlayer.units.length_unit`: ``"m"``, ``"cm"``
+        or ``"mm"`` when the height is a person's or an animal's in just that unit), else None.
+        Thresholds do not depend on it (they are relative to the body height); conversions to
+        metres do. Found once, on first use, and kept (assign None to look again).
+        """
         if self._units is not None:
             return self._units
         if "units" not in self._found:
@@ -545,7 +689,7 @@ class Motion:
         return self._found["units"]
 
     @units.setter
-    def units(self, units) -> None:
+    def units(self, units: str | None) -> None:
         from .units import units_arg
         self._units = units_arg(units, "Motion.units")
         self._found.pop("units", None)
@@ -557,7 +701,7 @@ class Motion:
         u = self.units
         return UNITS[u] if u else None
 
-    def _same_up(self, other: "Motion") -> "Motion":
+    def _same_up(self, other: Motion) -> Motion:
         """Carry what was said about other (up axis, units) over to this motion of its frames."""
         self._up, self._units = other._up, other._units
         return self
@@ -565,22 +709,55 @@ class Motion:
     # ---- construction ----------------------------------------------------------------------
 
     @classmethod
-    def from_arrays(cls, joint_names, parents, offsets, root_pos, rot, *, fps: float = None,
-                    frame_time: float = None, channels=None, trans=None,
-                    end_site_parents=(), end_site_offsets=None) -> "Motion":
+    def from_arrays(cls, joint_names: Iterable[str], parents: ArrayLike, offsets: ArrayLike,
+                    root_pos: ArrayLike, rot: ArrayLike, *, fps: float | None = None,
+                    frame_time: float | None = None,
+                    channels: Sequence[str | Sequence[str]] | None = None,
+                    trans: ArrayLike | None = None, end_site_parents: ArrayLike = (),
+                    end_site_offsets: ArrayLike | None = None) -> Motion:
         """Build a motion from arrays.
 
-        joint_names: J names; parents: J indices (-1 for the root); any tree order: joints
-        not in depth-first order (SMPL's, a parent after its children) are reordered to it,
-        with their rotations, translations and End Sites, so the motion's joint order is the
-        depth-first one (``skeleton.source_order[k]`` is the input index of joint k);
-        offsets: (J, 3); root_pos: (N, 3); rot: (N, J, 4) unit
-        quaternions (w, x, y, z); fps or frame_time (default 30 fps). channels: one string per
-        joint as on a CHANNELS line without the count (e.g. "Zrotation Xrotation Yrotation");
-        default: the root "Xposition Yposition Zposition Zrotation Yrotation Xrotation", the
-        others "Zrotation Yrotation Xrotation". trans: (N, P, 3) translations of the non-root
-        joints whose channels include positions (default: their OFFSETs). End Sites: E parent
-        joint indices (non-decreasing) and (E, 3) OFFSETs, written back to files only.
+        Joints not in depth-first order (SMPL's, a parent after its children) are reordered to
+        it, with their rotations, translations and End Sites, so the motion's joint order is the
+        depth-first one (``skeleton.source_order[k]`` is the input index of joint k).
+
+        Parameters
+        ----------
+        joint_names : iterable of str
+            J names.
+        parents : array_like of int, shape (J,)
+            -1 for the root; any tree order.
+        offsets : array_like, shape (J, 3)
+            The OFFSETs.
+        root_pos : array_like, shape (N, 3)
+            Root translations.
+        rot : array_like, shape (N, J, 4)
+            Unit quaternions (w, x, y, z).
+        fps, frame_time : float, optional
+            One or the other (default 30 fps).
+        channels : sequence of str, optional
+            One string per joint as on a CHANNELS line without the count (e.g.
+            ``"Zrotation Xrotation Yrotation"``); default: the root
+            ``"Xposition Yposition Zposition Zrotation Yrotation Xrotation"``, the others
+            ``"Zrotation Yrotation Xrotation"``.
+        trans : array_like, shape (N, P, 3), optional
+            Translations of the non-root joints whose channels include positions (default:
+            their OFFSETs).
+        end_site_parents : array_like of int, shape (E,), optional
+            End Site parent joints (non-decreasing), written back to files only.
+        end_site_offsets : array_like, shape (E, 3), optional
+            Their OFFSETs.
+
+        Returns
+        -------
+        Motion
+            The motion, on a new :class:`Skeleton`.
+
+        Raises
+        ------
+        mlayer.InvalidArgumentError
+            For both fps and frame_time, a bad fps, or anything :class:`Skeleton` and
+            :class:`Motion` refuse.
         """
         if fps is not None and frame_time is not None:
             raise InvalidArgumentError("from_arrays: give fps or frame_time, not both")
@@ -596,20 +773,44 @@ class Motion:
             rot, trans = _frames_in_order(skel, order, rot, trans)
         return cls(skel, frame_time, root_pos, rot, trans)
 
-    def with_frames(self, root_pos=None, rot=None, trans=None, *, frame_time=None) -> "Motion":
+    def with_frames(self, root_pos: ArrayLike | None = None, rot: ArrayLike | None = None,
+                    trans: ArrayLike | None = None, *,
+                    frame_time: float | None = None) -> Motion:
         """A new motion on the same skeleton with new frames.
 
         Arrays not given are copied from this motion (they must then keep its frame count);
         the arrays given are checked (shapes, finite values, unit quaternions) and used without
         a copy when they already are C-contiguous float64.
+
+        Parameters
+        ----------
+        root_pos : array_like, shape (N, 3), optional
+            New root translations.
+        rot : array_like, shape (N, J, 4), optional
+            New local rotations.
+        trans : array_like, shape (N, P, 3), optional
+            New joint translations.
+        frame_time : float, optional
+            A new frame time.
+
+        Returns
+        -------
+        Motion
+            The new motion (with this one's up axis and units, when they were given).
         """
         return Motion(self.skeleton, self.frame_time if frame_time is None else frame_time,
                       self.root_pos.copy() if root_pos is None else root_pos,
                       self.rot.copy() if rot is None else rot,
                       self.trans.copy() if trans is None else trans)._same_up(self)
 
-    def copy(self) -> "Motion":
-        """A deep copy of the frames (the immutable skeleton is shared)."""
+    def copy(self) -> Motion:
+        """A deep copy of the frames (the immutable skeleton is shared).
+
+        Returns
+        -------
+        Motion
+            The copy.
+        """
         return Motion(self.skeleton, self.frame_time, self.root_pos.copy(), self.rot.copy(),
                       self.trans.copy(), _trusted=True)._same_up(self)
 
@@ -617,57 +818,68 @@ class Motion:
 
     @property
     def joint_names(self) -> list[str]:
+        """The skeleton's joint names."""
         return self.skeleton.joint_names
 
     @property
-    def parents(self) -> np.ndarray:
+    def parents(self) -> NDArray[np.int32]:
+        """The skeleton's parents, (J,)."""
         return self.skeleton.parents
 
     @property
-    def offsets(self) -> np.ndarray:
+    def offsets(self) -> NDArray[np.float64]:
+        """The skeleton's OFFSETs, (J, 3)."""
         return self.skeleton.offsets
 
     @property
     def channels(self) -> tuple[str, ...]:
+        """The skeleton's channel list of each joint."""
         return self.skeleton.channels
 
     @property
     def euler_orders(self) -> tuple[str, ...]:
+        """The skeleton's Euler order of each joint."""
         return self.skeleton.euler_orders
 
     @property
-    def trans_joints(self) -> np.ndarray:
+    def trans_joints(self) -> NDArray[np.int32]:
+        """The joints with position channels, (P,)."""
         return self.skeleton.trans_joints
 
     @property
-    def end_site_parents(self) -> np.ndarray:
+    def end_site_parents(self) -> NDArray[np.int32]:
+        """The skeleton's End Site parents, (E,)."""
         return self.skeleton.end_site_parents
 
     @property
-    def end_site_offsets(self) -> np.ndarray:
+    def end_site_offsets(self) -> NDArray[np.float64]:
+        """The skeleton's End Site OFFSETs, (E, 3)."""
         return self.skeleton.end_site_offsets
 
     @property
     def n_joints(self) -> int:
+        """The number of joints J."""
         return self.skeleton.n_joints
 
     @property
     def n_frames(self) -> int:
+        """The number of frames N."""
         return int(self.rot.shape[0])
 
     @property
     def fps(self) -> float:
+        """Frames per second, ``1 / frame_time``."""
         return 1.0 / self.frame_time
 
     @property
     def duration(self) -> float:
-        """Length in seconds: N frame times (each frame stands for one frame time)."""
+        """Length in seconds, N frame times (each frame stands for one frame time)."""
         return self.n_frames * self.frame_time
 
     def __len__(self) -> int:
         return self.n_frames
 
-    def __getitem__(self, key) -> "Motion":
+    def __getitem__(self, key: int | np.integer[Any] | slice) -> Motion:
         N = self.n_frames
         if isinstance(key, (int, np.integer)):
             i = int(key)
@@ -686,16 +898,22 @@ class Motion:
 
     # ---- kinematics ------------------------------------------------------------------------
 
-    def local_translations(self) -> np.ndarray:
-        """(N, J, 3) translation of every joint relative to its parent: root_pos for the root,
-        the position channels where a joint has them, the OFFSET otherwise."""
+    def local_translations(self) -> NDArray[np.float64]:
+        """Translation of every joint relative to its parent.
+
+        Returns
+        -------
+        numpy.ndarray, shape (N, J, 3)
+            ``root_pos`` for the root, the position channels where a joint has them, the
+            OFFSET otherwise.
+        """
         t = np.broadcast_to(self.skeleton.offsets, (self.n_frames, self.n_joints, 3)).copy()
         t[:, 0] = self.root_pos
         if self.trans.shape[1]:
             t[:, self.skeleton.trans_joints] = self.trans
         return t
 
-    def _frames(self, finite: bool = False):
+    def _frames(self, finite: bool = False) -> list[NDArray[np.float64]]:
         """(root_pos, rot, trans) checked for a C call: C-contiguous float64 arrays of the
         shapes (N, 3), (N, J, 4), (N, P, 3) of the skeleton, without a copy when they already
         are; with ``finite``, also free of NaN and infinities. The attributes are public and
@@ -721,7 +939,7 @@ class Motion:
             out.append(a)
         return out
 
-    def _fk(self, want_rot: bool):
+    def _fk(self, want_rot: bool) -> tuple[NDArray[np.float64], Any]:
         N, J = self.n_frames, self.n_joints
         sk = self.skeleton
         root_pos, rot, trans = self._frames()
@@ -736,25 +954,50 @@ class Motion:
             _arrays.ptr(sk.offsets), _arrays.ptr(root_pos), _arrays.ptr(rot), P,
             ffi.cast("const int32_t *", ffi.from_buffer(sk.trans_joints)) if P else ffi.NULL,
             _arrays.ptr(trans) if P else ffi.NULL, _arrays.ptr_out(pos),
-            _arrays.ptr_out(wrot) if want_rot else ffi.NULL, ffi.NULL, diag)
+            _arrays.ptr_out(wrot) if wrot is not None else ffi.NULL, ffi.NULL, diag)
         check(code, "mlayer.Motion.positions", diag)
         return pos, wrot
 
-    def positions(self) -> np.ndarray:
-        """(N, J, 3) world positions of the joints (End Sites excluded), by forward kinematics
-        in the C core."""
+    def positions(self) -> NDArray[np.float64]:
+        """World positions of the joints, by forward kinematics in the C core.
+
+        Returns
+        -------
+        numpy.ndarray, shape (N, J, 3)
+            End Sites excluded.
+        """
         return self._fk(False)[0]
 
-    def world_rotations(self) -> np.ndarray:
-        """(N, J, 4) world rotations of the joints (scalar-first quaternions)."""
+    def world_rotations(self) -> NDArray[np.float64]:
+        """World rotations of the joints.
+
+        Returns
+        -------
+        numpy.ndarray, shape (N, J, 4)
+            Scalar-first quaternions.
+        """
         return self._fk(True)[1]
 
-    def forward_kinematics(self) -> tuple[np.ndarray, np.ndarray]:
-        """World positions (N, J, 3) and world rotations (N, J, 4) in one pass."""
+    def forward_kinematics(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """World positions and world rotations in one pass.
+
+        Returns
+        -------
+        positions : numpy.ndarray, shape (N, J, 3)
+            World joint positions.
+        rotations : numpy.ndarray, shape (N, J, 4)
+            World joint rotations.
+        """
         return self._fk(True)
 
-    def end_site_positions(self) -> np.ndarray:
-        """(N, E, 3) world positions of the End Sites."""
+    def end_site_positions(self) -> NDArray[np.float64]:
+        """World positions of the End Sites.
+
+        Returns
+        -------
+        numpy.ndarray, shape (N, E, 3)
+            The positions.
+        """
         return self._end_sites(*self._fk(True))
 
     def _end_sites(self, pos: np.ndarray, wrot: np.ndarray) -> np.ndarray:
@@ -771,15 +1014,26 @@ class Motion:
 
     # ---- bridges to scipy and pandas -------------------------------------------------------
 
-    def to_scipy(self) -> "ScipyFrames":
-        """The frames with the rotations as scipy rotations, one stack per joint:
-        ``ScipyFrames(root_pos, rotations, trans)``, ``rotations[j]`` a
-        ``scipy.spatial.transform.Rotation`` of the N local rotations of joint j
-        (:func:`mlayer.quat.to_scipy` of ``rot[:, j]``: scalar-first turned scalar-last), so
-        ``rotations[j].as_euler("ZXY", degrees=True)`` or ``rotations[j][f].apply(v)`` work
-        with any scipy; root_pos (N, 3) and trans (N, P, 3) are copies. :meth:`from_scipy` is
-        the inverse: ``Motion.from_scipy(m.skeleton, m.frame_time, *m.to_scipy())``. Needs
-        scipy (the ``scipy`` extra)."""
+    def to_scipy(self) -> ScipyFrames:
+        """The frames with the rotations as scipy rotations, one stack per joint.
+
+        ``rotations[j]`` is a ``scipy.spatial.transform.Rotation`` of the N local rotations of
+        joint j (:func:`mlayer.quat.to_scipy` of ``rot[:, j]``: scalar-first turned
+        scalar-last), so ``rotations[j].as_euler("ZXY", degrees=True)`` or
+        ``rotations[j][f].apply(v)`` work with any scipy. :meth:`from_scipy` is the inverse:
+        ``Motion.from_scipy(m.skeleton, m.frame_time, *m.to_scipy())``. Needs scipy (the
+        ``scipy`` extra).
+
+        Returns
+        -------
+        ScipyFrames
+            ``(root_pos, rotations, trans)``; root_pos (N, 3) and trans (N, P, 3) are copies.
+
+        Raises
+        ------
+        mlayer.MissingDependencyError
+            Without scipy.
+        """
         from ._optional import require
         from .quat import to_scipy
         require("scipy", feature="mlayer.Motion.to_scipy")
@@ -788,15 +1042,35 @@ class Motion:
                            trans.copy())
 
     @classmethod
-    def from_scipy(cls, skeleton: Skeleton, frame_time: float, root_pos, rotations,
-                   trans=None) -> "Motion":
-        """A motion of `skeleton` from scipy rotations (the inverse of :meth:`to_scipy`).
+    def from_scipy(cls, skeleton: Skeleton, frame_time: float, root_pos: ArrayLike,
+                   rotations: Any, trans: ArrayLike | None = None) -> Motion:
+        """A motion of ``skeleton`` from scipy rotations (the inverse of :meth:`to_scipy`).
 
-        rotations   a list of J ``Rotation`` stacks of N frames each (one per joint, as
-                    :meth:`to_scipy` gives), a ``Rotation`` stack of N * J rotations in
-                    frame-major order (as ``mlayer.quat.to_scipy(m.rot)`` gives), or a
-                    ``Rotation`` of shape (N, J) (scipy 1.17 and later)
-        root_pos    (N, 3); trans (N, P, 3) as for :class:`Motion` (default: the OFFSETs)
+        Parameters
+        ----------
+        skeleton : Skeleton
+            The skeleton.
+        frame_time : float
+            Seconds per frame.
+        root_pos : array_like, shape (N, 3)
+            Root translations.
+        rotations : scipy.spatial.transform.Rotation or list of them
+            A list of J ``Rotation`` stacks of N frames each (one per joint, as
+            :meth:`to_scipy` gives), a ``Rotation`` stack of N * J rotations in frame-major
+            order (as ``mlayer.quat.to_scipy(m.rot)`` gives), or a ``Rotation`` of shape
+            (N, J) (scipy 1.17 and later).
+        trans : array_like, shape (N, P, 3), optional
+            As for :class:`Motion` (default: the OFFSETs).
+
+        Returns
+        -------
+        Motion
+            The motion (rotations renormalized).
+
+        Raises
+        ------
+        mlayer.InvalidArgumentError
+            For a count of rotations that does not match the frames and joints.
         """
         from .quat import from_scalar_last
         if not isinstance(skeleton, Skeleton):
@@ -823,16 +1097,28 @@ class Motion:
         q /= np.linalg.norm(q, axis=-1, keepdims=True)
         return cls(skeleton, frame_time, root, q, trans)
 
-    def to_dataframe(self):
-        """The frames as a ``pandas.DataFrame`` like the BVH file's MOTION section: one row per
-        frame (index ``frame``, 0 .. N-1), one column per channel in the file's order, named by
-        a two-level index (joint, channel), e.g. ``df["Hips", "Xposition"]``,
+    def to_dataframe(self) -> pd.DataFrame:
+        """The frames as a ``pandas.DataFrame`` like the BVH file's MOTION section.
+
+        One row per frame (index ``frame``, 0 .. N-1), one column per channel in the file's
+        order, named by a two-level index (joint, channel), e.g. ``df["Hips", "Xposition"]``,
         ``df["LeftUpLeg", "Zrotation"]``. Positions are in the file's units; rotations are
         Euler angles in degrees in each joint's channel order (:func:`mlayer.quat.to_euler`:
         the middle angle in [-90, 90], the others in (-180, 180], as the BVH writer writes
         them). ``df.attrs`` holds ``frame_time`` and ``fps``; for flat column names,
         ``df.columns = ["/".join(c) for c in df.columns]``. Needs pandas (the ``dataframe``
-        extra)."""
+        extra).
+
+        Returns
+        -------
+        pandas.DataFrame
+            The channels.
+
+        Raises
+        ------
+        mlayer.MissingDependencyError
+            Without pandas.
+        """
         from ._optional import require
         from .quat import to_euler
         pd = require("pandas", feature="mlayer.Motion.to_dataframe")
@@ -878,7 +1164,7 @@ class Motion:
         return h
 
     @classmethod
-    def _adopt_c(cls, h) -> "Motion":
+    def _adopt_c(cls, h: Any) -> Motion:
         """A new Motion whose frame arrays are the C handle's own memory, with no copy.
 
         Takes ownership of ``h``: it is destroyed when the last of the arrays (or of the views

@@ -21,8 +21,10 @@ the LGS stream does. Pure numpy: O(channels) per sample.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from . import _arrays
 from .errors import InvalidArgumentError
@@ -30,20 +32,32 @@ from .errors import InvalidArgumentError
 __all__ = ["OneEuroFilter", "one_euro"]
 
 
-def _alpha(rate: float, cutoff):
+def _alpha(rate: float, cutoff: Any) -> Any:
     return 1.0 / (1.0 + rate / (2.0 * math.pi * cutoff))
 
 
 class OneEuroFilter:
     """A One Euro filter over m channels, one sample at a time (:meth:`__call__`).
 
-    rate: samples per second (> 0); min_cutoff (Hz, > 0): cutoff at rest; beta (>= 0): how fast
-    the cutoff grows with speed (per unit of the channel per second); d_cutoff (Hz, > 0): cutoff
-    of the speed estimate.
+    Parameters
+    ----------
+    rate : float
+        Samples per second (> 0).
+    min_cutoff : float, optional
+        Cutoff at rest, Hz (> 0).
+    beta : float, optional
+        How fast the cutoff grows with speed (per unit of the channel per second; >= 0).
+    d_cutoff : float, optional
+        Cutoff of the speed estimate, Hz (> 0).
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        For parameters out of range.
     """
 
     def __init__(self, rate: float, min_cutoff: float = 1.0, beta: float = 0.0,
-                 d_cutoff: float = 1.0):
+                 d_cutoff: float = 1.0) -> None:
         vals = {"rate": rate, "min_cutoff": min_cutoff, "d_cutoff": d_cutoff}
         for name, v in vals.items():
             if not (isinstance(v, (int, float, np.floating, np.integer)) and math.isfinite(v)
@@ -51,7 +65,8 @@ class OneEuroFilter:
                 raise InvalidArgumentError(f"OneEuroFilter: {name} must be finite and > 0, "
                                            f"got {v!r}")
         if not (math.isfinite(beta) and beta >= 0):
-            raise InvalidArgumentError(f"OneEuroFilter: beta must be finite and >= 0, got {beta!r}")
+            raise InvalidArgumentError(f"OneEuroFilter: beta must be finite and >= 0, got "
+                                       f"{beta!r}")
         self.rate, self.min_cutoff, self.beta, self.d_cutoff = (float(rate), float(min_cutoff),
                                                                 float(beta), float(d_cutoff))
         self._a_d = _alpha(self.rate, self.d_cutoff)
@@ -59,11 +74,27 @@ class OneEuroFilter:
 
     def reset(self) -> None:
         """Forget the past samples."""
-        self._x = None
-        self._dx = None
+        self._x: NDArray[np.float64] | None = None
+        self._dx: NDArray[np.float64] | None = None
 
-    def __call__(self, x) -> np.ndarray:
-        """Filter the next sample (any shape, the same every call); return the output (a copy)."""
+    def __call__(self, x: ArrayLike) -> NDArray[np.float64]:
+        """Filter the next sample.
+
+        Parameters
+        ----------
+        x : array_like
+            Any shape, the same every call; finite.
+
+        Returns
+        -------
+        numpy.ndarray
+            The output (a copy).
+
+        Raises
+        ------
+        mlayer.InvalidArgumentError
+            For a non-numeric or non-finite sample, or another shape than the first.
+        """
         try:
             x = np.asarray(x, dtype=np.float64)  # keeps a scalar 0-d
         except (TypeError, ValueError) as e:
@@ -75,17 +106,31 @@ class OneEuroFilter:
         if x.shape != self._x.shape:
             raise InvalidArgumentError(
                 f"OneEuroFilter: sample shape {x.shape} differs from the first {self._x.shape}")
-        dx = (x - self._x) * self.rate
-        self._dx += self._a_d * (dx - self._dx)
-        a = _alpha(self.rate, self.min_cutoff + self.beta * np.abs(self._dx))
-        self._x += a * (x - self._x)
-        return self._x.copy()
+        x0, dx0 = self._x, self._dx
+        assert dx0 is not None  # set with _x
+        dx = (x - x0) * self.rate
+        dx0 += self._a_d * (dx - dx0)
+        a = _alpha(self.rate, self.min_cutoff + self.beta * np.abs(dx0))
+        x0 += a * (x - x0)
+        return x0.copy()
 
 
-def one_euro(y, rate: float, min_cutoff: float = 1.0, beta: float = 0.0,
-             d_cutoff: float = 1.0) -> np.ndarray:
-    """One Euro filter along axis 0 of y (N, ...): every other index is its own channel.
-    Returns an array of y's shape."""
+def one_euro(y: ArrayLike, rate: float, min_cutoff: float = 1.0, beta: float = 0.0,
+             d_cutoff: float = 1.0) -> NDArray[np.float64]:
+    """One Euro filter along axis 0: every other index is its own channel.
+
+    Parameters
+    ----------
+    y : array_like, shape (N, ...)
+        The samples.
+    rate, min_cutoff, beta, d_cutoff : float
+        As for :class:`OneEuroFilter`.
+
+    Returns
+    -------
+    numpy.ndarray
+        Of ``y``'s shape.
+    """
     y = _arrays.as_f64(y, "one_euro: y")
     if y.ndim < 1:
         raise InvalidArgumentError("one_euro: y needs a frame axis")

@@ -35,9 +35,13 @@ from __future__ import annotations
 
 import functools
 import math
+import os
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, Literal, NoReturn, SupportsIndex, overload
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from . import _arrays
 from ._handles import ReadOnlyAttributes, refuse_copy
@@ -47,24 +51,41 @@ from .errors import InvalidArgumentError, check
 from .layers import Layers, decompose
 from .limits import JointLimits
 
+if TYPE_CHECKING:
+    from .motion import Motion
+
 __all__ = ["Clip", "Synthesis", "GuardReport", "stylize", "denoise"]
+
+#: the ``limits`` argument: "auto", True, None/False or a JointLimits
+LimitsArg = str | bool | JointLimits | None
+#: the ``floor`` argument: "auto", a height, or None/False
+FloorArg = str | float | bool | None
 
 
 @dataclass(frozen=True)
 class GuardReport:
     """What the guards did to one synthesized motion.
 
-    limited         joint name -> frames in which the joint limits changed it (limited joints
-                    only); empty when the limits did not run
-    limits_applied  whether the joint limits ran (by default only when some |alpha| > 1)
-    contact_frames  frames where some foot was pinned to its contact
-    floor_frames    frames where some foot was raised to the floor
-    floor_height    the floor used along the up axis (NaN when the floor guard was off)
-    root_shift_max  largest root correction of the contact cleanup, in the clip's units
-    floor_raised    frames where the whole body was raised because a foot the limited legs
-                    could not keep up was still below the floor
+    Attributes
+    ----------
+    limited : dict of str to int
+        Joint name -> frames in which the joint limits changed it (limited joints only);
+        empty when the limits did not run.
+    limits_applied : bool
+        Whether the joint limits ran (by default only when some |alpha| > 1).
+    contact_frames : int
+        Frames where some foot was pinned to its contact.
+    floor_frames : int
+        Frames where some foot was raised to the floor.
+    floor_height : float
+        The floor used along the up axis (NaN when the floor guard was off).
+    root_shift_max : float
+        Largest root correction of the contact cleanup, in the clip's units.
+    floor_raised : int
+        Frames where the whole body was raised because a foot the limited legs could not
+        keep up was still below the floor.
     """
-    limited: dict = field(default_factory=dict)
+    limited: dict[str, int] = field(default_factory=dict)
     limits_applied: bool = False
     contact_frames: int = 0
     floor_frames: int = 0
@@ -73,7 +94,7 @@ class GuardReport:
     floor_raised: int = 0
 
 
-def _limits_mode(limits):
+def _limits_mode(limits: LimitsArg) -> tuple[int, JointLimits | None]:
     """(C mode, JointLimits or None) for the ``limits`` argument."""
     if limits is None or limits is False:
         return lib.MLR_GUARDS_LIMITS_OFF, None
@@ -87,7 +108,7 @@ def _limits_mode(limits):
                                f"(mlayer.joint_limits), got {limits!r}")
 
 
-def _floor(floor):
+def _floor(floor: FloorArg) -> tuple[bool, float | None]:
     """(on, height or None) for the ``floor`` argument."""
     if floor is None or floor is False:
         return False, None
@@ -102,46 +123,62 @@ def _floor(floor):
 
 
 class Synthesis(ReadOnlyAttributes):
-    """The layers and the guards of one input Motion, for any number of syntheses.
-    ``motion`` and ``layers`` are read-only. ``copy.copy`` shares the guards' C handle (it is
-    not changed after it is made and is freed with the last user); ``copy.deepcopy`` and
-    pickling raise TypeError (the guards and joint limits are C models that cannot be
-    duplicated: make a new Synthesis).
+    """The layers and the guards of one input motion, for any number of syntheses.
 
-    motion          the input
-    limits          "auto" (default: learned from the input, applied when some |alpha| > 1),
-                    True (always), None or False (never), or a JointLimits
-                    (:func:`mlayer.joint_limits`: explicit ranges, several clips), always applied
-    floor           "auto" (default: from the input's contacts), a height along the up axis,
-                    or None (off)
-    keep_contacts   pin the feet during the input's contacts (default True)
-    contact_joints  the contact points instead of the feet found by name: joint names or
-                    "Joint/End" for a joint's End Site
-    up              the up axis: "x", "y" or "z"; None (default): the input's Motion.up_axis
-    layers          the input's Layers when they are at hand (else decomposed here)
-    layer options   gamma, lam_c, sigma_c, lam_b, sigma_b, base_cutoff, robust (default True:
-                    outlier frames down-weighted, see Layers.outliers): see
-                    :func:`mlayer.decompose`
+    ``motion`` and ``layers`` are read-only attributes. ``copy.copy`` shares the guards' C
+    handle (it is not changed after it is made and is freed with the last user);
+    ``copy.deepcopy`` and pickling raise TypeError (the guards and joint limits are C models
+    that cannot be duplicated: make a new Synthesis).
 
-    Raises InvalidArgumentError (naming the argument) for bad options or input.
+    Parameters
+    ----------
+    motion : Motion
+        The input.
+    limits : "auto", bool, None or JointLimits, optional
+        ``"auto"`` (default: learned from the input, applied when some |alpha| > 1), True
+        (always), None or False (never), or a JointLimits (:func:`mlayer.joint_limits`:
+        explicit ranges, several clips), always applied.
+    floor : "auto", float or None, optional
+        ``"auto"`` (default: from the input's contacts), a height along the up axis, or None
+        (off).
+    keep_contacts : bool, optional
+        Pin the feet during the input's contacts (default True).
+    contact_joints : str or sequence of str, optional
+        The contact points instead of the feet found by name: joint names or ``"Joint/End"``
+        for a joint's End Site.
+    up : {"x", "y", "z"}, optional
+        The up axis; None (default): the input's :attr:`Motion.up_axis`.
+    layers : Layers, optional
+        The input's layers when they are at hand (else decomposed here).
+    **layer_options
+        gamma, lam_c, sigma_c, lam_b, sigma_b, base_cutoff, robust (default True: outlier
+        frames down-weighted, see :attr:`Layers.outliers`): see :func:`mlayer.decompose`.
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        (naming the argument) For bad options or input.
     """
 
     _readonly = ("motion", "layers", "_mode", "_limits", "_floor_on", "_floor_height",
                  "_keep_contacts", "_contact_joints", "_up")
 
-    def __copy__(self) -> "Synthesis":
+    def __copy__(self) -> Synthesis:
         new = object.__new__(type(self))
         new.__dict__.update(self.__dict__)  # the same layers, limits and guards handle
         return new
 
-    def __deepcopy__(self, memo):
+    def __deepcopy__(self, memo: dict[int, Any]) -> NoReturn:
         raise refuse_copy(self, "deep-copy", "make a new Synthesis of the motion")
 
-    def __reduce_ex__(self, protocol):
+    def __reduce_ex__(self, protocol: SupportsIndex) -> NoReturn:
         raise refuse_copy(self, "pickle", "pickle the motion and make a new Synthesis")
 
-    def __init__(self, motion, *, limits="auto", floor="auto", keep_contacts=True,
-                 contact_joints=None, up=None, layers=None, **layer_options):
+    def __init__(self, motion: Motion, *, limits: LimitsArg = "auto", floor: FloorArg = "auto",
+                 keep_contacts: bool = True,
+                 contact_joints: str | Sequence[str | int] | None = None,
+                 up: str | int | None = None, layers: Layers | None = None,
+                 **layer_options: Any) -> None:
         from .motion import Motion
         if not isinstance(motion, Motion):
             raise InvalidArgumentError(f"motion: expected a mlayer.Motion, got "
@@ -160,7 +197,7 @@ class Synthesis(ReadOnlyAttributes):
                                        "(mlayer.decompose(motion))")
         self.layers = layers if layers is not None else decompose(motion, **layer_options)
 
-    def _guard_input(self):
+    def _guard_input(self) -> Motion:
         """The input the guards learn from (contacts, floor, limits): the input, with the frames
         the robust decomposition found to be outliers (``Layers.outliers``) replaced by the
         denoised ones (:meth:`Layers.repaired`, ``mlr_layers_repair``), so that a glitch does
@@ -168,7 +205,7 @@ class Synthesis(ReadOnlyAttributes):
         return self.layers.repaired()
 
     @functools.cached_property
-    def _guards(self):
+    def _guards(self) -> Any:
         m = self._guard_input()
         root, rot, trans = m._frames()
         opts = [(lib.MLR_GUARDS_OPT_UP, self._up), (lib.MLR_GUARDS_OPT_LIMITS, self._mode),
@@ -203,9 +240,16 @@ class Synthesis(ReadOnlyAttributes):
             check(lib.mlr_guards_set_limits(g, self._limits._h, diag), "limits", diag)
         return g
 
-    def contacts(self):
-        """``(names, contacts)`` the guards pin: the contact point names ("Joint" or
-        "Joint/End") and the input's contacts, bool (N, C)."""
+    def contacts(self) -> tuple[list[str], NDArray[np.bool_]]:
+        """The contacts the guards pin.
+
+        Returns
+        -------
+        names : list of str
+            The contact point names (``"Joint"`` or ``"Joint/End"``).
+        contacts : numpy.ndarray of bool, shape (N, C)
+            The input's contacts.
+        """
         g, sk = self._guards, self.motion.skeleton
         C = int(lib.mlr_guards_n_points(g))
         j = np.zeros(C, dtype=np.int32)
@@ -219,7 +263,7 @@ class Synthesis(ReadOnlyAttributes):
         names = [sk.joint_names[a] + ("/End" if b >= 0 else "") for a, b in zip(j, e)]
         return names, c.astype(bool)
 
-    def _same_frames(self, m, name: str) -> None:
+    def _same_frames(self, m: Motion | None, name: str) -> None:
         """The C guards read a synthesis (and its reference) on the input's frames and
         skeleton: anything else is refused before the call."""
         from .motion import Motion
@@ -233,11 +277,34 @@ class Synthesis(ReadOnlyAttributes):
                                        f"its {self.motion.n_frames} frames, got "
                                        f"{m.n_frames} frames")
 
-    def guard(self, synthesized, alphas, reference=None):
-        """``(motion, GuardReport)``: the guards applied to ``synthesized`` (a Motion on the
-        input's frames made with the (1 + J,) ``alphas``, as :meth:`Layers.alphas` gives them).
+    def guard(self, synthesized: Motion, alphas: ArrayLike, reference: Motion | None = None
+              ) -> tuple[Motion, GuardReport]:
+        """The guards applied to a synthesized motion.
+
         During contacts the feet follow ``reference`` (default: the input, smoothed over
-        0.02 s against capture noise), or keep their own trajectory where it slides less."""
+        0.02 s against capture noise), or keep their own trajectory where it slides less.
+
+        Parameters
+        ----------
+        synthesized : Motion
+            A motion on the input's skeleton and frames.
+        alphas : array_like, shape (1 + J,)
+            The alphas it was made with, as :meth:`Layers.alphas` gives them.
+        reference : Motion, optional
+            On the input's skeleton and frames.
+
+        Returns
+        -------
+        motion : Motion
+            The guarded motion.
+        report : GuardReport
+            What the guards did.
+
+        Raises
+        ------
+        mlayer.InvalidArgumentError
+            For motions on other skeletons or frames.
+        """
         a = np.ascontiguousarray(alphas, dtype=np.float64).reshape(-1)
         for m, name in ((synthesized, "synthesized"), (reference, "reference")):
             self._same_frames(m, name)
@@ -246,7 +313,8 @@ class Synthesis(ReadOnlyAttributes):
             rr = rq = rt = None
         else:
             rr, rq, rt = reference._frames()
-        ref_ptr = (lambda x: ffi.NULL if x is None or not x.size else _arrays.ptr(x))
+        def ref_ptr(x: NDArray[np.float64] | None) -> Any:
+            return ffi.NULL if x is None or not x.size else _arrays.ptr(x)
         J = self.motion.n_joints
         limited = np.zeros(J, dtype=np.uintp)
         rep = ffi.new("mlr_guards_report *")
@@ -263,11 +331,32 @@ class Synthesis(ReadOnlyAttributes):
             root_shift_max=float(rep.root_shift_max), floor_raised=int(rep.floor_raised))
         return synthesized.with_frames(root_pos=root, rot=rot), report
 
-    def run(self, alpha=1.0, joints=None, *, root_alpha=None, residual=False):
-        """``(motion, GuardReport)``: ``Mb (+) alpha delta_c`` (alpha per joint from the
-        ``joints`` patterns, ``root_alpha`` for the body translation, as
-        :meth:`Layers.synthesize`), the residual added back when ``residual`` (the input's
-        noise kept, as the viewer's "denoise off"), then the guards."""
+    def run(self, alpha: float = 1.0, joints: Mapping[str, float] | None = None, *,
+            root_alpha: float | None = None, residual: bool = False
+            ) -> tuple[Motion, GuardReport]:
+        """Synthesize, then guard.
+
+        ``Mb (+) alpha delta_c`` as :meth:`Layers.synthesize`, the residual added back when
+        ``residual``, then :meth:`guard`.
+
+        Parameters
+        ----------
+        alpha : float, optional
+            The alpha of every joint and the body translation.
+        joints : dict of str to float, optional
+            Joint name or glob -> alpha.
+        root_alpha : float, optional
+            The body translation's alpha (default: ``alpha``).
+        residual : bool, optional
+            Add the residual back (the input's noise kept, as the viewer's "denoise off").
+
+        Returns
+        -------
+        motion : Motion
+            The guarded synthesis.
+        report : GuardReport
+            What the guards did.
+        """
         L: Layers = self.layers
         a = L.alphas(alpha, joints, root_alpha)
         out = L.synthesize(alpha, joints, root_alpha=root_alpha)
@@ -279,25 +368,111 @@ class Synthesis(ReadOnlyAttributes):
         return self.guard(out, a)
 
 
-def denoise(motion, *, limits="auto", floor="auto", keep_contacts=True, contact_joints=None,
-            up=None, return_report=False, **layer_options):
-    """The denoised motion: the layers of ``motion`` synthesized at alpha = 1, with the feet
-    kept on their contacts and above the floor (see :class:`Synthesis` for the switches and
-    :func:`mlayer.decompose` for the layer options). With ``return_report``, returns
-    ``(motion, GuardReport)``."""
+@overload
+def denoise(motion: Motion, *, limits: LimitsArg = "auto", floor: FloorArg = "auto",
+            keep_contacts: bool = True, contact_joints: str | Sequence[str | int] | None = None,
+            up: str | int | None = None, return_report: Literal[False] = False,
+            **layer_options: Any) -> Motion: ...
+@overload
+def denoise(motion: Motion, *, limits: LimitsArg = "auto", floor: FloorArg = "auto",
+            keep_contacts: bool = True, contact_joints: str | Sequence[str | int] | None = None,
+            up: str | int | None = None, return_report: Literal[True],
+            **layer_options: Any) -> tuple[Motion, GuardReport]: ...
+def denoise(motion: Motion, *, limits: LimitsArg = "auto", floor: FloorArg = "auto",
+            keep_contacts: bool = True, contact_joints: str | Sequence[str | int] | None = None,
+            up: str | int | None = None, return_report: bool = False,
+            **layer_options: Any) -> Motion | tuple[Motion, GuardReport]:
+    """The denoised motion.
+
+    The layers of ``motion`` synthesized at alpha = 1, with the feet kept on their contacts
+    and above the floor.
+
+    Parameters
+    ----------
+    motion : Motion
+        The input.
+    limits, floor, keep_contacts, contact_joints, up
+        The guards' switches: see :class:`Synthesis`.
+    return_report : bool, optional
+        Also return the :class:`GuardReport`.
+    **layer_options
+        See :func:`mlayer.decompose`.
+
+    Returns
+    -------
+    Motion or (Motion, GuardReport)
+        The denoised motion, with the report when ``return_report``.
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        For bad options or input.
+
+    Examples
+    --------
+    >>> import mlayer
+    >>> m = mlayer.data.load_sample()[:240]
+    >>> clean = mlayer.denoise(m)
+    >>> clean.n_frames
+    240
+    """
     out, report = Clip(motion).denoise(limits=limits, floor=floor, keep_contacts=keep_contacts,
                                        contact_joints=contact_joints, up=up, **layer_options)
     return (out, report) if return_report else out
 
 
-def stylize(motion, alpha, joints=None, *, root_alpha=None, limits="auto", floor="auto",
-            keep_contacts=True, contact_joints=None, up=None, return_report=False,
-            **layer_options):
-    """Scale the style (the controllable layer) of a motion: ``alpha`` = 2 exaggerates, 0.5
-    flattens; ``joints`` maps joint names or globs ("Left*") to their own alpha and
-    ``root_alpha`` is the body translation's (default: alpha). The guards (joint limits when
-    some |alpha| > 1, foot contacts, floor; see :class:`Synthesis`) keep the result within what
-    a body can do. With ``return_report``, returns ``(motion, GuardReport)``."""
+@overload
+def stylize(motion: Motion, alpha: float, joints: Mapping[str, float] | None = None, *,
+            root_alpha: float | None = None, limits: LimitsArg = "auto",
+            floor: FloorArg = "auto", keep_contacts: bool = True,
+            contact_joints: str | Sequence[str | int] | None = None,
+            up: str | int | None = None, return_report: Literal[False] = False,
+            **layer_options: Any) -> Motion: ...
+@overload
+def stylize(motion: Motion, alpha: float, joints: Mapping[str, float] | None = None, *,
+            root_alpha: float | None = None, limits: LimitsArg = "auto",
+            floor: FloorArg = "auto", keep_contacts: bool = True,
+            contact_joints: str | Sequence[str | int] | None = None,
+            up: str | int | None = None, return_report: Literal[True],
+            **layer_options: Any) -> tuple[Motion, GuardReport]: ...
+def stylize(motion: Motion, alpha: float, joints: Mapping[str, float] | None = None, *,
+            root_alpha: float | None = None, limits: LimitsArg = "auto",
+            floor: FloorArg = "auto", keep_contacts: bool = True,
+            contact_joints: str | Sequence[str | int] | None = None,
+            up: str | int | None = None, return_report: bool = False,
+            **layer_options: Any) -> Motion | tuple[Motion, GuardReport]:
+    """Scale the style (the controllable layer) of a motion.
+
+    The guards (joint limits when some |alpha| > 1, foot contacts, floor; see
+    :class:`Synthesis`) keep the result within what a body can do.
+
+    Parameters
+    ----------
+    motion : Motion
+        The input.
+    alpha : float
+        2 exaggerates, 0.5 flattens.
+    joints : dict of str to float, optional
+        Joint names or globs (``"Left*"``) -> their own alpha.
+    root_alpha : float, optional
+        The body translation's alpha (default: ``alpha``).
+    limits, floor, keep_contacts, contact_joints, up
+        The guards' switches: see :class:`Synthesis`.
+    return_report : bool, optional
+        Also return the :class:`GuardReport`.
+    **layer_options
+        See :func:`mlayer.decompose`.
+
+    Returns
+    -------
+    Motion or (Motion, GuardReport)
+        The stylized motion, with the report when ``return_report``.
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        For bad options or input.
+    """
     out, report = Clip(motion).stylize(alpha, joints, root_alpha=root_alpha, limits=limits,
                                        floor=floor, keep_contacts=keep_contacts,
                                        contact_joints=contact_joints, up=up, **layer_options)
@@ -309,31 +484,51 @@ class Clip:
 
     ``Clip.read(path, strict=, up=, trim=, units=)`` or ``Clip(motion)``. The forward
     kinematics of the input (:attr:`positions`), its up axis (:attr:`up`, detected from those
-    positions unless the motion says it), its body height, jitter and foot sliding are computed
-    on first use and kept; :meth:`synthesis` keeps one :class:`Synthesis` (layers and guards)
-    per set of options, so denoising and any number of alphas share one decomposition.
-    The input is not modified; do not modify it in place while the clip is in use (the kept
-    figures would not follow).
+    positions unless the motion says it), its body height, jitter and foot sliding are
+    computed on first use and kept; :meth:`synthesis` keeps one :class:`Synthesis` (layers and
+    guards) per set of options, so denoising and any number of alphas share one
+    decomposition. The input is not modified; do not modify it in place while the clip is in
+    use (the kept figures would not follow).
+
+    Parameters
+    ----------
+    motion : Motion
+        The input.
+    name : str, optional
+        What the clip is called in messages (default ``"<motion>"``).
     """
 
-    def __init__(self, motion, *, name: str | None = None):
+    def __init__(self, motion: Motion, *, name: str | None = None) -> None:
         from .motion import Motion
         if not isinstance(motion, Motion):
             raise InvalidArgumentError(f"motion: expected a mlayer.Motion, got "
                                        f"{type(motion).__name__}")
         self.motion = motion
         self.name = name if name is not None else "<motion>"
-        self._syntheses: dict = {}
-        self._layers: dict = {}
+        self._syntheses: dict[tuple[tuple[str, str], ...], Synthesis] = {}
+        self._layers: dict[tuple[tuple[str, str], ...], Layers] = {}
 
     @classmethod
-    def read(cls, path, **read_options) -> "Clip":
-        """The clip of a BVH file (``mlayer.read_bvh(path, **read_options)``)."""
+    def read(cls, path: str | os.PathLike[str], **read_options: Any) -> Clip:
+        """The clip of a BVH file.
+
+        Parameters
+        ----------
+        path : str or os.PathLike
+            The file.
+        **read_options
+            Passed to :func:`mlayer.read_bvh`.
+
+        Returns
+        -------
+        Clip
+            The clip, named by the path.
+        """
         from .bvh import read_bvh
         return cls(read_bvh(path, **read_options), name=str(path))
 
     @functools.cached_property
-    def forward_kinematics(self) -> tuple[np.ndarray, np.ndarray]:
+    def forward_kinematics(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """World positions (N, J, 3) and world rotations (N, J, 4) of the input's joints, from
         one forward-kinematics pass (read-only arrays)."""
         pos, wrot = self.motion.forward_kinematics()
@@ -341,13 +536,13 @@ class Clip:
         return pos, wrot
 
     @property
-    def positions(self) -> np.ndarray:
+    def positions(self) -> NDArray[np.float64]:
         """(N, J, 3) world positions of the input's joints (read-only)."""
         return self.forward_kinematics[0]
 
     @functools.cached_property
     def up(self) -> str:
-        """The input's up axis: the motion's when it was given (``read_bvh(up=)``, ``--up``),
+        """The input's up axis, the motion's when it was given (``read_bvh(up=)``, ``--up``),
         else detected from :attr:`positions` ("y" when the detection is not sure)."""
         m = self.motion
         if m._up is not None:
@@ -364,10 +559,12 @@ class Clip:
         return body_height(self.positions, up=self.up) if self.motion.n_frames else math.nan
 
     @functools.cached_property
-    def contacts(self) -> tuple[list, np.ndarray]:
-        """``(names, contacts)``: :func:`mlayer.detect_contacts` of the input (its feet, along
-        :attr:`up`), from :attr:`forward_kinematics`; no points for a skeleton without feet
-        (:func:`mlayer.contacts.find_feet`)."""
+    def contacts(self) -> tuple[list[str], NDArray[np.bool_]]:
+        """``(names, contacts)``, :func:`mlayer.detect_contacts` of the input.
+
+        Its feet, along :attr:`up`, from :attr:`forward_kinematics`; no points for a skeleton
+        without feet (:func:`mlayer.contacts.find_feet`).
+        """
         from .contacts import detect_contacts, find_feet
         m = self.motion
         try:
@@ -379,8 +576,19 @@ class Clip:
         c.flags.writeable = False
         return names, c
 
-    def layers(self, **layer_options) -> Layers:
-        """The input's :func:`mlayer.decompose` with these options, made once per set."""
+    def layers(self, **layer_options: Any) -> Layers:
+        """The input's :func:`mlayer.decompose` with these options, made once per set.
+
+        Parameters
+        ----------
+        **layer_options
+            See :func:`mlayer.decompose`.
+
+        Returns
+        -------
+        Layers
+            The layers (the same object for the same options).
+        """
         key = tuple(sorted((k, repr(v)) for k, v in layer_options.items()))
         L = self._layers.get(key)
         if L is None:
@@ -391,12 +599,27 @@ class Clip:
             L = self._layers[key] = decompose(self.motion, **layer_options)
         return L
 
-    def synthesis(self, *, limits="auto", floor="auto", keep_contacts=True,
-                  contact_joints=None, up=None, **layer_options) -> Synthesis:
-        """The input's :class:`Synthesis` for these guard options and layer options (see
-        there), made once per set; syntheses with the same layer options share one
-        decomposition (:meth:`layers`)."""
-        guard = dict(limits=limits, floor=floor, keep_contacts=keep_contacts,
+    def synthesis(self, *, limits: LimitsArg = "auto", floor: FloorArg = "auto",
+                  keep_contacts: bool = True,
+                  contact_joints: str | Sequence[str | int] | None = None,
+                  up: str | int | None = None, **layer_options: Any) -> Synthesis:
+        """The input's :class:`Synthesis` for these guard and layer options, made once per set.
+
+        Syntheses with the same layer options share one decomposition (:meth:`layers`).
+
+        Parameters
+        ----------
+        limits, floor, keep_contacts, contact_joints, up
+            The guards' switches: see :class:`Synthesis`.
+        **layer_options
+            See :func:`mlayer.decompose`.
+
+        Returns
+        -------
+        Synthesis
+            The synthesis (the same object for the same options).
+        """
+        guard: dict[str, Any] = dict(limits=limits, floor=floor, keep_contacts=keep_contacts,
                      contact_joints=contact_joints, up=up)
         key = tuple(sorted((k, repr(v)) for k, v in guard.items())) + \
             tuple(sorted((k, repr(v)) for k, v in layer_options.items()))
@@ -413,17 +636,60 @@ class Clip:
                                                  **guard)
         return s
 
-    def denoise(self, **options):
-        """``(motion, GuardReport)``: :func:`denoise` of the input."""
+    def denoise(self, **options: Any) -> tuple[Motion, GuardReport]:
+        """:func:`denoise` of the input.
+
+        Parameters
+        ----------
+        **options
+            The options of :meth:`synthesis`.
+
+        Returns
+        -------
+        motion : Motion
+            The denoised motion.
+        report : GuardReport
+            What the guards did.
+        """
         return self.synthesis(**options).run(1.0)
 
-    def stylize(self, alpha, joints=None, *, root_alpha=None, **options):
-        """``(motion, GuardReport)``: :func:`stylize` of the input."""
+    def stylize(self, alpha: float, joints: Mapping[str, float] | None = None, *,
+                root_alpha: float | None = None, **options: Any) -> tuple[Motion, GuardReport]:
+        """:func:`stylize` of the input.
+
+        Parameters
+        ----------
+        alpha : float
+            The style scale.
+        joints : dict of str to float, optional
+            Joint name or glob -> alpha.
+        root_alpha : float, optional
+            The body translation's alpha.
+        **options
+            The options of :meth:`synthesis`.
+
+        Returns
+        -------
+        motion : Motion
+            The stylized motion.
+        report : GuardReport
+            What the guards did.
+        """
         return self.synthesis(**options).run(alpha, joints, root_alpha=root_alpha)
 
-    def jitter(self, motion=None) -> float:
-        """Jitter of the input (or of ``motion``, an output of this clip) in body heights per
-        s^3 (:func:`mlayer.metrics.jitter`); NaN under 4 frames or without a body height."""
+    def jitter(self, motion: Motion | None = None) -> float:
+        """Jitter in body heights per s^3 (:func:`mlayer.metrics.jitter`).
+
+        Parameters
+        ----------
+        motion : Motion, optional
+            An output of this clip; default the input.
+
+        Returns
+        -------
+        float
+            The jitter; NaN under 4 frames or without a body height.
+        """
         from .metrics import jitter
         m = self.motion if motion is None else motion
         h = self.body_height
@@ -431,11 +697,20 @@ class Clip:
             return math.nan
         return jitter(self.positions if motion is None else m, fps=m.fps) / h
 
-    def foot_sliding(self, motion=None) -> float:
-        """Foot sliding (:func:`mlayer.metrics.foot_sliding`) during the input's
-        :attr:`contacts`, of the input or of ``motion`` (an output on the input's frames; one
-        on other frames is measured during its own contacts), in body heights per second; NaN
-        without contacts or a body height."""
+    def foot_sliding(self, motion: Motion | None = None) -> float:
+        """Foot sliding (:func:`mlayer.metrics.foot_sliding`) during the input's contacts.
+
+        Parameters
+        ----------
+        motion : Motion, optional
+            An output on the input's frames (one on other frames is measured during its own
+            contacts); default the input.
+
+        Returns
+        -------
+        float
+            Body heights per second; NaN without contacts or a body height.
+        """
         from .metrics import foot_sliding
         names, c = self.contacts
         h = self.body_height
@@ -451,7 +726,15 @@ class Clip:
                 return math.nan
         return foot_sliding(motion, c, names, up=self.up) / h
 
-    def write(self, motion, path) -> None:
-        """Write an output of this clip to ``path`` as BVH, atomically (``mlayer.write_bvh``)."""
+    def write(self, motion: Motion, path: str | os.PathLike[str]) -> None:
+        """Write an output of this clip as BVH, atomically (:func:`mlayer.write_bvh`).
+
+        Parameters
+        ----------
+        motion : Motion
+            The output.
+        path : str or os.PathLike
+            The file.
+        """
         from .bvh import write_bvh
         write_bvh(motion, path)

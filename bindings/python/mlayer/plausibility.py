@@ -16,22 +16,30 @@ limits them.
 """
 from __future__ import annotations
 
+from collections.abc import Iterable, Mapping, Sequence
+from typing import TYPE_CHECKING, Any
+
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from . import quat as _q
 from .errors import InvalidArgumentError
 
+if TYPE_CHECKING:
+    from .limits import JointLimits
+    from .motion import Motion
+
 _LEG_WORDS = ("knee", "leg", "shin", "calf")
 
 
-def _rotate(q, v):
+def _rotate(q: NDArray[np.float64], v: NDArray[np.float64]) -> NDArray[np.float64]:
     """Rotate vectors v (..., 3) by unit quaternions q (..., 4), in numpy."""
     w, u = q[..., :1], q[..., 1:]
     t = 2.0 * np.cross(u, v)
     return v + w * t + np.cross(u, t)
 
 
-def _main_child(motion, j):
+def _main_child(motion: Motion, j: int) -> Any:
     sk = motion.skeleton
     t = motion.local_translations().mean(axis=0)
     kids = [c for c in range(sk.n_joints) if sk.parents[c] == j]
@@ -43,10 +51,28 @@ def _main_child(motion, j):
     return best
 
 
-def hinge_chains(limits_or_chains, motion=None):
-    """[(parent, joint, child or ('end', e), axis (3,) or None)] for the hinges of a
-    JointLimits (axis in the parent's frame), or the given list of (parent, joint, child)
-    triples (no axis)."""
+def hinge_chains(limits_or_chains: JointLimits | Iterable[Sequence[Any]],
+                 motion: Motion | None = None) -> list[tuple[Any, ...]]:
+    """The hinges to measure: (parent, joint, child, axis) tuples.
+
+    Parameters
+    ----------
+    limits_or_chains : JointLimits or iterable of tuples
+        The hinges of a JointLimits, or (parent, joint, child[, axis]) tuples.
+    motion : Motion, optional
+        Needed with a JointLimits, to find the hinges' children.
+
+    Returns
+    -------
+    list of tuple
+        ``(parent, joint, child or ("end", e), axis (3,) or None)``: the axis in the parent's
+        frame for a JointLimits, None for triples.
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        For a JointLimits without motion, or tuples of another length.
+    """
     from .limits import JointLimits
     if isinstance(limits_or_chains, JointLimits):
         if motion is None:
@@ -70,15 +96,34 @@ def hinge_chains(limits_or_chains, motion=None):
     return out
 
 
-def hinge_angles(motion, limits_or_chains) -> dict:
-    """Per hinge joint name: {'flexion': (N,) degrees, 'signed': (N,) degrees or None}."""
+def hinge_angles(motion: Motion, limits_or_chains: JointLimits | Iterable[Sequence[Any]]
+                 ) -> dict[str, dict[str, Any]]:
+    """The flexion of every hinge of a motion.
+
+    Parameters
+    ----------
+    motion : Motion
+        The motion.
+    limits_or_chains : JointLimits or iterable of tuples
+        As for :func:`hinge_chains`.
+
+    Returns
+    -------
+    dict
+        Per hinge joint name: ``{"flexion": (N,) degrees, "signed": (N,) degrees or None,
+        "leg": bool}``.
+    """
     pos, wrot = motion.forward_kinematics()
     ends = motion.end_site_positions() if len(motion.end_site_parents) else None
     names = motion.joint_names
     out = {}
     for p, j, c, axis in hinge_chains(limits_or_chains, motion):
         thigh = pos[:, j] - pos[:, p]
-        child = ends[:, c[1]] if isinstance(c, tuple) else pos[:, c]
+        if isinstance(c, tuple):
+            assert ends is not None  # an End Site child exists only when there are End Sites
+            child = ends[:, c[1]]
+        else:
+            child = pos[:, c]
         shin = child - pos[:, j]
         nt = np.linalg.norm(thigh, axis=1)
         ns = np.linalg.norm(shin, axis=1)
@@ -96,12 +141,35 @@ def hinge_angles(motion, limits_or_chains) -> dict:
     return out
 
 
-def hinge_violations(reference, synthesized, limits, *, fold_degrees=150.0,
-                     fold_margin=10.0) -> dict:
-    """Frames of `synthesized` where a hinge folds past both fold_degrees and the reference's
-    largest flexion + fold_margin ('fold'), and where it bends the other way beyond the
-    reference's own ('reversal': signed below min(0, the reference's smallest signed angle)).
-    Also the largest fold and reversal seen, per hinge name."""
+def hinge_violations(reference: Motion, synthesized: Motion,
+                     limits: JointLimits | Iterable[Sequence[Any]], *,
+                     fold_degrees: float = 150.0, fold_margin: float = 10.0
+                     ) -> dict[str, Any]:
+    """Frames where a synthesized hinge folds or bends the other way beyond the reference.
+
+    "fold": the hinge folds past both ``fold_degrees`` and the reference's largest flexion +
+    ``fold_margin``; "reversal": it bends the other way beyond the reference's own (signed
+    below min(0, the reference's smallest signed angle)).
+
+    Parameters
+    ----------
+    reference : Motion
+        The input.
+    synthesized : Motion
+        A synthesis of it, on the same frames.
+    limits : JointLimits or iterable of tuples
+        The hinges (:func:`hinge_chains`).
+    fold_degrees : float, optional
+        The fold bound.
+    fold_margin : float, optional
+        Degrees beyond the reference's flexion.
+
+    Returns
+    -------
+    dict
+        ``fold_frames``, ``reversal_frames``, ``frames`` and ``joints``: per hinge name its
+        frames and the largest fold and reversal seen.
+    """
     ref = hinge_angles(reference, limits)
     syn = hinge_angles(synthesized, limits)
     n = synthesized.n_frames
@@ -124,11 +192,24 @@ def hinge_violations(reference, synthesized, limits, *, fold_degrees=150.0,
             "frames": n, "joints": per}
 
 
-def body_parts(motion, limits) -> dict:
-    """Joint indices per body part: 'legs' (each leg hinge's parent and the subtree below it),
-    'arms' (the same for the arm hinges), 'trunk' (the other joints but the root)."""
+def body_parts(motion: Motion, limits: JointLimits) -> dict[str, list[int]]:
+    """Joint indices per body part.
+
+    Parameters
+    ----------
+    motion : Motion
+        The motion.
+    limits : JointLimits
+        Its limits (the hinges).
+
+    Returns
+    -------
+    dict of str to list of int
+        ``"legs"`` (each leg hinge's parent and the subtree below it), ``"arms"`` (the same
+        for the arm hinges), ``"trunk"`` (the other joints but the root).
+    """
     sk = motion.skeleton
-    parts = {"legs": set(), "arms": set()}
+    parts: dict[str, set[int]] = {"legs": set(), "arms": set()}
     hinge_info = hinge_angles(motion[:1], limits) if motion.n_frames else {}
     for j in limits.hinges():
         top = int(sk.parents[j])
@@ -142,16 +223,46 @@ def body_parts(motion, limits) -> dict:
     return {"legs": sorted(parts["legs"]), "arms": sorted(parts["arms"]), "trunk": sorted(trunk)}
 
 
-def control_amplitude(base_rot, rot) -> np.ndarray:
-    """(N, J) angle, in radians, of each joint's rotation away from the base layer's:
-    |log(conj(qb) q)|, the controllable layer's amplitude as synthesized."""
+def control_amplitude(base_rot: ArrayLike, rot: ArrayLike) -> NDArray[np.float64]:
+    """The controllable layer's amplitude as synthesized.
+
+    Parameters
+    ----------
+    base_rot : array_like, shape (N, J, 4)
+        The base layer's rotations.
+    rot : array_like, shape (N, J, 4)
+        A synthesis's rotations.
+
+    Returns
+    -------
+    numpy.ndarray, shape (N, J)
+        The angle, in radians, of each joint's rotation away from the base layer's:
+        ``|log(conj(qb) q)|``.
+    """
     d = _q.mul(_q.conj(base_rot), rot)
     w = np.clip(np.abs(d[..., 0]), 0.0, 1.0)
     return 2.0 * np.arctan2(np.linalg.norm(d[..., 1:], axis=-1), w)
 
 
-def exaggeration_kept(base_rot, before, after, parts) -> dict:
-    """Per body part: RMS of the controllable-layer amplitude after limits / before."""
+def exaggeration_kept(base_rot: ArrayLike, before: ArrayLike, after: ArrayLike,
+                      parts: Mapping[str, Sequence[int]]) -> dict[str, float]:
+    """How much of the exaggeration the limits kept, per body part.
+
+    Parameters
+    ----------
+    base_rot : array_like, shape (N, J, 4)
+        The base layer's rotations.
+    before, after : array_like, shape (N, J, 4)
+        The synthesis before and after the limits.
+    parts : dict of str to sequence of int
+        Joint indices per part (:func:`body_parts`).
+
+    Returns
+    -------
+    dict of str to float
+        RMS of the controllable-layer amplitude after limits / before (1 where it was 0);
+        parts without joints are left out.
+    """
     a0 = control_amplitude(base_rot, before)
     a1 = control_amplitude(base_rot, after)
     out = {}

@@ -11,30 +11,65 @@ display the returned figure; in a script, ``fig.savefig(...)``.
 """
 from __future__ import annotations
 
+import os
+from typing import TYPE_CHECKING, Any
+
 import numpy as np
+from numpy.typing import NDArray
 
 from . import quat
 from ._files import atomic_output
 from ._optional import require
 from .errors import InvalidArgumentError
 
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+    from .layers import Layers
+    from .motion import Motion
+
 __all__ = ["new_figure", "save_figure", "plot_layers", "layer_choice"]
 
 
-def new_figure(feature: str = "mlayer.plot", **kwargs):
-    """A ``matplotlib.figure.Figure(**kwargs)`` (no pyplot, no backend switch); raises
-    mlayer.MissingDependencyError naming the ``plot`` extra without matplotlib."""
+def new_figure(feature: str = "mlayer.plot", **kwargs: Any) -> Figure:
+    """A ``matplotlib.figure.Figure(**kwargs)``: no pyplot, no backend switch.
+
+    Parameters
+    ----------
+    feature : str, optional
+        What asks for it, named in the error without matplotlib.
+    **kwargs
+        Passed to ``Figure`` (``figsize``, ``dpi``, ...).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        A new figure.
+
+    Raises
+    ------
+    mlayer.MissingDependencyError
+        Naming the ``plot`` extra, without matplotlib.
+    """
     require("matplotlib", feature=feature)
-    from matplotlib.figure import Figure
-    return Figure(**kwargs)
+    from matplotlib.figure import Figure as _Figure
+    return _Figure(**kwargs)
 
 
-def save_figure(fig, path, *, dpi: float = 110) -> None:
-    """Write `fig` to `path` atomically, in the format of its extension (PNG when it has none
-    matplotlib knows); nothing when path is None."""
+def save_figure(fig: Figure, path: str | os.PathLike[str] | None, *, dpi: float = 110) -> None:
+    """Write a figure atomically, in the format of its extension.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+        The figure.
+    path : str or os.PathLike or None
+        Where; PNG when the extension is none matplotlib knows; nothing is written when None.
+    dpi : float, optional
+        Resolution of raster formats.
+    """
     if path is None:
         return
-    import os
     path = os.fspath(path)
     ext = os.path.splitext(path)[1].lower()
     fmt = ext[1:] if ext in (".png", ".svg", ".pdf", ".jpg", ".jpeg", ".eps", ".ps", ".tif",
@@ -43,15 +78,36 @@ def save_figure(fig, path, *, dpi: float = 110) -> None:
         fig.savefig(tmp, dpi=dpi, format=fmt)
 
 
-def _angle(q):
+def _angle(q: NDArray[np.float64]) -> NDArray[np.float64]:
     """Rotation angle in degrees of unit quaternions (..., 4)."""
     return np.degrees(np.linalg.norm(quat.log(q), axis=-1))
 
 
-def layer_choice(motion, layers, joint=None, root_axis=None) -> tuple[str, int]:
-    """What :func:`plot_layers` shows: (joint name, root axis). `joint` is a joint name
-    (default: the joint whose controllable layer moves most); `root_axis` 0, 1 or 2 (default:
-    the axis whose controllable layer moves most)."""
+def layer_choice(motion: Motion, layers: Layers, joint: str | None = None,
+                 root_axis: int | None = None) -> tuple[str, int]:
+    """What :func:`plot_layers` shows.
+
+    Parameters
+    ----------
+    motion : Motion
+        The decomposed motion.
+    layers : Layers
+        Its layers (:func:`mlayer.decompose`).
+    joint : str, optional
+        A joint name; default: the joint whose controllable layer moves most.
+    root_axis : {0, 1, 2}, optional
+        Default: the axis whose controllable layer moves most.
+
+    Returns
+    -------
+    tuple of (str, int)
+        The joint name and the root axis.
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        For an unknown joint or an axis other than 0, 1, 2.
+    """
     names = list(motion.joint_names)
     ctrl = np.asarray(layers.control)
     if root_axis is None:
@@ -67,17 +123,42 @@ def layer_choice(motion, layers, joint=None, root_axis=None) -> tuple[str, int]:
     return names[j], int(root_axis)
 
 
-def plot_layers(motion, layers, path=None, *, joint=None, root_axis=None, title=None):
-    """A figure of the layers of `motion` (a ``matplotlib.figure.Figure``), also written to
-    `path` when given (PNG, SVG or PDF, by extension).
+def plot_layers(motion: Motion, layers: Layers, path: str | os.PathLike[str] | None = None, *,
+                joint: str | None = None, root_axis: int | None = None,
+                title: str | None = None) -> Figure:
+    """A figure of the layers of a motion (like paper 1, Figures 1 and 2).
 
     Top: one root translation channel through the original, the base layer and base plus the
     controllable layer, with the residual under it. Bottom: the same for one joint's rotation
-    angle (degrees). `joint` is a joint name (default: the joint whose controllable layer moves
-    most); `root_axis` 0, 1 or 2 (default: the axis whose controllable layer moves most).
-    Outlier frames of the robust decomposition (``layers.outliers``) are marked with red ticks
-    on the residual panels (the translation's on the root panel, the joint's on the joint's).
-    :func:`layer_choice` says which joint and axis are shown (the CLI prints them).
+    angle (degrees). Outlier frames of the robust decomposition (``layers.outliers``) are
+    marked with red ticks on the residual panels (the translation's on the root panel, the
+    joint's on the joint's). :func:`layer_choice` says which joint and axis are shown (the
+    CLI prints them).
+
+    Parameters
+    ----------
+    motion : Motion
+        The decomposed motion.
+    layers : Layers
+        Its layers (:func:`mlayer.decompose`).
+    path : str or os.PathLike, optional
+        Also write the figure there (PNG, SVG or PDF, by extension).
+    joint : str, optional
+        A joint name; default: the joint whose controllable layer moves most.
+    root_axis : {0, 1, 2}, optional
+        Default: the axis whose controllable layer moves most.
+    title : str, optional
+        The figure's title.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The figure.
+
+    Raises
+    ------
+    mlayer.MissingDependencyError
+        Without matplotlib.
     """
     fig = new_figure("mlayer.plot.plot_layers", figsize=(9, 8.5))
     names = list(motion.joint_names)

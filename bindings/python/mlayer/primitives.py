@@ -39,17 +39,26 @@ from __future__ import annotations
 
 import logging
 import math
+import os
+from collections.abc import Callable, Iterable, Sequence
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from . import _arrays, quat
 from ._args import integer
-from ._progress import resolve
+from ._progress import Bar, ProgressArg, resolve
 from .errors import InvalidArgumentError, MlayerIOError
 from .smoothing import lgs
 from .manifold import GRBF, PCA
 from .markov import Markov
 from .motion import Motion, Skeleton
+
+if TYPE_CHECKING:
+    from .limits import JointLimits
+    from .mixture import KCriteria
+    from .pipeline import GuardReport
 
 __all__ = ["PrimitiveModel", "heading_quat", "split_heading", "default_lattices", "same_units"]
 
@@ -65,13 +74,24 @@ _PIN_DRIFT = 0.25
 _PIN_GAP = 0.1
 
 
-def _yaw(rot_root: np.ndarray) -> np.ndarray:
+def _yaw(rot_root: ArrayLike) -> NDArray[np.float64]:
     from .features import heading
     return heading(rot_root)
 
 
-def heading_quat(yaw) -> np.ndarray:
-    """Unit quaternions (n, 4) of rotations by yaw (radians) about +Y."""
+def heading_quat(yaw: ArrayLike) -> NDArray[np.float64]:
+    """Unit quaternions of rotations by yaw about +Y.
+
+    Parameters
+    ----------
+    yaw : array_like, shape (n,)
+        Radians.
+
+    Returns
+    -------
+    numpy.ndarray, shape (n, 4)
+        Scalar-first quaternions.
+    """
     yaw = np.asarray(yaw, dtype=np.float64)
     q = np.zeros(yaw.shape + (4,))
     q[..., 0] = np.cos(yaw / 2)
@@ -79,14 +99,28 @@ def heading_quat(yaw) -> np.ndarray:
     return q
 
 
-def split_heading(rot_root) -> tuple[np.ndarray, np.ndarray]:
-    """Split root rotations (n, 4) into yaw (n,) and the rotation without heading:
-    rot_root = heading_quat(yaw) * rest."""
+def split_heading(rot_root: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Split root rotations into yaw and the rotation without heading.
+
+    ``rot_root = heading_quat(yaw) * rest``.
+
+    Parameters
+    ----------
+    rot_root : array_like, shape (n, 4)
+        Root rotations.
+
+    Returns
+    -------
+    yaw : numpy.ndarray, shape (n,)
+        Radians about +Y.
+    rest : numpy.ndarray, shape (n, 4)
+        The rotations without heading.
+    """
     yaw = _yaw(rot_root)
     return yaw, quat.mul(quat.conj(heading_quat(yaw)), rot_root)
 
 
-def _hemisphere(q: np.ndarray) -> np.ndarray:
+def _hemisphere(q: NDArray[np.float64]) -> NDArray[np.float64]:
     """Flip the quaternions (n, J, 4) of each joint to the hemisphere of that joint's principal
     axis (the eigenvector of sum q q^T), so that linear regression on them is meaningful."""
     out = q.copy()
@@ -97,7 +131,7 @@ def _hemisphere(q: np.ndarray) -> np.ndarray:
     return out
 
 
-def _non_negative(v, name: str) -> float:
+def _non_negative(v: Any, name: str) -> float:
     """A finite number >= 0, else InvalidArgumentError naming it (NaN compares false with
     everything, so ``smooth=nan`` used to pass ``smooth > 0`` checks silently)."""
     f = _arrays.finite(v, name)
@@ -112,9 +146,25 @@ UNIT_RATIO = 2.0
 
 
 def default_lattices(n_frames: int) -> tuple[tuple[int, int], tuple[int, int]]:
-    """The default SOM lattice and GRBF centre lattice of :meth:`PrimitiveModel.fit` for
-    n_frames training frames: (s, s) with s = min(30, isqrt(n)) and (g, g) with
-    g = min(15, isqrt(n // 4)). InvalidArgumentError below MIN_FRAMES frames."""
+    """The default SOM lattice and GRBF centre lattice of :meth:`PrimitiveModel.fit`.
+
+    Parameters
+    ----------
+    n_frames : int
+        Training frames n.
+
+    Returns
+    -------
+    som : tuple of int
+        (s, s) with s = min(30, isqrt(n)).
+    lattice : tuple of int
+        (g, g) with g = min(15, isqrt(n // 4)).
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        Below :data:`MIN_FRAMES` frames.
+    """
     n = int(n_frames)
     if n < MIN_FRAMES:
         raise InvalidArgumentError(
@@ -124,9 +174,23 @@ def default_lattices(n_frames: int) -> tuple[tuple[int, int], tuple[int, int]]:
     return (s, s), (g, g)
 
 
-def same_units(clips) -> list:
-    """The clips with those in other units than the first scaled to its body height (a ratio
-    of UNIT_RATIO or more; see :meth:`PrimitiveModel.fit`), each scaling warned about."""
+def same_units(clips: Sequence[Motion]) -> list[Motion]:
+    """Clips in other units than the first scaled to its body height.
+
+    A clip is in other units when its body height differs from the first clip's by a ratio of
+    :data:`UNIT_RATIO` or more (see :meth:`PrimitiveModel.fit`); each scaling is warned about
+    (:class:`mlayer.MlayerWarning`).
+
+    Parameters
+    ----------
+    clips : sequence of Motion
+        At least one clip.
+
+    Returns
+    -------
+    list of Motion
+        The clips, scaled where needed.
+    """
     import warnings
     from .errors import MlayerWarning
     from .metrics import body_height
@@ -149,8 +213,9 @@ def same_units(clips) -> list:
     return out
 
 
-def _check_plan(n: int, k, ks, criterion, cluster, order, min_count, manifold, som, lattice,
-                names, n_clips: int) -> dict:
+def _check_plan(n: int, k: int | str, ks: Iterable[int] | None, criterion: str, cluster: str,
+                order: int | str, min_count: int, manifold: str, som: Any, lattice: Any,
+                names: Sequence[str] | None, n_clips: int) -> dict[str, Any]:
     """The arguments of :meth:`PrimitiveModel.fit` checked against the n training frames before
     any training: k at most the frames and the SOM's units (the distinct manifold points a SOM
     can give), the candidate ks cut to that bound, the GRBF lattice at most n centres."""
@@ -210,7 +275,7 @@ class _Steps:
     """Where the steps of a fit go: the ``mlayer.primitives`` logger (INFO), fit's on_step
     callable, and its progress bar (advanced after each of the :data:`_FIT_STEPS` steps)."""
 
-    def __init__(self, bar, on_step=None):
+    def __init__(self, bar: Bar, on_step: Callable[[str], object] | None = None) -> None:
         self.bar, self.on_step = bar, on_step
 
     def say(self, msg: str, advance: bool = False) -> None:
@@ -238,33 +303,27 @@ class PrimitiveModel:
     (rows, cols, dim) or ``pca_mean``/``pca_components``.
     """
 
+    criteria: KCriteria | None
+    contacts: NDArray[np.bool_] | None
+    elbow_ks: NDArray[Any]
+    elbow_inertia: NDArray[Any]
+    bounds: Any
+
     # -- learning ------------------------------------------------------------------------------
 
     @classmethod
-    def fit(cls, clips, *, k="auto", ks=None, criterion: str = "elbow",
-            cluster: str = "kmeans", order=1, min_count: int = 1, manifold: str = "som",
-            som=None, epochs: int = 20, lattice=None, kernel: str = "thin_plate",
-            smoothing: float = 1e-6, seed: int = 0, progress=None,
-            names=None, on_step=None) -> "PrimitiveModel":
-        """Learn a model from one Motion or a list of Motions of one skeleton.
+    def fit(cls, clips: Motion | Sequence[Motion], *, k: int | str = "auto",
+            ks: Iterable[int] | None = None, criterion: str = "elbow", cluster: str = "kmeans",
+            order: int | str = 1, min_count: int = 1, manifold: str = "som",
+            som: tuple[int, int] | None = None, epochs: int = 20,
+            lattice: tuple[int, int] | None = None, kernel: str = "thin_plate",
+            smoothing: float = 1e-6, seed: int = 0, progress: ProgressArg = None,
+            names: Sequence[str] | None = None,
+            on_step: Callable[[str], object] | None = None) -> PrimitiveModel:
+        """Learn a model from one motion or a list of motions of one skeleton.
 
-        k: number of primitives, or "auto": the pick of criterion ("elbow", "silhouette" or
-        "bic") over ks (default 2 .. 20; ks given with an integer k: the criteria are computed
-        and stored all the same, in ``criteria``). cluster: what labels the frames and places
-        the primitives' centres: "kmeans", "fcm" (fuzzy c-means, each frame in its cluster of
-        largest membership) or "gmm" (Gaussian mixture, the most responsible component), both
-        started from the k-means centres; clusters that get no frame are dropped. order: 1 .. 3
-        or "auto" (the order of best held-out log-likelihood), min_count: the back-off rule of
-        the jump model (:class:`mlayer.Markov`). names: the clips' names (default their index),
-        for :meth:`generate`'s keys. k, ks and the lattices are checked against the number of
-        frames before any training. manifold: "som" (a rows x
-        cols SOM, batch training for epochs) or "pca". lattice, kernel, smoothing: the GRBF
-        (a small relative ridge keeps the weights of lattice centres with no training frame
-        nearby determined). The steps are logged (INFO) to the ``mlayer.primitives`` logger;
-        progress: a bar over them (None: on when stderr is a terminal and tqdm is installed;
-        True, False, a stream, or a callable(done, total); see ``mlayer._progress``).
-        on_step: a callable(line) also given each step's line as it is logged (the viewer
-        shows them).
+        k, ks and the lattices are checked against the number of frames before any training.
+        The steps are logged (INFO) to the ``mlayer.primitives`` logger.
 
         Defaults that scale with n, the number of training frames (:func:`default_lattices`):
         ``som`` s x s units with s = min(30, isqrt(n)) (about one frame per unit; the paper's
@@ -273,14 +332,67 @@ class PrimitiveModel:
         frames on), and never more centres per side than the SOM has units. They need
         :data:`MIN_FRAMES` (16) frames; with fewer, give both ``som`` and ``lattice``.
 
-        Units: a clip whose body height (:func:`mlayer.metrics.body_height`, along its up axis)
-        differs from the first clip's by a factor of :data:`UNIT_RATIO` (2) or more is in
-        other units (cm and m, CMU's 5.6 cm units and cm, inches and cm; people differ by less):
-        it is scaled (its OFFSETs, root and position channels) to the first clip's height, with
-        an :class:`mlayer.MlayerWarning` that says by how much. The model is in the first
-        clip's units.
+        Units: a clip whose body height (:func:`mlayer.metrics.body_height`, along its up
+        axis) differs from the first clip's by a factor of :data:`UNIT_RATIO` (2) or more is
+        in other units (cm and m, CMU's 5.6 cm units and cm, inches and cm; people differ by
+        less): it is scaled (its OFFSETs, root and position channels) to the first clip's
+        height, with an :class:`mlayer.MlayerWarning` that says by how much. The model is in
+        the first clip's units.
+
+        Parameters
+        ----------
+        clips : Motion or sequence of Motion
+            The training clips (each at least 2 frames).
+        k : int or "auto", optional
+            Number of primitives, or ``"auto"``: the pick of ``criterion`` over ``ks``.
+        ks : iterable of int, optional
+            Default 2 .. 20; with an integer k the criteria are computed and stored all the
+            same, in ``criteria``.
+        criterion : {"elbow", "silhouette", "bic"}, optional
+            How ``"auto"`` picks k.
+        cluster : {"kmeans", "fcm", "gmm"}, optional
+            What labels the frames and places the primitives' centres: k-means, fuzzy c-means
+            (each frame in its cluster of largest membership) or a Gaussian mixture (the most
+            responsible component), both started from the k-means centres; clusters that get
+            no frame are dropped.
+        order : int or "auto", optional
+            1 .. 3, or ``"auto"`` (the order of best held-out log-likelihood).
+        min_count : int, optional
+            The back-off rule of the jump model (:class:`mlayer.Markov`).
+        manifold : {"som", "pca"}, optional
+            A rows x cols SOM (batch training for ``epochs``) or PCA.
+        som : tuple of int, optional
+            The SOM's (rows, cols).
+        epochs : int, optional
+            SOM training passes.
+        lattice : tuple of int, optional
+            The GRBF's centre lattice.
+        kernel : str, optional
+            The GRBF's kernel.
+        smoothing : float, optional
+            The GRBF's ridge (a small relative ridge keeps the weights of lattice centres with
+            no training frame nearby determined).
+        seed : int, optional
+            Seed of every random step.
+        progress : None, bool, stream or callable, optional
+            A bar over the steps (None: on when stderr is a terminal and tqdm is installed;
+            True, False, a stream, or a callable ``f(done, total)``).
+        names : sequence of str, optional
+            The clips' names (default their index), for :meth:`generate`'s keys.
+        on_step : callable, optional
+            Also given each step's line as it is logged (the viewer shows them).
+
+        Returns
+        -------
+        PrimitiveModel
+            The model.
+
+        Raises
+        ------
+        mlayer.InvalidArgumentError
+            For no clips, clips too short, or a plan that does not fit the frames.
         """
-        clips = list(clips) if isinstance(clips, (list, tuple)) else [clips]
+        clips = list(clips) if isinstance(clips, (list, tuple)) else [cast(Motion, clips)]
         if not clips:
             raise InvalidArgumentError("PrimitiveModel.fit: no clips")
         for m in clips:
@@ -295,8 +407,8 @@ class PrimitiveModel:
             som_d, lattice_d = default_lattices(sum(m.n_frames for m in clips))
             som = som_d if som is None else som
             if lattice is None:
-                lattice = lattice_d if manifold != "som" else tuple(
-                    min(g, int(s)) for g, s in zip(lattice_d, som))
+                lattice = lattice_d if manifold != "som" else cast(tuple[int, int], tuple(
+                    min(g, int(s)) for g, s in zip(lattice_d, som)))
         n_frames = sum(m.n_frames for m in clips)
         plan = _check_plan(n_frames, k, ks, criterion, cluster, order, min_count, manifold,
                            som, lattice, names, len(clips))
@@ -307,8 +419,9 @@ class PrimitiveModel:
                               epochs=epochs, lattice=lattice, kernel=kernel,
                               smoothing=smoothing, seed=seed)
 
-    def _fit(self, clips, plan: dict, progress: _Steps, *, manifold, som, epochs, lattice,
-             kernel, smoothing, seed) -> "PrimitiveModel":
+    def _fit(self, clips: list[Motion], plan: dict[str, Any], progress: _Steps, *,
+             manifold: str, som: Any, epochs: int, lattice: Any, kernel: str,
+             smoothing: float, seed: int) -> PrimitiveModel:
         """The steps of :meth:`fit` on checked arguments (`plan`: _check_plan's; clips in one
         unit; `progress`: where the steps go)."""
         from .features import pose_features
@@ -360,7 +473,7 @@ class PrimitiveModel:
                        f"{self.floor_height:.4g}", True)
         return self
 
-    def _set_primitives(self, plan: dict, seed: int, progress) -> None:
+    def _set_primitives(self, plan: dict[str, Any], seed: int, progress: _Steps) -> None:
         """Primitives (labels, centres), the k criteria and the Markov model of the labels."""
         from .clustering import kmeans
         from .mixture import k_criteria
@@ -405,14 +518,35 @@ class PrimitiveModel:
         self.markov = Markov.fit(seqs, n_states=k, order=order, min_count=plan["min_count"])
         _say(progress, f"Markov: order {order}, min_count {plan['min_count']}")
 
-    def clip_labels(self) -> list:
-        """The primitive labels of each training clip."""
+    def clip_labels(self) -> list[NDArray[np.int64]]:
+        """The primitive labels of each training clip.
+
+        Returns
+        -------
+        list of numpy.ndarray
+            One label array per clip.
+        """
         ends = list(self.clip_starts[1:]) + [self.labels.shape[0]]
         return [self.labels[a:b] for a, b in zip(self.clip_starts, ends)]
 
-    def clip_frames(self, clip) -> tuple[int, int]:
-        """(first training frame, number of frames) of a training clip given by index or name
-        (:attr:`clip_names`); InvalidArgumentError naming the keys otherwise."""
+    def clip_frames(self, clip: int | str) -> tuple[int, int]:
+        """The frames of a training clip.
+
+        Parameters
+        ----------
+        clip : int or str
+            Its index or name (``clip_names``).
+
+        Returns
+        -------
+        tuple of int
+            (first training frame, number of frames).
+
+        Raises
+        ------
+        mlayer.InvalidArgumentError
+            Naming the keys, for an unknown clip.
+        """
         n = len(self.clip_starts)
         names = list(getattr(self, "clip_names", []) or [str(i) for i in range(n)])
         if isinstance(clip, (int, np.integer)) and not isinstance(clip, (bool, np.bool_)):
@@ -431,7 +565,7 @@ class PrimitiveModel:
         end = int(self.clip_starts[i + 1]) if i + 1 < n else self.points.shape[0]
         return int(self.clip_starts[i]), end - int(self.clip_starts[i])
 
-    def _set_guards(self, clips) -> None:
+    def _set_guards(self, clips: list[Motion]) -> None:
         """What the guards of generated motion need from the training clips: the contacts of
         every training frame (:func:`mlayer.detect_contacts`, the points of the first clip),
         the floor (:func:`mlayer.cleanup.floor_height` of those contacts over all clips) and
@@ -470,24 +604,35 @@ class PrimitiveModel:
         before the guards did not)."""
         return getattr(self, "contacts", None) is not None
 
-    def training_clips(self) -> list:
-        """The training clips' rotations and translations as Motions (the root at its rest
-        translation): what the joint limits are learned from."""
+    def training_clips(self) -> list[Motion]:
+        """The training clips' rotations and translations as Motions.
+
+        What the joint limits are learned from.
+
+        Returns
+        -------
+        list of Motion
+            One per clip, the root at its rest translation.
+        """
         ends = list(self.clip_starts[1:]) + [self.train_rot.shape[0]]
         n = self.train_rot.shape[0]
         root = np.repeat(np.asarray(self.rest_root_pos, dtype=np.float64)[None], n, axis=0)
         return [Motion(self.skeleton, self.frame_time, root[a:b], self.train_rot[a:b],
                        self.train_trans[a:b]) for a, b in zip(self.clip_starts, ends)]
 
-    def __getstate__(self):
-        # copies and pickles leave out the cached JointLimits (a C model that cannot be copied);
-        # joint_limits() makes it again when it is needed
+    def __getstate__(self) -> dict[str, Any]:
         state = self.__dict__.copy()
         state.pop("_limits_cache", None)
         return state
 
-    def joint_limits(self):
-        """:func:`mlayer.joint_limits` of the training clips (made once, kept)."""
+    def joint_limits(self) -> JointLimits:
+        """:func:`mlayer.joint_limits` of the training clips (made once, kept).
+
+        Returns
+        -------
+        JointLimits
+            The limits.
+        """
         lim = self.__dict__.get("_limits_cache")
         if lim is None:
             from .limits import joint_limits
@@ -495,18 +640,48 @@ class PrimitiveModel:
             self.__dict__["_limits_cache"] = lim
         return lim
 
-    def contacts_along(self, traj) -> np.ndarray:
-        """Contacts (n, C) bool of generated frames at the manifold points traj (n, 2): those
-        of the nearest training frames on the manifold
-        (:func:`mlayer.generate_guards.contacts_along`); C = len(contact_names)."""
+    def contacts_along(self, traj: ArrayLike) -> NDArray[np.bool_]:
+        """Contacts of generated frames: those of the nearest training frames on the manifold.
+
+        (:func:`mlayer.generate_guards.contacts_along`.)
+
+        Parameters
+        ----------
+        traj : array_like, shape (n, 2)
+            Manifold points of the generated frames.
+
+        Returns
+        -------
+        numpy.ndarray of bool, shape (n, C)
+            C = len(contact_names).
+        """
         from .generate_guards import contacts_along
-        return contacts_along(self.points, self.clamp(traj), self.contacts,
+        return contacts_along(self.points, self.clamp(traj), np.asarray(self.contacts),
                               1.0 / self.frame_time)
 
-    def guard(self, motion, traj):
-        """``(motion, GuardReport, contacts)``: the guards on a Motion generated along the
-        manifold points traj: the training frames' contacts pinned (each contact point at its
-        mean position over the contact), the training limits (always), the training floor."""
+    def guard(self, motion: Motion, traj: ArrayLike
+              ) -> tuple[Motion, GuardReport, NDArray[np.bool_]]:
+        """The guards on a motion generated along manifold points.
+
+        The training frames' contacts pinned (each contact point at its mean position over the
+        contact), the training limits (always), the training floor.
+
+        Parameters
+        ----------
+        motion : Motion
+            The generated motion.
+        traj : array_like, shape (n, 2)
+            Its manifold points.
+
+        Returns
+        -------
+        motion : Motion
+            The guarded motion.
+        report : GuardReport
+            What the guards did.
+        contacts : numpy.ndarray of bool, shape (n, C)
+            The generated frames' contacts.
+        """
         from .generate_guards import guard_motion
         if not self.has_guards:
             raise InvalidArgumentError("guards: the model was written before generated motion "
@@ -525,7 +700,7 @@ class PrimitiveModel:
                                    floor=floor)
         return out, report, c
 
-    def _set_body(self, body: int, clips=None) -> None:
+    def _set_body(self, body: int, clips: Sequence[Motion] | None = None) -> None:
         """The body joint and, when it is not the root, the translations the generated motion
         keeps: the root's and the other position channels' medians over the training frames."""
         self.body_joint = int(body)
@@ -542,7 +717,7 @@ class PrimitiveModel:
         """Index of the body joint in skeleton.trans_joints (body_joint != 0)."""
         return int(np.flatnonzero(self.skeleton.trans_joints == self.body_joint)[0])
 
-    def _targets(self, clips, X) -> np.ndarray:
+    def _targets(self, clips: Sequence[Motion], X: NDArray[np.float64]) -> NDArray[np.float64]:
         """Per frame: [body height, vx, vz (heading frame, per frame), yaw rate, J*4
         quaternions (body joint without heading), 3J positions]. The body's translation and
         heading are the root's, or on rigs with a static root those of body_joint in its
@@ -571,33 +746,76 @@ class PrimitiveModel:
 
     # -- mapping ---------------------------------------------------------------------------------
 
-    def clamp(self, points) -> np.ndarray:
-        """Points (n, 2) clipped to the manifold box the GRBF was fitted on."""
+    def clamp(self, points: ArrayLike) -> NDArray[np.float64]:
+        """Points clipped to the manifold box the GRBF was fitted on.
+
+        Parameters
+        ----------
+        points : array_like, shape (n, 2)
+            Manifold points.
+
+        Returns
+        -------
+        numpy.ndarray, shape (n, 2)
+            The clipped points.
+        """
         p = np.array(points, dtype=np.float64)
         for j in range(2):
             np.clip(p[:, j], self.bounds[j][0], self.bounds[j][1], out=p[:, j])
         return p
 
-    def _split(self, Y: np.ndarray) -> dict:
+    def _split(self, Y: NDArray[np.float64]) -> dict[str, NDArray[np.float64]]:
         J = self.skeleton.n_joints
         rot = Y[:, 4:4 + 4 * J].reshape(-1, J, 4)
         rot = rot / np.linalg.norm(rot, axis=-1, keepdims=True)
         return {"height": Y[:, 0], "velocity": Y[:, 1:3], "yaw_rate": Y[:, 3],
                 "rot": rot, "positions": Y[:, 4 + 4 * J:].reshape(-1, J, 3)}
 
-    def predict(self, points) -> dict:
-        """GRBF outputs at manifold points (n, 2): a dict with ``height`` (n,), ``velocity``
-        (n, 2), ``yaw_rate`` (n,), ``rot`` (n, J, 4, renormalized, root without heading) and
-        ``positions`` (n, J, 3: pose features, root at the origin, heading removed)."""
+    def predict(self, points: ArrayLike) -> dict[str, NDArray[np.float64]]:
+        """GRBF outputs at manifold points.
+
+        Parameters
+        ----------
+        points : array_like, shape (n, 2)
+            Manifold points.
+
+        Returns
+        -------
+        dict of str to numpy.ndarray
+            ``height`` (n,), ``velocity`` (n, 2), ``yaw_rate`` (n,), ``rot`` (n, J, 4,
+            renormalized, root without heading) and ``positions`` (n, J, 3: pose features,
+            root at the origin, heading removed).
+        """
         return self._split(self.grbf.predict(points))
 
-    def positions(self, points) -> np.ndarray:
-        """Joint positions (n, J, 3) (pose features) at manifold points, as the paper maps."""
+    def positions(self, points: ArrayLike) -> NDArray[np.float64]:
+        """Joint positions (pose features) at manifold points, as the paper maps.
+
+        Parameters
+        ----------
+        points : array_like, shape (n, 2)
+            Manifold points.
+
+        Returns
+        -------
+        numpy.ndarray, shape (n, J, 3)
+            The positions.
+        """
         return self.predict(points)["positions"]
 
-    def to_manifold(self, poses) -> np.ndarray:
-        """Inverse mapping: manifold points (n, 2) of poses given as pose features (n, 3J) or a
-        Motion (its frames): the BMU's lattice position (SOM) or the PCA projection."""
+    def to_manifold(self, poses: Motion | ArrayLike) -> NDArray[np.float64]:
+        """Inverse mapping: manifold points of poses.
+
+        Parameters
+        ----------
+        poses : Motion or array_like, shape (n, 3J)
+            Pose features, or a motion (its frames).
+
+        Returns
+        -------
+        numpy.ndarray, shape (n, 2)
+            The BMU's lattice position (SOM) or the PCA projection.
+        """
         from .features import pose_features
         X = pose_features(poses) if isinstance(poses, Motion) else np.asarray(poses, np.float64)
         if X.ndim == 1:
@@ -624,12 +842,33 @@ class PrimitiveModel:
 
     def primitive_path(self, start: int, n_frames: int, *, noise: float = 0.0, seed: int = 0,
                        most_likely: bool = False, second_likely: bool = False,
-                       allow_unseen: bool = False) -> np.ndarray:
-        """Primitives from start, enough to fill n_frames at their mean durations: sampled
-        from the chain of distinct primitives (of the model's order), or following the most
-        likely (equation 5) or the second most likely next primitive (paper Figure 3 (c)). The
-        chain is perturbed first when noise > 0 (:meth:`mlayer.Markov.perturbed`, seed,
-        allow_unseen): the most likely path of a perturbed chain is paper Figure 3 (d)."""
+                       allow_unseen: bool = False) -> NDArray[np.int64]:
+        """Primitives from a start, enough to fill n_frames at their mean durations.
+
+        Sampled from the chain of distinct primitives (of the model's order), or following the
+        most likely (equation 5) or the second most likely next primitive (paper Figure 3 (c)).
+        The most likely path of a perturbed chain is paper Figure 3 (d).
+
+        Parameters
+        ----------
+        start : int
+            The first primitive.
+        n_frames : int
+            Frames to fill.
+        noise : float, optional
+            Perturb the chain first when > 0 (:meth:`mlayer.Markov.perturbed`).
+        seed : int, optional
+            Seed of the perturbation and the sampling.
+        most_likely, second_likely : bool, optional
+            Follow the most likely or the second most likely next primitive.
+        allow_unseen : bool, optional
+            As for :meth:`mlayer.Markov.perturbed`.
+
+        Returns
+        -------
+        numpy.ndarray of int64
+            The primitives.
+        """
         if most_likely and second_likely:
             raise InvalidArgumentError("generate: most_likely and second_likely exclude each "
                                        "other (--most-likely, --second-likely)")
@@ -660,9 +899,24 @@ class PrimitiveModel:
                 break
         return np.array(path, dtype=np.int64)
 
-    def through_points(self, points) -> np.ndarray:
-        """Manifold points (K, 2) (row, column of the lattice; PCA: PC 1, PC 2) checked to be
-        finite and on the map (the box the GRBF spans); InvalidArgumentError naming through."""
+    def through_points(self, points: ArrayLike) -> NDArray[np.float64]:
+        """Manifold points checked to be finite and on the map (the box the GRBF spans).
+
+        Parameters
+        ----------
+        points : array_like, shape (K, 2)
+            Row, column of the lattice; PCA: PC 1, PC 2.
+
+        Returns
+        -------
+        numpy.ndarray, shape (K, 2)
+            The points.
+
+        Raises
+        ------
+        mlayer.InvalidArgumentError
+            Naming ``through``, for points off the map or not finite.
+        """
         p = np.asarray(points, dtype=np.float64) if not isinstance(points, str) else None
         if p is None or p.ndim != 2 or p.shape[1] != 2 or p.shape[0] < 1:
             raise InvalidArgumentError(f"option through: need points (K, 2), K >= 1, got "
@@ -681,10 +935,21 @@ class PrimitiveModel:
             raise InvalidArgumentError("option through: two consecutive points are the same")
         return p
 
-    def key_points(self, keys) -> np.ndarray:
-        """Manifold points (K, 2) of key frames: each key a pair (clip, frame), clip a
-        training clip's index or name (:attr:`clip_names`) or a Motion of the model's skeleton
-        (its frame's BMU, :meth:`to_manifold`), frame an index into that clip."""
+    def key_points(self, keys: Sequence[tuple[int | str | Motion, int]]) -> NDArray[np.float64]:
+        """Manifold points of key frames.
+
+        Parameters
+        ----------
+        keys : sequence of (clip, frame)
+            ``clip`` a training clip's index or name (``clip_names``) or a Motion of the
+            model's skeleton (its frame's BMU, :meth:`to_manifold`), ``frame`` an index into
+            that clip.
+
+        Returns
+        -------
+        numpy.ndarray, shape (K, 2)
+            The points.
+        """
         if isinstance(keys, (str, bytes)) or not hasattr(keys, "__len__") or len(keys) == 0:
             raise InvalidArgumentError(f"option keys: need a list of (clip, frame) pairs, got "
                                        f"{keys!r}")
@@ -710,9 +975,26 @@ class PrimitiveModel:
             out.append(self.to_manifold(clip)[f] if first is None else self.points[first + f])
         return np.array(out, dtype=np.float64)
 
-    def spline(self, knots, times, n_frames: int, *, stiffness: float = 1e-3) -> np.ndarray:
-        """The LGS smoothing spline (second-difference prior) through knots (K, 2) at
-        fractional frames times (K,), sampled on n_frames frames; stiffness = lam^2 sigma^2."""
+    def spline(self, knots: ArrayLike, times: ArrayLike, n_frames: int, *,
+               stiffness: float = 1e-3) -> NDArray[np.float64]:
+        """The LGS smoothing spline (second-difference prior) through knots.
+
+        Parameters
+        ----------
+        knots : array_like, shape (K, 2)
+            Manifold points.
+        times : array_like, shape (K,)
+            Their fractional frames.
+        n_frames : int
+            Frames to sample.
+        stiffness : float, optional
+            ``lam^2 sigma^2``.
+
+        Returns
+        -------
+        numpy.ndarray, shape (n_frames, 2)
+            The spline.
+        """
         knots = np.asarray(knots, dtype=np.float64)
         t = np.asarray(times, dtype=np.float64)
         if knots.shape[0] == 1:
@@ -720,35 +1002,65 @@ class PrimitiveModel:
         return lgs(knots, lam=math.sqrt(stiffness), sigma=1.0, order=2, t=t, n_out=n_frames)
 
     def generate(self, n_frames: int, *, start_frame: int | None = None, start: int | None = None,
-                 path=None, key_poses=None, through=None, keys=None, noise: float = 0.0,
-                 seed: int = 0, most_likely: bool = False, second_likely: bool = False,
-                 allow_unseen: bool = False, smooth: float = 2.0, guards: bool = True,
-                 return_info: bool = False):
+                 path: Sequence[int] | None = None, key_poses: Motion | ArrayLike | None = None,
+                 through: ArrayLike | None = None,
+                 keys: Sequence[tuple[int | str | Motion, int]] | None = None,
+                 noise: float = 0.0, seed: int = 0, most_likely: bool = False,
+                 second_likely: bool = False, allow_unseen: bool = False, smooth: float = 2.0,
+                 guards: bool = True, return_info: bool = False
+                 ) -> Any:
         """Synthesize n_frames frames.
 
-        Paths given on the manifold (at most one of them): through, points (K, 2) on the map
-        (:meth:`through_points`), spaced by their distance along the polyline (paper Figure
-        4); keys, key frames (clip, frame) of the training clips (or of a Motion,
-        :meth:`key_points`), spread evenly over the frames (paper Figure 5); key_poses.
-        Otherwise the primitives' path from a start frame (:meth:`primitive_path`: sampled, or
-        most_likely / second_likely; noise, seed and allow_unseen perturb the chain).
+        Paths given on the manifold (at most one of them): ``through``, ``keys``,
+        ``key_poses``. Otherwise the primitives' path from a start frame
+        (:meth:`primitive_path`: sampled, or most_likely / second_likely; noise, seed and
+        allow_unseen perturb the chain).
 
-        Knots of the manifold path: the manifold point of training frame start_frame (default
-        a seeded random frame) followed by the centres of the primitives of ``path`` (default
-        :meth:`primitive_path`: Markov samples with perturbation noise, or equation 5 when
-        most_likely) spaced by their mean durations; or, with key_poses (pose features or a
-        Motion), their manifold points (:meth:`to_manifold`) spread evenly over the frames.
-        The LGS spline through the knots, clipped to the manifold box, is mapped to poses by
-        the GRBF, smoothed by the LGS with lam = smooth, quaternions renormalized; root
-        height, turning and forward motion come from the mapping too.
+        Knots of the manifold path: the manifold point of training frame ``start_frame``
+        followed by the centres of the primitives of ``path`` (default :meth:`primitive_path`:
+        Markov samples with perturbation noise, or equation 5 when most_likely) spaced by
+        their mean durations; or, with key_poses, their manifold points (:meth:`to_manifold`)
+        spread evenly over the frames. The LGS spline through the knots, clipped to the
+        manifold box, is mapped to poses by the GRBF, smoothed by the LGS with lam = smooth,
+        quaternions renormalized; root height, turning and forward motion come from the
+        mapping too.
 
-        guards (default True): the plausibility guards of the training clips (:meth:`guard`):
-        the contacts of the training frames nearest to each generated frame's manifold point
-        pinned by IK, the training clips' joint limits, their floor. False gives the raw
-        mapping. Returns a Motion (and a dict with the manifold path, knots and primitive
-        sequence, and with ``contact_names``/``contacts`` (the generated frames' contacts)
-        and ``guards`` (a :class:`mlayer.pipeline.GuardReport`, None when the guards did not
-        run) when return_info).
+        Parameters
+        ----------
+        n_frames : int
+            Frames to generate.
+        start_frame : int, optional
+            The training frame to start from (default a seeded random frame).
+        start : int, optional
+            The first primitive.
+        path : sequence of int, optional
+            The primitives to visit.
+        key_poses : Motion or array_like, optional
+            Pose features or a motion whose frames are the knots.
+        through : array_like, shape (K, 2), optional
+            Points on the map (:meth:`through_points`), spaced by their distance along the
+            polyline (paper Figure 4).
+        keys : sequence of (clip, frame), optional
+            Key frames of the training clips (or of a Motion, :meth:`key_points`), spread
+            evenly over the frames (paper Figure 5).
+        noise, seed, most_likely, second_likely, allow_unseen
+            As for :meth:`primitive_path`.
+        smooth : float, optional
+            The lam of the LGS that smooths the mapped poses.
+        guards : bool, optional
+            The plausibility guards of the training clips (:meth:`guard`): the contacts of the
+            training frames nearest to each generated frame's manifold point pinned by IK, the
+            training clips' joint limits, their floor. False gives the raw mapping.
+        return_info : bool, optional
+            Also return a dict with the manifold path (``trajectory``), ``knots``, ``times``,
+            the primitive sequence (``primitives``), ``contact_names``/``contacts`` (the
+            generated frames' contacts) and ``guards`` (a
+            :class:`mlayer.pipeline.GuardReport`, None when the guards did not run).
+
+        Returns
+        -------
+        Motion or (Motion, dict)
+            The generated motion, with the info when ``return_info``.
         """
         if not isinstance(guards, (bool, np.bool_)):
             raise InvalidArgumentError(f"generate: guards must be True or False, got "
@@ -774,7 +1086,7 @@ class PrimitiveModel:
                                        "other (--most-likely, --second-likely)")
         if through is not None or keys is not None:
             knots = self.through_points(through) if through is not None \
-                else self.key_points(keys)
+                else self.key_points(keys or [])
             if knots.shape[0] > n_frames:
                 raise InvalidArgumentError(f"generate: {knots.shape[0]} points for {n_frames} "
                                            f"frames (option frames)")
@@ -842,8 +1154,21 @@ class PrimitiveModel:
                             "contacts": contacts}
         return motion
 
-    def motion_along(self, traj, *, smooth: float = 2.0) -> Motion:
-        """The Motion whose frames the GRBF maps from the manifold points traj (n, 2)."""
+    def motion_along(self, traj: ArrayLike, *, smooth: float = 2.0) -> Motion:
+        """The motion whose frames the GRBF maps from manifold points.
+
+        Parameters
+        ----------
+        traj : array_like, shape (n, 2)
+            Manifold points.
+        smooth : float, optional
+            The lam of the LGS that smooths the mapped poses.
+
+        Returns
+        -------
+        Motion
+            The motion.
+        """
         traj = np.asarray(traj, dtype=np.float64)
         smooth = _non_negative(smooth, "motion_along: smooth")
         Y = self.grbf.predict(traj)
@@ -872,7 +1197,7 @@ class PrimitiveModel:
 
     # -- persistence -----------------------------------------------------------------------------
 
-    def _load_dynamics(self, z, fmt: int) -> None:
+    def _load_dynamics(self, z: Any, fmt: int) -> None:
         """The Markov model, the k criteria and the clip names of a model file; format 1 files
         (before orders and criteria) load as order 1, clips named by their index."""
         from .mixture import KCriteria
@@ -896,8 +1221,14 @@ class PrimitiveModel:
             self.criteria = KCriteria(z["crit_ks"], z["crit_inertia"], z["crit_silhouette"],
                                       z["crit_bic"], picks, ())
 
-    def save(self, path) -> None:
-        """Write the model as a .npz file (numpy arrays only, no pickle), atomically."""
+    def save(self, path: str | os.PathLike[str]) -> None:
+        """Write the model as a .npz file (numpy arrays only, no pickle), atomically.
+
+        Parameters
+        ----------
+        path : str or os.PathLike
+            The file.
+        """
         from ._files import atomic_output
         sk = self.skeleton
         arrays = dict(
@@ -929,7 +1260,7 @@ class PrimitiveModel:
                                                                ("elbow", "silhouette", "bic")]))
         if self.has_guards:
             arrays.update(contact_names=np.array(self.contact_names, dtype=np.str_),
-                          contacts=self.contacts.astype(np.uint8),
+                          contacts=np.asarray(self.contacts).astype(np.uint8),
                           floor_height=np.float64(self.floor_height), train_rot=self.train_rot,
                           train_trans=self.train_trans)
         if self.manifold == "som":
@@ -941,11 +1272,27 @@ class PrimitiveModel:
                 np.savez_compressed(f, **arrays)
 
     @classmethod
-    def load(cls, path) -> "PrimitiveModel":
-        """Read a model written by :meth:`save` (a .npz file). Anything else (a BVH file, a
-        pickle, a .npy array) raises MlayerIOError with one line saying a .npz model is
-        expected; the file's first bytes are checked before numpy reads it, and nothing is
-        unpickled."""
+    def load(cls, path: str | os.PathLike[str]) -> PrimitiveModel:
+        """Read a model written by :meth:`save`.
+
+        The file's first bytes are checked before numpy reads it, and nothing is unpickled.
+
+        Parameters
+        ----------
+        path : str or os.PathLike
+            A .npz file.
+
+        Returns
+        -------
+        PrimitiveModel
+            The model.
+
+        Raises
+        ------
+        mlayer.MlayerIOError
+            With one line saying a .npz model is expected, for anything else (a BVH file, a
+            pickle, a .npy array).
+        """
         try:
             with open(path, "rb") as f:
                 head = f.read(512)
@@ -978,7 +1325,8 @@ class PrimitiveModel:
                     setattr(self, name, z[name])
                 self.bounds = tuple(tuple(float(v) for v in b) for b in z["bounds"])
                 self._load_dynamics(z, fmt)
-                g = GRBF(str(z["grbf_kernel"]), tuple(int(v) for v in z["grbf_lattice"]),
+                g = GRBF(str(z["grbf_kernel"]),
+                         cast(tuple[int, int], tuple(int(v) for v in z["grbf_lattice"])),
                          bounds=self.bounds)
                 g.centers_, g.coef_, g._vector = z["grbf_centers"], z["grbf_coef"], False
                 g.bounds_ = self.bounds

@@ -12,56 +12,110 @@ order is refused here rather than silently read as intrinsic.
 """
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from . import _arrays
 from ._native import ffi, lib
 from .errors import InvalidArgumentError, check
+
+if TYPE_CHECKING:
+    from scipy.spatial.transform import Rotation
 
 __all__ = ["mul", "conj", "normalize", "exp", "log", "slerp", "from_euler", "to_euler",
            "continuous", "euler_order", "to_scalar_last", "from_scalar_last", "to_scipy",
            "from_scipy"]
 
 
-def to_scalar_last(q) -> np.ndarray:
-    """mlayer's scalar-first ``(..., 4)`` quaternions as scalar-last ``(x, y, z, w)``, the order
-    of ``scipy.spatial.transform.Rotation.from_quat`` (and glTF). ``Rotation.from_quat(m.rot)``
-    without it is wrong: the scalar is read as z."""
+def to_scalar_last(q: ArrayLike) -> NDArray[np.float64]:
+    """Scalar-first quaternions as scalar-last ``(x, y, z, w)``.
+
+    Scalar-last is the order of ``scipy.spatial.transform.Rotation.from_quat`` (and glTF).
+    ``Rotation.from_quat(m.rot)`` without it is wrong: the scalar is read as z.
+
+    Parameters
+    ----------
+    q : array_like, shape (..., 4)
+        Scalar-first ``(w, x, y, z)`` quaternions.
+
+    Returns
+    -------
+    numpy.ndarray, shape (..., 4)
+        The same quaternions, scalar-last (a new C-contiguous array).
+    """
     q = _quats(q, "q")
     return np.ascontiguousarray(np.concatenate([q[..., 1:], q[..., :1]], axis=-1))
 
 
-def from_scalar_last(q) -> np.ndarray:
-    """Scalar-last ``(x, y, z, w)`` quaternions (scipy's ``Rotation.as_quat``) as mlayer's
-    scalar-first ``(w, x, y, z)``."""
+def from_scalar_last(q: ArrayLike) -> NDArray[np.float64]:
+    """Scalar-last ``(x, y, z, w)`` quaternions as mlayer's scalar-first ``(w, x, y, z)``.
+
+    Parameters
+    ----------
+    q : array_like, shape (..., 4)
+        Scalar-last quaternions (scipy's ``Rotation.as_quat``).
+
+    Returns
+    -------
+    numpy.ndarray, shape (..., 4)
+        The same quaternions, scalar-first (a new C-contiguous array).
+    """
     q = _quats(q, "q")
     return np.ascontiguousarray(np.concatenate([q[..., 3:], q[..., :3]], axis=-1))
 
 
-def to_scipy(q):
-    """A ``scipy.spatial.transform.Rotation`` of scalar-first quaternions (any leading shape is
-    flattened, as scipy holds a 1-D stack). Needs scipy."""
+def to_scipy(q: ArrayLike) -> Rotation:
+    """A ``scipy.spatial.transform.Rotation`` of scalar-first quaternions. Needs scipy.
+
+    Parameters
+    ----------
+    q : array_like, shape (..., 4)
+        Scalar-first quaternions; any leading shape is flattened, as scipy holds a 1-D stack.
+
+    Returns
+    -------
+    scipy.spatial.transform.Rotation
+        A stack of ``q.size // 4`` rotations.
+
+    Raises
+    ------
+    mlayer.MissingDependencyError
+        When scipy is not installed.
+    """
     from ._optional import require
     require("scipy", feature="mlayer.quat.to_scipy")
-    from scipy.spatial.transform import Rotation
-    return Rotation.from_quat(to_scalar_last(q).reshape(-1, 4))
+    from scipy.spatial.transform import Rotation as _Rotation
+    return _Rotation.from_quat(to_scalar_last(q).reshape(-1, 4))
 
 
-def from_scipy(rotation) -> np.ndarray:
-    """Scalar-first ``(N, 4)`` quaternions of a ``scipy.spatial.transform.Rotation`` stack
-    (``(4,)`` for a single rotation)."""
+def from_scipy(rotation: Rotation) -> NDArray[np.float64]:
+    """Scalar-first quaternions of a ``scipy.spatial.transform.Rotation``.
+
+    Parameters
+    ----------
+    rotation : scipy.spatial.transform.Rotation
+        A stack of rotations or a single one.
+
+    Returns
+    -------
+    numpy.ndarray, shape (N, 4) or (4,)
+        ``(w, x, y, z)`` quaternions: ``(4,)`` for a single rotation.
+    """
     return from_scalar_last(rotation.as_quat())
 
 
-def _quats(q, name: str) -> np.ndarray:
+def _quats(q: ArrayLike, name: str) -> NDArray[np.float64]:
     return _arrays.as_f64(q, name, last=(4,))
 
 
-def _vecs(v, name: str) -> np.ndarray:
+def _vecs(v: ArrayLike, name: str) -> NDArray[np.float64]:
     return _arrays.as_f64(v, name, last=(3,))
 
 
-def _broadcast(name: str, *parts):
+def _broadcast(name: str, *parts: tuple[NDArray[np.float64], int]
+               ) -> tuple[tuple[int, ...], list[NDArray[np.float64]]]:
     """Broadcast (array, trailing_dims) pairs over their leading (batch) shapes and make each
     C-contiguous. Arrays already of the common shape are not copied."""
     try:
@@ -79,7 +133,24 @@ def _broadcast(name: str, *parts):
 
 
 def euler_order(order: str) -> int:
-    """The C enum value (``lib.MLR_EULER_*``) of an order name such as ``"ZXY"``."""
+    """The C enum value (``lib.MLR_EULER_*``) of an Euler order name.
+
+    Parameters
+    ----------
+    order : str
+        An intrinsic order in uppercase, such as ``"ZXY"``.
+
+    Returns
+    -------
+    int
+        The ``mlr_euler_order`` value.
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        When ``order`` is not a string, is lowercase (scipy's extrinsic spelling) or names no
+        order.
+    """
     if not isinstance(order, str):
         raise InvalidArgumentError(f"order must be a string such as 'ZXY', got {order!r}")
     if order != order.upper():
@@ -93,10 +164,32 @@ def euler_order(order: str) -> int:
     return int(out[0])
 
 
-def mul(a, b) -> np.ndarray:
-    """Hamilton product ``a * b`` of (..., 4) arrays, broadcast over the leading dimensions.
+def mul(a: ArrayLike, b: ArrayLike) -> NDArray[np.float64]:
+    """Hamilton product ``a * b``, broadcast over the leading dimensions.
 
     As rotations, ``mul(a, b)`` applies ``b`` first, then ``a``. NaNs propagate.
+
+    Parameters
+    ----------
+    a, b : array_like, shape (..., 4)
+        Scalar-first quaternions; their leading shapes broadcast.
+
+    Returns
+    -------
+    numpy.ndarray, shape (..., 4)
+        The products.
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        When the shapes do not broadcast.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from mlayer import quat
+    >>> quat.mul([1.0, 0, 0, 0], [0.0, 1, 0, 0])
+    array([0., 1., 0., 0.])
     """
     a, b = _quats(a, "a"), _quats(b, "b")
     batch, (a, b) = _broadcast("mlayer.quat.mul", (a, 1), (b, 1))
@@ -107,8 +200,19 @@ def mul(a, b) -> np.ndarray:
     return out
 
 
-def conj(q) -> np.ndarray:
-    """Conjugate ``(w, -x, -y, -z)``: the inverse rotation of a unit quaternion."""
+def conj(q: ArrayLike) -> NDArray[np.float64]:
+    """Conjugate ``(w, -x, -y, -z)``: the inverse rotation of a unit quaternion.
+
+    Parameters
+    ----------
+    q : array_like, shape (..., 4)
+        Scalar-first quaternions.
+
+    Returns
+    -------
+    numpy.ndarray, shape (..., 4)
+        The conjugates.
+    """
     q = _quats(q, "q")
     out = np.empty(q.shape)
     if out.size:
@@ -117,8 +221,24 @@ def conj(q) -> np.ndarray:
     return out
 
 
-def normalize(q) -> np.ndarray:
-    """``q / |q|``. Raises InvalidArgumentError for a zero or non-finite quaternion."""
+def normalize(q: ArrayLike) -> NDArray[np.float64]:
+    """``q / |q|``.
+
+    Parameters
+    ----------
+    q : array_like, shape (..., 4)
+        Quaternions.
+
+    Returns
+    -------
+    numpy.ndarray, shape (..., 4)
+        Unit quaternions.
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        For a zero or non-finite quaternion.
+    """
     q = _quats(q, "q")
     out = np.empty(q.shape)
     if out.size:
@@ -129,9 +249,26 @@ def normalize(q) -> np.ndarray:
     return out
 
 
-def exp(v) -> np.ndarray:
-    """Unit quaternions (..., 4) of rotation vectors (..., 3): the rotation by ``|v|`` about
-    ``v / |v|``; accurate near 0."""
+def exp(v: ArrayLike) -> NDArray[np.float64]:
+    """Unit quaternions of rotation vectors: the rotation by ``|v|`` about ``v / |v|``.
+
+    Accurate near 0.
+
+    Parameters
+    ----------
+    v : array_like, shape (..., 3)
+        Rotation vectors (axis times the full angle, radians).
+
+    Returns
+    -------
+    numpy.ndarray, shape (..., 4)
+        Unit quaternions.
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        For non-finite vectors.
+    """
     v = _vecs(v, "v")
     out = np.empty(v.shape[:-1] + (4,))
     if out.size:
@@ -142,9 +279,27 @@ def exp(v) -> np.ndarray:
     return out
 
 
-def log(q) -> np.ndarray:
-    """Rotation vectors (..., 3) of quaternions (..., 4), angle in [0, pi] (``q`` and ``-q``
-    give the same vector); accurate near 0 and near pi. ``q`` need not be exactly unit."""
+def log(q: ArrayLike) -> NDArray[np.float64]:
+    """Rotation vectors of quaternions, angle in [0, pi].
+
+    ``q`` and ``-q`` give the same vector; accurate near 0 and near pi. ``q`` need not be
+    exactly unit.
+
+    Parameters
+    ----------
+    q : array_like, shape (..., 4)
+        Scalar-first quaternions.
+
+    Returns
+    -------
+    numpy.ndarray, shape (..., 3)
+        Rotation vectors (axis times the full angle, radians).
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        For a zero or non-finite quaternion.
+    """
     q = _quats(q, "q")
     out = np.empty(q.shape[:-1] + (3,))
     if out.size:
@@ -155,12 +310,29 @@ def log(q) -> np.ndarray:
     return out
 
 
-def slerp(a, b, t) -> np.ndarray:
+def slerp(a: ArrayLike, b: ArrayLike, t: ArrayLike) -> NDArray[np.float64]:
     """Spherical interpolation from ``a`` (t = 0) to ``b`` (t = 1) along the shorter arc.
 
-    ``a`` and ``b`` are (..., 4), ``t`` is a scalar or (...); all three broadcast over the
-    leading dimensions, so ``slerp(a, b, np.linspace(0, 1, 5)[:, None])`` with ``a``, ``b`` of
-    shape (J, 4) gives (5, J, 4). Output is unit norm; t outside [0, 1] extrapolates.
+    All three arguments broadcast over the leading dimensions, so
+    ``slerp(a, b, np.linspace(0, 1, 5)[:, None])`` with ``a``, ``b`` of shape (J, 4) gives
+    (5, J, 4). ``t`` outside [0, 1] extrapolates.
+
+    Parameters
+    ----------
+    a, b : array_like, shape (..., 4)
+        Scalar-first quaternions.
+    t : float or array_like, shape (...)
+        Interpolation parameters.
+
+    Returns
+    -------
+    numpy.ndarray, shape (..., 4)
+        Unit quaternions.
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        When the shapes do not broadcast or an input is not finite.
     """
     a, b = _quats(a, "a"), _quats(b, "b")
     scalar_t = np.ndim(t) == 0
@@ -178,26 +350,66 @@ def slerp(a, b, t) -> np.ndarray:
     return out
 
 
-def from_euler(angles, order: str, degrees: bool = True) -> np.ndarray:
-    """Unit quaternions (..., 4) from intrinsic Euler angles (..., 3), ``angles[..., k]`` about
-    the k-th axis of ``order`` (e.g. ``"ZXY"``: ``R = Rz(a0) Rx(a1) Ry(a2)``)."""
+def from_euler(angles: ArrayLike, order: str, degrees: bool = True) -> NDArray[np.float64]:
+    """Unit quaternions from intrinsic Euler angles.
+
+    Parameters
+    ----------
+    angles : array_like, shape (..., 3)
+        ``angles[..., k]`` is the angle about the k-th axis of ``order``.
+    order : str
+        An uppercase intrinsic order, e.g. ``"ZXY"``: ``R = Rz(a0) Rx(a1) Ry(a2)``.
+    degrees : bool, optional
+        Angles in degrees (the default) or radians.
+
+    Returns
+    -------
+    numpy.ndarray, shape (..., 4)
+        Unit quaternions.
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        For a bad order (see :func:`euler_order`) or non-finite angles.
+    """
     o = euler_order(order)
-    angles = _arrays.as_f64(angles, "angles", last=(3,))
+    a = _arrays.as_f64(angles, "angles", last=(3,))
     if degrees:
-        angles = np.deg2rad(angles)
-    out = np.empty(angles.shape[:-1] + (4,))
+        a = np.deg2rad(a)
+    out = np.empty(a.shape[:-1] + (4,))
     if out.size:
         diag = ffi.new("mlr_diag *")
-        code = lib.mlr_quat_from_euler_array(_arrays.ptr(angles), out.size // 4, o,
+        code = lib.mlr_quat_from_euler_array(_arrays.ptr(a), out.size // 4, o,
                                              _arrays.ptr_out(out, "mlr_quat *"), diag)
         check(code, "mlayer.quat.from_euler", diag)
     return out
 
 
-def to_euler(q, order: str, degrees: bool = True) -> np.ndarray:
-    """Intrinsic Euler angles (..., 3) of quaternions (..., 4) in ``order``: the middle angle in
-    [-90, 90] degrees, the others in (-180, 180]. At gimbal lock the third angle is 0. ``q``
-    need not be normalized."""
+def to_euler(q: ArrayLike, order: str, degrees: bool = True) -> NDArray[np.float64]:
+    """Intrinsic Euler angles of quaternions in ``order``.
+
+    The middle angle is in [-90, 90] degrees, the others in (-180, 180]. At gimbal lock the
+    third angle is 0. ``q`` need not be normalized.
+
+    Parameters
+    ----------
+    q : array_like, shape (..., 4)
+        Scalar-first quaternions.
+    order : str
+        An uppercase intrinsic order, e.g. ``"ZXY"``.
+    degrees : bool, optional
+        Return degrees (the default) or radians.
+
+    Returns
+    -------
+    numpy.ndarray, shape (..., 3)
+        The angles, ``[..., k]`` about the k-th axis of ``order``.
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        For a bad order or a zero or non-finite quaternion.
+    """
     o = euler_order(order)
     q = _quats(q, "q")
     out = np.empty(q.shape[:-1] + (3,))
@@ -211,15 +423,34 @@ def to_euler(q, order: str, degrees: bool = True) -> np.ndarray:
     return out
 
 
-def continuous(q, *, predictive: bool = False) -> np.ndarray:
-    """Sign continuity along axis 0: a copy of ``q`` (N, ..., 4) where each track (every index
-    of the middle dimensions) is flipped to ``-q`` where needed so that consecutive frames have
-    a non-negative dot product. The first frame keeps its sign; rotations are unchanged.
+def continuous(q: ArrayLike, *, predictive: bool = False) -> NDArray[np.float64]:
+    """Sign continuity along axis 0.
 
-    ``predictive=True`` uses the second-order predictive rule instead
-    (``mlr_quat_make_continuous_predictive``: the sign that continues the previous steps, so a
-    spin faster than 180 degrees per frame keeps its direction; the nearest sign for steps below
-    60 degrees). It is the rule the resampler and :class:`mlayer.Stream` apply."""
+    Each track (every index of the middle dimensions) is flipped to ``-q`` where needed so
+    that consecutive frames have a non-negative dot product. The first frame keeps its sign;
+    rotations are unchanged.
+
+    Parameters
+    ----------
+    q : array_like, shape (N, ..., 4)
+        Scalar-first quaternions, frames along axis 0.
+    predictive : bool, optional
+        Use the second-order predictive rule instead
+        (``mlr_quat_make_continuous_predictive``: the sign that continues the previous steps,
+        so a spin faster than 180 degrees per frame keeps its direction; the nearest sign for
+        steps below 60 degrees). It is the rule the resampler and :class:`mlayer.Stream`
+        apply.
+
+    Returns
+    -------
+    numpy.ndarray, shape (N, ..., 4)
+        A copy of ``q`` with continuous signs.
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        When ``q`` has fewer than 2 dimensions.
+    """
     q = _quats(q, "q")
     if q.ndim < 2:
         raise InvalidArgumentError(

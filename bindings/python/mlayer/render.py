@@ -14,9 +14,13 @@ the panels (denoised, exaggerated, retimed) are differences of the motions, not 
 from __future__ import annotations
 
 import math
+import os
 import re
+from collections.abc import Iterable
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from .metrics import body_height
 from .up_axis import to_y_up
@@ -24,8 +28,13 @@ from .up_axis import to_y_up
 from ._args import integer
 from ._files import atomic_output
 from ._optional import require
-from ._progress import resolve
+from ._progress import BarFactory, ProgressArg, resolve
 from .errors import InvalidArgumentError
+
+if TYPE_CHECKING:
+    from .motion import Motion
+
+__all__ = ["render", "render_gif", "body_side", "followed_joint", "FORMATS"]
 
 # Fixed palette (GIF frames are drawn in "P" mode: no per-frame quantization needed).
 _PALETTE = {
@@ -41,14 +50,29 @@ _INDEX = {name: i for i, name in enumerate(_PALETTE)}
 
 _SIDE_PATTERNS = {
     # case-insensitive prefixes/suffixes, and Daz's case-sensitive "lThigh" / "rShldr"
-    "left": (re.compile(r"(^left|left$|^l_|_l$|\.l$)", re.IGNORECASE), re.compile(r"^[lL](?=[A-Z])")),
-    "right": (re.compile(r"(^right|right$|^r_|_r$|\.r$)", re.IGNORECASE), re.compile(r"^[rR](?=[A-Z])")),
+    "left": (re.compile(r"(^left|left$|^l_|_l$|\.l$)", re.IGNORECASE),
+             re.compile(r"^[lL](?=[A-Z])")),
+    "right": (re.compile(r"(^right|right$|^r_|_r$|\.r$)", re.IGNORECASE),
+              re.compile(r"^[rR](?=[A-Z])")),
 }
 
 
 def body_side(name: str) -> str:
-    """'left', 'right' or 'center' from a joint name, for the naming schemes of common rigs
-    (CMU "LeftUpLeg", Daz "lThigh", Bandai "UpperLeg_L", Blender "thigh.L")."""
+    """The side of the body a joint is on, from its name.
+
+    Knows the naming schemes of common rigs (CMU "LeftUpLeg", Daz "lThigh", Bandai
+    "UpperLeg_L", Blender "thigh.L").
+
+    Parameters
+    ----------
+    name : str
+        A joint name.
+
+    Returns
+    -------
+    str
+        ``"left"``, ``"right"`` or ``"center"``.
+    """
     for side, (loose, daz) in _SIDE_PATTERNS.items():
         if loose.search(name) or daz.search(name):
             return side
@@ -76,11 +100,23 @@ def _smooth_track(xz: np.ndarray, frames: int) -> np.ndarray:
     return np.stack([np.convolve(padded[:, c], k, mode="valid") for c in range(xz.shape[1])], 1)
 
 
-def followed_joint(positions: np.ndarray) -> int:
-    """The joint the camera follows: the first joint (in skeleton order, so the root or the
-    joint nearest to it) whose horizontal position moves by more than 1% of the body's height
-    over the clip; joint 0 when none does. Rigs such as Bandai's keep a ``joint_Root`` at the
-    origin and move the body with the hips below it."""
+def followed_joint(positions: ArrayLike) -> int:
+    """The joint the camera follows.
+
+    The first joint (in skeleton order, so the root or the joint nearest to it) whose
+    horizontal position moves by more than 1% of the body's height over the clip. Rigs such
+    as Bandai's keep a ``joint_Root`` at the origin and move the body with the hips below it.
+
+    Parameters
+    ----------
+    positions : array_like, shape (N, J, 3)
+        World joint positions, Y-up.
+
+    Returns
+    -------
+    int
+        The joint index; 0 when no joint moves.
+    """
     p = np.asarray(positions, dtype=np.float64)
     height = body_height(p, "y") or 1.0
     xz = p[:, :, [0, 2]]
@@ -91,8 +127,9 @@ def followed_joint(positions: np.ndarray) -> int:
 class _Scene:
     """What every frame of a render shares: the motions in Y-up, the camera, the palette."""
 
-    def __init__(self, motions, labels, fps, panel_size, azimuth, elevation, max_seconds,
-                 where: str):
+    def __init__(self, motions: Iterable[Motion], labels: Iterable[str] | None, fps: float,
+                 panel_size: tuple[int, int], azimuth: float, elevation: float,
+                 max_seconds: float | None, where: str) -> None:
         from PIL import Image
         motions = list(motions)
         if not motions:
@@ -107,7 +144,7 @@ class _Scene:
             raise InvalidArgumentError(f"{where}: fps must be positive, got {fps}")
         pos = [to_y_up(getattr(m, "up_axis", "y"), np.asarray(m.positions(), dtype=np.float64))
                for m in motions]
-        for p, m in zip(pos, motions):
+        for p in pos:
             if p.shape[0] == 0:
                 raise InvalidArgumentError(f"{where}: a motion has no frames")
         duration = max(p.shape[0] / m.fps for p, m in zip(pos, motions))
@@ -131,7 +168,7 @@ class _Scene:
         self.blank.putpalette(self.palette)
         self.sides = [[body_side(n) for n in m.joint_names] for m in motions]
 
-    def frame(self, k: int):
+    def frame(self, k: int) -> Any:
         """Output frame k (time k / fps): the panels side by side, a "P" mode image."""
         from PIL import Image, ImageDraw
         w, h, motions, p0 = self.w, self.h, self.motions, self.pos[0]
@@ -141,7 +178,7 @@ class _Scene:
                            self.track[f0, 1]])
         cam, scale, ground, spacing = self.cam, self.scale, self.ground, self.spacing
 
-        def project(world):
+        def project(world: Any) -> NDArray[np.float64]:
             v = (np.asarray(world) - target) @ cam.T
             return np.stack([w / 2 + scale * v[..., 0], h / 2 - scale * v[..., 1]], -1)
 
@@ -180,24 +217,56 @@ FORMATS = {".gif": "an animated GIF", ".mp4": "an MP4 video (H.264; needs imagei
            ".png": "a PNG strip of frames (time left to right, one row per motion)"}
 
 
-def render(motions, path, *, labels=None, fps: float = 30.0, panel_size=(320, 380),
-           azimuth: float = 35.0, elevation: float = 12.0, max_seconds: float | None = None,
-           strip_frames: int = 8, progress=None) -> int:
-    """Render motions side by side under one camera into `path`, in the format its extension
-    names (written atomically; the file honours the umask):
+def render(motions: Iterable[Motion], path: str | os.PathLike[str], *,
+           labels: Iterable[str] | None = None, fps: float = 30.0,
+           panel_size: tuple[int, int] = (320, 380), azimuth: float = 35.0,
+           elevation: float = 12.0, max_seconds: float | None = None, strip_frames: int = 8,
+           progress: ProgressArg = None) -> int:
+    """Render motions side by side under one camera, in the format the path's extension names.
+
+    Written atomically; the file honours the umask.
 
     - ``.gif``: an animated GIF (:func:`render_gif`);
-    - ``.mp4``: an H.264 video at `fps` (needs imageio-ffmpeg: the ``video`` extra), its size
+    - ``.mp4``: an H.264 video at ``fps`` (needs imageio-ffmpeg: the ``video`` extra), its size
       padded with the background to multiples of 16 pixels;
-    - ``.png``: a strip of `strip_frames` frames evenly spaced over the clip (the first and
+    - ``.png``: a strip of ``strip_frames`` frames evenly spaced over the clip (the first and
       the last included): time runs left to right, one row per motion, each panel
       ``panel_size``; the first row shows the times.
 
-    Other extensions raise InvalidArgumentError; a missing Pillow or imageio-ffmpeg raises
-    mlayer.MissingDependencyError, both before any work. The other arguments are those of
-    :func:`render_gif`. Returns the number of frames written (for a strip, its frames).
+    Parameters
+    ----------
+    motions : iterable of Motion
+        The motions, one panel each.
+    path : str or os.PathLike
+        The output, ending in ``.gif``, ``.mp4`` or ``.png``.
+    labels : iterable of str, optional
+        One caption per panel (default ``"0"``, ``"1"``, ...).
+    fps : float, optional
+        Frame rate of the output; each panel shows its motion's frame nearest in time.
+    panel_size : tuple of int, optional
+        (width, height) of one panel in pixels.
+    azimuth, elevation : float, optional
+        Camera direction in degrees (azimuth about the vertical axis).
+    max_seconds : float, optional
+        Render only the first seconds of the clips.
+    strip_frames : int, optional
+        Frames of a PNG strip.
+    progress : None, bool, stream or callable, optional
+        A progress bar over the frames: None (on stderr when it is a terminal and tqdm is
+        installed), True, False, a stream, or a callable ``f(done, total)``.
+
+    Returns
+    -------
+    int
+        The number of frames written (for a strip, its frames).
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        For another extension or bad arguments, before any work.
+    mlayer.MissingDependencyError
+        Without Pillow (or imageio-ffmpeg for MP4), before any work.
     """
-    import os
     ext = os.path.splitext(os.fspath(path))[1].lower()
     if ext not in FORMATS:
         what = ext or "a path without an extension"
@@ -220,7 +289,8 @@ def render(motions, path, *, labels=None, fps: float = 30.0, panel_size=(320, 38
     return _write_strip(scene, path, strip_frames, make_bar)
 
 
-def _write_mp4(scene: _Scene, path, ffmpeg, make_bar) -> int:
+def _write_mp4(scene: _Scene, path: str | os.PathLike[str], ffmpeg: Any,
+               make_bar: BarFactory) -> int:
     from PIL import Image
     w, h = scene.w * len(scene.motions), scene.h
     W, H = -(-w // 16) * 16, -(-h // 16) * 16  # H.264 (yuv420p) in whole macro blocks
@@ -242,7 +312,8 @@ def _write_mp4(scene: _Scene, path, ffmpeg, make_bar) -> int:
     return scene.n_out
 
 
-def _write_strip(scene: _Scene, path, n: int, make_bar) -> int:
+def _write_strip(scene: _Scene, path: str | os.PathLike[str], n: int,
+                 make_bar: BarFactory) -> int:
     from PIL import Image
     n = min(n, scene.n_out)
     ks = np.unique(np.round(np.linspace(0, scene.n_out - 1, n)).astype(int))
@@ -260,23 +331,49 @@ def _write_strip(scene: _Scene, path, n: int, make_bar) -> int:
     return len(ks)
 
 
-def render_gif(motions, path, *, labels=None, fps: float = 30.0, panel_size=(320, 380),
-               azimuth: float = 35.0, elevation: float = 12.0, max_seconds: float | None = None,
-               progress=None) -> int:
-    """Render motions side by side into an animated GIF at `path` (written atomically,
-    whatever its extension; :func:`render` chooses the format by extension).
+def render_gif(motions: Iterable[Motion], path: str | os.PathLike[str], *,
+               labels: Iterable[str] | None = None, fps: float = 30.0,
+               panel_size: tuple[int, int] = (320, 380), azimuth: float = 35.0,
+               elevation: float = 12.0, max_seconds: float | None = None,
+               progress: ProgressArg = None) -> int:
+    """Render motions side by side into an animated GIF (written atomically).
 
-    motions      Motion objects (anything with `positions()`, `parents`, `joint_names`, `fps`).
-    labels       one caption per panel (default "0", "1", ...).
-    fps          frame rate of the GIF; each panel shows its motion's frame nearest in time.
-    panel_size   (width, height) of one panel in pixels.
-    azimuth, elevation   camera direction in degrees (azimuth about the vertical axis).
-    max_seconds  render only the first seconds of the clips.
-    progress     a progress bar over the frames: None (on stderr when it is a terminal and
-                 tqdm is installed), True, False, a stream, or a callable(done, total) called
-                 as frames are drawn (see mlayer._progress).
-    Returns the number of GIF frames written. Needs Pillow (the ``render`` extra: raises
-    mlayer.MissingDependencyError before any work without it).
+    The GIF is written whatever the path's extension; :func:`render` chooses the format by
+    extension. Needs Pillow (the ``render`` extra).
+
+    Parameters
+    ----------
+    motions : iterable of Motion
+        The motions (anything with ``positions()``, ``parents``, ``joint_names``, ``fps``),
+        one panel each.
+    path : str or os.PathLike
+        The output.
+    labels : iterable of str, optional
+        One caption per panel (default ``"0"``, ``"1"``, ...).
+    fps : float, optional
+        Frame rate of the GIF; each panel shows its motion's frame nearest in time.
+    panel_size : tuple of int, optional
+        (width, height) of one panel in pixels.
+    azimuth, elevation : float, optional
+        Camera direction in degrees (azimuth about the vertical axis).
+    max_seconds : float, optional
+        Render only the first seconds of the clips.
+    progress : None, bool, stream or callable, optional
+        A progress bar over the frames: None (on stderr when it is a terminal and tqdm is
+        installed), True, False, a stream, or a callable ``f(done, total)`` called as frames
+        are drawn.
+
+    Returns
+    -------
+    int
+        The number of GIF frames written.
+
+    Raises
+    ------
+    mlayer.MissingDependencyError
+        Without Pillow, before any work.
+    mlayer.InvalidArgumentError
+        For bad arguments (no motions, a label count that differs, fps not positive).
     """
     require("PIL", feature="mlayer.render_gif")
     make_bar = resolve(progress, "mlayer.render_gif")

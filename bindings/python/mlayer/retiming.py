@@ -20,20 +20,26 @@ retiming composes with everything else that takes a motion (e.g. retime, then st
 
 The first frame always stays put; with ``n_frames`` (and time maps) the last one too, while
 ``fps`` keeps the exact rate: output frame k at time k / fps, ending at the last such time
-within the input (up to one output frame before the input's last frame). Factors beyond 100x (either way, or any local
+within the input (up to one output frame before the input's last frame). Factors beyond 100x
+(either way, or any local
 step of a time map) are refused unless ``allow_extreme=True``: they are usually a unit mistake.
 """
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING, Any, Literal, overload
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from . import _arrays
 from ._args import integer
 from ._native import ffi, lib
 from .errors import InvalidArgumentError, check
 from .motion import Motion
+
+if TYPE_CHECKING:
+    from .pipeline import Clip
 
 __all__ = ["resample", "slerp_resample", "timewarp", "timewarp_map", "timewarp_speed",
            "MAX_FACTOR"]
@@ -43,7 +49,7 @@ MAX_FACTOR = 100.0
 _SLACK = 1e-9  # as the C core: a factor of exactly 100 passes despite rounding
 
 
-def _motion(motion, where: str) -> Motion:
+def _motion(motion: Any, where: str) -> Motion:
     if not isinstance(motion, Motion):
         raise TypeError(f"{where}: expected a mlayer.Motion, got {type(motion).__name__}")
     if motion.n_frames < 2:
@@ -76,11 +82,12 @@ def _out_memory(motion: Motion, n_out: int, name: str, where: str) -> int:
     return n_out
 
 
-def _frame_count(n, name: str, where: str) -> int:
+def _frame_count(n: Any, name: str, where: str) -> int:
     return integer(n, f"{where}: {name}", 2)
 
 
-def _target(motion: Motion, fps, n_frames, allow_extreme: bool, where: str):
+def _target(motion: Motion, fps: float | None, n_frames: int | None, allow_extreme: bool,
+            where: str) -> tuple[int, float, NDArray[np.float64] | None]:
     """(n_out, frame_time, t) for exactly one of fps / n_frames. fps: the exact grid of the
     rate (C mlr_resample_rate_map): t[i] = i fps / motion.fps, output frame k at time k / fps
     after the first frame, ending at the last such time within the input (pass t with
@@ -122,12 +129,12 @@ def frames_at_rate(n_frames: int, fps_in: float, fps_out: float) -> int:
     return int(n[0])
 
 
-def _grid_flags(t) -> int:
+def _grid_flags(t: NDArray[np.float64] | None) -> int:
     """MLR_RESAMPLE_OPEN_END for the exact grid of a rate (a time map from _target)."""
     return 0 if t is None else lib.MLR_RESAMPLE_OPEN_END
 
 
-def _lam_sigma(lam, sigma, where: str):
+def _lam_sigma(lam: float | None, sigma: float | None, where: str) -> tuple[float, float]:
     if lam is None:
         lam = -1.0  # MLR_RESAMPLE_AUTO
     else:
@@ -142,7 +149,8 @@ def _lam_sigma(lam, sigma, where: str):
     return lam, sigma
 
 
-def _time_map(time_map, N: int, n_frames, allow_extreme: bool, where: str):
+def _time_map(time_map: ArrayLike, N: int, n_frames: int | None, allow_extreme: bool,
+              where: str) -> tuple[NDArray[np.float64], int]:
     """The user's map as float64 and the output count (n_frames, or t[-1] + 1)."""
     t = _arrays.as_f64(time_map, "time_map", ndim=1)
     if t.shape[0] != N:
@@ -166,7 +174,8 @@ def _time_map(time_map, N: int, n_frames, allow_extreme: bool, where: str):
     return t, n_out
 
 
-def _stylized(motion: Motion, style, where: str):
+def _stylized(motion: Motion, style: float | dict[str, Any] | None, where: str
+              ) -> tuple[Clip, Motion]:
     """``(clip, motion)``: the input as a :class:`mlayer.pipeline.Clip` (its forward kinematics
     and contacts computed once for the style and the contacts' retiming) and the motion with
     its style scaled first (:meth:`Clip.stylize`), when style is given: an alpha, or a dict of
@@ -191,8 +200,8 @@ def _stylized(motion: Motion, style, where: str):
     return clip, clip.stylize(alpha)[0]
 
 
-def _solve(motion: Motion, t, n_out: int, frame_time: float, lam: float, sigma: float,
-           flags: int, want_var: bool, where: str):
+def _solve(motion: Motion, t: NDArray[np.float64] | None, n_out: int, frame_time: float,
+           lam: float, sigma: float, flags: int, want_var: bool, where: str) -> Any:
     root, rot, trans = motion._frames()
     # (the C core checks every value: non-finite data is reported with its frame and joint)
     N, J, P = motion.n_frames, motion.n_joints, trans.shape[1]
@@ -204,20 +213,35 @@ def _solve(motion: Motion, t, n_out: int, frame_time: float, lam: float, sigma: 
         N, J, P, _arrays.ptr(root), _arrays.ptr(rot), _arrays.ptr(trans),
         ffi.NULL if t is None else _arrays.ptr(t), n_out, lam, sigma, flags,
         _arrays.ptr_out(root_out), _arrays.ptr_out(rot_out), _arrays.ptr_out(trans_out),
-        _arrays.ptr_out(var) if want_var else ffi.NULL, ffi.NULL, diag)
+        _arrays.ptr_out(var) if var is not None else ffi.NULL, ffi.NULL, diag)
     check(code, where, diag)
     out = Motion(motion.skeleton, frame_time, root_out, rot_out, trans_out, _trusted=True)
     return (out, var) if want_var else out
 
 
+@overload
+def resample(motion: Motion, *, fps: float | None = None, n_frames: int | None = None,
+             lam: float | None = None, sigma: float | None = None,
+             return_var: Literal[False] = False, allow_extreme: bool = False,
+             nearest_sign: bool = False, style: float | dict[str, Any] | None = None,
+             keep_contacts: bool = True) -> Motion: ...
+@overload
+def resample(motion: Motion, *, fps: float | None = None, n_frames: int | None = None,
+             lam: float | None = None, sigma: float | None = None, return_var: Literal[True],
+             allow_extreme: bool = False, nearest_sign: bool = False,
+             style: float | dict[str, Any] | None = None,
+             keep_contacts: bool = True) -> tuple[Motion, NDArray[np.float64]]: ...
 def resample(motion: Motion, *, fps: float | None = None, n_frames: int | None = None,
              lam: float | None = None, sigma: float | None = None, return_var: bool = False,
-             allow_extreme: bool = False, nearest_sign: bool = False, style=None,
-             keep_contacts: bool = True):
+             allow_extreme: bool = False, nearest_sign: bool = False,
+             style: float | dict[str, Any] | None = None,
+             keep_contacts: bool = True) -> Motion | tuple[Motion, NDArray[np.float64]]:
     """Resample ``motion`` to a new frame rate or frame count through the LGS.
 
     Parameters
     ----------
+    motion : Motion
+        The clip (at least 2 frames).
     fps : float
         The new frame rate, exactly: output frame k lies at time ``k / fps`` after the input's
         first frame, and the output ends at the last such time within the input, so it has
@@ -254,14 +278,14 @@ def resample(motion: Motion, *, fps: float | None = None, n_frames: int | None =
 
     Returns
     -------
-    Motion
+    Motion or (Motion, numpy.ndarray)
         The new motion (same skeleton), or ``(motion, var)`` with ``return_var``.
 
     Raises
     ------
-    InvalidArgumentError
-        Fewer than 2 frames, fps <= 0, both or neither of fps / n_frames, factors over 100x
-        without ``allow_extreme``, non-finite data.
+    mlayer.InvalidArgumentError
+        For fewer than 2 frames, fps <= 0, both or neither of fps / n_frames, factors over
+        100x without ``allow_extreme``, non-finite data.
     """
     where = "mlayer.resample"
     motion = _motion(motion, where)
@@ -277,12 +301,14 @@ def resample(motion: Motion, *, fps: float | None = None, n_frames: int | None =
         src = np.arange(n_out) * ((original.n_frames - 1) / max(n_out - 1, 1))
         ref = slerp_resample(original, n_frames=n_out, allow_extreme=allow_extreme)
     else:  # the input frame (fractional) at each output frame's time
+        assert fps is not None  # a grid of times comes from fps
         src = np.arange(n_out) * (original.fps / fps)
         ref = slerp_resample(original, fps=fps, allow_extreme=allow_extreme)
     return _pinned(clip, res, ref, src)
 
 
-def _pinned(clip, res, reference, source_frames):
+def _pinned(clip: Clip, res: Any, reference: Motion, source_frames: NDArray[Any]
+            ) -> Any:
     """res (a motion, or a tuple starting with one) with the feet pinned during the contacts
     of the input (a :class:`mlayer.pipeline.Clip`), carried to the new frames."""
     from .cleanup import keep_contacts_retimed
@@ -295,17 +321,36 @@ def _pinned(clip, res, reference, source_frames):
 
 
 def slerp_resample(motion: Motion, *, fps: float | None = None, n_frames: int | None = None,
-                   time_map=None, allow_extreme: bool = False) -> Motion:
-    """The baseline: every output frame is the SLERP (shorter arc) of the two input frames
-    around it, translations are linearly interpolated; no smoothing, no anti-aliasing.
+                   time_map: ArrayLike | None = None, allow_extreme: bool = False) -> Motion:
+    """The baseline resampling: SLERP of the two input frames around every output frame.
 
-    Same ``fps`` / ``n_frames`` / ``allow_extreme`` rules as :func:`resample` (``fps``: output
-    frame k at time ``k / fps`` after the first frame, up to the last such time within the
-    input); ``time_map``
-    (optional, as in :func:`timewarp`) retimes the same way as the LGS does with that map.
+    Rotations take the shorter arc, translations are linearly interpolated; no smoothing, no
+    anti-aliasing.
+
+    Parameters
+    ----------
+    motion : Motion
+        The clip.
+    fps, n_frames, allow_extreme
+        As for :func:`resample` (``fps``: output frame k at time ``k / fps`` after the first
+        frame, up to the last such time within the input).
+    time_map : array_like, shape (N,), optional
+        As in :func:`timewarp`: retimes the same way as the LGS does with that map (not with
+        ``fps``).
+
+    Returns
+    -------
+    Motion
+        The resampled motion (same skeleton).
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        As for :func:`resample`, or for both ``fps`` and ``time_map``.
     """
     where = "mlayer.slerp_resample"
     motion = _motion(motion, where)
+    t: NDArray[np.float64] | None
     if time_map is not None:
         if fps is not None:
             raise InvalidArgumentError(f"{where}: give fps or time_map, not both")
@@ -329,7 +374,8 @@ def slerp_resample(motion: Motion, *, fps: float | None = None, n_frames: int | 
     return Motion(motion.skeleton, frame_time, root_out, rot_out, trans_out, _trusted=True)
 
 
-def _speed_args(motion: Motion, root_weight: float, joint_weights, where: str):
+def _speed_args(motion: Motion, root_weight: float, joint_weights: ArrayLike | None,
+                where: str) -> tuple[float, NDArray[np.float64] | None]:
     rw = float(root_weight)
     if not (math.isfinite(rw) and rw >= 0):
         raise InvalidArgumentError(f"{where}: root_weight must be finite and >= 0, got {rw:g}")
@@ -348,13 +394,29 @@ def _speed_args(motion: Motion, root_weight: float, joint_weights, where: str):
     return root_w, w
 
 
-def timewarp_speed(motion: Motion, *, root_weight: float = 1.0, joint_weights=None) -> np.ndarray:
-    """Per-frame motion magnitude that drives the automatic time warp, shape ``(N,)``:
-    the (weighted) mean rotation angle of the joints' local rotation change per frame
+def timewarp_speed(motion: Motion, *, root_weight: float = 1.0,
+                   joint_weights: ArrayLike | None = None) -> NDArray[np.float64]:
+    """Per-frame motion magnitude that drives the automatic time warp.
+
+    The (weighted) mean rotation angle of the joints' local rotation change per frame
     (radians, central differences) plus ``root_weight`` times the root's displacement per
     frame measured in body heights (:func:`mlayer.metrics.body_height`; 1 length unit for a
     body with no height), so no length unit is involved.
-    ``joint_weights``: J weights >= 0 (default equal)."""
+
+    Parameters
+    ----------
+    motion : Motion
+        The clip.
+    root_weight : float, optional
+        Finite, >= 0.
+    joint_weights : array_like, shape (J,), optional
+        Weights >= 0 (default equal).
+
+    Returns
+    -------
+    numpy.ndarray, shape (N,)
+        The magnitude per frame.
+    """
     where = "mlayer.timewarp_speed"
     motion = _motion(motion, where)
     root_w, w = _speed_args(motion, root_weight, joint_weights, where)
@@ -368,17 +430,41 @@ def timewarp_speed(motion: Motion, *, root_weight: float = 1.0, joint_weights=No
 
 
 def timewarp_map(motion: Motion, *, strength: float = 1.0, n_frames: int | None = None,
-                 smooth_seconds: float = 0.25, root_weight: float = 1.0, joint_weights=None,
-                 allow_extreme: bool = False) -> np.ndarray:
-    """The automatic time map of :func:`timewarp`: ``t`` of shape ``(N,)``, the output frame
-    (fractional) at which each input frame lands; ``t[0] == 0``, ``t[-1] == n_frames - 1``,
-    strictly increasing.
+                 smooth_seconds: float = 0.25, root_weight: float = 1.0,
+                 joint_weights: ArrayLike | None = None,
+                 allow_extreme: bool = False) -> NDArray[np.float64]:
+    """The automatic time map of :func:`timewarp`.
 
     The output frames spent per input frame are proportional to ``exp(strength * s)`` with s
-    the log of the motion magnitude (:func:`timewarp_speed`, relative to its clip mean) smoothed
-    over about ``smooth_seconds`` (the easing in and out). ``strength`` in [0, 10]: 0 is the
-    uniform map, 1 makes the dwell time follow the motion magnitude, more exaggerates.
-    ``n_frames`` (default: the input's count) is the target length.
+    the log of the motion magnitude (:func:`timewarp_speed`, relative to its clip mean)
+    smoothed over about ``smooth_seconds`` (the easing in and out).
+
+    Parameters
+    ----------
+    motion : Motion
+        The clip.
+    strength : float, optional
+        In [0, 10]: 0 is the uniform map, 1 makes the dwell time follow the motion magnitude,
+        more exaggerates.
+    n_frames : int, optional
+        The target length (default: the input's count).
+    smooth_seconds : float, optional
+        The easing, >= 0.
+    root_weight, joint_weights
+        As for :func:`timewarp_speed`.
+    allow_extreme : bool, optional
+        Accept factors beyond 100x.
+
+    Returns
+    -------
+    numpy.ndarray, shape (N,)
+        ``t``: the output frame (fractional) at which each input frame lands; ``t[0] == 0``,
+        ``t[-1] == n_frames - 1``, strictly increasing.
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        For parameters out of range.
     """
     where = "mlayer.timewarp_map"
     motion = _motion(motion, where)
@@ -405,10 +491,12 @@ def timewarp_map(motion: Motion, *, strength: float = 1.0, n_frames: int | None 
 
 
 def timewarp(motion: Motion, *, strength: float = 1.0, n_frames: int | None = None,
-             time_map=None, lam: float | None = None, sigma: float | None = None,
-             return_var: bool = False, return_map: bool = False, smooth_seconds: float = 0.25,
-             root_weight: float = 1.0, joint_weights=None, allow_extreme: bool = False,
-             style=None, keep_contacts: bool = True):
+             time_map: ArrayLike | None = None, lam: float | None = None,
+             sigma: float | None = None, return_var: bool = False, return_map: bool = False,
+             smooth_seconds: float = 0.25, root_weight: float = 1.0,
+             joint_weights: ArrayLike | None = None, allow_extreme: bool = False,
+             style: float | dict[str, Any] | None = None, keep_contacts: bool = True
+             ) -> Any:
     """Retime ``motion`` along a monotone time map, solved by the LGS; the frame rate stays.
 
     Automatic (default): :func:`timewarp_map` with ``strength`` (0 uniform, 1 natural, more
@@ -432,6 +520,35 @@ def timewarp(motion: Motion, *, strength: float = 1.0, n_frames: int | None = No
     eased, so there are no jumps. ``keep_contacts`` (default True) pins the feet during the
     contacts detected on ``motion``, carried through the time map
     (:func:`mlayer.cleanup.keep_contacts_retimed`, following the SLERP retiming of ``motion``).
+
+    Parameters
+    ----------
+    motion : Motion
+        The clip.
+    strength, n_frames, smooth_seconds, root_weight, joint_weights
+        The automatic map's (:func:`timewarp_map`).
+    time_map : array_like, shape (N,), optional
+        An explicit map.
+    lam, sigma, allow_extreme
+        As in :func:`resample`.
+    return_var : bool, optional
+        Also return the variance per output frame.
+    return_map : bool, optional
+        Also return the time map.
+    style : float or dict, optional
+        As in :func:`resample`.
+    keep_contacts : bool, optional
+        Pin the feet (default True).
+
+    Returns
+    -------
+    Motion or tuple
+        The new motion, or ``(motion, var)``, ``(motion, t)`` or ``(motion, var, t)``.
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        For a bad map, parameters out of range, factors over 100x without ``allow_extreme``.
     """
     where = "mlayer.timewarp"
     motion = _motion(motion, where)

@@ -22,9 +22,10 @@ from __future__ import annotations
 
 import csv
 import os
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from . import _arrays
 from ._files import atomic_output
@@ -46,15 +47,25 @@ _CSV_HEADER = ["frame", "time", "x", "y", "z", "heading"]
 class RootTrack:
     """A root track: positions on the ground plane and headings about the up axis, per frame.
 
-    Its attributes: ``positions``, (F, 3) world positions whose up component is 0;
-    ``heading``, (F,) radians about the up axis (right-handed), continuous, 0 facing the ground
-    axis after up (Y-up: +Z, Z-up: +X, X-up: +Y); ``fps``, frames per second; ``up_axis``,
-    "x", "y" or "z".
+    The arguments are kept as the attributes of the same names.
+
+    Parameters
+    ----------
+    positions : array_like, shape (F, 3)
+        World positions whose up component is 0.
+    heading : array_like, shape (F,)
+        Radians about the up axis (right-handed), continuous, 0 facing the ground axis after up
+        (Y-up: +Z, Z-up: +X, X-up: +Y).
+    fps : float
+        Frames per second.
+    up_axis : {"x", "y", "z"}, optional
+        The up axis.
     """
 
     __slots__ = ("positions", "heading", "fps", "up_axis")
 
-    def __init__(self, positions, heading, fps: float, up_axis: str = "y") -> None:
+    def __init__(self, positions: ArrayLike, heading: ArrayLike, fps: float,
+                 up_axis: str = "y") -> None:
         from ._rig import axis
         pos = _arrays.as_f64(positions, "RootTrack: positions", ndim=2, last=(3,))
         head = _arrays.as_f64(heading, "RootTrack: heading", ndim=1)
@@ -84,7 +95,7 @@ class RootTrack:
                 f"heading {np.degrees(self.heading[0]) if self.n_frames else 0:.1f}.."
                 f"{np.degrees(self.heading[-1]) if self.n_frames else 0:.1f} deg)")
 
-    def apply(self, in_place: "Motion") -> "Motion":
+    def apply(self, in_place: Motion) -> Motion:
         """The in-place motion put back on this track (:func:`apply_root_motion`).
 
         Parameters
@@ -99,7 +110,7 @@ class RootTrack:
         """
         return apply_root_motion(in_place, self)
 
-    def to_csv(self, path) -> None:
+    def to_csv(self, path: str | os.PathLike[str]) -> None:
         """Write the track as CSV: ``frame,time,x,y,z,heading`` (heading in radians), one row
         per frame, atomically (a temporary beside the target, renamed when complete).
 
@@ -118,7 +129,8 @@ class RootTrack:
                                 repr(float(p[2])), repr(float(self.heading[i]))])
 
     @classmethod
-    def read_csv(cls, path, *, fps: float | None = None, up_axis: str = "y") -> "RootTrack":
+    def read_csv(cls, path: str | os.PathLike[str], *, fps: float | None = None,
+                 up_axis: str = "y") -> RootTrack:
         """Read a track written by :meth:`to_csv`.
 
         Parameters
@@ -159,7 +171,7 @@ class RootTrack:
         return cls(data[:, 2:5], data[:, 5], fps, up_axis)
 
 
-def _motion_arg(motion, where: str) -> "Motion":
+def _motion_arg(motion: Any, where: str) -> Motion:
     from .motion import Motion
     if not isinstance(motion, Motion):
         raise InvalidArgumentError(f"{where}: expected a mlayer.Motion, got "
@@ -167,9 +179,9 @@ def _motion_arg(motion, where: str) -> "Motion":
     return motion
 
 
-def extract_root_motion(motion: "Motion", *, mode: str = "ground", smooth: float = 1.0,
+def extract_root_motion(motion: Motion, *, mode: str = "ground", smooth: float = 1.0,
                         body_joint: str | int | None = None,
-                        up: str | int | None = None) -> tuple["Motion", RootTrack]:
+                        up: str | int | None = None) -> tuple[Motion, RootTrack]:
     """Split a clip into an in-place motion and a root track on the ground plane.
 
     Parameters
@@ -245,7 +257,7 @@ def extract_root_motion(motion: "Motion", *, mode: str = "ground", smooth: float
     return in_place, RootTrack(track_pos, heading, motion.fps, "xyz"[ax])
 
 
-def apply_root_motion(in_place: "Motion", track: RootTrack) -> "Motion":
+def apply_root_motion(in_place: Motion, track: RootTrack) -> Motion:
     """Put an in-place motion back on its root track: the inverse of
     :func:`extract_root_motion` (to rounding).
 

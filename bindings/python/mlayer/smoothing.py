@@ -17,7 +17,10 @@ build has it when SuiteSparse is installed (Debian: ``libsuitesparse-dev``), e.g
 """
 from __future__ import annotations
 
+from typing import Any, Literal, SupportsIndex, overload
+
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from . import _arrays
 from ._handles import NativeHandle, ReadOnlyAttributes
@@ -32,7 +35,13 @@ NO_CHOLMOD = ("solver='cholmod': this mlayer was built without CHOLMOD (the whee
 
 
 def have_cholmod() -> bool:
-    """True when this build of mlayer includes the CHOLMOD sparse path (never in the wheels)."""
+    """Whether this build of mlayer includes the CHOLMOD sparse path.
+
+    Returns
+    -------
+    bool
+        True for a source build with SuiteSparse; never in the wheels.
+    """
     return bool(lib.mlr_lgs_have_cholmod())
 
 
@@ -40,16 +49,45 @@ class LGS(ReadOnlyAttributes, NativeHandle):
     """A factored system, reusable for many right-hand sides with the same positions.
 
     Create it once and call :meth:`solve` for every batch of channels; :meth:`variance` gives
-    the posterior variance per output frame. ``close()`` frees it now rather than at collection;
-    a closed LGS raises InvalidArgumentError. ``n_out``, ``n_obs``, ``order``, ``solver``,
-    ``lam`` and ``sigma`` are read-only. ``copy.copy``, ``copy.deepcopy`` and pickling make an
-    independent system (factored again from the same parameters and positions).
+    the posterior variance per output frame. ``close()`` frees it now rather than at
+    collection; a closed LGS raises InvalidArgumentError. ``n_out``, ``n_obs``, ``order``,
+    ``solver``, ``lam`` and ``sigma`` are read-only attributes. ``copy.copy``,
+    ``copy.deepcopy`` and pickling make an independent system (factored again from the same
+    parameters and positions).
+
+    Parameters
+    ----------
+    n_out : int
+        Frames of the output grid (>= 0).
+    lam : float, optional
+        Smoothness weight (>= 0).
+    sigma : float, optional
+        Observation noise (> 0).
+    order : {1, 2}, optional
+        First-difference (tridiagonal) or second-difference (pentadiagonal) prior.
+    t : array_like, shape (n_obs,), optional
+        Sorted fractional positions of the observations on the output grid, in
+        [0, n_out - 1]; default: observation i at frame i.
+    n_obs : int, optional
+        Observations without ``t`` (default ``n_out``).
+    solver : {"banded", "cholmod"}, optional
+        The library's banded LDL^T or CHOLMOD's sparse Cholesky.
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        For bad parameters or positions.
+    mlayer.UnsupportedError
+        For ``solver="cholmod"`` in a build without CHOLMOD.
+    mlayer.SingularMatrixError
+        When the observations do not determine the result.
     """
 
     _readonly = ("n_out", "n_obs", "order", "solver", "lam", "sigma", "_t")
 
     def __init__(self, n_out: int, lam: float = 1.0, sigma: float = 1.0, *, order: int = 2,
-                 t=None, n_obs: int | None = None, solver: str = "banded"):
+                 t: ArrayLike | None = None, n_obs: int | None = None,
+                 solver: str = "banded") -> None:
         if solver not in _SOLVERS:
             raise InvalidArgumentError(f"solver must be one of {sorted(_SOLVERS)}, got {solver!r}")
         if solver == "cholmod" and not have_cholmod():
@@ -74,22 +112,40 @@ class LGS(ReadOnlyAttributes, NativeHandle):
         self.n_out, self.n_obs, self.order, self.solver = int(n_out), n_obs, int(order), solver
         self.lam, self.sigma = float(lam), float(sigma)
 
-    def _args(self):
+    def _args(self) -> tuple[Any, ...]:
         return (self.n_out, self.lam, self.sigma, self.order, self._t, self.n_obs, self.solver)
 
-    def _clone(self) -> "LGS":
+    def _clone(self) -> LGS:
         return _make_lgs(*self._args())
 
-    def __reduce_ex__(self, protocol):
+    def __reduce_ex__(self, protocol: SupportsIndex) -> tuple[Any, ...]:
         self._live()
         return (_make_lgs, self._args())
 
-    def solve(self, y, out: np.ndarray | None = None, *, threads=None) -> np.ndarray:
-        """Posterior mean for y of shape (n_obs,) or (n_obs, m); returns (n_out,) or (n_out, m).
+    def solve(self, y: ArrayLike, out: NDArray[np.float64] | None = None, *,
+              threads: int | None = None) -> NDArray[np.float64]:
+        """Posterior mean for observations ``y``.
 
-        ``threads``: None (default) lets a second thread map the pages of a large output (8 MiB
-        or more) while this one solves, when the machine has two processors; 1 solves on this
-        thread only. The result is the same, bit for bit.
+        Parameters
+        ----------
+        y : array_like, shape (n_obs,) or (n_obs, m)
+            Observations, one column per channel.
+        out : numpy.ndarray, optional
+            Where to write the result: writable C-contiguous float64 of the result's shape.
+        threads : int, optional
+            None (default) lets a second thread map the pages of a large output (8 MiB or
+            more) while this one solves, when the machine has two processors; 1 solves on this
+            thread only. The result is the same, bit for bit.
+
+        Returns
+        -------
+        numpy.ndarray, shape (n_out,) or (n_out, m)
+            The posterior mean (``out`` when given).
+
+        Raises
+        ------
+        mlayer.InvalidArgumentError
+            For a bad shape, a bad ``out``, non-finite values or a closed system.
         """
         h = self._live()
         n_threads = _c_threads(threads)
@@ -110,8 +166,14 @@ class LGS(ReadOnlyAttributes, NativeHandle):
                                    diag), "mlayer.lgs", diag)
         return out
 
-    def variance(self) -> np.ndarray:
-        """Posterior variance per output frame, shape (n_out,), for observation noise sigma."""
+    def variance(self) -> NDArray[np.float64]:
+        """Posterior variance per output frame, for observation noise ``sigma``.
+
+        Returns
+        -------
+        numpy.ndarray, shape (n_out,)
+            The variances.
+        """
         h = self._live()
         var = np.empty(self.n_out)
         diag = ffi.new("mlr_diag *")
@@ -120,52 +182,74 @@ class LGS(ReadOnlyAttributes, NativeHandle):
         return var
 
 
-def _make_lgs(n_out, lam, sigma, order, t, n_obs, solver) -> LGS:
+def _make_lgs(n_out: int, lam: float, sigma: float, order: int, t: ArrayLike | None,
+              n_obs: int | None, solver: str) -> LGS:
     """An LGS from its parameters (copies and unpickling)."""
     return LGS(n_out, lam, sigma, order=order, t=t, n_obs=n_obs, solver=solver)
 
 
-def lgs(y, lam: float = 1.0, sigma: float = 1.0, *, order: int = 2, t=None,
-        n_out: int | None = None, return_var: bool = False, solver: str = "banded",
-        threads=None):
+@overload
+def lgs(y: ArrayLike, lam: float = 1.0, sigma: float = 1.0, *, order: int = 2,
+        t: ArrayLike | None = None, n_out: int | None = None, return_var: Literal[False] = False,
+        solver: str = "banded", threads: int | None = None) -> NDArray[np.float64]: ...
+@overload
+def lgs(y: ArrayLike, lam: float = 1.0, sigma: float = 1.0, *, order: int = 2,
+        t: ArrayLike | None = None, n_out: int | None = None, return_var: Literal[True],
+        solver: str = "banded", threads: int | None = None
+        ) -> tuple[NDArray[np.float64], NDArray[np.float64]]: ...
+def lgs(y: ArrayLike, lam: float = 1.0, sigma: float = 1.0, *, order: int = 2,
+        t: ArrayLike | None = None, n_out: int | None = None, return_var: bool = False,
+        solver: str = "banded", threads: int | None = None
+        ) -> NDArray[np.float64] | tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Posterior mean of the LGS for observations y, one column per channel.
 
     Parameters
     ----------
-    y : array (n_obs,) or (n_obs, m)
+    y : array_like, shape (n_obs,) or (n_obs, m)
         Observations; float64 C-contiguous input is used without a copy.
     lam, sigma : float
         Smoothness weight (>= 0) and observation noise (> 0).
-    order : 1 or 2
+    order : {1, 2}
         First-difference (tridiagonal) or second-difference (pentadiagonal) prior.
-    t : array (n_obs,), optional
-        Sorted fractional positions of the observations on the output grid, in [0, n_out-1].
-        Default: observation i at frame i.
+    t : array_like, shape (n_obs,), optional
+        Sorted fractional positions of the observations on the output grid, in
+        [0, n_out - 1]. Default: observation i at frame i.
     n_out : int, optional
         Frames of the output grid; default n_obs. Required to differ from n_obs only with t.
     return_var : bool
         Also return the posterior variance per output frame, shape (n_out,).
-    solver : "banded" or "cholmod"
+    solver : {"banded", "cholmod"}
         The library's banded LDL^T (default, O(n m)) or the CHOLMOD sparse path; "cholmod"
         raises UnsupportedError where ``have_cholmod()`` is False (the wheels).
-    threads : None or int
+    threads : int, optional
         None (default): on a machine with two or more processors, a second thread maps the
         pages of a large result (8 MiB or more) while the solve fills it, which saves the page
         faults of new memory (about 40% of a 100,000 x 127 solve); 1: one thread. Same result.
 
     Returns
     -------
-    x : ndarray
-        Shape (n_out,) or (n_out, m); with return_var, the pair (x, var).
+    x : numpy.ndarray, shape (n_out,) or (n_out, m)
+        The posterior mean.
+    var : numpy.ndarray, shape (n_out,)
+        Only with ``return_var``: ``(x, var)`` is returned.
 
     Raises
     ------
-    InvalidArgumentError
-        (Also a ValueError.) Bad shapes, parameters or non-finite values.
-    SingularMatrixError
-        The observations do not determine the result.
-    UnsupportedError
-        solver="cholmod" in a build without CHOLMOD.
+    mlayer.InvalidArgumentError
+        (also a ValueError) For bad shapes, parameters or non-finite values.
+    mlayer.SingularMatrixError
+        When the observations do not determine the result.
+    mlayer.UnsupportedError
+        For ``solver="cholmod"`` in a build without CHOLMOD.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import mlayer
+    >>> y = np.sin(np.linspace(0, 3, 50)) + np.random.default_rng(0).normal(0, 0.05, 50)
+    >>> x = mlayer.lgs(y, lam=5.0)
+    >>> x.shape
+    (50,)
     """
     y = _arrays.as_f64(y, "y", ndim=(1, 2))
     n_obs = y.shape[0]

@@ -7,8 +7,10 @@ across runs and thread counts.
 from __future__ import annotations
 
 import os
+from typing import Any, Literal, SupportsIndex, overload
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from . import _arrays
 from ._files import atomic_output
@@ -23,16 +25,32 @@ _MODES = {"batch": lib.MLR_SOM_BATCH, "online": lib.MLR_SOM_ONLINE}
 class SOM(ReadOnlyAttributes, NativeHandle):
     """A rows x cols map of dim-dimensional codebook vectors.
 
-    sigma0/sigma1: neighbourhood radius at the start/end of a training call (lattice units;
-    default max(rows, cols)/2 and 1); alpha0/alpha1: learning rate of online training (0.5,
-    0.01). cutoff: online training leaves a unit alone when its Gaussian factor is below it
-    (1e-3; 0 updates every unit, as MiniSom does). n_threads: default
-    :func:`mlayer.clustering.default_threads`; results do not depend on it.
-
-    ``rows``, ``cols``, ``dim`` and ``n_threads`` are read-only. ``copy.copy``,
+    ``rows``, ``cols``, ``dim`` and ``n_threads`` are read-only attributes. ``copy.copy``,
     ``copy.deepcopy`` and pickling make an independent map (its own C handle, through
     :meth:`to_bytes`: the same codebook and options). ``close()`` frees the map now; a closed
     map raises InvalidArgumentError.
+
+    Parameters
+    ----------
+    rows, cols, dim : int
+        The lattice and the dimension of the codebook vectors.
+    seed : int, optional
+        Seed of the initialization from the data.
+    sigma0, sigma1 : float, optional
+        Neighbourhood radius at the start/end of a training call (lattice units; default
+        max(rows, cols)/2 and 1).
+    alpha0, alpha1 : float, optional
+        Learning rate of online training at the start/end (0.5, 0.01).
+    cutoff : float, optional
+        Online training leaves a unit alone when its Gaussian factor is below it (1e-3; 0
+        updates every unit, as MiniSom does).
+    n_threads : int, optional
+        Default :func:`mlayer.clustering.default_threads`; results do not depend on it.
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        For sizes or options out of range.
     """
 
     _readonly = ("rows", "cols", "dim", "n_threads", "_options")
@@ -40,7 +58,7 @@ class SOM(ReadOnlyAttributes, NativeHandle):
     def __init__(self, rows: int, cols: int, dim: int, *, seed: int = 0,
                  sigma0: float | None = None, sigma1: float = 1.0, alpha0: float = 0.5,
                  alpha1: float = 0.01, cutoff: float = 1e-3, n_threads: int | None = None,
-                 _handle=None):
+                 _handle: Any = None) -> None:
         rows, cols, dim = (integer(v, nm, 0) for v, nm in ((rows, "rows"), (cols, "cols"),
                                                             (dim, "dim")))
         diag = ffi.new("mlr_diag *")
@@ -64,13 +82,13 @@ class SOM(ReadOnlyAttributes, NativeHandle):
         for key, v in opts:
             check(lib.mlr_som_set(self._h, key, float(v), diag), "mlayer.SOM", diag)
 
-    def _clone(self) -> "SOM":
+    def _clone(self) -> SOM:
         return _som_from_blob(self.to_bytes(), self._options)
 
-    def __reduce_ex__(self, protocol):
+    def __reduce_ex__(self, protocol: SupportsIndex) -> tuple[Any, ...]:
         return (_som_from_blob, (self.to_bytes(), self._options))
 
-    def _data(self, X) -> np.ndarray:
+    def _data(self, X: ArrayLike) -> NDArray[np.float64]:
         X = _arrays.as_f64(X, "X", ndim=2)
         if X.shape[0] == 0:
             raise InvalidArgumentError("X: empty data, no rows")
@@ -79,9 +97,25 @@ class SOM(ReadOnlyAttributes, NativeHandle):
                 f"X: dimension mismatch, {X.shape[1]} columns for a map of dimension {self.dim}")
         return X
 
-    def train(self, X, epochs: int, mode: str = "batch") -> "SOM":
-        """Train on the rows of X (n, dim) for epochs passes; mode "batch" or "online".
-        An untrained map starts from rows of X drawn by the seed. Returns self."""
+    def train(self, X: ArrayLike, epochs: int, mode: str = "batch") -> SOM:
+        """Train on the rows of X.
+
+        An untrained map starts from rows of X drawn by the seed.
+
+        Parameters
+        ----------
+        X : array_like, shape (n, dim)
+            The data.
+        epochs : int
+            Passes over the data (>= 1).
+        mode : {"batch", "online"}, optional
+            The training rule.
+
+        Returns
+        -------
+        SOM
+            ``self``.
+        """
         X = self._data(X)
         if mode not in _MODES:
             raise InvalidArgumentError(f"mode must be 'batch' or 'online', got {mode!r}")
@@ -92,14 +126,14 @@ class SOM(ReadOnlyAttributes, NativeHandle):
         return self
 
     @property
-    def codebook(self) -> np.ndarray:
-        """Copy of the codebook, shape (rows, cols, dim)."""
+    def codebook(self) -> NDArray[np.float64]:
+        """Copy of the codebook, shape (rows, cols, dim); assignable."""
         n = self.rows * self.cols * self.dim
         return np.frombuffer(ffi.buffer(lib.mlr_som_codebook(self._live()), n * 8),
                              dtype=np.float64).reshape(self.rows, self.cols, self.dim).copy()
 
     @codebook.setter
-    def codebook(self, w) -> None:
+    def codebook(self, w: ArrayLike) -> None:
         w = _arrays.as_f64(w, "codebook", ndim=3)
         if w.shape != (self.rows, self.cols, self.dim):
             raise InvalidArgumentError(
@@ -108,9 +142,27 @@ class SOM(ReadOnlyAttributes, NativeHandle):
         check(lib.mlr_som_set_codebook(self._live(), _arrays.ptr(w), self.dim, diag),
               "mlayer.SOM.codebook", diag)
 
-    def bmu_index(self, X, *, second: bool = False):
-        """Unit index (r * cols + c) of each row's best-matching unit, int32 (n,); with
-        second=True also the second-best units."""
+    @overload
+    def bmu_index(self, X: ArrayLike, *, second: Literal[False] = False) -> NDArray[np.int32]: ...
+    @overload
+    def bmu_index(self, X: ArrayLike, *, second: Literal[True]
+                  ) -> tuple[NDArray[np.int32], NDArray[np.int32]]: ...
+    def bmu_index(self, X: ArrayLike, *, second: bool = False
+                  ) -> NDArray[np.int32] | tuple[NDArray[np.int32], NDArray[np.int32]]:
+        """Unit index (r * cols + c) of each row's best-matching unit.
+
+        Parameters
+        ----------
+        X : array_like, shape (n, dim)
+            The rows.
+        second : bool, optional
+            Also return the second-best units.
+
+        Returns
+        -------
+        numpy.ndarray of int32, shape (n,), or a pair of them
+            The best units (and the second-best ones with ``second``).
+        """
         X = self._data(X)
         n = X.shape[0]
         b = np.empty(n, dtype=np.int32)
@@ -119,14 +171,25 @@ class SOM(ReadOnlyAttributes, NativeHandle):
         i32 = lambda a: ffi.cast("int32_t *", ffi.from_buffer(a, require_writable=True))  # noqa: E731
         check(lib.mlr_som_bmu(self._live(), _arrays.ptr(X), n, self.dim, i32(b), ffi.NULL,
                               i32(s) if second else ffi.NULL, diag), "mlayer.SOM.bmu", diag)
-        return (b, s) if second else b
+        return (b, s) if s is not None else b
 
-    def bmu(self, X) -> np.ndarray:
-        """Best-matching unit of each row as (n, 2) ints (lattice row, column)."""
+    def bmu(self, X: ArrayLike) -> NDArray[np.int64]:
+        """Best-matching unit of each row on the lattice.
+
+        Parameters
+        ----------
+        X : array_like, shape (n, dim)
+            The rows.
+
+        Returns
+        -------
+        numpy.ndarray, shape (n, 2)
+            (lattice row, column).
+        """
         u = self.bmu_index(X).astype(np.int64)
         return np.stack([u // self.cols, u % self.cols], axis=1)
 
-    def _errors(self, X):
+    def _errors(self, X: ArrayLike) -> tuple[float, float]:
         X = self._data(X)
         qe = ffi.new("double *")
         te = ffi.new("double *")
@@ -135,17 +198,46 @@ class SOM(ReadOnlyAttributes, NativeHandle):
                                  diag), "mlayer.SOM", diag)
         return float(qe[0]), float(te[0])
 
-    def quantization_error(self, X) -> float:
-        """Mean Euclidean distance of the rows of X to their BMU's codebook vector."""
+    def quantization_error(self, X: ArrayLike) -> float:
+        """Mean Euclidean distance of the rows of X to their BMU's codebook vector.
+
+        Parameters
+        ----------
+        X : array_like, shape (n, dim)
+            The rows.
+
+        Returns
+        -------
+        float
+            The error.
+        """
         return self._errors(X)[0]
 
-    def topographic_error(self, X) -> float:
-        """Fraction of rows whose best and second-best units are not lattice neighbours
-        (8-neighbourhood)."""
+    def topographic_error(self, X: ArrayLike) -> float:
+        """Fraction of rows whose best and second-best units are not lattice neighbours.
+
+        Neighbours: the 8-neighbourhood.
+
+        Parameters
+        ----------
+        X : array_like, shape (n, dim)
+            The rows.
+
+        Returns
+        -------
+        float
+            In [0, 1].
+        """
         return self._errors(X)[1]
 
     def to_bytes(self) -> bytes:
-        """The codebook as a checked blob (tag, version, size, hash)."""
+        """The codebook as a checked blob.
+
+        Returns
+        -------
+        bytes
+            Tag, version, size, hash and the codebook.
+        """
         h = self._live()
         size = lib.mlr_som_export_size(h)
         buf = ffi.new("char[]", size)
@@ -154,8 +246,26 @@ class SOM(ReadOnlyAttributes, NativeHandle):
         return bytes(ffi.buffer(buf, size))
 
     @classmethod
-    def from_bytes(cls, blob: bytes, *, seed: int = 0, n_threads: int | None = None) -> "SOM":
-        """A map from :meth:`to_bytes` output; a corrupt blob raises ParseError."""
+    def from_bytes(cls, blob: bytes, *, seed: int = 0, n_threads: int | None = None) -> SOM:
+        """A map from :meth:`to_bytes` output.
+
+        Parameters
+        ----------
+        blob : bytes
+            The blob.
+        seed, n_threads : int, optional
+            As for :class:`SOM`.
+
+        Returns
+        -------
+        SOM
+            The map.
+
+        Raises
+        ------
+        mlayer.ParseError
+            For a corrupt blob.
+        """
         blob = bytes(blob)
         out = ffi.new("mlr_som **")
         diag = ffi.new("mlr_diag *")
@@ -163,15 +273,34 @@ class SOM(ReadOnlyAttributes, NativeHandle):
               diag)
         return _som_from_blob(blob, dict(seed=seed, n_threads=n_threads), out[0])
 
-    def save(self, path) -> None:
-        """Write the codebook blob to path (a temporary file renamed into place)."""
+    def save(self, path: str | os.PathLike[str]) -> None:
+        """Write the codebook blob to a file (a temporary file renamed into place).
+
+        Parameters
+        ----------
+        path : str or os.PathLike
+            The file.
+        """
         blob = self.to_bytes()
         with atomic_output(path) as tmp, open(tmp, "wb") as f:
             f.write(blob)
 
     @classmethod
-    def load(cls, path, **kwargs) -> "SOM":
-        """Read a map written by :meth:`save`."""
+    def load(cls, path: str | os.PathLike[str], **kwargs: Any) -> SOM:
+        """Read a map written by :meth:`save`.
+
+        Parameters
+        ----------
+        path : str or os.PathLike
+            The file.
+        **kwargs
+            ``seed``, ``n_threads``, as for :meth:`from_bytes`.
+
+        Returns
+        -------
+        SOM
+            The map.
+        """
         with open(os.fspath(path), "rb") as f:
             return cls.from_bytes(f.read(), **kwargs)
 
@@ -179,7 +308,7 @@ class SOM(ReadOnlyAttributes, NativeHandle):
         return f"SOM({self.rows}, {self.cols}, {self.dim})"
 
 
-def _som_from_blob(blob: bytes, options: dict, handle=None) -> SOM:
+def _som_from_blob(blob: bytes, options: dict[str, Any], handle: Any = None) -> SOM:
     """A map from an export blob (or the handle imported from it) and the constructor's
     options: from_bytes, copies, unpickling."""
     if handle is None:
@@ -195,9 +324,19 @@ def _som_from_blob(blob: bytes, options: dict, handle=None) -> SOM:
 __all__ = ["SOM", "u_matrix"]
 
 
-def u_matrix(codebook) -> np.ndarray:
-    """(rows, cols): the mean distance of each SOM unit's codebook vector to those of its 4
-    lattice neighbours."""
+def u_matrix(codebook: ArrayLike) -> NDArray[np.float64]:
+    """The U-matrix of a SOM codebook.
+
+    Parameters
+    ----------
+    codebook : array_like, shape (rows, cols, dim)
+        The codebook (:attr:`SOM.codebook`).
+
+    Returns
+    -------
+    numpy.ndarray, shape (rows, cols)
+        The mean distance of each unit's codebook vector to those of its 4 lattice neighbours.
+    """
     w = np.asarray(codebook, dtype=np.float64)
     rows, cols = w.shape[:2]
     u = np.zeros((rows, cols))

@@ -35,9 +35,11 @@ A stream is not thread-safe; separate streams are independent.
 """
 from __future__ import annotations
 
-from typing import NamedTuple
+
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from . import _arrays
 from ._args import integer
@@ -46,19 +48,55 @@ from ._native import ffi, lib
 from .errors import InvalidArgumentError, check
 from .motion import Motion, Skeleton
 
+if TYPE_CHECKING:
+    from .limits import JointLimits
+
 __all__ = ["Stream", "Frame", "stream_motion", "decay_rate"]
 
 
 class Frame(NamedTuple):
-    """One frame (or, from :meth:`Stream.flush`, k frames along a leading axis)."""
+    """One frame (or, from :meth:`Stream.flush`, k frames along a leading axis).
+
+    Attributes
+    ----------
+    root_pos : numpy.ndarray, shape (3,) or (k, 3)
+        Root translation.
+    rot : numpy.ndarray, shape (J, 4) or (k, J, 4)
+        Local rotations.
+    trans : numpy.ndarray, shape (P, 3) or (k, P, 3)
+        Translations of the joints with position channels.
+    """
     root_pos: np.ndarray  # (3,) or (k, 3)
     rot: np.ndarray       # (J, 4) or (k, J, 4)
     trans: np.ndarray     # (P, 3) or (k, P, 3)
 
 
+#: what :meth:`Stream.push` takes: a (root_pos, rot[, trans]) tuple, a Motion, a flat array
+FrameInput = tuple[ArrayLike, ...] | Motion | NDArray[Any]
+#: what :meth:`Stream.push` and :meth:`Stream.flush` give back: the form of the input
+FrameOutput = Frame | Motion | NDArray[np.float64]
+
+
 def decay_rate(lam: float, sigma: float) -> float:
-    """Rate rho in [0, 1) at which a stream's gap to the offline solve shrinks per frame of lag
-    (``mlr_stream_decay_rate``): 0 for lam = 0, close to 1 for strong smoothing."""
+    """Rate at which a stream's gap to the offline solve shrinks per frame of lag.
+
+    ``mlr_stream_decay_rate``: 0 for lam = 0, close to 1 for strong smoothing.
+
+    Parameters
+    ----------
+    lam, sigma : float
+        The LGS parameters: finite lam >= 0, sigma > 0.
+
+    Returns
+    -------
+    float
+        rho in [0, 1).
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        For lam or sigma out of range.
+    """
     r = float(lib.mlr_stream_decay_rate(float(lam), float(sigma)))
     if r < 0:
         raise InvalidArgumentError(
@@ -72,7 +110,7 @@ offline solve is measurable (``decay_rate ** lag``), and about 1 GB of buffers f
 skeleton. A larger lag is taken as a mistake (frames given for seconds, say)."""
 
 
-def _as_lag(lag) -> int:
+def _as_lag(lag: int) -> int:
     lag = integer(lag, "Stream: lag", 0)
     if lag > MAX_LAG:
         raise InvalidArgumentError(f"Stream: lag must be at most {MAX_LAG} frames "
@@ -112,8 +150,10 @@ class Stream(ReadOnlyAttributes, NativeHandle):
                  "_J", "_P", "_m", "_q0", "_in", "_out", "_in_buf", "_out_buf", "_pin", "_pout",
                  "_ready", "_in_root", "_in_trans", "_in_rot", "_default_trans")
 
-    def __init__(self, skeleton_or_motion, *, lam: float, sigma: float, lag: int, alpha=None,
-                 lam_base: float | None = None, sigma_base: float | None = None, limits=None):
+    def __init__(self, skeleton_or_motion: Skeleton | Motion, *, lam: float, sigma: float,
+                 lag: int, alpha: float | ArrayLike | None = None,
+                 lam_base: float | None = None, sigma_base: float | None = None,
+                 limits: JointLimits | None = None) -> None:
         if isinstance(skeleton_or_motion, Motion):
             sk = skeleton_or_motion.skeleton
         elif isinstance(skeleton_or_motion, Skeleton):
@@ -176,8 +216,8 @@ class Stream(ReadOnlyAttributes, NativeHandle):
             if not isinstance(limits, JointLimits) or limits.joint_names != sk.joint_names:
                 raise InvalidArgumentError("Stream: limits must be the JointLimits of this "
                                            "skeleton (mlayer.joint_limits(clip))")
-            check(lib.mlr_stream_set_limits(self._h, limits._h, self._diag), "mlayer.Stream limits",
-                  self._diag)
+            check(lib.mlr_stream_set_limits(self._h, limits._h, self._diag),
+                  "mlayer.Stream limits", self._diag)
         self.limits = limits  # the C stream borrows the handle: keep it alive
         if alpha is not None:
             self.set_alpha(alpha)
@@ -196,7 +236,7 @@ class Stream(ReadOnlyAttributes, NativeHandle):
 
     @property
     def frame_size(self) -> int:
-        """Values per flat frame: 3 + 3 P + 4 J."""
+        """Values per flat frame, 3 + 3 P + 4 J."""
         return self._m
 
     @property
@@ -211,16 +251,17 @@ class Stream(ReadOnlyAttributes, NativeHandle):
 
     @property
     def layered(self) -> bool:
+        """Whether the stream has a base layer (made with ``lam_base`` / ``sigma_base``)."""
         return self._layered
 
     @property
-    def alpha(self) -> tuple[float, np.ndarray]:
+    def alpha(self) -> tuple[float, NDArray[np.float64]]:
         """(alpha of the translations, alpha per joint (J,)) of a layered stream."""
         return self._alpha[0], self._alpha[1].copy()
 
     # ---- frames in and out -----------------------------------------------------------------
 
-    def _load(self, frame) -> str:
+    def _load(self, frame: Any) -> str:
         """Copy a frame into the input buffer; return its kind ("flat", "tuple", "motion")."""
         if isinstance(frame, np.ndarray) and frame.ndim == 1:
             if frame.shape[0] != self._m:
@@ -260,7 +301,7 @@ class Stream(ReadOnlyAttributes, NativeHandle):
             dst[...] = a
         return kind
 
-    def _wrap(self, x: np.ndarray, kind: str):
+    def _wrap(self, x: NDArray[np.float64], kind: str) -> Any:
         """Output rows x ((m,) or (k, m), owned) in the form of the input."""
         if kind == "flat":
             return x
@@ -276,11 +317,29 @@ class Stream(ReadOnlyAttributes, NativeHandle):
         return Motion(self.skeleton, ft, np.ascontiguousarray(root), np.ascontiguousarray(rot),
                       np.ascontiguousarray(trans), _trusted=True)
 
-    def push(self, frame):
-        """Push the next frame; return the smoothed frame from ``lag`` frames ago, or None while
-        fewer than lag + 1 frames have been pushed. The output has the form of the input (see
-        the module docstring). Raises InvalidArgumentError for a wrong shape or a NaN/inf value
-        (the stream is then unchanged) and Error after :meth:`flush` (call :meth:`reset`)."""
+    def push(self, frame: FrameInput) -> FrameOutput | None:
+        """Push the next frame; return the smoothed frame from ``lag`` frames ago.
+
+        The output has the form of the input (see the module docstring).
+
+        Parameters
+        ----------
+        frame : tuple, Motion or numpy.ndarray
+            ``(root_pos (3,), rot (J, 4)[, trans (P, 3)])``, a one-frame Motion or a flat
+            array of :attr:`frame_size` values.
+
+        Returns
+        -------
+        Frame, Motion, numpy.ndarray or None
+            The smoothed frame, or None while fewer than lag + 1 frames have been pushed.
+
+        Raises
+        ------
+        mlayer.InvalidArgumentError
+            For a wrong shape or a NaN/inf value (the stream is then unchanged).
+        mlayer.Error
+            After :meth:`flush` (call :meth:`reset`).
+        """
         kind = self._load(frame)
         self._last_kind = kind
         code = lib.mlr_stream_push(self._live(), self._pin, self._m, self._pout, self._m,
@@ -291,10 +350,18 @@ class Stream(ReadOnlyAttributes, NativeHandle):
             return None
         return self._wrap(self._out.copy(), kind)
 
-    def flush(self):
-        """End of the clip: the ``pending`` frames not yet output, oldest first, equal to the
-        offline solve of the clip pushed so far. In the form of the last pushed frame, with a
-        leading axis of k frames (k may be 0). The stream then needs :meth:`reset`."""
+    def flush(self) -> FrameOutput:
+        """End of the clip: the frames not yet output, oldest first.
+
+        They equal the offline solve of the clip pushed so far. The stream then needs
+        :meth:`reset`.
+
+        Returns
+        -------
+        Frame, Motion or numpy.ndarray
+            The :attr:`pending` frames in the form of the last pushed frame, with a leading
+            axis of k frames (k may be 0).
+        """
         k = self.pending
         x = np.empty((k, self._m))
         n = ffi.new("size_t *")
@@ -308,10 +375,22 @@ class Stream(ReadOnlyAttributes, NativeHandle):
         """Forget every pushed frame (the alphas are kept): the stream is as new."""
         lib.mlr_stream_reset(self._live())
 
-    def set_alpha(self, alpha, alpha_trans: float | None = None) -> None:
-        """Layer scales of a layered stream, used from the next output on: ``alpha`` a float
-        (every channel, unless alpha_trans is given) or (J,) per joint rotation (translations
-        then use alpha_trans, default 1)."""
+    def set_alpha(self, alpha: float | ArrayLike, alpha_trans: float | None = None) -> None:
+        """Layer scales of a layered stream, used from the next output on.
+
+        Parameters
+        ----------
+        alpha : float or array_like, shape (J,)
+            A float (every channel, unless ``alpha_trans`` is given) or one scale per joint
+            rotation.
+        alpha_trans : float, optional
+            The translations' scale (default: ``alpha`` when it is a float, else 1).
+
+        Raises
+        ------
+        mlayer.InvalidArgumentError
+            For a stream without a base layer or an alpha of another shape.
+        """
         if not self._layered:
             raise InvalidArgumentError("Stream.set_alpha: the stream has no base layer "
                                        "(create it with lam_base / sigma_base)")
@@ -356,19 +435,49 @@ class Stream(ReadOnlyAttributes, NativeHandle):
                 f"lag {self.lag}{base}, {self.n_pushed} pushed>")
 
 
-def motion_channels(motion: Motion) -> np.ndarray:
-    """The frames of a motion as stream channels (N, 3 + 3P + 4J): ``[root][trans][rot]``."""
+def motion_channels(motion: Motion) -> NDArray[np.float64]:
+    """The frames of a motion as stream channels.
+
+    Parameters
+    ----------
+    motion : Motion
+        The motion.
+
+    Returns
+    -------
+    numpy.ndarray, shape (N, 3 + 3P + 4J)
+        ``[root][trans][rot]`` per frame.
+    """
     root_pos, rot, trans = motion._frames()
     N, J, P = motion.n_frames, rot.shape[1], trans.shape[1]
     return np.concatenate([root_pos, trans.reshape(N, 3 * P), rot.reshape(N, 4 * J)], axis=1)
 
 
-def stream_motion(motion: Motion, *, lam: float, sigma: float, lag: int, alpha=None,
-                  lam_base: float | None = None, sigma_base: float | None = None,
-                  limits=None) -> Motion:
-    """Stream a whole clip through a new :class:`Stream` (frame by frame, then flush) and return
-    the streamed motion (same skeleton, frame time and frame count). Frame f of the result is
-    what a live stream outputs for frame f: the smoothed frame given frames 0 .. f + lag."""
+def stream_motion(motion: Motion, *, lam: float, sigma: float, lag: int,
+                  alpha: float | ArrayLike | None = None, lam_base: float | None = None,
+                  sigma_base: float | None = None, limits: JointLimits | None = None) -> Motion:
+    """Stream a whole clip through a new :class:`Stream` (frame by frame, then flush).
+
+    Frame f of the result is what a live stream outputs for frame f: the smoothed frame given
+    frames 0 .. f + lag.
+
+    Parameters
+    ----------
+    motion : Motion
+        The clip.
+    lam, sigma, lag, alpha, lam_base, sigma_base, limits
+        As for :class:`Stream`.
+
+    Returns
+    -------
+    Motion
+        The streamed motion (same skeleton, frame time and frame count).
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        When ``motion`` is not a Motion, or for parameters :class:`Stream` refuses.
+    """
     if not isinstance(motion, Motion):
         raise InvalidArgumentError(
             f"stream_motion: expected a mlayer.Motion, got {type(motion).__name__}")

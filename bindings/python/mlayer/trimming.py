@@ -17,7 +17,8 @@ from __future__ import annotations
 
 import contextlib
 import contextvars
-from typing import NamedTuple
+from collections.abc import Callable, Iterator
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
@@ -26,25 +27,54 @@ from ._native import ffi, lib
 from ._rig import axis, c_rig
 from .errors import InvalidArgumentError, check
 
+if TYPE_CHECKING:
+    from .motion import Motion
+
 __all__ = ["LeadIn", "lead_in", "trim", "reading_trim"]
 
 # The trim of clips read with trim=None while the CLI's --trim is given (None: no trim), and a
 # function told (name, frames dropped) for each clip trimmed.
-_TRIM = contextvars.ContextVar("mlayer_trim", default=(None, None))
+_TRIM: contextvars.ContextVar[tuple[str | int | None, Callable[[str, int], object] | None]] = \
+    contextvars.ContextVar("mlayer_trim", default=(None, None))
 
 
 class LeadIn(NamedTuple):
-    """What :func:`lead_in` found: ``n_frames`` to drop at the start (0: none), of which
-    ``n_held`` hold the first pose (the T-pose), and ``distance``: frame 0's distance to the
-    motion in median steps (a lead-in above 5)."""
+    """What :func:`lead_in` found.
+
+    Attributes
+    ----------
+    n_frames : int
+        Frames to drop at the start (0: none).
+    n_held : int
+        Of those, the frames that hold the first pose (the T-pose).
+    distance : float
+        Frame 0's distance to the motion in median steps (a lead-in above 5).
+    """
     n_frames: int
     n_held: int
     distance: float
 
 
-def lead_in(motion, *, up=None) -> LeadIn:
-    """The converter's lead-in at the start of ``motion`` (a :class:`~mlayer.Motion`); ``up``
-    the up axis ("x", "y", "z"; default the motion's :attr:`~mlayer.Motion.up_axis`)."""
+def lead_in(motion: Motion, *, up: str | int | None = None) -> LeadIn:
+    """The converter's lead-in at the start of a motion (T-pose and blend frames).
+
+    Parameters
+    ----------
+    motion : Motion
+        The clip.
+    up : {"x", "y", "z"}, optional
+        The up axis; default the motion's :attr:`~mlayer.Motion.up_axis`.
+
+    Returns
+    -------
+    LeadIn
+        What to drop.
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        When ``motion`` is not a Motion.
+    """
     from .motion import Motion
     if not isinstance(motion, Motion):
         raise InvalidArgumentError(f"lead_in: expected a mlayer.Motion, got "
@@ -60,7 +90,7 @@ def lead_in(motion, *, up=None) -> LeadIn:
     return LeadIn(int(out.n_frames), int(out.n_held), float(out.distance))
 
 
-def frames_arg(trim, where: str):
+def frames_arg(trim: Any, where: str) -> str | int | None:
     """A trim argument: None, "auto", or a frame count >= 0 (an int)."""
     if trim is None or trim == "auto":
         return trim
@@ -70,21 +100,38 @@ def frames_arg(trim, where: str):
                                f"{trim!r}")
 
 
-def trim(motion, frames="auto"):
-    """``motion`` without its first frames: ``"auto"`` drops the converter's lead-in that
-    :func:`lead_in` finds (possibly none), an int N the first N frames (fewer than the clip
-    has). Returns a new Motion (the same one when nothing is dropped); the up axis is kept."""
+def trim(motion: Motion, frames: str | int | None = "auto") -> Motion:
+    """A motion without its first frames.
+
+    Parameters
+    ----------
+    motion : Motion
+        The clip.
+    frames : "auto", int or None, optional
+        ``"auto"`` drops the converter's lead-in that :func:`lead_in` finds (possibly none),
+        an int N the first N frames (fewer than the clip has), None nothing.
+
+    Returns
+    -------
+    Motion
+        A new motion (the same one when nothing is dropped); the up axis is kept.
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        For a bad ``frames`` or one that leaves no frame.
+    """
     frames = frames_arg(frames, "trim")
     if frames is None:
         return motion
-    n = lead_in(motion).n_frames if frames == "auto" else frames
+    n = lead_in(motion).n_frames if isinstance(frames, str) else frames
     if n >= motion.n_frames:
         raise InvalidArgumentError(f"trim: {n} frames dropped from a clip of {motion.n_frames} "
                                    "leave nothing")
     return motion[n:] if n else motion
 
 
-def _read(m, trim_given, name: str):
+def _read(m: Motion, trim_given: str | int | None, name: str) -> Motion:
     """A clip as read_bvh returns it: trimmed as trim_given, or as the CLI's --trim says."""
     report = None
     if trim_given is None:
@@ -98,10 +145,24 @@ def _read(m, trim_given, name: str):
 
 
 @contextlib.contextmanager
-def reading_trim(frames, report=None):
-    """Within the block, clips read with ``read_bvh(..., trim=None)`` are trimmed by ``frames``
-    ("auto", N, or None: not), and ``report(name, n)`` is called for each one trimmed; the
-    CLI's ``--trim`` uses it."""
+def reading_trim(frames: str | int | None,
+                 report: Callable[[str, int], object] | None = None) -> Iterator[None]:
+    """A context in which clips read with ``read_bvh(..., trim=None)`` are trimmed.
+
+    The CLI's ``--trim`` uses it.
+
+    Parameters
+    ----------
+    frames : "auto", int or None
+        As for :func:`trim` (None: not trimmed).
+    report : callable, optional
+        ``report(name, n)`` is called for each clip trimmed.
+
+    Yields
+    ------
+    None
+        Nothing; the setting ends with the block.
+    """
     token = _TRIM.set((frames_arg(frames, "--trim"), report))
     try:
         yield

@@ -17,14 +17,19 @@ from __future__ import annotations
 
 import contextlib
 import contextvars
-from typing import NamedTuple
+from collections.abc import Iterator
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from . import _arrays
 from ._native import ffi, lib
 from ._rig import c_rig
 from .errors import InvalidArgumentError, check
+
+if TYPE_CHECKING:
+    from .motion import Motion
 
 __all__ = ["UpGuess", "detect_up", "SURE"]
 
@@ -33,13 +38,23 @@ SURE = 0.8  # MLR_RIG_UP_SURE (a macro: cffi sees no macros)
 _METHODS = {0: "none", 1: "feet", 2: "floor"}
 
 # The default up axis of clips read while the CLI's --up is given (None: detect).
-_UP = contextvars.ContextVar("mlayer_up", default=None)
+_UP: contextvars.ContextVar[str | None] = contextvars.ContextVar("mlayer_up", default=None)
 
 
 class UpGuess(NamedTuple):
-    """What :func:`detect_up` found: ``axis`` "x", "y" or "z"; ``sign`` +1 (up is +axis) or
-    -1 (the clip stands upside down along it); ``confidence`` in [0, 1]; ``method`` "feet",
-    "floor" or "none" (no frames or no extent: "y" assumed)."""
+    """What :func:`detect_up` found.
+
+    Attributes
+    ----------
+    axis : str
+        ``"x"``, ``"y"`` or ``"z"``.
+    sign : int
+        +1 (up is +axis) or -1 (the clip stands upside down along it).
+    confidence : float
+        In [0, 1].
+    method : str
+        ``"feet"``, ``"floor"`` or ``"none"`` (no frames or no extent: ``"y"`` assumed).
+    """
     axis: str
     sign: int
     confidence: float
@@ -47,11 +62,30 @@ class UpGuess(NamedTuple):
 
     @property
     def sure(self) -> bool:
+        """Whether the guess can be trusted, found by a method with confidence >= :data:`SURE`."""
         return self.method != "none" and self.confidence >= SURE
 
 
-def detect_up(motion, positions: np.ndarray | None = None) -> UpGuess:
-    """The up axis of ``motion`` from its world positions (computed when not given, (N, J, 3))."""
+def detect_up(motion: Motion, positions: ArrayLike | None = None) -> UpGuess:
+    """The up axis of a motion from its world positions.
+
+    Parameters
+    ----------
+    motion : Motion
+        The motion.
+    positions : array_like, shape (N, J, 3), optional
+        Its world positions (computed when not given).
+
+    Returns
+    -------
+    UpGuess
+        The axis, its sign, the confidence and the method.
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        For positions of another shape.
+    """
     sk = motion.skeleton
     if positions is None:
         positions = motion.positions()
@@ -68,8 +102,9 @@ def detect_up(motion, positions: np.ndarray | None = None) -> UpGuess:
     return UpGuess("xyz"[g.axis], int(g.sign), float(g.confidence), _METHODS[int(g.method)])
 
 
-def axis_name(up, where: str) -> str | None:
-    """An up axis argument ("x", "y", "z" in any case, 0..2, or None) as "x" / "y" / "z" or None."""
+def axis_name(up: str | int | None, where: str) -> str | None:
+    """An up axis argument ("x", "y", "z" in any case, 0..2, or None) as "x" / "y" / "z" or
+    None."""
     if up is None:
         return None
     if isinstance(up, str) and up.lower() in ("x", "y", "z"):
@@ -87,11 +122,12 @@ _TO_Y_UP = {"x": np.array([_H, 0.0, 0.0, _H]), "y": np.array([1.0, 0.0, 0.0, 0.0
             "z": np.array([_H, -_H, 0.0, 0.0])}
 
 
-def to_y_up(up: str, positions=None, world_rot=None):
+def to_y_up(up: str, positions: ArrayLike | None = None,
+            world_rot: ArrayLike | None = None) -> Any:
     """World positions (..., 3) and world rotations (..., 4) of a clip whose up axis is ``up``,
     turned so that up is +Y (a proper rotation: the clip is not mirrored); None passes through.
     The features, the renderer and the primitives' heading work in this frame."""
-    q = _TO_Y_UP[axis_name(up, "to_y_up")]
+    q = _TO_Y_UP[axis_name(up, "to_y_up") or "y"]
     out = []
     if positions is not None:
         p = np.asarray(positions, dtype=np.float64)
@@ -112,7 +148,7 @@ def to_y_up(up: str, positions=None, world_rot=None):
 
 
 @contextlib.contextmanager
-def reading_up(up):
+def reading_up(up: str | int | None) -> Iterator[None]:
     """Within the block, clips read with ``read_bvh(..., up=None)`` get this up axis (None:
     detected); the CLI's ``--up`` uses it."""
     token = _UP.set(axis_name(up, "--up"))
@@ -122,6 +158,6 @@ def reading_up(up):
         _UP.reset(token)
 
 
-def default_up():
+def default_up() -> str | None:
     """The up axis a clip read now gets when none is given (None: detect)."""
     return _UP.get()

@@ -66,9 +66,9 @@ def test_resample_to_two_frames(mocap):
     fail on it)."""
     for name in SHARED_CLIPS:
         m = mlayer.read_bvh(mocap / name)[:150]
-        for fn in (lambda: mlayer.resample(m, n_frames=2, allow_extreme=True),
-                   lambda: mlayer.slerp_resample(m, n_frames=2, allow_extreme=True),
-                   lambda: mlayer.timewarp(m, n_frames=2, allow_extreme=True)):
+        for fn in (lambda m=m: mlayer.resample(m, n_frames=2, allow_extreme=True),
+                   lambda m=m: mlayer.slerp_resample(m, n_frames=2, allow_extreme=True),
+                   lambda m=m: mlayer.timewarp(m, n_frames=2, allow_extreme=True)):
             out = fn()
             assert out.n_frames == 2, name
             assert np.isfinite(out.positions()).all(), name

@@ -11,8 +11,8 @@ import mlayer
 from conftest import mocap_dir
 
 CLIPS = sorted(p.name for p in mocap_dir().glob("*.bvh")) if mocap_dir().is_dir() else []
-clip_params = pytest.mark.parametrize("clip", CLIPS or [pytest.param("none", marks=pytest.mark.skip(
-    reason="shared mocap clips not found"))])
+clip_params = pytest.mark.parametrize("clip", CLIPS or [pytest.param(
+    "none", marks=pytest.mark.skip(reason="shared mocap clips not found"))])
 
 
 def test_all_shared_clips_are_found(mocap):
@@ -128,7 +128,8 @@ def test_bandai_position_channels_replace_offsets(mocap):
     # position values equal the OFFSETs in these files, so bones keep their length
     assert m.joint_names[:2] == ["joint_Root", "Hips"]
     assert np.ptp(m.trans[:, 0, 2]) > 100  # walks forward
-    np.testing.assert_allclose(m.trans[:, 1:], np.broadcast_to(m.offsets[2:], m.trans[:, 1:].shape),
+    np.testing.assert_allclose(m.trans[:, 1:],
+                               np.broadcast_to(m.offsets[2:], m.trans[:, 1:].shape),
                                atol=1e-4)
     p = m.positions()
     for j in range(2, m.n_joints):
@@ -209,7 +210,8 @@ def test_threads_argument_is_checked():
 
 def _long_text(n_frames):
     head, motion = SMALL.split("MOTION")
-    lines = [f"{i % 7} {i % 5}.25 -{i % 3}.5 {i % 90} 0 0 1e-3 {i % 45} 0" for i in range(n_frames)]
+    lines = [f"{i % 7} {i % 5}.25 -{i % 3}.5 {i % 90} 0 0 1e-3 {i % 45} 0"
+             for i in range(n_frames)]
     return (head + f"MOTION\nFrames: {n_frames}\nFrame Time: 0.04\n" + "\n".join(lines) + "\n")
 
 
@@ -222,8 +224,9 @@ def test_errors_are_the_same_on_threads(tmp_path):
     f.write_text(text)
     errors = []
     for threads in (1, 2, 4, None):
-        for call in (lambda: mlayer.read_bvh(f, threads=threads),
-                     lambda: mlayer.read_bvh_string(text, name=str(f), threads=threads)):
+        for call in (lambda threads=threads: mlayer.read_bvh(f, threads=threads),
+                     lambda threads=threads: mlayer.read_bvh_string(text, name=str(f),
+                                                                    threads=threads)):
             with pytest.raises(mlayer.ParseError) as e:
                 call()
             errors.append((e.value.path, e.value.line, e.value.column, e.value.reason))
@@ -352,7 +355,8 @@ BAD = [
     ("missing-open-brace", _replace_line(SMALL, 7, ""), 8, "expected '{'"),
     ("missing-close-brace", _replace_line(SMALL, 14, ""), 16, "missing '}'"),
     ("missing-end-site-brace", _replace_line(SMALL, 13, ""), 16, "missing '}'"),
-    ("absurd-frames", SMALL.replace("Frames: 2", "Frames: 99999999999999"), 17, "at most 2 frames"),
+    ("absurd-frames", SMALL.replace("Frames: 2", "Frames: 99999999999999"), 17,
+     "at most 2 frames"),
     ("overflowing-frames", SMALL.replace("Frames: 2", "Frames: 999999999999999999999999999"), 17,
      "out of range"),
     ("negative-frames", SMALL.replace("Frames: 2", "Frames: -2"), 17, "whole number"),

@@ -86,7 +86,7 @@ def test_generate_through_keys_and_likely(model_file, tmp_path, capsys):
         (["--start-frame", "3", "--most-likely", "--noise", "0.3", "--allow-unseen"], None),
         (["--start-frame", "3", "--noise", "0.1", "--seed", "4"], None),
     ]
-    for extra, key_frames in runs:
+    for extra, _key_frames in runs:
         out = tmp_path / "g.bvh"
         assert main(["generate", str(model), "--frames", "90", "-o", str(out), *extra]) == 0
         g = mlayer.read_bvh(out)

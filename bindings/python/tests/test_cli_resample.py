@@ -59,7 +59,8 @@ def test_style_in_the_same_run(capsys, tmp_path):
 
 def test_contacts_kept_by_default_and_no_contacts_skips(capsys, tmp_path):
     m = mlayer.read_bvh(SAMPLE)
-    for cmd, extra, fn in (("resample", ["--fps", 30], lambda **k: mlayer.resample(m, fps=30, **k)),
+    for cmd, extra, fn in (("resample", ["--fps", 30],
+                            lambda **k: mlayer.resample(m, fps=30, **k)),
                            ("timewarp", [], lambda **k: mlayer.timewarp(m, **k))):
         for flag, keep in (([], True), (["--no-contacts"], False)):
             out = tmp_path / f"{cmd}{keep}.bvh"

@@ -5,7 +5,6 @@ import pytest
 
 import mlayer
 from mlayer.cli import main
-from mlayer.stream import motion_channels
 
 
 def run(capsys, *argv):

@@ -442,8 +442,9 @@ def test_bad_input_names_the_argument(mocap):
             C.find_feet(m, up=bad)
     for opt in ("speed", "height", "min_duration"):
         for v in (float("nan"), float("inf"), 0.0, -1.0, "x"):
-            with pytest.raises(mlayer.InvalidArgumentError,
-                               match=rf"detect_contacts: ({opt} must be a number|.*option {opt} = )"):
+            with pytest.raises(
+                    mlayer.InvalidArgumentError,
+                    match=rf"detect_contacts: ({opt} must be a number|.*option {opt} = )"):
                 mlayer.detect_contacts(m, **{opt: v})
     with pytest.raises(mlayer.InvalidArgumentError, match="motion must be"):
         mlayer.detect_contacts(m.positions())

@@ -205,7 +205,7 @@ def test_every_cli_output_honours_the_umask(tmp_path, capsys, walk_1s, small_mod
     old_cwd, old = os.getcwd(), os.umask(mask)
     try:
         os.chdir(tmp_path)
-        for argv, files in runs:
+        for argv, _files in runs:
             code, _, err = run(capsys, *argv)
             assert code == 0, (argv, err)
     finally:

@@ -49,7 +49,8 @@ def moving(n, n_ch, lift=True):
 
 C = 6 + 7 * 3
 CLIPS = {
-    "static": bvh_text([POS + ROT] + [ROT] * 7, np.tile(np.r_[0, 30, 0, np.zeros(C - 3)], (40, 1))),
+    "static": bvh_text([POS + ROT] + [ROT] * 7,
+                       np.tile(np.r_[0, 30, 0, np.zeros(C - 3)], (40, 1))),
     "one_frame": bvh_text([POS + ROT] + [ROT] * 7, moving(1, C)),
     "two_frames": bvh_text([POS + ROT] + [ROT] * 7, moving(2, C)),
     "three_frames": bvh_text([POS + ROT] + [ROT] * 7, moving(3, C)),

@@ -147,7 +147,8 @@ def check_plain_data():
     model.joint_limits()  # a cached C model: left out of copies and pickles, made again
     for c in (copy.copy(model), copy.deepcopy(model), pickle.loads(pickle.dumps(model))):
         assert "_limits_cache" not in vars(c)
-        np.testing.assert_allclose(c.positions(model.points[:5]), model.positions(model.points[:5]))
+        np.testing.assert_allclose(c.positions(model.points[:5]),
+                                   model.positions(model.points[:5]))
         assert c.joint_limits().n_joints == m.n_joints
 
 

@@ -130,7 +130,7 @@ class _Child:
 
     def calls_on(self, obj, calls, allow_nan=False, expect_ok=False):
         for name, fn in calls:
-            self.call(name, lambda: fn(obj), allow_nan, expect_ok)
+            self.call(name, lambda fn=fn: fn(obj), allow_nan, expect_ok)
 
 
 def _clip(n=40):
@@ -222,7 +222,7 @@ def _group_motion(ch, rng, tmp):
         except Exception:
             continue
         if kind == "any":
-            for name, fn in calls:
+            for _name, fn in calls:
                 try:
                     fn(m)
                 except Exception:
@@ -277,7 +277,8 @@ def _group_layers(ch, rng, tmp):
     import mlayer
     m = _clip()
     L0 = mlayer.decompose(m)
-    calls = [("synthesize", lambda L: L.synthesize(2.0)), ("reconstruct", lambda L: L.reconstruct()),
+    calls = [("synthesize", lambda L: L.synthesize(2.0)),
+             ("reconstruct", lambda L: L.reconstruct()),
              ("base", lambda L: L.base), ("control", lambda L: L.control),
              ("residual", lambda L: L.residual), ("alphas", lambda L: L.alphas(2.0)),
              ("save_npz", lambda L: L.save_npz(os.path.join(tmp, "l.npz"))),
@@ -364,7 +365,8 @@ def _group_grbf(ch, rng, tmp):
     calls = [("predict", lambda g: g.predict(P)), ("call", lambda g: g(P[:5])),
              ("design", lambda g: g.design(P)), ("fit", lambda g: g.fit(P, Y).predict(P))]
     for kernel in ("thin_plate", "gaussian"):
-        make = (lambda kernel=kernel: mlayer.GRBF(kernel, (4, 4)).fit(P, Y))
+        def make(kernel: str = kernel) -> mlayer.GRBF:
+            return mlayer.GRBF(kernel, (4, 4)).fit(P, Y)
         attrs = [a for a in vars(make()) if not a.startswith("__")]
         _hostile_object(ch, rng, make, attrs, calls, k=8)
 
@@ -377,7 +379,8 @@ def _group_primitives(ch, rng, tmp):
     model.save(path)
     traj = np.stack([np.linspace(0.5, 4.5, 30), np.linspace(1, 4, 30)], axis=1)
     calls = [("predict", lambda p: p.predict(traj)), ("positions", lambda p: p.positions(traj)),
-             ("to_manifold", lambda p: p.to_manifold(clip[:10])), ("clamp", lambda p: p.clamp(traj)),
+             ("to_manifold", lambda p: p.to_manifold(clip[:10])),
+             ("clamp", lambda p: p.clamp(traj)),
              ("primitive_path", lambda p: p.primitive_path(0, 30)),
              ("spline", lambda p: p.spline(traj[:3], np.array([0.0, 10, 29]), 30)),
              ("generate", lambda p: p.generate(30, seed=1)),

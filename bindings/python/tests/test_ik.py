@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 import mlayer
-from mlayer import ik, quat
+from mlayer import ik
 
 
 def _leg(rng, n):

@@ -2,7 +2,8 @@
 modules, read from the source with ast, has no cycle but the known ones listed below.
 
 Every import counts, at module level or inside a function: ``from .x import y``, ``from . import
-x``, ``from ..x import y``, ``import mlayer.x``. A cycle is reported as the set of modules that
+x``, ``from ..x import y``, ``import mlayer.x``; but those under ``if TYPE_CHECKING:``, which
+never run (the type hints' names for mypy). A cycle is reported as the set of modules that
 import each other (a strongly connected component).
 """
 import ast
@@ -29,6 +30,15 @@ def modules(root: pathlib.Path) -> dict:
     return out
 
 
+def _is_type_checking(node: ast.AST) -> bool:
+    """``if TYPE_CHECKING:`` (or ``typing.TYPE_CHECKING``): a block for the type checker only."""
+    if not isinstance(node, ast.If):
+        return False
+    t = node.test
+    return (isinstance(t, ast.Name) and t.id == "TYPE_CHECKING") or \
+        (isinstance(t, ast.Attribute) and t.attr == "TYPE_CHECKING")
+
+
 def import_graph(root: pathlib.Path) -> dict:
     """{module: set of the package's modules it imports anywhere in its source}."""
     mods = modules(root)
@@ -36,7 +46,12 @@ def import_graph(root: pathlib.Path) -> dict:
     for name, (path, is_pkg) in mods.items():
         package = name if is_pkg else name.rpartition(".")[0]
         edges = set()
-        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"), str(path))):
+        tree = ast.parse(path.read_text(encoding="utf-8"), str(path))
+        type_only = {id(n) for block in ast.walk(tree) if _is_type_checking(block)
+                     for stmt in block.body for n in ast.walk(stmt)}
+        for node in ast.walk(tree):
+            if id(node) in type_only:
+                continue
             if isinstance(node, ast.ImportFrom):
                 base = ""
                 if node.level:

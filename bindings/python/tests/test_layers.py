@@ -95,7 +95,8 @@ def test_joint_patterns_scale_only_their_joints(walk):
     changed = ~np.all(np.isclose(out.rot, den.rot, atol=1e-12), axis=(0, 2))
     assert [n for n, c in zip(names, changed) if c] == [n for n in names
                                                         if n.startswith("Left")
-                                                        and np.abs(L.control[:, 1 + names.index(n)]).max() > 0]
+                                                        and np.abs(L.control[:, 1 + names.index(n)]
+                                                                   ).max() > 0]
     assert np.array_equal(out.root_pos, den.root_pos)
     assert not np.array_equal(L.synthesize(1.0, root_alpha=2.0).root_pos, den.root_pos)
 
@@ -266,7 +267,8 @@ def test_body_translation_joint_on_the_clips(mocap, bandai):
     assert body_translation_joint([bandai[:50], bandai]) == hips
     # Bandai without its walk (Hips channels frozen at frame 0): the root again
     frozen = bandai.trans.copy()
-    frozen[:, list(bandai.trans_joints).index(hips)] = frozen[0, list(bandai.trans_joints).index(hips)]
+    col = list(bandai.trans_joints).index(hips)
+    frozen[:, col] = frozen[0, col]
     assert body_translation_joint(bandai.with_frames(trans=frozen)) == 0
     with pytest.raises(mlayer.InvalidArgumentError, match="Motion"):
         body_translation_joint([cmu, "x"])
@@ -290,7 +292,8 @@ def test_denoise_smooths_the_body_translation_where_it_lives(mocap, bandai):
     np.testing.assert_array_equal(den.trans[:, others], noisy.trans[:, others])
     cmu = mlayer.read_bvh(mocap / "cmu_131_01_mj_style_walk.bvh")[::4]
     scale = 1.0 * 24.0 / 170.0
-    ncmu = cmu.with_frames(root_pos=cmu.root_pos + rng.normal(scale=scale, size=cmu.root_pos.shape))
+    ncmu = cmu.with_frames(root_pos=cmu.root_pos + rng.normal(scale=scale,
+                                                              size=cmu.root_pos.shape))
     dcmu = mlayer.denoise(ncmu, keep_contacts=False, floor=None)
     assert _jitter(ncmu, 0) / _jitter(dcmu, 0) > 8.0
     np.testing.assert_array_equal(dcmu.trans, ncmu.trans)

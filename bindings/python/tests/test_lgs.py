@@ -91,7 +91,8 @@ def test_no_copy_of_contiguous_float64_input(rng):
     assert res is out
     # a strided view is accepted (copied once), a float32 array is converted, not reinterpreted
     np.testing.assert_allclose(g.solve(np.asfortranarray(y)), out)
-    np.testing.assert_allclose(g.solve(y.astype(np.float32)), g.solve(y.astype(np.float32).astype(np.float64)))
+    np.testing.assert_allclose(g.solve(y.astype(np.float32)),
+                               g.solve(y.astype(np.float32).astype(np.float64)))
 
 
 def test_variance_grows_between_sparse_keys():

@@ -64,7 +64,8 @@ def test_a_hip_swing_doubles_at_alpha_2_within_the_human_range(mocap, name, hip)
     a1 = pl.control_amplitude(lay.base.rot, lay.synthesize(1.0).rot)[:, j]
     out, _ = apply_limits(lay.synthesize(2.0), lim, 2.0)
     a2 = pl.control_amplitude(lay.base.rot, out.rot)[:, j]
-    rms = lambda a: float(np.sqrt(np.mean(a ** 2)))
+    def rms(a):
+        return float(np.sqrt(np.mean(a ** 2)))
     assert rms(a2) / rms(a1) > 1.95
     # Bandai's hip swings 27.5 degrees: 55 at alpha 2, inside the range; CMU 131_01's 37
     # would be 74, near the table's 75-degree cone: softly held below it

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import mlayer
-from mlayer import Motion, Skeleton
+from mlayer import Motion
 
 R = pytest.importorskip("scipy.spatial.transform").Rotation
 

@@ -22,7 +22,8 @@ def _read(mocap, name, frames=1800):
 
 def _c_stylize(m, alpha):
     """What a runtime on the C ABI does with every default: decompose (the frame rate and the
-    body height are the options), synthesize at alpha, create the guards with no option and apply them (no
+    body height are the options), synthesize at alpha, create the guards with no option and
+    apply them (no
     reference: the input's). The body translation goes where mlr_rig_body_translation_joint
     says (group 0 of the layers)."""
     N, J = m.n_frames, m.n_joints

@@ -432,7 +432,6 @@ def test_scipy_bridge_round_trips_and_agrees_with_our_rotations(rng):
     from scipy.spatial.transform import Rotation
     q = mlayer.quat.normalize(rng.normal(size=(50, 4)))
     r = mlayer.quat.to_scipy(q)
-    v = rng.normal(size=(50, 3))
     # scipy applies the same rotation as mlayer's exp/log convention: compare rotation vectors
     np.testing.assert_allclose(r.as_rotvec(), mlayer.quat.log(np.where(q[:, :1] < 0, -q, q)),
                                atol=1e-12)

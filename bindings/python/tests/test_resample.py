@@ -372,7 +372,8 @@ def test_timewarp_keeps_the_ends_is_monotone_and_slows_large_motion():
     # easing in and out: no jump in the local rate
     assert np.abs(np.diff(rate)).max() < 0.15 * rate.max()
     # the output motion: the burst is spread over more frames, so its peak speed drops
-    w_in = np.degrees(np.linalg.norm(quat.log(quat.mul(quat.conj(m.rot[:-1]), m.rot[1:])), axis=-1))
+    w_in = np.degrees(np.linalg.norm(quat.log(quat.mul(quat.conj(m.rot[:-1]), m.rot[1:])),
+                                     axis=-1))
     w_out = np.degrees(np.linalg.norm(
         quat.log(quat.mul(quat.conj(out.rot[:-1]), out.rot[1:])), axis=-1))
     assert w_out.max() < 0.5 * w_in.max()

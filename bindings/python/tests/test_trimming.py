@@ -35,7 +35,8 @@ def _reference(m):
         inside[j] = inside[m.skeleton.parents[j]]
     inside[b] = False
     X = X[:, inside]
-    d = lambda a, c: np.linalg.norm(a - c, axis=-1).mean(-1)
+    def d(a, c):
+        return np.linalg.norm(a - c, axis=-1).mean(-1)
     still = 1e-3 * np.median(np.linalg.norm(X, axis=-1).mean(-1))
     d0 = d(X[0][None], X)
     h = int(np.argmax(d0 > still)) if (d0 > still).any() else m.n_frames

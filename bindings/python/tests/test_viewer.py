@@ -75,9 +75,11 @@ def f32(b64, shape):
 
 @pytest.mark.parametrize("clip, arms, legs", [
     (WALK, {"LeftShoulder", "RightWrist", "LThumb"}, {"LHipJoint", "LeftKnee", "RightToe"}),
-    ("cmu_10_01_soccer_kick.bvh", {"lCollar", "rShldr", "lPinky2"}, {"rButtock", "lThigh", "rFoot"}),
+    ("cmu_10_01_soccer_kick.bvh", {"lCollar", "rShldr", "lPinky2"},
+     {"rButtock", "lThigh", "rFoot"}),
     ("bandai1_walk_happy_001.bvh", {"Shoulder_L", "Hand_R"}, {"UpperLeg_L", "Toes_R"}),
-    ("cmu_02_03_run_jog_25fps.bvh", {"rcollar", "lelbow", "finger2-1.r"}, {"lbuttock", "rhip", "toe1-1.l"}),
+    ("cmu_02_03_run_jog_25fps.bvh", {"rcollar", "lelbow", "finger2-1.r"},
+     {"lbuttock", "rhip", "toe1-1.l"}),
     ("ai4a_dog_D1_008_KAN01_002.bvh", {"LeftArm", "RightHand"}, {"LeftUpLeg", "RightFoot"}),
 ])
 def test_body_parts_from_names(mocap, clip, arms, legs):

@@ -4,7 +4,8 @@ the running server's API. The only answers allowed are 200 and 4xx with a JSON m
 the viewer's own (no traceback, no internal status code of the C core); never a 500, never an
 exception escaping into the server's log.
 
-MLR_VIEWER_FUZZ_N (default 4000 HTTP requests, ten times as many parser calls) and MLR_VIEWER_FUZZ_SECONDS
+MLR_VIEWER_FUZZ_N (default 4000 HTTP requests, ten times as many parser calls) and
+MLR_VIEWER_FUZZ_SECONDS
 (default 60, the time bound of the HTTP part) make it longer, MLR_VIEWER_FUZZ_SEED changes the
 seed."""
 import http.client

@@ -94,7 +94,7 @@ def _closed_within(s, seconds) -> float:
         data = s.recv(1)
     except ConnectionResetError:
         data = b""
-    except socket.timeout:
+    except TimeoutError:
         pytest.fail(f"the connection was still open after {seconds} s")
     assert data == b""
     return time.monotonic() - t0

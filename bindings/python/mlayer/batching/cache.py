@@ -13,9 +13,14 @@ import hashlib
 import json
 import os
 import pathlib
+from collections.abc import Iterable
+from typing import TYPE_CHECKING, Any
 
 from .._files import atomic_output, stale_temporaries
 from .._version import __version__
+
+if TYPE_CHECKING:
+    from .registry import Operation
 
 __all__ = ["SIDECAR_DIR"]
 
@@ -23,7 +28,8 @@ __all__ = ["SIDECAR_DIR"]
 SIDECAR_DIR = ".mlayer-batch"
 
 
-def options_key(op, options: dict, variant: dict, read: dict | None = None) -> str:
+def options_key(op: Operation, options: dict[str, Any], variant: dict[str, Any],
+                read: dict[str, Any] | None = None) -> str:
     """The hash of what an output of `op` depends on besides its input."""
     doc = {"operation": op.name, "run": f"{op.run.__module__}.{op.run.__qualname__}",
            "options": options, "variant": variant, "mlayer": __version__}
@@ -38,12 +44,13 @@ def sidecar_path(out_dir: pathlib.Path, out: pathlib.Path) -> pathlib.Path:
     return out_dir / SIDECAR_DIR / rel.parent / (rel.name + ".json")
 
 
-def _stat(path):
+def _stat(path: str | os.PathLike[str]) -> tuple[int, int]:
     st = os.stat(path)
     return st.st_size, st.st_mtime_ns
 
 
-def up_to_date(src: str, out: pathlib.Path, sidecar: pathlib.Path, key: str):
+def up_to_date(src: str, out: pathlib.Path, sidecar: pathlib.Path, key: str
+               ) -> dict[str, Any] | None:
     """The stored record when `out` is complete and up to date, else None."""
     try:
         with open(sidecar, encoding="utf-8") as f:
@@ -59,7 +66,7 @@ def up_to_date(src: str, out: pathlib.Path, sidecar: pathlib.Path, key: str):
     return None
 
 
-def write_sidecar(src, out, sidecar, key, record) -> None:
+def write_sidecar(src: str, out: str, sidecar: str, key: str, record: dict[str, Any]) -> None:
     in_size, in_mtime = _stat(src)
     out_size, out_mtime = _stat(out)
     side = {"options": key, "input": src, "input_size": in_size, "input_mtime_ns": in_mtime,
@@ -70,7 +77,7 @@ def write_sidecar(src, out, sidecar, key, record) -> None:
             json.dump(side, f, indent=1)
 
 
-def sweep(paths) -> None:
+def sweep(paths: Iterable[pathlib.Path]) -> None:
     """Remove the temporaries that killed writers of these outputs left
     (:func:`mlayer._files.stale_temporaries`)."""
     for out in paths:

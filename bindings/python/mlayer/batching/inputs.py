@@ -5,6 +5,7 @@ from __future__ import annotations
 import glob
 import os
 import pathlib
+from collections.abc import Iterable
 
 from ..errors import InvalidArgumentError
 
@@ -15,7 +16,7 @@ def _is_bvh(p: pathlib.Path) -> bool:
     return p.suffix.lower() == ".bvh" and p.is_file()
 
 
-def _under(path, folder) -> bool:
+def _under(path: str | os.PathLike[str], folder: str | os.PathLike[str] | None) -> bool:
     """Whether path (resolved) is folder (resolved) or inside it."""
     if folder is None:
         return False
@@ -23,13 +24,15 @@ def _under(path, folder) -> bool:
     return p == f or p.startswith(f.rstrip(os.sep) + os.sep)
 
 
-def _walk(folder: pathlib.Path, exclude, links):
+def _walk(folder: pathlib.Path, exclude: str | os.PathLike[str] | None,
+          links: list[tuple[str | pathlib.Path, str]]
+          ) -> list[tuple[pathlib.Path, pathlib.PurePath]]:
     """The .bvh files below folder (hidden parts and `exclude` left out). Symbolic links to
     folders are not followed (a link may lead out of the tree or back into it) and dangling
     links cannot be read: both are appended to ``links`` as (path, note)."""
     if _under(folder, exclude):
         exclude = None  # the output folder is this folder (or holds it): the overwrite check
-    out = []
+    out: list[tuple[pathlib.Path, pathlib.PurePath]] = []
     for f in sorted(folder.rglob("*")):
         rel = f.relative_to(folder)
         if any(part.startswith(".") for part in rel.parts) or _under(f, exclude):
@@ -46,7 +49,9 @@ def _walk(folder: pathlib.Path, exclude, links):
     return out
 
 
-def _glob(pattern: str, exclude, links):
+def _glob(pattern: str, exclude: str | os.PathLike[str] | None,
+          links: list[tuple[str | pathlib.Path, str]]
+          ) -> list[tuple[pathlib.Path, pathlib.PurePath]]:
     """The .bvh files matching a glob, relative to its fixed prefix. Python's glob follows
     links to folders ("**" included): each one crossed is noted in ``links``, as are dangling
     links that match."""
@@ -55,7 +60,8 @@ def _glob(pattern: str, exclude, links):
         root = root.parent
     if _under(root, exclude):
         exclude = None
-    out, crossed = [], set()
+    out: list[tuple[pathlib.Path, pathlib.PurePath]] = []
+    crossed: set[pathlib.Path] = set()
     for name in sorted(glob.glob(pattern, recursive=True)):
         f = pathlib.Path(name)
         if _under(f, exclude):
@@ -75,17 +81,37 @@ def _glob(pattern: str, exclude, links):
     return out
 
 
-def find_inputs(inputs, *, exclude=None, links=None) -> list[tuple[pathlib.Path, pathlib.PurePath]]:
-    """(input path, output path relative to OUT_DIR without extension) for every clip: a
-    folder (every .bvh below it, sub-folders kept), a glob pattern ("**" recurses; paths
-    relative to the pattern's fixed prefix), a file, or a list of these. Sorted, no
-    duplicates.
+def find_inputs(inputs: str | os.PathLike[str] | Iterable[str | os.PathLike[str]], *,
+                exclude: str | os.PathLike[str] | None = None,
+                links: list[tuple[str | pathlib.Path, str]] | None = None
+                ) -> list[tuple[pathlib.Path, pathlib.PurePath]]:
+    """The clips of a batch.
 
-    exclude: a folder whose files are never inputs (batch passes its output folder, so an
-    output folder inside the input folder can be resumed). links: a list that receives
-    (path, note) for each symbolic link that was not simply read: links to folders (not
-    followed in a folder walk; followed by a glob, as Python's glob does) and dangling links
-    (skipped). Links to files are read as clips (each link a clip of its own)."""
+    Parameters
+    ----------
+    inputs : str, os.PathLike or a list of them
+        A folder (every .bvh below it, sub-folders kept), a glob pattern (``**`` recurses;
+        paths relative to the pattern's fixed prefix), a file, or a list of these.
+    exclude : str or os.PathLike, optional
+        A folder whose files are never inputs (batch passes its output folder, so an output
+        folder inside the input folder can be resumed).
+    links : list, optional
+        Receives (path, note) for each symbolic link that was not simply read: links to
+        folders (not followed in a folder walk; followed by a glob, as Python's glob does)
+        and dangling links (skipped). Links to files are read as clips (each link a clip of
+        its own).
+
+    Returns
+    -------
+    list of (pathlib.Path, pathlib.PurePath)
+        (input path, output path relative to OUT_DIR without extension) for every clip;
+        sorted, no duplicates.
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        For an input that is no file, folder or matching glob, or a dangling link.
+    """
     if isinstance(inputs, (str, os.PathLike)):
         inputs = [inputs]
     links = [] if links is None else links

@@ -9,7 +9,8 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import Callable
+from collections.abc import Callable, Iterable
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -18,6 +19,10 @@ from ..features import pose_features
 from ..layers import _PARAMS
 from ..retiming import resample, timewarp
 
+if TYPE_CHECKING:
+    from ..motion import Motion
+    from ..pipeline import Clip
+
 __all__ = ["Operation", "register_operation", "operations", "parse_alphas", "variants"]
 
 
@@ -25,22 +30,31 @@ __all__ = ["Operation", "register_operation", "operations", "parse_alphas", "var
 class Operation:
     """A batch operation.
 
-    name       the name used by :func:`batch` and the CLI
-    run        ``run(motion, variants, **options) -> list`` with one result per variant dict
-               (e.g. ``[{"alpha": 1.5}, {"alpha": 2}]``, or ``[{}]``): a Motion (written as
-               BVH) or a dict of numpy arrays (written as .npz)
-    extension  ".bvh" or ".npz"
-    options    the keyword options ``run`` accepts (checked before anything runs)
-    uses_alphas  True when the variants are alphas (stylize): one output per alpha
-    help       one line for the CLI
-    takes_clip True when ``run`` takes the input's :class:`mlayer.pipeline.Clip` instead of its
-               Motion (the built-in operations: the forward kinematics, contacts and layers
-               of the input are then computed once for the outputs and the figures)
+    Parameters
+    ----------
+    name : str
+        The name used by :func:`mlayer.batch` and the CLI.
+    run : callable
+        ``run(motion, variants, **options) -> list`` with one result per variant dict (e.g.
+        ``[{"alpha": 1.5}, {"alpha": 2}]``, or ``[{}]``): a Motion (written as BVH) or a dict
+        of numpy arrays (written as .npz).
+    extension : {".bvh", ".npz"}, optional
+        The outputs' extension.
+    options : frozenset of str, optional
+        The keyword options ``run`` accepts (checked before anything runs).
+    uses_alphas : bool, optional
+        True when the variants are alphas (stylize): one output per alpha.
+    help : str, optional
+        One line for the CLI.
+    takes_clip : bool, optional
+        True when ``run`` takes the input's :class:`mlayer.pipeline.Clip` instead of its
+        Motion (the built-in operations: the forward kinematics, contacts and layers of the
+        input are then computed once for the outputs and the figures).
     """
     name: str
-    run: Callable
+    run: Callable[..., list[Any]]
     extension: str = ".bvh"
-    options: frozenset = frozenset()
+    options: frozenset[str] = frozenset()
     uses_alphas: bool = False
     help: str = ""
     takes_clip: bool = False
@@ -50,7 +64,25 @@ _OPERATIONS: dict[str, Operation] = {}
 
 
 def register_operation(op: Operation) -> Operation:
-    """Add (or replace) an operation in the table :func:`batch` and ``mlayer batch`` use."""
+    """Add (or replace) an operation in the table :func:`mlayer.batch` and ``mlayer batch`` use.
+
+    Parameters
+    ----------
+    op : Operation
+        The operation.
+
+    Returns
+    -------
+    Operation
+        ``op``.
+
+    Raises
+    ------
+    TypeError
+        When ``op`` is not an Operation.
+    mlayer.InvalidArgumentError
+        For an extension other than .bvh or .npz.
+    """
     if not isinstance(op, Operation):
         raise TypeError("register_operation: expected a mlayer.batching.Operation")
     if op.extension not in (".bvh", ".npz"):
@@ -60,11 +92,17 @@ def register_operation(op: Operation) -> Operation:
 
 
 def operations() -> dict[str, Operation]:
-    """The registered operations by name."""
+    """The registered operations.
+
+    Returns
+    -------
+    dict of str to Operation
+        A copy of the table, by name.
+    """
     return dict(_OPERATIONS)
 
 
-def lookup(operation) -> Operation:
+def lookup(operation: str | Operation) -> Operation:
     """The operation named `operation` (or `operation` itself when it is an Operation)."""
     op = _OPERATIONS.get(operation) if isinstance(operation, str) else operation
     if not isinstance(op, Operation):
@@ -76,20 +114,24 @@ def lookup(operation) -> Operation:
 _LAYER_OPTIONS = frozenset({"gamma", "lam_c", "sigma_c", "lam_b", "sigma_b", "base_cutoff"})
 
 
-def _op_denoise(clip, variants, keep_contacts=True, **options):
+def _op_denoise(clip: Clip, variants: list[dict[str, Any]], keep_contacts: bool = True,
+                **options: Any) -> list[Motion]:
     """mlayer.denoise of the input (one synthesis, whatever the number of variants)."""
     out = clip.denoise(keep_contacts=keep_contacts, **options)[0]
     return [out for _ in variants]
 
 
-def _op_stylize(clip, variants, keep_contacts=True, joints=None, root_alpha=None, **options):
+def _op_stylize(clip: Clip, variants: list[dict[str, Any]], keep_contacts: bool = True,
+                joints: Any = None, root_alpha: float | None = None,
+                **options: Any) -> list[Motion]:
     """mlayer.stylize for every alpha, sharing one decomposition and one set of guards
     (mlayer.pipeline.Clip.synthesis)."""
     s = clip.synthesis(keep_contacts=keep_contacts, **options)
     return [s.run(v["alpha"], joints, root_alpha=root_alpha)[0] for v in variants]
 
 
-def _op_features(clip, variants, keep_contacts=True, **options):
+def _op_features(clip: Clip, variants: list[dict[str, Any]], keep_contacts: bool = True,
+                 **options: Any) -> list[dict[str, Any]]:
     """Arrays for machine learning: the input frames, world joint positions, foot contacts,
     every layer and its parameters (as Layers.save_npz), and mlayer.pose_features."""
     del keep_contacts  # accepted for a uniform CLI; nothing is synthesized
@@ -110,12 +152,14 @@ def _op_features(clip, variants, keep_contacts=True, **options):
     return [arrays for _ in variants]
 
 
-def _op_resample(clip, variants, keep_contacts=True, **options):
+def _op_resample(clip: Clip, variants: list[dict[str, Any]], keep_contacts: bool = True,
+                 **options: Any) -> list[Any]:
     del keep_contacts
     return [resample(clip.motion, **options) for _ in variants]
 
 
-def _op_timewarp(clip, variants, keep_contacts=True, **options):
+def _op_timewarp(clip: Clip, variants: list[dict[str, Any]], keep_contacts: bool = True,
+                 **options: Any) -> list[Any]:
     del keep_contacts
     return [timewarp(clip.motion, **options) for _ in variants]
 
@@ -145,9 +189,25 @@ register_operation(Operation(
 
 # ---- variants -------------------------------------------------------------------------------
 
-def parse_alphas(spec) -> list[float]:
-    """Alphas from a number, a sequence, or a string "0.5,1,2" or "START:STOP:STEP" (STOP
-    included when it falls on the grid: "0.5:2.5:0.5" is 0.5, 1, ..., 2.5)."""
+def parse_alphas(spec: str | float | Iterable[Any] | None) -> list[float]:
+    """Alphas from a number, a sequence, or a string.
+
+    Parameters
+    ----------
+    spec : str, float, sequence or None
+        A number, a sequence, ``"0.5,1,2"`` or ``"START:STOP:STEP"`` (STOP included when it
+        falls on the grid: ``"0.5:2.5:0.5"`` is 0.5, 1, ..., 2.5).
+
+    Returns
+    -------
+    list of float
+        The distinct alphas in order; empty for None.
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        For values that are not finite numbers, a bad range, more than 10000 alphas, or none.
+    """
     if spec is None:
         return []
     if isinstance(spec, str):
@@ -185,9 +245,26 @@ def parse_alphas(spec) -> list[float]:
     return out
 
 
-def variants(op: Operation, alphas) -> list[dict]:
-    """The variants of one run of `op`: one ``{"alpha": a}`` per alpha for an operation that
-    uses alphas (default 2), else ``[{}]``; alphas given to another operation are an error."""
+def variants(op: Operation, alphas: str | float | Iterable[Any] | None) -> list[dict[str, Any]]:
+    """The variants of one run of an operation.
+
+    Parameters
+    ----------
+    op : Operation
+        The operation.
+    alphas : str, float, sequence or None
+        As for :func:`parse_alphas`; for an operation that uses alphas (default 2).
+
+    Returns
+    -------
+    list of dict
+        One ``{"alpha": a}`` per alpha for an operation that uses alphas, else ``[{}]``.
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        For alphas given to another operation.
+    """
     if op.uses_alphas:
         return [{"alpha": a} for a in parse_alphas(2.0 if alphas is None else alphas)]
     if alphas is not None:
@@ -195,7 +272,7 @@ def variants(op: Operation, alphas) -> list[dict]:
     return [{}]
 
 
-def variant_tag(variant: dict) -> str:
+def variant_tag(variant: dict[str, Any]) -> str:
     """What a variant adds to an output's name: "_alpha1.5" for {"alpha": 1.5}."""
     return "".join(f"_{k}{v:g}" if isinstance(v, float) else f"_{k}{v}"
                    for k, v in variant.items())

@@ -9,6 +9,7 @@ import io
 import json
 import math
 import os
+from typing import Any
 
 import numpy as np
 
@@ -30,37 +31,68 @@ FIELDS = ("input", "output", "variant", "status", "error", "frames", "frames_out
 
 @dataclasses.dataclass
 class BatchResult:
-    """What :func:`batch` did: one record per output (dicts with the keys of FIELDS), in input
-    order, then one record per symbolic link that was not read as a clip (status "link": a
-    link to a folder or a dangling link, its note in ``error``), and the wall time."""
+    """What :func:`mlayer.batch` did.
+
+    Attributes
+    ----------
+    operation : str
+        The operation's name.
+    records : list of dict
+        One record per output (dicts with the keys of :data:`FIELDS`), in input order, then
+        one record per symbolic link that was not read as a clip (status ``"link"``: a link
+        to a folder or a dangling link, its note in ``error``).
+    seconds : float
+        The wall time.
+    n_workers : int
+        Dask workers.
+    scheduler : str
+        The scheduler's address (empty for the embedded cluster).
+    """
     operation: str
-    records: list
+    records: list[dict[str, Any]]
     seconds: float
     n_workers: int = 0
     scheduler: str = ""
 
     def count(self, status: str) -> int:
+        """The number of records of a status.
+
+        Parameters
+        ----------
+        status : str
+            :data:`STATUS_OK`, :data:`STATUS_SKIPPED`, :data:`STATUS_FAILED` or
+            :data:`STATUS_LINK`.
+
+        Returns
+        -------
+        int
+            The count.
+        """
         return sum(1 for r in self.records if r["status"] == status)
 
     @property
-    def outputs(self) -> list:
+    def outputs(self) -> list[dict[str, Any]]:
         """The records of outputs (without the link records)."""
         return [r for r in self.records if r["status"] != STATUS_LINK]
 
     @property
     def links(self) -> int:
+        """Records of symbolic links not read as clips."""
         return self.count(STATUS_LINK)
 
     @property
     def ok(self) -> int:
+        """Outputs done by this run."""
         return self.count(STATUS_OK)
 
     @property
     def skipped(self) -> int:
+        """Outputs up to date from an earlier run (skipped)."""
         return self.count(STATUS_SKIPPED)
 
     @property
     def failed(self) -> int:
+        """Outputs that failed."""
         return self.count(STATUS_FAILED)
 
     @property
@@ -69,8 +101,14 @@ class BatchResult:
         return 1 if self.failed else 0
 
     def table(self) -> str:
-        """A summary table: one line per output, then the totals."""
-        def f(x, fmt="{:.3g}"):
+        """A summary table.
+
+        Returns
+        -------
+        str
+            One line per output, the failures and links, then the totals.
+        """
+        def f(x: Any, fmt: str = "{:.3g}") -> str:
             return "-" if x is None or (isinstance(x, float) and not math.isfinite(x)) \
                 else fmt.format(x)
         rows = []
@@ -99,9 +137,15 @@ class BatchResult:
                    f"({busy:.2f} s in tasks, {self.n_workers} workers)")
         return "\n".join(out)
 
-    def write_report(self, path) -> None:
-        """The records as JSON (.json: {"operation", "seconds", "summary", "records"}) or CSV
-        (any other extension), written atomically."""
+    def write_report(self, path: str | os.PathLike[str]) -> None:
+        """Write the records as JSON or CSV, atomically.
+
+        Parameters
+        ----------
+        path : str or os.PathLike
+            ``.json``: ``{"operation", "seconds", "n_workers", "scheduler", "summary",
+            "records"}``; CSV for any other extension.
+        """
         path = os.fspath(path)
         if path.lower().endswith(".json"):
             doc = {"operation": self.operation, "seconds": self.seconds,
@@ -126,7 +170,7 @@ class BatchResult:
                 f.write(text)
 
 
-def _json_default(o):
+def _json_default(o: Any) -> Any:
     if isinstance(o, (np.floating, np.integer)):
         return o.item()
     return str(o)

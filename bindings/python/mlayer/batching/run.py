@@ -7,14 +7,16 @@ import logging
 import os
 import pathlib
 import time
+from collections.abc import Iterable, Iterator
+from typing import Any
 
 from .._args import integer
 from ..errors import InvalidArgumentError
 from .cache import options_key, sidecar_path, sweep, up_to_date
 from .inputs import find_inputs
-from .registry import lookup, variant_tag, variants
+from .registry import Operation, lookup, variant_tag, variants
 from .._optional import require
-from .._progress import resolve
+from .._progress import ProgressArg, resolve
 from .report import FIELDS, STATUS_FAILED, STATUS_LINK, STATUS_SKIPPED, BatchResult
 from .task import process_clip, read_options
 
@@ -29,7 +31,7 @@ def _default_workers() -> int:
 
 
 @contextlib.contextmanager
-def _client(scheduler, n_workers):
+def _client(scheduler: Any, n_workers: int | None) -> Iterator[Any]:
     from distributed import Client, LocalCluster  # checked by batch() (require)
     if scheduler is not None:
         if hasattr(scheduler, "scheduler_address"):  # a Cluster object
@@ -48,7 +50,7 @@ def _client(scheduler, n_workers):
         yield client
 
 
-def _embedded_security():
+def _embedded_security() -> Any:
     """Mutual TLS with credentials made for this run only (``Security.temporary()``: a new
     self-signed CA, certificate and key, held by this process and handed to the workers it
     starts). The embedded scheduler runs
@@ -59,47 +61,74 @@ def _embedded_security():
     from distributed.security import Security  # cryptography: checked by batch() (require)
     return Security.temporary()
 
-def batch(operation, inputs, out_dir, *, alphas=None, scheduler=None, n_workers=None,
-          report=None, progress=None, force=False, metrics=True, read=None,
-          **options) -> BatchResult:
-    """Run an operation over every clip of `inputs` on Dask, writing into `out_dir`.
+def batch(operation: str | Operation,
+          inputs: str | os.PathLike[str] | Iterable[str | os.PathLike[str]],
+          out_dir: str | os.PathLike[str], *, alphas: str | float | Iterable[Any] | None = None,
+          scheduler: Any = None, n_workers: int | None = None,
+          report: str | os.PathLike[str] | None = None, progress: ProgressArg = None,
+          force: bool = False, metrics: bool = True, read: dict[str, Any] | None = None,
+          **options: Any) -> BatchResult:
+    """Run an operation over every clip of ``inputs`` on Dask, writing into ``out_dir``.
 
-    operation  "denoise", "stylize", "features", "resample", "timewarp", another name
-               registered with :func:`register_operation` (see :func:`operations`), or an
-               :class:`Operation`
-    inputs     a folder (every .bvh below it), a glob ("captures/**/*.bvh"), a file, or a list
-               of these; outputs keep the paths relative to the folder (the glob's fixed part)
-    out_dir    created if needed. Outputs: <rel>.bvh, <rel>_alpha<A>.bvh per alpha for stylize,
-               <rel>.npz for features
-    alphas     stylize only: one alpha or several (a list, a range such as np.arange, or a
-               string "0.5:2.5:0.5" or "1,1.5,2"); default 2
-    scheduler  None: an embedded LocalCluster on loopback, secured by mutual TLS with
-               credentials made for this run (other users of the machine cannot connect);
-               "tls://host:8786" or "tcp://host:8786": an existing cluster (a dask Client or
-               LocalCluster object also works). Securing that one is its owner's business:
-               a tcp:// scheduler runs the tasks of anyone who can reach its port. Start it
-               with TLS (``dask scheduler --tls-ca-file ca.pem --tls-cert sched.pem --tls-key
-               sched.key``, the workers likewise) and give this process its credentials in the
-               Dask configuration (``distributed.comm.tls.ca-file`` and
-               ``distributed.comm.tls.client.cert`` / ``.key``, e.g. the environment variables
-               DASK_DISTRIBUTED__COMM__TLS__CA_FILE, ..._CLIENT__CERT, ..._CLIENT__KEY), or
-               pass ``Client(address, security=Security(...))`` as ``scheduler``
-    n_workers  worker processes of the embedded cluster (default: one per CPU, at most one per
-               clip)
-    report     write the records there: .json, or CSV for any other extension
-    progress   a progress bar over clips (tqdm): None (default) on stderr when it is a terminal,
-               True, False, a stream, or a callable(done, total) (see mlayer._progress)
-    force      redo outputs that are up to date
-    metrics    compute jitter and foot sliding before/after (costs a few forward kinematics)
-    read       how the workers read each clip: read_bvh's strict, up, trim and units (for
-               example ``{"trim": "auto", "up": "z"}``); part of the outputs' up-to-date key
-    options    the operation's keyword arguments: keep_contacts=False, gamma, lam_c, sigma_c,
-               joints and root_alpha (stylize), fps / n_frames / lam (resample), strength ...
-    Returns a :class:`BatchResult`; ``result.exit_code`` is 1 when any clip failed. Raises
-    InvalidArgumentError before anything runs for an unknown operation or option, no inputs,
-    or outputs that would collide or overwrite an input; mlayer.MissingDependencyError (the
-    ``batch`` extra) before anything runs without Dask, or without cryptography for the
-    embedded cluster.
+    Parameters
+    ----------
+    operation : str or Operation
+        ``"denoise"``, ``"stylize"``, ``"features"``, ``"resample"``, ``"timewarp"``, another
+        name registered with :func:`register_operation` (see :func:`operations`), or an
+        :class:`Operation`.
+    inputs : str, os.PathLike or a list of them
+        A folder (every .bvh below it), a glob (``"captures/**/*.bvh"``), a file, or a list
+        of these; outputs keep the paths relative to the folder (the glob's fixed part).
+    out_dir : str or os.PathLike
+        Created if needed. Outputs: ``<rel>.bvh``, ``<rel>_alpha<A>.bvh`` per alpha for
+        stylize, ``<rel>.npz`` for features.
+    alphas : float, sequence or str, optional
+        Stylize only: one alpha or several (a list, a range such as np.arange, or a string
+        ``"0.5:2.5:0.5"`` or ``"1,1.5,2"``); default 2.
+    scheduler : None, str, or a dask Client or Cluster, optional
+        None: an embedded LocalCluster on loopback, secured by mutual TLS with credentials
+        made for this run (other users of the machine cannot connect); ``"tls://host:8786"``
+        or ``"tcp://host:8786"``: an existing cluster (a dask Client or LocalCluster object
+        also works). Securing that one is its owner's business: a tcp:// scheduler runs the
+        tasks of anyone who can reach its port. Start it with TLS (``dask scheduler
+        --tls-ca-file ca.pem --tls-cert sched.pem --tls-key sched.key``, the workers
+        likewise) and give this process its credentials in the Dask configuration
+        (``distributed.comm.tls.ca-file`` and ``distributed.comm.tls.client.cert`` /
+        ``.key``, e.g. the environment variables DASK_DISTRIBUTED__COMM__TLS__CA_FILE,
+        ..._CLIENT__CERT, ..._CLIENT__KEY), or pass
+        ``Client(address, security=Security(...))`` as ``scheduler``.
+    n_workers : int, optional
+        Worker processes of the embedded cluster (default: one per CPU, at most one per
+        clip).
+    report : str or os.PathLike, optional
+        Write the records there: .json, or CSV for any other extension.
+    progress : None, bool, stream or callable, optional
+        A progress bar over clips (tqdm): None (default) on stderr when it is a terminal,
+        True, False, a stream, or a callable ``f(done, total)``.
+    force : bool, optional
+        Redo outputs that are up to date.
+    metrics : bool, optional
+        Compute jitter and foot sliding before/after (costs a few forward kinematics).
+    read : dict, optional
+        How the workers read each clip: read_bvh's strict, up, trim and units (for example
+        ``{"trim": "auto", "up": "z"}``); part of the outputs' up-to-date key.
+    **options
+        The operation's keyword arguments: keep_contacts=False, gamma, lam_c, sigma_c, joints
+        and root_alpha (stylize), fps / n_frames / lam (resample), strength ...
+
+    Returns
+    -------
+    BatchResult
+        The records; ``result.exit_code`` is 1 when any clip failed.
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        Before anything runs, for an unknown operation or option, no inputs, or outputs that
+        would collide or overwrite an input.
+    mlayer.MissingDependencyError
+        (the ``batch`` extra) Before anything runs, without Dask, or without cryptography for
+        the embedded cluster.
     """
     t0 = time.perf_counter()
     require("distributed", feature="mlayer.batch")
@@ -119,43 +148,45 @@ def batch(operation, inputs, out_dir, *, alphas=None, scheduler=None, n_workers=
                                        "`scheduler` has its own workers")
         integer(n_workers, "n_workers", 1)
     out_root = pathlib.Path(out_dir).resolve()
-    links: list = []
+    links: list[tuple[str | pathlib.Path, str]] = []
     clips = find_inputs(inputs, exclude=out_root, links=links)
     if not clips:
         raise InvalidArgumentError(f"no .bvh files in {inputs!r}")
     inputs_set = {str(src) for src, _ in clips} | {os.path.realpath(src) for src, _ in clips}
-    plan, seen = [], {}
-    for src, rel in clips:
-        jobs = []
+    plan: list[tuple[str, list[tuple[dict[str, Any], str, str, str]]]] = []
+    seen: dict[str, pathlib.Path] = {}
+    for src_path, rel in clips:
+        jobs: list[tuple[dict[str, Any], str, str, str]] = []
         for v in runs:
             out = out_root / rel.parent / (rel.name + variant_tag(v) + op.extension)
             if str(out) in inputs_set or os.path.realpath(out) in inputs_set:
                 raise InvalidArgumentError(f"batch: output {out} would overwrite an input; "
                                            "choose another output folder")
             if str(out) in seen:
-                raise InvalidArgumentError(f"batch: {src} and {seen[str(out)]} both map to "
-                                           f"{out}")
-            seen[str(out)] = src
+                raise InvalidArgumentError(f"batch: {src_path} and {seen[str(out)]} both map "
+                                           f"to {out}")
+            seen[str(out)] = src_path
             jobs.append((v, str(out), str(sidecar_path(out_root, out)),
                          options_key(op, options, v, read)))
-        plan.append((str(src), jobs))
+        plan.append((str(src_path), jobs))
 
     all_outs = [pathlib.Path(o) for _, jobs in plan for _, o, _, _ in jobs]
     # the outputs and their sidecars: what a killed writer may have left temporaries of
     written = all_outs + [pathlib.Path(s) for _, jobs in plan for _, _, s, _ in jobs]
-    records_by_out: dict[str, dict] = {}
-    todo = []
+    records_by_out: dict[str, dict[str, Any]] = {}
+    todo: list[tuple[str, list[tuple[dict[str, Any], str, str, str]]]] = []
     for src, jobs in plan:
         need = []
         for job in jobs:
-            v, out, side, key = job
-            prev = None if force else up_to_date(src, pathlib.Path(out), pathlib.Path(side), key)
+            v, out_s, side, key = job
+            prev = None if force else up_to_date(src, pathlib.Path(out_s), pathlib.Path(side),
+                                                 key)
             if prev is None:
                 need.append(job)
             else:
                 rec = {k: prev.get(k) for k in FIELDS}
-                rec.update(input=src, output=out, variant=v, status=STATUS_SKIPPED, error="")
-                records_by_out[out] = rec
+                rec.update(input=src, output=out_s, variant=v, status=STATUS_SKIPPED, error="")
+                records_by_out[out_s] = rec
         if need:
             todo.append((src, need))
     for d in {p.parent for p in all_outs}:

@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 import os
 import time
+from typing import Any
 
 import numpy as np
 
@@ -32,7 +33,7 @@ __all__ = ["process_clip", "READ_OPTIONS"]
 READ_OPTIONS = ("strict", "up", "trim", "units")
 
 
-def read_options(read) -> dict:
+def read_options(read: dict[str, Any] | None) -> dict[str, Any]:
     """batch's ``read``: checked here, before anything runs, with read_bvh's own rules."""
     if read is None:
         return {}
@@ -53,7 +54,7 @@ def read_options(read) -> dict:
     return out
 
 
-def _figures(clip, out=None):
+def _figures(clip: Clip, out: Motion | None = None) -> tuple[float, float]:
     """(jitter, foot sliding) of the input, or of an output ``out``, in body heights
     (:meth:`mlayer.pipeline.Clip.jitter` and :meth:`~mlayer.pipeline.Clip.foot_sliding`: the
     input's forward kinematics and contacts are computed once for every output)."""
@@ -65,7 +66,7 @@ def _figures(clip, out=None):
     return j, s
 
 
-def _fin(x):
+def _fin(x: Any) -> float | None:
     """JSON-safe float (None for NaN/inf)."""
     try:
         f = float(x)
@@ -82,7 +83,7 @@ def _worker_name() -> str:
         return f"pid {os.getpid()}"
 
 
-def _write(result, out: str) -> int:
+def _write(result: Motion | dict[str, Any], out: str) -> int:
     if isinstance(result, Motion):
         write_bvh(result, out)
         return result.n_frames
@@ -93,15 +94,38 @@ def _write(result, out: str) -> int:
     raise TypeError(f"operation returned {type(result).__name__}, expected a Motion or a dict")
 
 
-def process_clip(op: Operation, src: str, jobs: list, options: dict, metrics: bool = True,
-                 read: dict | None = None):
-    """Run `op` on one clip for every job (variant, output path, sidecar path, options key);
-    ``read``: read_bvh's keyword arguments (strict, up, trim, units). Returns one record per
-    job. Never raises for a bad clip: the error goes in the records."""
+def process_clip(op: Operation, src: str, jobs: list[tuple[dict[str, Any], str, str, str]],
+                 options: dict[str, Any], metrics: bool = True,
+                 read: dict[str, Any] | None = None) -> list[dict[str, Any]]:
+    """The task of one clip on a worker: read, run the operation, write, measure.
+
+    Never raises for a bad clip: the error goes in the records.
+
+    Parameters
+    ----------
+    op : Operation
+        The operation.
+    src : str
+        The input clip.
+    jobs : list of tuple
+        (variant, output path, sidecar path, options key) per output.
+    options : dict
+        The operation's keyword options.
+    metrics : bool, optional
+        Measure jitter and foot sliding before and after.
+    read : dict, optional
+        read_bvh's keyword arguments (strict, up, trim, units).
+
+    Returns
+    -------
+    list of dict
+        One record per job (the keys of :data:`mlayer.batching.FIELDS`).
+    """
     t0 = time.perf_counter()
     worker = _worker_name()
-    records = [{"input": src, "output": out, "variant": variant, "status": STATUS_FAILED,
-                "error": "", "worker": worker} for variant, out, _, _ in jobs]
+    records: list[dict[str, Any]] = [
+        {"input": src, "output": out, "variant": variant, "status": STATUS_FAILED,
+         "error": "", "worker": worker} for variant, out, _, _ in jobs]
     try:
         motion = read_bvh(src, threads=1, **(read or {}))  # the workers are the parallelism
         for r in records:
@@ -113,7 +137,7 @@ def process_clip(op: Operation, src: str, jobs: list, options: dict, metrics: bo
         if len(results) != len(jobs):
             raise RuntimeError(f"operation {op.name} returned {len(results)} results for "
                                f"{len(jobs)} variants")
-        for r, res, (variant, out, sidecar, key) in zip(records, results, jobs):
+        for r, res, (_variant, out, _sidecar, _key) in zip(records, results, jobs):
             r["frames_out"] = _write(res, out)
             if before is not None:
                 r["jitter_before"], r["sliding_before"] = map(_fin, before)

@@ -36,7 +36,7 @@ import argparse
 import os
 import sys
 from dataclasses import dataclass, field
-from typing import Callable
+from collections.abc import Callable
 
 from .._optional import require
 from ..errors import InvalidArgumentError, MlayerIOError
@@ -101,7 +101,7 @@ class Needs:
             return True
         if callable(self.when):
             return bool(self.when(args))
-        v = getattr(args, self.when, None)
+        v = getattr(args, str(self.when), None)
         return v is not None and v is not False and v != ""
 
 

@@ -15,6 +15,8 @@ The commands are declared in their modules (``_command.command``) and listed in 
 """
 from __future__ import annotations
 
+from typing import Any
+
 import argparse
 import contextlib
 import logging
@@ -60,6 +62,13 @@ COMMANDS = (
 
 
 def build_parser() -> argparse.ArgumentParser:
+    """The parser of the ``mlayer`` command line, with every command of :data:`COMMANDS`.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        A new parser.
+    """
     p = argparse.ArgumentParser(prog="mlayer",
                                 description="Smooth motion layers for character animation.")
     p.add_argument("--version", action="version",
@@ -114,7 +123,8 @@ def cli_spelling(message: str, flags) -> str:
 
 def _flags(parser: argparse.ArgumentParser, command: str) -> set:
     """The option strings of a subcommand's parser."""
-    for action in parser._subparsers._group_actions:  # argparse keeps the subparsers here
+    p: Any = parser  # argparse keeps the subparsers in private attributes
+    for action in p._subparsers._group_actions:
         sp = action.choices.get(command)
         if sp is not None:
             return set(sp._option_string_actions)
@@ -122,6 +132,21 @@ def _flags(parser: argparse.ArgumentParser, command: str) -> set:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run the ``mlayer`` command line (the console script and ``python -m mlayer``).
+
+    Errors of mlayer and of the operating system become one line on stderr
+    (``mlayer COMMAND: error: ...``) and exit status 1; an interrupt gives 130.
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        The arguments without the program name; default ``sys.argv[1:]``.
+
+    Returns
+    -------
+    int
+        The exit status: 0 on success, 2 without a command.
+    """
     parser = build_parser()
     args = parser.parse_args(argv)
     cmd = getattr(args, "_command", None)

@@ -61,9 +61,9 @@ def cmd_convert(args: argparse.Namespace) -> int:
         raise InvalidArgumentError(f"{args.input}: mlayer convert reads .bvh, .glb, .gltf or "
                                    ".npz (AMASS) files")
     if _family(src) == _family(dst):
-        raise InvalidArgumentError(f"{args.input} -> {args.output}: both are {_NAMES[_family(src)]}"
-                                   " files; convert changes the format: BVH (.bvh), glTF (.glb,"
-                                   " .gltf) or AMASS (.npz)")
+        raise InvalidArgumentError(f"{args.input} -> {args.output}: both are "
+                                   f"{_NAMES[_family(src)]} files; convert changes the format: "
+                                   "BVH (.bvh), glTF (.glb, .gltf) or AMASS (.npz)")
     up = None if args.up == "auto" else args.up
     if src == ".bvh":
         m = read_bvh(args.input)  # --up, --units, --strict, --trim reach it through main

@@ -1,7 +1,8 @@
 """`mlayer demo [-o DIR]`: the main job end to end on the bundled CMU clip (or --clip FILE).
 
 Decomposes the clip into layers, writes the denoised and the exaggerated (alpha = 2) clips as
-BVH (feet pinned during the contacts of the original), the layers as a figure and as arrays, a GIF of original, denoised and exaggerated side by
+BVH (feet pinned during the contacts of the original), the layers as a figure and as arrays, a
+GIF of original, denoised and exaggerated side by
 side, and prints what was chosen and measured.
 """
 from __future__ import annotations

@@ -36,7 +36,7 @@ def describe(m, path: str | None = None, tree: bool = True) -> str:
     if path is not None:
         lines.append(f"file      {path} ({os.path.getsize(path):,} bytes)")
     lines.append(f"joints    {J} (+{E} End Sites), root '{sk.joint_names[0]}'")
-    counts = {}
+    counts: dict[int, int] = {}
     for c in sk.channels:
         n = len(c.split())
         counts[n] = counts.get(n, 0) + 1
@@ -44,7 +44,7 @@ def describe(m, path: str | None = None, tree: bool = True) -> str:
                     for n, k in sorted(counts.items(), reverse=True))
     P = sk.trans_joints.shape[0]
     pos_note = f"; position channels on {P} non-root joint(s)" if P else ""
-    orders = {}
+    orders: dict[str, int] = {}
     for o, c in zip(sk.euler_orders, sk.channels):
         if "rotation" in c:
             orders[o] = orders.get(o, 0) + 1

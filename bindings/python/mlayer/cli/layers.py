@@ -46,7 +46,8 @@ def _layer_options(p) -> None:
 
 def frame_ranges(frames) -> str:
     """[0, 1, 2, 3, 4, 9] -> '0-4, 9'."""
-    out, frames = [], [int(f) for f in frames]
+    out: list[list[int]] = []
+    frames = [int(f) for f in frames]
     for f in frames:
         if out and f == out[-1][1] + 1:
             out[-1][1] = f

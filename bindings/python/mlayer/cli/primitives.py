@@ -33,6 +33,8 @@ Bad input: one line on stderr and exit status 1.
 """
 from __future__ import annotations
 
+from typing import Any
+
 import argparse
 import os
 import sys
@@ -114,7 +116,7 @@ def parse_through(text: str) -> np.ndarray:
 def parse_keys(text: str, model) -> list:
     """--keys CLIP:FRAME,...: (clip, frame) pairs for PrimitiveModel.generate(keys=...); CLIP a
     training clip's name or index, or a BVH file of the model's skeleton (read here)."""
-    keys = []
+    keys: list[tuple[Any, int]] = []
     for part in (p.strip() for p in text.split(",") if p.strip()):
         clip, sep, frame = part.rpartition(":")
         try:

@@ -40,6 +40,7 @@ def _write(args, motion, figure=None, figure_path: str | None = None) -> None:
     if figure is None:
         write_bvh_output(args, motion, write=write_bvh)
         return
+    assert figure_path is not None  # given with the figure
     with atomic_output(figure_path) as tmp:
         figure.savefig(tmp, dpi=110)
         write_bvh_output(args, motion, write=write_bvh)
@@ -141,6 +142,7 @@ def cmd_resample(args) -> int:
         (f", style x{args.style:g}" if args.style is not None else "")
     fig = None
     if args.report is not None:
+        assert var is not None  # --report is refused with --slerp above
         print(variance_summary(var, out.fps))
         if isinstance(args.report, str):
             N, n = m.n_frames, out.n_frames

@@ -7,6 +7,10 @@ created with funding from NSF EIA-0196217. See README.md beside this file for it
 from __future__ import annotations
 
 import pathlib
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from ..motion import Motion
 
 __all__ = ["SAMPLE", "sample_path", "load_sample"]
 
@@ -14,11 +18,30 @@ SAMPLE = "cmu_131_01_mj_style_walk.bvh"
 
 
 def sample_path() -> pathlib.Path:
-    """Path of the bundled CMU clip (a real file inside the installed package)."""
+    """Path of the bundled CMU clip.
+
+    Returns
+    -------
+    pathlib.Path
+        A real file inside the installed package.
+    """
     return pathlib.Path(__file__).resolve().parent / SAMPLE
 
 
-def load_sample():
-    """The bundled CMU clip as a :class:`mlayer.Motion`."""
+def load_sample() -> Motion:
+    """The bundled CMU clip, read.
+
+    Returns
+    -------
+    Motion
+        994 frames at 120 fps.
+
+    Examples
+    --------
+    >>> import mlayer
+    >>> m = mlayer.data.load_sample()
+    >>> m.n_frames, round(m.fps)
+    (994, 120)
+    """
     from ..bvh import read_bvh
     return read_bvh(sample_path())

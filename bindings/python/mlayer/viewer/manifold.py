@@ -33,13 +33,21 @@ import math
 import threading
 import time
 import warnings
+from typing import IO, TYPE_CHECKING, Any, cast
+
 import numpy as np
+from numpy.typing import NDArray
 
 from ..bvh import write_bvh_string
 from ..errors import Error
 from ..render import body_side
 from ..som import u_matrix
-from .session import ParamError, _b64, _points, finite_number, json_bytes, query_pairs
+from .session import (Clip, ParamError, ResultCache, _b64, _points, finite_number, json_bytes,
+                      query_pairs)
+
+if TYPE_CHECKING:
+    from ..markov import Markov
+    from ..motion import Motion
 
 __all__ = ["ManifoldSession", "ranked_next", "ranked_chain", "ranked_cycle",
            "DEFAULT_MANIFOLD_FRAMES", "MAX_MOTION_FRAMES", "MAX_KNOTS"]
@@ -57,10 +65,26 @@ _STEPS = ("features:", "SOM ", "SOM:", "elbow:", "primitives:", "GRBF: ", "GRBF:
 
 # ---- the ranked chains (paper Figure 3 (c)) ---------------------------------------------------
 
-def ranked_next(P, j: int, rank: int = 1) -> int:
-    """The rank-th most likely next primitive other than j in the transition matrix P (rank 1:
-    equation 5, argmax over k != j of P[j, k]; rank 2: the runner-up), lowest index on ties;
-    with fewer than rank other primitives the least likely of them. -1 with one primitive."""
+def ranked_next(P: NDArray[np.float64], j: int, rank: int = 1) -> int:
+    """The rank-th most likely next primitive other than j in a transition matrix.
+
+    Rank 1: equation 5, argmax over k != j of P[j, k]; rank 2: the runner-up; lowest index on
+    ties; with fewer than rank other primitives the least likely of them.
+
+    Parameters
+    ----------
+    P : array_like, shape (n, n)
+        The transition matrix.
+    j : int
+        The current primitive.
+    rank : int, optional
+        >= 1.
+
+    Returns
+    -------
+    int
+        The primitive; -1 with one primitive.
+    """
     P = np.asarray(P, dtype=np.float64)
     n = P.shape[0]
     if n == 1:
@@ -71,10 +95,29 @@ def ranked_next(P, j: int, rank: int = 1) -> int:
     return int(order[min(rank, n - 1) - 1])
 
 
-def ranked_chain(markov, start: int, n_frames: int, rank: int = 1) -> np.ndarray:
-    """Primitives from start following :func:`ranked_next`, enough to fill n_frames at their
-    mean durations (as :meth:`mlayer.PrimitiveModel.primitive_path` fills them; rank 1 is its
-    ``most_likely`` path)."""
+def ranked_chain(markov: Markov, start: int, n_frames: int, rank: int = 1) -> NDArray[np.int64]:
+    """Primitives from a start following :func:`ranked_next`.
+
+    Enough to fill n_frames at their mean durations (as
+    :meth:`mlayer.PrimitiveModel.primitive_path` fills them; rank 1 is its ``most_likely``
+    path).
+
+    Parameters
+    ----------
+    markov : Markov
+        The model (its P and run lengths).
+    start : int
+        The first primitive.
+    n_frames : int
+        Frames to fill.
+    rank : int, optional
+        >= 1.
+
+    Returns
+    -------
+    numpy.ndarray of int64
+        The primitives.
+    """
     dur = np.maximum(markov.run_length, 1.0)
     path = [int(start)]
     total = 0.0
@@ -87,9 +130,25 @@ def ranked_chain(markov, start: int, n_frames: int, rank: int = 1) -> np.ndarray
     return np.array(path, dtype=np.int64)
 
 
-def ranked_cycle(P, start: int, rank: int = 1) -> list[int]:
-    """Follow :func:`ranked_next` from start until a primitive repeats (that one included):
-    the sequence of paper Figure 3 (c)."""
+def ranked_cycle(P: NDArray[np.float64], start: int, rank: int = 1) -> list[int]:
+    """Follow :func:`ranked_next` until a primitive repeats (that one included).
+
+    The sequence of paper Figure 3 (c).
+
+    Parameters
+    ----------
+    P : array_like, shape (n, n)
+        The transition matrix.
+    start : int
+        The first primitive.
+    rank : int, optional
+        >= 1.
+
+    Returns
+    -------
+    list of int
+        The primitives.
+    """
     path = [int(start)]
     while len(path) <= len(P):
         nxt = ranked_next(P, path[-1], rank)
@@ -151,12 +210,27 @@ class _Progress:
 
 
 class ManifoldSession:
-    """The manifold of a server's clips (see the module's doc). ``clips``: the server's
-    :class:`mlayer.viewer.session.Clip` list; ``cache``: its result cache; ``max_values``:
-    its output cap (frames x points); ``max_frames``: the most training frames."""
+    """The manifold of a server's clips (see the module's doc).
 
-    def __init__(self, clips, *, cache, max_values: int,
-                 max_frames: int = DEFAULT_MANIFOLD_FRAMES, log=None, seed: int = 0):
+    Parameters
+    ----------
+    clips : list of mlayer.viewer.session.Clip
+        The server's clips.
+    cache : ResultCache
+        Its result cache.
+    max_values : int
+        Its output cap (frames x points).
+    max_frames : int, optional
+        The most training frames.
+    log : text stream, optional
+        Where the training's lines go.
+    seed : int, optional
+        Seed of the training.
+    """
+
+    def __init__(self, clips: list[Clip], *, cache: ResultCache, max_values: int,
+                 max_frames: int = DEFAULT_MANIFOLD_FRAMES, log: IO[str] | None = None,
+                 seed: int = 0) -> None:
         self.clips = clips
         self.cache = cache
         self.max_values = int(max_values)
@@ -164,15 +238,17 @@ class ManifoldSession:
         self.seed = seed
         self.log = log
         self.state = "idle"
-        self.error = None
-        self.model = None
+        self.error: str | None = None
+        # Any: None until trained (``state == "ready"``); read only in that state
+        self.model: Any = None
         self._progress = _Progress()
-        self._t0 = self._t1 = None
+        self._t0: float | None = None
+        self._t1: float | None = None
         self._lock = threading.Lock()      # the state
         self._work = threading.Lock()      # the model in use (one motion at a time)
-        self._thread = None
-        self._map_body = None
-        self._features: dict = {}
+        self._thread: threading.Thread | None = None
+        self._map_body: bytes | None = None
+        self._features: dict[Any, Any] = {}
         self.plan()
 
     # -- the training set --
@@ -252,7 +328,18 @@ class ManifoldSession:
             self._thread.start()
 
     def wait(self, timeout: float | None = None) -> str:
-        """Wait for a training in progress (tests, warm-up); returns the state."""
+        """Wait for a training in progress (tests, warm-up).
+
+        Parameters
+        ----------
+        timeout : float, optional
+            Seconds at most (None: until it ends).
+
+        Returns
+        -------
+        str
+            The state: ``"idle"``, ``"training"``, ``"ready"`` or ``"failed"``.
+        """
         t = self._thread
         if t is not None:
             t.join(timeout)
@@ -261,9 +348,19 @@ class ManifoldSession:
     # -- answers --
 
     def status(self, start: bool = False) -> bytes:
-        """The state as JSON bytes: ``state`` (idle, training, ready, failed), ``progress``
-        (0..1) and ``steps`` (the lines of the training), ``error``; when ready the map data
-        (:meth:`map_data`)."""
+        """The state as JSON bytes.
+
+        Parameters
+        ----------
+        start : bool, optional
+            Start the training first (:meth:`start`).
+
+        Returns
+        -------
+        bytes
+            ``state`` (idle, training, ready, failed), ``progress`` (0..1) and ``steps`` (the
+            lines of the training), ``error``; when ready the map data (:meth:`map_data`).
+        """
         if start:
             self.start()
         if self.state == "ready":
@@ -280,9 +377,16 @@ class ManifoldSession:
             "clips": [c.index for c in self.used], "excluded": self.excluded,
             "frames": sum(len(range(0, c.motion.n_frames, self.stride)) for c in self.used)})
 
-    def map_data(self) -> dict:
-        """The lattice (U-matrix, the primitive of each unit), the training clips'
-        trajectories, the primitives' centres, the transition matrix and the ranked cycles."""
+    def map_data(self) -> dict[str, Any]:
+        """The map of a trained session.
+
+        Returns
+        -------
+        dict
+            The lattice (U-matrix, the primitive of each unit), the training clips'
+            trajectories, the primitives' centres, the transition matrix and the ranked
+            cycles.
+        """
         md = self.model
         rows, cols, _ = md.som_codebook.shape
         u = u_matrix(md.som_codebook)
@@ -299,7 +403,7 @@ class ManifoldSession:
         sk = md.skeleton
         return {
             "state": "ready", "error": None, "progress": 1.0, "steps": self._progress.lines,
-            "seconds": (self._t1 or time.monotonic()) - self._t0,
+            "seconds": (self._t1 or time.monotonic()) - cast(float, self._t0),
             "rows": rows, "cols": cols,
             "umatrix": ((u - u.min()) / span if span > 0 else np.zeros_like(u)).ravel().tolist(),
             "regions": np.argmin(d, axis=1).tolist(), "k": k,
@@ -322,8 +426,24 @@ class ManifoldSession:
                              f"ask /api/manifold?train=1 first (the page's button)", 409)
         return self.model
 
-    def parse(self, query: str) -> dict:
-        """Validate a motion request (see the module's doc); ParamError (400, 413, 409)."""
+    def parse(self, query: str) -> dict[str, Any]:
+        """Validate a motion request (see the module's doc).
+
+        Parameters
+        ----------
+        query : str
+            The query string.
+
+        Returns
+        -------
+        dict
+            The parameters.
+
+        Raises
+        ------
+        ParamError
+            400, 413 or 409.
+        """
         md = self._ready()
         q = _pairs(query)
         kinds = [k for k in ("points", "keys", "start") if k in q]
@@ -334,7 +454,8 @@ class ManifoldSession:
         sk = md.skeleton
         n_pts = sk.n_joints + sk.n_end_sites
         most = min(MAX_MOTION_FRAMES, max(2, self.max_values // n_pts))
-        p = {"kind": kind, "frames": 120, "guards": True, "chain": "most", "noise": 0.0,
+        p: dict[str, Any] = {"kind": kind, "frames": 120, "guards": True, "chain": "most",
+                             "noise": 0.0,
              "seed": 0}
         if "frames" in q:
             raw = q["frames"]
@@ -422,8 +543,21 @@ class ManifoldSession:
                                    (tuple(v) if isinstance(v, list) else v))
                                   for k, v in sorted(p.items())))
 
-    def motion(self, query: str) -> tuple[bytes, object]:
-        """(figure data as JSON bytes, the Motion) of a motion request, cached."""
+    def motion(self, query: str) -> tuple[bytes, Motion]:
+        """A motion request, cached.
+
+        Parameters
+        ----------
+        query : str
+            The query string (:meth:`parse`).
+
+        Returns
+        -------
+        body : bytes
+            The figure data as JSON bytes.
+        motion : Motion
+            The generated motion.
+        """
         p = self.parse(query)
         key = self._key(p)
         hit = self.cache.get(key)
@@ -441,7 +575,18 @@ class ManifoldSession:
         return hit
 
     def download(self, query: str) -> tuple[str, str]:
-        """(file name, BVH text) of a motion request."""
+        """A motion request as a BVH file.
+
+        Parameters
+        ----------
+        query : str
+            The query string (:meth:`parse`).
+
+        Returns
+        -------
+        tuple of str
+            (file name, BVH text).
+        """
         p = self.parse(query)
         _, motion = self.motion(query)
         return f"manifold_{p['kind']}.bvh", write_bvh_string(motion)

@@ -56,14 +56,17 @@ from __future__ import annotations
 import hmac
 import ipaddress
 import math
+import os
 import secrets
 import socket
 import sys
 import threading
 import time
 import traceback
+from collections.abc import Iterable
 from http.server import BaseHTTPRequestHandler, HTTPServer
 from importlib import resources
+from typing import IO, Any, cast
 from urllib.parse import unquote, urlsplit
 
 from ..errors import Error, InvalidArgumentError
@@ -97,7 +100,18 @@ _CSP = ("default-src 'none'; script-src 'self'; style-src 'self'; img-src 'self'
 
 
 def is_loopback(host: str) -> bool:
-    """True for localhost and loopback addresses (127.0.0.0/8, ::1)."""
+    """Whether a host is this machine's loopback.
+
+    Parameters
+    ----------
+    host : str
+        A host name or address (IPv6 in brackets or not).
+
+    Returns
+    -------
+    bool
+        True for localhost and loopback addresses (127.0.0.0/8, ::1).
+    """
     if host.lower() == "localhost":
         return True
     try:
@@ -111,20 +125,43 @@ def _static(name: str) -> bytes:
 
 
 class ViewerServer(HTTPServer):
-    """An HTTP server holding the clips; ``url`` is the address to open, ``token`` the session
-    token the page carries. See the module's doc for the limits (``max_values``,
-    ``cache_bytes``, ``timeout``, ``threads``). Requests are served by a pool of ``threads``
-    workers; ``serve_forever()`` runs the accept loop (``shutdown()`` stops it, ``server_close()``
-    releases everything)."""
+    """An HTTP server holding the clips.
+
+    ``url`` is the address to open, ``token`` the session token the page carries. See the
+    module's doc for the limits. Requests are served by a pool of ``threads`` workers;
+    ``serve_forever()`` runs the accept loop (``shutdown()`` stops it, ``server_close()``
+    releases everything).
+
+    Parameters
+    ----------
+    clips : list of Clip
+        The clips (:func:`mlayer.viewer.load_clips`).
+    host : str, optional
+        The address to bind.
+    port : int, optional
+        The port (0: any free one).
+    log : text stream, optional
+        Where the server's lines go (default stderr).
+    max_values : int, optional
+        Cap on the frames x points of one request's output.
+    cache_bytes : int, optional
+        Size of the shared result cache.
+    timeout : float, optional
+        Seconds a connection may stay idle or take to send a request.
+    threads : int, optional
+        Worker threads.
+    manifold_frames : int, optional
+        The most training frames of the manifold page.
+    """
 
     allow_reuse_address = True
     request_queue_size = BACKLOG
 
     def __init__(self, clips: list[Clip], host: str = "127.0.0.1", port: int = 0, *,
-                 log=None, max_values: int = DEFAULT_MAX_VALUES,
+                 log: IO[str] | None = None, max_values: int = DEFAULT_MAX_VALUES,
                  cache_bytes: int = DEFAULT_CACHE_BYTES, timeout: float = DEFAULT_TIMEOUT,
                  threads: int = DEFAULT_THREADS,
-                 manifold_frames: int = DEFAULT_MANIFOLD_FRAMES):
+                 manifold_frames: int = DEFAULT_MANIFOLD_FRAMES) -> None:
         self.max_values = _int_option("max_values", max_values, 1000)
         self.cache = ResultCache(_int_option("cache_bytes", cache_bytes, 0))  # --cache-mb
         if not (isinstance(timeout, (int, float)) and math.isfinite(timeout) and
@@ -142,8 +179,8 @@ class ViewerServer(HTTPServer):
             max_frames=_int_option("manifold_frames", manifold_frames, 16, 1_000_000))
         self.token = secrets.token_urlsafe(24)
         self._log_lock = threading.Lock()
-        self._page = None
-        self._reactor = None
+        self._page: bytes | None = None
+        self._reactor: Reactor | None = None
         self._pool = Pool(self._serve_conn, self.threads, MAX_PENDING)
         self._start_lock = threading.Lock()
         self._closing = False
@@ -156,19 +193,29 @@ class ViewerServer(HTTPServer):
         shown = f"[{host.strip('[]')}]" if family_v6 else host
         self.url = f"http://{shown}:{port}/"
         # DNS rebinding guard: on loopback, only requests naming a loopback host are served
-        self.allowed_hosts = None
+        self.allowed_hosts: set[str] | None = None
         if is_loopback(host):
             self.allowed_hosts = {f"{h}:{port}" for h in ("127.0.0.1", "localhost", "[::1]",
                                                          shown)}
 
     # -- connections: accepted -> watcher -> (readable) pool -> watcher or closed --
 
-    def process_request(self, request, client_address):
+    def process_request(self, request: Any, client_address: Any) -> None:
+        """Hand an accepted connection to the watcher (the reactor), started on first use.
+
+        Parameters
+        ----------
+        request : socket.socket
+            The connection.
+        client_address : tuple
+            The peer's address.
+        """
         with self._start_lock:
             if self._reactor is None:
-                self._reactor = Reactor(self._dispatch, self.timeout)
+                self._reactor = Reactor(self._dispatch, cast(float, self.timeout))
                 self._reactor.start()
-        self._reactor.add(Conn(request, client_address, self.timeout))
+            reactor = self._reactor
+        reactor.add(Conn(request, client_address, cast(float, self.timeout)))
 
     def _dispatch(self, conn: Conn) -> None:
         if self._closing or not self._pool.submit(conn):
@@ -179,13 +226,14 @@ class ViewerServer(HTTPServer):
         watcher (or closed)."""
         try:
             while True:
-                conn.rfile.deadline = time.monotonic() + self.timeout
-                h = _Handler(conn, conn.addr, self)
+                conn.rfile.deadline = time.monotonic() + cast(float, self.timeout)
+                h = _Handler(cast(Any, conn), conn.addr, self)
                 if h.close_connection or self._closing:
                     conn.close()
                     return
                 if not conn.rfile.pending():
                     break
+            assert self._reactor is not None  # started by process_request
             self._reactor.add(conn)
         except OSError:
             conn.close()
@@ -214,7 +262,13 @@ class ViewerServer(HTTPServer):
     # -- the page and the clips --
 
     def page(self) -> bytes:
-        """index.html with this server's token."""
+        """The page.
+
+        Returns
+        -------
+        bytes
+            index.html with this server's token.
+        """
         if self._page is None:
             html = _static("index.html")
             assert _TOKEN_META in html, "index.html lost its token meta tag"
@@ -222,13 +276,32 @@ class ViewerServer(HTTPServer):
                 b'content=""', b'content="' + self.token.encode() + b'"'))
         return self._page
 
-    def own_origins(self, host_header: str) -> set:
+    def own_origins(self, host_header: str) -> set[str]:
+        """The origins a request from the page itself carries.
+
+        Parameters
+        ----------
+        host_header : str
+            The request's Host header.
+
+        Returns
+        -------
+        set of str
+            ``http://`` plus each allowed host, or plus the Host header when any host is
+            allowed.
+        """
         if self.allowed_hosts is not None:
             return {f"http://{h}" for h in self.allowed_hosts}
         return {f"http://{host_header}"}
 
     def warm(self) -> threading.Thread:
-        """Decompose every clip in a background thread, so the first slider move is fast."""
+        """Decompose every clip in a background thread, so the first slider move is fast.
+
+        Returns
+        -------
+        threading.Thread
+            The started thread.
+        """
         def run():
             for c in self.clips:
                 try:
@@ -240,6 +313,13 @@ class ViewerServer(HTTPServer):
         return t
 
     def say(self, text: str) -> None:
+        """Write a line to the server's log (one writer at a time).
+
+        Parameters
+        ----------
+        text : str
+            The line.
+        """
         with self._log_lock:
             print(text, file=self.log, flush=True)
 
@@ -254,12 +334,32 @@ def _int_option(name: str, value, low: int, high: int | None = None) -> int:
     return value
 
 
-def make_server(paths, host: str = "127.0.0.1", port: int = 0, *, log=None,
-                **limits) -> ViewerServer:
-    """Load the clips (a failing clip keeps its error) and bind the server (not started:
-    call ``serve_forever()``, in a thread if needed; ``shutdown()`` stops it). ``limits``:
-    ``max_values``, ``cache_bytes``, ``timeout``, ``threads``, ``manifold_frames`` (see
-    :class:`ViewerServer`)."""
+def make_server(paths: Iterable[str | os.PathLike[str]], host: str = "127.0.0.1",
+                port: int = 0, *, log: IO[str] | None = None, **limits: Any) -> ViewerServer:
+    """Load the clips and bind the server (not started).
+
+    Call ``serve_forever()``, in a thread if needed; ``shutdown()`` stops it. A failing clip
+    keeps its error.
+
+    Parameters
+    ----------
+    paths : iterable of str or os.PathLike
+        The BVH files.
+    host : str, optional
+        The address to bind.
+    port : int, optional
+        The port (0: any free one).
+    log : text stream, optional
+        Where the server's lines go (default stderr).
+    **limits
+        ``max_values``, ``cache_bytes``, ``timeout``, ``threads``, ``manifold_frames`` (see
+        :class:`ViewerServer`).
+
+    Returns
+    -------
+    ViewerServer
+        The bound server.
+    """
     return ViewerServer(load_clips(paths), host, port, log=log, **limits)
 
 
@@ -301,7 +401,8 @@ class _Handler(BaseHTTPRequestHandler):
         if self.command == "HEAD":
             self.end_headers()
         elif len(body) <= 65536:  # one write (one packet) for the head and a small body
-            self._headers_buffer.append(b"\r\n" + body)
+            # BaseHTTPRequestHandler's own header buffer (CPython; no stub declares it)
+            self._headers_buffer.append(b"\r\n" + body)  # type: ignore[attr-defined]
             self.flush_headers()
         else:
             self.end_headers()

@@ -21,9 +21,12 @@ import re
 import threading
 import time
 from collections import OrderedDict
+from collections.abc import Collection, Hashable, Iterable, Sequence
+from typing import TYPE_CHECKING, Any
 from urllib.parse import parse_qsl
 
 import numpy as np
+from numpy.typing import NDArray
 
 from .. import quat
 from ..bvh import read_bvh, write_bvh_string
@@ -32,6 +35,9 @@ from .. import pipeline
 from ..metrics import foot_sliding, jitter
 from ..render import body_side
 from ..retiming import frames_at_rate, resample, timewarp
+
+if TYPE_CHECKING:
+    from ..motion import Motion
 
 __all__ = ["Clip", "load_clips", "body_parts", "parse_params", "ParamError", "PARAMS",
            "PART_NAMES", "ResultCache", "json_bytes", "DEFAULT_MAX_VALUES",
@@ -52,13 +58,26 @@ _LEG_WORDS = re.compile(r"hip|upleg|thigh|leg|knee|shin|calf|foot|ankle|toe|ball
                         r"paw|hoof|buttock", re.IGNORECASE)
 
 
-def body_parts(names, parents) -> list[str]:
-    """'arms', 'legs' or 'spine' (spine, neck, head, root, tail) per joint, from its name.
+def body_parts(names: Sequence[str], parents: Sequence[int] | NDArray[np.int32]) -> list[str]:
+    """The body part of every joint, from its name.
 
-    A joint on the left or right side (:func:`mlayer.render.body_side`) whose name matches an arm
-    or leg keyword is that part (a centre-line joint only below a joint of that part); any
+    A joint on the left or right side (:func:`mlayer.render.body_side`) whose name matches an
+    arm or leg keyword is that part (a centre-line joint only below a joint of that part); any
     other joint takes its parent's part (an eye under the head, a MakeHuman toe under a foot);
-    the root and the centre line (spine, neck, head, tail) are the spine."""
+    the root and the centre line (spine, neck, head, tail) are the spine.
+
+    Parameters
+    ----------
+    names : sequence of str
+        The joint names.
+    parents : sequence of int
+        The parents (-1 for the root).
+
+    Returns
+    -------
+    list of str
+        ``"arms"``, ``"legs"`` or ``"spine"`` per joint.
+    """
     out: list[str] = []
     for j, name in enumerate(names):
         p = int(parents[j])
@@ -79,11 +98,18 @@ def body_parts(names, parents) -> list[str]:
 # ---- request parameters ---------------------------------------------------------------------
 
 class ParamError(Exception):
-    """A bad request: ``status`` is the HTTP status (400 bad parameter, 404 unknown clip,
-    409 a clip that failed to load, 413 a request over the output limit), the message says
-    what and why."""
+    """A bad request; the message says what and why.
 
-    def __init__(self, message: str, status: int = 400):
+    Parameters
+    ----------
+    message : str
+        What and why.
+    status : int, optional
+        The HTTP status: 400 bad parameter, 404 unknown clip, 409 a clip that failed to load,
+        413 a request over the output limit.
+    """
+
+    def __init__(self, message: str, status: int = 400) -> None:
         super().__init__(message)
         self.status = status
 
@@ -106,7 +132,7 @@ _LENGTH_RATIO = (0.1, 10.0)   # target length / clip length
 _MAX_FPS_FACTOR = 100.0       # new fps / clip fps, either way (mlayer.resample's limit)
 
 
-def query_pairs(query: str, allowed) -> dict:
+def query_pairs(query: str, allowed: Collection[str]) -> dict[str, str]:
     """The raw values of a query string by name: every key in ``allowed``, given once.
     Raises ParamError (400)."""
     try:
@@ -135,10 +161,29 @@ def finite_number(raw: str, name: str) -> float:
     return v
 
 
-def parse_params(query: str, allowed) -> dict:
-    """Validate a query string against :data:`PARAMS`: every key known and in ``allowed``,
-    given once, a number that is finite and in range (or 0/1/true/false). Returns name ->
-    value for every allowed key (defaults filled in). Raises ParamError (400)."""
+def parse_params(query: str, allowed: Collection[str]) -> dict[str, Any]:
+    """Validate a query string against :data:`PARAMS`.
+
+    Every key known and in ``allowed``, given once, a number that is finite and in range (or
+    0/1/true/false).
+
+    Parameters
+    ----------
+    query : str
+        The query string.
+    allowed : collection of str
+        The parameter names the request may give.
+
+    Returns
+    -------
+    dict
+        Name -> value for every allowed key (defaults filled in).
+
+    Raises
+    ------
+    ParamError
+        (400) For anything else.
+    """
     seen = query_pairs(query, allowed)
     out = {}
     for key in allowed:
@@ -159,6 +204,7 @@ def parse_params(query: str, allowed) -> dict:
             out[key] = int(raw)
             continue
         v = finite_number(raw, key)
+        assert lo is not None and hi is not None  # every number parameter has a range
         if not lo <= v <= hi:
             raise ParamError(f"{key} must be in [{lo:g}, {hi:g}], got {raw!r}")
         out[key] = v
@@ -182,19 +228,37 @@ def _clean(o):
     return o
 
 
-def json_bytes(obj) -> bytes:
-    """``obj`` as compact JSON (NaN and infinities as null)."""
+def json_bytes(obj: Any) -> bytes:
+    """An object as compact JSON.
+
+    Parameters
+    ----------
+    obj : object
+        Dicts, lists, numbers, strings, numpy arrays and scalars.
+
+    Returns
+    -------
+    bytes
+        UTF-8 JSON; NaN and infinities as null.
+    """
     return json.dumps(_clean(obj), separators=(",", ":"), allow_nan=False,
                       default=_json_default).encode()
 
 
 class ResultCache:
-    """A thread-safe LRU cache bounded by bytes: ``put(key, value, nbytes)`` evicts the least
-    recently used entries until the total is at most ``max_bytes``; an entry larger than the
-    bound is not kept. ``nbytes`` is the caller's measure of the value (its arrays, its
-    encoded bytes)."""
+    """A thread-safe LRU cache bounded by bytes.
 
-    def __init__(self, max_bytes: int = DEFAULT_CACHE_BYTES):
+    ``put(key, value, nbytes)`` evicts the least recently used entries until the total is at
+    most ``max_bytes``; an entry larger than the bound is not kept. ``nbytes`` is the caller's
+    measure of the value (its arrays, its encoded bytes).
+
+    Parameters
+    ----------
+    max_bytes : int, optional
+        The bound.
+    """
+
+    def __init__(self, max_bytes: int = DEFAULT_CACHE_BYTES) -> None:
         self.max_bytes = int(max_bytes)
         self.bytes = 0
         self._d: OrderedDict = OrderedDict()
@@ -203,7 +267,19 @@ class ResultCache:
     def __len__(self) -> int:
         return len(self._d)
 
-    def get(self, key):
+    def get(self, key: Hashable) -> Any:
+        """The value of a key, now the most recently used, or None.
+
+        Parameters
+        ----------
+        key : hashable
+            The key.
+
+        Returns
+        -------
+        object or None
+            The value.
+        """
         with self._lock:
             hit = self._d.get(key)
             if hit is None:
@@ -211,7 +287,18 @@ class ResultCache:
             self._d.move_to_end(key)
             return hit[0]
 
-    def put(self, key, value, nbytes: int) -> None:
+    def put(self, key: Hashable, value: Any, nbytes: int) -> None:
+        """Keep a value, evicting the least recently used entries beyond the bound.
+
+        Parameters
+        ----------
+        key : hashable
+            The key.
+        value : object
+            The value.
+        nbytes : int
+            Its size as the caller measures it; larger than the bound: not kept.
+        """
         nbytes = int(nbytes)
         with self._lock:
             old = self._d.pop(key, None)
@@ -263,29 +350,41 @@ def _decimate(n: int, most: int = 1500) -> np.ndarray:
 
 
 class Clip:
-    """One clip named on the command line: its motion (or the error that stopped it) and the
-    per-clip caches. Thread-safe: one lock serializes the work on a clip; answers already in
-    the cache are served without it.
+    """One clip named on the command line: its motion (or the error that stopped it).
 
-    ``cache`` (a :class:`ResultCache`, shared by the clips of a server) keeps processed
-    motions and encoded answers; ``max_values`` caps the frames x points of one request's
-    output (and of its intermediate retiming), never below the clip's own size."""
+    Thread-safe: one lock serializes the work on a clip; answers already in the cache are
+    served without it.
+
+    Parameters
+    ----------
+    index : int
+        The clip's index in the server.
+    path : str
+        The BVH file (read here; an error is kept in ``error``).
+    cache : ResultCache, optional
+        Shared by the clips of a server: keeps processed motions and encoded answers.
+    max_values : int, optional
+        Caps the frames x points of one request's output (and of its intermediate retiming),
+        never below the clip's own size.
+    """
 
     def __init__(self, index: int, path: str, *, cache: ResultCache | None = None,
-                 max_values: int = DEFAULT_MAX_VALUES):
+                 max_values: int = DEFAULT_MAX_VALUES) -> None:
         self.index = index
         self.path = path
         self.name = os.path.basename(path)
-        self.motion = None
-        self.error = None
+        # Any: None until read (``ok``); the methods that use it run only for a clip that is ok
+        self.motion: Any = None
+        self.error: str | None = None
         self.cache = cache if cache is not None else ResultCache()
         self.max_values = max_values
         self._lock = threading.Lock()
-        self._layers = None
-        self._contacts = None
-        self._original = None
-        self._original_body = None
-        self._plot_png = None
+        # made on first use (under the lock)
+        self._layers: Any = None
+        self._contacts: Any = None
+        self._original: Any = None
+        self._original_body: Any = None
+        self._plot_png: Any = None
         try:
             self.motion = read_bvh(path)
             if self.motion.n_frames < 4:
@@ -298,9 +397,18 @@ class Clip:
 
     @property
     def ok(self) -> bool:
+        """Whether the clip was read."""
         return self.motion is not None
 
-    def summary(self) -> dict:
+    def summary(self) -> dict[str, Any]:
+        """The clip's line of the clip list.
+
+        Returns
+        -------
+        dict
+            ``index``, ``name``, ``error``; and ``frames``, ``fps``, ``joints``, ``duration``
+            when the clip was read.
+        """
         d = {"index": self.index, "name": self.name, "error": self.error}
         if self.ok:
             m = self.motion
@@ -346,8 +454,14 @@ class Clip:
             with self._lock:
                 self._ensure()
 
-    def original(self) -> dict:
-        """The figure data of the original: skeleton, points, contacts, metrics (cached)."""
+    def original(self) -> dict[str, Any]:
+        """The figure data of the original (cached).
+
+        Returns
+        -------
+        dict
+            Skeleton, points, contacts, metrics.
+        """
         with self._lock:
             self._ensure()
             if self._original is None:
@@ -375,7 +489,13 @@ class Clip:
             return self._original
 
     def original_body(self) -> bytes:
-        """:meth:`original` as JSON bytes (encoded once)."""
+        """:meth:`original` as JSON bytes (encoded once).
+
+        Returns
+        -------
+        bytes
+            The JSON.
+        """
         if self._original_body is None:
             body = json_bytes(self.original())
             with self._lock:
@@ -391,13 +511,28 @@ class Clip:
 
     @property
     def n_points(self) -> int:
-        """Joints plus End Sites: the points of the figure (the unit of the output cap)."""
+        """Joints plus End Sites, the points of the figure (the unit of the output cap)."""
         return self.motion.n_joints + self.motion.skeleton.n_end_sites
 
-    def plan(self, p: dict) -> tuple[int, int]:
-        """(frames after the time warp, frames out) of the request ``p``, from the parameters
-        alone (no work). Raises ParamError: 400 for a length or fps out of range for this clip,
-        413 for more than :attr:`max_values` frames x points."""
+    def plan(self, p: dict[str, Any]) -> tuple[int, int]:
+        """The sizes of a request, from the parameters alone (no work).
+
+        Parameters
+        ----------
+        p : dict
+            Validated parameters (:func:`parse_params`).
+
+        Returns
+        -------
+        tuple of int
+            (frames after the time warp, frames out).
+
+        Raises
+        ------
+        ParamError
+            400 for a length or fps out of range for this clip, 413 for more than
+            ``max_values`` frames x points.
+        """
         m = self.motion
         n_len = m.n_frames
         if p["length"] is not None:
@@ -447,10 +582,24 @@ class Clip:
             self.cache.put(key, hit, _nbytes(out, src, info["contacts"]))
         return hit
 
-    def process(self, p: dict) -> tuple[dict, object]:
-        """Run the pipeline for validated parameters ``p`` (see :func:`parse_params`); returns
-        (figure data for the page, the processed Motion). Results are cached (see ``cache``).
-        The request is checked against the output cap (:meth:`plan`) before any work."""
+    def process(self, p: dict[str, Any]) -> tuple[dict[str, Any], Motion]:
+        """Run the pipeline for validated parameters.
+
+        Results are cached (see ``cache``). The request is checked against the output cap
+        (:meth:`plan`) before any work.
+
+        Parameters
+        ----------
+        p : dict
+            Validated parameters (:func:`parse_params`).
+
+        Returns
+        -------
+        data : dict
+            The figure data for the page.
+        motion : Motion
+            The processed motion.
+        """
         self.plan(p)
         key = ("result", self.index, self._key(p))
         cached = self.cache.get(key) is not None
@@ -461,9 +610,21 @@ class Clip:
         data["cached"] = cached
         return data, out
 
-    def process_body(self, p: dict) -> bytes:
-        """:meth:`process`'s figure data as JSON bytes, the encoded answer cached too: a
-        repeated request is a cache look-up, without the clip's lock."""
+    def process_body(self, p: dict[str, Any]) -> bytes:
+        """:meth:`process`'s figure data as JSON bytes, the encoded answer cached too.
+
+        A repeated request is a cache look-up, without the clip's lock.
+
+        Parameters
+        ----------
+        p : dict
+            Validated parameters (:func:`parse_params`).
+
+        Returns
+        -------
+        bytes
+            The JSON, with ``cached`` saying whether it came from the cache.
+        """
         key = ("body", self.index, self._key(p), p.get("joint"))
         body = self.cache.get(key)
         if body is None:
@@ -504,7 +665,7 @@ class Clip:
             src = np.interp(np.minimum(k, n1 - 1), np.arange(n1), src)
         c_out = c[np.clip(np.rint(src).astype(np.int64), 0, N - 1)] if names else \
             np.zeros((out.n_frames, 0), dtype=bool)
-        info = {"compute_ms": 1e3 * (time.perf_counter() - t0)}
+        info: dict[str, Any] = {"compute_ms": 1e3 * (time.perf_counter() - t0)}
         info["metrics"] = self._metrics(out, c_out, names)
         info["contacts"] = c_out
         return info, out, src
@@ -538,14 +699,31 @@ class Clip:
             },
         }
 
-    def download(self, p: dict) -> tuple[str, str]:
-        """(file name, BVH text) of the processed motion."""
+    def download(self, p: dict[str, Any]) -> tuple[str, str]:
+        """The processed motion as a BVH file.
+
+        Parameters
+        ----------
+        p : dict
+            Validated parameters (:func:`parse_params`).
+
+        Returns
+        -------
+        tuple of str
+            (file name, BVH text).
+        """
         _, out = self.process(p)
         stem = os.path.splitext(self.name)[0]
         return f"{stem}_processed.bvh", write_bvh_string(out)
 
     def layers_png(self) -> bytes:
-        """The layer figure of `mlayer layers` (plot.py, matplotlib) as PNG bytes (cached)."""
+        """The layer figure of ``mlayer layers`` (:mod:`mlayer.plot`, matplotlib), cached.
+
+        Returns
+        -------
+        bytes
+            A PNG image.
+        """
         with self._lock:
             L = self._ensure()
             if self._plot_png is None:
@@ -563,10 +741,24 @@ def _glob_escape(name: str) -> str:
     return "".join(f"[{ch}]" if ch in "*?[" else ch for ch in name)
 
 
-def load_clips(paths, *, cache: ResultCache | None = None,
+def load_clips(paths: Iterable[str | os.PathLike[str]], *, cache: ResultCache | None = None,
                max_values: int = DEFAULT_MAX_VALUES) -> list[Clip]:
-    """Parse every path; a clip that fails keeps its error (see :attr:`Clip.error`). The clips
-    share ``cache`` (a new :class:`ResultCache` of the default size if None)."""
+    """Read every path; a clip that fails keeps its error (see ``Clip.error``).
+
+    Parameters
+    ----------
+    paths : iterable of str or os.PathLike
+        The BVH files.
+    cache : ResultCache, optional
+        Shared by the clips (a new :class:`ResultCache` of the default size if None).
+    max_values : int, optional
+        The output cap of each clip.
+
+    Returns
+    -------
+    list of Clip
+        One per path, in order.
+    """
     cache = cache if cache is not None else ResultCache()
     return [Clip(i, os.fspath(p), cache=cache, max_values=max_values)
             for i, p in enumerate(paths)]
