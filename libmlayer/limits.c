@@ -826,6 +826,13 @@ void mlr_limits_apply_frame(const mlr_limits *lim, mlr_quat *q, const double *al
 void mlr_limits_apply_kind(const mlr_limits *lim, size_t n_frames, mlr_quat *rot,
                            const double *alpha, size_t n_alpha, size_t *counts, int kind)
 {
+    mlr_limits_apply_kind_masked(lim, n_frames, rot, alpha, n_alpha, counts, kind, NULL);
+}
+
+void mlr_limits_apply_kind_masked(const mlr_limits *lim, size_t n_frames, mlr_quat *rot,
+                                  const double *alpha, size_t n_alpha, size_t *counts, int kind,
+                                  const uint8_t *mask)
+{
     const size_t J = lim->n_joints;
     const double *aj = alpha ? (n_alpha == 1 ? alpha : alpha + 1) : NULL;
     const size_t stride = n_alpha == 1 ? 0 : 1;
@@ -841,6 +848,13 @@ void mlr_limits_apply_kind(const mlr_limits *lim, size_t n_frames, mlr_quat *rot
             const mlr_limits_joint *lj = &lim->joints[j0];
             if (lj->range.kind != kind)
                 continue;
+            if (mask) { /* a joint with no frame to limit is left out */
+                size_t f = 0;
+                while (f < n_frames && !mask[f * J + j0])
+                    f++;
+                if (f == n_frames)
+                    continue;
+            }
             const double a = aj ? aj[stride * j0] : 1.0;
             js[m] = j0;
             prev[m] = (prev_angle){NAN, 0, {1, 0, 0, 0}};
@@ -850,6 +864,11 @@ void mlr_limits_apply_kind(const mlr_limits *lim, size_t n_frames, mlr_quat *rot
         for (size_t f = 0; f < n_frames; f++)
             for (size_t i = 0; i < m; i++) {
                 const size_t j = js[i];
+                if (mask && !mask[f * J + j]) { /* not limited here: the unwrapping starts
+                                                   again at the next frame that is */
+                    prev[i] = (prev_angle){NAN, 0, {1, 0, 0, 0}};
+                    continue;
+                }
                 if (limit_joint(&lim->joints[j], &b[i], &rot[f * J + j], &prev[i]) && counts)
                     counts[j]++;
             }
