@@ -30,7 +30,8 @@ mlr_status mlr_band_create(size_t n, size_t kd, const mlr_allocator *alloc, mlr_
                             "band create: n %zu x (kd %zu + 1) doubles overflow a size_t", n, kd);
     mlr_band *b = mlr_alloc(&a, sizeof *b);
     if (!b)
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "band create: no memory for the handle");
+        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                            "band create: out of memory for the handle");
     b->alloc = a;
     b->n = n;
     b->kd = kd;
@@ -41,7 +42,7 @@ mlr_status mlr_band_create(size_t n, size_t kd, const mlr_allocator *alloc, mlr_
     if (!b->dinv) {
         mlr_free(&a, b, sizeof *b);
         return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
-                            "band create: no memory for the factor (%zu bytes)", bytes);
+                            "band create: out of memory for the factor (%zu bytes)", bytes);
     }
     b->l = b->dinv + n;
     *out = b;
@@ -487,7 +488,7 @@ mlr_status mlr_band_inverse_diagonal(const mlr_band *b, double *var, size_t n, m
     double *z = mlr_alloc(&b->alloc, bytes);
     if (!z)
         return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
-                            "band inverse_diagonal: no memory for the workspace (%zu bytes)",
+                            "band inverse_diagonal: out of memory for the workspace (%zu bytes)",
                             bytes);
     const double *l = b->l;
     for (size_t i = n; i-- > 0;) {

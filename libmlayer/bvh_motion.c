@@ -246,34 +246,31 @@ static int name_is_valid(const char *s)
     return !is_space(s[n - 1]);
 }
 
-mlr_status mlr_motion_create(size_t n_joints, const char *const *names, const int32_t *parents,
-                             const double *offsets, const char *const *channels,
-                             size_t n_end_sites, const int32_t *end_parents,
-                             const double *end_offsets, size_t n_frames, double frame_time,
-                             const mlr_allocator *alloc, mlr_motion **out, mlr_diag *diag)
+/* The channel list of joint j: channels[j], or the default of the root or of a joint. */
+static const char *channel_list(const char *const *channels, size_t j)
 {
-    if (!out)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "out is NULL");
-    *out = NULL;
-    if (n_joints == 0 || n_joints > BVH_MAX_JOINTS || n_end_sites > BVH_MAX_JOINTS)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "bad joint or End Site count");
-    if (!names || !parents || !offsets || (n_end_sites && (!end_parents || !end_offsets)))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "a required array is NULL");
-    if (!isfinite(frame_time) || frame_time <= 0.0)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "frame_time must be finite and positive");
+    return channels ? channels[j] : (j == 0 ? default_root_channels : default_joint_channels);
+}
 
-    size_t name_bytes = 0, n_trans = 0;
+/* The joints of mlr_motion_create: valid names, parents in depth-first order, finite offsets,
+ * valid channel lists. Counts the bytes of the names (with their NULs) and the joints other
+ * than the root with position channels. */
+static mlr_status check_joints(size_t n_joints, const char *const *names, const int32_t *parents,
+                               const double *offsets, const char *const *channels,
+                               size_t *name_bytes, size_t *n_trans, mlr_diag *diag)
+{
     unsigned char codes[BVH_MAX_CHANNELS];
+    *name_bytes = *n_trans = 0;
     for (size_t j = 0; j < n_joints; j++) {
         if (!names[j] || !name_is_valid(names[j]))
             return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                                 "names[%zu] is empty or has control characters, braces, or "
                                 "leading or trailing blanks", j);
         size_t len = strlen(names[j]);
-        if (name_bytes > SIZE_MAX - len - 1)
-            return MLR_E_OVERFLOW;
-        name_bytes += len + 1;
+        if (*name_bytes > SIZE_MAX - len - 1)
+            return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0,
+                                "motion create: the names' bytes overflow a size");
+        *name_bytes += len + 1;
         /* depth-first order: parents[j] is j-1 or an ancestor of j-1 */
         int32_t p = parents[j];
         if (j == 0) {
@@ -293,8 +290,7 @@ mlr_status mlr_motion_create(size_t n_joints, const char *const *names, const in
             if (!isfinite(offsets[3 * j + k]))
                 return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                                     "offsets[%zu] is not finite", j);
-        const char *cl = channels ? channels[j]
-                                  : (j == 0 ? default_root_channels : default_joint_channels);
+        const char *cl = channel_list(channels, j);
         if (!cl)
             return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "channels[%zu] is NULL", j);
         int n = parse_channel_list(cl, codes, j, diag);
@@ -303,10 +299,17 @@ mlr_status mlr_motion_create(size_t n_joints, const char *const *names, const in
         if (j > 0)
             for (int k = 0; k < n; k++)
                 if (codes[k] < 3) {
-                    n_trans++;
+                    (*n_trans)++;
                     break;
                 }
     }
+    return MLR_OK;
+}
+
+/* End Site parents are joint indices, non-decreasing; offsets finite. */
+static mlr_status check_end_sites(size_t n_joints, size_t n_end_sites, const int32_t *end_parents,
+                                  const double *end_offsets, mlr_diag *diag)
+{
     for (size_t e = 0; e < n_end_sites; e++) {
         if (end_parents[e] < 0 || (size_t)end_parents[e] >= n_joints ||
             (e && end_parents[e] < end_parents[e - 1]))
@@ -318,25 +321,26 @@ mlr_status mlr_motion_create(size_t n_joints, const char *const *names, const in
                 return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                                     "end_offsets[%zu] is not finite", e);
     }
+    return MLR_OK;
+}
 
-    mlr_motion *m;
-    mlr_status s = bvh_motion_alloc(alloc, n_joints, n_end_sites, name_bytes, n_frames, n_trans,
-                                    &m);
-    if (s != MLR_OK)
-        return s;
-    m->frame_time = frame_time;
+/* The skeleton of checked arguments into a new motion m: names, parents, offsets, channels
+ * and their layout, the translated joints, the End Sites. */
+static void fill_skeleton(mlr_motion *m, const char *const *names, const int32_t *parents,
+                          const double *offsets, const char *const *channels,
+                          const int32_t *end_parents, const double *end_offsets)
+{
     char *nb = m->name_buf;
     size_t P = 0, C = 0;
-    for (size_t j = 0; j < n_joints; j++) {
+    for (size_t j = 0; j < m->n_joints; j++) {
         size_t len = strlen(names[j]);
         memcpy(nb, names[j], len + 1);
         m->names[j] = nb;
         nb += len + 1;
         m->parents[j] = parents[j];
         memcpy(m->offsets + 3 * j, offsets + 3 * j, 3 * sizeof(double));
-        const char *cl = channels ? channels[j]
-                                  : (j == 0 ? default_root_channels : default_joint_channels);
-        int n = parse_channel_list(cl, m->ch + BVH_MAX_CHANNELS * j, j, NULL);
+        int n = parse_channel_list(channel_list(channels, j), m->ch + BVH_MAX_CHANNELS * j, j,
+                                   NULL);
         m->n_ch[j] = (unsigned char)n;
         C += (size_t)n;
         size_t n_pos = bvh_layout_finish(m, j);
@@ -347,10 +351,43 @@ mlr_status mlr_motion_create(size_t n_joints, const char *const *names, const in
         }
     }
     m->n_channels = C;
-    if (n_end_sites) {
-        memcpy(m->end_parents, end_parents, n_end_sites * sizeof(int32_t));
-        memcpy(m->end_offsets, end_offsets, 3 * n_end_sites * sizeof(double));
+    if (m->n_end) {
+        memcpy(m->end_parents, end_parents, m->n_end * sizeof(int32_t));
+        memcpy(m->end_offsets, end_offsets, 3 * m->n_end * sizeof(double));
     }
+}
+
+mlr_status mlr_motion_create(size_t n_joints, const char *const *names, const int32_t *parents,
+                             const double *offsets, const char *const *channels,
+                             size_t n_end_sites, const int32_t *end_parents,
+                             const double *end_offsets, size_t n_frames, double frame_time,
+                             const mlr_allocator *alloc, mlr_motion **out, mlr_diag *diag)
+{
+    if (!out)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "out is NULL");
+    *out = NULL;
+    if (n_joints == 0 || n_joints > BVH_MAX_JOINTS || n_end_sites > BVH_MAX_JOINTS)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "bad joint or End Site count");
+    if (!names || !parents || !offsets || (n_end_sites && (!end_parents || !end_offsets)))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "a required array is NULL");
+    if (!isfinite(frame_time) || frame_time <= 0.0)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "frame_time must be finite and positive");
+    size_t name_bytes, n_trans;
+    mlr_status s =
+        check_joints(n_joints, names, parents, offsets, channels, &name_bytes, &n_trans, diag);
+    if (s == MLR_OK)
+        s = check_end_sites(n_joints, n_end_sites, end_parents, end_offsets, diag);
+    if (s != MLR_OK)
+        return s;
+
+    mlr_motion *m;
+    s = bvh_motion_alloc(alloc, n_joints, n_end_sites, name_bytes, n_frames, n_trans, &m);
+    if (s != MLR_OK)
+        return mlr_diag_set(diag, s, 0, 0, "motion create: %zu frames of %zu joints: %s",
+                            n_frames, n_joints, mlr_status_string(s));
+    m->frame_time = frame_time;
+    fill_skeleton(m, names, parents, offsets, channels, end_parents, end_offsets);
     for (size_t f = 0; f < n_frames; f++)
         bvh_motion_rest_frame(m, f);
     *out = m;

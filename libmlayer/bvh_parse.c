@@ -32,17 +32,23 @@ void bvh__vec_free(vec *v, const mlr_allocator *a)
     v->len = v->cap = 0;
 }
 
-mlr_status bvh__fail_at(parser *ps, const char *at, const char *fmt, ...)
+static mlr_status fail_at_v(parser *ps, const char *at, const char *fmt, va_list ap)
 {
     if (ps->diag) {
-        va_list ap;
-        va_start(ap, fmt);
         ps->diag->line = ps->line;
         ps->diag->column = at ? (size_t)(at - ps->line_start) + 1 : 0;
         vsnprintf(ps->diag->message, sizeof ps->diag->message, fmt, ap);
-        va_end(ap);
     }
     return MLR_E_PARSE;
+}
+
+mlr_status bvh__fail_at(parser *ps, const char *at, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    const mlr_status s = fail_at_v(ps, at, fmt, ap);
+    va_end(ap);
+    return s;
 }
 
 /* A printable copy of a token for messages: at most 32 bytes, control bytes as '?'. */
@@ -91,6 +97,20 @@ int bvh__next_token(parser *ps, const char **tok, size_t *len)
     return 1;
 }
 
+mlr_status bvh__need_token(parser *ps, const char **tok, size_t *len, const char *fmt, ...)
+{
+    const int r = bvh__next_token(ps, tok, len);
+    if (r > 0)
+        return MLR_OK;
+    if (r < 0)
+        return (mlr_status)r;
+    va_list ap;
+    va_start(ap, fmt);
+    const mlr_status s = fail_at_v(ps, ps->p, fmt, ap);
+    va_end(ap);
+    return s;
+}
+
 int bvh__tok_is(const char *t, size_t n, const char *kw)
 {
     size_t i = 0;
@@ -112,11 +132,10 @@ mlr_status bvh__expect(parser *ps, const char *kw, const char *what)
 {
     const char *t;
     size_t n;
-    int r = bvh__next_token(ps, &t, &n);
-    if (r < 0)
-        return r;
-    if (r == 0)
-        return bvh__fail_at(ps, ps->p, "unexpected end of file: expected '%s' %s", kw, what);
+    mlr_status s = bvh__need_token(ps, &t, &n, "unexpected end of file: expected '%s' %s", kw,
+                                   what);
+    if (s != MLR_OK)
+        return s;
     if (!bvh__tok_is(t, n, kw))
         return bvh__fail_at(ps, t, "expected '%s' %s, found '%s'", kw, what, bvh__show(t, n).s);
     return MLR_OK;
@@ -126,11 +145,9 @@ static mlr_status expect_number(parser *ps, double *out, const char *what)
 {
     const char *t = NULL;
     size_t n = 0;
-    int r = bvh__next_token(ps, &t, &n);
-    if (r < 0)
-        return r;
-    if (r == 0)
-        return bvh__fail_at(ps, ps->p, "unexpected end of file: expected %s", what);
+    mlr_status s = bvh__need_token(ps, &t, &n, "unexpected end of file: expected %s", what);
+    if (s != MLR_OK)
+        return s;
     if (mlr_parse_decimal(t, t + n, out) != n)
         return bvh__fail_at(ps, t, "expected %s, found '%s'", what, bvh__show(t, n).s);
     return MLR_OK;
@@ -199,11 +216,9 @@ static mlr_status parse_channels(parser *ps, tjoint *jt, int32_t j)
 {
     const char *t;
     size_t n;
-    int r = bvh__next_token(ps, &t, &n);
-    if (r < 0)
-        return r;
-    if (r == 0)
-        return bvh__fail_at(ps, ps->p, "unexpected end of file after CHANNELS");
+    mlr_status s = bvh__need_token(ps, &t, &n, "unexpected end of file after CHANNELS");
+    if (s != MLR_OK)
+        return s;
     size_t count = 0;
     for (size_t i = 0; i < n; i++) {
         if (t[i] < '0' || t[i] > '9' || count > 6) {
@@ -216,12 +231,10 @@ static mlr_status parse_channels(parser *ps, tjoint *jt, int32_t j)
         return bvh__fail_at(ps, t, "CHANNELS count must be 0 to 6, found '%s'", bvh__show(t, n).s);
     unsigned seen = 0;
     for (size_t k = 0; k < count; k++) {
-        r = bvh__next_token(ps, &t, &n);
-        if (r < 0)
-            return r;
-        if (r == 0)
-            return bvh__fail_at(ps, ps->p, "unexpected end of file in CHANNELS of joint '%s'",
-                                joint_name(ps, j));
+        s = bvh__need_token(ps, &t, &n, "unexpected end of file in CHANNELS of joint '%s'",
+                            joint_name(ps, j));
+        if (s != MLR_OK)
+            return s;
         int c = bvh_channel_parse(t, n);
         if (c < 0) {
             if (bvh__tok_is(t, n, "JOINT") || bvh__tok_is(t, n, "End") || bvh__tok_is(t, n, "}") ||
@@ -266,26 +279,22 @@ mlr_status bvh__parse_hierarchy(parser *ps)
 {
     const char *t;
     size_t n;
-    int r = bvh__next_token(ps, &t, &n);
-    if (r < 0)
-        return r;
-    if (r == 0)
-        return bvh__fail_at(ps, ps->p, "empty input: expected HIERARCHY");
+    mlr_status s = bvh__need_token(ps, &t, &n, "empty input: expected HIERARCHY");
+    if (s != MLR_OK)
+        return s;
     if (!bvh__tok_is(t, n, "HIERARCHY"))
         return bvh__fail_at(ps, t, "expected HIERARCHY at the start, found '%s'", bvh__show(t,
                                                                                             n).s);
-    mlr_status s = bvh__expect(ps, "ROOT", "after HIERARCHY");
+    s = bvh__expect(ps, "ROOT", "after HIERARCHY");
     int32_t cur = -1;
     if (s == MLR_OK)
         s = open_joint(ps, "ROOT", -1, &cur);
     while (s == MLR_OK && cur >= 0) {
-        r = bvh__next_token(ps, &t, &n);
-        if (r < 0)
-            return r;
+        s = bvh__need_token(ps, &t, &n, "unexpected end of file in joint '%s' (missing '}')",
+                            joint_name(ps, cur));
+        if (s != MLR_OK)
+            return s;
         tjoint *jt = (tjoint *)ps->joints.data + cur;
-        if (r == 0)
-            return bvh__fail_at(ps, ps->p, "unexpected end of file in joint '%s' (missing '}')",
-                                joint_name(ps, cur));
         if (bvh__tok_is(t, n, "JOINT")) {
             s = open_joint(ps, "JOINT", cur, &cur);
         } else if (bvh__tok_is(t, n, "End")) {
@@ -322,12 +331,10 @@ mlr_status bvh__read_header_value(parser *ps, const char *label, const char **vt
 {
     const char *t;
     size_t n;
-    int r = bvh__next_token(ps, &t, &n);
-    if (r < 0)
-        return r;
+    mlr_status s = bvh__need_token(ps, &t, &n, "unexpected end of file: expected '%s'", label);
+    if (s != MLR_OK)
+        return s;
     size_t ln = strlen(label);
-    if (r == 0)
-        return bvh__fail_at(ps, ps->p, "unexpected end of file: expected '%s'", label);
     if (n < ln || !bvh__tok_is(t, ln, label))
         return bvh__fail_at(ps, t, "expected '%s', found '%s'", label, bvh__show(t, n).s);
     if (n > ln) {
@@ -338,8 +345,8 @@ mlr_status bvh__read_header_value(parser *ps, const char *label, const char **vt
     skip_blank(ps);
     if (ps->p >= ps->end || is_eol(*ps->p))
         return bvh__fail_at(ps, ps->p, "missing value after '%s'", label);
-    r = bvh__next_token(ps, vt, vn);
-    return r < 0 ? r : MLR_OK;
+    const int r = bvh__next_token(ps, vt, vn);
+    return r < 0 ? (mlr_status)r : MLR_OK;
 }
 
 mlr_status bvh__build_motion(parser *ps, size_t n_frames, double frame_time,

@@ -13,11 +13,9 @@ static mlr_status parse_motion_header(parser *ps, size_t *n_frames_out, double *
 {
     const char *t;
     size_t n;
-    int r = bvh__next_token(ps, &t, &n);
-    if (r < 0)
-        return r;
-    if (r == 0)
-        return bvh__fail_at(ps, ps->p, "unexpected end of file: expected MOTION");
+    mlr_status s = bvh__need_token(ps, &t, &n, "unexpected end of file: expected MOTION");
+    if (s != MLR_OK)
+        return s;
     if (bvh__tok_is(t, n, "ROOT"))
         return bvh__fail_at(ps, t, "more than one ROOT: not supported");
     if (!bvh__tok_is(t, n, "MOTION"))
@@ -26,7 +24,6 @@ static mlr_status parse_motion_header(parser *ps, size_t *n_frames_out, double *
 
     const char *vt;
     size_t vn;
-    mlr_status s;
     if ((s = bvh__read_header_value(ps, "Frames:", &vt, &vn)) != MLR_OK)
         return s;
     *frames_line = ps->line;
@@ -216,7 +213,7 @@ static mlr_status bvh_read(const char *text, size_t len, size_t n_threads, int k
     bvh__vec_free(&ps.ends, &ps.a);
     bvh__vec_free(&ps.names, &ps.a);
     if (s == MLR_E_NO_MEMORY || s == MLR_E_OVERFLOW)
-        mlr_diag_set(diag, s, 0, 0, "%s", mlr_status_string(s));
+        mlr_diag_set(diag, s, 0, 0, "bvh read: %s", mlr_status_string(s));
     if (s != MLR_OK && warnings)
         warnings->count = 0;
     return s;
@@ -293,6 +290,8 @@ static mlr_status read_file(const char *path, size_t n_threads, const read_mode 
     size_t len, cap;
     /* a large file is read in parallel chunks (n_threads permitting), then parsed */
     mlr_status s = mlr_read_file(path, n_threads, &a, &buf, &len, &cap, diag);
+    if (s == MLR_E_NO_MEMORY || s == MLR_E_OVERFLOW)
+        return mlr_diag_prefix(diag, s, "bvh read");
     if (s != MLR_OK)
         return s;
     s = bvh_read(buf, len, n_threads, BVH_KERNELS_BEST, mode, &a, out, warnings, diag);

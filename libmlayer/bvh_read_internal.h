@@ -110,6 +110,13 @@ shown bvh__show(const char *t, size_t n);
 /* Next token: '{', '}' or a run of other visible bytes. Returns 1 with the token, 0 at the end
  * of the input, MLR_E_PARSE on a control byte. */
 int bvh__next_token(parser *ps, const char **tok, size_t *len);
+/* The next token, or a failure: MLR_E_PARSE on a control byte, and at the end of the input
+ * MLR_E_PARSE with the message fmt (at the end's position). */
+mlr_status bvh__need_token(parser *ps, const char **tok, size_t *len, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 4, 5)))
+#endif
+    ;
 /* t (n bytes) equals kw, ASCII case-insensitively. */
 int bvh__tok_is(const char *t, size_t n, const char *kw);
 /* Expect a token equal to kw; what describes the place for the message. */

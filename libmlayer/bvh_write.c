@@ -447,10 +447,11 @@ mlr_status mlr_bvh_write_file(const mlr_motion *m, const char *path, mlr_diag *d
     size_t plen = strlen(path);
     const size_t suffix = 24; /* "." + ".tmp-" + 16 hex digits + NUL, rounded up */
     if (plen > SIZE_MAX - suffix)
-        return MLR_E_OVERFLOW;
+        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "bvh write: the path's length overflows");
     char *tmp = mlr_alloc(&m->alloc, plen + suffix);
     if (!tmp)
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "out of memory");
+        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                            "bvh write: out of memory for the temporary file's name");
 
     /* A name no other writer is likely to pick; "x" makes the creation exclusive. */
     uint64_t seed = (uint64_t)time(NULL) ^ ((uint64_t)clock() << 20) ^ (uint64_t)(uintptr_t)tmp ^

@@ -79,6 +79,29 @@ void mlr_free(const mlr_allocator *a, void *ptr, size_t size)
         a->release(a->user, ptr, size);
 }
 
+mlr_status mlr_diag_prefix(mlr_diag *diag, mlr_status status, const char *who)
+{
+    const size_t n = strlen(who);
+    if (!diag || (strncmp(diag->message, who, n) == 0 && diag->message[n] == ':'))
+        return status;
+    char m[sizeof diag->message];
+    memcpy(m, diag->message, sizeof m);
+    m[sizeof m - 1] = '\0';
+    const size_t cap = sizeof diag->message - 1; /* characters before the NUL */
+    size_t k = n < cap ? n : cap;
+    memcpy(diag->message, who, k);
+    if (k + 2 <= cap) {
+        diag->message[k++] = ':';
+        diag->message[k++] = ' ';
+    }
+    size_t rest = strlen(m);
+    if (rest > cap - k)
+        rest = cap - k;
+    memcpy(diag->message + k, m, rest);
+    diag->message[k + rest] = '\0';
+    return status;
+}
+
 mlr_status mlr_diag_set(mlr_diag *diag, mlr_status status, size_t line, size_t column,
                         const char *fmt, ...)
 {

@@ -122,7 +122,7 @@ static mlr_status low_hands(const mlr_rig *rig, size_t N, const double *world_po
     double H;
     mlr_status st = mlr_rig_body_height(N, J, world_pos, up, &H, a, diag);
     if (st != MLR_OK)
-        return st;
+        return mlr_diag_prefix(diag, st, "find_feet");
     if (H == 0.0)
         H = 1.0;
     size_t count, bytes;

@@ -247,7 +247,8 @@ mlr_status mlr_grbf_basis(int kernel, double width, const double *centers, size_
     mlr_allocator_resolve(alloc, &a);
     double *ct = mlr_alloc(&a, bytes);
     if (!ct)
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "no memory for %zu centres", n_centers);
+        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                            "grbf basis: out of memory for %zu centres", n_centers);
     transpose_centres(centers, n_centers, ldc, dim, ct);
     basis_ctx c = {kernel, poly != 0, kernel == MLR_GRBF_GAUSSIAN ? 1.0 / (width * width) : 0.0,
                    ct, x, n_centers, ldx, n, dim, ldo, out};
@@ -352,7 +353,7 @@ mlr_status mlr_grbf_eval(int kernel, double width, const double *centers, size_t
     double *ws = mlr_alloc(&a, ct_bytes + pan_bytes);
     if (!ws)
         return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
-                            "no memory for the evaluation workspace (%zu bytes)",
+                            "grbf eval: out of memory for the workspace (%zu bytes)",
                             ct_bytes + pan_bytes);
     double *ct = ws, *pan = ws + ct_bytes / sizeof(double);
     transpose_centres(centers, n_centers, ldc, dim, ct);

@@ -363,7 +363,8 @@ mlr_status mlr_grbf_fit_lattice(int kernel, double width, const double *xs, size
     double *ws = mlr_alloc(&a, total * sizeof(double));
     if (!ws)
         return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
-                            "no memory for the lattice workspace (%zu doubles)", total);
+                            "grbf fit_lattice: out of memory for the workspace (%zu doubles)",
+                            total);
     double *ptr[LATTICE_PARTS];
     for (size_t q = 0, off = 0; q < LATTICE_PARTS; off += parts[q], q++)
         ptr[q] = ws + off;

@@ -428,7 +428,8 @@ mlr_status mlr_kmeans_create(size_t k, size_t dim, const mlr_allocator *alloc, m
     mlr_allocator_resolve(alloc, &a);
     mlr_kmeans *km = mlr_alloc(&a, sizeof *km);
     if (!km)
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "no memory for the model");
+        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                            "kmeans create: out of memory for the model");
     memset(km, 0, sizeof *km);
     km->a = a;
     km->k = k;
@@ -436,7 +437,8 @@ mlr_status mlr_kmeans_create(size_t k, size_t dim, const mlr_allocator *alloc, m
     km->centers = mlr_alloc(&a, nc);
     if (!km->centers) {
         mlr_free(&a, km, sizeof *km);
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "no memory for %zu centres", k);
+        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                            "kmeans create: out of memory for %zu centres", k);
     }
     memset(km->centers, 0, k * dim * sizeof(double));
     km->packed.pc = km->centers + k * dim;
@@ -732,7 +734,8 @@ mlr_status mlr_kmeans_fit(mlr_kmeans *km, const double *x, size_t n, size_t ldx,
             continue;
         *blocks[q].slot = mlr_alloc(&km->a, blocks[q].bytes);
         if (!*blocks[q].slot) {
-            st = mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "no memory for the k-means workspace");
+            st = mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                              "kmeans fit: out of memory for the workspace");
             goto done;
         }
     }

@@ -134,6 +134,70 @@ static size_t obs_lo(double t, size_t n_out, double *f)
     return lo;
 }
 
+/* The observation map of t into g (first, f) and A^T A into *ata (2 n_out doubles: the
+ * diagonal, then the subdiagonal at [n_out + i] for (i, i-1)); the caller frees *ata. */
+static mlr_status observation_map(mlr_lgs *g, const double *t, double **ata, size_t *ata_bytes,
+                                  mlr_diag *diag)
+{
+    const size_t n_out = g->n_out, n_obs = g->n_obs;
+    if (mlr_mul_size(n_out + 1, sizeof(size_t), &g->first_bytes) ||
+        mlr_mul_size(n_obs, sizeof(double), &g->f_bytes) ||
+        mlr_mul_size(n_out, 2 * sizeof(double), ata_bytes))
+        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0,
+                            "lgs: %zu output frames, %zu observations overflow a size", n_out,
+                            n_obs);
+    g->first = mlr_alloc(&g->alloc, g->first_bytes);
+    g->f = mlr_alloc(&g->alloc, g->f_bytes);
+    *ata = mlr_alloc(&g->alloc, *ata_bytes);
+    if (!g->first || !g->f || !*ata)
+        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                            "lgs: out of memory for the observation map (%zu observations)",
+                            n_obs);
+    double *ata_d = *ata, *ata_o = *ata + n_out;
+    memset(*ata, 0, *ata_bytes);
+    size_t r = 0;
+    for (size_t i = 0; i < n_obs; i++) {
+        size_t lo = obs_lo(t[i], n_out, &g->f[i]);
+        while (r <= lo)
+            g->first[r++] = i;
+        double f = g->f[i];
+        ata_d[lo] += (1.0 - f) * (1.0 - f);
+        ata_d[lo + 1] += f * f;
+        ata_o[lo + 1] += (1.0 - f) * f;
+    }
+    while (r <= n_out)
+        g->first[r++] = n_obs;
+    return MLR_OK;
+}
+
+/* The system of ctx into a new band of g, factored. */
+static mlr_status factor_banded(mlr_lgs *g, const system_ctx *ctx)
+{
+    const size_t n_out = g->n_out;
+    const unsigned order = g->order;
+    mlr_status st = mlr_band_create(n_out, order, &g->alloc, &g->band, NULL);
+    if (st != MLR_OK)
+        return st;
+    mlr_band *b = g->band;
+    /* interior rows of L^T L are constant: (6, -4, 1) for order 2, (2, -1) for 1 */
+    const double sd = g->s * (order == 2 ? 6.0 : 2.0), s1 = g->s * (order == 2 ? -4.0 : -1.0);
+    const double s2 = g->s;
+    for (size_t i = 0; i < n_out; i++) {
+        double *li = b->l + i * order;
+        if (i >= order && i + order < n_out) {
+            b->dinv[i] = sd + (ctx->ata_d ? ctx->ata_d[i] : 1.0);
+            li[0] = s1 + (ctx->ata_o ? ctx->ata_o[i] : 0.0);
+            if (order == 2)
+                li[1] = s2;
+            continue;
+        }
+        b->dinv[i] = system_entry(ctx, i, i);
+        for (size_t k = 1; k <= order; k++)
+            li[k - 1] = k <= i ? system_entry(ctx, i, i - k) : 0.0;
+    }
+    return mlr_band_factor_in_place(b);
+}
+
 mlr_status mlr_lgs_create(size_t n_out, unsigned order, double lam, double sigma,
                           const double *t, size_t n_obs, mlr_lgs_solver solver,
                           const mlr_allocator *alloc, mlr_lgs **out, mlr_diag *diag)
@@ -174,64 +238,17 @@ mlr_status mlr_lgs_create(size_t n_out, unsigned order, double lam, double sigma
     size_t ata_bytes = 0;
     system_ctx ctx = {n_out, order, g->s, NULL, NULL};
     if (t) {
-        if (mlr_mul_size(n_out + 1, sizeof(size_t), &g->first_bytes) ||
-            mlr_mul_size(n_obs, sizeof(double), &g->f_bytes) ||
-            mlr_mul_size(n_out, 2 * sizeof(double), &ata_bytes)) {
-            lgs_free(g);
-            return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0,
-                                "lgs: %zu output frames, %zu observations overflow a size", n_out,
-                                n_obs);
-        }
-        g->first = mlr_alloc(&a, g->first_bytes);
-        g->f = mlr_alloc(&a, g->f_bytes);
-        ata = mlr_alloc(&a, ata_bytes);
-        if (!g->first || !g->f || !ata) {
+        st = observation_map(g, t, &ata, &ata_bytes, diag);
+        if (st != MLR_OK) {
             mlr_free(&a, ata, ata_bytes);
             lgs_free(g);
-            return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
-                                "lgs: out of memory for the observation map (%zu observations)",
-                                n_obs);
+            return st;
         }
-        double *ata_d = ata, *ata_o = ata + n_out;
-        memset(ata, 0, ata_bytes);
-        size_t r = 0;
-        for (size_t i = 0; i < n_obs; i++) {
-            size_t lo = obs_lo(t[i], n_out, &g->f[i]);
-            while (r <= lo)
-                g->first[r++] = i;
-            double f = g->f[i];
-            ata_d[lo] += (1.0 - f) * (1.0 - f);
-            ata_d[lo + 1] += f * f;
-            ata_o[lo + 1] += (1.0 - f) * f;
-        }
-        while (r <= n_out)
-            g->first[r++] = n_obs;
-        ctx.ata_d = ata_d;
-        ctx.ata_o = ata_o;
+        ctx.ata_d = ata;
+        ctx.ata_o = ata + n_out;
     }
-
     if (solver == MLR_LGS_BANDED) {
-        st = mlr_band_create(n_out, order, &a, &g->band, NULL);
-        if (st == MLR_OK) {
-            mlr_band *b = g->band;
-            /* interior rows of L^T L are constant: (6, -4, 1) for order 2, (2, -1) for 1 */
-            const double sd = g->s * (order == 2 ? 6.0 : 2.0), s1 = g->s * (order == 2 ? -4.0 : -1.0);
-            const double s2 = g->s;
-            for (size_t i = 0; i < n_out; i++) {
-                double *li = b->l + i * order;
-                if (i >= order && i + order < n_out) {
-                    b->dinv[i] = sd + (ctx.ata_d ? ctx.ata_d[i] : 1.0);
-                    li[0] = s1 + (ctx.ata_o ? ctx.ata_o[i] : 0.0);
-                    if (order == 2)
-                        li[1] = s2;
-                    continue;
-                }
-                b->dinv[i] = system_entry(&ctx, i, i);
-                for (size_t k = 1; k <= order; k++)
-                    li[k - 1] = k <= i ? system_entry(&ctx, i, i - k) : 0.0;
-            }
-            st = mlr_band_factor_in_place(b);
-        }
+        st = factor_banded(g, &ctx);
     } else {
 #ifdef MLR_HAVE_CHOLMOD
         st = mlr_sparse_spd_create(n_out, order, system_entry, &ctx, &g->sparse);

@@ -44,6 +44,10 @@ mlr_status mlr_diag_set(mlr_diag *diag, mlr_status status, size_t line, size_t c
 #endif
     ;
 
+/* Put "who: " before the message a callee left in diag (if any, and unless it starts so
+ * already); returns status. For a failure of a nested call to name the public function. */
+mlr_status mlr_diag_prefix(mlr_diag *diag, mlr_status status, const char *who);
+
 /* The quaternion product and rotation, inlined into loops (mlr_quat_mul and mlr_quat_rotate
  * are these; the library builds with -ffp-contract=off, so every caller gets the same bits).
  * out may alias a or b; o must not alias v. */

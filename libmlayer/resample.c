@@ -241,6 +241,148 @@ static mlr_status bad_rot(mlr_diag *diag, size_t f, size_t j)
                         "rot of frame %zu, joint %zu is zero or not finite", f, j);
 }
 
+/* The arguments of mlr_resample_arrays after check_motion: sigma, lam, the time map (or the
+ * uniform factor) and the translations. */
+static mlr_status check_smoothing(size_t n_frames, size_t n_trans, const double *root_pos,
+                                  const double *trans, const double *t, size_t n_out,
+                                  double lam, double sigma, unsigned flags, mlr_diag *diag)
+{
+    if (!isfinite(sigma) || !(sigma > 0.0))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "sigma must be finite and > 0, got %g",
+                            sigma);
+    if (isnan(lam) || (lam >= 0.0 && !isfinite(lam)))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "lam must be finite and >= 0, or MLR_RESAMPLE_AUTO; got %g", lam);
+    mlr_status st;
+    if (t) {
+        st = mlr_timemap_validate(t, n_frames, n_out, flags, diag);
+    } else {
+        st = check_factor((double)(n_out - 1) / (double)(n_frames - 1), flags, diag);
+    }
+    if (st != MLR_OK)
+        return st;
+    return check_translations(n_frames, n_trans, root_pos, trans, diag);
+}
+
+/* The scratch of one resampling: the longer grid of an open end, the uniform time map, the
+ * sign-continuous rotations (each NULL when not needed). */
+typedef struct resample_work {
+    mlr_allocator a;
+    double *grid, *tu, *q;
+    size_t grid_bytes, tu_bytes, q_bytes;
+} resample_work;
+
+static void work_free(resample_work *w)
+{
+    mlr_free(&w->a, w->q, w->q_bytes);
+    mlr_free(&w->a, w->tu, w->tu_bytes);
+    mlr_free(&w->a, w->grid, w->grid_bytes);
+}
+
+/* The solution grid of n_grid rows: a grid of the work (root, rotations, translations,
+ * variance) when n_grid > n_out, else the outputs themselves. */
+typedef struct grid_rows {
+    double *root, *rot, *trans, *var;
+} grid_rows;
+
+static mlr_status output_grid(resample_work *w, size_t n_grid, size_t n_out, size_t n_joints,
+                              size_t n_trans, grid_rows *g, mlr_diag *diag)
+{
+    if (n_grid == n_out)
+        return MLR_OK;
+    /* sizes checked in check_motion for n_out rows; one more row stays far from SIZE_MAX */
+    const size_t n_rot = n_joints * 4, row = 3 + n_rot + 3 * n_trans + 1;
+    if (mlr_mul_size(n_grid, row * sizeof(double), &w->grid_bytes) != MLR_OK)
+        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "array sizes overflow");
+    w->grid = mlr_alloc(&w->a, w->grid_bytes);
+    if (!w->grid)
+        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                            "resample: out of memory (%zu bytes for the output grid)",
+                            w->grid_bytes);
+    const int var = g->var != NULL;
+    g->root = w->grid;
+    g->rot = g->root + 3 * n_grid;
+    g->trans = g->rot + n_rot * n_grid;
+    g->var = var ? g->trans + 3 * n_trans * n_grid : NULL;
+    return MLR_OK;
+}
+
+/* The uniform time map of n_frames onto n_out frames into the work (when it is not the
+ * identity); *t points to it. */
+static mlr_status uniform_map(resample_work *w, size_t n_frames, size_t n_out, const double **t,
+                              mlr_diag *diag)
+{
+    if (*t || n_out == n_frames)
+        return MLR_OK;
+    w->tu_bytes = n_frames * sizeof(double);
+    w->tu = mlr_alloc(&w->a, w->tu_bytes);
+    if (!w->tu)
+        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                            "resample: out of memory (%zu bytes for the time map)", w->tu_bytes);
+    const double step = (double)(n_out - 1) / (double)(n_frames - 1);
+    for (size_t i = 0; i + 1 < n_frames; i++)
+        w->tu[i] = (double)i * step;
+    w->tu[n_frames - 1] = (double)(n_out - 1);
+    *t = w->tu;
+    return MLR_OK;
+}
+
+/* A sign-continuous copy of the rotations into the work (each checked finite and nonzero). */
+static mlr_status continuous_rotations(resample_work *w, size_t n_frames, size_t n_joints,
+                                       const double *rot, unsigned flags, mlr_diag *diag)
+{
+    if (n_joints == 0)
+        return MLR_OK;
+    const size_t n_rot = n_joints * 4;
+    w->q_bytes = n_frames * n_rot * sizeof(double);
+    w->q = mlr_alloc(&w->a, w->q_bytes);
+    if (!w->q)
+        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                            "resample: out of memory (%zu bytes for the rotations)", w->q_bytes);
+    double *q = w->q;
+    const int nearest = (flags & MLR_RESAMPLE_NEAREST_SIGN) != 0;
+    for (size_t f = 0; f < n_frames; f++) {
+        size_t bad;
+        const double *src = rot + f * n_rot;
+        if (!rot_row_ok(src, n_joints, &bad))
+            return bad_rot(diag, f, bad);
+        memcpy(q + f * n_rot, src, n_rot * sizeof(double));
+        if (f == 0)
+            continue;
+        if (nearest)
+            mlr_quat_make_continuous((mlr_quat *)(q + (f - 1) * n_rot), 2, n_joints);
+        else
+            mlr_quat_continue_frame((mlr_quat *)q, f, n_joints);
+    }
+    return MLR_OK;
+}
+
+/* The LGS solves of root, rotations and translations onto the grid, and the variance;
+ * *created is the status of the LGS's creation (MLR_OK or a warning such as
+ * MLR_W_ILL_CONDITIONED). */
+static mlr_status solve_grid(resample_work *w, size_t n_frames, size_t n_joints, size_t n_trans,
+                             const double *root_pos, const double *trans, const double *t,
+                             size_t n_grid, double lam, double sigma, const grid_rows *g,
+                             mlr_status *created, mlr_diag *diag)
+{
+    const size_t n_rot = n_joints * 4;
+    mlr_lgs *lgs = NULL;
+    mlr_status st = mlr_lgs_create(n_grid, n_grid >= 3 ? 2 : 1, lam, sigma, t, n_frames,
+                                   MLR_LGS_BANDED, &w->a, &lgs, diag);
+    if (st < 0)
+        return mlr_diag_prefix(diag, st, "resample");
+    *created = st;
+    st = mlr_lgs_solve(lgs, root_pos, 3, 3, g->root, 3, diag);
+    if (st == MLR_OK && n_joints > 0)
+        st = mlr_lgs_solve(lgs, w->q, n_rot, n_rot, g->rot, n_rot, diag);
+    if (st == MLR_OK && n_trans > 0)
+        st = mlr_lgs_solve(lgs, trans, 3 * n_trans, 3 * n_trans, g->trans, 3 * n_trans, diag);
+    if (st == MLR_OK && g->var)
+        st = mlr_lgs_variance(lgs, g->var, n_grid, diag);
+    mlr_lgs_destroy(lgs);
+    return st == MLR_OK ? st : mlr_diag_prefix(diag, st, "resample");
+}
+
 mlr_status mlr_resample_arrays(size_t n_frames, size_t n_joints, size_t n_trans,
                                const double *root_pos, const double *rot, const double *trans,
                                const double *t, size_t n_out, double lam, double sigma,
@@ -250,22 +392,9 @@ mlr_status mlr_resample_arrays(size_t n_frames, size_t n_joints, size_t n_trans,
 {
     mlr_status st = check_motion(n_frames, n_joints, n_trans, root_pos, rot, trans, n_out, flags,
                                  root_out, rot_out, trans_out, diag);
-    if (st != MLR_OK)
-        return st;
-    if (!isfinite(sigma) || !(sigma > 0.0))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "sigma must be finite and > 0, got %g",
-                            sigma);
-    if (isnan(lam) || (lam >= 0.0 && !isfinite(lam)))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "lam must be finite and >= 0, or MLR_RESAMPLE_AUTO; got %g", lam);
-    if (t) {
-        st = mlr_timemap_validate(t, n_frames, n_out, flags, diag);
-    } else {
-        st = check_factor((double)(n_out - 1) / (double)(n_frames - 1), flags, diag);
-    }
-    if (st != MLR_OK)
-        return st;
-    st = check_translations(n_frames, n_trans, root_pos, trans, diag);
+    if (st == MLR_OK)
+        st = check_smoothing(n_frames, n_trans, root_pos, trans, t, n_out, lam, sigma, flags,
+                             diag);
     if (st != MLR_OK)
         return st;
     /* an open end past the last output frame: the LGS solves one hidden frame more */
@@ -275,108 +404,40 @@ mlr_status mlr_resample_arrays(size_t n_frames, size_t n_joints, size_t n_trans,
         lam = sqrt(auto_smoothness((t ? t[n_frames - 1] : (double)(n_out - 1)) /
                                    (double)(n_frames - 1))) / sigma;
 
-    mlr_allocator a;
-    mlr_allocator_resolve(alloc, &a);
-    double *tu = NULL, *q = NULL, *grid = NULL;
-    size_t tu_bytes = 0, q_bytes = 0, grid_bytes = 0;
-    mlr_lgs *lgs = NULL;
-    const size_t n_rot = n_joints * 4;
-    double *g_root = root_out, *g_rot = rot_out, *g_trans = trans_out, *g_var = var_out;
-    if (n_grid > n_out) {
-        /* sizes checked in check_motion for n_out rows; one more row stays far from SIZE_MAX */
-        const size_t row = 3 + n_rot + 3 * n_trans + 1;
-        if (mlr_mul_size(n_grid, row * sizeof(double), &grid_bytes) != MLR_OK)
-            return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "array sizes overflow");
-        grid = mlr_alloc(&a, grid_bytes);
-        if (!grid)
-            return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
-                                "resample: out of memory (%zu bytes for the output grid)",
-                                grid_bytes);
-        g_root = grid;
-        g_rot = g_root + 3 * n_grid;
-        g_trans = g_rot + n_rot * n_grid;
-        g_var = var_out ? g_trans + 3 * n_trans * n_grid : NULL;
+    resample_work w;
+    memset(&w, 0, sizeof w);
+    mlr_allocator_resolve(alloc, &w.a);
+    grid_rows g = {root_out, rot_out, trans_out, var_out};
+    st = output_grid(&w, n_grid, n_out, n_joints, n_trans, &g, diag);
+    if (st == MLR_OK)
+        st = uniform_map(&w, n_frames, n_out, &t, diag);
+    if (st == MLR_OK)
+        st = continuous_rotations(&w, n_frames, n_joints, rot, flags, diag);
+    mlr_status created = MLR_OK;
+    if (st == MLR_OK)
+        st = solve_grid(&w, n_frames, n_joints, n_trans, root_pos, trans, t, n_grid, lam, sigma,
+                        &g, &created, diag);
+    if (st != MLR_OK) {
+        work_free(&w);
+        return st;
     }
-
-    /* the uniform map, unless it is the identity */
-    if (!t && n_out != n_frames) {
-        tu_bytes = n_frames * sizeof(double);
-        tu = mlr_alloc(&a, tu_bytes);
-        if (!tu) {
-            st = mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
-                              "resample: out of memory (%zu bytes for the time map)", tu_bytes);
-            goto done;
-        }
-        const double step = (double)(n_out - 1) / (double)(n_frames - 1);
-        for (size_t i = 0; i + 1 < n_frames; i++)
-            tu[i] = (double)i * step;
-        tu[n_frames - 1] = (double)(n_out - 1);
-        t = tu;
-    }
-    /* sign-continuous copy of the rotations */
-    if (n_joints > 0) {
-        q_bytes = n_frames * n_rot * sizeof(double);
-        q = mlr_alloc(&a, q_bytes);
-        if (!q) {
-            st = mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
-                              "resample: out of memory (%zu bytes for the rotations)", q_bytes);
-            goto done;
-        }
-        const int nearest = (flags & MLR_RESAMPLE_NEAREST_SIGN) != 0;
-        for (size_t f = 0; f < n_frames; f++) {
-            size_t bad;
-            const double *src = rot + f * n_rot;
-            if (!rot_row_ok(src, n_joints, &bad)) {
-                st = bad_rot(diag, f, bad);
-                goto done;
-            }
-            memcpy(q + f * n_rot, src, n_rot * sizeof(double));
-            if (f == 0)
-                continue;
-            if (nearest)
-                mlr_quat_make_continuous((mlr_quat *)(q + (f - 1) * n_rot), 2, n_joints);
-            else
-                mlr_quat_continue_frame((mlr_quat *)q, f, n_joints);
-        }
-    }
-
-    st = mlr_lgs_create(n_grid, n_grid >= 3 ? 2 : 1, lam, sigma, t, n_frames, MLR_LGS_BANDED,
-                        &a, &lgs, diag);
-    if (st < 0)
-        goto done;
-    const mlr_status created = st;
-    st = mlr_lgs_solve(lgs, root_pos, 3, 3, g_root, 3, diag);
-    if (st == MLR_OK && n_joints > 0)
-        st = mlr_lgs_solve(lgs, q, n_rot, n_rot, g_rot, n_rot, diag);
-    if (st == MLR_OK && n_trans > 0)
-        st = mlr_lgs_solve(lgs, trans, 3 * n_trans, 3 * n_trans, g_trans, 3 * n_trans, diag);
-    if (st == MLR_OK && var_out)
-        st = mlr_lgs_variance(lgs, g_var, n_grid, diag);
-    if (st != MLR_OK)
-        goto done;
-    if (grid) { /* the first n_out frames of the grid */
-        memcpy(root_out, g_root, 3 * n_out * sizeof(double));
+    if (w.grid) { /* the first n_out frames of the grid */
+        const size_t n_rot = n_joints * 4;
+        memcpy(root_out, g.root, 3 * n_out * sizeof(double));
         if (n_joints > 0)
-            memcpy(rot_out, g_rot, n_rot * n_out * sizeof(double));
+            memcpy(rot_out, g.rot, n_rot * n_out * sizeof(double));
         if (n_trans > 0)
-            memcpy(trans_out, g_trans, 3 * n_trans * n_out * sizeof(double));
+            memcpy(trans_out, g.trans, 3 * n_trans * n_out * sizeof(double));
         if (var_out)
-            memcpy(var_out, g_var, n_out * sizeof(double));
+            memcpy(var_out, g.var, n_out * sizeof(double));
     }
+    work_free(&w);
     if (n_joints > 0 &&
         mlr_quat_normalize_array((const mlr_quat *)rot_out, n_out * n_joints,
-                                 (mlr_quat *)rot_out, NULL) != MLR_OK) {
-        st = mlr_diag_set(diag, MLR_E_SINGULAR, 0, 0,
-                          "an interpolated quaternion vanished (a key step near 360 degrees?)");
-        goto done;
-    }
-    st = created;
-done:
-    mlr_lgs_destroy(lgs);
-    mlr_free(&a, q, q_bytes);
-    mlr_free(&a, tu, tu_bytes);
-    mlr_free(&a, grid, grid_bytes);
-    return st;
+                                 (mlr_quat *)rot_out, NULL) != MLR_OK)
+        return mlr_diag_set(diag, MLR_E_SINGULAR, 0, 0,
+                            "an interpolated quaternion vanished (a key step near 360 degrees?)");
+    return created;
 }
 
 mlr_status mlr_slerp_resample_arrays(size_t n_frames, size_t n_joints, size_t n_trans,

@@ -178,7 +178,10 @@ mlr_status mlr_rig_body_height(size_t n_frames, size_t n_joints, const double *w
                                int up, double *height, const mlr_allocator *alloc,
                                mlr_diag *diag)
 {
-    if (!world_pos || !height || n_frames == 0 || n_joints == 0)
+    if (!world_pos || !height)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "body_height: world_pos or height is "
+                            "NULL");
+    if (n_frames == 0 || n_joints == 0)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                             "body_height: needs at least one frame and one joint");
     if (up < MLR_AXIS_X || up > MLR_AXIS_Z)
@@ -186,7 +189,8 @@ mlr_status mlr_rig_body_height(size_t n_frames, size_t n_joints, const double *w
                             "0 (X), 1 (Y) or 2 (Z)", up);
     size_t bytes;
     if (mlr_mul_size(n_frames, sizeof(double), &bytes) != MLR_OK)
-        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "body_height: too many frames");
+        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0,
+                            "body_height: %zu frames of scratch overflow a size", n_frames);
     mlr_allocator a;
     mlr_allocator_resolve(alloc, &a);
     double *ext = mlr_alloc(&a, bytes);

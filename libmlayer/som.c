@@ -47,14 +47,14 @@ mlr_status mlr_som_create(size_t rows, size_t cols, size_t dim, const mlr_alloca
     mlr_allocator_resolve(alloc, &a);
     mlr_som *s = mlr_alloc(&a, sizeof *s);
     if (!s)
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "no memory for the map");
+        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "som create: out of memory for the map");
     memset(s, 0, sizeof *s);
     s->a = a;
     s->w = mlr_alloc(&a, bytes);
     if (!s->w) {
         mlr_free(&a, s, sizeof *s);
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "no memory for %zu x %zu codebook", units,
-                            dim);
+        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                            "som create: out of memory for a %zu x %zu codebook", units, dim);
     }
     s->bytes = bytes;
     s->rows = rows;
@@ -483,6 +483,152 @@ static int32_t team_step(team *t, size_t step, const double *x, const double *xn
 /* Values of the codebook per online part below which splitting a step does not pay. */
 #define TEAM_MIN_VALUES 16384
 
+/* The scratch of one training: g the Gaussian tables (rows + cols); idx the BMUs (batch,
+ * int32) or the visiting order (online, size_t); sum the per-unit sums (batch) or h and the
+ * block marks (online); tmp the convolution's intermediate (batch only). */
+typedef struct train_work {
+    double *g, *sum, *tmp;
+    void *idx;
+    size_t gbytes, ibytes, sbytes, nb, steps;
+} train_work;
+
+static void train_work_free(const mlr_som *som, train_work *tw, int mode)
+{
+    mlr_free(&som->a, tw->g, tw->gbytes);
+    mlr_free(&som->a, tw->idx, tw->ibytes);
+    mlr_free(&som->a, tw->sum, tw->sbytes);
+    if (mode == MLR_SOM_BATCH)
+        mlr_free(&som->a, tw->tmp, tw->sbytes);
+}
+
+/* Sizes and allocation of the training scratch of n rows, epochs epochs. */
+static mlr_status train_work_alloc(const mlr_som *som, size_t n, size_t epochs, int mode,
+                                   train_work *tw, mlr_diag *diag)
+{
+    memset(tw, 0, sizeof *tw);
+    const size_t w = som->dim + 1;
+    if (mlr_mul_size(som->units, w * sizeof(double), &tw->nb) ||
+        mlr_mul_size(epochs, n, &tw->steps))
+        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "training workspace overflows");
+    const size_t kpad = som->pk.kpad;
+    tw->gbytes = (som->rows + som->cols) * sizeof(double);
+    tw->ibytes = n * (mode == MLR_SOM_BATCH ? sizeof(int32_t) : sizeof(size_t));
+    /* batch: per-unit sums; online: h (kpad doubles) then the block marks (kpad / 16 bytes) */
+    tw->sbytes = mode == MLR_SOM_BATCH ? tw->nb : kpad * sizeof(double) + kpad / MLR_PACK;
+    tw->g = mlr_alloc(&som->a, tw->gbytes);
+    tw->idx = mlr_alloc(&som->a, tw->ibytes);
+    tw->sum = tw->sbytes ? mlr_alloc(&som->a, tw->sbytes) : NULL;
+    tw->tmp = mode == MLR_SOM_BATCH ? mlr_alloc(&som->a, tw->sbytes) : NULL;
+    if (!tw->g || !tw->idx || !tw->sum || (mode == MLR_SOM_BATCH && !tw->tmp)) {
+        train_work_free(som, tw, mode);
+        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                            "som train: out of memory for the workspace");
+    }
+    return MLR_OK;
+}
+
+/* Batch epochs: per epoch the BMUs, the per-unit sums, the separable Gaussian smoothing. */
+static void train_batch(mlr_som *som, const double *x, size_t n, size_t ldx, size_t epochs,
+                        const train_work *tw)
+{
+    const size_t dim = som->dim, w = dim + 1;
+    int32_t *bmu = tw->idx;
+    double *g = tw->g, *sum = tw->sum;
+    batch_ctx c = {som, g, g + som->rows, sum, tw->tmp};
+    for (size_t e = 0; e < epochs; e++) {
+        double sigma = decay(som->sigma0, som->sigma1, e, epochs);
+        mlr_som_bmu(som, x, n, ldx, bmu, NULL, NULL, NULL);
+        memset(sum, 0, tw->nb);
+        for (size_t i = 0; i < n; i++) { /* per-unit sums in row order */
+            double *o = sum + (size_t)bmu[i] * w;
+            const double *xi = x + i * ldx;
+            for (size_t t = 0; t < dim; t++)
+                o[t] += xi[t];
+            o[dim] += 1.0;
+        }
+        gauss_table(g, som->rows, sigma);
+        gauss_table(g + som->rows, som->cols, sigma);
+        mlr_parallel_run(som->n_threads, som->rows, conv_cols_task, &c);
+        mlr_parallel_run(som->n_threads, som->rows, conv_rows_task, &c);
+        mlr_packed_fill(&som->pk, som->w, dim);
+    }
+}
+
+/* Online epochs: rows in a shuffled order, each step moving the units near the BMU and
+ * finding the next row's BMU in the same pass, on a team of threads. */
+static void train_online(mlr_som *som, const double *x, size_t n, size_t ldx, size_t epochs,
+                         const train_work *tw)
+{
+    const size_t dim = som->dim, units = som->units, kpad = som->pk.kpad;
+    double *g = tw->g, *sum = tw->sum;
+    size_t *order = tw->idx;
+    mlr_rng rng;
+    mlr_rng_seed(&rng, som->seed ^ 0x5eed5eed5eedull);
+    for (size_t i = 0; i < n; i++)
+        order[i] = i;
+    double *h = sum;
+    unsigned char *active = (unsigned char *)(sum + kpad);
+    memset(sum, 0, tw->sbytes);
+    /* the team: parts of at least TEAM_MIN_VALUES codebook values and one group each */
+    size_t groups = (kpad / MLR_PACK + MLR_SWEEP_GROUP - 1) / MLR_SWEEP_GROUP;
+    size_t parts = som->n_threads < groups ? som->n_threads : groups;
+    size_t cap = kpad * dim / TEAM_MIN_VALUES;
+    if (parts > cap)
+        parts = cap ? cap : 1;
+    team tm;
+    memset(&tm, 0, sizeof tm);
+    tm.pk = &som->pk;
+    tm.h = h;
+    tm.active = active;
+    atomic_init(&tm.go, 0);
+    for (size_t q = 0; q < MLR_MAX_THREADS; q++) {
+        atomic_init(&tm.slot[q].claim, 0);
+        atomic_init(&tm.slot[q].done, 0);
+    }
+    pthread_t th[MLR_MAX_THREADS];
+    team_arg ta[MLR_MAX_THREADS];
+    size_t started = 0;
+    for (size_t q = 1; q < parts; q++) {
+        ta[q].t = &tm;
+        ta[q].part = q;
+        if (pthread_create(&th[q], NULL, team_worker, &ta[q]) != 0)
+            break; /* fewer parts: the same result */
+        started = q;
+    }
+    tm.n_parts = started + 1;
+    size_t step = 0;
+    for (size_t e = 0; e < epochs; e++) {
+        for (size_t i = n - 1; i > 0; i--) { /* Fisher-Yates */
+            size_t j = mlr_rng_below(&rng, i + 1), t = order[i];
+            order[i] = order[j];
+            order[j] = t;
+        }
+        /* BMU of the first row; each step then moves the units and finds the BMU of the
+         * next row in the same pass over the codebook */
+        int32_t b;
+        double d2;
+        mlr_nearest2(&som->pk, x + order[0] * ldx, ldx, NULL, 1, NULL, &b, &d2, NULL, NULL);
+        for (size_t i = 0; i < n; i++, step++) {
+            double sigma = decay(som->sigma0, som->sigma1, step, tw->steps);
+            double alpha = decay(som->alpha0, som->alpha1, step, tw->steps);
+            size_t win[4];
+            online_window(som, (size_t)b, sigma, alpha, som->cutoff, g, g + som->rows, h,
+                          active, win);
+            b = team_step(&tm, step, x + order[i] * ldx,
+                          i + 1 < n ? x + order[i + 1] * ldx : NULL);
+            online_clear(som, h, active, win);
+        }
+    }
+    if (started) {
+        atomic_store_explicit(&tm.go, SIZE_MAX, memory_order_release);
+        for (size_t q = 1; q <= started; q++)
+            pthread_join(th[q], NULL);
+    }
+    for (size_t u = 0; u < units; u++)
+        mlr_packed_get(&som->pk, u, som->w + u * dim);
+    mlr_packed_fill(&som->pk, som->w, dim); /* norms by the same rule as everywhere */
+}
+
 mlr_status mlr_som_train(mlr_som *som, const double *x, size_t n, size_t ldx, size_t epochs,
                          int mode, mlr_diag *diag)
 {
@@ -493,120 +639,18 @@ mlr_status mlr_som_train(mlr_som *som, const double *x, size_t n, size_t ldx, si
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "epochs must be >= 1");
     if (mode != MLR_SOM_BATCH && mode != MLR_SOM_ONLINE)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "unknown training mode %d", mode);
-    const size_t dim = som->dim, units = som->units, w = dim + 1;
-    size_t nb, steps;
-    if (mlr_mul_size(units, w * sizeof(double), &nb) || mlr_mul_size(epochs, n, &steps))
-        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "training workspace overflows");
-    const size_t kpad = som->pk.kpad;
-    size_t gbytes = (som->rows + som->cols) * sizeof(double);
-    size_t ibytes = n * (mode == MLR_SOM_BATCH ? sizeof(int32_t) : sizeof(size_t));
-    /* batch: per-unit sums; online: h (kpad doubles) then the block marks (kpad / 16 bytes) */
-    size_t sbytes = mode == MLR_SOM_BATCH ? nb : kpad * sizeof(double) + kpad / MLR_PACK;
-    double *g = mlr_alloc(&som->a, gbytes);
-    void *idx = mlr_alloc(&som->a, ibytes);
-    double *sum = sbytes ? mlr_alloc(&som->a, sbytes) : NULL;
-    double *tmp = mode == MLR_SOM_BATCH ? mlr_alloc(&som->a, sbytes) : NULL;
-    if (!g || !idx || !sum || (mode == MLR_SOM_BATCH && !tmp)) {
-        st = mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "no memory for the training workspace");
-        goto done;
-    }
+    train_work tw;
+    st = train_work_alloc(som, n, epochs, mode, &tw, diag);
+    if (st != MLR_OK)
+        return st;
     if (!som->initialized)
         mlr_som_init_random(som, x, n, ldx, NULL);
-    if (mode == MLR_SOM_BATCH) {
-        int32_t *bmu = idx;
-        batch_ctx c = {som, g, g + som->rows, sum, tmp};
-        for (size_t e = 0; e < epochs; e++) {
-            double sigma = decay(som->sigma0, som->sigma1, e, epochs);
-            mlr_som_bmu(som, x, n, ldx, bmu, NULL, NULL, NULL);
-            memset(sum, 0, nb);
-            for (size_t i = 0; i < n; i++) { /* per-unit sums in row order */
-                double *o = sum + (size_t)bmu[i] * w;
-                const double *xi = x + i * ldx;
-                for (size_t t = 0; t < dim; t++)
-                    o[t] += xi[t];
-                o[dim] += 1.0;
-            }
-            gauss_table(g, som->rows, sigma);
-            gauss_table(g + som->rows, som->cols, sigma);
-            mlr_parallel_run(som->n_threads, som->rows, conv_cols_task, &c);
-            mlr_parallel_run(som->n_threads, som->rows, conv_rows_task, &c);
-            mlr_packed_fill(&som->pk, som->w, dim);
-        }
-    } else {
-        size_t *order = idx;
-        mlr_rng rng;
-        mlr_rng_seed(&rng, som->seed ^ 0x5eed5eed5eedull);
-        for (size_t i = 0; i < n; i++)
-            order[i] = i;
-        double *h = sum;
-        unsigned char *active = (unsigned char *)(sum + kpad);
-        memset(sum, 0, sbytes);
-        /* the team: parts of at least TEAM_MIN_VALUES codebook values and one group each */
-        size_t groups = (kpad / MLR_PACK + MLR_SWEEP_GROUP - 1) / MLR_SWEEP_GROUP;
-        size_t parts = som->n_threads < groups ? som->n_threads : groups;
-        size_t cap = kpad * dim / TEAM_MIN_VALUES;
-        if (parts > cap)
-            parts = cap ? cap : 1;
-        team tm;
-        memset(&tm, 0, sizeof tm);
-        tm.pk = &som->pk;
-        tm.h = h;
-        tm.active = active;
-        atomic_init(&tm.go, 0);
-        for (size_t q = 0; q < MLR_MAX_THREADS; q++) {
-            atomic_init(&tm.slot[q].claim, 0);
-            atomic_init(&tm.slot[q].done, 0);
-        }
-        pthread_t th[MLR_MAX_THREADS];
-        team_arg ta[MLR_MAX_THREADS];
-        size_t started = 0;
-        for (size_t q = 1; q < parts; q++) {
-            ta[q].t = &tm;
-            ta[q].part = q;
-            if (pthread_create(&th[q], NULL, team_worker, &ta[q]) != 0)
-                break; /* fewer parts: the same result */
-            started = q;
-        }
-        tm.n_parts = started + 1;
-        size_t step = 0;
-        for (size_t e = 0; e < epochs; e++) {
-            for (size_t i = n - 1; i > 0; i--) { /* Fisher-Yates */
-                size_t j = mlr_rng_below(&rng, i + 1), t = order[i];
-                order[i] = order[j];
-                order[j] = t;
-            }
-            /* BMU of the first row; each step then moves the units and finds the BMU of the
-             * next row in the same pass over the codebook */
-            int32_t b;
-            double d2;
-            mlr_nearest2(&som->pk, x + order[0] * ldx, ldx, NULL, 1, NULL, &b, &d2, NULL, NULL);
-            for (size_t i = 0; i < n; i++, step++) {
-                double sigma = decay(som->sigma0, som->sigma1, step, steps);
-                double alpha = decay(som->alpha0, som->alpha1, step, steps);
-                size_t win[4];
-                online_window(som, (size_t)b, sigma, alpha, som->cutoff, g, g + som->rows, h,
-                              active, win);
-                b = team_step(&tm, step, x + order[i] * ldx,
-                              i + 1 < n ? x + order[i + 1] * ldx : NULL);
-                online_clear(som, h, active, win);
-            }
-        }
-        if (started) {
-            atomic_store_explicit(&tm.go, SIZE_MAX, memory_order_release);
-            for (size_t q = 1; q <= started; q++)
-                pthread_join(th[q], NULL);
-        }
-        for (size_t u = 0; u < units; u++)
-            mlr_packed_get(&som->pk, u, som->w + u * dim);
-        mlr_packed_fill(&som->pk, som->w, dim); /* norms by the same rule as everywhere */
-    }
-done:
-    mlr_free(&som->a, g, gbytes);
-    mlr_free(&som->a, idx, ibytes);
-    mlr_free(&som->a, sum, sbytes);
     if (mode == MLR_SOM_BATCH)
-        mlr_free(&som->a, tmp, sbytes);
-    return st;
+        train_batch(som, x, n, ldx, epochs, &tw);
+    else
+        train_online(som, x, n, ldx, epochs, &tw);
+    train_work_free(som, &tw, mode);
+    return MLR_OK;
 }
 
 /* ---- codebook access and blobs ---------------------------------------------------------------- */
@@ -670,7 +714,7 @@ mlr_status mlr_som_import(const void *buf, size_t size, const mlr_allocator *all
     mlr_som *s;
     st = mlr_som_create((size_t)dims[0], (size_t)dims[1], (size_t)dims[2], alloc, &s, diag);
     if (st)
-        return st;
+        return mlr_diag_prefix(diag, st, "som import");
     memcpy(s->w, payload, np * sizeof(double));
     if (mlr_first_nonfinite_row(s->w, s->units, s->dim, s->dim) < s->units) {
         mlr_som_destroy(s);

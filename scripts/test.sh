@@ -2,7 +2,8 @@
 # Set up (scripts/setup.sh), then run every test: the Check suites of the C core through meson,
 # the install check, the release check (sdist and abi3 wheel, installed into a fresh venv
 # without libcholmod), the same C suites again under AddressSanitizer +
-# UndefinedBehaviorSanitizer, a bounded fuzzing run of the BVH reader, then pytest.
+# UndefinedBehaviorSanitizer, a bounded fuzzing run of the BVH reader, then pytest (the Python
+# examples included; the C examples run with the Check suites), then the documentation.
 # Usage: bash scripts/test.sh
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -41,3 +42,8 @@ fi
 echo "== Python package: pytest =="
 # setup.sh builds this checkout with CHOLMOD: its tests must not be skipped silently
 MLAYER_EXPECT_CHOLMOD=1 python -m pytest bindings/python/tests -q -p no:cacheprovider
+
+echo "== Documentation: Sphinx, warnings are errors (docs/, C and Python references, examples) =="
+rm -rf build-docs
+python -m sphinx -W --keep-going -q -b html docs build-docs/html
+echo "docs: build-docs/html/index.html"

@@ -2,7 +2,9 @@
  * status, each with the status it must return and words its message must contain (the
  * argument, the element or the option it names). The options of layers, guards, limits,
  * contacts and cleanup are walked in their own suites (test_SUBJECT.c); here the shared format
- * of the option reader is checked on the layers and the BVH reader. */
+ * of the option reader is checked on the layers and the BVH reader. The allocation failures
+ * of every allocating function, the size overflows and the NULL arguments of every function
+ * are swept in test_diag_alloc.c. */
 #include "mlr_test.h"
 
 #include <math.h>
@@ -174,93 +176,6 @@ static mlr_status lgs_no_memory_later(mlr_diag *d)
         last = s;
     }
     return last;
-}
-
-/* ---- allocation failures of resample, decompose and stream create --------------------------- */
-
-/* Fails each allocation of call(ta) in turn until it succeeds: every failure is MLR_E_NO_MEMORY
- * with an "out of memory" message (the function's own, or the one of the LGS it creates; what
- * is the function's name, which the first failure's message must contain), and leaks
- * nothing. */
-typedef mlr_status (*alloc_call)(mlr_test_allocator *ta, mlr_diag *d);
-
-static mlr_status every_allocation_fails_with_a_message(alloc_call call, const char *what,
-                                                        mlr_diag *d)
-{
-    mlr_status last = MLR_OK;
-    for (size_t k = 0; k < 64; k++) {
-        mlr_test_allocator ta;
-        mlr_test_allocator_init(&ta, k);
-        mlr_diag here = {0};
-        const mlr_status s = call(&ta, d ? &here : NULL); /* NULL: a_null_diag_is_fine */
-        if (s == MLR_OK)
-            break;
-        ck_assert_int_eq(s, MLR_E_NO_MEMORY);
-        if (d) {
-            ck_assert_msg(strstr(here.message, "out of memory") &&
-                              (k > 0 || strstr(here.message, what)),
-                          "allocation %zu: '%s'", k, here.message);
-            *d = here;
-        }
-        ck_assert_uint_eq(ta.live_blocks, 0);
-        last = s;
-    }
-    return last;
-}
-
-static mlr_status resample_call(mlr_test_allocator *ta, mlr_diag *d)
-{
-    enum { N = 6, J = 2, M = 11 };
-    double root[N * 3], rot[N * J * 4], ro[M * 3], qo[M * J * 4], var[M];
-    for (size_t i = 0; i < N * 3; i++)
-        root[i] = 0.1 * (double)i;
-    for (size_t i = 0; i < N * J; i++) {
-        rot[4 * i] = 1.0;
-        rot[4 * i + 1] = rot[4 * i + 2] = rot[4 * i + 3] = 0.0;
-    }
-    return mlr_resample_arrays(N, J, 0, root, rot, NULL, NULL, M, MLR_RESAMPLE_AUTO, 1.0, 0, ro,
-                               qo, NULL, var, &ta->base, d);
-}
-
-static mlr_status resample_no_memory(mlr_diag *d)
-{
-    return every_allocation_fails_with_a_message(resample_call, "resample", d);
-}
-
-static mlr_status decompose_call(mlr_test_allocator *ta, mlr_diag *d)
-{
-    enum { N = 12, J = 2 };
-    double root[N * 3], rot[N * J * 4];
-    for (size_t f = 0; f < N; f++) {
-        root[3 * f] = 0.05 * (double)f, root[3 * f + 1] = 1.0, root[3 * f + 2] = 0.0;
-        for (size_t j = 0; j < J; j++) {
-            const double a = 0.1 * sin(0.7 * (double)f + (double)j);
-            double *q = rot + 4 * (f * J + j);
-            q[0] = cos(a), q[1] = sin(a), q[2] = q[3] = 0.0;
-        }
-    }
-    mlr_layers *L = NULL;
-    const mlr_status s = mlr_layers_decompose(N, J, root, rot, NULL, 0, &ta->base, &L, d);
-    mlr_layers_destroy(L);
-    return s;
-}
-
-static mlr_status decompose_no_memory(mlr_diag *d)
-{
-    return every_allocation_fails_with_a_message(decompose_call, "decompose", d);
-}
-
-static mlr_status stream_call(mlr_test_allocator *ta, mlr_diag *d)
-{
-    mlr_stream *st = NULL;
-    const mlr_status s = mlr_stream_create(2, 1, 0, 1.0, 1.0, 4, &ta->base, &st, d);
-    mlr_stream_destroy(st);
-    return s;
-}
-
-static mlr_status stream_no_memory(mlr_diag *d)
-{
-    return every_allocation_fails_with_a_message(stream_call, "stream", d);
 }
 
 /* ---- streams ------------------------------------------------------------------------------ */
@@ -702,9 +617,6 @@ static const diag_case cases[] = {
     {"lgs variance", lgs_variance_count, MLR_E_INVALID_ARG, "n_out is 4, the handle has 5"},
     {"lgs no memory", lgs_no_memory, MLR_E_NO_MEMORY, "out of memory"},
     {"lgs no memory later", lgs_no_memory_later, MLR_E_NO_MEMORY, "out of memory"},
-    {"resample no memory", resample_no_memory, MLR_E_NO_MEMORY, "out of memory"},
-    {"decompose no memory", decompose_no_memory, MLR_E_NO_MEMORY, "out of memory"},
-    {"stream no memory", stream_no_memory, MLR_E_NO_MEMORY, "out of memory"},
     {"stream NaN", stream_nan, MLR_E_INVALID_ARG, "frame[5] is NaN or infinite"},
     {"stream size", stream_size, MLR_E_INVALID_ARG, "n_values is 6, a frame has 7"},
     {"stream flushed", stream_flushed, MLR_E_BAD_STATE, "was flushed; reset it"},
@@ -736,14 +648,15 @@ static const diag_case cases[] = {
     {"band create shape", band_create_shape, MLR_E_INVALID_ARG,
      "n 3, kd 3: needs n >= 1 and kd < n"},
     {"band create overflow", band_create_overflow, MLR_E_OVERFLOW, "overflow a size_t"},
-    {"band create no memory", band_create_no_memory, MLR_E_NO_MEMORY, "no memory for the factor"},
+    {"band create no memory", band_create_no_memory, MLR_E_NO_MEMORY,
+     "out of memory for the factor"},
     {"band factor ldab", band_factor_ldab, MLR_E_INVALID_ARG, "ldab 1 < kd + 1 = 2"},
     {"band factor singular", band_factor_singular, MLR_E_SINGULAR, "the pivot of row 1"},
     {"band solve unfactored", band_solve_unfactored, MLR_E_BAD_STATE, "band is not factored"},
     {"band solve ldx", band_solve_ldx, MLR_E_INVALID_ARG, "ldx 1 < m 2"},
     {"band inverse n", band_inverse_n, MLR_E_INVALID_ARG, "n 4 is not the order 3 of band"},
     {"band inverse no memory", band_inverse_no_memory, MLR_E_NO_MEMORY,
-     "no memory for the workspace"},
+     "out of memory for the workspace"},
     {"bvh write NULL fn", bvh_write_null_fn, MLR_E_INVALID_ARG, "bvh write: fn is NULL"},
     {"bvh write sink stops", bvh_write_sink_stops, MLR_E_IO, "fn returned nonzero"},
     {"bvh write zero quaternion", bvh_write_zero_quat, MLR_E_INVALID_ARG,

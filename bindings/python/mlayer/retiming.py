@@ -252,9 +252,16 @@ def resample(motion: Motion, *, fps: float | None = None, n_frames: int | None =
         (:func:`mlayer.cleanup.keep_contacts_retimed`, following the SLERP resampling of
         ``motion``); False skips it. Skeletons without recognisable feet are left as they are.
 
-    Returns the new :class:`Motion` (same skeleton), or ``(motion, var)`` with ``return_var``.
-    Raises InvalidArgumentError for fewer than 2 frames, fps <= 0, both or neither of fps /
-    n_frames, factors over 100x without ``allow_extreme``, non-finite data.
+    Returns
+    -------
+    Motion
+        The new motion (same skeleton), or ``(motion, var)`` with ``return_var``.
+
+    Raises
+    ------
+    InvalidArgumentError
+        Fewer than 2 frames, fps <= 0, both or neither of fps / n_frames, factors over 100x
+        without ``allow_extreme``, non-finite data.
     """
     where = "mlayer.resample"
     motion = _motion(motion, where)

@@ -153,10 +153,19 @@ def lgs(y, lam: float = 1.0, sigma: float = 1.0, *, order: int = 2, t=None,
         pages of a large result (8 MiB or more) while the solve fills it, which saves the page
         faults of new memory (about 40% of a 100,000 x 127 solve); 1: one thread. Same result.
 
-    Returns x of shape (n_out,) or (n_out, m); with return_var, (x, var).
-    Raises InvalidArgumentError (also a ValueError) for bad shapes, parameters or non-finite
-    values, SingularMatrixError when the observations do not determine the result,
-    UnsupportedError for solver="cholmod" in a build without CHOLMOD.
+    Returns
+    -------
+    x : ndarray
+        Shape (n_out,) or (n_out, m); with return_var, the pair (x, var).
+
+    Raises
+    ------
+    InvalidArgumentError
+        (Also a ValueError.) Bad shapes, parameters or non-finite values.
+    SingularMatrixError
+        The observations do not determine the result.
+    UnsupportedError
+        solver="cholmod" in a build without CHOLMOD.
     """
     y = _arrays.as_f64(y, "y", ndim=(1, 2))
     n_obs = y.shape[0]
