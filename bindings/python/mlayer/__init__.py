@@ -34,6 +34,10 @@ from .manifold import GRBF, PCA
 from .mixture import GaussianMixture, fuzzy_cmeans
 from .markov import Markov
 from .primitives import PrimitiveModel
+from .gltf import read_gltf, write_gltf
+from .amass import read_amass, write_amass
+from .mirror import mirror, mirror_pairs
+from .root_motion import RootTrack, apply_root_motion, extract_root_motion
 
 
 __all__ = ["__version__", "library_version", "Error", "InvalidArgumentError", "ParseError",
@@ -47,6 +51,9 @@ __all__ = ["__version__", "library_version", "Error", "InvalidArgumentError", "P
 __all__ += ["ParseWarning", "UpGuess", "detect_up"]
 __all__ += ["LeadIn", "lead_in", "trim"]
 __all__ += ["MissingDependencyError"]
+__all__ += ["read_gltf", "write_gltf"]
+__all__ += ["read_amass", "write_amass"]
+__all__ += ["mirror", "mirror_pairs", "RootTrack", "extract_root_motion", "apply_root_motion"]
 
 import logging as _logging
 # the library logs (the `mlayer` logger and its children) and never prints: nothing shows

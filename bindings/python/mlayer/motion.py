@@ -34,7 +34,7 @@ from ._native import ffi, lib
 from .errors import InvalidArgumentError, check
 
 __all__ = ["Motion", "Skeleton", "ScipyFrames", "DEFAULT_ROOT_CHANNELS",
-           "DEFAULT_JOINT_CHANNELS", "MIN_FRAME_TIME"]
+           "DEFAULT_JOINT_CHANNELS", "MIN_FRAME_TIME", "depth_first_order"]
 
 DEFAULT_ROOT_CHANNELS = "Xposition Yposition Zposition Zrotation Yrotation Xrotation"
 DEFAULT_JOINT_CHANNELS = "Zrotation Yrotation Xrotation"
@@ -81,17 +81,101 @@ class ScipyFrames(NamedTuple):
     trans: np.ndarray
 
 
+def depth_first_order(parents, joint_names=None, where: str = "Skeleton") -> np.ndarray:
+    """The depth-first (BVH) order of a joint tree given in any order.
+
+    Parameters
+    ----------
+    parents : array_like of int, shape (J,)
+        The parent of every joint, -1 for the root; any order (a parent may come after its
+        children, as in SMPL's order or a glTF node list).
+    joint_names : sequence of str, optional
+        Names used in the error messages.
+    where : str
+        The caller, named in the error messages.
+
+    Returns
+    -------
+    numpy.ndarray of int64, shape (J,)
+        ``order``: joint k of the depth-first order is input joint ``order[k]``. The root
+        comes first, then each joint's subtree right after it; children keep their input
+        order. The identity when ``parents`` already is in depth-first order.
+
+    Raises
+    ------
+    InvalidArgumentError
+        No root or two roots, a parent out of range, a joint that is its own parent or a
+        cycle (joints not below the root); the message names the joint.
+    """
+    par = np.asarray(parents).astype(np.int64, copy=False).reshape(-1)
+    J = par.shape[0]
+
+    def name(j: int) -> str:
+        return f"{joint_names[j]!r} (index {j})" if joint_names is not None else f"{j}"
+
+    bad = np.flatnonzero((par < -1) | (par >= J))
+    if bad.size:
+        j = int(bad[0])
+        raise InvalidArgumentError(f"{where}: joint {name(j)} has parent {int(par[j])}, "
+                                   f"outside -1..{J - 1}")
+    roots = np.flatnonzero(par == -1)
+    if roots.size != 1:
+        what = "no root (no parent -1)" if roots.size == 0 else (
+            f"{roots.size} roots: joints {name(int(roots[0]))} and {name(int(roots[1]))} "
+            "both have parent -1")
+        raise InvalidArgumentError(f"{where}: the joints must form one tree, found {what}")
+    if par[0] == -1 and _is_preorder(par):
+        return np.arange(J)
+    children: list[list[int]] = [[] for _ in range(J)]
+    for j in range(J):
+        if par[j] >= 0:
+            if par[j] == j:
+                raise InvalidArgumentError(f"{where}: joint {name(j)} is its own parent")
+            children[par[j]].append(j)
+    order, stack = [], [int(roots[0])]
+    while stack:
+        j = stack.pop()
+        order.append(j)
+        stack.extend(reversed(children[j]))
+    if len(order) != J:
+        seen = np.zeros(J, dtype=bool)
+        seen[order] = True
+        j = int(np.flatnonzero(~seen)[0])
+        raise InvalidArgumentError(f"{where}: joint {name(j)} is not below the root (its "
+                                   "parents form a cycle)")
+    return np.asarray(order, dtype=np.int64)
+
+
+def _is_preorder(par: np.ndarray) -> bool:
+    """Whether every parents[j] is j-1 or an ancestor of j-1 (the C core's depth-first rule),
+    in O(J): ``path`` holds the ancestors of j-1 and j-1 itself, root first."""
+    path = [0]
+    for j, p in enumerate(par.tolist()[1:], start=1):
+        while path and path[-1] != p:
+            path.pop()
+        if not path:
+            return False
+        path.append(j)
+    return True
+
+
 class Skeleton(ReadOnlyAttributes):
     """Joint names, parents, OFFSETs, channel layout and End Sites; immutable (assigning an
     attribute raises AttributeError, the arrays are read-only).
 
     Joints are in BVH depth-first order: joint 0 is the root (parent -1) and every parent comes
-    before its children. End Sites are kept only so that a written file has the same hierarchy;
-    they are not joints (forward kinematics leaves them out).
+    before its children, each joint's subtree right after it. Joints given in another order
+    (any tree: SMPL's order, a glTF node list, parents after their children) are reordered to
+    the depth-first order when the skeleton is made (:func:`depth_first_order`; children keep
+    their relative order); ``source_order[k]`` is then the input index of joint k, so frames
+    in the input order become the skeleton's with ``rot[:, skeleton.source_order]``
+    (:meth:`Motion.from_arrays` does that itself). End Sites are kept only so that a written
+    file has the same hierarchy; they are not joints (forward kinematics leaves them out).
     """
 
     __slots__ = ("_names", "parents", "offsets", "channels", "euler_orders",
-                 "end_site_parents", "end_site_offsets", "trans_joints", "n_channels")
+                 "end_site_parents", "end_site_offsets", "trans_joints", "n_channels",
+                 "source_order")
     _readonly = __slots__
 
     def __init__(self, joint_names, parents, offsets, channels=None, end_site_parents=(),
@@ -108,8 +192,9 @@ class Skeleton(ReadOnlyAttributes):
         off = _arrays.as_f64(offsets, "offsets", ndim=2, last=(3,))
         if off.shape[0] != J:
             raise InvalidArgumentError(f"Skeleton: offsets must be ({J}, 3), got {off.shape}")
-        if channels is None:
-            channels = [DEFAULT_ROOT_CHANNELS] + [DEFAULT_JOINT_CHANNELS] * (J - 1)
+        if channels is None:  # the root's by its parent -1, whatever the order
+            channels = [DEFAULT_ROOT_CHANNELS if p == -1 else DEFAULT_JOINT_CHANNELS
+                        for p in par.tolist()]
         elif isinstance(channels, str):
             raise InvalidArgumentError("Skeleton: channels must be a list of one string per joint")
         channels = [" ".join(c) if not isinstance(c, str) else c for c in channels]
@@ -131,15 +216,21 @@ class Skeleton(ReadOnlyAttributes):
         if eo.shape != (E, 3):
             raise InvalidArgumentError(f"Skeleton: end_site_offsets must be ({E}, 3), got "
                                        f"{eo.shape}")
+        order = depth_first_order(par, names)
+        if not np.array_equal(order, np.arange(J)):
+            names, par, off, channels, ep, eo = _reordered(order, names, par, off, channels,
+                                                           ep, eo)
         # Let the C core judge names, parents, channel lists and End Sites; read back its
         # canonical channel lists, Euler orders and the joints with position channels.
         with _create_handle(names, par, off, channels, ep, eo, 0, 1.0) as h:
             self._from_handle(h)
+        self.source_order = _readonly(order)
 
     @classmethod
     def _from_c(cls, h) -> "Skeleton":
         self = cls.__new__(cls)
         self._from_handle(h)
+        self.source_order = _readonly(np.arange(self.n_joints))
         return self
 
     def _from_handle(self, h) -> None:
@@ -209,6 +300,39 @@ class Skeleton(ReadOnlyAttributes):
     def __repr__(self) -> str:
         return (f"Skeleton({self.n_joints} joints, {self.n_end_sites} End Sites, "
                 f"{self.n_channels} channels, root {self._names[0]!r})")
+
+
+def _reordered(order, names, par, off, channels, ep, eo):
+    """The skeleton arrays in the joint order ``order`` (from :func:`depth_first_order`):
+    parents renumbered, End Sites renumbered and sorted by their new parent (stable)."""
+    inv = np.empty_like(order)
+    inv[order] = np.arange(order.shape[0])
+    par = np.ascontiguousarray(np.where(par[order] < 0, -1, inv[par[order]]), dtype=np.int32)
+    names = [names[j] for j in order]
+    channels = [channels[j] for j in order]
+    off = np.ascontiguousarray(off[order])
+    if ep.shape[0]:
+        if ep.min() < 0 or ep.max() >= order.shape[0]:
+            raise InvalidArgumentError(f"Skeleton: end_site_parents must be joint indices in "
+                                       f"[0, {order.shape[0]}), got {ep.tolist()}")
+        ep = inv[ep]
+        by = np.argsort(ep, kind="stable")
+        ep, eo = np.ascontiguousarray(ep[by], dtype=np.int32), np.ascontiguousarray(eo[by])
+    return names, par, off, channels, ep, eo
+
+
+def _frames_in_order(skel: Skeleton, order: np.ndarray, rot, trans):
+    """Frames given in the input joint order of a reordered skeleton, in its own order:
+    ``rot`` (N, J, 4) by ``order``; ``trans`` (N, P, 3), one column per joint with position
+    channels in increasing *input* index, reordered to the skeleton's ``trans_joints``."""
+    J = skel.n_joints
+    rot = np.take(_frame_array(rot, "Motion: rot", (J, 4)), order, axis=1)
+    if trans is not None:
+        P = skel.trans_joints.shape[0]
+        trans = _frame_array(trans, "Motion: trans", (P, 3))
+        src = np.sort(order[skel.trans_joints])  # the input indices, in the input's order
+        trans = trans[:, np.searchsorted(src, order[skel.trans_joints])]
+    return np.ascontiguousarray(rot), trans
 
 
 class _CFrames:
@@ -446,8 +570,11 @@ class Motion:
                     end_site_parents=(), end_site_offsets=None) -> "Motion":
         """Build a motion from arrays.
 
-        joint_names: J names; parents: J indices (-1 for joint 0, each parent before its
-        children, depth-first order); offsets: (J, 3); root_pos: (N, 3); rot: (N, J, 4) unit
+        joint_names: J names; parents: J indices (-1 for the root); any tree order: joints
+        not in depth-first order (SMPL's, a parent after its children) are reordered to it,
+        with their rotations, translations and End Sites, so the motion's joint order is the
+        depth-first one (``skeleton.source_order[k]`` is the input index of joint k);
+        offsets: (J, 3); root_pos: (N, 3); rot: (N, J, 4) unit
         quaternions (w, x, y, z); fps or frame_time (default 30 fps). channels: one string per
         joint as on a CHANNELS line without the count (e.g. "Zrotation Xrotation Yrotation");
         default: the root "Xposition Yposition Zposition Zrotation Yrotation Xrotation", the
@@ -464,6 +591,9 @@ class Motion:
             frame_time = 1.0 / fps
         skel = Skeleton(joint_names, parents, offsets, channels, end_site_parents,
                         end_site_offsets)
+        order = skel.source_order
+        if not np.array_equal(order, np.arange(order.shape[0])):
+            rot, trans = _frames_in_order(skel, order, rot, trans)
         return cls(skel, frame_time, root_pos, rot, trans)
 
     def with_frames(self, root_pos=None, rot=None, trans=None, *, frame_time=None) -> "Motion":

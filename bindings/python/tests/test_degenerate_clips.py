@@ -72,6 +72,7 @@ COMMANDS = [
     ("primitives", ["IN", "-o", "OUT/p.npz", "--lattice", "3x3", "--som", "3x3", "--epochs", "2"],
      ["p.npz"]),
     ("demo", ["--clip", "IN", "-o", "OUT/demo", "--no-gif"], ["demo"]),
+    ("convert", ["IN", "OUT/c.glb"], ["c.glb"]),
 ]
 
 

@@ -171,6 +171,7 @@ COMMANDS = [
     ("primitives", ["IN", "-o", "OUT/p.npz", "--plots", ""], ["p.npz"]),
     ("generate", ["OUT/p.npz", "--frames", "30", "-o", "OUT/g.bvh"], ["g.bvh"]),
     ("demo", ["--clip", "IN", "-o", "OUT/demo", "--no-gif"], ["demo"]),
+    ("convert", ["IN", "OUT/c.glb"], ["c.glb"]),
 ]
 _CLI_RUNS: dict = {}
 

@@ -24,6 +24,8 @@ import sys
 from .. import __version__, library_version
 from ..errors import Error
 from . import batch, contacts, demo, info, layers, primitives, render, retiming, stream, view
+from . import convert
+from . import mirror, rootmotion
 from ._command import (add_parser, check_outputs, check_requires, command, show_parse_warning,
                        show_trim, stdout_outputs)
 
@@ -46,11 +48,14 @@ COMMANDS = (
     contacts.cmd_contacts,
     retiming.cmd_resample,
     retiming.cmd_timewarp,
+    mirror.cmd_mirror,
+    rootmotion.cmd_rootmotion,
     view.cmd_view,
     batch.cmd_batch,
     primitives.cmd_primitives,
     primitives.cmd_generate,
     demo.cmd_demo,
+    convert.cmd_convert,
 )
 
 
