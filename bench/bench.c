@@ -2,6 +2,8 @@
  * mlayer benchmark harness. Runs every case (or those matching --filter) until its time
  * budget is spent and prints one tab-separated line per case:
  *     name  n  median_ns  min_ns  ns_per_elem  checksum
+ * and, when guards.decompose and guards.stylize both ran (--filter guards), a last line
+ * "# guards.stylize / guards.decompose (medians): R".
  * Options: --budget-ms MS (default 200), --filter SUBSTR, --cold (flush caches between runs),
  * --list.
  */
@@ -93,6 +95,7 @@ int main(int argc, char **argv)
                             {mlr_bench_guards_cases, &mlr_bench_guards_count}};
     printf("name\tn\tmedian_ns\tmin_ns\tns_per_elem\tchecksum\n");
     int failures = 0;
+    double t_decompose = 0.0, t_stylize = 0.0; /* medians of guards.decompose, guards.stylize */
     for (size_t t = 0; t < sizeof tables / sizeof tables[0]; t++) {
         for (size_t c = 0; c < *tables[t].count; c++) {
             const mlr_bench_case *bc = &tables[t].cases[c];
@@ -130,9 +133,15 @@ int main(int argc, char **argv)
             printf("%s\t%zu\t%.0f\t%.0f\t%.3f\t%.17g\n", bc->name, bc->n, median, min,
                    median / (double)bc->n, checksum / (double)runs);
             fflush(stdout);
+            if (!strncmp(bc->name, "guards.decompose/", 17))
+                t_decompose = median;
+            else if (!strncmp(bc->name, "guards.stylize/", 15))
+                t_stylize = median;
             free(times);
             bc->teardown(state);
         }
     }
+    if (t_decompose > 0.0 && t_stylize > 0.0) /* issue 18's target: at most 2 */
+        printf("# guards.stylize / guards.decompose (medians): %.2f\n", t_stylize / t_decompose);
     return failures ? 1 : 0;
 }

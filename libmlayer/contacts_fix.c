@@ -435,6 +435,7 @@ typedef struct foot {
     size_t n_cols, n_own;
     size_t cols[16]; /* own first, then the placed points */
     uint8_t *U, *F, *K; /* in contact, a floor frame, in a kept contact (no IK there) */
+    uint8_t *S;         /* this pass: the leg already reaches its target (no IK there) */
     double *at, *tt, *lift;
     int active;
 } foot;
@@ -1270,18 +1271,41 @@ static void copy_leg_rotations(const cleanup *cu)
     }
 }
 
+/* Within REACHED times the leg's length of its targets, a leg is left as it is: IK would move
+   it by rounding (the pass before put it there, to ~1e-10 of the leg's length). */
+#define REACHED 1e-8
+
+/* Do a - o and b - o point the same way, to within REACHED radians? (place_toes turns the
+   anchor so that its placed point points at the target from it.) */
+static int aligned(const double *a, const double *b, const double *o)
+{
+    const double u[3] = {a[0] - o[0], a[1] - o[1], a[2] - o[2]};
+    const double v[3] = {b[0] - o[0], b[1] - o[1], b[2] - o[2]};
+    const double c[3] = {u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2],
+                         u[0] * v[1] - u[1] * v[0]};
+    const double uv = u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
+    const double c2 = c[0] * c[0] + c[1] * c[1] + c[2] * c[2];
+    const double n2 = (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]) *
+                      (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    return uv > 0.0 && c2 <= REACHED * REACHED * n2;
+}
+
 /* Two-bone IK of each leg on its constrained frames (contact targets, or the ankle raised
-   above the floor), into newr. */
+   above the floor), into newr; where the anchor (and on contact frames the placed point) is
+   already within REACHED of its target, the leg is left as it is (ft->S). */
 static void solve_legs(const cleanup *cu)
 {
-    const size_t N = cu->N, J = cu->J;
+    const size_t N = cu->N, J = cu->J, C = cu->C;
     const int up = cu->up;
-    const double *pos = cu->pos, *wrot = cu->wrot;
+    const double *pos = cu->pos, *wrot = cu->wrot, *P = cu->P;
     double *newr = cu->newr;
     for (size_t k = 0; k < cu->nf; k++) {
-        const foot *ft = &cu->feet[k];
+        foot *ft = &cu->feet[k];
         if (!ft->active)
             continue;
+        memset(ft->S, 0, N);
+        const int has_toe = ft->n_cols > ft->n_own;
+        const size_t toe = has_toe ? ft->cols[ft->n_own] : 0;
         const size_t h = (size_t)ft->hip, kn = (size_t)ft->knee, a = (size_t)ft->anchor;
         const int32_t pk = cu->rig->parents[kn], ph = cu->rig->parents[h];
         double local[3] = {0, 0, 0};
@@ -1297,6 +1321,14 @@ static void solve_legs(const cleanup *cu)
             } else {
                 memcpy(target, Pf + 3 * a, sizeof target);
                 target[up] += fmax(ft->lift[f], 0.0);
+            }
+            const double eps = REACHED * (dist3(Pf + 3 * h, Pf + 3 * kn) +
+                                          dist3(Pf + 3 * kn, Pf + 3 * a));
+            if (dist3(Pf + 3 * a, target) <= eps &&
+                (!ft->U[f] || !has_toe ||
+                 aligned(P + 3 * (f * C + toe), ft->tt + 3 * f, Pf + 3 * a))) {
+                ft->S[f] = 1; /* newr holds the leg's rotations as they are */
+                continue;
             }
             if (have_local)
                 mlr_ik_qrot(G + 4 * h, local, ax);
@@ -1326,7 +1358,7 @@ static void place_toes(const cleanup *cu)
     for (size_t k = 0; k < nf; k++)
         if (feet[k].active && feet[k].n_cols > feet[k].n_own)
             for (size_t f = 0; f < N; f++)
-                fk_frames[f] |= (feet[k].U[f] | feet[k].F[f]) & !feet[k].K[f];
+                fk_frames[f] |= (feet[k].U[f] | feet[k].F[f]) & !feet[k].K[f] & !feet[k].S[f];
     for (size_t f = 0; f < N; f++) {
         if (!fk_frames[f])
             continue;
@@ -1335,7 +1367,7 @@ static void place_toes(const cleanup *cu)
         for (size_t k = 0; k < nf; k++) {
             const foot *ft = &feet[k];
             if (!ft->active || ft->n_cols == ft->n_own || (!ft->U[f] && !ft->F[f]) ||
-                ft->K[f])
+                ft->K[f] || ft->S[f])
                 continue;
             if (cu->chained) /* the same values as the whole frame's at the chain's joints */
                 fk_chain_frame(rig, f, cu->chains + k * J, cu->chain_len[k], cu->tidx, newr, tr,
@@ -1522,13 +1554,13 @@ static mlr_status cleanup_run(const mlr_rig *rig, size_t N, double fps, int up,
     if (ar.st != MLR_OK)
         goto fail;
     /* the feet's arrays, one block each for all feet (the arena holds MAX_BLOCKS blocks) */
-    uint8_t *all_uf = take(&ar, N * nf, 3);
+    uint8_t *all_uf = take(&ar, N * nf, 4);
     double *all_at = take(&ar, N * nf, 7 * sizeof(double));
     if (ar.st != MLR_OK)
         goto fail;
     for (size_t k = 0; k < nf; k++) {
         foot *ft = &feet[k];
-        ft->U = all_uf + 3 * N * k, ft->F = ft->U + N, ft->K = ft->F + N;
+        ft->U = all_uf + 4 * N * k, ft->F = ft->U + N, ft->K = ft->F + N, ft->S = ft->K + N;
         ft->at = all_at + 7 * N * k, ft->tt = ft->at + 3 * N, ft->lift = ft->tt + 3 * N;
         if ((st = set_foot_targets(&c, k, diag)) != MLR_OK)
             goto fail_st_keep;

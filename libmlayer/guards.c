@@ -688,7 +688,63 @@ static size_t cleanup_options(const mlr_guards *g, int has_ref, const double *al
 typedef struct apply_work {
     double *rot, *root;
     size_t *counts, *counts2;
+    double *before;   /* N x J x 4: the rotations before a cleanup round */
+    uint8_t *changed; /* N x J: the rotations that round changed */
 } apply_work;
+
+/* A rotation a cleanup round changed by less than this (in a quaternion's components, about
+   half the angle) counts as unchanged: the spread's tails far from any contact are rounding,
+   and whether rounding changed a rotation must not decide whether it is limited again (at
+   1e-14 a clip turned to Z up came out 3e-4 body heights off the turned result; at 1e-12 and
+   1e-10, 1e-13). */
+#define GUARDS_CHANGED 1e-12
+
+/* Mark the rotations of w that differ from w->before by more than GUARDS_CHANGED, with the
+   sign of the quaternion ignored; returns how many. */
+static size_t mark_changed(const apply_work *w, size_t NJ)
+{
+    size_t n = 0;
+    for (size_t i = 0; i < NJ; i++) {
+        const double *a = w->rot + 4 * i, *b = w->before + 4 * i;
+        const double sg = a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3] < 0 ? -1.0 : 1.0;
+        double d = 0.0;
+        for (int k = 0; k < 4; k++) {
+            const double e = fabs(a[k] - sg * b[k]);
+            d = e > d ? e : d;
+        }
+        n += w->changed[i] = d > GUARDS_CHANGED;
+    }
+    return n;
+}
+
+/* The limits after a cleanup round, on the rotations it changed only (the others were
+   limited before it and are left as they are): normalized, then limited (the hinges only, or
+   every kind). MLR_E_INVALID_ARG when the cleanup made a rotation that is not finite or
+   zero. */
+static mlr_status limit_changed(const mlr_guards *g, const apply_work *w, const double *alpha,
+                                size_t n_alpha, int hinges_only, mlr_diag *diag)
+{
+    const size_t N = g->n_frames, J = g->n_joints;
+    if (mark_changed(w, N * J) == 0)
+        return MLR_OK;
+    for (size_t i = 0; i < N * J; i++) {
+        if (!w->changed[i])
+            continue;
+        double *q = w->rot + 4 * i;
+        const double n2 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3];
+        if (!isfinite(n2) || !(n2 > 0))
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "limits: rot_in[%zu][%zu] is %s", i / J, i % J,
+                                isfinite(n2) ? "zero" : "not finite");
+        const double n = sqrt(n2);
+        q[0] /= n, q[1] /= n, q[2] /= n, q[3] /= n;
+    }
+    for (int kind = MLR_LIMITS_HINGE; kind <= MLR_LIMITS_SWING_TWIST; kind++)
+        if (!hinges_only || kind == MLR_LIMITS_HINGE)
+            mlr_limits_apply_kind_masked(g->limits, N, (mlr_quat *)w->rot, alpha, n_alpha,
+                                         w->counts2, kind, w->changed);
+    return MLR_OK;
+}
 
 /* The cleanup on the working frames, alternating with the limits when they ran: IK may bend
    a knee past its range again (a foot pinned closer to the hip than the limited leg reaches),
@@ -706,6 +762,8 @@ static mlr_status clean_and_limit(const mlr_guards *g, const apply_work *w, cons
     mlr_status st = MLR_OK;
     const int rounds = rep->limits_applied ? GUARDS_ROUNDS : 1;
     for (int round = 0; round < rounds; round++) {
+        if (rep->limits_applied)
+            memcpy(w->before, work, 4 * N * J * sizeof(double));
         /* every round (the motion changed, the reference did not) reads the reference's
            trajectories made once: the input's at create, a given one here */
         st = mlr_cleanup_contacts_ref(&g->rig, N, g->fps, g->up, work_root, work, trans, ref,
@@ -715,17 +773,13 @@ static mlr_status clean_and_limit(const mlr_guards *g, const apply_work *w, cons
                              largest value is bounded by the sum of each round's largest */
             rep->root_shift_max += crep->root_shift_max;
         if (st == MLR_OK && rep->limits_applied) {
-            /* the last round limits the hinges only (knees, elbows: a rotation about the
-               hinge axis each), so the feet the cleanup pinned stay where IK put them
-               unless a knee left its range; earlier rounds limit every joint */
-            if (round + 1 == rounds) {
-                memset(counts2, 0, J * sizeof(size_t));
-                mlr_limits_apply_kind(g->limits, N, (mlr_quat *)work, alpha, n_alpha, counts2,
-                                      MLR_LIMITS_HINGE);
-            } else {
-                st = mlr_limits_apply(g->limits, N, work, work, alpha, n_alpha, counts2, J,
-                                      diag);
-            }
+            /* the rotations the cleanup changed (the legs' on the frames of the contacts,
+               their blends and the floor) are limited again; the last round limits the
+               hinges only (knees, elbows: a rotation about the hinge axis each), so the feet
+               the cleanup pinned stay where IK put them unless a knee left its range;
+               earlier rounds limit every joint */
+            memset(counts2, 0, J * sizeof(size_t));
+            st = limit_changed(g, w, alpha, n_alpha, round + 1 == rounds, diag);
             for (size_t j = 0; st == MLR_OK && j < J; j++)
                 counts[j] = counts2[j] > counts[j] ? counts2[j] : counts[j];
         }
@@ -756,13 +810,16 @@ mlr_status mlr_guards_apply(const mlr_guards *g, const double *alpha, size_t n_a
     double *work_root = alloc_array(&g->alloc, 3 * N, sizeof(double), &st);
     size_t *counts = alloc_array(&g->alloc, J, sizeof(size_t), &st);
     size_t *counts2 = alloc_array(&g->alloc, J, sizeof(size_t), &st);
+    const int limits_on = limits_wanted(g, alpha, n_alpha);
+    double *before = limits_on ? alloc_array(&g->alloc, 4 * N * J, sizeof(double), &st) : NULL;
+    uint8_t *changed = limits_on ? alloc_array(&g->alloc, N * J, 1, &st) : NULL;
     if (st != MLR_OK) {
         mlr_diag_set(diag, st, 0, 0, "guards apply: out of memory");
         goto done;
     }
     memcpy(work_root, root_pos, 3 * N * sizeof(double));
     memset(counts, 0, J * sizeof(size_t));
-    if (limits_wanted(g, alpha, n_alpha)) {
+    if (limits_on) {
         /* the limits take 1 or 1 + J alphas, as the layers' synthesis */
         st = mlr_limits_apply(g->limits, N, rot, work, alpha, n_alpha, counts, J, diag);
         if (st != MLR_OK)
@@ -791,7 +848,7 @@ mlr_status mlr_guards_apply(const mlr_guards *g, const double *alpha, size_t n_a
         const size_t n_copts = cleanup_options(g, has_ref, alpha, n_alpha, floor_on,
                                                rep.limits_applied, copts);
         mlr_cleanup_report crep;
-        const apply_work w = {work, work_root, counts, counts2};
+        const apply_work w = {work, work_root, counts, counts2, before, changed};
         st = clean_and_limit(g, &w, alpha, n_alpha, trans, ref, C ? g->contacts : none, copts,
                              n_copts, &rep, &crep, diag);
         free_array(&g->alloc, none, g->n_points * N, 1);
@@ -825,5 +882,7 @@ done:
     free_array(&g->alloc, work_root, 3 * N, sizeof(double));
     free_array(&g->alloc, counts, J, sizeof(size_t));
     free_array(&g->alloc, counts2, J, sizeof(size_t));
+    free_array(&g->alloc, before, 4 * N * J, sizeof(double));
+    free_array(&g->alloc, changed, N * J, 1);
     return st;
 }

@@ -58,11 +58,19 @@ static mlr_quat axis_angle(mlr_vec3 n, double angle)
     return q;
 }
 
+/* The signed angle about n from a to s, both projected on the plane normal to n, as the
+   (y, x) of its atan2. */
+static void hinge_pair(mlr_vec3 n, mlr_vec3 a, mlr_vec3 s, double *y, double *x)
+{
+    *y = dot3(n, cross3(a, s));
+    *x = dot3(a, s) - dot3(a, n) * dot3(s, n);
+}
+
 /* Signed angle about n from a to s, both projected on the plane normal to n. */
 static double hinge_phi(mlr_vec3 n, mlr_vec3 a, mlr_vec3 s)
 {
-    const double y = dot3(n, cross3(a, s));
-    const double x = dot3(a, s) - dot3(a, n) * dot3(s, n);
+    double y, x;
+    hinge_pair(n, a, s, &y, &x);
     return atan2(y, x);
 }
 
@@ -211,7 +219,27 @@ typedef struct acc {
        2 atan2(s, c), monotonic in s / c, so the atan2 is taken once at the end */
     double sw_s, sw_c, tw_s, tw_c;
     double ms[9]; /* moments of the swings' vector parts (the twist about the bone removed) */
+    /* the smallest and largest hinge angle so far as (y, x) pairs of atan2 (hinge_pair) */
+    double lo_y, lo_x, hi_y, hi_x;
+    int need_m, need_ms, need_log; /* what find_hinges and the stats read of this joint */
 } acc;
+
+/* Is atan2(y1, x1) < atan2(y2, x2)? By the half planes and the cross product where that
+   decides it beyond rounding, else by the atan2s themselves (so the extreme pair's atan2 is
+   the extreme of the atan2s). */
+static int angle_less(double y1, double x1, double y2, double x2)
+{
+    if (y1 == y2 && x1 == x2 && signbit(y1) == signbit(y2) && signbit(x1) == signbit(x2))
+        return 0; /* the same pair (a static joint's frames) */
+    if (y1 != 0.0 && y2 != 0.0) {
+        if ((y1 < 0.0) != (y2 < 0.0))
+            return y1 < 0.0;
+        const double c = x1 * y2 - y1 * x2;
+        if (fabs(c) > 1e-9 * (fabs(x1) + fabs(y1)) * (fabs(x2) + fabs(y2)))
+            return c > 0.0;
+    }
+    return atan2(y1, x1) < atan2(y2, x2);
+}
 
 /* Is the angle of (s, c) larger than that of (bs, bc)? (s, bs >= 0, c, bc >= 0) */
 static int wider(double s, double c, double bs, double bc) { return s * bc > bs * c; }
@@ -327,12 +355,24 @@ static void measure_extents(const learner *L)
     const size_t n_clips = L->n_clips, J = rig->n_joints;
     mlr_limits_joint *jt = L->jt;
     acc *ac = L->ac;
-    mlr_quat *rq = L->rq, *qn = L->qn;
+    mlr_quat *rq = L->rq, *lq = L->qn;
     mlr_vec3 *rv = L->rv;
-    for (size_t j = 0; j < J; j++)
-        ac[j].sw_s = ac[j].tw_s = 0.0, ac[j].sw_c = ac[j].tw_c = 1.0;
+    size_t n_seen = 0;
+    for (size_t j = 0; j < J; j++) {
+        acc *c = &ac[j];
+        c->sw_s = c->tw_s = 0.0, c->sw_c = c->tw_c = 1.0;
+        /* the moments of the rotation vectors: for find_hinges' candidates (named hinges, or
+           every joint with an axis when the rig has no names); the swings': for named
+           hinges; the logs: for the moments and the whole angle of a joint with no bone out */
+        const int named = rig->names ? mlr_limits_hinge_name(rig->names[j]) : 0;
+        const int cand = j > 0 && norm3(jt[j].axis) > 0 && (!rig->names || named);
+        c->need_m = cand;
+        c->need_ms = cand && named;
+        c->need_log = cand || !(norm3(jt[j].bone_out) > 0);
+    }
     for (size_t k = 0; k < n_clips; k++)
-        for (size_t f = 0; f < clips[k].n_frames; f++) {
+        for (size_t f = 0; f < clips[k].n_frames; f++, n_seen++) {
+            size_t nl = 0;
             for (size_t j = 0; j < J; j++) {
                 const double *p = clips[k].rot + 4 * (f * J + j);
                 const double n = sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2] + p[3] * p[3]);
@@ -341,25 +381,34 @@ static void measure_extents(const learner *L)
                 if (r.w < 0)
                     r = (mlr_quat){-r.w, -r.x, -r.y, -r.z};
                 rq[j] = r;
-                qn[j] = q;
+                if (ac[j].need_log)
+                    lq[nl++] = r;
+                mlr_limits_joint *g = &jt[j];
+                if (norm3(g->axis) > 0) { /* hinge angle extremes, the atan2 at the end */
+                    acc *c = &ac[j];
+                    double y, x;
+                    hinge_pair(g->axis, g->bone_in, qrot(q, g->bone_out), &y, &x);
+                    if (n_seen == 0 || angle_less(y, x, c->lo_y, c->lo_x))
+                        c->lo_y = y, c->lo_x = x;
+                    if (n_seen == 0 || angle_less(c->hi_y, c->hi_x, y, x))
+                        c->hi_y = y, c->hi_x = x;
+                }
             }
-            (void)mlr_quat_log_array(rq, J, rv, NULL);
+            (void)mlr_quat_log_array(lq, nl, rv, NULL);
+            nl = 0;
             for (size_t j = 0; j < J; j++) {
                 mlr_limits_joint *g = &jt[j];
-                const mlr_vec3 v = rv[j];
+                acc *c = &ac[j];
+                const mlr_vec3 v = c->need_log ? rv[nl++] : (mlr_vec3){0, 0, 0};
                 const mlr_quat r = rq[j];
-                double *m = ac[j].m;
-                const double vv[3] = {v.x, v.y, v.z};
-                for (int a3 = 0; a3 < 3; a3++)
-                    for (int b3 = 0; b3 < 3; b3++)
-                        m[3 * a3 + b3] += vv[a3] * vv[b3];
-                if (norm3(g->axis) > 0) {
-                    const double phi = hinge_phi(g->axis, g->bone_in, qrot(qn[j], g->bone_out));
-                    g->stats[0] = fmin(g->stats[0], phi);
-                    g->stats[1] = fmax(g->stats[1], phi);
+                if (c->need_m) {
+                    double *m = c->m;
+                    const double vv[3] = {v.x, v.y, v.z};
+                    for (int a3 = 0; a3 < 3; a3++)
+                        for (int b3 = 0; b3 < 3; b3++)
+                            m[3 * a3 + b3] += vv[a3] * vv[b3];
                 }
                 const double bl = norm3(g->bone_out);
-                acc *c = &ac[j];
                 if (bl > 0) {
                     /* swing_twist's angles without their atan2: twist 2 atan2(|p|, w) (r.w >= 0),
                        swing 2 atan2(|s.v|, s.w) of s = r conj(twist) */
@@ -376,7 +425,7 @@ static void measure_extents(const learner *L)
                         c->sw_s = ss, c->sw_c = sc;
                     const double sv[3] = {sq.w < 0 ? -sq.x : sq.x, sq.w < 0 ? -sq.y : sq.y,
                                           sq.w < 0 ? -sq.z : sq.z};
-                    for (int a3 = 0; a3 < 3; a3++)
+                    for (int a3 = 0; c->need_ms && a3 < 3; a3++)
                         for (int b3 = 0; b3 < 3; b3++)
                             c->ms[3 * a3 + b3] += sv[a3] * sv[b3];
                     const double ts = fabs(pp) / (tn > 1e-300 ? tn : 1.0), tc = tw.w;
@@ -387,11 +436,16 @@ static void measure_extents(const learner *L)
                 }
             }
         }
-    for (size_t j = 0; j < J; j++)
+    for (size_t j = 0; j < J; j++) {
         if (norm3(jt[j].bone_out) > 0) {
             jt[j].stats[2] = 2.0 * atan2(ac[j].sw_s, ac[j].sw_c);
             jt[j].stats[3] = 2.0 * atan2(ac[j].tw_s, ac[j].tw_c);
         }
+        if (norm3(jt[j].axis) > 0 && n_seen > 0) {
+            jt[j].stats[0] = atan2(ac[j].lo_y, ac[j].lo_x);
+            jt[j].stats[1] = atan2(ac[j].hi_y, ac[j].hi_x);
+        }
+    }
 }
 
 /* Hinges (is_hinge: by name and concentration about the learned axis, or without names by
@@ -826,6 +880,13 @@ void mlr_limits_apply_frame(const mlr_limits *lim, mlr_quat *q, const double *al
 void mlr_limits_apply_kind(const mlr_limits *lim, size_t n_frames, mlr_quat *rot,
                            const double *alpha, size_t n_alpha, size_t *counts, int kind)
 {
+    mlr_limits_apply_kind_masked(lim, n_frames, rot, alpha, n_alpha, counts, kind, NULL);
+}
+
+void mlr_limits_apply_kind_masked(const mlr_limits *lim, size_t n_frames, mlr_quat *rot,
+                                  const double *alpha, size_t n_alpha, size_t *counts, int kind,
+                                  const uint8_t *mask)
+{
     const size_t J = lim->n_joints;
     const double *aj = alpha ? (n_alpha == 1 ? alpha : alpha + 1) : NULL;
     const size_t stride = n_alpha == 1 ? 0 : 1;
@@ -841,6 +902,13 @@ void mlr_limits_apply_kind(const mlr_limits *lim, size_t n_frames, mlr_quat *rot
             const mlr_limits_joint *lj = &lim->joints[j0];
             if (lj->range.kind != kind)
                 continue;
+            if (mask) { /* a joint with no frame to limit is left out */
+                size_t f = 0;
+                while (f < n_frames && !mask[f * J + j0])
+                    f++;
+                if (f == n_frames)
+                    continue;
+            }
             const double a = aj ? aj[stride * j0] : 1.0;
             js[m] = j0;
             prev[m] = (prev_angle){NAN, 0, {1, 0, 0, 0}};
@@ -850,6 +918,11 @@ void mlr_limits_apply_kind(const mlr_limits *lim, size_t n_frames, mlr_quat *rot
         for (size_t f = 0; f < n_frames; f++)
             for (size_t i = 0; i < m; i++) {
                 const size_t j = js[i];
+                if (mask && !mask[f * J + j]) { /* not limited here: the unwrapping starts
+                                                   again at the next frame that is */
+                    prev[i] = (prev_angle){NAN, 0, {1, 0, 0, 0}};
+                    continue;
+                }
                 if (limit_joint(&lim->joints[j], &b[i], &rot[f * J + j], &prev[i]) && counts)
                     counts[j]++;
             }

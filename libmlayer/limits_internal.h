@@ -67,6 +67,11 @@ static inline double mlr_limits_soft(double x, double b, double w)
  * quaternions, with arguments the caller has checked; counts (J, or NULL) are added to. */
 void mlr_limits_apply_kind(const mlr_limits *lim, size_t n_frames, mlr_quat *rot,
                            const double *alpha, size_t n_alpha, size_t *counts, int kind);
+/* mlr_limits_apply_kind on the quaternions marked in mask (n_frames x J, nonzero: limit it;
+ * NULL: all) only: a joint's angles are unwrapped in time along the runs of marked frames. */
+void mlr_limits_apply_kind_masked(const mlr_limits *lim, size_t n_frames, mlr_quat *rot,
+                                  const double *alpha, size_t n_alpha, size_t *counts, int kind,
+                                  const uint8_t *mask);
 void mlr_limits_apply_frame(const mlr_limits *lim, mlr_quat *q, const double *alpha,
                             size_t stride, size_t *counts);
 

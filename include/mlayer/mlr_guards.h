@@ -183,7 +183,8 @@ MLR_API mlr_status mlr_guards_set_limits(mlr_guards *g, const mlr_limits *limits
  * @return MLR_OK; MLR_E_INVALID_ARG (NULL handle or arrays, wrong counts, non-finite alpha or
  *         frames: the frames are then unchanged); MLR_E_NO_MEMORY (frames unchanged);
  *         MLR_E_OVERFLOW
- * Allocates: scratch of about N (14 J + 12 C + 44) doubles, released before return.
+ * Allocates: scratch of about N (18 J + 12 C + 44) doubles and N J bytes, released before
+ * return.
  * Threads: the handle is only read: threads may apply concurrently on separate frames.
  */
 MLR_API mlr_status mlr_guards_apply(const mlr_guards *g, const double *alpha, size_t n_alpha,
