@@ -153,7 +153,7 @@ mlr_status mlr_contacts_detect(const mlr_rig *rig, double fps, int up, size_t n_
     double H;
     st = mlr_rig_body_height(N, J, world_pos, up, &H, &a, diag);
     if (st != MLR_OK)
-        return st;
+        return mlr_diag_prefix(diag, st, "contacts");
     if (!(H > 0))
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                             "contacts: the motion has no extent along the up axis (a flat "

@@ -740,7 +740,7 @@ mlr_status mlr_cleanup_ref_create(const mlr_rig *rig, size_t N, double fps, int 
             0) {
             mlr_cleanup_ref_destroy(r);
             release(&ar);
-            return st;
+            return mlr_diag_prefix(diag, st, "cleanup");
         }
         mlr_lgs_solve(ref_lgs, Pr, 3 * C, 3 * C, tmp, 3 * C, NULL);
         memcpy(Pr, tmp, N * C * 3 * sizeof(double));

@@ -228,6 +228,9 @@ static mlr_status find_contacts(mlr_guards *g, const double *world_pos, const do
     int32_t *fj = alloc_array(&g->alloc, 2 * J, sizeof(int32_t), &st);
     int32_t *fe = alloc_array(&g->alloc, 2 * J, sizeof(int32_t), &st);
     size_t n_feet = 0;
+    if (st != MLR_OK)
+        mlr_diag_set(diag, st, 0, 0, "guards: %s for the feet (2 x %zu joints)",
+                     st == MLR_E_OVERFLOW ? "size overflow" : "out of memory", J);
     if (st == MLR_OK) {
         mlr_diag quiet;
         st = mlr_contacts_find_feet(&g->rig, N, world_pos, g->up, J, fj, fe, &n_feet,
@@ -248,6 +251,9 @@ static mlr_status find_contacts(mlr_guards *g, const double *world_pos, const do
         g->end_sites = alloc_array(&g->alloc, C, sizeof(int32_t), &st);
         g->contacts = alloc_array(&g->alloc, C * N, 1, &st);
         g->n_points = C;
+        if (st != MLR_OK)
+            mlr_diag_set(diag, st, 0, 0, "guards: %s for %zu contact points",
+                         st == MLR_E_OVERFLOW ? "size overflow" : "out of memory", C);
         if (st == MLR_OK) {
             memcpy(g->joints, fj, C * sizeof(int32_t));
             memcpy(g->end_sites, fe, C * sizeof(int32_t));
@@ -383,7 +389,7 @@ done:
     free_array(&a, wrot, n_rot, sizeof(double));
     if (st != MLR_OK) {
         mlr_guards_destroy(g);
-        return st;
+        return mlr_diag_prefix(diag, st, "guards"); /* a nested call's message names guards */
     }
     *out = g;
     return MLR_OK;
@@ -642,7 +648,7 @@ static mlr_status apply_reference(const mlr_guards *g, const double *ref_root_po
                                          ref_rot, g->n_trans ? ref_trans : NULL, NULL, NULL,
                                          g->n_points, g->joints, g->end_sites, &smooth0, 1,
                                          &g->alloc, made, diag)) != MLR_OK)
-            return st;
+            return mlr_diag_prefix(diag, st, "guards");
         *ref = *made;
     } else if (g->follow) {
         *ref = g->input_ref;
