@@ -63,7 +63,10 @@ static void flush_caches(void)
         junk[i] = (unsigned char)(junk[i] + 1);
 }
 
-typedef struct table { const mlr_bench_case *cases; const size_t *count; } table;
+typedef struct table {
+    const mlr_bench_case *cases;
+    const size_t *count;
+} table;
 
 int main(int argc, char **argv)
 {

@@ -119,8 +119,7 @@ static void *km_setup(size_t n, double *x, size_t d)
     s->n = n, s->d = d, s->x = x;
     s->init = malloc(K * d * sizeof(double));
     s->lab = malloc(n * sizeof(int32_t));
-    if (!s->init || !s->lab ||
-        mlr_kmeans_create(K, d, NULL, &s->km, NULL) != MLR_OK) {
+    if (!s->init || !s->lab || mlr_kmeans_create(K, d, NULL, &s->km, NULL) != MLR_OK) {
         km_teardown(s);
         return NULL;
     }
@@ -202,7 +201,8 @@ static double som_run(void *p)
 }
 
 const mlr_bench_case mlr_bench_cluster_cases[] = {
-    {"kmeans.iter/random,n=200000,d=96,k=64", 200000 * ITERS, km_setup_random, km_run, km_teardown},
+    {"kmeans.iter/random,n=200000,d=96,k=64", 200000 * ITERS, km_setup_random, km_run,
+     km_teardown},
     {"kmeans.iter/mocap,n=200000,d=93,k=64", 200000 * ITERS, km_setup_mocap, km_run, km_teardown},
     {"kmeans.iter/random,n=20000,d=96,k=64", 20000 * ITERS, km_setup_random, km_run, km_teardown},
     {"kmeans.iter/mocap,n=20000,d=93,k=64", 20000 * ITERS, km_setup_mocap, km_run, km_teardown},
@@ -210,4 +210,5 @@ const mlr_bench_case mlr_bench_cluster_cases[] = {
     {"som.online_epoch/65x65,n=10000,d=93", 10000, som_setup_online, som_run, som_teardown},
     {"som.online_epoch/65x65,n=1000,d=93", 1000, som_setup_online, som_run, som_teardown},
 };
-const size_t mlr_bench_cluster_count = sizeof mlr_bench_cluster_cases / sizeof mlr_bench_cluster_cases[0];
+const size_t mlr_bench_cluster_count =
+    sizeof mlr_bench_cluster_cases / sizeof mlr_bench_cluster_cases[0];

@@ -62,8 +62,14 @@ static void *setup(size_t n)
     s->names = malloc(s->j * sizeof *s->names);
     for (size_t k = 0; s->names && k < s->j; k++)
         s->names[k] = mlr_motion_joint_name(s->m, k);
-    mlr_rig r = {s->j, mlr_motion_parents(s->m), mlr_motion_offsets(s->m), s->names, 0, NULL,
-                 mlr_motion_n_end_sites(s->m), mlr_motion_end_site_parents(s->m),
+    mlr_rig r = {s->j,
+                 mlr_motion_parents(s->m),
+                 mlr_motion_offsets(s->m),
+                 s->names,
+                 0,
+                 NULL,
+                 mlr_motion_n_end_sites(s->m),
+                 mlr_motion_end_site_parents(s->m),
                  mlr_motion_end_site_offsets(s->m)};
     s->rig = r;
     s->root = mlr_motion_root_pos(s->m) + 3;
@@ -103,8 +109,8 @@ static int create_guards(guards_state *s)
     s->guards = NULL;
     memcpy(s->in_root, s->root, 3 * s->n * sizeof(double));
     memcpy(s->in_rot, s->rot, 4 * s->n * s->j * sizeof(double));
-    if (mlr_layers_repair(s->layers, 0, s->n, s->in_root, 3 * s->n, s->in_rot,
-                          4 * s->n * s->j, NULL, NULL) < 0)
+    if (mlr_layers_repair(s->layers, 0, s->n, s->in_root, 3 * s->n, s->in_rot, 4 * s->n * s->j,
+                          NULL, NULL) < 0)
         return -1;
     return mlr_guards_create(&s->rig, s->fps, s->n, s->in_root, s->in_rot, NULL, NULL, 0, NULL,
                              &s->guards, NULL);
@@ -116,8 +122,8 @@ static double apply_with(guards_state *s, int given_ref)
     mlr_guards_report rep;
     if (synthesize(s, alpha, s->out_root, s->out_rot) < 0 ||
         mlr_guards_apply(s->guards, &alpha, 1, given_ref ? s->ref_root : NULL,
-                         given_ref ? s->ref_rot : NULL, NULL, s->out_root, s->out_rot, NULL,
-                         NULL, 0, &rep, NULL) < 0)
+                         given_ref ? s->ref_rot : NULL, NULL, s->out_root, s->out_rot, NULL, NULL,
+                         0, &rep, NULL) < 0)
         return -1.0;
     return s->out_root[3 * (s->n / 2) + 1] + (double)rep.contact_frames;
 }
@@ -156,7 +162,8 @@ static double run_apply_ref(void *p) { return apply_with(p, 1); }
 static double run_synthesize(void *p)
 {
     guards_state *s = p;
-    return synthesize(s, 2.0, s->out_root, s->out_rot) < 0 ? -1.0 : s->out_rot[4 * s->j * (s->n / 2)];
+    return synthesize(s, 2.0, s->out_root, s->out_rot) < 0 ? -1.0
+                                                           : s->out_rot[4 * s->j * (s->n / 2)];
 }
 
 static double run_create(void *p)
@@ -173,4 +180,5 @@ const mlr_bench_case mlr_bench_guards_cases[] = {
     {"guards.synthesize/n=2526,j=31", 2526 * 31, setup_ready, run_synthesize, teardown},
     {"guards.create/n=2526,j=31", 2526 * 31, setup_ready, run_create, teardown},
 };
-const size_t mlr_bench_guards_count = sizeof mlr_bench_guards_cases / sizeof mlr_bench_guards_cases[0];
+const size_t mlr_bench_guards_count =
+    sizeof mlr_bench_guards_cases / sizeof mlr_bench_guards_cases[0];

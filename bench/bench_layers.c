@@ -134,10 +134,14 @@ const mlr_bench_case mlr_bench_layers_cases[] = {
     {"layers.decompose/n=2526,j=31", 2526 * 31, setup_clip, run_decompose, teardown},
     {"layers.decompose_glitch/n=2526,j=31", 2526 * 31, setup_clip_glitch, run_decompose, teardown},
     {"layers.decompose_fixed_c/n=2526,j=31", 2526 * 31, setup_clip_fixed, run_decompose, teardown},
-    {"layers.decompose_fixed_bc/n=2526,j=31", 2526 * 31, setup_clip_fixed_both, run_decompose, teardown},
+    {"layers.decompose_fixed_bc/n=2526,j=31", 2526 * 31, setup_clip_fixed_both, run_decompose,
+     teardown},
     {"layers.decompose/n=100000,j=31", 100000 * 31, setup_clip, run_decompose, teardown},
     {"layers.decompose_capped/n=2526,j=31", 2526 * 31, setup_clip_capped, run_decompose, teardown},
-    {"layers.decompose_capped/n=20000,j=31", 20000 * 31, setup_clip_capped, run_decompose, teardown},
-    {"layers.decompose_capped/n=100000,j=31", 100000 * 31, setup_clip_capped, run_decompose, teardown},
+    {"layers.decompose_capped/n=20000,j=31", 20000 * 31, setup_clip_capped, run_decompose,
+     teardown},
+    {"layers.decompose_capped/n=100000,j=31", 100000 * 31, setup_clip_capped, run_decompose,
+     teardown},
 };
-const size_t mlr_bench_layers_count = sizeof mlr_bench_layers_cases / sizeof mlr_bench_layers_cases[0];
+const size_t mlr_bench_layers_count =
+    sizeof mlr_bench_layers_cases / sizeof mlr_bench_layers_cases[0];

@@ -10,7 +10,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-
 enum { N_IN = 72000, J = 31 };
 
 typedef struct rs_state {
@@ -95,8 +94,9 @@ static void *setup(size_t unused)
 static double run_lgs(void *p)
 {
     rs_state *s = p;
-    if (mlr_resample_arrays(s->n_in, J, 0, s->root, s->rot, NULL, NULL, s->n_out, MLR_RESAMPLE_AUTO,
-                            1.0, 0, s->root_out, s->rot_out, NULL, NULL, NULL, NULL) < 0)
+    if (mlr_resample_arrays(s->n_in, J, 0, s->root, s->rot, NULL, NULL, s->n_out,
+                            MLR_RESAMPLE_AUTO, 1.0, 0, s->root_out, s->rot_out, NULL, NULL, NULL,
+                            NULL) < 0)
         return -1.0;
     return s->rot_out[4 * J * (s->n_out / 2)] + s->root_out[3 * (s->n_out / 2)];
 }

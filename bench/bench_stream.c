@@ -77,12 +77,36 @@ static double run(void *p)
     return sum;
 }
 
-static void *j31_l10(size_t n) { (void)n; return setup(31, 10, 0); }
-static void *j31_l30(size_t n) { (void)n; return setup(31, 30, 0); }
-static void *j65_l10(size_t n) { (void)n; return setup(65, 10, 0); }
-static void *j65_l30(size_t n) { (void)n; return setup(65, 30, 0); }
-static void *j31_l0(size_t n) { (void)n; return setup(31, 0, 0); }
-static void *j31_l10_layered(size_t n) { (void)n; return setup(31, 10, 1); }
+static void *j31_l10(size_t n)
+{
+    (void)n;
+    return setup(31, 10, 0);
+}
+static void *j31_l30(size_t n)
+{
+    (void)n;
+    return setup(31, 30, 0);
+}
+static void *j65_l10(size_t n)
+{
+    (void)n;
+    return setup(65, 10, 0);
+}
+static void *j65_l30(size_t n)
+{
+    (void)n;
+    return setup(65, 30, 0);
+}
+static void *j31_l0(size_t n)
+{
+    (void)n;
+    return setup(31, 0, 0);
+}
+static void *j31_l10_layered(size_t n)
+{
+    (void)n;
+    return setup(31, 10, 1);
+}
 
 const mlr_bench_case mlr_bench_stream_cases[] = {
     {"stream.push/J=31,lag=0", STREAM_FRAMES, j31_l0, run, teardown},

@@ -156,7 +156,8 @@ mlr_status mlr_band_factor(mlr_band *b, const double *ab, size_t ldab, mlr_diag 
     if (st == MLR_E_SINGULAR)
         return mlr_diag_set(diag, st, 0, 0,
                             "band factor: ab is not positive definite (the pivot of row %zu is "
-                            "<= 0 or not finite)", b->bad_row);
+                            "<= 0 or not finite)",
+                            b->bad_row);
     return st;
 }
 
@@ -441,7 +442,8 @@ static mlr_status not_factored(mlr_diag *diag, const char *fn)
 {
     return mlr_diag_set(diag, MLR_E_BAD_STATE, 0, 0,
                         "band %s: band is not factored (mlr_band_factor failed or was not "
-                        "called)", fn);
+                        "called)",
+                        fn);
 }
 
 mlr_status mlr_band_solve(const mlr_band *b, double *x, size_t ldx, size_t m, mlr_diag *diag)
@@ -453,11 +455,9 @@ mlr_status mlr_band_solve(const mlr_band *b, double *x, size_t ldx, size_t m, ml
     if (m == 0)
         return MLR_OK;
     if (!x)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "band solve: x is NULL with m %zu",
-                            m);
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "band solve: x is NULL with m %zu", m);
     if (ldx < m)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "band solve: ldx %zu < m %zu", ldx,
-                            m);
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "band solve: ldx %zu < m %zu", ldx, m);
     inplace_ctx ctx = {b, x, ldx};
     mlr_band_solve_rows(b, forward_in_place, &ctx, x, ldx, m);
     return MLR_OK;
@@ -484,7 +484,8 @@ mlr_status mlr_band_inverse_diagonal(const mlr_band *b, double *var, size_t n, m
     if (mlr_mul_size(n, w, &nz) || mlr_mul_size(nz, sizeof(double), &bytes))
         return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0,
                             "band inverse_diagonal: workspace of n %zu x (kd %zu + 1) doubles "
-                            "overflows", n, kd);
+                            "overflows",
+                            n, kd);
     double *z = mlr_alloc(&b->alloc, bytes);
     if (!z)
         return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,

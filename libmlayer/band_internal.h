@@ -22,9 +22,9 @@ typedef double (*mlr_band_entry_fn)(const void *ctx, size_t i, size_t j);
  * from A(i,i), A(i,i-1), A(i,i-2) and the previous rows' L(i-1,i-2), 1/D(i-1), 1/D(i-2), set
  * L(i,i-1), L(i,i-2) and return D(i) (rows 0 and 1 ignore what they do not have). Shared with
  * the streaming smoother, which factors one row per pushed frame. */
-static inline double mlr_band_ldl2_row(size_t i, double aii, double a1, double a2,
-                                       double l1_prev, double dinv_prev1, double dinv_prev2,
-                                       double *l1, double *l2)
+static inline double mlr_band_ldl2_row(size_t i, double aii, double a1, double a2, double l1_prev,
+                                       double dinv_prev1, double dinv_prev2, double *l1,
+                                       double *l2)
 {
     double d = aii;
     if (i >= 2) {

@@ -20,7 +20,7 @@
 /* All builds must round alike: no contraction into FMA (the build passes -ffp-contract=off;
  * clang also gets the pragma, before the inline code of sincosd.h is read) */
 #if defined(__clang__)
-#  pragma STDC FP_CONTRACT OFF
+#pragma STDC FP_CONTRACT OFF
 #endif
 
 #include "bvh_frames.h"
@@ -30,10 +30,9 @@
 
 #include <string.h>
 
-
 #if (defined(__x86_64__) || defined(__i386__)) && (defined(__GNUC__) || defined(__clang__))
-#  define BVH_X86 1
-#  include <immintrin.h>
+#define BVH_X86 1
+#include <immintrin.h>
 #endif
 
 /* ---- per-frame conversion ------------------------------------------------------------------ */
@@ -57,9 +56,8 @@ static inline const uint32_t *gather_translations(const bvh_conv *cv, const doub
 #if defined(__GNUC__)
 __attribute__((always_inline))
 #endif
-static inline void frame_body(const bvh_conv *cv, const double *restrict row,
-                              double *restrict tmp, double *restrict rp, double *restrict tr,
-                              double *restrict q)
+static inline void frame_body(const bvh_conv *cv, const double *restrict row, double *restrict tmp,
+                              double *restrict rp, double *restrict tr, double *restrict q)
 {
     const size_t J = cv->J, Jp = cv->Jp;
     const uint32_t *restrict g = gather_translations(cv, row, rp, tr);
@@ -98,14 +96,14 @@ static size_t count_newlines_portable(const char *p, const char *end)
 }
 
 #ifdef BVH_X86
-#  define AVX512 \
-      __attribute__((target("avx512f,avx512bw,avx512dq,avx512vl,avx512cd,bmi,bmi2,popcnt")))
+#define AVX512 \
+    __attribute__((target("avx512f,avx512bw,avx512dq,avx512vl,avx512cd,bmi,bmi2,popcnt")))
 
 /* frame_portable compiled for AVX2 (4 doubles a vector): the same operations, so the same bits
  * (no FMA: GCC does not contract in ISO C mode, clang is told not to above). */
 __attribute__((target("avx2"))) static void frame_avx2(const bvh_conv *cv, const double *row,
-                                                      double *tmp, double *rp, double *tr,
-                                                      double *q)
+                                                       double *tmp, double *rp, double *tr,
+                                                       double *q)
 {
     frame_body(cv, row, tmp, rp, tr, q);
 }
@@ -114,26 +112,29 @@ __attribute__((target("avx2"))) static void frame_avx2(const bvh_conv *cv, const
  * same bits. */
 AVX512 static inline void sincosd8(__m512d x, __m512d *s_out, __m512d *c_out)
 {
-#  define K(v) _mm512_set1_pd(v)
+#define K(v) _mm512_set1_pd(v)
     const __m512d shifter = K(0x1.8p52);
     const __m512d kq = _mm512_add_pd(_mm512_mul_pd(x, K(1.0 / 90.0)), shifter);
     const __m512d k = _mm512_sub_pd(kq, shifter);
     const __m512d t =
         _mm512_mul_pd(_mm512_sub_pd(x, _mm512_mul_pd(k, K(90.0))), K(MLR_DEG_TO_RAD));
     const __m512d z = _mm512_mul_pd(t, t);
-#  define STEP(c, acc) _mm512_add_pd(K(c), _mm512_mul_pd(z, acc))
-    const __m512d ps = STEP(MLR_SINCOS_S2, STEP(MLR_SINCOS_S3, STEP(MLR_SINCOS_S4,
-                            STEP(MLR_SINCOS_S5, K(MLR_SINCOS_S6)))));
+#define STEP(c, acc) _mm512_add_pd(K(c), _mm512_mul_pd(z, acc))
+    const __m512d ps =
+        STEP(MLR_SINCOS_S2,
+             STEP(MLR_SINCOS_S3, STEP(MLR_SINCOS_S4, STEP(MLR_SINCOS_S5, K(MLR_SINCOS_S6)))));
     const __m512d sn =
         _mm512_add_pd(t, _mm512_mul_pd(_mm512_mul_pd(z, t), STEP(MLR_SINCOS_S1, ps)));
     const __m512d qc = _mm512_mul_pd(
-        z, STEP(MLR_SINCOS_C1, STEP(MLR_SINCOS_C2, STEP(MLR_SINCOS_C3, STEP(MLR_SINCOS_C4,
-               STEP(MLR_SINCOS_C5, K(MLR_SINCOS_C6)))))));
-#  undef STEP
+        z, STEP(MLR_SINCOS_C1,
+                STEP(MLR_SINCOS_C2,
+                     STEP(MLR_SINCOS_C3,
+                          STEP(MLR_SINCOS_C4, STEP(MLR_SINCOS_C5, K(MLR_SINCOS_C6)))))));
+#undef STEP
     const __m512d hz = _mm512_mul_pd(K(0.5), z), w = _mm512_sub_pd(K(1.0), hz);
     const __m512d cs = _mm512_add_pd(
         w, _mm512_add_pd(_mm512_sub_pd(_mm512_sub_pd(K(1.0), w), hz), _mm512_mul_pd(z, qc)));
-#  undef K
+#undef K
     /* quadrant q = k mod 4: (sin, cos) = (sn, cs), (cs, -sn), (-sn, -cs), (-cs, sn) */
     const __m512i q = _mm512_and_si512(_mm512_castpd_si512(kq), _mm512_set1_epi64(3));
     const __mmask8 swap = _mm512_test_epi64_mask(q, _mm512_set1_epi64(1));
@@ -167,11 +168,11 @@ AVX512 static void frame_avx512(const bvh_conv *cv, const double *restrict row,
             /* 8 joints whose angles are three consecutive channels: 4 doubles from each
              * joint's first angle, transposed (the fourth is not used) */
             const uint32_t *t = cv->tri + j;
-#  define LD2(a, b) \
+#define LD2(a, b)                                                           \
     _mm512_insertf64x4(_mm512_castpd256_pd512(_mm256_loadu_pd(row + t[a])), \
                        _mm256_loadu_pd(row + t[b]), 1)
             const __m512d z0 = LD2(0, 1), z1 = LD2(2, 3), z2 = LD2(4, 5), z3 = LD2(6, 7);
-#  undef LD2
+#undef LD2
             const __m512d e0 = _mm512_unpacklo_pd(z0, z1), e1 = _mm512_unpackhi_pd(z0, z1);
             const __m512d e2 = _mm512_unpacklo_pd(z2, z3), e3 = _mm512_unpackhi_pd(z2, z3);
             a[0] = _mm512_mul_pd(h, _mm512_permutex2var_pd(e0, lo, e2));
@@ -205,14 +206,14 @@ AVX512 static void frame_avx512(const bvh_conv *cv, const double *restrict row,
         }
         const __m512d ca = cs[0], sa = sn[0], cb = cs[1], sb = sn[1], cc = cs[2], sc = sn[2];
         const __m512d p = _mm512_loadu_pd(cv->par + j);
-#  define MUL3(a, b, c) _mm512_mul_pd(_mm512_mul_pd(a, b), c)
-#  define MUL4(a, b, c, d) _mm512_mul_pd(_mm512_mul_pd(_mm512_mul_pd(a, b), c), d)
+#define MUL3(a, b, c) _mm512_mul_pd(_mm512_mul_pd(a, b), c)
+#define MUL4(a, b, c, d) _mm512_mul_pd(_mm512_mul_pd(_mm512_mul_pd(a, b), c), d)
         const __m512d w = _mm512_sub_pd(MUL3(ca, cb, cc), MUL4(p, sa, sb, sc));
         const __m512d c0 = _mm512_add_pd(MUL3(sa, cb, cc), MUL4(p, ca, sb, sc));
         const __m512d c1 = _mm512_sub_pd(MUL3(ca, sb, cc), MUL4(p, sa, cb, sc));
         const __m512d c2 = _mm512_add_pd(MUL3(ca, cb, sc), MUL4(p, sa, sb, cc));
-#  undef MUL3
-#  undef MUL4
+#undef MUL3
+#undef MUL4
         __m512d xyz[3];
         for (size_t k = 0; k < 3; k++) {
             const __m128i s =
@@ -255,49 +256,49 @@ static const char zero_token[16] = {' ', ' ', ' ', ' ', ' ', ' ', ' ', ' ',
  * ASCII nor a blank or line end. CLASSIFY(q, &tok, &blank, &eol) gives the masks of the 64
  * bytes at q; EXTRACT(o, p, e, cnt) writes p + the positions of the cnt set bits of e to
  * o[0 .. cnt), and may write up to o[cnt rounded up to 8]. */
-#  define DEFINE_SCAN_LINE(NAME, ATTR, CLASSIFY, EXTRACT)                                      \
-    ATTR static size_t NAME(const char *p, const char *end, size_t C, const char **ends,      \
-                            const char **line_end, int *ok)                                   \
-    {                                                                                         \
-        uint64_t carry = 0; /* the byte before the block is a token byte */                   \
-        size_t n = 0;                                                                         \
-        for (;;) {                                                                            \
-            uint64_t tok, blank, eol;                                                         \
-            if (end - p >= 64) {                                                              \
-                CLASSIFY(p, &tok, &blank, &eol);                                              \
+#define DEFINE_SCAN_LINE(NAME, ATTR, CLASSIFY, EXTRACT)                                        \
+    ATTR static size_t NAME(const char *p, const char *end, size_t C, const char **ends,       \
+                            const char **line_end, int *ok)                                    \
+    {                                                                                          \
+        uint64_t carry = 0; /* the byte before the block is a token byte */                    \
+        size_t n = 0;                                                                          \
+        for (;;) {                                                                             \
+            uint64_t tok, blank, eol;                                                          \
+            if (end - p >= 64) {                                                               \
+                CLASSIFY(p, &tok, &blank, &eol);                                               \
             } else { /* the tail, padded with line ends: the end of the input ends the line */ \
-                char buf[64];                                                                 \
-                memset(buf, '\n', sizeof buf);                                                \
-                memcpy(buf, p, (size_t)(end - p));                                            \
-                CLASSIFY(buf, &tok, &blank, &eol);                                            \
-            }                                                                                 \
+                char buf[64];                                                                  \
+                memset(buf, '\n', sizeof buf);                                                 \
+                memcpy(buf, p, (size_t)(end - p));                                             \
+                CLASSIFY(buf, &tok, &blank, &eol);                                             \
+            }                                                                                  \
             const uint64_t lim = eol ? _blsmsk_u64(eol) : ~(uint64_t)0; /* to the first eol */ \
-            if (~(tok | blank | eol) & lim) {                                                 \
-                *ok = 0;                                                                      \
-                return 0;                                                                     \
-            }                                                                                 \
-            uint64_t e = ~tok & ((tok << 1) | carry) & lim;                                   \
-            carry = tok >> 63;                                                                \
-            const size_t cnt = (size_t)_mm_popcnt_u64(e);                                     \
-            if (n + cnt > C)                                                                  \
-                return n + cnt;                                                               \
-            EXTRACT(ends + n, p, e, cnt); /* ends has room for 8 past C */                    \
-            n += cnt;                                                                         \
-            if (eol) {                                                                        \
-                const char *le = p + _tzcnt_u64(eol);                                         \
-                *line_end = le < end ? le : end;                                              \
-                return n;                                                                     \
-            }                                                                                 \
-            p += 64;                                                                          \
-        }                                                                                     \
+            if (~(tok | blank | eol) & lim) {                                                  \
+                *ok = 0;                                                                       \
+                return 0;                                                                      \
+            }                                                                                  \
+            uint64_t e = ~tok & ((tok << 1) | carry) & lim;                                    \
+            carry = tok >> 63;                                                                 \
+            const size_t cnt = (size_t)_mm_popcnt_u64(e);                                      \
+            if (n + cnt > C)                                                                   \
+                return n + cnt;                                                                \
+            EXTRACT(ends + n, p, e, cnt); /* ends has room for 8 past C */                     \
+            n += cnt;                                                                          \
+            if (eol) {                                                                         \
+                const char *le = p + _tzcnt_u64(eol);                                          \
+                *line_end = le < end ? le : end;                                               \
+                return n;                                                                      \
+            }                                                                                  \
+            p += 64;                                                                           \
+        }                                                                                      \
     }
 
 AVX512 static inline void classify_avx512(const char *q, uint64_t *tok, uint64_t *blank,
                                           uint64_t *eol)
 {
     const __m512i b = _mm512_loadu_si512((const void *)q);
-    *tok = _mm512_cmplt_epu8_mask(_mm512_sub_epi8(b, _mm512_set1_epi8(0x21)),
-                                  _mm512_set1_epi8(0x5E));
+    *tok =
+        _mm512_cmplt_epu8_mask(_mm512_sub_epi8(b, _mm512_set1_epi8(0x21)), _mm512_set1_epi8(0x5E));
     *blank = _mm512_cmpeq_epi8_mask(b, _mm512_set1_epi8(' ')) |
              _mm512_cmpeq_epi8_mask(b, _mm512_set1_epi8('\t'));
     *eol = _mm512_cmpeq_epi8_mask(b, _mm512_set1_epi8('\n')) |
@@ -305,26 +306,25 @@ AVX512 static inline void classify_avx512(const char *q, uint64_t *tok, uint64_t
 }
 
 /* 8 at a time without a branch per token */
-#  define EXTRACT_BITS(o, p, e, cnt)                                                           \
-    do {                                                                                      \
-        uint64_t e_ = (e);                                                                    \
-        for (size_t k = 0;; k += 8) {                                                         \
-            for (int i = 0; i < 8; i++) {                                                     \
-                (o)[k + (size_t)i] = (p) + _tzcnt_u64(e_);                                    \
-                e_ = _blsr_u64(e_);                                                           \
-            }                                                                                 \
-            if (k + 8 >= (cnt))                                                               \
-                break;                                                                        \
-        }                                                                                     \
+#define EXTRACT_BITS(o, p, e, cnt)                         \
+    do {                                                   \
+        uint64_t e_ = (e);                                 \
+        for (size_t k = 0;; k += 8) {                      \
+            for (int i = 0; i < 8; i++) {                  \
+                (o)[k + (size_t)i] = (p) + _tzcnt_u64(e_); \
+                e_ = _blsr_u64(e_);                        \
+            }                                              \
+            if (k + 8 >= (cnt))                            \
+                break;                                     \
+        }                                                  \
     } while (0)
 
 /* The same with AVX-512 VBMI2: the positions compressed into bytes, widened 8 at a time */
-#  define AVX512V                                                                               \
-      __attribute__((target( \
-          "avx512f,avx512bw,avx512dq,avx512vl,avx512cd,avx512vbmi2,bmi,bmi2,popcnt")))
+#define AVX512V     \
+    __attribute__(( \
+        target("avx512f,avx512bw,avx512dq,avx512vl,avx512cd,avx512vbmi2,bmi,bmi2,popcnt")))
 
-AVX512V static inline void extract_compress(const char **o, const char *p, uint64_t e,
-                                            size_t cnt)
+AVX512V static inline void extract_compress(const char **o, const char *p, uint64_t e, size_t cnt)
 {
     static const unsigned char iota64[64] = {
         0,  1,  2,  3,  4,  5,  6,  7,  8,  9,  10, 11, 12, 13, 14, 15, 16, 17, 18, 19, 20, 21,
@@ -345,7 +345,7 @@ AVX512V static inline void extract_compress(const char **o, const char *p, uint6
 DEFINE_SCAN_LINE(scan_line, AVX512, classify_avx512, EXTRACT_BITS)
 DEFINE_SCAN_LINE(scan_line_vbmi2, AVX512V, classify_avx512, extract_compress)
 
-#  define BMI __attribute__((target("bmi,bmi2,popcnt")))
+#define BMI __attribute__((target("bmi,bmi2,popcnt")))
 
 /* Bit i set when 16-bit field i of x is not zero. */
 BMI static inline unsigned fields_nonzero(uint64_t x)
@@ -358,7 +358,9 @@ BMI static inline unsigned fields_nonzero(uint64_t x)
  * reversed lanes' masks of blanks (bytes <= 0x20), digits, dots and '-': the token's digits,
  * the bytes below its dot (bytes 0-14 without a dot) and its first character if it is a '-'.
  * Returns the lanes (bits 0-3) that do not hold a simple token: their results are meaningless. */
-typedef struct lane_bits { uint64_t dig, below, neg; } lane_bits;
+typedef struct lane_bits {
+    uint64_t dig, below, neg;
+} lane_bits;
 
 BMI static inline unsigned lane_check(uint64_t ks, uint64_t kd, uint64_t kp, uint64_t km,
                                       lane_bits *lb)
@@ -414,7 +416,8 @@ AVX512 static inline unsigned lanes4(__m512i w, __m512i *m, __m512i *f, unsigned
 
 AVX512 static inline __m512i windows4(const char *const *e)
 {
-    __m512i w = _mm512_castsi128_si512(_mm_loadu_si128((const __m128i *)(const void *)(e[0] - 16)));
+    __m512i w =
+        _mm512_castsi128_si512(_mm_loadu_si128((const __m128i *)(const void *)(e[0] - 16)));
     w = _mm512_inserti32x4(w, _mm_loadu_si128((const __m128i *)(const void *)(e[1] - 16)), 1);
     w = _mm512_inserti32x4(w, _mm_loadu_si128((const __m128i *)(const void *)(e[2] - 16)), 2);
     return _mm512_inserti32x4(w, _mm_loadu_si128((const __m128i *)(const void *)(e[3] - 16)), 3);
@@ -438,12 +441,13 @@ AVX512 static inline int short8(const char *const *e, unsigned n, double *out)
         return 0;
     const __m512i rev = _mm512_broadcast_i32x4(
         _mm_setr_epi8(7, 6, 5, 4, 3, 2, 1, 0, 15, 14, 13, 12, 11, 10, 9, 8));
-#  define LD2(a, b) _mm_castpd_si128(_mm_loadh_pd( \
+#define LD2(a, b)                                                                     \
+    _mm_castpd_si128(_mm_loadh_pd(                                                    \
         _mm_castsi128_pd(_mm_loadl_epi64((const __m128i *)(const void *)(e[a] - 8))), \
         (const double *)(const void *)(e[b] - 8)))
     const __m256i lo = _mm256_inserti128_si256(_mm256_castsi128_si256(LD2(0, 1)), LD2(2, 3), 1);
     const __m256i hi = _mm256_inserti128_si256(_mm256_castsi128_si256(LD2(4, 5)), LD2(6, 7), 1);
-#  undef LD2
+#undef LD2
     /* byte k: the k-th last byte */
     const __m512i w =
         _mm512_shuffle_epi8(_mm512_inserti64x4(_mm512_castsi256_si512(lo), hi, 1), rev);
@@ -453,8 +457,7 @@ AVX512 static inline int short8(const char *const *e, unsigned n, double *out)
     const __m512i tm = _mm512_sub_epi64(
         _mm512_and_si512(bl, _mm512_sub_epi64(_mm512_setzero_si512(), bl)), _mm512_set1_epi64(1));
     const __mmask64 tok = _mm512_movepi8_mask(tm);
-    const __mmask64 first =
-        _mm512_movepi8_mask(_mm512_andnot_si512(_mm512_srli_epi64(tm, 8), tm));
+    const __mmask64 first = _mm512_movepi8_mask(_mm512_andnot_si512(_mm512_srli_epi64(tm, 8), tm));
     const __m512i t = _mm512_sub_epi8(w, _mm512_set1_epi8('0'));
     const __mmask64 dg = _mm512_mask_cmplt_epu8_mask(tok, t, _mm512_set1_epi8(10));
     const __mmask64 dt = _mm512_mask_cmpeq_epi8_mask(tok, w, _mm512_set1_epi8('.'));
@@ -473,16 +476,16 @@ AVX512 static inline int short8(const char *const *e, unsigned n, double *out)
      * weight 10^k */
     const __m512i below = _mm512_maskz_mov_epi64(has_dot, dm1);
     const __m512i d = _mm512_maskz_mov_epi8(dg, t);
-    const __m512i dd = _mm512_ternarylogic_epi64(below, d, _mm512_mask_srli_epi64(d, has_dot, d, 8),
-                                                 0xCA); /* below ? d : shifted */
+    const __m512i dd = _mm512_ternarylogic_epi64(
+        below, d, _mm512_mask_srli_epi64(d, has_dot, d, 8), 0xCA); /* below ? d : shifted */
     const __m512i a = _mm512_maddubs_epi16(dd, _mm512_set1_epi16(0x0A01));
     const __m512i b = _mm512_madd_epi16(a, _mm512_set1_epi32(0x00640001));
-    const __m512i m = _mm512_add_epi64(_mm512_mul_epu32(_mm512_srli_epi64(b, 32),
-                                                        _mm512_set1_epi64(10000)),
-                                       _mm512_and_si512(b, _mm512_set1_epi64(0xFFFFFFFF)));
+    const __m512i m =
+        _mm512_add_epi64(_mm512_mul_epu32(_mm512_srli_epi64(b, 32), _mm512_set1_epi64(10000)),
+                         _mm512_and_si512(b, _mm512_set1_epi64(0xFFFFFFFF)));
     /* f = bytes below the dot = (64 - leading zeros of below) / 8 */
-    const __m512i f = _mm512_srli_epi64(
-        _mm512_sub_epi64(_mm512_set1_epi64(64), _mm512_lzcnt_epi64(below)), 3);
+    const __m512i f =
+        _mm512_srli_epi64(_mm512_sub_epi64(_mm512_set1_epi64(64), _mm512_lzcnt_epi64(below)), 3);
     const __m512d p10 = _mm512_setr_pd(1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7);
     const __m512d r10 = _mm512_setr_pd(1e0, 1e-1, 1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7);
     const __m512d md = _mm512_cvtepu64_pd(m);
@@ -508,9 +511,9 @@ static int token_slow(const char *line, const char *e, double *out)
 }
 
 /* Steps 1 and 2 on a line; the body of line_avx512 and line_vbmi2, which differ in step 1. */
-#  if defined(__GNUC__)
+#if defined(__GNUC__)
 __attribute__((always_inline))
-#  endif
+#endif
 AVX512 static inline int line_avx512_body(const char *p, const char *const *ends, size_t C,
                                           double *row, int try_short)
 {
@@ -539,9 +542,8 @@ AVX512 static inline int line_avx512_body(const char *p, const char *const *ends
         const __m512d q0 = _mm512_mul_pd(md, y);
         const __m512d r = _mm512_fnmadd_pd(q0, _mm512_permutex2var_pd(p10a, f, p10b), md);
         const __m512d v = _mm512_fmadd_pd(r, y, q0);
-        const __m512i s = _mm512_mask_or_epi64(_mm512_castpd_si512(v),
-                                               (__mmask8)(na | (nb << 4)), _mm512_castpd_si512(v),
-                                               sign);
+        const __m512i s = _mm512_mask_or_epi64(_mm512_castpd_si512(v), (__mmask8)(na | (nb << 4)),
+                                               _mm512_castpd_si512(v), sign);
         _mm512_storeu_si512((void *)(row + i), s);
         for (; bad; bad &= bad - 1) {
             const size_t c = i + (size_t)_tzcnt_u32(bad);
@@ -555,19 +557,19 @@ AVX512 static inline int line_avx512_body(const char *p, const char *const *ends
 /* The whole-line kernel around step 1 SCAN: ends[0] stands for the end before the first token
  * (short8 reads it), the token ends follow from ends[1], then padding tokens for the last
  * group of eight. */
-#  define DEFINE_LINE(NAME, ATTR, SCAN)                                                          \
-    ATTR static int NAME(const char *p, const char *end, size_t C, const char **ends,          \
-                         double *row, const char **line_end)                                   \
-    {                                                                                          \
-        int ok = 1;                                                                            \
-        ends[0] = p - 1;                                                                       \
-        ends++;                                                                                \
-        if (SCAN(p, end, C, ends, line_end, &ok) != C || !ok)                                  \
-            return 0;                                                                          \
-        for (size_t i = 0; i < 8; i++)                                                         \
-            ends[C + i] = zero_token + 16;                                                     \
-        /* short tokens come 9 bytes apart at most: a longer line has too few to look for */   \
-        return line_avx512_body(p, ends, C, row, (size_t)(*line_end - p) <= 9 * C);            \
+#define DEFINE_LINE(NAME, ATTR, SCAN)                                                        \
+    ATTR static int NAME(const char *p, const char *end, size_t C, const char **ends,        \
+                         double *row, const char **line_end)                                 \
+    {                                                                                        \
+        int ok = 1;                                                                          \
+        ends[0] = p - 1;                                                                     \
+        ends++;                                                                              \
+        if (SCAN(p, end, C, ends, line_end, &ok) != C || !ok)                                \
+            return 0;                                                                        \
+        for (size_t i = 0; i < 8; i++)                                                       \
+            ends[C + i] = zero_token + 16;                                                   \
+        /* short tokens come 9 bytes apart at most: a longer line has too few to look for */ \
+        return line_avx512_body(p, ends, C, row, (size_t)(*line_end - p) <= 9 * C);          \
     }
 
 DEFINE_LINE(line_avx512, AVX512, scan_line)
@@ -575,10 +577,9 @@ DEFINE_LINE(line_vbmi2, AVX512V, scan_line_vbmi2)
 
 /* ---- the same line kernel for AVX2: two lanes per register, four numbers per step ---------- */
 
-#  define AVX2 __attribute__((target("avx2,fma,bmi,bmi2,popcnt")))
+#define AVX2 __attribute__((target("avx2,fma,bmi,bmi2,popcnt")))
 
-AVX2 static inline void classify_avx2(const char *q, uint64_t *tok, uint64_t *blank,
-                                      uint64_t *eol)
+AVX2 static inline void classify_avx2(const char *q, uint64_t *tok, uint64_t *blank, uint64_t *eol)
 {
     uint64_t m[3] = {0, 0, 0};
     for (int h = 0; h < 2; h++) {
@@ -602,13 +603,13 @@ DEFINE_SCAN_LINE(scan_line_avx2, AVX2, classify_avx2, EXTRACT_BITS)
 /* 10^f (f = 0 .. 14; 1 for the count 15 that means no dot) and RN(10^-f), then both negated:
  * index f + 16 for a '-' (the sign rides through the exact correction unchanged). */
 static const double pow10_signed[32] = {
-    1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e7,  1e8,  1e9,  1e10,  1e11,  1e12,  1e13,
-    1e14, 1e0,  -1e0, -1e1, -1e2, -1e3, -1e4, -1e5, -1e6, -1e7, -1e8, -1e9, -1e10, -1e11,
-    -1e12, -1e13, -1e14, -1e0,
+    1e0,  1e1,  1e2,  1e3,  1e4,   1e5,   1e6,   1e7,   1e8,   1e9,  1e10,
+    1e11, 1e12, 1e13, 1e14, 1e0,   -1e0,  -1e1,  -1e2,  -1e3,  -1e4, -1e5,
+    -1e6, -1e7, -1e8, -1e9, -1e10, -1e11, -1e12, -1e13, -1e14, -1e0,
 };
 static const double pow10_signed_inv[32] = {
-    1e0,   1e-1,  1e-2,  1e-3,  1e-4,  1e-5,  1e-6,  1e-7,  1e-8,  1e-9,  1e-10,
-    1e-11, 1e-12, 1e-13, 1e-14, 1e0,   -1e0,  -1e-1, -1e-2, -1e-3, -1e-4, -1e-5,
+    1e0,   1e-1,  1e-2,  1e-3,  1e-4,   1e-5,   1e-6,   1e-7,   1e-8,   1e-9,  1e-10,
+    1e-11, 1e-12, 1e-13, 1e-14, 1e0,    -1e0,   -1e-1,  -1e-2,  -1e-3,  -1e-4, -1e-5,
     -1e-6, -1e-7, -1e-8, -1e-9, -1e-10, -1e-11, -1e-12, -1e-13, -1e-14, -1e0,
 };
 
@@ -632,7 +633,8 @@ AVX2 static inline unsigned lanes4_avx2(const char *const *e, __m256i *m, unsign
     uint64_t ks = 0, kd = 0, kp = 0, km = 0;
     for (int h = 0; h < 2; h++) {
         const __m256i w = _mm256_inserti128_si256(
-            _mm256_castsi128_si256(_mm_loadu_si128((const __m128i *)(const void *)(e[2 * h] - 16))),
+            _mm256_castsi128_si256(
+                _mm_loadu_si128((const __m128i *)(const void *)(e[2 * h] - 16))),
             _mm_loadu_si128((const __m128i *)(const void *)(e[2 * h + 1] - 16)), 1);
         r[h] = _mm256_shuffle_epi8(w, rev);
         t[h] = _mm256_sub_epi8(r[h], zero);
@@ -640,9 +642,11 @@ AVX2 static inline unsigned lanes4_avx2(const char *const *e, __m256i *m, unsign
         ks |= (uint64_t)le_mask(r[h], _mm256_set1_epi8(0x20)) << sh;
         kd |= (uint64_t)le_mask(t[h], _mm256_set1_epi8(9)) << sh;
         kp |= (uint64_t)(uint32_t)_mm256_movemask_epi8(
-                  _mm256_cmpeq_epi8(r[h], _mm256_set1_epi8('.'))) << sh;
+                  _mm256_cmpeq_epi8(r[h], _mm256_set1_epi8('.')))
+              << sh;
         km |= (uint64_t)(uint32_t)_mm256_movemask_epi8(
-                  _mm256_cmpeq_epi8(r[h], _mm256_set1_epi8('-'))) << sh;
+                  _mm256_cmpeq_epi8(r[h], _mm256_set1_epi8('-')))
+              << sh;
     }
     lane_bits lb;
     const unsigned bad = lane_check(ks, kd, kp, km, &lb);
@@ -658,15 +662,15 @@ AVX2 static inline unsigned lanes4_avx2(const char *const *e, __m256i *m, unsign
          * (there sits the '-', if any, and what lies before the token) */
         const __m256i v = _mm256_set1_epi32(
             (int)(f[2 * h] | f[2 * h + 1] << 8 | dn[2 * h] << 16 | dn[2 * h + 1] << 24));
-        const __m256i fv = _mm256_shuffle_epi8(
-            v, _mm256_setr_epi8(0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,
-                                1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1));
-        const __m256i dv = _mm256_shuffle_epi8(
-            v, _mm256_setr_epi8(2, 2, 2, 2, 2, 2, 2, 2, 2, 2, 2, 2, 2, 2, 2, 2,
-                                3, 3, 3, 3, 3, 3, 3, 3, 3, 3, 3, 3, 3, 3, 3, 3));
+        const __m256i fv = _mm256_shuffle_epi8(v, _mm256_setr_epi8(0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,
+                                                                   0, 0, 0, 0, 0, 1, 1, 1, 1, 1, 1,
+                                                                   1, 1, 1, 1, 1, 1, 1, 1, 1, 1));
+        const __m256i dv = _mm256_shuffle_epi8(v, _mm256_setr_epi8(2, 2, 2, 2, 2, 2, 2, 2, 2, 2, 2,
+                                                                   2, 2, 2, 2, 2, 3, 3, 3, 3, 3, 3,
+                                                                   3, 3, 3, 3, 3, 3, 3, 3, 3, 3));
         const __m256i iota1 = _mm256_add_epi8(iota, one);
-        const __m256i from = _mm256_or_si256(
-            _mm256_sub_epi8(iota, _mm256_cmpgt_epi8(iota1, fv)), _mm256_cmpgt_epi8(iota1, dv));
+        const __m256i from = _mm256_or_si256(_mm256_sub_epi8(iota, _mm256_cmpgt_epi8(iota1, fv)),
+                                             _mm256_cmpgt_epi8(iota1, dv));
         const __m256i d8 = _mm256_shuffle_epi8(t[h], from);
         /* byte k has weight 10^k: pairs, quads, then the low and high 8 digits */
         const __m256i a = _mm256_maddubs_epi16(d8, _mm256_set1_epi16(0x0A01));
@@ -682,8 +686,8 @@ AVX2 static inline unsigned lanes4_avx2(const char *const *e, __m256i *m, unsign
     return bad;
 }
 
-AVX2 static int line_avx2(const char *p, const char *end, size_t C, const char **ends,
-                          double *row, const char **line_end)
+AVX2 static int line_avx2(const char *p, const char *end, size_t C, const char **ends, double *row,
+                          const char **line_end)
 {
     int ok = 1;
     const size_t n = scan_line_avx2(p, end, C, ends, line_end, &ok);
@@ -737,9 +741,8 @@ static int have_avx512(void)
 {
     return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
            __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512vl") &&
-           __builtin_cpu_supports("avx512cd") &&
-           __builtin_cpu_supports("bmi") && __builtin_cpu_supports("bmi2") &&
-           __builtin_cpu_supports("popcnt");
+           __builtin_cpu_supports("avx512cd") && __builtin_cpu_supports("bmi") &&
+           __builtin_cpu_supports("bmi2") && __builtin_cpu_supports("popcnt");
 }
 #endif
 

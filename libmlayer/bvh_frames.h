@@ -68,8 +68,12 @@ typedef struct bvh_kernels {
 } bvh_kernels;
 
 /* Kernel sets, from the portable one up. */
-enum { BVH_KERNELS_PORTABLE = 0, BVH_KERNELS_AVX2 = 1, BVH_KERNELS_AVX512 = 2,
-       BVH_KERNELS_BEST = BVH_KERNELS_AVX512 };
+enum {
+    BVH_KERNELS_PORTABLE = 0,
+    BVH_KERNELS_AVX2 = 1,
+    BVH_KERNELS_AVX512 = 2,
+    BVH_KERNELS_BEST = BVH_KERNELS_AVX512
+};
 
 /* The fastest kernels this CPU runs, up to the set most (BVH_KERNELS_BEST in the library; the
  * others let tests and the fuzz target compare them). */

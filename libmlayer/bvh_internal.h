@@ -45,8 +45,7 @@ struct mlr_motion {
 /* Allocate a motion with every array in place (contents unset except the counts, alloc and
  * the pointers). name_bytes counts every name's NUL. */
 mlr_status bvh_motion_alloc(const mlr_allocator *alloc, size_t n_joints, size_t n_end,
-                            size_t name_bytes, size_t n_frames, size_t n_trans,
-                            mlr_motion **out);
+                            size_t name_bytes, size_t n_frames, size_t n_trans, mlr_motion **out);
 
 /* Parse a channel name (case-insensitive, exact length); -1 when unknown. */
 int bvh_channel_parse(const char *s, size_t len);

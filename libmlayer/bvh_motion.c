@@ -29,8 +29,7 @@ static size_t layout_add(layout *l, size_t count, size_t elsize, size_t align)
 }
 
 mlr_status bvh_motion_alloc(const mlr_allocator *alloc, size_t n_joints, size_t n_end,
-                            size_t name_bytes, size_t n_frames, size_t n_trans,
-                            mlr_motion **out)
+                            size_t name_bytes, size_t n_frames, size_t n_trans, mlr_motion **out)
 {
     *out = NULL;
     size_t nj4, njn, ntn;
@@ -113,7 +112,10 @@ static const char *const channel_names[BVH_MAX_CHANNELS] = {
 /* Orders by axis triple: index = 9*a0 + 3*a1 + a2 for the valid permutations. */
 static mlr_euler_order order_from_axes(const unsigned char ax[3])
 {
-    static const struct { unsigned char a[3]; mlr_euler_order o; } table[6] = {
+    static const struct {
+        unsigned char a[3];
+        mlr_euler_order o;
+    } table[6] = {
         {{0, 1, 2}, MLR_EULER_XYZ}, {{0, 2, 1}, MLR_EULER_XZY}, {{1, 0, 2}, MLR_EULER_YXZ},
         {{1, 2, 0}, MLR_EULER_YZX}, {{2, 0, 1}, MLR_EULER_ZXY}, {{2, 1, 0}, MLR_EULER_ZYX},
     };
@@ -217,8 +219,8 @@ static int parse_channel_list(const char *s, unsigned char *codes, size_t j, mlr
             s++;
         int c = bvh_channel_parse(t, (size_t)(s - t));
         if (c < 0) {
-            mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "channels[%zu]: unknown channel '%.*s'",
-                         j, (int)((s - t) > 40 ? 40 : (s - t)), t);
+            mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "channels[%zu]: unknown channel '%.*s'", j,
+                         (int)((s - t) > 40 ? 40 : (s - t)), t);
             return -1;
         }
         if (seen & (1 << c)) {
@@ -265,7 +267,8 @@ static mlr_status check_joints(size_t n_joints, const char *const *names, const 
         if (!names[j] || !name_is_valid(names[j]))
             return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                                 "names[%zu] is empty or has control characters, braces, or "
-                                "leading or trailing blanks", j);
+                                "leading or trailing blanks",
+                                j);
         size_t len = strlen(names[j]);
         if (*name_bytes > SIZE_MAX - len - 1)
             return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0,
@@ -284,12 +287,13 @@ static mlr_status check_joints(size_t n_joints, const char *const *names, const 
                 return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                                     "parents[%zu] = %d: joints must be in depth-first order "
                                     "(the parent is the previous joint or one of its "
-                                    "ancestors)", j, (int)p);
+                                    "ancestors)",
+                                    j, (int)p);
         }
         for (size_t k = 0; k < 3; k++)
             if (!isfinite(offsets[3 * j + k]))
-                return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                    "offsets[%zu] is not finite", j);
+                return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "offsets[%zu] is not finite",
+                                    j);
         const char *cl = channel_list(channels, j);
         if (!cl)
             return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "channels[%zu] is NULL", j);
@@ -314,8 +318,8 @@ static mlr_status check_end_sites(size_t n_joints, size_t n_end_sites, const int
         if (end_parents[e] < 0 || (size_t)end_parents[e] >= n_joints ||
             (e && end_parents[e] < end_parents[e - 1]))
             return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "end_parents[%zu] = %d: must be a joint index, non-decreasing",
-                                e, (int)end_parents[e]);
+                                "end_parents[%zu] = %d: must be a joint index, non-decreasing", e,
+                                (int)end_parents[e]);
         for (size_t k = 0; k < 3; k++)
             if (!isfinite(end_offsets[3 * e + k]))
                 return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
@@ -339,8 +343,8 @@ static void fill_skeleton(mlr_motion *m, const char *const *names, const int32_t
         nb += len + 1;
         m->parents[j] = parents[j];
         memcpy(m->offsets + 3 * j, offsets + 3 * j, 3 * sizeof(double));
-        int n = parse_channel_list(channel_list(channels, j), m->ch + BVH_MAX_CHANNELS * j, j,
-                                   NULL);
+        int n =
+            parse_channel_list(channel_list(channels, j), m->ch + BVH_MAX_CHANNELS * j, j, NULL);
         m->n_ch[j] = (unsigned char)n;
         C += (size_t)n;
         size_t n_pos = bvh_layout_finish(m, j);
@@ -384,8 +388,8 @@ mlr_status mlr_motion_create(size_t n_joints, const char *const *names, const in
     mlr_motion *m;
     s = bvh_motion_alloc(alloc, n_joints, n_end_sites, name_bytes, n_frames, n_trans, &m);
     if (s != MLR_OK)
-        return mlr_diag_set(diag, s, 0, 0, "motion create: %zu frames of %zu joints: %s",
-                            n_frames, n_joints, mlr_status_string(s));
+        return mlr_diag_set(diag, s, 0, 0, "motion create: %zu frames of %zu joints: %s", n_frames,
+                            n_joints, mlr_status_string(s));
     m->frame_time = frame_time;
     fill_skeleton(m, names, parents, offsets, channels, end_parents, end_offsets);
     for (size_t f = 0; f < n_frames; f++)
@@ -539,8 +543,14 @@ size_t mlr_motion_joint_euler_orders(const mlr_motion *m, int32_t *out)
 }
 
 size_t mlr_motion_n_end_sites(const mlr_motion *m) { return m ? m->n_end : 0; }
-const int32_t *mlr_motion_end_site_parents(const mlr_motion *m) { return m ? m->end_parents : NULL; }
-const double *mlr_motion_end_site_offsets(const mlr_motion *m) { return m ? m->end_offsets : NULL; }
+const int32_t *mlr_motion_end_site_parents(const mlr_motion *m)
+{
+    return m ? m->end_parents : NULL;
+}
+const double *mlr_motion_end_site_offsets(const mlr_motion *m)
+{
+    return m ? m->end_offsets : NULL;
+}
 const double *mlr_motion_root_pos(const mlr_motion *m) { return m ? m->root_pos : NULL; }
 double *mlr_motion_root_pos_mut(mlr_motion *m) { return m ? m->root_pos : NULL; }
 const double *mlr_motion_rot(const mlr_motion *m) { return m ? m->rot : NULL; }

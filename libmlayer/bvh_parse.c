@@ -132,8 +132,8 @@ mlr_status bvh__expect(parser *ps, const char *kw, const char *what)
 {
     const char *t;
     size_t n;
-    mlr_status s = bvh__need_token(ps, &t, &n, "unexpected end of file: expected '%s' %s", kw,
-                                   what);
+    mlr_status s =
+        bvh__need_token(ps, &t, &n, "unexpected end of file: expected '%s' %s", kw, what);
     if (s != MLR_OK)
         return s;
     if (!bvh__tok_is(t, n, kw))
@@ -283,8 +283,8 @@ mlr_status bvh__parse_hierarchy(parser *ps)
     if (s != MLR_OK)
         return s;
     if (!bvh__tok_is(t, n, "HIERARCHY"))
-        return bvh__fail_at(ps, t, "expected HIERARCHY at the start, found '%s'", bvh__show(t,
-                                                                                            n).s);
+        return bvh__fail_at(ps, t, "expected HIERARCHY at the start, found '%s'",
+                            bvh__show(t, n).s);
     s = bvh__expect(ps, "ROOT", "after HIERARCHY");
     int32_t cur = -1;
     if (s == MLR_OK)
@@ -314,10 +314,11 @@ mlr_status bvh__parse_hierarchy(parser *ps)
                 return bvh__fail_at(ps, t, "joint '%s' has no OFFSET", joint_name(ps, cur));
             cur = jt->parent;
         } else if (bvh__tok_is(t, n, "ROOT")) {
-            return bvh__fail_at(ps, t, "ROOT inside joint '%s' (missing '}')", joint_name(ps, cur));
+            return bvh__fail_at(ps, t, "ROOT inside joint '%s' (missing '}')",
+                                joint_name(ps, cur));
         } else if (bvh__tok_is(t, n, "MOTION")) {
-            return bvh__fail_at(ps, t, "MOTION inside joint '%s' (missing '}')", joint_name(ps,
-                                                                                            cur));
+            return bvh__fail_at(ps, t, "MOTION inside joint '%s' (missing '}')",
+                                joint_name(ps, cur));
         } else {
             return bvh__fail_at(ps, t, "unexpected '%s' in joint '%s'", bvh__show(t, n).s,
                                 joint_name(ps, cur));
@@ -349,8 +350,7 @@ mlr_status bvh__read_header_value(parser *ps, const char *label, const char **vt
     return r < 0 ? (mlr_status)r : MLR_OK;
 }
 
-mlr_status bvh__build_motion(parser *ps, size_t n_frames, double frame_time,
-                             mlr_motion **out)
+mlr_status bvh__build_motion(parser *ps, size_t n_frames, double frame_time, mlr_motion **out)
 {
     const size_t J = ps->joints.len, E = ps->ends.len;
     tjoint *tj = (tjoint *)ps->joints.data;

@@ -80,7 +80,8 @@ static mlr_status frames_to_allocate(parser *ps, size_t n_frames, size_t frames_
             ps->line = frames_line;
             return bvh__fail_at(ps, NULL,
                                 "Frames: %zu, but the %zu bytes that follow hold at most %zu "
-                                "frames of %zu values", n_frames, left, most, C);
+                                "frames of %zu values",
+                                n_frames, left, most, C);
         }
         if (n_frames > most)
             *n_alloc = most;
@@ -130,8 +131,8 @@ static mlr_status check_end(parser *ps, size_t n_frames)
         while (t < ps->end && *t == '\0')
             t++;
         if (t < ps->end)
-            return bvh__fail_at(ps, ps->p, "data after the %zu frames declared by Frames:",
-                                n_frames);
+            return bvh__fail_at(ps, ps->p,
+                                "data after the %zu frames declared by Frames:", n_frames);
     }
     if (ps->strict && n_frames > 0 && !bvh__ends_with_eol(ps->begin, ps->end))
         bvh__warn_add(ps, MLR_BVH_WARN_NO_FINAL_NEWLINE, ps->line, 0,

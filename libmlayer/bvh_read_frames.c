@@ -47,8 +47,8 @@ static void note_fail(parser *ps, size_t f)
 
 /* Frames [f0, f1) from ps->p on, the careful way where the line kernel declines a line (a
  * blank line, an exponent, an error, ...). Returns with ps->p after the last frame's line. */
-mlr_status bvh__frames_loop(parser *ps, const frames_plan *pl, const bvh_scratch *s,
-                            size_t f0, size_t f1)
+mlr_status bvh__frames_loop(parser *ps, const frames_plan *pl, const bvh_scratch *s, size_t f0,
+                            size_t f1)
 {
     const size_t C = pl->cv.C, J = pl->cv.J, P = pl->cv.P, N = pl->n_declared;
     mlr_motion *m = pl->m;

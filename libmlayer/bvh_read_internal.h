@@ -104,7 +104,9 @@ mlr_status bvh__fail_at(parser *ps, const char *at, const char *fmt, ...)
     ;
 
 /* A printable copy of a token for messages: at most 32 bytes, control bytes as '?'. */
-typedef struct shown { char s[40]; } shown;
+typedef struct shown {
+    char s[40];
+} shown;
 shown bvh__show(const char *t, size_t n);
 
 /* Next token: '{', '}' or a run of other visible bytes. Returns 1 with the token, 0 at the end
@@ -169,7 +171,7 @@ int bvh__ends_with_eol(const char *begin, const char *end);
 /* The lenient end of the MOTION section (mlr_bvh.h), after the frame loop returned s: extra
  * frame lines, a few missing ones, trailing data, a missing final line end, a truncated file.
  * On MLR_OK *mp may be a new motion (of the frames read) and ps->p is at the end. */
-mlr_status bvh__lenient_tail(parser *ps, frames_plan *pl, const bvh_scratch *scr,
-                             mlr_motion **mp, mlr_status s);
+mlr_status bvh__lenient_tail(parser *ps, frames_plan *pl, const bvh_scratch *scr, mlr_motion **mp,
+                             mlr_status s);
 
 #endif

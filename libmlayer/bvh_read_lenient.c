@@ -133,8 +133,8 @@ static mlr_status after_all_frames(parser *ps, frames_plan *pl, const bvh_scratc
         if ((s = read_extra_frames(ps, pl, scr, mp, X)) != MLR_OK)
             return s;
         bvh__warn_add(ps, MLR_BVH_WARN_EXTRA_FRAMES, first_line, 0,
-                      "%zu frame lines, but Frames: declares %zu; all %zu are read",
-                      declared + X, declared, declared + X);
+                      "%zu frame lines, but Frames: declares %zu; all %zu are read", declared + X,
+                      declared, declared + X);
     }
     parser q = *ps;
     skip_ws(&q);
@@ -213,8 +213,8 @@ static mlr_status keep_frames(parser *ps, mlr_motion **mp, size_t F, size_t decl
 /* The lenient end of the MOTION section (mlr_bvh.h), after the frame loop returned s: extra
  * frame lines, a few missing ones, trailing data, a missing final line end, a truncated file.
  * On MLR_OK *mp may be a new motion (of the frames read) and ps->p is at the end. */
-mlr_status bvh__lenient_tail(parser *ps, frames_plan *pl, const bvh_scratch *scr,
-                             mlr_motion **mp, mlr_status s)
+mlr_status bvh__lenient_tail(parser *ps, frames_plan *pl, const bvh_scratch *scr, mlr_motion **mp,
+                             mlr_status s)
 {
     const size_t declared = pl->n_declared;
     const int eol_at_end = bvh__ends_with_eol(ps->begin, ps->end);
@@ -242,8 +242,8 @@ mlr_status bvh__lenient_tail(parser *ps, frames_plan *pl, const bvh_scratch *scr
     if (truncated && !ps->keep_truncated) {
         mlr_diag *d = ps->diag; /* the reader always gives one (bvh_read) */
         const size_t n = strlen(d->message);
-        snprintf(d->message + n, sizeof d->message - n, " (truncated file: %zu of %zu frames)",
-                 F, declared);
+        snprintf(d->message + n, sizeof d->message - n, " (truncated file: %zu of %zu frames)", F,
+                 declared);
         return s;
     }
     return keep_frames(ps, mp, F, declared, truncated, junk, bad_line);

@@ -11,8 +11,8 @@
 #include <time.h>
 
 #ifdef _WIN32
-#  define WIN32_LEAN_AND_MEAN
-#  include <windows.h>
+#define WIN32_LEAN_AND_MEAN
+#include <windows.h>
 #endif
 
 #define MAX_INDENT 64
@@ -53,10 +53,11 @@ static void puts_(sink *s, const char *z) { put(s, z, strlen(z)); }
 static void indent(sink *s, size_t depth)
 {
     static const char tabs[MAX_INDENT] = {
-        '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t',
-        '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t',
-        '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t',
-        '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t',
+        '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t',
+        '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t',
+        '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t',
+        '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t',
+        '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t', '\t',
     };
     put(s, tabs, depth < MAX_INDENT ? depth : MAX_INDENT);
 }
@@ -92,7 +93,7 @@ static size_t format_g9_fast(double v, char *out)
     static const double p10[13] = {1e-4, 1e-3, 1e-2, 1e-1, 1e0, 1e1, 1e2,
                                    1e3,  1e4,  1e5,  1e6,  1e7, 1e8};
     static const double scale[13] = {1e12, 1e11, 1e10, 1e9, 1e8, 1e7, 1e6,
-                                     1e5,  1e4,  1e3,  1e2,  1e1, 1e0};
+                                     1e5,  1e4,  1e3,  1e2, 1e1, 1e0};
     if (v == 0.0 && !signbit(v)) {
         out[0] = '0';
         return 1;
@@ -227,7 +228,8 @@ static mlr_status check_writable(const mlr_motion *m, mlr_diag *diag)
     if ((i = first_unusable_quat(m->rot, N * J)) < N * J)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                             "bvh write: rot: frame %zu, joint '%s' is a zero, NaN or infinite "
-                            "quaternion", i / J, m->names[i % J]);
+                            "quaternion",
+                            i / J, m->names[i % J]);
     return MLR_OK;
 }
 
@@ -297,8 +299,9 @@ static void write_frames(const mlr_motion *m, sink *s)
                 continue;
             const unsigned char *ch = m->ch + BVH_MAX_CHANNELS * j;
             const double *t = j == 0 ? m->root_pos + 3 * f
-                              : m->trans_slot[j] >= 0 ? m->trans + 3 * (P * f + (size_t)m->trans_slot[j])
-                                                      : NULL;
+                              : m->trans_slot[j] >= 0
+                                  ? m->trans + 3 * (P * f + (size_t)m->trans_slot[j])
+                                  : NULL;
             double ang[3] = {0.0, 0.0, 0.0};
             int have_ang = 0;
             for (size_t k = 0; k < nch; k++) {
@@ -442,7 +445,8 @@ mlr_status mlr_bvh_write_file(const mlr_motion *m, const char *path, mlr_diag *d
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "motion or path is NULL or empty");
     const char *base = base_name(path);
     if (!*base)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "path names a folder (it ends with a "
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "path names a folder (it ends with a "
                             "path separator)");
     size_t plen = strlen(path);
     const size_t suffix = 24; /* "." + ".tmp-" + 16 hex digits + NUL, rounded up */
@@ -469,8 +473,10 @@ mlr_status mlr_bvh_write_file(const mlr_motion *m, const char *path, mlr_diag *d
     }
     if (!fp) {
         mlr_free(&m->alloc, tmp, plen + suffix);
-        return mlr_diag_set(diag, MLR_E_IO, 0, 0, "cannot create a temporary file next to the "
-                            "target: %s", strerror(err ? err : EEXIST));
+        return mlr_diag_set(diag, MLR_E_IO, 0, 0,
+                            "cannot create a temporary file next to the "
+                            "target: %s",
+                            strerror(err ? err : EEXIST));
     }
     mlr_status s = mlr_bvh_write(m, file_write, fp, diag); /* names the first bad value */
     if (s == MLR_E_IO)

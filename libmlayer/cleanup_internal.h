@@ -53,9 +53,9 @@ void mlr_cleanup_ref_destroy(mlr_cleanup_ref *ref);
  * and the motion were checked by the caller (the guards' later rounds), so they are not
  * checked again. */
 mlr_status mlr_cleanup_contacts_ref(const mlr_rig *rig, size_t N, double fps, int up,
-                                    const double *root_pos, const double *rot,
-                                    const double *trans, const mlr_cleanup_ref *ref, int trusted,
-                                    size_t C, const int32_t *joints, const int32_t *end_sites,
+                                    const double *root_pos, const double *rot, const double *trans,
+                                    const mlr_cleanup_ref *ref, int trusted, size_t C,
+                                    const int32_t *joints, const int32_t *end_sites,
                                     const uint8_t *contacts, const mlr_cleanup_option *opts,
                                     size_t n_opts, double *out_root_pos, double *out_rot,
                                     mlr_cleanup_report *report, const mlr_allocator *alloc,

@@ -5,8 +5,8 @@
 #include <math.h>
 
 #if (defined(__x86_64__) || defined(__i386__)) && (defined(__GNUC__) || defined(__clang__))
-#  define MLR_X86_DISPATCH 1
-#  include <immintrin.h>
+#define MLR_X86_DISPATCH 1
+#include <immintrin.h>
 #endif
 
 /* ---- generator ---------------------------------------------------------------------------- */
@@ -71,7 +71,7 @@ double mlr_norm2(const double *a, size_t dim)
 #ifdef MLR_X86_DISPATCH
 /* 16 partial sums in two registers (the tail through masked loads), then a fixed reduction. */
 __attribute__((target("avx512f"))) static double dist2_avx512(const double *a, const double *b,
-                                                               size_t dim)
+                                                              size_t dim)
 {
     __m512d s0 = _mm512_setzero_pd(), s1 = s0;
     size_t t = 0;
@@ -83,7 +83,8 @@ __attribute__((target("avx512f"))) static double dist2_avx512(const double *a, c
     }
     for (; t < dim; t += 8) {
         __mmask8 m = dim - t >= 8 ? (__mmask8)0xff : (__mmask8)((1u << (dim - t)) - 1u);
-        __m512d e = _mm512_sub_pd(_mm512_maskz_loadu_pd(m, a + t), _mm512_maskz_loadu_pd(m, b + t));
+        __m512d e =
+            _mm512_sub_pd(_mm512_maskz_loadu_pd(m, a + t), _mm512_maskz_loadu_pd(m, b + t));
         s0 = _mm512_fmadd_pd(e, e, s0);
     }
     return _mm512_reduce_add_pd(_mm512_add_pd(s0, s1));
@@ -163,14 +164,15 @@ static void dot_generic(const double *const *xr, const double *blk, size_t dim, 
 
 #ifdef MLR_X86_DISPATCH
 __attribute__((target("avx2,fma"))) static void dot_avx2_half(const double *const *xr,
-                                                               const double *blk, size_t dim,
-                                                               double *out)
+                                                              const double *blk, size_t dim,
+                                                              double *out)
 {
     __m256d a00 = _mm256_setzero_pd(), a01 = a00, a10 = a00, a11 = a00, a20 = a00, a21 = a00,
             a30 = a00, a31 = a00;
     const double *x0 = xr[0], *x1 = xr[1], *x2 = xr[2], *x3 = xr[3];
     for (size_t t = 0; t < dim; t++) {
-        __m256d b0 = _mm256_loadu_pd(blk + t * MLR_PACK), b1 = _mm256_loadu_pd(blk + t * MLR_PACK + 4);
+        __m256d b0 = _mm256_loadu_pd(blk + t * MLR_PACK),
+                b1 = _mm256_loadu_pd(blk + t * MLR_PACK + 4);
         __m256d v = _mm256_broadcast_sd(x0 + t);
         a00 = _mm256_fmadd_pd(v, b0, a00);
         a01 = _mm256_fmadd_pd(v, b1, a01);
@@ -195,22 +197,23 @@ __attribute__((target("avx2,fma"))) static void dot_avx2_half(const double *cons
 }
 
 __attribute__((target("avx2,fma"))) static void dot_avx2(const double *const *xr,
-                                                          const double *blk, size_t dim,
-                                                          double *out)
+                                                         const double *blk, size_t dim,
+                                                         double *out)
 {
     dot_avx2_half(xr, blk, dim, out);
     dot_avx2_half(xr, blk + 8, dim, out + 8);
 }
 
 __attribute__((target("avx512f"))) static void dot_avx512(const double *const *xr,
-                                                           const double *blk, size_t dim,
-                                                           double *out)
+                                                          const double *blk, size_t dim,
+                                                          double *out)
 {
     __m512d a00 = _mm512_setzero_pd(), a01 = a00, a10 = a00, a11 = a00, a20 = a00, a21 = a00,
             a30 = a00, a31 = a00, a40 = a00, a41 = a00, a50 = a00, a51 = a00;
     const double *x0 = xr[0], *x1 = xr[1], *x2 = xr[2], *x3 = xr[3], *x4 = xr[4], *x5 = xr[5];
     for (size_t t = 0; t < dim; t++) {
-        __m512d b0 = _mm512_loadu_pd(blk + t * MLR_PACK), b1 = _mm512_loadu_pd(blk + t * MLR_PACK + 8);
+        __m512d b0 = _mm512_loadu_pd(blk + t * MLR_PACK),
+                b1 = _mm512_loadu_pd(blk + t * MLR_PACK + 8);
         __m512d v = _mm512_set1_pd(x0[t]);
         a00 = _mm512_fmadd_pd(v, b0, a00);
         a01 = _mm512_fmadd_pd(v, b1, a01);
@@ -330,7 +333,7 @@ static void fold_generic(const double *o, const double *cn, double j0, lane_min 
 
 #ifdef MLR_X86_DISPATCH
 __attribute__((target("avx512f"))) static void fold_avx512(const double *o, const double *cn,
-                                                            double j0, lane_min *s)
+                                                           double j0, lane_min *s)
 {
     const __m512d two = _mm512_set1_pd(2.0);
     const __m512d lane = _mm512_set_pd(7, 6, 5, 4, 3, 2, 1, 0);
@@ -367,8 +370,8 @@ static void lane_merge(const lane_min *s, double *bv, int32_t *bi, double *sv, i
 {
     int w = -1;
     for (int l = 0; l < MLR_PACK; l++)
-        if (s->i1[l] >= 0 && (w < 0 || s->b1[l] < s->b1[w] ||
-                              (s->b1[l] == s->b1[w] && s->i1[l] < s->i1[w])))
+        if (s->i1[l] >= 0 &&
+            (w < 0 || s->b1[l] < s->b1[w] || (s->b1[l] == s->b1[w] && s->i1[l] < s->i1[w])))
             w = l;
     if (w < 0) { /* only possible with overflowing values */
         *bv = *sv = INFINITY;
@@ -392,8 +395,8 @@ static void lane_merge(const lane_min *s, double *bv, int32_t *bi, double *sv, i
 #ifdef MLR_X86_DISPATCH
 /* lane_merge with vector reductions (min is exact, so the result is the same). */
 __attribute__((target("avx512f"))) static void lane_merge_avx512(const lane_min *s, double *bv,
-                                                                  int32_t *bi, double *sv,
-                                                                  int32_t *si)
+                                                                 int32_t *bi, double *sv,
+                                                                 int32_t *si)
 {
     const __m512d inf = _mm512_set1_pd(INFINITY);
     __m512d b1a = _mm512_loadu_pd(s->b1), b1b = _mm512_loadu_pd(s->b1 + 8);
@@ -405,12 +408,12 @@ __attribute__((target("avx512f"))) static void lane_merge_avx512(const lane_min 
     }
     __m512d V = _mm512_set1_pd(v);
     __mmask8 ea = _mm512_cmp_pd_mask(b1a, V, _CMP_EQ_OQ),
-            eb = _mm512_cmp_pd_mask(b1b, V, _CMP_EQ_OQ);
-    double j = _mm512_reduce_min_pd(_mm512_min_pd(_mm512_mask_blend_pd(ea, inf, i1a),
-                                                  _mm512_mask_blend_pd(eb, inf, i1b)));
+             eb = _mm512_cmp_pd_mask(b1b, V, _CMP_EQ_OQ);
+    double j = _mm512_reduce_min_pd(
+        _mm512_min_pd(_mm512_mask_blend_pd(ea, inf, i1a), _mm512_mask_blend_pd(eb, inf, i1b)));
     __m512d J = _mm512_set1_pd(j);
     __mmask8 wa = _mm512_cmp_pd_mask(i1a, J, _CMP_EQ_OQ),
-            wb = _mm512_cmp_pd_mask(i1b, J, _CMP_EQ_OQ);
+             wb = _mm512_cmp_pd_mask(i1b, J, _CMP_EQ_OQ);
     __m512d ca = _mm512_mask_blend_pd(wa, b1a, _mm512_loadu_pd(s->b2));
     __m512d cb = _mm512_mask_blend_pd(wb, b1b, _mm512_loadu_pd(s->b2 + 8));
     __m512d ja = _mm512_mask_blend_pd(wa, i1a, _mm512_loadu_pd(s->i2));
@@ -419,9 +422,9 @@ __attribute__((target("avx512f"))) static void lane_merge_avx512(const lane_min 
     if (v2 < INFINITY) {
         __m512d V2 = _mm512_set1_pd(v2);
         __mmask8 qa = _mm512_cmp_pd_mask(ca, V2, _CMP_EQ_OQ),
-                qb = _mm512_cmp_pd_mask(cb, V2, _CMP_EQ_OQ);
-        j2 = _mm512_reduce_min_pd(_mm512_min_pd(_mm512_mask_blend_pd(qa, inf, ja),
-                                                _mm512_mask_blend_pd(qb, inf, jb)));
+                 qb = _mm512_cmp_pd_mask(cb, V2, _CMP_EQ_OQ);
+        j2 = _mm512_reduce_min_pd(
+            _mm512_min_pd(_mm512_mask_blend_pd(qa, inf, ja), _mm512_mask_blend_pd(qb, inf, jb)));
     }
     *bv = v;
     *bi = (int32_t)j;
@@ -530,10 +533,9 @@ static void dot1_generic(const double *x, const double *blk, size_t dim, double 
 
 #ifdef MLR_X86_DISPATCH
 __attribute__((target("avx512f"))) static void sweep_block_avx512(double *blk, size_t dim,
-                                                                   const double *x,
-                                                                   const double *h,
-                                                                   const double *xn, double *nn,
-                                                                   double *dot)
+                                                                  const double *x, const double *h,
+                                                                  const double *xn, double *nn,
+                                                                  double *dot)
 {
     const __m512d h0 = _mm512_loadu_pd(h), h1 = _mm512_loadu_pd(h + 8);
     __m512d n0 = _mm512_setzero_pd(), n1 = n0, d0 = n0, d1 = n0;
@@ -559,7 +561,7 @@ __attribute__((target("avx512f"))) static void sweep_block_avx512(double *blk, s
 }
 
 __attribute__((target("avx512f"))) static void dot1_avx512(const double *x, const double *blk,
-                                                            size_t dim, double *out)
+                                                           size_t dim, double *out)
 {
     __m512d a0 = _mm512_setzero_pd(), a1 = a0;
     for (size_t t = 0; t < dim; t++) {
@@ -615,8 +617,8 @@ int32_t mlr_packed_sweep(mlr_packed *p, const double *x, const double *h,
             if (wide && jb + 4 <= g1 && !active[jb + 1] && !active[jb + 2] && !active[jb + 3]) {
                 dot1x4_avx512(xnext, blk, dim, out);
                 for (size_t q = 0; q < 4; q++)
-                    fold(out + q * MLR_PACK, p->cn + o + q * MLR_PACK,
-                         (double)(o + q * MLR_PACK), &st);
+                    fold(out + q * MLR_PACK, p->cn + o + q * MLR_PACK, (double)(o + q * MLR_PACK),
+                         &st);
                 jb += 4;
                 continue;
             }
@@ -649,8 +651,8 @@ size_t mlr_first_nonfinite_row(const double *x, size_t n, size_t dim, size_t ldx
                 acc[l] += r[t + l] * 0.0; /* NaN for a NaN or an infinity, 0 otherwise */
         for (size_t l = 0; t + l < dim; l++)
             acc[l] += r[t + l] * 0.0;
-        double s = ((acc[0] + acc[1]) + (acc[2] + acc[3])) +
-                   ((acc[4] + acc[5]) + (acc[6] + acc[7]));
+        double s =
+            ((acc[0] + acc[1]) + (acc[2] + acc[3])) + ((acc[4] + acc[5]) + (acc[6] + acc[7]));
         if (s != 0.0 || s != s)
             return i;
     }
@@ -696,8 +698,8 @@ mlr_status mlr_blob_check(const void *buf, size_t size, const char tag[8], uint3
     if (!buf)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "blob is NULL");
     if (size < MLR_BLOB_HEADER)
-        return mlr_diag_set(diag, MLR_E_PARSE, 0, 0, "blob of %zu bytes is shorter than its header",
-                            size);
+        return mlr_diag_set(diag, MLR_E_PARSE, 0, 0,
+                            "blob of %zu bytes is shorter than its header", size);
     if (memcmp(b, tag, 8) != 0)
         return mlr_diag_set(diag, MLR_E_PARSE, 0, 0, "blob tag is not %.6s", tag);
     uint32_t ver, bom;

@@ -10,7 +10,9 @@
 #include <stdint.h>
 
 /* xoshiro256** seeded through splitmix64. */
-typedef struct mlr_rng { uint64_t s[4]; } mlr_rng;
+typedef struct mlr_rng {
+    uint64_t s[4];
+} mlr_rng;
 void mlr_rng_seed(mlr_rng *r, uint64_t seed);
 uint64_t mlr_rng_u64(mlr_rng *r);
 double mlr_rng_uniform(mlr_rng *r);                  /* [0, 1), 53 bits */

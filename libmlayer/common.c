@@ -68,10 +68,7 @@ void mlr_allocator_resolve(const mlr_allocator *in, mlr_allocator *out)
     }
 }
 
-void *mlr_alloc(const mlr_allocator *a, size_t size)
-{
-    return a->allocate(a->user, size, 16);
-}
+void *mlr_alloc(const mlr_allocator *a, size_t size) { return a->allocate(a->user, size, 16); }
 
 void mlr_free(const mlr_allocator *a, void *ptr, size_t size)
 {

@@ -110,10 +110,10 @@ static void clean_column(uint8_t *c, size_t N, size_t s, size_t gap, size_t shor
 }
 
 mlr_status mlr_contacts_detect(const mlr_rig *rig, double fps, int up, size_t n_frames,
-                               const double *world_pos, const double *world_rot,
-                               size_t n_points, const int32_t *joints, const int32_t *end_sites,
-                               const mlr_contacts_option *opts, size_t n_opts,
-                               uint8_t *contacts, const mlr_allocator *alloc, mlr_diag *diag)
+                               const double *world_pos, const double *world_rot, size_t n_points,
+                               const int32_t *joints, const int32_t *end_sites,
+                               const mlr_contacts_option *opts, size_t n_opts, uint8_t *contacts,
+                               const mlr_allocator *alloc, mlr_diag *diag)
 {
     mlr_status st = mlr_rig_check(rig, diag);
     if (st != MLR_OK)
@@ -143,8 +143,7 @@ mlr_status mlr_contacts_detect(const mlr_rig *rig, double fps, int up, size_t n_
                 return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                                     "contacts: points %zu and %zu are the same", d, c);
     /* validates the points; positions first, so that bad points fail before the allocation */
-    st = mlr_rig_point_positions(rig, 0, world_pos, world_rot, C, joints, end_sites, NULL,
-                                 diag);
+    st = mlr_rig_point_positions(rig, 0, world_pos, world_rot, C, joints, end_sites, NULL, diag);
     if (st != MLR_OK)
         return st;
 

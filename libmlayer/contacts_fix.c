@@ -121,8 +121,8 @@ static mlr_status check_motion(const mlr_rig *rig, size_t N, const double *root_
                             P ? " or trans" : "");
     if (!finite_all(root_pos, 3 * N) || !finite_all(rot, 4 * N * J) ||
         (P && !finite_all(trans, 3 * N * P)))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "%s contains NaN or infinite values", what);
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s contains NaN or infinite values",
+                            what);
     return MLR_OK;
 }
 
@@ -136,11 +136,12 @@ static mlr_status check_points(const mlr_rig *rig, size_t C, const int32_t *join
         if (j < 0 || (size_t)j >= rig->n_joints)
             return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                                 "contact point %zu: joint %d names nothing (the rig has %zu "
-                                "joints)", c, (int)j, rig->n_joints);
+                                "joints)",
+                                c, (int)j, rig->n_joints);
         if (e < -1 || (e >= 0 && ((size_t)e >= rig->n_end_sites || rig->end_site_parents[e] != j)))
             return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "contact point %zu: End Site %d is not an End Site of joint %d",
-                                c, (int)e, (int)j);
+                                "contact point %zu: End Site %d is not an End Site of joint %d", c,
+                                (int)e, (int)j);
         for (size_t d = 0; d < c; d++)
             if (joints[d] == j && (end_sites ? end_sites[d] : -1) == e)
                 return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
@@ -173,8 +174,8 @@ static inline void fk_joint(const mlr_rig *rig, size_t f, size_t j, const int32_
                             const double *r, const double *trans, double *wp, mlr_quat *wr)
 {
     const size_t p = (size_t)rig->parents[j];
-    const double *t = tidx[j] >= 0 ? trans + 3 * (rig->n_trans * f + (size_t)tidx[j])
-                                   : rig->offsets + 3 * j;
+    const double *t =
+        tidx[j] >= 0 ? trans + 3 * (rig->n_trans * f + (size_t)tidx[j]) : rig->offsets + 3 * j;
     const mlr_quat q = {r[4 * j], r[4 * j + 1], r[4 * j + 2], r[4 * j + 3]};
     mlr_quat_mul_inline(&wr[p], &q, &wr[j]);
     double o[3];
@@ -188,9 +189,9 @@ static inline void fk_joint(const mlr_rig *rig, size_t f, size_t j, const int32_
    arithmetic of mlr_fk_arrays (mlr_fk.h: mlr_quat_mul / mlr_quat_rotate, inlined), so each
    computed value is bit for bit what the full FK gives; the other joints are not written. tidx[j]: j's
    index among the rig's trans joints, or -1. wp, wrot_f: J x 3 and J x 4, the frame's. */
-static void fk_masked_frame(const mlr_rig *rig, size_t f, const uint8_t *need,
-                            const int32_t *tidx, const double *root_pos, const double *rot,
-                            const double *trans, double *wp, double *wrot_f)
+static void fk_masked_frame(const mlr_rig *rig, size_t f, const uint8_t *need, const int32_t *tidx,
+                            const double *root_pos, const double *rot, const double *trans,
+                            double *wp, double *wrot_f)
 {
     const size_t J = rig->n_joints;
     const double *offsets = rig->offsets;
@@ -213,8 +214,7 @@ static void fk_masked_frame(const mlr_rig *rig, size_t f, const uint8_t *need,
    written at the chain's joints (and chain[0]'s parent). */
 static void fk_chain_frame(const mlr_rig *rig, size_t f, const int32_t *chain, size_t n,
                            const int32_t *tidx, const double *rot, const double *trans,
-                           const double *pos_f, const double *wrot_f, double *wp,
-                           double *wrot_out)
+                           const double *pos_f, const double *wrot_f, double *wp, double *wrot_out)
 {
     const size_t J = rig->n_joints;
     const double *r = rot + 4 * J * f;
@@ -236,8 +236,8 @@ static void fk_chain_frame(const mlr_rig *rig, size_t f, const int32_t *chain, s
 }
 
 static void fk_masked(const mlr_rig *rig, size_t N, const uint8_t *need, const int32_t *tidx,
-                      const double *root_pos, const double *rot, const double *trans,
-                      double *pos, double *wrot)
+                      const double *root_pos, const double *rot, const double *trans, double *pos,
+                      double *wrot)
 {
     const size_t J = rig->n_joints;
     for (size_t f = 0; f < N; f++)
@@ -313,8 +313,10 @@ mlr_status mlr_cleanup_floor_height(const mlr_rig *rig, size_t N, const double *
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                             "floor_height: NULL output or contacts, or no frames");
     if (up < 0 || up > 2)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "floor_height: up axis %d is not "
-                            "0 (X), 1 (Y) or 2 (Z)", up);
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "floor_height: up axis %d is not "
+                            "0 (X), 1 (Y) or 2 (Z)",
+                            up);
     if (!(quantile >= 0.0 && quantile <= 1.0))
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                             "floor_height: quantile %g outside [0, 1]", quantile);
@@ -332,15 +334,16 @@ mlr_status mlr_cleanup_floor_height(const mlr_rig *rig, size_t N, const double *
         release(&ar);
         return mlr_diag_set(diag, ar.st, 0, 0, "floor_height: out of memory");
     }
-    st = fk_points(rig, N, root_pos, rot, trans, C, joints, end_sites, pos, wrot, pts, &A,
-                   NULL, NULL);
+    st = fk_points(rig, N, root_pos, rot, trans, C, joints, end_sites, pos, wrot, pts, &A, NULL,
+                   NULL);
     if (st == MLR_OK)
         st = mlr_cleanup_floor_of_points(N, C, pts, contacts, up, quantile, height, &A);
     release(&ar);
     if (st == MLR_OK)
         return MLR_OK;
-    return mlr_diag_set(diag, st, 0, 0, st == MLR_E_NO_MEMORY ? "floor_height: out of memory"
-                                                              : "floor_height: FK failed");
+    return mlr_diag_set(diag, st, 0, 0,
+                        st == MLR_E_NO_MEMORY ? "floor_height: out of memory"
+                                              : "floor_height: FK failed");
 }
 
 mlr_status mlr_cleanup_floor_of_points(size_t n_frames, size_t n_points, const double *pts,
@@ -490,7 +493,8 @@ static mlr_status spread_rotations(work *w, double *rot, const double *newr, con
         if (!mask[f])
             continue;
         for (size_t i = 0; i < nj; i++) {
-            const double *a = newr + 4 * (f * J + (size_t)js[i]), *b = rot + 4 * (f * J + (size_t)js[i]);
+            const double *a = newr + 4 * (f * J + (size_t)js[i]),
+                         *b = rot + 4 * (f * J + (size_t)js[i]);
             const double cb[4] = {b[0], -b[1], -b[2], -b[3]};
             double d[4];
             mlr_ik_qmul(a, cb, d);
@@ -532,8 +536,8 @@ static double run_sliding(const double *P, const uint8_t *contacts, size_t C, co
             double d2 = 0.0;
             for (int d = 0; d < 3; d++)
                 if (d != up) {
-                    const double x = P[3 * ((f + 1) * C + c) + (size_t)d] -
-                                     P[3 * (f * C + c) + (size_t)d];
+                    const double x =
+                        P[3 * ((f + 1) * C + c) + (size_t)d] - P[3 * (f * C + c) + (size_t)d];
                     d2 += x * x;
                 }
             len += sqrt(d2);
@@ -595,8 +599,10 @@ static mlr_status assign_feet(const mlr_rig *rig, size_t C, const int32_t *joint
             feet[nf++].anchor = j;
         }
         if (feet[k].n_cols == 16) {
-            st = mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "cleanup: more than 16 contact "
-                              "points on the foot of joint %d", (int)j);
+            st = mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                              "cleanup: more than 16 contact "
+                              "points on the foot of joint %d",
+                              (int)j);
             return st;
         }
         feet[k].cols[feet[k].n_cols++] = c, feet[k].n_own++;
@@ -624,8 +630,10 @@ static mlr_status assign_feet(const mlr_rig *rig, size_t C, const int32_t *joint
             feet[nf++].anchor = anchor;
         }
         if (feet[k].n_cols == 16) {
-            st = mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "cleanup: more than 16 contact "
-                              "points on the foot of joint %d", (int)anchor);
+            st = mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                              "cleanup: more than 16 contact "
+                              "points on the foot of joint %d",
+                              (int)anchor);
             return st;
         }
         feet[k].cols[feet[k].n_cols++] = c;
@@ -665,11 +673,15 @@ mlr_status mlr_cleanup_ref_create(const mlr_rig *rig, size_t N, double fps, int 
     if (st != MLR_OK)
         return st;
     if (C > 64)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "cleanup: at most 64 contact "
-                            "points, got %zu", C);
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "cleanup: at most 64 contact "
+                            "points, got %zu",
+                            C);
     if (C == 0 || N == 0)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "cleanup reference: %zu points, %zu "
-                            "frames", C, N);
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "cleanup reference: %zu points, %zu "
+                            "frames",
+                            C, N);
     mlr_allocator A;
     mlr_allocator_resolve(alloc, &A);
     const size_t J = rig->n_joints;
@@ -708,19 +720,18 @@ mlr_status mlr_cleanup_ref_create(const mlr_rig *rig, size_t N, double fps, int 
     }
     double *Pr = r->pts, *pos_ref = r->anchors;
     if (world_pos) {
-        st = mlr_rig_point_positions(rig, N, world_pos, world_rot, C, joints, end_sites, Pr,
-                                     NULL);
+        st = mlr_rig_point_positions(rig, N, world_pos, world_rot, C, joints, end_sites, Pr, NULL);
         for (size_t f = 0; st == MLR_OK && f < N; f++)
             for (size_t k = 0; k < nf; k++)
-                memcpy(pos_ref + 3 * (f * nf + k), world_pos + 3 * (f * J + (size_t)feet[k].anchor),
-                       3 * sizeof(double));
+                memcpy(pos_ref + 3 * (f * nf + k),
+                       world_pos + 3 * (f * J + (size_t)feet[k].anchor), 3 * sizeof(double));
     } else {
         /* forward kinematics of the contact points, the anchors and their ancestors only */
         fk_need(rig, C, joints, feet, nf, need, tidx);
         for (size_t f = 0; st == MLR_OK && f < N; f++) { /* the points and the anchors */
             fk_masked_frame(rig, f, need, tidx, root_pos, rot, trans, pos2, wrot2);
-            st = mlr_rig_point_positions(rig, 1, pos2, wrot2, C, joints, end_sites,
-                                         Pr + 3 * C * f, NULL);
+            st = mlr_rig_point_positions(rig, 1, pos2, wrot2, C, joints, end_sites, Pr + 3 * C * f,
+                                         NULL);
             for (size_t k = 0; k < nf; k++)
                 memcpy(pos_ref + 3 * (f * nf + k), pos2 + 3 * (size_t)feet[k].anchor,
                        3 * sizeof(double));
@@ -775,25 +786,30 @@ static mlr_status cleanup_check(const mlr_rig *rig, size_t N, double fps, int up
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                             "cleanup: no frames, or NULL outputs or contacts");
     if (!(isfinite(fps) && fps > 0.0))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "cleanup: fps %g is not finite "
-                            "and > 0", fps);
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "cleanup: fps %g is not finite "
+                            "and > 0",
+                            fps);
     if (up < 0 || up > 2)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "cleanup: up axis %d is not 0 (X), "
-                            "1 (Y) or 2 (Z)", up);
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "cleanup: up axis %d is not 0 (X), "
+                            "1 (Y) or 2 (Z)",
+                            up);
     const int have_arrays = ref_root_pos || ref_rot || ref_trans;
-    if (!trusted &&
-        ((st = check_points(rig, C, joints, end_sites, diag)) != MLR_OK ||
-         (st = check_motion(rig, N, root_pos, rot, trans, "motion", diag)) != MLR_OK ||
-         (have_arrays && (st = check_motion(rig, N, ref_root_pos, ref_rot, ref_trans,
-                                            "reference", diag)) != MLR_OK)))
+    if (!trusted && ((st = check_points(rig, C, joints, end_sites, diag)) != MLR_OK ||
+                     (st = check_motion(rig, N, root_pos, rot, trans, "motion", diag)) != MLR_OK ||
+                     (have_arrays && (st = check_motion(rig, N, ref_root_pos, ref_rot, ref_trans,
+                                                        "reference", diag)) != MLR_OK)))
         return st;
     if (pre && (pre->n_frames != N || pre->n_points != C || pre->up != up ||
                 pre->smooth != cfg->ref_smooth))
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                             "cleanup: the reference was made for other frames or options");
     if (C > 64)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "cleanup: at most 64 contact "
-                            "points, got %zu", C);
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "cleanup: at most 64 contact "
+                            "points, got %zu",
+                            C);
     return MLR_OK;
 }
 
@@ -1048,9 +1064,8 @@ static int root_needs(const cleanup *cu, double cos_fold, double *need)
             const double reach = fmax(cfg->reach * length, now);
             /* the hip-ankle distance of a knee folded to max_fold: a target nearer
                than that would fold the knee past its limit */
-            const double fold = fmin(sqrt(fmax(l1 * l1 + l2 * l2 +
-                                               2.0 * l1 * l2 * cos_fold, 0.0)),
-                                     now);
+            const double fold =
+                fmin(sqrt(fmax(l1 * l1 + l2 * l2 + 2.0 * l1 * l2 * cos_fold, 0.0)), now);
             double v[3];
             for (int d = 0; d < 3; d++)
                 v[d] = target[d] - (ph[d] + shift[3 * f + (size_t)d]);
@@ -1064,8 +1079,7 @@ static int root_needs(const cleanup *cu, double cos_fold, double *need)
                 excess = dist - fold;
             if (excess == 0.0)
                 continue;
-            const double cur = sqrt(need[3 * f] * need[3 * f] +
-                                    need[3 * f + 1] * need[3 * f + 1] +
+            const double cur = sqrt(need[3 * f] * need[3 * f] + need[3 * f + 1] * need[3 * f + 1] +
                                     need[3 * f + 2] * need[3 * f + 2]);
             if (fabs(excess) > cur) {
                 for (int d = 0; d < 3; d++)
@@ -1171,9 +1185,9 @@ static mlr_status shift_root(cleanup *cu, arena *ar, mlr_cleanup_report *report)
         for (int d = 0; d < 3; d++)
             out_root_pos[3 * f + (size_t)d] += shift[3 * f + (size_t)d];
         if (report) {
-            const double n = sqrt(shift[3 * f] * shift[3 * f] +
-                                  shift[3 * f + 1] * shift[3 * f + 1] +
-                                  shift[3 * f + 2] * shift[3 * f + 2]);
+            const double n =
+                sqrt(shift[3 * f] * shift[3 * f] + shift[3 * f + 1] * shift[3 * f + 1] +
+                     shift[3 * f + 2] * shift[3 * f + 2]);
             report->root_shift_max = fmax(report->root_shift_max, n);
         }
     }
@@ -1196,7 +1210,8 @@ static void find_chains(cleanup *cu)
         if (!ft->active)
             continue;
         /* the chain bottom-up: the placed point's joint (or the anchor) to the hip */
-        const int32_t bottom = ft->n_cols > ft->n_own ? cu->joints[ft->cols[ft->n_own]] : ft->anchor;
+        const int32_t bottom =
+            ft->n_cols > ft->n_own ? cu->joints[ft->cols[ft->n_own]] : ft->anchor;
         size_t n = 0;
         int32_t j = bottom;
         for (; j >= 0 && n < J; j = rig->parents[j]) {
@@ -1265,8 +1280,7 @@ static void copy_leg_rotations(const cleanup *cu)
             for (size_t k = 0; k < cu->nf; k++)
                 for (size_t i = 0; cu->feet[k].active && i < cu->chain_len[k]; i++) {
                     const size_t j = (size_t)cu->chains[k * J + i];
-                    memcpy(newr + 4 * (f * J + j), out_rot + 4 * (f * J + j),
-                           4 * sizeof(double));
+                    memcpy(newr + 4 * (f * J + j), out_rot + 4 * (f * J + j), 4 * sizeof(double));
                 }
     }
 }
@@ -1285,8 +1299,8 @@ static int aligned(const double *a, const double *b, const double *o)
                          u[0] * v[1] - u[1] * v[0]};
     const double uv = u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
     const double c2 = c[0] * c[0] + c[1] * c[1] + c[2] * c[2];
-    const double n2 = (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]) *
-                      (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    const double n2 =
+        (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]) * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
     return uv > 0.0 && c2 <= REACHED * REACHED * n2;
 }
 
@@ -1322,8 +1336,8 @@ static void solve_legs(const cleanup *cu)
                 memcpy(target, Pf + 3 * a, sizeof target);
                 target[up] += fmax(ft->lift[f], 0.0);
             }
-            const double eps = REACHED * (dist3(Pf + 3 * h, Pf + 3 * kn) +
-                                          dist3(Pf + 3 * kn, Pf + 3 * a));
+            const double eps =
+                REACHED * (dist3(Pf + 3 * h, Pf + 3 * kn) + dist3(Pf + 3 * kn, Pf + 3 * a));
             if (dist3(Pf + 3 * a, target) <= eps &&
                 (!ft->U[f] || !has_toe ||
                  aligned(P + 3 * (f * C + toe), ft->tt + 3 * f, Pf + 3 * a))) {
@@ -1332,8 +1346,8 @@ static void solve_legs(const cleanup *cu)
             }
             if (have_local)
                 mlr_ik_qrot(G + 4 * h, local, ax);
-            mlr_ik_two_bone_1(Pf + 3 * h, Pf + 3 * kn, Pf + 3 * a, target,
-                              have_local ? ax : NULL, MLR_IK_MAX_EXTENSION, rh, rk);
+            mlr_ik_two_bone_1(Pf + 3 * h, Pf + 3 * kn, Pf + 3 * a, target, have_local ? ax : NULL,
+                              MLR_IK_MAX_EXTENSION, rh, rk);
             mlr_ik_rotate_to_1(newr + 4 * (f * J + kn), pk >= 0 ? G + 4 * (size_t)pk : NULL,
                                G + 4 * kn, rk);
             mlr_ik_rotate_to_1(newr + 4 * (f * J + h), ph >= 0 ? G + 4 * (size_t)ph : NULL,
@@ -1366,8 +1380,8 @@ static void place_toes(const cleanup *cu)
             fk_masked_frame(rig, f, cu->need, cu->tidx, cu->out_root_pos, newr, tr, pos2, wrot2);
         for (size_t k = 0; k < nf; k++) {
             const foot *ft = &feet[k];
-            if (!ft->active || ft->n_cols == ft->n_own || (!ft->U[f] && !ft->F[f]) ||
-                ft->K[f] || ft->S[f])
+            if (!ft->active || ft->n_cols == ft->n_own || (!ft->U[f] && !ft->F[f]) || ft->K[f] ||
+                ft->S[f])
                 continue;
             if (cu->chained) /* the same values as the whole frame's at the chain's joints */
                 fk_chain_frame(rig, f, cu->chains + k * J, cu->chain_len[k], cu->tidx, newr, tr,
@@ -1415,9 +1429,9 @@ static mlr_status cleanup_pass(cleanup *cu)
             continue;
         fk_masked_frame(cu->rig, f, cu->need, cu->tidx, cu->out_root_pos, cu->out_rot, cu->trans,
                         cu->pos + 3 * J * f, cu->wrot + 4 * J * f);
-        if ((st = mlr_rig_point_positions(cu->rig, 1, cu->pos + 3 * J * f, cu->wrot + 4 * J * f,
-                                          C, cu->joints, cu->end_sites, cu->P + 3 * C * f,
-                                          NULL)) != MLR_OK)
+        if ((st = mlr_rig_point_positions(cu->rig, 1, cu->pos + 3 * J * f, cu->wrot + 4 * J * f, C,
+                                          cu->joints, cu->end_sites, cu->P + 3 * C * f, NULL)) !=
+            MLR_OK)
             return st;
     }
     memset(dirty, 0, N);
@@ -1481,10 +1495,22 @@ static mlr_status cleanup_run(const mlr_rig *rig, size_t N, double fps, int up,
     size_t nf = 0;
     mlr_cleanup_ref *owned = NULL; /* the reference's trajectories when made here */
     work w = {rig, N, J, C, fps, up, &cfg, NULL, NULL, NULL, NULL, NULL, NULL};
-    cleanup c = {.rig = rig, .N = N, .J = J, .C = C, .fps = fps, .up = up, .cfg = &cfg,
-                 .joints = joints, .end_sites = end_sites, .contacts = contacts,
-                 .trans = trans, .out_root_pos = out_root_pos, .out_rot = out_rot,
-                 .feet = feet, .have_ref = have_ref, .w = &w};
+    cleanup c = {.rig = rig,
+                 .N = N,
+                 .J = J,
+                 .C = C,
+                 .fps = fps,
+                 .up = up,
+                 .cfg = &cfg,
+                 .joints = joints,
+                 .end_sites = end_sites,
+                 .contacts = contacts,
+                 .trans = trans,
+                 .out_root_pos = out_root_pos,
+                 .out_rot = out_rot,
+                 .feet = feet,
+                 .have_ref = have_ref,
+                 .w = &w};
     mlr_allocator A;
     mlr_allocator_resolve(alloc, &A);
     arena ar = {.a = &A, .st = MLR_OK};
@@ -1492,8 +1518,7 @@ static mlr_status cleanup_run(const mlr_rig *rig, size_t N, double fps, int up,
     uint8_t *assigned = take(&ar, C, 1);
     if (ar.st != MLR_OK)
         goto fail;
-    if ((st = assign_feet(rig, C, joints, end_sites, feet, &nf, listed, assigned, diag)) !=
-        MLR_OK)
+    if ((st = assign_feet(rig, C, joints, end_sites, feet, &nf, listed, assigned, diag)) != MLR_OK)
         goto fail_st_keep;
     c.nf = nf;
 
@@ -1519,8 +1544,8 @@ static mlr_status cleanup_run(const mlr_rig *rig, size_t N, double fps, int up,
     if (ar.st != MLR_OK)
         goto fail;
     fk_need(rig, C, joints, feet, nf, c.need, c.tidx);
-    if ((st = fk_points(rig, N, root_pos, rot, trans, C, joints, end_sites, c.pos, c.wrot, c.P,
-                        &A, c.need, c.tidx)) != MLR_OK)
+    if ((st = fk_points(rig, N, root_pos, rot, trans, C, joints, end_sites, c.pos, c.wrot, c.P, &A,
+                        c.need, c.tidx)) != MLR_OK)
         goto fail_st;
     /* the reference's trajectories: given made, or made here from its frames */
     if (have_arrays && !pre) {
@@ -1629,9 +1654,8 @@ mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t N, double fps, int up
                                 const double *ref_trans, size_t C, const int32_t *joints,
                                 const int32_t *end_sites, const uint8_t *contacts,
                                 const mlr_cleanup_option *opts, size_t n_opts,
-                                double *out_root_pos, double *out_rot,
-                                mlr_cleanup_report *report, const mlr_allocator *alloc,
-                                mlr_diag *diag)
+                                double *out_root_pos, double *out_rot, mlr_cleanup_report *report,
+                                const mlr_allocator *alloc, mlr_diag *diag)
 {
     return cleanup_run(rig, N, fps, up, root_pos, rot, trans, ref_root_pos, ref_rot, ref_trans,
                        NULL, 0, C, joints, end_sites, contacts, opts, n_opts, out_root_pos,
@@ -1639,9 +1663,9 @@ mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t N, double fps, int up
 }
 
 mlr_status mlr_cleanup_contacts_ref(const mlr_rig *rig, size_t N, double fps, int up,
-                                    const double *root_pos, const double *rot,
-                                    const double *trans, const mlr_cleanup_ref *ref, int trusted,
-                                    size_t C, const int32_t *joints, const int32_t *end_sites,
+                                    const double *root_pos, const double *rot, const double *trans,
+                                    const mlr_cleanup_ref *ref, int trusted, size_t C,
+                                    const int32_t *joints, const int32_t *end_sites,
                                     const uint8_t *contacts, const mlr_cleanup_option *opts,
                                     size_t n_opts, double *out_root_pos, double *out_rot,
                                     mlr_cleanup_report *report, const mlr_allocator *alloc,

@@ -28,10 +28,7 @@ static double wrap_pi(double a)
     return a;
 }
 
-static int order_is_valid(mlr_euler_order order)
-{
-    return (int)order >= 0 && (int)order < 6;
-}
+static int order_is_valid(mlr_euler_order order) { return (int)order >= 0 && (int)order < 6; }
 
 static mlr_status bad_order(mlr_diag *diag, const char *fn, mlr_euler_order order)
 {
@@ -130,9 +127,18 @@ mlr_status mlr_euler_order_parse(const char *name, mlr_euler_order *out, mlr_dia
     int axis[3];
     for (int k = 0; k < 3; k++) {
         switch (name[k]) {
-        case 'X': case 'x': axis[k] = 0; break;
-        case 'Y': case 'y': axis[k] = 1; break;
-        case 'Z': case 'z': axis[k] = 2; break;
+        case 'X':
+        case 'x':
+            axis[k] = 0;
+            break;
+        case 'Y':
+        case 'y':
+            axis[k] = 1;
+            break;
+        case 'Z':
+        case 'z':
+            axis[k] = 2;
+            break;
         default: /* also stops at a NUL before the third letter */
             return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                                 "euler order \"%.8s\" is not three of the letters X, Y, Z", name);

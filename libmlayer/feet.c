@@ -110,8 +110,7 @@ static void find_toe(const mlr_rig *rig, int32_t a, int32_t *joint, int32_t *end
 
 /* Flags: 1 foot (ankle), 2 hand candidate, 4 a foot joint matched (for the topmost rule),
  * 8 a hand joint matched. */
-enum { IS_ANKLE = 1, IS_HAND = 2, FOOT_NAME = 4, HAND_NAME = 8, FOOT_BELOW = 16,
-       HAND_BELOW = 32 };
+enum { IS_ANKLE = 1, IS_HAND = 2, FOOT_NAME = 4, HAND_NAME = 8, FOOT_BELOW = 16, HAND_BELOW = 32 };
 
 /* Adds the hands that stay low to the ankles (flags). */
 static mlr_status low_hands(const mlr_rig *rig, size_t N, const double *world_pos, int up,

@@ -1,7 +1,7 @@
 /* Whole-file reads: see file_read_internal.h. */
 #if defined(__unix__) || defined(__APPLE__)
-#  define _POSIX_C_SOURCE 200809L /* fdopen, fstat, pread, strerror_r */
-#  define MLR_POSIX_FILES 1
+#define _POSIX_C_SOURCE 200809L /* fdopen, fstat, pread, strerror_r */
+#define MLR_POSIX_FILES 1
 #endif
 #include "file_read_internal.h"
 
@@ -12,10 +12,10 @@
 #include <stdio.h>
 #include <string.h>
 #ifdef MLR_POSIX_FILES
-#  include <fcntl.h>
-#  include <sys/stat.h>
-#  include <sys/types.h>
-#  include <unistd.h>
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <sys/types.h>
+#include <unistd.h>
 #endif
 
 #define READ_MAX_THREADS MLR_FILE_MAX_THREADS
@@ -140,8 +140,8 @@ static int read_parallel(int fd, size_t size, size_t T, const mlr_allocator *a, 
     const size_t cap = size + 1;
     char *buf = mlr_alloc(a, cap);
     if (!buf) {
-        *status = mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "%s",
-                               mlr_status_string(MLR_E_NO_MEMORY));
+        *status =
+            mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "%s", mlr_status_string(MLR_E_NO_MEMORY));
         return -1;
     }
     read_job j = {fd, buf, size, 0};

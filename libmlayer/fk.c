@@ -117,6 +117,6 @@ mlr_status mlr_fk_motion(const mlr_motion *m, size_t begin, size_t count, double
     const size_t J = m->n_joints, P = m->n_trans;
     return fk_run(count, J, m->parents, m->offsets, count ? m->root_pos + 3 * begin : NULL,
                   count ? m->rot + 4 * J * begin : NULL, P, m->trans_joints,
-                  (count && P) ? m->trans + 3 * P * begin : NULL, world_pos, world_rot,
-                  &m->alloc, diag);
+                  (count && P) ? m->trans + 3 * P * begin : NULL, world_pos, world_rot, &m->alloc,
+                  diag);
 }

@@ -119,7 +119,8 @@ int grbf__cpu_wide(void)
 void grbf__basis_task(void *ctx, size_t task)
 {
     const basis_ctx *c = ctx;
-    size_t i0 = task * GRBF_TASK_ROWS, i1 = i0 + GRBF_TASK_ROWS < c->n ? i0 + GRBF_TASK_ROWS : c->n;
+    size_t i0 = task * GRBF_TASK_ROWS,
+           i1 = i0 + GRBF_TASK_ROWS < c->n ? i0 + GRBF_TASK_ROWS : c->n;
     for (size_t i = i0; i < i1; i++) {
         const double *xi = c->x + i * c->ldx;
         double *o = c->out + i * c->ldo;
@@ -197,8 +198,8 @@ static mlr_status check_common(int kernel, double width, const double *centers, 
     return MLR_OK;
 }
 
-static mlr_status check_data(const double *centers, size_t n_centers, size_t ldc,
-                             const double *x, size_t n, size_t ldx, size_t dim, mlr_diag *diag)
+static mlr_status check_data(const double *centers, size_t n_centers, size_t ldc, const double *x,
+                             size_t n, size_t ldx, size_t dim, mlr_diag *diag)
 {
     size_t bad = grbf__first_bad_row(centers, n_centers, dim, ldc);
     if (bad < n_centers)
@@ -227,8 +228,8 @@ mlr_status mlr_grbf_basis(int kernel, double width, const double *centers, size_
                           mlr_diag *diag)
 {
     size_t bytes;
-    mlr_status st = check_common(kernel, width, centers, n_centers, ldc, x, n, ldx, dim,
-                                 n_threads, &bytes, diag);
+    mlr_status st = check_common(kernel, width, centers, n_centers, ldc, x, n, ldx, dim, n_threads,
+                                 &bytes, diag);
     if (st)
         return st;
     size_t cols = n_centers + (poly ? 1 + dim : 0);
@@ -251,7 +252,9 @@ mlr_status mlr_grbf_basis(int kernel, double width, const double *centers, size_
                             "grbf basis: out of memory for %zu centres", n_centers);
     transpose_centres(centers, n_centers, ldc, dim, ct);
     basis_ctx c = {kernel, poly != 0, kernel == MLR_GRBF_GAUSSIAN ? 1.0 / (width * width) : 0.0,
-                   ct, x, n_centers, ldx, n, dim, ldo, out};
+                   ct,     x,         n_centers,
+                   ldx,    n,         dim,
+                   ldo,    out};
     mlr_parallel_run(n_threads, (n + GRBF_TASK_ROWS - 1) / GRBF_TASK_ROWS, grbf__basis_task, &c);
     mlr_free(&a, ct, bytes);
     return MLR_OK;
@@ -307,8 +310,8 @@ static void eval_task(void *ctx, size_t task)
                 basis_segment(c, c->x + (i0 + p) * c->ldx, k0, kc, bas + p * EVAL_KC);
             for (size_t q = 0; q < gp; q++)
                 panel(c->wide, bas, EVAL_KC, 1, rows, kc,
-                            c->pan + ((g0 + q) * c->K + k0) * EVAL_PANEL, EVAL_PANEL,
-                            acc + q * EVAL_PANEL, lda);
+                      c->pan + ((g0 + q) * c->K + k0) * EVAL_PANEL, EVAL_PANEL,
+                      acc + q * EVAL_PANEL, lda);
         }
         const size_t o0 = g0 * EVAL_PANEL;
         const size_t no = c->n_out - o0 < lda ? c->n_out - o0 : lda;
@@ -323,8 +326,8 @@ mlr_status mlr_grbf_eval(int kernel, double width, const double *centers, size_t
                          double *out, size_t ldo, const mlr_allocator *alloc, mlr_diag *diag)
 {
     size_t ct_bytes;
-    mlr_status st = check_common(kernel, width, centers, n_centers, ldc, x, n, ldx, dim,
-                                 n_threads, &ct_bytes, diag);
+    mlr_status st = check_common(kernel, width, centers, n_centers, ldc, x, n, ldx, dim, n_threads,
+                                 &ct_bytes, diag);
     if (st)
         return st;
     const size_t K = n_centers + 1 + dim;
@@ -333,8 +336,8 @@ mlr_status mlr_grbf_eval(int kernel, double width, const double *centers, size_t
                             "no outputs (n_out %zu) or coef or out NULL", n_out);
     if (ldcoef < n_out || ldo < n_out)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "dimension mismatch: strides ldcoef %zu, ldo %zu < n_out %zu",
-                            ldcoef, ldo, n_out);
+                            "dimension mismatch: strides ldcoef %zu, ldo %zu < n_out %zu", ldcoef,
+                            ldo, n_out);
     size_t npanel = n_out / EVAL_PANEL + (n_out % EVAL_PANEL != 0), pan_n, pan_bytes;
     if (grbf__rows_overflow(n, ldo) || grbf__rows_overflow(K, ldcoef) ||
         mlr_mul_size(npanel * EVAL_PANEL, K, &pan_n) ||
@@ -363,8 +366,11 @@ mlr_status mlr_grbf_eval(int kernel, double width, const double *centers, size_t
                 size_t o = q * EVAL_PANEL + l;
                 pan[(q * K + k) * EVAL_PANEL + l] = o < n_out ? coef[k * ldcoef + o] : 0.0;
             }
-    eval_ctx c = {kernel, 0, kernel == MLR_GRBF_GAUSSIAN ? 1.0 / (width * width) : 0.0,
-                  ct, x, pan, n_centers, dim, ldx, n, K, npanel, n_out, ldo, out};
+    eval_ctx c = {kernel,    0,   kernel == MLR_GRBF_GAUSSIAN ? 1.0 / (width * width) : 0.0,
+                  ct,        x,   pan,
+                  n_centers, dim, ldx,
+                  n,         K,   npanel,
+                  n_out,     ldo, out};
     c.wide = grbf__cpu_wide();
     mlr_parallel_run(n_threads, (n + EVAL_ROWS - 1) / EVAL_ROWS, eval_task, &c);
     mlr_free(&a, ws, ct_bytes + pan_bytes);

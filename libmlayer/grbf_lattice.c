@@ -82,8 +82,8 @@ static int cholesky_lower(double *a, size_t n, size_t lda, double *pk, int wide)
 /* X = (L L^T)^-1 X for the factor of cholesky_lower; X n x (np PANEL) (padded), row stride ldx.
  * By blocks of 8 rows: the product kernel takes the rows already solved, the 8 x 8 diagonal
  * block is solved by substitution. */
-static void cholesky_solve(const double *l, size_t n, size_t ldl, double *x, size_t ldx,
-                           size_t np, int wide, double *acc)
+static void cholesky_solve(const double *l, size_t n, size_t ldl, double *x, size_t ldx, size_t np,
+                           int wide, double *acc)
 {
     const size_t w = np * PANEL;
     for (size_t i0 = 0; i0 < n; i0 += 8) { /* L y = x */
@@ -108,7 +108,7 @@ static void cholesky_solve(const double *l, size_t n, size_t ldl, double *x, siz
         memset(acc, 0, rb * w * sizeof(double));
         for (size_t q = 0; q < np && done > 0; q++) /* sum_{k >= e} L[k][i] x_k */
             panel(wide, l + e * ldl + i0, 1, ldl, rb, done, x + e * ldx + q * PANEL, ldx,
-                        acc + q * PANEL, w);
+                  acc + q * PANEL, w);
         for (size_t p = rb; p-- > 0;) {
             double *xi = x + (i0 + p) * ldx;
             for (size_t t = 0; t < w; t++)
@@ -179,7 +179,8 @@ static void lattice_class_task(void *ctx, size_t cls)
                          sx * sy * kr[rr * C + cr];
             A[i * k + j] = A[j * k + i] = sum / (si * lattice_scale(c, rj, cj));
         }
-        const double *y0 = c->y + (ri * C + ci) * c->ldy, *y1 = c->y + ((R - 1 - ri) * C + ci) * c->ldy;
+        const double *y0 = c->y + (ri * C + ci) * c->ldy,
+                     *y1 = c->y + ((R - 1 - ri) * C + ci) * c->ldy;
         const double *y2 = c->y + (ri * C + C - 1 - ci) * c->ldy;
         const double *y3 = c->y + ((R - 1 - ri) * C + C - 1 - ci) * c->ldy;
         for (size_t o = 0; o < m; o++)
@@ -187,9 +188,10 @@ static void lattice_class_task(void *ctx, size_t cls)
         for (size_t o = m; o < mp; o++)
             X[i * mp + o] = 0.0;
         /* the class's polynomial, 2 p(i) / sqrt(s_i): 1, x - xm, y - ym */
-        v[i] = cls == 0 ? 2.0 / si
-             : cls == 1 ? 2.0 * (c->xs[ri] - c->xm) / si
-             : cls == 2 ? 2.0 * (c->ys[ci] - c->ym) / si : 0.0;
+        v[i] = cls == 0   ? 2.0 / si
+               : cls == 1 ? 2.0 * (c->xs[ri] - c->xm) / si
+               : cls == 2 ? 2.0 * (c->ys[ci] - c->ym) / si
+                          : 0.0;
     }
     if (cls == 3) { /* no polynomial term: K is positive definite on the whole class */
         if (cholesky_lower(A, k, k, pk, c->wide)) {
@@ -254,8 +256,8 @@ static mlr_status lattice_workspace(size_t rows, size_t cols, size_t ldy, size_t
     if (n_out > SIZE_MAX / 16 - PANEL || nr > SIZE_MAX / (4 * (PANEL + 2)))
         return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "lattice workspace overflows");
     const size_t mp = (n_out + PANEL - 1) / PANEL * PANEL;
-    const size_t fixed[LATTICE_PARTS] = {2 * N, 2 * nr, nkrow, kk, kk, kk, kk, 0, 0, 0, 0,
-                                         0, 0, 0, 0, 3 * n_out};
+    const size_t fixed[LATTICE_PARTS] = {2 * N, 2 * nr, nkrow, kk, kk, kk, kk, 0,
+                                         0,     0,      0,     0,  0,  0,  0,  3 * n_out};
     memcpy(parts, fixed, sizeof fixed);
     for (size_t q = 7; q < 11; q++)
         if (mlr_mul_size(nr, mp, &parts[q]))
@@ -271,9 +273,8 @@ static mlr_status lattice_workspace(size_t rows, size_t cols, size_t ldy, size_t
 }
 
 /* The coordinates are finite and symmetric about their middle (xm, ym), y is finite. */
-static mlr_status check_lattice_data(const double *xs, size_t rows, const double *ys,
-                                     size_t cols, const double *y, size_t ldy, size_t n_out,
-                                     mlr_diag *diag)
+static mlr_status check_lattice_data(const double *xs, size_t rows, const double *ys, size_t cols,
+                                     const double *y, size_t ldy, size_t n_out, mlr_diag *diag)
 {
     size_t bad = grbf__first_bad_row(xs, 1, rows, rows);
     if (bad == 0 || grbf__first_bad_row(ys, 1, cols, cols) == 0)
@@ -378,15 +379,30 @@ mlr_status mlr_grbf_fit_lattice(int kernel, double width, const double *xs, size
         rep[2 * i] = xs[i / Ch];
         rep[2 * i + 1] = ys[i % Ch];
     }
-    basis_ctx bc = {kernel, 0, kernel == MLR_GRBF_GAUSSIAN ? 1.0 / (width * width) : 0.0,
-                    ct, rep, N, 2, nr, 2, N, krow};
-    mlr_parallel_run(n_threads, (nr + GRBF_TASK_ROWS - 1) / GRBF_TASK_ROWS, grbf__basis_task,
-                     &bc);
-    lattice_ctx lc = {rows, cols, Rh, Ch, n_out, mp, ldy, xs, ys, y, krow, xm, ym,
+    basis_ctx bc = {kernel, 0,   kernel == MLR_GRBF_GAUSSIAN ? 1.0 / (width * width) : 0.0,
+                    ct,     rep, N,
+                    2,      nr,  2,
+                    N,      krow};
+    mlr_parallel_run(n_threads, (nr + GRBF_TASK_ROWS - 1) / GRBF_TASK_ROWS, grbf__basis_task, &bc);
+    lattice_ctx lc = {rows,
+                      cols,
+                      Rh,
+                      Ch,
+                      n_out,
+                      mp,
+                      ldy,
+                      xs,
+                      ys,
+                      y,
+                      krow,
+                      xm,
+                      ym,
                       grbf__cpu_wide(),
-                      {ptr[3], ptr[4], ptr[5], ptr[6]}, {ptr[7], ptr[8], ptr[9], ptr[10]},
+                      {ptr[3], ptr[4], ptr[5], ptr[6]},
+                      {ptr[7], ptr[8], ptr[9], ptr[10]},
                       {ptr[11], ptr[12], ptr[13], ptr[14]},
-                      {ptr[15], ptr[15] + n_out, ptr[15] + 2 * n_out}, {0, 0, 0, 0}};
+                      {ptr[15], ptr[15] + n_out, ptr[15] + 2 * n_out},
+                      {0, 0, 0, 0}};
     mlr_parallel_run(n_threads, 4, lattice_class_task, &lc);
     st = MLR_OK;
     for (size_t cls = 0; cls < 4; cls++)

@@ -10,8 +10,8 @@
 #include <string.h>
 
 #if (defined(__x86_64__) || defined(__i386__)) && (defined(__GNUC__) || defined(__clang__))
-#  define MLR_GRBF_X86 1
-#  include <immintrin.h>
+#define MLR_GRBF_X86 1
+#include <immintrin.h>
 #endif
 
 #define PANEL 24
@@ -35,16 +35,16 @@ static void panel_generic(const double *a, size_t sp, size_t sk, size_t rows, si
 #ifdef MLR_GRBF_X86
 /* The same with fused multiply-adds: 8 rows x 24 columns in 24 registers, then single rows
  * (the same fma sequence per output). */
-__attribute__((target("avx512f"))) static void panel_avx512(const double *a, size_t sp,
-                                                             size_t sk, size_t rows, size_t kc,
-                                                             const double *b, size_t ldb,
-                                                             double *acc, size_t lda)
+__attribute__((target("avx512f"))) static void panel_avx512(const double *a, size_t sp, size_t sk,
+                                                            size_t rows, size_t kc,
+                                                            const double *b, size_t ldb,
+                                                            double *acc, size_t lda)
 {
     size_t p0 = 0;
     for (; p0 + 8 <= rows; p0 += 8) {
         const double *ap = a + p0 * sp;
         double *o = acc + p0 * lda;
-#define LOAD3(r)                                                                       \
+#define LOAD3(r)                                                                                \
     __m512d a##r##0 = _mm512_loadu_pd(o + r * lda), a##r##1 = _mm512_loadu_pd(o + r * lda + 8), \
             a##r##2 = _mm512_loadu_pd(o + r * lda + 16)
         LOAD3(0);
@@ -92,8 +92,7 @@ __attribute__((target("avx512f"))) static void panel_avx512(const double *a, siz
     for (; p0 < rows; p0++) {
         const double *ap = a + p0 * sp;
         double *o = acc + p0 * lda;
-        __m512d a0 = _mm512_loadu_pd(o), a1 = _mm512_loadu_pd(o + 8),
-                a2 = _mm512_loadu_pd(o + 16);
+        __m512d a0 = _mm512_loadu_pd(o), a1 = _mm512_loadu_pd(o + 8), a2 = _mm512_loadu_pd(o + 16);
         for (size_t k = 0; k < kc; k++) {
             const double *q = b + k * ldb;
             __m512d v = _mm512_set1_pd(ap[k * sk]);

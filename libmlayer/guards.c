@@ -193,8 +193,8 @@ static mlr_status estimate_floor(mlr_guards *g, mlr_diag *diag)
     if (g->n_points == 0)
         return MLR_OK;
     return mlr_cleanup_floor_height(&g->rig, g->n_frames, g->root_pos, g->rot, g->trans,
-                                    g->n_points, g->joints, g->end_sites, g->contacts, g->up,
-                                    0.05, &g->floor_height, &g->alloc, diag);
+                                    g->n_points, g->joints, g->end_sites, g->contacts, g->up, 0.05,
+                                    &g->floor_height, &g->alloc, diag);
 }
 
 /* estimate_floor from the input's world positions, which create has already computed. */
@@ -212,9 +212,9 @@ static mlr_status floor_from_positions(mlr_guards *g, const double *wpos, const 
         st = mlr_cleanup_floor_of_points(g->n_frames, g->n_points, pts, g->contacts, g->up, 0.05,
                                          &g->floor_height, &g->alloc);
     free_array(&g->alloc, pts, 3 * g->n_frames * g->n_points, sizeof(double));
-    return st == MLR_OK ? MLR_OK : mlr_diag_set(diag, st, 0, 0, "guards: the floor: %s",
-                                                st == MLR_E_NO_MEMORY ? "out of memory"
-                                                                      : "bad points");
+    return st == MLR_OK ? MLR_OK
+                        : mlr_diag_set(diag, st, 0, 0, "guards: the floor: %s",
+                                       st == MLR_E_NO_MEMORY ? "out of memory" : "bad points");
 }
 
 /* Feet by name and their contacts on the input; a rig without feet gets none. */
@@ -233,8 +233,8 @@ static mlr_status find_contacts(mlr_guards *g, const double *world_pos, const do
                      st == MLR_E_OVERFLOW ? "size overflow" : "out of memory", J);
     if (st == MLR_OK) {
         mlr_diag quiet;
-        st = mlr_contacts_find_feet(&g->rig, N, world_pos, g->up, J, fj, fe, &n_feet,
-                                    &g->alloc, &quiet);
+        st = mlr_contacts_find_feet(&g->rig, N, world_pos, g->up, J, fj, fe, &n_feet, &g->alloc,
+                                    &quiet);
         if (st == MLR_E_INVALID_ARG) { /* no feet by name: nothing to pin */
             st = MLR_OK;
             n_feet = 0;
@@ -257,9 +257,8 @@ static mlr_status find_contacts(mlr_guards *g, const double *world_pos, const do
         if (st == MLR_OK) {
             memcpy(g->joints, fj, C * sizeof(int32_t));
             memcpy(g->end_sites, fe, C * sizeof(int32_t));
-            st = mlr_contacts_detect(&g->rig, g->fps, g->up, N, world_pos, world_rot, C,
-                                     g->joints, g->end_sites, NULL, 0, g->contacts, &g->alloc,
-                                     diag);
+            st = mlr_contacts_detect(&g->rig, g->fps, g->up, N, world_pos, world_rot, C, g->joints,
+                                     g->end_sites, NULL, 0, g->contacts, &g->alloc, diag);
             if (st == MLR_E_INVALID_ARG) /* a flat skeleton: no body size, nothing to pin */
                 st = MLR_OK, free_contacts(g);
         }
@@ -273,17 +272,18 @@ static mlr_status find_contacts(mlr_guards *g, const double *world_pos, const do
  * is no point, or more than the cleanup takes: apply then reports that). wpos, wrot: the
  * input's forward kinematics, or NULL. */
 static mlr_status make_input_ref(const mlr_guards *g, size_t C, const int32_t *joints,
-                                 const int32_t *end_sites, const double *wpos,
-                                 const double *wrot, mlr_cleanup_ref **out, mlr_diag *diag)
+                                 const int32_t *end_sites, const double *wpos, const double *wrot,
+                                 mlr_cleanup_ref **out, mlr_diag *diag)
 {
     *out = NULL;
     if (!g->follow || C == 0 || C > 64)
         return MLR_OK;
     mlr_diag d = {0, 0, ""};
-    const mlr_status st = mlr_cleanup_ref_create(&g->rig, g->n_frames, g->fps, g->up,
-                                                 g->root_pos, g->rot, g->trans, wpos, wrot, C,
-                                                 joints, end_sites, NULL, 0, &g->alloc, out, &d);
-    if (st == MLR_E_INVALID_ARG) /* points the cleanup refuses (over 16 on a foot): apply says so */
+    const mlr_status st =
+        mlr_cleanup_ref_create(&g->rig, g->n_frames, g->fps, g->up, g->root_pos, g->rot, g->trans,
+                               wpos, wrot, C, joints, end_sites, NULL, 0, &g->alloc, out, &d);
+    if (st ==
+        MLR_E_INVALID_ARG) /* points the cleanup refuses (over 16 on a foot): apply says so */
         return MLR_OK;
     return st == MLR_OK ? MLR_OK : mlr_diag_set(diag, st, 0, 0, "guards: %s", d.message);
 }
@@ -292,8 +292,10 @@ static mlr_status check_finite(const double *x, size_t n, const char *what, mlr_
 {
     for (size_t k = 0; k < n; k++)
         if (!isfinite(x[k]))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "guards: %s value %zu is not "
-                                "finite", what, k);
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "guards: %s value %zu is not "
+                                "finite",
+                                what, k);
     return MLR_OK;
 }
 
@@ -310,11 +312,15 @@ mlr_status mlr_guards_create(const mlr_rig *rig, double fps, size_t n_frames,
         return st;
     const size_t J = rig->n_joints, N = n_frames, P = rig->n_trans;
     if (!(isfinite(fps) && fps > 0.0))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "guards: fps must be finite and > 0, "
-                            "got %g", fps);
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "guards: fps must be finite and > 0, "
+                            "got %g",
+                            fps);
     if (N < 3)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "guards: need at least 3 frames, "
-                            "got %zu", N);
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "guards: need at least 3 frames, "
+                            "got %zu",
+                            N);
     if (!root_pos || !rot || (P && !trans))
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "guards: NULL frames");
     size_t n_rot, n_pos;
@@ -395,10 +401,7 @@ done:
     return MLR_OK;
 }
 
-size_t mlr_guards_n_points(const mlr_guards *g)
-{
-    return g && g->contacts_on ? g->n_points : 0;
-}
+size_t mlr_guards_n_points(const mlr_guards *g) { return g && g->contacts_on ? g->n_points : 0; }
 
 mlr_status mlr_guards_get_contacts(const mlr_guards *g, int32_t *joints, int32_t *end_sites,
                                    uint8_t *contacts)
@@ -428,7 +431,8 @@ mlr_status mlr_guards_set_contacts(mlr_guards *g, size_t n_points, const int32_t
             (e >= 0 && ((size_t)e >= g->rig.n_end_sites || g->rig.end_site_parents[e] != j)))
             return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                                 "guards: contact point %zu (joint %d, End Site %d) names nothing "
-                                "in the rig", c, (int)j, (int)e);
+                                "in the rig",
+                                c, (int)j, (int)e);
         for (size_t d = 0; d < c; d++)
             if (joints[d] == j && (end_sites ? end_sites[d] : -1) == e)
                 return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
@@ -524,8 +528,8 @@ static mlr_status raise_to_floor(const mlr_guards *g, const mlr_cleanup_ref *ref
             double d = 0.0;
             for (size_t c = 0; c < C; c++) {
                 /* no reference: the floor alone */
-                const double lim = ref ? fmin(g->floor_height, ref->h[f * C + c])
-                                       : g->floor_height;
+                const double lim =
+                    ref ? fmin(g->floor_height, ref->h[f * C + c]) : g->floor_height;
                 d = fmax(d, lim - hout[f * C + c]);
             }
             need[f] = d;
@@ -583,7 +587,8 @@ static mlr_status check_reference(const mlr_guards *g, const double *root, const
             goto bad;
     return MLR_OK;
 bad:
-    return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "reference contains NaN or infinite values");
+    return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                        "reference contains NaN or infinite values");
 }
 
 static int limits_wanted(const mlr_guards *g, const double *alpha, size_t n_alpha)
@@ -613,8 +618,7 @@ static mlr_status apply_check(const mlr_guards *g, const double *alpha, size_t n
                             "guards apply: %zu alphas, expected 1 or %zu", n_alpha, 1 + J);
     if (limited && n_limited != J)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "guards apply: limited holds %zu counts, expected %zu", n_limited,
-                            J);
+                            "guards apply: limited holds %zu counts, expected %zu", n_limited, J);
     const int has_ref = ref_root_pos || ref_rot || ref_trans;
     if (has_ref && (!ref_root_pos || !ref_rot || (P && !ref_trans)))
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
@@ -739,9 +743,8 @@ static mlr_status limit_changed(const mlr_guards *g, const apply_work *w, const 
         double *q = w->rot + 4 * i;
         const double n2 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3];
         if (!isfinite(n2) || !(n2 > 0))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "limits: rot_in[%zu][%zu] is %s", i / J, i % J,
-                                isfinite(n2) ? "zero" : "not finite");
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "limits: rot_in[%zu][%zu] is %s",
+                                i / J, i % J, isfinite(n2) ? "zero" : "not finite");
         const double n = sqrt(n2);
         q[0] /= n, q[1] /= n, q[2] /= n, q[3] /= n;
     }
@@ -759,8 +762,8 @@ static mlr_status limit_changed(const mlr_guards *g, const apply_work *w, const 
 static mlr_status clean_and_limit(const mlr_guards *g, const apply_work *w, const double *alpha,
                                   size_t n_alpha, const double *trans, const mlr_cleanup_ref *ref,
                                   const uint8_t *contacts, const mlr_cleanup_option *copts,
-                                  size_t n_copts, mlr_guards_report *rep,
-                                  mlr_cleanup_report *crep, mlr_diag *diag)
+                                  size_t n_copts, mlr_guards_report *rep, mlr_cleanup_report *crep,
+                                  mlr_diag *diag)
 {
     const size_t N = g->n_frames, J = g->n_joints;
     double *work = w->rot, *work_root = w->root;
@@ -801,8 +804,8 @@ mlr_status mlr_guards_apply(const mlr_guards *g, const double *alpha, size_t n_a
                             const double *trans, size_t *limited, size_t n_limited,
                             mlr_guards_report *report, mlr_diag *diag)
 {
-    mlr_status st = apply_check(g, alpha, n_alpha, ref_root_pos, ref_rot, ref_trans, root_pos,
-                                rot, trans, limited, n_limited, diag);
+    mlr_status st = apply_check(g, alpha, n_alpha, ref_root_pos, ref_rot, ref_trans, root_pos, rot,
+                                trans, limited, n_limited, diag);
     if (st != MLR_OK)
         return st;
     const size_t N = g->n_frames, J = g->n_joints;
@@ -851,8 +854,8 @@ mlr_status mlr_guards_apply(const mlr_guards *g, const double *alpha, size_t n_a
             memset(none, 0, g->n_points * N);
         }
         mlr_cleanup_option copts[5];
-        const size_t n_copts = cleanup_options(g, has_ref, alpha, n_alpha, floor_on,
-                                               rep.limits_applied, copts);
+        const size_t n_copts =
+            cleanup_options(g, has_ref, alpha, n_alpha, floor_on, rep.limits_applied, copts);
         mlr_cleanup_report crep;
         const apply_work w = {work, work_root, counts, counts2, before, changed};
         st = clean_and_limit(g, &w, alpha, n_alpha, trans, ref, C ? g->contacts : none, copts,
@@ -867,8 +870,9 @@ mlr_status mlr_guards_apply(const mlr_guards *g, const double *alpha, size_t n_a
     if (floor_on) {
         st = raise_to_floor(g, ref, work_root, work, trans, &rep.floor_raised);
         if (st != MLR_OK) {
-            mlr_diag_set(diag, st, 0, 0, "guards apply: %s", st == MLR_E_NO_MEMORY
-                         ? "out of memory" : "forward kinematics of the result failed");
+            mlr_diag_set(diag, st, 0, 0, "guards apply: %s",
+                         st == MLR_E_NO_MEMORY ? "out of memory"
+                                               : "forward kinematics of the result failed");
             goto done;
         }
     }

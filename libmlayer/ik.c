@@ -84,9 +84,8 @@ void mlr_ik_from_to_1(const double u_in[3], const double v_in[3], double q[4])
     q[0] /= n, q[1] /= n, q[2] /= n, q[3] /= n;
 }
 
-void mlr_ik_two_bone_1(const double a[3], const double b[3], const double c[3],
-                       const double t[3], const double *axis, double max_ext, double r_hip[4],
-                       double r_knee[4])
+void mlr_ik_two_bone_1(const double a[3], const double b[3], const double c[3], const double t[3],
+                       const double *axis, double max_ext, double r_hip[4], double r_knee[4])
 {
     double ab[3], bc[3], ac[3], at[3], mab[3];
     for (int k = 0; k < 3; k++) {
@@ -203,8 +202,8 @@ mlr_status mlr_ik_leg_chain(const mlr_rig *rig, int32_t end, int32_t *hip, int32
     if (!hip || !knee)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "leg_chain: NULL output");
     if (end < 0 || (size_t)end >= rig->n_joints)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "leg_chain: joint %d outside [0, %zu)", (int)end, rig->n_joints);
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "leg_chain: joint %d outside [0, %zu)",
+                            (int)end, rig->n_joints);
     const int32_t k = bone_parent(rig, end);
     const int32_t h = k >= 0 ? bone_parent(rig, k) : -1;
     if (k < 0 || h < 0) {
@@ -215,7 +214,8 @@ mlr_status mlr_ik_leg_chain(const mlr_rig *rig, int32_t end, int32_t *hip, int32
                                 rig->names[end]);
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                             "joint %d has no two-bone chain above it (needs two ancestors at "
-                            "non-zero distances: a hip and a knee)", (int)end);
+                            "non-zero distances: a hip and a knee)",
+                            (int)end);
     }
     *hip = h, *knee = k;
     return MLR_OK;
@@ -227,7 +227,9 @@ mlr_status mlr_ik_bend_axis_local(size_t n, size_t J, const double *pos, const d
 {
     if (!axis || (n && (!pos || !wrot)))
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "bend_axis_local: %s is NULL",
-                            !axis ? "axis" : !pos ? "world_pos" : "world_rot");
+                            !axis  ? "axis"
+                            : !pos ? "world_pos"
+                                   : "world_rot");
     const int32_t joint[3] = {hip, knee, end};
     static const char *const role[3] = {"hip", "knee", "end"};
     for (int r = 0; r < 3; r++)
@@ -319,10 +321,10 @@ mlr_status mlr_ik_apply_leg(size_t n, size_t J, const int32_t *parents, double *
                           MLR_IK_MAX_EXTENSION, rh, rk);
         /* the knee's parent keeps its old world rotation here: the hip's delta turns knee and
            parent alike */
-        mlr_ik_rotate_to_1(rot + 4 * (f * J + k), pk >= 0 ? G + 4 * (size_t)pk : NULL,
-                           G + 4 * k, rk);
-        mlr_ik_rotate_to_1(rot + 4 * (f * J + h), ph >= 0 ? G + 4 * (size_t)ph : NULL,
-                           G + 4 * h, rh);
+        mlr_ik_rotate_to_1(rot + 4 * (f * J + k), pk >= 0 ? G + 4 * (size_t)pk : NULL, G + 4 * k,
+                           rk);
+        mlr_ik_rotate_to_1(rot + 4 * (f * J + h), ph >= 0 ? G + 4 * (size_t)ph : NULL, G + 4 * h,
+                           rh);
     }
     return MLR_OK;
 }

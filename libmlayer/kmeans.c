@@ -102,14 +102,14 @@ static void assign_task(void *ctx, size_t b)
             xnb[m++] = w->xn[i];
         }
         if (m) {
-            mlr_nearest2(&w->pk, w->x, w->ldx, rows, m, xnb, lb, db, w->hamerly ? ds : NULL,
-                         NULL);
+            mlr_nearest2(&w->pk, w->x, w->ldx, rows, m, xnb, lb, db, w->hamerly ? ds : NULL, NULL);
             for (size_t r = 0; r < m; r++) {
                 size_t i = rows[r];
                 if (lb[r] != w->lab[i]) {
                     changed++;
                     if (ps && !rebuild) {
-                        double *from = ps + (size_t)w->lab[i] * dim, *to = ps + (size_t)lb[r] * dim;
+                        double *from = ps + (size_t)w->lab[i] * dim,
+                               *to = ps + (size_t)lb[r] * dim;
                         const double *xi = w->x + i * w->ldx;
                         for (size_t t = 0; t < dim; t++) {
                             from[t] -= xi[t];
@@ -352,8 +352,8 @@ static void run_lloyd(fit_ws *w, double tol_abs, double xmax2, double *inertia, 
     const mlr_kmeans *km = w->km;
     const size_t n = w->n, k = w->k, dim = w->dim, nth = km->n_threads;
     const double eps_d = 4.0 * (double)(dim + 2) * DBL_EPSILON;
-    w->hamerly = km->algorithm == MLR_KMEANS_HAMERLY ||
-                 (km->algorithm == MLR_KMEANS_AUTO && k >= 4);
+    w->hamerly =
+        km->algorithm == MLR_KMEANS_HAMERLY || (km->algorithm == MLR_KMEANS_AUTO && k >= 4);
     for (size_t i = 0; i < n; i++) {
         w->lab[i] = -1;
         w->u[i] = INFINITY;
@@ -416,8 +416,8 @@ mlr_status mlr_kmeans_create(size_t k, size_t dim, const mlr_allocator *alloc, m
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "out is NULL");
     *out = NULL;
     if (k == 0 || dim == 0)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "k = %zu and dim = %zu must be >= 1",
-                            k, dim);
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "k = %zu and dim = %zu must be >= 1", k,
+                            dim);
     if (k > INT32_MAX)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "k = %zu exceeds INT32_MAX", k);
     size_t kpad = mlr_packed_kpad(k), nc, np;
@@ -562,8 +562,7 @@ mlr_status mlr_kmeans_predict(const mlr_kmeans *km, const double *x, size_t n, s
     double db[SUB];
     for (size_t i0 = 0; i0 < n; i0 += SUB) {
         size_t m = n - i0 < SUB ? n - i0 : SUB;
-        mlr_nearest2(&km->packed, x + i0 * ldx, ldx, NULL, m, NULL, labels + i0, db, NULL,
-                     NULL);
+        mlr_nearest2(&km->packed, x + i0 * ldx, ldx, NULL, m, NULL, labels + i0, db, NULL, NULL);
         if (dist2)
             for (size_t r = 0; r < m; r++)
                 dist2[i0 + r] = mlr_dist2(x + (i0 + r) * ldx,
@@ -588,7 +587,8 @@ static mlr_status fit_check(const mlr_kmeans *km, const double *x, size_t n, siz
                             "dimension mismatch: row stride %zu < dim %zu", ldx, dim);
     if (init && ldinit < dim)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "dimension mismatch: initial centre stride %zu < dim %zu", ldinit, dim);
+                            "dimension mismatch: initial centre stride %zu < dim %zu", ldinit,
+                            dim);
     size_t bad = mlr_first_nonfinite_row(x, n, dim, ldx);
     if (bad < n)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "row %zu holds a NaN or an infinity",

@@ -41,8 +41,8 @@ static const mlr_opt_spec layers_opts[] = {
     {MLR_LAYERS_OPT_BODY_JOINT, "body_joint", MLR_OPT_INT, 0.0, INF, 0, 0, 0.0, "a joint index"},
     {MLR_LAYERS_OPT_ROBUST, "robust", MLR_OPT_BOOL, 0.0, 1.0, 0, 0, 1.0, NULL},
     {MLR_LAYERS_OPT_BODY_HEIGHT, "body_height", MLR_OPT_DOUBLE, 0.0, INF, 1, 0, 0.0, NULL},
-    {MLR_LAYERS_OPT_ROBUST_ANGLE, "robust_angle", MLR_OPT_DOUBLE, 0.0, MLR_PI, 1, 0,
-     0.5 * MLR_PI, "in (0, pi]"},
+    {MLR_LAYERS_OPT_ROBUST_ANGLE, "robust_angle", MLR_OPT_DOUBLE, 0.0, MLR_PI, 1, 0, 0.5 * MLR_PI,
+     "in (0, pi]"},
 };
 #undef INF
 
@@ -103,7 +103,7 @@ static mlr_status parse_options(const mlr_layers_option *opts, size_t n_opts, si
         if (seen[MLR_LAYERS_OPT_BASE_CUTOFF] && seen[MLR_LAYERS_OPT_BASE_S_MAX])
             return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                                 S ": options base_cutoff and base_s_max both set the upper end "
-                                "of the base search: give one");
+                                  "of the base search: give one");
         if (!seen[MLR_LAYERS_OPT_BASE_S_MAX]) {
             cfg->base_s_max = floor_s_max(fps, fc); /* >= 1/16 > the default BASE_S_MIN */
             if (!(cfg->base_s_min < cfg->base_s_max))
@@ -192,8 +192,8 @@ static void displacements(mlr_layers *L, const double *root_pos, int robust, dou
         for (size_t c = 0; c < 3; c++)
             di[c] = root_pos ? root_pos[3 * i + c] - pb[c] : 0.0;
         mlr_quat *qi = (mlr_quat *)(void *)(q + 4 * j * i);
-        mlr_quat_conj_mul_log((const mlr_quat *)(const void *)(L->base_rot + 4 * j * i), qi, j,
-                              qi, (mlr_vec3 *)(void *)(di + 3));
+        mlr_quat_conj_mul_log((const mlr_quat *)(const void *)(L->base_rot + 4 * j * i), qi, j, qi,
+                              (mlr_vec3 *)(void *)(di + 3));
         const unsigned char *fl = L->outliers + i * (1 + j);
         for (size_t g = 0; g <= j; g++) {
             const double *v = di + 3 * g;
@@ -242,7 +242,8 @@ mlr_status mlr_layers_decompose(size_t n_frames, size_t n_joints, const double *
     *out = NULL;
     if (n_frames < 3)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "the second-difference prior needs at least 3 frames, got %zu", n_frames);
+                            "the second-difference prior needs at least 3 frames, got %zu",
+                            n_frames);
     if (n_joints == 0)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "no joints");
     if (!rot)
@@ -296,8 +297,8 @@ mlr_status mlr_layers_decompose(size_t n_frames, size_t n_joints, const double *
     st = mlr_layers_prepare_rot(n_frames, n_joints, rot, q, diag);
     if (st == MLR_OK && cfg.robust) {
         int any = 0;
-        st = mlr_layers_robust_weights(L, &cfg, q, root_pos, &weights, fac, comp, rhs, work,
-                                       &any, diag);
+        st = mlr_layers_robust_weights(L, &cfg, q, root_pos, &weights, fac, comp, rhs, work, &any,
+                                       diag);
         rb = any ? &weights : NULL;
     }
     if (st == MLR_OK)
@@ -383,8 +384,8 @@ static mlr_status check_range(const mlr_layers *L, size_t begin, size_t count, d
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "layers %s: the handle is NULL", fn);
     if (begin > L->n || count > L->n - begin)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "layers %s: frames [%zu, %zu + %zu) are not within the %zu frames",
-                            fn, begin, begin, count, L->n);
+                            "layers %s: frames [%zu, %zu + %zu) are not within the %zu frames", fn,
+                            begin, begin, count, L->n);
     if (root_pos && n_root_pos != 3 * count)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                             "layers %s: n_root_pos is %zu, 3 count is %zu", fn, n_root_pos,

@@ -21,8 +21,7 @@
 mlr_status mlr_layers_prepare_rot(size_t n, size_t j, const double *rot_in, double *q,
                                   mlr_diag *diag)
 {
-    if (mlr_quat_normalize_array((const mlr_quat *)rot_in, n * j, (mlr_quat *)q, NULL) !=
-        MLR_OK) {
+    if (mlr_quat_normalize_array((const mlr_quat *)rot_in, n * j, (mlr_quat *)q, NULL) != MLR_OK) {
         for (size_t i = 0; i < n * j; i++) {
             const double *r = rot_in + 4 * i;
             const double nn = r[0] * r[0] + r[1] * r[1] + r[2] * r[2] + r[3] * r[3];
@@ -82,9 +81,9 @@ static void min_cos2_inliers(size_t n, size_t j, size_t ns, const size_t *col, c
 /* The weights of group g0 + col[k] / cw of rb->w packed into rb->wpk (n x ns), and the
  * observations y (channel col[k] + c of the rows, stride ldy) times them into comp (stride
  * m ns). */
-void mlr_layers_pack_weighted(size_t n, size_t ng, const mlr_lay_robust *rb, size_t g0,
-                              size_t cw, const size_t *col, size_t ns, size_t m, const double *y,
-                              size_t ldy, double *comp)
+void mlr_layers_pack_weighted(size_t n, size_t ng, const mlr_lay_robust *rb, size_t g0, size_t cw,
+                              const size_t *col, size_t ns, size_t m, const double *y, size_t ldy,
+                              double *comp)
 {
     for (size_t i = 0; i < n; i++) {
         const double *wi = rb->w + i * ng + g0, *yi = y + i * ldy;
@@ -98,18 +97,15 @@ void mlr_layers_pack_weighted(size_t n, size_t ng, const mlr_lay_robust *rb, siz
     }
 }
 
-static double angle_of_cos2(double c2)
-{
-    return 2.0 * acos(sqrt(c2 < 1.0 ? c2 : 1.0));
-}
+static double angle_of_cos2(double c2) { return 2.0 * acos(sqrt(c2 < 1.0 ? c2 : 1.0)); }
 
 /* One batched evaluation: systems k = 0..ns-1 (joint col[k] / 4) at s[k]; base quaternions
  * (unnormalized) into L->base_rot, the ns joints packed (row stride 4 ns: the full layout
  * when every joint is evaluated); largest angles into angle. comp: 4 n ns doubles when some
  * joint is left out; ebuf: 12 ns doubles. */
 static mlr_status eval_angles(mlr_layers *L, const double *q, const mlr_lay_robust *rb,
-                              mlr_lay_batch *b, const size_t *col, const double *s,
-                              double *angle, double *comp, double *ebuf, mlr_diag *diag)
+                              mlr_lay_batch *b, const size_t *col, const double *s, double *angle,
+                              double *comp, double *ebuf, mlr_diag *diag)
 {
     const size_t n = L->n, j = L->j, ns = b->ns;
     if (rb) { /* weighted: W q packed into comp; the bound over the frames that are inliers */
@@ -120,7 +116,8 @@ static mlr_status eval_angles(mlr_layers *L, const double *q, const mlr_lay_robu
     if (bad)
         return mlr_diag_set(diag, MLR_E_SINGULAR, 0, 0,
                             "base smoothing of joint %zu failed at s = %g: s is too large for "
-                            "%zu frames", col[bad - 1] / 4, s[bad - 1], n);
+                            "%zu frames",
+                            col[bad - 1] / 4, s[bad - 1], n);
     if (rb) {
         mlr_lay_batch_solve(b, 4, comp, 4 * ns, L->base_rot, 4 * ns, ebuf);
         min_cos2_inliers(n, j, ns, col, q, L->base_rot, L->outliers, angle);
@@ -145,10 +142,7 @@ static mlr_status eval_angles(mlr_layers *L, const double *q, const mlr_lay_robu
     return MLR_OK;
 }
 
-static double h_of(double angle, double gamma)
-{
-    return log(fmax(angle, 1e-300) / gamma);
-}
+static double h_of(double angle, double gamma) { return log(fmax(angle, 1e-300) / gamma); }
 
 /* The search of the base s per joint: the largest s whose base keeps every joint within
  * gamma of the input, by bracketing in u = log s. */
@@ -169,8 +163,7 @@ typedef struct base_search {
 /* The ends of the brackets: the strongest setting first (joints within the bound there are
  * done; *fresh: L->base_rot holds every joint's solution there), then the weakest (joints
  * beyond the bound even there keep s_min). The *nb joints with a bracket are left in col. */
-static mlr_status bracket_ends(const base_search *bs, int *fresh, size_t *nb_out,
-                               mlr_diag *diag)
+static mlr_status bracket_ends(const base_search *bs, int *fresh, size_t *nb_out, mlr_diag *diag)
 {
     mlr_layers *L = bs->L;
     const mlr_layers_cfg *cfg = bs->cfg;
@@ -203,8 +196,8 @@ static mlr_status bracket_ends(const base_search *bs, int *fresh, size_t *nb_out
         s[k] = cfg->base_s_min;
     if (na > 0) {
         *fresh = 0;
-        if ((rc = eval_angles(L, bs->q, bs->rb, bs->b, col, s, angle, bs->comp, bs->ebuf,
-                              diag)) < 0)
+        if ((rc = eval_angles(L, bs->q, bs->rb, bs->b, col, s, angle, bs->comp, bs->ebuf, diag)) <
+            0)
             return rc;
     }
     size_t nb = 0;
@@ -331,11 +324,22 @@ mlr_status mlr_layers_base(mlr_layers *L, const mlr_layers_cfg *cfg, const doubl
 {
     const size_t n = L->n, j = L->j;
     mlr_lay_batch b = {n, j, n, fac, fac + n * j, fac + 2 * n * j, NULL};
-    base_search bs = {L, cfg, q, rb, &b, col,
-                      work, work + j, work + 2 * j,
-                      work + 3 * j, work + 4 * j, work + 5 * j, work + 6 * j,
+    base_search bs = {L,
+                      cfg,
+                      q,
+                      rb,
+                      &b,
+                      col,
+                      work,
+                      work + j,
+                      work + 2 * j,
+                      work + 3 * j,
+                      work + 4 * j,
+                      work + 5 * j,
+                      work + 6 * j,
                       work + 7 * j,
-                      comp, work + 8 * j /* 12 j doubles for the solves */};
+                      comp,
+                      work + 8 * j /* 12 j doubles for the solves */};
     double *s_best = bs.s_best;
     int fresh = 0; /* L->base_rot holds every joint's solution at s_best (full layout) */
     mlr_status rc;

@@ -50,8 +50,8 @@ static void factor_row_weighted(mlr_lay_batch *b, const double *restrict s, size
 
 /* Factor row i of every system into storage row r from storage rows p1 (row i-1) and p2
  * (row i-2). */
-static void factor_row(mlr_lay_batch *b, const double *restrict s, size_t i, size_t r,
-                       size_t p1, size_t p2)
+static void factor_row(mlr_lay_batch *b, const double *restrict s, size_t i, size_t r, size_t p1,
+                       size_t p2)
 {
     const size_t ns = b->ns;
     double c0, c1, c2;
@@ -90,10 +90,7 @@ static void factor_row(mlr_lay_batch *b, const double *restrict s, size_t i, siz
 /* Two values of a converging recurrence equal to rounding (a fixed point in exact arithmetic
  * may show as a cycle of an ulp or two in floating point). */
 #define MLR_LAY_SAME 6e-16
-static inline int differs(double a, double b)
-{
-    return fabs(a - b) > MLR_LAY_SAME * fabs(b);
-}
+static inline int differs(double a, double b) { return fabs(a - b) > MLR_LAY_SAME * fabs(b); }
 
 /* Row i equals row i-1 and row i-1's inputs equal row i's: the recurrence is at its fixed
  * point. */
@@ -286,12 +283,14 @@ static inline void solve_m(const mlr_lay_batch *b, const size_t m, const double 
                 xp[c] = xp[c] * d2[k] - a[k] * xl[c];
     }
     for (size_t i = n - 2; i-- > 0;) {
-        const size_t r0 = mlr_lay_row(b, i), r1 = mlr_lay_row(b, i + 1), r2 = mlr_lay_row(b, i + 2);
+        const size_t r0 = mlr_lay_row(b, i), r1 = mlr_lay_row(b, i + 1),
+                     r2 = mlr_lay_row(b, i + 2);
         double *xi = x + i * ldx;
         if (conv && r0 == kc && r1 == kc && r2 == kc)
             bwd_channels(mm, ed, e1, e2, xi, xi + ldx, xi + 2 * ldx);
         else
-            bwd_groups(ns, m, dv + r0 * ns, l1 + r1 * ns, l2 + r2 * ns, xi, xi + ldx, xi + 2 * ldx);
+            bwd_groups(ns, m, dv + r0 * ns, l1 + r1 * ns, l2 + r2 * ns, xi, xi + ldx,
+                       xi + 2 * ldx);
     }
 }
 
@@ -411,7 +410,8 @@ static inline int rss_chunked(const mlr_lay_batch *b, const size_t m, const doub
                 const size_t r1 = mlr_lay_row(b, i + 1 < n ? i + 1 : n - 1);
                 const size_t r2 = mlr_lay_row(b, i + 2 < n ? i + 2 : n - 1);
                 double *xi = SLOT_ROW(q - 1, i);
-                const double *x1 = i + 1 <= e ? xi + mm : zero, *x2 = i + 2 <= e ? xi + 2 * mm : zero;
+                const double *x1 = i + 1 <= e ? xi + mm : zero,
+                             *x2 = i + 2 <= e ? xi + 2 * mm : zero;
                 if (r0 == kc && r1 == kc && r2 == kc)
                     bwd_channels(mm, ed, e1, e2, xi, x1, x2);
                 else
@@ -479,7 +479,8 @@ static inline void rss_m(const mlr_lay_batch *b, const size_t m, const double *y
         }
     }
     for (size_t i = n - 2; i-- > 0;) {
-        const size_t r0 = mlr_lay_row(b, i), r1 = mlr_lay_row(b, i + 1), r2 = mlr_lay_row(b, i + 2);
+        const size_t r0 = mlr_lay_row(b, i), r1 = mlr_lay_row(b, i + 1),
+                     r2 = mlr_lay_row(b, i + 2);
         double *xi = ring + (i % 3) * mm;
         const double *x1 = ring + ((i + 1) % 3) * mm, *x2 = ring + ((i + 2) % 3) * mm;
         if (conv && r0 == kc && r1 == kc && r2 == kc)
@@ -492,8 +493,8 @@ static inline void rss_m(const mlr_lay_batch *b, const size_t m, const double *y
 
 /* The sweeps are the bulk of a decomposition: they get an AVX2 clone (mlr_internal.h). */
 MLR_CLONES_AVX2
-void mlr_lay_batch_solve(const mlr_lay_batch *b, size_t m, const double *y, size_t ldy,
-                         double *x, size_t ldx, double *buf)
+void mlr_lay_batch_solve(const mlr_lay_batch *b, size_t m, const double *y, size_t ldy, double *x,
+                         size_t ldx, double *buf)
 {
     if (m == 3)
         solve_m(b, 3, y, ldy, x, ldx, buf);

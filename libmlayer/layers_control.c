@@ -105,7 +105,8 @@ static mlr_status eval_gcv(const mlr_layers *L, mlr_lay_batch *b, const double *
     if (bad)
         return mlr_diag_set(diag, MLR_E_SINGULAR, 0, 0,
                             "control smoothing of group %zu failed at s = %g: s is too large "
-                            "for %zu frames", col[(bad - 1) * m / 3] / 3, s[bad - 1], n);
+                            "for %zu frames",
+                            col[(bad - 1) * m / 3] / 3, s[bad - 1], n);
     if (keep) {
         mlr_lay_batch_solve(b, m, y, mm, x, mm, w->ebuf);
         mlr_lay_sum_sq_diff(n, mm, y, x, w->acc);
@@ -132,8 +133,8 @@ static mlr_status eval_gcv(const mlr_layers *L, mlr_lay_batch *b, const double *
  */
 static mlr_status eval_gcv_weighted(const mlr_layers *L, mlr_lay_batch *b, const double *s,
                                     size_t na, const size_t *col, const double *delta,
-                                    const mlr_lay_robust *rb, double *comp, double *x,
-                                    double *gcv, double *dof, const gcv_work *w, mlr_diag *diag)
+                                    const mlr_lay_robust *rb, double *comp, double *x, double *gcv,
+                                    double *dof, const gcv_work *w, mlr_diag *diag)
 {
     const size_t n = L->n, ng = 1 + L->j, ld = 3 * ng, mm = 3 * na;
     b->ns = na;
@@ -143,7 +144,8 @@ static mlr_status eval_gcv_weighted(const mlr_layers *L, mlr_lay_batch *b, const
     if (bad)
         return mlr_diag_set(diag, MLR_E_SINGULAR, 0, 0,
                             "control smoothing of group %zu failed at s = %g: s is too large "
-                            "for %zu frames", col[bad - 1] / 3, s[bad - 1], n);
+                            "for %zu frames",
+                            col[bad - 1] / 3, s[bad - 1], n);
     mlr_lay_batch_solve(b, 3, comp, mm, x, mm, w->ebuf);
     double *rss = w->acc, *nw = w->acc + na; /* acc holds 3 ng doubles */
     for (size_t k = 0; k < na; k++)
@@ -221,8 +223,7 @@ static mlr_status eval_groups(const gcv_search *gs, size_t na, const double *y, 
     if (gs->rb)
         return eval_gcv_weighted(gs->L, gs->b, gs->s, na, gs->col, gs->delta, gs->rb, gs->comp,
                                  gs->x, gs->gcv, gs->dof, gs->w, diag);
-    return eval_gcv(gs->L, gs->b, gs->s, na, gs->col, y, gs->x, 0, gs->gcv,
-                    gs->dof, gs->w, diag);
+    return eval_gcv(gs->L, gs->b, gs->s, na, gs->col, y, gs->x, 0, gs->gcv, gs->dof, gs->w, diag);
 }
 
 /* The shared grid from control_s_min to control_s_max (one system for every group): each
@@ -285,8 +286,8 @@ static mlr_status grid_search(const gcv_search *gs, const mlr_layers_cfg *cfg, s
 
 /* Brent in lockstep, one system per group, from the grid's brackets (packed: the groups
  * packed in y when it is comp). */
-static mlr_status brent_search(const gcv_search *gs, size_t na, size_t packed,
-                               const double *y, mlr_diag *diag)
+static mlr_status brent_search(const gcv_search *gs, size_t na, size_t packed, const double *y,
+                               mlr_diag *diag)
 {
     const size_t n = gs->L->n, ng = 1 + gs->L->j;
     size_t *col = gs->col;
@@ -327,8 +328,22 @@ mlr_status mlr_layers_control(mlr_layers *L, const mlr_layers_cfg *cfg, const do
     brent *br = (brent *)(void *)(work + 5 * ng); /* 11 ng doubles */
     const gcv_work w = {work + 16 * ng, work + 17 * ng, work + 20 * ng, work + 23 * ng};
     double *x = L->control; /* packed solutions during the search; the layer at the end */
-    const gcv_search gs = {L, delta, rb, &b, col, comp, x, s, gcv, dof, searched, br, &w,
-                           work + 41 * ng, work + 42 * ng, work + 43 * ng};
+    const gcv_search gs = {L,
+                           delta,
+                           rb,
+                           &b,
+                           col,
+                           comp,
+                           x,
+                           s,
+                           gcv,
+                           dof,
+                           searched,
+                           br,
+                           &w,
+                           work + 41 * ng,
+                           work + 42 * ng,
+                           work + 43 * ng};
     mlr_status rc;
 
     for (size_t g = 0; g < ng; g++)

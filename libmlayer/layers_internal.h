@@ -48,9 +48,9 @@ typedef struct mlr_lay_robust {
 /* The weights of groups g0 + col[k] / cw (k < ns) packed into rb->wpk (n x ns), and the
  * weighted observations w y (the m channels col[k] .. col[k] + m - 1 of the rows of y, stride
  * ldy) packed into comp (stride m ns). ng = 1 + j. */
-void mlr_layers_pack_weighted(size_t n, size_t ng, const mlr_lay_robust *rb, size_t g0,
-                              size_t cw, const size_t *col, size_t ns, size_t m, const double *y,
-                              size_t ldy, double *comp);
+void mlr_layers_pack_weighted(size_t n, size_t ng, const mlr_lay_robust *rb, size_t g0, size_t cw,
+                              const size_t *col, size_t ns, size_t m, const double *y, size_t ldy,
+                              double *comp);
 
 /* Find the outlier frames of every group (layers_robust.c): iteratively reweighted LGS at
  * cfg->robust_s, per joint on the quaternions q (n x j x 4, unit, sign-continuous; realigned
@@ -60,9 +60,9 @@ void mlr_layers_pack_weighted(size_t n, size_t ng, const mlr_lay_robust *rb, siz
  * when some weight is below 1. fac: 3 n j doubles; fit: 4 n j doubles; rhs: 5 n j doubles;
  * work: 14 j doubles. */
 mlr_status mlr_layers_robust_weights(mlr_layers *L, const mlr_layers_cfg *cfg, double *q,
-                                     const double *root_pos, const mlr_lay_robust *rb,
-                                     double *fac, double *fit, double *rhs, double *work,
-                                     int *any, mlr_diag *diag);
+                                     const double *root_pos, const mlr_lay_robust *rb, double *fac,
+                                     double *fit, double *rhs, double *work, int *any,
+                                     mlr_diag *diag);
 
 /*
  * Batched LDL^T of ns pentadiagonal systems A_k = I + s_k L^T L (L the n-row second
@@ -96,8 +96,8 @@ size_t mlr_lay_batch_factor(mlr_lay_batch *b, const double *s);
 /* x = A_k^-1 y for every system: system k owns the m contiguous channels [k m, (k+1) m) of
  * the rows of y (stride ldy) and of x (stride ldx); x and y do not overlap. buf is scratch of
  * 3 m ns doubles. */
-void mlr_lay_batch_solve(const mlr_lay_batch *b, size_t m, const double *y, size_t ldy,
-                         double *x, size_t ldx, double *buf);
+void mlr_lay_batch_solve(const mlr_lay_batch *b, size_t m, const double *y, size_t ldy, double *x,
+                         size_t ldx, double *buf);
 
 /* acc[c] = sum_i (y_i[c] - x_i[c])^2 over the mm = m ns channels for x = A^-1 y (systems and
  * channels as for mlr_lay_batch_solve), without keeping x: z (stride ldz, not overlapping y)

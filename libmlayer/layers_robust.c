@@ -220,9 +220,9 @@ static mlr_status reweight(mlr_layers *L, const mlr_layers_cfg *cfg, const rgrou
 }
 
 mlr_status mlr_layers_robust_weights(mlr_layers *L, const mlr_layers_cfg *cfg, double *q,
-                                     const double *root_pos, const mlr_lay_robust *rb,
-                                     double *fac, double *fit, double *rhs, double *work,
-                                     int *any, mlr_diag *diag)
+                                     const double *root_pos, const mlr_lay_robust *rb, double *fac,
+                                     double *fit, double *rhs, double *work, int *any,
+                                     mlr_diag *diag)
 {
     const size_t n = L->n, j = L->j, ng = 1 + j;
     memset(L->outliers, 0, n * ng);
@@ -234,15 +234,15 @@ mlr_status mlr_layers_robust_weights(mlr_layers *L, const mlr_layers_cfg *cfg, d
     const rgroups joints = {j, 4, 1};
     int any_j = 0, any_r = 0;
     double *lev = rhs + 4 * n * j; /* rhs holds 5 n j doubles */
-    mlr_status rc = reweight(L, cfg, &joints, q, q, rb, fac, fit, rhs, lev, s, gate, buf,
-                             &any_j, diag);
+    mlr_status rc =
+        reweight(L, cfg, &joints, q, q, rb, fac, fit, rhs, lev, s, gate, buf, &any_j, diag);
     if (rc != MLR_OK)
         return rc;
     if (root_pos) {
         const rgroups root = {1, 3, 0};
         gate[0] = cfg->robust_length;
-        rc = reweight(L, cfg, &root, root_pos, NULL, rb, fac, fit, rhs, lev, s, gate, buf,
-                      &any_r, diag);
+        rc = reweight(L, cfg, &root, root_pos, NULL, rb, fac, fit, rhs, lev, s, gate, buf, &any_r,
+                      diag);
         if (rc != MLR_OK)
             return rc;
     }

@@ -75,17 +75,21 @@ static mlr_status check_params(size_t n_out, unsigned order, double lam, double 
     if (order != 1 && order != 2)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "order must be 1 or 2, got %u", order);
     if (!isfinite(lam) || lam < 0.0)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "lam must be finite and >= 0, got %g", lam);
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "lam must be finite and >= 0, got %g",
+                            lam);
     if (!isfinite(sigma) || !(sigma > 0.0))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "sigma must be finite and > 0, got %g", sigma);
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "sigma must be finite and > 0, got %g",
+                            sigma);
     if (n_out <= order)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "an order-%u prior needs at least %u frames, got %zu", order, order + 1, n_out);
+                            "an order-%u prior needs at least %u frames, got %zu", order,
+                            order + 1, n_out);
     if (!t) {
         if (n_obs != n_out)
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "without positions t the observations (%zu) must equal the output frames (%zu)",
-                                n_obs, n_out);
+            return mlr_diag_set(
+                diag, MLR_E_INVALID_ARG, 0, 0,
+                "without positions t the observations (%zu) must equal the output frames (%zu)",
+                n_obs, n_out);
         return MLR_OK;
     }
     if (n_obs == 0)
@@ -100,14 +104,16 @@ static mlr_status check_params(size_t n_out, unsigned order, double lam, double 
                                 "t[%zu] = %g is outside [0, n_out-1 = %zu]", i, t[i], n_out - 1);
         if (i > 0 && t[i] < t[i - 1])
             return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "t is not sorted: t[%zu] = %g < t[%zu] = %g", i, t[i], i - 1, t[i - 1]);
+                                "t is not sorted: t[%zu] = %g < t[%zu] = %g", i, t[i], i - 1,
+                                t[i - 1]);
         if (i == 0 || t[i] != t[i - 1])
             distinct++;
     }
     if (lam > 0.0 && distinct < order)
-        return mlr_diag_set(diag, MLR_E_SINGULAR, 0, 0,
-                            "an order-%u prior needs observations at %u distinct positions, got %zu",
-                            order, order, distinct);
+        return mlr_diag_set(
+            diag, MLR_E_SINGULAR, 0, 0,
+            "an order-%u prior needs observations at %u distinct positions, got %zu", order, order,
+            distinct);
     return MLR_OK;
 }
 
@@ -198,9 +204,9 @@ static mlr_status factor_banded(mlr_lgs *g, const system_ctx *ctx)
     return mlr_band_factor_in_place(b);
 }
 
-mlr_status mlr_lgs_create(size_t n_out, unsigned order, double lam, double sigma,
-                          const double *t, size_t n_obs, mlr_lgs_solver solver,
-                          const mlr_allocator *alloc, mlr_lgs **out, mlr_diag *diag)
+mlr_status mlr_lgs_create(size_t n_out, unsigned order, double lam, double sigma, const double *t,
+                          size_t n_obs, mlr_lgs_solver solver, const mlr_allocator *alloc,
+                          mlr_lgs **out, mlr_diag *diag)
 {
     if (!out)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "out is NULL");
@@ -213,7 +219,8 @@ mlr_status mlr_lgs_create(size_t n_out, unsigned order, double lam, double sigma
     if (solver != MLR_LGS_BANDED && solver != MLR_LGS_CHOLMOD)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "unknown solver %d", (int)solver);
     if (solver == MLR_LGS_CHOLMOD && !mlr_lgs_have_cholmod())
-        return mlr_diag_set(diag, MLR_E_UNSUPPORTED, 0, 0, "this build of mlayer has no CHOLMOD "
+        return mlr_diag_set(diag, MLR_E_UNSUPPORTED, 0, 0,
+                            "this build of mlayer has no CHOLMOD "
                             "(build it with SuiteSparse and -Dcholmod=enabled)");
 
     mlr_allocator a;
@@ -260,9 +267,10 @@ mlr_status mlr_lgs_create(size_t n_out, unsigned order, double lam, double sigma
     if (st < 0) {
         lgs_free(g);
         if (st == MLR_E_SINGULAR)
-            return mlr_diag_set(diag, st, 0, 0,
-                                "the system is singular: some output frames are not determined "
-                                "by the observations and the prior (lam = 0 with unobserved frames?)");
+            return mlr_diag_set(
+                diag, st, 0, 0,
+                "the system is singular: some output frames are not determined "
+                "by the observations and the prior (lam = 0 with unobserved frames?)");
         return mlr_diag_set(diag, st, 0, 0, "lgs: the %s factorization of %zu frames: %s",
                             solver == MLR_LGS_BANDED ? "banded" : "CHOLMOD", n_out,
                             mlr_status_string(st));
@@ -281,8 +289,7 @@ size_t mlr_lgs_n_out(const mlr_lgs *g) { return g ? g->n_out : 0; }
 size_t mlr_lgs_n_obs(const mlr_lgs *g) { return g ? g->n_obs : 0; }
 
 /* Row r of A^T y into x. */
-static void rhs_row(const mlr_lgs *g, size_t r, const double *y, size_t ldy, size_t m,
-                    double *xr)
+static void rhs_row(const mlr_lgs *g, size_t r, const double *y, size_t ldy, size_t m, double *xr)
 {
     for (size_t c = 0; c < m; c++)
         xr[c] = 0.0;

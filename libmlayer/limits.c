@@ -143,8 +143,8 @@ static mlr_status check_clips(const mlr_rig *rig, const mlr_limits_clip *clips, 
     for (size_t k = 0; k < n_clips; k++) {
         const mlr_limits_clip *c = &clips[k];
         if (c->n_frames == 0 || !c->rot)
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "limits: clip %zu has %s", k, c->rot ? "no frames" : "rot NULL");
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "limits: clip %zu has %s", k,
+                                c->rot ? "no frames" : "rot NULL");
         size_t nq;
         if (mlr_mul_size(c->n_frames, J, &nq) != MLR_OK || nq > SIZE_MAX / 4)
             return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "limits: clip %zu too large", k);
@@ -320,8 +320,8 @@ static void learn_centres(const learner *L)
                 const double n = sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2] + p[3] * p[3]);
                 mlr_quat q = {p[0] / n, p[1] / n, p[2] / n, p[3] / n};
                 acc *c = &ac[j];
-                const double d = c->qsum.w * q.w + c->qsum.x * q.x + c->qsum.y * q.y +
-                                 c->qsum.z * q.z;
+                const double d =
+                    c->qsum.w * q.w + c->qsum.x * q.x + c->qsum.y * q.y + c->qsum.z * q.z;
                 const double sg = d < 0 ? -1.0 : 1.0;
                 c->qsum.w += sg * q.w, c->qsum.x += sg * q.x, c->qsum.y += sg * q.y,
                     c->qsum.z += sg * q.z;
@@ -336,8 +336,8 @@ static void learn_centres(const learner *L)
         else
             jt[j].centre = (mlr_quat){1, 0, 0, 0};
         if (jt[j].centre.w < 0)
-            jt[j].centre = (mlr_quat){-jt[j].centre.w, -jt[j].centre.x, -jt[j].centre.y,
-                                      -jt[j].centre.z};
+            jt[j].centre =
+                (mlr_quat){-jt[j].centre.w, -jt[j].centre.x, -jt[j].centre.y, -jt[j].centre.z};
         const double xn = norm3(ac[j].xsum);
         const double scale = norm3(jt[j].bone_in) * norm3(jt[j].bone_out);
         if (scale > 0 && xn > 1e-9 * scale)
@@ -487,9 +487,8 @@ static int find_hinges(const learner *L, int human_opt)
             const double ls = trs > 0 ? top_eigen(ms, &es) : 0.0;
             if (trs > 0 && ls / trs >= 0.5 && fabs(dot3(qrot(g->centre, es), g->axis)) >= cos35)
                 is_hinge[j] = named;
-        }
-        else if (!rig->names && conc >= 0.9 && along >= cos35 &&
-                 g->stats[1] - g->stats[0] >= 30.0 * DEG && rig->parents[j] > 0)
+        } else if (!rig->names && conc >= 0.9 && along >= cos35 &&
+                   g->stats[1] - g->stats[0] >= 30.0 * DEG && rig->parents[j] > 0)
             is_hinge[j] = 1;
         if (named && is_hinge[j]) {
             const double len = norm3(g->bone_in) + norm3(g->bone_out);
@@ -572,8 +571,9 @@ mlr_status mlr_limits_create(const mlr_rig *rig, const mlr_limits_clip *clips, s
     mlr_allocator_resolve(alloc, &a);
     size_t jbytes, sbytes;
     if (mlr_mul_size(J, sizeof(mlr_limits_joint), &jbytes) != MLR_OK ||
-        mlr_mul_size(J, sizeof(acc) + 4 * sizeof(int32_t) + 2 * sizeof(mlr_quat) +
-                            sizeof(mlr_vec3), &sbytes) != MLR_OK)
+        mlr_mul_size(J,
+                     sizeof(acc) + 4 * sizeof(int32_t) + 2 * sizeof(mlr_quat) + sizeof(mlr_vec3),
+                     &sbytes) != MLR_OK)
         return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "limits: too many joints");
     mlr_limits *lim = mlr_alloc(&a, sizeof *lim);
     if (!lim)
@@ -642,11 +642,11 @@ mlr_status mlr_limits_set_range(mlr_limits *lim, size_t joint, const mlr_limits_
             return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                                 "limits: joint %zu has no thigh and shin vectors for a hinge",
                                 joint);
-        if (!isfinite(r.lo) || !isfinite(r.hi) || !(r.lo > -PI) || !(r.hi <= PI) ||
-            !(r.lo < r.hi))
+        if (!isfinite(r.lo) || !isfinite(r.hi) || !(r.lo > -PI) || !(r.hi <= PI) || !(r.lo < r.hi))
             return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                                 "limits: joint %zu hinge range [%g, %g] must satisfy "
-                                "-pi < lo < hi <= pi", joint, r.lo, r.hi);
+                                "-pi < lo < hi <= pi",
+                                joint, r.lo, r.hi);
         break;
     case MLR_LIMITS_SWING_TWIST:
         if (!isfinite(r.swing) || !isfinite(r.twist) || !(r.swing > 0) || !(r.swing <= PI) ||
@@ -666,8 +666,7 @@ mlr_status mlr_limits_set_range(mlr_limits *lim, size_t joint, const mlr_limits_
 }
 
 mlr_status mlr_limits_get_geometry(const mlr_limits *lim, size_t joint, double *centre,
-                                   double *axis, double *bone_in, double *bone_out,
-                                   double *stats)
+                                   double *axis, double *bone_in, double *bone_out, double *stats)
 {
     if (!lim || joint >= lim->n_joints)
         return MLR_E_INVALID_ARG;
@@ -744,8 +743,9 @@ static double fast_bound(const mlr_limits *lim, const mlr_limits_joint *g, doubl
     const mlr_limits_range *r = &g->range;
     const double wide = r->widen ? fmax(1.0, fabs(alpha)) : 1.0;
     const double smax = fmin(PI, r->swing * wide), tmax = fmin(PI, r->twist * wide);
-    const double k = norm3(g->bone_out) > 0 ? fmin(smax - lim->soft * smax, tmax - lim->soft * tmax)
-                                            : smax - lim->soft * smax;
+    const double k = norm3(g->bone_out) > 0
+                         ? fmin(smax - lim->soft * smax, tmax - lim->soft * tmax)
+                         : smax - lim->soft * smax;
     if (!(k > 0))
         return -1.0;
     const double sh = sin(0.5 * k);
@@ -865,8 +865,8 @@ static int limit_joint(const mlr_limits_joint *g, const joint_bounds *b, mlr_qua
     return 1;
 }
 
-void mlr_limits_apply_frame(const mlr_limits *lim, mlr_quat *q, const double *alpha,
-                            size_t stride, size_t *counts)
+void mlr_limits_apply_frame(const mlr_limits *lim, mlr_quat *q, const double *alpha, size_t stride,
+                            size_t *counts)
 {
     for (size_t j = 0; j < lim->n_joints; j++) {
         const double a = alpha ? alpha[stride * j] : 1.0;
@@ -930,8 +930,8 @@ void mlr_limits_apply_kind_masked(const mlr_limits *lim, size_t n_frames, mlr_qu
 }
 
 mlr_status mlr_limits_apply(const mlr_limits *lim, size_t n_frames, const double *rot_in,
-                            double *rot_out, const double *alpha, size_t n_alpha,
-                            size_t *counts, size_t n_counts, mlr_diag *diag)
+                            double *rot_out, const double *alpha, size_t n_alpha, size_t *counts,
+                            size_t n_counts, mlr_diag *diag)
 {
     if (!lim)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "limits: limits is NULL");

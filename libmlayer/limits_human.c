@@ -125,8 +125,7 @@ void mlr_limits_classify(const mlr_rig *rig, const int *is_hinge, const int32_t 
     for (size_t j = 1; j < J; j++) { /* toes: below an ankle; clavicle: above a shoulder */
         const int32_t p = rig->parents[j];
         if (cls[j] == MLR_LIMITS_CLASS_OTHER && p > 0 &&
-            (cls[p] == MLR_LIMITS_CLASS_ANKLE || cls[p] == MLR_LIMITS_CLASS_TOE) &&
-            !is_hinge[j])
+            (cls[p] == MLR_LIMITS_CLASS_ANKLE || cls[p] == MLR_LIMITS_CLASS_TOE) && !is_hinge[j])
             cls[j] = MLR_LIMITS_CLASS_TOE;
         if (cls[j] == MLR_LIMITS_CLASS_SHOULDER && p > 0 && cls[p] == MLR_LIMITS_CLASS_OTHER &&
             !name_has(rig, (size_t)p, "spine", "chest"))

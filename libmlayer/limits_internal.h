@@ -72,7 +72,7 @@ void mlr_limits_apply_kind(const mlr_limits *lim, size_t n_frames, mlr_quat *rot
 void mlr_limits_apply_kind_masked(const mlr_limits *lim, size_t n_frames, mlr_quat *rot,
                                   const double *alpha, size_t n_alpha, size_t *counts, int kind,
                                   const uint8_t *mask);
-void mlr_limits_apply_frame(const mlr_limits *lim, mlr_quat *q, const double *alpha,
-                            size_t stride, size_t *counts);
+void mlr_limits_apply_frame(const mlr_limits *lim, mlr_quat *q, const double *alpha, size_t stride,
+                            size_t *counts);
 
 #endif /* MLR_LIMITS_INTERNAL_H */

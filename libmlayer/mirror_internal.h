@@ -19,9 +19,9 @@ int mlr_mirror_next_candidate(const char *name, size_t len, mlr_mirror_cursor *c
 
 /* mlr_mirror_pairs without its checks of the permutation (rig already checked): the pairs
  * by the given names and the rules, for uses that need no mirror (the body's left side). */
-mlr_status mlr_mirror_find_pairs(const mlr_rig *rig, const char *const *given,
-                                 size_t n_given, unsigned flags, int32_t *partner, int8_t *side,
-                                 size_t *n_pairs, const mlr_allocator *alloc, mlr_diag *diag);
+mlr_status mlr_mirror_find_pairs(const mlr_rig *rig, const char *const *given, size_t n_given,
+                                 unsigned flags, int32_t *partner, int8_t *side, size_t *n_pairs,
+                                 const mlr_allocator *alloc, mlr_diag *diag);
 
 /* Row of joint j in rig->trans_joints (strictly increasing), or -1. */
 static inline long mlr_rig_trans_row(const mlr_rig *rig, int32_t j)

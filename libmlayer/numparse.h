@@ -27,7 +27,7 @@ extern const double mlr_pow10_exact[23];
 
 #if defined(__GNUC__) && defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__ && \
     defined(FLT_EVAL_METHOD) && FLT_EVAL_METHOD == 0
-#  define MLR_NUMPARSE_SWAR 1
+#define MLR_NUMPARSE_SWAR 1
 
 /* The leading decimal digits among the 8 bytes at s (all readable): their count (0 to 8) and,
  * when the count is below 8, their value. */
@@ -52,7 +52,8 @@ static inline unsigned mlr_digits8(const char *s, uint32_t *value)
     uint64_t d = t << (8 * (8 - n));
     d = d * 10 + (d >> 8);
     d = (((d & UINT64_C(0x000000FF000000FF)) * UINT64_C(0x000F424000000064)) +
-         (((d >> 16) & UINT64_C(0x000000FF000000FF)) * UINT64_C(0x0000271000000001))) >> 32;
+         (((d >> 16) & UINT64_C(0x000000FF000000FF)) * UINT64_C(0x0000271000000001))) >>
+        32;
     *value = (uint32_t)d;
     return n;
 }

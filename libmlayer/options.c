@@ -61,8 +61,8 @@ mlr_status mlr_option_reject(mlr_diag *diag, const char *subject, const char *na
         va_start(ap, why);
         vsnprintf(text, sizeof text, why, ap);
         va_end(ap);
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: option %s = %g is not %s",
-                            subject, name, value, text);
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: option %s = %g is not %s", subject,
+                            name, value, text);
     }
     return MLR_E_INVALID_ARG;
 }

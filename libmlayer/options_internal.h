@@ -58,8 +58,8 @@ mlr_status mlr_options_read(const char *subject, const mlr_opt_spec *spec, size_
                             const int *key0, const double *value0, size_t stride, size_t n_opts,
                             mlr_opt_values *out, mlr_diag *diag);
 
-#define MLR_OPTIONS_READ(subject, spec, opts, n_opts, out, diag)                                 \
-    mlr_options_read((subject), (spec), MLR_COUNTOF(spec), (opts) ? &(opts)->key : NULL,       \
+#define MLR_OPTIONS_READ(subject, spec, opts, n_opts, out, diag)                         \
+    mlr_options_read((subject), (spec), MLR_COUNTOF(spec), (opts) ? &(opts)->key : NULL, \
                      (opts) ? &(opts)->value : NULL, sizeof *(opts), (n_opts), (out), (diag))
 
 /* "SUBJECT: option NAME = V is not WHY..." (WHY a printf format); MLR_E_INVALID_ARG. */

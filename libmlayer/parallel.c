@@ -7,7 +7,7 @@
 #include <sched.h>
 #include <stdatomic.h>
 #if defined(__unix__) || defined(__APPLE__)
-#  include <unistd.h>
+#include <unistd.h>
 #endif
 
 typedef struct par_ctx {

@@ -19,8 +19,7 @@ void mlr_parallel_run(size_t n_threads, size_t n_tasks, mlr_task_fn fn, void *ct
  * n_threads-1 (for per-thread scratch). Tasks are handed out in increasing order, so a task may
  * wait for something an earlier task publishes early in its run (its thread is running). */
 typedef void (*mlr_task_worker_fn)(void *ctx, size_t task, size_t worker);
-void mlr_parallel_run_workers(size_t n_threads, size_t n_tasks, mlr_task_worker_fn fn,
-                              void *ctx);
+void mlr_parallel_run_workers(size_t n_threads, size_t n_tasks, mlr_task_worker_fn fn, void *ctx);
 
 /* Wait until *a is not 0 and return it (an acquire load): spins a little, then yields the
  * processor at each look (the thread that is to publish may have lost its own). */

@@ -4,8 +4,8 @@
 
 #include <stdint.h>
 #if defined(__unix__) || defined(__APPLE__)
-#  include <sys/mman.h>
-#  include <unistd.h>
+#include <sys/mman.h>
+#include <unistd.h>
 #endif
 
 /* Pieces of 2 MiB (a huge page): small enough that a stop request is seen quickly. */

@@ -84,16 +84,14 @@ void mlr_quat_conj_array(const mlr_quat *q, size_t count, mlr_quat *out)
  * With GCC on x86-64 the vector loops get an AVX2 clone chosen at load time.
  */
 #define QBLK 32
-#define PAD4(m) (((m) + 3) & ~(size_t)3) /* vector loops run over whole vectors: lanes past m
+#define PAD4(m) \
+    (((m) + 3) & ~(size_t)3) /* vector loops run over whole vectors: lanes past m
                                             hold identities (never stored) */
 #define FAST_LO 0x1p-250
 #define FAST_HI 0x1p+250
 
 /* Larger of two (a NaN may be dropped: callers test for NaN apart, see finite4). */
-static inline double vmax(double a, double b)
-{
-    return a > b ? a : b;
-}
+static inline double vmax(double a, double b) { return a > b ? a : b; }
 
 /* 1 when a, b, c, d are all finite (0 * inf and NaN give NaN), without branches. */
 static inline int finite4(double a, double b, double c, double d)
@@ -118,8 +116,8 @@ static inline double select_bits(int c, double a, double b)
 /* The m quaternions at q into SoA copies w, x, y, z; 1 when every component is finite and the
  * largest |component| of every quaternion lies in [lo, hi]. */
 static inline int block_load(const mlr_quat *restrict q, size_t m, double *restrict w,
-                             double *restrict x, double *restrict y, double *restrict z,
-                             double lo, double hi)
+                             double *restrict x, double *restrict y, double *restrict z, double lo,
+                             double hi)
 {
     int bad = 0;
     for (size_t i = 0; i < m; i++) {
@@ -152,15 +150,13 @@ static int normalize_fast(const mlr_quat *q, size_t m, mlr_quat *out)
 mlr_status mlr__quat_bad_elements(mlr_diag *diag, const char *fn, const char *arg,
                                   const char *what, size_t first, size_t n_bad, size_t count)
 {
-    return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                        "%s: %s: %zu of %zu %s %s, the first at index %zu", fn, arg, n_bad, count,
-                        what, strcmp(what, "quaternions") ? "NaN or infinite"
-                                                          : "zero, NaN or infinite",
-                        first);
+    return mlr_diag_set(
+        diag, MLR_E_INVALID_ARG, 0, 0, "%s: %s: %zu of %zu %s %s, the first at index %zu", fn, arg,
+        n_bad, count, what,
+        strcmp(what, "quaternions") ? "NaN or infinite" : "zero, NaN or infinite", first);
 }
 
-mlr_status mlr_quat_normalize_array(const mlr_quat *q, size_t count, mlr_quat *out,
-                                    mlr_diag *diag)
+mlr_status mlr_quat_normalize_array(const mlr_quat *q, size_t count, mlr_quat *out, mlr_diag *diag)
 {
     if (count == 0)
         return MLR_OK;
@@ -299,14 +295,18 @@ static inline double atan2_pos(double s, double w)
     const double t = select_bits(i1, n1, select_bits(i0, n0, x)) /
                      select_bits(i1, d1, select_bits(i0, d0, 1.0));
     /* atan(c) (or pi/2 - atan(c) when big) as hi + lo */
-    const double hi = big ? (i1 ? 7.85398163397448278999e-01
-                                : i0 ? 1.10714871779409040897e+00 : 1.57079632679489655800e+00)
-                          : (i1 ? 7.85398163397448278999e-01
-                                : i0 ? 4.63647609000806093515e-01 : 0.0);
-    const double lo = big ? (i1 ? 3.06161699786838301793e-17
-                                : i0 ? 9.40447137356637995390e-17 : 6.12323399573676603587e-17)
-                          : (i1 ? 3.06161699786838301793e-17
-                                : i0 ? 2.26987774529616870924e-17 : 0.0);
+    const double hi = big ? (i1   ? 7.85398163397448278999e-01
+                             : i0 ? 1.10714871779409040897e+00
+                                  : 1.57079632679489655800e+00)
+                          : (i1   ? 7.85398163397448278999e-01
+                             : i0 ? 4.63647609000806093515e-01
+                                  : 0.0);
+    const double lo = big ? (i1   ? 3.06161699786838301793e-17
+                             : i0 ? 9.40447137356637995390e-17
+                                  : 6.12323399573676603587e-17)
+                          : (i1   ? 3.06161699786838301793e-17
+                             : i0 ? 2.26987774529616870924e-17
+                                  : 0.0);
     const double u = big ? -t : t;
     const double z = t * t, w2 = z * z;
     const double s1 = z * (T0 + w2 * (T2 + w2 * (T4 + w2 * (T6 + w2 * (T8 + w2 * T10)))));
@@ -465,7 +465,7 @@ mlr_status mlr_quat_slerp_array(const mlr_quat *a, const mlr_quat *b, const doub
         const double dw = p.w - r.w, dx = p.x - r.x, dy = p.y - r.y, dz = p.z - r.z;
         const double sw = p.w + r.w, sx = p.x + r.x, sy = p.y + r.y, sz = p.z + r.z;
         const double theta = 2.0 * atan2(sqrt(dw * dw + dx * dx + dy * dy + dz * dz),
-                                          sqrt(sw * sw + sx * sx + sy * sy + sz * sz));
+                                         sqrt(sw * sw + sx * sx + sy * sy + sz * sz));
         const double u = 1.0 - ti;
         const double sinc_theta = sinc(theta);
         const double ka = u * sinc(u * theta) / sinc_theta;

@@ -11,8 +11,8 @@ void mlr_quat_make_continuous(mlr_quat *q, size_t n_frames, size_t n_tracks)
         const mlr_quat *prev = &q[(f - 1) * n_tracks];
         mlr_quat *cur = &q[f * n_tracks];
         for (size_t j = 0; j < n_tracks; j++) {
-            const double d = prev[j].w * cur[j].w + prev[j].x * cur[j].x +
-                             prev[j].y * cur[j].y + prev[j].z * cur[j].z;
+            const double d = prev[j].w * cur[j].w + prev[j].x * cur[j].x + prev[j].y * cur[j].y +
+                             prev[j].z * cur[j].z;
             if (d < 0.0) {
                 cur[j].w = -cur[j].w;
                 cur[j].x = -cur[j].x;
@@ -51,8 +51,7 @@ static void quat_conj_mul(const mlr_quat *a, const mlr_quat *b, mlr_quat *out)
     mlr_quat_mul(&ca, b, out);
 }
 
-void mlr_quat_continue_sign(const mlr_quat *prev, size_t n_prev, const mlr_quat *q,
-                            mlr_quat *out)
+void mlr_quat_continue_sign(const mlr_quat *prev, size_t n_prev, const mlr_quat *q, mlr_quat *out)
 {
     if (!q || !out)
         return;

@@ -22,9 +22,12 @@ static inline int mlr__quat_is_finite(const mlr_quat *q)
 static inline double mlr__max4_abs(double a, double b, double c, double d)
 {
     double m = fabs(a);
-    if (fabs(b) > m) m = fabs(b);
-    if (fabs(c) > m) m = fabs(c);
-    if (fabs(d) > m) m = fabs(d);
+    if (fabs(b) > m)
+        m = fabs(b);
+    if (fabs(c) > m)
+        m = fabs(c);
+    if (fabs(d) > m)
+        m = fabs(d);
     return m;
 }
 

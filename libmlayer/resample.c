@@ -32,7 +32,8 @@ static mlr_status check_factor(double r, unsigned flags, mlr_diag *diag)
     if (r > lim * (1.0 + FACTOR_SLACK) || r < (1.0 - FACTOR_SLACK) / lim)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                             "resampling factor %g is beyond %gx (set the flag allow_extreme "
-                            "if this is intended)", r >= 1.0 ? r : 1.0 / r, lim);
+                            "if this is intended)",
+                            r >= 1.0 ? r : 1.0 / r, lim);
     return MLR_OK;
 }
 
@@ -89,8 +90,8 @@ mlr_status mlr_resample_rate_map(size_t n_frames, double fps_in, double fps_out,
 {
     if (!t || !n_out)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "t or n_out is NULL");
-    mlr_status st = mlr_resample_n_out(n_frames, fps_in, fps_out, flags | MLR_RESAMPLE_OPEN_END,
-                                       n_out, diag);
+    mlr_status st =
+        mlr_resample_n_out(n_frames, fps_in, fps_out, flags | MLR_RESAMPLE_OPEN_END, n_out, diag);
     if (st != MLR_OK)
         return st;
     for (size_t i = 0; i < n_frames; i++)
@@ -117,7 +118,8 @@ mlr_status mlr_timemap_validate(const double *t, size_t n_frames, size_t n_out, 
     const double last = (double)(n_out - 1);
     for (size_t i = 0; i < n_frames; i++)
         if (!isfinite(t[i]))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "time map: t[%zu] is not finite", i);
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "time map: t[%zu] is not finite",
+                                i);
     if (t[0] != 0.0)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                             "time map: t[0] must be 0 (the first frame stays put), got %g", t[0]);
@@ -125,12 +127,13 @@ mlr_status mlr_timemap_validate(const double *t, size_t n_frames, size_t n_out, 
         if (!(t[n_frames - 1] >= last && t[n_frames - 1] < last + 1.0))
             return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                                 "time map: t[%zu] must lie in [n_out - 1, n_out) = [%zu, %zu) "
-                                "(open end), got %g", n_frames - 1, n_out - 1, n_out,
-                                t[n_frames - 1]);
+                                "(open end), got %g",
+                                n_frames - 1, n_out - 1, n_out, t[n_frames - 1]);
     } else if (t[n_frames - 1] != last) {
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "time map: t[%zu] must be n_out - 1 = %zu (the last frame stays put), got %g",
-                            n_frames - 1, n_out - 1, t[n_frames - 1]);
+        return mlr_diag_set(
+            diag, MLR_E_INVALID_ARG, 0, 0,
+            "time map: t[%zu] must be n_out - 1 = %zu (the last frame stays put), got %g",
+            n_frames - 1, n_out - 1, t[n_frames - 1]);
     }
     mlr_status st = check_factor(t[n_frames - 1] / (double)(n_frames - 1), flags, diag);
     if (st != MLR_OK)
@@ -144,10 +147,11 @@ mlr_status mlr_timemap_validate(const double *t, size_t n_frames, size_t n_out, 
                                 "time map is not strictly increasing: t[%zu] = %g, t[%zu] = %g",
                                 i - 1, t[i - 1], i, t[i]);
         if (!extreme_ok(flags) && (d < lo || d > hi))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "time map step t[%zu] - t[%zu] = %g is beyond the %gx factor limit "
-                                "(set the flag allow_extreme if this is intended)",
-                                i, i - 1, d, MLR_RESAMPLE_MAX_FACTOR);
+            return mlr_diag_set(
+                diag, MLR_E_INVALID_ARG, 0, 0,
+                "time map step t[%zu] - t[%zu] = %g is beyond the %gx factor limit "
+                "(set the flag allow_extreme if this is intended)",
+                i, i - 1, d, MLR_RESAMPLE_MAX_FACTOR);
     }
     return MLR_OK;
 }
@@ -187,11 +191,12 @@ static mlr_status check_motion(size_t n_frames, size_t n_joints, size_t n_trans,
     if (n_trans > 0 && (!trans || !trans_out))
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "trans or trans_out is NULL");
     size_t tmp;
-    if (mlr_mul_size(n_frames, 3 * sizeof(double), &tmp) || mlr_mul_size(n_out, 3 * sizeof(double), &tmp) ||
-        mlr_mul_size(n_frames, n_joints, &tmp) || mlr_mul_size(tmp, 4 * sizeof(double), &tmp) ||
-        mlr_mul_size(n_out, n_joints, &tmp) || mlr_mul_size(tmp, 4 * sizeof(double), &tmp) ||
-        mlr_mul_size(n_frames, n_trans, &tmp) || mlr_mul_size(tmp, 3 * sizeof(double), &tmp) ||
-        mlr_mul_size(n_out, n_trans, &tmp) || mlr_mul_size(tmp, 3 * sizeof(double), &tmp))
+    if (mlr_mul_size(n_frames, 3 * sizeof(double), &tmp) ||
+        mlr_mul_size(n_out, 3 * sizeof(double), &tmp) || mlr_mul_size(n_frames, n_joints, &tmp) ||
+        mlr_mul_size(tmp, 4 * sizeof(double), &tmp) || mlr_mul_size(n_out, n_joints, &tmp) ||
+        mlr_mul_size(tmp, 4 * sizeof(double), &tmp) || mlr_mul_size(n_frames, n_trans, &tmp) ||
+        mlr_mul_size(tmp, 3 * sizeof(double), &tmp) || mlr_mul_size(n_out, n_trans, &tmp) ||
+        mlr_mul_size(tmp, 3 * sizeof(double), &tmp))
         return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "array sizes overflow");
     return MLR_OK;
 }
@@ -212,8 +217,8 @@ static mlr_status check_translations(size_t n_frames, size_t n_trans, const doub
 {
     size_t bad;
     if (!all_finite(root_pos, n_frames * 3, &bad))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "root_pos of frame %zu is not finite", bad / 3);
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "root_pos of frame %zu is not finite",
+                            bad / 3);
     if (n_trans > 0 && !all_finite(trans, n_frames * n_trans * 3, &bad))
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                             "trans of frame %zu, joint %zu is not finite", bad / (3 * n_trans),
@@ -244,8 +249,8 @@ static mlr_status bad_rot(mlr_diag *diag, size_t f, size_t j)
 /* The arguments of mlr_resample_arrays after check_motion: sigma, lam, the time map (or the
  * uniform factor) and the translations. */
 static mlr_status check_smoothing(size_t n_frames, size_t n_trans, const double *root_pos,
-                                  const double *trans, const double *t, size_t n_out,
-                                  double lam, double sigma, unsigned flags, mlr_diag *diag)
+                                  const double *trans, const double *t, size_t n_out, double lam,
+                                  double sigma, unsigned flags, mlr_diag *diag)
 {
     if (!isfinite(sigma) || !(sigma > 0.0))
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "sigma must be finite and > 0, got %g",
@@ -393,16 +398,18 @@ mlr_status mlr_resample_arrays(size_t n_frames, size_t n_joints, size_t n_trans,
     mlr_status st = check_motion(n_frames, n_joints, n_trans, root_pos, rot, trans, n_out, flags,
                                  root_out, rot_out, trans_out, diag);
     if (st == MLR_OK)
-        st = check_smoothing(n_frames, n_trans, root_pos, trans, t, n_out, lam, sigma, flags,
-                             diag);
+        st =
+            check_smoothing(n_frames, n_trans, root_pos, trans, t, n_out, lam, sigma, flags, diag);
     if (st != MLR_OK)
         return st;
     /* an open end past the last output frame: the LGS solves one hidden frame more */
-    const size_t n_grid = t && (flags & MLR_RESAMPLE_OPEN_END) &&
-                                  t[n_frames - 1] > (double)(n_out - 1) ? n_out + 1 : n_out;
+    const size_t n_grid =
+        t && (flags & MLR_RESAMPLE_OPEN_END) && t[n_frames - 1] > (double)(n_out - 1) ? n_out + 1
+                                                                                      : n_out;
     if (lam < 0.0)
         lam = sqrt(auto_smoothness((t ? t[n_frames - 1] : (double)(n_out - 1)) /
-                                   (double)(n_frames - 1))) / sigma;
+                                   (double)(n_frames - 1))) /
+              sigma;
 
     resample_work w;
     memset(&w, 0, sizeof w);
@@ -432,9 +439,8 @@ mlr_status mlr_resample_arrays(size_t n_frames, size_t n_joints, size_t n_trans,
             memcpy(var_out, g.var, n_out * sizeof(double));
     }
     work_free(&w);
-    if (n_joints > 0 &&
-        mlr_quat_normalize_array((const mlr_quat *)rot_out, n_out * n_joints,
-                                 (mlr_quat *)rot_out, NULL) != MLR_OK)
+    if (n_joints > 0 && mlr_quat_normalize_array((const mlr_quat *)rot_out, n_out * n_joints,
+                                                 (mlr_quat *)rot_out, NULL) != MLR_OK)
         return mlr_diag_set(diag, MLR_E_SINGULAR, 0, 0,
                             "an interpolated quaternion vanished (a key step near 360 degrees?)");
     return created;
@@ -491,8 +497,8 @@ mlr_status mlr_slerp_resample_arrays(size_t n_frames, size_t n_joints, size_t n_
             const size_t cnt = n_joints - j0 < CHUNK ? n_joints - j0 : CHUNK;
             const mlr_quat *qa = (const mlr_quat *)(rot + 4 * (n_joints * k + j0));
             const mlr_quat *qb = qa + n_joints;
-            mlr_quat_slerp_array(qa, qb, u_rep, cnt, (mlr_quat *)(rot_out + 4 * (n_joints * j + j0)),
-                                 NULL);
+            mlr_quat_slerp_array(qa, qb, u_rep, cnt,
+                                 (mlr_quat *)(rot_out + 4 * (n_joints * j + j0)), NULL);
         }
     }
     return MLR_OK;

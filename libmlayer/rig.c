@@ -118,17 +118,15 @@ mlr_status mlr_rig_find_point(const mlr_rig *rig, const char *name, int32_t *joi
                     *end_site = (int32_t)e;
                     return MLR_OK;
                 }
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "joint '%.80s' has no End Site", s);
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "joint '%.80s' has no End Site", s);
         }
     }
     return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                         "no joint named '%.80s' ('Joint/End' names a joint's End Site)", name);
 }
 
-mlr_status mlr_rig_point_positions(const mlr_rig *rig, size_t n_frames,
-                                   const double *world_pos, const double *world_rot,
-                                   size_t n_points, const int32_t *joints,
+mlr_status mlr_rig_point_positions(const mlr_rig *rig, size_t n_frames, const double *world_pos,
+                                   const double *world_rot, size_t n_points, const int32_t *joints,
                                    const int32_t *end_sites, double *out, mlr_diag *diag)
 {
     if (!rig || (n_frames && n_points && (!world_pos || !joints || !out)))
@@ -139,8 +137,8 @@ mlr_status mlr_rig_point_positions(const mlr_rig *rig, size_t n_frames,
             return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                                 "point %zu: joint %d outside [0, %zu)", c, (int)joints[c], J);
         int32_t e = end_sites ? end_sites[c] : -1;
-        if (e < -1 || (e >= 0 && ((size_t)e >= rig->n_end_sites ||
-                                  rig->end_site_parents[e] != joints[c])))
+        if (e < -1 ||
+            (e >= 0 && ((size_t)e >= rig->n_end_sites || rig->end_site_parents[e] != joints[c])))
             return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                                 "point %zu: End Site %d is not below joint %d", c, (int)e,
                                 (int)joints[c]);
@@ -174,19 +172,21 @@ static int cmp_double(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
-mlr_status mlr_rig_body_height(size_t n_frames, size_t n_joints, const double *world_pos,
-                               int up, double *height, const mlr_allocator *alloc,
-                               mlr_diag *diag)
+mlr_status mlr_rig_body_height(size_t n_frames, size_t n_joints, const double *world_pos, int up,
+                               double *height, const mlr_allocator *alloc, mlr_diag *diag)
 {
     if (!world_pos || !height)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "body_height: world_pos or height is "
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "body_height: world_pos or height is "
                             "NULL");
     if (n_frames == 0 || n_joints == 0)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                             "body_height: needs at least one frame and one joint");
     if (up < MLR_AXIS_X || up > MLR_AXIS_Z)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "body_height: up axis %d is not "
-                            "0 (X), 1 (Y) or 2 (Z)", up);
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "body_height: up axis %d is not "
+                            "0 (X), 1 (Y) or 2 (Z)",
+                            up);
     size_t bytes;
     if (mlr_mul_size(n_frames, sizeof(double), &bytes) != MLR_OK)
         return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0,
@@ -205,7 +205,8 @@ mlr_status mlr_rig_body_height(size_t n_frames, size_t n_joints, const double *w
                 mlr_free(&a, ext, bytes);
                 return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                                     "body_height: position of joint %zu at frame %zu is not "
-                                    "finite", j, f);
+                                    "finite",
+                                    j, f);
             }
             lo = y < lo ? y : lo;
             hi = y > hi ? y : hi;
@@ -214,8 +215,7 @@ mlr_status mlr_rig_body_height(size_t n_frames, size_t n_joints, const double *w
     }
     qsort(ext, n_frames, sizeof(double), cmp_double);
     /* numpy's median: the mean of the two middle values for an even count */
-    *height = n_frames % 2 ? ext[n_frames / 2]
-                           : 0.5 * (ext[n_frames / 2 - 1] + ext[n_frames / 2]);
+    *height = n_frames % 2 ? ext[n_frames / 2] : 0.5 * (ext[n_frames / 2 - 1] + ext[n_frames / 2]);
     mlr_free(&a, ext, bytes);
     return MLR_OK;
 }
@@ -275,7 +275,8 @@ mlr_status mlr_rig_body_translation_joint(const mlr_rig *rig, size_t n_frames,
                                           int32_t *joint, mlr_diag *diag)
 {
     if (!joint)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "body_translation_joint: joint is NULL");
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "body_translation_joint: joint is NULL");
     *joint = 0;
     mlr_status st = mlr_rig_check(rig, diag);
     if (st != MLR_OK)
@@ -289,12 +290,13 @@ mlr_status mlr_rig_body_translation_joint(const mlr_rig *rig, size_t n_frames,
     double amax = 0.0;
     for (size_t f = 0; f < n_frames; f++)
         for (size_t k = 0; k < 3 * (1 + P); k++) {
-            const double v = k < 3 ? (root_pos ? root_pos[3 * f + k] : 0.0)
-                                   : trans[3 * P * f + k - 3];
+            const double v =
+                k < 3 ? (root_pos ? root_pos[3 * f + k] : 0.0) : trans[3 * P * f + k - 3];
             if (!isfinite(v))
                 return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                                     "body_translation_joint: %s translation at frame %zu is "
-                                    "not finite", k < 3 ? "root" : "a trans joint's", f);
+                                    "not finite",
+                                    k < 3 ? "root" : "a trans joint's", f);
             amax = fabs(v) > amax ? fabs(v) : amax;
         }
     double size = rest_size(rig);

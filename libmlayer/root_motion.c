@@ -48,16 +48,20 @@ static mlr_status sided_pairs(const mlr_rig *rig, const mlr_allocator *a, int32_
         if (!rig->names[j])
             return MLR_OK;
     if (mlr_mul_size(J, sizeof(int32_t) + 1, bytes) != MLR_OK)
-        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, SUBJECT ": %zu joints overflow the "
-                            "size", J);
+        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0,
+                            SUBJECT ": %zu joints overflow the "
+                                    "size",
+                            J);
     *partner = mlr_alloc(a, *bytes);
     if (!*partner)
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, SUBJECT ": out of memory for the "
-                            "left/right pairs of %zu joints", J);
+        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                            SUBJECT ": out of memory for the "
+                                    "left/right pairs of %zu joints",
+                            J);
     *side = (int8_t *)(*partner + J);
     size_t n_pairs = 0;
-    const mlr_status st = mlr_mirror_find_pairs(rig, NULL, 0, 0, *partner, *side, &n_pairs, a,
-                                                diag);
+    const mlr_status st =
+        mlr_mirror_find_pairs(rig, NULL, 0, 0, *partner, *side, &n_pairs, a, diag);
     if (st != MLR_OK) {
         mlr_free(a, *partner, *bytes);
         *partner = NULL, *side = NULL;
@@ -105,24 +109,33 @@ static mlr_status check_args(const mlr_rig *rig, double fps, int up, int mode, s
     if (st != MLR_OK)
         return st;
     if (!(isfinite(fps) && fps > 0.0))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, SUBJECT ": fps %g is not finite "
-                            "and > 0", fps);
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            SUBJECT ": fps %g is not finite "
+                                    "and > 0",
+                            fps);
     if (up < MLR_AXIS_X || up > MLR_AXIS_Z)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, SUBJECT ": up axis %d is not 0 (x), "
-                            "1 (y) or 2 (z)", up);
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            SUBJECT ": up axis %d is not 0 (x), "
+                                    "1 (y) or 2 (z)",
+                            up);
     if (mode != MLR_ROOT_MOTION_GROUND && mode != MLR_ROOT_MOTION_POSITION)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, SUBJECT ": mode %d is not 0 "
-                            "(ground) or 1 (position)", mode);
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            SUBJECT ": mode %d is not 0 "
+                                    "(ground) or 1 (position)",
+                            mode);
     if (N == 0)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, SUBJECT ": no frames");
     if (!root_pos || !rot || (rig->n_trans && !trans))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, SUBJECT ": root_pos, rot or trans "
-                            "is NULL");
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            SUBJECT ": root_pos, rot or trans "
+                                    "is NULL");
     if (!track_pos || !track_heading || !out_root_pos || !out_root_rot)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, SUBJECT ": an output is NULL");
     if (ld_out_rot < 4)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, SUBJECT ": ld_out_rot %zu is below "
-                            "4", ld_out_rot);
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            SUBJECT ": ld_out_rot %zu is below "
+                                    "4",
+                            ld_out_rot);
     return MLR_OK;
 }
 
@@ -133,16 +146,22 @@ static mlr_status check_finite(const mlr_rig *rig, size_t N, const double *root_
     const size_t J = rig->n_joints, P = rig->n_trans;
     for (size_t k = 0; k < 3 * N; k++)
         if (!isfinite(root_pos[k]))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, SUBJECT ": root_pos[%zu][%zu] "
-                                "is not finite", k / 3, k % 3);
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                SUBJECT ": root_pos[%zu][%zu] "
+                                        "is not finite",
+                                k / 3, k % 3);
     for (size_t k = 0; k < 4 * N * J; k++)
         if (!isfinite(rot[k]))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, SUBJECT ": rot[%zu][%zu] is not "
-                                "finite", k / (4 * J), k / 4 % J);
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                SUBJECT ": rot[%zu][%zu] is not "
+                                        "finite",
+                                k / (4 * J), k / 4 % J);
     for (size_t k = 0; k < 3 * N * P; k++)
         if (!isfinite(trans[k]))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, SUBJECT ": trans[%zu][%zu] is "
-                                "not finite", k / (3 * P), k / 3 % P);
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                SUBJECT ": trans[%zu][%zu] is "
+                                        "not finite",
+                                k / (3 * P), k / 3 % P);
     return MLR_OK;
 }
 
@@ -156,8 +175,7 @@ static mlr_status smooth_track(double *y, size_t N, size_t n_ch, double smooth, 
     const double g = 2.0 * sin(arg < 0.5 * PI ? arg : 0.5 * PI);
     const double s = 1.0 / (g * g * g * g);
     mlr_lgs *lgs = NULL;
-    mlr_status st = mlr_lgs_create(N, 2, sqrt(s), 1.0, NULL, N, MLR_LGS_BANDED, alloc, &lgs,
-                                   diag);
+    mlr_status st = mlr_lgs_create(N, 2, sqrt(s), 1.0, NULL, N, MLR_LGS_BANDED, alloc, &lgs, diag);
     if (st < 0)
         return st;
     const mlr_status solved = mlr_lgs_solve(lgs, y, 3, n_ch, y, 3, diag);
@@ -206,24 +224,27 @@ mlr_status mlr_root_motion_extract(const mlr_rig *rig, double fps, int up, int m
     if (mlr_mul_size(N + J, 7, &n_doubles) != MLR_OK ||
         mlr_mul_size(n_doubles, sizeof(double), &bytes) != MLR_OK || bytes > SIZE_MAX - N) {
         mlr_free(&a, partner, pair_bytes);
-        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, SUBJECT ": %zu frames of %zu joints "
-                            "overflow the size", N, J);
+        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0,
+                            SUBJECT ": %zu frames of %zu joints "
+                                    "overflow the size",
+                            N, J);
     }
     bytes += N;
     double *y = mlr_alloc(&a, bytes);
     if (!y) {
         mlr_free(&a, partner, pair_bytes);
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, SUBJECT ": out of memory for the "
-                            "track of %zu frames", N);
+        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                            SUBJECT ": out of memory for the "
+                                    "track of %zu frames",
+                            N);
     }
     double *wb = y + 3 * N, *wpos = wb + 4 * N, *wrot = wpos + 3 * J;
     unsigned char *valid = (unsigned char *)(wrot + 4 * J);
     const size_t P = rig->n_trans;
     double left[3] = {0.0, 0.0, 0.0}, total = 0.0;
     for (size_t n = 0; n < N && st == MLR_OK; n++) {
-        st = mlr_fk_arrays(1, J, rig->parents, rig->offsets, root_pos + 3 * n, rot + 4 * J * n,
-                           P, rig->trans_joints, P ? trans + 3 * P * n : NULL, wpos, wrot, &a,
-                           diag);
+        st = mlr_fk_arrays(1, J, rig->parents, rig->offsets, root_pos + 3 * n, rot + 4 * J * n, P,
+                           rig->trans_joints, P ? trans + 3 * P * n : NULL, wpos, wrot, &a, diag);
         y[3 * n] = wpos[3 * (size_t)b + (size_t)g1];
         y[3 * n + 1] = wpos[3 * (size_t)b + (size_t)g2];
         y[3 * n + 2] = 0.0;
@@ -291,29 +312,38 @@ mlr_status mlr_root_motion_extract(const mlr_rig *rig, double fps, int up, int m
 
 mlr_status mlr_root_motion_apply(int up, size_t n_frames, const double *track_pos,
                                  const double *track_heading, const double *root_pos,
-                                 const double *root_rot, size_t ld_root_rot,
-                                 double *out_root_pos, double *out_root_rot, size_t ld_out_rot,
-                                 mlr_diag *diag)
+                                 const double *root_rot, size_t ld_root_rot, double *out_root_pos,
+                                 double *out_root_rot, size_t ld_out_rot, mlr_diag *diag)
 {
     const size_t N = n_frames;
     if (up < MLR_AXIS_X || up > MLR_AXIS_Z)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, SUBJECT ": up axis %d is not 0 (x), "
-                            "1 (y) or 2 (z)", up);
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            SUBJECT ": up axis %d is not 0 (x), "
+                                    "1 (y) or 2 (z)",
+                            up);
     if (ld_root_rot < 4 || ld_out_rot < 4)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, SUBJECT ": rotation strides %zu and "
-                            "%zu must be >= 4", ld_root_rot, ld_out_rot);
-    if (N && (!track_pos || !track_heading || !root_pos || !root_rot || !out_root_pos ||
-              !out_root_rot))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, SUBJECT ": NULL argument with %zu "
-                            "frames", N);
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            SUBJECT ": rotation strides %zu and "
+                                    "%zu must be >= 4",
+                            ld_root_rot, ld_out_rot);
+    if (N &&
+        (!track_pos || !track_heading || !root_pos || !root_rot || !out_root_pos || !out_root_rot))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            SUBJECT ": NULL argument with %zu "
+                                    "frames",
+                            N);
     for (size_t n = 0; n < N; n++) {
         if (!isfinite(track_heading[n]))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, SUBJECT ": track heading[%zu] "
-                                "is not finite", n);
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                SUBJECT ": track heading[%zu] "
+                                        "is not finite",
+                                n);
         for (size_t c = 0; c < 3; c++)
             if (!isfinite(track_pos[3 * n + c]))
-                return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, SUBJECT ": track "
-                                    "position[%zu][%zu] is not finite", n, c);
+                return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    SUBJECT ": track "
+                                            "position[%zu][%zu] is not finite",
+                                    n, c);
     }
     for (size_t n = 0; n < N; n++) {
         const mlr_quat h = heading_quat(up, track_heading[n]);

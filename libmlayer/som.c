@@ -143,8 +143,7 @@ static mlr_status check_data(const mlr_som *som, const double *x, size_t n, size
     return MLR_OK;
 }
 
-mlr_status mlr_som_init_random(mlr_som *som, const double *x, size_t n, size_t ldx,
-                               mlr_diag *diag)
+mlr_status mlr_som_init_random(mlr_som *som, const double *x, size_t n, size_t ldx, mlr_diag *diag)
 {
     mlr_status st = check_data(som, x, n, ldx, diag);
     if (st)
@@ -189,7 +188,8 @@ static void bmu_task(void *ctx, size_t b)
         mlr_nearest2(&s->pk, xr, c->ldx, NULL, m, NULL, best, db, NULL, sec);
         if (c->dist || c->errors) {
             for (size_t r = 0; r < m; r++) {
-                double d = sqrt(mlr_dist2(xr + r * c->ldx, s->w + (size_t)best[r] * s->dim, s->dim));
+                double d =
+                    sqrt(mlr_dist2(xr + r * c->ldx, s->w + (size_t)best[r] * s->dim, s->dim));
                 if (c->dist)
                     c->dist[i0 + r] = d;
                 qe += d;
@@ -612,8 +612,8 @@ static void train_online(mlr_som *som, const double *x, size_t n, size_t ldx, si
             double sigma = decay(som->sigma0, som->sigma1, step, tw->steps);
             double alpha = decay(som->alpha0, som->alpha1, step, tw->steps);
             size_t win[4];
-            online_window(som, (size_t)b, sigma, alpha, som->cutoff, g, g + som->rows, h,
-                          active, win);
+            online_window(som, (size_t)b, sigma, alpha, som->cutoff, g, g + som->rows, h, active,
+                          win);
             b = team_step(&tm, step, x + order[i] * ldx,
                           i + 1 < n ? x + order[i + 1] * ldx : NULL);
             online_clear(som, h, active, win);
@@ -704,7 +704,8 @@ mlr_status mlr_som_import(const void *buf, size_t size, const mlr_allocator *all
     uint64_t dims[3];
     const unsigned char *payload;
     size_t np;
-    mlr_status st = mlr_blob_check(buf, size, som_tag, SOM_BLOB_VERSION, dims, &payload, &np, diag);
+    mlr_status st =
+        mlr_blob_check(buf, size, som_tag, SOM_BLOB_VERSION, dims, &payload, &np, diag);
     if (st)
         return st;
     if (dims[0] == 0 || dims[1] == 0 || dims[2] == 0 || dims[0] > INT32_MAX ||

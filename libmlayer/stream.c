@@ -91,8 +91,8 @@ static void end_rows_of(const mlr_stream *st, const smoother *sm, size_t n, end_
     const size_t i = n - 1, p2 = (i + R - 2) % R;
     double d = mlr_band_ldl2_row(i, sys_entry(sm->s, n, i, 0), sys_entry(sm->s, n, i, 1),
                                  sys_entry(sm->s, n, i, 2), i >= 2 ? e->l1[0] : 0.0,
-                                 i >= 1 ? e->dinv[0] : 0.0, i >= 2 ? sm->dinv[p2] : 0.0,
-                                 &e->l1[1], &e->l2[1]);
+                                 i >= 1 ? e->dinv[0] : 0.0, i >= 2 ? sm->dinv[p2] : 0.0, &e->l1[1],
+                                 &e->l2[1]);
     e->dinv[1] = 1.0 / d;
 }
 
@@ -353,8 +353,8 @@ static mlr_status check_lam_sigma(double lam, double sigma, const char *which, m
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "lam%s must be finite and >= 0, got %g",
                             which, lam);
     if (!isfinite(sigma) || !(sigma > 0.0))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "sigma%s must be finite and > 0, got %g",
-                            which, sigma);
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "sigma%s must be finite and > 0, got %g", which, sigma);
     if (!isfinite(lam * lam * sigma * sigma))
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "lam%s^2 sigma%s^2 overflows", which,
                             which);
@@ -474,7 +474,8 @@ static mlr_status not_finite(mlr_diag *diag, const char *fn, const char *what, c
         i++;
     return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                         "stream %s: %s[%zu] is NaN or infinite (rejected; the stream is "
-                        "unchanged)", fn, what, i);
+                        "unchanged)",
+                        fn, what, i);
 }
 
 mlr_status mlr_stream_push(mlr_stream *st, const double *frame, size_t n_values, double *out,
@@ -528,7 +529,8 @@ mlr_status mlr_stream_flush(mlr_stream *st, double *out, size_t out_len, size_t 
     if (n_written)
         *n_written = 0;
     if (!st || !n_written)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "stream flush: st or n_written is NULL");
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "stream flush: st or n_written is NULL");
     if (st->finished)
         return mlr_diag_set(diag, MLR_E_BAD_STATE, 0, 0,
                             "stream flush: the stream was flushed already; reset it first");
@@ -565,7 +567,8 @@ mlr_status mlr_stream_set_alpha(mlr_stream *st, double alpha_trans, const double
                                 size_t n_joints, mlr_diag *diag)
 {
     if (!st || (n_joints > 0 && !alpha))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "stream set_alpha: st or alpha is NULL");
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "stream set_alpha: st or alpha is NULL");
     if (n_joints != st->n_joints)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                             "stream set_alpha: %zu alphas for a stream of %zu joints", n_joints,

@@ -25,8 +25,8 @@ static double rot_angle(const double *a, const double *b)
 }
 
 mlr_status mlr_timewarp_speed(size_t n_frames, size_t n_joints, const double *root_pos,
-                              const double *rot, const double *joint_weights,
-                              double root_weight, double *speed, mlr_diag *diag)
+                              const double *rot, const double *joint_weights, double root_weight,
+                              double *speed, mlr_diag *diag)
 {
     if (n_frames < 2)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
@@ -94,8 +94,8 @@ mlr_status mlr_timewarp_map(size_t n_frames, size_t n_joints, const double *root
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "unknown flags 0x%x", flags);
     if (!t)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "t is NULL");
-    mlr_status st = mlr_timewarp_speed(n_frames, n_joints, root_pos, rot, joint_weights,
-                                       root_weight, t, diag);
+    mlr_status st =
+        mlr_timewarp_speed(n_frames, n_joints, root_pos, rot, joint_weights, root_weight, t, diag);
     if (st != MLR_OK)
         return st;
 

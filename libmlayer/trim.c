@@ -67,14 +67,18 @@ static mlr_status check_clip(const mlr_rig *rig, size_t N, const double *root_po
     if (st != MLR_OK)
         return st;
     if (up < MLR_AXIS_X || up > MLR_AXIS_Z)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "lead_in: up axis %d is not 0 (X), "
-                            "1 (Y) or 2 (Z)", up);
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "lead_in: up axis %d is not 0 (X), "
+                            "1 (Y) or 2 (Z)",
+                            up);
     const size_t J = rig->n_joints, P = rig->n_trans;
     if (N > 0 && !rot)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "lead_in: rot is NULL");
     if (N > 0 && P > 0 && !trans)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "lead_in: trans is NULL with %zu "
-                            "translated joints", P);
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "lead_in: trans is NULL with %zu "
+                            "translated joints",
+                            P);
     if (N < MLR_TRIM_MIN_FRAMES)
         return MLR_OK;
     for (size_t f = 0; f < N; f++) {
@@ -83,8 +87,10 @@ static mlr_status check_clip(const mlr_rig *rig, size_t N, const double *root_po
         for (size_t i = 4 * J * f; i < 4 * J * (f + 1) && finite; i++)
             finite = isfinite(rot[i]);
         if (!finite)
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "lead_in: frame %zu has "
-                                "non-finite rotations or translations", f);
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "lead_in: frame %zu has "
+                                "non-finite rotations or translations",
+                                f);
     }
     return MLR_OK;
 }
@@ -97,10 +103,9 @@ static mlr_status clip_poses(const mlr_rig *rig, size_t N, const double *root_po
 {
     const size_t J = rig->n_joints, P = rig->n_trans;
     for (size_t f = 0; f < N; f++) {
-        mlr_status st = mlr_fk_arrays(1, J, rig->parents, rig->offsets,
-                                      root_pos ? root_pos + 3 * f : NULL, rot + 4 * J * f, P,
-                                      rig->trans_joints, P ? trans + 3 * P * f : NULL, wp, wr, A,
-                                      NULL);
+        mlr_status st = mlr_fk_arrays(
+            1, J, rig->parents, rig->offsets, root_pos ? root_pos + 3 * f : NULL, rot + 4 * J * f,
+            P, rig->trans_joints, P ? trans + 3 * P * f : NULL, wp, wr, A, NULL);
         if (st != MLR_OK)
             return mlr_diag_set(diag, st, 0, 0, "lead_in: forward kinematics of frame %zu: %s", f,
                                 mlr_status_string(st));
@@ -135,8 +140,7 @@ static void lead_rule(const double *x, size_t N, size_t K, double *step, double 
     const double m = fmax(mlr_median(tmp, N - 1 - h), still);
     /* 2. blend: until the steps are ordinary again, MLR_TRIM_SETTLE of them in a row */
     size_t c = h;
-    for (size_t f = h, run = 0; f + 1 < N && f < h + MLR_TRIM_MAX_BLEND + MLR_TRIM_SETTLE;
-         f++) {
+    for (size_t f = h, run = 0; f + 1 < N && f < h + MLR_TRIM_MAX_BLEND + MLR_TRIM_SETTLE; f++) {
         run = step[f] <= MLR_TRIM_JOIN * m ? run + 1 : 0;
         if (run == MLR_TRIM_SETTLE || (run > 0 && f + 2 == N)) {
             c = f + 1 - run;
@@ -192,8 +196,10 @@ mlr_status mlr_trim_lead_in(const mlr_rig *rig, size_t n_frames, const double *r
     if (mlr_mul_size(N, 3 * K, &n_pose) != MLR_OK || n_pose > SIZE_MAX / 2 - 2 * N - 7 * J ||
         mlr_mul_size(n_pose + 2 * N + 7 * J, sizeof(double), &bytes) != MLR_OK) {
         mlr_free(&A, inside, J);
-        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "lead_in: %zu frames x %zu joints "
-                            "overflow a size", N, J);
+        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0,
+                            "lead_in: %zu frames x %zu joints "
+                            "overflow a size",
+                            N, J);
     }
     double *x = mlr_alloc(&A, bytes);
     if (!x) {

@@ -128,12 +128,16 @@ mlr_status mlr_rig_up_axis(const mlr_rig *rig, size_t n_frames, const double *wo
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "up axis: world_pos is NULL");
     size_t count;
     if (mlr_mul_size(N, 3 * J, &count) != MLR_OK)
-        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "up axis: %zu frames x %zu joints "
-                            "overflow a size", N, J);
+        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0,
+                            "up axis: %zu frames x %zu joints "
+                            "overflow a size",
+                            N, J);
     for (size_t i = 0; i < count; i++)
         if (!isfinite(world_pos[i]))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "up axis: position %zu of frame "
-                                "%zu is not finite", (i / 3) % J, i / (3 * J));
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "up axis: position %zu of frame "
+                                "%zu is not finite",
+                                (i / 3) % J, i / (3 * J));
     mlr_allocator a;
     mlr_allocator_resolve(alloc, &a);
     uint8_t *is_foot = mlr_alloc(&a, J);
@@ -148,8 +152,8 @@ mlr_status mlr_rig_up_axis(const mlr_rig *rig, size_t n_frames, const double *wo
     if (out->method == MLR_UP_NONE && J > 1) {
         st = from_floor(N, J, world_pos, out, &a);
         if (st != MLR_OK)
-            return mlr_diag_set(diag, st, 0, 0, "up axis: %s", st == MLR_E_NO_MEMORY
-                                ? "out of memory" : "frames too large");
+            return mlr_diag_set(diag, st, 0, 0, "up axis: %s",
+                                st == MLR_E_NO_MEMORY ? "out of memory" : "frames too large");
     }
     return MLR_OK;
 }

@@ -59,7 +59,10 @@ double mlr_test_rng_normal(mlr_test_rng *r)
     return sqrt(-2.0 * log(u1)) * cos(6.283185307179586 * u2);
 }
 
-typedef struct block_header { size_t size; size_t pad; } block_header;
+typedef struct block_header {
+    size_t size;
+    size_t pad;
+} block_header;
 
 static void *test_allocate(void *user, size_t size, size_t align)
 {
@@ -118,8 +121,10 @@ int mlr_test_have_clips(void)
         return 1;
     }
     /* (Check runs each test in a child process by default: the note may repeat per test) */
-    fprintf(stderr, "the shared clips are absent (%s): a test that needs them is skipped; set "
-            "MLR_TEST_MOCAP_DIR to their folder\n", dir ? dir : "no folder configured");
+    fprintf(stderr,
+            "the shared clips are absent (%s): a test that needs them is skipped; set "
+            "MLR_TEST_MOCAP_DIR to their folder\n",
+            dir ? dir : "no folder configured");
     return 0;
 }
 
@@ -194,9 +199,14 @@ int mlr_test_clip_load(const char *file, mlr_test_clip *c)
     ck_assert_ptr_nonnull(c->names);
     for (size_t j = 0; j < c->j; j++)
         c->names[j] = mlr_motion_joint_name(c->m, j);
-    const mlr_rig g = {c->j, mlr_motion_parents(c->m), mlr_motion_offsets(c->m), c->names,
-                       mlr_motion_n_trans(c->m), mlr_motion_trans_joints(c->m),
-                       mlr_motion_n_end_sites(c->m), mlr_motion_end_site_parents(c->m),
+    const mlr_rig g = {c->j,
+                       mlr_motion_parents(c->m),
+                       mlr_motion_offsets(c->m),
+                       c->names,
+                       mlr_motion_n_trans(c->m),
+                       mlr_motion_trans_joints(c->m),
+                       mlr_motion_n_end_sites(c->m),
+                       mlr_motion_end_site_parents(c->m),
                        mlr_motion_end_site_offsets(c->m)};
     c->rig = g;
     return 1;

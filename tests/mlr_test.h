@@ -10,7 +10,9 @@
 #define MLR_COUNTOF(a) (sizeof(a) / sizeof((a)[0]))
 
 /* Deterministic generator (splitmix64); never rand(). */
-typedef struct mlr_test_rng { uint64_t state; } mlr_test_rng;
+typedef struct mlr_test_rng {
+    uint64_t state;
+} mlr_test_rng;
 void mlr_test_rng_seed(mlr_test_rng *r, uint64_t seed);
 uint64_t mlr_test_rng_u64(mlr_test_rng *r);
 double mlr_test_rng_uniform(mlr_test_rng *r);            /* [0, 1) */
@@ -37,7 +39,9 @@ void mlr_test_cholesky_solve(size_t n, const double *c, double *b, size_t m);
 
 /* A new temporary directory holding one file of the given bytes; remove both with
  * mlr_test_temp_remove. */
-typedef struct mlr_test_temp { char dir[64], path[192]; } mlr_test_temp;
+typedef struct mlr_test_temp {
+    char dir[64], path[192];
+} mlr_test_temp;
 void mlr_test_temp_write(mlr_test_temp *t, const char *name, const void *data, size_t n);
 void mlr_test_temp_remove(const mlr_test_temp *t);
 /* Entries of a folder, hidden ones included ("." and ".." not counted). */
@@ -59,20 +63,20 @@ void mlr_test_clip_unload(mlr_test_clip *c);
  * otherwise, after printing once that the tests that need them are skipped. */
 int mlr_test_have_clips(void);
 /* At the start of a test that reads the shared clips: return (skip) when they are absent. */
-#define MLR_TEST_NEED_CLIPS()                                                                \
-    do {                                                                                     \
-        if (!mlr_test_have_clips())                                                          \
-            return;                                                                          \
+#define MLR_TEST_NEED_CLIPS()       \
+    do {                            \
+        if (!mlr_test_have_clips()) \
+            return;                 \
     } while (0)
 
 /* Run a suite, print Check's summary line, return the process exit code. */
 int mlr_test_run(Suite *s);
 
-#define ck_assert_close(a, b, tol)                                                           \
-    do {                                                                                     \
-        double a_ = (a), b_ = (b), t_ = (tol);                                               \
-        ck_assert_msg(fabs(a_ - b_) <= t_, "%s = %.17g, %s = %.17g, |diff| %.3g > %.3g", #a, \
-                      a_, #b, b_, fabs(a_ - b_), t_);                                        \
+#define ck_assert_close(a, b, tol)                                                               \
+    do {                                                                                         \
+        double a_ = (a), b_ = (b), t_ = (tol);                                                   \
+        ck_assert_msg(fabs(a_ - b_) <= t_, "%s = %.17g, %s = %.17g, |diff| %.3g > %.3g", #a, a_, \
+                      #b, b_, fabs(a_ - b_), t_);                                                \
     } while (0)
 
 #endif

@@ -35,7 +35,9 @@ static void dense_solve(size_t n, double *a, double *b, size_t m)
     mlr_test_cholesky_solve(n, a, b, m);
 }
 
-static const struct { size_t n, kd, m; } shapes[] = {
+static const struct {
+    size_t n, kd, m;
+} shapes[] = {
     {1, 0, 1}, {2, 1, 3}, {5, 2, 1}, {17, 1, 4}, {40, 2, 7}, {33, 3, 2}, {25, 5, 3},
 };
 
@@ -68,8 +70,14 @@ END_TEST
 /* Long smoothing systems s L^T L + diag(w) with Toeplitz stretches (where the factor reaches
  * a fixed point and is copied) broken by changes of w: a stretch change, a single odd row and
  * the ends. The residual A x - b, from the band itself, is the reference. */
-static const struct { size_t n, m; double s; } long_systems[] = {
-    {3000, 3, 16.0}, {3000, 1, 1e4}, {800, 2, 0.5}, {70000, 1, 16.0},
+static const struct {
+    size_t n, m;
+    double s;
+} long_systems[] = {
+    {3000, 3, 16.0},
+    {3000, 1, 1e4},
+    {800, 2, 0.5},
+    {70000, 1, 16.0},
 };
 
 START_TEST(long_toeplitz_stretches_solve_exactly)
@@ -131,7 +139,9 @@ START_TEST(inverse_diagonal_matches_dense_inverse)
 }
 END_TEST
 
-static const struct { size_t n, kd; } bad_shape[] = {{0, 0}, {4, 4}, {4, 9}};
+static const struct {
+    size_t n, kd;
+} bad_shape[] = {{0, 0}, {4, 4}, {4, 9}};
 
 START_TEST(create_rejects_bad_shape)
 {

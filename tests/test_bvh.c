@@ -1,6 +1,6 @@
 #define _POSIX_C_SOURCE 200809L
 #if defined(__clang__)
-#  pragma STDC FP_CONTRACT OFF /* the references round as the library does */
+#pragma STDC FP_CONTRACT OFF /* the references round as the library does */
 #endif
 /* BVH reader and writer: the real clips of the shared mocap folder (counts from its README,
  * values against an independent Euler-matrix reference), round trips, malformed input with the
@@ -99,9 +99,15 @@ static void matmul3(const double a[9], const double b[9], double out[9])
 static void quat_matrix(const double *q, double r[9])
 {
     double w = q[0], x = q[1], y = q[2], z = q[3];
-    r[0] = 1 - 2 * (y * y + z * z); r[1] = 2 * (x * y - w * z);     r[2] = 2 * (x * z + w * y);
-    r[3] = 2 * (x * y + w * z);     r[4] = 1 - 2 * (x * x + z * z); r[5] = 2 * (y * z - w * x);
-    r[6] = 2 * (x * z - w * y);     r[7] = 2 * (y * z + w * x);     r[8] = 1 - 2 * (x * x + y * y);
+    r[0] = 1 - 2 * (y * y + z * z);
+    r[1] = 2 * (x * y - w * z);
+    r[2] = 2 * (x * z + w * y);
+    r[3] = 2 * (x * y + w * z);
+    r[4] = 1 - 2 * (x * x + z * z);
+    r[5] = 2 * (y * z - w * x);
+    r[6] = 2 * (x * z - w * y);
+    r[7] = 2 * (y * z + w * x);
+    r[8] = 1 - 2 * (x * x + y * y);
 }
 
 /* ---- the real clips ---------------------------------------------------------------------- */
@@ -204,8 +210,7 @@ static void assert_frames_are_strtods(const mlr_motion *m, const char *text, con
     const char *p = strstr(text, "Frame Time:");
     ck_assert_ptr_nonnull(p);
     p += strcspn(p, "\r\n");
-    const size_t N = mlr_motion_n_frames(m), J = mlr_motion_n_joints(m),
-                 P = mlr_motion_n_trans(m);
+    const size_t N = mlr_motion_n_frames(m), J = mlr_motion_n_joints(m), P = mlr_motion_n_trans(m);
     const int32_t *tj = mlr_motion_trans_joints(m);
     for (size_t f = 0; f < N; f++) {
         size_t slot = 0;
@@ -240,8 +245,9 @@ static void assert_frames_are_strtods(const mlr_motion *m, const char *text, con
             const double *got = mlr_motion_rot(m) + 4 * (J * f + j);
             ck_assert_msg(memcmp(want, got, sizeof want) == 0,
                           "%s: frame %zu joint %zu: quaternion (%.17g %.17g %.17g %.17g), "
-                          "expected (%.17g %.17g %.17g %.17g)", what, f + 1, j, got[0], got[1],
-                          got[2], got[3], want[0], want[1], want[2], want[3]);
+                          "expected (%.17g %.17g %.17g %.17g)",
+                          what, f + 1, j, got[0], got[1], got[2], got[3], want[0], want[1],
+                          want[2], want[3]);
             const double *pos = NULL;
             if (j == 0)
                 pos = mlr_motion_root_pos(m) + 3 * f;
@@ -257,16 +263,17 @@ static void assert_frames_are_strtods(const mlr_motion *m, const char *text, con
 /* Bit-identical motions (same skeleton assumed). */
 static void assert_same_frames(const mlr_motion *a, const mlr_motion *b, const char *what)
 {
-    const size_t N = mlr_motion_n_frames(a), J = mlr_motion_n_joints(a),
-                 P = mlr_motion_n_trans(a);
+    const size_t N = mlr_motion_n_frames(a), J = mlr_motion_n_joints(a), P = mlr_motion_n_trans(a);
     ck_assert_uint_eq(mlr_motion_n_frames(b), N);
     ck_assert_msg(memcmp(mlr_motion_rot(a), mlr_motion_rot(b), 4 * N * J * sizeof(double)) == 0,
                   "%s: rotations differ", what);
-    ck_assert_msg(memcmp(mlr_motion_root_pos(a), mlr_motion_root_pos(b),
-                         3 * N * sizeof(double)) == 0, "%s: root positions differ", what);
+    ck_assert_msg(memcmp(mlr_motion_root_pos(a), mlr_motion_root_pos(b), 3 * N * sizeof(double)) ==
+                      0,
+                  "%s: root positions differ", what);
     if (P)
-        ck_assert_msg(memcmp(mlr_motion_trans(a), mlr_motion_trans(b),
-                             3 * N * P * sizeof(double)) == 0, "%s: translations differ", what);
+        ck_assert_msg(
+            memcmp(mlr_motion_trans(a), mlr_motion_trans(b), 3 * N * P * sizeof(double)) == 0,
+            "%s: translations differ", what);
 }
 
 START_TEST(every_value_of_every_clip_is_strtods)
@@ -436,7 +443,8 @@ static void assert_same_motion(const mlr_motion *a, const mlr_motion *b, double 
         ck_assert_str_eq(mlr_motion_joint_channels(b, j), mlr_motion_joint_channels(a, j));
         ck_assert_int_eq(mlr_motion_parents(b)[j], mlr_motion_parents(a)[j]);
         for (int k = 0; k < 3; k++)
-            ck_assert_double_eq(mlr_motion_offsets(b)[3 * j + k], mlr_motion_offsets(a)[3 * j + k]);
+            ck_assert_double_eq(mlr_motion_offsets(b)[3 * j + k],
+                                mlr_motion_offsets(a)[3 * j + k]);
     }
     for (size_t e = 0; e < E; e++) {
         ck_assert_int_eq(mlr_motion_end_site_parents(b)[e], mlr_motion_end_site_parents(a)[e]);
@@ -586,12 +594,13 @@ START_TEST(copy_frames_slices)
     size_t J = mlr_motion_n_joints(a), P = mlr_motion_n_trans(a);
     ck_assert_int_eq(mlr_motion_copy_frames(a, 10, 40, &b, NULL), MLR_OK);
     ck_assert_uint_eq(mlr_motion_n_frames(b), 40);
-    ck_assert_int_eq(memcmp(mlr_motion_rot(b), mlr_motion_rot(a) + 4 * J * 10,
-                            40 * 4 * J * sizeof(double)), 0);
-    ck_assert_int_eq(memcmp(mlr_motion_trans(b), mlr_motion_trans(a) + 3 * P * 10,
-                            40 * 3 * P * sizeof(double)), 0);
-    ck_assert_int_eq(memcmp(mlr_motion_root_pos(b), mlr_motion_root_pos(a) + 30,
-                            40 * 3 * sizeof(double)), 0);
+    ck_assert_int_eq(
+        memcmp(mlr_motion_rot(b), mlr_motion_rot(a) + 4 * J * 10, 40 * 4 * J * sizeof(double)), 0);
+    ck_assert_int_eq(
+        memcmp(mlr_motion_trans(b), mlr_motion_trans(a) + 3 * P * 10, 40 * 3 * P * sizeof(double)),
+        0);
+    ck_assert_int_eq(
+        memcmp(mlr_motion_root_pos(b), mlr_motion_root_pos(a) + 30, 40 * 3 * sizeof(double)), 0);
     ck_assert_str_eq(mlr_motion_joint_name(b, 3), mlr_motion_joint_name(a, 3));
     mlr_motion_destroy(b);
     b = (mlr_motion *)&b;
@@ -682,9 +691,16 @@ static void check_small(const mlr_motion *m)
 START_TEST(whitespace_and_line_end_variants)
 {
     static const char *const variants[][2] = {
-        {"\n", "\r\n"}, {"\n", "\r"}, {"  ", "\t"}, {" ", " \t \v\f "},
-        {"HIERARCHY", "hierarchy"}, {"CHANNELS", "channels"}, {"Frames: ", "Frames:"},
-        {"Frame Time: ", "Frame Time:\t"}, {"}\n", "}\n\n\n"}, {"Hips\n", "Hips {\n"},
+        {"\n", "\r\n"},
+        {"\n", "\r"},
+        {"  ", "\t"},
+        {" ", " \t \v\f "},
+        {"HIERARCHY", "hierarchy"},
+        {"CHANNELS", "channels"},
+        {"Frames: ", "Frames:"},
+        {"Frame Time: ", "Frame Time:\t"},
+        {"}\n", "}\n\n\n"},
+        {"Hips\n", "Hips {\n"},
     };
     char *base = NULL;
     for (size_t v = 0; v < MLR_COUNTOF(variants); v++) {
@@ -783,8 +799,10 @@ START_TEST(numbers_are_correctly_rounded)
     mlr_test_rng_seed(&rng, 42);
     enum { N = 3000 };
     static char text[N * 3 * 48 + 512];
-    size_t len = (size_t)sprintf(text, "HIERARCHY\nROOT r\n{\nOFFSET 0 0 0\nCHANNELS 3 Xposition "
-                                 "Yposition Zposition\n}\nMOTION\nFrames: %d\nFrame Time: 1\n", N);
+    size_t len = (size_t)sprintf(text,
+                                 "HIERARCHY\nROOT r\n{\nOFFSET 0 0 0\nCHANNELS 3 Xposition "
+                                 "Yposition Zposition\n}\nMOTION\nFrames: %d\nFrame Time: 1\n",
+                                 N);
     static char tokens[N * 3][48];
     for (int i = 0; i < N * 3; i++) {
         char *t = tokens[i];
@@ -833,13 +851,46 @@ START_TEST(number_fast_path_boundaries)
      * 18 bytes remain; each token here is read once in the middle of the file and once as the
      * file's last value (the general path), and must equal strtod bit for bit. */
     static const char *const tokens[] = {
-        "0", "-0", "+0", "-0.0000000", "0.0000001", "-0.0000001", "5.", "-5.", ".5", "-.5",
-        "+.25", "1234567", "-1234567", "12345678", "123456789", "1234567.1234567",
-        "-9999999.9999999", "9999999.99999999", "1.12345678", "0.12345678901234567",
-        "0.1", "0.2", "0.3", "-224.689499", "0.003093", "-0.000001", "77.536437",
-        "1e5", "1.5E-3", "-2.5e+2", "123456.7e1", "0.1e0", "00000001.5", "0001234567.0000001",
-        "4503599627370497", "9007199254740993", "0.9007199254740993", "1797693.1348623157",
-        "3.0000000000000004", "1.00000000000000011102230246251565",
+        "0",
+        "-0",
+        "+0",
+        "-0.0000000",
+        "0.0000001",
+        "-0.0000001",
+        "5.",
+        "-5.",
+        ".5",
+        "-.5",
+        "+.25",
+        "1234567",
+        "-1234567",
+        "12345678",
+        "123456789",
+        "1234567.1234567",
+        "-9999999.9999999",
+        "9999999.99999999",
+        "1.12345678",
+        "0.12345678901234567",
+        "0.1",
+        "0.2",
+        "0.3",
+        "-224.689499",
+        "0.003093",
+        "-0.000001",
+        "77.536437",
+        "1e5",
+        "1.5E-3",
+        "-2.5e+2",
+        "123456.7e1",
+        "0.1e0",
+        "00000001.5",
+        "0001234567.0000001",
+        "4503599627370497",
+        "9007199254740993",
+        "0.9007199254740993",
+        "1797693.1348623157",
+        "3.0000000000000004",
+        "1.00000000000000011102230246251565",
     };
     char text[4096];
     for (size_t i = 0; i < MLR_COUNTOF(tokens); i++) {
@@ -860,8 +911,8 @@ START_TEST(number_fast_path_boundaries)
         mlr_motion_destroy(m);
     }
     /* not numbers, whatever the path */
-    static const char *const bad[] = {"-", "+", ".", "-.", "1.2.3", "1-", "1e", "1e+", "--1",
-                                      "0x10", "1,5", "nan", "inf", "1.5x"};
+    static const char *const bad[] = {"-",   "+",   ".",    "-.",  "1.2.3", "1-",  "1e",
+                                      "1e+", "--1", "0x10", "1,5", "nan",   "inf", "1.5x"};
     for (size_t i = 0; i < 2 * MLR_COUNTOF(bad); i++) {
         const char *b = bad[i / 2];
         const int last = (int)(i % 2); /* in the middle (fast path), or the file's last value */
@@ -974,8 +1025,7 @@ static const struct bad_case {
      "lists only 2 channel names"},
     {"HIERARCHY\nROOT r\n{\nOFFSET 0 0 0\nCHANNELS 2 Xrotation Wrotation\n}", 5,
      "unknown channel 'Wrotation'"},
-    {"HIERARCHY\nROOT r\n{\nOFFSET 0 0 0\nCHANNELS 2 Xrotation xrotation\n}", 5,
-     "listed twice"},
+    {"HIERARCHY\nROOT r\n{\nOFFSET 0 0 0\nCHANNELS 2 Xrotation xrotation\n}", 5, "listed twice"},
     {"HIERARCHY\nROOT r\n{\nOFFSET 0 0 0\nCHANNELS 1 Xrotation\nCHANNELS 0\n}", 6,
      "second CHANNELS"},
     {"HIERARCHY\nROOT r\n{\nOFFSET 0 0 0\nJOINT a\n{\nOFFSET 0 0 0\n}\n", 9,
@@ -993,7 +1043,9 @@ static const struct bad_case {
     {"HIERARCHY\nROOT r\n{\nOFFSET 0 0 0\n}\nROOT s\n", 6, "more than one ROOT"},
     {"HIERARCHY\nROOT r\n{\nOFF\x01SET 0 0 0\n}", 4, "control byte 0x01"},
     {"HIERARCHY\nROOT r\x02x\n{", 2, "control byte 0x02"},
-    {"\x7f" "ELF\x02\x01\x01", 1, "control byte 0x7f"},
+    {"\x7f"
+     "ELF\x02\x01\x01",
+     1, "control byte 0x7f"},
     {"%H", 8, "expected 'Frames:'"},
     {"%HFrames: 1\n", 9, "expected 'Frame'"},
     {"%HFrames:\nFrame Time: 1\n", 8, "missing value"},
@@ -1017,7 +1069,9 @@ static const struct bad_case {
     {"%HFrames: 2\nFrame Time: 1\n0 0 0\n1 0x10 3\n", 11, "invalid number '0x10'"},
     {"%HFrames: 2\nFrame Time: 1\n0 0 0\n1 2e 3\n", 11, "invalid number '2e'"},
     {"%HFrames: 2\nFrame Time: 1\n0 0 0\n1 . 3\n", 11, "invalid number '.'"},
-    {"%HFrames: 2\nFrame Time: 1\n0 0 0\n1 \x03\x04 3\n", 11, "invalid number '?" "?'"},
+    {"%HFrames: 2\nFrame Time: 1\n0 0 0\n1 \x03\x04 3\n", 11,
+     "invalid number '?"
+     "?'"},
     {"%HFrames: 1\nFrame Time: 1\n0 0 0\n\x01\x02\x03", 11, "data after the 1 frames"},
     {"HIERARCHY\nROOT r\n{\nOFFSET 0 0 0\n}\nMOTION\nFrames: 5\nFrame Time: 1\n", 7,
      "declares no channels"},
@@ -1062,78 +1116,230 @@ static const struct lenient_case {
     const char *reason;      /* in the first warning, or in the error */
 } lenient_cases[] = {
     /* one motion line more than Frames: (an assimp test file; Blender and bvhio read it) */
-    {"%HFrames: 2\nFrame Time: 1\n1 0 0\n2 0 0\n3 0 0\n", LENIENT, MLR_OK, 3,
-     {MLR_BVH_WARN_EXTRA_FRAMES}, 12, "3 frame lines, but Frames: declares 2"},
-    {"%HFrames: 2\nFrame Time: 1\n1 0 0\n2 0 0\n3 0 0\n", STRICT, MLR_E_PARSE, 0, {0}, 12,
+    {"%HFrames: 2\nFrame Time: 1\n1 0 0\n2 0 0\n3 0 0\n",
+     LENIENT,
+     MLR_OK,
+     3,
+     {MLR_BVH_WARN_EXTRA_FRAMES},
+     12,
+     "3 frame lines, but Frames: declares 2"},
+    {"%HFrames: 2\nFrame Time: 1\n1 0 0\n2 0 0\n3 0 0\n",
+     STRICT,
+     MLR_E_PARSE,
+     0,
+     {0},
+     12,
      "data after the 2 frames"},
-    {"%HFrames: 1\nFrame Time: 1\n1 0 0\n2 0 0\n\n3 0 0\n4 0 0\n5 0 0\n", LENIENT, MLR_OK, 5,
-     {MLR_BVH_WARN_EXTRA_FRAMES}, 11, "all 5 are read"},
-    {"%HFrames: 0\nFrame Time: 1\n1 0 0\n2 0 0\n", LENIENT, MLR_OK, 2,
-     {MLR_BVH_WARN_EXTRA_FRAMES}, 10, "declares 0"},
+    {"%HFrames: 1\nFrame Time: 1\n1 0 0\n2 0 0\n\n3 0 0\n4 0 0\n5 0 0\n",
+     LENIENT,
+     MLR_OK,
+     5,
+     {MLR_BVH_WARN_EXTRA_FRAMES},
+     11,
+     "all 5 are read"},
+    {"%HFrames: 0\nFrame Time: 1\n1 0 0\n2 0 0\n",
+     LENIENT,
+     MLR_OK,
+     2,
+     {MLR_BVH_WARN_EXTRA_FRAMES},
+     10,
+     "declares 0"},
     /* missing lines: up to MLR_BVH_MAX_MISSING_FRAMES */
-    {"%HFrames: 3\nFrame Time: 1\n1 0 0\n2 0 0\n", LENIENT, MLR_OK, 2,
-     {MLR_BVH_WARN_MISSING_FRAMES}, 12, "declares 3, but the file has 2 frame lines"},
-    {"%HFrames: 3\nFrame Time: 1\n1 0 0\n2 0 0\n", STRICT, MLR_E_PARSE, 0, {0}, 8,
+    {"%HFrames: 3\nFrame Time: 1\n1 0 0\n2 0 0\n",
+     LENIENT,
+     MLR_OK,
+     2,
+     {MLR_BVH_WARN_MISSING_FRAMES},
+     12,
+     "declares 3, but the file has 2 frame lines"},
+    {"%HFrames: 3\nFrame Time: 1\n1 0 0\n2 0 0\n",
+     STRICT,
+     MLR_E_PARSE,
+     0,
+     {0},
+     8,
      "hold at most 2 frames"},
-    {"%HFrames: 3\nFrame Time: 1\n1 0 0\n2 0 0\n\n\n\n\n\n", STRICT, MLR_E_PARSE, 0, {0}, 17,
+    {"%HFrames: 3\nFrame Time: 1\n1 0 0\n2 0 0\n\n\n\n\n\n",
+     STRICT,
+     MLR_E_PARSE,
+     0,
+     {0},
+     17,
      "2 of 3 frames"},
-    {"%HFrames: 3\nFrame Time: 1\n1 0 0\n2 0 0\n\n\n\n\n\n", LENIENT, MLR_OK, 2,
-     {MLR_BVH_WARN_MISSING_FRAMES}, 17, "declares 3"},
-    {"%HFrames: 5\nFrame Time: 1\n1 0 0\n2 0 0\n", LENIENT, MLR_OK, 2,
-     {MLR_BVH_WARN_MISSING_FRAMES}, 12, "declares 5"},
-    {"%HFrames: 6\nFrame Time: 1\n1 0 0\n2 0 0\n", LENIENT, MLR_E_PARSE, 0, {0}, 12,
+    {"%HFrames: 3\nFrame Time: 1\n1 0 0\n2 0 0\n\n\n\n\n\n",
+     LENIENT,
+     MLR_OK,
+     2,
+     {MLR_BVH_WARN_MISSING_FRAMES},
+     17,
+     "declares 3"},
+    {"%HFrames: 5\nFrame Time: 1\n1 0 0\n2 0 0\n",
+     LENIENT,
+     MLR_OK,
+     2,
+     {MLR_BVH_WARN_MISSING_FRAMES},
+     12,
+     "declares 5"},
+    {"%HFrames: 6\nFrame Time: 1\n1 0 0\n2 0 0\n",
+     LENIENT,
+     MLR_E_PARSE,
+     0,
+     {0},
+     12,
      "truncated file: 2 of 6 frames"},
-    {"%HFrames: 6\nFrame Time: 1\n1 0 0\n2 0 0\n", KEEP, MLR_OK, 2,
-     {MLR_BVH_WARN_TRUNCATED}, 12, "kept the 2 complete frames of 6"},
-    {"%HFrames: 1000000000\nFrame Time: 1\n1 0 0\n", LENIENT, MLR_E_PARSE, 0, {0}, 11,
+    {"%HFrames: 6\nFrame Time: 1\n1 0 0\n2 0 0\n",
+     KEEP,
+     MLR_OK,
+     2,
+     {MLR_BVH_WARN_TRUNCATED},
+     12,
+     "kept the 2 complete frames of 6"},
+    {"%HFrames: 1000000000\nFrame Time: 1\n1 0 0\n",
+     LENIENT,
+     MLR_E_PARSE,
+     0,
+     {0},
+     11,
      "1 of 1000000000 frames"},
-    {"%HFrames: 1000000000\nFrame Time: 1\n1 0 0\n", KEEP, MLR_OK, 1,
-     {MLR_BVH_WARN_TRUNCATED}, 11, "kept the 1 complete frames"},
+    {"%HFrames: 1000000000\nFrame Time: 1\n1 0 0\n",
+     KEEP,
+     MLR_OK,
+     1,
+     {MLR_BVH_WARN_TRUNCATED},
+     11,
+     "kept the 1 complete frames"},
     /* trailing data */
-    {"%HFrames: 2\nFrame Time: 1\n1 0 0\n2 0 0\nEND\n", LENIENT, MLR_OK, 2,
-     {MLR_BVH_WARN_TRAILING_DATA}, 12, "data after the last frame ('END')"},
-    {"%HFrames: 2\nFrame Time: 1\n1 0 0\n2 0 0\nEND\n", STRICT, MLR_E_PARSE, 0, {0}, 12,
+    {"%HFrames: 2\nFrame Time: 1\n1 0 0\n2 0 0\nEND\n",
+     LENIENT,
+     MLR_OK,
+     2,
+     {MLR_BVH_WARN_TRAILING_DATA},
+     12,
+     "data after the last frame ('END')"},
+    {"%HFrames: 2\nFrame Time: 1\n1 0 0\n2 0 0\nEND\n",
+     STRICT,
+     MLR_E_PARSE,
+     0,
+     {0},
+     12,
      "data after the 2 frames"},
-    {"%HFrames: 3\nFrame Time: 1\n1 0 0\n2 0 0\n# exported by X\n7 7 7\n", LENIENT, MLR_OK, 2,
-     {MLR_BVH_WARN_MISSING_FRAMES, MLR_BVH_WARN_TRAILING_DATA}, 12, "declares 3"},
-    {"%HFrames: 1\nFrame Time: 1\n1 0 0\n2 0 0\nfoo bar\n", LENIENT, MLR_OK, 2,
-     {MLR_BVH_WARN_EXTRA_FRAMES, MLR_BVH_WARN_TRAILING_DATA}, 11, "declares 1"},
-    {"%HFrames: 2\nFrame Time: 1\n1 0 0\n2 0 0\n3 0\n", LENIENT, MLR_OK, 2,
-     {MLR_BVH_WARN_TRAILING_DATA}, 12, "('3 0')"},
-    {"%HFrames: 1\nFrame Time: 1\n1 0 0\n\x01\x02\x03", LENIENT, MLR_OK, 1,
-     {MLR_BVH_WARN_TRAILING_DATA}, 11, "('?" "?" "?')"},
+    {"%HFrames: 3\nFrame Time: 1\n1 0 0\n2 0 0\n# exported by X\n7 7 7\n",
+     LENIENT,
+     MLR_OK,
+     2,
+     {MLR_BVH_WARN_MISSING_FRAMES, MLR_BVH_WARN_TRAILING_DATA},
+     12,
+     "declares 3"},
+    {"%HFrames: 1\nFrame Time: 1\n1 0 0\n2 0 0\nfoo bar\n",
+     LENIENT,
+     MLR_OK,
+     2,
+     {MLR_BVH_WARN_EXTRA_FRAMES, MLR_BVH_WARN_TRAILING_DATA},
+     11,
+     "declares 1"},
+    {"%HFrames: 2\nFrame Time: 1\n1 0 0\n2 0 0\n3 0\n",
+     LENIENT,
+     MLR_OK,
+     2,
+     {MLR_BVH_WARN_TRAILING_DATA},
+     12,
+     "('3 0')"},
+    {"%HFrames: 1\nFrame Time: 1\n1 0 0\n\x01\x02\x03",
+     LENIENT,
+     MLR_OK,
+     1,
+     {MLR_BVH_WARN_TRAILING_DATA},
+     11,
+     "('?"
+     "?"
+     "?')"},
     /* the final line end */
-    {"%HFrames: 2\nFrame Time: 1\n1 0 0\n2 0 0", LENIENT, MLR_OK, 2,
-     {MLR_BVH_WARN_NO_FINAL_NEWLINE}, 11, "no line end after the last frame line"},
-    {"%HFrames: 2\nFrame Time: 1\n1 0 0\n2 0 0  \t", STRICT, MLR_OK, 2,
-     {MLR_BVH_WARN_NO_FINAL_NEWLINE}, 11, "no line end"},
-    {"%HFrames: 2\r\nFrame Time: 1\r\n1 0 0\r\n2 0 0\r\n\r\n  \n\0\0", LENIENT, MLR_OK, 2, {0},
-     0, NULL},
+    {"%HFrames: 2\nFrame Time: 1\n1 0 0\n2 0 0",
+     LENIENT,
+     MLR_OK,
+     2,
+     {MLR_BVH_WARN_NO_FINAL_NEWLINE},
+     11,
+     "no line end after the last frame line"},
+    {"%HFrames: 2\nFrame Time: 1\n1 0 0\n2 0 0  \t",
+     STRICT,
+     MLR_OK,
+     2,
+     {MLR_BVH_WARN_NO_FINAL_NEWLINE},
+     11,
+     "no line end"},
+    {"%HFrames: 2\r\nFrame Time: 1\r\n1 0 0\r\n2 0 0\r\n\r\n  \n\0\0",
+     LENIENT,
+     MLR_OK,
+     2,
+     {0},
+     0,
+     NULL},
     /* truncated: the last line incomplete, or frames missing and no final line end */
-    {"%HFrames: 3\nFrame Time: 1\n1 0 0\n2 0 0\n3 0", LENIENT, MLR_E_PARSE, 0, {0}, 12,
+    {"%HFrames: 3\nFrame Time: 1\n1 0 0\n2 0 0\n3 0",
+     LENIENT,
+     MLR_E_PARSE,
+     0,
+     {0},
+     12,
      "frame 3 has 2 values, expected 3 (truncated file: 2 of 3 frames)"},
-    {"%HFrames: 3\nFrame Time: 1\n1 0 0\n2 0 0\n3 0", KEEP, MLR_OK, 2,
-     {MLR_BVH_WARN_TRUNCATED}, 12, "frame 3 has 2 values"},
-    {"%HFrames: 3\nFrame Time: 1\n1 0 0\n2 0 0\n3 0\n", KEEP, MLR_OK, 2,
-     {MLR_BVH_WARN_TRUNCATED}, 12, "kept the 2 complete frames of 3"},
-    {"%HFrames: 4\nFrame Time: 1\n1 0 0\n2 0 0\n3 0 0", LENIENT, MLR_E_PARSE, 0, {0}, 12,
+    {"%HFrames: 3\nFrame Time: 1\n1 0 0\n2 0 0\n3 0",
+     KEEP,
+     MLR_OK,
+     2,
+     {MLR_BVH_WARN_TRUNCATED},
+     12,
+     "frame 3 has 2 values"},
+    {"%HFrames: 3\nFrame Time: 1\n1 0 0\n2 0 0\n3 0\n",
+     KEEP,
+     MLR_OK,
+     2,
+     {MLR_BVH_WARN_TRUNCATED},
+     12,
+     "kept the 2 complete frames of 3"},
+    {"%HFrames: 4\nFrame Time: 1\n1 0 0\n2 0 0\n3 0 0",
+     LENIENT,
+     MLR_E_PARSE,
+     0,
+     {0},
+     12,
      "truncated file: 3 of 4 frames"},
-    {"%HFrames: 4\nFrame Time: 1\n1 0 0\n2 0 0\n3 0 0", KEEP, MLR_OK, 3,
-     {MLR_BVH_WARN_TRUNCATED}, 12, "kept the 3 complete frames of 4"},
+    {"%HFrames: 4\nFrame Time: 1\n1 0 0\n2 0 0\n3 0 0",
+     KEEP,
+     MLR_OK,
+     3,
+     {MLR_BVH_WARN_TRUNCATED},
+     12,
+     "kept the 3 complete frames of 4"},
     /* a malformed frame line with more after it stays an error in every mode */
-    {"%HFrames: 3\nFrame Time: 1\n1 0 0\n2 x 0\n3 0 0\n", LENIENT, MLR_E_PARSE, 0, {0}, 11,
+    {"%HFrames: 3\nFrame Time: 1\n1 0 0\n2 x 0\n3 0 0\n",
+     LENIENT,
+     MLR_E_PARSE,
+     0,
+     {0},
+     11,
      "invalid number 'x'"},
-    {"%HFrames: 3\nFrame Time: 1\n1 0 0\n2 0\n3 0 0\n", KEEP, MLR_E_PARSE, 0, {0}, 11,
+    {"%HFrames: 3\nFrame Time: 1\n1 0 0\n2 0\n3 0 0\n",
+     KEEP,
+     MLR_E_PARSE,
+     0,
+     {0},
+     11,
      "frame 2 has 2 values"},
-    {"%HFrames: 3\nFrame Time: 1\n1 0 0\n2 0 0 0\n3 0 0\n", LENIENT, MLR_E_PARSE, 0, {0}, 11,
+    {"%HFrames: 3\nFrame Time: 1\n1 0 0\n2 0 0 0\n3 0 0\n",
+     LENIENT,
+     MLR_E_PARSE,
+     0,
+     {0},
+     11,
      "more than 3 values"},
 };
 
 static mlr_status read_lenient(const char *text, size_t len, size_t threads, int mode,
                                mlr_motion **m, mlr_bvh_warnings *w, mlr_diag *d)
 {
-    mlr_bvh_read_option o[1] = {{mode == STRICT ? MLR_BVH_OPT_STRICT : MLR_BVH_OPT_KEEP_TRUNCATED,
-                                 1.0}};
+    mlr_bvh_read_option o[1] = {
+        {mode == STRICT ? MLR_BVH_OPT_STRICT : MLR_BVH_OPT_KEEP_TRUNCATED, 1.0}};
     return mlr_bvh_read_memory_opts(text, len, threads, o, mode == LENIENT ? 0 : 1, NULL, m, w, d);
 }
 
@@ -1179,7 +1385,8 @@ START_TEST(lenient_reading_warns_and_strict_keeps_the_errors)
         ck_assert_uint_eq(mlr_motion_n_frames(m), lc->n_frames);
         const double *q = mlr_motion_rot(m);
         for (size_t f = 0; f < lc->n_frames; f++) /* frame f + 1 turns f + 1 degrees */
-            ck_assert_double_eq_tol(q[4 * f], cos(0.5 * (double)(f + 1) * 0.017453292519943295), 1e-15);
+            ck_assert_double_eq_tol(q[4 * f], cos(0.5 * (double)(f + 1) * 0.017453292519943295),
+                                    1e-15);
         size_t n_codes = 0;
         while (n_codes < 3 && lc->codes[n_codes])
             n_codes++;
@@ -1190,8 +1397,9 @@ START_TEST(lenient_reading_warns_and_strict_keeps_the_errors)
         if (n_codes) {
             ck_assert_msg(strstr(w.first[0].message, lc->reason) != NULL,
                           "case %d: '%s' lacks '%s'", _i, w.first[0].message, lc->reason);
-            ck_assert_msg(w.first[0].line == lc->line, "case %d: warning on line %zu, expected %zu",
-                          _i, w.first[0].line, lc->line);
+            ck_assert_msg(w.first[0].line == lc->line,
+                          "case %d: warning on line %zu, expected %zu", _i, w.first[0].line,
+                          lc->line);
         }
         /* the strict reader of old says the same: OK without warnings, or an error */
         if (lc->mode == STRICT || n_codes == 0) {
@@ -1235,8 +1443,8 @@ START_TEST(lenient_options_are_checked)
     /* no diag and no warnings wanted: still lenient */
     const char *extra = "HIERARCHY\nROOT r\n{\nOFFSET 0 0 0\nCHANNELS 1 Xrotation\n}\nMOTION\n"
                         "Frames: 1\nFrame Time: 1\n5\n6\n";
-    ck_assert_int_eq(mlr_bvh_read_memory_opts(extra, strlen(extra), 1, NULL, 0, NULL, &m, NULL,
-                                              NULL), MLR_OK);
+    ck_assert_int_eq(
+        mlr_bvh_read_memory_opts(extra, strlen(extra), 1, NULL, 0, NULL, &m, NULL, NULL), MLR_OK);
     ck_assert_uint_eq(mlr_motion_n_frames(m), 2);
     mlr_motion_destroy(m);
     const char *cut = "HIERARCHY\nROOT r\n{\nOFFSET 0 0 0\nCHANNELS 2 Xrotation Yrotation\n}\n"
@@ -1333,8 +1541,8 @@ START_TEST(lenient_allocation_failures_are_clean)
             mlr_motion *m = NULL;
             mlr_diag d;
             mlr_bvh_warnings w;
-            mlr_status s = mlr_bvh_read_memory_opts(text, strlen(text), 1, NULL, 0, &ta.base, &m,
-                                                    &w, &d);
+            mlr_status s =
+                mlr_bvh_read_memory_opts(text, strlen(text), 1, NULL, 0, &ta.base, &m, &w, &d);
             mlr_motion_destroy(m);
             ck_assert_uint_eq(ta.live_blocks, 0);
             if (s == MLR_OK) {
@@ -1612,13 +1820,13 @@ START_TEST(threads_report_the_first_error_as_one_thread_does)
             mlr_diag d;
             memset(&d, 0x55, sizeof d);
             const mlr_status s = mlr_bvh_read_memory_mt(t, n, threads[i], NULL, &m, &d);
-            ck_assert_msg(s == s1 && m == NULL, "variant %d, %zu threads: %s", variant,
-                          threads[i], mlr_status_name(s));
-            ck_assert_msg(d.line == d1.line && d.column == d1.column &&
-                              strcmp(d.message, d1.message) == 0,
-                          "variant %d, %zu threads: line %zu col %zu '%s', one thread: line %zu "
-                          "col %zu '%s'", variant, threads[i], d.line, d.column, d.message,
-                          d1.line, d1.column, d1.message);
+            ck_assert_msg(s == s1 && m == NULL, "variant %d, %zu threads: %s", variant, threads[i],
+                          mlr_status_name(s));
+            ck_assert_msg(
+                d.line == d1.line && d.column == d1.column && strcmp(d.message, d1.message) == 0,
+                "variant %d, %zu threads: line %zu col %zu '%s', one thread: line %zu "
+                "col %zu '%s'",
+                variant, threads[i], d.line, d.column, d.message, d1.line, d1.column, d1.message);
         }
     }
     free(t);
@@ -1664,8 +1872,7 @@ START_TEST(parallel_file_reads_match_one_thread)
             ck_assert_msg(d.line == d1.line && d.column == d1.column &&
                               strcmp(d.message, d1.message) == 0,
                           "%zu threads: line %zu col %zu '%s', one thread: line %zu col %zu '%s'",
-                          threads[i], d.line, d.column, d.message, d1.line, d1.column,
-                          d1.message);
+                          threads[i], d.line, d.column, d.message, d1.line, d1.column, d1.message);
         }
     }
     mlr_motion_destroy(m1);
@@ -1685,8 +1892,8 @@ START_TEST(read_file_mt_matches_read_file)
         mlr_motion *a = read_clip(&clips[c]);
         const size_t counts[] = {0, 2, 3};
         for (size_t k = 0; k < MLR_COUNTOF(counts); k++) {
-            ck_assert_int_eq(mlr_bvh_read_file_mt(clip_path(clips[c].file), counts[k], NULL, &b,
-                                                  &d), MLR_OK);
+            ck_assert_int_eq(
+                mlr_bvh_read_file_mt(clip_path(clips[c].file), counts[k], NULL, &b, &d), MLR_OK);
             assert_same_frames(a, b, clips[c].file);
             mlr_motion_destroy(b);
         }
@@ -1788,8 +1995,10 @@ START_TEST(create_from_arrays_writes_and_reads_back)
     const int32_t parents[] = {-1, 0, 1, 1, 3};
     const double offsets[] = {0, 90, 0, 0, 10, 0, 0, 20, 0, 15, 15, 0, 25, 0, 0};
     const char *channels[] = {"Xposition Yposition Zposition Yrotation Xrotation Zrotation",
-                              "Zrotation Xrotation Yrotation", "", ("Xposition Yposition Zposition "
-                              "Xrotation Yrotation Zrotation"), "xrotation zrotation yrotation"};
+                              "Zrotation Xrotation Yrotation", "",
+                              ("Xposition Yposition Zposition "
+                               "Xrotation Yrotation Zrotation"),
+                              "xrotation zrotation yrotation"};
     const int32_t end_parents[] = {2, 4};
     const double end_offsets[] = {0, 8, 0, 5, 0, 0};
     mlr_motion *m = NULL;
@@ -1813,8 +2022,7 @@ START_TEST(create_from_arrays_writes_and_reads_back)
         if (i % 5 == 2)
             continue;
         double q[4], n = 0;
-        for (int k = 0; k < 4; k++)
-        {
+        for (int k = 0; k < 4; k++) {
             q[k] = mlr_test_rng_normal(&rng);
             n += q[k] * q[k];
         }
@@ -1860,12 +2068,12 @@ START_TEST(create_rejects_bad_arrays)
     const double end_off[6] = {0};
     mlr_motion *m = NULL;
     mlr_diag d;
-#define REJECT(...)                                                                   \
-    do {                                                                              \
-        m = (mlr_motion *)&d;                                                         \
+#define REJECT(...)                                                                        \
+    do {                                                                                   \
+        m = (mlr_motion *)&d;                                                              \
         ck_assert_int_eq(mlr_motion_create(__VA_ARGS__, NULL, &m, &d), MLR_E_INVALID_ARG); \
-        ck_assert_ptr_null(m);                                                        \
-        ck_assert(strlen(d.message) > 0);                                             \
+        ck_assert_ptr_null(m);                                                             \
+        ck_assert(strlen(d.message) > 0);                                                  \
     } while (0)
     REJECT(0, names, parents, off, NULL, 0, NULL, NULL, 1, 0.1);
     REJECT(3, bad_names, parents, off, NULL, 0, NULL, NULL, 1, 0.1);
@@ -1881,14 +2089,15 @@ START_TEST(create_rejects_bad_arrays)
     REJECT(3, names, parents, off, NULL, 0, NULL, NULL, 1, NAN);
     REJECT(3, NULL, parents, off, NULL, 0, NULL, NULL, 1, 0.1);
 #undef REJECT
-    ck_assert_int_eq(mlr_motion_create(3, names, sib, off, NULL, 0, NULL, NULL, 1, 0.1, NULL, &m,
-                                       NULL), MLR_OK);
+    ck_assert_int_eq(
+        mlr_motion_create(3, names, sib, off, NULL, 0, NULL, NULL, 1, 0.1, NULL, &m, NULL),
+        MLR_OK);
     mlr_motion_destroy(m);
     for (size_t fail_at = 0;; fail_at++) {
         mlr_test_allocator ta;
         mlr_test_allocator_init(&ta, fail_at);
-        mlr_status s = mlr_motion_create(3, names, sib, off, NULL, 0, NULL, NULL, 5, 0.1,
-                                         &ta.base, &m, NULL);
+        mlr_status s =
+            mlr_motion_create(3, names, sib, off, NULL, 0, NULL, NULL, 5, 0.1, &ta.base, &m, NULL);
         mlr_motion_destroy(m);
         ck_assert_uint_eq(ta.live_blocks, 0);
         if (s == MLR_OK)

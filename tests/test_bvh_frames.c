@@ -1,6 +1,6 @@
 #define _POSIX_C_SOURCE 200809L
 #if defined(__clang__)
-#  pragma STDC FP_CONTRACT OFF /* the references round as the library does */
+#pragma STDC FP_CONTRACT OFF /* the references round as the library does */
 #endif
 /* The BVH reader's MOTION kernels (libmlayer/bvh_frames.c, compiled in here). The whole-line
  * number kernel, on a CPU that has it, must take every frame line of every real clip and random
@@ -95,8 +95,8 @@ static int run_line(const bvh_kernels *k, const char *line, size_t len, size_t C
             memcpy(tmp, q, n);
             tmp[n] = '\0';
             const double ref = strtod(tmp, NULL);
-            ck_assert_msg(memcmp(&ref, &row[c], sizeof ref) == 0, "'%s': %.17g, strtod %.17g",
-                          tmp, row[c], ref);
+            ck_assert_msg(memcmp(&ref, &row[c], sizeof ref) == 0, "'%s': %.17g, strtod %.17g", tmp,
+                          row[c], ref);
             q += n;
         }
     }
@@ -201,8 +201,8 @@ START_TEST(line_kernel_takes_every_line_of_every_clip)
             char *e;
             const double ref = strtod(q, &e);
             ck_assert_msg(memcmp(&ref, &row[c], sizeof ref) == 0,
-                          "%s: frame %zu value %zu: %.17g, strtod %.17g", file, lines + 1,
-                          c + 1, row[c], ref);
+                          "%s: frame %zu value %zu: %.17g, strtod %.17g", file, lines + 1, c + 1,
+                          row[c], ref);
             q = e;
         }
         while (q < end && (*q == ' ' || *q == '\t'))
@@ -254,32 +254,25 @@ static size_t short_line(mlr_test_rng *r, size_t C, char *buf)
     for (size_t c = 0; c < C; c++) {
         const uint64_t u = mlr_test_rng_u64(r) % 64;
         if (c)
-            n += (size_t)sprintf(buf + n, "%s",
-                                 odd && u == 1 ? "  " : odd && u == 2 ? "\t" : " ");
+            n += (size_t)sprintf(buf + n, "%s", odd && u == 1 ? "  " : odd && u == 2 ? "\t" : " ");
         n += odd && u == 3 ? simple_token(r, buf + n) : short_token(r, buf + n);
     }
     n += (size_t)sprintf(buf + n, "%s", mlr_test_rng_u64(r) % 3 ? "\n" : "\r\n");
     return n;
 }
 
-START_TEST(line_kernel_takes_random_simple_lines)
-{
-    takes_random_lines(_i, 2024, simple_line);
-}
+START_TEST(line_kernel_takes_random_simple_lines) { takes_random_lines(_i, 2024, simple_line); }
 END_TEST
 
 /* Whichever way the kernel takes each group of eight, every value exact. */
-START_TEST(line_kernel_takes_random_short_lines)
-{
-    takes_random_lines(_i, 77, short_line);
-}
+START_TEST(line_kernel_takes_random_short_lines) { takes_random_lines(_i, 77, short_line); }
 END_TEST
 
 /* A line of C random tokens (1 to 30) with tok[0, tlen) at a random place, blank-separated,
  * ending with eol; the tokens around it are short ones (the eight-at-once path) when rep % 4
  * is 0 or 1. Returns its length. */
-static size_t line_around(mlr_test_rng *r, const char *tok, size_t tlen, int rep,
-                          const char *eol, char *buf, size_t *C)
+static size_t line_around(mlr_test_rng *r, const char *tok, size_t tlen, int rep, const char *eol,
+                          char *buf, size_t *C)
 {
     *C = 1 + (size_t)(mlr_test_rng_u64(r) % 30);
     const size_t at = (size_t)(mlr_test_rng_u64(r) % *C);
@@ -304,10 +297,41 @@ START_TEST(line_kernel_declines_what_it_does_not_take)
         return;
     /* no numbers: the line goes to the careful parser, which reports them */
     static const char *const odd[] = {
-        "1.2.3", "..1", "-1.2.3", "1.-2", "-1-", "12.34.5", "-0-0", "1..", "-..", "-", ".", "-.",
-        "1-2", "--1", "1-", "0x1", "nan", "inf", "-inf", "1,5",
-        "1/2", "/", "12a", "1e", "1e+", "e5", "+", "1e999", "\x01", "1\x7f", "\xc3\xa9", "1\v2",
-        "1\f2", ("1\x00" "2"),
+        "1.2.3",
+        "..1",
+        "-1.2.3",
+        "1.-2",
+        "-1-",
+        "12.34.5",
+        "-0-0",
+        "1..",
+        "-..",
+        "-",
+        ".",
+        "-.",
+        "1-2",
+        "--1",
+        "1-",
+        "0x1",
+        "nan",
+        "inf",
+        "-inf",
+        "1,5",
+        "1/2",
+        "/",
+        "12a",
+        "1e",
+        "1e+",
+        "e5",
+        "+",
+        "1e999",
+        "\x01",
+        "1\x7f",
+        "\xc3\xa9",
+        "1\v2",
+        "1\f2",
+        ("1\x00"
+         "2"),
     };
     mlr_test_rng r;
     mlr_test_rng_seed(&r, 99);
@@ -331,10 +355,23 @@ START_TEST(line_kernel_declines_what_it_does_not_take)
     }
     /* numbers the vector lanes leave to the scalar parser: still taken, still exact */
     static const char *const long_ones[] = {
-        "1e5", "1E5", "+1", "+.5", "-2.5e+2", "1.5E-3", "5.1072e-06", "-1.51632e-14",
-        "1234567890123456", "-123456789012345", "123456789012345.", "1.23456789012345",
-        "0.12345678901234567", "9007199254740993", "-0.000000000000000000001",
-        "1.00000000000000011102230246251565", "2.5e-300",
+        "1e5",
+        "1E5",
+        "+1",
+        "+.5",
+        "-2.5e+2",
+        "1.5E-3",
+        "5.1072e-06",
+        "-1.51632e-14",
+        "1234567890123456",
+        "-123456789012345",
+        "123456789012345.",
+        "1.23456789012345",
+        "0.12345678901234567",
+        "9007199254740993",
+        "-0.000000000000000000001",
+        "1.00000000000000011102230246251565",
+        "2.5e-300",
     };
     for (size_t i = 0; i < MLR_COUNTOF(long_ones); i++)
         for (int rep = 0; rep < 40; rep++) {
@@ -397,8 +434,8 @@ static void rplan_make(mlr_test_rng *r, rplan *rp)
     rp->par = malloc(Jp * sizeof(double));
     ck_assert(rp->src && rp->tri && rp->sel && rp->tri_ok && rp->par);
     for (size_t k = 0; k < 3 + 3 * P; k++) /* a channel or a constant */
-        rp->src[k] = mlr_test_rng_u64(r) % 4 ? (uint32_t)(mlr_test_rng_u64(r) % C)
-                                              : (uint32_t)(R + 4 + k);
+        rp->src[k] =
+            mlr_test_rng_u64(r) % 4 ? (uint32_t)(mlr_test_rng_u64(r) % C) : (uint32_t)(R + 4 + k);
     uint32_t *g = rp->src + 3 + 3 * P;
     for (size_t j = 0; j < Jp; j += 8) {
         const int regular = mlr_test_rng_u64(r) % 3 != 0;
@@ -407,8 +444,8 @@ static void rplan_make(mlr_test_rng *r, rplan *rp)
             const uint32_t base = (uint32_t)(mlr_test_rng_u64(r) % (C - 2));
             rp->tri[i] = i < J ? base : (uint32_t)R;
             for (size_t k = 0; k < 3; k++)
-                g[k * Jp + i] = i >= J ? (uint32_t)R
-                                : regular ? base + (uint32_t)k
+                g[k * Jp + i] = i >= J                    ? (uint32_t)R
+                                : regular                 ? base + (uint32_t)k
                                 : mlr_test_rng_u64(r) % 5 ? (uint32_t)(mlr_test_rng_u64(r) % C)
                                                           : (uint32_t)R;
             const unsigned o = (unsigned)(mlr_test_rng_u64(r) % 6);
@@ -450,7 +487,7 @@ START_TEST(frame_kernels_agree_bit_for_bit)
         ck_assert(row && tmp && out[0] && out[1] && out[2]);
         for (size_t c = 0; c < n_row; c++) {
             const uint64_t kind = mlr_test_rng_u64(&r) % 50;
-            row[c] = kind == 0 ? 0x1p53 * mlr_test_rng_normal(&r) /* reduced with fmod */
+            row[c] = kind == 0   ? 0x1p53 * mlr_test_rng_normal(&r) /* reduced with fmod */
                      : kind == 1 ? 90.0 * (double)(int)(mlr_test_rng_u64(&r) % 9)
                                  : 400.0 * mlr_test_rng_normal(&r);
         }

@@ -38,8 +38,8 @@ static int check_one(double v, int *same)
         return 1;
     }
     const double x = strtod(fast, NULL), y = strtod(ref, NULL);
-    ck_assert_msg(fabs(x - y) <= 1.000001e-8 * fabs(y) + 1e-300,
-                  "%.17g: fast '%s', printf '%s'", v, fast, ref);
+    ck_assert_msg(fabs(x - y) <= 1.000001e-8 * fabs(y) + 1e-300, "%.17g: fast '%s', printf '%s'",
+                  v, fast, ref);
     return 1;
 }
 
@@ -76,10 +76,10 @@ START_TEST(g9_matches_printf)
     ck_assert_uint_gt(ties, 90000);
     ck_assert_uint_eq(same, taken);
     /* the edges */
-    static const double edges[] = {0.0,     1e-4,   9.99999999e-5, 1e8, 99999999.95, 99999999.4,
-                                   0.5,     1.0,    10.0,          123456789e-9, 1.5e-4,
-                                   -0.0001, -12.5,  180.0,         -179.999999999, 1e-300,
-                                   1e300,   NAN,    INFINITY,      -0.0};
+    static const double edges[] = {0.0,        1e-4,    9.99999999e-5, 1e8,      99999999.95,
+                                   99999999.4, 0.5,     1.0,           10.0,     123456789e-9,
+                                   1.5e-4,     -0.0001, -12.5,         180.0,    -179.999999999,
+                                   1e-300,     1e300,   NAN,           INFINITY, -0.0};
     for (size_t i = 0; i < MLR_COUNTOF(edges); i++) {
         int s;
         if (check_one(edges[i], &s))
@@ -107,7 +107,9 @@ static int is_temporary_of(const char *name, const char *target)
 
 START_TEST(temporary_names_follow_the_rule)
 {
-    static const struct { const char *path, *want; } cases[] = {
+    static const struct {
+        const char *path, *want;
+    } cases[] = {
         {"out.bvh", ".out.bvh.tmp-0000000000abcdef"},
         {"dir/sub/out.bvh", "dir/sub/.out.bvh.tmp-0000000000abcdef"},
         {"/abs/x", "/abs/.x.tmp-0000000000abcdef"},
@@ -221,8 +223,9 @@ START_TEST(write_file_honours_the_umask)
     ck_assert_int_eq(mlr_bvh_read_memory(tiny_bvh, strlen(tiny_bvh), NULL, &m, &d), MLR_OK);
     char path[128];
     snprintf(path, sizeof path, "%s/out.bvh", dir);
-    static const struct { mode_t mask, mode; } cases[] = {
-        {022, 0644}, {077, 0600}, {027, 0640}, {022, 0644}};
+    static const struct {
+        mode_t mask, mode;
+    } cases[] = {{022, 0644}, {077, 0600}, {027, 0640}, {022, 0644}};
     const mode_t old = umask(022);
     for (size_t i = 0; i < MLR_COUNTOF(cases); i++) { /* a new file, then replacing it */
         umask(cases[i].mask);

@@ -14,10 +14,10 @@
 /* Y up. Hips -> (LeftUpLeg -> LeftLeg -> LeftFoot -> LeftToe), the same on the right, Spine */
 enum { J = 10, N = 300 };
 static const int32_t parents[J] = {-1, 0, 1, 2, 3, 0, 5, 6, 7, 0};
-static const double offsets[3 * J] = {0, 0, 0, 1, 0, 0, 0, -4, 0, 0, -4, 0, 0, -0.8, 1.5,
-                                      -1, 0, 0, 0, -4, 0, 0, -4, 0, 0, -0.8, 1.5, 0, 2, 0};
-static const char *const names[J] = {"Hips", "LeftUpLeg", "LeftLeg", "LeftFoot", "LeftToe",
-                                     "RightUpLeg", "RightLeg", "RightFoot", "RightToe", "Spine"};
+static const double offsets[3 * J] = {0,  0, 0, 1, 0,  0, 0, -4, 0, 0, -4,   0,   0, -0.8, 1.5,
+                                      -1, 0, 0, 0, -4, 0, 0, -4, 0, 0, -0.8, 1.5, 0, 2,    0};
+static const char *const names[J] = {"Hips",       "LeftUpLeg", "LeftLeg",   "LeftFoot", "LeftToe",
+                                     "RightUpLeg", "RightLeg",  "RightFoot", "RightToe", "Spine"};
 static const int32_t es_parents[2] = {4, 8};
 static const double es_offsets[6] = {0, 0, 0.5, 0, 0, 0.5};
 /* points: LeftFoot, LeftToe, RightFoot, RightToe */
@@ -31,7 +31,10 @@ static mlr_rig rig(void)
     return r;
 }
 
-static void qx(double a, double *q) { q[0] = cos(0.5 * a), q[1] = sin(0.5 * a), q[2] = q[3] = 0.0; }
+static void qx(double a, double *q)
+{
+    q[0] = cos(0.5 * a), q[1] = sin(0.5 * a), q[2] = q[3] = 0.0;
+}
 
 /* A standing pose with bent knees (feet flat: toes at y = 0 when the root is at ROOT_Y), the
    root at z = slide * f and y = ROOT_Y - dip(f). */
@@ -69,8 +72,9 @@ static void fk_pts(const double *root, const double *rot, double *pos, double *p
 {
     mlr_rig r = rig();
     double *wrot = malloc(4 * N * J * sizeof(double));
-    ck_assert_int_eq(mlr_fk_arrays(N, J, parents, offsets, root, rot, 0, NULL, NULL, pos, wrot,
-                                   NULL, NULL), MLR_OK);
+    ck_assert_int_eq(
+        mlr_fk_arrays(N, J, parents, offsets, root, rot, 0, NULL, NULL, pos, wrot, NULL, NULL),
+        MLR_OK);
     ck_assert_int_eq(mlr_rig_point_positions(&r, N, pos, wrot, C, pj, NULL, pts, NULL), MLR_OK);
     free(wrot);
 }
@@ -93,8 +97,8 @@ static mlr_status run(synth *s, int with_ref, const mlr_cleanup_option *o, size_
 {
     mlr_rig r = rig();
     return mlr_cleanup_contacts(&r, N, 60.0, MLR_AXIS_Y, s->root, s->rot, NULL,
-                                with_ref ? s->rroot : NULL, with_ref ? s->rrot : NULL, NULL, C,
-                                pj, NULL, s->c, o, no, s->oroot, s->orot, rep, al, d);
+                                with_ref ? s->rroot : NULL, with_ref ? s->rrot : NULL, NULL, C, pj,
+                                NULL, s->c, o, no, s->oroot, s->orot, rep, al, d);
 }
 
 START_TEST(a_sliding_foot_is_pinned_to_its_contact)
@@ -178,8 +182,8 @@ START_TEST(frames_far_from_every_constrained_frame_keep_the_input)
                     e = fmax(e, fabs(s->orot[4 * (f * J + j) + (size_t)k] -
                                      s->rot[4 * (f * J + j) + (size_t)k]));
                 if (dd > 12 + 40) {
-                    ck_assert_msg(e < 1e-12, "ref %d frame %zu joint %zu moved by %g", with_ref,
-                                  f, j, e);
+                    ck_assert_msg(e < 1e-12, "ref %d frame %zu joint %zu moved by %g", with_ref, f,
+                                  j, e);
                     kept++;
                 } else if (dd <= 6 && (left || right) && e > 1e-3) {
                     moved_near++;
@@ -323,8 +327,9 @@ START_TEST(floor_height_is_the_quantile_of_contact_heights)
         const double want = ref_quantile(v, k, qs[i]);
         double h;
         mlr_diag d;
-        ck_assert_int_eq(mlr_cleanup_floor_height(&rg, N, s->root, s->rot, NULL, C, pj, NULL,
-                                                  s->c, MLR_AXIS_Y, qs[i], &h, NULL, &d), MLR_OK);
+        ck_assert_int_eq(mlr_cleanup_floor_height(&rg, N, s->root, s->rot, NULL, C, pj, NULL, s->c,
+                                                  MLR_AXIS_Y, qs[i], &h, NULL, &d),
+                         MLR_OK);
         ck_assert_double_eq_tol(h, want, 1e-12);
         /* and the cleanup reports the same floor (no reference: the motion's own contacts) */
         const mlr_cleanup_option o = {MLR_CLEANUP_OPT_FLOOR_QUANTILE, qs[i]};
@@ -337,15 +342,18 @@ START_TEST(floor_height_is_the_quantile_of_contact_heights)
     double h;
     memset(s->c, 0, N * C);
     ck_assert_int_eq(mlr_cleanup_floor_height(&rg, N, s->root, s->rot, NULL, C, pj, es, s->c,
-                                              MLR_AXIS_Y, 0.5, &h, NULL, NULL), MLR_OK);
+                                              MLR_AXIS_Y, 0.5, &h, NULL, NULL),
+                     MLR_OK);
     ck_assert(isnan(h));
     s->c[7 * C + 1] = 1; /* one End Site sample: its height */
     double wr[4 * N * J], ep[3 * N * C];
     ck_assert_int_eq(mlr_fk_arrays(N, J, parents, offsets, s->root, s->rot, 0, NULL, NULL, s->pos,
-                                   wr, NULL, NULL), MLR_OK);
+                                   wr, NULL, NULL),
+                     MLR_OK);
     ck_assert_int_eq(mlr_rig_point_positions(&rg, N, s->pos, wr, C, pj, es, ep, NULL), MLR_OK);
     ck_assert_int_eq(mlr_cleanup_floor_height(&rg, N, s->root, s->rot, NULL, C, pj, es, s->c,
-                                              MLR_AXIS_Y, 0.5, &h, NULL, NULL), MLR_OK);
+                                              MLR_AXIS_Y, 0.5, &h, NULL, NULL),
+                     MLR_OK);
     ck_assert(h == ep[3 * (7 * C + 1) + 1]);
     free(v);
     free(s);
@@ -377,14 +385,21 @@ START_TEST(real_clips_pinned_and_above_the_floor)
     const char **nm = malloc(j * sizeof *nm);
     for (size_t i = 0; i < j; i++)
         nm[i] = mlr_motion_joint_name(m, i);
-    mlr_rig rg = {j, mlr_motion_parents(m), mlr_motion_offsets(m), nm, 0, NULL,
-                  mlr_motion_n_end_sites(m), mlr_motion_end_site_parents(m),
+    mlr_rig rg = {j,
+                  mlr_motion_parents(m),
+                  mlr_motion_offsets(m),
+                  nm,
+                  0,
+                  NULL,
+                  mlr_motion_n_end_sites(m),
+                  mlr_motion_end_site_parents(m),
                   mlr_motion_end_site_offsets(m)};
     const double fps = 1.0 / mlr_motion_frame_time(m);
     const double *root = mlr_motion_root_pos(m), *rot = mlr_motion_rot(m);
     double *wp = malloc(3 * n * j * sizeof(double)), *wr = malloc(4 * n * j * sizeof(double));
-    ck_assert_int_eq(mlr_fk_arrays(n, j, rg.parents, rg.offsets, root, rot, 0, NULL, NULL, wp, wr,
-                                   NULL, NULL), MLR_OK);
+    ck_assert_int_eq(
+        mlr_fk_arrays(n, j, rg.parents, rg.offsets, root, rot, 0, NULL, NULL, wp, wr, NULL, NULL),
+        MLR_OK);
     double H;
     ck_assert_int_eq(mlr_rig_body_height(n, j, wp, MLR_AXIS_Y, &H, NULL, &d), MLR_OK);
     int32_t *jt = malloc(2 * j * sizeof(int32_t)), *es = malloc(2 * j * sizeof(int32_t));
@@ -395,15 +410,17 @@ START_TEST(real_clips_pinned_and_above_the_floor)
         if (jt[i] >= 0)
             jt[Cn] = jt[i], es[Cn] = es[i], Cn++;
     uint8_t *c = malloc(n * Cn);
-    ck_assert_int_eq(mlr_contacts_detect(&rg, fps, MLR_AXIS_Y, n, wp, wr, Cn, jt, es, NULL, 0, c,
-                                         NULL, &d), MLR_OK);
+    ck_assert_int_eq(
+        mlr_contacts_detect(&rg, fps, MLR_AXIS_Y, n, wp, wr, Cn, jt, es, NULL, 0, c, NULL, &d),
+        MLR_OK);
     /* the synthesized motion: the layers at alpha 2 */
     mlr_layers *L;
     const mlr_layers_option lo = {MLR_LAYERS_OPT_FPS, fps};
     ck_assert_int_eq(mlr_layers_decompose(n, j, root, rot, &lo, 1, NULL, &L, &d), MLR_OK);
     double *sr = malloc(3 * n * sizeof(double)), *sq = malloc(4 * n * j * sizeof(double));
     const double alpha = 2.0;
-    ck_assert_int_eq(mlr_layers_synthesize(L, 0, n, &alpha, 1, sr, 3 * n, sq, 4 * n * j, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_layers_synthesize(L, 0, n, &alpha, 1, sr, 3 * n, sq, 4 * n * j, NULL),
+                     MLR_OK);
     mlr_layers_destroy(L);
     double *orr = malloc(3 * n * sizeof(double)), *oq = malloc(4 * n * j * sizeof(double));
     mlr_cleanup_report rep;
@@ -412,15 +429,18 @@ START_TEST(real_clips_pinned_and_above_the_floor)
                   "%s: %s", clips[_i], d.message);
     ck_assert(isfinite(rep.floor_height));
     ck_assert_uint_gt(rep.contact_frames, n / 10);
-    double *p_ref = malloc(3 * n * Cn * sizeof(double)), *p_in = malloc(3 * n * Cn * sizeof(double)),
+    double *p_ref = malloc(3 * n * Cn * sizeof(double)),
+           *p_in = malloc(3 * n * Cn * sizeof(double)),
            *p_out = malloc(3 * n * Cn * sizeof(double));
     ck_assert_int_eq(mlr_rig_point_positions(&rg, n, wp, wr, Cn, jt, es, p_ref, NULL), MLR_OK);
     double *pos2 = malloc(3 * n * j * sizeof(double)), *wr2 = malloc(4 * n * j * sizeof(double));
     for (int which = 0; which < 2; which++) {
         ck_assert_int_eq(mlr_fk_arrays(n, j, rg.parents, rg.offsets, which ? orr : sr,
-                                       which ? oq : sq, 0, NULL, NULL, pos2, wr2, NULL, NULL), MLR_OK);
-        ck_assert_int_eq(mlr_rig_point_positions(&rg, n, pos2, wr2, Cn, jt, es,
-                                                 which ? p_out : p_in, NULL), MLR_OK);
+                                       which ? oq : sq, 0, NULL, NULL, pos2, wr2, NULL, NULL),
+                         MLR_OK);
+        ck_assert_int_eq(
+            mlr_rig_point_positions(&rg, n, pos2, wr2, Cn, jt, es, which ? p_out : p_in, NULL),
+            MLR_OK);
     }
     /* sliding: over each contact run of each point, the largest horizontal distance of
        (point - reference point) from its value at the run's first frame; and the floor */
@@ -451,8 +471,8 @@ START_TEST(real_clips_pinned_and_above_the_floor)
     ck_assert_msg(slide_out < 0.2 * slide_in && slide_out < 0.05 * H,
                   "%s: drift %g body heights (the synthesized %g)", clips[_i], slide_out / H,
                   slide_in / H);
-    ck_assert_msg(below_out < 0.005 * H, "%s: a point %g body heights below the floor",
-                  clips[_i], below_out / H);
+    ck_assert_msg(below_out < 0.005 * H, "%s: a point %g body heights below the floor", clips[_i],
+                  below_out / H);
     for (size_t i = 0; i < n * j; i++) {
         const double *q = oq + 4 * i;
         ck_assert_double_eq_tol(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3], 1.0, 1e-12);
@@ -471,13 +491,13 @@ START_TEST(bad_input_gets_the_right_status_and_message)
     contacts_of(s->c);
     mlr_rig rg = rig();
     mlr_diag d;
-#define CL(ROOT, ROT, RR, RQ, NP, JT, ES, CC, O, NO, FPS, UP)                                    \
-    mlr_cleanup_contacts(&rg, N, FPS, UP, ROOT, ROT, NULL, RR, RQ, NULL, NP, JT, ES, CC, O, NO,   \
+#define CL(ROOT, ROT, RR, RQ, NP, JT, ES, CC, O, NO, FPS, UP)                                   \
+    mlr_cleanup_contacts(&rg, N, FPS, UP, ROOT, ROT, NULL, RR, RQ, NULL, NP, JT, ES, CC, O, NO, \
                          s->oroot, s->orot, NULL, NULL, &d)
-#define EXPECT(call, text)                                                                       \
-    do {                                                                                         \
-        ck_assert_int_eq(call, MLR_E_INVALID_ARG);                                               \
-        ck_assert_msg(strstr(d.message, text) != NULL, "'%s' lacks '%s'", d.message, text);     \
+#define EXPECT(call, text)                                                                  \
+    do {                                                                                    \
+        ck_assert_int_eq(call, MLR_E_INVALID_ARG);                                          \
+        ck_assert_msg(strstr(d.message, text) != NULL, "'%s' lacks '%s'", d.message, text); \
     } while (0)
     const int32_t bad_j[C] = {3, 4, 7, 12};
     EXPECT(CL(s->root, s->rot, NULL, NULL, C, bad_j, NULL, s->c, NULL, 0, 60.0, 1),
@@ -514,10 +534,15 @@ START_TEST(bad_input_gets_the_right_status_and_message)
            "reference contains NaN or infinite values");
     s->rroot[5] = 0.0;
     /* options */
-    const struct { mlr_cleanup_option o[2]; size_t n; const char *msg; } bad[] = {
+    const struct {
+        mlr_cleanup_option o[2];
+        size_t n;
+        const char *msg;
+    } bad[] = {
         {{{0, 1.0}}, 1, "unknown option key 0"},
         {{{12, 1.0}}, 1, "unknown option key 12"},
-        {{{MLR_CLEANUP_OPT_BLEND, 0.1}, {MLR_CLEANUP_OPT_BLEND, 0.2}}, 2,
+        {{{MLR_CLEANUP_OPT_BLEND, 0.1}, {MLR_CLEANUP_OPT_BLEND, 0.2}},
+         2,
          "cleanup: option blend given twice"},
         {{{MLR_CLEANUP_OPT_BLEND, NAN}}, 1, "option blend = nan is not finite"},
         {{{MLR_CLEANUP_OPT_FLOOR_HEIGHT, INFINITY}}, 1, "option floor_height = inf is not finite"},
@@ -527,13 +552,17 @@ START_TEST(bad_input_gets_the_right_status_and_message)
         {{{MLR_CLEANUP_OPT_PASSES, 2.5}}, 1, "option passes = 2.5 is not an integer in [1, 10]"},
         {{{MLR_CLEANUP_OPT_PASSES, 11}}, 1, "option passes = 11 is not an integer in [1, 10]"},
         {{{MLR_CLEANUP_OPT_FLOOR, 0.5}}, 1, "option floor = 0.5 is not 0 or 1"},
-        {{{MLR_CLEANUP_OPT_FLOOR_QUANTILE, -0.1}}, 1, "option floor_quantile = -0.1 is not in [0, 1]"},
+        {{{MLR_CLEANUP_OPT_FLOOR_QUANTILE, -0.1}},
+         1,
+         "option floor_quantile = -0.1 is not in [0, 1]"},
         {{{MLR_CLEANUP_OPT_REF_SMOOTH, -1}}, 1, "option ref_smooth = -1 is not >= 0"},
         {{{MLR_CLEANUP_OPT_PIN_SMOOTH, 0}}, 1, "option pin_smooth = 0 is not > 0"},
         {{{MLR_CLEANUP_OPT_ROOT, 2}}, 1, "option root = 2 is not 0 or 1"},
         {{{MLR_CLEANUP_OPT_MAX_FOLD, 0}}, 1, "option max_fold = 0 is not in (0, pi]"},
         {{{MLR_CLEANUP_OPT_MAX_FOLD, 3.2}}, 1, "option max_fold = 3.2 is not in (0, pi]"},
-        {{{MLR_CLEANUP_OPT_KEEP_STILLER, 0.5}}, 1, "option keep_stiller = 0.5 is not 0 (off) or >= 1"},
+        {{{MLR_CLEANUP_OPT_KEEP_STILLER, 0.5}},
+         1,
+         "option keep_stiller = 0.5 is not 0 (off) or >= 1"},
         {{{MLR_CLEANUP_OPT_KEEP_STILLER, NAN}}, 1, "option keep_stiller = nan is not finite"},
     };
     for (size_t i = 0; i < MLR_COUNTOF(bad); i++)
@@ -543,28 +572,37 @@ START_TEST(bad_input_gets_the_right_status_and_message)
            "opts is NULL but n_opts is 2");
     ck_assert_int_eq(mlr_cleanup_contacts(NULL, N, 60.0, 1, s->root, s->rot, NULL, NULL, NULL,
                                           NULL, C, pj, NULL, s->c, NULL, 0, s->oroot, s->orot,
-                                          NULL, NULL, &d), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_cleanup_contacts(&rg, N, 60.0, 1, s->root, s->rot, NULL, NULL, NULL,
-                                          NULL, C, pj, NULL, s->c, NULL, 0, NULL, s->orot, NULL,
-                                          NULL, &d), MLR_E_INVALID_ARG);
+                                          NULL, NULL, &d),
+                     MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_cleanup_contacts(&rg, N, 60.0, 1, s->root, s->rot, NULL, NULL, NULL, NULL,
+                                          C, pj, NULL, s->c, NULL, 0, NULL, s->orot, NULL, NULL,
+                                          &d),
+                     MLR_E_INVALID_ARG);
     ck_assert_ptr_nonnull(strstr(d.message, "NULL outputs"));
     /* floor_height */
     double h;
     EXPECT(mlr_cleanup_floor_height(&rg, N, s->root, s->rot, NULL, C, bad_j, NULL, s->c, 1, 0.05,
-                                    &h, NULL, &d), "joint 12 names nothing");
+                                    &h, NULL, &d),
+           "joint 12 names nothing");
     EXPECT(mlr_cleanup_floor_height(&rg, N, s->root, s->rot, NULL, C, pj, NULL, s->c, 1, 1.5, &h,
-                                    NULL, &d), "quantile 1.5 outside [0, 1]");
+                                    NULL, &d),
+           "quantile 1.5 outside [0, 1]");
     EXPECT(mlr_cleanup_floor_height(&rg, N, s->root, s->rot, NULL, C, pj, NULL, s->c, 1, NAN, &h,
-                                    NULL, &d), "quantile nan");
-    EXPECT(mlr_cleanup_floor_height(&rg, N, s->root, s->rot, NULL, C, pj, NULL, s->c, -1, 0.05,
-                                    &h, NULL, &d), "up axis -1");
+                                    NULL, &d),
+           "quantile nan");
+    EXPECT(mlr_cleanup_floor_height(&rg, N, s->root, s->rot, NULL, C, pj, NULL, s->c, -1, 0.05, &h,
+                                    NULL, &d),
+           "up axis -1");
     EXPECT(mlr_cleanup_floor_height(&rg, N, s->root, s->rot, NULL, C, pj, NULL, NULL, 1, 0.05, &h,
-                                    NULL, &d), "contacts");
-    EXPECT(mlr_cleanup_floor_height(&rg, 0, s->root, s->rot, NULL, C, pj, NULL, s->c, 1, 0.05,
-                                    &h, NULL, &d), "no frames");
+                                    NULL, &d),
+           "contacts");
+    EXPECT(mlr_cleanup_floor_height(&rg, 0, s->root, s->rot, NULL, C, pj, NULL, s->c, 1, 0.05, &h,
+                                    NULL, &d),
+           "no frames");
     s->root[4] = NAN;
-    EXPECT(mlr_cleanup_floor_height(&rg, N, s->root, s->rot, NULL, C, pj, NULL, s->c, 1, 0.05,
-                                    &h, NULL, &d), "motion contains NaN");
+    EXPECT(mlr_cleanup_floor_height(&rg, N, s->root, s->rot, NULL, C, pj, NULL, s->c, 1, 0.05, &h,
+                                    NULL, &d),
+           "motion contains NaN");
     free(s);
 #undef CL
 #undef EXPECT
@@ -594,7 +632,8 @@ START_TEST(every_allocation_failure_returns_no_memory_without_leaks)
         if (st == MLR_OK)
             break;
         ck_assert_int_eq(st, MLR_E_NO_MEMORY);
-        ck_assert_msg(strstr(d.message, "memory") != NULL, "allocation %zu: %s", fail_at, d.message);
+        ck_assert_msg(strstr(d.message, "memory") != NULL, "allocation %zu: %s", fail_at,
+                      d.message);
     }
     ck_assert_uint_ge(fail_at, 20);
     ck_assert_int_eq(memcmp(want_root, s->oroot, sizeof want_root), 0);
@@ -655,15 +694,16 @@ START_TEST(a_rig_with_eight_feet_is_cleaned_up)
     mlr_diag d;
     ck_assert_msg(mlr_cleanup_contacts(&rg, NC, 60.0, MLR_AXIS_Y, root, rot, NULL, NULL, NULL,
                                        NULL, L, pts, NULL, c, NULL, 0, oroot, orot, &rep, NULL,
-                                       &d) == MLR_OK, "%s", d.message);
+                                       &d) == MLR_OK,
+                  "%s", d.message);
     ck_assert_uint_eq(rep.contact_frames, 75);
     /* every ankle pinned to its mean over its contact */
     double *pos = malloc(3 * NC * JC * sizeof(double)), *wr = malloc(4 * NC * JC * sizeof(double));
     double *pos0 = malloc(3 * NC * JC * sizeof(double));
-    ck_assert_int_eq(mlr_fk_arrays(NC, JC, par, off, root, rot, 0, NULL, NULL, pos0, wr, NULL, NULL),
-                     MLR_OK);
-    ck_assert_int_eq(mlr_fk_arrays(NC, JC, par, off, oroot, orot, 0, NULL, NULL, pos, wr, NULL, NULL),
-                     MLR_OK);
+    ck_assert_int_eq(
+        mlr_fk_arrays(NC, JC, par, off, root, rot, 0, NULL, NULL, pos0, wr, NULL, NULL), MLR_OK);
+    ck_assert_int_eq(
+        mlr_fk_arrays(NC, JC, par, off, oroot, orot, 0, NULL, NULL, pos, wr, NULL, NULL), MLR_OK);
     for (int l = 0; l < L; l++) {
         const size_t lo = 20 + 5 * (size_t)l, a = (size_t)pts[l];
         double m[3] = {0, 0, 0};
@@ -694,7 +734,4 @@ static Suite *cleanup_suite(void)
     return s;
 }
 
-int main(void)
-{
-    return mlr_test_run(cleanup_suite());
-}
+int main(void) { return mlr_test_run(cleanup_suite()); }

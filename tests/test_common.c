@@ -4,10 +4,10 @@
 #include <math.h>
 #include <string.h>
 
-static const mlr_status all_codes[] = {MLR_OK, MLR_E_INVALID_ARG, MLR_E_NO_MEMORY,
-                                       MLR_E_OVERFLOW, MLR_E_SINGULAR, MLR_E_BAD_STATE,
-                                       MLR_E_UNSUPPORTED, MLR_E_PARSE, MLR_E_IO,
-                                       MLR_W_ILL_CONDITIONED, MLR_W_MAX_ITER};
+static const mlr_status all_codes[] = {
+    MLR_OK,         MLR_E_INVALID_ARG,     MLR_E_NO_MEMORY,   MLR_E_OVERFLOW,
+    MLR_E_SINGULAR, MLR_E_BAD_STATE,       MLR_E_UNSUPPORTED, MLR_E_PARSE,
+    MLR_E_IO,       MLR_W_ILL_CONDITIONED, MLR_W_MAX_ITER};
 
 START_TEST(every_status_has_a_distinct_name)
 {

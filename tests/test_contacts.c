@@ -52,9 +52,9 @@ START_TEST(feet_are_ankles_with_their_toes_or_end_sites)
 {
     /* CMU-like: both legs with toes, the toe of the right one behind a zero-length joint, a
      * nested "LeftFootRoll" below LeftFoot (not a second foot) */
-    const char *names[] = {"Hips", "LeftUpLeg", "LeftLeg", "LeftFoot", "LeftFootRoll",
-                           "LeftToeBase", "RightUpLeg", "RightLeg", "RightFoot", "RightFootAux",
-                           "RightToe", "Spine"};
+    const char *names[] = {"Hips",         "LeftUpLeg",    "LeftLeg",    "LeftFoot",
+                           "LeftFootRoll", "LeftToeBase",  "RightUpLeg", "RightLeg",
+                           "RightFoot",    "RightFootAux", "RightToe",   "Spine"};
     const int32_t parents[] = {-1, 0, 1, 2, 3, 3, 0, 6, 7, 8, 9, 0};
     test_rig t;
     make_rig(&t, 12, names, parents);
@@ -95,8 +95,9 @@ START_TEST(the_longest_toe_wins_and_names_fold_case)
 {
     /* MakeHuman-like five toes of different lengths below "lfoot"; an upper-case "ANKLE" with a
      * Kelvin sign (U+212A) for its K, and "Ball" toes */
-    const char *names[] = {"root", "lfoot", "toe1", "toe2", "toe3", "toe4", "toe5",
-                           "R_AN\xE2\x84\xAALE", "r_Ball", "R_BALL2", "pelvis"};
+    const char *names[] = {"root",   "lfoot",   "toe1",  "toe2",
+                           "toe3",   "toe4",    "toe5",  "R_AN\xE2\x84\xAALE",
+                           "r_Ball", "R_BALL2", "pelvis"};
     const int32_t parents[] = {-1, 0, 1, 1, 1, 1, 1, 0, 7, 7, 0};
     test_rig t;
     make_rig(&t, 11, names, parents);
@@ -186,8 +187,8 @@ START_TEST(hands_that_stay_low_are_feet)
         ck_assert_int_eq(jt[3], -1);
         /* along another axis the hand is 0.3 above the lowest joint, the foot 0.1, the extent
          * 0.4 + 0: 0.3 > 0.1 + 0.08, a hand */
-        ck_assert_int_eq(mlr_contacts_find_feet(&t.rig, N, pos, (up + 1) % 3, 5, jt, es, &F,
-                                                NULL, &d), MLR_OK);
+        ck_assert_int_eq(
+            mlr_contacts_find_feet(&t.rig, N, pos, (up + 1) % 3, 5, jt, es, &F, NULL, &d), MLR_OK);
         ck_assert_uint_eq(F, 1);
         dog_positions(pos, N, up, 1.6); /* median 1.7 > 1.6: a hand, not a foot */
         ck_assert_int_eq(mlr_contacts_find_feet(&t.rig, N, pos, up, 5, jt, es, &F, NULL, &d),
@@ -421,33 +422,36 @@ START_TEST(known_contacts_of_a_stepping_foot_on_every_up_axis)
     for (int up = 0; up < 3; up++) {
         stepping_positions(pos, up);
         ck_assert_int_eq(mlr_contacts_detect(&t.rig, 60.0, up, KN, pos, NULL, 2, pts, NULL, NULL,
-                                             0, c, NULL, &d), MLR_OK);
+                                             0, c, NULL, &d),
+                         MLR_OK);
         /* the first stance: frames 11..38 (frames 10 and 39 see the jump in their central
          * difference; the blip at 25 leaves 24 and 26 out, a 1-frame gap each, closed); the
          * second stance of 4 frames gives 2 frames of contact, shorter than 0.08 s: dropped */
         for (size_t f = 0; f < KN; f++) {
-            ck_assert_msg(c[2 * f] == (f >= 11 && f < 39), "up %d frame %zu: %d", up, f,
-                          c[2 * f]);
+            ck_assert_msg(c[2 * f] == (f >= 11 && f < 39), "up %d frame %zu: %d", up, f, c[2 * f]);
             ck_assert_int_eq(c[2 * f + 1], 1);
         }
         /* with a 1-frame minimum (2 frames: the floor) the second stance stays */
         mlr_contacts_option o = {MLR_CONTACTS_OPT_MIN_DURATION, 1.0 / 60};
-        ck_assert_int_eq(mlr_contacts_detect(&t.rig, 60.0, up, KN, pos, NULL, 2, pts, NULL, &o,
-                                             1, c, NULL, &d), MLR_OK);
+        ck_assert_int_eq(
+            mlr_contacts_detect(&t.rig, 60.0, up, KN, pos, NULL, 2, pts, NULL, &o, 1, c, NULL, &d),
+            MLR_OK);
         for (size_t f = 40; f < KN; f++)
             ck_assert_int_eq(c[2 * f], f == 61 || f == 62);
         /* a stricter height (enter below 0.8, leave above 1.2): the blip frame (1.0) no longer
          * enters by itself, but the 3-frame gap 24..26 is closed all the same */
         mlr_contacts_option o2 = {MLR_CONTACTS_OPT_HEIGHT, 0.04};
-        ck_assert_int_eq(mlr_contacts_detect(&t.rig, 60.0, up, KN, pos, NULL, 2, pts, NULL, &o2,
-                                             1, c, NULL, &d), MLR_OK);
+        ck_assert_int_eq(mlr_contacts_detect(&t.rig, 60.0, up, KN, pos, NULL, 2, pts, NULL, &o2, 1,
+                                             c, NULL, &d),
+                         MLR_OK);
         for (size_t f = 0; f < 40; f++)
             ck_assert_int_eq(c[2 * f], f >= 11 && f < 39);
         /* a lax speed, 5 body heights/s (enter below 100 units/s, leave above 200): frame 10
          * (95 units/s, on the floor) enters; the swing (60 units/s) is slow but high */
         mlr_contacts_option o3 = {MLR_CONTACTS_OPT_SPEED, 5.0};
-        ck_assert_int_eq(mlr_contacts_detect(&t.rig, 60.0, up, KN, pos, NULL, 2, pts, NULL, &o3,
-                                             1, c, NULL, &d), MLR_OK);
+        ck_assert_int_eq(mlr_contacts_detect(&t.rig, 60.0, up, KN, pos, NULL, 2, pts, NULL, &o3, 1,
+                                             c, NULL, &d),
+                         MLR_OK);
         for (size_t f = 0; f < 40; f++)
             ck_assert_int_eq(c[2 * f], f >= 10 && f < 39);
     }
@@ -472,10 +476,12 @@ START_TEST(detection_equals_the_reference_on_random_motion)
         const double fps = fps_list[trial % MLR_COUNTOF(fps_list)];
         const size_t N = 3 + (size_t)(mlr_test_rng_uniform(&rng) * 400);
         const int up = (int)(trial % 3);
-        double *pos = malloc(3 * N * 5 * sizeof(double)), *rot = malloc(4 * N * 5 * sizeof(double));
+        double *pos = malloc(3 * N * 5 * sizeof(double)),
+               *rot = malloc(4 * N * 5 * sizeof(double));
         double ph[5], fr[5];
         for (int j = 0; j < 5; j++)
-            ph[j] = 6.28 * mlr_test_rng_uniform(&rng), fr[j] = 0.5 + 2 * mlr_test_rng_uniform(&rng);
+            ph[j] = 6.28 * mlr_test_rng_uniform(&rng),
+            fr[j] = 0.5 + 2 * mlr_test_rng_uniform(&rng);
         for (size_t f = 0; f < N; f++) {
             const double time = (double)f / fps;
             for (int j = 0; j < 5; j++) {
@@ -488,22 +494,25 @@ START_TEST(detection_equals_the_reference_on_random_motion)
                 p[a1] = (planted ? 40 * (double)j : 200 * time) +
                         0.3 * mlr_test_rng_normal(&rng) * (j > 1);
                 p[a2] = 3 * (double)j + 0.3 * mlr_test_rng_normal(&rng) * (j > 1);
-                p[up] = j == 0 ? 100 : j == 1 ? 170 : 15 * (s > 0.2 ? s - 0.2 : 0) +
-                        0.2 * mlr_test_rng_normal(&rng);
+                p[up] = j == 0   ? 100
+                        : j == 1 ? 170
+                                 : 15 * (s > 0.2 ? s - 0.2 : 0) + 0.2 * mlr_test_rng_normal(&rng);
                 double *q = rot + 4 * (5 * f + (size_t)j);
                 const double a = 0.5 * s;
                 q[0] = cos(a), q[1] = sin(a), q[2] = 0, q[3] = 0;
             }
         }
         const int32_t jt[4] = {2, 3, 4, 3}, es[4] = {-1, -1, -1, 0};
-        mlr_contacts_option o[3] = {{MLR_CONTACTS_OPT_SPEED, 0.1 + mlr_test_rng_uniform(&rng)},
-                                    {MLR_CONTACTS_OPT_MIN_DURATION, 0.2 * mlr_test_rng_uniform(&rng) + 1e-3},
-                                    {MLR_CONTACTS_OPT_HEIGHT, 0.02 + 0.1 * mlr_test_rng_uniform(&rng)}};
+        mlr_contacts_option o[3] = {
+            {MLR_CONTACTS_OPT_SPEED, 0.1 + mlr_test_rng_uniform(&rng)},
+            {MLR_CONTACTS_OPT_MIN_DURATION, 0.2 * mlr_test_rng_uniform(&rng) + 1e-3},
+            {MLR_CONTACTS_OPT_HEIGHT, 0.02 + 0.1 * mlr_test_rng_uniform(&rng)}};
         const size_t n_opts = trial % 4;
         uint8_t *c = malloc(4 * N), *r = malloc(4 * N);
         mlr_diag d;
-        ck_assert_int_eq(mlr_contacts_detect(&t.rig, fps, up, N, pos, rot, 4, jt, es, o, n_opts,
-                                             c, NULL, &d), MLR_OK);
+        ck_assert_int_eq(
+            mlr_contacts_detect(&t.rig, fps, up, N, pos, rot, 4, jt, es, o, n_opts, c, NULL, &d),
+            MLR_OK);
         double p[4 * 3 * 403];
         ck_assert_int_eq(mlr_rig_point_positions(&t.rig, N, pos, rot, 4, jt, es, p, &d), MLR_OK);
         const double H = ref_height(N, 5, pos, up);
@@ -537,9 +546,9 @@ START_TEST(bad_input_says_why)
     mlr_diag d;
 #define DETECT(fps, up, n, wr, np, jt, e, o, no) \
     mlr_contacts_detect(&t.rig, fps, up, n, pos, wr, np, jt, e, o, no, c, NULL, &d)
-#define EXPECT(call, text)                                                          \
-    do {                                                                            \
-        ck_assert_int_eq(call, MLR_E_INVALID_ARG);                                  \
+#define EXPECT(call, text)                                                                  \
+    do {                                                                                    \
+        ck_assert_int_eq(call, MLR_E_INVALID_ARG);                                          \
         ck_assert_msg(strstr(d.message, text) != NULL, "'%s' lacks '%s'", d.message, text); \
     } while (0)
     EXPECT(DETECT(0.0, 1, KN, NULL, 2, pts, NULL, NULL, 0), "fps");
@@ -557,7 +566,8 @@ START_TEST(bad_input_says_why)
     EXPECT(DETECT(60.0, 1, KN, NULL, 2, pts, es, NULL, 0), "is not below joint");
     es[1] = -1;
     mlr_contacts_option o[2] = {{MLR_CONTACTS_OPT_SPEED, INFINITY}, {9, 1.0}};
-    EXPECT(DETECT(60.0, 1, KN, NULL, 2, pts, es, o, 1), "contacts: option speed = inf is not finite");
+    EXPECT(DETECT(60.0, 1, KN, NULL, 2, pts, es, o, 1),
+           "contacts: option speed = inf is not finite");
     o[0].value = -1;
     EXPECT(DETECT(60.0, 1, KN, NULL, 2, pts, es, o, 1), "option speed = -1 is not > 0");
     o[0].key = MLR_CONTACTS_OPT_HEIGHT, o[0].value = NAN;
@@ -581,10 +591,12 @@ START_TEST(bad_input_says_why)
     t.rig.parents = bad_parents;
     EXPECT(DETECT(60.0, 1, KN, NULL, 2, pts, es, NULL, 0), "parents[2]");
     t.rig.parents = t.parents;
-    ck_assert_int_eq(mlr_contacts_detect(&t.rig, 60.0, 1, KN, NULL, NULL, 2, pts, es, NULL, 0, c,
-                                         NULL, &d), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_contacts_detect(NULL, 60.0, 1, KN, pos, NULL, 2, pts, es, NULL, 0, c,
-                                         NULL, &d), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(
+        mlr_contacts_detect(&t.rig, 60.0, 1, KN, NULL, NULL, 2, pts, es, NULL, 0, c, NULL, &d),
+        MLR_E_INVALID_ARG);
+    ck_assert_int_eq(
+        mlr_contacts_detect(NULL, 60.0, 1, KN, pos, NULL, 2, pts, es, NULL, 0, c, NULL, &d),
+        MLR_E_INVALID_ARG);
     /* the names, End Site offsets and the rest stay usable: a valid call still works */
     ck_assert_int_eq(DETECT(60.0, 1, KN, NULL, 2, pts, es, NULL, 0), MLR_OK);
     free(pos);
@@ -604,14 +616,15 @@ START_TEST(every_allocation_failure_is_no_memory_without_leaks)
     const int32_t pts[2] = {3, 2};
     uint8_t c[2 * KN], ref[2 * KN];
     mlr_diag d;
-    ck_assert_int_eq(mlr_contacts_detect(&t.rig, 60.0, 2, KN, pos, NULL, 2, pts, NULL, NULL, 0,
-                                         ref, NULL, &d), MLR_OK);
+    ck_assert_int_eq(
+        mlr_contacts_detect(&t.rig, 60.0, 2, KN, pos, NULL, 2, pts, NULL, NULL, 0, ref, NULL, &d),
+        MLR_OK);
     size_t fails = 0;
     for (size_t k = 0;; k++) {
         mlr_test_allocator ta;
         mlr_test_allocator_init(&ta, k);
-        mlr_status st = mlr_contacts_detect(&t.rig, 60.0, 2, KN, pos, NULL, 2, pts, NULL, NULL,
-                                            0, c, &ta.base, &d);
+        mlr_status st = mlr_contacts_detect(&t.rig, 60.0, 2, KN, pos, NULL, 2, pts, NULL, NULL, 0,
+                                            c, &ta.base, &d);
         ck_assert_uint_eq(ta.live_blocks, 0);
         if (st == MLR_OK) {
             ck_assert_int_eq(memcmp(c, ref, sizeof c), 0);
@@ -628,17 +641,25 @@ END_TEST
 
 /* ---- the real clips --------------------------------------------------------------------- */
 
-static const char *const clip_files[] = {
-    "cmu_131_01_mj_style_walk.bvh", "bandai1_walk_happy_001.bvh", "lafan1_clip_a.bvh",
-    "ai4a_dog_D1_008_KAN01_002.bvh", "cmu_01_01_playground_jumps.bvh",
-    "cmu_02_03_run_jog_25fps.bvh", "cmu_10_01_soccer_kick.bvh", "cmu_60_10_salsa_dance.bvh"};
+static const char *const clip_files[] = {"cmu_131_01_mj_style_walk.bvh",
+                                         "bandai1_walk_happy_001.bvh",
+                                         "lafan1_clip_a.bvh",
+                                         "ai4a_dog_D1_008_KAN01_002.bvh",
+                                         "cmu_01_01_playground_jumps.bvh",
+                                         "cmu_02_03_run_jog_25fps.bvh",
+                                         "cmu_10_01_soccer_kick.bvh",
+                                         "cmu_60_10_salsa_dance.bvh"};
 /* the points find_feet gives in Python, "" for clips the pytest suite does not pin */
 static const char *const clip_feet[] = {
-    "LeftAnkle LeftToe RightAnkle RightToe", "Foot_L Toes_L Foot_R Toes_R",
+    "LeftAnkle LeftToe RightAnkle RightToe",
+    "Foot_L Toes_L Foot_R Toes_R",
     "LeftFoot LeftToe RightFoot RightToe",
     "LeftHand LeftHand/End RightHand RightHand/End LeftFoot LeftFoot/End RightFoot "
     "RightFoot/End",
-    "LeftFoot LeftToeBase RightFoot RightToeBase", "", "rFoot rFoot/End lFoot lFoot/End", ""};
+    "LeftFoot LeftToeBase RightFoot RightToeBase",
+    "",
+    "rFoot rFoot/End lFoot lFoot/End",
+    ""};
 
 START_TEST(real_clips_feet_and_contacts)
 {
@@ -658,9 +679,15 @@ START_TEST(real_clips_feet_and_contacts)
     const char **names = malloc(J * sizeof(char *));
     for (size_t j = 0; j < J; j++)
         names[j] = mlr_motion_joint_name(m, j);
-    mlr_rig rig = {J, mlr_motion_parents(m), mlr_motion_offsets(m), names,
-                   mlr_motion_n_trans(m), mlr_motion_trans_joints(m), mlr_motion_n_end_sites(m),
-                   mlr_motion_end_site_parents(m), mlr_motion_end_site_offsets(m)};
+    mlr_rig rig = {J,
+                   mlr_motion_parents(m),
+                   mlr_motion_offsets(m),
+                   names,
+                   mlr_motion_n_trans(m),
+                   mlr_motion_trans_joints(m),
+                   mlr_motion_n_end_sites(m),
+                   mlr_motion_end_site_parents(m),
+                   mlr_motion_end_site_offsets(m)};
     double *wp = malloc(3 * N * J * sizeof(double)), *wr = malloc(4 * N * J * sizeof(double));
     ck_assert_int_eq(mlr_fk_motion(m, 0, N, wp, wr, NULL), MLR_OK);
     int32_t *jt = malloc(2 * J * sizeof(int32_t)), *es = malloc(2 * J * sizeof(int32_t));
@@ -681,8 +708,9 @@ START_TEST(real_clips_feet_and_contacts)
         ck_assert_str_eq(listed, clip_feet[_i]);
     const double fps = 1.0 / mlr_motion_frame_time(m);
     uint8_t *c = malloc(N * C), *r = malloc(N * C);
-    ck_assert_int_eq(mlr_contacts_detect(&rig, fps, MLR_AXIS_Y, N, wp, wr, C, jt, es, NULL, 0, c,
-                                         NULL, &d), MLR_OK);
+    ck_assert_int_eq(
+        mlr_contacts_detect(&rig, fps, MLR_AXIS_Y, N, wp, wr, C, jt, es, NULL, 0, c, NULL, &d),
+        MLR_OK);
     /* every point touches the ground somewhere, and is off it somewhere */
     for (size_t p = 0; p < C; p++) {
         size_t on = 0;
@@ -726,7 +754,4 @@ static Suite *contacts_suite(void)
     return s;
 }
 
-int main(void)
-{
-    return mlr_test_run(contacts_suite());
-}
+int main(void) { return mlr_test_run(contacts_suite()); }

@@ -560,15 +560,14 @@ static mlr_status layers_option_unknown(mlr_diag *d)
     return decompose_with(o, 1, &L, d);
 }
 
-static mlr_status synthesize_with(const double *alpha, size_t n_alpha, size_t begin,
-                                  size_t count, mlr_diag *d)
+static mlr_status synthesize_with(const double *alpha, size_t n_alpha, size_t begin, size_t count,
+                                  mlr_diag *d)
 {
     mlr_layers *L = NULL;
     ck_assert_int_eq(decompose_with(NULL, 0, &L, NULL), MLR_OK);
     double root[24], rot[64];
     const mlr_status s =
-        mlr_layers_synthesize(L, begin, count, alpha, n_alpha, root, 3 * count, rot,
-                              8 * count, d);
+        mlr_layers_synthesize(L, begin, count, alpha, n_alpha, root, 3 * count, rot, 8 * count, d);
     mlr_layers_destroy(L);
     return s;
 }
@@ -701,7 +700,4 @@ static Suite *diag_suite(void)
     return s;
 }
 
-int main(void)
-{
-    return mlr_test_run(diag_suite());
-}
+int main(void) { return mlr_test_run(diag_suite()); }

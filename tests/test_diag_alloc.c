@@ -15,16 +15,16 @@
 
 enum { FJ = 11, FN = 48, FE = 2 };
 static const int32_t f_parents[FJ] = {-1, 0, 1, 1, 1, 0, 0, 3, 4, 5, 6};
-static const double f_offsets[3 * FJ] = {0, 0, 0,  0, 0.3, 0,  0, 0.3, 0,  0.2, 0.2, 0,
-                                         -0.2, 0.2, 0,  0.1, -0.1, 0,  -0.1, -0.1, 0,
-                                         0.55, 0, 0,  -0.55, 0, 0,  0, -0.85, 0,  0, -0.85, 0};
-static const char *const f_names[FJ] = {"Hips",    "Spine",    "Head",     "LeftArm",
-                                        "RightArm", "LeftUpLeg", "RightUpLeg", "LeftHand",
-                                        "RightHand", "LeftFoot", "RightFoot"};
+static const double f_offsets[3 * FJ] = {
+    0, 0,    0,    0, 0.3,  0, 0, 0.3,   0, 0.2, 0.2, 0,     -0.2, 0.2, 0,     0.1, -0.1,
+    0, -0.1, -0.1, 0, 0.55, 0, 0, -0.55, 0, 0,   0,   -0.85, 0,    0,   -0.85, 0};
+static const char *const f_names[FJ] = {"Hips",      "Spine",     "Head",       "LeftArm",
+                                        "RightArm",  "LeftUpLeg", "RightUpLeg", "LeftHand",
+                                        "RightHand", "LeftFoot",  "RightFoot"};
 static const int32_t f_end_parents[FE] = {9, 10};
 static const double f_end_offsets[3 * FE] = {0, -0.05, 0.15, 0, -0.05, 0.15};
-static const mlr_rig f_rig = {FJ, f_parents, f_offsets, f_names, 0, NULL,
-                              FE, f_end_parents, f_end_offsets};
+static const mlr_rig f_rig = {FJ,   f_parents, f_offsets,     f_names,      0,
+                              NULL, FE,        f_end_parents, f_end_offsets};
 
 static double f_root[3 * FN], f_rot[4 * FJ * FN], f_wp[3 * FJ * FN], f_wr[4 * FJ * FN];
 
@@ -135,8 +135,7 @@ static mlr_status bvh_read_memory_call(mlr_test_allocator *ta, mlr_diag *d)
 static mlr_status bvh_read_memory_mt_call(mlr_test_allocator *ta, mlr_diag *d)
 {
     mlr_motion *m = NULL;
-    const mlr_status s =
-        mlr_bvh_read_memory_mt(three_bvh, strlen(three_bvh), 2, &ta->base, &m, d);
+    const mlr_status s = mlr_bvh_read_memory_mt(three_bvh, strlen(three_bvh), 2, &ta->base, &m, d);
     mlr_motion_destroy(m);
     return s;
 }
@@ -151,8 +150,7 @@ static mlr_status bvh_read_memory_opts_call(mlr_test_allocator *ta, mlr_diag *d)
     const mlr_bvh_read_option o[2] = {{MLR_BVH_OPT_STRICT, 0}, {MLR_BVH_OPT_KEEP_TRUNCATED, 1}};
     mlr_motion *m = NULL;
     mlr_bvh_warnings w;
-    const mlr_status s =
-        mlr_bvh_read_memory_opts(cut, strlen(cut), 1, o, 2, &ta->base, &m, &w, d);
+    const mlr_status s = mlr_bvh_read_memory_opts(cut, strlen(cut), 1, o, 2, &ta->base, &m, &w, d);
     mlr_motion_destroy(m);
     return s;
 }
@@ -226,8 +224,8 @@ static double big_offsets[3 * BIG_J], big_rot[4 * BIG_J], big_wp[3 * BIG_J];
 
 static mlr_status fk_arrays_call(mlr_test_allocator *ta, mlr_diag *d)
 {
-    return mlr_fk_arrays(1, BIG_J, big_parents, big_offsets, NULL, big_rot, 0, NULL, NULL,
-                         big_wp, NULL, &ta->base, d);
+    return mlr_fk_arrays(1, BIG_J, big_parents, big_offsets, NULL, big_rot, 0, NULL, NULL, big_wp,
+                         NULL, &ta->base, d);
 }
 
 static mlr_status fk_motion_call(mlr_test_allocator *ta, mlr_diag *d)
@@ -240,8 +238,8 @@ static mlr_status fk_motion_call(mlr_test_allocator *ta, mlr_diag *d)
     }
     const size_t k = disarm(ta);
     mlr_motion *m = NULL;
-    ck_assert_int_eq(mlr_motion_create(BIG_J, names, big_parents, big_offsets, NULL, 0, NULL,
-                                       NULL, 1, 1.0 / 30.0, &ta->base, &m, NULL),
+    ck_assert_int_eq(mlr_motion_create(BIG_J, names, big_parents, big_offsets, NULL, 0, NULL, NULL,
+                                       1, 1.0 / 30.0, &ta->base, &m, NULL),
                      MLR_OK);
     arm(ta, k);
     const mlr_status s = mlr_fk_motion(m, 0, 1, big_wp, NULL, d);
@@ -300,9 +298,9 @@ static mlr_status cleanup_contacts_call(mlr_test_allocator *ta, mlr_diag *d)
 {
     static double oroot[3 * FN], orot[4 * FJ * FN];
     mlr_cleanup_report rep;
-    return mlr_cleanup_contacts(&f_rig, FN, 60.0, MLR_AXIS_Y, f_root, f_rot, NULL, f_root,
-                                f_rot, NULL, 2, f_points, f_no_end, f_contacts, NULL, 0, oroot,
-                                orot, &rep, &ta->base, d);
+    return mlr_cleanup_contacts(&f_rig, FN, 60.0, MLR_AXIS_Y, f_root, f_rot, NULL, f_root, f_rot,
+                                NULL, 2, f_points, f_no_end, f_contacts, NULL, 0, oroot, orot,
+                                &rep, &ta->base, d);
 }
 
 static mlr_status guards_create_call(mlr_test_allocator *ta, mlr_diag *d)
@@ -327,8 +325,8 @@ static mlr_status guards_apply_call(mlr_test_allocator *ta, mlr_diag *d)
     const double alpha[1] = {2.0};
     arm(ta, k);
     mlr_guards_report rep;
-    const mlr_status s = mlr_guards_apply(g, alpha, 1, f_root, f_rot, NULL, root, rot, NULL,
-                                          NULL, 0, &rep, d);
+    const mlr_status s =
+        mlr_guards_apply(g, alpha, 1, f_root, f_rot, NULL, root, rot, NULL, NULL, 0, &rep, d);
     mlr_guards_destroy(g);
     return s;
 }
@@ -354,8 +352,7 @@ static mlr_status lgs_create_call(mlr_test_allocator *ta, mlr_diag *d)
 {
     const double t[3] = {0.0, 2.0, 4.0};
     mlr_lgs *g = NULL;
-    const mlr_status s =
-        mlr_lgs_create(5, 2, 1.0, 1.0, t, 3, MLR_LGS_BANDED, &ta->base, &g, d);
+    const mlr_status s = mlr_lgs_create(5, 2, 1.0, 1.0, t, 3, MLR_LGS_BANDED, &ta->base, &g, d);
     mlr_lgs_destroy(g);
     return s;
 }
@@ -364,8 +361,8 @@ static mlr_status resample_call(mlr_test_allocator *ta, mlr_diag *d)
 {
     enum { M = 71 };
     static double ro[3 * M], qo[4 * FJ * M], var[M];
-    return mlr_resample_arrays(FN, FJ, 0, f_root, f_rot, NULL, NULL, M, MLR_RESAMPLE_AUTO, 1.0,
-                               0, ro, qo, NULL, var, &ta->base, d);
+    return mlr_resample_arrays(FN, FJ, 0, f_root, f_rot, NULL, NULL, M, MLR_RESAMPLE_AUTO, 1.0, 0,
+                               ro, qo, NULL, var, &ta->base, d);
 }
 
 static mlr_status resample_open_end_call(mlr_test_allocator *ta, mlr_diag *d)
@@ -486,8 +483,8 @@ enum { LR = 6, LC = 5 };
 static mlr_status grbf_basis_call(mlr_test_allocator *ta, mlr_diag *d)
 {
     double out[XN * (XN + 4)];
-    return mlr_grbf_basis(MLR_GRBF_THIN_PLATE, 1.0, xs, XN, XD, xs, XN, XD, XD, 1, 1, out,
-                          XN + 4, &ta->base, d);
+    return mlr_grbf_basis(MLR_GRBF_THIN_PLATE, 1.0, xs, XN, XD, xs, XN, XD, XD, 1, 1, out, XN + 4,
+                          &ta->base, d);
 }
 
 static mlr_status grbf_eval_call(mlr_test_allocator *ta, mlr_diag *d)
@@ -495,8 +492,8 @@ static mlr_status grbf_eval_call(mlr_test_allocator *ta, mlr_diag *d)
     double coef[(XN + 4) * 2], out[XN * 2];
     for (size_t i = 0; i < (XN + 4) * 2; i++)
         coef[i] = 0.01 * (double)i;
-    return mlr_grbf_eval(MLR_GRBF_GAUSSIAN, 1.0, xs, XN, XD, coef, 2, 2, xs, XN, XD, XD, 1, out,
-                         2, &ta->base, d);
+    return mlr_grbf_eval(MLR_GRBF_GAUSSIAN, 1.0, xs, XN, XD, coef, 2, 2, xs, XN, XD, XD, 1, out, 2,
+                         &ta->base, d);
 }
 
 static mlr_status grbf_lattice_call(mlr_test_allocator *ta, mlr_diag *d)
@@ -594,8 +591,7 @@ START_TEST(every_allocation_of_every_allocating_function_fails_with_a_message)
     mlr_test_temp_write(&bvh_file, "three.bvh", three_bvh, strlen(three_bvh));
     const alloc_case *c = &alloc_cases[_i];
     const size_t n = every_allocation_fails_with_a_message(c);
-    ck_assert_msg(n > 0, "%s (case %d): made no allocation, the sweep tests nothing", c->what,
-                  _i);
+    ck_assert_msg(n > 0, "%s (case %d): made no allocation, the sweep tests nothing", c->what, _i);
     mlr_test_temp_remove(&bvh_file);
 }
 END_TEST
@@ -623,22 +619,29 @@ static mlr_status overflow_call(int i, mlr_diag *d)
     static const double offsets[3] = {0}, rot[4] = {1, 0, 0, 0};
     double out[8], h;
     switch (i) {
-    case 0: return mlr_band_create(SIZE_MAX / 2, 3, NULL, &no.band, d);
-    case 1: return mlr_stream_create(SIZE_MAX / 8, 1, 0, 1.0, 1.0, 2, NULL, &no.st, d);
+    case 0:
+        return mlr_band_create(SIZE_MAX / 2, 3, NULL, &no.band, d);
+    case 1:
+        return mlr_stream_create(SIZE_MAX / 8, 1, 0, 1.0, 1.0, 2, NULL, &no.st, d);
     case 2: { /* n_out near SIZE_MAX: the observation map's size */
         const double t[2] = {0.0, 1.0};
         return mlr_lgs_create(SIZE_MAX / 4, 1, 0.0, 1.0, t, 2, MLR_LGS_BANDED, NULL, &no.lgs, d);
     }
-    case 3: return mlr_fk_arrays(SIZE_MAX / 2, 1, parents, offsets, NULL, rot, 0, NULL, NULL, out,
-                                 NULL, NULL, d);
-    case 4: return mlr_rig_body_height(SIZE_MAX / 2, 2, f_wp, MLR_AXIS_Y, &h, NULL, d);
-    case 5: return mlr_resample_arrays(2, SIZE_MAX / 8, 0, f_root, f_rot, NULL, NULL, 2, 1.0, 1.0,
-                                       0, out, out, NULL, NULL, NULL, d);
-    case 6: return mlr_layers_decompose(SIZE_MAX / 8, 4, f_root, f_rot, NULL, 0, NULL,
-                                        &no.layers, d);
-    case 7: return mlr_grbf_basis(MLR_GRBF_THIN_PLATE, 1.0, xs, SIZE_MAX / 4, XD, xs, 1, XD, XD,
-                                  0, 1, out, SIZE_MAX / 4, NULL, d);
-    default: break;
+    case 3:
+        return mlr_fk_arrays(SIZE_MAX / 2, 1, parents, offsets, NULL, rot, 0, NULL, NULL, out,
+                             NULL, NULL, d);
+    case 4:
+        return mlr_rig_body_height(SIZE_MAX / 2, 2, f_wp, MLR_AXIS_Y, &h, NULL, d);
+    case 5:
+        return mlr_resample_arrays(2, SIZE_MAX / 8, 0, f_root, f_rot, NULL, NULL, 2, 1.0, 1.0, 0,
+                                   out, out, NULL, NULL, NULL, d);
+    case 6:
+        return mlr_layers_decompose(SIZE_MAX / 8, 4, f_root, f_rot, NULL, 0, NULL, &no.layers, d);
+    case 7:
+        return mlr_grbf_basis(MLR_GRBF_THIN_PLATE, 1.0, xs, SIZE_MAX / 4, XD, xs, 1, XD, XD, 0, 1,
+                              out, SIZE_MAX / 4, NULL, d);
+    default:
+        break;
     }
     ck_abort_msg("no call %d", i);
     return MLR_OK;
@@ -646,8 +649,7 @@ static mlr_status overflow_call(int i, mlr_diag *d)
 
 /* Call i of a table refuses with want (or any error when want is MLR_OK) and a message that
  * contains says (any message when says is NULL); the same status with a NULL diag. */
-static void refused(mlr_status (*call)(int, mlr_diag *), int i, mlr_status want,
-                    const char *says)
+static void refused(mlr_status (*call)(int, mlr_diag *), int i, mlr_status want, const char *says)
 {
     mlr_diag d;
     memset(&d, 0, sizeof d);
@@ -685,102 +687,187 @@ static mlr_status null_call(int i, mlr_diag *d)
     mlr_trim_lead lead;
     mlr_euler_order order;
     switch (i) {
-    case 0: return mlr_band_create(4, 1, NULL, NULL, d);
-    case 1: return mlr_band_factor(NULL, a, 2, d);
-    case 2: return mlr_band_solve(NULL, a, 1, 1, d);
-    case 3: return mlr_band_inverse_diagonal(NULL, a, 3, d);
-    case 4: return mlr_bvh_read_memory(NULL, 10, NULL, &no.m, d);
-    case 5: return mlr_bvh_read_memory(three_bvh, strlen(three_bvh), NULL, NULL, d);
-    case 6: return mlr_bvh_read_file(NULL, NULL, &no.m, d);
-    case 7: return mlr_bvh_read_memory_mt(NULL, 10, 2, NULL, &no.m, d);
-    case 8: return mlr_bvh_read_file_mt(NULL, 2, NULL, &no.m, d);
-    case 9: return mlr_bvh_read_memory_opts(NULL, 10, 1, NULL, 0, NULL, &no.m, NULL, d);
-    case 10: return mlr_bvh_read_file_opts(NULL, 1, NULL, 0, NULL, &no.m, NULL, d);
-    case 11: return mlr_bvh_write(NULL, NULL, NULL, d);
-    case 12: return mlr_bvh_write_memory(NULL, NULL, 0, &n, d);
-    case 13: return mlr_bvh_write_file(NULL, "x.bvh", d);
-    case 14: return mlr_cleanup_floor_height(NULL, FN, f_root, f_rot, NULL, 2, f_points,
-                                             f_no_end, f_contacts, 1, 0.5, a, NULL, d);
-    case 15: return mlr_cleanup_contacts(NULL, FN, 60.0, 1, f_root, f_rot, NULL, NULL, NULL,
-                                         NULL, 2, f_points, f_no_end, f_contacts, NULL, 0, a, b,
-                                         NULL, NULL, d);
-    case 16: return mlr_contacts_find_feet(NULL, FN, f_wp, 1, 4, ij, ij + 8, &n, NULL, d);
-    case 17: return mlr_contacts_detect(NULL, 60.0, 1, FN, f_wp, f_wr, 2, f_points, f_no_end,
-                                        NULL, 0, (uint8_t *)a, NULL, d);
-    case 18: return mlr_fk_arrays(1, 2, NULL, a, NULL, a, 0, NULL, NULL, b, NULL, NULL, d);
-    case 19: return mlr_fk_motion(NULL, 0, 1, a, NULL, d);
-    case 20: return mlr_grbf_basis(MLR_GRBF_THIN_PLATE, 1.0, NULL, 4, 2, a, 4, 2, 2, 0, 1, b, 4,
+    case 0:
+        return mlr_band_create(4, 1, NULL, NULL, d);
+    case 1:
+        return mlr_band_factor(NULL, a, 2, d);
+    case 2:
+        return mlr_band_solve(NULL, a, 1, 1, d);
+    case 3:
+        return mlr_band_inverse_diagonal(NULL, a, 3, d);
+    case 4:
+        return mlr_bvh_read_memory(NULL, 10, NULL, &no.m, d);
+    case 5:
+        return mlr_bvh_read_memory(three_bvh, strlen(three_bvh), NULL, NULL, d);
+    case 6:
+        return mlr_bvh_read_file(NULL, NULL, &no.m, d);
+    case 7:
+        return mlr_bvh_read_memory_mt(NULL, 10, 2, NULL, &no.m, d);
+    case 8:
+        return mlr_bvh_read_file_mt(NULL, 2, NULL, &no.m, d);
+    case 9:
+        return mlr_bvh_read_memory_opts(NULL, 10, 1, NULL, 0, NULL, &no.m, NULL, d);
+    case 10:
+        return mlr_bvh_read_file_opts(NULL, 1, NULL, 0, NULL, &no.m, NULL, d);
+    case 11:
+        return mlr_bvh_write(NULL, NULL, NULL, d);
+    case 12:
+        return mlr_bvh_write_memory(NULL, NULL, 0, &n, d);
+    case 13:
+        return mlr_bvh_write_file(NULL, "x.bvh", d);
+    case 14:
+        return mlr_cleanup_floor_height(NULL, FN, f_root, f_rot, NULL, 2, f_points, f_no_end,
+                                        f_contacts, 1, 0.5, a, NULL, d);
+    case 15:
+        return mlr_cleanup_contacts(NULL, FN, 60.0, 1, f_root, f_rot, NULL, NULL, NULL, NULL, 2,
+                                    f_points, f_no_end, f_contacts, NULL, 0, a, b, NULL, NULL, d);
+    case 16:
+        return mlr_contacts_find_feet(NULL, FN, f_wp, 1, 4, ij, ij + 8, &n, NULL, d);
+    case 17:
+        return mlr_contacts_detect(NULL, 60.0, 1, FN, f_wp, f_wr, 2, f_points, f_no_end, NULL, 0,
+                                   (uint8_t *)a, NULL, d);
+    case 18:
+        return mlr_fk_arrays(1, 2, NULL, a, NULL, a, 0, NULL, NULL, b, NULL, NULL, d);
+    case 19:
+        return mlr_fk_motion(NULL, 0, 1, a, NULL, d);
+    case 20:
+        return mlr_grbf_basis(MLR_GRBF_THIN_PLATE, 1.0, NULL, 4, 2, a, 4, 2, 2, 0, 1, b, 4, NULL,
+                              d);
+    case 21:
+        return mlr_grbf_eval(MLR_GRBF_THIN_PLATE, 1.0, NULL, 4, 2, a, 1, 1, a, 4, 2, 2, 1, b, 1,
+                             NULL, d);
+    case 22:
+        return mlr_grbf_fit_lattice(MLR_GRBF_THIN_PLATE, 1.0, NULL, 3, a, 3, a, 1, 1, 1, b, 1,
+                                    NULL, d);
+    case 23:
+        return mlr_guards_create(NULL, 60.0, FN, f_root, f_rot, NULL, NULL, 0, NULL, &no.g, d);
+    case 24:
+        return mlr_guards_set_contacts(NULL, 0, NULL, NULL, NULL, d);
+    case 25:
+        return mlr_guards_set_limits(NULL, NULL, d);
+    case 26:
+        return mlr_guards_apply(NULL, a, 1, NULL, NULL, NULL, a, b, NULL, NULL, 0, NULL, d);
+    case 27:
+        return mlr_ik_two_bone(1, NULL, a, a, a, a, 1.0, a, b, d);
+    case 28:
+        return mlr_ik_leg_chain(NULL, 9, ij, ij + 1, d);
+    case 29:
+        return mlr_ik_bend_axis_local(1, 3, NULL, a, 0, 1, 2, b, d);
+    case 30:
+        return mlr_ik_rotate_to(1, 2, NULL, a, b, 1, a, d);
+    case 31:
+        return mlr_ik_apply_leg(1, 3, NULL, a, a, a, 0, 1, 2, a, a, d);
+    case 32:
+        return mlr_kmeans_create(3, 2, NULL, NULL, d);
+    case 33:
+        return mlr_kmeans_set(NULL, 1, 1.0, d);
+    case 34:
+        return mlr_kmeans_fit(NULL, a, 4, 2, NULL, 0, ij, d);
+    case 35:
+        return mlr_kmeans_predict(NULL, a, 4, 2, ij, NULL, d);
+    case 36:
+        return mlr_kmeans_set_centers(NULL, a, 2, d);
+    case 37:
+        return mlr_layers_decompose(8, 2, NULL, NULL, NULL, 0, NULL, &no.layers, d);
+    case 38:
+        return mlr_layers_repair(NULL, 0, 1, a, 3, b, 8, &n, d);
+    case 39:
+        return mlr_layers_synthesize(NULL, 0, 1, NULL, 0, a, 3, b, 8, d);
+    case 40:
+        return mlr_layers_reconstruct(NULL, 0, 1, a, 3, b, 8, d);
+    case 41:
+        return mlr_lgs_create(5, 2, 1.0, 1.0, NULL, 5, MLR_LGS_BANDED, NULL, NULL, d);
+    case 42:
+        return mlr_lgs_solve(NULL, a, 1, 1, b, 1, d);
+    case 43:
+        return mlr_lgs_solve_mt(NULL, a, 1, 1, b, 1, 2, d);
+    case 44:
+        return mlr_lgs_variance(NULL, a, 5, d);
+    case 45:
+        return mlr_limits_create(NULL, NULL, 0, NULL, 0, NULL, &no.lim, d);
+    case 46:
+        return mlr_limits_set_range(NULL, 0, NULL, d);
+    case 47:
+        return mlr_limits_apply(NULL, 1, a, b, NULL, 0, NULL, 0, d);
+    case 48:
+        return mlr_motion_create(3, NULL, ij, a, NULL, 0, NULL, NULL, 1, 0.1, NULL, &no.m, d);
+    case 49:
+        return mlr_motion_copy_frames(NULL, 0, 1, &no.m, d);
+    case 50:
+        return mlr_quat_normalize_array(NULL, 1, (mlr_quat *)a, d);
+    case 51:
+        return mlr_quat_exp_array(NULL, 1, (mlr_quat *)a, d);
+    case 52:
+        return mlr_quat_log_array(NULL, 1, (mlr_vec3 *)a, d);
+    case 53:
+        return mlr_quat_slerp_array(NULL, (const mlr_quat *)a, b, 1, (mlr_quat *)a, d);
+    case 54:
+        return mlr_quat_from_euler_array(NULL, 1, MLR_EULER_XYZ, (mlr_quat *)a, d);
+    case 55:
+        return mlr_quat_to_euler_array(NULL, 1, MLR_EULER_XYZ, a, d);
+    case 56:
+        return mlr_euler_order_parse(NULL, &order, d);
+    case 57:
+        return mlr_resample_n_out(10, 30.0, 60.0, 0, NULL, d);
+    case 58:
+        return mlr_resample_rate_map(10, 30.0, 60.0, 0, NULL, &n, d);
+    case 59:
+        return mlr_timemap_validate(NULL, 10, 10, 0, d);
+    case 60:
+        return mlr_resample_arrays(4, 1, 0, NULL, a, NULL, NULL, 8, 1.0, 1.0, 0, b, b, NULL, NULL,
                                    NULL, d);
-    case 21: return mlr_grbf_eval(MLR_GRBF_THIN_PLATE, 1.0, NULL, 4, 2, a, 1, 1, a, 4, 2, 2, 1,
-                                  b, 1, NULL, d);
-    case 22: return mlr_grbf_fit_lattice(MLR_GRBF_THIN_PLATE, 1.0, NULL, 3, a, 3, a, 1, 1, 1, b,
-                                         1, NULL, d);
-    case 23: return mlr_guards_create(NULL, 60.0, FN, f_root, f_rot, NULL, NULL, 0, NULL, &no.g,
-                                      d);
-    case 24: return mlr_guards_set_contacts(NULL, 0, NULL, NULL, NULL, d);
-    case 25: return mlr_guards_set_limits(NULL, NULL, d);
-    case 26: return mlr_guards_apply(NULL, a, 1, NULL, NULL, NULL, a, b, NULL, NULL, 0, NULL, d);
-    case 27: return mlr_ik_two_bone(1, NULL, a, a, a, a, 1.0, a, b, d);
-    case 28: return mlr_ik_leg_chain(NULL, 9, ij, ij + 1, d);
-    case 29: return mlr_ik_bend_axis_local(1, 3, NULL, a, 0, 1, 2, b, d);
-    case 30: return mlr_ik_rotate_to(1, 2, NULL, a, b, 1, a, d);
-    case 31: return mlr_ik_apply_leg(1, 3, NULL, a, a, a, 0, 1, 2, a, a, d);
-    case 32: return mlr_kmeans_create(3, 2, NULL, NULL, d);
-    case 33: return mlr_kmeans_set(NULL, 1, 1.0, d);
-    case 34: return mlr_kmeans_fit(NULL, a, 4, 2, NULL, 0, ij, d);
-    case 35: return mlr_kmeans_predict(NULL, a, 4, 2, ij, NULL, d);
-    case 36: return mlr_kmeans_set_centers(NULL, a, 2, d);
-    case 37: return mlr_layers_decompose(8, 2, NULL, NULL, NULL, 0, NULL, &no.layers, d);
-    case 38: return mlr_layers_repair(NULL, 0, 1, a, 3, b, 8, &n, d);
-    case 39: return mlr_layers_synthesize(NULL, 0, 1, NULL, 0, a, 3, b, 8, d);
-    case 40: return mlr_layers_reconstruct(NULL, 0, 1, a, 3, b, 8, d);
-    case 41: return mlr_lgs_create(5, 2, 1.0, 1.0, NULL, 5, MLR_LGS_BANDED, NULL, NULL, d);
-    case 42: return mlr_lgs_solve(NULL, a, 1, 1, b, 1, d);
-    case 43: return mlr_lgs_solve_mt(NULL, a, 1, 1, b, 1, 2, d);
-    case 44: return mlr_lgs_variance(NULL, a, 5, d);
-    case 45: return mlr_limits_create(NULL, NULL, 0, NULL, 0, NULL, &no.lim, d);
-    case 46: return mlr_limits_set_range(NULL, 0, NULL, d);
-    case 47: return mlr_limits_apply(NULL, 1, a, b, NULL, 0, NULL, 0, d);
-    case 48: return mlr_motion_create(3, NULL, ij, a, NULL, 0, NULL, NULL, 1, 0.1, NULL, &no.m, d);
-    case 49: return mlr_motion_copy_frames(NULL, 0, 1, &no.m, d);
-    case 50: return mlr_quat_normalize_array(NULL, 1, (mlr_quat *)a, d);
-    case 51: return mlr_quat_exp_array(NULL, 1, (mlr_quat *)a, d);
-    case 52: return mlr_quat_log_array(NULL, 1, (mlr_vec3 *)a, d);
-    case 53: return mlr_quat_slerp_array(NULL, (const mlr_quat *)a, b, 1, (mlr_quat *)a, d);
-    case 54: return mlr_quat_from_euler_array(NULL, 1, MLR_EULER_XYZ, (mlr_quat *)a, d);
-    case 55: return mlr_quat_to_euler_array(NULL, 1, MLR_EULER_XYZ, a, d);
-    case 56: return mlr_euler_order_parse(NULL, &order, d);
-    case 57: return mlr_resample_n_out(10, 30.0, 60.0, 0, NULL, d);
-    case 58: return mlr_resample_rate_map(10, 30.0, 60.0, 0, NULL, &n, d);
-    case 59: return mlr_timemap_validate(NULL, 10, 10, 0, d);
-    case 60: return mlr_resample_arrays(4, 1, 0, NULL, a, NULL, NULL, 8, 1.0, 1.0, 0, b, b,
-                                        NULL, NULL, NULL, d);
-    case 61: return mlr_slerp_resample_arrays(4, 1, 0, NULL, a, NULL, NULL, 8, 0, b, b, NULL, d);
-    case 62: return mlr_timewarp_speed(10, 1, NULL, NULL, NULL, 1.0, a, d);
-    case 63: return mlr_timewarp_map(10, 1, NULL, NULL, NULL, 1.0, 0.5, 4.0, 10, 0, a, NULL, d);
-    case 64: return mlr_rig_check(NULL, d);
-    case 65: return mlr_rig_find_point(NULL, "Hips", ij, ij + 1, d);
-    case 66: return mlr_rig_point_positions(NULL, 1, a, a, 1, ij, ij, b, d);
-    case 67: return mlr_rig_body_height(1, 1, NULL, 1, a, NULL, d);
-    case 68: return mlr_rig_body_translation_joint(NULL, 1, a, NULL, ij, d);
-    case 69: return mlr_rig_up_axis(NULL, 1, a, &up, NULL, d);
-    case 70: return mlr_som_create(3, 3, 2, NULL, NULL, d);
-    case 71: return mlr_som_set(NULL, 1, 1.0, d);
-    case 72: return mlr_som_init_random(NULL, a, 4, 2, d);
-    case 73: return mlr_som_train(NULL, a, 4, 2, 1, MLR_SOM_BATCH, d);
-    case 74: return mlr_som_bmu(NULL, a, 4, 2, ij, NULL, NULL, d);
-    case 75: return mlr_som_errors(NULL, a, 4, 2, a, b, d);
-    case 76: return mlr_som_set_codebook(NULL, a, 2, d);
-    case 77: return mlr_som_export(NULL, a, 64, d);
-    case 78: return mlr_som_import(NULL, 64, NULL, &no.som, d);
-    case 79: return mlr_stream_create(1, 1, 0, 1.0, 1.0, 2, NULL, NULL, d);
-    case 80: return mlr_stream_create_layered(1, 1, 0, 1.0, 1.0, 10.0, 1.0, 2, NULL, NULL, d);
-    case 81: return mlr_stream_push(NULL, a, 7, b, 7, &n, d);
-    case 82: return mlr_stream_flush(NULL, a, 7, &n, d);
-    case 83: return mlr_stream_set_alpha(NULL, 1.0, a, 1, d);
-    case 84: return mlr_stream_set_limits(NULL, NULL, d);
-    case 85: return mlr_trim_lead_in(NULL, FN, f_root, f_rot, NULL, 1, &lead, NULL, d);
-    default: break;
+    case 61:
+        return mlr_slerp_resample_arrays(4, 1, 0, NULL, a, NULL, NULL, 8, 0, b, b, NULL, d);
+    case 62:
+        return mlr_timewarp_speed(10, 1, NULL, NULL, NULL, 1.0, a, d);
+    case 63:
+        return mlr_timewarp_map(10, 1, NULL, NULL, NULL, 1.0, 0.5, 4.0, 10, 0, a, NULL, d);
+    case 64:
+        return mlr_rig_check(NULL, d);
+    case 65:
+        return mlr_rig_find_point(NULL, "Hips", ij, ij + 1, d);
+    case 66:
+        return mlr_rig_point_positions(NULL, 1, a, a, 1, ij, ij, b, d);
+    case 67:
+        return mlr_rig_body_height(1, 1, NULL, 1, a, NULL, d);
+    case 68:
+        return mlr_rig_body_translation_joint(NULL, 1, a, NULL, ij, d);
+    case 69:
+        return mlr_rig_up_axis(NULL, 1, a, &up, NULL, d);
+    case 70:
+        return mlr_som_create(3, 3, 2, NULL, NULL, d);
+    case 71:
+        return mlr_som_set(NULL, 1, 1.0, d);
+    case 72:
+        return mlr_som_init_random(NULL, a, 4, 2, d);
+    case 73:
+        return mlr_som_train(NULL, a, 4, 2, 1, MLR_SOM_BATCH, d);
+    case 74:
+        return mlr_som_bmu(NULL, a, 4, 2, ij, NULL, NULL, d);
+    case 75:
+        return mlr_som_errors(NULL, a, 4, 2, a, b, d);
+    case 76:
+        return mlr_som_set_codebook(NULL, a, 2, d);
+    case 77:
+        return mlr_som_export(NULL, a, 64, d);
+    case 78:
+        return mlr_som_import(NULL, 64, NULL, &no.som, d);
+    case 79:
+        return mlr_stream_create(1, 1, 0, 1.0, 1.0, 2, NULL, NULL, d);
+    case 80:
+        return mlr_stream_create_layered(1, 1, 0, 1.0, 1.0, 10.0, 1.0, 2, NULL, NULL, d);
+    case 81:
+        return mlr_stream_push(NULL, a, 7, b, 7, &n, d);
+    case 82:
+        return mlr_stream_flush(NULL, a, 7, &n, d);
+    case 83:
+        return mlr_stream_set_alpha(NULL, 1.0, a, 1, d);
+    case 84:
+        return mlr_stream_set_limits(NULL, NULL, d);
+    case 85:
+        return mlr_trim_lead_in(NULL, FN, f_root, f_rot, NULL, 1, &lead, NULL, d);
+    default:
+        break;
     }
     ck_abort_msg("no call %d", i);
     return MLR_OK;
@@ -802,41 +889,52 @@ static mlr_status zero_call(int i, mlr_diag *d)
     double h;
     size_t n;
     switch (i) {
-    case 0: return mlr_band_create(0, 0, NULL, &no.band, d);
-    case 1: return mlr_lgs_create(0, 2, 1.0, 1.0, NULL, 0, MLR_LGS_BANDED, NULL, &no.lgs, d);
-    case 2: return mlr_kmeans_create(0, 2, NULL, &no.km, d);
-    case 3: return mlr_kmeans_create(2, 0, NULL, &no.km, d);
-    case 4: return mlr_som_create(0, 3, 2, NULL, &no.som, d);
-    case 5: return mlr_som_create(3, 3, 0, NULL, &no.som, d);
-    case 6: return mlr_stream_create(0, 0, 0, 1.0, 1.0, 2, NULL, &no.st, d);
-    case 7: return mlr_motion_create(0, f_names, f_parents, f_offsets, NULL, 0, NULL, NULL, 1,
-                                     0.1, NULL, &no.m, d);
-    case 8: return mlr_rig_body_height(0, 2, a, 1, &h, NULL, d);
-    case 9: return mlr_resample_arrays(0, 1, 0, a, a, NULL, NULL, 8, 1.0, 1.0, 0, b, b, NULL,
-                                       NULL, NULL, d);
-    case 10: return mlr_resample_n_out(0, 30.0, 60.0, 0, &n, d);
-    case 11: return mlr_grbf_basis(MLR_GRBF_THIN_PLATE, 1.0, a, 0, 2, a, 4, 2, 2, 0, 1, b, 4,
+    case 0:
+        return mlr_band_create(0, 0, NULL, &no.band, d);
+    case 1:
+        return mlr_lgs_create(0, 2, 1.0, 1.0, NULL, 0, MLR_LGS_BANDED, NULL, &no.lgs, d);
+    case 2:
+        return mlr_kmeans_create(0, 2, NULL, &no.km, d);
+    case 3:
+        return mlr_kmeans_create(2, 0, NULL, &no.km, d);
+    case 4:
+        return mlr_som_create(0, 3, 2, NULL, &no.som, d);
+    case 5:
+        return mlr_som_create(3, 3, 0, NULL, &no.som, d);
+    case 6:
+        return mlr_stream_create(0, 0, 0, 1.0, 1.0, 2, NULL, &no.st, d);
+    case 7:
+        return mlr_motion_create(0, f_names, f_parents, f_offsets, NULL, 0, NULL, NULL, 1, 0.1,
+                                 NULL, &no.m, d);
+    case 8:
+        return mlr_rig_body_height(0, 2, a, 1, &h, NULL, d);
+    case 9:
+        return mlr_resample_arrays(0, 1, 0, a, a, NULL, NULL, 8, 1.0, 1.0, 0, b, b, NULL, NULL,
                                    NULL, d);
-    case 12: return mlr_layers_decompose(0, 2, NULL, a, NULL, 0, NULL, &no.layers, d);
-    case 13: return mlr_som_train(NULL, a, 0, 2, 1, MLR_SOM_BATCH, d);
-    default: break;
+    case 10:
+        return mlr_resample_n_out(0, 30.0, 60.0, 0, &n, d);
+    case 11:
+        return mlr_grbf_basis(MLR_GRBF_THIN_PLATE, 1.0, a, 0, 2, a, 4, 2, 2, 0, 1, b, 4, NULL, d);
+    case 12:
+        return mlr_layers_decompose(0, 2, NULL, a, NULL, 0, NULL, &no.layers, d);
+    case 13:
+        return mlr_som_train(NULL, a, 0, 2, 1, MLR_SOM_BATCH, d);
+    default:
+        break;
     }
     ck_abort_msg("no call %d", i);
     return MLR_OK;
 }
 
-START_TEST(a_refused_zero_size_leaves_a_message)
-{
-    refused(zero_call, _i, MLR_OK, NULL);
-}
+START_TEST(a_refused_zero_size_leaves_a_message) { refused(zero_call, _i, MLR_OK, NULL); }
 END_TEST
 
 static Suite *diag_alloc_suite(void)
 {
     Suite *s = suite_create("diag_alloc");
     TCase *tc = tcase_create("alloc");
-    tcase_add_loop_test(tc, every_allocation_of_every_allocating_function_fails_with_a_message,
-                        0, (int)MLR_COUNTOF(alloc_cases));
+    tcase_add_loop_test(tc, every_allocation_of_every_allocating_function_fails_with_a_message, 0,
+                        (int)MLR_COUNTOF(alloc_cases));
     tcase_add_loop_test(tc, a_size_overflow_says_what_overflowed, 0, n_overflow_calls);
     tcase_add_loop_test(tc, a_null_required_pointer_leaves_a_message, 0, n_null_calls);
     tcase_add_loop_test(tc, a_refused_zero_size_leaves_a_message, 0, n_zero_calls);
@@ -844,7 +942,4 @@ static Suite *diag_alloc_suite(void)
     return s;
 }
 
-int main(void)
-{
-    return mlr_test_run(diag_alloc_suite());
-}
+int main(void) { return mlr_test_run(diag_alloc_suite()); }

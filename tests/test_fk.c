@@ -23,7 +23,8 @@ START_TEST(hand_computed_chain)
 {
     double wp[9], wr[12];
     ck_assert_int_eq(mlr_fk_arrays(1, 3, chain_parents, chain_offsets, chain_root, chain_rot, 0,
-                                   NULL, NULL, wp, wr, NULL, NULL), MLR_OK);
+                                   NULL, NULL, wp, wr, NULL, NULL),
+                     MLR_OK);
     const double expect_p[9] = {1, 2, 3, 1, 3, 3, 1, 3, 4};
     for (int i = 0; i < 9; i++)
         ck_assert_close(wp[i], expect_p[i], 1e-15);
@@ -34,10 +35,10 @@ START_TEST(hand_computed_chain)
     /* no root_pos: the root sits at its OFFSET; no world_rot wanted: same positions */
     double wp2[9];
     ck_assert_int_eq(mlr_fk_arrays(1, 3, chain_parents, chain_offsets, NULL, chain_rot, 0, NULL,
-                                   NULL, wp2, NULL, NULL, NULL), MLR_OK);
+                                   NULL, wp2, NULL, NULL, NULL),
+                     MLR_OK);
     for (int i = 0; i < 9; i++)
-        ck_assert_close(wp2[i], expect_p[i] + 9 - chain_root[i % 3],
-                        1e-14);
+        ck_assert_close(wp2[i], expect_p[i] + 9 - chain_root[i % 3], 1e-14);
 }
 END_TEST
 
@@ -51,7 +52,8 @@ START_TEST(translations_replace_offsets)
     memcpy(rot2 + 12, chain_rot, sizeof chain_rot);
     double wp[18];
     ck_assert_int_eq(mlr_fk_arrays(2, 3, chain_parents, chain_offsets, root2, rot2, 1, tj, tr, wp,
-                                   NULL, NULL, NULL), MLR_OK);
+                                   NULL, NULL, NULL),
+                     MLR_OK);
     /* frame 0: p1 = (1,2,3) + Rz90 (5,0,0) = (1,7,3); p2 = p1 + (0,0,1) */
     const double e0[9] = {1, 2, 3, 1, 7, 3, 1, 7, 4};
     /* frame 1: root at 0, p1 = Rz90 (0,0,2) = (0,0,2); p2 = (0,0,3) */
@@ -70,26 +72,36 @@ START_TEST(bad_arguments)
     const int32_t tj_root[1] = {0}, tj_far[1] = {3}, tj_dup[2] = {2, 2};
     const double tr[6] = {0};
     ck_assert_int_eq(mlr_fk_arrays(1, 0, chain_parents, chain_offsets, NULL, chain_rot, 0, NULL,
-                                   NULL, wp, NULL, NULL, NULL), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_fk_arrays(1, 3, p_bad0, chain_offsets, NULL, chain_rot, 0, NULL, NULL,
-                                   wp, NULL, NULL, NULL), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_fk_arrays(1, 3, p_fwd, chain_offsets, NULL, chain_rot, 0, NULL, NULL,
-                                   wp, NULL, NULL, NULL), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_fk_arrays(1, 3, p_neg, chain_offsets, NULL, chain_rot, 0, NULL, NULL,
-                                   wp, NULL, NULL, NULL), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_fk_arrays(1, 3, chain_parents, chain_offsets, NULL, chain_rot, 1,
-                                   tj_root, tr, wp, NULL, NULL, NULL), MLR_E_INVALID_ARG);
+                                   NULL, wp, NULL, NULL, NULL),
+                     MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_fk_arrays(1, 3, p_bad0, chain_offsets, NULL, chain_rot, 0, NULL, NULL, wp,
+                                   NULL, NULL, NULL),
+                     MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_fk_arrays(1, 3, p_fwd, chain_offsets, NULL, chain_rot, 0, NULL, NULL, wp,
+                                   NULL, NULL, NULL),
+                     MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_fk_arrays(1, 3, p_neg, chain_offsets, NULL, chain_rot, 0, NULL, NULL, wp,
+                                   NULL, NULL, NULL),
+                     MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_fk_arrays(1, 3, chain_parents, chain_offsets, NULL, chain_rot, 1, tj_root,
+                                   tr, wp, NULL, NULL, NULL),
+                     MLR_E_INVALID_ARG);
     ck_assert_int_eq(mlr_fk_arrays(1, 3, chain_parents, chain_offsets, NULL, chain_rot, 1, tj_far,
-                                   tr, wp, NULL, NULL, NULL), MLR_E_INVALID_ARG);
+                                   tr, wp, NULL, NULL, NULL),
+                     MLR_E_INVALID_ARG);
     ck_assert_int_eq(mlr_fk_arrays(1, 3, chain_parents, chain_offsets, NULL, chain_rot, 2, tj_dup,
-                                   tr, wp, NULL, NULL, NULL), MLR_E_INVALID_ARG);
+                                   tr, wp, NULL, NULL, NULL),
+                     MLR_E_INVALID_ARG);
     ck_assert_int_eq(mlr_fk_arrays(1, 3, chain_parents, chain_offsets, NULL, NULL, 0, NULL, NULL,
-                                   wp, NULL, NULL, NULL), MLR_E_INVALID_ARG);
+                                   wp, NULL, NULL, NULL),
+                     MLR_E_INVALID_ARG);
     ck_assert_int_eq(mlr_fk_arrays(1, 3, chain_parents, chain_offsets, NULL, chain_rot, 1, NULL,
-                                   NULL, wp, NULL, NULL, NULL), MLR_E_INVALID_ARG);
+                                   NULL, wp, NULL, NULL, NULL),
+                     MLR_E_INVALID_ARG);
     /* zero frames is fine */
     ck_assert_int_eq(mlr_fk_arrays(0, 3, chain_parents, chain_offsets, NULL, NULL, 0, NULL, NULL,
-                                   NULL, NULL, NULL, NULL), MLR_OK);
+                                   NULL, NULL, NULL, NULL),
+                     MLR_OK);
     ck_assert_int_eq(mlr_fk_motion(NULL, 0, 0, wp, NULL, NULL), MLR_E_INVALID_ARG);
 }
 END_TEST
@@ -110,8 +122,7 @@ START_TEST(big_skeleton_scratch)
     }
     for (int i = 0; i < J * N; i++) {
         double q[4], n = 0;
-        for (int k = 0; k < 4; k++)
-        {
+        for (int k = 0; k < 4; k++) {
             q[k] = mlr_test_rng_normal(&rng);
             n += q[k] * q[k];
         }
@@ -123,8 +134,8 @@ START_TEST(big_skeleton_scratch)
     for (size_t fail_at = 0;; fail_at++) {
         mlr_test_allocator ta;
         mlr_test_allocator_init(&ta, fail_at);
-        mlr_status s = mlr_fk_arrays(N, J, par, off, NULL, rot, 0, NULL, NULL, wp2, NULL,
-                                     &ta.base, NULL);
+        mlr_status s =
+            mlr_fk_arrays(N, J, par, off, NULL, rot, 0, NULL, NULL, wp2, NULL, &ta.base, NULL);
         ck_assert_uint_eq(ta.live_blocks, 0);
         if (s == MLR_OK)
             break;
@@ -147,9 +158,8 @@ START_TEST(big_skeleton_scratch)
 END_TEST
 
 static const char *const clip_files[] = {
-    "cmu_01_01_playground_jumps.bvh", "cmu_131_01_mj_style_walk.bvh",
-    "cmu_10_01_soccer_kick.bvh",      "cmu_60_10_salsa_dance.bvh",
-    "cmu_02_03_run_jog_25fps.bvh",    "lafan1_clip_a.bvh",
+    "cmu_01_01_playground_jumps.bvh", "cmu_131_01_mj_style_walk.bvh",  "cmu_10_01_soccer_kick.bvh",
+    "cmu_60_10_salsa_dance.bvh",      "cmu_02_03_run_jog_25fps.bvh",   "lafan1_clip_a.bvh",
     "bandai1_walk_happy_001.bvh",     "ai4a_dog_D1_008_KAN01_002.bvh",
 };
 
@@ -172,7 +182,8 @@ START_TEST(clips_motion_and_arrays_agree)
     ck_assert_int_eq(mlr_fk_arrays(N, J, mlr_motion_parents(m), mlr_motion_offsets(m),
                                    mlr_motion_root_pos(m), mlr_motion_rot(m), P,
                                    mlr_motion_trans_joints(m), mlr_motion_trans(m), wp2, NULL,
-                                   NULL, NULL), MLR_OK);
+                                   NULL, NULL),
+                     MLR_OK);
     ck_assert_int_eq(memcmp(wp, wp2, 3 * N * J * sizeof(double)), 0);
     size_t b = N / 3, c = N / 4;
     ck_assert_int_eq(mlr_fk_motion(m, b, c, wp2, NULL, NULL), MLR_OK);

@@ -55,13 +55,13 @@ START_TEST(basis_matches_libm)
         c[q] = 4.0 * mlr_test_rng_uniform(&r) - 1.0;
     for (size_t i = 0; i < n; i++)
         for (size_t t = 0; t < dim; t++) /* every 10th point on a centre: phi(0) */
-            x[i * ldx + t] = i % 10 == 0 ? c[(i % nc) * ldc + t]
-                                         : 5.0 * mlr_test_rng_uniform(&r) - 1.5;
+            x[i * ldx + t] =
+                i % 10 == 0 ? c[(i % nc) * ldc + t] : 5.0 * mlr_test_rng_uniform(&r) - 1.5;
     for (size_t q = 0; q < n * ldo; q++)
         out[q] = -12345.0; /* the padding past the columns must stay */
-    ck_assert_int_eq(mlr_grbf_basis(kernel, width, c, nc, ldc, x, n, ldx, dim, 1, 2, out, ldo,
-                                    NULL, NULL),
-                     MLR_OK);
+    ck_assert_int_eq(
+        mlr_grbf_basis(kernel, width, c, nc, ldc, x, n, ldx, dim, 1, 2, out, ldo, NULL, NULL),
+        MLR_OK);
     for (size_t i = 0; i < n; i++) {
         const double *o = out + i * ldo, *xi = x + i * ldx;
         for (size_t j = 0; j < nc; j++)
@@ -76,9 +76,9 @@ START_TEST(basis_matches_libm)
     }
     /* without the polynomial columns: the same kernel values, nothing past them */
     double *bare = malloc(n * nc * sizeof *bare);
-    ck_assert_int_eq(mlr_grbf_basis(kernel, width, c, nc, ldc, x, n, ldx, dim, 0, 1, bare, nc,
-                                    NULL, NULL),
-                     MLR_OK);
+    ck_assert_int_eq(
+        mlr_grbf_basis(kernel, width, c, nc, ldc, x, n, ldx, dim, 0, 1, bare, nc, NULL, NULL),
+        MLR_OK);
     for (size_t i = 0; i < n; i++)
         ck_assert(memcmp(bare + i * nc, out + i * ldo, nc * sizeof *bare) == 0);
     free(c), free(x), free(out), free(bare);
@@ -95,11 +95,11 @@ START_TEST(kernel_over_the_whole_range)
     double *x = calloc(2 * n, sizeof *x), *out = malloc(n * sizeof *out);
     for (size_t i = 0; i < n; i++) /* u from 1e-155 to 1e150, plus points near 2^k sqrt(2)/2 */
         x[2 * i] = i % 4 == 3 ? ldexp(0.70710678118654752440 * (1 + 1e-15 * (double)(i % 7)),
-                                    (int)(i % 400) - 200)
+                                      (int)(i % 400) - 200)
                               : pow(10.0, -155.0 + 304.9 * (double)i / (double)n);
-    ck_assert_int_eq(mlr_grbf_basis(MLR_GRBF_THIN_PLATE, 1, zero, 1, 2, x, n, 2, 2, 0, 3, out, 1,
-                                    NULL, NULL),
-                     MLR_OK);
+    ck_assert_int_eq(
+        mlr_grbf_basis(MLR_GRBF_THIN_PLATE, 1, zero, 1, 2, x, n, 2, 2, 0, 3, out, 1, NULL, NULL),
+        MLR_OK);
     for (size_t i = 0; i < n; i++) {
         double d2 = x[2 * i] * x[2 * i];
         if (d2 < DBL_MIN)
@@ -111,9 +111,9 @@ START_TEST(kernel_over_the_whole_range)
     for (size_t i = 0; i < n; i++) /* d2 / width^2 from 1e-20 to 750, dense near 708 */
         x[2 * i] = width * sqrt(i % 2 ? 700.0 + 16.0 * (double)i / (double)n
                                       : pow(10.0, -20.0 + 22.9 * (double)i / (double)n));
-    ck_assert_int_eq(mlr_grbf_basis(MLR_GRBF_GAUSSIAN, width, zero, 1, 2, x, n, 2, 2, 0, 1, out,
-                                    1, NULL, NULL),
-                     MLR_OK);
+    ck_assert_int_eq(
+        mlr_grbf_basis(MLR_GRBF_GAUSSIAN, width, zero, 1, 2, x, n, 2, 2, 0, 1, out, 1, NULL, NULL),
+        MLR_OK);
     for (size_t i = 0; i < n; i++) {
         double d2 = x[2 * i] * x[2 * i], ref = ref_phi(MLR_GRBF_GAUSSIAN, width, d2);
         double a = d2 * (1.0 / (width * width));
@@ -138,9 +138,8 @@ START_TEST(same_bits_for_every_thread_count_and_batch)
     for (size_t q = 0; q < n * dim; q++)
         x[q] = 12.0 * mlr_test_rng_uniform(&r) - 1.0;
     double *a = malloc(n * ldo * sizeof *a), *b = malloc(n * ldo * sizeof *b);
-    ck_assert_int_eq(mlr_grbf_basis(kernel, 2.5, c, nc, dim, x, n, dim, dim, 1, 1, a, ldo, NULL,
-                                    NULL),
-                     MLR_OK);
+    ck_assert_int_eq(
+        mlr_grbf_basis(kernel, 2.5, c, nc, dim, x, n, dim, dim, 1, 1, a, ldo, NULL, NULL), MLR_OK);
     const size_t threads[] = {2, 3, 7, 64};
     for (size_t q = 0; q < MLR_COUNTOF(threads); q++) {
         ck_assert_int_eq(mlr_grbf_basis(kernel, 2.5, c, nc, dim, x, n, dim, dim, 1, threads[q], b,
@@ -149,8 +148,8 @@ START_TEST(same_bits_for_every_thread_count_and_batch)
         ck_assert(memcmp(a, b, n * ldo * sizeof *a) == 0);
     }
     for (size_t i = 0; i < n; i += 97) { /* a point alone */
-        ck_assert_int_eq(mlr_grbf_basis(kernel, 2.5, c, nc, dim, x + i * dim, 1, dim, dim, 1, 1,
-                                        b, ldo, NULL, NULL),
+        ck_assert_int_eq(mlr_grbf_basis(kernel, 2.5, c, nc, dim, x + i * dim, 1, dim, dim, 1, 1, b,
+                                        ldo, NULL, NULL),
                          MLR_OK);
         ck_assert(memcmp(a + i * ldo, b, ldo * sizeof *a) == 0);
     }
@@ -179,9 +178,8 @@ START_TEST(eval_matches_basis_times_coefficients)
         B[q] = q % ldcoef < n_out ? mlr_test_rng_normal(&r) : NAN; /* padding never read */
     for (size_t q = 0; q < n * ldo; q++)
         out[q] = -7.0;
-    ck_assert_int_eq(mlr_grbf_basis(kernel, 1.9, c, nc, dim, x, n, dim, dim, 1, 1, psi, K, NULL,
-                                    NULL),
-                     MLR_OK);
+    ck_assert_int_eq(
+        mlr_grbf_basis(kernel, 1.9, c, nc, dim, x, n, dim, dim, 1, 1, psi, K, NULL, NULL), MLR_OK);
     ck_assert_int_eq(mlr_grbf_eval(kernel, 1.9, c, nc, dim, B, ldcoef, n_out, x, n, dim, dim, 2,
                                    out, ldo, NULL, NULL),
                      MLR_OK);
@@ -317,17 +315,17 @@ START_TEST(lattice_fit_matches_whole_system)
             A[u * (N + 3) + N + t] = A[(N + t) * (N + 3) + u] = p[t];
     }
     dense_solve(A, b, N + 3, m);
-    ck_assert_int_eq(mlr_grbf_fit_lattice(kernel, width, xs, rows, ys, cols, y, m, m, 2, coef, m,
-                                          NULL, NULL),
-                     MLR_OK);
+    ck_assert_int_eq(
+        mlr_grbf_fit_lattice(kernel, width, xs, rows, ys, cols, y, m, m, 2, coef, m, NULL, NULL),
+        MLR_OK);
     double scale = 0;
     for (size_t q = 0; q < (N + 3) * m; q++)
         scale = fmax(scale, fabs(b[q]));
     for (size_t q = 0; q < (N + 3) * m; q++)
         ck_assert_close(coef[q], b[q], 1e-9 * scale);
-    ck_assert_int_eq(mlr_grbf_eval(kernel, width, c, N, 2, coef, m, m, c, N, 2, 2, 1, back, m,
-                                   NULL, NULL),
-                     MLR_OK);
+    ck_assert_int_eq(
+        mlr_grbf_eval(kernel, width, c, N, 2, coef, m, m, c, N, 2, 2, 1, back, m, NULL, NULL),
+        MLR_OK);
     for (size_t q = 0; q < N * m; q++)
         ck_assert_close(back[q], y[q], 1e-9 * scale);
     free(y), free(coef), free(A), free(b), free(c), free(back);
@@ -399,15 +397,14 @@ START_TEST(bad_input_is_refused_with_a_reason)
     ck_assert_int_eq(mlr_grbf_basis(tp, 1, c, 3, 2, x, 2, 2, 2, 1, 1, out, 5, NULL, &dg),
                      MLR_E_INVALID_ARG);
     ck_assert_ptr_nonnull(strstr(dg.message, "ldo"));
-    ck_assert_int_eq(mlr_grbf_basis(tp, 1, c, 3, 2, x, 2, 2, 2, 0, 1, out, 3, NULL, &dg),
-                     MLR_OK);
+    ck_assert_int_eq(mlr_grbf_basis(tp, 1, c, 3, 2, x, 2, 2, 2, 0, 1, out, 3, NULL, &dg), MLR_OK);
     ck_assert_int_eq(mlr_grbf_basis(tp, 1, c, 3, 2, x, 2, 2, 2, 1, 0, out, 6, NULL, &dg),
                      MLR_E_INVALID_ARG);
     ck_assert_int_eq(mlr_grbf_basis(tp, 1, c, 3, 2, x, 2, 2, 2, 1, 65, out, 6, NULL, &dg),
                      MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_grbf_basis(tp, 1, c, 3, 2, x, SIZE_MAX / 4, 2, 2, 1, 1, out, 6, NULL,
-                                    &dg),
-                     MLR_E_OVERFLOW);
+    ck_assert_int_eq(
+        mlr_grbf_basis(tp, 1, c, 3, 2, x, SIZE_MAX / 4, 2, 2, 1, 1, out, 6, NULL, &dg),
+        MLR_E_OVERFLOW);
     x[3] = NAN;
     ck_assert_int_eq(mlr_grbf_basis(tp, 1, c, 3, 2, x, 2, 2, 2, 1, 1, out, 6, NULL, &dg),
                      MLR_E_INVALID_ARG);
@@ -438,9 +435,9 @@ START_TEST(bad_input_is_refused_with_a_reason)
                      MLR_E_INVALID_ARG);
     ck_assert_int_eq(mlr_grbf_eval(ga, -1, c, 3, 2, B, 2, 2, x, 2, 2, 2, 1, out, 2, NULL, &dg),
                      MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_grbf_eval(tp, 1, c, 3, 2, B, 2, 2, x, SIZE_MAX / 4, 2, 2, 1, out, 2,
-                                   NULL, &dg),
-                     MLR_E_OVERFLOW);
+    ck_assert_int_eq(
+        mlr_grbf_eval(tp, 1, c, 3, 2, B, 2, 2, x, SIZE_MAX / 4, 2, 2, 1, out, 2, NULL, &dg),
+        MLR_E_OVERFLOW);
     B[11] = NAN;
     ck_assert_int_eq(mlr_grbf_eval(tp, 1, c, 3, 2, B, 2, 2, x, 2, 2, 2, 1, out, 2, NULL, &dg),
                      MLR_E_INVALID_ARG);
@@ -497,36 +494,36 @@ START_TEST(allocation_failure_is_clean)
     mlr_test_allocator ta;
     mlr_test_allocator_init(&ta, 0);
     mlr_diag dg;
-    ck_assert_int_eq(mlr_grbf_basis(MLR_GRBF_THIN_PLATE, 1, c, 3, 2, x, 2, 2, 2, 1, 1, out, 6,
-                                    &ta.base, &dg),
-                     MLR_E_NO_MEMORY);
+    ck_assert_int_eq(
+        mlr_grbf_basis(MLR_GRBF_THIN_PLATE, 1, c, 3, 2, x, 2, 2, 2, 1, 1, out, 6, &ta.base, &dg),
+        MLR_E_NO_MEMORY);
     ck_assert_uint_eq(ta.live_blocks, 0);
     mlr_test_allocator_init(&ta, 1);
-    ck_assert_int_eq(mlr_grbf_basis(MLR_GRBF_THIN_PLATE, 1, c, 3, 2, x, 2, 2, 2, 1, 1, out, 6,
-                                    &ta.base, &dg),
-                     MLR_OK);
+    ck_assert_int_eq(
+        mlr_grbf_basis(MLR_GRBF_THIN_PLATE, 1, c, 3, 2, x, 2, 2, 2, 1, 1, out, 6, &ta.base, &dg),
+        MLR_OK);
     ck_assert_uint_eq(ta.live_blocks, 0);
     ck_assert_uint_eq(ta.n_calls, 1);
     double B[12] = {1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12};
     mlr_test_allocator_init(&ta, 0);
-    ck_assert_int_eq(mlr_grbf_eval(MLR_GRBF_THIN_PLATE, 1, c, 3, 2, B, 2, 2, x, 2, 2, 2, 1, out,
-                                   2, &ta.base, &dg),
+    ck_assert_int_eq(mlr_grbf_eval(MLR_GRBF_THIN_PLATE, 1, c, 3, 2, B, 2, 2, x, 2, 2, 2, 1, out, 2,
+                                   &ta.base, &dg),
                      MLR_E_NO_MEMORY);
     ck_assert_uint_eq(ta.live_blocks, 0);
     mlr_test_allocator_init(&ta, 1);
-    ck_assert_int_eq(mlr_grbf_eval(MLR_GRBF_THIN_PLATE, 1, c, 3, 2, B, 2, 2, x, 2, 2, 2, 1, out,
-                                   2, &ta.base, &dg),
+    ck_assert_int_eq(mlr_grbf_eval(MLR_GRBF_THIN_PLATE, 1, c, 3, 2, B, 2, 2, x, 2, 2, 2, 1, out, 2,
+                                   &ta.base, &dg),
                      MLR_OK);
     ck_assert_uint_eq(ta.live_blocks, 0);
     double xs[2] = {0, 1}, ys[3] = {0, 1, 2}, y[6] = {1, 2, 3, 4, 5, 6}, co[9];
     mlr_test_allocator_init(&ta, 0);
-    ck_assert_int_eq(mlr_grbf_fit_lattice(MLR_GRBF_THIN_PLATE, 0, xs, 2, ys, 3, y, 1, 1, 1, co,
-                                          1, &ta.base, &dg),
+    ck_assert_int_eq(mlr_grbf_fit_lattice(MLR_GRBF_THIN_PLATE, 0, xs, 2, ys, 3, y, 1, 1, 1, co, 1,
+                                          &ta.base, &dg),
                      MLR_E_NO_MEMORY);
     ck_assert_uint_eq(ta.live_blocks, 0);
     mlr_test_allocator_init(&ta, 1);
-    ck_assert_int_eq(mlr_grbf_fit_lattice(MLR_GRBF_THIN_PLATE, 0, xs, 2, ys, 3, y, 1, 1, 1, co,
-                                          1, &ta.base, &dg),
+    ck_assert_int_eq(mlr_grbf_fit_lattice(MLR_GRBF_THIN_PLATE, 0, xs, 2, ys, 3, y, 1, 1, 1, co, 1,
+                                          &ta.base, &dg),
                      MLR_OK);
     ck_assert_uint_eq(ta.live_blocks, 0);
 }

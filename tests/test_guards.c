@@ -27,7 +27,8 @@ static mlr_guards *guards_of(const clip *c, const mlr_guards_option *opts, size_
     mlr_diag d;
     ck_assert_msg(mlr_guards_create(&c->rig, c->fps, c->n, mlr_motion_root_pos(c->m),
                                     mlr_motion_rot(c->m), mlr_motion_trans(c->m), opts, n_opts,
-                                    NULL, &g, &d) == MLR_OK, "%s", d.message);
+                                    NULL, &g, &d) == MLR_OK,
+                  "%s", d.message);
     return g;
 }
 
@@ -37,11 +38,12 @@ static void stylized(const clip *c, double alpha, double *root, double *rot)
     mlr_layers *L;
     mlr_diag d;
     const mlr_layers_option o = {MLR_LAYERS_OPT_FPS, c->fps};
-    ck_assert_msg(mlr_layers_decompose(c->n, c->j, mlr_motion_root_pos(c->m),
-                                       mlr_motion_rot(c->m), &o, 1, NULL, &L, &d) == MLR_OK,
+    ck_assert_msg(mlr_layers_decompose(c->n, c->j, mlr_motion_root_pos(c->m), mlr_motion_rot(c->m),
+                                       &o, 1, NULL, &L, &d) == MLR_OK,
                   "%s", d.message);
-    ck_assert_int_eq(mlr_layers_synthesize(L, 0, c->n, &alpha, 1, root, 3 * c->n, rot,
-                                           4 * c->n * c->j, NULL), MLR_OK);
+    ck_assert_int_eq(
+        mlr_layers_synthesize(L, 0, c->n, &alpha, 1, root, 3 * c->n, rot, 4 * c->n * c->j, NULL),
+        MLR_OK);
     mlr_layers_destroy(L);
 }
 
@@ -86,11 +88,13 @@ START_TEST(stylized_knees_stay_within_the_fold_limit_and_feet_above_the_floor)
     /* the raw synthesis folds the knee past 150 degrees (the input does not) */
     double in_max = 0, raw_max = 0, out_max = 0;
     ck_assert_int_eq(mlr_fk_arrays(N, J, c.rig.parents, c.rig.offsets, mlr_motion_root_pos(c.m),
-                                   mlr_motion_rot(c.m), 0, NULL, NULL, pos, NULL, NULL, NULL), MLR_OK);
+                                   mlr_motion_rot(c.m), 0, NULL, NULL, pos, NULL, NULL, NULL),
+                     MLR_OK);
     for (size_t f = 0; f < N; f++)
         in_max = fmax(in_max, flexion(pos, J, f, hip, knee, ankle));
     ck_assert_int_eq(mlr_fk_arrays(N, J, c.rig.parents, c.rig.offsets, root, rot, 0, NULL, NULL,
-                                   pos, NULL, NULL, NULL), MLR_OK);
+                                   pos, NULL, NULL, NULL),
+                     MLR_OK);
     for (size_t f = 0; f < N; f++)
         raw_max = fmax(raw_max, flexion(pos, J, f, hip, knee, ankle));
     ck_assert_double_lt(in_max, 150.0);
@@ -102,14 +106,16 @@ START_TEST(stylized_knees_stay_within_the_fold_limit_and_feet_above_the_floor)
     mlr_guards_report rep;
     mlr_diag d;
     const double alpha = 3.0;
-    ck_assert_msg(mlr_guards_apply(g, &alpha, 1, ref_root, ref_rot, NULL, root, rot, NULL,
-                                   limited, J, &rep, &d) == MLR_OK, "%s", d.message);
+    ck_assert_msg(mlr_guards_apply(g, &alpha, 1, ref_root, ref_rot, NULL, root, rot, NULL, limited,
+                                   J, &rep, &d) == MLR_OK,
+                  "%s", d.message);
     ck_assert_int_eq(rep.limits_applied, 1);
     ck_assert_uint_gt(limited[knee], 0);
     ck_assert_uint_gt(rep.contact_frames, N / 2);
     ck_assert(isfinite(rep.floor_height));
     ck_assert_int_eq(mlr_fk_arrays(N, J, c.rig.parents, c.rig.offsets, root, rot, 0, NULL, NULL,
-                                   pos, NULL, NULL, NULL), MLR_OK);
+                                   pos, NULL, NULL, NULL),
+                     MLR_OK);
     double lowest = INFINITY, height;
     ck_assert_int_eq(mlr_rig_body_height(N, J, pos, MLR_AXIS_Y, &height, NULL, &d), MLR_OK);
     for (size_t f = 0; f < N; f++) {
@@ -143,14 +149,15 @@ START_TEST(every_guard_switched_off_leaves_the_frames_alone)
     stylized(&c, 2.0, root, rot);
     memcpy(root0, root, 3 * N * sizeof(double));
     memcpy(rot0, rot, 4 * N * J * sizeof(double));
-    const mlr_guards_option off[3] = {{MLR_GUARDS_OPT_LIMITS, 0}, {MLR_GUARDS_OPT_KEEP_CONTACTS, 0},
-                                      {MLR_GUARDS_OPT_FLOOR, 0}};
+    const mlr_guards_option off[3] = {
+        {MLR_GUARDS_OPT_LIMITS, 0}, {MLR_GUARDS_OPT_KEEP_CONTACTS, 0}, {MLR_GUARDS_OPT_FLOOR, 0}};
     mlr_guards *g = guards_of(&c, off, 3);
     ck_assert_uint_eq(mlr_guards_n_points(g), 0);
     mlr_guards_report rep;
     const double alpha = 2.0;
-    ck_assert_int_eq(mlr_guards_apply(g, &alpha, 1, NULL, NULL, NULL, root, rot, NULL, NULL, 0,
-                                      &rep, NULL), MLR_OK);
+    ck_assert_int_eq(
+        mlr_guards_apply(g, &alpha, 1, NULL, NULL, NULL, root, rot, NULL, NULL, 0, &rep, NULL),
+        MLR_OK);
     ck_assert_int_eq(rep.limits_applied, 0);
     ck_assert(isnan(rep.floor_height));
     ck_assert_int_eq(memcmp(root, root0, 3 * N * sizeof(double)), 0);
@@ -161,12 +168,14 @@ START_TEST(every_guard_switched_off_leaves_the_frames_alone)
                                               {MLR_GUARDS_OPT_FLOOR, 0}};
     g = guards_of(&c, only_limits, 2);
     const double half = 0.5;
-    ck_assert_int_eq(mlr_guards_apply(g, &half, 1, NULL, NULL, NULL, root, rot, NULL, NULL, 0,
-                                      &rep, NULL), MLR_OK);
+    ck_assert_int_eq(
+        mlr_guards_apply(g, &half, 1, NULL, NULL, NULL, root, rot, NULL, NULL, 0, &rep, NULL),
+        MLR_OK);
     ck_assert_int_eq(rep.limits_applied, 0);
     ck_assert_int_eq(memcmp(rot, rot0, 4 * N * J * sizeof(double)), 0);
-    ck_assert_int_eq(mlr_guards_apply(g, &alpha, 1, NULL, NULL, NULL, root, rot, NULL, NULL, 0,
-                                      &rep, NULL), MLR_OK);
+    ck_assert_int_eq(
+        mlr_guards_apply(g, &alpha, 1, NULL, NULL, NULL, root, rot, NULL, NULL, 0, &rep, NULL),
+        MLR_OK);
     ck_assert_int_eq(rep.limits_applied, 1);
     ck_assert_int_ne(memcmp(rot, rot0, 4 * N * J * sizeof(double)), 0);
     ck_assert_int_eq(memcmp(root, root0, 3 * N * sizeof(double)), 0);
@@ -199,8 +208,8 @@ START_TEST(bad_input_gets_the_right_status_and_message)
     ck_assert_int_eq(mlr_guards_create(&c.rig, c.fps, N, r, q, NULL, &bad_up, 1, NULL, &g, &d),
                      MLR_E_INVALID_ARG);
     ck_assert_ptr_nonnull(strstr(d.message, "up axis"));
-    ck_assert_int_eq(mlr_guards_create(&c.rig, c.fps, N, r, q, NULL, &nan_floor, 1, NULL, &g,
-                                       &d), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_guards_create(&c.rig, c.fps, N, r, q, NULL, &nan_floor, 1, NULL, &g, &d),
+                     MLR_E_INVALID_ARG);
     ck_assert_ptr_nonnull(strstr(d.message, "not finite"));
     double *rot = malloc(4 * N * J * sizeof(double)), *root = malloc(3 * N * sizeof(double));
     memcpy(rot, q, 4 * N * J * sizeof(double));
@@ -212,25 +221,26 @@ START_TEST(bad_input_gets_the_right_status_and_message)
     rot[4 * J * 7 + 1] = 0.0;
     g = guards_of(&c, NULL, 0);
     const double alpha = 2.0, bad_alpha = INFINITY;
-    ck_assert_int_eq(mlr_guards_apply(g, &bad_alpha, 1, NULL, NULL, NULL, root, rot, NULL, NULL,
-                                      0, NULL, &d), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(
+        mlr_guards_apply(g, &bad_alpha, 1, NULL, NULL, NULL, root, rot, NULL, NULL, 0, NULL, &d),
+        MLR_E_INVALID_ARG);
     ck_assert_ptr_nonnull(strstr(d.message, "alpha"));
-    ck_assert_int_eq(mlr_guards_apply(g, &alpha, 5, NULL, NULL, NULL, root, rot, NULL, NULL, 0,
-                                      NULL, &d), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_guards_apply(g, &alpha, 1, root, NULL, NULL, root, rot, NULL, NULL, 0,
-                                      NULL, &d), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(
+        mlr_guards_apply(g, &alpha, 5, NULL, NULL, NULL, root, rot, NULL, NULL, 0, NULL, &d),
+        MLR_E_INVALID_ARG);
+    ck_assert_int_eq(
+        mlr_guards_apply(g, &alpha, 1, root, NULL, NULL, root, rot, NULL, NULL, 0, NULL, &d),
+        MLR_E_INVALID_ARG);
     ck_assert_ptr_nonnull(strstr(d.message, "reference"));
     /* contacts that name nothing, limits of another rig: nothing changes */
     const int32_t joints[2] = {0, (int32_t)J + 3};
     const uint8_t *contacts = calloc(2 * N, 1);
     const size_t before = mlr_guards_n_points(g);
-    ck_assert_int_eq(mlr_guards_set_contacts(g, 2, joints, NULL, contacts, &d),
-                     MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_guards_set_contacts(g, 2, joints, NULL, contacts, &d), MLR_E_INVALID_ARG);
     ck_assert_ptr_nonnull(strstr(d.message, "names nothing"));
     ck_assert_uint_eq(mlr_guards_n_points(g), before);
     const int32_t twice[2] = {3, 3};
-    ck_assert_int_eq(mlr_guards_set_contacts(g, 2, twice, NULL, contacts, &d),
-                     MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_guards_set_contacts(g, 2, twice, NULL, contacts, &d), MLR_E_INVALID_ARG);
     ck_assert_ptr_nonnull(strstr(d.message, "twice"));
     ck_assert_int_eq(mlr_guards_set_limits(NULL, NULL, &d), MLR_E_INVALID_ARG);
     mlr_guards_destroy(g);
@@ -309,21 +319,23 @@ START_TEST(reference_trajectories_are_the_same_however_made)
     ck_assert_int_eq(mlr_guards_get_contacts(g, pj, pe, pc), MLR_OK);
     memcpy(r1, root, 3 * N * sizeof(double)), memcpy(q1, rot, 4 * N * J * sizeof(double));
     mlr_guards_report rep1, rep2;
-    ck_assert_int_eq(mlr_guards_apply(g, &alpha, 1, NULL, NULL, NULL, r1, q1, NULL, NULL, 0,
-                                      &rep1, NULL), MLR_OK);
+    ck_assert_int_eq(
+        mlr_guards_apply(g, &alpha, 1, NULL, NULL, NULL, r1, q1, NULL, NULL, 0, &rep1, NULL),
+        MLR_OK);
     ck_assert_uint_gt(rep1.contact_frames, 0);
     mlr_diag d;
     ck_assert_msg(mlr_guards_set_contacts(g, C, pj, pe, pc, &d) == MLR_OK, "%s", d.message);
     memcpy(r2, root, 3 * N * sizeof(double)), memcpy(q2, rot, 4 * N * J * sizeof(double));
-    ck_assert_int_eq(mlr_guards_apply(g, &alpha, 1, NULL, NULL, NULL, r2, q2, NULL, NULL, 0,
-                                      &rep2, NULL), MLR_OK);
+    ck_assert_int_eq(
+        mlr_guards_apply(g, &alpha, 1, NULL, NULL, NULL, r2, q2, NULL, NULL, 0, &rep2, NULL),
+        MLR_OK);
     ck_assert_int_eq(memcmp(r1, r2, 3 * N * sizeof(double)), 0);
     ck_assert_int_eq(memcmp(q1, q2, 4 * N * J * sizeof(double)), 0);
     ck_assert_uint_eq(rep1.contact_frames, rep2.contact_frames);
     /* a given reference is followed as it is: another motion than the input's default */
     memcpy(r2, root, 3 * N * sizeof(double)), memcpy(q2, rot, 4 * N * J * sizeof(double));
-    ck_assert_int_eq(mlr_guards_apply(g, &alpha, 1, rr, rq, NULL, r2, q2, NULL, NULL, 0, &rep2,
-                                      NULL), MLR_OK);
+    ck_assert_int_eq(
+        mlr_guards_apply(g, &alpha, 1, rr, rq, NULL, r2, q2, NULL, NULL, 0, &rep2, NULL), MLR_OK);
     ck_assert_int_ne(memcmp(r1, r2, 3 * N * sizeof(double)), 0);
     mlr_guards_destroy(g);
     /* allocation failures: create, set_contacts, apply with a given reference */
@@ -358,8 +370,8 @@ START_TEST(reference_trajectories_are_the_same_however_made)
     rq[4 * J * 7 + 2] = NAN;
     memcpy(r2, root, 3 * N * sizeof(double)), memcpy(q2, rot, 4 * N * J * sizeof(double));
     g = guards_of(&c, NULL, 0);
-    ck_assert_int_eq(mlr_guards_apply(g, &alpha, 1, rr, rq, NULL, r2, q2, NULL, NULL, 0, NULL,
-                                      &d), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_guards_apply(g, &alpha, 1, rr, rq, NULL, r2, q2, NULL, NULL, 0, NULL, &d),
+                     MLR_E_INVALID_ARG);
     ck_assert_ptr_nonnull(strstr(d.message, "reference contains NaN"));
     ck_assert_int_eq(memcmp(q2, rot, 4 * N * J * sizeof(double)), 0);
     mlr_guards_destroy(g);
@@ -382,7 +394,4 @@ static Suite *guards_suite(void)
     return s;
 }
 
-int main(void)
-{
-    return mlr_test_run(guards_suite());
-}
+int main(void) { return mlr_test_run(guards_suite()); }

@@ -9,11 +9,15 @@
 #include <stdlib.h>
 #include <string.h>
 
-static double dot(const double *a, const double *b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+static double dot(const double *a, const double *b)
+{
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
 static double nrm(const double *a) { return sqrt(dot(a, a)); }
 static void crs(const double *a, const double *b, double *o)
 {
-    o[0] = a[1] * b[2] - a[2] * b[1], o[1] = a[2] * b[0] - a[0] * b[2], o[2] = a[0] * b[1] - a[1] * b[0];
+    o[0] = a[1] * b[2] - a[2] * b[1], o[1] = a[2] * b[0] - a[0] * b[2],
+    o[2] = a[0] * b[1] - a[1] * b[0];
 }
 static void sub(const double *a, const double *b, double *o)
 {
@@ -23,9 +27,10 @@ static void sub(const double *a, const double *b, double *o)
 static void qrot(const double *q, const double *v, double *o)
 {
     const double w = q[0], x = q[1], y = q[2], z = q[3];
-    const double m[9] = {1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y),
-                         2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x),
-                         2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)};
+    const double m[9] = {
+        1 - 2 * (y * y + z * z), 2 * (x * y - w * z),     2 * (x * z + w * y),
+        2 * (x * y + w * z),     1 - 2 * (x * x + z * z), 2 * (y * z - w * x),
+        2 * (x * z - w * y),     2 * (y * z + w * x),     1 - 2 * (x * x + y * y)};
     for (int i = 0; i < 3; i++)
         o[i] = m[3 * i] * v[0] + m[3 * i + 1] * v[1] + m[3 * i + 2] * v[2];
 }
@@ -118,14 +123,15 @@ START_TEST(reachable_targets_are_reached_with_lengths_kept_and_the_knee_forward)
     mlr_diag d;
     for (int with_axis = 0; with_axis < 2; with_axis++) {
         ck_assert_int_eq(mlr_ik_two_bone(N, A, B, Cc, T, with_axis ? Ax : NULL,
-                                         MLR_IK_MAX_EXTENSION, RH, RK, &d), MLR_OK);
+                                         MLR_IK_MAX_EXTENSION, RH, RK, &d),
+                         MLR_OK);
         for (size_t f = 0; f < N; f++) {
             const double *a = A + 3 * f, *t = T + 3 * f, *n = Ax + 3 * f;
             double b2[3], c2[3], e[3];
             for (int q = 0; q < 2; q++) {
                 const double *qq = q ? RK + 4 * f : RH + 4 * f;
-                ck_assert_double_eq_tol(qq[0] * qq[0] + qq[1] * qq[1] + qq[2] * qq[2] + qq[3] * qq[3],
-                                        1.0, 1e-12);
+                ck_assert_double_eq_tol(
+                    qq[0] * qq[0] + qq[1] * qq[1] + qq[2] * qq[2] + qq[3] * qq[3], 1.0, 1e-12);
             }
             solved(a, B + 3 * f, Cc + 3 * f, RH + 4 * f, RK + 4 * f, b2, c2);
             sub(c2, t, e);
@@ -136,8 +142,8 @@ START_TEST(reachable_targets_are_reached_with_lengths_kept_and_the_knee_forward)
             sub(c2, b2, x);
             ck_assert_double_eq_tol(nrm(x), L2[f], 1e-12);
             /* reference: the law of cosines gives the interior knee angle */
-            const double ref = acos((L1[f] * L1[f] + L2[f] * L2[f] - D[f] * D[f]) /
-                                    (2.0 * L1[f] * L2[f]));
+            const double ref =
+                acos((L1[f] * L1[f] + L2[f] * L2[f] - D[f] * D[f]) / (2.0 * L1[f] * L2[f]));
             ck_assert_double_eq_tol(interior(a, b2, c2), ref, 1e-8);
             /* r_knee turns about the hinge (its vector part is along n) */
             const double *rk = RK + 4 * f;
@@ -160,7 +166,8 @@ START_TEST(reachable_targets_are_reached_with_lengths_kept_and_the_knee_forward)
         for (int k = 0; k < 3; k++)
             T[3 * f + k] = Cc[3 * f + k];
     }
-    ck_assert_int_eq(mlr_ik_two_bone(N, A, B, Cc, T, Ax, MLR_IK_MAX_EXTENSION, RH, RK, &d), MLR_OK);
+    ck_assert_int_eq(mlr_ik_two_bone(N, A, B, Cc, T, Ax, MLR_IK_MAX_EXTENSION, RH, RK, &d),
+                     MLR_OK);
     for (size_t f = 0; f < N; f++) {
         ck_assert_double_eq_tol(fabs(RK[4 * f]), 1.0, 1e-12);
         ck_assert_double_eq_tol(fabs(RH[4 * f]), 1.0, 1e-12);
@@ -199,9 +206,10 @@ START_TEST(unreachable_targets_stop_on_the_hip_target_line)
                       "frame %zu: end off the hip-target line", f);
         double ac0[3]; /* a leg already straighter than ext keeps its extension */
         sub(c + 3 * f, a + 3 * f, ac0);
-        const double want = f % 3 == 0 ? fabs(L1[f] - L2[f]) : fmax(ext * (L1[f] + L2[f]), nrm(ac0));
-        ck_assert_msg(fabs(nrm(ac) - want) < 1e-9, "frame %zu: end at %g from the hip, want %g",
-                      f, nrm(ac), want);
+        const double want =
+            f % 3 == 0 ? fabs(L1[f] - L2[f]) : fmax(ext * (L1[f] + L2[f]), nrm(ac0));
+        ck_assert_msg(fabs(nrm(ac) - want) < 1e-9, "frame %zu: end at %g from the hip, want %g", f,
+                      nrm(ac), want);
     }
     /* a leg straighter than max_extension is not bent further */
     double A[3] = {0, 0, 0}, B[3] = {0, -1, 0}, Cc[3], T[3] = {0, -5, 0}, ax[3] = {1, 0, 0};
@@ -232,7 +240,8 @@ START_TEST(from_to_turns_u_onto_v)
         for (int k = 0; k < 3; k++)
             ck_assert_double_eq_tol(o[k], v[3 * f + k], 1e-12);
     }
-    ck_assert(q[12] == 1.0 && q[13] == 0.0 && q[14] == 0.0 && q[15] == 0.0); /* zero vector: identity */
+    ck_assert(q[12] == 1.0 && q[13] == 0.0 && q[14] == 0.0 &&
+              q[15] == 0.0); /* zero vector: identity */
     ck_assert_int_eq(mlr_ik_from_to(1, NULL, v, q), MLR_E_INVALID_ARG);
 }
 END_TEST
@@ -256,8 +265,8 @@ START_TEST(leg_chains_skip_zero_length_bones)
     enum { J = 14 };
     int32_t par[J];
     double off[3 * J], rest[3 * J];
-    const char *names[J] = {"j0", "j1", "j2", "j3", "j4", "j5", "j6", "j7", "j8", "j9", "j10",
-                            "j11", "j12", "j13"};
+    const char *names[J] = {"j0", "j1", "j2", "j3",  "j4",  "j5",  "j6",
+                            "j7", "j8", "j9", "j10", "j11", "j12", "j13"};
     int checked = 0, failed = 0;
     for (int trial = 0; trial < 200; trial++) {
         par[0] = -1;
@@ -346,24 +355,24 @@ START_TEST(apply_leg_moves_the_end_onto_the_target_through_fk)
                 q[k] /= sqrt(n);
         }
     }
-    ck_assert_int_eq(mlr_fk_arrays(N, J, par, off, root, rot, 0, NULL, NULL, pos, wrot, NULL, NULL),
-                     MLR_OK);
+    ck_assert_int_eq(
+        mlr_fk_arrays(N, J, par, off, root, rot, 0, NULL, NULL, pos, wrot, NULL, NULL), MLR_OK);
     double L1 = 0, L2 = 0, x[3];
     sub(off + 9, (double[3]){0, 0, 0}, x), L1 = nrm(x);
     sub(off + 12, (double[3]){0, 0, 0}, x), L2 = nrm(x);
     for (size_t f = 0; f < N; f++) {
         double u[3];
         rand_unit(&r, u);
-        const double dist = fabs(L1 - L2) + 0.1 + (0.99 * (L1 + L2) - fabs(L1 - L2) - 0.1) *
-                                                      mlr_test_rng_uniform(&r);
+        const double dist = fabs(L1 - L2) + 0.1 +
+                            (0.99 * (L1 + L2) - fabs(L1 - L2) - 0.1) * mlr_test_rng_uniform(&r);
         for (int k = 0; k < 3; k++)
             tgt[3 * f + k] = pos[3 * (f * J + 2) + k] + dist * u[k];
     }
     mlr_diag d;
     ck_assert_int_eq(mlr_ik_apply_leg(N, J, par, rot, pos, wrot, 2, 3, 4, tgt, NULL, &d), MLR_OK);
     double pos2[3 * N * J], wrot2[4 * N * J];
-    ck_assert_int_eq(mlr_fk_arrays(N, J, par, off, root, rot, 0, NULL, NULL, pos2, wrot2, NULL, NULL),
-                     MLR_OK);
+    ck_assert_int_eq(
+        mlr_fk_arrays(N, J, par, off, root, rot, 0, NULL, NULL, pos2, wrot2, NULL, NULL), MLR_OK);
     for (size_t f = 0; f < N; f++) {
         sub(pos2 + 3 * (f * J + 4), tgt + 3 * f, x);
         ck_assert_msg(nrm(x) < 1e-9, "frame %zu: the ankle misses by %g", f, nrm(x));
@@ -413,13 +422,15 @@ START_TEST(bad_input_gets_the_right_status_and_message)
         memcpy(arr[3], t, sizeof t);
         arr[4][0] = 1, arr[4][1] = 0, arr[4][2] = 0;
         arr[i][1] = i % 2 ? INFINITY : NAN;
-        ck_assert_int_eq(mlr_ik_two_bone(1, arr[0], arr[1], arr[2], arr[3], arr[4], 0.99, rh, rk,
-                                         &d), MLR_E_INVALID_ARG);
+        ck_assert_int_eq(
+            mlr_ik_two_bone(1, arr[0], arr[1], arr[2], arr[3], arr[4], 0.99, rh, rk, &d),
+            MLR_E_INVALID_ARG);
         char want[64];
         snprintf(want, sizeof want, "two_bone: %s contains NaN", names[i]);
         ck_assert_ptr_nonnull(strstr(d.message, want));
     }
-    ck_assert_int_eq(mlr_ik_two_bone(0, NULL, NULL, NULL, NULL, NULL, 0.5, NULL, NULL, &d), MLR_OK);
+    ck_assert_int_eq(mlr_ik_two_bone(0, NULL, NULL, NULL, NULL, NULL, 0.5, NULL, NULL, &d),
+                     MLR_OK);
     double ax[3];
     ck_assert_int_eq(mlr_ik_bend_axis_local(1, 1, a, rh, 0, 0, 1, ax, NULL), MLR_E_INVALID_ARG);
 }
@@ -439,7 +450,4 @@ static Suite *ik_suite(void)
     return s;
 }
 
-int main(void)
-{
-    return mlr_test_run(ik_suite());
-}
+int main(void) { return mlr_test_run(ik_suite()); }

@@ -111,7 +111,10 @@ static void ref_lloyd(const double *x, size_t n, size_t d, size_t k, const doubl
     free(cnt);
 }
 
-static const struct { size_t n, d, k, c; int alg; } lloyd_cases[] = {
+static const struct {
+    size_t n, d, k, c;
+    int alg;
+} lloyd_cases[] = {
     {500, 2, 3, 3, MLR_KMEANS_LLOYD},    {500, 2, 3, 3, MLR_KMEANS_HAMERLY},
     {2000, 7, 12, 8, MLR_KMEANS_LLOYD},  {2000, 7, 12, 8, MLR_KMEANS_HAMERLY},
     {1500, 33, 20, 25, MLR_KMEANS_AUTO}, {3000, 96, 17, 30, MLR_KMEANS_HAMERLY},

@@ -118,7 +118,8 @@ static double base_max_angle(size_t n, size_t j, const double *rot, size_t k, do
     }
     mlr_quat_make_continuous((mlr_quat *)(void *)y, n, 1);
     mlr_lgs *g = NULL;
-    ck_assert_int_ge(mlr_lgs_create(n, 2, sqrt(s), 1.0, NULL, n, MLR_LGS_BANDED, NULL, &g, NULL), 0);
+    ck_assert_int_ge(mlr_lgs_create(n, 2, sqrt(s), 1.0, NULL, n, MLR_LGS_BANDED, NULL, &g, NULL),
+                     0);
     ck_assert_int_eq(mlr_lgs_solve(g, y, 4, 4, x, 4, NULL), MLR_OK);
     mlr_lgs_destroy(g);
     double amax = 0.0;
@@ -158,7 +159,8 @@ static size_t load_clips(clip *out, size_t cap)
         clip *c = &out[n];
         snprintf(c->name, sizeof c->name, "%s", e->d_name);
         mlr_diag dg;
-        ck_assert_msg(mlr_bvh_read_file(path, NULL, &c->m, &dg) == MLR_OK, "%s: %s", path, dg.message);
+        ck_assert_msg(mlr_bvh_read_file(path, NULL, &c->m, &dg) == MLR_OK, "%s: %s", path,
+                      dg.message);
         c->n = mlr_motion_n_frames(c->m);
         c->j = mlr_motion_n_joints(c->m);
         c->pos = mlr_motion_root_pos(c->m);
@@ -187,7 +189,8 @@ START_TEST(identity_on_every_clip)
         const clip *c = &clips[ci];
         mlr_layers *L = NULL;
         mlr_diag dg;
-        ck_assert_msg(mlr_layers_decompose(c->n, c->j, c->pos, c->rot, NULL, 0, NULL, &L, &dg) == MLR_OK,
+        ck_assert_msg(mlr_layers_decompose(c->n, c->j, c->pos, c->rot, NULL, 0, NULL, &L, &dg) ==
+                          MLR_OK,
                       "%s: %s", c->name, dg.message);
         ck_assert_uint_eq(mlr_layers_n_frames(L), c->n);
         ck_assert_uint_eq(mlr_layers_n_joints(L), c->j);
@@ -202,12 +205,13 @@ START_TEST(identity_on_every_clip)
             scale = fmax(scale, fabs(c->pos[i]));
         }
         double eq = qdiff_sign(rot, unit, n * j);
-        ck_assert_msg(ep <= 1e-12 * scale && eq <= 1e-12, "%s: identity error pos %.3g (scale %g), rot %.3g",
-                      c->name, ep, scale, eq);
+        ck_assert_msg(ep <= 1e-12 * scale && eq <= 1e-12,
+                      "%s: identity error pos %.3g (scale %g), rot %.3g", c->name, ep, scale, eq);
         /* a sub-range reproduces the same frames */
         size_t b0 = n / 3, cnt = n / 4;
         double *pos2 = malloc(3 * cnt * sizeof *pos2), *rot2 = malloc(4 * cnt * j * sizeof *rot2);
-        ck_assert_int_eq(mlr_layers_reconstruct(L, b0, cnt, pos2, 3 * cnt, rot2, 4 * cnt * j, NULL), MLR_OK);
+        ck_assert_int_eq(
+            mlr_layers_reconstruct(L, b0, cnt, pos2, 3 * cnt, rot2, 4 * cnt * j, NULL), MLR_OK);
         ck_assert(memcmp(pos2, pos + 3 * b0, 3 * cnt * sizeof *pos2) == 0);
         ck_assert(memcmp(rot2, rot + 4 * j * b0, 4 * cnt * j * sizeof *rot2) == 0);
         free(pos2), free(rot2);
@@ -227,7 +231,8 @@ START_TEST(alpha_zero_is_base_and_one_is_denoised)
         const clip *c = &clips[ci];
         const size_t n = c->n, j = c->j, nr = 4 * n * j, ng = 3 * n * (1 + j);
         mlr_layers *L = NULL;
-        ck_assert_int_eq(mlr_layers_decompose(n, j, c->pos, c->rot, NULL, 0, NULL, &L, NULL), MLR_OK);
+        ck_assert_int_eq(mlr_layers_decompose(n, j, c->pos, c->rot, NULL, 0, NULL, &L, NULL),
+                         MLR_OK);
         double *bp = malloc(3 * n * sizeof *bp), *br = malloc(nr * sizeof *br);
         double *sp = malloc(3 * n * sizeof *sp), *sr = malloc(nr * sizeof *sr);
         double *ctl = malloc(ng * sizeof *ctl), *res = malloc(ng * sizeof *res);
@@ -239,7 +244,8 @@ START_TEST(alpha_zero_is_base_and_one_is_denoised)
         for (size_t i = 0; i < n * j; i++)  /* base quaternions are unit */
             ck_assert_close(qdot(br + 4 * i, br + 4 * i), 1.0, 1e-14);
         const double zero = 0.0, one = 1.0;
-        ck_assert_int_eq(mlr_layers_synthesize(L, 0, n, &zero, 1, sp, 3 * n, sr, nr, NULL), MLR_OK);
+        ck_assert_int_eq(mlr_layers_synthesize(L, 0, n, &zero, 1, sp, 3 * n, sr, nr, NULL),
+                         MLR_OK);
         ck_assert(memcmp(sp, bp, 3 * n * sizeof *sp) == 0);
         ck_assert_double_le(qdiff_sign(sr, br, n * j), 1e-15);
         ck_assert_int_eq(mlr_layers_synthesize(L, 0, n, &one, 1, sp, 3 * n, sr, nr, NULL), MLR_OK);
@@ -263,12 +269,14 @@ START_TEST(alpha_zero_is_base_and_one_is_denoised)
         double *alpha = calloc(1 + j, sizeof *alpha);
         const size_t pick = j / 2;
         alpha[1 + pick] = 2.0;
-        ck_assert_int_eq(mlr_layers_synthesize(L, 0, n, alpha, 1 + j, sp, 3 * n, sr, nr, NULL), MLR_OK);
+        ck_assert_int_eq(mlr_layers_synthesize(L, 0, n, alpha, 1 + j, sp, 3 * n, sr, nr, NULL),
+                         MLR_OK);
         ck_assert(memcmp(sp, bp, 3 * n * sizeof *sp) == 0);
         for (size_t i = 0; i < n; i++) {
             for (size_t k = 0; k < j; k++) {
                 const double *v = ctl + 3 * (1 + j) * i + 3 + 3 * k;
-                double want = k == pick ? 2.0 * sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]) : 0.0;
+                double want =
+                    k == pick ? 2.0 * sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]) : 0.0;
                 double got = qangle(sr + 4 * (i * j + k), br + 4 * (i * j + k));
                 if (want < PI - 1e-6)
                     ck_assert_double_le(fabs(got - want), 1e-9);
@@ -293,7 +301,8 @@ START_TEST(root_layers_match_lgs)
         const clip *c = &clips[ci];
         const size_t n = c->n, j = c->j, ng = 3 * n * (1 + j), ld = 3 * (1 + j);
         mlr_layers *L = NULL;
-        ck_assert_int_eq(mlr_layers_decompose(n, j, c->pos, c->rot, NULL, 0, NULL, &L, NULL), MLR_OK);
+        ck_assert_int_eq(mlr_layers_decompose(n, j, c->pos, c->rot, NULL, 0, NULL, &L, NULL),
+                         MLR_OK);
         double *bs = malloc((1 + j) * sizeof *bs), *cs = malloc((1 + j) * sizeof *cs);
         double *bp = malloc(3 * n * sizeof *bp), *x = malloc(3 * n * sizeof *x);
         double *u = malloc(3 * n * sizeof *u);
@@ -305,7 +314,8 @@ START_TEST(root_layers_match_lgs)
         ck_assert_int_eq(mlr_layers_get_control(L, ctl, ng), MLR_OK);
         ck_assert_int_eq(mlr_layers_get_residual(L, res, ng), MLR_OK);
         mlr_lgs *g = NULL;
-        ck_assert_int_ge(mlr_lgs_create(n, 2, sqrt(bs[0]), 1.0, NULL, n, MLR_LGS_BANDED, NULL, &g, NULL), 0);
+        ck_assert_int_ge(
+            mlr_lgs_create(n, 2, sqrt(bs[0]), 1.0, NULL, n, MLR_LGS_BANDED, NULL, &g, NULL), 0);
         ck_assert_int_eq(mlr_lgs_solve(g, c->pos, 3, 3, x, 3, NULL), MLR_OK);
         mlr_lgs_destroy(g);
         double e = 0.0, scale = 1.0;
@@ -314,18 +324,21 @@ START_TEST(root_layers_match_lgs)
             scale = fmax(scale, fabs(c->pos[i]));
         }
         /* two solvers of I + s L^T L agree to about eps * cond = eps (1 + 16 s) */
-        ck_assert_msg(e <= 1e-14 * (1.0 + 16.0 * bs[0]) * scale, "%s: root base vs mlr_lgs %.3g", c->name, e);
+        ck_assert_msg(e <= 1e-14 * (1.0 + 16.0 * bs[0]) * scale, "%s: root base vs mlr_lgs %.3g",
+                      c->name, e);
         for (size_t i = 0; i < n; i++)
             for (size_t k = 0; k < 3; k++)
                 u[3 * i + k] = ctl[i * ld + k] + res[i * ld + k];
-        ck_assert_int_ge(mlr_lgs_create(n, 2, sqrt(cs[0]), 1.0, NULL, n, MLR_LGS_BANDED, NULL, &g, NULL), 0);
+        ck_assert_int_ge(
+            mlr_lgs_create(n, 2, sqrt(cs[0]), 1.0, NULL, n, MLR_LGS_BANDED, NULL, &g, NULL), 0);
         ck_assert_int_eq(mlr_lgs_solve(g, u, 3, 3, x, 3, NULL), MLR_OK);
         mlr_lgs_destroy(g);
         e = 0.0;
         for (size_t i = 0; i < n; i++)
             for (size_t k = 0; k < 3; k++)
                 e = fmax(e, fabs(x[3 * i + k] - ctl[i * ld + k]));
-        ck_assert_msg(e <= 1e-14 * (1.0 + 16.0 * cs[0]) * scale, "%s: root control vs mlr_lgs %.3g", c->name, e);
+        ck_assert_msg(e <= 1e-14 * (1.0 + 16.0 * cs[0]) * scale,
+                      "%s: root control vs mlr_lgs %.3g", c->name, e);
         free(bs), free(cs), free(bp), free(x), free(u), free(ctl), free(res);
         mlr_layers_destroy(L);
     }
@@ -336,18 +349,20 @@ END_TEST
 /* Check the bound of every joint's s with an independent solve; an interior s is the
  * strongest within 5%. */
 static size_t check_gamma_bound(const char *name, size_t n, size_t j, const double *pos,
-                              const double *rot, double gamma, double s_max)
+                                const double *rot, double gamma, double s_max)
 {
     /* the plain heuristic (the robust one skips outlier frames in the bound: see below) */
-    mlr_layers_option opt[3] = {{MLR_LAYERS_OPT_GAMMA, gamma}, {MLR_LAYERS_OPT_BASE_S_MAX, s_max},
+    mlr_layers_option opt[3] = {{MLR_LAYERS_OPT_GAMMA, gamma},
+                                {MLR_LAYERS_OPT_BASE_S_MAX, s_max},
                                 {MLR_LAYERS_OPT_ROBUST, 0.0}};
     mlr_layers *L = NULL;
     mlr_diag dg;
-    ck_assert_msg(mlr_layers_decompose(n, j, pos, rot, opt, 3, NULL, &L, &dg) == MLR_OK, "%s: %s", name,
-                  dg.message);
+    ck_assert_msg(mlr_layers_decompose(n, j, pos, rot, opt, 3, NULL, &L, &dg) == MLR_OK, "%s: %s",
+                  name, dg.message);
     double *s = malloc((1 + j) * sizeof *s), *amax = malloc((1 + j) * sizeof *amax);
     ck_assert_int_eq(mlr_layers_get_param(L, MLR_LAYERS_PARAM_BASE_S, s, 1 + j), MLR_OK);
-    ck_assert_int_eq(mlr_layers_get_param(L, MLR_LAYERS_PARAM_BASE_MAX_ANGLE, amax, 1 + j), MLR_OK);
+    ck_assert_int_eq(mlr_layers_get_param(L, MLR_LAYERS_PARAM_BASE_MAX_ANGLE, amax, 1 + j),
+                     MLR_OK);
     size_t interior = 0;
     for (size_t k = 0; k < j; k++) {
         const double sk = s[1 + k];
@@ -355,8 +370,8 @@ static size_t check_gamma_bound(const char *name, size_t n, size_t j, const doub
         /* two solvers of I + s L^T L agree to about eps * cond = eps (1 + 16 s) */
         const double tol = 1e-12 + 1e-15 * (1.0 + 16.0 * 1.05 * sk);
         double a = base_max_angle(n, j, rot, k, sk);
-        ck_assert_msg(fabs(a - amax[1 + k]) <= tol, "%s joint %zu: max angle %.17g, reported %.17g",
-                      name, k, a, amax[1 + k]);
+        ck_assert_msg(fabs(a - amax[1 + k]) <= tol,
+                      "%s joint %zu: max angle %.17g, reported %.17g", name, k, a, amax[1 + k]);
         if (sk == 1e-2)
             continue; /* even the weakest setting may break the bound */
         ck_assert_msg(amax[1 + k] <= gamma, "%s joint %zu: s %g gives %.6f > gamma %.6f", name, k,
@@ -365,7 +380,8 @@ static size_t check_gamma_bound(const char *name, size_t n, size_t j, const doub
         if (sk < s_max) {
             interior++;
             double a5 = base_max_angle(n, j, rot, k, 1.05 * sk);
-            ck_assert_msg(a5 > gamma - tol, "%s joint %zu: s %g is not the strongest: 1.05 s gives %.6f <= %.6f",
+            ck_assert_msg(a5 > gamma - tol,
+                          "%s joint %zu: s %g is not the strongest: 1.05 s gives %.6f <= %.6f",
                           name, k, sk, a5, gamma);
         }
     }
@@ -388,7 +404,8 @@ static void synthetic_big(size_t n, double fps, double *pos, double *rot, uint64
         for (size_t k = 0; k < 3; k++) {
             for (size_t a = 0; a < 3; a++)
                 ang[k][a] += 0.01 * mlr_test_rng_normal(&rng);
-            mlr_quat_from_euler_array(ang[k], 1, MLR_EULER_ZYX, (mlr_quat *)(void *)(rot + 4 * (3 * i + k)), NULL);
+            mlr_quat_from_euler_array(ang[k], 1, MLR_EULER_ZYX,
+                                      (mlr_quat *)(void *)(rot + 4 * (3 * i + k)), NULL);
         }
         pos[3 * i] = 10.0 * sin(0.3 * t);
         pos[3 * i + 1] = 90.0 + 3.0 * sin(4.0 * t);
@@ -442,9 +459,11 @@ START_TEST(gcv_matches_dense_scan)
             double ang[3] = {0.8 * sin(2.0 * t) + noise * mlr_test_rng_normal(&rng),
                              0.3 * t + noise * mlr_test_rng_normal(&rng),
                              0.2 * cos(3.0 * t) + noise * mlr_test_rng_normal(&rng)};
-            mlr_quat_from_euler_array(ang, 1, MLR_EULER_XYZ, (mlr_quat *)(void *)(rot + 4 * i), NULL);
+            mlr_quat_from_euler_array(ang, 1, MLR_EULER_XYZ, (mlr_quat *)(void *)(rot + 4 * i),
+                                      NULL);
             for (size_t k = 0; k < 3; k++)
-                pos[3 * i + k] = sin(1.5 * t + (double)k) + 10.0 * noise * mlr_test_rng_normal(&rng);
+                pos[3 * i + k] =
+                    sin(1.5 * t + (double)k) + 10.0 * noise * mlr_test_rng_normal(&rng);
         }
         mlr_layers *L = NULL;
         ck_assert_int_eq(mlr_layers_decompose(n, 1, pos, rot, NULL, 0, NULL, &L, NULL), MLR_OK);
@@ -469,8 +488,10 @@ START_TEST(gcv_matches_dense_scan)
         }
         for (size_t g = 0; g < 2; g++) {
             double d_dof, d_gcv = dense_gcv(n, y[g], 3, cs[g], &d_dof);
-            ck_assert_msg(fabs(d_dof - dof[g]) <= 1e-10 * n, "tr(H) %.17g vs dense %.17g", dof[g], d_dof);
-            ck_assert_msg(fabs(d_gcv - gcv[g]) <= 1e-8 * d_gcv, "GCV %.17g vs dense %.17g", gcv[g], d_gcv);
+            ck_assert_msg(fabs(d_dof - dof[g]) <= 1e-10 * n, "tr(H) %.17g vs dense %.17g", dof[g],
+                          d_dof);
+            ck_assert_msg(fabs(d_gcv - gcv[g]) <= 1e-8 * d_gcv, "GCV %.17g vs dense %.17g", gcv[g],
+                          d_gcv);
             /* brute-force scan over [1e-2, 1e8], 20 points per decade */
             double best = INFINITY, s_best = 0.0;
             for (int p = 0; p <= 200; p++) {
@@ -482,7 +503,8 @@ START_TEST(gcv_matches_dense_scan)
                           "seed %d group %zu: GCV %.10g at s %g above the scan's %.10g at s %g",
                           (int)seed, g, gcv[g], cs[g], best, s_best);
             if (s_best > 1e-2 && s_best < 1e8)
-                ck_assert_msg(fabs(log(cs[g] / s_best)) < log(1.2), "s %g vs scan %g", cs[g], s_best);
+                ck_assert_msg(fabs(log(cs[g] / s_best)) < log(1.2), "s %g vs scan %g", cs[g],
+                              s_best);
         }
         mlr_layers_destroy(L);
     }
@@ -495,7 +517,8 @@ static double banded_gcv(size_t n, const double *y, double s)
 {
     mlr_lgs *g = NULL;
     double *x = malloc(n * 3 * sizeof *x), *var = malloc(n * sizeof *var), rss = 0.0, tr = 0.0;
-    ck_assert_int_ge(mlr_lgs_create(n, 2, sqrt(s), 1.0, NULL, n, MLR_LGS_BANDED, NULL, &g, NULL), 0);
+    ck_assert_int_ge(mlr_lgs_create(n, 2, sqrt(s), 1.0, NULL, n, MLR_LGS_BANDED, NULL, &g, NULL),
+                     0);
     ck_assert_int_eq(mlr_lgs_solve(g, y, 3, 3, x, 3, NULL), MLR_OK);
     ck_assert_int_eq(mlr_lgs_variance(g, var, n, NULL), MLR_OK);
     for (size_t i = 0; i < n; i++) {
@@ -536,7 +559,8 @@ START_TEST(gcv_long_clip_matches_banded_scan)
         for (int k = 0; k < 3; k++)
             v[k] = 1.5 * PI / 180.0 * mlr_test_rng_normal(&rng);
         mlr_quat dq;
-        ck_assert_int_eq(mlr_quat_exp_array((const mlr_vec3 *)(const void *)v, 1, &dq, NULL), MLR_OK);
+        ck_assert_int_eq(mlr_quat_exp_array((const mlr_vec3 *)(const void *)v, 1, &dq, NULL),
+                         MLR_OK);
         mlr_quat_mul((const mlr_quat *)(const void *)(c->rot + 4 * i), &dq,
                      (mlr_quat *)(void *)(rot + 4 * i));
     }
@@ -562,7 +586,8 @@ START_TEST(gcv_long_clip_matches_banded_scan)
             } else {
                 const double *b = br + 4 * (i * J + g - 1);
                 mlr_quat cb = {b[0], -b[1], -b[2], -b[3]}, p;
-                mlr_quat_mul(&cb, (const mlr_quat *)(const void *)(unit + 4 * (i * J + g - 1)), &p);
+                mlr_quat_mul(&cb, (const mlr_quat *)(const void *)(unit + 4 * (i * J + g - 1)),
+                             &p);
                 mlr_quat_log_array(&p, 1, (mlr_vec3 *)(void *)(y + 3 * i), NULL);
             }
         }
@@ -575,8 +600,10 @@ START_TEST(gcv_long_clip_matches_banded_scan)
             if (v < best)
                 best = v, s_best = sp;
         }
-        ck_assert_msg(gcv[g] <= best * (1.0 + 1e-6), "group %zu: GCV %.10g at s %g above the "
-                      "scan's %.10g at s %g", g, gcv[g], cs[g], best, s_best);
+        ck_assert_msg(gcv[g] <= best * (1.0 + 1e-6),
+                      "group %zu: GCV %.10g at s %g above the "
+                      "scan's %.10g at s %g",
+                      g, gcv[g], cs[g], best, s_best);
         interior += s_best > 1e-2 && s_best < 1e8;
     }
     ck_assert_uint_ge(interior, J / 2); /* most groups have a real minimum to find */
@@ -596,7 +623,8 @@ START_TEST(explicit_control_parameters)
     mlr_layers_option opt[2] = {{MLR_LAYERS_OPT_LAM_C, 2.0}, {MLR_LAYERS_OPT_SIGMA_C, 0.25}};
     mlr_layers *L = NULL;
     ck_assert_int_eq(mlr_layers_decompose(n, j, c->pos, c->rot, opt, 2, NULL, &L, NULL), MLR_OK);
-    double *p = malloc((1 + j) * sizeof *p), *ctl = malloc(ng * sizeof *ctl), *res = malloc(ng * sizeof *res);
+    double *p = malloc((1 + j) * sizeof *p), *ctl = malloc(ng * sizeof *ctl),
+           *res = malloc(ng * sizeof *res);
     ck_assert_int_eq(mlr_layers_get_param(L, MLR_LAYERS_PARAM_CONTROL_S, p, 1 + j), MLR_OK);
     for (size_t g = 0; g <= j; g++)
         ck_assert_double_eq_tol(p[g], 0.25, 1e-15);
@@ -648,7 +676,8 @@ START_TEST(denoises_synthetic_motion)
     const double sigma = 1.5 * PI / 180.0;
     for (size_t f = 0; f < 4; f++) {
         const size_t n = (size_t)(10.0 * fps[f]);
-        double *clean = malloc(4 * n * j * sizeof *clean), *noisy = malloc(4 * n * j * sizeof *noisy);
+        double *clean = malloc(4 * n * j * sizeof *clean),
+               *noisy = malloc(4 * n * j * sizeof *noisy);
         double *pos = malloc(3 * n * sizeof *pos), *out = malloc(4 * n * j * sizeof *out);
         mlr_test_rng rng;
         mlr_test_rng_seed(&rng, 100 + f);
@@ -656,7 +685,8 @@ START_TEST(denoises_synthetic_motion)
             double t = (double)i / fps[f];
             for (size_t k = 0; k < j; k++) {
                 double fk = 0.4 + 0.3 * (double)k;
-                double ang[3] = {0.6 * sin(2 * PI * fk * t), 0.4 * cos(2 * PI * 0.7 * fk * t + 1.0),
+                double ang[3] = {0.6 * sin(2 * PI * fk * t),
+                                 0.4 * cos(2 * PI * 0.7 * fk * t + 1.0),
                                  0.3 * sin(2 * PI * 1.3 * fk * t + 2.0)};
                 mlr_quat *qc = (mlr_quat *)(void *)(clean + 4 * (i * j + k));
                 mlr_quat_from_euler_array(ang, 1, MLR_EULER_ZYX, qc, NULL);
@@ -671,14 +701,16 @@ START_TEST(denoises_synthetic_motion)
         mlr_layers *L = NULL;
         ck_assert_int_eq(mlr_layers_decompose(n, j, pos, noisy, NULL, 0, NULL, &L, NULL), MLR_OK);
         const double one = 1.0;
-        ck_assert_int_eq(mlr_layers_synthesize(L, 0, n, &one, 1, NULL, 0, out, 4 * n * j, NULL), MLR_OK);
+        ck_assert_int_eq(mlr_layers_synthesize(L, 0, n, &one, 1, NULL, 0, out, 4 * n * j, NULL),
+                         MLR_OK);
         double e_noisy = 0.0, e_out = 0.0;
         for (size_t i = 0; i < n * j; i++) {
             e_noisy += qangle(noisy + 4 * i, clean + 4 * i);
             e_out += qangle(out + 4 * i, clean + 4 * i);
         }
         ck_assert_msg(e_out < 0.7 * e_noisy, "%g fps: denoised error %.4g deg vs noisy %.4g deg",
-                      fps[f], e_out / (double)(n * j) * 180 / PI, e_noisy / (double)(n * j) * 180 / PI);
+                      fps[f], e_out / (double)(n * j) * 180 / PI,
+                      e_noisy / (double)(n * j) * 180 / PI);
         mlr_layers_destroy(L);
         free(clean), free(noisy), free(pos), free(out);
     }
@@ -692,19 +724,20 @@ START_TEST(bad_arguments)
         rot[4 * i] = 1.0, rot[4 * i + 1] = rot[4 * i + 2] = rot[4 * i + 3] = 0.0;
     mlr_layers *L = (mlr_layers *)(void *)rot;
     mlr_diag dg;
-#define EXPECT_BAD(call)                                                                      \
-    do {                                                                                      \
-        dg.message[0] = '\0';                                                                 \
-        L = (mlr_layers *)(void *)rot;                                                        \
-        ck_assert_int_eq((call), MLR_E_INVALID_ARG);                                          \
-        ck_assert_ptr_null(L);                                                                \
-        ck_assert_msg(dg.message[0] != '\0', "no reason for %s", #call);                      \
+#define EXPECT_BAD(call)                                                 \
+    do {                                                                 \
+        dg.message[0] = '\0';                                            \
+        L = (mlr_layers *)(void *)rot;                                   \
+        ck_assert_int_eq((call), MLR_E_INVALID_ARG);                     \
+        ck_assert_ptr_null(L);                                           \
+        ck_assert_msg(dg.message[0] != '\0', "no reason for %s", #call); \
     } while (0)
     EXPECT_BAD(mlr_layers_decompose(2, 2, pos, rot, NULL, 0, NULL, &L, &dg));
     EXPECT_BAD(mlr_layers_decompose(8, 0, pos, rot, NULL, 0, NULL, &L, &dg));
     EXPECT_BAD(mlr_layers_decompose(8, 2, pos, NULL, NULL, 0, NULL, &L, &dg));
     EXPECT_BAD(mlr_layers_decompose(8, 2, pos, rot, NULL, 1, NULL, &L, &dg));
-    ck_assert_int_eq(mlr_layers_decompose(8, 2, pos, rot, NULL, 0, NULL, NULL, &dg), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_layers_decompose(8, 2, pos, rot, NULL, 0, NULL, NULL, &dg),
+                     MLR_E_INVALID_ARG);
     rot[4 * 5 + 2] = NAN;
     EXPECT_BAD(mlr_layers_decompose(8, 2, pos, rot, NULL, 0, NULL, &L, &dg));
     ck_assert_ptr_nonnull(strstr(dg.message, "frame 2, joint 1"));
@@ -745,20 +778,28 @@ START_TEST(bad_arguments)
     ck_assert_int_eq(mlr_layers_get_param(L, MLR_LAYERS_PARAM_BASE_S, buf, 2), MLR_E_INVALID_ARG);
     ck_assert_int_eq(mlr_layers_get_param(L, (mlr_layers_param)9, buf, 3), MLR_E_INVALID_ARG);
     ck_assert_int_eq(mlr_layers_get_param(L, (mlr_layers_param)-1, buf, 3), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_layers_synthesize(L, 0, 8, alpha, 2, buf, 24, NULL, 0, NULL), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_layers_synthesize(L, 0, 8, NULL, 1, buf, 24, NULL, 0, NULL), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_layers_synthesize(L, 4, 5, alpha, 3, NULL, 0, NULL, 0, NULL), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_layers_synthesize(L, 9, 0, alpha, 3, NULL, 0, NULL, 0, NULL), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_layers_synthesize(L, 0, 8, alpha, 3, buf, 23, NULL, 0, NULL), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_layers_synthesize(L, 0, 8, alpha, 3, NULL, 0, buf, 60, NULL), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_layers_synthesize(L, 0, 8, alpha, 2, buf, 24, NULL, 0, NULL),
+                     MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_layers_synthesize(L, 0, 8, NULL, 1, buf, 24, NULL, 0, NULL),
+                     MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_layers_synthesize(L, 4, 5, alpha, 3, NULL, 0, NULL, 0, NULL),
+                     MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_layers_synthesize(L, 9, 0, alpha, 3, NULL, 0, NULL, 0, NULL),
+                     MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_layers_synthesize(L, 0, 8, alpha, 3, buf, 23, NULL, 0, NULL),
+                     MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_layers_synthesize(L, 0, 8, alpha, 3, NULL, 0, buf, 60, NULL),
+                     MLR_E_INVALID_ARG);
     for (int v = 0; v < 3; v++) {
         alpha[1] = v == 0 ? NAN : v == 1 ? INFINITY : -INFINITY;
         buf[0] = 42.0;
-        ck_assert_int_eq(mlr_layers_synthesize(L, 0, 8, alpha, 3, buf, 24, NULL, 0, NULL), MLR_E_INVALID_ARG);
+        ck_assert_int_eq(mlr_layers_synthesize(L, 0, 8, alpha, 3, buf, 24, NULL, 0, NULL),
+                         MLR_E_INVALID_ARG);
         ck_assert_double_eq(buf[0], 42.0); /* nothing written */
     }
     alpha[1] = -3.0; /* any finite value works */
-    ck_assert_int_eq(mlr_layers_synthesize(L, 0, 8, alpha, 3, buf, 24, buf + 24, 64, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_layers_synthesize(L, 0, 8, alpha, 3, buf, 24, buf + 24, 64, NULL),
+                     MLR_OK);
     ck_assert_int_eq(mlr_layers_reconstruct(L, 7, 2, buf, 6, NULL, 0, NULL), MLR_E_INVALID_ARG);
     ck_assert_int_eq(mlr_layers_reconstruct(NULL, 0, 1, buf, 3, NULL, 0, NULL), MLR_E_INVALID_ARG);
     ck_assert_int_eq(mlr_layers_reconstruct(L, 8, 0, NULL, 0, NULL, 0, NULL), MLR_OK);
@@ -848,15 +889,22 @@ START_TEST(threads_synthesize_identically)
     pthread_t th[NT];
     double *ref_r = malloc(4 * n * j * sizeof *ref_r), *ref_p = malloc(3 * n * sizeof *ref_p);
     for (int t = 0; t < NT; t++) {
-        jobs[t] = (thread_job){L, n, j, 0.5 * (double)(t % 2 + 1), malloc(4 * n * j * sizeof(double)),
-                               malloc(3 * n * sizeof(double)), -1};
+        jobs[t] = (thread_job){L,
+                               n,
+                               j,
+                               0.5 * (double)(t % 2 + 1),
+                               malloc(4 * n * j * sizeof(double)),
+                               malloc(3 * n * sizeof(double)),
+                               -1};
         ck_assert_int_eq(pthread_create(&th[t], NULL, synth_thread, &jobs[t]), 0);
     }
     for (int t = 0; t < NT; t++)
         ck_assert_int_eq(pthread_join(th[t], NULL), 0);
     for (int t = 0; t < NT; t++) {
         ck_assert_int_eq(jobs[t].status, MLR_OK);
-        ck_assert_int_eq(mlr_layers_synthesize(L, 0, n, &jobs[t].alpha, 1, ref_p, 3 * n, ref_r, 4 * n * j, NULL), MLR_OK);
+        ck_assert_int_eq(mlr_layers_synthesize(L, 0, n, &jobs[t].alpha, 1, ref_p, 3 * n, ref_r,
+                                               4 * n * j, NULL),
+                         MLR_OK);
         ck_assert(memcmp(ref_r, jobs[t].rot, 4 * n * j * sizeof *ref_r) == 0);
         ck_assert(memcmp(ref_p, jobs[t].pos, 3 * n * sizeof *ref_p) == 0);
         free(jobs[t].rot), free(jobs[t].pos);
@@ -875,7 +923,8 @@ static int same_layers(const mlr_layers *a, const mlr_layers *b)
     if (n != mlr_layers_n_frames(b) || j != mlr_layers_n_joints(b))
         return 0;
     const size_t np = 3 * n, nr = 4 * n * j, ng = 3 * n * (1 + j);
-    double *x = malloc((np + nr + 2 * ng) * sizeof *x), *y = malloc((np + nr + 2 * ng) * sizeof *y);
+    double *x = malloc((np + nr + 2 * ng) * sizeof *x),
+           *y = malloc((np + nr + 2 * ng) * sizeof *y);
     int same = 1;
     ck_assert_int_eq(mlr_layers_get_base(a, x, np, x + np, nr), MLR_OK);
     ck_assert_int_eq(mlr_layers_get_base(b, y, np, y + np, nr), MLR_OK);
@@ -898,7 +947,8 @@ static mlr_layers *decompose_ok(const clip *c, const mlr_layers_option *opt, siz
 {
     mlr_layers *L = NULL;
     mlr_diag dg;
-    ck_assert_msg(mlr_layers_decompose(c->n, c->j, c->pos, c->rot, opt, n_opt, NULL, &L, &dg) == MLR_OK,
+    ck_assert_msg(mlr_layers_decompose(c->n, c->j, c->pos, c->rot, opt, n_opt, NULL, &L, &dg) ==
+                      MLR_OK,
                   "%s: %s", c->name, dg.message);
     return L;
 }
@@ -924,7 +974,8 @@ static double lgs_gain(double s, double f, double fps)
     for (size_t i = 0; i < n; i++)
         y[i] = sin(2.0 * PI * f * (double)i / fps);
     mlr_lgs *g = NULL;
-    ck_assert_int_ge(mlr_lgs_create(n, 2, sqrt(s), 1.0, NULL, n, MLR_LGS_BANDED, NULL, &g, NULL), 0);
+    ck_assert_int_ge(mlr_lgs_create(n, 2, sqrt(s), 1.0, NULL, n, MLR_LGS_BANDED, NULL, &g, NULL),
+                     0);
     ck_assert_int_eq(mlr_lgs_solve(g, y, 1, 1, x, 1, NULL), MLR_OK);
     mlr_lgs_destroy(g);
     double xy = 0.0, yy = 0.0;
@@ -950,13 +1001,16 @@ START_TEST(fps_gives_the_base_floor)
         const double fcs[2] = {0.25, 1.0};
         for (int k = 0; k < 2; k++) {
             const double smax = pow(2.0 * sin(PI * fcs[k] / fps), -4.0);
-            mlr_layers_option o_fps[2] = {{MLR_LAYERS_OPT_FPS, fps}, {MLR_LAYERS_OPT_BASE_CUTOFF, fcs[k]}};
+            mlr_layers_option o_fps[2] = {{MLR_LAYERS_OPT_FPS, fps},
+                                          {MLR_LAYERS_OPT_BASE_CUTOFF, fcs[k]}};
             mlr_layers_option o_s = {MLR_LAYERS_OPT_BASE_S_MAX, smax};
-            mlr_layers *A = decompose_plain(c, o_fps, k == 0 ? 1 : 2), *B = decompose_plain(c, &o_s, 1);
+            mlr_layers *A = decompose_plain(c, o_fps, k == 0 ? 1 : 2),
+                       *B = decompose_plain(c, &o_s, 1);
             ck_assert_msg(same_layers(A, B), "%s: FPS %g, cutoff %g differs from BASE_S_MAX %g",
                           c->name, fps, fcs[k], smax);
             double *s = malloc((1 + c->j) * sizeof *s);
-            ck_assert_int_eq(mlr_layers_get_param(A, MLR_LAYERS_PARAM_BASE_S, s, 1 + c->j), MLR_OK);
+            ck_assert_int_eq(mlr_layers_get_param(A, MLR_LAYERS_PARAM_BASE_S, s, 1 + c->j),
+                             MLR_OK);
             for (size_t g = 0; g <= c->j; g++)
                 ck_assert_double_le(s[g], smax);
             free(s);
@@ -988,8 +1042,8 @@ START_TEST(base_floor_precedence)
         c = &clips[0];
     const double fps = 1.0 / mlr_motion_frame_time(c->m);
     mlr_layers *A, *B;
-    mlr_layers_option o1[3] = {{MLR_LAYERS_OPT_FPS, fps}, {MLR_LAYERS_OPT_LAM_B, 3.0},
-                               {MLR_LAYERS_OPT_BASE_CUTOFF, 0.5}};
+    mlr_layers_option o1[3] = {
+        {MLR_LAYERS_OPT_FPS, fps}, {MLR_LAYERS_OPT_LAM_B, 3.0}, {MLR_LAYERS_OPT_BASE_CUTOFF, 0.5}};
     A = decompose_plain(c, o1, 3), B = decompose_plain(c, o1 + 1, 1);
     ck_assert(same_layers(A, B));
     mlr_layers_destroy(A), mlr_layers_destroy(B);
@@ -999,7 +1053,8 @@ START_TEST(base_floor_precedence)
     mlr_layers_destroy(A), mlr_layers_destroy(B);
     const double smax = pow(2.0 * sin(PI * 0.25 / fps), -4.0);
     mlr_layers_option o3[2] = {{MLR_LAYERS_OPT_FPS, fps}, {MLR_LAYERS_OPT_BASE_S_MIN, 3.0}};
-    mlr_layers_option o4[2] = {{MLR_LAYERS_OPT_BASE_S_MAX, smax}, {MLR_LAYERS_OPT_BASE_S_MIN, 3.0}};
+    mlr_layers_option o4[2] = {{MLR_LAYERS_OPT_BASE_S_MAX, smax},
+                               {MLR_LAYERS_OPT_BASE_S_MIN, 3.0}};
     A = decompose_plain(c, o3, 2), B = decompose_plain(c, o4, 2);
     ck_assert(same_layers(A, B));
     double *s = malloc((1 + c->j) * sizeof *s);
@@ -1035,7 +1090,8 @@ START_TEST(body_joint_sets_the_translation_s)
             ck_assert(same_layers(L, R));
         ck_assert_int_eq(mlr_layers_get_base(L, bp, 3 * n, NULL, 0), MLR_OK);
         mlr_lgs *g = NULL;
-        ck_assert_int_ge(mlr_lgs_create(n, 2, sqrt(bs[0]), 1.0, NULL, n, MLR_LGS_BANDED, NULL, &g, NULL), 0);
+        ck_assert_int_ge(
+            mlr_lgs_create(n, 2, sqrt(bs[0]), 1.0, NULL, n, MLR_LGS_BANDED, NULL, &g, NULL), 0);
         ck_assert_int_eq(mlr_lgs_solve(g, pos, 3, 3, x, 3, NULL), MLR_OK);
         mlr_lgs_destroy(g);
         for (size_t i = 0; i < 3 * n; i++)
@@ -1059,12 +1115,16 @@ START_TEST(base_floor_bad_options)
     double pos[3 * 8] = {0}, rot[4 * 8 * 2];
     for (size_t i = 0; i < 16; i++)
         rot[4 * i] = 1.0, rot[4 * i + 1] = rot[4 * i + 2] = rot[4 * i + 3] = 0.0;
-    const struct { mlr_layers_option o[2]; size_t n; const char *why; } bad[] = {
+    const struct {
+        mlr_layers_option o[2];
+        size_t n;
+        const char *why;
+    } bad[] = {
         {{{MLR_LAYERS_OPT_FPS, 0.0}, {0, 0}}, 1, "not > 0"},
         {{{MLR_LAYERS_OPT_FPS, -30.0}, {0, 0}}, 1, "not > 0"},
         {{{MLR_LAYERS_OPT_FPS, NAN}, {0, 0}}, 1, "not finite"},
         {{{MLR_LAYERS_OPT_FPS, INFINITY}, {0, 0}}, 1, "not finite"},
-        {{{MLR_LAYERS_OPT_FPS, 0.4}, {0, 0}}, 1, "(0, fps/2)"},     /* default 0.25 Hz >= fps/2 */
+        {{{MLR_LAYERS_OPT_FPS, 0.4}, {0, 0}}, 1, "(0, fps/2)"}, /* default 0.25 Hz >= fps/2 */
         {{{MLR_LAYERS_OPT_BASE_CUTOFF, 0.25}, {0, 0}}, 1, "frame rate"},
         {{{MLR_LAYERS_OPT_FPS, 30.0}, {MLR_LAYERS_OPT_BASE_CUTOFF, 15.0}}, 2, "(0, fps/2)"},
         {{{MLR_LAYERS_OPT_FPS, 30.0}, {MLR_LAYERS_OPT_BASE_CUTOFF, 20.0}}, 2, "(0, fps/2)"},
@@ -1097,15 +1157,19 @@ START_TEST(base_floor_bad_options)
                       bad[i].why);
     }
     /* the conflicts: cutoff with an explicit upper end; an explicit lower end above the floor */
-    const mlr_layers_option both[3] = {{MLR_LAYERS_OPT_FPS, 30.0}, {MLR_LAYERS_OPT_BASE_CUTOFF, 0.5},
+    const mlr_layers_option both[3] = {{MLR_LAYERS_OPT_FPS, 30.0},
+                                       {MLR_LAYERS_OPT_BASE_CUTOFF, 0.5},
                                        {MLR_LAYERS_OPT_BASE_S_MAX, 1e6}};
-    const mlr_layers_option low[3] = {{MLR_LAYERS_OPT_FPS, 30.0}, {MLR_LAYERS_OPT_BASE_CUTOFF, 14.0},
+    const mlr_layers_option low[3] = {{MLR_LAYERS_OPT_FPS, 30.0},
+                                      {MLR_LAYERS_OPT_BASE_CUTOFF, 14.0},
                                       {MLR_LAYERS_OPT_BASE_S_MIN, 1.0}};
     mlr_layers *L = NULL;
     mlr_diag dg;
-    ck_assert_int_eq(mlr_layers_decompose(8, 2, pos, rot, both, 3, NULL, &L, &dg), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_layers_decompose(8, 2, pos, rot, both, 3, NULL, &L, &dg),
+                     MLR_E_INVALID_ARG);
     ck_assert_ptr_nonnull(strstr(dg.message, "give one"));
-    ck_assert_int_eq(mlr_layers_decompose(8, 2, pos, rot, low, 3, NULL, &L, &dg), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_layers_decompose(8, 2, pos, rot, low, 3, NULL, &L, &dg),
+                     MLR_E_INVALID_ARG);
     ck_assert_ptr_nonnull(strstr(dg.message, "not below the base floor"));
     /* a cutoff close to fps/2 is valid: s = (2 sin(pi 14/30))^-4 = 0.064 (never below 1/16) */
     ck_assert_int_eq(mlr_layers_decompose(8, 2, pos, rot, low, 2, NULL, &L, &dg), MLR_OK);
@@ -1115,7 +1179,6 @@ START_TEST(base_floor_bad_options)
     mlr_layers_destroy(L);
 }
 END_TEST
-
 
 /* ---- robust decomposition ------------------------------------------------------------- */
 
@@ -1184,7 +1247,8 @@ START_TEST(robust_without_outliers_is_plain)
     const size_t n = 360, j = 3;
     double *pos = malloc(3 * n * sizeof *pos), *rot = malloc(4 * n * j * sizeof *rot);
     synthetic_big(n, 30.0, pos, rot, 11);
-    const mlr_layers_option on[2] = {{MLR_LAYERS_OPT_ROBUST, 1.0}, {MLR_LAYERS_OPT_BODY_HEIGHT, 100.0}};
+    const mlr_layers_option on[2] = {{MLR_LAYERS_OPT_ROBUST, 1.0},
+                                     {MLR_LAYERS_OPT_BODY_HEIGHT, 100.0}};
     const mlr_layers_option off = {MLR_LAYERS_OPT_ROBUST, 0.0};
     mlr_layers *A = NULL, *B = NULL, *C = NULL;
     ck_assert_int_eq(mlr_layers_decompose(n, j, pos, rot, on, 2, NULL, &A, NULL), MLR_OK);
@@ -1215,7 +1279,8 @@ START_TEST(robust_glitch_is_found_and_local)
     const double fps = 30.0, s_b = 1e4;
     double *pos = malloc(3 * n * sizeof *pos), *rot = malloc(4 * n * j * sizeof *rot);
     double *gp = malloc(3 * n * sizeof *gp), *gr = malloc(4 * n * j * sizeof *gr);
-    double *w = malloc(n * sizeof *w), *x = malloc(3 * n * sizeof *x), *bp = malloc(3 * n * sizeof *bp);
+    double *w = malloc(n * sizeof *w), *x = malloc(3 * n * sizeof *x),
+           *bp = malloc(3 * n * sizeof *bp);
     double *p0 = malloc(3 * n * sizeof *p0), *q0 = malloc(4 * n * j * sizeof *q0);
     double *p1 = malloc(3 * n * sizeof *p1), *q1 = malloc(4 * n * j * sizeof *q1);
     unsigned char *fl = malloc(n * ng);
@@ -1224,11 +1289,13 @@ START_TEST(robust_glitch_is_found_and_local)
         const size_t at = ats[t];
         memcpy(gp, pos, 3 * n * sizeof *gp), memcpy(gr, rot, 4 * n * j * sizeof *gr);
         inject_glitch(at, j, gp, gr, 21 + t);
-        const mlr_layers_option o[3] = {{MLR_LAYERS_OPT_FPS, fps}, {MLR_LAYERS_OPT_BODY_HEIGHT, 100.0},
+        const mlr_layers_option o[3] = {{MLR_LAYERS_OPT_FPS, fps},
+                                        {MLR_LAYERS_OPT_BODY_HEIGHT, 100.0},
                                         {MLR_LAYERS_OPT_ROBUST, 1.0}};
         mlr_layers *G = NULL, *C = NULL;
         mlr_diag dg;
-        ck_assert_msg(mlr_layers_decompose(n, j, gp, gr, o, 3, NULL, &G, &dg) == MLR_OK, "%s", dg.message);
+        ck_assert_msg(mlr_layers_decompose(n, j, gp, gr, o, 3, NULL, &G, &dg) == MLR_OK, "%s",
+                      dg.message);
         ck_assert_int_eq(mlr_layers_decompose(n, j, pos, rot, o, 3, NULL, &C, NULL), MLR_OK);
         ck_assert_int_eq(mlr_layers_get_outliers(G, fl, n * ng), MLR_OK);
         for (size_t g = 0; g < ng; g++) {
@@ -1258,8 +1325,12 @@ START_TEST(robust_glitch_is_found_and_local)
         ck_assert_double_le(qdiff_sign(q1, gn, n * j), 1e-9);
         free(gn);
         /* far from the glitch the denoised motion is the clean clip's */
-        ck_assert_int_eq(mlr_layers_synthesize(C, 0, n, (double[]){1.0}, 1, p0, 3 * n, q0, 4 * n * j, NULL), MLR_OK);
-        ck_assert_int_eq(mlr_layers_synthesize(G, 0, n, (double[]){1.0}, 1, p1, 3 * n, q1, 4 * n * j, NULL), MLR_OK);
+        ck_assert_int_eq(
+            mlr_layers_synthesize(C, 0, n, (double[]){1.0}, 1, p0, 3 * n, q0, 4 * n * j, NULL),
+            MLR_OK);
+        ck_assert_int_eq(
+            mlr_layers_synthesize(G, 0, n, (double[]){1.0}, 1, p1, 3 * n, q1, 4 * n * j, NULL),
+            MLR_OK);
         double ep = 0.0, eq = 0.0;
         const size_t half = (size_t)(0.5 * fps);
         for (size_t i = 0; i < n; i++) {
@@ -1272,8 +1343,10 @@ START_TEST(robust_glitch_is_found_and_local)
         }
         /* at the start, a glitch frame of the spinning joint 0 that is not found (see above)
          * leaves 0.041 rad on it (measured); elsewhere below 0.01 rad */
-        ck_assert_msg(ep < 1.0 && eq < (at == 0 ? 0.05 : 0.01), "glitch at %zu: far from it %g "
-                      "units, %g rad", at, ep, eq);
+        ck_assert_msg(ep < 1.0 && eq < (at == 0 ? 0.05 : 0.01),
+                      "glitch at %zu: far from it %g "
+                      "units, %g rad",
+                      at, ep, eq);
         mlr_layers_destroy(C);
         mlr_layers_destroy(G);
 
@@ -1324,7 +1397,8 @@ START_TEST(repair_replaces_the_outlier_frames)
     unsigned char *fl = malloc(n * ng);
     synthetic_big(n, fps, pos, rot, 5);
     inject_glitch(at, j, pos, rot, 21);
-    const mlr_layers_option o[2] = {{MLR_LAYERS_OPT_FPS, fps}, {MLR_LAYERS_OPT_BODY_HEIGHT, 100.0}};
+    const mlr_layers_option o[2] = {{MLR_LAYERS_OPT_FPS, fps},
+                                    {MLR_LAYERS_OPT_BODY_HEIGHT, 100.0}};
     mlr_layers *G = NULL;
     ck_assert_int_eq(mlr_layers_decompose(n, j, pos, rot, o, 2, NULL, &G, NULL), MLR_OK);
     ck_assert_int_eq(mlr_layers_get_outliers(G, fl, n * ng), MLR_OK);
@@ -1348,9 +1422,9 @@ START_TEST(repair_replaces_the_outlier_frames)
     ck_assert_uint_eq(nr, bad);
     /* a sub-range over the glitch's end, rotations only */
     memcpy(rq, rot, 4 * n * j * sizeof *rq);
-    ck_assert_int_eq(mlr_layers_repair(G, at + 2, 10, NULL, 0, rq + 4 * j * (at + 2), 40 * j, &nr,
-                                       NULL),
-                     MLR_OK);
+    ck_assert_int_eq(
+        mlr_layers_repair(G, at + 2, 10, NULL, 0, rq + 4 * j * (at + 2), 40 * j, &nr, NULL),
+        MLR_OK);
     ck_assert_uint_eq(nr, 3);
     for (size_t i = 0; i < n; i++) {
         const int b = i >= at + 2 && i < at + 5;

@@ -76,11 +76,11 @@ static const struct {
     double lam, sigma;
     int tkind;
 } cases[] = {
-    {50, 50, 1, 2, 1.0, 1.0, T_IDENTITY},   {50, 50, 3, 1, 2.0, 0.5, T_IDENTITY},
-    {64, 64, 5, 2, 10.0, 0.1, T_IDENTITY},  {3, 3, 2, 2, 1.0, 1.0, T_IDENTITY},
-    {40, 10, 2, 2, 1.0, 1.0, T_UNIFORM},    {40, 10, 1, 1, 0.3, 1.0, T_UNIFORM},
-    {30, 90, 4, 2, 5.0, 0.2, T_UNIFORM},    {45, 30, 3, 2, 1.0, 2.0, T_RANDOM},
-    {45, 30, 3, 1, 1.0, 2.0, T_RANDOM},     {40, 8, 2, 2, 0.5, 0.01, T_SPARSE_KEYS},
+    {50, 50, 1, 2, 1.0, 1.0, T_IDENTITY},  {50, 50, 3, 1, 2.0, 0.5, T_IDENTITY},
+    {64, 64, 5, 2, 10.0, 0.1, T_IDENTITY}, {3, 3, 2, 2, 1.0, 1.0, T_IDENTITY},
+    {40, 10, 2, 2, 1.0, 1.0, T_UNIFORM},   {40, 10, 1, 1, 0.3, 1.0, T_UNIFORM},
+    {30, 90, 4, 2, 5.0, 0.2, T_UNIFORM},   {45, 30, 3, 2, 1.0, 2.0, T_RANDOM},
+    {45, 30, 3, 1, 1.0, 2.0, T_RANDOM},    {40, 8, 2, 2, 0.5, 0.01, T_SPARSE_KEYS},
     {20, 20, 2, 2, 0.0, 1.0, T_IDENTITY},
 };
 
@@ -145,7 +145,8 @@ START_TEST(in_place_identity_solve)
     for (size_t i = 0; i < n * m; i++)
         y[i] = mlr_test_rng_normal(&r);
     mlr_lgs *g = NULL;
-    ck_assert_int_eq(mlr_lgs_create(n, 2, 3.0, 1.0, NULL, n, MLR_LGS_BANDED, NULL, &g, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_lgs_create(n, 2, 3.0, 1.0, NULL, n, MLR_LGS_BANDED, NULL, &g, NULL),
+                     MLR_OK);
     ck_assert_int_eq(mlr_lgs_solve(g, y, m, m, x, m, NULL), MLR_OK);
     ck_assert_int_eq(mlr_lgs_solve(g, y, m, m, y, m, NULL), MLR_OK);
     for (size_t i = 0; i < n * m; i++)
@@ -162,7 +163,8 @@ START_TEST(smoothing_keeps_lines_for_order_2)
     for (size_t i = 0; i < n; i++)
         y[i] = 3.0 - 0.25 * (double)i;
     mlr_lgs *g = NULL;
-    ck_assert_int_eq(mlr_lgs_create(n, 2, 1e3, 1.0, NULL, n, MLR_LGS_BANDED, NULL, &g, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_lgs_create(n, 2, 1e3, 1.0, NULL, n, MLR_LGS_BANDED, NULL, &g, NULL),
+                     MLR_OK);
     ck_assert_int_eq(mlr_lgs_solve(g, y, 1, 1, x, 1, NULL), MLR_OK);
     for (size_t i = 0; i < n; i++)
         ck_assert_close(x[i], y[i], 1e-8);
@@ -203,9 +205,11 @@ START_TEST(cholmod_agrees_with_banded)
         y[i] = mlr_test_rng_normal(&r);
     mlr_lgs *gb = NULL, *gs = NULL;
     ck_assert_int_eq(mlr_lgs_create(n_out, cases[_i].order, cases[_i].lam, cases[_i].sigma, t,
-                                    n_obs, MLR_LGS_BANDED, NULL, &gb, NULL), MLR_OK);
+                                    n_obs, MLR_LGS_BANDED, NULL, &gb, NULL),
+                     MLR_OK);
     ck_assert_int_eq(mlr_lgs_create(n_out, cases[_i].order, cases[_i].lam, cases[_i].sigma, t,
-                                    n_obs, MLR_LGS_CHOLMOD, NULL, &gs, NULL), MLR_OK);
+                                    n_obs, MLR_LGS_CHOLMOD, NULL, &gs, NULL),
+                     MLR_OK);
     ck_assert_int_eq(mlr_lgs_solve(gb, y, m, m, xb, m, NULL), MLR_OK);
     ck_assert_int_eq(mlr_lgs_solve(gs, y, m, m, xs, m, NULL), MLR_OK);
     for (size_t i = 0; i < n_out * m; i++)
@@ -252,8 +256,7 @@ START_TEST(rejects_bad_parameters)
         mlr_diag d = {0, 0, ""};
         mlr_status s = mlr_lgs_create(bad[k].n_out, bad[k].order, bad[k].lam, bad[k].sigma,
                                       bad[k].t, bad[k].n_obs, MLR_LGS_BANDED, NULL, &g, &d);
-        ck_assert_msg(s == bad[k].want, "case %zu: got %s (%s)", k, mlr_status_name(s),
-                      d.message);
+        ck_assert_msg(s == bad[k].want, "case %zu: got %s (%s)", k, mlr_status_name(s), d.message);
         ck_assert_ptr_null(g);
         ck_assert_msg(d.message[0] != '\0', "case %zu has no diagnostic", k);
     }
@@ -267,7 +270,8 @@ START_TEST(non_finite_observations_are_rejected)
     for (size_t i = 0; i < 2 * n; i++)
         y[i] = 1.0;
     mlr_lgs *g = NULL;
-    ck_assert_int_eq(mlr_lgs_create(n, 2, 1.0, 1.0, NULL, n, MLR_LGS_BANDED, NULL, &g, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_lgs_create(n, 2, 1.0, 1.0, NULL, n, MLR_LGS_BANDED, NULL, &g, NULL),
+                     MLR_OK);
     y[2 * 7 + 1] = NAN;
     ck_assert_int_eq(mlr_lgs_solve(g, y, 2, 2, x, 2, NULL), MLR_E_INVALID_ARG);
     y[2 * 7 + 1] = INFINITY;
@@ -289,7 +293,8 @@ START_TEST(non_finite_observations_are_rejected_when_chunked)
     for (size_t i = 0; i < n * m; i++)
         y[i] = sin(0.001 * (double)i);
     mlr_lgs *g = NULL;
-    ck_assert_int_eq(mlr_lgs_create(n, 2, 4.0, 1.0, NULL, n, MLR_LGS_BANDED, NULL, &g, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_lgs_create(n, 2, 4.0, 1.0, NULL, n, MLR_LGS_BANDED, NULL, &g, NULL),
+                     MLR_OK);
     ck_assert_int_eq(mlr_lgs_solve(g, y, m, m, x, m, NULL), MLR_OK);
     const size_t rows[] = {0, n / 3, n / 2 + 7, n - 2, n - 1};
     const double bad[] = {NAN, INFINITY, -INFINITY};
@@ -324,8 +329,9 @@ START_TEST(helper_thread_changes_no_bits)
         t[i] = (double)i * (double)(n - 1) / (double)n + 0.3 * mlr_test_rng_uniform(&r);
     for (int interp = 0; interp < 2; interp++) {
         mlr_lgs *g = NULL;
-        ck_assert_int_eq(mlr_lgs_create(n, 2, 3.0, 1.0, interp ? t : NULL, n, MLR_LGS_BANDED,
-                                        NULL, &g, NULL), MLR_OK);
+        ck_assert_int_eq(
+            mlr_lgs_create(n, 2, 3.0, 1.0, interp ? t : NULL, n, MLR_LGS_BANDED, NULL, &g, NULL),
+            MLR_OK);
         ck_assert_int_eq(mlr_lgs_solve(g, y, m, m, ref, m, NULL), MLR_OK);
         for (size_t threads = 0; threads < 4; threads++) {
             double *x = malloc(n * m * sizeof *x); /* new pages each time */
@@ -346,7 +352,8 @@ START_TEST(helper_thread_changes_no_bits)
             }
             const double keep = y[(n / 2) * m + 3];
             y[(n / 2) * m + 3] = NAN;
-            ck_assert_int_eq(mlr_lgs_solve_mt(g, y, m, m, x1, ld, threads, NULL), MLR_E_INVALID_ARG);
+            ck_assert_int_eq(mlr_lgs_solve_mt(g, y, m, m, x1, ld, threads, NULL),
+                             MLR_E_INVALID_ARG);
             y[(n / 2) * m + 3] = keep;
             free(xs);
         }
@@ -386,7 +393,8 @@ START_TEST(variance_grows_between_sparse_keys)
     const size_t n_out = 41;
     double t[5] = {0, 10, 20, 30, 40}, var[41];
     mlr_lgs *g = NULL;
-    ck_assert_int_eq(mlr_lgs_create(n_out, 2, 1.0, 0.1, t, 5, MLR_LGS_BANDED, NULL, &g, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_lgs_create(n_out, 2, 1.0, 0.1, t, 5, MLR_LGS_BANDED, NULL, &g, NULL),
+                     MLR_OK);
     ck_assert_int_eq(mlr_lgs_variance(g, var, n_out, NULL), MLR_OK);
     ck_assert(var[15] > 10.0 * var[10]);   /* mid-gap far less certain than at a key */
     ck_assert(var[20] < var[19]);
@@ -396,8 +404,13 @@ END_TEST
 
 /* Large problems take the chunked single-pass path (many channels, n >> chunk); the same
  * problem solved one channel at a time takes the plain two-sweep path: both must agree. */
-static const struct { size_t n, m; unsigned order; double lam; int interp; } big[] = {
-    {6000, 64, 2, 4.0, 0}, {6000, 64, 1, 4.0, 0}, {7000, 48, 2, 1.0, 1},
+static const struct {
+    size_t n, m;
+    unsigned order;
+    double lam;
+    int interp;
+} big[] = {
+    {6000, 64, 2, 4.0, 0},  {6000, 64, 1, 4.0, 0},    {7000, 48, 2, 1.0, 1},
     {7001, 96, 2, 30.0, 0}, {6000, 64, 2, 3000.0, 0}, /* the last decays too slowly: fallback */
 };
 
@@ -424,7 +437,8 @@ START_TEST(chunked_solve_matches_column_by_column)
     }
     mlr_lgs *g = NULL;
     ck_assert_int_eq(mlr_lgs_create(n, big[_i].order, big[_i].lam, 1.0, t, n_obs, MLR_LGS_BANDED,
-                                    NULL, &g, NULL), MLR_OK);
+                                    NULL, &g, NULL),
+                     MLR_OK);
     ck_assert_int_eq(mlr_lgs_solve(g, y, m, m, x, m, NULL), MLR_OK);
     for (size_t c = 0; c < m; c++) {
         double scale = 0.0;
@@ -447,8 +461,9 @@ START_TEST(chunked_solve_matches_column_by_column)
     mlr_test_allocator ta;
     mlr_test_allocator_init(&ta, SIZE_MAX);
     mlr_lgs *gf = NULL;
-    ck_assert_int_eq(mlr_lgs_create(n, big[_i].order, big[_i].lam, 1.0, t, n_obs,
-                                    MLR_LGS_BANDED, &ta.base, &gf, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_lgs_create(n, big[_i].order, big[_i].lam, 1.0, t, n_obs, MLR_LGS_BANDED,
+                                    &ta.base, &gf, NULL),
+                     MLR_OK);
     const size_t calls = ta.n_calls, live = ta.live_blocks;
     ck_assert_int_eq(mlr_lgs_solve(gf, y, m, m, w, m, NULL), MLR_OK); /* ring freed again */
     ck_assert_uint_eq(ta.live_blocks, live);

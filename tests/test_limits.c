@@ -20,8 +20,8 @@ static const double leg_end_offsets[3] = {0, 0, 2};
 
 static mlr_rig leg_rig(void)
 {
-    mlr_rig r = {4, leg_parents, leg_offsets, leg_names, 0, NULL, 1, leg_end_parents,
-                 leg_end_offsets};
+    mlr_rig r = {4,    leg_parents, leg_offsets,     leg_names,      0,
+                 NULL, 1,           leg_end_parents, leg_end_offsets};
     return r;
 }
 
@@ -412,8 +412,7 @@ START_TEST(bad_input_gets_the_right_status_and_message)
     ck_assert_int_eq(mlr_limits_apply(lim, 50, NULL, out, NULL, 0, NULL, 0, &d),
                      MLR_E_INVALID_ARG);
     rot[4 * 41] = NAN;
-    ck_assert_int_eq(mlr_limits_apply(lim, 50, rot, out, NULL, 0, NULL, 0, &d),
-                     MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_limits_apply(lim, 50, rot, out, NULL, 0, NULL, 0, &d), MLR_E_INVALID_ARG);
     ck_assert_ptr_nonnull(strstr(d.message, "rot_in[10][1]"));
     ck_assert_int_eq(mlr_limits_apply(lim, 0, NULL, NULL, NULL, 0, NULL, 0, &d), MLR_OK);
     mlr_limits_range rg;
@@ -470,8 +469,10 @@ START_TEST(streams_apply_the_limits_to_every_output_frame)
     double *xa = malloc(300 * 16 * sizeof(double)), *xb = malloc(300 * 16 * sizeof(double));
     size_t done = 0, ready, w;
     for (size_t f = 0; f < 300; f++) {
-        ck_assert_int_eq(mlr_stream_push(a, rot + 16 * f, 16, xa + 16 * done, 16, &ready, NULL), MLR_OK);
-        ck_assert_int_eq(mlr_stream_push(b, rot + 16 * f, 16, xb + 16 * done, 16, &ready, NULL), MLR_OK);
+        ck_assert_int_eq(mlr_stream_push(a, rot + 16 * f, 16, xa + 16 * done, 16, &ready, NULL),
+                         MLR_OK);
+        ck_assert_int_eq(mlr_stream_push(b, rot + 16 * f, 16, xb + 16 * done, 16, &ready, NULL),
+                         MLR_OK);
         done += ready;
     }
     ck_assert_int_eq(mlr_stream_flush(a, xa + 16 * done, 16 * (300 - done), &w, NULL), MLR_OK);
@@ -512,8 +513,8 @@ static mlr_limits *real_limits(const real *r)
 
 static int is_hinge_name(const char *s)
 {
-    static const char *const words[] = {"Leg", "Knee", "Shin", "ForeArm", "Elbow", "LowerArm",
-                                        "knee", "elbow"};
+    static const char *const words[] = {"Leg",   "Knee",     "Shin", "ForeArm",
+                                        "Elbow", "LowerArm", "knee", "elbow"};
     for (size_t i = 0; i < MLR_COUNTOF(words); i++)
         if (strstr(s, words[i]) && !strstr(s, "Up") && !strstr(s, "Upper"))
             return 1;
@@ -524,8 +525,9 @@ START_TEST(hinges_are_found_on_the_knees_and_elbows_of_the_shared_clips)
 {
     static const char *const files[] = {
         "cmu_01_01_playground_jumps.bvh", "cmu_131_01_mj_style_walk.bvh",
-        "cmu_10_01_soccer_kick.bvh", "cmu_60_10_salsa_dance.bvh", "cmu_02_03_run_jog_25fps.bvh",
-        "lafan1_clip_a.bvh", "bandai1_walk_happy_001.bvh", "ai4a_dog_D1_008_KAN01_002.bvh"};
+        "cmu_10_01_soccer_kick.bvh",      "cmu_60_10_salsa_dance.bvh",
+        "cmu_02_03_run_jog_25fps.bvh",    "lafan1_clip_a.bvh",
+        "bandai1_walk_happy_001.bvh",     "ai4a_dog_D1_008_KAN01_002.bvh"};
     size_t loaded = 0;
     for (size_t k = 0; k < MLR_COUNTOF(files); k++) {
         real r;
@@ -601,14 +603,13 @@ static void hinge_world(const real *r, const mlr_limits *lim, size_t j, const do
 }
 
 static void count_violations(const real *r, const mlr_limits *lim, const double *rot,
-                             const double *in_max, const double *in_min, size_t *fold,
-                             size_t *rev)
+                             const double *in_max, const double *in_min, size_t *fold, size_t *rev)
 {
     const size_t N = r->n, J = r->j;
     double *pos = malloc(N * J * 3 * sizeof(double)), *wr = malloc(N * J * 4 * sizeof(double));
-    ck_assert_int_eq(mlr_fk_arrays(N, J, r->rig.parents, r->rig.offsets,
-                                   mlr_motion_root_pos(r->m), rot, r->rig.n_trans,
-                                   r->rig.trans_joints, mlr_motion_trans(r->m), pos, wr, NULL, NULL),
+    ck_assert_int_eq(mlr_fk_arrays(N, J, r->rig.parents, r->rig.offsets, mlr_motion_root_pos(r->m),
+                                   rot, r->rig.n_trans, r->rig.trans_joints,
+                                   mlr_motion_trans(r->m), pos, wr, NULL, NULL),
                      MLR_OK);
     *fold = *rev = 0;
     for (size_t f = 0; f < N; f++) {
@@ -670,8 +671,8 @@ START_TEST(a_stylized_real_clip_at_alpha_3_neither_folds_nor_reverses_after_limi
                          MLR_OK);
         double *syn = malloc(N * J * 4 * sizeof(double));
         const double alpha = 3.0;
-        ck_assert_int_eq(mlr_layers_synthesize(lay, 0, N, &alpha, 1, NULL, 0, syn, N * J * 4, NULL),
-                         MLR_OK);
+        ck_assert_int_eq(
+            mlr_layers_synthesize(lay, 0, N, &alpha, 1, NULL, 0, syn, N * J * 4, NULL), MLR_OK);
         size_t fold0, rev0, fold1, rev1;
         count_violations(&r, lim, syn, in_max, in_min, &fold0, &rev0);
         size_t *counts = malloc(J * sizeof(size_t));

@@ -14,12 +14,36 @@
 
 /* Every joint a child of the root, so that any pairing keeps the hierarchy. */
 static const char *const rule_names[] = {
-    "Root",          "LeftUpLeg",     "RightUpLeg",  "mixamorig:LeftArm", "mixamorig:RightArm",
-    "Hand_L",        "Hand_R",        "upperarm_l",  "upperarm_r",        "Eye.L",
-    "Eye.R",         "L_Foot",        "R_Foot",      "lHip",              "rHip",
-    "LHipJoint",     "RHipJoint",     "lcollar",     "rcollar",           "Bip01 L Thigh",
-    "Bip01 R Thigh", "LEFT_EYE",      "RIGHT_EYE",   "leftEye",           "rightEye",
-    "LowerBack",     "lowerback",     "Spine",       "Lumbar",            "ns|rThumb",
+    "Root",
+    "LeftUpLeg",
+    "RightUpLeg",
+    "mixamorig:LeftArm",
+    "mixamorig:RightArm",
+    "Hand_L",
+    "Hand_R",
+    "upperarm_l",
+    "upperarm_r",
+    "Eye.L",
+    "Eye.R",
+    "L_Foot",
+    "R_Foot",
+    "lHip",
+    "rHip",
+    "LHipJoint",
+    "RHipJoint",
+    "lcollar",
+    "rcollar",
+    "Bip01 L Thigh",
+    "Bip01 R Thigh",
+    "LEFT_EYE",
+    "RIGHT_EYE",
+    "leftEye",
+    "rightEye",
+    "LowerBack",
+    "lowerback",
+    "Spine",
+    "Lumbar",
+    "ns|rThumb",
     "ns|lThumb",
 };
 #define RJ (sizeof rule_names / sizeof rule_names[0])
@@ -52,12 +76,18 @@ START_TEST(every_naming_rule_pairs_its_joints_and_tells_the_side)
 {
     const mlr_rig r = rule_rig();
     static const char *const pairs[][2] = {
-        {"LeftUpLeg", "RightUpLeg"}, {"mixamorig:LeftArm", "mixamorig:RightArm"},
-        {"Hand_L", "Hand_R"},        {"upperarm_l", "upperarm_r"},
-        {"Eye.L", "Eye.R"},          {"L_Foot", "R_Foot"},
-        {"lHip", "rHip"},            {"LHipJoint", "RHipJoint"},
-        {"lcollar", "rcollar"},      {"Bip01 L Thigh", "Bip01 R Thigh"},
-        {"LEFT_EYE", "RIGHT_EYE"},   {"leftEye", "rightEye"},
+        {"LeftUpLeg", "RightUpLeg"},
+        {"mixamorig:LeftArm", "mixamorig:RightArm"},
+        {"Hand_L", "Hand_R"},
+        {"upperarm_l", "upperarm_r"},
+        {"Eye.L", "Eye.R"},
+        {"L_Foot", "R_Foot"},
+        {"lHip", "rHip"},
+        {"LHipJoint", "RHipJoint"},
+        {"lcollar", "rcollar"},
+        {"Bip01 L Thigh", "Bip01 R Thigh"},
+        {"LEFT_EYE", "RIGHT_EYE"},
+        {"leftEye", "rightEye"},
         {"ns|lThumb", "ns|rThumb"},
     };
     static const char *const mid[] = {"Root", "LowerBack", "lowerback", "Spine", "Lumbar"};
@@ -110,8 +140,9 @@ START_TEST(explicit_pairs_override_the_names_or_replace_them)
     ck_assert_uint_eq(n_pairs, 2 + 11); /* the given two and the 11 other name pairs */
     /* a given pair that a rule also finds tells its side */
     static const char *const swapped[] = {"Hand_R", "Hand_L"};
-    ck_assert_int_eq(mlr_mirror_pairs(&r, swapped, 1, MLR_MIRROR_GIVEN_ONLY, partner, side,
-                                      &n_pairs, NULL, &d), MLR_OK);
+    ck_assert_int_eq(
+        mlr_mirror_pairs(&r, swapped, 1, MLR_MIRROR_GIVEN_ONLY, partner, side, &n_pairs, NULL, &d),
+        MLR_OK);
     ck_assert_uint_eq(n_pairs, 1);
     ck_assert_int_eq(side[idx(rule_names, RJ, "Hand_R")], -1);
     ck_assert_int_eq(side[idx(rule_names, RJ, "Hand_L")], 1);
@@ -121,8 +152,9 @@ START_TEST(explicit_pairs_override_the_names_or_replace_them)
     /* GIVEN_ONLY with nothing given: every joint on the mid-plane, names not needed */
     mlr_rig anon = r;
     anon.names = NULL;
-    ck_assert_int_eq(mlr_mirror_pairs(&anon, NULL, 0, MLR_MIRROR_GIVEN_ONLY, partner, side,
-                                      &n_pairs, NULL, &d), MLR_OK);
+    ck_assert_int_eq(
+        mlr_mirror_pairs(&anon, NULL, 0, MLR_MIRROR_GIVEN_ONLY, partner, side, &n_pairs, NULL, &d),
+        MLR_OK);
     ck_assert_uint_eq(n_pairs, 0);
 }
 END_TEST
@@ -130,24 +162,23 @@ END_TEST
 /* ---- an asymmetric humanoid ---------------------------------------------------------------- */
 
 enum { HJ = 11, HE = 3, HP = 3 };
-static const char *const h_names[HJ] = {"Hips",     "LeftUpLeg", "LeftLeg", "LeftFoot",
-                                        "RightUpLeg", "RightLeg", "RightFoot", "Spine",
-                                        "Arm_L",    "Arm_R",     "Head"};
+static const char *const h_names[HJ] = {"Hips",       "LeftUpLeg", "LeftLeg",   "LeftFoot",
+                                        "RightUpLeg", "RightLeg",  "RightFoot", "Spine",
+                                        "Arm_L",      "Arm_R",     "Head"};
 static const int32_t h_parents[HJ] = {-1, 0, 1, 2, 0, 4, 5, 0, 7, 7, 7};
 /* left at +x; the right side is not its mirror image (bones up to 7% longer, tilted) */
-static const double h_offsets[3 * HJ] = {
-    0.3, 95.0, -1.0,  9.0, -5.0, 0.3,  0.2, -40.0, 0.5,  0.0, -40.0, 1.0,
-    -10.0, -5.1, 0.1, -0.1, -42.8, 0.3, 0.4, -39.0, 2.0,  0.1, 10.0, 0.0,
-    15.0, 30.0, -1.0, -14.2, 31.0, 0.5, 0.0, 18.0, 2.0};
+static const double h_offsets[3 * HJ] = {0.3,   95.0,  -1.0, 9.0,   -5.0, 0.3, 0.2,  -40.0, 0.5,
+                                         0.0,   -40.0, 1.0,  -10.0, -5.1, 0.1, -0.1, -42.8, 0.3,
+                                         0.4,   -39.0, 2.0,  0.1,   10.0, 0.0, 15.0, 30.0,  -1.0,
+                                         -14.2, 31.0,  0.5,  0.0,   18.0, 2.0};
 static const int32_t h_trans[HP] = {2, 5, 7};
 static const int32_t h_end_parents[HE] = {3, 10, 6};
-static const double h_end_offsets[3 * HE] = {0.0, -5.0, 12.0, 0.0, 14.0, 1.0, 0.5, -4.0,
-                                             13.0};
+static const double h_end_offsets[3 * HE] = {0.0, -5.0, 12.0, 0.0, 14.0, 1.0, 0.5, -4.0, 13.0};
 
 static mlr_rig human(void)
 {
-    return (mlr_rig){HJ, h_parents, h_offsets, h_names, HP, h_trans, HE, h_end_parents,
-                     h_end_offsets};
+    return (mlr_rig){HJ,      h_parents, h_offsets,     h_names,      HP,
+                     h_trans, HE,        h_end_parents, h_end_offsets};
 }
 
 typedef struct clip {
@@ -214,7 +245,8 @@ START_TEST(reflected_rotations_are_m_r_m)
             for (int i = 0; i < 3; i++)
                 p[i] = mlr_test_rng_normal(&g);
             ck_assert_int_eq(mlr_mirror_motion(&r, partner, a, 0, 1, p, q, NULL, po, qo, NULL,
-                                               NULL, NULL, NULL), MLR_OK);
+                                               NULL, NULL, NULL),
+                             MLR_OK);
             double R[9], Ro[9], MRM[9];
             quat_matrix(q, R);
             quat_matrix(qo, Ro);
@@ -275,8 +307,9 @@ START_TEST(the_mirror_is_the_reflected_input_with_the_sides_swapped)
     ck_assert_ptr_nonnull(pos_m);
     ck_assert_ptr_nonnull(wr_m);
     for (int axis = 0; axis < 3; axis++) {
-        ck_assert_msg(mlr_mirror_motion(&r, partner, axis, 0, N, c.root, c.rot, c.trans, root,
-                                        rot, trans, off, ends, &d) == MLR_OK, "%s", d.message);
+        ck_assert_msg(mlr_mirror_motion(&r, partner, axis, 0, N, c.root, c.rot, c.trans, root, rot,
+                                        trans, off, ends, &d) == MLR_OK,
+                      "%s", d.message);
         fk(&r, h_offsets, N, c.root, c.rot, c.trans, pos, wr);
         fk(&r, off, N, root, rot, trans, pos_m, wr_m);
         ck_assert_double_le(mirror_error(N, HJ, pos, pos_m, partner, axis), 1e-12 * 100.0);
@@ -303,8 +336,9 @@ START_TEST(the_mirror_is_the_reflected_input_with_the_sides_swapped)
         mlr_rig rm = r;
         rm.offsets = off;
         rm.end_site_offsets = ends;
-        ck_assert_int_eq(mlr_mirror_motion(&rm, partner, axis, 0, N, root, rot, trans, root2,
-                                           rot2, trans2, off2, ends2, &d), MLR_OK);
+        ck_assert_int_eq(mlr_mirror_motion(&rm, partner, axis, 0, N, root, rot, trans, root2, rot2,
+                                           trans2, off2, ends2, &d),
+                         MLR_OK);
         ck_assert_mem_eq(root2, c.root, 3 * N * sizeof *root2);
         ck_assert_mem_eq(rot2, c.rot, 4 * HJ * N * sizeof *rot2);
         ck_assert_mem_eq(trans2, c.trans, 3 * HP * N * sizeof *trans2);
@@ -319,7 +353,8 @@ START_TEST(the_mirror_is_the_reflected_input_with_the_sides_swapped)
         rm.offsets = off2;
         rm.end_site_offsets = ends2;
         ck_assert_int_eq(mlr_mirror_motion(&rm, partner, axis, 0, N, root2, rot2, trans2, root2,
-                                           rot2, trans2, off2, ends2, &d), MLR_OK);
+                                           rot2, trans2, off2, ends2, &d),
+                         MLR_OK);
         ck_assert_mem_eq(root2, root, 3 * N * sizeof *root2);
         ck_assert_mem_eq(rot2, rot, 4 * HJ * N * sizeof *rot2);
         ck_assert_mem_eq(trans2, trans, 3 * HP * N * sizeof *trans2);
@@ -356,7 +391,8 @@ START_TEST(keeping_the_skeleton_mirrors_only_the_motion)
                                        c.root, c.rot, c.trans, root, rot, trans, off, ends, NULL),
                      MLR_OK);
     ck_assert_int_eq(mlr_mirror_motion(&r, partner, MLR_AXIS_X, 0, N, c.root, c.rot, c.trans,
-                                       root_e, rot_e, trans_e, off_e, ends_e, NULL), MLR_OK);
+                                       root_e, rot_e, trans_e, off_e, ends_e, NULL),
+                     MLR_OK);
     /* the skeleton is the input's, the motion that of the exact mirror */
     ck_assert_mem_eq(off, h_offsets, sizeof off);
     ck_assert_mem_eq(ends, h_end_offsets, sizeof ends);
@@ -377,7 +413,8 @@ START_TEST(keeping_the_skeleton_mirrors_only_the_motion)
     mlr_rig rs = r;
     rs.offsets = sym;
     ck_assert_int_eq(mlr_mirror_motion(&rs, partner, MLR_AXIS_X, 0, 0, NULL, NULL, NULL, NULL,
-                                       NULL, NULL, off_e, NULL, NULL), MLR_OK);
+                                       NULL, NULL, off_e, NULL, NULL),
+                     MLR_OK);
     for (size_t k = 0; k < 3 * HJ; k++)
         ck_assert_double_eq(off_e[k], sym[k]); /* (-0.0 for 0.0 on the mid-plane) */
     free(root);
@@ -413,14 +450,12 @@ START_TEST(bad_input_says_why)
     expect(mlr_mirror_pairs(&r, two_pairs, 2, 0, partner, NULL, NULL, NULL, &d), &d,
            "'Hand_L' is in two pairs");
     static const char *const null_name[] = {"Hand_L", NULL};
-    expect(mlr_mirror_pairs(&r, null_name, 1, 0, partner, NULL, NULL, NULL, &d), &d,
-           "NULL name");
+    expect(mlr_mirror_pairs(&r, null_name, 1, 0, partner, NULL, NULL, NULL, &d), &d, "NULL name");
     static const char *const rooted_pair[] = {"Root", "Spine"};
     expect(mlr_mirror_pairs(&r, rooted_pair, 1, 0, partner, NULL, NULL, NULL, &d), &d,
            "root Root cannot be paired");
     expect(mlr_mirror_pairs(&r, NULL, 1, 0, partner, NULL, NULL, NULL, &d), &d, "NULL");
-    expect(mlr_mirror_pairs(&r, NULL, 0, 4u, partner, NULL, NULL, NULL, &d), &d,
-           "unknown flags");
+    expect(mlr_mirror_pairs(&r, NULL, 0, 4u, partner, NULL, NULL, NULL, &d), &d, "unknown flags");
     expect(mlr_mirror_pairs(&r, NULL, 0, 0, NULL, NULL, NULL, NULL, &d), &d, "partner is NULL");
     expect(mlr_mirror_pairs(NULL, NULL, 0, 0, partner, NULL, NULL, NULL, &d), &d, "rig");
     mlr_rig anon = r;
@@ -472,23 +507,30 @@ START_TEST(bad_input_says_why)
     /* the motion */
     clip c = random_clip(3, 1);
     double root[9], rot[4 * HJ * 3], trans[3 * HP * 3];
-    expect(mlr_mirror_motion(&h, hp, 3, 0, 3, c.root, c.rot, c.trans, root, rot, trans, NULL,
-                             NULL, &d), &d, "axis 3");
+    expect(mlr_mirror_motion(&h, hp, 3, 0, 3, c.root, c.rot, c.trans, root, rot, trans, NULL, NULL,
+                             &d),
+           &d, "axis 3");
     expect(mlr_mirror_motion(&h, hp, 0, 1u, 3, c.root, c.rot, c.trans, root, rot, trans, NULL,
-                             NULL, &d), &d, "unknown flags");
+                             NULL, &d),
+           &d, "unknown flags");
     expect(mlr_mirror_motion(&h, NULL, 0, 0, 3, c.root, c.rot, c.trans, root, rot, trans, NULL,
-                             NULL, &d), &d, "partner is NULL");
-    expect(mlr_mirror_motion(&h, hp, 0, 0, 3, c.root, NULL, c.trans, root, rot, trans, NULL,
-                             NULL, &d), &d, "NULL with 3 frames");
-    expect(mlr_mirror_motion(&h, hp, 0, 0, 3, c.root, c.rot, NULL, root, rot, trans, NULL, NULL,
-                             &d), &d, "trans or out_trans is NULL");
-    expect(mlr_mirror_motion(&h, broken, 0, 0, 3, c.root, c.rot, c.trans, root, rot, trans,
-                             NULL, NULL, &d), &d, "partner[1] = 2");
+                             NULL, &d),
+           &d, "partner is NULL");
+    expect(mlr_mirror_motion(&h, hp, 0, 0, 3, c.root, NULL, c.trans, root, rot, trans, NULL, NULL,
+                             &d),
+           &d, "NULL with 3 frames");
+    expect(
+        mlr_mirror_motion(&h, hp, 0, 0, 3, c.root, c.rot, NULL, root, rot, trans, NULL, NULL, &d),
+        &d, "trans or out_trans is NULL");
+    expect(mlr_mirror_motion(&h, broken, 0, 0, 3, c.root, c.rot, c.trans, root, rot, trans, NULL,
+                             NULL, &d),
+           &d, "partner[1] = 2");
     int32_t rooted[HJ];
     memcpy(rooted, none, sizeof rooted);
     rooted[0] = 7, rooted[7] = 0;
-    expect(mlr_mirror_motion(&h, rooted, 0, 0, 3, c.root, c.rot, c.trans, root, rot, trans,
-                             NULL, NULL, &d), &d, "the root Hips cannot be paired (with Spine)");
+    expect(mlr_mirror_motion(&h, rooted, 0, 0, 3, c.root, c.rot, c.trans, root, rot, trans, NULL,
+                             NULL, &d),
+           &d, "the root Hips cannot be paired (with Spine)");
     free_clip(&c);
 }
 END_TEST
@@ -503,8 +545,7 @@ START_TEST(every_allocation_failure_is_no_memory_without_leaks)
         mlr_test_allocator ta;
         mlr_test_allocator_init(&ta, at);
         mlr_diag d;
-        const mlr_status st = mlr_mirror_pairs(&r, NULL, 0, 0, partner, NULL, NULL, &ta.base,
-                                               &d);
+        const mlr_status st = mlr_mirror_pairs(&r, NULL, 0, 0, partner, NULL, NULL, &ta.base, &d);
         ck_assert_uint_eq(ta.live_blocks, 0);
         ck_assert_uint_eq(ta.live_bytes, 0);
         if (st == MLR_OK) {
@@ -542,13 +583,13 @@ START_TEST(every_shared_clip_mirrors_exactly)
         size_t n_pairs;
         mlr_diag d;
         ck_assert_msg(mlr_mirror_pairs(&c.rig, NULL, 0, 0, partner, side, &n_pairs, NULL, &d) ==
-                          MLR_OK, "%s: %s", clips[k].file, d.message);
+                          MLR_OK,
+                      "%s: %s", clips[k].file, d.message);
         ck_assert_msg(n_pairs == clips[k].pairs, "%s: %zu pairs", clips[k].file, n_pairs);
         for (size_t j = 0; j < J; j++) /* every pair has a left and a right */
             ck_assert(side[j] == -side[partner[j]] && (side[j] != 0) == (partner[j] != (int)j));
         int a;
-        ck_assert_int_eq(mlr_mirror_plane(&c.rig, partner, MLR_MIRROR_PLANE_AUTO, &a, &d),
-                         MLR_OK);
+        ck_assert_int_eq(mlr_mirror_plane(&c.rig, partner, MLR_MIRROR_PLANE_AUTO, &a, &d), MLR_OK);
         const double *root = mlr_motion_root_pos(c.m), *rot = mlr_motion_rot(c.m);
         const double *trans = mlr_motion_trans(c.m);
         double *root_m = malloc(3 * N * sizeof(double)), *rot_m = malloc(4 * N * J * 8);
@@ -557,23 +598,25 @@ START_TEST(every_shared_clip_mirrors_exactly)
         double *pos = malloc(3 * N * J * 8), *pos_m = malloc(3 * N * J * 8);
         ck_assert_ptr_nonnull(pos_m);
         ck_assert_int_eq(mlr_mirror_motion(&c.rig, partner, a, 0, N, root, rot, trans, root_m,
-                                           rot_m, trans_m, off, ends, &d), MLR_OK);
+                                           rot_m, trans_m, off, ends, &d),
+                         MLR_OK);
         fk(&c.rig, c.rig.offsets, N, root, rot, trans, pos, NULL);
         fk(&c.rig, off, N, root_m, rot_m, trans_m, pos_m, NULL);
         double height;
-        ck_assert_int_eq(mlr_rig_body_height(N, J, pos, MLR_AXIS_Y, &height, NULL, NULL),
-                         MLR_OK);
+        ck_assert_int_eq(mlr_rig_body_height(N, J, pos, MLR_AXIS_Y, &height, NULL, NULL), MLR_OK);
         const double err = mirror_error(N, J, pos, pos_m, partner, a);
-        fprintf(stderr, "test_mirror: %s: %zu pairs, plane %c, positions within %.2g body "
-                "heights of the reflected swapped input\n", clips[k].file, n_pairs, "xyz"[a],
-                err / height);
+        fprintf(stderr,
+                "test_mirror: %s: %zu pairs, plane %c, positions within %.2g body "
+                "heights of the reflected swapped input\n",
+                clips[k].file, n_pairs, "xyz"[a], err / height);
         ck_assert_msg(err <= 1e-9 * height, "%s: %g", clips[k].file, err / height);
         /* twice: the input bit for bit */
         mlr_rig rm = c.rig;
         rm.offsets = off;
         rm.end_site_offsets = ends;
         ck_assert_int_eq(mlr_mirror_motion(&rm, partner, a, 0, N, root_m, rot_m, trans_m, root_m,
-                                           rot_m, trans_m, off, ends, &d), MLR_OK);
+                                           rot_m, trans_m, off, ends, &d),
+                         MLR_OK);
         ck_assert(memcmp(root_m, root, 3 * N * sizeof(double)) == 0);
         ck_assert(memcmp(rot_m, rot, 4 * N * J * sizeof(double)) == 0);
         ck_assert(P == 0 || memcmp(trans_m, trans, 3 * N * P * sizeof(double)) == 0);

@@ -36,8 +36,8 @@ static void run_to_end(mlr_prefault *pf)
 START_TEST(maps_every_page_and_keeps_the_bytes)
 {
     const size_t page = (size_t)sysconf(_SC_PAGESIZE), bytes = (size_t)24 << 20;
-    unsigned char *p = mmap(NULL, bytes, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS,
-                            -1, 0);
+    unsigned char *p =
+        mmap(NULL, bytes, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
     ck_assert_ptr_ne(p, MAP_FAILED);
     /* the first 3 MiB hold data; the rest was never touched */
     const size_t data = (size_t)3 << 20;
@@ -84,8 +84,8 @@ END_TEST
 START_TEST(stops_when_asked)
 {
     const size_t bytes = (size_t)64 << 20;
-    unsigned char *p = mmap(NULL, bytes, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS,
-                            -1, 0);
+    unsigned char *p =
+        mmap(NULL, bytes, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
     ck_assert_ptr_ne(p, MAP_FAILED);
     for (int k = 0; k < 20; k++) {
         mlr_prefault pf;

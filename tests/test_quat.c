@@ -52,10 +52,8 @@ static double norm4(const mlr_quat *q) { return sqrt(dot4(q, q)); }
 static double rot_dist(const mlr_quat *a, const mlr_quat *b)
 {
     double s = dot4(a, b) < 0.0 ? -1.0 : 1.0;
-    double dw = a->w - s * b->w, dx = a->x - s * b->x, dy = a->y - s * b->y,
-           dz = a->z - s * b->z;
-    double pw = a->w + s * b->w, px = a->x + s * b->x, py = a->y + s * b->y,
-           pz = a->z + s * b->z;
+    double dw = a->w - s * b->w, dx = a->x - s * b->x, dy = a->y - s * b->y, dz = a->z - s * b->z;
+    double pw = a->w + s * b->w, px = a->x + s * b->x, py = a->y + s * b->y, pz = a->z + s * b->z;
     return 4.0 * atan2(sqrt(dw * dw + dx * dx + dy * dy + dz * dz),
                        sqrt(pw * pw + px * px + py * py + pz * pz));
 }
@@ -300,9 +298,11 @@ START_TEST(exp_matches_rodrigues)
 END_TEST
 
 /* Angles for the round trip, with the relative accuracy asked of log(exp(v)). */
-static const struct { double angle, rel_tol; } round_trip_angles[] = {
-    {0.0, 0.0},       {1e-300, 1e-15}, {1e-12, 1e-15}, {1e-9, 1e-15},      {1e-6, 1e-15},
-    {1e-4, 1e-15},    {0.3, 1e-15},    {1.0, 1e-15},   {2.5, 1e-15},       {PI - 1e-3, 1e-15},
+static const struct {
+    double angle, rel_tol;
+} round_trip_angles[] = {
+    {0.0, 0.0},         {1e-300, 1e-15},    {1e-12, 1e-15},      {1e-9, 1e-15}, {1e-6, 1e-15},
+    {1e-4, 1e-15},      {0.3, 1e-15},       {1.0, 1e-15},        {2.5, 1e-15},  {PI - 1e-3, 1e-15},
     {PI - 1e-6, 1e-15}, {PI - 1e-9, 1e-15}, {PI - 1e-12, 1e-15},
 };
 
@@ -422,8 +422,10 @@ START_TEST(sincos_radians_kernel)
     mlr_test_rng_seed(&r, 32);
     for (int i = 0; i < 200000; i++) {
         const double u = mlr_test_rng_uniform(&r);
-        double x = i % 4 == 0 ? ldexp(u, -(int)(mlr_test_rng_u64(&r) % 60))
-                 : i % 4 == 1 ? 8.0 * u : i % 4 == 2 ? 1e4 * u : 0.5 * MLR_SINCOS_LIMIT * u;
+        double x = i % 4 == 0   ? ldexp(u, -(int)(mlr_test_rng_u64(&r) % 60))
+                   : i % 4 == 1 ? 8.0 * u
+                   : i % 4 == 2 ? 1e4 * u
+                                : 0.5 * MLR_SINCOS_LIMIT * u;
         if (i % 5 == 0)
             x = -x;
         double sn, cs;
@@ -593,7 +595,8 @@ START_TEST(to_euler_round_trip)
     for (int n = 0; n < N; n++)
         q[n] = random_unit(&r);
     ck_assert_int_eq(mlr_quat_to_euler_array(q, N, (mlr_euler_order)order, ang, NULL), MLR_OK);
-    ck_assert_int_eq(mlr_quat_from_euler_array(ang, N, (mlr_euler_order)order, back, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_quat_from_euler_array(ang, N, (mlr_euler_order)order, back, NULL),
+                     MLR_OK);
     for (int n = 0; n < N; n++) {
         check_euler_ranges(&ang[3 * n], 0);
         ck_assert_msg(rot_dist(&q[n], &back[n]) < 2e-15, "%s n=%d: %g", order_names[order], n,
@@ -619,9 +622,9 @@ START_TEST(to_euler_gimbal_lock)
     mlr_test_rng r;
     mlr_test_rng_seed(&r, 40 + (uint64_t)order);
     /* the middle angle at and near the poles, in radians and from degrees */
-    static const double middle[] = {PI / 2, -PI / 2, 90.0 * (PI / 180.0), -90.0 * (PI / 180.0),
-                                    PI / 2 - 1e-15, PI / 2 - 1e-12, -PI / 2 + 1e-9,
-                                    PI / 2 - 1e-7, -PI / 2 + 1e-5};
+    static const double middle[] = {
+        PI / 2,         -PI / 2,        90.0 * (PI / 180.0), -90.0 * (PI / 180.0), PI / 2 - 1e-15,
+        PI / 2 - 1e-12, -PI / 2 + 1e-9, PI / 2 - 1e-7,       -PI / 2 + 1e-5};
     for (size_t m = 0; m < MLR_COUNTOF(middle); m++) {
         for (int n = 0; n < 40; n++) {
             double ang[3] = {(2.0 * mlr_test_rng_uniform(&r) - 1.0) * PI, middle[m],
@@ -632,8 +635,8 @@ START_TEST(to_euler_gimbal_lock)
                              MLR_OK);
             ck_assert_int_eq(mlr_quat_to_euler_array(&q, 1, (mlr_euler_order)order, out, NULL),
                              MLR_OK);
-            ck_assert_int_eq(mlr_quat_from_euler_array(out, 1, (mlr_euler_order)order, &back, NULL),
-                             MLR_OK);
+            ck_assert_int_eq(
+                mlr_quat_from_euler_array(out, 1, (mlr_euler_order)order, &back, NULL), MLR_OK);
             check_euler_ranges(out, m < 5);
             ck_assert_msg(rot_dist(&q, &back) < 1e-12, "%s middle %.17g n=%d: %g",
                           order_names[order], middle[m], n, rot_dist(&q, &back));
@@ -653,8 +656,10 @@ START_TEST(to_euler_scale_and_sign_invariant)
             mlr_quat s[2] = {{3.7 * q.w, 3.7 * q.x, 3.7 * q.y, 3.7 * q.z},
                              {-q.w, -q.x, -q.y, -q.z}};
             double a[3], b[6];
-            ck_assert_int_eq(mlr_quat_to_euler_array(&q, 1, (mlr_euler_order)order, a, NULL), MLR_OK);
-            ck_assert_int_eq(mlr_quat_to_euler_array(s, 2, (mlr_euler_order)order, b, NULL), MLR_OK);
+            ck_assert_int_eq(mlr_quat_to_euler_array(&q, 1, (mlr_euler_order)order, a, NULL),
+                             MLR_OK);
+            ck_assert_int_eq(mlr_quat_to_euler_array(s, 2, (mlr_euler_order)order, b, NULL),
+                             MLR_OK);
             for (int k = 0; k < 3; k++) {
                 ck_assert_close(b[k], a[k], 1e-14);
                 /* a wrapped angle near +-pi may come back as the other end */
@@ -769,10 +774,12 @@ START_TEST(bad_input_is_rejected)
                      MLR_E_INVALID_ARG);
     ck_assert_int_eq(mlr_quat_from_euler_array(ang, 2, (mlr_euler_order)-1, out, NULL),
                      MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_quat_from_euler_array(ang, 2, MLR_EULER_XYZ, out, NULL), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_quat_from_euler_array(ang, 2, MLR_EULER_XYZ, out, NULL),
+                     MLR_E_INVALID_ARG);
     ck_assert_close(norm4(&out[0]), 1.0, 1e-15);
     ck_assert(out[1].w == 1);
-    ck_assert_int_eq(mlr_quat_to_euler_array(q, 1, (mlr_euler_order)7, ao, NULL), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_quat_to_euler_array(q, 1, (mlr_euler_order)7, ao, NULL),
+                     MLR_E_INVALID_ARG);
     ck_assert_int_eq(mlr_quat_to_euler_array(q, 3, MLR_EULER_ZXY, ao, NULL), MLR_E_INVALID_ARG);
     for (int k = 3; k < 9; k++)
         ck_assert(ao[k] == 0.0);
@@ -783,7 +790,8 @@ START_TEST(bad_input_is_rejected)
     ck_assert_int_eq(mlr_quat_exp_array(NULL, 1, out, NULL), MLR_E_INVALID_ARG);
     ck_assert_int_eq(mlr_quat_log_array(q, 1, NULL, NULL), MLR_E_INVALID_ARG);
     ck_assert_int_eq(mlr_quat_slerp_array(&a, &b, NULL, 1, out, NULL), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_quat_from_euler_array(NULL, 1, MLR_EULER_XYZ, out, NULL), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_quat_from_euler_array(NULL, 1, MLR_EULER_XYZ, out, NULL),
+                     MLR_E_INVALID_ARG);
     ck_assert_int_eq(mlr_quat_to_euler_array(q, 1, MLR_EULER_XYZ, NULL, NULL), MLR_E_INVALID_ARG);
     ck_assert_int_eq(mlr_quat_normalize_array(NULL, 0, NULL, NULL), MLR_OK);
     ck_assert_int_eq(mlr_quat_exp_array(NULL, 0, NULL, NULL), MLR_OK);
@@ -806,10 +814,18 @@ static void sincosd_reference(double x, long double *s, long double *c)
     const long double t = r * (3.14159265358979323846264338327950288L / 180.0L);
     const long double sr = sinl(t), cr = cosl(t);
     switch (q) {
-    case 0: *s = sr, *c = cr; break;
-    case 1: *s = cr, *c = -sr; break;
-    case 2: *s = -sr, *c = -cr; break;
-    default: *s = -cr, *c = sr; break;
+    case 0:
+        *s = sr, *c = cr;
+        break;
+    case 1:
+        *s = cr, *c = -sr;
+        break;
+    case 2:
+        *s = -sr, *c = -cr;
+        break;
+    default:
+        *s = -cr, *c = sr;
+        break;
     }
 }
 
@@ -823,10 +839,33 @@ static double ulp_of(long double v)
  * neighbours, zeros, the reduction's limits, huge values). */
 static size_t sincosd_angles(mlr_test_rng *r, size_t batch, double *x, size_t n)
 {
-    static const double edges[] = {0.0, -0.0, 45.0, -45.0, 90.0, -90.0, 135.0, 180.0, -180.0,
-                                   270.0, 360.0, -360.0, 720.0, 22.5, 67.5, 1e-300, -4.9e-324,
-                                   0x1p50, -0x1p50, 0x1p50 - 1.0, 0x1p52 + 2.0, 1e15, 1e17, 1e300,
-                                   -DBL_MAX, 89.999999999999986, 45.000000000000007};
+    static const double edges[] = {0.0,
+                                   -0.0,
+                                   45.0,
+                                   -45.0,
+                                   90.0,
+                                   -90.0,
+                                   135.0,
+                                   180.0,
+                                   -180.0,
+                                   270.0,
+                                   360.0,
+                                   -360.0,
+                                   720.0,
+                                   22.5,
+                                   67.5,
+                                   1e-300,
+                                   -4.9e-324,
+                                   0x1p50,
+                                   -0x1p50,
+                                   0x1p50 - 1.0,
+                                   0x1p52 + 2.0,
+                                   1e15,
+                                   1e17,
+                                   1e300,
+                                   -DBL_MAX,
+                                   89.999999999999986,
+                                   45.000000000000007};
     size_t k = 0;
     if (batch == 0)
         for (; k < MLR_COUNTOF(edges) && k < n; k++)
@@ -834,16 +873,27 @@ static size_t sincosd_angles(mlr_test_rng *r, size_t batch, double *x, size_t n)
     for (; k < n; k++) {
         const double u = mlr_test_rng_uniform(r) - 0.5;
         switch ((batch + k) % 6) {
-        case 0: x[k] = 360.0 * u; break;                                  /* BVH half-angles */
-        case 1: x[k] = 1e6 * u; break;
-        case 2: x[k] = ldexp(u, (int)(mlr_test_rng_u64(r) % 120) - 60); break;
-        case 3: x[k] = 45.0 * (double)((int64_t)(mlr_test_rng_u64(r) % 33) - 16); /* n 45 + tiny */
-                x[k] = nextafter(x[k], (u > 0) ? INFINITY : -INFINITY);
-                if (mlr_test_rng_u64(r) & 1)
-                    x[k] += 1e-9 * u;
-                break;
-        case 4: x[k] = ldexp(u, 30 + (int)(mlr_test_rng_u64(r) % 21)); break; /* to 2^50 */
-        default: x[k] = ldexp(u, 50 + (int)(mlr_test_rng_u64(r) % 900)); break; /* fmod path */
+        case 0:
+            x[k] = 360.0 * u;
+            break;                                  /* BVH half-angles */
+        case 1:
+            x[k] = 1e6 * u;
+            break;
+        case 2:
+            x[k] = ldexp(u, (int)(mlr_test_rng_u64(r) % 120) - 60);
+            break;
+        case 3:
+            x[k] = 45.0 * (double)((int64_t)(mlr_test_rng_u64(r) % 33) - 16); /* n 45 + tiny */
+            x[k] = nextafter(x[k], (u > 0) ? INFINITY : -INFINITY);
+            if (mlr_test_rng_u64(r) & 1)
+                x[k] += 1e-9 * u;
+            break;
+        case 4:
+            x[k] = ldexp(u, 30 + (int)(mlr_test_rng_u64(r) % 21));
+            break; /* to 2^50 */
+        default:
+            x[k] = ldexp(u, 50 + (int)(mlr_test_rng_u64(r) % 900));
+            break; /* fmod path */
         }
     }
     return n;
@@ -888,7 +938,8 @@ START_TEST(sincosd_is_within_two_ulp)
     ck_assert_msg(worst <= tol, "max error %.3f ulp at x = %.17g", worst, worst_x);
     if (getenv("MLR_TEST_VERBOSE"))
         printf("sincosd: max %.3f ulp from the long double reference (x = %.17g), at most %.3g "
-               "from libm for |x| <= 720\n", worst, worst_x, worst_libm);
+               "from libm for |x| <= 720\n",
+               worst, worst_x, worst_libm);
     /* exact values where they exist */
     static const double xs[] = {0.0, 90.0, -90.0, 180.0, 270.0, 360.0, -720.0};
     static const double se[] = {0.0, 1.0, -1.0, 0.0, -1.0, 0.0, 0.0};

@@ -24,7 +24,8 @@ static void dense_reference(size_t N, const double *t, size_t n, unsigned order,
                             double sigma, const double *y, size_t m, double *x, double *var)
 {
     double *A = calloc(N * n, sizeof *A), *L = calloc(n * n, sizeof *L);
-    double *M = calloc(n * n, sizeof *M), *C = calloc(n * n, sizeof *C), *b = malloc(n * sizeof *b);
+    double *M = calloc(n * n, sizeof *M), *C = calloc(n * n, sizeof *C),
+           *b = malloc(n * sizeof *b);
     for (size_t i = 0; i < N; i++) {
         size_t lo = (size_t)floor(t[i]);
         if (lo >= n - 1)
@@ -160,10 +161,9 @@ START_TEST(matches_dense_reference)
     double *ro = malloc(n * 3 * sizeof(double)), *qo = malloc(n * J * 4 * sizeof(double));
     double *to = malloc(n * P * 3 * sizeof(double)), *var = malloc(n * sizeof(double));
     mlr_diag d;
-    mlr_status st = mlr_resample_arrays(N, J, P, root, rot, trans, dense_cases[_i].warped ? t : NULL,
-                                        n, dense_cases[_i].lam, sigma,
-                                        open_end ? MLR_RESAMPLE_OPEN_END : 0, ro, qo, to, var,
-                                        NULL, &d);
+    mlr_status st = mlr_resample_arrays(
+        N, J, P, root, rot, trans, dense_cases[_i].warped ? t : NULL, n, dense_cases[_i].lam,
+        sigma, open_end ? MLR_RESAMPLE_OPEN_END : 0, ro, qo, to, var, NULL, &d);
     ck_assert_msg(st == MLR_OK, "%s: %s", mlr_status_name(st), d.message);
 
     /* reference: all channels in one matrix, quaternions made continuous by the nearest sign
@@ -184,7 +184,8 @@ START_TEST(matches_dense_reference)
         for (size_t j = 0; j < J; j++) {
             const double *q = rot + 4 * (J * i + j);
             const double *qp = i ? y + (i - 1) * m + 3 + 4 * j : q;
-            const double sg = q[0] * qp[0] + q[1] * qp[1] + q[2] * qp[2] + q[3] * qp[3] < 0 ? -1 : 1;
+            const double sg =
+                q[0] * qp[0] + q[1] * qp[1] + q[2] * qp[2] + q[3] * qp[3] < 0 ? -1 : 1;
             for (int k = 0; k < 4; k++)
                 y[i * m + 3 + 4 * j + k] = sg * q[k];
         }
@@ -201,7 +202,8 @@ START_TEST(matches_dense_reference)
                 ck_assert_close(qo[4 * (J * i + j) + k], xr[k] / nr, 1e-9);
         }
         for (size_t c = 0; c < 3 * P; c++)
-            ck_assert_close(to[3 * P * i + c], x[i * m + 3 + 4 * J + c], 1e-9 * (1 + fabs(to[3 * P * i + c])));
+            ck_assert_close(to[3 * P * i + c], x[i * m + 3 + 4 * J + c],
+                            1e-9 * (1 + fabs(to[3 * P * i + c])));
         ck_assert_close(var[i], vr[i], 1e-9 * vr[i]);
     }
     free(root), free(rot), free(trans), free(t), free(ro), free(qo), free(to), free(var);
@@ -237,11 +239,12 @@ START_TEST(exact_rate_frames_lie_at_their_times)
         ck_assert((double)n / rates[r] > dur);
         double *ro = malloc(n * 3 * sizeof(double)), *qo = malloc(n * 4 * sizeof(double));
         for (int method = 0; method < 2; method++) {
-            mlr_status st = method == 0
-                ? mlr_resample_arrays(N, 1, 0, root, rot, NULL, t, n, MLR_RESAMPLE_AUTO, 1.0,
-                                      MLR_RESAMPLE_OPEN_END, ro, qo, NULL, NULL, NULL, &d)
-                : mlr_slerp_resample_arrays(N, 1, 0, root, rot, NULL, t, n,
-                                            MLR_RESAMPLE_OPEN_END, ro, qo, NULL, &d);
+            mlr_status st =
+                method == 0
+                    ? mlr_resample_arrays(N, 1, 0, root, rot, NULL, t, n, MLR_RESAMPLE_AUTO, 1.0,
+                                          MLR_RESAMPLE_OPEN_END, ro, qo, NULL, NULL, NULL, &d)
+                    : mlr_slerp_resample_arrays(N, 1, 0, root, rot, NULL, t, n,
+                                                MLR_RESAMPLE_OPEN_END, ro, qo, NULL, &d);
             ck_assert_msg(st == MLR_OK, "%s", d.message);
             for (size_t k = 0; k < n; k++) {
                 const double time = (double)k / rates[r];
@@ -276,14 +279,17 @@ START_TEST(cuts_of_one_clip_agree_at_the_same_times)
         for (int c = 0; c < 3; c++) {
             mlr_diag d;
             const size_t b = start[c];
-            ck_assert_int_eq(mlr_resample_rate_map(len[c], fps_in, fps_out, 0, t, &n[c], &d), MLR_OK);
-            mlr_status st = method == 0
-                ? mlr_resample_arrays(len[c], J, P, root + 3 * b, rot + 4 * J * b, trans + 3 * P * b, t,
-                                      n[c], MLR_RESAMPLE_AUTO, 1.0, MLR_RESAMPLE_OPEN_END, ro[c],
-                                      qo[c], to[c], NULL, NULL, &d)
-                : mlr_slerp_resample_arrays(len[c], J, P, root + 3 * b, rot + 4 * J * b,
-                                            trans + 3 * P * b, t, n[c], MLR_RESAMPLE_OPEN_END,
-                                            ro[c], qo[c], to[c], &d);
+            ck_assert_int_eq(mlr_resample_rate_map(len[c], fps_in, fps_out, 0, t, &n[c], &d),
+                             MLR_OK);
+            mlr_status st =
+                method == 0
+                    ? mlr_resample_arrays(len[c], J, P, root + 3 * b, rot + 4 * J * b,
+                                          trans + 3 * P * b, t, n[c], MLR_RESAMPLE_AUTO, 1.0,
+                                          MLR_RESAMPLE_OPEN_END, ro[c], qo[c], to[c], NULL, NULL,
+                                          &d)
+                    : mlr_slerp_resample_arrays(len[c], J, P, root + 3 * b, rot + 4 * J * b,
+                                                trans + 3 * P * b, t, n[c], MLR_RESAMPLE_OPEN_END,
+                                                ro[c], qo[c], to[c], &d);
             ck_assert_msg(st == MLR_OK, "%s", d.message);
         }
         ck_assert_uint_eq(n[0], (N - 1) / 4 + 1);
@@ -328,14 +334,16 @@ START_TEST(identity_with_weak_smoothing)
         t[i] = (double)i;
     for (int use_t = 0; use_t < 2; use_t++) {
         ck_assert_int_eq(mlr_resample_arrays(N, J, P, root, rot, trans, use_t ? t : NULL, N, 1e-4,
-                                             1.0, 0, ro, qo, to, NULL, NULL, NULL), MLR_OK);
+                                             1.0, 0, ro, qo, to, NULL, NULL, NULL),
+                         MLR_OK);
         for (size_t i = 0; i < N * 3; i++)
             ck_assert_close(ro[i], root[i], 1e-6);
         for (size_t i = 0; i < N * P * 3; i++)
             ck_assert_close(to[i], trans[i], 1e-6);
         for (size_t i = 0; i < N * J; i++) {
             const double *a = rot + 4 * i, *b = qo + 4 * i;
-            ck_assert_close(fabs(a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]), 1.0, 1e-9);
+            ck_assert_close(fabs(a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]), 1.0,
+                            1e-9);
         }
     }
 }
@@ -398,8 +406,8 @@ START_TEST(predictive_sign_follows_a_growing_spin)
     spin_keys(steps, MLR_COUNTOF(steps), r);
     for (size_t k = 0; k < n; k++) {
         const size_t np = k < 3 ? k : 3;
-        mlr_quat_continue_sign((const mlr_quat *)(r + 4 * (k - np)), np, (const mlr_quat *)(r + 4 * k),
-                               (mlr_quat *)(r + 4 * k));
+        mlr_quat_continue_sign((const mlr_quat *)(r + 4 * (k - np)), np,
+                               (const mlr_quat *)(r + 4 * k), (mlr_quat *)(r + 4 * k));
     }
     ck_assert_int_eq(memcmp(r, q, sizeof q), 0);
 }
@@ -430,7 +438,8 @@ START_TEST(predictive_sign_limits)
     }
     mlr_quat_make_continuous_predictive((mlr_quat *)g, 12, 1);
     for (size_t i = 6; i < 12; i++)
-        ck_assert_close(g[4 * i] * g[0] + g[4 * i + 1] * g[1] + g[4 * i + 2] * g[2] + g[4 * i + 3] * g[3],
+        ck_assert_close(g[4 * i] * g[0] + g[4 * i + 1] * g[1] + g[4 * i + 2] * g[2] +
+                            g[4 * i + 3] * g[3],
                         1.0, 1e-12);
 
     /* dense random rotations: identical to the nearest-sign rule */
@@ -471,13 +480,16 @@ START_TEST(sparse_spin_keys_lgs_versus_slerp)
     double keys[8 * 4], root[8 * 3] = {0}, ro[40 * 3];
     double lgs[40 * 4], slerp[40 * 4], nearest[40 * 4], var[40];
     spin_keys(steps, 7, keys);
-    ck_assert_int_eq(mlr_resample_arrays(N, 1, 0, root, keys, NULL, NULL, n, MLR_RESAMPLE_AUTO, 1.0,
-                                         0, ro, lgs, NULL, var, NULL, NULL), MLR_OK);
-    ck_assert_int_eq(mlr_slerp_resample_arrays(N, 1, 0, root, keys, NULL, NULL, n, 0, ro, slerp,
-                                               NULL, NULL), MLR_OK);
-    ck_assert_int_eq(mlr_resample_arrays(N, 1, 0, root, keys, NULL, NULL, n, MLR_RESAMPLE_AUTO, 1.0,
-                                         MLR_RESAMPLE_NEAREST_SIGN, ro, nearest, NULL, NULL, NULL,
-                                         NULL), MLR_OK);
+    ck_assert_int_eq(mlr_resample_arrays(N, 1, 0, root, keys, NULL, NULL, n, MLR_RESAMPLE_AUTO,
+                                         1.0, 0, ro, lgs, NULL, var, NULL, NULL),
+                     MLR_OK);
+    ck_assert_int_eq(
+        mlr_slerp_resample_arrays(N, 1, 0, root, keys, NULL, NULL, n, 0, ro, slerp, NULL, NULL),
+        MLR_OK);
+    ck_assert_int_eq(mlr_resample_arrays(N, 1, 0, root, keys, NULL, NULL, n, MLR_RESAMPLE_AUTO,
+                                         1.0, MLR_RESAMPLE_NEAREST_SIGN, ro, nearest, NULL, NULL,
+                                         NULL, NULL),
+                     MLR_OK);
     double a_l[40], a_s[40], a_n[40];
     unwrap_spin(lgs, n, 4, a_l);
     unwrap_spin(slerp, n, 4, a_s);
@@ -528,7 +540,8 @@ START_TEST(variance_grows_where_sparse)
     for (size_t i = 0; i < N * 3; i++)
         root[i] = sin(0.1 * (double)i);
     ck_assert_int_eq(mlr_resample_arrays(N, 0, 0, root, NULL, NULL, t, n, 1.0, 0.1, 0, ro, NULL,
-                                         NULL, var, NULL, NULL), MLR_OK);
+                                         NULL, var, NULL, NULL),
+                     MLR_OK);
     double dense_max = 0.0, sparse_max = 0.0;
     for (size_t j = 0; j < n; j++) {
         if (j >= 3 && j <= 7)
@@ -570,9 +583,11 @@ START_TEST(downsampling_does_not_alias)
         }
         const double in = rms(root, 3, 0, N);
         ck_assert_int_eq(mlr_resample_arrays(N, 0, 0, root, NULL, NULL, NULL, n, MLR_RESAMPLE_AUTO,
-                                             1.0, 0, ro, NULL, NULL, NULL, NULL, NULL), MLR_OK);
+                                             1.0, 0, ro, NULL, NULL, NULL, NULL, NULL),
+                         MLR_OK);
         const double out = rms(ro, 3, 8, n - 8), naive = rms(root, 12, 2, n - 2);
-        fprintf(stderr, "alias %g Hz: LGS %.4f, decimation %.4f\n", freqs[k], out / in, naive / in);
+        fprintf(stderr, "alias %g Hz: LGS %.4f, decimation %.4f\n", freqs[k], out / in,
+                naive / in);
         ck_assert_msg(out < 0.06 * in, "%g Hz: %.3f of the amplitude aliased", freqs[k], out / in);
         if (fmod(freqs[k], 30.0) != 0.0 && freqs[k] != 45.0)
             ck_assert_msg(naive > 0.5 * in, "%g Hz: decimation kept %.3f", freqs[k], naive / in);
@@ -580,8 +595,9 @@ START_TEST(downsampling_does_not_alias)
     /* passband: 2 Hz keeps > 97 % of its amplitude */
     for (size_t i = 0; i < N; i++)
         root[3 * i] = sin(2 * PI * 2.0 * (double)i / 120.0);
-    ck_assert_int_eq(mlr_resample_arrays(N, 0, 0, root, NULL, NULL, NULL, n, MLR_RESAMPLE_AUTO, 1.0,
-                                         0, ro, NULL, NULL, NULL, NULL, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_resample_arrays(N, 0, 0, root, NULL, NULL, NULL, n, MLR_RESAMPLE_AUTO,
+                                         1.0, 0, ro, NULL, NULL, NULL, NULL, NULL),
+                     MLR_OK);
     ck_assert(rms(ro, 3, 8, n - 8) > 0.97 * rms(root, 3, 32, N - 32));
 }
 END_TEST
@@ -590,8 +606,10 @@ END_TEST
 /* Real clips: 120 -> 30 -> 120 fps round trips, MPJPE                                        */
 
 static const char *const clips_120[] = {
-    "cmu_01_01_playground_jumps.bvh", "cmu_131_01_mj_style_walk.bvh",
-    "cmu_10_01_soccer_kick.bvh",      "cmu_60_10_salsa_dance.bvh",
+    "cmu_01_01_playground_jumps.bvh",
+    "cmu_131_01_mj_style_walk.bvh",
+    "cmu_10_01_soccer_kick.bvh",
+    "cmu_60_10_salsa_dance.bvh",
 };
 
 static double mpjpe(size_t N, size_t J, const double *a, const double *b)
@@ -621,7 +639,8 @@ START_TEST(real_clip_round_trip_120_30_120)
     mlr_diag d;
     ck_assert_int_eq(mlr_bvh_read_file(path, NULL, &full, &d), MLR_OK);
     /* skip the converter's T-pose and blend frames */
-    ck_assert_int_eq(mlr_motion_copy_frames(full, 6, mlr_motion_n_frames(full) - 6, &m, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_motion_copy_frames(full, 6, mlr_motion_n_frames(full) - 6, &m, NULL),
+                     MLR_OK);
     mlr_motion_destroy(full);
     const size_t N = mlr_motion_n_frames(m), J = mlr_motion_n_joints(m), P = mlr_motion_n_trans(m);
     const double fps = 1.0 / mlr_motion_frame_time(m);
@@ -634,7 +653,8 @@ START_TEST(real_clip_round_trip_120_30_120)
     double *rb = malloc(N * 3 * sizeof(double)), *qb = malloc(N * J * 4 * sizeof(double));
     double *pb = malloc((N * P * 3 + 1) * sizeof(double));
     double *w0 = malloc(N * J * 3 * sizeof(double)), *w1 = malloc(N * J * 3 * sizeof(double));
-    const double *root = mlr_motion_root_pos(m), *rot = mlr_motion_rot(m), *tr = mlr_motion_trans(m);
+    const double *root = mlr_motion_root_pos(m), *rot = mlr_motion_rot(m),
+                 *tr = mlr_motion_trans(m);
     ck_assert_int_eq(mlr_fk_motion(m, 0, N, w0, NULL, NULL), MLR_OK);
     double ymin = INFINITY, ymax = -INFINITY;
     for (size_t j = 0; j < J; j++) {
@@ -653,18 +673,22 @@ START_TEST(real_clip_round_trip_120_30_120)
             st = mlr_resample_arrays(n30, J, P, r30, q30, p30, NULL, N, MLR_RESAMPLE_AUTO, 1.0, 0,
                                      rb, qb, pb, NULL, NULL, &d);
         } else {
-            st = mlr_slerp_resample_arrays(N, J, P, root, rot, tr, NULL, n30, 0, r30, q30, p30, &d);
+            st =
+                mlr_slerp_resample_arrays(N, J, P, root, rot, tr, NULL, n30, 0, r30, q30, p30, &d);
             ck_assert_int_eq(st, MLR_OK);
             st = mlr_slerp_resample_arrays(n30, J, P, r30, q30, p30, NULL, N, 0, rb, qb, pb, &d);
         }
         ck_assert_msg(st == MLR_OK, "%s", d.message);
         ck_assert_int_eq(mlr_fk_arrays(N, J, mlr_motion_parents(m), mlr_motion_offsets(m), rb, qb,
-                                       P, mlr_motion_trans_joints(m), pb, w1, NULL, NULL, NULL), MLR_OK);
+                                       P, mlr_motion_trans_joints(m), pb, w1, NULL, NULL, NULL),
+                         MLR_OK);
         err[method] = mpjpe(N, J, w0, w1);
     }
-    fprintf(stderr, "%s: %zu -> %zu -> %zu frames, height %.3f: MPJPE LGS %.4f (%.3f %%), "
-            "SLERP %.4f (%.3f %%)\n", clips_120[_i], N, n30, N, height, err[0],
-            100 * err[0] / height, err[1], 100 * err[1] / height);
+    fprintf(stderr,
+            "%s: %zu -> %zu -> %zu frames, height %.3f: MPJPE LGS %.4f (%.3f %%), "
+            "SLERP %.4f (%.3f %%)\n",
+            clips_120[_i], N, n30, N, height, err[0], 100 * err[0] / height, err[1],
+            100 * err[1] / height);
     ck_assert_msg(err[0] < 0.01 * height, "MPJPE %g of height %g", err[0], height);
     free(r30), free(q30), free(p30), free(rb), free(qb), free(pb), free(w0), free(w1);
     mlr_motion_destroy(m);
@@ -696,7 +720,8 @@ START_TEST(timewarp_slows_large_motion_with_easing)
     ck_assert(speed[50] > 10 * speed[5]);
     ck_assert_close(speed[5], 0.01, 1e-3);
     mlr_diag d;
-    ck_assert_int_eq(mlr_timewarp_map(N, 1, root, rot, NULL, 0.0, 1.0, 8.0, n, 0, t, NULL, &d), MLR_OK);
+    ck_assert_int_eq(mlr_timewarp_map(N, 1, root, rot, NULL, 0.0, 1.0, 8.0, n, 0, t, NULL, &d),
+                     MLR_OK);
     ck_assert(t[0] == 0.0 && t[N - 1] == (double)(n - 1));
     ck_assert_int_eq(mlr_timemap_validate(t, N, n, 0, NULL), MLR_OK);
     double smax = 0.0, dmax = 0.0;
@@ -711,14 +736,17 @@ START_TEST(timewarp_slows_large_motion_with_easing)
     ck_assert(s_burst > 0.9 * smax);
     ck_assert_msg(dmax < 0.15 * smax, "the rate jumps by %g (max %g): no easing", dmax, smax);
     /* strength 0: uniform */
-    ck_assert_int_eq(mlr_timewarp_map(N, 1, root, rot, NULL, 0.0, 0.0, 8.0, n, 0, t, NULL, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_timewarp_map(N, 1, root, rot, NULL, 0.0, 0.0, 8.0, n, 0, t, NULL, NULL),
+                     MLR_OK);
     for (size_t i = 0; i < N; i++)
         ck_assert_close(t[i], (double)i * (double)(n - 1) / (double)(N - 1), 1e-9);
     /* and the warp drives the resampler */
-    ck_assert_int_eq(mlr_timewarp_map(N, 1, root, rot, NULL, 0.0, 1.5, 8.0, n, 0, t, NULL, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_timewarp_map(N, 1, root, rot, NULL, 0.0, 1.5, 8.0, n, 0, t, NULL, NULL),
+                     MLR_OK);
     double ro[130 * 3], qo[130 * 4];
     ck_assert_int_eq(mlr_resample_arrays(N, 1, 0, root, rot, NULL, t, n, MLR_RESAMPLE_AUTO, 1.0, 0,
-                                         ro, qo, NULL, NULL, NULL, NULL), MLR_OK);
+                                         ro, qo, NULL, NULL, NULL, NULL),
+                     MLR_OK);
 }
 END_TEST
 
@@ -732,15 +760,18 @@ START_TEST(timewarp_real_clip)
     snprintf(path, sizeof path, "%s/cmu_10_01_soccer_kick.bvh", dir);
     mlr_motion *full = NULL, *m = NULL;
     ck_assert_int_eq(mlr_bvh_read_file(path, NULL, &full, NULL), MLR_OK);
-    ck_assert_int_eq(mlr_motion_copy_frames(full, 6, mlr_motion_n_frames(full) - 6, &m, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_motion_copy_frames(full, 6, mlr_motion_n_frames(full) - 6, &m, NULL),
+                     MLR_OK);
     mlr_motion_destroy(full);
     const size_t N = mlr_motion_n_frames(m), J = mlr_motion_n_joints(m), n = N * 5 / 4;
     double *t = malloc(N * sizeof(double)), *speed = malloc(N * sizeof(double));
     ck_assert_int_eq(mlr_timewarp_speed(N, J, mlr_motion_root_pos(m), mlr_motion_rot(m), NULL,
-                                        0.05, speed, NULL), MLR_OK);
+                                        0.05, speed, NULL),
+                     MLR_OK);
     mlr_diag d;
-    ck_assert_msg(mlr_timewarp_map(N, J, mlr_motion_root_pos(m), mlr_motion_rot(m), NULL, 0.05, 1.0,
-                                   30.0, n, 0, t, NULL, &d) == MLR_OK, "%s", d.message);
+    ck_assert_msg(mlr_timewarp_map(N, J, mlr_motion_root_pos(m), mlr_motion_rot(m), NULL, 0.05,
+                                   1.0, 30.0, n, 0, t, NULL, &d) == MLR_OK,
+                  "%s", d.message);
     ck_assert_int_eq(mlr_timemap_validate(t, N, n, 0, NULL), MLR_OK);
     size_t fast = 1, slow = 1;
     for (size_t i = 1; i < N; i++) {
@@ -749,7 +780,8 @@ START_TEST(timewarp_real_clip)
         if (speed[i] > speed[fast])
             fast = i;
     }
-    ck_assert_msg(labs((long)slow - (long)fast) < 60, "slowest at %zu, fastest motion at %zu", slow, fast);
+    ck_assert_msg(labs((long)slow - (long)fast) < 60, "slowest at %zu, fastest motion at %zu",
+                  slow, fast);
     free(t), free(speed);
     mlr_motion_destroy(m);
 }
@@ -765,11 +797,11 @@ START_TEST(bad_input_is_rejected_with_a_reason)
         axis_angle(0, 1, 0, 0.1 * (double)i, rot + 4 * i);
     size_t n;
     mlr_diag d;
-#define BAD(call)                                                                                  \
-    do {                                                                                           \
-        d.message[0] = 0;                                                                          \
-        ck_assert_int_eq((call), MLR_E_INVALID_ARG);                                               \
-        ck_assert_msg(d.message[0] != 0, "no reason for %s", #call);                               \
+#define BAD(call)                                                    \
+    do {                                                             \
+        d.message[0] = 0;                                            \
+        ck_assert_int_eq((call), MLR_E_INVALID_ARG);                 \
+        ck_assert_msg(d.message[0] != 0, "no reason for %s", #call); \
     } while (0)
     BAD(mlr_resample_n_out(6, 0.0, 30.0, 0, &n, &d));
     BAD(mlr_resample_n_out(6, 120.0, -30.0, 0, &n, &d));
@@ -778,7 +810,8 @@ START_TEST(bad_input_is_rejected_with_a_reason)
     BAD(mlr_resample_n_out(1, 120.0, 30.0, 0, &n, &d));
     BAD(mlr_resample_n_out(6, 1.0, 101.0, 0, &n, &d));
     BAD(mlr_resample_n_out(6, 120.0, 30.0, 8u, &n, &d));
-    ck_assert_int_eq(mlr_resample_n_out(6, 1.0, 101.0, MLR_RESAMPLE_ALLOW_EXTREME, &n, &d), MLR_OK);
+    ck_assert_int_eq(mlr_resample_n_out(6, 1.0, 101.0, MLR_RESAMPLE_ALLOW_EXTREME, &n, &d),
+                     MLR_OK);
     ck_assert_uint_eq(n, 506);
     {
         /* the exact grid: an input shorter than one output frame, NULL outputs, open ends */
@@ -800,28 +833,38 @@ START_TEST(bad_input_is_rejected_with_a_reason)
         ck_assert_ptr_nonnull(strstr(d.message, "open end"));
         BAD(mlr_timemap_validate(tt, 6, 4, MLR_RESAMPLE_OPEN_END, &d));
         /* a value a hair below an integer counts as that integer */
-        ck_assert_int_eq(mlr_resample_n_out(301, 3.0, 1.0 - 1e-13, MLR_RESAMPLE_OPEN_END,
-                                            &n, &d), MLR_OK);
+        ck_assert_int_eq(mlr_resample_n_out(301, 3.0, 1.0 - 1e-13, MLR_RESAMPLE_OPEN_END, &n, &d),
+                         MLR_OK);
         ck_assert_uint_eq(n, 101);
     }
     ck_assert_int_eq(mlr_resample_n_out(6, 1.0, 100.0, 0, &n, &d), MLR_OK);
     /* fewer than 2 frames, factor, NULLs, lam, sigma */
-    BAD(mlr_resample_arrays(1, 1, 0, root, rot, NULL, NULL, 5, -1, 1, 0, ro, qo, NULL, NULL, NULL, &d));
-    BAD(mlr_resample_arrays(6, 1, 0, root, rot, NULL, NULL, 1, -1, 1, 0, ro, qo, NULL, NULL, NULL, &d));
-    BAD(mlr_resample_arrays(6, 1, 0, root, rot, NULL, NULL, 502, -1, 1, 0, ro, qo, NULL, NULL, NULL, &d));
+    BAD(mlr_resample_arrays(1, 1, 0, root, rot, NULL, NULL, 5, -1, 1, 0, ro, qo, NULL, NULL, NULL,
+                            &d));
+    BAD(mlr_resample_arrays(6, 1, 0, root, rot, NULL, NULL, 1, -1, 1, 0, ro, qo, NULL, NULL, NULL,
+                            &d));
+    BAD(mlr_resample_arrays(6, 1, 0, root, rot, NULL, NULL, 502, -1, 1, 0, ro, qo, NULL, NULL,
+                            NULL, &d));
     BAD(mlr_slerp_resample_arrays(6, 1, 0, root, rot, NULL, NULL, 502, 0, ro, qo, NULL, &d));
-    BAD(mlr_resample_arrays(6, 1, 0, NULL, rot, NULL, NULL, 10, -1, 1, 0, ro, qo, NULL, NULL, NULL, &d));
-    BAD(mlr_resample_arrays(6, 1, 0, root, NULL, NULL, NULL, 10, -1, 1, 0, ro, qo, NULL, NULL, NULL, &d));
-    BAD(mlr_resample_arrays(6, 1, 2, root, rot, NULL, NULL, 10, -1, 1, 0, ro, qo, NULL, NULL, NULL, &d));
-    BAD(mlr_resample_arrays(6, 1, 0, root, rot, NULL, NULL, 10, NAN, 1, 0, ro, qo, NULL, NULL, NULL, &d));
-    BAD(mlr_resample_arrays(6, 1, 0, root, rot, NULL, NULL, 10, -1, 0, 0, ro, qo, NULL, NULL, NULL, &d));
-    BAD(mlr_resample_arrays(6, 1, 0, root, rot, NULL, NULL, 10, -1, 1, 8u, ro, qo, NULL, NULL, NULL, &d));
+    BAD(mlr_resample_arrays(6, 1, 0, NULL, rot, NULL, NULL, 10, -1, 1, 0, ro, qo, NULL, NULL, NULL,
+                            &d));
+    BAD(mlr_resample_arrays(6, 1, 0, root, NULL, NULL, NULL, 10, -1, 1, 0, ro, qo, NULL, NULL,
+                            NULL, &d));
+    BAD(mlr_resample_arrays(6, 1, 2, root, rot, NULL, NULL, 10, -1, 1, 0, ro, qo, NULL, NULL, NULL,
+                            &d));
+    BAD(mlr_resample_arrays(6, 1, 0, root, rot, NULL, NULL, 10, NAN, 1, 0, ro, qo, NULL, NULL,
+                            NULL, &d));
+    BAD(mlr_resample_arrays(6, 1, 0, root, rot, NULL, NULL, 10, -1, 0, 0, ro, qo, NULL, NULL, NULL,
+                            &d));
+    BAD(mlr_resample_arrays(6, 1, 0, root, rot, NULL, NULL, 10, -1, 1, 8u, ro, qo, NULL, NULL,
+                            NULL, &d));
     /* time maps: non-monotone, not finite, ends not in place, local factor */
     double tm[6];
     memcpy(tm, t, sizeof t);
     tm[3] = 1.5;
     BAD(mlr_timemap_validate(tm, 6, 6, 0, &d));
-    BAD(mlr_resample_arrays(6, 1, 0, root, rot, NULL, tm, 6, -1, 1, 0, ro, qo, NULL, NULL, NULL, &d));
+    BAD(mlr_resample_arrays(6, 1, 0, root, rot, NULL, tm, 6, -1, 1, 0, ro, qo, NULL, NULL, NULL,
+                            &d));
     BAD(mlr_slerp_resample_arrays(6, 1, 0, root, rot, NULL, tm, 6, 0, ro, qo, NULL, &d));
     tm[3] = 2.0; /* a tie */
     BAD(mlr_timemap_validate(tm, 6, 6, 0, &d));
@@ -838,14 +881,17 @@ START_TEST(bad_input_is_rejected_with_a_reason)
     ck_assert_int_eq(mlr_timemap_validate(big, 3, 151, MLR_RESAMPLE_ALLOW_EXTREME, &d), MLR_OK);
     /* NaN and zero quaternions in the data */
     root[7] = NAN;
-    BAD(mlr_resample_arrays(6, 1, 0, root, rot, NULL, NULL, 10, -1, 1, 0, ro, qo, NULL, NULL, NULL, &d));
+    BAD(mlr_resample_arrays(6, 1, 0, root, rot, NULL, NULL, 10, -1, 1, 0, ro, qo, NULL, NULL, NULL,
+                            &d));
     BAD(mlr_slerp_resample_arrays(6, 1, 0, root, rot, NULL, NULL, 10, 0, ro, qo, NULL, &d));
     BAD(mlr_timewarp_speed(6, 1, root, rot, NULL, 1.0, ro, &d));
     root[7] = 0.0;
     rot[9] = INFINITY;
-    BAD(mlr_resample_arrays(6, 1, 0, root, rot, NULL, NULL, 10, -1, 1, 0, ro, qo, NULL, NULL, NULL, &d));
+    BAD(mlr_resample_arrays(6, 1, 0, root, rot, NULL, NULL, 10, -1, 1, 0, ro, qo, NULL, NULL, NULL,
+                            &d));
     rot[8] = rot[9] = rot[10] = rot[11] = 0.0;
-    BAD(mlr_resample_arrays(6, 1, 0, root, rot, NULL, NULL, 10, -1, 1, 0, ro, qo, NULL, NULL, NULL, &d));
+    BAD(mlr_resample_arrays(6, 1, 0, root, rot, NULL, NULL, 10, -1, 1, 0, ro, qo, NULL, NULL, NULL,
+                            &d));
     BAD(mlr_slerp_resample_arrays(6, 1, 0, root, rot, NULL, NULL, 10, 0, ro, qo, NULL, &d));
     axis_angle(0, 1, 0, 0.2, rot + 8);
     /* time warp parameters */
@@ -859,7 +905,8 @@ START_TEST(bad_input_is_rejected_with_a_reason)
     BAD(mlr_timewarp_map(6, 1, root, rot, NULL, 0.0, 1.0, 3.0, 1, 0, tw, NULL, &d));
     BAD(mlr_timewarp_map(6, 1, root, rot, NULL, 0.0, 1.0, 3.0, 700, 0, tw, NULL, &d));
     BAD(mlr_timewarp_map(1, 1, root, rot, NULL, 0.0, 1.0, 3.0, 8, 0, tw, NULL, &d));
-    ck_assert_int_eq(mlr_timewarp_map(6, 1, root, rot, NULL, 0.0, 1.0, 3.0, 8, 0, tw, NULL, &d), MLR_OK);
+    ck_assert_int_eq(mlr_timewarp_map(6, 1, root, rot, NULL, 0.0, 1.0, 3.0, 8, 0, tw, NULL, &d),
+                     MLR_OK);
 #undef BAD
 }
 END_TEST
@@ -881,13 +928,14 @@ START_TEST(every_allocation_failure_is_clean)
             mlr_test_allocator_init(&ta, fail_at);
             mlr_status s;
             if (which == 0)
-                s = mlr_resample_arrays(N, J, P, root, rot, trans, NULL, 90, MLR_RESAMPLE_AUTO, 1.0, 0,
-                                        ro, qo, to, var, &ta.base, NULL);
+                s = mlr_resample_arrays(N, J, P, root, rot, trans, NULL, 90, MLR_RESAMPLE_AUTO,
+                                        1.0, 0, ro, qo, to, var, &ta.base, NULL);
             else if (which == 1)
-                s = mlr_resample_arrays(N, J, P, root, rot, trans, NULL, N, MLR_RESAMPLE_AUTO, 1.0, 0,
-                                        ro, qo, to, var, &ta.base, NULL);
+                s = mlr_resample_arrays(N, J, P, root, rot, trans, NULL, N, MLR_RESAMPLE_AUTO, 1.0,
+                                        0, ro, qo, to, var, &ta.base, NULL);
             else if (which == 2)
-                s = mlr_timewarp_map(N, J, root, rot, NULL, 0.1, 1.0, 5.0, 60, 0, t, &ta.base, NULL);
+                s = mlr_timewarp_map(N, J, root, rot, NULL, 0.1, 1.0, 5.0, 60, 0, t, &ta.base,
+                                     NULL);
             else
                 s = mlr_resample_arrays(N, J, P, root, rot, trans, tr, n_rate, MLR_RESAMPLE_AUTO,
                                         1.0, MLR_RESAMPLE_OPEN_END, ro, qo, to, var, &ta.base,

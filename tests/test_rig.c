@@ -125,8 +125,8 @@ static mlr_rig trans_rig(void)
 
 /* N frames: root static at (1, 2, 3); B and C at their OFFSETs, plus moves given per joint
  * (amplitude along x, as a sine). The rest pose's size is 15 (B at y = 15). */
-static void trans_frames(size_t n, double root_move, double b_move, double c_move,
-                         double *root, double *trans)
+static void trans_frames(size_t n, double root_move, double b_move, double c_move, double *root,
+                         double *trans)
 {
     for (size_t f = 0; f < n; f++) {
         const double w = sin(0.3 * (double)f);
@@ -220,23 +220,28 @@ START_TEST(body_translation_joint_bad_input)
     mlr_rig r = trans_rig();
     mlr_diag d;
     int32_t j = 5;
-    ck_assert_int_eq(mlr_rig_body_translation_joint(&r, N, root, trans, NULL, &d), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_rig_body_translation_joint(&r, N, root, trans, NULL, &d),
+                     MLR_E_INVALID_ARG);
     ck_assert_ptr_nonnull(strstr(d.message, "joint is NULL"));
-    ck_assert_int_eq(mlr_rig_body_translation_joint(NULL, N, root, trans, &j, &d), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_rig_body_translation_joint(NULL, N, root, trans, &j, &d),
+                     MLR_E_INVALID_ARG);
     ck_assert_int_eq(j, 0);
     ck_assert_int_eq(mlr_rig_body_translation_joint(&r, N, root, NULL, &j, &d), MLR_E_INVALID_ARG);
     ck_assert_ptr_nonnull(strstr(d.message, "trans is NULL"));
     int32_t bad_trans[2] = {3, 2};
     mlr_rig rb = r;
     rb.trans_joints = bad_trans;
-    ck_assert_int_eq(mlr_rig_body_translation_joint(&rb, N, root, trans, &j, &d), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_rig_body_translation_joint(&rb, N, root, trans, &j, &d),
+                     MLR_E_INVALID_ARG);
     ck_assert_ptr_nonnull(strstr(d.message, "trans_joints"));
     trans[6 * 4 + 4] = NAN;
-    ck_assert_int_eq(mlr_rig_body_translation_joint(&r, N, root, trans, &j, &d), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_rig_body_translation_joint(&r, N, root, trans, &j, &d),
+                     MLR_E_INVALID_ARG);
     ck_assert_ptr_nonnull(strstr(d.message, "frame 4"));
     trans[6 * 4 + 4] = 8.0;
     root[3 * 7 + 1] = INFINITY;
-    ck_assert_int_eq(mlr_rig_body_translation_joint(&r, N, root, trans, &j, &d), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_rig_body_translation_joint(&r, N, root, trans, &j, &d),
+                     MLR_E_INVALID_ARG);
     ck_assert_ptr_nonnull(strstr(d.message, "root translation at frame 7"));
 }
 END_TEST
@@ -248,11 +253,12 @@ START_TEST(body_translation_joint_real_clips)
     const char *dir = mlr_test_mocap_dir();
     if (!dir)
         return;
-    const struct { const char *file; const char *joint; } cases[] = {
-        {"bandai1_walk_happy_001.bvh", "Hips"},
-        {"cmu_131_01_mj_style_walk.bvh", "Hips"},
-        {"cmu_10_01_soccer_kick.bvh", "hip"},
-        {"lafan1_clip_a.bvh", "Hips"},
+    const struct {
+        const char *file;
+        const char *joint;
+    } cases[] = {
+        {"bandai1_walk_happy_001.bvh", "Hips"},    {"cmu_131_01_mj_style_walk.bvh", "Hips"},
+        {"cmu_10_01_soccer_kick.bvh", "hip"},      {"lafan1_clip_a.bvh", "Hips"},
         {"ai4a_dog_D1_008_KAN01_002.bvh", "Hips"},
     };
     for (size_t i = 0; i < MLR_COUNTOF(cases); i++) {
@@ -269,12 +275,19 @@ START_TEST(body_translation_joint_real_clips)
         const char **nm = malloc(J * sizeof *nm);
         for (size_t k = 0; k < J; k++)
             nm[k] = mlr_motion_joint_name(m, k);
-        mlr_rig r = {J, mlr_motion_parents(m), mlr_motion_offsets(m), nm, mlr_motion_n_trans(m),
-                     mlr_motion_trans_joints(m), mlr_motion_n_end_sites(m),
-                     mlr_motion_end_site_parents(m), mlr_motion_end_site_offsets(m)};
+        mlr_rig r = {J,
+                     mlr_motion_parents(m),
+                     mlr_motion_offsets(m),
+                     nm,
+                     mlr_motion_n_trans(m),
+                     mlr_motion_trans_joints(m),
+                     mlr_motion_n_end_sites(m),
+                     mlr_motion_end_site_parents(m),
+                     mlr_motion_end_site_offsets(m)};
         int32_t j = -1;
-        ck_assert_msg(mlr_rig_body_translation_joint(&r, mlr_motion_n_frames(m), mlr_motion_root_pos(m),
-                                                     mlr_motion_trans(m), &j, &d) == MLR_OK,
+        ck_assert_msg(mlr_rig_body_translation_joint(&r, mlr_motion_n_frames(m),
+                                                     mlr_motion_root_pos(m), mlr_motion_trans(m),
+                                                     &j, &d) == MLR_OK,
                       "%s: %s", cases[i].file, d.message);
         ck_assert_msg(strcmp(nm[j], cases[i].joint) == 0, "%s: body joint %s, expected %s",
                       cases[i].file, nm[j], cases[i].joint);
@@ -305,7 +318,4 @@ static Suite *rig_suite(void)
     return s;
 }
 
-int main(void)
-{
-    return mlr_test_run(rig_suite());
-}
+int main(void) { return mlr_test_run(rig_suite()); }

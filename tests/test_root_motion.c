@@ -72,14 +72,14 @@ START_TEST(the_track_is_the_ground_path_and_the_heading_of_a_known_figure)
     const mlr_rig r = figure();
     enum { N = 400 };
     const double fps = 50.0;
-    static double root[3 * N], rot[4 * FJ * N], theta[N], tp[3 * N], th[N], ip[3 * N],
-        irot[4 * N];
+    static double root[3 * N], rot[4 * FJ * N], theta[N], tp[3 * N], th[N], ip[3 * N], irot[4 * N];
     circle(N, fps, root, rot, theta);
     const mlr_root_motion_option none[1] = {{MLR_ROOT_MOTION_OPT_SMOOTH, 0.0}};
     mlr_diag d;
     ck_assert_msg(mlr_root_motion_extract(&r, fps, MLR_AXIS_Y, MLR_ROOT_MOTION_GROUND, N, root,
-                                          rot, NULL, none, 1, tp, th, ip, irot, 4, NULL, &d) ==
-                      MLR_OK, "%s", d.message);
+                                          rot, NULL, none, 1, tp, th, ip, irot, 4, NULL,
+                                          &d) == MLR_OK,
+                  "%s", d.message);
     for (size_t n = 0; n < N; n++) {
         /* the heading: the yaw, unwrapped over three turns, whatever the bow */
         ck_assert_close(th[n], theta[n], 1e-12);
@@ -96,23 +96,25 @@ START_TEST(the_track_is_the_ground_path_and_the_heading_of_a_known_figure)
     /* the inverse gives the input back to rounding, in place too */
     static double back[3 * N], brot[4 * FJ * N];
     memcpy(brot, rot, sizeof brot);
-    ck_assert_int_eq(mlr_root_motion_apply(MLR_AXIS_Y, N, tp, th, ip, irot, 4, back, brot,
-                                           4 * FJ, &d), MLR_OK);
+    ck_assert_int_eq(
+        mlr_root_motion_apply(MLR_AXIS_Y, N, tp, th, ip, irot, 4, back, brot, 4 * FJ, &d), MLR_OK);
     ck_assert_double_le(track_error(back, root, 3 * N), 1e-12 * 600.0);
     ck_assert_double_le(track_error(brot, rot, 4 * FJ * N), 1e-15 * 8.0);
     static double root2[3 * N], rot2[4 * FJ * N];
     memcpy(root2, root, sizeof root2);
     memcpy(rot2, rot, sizeof rot2);
-    ck_assert_int_eq(mlr_root_motion_extract(&r, fps, MLR_AXIS_Y, MLR_ROOT_MOTION_GROUND, N,
-                                             root2, rot2, NULL, none, 1, tp, th, root2, rot2,
-                                             4 * FJ, NULL, &d), MLR_OK);
+    ck_assert_int_eq(mlr_root_motion_extract(&r, fps, MLR_AXIS_Y, MLR_ROOT_MOTION_GROUND, N, root2,
+                                             rot2, NULL, none, 1, tp, th, root2, rot2, 4 * FJ,
+                                             NULL, &d),
+                     MLR_OK);
     for (size_t n = 0; n < N; n++) {
         ck_assert_mem_eq(root2 + 3 * n, ip + 3 * n, 3 * sizeof(double));
         ck_assert_mem_eq(rot2 + 4 * FJ * n, irot + 4 * n, 4 * sizeof(double));
         ck_assert_mem_eq(rot2 + 4 * FJ * n + 4, rot + 4 * FJ * n + 4, 12 * sizeof(double));
     }
-    ck_assert_int_eq(mlr_root_motion_apply(MLR_AXIS_Y, N, tp, th, root2, rot2, 4 * FJ, root2,
-                                           rot2, 4 * FJ, &d), MLR_OK);
+    ck_assert_int_eq(
+        mlr_root_motion_apply(MLR_AXIS_Y, N, tp, th, root2, rot2, 4 * FJ, root2, rot2, 4 * FJ, &d),
+        MLR_OK);
     ck_assert_double_le(track_error(root2, root, 3 * N), 1e-12 * 600.0);
     ck_assert_double_le(track_error(rot2, rot, 4 * FJ * N), 1e-15 * 8.0);
 }
@@ -123,17 +125,18 @@ START_TEST(the_smoothing_is_the_lgs_of_the_given_period)
     const mlr_rig r = figure();
     enum { N = 60 };
     const double fps = 30.0, smooth = 0.5;
-    static double root[3 * N], rot[4 * FJ * N], theta[N], raw_p[3 * N], raw_h[N], tp[3 * N],
-        th[N], ip[3 * N], irot[4 * N];
+    static double root[3 * N], rot[4 * FJ * N], theta[N], raw_p[3 * N], raw_h[N], tp[3 * N], th[N],
+        ip[3 * N], irot[4 * N];
     circle(N, fps, root, rot, theta);
     const mlr_root_motion_option none[1] = {{MLR_ROOT_MOTION_OPT_SMOOTH, 0.0}};
     const mlr_root_motion_option some[1] = {{MLR_ROOT_MOTION_OPT_SMOOTH, smooth}};
-    ck_assert_int_eq(mlr_root_motion_extract(&r, fps, MLR_AXIS_Y, MLR_ROOT_MOTION_GROUND, N,
-                                             root, rot, NULL, none, 1, raw_p, raw_h, ip, irot,
-                                             4, NULL, NULL), MLR_OK);
-    ck_assert_int_eq(mlr_root_motion_extract(&r, fps, MLR_AXIS_Y, MLR_ROOT_MOTION_GROUND, N,
-                                             root, rot, NULL, some, 1, tp, th, ip, irot, 4, NULL,
-                                             NULL), MLR_OK);
+    ck_assert_int_eq(mlr_root_motion_extract(&r, fps, MLR_AXIS_Y, MLR_ROOT_MOTION_GROUND, N, root,
+                                             rot, NULL, none, 1, raw_p, raw_h, ip, irot, 4, NULL,
+                                             NULL),
+                     MLR_OK);
+    ck_assert_int_eq(mlr_root_motion_extract(&r, fps, MLR_AXIS_Y, MLR_ROOT_MOTION_GROUND, N, root,
+                                             rot, NULL, some, 1, tp, th, ip, irot, 4, NULL, NULL),
+                     MLR_OK);
     /* dense reference: (I + s D2^T D2) x = y, s from the half-power period */
     const double g = 2.0 * sin(PI / (smooth * fps)), s = 1.0 / (g * g * g * g);
     static double A[N * N], y[N * 3];
@@ -157,9 +160,10 @@ START_TEST(the_smoothing_is_the_lgs_of_the_given_period)
     }
     /* the default is 1 s: a different (smoother) track */
     double tp1[3 * N], th1[N];
-    ck_assert_int_eq(mlr_root_motion_extract(&r, fps, MLR_AXIS_Y, MLR_ROOT_MOTION_GROUND, N,
-                                             root, rot, NULL, NULL, 0, tp1, th1, ip, irot, 4,
-                                             NULL, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_root_motion_extract(&r, fps, MLR_AXIS_Y, MLR_ROOT_MOTION_GROUND, N, root,
+                                             rot, NULL, NULL, 0, tp1, th1, ip, irot, 4, NULL,
+                                             NULL),
+                     MLR_OK);
     ck_assert_double_gt(track_error(tp1, tp, 3 * N), 1e-3);
 }
 END_TEST
@@ -183,12 +187,13 @@ START_TEST(a_z_up_clip_gives_the_same_heading_and_the_turned_track)
     }
     static double tp[3 * N], th[N], ip[3 * N], irot[4 * N];
     static double ztp[3 * N], zth[N], zip[3 * N], zirot[4 * N];
-    ck_assert_int_eq(mlr_root_motion_extract(&r, fps, MLR_AXIS_Y, MLR_ROOT_MOTION_GROUND, N,
-                                             root, rot, NULL, NULL, 0, tp, th, ip, irot, 4, NULL,
-                                             NULL), MLR_OK);
-    ck_assert_int_eq(mlr_root_motion_extract(&r, fps, MLR_AXIS_Z, MLR_ROOT_MOTION_GROUND, N,
-                                             zroot, zrot, NULL, NULL, 0, ztp, zth, zip, zirot, 4,
-                                             NULL, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_root_motion_extract(&r, fps, MLR_AXIS_Y, MLR_ROOT_MOTION_GROUND, N, root,
+                                             rot, NULL, NULL, 0, tp, th, ip, irot, 4, NULL, NULL),
+                     MLR_OK);
+    ck_assert_int_eq(mlr_root_motion_extract(&r, fps, MLR_AXIS_Z, MLR_ROOT_MOTION_GROUND, N, zroot,
+                                             zrot, NULL, NULL, 0, ztp, zth, zip, zirot, 4, NULL,
+                                             NULL),
+                     MLR_OK);
     for (size_t n = 0; n < N; n++) {
         double c[3];
         ck_assert_close(zth[n], th[n], 1e-10);
@@ -211,13 +216,13 @@ START_TEST(the_position_mode_leaves_the_rotations_alone)
 {
     const mlr_rig r = figure();
     enum { N = 100 };
-    static double root[3 * N], rot[4 * FJ * N], theta[N], tp[3 * N], th[N], ip[3 * N],
-        irot[4 * N];
+    static double root[3 * N], rot[4 * FJ * N], theta[N], tp[3 * N], th[N], ip[3 * N], irot[4 * N];
     circle(N, 30.0, root, rot, theta);
     mlr_diag d;
     ck_assert_int_eq(mlr_root_motion_extract(&r, 30.0, MLR_AXIS_Y, MLR_ROOT_MOTION_POSITION, N,
                                              root, rot, NULL, NULL, 0, tp, th, ip, irot, 4, NULL,
-                                             &d), MLR_OK);
+                                             &d),
+                     MLR_OK);
     for (size_t n = 0; n < N; n++) {
         ck_assert_double_eq(th[n], 0.0);
         ck_assert_mem_eq(irot + 4 * n, rot + 4 * FJ * n, 4 * sizeof(double));
@@ -228,9 +233,9 @@ START_TEST(the_position_mode_leaves_the_rotations_alone)
     /* the track follows another joint when asked: the Spine's path is the root's */
     const mlr_root_motion_option spine[2] = {{MLR_ROOT_MOTION_OPT_BODY_JOINT, 3},
                                              {MLR_ROOT_MOTION_OPT_SMOOTH, 0}};
-    ck_assert_int_eq(mlr_root_motion_extract(&r, 30.0, MLR_AXIS_Y, MLR_ROOT_MOTION_GROUND, N,
-                                             root, rot, NULL, spine, 2, tp, th, ip, irot, 4,
-                                             NULL, &d), MLR_OK);
+    ck_assert_int_eq(mlr_root_motion_extract(&r, 30.0, MLR_AXIS_Y, MLR_ROOT_MOTION_GROUND, N, root,
+                                             rot, NULL, spine, 2, tp, th, ip, irot, 4, NULL, &d),
+                     MLR_OK);
     /* bowed 80 degrees: the spine leans 10 sin(80 deg) ahead of the hips */
     ck_assert_close(hypot(tp[3 * 50] - root[3 * 50], tp[3 * 50 + 2] - root[3 * 50 + 2]),
                     10.0 * sin(80.0 * PI / 180.0 * pow(sin(PI * 50.0 / 99.0), 2.0)), 1e-9);
@@ -249,13 +254,13 @@ START_TEST(bad_input_says_why)
 {
     const mlr_rig r = figure();
     enum { N = 20 };
-    static double root[3 * N], rot[4 * FJ * N], theta[N], tp[3 * N], th[N], ip[3 * N],
-        irot[4 * N];
+    static double root[3 * N], rot[4 * FJ * N], theta[N], tp[3 * N], th[N], ip[3 * N], irot[4 * N];
     circle(N, 30.0, root, rot, theta);
     mlr_diag d;
 #define EX(fps, up, mode, n, opts, n_opts, ld, text)                                            \
-    expect(mlr_root_motion_extract(&r, fps, up, mode, n, root, rot, NULL, opts, n_opts, tp, th,  \
-                                   ip, irot, ld, NULL, &d), &d, text)
+    expect(mlr_root_motion_extract(&r, fps, up, mode, n, root, rot, NULL, opts, n_opts, tp, th, \
+                                   ip, irot, ld, NULL, &d),                                     \
+           &d, text)
     EX(0.0, 1, 0, N, NULL, 0, 4, "fps 0 is not finite and > 0");
     EX(NAN, 1, 0, N, NULL, 0, 4, "fps");
     EX(30.0, 3, 0, N, NULL, 0, 4, "up axis 3");
@@ -279,24 +284,28 @@ START_TEST(bad_input_says_why)
     EX(30.0, 1, 0, N, NULL, 0, 4, "rot[5][2] is not finite");
     rot[4 * (FJ * 5 + 2) + 3] = 0.0;
 #undef EX
-    expect(mlr_root_motion_extract(&r, 30.0, 1, 0, N, root, rot, NULL, NULL, 0, NULL, th, ip,
-                                   irot, 4, NULL, &d), &d, "an output is NULL");
-    expect(mlr_root_motion_extract(&r, 30.0, 1, 0, N, NULL, rot, NULL, NULL, 0, tp, th, ip,
-                                   irot, 4, NULL, &d), &d, "root_pos, rot or trans is NULL");
+    expect(mlr_root_motion_extract(&r, 30.0, 1, 0, N, root, rot, NULL, NULL, 0, NULL, th, ip, irot,
+                                   4, NULL, &d),
+           &d, "an output is NULL");
+    expect(mlr_root_motion_extract(&r, 30.0, 1, 0, N, NULL, rot, NULL, NULL, 0, tp, th, ip, irot,
+                                   4, NULL, &d),
+           &d, "root_pos, rot or trans is NULL");
     static const int32_t trans_joints[1] = {3};
     mlr_rig rt = r;
     rt.n_trans = 1;
     rt.trans_joints = trans_joints;
-    expect(mlr_root_motion_extract(&rt, 30.0, 1, 0, N, root, rot, NULL, NULL, 0, tp, th, ip,
-                                   irot, 4, NULL, &d), &d, "root_pos, rot or trans is NULL");
-    expect(mlr_root_motion_extract(NULL, 30.0, 1, 0, N, root, rot, NULL, NULL, 0, tp, th, ip,
-                                   irot, 4, NULL, &d), &d, "rig");
+    expect(mlr_root_motion_extract(&rt, 30.0, 1, 0, N, root, rot, NULL, NULL, 0, tp, th, ip, irot,
+                                   4, NULL, &d),
+           &d, "root_pos, rot or trans is NULL");
+    expect(mlr_root_motion_extract(NULL, 30.0, 1, 0, N, root, rot, NULL, NULL, 0, tp, th, ip, irot,
+                                   4, NULL, &d),
+           &d, "rig");
 
-    ck_assert_int_eq(mlr_root_motion_extract(&r, 30.0, 1, 0, N, root, rot, NULL, NULL, 0, tp,
-                                             th, ip, irot, 4, NULL, &d), MLR_OK);
+    ck_assert_int_eq(mlr_root_motion_extract(&r, 30.0, 1, 0, N, root, rot, NULL, NULL, 0, tp, th,
+                                             ip, irot, 4, NULL, &d),
+                     MLR_OK);
     double back[3 * N], brot[4 * N];
-    expect(mlr_root_motion_apply(-1, N, tp, th, ip, irot, 4, back, brot, 4, &d), &d,
-           "up axis -1");
+    expect(mlr_root_motion_apply(-1, N, tp, th, ip, irot, 4, back, brot, 4, &d), &d, "up axis -1");
     expect(mlr_root_motion_apply(1, N, tp, th, ip, irot, 3, back, brot, 4, &d), &d,
            "rotation strides 3 and 4 must be >= 4");
     expect(mlr_root_motion_apply(1, N, NULL, th, ip, irot, 4, back, brot, 4, &d), &d,
@@ -317,18 +326,19 @@ START_TEST(every_allocation_failure_is_no_memory_without_leaks)
 {
     const mlr_rig r = figure();
     enum { N = 50 };
-    static double root[3 * N], rot[4 * FJ * N], theta[N], tp[3 * N], th[N], ip[3 * N],
-        irot[4 * N], rtp[3 * N], rth[N];
+    static double root[3 * N], rot[4 * FJ * N], theta[N], tp[3 * N], th[N], ip[3 * N], irot[4 * N],
+        rtp[3 * N], rth[N];
     circle(N, 30.0, root, rot, theta);
-    ck_assert_int_eq(mlr_root_motion_extract(&r, 30.0, 1, 0, N, root, rot, NULL, NULL, 0, rtp,
-                                             rth, ip, irot, 4, NULL, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_root_motion_extract(&r, 30.0, 1, 0, N, root, rot, NULL, NULL, 0, rtp, rth,
+                                             ip, irot, 4, NULL, NULL),
+                     MLR_OK);
     size_t fails = 0;
     for (size_t at = 0;; at++) {
         mlr_test_allocator ta;
         mlr_test_allocator_init(&ta, at);
         mlr_diag d;
-        const mlr_status st = mlr_root_motion_extract(&r, 30.0, 1, 0, N, root, rot, NULL, NULL,
-                                                      0, tp, th, ip, irot, 4, &ta.base, &d);
+        const mlr_status st = mlr_root_motion_extract(&r, 30.0, 1, 0, N, root, rot, NULL, NULL, 0,
+                                                      tp, th, ip, irot, 4, &ta.base, &d);
         ck_assert_uint_eq(ta.live_blocks, 0);
         ck_assert_uint_eq(ta.live_bytes, 0);
         if (st == MLR_OK) {
@@ -379,9 +389,9 @@ START_TEST(every_shared_clip_round_trips_with_a_continuous_heading)
         memcpy(irot, rot, 4 * N * J * 8);
         mlr_diag d;
         const double t0 = now();
-        ck_assert_msg(mlr_root_motion_extract(&c.rig, c.fps, MLR_AXIS_Y, MLR_ROOT_MOTION_GROUND,
-                                              N, root, rot, trans, NULL, 0, tp, th, ip, irot,
-                                              4 * J, NULL, &d) == MLR_OK,
+        ck_assert_msg(mlr_root_motion_extract(&c.rig, c.fps, MLR_AXIS_Y, MLR_ROOT_MOTION_GROUND, N,
+                                              root, rot, trans, NULL, 0, tp, th, ip, irot, 4 * J,
+                                              NULL, &d) == MLR_OK,
                       "%s: %s", clips[k].file, d.message);
         const double t1 = now();
         /* the in-place world positions, then the inverse */
@@ -389,8 +399,7 @@ START_TEST(every_shared_clip_round_trips_with_a_continuous_heading)
                                        c.rig.trans_joints, trans, pos_b, NULL, NULL, NULL),
                          MLR_OK);
         int32_t b;
-        ck_assert_int_eq(mlr_rig_body_translation_joint(&c.rig, N, root, trans, &b, NULL),
-                         MLR_OK);
+        ck_assert_int_eq(mlr_rig_body_translation_joint(&c.rig, N, root, trans, &b, NULL), MLR_OK);
         double max_in_place = 0.0, path = 0.0, max_step = 0.0;
         for (size_t n = 0; n < N; n++) {
             const double *p = pos_b + 3 * (J * n + (size_t)b);
@@ -398,26 +407,30 @@ START_TEST(every_shared_clip_round_trips_with_a_continuous_heading)
             if (n)
                 max_step = fmax(max_step, fabs(th[n] - th[n - 1]));
         }
-        ck_assert_int_eq(mlr_root_motion_apply(MLR_AXIS_Y, N, tp, th, ip, irot, 4 * J, back, irot,
-                                               4 * J, &d), MLR_OK);
+        ck_assert_int_eq(
+            mlr_root_motion_apply(MLR_AXIS_Y, N, tp, th, ip, irot, 4 * J, back, irot, 4 * J, &d),
+            MLR_OK);
         ck_assert_int_eq(mlr_fk_arrays(N, J, c.rig.parents, c.rig.offsets, root, rot,
                                        c.rig.n_trans, c.rig.trans_joints, trans, pos, NULL, NULL,
-                                       NULL), MLR_OK);
+                                       NULL),
+                         MLR_OK);
         for (size_t n = 1; n < N; n++) {
             const double *p = pos + 3 * (J * n + (size_t)b), *q = p - 3 * J;
             path += hypot(p[0] - q[0], p[2] - q[2]);
         }
         ck_assert_int_eq(mlr_fk_arrays(N, J, c.rig.parents, c.rig.offsets, back, irot,
-                                       c.rig.n_trans, c.rig.trans_joints, trans, pos_b, NULL,
-                                       NULL, NULL), MLR_OK);
-        double height;
-        ck_assert_int_eq(mlr_rig_body_height(N, J, pos, MLR_AXIS_Y, &height, NULL, NULL),
+                                       c.rig.n_trans, c.rig.trans_joints, trans, pos_b, NULL, NULL,
+                                       NULL),
                          MLR_OK);
+        double height;
+        ck_assert_int_eq(mlr_rig_body_height(N, J, pos, MLR_AXIS_Y, &height, NULL, NULL), MLR_OK);
         const double err = track_error(pos, pos_b, 3 * N * J);
-        fprintf(stderr, "test_root_motion: %s: round trip %.2g body heights; in-place body "
+        fprintf(stderr,
+                "test_root_motion: %s: round trip %.2g body heights; in-place body "
                 "within %.3f body heights of the origin, path %.1f; heading steps <= %.2f deg; "
-                "%.3f ms per 1000 frames\n", clips[k].file, err / height, max_in_place / height,
-                path / height, max_step * 180.0 / PI, (t1 - t0) * 1e6 / (double)N);
+                "%.3f ms per 1000 frames\n",
+                clips[k].file, err / height, max_in_place / height, path / height,
+                max_step * 180.0 / PI, (t1 - t0) * 1e6 / (double)N);
         ck_assert_msg(err <= 1e-9 * height, "%s: %g", clips[k].file, err / height);
         ck_assert_msg(max_step < 10.0 * PI / 180.0, "%s: heading step %g", clips[k].file,
                       max_step);

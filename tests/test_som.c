@@ -115,8 +115,7 @@ START_TEST(batch_epoch_matches_dense_update)
 }
 END_TEST
 
-static void train_copy(int mode, size_t threads, const double *x, size_t n, size_t d,
-                       double *out)
+static void train_copy(int mode, size_t threads, const double *x, size_t n, size_t d, double *out)
 {
     mlr_som *s = NULL;
     ck_assert_int_eq(mlr_som_create(8, 11, d, NULL, &s, NULL), MLR_OK);

@@ -44,9 +44,8 @@ static void dense_smooth(size_t n, double s, const double *y, size_t m, double *
 }
 
 static const char *const clip_files[] = {
-    "cmu_01_01_playground_jumps.bvh", "cmu_131_01_mj_style_walk.bvh",
-    "cmu_10_01_soccer_kick.bvh",      "cmu_60_10_salsa_dance.bvh",
-    "cmu_02_03_run_jog_25fps.bvh",    "lafan1_clip_a.bvh",
+    "cmu_01_01_playground_jumps.bvh", "cmu_131_01_mj_style_walk.bvh",  "cmu_10_01_soccer_kick.bvh",
+    "cmu_60_10_salsa_dance.bvh",      "cmu_02_03_run_jog_25fps.bvh",   "lafan1_clip_a.bvh",
     "bandai1_walk_happy_001.bvh",     "ai4a_dog_D1_008_KAN01_002.bvh",
 };
 
@@ -116,8 +115,8 @@ static void normalize_rows(const clip *c, double *x)
 static void offline(const clip *c, double lam, double sigma, double *x)
 {
     mlr_lgs *g = NULL;
-    ck_assert_int_ge(mlr_lgs_create(c->N, 2, lam, sigma, NULL, c->N, MLR_LGS_BANDED, NULL, &g,
-                                    NULL), 0);
+    ck_assert_int_ge(
+        mlr_lgs_create(c->N, 2, lam, sigma, NULL, c->N, MLR_LGS_BANDED, NULL, &g, NULL), 0);
     ck_assert_int_eq(mlr_lgs_solve(g, c->ya, c->m, c->m, x, c->m, NULL), MLR_OK);
     mlr_lgs_destroy(g);
     normalize_rows(c, x);
@@ -174,7 +173,8 @@ START_TEST(outputs_equal_dense_prefix)
         ck_assert_uint_eq(mlr_stream_frame_size(st), m);
         for (size_t p = 1; p <= n; p++) {
             size_t ready = 9;
-            ck_assert_int_eq(mlr_stream_push(st, y + (p - 1) * m, m, out, m, &ready, NULL), MLR_OK);
+            ck_assert_int_eq(mlr_stream_push(st, y + (p - 1) * m, m, out, m, &ready, NULL),
+                             MLR_OK);
             ck_assert_uint_eq(ready, p > lag);
             ck_assert_uint_eq(mlr_stream_pending(st), p > lag ? lag : p);
             if (!ready)
@@ -195,7 +195,8 @@ START_TEST(outputs_equal_dense_prefix)
             mlr_stream_reset(st);
             for (size_t f = 0; f < p; f++) {
                 size_t ready;
-                ck_assert_int_eq(mlr_stream_push(st, y + f * m, m, out + f * m, m, &ready, NULL), MLR_OK);
+                ck_assert_int_eq(mlr_stream_push(st, y + f * m, m, out + f * m, m, &ready, NULL),
+                                 MLR_OK);
             }
             if (p > lag)
                 continue;
@@ -371,8 +372,8 @@ START_TEST(signs_follow_predictive_rule)
     mlr_quat_make_continuous(qn, N, J);
     size_t differ = 0;
     for (size_t k = 0; k < N * J; k++)
-        differ += qp[k].w * qn[k].w + qp[k].x * qn[k].x + qp[k].y * qn[k].y + qp[k].z * qn[k].z <
-                  0.0;
+        differ +=
+            qp[k].w * qn[k].w + qp[k].x * qn[k].x + qp[k].y * qn[k].y + qp[k].z * qn[k].z < 0.0;
     ck_assert_uint_gt(differ, N / 4); /* the rules disagree here: the test tells them apart */
     memcpy(c.ya, c.y, N * m * sizeof(double));
     for (size_t f = 0; f < N; f++)
@@ -413,8 +414,9 @@ START_TEST(layers_match_offline_composition)
     offline(&c, lam_b, sigma_b, xb);
     mlr_stream *plain = NULL, *st = NULL;
     ck_assert_int_eq(mlr_stream_create(J, 1, c.P, lam, sigma, 25, NULL, &plain, NULL), MLR_OK);
-    ck_assert_int_eq(mlr_stream_create_layered(J, 1, c.P, lam, sigma, lam_b, sigma_b, 25, NULL,
-                                               &st, NULL), MLR_OK);
+    ck_assert_int_eq(
+        mlr_stream_create_layered(J, 1, c.P, lam, sigma, lam_b, sigma_b, 25, NULL, &st, NULL),
+        MLR_OK);
     stream_all(plain, c.y, N, m, xp);
     stream_all(st, c.y, N, m, x);
     ck_assert_int_eq(memcmp(x, xp, N * m * sizeof(double)), 0);
@@ -424,8 +426,9 @@ START_TEST(layers_match_offline_composition)
     double *alpha = malloc(J * sizeof(double));
     const double a_list[] = {0.0, 1.7, 0.4};
     for (size_t t = 0; t < MLR_COUNTOF(a_list); t++) {
-        ck_assert_int_eq(mlr_stream_create_layered(J, 1, c.P, lam, sigma, lam_b, sigma_b, N, NULL,
-                                                   &st, NULL), MLR_OK);
+        ck_assert_int_eq(
+            mlr_stream_create_layered(J, 1, c.P, lam, sigma, lam_b, sigma_b, N, NULL, &st, NULL),
+            MLR_OK);
         for (size_t j = 0; j < J; j++)
             alpha[j] = j % 2 ? a_list[t] : 1.0; /* every other joint modulated */
         ck_assert_int_eq(mlr_stream_set_alpha(st, a_list[t], alpha, J, NULL), MLR_OK);
@@ -452,8 +455,9 @@ START_TEST(layers_match_offline_composition)
                 double dot = want.w * q->w + want.x * q->x + want.y * q->y + want.z * q->z;
                 ck_assert_close(fabs(dot), 1.0, 1e-12);
                 if (a_list[t] == 0.0 && j % 2)
-                    ck_assert_close(fabs(qb->w * q->w + qb->x * q->x + qb->y * q->y +
-                                         qb->z * q->z), 1.0, 1e-12);
+                    ck_assert_close(
+                        fabs(qb->w * q->w + qb->x * q->x + qb->y * q->y + qb->z * q->z), 1.0,
+                        1e-12);
             }
         }
     }
@@ -478,7 +482,8 @@ START_TEST(no_allocation_after_create)
         mlr_stream *st = NULL;
         if (layered)
             ck_assert_int_eq(mlr_stream_create_layered(c.J, 1, c.P, 3.0, 1.0, 30.0, 1.0, 30,
-                                                       &ta.base, &st, NULL), MLR_OK);
+                                                       &ta.base, &st, NULL),
+                             MLR_OK);
         else
             ck_assert_int_eq(mlr_stream_create(c.J, 1, c.P, 3.0, 1.0, 30, &ta.base, &st, NULL),
                              MLR_OK);
@@ -507,9 +512,9 @@ START_TEST(every_allocation_failure_is_clean)
             mlr_test_allocator ta;
             mlr_test_allocator_init(&ta, fail_at);
             mlr_stream *st = NULL;
-            mlr_status s = layered ? mlr_stream_create_layered(31, 1, 0, 1, 1, 5, 1, 10, &ta.base,
-                                                               &st, NULL)
-                                   : mlr_stream_create(31, 1, 0, 1, 1, 10, &ta.base, &st, NULL);
+            mlr_status s =
+                layered ? mlr_stream_create_layered(31, 1, 0, 1, 1, 5, 1, 10, &ta.base, &st, NULL)
+                        : mlr_stream_create(31, 1, 0, 1, 1, 10, &ta.base, &st, NULL);
             mlr_stream_destroy(st);
             ck_assert_uint_eq(ta.live_blocks, 0);
             if (s == MLR_OK)
@@ -548,7 +553,8 @@ START_TEST(non_finite_frame_rejected)
             ck_assert_uint_eq(mlr_stream_n_pushed(st), before);
             ck_assert_uint_eq(mlr_stream_pending(st), pend);
         }
-        ck_assert_int_eq(mlr_stream_push(st, c.y + f * m, m, x2 + done * m, m, &ready, NULL), MLR_OK);
+        ck_assert_int_eq(mlr_stream_push(st, c.y + f * m, m, x2 + done * m, m, &ready, NULL),
+                         MLR_OK);
         done += ready;
     }
     size_t w;

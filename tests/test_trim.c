@@ -18,9 +18,9 @@ static mlr_status clip_lead(const mlr_test_clip *c, size_t begin, mlr_trim_lead 
     const double *trans = mlr_motion_trans(c->m);
     const size_t P = c->rig.n_trans;
     mlr_diag d;
-    mlr_status st = mlr_trim_lead_in(&c->rig, c->n - begin, root + 3 * begin,
-                                     rot + 4 * c->j * begin, P ? trans + 3 * P * begin : NULL,
-                                     MLR_AXIS_Y, out, NULL, &d);
+    mlr_status st =
+        mlr_trim_lead_in(&c->rig, c->n - begin, root + 3 * begin, rot + 4 * c->j * begin,
+                         P ? trans + 3 * P * begin : NULL, MLR_AXIS_Y, out, NULL, &d);
     ck_assert_msg(st == MLR_OK, "%s", d.message);
     return st;
 }
@@ -48,9 +48,10 @@ START_TEST(the_cmu_t_poses_are_trimmed_and_the_clean_clips_are_not)
         loaded++;
         mlr_trim_lead lead;
         clip_lead(&c, 0, &lead);
-        fprintf(stderr, "test_trim: %s: lead-in %zu frames (held %zu), frame 0 at %.3g median "
-                "steps from the motion\n", clips[k].file, lead.n_frames, lead.n_held,
-                lead.distance);
+        fprintf(stderr,
+                "test_trim: %s: lead-in %zu frames (held %zu), frame 0 at %.3g median "
+                "steps from the motion\n",
+                clips[k].file, lead.n_frames, lead.n_held, lead.distance);
         ck_assert_msg(lead.n_frames >= clips[k].lo && lead.n_frames <= clips[k].hi,
                       "%s: %zu frames", clips[k].file, lead.n_frames);
         if (clips[k].hi == 0) {
@@ -79,9 +80,9 @@ END_TEST
  * rotations), two feet */
 enum { SJ = 11 };
 static const int32_t s_parents[SJ] = {-1, 0, 1, 1, 1, 0, 0, 3, 4, 5, 6};
-static const double s_offsets[3 * SJ] = {0, 0, 0,  0, 0.3, 0,  0, 0.3, 0,  0.2, 0.2, 0,
-                                         -0.2, 0.2, 0,  0.1, -0.1, 0,  -0.1, -0.1, 0,
-                                         0.55, 0, 0,  -0.55, 0, 0,  0, -0.85, 0,  0, -0.85, 0};
+static const double s_offsets[3 * SJ] = {
+    0, 0,    0,    0, 0.3,  0, 0, 0.3,   0, 0.2, 0.2, 0,     -0.2, 0.2, 0,     0.1, -0.1,
+    0, -0.1, -0.1, 0, 0.55, 0, 0, -0.55, 0, 0,   0,   -0.85, 0,    0,   -0.85, 0};
 
 static void axis_angle(double *q, double x, double y, double z, double angle)
 {
@@ -160,8 +161,8 @@ static mlr_trim_lead figure_lead(const figure *w, const double *offsets, int up)
     mlr_rig r = {SJ, s_parents, offsets, NULL, 0, NULL, 0, NULL, NULL};
     mlr_trim_lead lead;
     mlr_diag d;
-    ck_assert_msg(mlr_trim_lead_in(&r, w->n, w->root, w->rot, NULL, up, &lead, NULL, &d) ==
-                  MLR_OK, "%s", d.message);
+    ck_assert_msg(mlr_trim_lead_in(&r, w->n, w->root, w->rot, NULL, up, &lead, NULL, &d) == MLR_OK,
+                  "%s", d.message);
     return lead;
 }
 
@@ -274,8 +275,8 @@ START_TEST(clips_without_a_lead_in_give_zero)
         root1[3 * i] = root1[3 * i + 1] = root1[3 * i + 2] = (double)i;
     }
     mlr_trim_lead lead;
-    ck_assert_int_eq(mlr_trim_lead_in(&one, 20, root1, rot1, NULL, MLR_AXIS_Y, &lead, NULL,
-                                      NULL), MLR_OK);
+    ck_assert_int_eq(mlr_trim_lead_in(&one, 20, root1, rot1, NULL, MLR_AXIS_Y, &lead, NULL, NULL),
+                     MLR_OK);
     ck_assert_uint_eq(lead.n_frames, 0);
 }
 END_TEST
@@ -286,39 +287,46 @@ START_TEST(bad_input_says_why)
     mlr_rig r = {SJ, s_parents, s_offsets, NULL, 0, NULL, 0, NULL, NULL};
     mlr_trim_lead lead;
     mlr_diag d;
-    ck_assert_int_eq(mlr_trim_lead_in(&r, fig.n, fig.root, fig.rot, NULL, MLR_AXIS_Y, NULL, NULL,
-                                      &d), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(
+        mlr_trim_lead_in(&r, fig.n, fig.root, fig.rot, NULL, MLR_AXIS_Y, NULL, NULL, &d),
+        MLR_E_INVALID_ARG);
     ck_assert_ptr_nonnull(strstr(d.message, "out is NULL"));
-    ck_assert_int_eq(mlr_trim_lead_in(&r, fig.n, fig.root, NULL, NULL, MLR_AXIS_Y, &lead, NULL,
-                                      &d), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(
+        mlr_trim_lead_in(&r, fig.n, fig.root, NULL, NULL, MLR_AXIS_Y, &lead, NULL, &d),
+        MLR_E_INVALID_ARG);
     ck_assert_ptr_nonnull(strstr(d.message, "rot is NULL"));
     ck_assert_int_eq(mlr_trim_lead_in(&r, fig.n, fig.root, fig.rot, NULL, 3, &lead, NULL, &d),
                      MLR_E_INVALID_ARG);
     ck_assert_ptr_nonnull(strstr(d.message, "up axis 3"));
     ck_assert_int_eq(mlr_trim_lead_in(&r, fig.n, fig.root, fig.rot, NULL, -1, &lead, NULL, &d),
                      MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_trim_lead_in(NULL, fig.n, fig.root, fig.rot, NULL, MLR_AXIS_Y, &lead,
-                                      NULL, &d), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(
+        mlr_trim_lead_in(NULL, fig.n, fig.root, fig.rot, NULL, MLR_AXIS_Y, &lead, NULL, &d),
+        MLR_E_INVALID_ARG);
     static const int32_t bad_parents[SJ] = {-1, 0, 5, 1, 1, 0, 0, 3, 4, 5, 6};
     mlr_rig bad = r;
     bad.parents = bad_parents;
-    ck_assert_int_eq(mlr_trim_lead_in(&bad, fig.n, fig.root, fig.rot, NULL, MLR_AXIS_Y, &lead,
-                                      NULL, &d), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(
+        mlr_trim_lead_in(&bad, fig.n, fig.root, fig.rot, NULL, MLR_AXIS_Y, &lead, NULL, &d),
+        MLR_E_INVALID_ARG);
     static const int32_t trans_joints[1] = {1};
     mlr_rig tr = r;
     tr.n_trans = 1;
     tr.trans_joints = trans_joints;
-    ck_assert_int_eq(mlr_trim_lead_in(&tr, fig.n, fig.root, fig.rot, NULL, MLR_AXIS_Y, &lead,
-                                      NULL, &d), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(
+        mlr_trim_lead_in(&tr, fig.n, fig.root, fig.rot, NULL, MLR_AXIS_Y, &lead, NULL, &d),
+        MLR_E_INVALID_ARG);
     ck_assert_ptr_nonnull(strstr(d.message, "trans is NULL"));
     fig.rot[4 * SJ * 7 + 4 * 3 + 1] = NAN;
-    ck_assert_int_eq(mlr_trim_lead_in(&r, fig.n, fig.root, fig.rot, NULL, MLR_AXIS_Y, &lead, NULL,
-                                      &d), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(
+        mlr_trim_lead_in(&r, fig.n, fig.root, fig.rot, NULL, MLR_AXIS_Y, &lead, NULL, &d),
+        MLR_E_INVALID_ARG);
     ck_assert_ptr_nonnull(strstr(d.message, "frame 7 has non-finite"));
     walk(&fig, 30, 0);
     fig.root[3 * 4 + 2] = INFINITY;
-    ck_assert_int_eq(mlr_trim_lead_in(&r, fig.n, fig.root, fig.rot, NULL, MLR_AXIS_Y, &lead, NULL,
-                                      &d), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(
+        mlr_trim_lead_in(&r, fig.n, fig.root, fig.rot, NULL, MLR_AXIS_Y, &lead, NULL, &d),
+        MLR_E_INVALID_ARG);
     ck_assert_uint_eq(lead.n_frames, 0);
     /* no frames: nothing to trim, rot may be NULL */
     ck_assert_int_eq(mlr_trim_lead_in(&r, 0, NULL, NULL, NULL, MLR_AXIS_Y, &lead, NULL, &d),
@@ -333,16 +341,17 @@ START_TEST(every_allocation_failure_is_no_memory_without_leaks)
     prepend_lead_in(&fig, 1, 3);
     mlr_rig r = {SJ, s_parents, s_offsets, NULL, 0, NULL, 0, NULL, NULL};
     mlr_trim_lead ref;
-    ck_assert_int_eq(mlr_trim_lead_in(&r, fig.n, fig.root, fig.rot, NULL, MLR_AXIS_Y, &ref, NULL,
-                                      NULL), MLR_OK);
+    ck_assert_int_eq(
+        mlr_trim_lead_in(&r, fig.n, fig.root, fig.rot, NULL, MLR_AXIS_Y, &ref, NULL, NULL),
+        MLR_OK);
     size_t fails = 0;
     for (size_t at = 0;; at++) {
         mlr_test_allocator ta;
         mlr_test_allocator_init(&ta, at);
         mlr_trim_lead lead;
         mlr_diag d;
-        const mlr_status st = mlr_trim_lead_in(&r, fig.n, fig.root, fig.rot, NULL, MLR_AXIS_Y,
-                                               &lead, &ta.base, &d);
+        const mlr_status st =
+            mlr_trim_lead_in(&r, fig.n, fig.root, fig.rot, NULL, MLR_AXIS_Y, &lead, &ta.base, &d);
         ck_assert_uint_eq(ta.live_blocks, 0);
         ck_assert_uint_eq(ta.live_bytes, 0);
         if (st == MLR_OK) {

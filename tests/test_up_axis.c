@@ -88,9 +88,11 @@ START_TEST(without_names_the_floor_is_the_side_that_stays_at_one_height)
                 mlr_up_guess g;
                 ck_assert_int_eq(mlr_rig_up_axis(&r, n, wp, &g, NULL, NULL), MLR_OK);
                 ck_assert_int_eq(g.method, MLR_UP_FLOOR);
-                ck_assert_msg(g.axis == axis && g.sign == sign, "%s turned to %c%c: found %c%c "
-                              "(%g)", walks[k], sign > 0 ? '+' : '-', "XYZ"[axis],
-                              g.sign > 0 ? '+' : '-', "XYZ"[g.axis], g.confidence);
+                ck_assert_msg(g.axis == axis && g.sign == sign,
+                              "%s turned to %c%c: found %c%c "
+                              "(%g)",
+                              walks[k], sign > 0 ? '+' : '-', "XYZ"[axis], g.sign > 0 ? '+' : '-',
+                              "XYZ"[g.axis], g.confidence);
                 ck_assert_double_gt(g.confidence, 0.0);
                 free(wp);
             }

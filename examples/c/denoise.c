@@ -60,9 +60,14 @@ int main(int argc, char **argv)
         goto done;
     for (size_t k = 0; k < j; k++)
         names[k] = mlr_motion_joint_name(m, k);
-    const mlr_rig rig = {j, mlr_motion_parents(m), mlr_motion_offsets(m), names,
-                         mlr_motion_n_trans(m), mlr_motion_trans_joints(m),
-                         mlr_motion_n_end_sites(m), mlr_motion_end_site_parents(m),
+    const mlr_rig rig = {j,
+                         mlr_motion_parents(m),
+                         mlr_motion_offsets(m),
+                         names,
+                         mlr_motion_n_trans(m),
+                         mlr_motion_trans_joints(m),
+                         mlr_motion_n_end_sites(m),
+                         mlr_motion_end_site_parents(m),
                          mlr_motion_end_site_offsets(m)};
     st = mlr_layers_repair(layers, 0, n, root, 3 * n, rot, 4 * n * j, NULL, &diag);
     if (st >= 0)
@@ -79,8 +84,8 @@ int main(int argc, char **argv)
     st = mlr_layers_synthesize(layers, 0, n, &alpha, 1, root, 3 * n, rot, 4 * n * j, &diag);
     mlr_guards_report report;
     if (st >= 0)
-        st = mlr_guards_apply(guards, &alpha, 1, NULL, NULL, NULL, root, rot,
-                              mlr_motion_trans(m), NULL, 0, &report, &diag);
+        st = mlr_guards_apply(guards, &alpha, 1, NULL, NULL, NULL, root, rot, mlr_motion_trans(m),
+                              NULL, 0, &report, &diag);
     if (st < 0) {
         failed("synthesize", st, &diag);
         goto done;
@@ -92,11 +97,12 @@ int main(int argc, char **argv)
         failed(argv[2], st, &diag);
         goto done;
     }
-    printf("%s: %zu frames x %zu joints at %.0f fps, alpha %g -> %s\n", argv[1], n, j, fps,
-           alpha, argv[2]);
+    printf("%s: %zu frames x %zu joints at %.0f fps, alpha %g -> %s\n", argv[1], n, j, fps, alpha,
+           argv[2]);
     printf("guards: limits %s (%zu joints), feet pinned on %zu frames, raised to the floor on "
-           "%zu\n", report.limits_applied ? "on" : "off", report.limited_joints,
-           report.contact_frames, report.floor_frames);
+           "%zu\n",
+           report.limits_applied ? "on" : "off", report.limited_joints, report.contact_frames,
+           report.floor_frames);
     rc = 0;
 done:
     free(names);

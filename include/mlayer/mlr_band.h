@@ -24,8 +24,8 @@ typedef struct mlr_band mlr_band;
  * @return MLR_OK, MLR_E_INVALID_ARG (n == 0, kd >= n, out NULL), MLR_E_NO_MEMORY, MLR_E_OVERFLOW
  * Allocates: yes (O(n kd)). Threads: any.
  */
-MLR_API mlr_status mlr_band_create(size_t n, size_t kd, const mlr_allocator *alloc,
-                                   mlr_band **out, mlr_diag *diag);
+MLR_API mlr_status mlr_band_create(size_t n, size_t kd, const mlr_allocator *alloc, mlr_band **out,
+                                   mlr_diag *diag);
 
 /**
  * Factor A = L D L^T from LAPACK lower band storage: A(i,j) at ab[j*ldab + (i - j)] for
@@ -39,8 +39,7 @@ MLR_API mlr_status mlr_band_create(size_t n, size_t kd, const mlr_allocator *all
  *         left unfactored); MLR_E_INVALID_ARG (NULL or ldab too small)
  * Allocates: never. Threads: writes band only.
  */
-MLR_API mlr_status mlr_band_factor(mlr_band *band, const double *ab, size_t ldab,
-                                   mlr_diag *diag);
+MLR_API mlr_status mlr_band_factor(mlr_band *band, const double *ab, size_t ldab, mlr_diag *diag);
 
 /**
  * Solve A X = B in place for m right-hand sides stored as columns of a row-major matrix.

@@ -260,8 +260,7 @@ MLR_API mlr_status mlr_bvh_write_memory(const mlr_motion *motion, char *buf, siz
  * Allocates: yes (a buffer for the temporary name, from the motion's allocator).
  * Threads: motion is only read.
  */
-MLR_API mlr_status mlr_bvh_write_file(const mlr_motion *motion, const char *path,
-                                      mlr_diag *diag);
+MLR_API mlr_status mlr_bvh_write_file(const mlr_motion *motion, const char *path, mlr_diag *diag);
 
 #ifdef __cplusplus
 }

@@ -149,16 +149,12 @@ MLR_API mlr_status mlr_cleanup_floor_height(const mlr_rig *rig, size_t n_frames,
  * Allocates: scratch of about N (11 J + 14 C + 10 F + 42) doubles (F feet), released before
  * return. Cost O(N J) per pass. Threads: any; inputs only read.
  */
-MLR_API mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t n_frames, double fps,
-                                        int up, const double *root_pos, const double *rot,
-                                        const double *trans, const double *ref_root_pos,
-                                        const double *ref_rot, const double *ref_trans,
-                                        size_t n_points, const int32_t *joints,
-                                        const int32_t *end_sites, const uint8_t *contacts,
-                                        const mlr_cleanup_option *opts, size_t n_opts,
-                                        double *out_root_pos, double *out_rot,
-                                        mlr_cleanup_report *report, const mlr_allocator *alloc,
-                                        mlr_diag *diag);
+MLR_API mlr_status mlr_cleanup_contacts(
+    const mlr_rig *rig, size_t n_frames, double fps, int up, const double *root_pos,
+    const double *rot, const double *trans, const double *ref_root_pos, const double *ref_rot,
+    const double *ref_trans, size_t n_points, const int32_t *joints, const int32_t *end_sites,
+    const uint8_t *contacts, const mlr_cleanup_option *opts, size_t n_opts, double *out_root_pos,
+    double *out_rot, mlr_cleanup_report *report, const mlr_allocator *alloc, mlr_diag *diag);
 
 #ifdef __cplusplus
 }

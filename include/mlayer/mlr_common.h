@@ -34,13 +34,13 @@
 #include <stddef.h>
 
 #if defined(_WIN32) && defined(MLR_BUILDING_DLL)
-#  define MLR_API __declspec(dllexport)
+#define MLR_API __declspec(dllexport)
 #elif defined(_WIN32) && !defined(MLR_STATIC)
-#  define MLR_API __declspec(dllimport)
+#define MLR_API __declspec(dllimport)
 #elif defined(__GNUC__)
-#  define MLR_API __attribute__((visibility("default")))
+#define MLR_API __attribute__((visibility("default")))
 #else
-#  define MLR_API
+#define MLR_API
 #endif
 
 #ifdef __cplusplus

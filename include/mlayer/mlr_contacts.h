@@ -113,10 +113,9 @@ typedef struct mlr_contacts_option {
 MLR_API mlr_status mlr_contacts_detect(const mlr_rig *rig, double fps, int up, size_t n_frames,
                                        const double *world_pos, const double *world_rot,
                                        size_t n_points, const int32_t *joints,
-                                       const int32_t *end_sites,
-                                       const mlr_contacts_option *opts, size_t n_opts,
-                                       uint8_t *contacts, const mlr_allocator *alloc,
-                                       mlr_diag *diag);
+                                       const int32_t *end_sites, const mlr_contacts_option *opts,
+                                       size_t n_opts, uint8_t *contacts,
+                                       const mlr_allocator *alloc, mlr_diag *diag);
 
 #ifdef __cplusplus
 }

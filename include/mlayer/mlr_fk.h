@@ -42,11 +42,10 @@ extern "C" {
  * Allocates: only as said for alloc. Threads: any; outputs must not alias inputs.
  */
 MLR_API mlr_status mlr_fk_arrays(size_t n_frames, size_t n_joints, const int32_t *parents,
-                                 const double *offsets, const double *root_pos,
-                                 const double *rot, size_t n_trans,
-                                 const int32_t *trans_joints, const double *trans,
-                                 double *world_pos, double *world_rot,
-                                 const mlr_allocator *alloc, mlr_diag *diag);
+                                 const double *offsets, const double *root_pos, const double *rot,
+                                 size_t n_trans, const int32_t *trans_joints, const double *trans,
+                                 double *world_pos, double *world_rot, const mlr_allocator *alloc,
+                                 mlr_diag *diag);
 
 /**
  * Forward kinematics of frames [begin, begin + count) of a motion.

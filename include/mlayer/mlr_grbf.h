@@ -70,9 +70,9 @@ MLR_API mlr_status mlr_grbf_basis(int kernel, double width, const double *center
  * than 192 outputs the kernel values are computed once per 192 outputs.
  * Threads: safe on separate outputs; starts up to n_threads - 1 threads.
  */
-MLR_API mlr_status mlr_grbf_eval(int kernel, double width, const double *centers,
-                                 size_t n_centers, size_t ldc, const double *coef, size_t ldcoef,
-                                 size_t n_out, const double *x, size_t n, size_t ldx, size_t dim,
+MLR_API mlr_status mlr_grbf_eval(int kernel, double width, const double *centers, size_t n_centers,
+                                 size_t ldc, const double *coef, size_t ldcoef, size_t n_out,
+                                 const double *x, size_t n, size_t ldx, size_t dim,
                                  size_t n_threads, double *out, size_t ldo,
                                  const mlr_allocator *alloc, mlr_diag *diag);
 
@@ -107,10 +107,9 @@ MLR_API mlr_status mlr_grbf_eval(int kernel, double width, const double *centers
  * depend on n_threads.
  */
 MLR_API mlr_status mlr_grbf_fit_lattice(int kernel, double width, const double *xs, size_t rows,
-                                        const double *ys, size_t cols, const double *y,
-                                        size_t ldy, size_t n_out, size_t n_threads,
-                                        double *coef, size_t ldcoef, const mlr_allocator *alloc,
-                                        mlr_diag *diag);
+                                        const double *ys, size_t cols, const double *y, size_t ldy,
+                                        size_t n_out, size_t n_threads, double *coef,
+                                        size_t ldcoef, const mlr_allocator *alloc, mlr_diag *diag);
 
 #ifdef __cplusplus
 }

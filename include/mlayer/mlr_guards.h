@@ -126,8 +126,8 @@ typedef struct mlr_guards_report {
 MLR_API mlr_status mlr_guards_create(const mlr_rig *rig, double fps, size_t n_frames,
                                      const double *root_pos, const double *rot,
                                      const double *trans, const mlr_guards_option *opts,
-                                     size_t n_opts, const mlr_allocator *alloc,
-                                     mlr_guards **out, mlr_diag *diag);
+                                     size_t n_opts, const mlr_allocator *alloc, mlr_guards **out,
+                                     mlr_diag *diag);
 
 /** Contact points C the handle pins (0 when the rig has no feet or contacts are off). */
 MLR_API size_t mlr_guards_n_points(const mlr_guards *g);
@@ -164,8 +164,7 @@ MLR_API mlr_status mlr_guards_set_contacts(mlr_guards *g, size_t n_points, const
  * @return MLR_OK; MLR_E_INVALID_ARG (NULL handle, limits for another number of joints)
  * Allocates: never. Threads: one writer, no concurrent apply.
  */
-MLR_API mlr_status mlr_guards_set_limits(mlr_guards *g, const mlr_limits *limits,
-                                         mlr_diag *diag);
+MLR_API mlr_status mlr_guards_set_limits(mlr_guards *g, const mlr_limits *limits, mlr_diag *diag);
 
 /**
  * Make N synthesized frames (the input's frames, synthesized with alpha) plausible, in place:

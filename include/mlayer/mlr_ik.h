@@ -49,8 +49,8 @@ extern "C" {
  */
 MLR_API mlr_status mlr_ik_two_bone(size_t n, const double *hip, const double *knee,
                                    const double *end, const double *target,
-                                   const double *bend_axis, double max_extension,
-                                   double *r_hip, double *r_knee, mlr_diag *diag);
+                                   const double *bend_axis, double max_extension, double *r_hip,
+                                   double *r_knee, mlr_diag *diag);
 
 /**
  * Shortest-arc unit quaternions turning direction u[i] into direction v[i]. Identity where
@@ -70,8 +70,8 @@ MLR_API mlr_status mlr_ik_from_to(size_t n, const double *u, const double *v, do
  *         close to the root; reason in diag, naming the joint when the rig has names)
  * Allocates: never. Threads: any.
  */
-MLR_API mlr_status mlr_ik_leg_chain(const mlr_rig *rig, int32_t end, int32_t *hip,
-                                    int32_t *knee, mlr_diag *diag);
+MLR_API mlr_status mlr_ik_leg_chain(const mlr_rig *rig, int32_t end, int32_t *hip, int32_t *knee,
+                                    mlr_diag *diag);
 
 /**
  * The knee's bend axis in the hip joint's frame: the normalized sum over frames of
@@ -94,9 +94,9 @@ MLR_API mlr_status mlr_ik_bend_axis_local(size_t n, size_t n_joints, const doubl
  * @return MLR_OK; MLR_E_INVALID_ARG (NULL, joint out of range, bad parent)
  * Allocates: never. Threads: any; rot must not alias world_rot.
  */
-MLR_API mlr_status mlr_ik_rotate_to(size_t n, size_t n_joints, const int32_t *parents,
-                                    double *rot, const double *world_rot, int32_t joint,
-                                    const double *r_world, mlr_diag *diag);
+MLR_API mlr_status mlr_ik_rotate_to(size_t n, size_t n_joints, const int32_t *parents, double *rot,
+                                    const double *world_rot, int32_t joint, const double *r_world,
+                                    mlr_diag *diag);
 
 /**
  * Solve the chain (hip, knee, end) toward target (N x 3) with mlr_ik_two_bone
@@ -109,11 +109,10 @@ MLR_API mlr_status mlr_ik_rotate_to(size_t n, size_t n_joints, const int32_t *pa
  * @return MLR_OK; MLR_E_INVALID_ARG (NULL, joints out of range or not a chain, non-finite)
  * Allocates: never. Threads: any.
  */
-MLR_API mlr_status mlr_ik_apply_leg(size_t n, size_t n_joints, const int32_t *parents,
-                                    double *rot, const double *world_pos,
-                                    const double *world_rot, int32_t hip, int32_t knee,
-                                    int32_t end, const double *target, const double *bend_axis,
-                                    mlr_diag *diag);
+MLR_API mlr_status mlr_ik_apply_leg(size_t n, size_t n_joints, const int32_t *parents, double *rot,
+                                    const double *world_pos, const double *world_rot, int32_t hip,
+                                    int32_t knee, int32_t end, const double *target,
+                                    const double *bend_axis, mlr_diag *diag);
 
 #ifdef __cplusplus
 }

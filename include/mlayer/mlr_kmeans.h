@@ -99,8 +99,8 @@ MLR_API mlr_status mlr_kmeans_fit(mlr_kmeans *km, const double *x, size_t n, siz
  * @return MLR_OK, MLR_E_INVALID_ARG (NULL pointers with n > 0, ldx < dim, non-finite x).
  * Allocates: never. Threads: single-threaded; km is only read, so calls may run concurrently.
  */
-MLR_API mlr_status mlr_kmeans_predict(const mlr_kmeans *km, const double *x, size_t n,
-                                      size_t ldx, int32_t *labels, double *dist2, mlr_diag *diag);
+MLR_API mlr_status mlr_kmeans_predict(const mlr_kmeans *km, const double *x, size_t n, size_t ldx,
+                                      int32_t *labels, double *dist2, mlr_diag *diag);
 
 /** Replace the centres (k rows, row j at c + j * ldc): import of a trained model.
  *  @return MLR_OK, MLR_E_INVALID_ARG (NULL, ldc < dim, non-finite). Allocates: never. */

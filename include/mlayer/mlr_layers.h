@@ -172,11 +172,10 @@ typedef enum mlr_layers_param {
  * weighted solves cost about twice as much).
  * Threads: any; inputs only read.
  */
-MLR_API mlr_status mlr_layers_decompose(size_t n_frames, size_t n_joints,
-                                        const double *root_pos, const double *rot,
-                                        const mlr_layers_option *opts, size_t n_opts,
-                                        const mlr_allocator *alloc, mlr_layers **out,
-                                        mlr_diag *diag);
+MLR_API mlr_status mlr_layers_decompose(size_t n_frames, size_t n_joints, const double *root_pos,
+                                        const double *rot, const mlr_layers_option *opts,
+                                        size_t n_opts, const mlr_allocator *alloc,
+                                        mlr_layers **out, mlr_diag *diag);
 
 /** Frames N of the decomposition (0 for NULL). */
 MLR_API size_t mlr_layers_n_frames(const mlr_layers *layers);
@@ -202,8 +201,7 @@ MLR_API mlr_status mlr_layers_get_control(const mlr_layers *layers, double *out,
 
 /** Copy the residual layer delta_r, laid out like the controllable layer.
  *  @return MLR_OK; MLR_E_INVALID_ARG. Allocates: never. Threads: handle only read. */
-MLR_API mlr_status mlr_layers_get_residual(const mlr_layers *layers, double *out,
-                                           size_t count);
+MLR_API mlr_status mlr_layers_get_residual(const mlr_layers *layers, double *out, size_t count);
 
 /** Parameters chosen per group (see mlr_layers_param): count must be 1 + J, the root first.
  *  @return MLR_OK; MLR_E_INVALID_ARG (NULL, wrong count, unknown which). Allocates: never. */

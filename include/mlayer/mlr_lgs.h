@@ -106,8 +106,7 @@ MLR_API mlr_status mlr_lgs_solve_mt(const mlr_lgs *lgs, const double *y, size_t 
  *         handle); MLR_E_NO_MEMORY
  * Allocates: O(n_out) workspace, released before return. Threads: handle only read.
  */
-MLR_API mlr_status mlr_lgs_variance(const mlr_lgs *lgs, double *var, size_t n_out,
-                                    mlr_diag *diag);
+MLR_API mlr_status mlr_lgs_variance(const mlr_lgs *lgs, double *var, size_t n_out, mlr_diag *diag);
 
 /** Output frames of the handle. */
 MLR_API size_t mlr_lgs_n_out(const mlr_lgs *lgs);

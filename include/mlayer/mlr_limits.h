@@ -142,9 +142,8 @@ typedef struct mlr_limits_option {
  * Threads: any; inputs only read.
  */
 MLR_API mlr_status mlr_limits_create(const mlr_rig *rig, const mlr_limits_clip *clips,
-                                     size_t n_clips, const mlr_limits_option *opts,
-                                     size_t n_opts, const mlr_allocator *alloc,
-                                     mlr_limits **out, mlr_diag *diag);
+                                     size_t n_clips, const mlr_limits_option *opts, size_t n_opts,
+                                     const mlr_allocator *alloc, mlr_limits **out, mlr_diag *diag);
 
 /** Joints J of the limits (0 for NULL). */
 MLR_API size_t mlr_limits_n_joints(const mlr_limits *lim);

@@ -82,10 +82,9 @@ enum { MLR_MIRROR_PLANE_AUTO = -1 };
  * Allocates: J indices and the longest name of scratch, released before return.
  * Cost O(J log J) string comparisons. Threads: any; inputs only read.
  */
-MLR_API mlr_status mlr_mirror_pairs(const mlr_rig *rig, const char *const *given,
-                                    size_t n_given, unsigned flags, int32_t *partner,
-                                    int8_t *side, size_t *n_pairs,
-                                    const mlr_allocator *alloc, mlr_diag *diag);
+MLR_API mlr_status mlr_mirror_pairs(const mlr_rig *rig, const char *const *given, size_t n_given,
+                                    unsigned flags, int32_t *partner, int8_t *side,
+                                    size_t *n_pairs, const mlr_allocator *alloc, mlr_diag *diag);
 
 /**
  * The mirror plane's normal axis. With plane MLR_MIRROR_PLANE_AUTO: the left-right axis of the
@@ -130,10 +129,9 @@ MLR_API mlr_status mlr_mirror_plane(const mlr_rig *rig, const int32_t *partner, 
  */
 MLR_API mlr_status mlr_mirror_motion(const mlr_rig *rig, const int32_t *partner, int axis,
                                      unsigned flags, size_t n_frames, const double *root_pos,
-                                     const double *rot, const double *trans,
-                                     double *out_root_pos, double *out_rot, double *out_trans,
-                                     double *out_offsets, double *out_end_site_offsets,
-                                     mlr_diag *diag);
+                                     const double *rot, const double *trans, double *out_root_pos,
+                                     double *out_rot, double *out_trans, double *out_offsets,
+                                     double *out_end_site_offsets, mlr_diag *diag);
 
 #ifdef __cplusplus
 }

@@ -22,8 +22,12 @@ typedef struct mlr_motion mlr_motion;
 
 /** Channel kinds, as named on a CHANNELS line. Values pinned. */
 typedef enum mlr_bvh_channel {
-    MLR_BVH_XPOSITION = 0, MLR_BVH_YPOSITION = 1, MLR_BVH_ZPOSITION = 2,
-    MLR_BVH_XROTATION = 3, MLR_BVH_YROTATION = 4, MLR_BVH_ZROTATION = 5
+    MLR_BVH_XPOSITION = 0,
+    MLR_BVH_YPOSITION = 1,
+    MLR_BVH_ZPOSITION = 2,
+    MLR_BVH_XROTATION = 3,
+    MLR_BVH_YROTATION = 4,
+    MLR_BVH_ZROTATION = 5
 } mlr_bvh_channel;
 
 /* ---------------------------------------------------------------------------------------- */
@@ -61,8 +65,7 @@ MLR_API mlr_status mlr_motion_create(size_t n_joints, const char *const *names,
                                      const char *const *channels, size_t n_end_sites,
                                      const int32_t *end_parents, const double *end_offsets,
                                      size_t n_frames, double frame_time,
-                                     const mlr_allocator *alloc, mlr_motion **out,
-                                     mlr_diag *diag);
+                                     const mlr_allocator *alloc, mlr_motion **out, mlr_diag *diag);
 
 /**
  * Deep copy of frames [begin, begin + count) of a motion (the skeleton is copied whole).
@@ -115,8 +118,7 @@ MLR_API mlr_euler_order mlr_motion_joint_euler_order(const mlr_motion *motion, s
 MLR_API size_t mlr_motion_joint_names_packed(const mlr_motion *motion, char *buf, size_t cap);
 /** All J channel lists at once (as mlr_motion_joint_channels), as mlr_motion_joint_names_packed
  *  does for the names. */
-MLR_API size_t mlr_motion_joint_channels_packed(const mlr_motion *motion, char *buf,
-                                                size_t cap);
+MLR_API size_t mlr_motion_joint_channels_packed(const mlr_motion *motion, char *buf, size_t cap);
 /** The J Euler orders (as mlr_motion_joint_euler_order) into out (room for J).
  *  @return J (0 for NULL) */
 MLR_API size_t mlr_motion_joint_euler_orders(const mlr_motion *motion, int32_t *out);

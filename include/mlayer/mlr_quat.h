@@ -18,14 +18,22 @@
 extern "C" {
 #endif
 
-typedef struct mlr_quat { double w, x, y, z; } mlr_quat;
-typedef struct mlr_vec3 { double x, y, z; } mlr_vec3;
+typedef struct mlr_quat {
+    double w, x, y, z;
+} mlr_quat;
+typedef struct mlr_vec3 {
+    double x, y, z;
+} mlr_vec3;
 
 /** Intrinsic Euler orders as BVH channel lines name them: "Zrotation Xrotation Yrotation" is
  *  MLR_EULER_ZXY and means R = Rz(a0) Rx(a1) Ry(a2). Values pinned. */
 typedef enum mlr_euler_order {
-    MLR_EULER_XYZ = 0, MLR_EULER_XZY = 1, MLR_EULER_YXZ = 2,
-    MLR_EULER_YZX = 3, MLR_EULER_ZXY = 4, MLR_EULER_ZYX = 5
+    MLR_EULER_XYZ = 0,
+    MLR_EULER_XZY = 1,
+    MLR_EULER_YXZ = 2,
+    MLR_EULER_YZX = 3,
+    MLR_EULER_ZXY = 4,
+    MLR_EULER_ZYX = 5
 } mlr_euler_order;
 
 /** Single-quaternion helpers (cannot fail). out may alias a or b. */
@@ -34,8 +42,7 @@ MLR_API void mlr_quat_mul(const mlr_quat *a, const mlr_quat *b, mlr_quat *out);
 MLR_API void mlr_quat_rotate(const mlr_quat *q, const mlr_vec3 *v, mlr_vec3 *out);
 
 /** out[i] = a[i] * b[i]. */
-MLR_API void mlr_quat_mul_array(const mlr_quat *a, const mlr_quat *b, size_t count,
-                                mlr_quat *out);
+MLR_API void mlr_quat_mul_array(const mlr_quat *a, const mlr_quat *b, size_t count, mlr_quat *out);
 /** out[i] = conj(q[i]). */
 MLR_API void mlr_quat_conj_array(const mlr_quat *q, size_t count, mlr_quat *out);
 /*
@@ -75,17 +82,15 @@ MLR_API mlr_status mlr_quat_slerp_array(const mlr_quat *a, const mlr_quat *b, co
  *         is the identity)
  */
 MLR_API mlr_status mlr_quat_from_euler_array(const double *angles, size_t count,
-                                             mlr_euler_order order, mlr_quat *out,
-                                             mlr_diag *diag);
+                                             mlr_euler_order order, mlr_quat *out, mlr_diag *diag);
 /** To intrinsic Euler angles in radians; the middle angle in [-pi/2, pi/2], the others in
  *  (-pi, pi]. At gimbal lock (middle angle within 1e-13 of +-pi/2) the third angle is 0 and the
  *  first carries the whole rotation about the locked axis. q need not be normalized; q and -q
  *  give the same angles (up to the +-pi ends of the ranges).
  *  @return MLR_OK; MLR_E_INVALID_ARG (bad order: nothing written; zero or non-finite q: those
  *          three angles are 0) */
-MLR_API mlr_status mlr_quat_to_euler_array(const mlr_quat *q, size_t count,
-                                           mlr_euler_order order, double *angles,
-                                           mlr_diag *diag);
+MLR_API mlr_status mlr_quat_to_euler_array(const mlr_quat *q, size_t count, mlr_euler_order order,
+                                           double *angles, mlr_diag *diag);
 /**
  * Sign continuity in place along a sequence: q is n_frames x n_tracks (row-major), and each
  * track is flipped (q -> -q) where needed so that consecutive samples have a non-negative dot
@@ -140,8 +145,7 @@ MLR_API void mlr_quat_make_continuous_predictive(mlr_quat *q, size_t n_frames, s
 /** Parse "XYZ".."ZYX" (case-insensitive) into an order.
  *  @return MLR_OK; MLR_E_INVALID_ARG (NULL, not three letters of X, Y and Z, a repeated axis;
  *          diag, optional, says which) */
-MLR_API mlr_status mlr_euler_order_parse(const char *name, mlr_euler_order *out,
-                                         mlr_diag *diag);
+MLR_API mlr_status mlr_euler_order_parse(const char *name, mlr_euler_order *out, mlr_diag *diag);
 
 #ifdef __cplusplus
 }

@@ -108,8 +108,7 @@ MLR_API mlr_status mlr_resample_n_out(size_t n_frames, double fps_in, double fps
  * Allocates: never. Threads: any.
  */
 MLR_API mlr_status mlr_resample_rate_map(size_t n_frames, double fps_in, double fps_out,
-                                         unsigned flags, double *t, size_t *n_out,
-                                         mlr_diag *diag);
+                                         unsigned flags, double *t, size_t *n_out, mlr_diag *diag);
 
 /**
  * Check a time map as described at the top of this header.
@@ -162,10 +161,9 @@ MLR_API double mlr_resample_auto_smoothness(size_t n_frames, size_t n_out);
 MLR_API mlr_status mlr_resample_arrays(size_t n_frames, size_t n_joints, size_t n_trans,
                                        const double *root_pos, const double *rot,
                                        const double *trans, const double *t, size_t n_out,
-                                       double lam, double sigma, unsigned flags,
-                                       double *root_out, double *rot_out, double *trans_out,
-                                       double *var_out, const mlr_allocator *alloc,
-                                       mlr_diag *diag);
+                                       double lam, double sigma, unsigned flags, double *root_out,
+                                       double *rot_out, double *trans_out, double *var_out,
+                                       const mlr_allocator *alloc, mlr_diag *diag);
 
 /**
  * The classic baseline: each output frame j lies between the input frames k, k+1 with
@@ -177,10 +175,9 @@ MLR_API mlr_status mlr_resample_arrays(size_t n_frames, size_t n_joints, size_t 
  */
 MLR_API mlr_status mlr_slerp_resample_arrays(size_t n_frames, size_t n_joints, size_t n_trans,
                                              const double *root_pos, const double *rot,
-                                             const double *trans, const double *t,
-                                             size_t n_out, unsigned flags, double *root_out,
-                                             double *rot_out, double *trans_out,
-                                             mlr_diag *diag);
+                                             const double *trans, const double *t, size_t n_out,
+                                             unsigned flags, double *root_out, double *rot_out,
+                                             double *trans_out, mlr_diag *diag);
 
 /**
  * Per-frame motion magnitude for automatic time warping: at frame i, from the central

@@ -72,8 +72,7 @@ MLR_API mlr_status mlr_rig_find_point(const mlr_rig *rig, const char *name, int3
 MLR_API mlr_status mlr_rig_point_positions(const mlr_rig *rig, size_t n_frames,
                                            const double *world_pos, const double *world_rot,
                                            size_t n_points, const int32_t *joints,
-                                           const int32_t *end_sites, double *out,
-                                           mlr_diag *diag);
+                                           const int32_t *end_sites, double *out, mlr_diag *diag);
 
 /**
  * Body size used to make thresholds unit-free: the median over frames of the joints' extent
@@ -86,9 +85,9 @@ MLR_API mlr_status mlr_rig_point_positions(const mlr_rig *rig, size_t n_frames,
  *         MLR_E_NO_MEMORY
  * Allocates: N doubles, released before return. Threads: any.
  */
-MLR_API mlr_status mlr_rig_body_height(size_t n_frames, size_t n_joints,
-                                       const double *world_pos, int up, double *height,
-                                       const mlr_allocator *alloc, mlr_diag *diag);
+MLR_API mlr_status mlr_rig_body_height(size_t n_frames, size_t n_joints, const double *world_pos,
+                                       int up, double *height, const mlr_allocator *alloc,
+                                       mlr_diag *diag);
 
 /** Relative size of "rounding" for mlr_rig_body_translation_joint: a translation varies when
  *  one of its coordinates spans more than this times the rest pose's size over the frames. */
@@ -162,8 +161,7 @@ typedef struct mlr_up_guess {
  * Allocates: scratch only, released before return. Cost O(N J). Threads: any.
  */
 MLR_API mlr_status mlr_rig_up_axis(const mlr_rig *rig, size_t n_frames, const double *world_pos,
-                                   mlr_up_guess *out, const mlr_allocator *alloc,
-                                   mlr_diag *diag);
+                                   mlr_up_guess *out, const mlr_allocator *alloc, mlr_diag *diag);
 
 #ifdef __cplusplus
 }

@@ -99,14 +99,11 @@ typedef struct mlr_root_motion_option {
  * the pairs, and an LGS handle, released before return. Cost O(N J + J log J).
  * Threads: any; inputs only read.
  */
-MLR_API mlr_status mlr_root_motion_extract(const mlr_rig *rig, double fps, int up, int mode,
-                                           size_t n_frames, const double *root_pos,
-                                           const double *rot, const double *trans,
-                                           const mlr_root_motion_option *opts, size_t n_opts,
-                                           double *track_pos, double *track_heading,
-                                           double *out_root_pos, double *out_root_rot,
-                                           size_t ld_out_rot, const mlr_allocator *alloc,
-                                           mlr_diag *diag);
+MLR_API mlr_status mlr_root_motion_extract(
+    const mlr_rig *rig, double fps, int up, int mode, size_t n_frames, const double *root_pos,
+    const double *rot, const double *trans, const mlr_root_motion_option *opts, size_t n_opts,
+    double *track_pos, double *track_heading, double *out_root_pos, double *out_root_rot,
+    size_t ld_out_rot, const mlr_allocator *alloc, mlr_diag *diag);
 
 /**
  * Put a root track and an in-place motion back together: root_pos = c + H(theta) root_pos',

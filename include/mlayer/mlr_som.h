@@ -132,8 +132,7 @@ MLR_API mlr_status mlr_som_errors(const mlr_som *som, const double *x, size_t n,
 MLR_API const double *mlr_som_codebook(const mlr_som *som);
 /** Replace the codebook (rows * cols vectors, vector u at w + u * ldw).
  *  @return MLR_OK, MLR_E_INVALID_ARG (NULL, ldw < dim, non-finite). Allocates: never. */
-MLR_API mlr_status mlr_som_set_codebook(mlr_som *som, const double *w, size_t ldw,
-                                        mlr_diag *diag);
+MLR_API mlr_status mlr_som_set_codebook(mlr_som *som, const double *w, size_t ldw, mlr_diag *diag);
 MLR_API size_t mlr_som_rows(const mlr_som *som);
 MLR_API size_t mlr_som_cols(const mlr_som *som);
 MLR_API size_t mlr_som_dim(const mlr_som *som);

@@ -103,11 +103,10 @@ MLR_API mlr_status mlr_stream_create(size_t n_joints, int root, size_t n_trans, 
  *                 normally a stronger smoothing than lam, sigma)
  * Other parameters and statuses as mlr_stream_create. Allocates: yes (about twice as much).
  */
-MLR_API mlr_status mlr_stream_create_layered(size_t n_joints, int root, size_t n_trans,
-                                             double lam, double sigma, double lam_base,
-                                             double sigma_base, size_t lag,
-                                             const mlr_allocator *alloc, mlr_stream **out,
-                                             mlr_diag *diag);
+MLR_API mlr_status mlr_stream_create_layered(size_t n_joints, int root, size_t n_trans, double lam,
+                                             double sigma, double lam_base, double sigma_base,
+                                             size_t lag, const mlr_allocator *alloc,
+                                             mlr_stream **out, mlr_diag *diag);
 
 /**
  * Push the next frame; when the stream holds more than lag frames, write the smoothed frame
@@ -140,8 +139,8 @@ MLR_API mlr_status mlr_stream_push(mlr_stream *st, const double *frame, size_t n
  *         MLR_E_BAD_STATE (already flushed)
  * Allocates: never. Threads: one caller at a time per stream.
  */
-MLR_API mlr_status mlr_stream_flush(mlr_stream *st, double *out, size_t out_len,
-                                    size_t *n_written, mlr_diag *diag);
+MLR_API mlr_status mlr_stream_flush(mlr_stream *st, double *out, size_t out_len, size_t *n_written,
+                                    mlr_diag *diag);
 
 /** Forget every pushed frame: the stream behaves as just created (the alphas are kept).
  *  NULL is a no-op. Allocates: never. */
@@ -169,8 +168,7 @@ MLR_API mlr_status mlr_stream_set_alpha(mlr_stream *st, double alpha_trans, cons
  * @return MLR_OK; MLR_E_INVALID_ARG (NULL stream, mlr_limits_n_joints(limits) != n_joints)
  * Allocates: never. Threads: one caller at a time per stream.
  */
-MLR_API mlr_status mlr_stream_set_limits(mlr_stream *st, const mlr_limits *limits,
-                                         mlr_diag *diag);
+MLR_API mlr_status mlr_stream_set_limits(mlr_stream *st, const mlr_limits *limits, mlr_diag *diag);
 
 /** Values per frame (3 root + 3 n_trans + 4 n_joints); 0 for NULL. */
 MLR_API size_t mlr_stream_frame_size(const mlr_stream *st);

@@ -62,7 +62,7 @@ extern "C" {
 /** What mlr_trim_lead_in found. A frozen value type: fields are never reordered or removed. */
 typedef struct mlr_trim_lead {
     size_t n_frames; /**< frames to drop at the start (0: the clip starts with its motion) */
-    size_t n_held;   /**< of those, the frames holding the first pose (the T-pose); 0 with none */
+    size_t n_held; /**< of those, the frames holding the first pose (the T-pose); 0 with none */
     double distance; /**< frame 0's distance to the frames from c on, in median steps (the
                           jump, step 3); 0 when not measured (a short or static clip) */
 } mlr_trim_lead;

@@ -14,7 +14,9 @@
 
 /* Refuse single blocks above 64 MiB and more than 256 MiB live, as an embedding game would:
  * the parser must then fail cleanly with MLR_E_NO_MEMORY. */
-typedef struct capped { size_t live; } capped;
+typedef struct capped {
+    size_t live;
+} capped;
 
 static void *cap_alloc(void *user, size_t size, size_t align)
 {
@@ -57,8 +59,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         mlr_motion *o = NULL;
         mlr_diag od;
         static const int sets[3] = {BVH_KERNELS_PORTABLE, BVH_KERNELS_AVX2, BVH_KERNELS_BEST};
-        mlr_status os = bvh_read_memory_ex((const char *)data, size, (size_t)v + 1, sets[v], &a,
-                                           &o, &od);
+        mlr_status os =
+            bvh_read_memory_ex((const char *)data, size, (size_t)v + 1, sets[v], &a, &o, &od);
         check(os == s || os == MLR_E_NO_MEMORY || s == MLR_E_NO_MEMORY);
         if (os == s && s == MLR_E_PARSE)
             check(od.line == d.line && od.column == d.column &&
@@ -95,7 +97,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             check(mlr_motion_n_end_sites(b) == mlr_motion_n_end_sites(m));
             for (size_t j = 0; j < J; j++) {
                 check(strcmp(mlr_motion_joint_name(m, j), mlr_motion_joint_name(b, j)) == 0);
-                check(strcmp(mlr_motion_joint_channels(m, j), mlr_motion_joint_channels(b, j)) == 0);
+                check(strcmp(mlr_motion_joint_channels(m, j), mlr_motion_joint_channels(b, j)) ==
+                      0);
                 check(mlr_motion_parents(m)[j] == mlr_motion_parents(b)[j]);
             }
             check(N == 0 || memcmp(mlr_motion_root_pos(m), mlr_motion_root_pos(b),

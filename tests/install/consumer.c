@@ -8,7 +8,8 @@
 int main(void)
 {
     if (strcmp(mlr_version_string(), MLR_VERSION_STRING) != 0) {
-        fprintf(stderr, "loaded library %s, headers %s\n", mlr_version_string(), MLR_VERSION_STRING);
+        fprintf(stderr, "loaded library %s, headers %s\n", mlr_version_string(),
+                MLR_VERSION_STRING);
         return 1;
     }
     /* a tiny smoothing problem: 5 samples of a line stay a line */
