@@ -18,9 +18,12 @@
 extern "C" {
 #endif
 
+/** A quaternion, scalar first: w + x i + y j + z k. Rotations are unit quaternions; arrays of
+ *  them are N x 4 row-major doubles in this order (scipy's Rotation is scalar-last). */
 typedef struct mlr_quat {
     double w, x, y, z;
 } mlr_quat;
+/** A 3-vector (a position, an offset, a rotation vector: axis times the full angle). */
 typedef struct mlr_vec3 {
     double x, y, z;
 } mlr_vec3;
