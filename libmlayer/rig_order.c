@@ -86,8 +86,8 @@ static size_t walk(size_t J, const int32_t *parents, size_t root, size_t *start,
 }
 
 mlr_status mlr_rig_depth_first_order(size_t n_joints, const int32_t *parents,
-                                             const char *const *names, int32_t *order,
-                                             const mlr_allocator *alloc, mlr_diag *diag)
+                                     const char *const *names, int32_t *order,
+                                     const mlr_allocator *alloc, mlr_diag *diag)
 {
     if (!parents || !order)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
@@ -97,8 +97,7 @@ mlr_status mlr_rig_depth_first_order(size_t n_joints, const int32_t *parents,
                             "depth-first order: needs at least one joint");
     if (n_joints > (size_t)INT32_MAX)
         return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0,
-                            "depth-first order: %zu joints overflow the int32 indices",
-                            n_joints);
+                            "depth-first order: %zu joints overflow the int32 indices", n_joints);
     const size_t J = n_joints;
     size_t root = 0;
     mlr_status st = check_parents(J, parents, names, &root, diag);
