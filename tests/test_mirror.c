@@ -470,7 +470,7 @@ START_TEST(bad_input_says_why)
     const mlr_rig prop = {4, prop_parents, prop_offsets, prop_names, 0, NULL, 0, NULL, NULL};
     int32_t pp[4];
     expect(mlr_mirror_pairs(&prop, NULL, 0, 0, pp, NULL, NULL, NULL, &d), &d,
-           "Prop1 has no left/right partner but hangs under RightHand, which has one (LeftHand)");
+           "Prop1 has no partner but hangs under RightHand, which has one (LeftHand)");
 
     /* the hierarchy, the position channels and the End Sites must map onto themselves */
     const mlr_rig h = human();
