@@ -728,6 +728,171 @@ static mlr_status cleanup_pass(cleanup *cu)
     return MLR_OK;
 }
 
+/* The run's failures: the arena's (out of memory), or a status of a step (out of memory, or a
+   solve that failed). */
+static mlr_status fail_memory(const cleanup_arena *ar, mlr_diag *diag)
+{
+    return mlr_diag_set(diag, ar->st, 0, 0, "cleanup: out of memory");
+}
+
+static mlr_status fail_status(mlr_status st, mlr_diag *diag)
+{
+    if (st == MLR_E_NO_MEMORY)
+        mlr_diag_set(diag, st, 0, 0, "cleanup: out of memory");
+    else
+        mlr_diag_set(diag, st, 0, 0, "cleanup: internal solve failed (status %d)", (int)st);
+    return st;
+}
+
+/* The outputs start as the inputs, the report empty; 0 when there is nothing to clean (fewer
+   than 3 frames, no points, or no contact and no floor height given). */
+static int cleanup_start(const mlr_rig *rig, size_t N, const double *root_pos, const double *rot,
+                         size_t C, const uint8_t *contacts, const cleanup_config *cfg,
+                         double *out_root_pos, double *out_rot, mlr_cleanup_report *report)
+{
+    const size_t J = rig->n_joints;
+    if (report) {
+        report->floor_height = NAN;
+        report->contact_frames = report->floor_frames = 0;
+        report->root_shift_max = 0.0;
+    }
+    if (out_root_pos != root_pos)
+        memmove(out_root_pos, root_pos, 3 * N * sizeof(double));
+    if (out_rot != rot)
+        memmove(out_rot, rot, 4 * N * J * sizeof(double));
+    size_t any_contact = 0;
+    for (size_t i = 0; i < N * C; i++)
+        any_contact += contacts[i] != 0;
+    return !(N < 3 || C == 0 || (!any_contact && !(cfg->floor_on && cfg->floor_given)));
+}
+
+/* The feet of the contact points (cu->feet, cu->nf). */
+static mlr_status cleanup_feet(cleanup *cu, cleanup_arena *ar, mlr_diag *diag)
+{
+    uint8_t *listed = cleanup__take(ar, cu->J, 1);
+    uint8_t *assigned = cleanup__take(ar, cu->C, 1);
+    if (ar->st != MLR_OK)
+        return fail_memory(ar, diag);
+    return cleanup__assign_feet(cu->rig, cu->C, cu->joints, cu->end_sites, cu->feet, &cu->nf,
+                                listed, assigned, diag);
+}
+
+/* The run's arrays, and the forward kinematics and points of the motion (root_pos, rot). */
+static mlr_status cleanup_fk(cleanup *cu, const double *root_pos, const double *rot,
+                             cleanup_arena *ar, const mlr_allocator *A, mlr_diag *diag)
+{
+    const size_t N = cu->N, J = cu->J, C = cu->C;
+    cleanup_work *w = cu->w;
+    /* (not zeroed: the forward kinematics write every joint that is read, the other arrays
+       are written whole, or on the frames that are read, before they are read) */
+    cu->pos = cleanup__take_raw(ar, N * J * 3, sizeof(double));
+    cu->wrot = cleanup__take_raw(ar, N * J * 4, sizeof(double));
+    cu->P = cleanup__take_raw(ar, N * C * 3, sizeof(double));
+    cu->lim = cleanup__take(ar, N * C, sizeof(double));
+    cu->newr = cleanup__take_raw(ar, N * J * 4, sizeof(double));
+    cu->shift = cleanup__take(ar, N * 3, sizeof(double));
+    w->map_val = cleanup__take_raw(ar, N * 9, sizeof(double));
+    w->map_y = cleanup__take_raw(ar, N * 9, sizeof(double));
+    w->map_out = cleanup__take_raw(ar, N * 9, sizeof(double));
+    /* forward kinematics of the joints the cleanup reads only: the contact points, the
+       feet's anchors and their ancestors (hips, knees and the joints above them) */
+    cu->need = cleanup__take(ar, J, 1);
+    cu->tidx = cleanup__take(ar, J, sizeof(int32_t));
+    cu->fk_frames = cleanup__take(ar, N, 1);
+    cu->pos2 = cleanup__take(ar, J * 3, sizeof(double));
+    cu->wrot2 = cleanup__take(ar, J * 4, sizeof(double));
+    if (ar->st != MLR_OK)
+        return fail_memory(ar, diag);
+    cleanup__fk_need(cu->rig, C, cu->joints, cu->feet, cu->nf, cu->need, cu->tidx);
+    mlr_status st =
+        cleanup__fk_points(cu->rig, N, root_pos, rot, cu->trans, C, cu->joints, cu->end_sites,
+                           cu->pos, cu->wrot, cu->P, A, cu->need, cu->tidx);
+    return st == MLR_OK ? MLR_OK : fail_status(st, diag);
+}
+
+/* The floor (set_floor, into the report) and the spread's band solver. */
+static mlr_status cleanup_floor(cleanup *cu, const mlr_cleanup_ref *pre, cleanup_arena *ar,
+                                const mlr_allocator *A, mlr_cleanup_report *report, mlr_diag *diag)
+{
+    if (set_floor(cu, pre, ar) != MLR_OK)
+        return fail_memory(ar, diag);
+    if (report)
+        report->floor_height = cu->floor_active ? cu->floor_h : NAN;
+    cleanup_work *w = cu->w;
+    w->ab = cleanup__take(ar, cu->N * 3, sizeof(double));
+    if (ar->st != MLR_OK)
+        return fail_memory(ar, diag);
+    mlr_status st = mlr_band_create(cu->N, 2, A, &w->pin, NULL);
+    if (st == MLR_E_NO_MEMORY) {
+        ar->st = st;
+        return fail_memory(ar, diag);
+    }
+    return st == MLR_OK ? MLR_OK : fail_status(st, diag);
+}
+
+/* Each foot's contact frames, leg and targets (set_foot_targets). */
+static mlr_status cleanup_targets(cleanup *cu, cleanup_arena *ar, mlr_diag *diag)
+{
+    const size_t N = cu->N, nf = cu->nf;
+    cu->anyU = cleanup__take(ar, N, 1);
+    cu->anyF = cleanup__take(ar, N, 1);
+    if (ar->st != MLR_OK)
+        return fail_memory(ar, diag);
+    /* the feet's arrays, one block each for all feet (the arena holds CLEANUP_MAX_BLOCKS
+       blocks) */
+    uint8_t *all_uf = cleanup__take(ar, N * nf, 4);
+    double *all_at = cleanup__take(ar, N * nf, 7 * sizeof(double));
+    if (ar->st != MLR_OK)
+        return fail_memory(ar, diag);
+    for (size_t k = 0; k < nf; k++) {
+        cleanup_foot *ft = &cu->feet[k];
+        ft->U = all_uf + 4 * N * k, ft->F = ft->U + N, ft->K = ft->F + N, ft->S = ft->K + N;
+        ft->at = all_at + 7 * N * k, ft->tt = ft->at + 3 * N, ft->lift = ft->tt + 3 * N;
+        mlr_status st = set_foot_targets(cu, k, diag);
+        if (st != MLR_OK)
+            return st;
+    }
+    return MLR_OK;
+}
+
+/* 1 where the root shift moved frame f. */
+static int shifted(const double *shift, size_t f)
+{
+    return shift[3 * f] != 0.0 || shift[3 * f + 1] != 0.0 || shift[3 * f + 2] != 0.0;
+}
+
+/* The passes: IK on the constrained frames, then the spread. */
+static mlr_status cleanup_passes(cleanup *cu, cleanup_arena *ar, mlr_diag *diag)
+{
+    const size_t N = cu->N, J = cu->J, nf = cu->nf;
+    const double *shift = cu->shift;
+    /* a kept contact needs IK only where the root moved (the leg is held otherwise: the
+       ankle is where its target is) */
+    for (size_t k = 0; k < nf; k++)
+        for (size_t f = 0; cu->feet[k].active && f < N; f++)
+            if (shifted(shift, f))
+                cu->feet[k].K[f] = 0;
+    /* pos, wrot and the points P hold the forward kinematics of (root_pos, rot): a pass
+       computes it again only on the frames that changed since (the root shift before the
+       first pass, the spread of the pass before), the others are the same values */
+    cu->mask = cleanup__take(ar, N, 1);
+    uint8_t *dirty = cleanup__take(ar, N, 1);
+    cu->chains = cleanup__take(ar, nf * J, sizeof(int32_t));
+    cu->chain_len = cleanup__take(ar, nf, sizeof(size_t));
+    if (ar->st != MLR_OK)
+        return fail_memory(ar, diag);
+    find_chains(cu);
+    for (size_t f = 0; f < N; f++)
+        dirty[f] = shifted(shift, f);
+    cu->w->dirty = dirty;
+    for (int pass = 0; pass < cu->cfg->passes; pass++) {
+        mlr_status st = cleanup_pass(cu);
+        if (st != MLR_OK)
+            return fail_status(st, diag);
+    }
+    return MLR_OK;
+}
+
 static mlr_status cleanup_run(const mlr_rig *rig, size_t N, double fps, int up,
                               const double *root_pos, const double *rot, const double *trans,
                               const double *ref_root_pos, const double *ref_rot,
@@ -744,26 +909,11 @@ static mlr_status cleanup_run(const mlr_rig *rig, size_t N, double fps, int up,
                                   n_opts, out_root_pos, out_rot, &cfg, diag);
     if (st != MLR_OK)
         return st;
+    if (!cleanup_start(rig, N, root_pos, rot, C, contacts, &cfg, out_root_pos, out_rot, report))
+        return MLR_OK;
     const int have_arrays = ref_root_pos || ref_rot || ref_trans, have_ref = have_arrays || pre;
     const size_t J = rig->n_joints;
-    if (report) {
-        report->floor_height = NAN;
-        report->contact_frames = report->floor_frames = 0;
-        report->root_shift_max = 0.0;
-    }
-    if (out_root_pos != root_pos)
-        memmove(out_root_pos, root_pos, 3 * N * sizeof(double));
-    if (out_rot != rot)
-        memmove(out_rot, rot, 4 * N * J * sizeof(double));
-    size_t any_contact = 0;
-    for (size_t i = 0; i < N * C; i++)
-        any_contact += contacts[i] != 0;
-    if (N < 3 || C == 0 || (!any_contact && !(cfg.floor_on && cfg.floor_given)))
-        return MLR_OK;
-
-    /* ---- feet ---- */
     cleanup_foot feet[64];
-    size_t nf = 0;
     mlr_cleanup_ref *owned = NULL; /* the reference's trajectories when made here */
     cleanup_work w = {rig, N, J, C, fps, up, &cfg, NULL, NULL, NULL, NULL, NULL, NULL};
     cleanup c = {.rig = rig,
@@ -785,136 +935,36 @@ static mlr_status cleanup_run(const mlr_rig *rig, size_t N, double fps, int up,
     mlr_allocator A;
     mlr_allocator_resolve(alloc, &A);
     cleanup_arena ar = {.a = &A, .st = MLR_OK};
-    uint8_t *listed = cleanup__take(&ar, J, 1);
-    uint8_t *assigned = cleanup__take(&ar, C, 1);
-    if (ar.st != MLR_OK)
-        goto fail;
-    if ((st = cleanup__assign_feet(rig, C, joints, end_sites, feet, &nf, listed, assigned,
-                                   diag)) != MLR_OK)
-        goto fail_st_keep;
-    c.nf = nf;
-
-    /* ---- forward kinematics, points, reference ---- */
-    /* (not zeroed: the forward kinematics write every joint that is read, the other arrays
-       are written whole, or on the frames that are read, before they are read) */
-    c.pos = cleanup__take_raw(&ar, N * J * 3, sizeof(double));
-    c.wrot = cleanup__take_raw(&ar, N * J * 4, sizeof(double));
-    c.P = cleanup__take_raw(&ar, N * C * 3, sizeof(double));
-    c.lim = cleanup__take(&ar, N * C, sizeof(double));
-    c.newr = cleanup__take_raw(&ar, N * J * 4, sizeof(double));
-    c.shift = cleanup__take(&ar, N * 3, sizeof(double));
-    w.map_val = cleanup__take_raw(&ar, N * 9, sizeof(double));
-    w.map_y = cleanup__take_raw(&ar, N * 9, sizeof(double));
-    w.map_out = cleanup__take_raw(&ar, N * 9, sizeof(double));
-    /* forward kinematics of the joints the cleanup reads only: the contact points, the
-       feet's anchors and their ancestors (hips, knees and the joints above them) */
-    c.need = cleanup__take(&ar, J, 1);
-    c.tidx = cleanup__take(&ar, J, sizeof(int32_t));
-    c.fk_frames = cleanup__take(&ar, N, 1);
-    c.pos2 = cleanup__take(&ar, J * 3, sizeof(double));
-    c.wrot2 = cleanup__take(&ar, J * 4, sizeof(double));
-    if (ar.st != MLR_OK)
-        goto fail;
-    cleanup__fk_need(rig, C, joints, feet, nf, c.need, c.tidx);
-    if ((st = cleanup__fk_points(rig, N, root_pos, rot, trans, C, joints, end_sites, c.pos, c.wrot,
-                                 c.P, &A, c.need, c.tidx)) != MLR_OK)
-        goto fail_st;
+    if ((st = cleanup_feet(&c, &ar, diag)) != MLR_OK ||
+        (st = cleanup_fk(&c, root_pos, rot, &ar, &A, diag)) != MLR_OK)
+        goto done;
     /* the reference's trajectories: given made, or made here from its frames */
     if (have_arrays && !pre) {
         if ((st = mlr_cleanup_ref_create(rig, N, fps, up, ref_root_pos, ref_rot, ref_trans, NULL,
                                          NULL, C, joints, end_sites, opts, n_opts, &A, &owned,
                                          diag)) != MLR_OK)
-            goto fail_st_keep;
+            goto done;
         pre = owned;
     }
     c.Pr = pre ? pre->pts : NULL, c.pos_ref = pre ? pre->anchors : NULL;
-    if (set_floor(&c, pre, &ar) != MLR_OK)
-        goto fail;
-    if (report)
-        report->floor_height = c.floor_active ? c.floor_h : NAN;
-    {
-        w.ab = cleanup__take(&ar, N * 3, sizeof(double));
-        if (ar.st != MLR_OK)
-            goto fail;
-        if ((st = mlr_band_create(N, 2, &A, &w.pin, NULL)) != MLR_OK) {
-            if (st == MLR_E_NO_MEMORY) {
-                ar.st = st;
-                goto fail;
-            }
-            goto fail_st;
-        }
+    if ((st = cleanup_floor(&c, pre, &ar, &A, report, diag)) != MLR_OK ||
+        (st = cleanup_targets(&c, &ar, diag)) != MLR_OK)
+        goto done;
+    /* the root shift: legs that cannot reach their contact targets, or would have to fold
+       their knee past MAX_FOLD to reach them or the floor */
+    if (cfg.root_on && shift_root(&c, &ar, report) != MLR_OK) {
+        st = fail_memory(&ar, diag);
+        goto done;
     }
-
-    /* ---- targets per foot ---- */
-    c.anyU = cleanup__take(&ar, N, 1);
-    c.anyF = cleanup__take(&ar, N, 1);
-    if (ar.st != MLR_OK)
-        goto fail;
-    /* the feet's arrays, one block each for all feet (the arena holds CLEANUP_MAX_BLOCKS
-       blocks) */
-    uint8_t *all_uf = cleanup__take(&ar, N * nf, 4);
-    double *all_at = cleanup__take(&ar, N * nf, 7 * sizeof(double));
-    if (ar.st != MLR_OK)
-        goto fail;
-    for (size_t k = 0; k < nf; k++) {
-        cleanup_foot *ft = &feet[k];
-        ft->U = all_uf + 4 * N * k, ft->F = ft->U + N, ft->K = ft->F + N, ft->S = ft->K + N;
-        ft->at = all_at + 7 * N * k, ft->tt = ft->at + 3 * N, ft->lift = ft->tt + 3 * N;
-        if ((st = set_foot_targets(&c, k, diag)) != MLR_OK)
-            goto fail_st_keep;
-    }
-
-    /* ---- root shift: legs that cannot reach their contact targets, or would have to fold
-       their knee past MAX_FOLD to reach them or the floor ---- */
-    if (cfg.root_on && shift_root(&c, &ar, report) != MLR_OK)
-        goto fail;
-
-    /* a kept contact needs IK only where the root moved (the leg is held otherwise: the
-       ankle is where its target is) */
-    const double *shift = c.shift;
-    for (size_t k = 0; k < nf; k++)
-        for (size_t f = 0; feet[k].active && f < N; f++)
-            if (shift[3 * f] != 0.0 || shift[3 * f + 1] != 0.0 || shift[3 * f + 2] != 0.0)
-                feet[k].K[f] = 0;
-
-    /* ---- passes: IK on the constrained frames, then the spread ---- */
-    /* pos, wrot and the points P hold the forward kinematics of (root_pos, rot): a pass
-       computes it again only on the frames that changed since (the root shift before the
-       first pass, the spread of the pass before), the others are the same values */
-    c.mask = cleanup__take(&ar, N, 1);
-    uint8_t *dirty = cleanup__take(&ar, N, 1);
-    c.chains = cleanup__take(&ar, nf * J, sizeof(int32_t));
-    c.chain_len = cleanup__take(&ar, nf, sizeof(size_t));
-    if (ar.st != MLR_OK)
-        goto fail;
-    find_chains(&c);
-    for (size_t f = 0; f < N; f++)
-        dirty[f] = shift[3 * f] != 0.0 || shift[3 * f + 1] != 0.0 || shift[3 * f + 2] != 0.0;
-    w.dirty = dirty;
-    for (int pass = 0; pass < cfg.passes; pass++)
-        if ((st = cleanup_pass(&c)) != MLR_OK)
-            goto fail_st;
+    if ((st = cleanup_passes(&c, &ar, diag)) != MLR_OK)
+        goto done;
     if (report) {
         for (size_t f = 0; f < N; f++) {
             report->contact_frames += c.anyU[f];
             report->floor_frames += c.anyF[f];
         }
     }
-    mlr_band_destroy(w.pin);
-    mlr_cleanup_ref_destroy(owned);
-    cleanup__release(&ar);
-    return MLR_OK;
-fail:
-    mlr_band_destroy(w.pin);
-    mlr_cleanup_ref_destroy(owned);
-    cleanup__release(&ar);
-    return mlr_diag_set(diag, ar.st, 0, 0, "cleanup: out of memory");
-fail_st:
-    if (st == MLR_E_NO_MEMORY)
-        mlr_diag_set(diag, st, 0, 0, "cleanup: out of memory");
-    else
-        mlr_diag_set(diag, st, 0, 0, "cleanup: internal solve failed (status %d)", (int)st);
-fail_st_keep:
+done:
     mlr_band_destroy(w.pin);
     mlr_cleanup_ref_destroy(owned);
     cleanup__release(&ar);
