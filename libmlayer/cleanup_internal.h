@@ -1,10 +1,13 @@
 /* The cleanup's private parts: shared with the guards, and between the cleanup's files
  * (cleanup_options.c, cleanup_fk.c, cleanup_floor.c, cleanup_feet.c, cleanup_spread.c,
- * cleanup_ref.c and contacts_fix.c, the run). Not installed; none of it is exported. */
+ * cleanup_ref.c, cleanup_root.c, cleanup_pass.c and contacts_fix.c, the run). Not installed;
+ * none of it is exported. */
 #ifndef MLR_CLEANUP_INTERNAL_H
 #define MLR_CLEANUP_INTERNAL_H
 
 #include "mlr_internal.h"
+
+#include <math.h>
 
 /* The floor of mlr_cleanup_floor_height from the contact points' world positions pts
  * (N x C x 3, as mlr_rig_point_positions gives them) instead of the frames: the quantile of
@@ -206,5 +209,58 @@ mlr_status cleanup__assign_feet(const mlr_rig *rig, size_t C, const int32_t *joi
 /* Spread the corrections new * inv(rot) of the listed joints, known on the frames of mask. */
 mlr_status cleanup__spread_rotations(cleanup_work *w, double *rot, const double *newr,
                                      const int32_t *js, size_t nj, const uint8_t *mask);
+
+/* |a - b| of two 3-vectors. */
+static inline double cleanup__dist3(const double *a, const double *b)
+{
+    const double x = a[0] - b[0], y = a[1] - b[1], z = a[2] - b[2];
+    return sqrt(x * x + y * y + z * z);
+}
+
+/* The state of one cleanup run, shared by its steps. */
+typedef struct cleanup_state {
+    const mlr_rig *rig;
+    size_t N, J, C;
+    double fps;
+    int up;
+    const cleanup_config *cfg;
+    const int32_t *joints, *end_sites;
+    const uint8_t *contacts;
+    const double *trans;
+    double *out_root_pos, *out_rot;
+    cleanup_foot *feet;
+    size_t nf;
+    int have_ref;
+    const double *Pr, *pos_ref;     /* the reference's points and anchors, or NULL */
+    double *pos, *wrot, *P;         /* forward kinematics of (out_root_pos, out_rot), points */
+    double *lim, *newr, *shift;
+    double floor_h;
+    int floor_active;
+    uint8_t *anyU, *anyF;
+    uint8_t *need;                  /* joints whose forward kinematics the cleanup reads */
+    int32_t *tidx;
+    uint8_t *fk_frames;
+    double *pos2, *wrot2;           /* one frame's forward kinematics */
+    int32_t *chains;                /* nf x J: the toes' chains, top-down */
+    size_t *chain_len;
+    int chained;
+    uint8_t *mask;
+    cleanup_work *w;
+} cleanup_state;
+
+/* The root shift (up to 5 rounds of needs, widened and smoothed), added to out_root_pos;
+   MLR_E_NO_MEMORY in ar->st. */
+mlr_status cleanup__shift_root(cleanup_state *cu, cleanup_arena *ar, mlr_cleanup_report *report);
+
+/* The toes' chains (the hip down to the placed point's joint), top-down; cu->chained is 1 when
+   every active foot has one and no other foot's leg joint lies on it or above it: the turn of
+   the ankle then needs the forward kinematics of the chain only, and newr is read at the
+   legs' joints only. */
+void cleanup__find_chains(cleanup_state *cu);
+
+/* One pass: forward kinematics again on the frames that changed since the last (the root
+   shift before the first pass, the spread of the pass before), the floor frames, IK on the
+   constrained frames, then the spread per leg. */
+mlr_status cleanup__pass(cleanup_state *cu);
 
 #endif
