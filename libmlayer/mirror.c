@@ -183,6 +183,13 @@ mlr_status mlr_mirror_check_partner(const mlr_rig *rig, const int32_t *partner, 
                             jname(rig, (size_t)partner[0], b2, sizeof b2));
     for (size_t j = 1; j < J; j++) {
         const int32_t k = partner[j], p = rig->parents[j];
+        if (k == (int32_t)j && partner[p] != p) /* a one-sided joint: a prop in one hand */
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "mirror: %.30s has no left/right partner but hangs under %.30s, "
+                                "which has one (%.30s): the mirror image would move it to the "
+                                "other side, which needs a partner joint there",
+                                jname(rig, j, b1, sizeof b1), jname(rig, (size_t)p, b2, sizeof b2),
+                                jname(rig, (size_t)partner[p], b3, sizeof b3));
         if (rig->parents[k] != partner[p])
             return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                                 "mirror: %.30s pairs with %.30s, "

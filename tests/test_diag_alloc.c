@@ -357,6 +357,13 @@ static mlr_status lgs_create_call(mlr_test_allocator *ta, mlr_diag *d)
     return s;
 }
 
+static mlr_status depth_first_order_call(mlr_test_allocator *ta, mlr_diag *d)
+{
+    static const int32_t parents[5] = {2, -1, 1, 2, 0}; /* not depth-first: needs the walk */
+    int32_t order[5];
+    return mlr_rig_depth_first_order(5, parents, NULL, order, &ta->base, d);
+}
+
 static mlr_status resample_call(mlr_test_allocator *ta, mlr_diag *d)
 {
     enum { M = 71 };
@@ -536,6 +543,7 @@ static const alloc_case alloc_cases[] = {
     {"limits", limits_create_call},
     {"decompose", layers_decompose_call},
     {"lgs", lgs_create_call},
+    {"depth-first order", depth_first_order_call},
     {"resample", resample_call},
     {"resample", resample_open_end_call},
     {"timewarp", timewarp_call},
@@ -677,7 +685,7 @@ static int32_t ibuf[64];
 
 /* Call i of the public functions with one required pointer NULL (or a size 0 where that is
  * refused); the other arguments are valid where it matters. n_null_calls of them. */
-enum { n_null_calls = 86 };
+enum { n_null_calls = 87 };
 static mlr_status null_call(int i, mlr_diag *d)
 {
     double *a = buf_a, *b = buf_b;
@@ -866,6 +874,8 @@ static mlr_status null_call(int i, mlr_diag *d)
         return mlr_stream_set_limits(NULL, NULL, d);
     case 85:
         return mlr_trim_lead_in(NULL, FN, f_root, f_rot, NULL, 1, &lead, NULL, d);
+    case 86:
+        return mlr_rig_depth_first_order(2, NULL, NULL, NULL, NULL, d);
     default:
         break;
     }

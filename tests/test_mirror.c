@@ -463,6 +463,15 @@ START_TEST(bad_input_says_why)
     expect(mlr_mirror_pairs(&anon, NULL, 0, 0, partner, NULL, NULL, NULL, &d), &d,
            "no joint names");
 
+    /* a joint on one side only (a prop in the right hand, as Xsens exports with a Prop1) */
+    static const char *const prop_names[] = {"Hips", "LeftHand", "RightHand", "Prop1"};
+    static const int32_t prop_parents[] = {-1, 0, 0, 2};
+    static const double prop_offsets[12] = {0, 1, 0, 1, 0, 0, -1, 0, 0, -0.2, 0, 0};
+    const mlr_rig prop = {4, prop_parents, prop_offsets, prop_names, 0, NULL, 0, NULL, NULL};
+    int32_t pp[4];
+    expect(mlr_mirror_pairs(&prop, NULL, 0, 0, pp, NULL, NULL, NULL, &d), &d,
+           "Prop1 has no left/right partner but hangs under RightHand, which has one (LeftHand)");
+
     /* the hierarchy, the position channels and the End Sites must map onto themselves */
     const mlr_rig h = human();
     int32_t hp[HJ];

@@ -303,6 +303,110 @@ START_TEST(body_translation_joint_real_clips)
 }
 END_TEST
 
+/* ---- depth-first order of a tree listed in any order ------------------------------------- */
+
+/* Reference: recursive preorder, children in input order. */
+static void dfo_reference(size_t J, const int32_t *parents, int32_t j, int32_t *out, size_t *n)
+{
+    out[(*n)++] = j;
+    for (size_t c = 0; c < J; c++)
+        if (parents[c] == j)
+            dfo_reference(J, parents, (int32_t)c, out, n);
+}
+
+START_TEST(depth_first_order_of_shuffled_trees_matches_a_recursive_walk)
+{
+    mlr_test_rng r;
+    mlr_test_rng_seed(&r, 2024);
+    for (int trial = 0; trial < 200; trial++) {
+        const size_t J = 1 + (size_t)(mlr_test_rng_uniform(&r) * 60);
+        int32_t pre[64], perm[64], inv[64], parents[64], order[64], ref[64];
+        /* a random tree in depth-first order: each joint's parent is the previous joint or one
+           of its ancestors */
+        pre[0] = -1;
+        for (size_t j = 1; j < J; j++) {
+            int32_t p = (int32_t)j - 1;
+            while (p > 0 && mlr_test_rng_uniform(&r) < 0.4)
+                p = pre[p];
+            pre[j] = p;
+        }
+        /* listed in a random order: input joint i is tree joint perm[i] */
+        for (size_t i = 0; i < J; i++)
+            perm[i] = (int32_t)i;
+        for (size_t i = J; i > 1; i--) {
+            const size_t k = (size_t)(mlr_test_rng_uniform(&r) * (double)i);
+            const int32_t t = perm[i - 1];
+            perm[i - 1] = perm[k], perm[k] = t;
+        }
+        for (size_t i = 0; i < J; i++)
+            inv[perm[i]] = (int32_t)i;
+        for (size_t i = 0; i < J; i++)
+            parents[i] = pre[perm[i]] < 0 ? -1 : inv[pre[perm[i]]];
+        mlr_test_allocator ta;
+        mlr_test_allocator_init(&ta, SIZE_MAX);
+        mlr_diag d = {0};
+        ck_assert_int_eq(mlr_rig_depth_first_order(J, parents, NULL, order, &ta.base, &d), MLR_OK);
+        ck_assert_uint_eq(ta.live_blocks, 0);
+        size_t n = 0;
+        dfo_reference(J, parents, inv[0], ref, &n);
+        ck_assert_uint_eq(n, J);
+        for (size_t k = 0; k < J; k++)
+            ck_assert_int_eq(order[k], ref[k]);
+        /* the reordered tree is in depth-first order: mlr_rig_check accepts it */
+        int32_t where[64], reordered[64];
+        double offsets[3 * 64] = {0};
+        for (size_t k = 0; k < J; k++)
+            where[order[k]] = (int32_t)k;
+        for (size_t k = 0; k < J; k++)
+            reordered[k] = parents[order[k]] < 0 ? -1 : where[parents[order[k]]];
+        const mlr_rig rig = {J, reordered, offsets, NULL, 0, NULL, 0, NULL, NULL};
+        ck_assert_int_eq(mlr_rig_check(&rig, &d), MLR_OK);
+        /* a tree already in depth-first order gives the identity */
+        ck_assert_int_eq(mlr_rig_depth_first_order(J, pre, NULL, order, NULL, &d), MLR_OK);
+        for (size_t k = 0; k < J; k++)
+            ck_assert_int_eq(order[k], (int32_t)k);
+    }
+}
+END_TEST
+
+START_TEST(depth_first_order_refuses_what_is_not_one_tree)
+{
+    static const char *const names[4] = {"Hips", "Spine", "Head", "Arm"};
+    int32_t order[4];
+    mlr_diag d = {0};
+    static const int32_t two_roots[4] = {-1, 0, -1, 2};
+    ck_assert_int_eq(mlr_rig_depth_first_order(4, two_roots, names, order, NULL, &d),
+                     MLR_E_INVALID_ARG);
+    ck_assert_ptr_nonnull(strstr(d.message, "2 roots"));
+    ck_assert_ptr_nonnull(strstr(d.message, "'Head'"));
+    static const int32_t no_root[4] = {1, 0, 1, 2};
+    ck_assert_int_eq(mlr_rig_depth_first_order(4, no_root, names, order, NULL, &d),
+                     MLR_E_INVALID_ARG);
+    ck_assert_ptr_nonnull(strstr(d.message, "no root"));
+    static const int32_t cycle[4] = {-1, 0, 3, 2}; /* Head and Arm are each other's parent */
+    ck_assert_int_eq(mlr_rig_depth_first_order(4, cycle, names, order, NULL, &d),
+                     MLR_E_INVALID_ARG);
+    ck_assert_ptr_nonnull(strstr(d.message, "'Head' (index 2) is not below the root"));
+    static const int32_t self[4] = {-1, 0, 2, 0};
+    ck_assert_int_eq(mlr_rig_depth_first_order(4, self, NULL, order, NULL, &d), MLR_E_INVALID_ARG);
+    ck_assert_ptr_nonnull(strstr(d.message, "joint 2 is its own parent"));
+    static const int32_t outside[4] = {-1, 0, 7, 0};
+    ck_assert_int_eq(mlr_rig_depth_first_order(4, outside, names, order, NULL, &d),
+                     MLR_E_INVALID_ARG);
+    ck_assert_ptr_nonnull(strstr(d.message, "outside -1..3"));
+    ck_assert_int_eq(mlr_rig_depth_first_order(0, outside, NULL, order, NULL, &d),
+                     MLR_E_INVALID_ARG);
+    static const int32_t ok[4] = {-1, 0, 1, 0};
+    for (size_t k = 0; k < 3; k++) { /* every allocation failure */
+        mlr_test_allocator ta;
+        mlr_test_allocator_init(&ta, k);
+        ck_assert_int_eq(mlr_rig_depth_first_order(4, ok, NULL, order, &ta.base, &d),
+                         MLR_E_NO_MEMORY);
+        ck_assert_uint_eq(ta.live_blocks, 0);
+    }
+}
+END_TEST
+
 static Suite *rig_suite(void)
 {
     Suite *s = suite_create("rig");
@@ -314,6 +418,8 @@ static Suite *rig_suite(void)
     tcase_add_test(tc, body_translation_joint_synthetic);
     tcase_add_test(tc, body_translation_joint_bad_input);
     tcase_add_test(tc, body_translation_joint_real_clips);
+    tcase_add_test(tc, depth_first_order_of_shuffled_trees_matches_a_recursive_walk);
+    tcase_add_test(tc, depth_first_order_refuses_what_is_not_one_tree);
     suite_add_tcase(s, tc);
     return s;
 }

@@ -5,7 +5,8 @@
  * the body's size and up axis.
  *
  * An mlr_rig only points at the caller's arrays: it is borrowed for the duration of a call and
- * never kept. Joints are in depth-first order (parents[0] == -1, 0 <= parents[j] < j).
+ * never kept. Joints are in depth-first order (parents[0] == -1, 0 <= parents[j] < j);
+ * mlr_rig_depth_first_order gives that order for a tree listed in any other.
  *
  * Contact and end points are named "Joint" or "Joint/End" (the first End Site below Joint).
  */
@@ -162,6 +163,27 @@ typedef struct mlr_up_guess {
  */
 MLR_API mlr_status mlr_rig_up_axis(const mlr_rig *rig, size_t n_frames, const double *world_pos,
                                    mlr_up_guess *out, const mlr_allocator *alloc, mlr_diag *diag);
+
+/**
+ * The depth-first order of a joint tree given in any order (SMPL's joint list, a glTF node
+ * list, parents after their children), for building a rig or a motion, which take joints in
+ * depth-first order: joint k of that order is input joint order[k]. The root comes first and
+ * each joint's subtree right after it; siblings keep their input order, so a tree already in
+ * depth-first order gives the identity. Reorder the per-joint arrays by it and map each parent
+ * p to the k with order[k] == p.
+ * @param n_joints  J >= 1
+ * @param parents   [in] J parent indices, -1 for the one root, any order
+ * @param names     [in] J joint names for the messages, or NULL
+ * @param order     [out] J joint indices (undefined on failure)
+ * @return MLR_OK; MLR_E_INVALID_ARG (NULL arrays, J = 0, a parent outside -1..J-1, no root or
+ *         two roots, a joint its own parent, a cycle: diag names the joint); MLR_E_OVERFLOW
+ *         (J above INT32_MAX); MLR_E_NO_MEMORY
+ * Allocates: scratch only (J + 1 sizes, 2 J indices), released before return. Cost O(J).
+ * Threads: any.
+ */
+MLR_API mlr_status mlr_rig_depth_first_order(size_t n_joints, const int32_t *parents,
+                                             const char *const *names, int32_t *order,
+                                             const mlr_allocator *alloc, mlr_diag *diag);
 
 #ifdef __cplusplus
 }

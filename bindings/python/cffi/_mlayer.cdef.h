@@ -320,6 +320,9 @@ typedef struct mlr_rig {
 } mlr_rig;
 typedef enum mlr_axis { MLR_AXIS_X = 0, MLR_AXIS_Y = 1, MLR_AXIS_Z = 2 } mlr_axis;
 mlr_status mlr_rig_check(const mlr_rig *rig, mlr_diag *diag);
+mlr_status mlr_rig_depth_first_order(size_t n_joints, const int32_t *parents,
+                                     const char *const *names, int32_t *order,
+                                     const mlr_allocator *alloc, mlr_diag *diag);
 mlr_status mlr_rig_find_point(const mlr_rig *rig, const char *name, int32_t *joint,
                               int32_t *end_site, mlr_diag *diag);
 mlr_status mlr_rig_point_positions(const mlr_rig *rig, size_t n_frames,

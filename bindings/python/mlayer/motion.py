@@ -121,57 +121,32 @@ def depth_first_order(parents: ArrayLike, joint_names: Sequence[str] | None = No
     InvalidArgumentError
         No root or two roots, a parent out of range, a joint that is its own parent or a
         cycle (joints not below the root); the message names the joint.
+
+    Notes
+    -----
+    The C core computes it (``mlr_rig_depth_first_order`` in ``mlr_rig.h``), in O(J).
     """
-    par = np.asarray(parents).astype(np.int64, copy=False).reshape(-1)
+    par = np.asarray(parents).reshape(-1)
     J = par.shape[0]
-
-    def name(j: int) -> str:
-        return f"{joint_names[j]!r} (index {j})" if joint_names is not None else f"{j}"
-
-    bad = np.flatnonzero((par < -1) | (par >= J))
-    if bad.size:
-        j = int(bad[0])
-        raise InvalidArgumentError(f"{where}: joint {name(j)} has parent {int(par[j])}, "
-                                   f"outside -1..{J - 1}")
-    roots = np.flatnonzero(par == -1)
-    if roots.size != 1:
-        what = "no root (no parent -1)" if roots.size == 0 else (
-            f"{roots.size} roots: joints {name(int(roots[0]))} and {name(int(roots[1]))} "
-            "both have parent -1")
-        raise InvalidArgumentError(f"{where}: the joints must form one tree, found {what}")
-    if par[0] == -1 and _is_preorder(par):
-        return np.arange(J)
-    children: list[list[int]] = [[] for _ in range(J)]
-    for j in range(J):
-        if par[j] >= 0:
-            if par[j] == j:
-                raise InvalidArgumentError(f"{where}: joint {name(j)} is its own parent")
-            children[par[j]].append(j)
-    order, stack = [], [int(roots[0])]
-    while stack:
-        j = stack.pop()
-        order.append(j)
-        stack.extend(reversed(children[j]))
-    if len(order) != J:
-        seen = np.zeros(J, dtype=bool)
-        seen[order] = True
-        j = int(np.flatnonzero(~seen)[0])
-        raise InvalidArgumentError(f"{where}: joint {name(j)} is not below the root (its "
-                                   "parents form a cycle)")
-    return np.asarray(order, dtype=np.int64)
-
-
-def _is_preorder(par: np.ndarray) -> bool:
-    """Whether every parents[j] is j-1 or an ancestor of j-1 (the C core's depth-first rule),
-    in O(J): ``path`` holds the ancestors of j-1 and j-1 itself, root first."""
-    path = [0]
-    for j, p in enumerate(par.tolist()[1:], start=1):
-        while path and path[-1] != p:
-            path.pop()
-        if not path:
-            return False
-        path.append(j)
-    return True
+    if J == 0:
+        raise InvalidArgumentError(f"{where}: needs at least one joint")
+    if np.any(par < np.iinfo(np.int32).min) or np.any(par > np.iinfo(np.int32).max):
+        j = int(np.flatnonzero((par < -1) | (par >= J))[0])
+        raise InvalidArgumentError(f"{where}: joint {j} has parent {int(par[j])}, outside "
+                                   f"-1..{J - 1}")
+    par32 = np.ascontiguousarray(par, dtype=np.int32)
+    order = np.empty(J, dtype=np.int32)
+    keep: list[Any] = []  # the name buffers live until the call returns
+    cnames = ffi.NULL
+    if joint_names is not None:
+        keep = [ffi.new("char[]", str(n).encode("utf-8", errors="surrogateescape"))
+                for n in joint_names]
+        cnames = ffi.new("const char *[]", keep)
+    diag = ffi.new("mlr_diag *")
+    check(lib.mlr_rig_depth_first_order(J, ffi.cast("const int32_t *", ffi.from_buffer(par32)),
+                                        cnames, ffi.cast("int32_t *", ffi.from_buffer(order)),
+                                        ffi.NULL, diag), where, diag)
+    return order.astype(np.int64)
 
 
 class Skeleton(ReadOnlyAttributes):
