@@ -1,8 +1,13 @@
-/* The cleanup's private parts shared with the guards. */
+/* The cleanup's private parts: shared with the guards, and between the cleanup's files
+ * (cleanup_options.c, cleanup_fk.c, cleanup_floor.c, cleanup_feet.c, cleanup_spread.c,
+ * cleanup_ref.c, cleanup_root.c, cleanup_pass.c and contacts_fix.c, the run). Not installed;
+ * none of it is exported. */
 #ifndef MLR_CLEANUP_INTERNAL_H
 #define MLR_CLEANUP_INTERNAL_H
 
 #include "mlr_internal.h"
+
+#include <math.h>
 
 /* The floor of mlr_cleanup_floor_height from the contact points' world positions pts
  * (N x C x 3, as mlr_rig_point_positions gives them) instead of the frames: the quantile of
@@ -60,5 +65,202 @@ mlr_status mlr_cleanup_contacts_ref(const mlr_rig *rig, size_t N, double fps, in
                                     size_t n_opts, double *out_root_pos, double *out_rot,
                                     mlr_cleanup_report *report, const mlr_allocator *alloc,
                                     mlr_diag *diag);
+
+/* ---- between the cleanup's files ---- */
+
+enum { CLEANUP_MAX_BLOCKS = 48 };
+
+/* The scratch of one call: up to CLEANUP_MAX_BLOCKS blocks, released together; the first
+   failure kept in st (later takes then return NULL). */
+typedef struct cleanup_arena {
+    const mlr_allocator *a;
+    void *p[CLEANUP_MAX_BLOCKS];
+    size_t n[CLEANUP_MAX_BLOCKS];
+    int count;
+    mlr_status st;
+} cleanup_arena;
+
+/* A block of count elements, zeroed (take) or not (take_raw: for the big arrays that are
+   written before they are read). */
+static inline void *cleanup__take_block(cleanup_arena *ar, size_t count, size_t elem, int zero)
+{
+    size_t bytes;
+    if (ar->st != MLR_OK)
+        return NULL;
+    if (mlr_mul_size(count ? count : 1, elem, &bytes) != MLR_OK) {
+        ar->st = MLR_E_OVERFLOW;
+        return NULL;
+    }
+    void *p = ar->count < CLEANUP_MAX_BLOCKS ? mlr_alloc(ar->a, bytes) : NULL;
+    if (!p) {
+        ar->st = MLR_E_NO_MEMORY;
+        return NULL;
+    }
+    if (zero)
+        memset(p, 0, bytes);
+    ar->p[ar->count] = p, ar->n[ar->count] = bytes, ar->count++;
+    return p;
+}
+
+static inline void *cleanup__take(cleanup_arena *ar, size_t count, size_t elem)
+{
+    return cleanup__take_block(ar, count, elem, 1);
+}
+
+static inline void *cleanup__take_raw(cleanup_arena *ar, size_t count, size_t elem)
+{
+    return cleanup__take_block(ar, count, elem, 0);
+}
+
+static inline void cleanup__release(cleanup_arena *ar)
+{
+    for (int i = ar->count - 1; i >= 0; i--)
+        mlr_free(ar->a, ar->p[i], ar->n[i]);
+    ar->count = 0;
+}
+
+/* The cleanup's options, read (cleanup__parse_options). */
+typedef struct cleanup_config {
+    double blend, reach, floor_height, floor_q, ref_smooth, pin_smooth, max_fold;
+    int passes, floor_on, floor_given, root_on;
+    double keep_stiller;
+} cleanup_config;
+
+/* A foot: anchor joint, its leg, the columns of its points, the targets. */
+typedef struct cleanup_foot {
+    int32_t anchor, hip, knee;
+    size_t n_cols, n_own;
+    size_t cols[16]; /* own first, then the placed points */
+    uint8_t *U, *F, *K; /* in contact, a floor frame, in a kept contact (no IK there) */
+    uint8_t *S;         /* this pass: the leg already reaches its target (no IK there) */
+    double *at, *tt, *lift;
+    int active;
+} cleanup_foot;
+
+/* The spread's state: the map's band solver and arrays (cleanup__spread_rotations). */
+typedef struct cleanup_work {
+    const mlr_rig *rig;
+    size_t N, J, C;
+    double fps;
+    int up;
+    const cleanup_config *cfg;
+    mlr_band *pin;                     /* N x N, 2 sub-diagonals */
+    double *ab;                        /* N x 3: its lower band */
+    double *map_val, *map_y, *map_out; /* N x 9 */
+    uint8_t *dirty;                    /* N: frames whose rotations the spread changed */
+} cleanup_work;
+
+/* Read the cleanup's options into cfg (the MLR_OPTIONS_READ rules, keep_stiller 0 or >= 1). */
+mlr_status cleanup__parse_options(const mlr_cleanup_option *opts, size_t n_opts,
+                                  cleanup_config *cfg, mlr_diag *diag);
+
+/* motion (root_pos, rot, trans: N frames) not NULL and finite; what names it in the message. */
+mlr_status cleanup__check_motion(const mlr_rig *rig, size_t N, const double *root_pos,
+                                 const double *rot, const double *trans, const char *what,
+                                 mlr_diag *diag);
+
+/* The contact points name joints (and End Sites of them) of the rig, each once. */
+mlr_status cleanup__check_points(const mlr_rig *rig, size_t C, const int32_t *joints,
+                                 const int32_t *end_sites, mlr_diag *diag);
+
+/* The quantile q of v's n values by linear interpolation (v is sorted in place). */
+double cleanup__quantile_of(double *v, size_t n, double q);
+
+/* Forward kinematics of the joints marked in need (closed under parents) of frame f, with the
+   arithmetic of mlr_fk_arrays (mlr_fk.h: mlr_quat_mul / mlr_quat_rotate, inlined), so each
+   computed value is bit for bit what the full FK gives; the other joints are not written.
+   tidx[j]: j's index among the rig's trans joints, or -1. wp, wrot_f: J x 3 and J x 4, the
+   frame's. */
+void cleanup__fk_masked_frame(const mlr_rig *rig, size_t f, const uint8_t *need,
+                              const int32_t *tidx, const double *root_pos, const double *rot,
+                              const double *trans, double *wp, double *wrot_f);
+
+/* cleanup__fk_masked_frame on the joints of a chain only (top-down: chain[0] and then each a
+   child of the one before), the world values of chain[0]'s parent read from pos_f / wrot_f
+   (the frame's forward kinematics, J x 3 and J x 4): the same arithmetic, so the same values
+   at the chain's joints when the joints above it have the same rotations. wp / wrot_out:
+   J x 3 and J x 4, written at the chain's joints (and chain[0]'s parent). */
+void cleanup__fk_chain_frame(const mlr_rig *rig, size_t f, const int32_t *chain, size_t n,
+                             const int32_t *tidx, const double *rot, const double *trans,
+                             const double *pos_f, const double *wrot_f, double *wp,
+                             double *wrot_out);
+
+/* FK + points of one motion into caller arrays; with need (and tidx), only the joints marked
+   there (cleanup__fk_masked_frame). */
+mlr_status cleanup__fk_points(const mlr_rig *rig, size_t N, const double *root_pos,
+                              const double *rot, const double *trans, size_t C,
+                              const int32_t *joints, const int32_t *end_sites, double *pos,
+                              double *wrot, double *pts, const mlr_allocator *alloc,
+                              const uint8_t *need, const int32_t *tidx);
+
+/* The joints the cleanup's forward kinematics computes (need, J, zeroed by the caller): the
+   contact points, the feet's anchors and their ancestors; tidx (J): each joint's index among
+   the rig's trans joints, or -1. */
+void cleanup__fk_need(const mlr_rig *rig, size_t C, const int32_t *joints,
+                      const cleanup_foot *feet, size_t nf, uint8_t *need, int32_t *tidx);
+
+/* The feet of the contact points: each listed joint with no listed ancestor is an ankle (an
+   anchor) with its own points; the other points (toes, End Sites) are placed on the foot of
+   their nearest anchor ancestor. listed (J) and assigned (C): zeroed scratch. */
+mlr_status cleanup__assign_feet(const mlr_rig *rig, size_t C, const int32_t *joints,
+                                const int32_t *end_sites, cleanup_foot *feet, size_t *nf_out,
+                                uint8_t *listed, uint8_t *assigned, mlr_diag *diag);
+
+/* Spread the corrections new * inv(rot) of the listed joints, known on the frames of mask. */
+mlr_status cleanup__spread_rotations(cleanup_work *w, double *rot, const double *newr,
+                                     const int32_t *js, size_t nj, const uint8_t *mask);
+
+/* |a - b| of two 3-vectors. */
+static inline double cleanup__dist3(const double *a, const double *b)
+{
+    const double x = a[0] - b[0], y = a[1] - b[1], z = a[2] - b[2];
+    return sqrt(x * x + y * y + z * z);
+}
+
+/* The state of one cleanup run, shared by its steps. */
+typedef struct cleanup_state {
+    const mlr_rig *rig;
+    size_t N, J, C;
+    double fps;
+    int up;
+    const cleanup_config *cfg;
+    const int32_t *joints, *end_sites;
+    const uint8_t *contacts;
+    const double *trans;
+    double *out_root_pos, *out_rot;
+    cleanup_foot *feet;
+    size_t nf;
+    int have_ref;
+    const double *Pr, *pos_ref;     /* the reference's points and anchors, or NULL */
+    double *pos, *wrot, *P;         /* forward kinematics of (out_root_pos, out_rot), points */
+    double *lim, *newr, *shift;
+    double floor_h;
+    int floor_active;
+    uint8_t *anyU, *anyF;
+    uint8_t *need;                  /* joints whose forward kinematics the cleanup reads */
+    int32_t *tidx;
+    uint8_t *fk_frames;
+    double *pos2, *wrot2;           /* one frame's forward kinematics */
+    int32_t *chains;                /* nf x J: the toes' chains, top-down */
+    size_t *chain_len;
+    int chained;
+    uint8_t *mask;
+    cleanup_work *w;
+} cleanup_state;
+
+/* The root shift (up to 5 rounds of needs, widened and smoothed), added to out_root_pos;
+   MLR_E_NO_MEMORY in ar->st. */
+mlr_status cleanup__shift_root(cleanup_state *cu, cleanup_arena *ar, mlr_cleanup_report *report);
+
+/* The toes' chains (the hip down to the placed point's joint), top-down; cu->chained is 1 when
+   every active foot has one and no other foot's leg joint lies on it or above it: the turn of
+   the ankle then needs the forward kinematics of the chain only, and newr is read at the
+   legs' joints only. */
+void cleanup__find_chains(cleanup_state *cu);
+
+/* One pass: forward kinematics again on the frames that changed since the last (the root
+   shift before the first pass, the spread of the pass before), the floor frames, IK on the
+   constrained frames, then the spread per leg. */
+mlr_status cleanup__pass(cleanup_state *cu);
 
 #endif

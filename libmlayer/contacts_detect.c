@@ -109,16 +109,18 @@ static void clean_column(uint8_t *c, size_t N, size_t s, size_t gap, size_t shor
     }
 }
 
-mlr_status mlr_contacts_detect(const mlr_rig *rig, double fps, int up, size_t n_frames,
-                               const double *world_pos, const double *world_rot, size_t n_points,
+/* The arguments of mlr_contacts_detect, checked, and its options (speed, height,
+   min_duration). The points are validated by position, before anything is allocated. */
+static mlr_status detect_check(const mlr_rig *rig, double fps, int up, size_t N,
+                               const double *world_pos, const double *world_rot, size_t C,
                                const int32_t *joints, const int32_t *end_sites,
-                               const mlr_contacts_option *opts, size_t n_opts, uint8_t *contacts,
-                               const mlr_allocator *alloc, mlr_diag *diag)
+                               const mlr_contacts_option *opts, size_t n_opts,
+                               const uint8_t *contacts, double *speed, double *height,
+                               double *min_duration, mlr_diag *diag)
 {
     mlr_status st = mlr_rig_check(rig, diag);
     if (st != MLR_OK)
         return st;
-    const size_t N = n_frames, C = n_points, J = rig->n_joints;
     if (!(isfinite(fps) && fps > 0))
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                             "contacts: fps must be finite and > 0, got %g", fps);
@@ -132,8 +134,7 @@ mlr_status mlr_contacts_detect(const mlr_rig *rig, double fps, int up, size_t n_
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "contacts: no contact points");
     if (!world_pos || !joints || !contacts)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "contacts: NULL argument");
-    double speed = SPEED_ON, height = HEIGHT_ON, min_duration = MIN_CONTACT;
-    st = parse_options(opts, n_opts, &speed, &height, &min_duration, diag);
+    st = parse_options(opts, n_opts, speed, height, min_duration, diag);
     if (st != MLR_OK)
         return st;
     for (size_t c = 0; c < C; c++)
@@ -143,14 +144,86 @@ mlr_status mlr_contacts_detect(const mlr_rig *rig, double fps, int up, size_t n_
                 return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                                     "contacts: points %zu and %zu are the same", d, c);
     /* validates the points; positions first, so that bad points fail before the allocation */
-    st = mlr_rig_point_positions(rig, 0, world_pos, world_rot, C, joints, end_sites, NULL, diag);
+    return mlr_rig_point_positions(rig, 0, world_pos, world_rot, C, joints, end_sites, NULL, diag);
+}
+
+/* The points' speeds v (N x C) from their positions p (N x C x 3): central differences over
+   2 k frames, the first and last k frames the nearest computed value; for N <= 2 k the mean
+   speed over the clip. */
+static void point_speeds(const double *p, size_t N, size_t C, double fps, double *v)
+{
+    const size_t k0 = round_half_even(fps / SPEED_STEP), k = k0 > 1 ? k0 : 1;
+    if (N > 2 * k) {
+        const double dt = (double)(2 * k) / fps;
+        for (size_t t = k; t < N - k; t++)
+            for (size_t c = 0; c < C; c++) {
+                const double *a1 = p + 3 * ((t + k) * C + c), *a0 = p + 3 * ((t - k) * C + c);
+                const double dx = a1[0] - a0[0], dy = a1[1] - a0[1], dz = a1[2] - a0[2];
+                v[t * C + c] = sqrt(dx * dx + dy * dy + dz * dz) / dt;
+            }
+        for (size_t t = 0; t < k; t++)
+            for (size_t c = 0; c < C; c++) {
+                v[t * C + c] = v[k * C + c];
+                v[(N - 1 - t) * C + c] = v[(N - k - 1) * C + c];
+            }
+    } else {
+        const double dt = (double)(N - 1) / fps;
+        for (size_t c = 0; c < C; c++) {
+            const double *a1 = p + 3 * ((N - 1) * C + c), *a0 = p + 3 * c;
+            const double dx = a1[0] - a0[0], dy = a1[1] - a0[1], dz = a1[2] - a0[2];
+            const double s = sqrt(dx * dx + dy * dy + dz * dz) / dt;
+            for (size_t t = 0; t < N; t++)
+                v[t * C + c] = s;
+        }
+    }
+}
+
+/* The thresholds of one detection, in length units and frames. */
+typedef struct thresholds {
+    double v_on, v_off, h_on, h_off;
+    size_t half, gap, shortest; /* the floor window's half width, the gap closed, the shortest
+                                   contact kept */
+} thresholds;
+
+/* Point c's contacts (column c of the N x C contacts) from its positions p and speeds v:
+   enter slow and low, leave fast or high, then gaps closed and short contacts dropped.
+   Scratch: y, fl (N), pad, fwd, bwd (padded_len). */
+static void detect_point(const double *p, const double *v, size_t N, size_t C, size_t c, int up,
+                         const thresholds *th, double *y, double *pad, double *fwd, double *bwd,
+                         double *fl, uint8_t *contacts)
+{
+    for (size_t t = 0; t < N; t++)
+        y[t] = p[3 * (t * C + c) + (size_t)up];
+    moving_min(y, N, th->half, pad, fwd, bwd, fl);
+    uint8_t state = 0;
+    for (size_t t = 0; t < N; t++) {
+        const double h = y[t] - fl[t], s = v[t * C + c];
+        if (s < th->v_on && h < th->h_on)
+            state = 1;
+        else if (s > th->v_off || h > th->h_off)
+            state = 0;
+        contacts[t * C + c] = state;
+    }
+    clean_column(contacts + c, N, C, th->gap, th->shortest);
+}
+
+mlr_status mlr_contacts_detect(const mlr_rig *rig, double fps, int up, size_t n_frames,
+                               const double *world_pos, const double *world_rot, size_t n_points,
+                               const int32_t *joints, const int32_t *end_sites,
+                               const mlr_contacts_option *opts, size_t n_opts, uint8_t *contacts,
+                               const mlr_allocator *alloc, mlr_diag *diag)
+{
+    const size_t N = n_frames, C = n_points;
+    double speed = SPEED_ON, height = HEIGHT_ON, min_duration = MIN_CONTACT;
+    mlr_status st = detect_check(rig, fps, up, N, world_pos, world_rot, C, joints, end_sites, opts,
+                                 n_opts, contacts, &speed, &height, &min_duration, diag);
     if (st != MLR_OK)
         return st;
 
     mlr_allocator a;
     mlr_allocator_resolve(alloc, &a);
     double H;
-    st = mlr_rig_body_height(N, J, world_pos, up, &H, &a, diag);
+    st = mlr_rig_body_height(N, rig->n_joints, world_pos, up, &H, &a, diag);
     if (st != MLR_OK)
         return mlr_diag_prefix(diag, st, "contacts");
     if (!(H > 0))
@@ -178,54 +251,15 @@ mlr_status mlr_contacts_detect(const mlr_rig *rig, double fps, int up, size_t n_
                                 "contacts: position of point %zu at frame %zu is not finite",
                                 (i / 3) % C, i / (3 * C));
         }
-
-    /* speeds: central differences over 2 k frames */
-    const size_t k0 = round_half_even(fps / SPEED_STEP), k = k0 > 1 ? k0 : 1;
-    if (N > 2 * k) {
-        const double dt = (double)(2 * k) / fps;
-        for (size_t t = k; t < N - k; t++)
-            for (size_t c = 0; c < C; c++) {
-                const double *a1 = p + 3 * ((t + k) * C + c), *a0 = p + 3 * ((t - k) * C + c);
-                const double dx = a1[0] - a0[0], dy = a1[1] - a0[1], dz = a1[2] - a0[2];
-                v[t * C + c] = sqrt(dx * dx + dy * dy + dz * dz) / dt;
-            }
-        for (size_t t = 0; t < k; t++)
-            for (size_t c = 0; c < C; c++) {
-                v[t * C + c] = v[k * C + c];
-                v[(N - 1 - t) * C + c] = v[(N - k - 1) * C + c];
-            }
-    } else {
-        const double dt = (double)(N - 1) / fps;
-        for (size_t c = 0; c < C; c++) {
-            const double *a1 = p + 3 * ((N - 1) * C + c), *a0 = p + 3 * c;
-            const double dx = a1[0] - a0[0], dy = a1[1] - a0[1], dz = a1[2] - a0[2];
-            const double s = sqrt(dx * dx + dy * dy + dz * dz) / dt;
-            for (size_t t = 0; t < N; t++)
-                v[t * C + c] = s;
-        }
-    }
+    point_speeds(p, N, C, fps, v);
 
     /* in the order of the reference: (2 speed) H and (1.5 height) H */
-    const double v_on = speed * H, v_off = 2.0 * speed * H;
-    const double h_on = height * H, h_off = 1.5 * height * H;
-    const size_t gap = round_half_even(MAX_GAP * fps);
+    thresholds th = {speed * H, 2.0 * speed * H, height * H, 1.5 * height * H, half, 0, 0};
+    th.gap = round_half_even(MAX_GAP * fps);
     const size_t shortest0 = round_half_even(min_duration * fps);
-    const size_t shortest = shortest0 > 2 ? shortest0 : 2;
-    for (size_t c = 0; c < C; c++) {
-        for (size_t t = 0; t < N; t++)
-            y[t] = p[3 * (t * C + c) + (size_t)up];
-        moving_min(y, N, half, pad, fwd, bwd, fl);
-        uint8_t state = 0;
-        for (size_t t = 0; t < N; t++) {
-            const double h = y[t] - fl[t], s = v[t * C + c];
-            if (s < v_on && h < h_on)
-                state = 1;
-            else if (s > v_off || h > h_off)
-                state = 0;
-            contacts[t * C + c] = state;
-        }
-        clean_column(contacts + c, N, C, gap, shortest);
-    }
+    th.shortest = shortest0 > 2 ? shortest0 : 2;
+    for (size_t c = 0; c < C; c++)
+        detect_point(p, v, N, C, c, up, &th, y, pad, fwd, bwd, fl, contacts);
     mlr_free(&a, p, bytes);
     return MLR_OK;
 }

@@ -1,531 +1,16 @@
 /*
- * Contact cleanup and floor guard of a synthesized motion (mlr_cleanup.h).
+ * Contact cleanup and floor guard of a synthesized motion (mlr_cleanup.h): the cleanup run
+ * (its arguments, the floor, the feet's targets, and its steps in order).
  */
 #include "cleanup_internal.h"
 #include "ik_internal.h"
-#include "options_internal.h"
 
 #include <math.h>
-#include <stdlib.h>
-
-enum { MAX_BLOCKS = 48 };
-
-typedef struct arena {
-    const mlr_allocator *a;
-    void *p[MAX_BLOCKS];
-    size_t n[MAX_BLOCKS];
-    int count;
-    mlr_status st;
-} arena;
-
-/* A block of count elements, zeroed (take) or not (take_raw: for the big arrays that are
-   written before they are read). */
-static void *take_block(arena *ar, size_t count, size_t elem, int zero)
-{
-    size_t bytes;
-    if (ar->st != MLR_OK)
-        return NULL;
-    if (mlr_mul_size(count ? count : 1, elem, &bytes) != MLR_OK) {
-        ar->st = MLR_E_OVERFLOW;
-        return NULL;
-    }
-    void *p = ar->count < MAX_BLOCKS ? mlr_alloc(ar->a, bytes) : NULL;
-    if (!p) {
-        ar->st = MLR_E_NO_MEMORY;
-        return NULL;
-    }
-    if (zero)
-        memset(p, 0, bytes);
-    ar->p[ar->count] = p, ar->n[ar->count] = bytes, ar->count++;
-    return p;
-}
-
-static void *take(arena *ar, size_t count, size_t elem) { return take_block(ar, count, elem, 1); }
-
-static void *take_raw(arena *ar, size_t count, size_t elem)
-{
-    return take_block(ar, count, elem, 0);
-}
-
-static void release(arena *ar)
-{
-    for (int i = ar->count - 1; i >= 0; i--)
-        mlr_free(ar->a, ar->p[i], ar->n[i]);
-    ar->count = 0;
-}
-
-typedef struct config {
-    double blend, reach, floor_height, floor_q, ref_smooth, pin_smooth, max_fold;
-    int passes, floor_on, floor_given, root_on;
-    double keep_stiller;
-} config;
-
-#define PI 3.14159265358979323846
-static const mlr_opt_spec cleanup_opts[] = {
-    {MLR_CLEANUP_OPT_BLEND, "blend", MLR_OPT_DOUBLE, 0.0, INFINITY, 1, 0, 0.2, NULL},
-    {MLR_CLEANUP_OPT_REACH, "reach", MLR_OPT_DOUBLE, 0.0, 1.0, 1, 0, 0.98, NULL},
-    {MLR_CLEANUP_OPT_PASSES, "passes", MLR_OPT_INT, 1.0, 10.0, 0, 0, 2.0, NULL},
-    {MLR_CLEANUP_OPT_FLOOR, "floor", MLR_OPT_BOOL, 0.0, 1.0, 0, 0, 1.0, NULL},
-    {MLR_CLEANUP_OPT_FLOOR_HEIGHT, "floor_height", MLR_OPT_DOUBLE, -INFINITY, INFINITY, 0, 0, NAN,
-     NULL},
-    {MLR_CLEANUP_OPT_FLOOR_QUANTILE, "floor_quantile", MLR_OPT_DOUBLE, 0.0, 1.0, 0, 0, 0.05, NULL},
-    {MLR_CLEANUP_OPT_REF_SMOOTH, "ref_smooth", MLR_OPT_DOUBLE, 0.0, INFINITY, 0, 0, 0.02, NULL},
-    {MLR_CLEANUP_OPT_PIN_SMOOTH, "pin_smooth", MLR_OPT_DOUBLE, 0.0, INFINITY, 1, 0, 0.02, NULL},
-    {MLR_CLEANUP_OPT_ROOT, "root", MLR_OPT_BOOL, 0.0, 1.0, 0, 0, 1.0, NULL},
-    {MLR_CLEANUP_OPT_MAX_FOLD, "max_fold", MLR_OPT_DOUBLE, 0.0, PI, 1, 0, PI, "in (0, pi]"},
-    {MLR_CLEANUP_OPT_KEEP_STILLER, "keep_stiller", MLR_OPT_DOUBLE, 0.0, INFINITY, 0, 0, 0.0,
-     "0 (off) or >= 1"},
-};
-#undef PI
-
-static mlr_status parse_options(const mlr_cleanup_option *opts, size_t n_opts, config *cfg,
-                                mlr_diag *diag)
-{
-    mlr_opt_values o;
-    mlr_status st = MLR_OPTIONS_READ("cleanup", cleanup_opts, opts, n_opts, &o, diag);
-    if (st != MLR_OK)
-        return st;
-    const double ks = o.v[MLR_CLEANUP_OPT_KEEP_STILLER];
-    if (ks > 0.0 && ks < 1.0)
-        return mlr_option_reject(diag, "cleanup", "keep_stiller", ks, "0 (off) or >= 1");
-    cfg->blend = o.v[MLR_CLEANUP_OPT_BLEND];
-    cfg->reach = o.v[MLR_CLEANUP_OPT_REACH];
-    cfg->passes = (int)o.v[MLR_CLEANUP_OPT_PASSES];
-    cfg->floor_on = o.v[MLR_CLEANUP_OPT_FLOOR] != 0.0;
-    cfg->floor_given = o.given[MLR_CLEANUP_OPT_FLOOR_HEIGHT];
-    cfg->floor_height = o.v[MLR_CLEANUP_OPT_FLOOR_HEIGHT];
-    cfg->floor_q = o.v[MLR_CLEANUP_OPT_FLOOR_QUANTILE];
-    cfg->ref_smooth = o.v[MLR_CLEANUP_OPT_REF_SMOOTH];
-    cfg->pin_smooth = o.v[MLR_CLEANUP_OPT_PIN_SMOOTH];
-    cfg->root_on = o.v[MLR_CLEANUP_OPT_ROOT] != 0.0;
-    cfg->max_fold = o.v[MLR_CLEANUP_OPT_MAX_FOLD];
-    cfg->keep_stiller = ks;
-    return MLR_OK;
-}
-
-static int finite_all(const double *x, size_t count)
-{
-    for (size_t i = 0; i < count; i++)
-        if (!isfinite(x[i]))
-            return 0;
-    return 1;
-}
-
-static mlr_status check_motion(const mlr_rig *rig, size_t N, const double *root_pos,
-                               const double *rot, const double *trans, const char *what,
-                               mlr_diag *diag)
-{
-    const size_t J = rig->n_joints, P = rig->n_trans;
-    if (!root_pos || !rot || (P && !trans))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: root_pos, rot%s is NULL", what,
-                            P ? " or trans" : "");
-    if (!finite_all(root_pos, 3 * N) || !finite_all(rot, 4 * N * J) ||
-        (P && !finite_all(trans, 3 * N * P)))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s contains NaN or infinite values",
-                            what);
-    return MLR_OK;
-}
-
-static mlr_status check_points(const mlr_rig *rig, size_t C, const int32_t *joints,
-                               const int32_t *end_sites, mlr_diag *diag)
-{
-    if (C && !joints)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "contact points: joints is NULL");
-    for (size_t c = 0; c < C; c++) {
-        const int32_t j = joints[c], e = end_sites ? end_sites[c] : -1;
-        if (j < 0 || (size_t)j >= rig->n_joints)
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "contact point %zu: joint %d names nothing (the rig has %zu "
-                                "joints)",
-                                c, (int)j, rig->n_joints);
-        if (e < -1 || (e >= 0 && ((size_t)e >= rig->n_end_sites || rig->end_site_parents[e] != j)))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "contact point %zu: End Site %d is not an End Site of joint %d", c,
-                                (int)e, (int)j);
-        for (size_t d = 0; d < c; d++)
-            if (joints[d] == j && (end_sites ? end_sites[d] : -1) == e)
-                return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                    "contact points %zu and %zu are the same point", d, c);
-    }
-    return MLR_OK;
-}
-
-static int cmp_double(const void *a, const void *b)
-{
-    const double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
-
-static double quantile_of(double *v, size_t n, double q)
-{
-    qsort(v, n, sizeof *v, cmp_double);
-    const double pos = q * (double)(n - 1);
-    const size_t i = (size_t)floor(pos);
-    if (i + 1 >= n)
-        return v[n - 1];
-    const double f = pos - (double)i;
-    return v[i] + f * (v[i + 1] - v[i]);
-}
-
-/* One joint's world rotation and position at frame f from its parent's (already in wr / wp),
-   its local rotation r[4 j ..] (r: the frame's J x 4) and its offset or translation, with the
-   arithmetic of mlr_fk_arrays. */
-static inline void fk_joint(const mlr_rig *rig, size_t f, size_t j, const int32_t *tidx,
-                            const double *r, const double *trans, double *wp, mlr_quat *wr)
-{
-    const size_t p = (size_t)rig->parents[j];
-    const double *t =
-        tidx[j] >= 0 ? trans + 3 * (rig->n_trans * f + (size_t)tidx[j]) : rig->offsets + 3 * j;
-    const mlr_quat q = {r[4 * j], r[4 * j + 1], r[4 * j + 2], r[4 * j + 3]};
-    mlr_quat_mul_inline(&wr[p], &q, &wr[j]);
-    double o[3];
-    mlr_quat_rotate_inline(&wr[p], t, o);
-    wp[3 * j] = wp[3 * p] + o[0];
-    wp[3 * j + 1] = wp[3 * p + 1] + o[1];
-    wp[3 * j + 2] = wp[3 * p + 2] + o[2];
-}
-
-/* Forward kinematics of the joints marked in need (closed under parents) of frame f, with the
-   arithmetic of mlr_fk_arrays (mlr_fk.h: mlr_quat_mul / mlr_quat_rotate, inlined), so each
-   computed value is bit for bit what the full FK gives; the other joints are not written. tidx[j]: j's
-   index among the rig's trans joints, or -1. wp, wrot_f: J x 3 and J x 4, the frame's. */
-static void fk_masked_frame(const mlr_rig *rig, size_t f, const uint8_t *need, const int32_t *tidx,
-                            const double *root_pos, const double *rot, const double *trans,
-                            double *wp, double *wrot_f)
-{
-    const size_t J = rig->n_joints;
-    const double *offsets = rig->offsets;
-    const double *r = rot + 4 * J * f;
-    mlr_quat *wr = (mlr_quat *)(void *)wrot_f;
-    wr[0].w = r[0], wr[0].x = r[1], wr[0].y = r[2], wr[0].z = r[3];
-    const double *t0 = root_pos ? root_pos + 3 * f : offsets;
-    wp[0] = t0[0], wp[1] = t0[1], wp[2] = t0[2];
-    for (size_t j = 1; j < J; j++) {
-        if (!need[j])
-            continue;
-        fk_joint(rig, f, j, tidx, r, trans, wp, wr);
-    }
-}
-
-/* fk_masked_frame on the joints of a chain only (top-down: chain[0] and then each a child of
-   the one before), the world values of chain[0]'s parent read from pos_f / wrot_f (the frame's
-   forward kinematics, J x 3 and J x 4): the same arithmetic, so the same values at the chain's
-   joints when the joints above it have the same rotations. wp / wrot_out: J x 3 and J x 4,
-   written at the chain's joints (and chain[0]'s parent). */
-static void fk_chain_frame(const mlr_rig *rig, size_t f, const int32_t *chain, size_t n,
-                           const int32_t *tidx, const double *rot, const double *trans,
-                           const double *pos_f, const double *wrot_f, double *wp, double *wrot_out)
-{
-    const size_t J = rig->n_joints;
-    const double *r = rot + 4 * J * f;
-    mlr_quat *wr = (mlr_quat *)(void *)wrot_out;
-    const int32_t top = rig->parents[chain[0]];
-    if (top >= 0) {
-        memcpy(wp + 3 * (size_t)top, pos_f + 3 * (size_t)top, 3 * sizeof(double));
-        memcpy(wrot_out + 4 * (size_t)top, wrot_f + 4 * (size_t)top, 4 * sizeof(double));
-    }
-    for (size_t i = 0; i < n; i++) {
-        const size_t j = (size_t)chain[i];
-        if (j == 0) { /* the root: as fk_masked_frame */
-            wr[0].w = r[0], wr[0].x = r[1], wr[0].y = r[2], wr[0].z = r[3];
-            memcpy(wp, pos_f, 3 * sizeof(double));
-            continue;
-        }
-        fk_joint(rig, f, j, tidx, r, trans, wp, wr);
-    }
-}
-
-static void fk_masked(const mlr_rig *rig, size_t N, const uint8_t *need, const int32_t *tidx,
-                      const double *root_pos, const double *rot, const double *trans, double *pos,
-                      double *wrot)
-{
-    const size_t J = rig->n_joints;
-    for (size_t f = 0; f < N; f++)
-        fk_masked_frame(rig, f, need, tidx, root_pos, rot, trans, pos + 3 * J * f,
-                        wrot + 4 * J * f);
-}
-
-/* FK + points of one motion into caller arrays; with need (and tidx), only the joints marked
-   there (fk_masked). */
-static mlr_status fk_points(const mlr_rig *rig, size_t N, const double *root_pos,
-                            const double *rot, const double *trans, size_t C,
-                            const int32_t *joints, const int32_t *end_sites, double *pos,
-                            double *wrot, double *pts, const mlr_allocator *alloc,
-                            const uint8_t *need, const int32_t *tidx)
-{
-    mlr_status st = MLR_OK;
-    if (need)
-        fk_masked(rig, N, need, tidx, root_pos, rot, trans, pos, wrot);
-    else
-        st = mlr_fk_arrays(N, rig->n_joints, rig->parents, rig->offsets, root_pos, rot,
-                           rig->n_trans, rig->trans_joints, trans, pos, wrot, alloc, NULL);
-    if (st != MLR_OK || !pts)
-        return st;
-    return mlr_rig_point_positions(rig, N, pos, wrot, C, joints, end_sites, pts, NULL);
-}
-
-mlr_status mlr_cleanup_point_heights(const mlr_rig *rig, size_t N, const double *root_pos,
-                                     const double *rot, const double *trans, size_t C,
-                                     const int32_t *joints, const int32_t *end_sites, int up,
-                                     double *h, const mlr_allocator *a)
-{
-    const size_t J = rig->n_joints;
-    size_t bytes;
-    if (mlr_mul_size(J, 7 * sizeof(double) + sizeof(int32_t) + 1, &bytes) != MLR_OK ||
-        C > (SIZE_MAX - bytes) / (3 * sizeof(double)))
-        return MLR_E_OVERFLOW;
-    bytes += 3 * C * sizeof(double);
-    double *wp = mlr_alloc(a, bytes);
-    if (!wp)
-        return MLR_E_NO_MEMORY;
-    double *wr = wp + 3 * J, *pts = wr + 4 * J;
-    int32_t *tidx = (int32_t *)(void *)(pts + 3 * C);
-    uint8_t *need = (uint8_t *)(tidx + J);
-    memset(need, 0, J);
-    for (size_t j = 0; j < J; j++)
-        tidx[j] = -1;
-    for (size_t k = 0; k < rig->n_trans; k++)
-        tidx[rig->trans_joints[k]] = (int32_t)k;
-    for (size_t c = 0; c < C; c++)
-        for (int32_t j = joints[c]; j >= 0 && !need[j]; j = rig->parents[j])
-            need[j] = 1;
-    mlr_status st = MLR_OK;
-    for (size_t f = 0; st == MLR_OK && f < N; f++) {
-        fk_masked_frame(rig, f, need, tidx, root_pos, rot, trans, wp, wr);
-        st = mlr_rig_point_positions(rig, 1, wp, wr, C, joints, end_sites, pts, NULL);
-        for (size_t c = 0; st == MLR_OK && c < C; c++)
-            h[f * C + c] = pts[3 * c + (size_t)up];
-    }
-    mlr_free(a, wp, bytes);
-    return st;
-}
-
-mlr_status mlr_cleanup_floor_height(const mlr_rig *rig, size_t N, const double *root_pos,
-                                    const double *rot, const double *trans, size_t C,
-                                    const int32_t *joints, const int32_t *end_sites,
-                                    const uint8_t *contacts, int up, double quantile,
-                                    double *height, const mlr_allocator *alloc, mlr_diag *diag)
-{
-    mlr_status st = mlr_rig_check(rig, diag);
-    if (st != MLR_OK)
-        return st;
-    if (!height || N == 0 || (C && !contacts))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "floor_height: NULL output or contacts, or no frames");
-    if (up < 0 || up > 2)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "floor_height: up axis %d is not "
-                            "0 (X), 1 (Y) or 2 (Z)",
-                            up);
-    if (!(quantile >= 0.0 && quantile <= 1.0))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "floor_height: quantile %g outside [0, 1]", quantile);
-    if ((st = check_points(rig, C, joints, end_sites, diag)) != MLR_OK ||
-        (st = check_motion(rig, N, root_pos, rot, trans, "motion", diag)) != MLR_OK)
-        return st;
-    mlr_allocator A;
-    mlr_allocator_resolve(alloc, &A);
-    arena ar = {.a = &A, .st = MLR_OK};
-    const size_t J = rig->n_joints;
-    double *pos = take(&ar, N * J * 3, sizeof(double));
-    double *wrot = take(&ar, N * J * 4, sizeof(double));
-    double *pts = take(&ar, N * C * 3, sizeof(double));
-    if (ar.st != MLR_OK) {
-        release(&ar);
-        return mlr_diag_set(diag, ar.st, 0, 0, "floor_height: out of memory");
-    }
-    st = fk_points(rig, N, root_pos, rot, trans, C, joints, end_sites, pos, wrot, pts, &A, NULL,
-                   NULL);
-    if (st == MLR_OK)
-        st = mlr_cleanup_floor_of_points(N, C, pts, contacts, up, quantile, height, &A);
-    release(&ar);
-    if (st == MLR_OK)
-        return MLR_OK;
-    return mlr_diag_set(diag, st, 0, 0,
-                        st == MLR_E_NO_MEMORY ? "floor_height: out of memory"
-                                              : "floor_height: FK failed");
-}
-
-mlr_status mlr_cleanup_floor_of_points(size_t n_frames, size_t n_points, const double *pts,
-                                       const uint8_t *contacts, int up, double quantile,
-                                       double *height, const mlr_allocator *a)
-{
-    size_t k = 0;
-    for (size_t i = 0; i < n_frames * n_points; i++)
-        k += contacts[i] != 0;
-    *height = NAN;
-    if (k == 0)
-        return MLR_OK;
-    double *v = mlr_alloc(a, k * sizeof(double));
-    if (!v)
-        return MLR_E_NO_MEMORY;
-    k = 0;
-    for (size_t i = 0; i < n_frames * n_points; i++)
-        if (contacts[i])
-            v[k++] = pts[3 * i + (size_t)up];
-    *height = quantile_of(v, k, quantile);
-    mlr_free(a, v, k * sizeof(double));
-    return MLR_OK;
-}
-
-/* ---- the displacement map ---- */
-
-static double smoothstep(double x)
-{
-    x = x < 0.0 ? 0.0 : x > 1.0 ? 1.0 : x;
-    return x * x * (3.0 - 2.0 * x);
-}
-
-/* y (N x m): the blended map through val at the frames with mask set (see the header). */
-static void design_map(size_t N, size_t m, const uint8_t *mask, const double *val, double B,
-                       double *y)
-{
-    size_t prev = (size_t)-1;
-    memset(y, 0, N * m * sizeof *y);
-    for (size_t f = 0; f <= N; f++) {
-        if (f < N && !mask[f])
-            continue;
-        if (f < N)
-            memcpy(y + f * m, val + f * m, m * sizeof *y);
-        if (prev == (size_t)-1 && f < N) { /* before the first constrained frame */
-            for (size_t i = 0; i < f; i++) {
-                const double w = 1.0 - smoothstep((double)(f - i) / B);
-                for (size_t k = 0; k < m; k++)
-                    y[i * m + k] = w * val[f * m + k];
-            }
-        } else if (prev != (size_t)-1 && f == N) { /* after the last */
-            for (size_t i = prev + 1; i < N; i++) {
-                const double w = 1.0 - smoothstep((double)(i - prev) / B);
-                for (size_t k = 0; k < m; k++)
-                    y[i * m + k] = w * val[prev * m + k];
-            }
-        } else if (prev != (size_t)-1 && f > prev + 1) {
-            const double L = (double)(f - prev);
-            const double s = L <= B ? L : B;
-            for (size_t i = prev + 1; i < f; i++) {
-                const double wa = 1.0 - smoothstep((double)(i - prev) / s);
-                const double wb = 1.0 - smoothstep((double)(f - i) / s);
-                for (size_t k = 0; k < m; k++)
-                    y[i * m + k] = wa * val[prev * m + k] + wb * val[f * m + k];
-            }
-        }
-        prev = f;
-    }
-}
-
-static void qlog(const double q_in[4], double v[3])
-{
-    double q[4] = {q_in[0], q_in[1], q_in[2], q_in[3]};
-    if (q[0] < 0.0)
-        q[0] = -q[0], q[1] = -q[1], q[2] = -q[2], q[3] = -q[3];
-    const double s = sqrt(q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
-    const double angle = 2.0 * atan2(s, q[0]);
-    const double k = s > 1e-300 ? angle / s : 2.0;
-    v[0] = k * q[1], v[1] = k * q[2], v[2] = k * q[3];
-}
-
-static void qexp(const double v[3], double q[4])
-{
-    const double a = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
-    const double h = 0.5 * a;
-    const double k = a > 1e-300 ? sin(h) / a : 0.5;
-    q[0] = cos(h), q[1] = k * v[0], q[2] = k * v[1], q[3] = k * v[2];
-}
-
-/* A foot: anchor joint, its leg, the columns of its points, the targets. */
-typedef struct foot {
-    int32_t anchor, hip, knee;
-    size_t n_cols, n_own;
-    size_t cols[16]; /* own first, then the placed points */
-    uint8_t *U, *F, *K; /* in contact, a floor frame, in a kept contact (no IK there) */
-    uint8_t *S;         /* this pass: the leg already reaches its target (no IK there) */
-    double *at, *tt, *lift;
-    int active;
-} foot;
-
-typedef struct work {
-    const mlr_rig *rig;
-    size_t N, J, C;
-    double fps;
-    int up;
-    const config *cfg;
-    mlr_band *pin;                     /* N x N, 2 sub-diagonals */
-    double *ab;                        /* N x 3: its lower band */
-    double *map_val, *map_y, *map_out; /* N x 9 */
-    uint8_t *dirty;                    /* N: frames whose rotations the spread changed */
-} work;
-
-/* The map's smoothing with the constrained frames held: x = argmin sum over the free frames of
-   (x - y)^2 + s |D2 x|^2 with x = y on the frames of mask (a weight of PIN_HOLD there), s the
-   LGS's lam^2 for the time scale PIN_SMOOTH. The blend's corners are rounded on the free side
-   only, so the constrained frames keep the IK's values to ~1e-10 relative and one pass
-   reaches the targets. */
-#define PIN_HOLD 1e10
-static mlr_status smooth_held(work *w, const uint8_t *mask, double *y, size_t m)
-{
-    const size_t N = w->N;
-    const double lam = (w->cfg->pin_smooth * w->fps) * (w->cfg->pin_smooth * w->fps);
-    const double sc = lam * lam;
-    double *ab = w->ab;
-    for (size_t f = 0; f < N; f++)
-        ab[3 * f] = mask[f] ? PIN_HOLD : 1.0, ab[3 * f + 1] = ab[3 * f + 2] = 0.0;
-    static const double c[3] = {1.0, -2.0, 1.0};
-    for (size_t r = 0; r + 2 < N; r++) /* D2^T D2, row by row of D2 */
-        for (size_t a = 0; a < 3; a++)
-            for (size_t b = a; b < 3; b++)
-                ab[3 * (r + a) + (b - a)] += sc * c[a] * c[b];
-    mlr_status st = mlr_band_factor(w->pin, ab, 3, NULL);
-    if (st < 0)
-        return st;
-    for (size_t f = 0; f < N; f++)
-        if (mask[f])
-            for (size_t k = 0; k < m; k++)
-                y[f * m + k] *= PIN_HOLD;
-    return mlr_band_solve(w->pin, y, m, m, NULL);
-}
-
-/* Spread the corrections new * inv(rot) of the listed joints, known on the frames of mask. */
-static mlr_status spread_rotations(work *w, double *rot, const double *newr, const int32_t *js,
-                                   size_t nj, const uint8_t *mask)
-{
-    const size_t N = w->N, J = w->J, m = 3 * nj;
-    for (size_t f = 0; f < N; f++) {
-        if (!mask[f])
-            continue;
-        for (size_t i = 0; i < nj; i++) {
-            const double *a = newr + 4 * (f * J + (size_t)js[i]),
-                         *b = rot + 4 * (f * J + (size_t)js[i]);
-            const double cb[4] = {b[0], -b[1], -b[2], -b[3]};
-            double d[4];
-            mlr_ik_qmul(a, cb, d);
-            qlog(d, w->map_val + f * m + 3 * i);
-        }
-    }
-    design_map(N, m, mask, w->map_val, w->cfg->blend * w->fps, w->map_y);
-    mlr_status st = smooth_held(w, mask, w->map_y, m);
-    if (st != MLR_OK)
-        return st;
-    memcpy(w->map_out, w->map_y, N * m * sizeof(double));
-    for (size_t f = 0; f < N; f++)
-        for (size_t i = 0; i < nj; i++) {
-            double *r = rot + 4 * (f * J + (size_t)js[i]), e[4], o[4];
-            const double *v = w->map_out + f * m + 3 * i;
-            if (v[0] == 0.0 && v[1] == 0.0 && v[2] == 0.0)
-                continue; /* outside the blend: the frame is left as it is */
-            w->dirty[f] = 1;
-            qexp(v, e);
-            mlr_ik_qmul(e, r, o);
-            const double n = sqrt(o[0] * o[0] + o[1] * o[1] + o[2] * o[2] + o[3] * o[3]);
-            for (int k = 0; k < 4; k++)
-                r[k] = o[k] / n;
-        }
-    return MLR_OK;
-}
 
 /* Horizontal path length of a foot's contact points (P: N x C x 3) over consecutive contact
    frames of the run [s, e). */
-static double run_sliding(const double *P, const uint8_t *contacts, size_t C, const foot *ft,
-                          size_t s, size_t e, int up)
+static double run_sliding(const double *P, const uint8_t *contacts, size_t C,
+                          const cleanup_foot *ft, size_t s, size_t e, int up)
 {
     double len = 0.0;
     for (size_t f = s; f + 1 < e; f++)
@@ -545,228 +30,6 @@ static double run_sliding(const double *P, const uint8_t *contacts, size_t C, co
     return len;
 }
 
-static int has_ancestor_in(const int32_t *parents, int32_t j, const uint8_t *listed)
-{
-    for (int32_t p = parents[j]; p >= 0; p = parents[p])
-        if (listed[p])
-            return 1;
-    return 0;
-}
-
-static double dist3(const double *a, const double *b)
-{
-    const double x = a[0] - b[0], y = a[1] - b[1], z = a[2] - b[2];
-    return sqrt(x * x + y * y + z * z);
-}
-
-/* The joints the cleanup's forward kinematics computes (need, J, zeroed by the caller): the
-   contact points, the feet's anchors and their ancestors; tidx (J): each joint's index among
-   the rig's trans joints, or -1. */
-static void fk_need(const mlr_rig *rig, size_t C, const int32_t *joints, const foot *feet,
-                    size_t nf, uint8_t *need, int32_t *tidx)
-{
-    for (size_t j = 0; j < rig->n_joints; j++)
-        tidx[j] = -1;
-    for (size_t k = 0; k < rig->n_trans; k++)
-        tidx[rig->trans_joints[k]] = (int32_t)k;
-    for (size_t i = 0; i < C + nf; i++)
-        for (int32_t j = i < C ? joints[i] : feet[i - C].anchor; j >= 0 && !need[j];
-             j = rig->parents[j])
-            need[j] = 1;
-}
-
-/* The feet of the contact points: each listed joint with no listed ancestor is an ankle (an
-   anchor) with its own points; the other points (toes, End Sites) are placed on the foot of
-   their nearest anchor ancestor. listed (J) and assigned (C): zeroed scratch. */
-static mlr_status assign_feet(const mlr_rig *rig, size_t C, const int32_t *joints,
-                              const int32_t *end_sites, foot *feet, size_t *nf_out,
-                              uint8_t *listed, uint8_t *assigned, mlr_diag *diag)
-{
-    mlr_status st = MLR_OK;
-    size_t nf = 0;
-    for (size_t c = 0; c < C; c++)
-        if (!end_sites || end_sites[c] < 0)
-            listed[joints[c]] = 1;
-    for (size_t c = 0; c < C; c++) { /* ankles: listed joints with no listed ancestor */
-        const int32_t j = joints[c];
-        if ((end_sites && end_sites[c] >= 0) || has_ancestor_in(rig->parents, j, listed))
-            continue;
-        size_t k = 0;
-        while (k < nf && feet[k].anchor != j)
-            k++;
-        if (k == nf) {
-            memset(&feet[nf], 0, sizeof feet[nf]);
-            feet[nf++].anchor = j;
-        }
-        if (feet[k].n_cols == 16) {
-            st = mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                              "cleanup: more than 16 contact "
-                              "points on the foot of joint %d",
-                              (int)j);
-            return st;
-        }
-        feet[k].cols[feet[k].n_cols++] = c, feet[k].n_own++;
-        assigned[c] = 1;
-    }
-    for (size_t c = 0; c < C; c++) {
-        if (assigned[c])
-            continue;
-        const int32_t j = joints[c];
-        const int es = end_sites && end_sites[c] >= 0;
-        int32_t anchor = es ? j : -1;
-        for (int32_t p = es ? j : rig->parents[j]; p >= 0; p = rig->parents[p])
-            for (size_t k = 0; k < nf; k++)
-                if (feet[k].anchor == p && feet[k].n_own)
-                    anchor = p;
-        if (anchor < 0)
-            anchor = rig->parents[j];
-        if (anchor < 0)
-            anchor = j;
-        size_t k = 0;
-        while (k < nf && feet[k].anchor != anchor)
-            k++;
-        if (k == nf) {
-            memset(&feet[nf], 0, sizeof feet[nf]);
-            feet[nf++].anchor = anchor;
-        }
-        if (feet[k].n_cols == 16) {
-            st = mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                              "cleanup: more than 16 contact "
-                              "points on the foot of joint %d",
-                              (int)anchor);
-            return st;
-        }
-        feet[k].cols[feet[k].n_cols++] = c;
-    }
-
-    *nf_out = nf;
-    return st;
-}
-
-void mlr_cleanup_ref_destroy(mlr_cleanup_ref *ref)
-{
-    if (!ref)
-        return;
-    const size_t N = ref->n_frames, C = ref->n_points, F = ref->n_feet;
-    mlr_allocator a = ref->alloc;
-    if (ref->h)
-        mlr_free(&a, ref->h, N * C * sizeof(double));
-    if (ref->pts)
-        mlr_free(&a, ref->pts, 3 * N * C * sizeof(double));
-    if (ref->anchors)
-        mlr_free(&a, ref->anchors, 3 * N * F * sizeof(double));
-    mlr_free(&a, ref, sizeof *ref);
-}
-
-mlr_status mlr_cleanup_ref_create(const mlr_rig *rig, size_t N, double fps, int up,
-                                  const double *root_pos, const double *rot, const double *trans,
-                                  const double *world_pos, const double *world_rot, size_t C,
-                                  const int32_t *joints, const int32_t *end_sites,
-                                  const mlr_cleanup_option *opts, size_t n_opts,
-                                  const mlr_allocator *alloc, mlr_cleanup_ref **out,
-                                  mlr_diag *diag)
-{
-    *out = NULL;
-    config cfg;
-    memset(&cfg, 0, sizeof cfg);
-    mlr_status st = parse_options(opts, n_opts, &cfg, diag);
-    if (st != MLR_OK)
-        return st;
-    if (C > 64)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "cleanup: at most 64 contact "
-                            "points, got %zu",
-                            C);
-    if (C == 0 || N == 0)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "cleanup reference: %zu points, %zu "
-                            "frames",
-                            C, N);
-    mlr_allocator A;
-    mlr_allocator_resolve(alloc, &A);
-    const size_t J = rig->n_joints;
-    foot feet[64];
-    size_t nf = 0;
-    arena ar = {.a = &A, .st = MLR_OK};
-    uint8_t *listed = take(&ar, J, 1);
-    uint8_t *assigned = take(&ar, C, 1);
-    uint8_t *need = take(&ar, J, 1);
-    int32_t *tidx = take(&ar, J, sizeof(int32_t));
-    double *pos2 = take(&ar, J * 3, sizeof(double)); /* one frame's FK */
-    double *wrot2 = take(&ar, J * 4, sizeof(double));
-    if (ar.st != MLR_OK) {
-        release(&ar);
-        return mlr_diag_set(diag, ar.st, 0, 0, "cleanup: out of memory");
-    }
-    if ((st = assign_feet(rig, C, joints, end_sites, feet, &nf, listed, assigned, diag)) !=
-        MLR_OK) {
-        release(&ar);
-        return st;
-    }
-    mlr_cleanup_ref *r = mlr_alloc(&A, sizeof *r);
-    if (r) {
-        memset(r, 0, sizeof *r);
-        r->alloc = A, r->n_frames = N, r->n_points = C, r->n_feet = nf, r->up = up;
-        r->smooth = cfg.ref_smooth;
-        r->h = mlr_alloc(&A, N * C * sizeof(double));
-        r->pts = mlr_alloc(&A, 3 * N * C * sizeof(double));
-        r->anchors = nf ? mlr_alloc(&A, 3 * N * nf * sizeof(double)) : NULL;
-    }
-    double *tmp = take(&ar, N * 3 * (C > nf ? C : nf), sizeof(double));
-    if (!r || !r->h || !r->pts || (nf && !r->anchors) || ar.st != MLR_OK) {
-        mlr_cleanup_ref_destroy(r);
-        release(&ar);
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "cleanup: out of memory");
-    }
-    double *Pr = r->pts, *pos_ref = r->anchors;
-    if (world_pos) {
-        st = mlr_rig_point_positions(rig, N, world_pos, world_rot, C, joints, end_sites, Pr, NULL);
-        for (size_t f = 0; st == MLR_OK && f < N; f++)
-            for (size_t k = 0; k < nf; k++)
-                memcpy(pos_ref + 3 * (f * nf + k),
-                       world_pos + 3 * (f * J + (size_t)feet[k].anchor), 3 * sizeof(double));
-    } else {
-        /* forward kinematics of the contact points, the anchors and their ancestors only */
-        fk_need(rig, C, joints, feet, nf, need, tidx);
-        for (size_t f = 0; st == MLR_OK && f < N; f++) { /* the points and the anchors */
-            fk_masked_frame(rig, f, need, tidx, root_pos, rot, trans, pos2, wrot2);
-            st = mlr_rig_point_positions(rig, 1, pos2, wrot2, C, joints, end_sites, Pr + 3 * C * f,
-                                         NULL);
-            for (size_t k = 0; k < nf; k++)
-                memcpy(pos_ref + 3 * (f * nf + k), pos2 + 3 * (size_t)feet[k].anchor,
-                       3 * sizeof(double));
-        }
-    }
-    if (st != MLR_OK) {
-        mlr_cleanup_ref_destroy(r);
-        release(&ar);
-        return mlr_diag_set(diag, st, 0, 0, "cleanup: the reference's points failed");
-    }
-    for (size_t i = 0; i < N * C; i++)
-        r->h[i] = Pr[3 * i + (size_t)up];
-    if (cfg.ref_smooth > 0.0) {
-        mlr_lgs *ref_lgs = NULL;
-        const double lam = (cfg.ref_smooth * fps) * (cfg.ref_smooth * fps);
-        if ((st = mlr_lgs_create(N, 2, lam, 1.0, NULL, N, MLR_LGS_BANDED, &A, &ref_lgs, diag)) <
-            0) {
-            mlr_cleanup_ref_destroy(r);
-            release(&ar);
-            return mlr_diag_prefix(diag, st, "cleanup");
-        }
-        mlr_lgs_solve(ref_lgs, Pr, 3 * C, 3 * C, tmp, 3 * C, NULL);
-        memcpy(Pr, tmp, N * C * 3 * sizeof(double));
-        for (size_t k = 0; k < nf; k++) { /* the ankles' trajectories */
-            mlr_lgs_solve(ref_lgs, pos_ref + 3 * k, 3 * nf, 3, tmp, 3, NULL);
-            for (size_t f = 0; f < N; f++)
-                memcpy(pos_ref + 3 * (f * nf + k), tmp + 3 * f, 3 * sizeof(double));
-        }
-        mlr_lgs_destroy(ref_lgs);
-    }
-    release(&ar);
-    *out = r;
-    return MLR_OK;
-}
-
 /* The arguments of a cleanup run, checked (the rig, points and motion unless trusted). */
 static mlr_status cleanup_check(const mlr_rig *rig, size_t N, double fps, int up,
                                 const double *root_pos, const double *rot, const double *trans,
@@ -775,12 +38,12 @@ static mlr_status cleanup_check(const mlr_rig *rig, size_t N, double fps, int up
                                 size_t C, const int32_t *joints, const int32_t *end_sites,
                                 const uint8_t *contacts, const mlr_cleanup_option *opts,
                                 size_t n_opts, const double *out_root_pos, const double *out_rot,
-                                config *cfg, mlr_diag *diag)
+                                cleanup_config *cfg, mlr_diag *diag)
 {
     mlr_status st = trusted ? MLR_OK : mlr_rig_check(rig, diag);
     if (st != MLR_OK)
         return st;
-    if ((st = parse_options(opts, n_opts, cfg, diag)) != MLR_OK)
+    if ((st = cleanup__parse_options(opts, n_opts, cfg, diag)) != MLR_OK)
         return st;
     if (N == 0 || !out_root_pos || !out_rot || (C && !contacts))
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
@@ -796,10 +59,11 @@ static mlr_status cleanup_check(const mlr_rig *rig, size_t N, double fps, int up
                             "1 (Y) or 2 (Z)",
                             up);
     const int have_arrays = ref_root_pos || ref_rot || ref_trans;
-    if (!trusted && ((st = check_points(rig, C, joints, end_sites, diag)) != MLR_OK ||
-                     (st = check_motion(rig, N, root_pos, rot, trans, "motion", diag)) != MLR_OK ||
-                     (have_arrays && (st = check_motion(rig, N, ref_root_pos, ref_rot, ref_trans,
-                                                        "reference", diag)) != MLR_OK)))
+    if (!trusted &&
+        ((st = cleanup__check_points(rig, C, joints, end_sites, diag)) != MLR_OK ||
+         (st = cleanup__check_motion(rig, N, root_pos, rot, trans, "motion", diag)) != MLR_OK ||
+         (have_arrays && (st = cleanup__check_motion(rig, N, ref_root_pos, ref_rot, ref_trans,
+                                                     "reference", diag)) != MLR_OK)))
         return st;
     if (pre && (pre->n_frames != N || pre->n_points != C || pre->up != up ||
                 pre->smooth != cfg->ref_smooth))
@@ -813,44 +77,13 @@ static mlr_status cleanup_check(const mlr_rig *rig, size_t N, double fps, int up
     return MLR_OK;
 }
 
-/* The state of one cleanup run, shared by its steps. */
-typedef struct cleanup {
-    const mlr_rig *rig;
-    size_t N, J, C;
-    double fps;
-    int up;
-    const config *cfg;
-    const int32_t *joints, *end_sites;
-    const uint8_t *contacts;
-    const double *trans;
-    double *out_root_pos, *out_rot;
-    foot *feet;
-    size_t nf;
-    int have_ref;
-    const double *Pr, *pos_ref;     /* the reference's points and anchors, or NULL */
-    double *pos, *wrot, *P;         /* forward kinematics of (out_root_pos, out_rot), points */
-    double *lim, *newr, *shift;
-    double floor_h;
-    int floor_active;
-    uint8_t *anyU, *anyF;
-    uint8_t *need;                  /* joints whose forward kinematics the cleanup reads */
-    int32_t *tidx;
-    uint8_t *fk_frames;
-    double *pos2, *wrot2;           /* one frame's forward kinematics */
-    int32_t *chains;                /* nf x J: the toes' chains, top-down */
-    size_t *chain_len;
-    int chained;
-    uint8_t *mask;
-    work *w;
-} cleanup;
-
 /* The floor height (given, or the quantile of the contact heights) and each point's limit
    (from the unsmoothed reference); MLR_E_NO_MEMORY in ar->st. */
-static mlr_status set_floor(cleanup *cu, const mlr_cleanup_ref *pre, arena *ar)
+static mlr_status set_floor(cleanup_state *cu, const mlr_cleanup_ref *pre, cleanup_arena *ar)
 {
     const size_t N = cu->N, C = cu->C;
     const int up = cu->up;
-    const config *cfg = cu->cfg;
+    const cleanup_config *cfg = cu->cfg;
     const uint8_t *contacts = cu->contacts;
     const double *P = cu->P;
     double *lim = cu->lim;
@@ -859,7 +92,7 @@ static mlr_status set_floor(cleanup *cu, const mlr_cleanup_ref *pre, arena *ar)
         if (cfg->floor_given) {
             floor_h = cfg->floor_height;
         } else {
-            double *v = take(ar, N * C, sizeof(double));
+            double *v = cleanup__take(ar, N * C, sizeof(double));
             if (ar->st != MLR_OK)
                 return ar->st;
             size_t k = 0;
@@ -867,7 +100,7 @@ static mlr_status set_floor(cleanup *cu, const mlr_cleanup_ref *pre, arena *ar)
                 if (contacts[i])
                     v[k++] = pre ? pre->h[i] : P[3 * i + (size_t)up];
             if (k)
-                floor_h = quantile_of(v, k, cfg->floor_q);
+                floor_h = cleanup__quantile_of(v, k, cfg->floor_q);
         }
         for (size_t i = 0; i < N * C; i++)
             lim[i] = pre ? fmin(floor_h, pre->h[i]) : floor_h;
@@ -879,7 +112,8 @@ static mlr_status set_floor(cleanup *cu, const mlr_cleanup_ref *pre, arena *ar)
 
 /* A contact run [s, e) of foot k pinned to the reference's trajectories, shifted horizontally
    by the run's mean offset of the foot's contact points from the reference's. */
-static void pin_run_to_reference(const cleanup *cu, foot *ft, size_t k, size_t s, size_t e)
+static void pin_run_to_reference(const cleanup_state *cu, cleanup_foot *ft, size_t k, size_t s,
+                                 size_t e)
 {
     const size_t C = cu->C, nf = cu->nf;
     const int up = cu->up;
@@ -910,7 +144,7 @@ static void pin_run_to_reference(const cleanup *cu, foot *ft, size_t k, size_t s
 
 /* A contact run [s, e) without a reference: each point pinned to its mean over each of its
    contact runs within [s, e), raised above the floor. */
-static void pin_run_to_means(const cleanup *cu, foot *ft, size_t s, size_t e)
+static void pin_run_to_means(const cleanup_state *cu, cleanup_foot *ft, size_t s, size_t e)
 {
     const size_t C = cu->C;
     const int up = cu->up;
@@ -966,14 +200,14 @@ static void pin_run_to_means(const cleanup *cu, foot *ft, size_t s, size_t e)
 
 /* Foot k's contact frames, leg chain and targets (the anchor's and the placed point's
    trajectories, pinned on each contact run unless the run is kept). */
-static mlr_status set_foot_targets(cleanup *cu, size_t k, mlr_diag *diag)
+static mlr_status set_foot_targets(cleanup_state *cu, size_t k, mlr_diag *diag)
 {
     const size_t N = cu->N, J = cu->J, C = cu->C;
     const int up = cu->up;
-    const config *cfg = cu->cfg;
+    const cleanup_config *cfg = cu->cfg;
     const uint8_t *contacts = cu->contacts;
     const double *pos = cu->pos, *P = cu->P;
-    foot *ft = &cu->feet[k];
+    cleanup_foot *ft = &cu->feet[k];
     mlr_status st;
     size_t nu = 0;
     for (size_t f = 0; f < N; f++) {
@@ -1022,437 +256,167 @@ static mlr_status set_foot_targets(cleanup *cu, size_t k, mlr_diag *diag)
     return MLR_OK;
 }
 
-/* The root shift each frame needs (with the shift so far): where a leg cannot reach its
-   contact target, or would fold its knee past MAX_FOLD to reach it or the floor. 1 when some
-   frame needs one. */
-static int root_needs(const cleanup *cu, double cos_fold, double *need)
+/* The run's failures: the arena's (out of memory), or a status of a step (out of memory, or a
+   solve that failed). */
+static mlr_status fail_memory(const cleanup_arena *ar, mlr_diag *diag)
+{
+    return mlr_diag_set(diag, ar->st, 0, 0, "cleanup: out of memory");
+}
+
+static mlr_status fail_status(mlr_status st, mlr_diag *diag)
+{
+    if (st == MLR_E_NO_MEMORY)
+        mlr_diag_set(diag, st, 0, 0, "cleanup: out of memory");
+    else
+        mlr_diag_set(diag, st, 0, 0, "cleanup: internal solve failed (status %d)", (int)st);
+    return st;
+}
+
+/* The outputs start as the inputs, the report empty; 0 when there is nothing to clean (fewer
+   than 3 frames, no points, or no contact and no floor height given). */
+static int cleanup_start(const mlr_rig *rig, size_t N, const double *root_pos, const double *rot,
+                         size_t C, const uint8_t *contacts, const cleanup_config *cfg,
+                         double *out_root_pos, double *out_rot, mlr_cleanup_report *report)
+{
+    const size_t J = rig->n_joints;
+    if (report) {
+        report->floor_height = NAN;
+        report->contact_frames = report->floor_frames = 0;
+        report->root_shift_max = 0.0;
+    }
+    if (out_root_pos != root_pos)
+        memmove(out_root_pos, root_pos, 3 * N * sizeof(double));
+    if (out_rot != rot)
+        memmove(out_rot, rot, 4 * N * J * sizeof(double));
+    size_t any_contact = 0;
+    for (size_t i = 0; i < N * C; i++)
+        any_contact += contacts[i] != 0;
+    return !(N < 3 || C == 0 || (!any_contact && !(cfg->floor_on && cfg->floor_given)));
+}
+
+/* The feet of the contact points (cu->feet, cu->nf). */
+static mlr_status cleanup_feet(cleanup_state *cu, cleanup_arena *ar, mlr_diag *diag)
+{
+    uint8_t *listed = cleanup__take(ar, cu->J, 1);
+    uint8_t *assigned = cleanup__take(ar, cu->C, 1);
+    if (ar->st != MLR_OK)
+        return fail_memory(ar, diag);
+    return cleanup__assign_feet(cu->rig, cu->C, cu->joints, cu->end_sites, cu->feet, &cu->nf,
+                                listed, assigned, diag);
+}
+
+/* The run's arrays, and the forward kinematics and points of the motion (root_pos, rot). */
+static mlr_status cleanup_fk(cleanup_state *cu, const double *root_pos, const double *rot,
+                             cleanup_arena *ar, const mlr_allocator *A, mlr_diag *diag)
 {
     const size_t N = cu->N, J = cu->J, C = cu->C;
-    const int up = cu->up;
-    const config *cfg = cu->cfg;
-    const double *pos = cu->pos, *P = cu->P, *lim = cu->lim, *shift = cu->shift;
-    memset(need, 0, N * 3 * sizeof(double));
-    int any = 0;
-    for (size_t k = 0; k < cu->nf; k++) {
-        const foot *ft = &cu->feet[k];
-        if (!ft->active)
-            continue;
-        const size_t h = (size_t)ft->hip, kn = (size_t)ft->knee, e = (size_t)ft->anchor;
-        for (size_t f = 0; f < N; f++) {
-            const double *ph = pos + 3 * (f * J + h), *pk = pos + 3 * (f * J + kn),
-                         *pe = pos + 3 * (f * J + e);
-            double target[3];
-            if (ft->U[f]) {
-                memcpy(target, ft->at + 3 * f, sizeof target);
-            } else if (cu->floor_active && cfg->max_fold < 3.14159265358979323846) {
-                /* a floor frame: the ankle raised by the largest shortfall */
-                double lift = 0.0;
-                for (size_t i = 0; i < ft->n_cols; i++) {
-                    const size_t c = ft->cols[i];
-                    lift = fmax(lift, lim[f * C + c] - P[3 * (f * C + c) + (size_t)up]);
-                }
-                if (!(lift > 0.0))
-                    continue;
-                memcpy(target, pe, sizeof target);
-                target[up] += lift;
-            } else {
-                continue;
-            }
-            const double l1 = dist3(pk, ph), l2 = dist3(pe, pk);
-            const double length = l1 + l2;
-            const double now = dist3(pe, ph);
-            const double reach = fmax(cfg->reach * length, now);
-            /* the hip-ankle distance of a knee folded to max_fold: a target nearer
-               than that would fold the knee past its limit */
-            const double fold =
-                fmin(sqrt(fmax(l1 * l1 + l2 * l2 + 2.0 * l1 * l2 * cos_fold, 0.0)), now);
-            double v[3];
-            for (int d = 0; d < 3; d++)
-                v[d] = target[d] - (ph[d] + shift[3 * f + (size_t)d]);
-            const double dist = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
-            /* > 0: the hip moves toward a target out of reach; < 0: away from one
-               too near */
-            double excess = 0.0;
-            if (dist - reach > 0.0)
-                excess = dist - reach;
-            else if (fold - dist > 0.0)
-                excess = dist - fold;
-            if (excess == 0.0)
-                continue;
-            const double cur = sqrt(need[3 * f] * need[3 * f] + need[3 * f + 1] * need[3 * f + 1] +
-                                    need[3 * f + 2] * need[3 * f + 2]);
-            if (fabs(excess) > cur) {
-                for (int d = 0; d < 3; d++)
-                    need[3 * f + (size_t)d] = v[d] * excess / fmax(dist, 1e-12);
-                any = 1;
-            }
-        }
-    }
-    return any;
-}
-
-/* Each need widened to +-half frames (the largest need there; nmask where it is nonzero). */
-static void widen_needs(size_t N, size_t half, const double *need, double *n2s, size_t *dq,
-                        double *wide, uint8_t *nmask)
-{
-    /* (a sliding-window maximum: a queue of frames whose squared needs decrease, ties
-       kept in frame order, so the front is the first largest, as a scan would find) */
-    for (size_t g = 0; g < N; g++)
-        n2s[g] = need[3 * g] * need[3 * g] + need[3 * g + 1] * need[3 * g + 1] +
-                 need[3 * g + 2] * need[3 * g + 2];
-    size_t qh = 0, qt = 0, next = 0;
-    for (size_t f = 0; f < N; f++) {
-        const size_t lo = f > half ? f - half : 0, hi = f + half < N ? f + half : N - 1;
-        for (; next <= hi; next++) {
-            while (qt > qh && n2s[dq[qt - 1]] < n2s[next])
-                qt--;
-            dq[qt++] = next;
-        }
-        while (dq[qh] < lo)
-            qh++;
-        const size_t best = dq[qh];
-        memcpy(wide + 3 * f, need + 3 * best, 3 * sizeof(double));
-        nmask[f] = n2s[best] > 0.0;
-    }
-}
-
-/* The widened needs averaged over the same +-half frames with the raised-cosine window wtab:
-   a smooth shift (no steps where the widest need changes) that still covers each need at its
-   own frame, since the window sees only values at least as large; zero farther than 2 half
-   frames from every need. */
-static void smooth_needs(size_t N, size_t half, const double *wtab, const double *wide,
-                         const uint8_t *nmask, double *ysh)
-{
-    size_t in_window = 0, next_in = 0, next_out = 0; /* needs within the window */
-    for (size_t f = 0; f < N; f++) {
-        const size_t lo = f > half ? f - half : 0, hi = f + half < N ? f + half : N - 1;
-        for (; next_in <= hi; next_in++)
-            in_window += nmask[next_in];
-        for (; next_out < lo; next_out++)
-            in_window -= nmask[next_out];
-        if (!in_window) { /* what the sum gives: 0 / wsum */
-            ysh[3 * f] = ysh[3 * f + 1] = ysh[3 * f + 2] = 0.0;
-            continue;
-        }
-        double acc[3] = {0, 0, 0}, wsum = 0.0;
-        for (size_t g = lo; g <= hi; g++) {
-            const double wt = wtab[g + half - f];
-            wsum += wt;
-            if (nmask[g])
-                for (int d = 0; d < 3; d++)
-                    acc[d] += wt * wide[3 * g + (size_t)d];
-        }
-        for (int d = 0; d < 3; d++)
-            ysh[3 * f + (size_t)d] = acc[d] / wsum;
-    }
-}
-
-/* The root shift (up to 5 rounds of needs, widened and smoothed), added to out_root_pos;
-   MLR_E_NO_MEMORY in ar->st. */
-static mlr_status shift_root(cleanup *cu, arena *ar, mlr_cleanup_report *report)
-{
-    const size_t N = cu->N;
-    const double fps = cu->fps;
-    double *shift = cu->shift, *out_root_pos = cu->out_root_pos;
-    double *need = take(ar, N * 3, sizeof(double));
-    double *wide = take(ar, N * 3, sizeof(double));
-    uint8_t *nmask = take(ar, N, 1);
-    double *ysh = take(ar, N * 3, sizeof(double));
+    cleanup_work *w = cu->w;
+    /* (not zeroed: the forward kinematics write every joint that is read, the other arrays
+       are written whole, or on the frames that are read, before they are read) */
+    cu->pos = cleanup__take_raw(ar, N * J * 3, sizeof(double));
+    cu->wrot = cleanup__take_raw(ar, N * J * 4, sizeof(double));
+    cu->P = cleanup__take_raw(ar, N * C * 3, sizeof(double));
+    cu->lim = cleanup__take(ar, N * C, sizeof(double));
+    cu->newr = cleanup__take_raw(ar, N * J * 4, sizeof(double));
+    cu->shift = cleanup__take(ar, N * 3, sizeof(double));
+    w->map_val = cleanup__take_raw(ar, N * 9, sizeof(double));
+    w->map_y = cleanup__take_raw(ar, N * 9, sizeof(double));
+    w->map_out = cleanup__take_raw(ar, N * 9, sizeof(double));
+    /* forward kinematics of the joints the cleanup reads only: the contact points, the
+       feet's anchors and their ancestors (hips, knees and the joints above them) */
+    cu->need = cleanup__take(ar, J, 1);
+    cu->tidx = cleanup__take(ar, J, sizeof(int32_t));
+    cu->fk_frames = cleanup__take(ar, N, 1);
+    cu->pos2 = cleanup__take(ar, J * 3, sizeof(double));
+    cu->wrot2 = cleanup__take(ar, J * 4, sizeof(double));
     if (ar->st != MLR_OK)
-        return ar->st;
-    const size_t half = (size_t)fmax(1.0, round(0.1 * fps));
-    /* the raised-cosine window's weights, by offset g - f + half */
-    double *wtab = take(ar, 2 * half + 1, sizeof(double));
-    double *n2s = take(ar, N, sizeof(double));
-    size_t *dq = take(ar, N, sizeof(size_t));
+        return fail_memory(ar, diag);
+    cleanup__fk_need(cu->rig, C, cu->joints, cu->feet, cu->nf, cu->need, cu->tidx);
+    mlr_status st =
+        cleanup__fk_points(cu->rig, N, root_pos, rot, cu->trans, C, cu->joints, cu->end_sites,
+                           cu->pos, cu->wrot, cu->P, A, cu->need, cu->tidx);
+    return st == MLR_OK ? MLR_OK : fail_status(st, diag);
+}
+
+/* The floor (set_floor, into the report) and the spread's band solver. */
+static mlr_status cleanup_floor(cleanup_state *cu, const mlr_cleanup_ref *pre, cleanup_arena *ar,
+                                const mlr_allocator *A, mlr_cleanup_report *report, mlr_diag *diag)
+{
+    if (set_floor(cu, pre, ar) != MLR_OK)
+        return fail_memory(ar, diag);
+    if (report)
+        report->floor_height = cu->floor_active ? cu->floor_h : NAN;
+    cleanup_work *w = cu->w;
+    w->ab = cleanup__take(ar, cu->N * 3, sizeof(double));
     if (ar->st != MLR_OK)
-        return ar->st;
-    for (size_t i = 0; i <= 2 * half; i++) {
-        const double x = ((double)i - (double)half) / (double)(half + 1);
-        wtab[i] = 0.5 * (1.0 + cos(3.14159265358979323846 * x));
+        return fail_memory(ar, diag);
+    mlr_status st = mlr_band_create(cu->N, 2, A, &w->pin, NULL);
+    if (st == MLR_E_NO_MEMORY) {
+        ar->st = st;
+        return fail_memory(ar, diag);
     }
-    const double cos_fold = cos(cu->cfg->max_fold);
-    for (int it = 0; it < 5; it++) {
-        if (!root_needs(cu, cos_fold, need))
-            break;
-        /* widen each need to +-0.1 s (the largest need there), then blend and smooth */
-        widen_needs(N, half, need, n2s, dq, wide, nmask);
-        smooth_needs(N, half, wtab, wide, nmask, ysh);
-        for (size_t i = 0; i < 3 * N; i++)
-            shift[i] += ysh[i];
-    }
-    for (size_t f = 0; f < N; f++) {
-        for (int d = 0; d < 3; d++)
-            out_root_pos[3 * f + (size_t)d] += shift[3 * f + (size_t)d];
-        if (report) {
-            const double n =
-                sqrt(shift[3 * f] * shift[3 * f] + shift[3 * f + 1] * shift[3 * f + 1] +
-                     shift[3 * f + 2] * shift[3 * f + 2]);
-            report->root_shift_max = fmax(report->root_shift_max, n);
-        }
+    return st == MLR_OK ? MLR_OK : fail_status(st, diag);
+}
+
+/* Each foot's contact frames, leg and targets (set_foot_targets). */
+static mlr_status cleanup_targets(cleanup_state *cu, cleanup_arena *ar, mlr_diag *diag)
+{
+    const size_t N = cu->N, nf = cu->nf;
+    cu->anyU = cleanup__take(ar, N, 1);
+    cu->anyF = cleanup__take(ar, N, 1);
+    if (ar->st != MLR_OK)
+        return fail_memory(ar, diag);
+    /* the feet's arrays, one block each for all feet (the arena holds CLEANUP_MAX_BLOCKS
+       blocks) */
+    uint8_t *all_uf = cleanup__take(ar, N * nf, 4);
+    double *all_at = cleanup__take(ar, N * nf, 7 * sizeof(double));
+    if (ar->st != MLR_OK)
+        return fail_memory(ar, diag);
+    for (size_t k = 0; k < nf; k++) {
+        cleanup_foot *ft = &cu->feet[k];
+        ft->U = all_uf + 4 * N * k, ft->F = ft->U + N, ft->K = ft->F + N, ft->S = ft->K + N;
+        ft->at = all_at + 7 * N * k, ft->tt = ft->at + 3 * N, ft->lift = ft->tt + 3 * N;
+        mlr_status st = set_foot_targets(cu, k, diag);
+        if (st != MLR_OK)
+            return st;
     }
     return MLR_OK;
 }
 
-/* The toes' chains (the hip down to the placed point's joint), top-down; cu->chained is 1 when
-   every active foot has one and no other foot's leg joint lies on it or above it: the turn of
-   the ankle then needs the forward kinematics of the chain only, and newr is read at the
-   legs' joints only. */
-static void find_chains(cleanup *cu)
+/* 1 where the root shift moved frame f. */
+static int shifted(const double *shift, size_t f)
 {
-    const size_t J = cu->J, nf = cu->nf;
-    const mlr_rig *rig = cu->rig;
-    const foot *feet = cu->feet;
-    int32_t *chains = cu->chains;
-    int chained = 1;
-    for (size_t k = 0; k < nf; k++) {
-        const foot *ft = &feet[k];
-        if (!ft->active)
-            continue;
-        /* the chain bottom-up: the placed point's joint (or the anchor) to the hip */
-        const int32_t bottom =
-            ft->n_cols > ft->n_own ? cu->joints[ft->cols[ft->n_own]] : ft->anchor;
-        size_t n = 0;
-        int32_t j = bottom;
-        for (; j >= 0 && n < J; j = rig->parents[j]) {
-            chains[k * J + n++] = j;
-            if (j == ft->hip)
-                break;
-        }
-        if (j != ft->hip) {
-            chained = 0;
-            break;
-        }
-        for (size_t i = 0; i < n / 2; i++) { /* top-down */
-            const int32_t t = chains[k * J + i];
-            chains[k * J + i] = chains[k * J + n - 1 - i], chains[k * J + n - 1 - i] = t;
-        }
-        cu->chain_len[k] = n;
-        /* ... and above the hip, up to the root: no other foot's hip, knee or anchor */
-        for (size_t q = 0; chained && q < nf; q++) {
-            if (q == k || !feet[q].active)
-                continue;
-            for (int32_t u = bottom; u >= 0; u = rig->parents[u])
-                if (u == feet[q].hip || u == feet[q].knee || u == feet[q].anchor)
-                    chained = 0;
-        }
-    }
-    cu->chained = chained;
+    return shift[3 * f] != 0.0 || shift[3 * f + 1] != 0.0 || shift[3 * f + 2] != 0.0;
 }
 
-/* Floor frames of a pass: a point below its limit, the foot not in contact (each foot's lift
-   and F, anyF). */
-static void find_floor_frames(cleanup *cu)
-{
-    const size_t N = cu->N, C = cu->C;
-    const int up = cu->up;
-    const double *lim = cu->lim, *P2 = cu->P;
-    memset(cu->anyF, 0, N);
-    for (size_t k = 0; k < cu->nf; k++) {
-        foot *ft = &cu->feet[k];
-        if (!ft->active || !cu->floor_active)
-            continue;
-        for (size_t f = 0; f < N; f++) {
-            double lift = 0.0;
-            for (size_t i = 0; i < ft->n_cols; i++) {
-                const size_t c = ft->cols[i];
-                lift = fmax(lift, lim[f * C + c] - P2[3 * (f * C + c) + (size_t)up]);
-            }
-            ft->lift[f] = lift;
-            if (!ft->U[f] && lift > 0.0)
-                ft->F[f] = 1;
-            cu->anyF[f] |= ft->F[f] && lift > 0.0;
-        }
-    }
-}
-
-/* newr = out_rot where the pass reads it: everywhere, or the chains' joints (the legs' hips,
-   knees, anchors) frame by frame (each frame's rotations are read once). */
-static void copy_leg_rotations(const cleanup *cu)
-{
-    const size_t N = cu->N, J = cu->J;
-    double *newr = cu->newr;
-    const double *out_rot = cu->out_rot;
-    if (!cu->chained) {
-        memcpy(newr, out_rot, N * J * 4 * sizeof(double));
-    } else {
-        for (size_t f = 0; f < N; f++)
-            for (size_t k = 0; k < cu->nf; k++)
-                for (size_t i = 0; cu->feet[k].active && i < cu->chain_len[k]; i++) {
-                    const size_t j = (size_t)cu->chains[k * J + i];
-                    memcpy(newr + 4 * (f * J + j), out_rot + 4 * (f * J + j), 4 * sizeof(double));
-                }
-    }
-}
-
-/* Within REACHED times the leg's length of its targets, a leg is left as it is: IK would move
-   it by rounding (the pass before put it there, to ~1e-10 of the leg's length). */
-#define REACHED 1e-8
-
-/* Do a - o and b - o point the same way, to within REACHED radians? (place_toes turns the
-   anchor so that its placed point points at the target from it.) */
-static int aligned(const double *a, const double *b, const double *o)
-{
-    const double u[3] = {a[0] - o[0], a[1] - o[1], a[2] - o[2]};
-    const double v[3] = {b[0] - o[0], b[1] - o[1], b[2] - o[2]};
-    const double c[3] = {u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2],
-                         u[0] * v[1] - u[1] * v[0]};
-    const double uv = u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
-    const double c2 = c[0] * c[0] + c[1] * c[1] + c[2] * c[2];
-    const double n2 =
-        (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]) * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
-    return uv > 0.0 && c2 <= REACHED * REACHED * n2;
-}
-
-/* Two-bone IK of each leg on its constrained frames (contact targets, or the ankle raised
-   above the floor), into newr; where the anchor (and on contact frames the placed point) is
-   already within REACHED of its target, the leg is left as it is (ft->S). */
-static void solve_legs(const cleanup *cu)
-{
-    const size_t N = cu->N, J = cu->J, C = cu->C;
-    const int up = cu->up;
-    const double *pos = cu->pos, *wrot = cu->wrot, *P = cu->P;
-    double *newr = cu->newr;
-    for (size_t k = 0; k < cu->nf; k++) {
-        foot *ft = &cu->feet[k];
-        if (!ft->active)
-            continue;
-        memset(ft->S, 0, N);
-        const int has_toe = ft->n_cols > ft->n_own;
-        const size_t toe = has_toe ? ft->cols[ft->n_own] : 0;
-        const size_t h = (size_t)ft->hip, kn = (size_t)ft->knee, a = (size_t)ft->anchor;
-        const int32_t pk = cu->rig->parents[kn], ph = cu->rig->parents[h];
-        double local[3] = {0, 0, 0};
-        mlr_ik_bend_axis_local(N, J, pos, wrot, ft->hip, ft->knee, ft->anchor, local, NULL);
-        const int have_local = local[0] != 0.0 || local[1] != 0.0 || local[2] != 0.0;
-        for (size_t f = 0; f < N; f++) {
-            if ((!ft->U[f] && !ft->F[f]) || ft->K[f])
-                continue;
-            const double *Pf = pos + 3 * f * J, *G = wrot + 4 * f * J;
-            double target[3], ax[3], rh[4], rk[4];
-            if (ft->U[f]) {
-                memcpy(target, ft->at + 3 * f, sizeof target);
-            } else {
-                memcpy(target, Pf + 3 * a, sizeof target);
-                target[up] += fmax(ft->lift[f], 0.0);
-            }
-            const double eps =
-                REACHED * (dist3(Pf + 3 * h, Pf + 3 * kn) + dist3(Pf + 3 * kn, Pf + 3 * a));
-            if (dist3(Pf + 3 * a, target) <= eps &&
-                (!ft->U[f] || !has_toe ||
-                 aligned(P + 3 * (f * C + toe), ft->tt + 3 * f, Pf + 3 * a))) {
-                ft->S[f] = 1; /* newr holds the leg's rotations as they are */
-                continue;
-            }
-            if (have_local)
-                mlr_ik_qrot(G + 4 * h, local, ax);
-            mlr_ik_two_bone_1(Pf + 3 * h, Pf + 3 * kn, Pf + 3 * a, target, have_local ? ax : NULL,
-                              MLR_IK_MAX_EXTENSION, rh, rk);
-            mlr_ik_rotate_to_1(newr + 4 * (f * J + kn), pk >= 0 ? G + 4 * (size_t)pk : NULL,
-                               G + 4 * kn, rk);
-            mlr_ik_rotate_to_1(newr + 4 * (f * J + h), ph >= 0 ? G + 4 * (size_t)ph : NULL,
-                               G + 4 * h, rh);
-        }
-    }
-}
-
-/* Placed points (toes) by turning the ankle, into newr; on floor frames the ankle keeps its
-   world rotation, so the whole foot rises with it (only on the frames where some foot with a
-   placed point is constrained). */
-static void place_toes(const cleanup *cu)
+/* The passes: IK on the constrained frames, then the spread. */
+static mlr_status cleanup_passes(cleanup_state *cu, cleanup_arena *ar, mlr_diag *diag)
 {
     const size_t N = cu->N, J = cu->J, nf = cu->nf;
-    const mlr_rig *rig = cu->rig;
-    const foot *feet = cu->feet;
-    const int32_t *joints = cu->joints, *end_sites = cu->end_sites;
-    const double *tr = cu->trans, *wrot = cu->wrot;
-    double *newr = cu->newr, *pos2 = cu->pos2, *wrot2 = cu->wrot2;
-    uint8_t *fk_frames = cu->fk_frames;
-    memset(fk_frames, 0, N);
+    const double *shift = cu->shift;
+    /* a kept contact needs IK only where the root moved (the leg is held otherwise: the
+       ankle is where its target is) */
     for (size_t k = 0; k < nf; k++)
-        if (feet[k].active && feet[k].n_cols > feet[k].n_own)
-            for (size_t f = 0; f < N; f++)
-                fk_frames[f] |= (feet[k].U[f] | feet[k].F[f]) & !feet[k].K[f] & !feet[k].S[f];
-    for (size_t f = 0; f < N; f++) {
-        if (!fk_frames[f])
-            continue;
-        if (!cu->chained)
-            fk_masked_frame(rig, f, cu->need, cu->tidx, cu->out_root_pos, newr, tr, pos2, wrot2);
-        for (size_t k = 0; k < nf; k++) {
-            const foot *ft = &feet[k];
-            if (!ft->active || ft->n_cols == ft->n_own || (!ft->U[f] && !ft->F[f]) || ft->K[f] ||
-                ft->S[f])
-                continue;
-            if (cu->chained) /* the same values as the whole frame's at the chain's joints */
-                fk_chain_frame(rig, f, cu->chains + k * J, cu->chain_len[k], cu->tidx, newr, tr,
-                               cu->pos + 3 * J * f, cu->wrot + 4 * J * f, pos2, wrot2);
-            const size_t a = (size_t)ft->anchor;
-            const int32_t pa = rig->parents[a];
-            const size_t c = ft->cols[ft->n_own];
-            const int32_t e = end_sites ? end_sites[c] : -1;
-            const size_t j = (size_t)joints[c];
-            const double *ga = wrot2 + 4 * a;
-            const double *gp = pa >= 0 ? wrot2 + 4 * (size_t)pa : NULL;
-            double r[4];
-            if (ft->U[f]) {
-                double now[3], u[3], v[3];
-                if (e >= 0)
-                    mlr_ik_qrot(wrot2 + 4 * j, rig->end_site_offsets + 3 * (size_t)e, now);
-                else
-                    now[0] = now[1] = now[2] = 0.0;
-                for (int d = 0; d < 3; d++) {
-                    now[d] += pos2[3 * j + (size_t)d];
-                    u[d] = now[d] - pos2[3 * a + (size_t)d];
-                    v[d] = ft->tt[3 * f + (size_t)d] - pos2[3 * a + (size_t)d];
-                }
-                mlr_ik_from_to_1(u, v, r);
-            } else { /* r * ga = the old world rotation */
-                const double *gold = wrot + 4 * (f * J + a);
-                const double cg[4] = {ga[0], -ga[1], -ga[2], -ga[3]};
-                mlr_ik_qmul(gold, cg, r);
-            }
-            mlr_ik_rotate_to_1(newr + 4 * (f * J + a), gp, ga, r);
-        }
-    }
-}
-
-/* One pass: forward kinematics again on the frames that changed since the last (the root
-   shift before the first pass, the spread of the pass before), the floor frames, IK on the
-   constrained frames, then the spread per leg. */
-static mlr_status cleanup_pass(cleanup *cu)
-{
-    const size_t N = cu->N, J = cu->J, C = cu->C;
-    uint8_t *dirty = cu->w->dirty, *mask = cu->mask;
-    mlr_status st;
-    for (size_t f = 0; f < N; f++) {
-        if (!dirty[f])
-            continue;
-        fk_masked_frame(cu->rig, f, cu->need, cu->tidx, cu->out_root_pos, cu->out_rot, cu->trans,
-                        cu->pos + 3 * J * f, cu->wrot + 4 * J * f);
-        if ((st = mlr_rig_point_positions(cu->rig, 1, cu->pos + 3 * J * f, cu->wrot + 4 * J * f, C,
-                                          cu->joints, cu->end_sites, cu->P + 3 * C * f, NULL)) !=
-            MLR_OK)
-            return st;
-    }
-    memset(dirty, 0, N);
-    find_floor_frames(cu);
-    copy_leg_rotations(cu);
-    solve_legs(cu);
-    place_toes(cu);
-    /* spread per leg */
-    for (size_t k = 0; k < cu->nf; k++) {
-        const foot *ft = &cu->feet[k];
-        if (!ft->active)
-            continue;
-        size_t cnt = 0;
-        for (size_t f = 0; f < N; f++)
-            cnt += (mask[f] = ft->U[f] | ft->F[f]) != 0;
-        if (!cnt)
-            continue;
-        int32_t js[3] = {ft->hip, ft->knee, ft->anchor};
-        if ((st = spread_rotations(cu->w, cu->out_rot, cu->newr, js,
-                                   ft->n_cols > ft->n_own ? 3 : 2, mask)) != MLR_OK)
-            return st;
+        for (size_t f = 0; cu->feet[k].active && f < N; f++)
+            if (shifted(shift, f))
+                cu->feet[k].K[f] = 0;
+    /* pos, wrot and the points P hold the forward kinematics of (root_pos, rot): a pass
+       computes it again only on the frames that changed since (the root shift before the
+       first pass, the spread of the pass before), the others are the same values */
+    cu->mask = cleanup__take(ar, N, 1);
+    uint8_t *dirty = cleanup__take(ar, N, 1);
+    cu->chains = cleanup__take(ar, nf * J, sizeof(int32_t));
+    cu->chain_len = cleanup__take(ar, nf, sizeof(size_t));
+    if (ar->st != MLR_OK)
+        return fail_memory(ar, diag);
+    cleanup__find_chains(cu);
+    for (size_t f = 0; f < N; f++)
+        dirty[f] = shifted(shift, f);
+    cu->w->dirty = dirty;
+    for (int pass = 0; pass < cu->cfg->passes; pass++) {
+        mlr_status st = cleanup__pass(cu);
+        if (st != MLR_OK)
+            return fail_status(st, diag);
     }
     return MLR_OK;
 }
@@ -1467,184 +431,71 @@ static mlr_status cleanup_run(const mlr_rig *rig, size_t N, double fps, int up,
                               mlr_cleanup_report *report, const mlr_allocator *alloc,
                               mlr_diag *diag)
 {
-    config cfg;
+    cleanup_config cfg;
     mlr_status st = cleanup_check(rig, N, fps, up, root_pos, rot, trans, ref_root_pos, ref_rot,
                                   ref_trans, pre, trusted, C, joints, end_sites, contacts, opts,
                                   n_opts, out_root_pos, out_rot, &cfg, diag);
     if (st != MLR_OK)
         return st;
+    if (!cleanup_start(rig, N, root_pos, rot, C, contacts, &cfg, out_root_pos, out_rot, report))
+        return MLR_OK;
     const int have_arrays = ref_root_pos || ref_rot || ref_trans, have_ref = have_arrays || pre;
     const size_t J = rig->n_joints;
-    if (report) {
-        report->floor_height = NAN;
-        report->contact_frames = report->floor_frames = 0;
-        report->root_shift_max = 0.0;
-    }
-    if (out_root_pos != root_pos)
-        memmove(out_root_pos, root_pos, 3 * N * sizeof(double));
-    if (out_rot != rot)
-        memmove(out_rot, rot, 4 * N * J * sizeof(double));
-    size_t any_contact = 0;
-    for (size_t i = 0; i < N * C; i++)
-        any_contact += contacts[i] != 0;
-    if (N < 3 || C == 0 || (!any_contact && !(cfg.floor_on && cfg.floor_given)))
-        return MLR_OK;
-
-    /* ---- feet ---- */
-    foot feet[64];
-    size_t nf = 0;
+    cleanup_foot feet[64];
     mlr_cleanup_ref *owned = NULL; /* the reference's trajectories when made here */
-    work w = {rig, N, J, C, fps, up, &cfg, NULL, NULL, NULL, NULL, NULL, NULL};
-    cleanup c = {.rig = rig,
-                 .N = N,
-                 .J = J,
-                 .C = C,
-                 .fps = fps,
-                 .up = up,
-                 .cfg = &cfg,
-                 .joints = joints,
-                 .end_sites = end_sites,
-                 .contacts = contacts,
-                 .trans = trans,
-                 .out_root_pos = out_root_pos,
-                 .out_rot = out_rot,
-                 .feet = feet,
-                 .have_ref = have_ref,
-                 .w = &w};
+    cleanup_work w = {rig, N, J, C, fps, up, &cfg, NULL, NULL, NULL, NULL, NULL, NULL};
+    cleanup_state c = {.rig = rig,
+                       .N = N,
+                       .J = J,
+                       .C = C,
+                       .fps = fps,
+                       .up = up,
+                       .cfg = &cfg,
+                       .joints = joints,
+                       .end_sites = end_sites,
+                       .contacts = contacts,
+                       .trans = trans,
+                       .out_root_pos = out_root_pos,
+                       .out_rot = out_rot,
+                       .feet = feet,
+                       .have_ref = have_ref,
+                       .w = &w};
     mlr_allocator A;
     mlr_allocator_resolve(alloc, &A);
-    arena ar = {.a = &A, .st = MLR_OK};
-    uint8_t *listed = take(&ar, J, 1);
-    uint8_t *assigned = take(&ar, C, 1);
-    if (ar.st != MLR_OK)
-        goto fail;
-    if ((st = assign_feet(rig, C, joints, end_sites, feet, &nf, listed, assigned, diag)) != MLR_OK)
-        goto fail_st_keep;
-    c.nf = nf;
-
-    /* ---- forward kinematics, points, reference ---- */
-    /* (not zeroed: the forward kinematics write every joint that is read, the other arrays
-       are written whole, or on the frames that are read, before they are read) */
-    c.pos = take_raw(&ar, N * J * 3, sizeof(double));
-    c.wrot = take_raw(&ar, N * J * 4, sizeof(double));
-    c.P = take_raw(&ar, N * C * 3, sizeof(double));
-    c.lim = take(&ar, N * C, sizeof(double));
-    c.newr = take_raw(&ar, N * J * 4, sizeof(double));
-    c.shift = take(&ar, N * 3, sizeof(double));
-    w.map_val = take_raw(&ar, N * 9, sizeof(double));
-    w.map_y = take_raw(&ar, N * 9, sizeof(double));
-    w.map_out = take_raw(&ar, N * 9, sizeof(double));
-    /* forward kinematics of the joints the cleanup reads only: the contact points, the
-       feet's anchors and their ancestors (hips, knees and the joints above them) */
-    c.need = take(&ar, J, 1);
-    c.tidx = take(&ar, J, sizeof(int32_t));
-    c.fk_frames = take(&ar, N, 1);
-    c.pos2 = take(&ar, J * 3, sizeof(double));
-    c.wrot2 = take(&ar, J * 4, sizeof(double));
-    if (ar.st != MLR_OK)
-        goto fail;
-    fk_need(rig, C, joints, feet, nf, c.need, c.tidx);
-    if ((st = fk_points(rig, N, root_pos, rot, trans, C, joints, end_sites, c.pos, c.wrot, c.P, &A,
-                        c.need, c.tidx)) != MLR_OK)
-        goto fail_st;
+    cleanup_arena ar = {.a = &A, .st = MLR_OK};
+    if ((st = cleanup_feet(&c, &ar, diag)) != MLR_OK ||
+        (st = cleanup_fk(&c, root_pos, rot, &ar, &A, diag)) != MLR_OK)
+        goto done;
     /* the reference's trajectories: given made, or made here from its frames */
     if (have_arrays && !pre) {
         if ((st = mlr_cleanup_ref_create(rig, N, fps, up, ref_root_pos, ref_rot, ref_trans, NULL,
                                          NULL, C, joints, end_sites, opts, n_opts, &A, &owned,
                                          diag)) != MLR_OK)
-            goto fail_st_keep;
+            goto done;
         pre = owned;
     }
     c.Pr = pre ? pre->pts : NULL, c.pos_ref = pre ? pre->anchors : NULL;
-    if (set_floor(&c, pre, &ar) != MLR_OK)
-        goto fail;
-    if (report)
-        report->floor_height = c.floor_active ? c.floor_h : NAN;
-    {
-        w.ab = take(&ar, N * 3, sizeof(double));
-        if (ar.st != MLR_OK)
-            goto fail;
-        if ((st = mlr_band_create(N, 2, &A, &w.pin, NULL)) != MLR_OK) {
-            if (st == MLR_E_NO_MEMORY) {
-                ar.st = st;
-                goto fail;
-            }
-            goto fail_st;
-        }
+    if ((st = cleanup_floor(&c, pre, &ar, &A, report, diag)) != MLR_OK ||
+        (st = cleanup_targets(&c, &ar, diag)) != MLR_OK)
+        goto done;
+    /* the root shift: legs that cannot reach their contact targets, or would have to fold
+       their knee past MAX_FOLD to reach them or the floor */
+    if (cfg.root_on && cleanup__shift_root(&c, &ar, report) != MLR_OK) {
+        st = fail_memory(&ar, diag);
+        goto done;
     }
-
-    /* ---- targets per foot ---- */
-    c.anyU = take(&ar, N, 1);
-    c.anyF = take(&ar, N, 1);
-    if (ar.st != MLR_OK)
-        goto fail;
-    /* the feet's arrays, one block each for all feet (the arena holds MAX_BLOCKS blocks) */
-    uint8_t *all_uf = take(&ar, N * nf, 4);
-    double *all_at = take(&ar, N * nf, 7 * sizeof(double));
-    if (ar.st != MLR_OK)
-        goto fail;
-    for (size_t k = 0; k < nf; k++) {
-        foot *ft = &feet[k];
-        ft->U = all_uf + 4 * N * k, ft->F = ft->U + N, ft->K = ft->F + N, ft->S = ft->K + N;
-        ft->at = all_at + 7 * N * k, ft->tt = ft->at + 3 * N, ft->lift = ft->tt + 3 * N;
-        if ((st = set_foot_targets(&c, k, diag)) != MLR_OK)
-            goto fail_st_keep;
-    }
-
-    /* ---- root shift: legs that cannot reach their contact targets, or would have to fold
-       their knee past MAX_FOLD to reach them or the floor ---- */
-    if (cfg.root_on && shift_root(&c, &ar, report) != MLR_OK)
-        goto fail;
-
-    /* a kept contact needs IK only where the root moved (the leg is held otherwise: the
-       ankle is where its target is) */
-    const double *shift = c.shift;
-    for (size_t k = 0; k < nf; k++)
-        for (size_t f = 0; feet[k].active && f < N; f++)
-            if (shift[3 * f] != 0.0 || shift[3 * f + 1] != 0.0 || shift[3 * f + 2] != 0.0)
-                feet[k].K[f] = 0;
-
-    /* ---- passes: IK on the constrained frames, then the spread ---- */
-    /* pos, wrot and the points P hold the forward kinematics of (root_pos, rot): a pass
-       computes it again only on the frames that changed since (the root shift before the
-       first pass, the spread of the pass before), the others are the same values */
-    c.mask = take(&ar, N, 1);
-    uint8_t *dirty = take(&ar, N, 1);
-    c.chains = take(&ar, nf * J, sizeof(int32_t));
-    c.chain_len = take(&ar, nf, sizeof(size_t));
-    if (ar.st != MLR_OK)
-        goto fail;
-    find_chains(&c);
-    for (size_t f = 0; f < N; f++)
-        dirty[f] = shift[3 * f] != 0.0 || shift[3 * f + 1] != 0.0 || shift[3 * f + 2] != 0.0;
-    w.dirty = dirty;
-    for (int pass = 0; pass < cfg.passes; pass++)
-        if ((st = cleanup_pass(&c)) != MLR_OK)
-            goto fail_st;
+    if ((st = cleanup_passes(&c, &ar, diag)) != MLR_OK)
+        goto done;
     if (report) {
         for (size_t f = 0; f < N; f++) {
             report->contact_frames += c.anyU[f];
             report->floor_frames += c.anyF[f];
         }
     }
+done:
     mlr_band_destroy(w.pin);
     mlr_cleanup_ref_destroy(owned);
-    release(&ar);
-    return MLR_OK;
-fail:
-    mlr_band_destroy(w.pin);
-    mlr_cleanup_ref_destroy(owned);
-    release(&ar);
-    return mlr_diag_set(diag, ar.st, 0, 0, "cleanup: out of memory");
-fail_st:
-    if (st == MLR_E_NO_MEMORY)
-        mlr_diag_set(diag, st, 0, 0, "cleanup: out of memory");
-    else
-        mlr_diag_set(diag, st, 0, 0, "cleanup: internal solve failed (status %d)", (int)st);
-fail_st_keep:
-    mlr_band_destroy(w.pin);
-    mlr_cleanup_ref_destroy(owned);
-    release(&ar);
+    cleanup__release(&ar);
     return st;
 }
 

@@ -183,68 +183,47 @@ static mlr_status smooth_track(double *y, size_t N, size_t n_ch, double smooth, 
     return solved != MLR_OK ? solved : st;
 }
 
-mlr_status mlr_root_motion_extract(const mlr_rig *rig, double fps, int up, int mode,
-                                   size_t n_frames, const double *root_pos, const double *rot,
-                                   const double *trans, const mlr_root_motion_option *opts,
-                                   size_t n_opts, double *track_pos, double *track_heading,
-                                   double *out_root_pos, double *out_root_rot, size_t ld_out_rot,
-                                   const mlr_allocator *alloc, mlr_diag *diag)
+/* The options of an extract: the smoothing (seconds) and the body joint (-1: the rig's body
+   translation joint), below J. */
+static mlr_status read_options(const mlr_rig *rig, const mlr_root_motion_option *opts,
+                               size_t n_opts, double *smooth, double *body_joint, mlr_diag *diag)
 {
-    const size_t N = n_frames;
-    mlr_status st = check_args(rig, fps, up, mode, N, root_pos, rot, trans, track_pos,
-                               track_heading, out_root_pos, out_root_rot, ld_out_rot, diag);
-    if (st != MLR_OK)
-        return st;
     mlr_opt_values ov;
-    st = MLR_OPTIONS_READ(SUBJECT, root_motion_spec, opts, n_opts, &ov, diag);
+    mlr_status st = MLR_OPTIONS_READ(SUBJECT, root_motion_spec, opts, n_opts, &ov, diag);
     if (st != MLR_OK)
         return st;
-    const double smooth = ov.v[MLR_ROOT_MOTION_OPT_SMOOTH];
-    const double bj = ov.v[MLR_ROOT_MOTION_OPT_BODY_JOINT];
+    *smooth = ov.v[MLR_ROOT_MOTION_OPT_SMOOTH];
+    *body_joint = ov.v[MLR_ROOT_MOTION_OPT_BODY_JOINT];
     const size_t J = rig->n_joints;
-    if (bj >= (double)J)
-        return mlr_option_reject(diag, SUBJECT, "body_joint", bj, "-1 or below %zu joints", J);
-    st = check_finite(rig, N, root_pos, rot, trans, diag);
-    if (st != MLR_OK)
-        return st;
-    int32_t b = (int32_t)bj;
-    if (b < 0 && (st = mlr_rig_body_translation_joint(rig, N, root_pos, trans, &b, diag)) != 0)
-        return st;
-    const int ground = mode == MLR_ROOT_MOTION_GROUND;
-    const int g1 = (up + 1) % 3, g2 = (up + 2) % 3;
-    mlr_allocator a;
-    mlr_allocator_resolve(alloc, &a);
-    int32_t *partner = NULL;
-    int8_t *side = NULL;
-    size_t pair_bytes = 0, n_doubles, bytes;
-    if (ground && (st = sided_pairs(rig, &a, &partner, &side, &pair_bytes, diag)) != MLR_OK)
-        return st;
-    /* y: N x 3 (the track's ground coordinates, the heading), wb: N x 4 (the body joint's
-     * world rotation), one frame's forward kinematics (J x 3, J x 4), valid: N flags */
-    if (mlr_mul_size(N + J, 7, &n_doubles) != MLR_OK ||
-        mlr_mul_size(n_doubles, sizeof(double), &bytes) != MLR_OK || bytes > SIZE_MAX - N) {
-        mlr_free(&a, partner, pair_bytes);
-        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0,
-                            SUBJECT ": %zu frames of %zu joints "
-                                    "overflow the size",
-                            N, J);
-    }
-    bytes += N;
-    double *y = mlr_alloc(&a, bytes);
-    if (!y) {
-        mlr_free(&a, partner, pair_bytes);
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
-                            SUBJECT ": out of memory for the "
-                                    "track of %zu frames",
-                            N);
-    }
-    double *wb = y + 3 * N, *wpos = wb + 4 * N, *wrot = wpos + 3 * J;
-    unsigned char *valid = (unsigned char *)(wrot + 4 * J);
-    const size_t P = rig->n_trans;
-    double left[3] = {0.0, 0.0, 0.0}, total = 0.0;
+    if (*body_joint >= (double)J)
+        return mlr_option_reject(diag, SUBJECT, "body_joint", *body_joint,
+                                 "-1 or below %zu joints", J);
+    return MLR_OK;
+}
+
+/* The scratch of an extract, one block: y: N x 3 (the track's ground coordinates, the
+   heading), wb: N x 4 (the body joint's world rotation), one frame's forward kinematics
+   (J x 3, J x 4), valid: N flags. */
+typedef struct track_work {
+    double *y, *wb, *wpos, *wrot;
+    unsigned char *valid;
+} track_work;
+
+/* The body joint b's ground path (y's first two columns, on the ground axes g1, g2) and world
+   rotations wb, frame by frame; with the sided pairs (partner, side), the left direction in
+   the body joint's frame summed over frames and pairs into left, and the pairs' distances
+   into total. */
+static mlr_status body_path(const mlr_rig *rig, size_t N, const double *root_pos,
+                            const double *rot, const double *trans, int32_t b, int g1, int g2,
+                            const int32_t *partner, const int8_t *side, const track_work *tw,
+                            double left[3], double *total, const mlr_allocator *a, mlr_diag *diag)
+{
+    const size_t J = rig->n_joints, P = rig->n_trans;
+    double *y = tw->y, *wb = tw->wb, *wpos = tw->wpos, *wrot = tw->wrot;
+    mlr_status st = MLR_OK;
     for (size_t n = 0; n < N && st == MLR_OK; n++) {
         st = mlr_fk_arrays(1, J, rig->parents, rig->offsets, root_pos + 3 * n, rot + 4 * J * n, P,
-                           rig->trans_joints, P ? trans + 3 * P * n : NULL, wpos, wrot, &a, diag);
+                           rig->trans_joints, P ? trans + 3 * P * n : NULL, wpos, wrot, a, diag);
         y[3 * n] = wpos[3 * (size_t)b + (size_t)g1];
         y[3 * n + 1] = wpos[3 * (size_t)b + (size_t)g2];
         y[3 * n + 2] = 0.0;
@@ -263,14 +242,20 @@ mlr_status mlr_root_motion_extract(const mlr_rig *rig, double fps, int up, int m
             mlr_quat_rotate_inline(&winv, d, dl);
             for (int c = 0; c < 3; c++)
                 left[c] += dl[c];
-            total += sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+            *total += sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
         }
     }
-    mlr_free(&a, partner, pair_bytes);
-    if (st != MLR_OK) {
-        mlr_free(&a, y, bytes);
-        return st;
-    }
+    return st;
+}
+
+/* The headings (y's third column, continuous; with ground only): the body's forward
+   direction, the summed left direction (normalised; the ground axis g2 when there is none)
+   crossed with the up axis, on the ground. */
+static void body_headings(size_t N, int ground, int g1, int g2, double left[3], double total,
+                          const track_work *tw)
+{
+    double *y = tw->y;
+    unsigned char *valid = tw->valid;
     const double norm = sqrt(left[0] * left[0] + left[1] * left[1] + left[2] * left[2]);
     if (norm > 1e-9 * total && norm > 0.0)
         for (int c = 0; c < 3; c++)
@@ -279,7 +264,7 @@ mlr_status mlr_root_motion_extract(const mlr_rig *rig, double fps, int up, int m
         left[0] = left[1] = left[2] = 0.0, left[g2] = 1.0;
     for (size_t n = 0; ground && n < N; n++) {
         double v[3];
-        mlr_quat_rotate_inline((const mlr_quat *)(wb + 4 * n), left, v);
+        mlr_quat_rotate_inline((const mlr_quat *)(tw->wb + 4 * n), left, v);
         /* f = v x e_up: its ground components are f.g1 = v[g2], f.g2 = -v[g1] */
         const double f1 = v[g2], f2 = -v[g1];
         valid[n] = sqrt(f1 * f1 + f2 * f2) > 1e-9;
@@ -288,6 +273,85 @@ mlr_status mlr_root_motion_extract(const mlr_rig *rig, double fps, int up, int m
     }
     if (ground)
         unwrap_heading(y, valid, N);
+}
+
+/* The in-place root: the root's position and rotation relative to the track's, frame by
+   frame. */
+static void in_place_root(const mlr_rig *rig, int up, size_t N, const double *root_pos,
+                          const double *rot, const double *track_pos, const double *track_heading,
+                          double *out_root_pos, double *out_root_rot, size_t ld_out_rot)
+{
+    const size_t J = rig->n_joints;
+    for (size_t n = 0; n < N; n++) {
+        const double *c = track_pos + 3 * n, *p = root_pos + 3 * n;
+        const mlr_quat hinv = heading_quat(up, -track_heading[n]);
+        const double d[3] = {p[0] - c[0], p[1] - c[1], p[2] - c[2]};
+        const mlr_quat q = *(const mlr_quat *)(rot + 4 * J * n);
+        mlr_quat_rotate_inline(&hinv, d, out_root_pos + 3 * n);
+        mlr_quat_mul_inline(&hinv, &q, (mlr_quat *)(out_root_rot + ld_out_rot * n));
+    }
+}
+
+mlr_status mlr_root_motion_extract(const mlr_rig *rig, double fps, int up, int mode,
+                                   size_t n_frames, const double *root_pos, const double *rot,
+                                   const double *trans, const mlr_root_motion_option *opts,
+                                   size_t n_opts, double *track_pos, double *track_heading,
+                                   double *out_root_pos, double *out_root_rot, size_t ld_out_rot,
+                                   const mlr_allocator *alloc, mlr_diag *diag)
+{
+    const size_t N = n_frames;
+    mlr_status st = check_args(rig, fps, up, mode, N, root_pos, rot, trans, track_pos,
+                               track_heading, out_root_pos, out_root_rot, ld_out_rot, diag);
+    if (st != MLR_OK)
+        return st;
+    double smooth, bj;
+    if ((st = read_options(rig, opts, n_opts, &smooth, &bj, diag)) != MLR_OK)
+        return st;
+    const size_t J = rig->n_joints;
+    st = check_finite(rig, N, root_pos, rot, trans, diag);
+    if (st != MLR_OK)
+        return st;
+    int32_t b = (int32_t)bj;
+    if (b < 0 && (st = mlr_rig_body_translation_joint(rig, N, root_pos, trans, &b, diag)) != 0)
+        return st;
+    const int ground = mode == MLR_ROOT_MOTION_GROUND;
+    const int g1 = (up + 1) % 3, g2 = (up + 2) % 3;
+    mlr_allocator a;
+    mlr_allocator_resolve(alloc, &a);
+    int32_t *partner = NULL;
+    int8_t *side = NULL;
+    size_t pair_bytes = 0, n_doubles, bytes;
+    if (ground && (st = sided_pairs(rig, &a, &partner, &side, &pair_bytes, diag)) != MLR_OK)
+        return st;
+    /* the scratch: see track_work */
+    if (mlr_mul_size(N + J, 7, &n_doubles) != MLR_OK ||
+        mlr_mul_size(n_doubles, sizeof(double), &bytes) != MLR_OK || bytes > SIZE_MAX - N) {
+        mlr_free(&a, partner, pair_bytes);
+        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0,
+                            SUBJECT ": %zu frames of %zu joints "
+                                    "overflow the size",
+                            N, J);
+    }
+    bytes += N;
+    double *y = mlr_alloc(&a, bytes);
+    if (!y) {
+        mlr_free(&a, partner, pair_bytes);
+        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                            SUBJECT ": out of memory for the "
+                                    "track of %zu frames",
+                            N);
+    }
+    track_work tw = {y, y + 3 * N, y + 7 * N, y + 7 * N + 3 * J, NULL};
+    tw.valid = (unsigned char *)(tw.wrot + 4 * J);
+    double left[3] = {0.0, 0.0, 0.0}, total = 0.0;
+    st = body_path(rig, N, root_pos, rot, trans, b, g1, g2, partner, side, &tw, left, &total, &a,
+                   diag);
+    mlr_free(&a, partner, pair_bytes);
+    if (st != MLR_OK) {
+        mlr_free(&a, y, bytes);
+        return st;
+    }
+    body_headings(N, ground, g1, g2, left, total, &tw);
     st = smooth_track(y, N, ground ? 3 : 2, smooth, fps, &a, diag);
     if (st < 0) {
         mlr_free(&a, y, bytes);
@@ -299,14 +363,8 @@ mlr_status mlr_root_motion_extract(const mlr_rig *rig, double fps, int up, int m
         track_heading[n] = y[3 * n + 2];
     }
     mlr_free(&a, y, bytes);
-    for (size_t n = 0; n < N; n++) {
-        const double *c = track_pos + 3 * n, *p = root_pos + 3 * n;
-        const mlr_quat hinv = heading_quat(up, -track_heading[n]);
-        const double d[3] = {p[0] - c[0], p[1] - c[1], p[2] - c[2]};
-        const mlr_quat q = *(const mlr_quat *)(rot + 4 * J * n);
-        mlr_quat_rotate_inline(&hinv, d, out_root_pos + 3 * n);
-        mlr_quat_mul_inline(&hinv, &q, (mlr_quat *)(out_root_rot + ld_out_rot * n));
-    }
+    in_place_root(rig, up, N, root_pos, rot, track_pos, track_heading, out_root_pos, out_root_rot,
+                  ld_out_rot);
     return st;
 }
 

@@ -6,7 +6,7 @@ Counts, for one CLI run in this process on a real clip:
   passes over the input and over other motions;
 - with --gdb (needs gdb on PATH): every call of the C function mlr_fk_arrays in a child process
   run under gdb, which adds the C core's own full passes (the guards' FK of their input). The
-  contact cleanup's FK of the frames it corrects is inlined in contacts_fix.c and not counted.
+  contact cleanup's FK of the frames it corrects is its own (cleanup_fk.c) and not counted.
 
     python bench/python/bench_pipeline_passes.py [--clip PATH] [--gdb]
 """

@@ -1,0 +1,141 @@
+/*
+ * The contact cleanup's forward kinematics: of the joints it reads only, frame by frame or
+ * along a chain, bit for bit what mlr_fk_arrays gives.
+ */
+#include "cleanup_internal.h"
+
+/* One joint's world rotation and position at frame f from its parent's (already in wr / wp),
+   its local rotation r[4 j ..] (r: the frame's J x 4) and its offset or translation, with the
+   arithmetic of mlr_fk_arrays. */
+static inline void fk_joint(const mlr_rig *rig, size_t f, size_t j, const int32_t *tidx,
+                            const double *r, const double *trans, double *wp, mlr_quat *wr)
+{
+    const size_t p = (size_t)rig->parents[j];
+    const double *t =
+        tidx[j] >= 0 ? trans + 3 * (rig->n_trans * f + (size_t)tidx[j]) : rig->offsets + 3 * j;
+    const mlr_quat q = {r[4 * j], r[4 * j + 1], r[4 * j + 2], r[4 * j + 3]};
+    mlr_quat_mul_inline(&wr[p], &q, &wr[j]);
+    double o[3];
+    mlr_quat_rotate_inline(&wr[p], t, o);
+    wp[3 * j] = wp[3 * p] + o[0];
+    wp[3 * j + 1] = wp[3 * p + 1] + o[1];
+    wp[3 * j + 2] = wp[3 * p + 2] + o[2];
+}
+
+void cleanup__fk_masked_frame(const mlr_rig *rig, size_t f, const uint8_t *need,
+                              const int32_t *tidx, const double *root_pos, const double *rot,
+                              const double *trans, double *wp, double *wrot_f)
+{
+    const size_t J = rig->n_joints;
+    const double *offsets = rig->offsets;
+    const double *r = rot + 4 * J * f;
+    mlr_quat *wr = (mlr_quat *)(void *)wrot_f;
+    wr[0].w = r[0], wr[0].x = r[1], wr[0].y = r[2], wr[0].z = r[3];
+    const double *t0 = root_pos ? root_pos + 3 * f : offsets;
+    wp[0] = t0[0], wp[1] = t0[1], wp[2] = t0[2];
+    for (size_t j = 1; j < J; j++) {
+        if (!need[j])
+            continue;
+        fk_joint(rig, f, j, tidx, r, trans, wp, wr);
+    }
+}
+
+void cleanup__fk_chain_frame(const mlr_rig *rig, size_t f, const int32_t *chain, size_t n,
+                             const int32_t *tidx, const double *rot, const double *trans,
+                             const double *pos_f, const double *wrot_f, double *wp,
+                             double *wrot_out)
+{
+    const size_t J = rig->n_joints;
+    const double *r = rot + 4 * J * f;
+    mlr_quat *wr = (mlr_quat *)(void *)wrot_out;
+    const int32_t top = rig->parents[chain[0]];
+    if (top >= 0) {
+        memcpy(wp + 3 * (size_t)top, pos_f + 3 * (size_t)top, 3 * sizeof(double));
+        memcpy(wrot_out + 4 * (size_t)top, wrot_f + 4 * (size_t)top, 4 * sizeof(double));
+    }
+    for (size_t i = 0; i < n; i++) {
+        const size_t j = (size_t)chain[i];
+        if (j == 0) { /* the root: as fk_masked_frame */
+            wr[0].w = r[0], wr[0].x = r[1], wr[0].y = r[2], wr[0].z = r[3];
+            memcpy(wp, pos_f, 3 * sizeof(double));
+            continue;
+        }
+        fk_joint(rig, f, j, tidx, r, trans, wp, wr);
+    }
+}
+
+static void fk_masked(const mlr_rig *rig, size_t N, const uint8_t *need, const int32_t *tidx,
+                      const double *root_pos, const double *rot, const double *trans, double *pos,
+                      double *wrot)
+{
+    const size_t J = rig->n_joints;
+    for (size_t f = 0; f < N; f++)
+        cleanup__fk_masked_frame(rig, f, need, tidx, root_pos, rot, trans, pos + 3 * J * f,
+                                 wrot + 4 * J * f);
+}
+
+mlr_status cleanup__fk_points(const mlr_rig *rig, size_t N, const double *root_pos,
+                              const double *rot, const double *trans, size_t C,
+                              const int32_t *joints, const int32_t *end_sites, double *pos,
+                              double *wrot, double *pts, const mlr_allocator *alloc,
+                              const uint8_t *need, const int32_t *tidx)
+{
+    mlr_status st = MLR_OK;
+    if (need)
+        fk_masked(rig, N, need, tidx, root_pos, rot, trans, pos, wrot);
+    else
+        st = mlr_fk_arrays(N, rig->n_joints, rig->parents, rig->offsets, root_pos, rot,
+                           rig->n_trans, rig->trans_joints, trans, pos, wrot, alloc, NULL);
+    if (st != MLR_OK || !pts)
+        return st;
+    return mlr_rig_point_positions(rig, N, pos, wrot, C, joints, end_sites, pts, NULL);
+}
+
+void cleanup__fk_need(const mlr_rig *rig, size_t C, const int32_t *joints,
+                      const cleanup_foot *feet, size_t nf, uint8_t *need, int32_t *tidx)
+{
+    for (size_t j = 0; j < rig->n_joints; j++)
+        tidx[j] = -1;
+    for (size_t k = 0; k < rig->n_trans; k++)
+        tidx[rig->trans_joints[k]] = (int32_t)k;
+    for (size_t i = 0; i < C + nf; i++)
+        for (int32_t j = i < C ? joints[i] : feet[i - C].anchor; j >= 0 && !need[j];
+             j = rig->parents[j])
+            need[j] = 1;
+}
+
+mlr_status mlr_cleanup_point_heights(const mlr_rig *rig, size_t N, const double *root_pos,
+                                     const double *rot, const double *trans, size_t C,
+                                     const int32_t *joints, const int32_t *end_sites, int up,
+                                     double *h, const mlr_allocator *a)
+{
+    const size_t J = rig->n_joints;
+    size_t bytes;
+    if (mlr_mul_size(J, 7 * sizeof(double) + sizeof(int32_t) + 1, &bytes) != MLR_OK ||
+        C > (SIZE_MAX - bytes) / (3 * sizeof(double)))
+        return MLR_E_OVERFLOW;
+    bytes += 3 * C * sizeof(double);
+    double *wp = mlr_alloc(a, bytes);
+    if (!wp)
+        return MLR_E_NO_MEMORY;
+    double *wr = wp + 3 * J, *pts = wr + 4 * J;
+    int32_t *tidx = (int32_t *)(void *)(pts + 3 * C);
+    uint8_t *need = (uint8_t *)(tidx + J);
+    memset(need, 0, J);
+    for (size_t j = 0; j < J; j++)
+        tidx[j] = -1;
+    for (size_t k = 0; k < rig->n_trans; k++)
+        tidx[rig->trans_joints[k]] = (int32_t)k;
+    for (size_t c = 0; c < C; c++)
+        for (int32_t j = joints[c]; j >= 0 && !need[j]; j = rig->parents[j])
+            need[j] = 1;
+    mlr_status st = MLR_OK;
+    for (size_t f = 0; st == MLR_OK && f < N; f++) {
+        cleanup__fk_masked_frame(rig, f, need, tidx, root_pos, rot, trans, wp, wr);
+        st = mlr_rig_point_positions(rig, 1, wp, wr, C, joints, end_sites, pts, NULL);
+        for (size_t c = 0; st == MLR_OK && c < C; c++)
+            h[f * C + c] = pts[3 * c + (size_t)up];
+    }
+    mlr_free(a, wp, bytes);
+    return st;
+}

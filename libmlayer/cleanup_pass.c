@@ -1,0 +1,266 @@
+/*
+ * One pass of the contact cleanup: forward kinematics of the frames that changed, the floor
+ * frames, two-bone IK of the legs and the turn of the ankles for the toes, then the spread.
+ */
+#include "cleanup_internal.h"
+#include "ik_internal.h"
+
+#include <math.h>
+
+void cleanup__find_chains(cleanup_state *cu)
+{
+    const size_t J = cu->J, nf = cu->nf;
+    const mlr_rig *rig = cu->rig;
+    const cleanup_foot *feet = cu->feet;
+    int32_t *chains = cu->chains;
+    int chained = 1;
+    for (size_t k = 0; k < nf; k++) {
+        const cleanup_foot *ft = &feet[k];
+        if (!ft->active)
+            continue;
+        /* the chain bottom-up: the placed point's joint (or the anchor) to the hip */
+        const int32_t bottom =
+            ft->n_cols > ft->n_own ? cu->joints[ft->cols[ft->n_own]] : ft->anchor;
+        size_t n = 0;
+        int32_t j = bottom;
+        for (; j >= 0 && n < J; j = rig->parents[j]) {
+            chains[k * J + n++] = j;
+            if (j == ft->hip)
+                break;
+        }
+        if (j != ft->hip) {
+            chained = 0;
+            break;
+        }
+        for (size_t i = 0; i < n / 2; i++) { /* top-down */
+            const int32_t t = chains[k * J + i];
+            chains[k * J + i] = chains[k * J + n - 1 - i], chains[k * J + n - 1 - i] = t;
+        }
+        cu->chain_len[k] = n;
+        /* ... and above the hip, up to the root: no other foot's hip, knee or anchor */
+        for (size_t q = 0; chained && q < nf; q++) {
+            if (q == k || !feet[q].active)
+                continue;
+            for (int32_t u = bottom; u >= 0; u = rig->parents[u])
+                if (u == feet[q].hip || u == feet[q].knee || u == feet[q].anchor)
+                    chained = 0;
+        }
+    }
+    cu->chained = chained;
+}
+
+/* Floor frames of a pass: a point below its limit, the foot not in contact (each foot's lift
+   and F, anyF). */
+static void find_floor_frames(cleanup_state *cu)
+{
+    const size_t N = cu->N, C = cu->C;
+    const int up = cu->up;
+    const double *lim = cu->lim, *P2 = cu->P;
+    memset(cu->anyF, 0, N);
+    for (size_t k = 0; k < cu->nf; k++) {
+        cleanup_foot *ft = &cu->feet[k];
+        if (!ft->active || !cu->floor_active)
+            continue;
+        for (size_t f = 0; f < N; f++) {
+            double lift = 0.0;
+            for (size_t i = 0; i < ft->n_cols; i++) {
+                const size_t c = ft->cols[i];
+                lift = fmax(lift, lim[f * C + c] - P2[3 * (f * C + c) + (size_t)up]);
+            }
+            ft->lift[f] = lift;
+            if (!ft->U[f] && lift > 0.0)
+                ft->F[f] = 1;
+            cu->anyF[f] |= ft->F[f] && lift > 0.0;
+        }
+    }
+}
+
+/* newr = out_rot where the pass reads it: everywhere, or the chains' joints (the legs' hips,
+   knees, anchors) frame by frame (each frame's rotations are read once). */
+static void copy_leg_rotations(const cleanup_state *cu)
+{
+    const size_t N = cu->N, J = cu->J;
+    double *newr = cu->newr;
+    const double *out_rot = cu->out_rot;
+    if (!cu->chained) {
+        memcpy(newr, out_rot, N * J * 4 * sizeof(double));
+    } else {
+        for (size_t f = 0; f < N; f++)
+            for (size_t k = 0; k < cu->nf; k++)
+                for (size_t i = 0; cu->feet[k].active && i < cu->chain_len[k]; i++) {
+                    const size_t j = (size_t)cu->chains[k * J + i];
+                    memcpy(newr + 4 * (f * J + j), out_rot + 4 * (f * J + j), 4 * sizeof(double));
+                }
+    }
+}
+
+/* Within REACHED times the leg's length of its targets, a leg is left as it is: IK would move
+   it by rounding (the pass before put it there, to ~1e-10 of the leg's length). */
+#define REACHED 1e-8
+
+/* Do a - o and b - o point the same way, to within REACHED radians? (place_toes turns the
+   anchor so that its placed point points at the target from it.) */
+static int aligned(const double *a, const double *b, const double *o)
+{
+    const double u[3] = {a[0] - o[0], a[1] - o[1], a[2] - o[2]};
+    const double v[3] = {b[0] - o[0], b[1] - o[1], b[2] - o[2]};
+    const double c[3] = {u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2],
+                         u[0] * v[1] - u[1] * v[0]};
+    const double uv = u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
+    const double c2 = c[0] * c[0] + c[1] * c[1] + c[2] * c[2];
+    const double n2 =
+        (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]) * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    return uv > 0.0 && c2 <= REACHED * REACHED * n2;
+}
+
+/* Two-bone IK of each leg on its constrained frames (contact targets, or the ankle raised
+   above the floor), into newr; where the anchor (and on contact frames the placed point) is
+   already within REACHED of its target, the leg is left as it is (ft->S). */
+static void solve_legs(const cleanup_state *cu)
+{
+    const size_t N = cu->N, J = cu->J, C = cu->C;
+    const int up = cu->up;
+    const double *pos = cu->pos, *wrot = cu->wrot, *P = cu->P;
+    double *newr = cu->newr;
+    for (size_t k = 0; k < cu->nf; k++) {
+        cleanup_foot *ft = &cu->feet[k];
+        if (!ft->active)
+            continue;
+        memset(ft->S, 0, N);
+        const int has_toe = ft->n_cols > ft->n_own;
+        const size_t toe = has_toe ? ft->cols[ft->n_own] : 0;
+        const size_t h = (size_t)ft->hip, kn = (size_t)ft->knee, a = (size_t)ft->anchor;
+        const int32_t pk = cu->rig->parents[kn], ph = cu->rig->parents[h];
+        double local[3] = {0, 0, 0};
+        mlr_ik_bend_axis_local(N, J, pos, wrot, ft->hip, ft->knee, ft->anchor, local, NULL);
+        const int have_local = local[0] != 0.0 || local[1] != 0.0 || local[2] != 0.0;
+        for (size_t f = 0; f < N; f++) {
+            if ((!ft->U[f] && !ft->F[f]) || ft->K[f])
+                continue;
+            const double *Pf = pos + 3 * f * J, *G = wrot + 4 * f * J;
+            double target[3], ax[3], rh[4], rk[4];
+            if (ft->U[f]) {
+                memcpy(target, ft->at + 3 * f, sizeof target);
+            } else {
+                memcpy(target, Pf + 3 * a, sizeof target);
+                target[up] += fmax(ft->lift[f], 0.0);
+            }
+            const double eps = REACHED * (cleanup__dist3(Pf + 3 * h, Pf + 3 * kn) +
+                                          cleanup__dist3(Pf + 3 * kn, Pf + 3 * a));
+            if (cleanup__dist3(Pf + 3 * a, target) <= eps &&
+                (!ft->U[f] || !has_toe ||
+                 aligned(P + 3 * (f * C + toe), ft->tt + 3 * f, Pf + 3 * a))) {
+                ft->S[f] = 1; /* newr holds the leg's rotations as they are */
+                continue;
+            }
+            if (have_local)
+                mlr_ik_qrot(G + 4 * h, local, ax);
+            mlr_ik_two_bone_1(Pf + 3 * h, Pf + 3 * kn, Pf + 3 * a, target, have_local ? ax : NULL,
+                              MLR_IK_MAX_EXTENSION, rh, rk);
+            mlr_ik_rotate_to_1(newr + 4 * (f * J + kn), pk >= 0 ? G + 4 * (size_t)pk : NULL,
+                               G + 4 * kn, rk);
+            mlr_ik_rotate_to_1(newr + 4 * (f * J + h), ph >= 0 ? G + 4 * (size_t)ph : NULL,
+                               G + 4 * h, rh);
+        }
+    }
+}
+
+/* Placed points (toes) by turning the ankle, into newr; on floor frames the ankle keeps its
+   world rotation, so the whole foot rises with it (only on the frames where some foot with a
+   placed point is constrained). */
+static void place_toes(const cleanup_state *cu)
+{
+    const size_t N = cu->N, J = cu->J, nf = cu->nf;
+    const mlr_rig *rig = cu->rig;
+    const cleanup_foot *feet = cu->feet;
+    const int32_t *joints = cu->joints, *end_sites = cu->end_sites;
+    const double *tr = cu->trans, *wrot = cu->wrot;
+    double *newr = cu->newr, *pos2 = cu->pos2, *wrot2 = cu->wrot2;
+    uint8_t *fk_frames = cu->fk_frames;
+    memset(fk_frames, 0, N);
+    for (size_t k = 0; k < nf; k++)
+        if (feet[k].active && feet[k].n_cols > feet[k].n_own)
+            for (size_t f = 0; f < N; f++)
+                fk_frames[f] |= (feet[k].U[f] | feet[k].F[f]) & !feet[k].K[f] & !feet[k].S[f];
+    for (size_t f = 0; f < N; f++) {
+        if (!fk_frames[f])
+            continue;
+        if (!cu->chained)
+            cleanup__fk_masked_frame(rig, f, cu->need, cu->tidx, cu->out_root_pos, newr, tr, pos2,
+                                     wrot2);
+        for (size_t k = 0; k < nf; k++) {
+            const cleanup_foot *ft = &feet[k];
+            if (!ft->active || ft->n_cols == ft->n_own || (!ft->U[f] && !ft->F[f]) || ft->K[f] ||
+                ft->S[f])
+                continue;
+            if (cu->chained) /* the same values as the whole frame's at the chain's joints */
+                cleanup__fk_chain_frame(rig, f, cu->chains + k * J, cu->chain_len[k], cu->tidx,
+                                        newr, tr, cu->pos + 3 * J * f, cu->wrot + 4 * J * f, pos2,
+                                        wrot2);
+            const size_t a = (size_t)ft->anchor;
+            const int32_t pa = rig->parents[a];
+            const size_t c = ft->cols[ft->n_own];
+            const int32_t e = end_sites ? end_sites[c] : -1;
+            const size_t j = (size_t)joints[c];
+            const double *ga = wrot2 + 4 * a;
+            const double *gp = pa >= 0 ? wrot2 + 4 * (size_t)pa : NULL;
+            double r[4];
+            if (ft->U[f]) {
+                double now[3], u[3], v[3];
+                if (e >= 0)
+                    mlr_ik_qrot(wrot2 + 4 * j, rig->end_site_offsets + 3 * (size_t)e, now);
+                else
+                    now[0] = now[1] = now[2] = 0.0;
+                for (int d = 0; d < 3; d++) {
+                    now[d] += pos2[3 * j + (size_t)d];
+                    u[d] = now[d] - pos2[3 * a + (size_t)d];
+                    v[d] = ft->tt[3 * f + (size_t)d] - pos2[3 * a + (size_t)d];
+                }
+                mlr_ik_from_to_1(u, v, r);
+            } else { /* r * ga = the old world rotation */
+                const double *gold = wrot + 4 * (f * J + a);
+                const double cg[4] = {ga[0], -ga[1], -ga[2], -ga[3]};
+                mlr_ik_qmul(gold, cg, r);
+            }
+            mlr_ik_rotate_to_1(newr + 4 * (f * J + a), gp, ga, r);
+        }
+    }
+}
+
+mlr_status cleanup__pass(cleanup_state *cu)
+{
+    const size_t N = cu->N, J = cu->J, C = cu->C;
+    uint8_t *dirty = cu->w->dirty, *mask = cu->mask;
+    mlr_status st;
+    for (size_t f = 0; f < N; f++) {
+        if (!dirty[f])
+            continue;
+        cleanup__fk_masked_frame(cu->rig, f, cu->need, cu->tidx, cu->out_root_pos, cu->out_rot,
+                                 cu->trans, cu->pos + 3 * J * f, cu->wrot + 4 * J * f);
+        if ((st = mlr_rig_point_positions(cu->rig, 1, cu->pos + 3 * J * f, cu->wrot + 4 * J * f, C,
+                                          cu->joints, cu->end_sites, cu->P + 3 * C * f, NULL)) !=
+            MLR_OK)
+            return st;
+    }
+    memset(dirty, 0, N);
+    find_floor_frames(cu);
+    copy_leg_rotations(cu);
+    solve_legs(cu);
+    place_toes(cu);
+    /* spread per leg */
+    for (size_t k = 0; k < cu->nf; k++) {
+        const cleanup_foot *ft = &cu->feet[k];
+        if (!ft->active)
+            continue;
+        size_t cnt = 0;
+        for (size_t f = 0; f < N; f++)
+            cnt += (mask[f] = ft->U[f] | ft->F[f]) != 0;
+        if (!cnt)
+            continue;
+        int32_t js[3] = {ft->hip, ft->knee, ft->anchor};
+        if ((st = cleanup__spread_rotations(cu->w, cu->out_rot, cu->newr, js,
+                                            ft->n_cols > ft->n_own ? 3 : 2, mask)) != MLR_OK)
+            return st;
+    }
+    return MLR_OK;
+}
