@@ -14,12 +14,7 @@ static inline void fk_joint(const mlr_rig *rig, size_t f, size_t j, const int32_
     const double *t =
         tidx[j] >= 0 ? trans + 3 * (rig->n_trans * f + (size_t)tidx[j]) : rig->offsets + 3 * j;
     const mlr_quat q = {r[4 * j], r[4 * j + 1], r[4 * j + 2], r[4 * j + 3]};
-    mlr_quat_mul_inline(&wr[p], &q, &wr[j]);
-    double o[3];
-    mlr_quat_rotate_inline(&wr[p], t, o);
-    wp[3 * j] = wp[3 * p] + o[0];
-    wp[3 * j + 1] = wp[3 * p + 1] + o[1];
-    wp[3 * j + 2] = wp[3 * p + 2] + o[2];
+    mlr_fk_joint_inline(&wr[p], wp + 3 * p, &q, t, &wr[j], wp + 3 * j);
 }
 
 void cleanup__fk_masked_frame(const mlr_rig *rig, size_t f, const uint8_t *need,

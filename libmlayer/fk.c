@@ -46,12 +46,7 @@ static void fk_frame(size_t J, const int32_t *parents, const double *offsets,
         if (k < P && (size_t)trans_joints[k] == j)
             t = trans + 3 * k++;
         const mlr_quat q = {rot[4 * j], rot[4 * j + 1], rot[4 * j + 2], rot[4 * j + 3]};
-        mlr_quat_mul_inline(&wr[p], &q, &wr[j]);
-        double r[3];
-        mlr_quat_rotate_inline(&wr[p], t, r);
-        wp[3 * j] = wp[3 * p] + r[0];
-        wp[3 * j + 1] = wp[3 * p + 1] + r[1];
-        wp[3 * j + 2] = wp[3 * p + 2] + r[2];
+        mlr_fk_joint_inline(&wr[p], wp + 3 * p, &q, t, &wr[j], wp + 3 * j);
     }
 }
 

@@ -74,6 +74,20 @@ static inline void mlr_quat_rotate_inline(const mlr_quat *q, const double *v, do
     o[2] = vz + w * tz + (ux * ty - uy * tx);
 }
 
+/* One joint of forward kinematics: the world rotation wr_j = wr_p q and the world position
+ * wp_j = wp_p + wr_p t of a joint with local rotation q and translation t (its OFFSET or its
+ * position channels) below a parent at (wp_p, wr_p). Outputs must not alias the parent's. */
+static inline void mlr_fk_joint_inline(const mlr_quat *wr_p, const double *wp_p, const mlr_quat *q,
+                                       const double *t, mlr_quat *wr_j, double *wp_j)
+{
+    mlr_quat_mul_inline(wr_p, q, wr_j);
+    double o[3];
+    mlr_quat_rotate_inline(wr_p, t, o);
+    wp_j[0] = wp_p[0] + o[0];
+    wp_j[1] = wp_p[1] + o[1];
+    wp_j[2] = wp_p[2] + o[2];
+}
+
 /* Predictive sign continuity of row f of q (n_frames x n_tracks) given rows f-3 .. f-1 (those
  * that exist) already made continuous: mlr_quat_continue_sign per track (quat_continuity.c). */
 void mlr_quat_continue_frame(mlr_quat *q, size_t f, size_t n_tracks);
