@@ -766,6 +766,7 @@ typedef struct joint_bounds {
                                         fast_bound */
     double bl;                       /* |bone_out| */
     mlr_vec3 t;                      /* bone_out / bl (bl > 0) */
+    int hard;                        /* hinge: only angles outside [lo, hi], to the bound */
 } joint_bounds;
 
 static joint_bounds bounds_of(const mlr_limits *lim, const mlr_limits_joint *g, double alpha)
@@ -792,6 +793,11 @@ static joint_bounds bounds_of(const mlr_limits *lim, const mlr_limits_joint *g, 
     return b;
 }
 
+/* How far inside its range (a fraction of it) the hard mode sets a hinge angle that left it:
+   1e-9 of 150 degrees is 2.6e-9 radians, far above the rounding of the angle (1e-15) and far
+   below anything a body shows. */
+#define HARD_INSIDE 1e-9
+
 static int limit_joint(const mlr_limits_joint *g, const joint_bounds *b, mlr_quat *q,
                        prev_angle *prev)
 {
@@ -813,7 +819,11 @@ static int limit_joint(const mlr_limits_joint *g, const joint_bounds *b, mlr_qua
         if (prev)
             prev->v = phi;
         double phi2 = phi;
-        if (phi > r->hi - w_hi)
+        if (b->hard) /* just inside the bound it passed, so that rounding keeps it inside */
+            phi2 = phi > r->hi   ? r->hi - HARD_INSIDE * (r->hi - r->lo)
+                   : phi < r->lo ? r->lo + HARD_INSIDE * (r->hi - r->lo)
+                                 : phi;
+        else if (phi > r->hi - w_hi)
             phi2 = mlr_limits_soft(phi, r->hi, w_hi);
         else if (phi < r->lo + w_lo)
             phi2 = -mlr_limits_soft(-phi, -r->lo, w_lo);
@@ -880,12 +890,12 @@ void mlr_limits_apply_frame(const mlr_limits *lim, mlr_quat *q, const double *al
 void mlr_limits_apply_kind(const mlr_limits *lim, size_t n_frames, mlr_quat *rot,
                            const double *alpha, size_t n_alpha, size_t *counts, int kind)
 {
-    mlr_limits_apply_kind_masked(lim, n_frames, rot, alpha, n_alpha, counts, kind, NULL);
+    mlr_limits_apply_kind_masked(lim, n_frames, rot, alpha, n_alpha, counts, kind, NULL, 0);
 }
 
 void mlr_limits_apply_kind_masked(const mlr_limits *lim, size_t n_frames, mlr_quat *rot,
                                   const double *alpha, size_t n_alpha, size_t *counts, int kind,
-                                  const uint8_t *mask)
+                                  const uint8_t *mask, int hard)
 {
     const size_t J = lim->n_joints;
     const double *aj = alpha ? (n_alpha == 1 ? alpha : alpha + 1) : NULL;
@@ -913,6 +923,7 @@ void mlr_limits_apply_kind_masked(const mlr_limits *lim, size_t n_frames, mlr_qu
             js[m] = j0;
             prev[m] = (prev_angle){NAN, 0, {1, 0, 0, 0}};
             b[m] = bounds_of(lim, lj, a);
+            b[m].hard = hard && kind == MLR_LIMITS_HINGE;
             m++;
         }
         for (size_t f = 0; f < n_frames; f++)

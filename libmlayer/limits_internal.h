@@ -68,10 +68,12 @@ static inline double mlr_limits_soft(double x, double b, double w)
 void mlr_limits_apply_kind(const mlr_limits *lim, size_t n_frames, mlr_quat *rot,
                            const double *alpha, size_t n_alpha, size_t *counts, int kind);
 /* mlr_limits_apply_kind on the quaternions marked in mask (n_frames x J, nonzero: limit it;
- * NULL: all) only: a joint's angles are unwrapped in time along the runs of marked frames. */
+ * NULL: all) only: a joint's angles are unwrapped in time along the runs of marked frames.
+ * hard (hinges only): an angle within [lo, hi] is left as it is and one outside is set to the
+ * bound it passed, instead of the soft saturation (which also moves angles near a bound). */
 void mlr_limits_apply_kind_masked(const mlr_limits *lim, size_t n_frames, mlr_quat *rot,
                                   const double *alpha, size_t n_alpha, size_t *counts, int kind,
-                                  const uint8_t *mask);
+                                  const uint8_t *mask, int hard);
 void mlr_limits_apply_frame(const mlr_limits *lim, mlr_quat *q, const double *alpha, size_t stride,
                             size_t *counts);
 
