@@ -238,8 +238,8 @@ def read_amass(path: str | os.PathLike[str], *, joint_positions: Any = None,
         tree's 22 or 52 joints, or the model's full set (SMPL 24, SMPL-H 52, SMPL-X 55, of
         which the joints not on the tree are dropped). The offsets become the differences to
         the parents, and the pelvis is placed at ``trans + joint_positions[0]`` as the model
-        places it. Default: the offsets of :mod:`mlayer.smpl` (published mean body) with the
-        pelvis at ``trans``.
+        places it. Default: the rest joints of :mod:`mlayer.smpl` (the neutral mean body,
+        betas 0, as published), the pelvis likewise at ``trans`` plus its rest location.
     model : {"auto", "smpl", "smplh", "smplx"}
         The body model the poses are for. ``"auto"``: ``surface_model_type`` when the file
         has it, else by the width of ``poses`` (72 or 66: SMPL, 156: SMPL-H, 165: SMPL-X).

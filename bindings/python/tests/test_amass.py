@@ -294,7 +294,8 @@ def test_from_arrays_any_order():
     root = RNG.normal(size=(F, 3))
     m = mlayer.Motion.from_arrays(names, parents, offsets, root, rot_smpl[:, perm], fps=30)
     sm, sp, so = smpl.tree(False)
-    ref = _reference_fk(rv.reshape(F, -1), root, sp, so)
+    # the reference takes AMASS's trans, the pelvis less its rest location (row 0 of the offsets)
+    ref = _reference_fk(rv.reshape(F, -1), root - so[0], sp, so)
     np.testing.assert_allclose(_by_smpl(m, sm), ref, rtol=0, atol=1e-12)
     assert [names[i] for i in m.skeleton.source_order] == m.joint_names
     assert m.parents[0] == -1 and all(m.parents[j] < j for j in range(1, 22))
