@@ -36,6 +36,8 @@ typedef struct mlr_cleanup_ref {
     double smooth;   /* the MLR_CLEANUP_OPT_REF_SMOOTH it was made with */
     double *h;       /* N x C: the points' up coordinates (unsmoothed) */
     double *pts;     /* N x C x 3: the points, smoothed over `smooth` seconds */
+    double *step;    /* N x C: the unsmoothed points' horizontal step to the next frame (0 at
+                        the last) */
     double *anchors; /* N x F x 3: the feet's anchors (ankles), smoothed */
 } mlr_cleanup_ref;
 
@@ -43,7 +45,7 @@ typedef struct mlr_cleanup_ref {
  * and the frames (both checked by the caller: finite); world_pos / world_rot: the reference's full
  * forward kinematics (N x J x 3 and N x J x 4) when at hand, else NULL (computed here). opts:
  * the cleanup's options (only REF_SMOOTH is read; the others are checked). *out NULL on
- * failure. Allocates about N (4 C + 3 F) doubles. */
+ * failure. Allocates about N (5 C + 3 F) doubles. */
 mlr_status mlr_cleanup_ref_create(const mlr_rig *rig, size_t N, double fps, int up,
                                   const double *root_pos, const double *rot, const double *trans,
                                   const double *world_pos, const double *world_rot, size_t C,
@@ -124,6 +126,7 @@ typedef struct cleanup_config {
     double blend, reach, floor_height, floor_q, ref_smooth, pin_smooth, max_fold;
     int passes, floor_on, floor_given, root_on;
     double keep_stiller;
+    int keep_total;
 } cleanup_config;
 
 /* A foot: anchor joint, its leg, the columns of its points, the targets. */
@@ -232,6 +235,7 @@ typedef struct cleanup_state {
     size_t nf;
     int have_ref;
     const double *Pr, *pos_ref;     /* the reference's points and anchors, or NULL */
+    const double *step_ref;         /* the reference's unsmoothed steps (mlr_cleanup_ref) */
     double *pos, *wrot, *P;         /* forward kinematics of (out_root_pos, out_rot), points */
     double *lim, *newr, *shift;
     double floor_h;

@@ -21,6 +21,7 @@ static const mlr_opt_spec cleanup_opts[] = {
     {MLR_CLEANUP_OPT_MAX_FOLD, "max_fold", MLR_OPT_DOUBLE, 0.0, PI, 1, 0, PI, "in (0, pi]"},
     {MLR_CLEANUP_OPT_KEEP_STILLER, "keep_stiller", MLR_OPT_DOUBLE, 0.0, INFINITY, 0, 0, 0.0,
      "0 (off) or >= 1"},
+    {MLR_CLEANUP_OPT_KEEP_TOTAL, "keep_total", MLR_OPT_BOOL, 0.0, 1.0, 0, 0, 0.0, NULL},
 };
 #undef PI
 
@@ -46,6 +47,7 @@ mlr_status cleanup__parse_options(const mlr_cleanup_option *opts, size_t n_opts,
     cfg->root_on = o.v[MLR_CLEANUP_OPT_ROOT] != 0.0;
     cfg->max_fold = o.v[MLR_CLEANUP_OPT_MAX_FOLD];
     cfg->keep_stiller = ks;
+    cfg->keep_total = o.v[MLR_CLEANUP_OPT_KEEP_TOTAL] != 0.0;
     return MLR_OK;
 }
 

@@ -16,6 +16,8 @@ void mlr_cleanup_ref_destroy(mlr_cleanup_ref *ref)
         mlr_free(&a, ref->h, N * C * sizeof(double));
     if (ref->pts)
         mlr_free(&a, ref->pts, 3 * N * C * sizeof(double));
+    if (ref->step)
+        mlr_free(&a, ref->step, N * C * sizeof(double));
     if (ref->anchors)
         mlr_free(&a, ref->anchors, 3 * N * F * sizeof(double));
     mlr_free(&a, ref, sizeof *ref);
@@ -54,6 +56,7 @@ static mlr_cleanup_ref *ref_new(const mlr_allocator *A, size_t N, size_t C, size
         r->smooth = smooth;
         r->h = mlr_alloc(A, N * C * sizeof(double));
         r->pts = mlr_alloc(A, 3 * N * C * sizeof(double));
+        r->step = mlr_alloc(A, N * C * sizeof(double));
         r->anchors = nf ? mlr_alloc(A, 3 * N * nf * sizeof(double)) : NULL;
     }
     return r;
@@ -100,6 +103,17 @@ static mlr_status ref_points(const mlr_rig *rig, const double *root_pos, const d
         return st;
     for (size_t i = 0; i < N * C; i++)
         r->h[i] = Pr[3 * i + (size_t)r->up];
+    for (size_t f = 0; f < N; f++)
+        for (size_t c = 0; c < C; c++) {
+            double d2 = 0.0;
+            for (int d = 0; f + 1 < N && d < 3; d++)
+                if (d != r->up) {
+                    const double x =
+                        Pr[3 * ((f + 1) * C + c) + (size_t)d] - Pr[3 * (f * C + c) + (size_t)d];
+                    d2 += x * x;
+                }
+            r->step[f * C + c] = sqrt(d2);
+        }
     return MLR_OK;
 }
 
@@ -162,7 +176,7 @@ mlr_status mlr_cleanup_ref_create(const mlr_rig *rig, size_t N, double fps, int 
     }
     mlr_cleanup_ref *r = ref_new(&A, N, C, nf, up, cfg.ref_smooth);
     s.tmp = cleanup__take(&ar, N * 3 * (C > nf ? C : nf), sizeof(double));
-    if (!r || !r->h || !r->pts || (nf && !r->anchors) || ar.st != MLR_OK) {
+    if (!r || !r->h || !r->pts || !r->step || (nf && !r->anchors) || ar.st != MLR_OK) {
         st = mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "cleanup: out of memory");
     } else if ((st = ref_points(rig, root_pos, rot, trans, world_pos, world_rot, joints, end_sites,
                                 feet, &s, r)) != MLR_OK) {

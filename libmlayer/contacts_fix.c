@@ -6,6 +6,7 @@
 #include "ik_internal.h"
 
 #include <math.h>
+#include <stdlib.h>
 
 /* Horizontal path length of a foot's contact points (P: N x C x 3) over consecutive contact
    frames of the run [s, e). */
@@ -198,13 +199,11 @@ static void pin_run_to_means(const cleanup_state *cu, cleanup_foot *ft, size_t s
     }
 }
 
-/* Foot k's contact frames, leg chain and targets (the anchor's and the placed point's
-   trajectories, pinned on each contact run unless the run is kept). */
-static mlr_status set_foot_targets(cleanup_state *cu, size_t k, mlr_diag *diag)
+/* Foot k's contact frames, leg chain and targets before any run is pinned (the anchor's and
+   the placed point's own trajectories). */
+static mlr_status set_foot_frames(cleanup_state *cu, size_t k, mlr_diag *diag)
 {
     const size_t N = cu->N, J = cu->J, C = cu->C;
-    const int up = cu->up;
-    const cleanup_config *cfg = cu->cfg;
     const uint8_t *contacts = cu->contacts;
     const double *pos = cu->pos, *P = cu->P;
     cleanup_foot *ft = &cu->feet[k];
@@ -228,32 +227,113 @@ static mlr_status set_foot_targets(cleanup_state *cu, size_t k, mlr_diag *diag)
         if (has_toe)
             memcpy(ft->tt + 3 * f, P + 3 * (f * C + toe), 3 * sizeof(double));
     }
-    for (size_t s = 0; s < N;) { /* runs of U */
-        if (!ft->U[s]) {
-            s++;
-            continue;
-        }
-        size_t e = s;
-        while (e < N && ft->U[e])
-            e++;
-        if (cu->have_ref && cfg->keep_stiller > 0.0 &&
-            run_sliding(P, contacts, C, ft, s, e, up) <=
-                cfg->keep_stiller * run_sliding(cu->Pr, contacts, C, ft, s, e, up)) {
-            /* the foot's own trajectory slides no more than the reference's: kept (its
-               frames stay held, with no correction, so IK is not needed there) */
-            memset(ft->K + s, 1, e - s);
-            s = e;
-            continue;
-        }
-        if (cu->have_ref)
-            pin_run_to_reference(cu, ft, k, s, e);
-        else
-            pin_run_to_means(cu, ft, s, e);
-        s = e;
-    }
     for (size_t f = 0; f < N; f++)
         cu->anyU[f] |= ft->U[f];
     return MLR_OK;
+}
+
+/* A contact run of a foot: frames [s, e) of foot k, its own and the reference's sliding
+   (run_sliding), and whether it keeps its own trajectory. */
+typedef struct contact_run {
+    size_t k, s, e;
+    double own, ref, raw; /* raw: the reference's unsmoothed points' sliding */
+    int keep;
+} contact_run;
+
+/* run_sliding of the reference's unsmoothed points (their steps) over the run [s, e). */
+static double run_sliding_raw(const double *step, const uint8_t *contacts, size_t C,
+                              const cleanup_foot *ft, size_t s, size_t e)
+{
+    double len = 0.0;
+    for (size_t f = s; f + 1 < e; f++)
+        for (size_t i = 0; i < ft->n_cols; i++) {
+            const size_t c = ft->cols[i];
+            if (contacts[f * C + c] && contacts[(f + 1) * C + c])
+                len += step[f * C + c];
+        }
+    return len;
+}
+
+/* The contact runs of the active feet, in order (at most N per foot); returns how many. */
+static size_t find_runs(const cleanup_state *cu, contact_run *runs)
+{
+    const size_t N = cu->N, C = cu->C;
+    const int up = cu->up;
+    const cleanup_config *cfg = cu->cfg;
+    size_t n = 0;
+    for (size_t k = 0; k < cu->nf; k++) {
+        const cleanup_foot *ft = &cu->feet[k];
+        for (size_t s = 0; ft->active && s < N;) {
+            if (!ft->U[s]) {
+                s++;
+                continue;
+            }
+            size_t e = s;
+            while (e < N && ft->U[e])
+                e++;
+            contact_run *r = &runs[n++];
+            r->k = k, r->s = s, r->e = e, r->keep = 0;
+            r->own = r->ref = r->raw = 0.0;
+            if (cu->have_ref && cfg->keep_stiller > 0.0) {
+                r->own = run_sliding(cu->P, cu->contacts, C, ft, s, e, up);
+                r->ref = run_sliding(cu->Pr, cu->contacts, C, ft, s, e, up);
+                r->raw = run_sliding_raw(cu->step_ref, cu->contacts, C, ft, s, e);
+                /* the foot's own trajectory slides no more than the reference's: kept (its
+                   frames stay held, with no correction, so IK is not needed there) */
+                r->keep = r->own <= cfg->keep_stiller * r->ref;
+            }
+            s = e;
+        }
+    }
+    return n;
+}
+
+/* Is kept run a's excess over the reference larger than b's? (qsort of run pointers, largest
+   first; ties by position, so the order is the same on every platform) */
+static int by_excess(const void *pa, const void *pb)
+{
+    const contact_run *a = *(const contact_run *const *)pa, *b = *(const contact_run *const *)pb;
+    const double xa = a->own - a->ref, xb = b->own - b->ref;
+    if (xa != xb)
+        return xa > xb ? -1 : 1;
+    return a < b ? -1 : a > b;
+}
+
+/* KEEP_TOTAL: the kept runs that slide most beyond the reference follow it instead, largest
+   excess first, until the feet's total slide (a kept run its own, the others the
+   reference's) is at most the reference's unsmoothed points'. order: scratch for n run
+   pointers. */
+static void keep_total(contact_run *runs, size_t n, contact_run **order)
+{
+    double total = 0.0, ref = 0.0;
+    size_t m = 0;
+    for (size_t i = 0; i < n; i++) {
+        total += runs[i].keep ? runs[i].own : runs[i].ref;
+        ref += runs[i].raw;
+        if (runs[i].keep && runs[i].own > runs[i].ref)
+            order[m++] = &runs[i];
+    }
+    qsort(order, m, sizeof *order, by_excess);
+    for (size_t i = 0; i < m && total > ref; i++) {
+        order[i]->keep = 0;
+        total -= order[i]->own - order[i]->ref;
+    }
+}
+
+/* The runs applied: a kept run's frames held (K), the others pinned to the reference or to
+   their means. */
+static void pin_runs(cleanup_state *cu, const contact_run *runs, size_t n)
+{
+    for (size_t i = 0; i < n; i++) {
+        const contact_run *r = &runs[i];
+        cleanup_foot *ft = &cu->feet[r->k];
+        if (r->keep)
+            memset(ft->K + r->s, 1, r->e - r->s);
+        else if (cu->have_ref)
+            pin_run_to_reference(cu, ft, r->k, r->s, r->e);
+        else
+            pin_run_to_means(cu, ft, r->s, r->e);
+    }
 }
 
 /* The run's failures: the arena's (out of memory), or a status of a step (out of memory, or a
@@ -376,10 +456,22 @@ static mlr_status cleanup_targets(cleanup_state *cu, cleanup_arena *ar, mlr_diag
         cleanup_foot *ft = &cu->feet[k];
         ft->U = all_uf + 4 * N * k, ft->F = ft->U + N, ft->K = ft->F + N, ft->S = ft->K + N;
         ft->at = all_at + 7 * N * k, ft->tt = ft->at + 3 * N, ft->lift = ft->tt + 3 * N;
-        mlr_status st = set_foot_targets(cu, k, diag);
+        mlr_status st = set_foot_frames(cu, k, diag);
         if (st != MLR_OK)
             return st;
     }
+    /* a run is at least one frame, and the next frame is not in it: at most (N + 1) / 2 runs
+       per foot */
+    contact_run *runs = cleanup__take_raw(ar, nf * ((N + 1) / 2), sizeof(contact_run));
+    contact_run **order = cu->cfg->keep_total
+                              ? cleanup__take_raw(ar, nf * ((N + 1) / 2), sizeof(contact_run *))
+                              : NULL;
+    if (ar->st != MLR_OK)
+        return fail_memory(ar, diag);
+    const size_t n_runs = find_runs(cu, runs);
+    if (order)
+        keep_total(runs, n_runs, order);
+    pin_runs(cu, runs, n_runs);
     return MLR_OK;
 }
 
@@ -475,6 +567,7 @@ static mlr_status cleanup_run(const mlr_rig *rig, size_t N, double fps, int up,
         pre = owned;
     }
     c.Pr = pre ? pre->pts : NULL, c.pos_ref = pre ? pre->anchors : NULL;
+    c.step_ref = pre ? pre->step : NULL;
     if ((st = cleanup_floor(&c, pre, &ar, &A, report, diag)) != MLR_OK ||
         (st = cleanup_targets(&c, &ar, diag)) != MLR_OK)
         goto done;

@@ -664,10 +664,10 @@ static mlr_status apply_reference(const mlr_guards *g, const double *ref_root_po
     return MLR_OK;
 }
 
-/* The cleanup's options for this apply (at most 5, in copts); returns their count. */
+/* The cleanup's options for this apply (at most 6, in copts); returns their count. */
 static size_t cleanup_options(const mlr_guards *g, int has_ref, const double *alpha,
                               size_t n_alpha, int floor_on, int limits_applied,
-                              mlr_cleanup_option copts[5])
+                              mlr_cleanup_option copts[6])
 {
     size_t n_copts = 0;
     /* a given reference (the denoised motion) is followed as it is; the input is
@@ -684,6 +684,10 @@ static size_t cleanup_options(const mlr_guards *g, int has_ref, const double *al
             denoising &= alpha[k] == 1.0;
         copts[n_copts++] = (mlr_cleanup_option){MLR_CLEANUP_OPT_KEEP_STILLER,
                                                 denoising ? GUARDS_KEEP_STILLER : 1.0};
+        /* ... but no more in all than the reference: the runs that slide most beyond it are
+           pinned first (CMU 131_01 denoised slid 1.010x its input with every run within
+           1.25x kept) */
+        copts[n_copts++] = (mlr_cleanup_option){MLR_CLEANUP_OPT_KEEP_TOTAL, 1.0};
     }
     copts[n_copts++] = (mlr_cleanup_option){MLR_CLEANUP_OPT_FLOOR, floor_on ? 1.0 : 0.0};
     if (limits_applied)
@@ -856,7 +860,7 @@ mlr_status mlr_guards_apply(const mlr_guards *g, const double *alpha, size_t n_a
             }
             memset(none, 0, g->n_points * N);
         }
-        mlr_cleanup_option copts[5];
+        mlr_cleanup_option copts[6];
         const size_t n_copts =
             cleanup_options(g, has_ref, alpha, n_alpha, floor_on, rep.limits_applied, copts);
         mlr_cleanup_report crep;

@@ -158,6 +158,47 @@ START_TEST(a_sliding_foot_is_pinned_to_its_contact)
 }
 END_TEST
 
+/* Horizontal (x, z) path of the points pts (N x C x 3) over consecutive contact frames. */
+static double slide_of(const double *pts, const uint8_t *c)
+{
+    double len = 0.0;
+    for (size_t f = 0; f + 1 < N; f++)
+        for (size_t k = 0; k < C; k++)
+            if (c[f * C + k] && c[(f + 1) * C + k]) {
+                const double *a = pts + 3 * (f * C + k), *b = pts + 3 * ((f + 1) * C + k);
+                len += hypot(b[0] - a[0], b[2] - a[2]);
+            }
+    return len;
+}
+
+/* The body slides 1.1x the reference's: KEEP_STILLER 1.25 keeps both contacts as they are;
+   with KEEP_TOTAL the feet slide in all no more than the reference (the runs that slide most
+   beyond it follow it). */
+START_TEST(keep_total_caps_the_feet_sliding_at_the_references)
+{
+    synth *s = malloc(sizeof *s);
+    pose_clip(0.011, 0.0, 0, 0, s->root, s->rot);
+    pose_clip(0.010, 0.0, 0, 0, s->rroot, s->rrot);
+    contacts_of(s->c);
+    fk_pts(s->rroot, s->rrot, s->pos, s->pts);
+    const double ref = slide_of(s->pts, s->c);
+    fk_pts(s->root, s->rot, s->pos, s->pts);
+    const double own = slide_of(s->pts, s->c);
+    ck_assert_double_eq_tol(own, 1.1 * ref, 1e-9 * ref);
+    const mlr_cleanup_option o[3] = {{MLR_CLEANUP_OPT_KEEP_STILLER, 1.25},
+                                     {MLR_CLEANUP_OPT_REF_SMOOTH, 0.0},
+                                     {MLR_CLEANUP_OPT_KEEP_TOTAL, 1.0}};
+    mlr_diag d;
+    ck_assert_msg(run(s, 1, o, 2, NULL, NULL, &d) == MLR_OK, "%s", d.message);
+    fk_pts(s->oroot, s->orot, s->opos, s->opts);
+    ck_assert_double_eq_tol(slide_of(s->opts, s->c), own, 1e-9 * ref); /* kept */
+    ck_assert_msg(run(s, 1, o, 3, NULL, NULL, &d) == MLR_OK, "%s", d.message);
+    fk_pts(s->oroot, s->orot, s->opos, s->opts);
+    ck_assert_double_le(slide_of(s->opts, s->c), ref * (1.0 + 1e-6));
+    free(s);
+}
+END_TEST
+
 START_TEST(frames_far_from_every_constrained_frame_keep_the_input)
 {
     synth *s = malloc(sizeof *s);
@@ -540,7 +581,8 @@ START_TEST(bad_input_gets_the_right_status_and_message)
         const char *msg;
     } bad[] = {
         {{{0, 1.0}}, 1, "unknown option key 0"},
-        {{{12, 1.0}}, 1, "unknown option key 12"},
+        {{{13, 1.0}}, 1, "unknown option key 13"},
+        {{{MLR_CLEANUP_OPT_KEEP_TOTAL, 0.5}}, 1, "option keep_total = 0.5 is not 0 or 1"},
         {{{MLR_CLEANUP_OPT_BLEND, 0.1}, {MLR_CLEANUP_OPT_BLEND, 0.2}},
          2,
          "cleanup: option blend given twice"},
@@ -722,6 +764,7 @@ static Suite *cleanup_suite(void)
     Suite *s = suite_create("cleanup");
     TCase *tc = tcase_create("cleanup");
     tcase_add_test(tc, a_sliding_foot_is_pinned_to_its_contact);
+    tcase_add_test(tc, keep_total_caps_the_feet_sliding_at_the_references);
     tcase_add_test(tc, frames_far_from_every_constrained_frame_keep_the_input);
     tcase_add_test(tc, the_floor_is_respected);
     tcase_add_test(tc, max_fold_moves_the_root_away_from_a_near_target);

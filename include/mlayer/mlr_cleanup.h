@@ -78,10 +78,16 @@ typedef enum mlr_cleanup_key {
     MLR_CLEANUP_OPT_MAX_FOLD = 10,      /* radians in (0, pi]: the largest knee flexion IK may
                                            use; a target nearer the hip moves the root away
                                            (on contact and floor frames); default pi (none) */
-    MLR_CLEANUP_OPT_KEEP_STILLER = 11   /* k >= 1: a foot's contact run whose own contact
+    MLR_CLEANUP_OPT_KEEP_STILLER = 11,  /* k >= 1: a foot's contact run whose own contact
                                            points slide (horizontal path length) at most k
                                            times the reference's keeps its own trajectory; 0
                                            (default): every run follows the reference */
+    MLR_CLEANUP_OPT_KEEP_TOTAL = 12     /* 1: with KEEP_STILLER, the feet slide in all (kept
+                                           runs their own path, the others the reference's)
+                                           at most as much as the reference's points before
+                                           REF_SMOOTH: the kept runs that slide most beyond
+                                           the reference follow it instead, largest excess
+                                           first; 0 (default): off */
 } mlr_cleanup_key;
 
 /** One option: key (an mlr_cleanup_key) and its value. A frozen value type. */

@@ -39,7 +39,8 @@ _OPT = {"blend": lib.MLR_CLEANUP_OPT_BLEND, "reach": lib.MLR_CLEANUP_OPT_REACH,
         "passes": lib.MLR_CLEANUP_OPT_PASSES, "floor_quantile": lib.MLR_CLEANUP_OPT_FLOOR_QUANTILE,
         "ref_smooth": lib.MLR_CLEANUP_OPT_REF_SMOOTH, "pin_smooth": lib.MLR_CLEANUP_OPT_PIN_SMOOTH,
         "root": lib.MLR_CLEANUP_OPT_ROOT, "max_fold": lib.MLR_CLEANUP_OPT_MAX_FOLD,
-        "keep_stiller": lib.MLR_CLEANUP_OPT_KEEP_STILLER}
+        "keep_stiller": lib.MLR_CLEANUP_OPT_KEEP_STILLER,
+        "keep_total": lib.MLR_CLEANUP_OPT_KEEP_TOTAL}
 
 
 def _points(skeleton: Skeleton, names: Sequence[str | int]
@@ -164,7 +165,9 @@ def fix_contacts(motion: Motion, contacts: ArrayLike, names: str | Sequence[str]
         ``floor_frames``, ``root_shift_max``).
     **options : float
         blend (seconds, 0.2), reach (0.98), passes (2), floor_quantile (0.05), ref_smooth
-        (seconds, 0.02), pin_smooth (seconds, 0.02), root (True), max_fold, keep_stiller.
+        (seconds, 0.02), pin_smooth (seconds, 0.02), root (True), max_fold, keep_stiller,
+        keep_total (False: with keep_stiller, the feet slide in all at most as much as the
+        reference's; the kept contacts that slide most beyond it follow it instead).
 
     Returns
     -------
