@@ -7,21 +7,22 @@
 #include <math.h>
 #include <stdlib.h>
 
-static int cmp_double(const void *a, const void *b)
-{
-    const double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
-
+/* numpy's linear quantile of v[0..n), n >= 1 (reorders v): the two order statistics it
+   reads by selection, the same values a sort gives. */
 double cleanup__quantile_of(double *v, size_t n, double q)
 {
-    qsort(v, n, sizeof *v, cmp_double);
     const double pos = q * (double)(n - 1);
-    const size_t i = (size_t)floor(pos);
+    size_t i = (size_t)floor(pos);
+    if (i >= n)
+        i = n - 1;
+    mlr_select_kth(v, n, i);
     if (i + 1 >= n)
-        return v[n - 1];
+        return v[i];
+    double next = v[i + 1]; /* the smallest of v[i+1 .. n), all >= v[i] */
+    for (size_t k = i + 2; k < n; k++)
+        next = v[k] < next ? v[k] : next;
     const double f = pos - (double)i;
-    return v[i] + f * (v[i + 1] - v[i]);
+    return v[i] + f * (next - v[i]);
 }
 
 mlr_status mlr_cleanup_floor_height(const mlr_rig *rig, size_t N, const double *root_pos,

@@ -53,10 +53,7 @@ mlr_status cleanup__parse_options(const mlr_cleanup_option *opts, size_t n_opts,
 
 static int finite_all(const double *x, size_t count)
 {
-    for (size_t i = 0; i < count; i++)
-        if (!isfinite(x[i]))
-            return 0;
-    return 1;
+    return mlr_first_nonfinite(x, count) == count;
 }
 
 mlr_status cleanup__check_motion(const mlr_rig *rig, size_t N, const double *root_pos,

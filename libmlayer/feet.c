@@ -19,61 +19,6 @@ static double offset_length(const mlr_rig *rig, size_t j)
     return sqrt(o[0] * o[0] + o[1] * o[1] + o[2] * o[2]);
 }
 
-static int cmp_double(const void *a, const void *b)
-{
-    const double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
-
-/* Reorders v[0..n) so that v[k] is the value a sort would put there, everything before it no
- * larger and everything after it no smaller: quickselect (median-of-three pivots, Hoare
- * partition), O(n) on average; after 2 log2(n) + 8 rounds the rest is sorted (bounded worst
- * case). Values are finite. */
-static void select_kth(double *v, size_t n, size_t k)
-{
-    size_t lo = 0, hi = n - 1, rounds = 8;
-    for (size_t m = n; m > 1; m >>= 1)
-        rounds += 2;
-    while (hi > lo) {
-        if (rounds-- == 0) {
-            qsort(v + lo, hi - lo + 1, sizeof(double), cmp_double);
-            return;
-        }
-        const size_t mid = lo + (hi - lo) / 2;
-        double a = v[lo], b = v[mid], c = v[hi];
-        const double pivot = a < b ? (b < c ? b : (a < c ? c : a)) : (a < c ? a : (b < c ? c : b));
-        size_t i = lo, j = hi;
-        for (;;) {
-            while (v[i] < pivot)
-                i++;
-            while (v[j] > pivot)
-                j--;
-            if (i >= j)
-                break;
-            const double t = v[i];
-            v[i] = v[j], v[j] = t;
-            i++, j--;
-        }
-        /* now v[lo..j] <= pivot <= v[j+1..hi] */
-        if (k <= j)
-            hi = j;
-        else
-            lo = j + 1;
-    }
-}
-
-/* numpy's median of n >= 1 finite values (reorders v); mlr_internal.h. */
-double mlr_median(double *v, size_t n)
-{
-    select_kth(v, n, n / 2);
-    if (n % 2)
-        return v[n / 2];
-    double below = v[0]; /* the largest of v[0 .. n/2), all <= v[n/2] */
-    for (size_t i = 1; i < n / 2; i++)
-        below = v[i] > below ? v[i] : below;
-    return 0.5 * (below + v[n / 2]);
-}
-
 /* The toe of ankle a: (joint, -1), (a, End Site) or (-1, -1). */
 static void find_toe(const mlr_rig *rig, int32_t a, int32_t *joint, int32_t *end_site)
 {

@@ -290,12 +290,12 @@ static mlr_status make_input_ref(const mlr_guards *g, size_t C, const int32_t *j
 
 static mlr_status check_finite(const double *x, size_t n, const char *what, mlr_diag *diag)
 {
-    for (size_t k = 0; k < n; k++)
-        if (!isfinite(x[k]))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "guards: %s value %zu is not "
-                                "finite",
-                                what, k);
+    const size_t k = mlr_first_nonfinite(x, n);
+    if (k < n)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "guards: %s value %zu is not "
+                            "finite",
+                            what, k);
     return MLR_OK;
 }
 
@@ -702,8 +702,11 @@ static size_t cleanup_options(const mlr_guards *g, int has_ref, const double *al
 typedef struct apply_work {
     double *rot, *root;
     size_t *counts, *counts2;
-    double *before;   /* N x J x 4: the rotations before a cleanup round */
+    double *before;   /* N x J x 4: the rotations before a cleanup round (of legs[] only) */
     uint8_t *changed; /* N x J: the rotations that round changed */
+    const int32_t *legs; /* the joints a cleanup round can change: the contact points' joints
+                            and their ancestors (the legs' hips, knees and anchors are) */
+    size_t n_legs;
 } apply_work;
 
 /* A rotation a cleanup round changed by less than this (in a quaternion's components, about
@@ -713,21 +716,36 @@ typedef struct apply_work {
    1e-10, 1e-13). */
 #define GUARDS_CHANGED 1e-12
 
+/* w->before = the rotations of w->legs (the others the cleanup leaves as they are). */
+static void keep_legs(const apply_work *w, size_t N, size_t J)
+{
+    for (size_t f = 0; f < N; f++)
+        for (size_t i = 0; i < w->n_legs; i++) {
+            const size_t o = 4 * (f * J + (size_t)w->legs[i]);
+            memcpy(w->before + o, w->rot + o, 4 * sizeof(double));
+        }
+}
+
 /* Mark the rotations of w that differ from w->before by more than GUARDS_CHANGED, with the
-   sign of the quaternion ignored; returns how many. */
-static size_t mark_changed(const apply_work *w, size_t NJ)
+   sign of the quaternion ignored (only w->legs can; the others are marked unchanged);
+   returns how many. */
+static size_t mark_changed(const apply_work *w, size_t N, size_t J)
 {
     size_t n = 0;
-    for (size_t i = 0; i < NJ; i++) {
-        const double *a = w->rot + 4 * i, *b = w->before + 4 * i;
-        const double sg = a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3] < 0 ? -1.0 : 1.0;
-        double d = 0.0;
-        for (int k = 0; k < 4; k++) {
-            const double e = fabs(a[k] - sg * b[k]);
-            d = e > d ? e : d;
+    memset(w->changed, 0, N * J);
+    for (size_t f = 0; f < N; f++)
+        for (size_t l = 0; l < w->n_legs; l++) {
+            const size_t i = f * J + (size_t)w->legs[l];
+            const double *a = w->rot + 4 * i, *b = w->before + 4 * i;
+            const double sg =
+                a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3] < 0 ? -1.0 : 1.0;
+            double d = 0.0;
+            for (int k = 0; k < 4; k++) {
+                const double e = fabs(a[k] - sg * b[k]);
+                d = e > d ? e : d;
+            }
+            n += w->changed[i] = d > GUARDS_CHANGED;
         }
-        n += w->changed[i] = d > GUARDS_CHANGED;
-    }
     return n;
 }
 
@@ -739,7 +757,7 @@ static mlr_status limit_changed(const mlr_guards *g, const apply_work *w, const 
                                 size_t n_alpha, int hinges_only, mlr_diag *diag)
 {
     const size_t N = g->n_frames, J = g->n_joints;
-    if (mark_changed(w, N * J) == 0)
+    if (mark_changed(w, N, J) == 0)
         return MLR_OK;
     for (size_t i = 0; i < N * J; i++) {
         if (!w->changed[i])
@@ -776,7 +794,7 @@ static mlr_status clean_and_limit(const mlr_guards *g, const apply_work *w, cons
     const int rounds = rep->limits_applied ? GUARDS_ROUNDS : 1;
     for (int round = 0; round < rounds; round++) {
         if (rep->limits_applied)
-            memcpy(w->before, work, 4 * N * J * sizeof(double));
+            keep_legs(w, N, J);
         /* every round (the motion changed, the reference did not) reads the reference's
            trajectories made once: the input's at create, a given one here */
         st = mlr_cleanup_contacts_ref(&g->rig, N, g->fps, g->up, work_root, work, trans, ref,
@@ -829,6 +847,7 @@ mlr_status mlr_guards_apply(const mlr_guards *g, const double *alpha, size_t n_a
     const int limits_on = limits_wanted(g, alpha, n_alpha);
     double *before = limits_on ? alloc_array(&g->alloc, 4 * N * J, sizeof(double), &st) : NULL;
     uint8_t *changed = limits_on ? alloc_array(&g->alloc, N * J, 1, &st) : NULL;
+    int32_t *legs = limits_on ? alloc_array(&g->alloc, J, sizeof(int32_t), &st) : NULL;
     if (st != MLR_OK) {
         mlr_diag_set(diag, st, 0, 0, "guards apply: out of memory");
         goto done;
@@ -864,7 +883,17 @@ mlr_status mlr_guards_apply(const mlr_guards *g, const double *alpha, size_t n_a
         const size_t n_copts =
             cleanup_options(g, has_ref, alpha, n_alpha, floor_on, rep.limits_applied, copts);
         mlr_cleanup_report crep;
-        const apply_work w = {work, work_root, counts, counts2, before, changed};
+        size_t n_legs = 0;
+        if (changed) { /* the contact points' joints and their ancestors, in changed[0..J) */
+            memset(changed, 0, J);
+            for (size_t c = 0; c < g->n_points; c++)
+                for (int32_t j = g->joints[c]; j >= 0 && !changed[j]; j = g->parents[j])
+                    changed[j] = 1;
+            for (size_t j = 0; j < J; j++)
+                if (changed[j])
+                    legs[n_legs++] = (int32_t)j;
+        }
+        const apply_work w = {work, work_root, counts, counts2, before, changed, legs, n_legs};
         st = clean_and_limit(g, &w, alpha, n_alpha, trans, ref, C ? g->contacts : none, copts,
                              n_copts, &rep, &crep, diag);
         free_array(&g->alloc, none, g->n_points * N, 1);
@@ -901,5 +930,6 @@ done:
     free_array(&g->alloc, counts2, J, sizeof(size_t));
     free_array(&g->alloc, before, 4 * N * J, sizeof(double));
     free_array(&g->alloc, changed, N * J, 1);
+    free_array(&g->alloc, legs, J, sizeof(int32_t));
     return st;
 }

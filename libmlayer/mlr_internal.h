@@ -123,7 +123,12 @@ static inline void mlr_quat_from_euler_half(double ca, double sa, double cb, dou
  * i, s and k (rig.c). */
 int mlr_name_matches(const char *name, const char *const *patterns);
 
-/* numpy's median of n >= 1 finite values, in O(n) on average; reorders v (feet.c). */
+/* values.c: numpy's median of n >= 1 finite values, in O(n) on average (reorders v); the
+   selection behind it: v[0..n) (n >= 1, finite) reordered so that v[k] is the value a sort
+   would put there, those before it no larger, those after no smaller; the index of the first
+   NaN or infinite value of x[0..n), or n. */
 double mlr_median(double *v, size_t n);
+void mlr_select_kth(double *v, size_t n, size_t k);
+size_t mlr_first_nonfinite(const double *x, size_t n);
 
 #endif

@@ -166,12 +166,6 @@ mlr_status mlr_rig_point_positions(const mlr_rig *rig, size_t n_frames, const do
     return MLR_OK;
 }
 
-static int cmp_double(const void *a, const void *b)
-{
-    const double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
-
 mlr_status mlr_rig_body_height(size_t n_frames, size_t n_joints, const double *world_pos, int up,
                                double *height, const mlr_allocator *alloc, mlr_diag *diag)
 {
@@ -213,9 +207,8 @@ mlr_status mlr_rig_body_height(size_t n_frames, size_t n_joints, const double *w
         }
         ext[f] = hi - lo;
     }
-    qsort(ext, n_frames, sizeof(double), cmp_double);
     /* numpy's median: the mean of the two middle values for an even count */
-    *height = n_frames % 2 ? ext[n_frames / 2] : 0.5 * (ext[n_frames / 2 - 1] + ext[n_frames / 2]);
+    *height = mlr_median(ext, n_frames);
     mlr_free(&a, ext, bytes);
     return MLR_OK;
 }
