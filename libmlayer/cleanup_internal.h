@@ -140,17 +140,19 @@ typedef struct cleanup_foot {
     int active;
 } cleanup_foot;
 
-/* The spread's state: the map's band solver and arrays (cleanup__spread_rotations). */
+/* The spread's state: the map's arrays and its windows' band solves
+   (cleanup__spread_rotations). */
 typedef struct cleanup_work {
     const mlr_rig *rig;
     size_t N, J, C;
     double fps;
     int up;
     const cleanup_config *cfg;
-    mlr_band *pin;                     /* N x N, 2 sub-diagonals */
-    double *ab;                        /* N x 3: its lower band */
-    double *map_val, *map_y, *map_out; /* N x 9 */
-    uint8_t *dirty;                    /* N: frames whose rotations the spread changed */
+    double *ab;             /* N x 3: a window's lower band (2 sub-diagonals) */
+    double *fac;            /* N x 3: its LDL^T (N values 1 / D, then N x 2 of L) */
+    double *map_val, *map_y; /* N x 9 */
+    uint8_t *cls;           /* N: each frame's part in the map (free, held, held and moved) */
+    uint8_t *dirty;         /* N: frames whose rotations the spread changed */
 } cleanup_work;
 
 /* Read the cleanup's options into cfg (the MLR_OPTIONS_READ rules, keep_stiller 0 or >= 1). */

@@ -401,7 +401,6 @@ static mlr_status cleanup_fk(cleanup_state *cu, const double *root_pos, const do
     cu->shift = cleanup__take(ar, N * 3, sizeof(double));
     w->map_val = cleanup__take_raw(ar, N * 9, sizeof(double));
     w->map_y = cleanup__take_raw(ar, N * 9, sizeof(double));
-    w->map_out = cleanup__take_raw(ar, N * 9, sizeof(double));
     /* forward kinematics of the joints the cleanup reads only: the contact points, the
        feet's anchors and their ancestors (hips, knees and the joints above them) */
     cu->need = cleanup__take(ar, J, 1);
@@ -418,24 +417,21 @@ static mlr_status cleanup_fk(cleanup_state *cu, const double *root_pos, const do
     return st == MLR_OK ? MLR_OK : fail_status(st, diag);
 }
 
-/* The floor (set_floor, into the report) and the spread's band solver. */
+/* The floor (set_floor, into the report) and the spread's arrays. */
 static mlr_status cleanup_floor(cleanup_state *cu, const mlr_cleanup_ref *pre, cleanup_arena *ar,
-                                const mlr_allocator *A, mlr_cleanup_report *report, mlr_diag *diag)
+                                mlr_cleanup_report *report, mlr_diag *diag)
 {
     if (set_floor(cu, pre, ar) != MLR_OK)
         return fail_memory(ar, diag);
     if (report)
         report->floor_height = cu->floor_active ? cu->floor_h : NAN;
     cleanup_work *w = cu->w;
-    w->ab = cleanup__take(ar, cu->N * 3, sizeof(double));
+    w->ab = cleanup__take_raw(ar, cu->N * 3, sizeof(double));
+    w->fac = cleanup__take_raw(ar, cu->N * 3, sizeof(double));
+    w->cls = cleanup__take_raw(ar, cu->N, 1);
     if (ar->st != MLR_OK)
         return fail_memory(ar, diag);
-    mlr_status st = mlr_band_create(cu->N, 2, A, &w->pin, NULL);
-    if (st == MLR_E_NO_MEMORY) {
-        ar->st = st;
-        return fail_memory(ar, diag);
-    }
-    return st == MLR_OK ? MLR_OK : fail_status(st, diag);
+    return MLR_OK;
 }
 
 /* Each foot's contact frames, leg and targets (set_foot_targets). */
@@ -568,7 +564,7 @@ static mlr_status cleanup_run(const mlr_rig *rig, size_t N, double fps, int up,
     }
     c.Pr = pre ? pre->pts : NULL, c.pos_ref = pre ? pre->anchors : NULL;
     c.step_ref = pre ? pre->step : NULL;
-    if ((st = cleanup_floor(&c, pre, &ar, &A, report, diag)) != MLR_OK ||
+    if ((st = cleanup_floor(&c, pre, &ar, report, diag)) != MLR_OK ||
         (st = cleanup_targets(&c, &ar, diag)) != MLR_OK)
         goto done;
     /* the root shift: legs that cannot reach their contact targets, or would have to fold
@@ -586,7 +582,6 @@ static mlr_status cleanup_run(const mlr_rig *rig, size_t N, double fps, int up,
         }
     }
 done:
-    mlr_band_destroy(w.pin);
     mlr_cleanup_ref_destroy(owned);
     cleanup__release(&ar);
     return st;
