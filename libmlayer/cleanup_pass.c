@@ -75,8 +75,9 @@ static void find_floor_frames(cleanup_state *cu)
     }
 }
 
-/* newr = out_rot where the pass reads it: everywhere, or the chains' joints (the legs' hips,
-   knees, anchors) frame by frame (each frame's rotations are read once). */
+/* newr = out_rot where the pass reads it: everywhere, or each chain's joints (the leg's hip,
+   knee, anchor) on the frames where its foot is constrained (U or F: the IK, the toes' turn
+   and the spread read newr there only). */
 static void copy_leg_rotations(const cleanup_state *cu)
 {
     const size_t N = cu->N, J = cu->J;
@@ -84,13 +85,20 @@ static void copy_leg_rotations(const cleanup_state *cu)
     const double *out_rot = cu->out_rot;
     if (!cu->chained) {
         memcpy(newr, out_rot, N * J * 4 * sizeof(double));
-    } else {
-        for (size_t f = 0; f < N; f++)
-            for (size_t k = 0; k < cu->nf; k++)
-                for (size_t i = 0; cu->feet[k].active && i < cu->chain_len[k]; i++) {
-                    const size_t j = (size_t)cu->chains[k * J + i];
-                    memcpy(newr + 4 * (f * J + j), out_rot + 4 * (f * J + j), 4 * sizeof(double));
-                }
+        return;
+    }
+    for (size_t k = 0; k < cu->nf; k++) {
+        const cleanup_foot *ft = &cu->feet[k];
+        const int32_t *chain = cu->chains + k * J;
+        const size_t n = cu->chain_len[k];
+        for (size_t f = 0; ft->active && f < N; f++) {
+            if (!ft->U[f] && !ft->F[f])
+                continue;
+            for (size_t i = 0; i < n; i++) {
+                const size_t j = (size_t)chain[i];
+                memcpy(newr + 4 * (f * J + j), out_rot + 4 * (f * J + j), 4 * sizeof(double));
+            }
+        }
     }
 }
 

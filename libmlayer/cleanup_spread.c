@@ -66,8 +66,9 @@ static void qexp(const double v[3], double q[4])
 {
     const double a = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
     const double h = 0.5 * a;
-    const double k = a > 1e-300 ? sin(h) / a : 0.5;
-    q[0] = cos(h), q[1] = k * v[0], q[2] = k * v[1], q[3] = k * v[2];
+    const double sh = sin(h), ch = cos(h); /* (unconditional: one sincos) */
+    const double k = a > 1e-300 ? sh / a : 0.5;
+    q[0] = ch, q[1] = k * v[0], q[2] = k * v[1], q[3] = k * v[2];
 }
 
 /* The map's smoothing with the constrained frames held: x = argmin sum over the free frames of
