@@ -59,7 +59,7 @@ mlr_status mlr_cleanup_floor_height(const mlr_rig *rig, size_t N, const double *
         return mlr_diag_set(diag, ar.st, 0, 0, "floor_height: out of memory");
     }
     st = cleanup__fk_points(rig, N, root_pos, rot, trans, C, joints, end_sites, pos, wrot, pts, &A,
-                            NULL, NULL);
+                            NULL, 0, NULL);
     if (st == MLR_OK)
         st = mlr_cleanup_floor_of_points(N, C, pts, contacts, up, quantile, height, &A);
     cleanup__release(&ar);

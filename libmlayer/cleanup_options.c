@@ -51,12 +51,19 @@ mlr_status cleanup__parse_options(const mlr_cleanup_option *opts, size_t n_opts,
     return MLR_OK;
 }
 
+/* 1 when no value is NaN or infinite: a value's exponent bits all ones, found with integer
+   operations alone (no branch per value, so the loop vectorizes): (bits & EXP) + 2^52 sets
+   bit 63 only then. */
 static int finite_all(const double *x, size_t count)
 {
-    for (size_t i = 0; i < count; i++)
-        if (!isfinite(x[i]))
-            return 0;
-    return 1;
+    const uint64_t exp_bits = 0x7ff0000000000000u, one = 0x0010000000000000u;
+    uint64_t bad = 0;
+    for (size_t i = 0; i < count; i++) {
+        uint64_t b;
+        memcpy(&b, x + i, sizeof b);
+        bad |= (b & exp_bits) + one;
+    }
+    return !(bad >> 63);
 }
 
 mlr_status cleanup__check_motion(const mlr_rig *rig, size_t N, const double *root_pos,

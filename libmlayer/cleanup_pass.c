@@ -194,8 +194,8 @@ static void place_toes(const cleanup_state *cu)
         if (!fk_frames[f])
             continue;
         if (!cu->chained)
-            cleanup__fk_masked_frame(rig, f, cu->need, cu->tidx, cu->out_root_pos, newr, tr, pos2,
-                                     wrot2);
+            cleanup__fk_masked_frame(rig, f, cu->need_list, cu->n_need, cu->tidx, cu->out_root_pos,
+                                     newr, tr, pos2, wrot2);
         for (size_t k = 0; k < nf; k++) {
             const cleanup_foot *ft = &feet[k];
             if (!ft->active || ft->n_cols == ft->n_own || (!ft->U[f] && !ft->F[f]) || ft->K[f] ||
@@ -243,11 +243,18 @@ mlr_status cleanup__pass(cleanup_state *cu)
     for (size_t f = 0; f < N; f++) {
         if (!dirty[f])
             continue;
-        cleanup__fk_masked_frame(cu->rig, f, cu->need, cu->tidx, cu->out_root_pos, cu->out_rot,
-                                 cu->trans, cu->pos + 3 * J * f, cu->wrot + 4 * J * f);
-        if ((st = mlr_rig_point_positions(cu->rig, 1, cu->pos + 3 * J * f, cu->wrot + 4 * J * f, C,
-                                          cu->joints, cu->end_sites, cu->P + 3 * C * f, NULL)) !=
-            MLR_OK)
+        double *pos_f = cu->pos + 3 * J * f, *wrot_f = cu->wrot + 4 * J * f;
+        if (dirty[f] & CLEANUP_DIRTY_ALL) {
+            cleanup__fk_masked_frame(cu->rig, f, cu->need_list, cu->n_need, cu->tidx,
+                                     cu->out_root_pos, cu->out_rot, cu->trans, pos_f, wrot_f);
+        } else { /* only legs' rotations changed: the joints at and below their hips */
+            for (size_t k = 0; k < cu->nf; k++)
+                if (dirty[f] & (1u << k))
+                    cleanup__fk_list_frame(cu->rig, f, cu->sub + k * J, cu->n_sub[k], cu->tidx,
+                                           cu->out_rot, cu->trans, pos_f, wrot_f);
+        }
+        if ((st = mlr_rig_point_positions(cu->rig, 1, pos_f, wrot_f, C, cu->joints, cu->end_sites,
+                                          cu->P + 3 * C * f, NULL)) != MLR_OK)
             return st;
     }
     memset(dirty, 0, N);
@@ -266,6 +273,7 @@ mlr_status cleanup__pass(cleanup_state *cu)
         if (!cnt)
             continue;
         int32_t js[3] = {ft->hip, ft->knee, ft->anchor};
+        cu->w->dirty_bit = k < 7 ? (uint8_t)(1u << k) : (uint8_t)CLEANUP_DIRTY_ALL;
         if ((st = cleanup__spread_rotations(cu->w, cu->out_rot, cu->newr, js,
                                             ft->n_cols > ft->n_own ? 3 : 2, mask)) != MLR_OK)
             return st;

@@ -215,7 +215,7 @@ static mlr_status spread_window(cleanup_work *w, double *rot, const int32_t *js,
             const double *v = y + f * m + 3 * i;
             if (v[0] == 0.0 && v[1] == 0.0 && v[2] == 0.0)
                 continue; /* outside the blend: the frame is left as it is */
-            w->dirty[f] = 1;
+            w->dirty[f] |= w->dirty_bit;
             qexp(v, e);
             mlr_ik_qmul(e, r, o);
             const double n = sqrt(o[0] * o[0] + o[1] * o[1] + o[2] * o[2] + o[3] * o[3]);

@@ -405,15 +405,17 @@ static mlr_status cleanup_fk(cleanup_state *cu, const double *root_pos, const do
        feet's anchors and their ancestors (hips, knees and the joints above them) */
     cu->need = cleanup__take(ar, J, 1);
     cu->tidx = cleanup__take(ar, J, sizeof(int32_t));
+    cu->need_list = cleanup__take(ar, J, sizeof(int32_t));
     cu->fk_frames = cleanup__take(ar, N, 1);
     cu->pos2 = cleanup__take(ar, J * 3, sizeof(double));
     cu->wrot2 = cleanup__take(ar, J * 4, sizeof(double));
     if (ar->st != MLR_OK)
         return fail_memory(ar, diag);
-    cleanup__fk_need(cu->rig, C, cu->joints, cu->feet, cu->nf, cu->need, cu->tidx);
+    cu->n_need = cleanup__fk_need(cu->rig, C, cu->joints, cu->feet, cu->nf, cu->need,
+                                  cu->need_list, cu->tidx);
     mlr_status st =
         cleanup__fk_points(cu->rig, N, root_pos, rot, cu->trans, C, cu->joints, cu->end_sites,
-                           cu->pos, cu->wrot, cu->P, A, cu->need, cu->tidx);
+                           cu->pos, cu->wrot, cu->P, A, cu->need_list, cu->n_need, cu->tidx);
     return st == MLR_OK ? MLR_OK : fail_status(st, diag);
 }
 
@@ -495,11 +497,23 @@ static mlr_status cleanup_passes(cleanup_state *cu, cleanup_arena *ar, mlr_diag 
     uint8_t *dirty = cleanup__take(ar, N, 1);
     cu->chains = cleanup__take(ar, nf * J, sizeof(int32_t));
     cu->chain_len = cleanup__take(ar, nf, sizeof(size_t));
+    cu->sub = cleanup__take(ar, nf * J, sizeof(int32_t));
+    cu->n_sub = cleanup__take(ar, nf, sizeof(size_t));
     if (ar->st != MLR_OK)
         return fail_memory(ar, diag);
     cleanup__find_chains(cu);
     for (size_t f = 0; f < N; f++)
-        dirty[f] = shifted(shift, f);
+        dirty[f] = shifted(shift, f) ? CLEANUP_DIRTY_ALL : 0;
+    /* the joints the forward kinematics computes again when a leg alone changed: need's at
+       or below its hip */
+    for (size_t k = 0; k < nf; k++)
+        for (size_t i = 0; cu->feet[k].active && i < cu->n_need; i++) {
+            int32_t u = cu->need_list[i];
+            while (u >= 0 && u != cu->feet[k].hip)
+                u = cu->rig->parents[u];
+            if (u >= 0)
+                cu->sub[k * J + cu->n_sub[k]++] = cu->need_list[i];
+        }
     cu->w->dirty = dirty;
     for (int pass = 0; pass < cu->cfg->passes; pass++) {
         mlr_status st = cleanup__pass(cu);
@@ -531,7 +545,7 @@ static mlr_status cleanup_run(const mlr_rig *rig, size_t N, double fps, int up,
     const size_t J = rig->n_joints;
     cleanup_foot feet[64];
     mlr_cleanup_ref *owned = NULL; /* the reference's trajectories when made here */
-    cleanup_work w = {rig, N, J, C, fps, up, &cfg, NULL, NULL, NULL, NULL, NULL, NULL};
+    cleanup_work w = {rig, N, J, C, fps, up, &cfg, NULL, NULL, NULL, NULL, NULL, NULL, 0};
     cleanup_state c = {.rig = rig,
                        .N = N,
                        .J = J,
