@@ -5,23 +5,23 @@
 #include "cleanup_internal.h"
 
 #include <math.h>
-#include <stdlib.h>
-
-static int cmp_double(const void *a, const void *b)
-{
-    const double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
 
 double cleanup__quantile_of(double *v, size_t n, double q)
 {
-    qsort(v, n, sizeof *v, cmp_double);
+    /* the order statistics i and i + 1 of a sort, by selection: v[i], then the smallest of
+       the values after it (all no smaller) */
     const double pos = q * (double)(n - 1);
     const size_t i = (size_t)floor(pos);
-    if (i + 1 >= n)
+    if (i + 1 >= n) {
+        mlr_select_kth(v, n, n - 1);
         return v[n - 1];
+    }
+    mlr_select_kth(v, n, i);
+    double next = v[i + 1];
+    for (size_t k = i + 2; k < n; k++)
+        next = v[k] < next ? v[k] : next;
     const double f = pos - (double)i;
-    return v[i] + f * (v[i + 1] - v[i]);
+    return v[i] + f * (next - v[i]);
 }
 
 mlr_status mlr_cleanup_floor_height(const mlr_rig *rig, size_t N, const double *root_pos,

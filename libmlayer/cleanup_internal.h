@@ -173,7 +173,8 @@ mlr_status cleanup__check_motion(const mlr_rig *rig, size_t N, const double *roo
 mlr_status cleanup__check_points(const mlr_rig *rig, size_t C, const int32_t *joints,
                                  const int32_t *end_sites, mlr_diag *diag);
 
-/* The quantile q of v's n values by linear interpolation (v is sorted in place). */
+/* The quantile q of v's n >= 1 finite values by linear interpolation, as of the sorted values
+   (v is reordered). */
 double cleanup__quantile_of(double *v, size_t n, double q);
 
 /* Forward kinematics of the root and the n joints of list (in increasing order, closed under

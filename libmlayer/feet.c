@@ -25,11 +25,9 @@ static int cmp_double(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
-/* Reorders v[0..n) so that v[k] is the value a sort would put there, everything before it no
- * larger and everything after it no smaller: quickselect (median-of-three pivots, Hoare
- * partition), O(n) on average; after 2 log2(n) + 8 rounds the rest is sorted (bounded worst
- * case). Values are finite. */
-static void select_kth(double *v, size_t n, size_t k)
+/* (mlr_internal.h) quickselect: median-of-three pivots, Hoare partition, O(n) on average;
+ * after 2 log2(n) + 8 rounds the rest is sorted (bounded worst case). */
+void mlr_select_kth(double *v, size_t n, size_t k)
 {
     size_t lo = 0, hi = n - 1, rounds = 8;
     for (size_t m = n; m > 1; m >>= 1)
@@ -65,7 +63,7 @@ static void select_kth(double *v, size_t n, size_t k)
 /* numpy's median of n >= 1 finite values (reorders v); mlr_internal.h. */
 double mlr_median(double *v, size_t n)
 {
-    select_kth(v, n, n / 2);
+    mlr_select_kth(v, n, n / 2);
     if (n % 2)
         return v[n / 2];
     double below = v[0]; /* the largest of v[0 .. n/2), all <= v[n/2] */

@@ -123,6 +123,11 @@ static inline void mlr_quat_from_euler_half(double ca, double sa, double cb, dou
  * i, s and k (rig.c). */
 int mlr_name_matches(const char *name, const char *const *patterns);
 
+/* Reorders v[0..n) (n >= 1 finite values) so that v[k] is the value a sort would put there,
+ * everything before it no larger and everything after it no smaller; O(n) on average
+ * (feet.c). */
+void mlr_select_kth(double *v, size_t n, size_t k);
+
 /* numpy's median of n >= 1 finite values, in O(n) on average; reorders v (feet.c). */
 double mlr_median(double *v, size_t n);
 
