@@ -239,7 +239,10 @@ mlr_status cleanup__spread_rotations(cleanup_work *w, double *rot, const double 
         for (size_t i = 0; i < nj; i++) {
             const double *a = newr + 4 * (f * J + (size_t)js[i]),
                          *b = rot + 4 * (f * J + (size_t)js[i]);
-            if (memcmp(a, b, 4 * sizeof(double)) == 0) { /* the log of a * inv(a): 0 */
+            /* where the IK left the joint as it was (reached, kept), the log of a * inv(a)
+               is 0: exactly 0 here, where qmul's sums leave residues of ~1e-17 (which the
+               whole-clip solve spread everywhere) */
+            if (memcmp(a, b, 4 * sizeof(double)) == 0) {
                 v[3 * i] = v[3 * i + 1] = v[3 * i + 2] = 0.0;
                 continue;
             }
