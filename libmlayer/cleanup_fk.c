@@ -17,22 +17,27 @@ static inline void fk_joint(const mlr_rig *rig, size_t f, size_t j, const int32_
     mlr_fk_joint_inline(&wr[p], wp + 3 * p, &q, t, &wr[j], wp + 3 * j);
 }
 
-void cleanup__fk_masked_frame(const mlr_rig *rig, size_t f, const uint8_t *need,
+void cleanup__fk_list_frame(const mlr_rig *rig, size_t f, const int32_t *list, size_t n,
+                            const int32_t *tidx, const double *rot, const double *trans,
+                            double *wp, double *wrot_f)
+{
+    const double *r = rot + 4 * rig->n_joints * f;
+    mlr_quat *wr = (mlr_quat *)(void *)wrot_f;
+    for (size_t i = 0; i < n; i++)
+        fk_joint(rig, f, (size_t)list[i], tidx, r, trans, wp, wr);
+}
+
+void cleanup__fk_masked_frame(const mlr_rig *rig, size_t f, const int32_t *list, size_t n,
                               const int32_t *tidx, const double *root_pos, const double *rot,
                               const double *trans, double *wp, double *wrot_f)
 {
     const size_t J = rig->n_joints;
-    const double *offsets = rig->offsets;
     const double *r = rot + 4 * J * f;
     mlr_quat *wr = (mlr_quat *)(void *)wrot_f;
     wr[0].w = r[0], wr[0].x = r[1], wr[0].y = r[2], wr[0].z = r[3];
-    const double *t0 = root_pos ? root_pos + 3 * f : offsets;
+    const double *t0 = root_pos ? root_pos + 3 * f : rig->offsets;
     wp[0] = t0[0], wp[1] = t0[1], wp[2] = t0[2];
-    for (size_t j = 1; j < J; j++) {
-        if (!need[j])
-            continue;
-        fk_joint(rig, f, j, tidx, r, trans, wp, wr);
-    }
+    cleanup__fk_list_frame(rig, f, list, n, tidx, rot, trans, wp, wrot_f);
 }
 
 void cleanup__fk_chain_frame(const mlr_rig *rig, size_t f, const int32_t *chain, size_t n,
@@ -59,13 +64,13 @@ void cleanup__fk_chain_frame(const mlr_rig *rig, size_t f, const int32_t *chain,
     }
 }
 
-static void fk_masked(const mlr_rig *rig, size_t N, const uint8_t *need, const int32_t *tidx,
-                      const double *root_pos, const double *rot, const double *trans, double *pos,
-                      double *wrot)
+static void fk_masked(const mlr_rig *rig, size_t N, const int32_t *list, size_t n,
+                      const int32_t *tidx, const double *root_pos, const double *rot,
+                      const double *trans, double *pos, double *wrot)
 {
     const size_t J = rig->n_joints;
     for (size_t f = 0; f < N; f++)
-        cleanup__fk_masked_frame(rig, f, need, tidx, root_pos, rot, trans, pos + 3 * J * f,
+        cleanup__fk_masked_frame(rig, f, list, n, tidx, root_pos, rot, trans, pos + 3 * J * f,
                                  wrot + 4 * J * f);
 }
 
@@ -73,11 +78,11 @@ mlr_status cleanup__fk_points(const mlr_rig *rig, size_t N, const double *root_p
                               const double *rot, const double *trans, size_t C,
                               const int32_t *joints, const int32_t *end_sites, double *pos,
                               double *wrot, double *pts, const mlr_allocator *alloc,
-                              const uint8_t *need, const int32_t *tidx)
+                              const int32_t *list, size_t n, const int32_t *tidx)
 {
     mlr_status st = MLR_OK;
-    if (need)
-        fk_masked(rig, N, need, tidx, root_pos, rot, trans, pos, wrot);
+    if (list)
+        fk_masked(rig, N, list, n, tidx, root_pos, rot, trans, pos, wrot);
     else
         st = mlr_fk_arrays(N, rig->n_joints, rig->parents, rig->offsets, root_pos, rot,
                            rig->n_trans, rig->trans_joints, trans, pos, wrot, alloc, NULL);
@@ -86,8 +91,9 @@ mlr_status cleanup__fk_points(const mlr_rig *rig, size_t N, const double *root_p
     return mlr_rig_point_positions(rig, N, pos, wrot, C, joints, end_sites, pts, NULL);
 }
 
-void cleanup__fk_need(const mlr_rig *rig, size_t C, const int32_t *joints,
-                      const cleanup_foot *feet, size_t nf, uint8_t *need, int32_t *tidx)
+size_t cleanup__fk_need(const mlr_rig *rig, size_t C, const int32_t *joints,
+                        const cleanup_foot *feet, size_t nf, uint8_t *need, int32_t *list,
+                        int32_t *tidx)
 {
     for (size_t j = 0; j < rig->n_joints; j++)
         tidx[j] = -1;
@@ -97,6 +103,11 @@ void cleanup__fk_need(const mlr_rig *rig, size_t C, const int32_t *joints,
         for (int32_t j = i < C ? joints[i] : feet[i - C].anchor; j >= 0 && !need[j];
              j = rig->parents[j])
             need[j] = 1;
+    size_t n = 0;
+    for (size_t j = 1; j < rig->n_joints; j++)
+        if (need[j])
+            list[n++] = (int32_t)j;
+    return n;
 }
 
 mlr_status mlr_cleanup_point_heights(const mlr_rig *rig, size_t N, const double *root_pos,
@@ -106,7 +117,7 @@ mlr_status mlr_cleanup_point_heights(const mlr_rig *rig, size_t N, const double 
 {
     const size_t J = rig->n_joints;
     size_t bytes;
-    if (mlr_mul_size(J, 7 * sizeof(double) + sizeof(int32_t) + 1, &bytes) != MLR_OK ||
+    if (mlr_mul_size(J, 7 * sizeof(double) + 2 * sizeof(int32_t) + 1, &bytes) != MLR_OK ||
         C > (SIZE_MAX - bytes) / (3 * sizeof(double)))
         return MLR_E_OVERFLOW;
     bytes += 3 * C * sizeof(double);
@@ -114,19 +125,13 @@ mlr_status mlr_cleanup_point_heights(const mlr_rig *rig, size_t N, const double 
     if (!wp)
         return MLR_E_NO_MEMORY;
     double *wr = wp + 3 * J, *pts = wr + 4 * J;
-    int32_t *tidx = (int32_t *)(void *)(pts + 3 * C);
-    uint8_t *need = (uint8_t *)(tidx + J);
+    int32_t *tidx = (int32_t *)(void *)(pts + 3 * C), *list = tidx + J;
+    uint8_t *need = (uint8_t *)(list + J);
     memset(need, 0, J);
-    for (size_t j = 0; j < J; j++)
-        tidx[j] = -1;
-    for (size_t k = 0; k < rig->n_trans; k++)
-        tidx[rig->trans_joints[k]] = (int32_t)k;
-    for (size_t c = 0; c < C; c++)
-        for (int32_t j = joints[c]; j >= 0 && !need[j]; j = rig->parents[j])
-            need[j] = 1;
+    const size_t n = cleanup__fk_need(rig, C, joints, NULL, 0, need, list, tidx);
     mlr_status st = MLR_OK;
     for (size_t f = 0; st == MLR_OK && f < N; f++) {
-        cleanup__fk_masked_frame(rig, f, need, tidx, root_pos, rot, trans, wp, wr);
+        cleanup__fk_masked_frame(rig, f, list, n, tidx, root_pos, rot, trans, wp, wr);
         st = mlr_rig_point_positions(rig, 1, wp, wr, C, joints, end_sites, pts, NULL);
         for (size_t c = 0; st == MLR_OK && c < C; c++)
             h[f * C + c] = pts[3 * c + (size_t)up];

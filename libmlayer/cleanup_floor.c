@@ -5,20 +5,19 @@
 #include "cleanup_internal.h"
 
 #include <math.h>
-#include <stdlib.h>
 
-/* numpy's linear quantile of v[0..n), n >= 1 (reorders v): the two order statistics it
-   reads by selection, the same values a sort gives. */
 double cleanup__quantile_of(double *v, size_t n, double q)
 {
+    /* the order statistics i and i + 1 of a sort, by selection: v[i], then the smallest of
+       the values after it (all no smaller) */
     const double pos = q * (double)(n - 1);
-    size_t i = (size_t)floor(pos);
-    if (i >= n)
-        i = n - 1;
+    const size_t i = (size_t)floor(pos);
+    if (i + 1 >= n) {
+        mlr_select_kth(v, n, n - 1);
+        return v[n - 1];
+    }
     mlr_select_kth(v, n, i);
-    if (i + 1 >= n)
-        return v[i];
-    double next = v[i + 1]; /* the smallest of v[i+1 .. n), all >= v[i] */
+    double next = v[i + 1];
     for (size_t k = i + 2; k < n; k++)
         next = v[k] < next ? v[k] : next;
     const double f = pos - (double)i;
@@ -60,7 +59,7 @@ mlr_status mlr_cleanup_floor_height(const mlr_rig *rig, size_t N, const double *
         return mlr_diag_set(diag, ar.st, 0, 0, "floor_height: out of memory");
     }
     st = cleanup__fk_points(rig, N, root_pos, rot, trans, C, joints, end_sites, pos, wrot, pts, &A,
-                            NULL, NULL);
+                            NULL, 0, NULL);
     if (st == MLR_OK)
         st = mlr_cleanup_floor_of_points(N, C, pts, contacts, up, quantile, height, &A);
     cleanup__release(&ar);

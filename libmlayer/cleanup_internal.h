@@ -140,18 +140,25 @@ typedef struct cleanup_foot {
     int active;
 } cleanup_foot;
 
-/* The spread's state: the map's band solver and arrays (cleanup__spread_rotations). */
+/* The spread's state: the map's arrays and its windows' band solves
+   (cleanup__spread_rotations). */
 typedef struct cleanup_work {
     const mlr_rig *rig;
     size_t N, J, C;
     double fps;
     int up;
     const cleanup_config *cfg;
-    mlr_band *pin;                     /* N x N, 2 sub-diagonals */
-    double *ab;                        /* N x 3: its lower band */
-    double *map_val, *map_y, *map_out; /* N x 9 */
-    uint8_t *dirty;                    /* N: frames whose rotations the spread changed */
+    double *ab;             /* N x 3: a window's lower band (2 sub-diagonals) */
+    double *fac;            /* N x 3: its LDL^T (N values 1 / D, then N x 2 of L) */
+    double *map_val, *map_y; /* N x 9 */
+    uint8_t *cls;           /* N: each frame's part in the map (free, held, held and moved) */
+    uint8_t *dirty;         /* N: what changed in each frame since its forward kinematics: bit
+                               k the rotations of foot k's leg, CLEANUP_DIRTY_ALL anything */
+    uint8_t dirty_bit;      /* the bit the spread sets (its leg's) */
 } cleanup_work;
+
+/* dirty: the whole frame (the root shift, or the leg of a foot past the 7th). */
+#define CLEANUP_DIRTY_ALL 0x80u
 
 /* Read the cleanup's options into cfg (the MLR_OPTIONS_READ rules, keep_stiller 0 or >= 1). */
 mlr_status cleanup__parse_options(const mlr_cleanup_option *opts, size_t n_opts,
@@ -166,17 +173,25 @@ mlr_status cleanup__check_motion(const mlr_rig *rig, size_t N, const double *roo
 mlr_status cleanup__check_points(const mlr_rig *rig, size_t C, const int32_t *joints,
                                  const int32_t *end_sites, mlr_diag *diag);
 
-/* The quantile q of v's n values by linear interpolation (v is sorted in place). */
+/* The quantile q of v's n >= 1 finite values by linear interpolation, as of the sorted values
+   (v is reordered). */
 double cleanup__quantile_of(double *v, size_t n, double q);
 
-/* Forward kinematics of the joints marked in need (closed under parents) of frame f, with the
-   arithmetic of mlr_fk_arrays (mlr_fk.h: mlr_quat_mul / mlr_quat_rotate, inlined), so each
-   computed value is bit for bit what the full FK gives; the other joints are not written.
-   tidx[j]: j's index among the rig's trans joints, or -1. wp, wrot_f: J x 3 and J x 4, the
-   frame's. */
-void cleanup__fk_masked_frame(const mlr_rig *rig, size_t f, const uint8_t *need,
+/* Forward kinematics of the root and the n joints of list (in increasing order, closed under
+   parents, the root not in it) of frame f, with the arithmetic of mlr_fk_arrays (mlr_fk.h:
+   mlr_quat_mul / mlr_quat_rotate, inlined), so each computed value is bit for bit what the
+   full FK gives; the other joints are not written. tidx[j]: j's index among the rig's trans
+   joints, or -1. wp, wrot_f: J x 3 and J x 4, the frame's. */
+void cleanup__fk_masked_frame(const mlr_rig *rig, size_t f, const int32_t *list, size_t n,
                               const int32_t *tidx, const double *root_pos, const double *rot,
                               const double *trans, double *wp, double *wrot_f);
+
+/* The same on the joints of list alone (in increasing order, e.g. those below a leg's hip when
+   only the leg's rotations changed): their parents' values in wp / wrot_f are read as they
+   are, so the values are the same as the whole frame's. */
+void cleanup__fk_list_frame(const mlr_rig *rig, size_t f, const int32_t *list, size_t n,
+                            const int32_t *tidx, const double *rot, const double *trans,
+                            double *wp, double *wrot_f);
 
 /* cleanup__fk_masked_frame on the joints of a chain only (top-down: chain[0] and then each a
    child of the one before), the world values of chain[0]'s parent read from pos_f / wrot_f
@@ -188,19 +203,21 @@ void cleanup__fk_chain_frame(const mlr_rig *rig, size_t f, const int32_t *chain,
                              const double *pos_f, const double *wrot_f, double *wp,
                              double *wrot_out);
 
-/* FK + points of one motion into caller arrays; with need (and tidx), only the joints marked
-   there (cleanup__fk_masked_frame). */
+/* FK + points of one motion into caller arrays; with list (n joints, and tidx), only the root
+   and those joints (cleanup__fk_masked_frame). */
 mlr_status cleanup__fk_points(const mlr_rig *rig, size_t N, const double *root_pos,
                               const double *rot, const double *trans, size_t C,
                               const int32_t *joints, const int32_t *end_sites, double *pos,
                               double *wrot, double *pts, const mlr_allocator *alloc,
-                              const uint8_t *need, const int32_t *tidx);
+                              const int32_t *list, size_t n, const int32_t *tidx);
 
 /* The joints the cleanup's forward kinematics computes (need, J, zeroed by the caller): the
-   contact points, the feet's anchors and their ancestors; tidx (J): each joint's index among
-   the rig's trans joints, or -1. */
-void cleanup__fk_need(const mlr_rig *rig, size_t C, const int32_t *joints,
-                      const cleanup_foot *feet, size_t nf, uint8_t *need, int32_t *tidx);
+   contact points, the feet's anchors and their ancestors; list (J): the same joints but the
+   root, in increasing order (returns how many); tidx (J): each joint's index among the rig's
+   trans joints, or -1. */
+size_t cleanup__fk_need(const mlr_rig *rig, size_t C, const int32_t *joints,
+                        const cleanup_foot *feet, size_t nf, uint8_t *need, int32_t *list,
+                        int32_t *tidx);
 
 /* The feet of the contact points: each listed joint with no listed ancestor is an ankle (an
    anchor) with its own points; the other points (toes, End Sites) are placed on the foot of
@@ -241,7 +258,9 @@ typedef struct cleanup_state {
     double floor_h;
     int floor_active;
     uint8_t *anyU, *anyF;
-    uint8_t *need;                  /* joints whose forward kinematics the cleanup reads */
+    uint8_t *need;   /* joints whose forward kinematics the cleanup reads */
+    int32_t *need_list; /* the same but the root, in order (n_need) */
+    size_t n_need;
     int32_t *tidx;
     uint8_t *fk_frames;
     double *pos2, *wrot2;           /* one frame's forward kinematics */
@@ -249,6 +268,8 @@ typedef struct cleanup_state {
     size_t *chain_len;
     int chained;
     uint8_t *mask;
+    int32_t *sub;     /* nf x J: need's joints at or below each foot's hip, in order */
+    size_t *n_sub;
     cleanup_work *w;
 } cleanup_state;
 

@@ -75,8 +75,9 @@ static void find_floor_frames(cleanup_state *cu)
     }
 }
 
-/* newr = out_rot where the pass reads it: everywhere, or the chains' joints (the legs' hips,
-   knees, anchors) frame by frame (each frame's rotations are read once). */
+/* newr = out_rot where the pass reads it: everywhere, or each chain's joints (the leg's hip,
+   knee, anchor) on the frames where its foot is constrained (U or F: the IK, the toes' turn
+   and the spread read newr there only). */
 static void copy_leg_rotations(const cleanup_state *cu)
 {
     const size_t N = cu->N, J = cu->J;
@@ -84,13 +85,20 @@ static void copy_leg_rotations(const cleanup_state *cu)
     const double *out_rot = cu->out_rot;
     if (!cu->chained) {
         memcpy(newr, out_rot, N * J * 4 * sizeof(double));
-    } else {
-        for (size_t f = 0; f < N; f++)
-            for (size_t k = 0; k < cu->nf; k++)
-                for (size_t i = 0; cu->feet[k].active && i < cu->chain_len[k]; i++) {
-                    const size_t j = (size_t)cu->chains[k * J + i];
-                    memcpy(newr + 4 * (f * J + j), out_rot + 4 * (f * J + j), 4 * sizeof(double));
-                }
+        return;
+    }
+    for (size_t k = 0; k < cu->nf; k++) {
+        const cleanup_foot *ft = &cu->feet[k];
+        const int32_t *chain = cu->chains + k * J;
+        const size_t n = cu->chain_len[k];
+        for (size_t f = 0; ft->active && f < N; f++) {
+            if (!ft->U[f] && !ft->F[f])
+                continue;
+            for (size_t i = 0; i < n; i++) {
+                const size_t j = (size_t)chain[i];
+                memcpy(newr + 4 * (f * J + j), out_rot + 4 * (f * J + j), 4 * sizeof(double));
+            }
+        }
     }
 }
 
@@ -186,8 +194,8 @@ static void place_toes(const cleanup_state *cu)
         if (!fk_frames[f])
             continue;
         if (!cu->chained)
-            cleanup__fk_masked_frame(rig, f, cu->need, cu->tidx, cu->out_root_pos, newr, tr, pos2,
-                                     wrot2);
+            cleanup__fk_masked_frame(rig, f, cu->need_list, cu->n_need, cu->tidx, cu->out_root_pos,
+                                     newr, tr, pos2, wrot2);
         for (size_t k = 0; k < nf; k++) {
             const cleanup_foot *ft = &feet[k];
             if (!ft->active || ft->n_cols == ft->n_own || (!ft->U[f] && !ft->F[f]) || ft->K[f] ||
@@ -235,11 +243,18 @@ mlr_status cleanup__pass(cleanup_state *cu)
     for (size_t f = 0; f < N; f++) {
         if (!dirty[f])
             continue;
-        cleanup__fk_masked_frame(cu->rig, f, cu->need, cu->tidx, cu->out_root_pos, cu->out_rot,
-                                 cu->trans, cu->pos + 3 * J * f, cu->wrot + 4 * J * f);
-        if ((st = mlr_rig_point_positions(cu->rig, 1, cu->pos + 3 * J * f, cu->wrot + 4 * J * f, C,
-                                          cu->joints, cu->end_sites, cu->P + 3 * C * f, NULL)) !=
-            MLR_OK)
+        double *pos_f = cu->pos + 3 * J * f, *wrot_f = cu->wrot + 4 * J * f;
+        if (dirty[f] & CLEANUP_DIRTY_ALL) {
+            cleanup__fk_masked_frame(cu->rig, f, cu->need_list, cu->n_need, cu->tidx,
+                                     cu->out_root_pos, cu->out_rot, cu->trans, pos_f, wrot_f);
+        } else { /* only legs' rotations changed: the joints at and below their hips */
+            for (size_t k = 0; k < cu->nf; k++)
+                if (dirty[f] & (1u << k))
+                    cleanup__fk_list_frame(cu->rig, f, cu->sub + k * J, cu->n_sub[k], cu->tidx,
+                                           cu->out_rot, cu->trans, pos_f, wrot_f);
+        }
+        if ((st = mlr_rig_point_positions(cu->rig, 1, pos_f, wrot_f, C, cu->joints, cu->end_sites,
+                                          cu->P + 3 * C * f, NULL)) != MLR_OK)
             return st;
     }
     memset(dirty, 0, N);
@@ -258,6 +273,7 @@ mlr_status cleanup__pass(cleanup_state *cu)
         if (!cnt)
             continue;
         int32_t js[3] = {ft->hip, ft->knee, ft->anchor};
+        cu->w->dirty_bit = k < 7 ? (uint8_t)(1u << k) : (uint8_t)CLEANUP_DIRTY_ALL;
         if ((st = cleanup__spread_rotations(cu->w, cu->out_rot, cu->newr, js,
                                             ft->n_cols > ft->n_own ? 3 : 2, mask)) != MLR_OK)
             return st;

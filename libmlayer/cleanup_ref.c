@@ -65,7 +65,7 @@ static mlr_cleanup_ref *ref_new(const mlr_allocator *A, size_t N, size_t C, size
 /* The scratch of mlr_cleanup_ref_create. */
 typedef struct ref_scratch {
     uint8_t *listed, *assigned, *need;
-    int32_t *tidx;
+    int32_t *tidx, *list;
     double *pos2, *wrot2; /* one frame's FK */
     double *tmp;          /* N x 3 max(C, nf): the smoothing's output */
 } ref_scratch;
@@ -88,9 +88,9 @@ static mlr_status ref_points(const mlr_rig *rig, const double *root_pos, const d
                 memcpy(pos_ref + 3 * (f * nf + k),
                        world_pos + 3 * (f * J + (size_t)feet[k].anchor), 3 * sizeof(double));
     } else {
-        cleanup__fk_need(rig, C, joints, feet, nf, s->need, s->tidx);
+        const size_t n = cleanup__fk_need(rig, C, joints, feet, nf, s->need, s->list, s->tidx);
         for (size_t f = 0; st == MLR_OK && f < N; f++) { /* the points and the anchors */
-            cleanup__fk_masked_frame(rig, f, s->need, s->tidx, root_pos, rot, trans, s->pos2,
+            cleanup__fk_masked_frame(rig, f, s->list, n, s->tidx, root_pos, rot, trans, s->pos2,
                                      s->wrot2);
             st = mlr_rig_point_positions(rig, 1, s->pos2, s->wrot2, C, joints, end_sites,
                                          Pr + 3 * C * f, NULL);
@@ -163,6 +163,7 @@ mlr_status mlr_cleanup_ref_create(const mlr_rig *rig, size_t N, double fps, int 
     s.assigned = cleanup__take(&ar, C, 1);
     s.need = cleanup__take(&ar, J, 1);
     s.tidx = cleanup__take(&ar, J, sizeof(int32_t));
+    s.list = cleanup__take(&ar, J, sizeof(int32_t));
     s.pos2 = cleanup__take(&ar, J * 3, sizeof(double));
     s.wrot2 = cleanup__take(&ar, J * 4, sizeof(double));
     if (ar.st != MLR_OK) {

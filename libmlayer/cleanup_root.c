@@ -8,14 +8,23 @@
 
 /* The root shift each frame needs (with the shift so far): where a leg cannot reach its
    contact target, or would fold its knee past MAX_FOLD to reach it or the floor. 1 when some
-   frame needs one. */
-static int root_needs(const cleanup_state *cu, double cos_fold, double *need)
+   frame needs one. moved: the last round's smoothed shift (NULL in the first round), with need
+   the last round's needs: a frame that needed nothing and whose shift did not change needs
+   nothing again (its inputs are the same), so only the others are computed (redo: N scratch). */
+static int root_needs(const cleanup_state *cu, double cos_fold, double *need, const double *moved,
+                      uint8_t *redo)
 {
     const size_t N = cu->N, J = cu->J, C = cu->C;
     const int up = cu->up;
     const cleanup_config *cfg = cu->cfg;
     const double *pos = cu->pos, *P = cu->P, *lim = cu->lim, *shift = cu->shift;
-    memset(need, 0, N * 3 * sizeof(double));
+    for (size_t f = 0; f < N; f++) {
+        const double *n = need + 3 * f;
+        redo[f] = !moved || moved[3 * f] != 0.0 || moved[3 * f + 1] != 0.0 ||
+                  moved[3 * f + 2] != 0.0 || n[0] != 0.0 || n[1] != 0.0 || n[2] != 0.0;
+        if (redo[f])
+            need[3 * f] = need[3 * f + 1] = need[3 * f + 2] = 0.0;
+    }
     int any = 0;
     for (size_t k = 0; k < cu->nf; k++) {
         const cleanup_foot *ft = &cu->feet[k];
@@ -23,6 +32,8 @@ static int root_needs(const cleanup_state *cu, double cos_fold, double *need)
             continue;
         const size_t h = (size_t)ft->hip, kn = (size_t)ft->knee, e = (size_t)ft->anchor;
         for (size_t f = 0; f < N; f++) {
+            if (!redo[f])
+                continue;
             const double *ph = pos + 3 * (f * J + h), *pk = pos + 3 * (f * J + kn),
                          *pe = pos + 3 * (f * J + e);
             double target[3];
@@ -153,9 +164,12 @@ mlr_status cleanup__shift_root(cleanup_state *cu, cleanup_arena *ar, mlr_cleanup
         const double x = ((double)i - (double)half) / (double)(half + 1);
         wtab[i] = 0.5 * (1.0 + cos(3.14159265358979323846 * x));
     }
+    uint8_t *redo = cleanup__take(ar, N, 1);
+    if (ar->st != MLR_OK)
+        return ar->st;
     const double cos_fold = cos(cu->cfg->max_fold);
     for (int it = 0; it < 5; it++) {
-        if (!root_needs(cu, cos_fold, need))
+        if (!root_needs(cu, cos_fold, need, it ? ysh : NULL, redo))
             break;
         /* widen each need to +-0.1 s (the largest need there), then blend and smooth */
         widen_needs(N, half, need, n2s, dq, wide, nmask);

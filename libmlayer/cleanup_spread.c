@@ -3,6 +3,7 @@
  * vectors through the constrained frames, blended and smoothed.
  */
 #include "cleanup_internal.h"
+#include "band_internal.h"
 #include "ik_internal.h"
 
 #include <math.h>
@@ -65,8 +66,9 @@ static void qexp(const double v[3], double q[4])
 {
     const double a = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
     const double h = 0.5 * a;
-    const double k = a > 1e-300 ? sin(h) / a : 0.5;
-    q[0] = cos(h), q[1] = k * v[0], q[2] = k * v[1], q[3] = k * v[2];
+    const double sh = sin(h), ch = cos(h); /* (unconditional: one sincos) */
+    const double k = a > 1e-300 ? sh / a : 0.5;
+    q[0] = ch, q[1] = k * v[0], q[2] = k * v[1], q[3] = k * v[2];
 }
 
 /* The map's smoothing with the constrained frames held: x = argmin sum over the free frames of
@@ -75,62 +77,206 @@ static void qexp(const double v[3], double q[4])
    only, so the constrained frames keep the IK's values to ~1e-10 relative and one pass
    reaches the targets. */
 #define PIN_HOLD 1e10
-static mlr_status smooth_held(cleanup_work *w, const uint8_t *mask, double *y, size_t m)
+
+/* The system is solved on windows only. Through a run of held frames whose value is 0 the
+   solution decays geometrically: a held frame's row gives |x_i| <= 10 (s / PIN_HOLD) times its
+   neighbours' (the +-2 coupling of D2 makes that a factor of about sqrt(s / PIN_HOLD) per
+   frame; sqrt(10 s / PIN_HOLD) is the bound used, q). After R consecutive such frames, with
+   q^R <= 1e-30, what lies beyond is 0 to far below rounding, both in the full solve and for
+   the frames inside. So a window is the frames around the held frames with a nonzero value,
+   extended on each side through R consecutive held frames with value 0 (or to the clip's
+   end); its principal submatrix of the full system gives the full solve's values there
+   (to rounding), and outside every window the map is 0: those frames are left as they are.
+   The right-hand side (the blended map) is 0 outside the windows exactly: a free frame there
+   lies between held frames of value 0, or before the first (after the last) of value 0. When
+   q is not small (a long PIN_SMOOTH), the window is the whole clip. Window frames: */
+enum { SPREAD_FREE = 0, SPREAD_QUIET = 1, SPREAD_SOURCE = 2 };
+#define SPREAD_TAIL 1e-30
+
+/* How many held frames of value 0 end a window (0: the whole clip is one). */
+static size_t quiet_run(double sc)
 {
-    const size_t N = w->N;
-    const double lam = (w->cfg->pin_smooth * w->fps) * (w->cfg->pin_smooth * w->fps);
-    const double sc = lam * lam;
-    double *ab = w->ab;
-    for (size_t f = 0; f < N; f++)
-        ab[3 * f] = mask[f] ? PIN_HOLD : 1.0, ab[3 * f + 1] = ab[3 * f + 2] = 0.0;
+    const double q = sqrt(10.0 * sc / PIN_HOLD);
+    if (!(q < 1e-2))
+        return 0;
+    const double r = ceil(log(SPREAD_TAIL) / log(q));
+    return r < 2.0 ? 2 : (size_t)r;
+}
+
+/* The first source frame at or after f (N when none). */
+static size_t next_source(const uint8_t *cls, size_t N, size_t f)
+{
+    while (f < N && cls[f] != SPREAD_SOURCE)
+        f++;
+    return f;
+}
+
+/* The last frame of a window going right from frame s: R consecutive quiet frames, or the
+   clip's last frame. */
+static size_t extend_right(const uint8_t *cls, size_t N, size_t s, size_t R)
+{
+    size_t e = s, run = 0;
+    while (run < R && e + 1 < N) {
+        e++;
+        run = cls[e] == SPREAD_QUIET ? run + 1 : 0;
+    }
+    return e;
+}
+
+/* The first frame of a window going left from frame s, down to lo at most; *cut: it ends on R
+   consecutive quiet frames (else it reached lo). */
+static size_t extend_left(const uint8_t *cls, size_t s, size_t lo, size_t R, int *cut)
+{
+    size_t a = s, run = 0;
+    while (run < R && a > lo) {
+        a--;
+        run = cls[a] == SPREAD_QUIET ? run + 1 : 0;
+    }
+    *cut = run >= R;
+    return a;
+}
+
+/* x = the solve of the principal submatrix of the full system (smooth_held's) on frames
+   [a, b), y (the window's rows, m columns) in place: the full system's entries (assembled in
+   the same order), an LDL^T with the arithmetic of mlr_band (pentadiagonal). */
+static mlr_status solve_window(const cleanup_work *w, const uint8_t *mask, size_t a, size_t b,
+                               double sc, double *y, size_t m)
+{
+    const size_t N = w->N, n = b - a;
+    double *ab = w->ab, *dinv = w->fac, *l = w->fac + N;
+    for (size_t i = 0; i < n; i++)
+        ab[3 * i] = mask[a + i] ? PIN_HOLD : 1.0, ab[3 * i + 1] = ab[3 * i + 2] = 0.0;
     static const double c[3] = {1.0, -2.0, 1.0};
-    for (size_t r = 0; r + 2 < N; r++) /* D2^T D2, row by row of D2 */
-        for (size_t a = 0; a < 3; a++)
-            for (size_t b = a; b < 3; b++)
-                ab[3 * (r + a) + (b - a)] += sc * c[a] * c[b];
-    mlr_status st = mlr_band_factor(w->pin, ab, 3, NULL);
-    if (st < 0)
-        return st;
-    for (size_t f = 0; f < N; f++)
+    for (size_t r = a >= 2 ? a - 2 : 0; r < b && r + 2 < N; r++) /* D2^T D2, row by row */
+        for (size_t p = 0; p < 3; p++)
+            for (size_t q = p; q < 3; q++)
+                if (r + p >= a && r + q < b)
+                    ab[3 * (r + p - a) + (q - p)] += sc * c[p] * c[q];
+    for (size_t i = 0; i < n; i++) {
+        const double aii = ab[3 * i];
+        const double a1 = i >= 1 ? ab[3 * (i - 1) + 1] : 0.0,
+                     a2 = i >= 2 ? ab[3 * (i - 2) + 2] : 0.0;
+        const double d = mlr_band_ldl2_row(i, aii, a1, a2, i >= 2 ? l[2 * (i - 1)] : 0.0,
+                                           i >= 1 ? dinv[i - 1] : 0.0, i >= 2 ? dinv[i - 2] : 0.0,
+                                           &l[2 * i], &l[2 * i + 1]);
+        if (!(d > 0.0) || !isfinite(d))
+            return MLR_E_SINGULAR;
+        dinv[i] = 1.0 / d;
+    }
+    double *x = y + a * m;
+    for (size_t i = 1; i < n; i++) { /* forward: x_i -= L(i,i-1) x_{i-1} + L(i,i-2) x_{i-2} */
+        double *xi = x + i * m;
+        const double *x1 = xi - m, *x2 = i >= 2 ? xi - 2 * m : NULL;
+        const double l1 = l[2 * i], l2 = l[2 * i + 1];
+        if (x2)
+            for (size_t k = 0; k < m; k++)
+                xi[k] -= l1 * x1[k] + l2 * x2[k];
+        else
+            for (size_t k = 0; k < m; k++)
+                xi[k] -= l1 * x1[k];
+    }
+    for (size_t i = n; i-- > 0;) { /* backward: x_i = x_i / D_i - L(i+1,i) x_{i+1} - ... */
+        double *xi = x + i * m;
+        const double di = dinv[i];
+        if (i + 2 < n) {
+            const double l1 = l[2 * (i + 1)], l2 = l[2 * (i + 2) + 1];
+            for (size_t k = 0; k < m; k++)
+                xi[k] = xi[k] * di - (l1 * xi[k + m] + l2 * xi[k + 2 * m]);
+        } else if (i + 1 < n) {
+            const double l1 = l[2 * (i + 1)];
+            for (size_t k = 0; k < m; k++)
+                xi[k] = xi[k] * di - l1 * xi[k + m];
+        } else {
+            for (size_t k = 0; k < m; k++)
+                xi[k] *= di;
+        }
+    }
+    return MLR_OK;
+}
+
+/* The map on the window [a, b): blended (design_map on the window alone gives the same values:
+   its ends are held frames, or the clip's), smoothed, and applied to the rotations. */
+static mlr_status spread_window(cleanup_work *w, double *rot, const int32_t *js, size_t nj,
+                                const uint8_t *mask, size_t a, size_t b, double sc)
+{
+    const size_t J = w->J, m = 3 * nj;
+    double *y = w->map_y;
+    design_map(b - a, m, mask + a, w->map_val + a * m, w->cfg->blend * w->fps, y + a * m);
+    for (size_t f = a; f < b; f++)
         if (mask[f])
             for (size_t k = 0; k < m; k++)
                 y[f * m + k] *= PIN_HOLD;
-    return mlr_band_solve(w->pin, y, m, m, NULL);
-}
-
-mlr_status cleanup__spread_rotations(cleanup_work *w, double *rot, const double *newr,
-                                     const int32_t *js, size_t nj, const uint8_t *mask)
-{
-    const size_t N = w->N, J = w->J, m = 3 * nj;
-    for (size_t f = 0; f < N; f++) {
-        if (!mask[f])
-            continue;
-        for (size_t i = 0; i < nj; i++) {
-            const double *a = newr + 4 * (f * J + (size_t)js[i]),
-                         *b = rot + 4 * (f * J + (size_t)js[i]);
-            const double cb[4] = {b[0], -b[1], -b[2], -b[3]};
-            double d[4];
-            mlr_ik_qmul(a, cb, d);
-            qlog(d, w->map_val + f * m + 3 * i);
-        }
-    }
-    design_map(N, m, mask, w->map_val, w->cfg->blend * w->fps, w->map_y);
-    mlr_status st = smooth_held(w, mask, w->map_y, m);
+    mlr_status st = solve_window(w, mask, a, b, sc, y, m);
     if (st != MLR_OK)
         return st;
-    memcpy(w->map_out, w->map_y, N * m * sizeof(double));
-    for (size_t f = 0; f < N; f++)
+    for (size_t f = a; f < b; f++)
         for (size_t i = 0; i < nj; i++) {
             double *r = rot + 4 * (f * J + (size_t)js[i]), e[4], o[4];
-            const double *v = w->map_out + f * m + 3 * i;
+            const double *v = y + f * m + 3 * i;
             if (v[0] == 0.0 && v[1] == 0.0 && v[2] == 0.0)
                 continue; /* outside the blend: the frame is left as it is */
-            w->dirty[f] = 1;
+            w->dirty[f] |= w->dirty_bit;
             qexp(v, e);
             mlr_ik_qmul(e, r, o);
             const double n = sqrt(o[0] * o[0] + o[1] * o[1] + o[2] * o[2] + o[3] * o[3]);
             for (int k = 0; k < 4; k++)
                 r[k] = o[k] / n;
         }
+    return MLR_OK;
+}
+
+mlr_status cleanup__spread_rotations(cleanup_work *w, double *rot, const double *newr,
+                                     const int32_t *js, size_t nj, const uint8_t *mask)
+{
+    const size_t N = w->N, J = w->J, m = 3 * nj;
+    uint8_t *cls = w->cls;
+    for (size_t f = 0; f < N; f++) {
+        cls[f] = SPREAD_FREE;
+        if (!mask[f])
+            continue;
+        double *v = w->map_val + f * m;
+        int moved = 0;
+        for (size_t i = 0; i < nj; i++) {
+            const double *a = newr + 4 * (f * J + (size_t)js[i]),
+                         *b = rot + 4 * (f * J + (size_t)js[i]);
+            /* where the IK left the joint as it was (reached, kept), the log of a * inv(a)
+               is 0: exactly 0 here, where qmul's sums leave residues of ~1e-17 (which the
+               whole-clip solve spread everywhere) */
+            if (memcmp(a, b, 4 * sizeof(double)) == 0) {
+                v[3 * i] = v[3 * i + 1] = v[3 * i + 2] = 0.0;
+                continue;
+            }
+            const double cb[4] = {b[0], -b[1], -b[2], -b[3]};
+            double d[4];
+            mlr_ik_qmul(a, cb, d);
+            qlog(d, v + 3 * i);
+            moved |= v[3 * i] != 0.0 || v[3 * i + 1] != 0.0 || v[3 * i + 2] != 0.0;
+        }
+        cls[f] = moved ? SPREAD_SOURCE : SPREAD_QUIET;
+    }
+    const double lam = (w->cfg->pin_smooth * w->fps) * (w->cfg->pin_smooth * w->fps);
+    const double sc = lam * lam;
+    const size_t R = quiet_run(sc);
+    size_t s = next_source(cls, N, 0);
+    if (!R) /* one window: the whole clip (when some value is nonzero: else the map is 0) */
+        return s < N ? spread_window(w, rot, js, nj, mask, 0, N, sc) : MLR_OK;
+    int cut;
+    size_t a = s < N ? extend_left(cls, s, 0, R, &cut) : 0;
+    while (s < N) {
+        /* the window of source s, and of each next source whose window would reach it */
+        size_t e = extend_right(cls, N, s, R), s2, a2 = 0;
+        for (;;) {
+            if ((s2 = next_source(cls, N, e + 1)) >= N)
+                break;
+            a2 = extend_left(cls, s2, e + 1, R, &cut);
+            if (cut)
+                break;
+            e = extend_right(cls, N, s2, R);
+        }
+        mlr_status st = spread_window(w, rot, js, nj, mask, a, e + 1, sc);
+        if (st != MLR_OK)
+            return st;
+        s = s2, a = a2;
+    }
     return MLR_OK;
 }

@@ -401,41 +401,39 @@ static mlr_status cleanup_fk(cleanup_state *cu, const double *root_pos, const do
     cu->shift = cleanup__take(ar, N * 3, sizeof(double));
     w->map_val = cleanup__take_raw(ar, N * 9, sizeof(double));
     w->map_y = cleanup__take_raw(ar, N * 9, sizeof(double));
-    w->map_out = cleanup__take_raw(ar, N * 9, sizeof(double));
     /* forward kinematics of the joints the cleanup reads only: the contact points, the
        feet's anchors and their ancestors (hips, knees and the joints above them) */
     cu->need = cleanup__take(ar, J, 1);
     cu->tidx = cleanup__take(ar, J, sizeof(int32_t));
+    cu->need_list = cleanup__take(ar, J, sizeof(int32_t));
     cu->fk_frames = cleanup__take(ar, N, 1);
     cu->pos2 = cleanup__take(ar, J * 3, sizeof(double));
     cu->wrot2 = cleanup__take(ar, J * 4, sizeof(double));
     if (ar->st != MLR_OK)
         return fail_memory(ar, diag);
-    cleanup__fk_need(cu->rig, C, cu->joints, cu->feet, cu->nf, cu->need, cu->tidx);
+    cu->n_need = cleanup__fk_need(cu->rig, C, cu->joints, cu->feet, cu->nf, cu->need,
+                                  cu->need_list, cu->tidx);
     mlr_status st =
         cleanup__fk_points(cu->rig, N, root_pos, rot, cu->trans, C, cu->joints, cu->end_sites,
-                           cu->pos, cu->wrot, cu->P, A, cu->need, cu->tidx);
+                           cu->pos, cu->wrot, cu->P, A, cu->need_list, cu->n_need, cu->tidx);
     return st == MLR_OK ? MLR_OK : fail_status(st, diag);
 }
 
-/* The floor (set_floor, into the report) and the spread's band solver. */
+/* The floor (set_floor, into the report) and the spread's arrays. */
 static mlr_status cleanup_floor(cleanup_state *cu, const mlr_cleanup_ref *pre, cleanup_arena *ar,
-                                const mlr_allocator *A, mlr_cleanup_report *report, mlr_diag *diag)
+                                mlr_cleanup_report *report, mlr_diag *diag)
 {
     if (set_floor(cu, pre, ar) != MLR_OK)
         return fail_memory(ar, diag);
     if (report)
         report->floor_height = cu->floor_active ? cu->floor_h : NAN;
     cleanup_work *w = cu->w;
-    w->ab = cleanup__take(ar, cu->N * 3, sizeof(double));
+    w->ab = cleanup__take_raw(ar, cu->N * 3, sizeof(double));
+    w->fac = cleanup__take_raw(ar, cu->N * 3, sizeof(double));
+    w->cls = cleanup__take_raw(ar, cu->N, 1);
     if (ar->st != MLR_OK)
         return fail_memory(ar, diag);
-    mlr_status st = mlr_band_create(cu->N, 2, A, &w->pin, NULL);
-    if (st == MLR_E_NO_MEMORY) {
-        ar->st = st;
-        return fail_memory(ar, diag);
-    }
-    return st == MLR_OK ? MLR_OK : fail_status(st, diag);
+    return MLR_OK;
 }
 
 /* Each foot's contact frames, leg and targets (set_foot_targets). */
@@ -499,11 +497,23 @@ static mlr_status cleanup_passes(cleanup_state *cu, cleanup_arena *ar, mlr_diag 
     uint8_t *dirty = cleanup__take(ar, N, 1);
     cu->chains = cleanup__take(ar, nf * J, sizeof(int32_t));
     cu->chain_len = cleanup__take(ar, nf, sizeof(size_t));
+    cu->sub = cleanup__take(ar, nf * J, sizeof(int32_t));
+    cu->n_sub = cleanup__take(ar, nf, sizeof(size_t));
     if (ar->st != MLR_OK)
         return fail_memory(ar, diag);
     cleanup__find_chains(cu);
     for (size_t f = 0; f < N; f++)
-        dirty[f] = shifted(shift, f);
+        dirty[f] = shifted(shift, f) ? CLEANUP_DIRTY_ALL : 0;
+    /* the joints the forward kinematics computes again when a leg alone changed: need's at
+       or below its hip */
+    for (size_t k = 0; k < nf; k++)
+        for (size_t i = 0; cu->feet[k].active && i < cu->n_need; i++) {
+            int32_t u = cu->need_list[i];
+            while (u >= 0 && u != cu->feet[k].hip)
+                u = cu->rig->parents[u];
+            if (u >= 0)
+                cu->sub[k * J + cu->n_sub[k]++] = cu->need_list[i];
+        }
     cu->w->dirty = dirty;
     for (int pass = 0; pass < cu->cfg->passes; pass++) {
         mlr_status st = cleanup__pass(cu);
@@ -535,7 +545,7 @@ static mlr_status cleanup_run(const mlr_rig *rig, size_t N, double fps, int up,
     const size_t J = rig->n_joints;
     cleanup_foot feet[64];
     mlr_cleanup_ref *owned = NULL; /* the reference's trajectories when made here */
-    cleanup_work w = {rig, N, J, C, fps, up, &cfg, NULL, NULL, NULL, NULL, NULL, NULL};
+    cleanup_work w = {rig, N, J, C, fps, up, &cfg, NULL, NULL, NULL, NULL, NULL, NULL, 0};
     cleanup_state c = {.rig = rig,
                        .N = N,
                        .J = J,
@@ -568,7 +578,7 @@ static mlr_status cleanup_run(const mlr_rig *rig, size_t N, double fps, int up,
     }
     c.Pr = pre ? pre->pts : NULL, c.pos_ref = pre ? pre->anchors : NULL;
     c.step_ref = pre ? pre->step : NULL;
-    if ((st = cleanup_floor(&c, pre, &ar, &A, report, diag)) != MLR_OK ||
+    if ((st = cleanup_floor(&c, pre, &ar, report, diag)) != MLR_OK ||
         (st = cleanup_targets(&c, &ar, diag)) != MLR_OK)
         goto done;
     /* the root shift: legs that cannot reach their contact targets, or would have to fold
@@ -586,7 +596,6 @@ static mlr_status cleanup_run(const mlr_rig *rig, size_t N, double fps, int up,
         }
     }
 done:
-    mlr_band_destroy(w.pin);
     mlr_cleanup_ref_destroy(owned);
     cleanup__release(&ar);
     return st;

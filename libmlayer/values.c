@@ -63,20 +63,22 @@ double mlr_median(double *v, size_t n)
     return 0.5 * (below + v[n / 2]);
 }
 
-/* The index of the first value of x[0..n) that is NaN or infinite, or n. Blocks of 8 are
-   tested with one vectorizable OR of their exponent tests (all bits set), then the block
-   that holds one is searched. */
+/* The index of the first value of x[0..n) that is NaN or infinite, or n. A value is not
+   finite when its exponent bits are all ones: (bits & EXP) + 2^52 then sets bit 63, and only
+   then; blocks of 64 values are tested with integer operations alone (no branch per value,
+   so the loop vectorizes), then the block that holds one is searched. */
 size_t mlr_first_nonfinite(const double *x, size_t n)
 {
-    const uint64_t exp = 0x7ff0000000000000ull;
+    const uint64_t exp_bits = 0x7ff0000000000000u, one = 0x0010000000000000u;
     size_t k = 0;
-    for (; k + 8 <= n; k += 8) {
-        uint64_t u[8];
-        memcpy(u, x + k, sizeof u);
-        unsigned bad = 0;
-        for (int i = 0; i < 8; i++)
-            bad |= (u[i] & exp) == exp;
-        if (bad)
+    for (; k + 64 <= n; k += 64) {
+        uint64_t bad = 0;
+        for (size_t i = 0; i < 64; i++) {
+            uint64_t b;
+            memcpy(&b, x + k + i, sizeof b);
+            bad |= (b & exp_bits) + one;
+        }
+        if (bad >> 63)
             break;
     }
     for (; k < n; k++)
