@@ -2,7 +2,6 @@
  * (mlr_limits.h). The human table and the anatomical classes are in limits_human.c. */
 #include "limits_internal.h"
 
-#include <float.h>
 #include <string.h>
 
 #include "mlr_internal.h"
@@ -221,7 +220,13 @@ typedef struct acc {
     double ms[9]; /* moments of the swings' vector parts (the twist about the bone removed) */
     /* the smallest and largest hinge angle so far as (y, x) pairs of atan2 (hinge_pair) */
     double lo_y, lo_x, hi_y, hi_x;
-    int need_m, need_ms, need_log; /* what find_hinges and the stats read of this joint */
+    /* the largest whole angle of a joint with no bone out, as a (sine-like, cosine-like) pair */
+    double an_s, an_c;
+    mlr_vec3 t;   /* bone_out / |bone_out|, or zero */
+    int need_x;   /* pass 1: the axis sum (|bone_in| |bone_out| > 0: the axis can be learned) */
+    int need_m;   /* hinge candidate: moments of the logs, hinge angle extremes */
+    int need_ms;  /* named hinge candidate: moments of the swings */
+    int need_log; /* the log of the centred rotation (the moments) */
 } acc;
 
 /* Is atan2(y1, x1) < atan2(y2, x2)? By the half planes and the cross product where that
@@ -254,9 +259,10 @@ typedef struct learner {
     acc *ac;
     int32_t *main_child;
     int *is_hinge, *cls;
-    mlr_quat *rq; /* one frame's centred rotations */
+    mlr_quat *qn; /* one frame's centred rotations of the joints in logs */
     mlr_vec3 *rv; /* ... and their logs */
-    mlr_quat *qn; /* ... and the frame's unit q */
+    int *logs;    /* the joints whose logs are taken (need_log), in order */
+    size_t n_logs;
 } learner;
 
 /* Bones: offsets, or the mean translation of a trans joint over the clips; each joint's main
@@ -313,6 +319,8 @@ static void learn_centres(const learner *L)
     const size_t n_clips = L->n_clips, J = rig->n_joints;
     mlr_limits_joint *jt = L->jt;
     acc *ac = L->ac;
+    for (size_t j = 0; j < J; j++)
+        ac[j].need_x = norm3(jt[j].bone_in) * norm3(jt[j].bone_out) > 0;
     for (size_t k = 0; k < n_clips; k++)
         for (size_t f = 0; f < clips[k].n_frames; f++)
             for (size_t j = 0; j < J; j++) {
@@ -325,6 +333,8 @@ static void learn_centres(const learner *L)
                 const double sg = d < 0 ? -1.0 : 1.0;
                 c->qsum.w += sg * q.w, c->qsum.x += sg * q.x, c->qsum.y += sg * q.y,
                     c->qsum.z += sg * q.z;
+                if (!c->need_x) /* no axis without both bones: the sum is not read */
+                    continue;
                 const mlr_vec3 x = cross3(jt[j].bone_in, qrot(q, jt[j].bone_out));
                 c->xsum.x += x.x, c->xsum.y += x.y, c->xsum.z += x.z;
             }
@@ -342,12 +352,14 @@ static void learn_centres(const learner *L)
         const double scale = norm3(jt[j].bone_in) * norm3(jt[j].bone_out);
         if (scale > 0 && xn > 1e-9 * scale)
             jt[j].axis = scale3(ac[j].xsum, 1.0 / xn);
-        jt[j].stats[0] = DBL_MAX, jt[j].stats[1] = -DBL_MAX;
+        jt[j].stats[0] = jt[j].stats[1] = 0.0; /* measure_extents: hinge candidates' */
     }
 }
 
 /* Pass 2: moments of the centred rotation vectors, hinge angle, swing and twist maxima (a
-   frame's logs in one array call). */
+   frame's logs in one array call). The hinge angle extremes and the moments are taken for
+   find_hinges' candidates only (named hinges, or every joint with an axis when the rig has no
+   names): no other joint can be a hinge, and the others' stats[0..1] are 0. */
 static void measure_extents(const learner *L)
 {
     const mlr_rig *rig = L->rig;
@@ -355,20 +367,24 @@ static void measure_extents(const learner *L)
     const size_t n_clips = L->n_clips, J = rig->n_joints;
     mlr_limits_joint *jt = L->jt;
     acc *ac = L->ac;
-    mlr_quat *rq = L->rq, *lq = L->qn;
+    mlr_quat *lq = L->qn;
     mlr_vec3 *rv = L->rv;
-    size_t n_seen = 0;
+    int *logs = L->logs;
+    size_t n_logs = 0, n_seen = 0;
     for (size_t j = 0; j < J; j++) {
         acc *c = &ac[j];
-        c->sw_s = c->tw_s = 0.0, c->sw_c = c->tw_c = 1.0;
-        /* the moments of the rotation vectors: for find_hinges' candidates (named hinges, or
-           every joint with an axis when the rig has no names); the swings': for named
-           hinges; the logs: for the moments and the whole angle of a joint with no bone out */
+        c->sw_s = c->tw_s = c->an_s = 0.0, c->sw_c = c->tw_c = c->an_c = 1.0;
+        /* the moments of the rotation vectors and the hinge angle extremes: for find_hinges'
+           candidates; the swings': for named hinges */
         const int named = rig->names ? mlr_limits_hinge_name(rig->names[j]) : 0;
         const int cand = j > 0 && norm3(jt[j].axis) > 0 && (!rig->names || named);
         c->need_m = cand;
         c->need_ms = cand && named;
-        c->need_log = cand || !(norm3(jt[j].bone_out) > 0);
+        c->need_log = cand;
+        if (cand)
+            logs[n_logs++] = (int)j;
+        const double bl = norm3(jt[j].bone_out);
+        c->t = bl > 0 ? scale3(jt[j].bone_out, 1.0 / bl) : (mlr_vec3){0, 0, 0};
     }
     for (size_t k = 0; k < n_clips; k++)
         for (size_t f = 0; f < clips[k].n_frames; f++, n_seen++) {
@@ -380,12 +396,10 @@ static void measure_extents(const learner *L)
                 mlr_quat r = qmul(qconj(jt[j].centre), q);
                 if (r.w < 0)
                     r = (mlr_quat){-r.w, -r.x, -r.y, -r.z};
-                rq[j] = r;
-                if (ac[j].need_log)
-                    lq[nl++] = r;
                 mlr_limits_joint *g = &jt[j];
-                if (norm3(g->axis) > 0) { /* hinge angle extremes, the atan2 at the end */
-                    acc *c = &ac[j];
+                acc *c = &ac[j];
+                if (c->need_m) { /* hinge angle extremes, the atan2 at the end */
+                    lq[nl++] = r;
                     double y, x;
                     hinge_pair(g->axis, g->bone_in, qrot(q, g->bone_out), &y, &x);
                     if (n_seen == 0 || angle_less(y, x, c->lo_y, c->lo_x))
@@ -393,57 +407,63 @@ static void measure_extents(const learner *L)
                     if (n_seen == 0 || angle_less(c->hi_y, c->hi_x, y, x))
                         c->hi_y = y, c->hi_x = x;
                 }
-            }
-            (void)mlr_quat_log_array(lq, nl, rv, NULL);
-            nl = 0;
-            for (size_t j = 0; j < J; j++) {
-                mlr_limits_joint *g = &jt[j];
-                acc *c = &ac[j];
-                const mlr_vec3 v = c->need_log ? rv[nl++] : (mlr_vec3){0, 0, 0};
-                const mlr_quat r = rq[j];
-                if (c->need_m) {
-                    double *m = c->m;
-                    const double vv[3] = {v.x, v.y, v.z};
-                    for (int a3 = 0; a3 < 3; a3++)
-                        for (int b3 = 0; b3 < 3; b3++)
-                            m[3 * a3 + b3] += vv[a3] * vv[b3];
+                const double vv = r.x * r.x + r.y * r.y + r.z * r.z;
+                if (!(c->t.x != 0 || c->t.y != 0 || c->t.z != 0)) { /* no bone out */
+                    const double vs = sqrt(vv); /* the whole angle 2 atan2(|v|, w) of r */
+                    if (wider(vs, r.w, c->an_s, c->an_c))
+                        c->an_s = vs, c->an_c = r.w;
+                    continue;
                 }
-                const double bl = norm3(g->bone_out);
-                if (bl > 0) {
-                    /* swing_twist's angles without their atan2: twist 2 atan2(|p|, w) (r.w >= 0),
-                       swing 2 atan2(|s.v|, s.w) of s = r conj(twist) */
-                    const mlr_vec3 t = scale3(g->bone_out, 1.0 / bl);
-                    const double pp = r.x * t.x + r.y * t.y + r.z * t.z;
-                    const double tn = sqrt(r.w * r.w + pp * pp);
+                /* swing_twist's angles without their atan2 (r.w >= 0): the twist is
+                   2 atan2(|p|, w), p = v.t; the swing s = r conj(twist) has the vector part
+                   (w v_perp - p v x t) / |(w, p)|, of norm |v_perp| = |v - p t|, and the real
+                   part |(w, p)| */
+                const mlr_vec3 t = c->t;
+                const double pp = r.x * t.x + r.y * t.y + r.z * t.z;
+                const double tn = sqrt(r.w * r.w + pp * pp);
+                const mlr_vec3 vp = {r.x - pp * t.x, r.y - pp * t.y, r.z - pp * t.z};
+                const double ss = norm3(vp);
+                if (wider(ss, tn, c->sw_s, c->sw_c))
+                    c->sw_s = ss, c->sw_c = tn;
+                if (wider(fabs(pp), r.w, c->tw_s, c->tw_c))
+                    c->tw_s = fabs(pp), c->tw_c = r.w;
+                if (c->need_ms) {
                     mlr_quat tw = {1, 0, 0, 0};
                     if (tn > 1e-300)
                         tw = (mlr_quat){r.w / tn, pp * t.x / tn, pp * t.y / tn, pp * t.z / tn};
-                    mlr_quat sq = qmul(r, qconj(tw));
-                    const double ss = sqrt(sq.x * sq.x + sq.y * sq.y + sq.z * sq.z),
-                                 sc = fabs(sq.w);
-                    if (wider(ss, sc, c->sw_s, c->sw_c))
-                        c->sw_s = ss, c->sw_c = sc;
+                    const mlr_quat sq = qmul(r, qconj(tw));
                     const double sv[3] = {sq.w < 0 ? -sq.x : sq.x, sq.w < 0 ? -sq.y : sq.y,
                                           sq.w < 0 ? -sq.z : sq.z};
-                    for (int a3 = 0; c->need_ms && a3 < 3; a3++)
-                        for (int b3 = 0; b3 < 3; b3++)
+                    for (int a3 = 0; a3 < 3; a3++)
+                        for (int b3 = a3; b3 < 3; b3++)
                             c->ms[3 * a3 + b3] += sv[a3] * sv[b3];
-                    const double ts = fabs(pp) / (tn > 1e-300 ? tn : 1.0), tc = tw.w;
-                    if (wider(ts, tc, c->tw_s, c->tw_c))
-                        c->tw_s = ts, c->tw_c = tc;
-                } else {
-                    g->stats[2] = fmax(g->stats[2], norm3(v)); /* the whole angle of r */
                 }
+            }
+            if (nl == 0)
+                continue;
+            (void)mlr_quat_log_array(lq, nl, rv, NULL);
+            for (size_t i = 0; i < nl; i++) {
+                double *m = ac[logs[i]].m;
+                const double v3[3] = {rv[i].x, rv[i].y, rv[i].z};
+                for (int a3 = 0; a3 < 3; a3++)
+                    for (int b3 = a3; b3 < 3; b3++)
+                        m[3 * a3 + b3] += v3[a3] * v3[b3];
             }
         }
     for (size_t j = 0; j < J; j++) {
+        acc *c = &ac[j];
+        for (int a3 = 0; a3 < 3; a3++) /* the moments' lower triangles */
+            for (int b3 = 0; b3 < a3; b3++)
+                c->m[3 * a3 + b3] = c->m[3 * b3 + a3], c->ms[3 * a3 + b3] = c->ms[3 * b3 + a3];
         if (norm3(jt[j].bone_out) > 0) {
-            jt[j].stats[2] = 2.0 * atan2(ac[j].sw_s, ac[j].sw_c);
-            jt[j].stats[3] = 2.0 * atan2(ac[j].tw_s, ac[j].tw_c);
+            jt[j].stats[2] = 2.0 * atan2(c->sw_s, c->sw_c);
+            jt[j].stats[3] = 2.0 * atan2(c->tw_s, c->tw_c);
+        } else {
+            jt[j].stats[2] = 2.0 * atan2(c->an_s, c->an_c);
         }
-        if (norm3(jt[j].axis) > 0 && n_seen > 0) {
-            jt[j].stats[0] = atan2(ac[j].lo_y, ac[j].lo_x);
-            jt[j].stats[1] = atan2(ac[j].hi_y, ac[j].hi_x);
+        if (c->need_m && n_seen > 0) {
+            jt[j].stats[0] = atan2(c->lo_y, c->lo_x);
+            jt[j].stats[1] = atan2(c->hi_y, c->hi_x);
         }
     }
 }
@@ -571,8 +591,7 @@ mlr_status mlr_limits_create(const mlr_rig *rig, const mlr_limits_clip *clips, s
     mlr_allocator_resolve(alloc, &a);
     size_t jbytes, sbytes;
     if (mlr_mul_size(J, sizeof(mlr_limits_joint), &jbytes) != MLR_OK ||
-        mlr_mul_size(J,
-                     sizeof(acc) + 4 * sizeof(int32_t) + 2 * sizeof(mlr_quat) + sizeof(mlr_vec3),
+        mlr_mul_size(J, sizeof(acc) + 4 * sizeof(int32_t) + sizeof(mlr_quat) + sizeof(mlr_vec3),
                      &sbytes) != MLR_OK)
         return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "limits: too many joints");
     mlr_limits *lim = mlr_alloc(&a, sizeof *lim);
@@ -592,11 +611,11 @@ mlr_status mlr_limits_create(const mlr_rig *rig, const mlr_limits_clip *clips, s
     }
     memset(lim->joints, 0, jbytes);
     memset(scratch, 0, sbytes);
-    learner L = {rig, clips, n_clips, lim->joints, scratch, NULL, NULL, NULL, NULL, NULL, NULL};
+    learner L = {rig, clips, n_clips, lim->joints, scratch, NULL, NULL, NULL, NULL, NULL, NULL, 0};
     L.main_child = (int32_t *)(L.ac + J);
     L.is_hinge = (int *)(L.main_child + J), L.cls = L.is_hinge + J;
-    L.rq = (mlr_quat *)(void *)(L.cls + J + (J & 1));
-    L.rv = (mlr_vec3 *)(void *)(L.rq + J);
+    L.logs = L.cls + J;
+    L.rv = (mlr_vec3 *)(void *)(L.logs + J);
     L.qn = (mlr_quat *)(void *)(L.rv + J);
 
     measure_bones(&L);
