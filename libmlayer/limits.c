@@ -65,14 +65,6 @@ static void hinge_pair(mlr_vec3 n, mlr_vec3 a, mlr_vec3 s, double *y, double *x)
     *x = dot3(a, s) - dot3(a, n) * dot3(s, n);
 }
 
-/* Signed angle about n from a to s, both projected on the plane normal to n. */
-static double hinge_phi(mlr_vec3 n, mlr_vec3 a, mlr_vec3 s)
-{
-    double y, x;
-    hinge_pair(n, a, s, &y, &x);
-    return atan2(y, x);
-}
-
 /* Swing angle, twist angle (about unit t) of r with r.w >= 0; swing axis direction in *sv
  * (unnormalized vector part of the swing). */
 static void swing_twist(mlr_quat r, mlr_vec3 t, double *swing, double *twist, mlr_quat *sw)
@@ -724,35 +716,6 @@ static double unwrap_near(double x, double prev)
     return fabs(y - prev) <= 0.5 * PI ? y : x;
 }
 
-/* The angle a joint read at the frame before, for unwrapping in time: v (NAN for none), or,
- * when that frame took the fast path of limit_joint (well inside the range, so its twist was
- * not needed there), the frame's centred rotation rr whose twist is read only if a later frame
- * needs it. */
-typedef struct prev_angle {
-    double v;
-    int pending;
-    mlr_quat rr;
-} prev_angle;
-
-/* The twist of unit rr (w >= 0) about unit t, as swing_twist computes it. */
-static double twist_of(mlr_quat rr, mlr_vec3 t)
-{
-    double sw, tw;
-    mlr_quat sq;
-    swing_twist(rr, t, &sw, &tw, &sq);
-    return tw;
-}
-
-/* The value of *pv, reading a pending twist about t. */
-static double prev_value(prev_angle *pv, mlr_vec3 t)
-{
-    if (pv->pending) {
-        pv->v = twist_of(pv->rr, t);
-        pv->pending = 0;
-    }
-    return pv->v;
-}
-
 /* sin^2 of half the smallest knee point (where the soft saturation begins) of a swing-twist
  * joint at alpha: a centred rotation whose whole angle is below it has swing and |twist|
  * below their knee points (both are at most the whole angle), so the limits leave it as it
@@ -771,12 +734,6 @@ static double fast_bound(const mlr_limits *lim, const mlr_limits_joint *g, doubl
     return sh * sh * (1.0 - 1e-9);
 }
 
-/* Limit one unit quaternion of joint g; returns 1 when changed. prev: for a hinge in a run of
- * frames, the angle read at the frame before (NAN for none; updated). The angle is read in
- * [m - 2 pi, m), m the middle of the excluded arc; outside [lo, hi] and with a frame before,
- * in the branch nearest that frame's (unwrapped in time), so a trajectory that crosses the
- * middle of the excluded arc stays on its side instead of snapping to the other bound. A swing-twist joint's
- * twist is unwrapped the same way (it would snap from +twist to -twist at a half turn). */
 /* What limit_joint reads of a joint at one alpha, the same for every frame: worked out once
  * per joint and alpha (bounds_of) instead of at every frame. */
 typedef struct joint_bounds {
@@ -786,9 +743,77 @@ typedef struct joint_bounds {
     double bl;                       /* |bone_out| */
     mlr_vec3 t;                      /* bone_out / bl (bl > 0) */
     int hard;                        /* hinge: only angles outside [lo, hi], to the bound */
+    /* the fast paths without atan2 (in_arc): a hinge angle within the arc where the limits
+       leave it, of middle (hc_x, hc_y) (unit) and half width of cosine h_cos (h_fast: the
+       arc is not empty); the halves of the swing's and the twist's knee points as (cos, sin) */
+    double hc_x, hc_y, h_cos, sk_c, sk_s, tk_c, tk_s;
+    int h_fast;
 } joint_bounds;
 
-static joint_bounds bounds_of(const mlr_limits *lim, const mlr_limits_joint *g, double alpha)
+/* The fast paths' margin: an angle decided without its atan2 is this far (radians) inside its
+   bound, far beyond the rounding of the atan2 path (1e-15), so both paths agree on every
+   frame; the frames nearer the bound take the atan2 path. */
+#define FAST_MARGIN 1e-10
+
+/* Is atan2(y, x) in [h - a, h + a] + 2 pi k by FAST_MARGIN, a in [0, pi], given
+   (hx, hy) = (cos h, sin h) and ca = cos a? cos(angle - h) >= cos a + margin implies that
+   (|cos u - cos v| <= |u - v|); |x| + |y| >= |(x, y)| makes the margin relative. */
+static int in_arc(double y, double x, double hx, double hy, double ca)
+{
+    return x * hx + y * hy > ca * sqrt(x * x + y * y) + FAST_MARGIN * (fabs(x) + fabs(y));
+}
+
+/* Is 2 atan2(s, c) (s, c >= 0) below the angle 2 h, given (hc, hs) = (cos h, sin h), h in
+   [0, pi / 2], by FAST_MARGIN? sin(h - atan2(s, c)) >= margin implies that. */
+static int below_half(double s, double c, double hc, double hs)
+{
+    return hs * c - hc * s > FAST_MARGIN * (s + c);
+}
+
+/* The angle a joint read at the frame before, for unwrapping in time: v (NAN for none), or,
+ * when that frame took a fast path of limit_joint (inside the range, so its angle was not
+ * needed there), what the angle is read from only if a later frame needs it: pending 1, the
+ * frame's centred rotation rr (its twist); pending 2, the hinge's (y, x) of its atan2 in
+ * (rr.x, rr.y). */
+typedef struct prev_angle {
+    double v;
+    int pending;
+    mlr_quat rr;
+} prev_angle;
+
+/* The twist of unit rr (w >= 0) about unit t, as swing_twist computes it. */
+static double twist_of(mlr_quat rr, mlr_vec3 t)
+{
+    double sw, tw;
+    mlr_quat sq;
+    swing_twist(rr, t, &sw, &tw, &sq);
+    return tw;
+}
+
+/* The hinge angle atan2(y, x) in [mid - 2 pi, mid). */
+static double hinge_angle(double y, double x, double mid)
+{
+    double phi = atan2(y, x);
+    if (phi >= mid)
+        phi -= 2.0 * PI;
+    else if (phi < mid - 2.0 * PI)
+        phi += 2.0 * PI;
+    return phi;
+}
+
+/* The value of *pv, reading a pending angle. */
+static double prev_value(prev_angle *pv, const joint_bounds *b)
+{
+    if (pv->pending == 1)
+        pv->v = twist_of(pv->rr, b->t);
+    else if (pv->pending == 2)
+        pv->v = hinge_angle(pv->rr.x, pv->rr.y, b->mid);
+    pv->pending = 0;
+    return pv->v;
+}
+
+static joint_bounds bounds_of(const mlr_limits *lim, const mlr_limits_joint *g, double alpha,
+                              int hard)
 {
     const mlr_limits_range *r = &g->range;
     joint_bounds b;
@@ -797,17 +822,26 @@ static joint_bounds bounds_of(const mlr_limits *lim, const mlr_limits_joint *g, 
     b.bl = norm3(g->bone_out);
     if (b.bl > 0)
         b.t = scale3(g->bone_out, 1.0 / b.bl);
+    b.hard = hard && r->kind == MLR_LIMITS_HINGE;
     if (r->kind == MLR_LIMITS_HINGE) {
         const double span = r->hi - r->lo;
         b.w_hi = lim->soft * span, b.w_lo = fmin(lim->rev_soft, 0.5 * span);
         if (b.w_hi + b.w_lo > span)
             b.w_hi = span - b.w_lo;
         b.mid = 0.5 * (r->hi + r->lo) + PI; /* middle of the excluded arc */
+        /* the angles limit_joint leaves as they are: [lo, hi] (hard), else
+           [lo + w_lo, hi - w_hi] (below both soft zones) */
+        const double lo = b.hard ? r->lo : r->lo + b.w_lo, hi = b.hard ? r->hi : r->hi - b.w_hi;
+        b.h_fast = hi > lo;
+        b.hc_x = cos(0.5 * (hi + lo)), b.hc_y = sin(0.5 * (hi + lo)),
+        b.h_cos = cos(0.5 * (hi - lo));
     } else if (r->kind == MLR_LIMITS_SWING_TWIST) {
         const double wide = r->widen ? fmax(1.0, fabs(alpha)) : 1.0;
         b.smax = fmin(PI, r->swing * wide), b.tmax = fmin(PI, r->twist * wide);
         b.ws = lim->soft * b.smax, b.wt = lim->soft * b.tmax;
         b.fast = fast_bound(lim, g, alpha);
+        const double hs = fmax(0.0, 0.5 * (b.smax - b.ws)), ht = fmax(0.0, 0.5 * (b.tmax - b.wt));
+        b.sk_c = cos(hs), b.sk_s = sin(hs), b.tk_c = cos(ht), b.tk_s = sin(ht);
     }
     return b;
 }
@@ -817,6 +851,12 @@ static joint_bounds bounds_of(const mlr_limits *lim, const mlr_limits_joint *g, 
    below anything a body shows. */
 #define HARD_INSIDE 1e-9
 
+/* Limit one unit quaternion of joint g; returns 1 when changed. prev: for a hinge in a run of
+ * frames, the angle read at the frame before (NAN for none; updated). The angle is read in
+ * [m - 2 pi, m), m the middle of the excluded arc; outside [lo, hi] and with a frame before,
+ * in the branch nearest that frame's (unwrapped in time), so a trajectory that crosses the
+ * middle of the excluded arc stays on its side instead of snapping to the other bound. A swing-twist joint's
+ * twist is unwrapped the same way (it would snap from +twist to -twist at a half turn). */
 static int limit_joint(const mlr_limits_joint *g, const joint_bounds *b, mlr_quat *q,
                        prev_angle *prev)
 {
@@ -825,18 +865,23 @@ static int limit_joint(const mlr_limits_joint *g, const joint_bounds *b, mlr_qua
     if (r->kind == MLR_LIMITS_HINGE) {
         const double w_hi = b->w_hi, w_lo = b->w_lo;
         const mlr_vec3 s = qrot(*q, g->bone_out);
-        double phi = hinge_phi(g->axis, g->bone_in, s);
-        const double mid = b->mid; /* middle of the excluded arc */
-        if (phi >= mid)
-            phi -= 2.0 * PI;
-        else if (phi < mid - 2.0 * PI)
-            phi += 2.0 * PI;
+        double y, x;
+        hinge_pair(g->axis, g->bone_in, s, &y, &x);
+        if (b->h_fast && in_arc(y, x, b->hc_x, b->hc_y, b->h_cos)) { /* left as it is */
+            if (prev)
+                prev->pending = 2, prev->rr = (mlr_quat){0, y, x, 0};
+            return 0;
+        }
+        double phi = hinge_angle(y, x, b->mid);
         /* outside the range, on the side the frame before was on (no drift inside it), unless
            the step from there is a jump (over a quarter turn: a glitch frame, a T-pose) */
-        if (prev && isfinite(prev->v) && (phi < r->lo || phi > r->hi))
-            phi = unwrap_near(phi, prev->v);
+        if (prev && (phi < r->lo || phi > r->hi)) {
+            const double pv = prev_value(prev, b);
+            if (isfinite(pv))
+                phi = unwrap_near(phi, pv);
+        }
         if (prev)
-            prev->v = phi;
+            prev->v = phi, prev->pending = 0;
         double phi2 = phi;
         if (b->hard) /* just inside the bound it passed, so that rounding keeps it inside */
             phi2 = phi > r->hi   ? r->hi - HARD_INSIDE * (r->hi - r->lo)
@@ -855,19 +900,32 @@ static int limit_joint(const mlr_limits_joint *g, const joint_bounds *b, mlr_qua
         if (rr.w < 0)
             rr = (mlr_quat){-rr.w, -rr.x, -rr.y, -rr.z};
         const double bl = b->bl;
-        if (rr.x * rr.x + rr.y * rr.y + rr.z * rr.z < b->fast) { /* well inside: unchanged */
+        const double vv = rr.x * rr.x + rr.y * rr.y + rr.z * rr.z;
+        if (vv < b->fast) { /* well inside: unchanged */
             if (prev && bl > 0)
                 prev->pending = 1, prev->rr = rr;
             return 0;
         }
         if (bl > 0) {
             const mlr_vec3 t = b->t;
+            /* swing and twist below their knee points, decided without the atan2s: the twist
+               2 atan2(|p|, w), p = v.t, and the swing 2 atan2(|v - p t|, |(w, p)|) (the
+               closed forms of swing_twist's) */
+            const double pp = rr.x * t.x + rr.y * t.y + rr.z * t.z;
+            if (below_half(fabs(pp), rr.w, b->tk_c, b->tk_s)) {
+                const mlr_vec3 vp = {rr.x - pp * t.x, rr.y - pp * t.y, rr.z - pp * t.z};
+                if (below_half(norm3(vp), sqrt(rr.w * rr.w + pp * pp), b->sk_c, b->sk_s)) {
+                    if (prev)
+                        prev->pending = 1, prev->rr = rr;
+                    return 0;
+                }
+            }
             double sw, tw;
             mlr_quat sq;
             swing_twist(rr, t, &sw, &tw, &sq);
             if (prev) { /* beyond its bound, the twist unwrapped in time as a hinge's angle */
                 if (fabs(tw) > tmax) {
-                    const double pv = prev_value(prev, t);
+                    const double pv = prev_value(prev, b);
                     if (isfinite(pv))
                         tw = unwrap_near(tw, pv);
                 }
@@ -881,7 +939,10 @@ static int limit_joint(const mlr_limits_joint *g, const joint_bounds *b, mlr_qua
             const mlr_quat s2 = sw2 == sw ? sq : with_angle(sq, sw2);
             *q = qmul(g->centre, qmul(s2, axis_angle(t, tw2)));
         } else {
-            const double ang = 2.0 * atan2(sqrt(rr.x * rr.x + rr.y * rr.y + rr.z * rr.z), rr.w);
+            const double vs = sqrt(vv);
+            if (below_half(vs, rr.w, b->sk_c, b->sk_s)) /* the whole angle below the knee */
+                return 0;
+            const double ang = 2.0 * atan2(vs, rr.w);
             if (!(ang > smax - ws))
                 return 0;
             *q = qmul(g->centre, with_angle(rr, mlr_limits_soft(ang, smax, ws)));
@@ -900,7 +961,7 @@ void mlr_limits_apply_frame(const mlr_limits *lim, mlr_quat *q, const double *al
     for (size_t j = 0; j < lim->n_joints; j++) {
         const double a = alpha ? alpha[stride * j] : 1.0;
         const mlr_limits_joint *g = &lim->joints[j];
-        const joint_bounds b = bounds_of(lim, g, a);
+        const joint_bounds b = bounds_of(lim, g, a, 0);
         if (limit_joint(g, &b, &q[j], NULL) && counts)
             counts[j]++;
     }
@@ -941,8 +1002,7 @@ void mlr_limits_apply_kind_masked(const mlr_limits *lim, size_t n_frames, mlr_qu
             const double a = aj ? aj[stride * j0] : 1.0;
             js[m] = j0;
             prev[m] = (prev_angle){NAN, 0, {1, 0, 0, 0}};
-            b[m] = bounds_of(lim, lj, a);
-            b[m].hard = hard && kind == MLR_LIMITS_HINGE;
+            b[m] = bounds_of(lim, lj, a, hard);
             m++;
         }
         for (size_t f = 0; f < n_frames; f++)
