@@ -2,6 +2,7 @@
  * (mlr_limits.h). The human table and the anatomical classes are in limits_human.c. */
 #include "limits_internal.h"
 
+#include <float.h>
 #include <string.h>
 
 #include "mlr_internal.h"
@@ -122,6 +123,47 @@ static double top_eigen(const double *m, mlr_vec3 *e)
     return lam;
 }
 
+/* Are the squared norms of the m <= 64 quaternions at p (4 doubles each) all finite and
+ * nonzero? Branch-free, vectorized. */
+MLR_CLONES_AVX2
+static int quat_block_ok(const double *p, size_t m)
+{
+    double n2[64];
+    for (size_t i = 0; i < m; i++) {
+        const double *e = p + 4 * i;
+        n2[i] = e[0] * e[0] + e[1] * e[1] + e[2] * e[2] + e[3] * e[3];
+    }
+    long ok = 1;
+    for (size_t i = 0; i < m; i++)
+        ok &= (n2[i] > 0.0) & (n2[i] <= DBL_MAX);
+    return ok != 0;
+}
+
+/* The index of the first of the n quaternions (4 doubles each) whose squared norm is not
+ * finite or is zero, or n when there is none. */
+static size_t first_bad_quat(const double *q, size_t n)
+{
+    for (size_t i0 = 0; i0 < n; i0 += 64) {
+        const size_t m = n - i0 < 64 ? n - i0 : 64;
+        const double *p = q + 4 * i0;
+        if (quat_block_ok(p, m))
+            continue;
+        for (size_t i = 0; i < m; i++) {
+            const double *e = p + 4 * i;
+            const double n2 = e[0] * e[0] + e[1] * e[1] + e[2] * e[2] + e[3] * e[3];
+            if (!(n2 > 0.0 && n2 <= DBL_MAX))
+                return i0 + i;
+        }
+    }
+    return n;
+}
+
+/* Is the squared norm of quaternion q (4 doubles) finite (else zero)? For the messages. */
+static int quat_finite(const double *q)
+{
+    return isfinite(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+}
+
 /* ---------------------------------------------------------------------------------------- */
 /* Create                                                                                   */
 
@@ -139,14 +181,11 @@ static mlr_status check_clips(const mlr_rig *rig, const mlr_limits_clip *clips, 
         size_t nq;
         if (mlr_mul_size(c->n_frames, J, &nq) != MLR_OK || nq > SIZE_MAX / 4)
             return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "limits: clip %zu too large", k);
-        for (size_t i = 0; i < nq; i++) {
-            const double *q = c->rot + 4 * i;
-            const double n2 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3];
-            if (!isfinite(n2) || !(n2 > 0))
-                return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                    "limits: clip %zu rot[%zu][%zu] is %s", k, i / J, i % J,
-                                    isfinite(n2) ? "zero" : "not finite");
-        }
+        const size_t i = first_bad_quat(c->rot, nq);
+        if (i < nq)
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "limits: clip %zu rot[%zu][%zu] is %s", k, i / J, i % J,
+                                quat_finite(c->rot + 4 * i) ? "zero" : "not finite");
         if (c->trans && P > 0)
             for (size_t i = 0; i < c->n_frames * P * 3; i++)
                 if (!isfinite(c->trans[i]))
@@ -219,6 +258,7 @@ typedef struct acc {
     int need_m;   /* hinge candidate: moments of the logs, hinge angle extremes */
     int need_ms;  /* named hinge candidate: moments of the swings */
     int need_log; /* the log of the centred rotation (the moments) */
+    int has_out;  /* |bone_out| > 0 */
 } acc;
 
 /* Is atan2(y1, x1) < atan2(y2, x2)? By the half planes and the cross product where that
@@ -377,6 +417,7 @@ static void measure_extents(const learner *L)
             logs[n_logs++] = (int)j;
         const double bl = norm3(jt[j].bone_out);
         c->t = bl > 0 ? scale3(jt[j].bone_out, 1.0 / bl) : (mlr_vec3){0, 0, 0};
+        c->has_out = bl > 0;
     }
     for (size_t k = 0; k < n_clips; k++)
         for (size_t f = 0; f < clips[k].n_frames; f++, n_seen++) {
@@ -400,7 +441,7 @@ static void measure_extents(const learner *L)
                         c->hi_y = y, c->hi_x = x;
                 }
                 const double vv = r.x * r.x + r.y * r.y + r.z * r.z;
-                if (!(c->t.x != 0 || c->t.y != 0 || c->t.z != 0)) { /* no bone out */
+                if (!c->has_out) {
                     const double vs = sqrt(vv); /* the whole angle 2 atan2(|v|, w) of r */
                     if (wider(vs, r.w, c->an_s, c->an_c))
                         c->an_s = vs, c->an_c = r.w;
@@ -857,8 +898,8 @@ static joint_bounds bounds_of(const mlr_limits *lim, const mlr_limits_joint *g, 
  * in the branch nearest that frame's (unwrapped in time), so a trajectory that crosses the
  * middle of the excluded arc stays on its side instead of snapping to the other bound. A swing-twist joint's
  * twist is unwrapped the same way (it would snap from +twist to -twist at a half turn). */
-static int limit_joint(const mlr_limits_joint *g, const joint_bounds *b, mlr_quat *q,
-                       prev_angle *prev)
+static inline int limit_joint(const mlr_limits_joint *g, const joint_bounds *b, mlr_quat *q,
+                              prev_angle *prev)
 {
     const mlr_limits_range *r = &g->range;
     const mlr_quat q0 = *q;
@@ -1042,19 +1083,16 @@ mlr_status mlr_limits_apply(const mlr_limits *lim, size_t n_frames, const double
                             "limits: counts must have J = %zu values, got %zu", J, n_counts);
     if (counts)
         memset(counts, 0, J * sizeof *counts);
-    for (size_t f = 0; f < n_frames; f++)
-        for (size_t j = 0; j < J; j++) {
-            const double *p = rot_in + 4 * (J * f + j);
-            const double n2 = p[0] * p[0] + p[1] * p[1] + p[2] * p[2] + p[3] * p[3];
-            if (!isfinite(n2) || !(n2 > 0))
-                return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                    "limits: rot_in[%zu][%zu] is %s", f, j,
-                                    isfinite(n2) ? "zero" : "not finite");
-        }
-    if (rot_out != rot_in)
-        memmove(rot_out, rot_in, 4 * J * n_frames * sizeof(double));
+    const size_t nq = J * n_frames, bad = first_bad_quat(rot_in, nq);
+    if (bad < nq)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "limits: rot_in[%zu][%zu] is %s",
+                            bad / J, bad % J,
+                            quat_finite(rot_in + 4 * bad) ? "zero" : "not finite");
     mlr_quat *q = (mlr_quat *)rot_out;
-    (void)mlr_quat_normalize_array(q, J * n_frames, q, NULL);
+    const int apart = rot_out + 4 * nq <= rot_in || rot_in + 4 * nq <= rot_out;
+    if (rot_out != rot_in && !apart) /* overlapping arrays: in place */
+        memmove(rot_out, rot_in, 4 * nq * sizeof(double));
+    (void)mlr_quat_normalize_array(apart ? (const mlr_quat *)rot_in : q, nq, q, NULL);
     /* joint by joint, so that hinge angles are unwrapped along the frames */
     for (int kind = MLR_LIMITS_HINGE; kind <= MLR_LIMITS_SWING_TWIST; kind++)
         mlr_limits_apply_kind(lim, n_frames, q, alpha, n_alpha, counts, kind);
