@@ -257,7 +257,6 @@ typedef struct acc {
     int need_x;   /* pass 1: the axis sum (|bone_in| |bone_out| > 0: the axis can be learned) */
     int need_m;   /* hinge candidate: moments of the logs, hinge angle extremes */
     int need_ms;  /* named hinge candidate: moments of the swings */
-    int need_log; /* the log of the centred rotation (the moments) */
     int has_out;  /* |bone_out| > 0 */
 } acc;
 
@@ -291,10 +290,6 @@ typedef struct learner {
     acc *ac;
     int32_t *main_child;
     int *is_hinge, *cls;
-    mlr_quat *qn; /* one frame's centred rotations of the joints in logs */
-    mlr_vec3 *rv; /* ... and their logs */
-    int *logs;    /* the joints whose logs are taken (need_log), in order */
-    size_t n_logs;
 } learner;
 
 /* Bones: offsets, or the mean translation of a trans joint over the clips; each joint's main
@@ -343,7 +338,41 @@ static void measure_bones(const learner *L)
     }
 }
 
-/* Pass 1: centres (sign-aligned sums) and hinge axes (sum of a x q b). */
+/* The frames of a block of learn_centres and measure_extents. */
+#define EXT_FB 64
+
+/* The unit quaternions q (in qw .. qz) of the m <= EXT_FB quaternions p + stride i (doubles) of
+ * a joint and, unless a is NULL, a x q b (in xs: x, y, z by blocks of EXT_FB), as learn_centres
+ * takes them (the same operations as qrot and cross3: the same bits). Vectorized. */
+MLR_CLONES_AVX2
+static void centres_block(const double *p, size_t stride, size_t m, const mlr_vec3 *a,
+                          const mlr_vec3 *b, double *qw, double *qx, double *qy, double *qz,
+                          double *xs)
+{
+    for (size_t i = 0; i < m; i++) {
+        const double *e = p + stride * i;
+        const double n = sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2] + e[3] * e[3]);
+        qw[i] = e[0] / n, qx[i] = e[1] / n, qy[i] = e[2] / n, qz[i] = e[3] / n;
+    }
+    if (!a)
+        return;
+    const double vx = b->x, vy = b->y, vz = b->z, ax = a->x, ay = a->y, az = a->z;
+    for (size_t i = 0; i < m; i++) {
+        const double w = qw[i], ux = qx[i], uy = qy[i], uz = qz[i];
+        const double tx = 2.0 * (uy * vz - uz * vy);
+        const double ty = 2.0 * (uz * vx - ux * vz);
+        const double tz = 2.0 * (ux * vy - uy * vx);
+        const double ox = vx + w * tx + (uy * tz - uz * ty);
+        const double oy = vy + w * ty + (uz * tx - ux * tz);
+        const double oz = vz + w * tz + (ux * ty - uy * tx);
+        xs[i] = ay * oz - az * oy;
+        xs[EXT_FB + i] = az * ox - ax * oz;
+        xs[2 * EXT_FB + i] = ax * oy - ay * ox;
+    }
+}
+
+/* Pass 1: centres (sign-aligned sums) and hinge axes (sum of a x q b), by blocks of EXT_FB
+   frames, joint by joint within them. */
 static void learn_centres(const learner *L)
 {
     const mlr_rig *rig = L->rig;
@@ -351,25 +380,33 @@ static void learn_centres(const learner *L)
     const size_t n_clips = L->n_clips, J = rig->n_joints;
     mlr_limits_joint *jt = L->jt;
     acc *ac = L->ac;
+    double qw[EXT_FB], qx[EXT_FB], qy[EXT_FB], qz[EXT_FB], xs[3 * EXT_FB];
     for (size_t j = 0; j < J; j++)
         ac[j].need_x = norm3(jt[j].bone_in) * norm3(jt[j].bone_out) > 0;
     for (size_t k = 0; k < n_clips; k++)
-        for (size_t f = 0; f < clips[k].n_frames; f++)
+        for (size_t f0 = 0; f0 < clips[k].n_frames; f0 += EXT_FB) {
+            const size_t nf = clips[k].n_frames - f0 < EXT_FB ? clips[k].n_frames - f0 : EXT_FB;
             for (size_t j = 0; j < J; j++) {
-                const double *p = clips[k].rot + 4 * (f * J + j);
-                const double n = sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2] + p[3] * p[3]);
-                mlr_quat q = {p[0] / n, p[1] / n, p[2] / n, p[3] / n};
                 acc *c = &ac[j];
-                const double d =
-                    c->qsum.w * q.w + c->qsum.x * q.x + c->qsum.y * q.y + c->qsum.z * q.z;
-                const double sg = d < 0 ? -1.0 : 1.0;
-                c->qsum.w += sg * q.w, c->qsum.x += sg * q.x, c->qsum.y += sg * q.y,
-                    c->qsum.z += sg * q.z;
-                if (!c->need_x) /* no axis without both bones: the sum is not read */
+                /* no axis without both bones: the axis sum is not read */
+                centres_block(clips[k].rot + 4 * (f0 * J + j), 4 * J, nf,
+                              c->need_x ? &jt[j].bone_in : NULL, &jt[j].bone_out, qw, qx, qy, qz,
+                              xs);
+                mlr_quat qs = c->qsum;
+                for (size_t i = 0; i < nf; i++) {
+                    const double d = qs.w * qw[i] + qs.x * qx[i] + qs.y * qy[i] + qs.z * qz[i];
+                    const double sg = d < 0 ? -1.0 : 1.0;
+                    qs.w += sg * qw[i], qs.x += sg * qx[i], qs.y += sg * qy[i], qs.z += sg * qz[i];
+                }
+                c->qsum = qs;
+                if (!c->need_x)
                     continue;
-                const mlr_vec3 x = cross3(jt[j].bone_in, qrot(q, jt[j].bone_out));
-                c->xsum.x += x.x, c->xsum.y += x.y, c->xsum.z += x.z;
+                mlr_vec3 xsum = c->xsum;
+                for (size_t i = 0; i < nf; i++)
+                    xsum.x += xs[i], xsum.y += xs[EXT_FB + i], xsum.z += xs[2 * EXT_FB + i];
+                c->xsum = xsum;
             }
+        }
     for (size_t j = 0; j < J; j++) {
         mlr_quat s = ac[j].qsum;
         const double n = sqrt(s.w * s.w + s.x * s.x + s.y * s.y + s.z * s.z);
@@ -388,10 +425,51 @@ static void learn_centres(const learner *L)
     }
 }
 
-/* Pass 2: moments of the centred rotation vectors, hinge angle, swing and twist maxima (a
-   frame's logs in one array call). The hinge angle extremes and the moments are taken for
-   find_hinges' candidates only (named hinges, or every joint with an axis when the rig has no
-   names): no other joint can be a hinge, and the others' stats[0..1] are 0. */
+/* The centred rotations r = conj(centre) q / |q| (cc = conj(centre); r.w >= 0) of the m <= EXT_FB
+ * quaternions p + stride i (doubles) of a joint, as measure_extents' other joints take them
+ * (the same operations: the same bits), reduced to the pairs of their maxima: with a bone out
+ * (unit t), the swing's (|v - p t|, |(w, p)|) in s1, c1 and the twist's (|p|, w) in s2, c2
+ * (p = v.t); without one (t NULL), the whole angle's (|v|, w) in s1, c1. Vectorized. */
+MLR_CLONES_AVX2
+static void extents_block(const double *p, size_t stride, size_t m, mlr_quat cc, const mlr_vec3 *t,
+                          double *s1, double *c1, double *s2, double *c2)
+{
+    const double aw = cc.w, ax = cc.x, ay = cc.y, az = cc.z;
+    double rw[EXT_FB], rx[EXT_FB], ry[EXT_FB], rz[EXT_FB];
+    for (size_t i = 0; i < m; i++) {
+        const double *e = p + stride * i;
+        const double n = sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2] + e[3] * e[3]);
+        const double bw = e[0] / n, bx = e[1] / n, by = e[2] / n, bz = e[3] / n;
+        const double w = aw * bw - ax * bx - ay * by - az * bz;
+        const double x = aw * bx + ax * bw + ay * bz - az * by;
+        const double y = aw * by - ax * bz + ay * bw + az * bx;
+        const double z = aw * bz + ax * by - ay * bx + az * bw;
+        const int neg = w < 0;
+        rw[i] = neg ? -w : w, rx[i] = neg ? -x : x, ry[i] = neg ? -y : y, rz[i] = neg ? -z : z;
+    }
+    if (!t) {
+        for (size_t i = 0; i < m; i++) {
+            s1[i] = sqrt(rx[i] * rx[i] + ry[i] * ry[i] + rz[i] * rz[i]);
+            c1[i] = rw[i];
+        }
+        return;
+    }
+    const double tx = t->x, ty = t->y, tz = t->z;
+    for (size_t i = 0; i < m; i++) {
+        const double pp = rx[i] * tx + ry[i] * ty + rz[i] * tz;
+        const double vx = rx[i] - pp * tx, vy = ry[i] - pp * ty, vz = rz[i] - pp * tz;
+        s1[i] = sqrt(vx * vx + vy * vy + vz * vz);
+        c1[i] = sqrt(rw[i] * rw[i] + pp * pp);
+        s2[i] = fabs(pp);
+        c2[i] = rw[i];
+    }
+}
+
+/* Pass 2: moments of the centred rotation vectors, hinge angle, swing and twist maxima, by
+   blocks of EXT_FB frames, joint by joint within them. The hinge angle extremes and the
+   moments are taken for find_hinges' candidates only (named hinges, or every joint with an
+   axis when the rig has no names): no other joint can be a hinge, and the others'
+   stats[0..1] are 0; the other joints' maxima are reduced by extents_block. */
 static void measure_extents(const learner *L)
 {
     const mlr_rig *rig = L->rig;
@@ -399,10 +477,10 @@ static void measure_extents(const learner *L)
     const size_t n_clips = L->n_clips, J = rig->n_joints;
     mlr_limits_joint *jt = L->jt;
     acc *ac = L->ac;
-    mlr_quat *lq = L->qn;
-    mlr_vec3 *rv = L->rv;
-    int *logs = L->logs;
-    size_t n_logs = 0, n_seen = 0;
+    mlr_quat lq[EXT_FB];
+    mlr_vec3 rv[EXT_FB];
+    double s1[EXT_FB], c1[EXT_FB], s2[EXT_FB], c2[EXT_FB];
+    size_t n_seen = 0;
     for (size_t j = 0; j < J; j++) {
         acc *c = &ac[j];
         c->sw_s = c->tw_s = c->an_s = 0.0, c->sw_c = c->tw_c = c->an_c = 1.0;
@@ -412,76 +490,88 @@ static void measure_extents(const learner *L)
         const int cand = j > 0 && norm3(jt[j].axis) > 0 && (!rig->names || named);
         c->need_m = cand;
         c->need_ms = cand && named;
-        c->need_log = cand;
-        if (cand)
-            logs[n_logs++] = (int)j;
         const double bl = norm3(jt[j].bone_out);
         c->t = bl > 0 ? scale3(jt[j].bone_out, 1.0 / bl) : (mlr_vec3){0, 0, 0};
         c->has_out = bl > 0;
     }
     for (size_t k = 0; k < n_clips; k++)
-        for (size_t f = 0; f < clips[k].n_frames; f++, n_seen++) {
-            size_t nl = 0;
+        for (size_t f0 = 0; f0 < clips[k].n_frames; f0 += EXT_FB) {
+            const size_t nf = clips[k].n_frames - f0 < EXT_FB ? clips[k].n_frames - f0 : EXT_FB;
             for (size_t j = 0; j < J; j++) {
-                const double *p = clips[k].rot + 4 * (f * J + j);
-                const double n = sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2] + p[3] * p[3]);
-                const mlr_quat q = {p[0] / n, p[1] / n, p[2] / n, p[3] / n};
-                mlr_quat r = qmul(qconj(jt[j].centre), q);
-                if (r.w < 0)
-                    r = (mlr_quat){-r.w, -r.x, -r.y, -r.z};
                 mlr_limits_joint *g = &jt[j];
                 acc *c = &ac[j];
-                if (c->need_m) { /* hinge angle extremes, the atan2 at the end */
-                    lq[nl++] = r;
-                    double y, x;
-                    hinge_pair(g->axis, g->bone_in, qrot(q, g->bone_out), &y, &x);
-                    if (n_seen == 0 || angle_less(y, x, c->lo_y, c->lo_x))
-                        c->lo_y = y, c->lo_x = x;
-                    if (n_seen == 0 || angle_less(c->hi_y, c->hi_x, y, x))
-                        c->hi_y = y, c->hi_x = x;
-                }
-                const double vv = r.x * r.x + r.y * r.y + r.z * r.z;
-                if (!c->has_out) {
-                    const double vs = sqrt(vv); /* the whole angle 2 atan2(|v|, w) of r */
-                    if (wider(vs, r.w, c->an_s, c->an_c))
-                        c->an_s = vs, c->an_c = r.w;
+                const double *p0 = clips[k].rot + 4 * (f0 * J + j);
+                if (!c->need_m) {
+                    extents_block(p0, 4 * J, nf, qconj(g->centre), c->has_out ? &c->t : NULL, s1,
+                                  c1, s2, c2);
+                    if (!c->has_out) {
+                        for (size_t i = 0; i < nf; i++)
+                            if (wider(s1[i], c1[i], c->an_s, c->an_c))
+                                c->an_s = s1[i], c->an_c = c1[i];
+                        continue;
+                    }
+                    for (size_t i = 0; i < nf; i++) {
+                        if (wider(s1[i], c1[i], c->sw_s, c->sw_c))
+                            c->sw_s = s1[i], c->sw_c = c1[i];
+                        if (wider(s2[i], c2[i], c->tw_s, c->tw_c))
+                            c->tw_s = s2[i], c->tw_c = c2[i];
+                    }
                     continue;
                 }
-                /* swing_twist's angles without their atan2 (r.w >= 0): the twist is
-                   2 atan2(|p|, w), p = v.t; the swing s = r conj(twist) has the vector part
-                   (w v_perp - p v x t) / |(w, p)|, of norm |v_perp| = |v - p t|, and the real
-                   part |(w, p)| */
-                const mlr_vec3 t = c->t;
-                const double pp = r.x * t.x + r.y * t.y + r.z * t.z;
-                const double tn = sqrt(r.w * r.w + pp * pp);
-                const mlr_vec3 vp = {r.x - pp * t.x, r.y - pp * t.y, r.z - pp * t.z};
-                const double ss = norm3(vp);
-                if (wider(ss, tn, c->sw_s, c->sw_c))
-                    c->sw_s = ss, c->sw_c = tn;
-                if (wider(fabs(pp), r.w, c->tw_s, c->tw_c))
-                    c->tw_s = fabs(pp), c->tw_c = r.w;
-                if (c->need_ms) {
-                    mlr_quat tw = {1, 0, 0, 0};
-                    if (tn > 1e-300)
-                        tw = (mlr_quat){r.w / tn, pp * t.x / tn, pp * t.y / tn, pp * t.z / tn};
-                    const mlr_quat sq = qmul(r, qconj(tw));
-                    const double sv[3] = {sq.w < 0 ? -sq.x : sq.x, sq.w < 0 ? -sq.y : sq.y,
-                                          sq.w < 0 ? -sq.z : sq.z};
+                for (size_t i = 0; i < nf; i++) { /* a hinge candidate */
+                    const double *p = p0 + 4 * J * i;
+                    const double n = sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2] + p[3] * p[3]);
+                    const mlr_quat q = {p[0] / n, p[1] / n, p[2] / n, p[3] / n};
+                    mlr_quat r = qmul(qconj(g->centre), q);
+                    if (r.w < 0)
+                        r = (mlr_quat){-r.w, -r.x, -r.y, -r.z};
+                    lq[i] = r;
+                    double y, x; /* hinge angle extremes, the atan2 at the end */
+                    hinge_pair(g->axis, g->bone_in, qrot(q, g->bone_out), &y, &x);
+                    if (n_seen + i == 0 || angle_less(y, x, c->lo_y, c->lo_x))
+                        c->lo_y = y, c->lo_x = x;
+                    if (n_seen + i == 0 || angle_less(c->hi_y, c->hi_x, y, x))
+                        c->hi_y = y, c->hi_x = x;
+                    if (!c->has_out) {
+                        const double vs = sqrt(r.x * r.x + r.y * r.y + r.z * r.z);
+                        if (wider(vs, r.w, c->an_s, c->an_c))
+                            c->an_s = vs, c->an_c = r.w;
+                        continue;
+                    }
+                    /* swing_twist's angles without their atan2 (r.w >= 0): the twist is
+                       2 atan2(|p|, w), p = v.t; the swing s = r conj(twist) has the vector part
+                       (w v_perp - p v x t) / |(w, p)|, of norm |v_perp| = |v - p t|, and the
+                       real part |(w, p)| */
+                    const mlr_vec3 t = c->t;
+                    const double pp = r.x * t.x + r.y * t.y + r.z * t.z;
+                    const double tn = sqrt(r.w * r.w + pp * pp);
+                    const mlr_vec3 vp = {r.x - pp * t.x, r.y - pp * t.y, r.z - pp * t.z};
+                    const double ss = norm3(vp);
+                    if (wider(ss, tn, c->sw_s, c->sw_c))
+                        c->sw_s = ss, c->sw_c = tn;
+                    if (wider(fabs(pp), r.w, c->tw_s, c->tw_c))
+                        c->tw_s = fabs(pp), c->tw_c = r.w;
+                    if (c->need_ms) {
+                        mlr_quat tw = {1, 0, 0, 0};
+                        if (tn > 1e-300)
+                            tw = (mlr_quat){r.w / tn, pp * t.x / tn, pp * t.y / tn, pp * t.z / tn};
+                        const mlr_quat sq = qmul(r, qconj(tw));
+                        const double sv[3] = {sq.w < 0 ? -sq.x : sq.x, sq.w < 0 ? -sq.y : sq.y,
+                                              sq.w < 0 ? -sq.z : sq.z};
+                        for (int a3 = 0; a3 < 3; a3++)
+                            for (int b3 = a3; b3 < 3; b3++)
+                                c->ms[3 * a3 + b3] += sv[a3] * sv[b3];
+                    }
+                }
+                (void)mlr_quat_log_array(lq, nf, rv, NULL);
+                for (size_t i = 0; i < nf; i++) {
+                    const double v3[3] = {rv[i].x, rv[i].y, rv[i].z};
                     for (int a3 = 0; a3 < 3; a3++)
                         for (int b3 = a3; b3 < 3; b3++)
-                            c->ms[3 * a3 + b3] += sv[a3] * sv[b3];
+                            c->m[3 * a3 + b3] += v3[a3] * v3[b3];
                 }
             }
-            if (nl == 0)
-                continue;
-            (void)mlr_quat_log_array(lq, nl, rv, NULL);
-            for (size_t i = 0; i < nl; i++) {
-                double *m = ac[logs[i]].m;
-                const double v3[3] = {rv[i].x, rv[i].y, rv[i].z};
-                for (int a3 = 0; a3 < 3; a3++)
-                    for (int b3 = a3; b3 < 3; b3++)
-                        m[3 * a3 + b3] += v3[a3] * v3[b3];
-            }
+            n_seen += nf;
         }
     for (size_t j = 0; j < J; j++) {
         acc *c = &ac[j];
@@ -624,8 +714,7 @@ mlr_status mlr_limits_create(const mlr_rig *rig, const mlr_limits_clip *clips, s
     mlr_allocator_resolve(alloc, &a);
     size_t jbytes, sbytes;
     if (mlr_mul_size(J, sizeof(mlr_limits_joint), &jbytes) != MLR_OK ||
-        mlr_mul_size(J, sizeof(acc) + 4 * sizeof(int32_t) + sizeof(mlr_quat) + sizeof(mlr_vec3),
-                     &sbytes) != MLR_OK)
+        mlr_mul_size(J, sizeof(acc) + 3 * sizeof(int32_t), &sbytes) != MLR_OK)
         return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "limits: too many joints");
     mlr_limits *lim = mlr_alloc(&a, sizeof *lim);
     if (!lim)
@@ -644,12 +733,9 @@ mlr_status mlr_limits_create(const mlr_rig *rig, const mlr_limits_clip *clips, s
     }
     memset(lim->joints, 0, jbytes);
     memset(scratch, 0, sbytes);
-    learner L = {rig, clips, n_clips, lim->joints, scratch, NULL, NULL, NULL, NULL, NULL, NULL, 0};
+    learner L = {rig, clips, n_clips, lim->joints, scratch, NULL, NULL, NULL};
     L.main_child = (int32_t *)(L.ac + J);
     L.is_hinge = (int *)(L.main_child + J), L.cls = L.is_hinge + J;
-    L.logs = L.cls + J;
-    L.rv = (mlr_vec3 *)(void *)(L.logs + J);
-    L.qn = (mlr_quat *)(void *)(L.rv + J);
 
     measure_bones(&L);
     learn_centres(&L);
@@ -789,6 +875,7 @@ typedef struct joint_bounds {
        arc is not empty); the halves of the swing's and the twist's knee points as (cos, sin) */
     double hc_x, hc_y, h_cos, sk_c, sk_s, tk_c, tk_s;
     int h_fast;
+    mlr_quat cc; /* conj(centre) */
 } joint_bounds;
 
 /* The fast paths' margin: an angle decided without its atan2 is this far (radians) inside its
@@ -818,8 +905,9 @@ static int below_half(double s, double c, double hc, double hs)
  * (rr.x, rr.y). */
 typedef struct prev_angle {
     double v;
-    int pending;
+    int pending; /* 3: the twist of conj(centre) *qp, qp a quaternion left as it was */
     mlr_quat rr;
+    const mlr_quat *qp;
 } prev_angle;
 
 /* The twist of unit rr (w >= 0) about unit t, as swing_twist computes it. */
@@ -845,6 +933,12 @@ static double hinge_angle(double y, double x, double mid)
 /* The value of *pv, reading a pending angle. */
 static double prev_value(prev_angle *pv, const joint_bounds *b)
 {
+    if (pv->pending == 3) {
+        pv->rr = qmul(b->cc, *pv->qp);
+        if (pv->rr.w < 0)
+            pv->rr = (mlr_quat){-pv->rr.w, -pv->rr.x, -pv->rr.y, -pv->rr.z};
+        pv->pending = 1;
+    }
     if (pv->pending == 1)
         pv->v = twist_of(pv->rr, b->t);
     else if (pv->pending == 2)
@@ -864,6 +958,7 @@ static joint_bounds bounds_of(const mlr_limits *lim, const mlr_limits_joint *g, 
     if (b.bl > 0)
         b.t = scale3(g->bone_out, 1.0 / b.bl);
     b.hard = hard && r->kind == MLR_LIMITS_HINGE;
+    b.cc = qconj(g->centre);
     if (r->kind == MLR_LIMITS_HINGE) {
         const double span = r->hi - r->lo;
         b.w_hi = lim->soft * span, b.w_lo = fmin(lim->rev_soft, 0.5 * span);
@@ -937,7 +1032,7 @@ static inline int limit_joint(const mlr_limits_joint *g, const joint_bounds *b, 
         *q = qmul(axis_angle(g->axis, phi2 - phi), *q);
     } else if (r->kind == MLR_LIMITS_SWING_TWIST) {
         const double smax = b->smax, tmax = b->tmax, ws = b->ws, wt = b->wt;
-        mlr_quat rr = qmul(qconj(g->centre), *q);
+        mlr_quat rr = qmul(b->cc, *q);
         if (rr.w < 0)
             rr = (mlr_quat){-rr.w, -rr.x, -rr.y, -rr.z};
         const double bl = b->bl;
@@ -1014,6 +1109,22 @@ void mlr_limits_apply_kind(const mlr_limits *lim, size_t n_frames, mlr_quat *rot
     mlr_limits_apply_kind_masked(lim, n_frames, rot, alpha, n_alpha, counts, kind, NULL, 0);
 }
 
+/* The squared vector part of conj(centre) q (cc = conj(centre)) of the m quaternions q[stride i],
+ * as limit_joint computes it (the same operations: the same bits). Vectorized. */
+MLR_CLONES_AVX2
+static void centred_vv(const mlr_quat *q, size_t stride, size_t m, mlr_quat cc, double *vv)
+{
+    const double aw = cc.w, ax = cc.x, ay = cc.y, az = cc.z;
+    for (size_t i = 0; i < m; i++) {
+        const mlr_quat *p = q + stride * i;
+        const double bw = p->w, bx = p->x, by = p->y, bz = p->z;
+        const double x = aw * bx + ax * bw + ay * bz - az * by;
+        const double y = aw * by - ax * bz + ay * bw + az * bx;
+        const double z = aw * bz + ax * by - ay * bx + az * bw;
+        vv[i] = x * x + y * y + z * z;
+    }
+}
+
 void mlr_limits_apply_kind_masked(const mlr_limits *lim, size_t n_frames, mlr_quat *rot,
                                   const double *alpha, size_t n_alpha, size_t *counts, int kind,
                                   const uint8_t *mask, int hard)
@@ -1021,12 +1132,16 @@ void mlr_limits_apply_kind_masked(const mlr_limits *lim, size_t n_frames, mlr_qu
     const size_t J = lim->n_joints;
     const double *aj = alpha ? (n_alpha == 1 ? alpha : alpha + 1) : NULL;
     const size_t stride = n_alpha == 1 ? 0 : 1;
-    /* each joint along the frames with its own unwrapping state, as if joint by joint; the
-       joints of a block side by side within a frame, so the frames are read in order */
-    enum { BLOCK = 32 };
+    /* each joint along the frames with its own unwrapping state, as if joint by joint; by
+       blocks of FB frames, the joints of a block one after the other within them (so the
+       frames are read in order). A swing-twist joint's rotations well inside its range
+       (limit_joint's first fast path) are found for a block of frames at once (centred_vv),
+       their twist read only if a later frame needs it. */
+    enum { BLOCK = 32, FB = 64 };
     size_t js[BLOCK];
     prev_angle prev[BLOCK];
     joint_bounds b[BLOCK];
+    double vv[FB];
     for (size_t j0 = 0; j0 < J;) {
         size_t m = 0;
         for (; j0 < J && m < BLOCK; j0++) {
@@ -1042,21 +1157,34 @@ void mlr_limits_apply_kind_masked(const mlr_limits *lim, size_t n_frames, mlr_qu
             }
             const double a = aj ? aj[stride * j0] : 1.0;
             js[m] = j0;
-            prev[m] = (prev_angle){NAN, 0, {1, 0, 0, 0}};
+            prev[m] = (prev_angle){NAN, 0, {1, 0, 0, 0}, NULL};
             b[m] = bounds_of(lim, lj, a, hard);
             m++;
         }
-        for (size_t f = 0; f < n_frames; f++)
+        for (size_t f0 = 0; f0 < n_frames; f0 += FB) {
+            const size_t nf = n_frames - f0 < FB ? n_frames - f0 : FB;
             for (size_t i = 0; i < m; i++) {
                 const size_t j = js[i];
-                if (mask && !mask[f * J + j]) { /* not limited here: the unwrapping starts
-                                                   again at the next frame that is */
-                    prev[i] = (prev_angle){NAN, 0, {1, 0, 0, 0}};
-                    continue;
+                const mlr_limits_joint *g = &lim->joints[j];
+                const int pre = kind == MLR_LIMITS_SWING_TWIST && b[i].fast > 0;
+                if (pre)
+                    centred_vv(rot + f0 * J + j, J, nf, b[i].cc, vv);
+                for (size_t f = f0; f < f0 + nf; f++) {
+                    if (mask && !mask[f * J + j]) { /* not limited here: the unwrapping starts
+                                                       again at the next frame that is */
+                        prev[i] = (prev_angle){NAN, 0, {1, 0, 0, 0}, NULL};
+                        continue;
+                    }
+                    if (pre && vv[f - f0] < b[i].fast) { /* well inside: unchanged */
+                        if (b[i].bl > 0)
+                            prev[i].pending = 3, prev[i].qp = &rot[f * J + j];
+                        continue;
+                    }
+                    if (limit_joint(g, &b[i], &rot[f * J + j], &prev[i]) && counts)
+                        counts[j]++;
                 }
-                if (limit_joint(&lim->joints[j], &b[i], &rot[f * J + j], &prev[i]) && counts)
-                    counts[j]++;
             }
+        }
     }
 }
 
