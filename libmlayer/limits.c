@@ -263,7 +263,7 @@ typedef struct acc {
 /* Is atan2(y1, x1) < atan2(y2, x2)? By the half planes and the cross product where that
    decides it beyond rounding, else by the atan2s themselves (so the extreme pair's atan2 is
    the extreme of the atan2s). */
-static int angle_less(double y1, double x1, double y2, double x2)
+static inline int angle_less(double y1, double x1, double y2, double x2)
 {
     if (y1 == y2 && x1 == x2 && signbit(y1) == signbit(y2) && signbit(x1) == signbit(x2))
         return 0; /* the same pair (a static joint's frames) */
@@ -465,6 +465,85 @@ static void extents_block(const double *p, size_t stride, size_t m, mlr_quat cc,
     }
 }
 
+/* c ? a : b by bit masks, so that the compiler keeps both operands computed unconditionally
+ * (GCC otherwise moves a division under a branch, which stops the vectorizer; as quat.c). */
+static inline double select_bits(int c, double a, double b)
+{
+    const uint64_t mask = (uint64_t)0 - (uint64_t)(c != 0);
+    uint64_t ab, bb;
+    memcpy(&ab, &a, sizeof ab);
+    memcpy(&bb, &b, sizeof bb);
+    const uint64_t r = (ab & mask) | (bb & ~mask);
+    double out;
+    memcpy(&out, &r, sizeof out);
+    return out;
+}
+
+/* What measure_extents takes of the m <= EXT_FB quaternions p + stride i (doubles) of hinge
+ * candidate g (unit bone out t): the centred rotations r (r.w >= 0) in lq, the hinge angle's
+ * (y, x) pairs (hinge_pair of q b) in hy, hx, the swing's and the twist's pairs as
+ * extents_block's in s1, c1, s2, c2, and the vector parts of the swings s = r conj(twist)
+ * (s.w >= 0) in sv (x, y, z by blocks of EXT_FB); the same operations as the scalar helpers
+ * (qmul, qrot, hinge_pair, swing_twist's twist): the same bits. Vectorized. */
+MLR_CLONES_AVX2
+static void cand_block(const double *restrict p, size_t stride, size_t m,
+                       const mlr_limits_joint *restrict g, const mlr_vec3 *restrict t,
+                       mlr_quat *restrict lq, double *restrict hy, double *restrict hx,
+                       double *restrict s1, double *restrict c1, double *restrict s2,
+                       double *restrict c2, double *restrict sv)
+{
+    const double aw = g->centre.w, ax = -g->centre.x, ay = -g->centre.y, az = -g->centre.z;
+    const double vx = g->bone_out.x, vy = g->bone_out.y, vz = g->bone_out.z;
+    const mlr_vec3 n = g->axis, a = g->bone_in;
+    const double an = dot3(a, n), tx = t->x, ty = t->y, tz = t->z;
+    for (size_t i = 0; i < m; i++) {
+        const double *e = p + stride * i;
+        const double nq = sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2] + e[3] * e[3]);
+        const double bw = e[0] / nq, bx = e[1] / nq, by = e[2] / nq, bz = e[3] / nq;
+        /* the hinge pair of s = q b */
+        const double qx2 = 2.0 * (by * vz - bz * vy);
+        const double qy2 = 2.0 * (bz * vx - bx * vz);
+        const double qz2 = 2.0 * (bx * vy - by * vx);
+        const double sx = vx + bw * qx2 + (by * qz2 - bz * qy2);
+        const double sy = vy + bw * qy2 + (bz * qx2 - bx * qz2);
+        const double sz = vz + bw * qz2 + (bx * qy2 - by * qx2);
+        const double cx = a.y * sz - a.z * sy, cy = a.z * sx - a.x * sz, cz = a.x * sy - a.y * sx;
+        hy[i] = n.x * cx + n.y * cy + n.z * cz;
+        hx[i] = (a.x * sx + a.y * sy + a.z * sz) - an * (sx * n.x + sy * n.y + sz * n.z);
+        /* r = conj(centre) q, r.w >= 0 */
+        double w = aw * bw - ax * bx - ay * by - az * bz;
+        double x = aw * bx + ax * bw + ay * bz - az * by;
+        double y = aw * by - ax * bz + ay * bw + az * bx;
+        double z = aw * bz + ax * by - ay * bx + az * bw;
+        const int neg = w < 0;
+        w = neg ? -w : w, x = neg ? -x : x, y = neg ? -y : y, z = neg ? -z : z;
+        lq[i].w = w, lq[i].x = x, lq[i].y = y, lq[i].z = z;
+        /* the swing's and the twist's pairs */
+        const double pp = x * tx + y * ty + z * tz;
+        const double tn = sqrt(w * w + pp * pp);
+        const double px = x - pp * tx, py = y - pp * ty, pz = z - pp * tz;
+        s1[i] = sqrt(px * px + py * py + pz * pz);
+        c1[i] = tn;
+        s2[i] = fabs(pp);
+        c2[i] = w;
+        /* s = r conj(tw), tw the unit twist (identity when |(w, p)| <= 1e-300) */
+        const int ok = tn > 1e-300;
+        const double d = select_bits(ok, tn, 1.0);
+        const double tww = select_bits(ok, w / d, 1.0), twx = select_bits(ok, pp * tx / d, 0.0),
+                     twy = select_bits(ok, pp * ty / d, 0.0),
+                     twz = select_bits(ok, pp * tz / d, 0.0);
+        const double cw = tww, cxx = -twx, cyy = -twy, czz = -twz;
+        const double sqw = w * cw - x * cxx - y * cyy - z * czz;
+        const double sqx = w * cxx + x * cw + y * czz - z * cyy;
+        const double sqy = w * cyy - x * czz + y * cw + z * cxx;
+        const double sqz = w * czz + x * cyy - y * cxx + z * cw;
+        const int sneg = sqw < 0;
+        sv[i] = sneg ? -sqx : sqx;
+        sv[EXT_FB + i] = sneg ? -sqy : sqy;
+        sv[2 * EXT_FB + i] = sneg ? -sqz : sqz;
+    }
+}
+
 /* Pass 2: moments of the centred rotation vectors, hinge angle, swing and twist maxima, by
    blocks of EXT_FB frames, joint by joint within them. The hinge angle extremes and the
    moments are taken for find_hinges' candidates only (named hinges, or every joint with an
@@ -479,7 +558,7 @@ static void measure_extents(const learner *L)
     acc *ac = L->ac;
     mlr_quat lq[EXT_FB];
     mlr_vec3 rv[EXT_FB];
-    double s1[EXT_FB], c1[EXT_FB], s2[EXT_FB], c2[EXT_FB];
+    double s1[EXT_FB], c1[EXT_FB], s2[EXT_FB], c2[EXT_FB], hy[EXT_FB], hx[EXT_FB], sv[3 * EXT_FB];
     size_t n_seen = 0;
     for (size_t j = 0; j < J; j++) {
         acc *c = &ac[j];
@@ -518,50 +597,24 @@ static void measure_extents(const learner *L)
                     }
                     continue;
                 }
-                for (size_t i = 0; i < nf; i++) { /* a hinge candidate */
-                    const double *p = p0 + 4 * J * i;
-                    const double n = sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2] + p[3] * p[3]);
-                    const mlr_quat q = {p[0] / n, p[1] / n, p[2] / n, p[3] / n};
-                    mlr_quat r = qmul(qconj(g->centre), q);
-                    if (r.w < 0)
-                        r = (mlr_quat){-r.w, -r.x, -r.y, -r.z};
-                    lq[i] = r;
-                    double y, x; /* hinge angle extremes, the atan2 at the end */
-                    hinge_pair(g->axis, g->bone_in, qrot(q, g->bone_out), &y, &x);
+                /* a hinge candidate (it has both bones, as its axis) */
+                cand_block(p0, 4 * J, nf, g, &c->t, lq, hy, hx, s1, c1, s2, c2, sv);
+                for (size_t i = 0; i < nf; i++) {
+                    const double y = hy[i], x = hx[i];
                     if (n_seen + i == 0 || angle_less(y, x, c->lo_y, c->lo_x))
                         c->lo_y = y, c->lo_x = x;
                     if (n_seen + i == 0 || angle_less(c->hi_y, c->hi_x, y, x))
                         c->hi_y = y, c->hi_x = x;
-                    if (!c->has_out) {
-                        const double vs = sqrt(r.x * r.x + r.y * r.y + r.z * r.z);
-                        if (wider(vs, r.w, c->an_s, c->an_c))
-                            c->an_s = vs, c->an_c = r.w;
-                        continue;
-                    }
-                    /* swing_twist's angles without their atan2 (r.w >= 0): the twist is
-                       2 atan2(|p|, w), p = v.t; the swing s = r conj(twist) has the vector part
-                       (w v_perp - p v x t) / |(w, p)|, of norm |v_perp| = |v - p t|, and the
-                       real part |(w, p)| */
-                    const mlr_vec3 t = c->t;
-                    const double pp = r.x * t.x + r.y * t.y + r.z * t.z;
-                    const double tn = sqrt(r.w * r.w + pp * pp);
-                    const mlr_vec3 vp = {r.x - pp * t.x, r.y - pp * t.y, r.z - pp * t.z};
-                    const double ss = norm3(vp);
-                    if (wider(ss, tn, c->sw_s, c->sw_c))
-                        c->sw_s = ss, c->sw_c = tn;
-                    if (wider(fabs(pp), r.w, c->tw_s, c->tw_c))
-                        c->tw_s = fabs(pp), c->tw_c = r.w;
-                    if (c->need_ms) {
-                        mlr_quat tw = {1, 0, 0, 0};
-                        if (tn > 1e-300)
-                            tw = (mlr_quat){r.w / tn, pp * t.x / tn, pp * t.y / tn, pp * t.z / tn};
-                        const mlr_quat sq = qmul(r, qconj(tw));
-                        const double sv[3] = {sq.w < 0 ? -sq.x : sq.x, sq.w < 0 ? -sq.y : sq.y,
-                                              sq.w < 0 ? -sq.z : sq.z};
-                        for (int a3 = 0; a3 < 3; a3++)
-                            for (int b3 = a3; b3 < 3; b3++)
-                                c->ms[3 * a3 + b3] += sv[a3] * sv[b3];
-                    }
+                    if (wider(s1[i], c1[i], c->sw_s, c->sw_c))
+                        c->sw_s = s1[i], c->sw_c = c1[i];
+                    if (wider(s2[i], c2[i], c->tw_s, c->tw_c))
+                        c->tw_s = s2[i], c->tw_c = c2[i];
+                }
+                for (size_t i = 0; c->need_ms && i < nf; i++) {
+                    const double v3[3] = {sv[i], sv[EXT_FB + i], sv[2 * EXT_FB + i]};
+                    for (int a3 = 0; a3 < 3; a3++)
+                        for (int b3 = a3; b3 < 3; b3++)
+                            c->ms[3 * a3 + b3] += v3[a3] * v3[b3];
                 }
                 (void)mlr_quat_log_array(lq, nf, rv, NULL);
                 for (size_t i = 0; i < nf; i++) {
