@@ -1270,7 +1270,9 @@ mlr_status mlr_limits_apply(const mlr_limits *lim, size_t n_frames, const double
                             bad / J, bad % J,
                             quat_finite(rot_in + 4 * bad) ? "zero" : "not finite");
     mlr_quat *q = (mlr_quat *)rot_out;
-    const int apart = rot_out + 4 * nq <= rot_in || rot_in + 4 * nq <= rot_out;
+    const uintptr_t in_at = (uintptr_t)rot_in, out_at = (uintptr_t)rot_out,
+                    bytes = 4 * nq * sizeof(double);
+    const int apart = out_at + bytes <= in_at || in_at + bytes <= out_at;
     if (rot_out != rot_in && !apart) /* overlapping arrays: in place */
         memmove(rot_out, rot_in, 4 * nq * sizeof(double));
     (void)mlr_quat_normalize_array(apart ? (const mlr_quat *)rot_in : q, nq, q, NULL);
