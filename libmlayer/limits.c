@@ -66,14 +66,6 @@ static void hinge_pair(mlr_vec3 n, mlr_vec3 a, mlr_vec3 s, double *y, double *x)
     *x = dot3(a, s) - dot3(a, n) * dot3(s, n);
 }
 
-/* Signed angle about n from a to s, both projected on the plane normal to n. */
-static double hinge_phi(mlr_vec3 n, mlr_vec3 a, mlr_vec3 s)
-{
-    double y, x;
-    hinge_pair(n, a, s, &y, &x);
-    return atan2(y, x);
-}
-
 /* Swing angle, twist angle (about unit t) of r with r.w >= 0; swing axis direction in *sv
  * (unnormalized vector part of the swing). */
 static void swing_twist(mlr_quat r, mlr_vec3 t, double *swing, double *twist, mlr_quat *sw)
@@ -131,6 +123,47 @@ static double top_eigen(const double *m, mlr_vec3 *e)
     return lam;
 }
 
+/* Are the squared norms of the m <= 64 quaternions at p (4 doubles each) all finite and
+ * nonzero? Branch-free, vectorized. */
+MLR_CLONES_AVX2
+static int quat_block_ok(const double *p, size_t m)
+{
+    double n2[64];
+    for (size_t i = 0; i < m; i++) {
+        const double *e = p + 4 * i;
+        n2[i] = e[0] * e[0] + e[1] * e[1] + e[2] * e[2] + e[3] * e[3];
+    }
+    long ok = 1;
+    for (size_t i = 0; i < m; i++)
+        ok &= (n2[i] > 0.0) & (n2[i] <= DBL_MAX);
+    return ok != 0;
+}
+
+/* The index of the first of the n quaternions (4 doubles each) whose squared norm is not
+ * finite or is zero, or n when there is none. */
+static size_t first_bad_quat(const double *q, size_t n)
+{
+    for (size_t i0 = 0; i0 < n; i0 += 64) {
+        const size_t m = n - i0 < 64 ? n - i0 : 64;
+        const double *p = q + 4 * i0;
+        if (quat_block_ok(p, m))
+            continue;
+        for (size_t i = 0; i < m; i++) {
+            const double *e = p + 4 * i;
+            const double n2 = e[0] * e[0] + e[1] * e[1] + e[2] * e[2] + e[3] * e[3];
+            if (!(n2 > 0.0 && n2 <= DBL_MAX))
+                return i0 + i;
+        }
+    }
+    return n;
+}
+
+/* Is the squared norm of quaternion q (4 doubles) finite (else zero)? For the messages. */
+static int quat_finite(const double *q)
+{
+    return isfinite(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+}
+
 /* ---------------------------------------------------------------------------------------- */
 /* Create                                                                                   */
 
@@ -148,14 +181,11 @@ static mlr_status check_clips(const mlr_rig *rig, const mlr_limits_clip *clips, 
         size_t nq;
         if (mlr_mul_size(c->n_frames, J, &nq) != MLR_OK || nq > SIZE_MAX / 4)
             return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "limits: clip %zu too large", k);
-        for (size_t i = 0; i < nq; i++) {
-            const double *q = c->rot + 4 * i;
-            const double n2 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3];
-            if (!isfinite(n2) || !(n2 > 0))
-                return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                    "limits: clip %zu rot[%zu][%zu] is %s", k, i / J, i % J,
-                                    isfinite(n2) ? "zero" : "not finite");
-        }
+        const size_t i = first_bad_quat(c->rot, nq);
+        if (i < nq)
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "limits: clip %zu rot[%zu][%zu] is %s", k, i / J, i % J,
+                                quat_finite(c->rot + 4 * i) ? "zero" : "not finite");
         if (c->trans && P > 0)
             for (size_t i = 0; i < c->n_frames * P * 3; i++)
                 if (!isfinite(c->trans[i]))
@@ -221,13 +251,19 @@ typedef struct acc {
     double ms[9]; /* moments of the swings' vector parts (the twist about the bone removed) */
     /* the smallest and largest hinge angle so far as (y, x) pairs of atan2 (hinge_pair) */
     double lo_y, lo_x, hi_y, hi_x;
-    int need_m, need_ms, need_log; /* what find_hinges and the stats read of this joint */
+    /* the largest whole angle of a joint with no bone out, as a (sine-like, cosine-like) pair */
+    double an_s, an_c;
+    mlr_vec3 t;   /* bone_out / |bone_out|, or zero */
+    int need_x;   /* pass 1: the axis sum (|bone_in| |bone_out| > 0: the axis can be learned) */
+    int need_m;   /* hinge candidate: moments of the logs, hinge angle extremes */
+    int need_ms;  /* named hinge candidate: moments of the swings */
+    int has_out;  /* |bone_out| > 0 */
 } acc;
 
 /* Is atan2(y1, x1) < atan2(y2, x2)? By the half planes and the cross product where that
    decides it beyond rounding, else by the atan2s themselves (so the extreme pair's atan2 is
    the extreme of the atan2s). */
-static int angle_less(double y1, double x1, double y2, double x2)
+static inline int angle_less(double y1, double x1, double y2, double x2)
 {
     if (y1 == y2 && x1 == x2 && signbit(y1) == signbit(y2) && signbit(x1) == signbit(x2))
         return 0; /* the same pair (a static joint's frames) */
@@ -254,9 +290,6 @@ typedef struct learner {
     acc *ac;
     int32_t *main_child;
     int *is_hinge, *cls;
-    mlr_quat *rq; /* one frame's centred rotations */
-    mlr_vec3 *rv; /* ... and their logs */
-    mlr_quat *qn; /* ... and the frame's unit q */
 } learner;
 
 /* Bones: offsets, or the mean translation of a trans joint over the clips; each joint's main
@@ -305,7 +338,41 @@ static void measure_bones(const learner *L)
     }
 }
 
-/* Pass 1: centres (sign-aligned sums) and hinge axes (sum of a x q b). */
+/* The frames of a block of learn_centres and measure_extents. */
+#define EXT_FB 64
+
+/* The unit quaternions q (in qw .. qz) of the m <= EXT_FB quaternions p + stride i (doubles) of
+ * a joint and, unless a is NULL, a x q b (in xs: x, y, z by blocks of EXT_FB), as learn_centres
+ * takes them (the same operations as qrot and cross3: the same bits). Vectorized. */
+MLR_CLONES_AVX2
+static void centres_block(const double *p, size_t stride, size_t m, const mlr_vec3 *a,
+                          const mlr_vec3 *b, double *qw, double *qx, double *qy, double *qz,
+                          double *xs)
+{
+    for (size_t i = 0; i < m; i++) {
+        const double *e = p + stride * i;
+        const double n = sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2] + e[3] * e[3]);
+        qw[i] = e[0] / n, qx[i] = e[1] / n, qy[i] = e[2] / n, qz[i] = e[3] / n;
+    }
+    if (!a)
+        return;
+    const double vx = b->x, vy = b->y, vz = b->z, ax = a->x, ay = a->y, az = a->z;
+    for (size_t i = 0; i < m; i++) {
+        const double w = qw[i], ux = qx[i], uy = qy[i], uz = qz[i];
+        const double tx = 2.0 * (uy * vz - uz * vy);
+        const double ty = 2.0 * (uz * vx - ux * vz);
+        const double tz = 2.0 * (ux * vy - uy * vx);
+        const double ox = vx + w * tx + (uy * tz - uz * ty);
+        const double oy = vy + w * ty + (uz * tx - ux * tz);
+        const double oz = vz + w * tz + (ux * ty - uy * tx);
+        xs[i] = ay * oz - az * oy;
+        xs[EXT_FB + i] = az * ox - ax * oz;
+        xs[2 * EXT_FB + i] = ax * oy - ay * ox;
+    }
+}
+
+/* Pass 1: centres (sign-aligned sums) and hinge axes (sum of a x q b), by blocks of EXT_FB
+   frames, joint by joint within them. */
 static void learn_centres(const learner *L)
 {
     const mlr_rig *rig = L->rig;
@@ -313,21 +380,33 @@ static void learn_centres(const learner *L)
     const size_t n_clips = L->n_clips, J = rig->n_joints;
     mlr_limits_joint *jt = L->jt;
     acc *ac = L->ac;
+    double qw[EXT_FB], qx[EXT_FB], qy[EXT_FB], qz[EXT_FB], xs[3 * EXT_FB];
+    for (size_t j = 0; j < J; j++)
+        ac[j].need_x = norm3(jt[j].bone_in) * norm3(jt[j].bone_out) > 0;
     for (size_t k = 0; k < n_clips; k++)
-        for (size_t f = 0; f < clips[k].n_frames; f++)
+        for (size_t f0 = 0; f0 < clips[k].n_frames; f0 += EXT_FB) {
+            const size_t nf = clips[k].n_frames - f0 < EXT_FB ? clips[k].n_frames - f0 : EXT_FB;
             for (size_t j = 0; j < J; j++) {
-                const double *p = clips[k].rot + 4 * (f * J + j);
-                const double n = sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2] + p[3] * p[3]);
-                mlr_quat q = {p[0] / n, p[1] / n, p[2] / n, p[3] / n};
                 acc *c = &ac[j];
-                const double d =
-                    c->qsum.w * q.w + c->qsum.x * q.x + c->qsum.y * q.y + c->qsum.z * q.z;
-                const double sg = d < 0 ? -1.0 : 1.0;
-                c->qsum.w += sg * q.w, c->qsum.x += sg * q.x, c->qsum.y += sg * q.y,
-                    c->qsum.z += sg * q.z;
-                const mlr_vec3 x = cross3(jt[j].bone_in, qrot(q, jt[j].bone_out));
-                c->xsum.x += x.x, c->xsum.y += x.y, c->xsum.z += x.z;
+                /* no axis without both bones: the axis sum is not read */
+                centres_block(clips[k].rot + 4 * (f0 * J + j), 4 * J, nf,
+                              c->need_x ? &jt[j].bone_in : NULL, &jt[j].bone_out, qw, qx, qy, qz,
+                              xs);
+                mlr_quat qs = c->qsum;
+                for (size_t i = 0; i < nf; i++) {
+                    const double d = qs.w * qw[i] + qs.x * qx[i] + qs.y * qy[i] + qs.z * qz[i];
+                    const double sg = d < 0 ? -1.0 : 1.0;
+                    qs.w += sg * qw[i], qs.x += sg * qx[i], qs.y += sg * qy[i], qs.z += sg * qz[i];
+                }
+                c->qsum = qs;
+                if (!c->need_x)
+                    continue;
+                mlr_vec3 xsum = c->xsum;
+                for (size_t i = 0; i < nf; i++)
+                    xsum.x += xs[i], xsum.y += xs[EXT_FB + i], xsum.z += xs[2 * EXT_FB + i];
+                c->xsum = xsum;
             }
+        }
     for (size_t j = 0; j < J; j++) {
         mlr_quat s = ac[j].qsum;
         const double n = sqrt(s.w * s.w + s.x * s.x + s.y * s.y + s.z * s.z);
@@ -342,12 +421,134 @@ static void learn_centres(const learner *L)
         const double scale = norm3(jt[j].bone_in) * norm3(jt[j].bone_out);
         if (scale > 0 && xn > 1e-9 * scale)
             jt[j].axis = scale3(ac[j].xsum, 1.0 / xn);
-        jt[j].stats[0] = DBL_MAX, jt[j].stats[1] = -DBL_MAX;
+        jt[j].stats[0] = jt[j].stats[1] = 0.0; /* measure_extents: hinge candidates' */
     }
 }
 
-/* Pass 2: moments of the centred rotation vectors, hinge angle, swing and twist maxima (a
-   frame's logs in one array call). */
+/* The centred rotations r = conj(centre) q / |q| (cc = conj(centre); r.w >= 0) of the m <= EXT_FB
+ * quaternions p + stride i (doubles) of a joint, as measure_extents' other joints take them
+ * (the same operations: the same bits), reduced to the pairs of their maxima: with a bone out
+ * (unit t), the swing's (|v - p t|, |(w, p)|) in s1, c1 and the twist's (|p|, w) in s2, c2
+ * (p = v.t); without one (t NULL), the whole angle's (|v|, w) in s1, c1. Vectorized. */
+MLR_CLONES_AVX2
+static void extents_block(const double *p, size_t stride, size_t m, mlr_quat cc, const mlr_vec3 *t,
+                          double *s1, double *c1, double *s2, double *c2)
+{
+    const double aw = cc.w, ax = cc.x, ay = cc.y, az = cc.z;
+    double rw[EXT_FB], rx[EXT_FB], ry[EXT_FB], rz[EXT_FB];
+    for (size_t i = 0; i < m; i++) {
+        const double *e = p + stride * i;
+        const double n = sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2] + e[3] * e[3]);
+        const double bw = e[0] / n, bx = e[1] / n, by = e[2] / n, bz = e[3] / n;
+        const double w = aw * bw - ax * bx - ay * by - az * bz;
+        const double x = aw * bx + ax * bw + ay * bz - az * by;
+        const double y = aw * by - ax * bz + ay * bw + az * bx;
+        const double z = aw * bz + ax * by - ay * bx + az * bw;
+        const int neg = w < 0;
+        rw[i] = neg ? -w : w, rx[i] = neg ? -x : x, ry[i] = neg ? -y : y, rz[i] = neg ? -z : z;
+    }
+    if (!t) {
+        for (size_t i = 0; i < m; i++) {
+            s1[i] = sqrt(rx[i] * rx[i] + ry[i] * ry[i] + rz[i] * rz[i]);
+            c1[i] = rw[i];
+        }
+        return;
+    }
+    const double tx = t->x, ty = t->y, tz = t->z;
+    for (size_t i = 0; i < m; i++) {
+        const double pp = rx[i] * tx + ry[i] * ty + rz[i] * tz;
+        const double vx = rx[i] - pp * tx, vy = ry[i] - pp * ty, vz = rz[i] - pp * tz;
+        s1[i] = sqrt(vx * vx + vy * vy + vz * vz);
+        c1[i] = sqrt(rw[i] * rw[i] + pp * pp);
+        s2[i] = fabs(pp);
+        c2[i] = rw[i];
+    }
+}
+
+/* c ? a : b by bit masks, so that the compiler keeps both operands computed unconditionally
+ * (GCC otherwise moves a division under a branch, which stops the vectorizer; as quat.c). */
+static inline double select_bits(int c, double a, double b)
+{
+    const uint64_t mask = (uint64_t)0 - (uint64_t)(c != 0);
+    uint64_t ab, bb;
+    memcpy(&ab, &a, sizeof ab);
+    memcpy(&bb, &b, sizeof bb);
+    const uint64_t r = (ab & mask) | (bb & ~mask);
+    double out;
+    memcpy(&out, &r, sizeof out);
+    return out;
+}
+
+/* What measure_extents takes of the m <= EXT_FB quaternions p + stride i (doubles) of hinge
+ * candidate g (unit bone out t): the centred rotations r (r.w >= 0) in lq, the hinge angle's
+ * (y, x) pairs (hinge_pair of q b) in hy, hx, the swing's and the twist's pairs as
+ * extents_block's in s1, c1, s2, c2, and the vector parts of the swings s = r conj(twist)
+ * (s.w >= 0) in sv (x, y, z by blocks of EXT_FB); the same operations as the scalar helpers
+ * (qmul, qrot, hinge_pair, swing_twist's twist): the same bits. Vectorized. */
+MLR_CLONES_AVX2
+static void cand_block(const double *restrict p, size_t stride, size_t m,
+                       const mlr_limits_joint *restrict g, const mlr_vec3 *restrict t,
+                       mlr_quat *restrict lq, double *restrict hy, double *restrict hx,
+                       double *restrict s1, double *restrict c1, double *restrict s2,
+                       double *restrict c2, double *restrict sv)
+{
+    const double aw = g->centre.w, ax = -g->centre.x, ay = -g->centre.y, az = -g->centre.z;
+    const double vx = g->bone_out.x, vy = g->bone_out.y, vz = g->bone_out.z;
+    const mlr_vec3 n = g->axis, a = g->bone_in;
+    const double an = dot3(a, n), tx = t->x, ty = t->y, tz = t->z;
+    for (size_t i = 0; i < m; i++) {
+        const double *e = p + stride * i;
+        const double nq = sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2] + e[3] * e[3]);
+        const double bw = e[0] / nq, bx = e[1] / nq, by = e[2] / nq, bz = e[3] / nq;
+        /* the hinge pair of s = q b */
+        const double qx2 = 2.0 * (by * vz - bz * vy);
+        const double qy2 = 2.0 * (bz * vx - bx * vz);
+        const double qz2 = 2.0 * (bx * vy - by * vx);
+        const double sx = vx + bw * qx2 + (by * qz2 - bz * qy2);
+        const double sy = vy + bw * qy2 + (bz * qx2 - bx * qz2);
+        const double sz = vz + bw * qz2 + (bx * qy2 - by * qx2);
+        const double cx = a.y * sz - a.z * sy, cy = a.z * sx - a.x * sz, cz = a.x * sy - a.y * sx;
+        hy[i] = n.x * cx + n.y * cy + n.z * cz;
+        hx[i] = (a.x * sx + a.y * sy + a.z * sz) - an * (sx * n.x + sy * n.y + sz * n.z);
+        /* r = conj(centre) q, r.w >= 0 */
+        double w = aw * bw - ax * bx - ay * by - az * bz;
+        double x = aw * bx + ax * bw + ay * bz - az * by;
+        double y = aw * by - ax * bz + ay * bw + az * bx;
+        double z = aw * bz + ax * by - ay * bx + az * bw;
+        const int neg = w < 0;
+        w = neg ? -w : w, x = neg ? -x : x, y = neg ? -y : y, z = neg ? -z : z;
+        lq[i].w = w, lq[i].x = x, lq[i].y = y, lq[i].z = z;
+        /* the swing's and the twist's pairs */
+        const double pp = x * tx + y * ty + z * tz;
+        const double tn = sqrt(w * w + pp * pp);
+        const double px = x - pp * tx, py = y - pp * ty, pz = z - pp * tz;
+        s1[i] = sqrt(px * px + py * py + pz * pz);
+        c1[i] = tn;
+        s2[i] = fabs(pp);
+        c2[i] = w;
+        /* s = r conj(tw), tw the unit twist (identity when |(w, p)| <= 1e-300) */
+        const int ok = tn > 1e-300;
+        const double d = select_bits(ok, tn, 1.0);
+        const double tww = select_bits(ok, w / d, 1.0), twx = select_bits(ok, pp * tx / d, 0.0),
+                     twy = select_bits(ok, pp * ty / d, 0.0),
+                     twz = select_bits(ok, pp * tz / d, 0.0);
+        const double cw = tww, cxx = -twx, cyy = -twy, czz = -twz;
+        const double sqw = w * cw - x * cxx - y * cyy - z * czz;
+        const double sqx = w * cxx + x * cw + y * czz - z * cyy;
+        const double sqy = w * cyy - x * czz + y * cw + z * cxx;
+        const double sqz = w * czz + x * cyy - y * cxx + z * cw;
+        const int sneg = sqw < 0;
+        sv[i] = sneg ? -sqx : sqx;
+        sv[EXT_FB + i] = sneg ? -sqy : sqy;
+        sv[2 * EXT_FB + i] = sneg ? -sqz : sqz;
+    }
+}
+
+/* Pass 2: moments of the centred rotation vectors, hinge angle, swing and twist maxima, by
+   blocks of EXT_FB frames, joint by joint within them. The hinge angle extremes and the
+   moments are taken for find_hinges' candidates only (named hinges, or every joint with an
+   axis when the rig has no names): no other joint can be a hinge, and the others'
+   stats[0..1] are 0; the other joints' maxima are reduced by extents_block. */
 static void measure_extents(const learner *L)
 {
     const mlr_rig *rig = L->rig;
@@ -355,95 +556,90 @@ static void measure_extents(const learner *L)
     const size_t n_clips = L->n_clips, J = rig->n_joints;
     mlr_limits_joint *jt = L->jt;
     acc *ac = L->ac;
-    mlr_quat *rq = L->rq, *lq = L->qn;
-    mlr_vec3 *rv = L->rv;
+    mlr_quat lq[EXT_FB];
+    mlr_vec3 rv[EXT_FB];
+    double s1[EXT_FB], c1[EXT_FB], s2[EXT_FB], c2[EXT_FB], hy[EXT_FB], hx[EXT_FB], sv[3 * EXT_FB];
     size_t n_seen = 0;
     for (size_t j = 0; j < J; j++) {
         acc *c = &ac[j];
-        c->sw_s = c->tw_s = 0.0, c->sw_c = c->tw_c = 1.0;
-        /* the moments of the rotation vectors: for find_hinges' candidates (named hinges, or
-           every joint with an axis when the rig has no names); the swings': for named
-           hinges; the logs: for the moments and the whole angle of a joint with no bone out */
+        c->sw_s = c->tw_s = c->an_s = 0.0, c->sw_c = c->tw_c = c->an_c = 1.0;
+        /* the moments of the rotation vectors and the hinge angle extremes: for find_hinges'
+           candidates; the swings': for named hinges */
         const int named = rig->names ? mlr_limits_hinge_name(rig->names[j]) : 0;
         const int cand = j > 0 && norm3(jt[j].axis) > 0 && (!rig->names || named);
         c->need_m = cand;
         c->need_ms = cand && named;
-        c->need_log = cand || !(norm3(jt[j].bone_out) > 0);
+        const double bl = norm3(jt[j].bone_out);
+        c->t = bl > 0 ? scale3(jt[j].bone_out, 1.0 / bl) : (mlr_vec3){0, 0, 0};
+        c->has_out = bl > 0;
     }
     for (size_t k = 0; k < n_clips; k++)
-        for (size_t f = 0; f < clips[k].n_frames; f++, n_seen++) {
-            size_t nl = 0;
-            for (size_t j = 0; j < J; j++) {
-                const double *p = clips[k].rot + 4 * (f * J + j);
-                const double n = sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2] + p[3] * p[3]);
-                const mlr_quat q = {p[0] / n, p[1] / n, p[2] / n, p[3] / n};
-                mlr_quat r = qmul(qconj(jt[j].centre), q);
-                if (r.w < 0)
-                    r = (mlr_quat){-r.w, -r.x, -r.y, -r.z};
-                rq[j] = r;
-                if (ac[j].need_log)
-                    lq[nl++] = r;
-                mlr_limits_joint *g = &jt[j];
-                if (norm3(g->axis) > 0) { /* hinge angle extremes, the atan2 at the end */
-                    acc *c = &ac[j];
-                    double y, x;
-                    hinge_pair(g->axis, g->bone_in, qrot(q, g->bone_out), &y, &x);
-                    if (n_seen == 0 || angle_less(y, x, c->lo_y, c->lo_x))
-                        c->lo_y = y, c->lo_x = x;
-                    if (n_seen == 0 || angle_less(c->hi_y, c->hi_x, y, x))
-                        c->hi_y = y, c->hi_x = x;
-                }
-            }
-            (void)mlr_quat_log_array(lq, nl, rv, NULL);
-            nl = 0;
+        for (size_t f0 = 0; f0 < clips[k].n_frames; f0 += EXT_FB) {
+            const size_t nf = clips[k].n_frames - f0 < EXT_FB ? clips[k].n_frames - f0 : EXT_FB;
             for (size_t j = 0; j < J; j++) {
                 mlr_limits_joint *g = &jt[j];
                 acc *c = &ac[j];
-                const mlr_vec3 v = c->need_log ? rv[nl++] : (mlr_vec3){0, 0, 0};
-                const mlr_quat r = rq[j];
-                if (c->need_m) {
-                    double *m = c->m;
-                    const double vv[3] = {v.x, v.y, v.z};
-                    for (int a3 = 0; a3 < 3; a3++)
-                        for (int b3 = 0; b3 < 3; b3++)
-                            m[3 * a3 + b3] += vv[a3] * vv[b3];
+                const double *p0 = clips[k].rot + 4 * (f0 * J + j);
+                if (!c->need_m) {
+                    extents_block(p0, 4 * J, nf, qconj(g->centre), c->has_out ? &c->t : NULL, s1,
+                                  c1, s2, c2);
+                    if (!c->has_out) {
+                        for (size_t i = 0; i < nf; i++)
+                            if (wider(s1[i], c1[i], c->an_s, c->an_c))
+                                c->an_s = s1[i], c->an_c = c1[i];
+                        continue;
+                    }
+                    for (size_t i = 0; i < nf; i++) {
+                        if (wider(s1[i], c1[i], c->sw_s, c->sw_c))
+                            c->sw_s = s1[i], c->sw_c = c1[i];
+                        if (wider(s2[i], c2[i], c->tw_s, c->tw_c))
+                            c->tw_s = s2[i], c->tw_c = c2[i];
+                    }
+                    continue;
                 }
-                const double bl = norm3(g->bone_out);
-                if (bl > 0) {
-                    /* swing_twist's angles without their atan2: twist 2 atan2(|p|, w) (r.w >= 0),
-                       swing 2 atan2(|s.v|, s.w) of s = r conj(twist) */
-                    const mlr_vec3 t = scale3(g->bone_out, 1.0 / bl);
-                    const double pp = r.x * t.x + r.y * t.y + r.z * t.z;
-                    const double tn = sqrt(r.w * r.w + pp * pp);
-                    mlr_quat tw = {1, 0, 0, 0};
-                    if (tn > 1e-300)
-                        tw = (mlr_quat){r.w / tn, pp * t.x / tn, pp * t.y / tn, pp * t.z / tn};
-                    mlr_quat sq = qmul(r, qconj(tw));
-                    const double ss = sqrt(sq.x * sq.x + sq.y * sq.y + sq.z * sq.z),
-                                 sc = fabs(sq.w);
-                    if (wider(ss, sc, c->sw_s, c->sw_c))
-                        c->sw_s = ss, c->sw_c = sc;
-                    const double sv[3] = {sq.w < 0 ? -sq.x : sq.x, sq.w < 0 ? -sq.y : sq.y,
-                                          sq.w < 0 ? -sq.z : sq.z};
-                    for (int a3 = 0; c->need_ms && a3 < 3; a3++)
-                        for (int b3 = 0; b3 < 3; b3++)
-                            c->ms[3 * a3 + b3] += sv[a3] * sv[b3];
-                    const double ts = fabs(pp) / (tn > 1e-300 ? tn : 1.0), tc = tw.w;
-                    if (wider(ts, tc, c->tw_s, c->tw_c))
-                        c->tw_s = ts, c->tw_c = tc;
-                } else {
-                    g->stats[2] = fmax(g->stats[2], norm3(v)); /* the whole angle of r */
+                /* a hinge candidate (it has both bones, as its axis) */
+                cand_block(p0, 4 * J, nf, g, &c->t, lq, hy, hx, s1, c1, s2, c2, sv);
+                for (size_t i = 0; i < nf; i++) {
+                    const double y = hy[i], x = hx[i];
+                    if (n_seen + i == 0 || angle_less(y, x, c->lo_y, c->lo_x))
+                        c->lo_y = y, c->lo_x = x;
+                    if (n_seen + i == 0 || angle_less(c->hi_y, c->hi_x, y, x))
+                        c->hi_y = y, c->hi_x = x;
+                    if (wider(s1[i], c1[i], c->sw_s, c->sw_c))
+                        c->sw_s = s1[i], c->sw_c = c1[i];
+                    if (wider(s2[i], c2[i], c->tw_s, c->tw_c))
+                        c->tw_s = s2[i], c->tw_c = c2[i];
+                }
+                for (size_t i = 0; c->need_ms && i < nf; i++) {
+                    const double v3[3] = {sv[i], sv[EXT_FB + i], sv[2 * EXT_FB + i]};
+                    for (int a3 = 0; a3 < 3; a3++)
+                        for (int b3 = a3; b3 < 3; b3++)
+                            c->ms[3 * a3 + b3] += v3[a3] * v3[b3];
+                }
+                (void)mlr_quat_log_array(lq, nf, rv, NULL);
+                for (size_t i = 0; i < nf; i++) {
+                    const double v3[3] = {rv[i].x, rv[i].y, rv[i].z};
+                    for (int a3 = 0; a3 < 3; a3++)
+                        for (int b3 = a3; b3 < 3; b3++)
+                            c->m[3 * a3 + b3] += v3[a3] * v3[b3];
                 }
             }
+            n_seen += nf;
         }
     for (size_t j = 0; j < J; j++) {
+        acc *c = &ac[j];
+        for (int a3 = 0; a3 < 3; a3++) /* the moments' lower triangles */
+            for (int b3 = 0; b3 < a3; b3++)
+                c->m[3 * a3 + b3] = c->m[3 * b3 + a3], c->ms[3 * a3 + b3] = c->ms[3 * b3 + a3];
         if (norm3(jt[j].bone_out) > 0) {
-            jt[j].stats[2] = 2.0 * atan2(ac[j].sw_s, ac[j].sw_c);
-            jt[j].stats[3] = 2.0 * atan2(ac[j].tw_s, ac[j].tw_c);
+            jt[j].stats[2] = 2.0 * atan2(c->sw_s, c->sw_c);
+            jt[j].stats[3] = 2.0 * atan2(c->tw_s, c->tw_c);
+        } else {
+            jt[j].stats[2] = 2.0 * atan2(c->an_s, c->an_c);
         }
-        if (norm3(jt[j].axis) > 0 && n_seen > 0) {
-            jt[j].stats[0] = atan2(ac[j].lo_y, ac[j].lo_x);
-            jt[j].stats[1] = atan2(ac[j].hi_y, ac[j].hi_x);
+        if (c->need_m && n_seen > 0) {
+            jt[j].stats[0] = atan2(c->lo_y, c->lo_x);
+            jt[j].stats[1] = atan2(c->hi_y, c->hi_x);
         }
     }
 }
@@ -571,9 +767,7 @@ mlr_status mlr_limits_create(const mlr_rig *rig, const mlr_limits_clip *clips, s
     mlr_allocator_resolve(alloc, &a);
     size_t jbytes, sbytes;
     if (mlr_mul_size(J, sizeof(mlr_limits_joint), &jbytes) != MLR_OK ||
-        mlr_mul_size(J,
-                     sizeof(acc) + 4 * sizeof(int32_t) + 2 * sizeof(mlr_quat) + sizeof(mlr_vec3),
-                     &sbytes) != MLR_OK)
+        mlr_mul_size(J, sizeof(acc) + 3 * sizeof(int32_t), &sbytes) != MLR_OK)
         return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "limits: too many joints");
     mlr_limits *lim = mlr_alloc(&a, sizeof *lim);
     if (!lim)
@@ -592,12 +786,9 @@ mlr_status mlr_limits_create(const mlr_rig *rig, const mlr_limits_clip *clips, s
     }
     memset(lim->joints, 0, jbytes);
     memset(scratch, 0, sbytes);
-    learner L = {rig, clips, n_clips, lim->joints, scratch, NULL, NULL, NULL, NULL, NULL, NULL};
+    learner L = {rig, clips, n_clips, lim->joints, scratch, NULL, NULL, NULL};
     L.main_child = (int32_t *)(L.ac + J);
     L.is_hinge = (int *)(L.main_child + J), L.cls = L.is_hinge + J;
-    L.rq = (mlr_quat *)(void *)(L.cls + J + (J & 1));
-    L.rv = (mlr_vec3 *)(void *)(L.rq + J);
-    L.qn = (mlr_quat *)(void *)(L.rv + J);
 
     measure_bones(&L);
     learn_centres(&L);
@@ -705,35 +896,6 @@ static double unwrap_near(double x, double prev)
     return fabs(y - prev) <= 0.5 * PI ? y : x;
 }
 
-/* The angle a joint read at the frame before, for unwrapping in time: v (NAN for none), or,
- * when that frame took the fast path of limit_joint (well inside the range, so its twist was
- * not needed there), the frame's centred rotation rr whose twist is read only if a later frame
- * needs it. */
-typedef struct prev_angle {
-    double v;
-    int pending;
-    mlr_quat rr;
-} prev_angle;
-
-/* The twist of unit rr (w >= 0) about unit t, as swing_twist computes it. */
-static double twist_of(mlr_quat rr, mlr_vec3 t)
-{
-    double sw, tw;
-    mlr_quat sq;
-    swing_twist(rr, t, &sw, &tw, &sq);
-    return tw;
-}
-
-/* The value of *pv, reading a pending twist about t. */
-static double prev_value(prev_angle *pv, mlr_vec3 t)
-{
-    if (pv->pending) {
-        pv->v = twist_of(pv->rr, t);
-        pv->pending = 0;
-    }
-    return pv->v;
-}
-
 /* sin^2 of half the smallest knee point (where the soft saturation begins) of a swing-twist
  * joint at alpha: a centred rotation whose whole angle is below it has swing and |twist|
  * below their knee points (both are at most the whole angle), so the limits leave it as it
@@ -752,12 +914,6 @@ static double fast_bound(const mlr_limits *lim, const mlr_limits_joint *g, doubl
     return sh * sh * (1.0 - 1e-9);
 }
 
-/* Limit one unit quaternion of joint g; returns 1 when changed. prev: for a hinge in a run of
- * frames, the angle read at the frame before (NAN for none; updated). The angle is read in
- * [m - 2 pi, m), m the middle of the excluded arc; outside [lo, hi] and with a frame before,
- * in the branch nearest that frame's (unwrapped in time), so a trajectory that crosses the
- * middle of the excluded arc stays on its side instead of snapping to the other bound. A swing-twist joint's
- * twist is unwrapped the same way (it would snap from +twist to -twist at a half turn). */
 /* What limit_joint reads of a joint at one alpha, the same for every frame: worked out once
  * per joint and alpha (bounds_of) instead of at every frame. */
 typedef struct joint_bounds {
@@ -767,9 +923,85 @@ typedef struct joint_bounds {
     double bl;                       /* |bone_out| */
     mlr_vec3 t;                      /* bone_out / bl (bl > 0) */
     int hard;                        /* hinge: only angles outside [lo, hi], to the bound */
+    /* the fast paths without atan2 (in_arc): a hinge angle within the arc where the limits
+       leave it, of middle (hc_x, hc_y) (unit) and half width of cosine h_cos (h_fast: the
+       arc is not empty); the halves of the swing's and the twist's knee points as (cos, sin) */
+    double hc_x, hc_y, h_cos, sk_c, sk_s, tk_c, tk_s;
+    int h_fast;
+    mlr_quat cc; /* conj(centre) */
 } joint_bounds;
 
-static joint_bounds bounds_of(const mlr_limits *lim, const mlr_limits_joint *g, double alpha)
+/* The fast paths' margin: an angle decided without its atan2 is this far (radians) inside its
+   bound, far beyond the rounding of the atan2 path (1e-15), so both paths agree on every
+   frame; the frames nearer the bound take the atan2 path. */
+#define FAST_MARGIN 1e-10
+
+/* Is atan2(y, x) in [h - a, h + a] + 2 pi k by FAST_MARGIN, a in [0, pi], given
+   (hx, hy) = (cos h, sin h) and ca = cos a? cos(angle - h) >= cos a + margin implies that
+   (|cos u - cos v| <= |u - v|); |x| + |y| >= |(x, y)| makes the margin relative. */
+static int in_arc(double y, double x, double hx, double hy, double ca)
+{
+    return x * hx + y * hy > ca * sqrt(x * x + y * y) + FAST_MARGIN * (fabs(x) + fabs(y));
+}
+
+/* Is 2 atan2(s, c) (s, c >= 0) below the angle 2 h, given (hc, hs) = (cos h, sin h), h in
+   [0, pi / 2], by FAST_MARGIN? sin(h - atan2(s, c)) >= margin implies that. */
+static int below_half(double s, double c, double hc, double hs)
+{
+    return hs * c - hc * s > FAST_MARGIN * (s + c);
+}
+
+/* The angle a joint read at the frame before, for unwrapping in time: v (NAN for none), or,
+ * when that frame took a fast path of limit_joint (inside the range, so its angle was not
+ * needed there), what the angle is read from only if a later frame needs it: pending 1, the
+ * frame's centred rotation rr (its twist); pending 2, the hinge's (y, x) of its atan2 in
+ * (rr.x, rr.y). */
+typedef struct prev_angle {
+    double v;
+    int pending; /* 3: the twist of conj(centre) *qp, qp a quaternion left as it was */
+    mlr_quat rr;
+    const mlr_quat *qp;
+} prev_angle;
+
+/* The twist of unit rr (w >= 0) about unit t, as swing_twist computes it. */
+static double twist_of(mlr_quat rr, mlr_vec3 t)
+{
+    double sw, tw;
+    mlr_quat sq;
+    swing_twist(rr, t, &sw, &tw, &sq);
+    return tw;
+}
+
+/* The hinge angle atan2(y, x) in [mid - 2 pi, mid). */
+static double hinge_angle(double y, double x, double mid)
+{
+    double phi = atan2(y, x);
+    if (phi >= mid)
+        phi -= 2.0 * PI;
+    else if (phi < mid - 2.0 * PI)
+        phi += 2.0 * PI;
+    return phi;
+}
+
+/* The value of *pv, reading a pending angle. */
+static double prev_value(prev_angle *pv, const joint_bounds *b)
+{
+    if (pv->pending == 3) {
+        pv->rr = qmul(b->cc, *pv->qp);
+        if (pv->rr.w < 0)
+            pv->rr = (mlr_quat){-pv->rr.w, -pv->rr.x, -pv->rr.y, -pv->rr.z};
+        pv->pending = 1;
+    }
+    if (pv->pending == 1)
+        pv->v = twist_of(pv->rr, b->t);
+    else if (pv->pending == 2)
+        pv->v = hinge_angle(pv->rr.x, pv->rr.y, b->mid);
+    pv->pending = 0;
+    return pv->v;
+}
+
+static joint_bounds bounds_of(const mlr_limits *lim, const mlr_limits_joint *g, double alpha,
+                              int hard)
 {
     const mlr_limits_range *r = &g->range;
     joint_bounds b;
@@ -778,17 +1010,27 @@ static joint_bounds bounds_of(const mlr_limits *lim, const mlr_limits_joint *g, 
     b.bl = norm3(g->bone_out);
     if (b.bl > 0)
         b.t = scale3(g->bone_out, 1.0 / b.bl);
+    b.hard = hard && r->kind == MLR_LIMITS_HINGE;
+    b.cc = qconj(g->centre);
     if (r->kind == MLR_LIMITS_HINGE) {
         const double span = r->hi - r->lo;
         b.w_hi = lim->soft * span, b.w_lo = fmin(lim->rev_soft, 0.5 * span);
         if (b.w_hi + b.w_lo > span)
             b.w_hi = span - b.w_lo;
         b.mid = 0.5 * (r->hi + r->lo) + PI; /* middle of the excluded arc */
+        /* the angles limit_joint leaves as they are: [lo, hi] (hard), else
+           [lo + w_lo, hi - w_hi] (below both soft zones) */
+        const double lo = b.hard ? r->lo : r->lo + b.w_lo, hi = b.hard ? r->hi : r->hi - b.w_hi;
+        b.h_fast = hi > lo;
+        b.hc_x = cos(0.5 * (hi + lo)), b.hc_y = sin(0.5 * (hi + lo)),
+        b.h_cos = cos(0.5 * (hi - lo));
     } else if (r->kind == MLR_LIMITS_SWING_TWIST) {
         const double wide = r->widen ? fmax(1.0, fabs(alpha)) : 1.0;
         b.smax = fmin(PI, r->swing * wide), b.tmax = fmin(PI, r->twist * wide);
         b.ws = lim->soft * b.smax, b.wt = lim->soft * b.tmax;
         b.fast = fast_bound(lim, g, alpha);
+        const double hs = fmax(0.0, 0.5 * (b.smax - b.ws)), ht = fmax(0.0, 0.5 * (b.tmax - b.wt));
+        b.sk_c = cos(hs), b.sk_s = sin(hs), b.tk_c = cos(ht), b.tk_s = sin(ht);
     }
     return b;
 }
@@ -798,26 +1040,37 @@ static joint_bounds bounds_of(const mlr_limits *lim, const mlr_limits_joint *g, 
    below anything a body shows. */
 #define HARD_INSIDE 1e-9
 
-static int limit_joint(const mlr_limits_joint *g, const joint_bounds *b, mlr_quat *q,
-                       prev_angle *prev)
+/* Limit one unit quaternion of joint g; returns 1 when changed. prev: for a hinge in a run of
+ * frames, the angle read at the frame before (NAN for none; updated). The angle is read in
+ * [m - 2 pi, m), m the middle of the excluded arc; outside [lo, hi] and with a frame before,
+ * in the branch nearest that frame's (unwrapped in time), so a trajectory that crosses the
+ * middle of the excluded arc stays on its side instead of snapping to the other bound. A swing-twist joint's
+ * twist is unwrapped the same way (it would snap from +twist to -twist at a half turn). */
+static inline int limit_joint(const mlr_limits_joint *g, const joint_bounds *b, mlr_quat *q,
+                              prev_angle *prev)
 {
     const mlr_limits_range *r = &g->range;
     const mlr_quat q0 = *q;
     if (r->kind == MLR_LIMITS_HINGE) {
         const double w_hi = b->w_hi, w_lo = b->w_lo;
         const mlr_vec3 s = qrot(*q, g->bone_out);
-        double phi = hinge_phi(g->axis, g->bone_in, s);
-        const double mid = b->mid; /* middle of the excluded arc */
-        if (phi >= mid)
-            phi -= 2.0 * PI;
-        else if (phi < mid - 2.0 * PI)
-            phi += 2.0 * PI;
+        double y, x;
+        hinge_pair(g->axis, g->bone_in, s, &y, &x);
+        if (b->h_fast && in_arc(y, x, b->hc_x, b->hc_y, b->h_cos)) { /* left as it is */
+            if (prev)
+                prev->pending = 2, prev->rr = (mlr_quat){0, y, x, 0};
+            return 0;
+        }
+        double phi = hinge_angle(y, x, b->mid);
         /* outside the range, on the side the frame before was on (no drift inside it), unless
            the step from there is a jump (over a quarter turn: a glitch frame, a T-pose) */
-        if (prev && isfinite(prev->v) && (phi < r->lo || phi > r->hi))
-            phi = unwrap_near(phi, prev->v);
+        if (prev && (phi < r->lo || phi > r->hi)) {
+            const double pv = prev_value(prev, b);
+            if (isfinite(pv))
+                phi = unwrap_near(phi, pv);
+        }
         if (prev)
-            prev->v = phi;
+            prev->v = phi, prev->pending = 0;
         double phi2 = phi;
         if (b->hard) /* just inside the bound it passed, so that rounding keeps it inside */
             phi2 = phi > r->hi   ? r->hi - HARD_INSIDE * (r->hi - r->lo)
@@ -832,23 +1085,36 @@ static int limit_joint(const mlr_limits_joint *g, const joint_bounds *b, mlr_qua
         *q = qmul(axis_angle(g->axis, phi2 - phi), *q);
     } else if (r->kind == MLR_LIMITS_SWING_TWIST) {
         const double smax = b->smax, tmax = b->tmax, ws = b->ws, wt = b->wt;
-        mlr_quat rr = qmul(qconj(g->centre), *q);
+        mlr_quat rr = qmul(b->cc, *q);
         if (rr.w < 0)
             rr = (mlr_quat){-rr.w, -rr.x, -rr.y, -rr.z};
         const double bl = b->bl;
-        if (rr.x * rr.x + rr.y * rr.y + rr.z * rr.z < b->fast) { /* well inside: unchanged */
+        const double vv = rr.x * rr.x + rr.y * rr.y + rr.z * rr.z;
+        if (vv < b->fast) { /* well inside: unchanged */
             if (prev && bl > 0)
                 prev->pending = 1, prev->rr = rr;
             return 0;
         }
         if (bl > 0) {
             const mlr_vec3 t = b->t;
+            /* swing and twist below their knee points, decided without the atan2s: the twist
+               2 atan2(|p|, w), p = v.t, and the swing 2 atan2(|v - p t|, |(w, p)|) (the
+               closed forms of swing_twist's) */
+            const double pp = rr.x * t.x + rr.y * t.y + rr.z * t.z;
+            if (below_half(fabs(pp), rr.w, b->tk_c, b->tk_s)) {
+                const mlr_vec3 vp = {rr.x - pp * t.x, rr.y - pp * t.y, rr.z - pp * t.z};
+                if (below_half(norm3(vp), sqrt(rr.w * rr.w + pp * pp), b->sk_c, b->sk_s)) {
+                    if (prev)
+                        prev->pending = 1, prev->rr = rr;
+                    return 0;
+                }
+            }
             double sw, tw;
             mlr_quat sq;
             swing_twist(rr, t, &sw, &tw, &sq);
             if (prev) { /* beyond its bound, the twist unwrapped in time as a hinge's angle */
                 if (fabs(tw) > tmax) {
-                    const double pv = prev_value(prev, t);
+                    const double pv = prev_value(prev, b);
                     if (isfinite(pv))
                         tw = unwrap_near(tw, pv);
                 }
@@ -862,7 +1128,10 @@ static int limit_joint(const mlr_limits_joint *g, const joint_bounds *b, mlr_qua
             const mlr_quat s2 = sw2 == sw ? sq : with_angle(sq, sw2);
             *q = qmul(g->centre, qmul(s2, axis_angle(t, tw2)));
         } else {
-            const double ang = 2.0 * atan2(sqrt(rr.x * rr.x + rr.y * rr.y + rr.z * rr.z), rr.w);
+            const double vs = sqrt(vv);
+            if (below_half(vs, rr.w, b->sk_c, b->sk_s)) /* the whole angle below the knee */
+                return 0;
+            const double ang = 2.0 * atan2(vs, rr.w);
             if (!(ang > smax - ws))
                 return 0;
             *q = qmul(g->centre, with_angle(rr, mlr_limits_soft(ang, smax, ws)));
@@ -881,7 +1150,7 @@ void mlr_limits_apply_frame(const mlr_limits *lim, mlr_quat *q, const double *al
     for (size_t j = 0; j < lim->n_joints; j++) {
         const double a = alpha ? alpha[stride * j] : 1.0;
         const mlr_limits_joint *g = &lim->joints[j];
-        const joint_bounds b = bounds_of(lim, g, a);
+        const joint_bounds b = bounds_of(lim, g, a, 0);
         if (limit_joint(g, &b, &q[j], NULL) && counts)
             counts[j]++;
     }
@@ -893,6 +1162,22 @@ void mlr_limits_apply_kind(const mlr_limits *lim, size_t n_frames, mlr_quat *rot
     mlr_limits_apply_kind_masked(lim, n_frames, rot, alpha, n_alpha, counts, kind, NULL, 0);
 }
 
+/* The squared vector part of conj(centre) q (cc = conj(centre)) of the m quaternions q[stride i],
+ * as limit_joint computes it (the same operations: the same bits). Vectorized. */
+MLR_CLONES_AVX2
+static void centred_vv(const mlr_quat *q, size_t stride, size_t m, mlr_quat cc, double *vv)
+{
+    const double aw = cc.w, ax = cc.x, ay = cc.y, az = cc.z;
+    for (size_t i = 0; i < m; i++) {
+        const mlr_quat *p = q + stride * i;
+        const double bw = p->w, bx = p->x, by = p->y, bz = p->z;
+        const double x = aw * bx + ax * bw + ay * bz - az * by;
+        const double y = aw * by - ax * bz + ay * bw + az * bx;
+        const double z = aw * bz + ax * by - ay * bx + az * bw;
+        vv[i] = x * x + y * y + z * z;
+    }
+}
+
 void mlr_limits_apply_kind_masked(const mlr_limits *lim, size_t n_frames, mlr_quat *rot,
                                   const double *alpha, size_t n_alpha, size_t *counts, int kind,
                                   const uint8_t *mask, int hard)
@@ -900,12 +1185,16 @@ void mlr_limits_apply_kind_masked(const mlr_limits *lim, size_t n_frames, mlr_qu
     const size_t J = lim->n_joints;
     const double *aj = alpha ? (n_alpha == 1 ? alpha : alpha + 1) : NULL;
     const size_t stride = n_alpha == 1 ? 0 : 1;
-    /* each joint along the frames with its own unwrapping state, as if joint by joint; the
-       joints of a block side by side within a frame, so the frames are read in order */
-    enum { BLOCK = 32 };
+    /* each joint along the frames with its own unwrapping state, as if joint by joint; by
+       blocks of FB frames, the joints of a block one after the other within them (so the
+       frames are read in order). A swing-twist joint's rotations well inside its range
+       (limit_joint's first fast path) are found for a block of frames at once (centred_vv),
+       their twist read only if a later frame needs it. */
+    enum { BLOCK = 32, FB = 64 };
     size_t js[BLOCK];
     prev_angle prev[BLOCK];
     joint_bounds b[BLOCK];
+    double vv[FB];
     for (size_t j0 = 0; j0 < J;) {
         size_t m = 0;
         for (; j0 < J && m < BLOCK; j0++) {
@@ -921,22 +1210,34 @@ void mlr_limits_apply_kind_masked(const mlr_limits *lim, size_t n_frames, mlr_qu
             }
             const double a = aj ? aj[stride * j0] : 1.0;
             js[m] = j0;
-            prev[m] = (prev_angle){NAN, 0, {1, 0, 0, 0}};
-            b[m] = bounds_of(lim, lj, a);
-            b[m].hard = hard && kind == MLR_LIMITS_HINGE;
+            prev[m] = (prev_angle){NAN, 0, {1, 0, 0, 0}, NULL};
+            b[m] = bounds_of(lim, lj, a, hard);
             m++;
         }
-        for (size_t f = 0; f < n_frames; f++)
+        for (size_t f0 = 0; f0 < n_frames; f0 += FB) {
+            const size_t nf = n_frames - f0 < FB ? n_frames - f0 : FB;
             for (size_t i = 0; i < m; i++) {
                 const size_t j = js[i];
-                if (mask && !mask[f * J + j]) { /* not limited here: the unwrapping starts
-                                                   again at the next frame that is */
-                    prev[i] = (prev_angle){NAN, 0, {1, 0, 0, 0}};
-                    continue;
+                const mlr_limits_joint *g = &lim->joints[j];
+                const int pre = kind == MLR_LIMITS_SWING_TWIST && b[i].fast > 0;
+                if (pre)
+                    centred_vv(rot + f0 * J + j, J, nf, b[i].cc, vv);
+                for (size_t f = f0; f < f0 + nf; f++) {
+                    if (mask && !mask[f * J + j]) { /* not limited here: the unwrapping starts
+                                                       again at the next frame that is */
+                        prev[i] = (prev_angle){NAN, 0, {1, 0, 0, 0}, NULL};
+                        continue;
+                    }
+                    if (pre && vv[f - f0] < b[i].fast) { /* well inside: unchanged */
+                        if (b[i].bl > 0)
+                            prev[i].pending = 3, prev[i].qp = &rot[f * J + j];
+                        continue;
+                    }
+                    if (limit_joint(g, &b[i], &rot[f * J + j], &prev[i]) && counts)
+                        counts[j]++;
                 }
-                if (limit_joint(&lim->joints[j], &b[i], &rot[f * J + j], &prev[i]) && counts)
-                    counts[j]++;
             }
+        }
     }
 }
 
@@ -963,19 +1264,18 @@ mlr_status mlr_limits_apply(const mlr_limits *lim, size_t n_frames, const double
                             "limits: counts must have J = %zu values, got %zu", J, n_counts);
     if (counts)
         memset(counts, 0, J * sizeof *counts);
-    for (size_t f = 0; f < n_frames; f++)
-        for (size_t j = 0; j < J; j++) {
-            const double *p = rot_in + 4 * (J * f + j);
-            const double n2 = p[0] * p[0] + p[1] * p[1] + p[2] * p[2] + p[3] * p[3];
-            if (!isfinite(n2) || !(n2 > 0))
-                return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                    "limits: rot_in[%zu][%zu] is %s", f, j,
-                                    isfinite(n2) ? "zero" : "not finite");
-        }
-    if (rot_out != rot_in)
-        memmove(rot_out, rot_in, 4 * J * n_frames * sizeof(double));
+    const size_t nq = J * n_frames, bad = first_bad_quat(rot_in, nq);
+    if (bad < nq)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "limits: rot_in[%zu][%zu] is %s",
+                            bad / J, bad % J,
+                            quat_finite(rot_in + 4 * bad) ? "zero" : "not finite");
     mlr_quat *q = (mlr_quat *)rot_out;
-    (void)mlr_quat_normalize_array(q, J * n_frames, q, NULL);
+    const uintptr_t in_at = (uintptr_t)rot_in, out_at = (uintptr_t)rot_out,
+                    bytes = 4 * nq * sizeof(double);
+    const int apart = out_at + bytes <= in_at || in_at + bytes <= out_at;
+    if (rot_out != rot_in && !apart) /* overlapping arrays: in place */
+        memmove(rot_out, rot_in, 4 * nq * sizeof(double));
+    (void)mlr_quat_normalize_array(apart ? (const mlr_quat *)rot_in : q, nq, q, NULL);
     /* joint by joint, so that hinge angles are unwrapped along the frames */
     for (int kind = MLR_LIMITS_HINGE; kind <= MLR_LIMITS_SWING_TWIST; kind++)
         mlr_limits_apply_kind(lim, n_frames, q, alpha, n_alpha, counts, kind);

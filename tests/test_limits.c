@@ -112,6 +112,13 @@ START_TEST(the_knee_of_a_synthetic_leg_is_a_hinge_about_its_axis)
     ck_assert_int_eq(mlr_limits_get_geometry(lim, 1, NULL, NULL, NULL, NULL, st), MLR_OK);
     ck_assert_close(r.swing, st[2] / 0.85, 1e-9); /* the input's extent at the knee point */
     ck_assert_close(st[2], 25 * DEG, 2 * DEG);
+    /* the hinge angles are measured on the hinge candidates only (named hinges with an axis):
+       0 on the hip (which has an axis) and on the root */
+    ck_assert_double_eq(st[0], 0.0);
+    ck_assert_double_eq(st[1], 0.0);
+    ck_assert_int_eq(mlr_limits_get_geometry(lim, 0, NULL, NULL, NULL, NULL, st), MLR_OK);
+    ck_assert_double_eq(st[0], 0.0);
+    ck_assert_double_eq(st[1], 0.0);
     mlr_limits_destroy(lim);
     free(rot);
 }

@@ -179,7 +179,10 @@ MLR_API mlr_status mlr_limits_set_range(mlr_limits *lim, size_t joint,
  * @param bone_out [out] 3: the shin vector b (main child's translation, joint frame; zero if
  *                 none)
  * @param stats    [out] 4: the input's smallest and largest hinge angle, the largest swing and
- *                 the largest |twist| about the centre (radians; 0 where not defined)
+ *                 the largest |twist| about the centre (radians; 0 where not defined). The
+ *                 hinge angles are measured on the hinge candidates only: the joints named as
+ *                 hinges (knee, elbow; every joint but the root when the rig has no names) that
+ *                 have an axis; they are 0 on every other joint.
  * @return MLR_OK; MLR_E_INVALID_ARG (NULL handle, joint out of range)
  * Allocates: never. Threads: handle only read.
  */

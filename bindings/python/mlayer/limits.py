@@ -127,6 +127,9 @@ class JointLimits(ReadOnlyAttributes):
             ``centre`` (4,), ``axis`` (3,: the hinge axis in the parent frame; zero when
             none), ``bone_in`` (3,), ``bone_out`` (3,), and the input's stats ``min_angle``,
             ``max_angle`` (hinge angle), ``max_swing``, ``max_twist`` (largest |twist|).
+            ``min_angle`` and ``max_angle`` are measured on the hinge candidates only (the
+            joints with an axis named as hinges: knee, elbow; every joint but the root when
+            the rig has no names) and are 0 on every other joint.
         """
         j = self._index(joint)
         c, ax, bi, bo, st = (np.empty(4), np.empty(3), np.empty(3), np.empty(3), np.empty(4))
