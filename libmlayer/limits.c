@@ -465,20 +465,6 @@ static void extents_block(const double *p, size_t stride, size_t m, mlr_quat cc,
     }
 }
 
-/* c ? a : b by bit masks, so that the compiler keeps both operands computed unconditionally
- * (GCC otherwise moves a division under a branch, which stops the vectorizer; as quat.c). */
-static inline double select_bits(int c, double a, double b)
-{
-    const uint64_t mask = (uint64_t)0 - (uint64_t)(c != 0);
-    uint64_t ab, bb;
-    memcpy(&ab, &a, sizeof ab);
-    memcpy(&bb, &b, sizeof bb);
-    const uint64_t r = (ab & mask) | (bb & ~mask);
-    double out;
-    memcpy(&out, &r, sizeof out);
-    return out;
-}
-
 /* What measure_extents takes of the m <= EXT_FB quaternions p + stride i (doubles) of hinge
  * candidate g (unit bone out t): the centred rotations r (r.w >= 0) in lq, the hinge angle's
  * (y, x) pairs (hinge_pair of q b) in hy, hx, the swing's and the twist's pairs as
@@ -528,10 +514,11 @@ static void cand_block(const double *restrict p, size_t stride, size_t m,
         c2[i] = w;
         /* s = r conj(tw), tw the unit twist (identity when |(w, p)| <= 1e-300) */
         const int ok = tn > 1e-300;
-        const double d = select_bits(ok, tn, 1.0);
-        const double tww = select_bits(ok, w / d, 1.0), twx = select_bits(ok, pp * tx / d, 0.0),
-                     twy = select_bits(ok, pp * ty / d, 0.0),
-                     twz = select_bits(ok, pp * tz / d, 0.0);
+        const double d = mlr_select_bits(ok, tn, 1.0);
+        const double tww = mlr_select_bits(ok, w / d, 1.0),
+                     twx = mlr_select_bits(ok, pp * tx / d, 0.0),
+                     twy = mlr_select_bits(ok, pp * ty / d, 0.0),
+                     twz = mlr_select_bits(ok, pp * tz / d, 0.0);
         const double cw = tww, cxx = -twx, cyy = -twy, czz = -twz;
         const double sqw = w * cw - x * cxx - y * cyy - z * czz;
         const double sqx = w * cxx + x * cw + y * czz - z * cyy;

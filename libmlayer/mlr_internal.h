@@ -61,6 +61,20 @@ static inline void mlr_quat_mul_inline(const mlr_quat *a, const mlr_quat *b, mlr
     out->z = aw * bz + ax * by - ay * bx + az * bw;
 }
 
+/* c ? a : b by bit masks, so that the compiler keeps both operands computed unconditionally
+ * (GCC otherwise moves a division under a branch, which stops the vectorizer). */
+static inline double mlr_select_bits(int c, double a, double b)
+{
+    const uint64_t mask = (uint64_t)0 - (uint64_t)(c != 0);
+    uint64_t ab, bb;
+    memcpy(&ab, &a, sizeof ab);
+    memcpy(&bb, &b, sizeof bb);
+    const uint64_t r = (ab & mask) | (bb & ~mask);
+    double out;
+    memcpy(&out, &r, sizeof out);
+    return out;
+}
+
 /* v' = v + 2w (u x v) + 2 u x (u x v), u = (x, y, z); v and o are 3 doubles. */
 static inline void mlr_quat_rotate_inline(const mlr_quat *q, const double *v, double *o)
 {

@@ -99,20 +99,6 @@ static inline int finite4(double a, double b, double c, double d)
     return a * 0.0 + b * 0.0 + c * 0.0 + d * 0.0 == 0.0;
 }
 
-/* c ? a : b by bit masks, so that the compiler keeps both operands computed unconditionally
- * (GCC otherwise moves a division under a branch, which stops the vectorizer). */
-static inline double select_bits(int c, double a, double b)
-{
-    const uint64_t mask = (uint64_t)0 - (uint64_t)(c != 0);
-    uint64_t ab, bb;
-    memcpy(&ab, &a, sizeof ab);
-    memcpy(&bb, &b, sizeof bb);
-    const uint64_t r = (ab & mask) | (bb & ~mask);
-    double out;
-    memcpy(&out, &r, sizeof out);
-    return out;
-}
-
 /* The m quaternions at q into SoA copies w, x, y, z; 1 when every component is finite and the
  * largest |component| of every quaternion lies in [lo, hi]. */
 static inline int block_load(const mlr_quat *restrict q, size_t m, double *restrict w,
@@ -205,7 +191,7 @@ static int exp_fast(const mlr_vec3 *v, size_t m, mlr_quat *out)
         /* a nonzero angle is above 1e-162 */
         const double ratio = sn / vmax(angle, 0x1p-600);
         c[i] = cs;
-        k[i] = select_bits(angle > 0.0, ratio, 0.5); /* sin(angle / 2) / angle */
+        k[i] = mlr_select_bits(angle > 0.0, ratio, 0.5); /* sin(angle / 2) / angle */
     }
     for (size_t i = 0; i < m; i++) {
         out[i].w = c[i];
@@ -288,12 +274,12 @@ static inline double atan2_pos(double s, double w)
                         T10 = 1.62858201153657823623e-02;
     const int big = s > w;
     /* the selects are bit masks so that the divisions stay unconditional (vectorizable) */
-    const double x = select_bits(big, w, s) / select_bits(big, s, w);
+    const double x = mlr_select_bits(big, w, s) / mlr_select_bits(big, s, w);
     const int i0 = x >= 0.4375, i1 = x >= 0.6875;
     /* t = (x - c) / (1 + c x) for c = 0, 1/2, 1 with exact numerators */
     const double n1 = x - 1.0, d1 = x + 1.0, n0 = 2.0 * x - 1.0, d0 = 2.0 + x;
-    const double t = select_bits(i1, n1, select_bits(i0, n0, x)) /
-                     select_bits(i1, d1, select_bits(i0, d0, 1.0));
+    const double t = mlr_select_bits(i1, n1, mlr_select_bits(i0, n0, x)) /
+                     mlr_select_bits(i1, d1, mlr_select_bits(i0, d0, 1.0));
     /* atan(c) (or pi/2 - atan(c) when big) as hi + lo */
     const double hi = big ? (i1   ? 7.85398163397448278999e-01
                              : i0 ? 1.10714871779409040897e+00
@@ -327,7 +313,7 @@ static inline void log_soa(const double *restrict w, const double *restrict x,
         const double s = sqrt(x[i] * x[i] + y[i] * y[i] + z[i] * z[i]);
         /* both forms computed, one kept (the other may be 0/0 there) */
         const double ks = log_series(s, aw), ka = 2.0 * atan2_pos(s, aw) / s;
-        k[i] = sg * select_bits(s < LOG_SERIES_ARG * aw, ks, ka);
+        k[i] = sg * mlr_select_bits(s < LOG_SERIES_ARG * aw, ks, ka);
     }
     for (size_t i = 0; i < m; i++) {
         out[i].x = k[i] * x[i];
