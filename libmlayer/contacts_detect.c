@@ -2,6 +2,7 @@
  * Foot contact detection: slow and low points, with hysteresis, gap closing and a minimum
  * duration; thresholds relative to the body height and to seconds.
  */
+#include "contacts_internal.h"
 #include "mlr_internal.h"
 #include "options_internal.h"
 
@@ -213,6 +214,17 @@ mlr_status mlr_contacts_detect(const mlr_rig *rig, double fps, int up, size_t n_
                                const mlr_contacts_option *opts, size_t n_opts, uint8_t *contacts,
                                const mlr_allocator *alloc, mlr_diag *diag)
 {
+    return mlr__contacts_detect(rig, fps, up, n_frames, world_pos, world_rot, n_points, joints,
+                                end_sites, opts, n_opts, contacts, alloc, NULL, diag);
+}
+
+mlr_status mlr__contacts_detect(const mlr_rig *rig, double fps, int up, size_t n_frames,
+                                const double *world_pos, const double *world_rot, size_t n_points,
+                                const int32_t *joints, const int32_t *end_sites,
+                                const mlr_contacts_option *opts, size_t n_opts, uint8_t *contacts,
+                                const mlr_allocator *alloc, const double *body_height,
+                                mlr_diag *diag)
+{
     const size_t N = n_frames, C = n_points;
     double speed = SPEED_ON, height = HEIGHT_ON, min_duration = MIN_CONTACT;
     mlr_status st = detect_check(rig, fps, up, N, world_pos, world_rot, C, joints, end_sites, opts,
@@ -222,8 +234,8 @@ mlr_status mlr_contacts_detect(const mlr_rig *rig, double fps, int up, size_t n_
 
     mlr_allocator a;
     mlr_allocator_resolve(alloc, &a);
-    double H;
-    st = mlr_rig_body_height(N, rig->n_joints, world_pos, up, &H, &a, diag);
+    double H = body_height ? *body_height : 0.0;
+    st = body_height ? MLR_OK : mlr_rig_body_height(N, rig->n_joints, world_pos, up, &H, &a, diag);
     if (st != MLR_OK)
         return mlr_diag_prefix(diag, st, "contacts");
     if (!(H > 0))

@@ -1,6 +1,7 @@
 /*
  * The feet of a rig found by joint name: ankles, toes (or End Sites), and hands that stay low.
  */
+#include "contacts_internal.h"
 #include "mlr_internal.h"
 
 #include <math.h>
@@ -60,11 +61,11 @@ enum { IS_ANKLE = 1, IS_HAND = 2, FOOT_NAME = 4, HAND_NAME = 8, FOOT_BELOW = 16,
 /* Adds the hands that stay low to the ankles (flags). */
 static mlr_status low_hands(const mlr_rig *rig, size_t N, const double *world_pos, int up,
                             unsigned char *flags, size_t n_ankles, const mlr_allocator *a,
-                            mlr_diag *diag)
+                            const double *height, mlr_diag *diag)
 {
     const size_t J = rig->n_joints;
-    double H;
-    mlr_status st = mlr_rig_body_height(N, J, world_pos, up, &H, a, diag);
+    double H = height ? *height : 0.0;
+    mlr_status st = height ? MLR_OK : mlr_rig_body_height(N, J, world_pos, up, &H, a, diag);
     if (st != MLR_OK)
         return mlr_diag_prefix(diag, st, "find_feet");
     if (H == 0.0)
@@ -105,6 +106,15 @@ static mlr_status low_hands(const mlr_rig *rig, size_t N, const double *world_po
 mlr_status mlr_contacts_find_feet(const mlr_rig *rig, size_t n_frames, const double *world_pos,
                                   int up, size_t capacity, int32_t *joints, int32_t *end_sites,
                                   size_t *n_feet, const mlr_allocator *alloc, mlr_diag *diag)
+{
+    return mlr__contacts_find_feet(rig, n_frames, world_pos, up, capacity, joints, end_sites,
+                                   n_feet, alloc, NULL, diag);
+}
+
+mlr_status mlr__contacts_find_feet(const mlr_rig *rig, size_t n_frames, const double *world_pos,
+                                   int up, size_t capacity, int32_t *joints, int32_t *end_sites,
+                                   size_t *n_feet, const mlr_allocator *alloc,
+                                   const double *height, mlr_diag *diag)
 {
     mlr_status st = mlr_rig_check(rig, diag);
     if (st != MLR_OK)
@@ -152,7 +162,7 @@ mlr_status mlr_contacts_find_feet(const mlr_rig *rig, size_t n_frames, const dou
                             "contact points yourself ('Joint/End' names a joint's End Site)");
     }
     if (n_hands && n_frames) {
-        st = low_hands(rig, n_frames, world_pos, up, flags, n_ankles, &a, diag);
+        st = low_hands(rig, n_frames, world_pos, up, flags, n_ankles, &a, height, diag);
         if (st != MLR_OK) {
             mlr_free(&a, flags, J);
             return st;

@@ -4,6 +4,7 @@
  */
 #include "mlr_internal.h"
 #include "cleanup_internal.h"
+#include "contacts_internal.h"
 #include "limits_internal.h"
 #include "options_internal.h"
 
@@ -231,10 +232,23 @@ static mlr_status find_contacts(mlr_guards *g, const double *world_pos, const do
     if (st != MLR_OK)
         mlr_diag_set(diag, st, 0, 0, "guards: %s for the feet (2 x %zu joints)",
                      st == MLR_E_OVERFLOW ? "size overflow" : "out of memory", J);
+    /* the body height, once for find_feet and detect; when it cannot be measured (a position
+     * not finite) they measure it themselves and fail as they would */
+    double H = 0.0;
+    const double *height = NULL;
+    if (st == MLR_OK) {
+        st = mlr_rig_body_height(N, J, world_pos, g->up, &H, &g->alloc, NULL);
+        if (st == MLR_OK)
+            height = &H;
+        else if (st == MLR_E_NO_MEMORY)
+            mlr_diag_set(diag, st, 0, 0, "guards: out of memory for the body height");
+        else
+            st = MLR_OK;
+    }
     if (st == MLR_OK) {
         mlr_diag quiet;
-        st = mlr_contacts_find_feet(&g->rig, N, world_pos, g->up, J, fj, fe, &n_feet, &g->alloc,
-                                    &quiet);
+        st = mlr__contacts_find_feet(&g->rig, N, world_pos, g->up, J, fj, fe, &n_feet, &g->alloc,
+                                     height, &quiet);
         if (st == MLR_E_INVALID_ARG) { /* no feet by name: nothing to pin */
             st = MLR_OK;
             n_feet = 0;
@@ -257,8 +271,9 @@ static mlr_status find_contacts(mlr_guards *g, const double *world_pos, const do
         if (st == MLR_OK) {
             memcpy(g->joints, fj, C * sizeof(int32_t));
             memcpy(g->end_sites, fe, C * sizeof(int32_t));
-            st = mlr_contacts_detect(&g->rig, g->fps, g->up, N, world_pos, world_rot, C, g->joints,
-                                     g->end_sites, NULL, 0, g->contacts, &g->alloc, diag);
+            st =
+                mlr__contacts_detect(&g->rig, g->fps, g->up, N, world_pos, world_rot, C, g->joints,
+                                     g->end_sites, NULL, 0, g->contacts, &g->alloc, height, diag);
             if (st == MLR_E_INVALID_ARG) /* a flat skeleton: no body size, nothing to pin */
                 st = MLR_OK, free_contacts(g);
         }
