@@ -22,6 +22,8 @@ Columns (definitions in plausibility.py's docstring; H = mlayer.metrics.body_hei
   dpos%                  (denoise only) max joint displacement guarded vs unguarded, % of H
   bone%                  max relative bone-length change vs the input, %
   root_dev               max distance of the output root from the input root path, in H
+  stEx                   largest swing/twist excess over the guards' ranges, degrees (the
+                         contact cleanup's IK can take hips and ankles past them)
   t_* (ms)               decompose, synthesize, and each guard stage: the time of the API
                          call with that guard alone minus the unguarded call
 Clips that cannot be processed (parse errors, fewer than 3 frames, ...) are listed with the
@@ -78,6 +80,7 @@ def measure_clip(m, alphas, name="") -> list[dict]:
     chains = P.limb_chains(m)
     parts = P.body_parts(m, chains)
     fk_in = m.forward_kinematics()
+    lim = mlayer.joint_limits(m)
     feet = P.foot_points(m)
     cn, cc = C.detect_contacts(m, feet) if feet else ([], None)
     floor = P.floor_level(m, feet, cc) if feet else float("nan")
@@ -135,6 +138,8 @@ def measure_clip(m, alphas, name="") -> list[dict]:
                              / H) if op == "denoise" else float("nan"),
                 "bone_pct": 100.0 * P.bone_length_change(fk_in[0], fk_out[0], m.parents, H),
                 "root_dev": P.root_path_deviation(fk_in[0][:, 0], fk_out[0][:, 0]) / H,
+                "st_excess": max(P.swing_twist_excess(lim, out.rot, alpha).values(),
+                                 default=0.0),
                 "t_decompose_ms": 1e3 * t_dec, "t_synthesize_ms": 1e3 * t_syn,
                 "t_limits_ms": 1e3 * stage_t["limits"] if "limits" in stage_t else None,
                 "t_contacts_ms": 1e3 * stage_t["contacts"] if "contacts" in stage_t else None,
@@ -149,12 +154,13 @@ COLS = [("clip", "{:<30.30}"), ("up", "{:>3}"), ("op", "{:<11}"), ("guards", "{:
         ("elb_rev", "{:>5}"), ("floor_frames", "{:>5}"), ("floor_max_pct", "{:>6.2f}"),
         ("keep_legs", "{:>5.2f}"), ("keep_arms", "{:>5.2f}"), ("keep_spine", "{:>5.2f}"),
         ("slide_in", "{:>6.3f}"), ("slide_out", "{:>6.3f}"), ("dpos_pct", "{:>6.2f}"),
-        ("bone_pct", "{:>6.2f}"), ("root_dev", "{:>6.3f}"), ("t_decompose_ms", "{:>6.0f}"),
+        ("bone_pct", "{:>6.2f}"), ("root_dev", "{:>6.3f}"), ("st_excess", "{:>5.1f}"),
+        ("t_decompose_ms", "{:>6.0f}"),
         ("t_synthesize_ms", "{:>5.0f}"), ("t_limits_ms", "{:>5.0f}"),
         ("t_contacts_ms", "{:>5.0f}"), ("t_floor_ms", "{:>5.0f}")]
 HEAD = ["clip", "up", "op", "guards", "kFold", "kRev", "eFold", "eRev", "flrFr", "flr%H",
-        "kLeg", "kArm", "kSpn", "slIn", "slOut", "dpos%", "bone%", "rootH", "tDec", "tSyn",
-        "tLim", "tCon", "tFlr"]
+        "kLeg", "kArm", "kSpn", "slIn", "slOut", "dpos%", "bone%", "rootH", "stEx", "tDec",
+        "tSyn", "tLim", "tCon", "tFlr"]
 
 
 def _width(fmt) -> int:

@@ -43,6 +43,15 @@ frames and skeleton):
   path (the polyline through its root positions), in body heights.
 - Bone lengths: largest relative change of a joint-to-parent distance (bones longer than
   1e-6 H) between output and input over all frames.
+- Swing/twist excess: for each joint whose range is "swing-twist" in the limits the guards
+  learn from the input (:func:`mlayer.joint_limits`: centre c, bone direction t, bounds swing
+  and twist, widened by |alpha| where ``widen``), the output's rotation q is taken relative
+  to the centre, r = conj(c) q (w >= 0), and split into a twist about t, 2 atan2(r.v . t, w),
+  and the swing of the rest, 2 atan2(|s.v|, |s.w|) with s = r conj(twist); the excess is how
+  far either passes its bound, in degrees (0 inside). The guards' soft saturation keeps the
+  limits' own synthesis inside; the contact cleanup's IK, which moves hips and ankles after
+  the limits so that the pinned feet reach their targets, can take them past. This uses the
+  library's learned geometry, but measures the angles here in numpy.
 """
 from __future__ import annotations
 
@@ -314,3 +323,46 @@ def bone_length_change(pos_in: np.ndarray, pos_out: np.ndarray, parents, H: floa
     if not ok.any():
         return 0.0
     return float((np.abs(lo - li)[ok] / li[ok]).max())
+
+
+def _qmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    aw, ax, ay, az = np.moveaxis(a, -1, 0)
+    bw, bx, by, bz = np.moveaxis(b, -1, 0)
+    return np.stack([aw * bw - ax * bx - ay * by - az * bz, aw * bx + ax * bw + ay * bz - az * by,
+                     aw * by - ax * bz + ay * bw + az * bx, aw * bz + ax * by - ay * bx + az * bw],
+                    axis=-1)
+
+
+def swing_twist_excess(limits, rot: np.ndarray, alpha: float = 1.0) -> dict[str, float]:
+    """Largest swing/twist excess (degrees) per joint over the ranges of ``limits``.
+
+    ``limits``: a :class:`mlayer.limits.JointLimits` (of the input); ``rot``: frames x
+    joints x 4 rotations of a motion on its skeleton; ``alpha``: the synthesis' alpha (the
+    ranges marked ``widen`` grow with |alpha|). Returns {joint name: excess} for every
+    swing-twist joint with a bone (see the module docstring).
+    """
+    rot = np.asarray(rot, dtype=float)
+    out = {}
+    conj = np.array([1.0, -1.0, -1.0, -1.0])
+    for j, name in enumerate(limits.joint_names):
+        r = limits.range(j)
+        g = limits.geometry(j)
+        bl = float(np.linalg.norm(g["bone_out"]))
+        if r["kind"] != "swing-twist" or bl == 0.0:
+            continue
+        t = g["bone_out"] / bl
+        q = rot[:, j] / np.linalg.norm(rot[:, j], axis=-1, keepdims=True)
+        rr = _qmul(np.broadcast_to(g["centre"] * conj, q.shape), q)
+        rr = np.where(rr[:, :1] < 0.0, -rr, rr)
+        p = rr[:, 1:] @ t
+        twist = 2.0 * np.arctan2(p, rr[:, 0])
+        twist = (twist + np.pi) % (2.0 * np.pi) - np.pi
+        tn = np.maximum(np.hypot(rr[:, 0], p), 1e-300)
+        tq = np.stack([rr[:, 0] / tn, p * t[0] / tn, p * t[1] / tn, p * t[2] / tn], axis=-1)
+        s = _qmul(rr, tq * conj)
+        swing = 2.0 * np.arctan2(np.linalg.norm(s[:, 1:], axis=-1), np.abs(s[:, 0]))
+        wide = max(1.0, abs(alpha)) if r["widen"] else 1.0
+        smax, tmax = min(np.pi, r["swing"] * wide), min(np.pi, r["twist"] * wide)
+        e = np.maximum(np.maximum(swing - smax, 0.0), np.maximum(np.abs(twist) - tmax, 0.0))
+        out[name] = float(np.degrees(e.max())) if e.size else 0.0
+    return out

@@ -112,3 +112,31 @@ def test_rms_angle_and_parts():
 def test_up_axis():
     m = leg(np.full(4, 30.0))
     assert P.up_axis(m) == "Y"
+
+
+def _axis_angle(axis, deg):
+    a = np.asarray(axis, float) / np.linalg.norm(axis)
+    h = np.radians(deg) / 2.0
+    return np.concatenate([[np.cos(h)], np.sin(h) * a])
+
+
+def test_swing_twist_excess():
+    inp = leg(np.linspace(10, 60, 20))
+    lim = mlayer.joint_limits(inp)
+    assert max(P.swing_twist_excess(lim, inp.rot).values()) < 1e-9  # the input is inside
+    name = next(n for n in P.swing_twist_excess(lim, inp.rot))
+    j = inp.joint_names.index(name)
+    g, r = lim.geometry(j), lim.range(j)
+    t = g["bone_out"] / np.linalg.norm(g["bone_out"])
+    perp = np.cross(t, [1.0, 0.0, 0.0] if abs(t[0]) < 0.9 else [0.0, 1.0, 0.0])
+    swung, twisted = inp.rot.copy(), inp.rot.copy()
+    # swing alone, 7 degrees past the bound (the centre's frame: r = conj(c) q)
+    swung[5, j] = quat.mul(g["centre"], _axis_angle(perp, np.degrees(r["swing"]) + 7.0))
+    # twist alone about the bone, 4 degrees past
+    twisted[5, j] = quat.mul(g["centre"], _axis_angle(t, np.degrees(r["twist"]) + 4.0))
+    assert P.swing_twist_excess(lim, swung)[name] == pytest.approx(7.0, abs=1e-6)
+    assert P.swing_twist_excess(lim, twisted)[name] == pytest.approx(4.0, abs=1e-6)
+    if r["widen"]:  # a range widened by alpha: at alpha 2 the bound is twice as far
+        s = np.degrees(r["swing"])
+        want = max(0.0, s + 7.0 - min(180.0, 2.0 * s))
+        assert P.swing_twist_excess(lim, swung, 2.0)[name] == pytest.approx(want, abs=1e-6)
