@@ -44,7 +44,7 @@ static int root_needs(const cleanup_state *cu, double cos_fold, double *need, co
                 double lift = 0.0;
                 for (size_t i = 0; i < ft->n_cols; i++) {
                     const size_t c = ft->cols[i];
-                    lift = fmax(lift, lim[f * C + c] - P[3 * (f * C + c) + (size_t)up]);
+                    lift = mlr_fmax(lift, lim[f * C + c] - P[3 * (f * C + c) + (size_t)up]);
                 }
                 if (!(lift > 0.0))
                     continue;
@@ -56,11 +56,11 @@ static int root_needs(const cleanup_state *cu, double cos_fold, double *need, co
             const double l1 = cleanup__dist3(pk, ph), l2 = cleanup__dist3(pe, pk);
             const double length = l1 + l2;
             const double now = cleanup__dist3(pe, ph);
-            const double reach = fmax(cfg->reach * length, now);
+            const double reach = mlr_fmax(cfg->reach * length, now);
             /* the hip-ankle distance of a knee folded to max_fold: a target nearer
                than that would fold the knee past its limit */
             const double fold =
-                fmin(sqrt(fmax(l1 * l1 + l2 * l2 + 2.0 * l1 * l2 * cos_fold, 0.0)), now);
+                mlr_fmin(sqrt(mlr_fmax(l1 * l1 + l2 * l2 + 2.0 * l1 * l2 * cos_fold, 0.0)), now);
             double v[3];
             for (int d = 0; d < 3; d++)
                 v[d] = target[d] - (ph[d] + shift[3 * f + (size_t)d]);
@@ -78,7 +78,7 @@ static int root_needs(const cleanup_state *cu, double cos_fold, double *need, co
                                     need[3 * f + 2] * need[3 * f + 2]);
             if (fabs(excess) > cur) {
                 for (int d = 0; d < 3; d++)
-                    need[3 * f + (size_t)d] = v[d] * excess / fmax(dist, 1e-12);
+                    need[3 * f + (size_t)d] = v[d] * excess / mlr_fmax(dist, 1e-12);
                 any = 1;
             }
         }
@@ -153,7 +153,7 @@ mlr_status cleanup__shift_root(cleanup_state *cu, cleanup_arena *ar, mlr_cleanup
     double *ysh = cleanup__take(ar, N * 3, sizeof(double));
     if (ar->st != MLR_OK)
         return ar->st;
-    const size_t half = (size_t)fmax(1.0, round(0.1 * fps));
+    const size_t half = (size_t)mlr_fmax(1.0, round(0.1 * fps));
     /* the raised-cosine window's weights, by offset g - f + half */
     double *wtab = cleanup__take(ar, 2 * half + 1, sizeof(double));
     double *n2s = cleanup__take(ar, N, sizeof(double));
@@ -184,7 +184,7 @@ mlr_status cleanup__shift_root(cleanup_state *cu, cleanup_arena *ar, mlr_cleanup
             const double n =
                 sqrt(shift[3 * f] * shift[3 * f] + shift[3 * f + 1] * shift[3 * f + 1] +
                      shift[3 * f + 2] * shift[3 * f + 2]);
-            report->root_shift_max = fmax(report->root_shift_max, n);
+            report->root_shift_max = mlr_fmax(report->root_shift_max, n);
         }
     }
     return MLR_OK;

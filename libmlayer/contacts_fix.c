@@ -104,7 +104,7 @@ static mlr_status set_floor(cleanup_state *cu, const mlr_cleanup_ref *pre, clean
                 floor_h = cleanup__quantile_of(v, k, cfg->floor_q);
         }
         for (size_t i = 0; i < N * C; i++)
-            lim[i] = pre ? fmin(floor_h, pre->h[i]) : floor_h;
+            lim[i] = pre ? mlr_fmin(floor_h, pre->h[i]) : floor_h;
     }
     cu->floor_h = floor_h;
     cu->floor_active = cfg->floor_on && isfinite(floor_h);
@@ -189,9 +189,9 @@ static void pin_run_to_means(const cleanup_state *cu, cleanup_foot *ft, size_t s
         if (cu->floor_active) { /* the pinned points stay above the floor */
             double lift = 0.0;
             if (ft->n_own)
-                lift = fmax(lift, floor_h - ft->at[3 * f + (size_t)up]);
+                lift = mlr_fmax(lift, floor_h - ft->at[3 * f + (size_t)up]);
             if (has_toe)
-                lift = fmax(lift, floor_h - ft->tt[3 * f + (size_t)up]);
+                lift = mlr_fmax(lift, floor_h - ft->tt[3 * f + (size_t)up]);
             ft->at[3 * f + (size_t)up] += lift;
             if (has_toe)
                 ft->tt[3 * f + (size_t)up] += lift;

@@ -29,35 +29,6 @@ static void unit3(double a[3])
         a[0] /= n, a[1] /= n, a[2] /= n;
 }
 
-void mlr_ik_qmul(const double a[4], const double b[4], double o[4])
-{
-    const double w = a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3];
-    const double x = a[0] * b[1] + a[1] * b[0] + a[2] * b[3] - a[3] * b[2];
-    const double y = a[0] * b[2] - a[1] * b[3] + a[2] * b[0] + a[3] * b[1];
-    const double z = a[0] * b[3] + a[1] * b[2] - a[2] * b[1] + a[3] * b[0];
-    o[0] = w, o[1] = x, o[2] = y, o[3] = z;
-}
-
-void mlr_ik_qrot(const double q[4], const double v[3], double o[3])
-{
-    /* v + w t + u x t, t = 2 u x v (as ik._rotate) */
-    const double u[3] = {q[1], q[2], q[3]};
-    double t[3], ut[3];
-    cross3(u, v, t);
-    t[0] *= 2.0, t[1] *= 2.0, t[2] *= 2.0;
-    cross3(u, t, ut);
-    const double x = v[0] + q[0] * t[0] + ut[0], y = v[1] + q[0] * t[1] + ut[1],
-                 z = v[2] + q[0] * t[2] + ut[2];
-    o[0] = x, o[1] = y, o[2] = z;
-}
-
-static void qnormalize(double q[4])
-{
-    const double n = sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
-    if (n > 0.0)
-        q[0] /= n, q[1] /= n, q[2] /= n, q[3] /= n;
-}
-
 void mlr_ik_from_to_1(const double u_in[3], const double v_in[3], double q[4])
 {
     double u[3] = {u_in[0], u_in[1], u_in[2]}, v[3] = {v_in[0], v_in[1], v_in[2]};
@@ -94,8 +65,8 @@ void mlr_ik_two_bone_1(const double a[3], const double b[3], const double c[3], 
     }
     const double l1 = norm3(ab), l2 = norm3(bc), d_now = norm3(ac);
     double d = norm3(at);
-    const double hi = fmax(max_ext * (l1 + l2), d_now);
-    d = fmin(d, hi);
+    const double hi = mlr_fmax(max_ext * (l1 + l2), d_now);
+    d = mlr_fmin(d, hi);
     double n[3], bcu[3] = {bc[0], bc[1], bc[2]};
     if (axis)
         n[0] = axis[0], n[1] = axis[1], n[2] = axis[2];
@@ -105,7 +76,7 @@ void mlr_ik_two_bone_1(const double a[3], const double b[3], const double c[3], 
     const double p = dot3(n, bcu);
     for (int k = 0; k < 3; k++)
         n[k] -= p * bcu[k];
-    const double small = 1e-9 * fmax(l1 * l2, IK_EPS);
+    const double small = 1e-9 * mlr_fmax(l1 * l2, IK_EPS);
     if (norm3(n) <= small) { /* hinge along the shin: the leg's own plane, or any axis */
         cross3(bc, mab, n);
         if (norm3(n) <= small) {
@@ -119,7 +90,7 @@ void mlr_ik_two_bone_1(const double a[3], const double b[3], const double c[3], 
     cross3(n, bc, w);
     const double K = l1 * l1 + l2 * l2, P = dot3(ab, bc), Q = dot3(ab, w);
     const double A = hypot(P, Q), phi0 = atan2(Q, P);
-    double cosb = (d * d - K) / fmax(2.0 * A, IK_EPS);
+    double cosb = (d * d - K) / mlr_fmax(2.0 * A, IK_EPS);
     cosb = cosb < -1.0 ? -1.0 : cosb > 1.0 ? 1.0 : cosb;
     double phi = phi0 + acos(cosb); /* the forward-bent solution */
     phi = phi + IK_PI;
@@ -131,19 +102,6 @@ void mlr_ik_two_bone_1(const double a[3], const double b[3], const double c[3], 
     for (int k = 0; k < 3; k++)
         c1a[k] = b[k] + cp * bc[k] + sp * w[k] - a[k];
     mlr_ik_from_to_1(c1a, at, r_hip);
-}
-
-void mlr_ik_rotate_to_1(double rot_j[4], const double *gp, const double g[4], const double r[4])
-{
-    double nw[4];
-    mlr_ik_qmul(r, g, nw);
-    if (gp) {
-        const double cgp[4] = {gp[0], -gp[1], -gp[2], -gp[3]};
-        mlr_ik_qmul(cgp, nw, rot_j);
-    } else {
-        rot_j[0] = nw[0], rot_j[1] = nw[1], rot_j[2] = nw[2], rot_j[3] = nw[3];
-    }
-    qnormalize(rot_j);
 }
 
 static int all_finite(const double *x, size_t count)
