@@ -136,14 +136,15 @@ static size_t extend_left(const uint8_t *cls, size_t s, size_t lo, size_t R, int
     return a;
 }
 
-/* x = the solve of the principal submatrix of the full system (smooth_held's) on frames
+/* x = the solve of the principal submatrix of the full system (the smoothing above) on frames
    [a, b), y (the window's rows, m columns) in place: the full system's entries (assembled in
-   the same order), an LDL^T with the arithmetic of mlr_band (pentadiagonal). */
+   the same order) in w->ab, then the banded solver's own factor and sweeps (band_internal.h)
+   on a pentadiagonal view of the window in w->fac. */
 static mlr_status solve_window(const cleanup_work *w, const uint8_t *mask, size_t a, size_t b,
                                double sc, double *y, size_t m)
 {
     const size_t N = w->N, n = b - a;
-    double *ab = w->ab, *dinv = w->fac, *l = w->fac + N;
+    double *ab = w->ab;
     for (size_t i = 0; i < n; i++)
         ab[3 * i] = mask[a + i] ? PIN_HOLD : 1.0, ab[3 * i + 1] = ab[3 * i + 2] = 0.0;
     static const double c[3] = {1.0, -2.0, 1.0};
@@ -152,45 +153,20 @@ static mlr_status solve_window(const cleanup_work *w, const uint8_t *mask, size_
             for (size_t q = p; q < 3; q++)
                 if (r + p >= a && r + q < b)
                     ab[3 * (r + p - a) + (q - p)] += sc * c[p] * c[q];
+    /* the band's layout: dinv[i] = A(i,i), l[2 i + k - 1] = A(i,i-k) before the factor */
+    mlr_band band = {.n = n, .kd = 2, .dinv = w->fac, .l = w->fac + N};
     for (size_t i = 0; i < n; i++) {
-        const double aii = ab[3 * i];
-        const double a1 = i >= 1 ? ab[3 * (i - 1) + 1] : 0.0,
-                     a2 = i >= 2 ? ab[3 * (i - 2) + 2] : 0.0;
-        const double d = mlr_band_ldl2_row(i, aii, a1, a2, i >= 2 ? l[2 * (i - 1)] : 0.0,
-                                           i >= 1 ? dinv[i - 1] : 0.0, i >= 2 ? dinv[i - 2] : 0.0,
-                                           &l[2 * i], &l[2 * i + 1]);
-        if (!(d > 0.0) || !isfinite(d))
-            return MLR_E_SINGULAR;
-        dinv[i] = 1.0 / d;
+        band.dinv[i] = ab[3 * i];
+        band.l[2 * i] = i >= 1 ? ab[3 * (i - 1) + 1] : 0.0;
+        band.l[2 * i + 1] = i >= 2 ? ab[3 * (i - 2) + 2] : 0.0;
     }
+    const mlr_status st = mlr_band_factor_in_place(&band);
+    if (st < 0) /* a positive status is a warning (ill-conditioned), not a failure */
+        return st;
     double *x = y + a * m;
-    for (size_t i = 1; i < n; i++) { /* forward: x_i -= L(i,i-1) x_{i-1} + L(i,i-2) x_{i-2} */
-        double *xi = x + i * m;
-        const double *x1 = xi - m, *x2 = i >= 2 ? xi - 2 * m : NULL;
-        const double l1 = l[2 * i], l2 = l[2 * i + 1];
-        if (x2)
-            for (size_t k = 0; k < m; k++)
-                xi[k] -= l1 * x1[k] + l2 * x2[k];
-        else
-            for (size_t k = 0; k < m; k++)
-                xi[k] -= l1 * x1[k];
-    }
-    for (size_t i = n; i-- > 0;) { /* backward: x_i = x_i / D_i - L(i+1,i) x_{i+1} - ... */
-        double *xi = x + i * m;
-        const double di = dinv[i];
-        if (i + 2 < n) {
-            const double l1 = l[2 * (i + 1)], l2 = l[2 * (i + 2) + 1];
-            for (size_t k = 0; k < m; k++)
-                xi[k] = xi[k] * di - (l1 * xi[k + m] + l2 * xi[k + 2 * m]);
-        } else if (i + 1 < n) {
-            const double l1 = l[2 * (i + 1)];
-            for (size_t k = 0; k < m; k++)
-                xi[k] = xi[k] * di - l1 * xi[k + m];
-        } else {
-            for (size_t k = 0; k < m; k++)
-                xi[k] *= di;
-        }
-    }
+    for (size_t i = 1; i < n; i++)
+        mlr_band_forward_row(&band, i, x + i * m, m, m);
+    mlr_band_backward(&band, x, m, m);
     return MLR_OK;
 }
 
