@@ -814,17 +814,17 @@ static mlr_status clean_and_limit(const mlr_guards *g, const apply_work *w, cons
     for (int round = 0; round < rounds; round++) {
         if (rep->limits_applied)
             keep_legs(w, N, J);
-        /* every round (the motion changed, the reference did not) reads the reference's
-           trajectories made once: the input's at create, a given one here */
-        /* the last of several rounds in one pass: after the first round's two, the limits
-           move the legs on most frames and one pass pins the feet again (the second found
-           10 of 3,445 leg-frames still to move on the bench clip, CMU 01_01); the floor is
-           the last word of raise_to_floor */
+        /* the last of several rounds makes one pass: after the first round's two, the
+           limits move the legs on most frames and one pass pins the feet again (a second
+           found 10 of 3,445 leg-frames still to move on the bench clip, CMU 01_01); the
+           floor has its last word in raise_to_floor */
         mlr_cleanup_option ro[GUARDS_MAX_COPTS + 1];
         memcpy(ro, copts, n_copts * sizeof *ro);
         size_t n_ro = n_copts;
         if (rounds > 1 && round + 1 == rounds)
             ro[n_ro++] = (mlr_cleanup_option){MLR_CLEANUP_OPT_PASSES, 1.0};
+        /* every round (the motion changed, the reference did not) reads the reference's
+           trajectories made once: the input's at create, a given one here */
         st = mlr_cleanup_contacts_ref(&g->rig, N, g->fps, g->up, work_root, work, trans, ref,
                                       round > 0, g->n_points, g->joints, g->end_sites, contacts,
                                       ro, n_ro, work_root, work, crep, &g->alloc, diag);
