@@ -192,8 +192,8 @@ static void displacements(mlr_layers *L, const double *root_pos, int robust, dou
         for (size_t c = 0; c < 3; c++)
             di[c] = root_pos ? root_pos[3 * i + c] - pb[c] : 0.0;
         mlr_quat *qi = (mlr_quat *)(void *)(q + 4 * j * i);
-        mlr_quat_conj_mul_log((const mlr_quat *)(const void *)(L->base_rot + 4 * j * i), qi, j, qi,
-                              (mlr_vec3 *)(void *)(di + 3));
+        mlr_quat_conj_mul_log((const mlr_quat *)(const void *)(L->base_rot + 4 * j * i), qi, j, 0,
+                              qi, (mlr_vec3 *)(void *)(di + 3));
         const unsigned char *fl = L->outliers + i * (1 + j);
         for (size_t g = 0; g <= j; g++) {
             const double *v = di + 3 * g;
@@ -217,7 +217,7 @@ static void residuals(mlr_layers *L, const double *p, double *delta, double *tmp
         for (size_t c = 0; c < 3; c++)
             ri[c] -= ci[c];
         mlr_quat_exp_array((const mlr_vec3 *)(const void *)(ci + 3), j, e, NULL);
-        mlr_quat_conj_mul_log(e, (const mlr_quat *)(const void *)(p + 4 * j * i), j, r,
+        mlr_quat_conj_mul_log(e, (const mlr_quat *)(const void *)(p + 4 * j * i), j, 0, r,
                               (mlr_vec3 *)(void *)(ri + 3));
     }
 }

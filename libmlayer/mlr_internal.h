@@ -113,10 +113,11 @@ static inline void mlr_fk_joint_inline(const mlr_quat *wr_p, const double *wp_p,
  * that exist) already made continuous: mlr_quat_continue_sign per track (quat_continuity.c). */
 void mlr_quat_continue_frame(mlr_quat *q, size_t f, size_t n_tracks);
 
-/* prod[k] = conj(a[k]) b[k] and out[k] = log(prod[k]) as mlr_quat_log_array (zero for a zero
- * or non-finite product) for k < count, in one vectorized pass (quat.c). prod may alias b. */
-void mlr_quat_conj_mul_log(const mlr_quat *a, const mlr_quat *b, size_t count, mlr_quat *prod,
-                           mlr_vec3 *out);
+/* prod[k] = conj(a[k]) b[k] (conj_b 0) or a[k] conj(b[k]) (conj_b 1) and out[k] = log(prod[k])
+ * as mlr_quat_log_array (zero for a zero or non-finite product) for k < count, in one
+ * vectorized pass (quat.c). prod may alias a or b. */
+void mlr_quat_conj_mul_log(const mlr_quat *a, const mlr_quat *b, size_t count, int conj_b,
+                           mlr_quat *prod, mlr_vec3 *out);
 
 /* Intrinsic Euler orders (euler.c): axes (0 = X, 1 = Y, 2 = Z) in the order of mlr_euler_order,
  * and the sign of each permutation (+1 cyclic, -1 anticyclic). */

@@ -378,17 +378,19 @@ mlr_status mlr_quat_log_array(const mlr_quat *q, size_t count, mlr_vec3 *out, ml
     return MLR_OK;
 }
 
-/* prod = conj(a) b, out = log(prod) for m <= QBLK quaternions; the SoA path when the
- * products are of the common case. */
+/* prod = conj(a) b (conj_b 0) or a conj(b) (conj_b 1), out = log(prod) for m <= QBLK
+ * quaternions; the SoA path when the products are of the common case. The conjugate is a
+ * product by -1, exact: both forms give the bits of a negated copy. */
 MLR_CLONES_AVX2
-static void conj_mul_log_block(const mlr_quat *a, const mlr_quat *b, size_t m, mlr_quat *prod,
-                               mlr_vec3 *out)
+static void conj_mul_log_block(const mlr_quat *a, const mlr_quat *b, size_t m, int conj_b,
+                               mlr_quat *prod, mlr_vec3 *out)
 {
     double w[QBLK], x[QBLK], y[QBLK], z[QBLK];
+    const double sa = conj_b ? 1.0 : -1.0, sb = conj_b ? -1.0 : 1.0;
     int bad = 0;
     for (size_t i = 0; i < m; i++) {
-        const double aw = a[i].w, ax = -a[i].x, ay = -a[i].y, az = -a[i].z;
-        const double bw = b[i].w, bx = b[i].x, by = b[i].y, bz = b[i].z;
+        const double aw = a[i].w, ax = sa * a[i].x, ay = sa * a[i].y, az = sa * a[i].z;
+        const double bw = b[i].w, bx = sb * b[i].x, by = sb * b[i].y, bz = sb * b[i].z;
         w[i] = aw * bw - ax * bx - ay * by - az * bz;
         x[i] = aw * bx + ax * bw + ay * bz - az * by;
         y[i] = aw * by - ax * bz + ay * bw + az * bx;
@@ -408,12 +410,12 @@ static void conj_mul_log_block(const mlr_quat *a, const mlr_quat *b, size_t m, m
         log_one(&prod[i], &out[i]);
 }
 
-void mlr_quat_conj_mul_log(const mlr_quat *a, const mlr_quat *b, size_t count, mlr_quat *prod,
-                           mlr_vec3 *out)
+void mlr_quat_conj_mul_log(const mlr_quat *a, const mlr_quat *b, size_t count, int conj_b,
+                           mlr_quat *prod, mlr_vec3 *out)
 {
     for (size_t i0 = 0; i0 < count; i0 += QBLK) {
         const size_t m = count - i0 < QBLK ? count - i0 : QBLK;
-        conj_mul_log_block(a + i0, b + i0, m, prod + i0, out + i0);
+        conj_mul_log_block(a + i0, b + i0, m, conj_b, prod + i0, out + i0);
     }
 }
 
