@@ -4,7 +4,6 @@
  */
 #include "cleanup_internal.h"
 #include "band_internal.h"
-#include "ik_internal.h"
 
 #include <math.h>
 
@@ -19,13 +18,16 @@ static void design_map(size_t N, size_t m, const uint8_t *mask, const double *va
                        double *y)
 {
     size_t prev = (size_t)-1;
-    memset(y, 0, N * m * sizeof *y);
+    /* every row is written once there is a frame of mask (before the first, at each, between
+       two, after the last): only a map without one is 0 */
     for (size_t f = 0; f <= N; f++) {
         if (f < N && !mask[f])
             continue;
         if (f < N)
             memcpy(y + f * m, val + f * m, m * sizeof *y);
-        if (prev == (size_t)-1 && f < N) { /* before the first constrained frame */
+        if (prev == (size_t)-1 && f == N) /* no constrained frame */
+            memset(y, 0, N * m * sizeof *y);
+        else if (prev == (size_t)-1) { /* before the first constrained frame */
             for (size_t i = 0; i < f; i++) {
                 const double w = 1.0 - smoothstep((double)(f - i) / B);
                 for (size_t k = 0; k < m; k++)
@@ -49,26 +51,6 @@ static void design_map(size_t N, size_t m, const uint8_t *mask, const double *va
         }
         prev = f;
     }
-}
-
-static void qlog(const double q_in[4], double v[3])
-{
-    double q[4] = {q_in[0], q_in[1], q_in[2], q_in[3]};
-    if (q[0] < 0.0)
-        q[0] = -q[0], q[1] = -q[1], q[2] = -q[2], q[3] = -q[3];
-    const double s = sqrt(q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
-    const double angle = 2.0 * atan2(s, q[0]);
-    const double k = s > 1e-300 ? angle / s : 2.0;
-    v[0] = k * q[1], v[1] = k * q[2], v[2] = k * q[3];
-}
-
-static void qexp(const double v[3], double q[4])
-{
-    const double a = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
-    const double h = 0.5 * a;
-    const double sh = sin(h), ch = cos(h); /* (unconditional: one sincos) */
-    const double k = a > 1e-300 ? sh / a : 0.5;
-    q[0] = ch, q[1] = k * v[0], q[2] = k * v[1], q[3] = k * v[2];
 }
 
 /* The map's smoothing with the constrained frames held: x = argmin sum over the free frames of
@@ -170,12 +152,57 @@ static mlr_status solve_window(const cleanup_work *w, const uint8_t *mask, size_
     return MLR_OK;
 }
 
+/* The apply's blocks of frames, the log's of (frame, joint) pairs. */
+#define SPREAD_BLK 32
+
+/* The listed joints (nj <= 3) of rot on the n <= SPREAD_BLK frames from f0 turned by their
+   map's exp(v), normalized: r' = exp(v) r / |exp(v) r|, v the row of y (m = 3 nj values a
+   frame). A joint whose v = 0 lies outside the blend: it is left as it is (and its frame not
+   marked dirty for it). The product and the norm go through structure-of-arrays copies that
+   the compiler vectorizes. */
+MLR_CLONES_AVX2
+static void rotate_block(cleanup_work *w, double *rot, const int32_t *js, size_t nj,
+                         const double *y, size_t f0, size_t n)
+{
+    const size_t J = w->J, m = 3 * nj;
+    mlr_quat e[3 * SPREAD_BLK];
+    double ew[SPREAD_BLK], ex[SPREAD_BLK], ey[SPREAD_BLK], ez[SPREAD_BLK];
+    double qw[SPREAD_BLK], qx[SPREAD_BLK], qy[SPREAD_BLK], qz[SPREAD_BLK];
+    /* the rows are n nj rotation vectors in a row; finite (a solve of finite values) */
+    (void)mlr_quat_exp_array((const mlr_vec3 *)(const void *)(y + f0 * m), n * nj, e, NULL);
+    for (size_t i = 0; i < nj; i++) {
+        const size_t j = (size_t)js[i];
+        for (size_t k = 0; k < n; k++) {
+            const double *r = rot + 4 * ((f0 + k) * J + j);
+            const mlr_quat *ek = &e[k * nj + i];
+            ew[k] = ek->w, ex[k] = ek->x, ey[k] = ek->y, ez[k] = ek->z;
+            qw[k] = r[0], qx[k] = r[1], qy[k] = r[2], qz[k] = r[3];
+        }
+        for (size_t k = 0; k < n; k++) {
+            const double ow = ew[k] * qw[k] - ex[k] * qx[k] - ey[k] * qy[k] - ez[k] * qz[k];
+            const double ox = ew[k] * qx[k] + ex[k] * qw[k] + ey[k] * qz[k] - ez[k] * qy[k];
+            const double oy = ew[k] * qy[k] - ex[k] * qz[k] + ey[k] * qw[k] + ez[k] * qx[k];
+            const double oz = ew[k] * qz[k] + ex[k] * qy[k] - ey[k] * qx[k] + ez[k] * qw[k];
+            const double nn = sqrt(ow * ow + ox * ox + oy * oy + oz * oz);
+            qw[k] = ow / nn, qx[k] = ox / nn, qy[k] = oy / nn, qz[k] = oz / nn;
+        }
+        for (size_t k = 0; k < n; k++) {
+            const double *v = y + (f0 + k) * m + 3 * i;
+            if (v[0] == 0.0 && v[1] == 0.0 && v[2] == 0.0)
+                continue; /* outside the blend: the frame is left as it is */
+            double *r = rot + 4 * ((f0 + k) * J + j);
+            r[0] = qw[k], r[1] = qx[k], r[2] = qy[k], r[3] = qz[k];
+            w->dirty[f0 + k] |= w->dirty_bit;
+        }
+    }
+}
+
 /* The map on the window [a, b): blended (design_map on the window alone gives the same values:
    its ends are held frames, or the clip's), smoothed, and applied to the rotations. */
 static mlr_status spread_window(cleanup_work *w, double *rot, const int32_t *js, size_t nj,
                                 const uint8_t *mask, size_t a, size_t b, double sc)
 {
-    const size_t J = w->J, m = 3 * nj;
+    const size_t m = 3 * nj;
     double *y = w->map_y;
     design_map(b - a, m, mask + a, w->map_val + a * m, w->cfg->blend * w->fps, y + a * m);
     for (size_t f = a; f < b; f++)
@@ -185,20 +212,30 @@ static mlr_status spread_window(cleanup_work *w, double *rot, const int32_t *js,
     mlr_status st = solve_window(w, mask, a, b, sc, y, m);
     if (st != MLR_OK)
         return st;
-    for (size_t f = a; f < b; f++)
-        for (size_t i = 0; i < nj; i++) {
-            double *r = rot + 4 * (f * J + (size_t)js[i]), e[4], o[4];
-            const double *v = y + f * m + 3 * i;
-            if (v[0] == 0.0 && v[1] == 0.0 && v[2] == 0.0)
-                continue; /* outside the blend: the frame is left as it is */
-            w->dirty[f] |= w->dirty_bit;
-            qexp(v, e);
-            mlr_ik_qmul(e, r, o);
-            const double n = sqrt(o[0] * o[0] + o[1] * o[1] + o[2] * o[2] + o[3] * o[3]);
-            for (int k = 0; k < 4; k++)
-                r[k] = o[k] / n;
-        }
+    for (size_t f = a; f < b; f += SPREAD_BLK)
+        rotate_block(w, rot, js, nj, y, f, b - f < SPREAD_BLK ? b - f : SPREAD_BLK);
     return MLR_OK;
+}
+
+/* The (frame, joint) pairs whose log is pending: a = newr, b = rot, v the map's values. */
+typedef struct log_block {
+    mlr_quat a[SPREAD_BLK], b[SPREAD_BLK];
+    mlr_vec3 lg[SPREAD_BLK];
+    double *v[SPREAD_BLK];
+    size_t f[SPREAD_BLK], n;
+} log_block;
+
+/* v = log(a conj(b)) of the pending pairs, their frames with a nonzero value a source. */
+static void log_flush(log_block *blk, uint8_t *cls)
+{
+    mlr_quat_conj_mul_log(blk->a, blk->b, blk->n, 1, blk->b, blk->lg);
+    for (size_t k = 0; k < blk->n; k++) {
+        double *v = blk->v[k];
+        v[0] = blk->lg[k].x, v[1] = blk->lg[k].y, v[2] = blk->lg[k].z;
+        if (v[0] != 0.0 || v[1] != 0.0 || v[2] != 0.0)
+            cls[blk->f[k]] = SPREAD_SOURCE;
+    }
+    blk->n = 0;
 }
 
 mlr_status cleanup__spread_rotations(cleanup_work *w, double *rot, const double *newr,
@@ -206,30 +243,30 @@ mlr_status cleanup__spread_rotations(cleanup_work *w, double *rot, const double 
 {
     const size_t N = w->N, J = w->J, m = 3 * nj;
     uint8_t *cls = w->cls;
+    /* the log of newr * conj(rot) of each moved joint, by blocks; where the IK left the joint
+       as it was (reached, kept), the log of a * inv(a) is 0: exactly 0 here, where the
+       product's sums leave residues of ~1e-17 (which the whole-clip solve spread everywhere) */
+    log_block blk;
+    blk.n = 0;
     for (size_t f = 0; f < N; f++) {
-        cls[f] = SPREAD_FREE;
+        cls[f] = mask[f] ? SPREAD_QUIET : SPREAD_FREE;
         if (!mask[f])
             continue;
-        double *v = w->map_val + f * m;
-        int moved = 0;
         for (size_t i = 0; i < nj; i++) {
-            const double *a = newr + 4 * (f * J + (size_t)js[i]),
-                         *b = rot + 4 * (f * J + (size_t)js[i]);
-            /* where the IK left the joint as it was (reached, kept), the log of a * inv(a)
-               is 0: exactly 0 here, where qmul's sums leave residues of ~1e-17 (which the
-               whole-clip solve spread everywhere) */
-            if (memcmp(a, b, 4 * sizeof(double)) == 0) {
-                v[3 * i] = v[3 * i + 1] = v[3 * i + 2] = 0.0;
+            const size_t q = 4 * (f * J + (size_t)js[i]);
+            double *v = w->map_val + f * m + 3 * i;
+            if (memcmp(newr + q, rot + q, 4 * sizeof(double)) == 0) {
+                v[0] = v[1] = v[2] = 0.0;
                 continue;
             }
-            const double cb[4] = {b[0], -b[1], -b[2], -b[3]};
-            double d[4];
-            mlr_ik_qmul(a, cb, d);
-            qlog(d, v + 3 * i);
-            moved |= v[3 * i] != 0.0 || v[3 * i + 1] != 0.0 || v[3 * i + 2] != 0.0;
+            memcpy(&blk.a[blk.n], newr + q, sizeof blk.a[0]);
+            memcpy(&blk.b[blk.n], rot + q, sizeof blk.b[0]);
+            blk.f[blk.n] = f, blk.v[blk.n] = v;
+            if (++blk.n == SPREAD_BLK)
+                log_flush(&blk, cls);
         }
-        cls[f] = moved ? SPREAD_SOURCE : SPREAD_QUIET;
     }
+    log_flush(&blk, cls);
     const double lam = (w->cfg->pin_smooth * w->fps) * (w->cfg->pin_smooth * w->fps);
     const double sc = lam * lam;
     const size_t R = quiet_run(sc);
