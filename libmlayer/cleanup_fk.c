@@ -27,17 +27,27 @@ void cleanup__fk_list_frame(const mlr_rig *rig, size_t f, const int32_t *list, s
         fk_joint(rig, f, (size_t)list[i], tidx, r, trans, wp, wr);
 }
 
+mlr_fk_list cleanup__fk_list_of(const mlr_rig *rig, const int32_t *list, size_t n,
+                                const int32_t *tidx)
+{
+    const mlr_fk_list fl = {.n_joints = rig->n_joints,
+                            .n_trans = rig->n_trans,
+                            .parents = rig->parents,
+                            .offsets = rig->offsets,
+                            .tidx = tidx,
+                            .list = list,
+                            .n = n};
+    return fl;
+}
+
 void cleanup__fk_masked_frame(const mlr_rig *rig, size_t f, const int32_t *list, size_t n,
                               const int32_t *tidx, const double *root_pos, const double *rot,
                               const double *trans, double *wp, double *wrot_f)
 {
-    const size_t J = rig->n_joints;
-    const double *r = rot + 4 * J * f;
-    mlr_quat *wr = (mlr_quat *)(void *)wrot_f;
-    wr[0].w = r[0], wr[0].x = r[1], wr[0].y = r[2], wr[0].z = r[3];
-    const double *t0 = root_pos ? root_pos + 3 * f : rig->offsets;
-    wp[0] = t0[0], wp[1] = t0[1], wp[2] = t0[2];
-    cleanup__fk_list_frame(rig, f, list, n, tidx, rot, trans, wp, wrot_f);
+    const size_t J = rig->n_joints, P = rig->n_trans;
+    const mlr_fk_list fl = cleanup__fk_list_of(rig, list, n, tidx);
+    mlr_fk_list_frame(&fl, root_pos ? root_pos + 3 * f : NULL, rot + 4 * J * f,
+                      P ? trans + 3 * P * f : NULL, wp, wrot_f);
 }
 
 void cleanup__fk_chain_frame(const mlr_rig *rig, size_t f, const int32_t *chain, size_t n,
@@ -64,14 +74,15 @@ void cleanup__fk_chain_frame(const mlr_rig *rig, size_t f, const int32_t *chain,
     }
 }
 
-static void fk_masked(const mlr_rig *rig, size_t N, const int32_t *list, size_t n,
-                      const int32_t *tidx, const double *root_pos, const double *rot,
-                      const double *trans, double *pos, double *wrot)
+mlr_status cleanup__fk_list_points(const mlr_rig *rig, const mlr_fk_list *fl, size_t N,
+                                   const double *root_pos, const double *rot, const double *trans,
+                                   size_t C, const int32_t *joints, const int32_t *end_sites,
+                                   double *pos, double *wrot, double *pts, double *s)
 {
-    const size_t J = rig->n_joints;
-    for (size_t f = 0; f < N; f++)
-        cleanup__fk_masked_frame(rig, f, list, n, tidx, root_pos, rot, trans, pos + 3 * J * f,
-                                 wrot + 4 * J * f);
+    mlr_fk_list_arrays(fl, N, root_pos, rot, trans, pos, wrot, s);
+    if (!pts)
+        return MLR_OK;
+    return mlr_rig_point_positions(rig, N, pos, wrot, C, joints, end_sites, pts, NULL);
 }
 
 mlr_status cleanup__fk_points(const mlr_rig *rig, size_t N, const double *root_pos,
@@ -80,12 +91,25 @@ mlr_status cleanup__fk_points(const mlr_rig *rig, size_t N, const double *root_p
                               double *wrot, double *pts, const mlr_allocator *alloc,
                               const int32_t *list, size_t n, const int32_t *tidx)
 {
-    mlr_status st = MLR_OK;
-    if (list)
-        fk_masked(rig, N, list, n, tidx, root_pos, rot, trans, pos, wrot);
-    else
-        st = mlr_fk_arrays(N, rig->n_joints, rig->parents, rig->offsets, root_pos, rot,
-                           rig->n_trans, rig->trans_joints, trans, pos, wrot, alloc, NULL);
+    if (list) { /* with the blocks' scratch */
+        mlr_allocator a;
+        mlr_allocator_resolve(alloc, &a);
+        size_t bytes = 0;
+        double *s = NULL;
+        if (N >= MLR_FK_BLOCK) {
+            if (mlr_mul_size(rig->n_joints, MLR_FK_BLOCK_SCRATCH(1) * sizeof(double), &bytes))
+                return MLR_E_OVERFLOW;
+            if (!(s = mlr_alloc(&a, bytes)))
+                return MLR_E_NO_MEMORY;
+        }
+        const mlr_fk_list fl = cleanup__fk_list_of(rig, list, n, tidx);
+        const mlr_status st = cleanup__fk_list_points(rig, &fl, N, root_pos, rot, trans, C, joints,
+                                                      end_sites, pos, wrot, pts, s);
+        mlr_free(&a, s, bytes);
+        return st;
+    }
+    mlr_status st = mlr_fk_arrays(N, rig->n_joints, rig->parents, rig->offsets, root_pos, rot,
+                                  rig->n_trans, rig->trans_joints, trans, pos, wrot, alloc, NULL);
     if (st != MLR_OK || !pts)
         return st;
     return mlr_rig_point_positions(rig, N, pos, wrot, C, joints, end_sites, pts, NULL);
@@ -115,26 +139,44 @@ mlr_status mlr_cleanup_point_heights(const mlr_rig *rig, size_t N, const double 
                                      const int32_t *joints, const int32_t *end_sites, int up,
                                      double *h, const mlr_allocator *a)
 {
-    const size_t J = rig->n_joints;
+    /* CLEANUP_HEIGHT_FRAMES frames at a time (or all, when fewer): their forward kinematics
+       (F x J x 7, written at the points' joints only), the blocks' scratch
+       (MLR_FK_BLOCK_SCRATCH(J)), the points (F x C x 3), tidx, list, the points' joints and
+       need, in one allocation */
+    enum { CLEANUP_HEIGHT_FRAMES = 4 * MLR_FK_BLOCK };
+    const size_t J = rig->n_joints, P = rig->n_trans;
+    const size_t F = N < CLEANUP_HEIGHT_FRAMES ? (N ? N : 1) : CLEANUP_HEIGHT_FRAMES;
+    const size_t per_joint = (7 * F + 7 * MLR_FK_BLOCK) * sizeof(double) + 3 * sizeof(int32_t) + 1;
     size_t bytes;
-    if (mlr_mul_size(J, 7 * sizeof(double) + 2 * sizeof(int32_t) + 1, &bytes) != MLR_OK ||
-        C > (SIZE_MAX - bytes) / (3 * sizeof(double)))
+    if (mlr_mul_size(J, per_joint, &bytes) != MLR_OK ||
+        C > (SIZE_MAX - bytes) / (3 * F * sizeof(double)))
         return MLR_E_OVERFLOW;
-    bytes += 3 * C * sizeof(double);
+    bytes += 3 * F * C * sizeof(double);
     double *wp = mlr_alloc(a, bytes);
     if (!wp)
         return MLR_E_NO_MEMORY;
-    double *wr = wp + 3 * J, *pts = wr + 4 * J;
-    int32_t *tidx = (int32_t *)(void *)(pts + 3 * C), *list = tidx + J;
-    uint8_t *need = (uint8_t *)(list + J);
+    double *wr = wp + 3 * F * J, *s = wr + 4 * F * J, *pts = s + MLR_FK_BLOCK_SCRATCH(J);
+    int32_t *tidx = (int32_t *)(void *)(pts + 3 * F * C), *list = tidx + J, *keep = list + J;
+    uint8_t *need = (uint8_t *)(keep + J);
     memset(need, 0, J);
     const size_t n = cleanup__fk_need(rig, C, joints, NULL, 0, need, list, tidx);
+    mlr_fk_list fl = cleanup__fk_list_of(rig, list, n, tidx);
+    fl.keep = keep;
+    for (size_t c = 0; c < C; c++) { /* the points' joints, each once */
+        size_t i = 0;
+        while (i < fl.n_keep && keep[i] != joints[c])
+            i++;
+        if (i == fl.n_keep)
+            keep[fl.n_keep++] = joints[c];
+    }
     mlr_status st = MLR_OK;
-    for (size_t f = 0; st == MLR_OK && f < N; f++) {
-        cleanup__fk_masked_frame(rig, f, list, n, tidx, root_pos, rot, trans, wp, wr);
-        st = mlr_rig_point_positions(rig, 1, wp, wr, C, joints, end_sites, pts, NULL);
-        for (size_t c = 0; st == MLR_OK && c < C; c++)
-            h[f * C + c] = pts[3 * c + (size_t)up];
+    for (size_t f = 0; st == MLR_OK && f < N; f += F) {
+        const size_t m = N - f < F ? N - f : F;
+        st = cleanup__fk_list_points(rig, &fl, m, root_pos ? root_pos + 3 * f : NULL,
+                                     rot + 4 * J * f, P ? trans + 3 * P * f : NULL, C, joints,
+                                     end_sites, wp, wr, pts, s);
+        for (size_t i = 0; st == MLR_OK && i < m * C; i++)
+            h[f * C + i] = pts[3 * i + (size_t)up];
     }
     mlr_free(a, wp, bytes);
     return st;

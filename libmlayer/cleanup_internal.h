@@ -5,6 +5,7 @@
 #ifndef MLR_CLEANUP_INTERNAL_H
 #define MLR_CLEANUP_INTERNAL_H
 
+#include "fk_internal.h"
 #include "mlr_internal.h"
 
 #include <math.h>
@@ -19,7 +20,9 @@ mlr_status mlr_cleanup_floor_of_points(size_t n_frames, size_t n_points, const d
 
 /* Heights along up of the contact points (N x C into h) of frames (root_pos, rot, trans), by
  * forward kinematics of the points' chains only, bit for bit what mlr_fk_arrays and
- * mlr_rig_point_positions give. Arguments checked by the caller; scratch of a few J from a. */
+ * mlr_rig_point_positions give, 32 frames at a time (mlr_fk_list_block). Arguments checked by
+ * the caller; one allocation of scratch from a: about 280 J + 96 C doubles (for N >= 32:
+ * those frames' J x 7 and C x 3, and the blocks' 56 J). */
 mlr_status mlr_cleanup_point_heights(const mlr_rig *rig, size_t N, const double *root_pos,
                                      const double *rot, const double *trans, size_t C,
                                      const int32_t *joints, const int32_t *end_sites, int up,
@@ -181,7 +184,7 @@ double cleanup__quantile_of(double *v, size_t n, double q);
    parents, the root not in it) of frame f, with the arithmetic of mlr_fk_arrays (mlr_fk.h:
    mlr_quat_mul / mlr_quat_rotate, inlined), so each computed value is bit for bit what the
    full FK gives; the other joints are not written. tidx[j]: j's index among the rig's trans
-   joints, or -1. wp, wrot_f: J x 3 and J x 4, the frame's. */
+   joints, or -1. wp, wrot_f: J x 3 and J x 4, the frame's (mlr_fk_list_frame). */
 void cleanup__fk_masked_frame(const mlr_rig *rig, size_t f, const int32_t *list, size_t n,
                               const int32_t *tidx, const double *root_pos, const double *rot,
                               const double *trans, double *wp, double *wrot_f);
@@ -204,12 +207,27 @@ void cleanup__fk_chain_frame(const mlr_rig *rig, size_t f, const int32_t *chain,
                              double *wrot_out);
 
 /* FK + points of one motion into caller arrays; with list (n joints, and tidx), only the root
-   and those joints (cleanup__fk_masked_frame). */
+   and those joints (cleanup__fk_list_points, with the blocks' scratch from alloc: MLR_E_NO_MEMORY
+   without it). */
 mlr_status cleanup__fk_points(const mlr_rig *rig, size_t N, const double *root_pos,
                               const double *rot, const double *trans, size_t C,
                               const int32_t *joints, const int32_t *end_sites, double *pos,
                               double *wrot, double *pts, const mlr_allocator *alloc,
                               const int32_t *list, size_t n, const int32_t *tidx);
+
+/* The joints of cleanup__fk_masked_frame (list, n, tidx) for the blocks of fk_internal.h (keep
+   NULL: all of them written). */
+mlr_fk_list cleanup__fk_list_of(const mlr_rig *rig, const int32_t *list, size_t n,
+                                const int32_t *tidx);
+
+/* The values of cleanup__fk_masked_frame on each of N frames at fl's joints (pos, wrot:
+   N x J x 3 and N x J x 4), 8 frames at a time (mlr_fk_list_arrays; s: MLR_FK_BLOCK_SCRATCH(J)
+   doubles of scratch, or NULL: frame by frame), then the points into pts (N x C x 3) unless
+   NULL (their joints must be among those fl writes). */
+mlr_status cleanup__fk_list_points(const mlr_rig *rig, const mlr_fk_list *fl, size_t N,
+                                   const double *root_pos, const double *rot, const double *trans,
+                                   size_t C, const int32_t *joints, const int32_t *end_sites,
+                                   double *pos, double *wrot, double *pts, double *s);
 
 /* The joints the cleanup's forward kinematics computes (need, J, zeroed by the caller): the
    contact points, the feet's anchors and their ancestors; list (J): the same joints but the

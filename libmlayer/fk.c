@@ -1,6 +1,7 @@
 /* Forward kinematics, batched over frames. Allocates only for scratch world rotations of big
  * skeletons when the caller does not want them. Nothing here prints or keeps state. */
 #include "bvh_internal.h"
+#include "fk_internal.h"
 
 #define FK_STACK_JOINTS 256
 
@@ -26,10 +27,17 @@ static mlr_status check_skeleton(size_t n_joints, const int32_t *parents, size_t
     return MLR_OK;
 }
 
-/* One frame. wr: J world rotations (output or scratch). */
-static void fk_frame(size_t J, const int32_t *parents, const double *offsets,
-                     const double *root_pos, const double *rot, size_t P,
-                     const int32_t *trans_joints, const double *trans, double *wp, mlr_quat *wr)
+/* One frame, of every joint (every 1: the k-th trans joint's translation from trans + 3 k) or
+ * (every 0, a constant in each caller) of the root and the n joints of list (top-down; tidx[j]:
+ * j's index among the trans joints, or -1). wr: J world rotations (output or scratch). */
+#if defined(__GNUC__)
+__attribute__((always_inline))
+#endif
+static inline void fk_frame_run(int every, size_t J, const int32_t *parents, const double *offsets,
+                                const double *root_pos, const double *rot, size_t P,
+                                const int32_t *trans_joints, const int32_t *tidx,
+                                const double *trans, const int32_t *list, size_t n, double *wp,
+                                mlr_quat *wr)
 {
     wr[0].w = rot[0];
     wr[0].x = rot[1];
@@ -39,15 +47,32 @@ static void fk_frame(size_t J, const int32_t *parents, const double *offsets,
     wp[0] = t0[0];
     wp[1] = t0[1];
     wp[2] = t0[2];
+    const size_t m = every ? J - 1 : n;
     size_t k = 0;
-    for (size_t j = 1; j < J; j++) {
+    for (size_t i = 0; i < m; i++) {
+        const size_t j = every ? i + 1 : (size_t)list[i];
         const size_t p = (size_t)parents[j];
         const double *t = offsets + 3 * j;
-        if (k < P && (size_t)trans_joints[k] == j)
-            t = trans + 3 * k++;
+        if (every ? k < P && (size_t)trans_joints[k] == j : tidx[j] >= 0)
+            t = trans + 3 * (every ? k++ : (size_t)tidx[j]);
         const mlr_quat q = {rot[4 * j], rot[4 * j + 1], rot[4 * j + 2], rot[4 * j + 3]};
         mlr_fk_joint_inline(&wr[p], wp + 3 * p, &q, t, &wr[j], wp + 3 * j);
     }
+}
+
+static void fk_frame(size_t J, const int32_t *parents, const double *offsets,
+                     const double *root_pos, const double *rot, size_t P,
+                     const int32_t *trans_joints, const double *trans, double *wp, mlr_quat *wr)
+{
+    fk_frame_run(1, J, parents, offsets, root_pos, rot, P, trans_joints, NULL, trans, NULL, 0, wp,
+                 wr);
+}
+
+void mlr_fk_list_frame(const mlr_fk_list *fl, const double *root_pos, const double *rot,
+                       const double *trans, double *wp, double *wr)
+{
+    fk_frame_run(0, fl->n_joints, fl->parents, fl->offsets, root_pos, rot, fl->n_trans, NULL,
+                 fl->tidx, trans, fl->list, fl->n, wp, (mlr_quat *)(void *)wr);
 }
 
 /* FK_BLOCK frames at once, joint by joint, in structure-of-arrays scratch (s: 7 * FK_BLOCK
@@ -55,8 +80,89 @@ static void fk_frame(size_t J, const int32_t *parents, const double *offsets,
  * that the lane loops vectorize. Every lane does the operations of mlr_fk_joint_inline in its
  * order (the library builds with -ffp-contract=off): the bits are those of fk_frame. rot, wp and
  * wr (NULL: not wanted) start at the block's first frame; root_pos and trans too, or NULL. */
-#define FK_BLOCK 8
+#define FK_BLOCK MLR_FK_BLOCK
 #define FK_BLOCK_STACK_JOINTS 64 /* 28 KiB */
+
+/* One joint in every lane of the block, mlr_fk_joint_inline lane by lane (the compiler
+ * vectorizes over the lanes): so (its 7 x FK_BLOCK scratch) from sq (its parent's), its local
+ * rotations (lane l's at r + sr l) and translations (lane l's at tv + st l; st 0: its offset in
+ * every lane). */
+#if defined(__GNUC__)
+__attribute__((always_inline))
+#endif
+static inline void fk_block_joint(const double *restrict sq, const double *restrict r, size_t sr,
+                                  const double *restrict tv, size_t st, double *restrict so)
+{
+    enum { B = FK_BLOCK };
+    for (size_t l = 0; l < B; l++) {
+        const mlr_quat wr_p = {sq[l], sq[B + l], sq[2 * B + l], sq[3 * B + l]};
+        const double wp_p[3] = {sq[4 * B + l], sq[5 * B + l], sq[6 * B + l]};
+        const mlr_quat q = {r[sr * l], r[sr * l + 1], r[sr * l + 2], r[sr * l + 3]};
+        const double t[3] = {tv[st * l], tv[st * l + 1], tv[st * l + 2]};
+        mlr_quat wr_j;
+        double wp_j[3];
+        mlr_fk_joint_inline(&wr_p, wp_p, &q, t, &wr_j, wp_j);
+        so[l] = wr_j.w, so[B + l] = wr_j.x, so[2 * B + l] = wr_j.y, so[3 * B + l] = wr_j.z;
+        so[4 * B + l] = wp_j[0], so[5 * B + l] = wp_j[1], so[6 * B + l] = wp_j[2];
+    }
+}
+
+/* Joint j's lanes from the scratch into wp and wr (NULL: not wanted). */
+static inline void fk_block_store(size_t J, size_t j, const double *restrict s,
+                                  double *restrict wp, double *restrict wr)
+{
+    enum { B = FK_BLOCK };
+    const double *so = s + 7 * B * j;
+    for (size_t l = 0; l < B; l++)
+        for (size_t c = 0; c < 3; c++)
+            wp[3 * J * l + 3 * j + c] = so[(4 + c) * B + l];
+    if (wr)
+        for (size_t l = 0; l < B; l++)
+            for (size_t c = 0; c < 4; c++)
+                wr[4 * J * l + 4 * j + c] = so[c * B + l];
+}
+
+/* The block of every joint (list NULL) or of the root and list's (with tidx), as fk_frame_run;
+ * into wp / wr the joints of keep (n_keep) or, keep NULL, all those computed. */
+#if defined(__GNUC__)
+__attribute__((always_inline))
+#endif
+static inline void fk_block_run(size_t J, const int32_t *parents, const double *offsets,
+                                const double *root_pos, const double *restrict rot, size_t P,
+                                const int32_t *trans_joints, const int32_t *tidx,
+                                const double *trans, const int32_t *list, size_t n,
+                                const int32_t *keep, size_t n_keep, double *restrict wp,
+                                double *restrict wr, double *restrict s)
+{
+    enum { B = FK_BLOCK };
+    const size_t sr = 4 * J, st = 3 * P;
+    for (size_t l = 0; l < B; l++) {
+        for (size_t c = 0; c < 4; c++)
+            s[c * B + l] = rot[sr * l + c];
+        for (size_t c = 0; c < 3; c++)
+            s[(4 + c) * B + l] = root_pos ? root_pos[3 * l + c] : offsets[c];
+    }
+    const size_t m = list ? n : J - 1;
+    size_t k = 0;
+    for (size_t i = 0; i < m; i++) {
+        const size_t j = list ? (size_t)list[i] : i + 1;
+        const double *sq = s + 7 * B * (size_t)parents[j];
+        double *so = s + 7 * B * j;
+        if (list ? tidx[j] >= 0 : k < P && (size_t)trans_joints[k] == j)
+            fk_block_joint(sq, rot + 4 * j, sr, trans + 3 * (list ? (size_t)tidx[j] : k++), st,
+                           so);
+        else
+            fk_block_joint(sq, rot + 4 * j, sr, offsets + 3 * j, 0, so);
+    }
+    if (keep) {
+        for (size_t i = 0; i < n_keep; i++)
+            fk_block_store(J, (size_t)keep[i], s, wp, wr);
+        return;
+    }
+    fk_block_store(J, 0, s, wp, wr);
+    for (size_t i = 0; i < m; i++)
+        fk_block_store(J, list ? (size_t)list[i] : i + 1, s, wp, wr);
+}
 
 MLR_CLONES_AVX2
 static void fk_block(size_t J, const int32_t *parents, const double *offsets,
@@ -64,63 +170,30 @@ static void fk_block(size_t J, const int32_t *parents, const double *offsets,
                      const int32_t *trans_joints, const double *trans, double *wp, double *wr,
                      double *s)
 {
-    enum { B = FK_BLOCK };
-    const size_t sr = 4 * J, sp = 3 * J, st = 3 * P;
-    for (size_t l = 0; l < B; l++) {
-        for (size_t c = 0; c < 4; c++)
-            s[c * B + l] = rot[sr * l + c];
-        for (size_t c = 0; c < 3; c++)
-            s[(4 + c) * B + l] = root_pos ? root_pos[3 * l + c] : offsets[c];
-    }
-    size_t k = 0;
-    for (size_t j = 1; j < J; j++) {
-        const double *sq = s + 7 * B * (size_t)parents[j];
-        double *so = s + 7 * B * j;
-        double q[4][B], t[3][B];
-        for (size_t l = 0; l < B; l++)
-            for (size_t c = 0; c < 4; c++)
-                q[c][l] = rot[sr * l + 4 * j + c];
-        if (k < P && (size_t)trans_joints[k] == j) {
-            for (size_t l = 0; l < B; l++)
-                for (size_t c = 0; c < 3; c++)
-                    t[c][l] = trans[st * l + 3 * k + c];
-            k++;
-        } else {
-            for (size_t l = 0; l < B; l++)
-                for (size_t c = 0; c < 3; c++)
-                    t[c][l] = offsets[3 * j + c];
-        }
-        for (size_t l = 0; l < B; l++) {
-            /* mlr_quat_mul_inline(wr_p, q) */
-            const double aw = sq[l], ax = sq[B + l], ay = sq[2 * B + l], az = sq[3 * B + l];
-            const double bw = q[0][l], bx = q[1][l], by = q[2][l], bz = q[3][l];
-            so[l] = aw * bw - ax * bx - ay * by - az * bz;
-            so[B + l] = aw * bx + ax * bw + ay * bz - az * by;
-            so[2 * B + l] = aw * by - ax * bz + ay * bw + az * bx;
-            so[3 * B + l] = aw * bz + ax * by - ay * bx + az * bw;
-            /* mlr_quat_rotate_inline(wr_p, t), added to wp_p */
-            const double vx = t[0][l], vy = t[1][l], vz = t[2][l];
-            const double tx = 2.0 * (ay * vz - az * vy);
-            const double ty = 2.0 * (az * vx - ax * vz);
-            const double tz = 2.0 * (ax * vy - ay * vx);
-            const double ox = vx + aw * tx + (ay * tz - az * ty);
-            const double oy = vy + aw * ty + (az * tx - ax * tz);
-            const double oz = vz + aw * tz + (ax * ty - ay * tx);
-            so[4 * B + l] = sq[4 * B + l] + ox;
-            so[5 * B + l] = sq[5 * B + l] + oy;
-            so[6 * B + l] = sq[6 * B + l] + oz;
-        }
-    }
-    for (size_t j = 0; j < J; j++) {
-        const double *so = s + 7 * B * j;
-        for (size_t l = 0; l < B; l++)
-            for (size_t c = 0; c < 3; c++)
-                wp[sp * l + 3 * j + c] = so[(4 + c) * B + l];
-        if (wr)
-            for (size_t l = 0; l < B; l++)
-                for (size_t c = 0; c < 4; c++)
-                    wr[sr * l + 4 * j + c] = so[c * B + l];
-    }
+    fk_block_run(J, parents, offsets, root_pos, rot, P, trans_joints, NULL, trans, NULL, 0, NULL,
+                 0, wp, wr, s);
+}
+
+MLR_CLONES_AVX2
+void mlr_fk_list_block(const mlr_fk_list *fl, const double *root_pos, const double *rot,
+                       const double *trans, double *wp, double *wr, double *s)
+{
+    fk_block_run(fl->n_joints, fl->parents, fl->offsets, root_pos, rot, fl->n_trans, NULL,
+                 fl->tidx, trans, fl->list, fl->n, fl->keep, fl->n_keep, wp, wr, s);
+}
+
+void mlr_fk_list_arrays(const mlr_fk_list *fl, size_t N, const double *root_pos, const double *rot,
+                        const double *trans, double *wp, double *wr, double *s)
+{
+    const size_t J = fl->n_joints, P = fl->n_trans;
+    size_t f = 0;
+    if (s)
+        for (; f + FK_BLOCK <= N; f += FK_BLOCK)
+            mlr_fk_list_block(fl, root_pos ? root_pos + 3 * f : NULL, rot + 4 * J * f,
+                              P ? trans + 3 * P * f : NULL, wp + 3 * J * f, wr + 4 * J * f, s);
+    for (; f < N; f++)
+        mlr_fk_list_frame(fl, root_pos ? root_pos + 3 * f : NULL, rot + 4 * J * f,
+                          P ? trans + 3 * P * f : NULL, wp + 3 * J * f, wr + 4 * J * f);
 }
 
 static mlr_status fk_run(size_t N, size_t J, const int32_t *parents, const double *offsets,
