@@ -388,19 +388,28 @@ static void measure_bones(const learner *L)
 /* The frames of a block of learn_centres and measure_extents. */
 #define EXT_FB 64
 
-/* The unit quaternions q (in qw .. qz) of the m <= EXT_FB quaternions p + stride i (doubles) of
- * a joint and, unless a is NULL, a x q b (in xs: x, y, z by blocks of EXT_FB), as learn_centres
- * takes them (the same operations as qrot and cross3: the same bits). Vectorized. */
+/* The m <= EXT_FB quaternions p + stride i (doubles) of a joint, normalized (q), added to
+ * *qsum sign-aligned (q, or -q when qsum.q < 0) and, unless a is NULL, a x q b added to *xsum,
+ * in order, as learn_centres takes them (the same operations as qrot and cross3: the same
+ * bits). Vectorized but for the sums. */
 MLR_CLONES_AVX2
 static void centres_block(const double *p, size_t stride, size_t m, const mlr_vec3 *a,
-                          const mlr_vec3 *b, double *qw, double *qx, double *qy, double *qz,
-                          double *xs)
+                          const mlr_vec3 *b, mlr_quat *qsum, mlr_vec3 *xsum)
 {
+    double qw[EXT_FB], qx[EXT_FB], qy[EXT_FB], qz[EXT_FB], xs[3 * EXT_FB];
     for (size_t i = 0; i < m; i++) {
         const double *e = p + stride * i;
         const double n = sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2] + e[3] * e[3]);
         qw[i] = e[0] / n, qx[i] = e[1] / n, qy[i] = e[2] / n, qz[i] = e[3] / n;
     }
+    double sw = qsum->w, sx = qsum->x, sy = qsum->y, sz = qsum->z;
+    for (size_t i = 0; i < m; i++) { /* q + sum, or sum - q: the bits of sum + sign * q */
+        if (sw * qw[i] + sx * qx[i] + sy * qy[i] + sz * qz[i] < 0)
+            sw -= qw[i], sx -= qx[i], sy -= qy[i], sz -= qz[i];
+        else
+            sw += qw[i], sx += qx[i], sy += qy[i], sz += qz[i];
+    }
+    *qsum = (mlr_quat){sw, sx, sy, sz};
     if (!a)
         return;
     const double vx = b->x, vy = b->y, vz = b->z, ax = a->x, ay = a->y, az = a->z;
@@ -416,6 +425,10 @@ static void centres_block(const double *p, size_t stride, size_t m, const mlr_ve
         xs[EXT_FB + i] = az * ox - ax * oz;
         xs[2 * EXT_FB + i] = ax * oy - ay * ox;
     }
+    mlr_vec3 x = *xsum;
+    for (size_t i = 0; i < m; i++)
+        x.x += xs[i], x.y += xs[EXT_FB + i], x.z += xs[2 * EXT_FB + i];
+    *xsum = x;
 }
 
 /* Pass 1: centres (sign-aligned sums) and hinge axes (sum of a x q b), by blocks of EXT_FB
@@ -427,7 +440,6 @@ static void learn_centres(const learner *L)
     const size_t n_clips = L->n_clips, J = rig->n_joints;
     mlr_limits_joint *jt = L->jt;
     acc *ac = L->ac;
-    double qw[EXT_FB], qx[EXT_FB], qy[EXT_FB], qz[EXT_FB], xs[3 * EXT_FB];
     for (size_t j = 0; j < J; j++)
         ac[j].need_x = norm3(jt[j].bone_in) * norm3(jt[j].bone_out) > 0;
     for (size_t k = 0; k < n_clips; k++)
@@ -437,21 +449,8 @@ static void learn_centres(const learner *L)
                 acc *c = &ac[j];
                 /* no axis without both bones: the axis sum is not read */
                 centres_block(clips[k].rot + 4 * (f0 * J + j), 4 * J, nf,
-                              c->need_x ? &jt[j].bone_in : NULL, &jt[j].bone_out, qw, qx, qy, qz,
-                              xs);
-                mlr_quat qs = c->qsum;
-                for (size_t i = 0; i < nf; i++) {
-                    const double d = qs.w * qw[i] + qs.x * qx[i] + qs.y * qy[i] + qs.z * qz[i];
-                    const double sg = d < 0 ? -1.0 : 1.0;
-                    qs.w += sg * qw[i], qs.x += sg * qx[i], qs.y += sg * qy[i], qs.z += sg * qz[i];
-                }
-                c->qsum = qs;
-                if (!c->need_x)
-                    continue;
-                mlr_vec3 xsum = c->xsum;
-                for (size_t i = 0; i < nf; i++)
-                    xsum.x += xs[i], xsum.y += xs[EXT_FB + i], xsum.z += xs[2 * EXT_FB + i];
-                c->xsum = xsum;
+                              c->need_x ? &jt[j].bone_in : NULL, &jt[j].bone_out, &c->qsum,
+                              &c->xsum);
             }
         }
     for (size_t j = 0; j < J; j++) {
