@@ -1225,7 +1225,7 @@ void mlr_limits_apply_kind_masked(const mlr_limits *lim, size_t n_frames, mlr_qu
     prev_angle prev[BLOCK];
     joint_bounds b[BLOCK];
     double hy[FB], hx[FB];
-    int inside[FB];
+    int inside[FB + 1];
     for (size_t j0 = 0; j0 < J;) {
         size_t m = 0;
         for (; j0 < J && m < BLOCK; j0++) {
@@ -1251,8 +1251,12 @@ void mlr_limits_apply_kind_masked(const mlr_limits *lim, size_t n_frames, mlr_qu
                 const size_t j = js[i];
                 const mlr_limits_joint *g = &lim->joints[j];
                 const int pre = kind == MLR_LIMITS_HINGE ? b[i].h_fast : b[i].fast > 0;
-                if (pre)
+                if (pre) { /* a run of frames inside ends at one not limited, or at the end */
                     inside_block(rot + f0 * J + j, J, nf, g, &b[i], hy, hx, inside);
+                    for (size_t f = f0; mask && f < f0 + nf; f++)
+                        inside[f - f0] &= mask[f * J + j] != 0;
+                    inside[nf] = 0;
+                }
                 for (size_t f = f0; f < f0 + nf; f++) {
                     if (mask && !mask[f * J + j]) { /* not limited here: the unwrapping starts
                                                        again at the next frame that is */
@@ -1261,8 +1265,7 @@ void mlr_limits_apply_kind_masked(const mlr_limits *lim, size_t n_frames, mlr_qu
                     }
                     if (pre && inside[f - f0]) { /* unchanged, and so are the frames after it
                                                     up to the next one not inside */
-                        while (f + 1 < f0 + nf && inside[f + 1 - f0] &&
-                               (!mask || mask[(f + 1) * J + j]))
+                        while (inside[f + 1 - f0])
                             f++;
                         if (kind == MLR_LIMITS_HINGE)
                             prev[i].pending = 2,
