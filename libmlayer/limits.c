@@ -567,6 +567,37 @@ static void cand_block(const double *restrict p, size_t stride, size_t m,
     }
 }
 
+/* The smallest and largest hinge angle so far (c->lo_y .. c->hi_x) with the m pairs (hy, hx)
+ * (angle_less), in order; first: they are the first pairs (the first one sets both). In the
+ * AVX2 clone: three-operand code, fewer register copies. */
+MLR_CLONES_AVX2
+static void hinge_extremes(const double *hy, const double *hx, size_t m, int first, acc *c)
+{
+    double lo_y = c->lo_y, lo_x = c->lo_x, hi_y = c->hi_y, hi_x = c->hi_x;
+    for (size_t i = 0; i < m; i++) {
+        const double y = hy[i], x = hx[i];
+        if ((first && i == 0) || angle_less(y, x, lo_y, lo_x))
+            lo_y = y, lo_x = x;
+        if ((first && i == 0) || angle_less(hi_y, hi_x, y, x))
+            hi_y = y, hi_x = x;
+    }
+    c->lo_y = lo_y, c->lo_x = lo_x, c->hi_y = hi_y, c->hi_x = hi_x;
+}
+
+/* The upper triangle of the second moments of the m vectors (x, y, z)[stride i] added to mom
+ * (3 x 3), in order. In the AVX2 clone: three-operand code, fewer register copies. */
+MLR_CLONES_AVX2
+static void add_moments(const double *x, const double *y, const double *z, size_t stride, size_t m,
+                        double *mom)
+{
+    double m00 = mom[0], m01 = mom[1], m02 = mom[2], m11 = mom[4], m12 = mom[5], m22 = mom[8];
+    for (size_t i = 0; i < m; i++) {
+        const double a = x[stride * i], b = y[stride * i], c = z[stride * i];
+        m00 += a * a, m01 += a * b, m02 += a * c, m11 += b * b, m12 += b * c, m22 += c * c;
+    }
+    mom[0] = m00, mom[1] = m01, mom[2] = m02, mom[4] = m11, mom[5] = m12, mom[8] = m22;
+}
+
 /* Pass 2: moments of the centred rotation vectors, hinge angle, swing and twist maxima, by
    blocks of EXT_FB frames, joint by joint within them. The hinge angle extremes and the
    moments are taken for find_hinges' candidates only (named hinges, or every joint with an
@@ -616,28 +647,13 @@ static void measure_extents(const learner *L)
                 }
                 /* a hinge candidate (it has both bones, as its axis) */
                 cand_block(p0, 4 * J, nf, g, &c->t, lq, hy, hx, s1, c1, s2, c2, sv);
-                for (size_t i = 0; i < nf; i++) {
-                    const double y = hy[i], x = hx[i];
-                    if (n_seen + i == 0 || angle_less(y, x, c->lo_y, c->lo_x))
-                        c->lo_y = y, c->lo_x = x;
-                    if (n_seen + i == 0 || angle_less(c->hi_y, c->hi_x, y, x))
-                        c->hi_y = y, c->hi_x = x;
-                }
+                hinge_extremes(hy, hx, nf, n_seen == 0, c);
                 widen(s1, c1, nf, &c->sw_s, &c->sw_c);
                 widen(s2, c2, nf, &c->tw_s, &c->tw_c);
-                for (size_t i = 0; c->need_ms && i < nf; i++) {
-                    const double v3[3] = {sv[i], sv[EXT_FB + i], sv[2 * EXT_FB + i]};
-                    for (int a3 = 0; a3 < 3; a3++)
-                        for (int b3 = a3; b3 < 3; b3++)
-                            c->ms[3 * a3 + b3] += v3[a3] * v3[b3];
-                }
+                if (c->need_ms)
+                    add_moments(sv, sv + EXT_FB, sv + 2 * EXT_FB, 1, nf, c->ms);
                 (void)mlr_quat_log_array(lq, nf, rv, NULL);
-                for (size_t i = 0; i < nf; i++) {
-                    const double v3[3] = {rv[i].x, rv[i].y, rv[i].z};
-                    for (int a3 = 0; a3 < 3; a3++)
-                        for (int b3 = a3; b3 < 3; b3++)
-                            c->m[3 * a3 + b3] += v3[a3] * v3[b3];
-                }
+                add_moments(&rv[0].x, &rv[0].y, &rv[0].z, 3, nf, c->m);
             }
             n_seen += nf;
         }
