@@ -1224,6 +1224,51 @@ static void inside_block(const mlr_quat *restrict q, size_t stride, size_t m,
     }
 }
 
+/* The frames of a block of mlr_limits_apply_kind_masked. */
+#define APPLY_FB 64
+
+/* limit_joint on the nf <= APPLY_FB frames from f0 of joint j of rot (n_frames x J), in order
+ * (b, prev: its bounds and unwrapping state; mask and counts as mlr_limits_apply_kind_masked's).
+ * The rotations limit_joint's first fast path leaves as they are are found for the block at once
+ * (inside_block), a run of them passed over at once, its last one's angle read only if a later
+ * frame needs it. In the AVX2 clone: three-operand code, fewer register copies. */
+MLR_CLONES_AVX2
+static void limit_block(const mlr_limits *lim, size_t j, const joint_bounds *b, prev_angle *prev,
+                        mlr_quat *rot, size_t f0, size_t nf, const uint8_t *mask, size_t *counts)
+{
+    const size_t J = lim->n_joints;
+    const mlr_limits_joint *g = &lim->joints[j];
+    const int hinge = g->range.kind == MLR_LIMITS_HINGE;
+    double hy[APPLY_FB], hx[APPLY_FB];
+    int inside[APPLY_FB + 1];
+    const int pre = hinge ? b->h_fast : b->fast > 0;
+    if (pre) { /* a run of frames inside ends at one not limited, or at the end */
+        inside_block(rot + f0 * J + j, J, nf, g, b, hy, hx, inside);
+        for (size_t f = f0; mask && f < f0 + nf; f++)
+            inside[f - f0] &= mask[f * J + j] != 0;
+        inside[nf] = 0;
+    }
+    for (size_t f = f0; f < f0 + nf; f++) {
+        if (mask && !mask[f * J + j]) { /* not limited here: the unwrapping starts again at the
+                                           next frame that is */
+            *prev = (prev_angle){NAN, 0, {1, 0, 0, 0}, NULL};
+            continue;
+        }
+        if (pre && inside[f - f0]) { /* unchanged, and so are the frames after it up to the
+                                        next one not inside */
+            while (inside[f + 1 - f0])
+                f++;
+            if (hinge)
+                prev->pending = 2, prev->rr = (mlr_quat){0, hy[f - f0], hx[f - f0], 0};
+            else if (b->bl > 0)
+                prev->pending = 3, prev->qp = &rot[f * J + j];
+            continue;
+        }
+        if (limit_joint(g, b, &rot[f * J + j], prev) && counts)
+            counts[j]++;
+    }
+}
+
 void mlr_limits_apply_kind_masked(const mlr_limits *lim, size_t n_frames, mlr_quat *rot,
                                   const double *alpha, size_t n_alpha, size_t *counts, int kind,
                                   const uint8_t *mask, int hard)
@@ -1232,16 +1277,12 @@ void mlr_limits_apply_kind_masked(const mlr_limits *lim, size_t n_frames, mlr_qu
     const double *aj = alpha ? (n_alpha == 1 ? alpha : alpha + 1) : NULL;
     const size_t stride = n_alpha == 1 ? 0 : 1;
     /* each joint along the frames with its own unwrapping state, as if joint by joint; by
-       blocks of FB frames, the joints of a block one after the other within them (so the
-       frames are read in order). The rotations limit_joint's first fast path leaves as they
-       are are found for a block of frames at once (inside_block), a run of them passed over
-       at once, its last one's angle read only if a later frame needs it. */
-    enum { BLOCK = 32, FB = 64 };
+       blocks of APPLY_FB frames, the joints of a block one after the other within them (so the
+       frames are read in order) */
+    enum { BLOCK = 32 };
     size_t js[BLOCK];
     prev_angle prev[BLOCK];
     joint_bounds b[BLOCK];
-    double hy[FB], hx[FB];
-    int inside[FB + 1];
     for (size_t j0 = 0; j0 < J;) {
         size_t m = 0;
         for (; j0 < J && m < BLOCK; j0++) {
@@ -1261,39 +1302,10 @@ void mlr_limits_apply_kind_masked(const mlr_limits *lim, size_t n_frames, mlr_qu
             b[m] = bounds_of(lim, lj, a, hard);
             m++;
         }
-        for (size_t f0 = 0; f0 < n_frames; f0 += FB) {
-            const size_t nf = n_frames - f0 < FB ? n_frames - f0 : FB;
-            for (size_t i = 0; i < m; i++) {
-                const size_t j = js[i];
-                const mlr_limits_joint *g = &lim->joints[j];
-                const int pre = kind == MLR_LIMITS_HINGE ? b[i].h_fast : b[i].fast > 0;
-                if (pre) { /* a run of frames inside ends at one not limited, or at the end */
-                    inside_block(rot + f0 * J + j, J, nf, g, &b[i], hy, hx, inside);
-                    for (size_t f = f0; mask && f < f0 + nf; f++)
-                        inside[f - f0] &= mask[f * J + j] != 0;
-                    inside[nf] = 0;
-                }
-                for (size_t f = f0; f < f0 + nf; f++) {
-                    if (mask && !mask[f * J + j]) { /* not limited here: the unwrapping starts
-                                                       again at the next frame that is */
-                        prev[i] = (prev_angle){NAN, 0, {1, 0, 0, 0}, NULL};
-                        continue;
-                    }
-                    if (pre && inside[f - f0]) { /* unchanged, and so are the frames after it
-                                                    up to the next one not inside */
-                        while (inside[f + 1 - f0])
-                            f++;
-                        if (kind == MLR_LIMITS_HINGE)
-                            prev[i].pending = 2,
-                            prev[i].rr = (mlr_quat){0, hy[f - f0], hx[f - f0], 0};
-                        else if (b[i].bl > 0)
-                            prev[i].pending = 3, prev[i].qp = &rot[f * J + j];
-                        continue;
-                    }
-                    if (limit_joint(g, &b[i], &rot[f * J + j], &prev[i]) && counts)
-                        counts[j]++;
-                }
-            }
+        for (size_t f0 = 0; f0 < n_frames; f0 += APPLY_FB) {
+            const size_t nf = n_frames - f0 < APPLY_FB ? n_frames - f0 : APPLY_FB;
+            for (size_t i = 0; i < m; i++)
+                limit_block(lim, js[i], &b[i], &prev[i], rot, f0, nf, mask, counts);
         }
     }
 }
