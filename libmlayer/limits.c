@@ -1224,6 +1224,20 @@ static void inside_block(const mlr_quat *restrict q, size_t stride, size_t m,
     }
 }
 
+/* Is any of the n bytes mask[stride f] nonzero? By fours, then one by one. */
+static int any_limited(const uint8_t *mask, size_t stride, size_t n)
+{
+    size_t f = 0;
+    for (; f + 4 <= n; f += 4)
+        if (mask[stride * f] | mask[stride * (f + 1)] | mask[stride * (f + 2)] |
+            mask[stride * (f + 3)])
+            return 1;
+    for (; f < n; f++)
+        if (mask[stride * f])
+            return 1;
+    return 0;
+}
+
 /* The frames of a block of mlr_limits_apply_kind_masked. */
 #define APPLY_FB 64
 
@@ -1289,13 +1303,8 @@ void mlr_limits_apply_kind_masked(const mlr_limits *lim, size_t n_frames, mlr_qu
             const mlr_limits_joint *lj = &lim->joints[j0];
             if (lj->range.kind != kind)
                 continue;
-            if (mask) { /* a joint with no frame to limit is left out */
-                size_t f = 0;
-                while (f < n_frames && !mask[f * J + j0])
-                    f++;
-                if (f == n_frames)
-                    continue;
-            }
+            if (mask && !any_limited(mask + j0, J, n_frames)) /* nothing to limit: left out */
+                continue;
             const double a = aj ? aj[stride * j0] : 1.0;
             js[m] = j0;
             prev[m] = (prev_angle){NAN, 0, {1, 0, 0, 0}, NULL};
