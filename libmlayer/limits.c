@@ -152,14 +152,12 @@ static double top_eigen(const double *m, mlr_vec3 *e)
 MLR_CLONES_AVX2
 static int quat_block_ok(const double *p, size_t m)
 {
-    double n2[64];
+    long ok = 1;
     for (size_t i = 0; i < m; i++) {
         const double *e = p + 4 * i;
-        n2[i] = e[0] * e[0] + e[1] * e[1] + e[2] * e[2] + e[3] * e[3];
+        const double n2 = e[0] * e[0] + e[1] * e[1] + e[2] * e[2] + e[3] * e[3];
+        ok &= (n2 > 0.0) & (n2 <= DBL_MAX);
     }
-    long ok = 1;
-    for (size_t i = 0; i < m; i++)
-        ok &= (n2[i] > 0.0) & (n2[i] <= DBL_MAX);
     return ok != 0;
 }
 
