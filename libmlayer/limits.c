@@ -387,9 +387,9 @@ static void measure_bones(const learner *L)
 #define EXT_FB 64
 
 /* The m <= EXT_FB quaternions p + stride i (doubles) of a joint, normalized (q), added to
- * *qsum sign-aligned (q, or -q when qsum.q < 0) and, unless a is NULL, a x q b added to *xsum,
- * in order, as learn_centres takes them (the same operations as qrot and cross3: the same
- * bits). Vectorized but for the sums. */
+ * *qsum sign-aligned (q, or -q when its dot product with qsum is negative) and, unless a is
+ * NULL, a x q b added to *xsum, in order, as learn_centres takes them. Vectorized but for the
+ * sums. */
 MLR_CLONES_AVX2
 static void centres_block(const double *p, size_t stride, size_t m, const mlr_vec3 *a,
                           const mlr_vec3 *b, mlr_quat *qsum, mlr_vec3 *xsum)
@@ -410,18 +410,14 @@ static void centres_block(const double *p, size_t stride, size_t m, const mlr_ve
     *qsum = (mlr_quat){sw, sx, sy, sz};
     if (!a)
         return;
-    const double vx = b->x, vy = b->y, vz = b->z, ax = a->x, ay = a->y, az = a->z;
+    const double v[3] = {b->x, b->y, b->z}, ax = a->x, ay = a->y, az = a->z;
     for (size_t i = 0; i < m; i++) {
-        const double w = qw[i], ux = qx[i], uy = qy[i], uz = qz[i];
-        const double tx = 2.0 * (uy * vz - uz * vy);
-        const double ty = 2.0 * (uz * vx - ux * vz);
-        const double tz = 2.0 * (ux * vy - uy * vx);
-        const double ox = vx + w * tx + (uy * tz - uz * ty);
-        const double oy = vy + w * ty + (uz * tx - ux * tz);
-        const double oz = vz + w * tz + (ux * ty - uy * tx);
-        xs[i] = ay * oz - az * oy;
-        xs[EXT_FB + i] = az * ox - ax * oz;
-        xs[2 * EXT_FB + i] = ax * oy - ay * ox;
+        const mlr_quat q = {qw[i], qx[i], qy[i], qz[i]};
+        double o[3];
+        mlr_quat_rotate_inline(&q, v, o);
+        xs[i] = ay * o[2] - az * o[1];
+        xs[EXT_FB + i] = az * o[0] - ax * o[2];
+        xs[2 * EXT_FB + i] = ax * o[1] - ay * o[0];
     }
     mlr_vec3 x = *xsum;
     for (size_t i = 0; i < m; i++)
