@@ -17,11 +17,6 @@
 
 static double dot3(mlr_vec3 a, mlr_vec3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
 static double norm3(mlr_vec3 a) { return sqrt(dot3(a, a)); }
-static mlr_vec3 cross3(mlr_vec3 a, mlr_vec3 b)
-{
-    mlr_vec3 c = {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
-    return c;
-}
 static mlr_vec3 scale3(mlr_vec3 a, double s)
 {
     mlr_vec3 c = {a.x * s, a.y * s, a.z * s};
@@ -58,35 +53,64 @@ static mlr_quat axis_angle(mlr_vec3 n, double angle)
     return q;
 }
 
-/* The signed angle about n from a to s, both projected on the plane normal to n, as the
-   (y, x) of its atan2. */
-static void hinge_pair(mlr_vec3 n, mlr_vec3 a, mlr_vec3 s, double *y, double *x)
+/* The signed angle about the unit axis n from a to q v, both projected on the plane normal to n,
+ * as the (y, x) of its atan2, for the unit quaternion (w, ux, uy, uz); an = a.n. Scalars in and
+ * out, so that the vectorized loops take it as it is (the same operations: the same bits). */
+static inline void hinge_pair(double w, double ux, double uy, double uz, mlr_vec3 v, mlr_vec3 a,
+                              mlr_vec3 n, double an, double *y, double *x)
 {
-    *y = dot3(n, cross3(a, s));
-    *x = dot3(a, s) - dot3(a, n) * dot3(s, n);
+    const mlr_quat q = {w, ux, uy, uz};
+    const double vv[3] = {v.x, v.y, v.z};
+    double s[3];
+    mlr_quat_rotate_inline(&q, vv, s);
+    const double cx = a.y * s[2] - a.z * s[1], cy = a.z * s[0] - a.x * s[2],
+                 cz = a.x * s[1] - a.y * s[0];
+    *y = n.x * cx + n.y * cy + n.z * cz;
+    *x = (a.x * s[0] + a.y * s[1] + a.z * s[2]) - an * (s[0] * n.x + s[1] * n.y + s[2] * n.z);
 }
 
-/* Swing angle, twist angle (about unit t) of r with r.w >= 0; swing axis direction in *sv
- * (unnormalized vector part of the swing). */
-static void swing_twist(mlr_quat r, mlr_vec3 t, double *swing, double *twist, mlr_quat *sw)
+/* The unit twist of r (r.w >= 0) about unit t: (r.w, p t) / |(r.w, p)|, p = r.t, or the identity
+ * when |(r.w, p)| <= 1e-300. */
+static mlr_quat twist_part(mlr_quat r, mlr_vec3 t)
 {
     const double p = r.x * t.x + r.y * t.y + r.z * t.z;
-    double tw_w = r.w, tw_n = sqrt(tw_w * tw_w + p * p);
+    const double tw_n = sqrt(r.w * r.w + p * p);
     mlr_quat tw = {1, 0, 0, 0};
     if (tw_n > 1e-300) {
-        tw.w = tw_w / tw_n;
+        tw.w = r.w / tw_n;
         tw.x = p * t.x / tw_n, tw.y = p * t.y / tw_n, tw.z = p * t.z / tw_n;
     }
-    *twist = 2.0 * atan2(p / (tw_n > 1e-300 ? tw_n : 1.0), tw.w);
-    if (*twist > PI)
-        *twist -= 2.0 * PI;
-    else if (*twist < -PI)
-        *twist += 2.0 * PI;
+    return tw;
+}
+
+/* The twist angle of r (r.w >= 0) about unit t, in [-pi, pi] (that of twist_part). */
+static double twist_angle(mlr_quat r, mlr_vec3 t)
+{
+    const double p = r.x * t.x + r.y * t.y + r.z * t.z;
+    const double tw_n = sqrt(r.w * r.w + p * p);
+    const double c = tw_n > 1e-300 ? r.w / tw_n : 1.0;
+    double twist = 2.0 * atan2(p / (tw_n > 1e-300 ? tw_n : 1.0), c);
+    if (twist > PI)
+        twist -= 2.0 * PI;
+    else if (twist < -PI)
+        twist += 2.0 * PI;
+    return twist;
+}
+
+/* The swing r conj(tw) of r, tw its twist_part, with w >= 0 (its vector part is the swing
+ * axis' direction, unnormalized). */
+static mlr_quat swing_part(mlr_quat r, mlr_quat tw)
+{
     mlr_quat s = qmul(r, qconj(tw));
     if (s.w < 0)
         s.w = -s.w, s.x = -s.x, s.y = -s.y, s.z = -s.z;
-    *swing = 2.0 * atan2(sqrt(s.x * s.x + s.y * s.y + s.z * s.z), s.w);
-    *sw = s;
+    return s;
+}
+
+/* The swing angle of a swing_part s. */
+static double swing_angle(mlr_quat s)
+{
+    return 2.0 * atan2(sqrt(s.x * s.x + s.y * s.y + s.z * s.z), s.w);
 }
 
 /* Quaternion with the vector part of q (any length > 0) as axis and the given angle. */
@@ -128,14 +152,12 @@ static double top_eigen(const double *m, mlr_vec3 *e)
 MLR_CLONES_AVX2
 static int quat_block_ok(const double *p, size_t m)
 {
-    double n2[64];
+    long ok = 1;
     for (size_t i = 0; i < m; i++) {
         const double *e = p + 4 * i;
-        n2[i] = e[0] * e[0] + e[1] * e[1] + e[2] * e[2] + e[3] * e[3];
+        const double n2 = e[0] * e[0] + e[1] * e[1] + e[2] * e[2] + e[3] * e[3];
+        ok &= (n2 > 0.0) & (n2 <= DBL_MAX);
     }
-    long ok = 1;
-    for (size_t i = 0; i < m; i++)
-        ok &= (n2[i] > 0.0) & (n2[i] <= DBL_MAX);
     return ok != 0;
 }
 
@@ -280,6 +302,29 @@ static inline int angle_less(double y1, double x1, double y2, double x2)
 /* Is the angle of (s, c) larger than that of (bs, bc)? (s, bs >= 0, c, bc >= 0) */
 static int wider(double s, double c, double bs, double bc) { return s * bc > bs * c; }
 
+/* Is any of the m pairs (s[i], c[i]) wider than (bs, bc)? Branch-free, vectorized. */
+MLR_CLONES_AVX2
+static int any_wider(const double *s, const double *c, size_t m, double bs, double bc)
+{
+    long any = 0;
+    for (size_t i = 0; i < m; i++)
+        any |= s[i] * bc > bs * c[i];
+    return any != 0;
+}
+
+/* (*bs, *bc) replaced in turn by each of the m pairs (s[i], c[i]) wider than it (most blocks
+   have none: any_wider finds them first). */
+static void widen(const double *s, const double *c, size_t m, double *bs, double *bc)
+{
+    if (!any_wider(s, c, m, *bs, *bc))
+        return;
+    double ws = *bs, wc = *bc;
+    for (size_t i = 0; i < m; i++)
+        if (wider(s[i], c[i], ws, wc))
+            ws = s[i], wc = c[i];
+    *bs = ws, *bc = wc;
+}
+
 /* The scratch and inputs of learning a rig's limits, shared by the steps of
    mlr_limits_create. */
 typedef struct learner {
@@ -341,34 +386,43 @@ static void measure_bones(const learner *L)
 /* The frames of a block of learn_centres and measure_extents. */
 #define EXT_FB 64
 
-/* The unit quaternions q (in qw .. qz) of the m <= EXT_FB quaternions p + stride i (doubles) of
- * a joint and, unless a is NULL, a x q b (in xs: x, y, z by blocks of EXT_FB), as learn_centres
- * takes them (the same operations as qrot and cross3: the same bits). Vectorized. */
+/* The m <= EXT_FB quaternions p + stride i (doubles) of a joint, normalized (q), added to
+ * *qsum sign-aligned (q, or -q when its dot product with qsum is negative) and, unless a is
+ * NULL, a x q b added to *xsum, in order, as learn_centres takes them. Vectorized but for the
+ * sums. */
 MLR_CLONES_AVX2
 static void centres_block(const double *p, size_t stride, size_t m, const mlr_vec3 *a,
-                          const mlr_vec3 *b, double *qw, double *qx, double *qy, double *qz,
-                          double *xs)
+                          const mlr_vec3 *b, mlr_quat *qsum, mlr_vec3 *xsum)
 {
+    double qw[EXT_FB], qx[EXT_FB], qy[EXT_FB], qz[EXT_FB], xs[3 * EXT_FB];
     for (size_t i = 0; i < m; i++) {
         const double *e = p + stride * i;
         const double n = sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2] + e[3] * e[3]);
         qw[i] = e[0] / n, qx[i] = e[1] / n, qy[i] = e[2] / n, qz[i] = e[3] / n;
     }
+    double sw = qsum->w, sx = qsum->x, sy = qsum->y, sz = qsum->z;
+    for (size_t i = 0; i < m; i++) { /* q + sum, or sum - q: the bits of sum + sign * q */
+        if (sw * qw[i] + sx * qx[i] + sy * qy[i] + sz * qz[i] < 0)
+            sw -= qw[i], sx -= qx[i], sy -= qy[i], sz -= qz[i];
+        else
+            sw += qw[i], sx += qx[i], sy += qy[i], sz += qz[i];
+    }
+    *qsum = (mlr_quat){sw, sx, sy, sz};
     if (!a)
         return;
-    const double vx = b->x, vy = b->y, vz = b->z, ax = a->x, ay = a->y, az = a->z;
+    const double v[3] = {b->x, b->y, b->z}, ax = a->x, ay = a->y, az = a->z;
     for (size_t i = 0; i < m; i++) {
-        const double w = qw[i], ux = qx[i], uy = qy[i], uz = qz[i];
-        const double tx = 2.0 * (uy * vz - uz * vy);
-        const double ty = 2.0 * (uz * vx - ux * vz);
-        const double tz = 2.0 * (ux * vy - uy * vx);
-        const double ox = vx + w * tx + (uy * tz - uz * ty);
-        const double oy = vy + w * ty + (uz * tx - ux * tz);
-        const double oz = vz + w * tz + (ux * ty - uy * tx);
-        xs[i] = ay * oz - az * oy;
-        xs[EXT_FB + i] = az * ox - ax * oz;
-        xs[2 * EXT_FB + i] = ax * oy - ay * ox;
+        const mlr_quat q = {qw[i], qx[i], qy[i], qz[i]};
+        double o[3];
+        mlr_quat_rotate_inline(&q, v, o);
+        xs[i] = ay * o[2] - az * o[1];
+        xs[EXT_FB + i] = az * o[0] - ax * o[2];
+        xs[2 * EXT_FB + i] = ax * o[1] - ay * o[0];
     }
+    mlr_vec3 x = *xsum;
+    for (size_t i = 0; i < m; i++)
+        x.x += xs[i], x.y += xs[EXT_FB + i], x.z += xs[2 * EXT_FB + i];
+    *xsum = x;
 }
 
 /* Pass 1: centres (sign-aligned sums) and hinge axes (sum of a x q b), by blocks of EXT_FB
@@ -380,7 +434,6 @@ static void learn_centres(const learner *L)
     const size_t n_clips = L->n_clips, J = rig->n_joints;
     mlr_limits_joint *jt = L->jt;
     acc *ac = L->ac;
-    double qw[EXT_FB], qx[EXT_FB], qy[EXT_FB], qz[EXT_FB], xs[3 * EXT_FB];
     for (size_t j = 0; j < J; j++)
         ac[j].need_x = norm3(jt[j].bone_in) * norm3(jt[j].bone_out) > 0;
     for (size_t k = 0; k < n_clips; k++)
@@ -390,21 +443,8 @@ static void learn_centres(const learner *L)
                 acc *c = &ac[j];
                 /* no axis without both bones: the axis sum is not read */
                 centres_block(clips[k].rot + 4 * (f0 * J + j), 4 * J, nf,
-                              c->need_x ? &jt[j].bone_in : NULL, &jt[j].bone_out, qw, qx, qy, qz,
-                              xs);
-                mlr_quat qs = c->qsum;
-                for (size_t i = 0; i < nf; i++) {
-                    const double d = qs.w * qw[i] + qs.x * qx[i] + qs.y * qy[i] + qs.z * qz[i];
-                    const double sg = d < 0 ? -1.0 : 1.0;
-                    qs.w += sg * qw[i], qs.x += sg * qx[i], qs.y += sg * qy[i], qs.z += sg * qz[i];
-                }
-                c->qsum = qs;
-                if (!c->need_x)
-                    continue;
-                mlr_vec3 xsum = c->xsum;
-                for (size_t i = 0; i < nf; i++)
-                    xsum.x += xs[i], xsum.y += xs[EXT_FB + i], xsum.z += xs[2 * EXT_FB + i];
-                c->xsum = xsum;
+                              c->need_x ? &jt[j].bone_in : NULL, &jt[j].bone_out, &c->qsum,
+                              &c->xsum);
             }
         }
     for (size_t j = 0; j < J; j++) {
@@ -470,7 +510,7 @@ static void extents_block(const double *p, size_t stride, size_t m, mlr_quat cc,
  * (y, x) pairs (hinge_pair of q b) in hy, hx, the swing's and the twist's pairs as
  * extents_block's in s1, c1, s2, c2, and the vector parts of the swings s = r conj(twist)
  * (s.w >= 0) in sv (x, y, z by blocks of EXT_FB); the same operations as the scalar helpers
- * (qmul, qrot, hinge_pair, swing_twist's twist): the same bits. Vectorized. */
+ * (qmul, hinge_pair, twist_part, swing_part): the same bits. Vectorized. */
 MLR_CLONES_AVX2
 static void cand_block(const double *restrict p, size_t stride, size_t m,
                        const mlr_limits_joint *restrict g, const mlr_vec3 *restrict t,
@@ -479,23 +519,13 @@ static void cand_block(const double *restrict p, size_t stride, size_t m,
                        double *restrict c2, double *restrict sv)
 {
     const double aw = g->centre.w, ax = -g->centre.x, ay = -g->centre.y, az = -g->centre.z;
-    const double vx = g->bone_out.x, vy = g->bone_out.y, vz = g->bone_out.z;
-    const mlr_vec3 n = g->axis, a = g->bone_in;
+    const mlr_vec3 v = g->bone_out, n = g->axis, a = g->bone_in;
     const double an = dot3(a, n), tx = t->x, ty = t->y, tz = t->z;
     for (size_t i = 0; i < m; i++) {
         const double *e = p + stride * i;
         const double nq = sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2] + e[3] * e[3]);
         const double bw = e[0] / nq, bx = e[1] / nq, by = e[2] / nq, bz = e[3] / nq;
-        /* the hinge pair of s = q b */
-        const double qx2 = 2.0 * (by * vz - bz * vy);
-        const double qy2 = 2.0 * (bz * vx - bx * vz);
-        const double qz2 = 2.0 * (bx * vy - by * vx);
-        const double sx = vx + bw * qx2 + (by * qz2 - bz * qy2);
-        const double sy = vy + bw * qy2 + (bz * qx2 - bx * qz2);
-        const double sz = vz + bw * qz2 + (bx * qy2 - by * qx2);
-        const double cx = a.y * sz - a.z * sy, cy = a.z * sx - a.x * sz, cz = a.x * sy - a.y * sx;
-        hy[i] = n.x * cx + n.y * cy + n.z * cz;
-        hx[i] = (a.x * sx + a.y * sy + a.z * sz) - an * (sx * n.x + sy * n.y + sz * n.z);
+        hinge_pair(bw, bx, by, bz, v, a, n, an, &hy[i], &hx[i]);
         /* r = conj(centre) q, r.w >= 0 */
         double w = aw * bw - ax * bx - ay * by - az * bz;
         double x = aw * bx + ax * bw + ay * bz - az * by;
@@ -529,6 +559,37 @@ static void cand_block(const double *restrict p, size_t stride, size_t m,
         sv[EXT_FB + i] = sneg ? -sqy : sqy;
         sv[2 * EXT_FB + i] = sneg ? -sqz : sqz;
     }
+}
+
+/* The smallest and largest hinge angle so far (c->lo_y .. c->hi_x) with the m pairs (hy, hx)
+ * (angle_less), in order; first: they are the first pairs (the first one sets both). In the
+ * AVX2 clone: three-operand code, fewer register copies. */
+MLR_CLONES_AVX2
+static void hinge_extremes(const double *hy, const double *hx, size_t m, int first, acc *c)
+{
+    double lo_y = c->lo_y, lo_x = c->lo_x, hi_y = c->hi_y, hi_x = c->hi_x;
+    for (size_t i = 0; i < m; i++) {
+        const double y = hy[i], x = hx[i];
+        if ((first && i == 0) || angle_less(y, x, lo_y, lo_x))
+            lo_y = y, lo_x = x;
+        if ((first && i == 0) || angle_less(hi_y, hi_x, y, x))
+            hi_y = y, hi_x = x;
+    }
+    c->lo_y = lo_y, c->lo_x = lo_x, c->hi_y = hi_y, c->hi_x = hi_x;
+}
+
+/* The upper triangle of the second moments of the m vectors (x, y, z)[stride i] added to mom
+ * (3 x 3), in order. In the AVX2 clone: three-operand code, fewer register copies. */
+MLR_CLONES_AVX2
+static void add_moments(const double *x, const double *y, const double *z, size_t stride, size_t m,
+                        double *mom)
+{
+    double m00 = mom[0], m01 = mom[1], m02 = mom[2], m11 = mom[4], m12 = mom[5], m22 = mom[8];
+    for (size_t i = 0; i < m; i++) {
+        const double a = x[stride * i], b = y[stride * i], c = z[stride * i];
+        m00 += a * a, m01 += a * b, m02 += a * c, m11 += b * b, m12 += b * c, m22 += c * c;
+    }
+    mom[0] = m00, mom[1] = m01, mom[2] = m02, mom[4] = m11, mom[5] = m12, mom[8] = m22;
 }
 
 /* Pass 2: moments of the centred rotation vectors, hinge angle, swing and twist maxima, by
@@ -571,45 +632,22 @@ static void measure_extents(const learner *L)
                     extents_block(p0, 4 * J, nf, qconj(g->centre), c->has_out ? &c->t : NULL, s1,
                                   c1, s2, c2);
                     if (!c->has_out) {
-                        for (size_t i = 0; i < nf; i++)
-                            if (wider(s1[i], c1[i], c->an_s, c->an_c))
-                                c->an_s = s1[i], c->an_c = c1[i];
+                        widen(s1, c1, nf, &c->an_s, &c->an_c);
                         continue;
                     }
-                    for (size_t i = 0; i < nf; i++) {
-                        if (wider(s1[i], c1[i], c->sw_s, c->sw_c))
-                            c->sw_s = s1[i], c->sw_c = c1[i];
-                        if (wider(s2[i], c2[i], c->tw_s, c->tw_c))
-                            c->tw_s = s2[i], c->tw_c = c2[i];
-                    }
+                    widen(s1, c1, nf, &c->sw_s, &c->sw_c);
+                    widen(s2, c2, nf, &c->tw_s, &c->tw_c);
                     continue;
                 }
                 /* a hinge candidate (it has both bones, as its axis) */
                 cand_block(p0, 4 * J, nf, g, &c->t, lq, hy, hx, s1, c1, s2, c2, sv);
-                for (size_t i = 0; i < nf; i++) {
-                    const double y = hy[i], x = hx[i];
-                    if (n_seen + i == 0 || angle_less(y, x, c->lo_y, c->lo_x))
-                        c->lo_y = y, c->lo_x = x;
-                    if (n_seen + i == 0 || angle_less(c->hi_y, c->hi_x, y, x))
-                        c->hi_y = y, c->hi_x = x;
-                    if (wider(s1[i], c1[i], c->sw_s, c->sw_c))
-                        c->sw_s = s1[i], c->sw_c = c1[i];
-                    if (wider(s2[i], c2[i], c->tw_s, c->tw_c))
-                        c->tw_s = s2[i], c->tw_c = c2[i];
-                }
-                for (size_t i = 0; c->need_ms && i < nf; i++) {
-                    const double v3[3] = {sv[i], sv[EXT_FB + i], sv[2 * EXT_FB + i]};
-                    for (int a3 = 0; a3 < 3; a3++)
-                        for (int b3 = a3; b3 < 3; b3++)
-                            c->ms[3 * a3 + b3] += v3[a3] * v3[b3];
-                }
+                hinge_extremes(hy, hx, nf, n_seen == 0, c);
+                widen(s1, c1, nf, &c->sw_s, &c->sw_c);
+                widen(s2, c2, nf, &c->tw_s, &c->tw_c);
+                if (c->need_ms)
+                    add_moments(sv, sv + EXT_FB, sv + 2 * EXT_FB, 1, nf, c->ms);
                 (void)mlr_quat_log_array(lq, nf, rv, NULL);
-                for (size_t i = 0; i < nf; i++) {
-                    const double v3[3] = {rv[i].x, rv[i].y, rv[i].z};
-                    for (int a3 = 0; a3 < 3; a3++)
-                        for (int b3 = a3; b3 < 3; b3++)
-                            c->m[3 * a3 + b3] += v3[a3] * v3[b3];
-                }
+                add_moments(&rv[0].x, &rv[0].y, &rv[0].z, 3, nf, c->m);
             }
             n_seen += nf;
         }
@@ -908,6 +946,7 @@ typedef struct joint_bounds {
     double smax, tmax, ws, wt, fast; /* swing-twist: the bounds at alpha, their soft widths,
                                         fast_bound */
     double bl;                       /* |bone_out| */
+    double an;                       /* hinge: bone_in . axis (hinge_pair's) */
     mlr_vec3 t;                      /* bone_out / bl (bl > 0) */
     int hard;                        /* hinge: only angles outside [lo, hi], to the bound */
     /* the fast paths without atan2 (in_arc): a hinge angle within the arc where the limits
@@ -950,15 +989,6 @@ typedef struct prev_angle {
     const mlr_quat *qp;
 } prev_angle;
 
-/* The twist of unit rr (w >= 0) about unit t, as swing_twist computes it. */
-static double twist_of(mlr_quat rr, mlr_vec3 t)
-{
-    double sw, tw;
-    mlr_quat sq;
-    swing_twist(rr, t, &sw, &tw, &sq);
-    return tw;
-}
-
 /* The hinge angle atan2(y, x) in [mid - 2 pi, mid). */
 static double hinge_angle(double y, double x, double mid)
 {
@@ -980,7 +1010,7 @@ static double prev_value(prev_angle *pv, const joint_bounds *b)
         pv->pending = 1;
     }
     if (pv->pending == 1)
-        pv->v = twist_of(pv->rr, b->t);
+        pv->v = twist_angle(pv->rr, b->t);
     else if (pv->pending == 2)
         pv->v = hinge_angle(pv->rr.x, pv->rr.y, b->mid);
     pv->pending = 0;
@@ -1000,6 +1030,7 @@ static joint_bounds bounds_of(const mlr_limits *lim, const mlr_limits_joint *g, 
     b.hard = hard && r->kind == MLR_LIMITS_HINGE;
     b.cc = qconj(g->centre);
     if (r->kind == MLR_LIMITS_HINGE) {
+        b.an = dot3(g->bone_in, g->axis);
         const double span = r->hi - r->lo;
         b.w_hi = lim->soft * span, b.w_lo = fmin(lim->rev_soft, 0.5 * span);
         if (b.w_hi + b.w_lo > span)
@@ -1040,9 +1071,8 @@ static inline int limit_joint(const mlr_limits_joint *g, const joint_bounds *b, 
     const mlr_quat q0 = *q;
     if (r->kind == MLR_LIMITS_HINGE) {
         const double w_hi = b->w_hi, w_lo = b->w_lo;
-        const mlr_vec3 s = qrot(*q, g->bone_out);
         double y, x;
-        hinge_pair(g->axis, g->bone_in, s, &y, &x);
+        hinge_pair(q->w, q->x, q->y, q->z, g->bone_out, g->bone_in, g->axis, b->an, &y, &x);
         if (b->h_fast && in_arc(y, x, b->hc_x, b->hc_y, b->h_cos)) { /* left as it is */
             if (prev)
                 prev->pending = 2, prev->rr = (mlr_quat){0, y, x, 0};
@@ -1086,19 +1116,28 @@ static inline int limit_joint(const mlr_limits_joint *g, const joint_bounds *b, 
             const mlr_vec3 t = b->t;
             /* swing and twist below their knee points, decided without the atan2s: the twist
                2 atan2(|p|, w), p = v.t, and the swing 2 atan2(|v - p t|, |(w, p)|) (the
-               closed forms of swing_twist's) */
+               closed forms of twist_angle's and swing_angle's); one below its knee point is
+               left as it is, so its angle is not needed */
             const double pp = rr.x * t.x + rr.y * t.y + rr.z * t.z;
-            if (below_half(fabs(pp), rr.w, b->tk_c, b->tk_s)) {
-                const mlr_vec3 vp = {rr.x - pp * t.x, rr.y - pp * t.y, rr.z - pp * t.z};
-                if (below_half(norm3(vp), sqrt(rr.w * rr.w + pp * pp), b->sk_c, b->sk_s)) {
-                    if (prev)
-                        prev->pending = 1, prev->rr = rr;
-                    return 0;
+            const int twist_in = below_half(fabs(pp), rr.w, b->tk_c, b->tk_s);
+            const mlr_vec3 vp = {rr.x - pp * t.x, rr.y - pp * t.y, rr.z - pp * t.z};
+            const int swing_in =
+                below_half(norm3(vp), sqrt(rr.w * rr.w + pp * pp), b->sk_c, b->sk_s);
+            mlr_quat sq = rr;
+            double sw = 0.0, sw2 = 0.0;
+            if (!(twist_in && swing_in)) {
+                sq = swing_part(rr, twist_part(rr, t));
+                if (!swing_in) {
+                    sw = swing_angle(sq);
+                    sw2 = sw > smax - ws ? mlr_limits_soft(sw, smax, ws) : sw;
                 }
             }
-            double sw, tw;
-            mlr_quat sq;
-            swing_twist(rr, t, &sw, &tw, &sq);
+            if (twist_in && sw2 == sw) { /* unchanged; its twist read if a later frame needs it */
+                if (prev)
+                    prev->pending = 1, prev->rr = rr;
+                return 0;
+            }
+            double tw = twist_angle(rr, t);
             if (prev) { /* beyond its bound, the twist unwrapped in time as a hinge's angle */
                 if (fabs(tw) > tmax) {
                     const double pv = prev_value(prev, b);
@@ -1107,7 +1146,6 @@ static inline int limit_joint(const mlr_limits_joint *g, const joint_bounds *b, 
                 }
                 prev->v = tw, prev->pending = 0;
             }
-            const double sw2 = sw > smax - ws ? mlr_limits_soft(sw, smax, ws) : sw;
             const double atw = fabs(tw);
             const double tw2 = atw > tmax - wt ? copysign(mlr_limits_soft(atw, tmax, wt), tw) : tw;
             if (sw2 == sw && tw2 == tw)
@@ -1149,19 +1187,93 @@ void mlr_limits_apply_kind(const mlr_limits *lim, size_t n_frames, mlr_quat *rot
     mlr_limits_apply_kind_masked(lim, n_frames, rot, alpha, n_alpha, counts, kind, NULL, 0);
 }
 
-/* The squared vector part of conj(centre) q (cc = conj(centre)) of the m quaternions q[stride i],
- * as limit_joint computes it (the same operations: the same bits). Vectorized. */
+/* Which of the m quaternions q[stride i] of joint g limit_joint leaves as they are by its first
+ * fast path (a hinge angle in the arc b->hc_x .. b->h_cos with b->h_fast, or a swing-twist
+ * rotation of squared vector part below b->fast > 0), in inside[i], and a hinge's (y, x)
+ * pairs in hy, hx: found for a block of frames at once, as limit_joint decides them (the same
+ * operations: the same bits). Vectorized. */
 MLR_CLONES_AVX2
-static void centred_vv(const mlr_quat *q, size_t stride, size_t m, mlr_quat cc, double *vv)
+static void inside_block(const mlr_quat *restrict q, size_t stride, size_t m,
+                         const mlr_limits_joint *restrict g, const joint_bounds *restrict b,
+                         double *restrict hy, double *restrict hx, int *restrict inside)
 {
-    const double aw = cc.w, ax = cc.x, ay = cc.y, az = cc.z;
+    if (g->range.kind == MLR_LIMITS_HINGE) {
+        const mlr_vec3 v = g->bone_out, a = g->bone_in, n = g->axis;
+        const double an = b->an, cx = b->hc_x, cy = b->hc_y, ca = b->h_cos;
+        for (size_t i = 0; i < m; i++) {
+            const mlr_quat *p = q + stride * i;
+            hinge_pair(p->w, p->x, p->y, p->z, v, a, n, an, &hy[i], &hx[i]);
+            inside[i] = in_arc(hy[i], hx[i], cx, cy, ca);
+        }
+        return;
+    }
+    const double aw = b->cc.w, ax = b->cc.x, ay = b->cc.y, az = b->cc.z, fast = b->fast;
     for (size_t i = 0; i < m; i++) {
         const mlr_quat *p = q + stride * i;
         const double bw = p->w, bx = p->x, by = p->y, bz = p->z;
         const double x = aw * bx + ax * bw + ay * bz - az * by;
         const double y = aw * by - ax * bz + ay * bw + az * bx;
         const double z = aw * bz + ax * by - ay * bx + az * bw;
-        vv[i] = x * x + y * y + z * z;
+        inside[i] = x * x + y * y + z * z < fast;
+    }
+}
+
+/* Is any of the n bytes mask[stride f] nonzero? By fours, then one by one. */
+static int any_limited(const uint8_t *mask, size_t stride, size_t n)
+{
+    size_t f = 0;
+    for (; f + 4 <= n; f += 4)
+        if (mask[stride * f] | mask[stride * (f + 1)] | mask[stride * (f + 2)] |
+            mask[stride * (f + 3)])
+            return 1;
+    for (; f < n; f++)
+        if (mask[stride * f])
+            return 1;
+    return 0;
+}
+
+/* The frames of a block of mlr_limits_apply_kind_masked. */
+#define APPLY_FB 64
+
+/* limit_joint on the nf <= APPLY_FB frames from f0 of joint j of rot (n_frames x J), in order
+ * (b, prev: its bounds and unwrapping state; mask and counts as mlr_limits_apply_kind_masked's).
+ * The rotations limit_joint's first fast path leaves as they are are found for the block at once
+ * (inside_block), a run of them passed over at once, its last one's angle read only if a later
+ * frame needs it. In the AVX2 clone: three-operand code, fewer register copies. */
+MLR_CLONES_AVX2
+static void limit_block(const mlr_limits *lim, size_t j, const joint_bounds *b, prev_angle *prev,
+                        mlr_quat *rot, size_t f0, size_t nf, const uint8_t *mask, size_t *counts)
+{
+    const size_t J = lim->n_joints;
+    const mlr_limits_joint *g = &lim->joints[j];
+    const int hinge = g->range.kind == MLR_LIMITS_HINGE;
+    double hy[APPLY_FB], hx[APPLY_FB];
+    int inside[APPLY_FB + 1];
+    const int pre = hinge ? b->h_fast : b->fast > 0;
+    if (pre) { /* a run of frames inside ends at one not limited, or at the end */
+        inside_block(rot + f0 * J + j, J, nf, g, b, hy, hx, inside);
+        for (size_t f = f0; mask && f < f0 + nf; f++)
+            inside[f - f0] &= mask[f * J + j] != 0;
+        inside[nf] = 0;
+    }
+    for (size_t f = f0; f < f0 + nf; f++) {
+        if (mask && !mask[f * J + j]) { /* not limited here: the unwrapping starts again at the
+                                           next frame that is */
+            *prev = (prev_angle){NAN, 0, {1, 0, 0, 0}, NULL};
+            continue;
+        }
+        if (pre && inside[f - f0]) { /* unchanged, and so are the frames after it up to the
+                                        next one not inside */
+            while (inside[f + 1 - f0])
+                f++;
+            if (hinge)
+                prev->pending = 2, prev->rr = (mlr_quat){0, hy[f - f0], hx[f - f0], 0};
+            else if (b->bl > 0)
+                prev->pending = 3, prev->qp = &rot[f * J + j];
+            continue;
+        }
+        if (limit_joint(g, b, &rot[f * J + j], prev) && counts)
+            counts[j]++;
     }
 }
 
@@ -1173,57 +1285,30 @@ void mlr_limits_apply_kind_masked(const mlr_limits *lim, size_t n_frames, mlr_qu
     const double *aj = alpha ? (n_alpha == 1 ? alpha : alpha + 1) : NULL;
     const size_t stride = n_alpha == 1 ? 0 : 1;
     /* each joint along the frames with its own unwrapping state, as if joint by joint; by
-       blocks of FB frames, the joints of a block one after the other within them (so the
-       frames are read in order). A swing-twist joint's rotations well inside its range
-       (limit_joint's first fast path) are found for a block of frames at once (centred_vv),
-       their twist read only if a later frame needs it. */
-    enum { BLOCK = 32, FB = 64 };
+       blocks of APPLY_FB frames, the joints of a block one after the other within them (so the
+       frames are read in order) */
+    enum { BLOCK = 32 };
     size_t js[BLOCK];
     prev_angle prev[BLOCK];
     joint_bounds b[BLOCK];
-    double vv[FB];
     for (size_t j0 = 0; j0 < J;) {
         size_t m = 0;
         for (; j0 < J && m < BLOCK; j0++) {
             const mlr_limits_joint *lj = &lim->joints[j0];
             if (lj->range.kind != kind)
                 continue;
-            if (mask) { /* a joint with no frame to limit is left out */
-                size_t f = 0;
-                while (f < n_frames && !mask[f * J + j0])
-                    f++;
-                if (f == n_frames)
-                    continue;
-            }
+            if (mask && !any_limited(mask + j0, J, n_frames)) /* nothing to limit: left out */
+                continue;
             const double a = aj ? aj[stride * j0] : 1.0;
             js[m] = j0;
             prev[m] = (prev_angle){NAN, 0, {1, 0, 0, 0}, NULL};
             b[m] = bounds_of(lim, lj, a, hard);
             m++;
         }
-        for (size_t f0 = 0; f0 < n_frames; f0 += FB) {
-            const size_t nf = n_frames - f0 < FB ? n_frames - f0 : FB;
-            for (size_t i = 0; i < m; i++) {
-                const size_t j = js[i];
-                const mlr_limits_joint *g = &lim->joints[j];
-                const int pre = kind == MLR_LIMITS_SWING_TWIST && b[i].fast > 0;
-                if (pre)
-                    centred_vv(rot + f0 * J + j, J, nf, b[i].cc, vv);
-                for (size_t f = f0; f < f0 + nf; f++) {
-                    if (mask && !mask[f * J + j]) { /* not limited here: the unwrapping starts
-                                                       again at the next frame that is */
-                        prev[i] = (prev_angle){NAN, 0, {1, 0, 0, 0}, NULL};
-                        continue;
-                    }
-                    if (pre && vv[f - f0] < b[i].fast) { /* well inside: unchanged */
-                        if (b[i].bl > 0)
-                            prev[i].pending = 3, prev[i].qp = &rot[f * J + j];
-                        continue;
-                    }
-                    if (limit_joint(g, &b[i], &rot[f * J + j], &prev[i]) && counts)
-                        counts[j]++;
-                }
-            }
+        for (size_t f0 = 0; f0 < n_frames; f0 += APPLY_FB) {
+            const size_t nf = n_frames - f0 < APPLY_FB ? n_frames - f0 : APPLY_FB;
+            for (size_t i = 0; i < m; i++)
+                limit_block(lim, js[i], &b[i], &prev[i], rot, f0, nf, mask, counts);
         }
     }
 }
