@@ -40,7 +40,7 @@ void mlr_fk_list_frame(const mlr_fk_list *fl, const double *root_pos, const doub
 /* The same on N frames: blocks of MLR_FK_BLOCK frames with scratch s (NULL: none, every frame
  * alone, the same values), then the frames left one by one (those written at the root and every
  * listed joint). */
-void mlr_fk_list_arrays(const mlr_fk_list *fl, size_t N, const double *root_pos,
-                        const double *rot, const double *trans, double *wp, double *wr, double *s);
+void mlr_fk_list_arrays(const mlr_fk_list *fl, size_t N, const double *root_pos, const double *rot,
+                        const double *trans, double *wp, double *wr, double *s);
 
 #endif
