@@ -58,18 +58,29 @@ mlr_status mlr_cleanup_ref_create(const mlr_rig *rig, size_t N, double fps, int 
                                   mlr_diag *diag);
 void mlr_cleanup_ref_destroy(mlr_cleanup_ref *ref);
 
+/* What a caller does to the legs' rotations a pass set (the guards: the joint limits). fn
+ * changes rot (N x J x 4) where mask (N x J) is set, only ever at the n_joints joints
+ * (distinct); a status other than MLR_OK ends the
+ * cleanup with it (fn sets diag). Called by the first ik_passes passes on the IK's new
+ * rotations of the constrained frames before they are spread, and by the first blend_passes
+ * on the frames of the spread's blends after it (see cleanup_pass.c). */
+typedef struct mlr_cleanup_hook {
+    mlr_status (*fn)(void *ctx, size_t N, size_t J, double *rot, const uint8_t *mask,
+                     const int32_t *joints, size_t n_joints, mlr_diag *diag);
+    void *ctx;
+    int ik_passes, blend_passes; /* the passes that call it before / after the spread */
+} mlr_cleanup_hook;
+
 /* mlr_cleanup_contacts with the reference's trajectories made (ref, or NULL for no reference:
  * then ref_root_pos and the others of the public call are NULL). trusted: the rig, the points
- * and the motion were checked by the caller (the guards' later rounds), so they are not
- * checked again. */
-mlr_status mlr_cleanup_contacts_ref(const mlr_rig *rig, size_t N, double fps, int up,
-                                    const double *root_pos, const double *rot, const double *trans,
-                                    const mlr_cleanup_ref *ref, int trusted, size_t C,
-                                    const int32_t *joints, const int32_t *end_sites,
-                                    const uint8_t *contacts, const mlr_cleanup_option *opts,
-                                    size_t n_opts, double *out_root_pos, double *out_rot,
-                                    mlr_cleanup_report *report, const mlr_allocator *alloc,
-                                    mlr_diag *diag);
+ * and the motion were checked by the caller, so they are not checked again. hook: NULL, or
+ * what to do to the IK's rotations before the spread. */
+mlr_status mlr_cleanup_contacts_ref(
+    const mlr_rig *rig, size_t N, double fps, int up, const double *root_pos, const double *rot,
+    const double *trans, const mlr_cleanup_ref *ref, int trusted, const mlr_cleanup_hook *hook,
+    size_t C, const int32_t *joints, const int32_t *end_sites, const uint8_t *contacts,
+    const mlr_cleanup_option *opts, size_t n_opts, double *out_root_pos, double *out_rot,
+    mlr_cleanup_report *report, const mlr_allocator *alloc, mlr_diag *diag);
 
 /* ---- between the cleanup's files ---- */
 
@@ -289,6 +300,11 @@ typedef struct cleanup_state {
     int32_t *sub;     /* nf x J: need's joints at or below each foot's hip, in order */
     size_t *n_sub;
     cleanup_work *w;
+    const mlr_cleanup_hook *hook; /* or NULL */
+    uint8_t *hook_mask;           /* N x J: the rotations the hook changes */
+    int hook_on;     /* the hook's stages in this pass: 1 before the spread, 2 after it */
+    int hook_failed; /* the hook failed (cu->diag set) */
+    mlr_diag *diag;               /* the call's, for the hook */
 } cleanup_state;
 
 /* The root shift (up to 5 rounds of needs, widened and smoothed), added to out_root_pos;
@@ -303,7 +319,7 @@ void cleanup__find_chains(cleanup_state *cu);
 
 /* One pass: forward kinematics again on the frames that changed since the last (the root
    shift before the first pass, the spread of the pass before), the floor frames, IK on the
-   constrained frames, then the spread per leg. */
+   constrained frames, the hook when it is on, then the spread per leg (and the hook again). */
 mlr_status cleanup__pass(cleanup_state *cu);
 
 #endif

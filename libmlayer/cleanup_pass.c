@@ -235,6 +235,48 @@ static void place_toes(const cleanup_state *cu)
     }
 }
 
+/* The hook on the legs' rotations a pass set: each leg's hip and knee, and its anchor where
+   it has a placed point. Before the spread (blend 0) on the constrained frames solve_legs and
+   place_toes solved, in newr; after it (blend 1) on the frames of its blend only (the others
+   of the frames the spread changed), in out_rot. */
+static mlr_status run_hook(cleanup_state *cu, int blend)
+{
+    const size_t N = cu->N, J = cu->J;
+    const uint8_t *dirty = cu->w->dirty;
+    uint8_t *mask = cu->hook_mask;
+    int32_t joints[3 * 64]; /* (cleanup_feet: at most 64 feet) */
+    size_t n_joints = 0;
+    memset(mask, 0, N * J);
+    for (size_t k = 0; k < cu->nf; k++) {
+        const cleanup_foot *ft = &cu->feet[k];
+        if (!ft->active)
+            continue;
+        const int has_toe = ft->n_cols > ft->n_own;
+        const uint8_t bit = k < 7 ? (uint8_t)(1u << k) : (uint8_t)CLEANUP_DIRTY_ALL;
+        const int32_t leg[3] = {ft->hip, ft->knee, ft->anchor};
+        for (int i = 0; i < 2 + has_toe; i++) {
+            size_t q = 0;
+            while (q < n_joints && joints[q] != leg[i])
+                q++;
+            if (q == n_joints)
+                joints[n_joints++] = leg[i];
+        }
+        for (size_t f = 0; f < N; f++) {
+            const int constrained = ft->U[f] || ft->F[f];
+            if (blend ? constrained || !(dirty[f] & bit) : !constrained || ft->K[f] || ft->S[f])
+                continue;
+            uint8_t *m = mask + f * J;
+            m[ft->hip] = m[ft->knee] = 1;
+            if (has_toe)
+                m[ft->anchor] = 1;
+        }
+    }
+    mlr_status st = cu->hook->fn(cu->hook->ctx, N, J, blend ? cu->out_rot : cu->newr, mask, joints,
+                                 n_joints, cu->diag);
+    cu->hook_failed = st != MLR_OK;
+    return st;
+}
+
 mlr_status cleanup__pass(cleanup_state *cu)
 {
     const size_t N = cu->N, J = cu->J, C = cu->C;
@@ -262,6 +304,8 @@ mlr_status cleanup__pass(cleanup_state *cu)
     copy_leg_rotations(cu);
     solve_legs(cu);
     place_toes(cu);
+    if ((cu->hook_on & 1) && (st = run_hook(cu, 0)) != MLR_OK)
+        return st;
     /* spread per leg */
     for (size_t k = 0; k < cu->nf; k++) {
         const cleanup_foot *ft = &cu->feet[k];
@@ -278,5 +322,5 @@ mlr_status cleanup__pass(cleanup_state *cu)
                                             ft->n_cols > ft->n_own ? 3 : 2, mask)) != MLR_OK)
             return st;
     }
-    return MLR_OK;
+    return (cu->hook_on & 2) ? run_hook(cu, 1) : MLR_OK;
 }

@@ -515,10 +515,19 @@ static mlr_status cleanup_passes(cleanup_state *cu, cleanup_arena *ar, mlr_diag 
                 cu->sub[k * J + cu->n_sub[k]++] = cu->need_list[i];
         }
     cu->w->dirty = dirty;
+    if (cu->hook && (cu->hook->ik_passes > 0 || cu->hook->blend_passes > 0)) {
+        cu->hook_mask = cleanup__take(ar, N * J, 1);
+        if (ar->st != MLR_OK)
+            return fail_memory(ar, diag);
+    }
+    cu->diag = diag;
     for (int pass = 0; pass < cu->cfg->passes; pass++) {
+        cu->hook_on = !cu->hook ? 0
+                                : (pass < cu->hook->ik_passes ? 1 : 0) |
+                                      (pass < cu->hook->blend_passes ? 2 : 0);
         mlr_status st = cleanup__pass(cu);
-        if (st != MLR_OK)
-            return fail_status(st, diag);
+        if (st != MLR_OK) /* the hook's failure has its message */
+            return cu->hook_failed ? st : fail_status(st, diag);
     }
     return MLR_OK;
 }
@@ -527,11 +536,11 @@ static mlr_status cleanup_run(const mlr_rig *rig, size_t N, double fps, int up,
                               const double *root_pos, const double *rot, const double *trans,
                               const double *ref_root_pos, const double *ref_rot,
                               const double *ref_trans, const mlr_cleanup_ref *pre, int trusted,
-                              size_t C, const int32_t *joints, const int32_t *end_sites,
-                              const uint8_t *contacts, const mlr_cleanup_option *opts,
-                              size_t n_opts, double *out_root_pos, double *out_rot,
-                              mlr_cleanup_report *report, const mlr_allocator *alloc,
-                              mlr_diag *diag)
+                              const mlr_cleanup_hook *hook, size_t C, const int32_t *joints,
+                              const int32_t *end_sites, const uint8_t *contacts,
+                              const mlr_cleanup_option *opts, size_t n_opts, double *out_root_pos,
+                              double *out_rot, mlr_cleanup_report *report,
+                              const mlr_allocator *alloc, mlr_diag *diag)
 {
     cleanup_config cfg;
     mlr_status st = cleanup_check(rig, N, fps, up, root_pos, rot, trans, ref_root_pos, ref_rot,
@@ -561,7 +570,8 @@ static mlr_status cleanup_run(const mlr_rig *rig, size_t N, double fps, int up,
                        .out_rot = out_rot,
                        .feet = feet,
                        .have_ref = have_ref,
-                       .w = &w};
+                       .w = &w,
+                       .hook = hook};
     mlr_allocator A;
     mlr_allocator_resolve(alloc, &A);
     cleanup_arena ar = {.a = &A, .st = MLR_OK};
@@ -611,20 +621,18 @@ mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t N, double fps, int up
                                 const mlr_allocator *alloc, mlr_diag *diag)
 {
     return cleanup_run(rig, N, fps, up, root_pos, rot, trans, ref_root_pos, ref_rot, ref_trans,
-                       NULL, 0, C, joints, end_sites, contacts, opts, n_opts, out_root_pos,
+                       NULL, 0, NULL, C, joints, end_sites, contacts, opts, n_opts, out_root_pos,
                        out_rot, report, alloc, diag);
 }
 
-mlr_status mlr_cleanup_contacts_ref(const mlr_rig *rig, size_t N, double fps, int up,
-                                    const double *root_pos, const double *rot, const double *trans,
-                                    const mlr_cleanup_ref *ref, int trusted, size_t C,
-                                    const int32_t *joints, const int32_t *end_sites,
-                                    const uint8_t *contacts, const mlr_cleanup_option *opts,
-                                    size_t n_opts, double *out_root_pos, double *out_rot,
-                                    mlr_cleanup_report *report, const mlr_allocator *alloc,
-                                    mlr_diag *diag)
+mlr_status mlr_cleanup_contacts_ref(
+    const mlr_rig *rig, size_t N, double fps, int up, const double *root_pos, const double *rot,
+    const double *trans, const mlr_cleanup_ref *ref, int trusted, const mlr_cleanup_hook *hook,
+    size_t C, const int32_t *joints, const int32_t *end_sites, const uint8_t *contacts,
+    const mlr_cleanup_option *opts, size_t n_opts, double *out_root_pos, double *out_rot,
+    mlr_cleanup_report *report, const mlr_allocator *alloc, mlr_diag *diag)
 {
-    return cleanup_run(rig, N, fps, up, root_pos, rot, trans, NULL, NULL, NULL, ref, trusted, C,
-                       joints, end_sites, contacts, opts, n_opts, out_root_pos, out_rot, report,
+    return cleanup_run(rig, N, fps, up, root_pos, rot, trans, NULL, NULL, NULL, ref, trusted, hook,
+                       C, joints, end_sites, contacts, opts, n_opts, out_root_pos, out_rot, report,
                        alloc, diag);
 }

@@ -1184,7 +1184,8 @@ void mlr_limits_apply_frame(const mlr_limits *lim, mlr_quat *q, const double *al
 void mlr_limits_apply_kind(const mlr_limits *lim, size_t n_frames, mlr_quat *rot,
                            const double *alpha, size_t n_alpha, size_t *counts, int kind)
 {
-    mlr_limits_apply_kind_masked(lim, n_frames, rot, alpha, n_alpha, counts, kind, NULL, 0);
+    mlr_limits_apply_kind_masked(lim, n_frames, rot, alpha, n_alpha, counts, kind, NULL, NULL, 0,
+                                 0);
 }
 
 /* Which of the m quaternions q[stride i] of joint g limit_joint leaves as they are by its first
@@ -1279,9 +1280,10 @@ static void limit_block(const mlr_limits *lim, size_t j, const joint_bounds *b, 
 
 void mlr_limits_apply_kind_masked(const mlr_limits *lim, size_t n_frames, mlr_quat *rot,
                                   const double *alpha, size_t n_alpha, size_t *counts, int kind,
-                                  const uint8_t *mask, int hard)
+                                  const uint8_t *mask, const int32_t *joints, size_t n_joints,
+                                  int hard)
 {
-    const size_t J = lim->n_joints;
+    const size_t J = lim->n_joints, n_look = joints ? n_joints : J;
     const double *aj = alpha ? (n_alpha == 1 ? alpha : alpha + 1) : NULL;
     const size_t stride = n_alpha == 1 ? 0 : 1;
     /* each joint along the frames with its own unwrapping state, as if joint by joint; by
@@ -1291,9 +1293,10 @@ void mlr_limits_apply_kind_masked(const mlr_limits *lim, size_t n_frames, mlr_qu
     size_t js[BLOCK];
     prev_angle prev[BLOCK];
     joint_bounds b[BLOCK];
-    for (size_t j0 = 0; j0 < J;) {
+    for (size_t l0 = 0; l0 < n_look;) {
         size_t m = 0;
-        for (; j0 < J && m < BLOCK; j0++) {
+        for (; l0 < n_look && m < BLOCK; l0++) {
+            const size_t j0 = joints ? (size_t)joints[l0] : l0;
             const mlr_limits_joint *lj = &lim->joints[j0];
             if (lj->range.kind != kind)
                 continue;

@@ -61,8 +61,6 @@ static inline double mlr_limits_soft(double x, double b, double w)
     return x <= k ? x : k + w * tanh((x - k) / w);
 }
 
-/* Limit the J unit quaternions of one frame in place; joint j's alpha is alpha[stride * j]
- * (alpha NULL: 1). counts[j] (optional) is incremented where the joint changed. */
 /* mlr_limits_apply on the joints of one kind (an mlr_limits_kind) only, in place, on unit
  * quaternions, with arguments the caller has checked; counts (J, or NULL) are added to. */
 void mlr_limits_apply_kind(const mlr_limits *lim, size_t n_frames, mlr_quat *rot,
@@ -70,10 +68,15 @@ void mlr_limits_apply_kind(const mlr_limits *lim, size_t n_frames, mlr_quat *rot
 /* mlr_limits_apply_kind on the quaternions marked in mask (n_frames x J, nonzero: limit it;
  * NULL: all) only: a joint's angles are unwrapped in time along the runs of marked frames.
  * hard (hinges only): an angle within [lo, hi] is left as it is and one outside is set to the
- * bound it passed, instead of the soft saturation (which also moves angles near a bound). */
+ * bound it passed, instead of the soft saturation (which also moves angles near a bound).
+ * joints: the only joints mask marks (n_joints of them; NULL: any joint), so the others are
+ * not looked at. */
 void mlr_limits_apply_kind_masked(const mlr_limits *lim, size_t n_frames, mlr_quat *rot,
                                   const double *alpha, size_t n_alpha, size_t *counts, int kind,
-                                  const uint8_t *mask, int hard);
+                                  const uint8_t *mask, const int32_t *joints, size_t n_joints,
+                                  int hard);
+/* Limit the J unit quaternions of one frame in place; joint j's alpha is alpha[stride * j]
+ * (alpha NULL: 1). counts[j] (optional) is incremented where the joint changed. */
 void mlr_limits_apply_frame(const mlr_limits *lim, mlr_quat *q, const double *alpha, size_t stride,
                             size_t *counts);
 

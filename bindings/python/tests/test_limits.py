@@ -1,12 +1,13 @@
 """Joint limits on the real clips: hinges, no folds or reversals after limits at alpha 2 and 3,
 most of the exaggeration kept, inputs unchanged, explicit ranges, argument checks."""
 import math
+import sys
 
 import numpy as np
 import pytest
 
 import mlayer
-from conftest import SHARED_CLIPS
+from conftest import REPO, SHARED_CLIPS
 from mlayer import plausibility as pl
 from mlayer.limits import apply_limits
 
@@ -149,3 +150,21 @@ def test_several_clips_and_per_joint_alphas(mocap):
     w = lay.alphas(2.0, {"Left*": 3.0})
     out, rep = apply_limits(lay.synthesize(2.0, {"Left*": 3.0}), lim, w)
     assert pl.hinge_violations(m, out, lim)["fold_frames"] == 0
+
+
+def test_cleanup_ik_keeps_the_dogs_paws_in_their_swing_twist_ranges(mocap):
+    """The contact cleanup's IK turns the legs again after the limits; the guards limit its
+    rotations before the spread and the spread's blends after it (guards.c, limit_ik). Without
+    the blends' limits the dog's front paws went 95 degrees past their swing range at alpha 3
+    (21 with the first pass's blends only); the excess is measured as bench_plausibility.py's
+    stEx column."""
+    sys.path.insert(0, str(REPO / "bench" / "python"))
+    import plausibility as bench_pl
+
+    m = mlayer.read_bvh(mocap / "ai4a_dog_D1_008_KAN01_002.bvh")
+    lim = mlayer.joint_limits(m)
+    out = mlayer.stylize(m, 3.0)
+    unguarded = mlayer.stylize(m, 3.0, limits=None, floor=None, keep_contacts=False)
+    assert max(bench_pl.swing_twist_excess(lim, unguarded.rot, 3.0).values()) > 90.0
+    excess = bench_pl.swing_twist_excess(lim, out.rot, 3.0)
+    assert max(excess.values()) < 1.0, excess
