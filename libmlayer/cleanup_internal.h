@@ -60,13 +60,12 @@ void mlr_cleanup_ref_destroy(mlr_cleanup_ref *ref);
 
 /* What a caller does to the legs' rotations a pass set (the guards: the joint limits). fn
  * changes rot (N x J x 4) where mask (N x J) is set, only ever at the n_joints joints
- * (distinct); a status other than MLR_OK ends the
- * cleanup with it (fn sets diag). Called by the first ik_passes passes on the IK's new
+ * (distinct). Called by the first ik_passes passes on the IK's new
  * rotations of the constrained frames before they are spread, and by the first blend_passes
  * on the frames of the spread's blends after it (see cleanup_pass.c). */
 typedef struct mlr_cleanup_hook {
-    mlr_status (*fn)(void *ctx, size_t N, size_t J, double *rot, const uint8_t *mask,
-                     const int32_t *joints, size_t n_joints, mlr_diag *diag);
+    void (*fn)(void *ctx, size_t N, size_t J, double *rot, const uint8_t *mask,
+               const int32_t *joints, size_t n_joints);
     void *ctx;
     int ik_passes, blend_passes; /* the passes that call it before / after the spread */
 } mlr_cleanup_hook;
@@ -303,8 +302,6 @@ typedef struct cleanup_state {
     const mlr_cleanup_hook *hook; /* or NULL */
     uint8_t *hook_mask;           /* N x J: the rotations the hook changes */
     int hook_on;     /* the hook's stages in this pass: 1 before the spread, 2 after it */
-    int hook_failed; /* the hook failed (cu->diag set) */
-    mlr_diag *diag;               /* the call's, for the hook */
 } cleanup_state;
 
 /* The root shift (up to 5 rounds of needs, widened and smoothed), added to out_root_pos;

@@ -239,7 +239,7 @@ static void place_toes(const cleanup_state *cu)
    it has a placed point. Before the spread (blend 0) on the constrained frames solve_legs and
    place_toes solved, in newr; after it (blend 1) on the frames of its blend only (the others
    of the frames the spread changed), in out_rot. */
-static mlr_status run_hook(cleanup_state *cu, int blend)
+static void run_hook(const cleanup_state *cu, int blend)
 {
     const size_t N = cu->N, J = cu->J;
     const uint8_t *dirty = cu->w->dirty;
@@ -271,10 +271,7 @@ static mlr_status run_hook(cleanup_state *cu, int blend)
                 m[ft->anchor] = 1;
         }
     }
-    mlr_status st = cu->hook->fn(cu->hook->ctx, N, J, blend ? cu->out_rot : cu->newr, mask, joints,
-                                 n_joints, cu->diag);
-    cu->hook_failed = st != MLR_OK;
-    return st;
+    cu->hook->fn(cu->hook->ctx, N, J, blend ? cu->out_rot : cu->newr, mask, joints, n_joints);
 }
 
 mlr_status cleanup__pass(cleanup_state *cu)
@@ -304,8 +301,8 @@ mlr_status cleanup__pass(cleanup_state *cu)
     copy_leg_rotations(cu);
     solve_legs(cu);
     place_toes(cu);
-    if ((cu->hook_on & 1) && (st = run_hook(cu, 0)) != MLR_OK)
-        return st;
+    if (cu->hook_on & 1)
+        run_hook(cu, 0);
     /* spread per leg */
     for (size_t k = 0; k < cu->nf; k++) {
         const cleanup_foot *ft = &cu->feet[k];
@@ -322,5 +319,7 @@ mlr_status cleanup__pass(cleanup_state *cu)
                                             ft->n_cols > ft->n_own ? 3 : 2, mask)) != MLR_OK)
             return st;
     }
-    return (cu->hook_on & 2) ? run_hook(cu, 1) : MLR_OK;
+    if (cu->hook_on & 2)
+        run_hook(cu, 1);
+    return MLR_OK;
 }

@@ -520,14 +520,13 @@ static mlr_status cleanup_passes(cleanup_state *cu, cleanup_arena *ar, mlr_diag 
         if (ar->st != MLR_OK)
             return fail_memory(ar, diag);
     }
-    cu->diag = diag;
     for (int pass = 0; pass < cu->cfg->passes; pass++) {
         cu->hook_on = !cu->hook ? 0
                                 : (pass < cu->hook->ik_passes ? 1 : 0) |
                                       (pass < cu->hook->blend_passes ? 2 : 0);
         mlr_status st = cleanup__pass(cu);
-        if (st != MLR_OK) /* the hook's failure has its message */
-            return cu->hook_failed ? st : fail_status(st, diag);
+        if (st != MLR_OK)
+            return fail_status(st, diag);
     }
     return MLR_OK;
 }

@@ -817,15 +817,14 @@ typedef struct ik_limits {
     size_t *counts; /* per joint, zeroed by the caller */
 } ik_limits;
 
-static mlr_status limit_ik(void *ctx, size_t N, size_t J, double *rot, const uint8_t *mask,
-                           const int32_t *joints, size_t n_joints, mlr_diag *diag)
+static void limit_ik(void *ctx, size_t N, size_t J, double *rot, const uint8_t *mask,
+                     const int32_t *joints, size_t n_joints)
 {
     const ik_limits *c = ctx;
-    (void)J, (void)diag; /* (the IK's and the spread's rotations are unit to rounding) */
+    (void)J; /* (the IK's and the spread's rotations are unit to rounding) */
     for (int kind = MLR_LIMITS_HINGE; kind <= MLR_LIMITS_SWING_TWIST; kind++)
         mlr_limits_apply_kind_masked(c->g->limits, N, (mlr_quat *)rot, c->alpha, c->n_alpha,
                                      c->counts, kind, mask, joints, n_joints, 0);
-    return MLR_OK;
 }
 
 /* The hinges (knees, elbows: a rotation about the hinge axis each) that the cleanup took out
