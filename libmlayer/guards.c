@@ -348,8 +348,8 @@ mlr_status mlr_guards_create(const mlr_rig *rig, double fps, size_t n_frames,
     size_t n_rot, n_pos;
     if (mlr_mul_size(4 * J, N, &n_rot) != MLR_OK || mlr_mul_size(3 * J, N, &n_pos) != MLR_OK)
         return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "guards: frames too large");
+    /* rot is checked by its normalization below (the same message) */
     if ((st = check_finite(root_pos, 3 * N, "root_pos", diag)) != MLR_OK ||
-        (st = check_finite(rot, n_rot, "rot", diag)) != MLR_OK ||
         (P && (st = check_finite(trans, 3 * N * P, "trans", diag)) != MLR_OK))
         return st;
 
@@ -389,8 +389,10 @@ mlr_status mlr_guards_create(const mlr_rig *rig, double fps, size_t n_frames,
         memcpy(g->trans, trans, 3 * N * P * sizeof(double));
     /* unit rotations, as the layers, the limits and the cleanup take them */
     st = mlr_quat_normalize_array((const mlr_quat *)rot, N * J, (mlr_quat *)g->rot, NULL);
-    if (st != MLR_OK) {
-        mlr_diag_set(diag, st, 0, 0, "guards: a rotation of the input is zero");
+    if (st != MLR_OK) { /* the message of the first value not finite, else of a zero */
+        if (check_finite(rot, n_rot, "rot", diag) == MLR_OK)
+            mlr_diag_set(diag, st, 0, 0, "guards: a rotation of the input is zero");
+        st = MLR_E_INVALID_ARG;
         goto done;
     }
     st = mlr_fk_arrays(N, J, g->parents, g->offsets, g->root_pos, g->rot, P, g->trans_joints,
@@ -407,7 +409,7 @@ mlr_status mlr_guards_create(const mlr_rig *rig, double fps, size_t n_frames,
             goto done;
     if (g->limits_mode != MLR_GUARDS_LIMITS_OFF) {
         const mlr_limits_clip clip = {N, g->rot, P ? g->trans : NULL};
-        st = mlr_limits_create(&g->rig, &clip, 1, NULL, 0, &a, &g->learned, diag);
+        st = mlr_limits_create_unit(&g->rig, &clip, 1, &a, &g->learned, diag);
         if (st != MLR_OK)
             goto done;
         g->limits = g->learned;
@@ -664,12 +666,28 @@ static mlr_status apply_check(const mlr_guards *g, const double *alpha, size_t n
         if (!isfinite(alpha[k]))
             return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                                 "guards apply: alpha %zu is not finite", k);
+    /* with the limits on, rot is checked by their normalization (rot_error, the same
+       messages) */
     mlr_status st;
     if ((st = check_finite(root_pos, 3 * N, "root_pos", diag)) != MLR_OK ||
-        (st = check_finite(rot, 4 * N * J, "rot", diag)) != MLR_OK ||
+        (!limits_wanted(g, alpha, n_alpha) &&
+         (st = check_finite(rot, 4 * N * J, "rot", diag)) != MLR_OK) ||
         (P && (st = check_finite(trans, 3 * N * P, "trans", diag)) != MLR_OK))
         return st;
     return MLR_OK;
+}
+
+/* The message of mlr_guards_apply for rotations that its limits could not normalize: the first
+   value not finite, as apply_check names it, else the zero quaternion, as the limits do. */
+static mlr_status rot_error(const mlr_guards *g, const double *rot, mlr_diag *diag)
+{
+    mlr_status st = check_finite(rot, 4 * g->n_frames * g->n_joints, "rot", diag);
+    if (st == MLR_OK)
+        st = mlr_limits_rot_error(g->limits, g->n_frames, rot, diag);
+    /* (a quaternion that fails the normalization is zero or not finite: one of the two) */
+    return st != MLR_OK ? st
+                        : mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                       "guards apply: a rotation is zero or not finite");
 }
 
 /* The reference the pinned feet follow: the input's trajectories (made at create), or those
@@ -930,9 +948,11 @@ mlr_status mlr_guards_apply(const mlr_guards *g, const double *alpha, size_t n_a
     memset(counts, 0, J * sizeof(size_t));
     if (limits_on) {
         /* the limits take 1 or 1 + J alphas, as the layers' synthesis */
-        st = mlr_limits_apply(g->limits, N, rot, work, alpha, n_alpha, counts, J, diag);
-        if (st != MLR_OK)
+        if (mlr_limits_apply_normalized(g->limits, N, rot, work, alpha, n_alpha, counts) !=
+            MLR_OK) {
+            st = rot_error(g, rot, diag);
             goto done;
+        }
         rep.limits_applied = 1;
     } else {
         memcpy(work, rot, 4 * N * J * sizeof(double));

@@ -189,8 +189,9 @@ static int quat_finite(const double *q)
 /* ---------------------------------------------------------------------------------------- */
 /* Create                                                                                   */
 
+/* quats_unit: the clips' rotations are unit quaternions the caller made (not checked again). */
 static mlr_status check_clips(const mlr_rig *rig, const mlr_limits_clip *clips, size_t n_clips,
-                              mlr_diag *diag)
+                              int quats_unit, mlr_diag *diag)
 {
     const size_t J = rig->n_joints, P = rig->n_trans;
     if (!clips || n_clips == 0)
@@ -203,7 +204,7 @@ static mlr_status check_clips(const mlr_rig *rig, const mlr_limits_clip *clips, 
         size_t nq;
         if (mlr_mul_size(c->n_frames, J, &nq) != MLR_OK || nq > SIZE_MAX / 4)
             return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "limits: clip %zu too large", k);
-        const size_t i = first_bad_quat(c->rot, nq);
+        const size_t i = quats_unit ? nq : first_bad_quat(c->rot, nq);
         if (i < nq)
             return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                                 "limits: clip %zu rot[%zu][%zu] is %s", k, i / J, i % J,
@@ -335,6 +336,7 @@ typedef struct learner {
     acc *ac;
     int32_t *main_child;
     int *is_hinge, *cls;
+    int unit; /* the clips' rotations are unit quaternions (not normalized again) */
 } learner;
 
 /* Bones: offsets, or the mean translation of a trans joint over the clips; each joint's main
@@ -386,20 +388,39 @@ static void measure_bones(const learner *L)
 /* The frames of a block of learn_centres and measure_extents. */
 #define EXT_FB 64
 
+/* The m <= EXT_FB quaternions p + stride i (doubles) into w, x, y, z, normalized unless unit
+ * (the caller's are unit quaternions: taken as they are). */
+#if defined(__GNUC__)
+__attribute__((always_inline))
+#endif
+static inline void load_unit(const double *restrict p, size_t stride, size_t m, int unit,
+                             double *restrict w, double *restrict x, double *restrict y,
+                             double *restrict z)
+{
+    if (unit) {
+        for (size_t i = 0; i < m; i++) {
+            const double *e = p + stride * i;
+            w[i] = e[0], x[i] = e[1], y[i] = e[2], z[i] = e[3];
+        }
+        return;
+    }
+    for (size_t i = 0; i < m; i++) {
+        const double *e = p + stride * i;
+        const double n = sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2] + e[3] * e[3]);
+        w[i] = e[0] / n, x[i] = e[1] / n, y[i] = e[2] / n, z[i] = e[3] / n;
+    }
+}
+
 /* The m <= EXT_FB quaternions p + stride i (doubles) of a joint, normalized (q), added to
  * *qsum sign-aligned (q, or -q when its dot product with qsum is negative) and, unless a is
  * NULL, a x q b added to *xsum, in order, as learn_centres takes them. Vectorized but for the
  * sums. */
 MLR_CLONES_AVX2
-static void centres_block(const double *p, size_t stride, size_t m, const mlr_vec3 *a,
+static void centres_block(const double *p, size_t stride, size_t m, int unit, const mlr_vec3 *a,
                           const mlr_vec3 *b, mlr_quat *qsum, mlr_vec3 *xsum)
 {
     double qw[EXT_FB], qx[EXT_FB], qy[EXT_FB], qz[EXT_FB], xs[3 * EXT_FB];
-    for (size_t i = 0; i < m; i++) {
-        const double *e = p + stride * i;
-        const double n = sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2] + e[3] * e[3]);
-        qw[i] = e[0] / n, qx[i] = e[1] / n, qy[i] = e[2] / n, qz[i] = e[3] / n;
-    }
+    load_unit(p, stride, m, unit, qw, qx, qy, qz);
     double sw = qsum->w, sx = qsum->x, sy = qsum->y, sz = qsum->z;
     for (size_t i = 0; i < m; i++) { /* q + sum, or sum - q: the bits of sum + sign * q */
         if (sw * qw[i] + sx * qx[i] + sy * qy[i] + sz * qz[i] < 0)
@@ -442,7 +463,7 @@ static void learn_centres(const learner *L)
             for (size_t j = 0; j < J; j++) {
                 acc *c = &ac[j];
                 /* no axis without both bones: the axis sum is not read */
-                centres_block(clips[k].rot + 4 * (f0 * J + j), 4 * J, nf,
+                centres_block(clips[k].rot + 4 * (f0 * J + j), 4 * J, nf, L->unit,
                               c->need_x ? &jt[j].bone_in : NULL, &jt[j].bone_out, &c->qsum,
                               &c->xsum);
             }
@@ -471,15 +492,15 @@ static void learn_centres(const learner *L)
  * (unit t), the swing's (|v - p t|, |(w, p)|) in s1, c1 and the twist's (|p|, w) in s2, c2
  * (p = v.t); without one (t NULL), the whole angle's (|v|, w) in s1, c1. Vectorized. */
 MLR_CLONES_AVX2
-static void extents_block(const double *p, size_t stride, size_t m, mlr_quat cc, const mlr_vec3 *t,
-                          double *s1, double *c1, double *s2, double *c2)
+static void extents_block(const double *p, size_t stride, size_t m, int unit, mlr_quat cc,
+                          const mlr_vec3 *t, double *s1, double *c1, double *s2, double *c2)
 {
     const double aw = cc.w, ax = cc.x, ay = cc.y, az = cc.z;
     double rw[EXT_FB], rx[EXT_FB], ry[EXT_FB], rz[EXT_FB];
+    double qw[EXT_FB], qx[EXT_FB], qy[EXT_FB], qz[EXT_FB];
+    load_unit(p, stride, m, unit, qw, qx, qy, qz);
     for (size_t i = 0; i < m; i++) {
-        const double *e = p + stride * i;
-        const double n = sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2] + e[3] * e[3]);
-        const double bw = e[0] / n, bx = e[1] / n, by = e[2] / n, bz = e[3] / n;
+        const double bw = qw[i], bx = qx[i], by = qy[i], bz = qz[i];
         const double w = aw * bw - ax * bx - ay * by - az * bz;
         const double x = aw * bx + ax * bw + ay * bz - az * by;
         const double y = aw * by - ax * bz + ay * bw + az * bx;
@@ -512,7 +533,7 @@ static void extents_block(const double *p, size_t stride, size_t m, mlr_quat cc,
  * (s.w >= 0) in sv (x, y, z by blocks of EXT_FB); the same operations as the scalar helpers
  * (qmul, hinge_pair, twist_part, swing_part): the same bits. Vectorized. */
 MLR_CLONES_AVX2
-static void cand_block(const double *restrict p, size_t stride, size_t m,
+static void cand_block(const double *restrict p, size_t stride, size_t m, int unit,
                        const mlr_limits_joint *restrict g, const mlr_vec3 *restrict t,
                        mlr_quat *restrict lq, double *restrict hy, double *restrict hx,
                        double *restrict s1, double *restrict c1, double *restrict s2,
@@ -521,10 +542,10 @@ static void cand_block(const double *restrict p, size_t stride, size_t m,
     const double aw = g->centre.w, ax = -g->centre.x, ay = -g->centre.y, az = -g->centre.z;
     const mlr_vec3 v = g->bone_out, n = g->axis, a = g->bone_in;
     const double an = dot3(a, n), tx = t->x, ty = t->y, tz = t->z;
+    double qw[EXT_FB], qx[EXT_FB], qy[EXT_FB], qz[EXT_FB];
+    load_unit(p, stride, m, unit, qw, qx, qy, qz);
     for (size_t i = 0; i < m; i++) {
-        const double *e = p + stride * i;
-        const double nq = sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2] + e[3] * e[3]);
-        const double bw = e[0] / nq, bx = e[1] / nq, by = e[2] / nq, bz = e[3] / nq;
+        const double bw = qw[i], bx = qx[i], by = qy[i], bz = qz[i];
         hinge_pair(bw, bx, by, bz, v, a, n, an, &hy[i], &hx[i]);
         /* r = conj(centre) q, r.w >= 0 */
         double w = aw * bw - ax * bx - ay * by - az * bz;
@@ -629,8 +650,8 @@ static void measure_extents(const learner *L)
                 acc *c = &ac[j];
                 const double *p0 = clips[k].rot + 4 * (f0 * J + j);
                 if (!c->need_m) {
-                    extents_block(p0, 4 * J, nf, qconj(g->centre), c->has_out ? &c->t : NULL, s1,
-                                  c1, s2, c2);
+                    extents_block(p0, 4 * J, nf, L->unit, qconj(g->centre),
+                                  c->has_out ? &c->t : NULL, s1, c1, s2, c2);
                     if (!c->has_out) {
                         widen(s1, c1, nf, &c->an_s, &c->an_c);
                         continue;
@@ -640,7 +661,7 @@ static void measure_extents(const learner *L)
                     continue;
                 }
                 /* a hinge candidate (it has both bones, as its axis) */
-                cand_block(p0, 4 * J, nf, g, &c->t, lq, hy, hx, s1, c1, s2, c2, sv);
+                cand_block(p0, 4 * J, nf, L->unit, g, &c->t, lq, hy, hx, s1, c1, s2, c2, sv);
                 hinge_extremes(hy, hx, nf, n_seen == 0, c);
                 widen(s1, c1, nf, &c->sw_s, &c->sw_c);
                 widen(s2, c2, nf, &c->tw_s, &c->tw_c);
@@ -771,9 +792,10 @@ static void set_ranges(const learner *L, const mlr_limits *lim, const create_opt
     }
 }
 
-mlr_status mlr_limits_create(const mlr_rig *rig, const mlr_limits_clip *clips, size_t n_clips,
-                             const mlr_limits_option *opts, size_t n_opts,
-                             const mlr_allocator *alloc, mlr_limits **out, mlr_diag *diag)
+static mlr_status create_limits(const mlr_rig *rig, const mlr_limits_clip *clips, size_t n_clips,
+                                const mlr_limits_option *opts, size_t n_opts,
+                                const mlr_allocator *alloc, int quats_unit, mlr_limits **out,
+                                mlr_diag *diag)
 {
     if (out)
         *out = NULL;
@@ -785,7 +807,7 @@ mlr_status mlr_limits_create(const mlr_rig *rig, const mlr_limits_clip *clips, s
     create_opts o;
     if ((st = read_opts(opts, n_opts, &o, diag)) != MLR_OK)
         return st;
-    if ((st = check_clips(rig, clips, n_clips, diag)) != MLR_OK)
+    if ((st = check_clips(rig, clips, n_clips, quats_unit, diag)) != MLR_OK)
         return st;
     const size_t J = rig->n_joints;
     mlr_allocator a;
@@ -811,7 +833,7 @@ mlr_status mlr_limits_create(const mlr_rig *rig, const mlr_limits_clip *clips, s
     }
     memset(lim->joints, 0, jbytes);
     memset(scratch, 0, sbytes);
-    learner L = {rig, clips, n_clips, lim->joints, scratch, NULL, NULL, NULL};
+    learner L = {rig, clips, n_clips, lim->joints, scratch, NULL, NULL, NULL, quats_unit};
     L.main_child = (int32_t *)(L.ac + J);
     L.is_hinge = (int *)(L.main_child + J), L.cls = L.is_hinge + J;
 
@@ -823,6 +845,19 @@ mlr_status mlr_limits_create(const mlr_rig *rig, const mlr_limits_clip *clips, s
     mlr_free(&a, scratch, sbytes);
     *out = lim;
     return MLR_OK;
+}
+
+mlr_status mlr_limits_create(const mlr_rig *rig, const mlr_limits_clip *clips, size_t n_clips,
+                             const mlr_limits_option *opts, size_t n_opts,
+                             const mlr_allocator *alloc, mlr_limits **out, mlr_diag *diag)
+{
+    return create_limits(rig, clips, n_clips, opts, n_opts, alloc, 0, out, diag);
+}
+
+mlr_status mlr_limits_create_unit(const mlr_rig *rig, const mlr_limits_clip *clips, size_t n_clips,
+                                  const mlr_allocator *alloc, mlr_limits **out, mlr_diag *diag)
+{
+    return create_limits(rig, clips, n_clips, NULL, 0, alloc, 1, out, diag);
 }
 
 /* ---------------------------------------------------------------------------------------- */
@@ -1316,6 +1351,28 @@ void mlr_limits_apply_kind_masked(const mlr_limits *lim, size_t n_frames, mlr_qu
     }
 }
 
+mlr_status mlr_limits_apply_normalized(const mlr_limits *lim, size_t n_frames,
+                                       const double *rot_in, double *rot_out, const double *alpha,
+                                       size_t n_alpha, size_t *counts)
+{
+    if (mlr_quat_normalize_array((const mlr_quat *)rot_in, lim->n_joints * n_frames,
+                                 (mlr_quat *)rot_out, NULL) != MLR_OK)
+        return MLR_E_INVALID_ARG;
+    for (int kind = MLR_LIMITS_HINGE; kind <= MLR_LIMITS_SWING_TWIST; kind++)
+        mlr_limits_apply_kind(lim, n_frames, (mlr_quat *)rot_out, alpha, n_alpha, counts, kind);
+    return MLR_OK;
+}
+
+mlr_status mlr_limits_rot_error(const mlr_limits *lim, size_t n_frames, const double *rot,
+                                mlr_diag *diag)
+{
+    const size_t J = lim->n_joints, nq = J * n_frames, bad = first_bad_quat(rot, nq);
+    if (bad == nq)
+        return MLR_OK;
+    return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "limits: rot_in[%zu][%zu] is %s", bad / J,
+                        bad % J, quat_finite(rot + 4 * bad) ? "zero" : "not finite");
+}
+
 mlr_status mlr_limits_apply(const mlr_limits *lim, size_t n_frames, const double *rot_in,
                             double *rot_out, const double *alpha, size_t n_alpha, size_t *counts,
                             size_t n_counts, mlr_diag *diag)
@@ -1339,11 +1396,10 @@ mlr_status mlr_limits_apply(const mlr_limits *lim, size_t n_frames, const double
                             "limits: counts must have J = %zu values, got %zu", J, n_counts);
     if (counts)
         memset(counts, 0, J * sizeof *counts);
-    const size_t nq = J * n_frames, bad = first_bad_quat(rot_in, nq);
-    if (bad < nq)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "limits: rot_in[%zu][%zu] is %s",
-                            bad / J, bad % J,
-                            quat_finite(rot_in + 4 * bad) ? "zero" : "not finite");
+    mlr_status st = mlr_limits_rot_error(lim, n_frames, rot_in, diag);
+    if (st != MLR_OK)
+        return st;
+    const size_t nq = J * n_frames;
     mlr_quat *q = (mlr_quat *)rot_out;
     const uintptr_t in_at = (uintptr_t)rot_in, out_at = (uintptr_t)rot_out,
                     bytes = 4 * nq * sizeof(double);

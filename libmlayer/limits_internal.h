@@ -80,4 +80,20 @@ void mlr_limits_apply_kind_masked(const mlr_limits *lim, size_t n_frames, mlr_qu
 void mlr_limits_apply_frame(const mlr_limits *lim, mlr_quat *q, const double *alpha, size_t stride,
                             size_t *counts);
 
+/* mlr_limits_create with no options on clips whose rotations are unit quaternions the caller
+ * made (the guards' normalized input): the same limits, without checking them again. */
+mlr_status mlr_limits_create_unit(const mlr_rig *rig, const mlr_limits_clip *clips, size_t n_clips,
+                                  const mlr_allocator *alloc, mlr_limits **out, mlr_diag *diag);
+/* mlr_limits_apply with arguments the caller has checked (alpha, counts: J zeroed, or NULL) and
+ * rot_in not overlapping rot_out: rot_in normalized into rot_out (which holds no meaning after a
+ * failure) and limited, in one pass over rot_in. MLR_E_INVALID_ARG, with no message, when a
+ * quaternion is zero or not finite (mlr_limits_rot_error says which). */
+mlr_status mlr_limits_apply_normalized(const mlr_limits *lim, size_t n_frames,
+                                       const double *rot_in, double *rot_out, const double *alpha,
+                                       size_t n_alpha, size_t *counts);
+/* The error of mlr_limits_apply for rotations that hold a zero or non-finite quaternion (the
+ * first one named); MLR_OK when there is none. */
+mlr_status mlr_limits_rot_error(const mlr_limits *lim, size_t n_frames, const double *rot,
+                                mlr_diag *diag);
+
 #endif /* MLR_LIMITS_INTERNAL_H */
