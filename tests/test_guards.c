@@ -291,9 +291,39 @@ START_TEST(bad_input_gets_the_right_status_and_message)
     rot[4 * J * 7 + 1] = NAN;
     ck_assert_int_eq(mlr_guards_create(&c.rig, c.fps, N, root, rot, NULL, NULL, 0, NULL, &g, &d),
                      MLR_E_INVALID_ARG);
-    ck_assert_ptr_nonnull(strstr(d.message, "rot"));
-    rot[4 * J * 7 + 1] = 0.0;
+    ck_assert_ptr_nonnull(strstr(d.message, "guards: rot value"));
+    ck_assert_ptr_nonnull(strstr(d.message, "not finite"));
+    ck_assert_ptr_null(g);
+    memset(rot + 4 * J * 7, 0, 4 * sizeof(double)); /* a zero quaternion */
+    ck_assert_int_eq(mlr_guards_create(&c.rig, c.fps, N, root, rot, NULL, NULL, 0, NULL, &g, &d),
+                     MLR_E_INVALID_ARG);
+    ck_assert_ptr_nonnull(strstr(d.message, "zero"));
+    ck_assert_ptr_null(g);
+    memcpy(rot, q, 4 * N * J * sizeof(double));
     g = guards_of(&c, NULL, 0);
+    /* apply with the limits on (alpha 2): a rotation not finite, then a zero one, named as
+       such, and nothing written */
+    {
+        const double a2 = 2.0;
+        double *rot2 = malloc(4 * N * J * sizeof(double));
+        rot[4 * (J * 11 + 3) + 2] = NAN;
+        memcpy(rot2, rot, 4 * N * J * sizeof(double));
+        ck_assert_int_eq(
+            mlr_guards_apply(g, &a2, 1, NULL, NULL, NULL, root, rot, NULL, NULL, 0, NULL, &d),
+            MLR_E_INVALID_ARG);
+        ck_assert_ptr_nonnull(strstr(d.message, "rot value"));
+        ck_assert_ptr_nonnull(strstr(d.message, "not finite"));
+        ck_assert_int_eq(memcmp(rot, rot2, 4 * N * J * sizeof(double)), 0);
+        memset(rot + 4 * (J * 11 + 3), 0, 4 * sizeof(double));
+        memcpy(rot2, rot, 4 * N * J * sizeof(double));
+        ck_assert_int_eq(
+            mlr_guards_apply(g, &a2, 1, NULL, NULL, NULL, root, rot, NULL, NULL, 0, NULL, &d),
+            MLR_E_INVALID_ARG);
+        ck_assert_ptr_nonnull(strstr(d.message, "rot_in[11][3] is zero"));
+        ck_assert_int_eq(memcmp(rot, rot2, 4 * N * J * sizeof(double)), 0);
+        free(rot2);
+        memcpy(rot, q, 4 * N * J * sizeof(double));
+    }
     const double alpha = 2.0, bad_alpha = INFINITY;
     ck_assert_int_eq(
         mlr_guards_apply(g, &bad_alpha, 1, NULL, NULL, NULL, root, rot, NULL, NULL, 0, NULL, &d),
