@@ -225,8 +225,32 @@ static mlr_status floor_from_positions(mlr_guards *g, const double *wpos, const 
                                        st == MLR_E_NO_MEMORY ? "out of memory" : "bad points");
 }
 
-/* Feet by name and their contacts on the input; a rig without feet gets none. */
-static mlr_status find_contacts(mlr_guards *g, const double *world_pos, const double *world_rot,
+/* The input's world rotations of the contact points' joints (and of their ancestors), into
+   wrot, which create's forward kinematics left out (only the points read them); wpos is
+   rewritten there with the same values. */
+static mlr_status point_world_rotations(const mlr_guards *g, double *wpos, double *wrot)
+{
+    const size_t J = g->n_joints;
+    mlr_status st = MLR_OK;
+    uint8_t *need = alloc_array(&g->alloc, J, 1, &st);
+    int32_t *list = alloc_array(&g->alloc, 2 * J, sizeof(int32_t), &st);
+    if (st == MLR_OK) {
+        memset(need, 0, J);
+        int32_t *tidx = list + J;
+        const size_t n =
+            cleanup__fk_need(&g->rig, g->n_points, g->joints, NULL, 0, need, list, tidx);
+        st = cleanup__fk_points(&g->rig, g->n_frames, g->root_pos, g->rot, g->trans, g->n_points,
+                                g->joints, g->end_sites, wpos, wrot, NULL, &g->alloc, list, n,
+                                tidx);
+    }
+    free_array(&g->alloc, need, J, 1);
+    free_array(&g->alloc, list, 2 * J, sizeof(int32_t));
+    return st;
+}
+
+/* Feet by name and their contacts on the input; a rig without feet gets none. world_rot is
+   filled at the feet's points' joints here. */
+static mlr_status find_contacts(mlr_guards *g, double *world_pos, double *world_rot,
                                 mlr_diag *diag)
 {
     const size_t J = g->n_joints, N = g->n_frames;
@@ -278,6 +302,11 @@ static mlr_status find_contacts(mlr_guards *g, const double *world_pos, const do
         if (st == MLR_OK) {
             memcpy(g->joints, fj, C * sizeof(int32_t));
             memcpy(g->end_sites, fe, C * sizeof(int32_t));
+            if ((st = point_world_rotations(g, world_pos, world_rot)) != MLR_OK)
+                mlr_diag_set(diag, st, 0, 0, "guards: %s for the feet's forward kinematics",
+                             st == MLR_E_OVERFLOW ? "size overflow" : "out of memory");
+        }
+        if (st == MLR_OK) {
             st =
                 mlr__contacts_detect(&g->rig, g->fps, g->up, N, world_pos, world_rot, C, g->joints,
                                      g->end_sites, NULL, 0, g->contacts, &g->alloc, height, diag);
@@ -395,8 +424,10 @@ mlr_status mlr_guards_create(const mlr_rig *rig, double fps, size_t n_frames,
         st = MLR_E_INVALID_ARG;
         goto done;
     }
+    /* the positions of every joint (the body's size, the feet); the world rotations of the
+       feet's points only, once they are found (find_contacts) */
     st = mlr_fk_arrays(N, J, g->parents, g->offsets, g->root_pos, g->rot, P, g->trans_joints,
-                       g->trans, wpos, wrot, &a, NULL);
+                       g->trans, wpos, NULL, &a, NULL);
     if (st != MLR_OK) {
         mlr_diag_set(diag, st, 0, 0, "guards: forward kinematics of the input failed");
         goto done;
