@@ -321,6 +321,16 @@ START_TEST(bad_input_gets_the_right_status_and_message)
             MLR_E_INVALID_ARG);
         ck_assert_ptr_nonnull(strstr(d.message, "rot_in[11][3] is zero"));
         ck_assert_int_eq(memcmp(rot, rot2, 4 * N * J * sizeof(double)), 0);
+        /* a quaternion whose squared norm overflows is normalized, as create does */
+        memcpy(rot, q, 4 * N * J * sizeof(double));
+        for (int k = 0; k < 4; k++)
+            rot[4 * (J * 11 + 3) + k] *= 1e200;
+        memcpy(rot2, root, 3 * N * sizeof(double));
+        ck_assert_int_eq(
+            mlr_guards_apply(g, &a2, 1, NULL, NULL, NULL, rot2, rot, NULL, NULL, 0, NULL, &d),
+            MLR_OK);
+        const double *u = rot + 4 * (J * 11 + 3);
+        ck_assert_double_eq_tol(u[0] * u[0] + u[1] * u[1] + u[2] * u[2] + u[3] * u[3], 1.0, 1e-12);
         free(rot2);
         memcpy(rot, q, 4 * N * J * sizeof(double));
     }
