@@ -789,7 +789,8 @@ static size_t cleanup_options(const mlr_guards *g, int has_ref, const double *al
 typedef struct apply_work {
     double *rot, *root;
     size_t *counts, *counts2;
-    double *before;   /* N x J x 4: the rotations before the cleanup (of legs[] only) */
+    double *before;   /* N x n_legs x 4: the rotations of legs[] before the cleanup (compact,
+                         so that the frames' legs are read from cache) */
     uint8_t *changed; /* N x J: the rotations the cleanup changed */
     const int32_t *legs; /* the hinges the cleanup can change: those among the contact
                             points' joints and their ancestors (the legs' knees) */
@@ -808,8 +809,8 @@ static void keep_legs(const apply_work *w, size_t N, size_t J)
 {
     for (size_t f = 0; f < N; f++)
         for (size_t i = 0; i < w->n_legs; i++) {
-            const size_t o = 4 * (f * J + (size_t)w->legs[i]);
-            memcpy(w->before + o, w->rot + o, 4 * sizeof(double));
+            memcpy(w->before + 4 * (f * w->n_legs + i), w->rot + 4 * (f * J + (size_t)w->legs[i]),
+                   4 * sizeof(double));
         }
 }
 
@@ -823,7 +824,7 @@ static size_t mark_changed(const apply_work *w, size_t N, size_t J)
     for (size_t f = 0; f < N; f++)
         for (size_t l = 0; l < w->n_legs; l++) {
             const size_t i = f * J + (size_t)w->legs[l];
-            const double *a = w->rot + 4 * i, *b = w->before + 4 * i;
+            const double *a = w->rot + 4 * i, *b = w->before + 4 * (f * w->n_legs + l);
             const double sg =
                 a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3] < 0 ? -1.0 : 1.0;
             double d = 0.0;
@@ -968,6 +969,7 @@ mlr_status mlr_guards_apply(const mlr_guards *g, const double *alpha, size_t n_a
     size_t *counts = alloc_array(&g->alloc, J, sizeof(size_t), &st);
     size_t *counts2 = alloc_array(&g->alloc, J, sizeof(size_t), &st);
     const int limits_on = limits_wanted(g, alpha, n_alpha);
+    /* (N x J rotations: the legs' hinges', N x n_legs, at most) */
     double *before = limits_on ? alloc_array(&g->alloc, 4 * N * J, sizeof(double), &st) : NULL;
     uint8_t *changed = limits_on ? alloc_array(&g->alloc, N * J, 1, &st) : NULL;
     int32_t *legs = limits_on ? alloc_array(&g->alloc, J, sizeof(int32_t), &st) : NULL;
