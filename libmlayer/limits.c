@@ -1351,15 +1351,48 @@ void mlr_limits_apply_kind_masked(const mlr_limits *lim, size_t n_frames, mlr_qu
     }
 }
 
+/* The joints that mlr_limits_apply_normalized limits in one go (more: kind by kind). */
+#define FUSED_JOINTS 64
+
 mlr_status mlr_limits_apply_normalized(const mlr_limits *lim, size_t n_frames,
                                        const double *rot_in, double *rot_out, const double *alpha,
                                        size_t n_alpha, size_t *counts)
 {
-    if (mlr_quat_normalize_array((const mlr_quat *)rot_in, lim->n_joints * n_frames,
-                                 (mlr_quat *)rot_out, NULL) != MLR_OK)
-        return MLR_E_INVALID_ARG;
+    const size_t J = lim->n_joints;
+    mlr_quat *q = (mlr_quat *)rot_out;
+    if (J > FUSED_JOINTS) {
+        if (mlr_quat_normalize_array((const mlr_quat *)rot_in, J * n_frames, q, NULL) != MLR_OK)
+            return MLR_E_INVALID_ARG;
+        for (int kind = MLR_LIMITS_HINGE; kind <= MLR_LIMITS_SWING_TWIST; kind++)
+            mlr_limits_apply_kind(lim, n_frames, q, alpha, n_alpha, counts, kind);
+        return MLR_OK;
+    }
+    /* by blocks of APPLY_FB frames: the block normalized, then each limited joint along it
+       with its own state (the hinges, then the swing-twist joints: what the kinds one after
+       the other give, each joint's frames in order), while the block is in cache */
+    const double *aj = alpha ? (n_alpha == 1 ? alpha : alpha + 1) : NULL;
+    const size_t stride = n_alpha == 1 ? 0 : 1;
+    size_t js[FUSED_JOINTS], m = 0;
+    prev_angle prev[FUSED_JOINTS];
+    joint_bounds b[FUSED_JOINTS];
     for (int kind = MLR_LIMITS_HINGE; kind <= MLR_LIMITS_SWING_TWIST; kind++)
-        mlr_limits_apply_kind(lim, n_frames, (mlr_quat *)rot_out, alpha, n_alpha, counts, kind);
+        for (size_t j = 0; j < J; j++) {
+            const mlr_limits_joint *lj = &lim->joints[j];
+            if (lj->range.kind != kind)
+                continue;
+            js[m] = j;
+            prev[m] = (prev_angle){NAN, 0, {1, 0, 0, 0}, NULL};
+            b[m] = bounds_of(lim, lj, aj ? aj[stride * j] : 1.0, 0);
+            m++;
+        }
+    for (size_t f0 = 0; f0 < n_frames; f0 += APPLY_FB) {
+        const size_t nf = n_frames - f0 < APPLY_FB ? n_frames - f0 : APPLY_FB;
+        if (mlr_quat_normalize_array((const mlr_quat *)rot_in + J * f0, J * nf, q + J * f0,
+                                     NULL) != MLR_OK)
+            return MLR_E_INVALID_ARG;
+        for (size_t i = 0; i < m; i++)
+            limit_block(lim, js[i], &b[i], &prev[i], q, f0, nf, NULL, counts);
+    }
     return MLR_OK;
 }
 
