@@ -2,7 +2,9 @@
  * mlayer benchmark harness. Runs every case (or those matching --filter) until its time
  * budget is spent and prints one tab-separated line per case:
  *     name  n  median_ns  min_ns  ns_per_elem  checksum
- * and, when guards.decompose and guards.stylize both ran (--filter guards), a last line
+ * (guards.stylize adds "# guards.stylize / its own decomposition (median of N runs): R", the
+ * ratio within each run, which the load of a shared machine moves less) and, when
+ * guards.decompose and guards.stylize both ran (--filter guards), a last line
  * "# guards.stylize / guards.decompose (medians): R".
  * Options: --budget-ms MS (default 200), --filter SUBSTR, --cold (flush caches between runs),
  * --list.
@@ -37,7 +39,7 @@ const char *mlr_bench_mocap_dir(void)
     return dir && *dir ? dir : MLR_BENCH_MOCAP_DIR;
 }
 
-static double now_ns(void)
+double mlr_bench_now_ns(void)
 {
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
@@ -116,13 +118,13 @@ int main(int argc, char **argv)
             }
             size_t cap = 1024, runs = 0;
             double *times = malloc(cap * sizeof *times), checksum = 0.0;
-            double start = now_ns();
+            double start = mlr_bench_now_ns();
             do {
                 if (cold)
                     flush_caches();
-                double t0 = now_ns();
+                double t0 = mlr_bench_now_ns();
                 checksum += bc->run(state);
-                times[runs++] = now_ns() - t0;
+                times[runs++] = mlr_bench_now_ns() - t0;
                 if (runs == cap) {
                     double *grown = realloc(times, 2 * cap * sizeof *times);
                     if (!grown)
@@ -130,7 +132,7 @@ int main(int argc, char **argv)
                     times = grown;
                     cap *= 2;
                 }
-            } while (now_ns() - start < budget_ms * 1e6 || runs < 3);
+            } while (mlr_bench_now_ns() - start < budget_ms * 1e6 || runs < 3);
             qsort(times, runs, sizeof *times, cmp_double);
             double median = times[runs / 2], min = times[0];
             printf("%s\t%zu\t%.0f\t%.0f\t%.3f\t%.17g\n", bc->name, bc->n, median, min,

@@ -16,6 +16,9 @@ typedef struct mlr_bench_case {
 double mlr_bench_uniform(unsigned long long *state);
 double mlr_bench_normal(unsigned long long *state);
 
+/* A monotonic clock, in nanoseconds. */
+double mlr_bench_now_ns(void);
+
 /* Folder of the shared real clips: $MLR_TEST_MOCAP_DIR, else the one next to the checkout. */
 const char *mlr_bench_mocap_dir(void);
 
