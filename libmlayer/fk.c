@@ -196,16 +196,30 @@ void mlr_fk_list_arrays(const mlr_fk_list *fl, size_t N, const double *root_pos,
                           P ? trans + 3 * P * f : NULL, wp + 3 * J * f, wr + 4 * J * f);
 }
 
+/* Joint j's world rotations of a block from the scratch into wr (frames x J x 4). */
+static inline void fk_block_store_rot(size_t J, size_t j, const double *restrict s,
+                                      double *restrict wr)
+{
+    enum { B = FK_BLOCK };
+    const double *so = s + 7 * B * j;
+    for (size_t l = 0; l < B; l++)
+        for (size_t c = 0; c < 4; c++)
+            wr[4 * J * l + 4 * j + c] = so[c * B + l];
+}
+
+/* rot_keep (n_keep joints, or NULL: all): the joints whose world rotations are written. */
 static mlr_status fk_run(size_t N, size_t J, const int32_t *parents, const double *offsets,
                          const double *root_pos, const double *rot, size_t P,
                          const int32_t *trans_joints, const double *trans, double *world_pos,
-                         double *world_rot, const mlr_allocator *alloc, mlr_diag *diag)
+                         double *world_rot, const int32_t *rot_keep, size_t n_keep,
+                         const mlr_allocator *alloc, mlr_diag *diag)
 {
     mlr_quat stack_scratch[FK_STACK_JOINTS];
     mlr_quat *scratch = stack_scratch;
     mlr_allocator a;
     size_t scratch_bytes = 0;
-    if (!world_rot && J > FK_STACK_JOINTS && N > 0) {
+    double *all_rot = rot_keep ? NULL : world_rot; /* written at every joint */
+    if (!all_rot && J > FK_STACK_JOINTS && N > 0) {
         mlr_allocator_resolve(alloc, &a);
         if (mlr_mul_size(J, sizeof(mlr_quat), &scratch_bytes) != MLR_OK)
             return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "fk: %zu joints overflow a size", J);
@@ -227,16 +241,22 @@ static mlr_status fk_run(size_t N, size_t J, const int32_t *parents, const doubl
             s = mlr_alloc(&ab, block_bytes);
     }
     if (s)
-        for (; f + FK_BLOCK <= N; f += FK_BLOCK)
+        for (; f + FK_BLOCK <= N; f += FK_BLOCK) {
             fk_block(J, parents, offsets, root_pos ? root_pos + 3 * f : NULL, rot + 4 * J * f, P,
                      trans_joints, P ? trans + 3 * P * f : NULL, world_pos + 3 * J * f,
-                     world_rot ? world_rot + 4 * J * f : NULL, s);
+                     all_rot ? all_rot + 4 * J * f : NULL, s);
+            for (size_t i = 0; rot_keep && world_rot && i < n_keep; i++)
+                fk_block_store_rot(J, (size_t)rot_keep[i], s, world_rot + 4 * J * f);
+        }
     if (s && s != block_stack)
         mlr_free(&ab, s, block_bytes);
     for (; f < N; f++) {
-        mlr_quat *wr = world_rot ? (mlr_quat *)(void *)(world_rot + 4 * J * f) : scratch;
+        mlr_quat *wr = all_rot ? (mlr_quat *)(void *)(all_rot + 4 * J * f) : scratch;
         fk_frame(J, parents, offsets, root_pos ? root_pos + 3 * f : NULL, rot + 4 * J * f, P,
                  trans_joints, P ? trans + 3 * P * f : NULL, world_pos + 3 * J * f, wr);
+        for (size_t i = 0; rot_keep && world_rot && i < n_keep; i++)
+            memcpy(world_rot + 4 * (J * f + (size_t)rot_keep[i]), &wr[rot_keep[i]],
+                   4 * sizeof(double));
     }
     if (scratch != stack_scratch)
         mlr_free(&a, scratch, scratch_bytes);
@@ -262,7 +282,17 @@ mlr_status mlr_fk_arrays(size_t n_frames, size_t n_joints, const int32_t *parent
         return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "fk: %zu frames x %zu joints overflow",
                             n_frames, n_joints);
     return fk_run(n_frames, n_joints, parents, offsets, root_pos, rot, n_trans, trans_joints,
-                  trans, world_pos, world_rot, alloc, diag);
+                  trans, world_pos, world_rot, NULL, 0, alloc, diag);
+}
+
+mlr_status mlr_fk_arrays_rot_at(size_t n_frames, size_t n_joints, const int32_t *parents,
+                                const double *offsets, const double *root_pos, const double *rot,
+                                size_t n_trans, const int32_t *trans_joints, const double *trans,
+                                double *world_pos, double *world_rot, const int32_t *rot_joints,
+                                size_t n_rot_joints, const mlr_allocator *alloc)
+{
+    return fk_run(n_frames, n_joints, parents, offsets, root_pos, rot, n_trans, trans_joints,
+                  trans, world_pos, world_rot, rot_joints, n_rot_joints, alloc, NULL);
 }
 
 mlr_status mlr_fk_motion(const mlr_motion *m, size_t begin, size_t count, double *world_pos,
@@ -277,6 +307,6 @@ mlr_status mlr_fk_motion(const mlr_motion *m, size_t begin, size_t count, double
     const size_t J = m->n_joints, P = m->n_trans;
     return fk_run(count, J, m->parents, m->offsets, count ? m->root_pos + 3 * begin : NULL,
                   count ? m->rot + 4 * J * begin : NULL, P, m->trans_joints,
-                  (count && P) ? m->trans + 3 * P * begin : NULL, world_pos, world_rot, &m->alloc,
-                  diag);
+                  (count && P) ? m->trans + 3 * P * begin : NULL, world_pos, world_rot, NULL, 0,
+                  &m->alloc, diag);
 }

@@ -43,4 +43,13 @@ void mlr_fk_list_frame(const mlr_fk_list *fl, const double *root_pos, const doub
 void mlr_fk_list_arrays(const mlr_fk_list *fl, size_t N, const double *root_pos, const double *rot,
                         const double *trans, double *wp, double *wr, double *s);
 
+/* mlr_fk_arrays (arguments checked by the caller) with the world rotations written at the
+ * n_rot_joints joints rot_joints only (the positions at every joint): the same values, without
+ * the stores of the others (the guards read the rotations of the End Sites' parents only). */
+mlr_status mlr_fk_arrays_rot_at(size_t n_frames, size_t n_joints, const int32_t *parents,
+                                const double *offsets, const double *root_pos, const double *rot,
+                                size_t n_trans, const int32_t *trans_joints, const double *trans,
+                                double *world_pos, double *world_rot, const int32_t *rot_joints,
+                                size_t n_rot_joints, const mlr_allocator *alloc);
+
 #endif

@@ -225,32 +225,8 @@ static mlr_status floor_from_positions(mlr_guards *g, const double *wpos, const 
                                        st == MLR_E_NO_MEMORY ? "out of memory" : "bad points");
 }
 
-/* The input's world rotations of the contact points' joints (and of their ancestors), into
-   wrot, which create's forward kinematics left out (only the points read them); wpos is
-   rewritten there with the same values. */
-static mlr_status point_world_rotations(const mlr_guards *g, double *wpos, double *wrot)
-{
-    const size_t J = g->n_joints;
-    mlr_status st = MLR_OK;
-    uint8_t *need = alloc_array(&g->alloc, J, 1, &st);
-    int32_t *list = alloc_array(&g->alloc, 2 * J, sizeof(int32_t), &st);
-    if (st == MLR_OK) {
-        memset(need, 0, J);
-        int32_t *tidx = list + J;
-        const size_t n =
-            cleanup__fk_need(&g->rig, g->n_points, g->joints, NULL, 0, need, list, tidx);
-        st = cleanup__fk_points(&g->rig, g->n_frames, g->root_pos, g->rot, g->trans, g->n_points,
-                                g->joints, g->end_sites, wpos, wrot, NULL, &g->alloc, list, n,
-                                tidx);
-    }
-    free_array(&g->alloc, need, J, 1);
-    free_array(&g->alloc, list, 2 * J, sizeof(int32_t));
-    return st;
-}
-
-/* Feet by name and their contacts on the input; a rig without feet gets none. world_rot is
-   filled at the feet's points' joints here. */
-static mlr_status find_contacts(mlr_guards *g, double *world_pos, double *world_rot,
+/* Feet by name and their contacts on the input; a rig without feet gets none. */
+static mlr_status find_contacts(mlr_guards *g, const double *world_pos, const double *world_rot,
                                 mlr_diag *diag)
 {
     const size_t J = g->n_joints, N = g->n_frames;
@@ -302,11 +278,6 @@ static mlr_status find_contacts(mlr_guards *g, double *world_pos, double *world_
         if (st == MLR_OK) {
             memcpy(g->joints, fj, C * sizeof(int32_t));
             memcpy(g->end_sites, fe, C * sizeof(int32_t));
-            if ((st = point_world_rotations(g, world_pos, world_rot)) != MLR_OK)
-                mlr_diag_set(diag, st, 0, 0, "guards: %s for the feet's forward kinematics",
-                             st == MLR_E_OVERFLOW ? "size overflow" : "out of memory");
-        }
-        if (st == MLR_OK) {
             st =
                 mlr__contacts_detect(&g->rig, g->fps, g->up, N, world_pos, world_rot, C, g->joints,
                                      g->end_sites, NULL, 0, g->contacts, &g->alloc, height, diag);
@@ -425,9 +396,23 @@ mlr_status mlr_guards_create(const mlr_rig *rig, double fps, size_t n_frames,
         goto done;
     }
     /* the positions of every joint (the body's size, the feet); the world rotations of the
-       feet's points only, once they are found (find_contacts) */
-    st = mlr_fk_arrays(N, J, g->parents, g->offsets, g->root_pos, g->rot, P, g->trans_joints,
-                       g->trans, wpos, NULL, &a, NULL);
+       End Sites' parents only (the feet's points read them, to place an End Site) */
+    size_t n_ends = 0;
+    int32_t *ends = alloc_array(&a, J, sizeof(int32_t), &st);
+    if (st != MLR_OK) {
+        mlr_diag_set(diag, st, 0, 0, "guards: out of memory");
+        goto done;
+    }
+    for (size_t e = 0; e < g->rig.n_end_sites; e++) {
+        size_t i = 0;
+        while (i < n_ends && ends[i] != g->rig.end_site_parents[e])
+            i++;
+        if (i == n_ends)
+            ends[n_ends++] = g->rig.end_site_parents[e];
+    }
+    st = mlr_fk_arrays_rot_at(N, J, g->parents, g->offsets, g->root_pos, g->rot, P,
+                              g->trans_joints, g->trans, wpos, wrot, ends, n_ends, &a);
+    free_array(&a, ends, J, sizeof(int32_t));
     if (st != MLR_OK) {
         mlr_diag_set(diag, st, 0, 0, "guards: forward kinematics of the input failed");
         goto done;
