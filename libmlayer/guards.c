@@ -954,8 +954,8 @@ mlr_status mlr_guards_apply(const mlr_guards *g, const double *alpha, size_t n_a
     size_t *counts = alloc_array(&g->alloc, J, sizeof(size_t), &st);
     size_t *counts2 = alloc_array(&g->alloc, J, sizeof(size_t), &st);
     const int limits_on = limits_wanted(g, alpha, n_alpha);
-    /* (N x J rotations: the legs' hinges', N x n_legs, at most) */
-    double *before = limits_on ? alloc_array(&g->alloc, 4 * N * J, sizeof(double), &st) : NULL;
+    double *before = NULL; /* (made once the legs are known) */
+    size_t n_before = 0;
     uint8_t *changed = limits_on ? alloc_array(&g->alloc, N * J, 1, &st) : NULL;
     int32_t *legs = limits_on ? alloc_array(&g->alloc, J, sizeof(int32_t), &st) : NULL;
     if (st != MLR_OK) {
@@ -1005,6 +1005,13 @@ mlr_status mlr_guards_apply(const mlr_guards *g, const double *alpha, size_t n_a
             for (size_t j = 0; j < J; j++)
                 if (changed[j] && g->limits->joints[j].range.kind == MLR_LIMITS_HINGE)
                     legs[n_legs++] = (int32_t)j;
+            n_before = 4 * N * n_legs;
+            before = alloc_array(&g->alloc, n_before, sizeof(double), &st);
+            if (st != MLR_OK) {
+                free_array(&g->alloc, none, g->n_points * N, 1);
+                mlr_diag_set(diag, st, 0, 0, "guards apply: out of memory");
+                goto done;
+            }
         }
         const apply_work w = {work, work_root, counts, counts2, before, changed, legs, n_legs};
         st = clean_and_limit(g, &w, alpha, n_alpha, trans, ref, C ? g->contacts : none, copts,
@@ -1041,7 +1048,7 @@ done:
     free_array(&g->alloc, work_root, 3 * N, sizeof(double));
     free_array(&g->alloc, counts, J, sizeof(size_t));
     free_array(&g->alloc, counts2, J, sizeof(size_t));
-    free_array(&g->alloc, before, 4 * N * J, sizeof(double));
+    free_array(&g->alloc, before, n_before, sizeof(double));
     free_array(&g->alloc, changed, N * J, 1);
     free_array(&g->alloc, legs, J, sizeof(int32_t));
     return st;
