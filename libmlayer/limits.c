@@ -7,6 +7,7 @@
 
 #include "mlr_internal.h"
 #include "options_internal.h"
+#include "quat_internal.h"
 
 #define PI 3.14159265358979323846
 #define DEG (PI / 180.0)
@@ -1361,7 +1362,7 @@ mlr_status mlr_limits_apply_normalized(const mlr_limits *lim, size_t n_frames,
     const size_t J = lim->n_joints;
     mlr_quat *q = (mlr_quat *)rot_out;
     if (J > FUSED_JOINTS) {
-        if (mlr_quat_normalize_array((const mlr_quat *)rot_in, J * n_frames, q, NULL) != MLR_OK)
+        if (mlr__quat_unit_array((const mlr_quat *)rot_in, J * n_frames, q) != MLR_OK)
             return MLR_E_INVALID_ARG;
         for (int kind = MLR_LIMITS_HINGE; kind <= MLR_LIMITS_SWING_TWIST; kind++)
             mlr_limits_apply_kind(lim, n_frames, q, alpha, n_alpha, counts, kind);
@@ -1387,8 +1388,7 @@ mlr_status mlr_limits_apply_normalized(const mlr_limits *lim, size_t n_frames,
         }
     for (size_t f0 = 0; f0 < n_frames; f0 += APPLY_FB) {
         const size_t nf = n_frames - f0 < APPLY_FB ? n_frames - f0 : APPLY_FB;
-        if (mlr_quat_normalize_array((const mlr_quat *)rot_in + J * f0, J * nf, q + J * f0,
-                                     NULL) != MLR_OK)
+        if (mlr__quat_unit_array((const mlr_quat *)rot_in + J * f0, J * nf, q + J * f0) != MLR_OK)
             return MLR_E_INVALID_ARG;
         for (size_t i = 0; i < m; i++)
             limit_block(lim, js[i], &b[i], &prev[i], q, f0, nf, NULL, counts);
@@ -1439,7 +1439,7 @@ mlr_status mlr_limits_apply(const mlr_limits *lim, size_t n_frames, const double
     const int apart = out_at + bytes <= in_at || in_at + bytes <= out_at;
     if (rot_out != rot_in && !apart) /* overlapping arrays: in place */
         memmove(rot_out, rot_in, 4 * nq * sizeof(double));
-    (void)mlr_quat_normalize_array(apart ? (const mlr_quat *)rot_in : q, nq, q, NULL);
+    (void)mlr__quat_unit_array(apart ? (const mlr_quat *)rot_in : q, nq, q);
     /* joint by joint, so that hinge angles are unwrapped along the frames */
     for (int kind = MLR_LIMITS_HINGE; kind <= MLR_LIMITS_SWING_TWIST; kind++)
         mlr_limits_apply_kind(lim, n_frames, q, alpha, n_alpha, counts, kind);

@@ -4,6 +4,7 @@
 #include "quat_internal.h"
 #include "sincosd.h"
 
+#include <float.h>
 #include <math.h>
 
 /* Below this, sinc and atan(r)/r use their Taylor series (error of the first dropped term is
@@ -164,6 +165,27 @@ mlr_status mlr_quat_normalize_array(const mlr_quat *q, size_t count, mlr_quat *o
         return mlr__quat_bad_elements(diag, "quat normalize", "q", "quaternions", first, n_bad,
                                       count);
     return MLR_OK;
+}
+
+/* A quaternion whose computed |q|^2 is within NEAR_UNIT of 1 is as unit as dividing by its norm
+ * makes it (|q| within 2 DBL_EPSILON of 1, where a quotient lands within about 1): it is copied
+ * as it is. */
+#define NEAR_UNIT (4.0 * DBL_EPSILON)
+
+mlr_status mlr__quat_unit_array(const mlr_quat *q, size_t count, mlr_quat *out)
+{
+    int bad = 0;
+    for (size_t i = 0; i < count; i++) {
+        const mlr_quat p = q[i];
+        const double s = p.w * p.w + p.x * p.x + p.y * p.y + p.z * p.z;
+        if (fabs(s - 1.0) <= NEAR_UNIT) {
+            out[i] = p;
+        } else if (!mlr__quat_unit(&p, &out[i])) {
+            out[i] = mlr__quat_identity;
+            bad = 1;
+        }
+    }
+    return bad ? MLR_E_INVALID_ARG : MLR_OK;
 }
 
 /* exp of m rotation vectors whose components are all finite and below MLR_SINCOS_LIMIT / 2

@@ -67,6 +67,13 @@ static inline int mlr__quat_unit(const mlr_quat *q, mlr_quat *out)
     return 1;
 }
 
+/* The unit quaternions of q into out (which may be q): those already unit to rounding (|q|^2
+ * within 4 DBL_EPSILON of 1) copied bit for bit, the others divided by their norm (as
+ * mlr_quat_normalize_array); the identity for a zero or non-finite one, and then
+ * MLR_E_INVALID_ARG. Cheaper than normalizing: most rotations a motion holds are unit to
+ * rounding already. */
+mlr_status mlr__quat_unit_array(const mlr_quat *q, size_t count, mlr_quat *out);
+
 /* The diag of an array function that met n_bad bad elements of arg, the first at index first:
  * "quat log: q: 1 of 40 quaternions zero, NaN or infinite, the first at index 7" (quat.c). */
 mlr_status mlr__quat_bad_elements(mlr_diag *diag, const char *fn, const char *arg,

@@ -3,6 +3,7 @@
  * user ranges, widening, streams, bad input, allocation failures. */
 #include "mlr_test.h"
 
+#include <float.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -297,6 +298,37 @@ START_TEST(the_input_itself_is_unchanged_inside_the_knee_points)
     /* in place gives the same */
     ck_assert_int_eq(mlr_limits_apply(lim, 400, rot, rot, NULL, 0, NULL, 0, NULL), MLR_OK);
     ck_assert_mem_eq(rot, out, 400 * 16 * sizeof(double));
+    free(rot), free(out);
+    mlr_limits_destroy(lim);
+}
+END_TEST
+
+START_TEST(unit_rotations_pass_bit_for_bit_and_others_come_out_normalized)
+{
+    double *rot;
+    mlr_limits *lim = leg_limits(400, &rot, NULL, 0);
+    double *out = malloc(400 * 16 * sizeof(double));
+    /* the hip (joint 1) lies inside its range: a rotation unit to rounding is copied as it is,
+       one scaled by 3 comes out as its unit quaternion */
+    for (size_t f = 0; f < 400; f += 2)
+        for (int k = 0; k < 4; k++)
+            rot[16 * f + 4 + k] *= 3.0;
+    ck_assert_int_eq(mlr_limits_apply(lim, 400, rot, out, NULL, 0, NULL, 0, NULL), MLR_OK);
+    size_t copied = 0;
+    for (size_t f = 0; f < 400; f++) {
+        const double *q = rot + 16 * f + 4, *o = out + 16 * f + 4;
+        const double n2 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3];
+        if (fabs(n2 - 1.0) <= 4 * DBL_EPSILON) {
+            ck_assert_mem_eq(o, q, 4 * sizeof(double));
+            copied++;
+        } else {
+            ck_assert(f % 2 == 0); /* only the scaled ones are not unit */
+            const double n = sqrt(n2);
+            for (int k = 0; k < 4; k++)
+                ck_assert_close(o[k], q[k] / n, 1e-15);
+        }
+    }
+    ck_assert_uint_eq(copied, 200);
     free(rot), free(out);
     mlr_limits_destroy(lim);
 }
@@ -707,6 +739,7 @@ static Suite *limits_suite(void)
     tcase_add_test(t, the_soft_saturation_is_c1_bounded_and_identity_inside);
     tcase_add_test(t, swing_is_saturated_smoothly_and_widened_with_alpha);
     tcase_add_test(t, the_input_itself_is_unchanged_inside_the_knee_points);
+    tcase_add_test(t, unit_rotations_pass_bit_for_bit_and_others_come_out_normalized);
     tcase_add_test(t, user_ranges_replace_the_learned_ones);
     tcase_add_test(t, bad_input_gets_the_right_status_and_message);
     tcase_add_test(t, every_allocation_failure_returns_no_memory_without_leaks);

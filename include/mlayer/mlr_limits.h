@@ -192,7 +192,8 @@ MLR_API mlr_status mlr_limits_get_geometry(const mlr_limits *lim, size_t joint, 
 
 /**
  * Limit N frames of local rotations (soft saturation, see the top of this file).
- * @param rot_in   [in] N x J x 4 rotations, finite and nonzero (normalized here)
+ * @param rot_in   [in] N x J x 4 rotations, finite and nonzero (normalized here: one whose
+ *                 |q|^2 is within 4 DBL_EPSILON of 1 is taken as it is)
  * @param rot_out  [out] N x J x 4; may be rot_in (in place). A joint within its knee points
  *                 is copied unchanged (normalized), others are limited.
  * @param alpha    [in] the synthesis scales: n_alpha = 1 (every joint) or 1 + J (the root
