@@ -142,8 +142,8 @@ static int create_guards(guards_state *s)
     if (memchr(s->outliers, 1, s->n * (1 + s->j))) {
         memcpy(s->in_root, s->root, 3 * s->n * sizeof(double));
         memcpy(s->in_rot, s->rot, 4 * s->n * s->j * sizeof(double));
-        if (mlr_layers_repair(s->layers, 0, s->n, s->in_root, 3 * s->n, s->in_rot,
-                              4 * s->n * s->j, NULL, NULL) < 0)
+        if (mlr_layers_repair(s->layers, 0, s->n, s->in_root, 3 * s->n, s->in_rot, 4 * s->n * s->j,
+                              NULL, NULL) < 0)
             return -1;
         root = s->in_root, rot = s->in_rot;
     }

@@ -6,7 +6,6 @@
 #include <math.h>
 
 #define IK_EPS 1e-12
-#define IK_PI 3.14159265358979323846
 
 static double dot3(const double a[3], const double b[3])
 {
@@ -89,15 +88,24 @@ void mlr_ik_two_bone_1(const double a[3], const double b[3], const double c[3], 
     double w[3];
     cross3(n, bc, w);
     const double K = l1 * l1 + l2 * l2, P = dot3(ab, bc), Q = dot3(ab, w);
-    const double A = hypot(P, Q), phi0 = atan2(Q, P);
+    const double A = sqrt(P * P + Q * Q);
     double cosb = (d * d - K) / mlr_fmax(2.0 * A, IK_EPS);
     cosb = cosb < -1.0 ? -1.0 : cosb > 1.0 ? 1.0 : cosb;
-    double phi = phi0 + acos(cosb); /* the forward-bent solution */
-    phi = phi + IK_PI;
-    phi = phi - 2.0 * IK_PI * floor(phi / (2.0 * IK_PI)) - IK_PI;
-    const double h = 0.5 * phi, s = sin(h);
-    r_knee[0] = cos(h), r_knee[1] = s * n[0], r_knee[2] = s * n[1], r_knee[3] = s * n[2];
-    const double cp = cos(phi), sp = sin(phi);
+    /* the forward-bent solution phi = phi0 + acos(cosb), phi0 = atan2(Q, P), as its cosine
+       and sine (the angle sum) and the knee's half angle in [-pi/2, pi/2] from them (the
+       half-angle formulas, each where it is well conditioned): no atan2, acos, sin or cos */
+    const double c0 = A > 0.0 ? P / A : 1.0, s0 = A > 0.0 ? Q / A : 0.0;
+    const double sb = sqrt((1.0 - cosb) * (1.0 + cosb));
+    const double cp = c0 * cosb - s0 * sb, sp = s0 * cosb + c0 * sb;
+    double ch, sh;
+    if (cp >= 0.0) {
+        ch = sqrt(0.5 * (1.0 + cp));
+        sh = sp / (2.0 * ch);
+    } else {
+        sh = copysign(sqrt(0.5 * (1.0 - cp)), sp);
+        ch = sp / (2.0 * sh);
+    }
+    r_knee[0] = ch, r_knee[1] = sh * n[0], r_knee[2] = sh * n[1], r_knee[3] = sh * n[2];
     double c1a[3];
     for (int k = 0; k < 3; k++)
         c1a[k] = b[k] + cp * bc[k] + sp * w[k] - a[k];
