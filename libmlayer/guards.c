@@ -6,6 +6,7 @@
 #include "cleanup_internal.h"
 #include "contacts_internal.h"
 #include "limits_internal.h"
+#include "quat_internal.h"
 #include "options_internal.h"
 
 #include <math.h>
@@ -388,7 +389,7 @@ mlr_status mlr_guards_create(const mlr_rig *rig, double fps, size_t n_frames,
     if (P)
         memcpy(g->trans, trans, 3 * N * P * sizeof(double));
     /* unit rotations, as the layers, the limits and the cleanup take them */
-    st = mlr_quat_normalize_array((const mlr_quat *)rot, N * J, (mlr_quat *)g->rot, NULL);
+    st = mlr__quat_unit_array((const mlr_quat *)rot, N * J, (mlr_quat *)g->rot);
     if (st != MLR_OK) { /* the message of the first value not finite, else of a zero */
         if (check_finite(rot, n_rot, "rot", diag) == MLR_OK)
             mlr_diag_set(diag, st, 0, 0, "guards: a rotation of the input is zero");
