@@ -28,9 +28,10 @@ static void unit3(double a[3])
         a[0] /= n, a[1] /= n, a[2] /= n;
 }
 
-void mlr_ik_from_to_1(const double u_in[3], const double v_in[3], double q[4])
+/* The shortest arc from unit u to unit v, (1 + u.v, u x v) normalized; antiparallel: a half
+   turn about an axis perpendicular to u. */
+static void from_to_unit(double u[3], double v[3], double q[4])
 {
-    double u[3] = {u_in[0], u_in[1], u_in[2]}, v[3] = {v_in[0], v_in[1], v_in[2]};
     unit3(u);
     unit3(v);
     const double c = dot3(u, v);
@@ -51,6 +52,23 @@ void mlr_ik_from_to_1(const double u_in[3], const double v_in[3], double q[4])
         q[0] = 1.0, q[1] = q[2] = q[3] = 0.0;
         return;
     }
+    q[0] /= n, q[1] /= n, q[2] /= n, q[3] /= n;
+}
+
+void mlr_ik_from_to_1(const double u_in[3], const double v_in[3], double q[4])
+{
+    double u[3] = {u_in[0], u_in[1], u_in[2]}, v[3] = {v_in[0], v_in[1], v_in[2]};
+    const double nu = norm3(u), nv = norm3(v), p = nu * nv, d = dot3(u, v);
+    if (!(nu > IK_EPS && nv > IK_EPS) || !(d >= (-1.0 + 1e-12) * p)) {
+        from_to_unit(u, v, q); /* a zero vector, antiparallel, or not finite */
+        return;
+    }
+    /* (1 + c, u' x v') for the unit u', v' is (|u| |v| + u.v, u x v) / (|u| |v|): normalized
+       as it is, without the unit vectors' divisions */
+    double axis[3];
+    cross3(u, v, axis);
+    q[0] = p + d, q[1] = axis[0], q[2] = axis[1], q[3] = axis[2];
+    const double n = sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
     q[0] /= n, q[1] /= n, q[2] /= n, q[3] /= n;
 }
 
