@@ -292,6 +292,7 @@ typedef struct cleanup_state {
     int32_t *tidx;
     uint8_t *fk_frames;
     double *pos2, *wrot2;           /* one frame's forward kinematics */
+    double *fk_s;                   /* MLR_FK_BLOCK_SCRATCH(J): the blocks' scratch */
     int32_t *chains;                /* nf x J: the toes' chains, top-down */
     size_t *chain_len;
     int chained;

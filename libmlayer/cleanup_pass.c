@@ -274,27 +274,64 @@ static void run_hook(const cleanup_state *cu, int blend)
     cu->hook->fn(cu->hook->ctx, N, J, blend ? cu->out_rot : cu->newr, mask, joints, n_joints);
 }
 
+/* The forward kinematics of the frames where only legs' rotations changed (dirty with foot
+   k's bit and not CLEANUP_DIRTY_ALL): each such leg's joints at and below its hip, from its
+   hip's parent as pos and wrot hold it, by blocks of MLR_FK_BLOCK frames where a run of them
+   allows (mlr_fk_list_block_from), else frame by frame: the same values either way. */
+static void fk_legs(const cleanup_state *cu)
+{
+    const size_t N = cu->N, J = cu->J, P = cu->rig->n_trans;
+    const uint8_t *dirty = cu->w->dirty;
+    for (size_t k = 0; k < cu->nf && k < 7; k++) {
+        if (!cu->feet[k].active || cu->n_sub[k] == 0)
+            continue;
+        const uint8_t bit = (uint8_t)(1u << k);
+        const int32_t seed = cu->rig->parents[cu->sub[k * J]];
+        const mlr_fk_list fl =
+            cleanup__fk_list_of(cu->rig, cu->sub + k * J, cu->n_sub[k], cu->tidx);
+        size_t run = 0; /* frames of foot k's leg alone before f */
+        for (size_t f = 0; f <= N; f++) {
+            if (f < N && (dirty[f] & bit) && !(dirty[f] & CLEANUP_DIRTY_ALL)) {
+                if (++run < MLR_FK_BLOCK || seed < 0 || !cu->fk_s)
+                    continue;
+                const size_t f0 = f + 1 - MLR_FK_BLOCK;
+                mlr_fk_list_block_from(&fl, (size_t)seed, cu->out_rot + 4 * J * f0,
+                                       P ? cu->trans + 3 * P * f0 : NULL, cu->pos + 3 * J * f0,
+                                       cu->wrot + 4 * J * f0, cu->fk_s);
+                run = 0;
+                continue;
+            }
+            for (size_t g = f - run; g < f; g++) /* the run's frames short of a block */
+                cleanup__fk_list_frame(cu->rig, g, cu->sub + k * J, cu->n_sub[k], cu->tidx,
+                                       cu->out_rot, cu->trans, cu->pos + 3 * J * g,
+                                       cu->wrot + 4 * J * g);
+            run = 0;
+        }
+    }
+}
+
 mlr_status cleanup__pass(cleanup_state *cu)
 {
     const size_t N = cu->N, J = cu->J, C = cu->C;
     uint8_t *dirty = cu->w->dirty, *mask = cu->mask;
     mlr_status st;
-    for (size_t f = 0; f < N; f++) {
-        if (!dirty[f])
+    fk_legs(cu);
+    for (size_t f = 0; f < N;) {
+        if (!dirty[f]) {
+            f++;
             continue;
-        double *pos_f = cu->pos + 3 * J * f, *wrot_f = cu->wrot + 4 * J * f;
-        if (dirty[f] & CLEANUP_DIRTY_ALL) {
-            cleanup__fk_masked_frame(cu->rig, f, cu->need_list, cu->n_need, cu->tidx,
-                                     cu->out_root_pos, cu->out_rot, cu->trans, pos_f, wrot_f);
-        } else { /* only legs' rotations changed: the joints at and below their hips */
-            for (size_t k = 0; k < cu->nf; k++)
-                if (dirty[f] & (1u << k))
-                    cleanup__fk_list_frame(cu->rig, f, cu->sub + k * J, cu->n_sub[k], cu->tidx,
-                                           cu->out_rot, cu->trans, pos_f, wrot_f);
         }
-        if ((st = mlr_rig_point_positions(cu->rig, 1, pos_f, wrot_f, C, cu->joints, cu->end_sites,
+        size_t e = f; /* the run of dirty frames [f, e) */
+        for (; e < N && dirty[e]; e++)
+            if (dirty[e] & CLEANUP_DIRTY_ALL)
+                cleanup__fk_masked_frame(cu->rig, e, cu->need_list, cu->n_need, cu->tidx,
+                                         cu->out_root_pos, cu->out_rot, cu->trans,
+                                         cu->pos + 3 * J * e, cu->wrot + 4 * J * e);
+        if ((st = mlr_rig_point_positions(cu->rig, e - f, cu->pos + 3 * J * f,
+                                          cu->wrot + 4 * J * f, C, cu->joints, cu->end_sites,
                                           cu->P + 3 * C * f, NULL)) != MLR_OK)
             return st;
+        f = e;
     }
     memset(dirty, 0, N);
     find_floor_frames(cu);

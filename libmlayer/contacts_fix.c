@@ -494,6 +494,7 @@ static mlr_status cleanup_passes(cleanup_state *cu, cleanup_arena *ar, mlr_diag 
        computes it again only on the frames that changed since (the root shift before the
        first pass, the spread of the pass before), the others are the same values */
     cu->mask = cleanup__take(ar, N, 1);
+    cu->fk_s = cleanup__take_raw(ar, MLR_FK_BLOCK_SCRATCH(J), sizeof(double));
     uint8_t *dirty = cleanup__take(ar, N, 1);
     cu->chains = cleanup__take(ar, nf * J, sizeof(int32_t));
     cu->chain_len = cleanup__take(ar, nf, sizeof(size_t));

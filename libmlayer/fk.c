@@ -182,6 +182,35 @@ void mlr_fk_list_block(const mlr_fk_list *fl, const double *root_pos, const doub
                  fl->tidx, trans, fl->list, fl->n, fl->keep, fl->n_keep, wp, wr, s);
 }
 
+/* fl's listed joints on a block, from seed's world pose as wp and wr hold it (the listed
+ * joints' parents are seed or listed before them): the same operations as mlr_fk_list_frame
+ * per frame, so the same bits. */
+MLR_CLONES_AVX2
+void mlr_fk_list_block_from(const mlr_fk_list *fl, size_t seed, const double *rot,
+                            const double *trans, double *wp, double *wr, double *s)
+{
+    enum { B = FK_BLOCK };
+    const size_t J = fl->n_joints, sr = 4 * J, st = 3 * fl->n_trans;
+    double *ss = s + 7 * B * seed;
+    for (size_t l = 0; l < B; l++) {
+        for (size_t c = 0; c < 4; c++)
+            ss[c * B + l] = wr[sr * l + 4 * seed + c];
+        for (size_t c = 0; c < 3; c++)
+            ss[(4 + c) * B + l] = wp[3 * J * l + 3 * seed + c];
+    }
+    for (size_t i = 0; i < fl->n; i++) {
+        const size_t j = (size_t)fl->list[i];
+        const double *sq = s + 7 * B * (size_t)fl->parents[j];
+        double *so = s + 7 * B * j;
+        if (fl->tidx[j] >= 0)
+            fk_block_joint(sq, rot + 4 * j, sr, trans + 3 * (size_t)fl->tidx[j], st, so);
+        else
+            fk_block_joint(sq, rot + 4 * j, sr, fl->offsets + 3 * j, 0, so);
+    }
+    for (size_t i = 0; i < fl->n; i++)
+        fk_block_store(J, (size_t)fl->list[i], s, wp, wr);
+}
+
 void mlr_fk_list_arrays(const mlr_fk_list *fl, size_t N, const double *root_pos, const double *rot,
                         const double *trans, double *wp, double *wr, double *s)
 {

@@ -37,6 +37,12 @@ void mlr_fk_list_block(const mlr_fk_list *fl, const double *root_pos, const doub
 void mlr_fk_list_frame(const mlr_fk_list *fl, const double *root_pos, const double *rot,
                        const double *trans, double *wp, double *wr);
 
+/* The same on MLR_FK_BLOCK frames for fl's listed joints only, from joint seed's world pose as
+ * wp and wr hold it already (every listed joint's parent is seed or listed before it; root_pos
+ * is not read): written at the listed joints. */
+void mlr_fk_list_block_from(const mlr_fk_list *fl, size_t seed, const double *rot,
+                            const double *trans, double *wp, double *wr, double *s);
+
 /* The same on N frames: blocks of MLR_FK_BLOCK frames with scratch s (NULL: none, every frame
  * alone, the same values), then the frames left one by one (those written at the root and every
  * listed joint). */
