@@ -570,8 +570,8 @@ static mlr_status raise_to_floor(const mlr_guards *g, const mlr_cleanup_ref *ref
             for (size_t c = 0; c < C; c++) {
                 /* no reference: the floor alone */
                 const double lim =
-                    ref ? fmin(g->floor_height, ref->h[f * C + c]) : g->floor_height;
-                d = fmax(d, lim - hout[f * C + c]);
+                    ref ? mlr_fmin(g->floor_height, ref->h[f * C + c]) : g->floor_height;
+                d = mlr_fmax(d, lim - hout[f * C + c]);
             }
             need[f] = d;
             any |= d > 0.0;
@@ -595,7 +595,7 @@ static mlr_status raise_to_floor(const mlr_guards *g, const mlr_cleanup_ref *ref
                     in_window -= need[next_out] > 0.0;
                 double m = 0.0;
                 for (size_t k = lo; in_window && k <= hi; k++)
-                    m = fmax(m, need[k]);
+                    m = mlr_fmax(m, need[k]);
                 wide[f] = m;
             }
             in_window = next_in = next_out = 0;
