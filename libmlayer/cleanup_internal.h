@@ -293,6 +293,7 @@ typedef struct cleanup_state {
     uint8_t *fk_frames;
     double *pos2, *wrot2;           /* one frame's forward kinematics */
     double *fk_s;                   /* MLR_FK_BLOCK_SCRATCH(J): the blocks' scratch */
+    double *blk_pos, *blk_rot;      /* MLR_FK_BLOCK frames' forward kinematics (x J x 3, 4) */
     int32_t *chains;                /* nf x J: the toes' chains, top-down */
     size_t *chain_len;
     int chained;

@@ -176,62 +176,121 @@ static void solve_legs(const cleanup_state *cu)
 /* Placed points (toes) by turning the ankle, into newr; on floor frames the ankle keeps its
    world rotation, so the whole foot rises with it (only on the frames where some foot with a
    placed point is constrained). */
+/* One foot's placed point (toe) on frame f by turning its ankle, into newr, with its chain's
+   forward kinematics of newr in pos2, wrot2 (one frame, J joints). */
+static void place_toe_frame(const cleanup_state *cu, const cleanup_foot *ft, size_t f,
+                            const double *pos2, const double *wrot2)
+{
+    const size_t J = cu->J;
+    const mlr_rig *rig = cu->rig;
+    const int32_t *joints = cu->joints, *end_sites = cu->end_sites;
+    const size_t a = (size_t)ft->anchor;
+    const int32_t pa = rig->parents[a];
+    const size_t c = ft->cols[ft->n_own];
+    const int32_t e = end_sites ? end_sites[c] : -1;
+    const size_t j = (size_t)joints[c];
+    const double *ga = wrot2 + 4 * a;
+    const double *gp = pa >= 0 ? wrot2 + 4 * (size_t)pa : NULL;
+    double r[4];
+    if (ft->U[f]) {
+        double now[3], u[3], v[3];
+        if (e >= 0)
+            mlr_ik_qrot(wrot2 + 4 * j, rig->end_site_offsets + 3 * (size_t)e, now);
+        else
+            now[0] = now[1] = now[2] = 0.0;
+        for (int d = 0; d < 3; d++) {
+            now[d] += pos2[3 * j + (size_t)d];
+            u[d] = now[d] - pos2[3 * a + (size_t)d];
+            v[d] = ft->tt[3 * f + (size_t)d] - pos2[3 * a + (size_t)d];
+        }
+        mlr_ik_from_to_1(u, v, r);
+    } else { /* r * ga = the old world rotation */
+        const double *gold = cu->wrot + 4 * (f * J + a);
+        const double cg[4] = {ga[0], -ga[1], -ga[2], -ga[3]};
+        mlr_ik_qmul(gold, cg, r);
+    }
+    mlr_ik_rotate_to_1(cu->newr + 4 * (f * J + a), gp, ga, r);
+}
+
+/* Is foot k's toe placed on frame f (constrained, not kept, not reached)? */
+static int toe_frame(const cleanup_foot *ft, size_t f)
+{
+    return (ft->U[f] || ft->F[f]) && !ft->K[f] && !ft->S[f];
+}
+
+/* The chained case: foot by foot (no foot's leg joints lie on another's chain), the chain's
+   forward kinematics of newr by blocks of MLR_FK_BLOCK frames from the hip's parent where a
+   run of the foot's frames allows (mlr_fk_list_block_from: the same bits as
+   cleanup__fk_chain_frame, which the frames short of a block take), then each frame's toe. */
+static void place_toes_chained(const cleanup_state *cu)
+{
+    const size_t N = cu->N, J = cu->J, P = cu->rig->n_trans;
+    enum { B = MLR_FK_BLOCK };
+    for (size_t k = 0; k < cu->nf; k++) {
+        const cleanup_foot *ft = &cu->feet[k];
+        if (!ft->active || ft->n_cols == ft->n_own)
+            continue;
+        const int32_t *chain = cu->chains + k * J;
+        const size_t n = cu->chain_len[k];
+        const int32_t seed = cu->rig->parents[chain[0]];
+        const mlr_fk_list fl = cleanup__fk_list_of(cu->rig, chain, n, cu->tidx);
+        size_t run = 0;
+        for (size_t f = 0; f <= N; f++) {
+            if (f < N && toe_frame(ft, f)) {
+                if (++run < B || seed < 0)
+                    continue;
+                const size_t f0 = f + 1 - B, sj = (size_t)seed;
+                for (size_t l = 0; l < B; l++) {
+                    memcpy(cu->blk_pos + 3 * (J * l + sj), cu->pos + 3 * (J * (f0 + l) + sj),
+                           3 * sizeof(double));
+                    memcpy(cu->blk_rot + 4 * (J * l + sj), cu->wrot + 4 * (J * (f0 + l) + sj),
+                           4 * sizeof(double));
+                }
+                mlr_fk_list_block_from(&fl, sj, cu->newr + 4 * J * f0,
+                                       P ? cu->trans + 3 * P * f0 : NULL, cu->blk_pos, cu->blk_rot,
+                                       cu->fk_s);
+                for (size_t l = 0; l < B; l++)
+                    place_toe_frame(cu, ft, f0 + l, cu->blk_pos + 3 * J * l,
+                                    cu->blk_rot + 4 * J * l);
+                run = 0;
+                continue;
+            }
+            for (size_t g = f - run; g < f; g++) {
+                cleanup__fk_chain_frame(cu->rig, g, chain, n, cu->tidx, cu->newr, cu->trans,
+                                        cu->pos + 3 * J * g, cu->wrot + 4 * J * g, cu->pos2,
+                                        cu->wrot2);
+                place_toe_frame(cu, ft, g, cu->pos2, cu->wrot2);
+            }
+            run = 0;
+        }
+    }
+}
+
+/* Placed points (toes) by turning the ankle, into newr; on floor frames the ankle keeps its
+   world rotation, so the whole foot rises with it (only on the frames where some foot with a
+   placed point is constrained). */
 static void place_toes(const cleanup_state *cu)
 {
-    const size_t N = cu->N, J = cu->J, nf = cu->nf;
-    const mlr_rig *rig = cu->rig;
+    if (cu->chained) {
+        place_toes_chained(cu);
+        return;
+    }
+    const size_t N = cu->N, nf = cu->nf;
     const cleanup_foot *feet = cu->feet;
-    const int32_t *joints = cu->joints, *end_sites = cu->end_sites;
-    const double *tr = cu->trans, *wrot = cu->wrot;
-    double *newr = cu->newr, *pos2 = cu->pos2, *wrot2 = cu->wrot2;
     uint8_t *fk_frames = cu->fk_frames;
     memset(fk_frames, 0, N);
     for (size_t k = 0; k < nf; k++)
         if (feet[k].active && feet[k].n_cols > feet[k].n_own)
             for (size_t f = 0; f < N; f++)
-                fk_frames[f] |= (feet[k].U[f] | feet[k].F[f]) & !feet[k].K[f] & !feet[k].S[f];
+                fk_frames[f] |= (uint8_t)toe_frame(&feet[k], f);
     for (size_t f = 0; f < N; f++) {
         if (!fk_frames[f])
             continue;
-        if (!cu->chained)
-            cleanup__fk_masked_frame(rig, f, cu->need_list, cu->n_need, cu->tidx, cu->out_root_pos,
-                                     newr, tr, pos2, wrot2);
-        for (size_t k = 0; k < nf; k++) {
-            const cleanup_foot *ft = &feet[k];
-            if (!ft->active || ft->n_cols == ft->n_own || (!ft->U[f] && !ft->F[f]) || ft->K[f] ||
-                ft->S[f])
-                continue;
-            if (cu->chained) /* the same values as the whole frame's at the chain's joints */
-                cleanup__fk_chain_frame(rig, f, cu->chains + k * J, cu->chain_len[k], cu->tidx,
-                                        newr, tr, cu->pos + 3 * J * f, cu->wrot + 4 * J * f, pos2,
-                                        wrot2);
-            const size_t a = (size_t)ft->anchor;
-            const int32_t pa = rig->parents[a];
-            const size_t c = ft->cols[ft->n_own];
-            const int32_t e = end_sites ? end_sites[c] : -1;
-            const size_t j = (size_t)joints[c];
-            const double *ga = wrot2 + 4 * a;
-            const double *gp = pa >= 0 ? wrot2 + 4 * (size_t)pa : NULL;
-            double r[4];
-            if (ft->U[f]) {
-                double now[3], u[3], v[3];
-                if (e >= 0)
-                    mlr_ik_qrot(wrot2 + 4 * j, rig->end_site_offsets + 3 * (size_t)e, now);
-                else
-                    now[0] = now[1] = now[2] = 0.0;
-                for (int d = 0; d < 3; d++) {
-                    now[d] += pos2[3 * j + (size_t)d];
-                    u[d] = now[d] - pos2[3 * a + (size_t)d];
-                    v[d] = ft->tt[3 * f + (size_t)d] - pos2[3 * a + (size_t)d];
-                }
-                mlr_ik_from_to_1(u, v, r);
-            } else { /* r * ga = the old world rotation */
-                const double *gold = wrot + 4 * (f * J + a);
-                const double cg[4] = {ga[0], -ga[1], -ga[2], -ga[3]};
-                mlr_ik_qmul(gold, cg, r);
-            }
-            mlr_ik_rotate_to_1(newr + 4 * (f * J + a), gp, ga, r);
-        }
+        cleanup__fk_masked_frame(cu->rig, f, cu->need_list, cu->n_need, cu->tidx, cu->out_root_pos,
+                                 cu->newr, cu->trans, cu->pos2, cu->wrot2);
+        for (size_t k = 0; k < nf; k++)
+            if (feet[k].active && feet[k].n_cols > feet[k].n_own && toe_frame(&feet[k], f))
+                place_toe_frame(cu, &feet[k], f, cu->pos2, cu->wrot2);
     }
 }
 

@@ -495,6 +495,8 @@ static mlr_status cleanup_passes(cleanup_state *cu, cleanup_arena *ar, mlr_diag 
        first pass, the spread of the pass before), the others are the same values */
     cu->mask = cleanup__take(ar, N, 1);
     cu->fk_s = cleanup__take_raw(ar, MLR_FK_BLOCK_SCRATCH(J), sizeof(double));
+    cu->blk_pos = cleanup__take_raw(ar, 3 * MLR_FK_BLOCK * J, sizeof(double));
+    cu->blk_rot = cleanup__take_raw(ar, 4 * MLR_FK_BLOCK * J, sizeof(double));
     uint8_t *dirty = cleanup__take(ar, N, 1);
     cu->chains = cleanup__take(ar, nf * J, sizeof(int32_t));
     cu->chain_len = cleanup__take(ar, nf, sizeof(size_t));
