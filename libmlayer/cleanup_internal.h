@@ -254,7 +254,10 @@ mlr_status cleanup__assign_feet(const mlr_rig *rig, size_t C, const int32_t *joi
                                 const int32_t *end_sites, cleanup_foot *feet, size_t *nf_out,
                                 uint8_t *listed, uint8_t *assigned, mlr_diag *diag);
 
-/* Spread the corrections new * inv(rot) of the listed joints, known on the frames of mask. */
+/* Spread the corrections new * inv(rot) of the listed joints, known on the frames of mask
+   (nonzero): CLEANUP_HELD_SAME where the pass left the leg as it was (its correction 0,
+   newr not read there), any other nonzero value where newr is read. */
+#define CLEANUP_HELD_SAME 2
 mlr_status cleanup__spread_rotations(cleanup_work *w, double *rot, const double *newr,
                                      const int32_t *js, size_t nj, const uint8_t *mask);
 

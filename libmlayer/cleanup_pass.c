@@ -77,7 +77,8 @@ static void find_floor_frames(cleanup_state *cu)
 
 /* newr = out_rot where the pass reads it: everywhere, or each chain's joints (the leg's hip,
    knee, anchor) on the frames where its foot is constrained (U or F: the IK, the toes' turn
-   and the spread read newr there only). */
+   and the spread read newr there only; the spread reads it on the frames the pass solves, and
+   takes those it leaves, reached or kept, as unchanged: CLEANUP_HELD_SAME). */
 static void copy_leg_rotations(const cleanup_state *cu)
 {
     const size_t N = cu->N, J = cu->J;
@@ -405,8 +406,10 @@ mlr_status cleanup__pass(cleanup_state *cu)
         if (!ft->active)
             continue;
         size_t cnt = 0;
-        for (size_t f = 0; f < N; f++)
-            cnt += (mask[f] = ft->U[f] | ft->F[f]) != 0;
+        for (size_t f = 0; f < N; f++) {
+            mask[f] = !(ft->U[f] | ft->F[f]) ? 0 : ft->K[f] || ft->S[f] ? CLEANUP_HELD_SAME : 1;
+            cnt += mask[f] != 0;
+        }
         if (!cnt)
             continue;
         int32_t js[3] = {ft->hip, ft->knee, ft->anchor};

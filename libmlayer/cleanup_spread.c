@@ -252,6 +252,10 @@ mlr_status cleanup__spread_rotations(cleanup_work *w, double *rot, const double 
         cls[f] = mask[f] ? SPREAD_QUIET : SPREAD_FREE;
         if (!mask[f])
             continue;
+        if (mask[f] == CLEANUP_HELD_SAME) { /* reached or kept: newr is rot there */
+            memset(w->map_val + f * m, 0, m * sizeof(double));
+            continue;
+        }
         for (size_t i = 0; i < nj; i++) {
             const size_t q = 4 * (f * J + (size_t)js[i]);
             double *v = w->map_val + f * m + 3 * i;
