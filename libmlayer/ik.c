@@ -3,6 +3,7 @@
  */
 #include "ik_internal.h"
 
+#include <float.h>
 #include <math.h>
 
 #define IK_EPS 1e-12
@@ -59,8 +60,8 @@ void mlr_ik_from_to_1(const double u_in[3], const double v_in[3], double q[4])
 {
     double u[3] = {u_in[0], u_in[1], u_in[2]}, v[3] = {v_in[0], v_in[1], v_in[2]};
     const double nu = norm3(u), nv = norm3(v), p = nu * nv, d = dot3(u, v);
-    if (!(nu > IK_EPS && nv > IK_EPS) || !(d >= (-1.0 + 1e-12) * p)) {
-        from_to_unit(u, v, q); /* a zero vector, antiparallel, or not finite */
+    if (!(nu > IK_EPS && nv > IK_EPS && p <= DBL_MAX) || !(d >= (-1.0 + 1e-12) * p)) {
+        from_to_unit(u, v, q); /* a zero vector, antiparallel, too long, or not finite */
         return;
     }
     /* (1 + c, u' x v') for the unit u', v' is (|u| |v| + u.v, u x v) / (|u| |v|): normalized
@@ -89,19 +90,23 @@ void mlr_ik_two_bone_1(const double a[3], const double b[3], const double c[3], 
         n[0] = axis[0], n[1] = axis[1], n[2] = axis[2];
     else
         cross3(bc, mab, n);
-    unit3(bcu);
+    if (l2 > IK_EPS) /* unit3(bcu), with the norm l2 already is */
+        bcu[0] /= l2, bcu[1] /= l2, bcu[2] /= l2;
     const double p = dot3(n, bcu);
     for (int k = 0; k < 3; k++)
         n[k] -= p * bcu[k];
     const double small = 1e-9 * mlr_fmax(l1 * l2, IK_EPS);
-    if (norm3(n) <= small) { /* hinge along the shin: the leg's own plane, or any axis */
+    double nn = norm3(n);
+    if (nn <= small) { /* hinge along the shin: the leg's own plane, or any axis */
         cross3(bc, mab, n);
-        if (norm3(n) <= small) {
+        if ((nn = norm3(n)) <= small) {
             const double ex[3] = {1.0, 0.0, 0.0};
             cross3(bc, ex, n);
+            nn = norm3(n);
         }
     }
-    unit3(n);
+    if (nn > IK_EPS) /* unit3(n), with its norm nn */
+        n[0] /= nn, n[1] /= nn, n[2] /= nn;
     /* |ab + R(n, phi) bc|^2 = K + 2 (P cos phi + Q sin phi) = K + 2 A cos(phi - phi0) */
     double w[3];
     cross3(n, bc, w);
