@@ -174,9 +174,6 @@ static void solve_legs(const cleanup_state *cu)
     }
 }
 
-/* Placed points (toes) by turning the ankle, into newr; on floor frames the ankle keeps its
-   world rotation, so the whole foot rises with it (only on the frames where some foot with a
-   placed point is constrained). */
 /* One foot's placed point (toe) on frame f by turning its ankle, into newr, with its chain's
    forward kinematics of newr in pos2, wrot2 (one frame, J joints). */
 static void place_toe_frame(const cleanup_state *cu, const cleanup_foot *ft, size_t f,
@@ -352,7 +349,7 @@ static void fk_legs(const cleanup_state *cu)
         size_t run = 0; /* frames of foot k's leg alone before f */
         for (size_t f = 0; f <= N; f++) {
             if (f < N && (dirty[f] & bit) && !(dirty[f] & CLEANUP_DIRTY_ALL)) {
-                if (++run < MLR_FK_BLOCK || seed < 0 || !cu->fk_s)
+                if (++run < MLR_FK_BLOCK || seed < 0)
                     continue;
                 const size_t f0 = f + 1 - MLR_FK_BLOCK;
                 mlr_fk_list_block_from(&fl, (size_t)seed, cu->out_rot + 4 * J * f0,

@@ -4,7 +4,6 @@
 
 #include "mlr_internal.h"
 
-#include <float.h>
 #include <math.h>
 
 /* r_hip, r_knee (w, x, y, z) of one frame, as mlr_ik_two_bone; axis may be NULL. */
@@ -49,11 +48,11 @@ static inline void mlr_ik_rotate_to_1(double rot_j[4], const double *gp, const d
     } else {
         rot_j[0] = nw[0], rot_j[1] = nw[1], rot_j[2] = nw[2], rot_j[3] = nw[3];
     }
-    /* unit to rounding already (|q|^2 within 4 DBL_EPSILON of 1: the product of unit
-       quaternions nearly always is): left as it is, as mlr__quat_unit_array leaves one */
+    /* unit to rounding already (the product of unit quaternions nearly always is): left as
+       it is */
     const double n2 =
         rot_j[0] * rot_j[0] + rot_j[1] * rot_j[1] + rot_j[2] * rot_j[2] + rot_j[3] * rot_j[3];
-    if (fabs(n2 - 1.0) <= 4.0 * DBL_EPSILON)
+    if (fabs(n2 - 1.0) <= MLR_NEAR_UNIT2)
         return;
     const double n = sqrt(n2);
     if (n > 0.0)

@@ -2,6 +2,7 @@
 #ifndef MLR_INTERNAL_H
 #define MLR_INTERNAL_H
 
+#include <float.h>
 #include <mlayer/mlayer.h>
 #include <stdint.h>
 #include <string.h>
@@ -52,6 +53,11 @@ mlr_status mlr_diag_prefix(mlr_diag *diag, mlr_status status, const char *who);
    per guards apply in the cleanup): the same values, the ordered comparison returning the
    second argument when equal (as x86-64's maxsd / minsd in glibc's fmax / fmin) and the other
    argument when one is NaN. */
+/* A quaternion whose computed |q|^2 lies within this of 1 is as unit as dividing by its norm
+ * makes it (|q| within 2 DBL_EPSILON of 1): the library's normalizations leave it as it is
+ * (mlr__quat_unit_array, mlr_ik_rotate_to_1). */
+#define MLR_NEAR_UNIT2 (4.0 * DBL_EPSILON)
+
 static inline double mlr_fmax(double a, double b) { return a > b || b != b ? a : b; }
 static inline double mlr_fmin(double a, double b) { return a < b || b != b ? a : b; }
 

@@ -4,7 +4,6 @@
 #include "quat_internal.h"
 #include "sincosd.h"
 
-#include <float.h>
 #include <math.h>
 
 /* Below this, sinc and atan(r)/r use their Taylor series (error of the first dropped term is
@@ -167,18 +166,13 @@ mlr_status mlr_quat_normalize_array(const mlr_quat *q, size_t count, mlr_quat *o
     return MLR_OK;
 }
 
-/* A quaternion whose computed |q|^2 is within NEAR_UNIT of 1 is as unit as dividing by its norm
- * makes it (|q| within 2 DBL_EPSILON of 1, where a quotient lands within about 1): it is copied
- * as it is. */
-#define NEAR_UNIT (4.0 * DBL_EPSILON)
-
 mlr_status mlr__quat_unit_array(const mlr_quat *q, size_t count, mlr_quat *out)
 {
     int bad = 0;
     for (size_t i = 0; i < count; i++) {
         const mlr_quat p = q[i];
         const double s = p.w * p.w + p.x * p.x + p.y * p.y + p.z * p.z;
-        if (fabs(s - 1.0) <= NEAR_UNIT) {
+        if (fabs(s - 1.0) <= MLR_NEAR_UNIT2) { /* unit to rounding: as it is */
             out[i] = p;
         } else if (!mlr__quat_unit(&p, &out[i])) {
             out[i] = mlr__quat_identity;
