@@ -89,7 +89,7 @@ def worst_frames(m, un, gu, chains, feet, floor, H):
     fl = P.floor_report(m, un, feet, floor, H)
     if fl["worst"]:
         t, pn, d = fl["worst"]
-        yg = mlayer.contacts.contact_positions(gu, [pn])[t, 0, 1]
+        yg = mlayer.contacts.contact_positions(gu, [pn])[t, 0, P._up_index(m)]
         jn = pn.split("/")[0]
         out.append(("floor", t, names.index(jn),
                     f"{pn} {d:.1f}% of height below the floor",
@@ -107,7 +107,8 @@ def render(path, op="stylize", alpha=3.0, out_png="worst.png", dpi=90):
     chains = P.limb_chains(m)
     feet = P.foot_points(m)
     cn, cc = mlayer.detect_contacts(m, feet) if feet else ([], None)
-    floor = P.floor_level(m, feet, cc) if feet else float(m.positions()[..., 1].min())
+    up = P._up_index(m)  # the clip's vertical axis (Z-up files draw and measure along Z)
+    floor = P.floor_level(m, feet, cc) if feet else float(m.positions()[..., up].min())
     fn = mlayer.denoise if op == "denoise" else mlayer.stylize
     guards = B.accepted_guards(fn)
     un, _ = B._call(op, m, alpha, B._kw(guards, set()))
@@ -117,8 +118,9 @@ def render(path, op="stylize", alpha=3.0, out_png="worst.png", dpi=90):
     if not rows:
         print("no fold, reversal or floor penetration found", file=sys.stderr)
         return None
-    side, front = _views(1)
-    fig = Figure(figsize=(7.2, 2.45 * len(rows) + 0.3), dpi=dpi)
+    side, front = _views(up)
+    height = 2.45 * len(rows) + 0.6
+    fig = Figure(figsize=(7.2, height), dpi=dpi)
     FigureCanvasAgg(fig)
     pu_all, pg_all = un.positions() / H, gu.positions() / H
     f0 = floor / H
@@ -136,11 +138,12 @@ def render(path, op="stylize", alpha=3.0, out_png="worst.png", dpi=90):
             captions.append((r, c, (f"frame {t}: " if c == 0 else "") + cap))
     fig.suptitle(f"{path.split('/')[-1]}: {opname}, worst frames, unguarded and guarded\n"
                  f"({glabel}) (red: offending joint; dashed: input floor)", fontsize=8)
-    fig.tight_layout(rect=(0, 0, 1, 0.95), h_pad=4.5)
+    fig.tight_layout(rect=(0, 0, 1, 1 - 0.55 / height), h_pad=4.5)
     for r, c, text in captions:
         a0, a1 = fig.axes[4 * r + 2 * c], fig.axes[4 * r + 2 * c + 1]
         p0, p1 = a0.get_position(), a1.get_position()
-        fig.text(0.5 * (p0.x0 + p1.x1), p0.y1 + 0.028, text, ha="center",
+        # above the panels' titles: 16 points over the panel, whatever the figure's height
+        fig.text(0.5 * (p0.x0 + p1.x1), p0.y1 + 16 / 72 / height, text, ha="center",
                  fontsize=7.5, color="darkred" if c == 0 else "darkgreen")
     fig.savefig(out_png, dpi=dpi)
     return rows
