@@ -122,15 +122,46 @@ static int aligned(const double *a, const double *b, const double *o)
     return uv > 0.0 && c2 <= REACHED * REACHED * n2;
 }
 
+/* The legs' rotations of the batch's frames f[i] into newr, from L's IK (its slow frames by
+   mlr_ik_two_bone_1 first). */
+static void finish_legs(const cleanup_state *cu, const cleanup_foot *ft, mlr_ik_lanes *L,
+                        const size_t *fr, size_t m, int have_axis)
+{
+    const size_t J = cu->J;
+    const size_t h = (size_t)ft->hip, kn = (size_t)ft->knee;
+    const int32_t pk = cu->rig->parents[kn], ph = cu->rig->parents[h];
+    for (size_t i = 0; i < m; i++) {
+        const double *G = cu->wrot + 4 * fr[i] * J;
+        double rh[4], rk[4];
+        if (L->slow[i]) {
+            const double a[3] = {L->a[0][i], L->a[1][i], L->a[2][i]},
+                         b[3] = {L->b[0][i], L->b[1][i], L->b[2][i]},
+                         c[3] = {L->c[0][i], L->c[1][i], L->c[2][i]},
+                         t[3] = {L->t[0][i], L->t[1][i], L->t[2][i]},
+                         ax[3] = {L->axis[0][i], L->axis[1][i], L->axis[2][i]};
+            mlr_ik_two_bone_1(a, b, c, t, have_axis ? ax : NULL, MLR_IK_MAX_EXTENSION, rh, rk);
+        } else {
+            for (int k = 0; k < 4; k++)
+                rh[k] = L->r_hip[k][i], rk[k] = L->r_knee[k][i];
+        }
+        mlr_ik_rotate_to_1(cu->newr + 4 * (fr[i] * J + kn), pk >= 0 ? G + 4 * (size_t)pk : NULL,
+                           G + 4 * kn, rk);
+        mlr_ik_rotate_to_1(cu->newr + 4 * (fr[i] * J + h), ph >= 0 ? G + 4 * (size_t)ph : NULL,
+                           G + 4 * h, rh);
+    }
+}
+
 /* Two-bone IK of each leg on its constrained frames (contact targets, or the ankle raised
    above the floor), into newr; where the anchor (and on contact frames the placed point) is
-   already within REACHED of its target, the leg is left as it is (ft->S). */
+   already within REACHED of its target, the leg is left as it is (ft->S). The frames to
+   solve go by batches of MLR_IK_LANES through mlr_ik_two_bone_lanes. */
 static void solve_legs(const cleanup_state *cu)
 {
     const size_t N = cu->N, J = cu->J, C = cu->C;
     const int up = cu->up;
     const double *pos = cu->pos, *wrot = cu->wrot, *P = cu->P;
-    double *newr = cu->newr;
+    mlr_ik_lanes L;
+    size_t fr[MLR_IK_LANES];
     for (size_t k = 0; k < cu->nf; k++) {
         cleanup_foot *ft = &cu->feet[k];
         if (!ft->active)
@@ -139,15 +170,15 @@ static void solve_legs(const cleanup_state *cu)
         const int has_toe = ft->n_cols > ft->n_own;
         const size_t toe = has_toe ? ft->cols[ft->n_own] : 0;
         const size_t h = (size_t)ft->hip, kn = (size_t)ft->knee, a = (size_t)ft->anchor;
-        const int32_t pk = cu->rig->parents[kn], ph = cu->rig->parents[h];
         double local[3] = {0, 0, 0};
         mlr_ik_bend_axis_local(N, J, pos, wrot, ft->hip, ft->knee, ft->anchor, local, NULL);
         const int have_local = local[0] != 0.0 || local[1] != 0.0 || local[2] != 0.0;
+        size_t m = 0;
         for (size_t f = 0; f < N; f++) {
             if ((!ft->U[f] && !ft->F[f]) || ft->K[f])
                 continue;
             const double *Pf = pos + 3 * f * J, *G = wrot + 4 * f * J;
-            double target[3], ax[3], rh[4], rk[4];
+            double target[3];
             if (ft->U[f]) {
                 memcpy(target, ft->at + 3 * f, sizeof target);
             } else {
@@ -162,14 +193,23 @@ static void solve_legs(const cleanup_state *cu)
                 ft->S[f] = 1; /* newr holds the leg's rotations as they are */
                 continue;
             }
+            double ax[3] = {0, 0, 0};
             if (have_local)
                 mlr_ik_qrot(G + 4 * h, local, ax);
-            mlr_ik_two_bone_1(Pf + 3 * h, Pf + 3 * kn, Pf + 3 * a, target, have_local ? ax : NULL,
-                              MLR_IK_MAX_EXTENSION, rh, rk);
-            mlr_ik_rotate_to_1(newr + 4 * (f * J + kn), pk >= 0 ? G + 4 * (size_t)pk : NULL,
-                               G + 4 * kn, rk);
-            mlr_ik_rotate_to_1(newr + 4 * (f * J + h), ph >= 0 ? G + 4 * (size_t)ph : NULL,
-                               G + 4 * h, rh);
+            for (int d = 0; d < 3; d++) {
+                L.a[d][m] = Pf[3 * h + (size_t)d], L.b[d][m] = Pf[3 * kn + (size_t)d];
+                L.c[d][m] = Pf[3 * a + (size_t)d], L.t[d][m] = target[d], L.axis[d][m] = ax[d];
+            }
+            fr[m++] = f;
+            if (m == MLR_IK_LANES) {
+                mlr_ik_two_bone_lanes(&L, m, have_local, MLR_IK_MAX_EXTENSION);
+                finish_legs(cu, ft, &L, fr, m, have_local);
+                m = 0;
+            }
+        }
+        if (m) {
+            mlr_ik_two_bone_lanes(&L, m, have_local, MLR_IK_MAX_EXTENSION);
+            finish_legs(cu, ft, &L, fr, m, have_local);
         }
     }
 }

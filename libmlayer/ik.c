@@ -135,6 +135,84 @@ void mlr_ik_two_bone_1(const double a[3], const double b[3], const double c[3], 
     mlr_ik_from_to_1(c1a, at, r_hip);
 }
 
+/* mlr_fmax and mlr_fmin (the same values) without control flow, for the vectorized loop. */
+static inline double lane_max(double a, double b)
+{
+    return mlr_select_bits((a > b) | (b != b), a, b);
+}
+static inline double lane_min(double a, double b)
+{
+    return mlr_select_bits((a < b) | (b != b), a, b);
+}
+
+MLR_CLONES_AVX2
+void mlr_ik_two_bone_lanes(mlr_ik_lanes *L, size_t m, int have_axis, double max_ext)
+{
+    if (!have_axis) /* the leg's own plane: bc x (a - b) */
+        for (size_t i = 0; i < m; i++) {
+            const double bc[3] = {L->c[0][i] - L->b[0][i], L->c[1][i] - L->b[1][i],
+                                  L->c[2][i] - L->b[2][i]};
+            const double mab[3] = {-(L->b[0][i] - L->a[0][i]), -(L->b[1][i] - L->a[1][i]),
+                                   -(L->b[2][i] - L->a[2][i])};
+            double n[3];
+            cross3(bc, mab, n);
+            L->axis[0][i] = n[0], L->axis[1][i] = n[1], L->axis[2][i] = n[2];
+        }
+    for (size_t i = 0; i < m; i++) {
+        double ab[3], bc[3], ac[3], at[3];
+        for (int k = 0; k < 3; k++) {
+            ab[k] = L->b[k][i] - L->a[k][i], bc[k] = L->c[k][i] - L->b[k][i];
+            ac[k] = L->c[k][i] - L->a[k][i], at[k] = L->t[k][i] - L->a[k][i];
+        }
+        const double l1 = norm3(ab), l2 = norm3(bc), d_now = norm3(ac);
+        const double d = lane_min(norm3(at), lane_max(max_ext * (l1 + l2), d_now));
+        double n[3] = {L->axis[0][i], L->axis[1][i], L->axis[2][i]}, bcu[3];
+        const int by_l2 = l2 > IK_EPS;
+        for (int k = 0; k < 3; k++)
+            bcu[k] = mlr_select_bits(by_l2, bc[k] / l2, bc[k]);
+        const double p = dot3(n, bcu);
+        for (int k = 0; k < 3; k++)
+            n[k] -= p * bcu[k];
+        const double small = 1e-9 * lane_max(l1 * l2, IK_EPS);
+        const double nn = norm3(n);
+        const int by_nn = nn > IK_EPS;
+        for (int k = 0; k < 3; k++)
+            n[k] = mlr_select_bits(by_nn, n[k] / nn, n[k]);
+        double w[3];
+        cross3(n, bc, w);
+        const double K = l1 * l1 + l2 * l2, P = dot3(ab, bc), Q = dot3(ab, w);
+        const double A = sqrt(P * P + Q * Q);
+        const double cosr = (d * d - K) / lane_max(2.0 * A, IK_EPS);
+        const double cosb =
+            mlr_select_bits(cosr < -1.0, -1.0, mlr_select_bits(cosr > 1.0, 1.0, cosr));
+        const int pos_a = A > 0.0;
+        const double c0 = mlr_select_bits(pos_a, P / A, 1.0),
+                     s0 = mlr_select_bits(pos_a, Q / A, 0.0);
+        const double sb = sqrt((1.0 - cosb) * (1.0 + cosb));
+        const double cp = c0 * cosb - s0 * sb, sp = s0 * cosb + c0 * sb;
+        const double ch1 = sqrt(0.5 * (1.0 + cp)), sh1 = sp / (2.0 * ch1);
+        const double sh2 = copysign(sqrt(0.5 * (1.0 - cp)), sp), ch2 = sp / (2.0 * sh2);
+        const int front = cp >= 0.0;
+        const double ch = mlr_select_bits(front, ch1, ch2), sh = mlr_select_bits(front, sh1, sh2);
+        L->r_knee[0][i] = ch, L->r_knee[1][i] = sh * n[0], L->r_knee[2][i] = sh * n[1],
+        L->r_knee[3][i] = sh * n[2];
+        /* mlr_ik_from_to_1(b + cp bc + sp w - a, at) on its fast path */
+        double u[3];
+        for (int k = 0; k < 3; k++)
+            u[k] = L->b[k][i] + cp * bc[k] + sp * w[k] - L->a[k][i];
+        const double nu = norm3(u), nv = norm3(at), pq = nu * nv, du = dot3(u, at);
+        double axis[3];
+        cross3(u, at, axis);
+        const double q0 = pq + du;
+        const double qn =
+            sqrt(q0 * q0 + axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]);
+        L->r_hip[0][i] = q0 / qn, L->r_hip[1][i] = axis[0] / qn, L->r_hip[2][i] = axis[1] / qn,
+        L->r_hip[3][i] = axis[2] / qn;
+        L->slow[i] = (nn <= small) | !((nu > IK_EPS) & (nv > IK_EPS) & (pq <= DBL_MAX)) |
+                     !(du >= (-1.0 + 1e-12) * pq);
+    }
+}
+
 static int all_finite(const double *x, size_t count)
 {
     for (size_t i = 0; i < count; i++)
@@ -158,10 +236,30 @@ mlr_status mlr_ik_two_bone(size_t n, const double *hip, const double *knee, cons
         if (arrs[i] && !all_finite(arrs[i], 3 * n))
             return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                                 "two_bone: %s contains NaN or infinite values", names[i]);
-    for (size_t f = 0; f < n; f++)
-        mlr_ik_two_bone_1(hip + 3 * f, knee + 3 * f, end + 3 * f, target + 3 * f,
-                          bend_axis ? bend_axis + 3 * f : NULL, max_extension, r_hip + 4 * f,
-                          r_knee + 4 * f);
+    /* by batches of MLR_IK_LANES frames (the same bits as frame by frame) */
+    mlr_ik_lanes L;
+    for (size_t f0 = 0; f0 < n; f0 += MLR_IK_LANES) {
+        const size_t m = n - f0 < MLR_IK_LANES ? n - f0 : MLR_IK_LANES;
+        for (size_t i = 0; i < m; i++)
+            for (int k = 0; k < 3; k++) {
+                const size_t q = 3 * (f0 + i) + (size_t)k;
+                L.a[k][i] = hip[q], L.b[k][i] = knee[q], L.c[k][i] = end[q], L.t[k][i] = target[q];
+                L.axis[k][i] = bend_axis ? bend_axis[q] : 0.0;
+            }
+        mlr_ik_two_bone_lanes(&L, m, bend_axis != NULL, max_extension);
+        for (size_t i = 0; i < m; i++) {
+            const size_t f = f0 + i;
+            if (L.slow[i]) {
+                mlr_ik_two_bone_1(hip + 3 * f, knee + 3 * f, end + 3 * f, target + 3 * f,
+                                  bend_axis ? bend_axis + 3 * f : NULL, max_extension,
+                                  r_hip + 4 * f, r_knee + 4 * f);
+                continue;
+            }
+            for (int k = 0; k < 4; k++)
+                r_hip[4 * f + (size_t)k] = L.r_hip[k][i],
+                              r_knee[4 * f + (size_t)k] = L.r_knee[k][i];
+        }
+    }
     return MLR_OK;
 }
 

@@ -9,6 +9,23 @@
 /* r_hip, r_knee (w, x, y, z) of one frame, as mlr_ik_two_bone; axis may be NULL. */
 void mlr_ik_two_bone_1(const double a[3], const double b[3], const double c[3], const double t[3],
                        const double *axis, double max_ext, double r_hip[4], double r_knee[4]);
+/* The frames of a batch of mlr_ik_two_bone_lanes. */
+#define MLR_IK_LANES 16
+
+/* A batch of m <= MLR_IK_LANES frames of two-bone IK, by components (structure of arrays):
+   in: the hip a, knee b, end c, target t and, when have_axis, the bend axis of each frame;
+   out: r_hip, r_knee (w, x, y, z) and slow: the frames left to mlr_ik_two_bone_1. */
+typedef struct mlr_ik_lanes {
+    double a[3][MLR_IK_LANES], b[3][MLR_IK_LANES], c[3][MLR_IK_LANES], t[3][MLR_IK_LANES];
+    double axis[3][MLR_IK_LANES];
+    double r_hip[4][MLR_IK_LANES], r_knee[4][MLR_IK_LANES];
+    int slow[MLR_IK_LANES];
+} mlr_ik_lanes;
+
+/* mlr_ik_two_bone_1 of each of the m frames of L at once (vectorized), with its operations in
+   its order, so the same bits; a frame that would take one of its rare branches (the hinge
+   along the shin, the shortest arc's slow path) is flagged slow, its outputs undefined. */
+void mlr_ik_two_bone_lanes(mlr_ik_lanes *L, size_t m, int have_axis, double max_ext);
 /* Shortest arc from u to v (as mlr_ik_from_to). */
 void mlr_ik_from_to_1(const double u[3], const double v[3], double q[4]);
 /* out = a * b, out = rotate(q, v) (no aliasing restrictions: computed into temporaries).

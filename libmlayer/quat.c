@@ -6,6 +6,11 @@
 
 #include <math.h>
 
+#if (defined(__x86_64__) || defined(__i386__)) && (defined(__GNUC__) || defined(__clang__))
+#define MLR_X86_DISPATCH 1
+#include <immintrin.h>
+#endif
+
 /* Below this, sinc and atan(r)/r use their Taylor series (error of the first dropped term is
  * below 1e-24 relative). */
 #define SMALL_ARG 1e-4
@@ -166,18 +171,90 @@ mlr_status mlr_quat_normalize_array(const mlr_quat *q, size_t count, mlr_quat *o
     return MLR_OK;
 }
 
+/* Are the m quaternions q all unit to rounding (|q|^2 within MLR_NEAR_UNIT2 of 1), as
+ * mlr__quat_unit_array decides each (the same sum: the same bits)? NaN is not. Vectorized. */
+MLR_CLONES_AVX2
+static int near_unit_block(const mlr_quat *q, size_t m)
+{
+    long far = 0;
+    for (size_t i = 0; i < m; i++) {
+        const double s = q[i].w * q[i].w + q[i].x * q[i].x + q[i].y * q[i].y + q[i].z * q[i].z;
+        far |= !(fabs(s - 1.0) <= MLR_NEAR_UNIT2);
+    }
+    return far == 0;
+}
+
+#ifdef MLR_X86_DISPATCH
+/* near_unit_block of m (a multiple of 4) quaternions, copied to out as they are on the way
+ * (out may be q; where the answer is no, the caller writes out again): four at a time, their
+ * squares transposed so that each |q|^2 is summed in near_unit_block's order (the same bits). */
+__attribute__((target("avx2"))) static int near_unit_copy_avx2(const mlr_quat *q, size_t m,
+                                                               mlr_quat *out)
+{
+    const __m256d one = _mm256_set1_pd(1.0), tol = _mm256_set1_pd(MLR_NEAR_UNIT2),
+                  nosign = _mm256_castsi256_pd(_mm256_set1_epi64x(0x7fffffffffffffffLL));
+    __m256d ok = _mm256_castsi256_pd(_mm256_set1_epi64x(-1));
+    const double *p = &q[0].w;
+    double *o = &out[0].w;
+    for (size_t i = 0; i < 4 * m; i += 16) {
+        const __m256d a = _mm256_loadu_pd(p + i), b = _mm256_loadu_pd(p + i + 4),
+                      c = _mm256_loadu_pd(p + i + 8), d = _mm256_loadu_pd(p + i + 12);
+        const __m256d sa = _mm256_mul_pd(a, a), sb = _mm256_mul_pd(b, b), sc = _mm256_mul_pd(c, c),
+                      sd = _mm256_mul_pd(d, d);
+        const __m256d t0 = _mm256_unpacklo_pd(sa, sb), t1 = _mm256_unpackhi_pd(sa, sb),
+                      t2 = _mm256_unpacklo_pd(sc, sd), t3 = _mm256_unpackhi_pd(sc, sd);
+        const __m256d w = _mm256_permute2f128_pd(t0, t2, 0x20),
+                      x = _mm256_permute2f128_pd(t1, t3, 0x20),
+                      y = _mm256_permute2f128_pd(t0, t2, 0x31),
+                      z = _mm256_permute2f128_pd(t1, t3, 0x31);
+        const __m256d s = _mm256_add_pd(_mm256_add_pd(_mm256_add_pd(w, x), y), z);
+        const __m256d e = _mm256_and_pd(_mm256_sub_pd(s, one), nosign);
+        ok = _mm256_and_pd(ok, _mm256_cmp_pd(e, tol, _CMP_LE_OQ));
+        _mm256_storeu_pd(o + i, a), _mm256_storeu_pd(o + i + 4, b);
+        _mm256_storeu_pd(o + i + 8, c), _mm256_storeu_pd(o + i + 12, d);
+    }
+    return _mm256_movemask_pd(ok) == 0xf;
+}
+#endif
+
+/* Are the m quaternions q all unit to rounding? Then they are copied to out as they are. */
+static int near_unit_copy(const mlr_quat *q, size_t m, mlr_quat *out)
+{
+#ifdef MLR_X86_DISPATCH
+    if (m % 4 == 0 && __builtin_cpu_supports("avx2"))
+        return near_unit_copy_avx2(q, m, out);
+#endif
+    if (!near_unit_block(q, m))
+        return 0;
+    if (out != q)
+        memcpy(out, q, m * sizeof *q);
+    return 1;
+}
+
+/* One quaternion of mlr__quat_unit_array; 0 when it is zero or not finite (identity). */
+static int unit_one(const mlr_quat *q, mlr_quat *out)
+{
+    const mlr_quat p = *q;
+    const double s = p.w * p.w + p.x * p.x + p.y * p.y + p.z * p.z;
+    if (fabs(s - 1.0) <= MLR_NEAR_UNIT2) { /* unit to rounding: as it is */
+        *out = p;
+        return 1;
+    }
+    if (mlr__quat_unit(&p, out))
+        return 1;
+    *out = mlr__quat_identity;
+    return 0;
+}
+
 mlr_status mlr__quat_unit_array(const mlr_quat *q, size_t count, mlr_quat *out)
 {
     int bad = 0;
-    for (size_t i = 0; i < count; i++) {
-        const mlr_quat p = q[i];
-        const double s = p.w * p.w + p.x * p.x + p.y * p.y + p.z * p.z;
-        if (fabs(s - 1.0) <= MLR_NEAR_UNIT2) { /* unit to rounding: as it is */
-            out[i] = p;
-        } else if (!mlr__quat_unit(&p, &out[i])) {
-            out[i] = mlr__quat_identity;
-            bad = 1;
-        }
+    for (size_t i0 = 0; i0 < count; i0 += QBLK) {
+        const size_t m = count - i0 < QBLK ? count - i0 : QBLK;
+        if (near_unit_copy(q + i0, m, out + i0)) /* every one unit to rounding: as it is */
+            continue;
+        for (size_t i = i0; i < i0 + m; i++)
+            bad |= !unit_one(&q[i], &out[i]);
     }
     return bad ? MLR_E_INVALID_ARG : MLR_OK;
 }

@@ -400,6 +400,65 @@ START_TEST(apply_leg_moves_the_end_onto_the_target_through_fk)
 }
 END_TEST
 
+/* mlr_ik_two_bone solves its frames by vectorized batches (the slow frames, the hinge along
+   the shin and the degenerate arcs, one by one): a batch of frames gives each the same bits as
+   that frame alone (the batch's remainder path), with and without a bend axis, on random legs
+   mixed with degenerate ones (the target on the hip, the shin along the hinge, the end on the
+   hip, a target antiparallel to the leg). */
+START_TEST(batches_give_each_frame_the_bits_it_gets_alone)
+{
+    mlr_test_rng r;
+    mlr_test_rng_seed(&r, 1803);
+    enum { N = 203 }; /* batches of 16 and a remainder */
+    double *A = malloc(sizeof(double) * 3 * N * 5), *B = A + 3 * N, *Cc = B + 3 * N,
+           *T = Cc + 3 * N, *X = T + 3 * N;
+    double *rh = malloc(sizeof(double) * 4 * N * 4), *rk = rh + 4 * N, *rh1 = rk + 4 * N,
+           *rk1 = rh1 + 4 * N;
+    ck_assert_ptr_nonnull(A);
+    ck_assert_ptr_nonnull(rh);
+    for (size_t f = 0; f < N; f++) {
+        double *a = A + 3 * f, *b = B + 3 * f, *c = Cc + 3 * f, *t = T + 3 * f, *n = X + 3 * f;
+        double l1, l2;
+        random_leg(&r, a, b, c, n, &l1, &l2, 0.3, 3.0);
+        for (int k = 0; k < 3; k++)
+            t[k] = a[k] + (l1 + l2) * (mlr_test_rng_uniform(&r) - 0.5);
+        switch (f % 9) {
+        case 1:
+            memcpy(t, a, sizeof(double) * 3);
+            break; /* target on the hip */
+        case 3: /* the hinge along the shin */
+            for (int k = 0; k < 3; k++)
+                n[k] = c[k] - b[k];
+            break;
+        case 5:
+            memcpy(c, a, sizeof(double) * 3);
+            break; /* the end on the hip */
+        case 7: /* the target straight behind the hip, away from the end */
+            for (int k = 0; k < 3; k++)
+                t[k] = a[k] - 3.0 * (c[k] - a[k]);
+            break;
+        default:
+            break;
+        }
+    }
+    for (int with_axis = 0; with_axis < 2; with_axis++) {
+        const double *axis = with_axis ? X : NULL;
+        ck_assert_int_eq(mlr_ik_two_bone(N, A, B, Cc, T, axis, 0.999, rh, rk, NULL), MLR_OK);
+        for (size_t f = 0; f < N; f++)
+            ck_assert_int_eq(mlr_ik_two_bone(1, A + 3 * f, B + 3 * f, Cc + 3 * f, T + 3 * f,
+                                             axis ? axis + 3 * f : NULL, 0.999, rh1 + 4 * f,
+                                             rk1 + 4 * f, NULL),
+                             MLR_OK);
+        ck_assert_mem_eq(rh, rh1, sizeof(double) * 4 * N);
+        ck_assert_mem_eq(rk, rk1, sizeof(double) * 4 * N);
+        for (size_t i = 0; i < 4 * N; i++)
+            ck_assert(isfinite(rh[i]) && isfinite(rk[i]));
+    }
+    free(rh);
+    free(A);
+}
+END_TEST
+
 START_TEST(bad_input_gets_the_right_status_and_message)
 {
     double a[3] = {0, 0, 0}, b[3] = {0, -1, 0}, c[3] = {0, -2, 0.5}, t[3] = {0, -1.5, 0};
@@ -445,6 +504,7 @@ static Suite *ik_suite(void)
     tcase_add_test(tc, from_to_turns_u_onto_v);
     tcase_add_test(tc, leg_chains_skip_zero_length_bones);
     tcase_add_test(tc, apply_leg_moves_the_end_onto_the_target_through_fk);
+    tcase_add_test(tc, batches_give_each_frame_the_bits_it_gets_alone);
     tcase_add_test(tc, bad_input_gets_the_right_status_and_message);
     suite_add_tcase(s, tc);
     return s;
