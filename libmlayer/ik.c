@@ -308,6 +308,28 @@ mlr_status mlr_ik_leg_chain(const mlr_rig *rig, int32_t end, int32_t *hip, int32
     return MLR_OK;
 }
 
+/* The frames of a block of bend_terms. */
+#define BEND_BLOCK 64
+
+/* The hip-local bend normals conj(G_hip) ((end - knee) x (hip - knee)) of m <= BEND_BLOCK
+   frames (J joints each) into l (x, y, z by blocks of BEND_BLOCK). Vectorized. */
+MLR_CLONES_AVX2
+static void bend_terms(const double *restrict pos, const double *restrict wrot, size_t J,
+                       size_t hip, size_t knee, size_t end, size_t m, double *restrict l)
+{
+    for (size_t i = 0; i < m; i++) {
+        const double *ph = pos + 3 * (i * J + hip), *pk = pos + 3 * (i * J + knee),
+                     *pe = pos + 3 * (i * J + end), *g = wrot + 4 * (i * J + hip);
+        double ek[3], hk[3], c[3], o[3];
+        for (int k = 0; k < 3; k++)
+            ek[k] = pe[k] - pk[k], hk[k] = ph[k] - pk[k];
+        cross3(ek, hk, c);
+        const double cg[4] = {g[0], -g[1], -g[2], -g[3]};
+        mlr_ik_qrot(cg, c, o);
+        l[i] = o[0], l[BEND_BLOCK + i] = o[1], l[2 * BEND_BLOCK + i] = o[2];
+    }
+}
+
 mlr_status mlr_ik_bend_axis_local(size_t n, size_t J, const double *pos, const double *wrot,
                                   int32_t hip, int32_t knee, int32_t end, double axis[3],
                                   mlr_diag *diag)
@@ -324,17 +346,14 @@ mlr_status mlr_ik_bend_axis_local(size_t n, size_t J, const double *pos, const d
             return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                                 "bend_axis_local: %s joint %d outside [0, %zu)", role[r],
                                 (int)joint[r], J);
-    double s[3] = {0.0, 0.0, 0.0};
-    for (size_t f = 0; f < n; f++) {
-        const double *ph = pos + 3 * (f * J + (size_t)hip), *pk = pos + 3 * (f * J + (size_t)knee),
-                     *pe = pos + 3 * (f * J + (size_t)end), *g = wrot + 4 * (f * J + (size_t)hip);
-        double ek[3], hk[3], c[3], l[3];
-        for (int k = 0; k < 3; k++)
-            ek[k] = pe[k] - pk[k], hk[k] = ph[k] - pk[k];
-        cross3(ek, hk, c);
-        const double cg[4] = {g[0], -g[1], -g[2], -g[3]};
-        mlr_ik_qrot(cg, c, l);
-        s[0] += l[0], s[1] += l[1], s[2] += l[2];
+    /* each frame's term by blocks (vectorized), summed in frame order */
+    double s[3] = {0.0, 0.0, 0.0}, l[3 * BEND_BLOCK];
+    for (size_t f0 = 0; f0 < n; f0 += BEND_BLOCK) {
+        const size_t m = n - f0 < BEND_BLOCK ? n - f0 : BEND_BLOCK;
+        bend_terms(pos + 3 * f0 * J, wrot + 4 * f0 * J, J, (size_t)hip, (size_t)knee, (size_t)end,
+                   m, l);
+        for (size_t i = 0; i < m; i++)
+            s[0] += l[i], s[1] += l[BEND_BLOCK + i], s[2] += l[2 * BEND_BLOCK + i];
     }
     const double ns = norm3(s);
     for (int k = 0; k < 3; k++)
