@@ -166,6 +166,33 @@ mlr_status mlr_rig_point_positions(const mlr_rig *rig, size_t n_frames, const do
     return MLR_OK;
 }
 
+/* The frames of a block of up_extents_block. */
+#define EXTENT_BLOCK 64
+
+/* The extents max - min of the m <= EXTENT_BLOCK frames' J values p[3 (f J + j)] into ext
+ * (frames by lanes, joints one after the other: the same min and max as a scan); 0 when one is
+ * not finite. Vectorized. */
+MLR_CLONES_AVX2
+static int up_extents_block(const double *restrict p, size_t J, size_t m, double *restrict ext)
+{
+    double lo[EXTENT_BLOCK], hi[EXTENT_BLOCK], chk[EXTENT_BLOCK];
+    for (size_t f = 0; f < m; f++)
+        lo[f] = hi[f] = p[3 * f * J], chk[f] = 0.0;
+    for (size_t j = 0; j < J; j++)
+        for (size_t f = 0; f < m; f++) {
+            const double y = p[3 * (f * J + j)];
+            chk[f] += y * 0.0; /* NaN for a NaN or an infinity, 0 otherwise */
+            lo[f] = y < lo[f] ? y : lo[f];
+            hi[f] = y > hi[f] ? y : hi[f];
+        }
+    int ok = 1;
+    for (size_t f = 0; f < m; f++) {
+        ok &= chk[f] == 0.0;
+        ext[f] = hi[f] - lo[f];
+    }
+    return ok;
+}
+
 mlr_status mlr_rig_body_height(size_t n_frames, size_t n_joints, const double *world_pos, int up,
                                double *height, const mlr_allocator *alloc, mlr_diag *diag)
 {
@@ -190,22 +217,19 @@ mlr_status mlr_rig_body_height(size_t n_frames, size_t n_joints, const double *w
     double *ext = mlr_alloc(&a, bytes);
     if (!ext)
         return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "body_height: out of memory");
-    for (size_t f = 0; f < n_frames; f++) {
-        const double *p = world_pos + 3 * f * n_joints + (size_t)up;
-        double lo = p[0], hi = p[0];
-        for (size_t j = 0; j < n_joints; j++) {
-            const double y = p[3 * j];
-            if (!isfinite(y)) {
-                mlr_free(&a, ext, bytes);
-                return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                    "body_height: position of joint %zu at frame %zu is not "
-                                    "finite",
-                                    j, f);
-            }
-            lo = y < lo ? y : lo;
-            hi = y > hi ? y : hi;
-        }
-        ext[f] = hi - lo;
+    for (size_t f0 = 0; f0 < n_frames; f0 += EXTENT_BLOCK) {
+        const size_t m = n_frames - f0 < EXTENT_BLOCK ? n_frames - f0 : EXTENT_BLOCK;
+        if (up_extents_block(world_pos + 3 * f0 * n_joints + (size_t)up, n_joints, m, ext + f0))
+            continue;
+        for (size_t f = f0; f < f0 + m; f++) /* the first value not finite, for the message */
+            for (size_t j = 0; j < n_joints; j++)
+                if (!isfinite(world_pos[3 * (f * n_joints + j) + (size_t)up])) {
+                    mlr_free(&a, ext, bytes);
+                    return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                        "body_height: position of joint %zu at frame %zu is not "
+                                        "finite",
+                                        j, f);
+                }
     }
     /* numpy's median: the mean of the two middle values for an even count */
     *height = mlr_median(ext, n_frames);

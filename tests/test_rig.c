@@ -83,6 +83,12 @@ START_TEST(end_site_positions_follow_the_joint_rotation)
 }
 END_TEST
 
+static int cmp_double(const void *a, const void *b)
+{
+    const double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
 START_TEST(body_height_is_the_median_extent_on_the_up_axis)
 {
     /* 4 frames of 2 joints: extents along Z of 1, 3, 2, 10 -> median 2.5; along Y always 0 */
@@ -103,6 +109,29 @@ START_TEST(body_height_is_the_median_extent_on_the_up_axis)
     ck_assert_int_eq(mlr_rig_body_height(4, 2, pos, MLR_AXIS_Y, &h, NULL, &d), MLR_E_INVALID_ARG);
     ck_assert_ptr_nonnull(strstr(d.message, "frame 1"));
     pos[7] = 0;
+    /* 201 frames of 7 joints (blocks of 64 frames and a remainder): the median of each frame's
+       extent, against a plain scan; an infinity named by its joint and frame */
+    enum { NF = 201, NJ = 7 };
+    double *big = malloc(sizeof(double) * 3 * NF * NJ), ref_ext[NF];
+    ck_assert_ptr_nonnull(big);
+    mlr_test_rng r;
+    mlr_test_rng_seed(&r, 86);
+    for (size_t i = 0; i < 3 * NF * NJ; i++)
+        big[i] = mlr_test_rng_normal(&r);
+    for (size_t f = 0; f < NF; f++) {
+        double lo = INFINITY, hi = -INFINITY;
+        for (size_t j = 0; j < NJ; j++)
+            lo = fmin(lo, big[3 * (f * NJ + j) + 1]), hi = fmax(hi, big[3 * (f * NJ + j) + 1]);
+        ref_ext[f] = hi - lo;
+    }
+    qsort(ref_ext, NF, sizeof ref_ext[0], cmp_double);
+    ck_assert_int_eq(mlr_rig_body_height(NF, NJ, big, MLR_AXIS_Y, &h, NULL, &d), MLR_OK);
+    ck_assert_double_eq(h, ref_ext[NF / 2]);
+    big[3 * (130 * NJ + 5) + 1] = INFINITY;
+    ck_assert_int_eq(mlr_rig_body_height(NF, NJ, big, MLR_AXIS_Y, &h, NULL, &d),
+                     MLR_E_INVALID_ARG);
+    ck_assert_ptr_nonnull(strstr(d.message, "joint 5 at frame 130"));
+    free(big);
     mlr_test_allocator ta;
     mlr_test_allocator_init(&ta, 0);
     ck_assert_int_eq(mlr_rig_body_height(4, 2, pos, MLR_AXIS_Y, &h, &ta.base, &d),
