@@ -78,13 +78,7 @@ static mlr_status low_hands(const mlr_rig *rig, size_t N, const double *world_po
     if (!ground)
         return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "find_feet: out of memory");
     double *rel = ground + N, *tmp = rel + N * n_ankles;
-    for (size_t f = 0; f < N; f++) {
-        const double *p = world_pos + 3 * f * J + (size_t)up;
-        double lo = p[0];
-        for (size_t j = 1; j < J; j++)
-            lo = p[3 * j] < lo ? p[3 * j] : lo;
-        ground[f] = lo;
-    }
+    (void)mlr_rig_up_range(N, J, world_pos, up, ground, NULL); /* the ground of each frame */
     size_t i = 0;
     for (size_t f = 0; f < N; f++)
         for (size_t j = 0; j < J; j++)

@@ -151,6 +151,12 @@ static inline void mlr_quat_from_euler_half(double ca, double sa, double cb, dou
  * i, s and k (rig.c). */
 int mlr_name_matches(const char *name, const char *const *patterns);
 
+/* rig.c: the lowest and the highest coordinate along up of the n_joints positions of each
+   frame into lo and hi (n_frames each; either may be NULL); the index f n_joints + j of the
+   first value not finite (its frame's lo and hi are then undefined), or n_frames n_joints. */
+size_t mlr_rig_up_range(size_t n_frames, size_t n_joints, const double *world_pos, int up,
+                        double *lo, double *hi);
+
 /* values.c: numpy's median of n >= 1 finite values, in O(n) on average (reorders v); the
    selection behind it: v[0..n) (n >= 1, finite) reordered so that v[k] is the value a sort
    would put there, those before it no larger, those after no smaller; the index of the first

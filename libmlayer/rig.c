@@ -166,16 +166,17 @@ mlr_status mlr_rig_point_positions(const mlr_rig *rig, size_t n_frames, const do
     return MLR_OK;
 }
 
-/* The frames of a block of up_extents_block. */
-#define EXTENT_BLOCK 64
+/* The frames of a block of up_range_block. */
+#define RANGE_BLOCK 64
 
-/* The extents max - min of the m <= EXTENT_BLOCK frames' J values p[3 (f J + j)] into ext
- * (frames by lanes, joints one after the other: the same min and max as a scan); 0 when one is
- * not finite. Vectorized. */
+/* The lowest and highest of the m <= RANGE_BLOCK frames' J values p[3 (f J + j)] (frames by
+ * lanes, joints one after the other: the same min and max as a scan); 0 when one is not
+ * finite. Vectorized. */
 MLR_CLONES_AVX2
-static int up_extents_block(const double *restrict p, size_t J, size_t m, double *restrict ext)
+static int up_range_block(const double *restrict p, size_t J, size_t m, double *restrict lo,
+                          double *restrict hi)
 {
-    double lo[EXTENT_BLOCK], hi[EXTENT_BLOCK], chk[EXTENT_BLOCK];
+    double chk[RANGE_BLOCK];
     for (size_t f = 0; f < m; f++)
         lo[f] = hi[f] = p[3 * f * J], chk[f] = 0.0;
     for (size_t j = 0; j < J; j++)
@@ -186,11 +187,31 @@ static int up_extents_block(const double *restrict p, size_t J, size_t m, double
             hi[f] = y > hi[f] ? y : hi[f];
         }
     int ok = 1;
-    for (size_t f = 0; f < m; f++) {
+    for (size_t f = 0; f < m; f++)
         ok &= chk[f] == 0.0;
-        ext[f] = hi[f] - lo[f];
-    }
     return ok;
+}
+
+size_t mlr_rig_up_range(size_t n_frames, size_t n_joints, const double *world_pos, int up,
+                        double *lo, double *hi)
+{
+    for (size_t f0 = 0; f0 < n_frames; f0 += RANGE_BLOCK) {
+        const size_t m = n_frames - f0 < RANGE_BLOCK ? n_frames - f0 : RANGE_BLOCK;
+        double l[RANGE_BLOCK], h[RANGE_BLOCK];
+        const int ok =
+            up_range_block(world_pos + 3 * f0 * n_joints + (size_t)up, n_joints, m, l, h);
+        if (lo)
+            memcpy(lo + f0, l, m * sizeof *lo);
+        if (hi)
+            memcpy(hi + f0, h, m * sizeof *hi);
+        if (ok)
+            continue;
+        for (size_t f = f0; f < f0 + m; f++) /* the first value not finite */
+            for (size_t j = 0; j < n_joints; j++)
+                if (!isfinite(world_pos[3 * (f * n_joints + j) + (size_t)up]))
+                    return f * n_joints + j;
+    }
+    return n_frames * n_joints;
 }
 
 mlr_status mlr_rig_body_height(size_t n_frames, size_t n_joints, const double *world_pos, int up,
@@ -209,28 +230,23 @@ mlr_status mlr_rig_body_height(size_t n_frames, size_t n_joints, const double *w
                             "0 (X), 1 (Y) or 2 (Z)",
                             up);
     size_t bytes;
-    if (mlr_mul_size(n_frames, sizeof(double), &bytes) != MLR_OK)
+    if (mlr_mul_size(n_frames, 2 * sizeof(double), &bytes) != MLR_OK)
         return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0,
                             "body_height: %zu frames of scratch overflow a size", n_frames);
     mlr_allocator a;
     mlr_allocator_resolve(alloc, &a);
-    double *ext = mlr_alloc(&a, bytes);
+    double *ext = mlr_alloc(&a, bytes), *lo = ext + n_frames; /* the highest, then the lowest */
     if (!ext)
         return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "body_height: out of memory");
-    for (size_t f0 = 0; f0 < n_frames; f0 += EXTENT_BLOCK) {
-        const size_t m = n_frames - f0 < EXTENT_BLOCK ? n_frames - f0 : EXTENT_BLOCK;
-        if (up_extents_block(world_pos + 3 * f0 * n_joints + (size_t)up, n_joints, m, ext + f0))
-            continue;
-        for (size_t f = f0; f < f0 + m; f++) /* the first value not finite, for the message */
-            for (size_t j = 0; j < n_joints; j++)
-                if (!isfinite(world_pos[3 * (f * n_joints + j) + (size_t)up])) {
-                    mlr_free(&a, ext, bytes);
-                    return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                        "body_height: position of joint %zu at frame %zu is not "
-                                        "finite",
-                                        j, f);
-                }
+    const size_t bad = mlr_rig_up_range(n_frames, n_joints, world_pos, up, lo, ext);
+    if (bad < n_frames * n_joints) {
+        mlr_free(&a, ext, bytes);
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "body_height: position of joint %zu at frame %zu is not finite",
+                            bad % n_joints, bad / n_joints);
     }
+    for (size_t f = 0; f < n_frames; f++)
+        ext[f] -= lo[f];
     /* numpy's median: the mean of the two middle values for an even count */
     *height = mlr_median(ext, n_frames);
     mlr_free(&a, ext, bytes);

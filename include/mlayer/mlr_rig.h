@@ -81,10 +81,10 @@ MLR_API mlr_status mlr_rig_point_positions(const mlr_rig *rig, size_t n_frames,
  * @param world_pos  [in] N x J x 3, N >= 1
  * @param up         [in] an mlr_axis
  * @param height     [out] the height (0 for a flat skeleton)
- * @param alloc      [in] for N doubles of scratch; NULL for malloc/free
+ * @param alloc      [in] for 2 N doubles of scratch; NULL for malloc/free
  * @return MLR_OK; MLR_E_INVALID_ARG (N == 0, J == 0, bad axis, non-finite positions);
  *         MLR_E_NO_MEMORY
- * Allocates: N doubles, released before return. Threads: any.
+ * Allocates: 2 N doubles, released before return. Threads: any.
  */
 MLR_API mlr_status mlr_rig_body_height(size_t n_frames, size_t n_joints, const double *world_pos,
                                        int up, double *height, const mlr_allocator *alloc,
