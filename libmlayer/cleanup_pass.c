@@ -413,17 +413,35 @@ mlr_status cleanup__pass(cleanup_state *cu)
     uint8_t *dirty = cu->w->dirty, *mask = cu->mask;
     mlr_status st;
     fk_legs(cu);
+    /* the frames whose root moved: all the needed joints, MLR_FK_BLOCK frames at a time where
+       a run of them allows (the same values as frame by frame) */
+    const mlr_fk_list fl = cleanup__fk_list_of(cu->rig, cu->need_list, cu->n_need, cu->tidx);
+    const size_t P = cu->rig->n_trans;
     for (size_t f = 0; f < N;) {
         if (!dirty[f]) {
             f++;
             continue;
         }
-        size_t e = f; /* the run of dirty frames [f, e) */
-        for (; e < N && dirty[e]; e++)
-            if (dirty[e] & CLEANUP_DIRTY_ALL)
-                cleanup__fk_masked_frame(cu->rig, e, cu->need_list, cu->n_need, cu->tidx,
+        size_t e = f, run = 0; /* the run of dirty frames [f, e); of those moved, not done */
+        for (; e <= N; e++) {
+            if (e < N && dirty[e] && (dirty[e] & CLEANUP_DIRTY_ALL)) {
+                if (++run < MLR_FK_BLOCK)
+                    continue;
+                const size_t g0 = e + 1 - MLR_FK_BLOCK;
+                mlr_fk_list_block(&fl, cu->out_root_pos + 3 * g0, cu->out_rot + 4 * J * g0,
+                                  P ? cu->trans + 3 * P * g0 : NULL, cu->pos + 3 * J * g0,
+                                  cu->wrot + 4 * J * g0, cu->fk_s);
+                run = 0;
+                continue;
+            }
+            for (size_t g = e - run; g < e; g++)
+                cleanup__fk_masked_frame(cu->rig, g, cu->need_list, cu->n_need, cu->tidx,
                                          cu->out_root_pos, cu->out_rot, cu->trans,
-                                         cu->pos + 3 * J * e, cu->wrot + 4 * J * e);
+                                         cu->pos + 3 * J * g, cu->wrot + 4 * J * g);
+            run = 0;
+            if (e == N || !dirty[e])
+                break;
+        }
         if ((st = mlr_rig_point_positions(cu->rig, e - f, cu->pos + 3 * J * f,
                                           cu->wrot + 4 * J * f, C, cu->joints, cu->end_sites,
                                           cu->P + 3 * C * f, NULL)) != MLR_OK)

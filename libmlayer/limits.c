@@ -1287,6 +1287,11 @@ static void limit_block(const mlr_limits *lim, size_t j, const joint_bounds *b, 
     double hy[APPLY_FB], hx[APPLY_FB];
     int inside[APPLY_FB + 1];
     const int pre = hinge ? b->h_fast : b->fast > 0;
+    if (mask && !any_limited(mask + f0 * J + j, J, nf)) { /* nothing limited in the block: what
+                                                             its frames' loop leaves */
+        *prev = (prev_angle){NAN, 0, {1, 0, 0, 0}, NULL};
+        return;
+    }
     if (pre) { /* a run of frames inside ends at one not limited, or at the end */
         inside_block(rot + f0 * J + j, J, nf, g, b, hy, hx, inside);
         for (size_t f = f0; mask && f < f0 + nf; f++)
