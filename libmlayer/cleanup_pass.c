@@ -424,7 +424,7 @@ mlr_status cleanup__pass(cleanup_state *cu)
         }
         size_t e = f, run = 0; /* the run of dirty frames [f, e); of those moved, not done */
         for (; e <= N; e++) {
-            if (e < N && dirty[e] && (dirty[e] & CLEANUP_DIRTY_ALL)) {
+            if (e < N && (dirty[e] & CLEANUP_DIRTY_ALL)) {
                 if (++run < MLR_FK_BLOCK)
                     continue;
                 const size_t g0 = e + 1 - MLR_FK_BLOCK;

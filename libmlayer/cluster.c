@@ -4,8 +4,7 @@
 
 #include <math.h>
 
-#if (defined(__x86_64__) || defined(__i386__)) && (defined(__GNUC__) || defined(__clang__))
-#define MLR_X86_DISPATCH 1
+#ifdef MLR_X86_DISPATCH
 #include <immintrin.h>
 #endif
 

@@ -22,6 +22,12 @@
 #define MLR_CLONES_AVX512
 #endif
 
+/* x86 with GCC or Clang: kernels with AVX2 or AVX-512 intrinsics behind __builtin_cpu_supports
+ * (the files that have them include <immintrin.h> under it). */
+#if (defined(__x86_64__) || defined(__i386__)) && (defined(__GNUC__) || defined(__clang__))
+#define MLR_X86_DISPATCH 1
+#endif
+
 /* Allocation through a (possibly NULL) allocator. mlr_alloc returns NULL on failure or when
  * size is 0 is not requested; callers never ask for 0 bytes. */
 void mlr_allocator_resolve(const mlr_allocator *in, mlr_allocator *out);
