@@ -148,6 +148,7 @@ typedef struct cleanup_foot {
     size_t n_cols, n_own;
     size_t cols[16]; /* own first, then the placed points */
     uint8_t *U, *F, *K; /* in contact, a floor frame, in a kept contact (no IK there) */
+    uint8_t *R;         /* a ramp frame (also U): a pinned run's offset enters or leaves */
     uint8_t *S;         /* this pass: the leg already reaches its target (no IK there) */
     double *at, *tt, *lift;
     int active;
@@ -306,7 +307,8 @@ typedef struct cleanup_state {
     cleanup_work *w;
     const mlr_cleanup_hook *hook; /* or NULL */
     uint8_t *hook_mask;           /* N x J: the rotations the hook changes */
-    int hook_on;     /* the hook's stages in this pass: 1 before the spread, 2 after it */
+    int hook_on;     /* the hook's stages in this pass: 1 before the spread, 2 after it, 4 on
+                        the ramps' frames before the spread (a pass past ik_passes) */
 } cleanup_state;
 
 /* The root shift (up to 5 rounds of needs, widened and smoothed), added to out_root_pos;

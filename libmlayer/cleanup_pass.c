@@ -333,11 +333,16 @@ static void place_toes(const cleanup_state *cu)
 }
 
 /* The hook on the legs' rotations a pass set: each leg's hip and knee, and its anchor where
-   it has a placed point. Before the spread (blend 0) on the constrained frames solve_legs and
-   place_toes solved, in newr; after it (blend 1) on the frames of its blend only (the others
-   of the frames the spread changed), in out_rot. */
-static void run_hook(const cleanup_state *cu, int blend)
+   it has a placed point. Before the spread (stage HOOK_IK) on the constrained frames
+   solve_legs and place_toes solved, in newr; after it (HOOK_BLEND) on the frames of its blend
+   only (the others of the frames the spread changed), in out_rot; in the passes that do not
+   limit the IK (HOOK_RAMPS), on the ramps' frames alone, in newr: a ramp's target need not be
+   met exactly, its legs within their ranges do (without, the second pass's IK took the dog's
+   front legs 100 degrees past their swing range at alpha 3). */
+enum { HOOK_IK = 0, HOOK_BLEND = 1, HOOK_RAMPS = 2 };
+static void run_hook(const cleanup_state *cu, int stage)
 {
+    const int blend = stage == HOOK_BLEND;
     const size_t N = cu->N, J = cu->J;
     const uint8_t *dirty = cu->w->dirty;
     uint8_t *mask = cu->hook_mask;
@@ -360,7 +365,8 @@ static void run_hook(const cleanup_state *cu, int blend)
         }
         for (size_t f = 0; f < N; f++) {
             const int constrained = ft->U[f] || ft->F[f];
-            if (blend ? constrained || !(dirty[f] & bit) : !constrained || ft->K[f] || ft->S[f])
+            if (blend ? constrained || !(dirty[f] & bit)
+                      : !(stage == HOOK_RAMPS ? ft->R[f] : constrained) || ft->K[f] || ft->S[f])
                 continue;
             uint8_t *m = mask + f * J;
             m[ft->hip] = m[ft->knee] = 1;
@@ -454,7 +460,9 @@ mlr_status cleanup__pass(cleanup_state *cu)
     solve_legs(cu);
     place_toes(cu);
     if (cu->hook_on & 1)
-        run_hook(cu, 0);
+        run_hook(cu, HOOK_IK);
+    else if (cu->hook_on & 4)
+        run_hook(cu, HOOK_RAMPS);
     /* spread per leg */
     for (size_t k = 0; k < cu->nf; k++) {
         const cleanup_foot *ft = &cu->feet[k];
@@ -474,6 +482,6 @@ mlr_status cleanup__pass(cleanup_state *cu)
             return st;
     }
     if (cu->hook_on & 2)
-        run_hook(cu, 1);
+        run_hook(cu, HOOK_BLEND);
     return MLR_OK;
 }

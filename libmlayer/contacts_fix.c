@@ -238,7 +238,54 @@ typedef struct contact_run {
     size_t k, s, e;
     double own, ref, raw; /* raw: the reference's unsmoothed points' sliding */
     int keep;
+    int still; /* kept because its own points stay put (run_still): KEEP_TOTAL leaves it */
 } contact_run;
+
+/* A run whose own contact points neither move nor sink is left as it is: every point stays
+   within STILL_LEG times the leg's length of its mean horizontal place over its contact
+   frames of the run, and no lower than its floor limit less that tolerance. Comparing path
+   lengths with the reference's alone pinned clean captures, whose path lengths at 120 fps are
+   jitter (CMU 10_01 denoised: a standing foot's 4.5 s contact pinned, the leg moved by 2.5% of
+   the body's height where the foot had stayed within 0.4%). */
+#define STILL_LEG 0.02
+
+static int run_still(const cleanup_state *cu, const cleanup_foot *ft, size_t s, size_t e)
+{
+    const size_t J = cu->J, C = cu->C;
+    const int up = cu->up;
+    const double *P = cu->P;
+    const double *ph = cu->pos + 3 * (s * J + (size_t)ft->hip),
+                 *pk = cu->pos + 3 * (s * J + (size_t)ft->knee),
+                 *pa = cu->pos + 3 * (s * J + (size_t)ft->anchor);
+    const double tol = STILL_LEG * (cleanup__dist3(ph, pk) + cleanup__dist3(pk, pa));
+    for (size_t i = 0; i < ft->n_cols; i++) {
+        const size_t c = ft->cols[i];
+        double mean[3] = {0, 0, 0};
+        size_t n = 0;
+        for (size_t f = s; f < e; f++) {
+            if (!cu->contacts[f * C + c])
+                continue;
+            for (int d = 0; d < 3; d++)
+                mean[d] += P[3 * (f * C + c) + (size_t)d];
+            n++;
+            if (cu->floor_active && P[3 * (f * C + c) + (size_t)up] < cu->lim[f * C + c] - tol)
+                return 0;
+        }
+        for (size_t f = s; n && f < e; f++) {
+            if (!cu->contacts[f * C + c])
+                continue;
+            double d2 = 0.0;
+            for (int d = 0; d < 3; d++)
+                if (d != up) {
+                    const double x = P[3 * (f * C + c) + (size_t)d] - mean[d] / (double)n;
+                    d2 += x * x;
+                }
+            if (d2 > tol * tol)
+                return 0;
+        }
+    }
+    return 1;
+}
 
 /* run_sliding of the reference's unsmoothed points (their steps) over the run [s, e). */
 static double run_sliding_raw(const double *step, const uint8_t *contacts, size_t C,
@@ -272,7 +319,7 @@ static size_t find_runs(const cleanup_state *cu, contact_run *runs)
             while (e < N && ft->U[e])
                 e++;
             contact_run *r = &runs[n++];
-            r->k = k, r->s = s, r->e = e, r->keep = 0;
+            r->k = k, r->s = s, r->e = e, r->keep = r->still = 0;
             r->own = r->ref = r->raw = 0.0;
             if (cu->have_ref && cfg->keep_stiller > 0.0) {
                 r->own = run_sliding(cu->P, cu->contacts, C, ft, s, e, up);
@@ -282,6 +329,8 @@ static size_t find_runs(const cleanup_state *cu, contact_run *runs)
                    frames stay held, with no correction, so IK is not needed there) */
                 r->keep = r->own <= cfg->keep_stiller * r->ref;
             }
+            if (cfg->keep_stiller > 0.0 && run_still(cu, ft, s, e))
+                r->keep = r->still = 1;
             s = e;
         }
     }
@@ -310,7 +359,7 @@ static void keep_total(contact_run *runs, size_t n, contact_run **order)
     for (size_t i = 0; i < n; i++) {
         total += runs[i].keep ? runs[i].own : runs[i].ref;
         ref += runs[i].raw;
-        if (runs[i].keep && runs[i].own > runs[i].ref)
+        if (runs[i].keep && !runs[i].still && runs[i].own > runs[i].ref)
             order[m++] = &runs[i];
     }
     qsort(order, m, sizeof *order, by_excess);
@@ -333,6 +382,167 @@ static void pin_runs(cleanup_state *cu, const contact_run *runs, size_t n)
             pin_run_to_reference(cu, ft, r->k, r->s, r->e);
         else
             pin_run_to_means(cu, ft, r->s, r->e);
+    }
+}
+
+/* The ramps into and out of the pinned runs. A pinned run moves its foot by an offset at its
+ * first and last frame (its targets minus the synthesized points there); that offset enters and
+ * leaves through the frames around the run, which become constrained too (U), with targets on
+ * the synthesized trajectory plus the offset times a C2 weight (smootherstep, 1 at the run's
+ * edge, 0 at the ramp's far end), raised to the floor where the points would go below it. The
+ * targets are then smooth in time, and so are the IK's rotations that reach them, where the
+ * spread alone joined a run's held frames to their neighbours' in one frame when those were
+ * held too (a floor frame before a touch-down: the ankle jumped 12% of the body's height in
+ * one frame on CMU 131_01 at alpha 0.5).
+ *
+ * A ramp is long enough that the offset's acceleration stays within RAMP_BUDGET of the
+ * synthesized feet's largest (smootherstep's second derivative is at most 10 / sqrt(3) per
+ * ramp length squared), at least the blend option's, at most RAMP_MAX seconds; two ramps that
+ * would overlap in a gap between runs share it, with weights that add up to 1 there. */
+#define RAMP_BUDGET 0.35
+#define RAMP_MAX 1.0
+#define RAMP_S2MAX 5.773502691896258 /* max |S''| of smootherstep, 10 / sqrt(3) */
+
+static double smootherstep(double x)
+{
+    x = x < 0.0 ? 0.0 : x > 1.0 ? 1.0 : x;
+    return x * x * x * (x * (6.0 * x - 15.0) + 10.0);
+}
+
+/* The largest second difference of the contact points (P, N x C x 3) over frames and points:
+   the synthesized feet's largest acceleration, per frame squared. */
+static double points_max_accel(const double *P, size_t N, size_t C)
+{
+    double m = 0.0;
+    for (size_t f = 1; f + 1 < N; f++)
+        for (size_t c = 0; c < C; c++) {
+            double a2 = 0.0;
+            for (int d = 0; d < 3; d++) {
+                const double a = P[3 * ((f + 1) * C + c) + (size_t)d] -
+                                 2.0 * P[3 * (f * C + c) + (size_t)d] +
+                                 P[3 * ((f - 1) * C + c) + (size_t)d];
+                a2 += a * a;
+            }
+            m = mlr_fmax(m, sqrt(a2));
+        }
+    return m;
+}
+
+/* The ramp (in frames) that an offset of size d needs. */
+static double ramp_frames(const cleanup_state *cu, double d, double budget)
+{
+    if (!(d > 0.0))
+        return 0.0;
+    const double lo = cu->cfg->blend * cu->fps, hi = RAMP_MAX * cu->fps;
+    double b = budget > 0.0 ? sqrt(RAMP_S2MAX * d / budget) : hi;
+    b = b < lo ? lo : b;
+    return b > hi ? hi : b;
+}
+
+/* The offsets of foot k's anchor and placed point at frame f of a pinned run (its targets
+   minus the synthesized points); returns the larger norm. */
+static double run_offset(const cleanup_state *cu, const cleanup_foot *ft, size_t f, double *da,
+                         double *dt)
+{
+    const size_t J = cu->J, C = cu->C;
+    const int has_toe = ft->n_cols > ft->n_own;
+    const double *pa = cu->pos + 3 * (f * J + (size_t)ft->anchor), *sh = cu->shift + 3 * f;
+    double n = 0.0;
+    for (int d = 0; d < 3; d++)
+        da[d] = ft->at[3 * f + (size_t)d] - (pa[d] + sh[d]);
+    n = sqrt(da[0] * da[0] + da[1] * da[1] + da[2] * da[2]);
+    dt[0] = dt[1] = dt[2] = 0.0;
+    if (has_toe) {
+        const double *pt = cu->P + 3 * (f * C + ft->cols[ft->n_own]);
+        for (int d = 0; d < 3; d++)
+            dt[d] = ft->tt[3 * f + (size_t)d] - (pt[d] + sh[d]);
+        n = mlr_fmax(n, sqrt(dt[0] * dt[0] + dt[1] * dt[1] + dt[2] * dt[2]));
+    }
+    return n;
+}
+
+/* The targets of a ramp frame f of foot k: the synthesized points plus w times the offsets
+   (da, dt), raised so that no point of the foot goes below its floor limit. */
+static void ramp_target(const cleanup_state *cu, cleanup_foot *ft, size_t f, double wa,
+                        const double *da, const double *dta, double wb, const double *db,
+                        const double *dtb)
+{
+    const size_t J = cu->J, C = cu->C;
+    const int up = cu->up, has_toe = ft->n_cols > ft->n_own;
+    const double *pa = cu->pos + 3 * (f * J + (size_t)ft->anchor);
+    const double *pt = has_toe ? cu->P + 3 * (f * C + ft->cols[ft->n_own]) : NULL;
+    const double *sh = cu->shift + 3 * f;
+    for (int d = 0; d < 3; d++) {
+        ft->at[3 * f + (size_t)d] = pa[d] + sh[d] + wa * da[d] + wb * db[d];
+        if (has_toe)
+            ft->tt[3 * f + (size_t)d] = pt[d] + sh[d] + wa * dta[d] + wb * dtb[d];
+    }
+    if (!cu->floor_active)
+        return;
+    const double ra = wa * da[up] + wb * db[up], rt = wa * dta[up] + wb * dtb[up];
+    double lift = 0.0;
+    for (size_t i = 0; i < ft->n_cols; i++) {
+        const size_t c = ft->cols[i];
+        const double h =
+            cu->P[3 * (f * C + c) + (size_t)up] + sh[up] + (i < ft->n_own ? ra : rt);
+        lift = mlr_fmax(lift, cu->lim[f * C + c] - h);
+    }
+    ft->at[3 * f + (size_t)up] += lift;
+    if (has_toe)
+        ft->tt[3 * f + (size_t)up] += lift;
+}
+
+/* The ramps of every foot's contact runs (runs in order of foot, then frame): the frames of a
+   ramp become constrained (U) with ramp_target's targets. After the root shift: the targets
+   follow the synthesized points moved with the root (cu->shift), as the free frames do. */
+static void ramp_runs(cleanup_state *cu, const contact_run *runs, size_t n)
+{
+    const size_t N = cu->N;
+    const double budget = RAMP_BUDGET * points_max_accel(cu->P, N, cu->C);
+    static const double zero[3] = {0.0, 0.0, 0.0};
+    for (size_t i = 0; i < n; i++) {
+        const contact_run *r = &runs[i];
+        cleanup_foot *ft = &cu->feet[r->k];
+        /* the gap before run r (after the foot's previous run, or from the clip's start) */
+        const contact_run *p = i > 0 && runs[i - 1].k == r->k ? &runs[i - 1] : NULL;
+        const contact_run *nx = i + 1 < n && runs[i + 1].k == r->k ? &runs[i + 1] : NULL;
+        double da_in[3], dt_in[3], da_out[3], dt_out[3];
+        /* (a kept run's targets are its synthesized points: its offset is the root shift's,
+           undone there by the IK where the root moved) */
+        const double din = run_offset(cu, ft, r->s, da_in, dt_in);
+        const double dout = run_offset(cu, ft, r->e - 1, da_out, dt_out);
+        /* before the run: the previous run's ramp out shares the gap */
+        double pa_out[3] = {0, 0, 0}, pt_out[3] = {0, 0, 0}, dprev = 0.0;
+        if (p)
+            dprev = run_offset(cu, ft, p->e - 1, pa_out, pt_out);
+        double bin = ramp_frames(cu, din, budget), bprev = ramp_frames(cu, dprev, budget);
+        const size_t g0 = p ? p->e : 0; /* the gap's first free frame */
+        const double L = p ? (double)(r->s - (p->e - 1)) : INFINITY;
+        if (p && bin + bprev > L) { /* the two ramps share the gap */
+            bin = bin > 0.0 ? (bprev > 0.0 ? L : mlr_fmin(bin, L)) : 0.0;
+            bprev = bprev > 0.0 ? (din > 0.0 ? L : mlr_fmin(bprev, L)) : 0.0;
+        }
+        for (size_t f = g0; f < r->s; f++) {
+            const double wb = bin > 0.0 ? 1.0 - smootherstep((double)(r->s - f) / bin) : 0.0;
+            const double wa =
+                p && bprev > 0.0 ? 1.0 - smootherstep((double)(f - (p->e - 1)) / bprev) : 0.0;
+            if (wa <= 0.0 && wb <= 0.0)
+                continue;
+            ramp_target(cu, ft, f, wa, p ? pa_out : zero, p ? pt_out : zero, wb,
+                        din > 0.0 ? da_in : zero, din > 0.0 ? dt_in : zero);
+            ft->U[f] = ft->R[f] = 1;
+        }
+        /* after the last run of the foot: its ramp out to the clip's end */
+        if (!nx && dout > 0.0) {
+            const double bout = ramp_frames(cu, dout, budget);
+            for (size_t f = r->e; f < N; f++) {
+                const double wa = 1.0 - smootherstep((double)(f - (r->e - 1)) / bout);
+                if (wa <= 0.0)
+                    break;
+                ramp_target(cu, ft, f, wa, da_out, dt_out, 0.0, zero, zero);
+                ft->U[f] = ft->R[f] = 1;
+            }
+        }
     }
 }
 
@@ -436,8 +646,10 @@ static mlr_status cleanup_floor(cleanup_state *cu, const mlr_cleanup_ref *pre, c
     return MLR_OK;
 }
 
-/* Each foot's contact frames, leg and targets (set_foot_targets). */
-static mlr_status cleanup_targets(cleanup_state *cu, cleanup_arena *ar, mlr_diag *diag)
+/* Each foot's contact frames, leg and targets (set_foot_targets); the contact runs into
+   *runs_out (*n_runs_out of them, in the arena). */
+static mlr_status cleanup_targets(cleanup_state *cu, cleanup_arena *ar, contact_run **runs_out,
+                                  size_t *n_runs_out, mlr_diag *diag)
 {
     const size_t N = cu->N, nf = cu->nf;
     cu->anyU = cleanup__take(ar, N, 1);
@@ -446,13 +658,14 @@ static mlr_status cleanup_targets(cleanup_state *cu, cleanup_arena *ar, mlr_diag
         return fail_memory(ar, diag);
     /* the feet's arrays, one block each for all feet (the arena holds CLEANUP_MAX_BLOCKS
        blocks) */
-    uint8_t *all_uf = cleanup__take(ar, N * nf, 4);
+    uint8_t *all_uf = cleanup__take(ar, N * nf, 5);
     double *all_at = cleanup__take(ar, N * nf, 7 * sizeof(double));
     if (ar->st != MLR_OK)
         return fail_memory(ar, diag);
     for (size_t k = 0; k < nf; k++) {
         cleanup_foot *ft = &cu->feet[k];
-        ft->U = all_uf + 4 * N * k, ft->F = ft->U + N, ft->K = ft->F + N, ft->S = ft->K + N;
+        ft->U = all_uf + 5 * N * k, ft->F = ft->U + N, ft->K = ft->F + N, ft->S = ft->K + N;
+        ft->R = ft->S + N;
         ft->at = all_at + 7 * N * k, ft->tt = ft->at + 3 * N, ft->lift = ft->tt + 3 * N;
         mlr_status st = set_foot_frames(cu, k, diag);
         if (st != MLR_OK)
@@ -470,6 +683,7 @@ static mlr_status cleanup_targets(cleanup_state *cu, cleanup_arena *ar, mlr_diag
     if (order)
         keep_total(runs, n_runs, order);
     pin_runs(cu, runs, n_runs);
+    *runs_out = runs, *n_runs_out = n_runs;
     return MLR_OK;
 }
 
@@ -525,7 +739,7 @@ static mlr_status cleanup_passes(cleanup_state *cu, cleanup_arena *ar, mlr_diag 
     }
     for (int pass = 0; pass < cu->cfg->passes; pass++) {
         cu->hook_on = !cu->hook ? 0
-                                : (pass < cu->hook->ik_passes ? 1 : 0) |
+                                : (pass < cu->hook->ik_passes ? 1 : cu->hook->ik_passes > 0 ? 4 : 0) |
                                       (pass < cu->hook->blend_passes ? 2 : 0);
         mlr_status st = cleanup__pass(cu);
         if (st != MLR_OK)
@@ -590,8 +804,10 @@ static mlr_status cleanup_run(const mlr_rig *rig, size_t N, double fps, int up,
     }
     c.Pr = pre ? pre->pts : NULL, c.pos_ref = pre ? pre->anchors : NULL;
     c.step_ref = pre ? pre->step : NULL;
+    contact_run *runs = NULL;
+    size_t n_runs = 0;
     if ((st = cleanup_floor(&c, pre, &ar, report, diag)) != MLR_OK ||
-        (st = cleanup_targets(&c, &ar, diag)) != MLR_OK)
+        (st = cleanup_targets(&c, &ar, &runs, &n_runs, diag)) != MLR_OK)
         goto done;
     /* the root shift: legs that cannot reach their contact targets, or would have to fold
        their knee past MAX_FOLD to reach them or the floor */
@@ -599,6 +815,7 @@ static mlr_status cleanup_run(const mlr_rig *rig, size_t N, double fps, int up,
         st = fail_memory(&ar, diag);
         goto done;
     }
+    ramp_runs(&c, runs, n_runs);
     if ((st = cleanup_passes(&c, &ar, diag)) != MLR_OK)
         goto done;
     if (report) {

@@ -205,7 +205,9 @@ START_TEST(frames_far_from_every_constrained_frame_keep_the_input)
     pose_clip(0.01, 0.0, 0, 0, s->root, s->rot);
     pose_clip(0.0, 0.0, 0, 0, s->rroot, s->rrot);
     contacts_of(s->c);
-    /* BLEND 0.2 s = 12 frames; the smoothing's tail ~exp(-d / 1.2 frames): 40 more frames */
+    /* the ramps into and out of the pinned runs: at most 1 s = 60 frames (here, where the
+       feet barely accelerate, that long); the smoothing's tail ~exp(-d / 1.2 frames): 40 more
+       frames */
     const mlr_cleanup_option off = {MLR_CLEANUP_OPT_FLOOR, 0.0};
     for (int with_ref = 0; with_ref < 2; with_ref++) {
         mlr_diag d;
@@ -222,7 +224,7 @@ START_TEST(frames_far_from_every_constrained_frame_keep_the_input)
                 for (int k = 0; k < 4; k++)
                     e = fmax(e, fabs(s->orot[4 * (f * J + j) + (size_t)k] -
                                      s->rot[4 * (f * J + j) + (size_t)k]));
-                if (dd > 12 + 40) {
+                if (dd > 60 + 40) {
                     ck_assert_msg(e < 1e-12, "ref %d frame %zu joint %zu moved by %g", with_ref, f,
                                   j, e);
                     kept++;
@@ -233,7 +235,7 @@ START_TEST(frames_far_from_every_constrained_frame_keep_the_input)
             for (int k = 0; k < 3; k++)
                 ck_assert(s->oroot[3 * f + (size_t)k] == s->root[3 * f + (size_t)k]);
         }
-        ck_assert_uint_gt(kept, 1000);
+        ck_assert_uint_gt(kept, 600); /* 80 frames x 4 joints on each side */
         ck_assert_uint_gt(moved_near, 20);
     }
     free(s);

@@ -1,0 +1,52 @@
+"""The guards' corrections enter and leave smoothly: no foot pops at contact edges.
+
+The measure is the one issue 38 judges by: the largest second difference of any foot point
+(joints named foot, toe or ankle) of the output, over the larger of the input's and the
+unguarded synthesis's. Before the contact cleanup ramped its offsets in and out (contacts_fix.c,
+ramp_runs), a floor frame held next to a touch-down joined the two in one frame: CMU 131_01 at
+alpha 0.5 gave 13.2 (the ankle jumped 12% of the body's height in 1/120 s), the AI4Animation dog
+5.8, Bandai's walk 4.6, PyMO's optical walk 33.5.
+"""
+import re
+import warnings
+
+import numpy as np
+import pytest
+
+import mlayer
+
+from conftest import REPO
+
+FOOT = re.compile(r"(foot|toe|ankle)", re.I)
+OFF = dict(limits=False, floor=False, keep_contacts=False)
+
+
+def _max_accel(m: mlayer.Motion, idx: list[int]) -> float:
+    P = np.asarray(m.positions())[:, idx]
+    return float(np.linalg.norm(P[2:] - 2 * P[1:-1] + P[:-2], axis=-1).max())
+
+
+def _pop_ratio(m: mlayer.Motion, alpha: float) -> float:
+    feet = [j for j, n in enumerate(m.joint_names) if FOOT.search(n) and "index" not in n.lower()]
+    assert feet
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        out = mlayer.stylize(m, alpha)
+        ref = mlayer.stylize(m, alpha, **OFF)
+    return _max_accel(out, feet) / max(_max_accel(m, feet), _max_accel(ref, feet))
+
+
+@pytest.mark.parametrize("name, alpha", [
+    ("cmu_131_01_mj_style_walk.bvh", 0.5),  # 13.2 before the ramps
+    ("cmu_131_01_mj_style_walk.bvh", 2.0),  # 2.8
+    ("ai4a_dog_D1_008_KAN01_002.bvh", 0.5),  # 5.8
+    ("bandai1_walk_happy_001.bvh", 0.5),  # 4.6
+])
+def test_no_foot_pops_on_the_shared_clips(mocap, name, alpha):
+    m = mlayer.read_bvh(mocap / name)
+    assert _pop_ratio(m, alpha) <= 1.5
+
+
+def test_no_foot_pop_on_an_optical_walk_in_odd_units():
+    m = mlayer.read_bvh(REPO / "tests" / "data" / "wild" / "pymo_av_8walk_meredith_first600.bvh")
+    assert _pop_ratio(m, 0.5) <= 1.5  # 33.5 before the ramps
