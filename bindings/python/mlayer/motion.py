@@ -648,8 +648,10 @@ class Motion:
         """The clip's length unit, ``"m"``, ``"cm"``, ``"mm"``, ``"in"``, ``"ft"`` or None.
 
         The unit when given (``read_bvh(path, units=...)``, ``--units``, or assigned), else
-        the unit the body height suggests (:func:`mlayer.units.length_unit`: ``"m"``, ``"cm"``
-        or ``"mm"`` when the height is a person's or an animal's in just that unit), else None.
+        the unit the body's size suggests (:func:`mlayer.units.length_unit`: for a human rig the
+        one unit that gives a person's height and leg length, inches and feet included; for
+        other rigs ``"m"``, ``"cm"`` or ``"mm"`` when the height is an animal's in just that
+        unit), else None: never a guess where two units fit.
         Thresholds do not depend on it (they are relative to the body height); conversions to
         metres do. Found once, on first use, and kept (assign None to look again).
         """
@@ -657,9 +659,10 @@ class Motion:
             return self._units
         if "units" not in self._found:
             from ._rig import axis, body_height_of
-            from .units import length_unit
+            from .units import human_leg_length, length_unit
             self._found["units"] = (length_unit(body_height_of(self.positions(),
-                                                               axis(self.up_axis, "units")))
+                                                               axis(self.up_axis, "units")),
+                                                leg=human_leg_length(self))
                                     if self.n_frames else None)
         return self._found["units"]
 

@@ -1,9 +1,9 @@
 """Length units of clips: the names mlayer knows, and a guess from the body height."""
 from __future__ import annotations
 
-from .errors import InvalidArgumentError
+from .errors import Error, InvalidArgumentError
 
-__all__ = ["UNITS", "units_arg", "length_unit"]
+__all__ = ["UNITS", "units_arg", "length_unit", "human_leg_length", "HUMAN_HEIGHT", "HUMAN_LEG"]
 
 #: Length units a clip may be in, and their size in metres (Motion.units, read_bvh(units=)).
 UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001, "in": 0.0254, "ft": 0.3048}
@@ -37,24 +37,87 @@ def units_arg(units: str | None, where: str) -> str | None:
                                f"{units!r}")
 
 
-# Body heights (a person or an animal standing: 0.3 to 2.5 m) in each length unit.
+# Body heights (a person or an animal standing: 0.3 to 2.5 m) in each metric length unit.
 _UNIT_RANGES = (("m", 0.3, 2.5), ("cm", 30.0, 250.0), ("mm", 300.0, 2500.0))
+#: A person's body height (the joints' extent along up, head End Site excluded, median over
+#: frames: 0.9 lets a crouching or sitting clip through) and leg length (hip to knee to ankle,
+#: about 0.47 of the stature: 0.58 m for 1.25 m, so a teenager or an adult), in metres: the
+#: sizes a unit must give a human rig. Smaller people are left without a guess rather than
+#: risk one (AnimatedDrawings' captures, 41 units tall with 22-unit legs, are children's
+#: sizes in inches and nothing in any other unit).
+HUMAN_HEIGHT = (0.9, 2.3)
+HUMAN_LEG = (0.58, 1.2)
 
 
-def length_unit(height: float) -> str | None:
+def length_unit(height: float, *, leg: float | None = None) -> str | None:
     """A guess at a clip's length unit from its body height in file units.
 
     Parameters
     ----------
     height : float
         The body height (:func:`mlayer.metrics.body_height`) in the file's units.
+    leg : float, optional
+        For a human rig, its leg's length (hip to knee to ankle, from the skeleton's offsets)
+        in the file's units: then every unit of :data:`UNITS` is tried, and the one that gives
+        a person's height (:data:`HUMAN_HEIGHT`) and leg (:data:`HUMAN_LEG`) is the guess, so
+        that a clip in inches (Biovision's and PyMO's samples, about 55 units tall) is not
+        taken as centimetres. A clip of a lying or sitting person, or at an odd scale, fits
+        none and gets None.
 
     Returns
     -------
     str or None
-        ``"m"``, ``"cm"`` or ``"mm"`` when the height is one of a person's or an animal's (0.3
-        to 2.5 m) in just that unit, else None (CMU's converted files, about 24 units for a
-        person, are in none of them).
+        Without ``leg``: ``"m"``, ``"cm"`` or ``"mm"`` when the height is one of a person's or
+        an animal's (0.3 to 2.5 m) in just that unit, else None (CMU's converted files, about
+        24 units for a person, are in none of them). With ``leg``: the one unit of
+        :data:`UNITS` that gives a person's size, else None. Never a unit that fits the body
+        only together with another.
     """
+    if leg is not None:
+        found = [u for u, s in UNITS.items()
+                 if HUMAN_HEIGHT[0] <= height * s <= HUMAN_HEIGHT[1]
+                 and HUMAN_LEG[0] <= leg * s <= HUMAN_LEG[1]]
+        return found[0] if len(found) == 1 else None
     found = [u for u, lo, hi in _UNIT_RANGES if lo <= height <= hi]
     return found[0] if len(found) == 1 else None
+
+
+def human_leg_length(motion: object) -> float | None:
+    """The leg length (hip to knee to ankle) of a human rig, in its units, else None.
+
+    The rig is human as :attr:`mlayer.JointLimits.human` decides it (names and proportions, in
+    the C core: no tail, arms about 0.65 of the legs), or when it has two feet
+    (:func:`mlayer.contacts.find_feet`), a head and no tail; the leg runs from a foot's ankle
+    (:func:`mlayer.contacts.find_feet`) up through two bones of nonzero length (CMU's
+    zero-length hip joints skipped), the mean of the feet's.
+    """
+    import numpy as np
+
+    from .contacts import find_feet
+    from .limits import joint_limits
+    m = motion
+    sk = m.skeleton  # type: ignore[attr-defined]
+    names, parents = list(sk.joint_names), np.asarray(sk.parents)
+    try:
+        feet = find_feet(m)  # type: ignore[arg-type]
+        lowered = [n.lower() for n in names]
+        # two feet, a head and no tail also make a person (Biovision's sample: lower-case
+        # names without toes, which the limits' proportions test does not take as human)
+        if not (joint_limits(m).human  # type: ignore[arg-type]
+                or (len(feet) == 2 and any("head" in n for n in lowered)
+                    and not any("tail" in n for n in lowered))):
+            return None
+    except Error:
+        return None
+    offsets = np.asarray(sk.offsets, dtype=float)
+    legs = []
+    for ankle, _ in feet:
+        j, bones, total = names.index(ankle), 0, 0.0
+        while j > 0 and bones < 2:
+            n = float(np.linalg.norm(offsets[j]))
+            if n > 0.0:
+                total, bones = total + n, bones + 1
+            j = int(parents[j])
+        if bones == 2:
+            legs.append(total)
+    return float(np.mean(legs)) if legs else None

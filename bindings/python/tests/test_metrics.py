@@ -3,6 +3,8 @@ import numpy as np
 import pytest
 
 import mlayer
+
+from conftest import REPO
 from mlayer import metrics
 
 
@@ -69,6 +71,29 @@ def test_units_are_guessed_from_the_body_height_or_given(mocap):
     for bad in ("furlong", 1.0, True):
         with pytest.raises(mlayer.InvalidArgumentError, match="units must be one of"):
             mlayer.read_bvh(mocap / "lafan1_clip_a.bvh", units=bad)
+
+
+def test_inches_are_guessed_where_only_they_give_a_person(mocap):
+    """Issue 38, item 5: clips in inches were taken as centimetres (people 0.53-0.59 m tall);
+    a character at an odd scale was called millimetres (0.35 m)."""
+    from mlayer.units import human_leg_length, length_unit
+    assert length_unit(53.6, leg=32.3) == "in"      # PyMO's optical walk
+    assert length_unit(5.3, leg=2.7) == "ft"
+    assert length_unit(154.3, leg=85.9) == "cm"     # LaFAN1
+    assert length_unit(1.11, leg=0.64) == "m"       # CMU 60_10, rescaled to metres
+    assert length_unit(348.2, leg=164.5) is None    # Mixamo's Malcolm, scaled x2: nothing fits
+    assert length_unit(24.1, leg=14.8) is None      # CMU's units (~5.6 cm)
+    assert length_unit(41.2, leg=21.7) is None      # a child's size in inches: not guessed
+    assert length_unit(50.0, leg=85.0) is None      # a person lying down, in cm: no guess
+    wild = REPO / "tests" / "data" / "wild"
+    for name in ("pymo_av_8walk_meredith_first600.bvh", "pybvh_test1.bvh", "pybvh_test3.bvh"):
+        m = mlayer.read_bvh(wild / name)
+        assert m.units == "in" and m.metres_per_unit == 0.0254, name
+    assert mlayer.read_bvh(wild / "pybvh_test2.bvh").units == "cm"
+    assert mlayer.read_bvh(mocap / "cmu_131_01_mj_style_walk.bvh").units is None
+    assert mlayer.read_bvh(mocap / "bandai1_walk_happy_001.bvh").units == "cm"
+    dog = mlayer.read_bvh(mocap / "ai4a_dog_D1_008_KAN01_002.bvh")
+    assert human_leg_length(dog) is None and dog.units == "cm"  # not human: metric units only
 
 
 def test_info_says_the_given_units(mocap):
