@@ -483,8 +483,7 @@ static void ramp_target(const cleanup_state *cu, cleanup_foot *ft, size_t f, dou
     double lift = 0.0;
     for (size_t i = 0; i < ft->n_cols; i++) {
         const size_t c = ft->cols[i];
-        const double h =
-            cu->P[3 * (f * C + c) + (size_t)up] + sh[up] + (i < ft->n_own ? ra : rt);
+        const double h = cu->P[3 * (f * C + c) + (size_t)up] + sh[up] + (i < ft->n_own ? ra : rt);
         lift = mlr_fmax(lift, cu->lim[f * C + c] - h);
     }
     ft->at[3 * f + (size_t)up] += lift;
@@ -739,7 +738,9 @@ static mlr_status cleanup_passes(cleanup_state *cu, cleanup_arena *ar, mlr_diag 
     }
     for (int pass = 0; pass < cu->cfg->passes; pass++) {
         cu->hook_on = !cu->hook ? 0
-                                : (pass < cu->hook->ik_passes ? 1 : cu->hook->ik_passes > 0 ? 4 : 0) |
+                                : (pass < cu->hook->ik_passes ? 1
+                                   : cu->hook->ik_passes > 0  ? 4
+                                                              : 0) |
                                       (pass < cu->hook->blend_passes ? 2 : 0);
         mlr_status st = cleanup__pass(cu);
         if (st != MLR_OK)

@@ -52,6 +52,8 @@ struct mlr_guards {
     mlr_cleanup_ref *input_ref;
 };
 
+static mlr_status check_floor_given(const mlr_guards *g, const double *wpos, mlr_diag *diag);
+
 static void *alloc_array(const mlr_allocator *a, size_t count, size_t size, mlr_status *st)
 {
     size_t bytes;
@@ -418,6 +420,8 @@ mlr_status mlr_guards_create(const mlr_rig *rig, double fps, size_t n_frames,
         mlr_diag_set(diag, st, 0, 0, "guards: forward kinematics of the input failed");
         goto done;
     }
+    if (g->floor_on && g->floor_given && (st = check_floor_given(g, wpos, diag)) != MLR_OK)
+        goto done;
     if (g->contacts_on || g->floor_on)
         if ((st = find_contacts(g, wpos, wrot, diag)) != MLR_OK ||
             (st = floor_from_positions(g, wpos, wrot, diag)) != MLR_OK ||
@@ -439,6 +443,12 @@ done:
         return mlr_diag_prefix(diag, st, "guards"); /* a nested call's message names guards */
     }
     *out = g;
+    if (diag)
+        diag->message[0] = '\0', diag->line = diag->column = 0;
+    if ((g->contacts_on || g->floor_on) && g->n_points == 0)
+        mlr_diag_set(diag, MLR_OK, 0, 0,
+                     "guards: no foot found (no joint named foot, ankle or toe, nor a hand that "
+                     "stays low): the contact and floor guards are skipped");
     return MLR_OK;
 }
 
@@ -624,6 +634,27 @@ static mlr_status raise_to_floor(const mlr_guards *g, const mlr_cleanup_ref *ref
     free_array(&g->alloc, hout, N * C, sizeof(double));
     free_array(&g->alloc, need, 2 * N, sizeof(double));
     return st;
+}
+
+/* A given floor height must meet the input's body: between its highest joint and its lowest
+   less the span of its joints (both along up, over the clip). A floor far from the body
+   raised the whole body to it (10^12 above the clip: a root at 10^12). */
+static mlr_status check_floor_given(const mlr_guards *g, const double *wpos, mlr_diag *diag)
+{
+    const size_t n = g->n_frames * g->n_joints;
+    double lo = INFINITY, hi = -INFINITY;
+    for (size_t i = 0; i < n; i++) {
+        const double h = wpos[3 * i + (size_t)g->up];
+        lo = h < lo ? h : lo;
+        hi = h > hi ? h : hi;
+    }
+    const double f = g->floor_height;
+    if (f >= lo - (hi - lo) && f <= hi)
+        return MLR_OK;
+    return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                        "guards: floor height %.6g is not near the input's body (its joints "
+                        "lie from %.6g to %.6g along up)",
+                        f, lo, hi);
 }
 
 /* The given reference as the cleanup checks it (the same message). */

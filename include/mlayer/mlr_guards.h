@@ -113,7 +113,9 @@ typedef struct mlr_guards_report {
  * @param opts      [in] n_opts options, a key at most once; NULL when n_opts is 0
  * @param alloc     [in] allocator, copied; NULL for malloc/free
  * @param out       [out] new handle, NULL on failure
- * @param diag      [out] optional: the reason of an error
+ * @param diag      [out] optional: the reason of an error; on MLR_OK an empty message, or a
+ *                  note naming a guard that cannot run and is skipped (no foot found: the
+ *                  contacts and the floor), for the caller to show as a warning
  * @return MLR_OK; MLR_E_INVALID_ARG (bad rig, fps, N < 3, NULL or non-finite frames, unknown
  *         or repeated key, bad option value); MLR_E_NO_MEMORY; MLR_E_OVERFLOW
  * Allocates: the handle with copies of the rig and the frames (about N (4 J + 3 P + 3) doubles),

@@ -36,6 +36,7 @@ from __future__ import annotations
 import functools
 import math
 import os
+import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Literal, NoReturn, SupportsIndex, overload
@@ -47,7 +48,7 @@ from . import _arrays
 from ._handles import ReadOnlyAttributes, refuse_copy
 from ._native import ffi, lib
 from ._rig import c_rig, motion_axis
-from .errors import InvalidArgumentError, check
+from .errors import InvalidArgumentError, MlayerWarning, check
 from .layers import Layers, decompose
 from .limits import JointLimits
 
@@ -223,6 +224,9 @@ class Synthesis(ReadOnlyAttributes):
                                     _arrays.ptr(trans) if trans.size else ffi.NULL, copts,
                                     len(opts), ffi.NULL, out, diag), "guards", diag)
         g = ffi.gc(out[0], lib.mlr_guards_destroy)
+        note = ffi.string(diag.message).decode("utf-8", "replace")
+        if note and self._contact_joints is None:  # (given contact points replace the feet)
+            warnings.warn(note, MlayerWarning, stacklevel=4)
         if self._contact_joints is not None and self._keep_contacts:
             from .contacts import _point, detect_contacts
             names, c = detect_contacts(m, self._contact_joints, up="xyz"[self._up])

@@ -1,12 +1,13 @@
 """The synthesis pipeline (mlayer.pipeline): the C defaults give the Python API's motion, the
 guards keep stylized real clips within what a body does, and bad switches are refused."""
 import math
+import warnings
 
 import numpy as np
 import pytest
 
 import mlayer
-from conftest import SHARED_CLIPS
+from conftest import REPO, SHARED_CLIPS
 from mlayer import _arrays, plausibility as pl
 from mlayer._native import ffi, lib
 from mlayer._rig import c_rig
@@ -252,3 +253,15 @@ def test_up_axis_is_detected_once_and_kept(mocap, monkeypatch):
     m.rot = m.rot.copy()      # new frames: detect again
     assert m.up_axis == "y" and counts["input"] == 3
     assert m.up_axis == "y" and counts == {"input": 3, "other": 0}
+
+
+def test_a_guard_that_cannot_run_is_named_in_a_warning():
+    """Issue 38, item 7: a rig without feet (fairmotion's 4-joint chain) got no contact or floor
+    guard, silently; the C guards leave a note in their diag, Python warns with it."""
+    m = mlayer.read_bvh(REPO / "tests" / "data" / "wild" / "fairmotion_sinusoidal.bvh",
+                        strict=False)
+    with pytest.warns(mlayer.MlayerWarning, match="no foot found.*contact and floor guards"):
+        mlayer.stylize(m, 2.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", mlayer.MlayerWarning)
+        mlayer.stylize(m, 2.0, floor=None, keep_contacts=False)  # nothing skipped: no warning
