@@ -1,6 +1,11 @@
 """Plausibility measures of a processed motion against its input (issue 18, item 7).
 
-Used by bench_plausibility.py and render_worst.py; checked by test_plausibility.py.
+The older, library-assisted measures: they take the feet, the body height, the contacts and
+the limb chains from mlayer (find_feet, body_height, detect_contacts, ik.leg_chain). Used by
+render_worst.py and bindings/python/tests/test_wild_corpus.py (and test_limits.py's
+swing_twist_excess); checked by test_plausibility.py. bench_plausibility.py no longer uses
+them: it measures with definitions of its own (issue 38, item 9), so that the library's
+metrics cannot grade themselves.
 
 Definitions (all on world positions from forward kinematics; the output has the input's
 frames and skeleton):
@@ -55,6 +60,8 @@ frames and skeleton):
 """
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 import mlayer
@@ -67,8 +74,10 @@ REVERSAL_TOL_DEG = 1.0
 HINGE_MIN_FLEX_DEG = 20.0
 FLOOR_TOL = 0.005          # of body height
 
+Chain = tuple[int, int, int]
 
-def up_axis(motion) -> str:
+
+def up_axis(motion: Any) -> str:
     """'X', 'Y' or 'Z', with '-' when up is the negative direction: the dominant component of
     the median over frames of (mean position of the hips - mean position of the feet of
     find_feet; hips from mlayer.ik.leg_chain): the hips are above the feet along the up axis
@@ -95,7 +104,7 @@ def up_axis(motion) -> str:
     return "XYZ"[int(np.argmax(np.median(p.max(axis=1) - p.min(axis=1), axis=0)))]
 
 
-def _topmost(names_idx: list[int], parents) -> list[int]:
+def _topmost(names_idx: list[int], parents: Any) -> list[int]:
     s = set(names_idx)
     out = []
     for j in names_idx:
@@ -110,7 +119,7 @@ def _topmost(names_idx: list[int], parents) -> list[int]:
     return out
 
 
-def limb_chains(motion) -> dict[str, list[tuple[int, int, int]]]:
+def limb_chains(motion: Any) -> dict[str, list[tuple[int, int, int]]]:
     """{'knee': [(hip, knee, ankle), ...], 'elbow': [(shoulder, elbow, wrist), ...]}."""
     sk = motion.skeleton
     names = sk.joint_names
@@ -124,7 +133,7 @@ def limb_chains(motion) -> dict[str, list[tuple[int, int, int]]]:
     # elbows
     hands += [j for j in feet if _contacts.HAND_PATTERN.search(names[j])]
     legs = [j for j in feet if not _contacts.HAND_PATTERN.search(names[j])]
-    out = {"knee": [], "elbow": []}
+    out: dict[str, list[tuple[int, int, int]]] = {"knee": [], "elbow": []}
     for kind, ends in (("knee", legs), ("elbow", sorted(hands))):
         for e in ends:
             try:
@@ -145,7 +154,7 @@ def _unit(v: np.ndarray) -> np.ndarray:
     return v / np.where(n > 1e-12, n, 1.0)
 
 
-def flexion(pos: np.ndarray, chain) -> np.ndarray:
+def flexion(pos: np.ndarray, chain: Chain) -> np.ndarray:
     """(N,) unsigned flexion in degrees of chain (upper, middle, end) over the frames of pos."""
     a, b, c = chain
     u, w = pos[:, b] - pos[:, a], pos[:, c] - pos[:, b]
@@ -153,7 +162,8 @@ def flexion(pos: np.ndarray, chain) -> np.ndarray:
     return np.degrees(np.arccos(np.clip(cosang, -1.0, 1.0)))
 
 
-def hinge_axis_local(pos: np.ndarray, wrot: np.ndarray, parents, chain) -> np.ndarray | None:
+def hinge_axis_local(pos: np.ndarray, wrot: np.ndarray, parents: Any,
+                     chain: Chain) -> np.ndarray | None:
     """Unit hinge axis in the frame of the knee's parent joint, from the input's bent frames
     (None when the limb never bends by more than HINGE_MIN_FLEX_DEG)."""
     a, b, c = chain
@@ -169,7 +179,8 @@ def hinge_axis_local(pos: np.ndarray, wrot: np.ndarray, parents, chain) -> np.nd
     return m / np.linalg.norm(m) if np.linalg.norm(m) > 1e-9 else None
 
 
-def signed_flexion(pos: np.ndarray, wrot: np.ndarray, parents, chain, axis_local) -> np.ndarray:
+def signed_flexion(pos: np.ndarray, wrot: np.ndarray, parents: Any, chain: Chain,
+                   axis_local: np.ndarray) -> np.ndarray:
     """(N,) signed flexion in degrees about the hinge axis (positive: the input's bending
     direction)."""
     a, b, c = chain
@@ -179,7 +190,8 @@ def signed_flexion(pos: np.ndarray, wrot: np.ndarray, parents, chain, axis_local
     return np.degrees(np.arctan2(s, np.einsum("ij,ij->i", _unit(u), _unit(w))))
 
 
-def hinge_report(inp, out, chains=None, *, fk_in=None, fk_out=None) -> dict:
+def hinge_report(inp: Any, out: Any, chains: dict[str, list[Chain]] | None = None, *,
+                 fk_in: Any = None, fk_out: Any = None) -> dict:
     """Folds and reversals of every knee/elbow chain. Returns {'knee': {...}, 'elbow': {...}}
     with per kind: fold_frames, reversal_frames (frames where any chain of that kind folds /
     reverses), worst_fold (frame, joint name, degrees out, degrees in max), worst_reversal
@@ -220,7 +232,7 @@ def hinge_report(inp, out, chains=None, *, fk_in=None, fk_out=None) -> dict:
     return rep
 
 
-def foot_points(inp) -> list[str]:
+def foot_points(inp: Any) -> list[str]:
     """Names of the foot points (ankle, toe or 'Ankle/End') of find_feet ([] without feet)."""
     try:
         feet = _contacts.find_feet(inp)
@@ -232,12 +244,12 @@ def foot_points(inp) -> list[str]:
     return names
 
 
-def _up_index(motion) -> int:
+def _up_index(motion: Any) -> int:
     """0..2: the axis of motion.up_axis ("x", "y" or "z"; Y for objects without one)."""
     return "xyz".index(str(getattr(motion, "up_axis", "y")).lower())
 
 
-def floor_level(inp, names, contacts=None) -> float:
+def floor_level(inp: Any, names: list[str], contacts: Any = None) -> float:
     """The input's floor height along its up axis (see the module docstring)."""
     y = _contacts.contact_positions(inp, names)[..., _up_index(inp)]
     if contacts is not None and contacts.any():
@@ -245,7 +257,7 @@ def floor_level(inp, names, contacts=None) -> float:
     return float(np.percentile(y.min(axis=1), 1.0))
 
 
-def floor_report(inp, out, names, floor: float, H: float) -> dict:
+def floor_report(inp: Any, out: Any, names: list[str], floor: float, H: float) -> dict:
     """Penetration frames (count), deepest depth in % of H, and the worst (frame, point)."""
     if not names:
         return {"frames": 0, "deepest_pct": 0.0, "worst": None}
@@ -265,14 +277,15 @@ def floor_report(inp, out, names, floor: float, H: float) -> dict:
             "worst": worst}
 
 
-def body_parts(inp, chains=None) -> dict[str, np.ndarray]:
+def body_parts(inp: Any, chains: dict[str, list[Chain]] | None = None
+               ) -> dict[str, np.ndarray]:
     """Joint indices of legs, arms and spine/head (see the module docstring)."""
     chains = limb_chains(inp) if chains is None else chains
     sk = inp.skeleton
     J = sk.n_joints
     parents = sk.parents
 
-    def subtree(r):
+    def subtree(r: int) -> set[int]:
         s = {r}
         for j in range(r + 1, J):
             if int(parents[j]) in s:
@@ -314,7 +327,8 @@ def root_path_deviation(root_in: np.ndarray, root_out: np.ndarray, chunk: int = 
     return float(best.max())
 
 
-def bone_length_change(pos_in: np.ndarray, pos_out: np.ndarray, parents, H: float) -> float:
+def bone_length_change(pos_in: np.ndarray, pos_out: np.ndarray, parents: Any,
+                       H: float) -> float:
     """Largest relative change of a joint-parent distance over frames and bones."""
     j = np.arange(1, len(parents))
     li = np.linalg.norm(pos_in[:, j] - pos_in[:, parents[j]], axis=-1)
@@ -333,7 +347,7 @@ def _qmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
                     axis=-1)
 
 
-def swing_twist_excess(limits, rot: np.ndarray, alpha: float = 1.0) -> dict[str, float]:
+def swing_twist_excess(limits: Any, rot: np.ndarray, alpha: float = 1.0) -> dict[str, float]:
     """Largest swing/twist excess (degrees) per joint over the ranges of ``limits``.
 
     ``limits``: a :class:`mlayer.limits.JointLimits` (of the input); ``rot``: frames x
