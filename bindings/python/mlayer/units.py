@@ -1,7 +1,16 @@
 """Length units of clips: the names mlayer knows, and a guess from the body height."""
 from __future__ import annotations
 
-from .errors import Error, InvalidArgumentError
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ._native import ffi, lib
+from ._rig import c_rig
+from .errors import InvalidArgumentError
+
+if TYPE_CHECKING:
+    from .motion import Motion
 
 __all__ = ["UNITS", "units_arg", "length_unit", "human_leg_length", "HUMAN_HEIGHT", "HUMAN_LEG"]
 
@@ -82,37 +91,44 @@ def length_unit(height: float, *, leg: float | None = None) -> str | None:
     return found[0] if len(found) == 1 else None
 
 
-def human_leg_length(motion: object) -> float | None:
+def human_leg_length(motion: Motion) -> float | None:
     """The leg length (hip to knee to ankle) of a human rig, in its units, else None.
 
-    The rig is human as :attr:`mlayer.JointLimits.human` decides it (names and proportions, in
-    the C core: no tail, arms about 0.65 of the legs), or when it has two feet
-    (:func:`mlayer.contacts.find_feet`), a head and no tail; the leg runs from a foot's ankle
-    (:func:`mlayer.contacts.find_feet`) up through two bones of nonzero length (CMU's
-    zero-length hip joints skipped), the mean of the feet's.
-    """
-    import numpy as np
+    A rig is human here when the C core finds exactly two feet by name
+    (``mlr_contacts_find_feet``, without positions: a quadruped's front paws do not count),
+    and it has a joint named head and none named tail. The leg runs from each ankle up through
+    two bones of nonzero length (CMU's zero-length hip joints skipped); the mean of the two.
 
-    from .contacts import find_feet
-    from .limits import joint_limits
-    m = motion
-    sk = m.skeleton  # type: ignore[attr-defined]
-    names, parents = list(sk.joint_names), np.asarray(sk.parents)
-    try:
-        feet = find_feet(m)  # type: ignore[arg-type]
-        lowered = [n.lower() for n in names]
-        # two feet, a head and no tail also make a person (Biovision's sample: lower-case
-        # names without toes, which the limits' proportions test does not take as human)
-        if not (joint_limits(m).human  # type: ignore[arg-type]
-                or (len(feet) == 2 and any("head" in n for n in lowered)
-                    and not any("tail" in n for n in lowered))):
-            return None
-    except Error:
+    Parameters
+    ----------
+    motion : Motion
+        The clip (only its skeleton is read).
+
+    Returns
+    -------
+    float or None
+        The leg length in the clip's units; None for a rig that is not human by this rule.
+    """
+    sk = motion.skeleton
+    names = [n.lower() for n in sk.joint_names]
+    if not any("head" in n for n in names) or any("tail" in n for n in names):
         return None
+    J = len(names)
+    rig, keep = c_rig(sk)
+    joints = np.empty(2 * J, dtype=np.int32)
+    ends = np.empty(2 * J, dtype=np.int32)
+    n_feet = ffi.new("size_t *")
+    code = lib.mlr_contacts_find_feet(
+        rig, 0, ffi.NULL, 1, J, ffi.cast("int32_t *", ffi.from_buffer(joints)),
+        ffi.cast("int32_t *", ffi.from_buffer(ends)), n_feet, ffi.NULL, ffi.NULL)
+    del keep
+    if code != lib.MLR_OK or int(n_feet[0]) != 2:
+        return None
+    parents = np.asarray(sk.parents)
     offsets = np.asarray(sk.offsets, dtype=float)
     legs = []
-    for ankle, _ in feet:
-        j, bones, total = names.index(ankle), 0, 0.0
+    for ankle in joints[0:4:2]:
+        j, bones, total = int(ankle), 0, 0.0
         while j > 0 and bones < 2:
             n = float(np.linalg.norm(offsets[j]))
             if n > 0.0:
@@ -120,4 +136,4 @@ def human_leg_length(motion: object) -> float | None:
             j = int(parents[j])
         if bones == 2:
             legs.append(total)
-    return float(np.mean(legs)) if legs else None
+    return float(np.mean(legs)) if len(legs) == 2 else None
