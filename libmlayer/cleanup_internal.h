@@ -83,6 +83,15 @@ mlr_status mlr_cleanup_contacts_ref(
 
 /* ---- between the cleanup's files ---- */
 
+/* How far below its floor limit a point may go before the floor guard lifts it, in leg lengths
+   (0.5% of the leg, about 0.25% of the body's height): a dead zone, so that the rounding-level
+   dips of a denoised foot under the input's own height are not chased by IK on a straight leg
+   (the knee of CMU 60_10's salsa swung by 1.9% of body height for a dip of 0.1%). The lift
+   grows from 0 at the zone's edge, so it is as smooth as the depth. */
+#ifndef CLEANUP_FLOOR_SLACK
+#define CLEANUP_FLOOR_SLACK 0.005
+#endif
+
 enum { CLEANUP_MAX_BLOCKS = 48 };
 
 /* The scratch of one call: up to CLEANUP_MAX_BLOCKS blocks, released together; the first
@@ -140,6 +149,7 @@ typedef struct cleanup_config {
     int passes, floor_on, floor_given, root_on;
     double keep_stiller;
     int keep_total;
+    double pin_detail;
 } cleanup_config;
 
 /* A foot: anchor joint, its leg, the columns of its points, the targets. */
@@ -151,6 +161,7 @@ typedef struct cleanup_foot {
     uint8_t *R;         /* a ramp frame (also U): a pinned run's offset enters or leaves */
     uint8_t *S;         /* this pass: the leg already reaches its target (no IK there) */
     double *at, *tt, *lift;
+    double leg; /* the leg's length (hip to knee to anchor) at the first frame */
     int active;
 } cleanup_foot;
 

@@ -22,6 +22,7 @@ static const mlr_opt_spec cleanup_opts[] = {
     {MLR_CLEANUP_OPT_KEEP_STILLER, "keep_stiller", MLR_OPT_DOUBLE, 0.0, INFINITY, 0, 0, 0.0,
      "0 (off) or >= 1"},
     {MLR_CLEANUP_OPT_KEEP_TOTAL, "keep_total", MLR_OPT_BOOL, 0.0, 1.0, 0, 0, 0.0, NULL},
+    {MLR_CLEANUP_OPT_PIN_DETAIL, "pin_detail", MLR_OPT_DOUBLE, 0.0, 1.0, 0, 0, 0.0, NULL},
 };
 #undef PI
 
@@ -48,6 +49,7 @@ mlr_status cleanup__parse_options(const mlr_cleanup_option *opts, size_t n_opts,
     cfg->max_fold = o.v[MLR_CLEANUP_OPT_MAX_FOLD];
     cfg->keep_stiller = ks;
     cfg->keep_total = o.v[MLR_CLEANUP_OPT_KEEP_TOTAL] != 0.0;
+    cfg->pin_detail = o.v[MLR_CLEANUP_OPT_PIN_DETAIL];
     return MLR_OK;
 }
 

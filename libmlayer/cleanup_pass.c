@@ -61,11 +61,12 @@ static void find_floor_frames(cleanup_state *cu)
         cleanup_foot *ft = &cu->feet[k];
         if (!ft->active || !cu->floor_active)
             continue;
+        const double slack = CLEANUP_FLOOR_SLACK * ft->leg;
         for (size_t f = 0; f < N; f++) {
             double lift = 0.0;
             for (size_t i = 0; i < ft->n_cols; i++) {
                 const size_t c = ft->cols[i];
-                lift = mlr_fmax(lift, lim[f * C + c] - P2[3 * (f * C + c) + (size_t)up]);
+                lift = mlr_fmax(lift, lim[f * C + c] - P2[3 * (f * C + c) + (size_t)up] - slack);
             }
             ft->lift[f] = lift;
             if (!ft->U[f] && lift > 0.0)

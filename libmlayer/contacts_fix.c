@@ -219,6 +219,8 @@ static mlr_status set_foot_frames(cleanup_state *cu, size_t k, mlr_diag *diag)
         return MLR_OK;
     if ((st = mlr_ik_leg_chain(cu->rig, ft->anchor, &ft->hip, &ft->knee, diag)) != MLR_OK)
         return st;
+    ft->leg = cleanup__dist3(pos + 3 * (size_t)ft->hip, pos + 3 * (size_t)ft->knee) +
+              cleanup__dist3(pos + 3 * (size_t)ft->knee, pos + 3 * (size_t)ft->anchor);
     const size_t a = (size_t)ft->anchor;
     const int has_toe = ft->n_cols > ft->n_own;
     const size_t toe = has_toe ? ft->cols[ft->n_own] : 0;
@@ -238,16 +240,59 @@ typedef struct contact_run {
     size_t k, s, e;
     double own, ref, raw; /* raw: the reference's unsmoothed points' sliding */
     int keep;
-    int still; /* kept because its own points stay put (run_still): KEEP_TOTAL leaves it */
+    int still; /* kept because its own points stay put or follow the reference (run_still):
+                  KEEP_TOTAL leaves it kept (its sliding is the reference's, to the tolerance) */
 } contact_run;
 
-/* A run whose own contact points neither move nor sink is left as it is: every point stays
-   within STILL_LEG times the leg's length of its mean horizontal place over its contact
-   frames of the run, and no lower than its floor limit less that tolerance. Comparing path
+/* A run whose own contact points do not sink (none lower than its floor limit less STILL_LEG
+   times the leg's length) and either follow the reference (run_follows) or do not move (every
+   point within that tolerance of its mean horizontal place over its contact frames of the
+   run) is left as it is. Comparing path
    lengths with the reference's alone pinned clean captures, whose path lengths at 120 fps are
    jitter (CMU 10_01 denoised: a standing foot's 4.5 s contact pinned, the leg moved by 2.5% of
    the body's height where the foot had stayed within 0.4%). */
+#ifndef STILL_LEG
 #define STILL_LEG 0.02
+#endif
+
+/* A run whose own contact points follow the reference's within STILL_LEG times the leg's
+   length, once the run's mean horizontal offset is taken out (what pinning would add), is left
+   as it is too: it slides as the reference does. Pinning such a run chased the reference's
+   capture noise with a nearly straight leg, whose knee then swung by 2-3.5% of the body's
+   height from frame to frame (CMU 01_03 denoised, a standing foot). */
+static int run_follows(const cleanup_state *cu, const cleanup_foot *ft, size_t s, size_t e,
+                       double tol)
+{
+    const size_t C = cu->C;
+    const int up = cu->up;
+    const double *P = cu->P, *Pr = cu->Pr;
+    if (!Pr)
+        return 0;
+    for (size_t i = 0; i < ft->n_cols; i++) {
+        const size_t c = ft->cols[i];
+        double o[3] = {0, 0, 0};
+        size_t n = 0;
+        for (size_t f = s; f < e; f++)
+            if (cu->contacts[f * C + c]) {
+                for (int d = 0; d < 3; d++)
+                    o[d] += P[3 * (f * C + c) + (size_t)d] - Pr[3 * (f * C + c) + (size_t)d];
+                n++;
+            }
+        for (size_t f = s; n && f < e; f++) {
+            if (!cu->contacts[f * C + c])
+                continue;
+            double d2 = 0.0;
+            for (int d = 0; d < 3; d++) {
+                const double x = P[3 * (f * C + c) + (size_t)d] - Pr[3 * (f * C + c) + (size_t)d] -
+                                 (d == up ? 0.0 : o[d] / (double)n);
+                d2 += x * x;
+            }
+            if (d2 > tol * tol)
+                return 0;
+        }
+    }
+    return 1;
+}
 
 static int run_still(const cleanup_state *cu, const cleanup_foot *ft, size_t s, size_t e)
 {
@@ -258,6 +303,13 @@ static int run_still(const cleanup_state *cu, const cleanup_foot *ft, size_t s, 
                  *pk = cu->pos + 3 * (s * J + (size_t)ft->knee),
                  *pa = cu->pos + 3 * (s * J + (size_t)ft->anchor);
     const double tol = STILL_LEG * (cleanup__dist3(ph, pk) + cleanup__dist3(pk, pa));
+    for (size_t i = 0; i < ft->n_cols; i++) /* sinking: pinned */
+        for (size_t f = s; cu->floor_active && f < e; f++)
+            if (cu->contacts[f * C + ft->cols[i]] &&
+                P[3 * (f * C + ft->cols[i]) + (size_t)up] < cu->lim[f * C + ft->cols[i]] - tol)
+                return 0;
+    if (run_follows(cu, ft, s, e, tol))
+        return 1;
     for (size_t i = 0; i < ft->n_cols; i++) {
         const size_t c = ft->cols[i];
         double mean[3] = {0, 0, 0};
@@ -268,8 +320,6 @@ static int run_still(const cleanup_state *cu, const cleanup_foot *ft, size_t s, 
             for (int d = 0; d < 3; d++)
                 mean[d] += P[3 * (f * C + c) + (size_t)d];
             n++;
-            if (cu->floor_active && P[3 * (f * C + c) + (size_t)up] < cu->lim[f * C + c] - tol)
-                return 0;
         }
         for (size_t f = s; n && f < e; f++) {
             if (!cu->contacts[f * C + c])
@@ -371,17 +421,86 @@ static void keep_total(contact_run *runs, size_t n, contact_run **order)
 
 /* The runs applied: a kept run's frames held (K), the others pinned to the reference or to
    their means. */
-static void pin_runs(cleanup_state *cu, const contact_run *runs, size_t n)
+/* With PIN_DETAIL > 0, a pinned run's targets are smoothed: with c the corrections (the
+   targets minus the synthesized points x) and L a local linear fit with Gaussian weights of
+   PIN_NOISE seconds (exact on a linear trend, up to the run's ends), the targets become
+       x + L(c) - (1 - PIN_DETAIL) (x - L(x)),
+   L(reference) plus PIN_DETAIL times the synthesis' own fast motion x - L(x). At 1 (the guards'
+   denoise, whose synthesis is the denoised clip, against the unsmoothed input) the foot keeps
+   its own detail and the corrections lose the reference's capture noise: pinning to the raw
+   reference put that noise back into a denoised foot, and a nearly straight leg turned 0.5%
+   of body height of it into knee swings of 2-4% (CMU 01_03), while the reference smoothed by
+   REF_SMOOTH strayed from the input by up to 2.5% of body height at a kick's fast pivot (CMU
+   10_01). Stylized feet must not keep their detail (LaFAN1 at alpha 3 slid 3.9x the input's
+   with it): at PIN_DETAIL 0 (the default) the targets are the reference as REF_SMOOTH smoothed
+   it, unchanged. */
+#ifndef PIN_NOISE
+#define PIN_NOISE 0.03
+#endif
+
+/* L of column d of x (n rows of 12) at row i. */
+static double local_linear(const double *x, size_t n, size_t i, size_t d, double sig, size_t half)
+{
+    const size_t lo = i > half ? i - half : 0, hi = i + half < n ? i + half : n - 1;
+    double s0 = 0.0, s1 = 0.0, s2 = 0.0, sy = 0.0, sxy = 0.0;
+    for (size_t q = lo; q <= hi; q++) {
+        const double u = (double)q - (double)i, w = exp(-0.5 * (u / sig) * (u / sig));
+        const double y = x[12 * q + d];
+        s0 += w, s1 += w * u, s2 += w * u * u, sy += w * y, sxy += w * u * y;
+    }
+    const double det = s0 * s2 - s1 * s1;
+    return det > 1e-12 * s0 * s2 ? (s2 * sy - s1 * sxy) / det : sy / s0;
+}
+
+/* The targets of pinned run [s, e) of foot ft smoothed as above. tmp: 12 (e - s) doubles. */
+static void smooth_run_targets(const cleanup_state *cu, cleanup_foot *ft, size_t s, size_t e,
+                               double *tmp)
+{
+    const size_t J = cu->J, C = cu->C, n = e - s;
+    const int has_toe = ft->n_cols > ft->n_own;
+    const double sig = PIN_NOISE * cu->fps, kappa = cu->cfg->pin_detail;
+    if (!(sig >= 0.5) || n < 3 || kappa == 0.0)
+        return;
+    const size_t half = (size_t)ceil(3.0 * sig);
+    for (size_t f = s; f < e; f++) { /* per row: c (anchor, toe), then x (anchor, toe) */
+        const double *pa = cu->pos + 3 * (f * J + (size_t)ft->anchor);
+        const double *pt = has_toe ? cu->P + 3 * (f * C + ft->cols[ft->n_own]) : pa;
+        double *row = tmp + 12 * (f - s);
+        for (int d = 0; d < 3; d++) {
+            row[d] = ft->at[3 * f + (size_t)d] - pa[d];
+            row[3 + d] = has_toe ? ft->tt[3 * f + (size_t)d] - pt[d] : 0.0;
+            row[6 + d] = pa[d];
+            row[9 + d] = pt[d];
+        }
+    }
+    for (size_t f = s; f < e; f++) {
+        const size_t i = f - s;
+        const double *row = tmp + 12 * i;
+        for (int part = 0; part < 1 + has_toe; part++) {
+            double *t = part ? ft->tt + 3 * f : ft->at + 3 * f;
+            for (int d = 0; d < 3; d++) {
+                const size_t cc = (size_t)(3 * part + d), xc = cc + 6;
+                const double x = row[xc];
+                t[d] = x + local_linear(tmp, n, i, cc, sig, half) -
+                       (1.0 - kappa) * (x - local_linear(tmp, n, i, xc, sig, half));
+            }
+        }
+    }
+}
+
+static void pin_runs(cleanup_state *cu, const contact_run *runs, size_t n, double *tmp)
 {
     for (size_t i = 0; i < n; i++) {
         const contact_run *r = &runs[i];
         cleanup_foot *ft = &cu->feet[r->k];
         if (r->keep)
             memset(ft->K + r->s, 1, r->e - r->s);
-        else if (cu->have_ref)
+        else if (cu->have_ref) {
             pin_run_to_reference(cu, ft, r->k, r->s, r->e);
-        else
+            smooth_run_targets(cu, ft, r->s, r->e, tmp);
+        } else {
             pin_run_to_means(cu, ft, r->s, r->e);
+        }
     }
 }
 
@@ -428,6 +547,17 @@ static double points_max_accel(const double *P, size_t N, size_t C)
     return m;
 }
 
+/* An edge of a contact run: the offsets of the anchor and the placed point at its edge frame
+   f (run_offset), and the length of its ramp. (Ramps that also carried the correction's
+   velocity at the edge, through a cubic Hermite term, met the target on 6 more of 107 clips at
+   alpha 0.5 but on 3 fewer at 2, and raised CMU 131_01's pops at alpha 2 from 1.5 to 2.1: left
+   out.) */
+typedef struct ramp_edge {
+    double da[3], dt[3];
+    double f;
+    double frames; /* the ramp's length; 0: no ramp */
+} ramp_edge;
+
 /* The ramp (in frames) that an offset of size d needs. */
 static double ramp_frames(const cleanup_state *cu, double d, double budget)
 {
@@ -461,11 +591,28 @@ static double run_offset(const cleanup_state *cu, const cleanup_foot *ft, size_t
     return n;
 }
 
-/* The targets of a ramp frame f of foot k: the synthesized points plus w times the offsets
-   (da, dt), raised so that no point of the foot goes below its floor limit. */
-static void ramp_target(const cleanup_state *cu, cleanup_foot *ft, size_t f, double wa,
-                        const double *da, const double *dta, double wb, const double *db,
-                        const double *dtb)
+/* The edge of a run at frame f. */
+static void run_edge(const cleanup_state *cu, const cleanup_foot *ft, size_t f, double budget,
+                     ramp_edge *ed)
+{
+    ed->f = (double)f;
+    ed->frames = ramp_frames(cu, run_offset(cu, ft, f, ed->da, ed->dt), budget);
+}
+
+/* The offsets of edge ed times w, added to oa and ot. */
+static void edge_add(const ramp_edge *ed, double w, double *oa, double *ot)
+{
+    for (int k = 0; k < 3; k++) {
+        oa[k] += w * ed->da[k];
+        ot[k] += w * ed->dt[k];
+    }
+}
+
+/* The offsets of the anchor and the placed point at frame f (the synthesized frame's, with the
+   root shift) plus oa and ot, as the ramp frame's targets, raised so that no point of the foot
+   goes below its floor limit (less the dead zone). */
+static void ramp_target(const cleanup_state *cu, cleanup_foot *ft, size_t f, const double *oa,
+                        const double *ot)
 {
     const size_t J = cu->J, C = cu->C;
     const int up = cu->up, has_toe = ft->n_cols > ft->n_own;
@@ -473,18 +620,18 @@ static void ramp_target(const cleanup_state *cu, cleanup_foot *ft, size_t f, dou
     const double *pt = has_toe ? cu->P + 3 * (f * C + ft->cols[ft->n_own]) : NULL;
     const double *sh = cu->shift + 3 * f;
     for (int d = 0; d < 3; d++) {
-        ft->at[3 * f + (size_t)d] = pa[d] + sh[d] + wa * da[d] + wb * db[d];
+        ft->at[3 * f + (size_t)d] = pa[d] + sh[d] + oa[d];
         if (has_toe)
-            ft->tt[3 * f + (size_t)d] = pt[d] + sh[d] + wa * dta[d] + wb * dtb[d];
+            ft->tt[3 * f + (size_t)d] = pt[d] + sh[d] + ot[d];
     }
     if (!cu->floor_active)
         return;
-    const double ra = wa * da[up] + wb * db[up], rt = wa * dta[up] + wb * dtb[up];
     double lift = 0.0;
     for (size_t i = 0; i < ft->n_cols; i++) {
         const size_t c = ft->cols[i];
-        const double h = cu->P[3 * (f * C + c) + (size_t)up] + sh[up] + (i < ft->n_own ? ra : rt);
-        lift = mlr_fmax(lift, cu->lim[f * C + c] - h);
+        const double h =
+            cu->P[3 * (f * C + c) + (size_t)up] + sh[up] + (i < ft->n_own ? oa[up] : ot[up]);
+        lift = mlr_fmax(lift, cu->lim[f * C + c] - h - CLEANUP_FLOOR_SLACK * ft->leg);
     }
     ft->at[3 * f + (size_t)up] += lift;
     if (has_toe)
@@ -493,52 +640,57 @@ static void ramp_target(const cleanup_state *cu, cleanup_foot *ft, size_t f, dou
 
 /* The ramps of every foot's contact runs (runs in order of foot, then frame): the frames of a
    ramp become constrained (U) with ramp_target's targets. After the root shift: the targets
-   follow the synthesized points moved with the root (cu->shift), as the free frames do. */
+   follow the synthesized points moved with the root (cu->shift), as the free frames do. (A
+   kept run's targets are its synthesized points: its offset is the root shift's, undone there
+   by the IK where the root moved.) */
 static void ramp_runs(cleanup_state *cu, const contact_run *runs, size_t n)
 {
     const size_t N = cu->N;
     const double budget = RAMP_BUDGET * points_max_accel(cu->P, N, cu->C);
-    static const double zero[3] = {0.0, 0.0, 0.0};
     for (size_t i = 0; i < n; i++) {
         const contact_run *r = &runs[i];
         cleanup_foot *ft = &cu->feet[r->k];
         /* the gap before run r (after the foot's previous run, or from the clip's start) */
         const contact_run *p = i > 0 && runs[i - 1].k == r->k ? &runs[i - 1] : NULL;
         const contact_run *nx = i + 1 < n && runs[i + 1].k == r->k ? &runs[i + 1] : NULL;
-        double da_in[3], dt_in[3], da_out[3], dt_out[3];
-        /* (a kept run's targets are its synthesized points: its offset is the root shift's,
-           undone there by the IK where the root moved) */
-        const double din = run_offset(cu, ft, r->s, da_in, dt_in);
-        const double dout = run_offset(cu, ft, r->e - 1, da_out, dt_out);
-        /* before the run: the previous run's ramp out shares the gap */
-        double pa_out[3] = {0, 0, 0}, pt_out[3] = {0, 0, 0}, dprev = 0.0;
+        ramp_edge in, prev = {{0}, {0}, 0.0, 0.0};
+        run_edge(cu, ft, r->s, budget, &in);
         if (p)
-            dprev = run_offset(cu, ft, p->e - 1, pa_out, pt_out);
-        double bin = ramp_frames(cu, din, budget), bprev = ramp_frames(cu, dprev, budget);
+            run_edge(cu, ft, p->e - 1, budget, &prev);
         const size_t g0 = p ? p->e : 0; /* the gap's first free frame */
         const double L = p ? (double)(r->s - (p->e - 1)) : INFINITY;
-        if (p && bin + bprev > L) { /* the two ramps share the gap */
-            bin = bin > 0.0 ? (bprev > 0.0 ? L : mlr_fmin(bin, L)) : 0.0;
-            bprev = bprev > 0.0 ? (din > 0.0 ? L : mlr_fmin(bprev, L)) : 0.0;
+        if (p && in.frames + prev.frames > L) { /* the two ramps share the gap */
+            const double bi = in.frames, bp = prev.frames;
+            in.frames = bi > 0.0 ? (bp > 0.0 ? L : mlr_fmin(bi, L)) : 0.0;
+            prev.frames = bp > 0.0 ? (bi > 0.0 ? L : mlr_fmin(bp, L)) : 0.0;
         }
         for (size_t f = g0; f < r->s; f++) {
-            const double wb = bin > 0.0 ? 1.0 - smootherstep((double)(r->s - f) / bin) : 0.0;
+            const double t = (double)f;
+            const double wb =
+                in.frames > 0.0 ? 1.0 - smootherstep(((double)r->s - t) / in.frames) : 0.0;
             const double wa =
-                p && bprev > 0.0 ? 1.0 - smootherstep((double)(f - (p->e - 1)) / bprev) : 0.0;
+                prev.frames > 0.0 ? 1.0 - smootherstep((t - prev.f) / prev.frames) : 0.0;
             if (wa <= 0.0 && wb <= 0.0)
                 continue;
-            ramp_target(cu, ft, f, wa, p ? pa_out : zero, p ? pt_out : zero, wb,
-                        din > 0.0 ? da_in : zero, din > 0.0 ? dt_in : zero);
+            double oa[3] = {0, 0, 0}, ot[3] = {0, 0, 0};
+            if (wa > 0.0)
+                edge_add(&prev, wa, oa, ot);
+            if (wb > 0.0)
+                edge_add(&in, wb, oa, ot);
+            ramp_target(cu, ft, f, oa, ot);
             ft->U[f] = ft->R[f] = 1;
         }
         /* after the last run of the foot: its ramp out to the clip's end */
-        if (!nx && dout > 0.0) {
-            const double bout = ramp_frames(cu, dout, budget);
-            for (size_t f = r->e; f < N; f++) {
-                const double wa = 1.0 - smootherstep((double)(f - (r->e - 1)) / bout);
-                if (wa <= 0.0)
+        if (!nx) {
+            ramp_edge out;
+            run_edge(cu, ft, r->e - 1, budget, &out);
+            for (size_t f = r->e; out.frames > 0.0 && f < N; f++) {
+                const double w = 1.0 - smootherstep(((double)f - out.f) / out.frames);
+                if (w <= 0.0)
                     break;
-                ramp_target(cu, ft, f, wa, da_out, dt_out, 0.0, zero, zero);
+                double oa[3] = {0, 0, 0}, ot[3] = {0, 0, 0};
+                edge_add(&out, w, oa, ot);
+                ramp_target(cu, ft, f, oa, ot);
                 ft->U[f] = ft->R[f] = 1;
             }
         }
@@ -681,7 +833,10 @@ static mlr_status cleanup_targets(cleanup_state *cu, cleanup_arena *ar, contact_
     const size_t n_runs = find_runs(cu, runs);
     if (order)
         keep_total(runs, n_runs, order);
-    pin_runs(cu, runs, n_runs);
+    double *tmp = cleanup__take_raw(ar, 12 * N, sizeof(double));
+    if (ar->st != MLR_OK)
+        return fail_memory(ar, diag);
+    pin_runs(cu, runs, n_runs, tmp);
     *runs_out = runs, *n_runs_out = n_runs;
     return MLR_OK;
 }

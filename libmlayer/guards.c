@@ -12,7 +12,7 @@
 #include <math.h>
 
 /* the cleanup options an apply passes at most (cleanup_options) */
-#define GUARDS_MAX_COPTS 6
+#define GUARDS_MAX_COPTS 7
 
 /* The cleanup passes (of its default 2) whose IK's rotations are limited before the spread,
    and whose blends are limited after it. Limiting the IK's rotations of the second pass as
@@ -24,7 +24,15 @@
 #ifndef GUARDS_KEEP_STILLER
 #define GUARDS_KEEP_STILLER 1.25
 #endif
-#define GUARDS_LIMITS_SOFT 0.15 /* mlr_limits' default MLR_LIMITS_OPT_SOFT */
+/* The input as the stylized feet's reference is smoothed over this many seconds against its
+   capture noise (the cleanup's default REF_SMOOTH); denoising follows it unsmoothed, the
+   noise then left out of the corrections by the cleanup (PIN_DETAIL 1: the denoised feet keep
+   their detail, the pinned ones take the input's slow path). */
+#define GUARDS_REF_SMOOTH 0.02
+#define GUARDS_LIMITS_SOFT 0.15
+/* The floor's dead zone in body heights, the cleanup's (CLEANUP_FLOOR_SLACK, half a percent of
+   the leg) for a leg of half the body's height */
+#define GUARDS_FLOOR_SLACK 0.0025 /* mlr_limits' default MLR_LIMITS_OPT_SOFT */
 
 struct mlr_guards {
     mlr_allocator alloc;
@@ -45,11 +53,12 @@ struct mlr_guards {
     /* settings */
     int up, limits_mode, contacts_on, floor_on, floor_given, follow;
     double floor_height;
+    double body_height; /* mlr_rig_body_height of the input (0 when it could not be measured) */
     mlr_limits *learned;
     const mlr_limits *limits; /* learned or borrowed */
     /* the input's trajectories as the cleanup's reference (the pinned feet follow them):
        made at create (and again when the contacts change) when the feet follow the input */
-    mlr_cleanup_ref *input_ref;
+    mlr_cleanup_ref *input_ref, *input_ref_raw; /* smoothed (stylize), unsmoothed (denoise) */
 };
 
 static mlr_status check_floor_given(const mlr_guards *g, const double *wpos, mlr_diag *diag);
@@ -112,6 +121,7 @@ void mlr_guards_destroy(mlr_guards *g)
     free_array(&g->alloc, g->trans, 3 * N * P, sizeof(double));
     free_contacts(g);
     mlr_cleanup_ref_destroy(g->input_ref);
+    mlr_cleanup_ref_destroy(g->input_ref_raw);
     mlr_limits_destroy(g->learned);
     mlr_allocator a = g->alloc;
     mlr_free(&a, g, sizeof *g);
@@ -249,7 +259,7 @@ static mlr_status find_contacts(mlr_guards *g, const double *world_pos, const do
     if (st == MLR_OK) {
         st = mlr_rig_body_height(N, J, world_pos, g->up, &H, &g->alloc, NULL);
         if (st == MLR_OK)
-            height = &H;
+            height = &H, g->body_height = H;
         else if (st == MLR_E_NO_MEMORY)
             mlr_diag_set(diag, st, 0, 0, "guards: out of memory for the body height");
         else
@@ -298,15 +308,16 @@ static mlr_status find_contacts(mlr_guards *g, const double *world_pos, const do
  * input's forward kinematics, or NULL. */
 static mlr_status make_input_ref(const mlr_guards *g, size_t C, const int32_t *joints,
                                  const int32_t *end_sites, const double *wpos, const double *wrot,
-                                 mlr_cleanup_ref **out, mlr_diag *diag)
+                                 double seconds, mlr_cleanup_ref **out, mlr_diag *diag)
 {
     *out = NULL;
     if (!g->follow || C == 0 || C > 64)
         return MLR_OK;
     mlr_diag d = {0, 0, ""};
+    const mlr_cleanup_option smooth = {MLR_CLEANUP_OPT_REF_SMOOTH, seconds};
     const mlr_status st =
         mlr_cleanup_ref_create(&g->rig, g->n_frames, g->fps, g->up, g->root_pos, g->rot, g->trans,
-                               wpos, wrot, C, joints, end_sites, NULL, 0, &g->alloc, out, &d);
+                               wpos, wrot, C, joints, end_sites, &smooth, 1, &g->alloc, out, &d);
     if (st ==
         MLR_E_INVALID_ARG) /* points the cleanup refuses (over 16 on a foot): apply says so */
         return MLR_OK;
@@ -426,7 +437,9 @@ mlr_status mlr_guards_create(const mlr_rig *rig, double fps, size_t n_frames,
         if ((st = find_contacts(g, wpos, wrot, diag)) != MLR_OK ||
             (st = floor_from_positions(g, wpos, wrot, diag)) != MLR_OK ||
             (st = make_input_ref(g, g->n_points, g->joints, g->end_sites, wpos, wrot,
-                                 &g->input_ref, diag)) != MLR_OK)
+                                 GUARDS_REF_SMOOTH, &g->input_ref, diag)) != MLR_OK ||
+            (st = make_input_ref(g, g->n_points, g->joints, g->end_sites, wpos, wrot, 0.0,
+                                 &g->input_ref_raw, diag)) != MLR_OK)
             goto done;
     if (g->limits_mode != MLR_GUARDS_LIMITS_OFF) {
         const mlr_limits_clip clip = {N, g->rot, P ? g->trans : NULL};
@@ -505,9 +518,12 @@ mlr_status mlr_guards_set_contacts(mlr_guards *g, size_t n_points, const int32_t
     }
     for (size_t k = 0; k < C * N; k++)
         nc[k] = contacts[k] != 0;
-    mlr_cleanup_ref *ref = NULL;
+    mlr_cleanup_ref *ref = NULL, *raw = NULL;
     if ((g->contacts_on || g->floor_on) &&
-        (st = make_input_ref(g, C, nj, ne, NULL, NULL, &ref, diag)) != MLR_OK) {
+        ((st = make_input_ref(g, C, nj, ne, NULL, NULL, GUARDS_REF_SMOOTH, &ref, diag)) !=
+             MLR_OK ||
+         (st = make_input_ref(g, C, nj, ne, NULL, NULL, 0.0, &raw, diag)) != MLR_OK)) {
+        mlr_cleanup_ref_destroy(ref);
         free_array(&g->alloc, nj, C, sizeof(int32_t));
         free_array(&g->alloc, ne, C, sizeof(int32_t));
         free_array(&g->alloc, nc, C * N, 1);
@@ -515,7 +531,8 @@ mlr_status mlr_guards_set_contacts(mlr_guards *g, size_t n_points, const int32_t
     }
     free_contacts(g);
     mlr_cleanup_ref_destroy(g->input_ref);
-    g->input_ref = ref;
+    mlr_cleanup_ref_destroy(g->input_ref_raw);
+    g->input_ref = ref, g->input_ref_raw = raw;
     g->joints = nj, g->end_sites = ne, g->contacts = nc, g->n_points = C;
     return estimate_floor(g, diag);
 }
@@ -581,7 +598,7 @@ static mlr_status raise_to_floor(const mlr_guards *g, const mlr_cleanup_ref *ref
                 /* no reference: the floor alone */
                 const double lim =
                     ref ? mlr_fmin(g->floor_height, ref->h[f * C + c]) : g->floor_height;
-                d = mlr_fmax(d, lim - hout[f * C + c]);
+                d = mlr_fmax(d, lim - hout[f * C + c] - GUARDS_FLOOR_SLACK * g->body_height);
             }
             need[f] = d;
             any |= d > 0.0;
@@ -742,7 +759,7 @@ static mlr_status rot_error(const mlr_guards *g, const double *rot, mlr_diag *di
    of the given reference, made here (*made, released by the caller);
    *ref NULL when the feet do not follow. */
 static mlr_status apply_reference(const mlr_guards *g, const double *ref_root_pos,
-                                  const double *ref_rot, const double *ref_trans,
+                                  const double *ref_rot, const double *ref_trans, int denoising,
                                   const mlr_cleanup_ref **ref, mlr_cleanup_ref **made,
                                   mlr_diag *diag)
 {
@@ -758,9 +775,10 @@ static mlr_status apply_reference(const mlr_guards *g, const double *ref_root_po
             return mlr_diag_prefix(diag, st, "guards");
         *ref = *made;
     } else if (g->follow) {
-        *ref = g->input_ref;
-        if (!*ref && (st = make_input_ref(g, g->n_points, g->joints, g->end_sites, NULL, NULL,
-                                          made, diag)) != MLR_OK)
+        *ref = denoising ? g->input_ref_raw : g->input_ref;
+        if (!*ref &&
+            (st = make_input_ref(g, g->n_points, g->joints, g->end_sites, NULL, NULL,
+                                 denoising ? 0.0 : GUARDS_REF_SMOOTH, made, diag)) != MLR_OK)
             return st;
         *ref = *ref ? *ref : *made;
     }
@@ -776,22 +794,25 @@ static size_t cleanup_options(const mlr_guards *g, int has_ref, const double *al
     size_t n_copts = 0;
     /* a given reference (the denoised motion) is followed as it is; the input is
      * smoothed against its capture noise first (the cleanup's default) */
-    if (has_ref && g->follow)
-        copts[n_copts++] = (mlr_cleanup_option){MLR_CLEANUP_OPT_REF_SMOOTH, 0.0};
+    int denoising = 1;
+    for (size_t k = 0; k < n_alpha; k++)
+        denoising &= alpha[k] == 1.0;
+    if (g->follow)
+        copts[n_copts++] = (mlr_cleanup_option){MLR_CLEANUP_OPT_REF_SMOOTH,
+                                                has_ref || denoising ? 0.0 : GUARDS_REF_SMOOTH};
     /* a contact whose synthesized foot slides no more than the reference's keeps its own
        trajectory; when denoising (every alpha 1) up to GUARDS_KEEP_STILLER times as much,
        so that an input that does not slide comes out of denoise as it went in (the
        denoised feet then differ from the input's by smoothing alone) */
     if (g->follow) {
-        int denoising = 1;
-        for (size_t k = 0; k < n_alpha; k++)
-            denoising &= alpha[k] == 1.0;
         copts[n_copts++] = (mlr_cleanup_option){MLR_CLEANUP_OPT_KEEP_STILLER,
                                                 denoising ? GUARDS_KEEP_STILLER : 1.0};
         /* ... but no more in all than the reference: the runs that slide most beyond it are
            pinned first (CMU 131_01 denoised slid 1.010x its input with every run within
            1.25x kept) */
         copts[n_copts++] = (mlr_cleanup_option){MLR_CLEANUP_OPT_KEEP_TOTAL, 1.0};
+        /* denoising: the pinned feet keep the denoised detail, without the input's noise */
+        copts[n_copts++] = (mlr_cleanup_option){MLR_CLEANUP_OPT_PIN_DETAIL, denoising ? 1.0 : 0.0};
     }
     copts[n_copts++] = (mlr_cleanup_option){MLR_CLEANUP_OPT_FLOOR, floor_on ? 1.0 : 0.0};
     if (limits_applied)
@@ -1010,8 +1031,11 @@ mlr_status mlr_guards_apply(const mlr_guards *g, const double *alpha, size_t n_a
     const size_t C = g->contacts_on ? g->n_points : 0;
     const int floor_on = g->floor_on && isfinite(g->floor_height) && g->n_points > 0;
     if (C > 0 || floor_on) {
-        if ((st = apply_reference(g, ref_root_pos, ref_rot, ref_trans, &ref, &made_ref, diag)) !=
-            MLR_OK)
+        int denoising = 1;
+        for (size_t k = 0; k < n_alpha; k++)
+            denoising &= alpha[k] == 1.0;
+        if ((st = apply_reference(g, ref_root_pos, ref_rot, ref_trans, denoising, &ref, &made_ref,
+                                  diag)) != MLR_OK)
             goto done;
         /* floor alone: the feet with no contact frame, so only the floor constrains them */
         uint8_t *none = NULL;

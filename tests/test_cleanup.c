@@ -171,21 +171,22 @@ static double slide_of(const double *pts, const uint8_t *c)
     return len;
 }
 
-/* The body slides 1.1x the reference's: KEEP_STILLER 1.25 keeps both contacts as they are;
+/* The body slides 2x the reference's: KEEP_STILLER 2.5 keeps both contacts as they are;
    with KEEP_TOTAL the feet slide in all no more than the reference (the runs that slide most
-   beyond it follow it). */
+   beyond it follow it). (A run whose feet stay within 2% of the leg of the reference's path is
+   kept whatever KEEP_TOTAL says: at 1.1x the reference's speed these 40-frame runs were.) */
 START_TEST(keep_total_caps_the_feet_sliding_at_the_references)
 {
     synth *s = malloc(sizeof *s);
-    pose_clip(0.011, 0.0, 0, 0, s->root, s->rot);
+    pose_clip(0.020, 0.0, 0, 0, s->root, s->rot);
     pose_clip(0.010, 0.0, 0, 0, s->rroot, s->rrot);
     contacts_of(s->c);
     fk_pts(s->rroot, s->rrot, s->pos, s->pts);
     const double ref = slide_of(s->pts, s->c);
     fk_pts(s->root, s->rot, s->pos, s->pts);
     const double own = slide_of(s->pts, s->c);
-    ck_assert_double_eq_tol(own, 1.1 * ref, 1e-9 * ref);
-    const mlr_cleanup_option o[3] = {{MLR_CLEANUP_OPT_KEEP_STILLER, 1.25},
+    ck_assert_double_eq_tol(own, 2.0 * ref, 1e-9 * ref);
+    const mlr_cleanup_option o[3] = {{MLR_CLEANUP_OPT_KEEP_STILLER, 2.5},
                                      {MLR_CLEANUP_OPT_REF_SMOOTH, 0.0},
                                      {MLR_CLEANUP_OPT_KEEP_TOTAL, 1.0}};
     mlr_diag d;
@@ -275,7 +276,9 @@ START_TEST(the_floor_is_respected)
         ck_assert(worst_below(s->pts, with_ref ? rp : NULL, rep.floor_height) > 0.5);
         fk_pts(s->oroot, s->orot, s->opos, s->opts);
         const double w = worst_below(s->opts, with_ref ? rp : NULL, rep.floor_height);
-        ck_assert_msg(w < 1e-3 * H, "ref %d: a point %g below its limit", with_ref, w);
+        /* within the floor's dead zone: half a percent of the leg (hip to knee to ankle, 8) */
+        ck_assert_msg(w <= 0.005 * 8.0 + 1e-3 * H, "ref %d: a point %g below its limit", with_ref,
+                      w);
     }
     /* an explicit floor height replaces the estimate */
     const mlr_cleanup_option fh = {MLR_CLEANUP_OPT_FLOOR_HEIGHT, -0.3};
@@ -284,7 +287,7 @@ START_TEST(the_floor_is_respected)
     ck_assert_msg(run(s, 0, &fh, 1, &rep, NULL, &d) == MLR_OK, "%s", d.message);
     ck_assert(rep.floor_height == -0.3);
     fk_pts(s->oroot, s->orot, s->opos, s->opts);
-    ck_assert(worst_below(s->opts, NULL, -0.3) < 1e-3 * H);
+    ck_assert(worst_below(s->opts, NULL, -0.3) <= 0.005 * 8.0 + 1e-3 * H); /* the dead zone */
     free(s);
 }
 END_TEST
@@ -583,7 +586,8 @@ START_TEST(bad_input_gets_the_right_status_and_message)
         const char *msg;
     } bad[] = {
         {{{0, 1.0}}, 1, "unknown option key 0"},
-        {{{13, 1.0}}, 1, "unknown option key 13"},
+        {{{14, 1.0}}, 1, "unknown option key 14"},
+        {{{MLR_CLEANUP_OPT_PIN_DETAIL, 1.5}}, 1, "option pin_detail = 1.5 is not in [0, 1]"},
         {{{MLR_CLEANUP_OPT_KEEP_TOTAL, 0.5}}, 1, "option keep_total = 0.5 is not 0 or 1"},
         {{{MLR_CLEANUP_OPT_BLEND, 0.1}, {MLR_CLEANUP_OPT_BLEND, 0.2}},
          2,

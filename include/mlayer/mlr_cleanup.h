@@ -82,12 +82,18 @@ typedef enum mlr_cleanup_key {
                                            points slide (horizontal path length) at most k
                                            times the reference's keeps its own trajectory; 0
                                            (default): every run follows the reference */
-    MLR_CLEANUP_OPT_KEEP_TOTAL = 12     /* 1: with KEEP_STILLER, the feet slide in all (kept
+    MLR_CLEANUP_OPT_KEEP_TOTAL = 12,    /* 1: with KEEP_STILLER, the feet slide in all (kept
                                            runs their own path, the others the reference's)
                                            at most as much as the reference's points before
                                            REF_SMOOTH: the kept runs that slide most beyond
                                            the reference follow it instead, largest excess
                                            first; 0 (default): off */
+    MLR_CLEANUP_OPT_PIN_DETAIL = 13     /* [0, 1]: how much of the synthesized foot's own fast
+                                           motion (beyond a 0.03 s local linear fit) a pinned
+                                           contact keeps; the slow part follows the reference.
+                                           0 (default): planted on the reference's smoothed
+                                           path; 1: the synthesis' detail kept, the reference's
+                                           capture noise left out (the guards' denoise) */
 } mlr_cleanup_key;
 
 /** One option: key (an mlr_cleanup_key) and its value. A frozen value type. */

@@ -40,7 +40,7 @@ _OPT = {"blend": lib.MLR_CLEANUP_OPT_BLEND, "reach": lib.MLR_CLEANUP_OPT_REACH,
         "ref_smooth": lib.MLR_CLEANUP_OPT_REF_SMOOTH, "pin_smooth": lib.MLR_CLEANUP_OPT_PIN_SMOOTH,
         "root": lib.MLR_CLEANUP_OPT_ROOT, "max_fold": lib.MLR_CLEANUP_OPT_MAX_FOLD,
         "keep_stiller": lib.MLR_CLEANUP_OPT_KEEP_STILLER,
-        "keep_total": lib.MLR_CLEANUP_OPT_KEEP_TOTAL}
+        "keep_total": lib.MLR_CLEANUP_OPT_KEEP_TOTAL, "pin_detail": lib.MLR_CLEANUP_OPT_PIN_DETAIL}
 
 
 def _points(skeleton: Skeleton, names: Sequence[str | int]
@@ -166,6 +166,8 @@ def fix_contacts(motion: Motion, contacts: ArrayLike, names: str | Sequence[str]
     **options : float
         blend (seconds, 0.2), reach (0.98), passes (2), floor_quantile (0.05), ref_smooth
         (seconds, 0.02), pin_smooth (seconds, 0.02), root (True), max_fold, keep_stiller,
+        pin_detail (0: a pinned foot follows the reference's smoothed path; 1: it keeps the
+        synthesis' own fast motion, the reference's capture noise left out),
         keep_total (False: with keep_stiller, the feet slide in all at most as much as the
         reference's; the kept contacts that slide most beyond it follow it instead).
 

@@ -115,14 +115,15 @@ def test_argument_errors_name_the_argument(walk):
 
 @pytest.mark.parametrize("name", CLIPS)
 def test_denoise_changes_only_what_slides(mocap, name):
-    """Items 4 and 7 of issue 18: the cleanup in denoise changes the motion (by more than 0.5%
-    of body height) only where the denoised feet slide more than the input's, the feet then
-    slide less than denoised, and in all at most as much as the input's. A contact whose
-    denoised foot slides at most 1.25x the input's is kept as it is, so an input that does not
-    slide comes out as it went in (clean Mixamo / Xsens clips: 0.005-0.27% of body height, see
-    the issue's closing note), unless the kept contacts together slide more than the input's:
-    then those that slide most beyond it follow it (CMU 131_01 denoised slid 1.010x its input
-    before, now 0.998x, changed by 1.5% of body height)."""
+    """Issue 38, item 3 (after items 4 and 7 of issue 18): the cleanup in denoise changes the
+    motion (by more than 0.5% of body height) only where the denoised feet slide more than the
+    input's, the feet then slide less than denoised. A contact whose denoised foot follows the
+    input's path within 2% of the leg's length (its mean offset taken out), or slides at most
+    1.25x the input's, is kept as it is, so a clean capture comes out as it went in: the shared
+    captures were moved by 1.4-4.8% of body height when the kept contacts had to slide no more
+    in all than the input's (path lengths, which at 120 fps are mostly capture noise); now by
+    at most 0.73%, and the denoised feet's path is at most 1.08x the input's (CMU 01_01: 1.074x,
+    the dog 1.024x, CMU 131_01 1.010x; 0.998-1.0x before)."""
     from mlayer.metrics import foot_sliding
     path = mocap / name
     if not path.exists():
@@ -134,6 +135,7 @@ def test_denoise_changes_only_what_slides(mocap, name):
     d = np.linalg.norm(a.positions() - b.positions(), axis=-1).max() / body_height(m)
     names, c = detect_contacts(m)
     s_in, s_a, s_b = (foot_sliding(x, c, names) for x in (m, a, b))
-    assert s_a <= s_in * (1 + 1e-9), (name, s_in, s_a, s_b)
+    assert s_a <= 1.08 * s_in, (name, s_in, s_a, s_b)
+    assert d <= 0.0075, (name, d)
     if d > 0.005:  # changed: the denoised feet slid, and slide less now
         assert s_a < s_b, (name, d, s_in, s_a, s_b)
