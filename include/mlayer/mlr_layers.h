@@ -72,11 +72,21 @@
  * weight exp(-8 ((r/gate)^2 - 1)) (1 within the gate, 0 for a gross outlier; a group with
  * fewer than 3 frames of weight 1/2 or more keeps the weights 1), and the fit is redone with
  * the weights until the outlier frames (weight below 1/2) stop changing (at most 12 fits).
+ * Before that fit, each joint's flips are found from its rotations alone, at any frame rate:
+ * a run of 1 to 10 frames inside the clip that the joint enters by a jump and leaves by a
+ * jump back (with d_i the rotation angle from frame i - 1 to i, blind to the sign of the
+ * quaternions, and S the largest step in the 3 frames either side of the run and inside it:
+ * both jumps pass max(ROBUST_ANGLE / 2, 2.5 S), the frames either side are within
+ * 1.5 S (run + 1) + ROBUST_ANGLE / 8 of each other and closer than half the smaller jump, and
+ * every frame of the run is more than half the smaller jump off the slerp between them).
+ * Those frames are outliers from the first fit on, so a burst of 10 frames at 30 fps cannot
+ * drag the fit it is measured against, and a flip of 90 degrees, below the gate, is found
+ * too; q -> -q is no step and never an outlier. An outlier frame weighs 0 in the layers.
  * When a weight is below 1, every LGS of the decomposition weights its observations,
  * (W + s L^T L) x = W y, the base heuristic's bound and MLR_LAYERS_PARAM_BASE_MAX_ANGLE skip the
  * outlier frames, GCV counts a frame by its weight, and a joint's quaternion takes the
  * hemisphere of the most similar of its last frames (a quarter second, at least 8, at most 256
- * frames) that are not outliers (a 180-degree flip leaves the plain alignment of the frames
+ * frames) that are not outliers (outlier frames stepped over, up to 64 of them) (a 180-degree flip leaves the plain alignment of the frames
  * after it to chance). The glitch then stays in the residual
  * layer (the identity still holds) and synthesis and denoising pass over it. When no residual
  * passes its gate the decomposition is the plain one, bit for bit; the search costs one light
