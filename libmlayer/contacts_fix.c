@@ -610,9 +610,10 @@ static void edge_add(const ramp_edge *ed, double w, double *oa, double *ot)
 
 /* The offsets of the anchor and the placed point at frame f (the synthesized frame's, with the
    root shift) plus oa and ot, as the ramp frame's targets, raised so that no point of the foot
-   goes below its floor limit (less the dead zone). */
+   goes below its floor limit (less the dead zone), times 1 - w (w: the larger weight of the
+   runs' offsets there). */
 static void ramp_target(const cleanup_state *cu, cleanup_foot *ft, size_t f, const double *oa,
-                        const double *ot)
+                        const double *ot, double w)
 {
     const size_t J = cu->J, C = cu->C;
     const int up = cu->up, has_toe = ft->n_cols > ft->n_own;
@@ -626,12 +627,19 @@ static void ramp_target(const cleanup_state *cu, cleanup_foot *ft, size_t f, con
     }
     if (!cu->floor_active)
         return;
+    /* the pinned points' lift in full (at the run's edge their targets are the reference's
+       heights, within their limits, so it starts from 0); a floor-only point's (a toe tip, not
+       pinned, may be below its limit in the run) enters as the run's offset leaves (1 - w): in
+       full on the ramp's first frame it made a step (CMU 131_01 at alpha 0.5: the ankle rose
+       2.6% of body height in one frame) */
     double lift = 0.0;
     for (size_t i = 0; i < ft->n_cols; i++) {
         const size_t c = ft->cols[i];
+        const int pinned = i <= ft->n_own; /* own points and the placed point */
         const double h =
             cu->P[3 * (f * C + c) + (size_t)up] + sh[up] + (i < ft->n_own ? oa[up] : ot[up]);
-        lift = mlr_fmax(lift, cu->lim[f * C + c] - h - CLEANUP_FLOOR_SLACK * ft->leg);
+        const double need = cu->lim[f * C + c] - h - CLEANUP_FLOOR_SLACK * ft->leg;
+        lift = mlr_fmax(lift, pinned ? need : (1.0 - w) * need);
     }
     ft->at[3 * f + (size_t)up] += lift;
     if (has_toe)
@@ -677,7 +685,7 @@ static void ramp_runs(cleanup_state *cu, const contact_run *runs, size_t n)
                 edge_add(&prev, wa, oa, ot);
             if (wb > 0.0)
                 edge_add(&in, wb, oa, ot);
-            ramp_target(cu, ft, f, oa, ot);
+            ramp_target(cu, ft, f, oa, ot, mlr_fmax(wa, wb));
             ft->U[f] = ft->R[f] = 1;
         }
         /* after the last run of the foot: its ramp out to the clip's end */
@@ -690,7 +698,7 @@ static void ramp_runs(cleanup_state *cu, const contact_run *runs, size_t n)
                     break;
                 double oa[3] = {0, 0, 0}, ot[3] = {0, 0, 0};
                 edge_add(&out, w, oa, ot);
-                ramp_target(cu, ft, f, oa, ot);
+                ramp_target(cu, ft, f, oa, ot, w);
                 ft->U[f] = ft->R[f] = 1;
             }
         }
