@@ -245,9 +245,9 @@ typedef struct contact_run {
 } contact_run;
 
 /* A run whose own contact points do not sink (none lower than its floor limit less STILL_LEG
-   times the leg's length) and either follow the reference (run_follows) or do not move (every
-   point within that tolerance of its mean horizontal place over its contact frames of the
-   run) is left as it is. Comparing path
+   times the leg's length) and follow the reference (run_follows), or without a reference do
+   not move (every point within that tolerance of its mean horizontal place over its contact
+   frames of the run), is left as it is. Comparing path
    lengths with the reference's alone pinned clean captures, whose path lengths at 120 fps are
    jitter (CMU 10_01 denoised: a standing foot's 4.5 s contact pinned, the leg moved by 2.5% of
    the body's height where the foot had stayed within 0.4%). */
@@ -308,8 +308,10 @@ static int run_still(const cleanup_state *cu, const cleanup_foot *ft, size_t s, 
             if (cu->contacts[f * C + ft->cols[i]] &&
                 P[3 * (f * C + ft->cols[i]) + (size_t)up] < cu->lim[f * C + ft->cols[i]] - tol)
                 return 0;
-    if (run_follows(cu, ft, s, e, tol))
-        return 1;
+    if (cu->Pr) /* with a reference: it must follow it, up and down too (a foot that hovers
+                   steadily above the reference's contact is not still: CMU 131_01 at alpha 0.5
+                   floated 4% of body height above the floor at a touch-down) */
+        return run_follows(cu, ft, s, e, tol);
     for (size_t i = 0; i < ft->n_cols; i++) {
         const size_t c = ft->cols[i];
         double mean[3] = {0, 0, 0};
