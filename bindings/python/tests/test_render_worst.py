@@ -47,3 +47,65 @@ def test_worst_frames_are_drawn_with_the_clips_up_axis_vertical(monkeypatch, tmp
     assert {v for _, v in seen} == {up}
     assert {h for h, _ in seen} == {k for k in range(3) if k != up}
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+# ---- issue 38, item 10: --pop and --clean, saved per build and compared ----------------------
+
+def test_pop_strip_is_saved_and_drawn_around_the_worst_foot_acceleration(mocap, tmp_path):
+    """--pop saves the output's foot accelerations (the measure of test_guards_pops.py) and
+    --compare draws STRIP consecutive frames per file around the first file's worst one; a jump
+    of the foot point between two frames is named in red on its panel."""
+    import numpy as np
+    path = mocap / "cmu_131_01_mj_style_walk.bvh"
+    if not path.exists():
+        pytest.skip(f"{path} not present")
+    npz = tmp_path / "after.npz"
+    assert R.main([str(path), "--pop", "0.5", "--save", str(npz)]) == 0
+    (c,) = R.load_cases(str(npz))
+    feet = list(c["feet"])
+    assert [str(c["names"][j]) for j in feet] == ["LeftAnkle", "LeftToe", "RightAnkle",
+                                                  "RightToe"]
+    acc = R.foot_accel(c["pos"][:, feet])
+    np.testing.assert_allclose(c["accel"], acc)
+    assert c["ratio"] == pytest.approx(acc.max() / max(c["a_in"], c["a_ref"]))
+    t = c["frame"]
+    assert acc[t - 1].max() == acc.max() and c["point"] in feet
+    # a copy where the body jumps 10% of its height at the middle frame, as the "before"
+    t = len(c["pos"]) // 2
+    jumped = dict(c, pos=c["pos"].copy(), es=c["es"].copy(), frame=t)
+    step = np.zeros(3)
+    step[(c["up"] + 1) % 3] = 0.1 * c["H"]
+    jumped["pos"][t:] += step
+    jumped["es"][t:] += step
+    out = tmp_path / "pops.png"
+    fig = R.draw_cases([[jumped], [c]], ["before", "after"], str(out), 40)
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert len(fig.axes) == 2 * R.STRIP
+    titles = [a.get_title() for a in fig.axes]
+    assert [s.split("\n")[0] for s in titles[:R.STRIP]] == [
+        f"frame {f - 1} → {f}" for f in range(t - R.STRIP // 2, t + R.STRIP // 2 + 1)]
+    red = [a.get_title() for a in fig.axes if a.title.get_color() == R.JUMP_C]
+    pt = c["point"]
+    s = 100 * np.linalg.norm(jumped["pos"][t, pt] - jumped["pos"][t - 1, pt]) / c["H"]
+    assert s > 9
+    assert red == [f"frame {t - 1} → {t}\n{c['names'][pt]} moved {s:.1f}% of body height"]
+
+
+def test_clean_overlay_is_saved_and_drawn_at_the_worst_frame(tmp_path):
+    """--clean saves the guarded and unguarded denoise and their joints' distance in % of body
+    height; --compare draws a panel per clip and file at the first file's worst frame."""
+    import numpy as np
+    path = REPO / "tests" / "data" / "wild" / "assimp_cmu_01_03_first600.bvh"
+    npz = tmp_path / "clean.npz"
+    assert R.main([str(path), "--clean", "--save", str(npz)]) == 0
+    (c,) = R.load_cases(str(npz))
+    d = 100 * np.linalg.norm(c["pos"] - c["pos_u"], axis=-1) / c["H"]
+    np.testing.assert_allclose(c["change"], d)
+    assert d[c["frame"], c["joint"]] == d.max()
+    out = tmp_path / "clean.png"
+    assert R.main(["--compare", str(npz), str(npz), "-o", str(out), "--dpi", "40"]) == 0
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    fig = R.draw_cases([[c], [c]], ["before", "after"], str(out), 40)
+    assert len(fig.axes) == 2
+    assert all(f"frame {c['frame']}" in a.get_title() for a in fig.axes)
+    assert f"moved {d.max():.2f}% of body height" in fig.axes[0].get_xlabel()
