@@ -244,13 +244,15 @@ typedef struct contact_run {
                   KEEP_TOTAL leaves it kept (its sliding is the reference's, to the tolerance) */
 } contact_run;
 
-/* A run whose own contact points do not sink (none lower than its floor limit less STILL_LEG
-   times the leg's length) and follow the reference (run_follows), or without a reference do
-   not move (every point within that tolerance of its mean horizontal place over its contact
-   frames of the run), is left as it is. Comparing path
-   lengths with the reference's alone pinned clean captures, whose path lengths at 120 fps are
-   jitter (CMU 10_01 denoised: a standing foot's 4.5 s contact pinned, the leg moved by 2.5% of
-   the body's height where the foot had stayed within 0.4%). */
+/* A run whose own contact points do not sink (none lower than its floor limit less the floor's
+   dead zone, CLEANUP_FLOOR_SLACK) and either follow the reference (run_follows) or do not move
+   (every point within STILL_LEG times the leg's length of its mean horizontal place over its
+   contact frames of the run) is left as it is. Comparing path lengths with the reference's
+   alone pinned clean captures, whose path lengths at 120 fps are jitter (CMU 10_01 denoised:
+   a standing foot's 4.5 s contact pinned, the leg moved by 2.5% of the body's height where the
+   foot had stayed within 0.4%). (Keeping only the runs that follow the reference pinned more of
+   MakeHuman's keyframed zombie walk at alpha 2, whose toe then went 0.56% of body height below
+   the floor.) */
 #ifndef STILL_LEG
 #define STILL_LEG 0.02
 #endif
@@ -303,15 +305,15 @@ static int run_still(const cleanup_state *cu, const cleanup_foot *ft, size_t s, 
                  *pk = cu->pos + 3 * (s * J + (size_t)ft->knee),
                  *pa = cu->pos + 3 * (s * J + (size_t)ft->anchor);
     const double tol = STILL_LEG * (cleanup__dist3(ph, pk) + cleanup__dist3(pk, pa));
-    for (size_t i = 0; i < ft->n_cols; i++) /* sinking: pinned */
+    /* sinking (below the floor's dead zone on a contact frame): pinned */
+    const double sink = CLEANUP_FLOOR_SLACK * ft->leg;
+    for (size_t i = 0; i < ft->n_cols; i++)
         for (size_t f = s; cu->floor_active && f < e; f++)
             if (cu->contacts[f * C + ft->cols[i]] &&
-                P[3 * (f * C + ft->cols[i]) + (size_t)up] < cu->lim[f * C + ft->cols[i]] - tol)
+                P[3 * (f * C + ft->cols[i]) + (size_t)up] < cu->lim[f * C + ft->cols[i]] - sink)
                 return 0;
-    if (cu->Pr) /* with a reference: it must follow it, up and down too (a foot that hovers
-                   steadily above the reference's contact is not still: CMU 131_01 at alpha 0.5
-                   floated 4% of body height above the floor at a touch-down) */
-        return run_follows(cu, ft, s, e, tol);
+    if (run_follows(cu, ft, s, e, tol))
+        return 1;
     for (size_t i = 0; i < ft->n_cols; i++) {
         const size_t c = ft->cols[i];
         double mean[3] = {0, 0, 0};

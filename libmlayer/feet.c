@@ -1,5 +1,6 @@
 /*
- * The feet of a rig found by joint name: ankles, toes (or End Sites), and hands that stay low.
+ * The feet of a rig found by joint name: ankles, toes (or End Sites), and hands that stay low;
+ * where no name says foot, the leaf joints that stay on the ground.
  */
 #include "contacts_internal.h"
 #include "mlr_internal.h"
@@ -97,6 +98,59 @@ static mlr_status low_hands(const mlr_rig *rig, size_t N, const double *world_po
     return MLR_OK;
 }
 
+#define GEOM_LOW 0.1 /* a leaf within this (body heights) of the ground, in the median: a foot */
+
+/* Feet by geometry, where no name says foot: the leaf joints (no child joint) whose median
+   height above the ground of their frame (the lowest joint) is within GEOM_LOW body heights,
+   at least three joints below the root; the ankle is the leaf's parent when that is low too
+   (the leaf then its toe), else the leaf. Flags the ankles; returns how many. */
+static size_t ground_leaves(const mlr_rig *rig, size_t N, const double *world_pos, int up,
+                            unsigned char *flags, const mlr_allocator *a, const double *height,
+                            mlr_status *st, mlr_diag *diag)
+{
+    const size_t J = rig->n_joints;
+    double H = height ? *height : 0.0;
+    *st = height ? MLR_OK : mlr_rig_body_height(N, J, world_pos, up, &H, a, diag);
+    if (*st != MLR_OK || !(H > 0.0))
+        return 0;
+    size_t bytes;
+    if (mlr_mul_size(2 * N + J, sizeof(double), &bytes) != MLR_OK) {
+        *st = mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "find_feet: too many frames");
+        return 0;
+    }
+    double *ground = mlr_alloc(a, bytes);
+    if (!ground) {
+        *st = mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "find_feet: out of memory");
+        return 0;
+    }
+    double *tmp = ground + N, *med = tmp + N;
+    (void)mlr_rig_up_range(N, J, world_pos, up, ground, NULL);
+    for (size_t j = 0; j < J; j++) {
+        for (size_t f = 0; f < N; f++)
+            tmp[f] = world_pos[3 * (f * J + j) + (size_t)up] - ground[f];
+        med[j] = mlr_median(tmp, N);
+    }
+    size_t n = 0;
+    for (size_t j = 0; j < J; j++) {
+        int has_child = 0;
+        for (size_t k = j + 1; k < J && !has_child; k++)
+            has_child = rig->parents[k] == (int32_t)j;
+        if (has_child || !(med[j] <= GEOM_LOW * H))
+            continue;
+        size_t depth = 0;
+        for (int32_t u = rig->parents[j]; u >= 0; u = rig->parents[u])
+            depth++;
+        if (depth < 3)
+            continue;
+        const int32_t p = rig->parents[j];
+        const size_t ankle = depth >= 4 && med[p] <= GEOM_LOW * H ? (size_t)p : j;
+        if (!(flags[ankle] & IS_ANKLE))
+            flags[ankle] |= IS_ANKLE, n++;
+    }
+    mlr_free(a, ground, bytes);
+    return n;
+}
+
 mlr_status mlr_contacts_find_feet(const mlr_rig *rig, size_t n_frames, const double *world_pos,
                                   int up, size_t capacity, int32_t *joints, int32_t *end_sites,
                                   size_t *n_feet, const mlr_allocator *alloc, mlr_diag *diag)
@@ -148,11 +202,20 @@ mlr_status mlr__contacts_find_feet(const mlr_rig *rig, size_t n_frames, const do
         }
         flags[j] = f;
     }
+    if (n_ankles == 0 && n_frames) { /* no name says foot: the leaves on the ground */
+        n_ankles = ground_leaves(rig, n_frames, world_pos, up, flags, &a, height, &st, diag);
+        if (st != MLR_OK) {
+            mlr_free(&a, flags, J);
+            return st;
+        }
+        n_hands = 0; /* (the low leaves are every foot there is) */
+    }
     if (n_ankles == 0) {
         mlr_free(&a, flags, J);
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                             "no feet found: no joint name contains foot, ankle, paw or hoof "
-                            "(case-insensitive; toes: toe or ball below a foot); name the "
+                            "(case-insensitive; toes: toe or ball below a foot), and no leaf "
+                            "joint stays on the ground; name the "
                             "contact points yourself ('Joint/End' names a joint's End Site)");
     }
     if (n_hands && n_frames) {

@@ -460,3 +460,21 @@ def test_bad_input_names_the_argument(mocap):
         mlayer.detect_contacts(flat, up="y")
     names, c = mlayer.detect_contacts(flat, up="x")
     assert names == ["LeftFoot"] and c.all()
+
+
+def test_feet_found_by_geometry_where_no_name_says_foot(mocap):
+    """Issue 38, item 7: a rig whose joints are not named foot/ankle/toe (here LaFAN1 with every
+    joint renamed j0, j1, ...) gets its feet from geometry, the leaf joints that stay on the
+    ground: the ankles above the toes, and the guards run on them (no warning)."""
+    import warnings
+    m = _read(mocap, "lafan1_clip_a.bvh", 600)
+    names = [f"j{k}" for k in range(m.n_joints)]
+    anon = mlayer.Motion.from_arrays(names, m.skeleton.parents, m.skeleton.offsets, m.root_pos,
+                                     m.rot, fps=m.fps)
+    feet = mlayer.contacts.find_feet(anon)
+    assert sorted(a for a, _ in feet) == sorted(
+        names[m.joint_names.index(n)] for n in ("LeftFoot", "RightFoot"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", mlayer.MlayerWarning)
+        out, rep = mlayer.stylize(anon, 2.0, return_report=True)
+    assert rep.contact_frames > 100
