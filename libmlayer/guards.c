@@ -29,10 +29,10 @@
    noise then left out of the corrections by the cleanup (PIN_DETAIL 1: the denoised feet keep
    their detail, the pinned ones take the input's slow path). */
 #define GUARDS_REF_SMOOTH 0.02
-#define GUARDS_LIMITS_SOFT 0.15
+#define GUARDS_LIMITS_SOFT 0.15 /* mlr_limits' default MLR_LIMITS_OPT_SOFT */
 /* The floor's dead zone in body heights, the cleanup's (CLEANUP_FLOOR_SLACK, half a percent of
    the leg) for a leg of half the body's height */
-#define GUARDS_FLOOR_SLACK 0.0025 /* mlr_limits' default MLR_LIMITS_OPT_SOFT */
+#define GUARDS_FLOOR_SLACK 0.0025
 
 struct mlr_guards {
     mlr_allocator alloc;
