@@ -299,6 +299,13 @@ def _leg_of(c: dict, j: int) -> int:
     return -1
 
 
+def _leg_points(c: dict, hot: int) -> tuple[list[int], list[int]]:
+    """The joints of leg hot from its knee down (every joint when hot < 0) and their End
+    Sites, in a saved clip c."""
+    js = [k for k in range(len(c["parents"])) if hot < 0 or _below(c, k, c["legs"][hot][1])]
+    return js, [e for e, p in enumerate(c["es_parents"]) if p in js]
+
+
 def _below(c: dict, j: int, top: int) -> bool:
     """Joint j is top or below it."""
     while j >= 0 and j != top:
@@ -366,15 +373,12 @@ def _pop_strip(fig, builds, labels, ci, top, bottom):
     f0 = c0["floor"] / H
     pn = str(c0["names"][pt])
     lo, hi = max(0, frames[0] - PATH_HALF), min(len(c0["pos"]), frames[-1] + PATH_HALF + 1)
-    # one window for every panel: the legs, their toe tips and the foot's path, with the floor
     # one window for every panel: the foot's leg from the knee down, its toe tips, the foot's
     # path and the floor
     pts = []
     for b in builds:
         c = b[ci]
-        below = [j for j in range(len(c["parents"]))
-                 if hot < 0 or _below(c, j, c["legs"][hot][1])]
-        tips = [e for e, p in enumerate(c["es_parents"]) if p in below]
+        below, tips = _leg_points(c, hot)
         for f in frames:
             pts += [c["pos"][f, below], c["es"][f, tips]]
         pts.append(c["pos"][lo:hi, pt])
@@ -441,9 +445,7 @@ def _clean_panel(ax, builds, ci, bi, label):
     pts = []
     for b in builds:
         cb = b[ci]
-        js = [k for k in range(len(cb["parents"]))
-              if hot < 0 or _below(cb, k, cb["legs"][hot][1])]
-        es = [e for e, p in enumerate(cb["es_parents"]) if p in js]
+        js, es = _leg_points(cb, hot)
         pts += [cb[k][t, js] for k in ("pos", "pos_u")] + [cb[k][t, es] for k in ("es", "es_u")]
     xy = _proj(np.concatenate(pts) / H, axes)
     m = 0.04
