@@ -13,6 +13,7 @@ Usage: python bench/python/bench_rot_outliers.py [--quick] [--clips a,b] [--clea
 from __future__ import annotations
 
 import argparse
+import os
 import math
 import sys
 import time
@@ -24,8 +25,12 @@ import numpy as np
 import mlayer
 from mlayer import metrics
 
-MOCAP = Path("/work/shared/data/mocap")
-CORPUS = Path("/work/corpus")
+# the shared clips beside the repository ($MLR_TEST_MOCAP_DIR overrides), and the gathered
+# corpus of bench/python/corpus_clips.tsv ($MLR_TEST_CORPUS_DIR, default: a folder "corpus"
+# beside the repository)
+_REPO = Path(__file__).resolve().parents[2]
+MOCAP = Path(os.environ.get("MLR_TEST_MOCAP_DIR", _REPO.parent / "shared" / "data" / "mocap"))
+CORPUS = Path(os.environ.get("MLR_TEST_CORPUS_DIR", _REPO.parent / "corpus"))
 
 CLIPS = {  # name: (path, first frame, frames or None)
     "lafan": (MOCAP / "lafan1_clip_a.bvh", 0, 1500),
