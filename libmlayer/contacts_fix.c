@@ -442,18 +442,24 @@ static void keep_total(contact_run *runs, size_t n, contact_run **order)
 #define PIN_NOISE 0.03
 #endif
 
-/* L of column d of x (n rows of 12) at row i. */
-static double local_linear(const double *x, size_t n, size_t i, size_t d, double sig, size_t half)
+/* L of the 12 columns of x (n rows of 12) at row i, into out: the window's weights, taken once
+   for every column. */
+static void local_linear_row(const double *x, size_t n, size_t i, double sig, size_t half,
+                             double out[12])
 {
     const size_t lo = i > half ? i - half : 0, hi = i + half < n ? i + half : n - 1;
-    double s0 = 0.0, s1 = 0.0, s2 = 0.0, sy = 0.0, sxy = 0.0;
+    double s0 = 0.0, s1 = 0.0, s2 = 0.0, sy[12] = {0}, sxy[12] = {0};
     for (size_t q = lo; q <= hi; q++) {
         const double u = (double)q - (double)i, w = exp(-0.5 * (u / sig) * (u / sig));
-        const double y = x[12 * q + d];
-        s0 += w, s1 += w * u, s2 += w * u * u, sy += w * y, sxy += w * u * y;
+        s0 += w, s1 += w * u, s2 += w * u * u;
+        for (int d = 0; d < 12; d++) {
+            const double y = x[12 * q + (size_t)d];
+            sy[d] += w * y, sxy[d] += w * u * y;
+        }
     }
     const double det = s0 * s2 - s1 * s1;
-    return det > 1e-12 * s0 * s2 ? (s2 * sy - s1 * sxy) / det : sy / s0;
+    for (int d = 0; d < 12; d++)
+        out[d] = det > 1e-12 * s0 * s2 ? (s2 * sy[d] - s1 * sxy[d]) / det : sy[d] / s0;
 }
 
 /* The targets of pinned run [s, e) of foot ft smoothed as above. tmp: 12 (e - s) doubles. */
@@ -480,13 +486,14 @@ static void smooth_run_targets(const cleanup_state *cu, cleanup_foot *ft, size_t
     for (size_t f = s; f < e; f++) {
         const size_t i = f - s;
         const double *row = tmp + 12 * i;
+        double L[12];
+        local_linear_row(tmp, n, i, sig, half, L);
         for (int part = 0; part < 1 + has_toe; part++) {
             double *t = part ? ft->tt + 3 * f : ft->at + 3 * f;
             for (int d = 0; d < 3; d++) {
                 const size_t cc = (size_t)(3 * part + d), xc = cc + 6;
                 const double x = row[xc];
-                t[d] = x + local_linear(tmp, n, i, cc, sig, half) -
-                       (1.0 - kappa) * (x - local_linear(tmp, n, i, xc, sig, half));
+                t[d] = x + L[cc] - (1.0 - kappa) * (x - L[xc]);
             }
         }
     }
