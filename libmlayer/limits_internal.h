@@ -101,4 +101,15 @@ mlr_status mlr_limits_apply_normalized(const mlr_limits *lim, size_t n_frames,
 mlr_status mlr_limits_rot_error(const mlr_limits *lim, size_t n_frames, const double *rot,
                                 mlr_diag *diag);
 
+/* The limits' corrections eased in time (limits_ease.c): lim (n_frames x J unit quaternions,
+ * the limits of raw, which may be unnormalized) is rewritten as exp(e) * raw, e the correction
+ * lim * conj(raw) as a rotation vector, each component's positive and negative part through a
+ * running maximum and a Gaussian of 40 ms (where a joint's parts of both signs overlap, a
+ * frame can be left short of its own correction: a hinge then a little outside its range; the
+ * guards ease that excess again and clamp what is left); joints with counts[j] == 0 (counts may be NULL) are
+ * left as they are, and so are frames with no correction within 100 ms. MLR_E_NO_MEMORY or
+ * MLR_E_OVERFLOW leave lim as it was. */
+mlr_status mlr_limits_ease(const double *raw, double *lim, size_t n_frames, size_t J, double fps,
+                           const size_t *counts, const mlr_allocator *alloc);
+
 #endif /* MLR_LIMITS_INTERNAL_H */

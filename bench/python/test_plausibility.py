@@ -360,6 +360,12 @@ def test_legacy_floor_penetration_depth() -> None:
     rep = P.floor_report(inp, leg(k, y), feet, floor, H)
     assert rep["frames"] == 3
     assert rep["deepest_pct"] == pytest.approx(2.0, abs=1e-6)
+    # where the input itself is 1 % of H under the floor, only the depth beyond it counts
+    yin = np.full(40, 8.0)
+    yin[5:8] -= 0.01 * H
+    rep = P.floor_report(leg(k, yin), leg(k, y), feet, floor, H)
+    assert rep["frames"] == 3
+    assert rep["deepest_pct"] == pytest.approx(1.0, abs=1e-6)
 
 
 def _axis_angle(axis: list[float] | np.ndarray, deg: float) -> np.ndarray:
