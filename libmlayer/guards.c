@@ -5,6 +5,7 @@
 #include "mlr_internal.h"
 #include "cleanup_internal.h"
 #include "contacts_internal.h"
+#include "depop_internal.h"
 #include "limits_internal.h"
 #include "quat_internal.h"
 #include "options_internal.h"
@@ -1161,6 +1162,20 @@ mlr_status mlr_guards_apply(const mlr_guards *g, const double *alpha, size_t n_a
         rep.contact_frames = crep.contact_frames;
         rep.floor_frames = crep.floor_frames;
         rep.floor_height = floor_on ? crep.floor_height : NAN;
+    }
+    if (C > 0 || floor_on || rep.limits_applied) {
+        /* the corners where guards meet, smoothed (depop.c); before the floor's last word */
+        size_t smoothed = 0;
+        st = mlr_depop(&g->rig, N, g->fps, g->root_pos, g->rot, g->trans, root_pos, rot, trans,
+                       g->n_points, g->joints, g->end_sites, C ? g->contacts : NULL,
+                       rep.limits_applied ? g->limits : NULL, alpha, n_alpha, work_root, work,
+                       &smoothed, &g->alloc);
+        if (st != MLR_OK) {
+            mlr_diag_set(diag, st, 0, 0, "guards apply: %s",
+                         st == MLR_E_NO_MEMORY ? "out of memory"
+                                               : "forward kinematics of the result failed");
+            goto done;
+        }
     }
     if (floor_on) {
         st = raise_to_floor(g, ref, work_root, work, trans, &rep.floor_raised);

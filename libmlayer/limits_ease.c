@@ -20,35 +20,10 @@
 
 #include "limits_internal.h"
 #include "mlr_internal.h"
+#include "quat_internal.h"
 
 #define EASE_SIGMA 0.04 /* seconds */
 #define EASE_TRUNC 2.5  /* the Gaussian's support and the running maximum's radius, in sigmas */
-
-static void quat_mul(const double *a, const double *b, double *o)
-{
-    const double w = a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3];
-    const double x = a[0] * b[1] + a[1] * b[0] + a[2] * b[3] - a[3] * b[2];
-    const double y = a[0] * b[2] - a[1] * b[3] + a[2] * b[0] + a[3] * b[1];
-    const double z = a[0] * b[3] + a[1] * b[2] - a[2] * b[1] + a[3] * b[0];
-    o[0] = w, o[1] = x, o[2] = y, o[3] = z;
-}
-
-/* The rotation vector (axis times angle, angle in [0, pi]) of unit quaternion q. */
-static void rot_vector(const double *q, double *v)
-{
-    const double sg = q[0] < 0 ? -1.0 : 1.0;
-    const double s = sqrt(q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
-    const double k = s > 1e-300 ? 2.0 * atan2(s, sg * q[0]) / s : 2.0;
-    v[0] = sg * k * q[1], v[1] = sg * k * q[2], v[2] = sg * k * q[3];
-}
-
-/* The unit quaternion of rotation vector v. */
-static void rot_quat(const double *v, double *q)
-{
-    const double a = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
-    const double k = a > 1e-300 ? sin(0.5 * a) / a : 0.5;
-    q[0] = cos(0.5 * a), q[1] = k * v[0], q[2] = k * v[1], q[3] = k * v[2];
-}
 
 /* y[f] = the largest x over frames [f - r, f + r] within [0, n). */
 static void running_max(const double *x, size_t n, size_t r, double *y)
@@ -130,8 +105,8 @@ static int ease_joint(const double *raw, const double *lim, size_t N, size_t J, 
         const double n = sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2] + a[3] * a[3]);
         const double ac[4] = {a[0] / n, -a[1] / n, -a[2] / n, -a[3] / n};
         double c[4];
-        quat_mul(b, ac, c);
-        rot_vector(c, w->v + 3 * f);
+        mlr__qmul4(b, ac, c);
+        mlr__quat_rotvec(c, w->v + 3 * f);
         any |= w->v[3 * f] != 0 || w->v[3 * f + 1] != 0 || w->v[3 * f + 2] != 0;
     }
     if (!any)
@@ -176,8 +151,8 @@ mlr_status mlr_limits_ease(const double *raw, double *lim, size_t N, size_t J, d
             const double n = sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2] + a[3] * a[3]);
             const double an[4] = {a[0] / n, a[1] / n, a[2] / n, a[3] / n};
             double c[4], q[4];
-            rot_quat(e, c);
-            quat_mul(c, an, q);
+            mlr__rotvec_quat(e, c);
+            mlr__qmul4(c, an, q);
             /* the hemisphere of the limited rotation it replaces */
             const double sg = q[0] * b[0] + q[1] * b[1] + q[2] * b[2] + q[3] * b[3] < 0 ? -1 : 1;
             for (int i = 0; i < 4; i++)

@@ -67,6 +67,32 @@ static inline int mlr__quat_unit(const mlr_quat *q, mlr_quat *out)
     return 1;
 }
 
+/* o = a b, quaternions as (w, x, y, z) arrays (o may not alias a or b). */
+static inline void mlr__qmul4(const double *a, const double *b, double *o)
+{
+    o[0] = a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3];
+    o[1] = a[0] * b[1] + a[1] * b[0] + a[2] * b[3] - a[3] * b[2];
+    o[2] = a[0] * b[2] - a[1] * b[3] + a[2] * b[0] + a[3] * b[1];
+    o[3] = a[0] * b[3] + a[1] * b[2] - a[2] * b[1] + a[3] * b[0];
+}
+
+/* The rotation vector (axis times angle, angle in [0, pi]) of unit quaternion q. */
+static inline void mlr__quat_rotvec(const double *q, double *v)
+{
+    const double sg = q[0] < 0 ? -1.0 : 1.0;
+    const double s = sqrt(q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+    const double k = s > 1e-300 ? 2.0 * atan2(s, sg * q[0]) / s : 2.0;
+    v[0] = sg * k * q[1], v[1] = sg * k * q[2], v[2] = sg * k * q[3];
+}
+
+/* The unit quaternion of rotation vector v. */
+static inline void mlr__rotvec_quat(const double *v, double *q)
+{
+    const double a = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    const double k = a > 1e-300 ? sin(0.5 * a) / a : 0.5;
+    q[0] = cos(0.5 * a), q[1] = k * v[0], q[2] = k * v[1], q[3] = k * v[2];
+}
+
 /* The unit quaternions of q into out (which may be q): those already unit to rounding (|q|^2
  * within 4 DBL_EPSILON of 1) copied bit for bit, the others divided by their norm (as
  * mlr_quat_normalize_array); the identity for a zero or non-finite one, and then
