@@ -109,8 +109,7 @@ static double free_weight(int s, size_t h, double e)
    replaced by the Gaussian average (sigma h / 2) blended in by a raised cosine of the distance
    to the nearest pop (1 within h / 2, 0 at h); returns how many frames changed. */
 static size_t smooth_round(size_t N, size_t J, const double *syn_root, const double *syn_rot,
-                           double *root, double *rot, size_t h, double limit,
-                           const depop_work *w)
+                           double *root, double *rot, size_t h, double limit, const depop_work *w)
 {
     /* the blend: distance to the nearest pop */
     size_t changed = 0;
@@ -122,7 +121,8 @@ static size_t smooth_round(size_t N, size_t J, const double *syn_root, const dou
         const size_t lo = f > h ? f - h : 0, hi = f + h < N ? f + h : N - 1;
         for (size_t g = lo; g <= hi; g++) {
             const double d = fabs((double)g - (double)f) / (double)h;
-            const double b = d <= 0.5 ? 1.0 : 0.5 * (1.0 + cos(3.14159265358979323846 * (2.0 * d - 1.0)));
+            const double b =
+                d <= 0.5 ? 1.0 : 0.5 * (1.0 + cos(3.14159265358979323846 * (2.0 * d - 1.0)));
             w->blend[g] = b > w->blend[g] ? b : w->blend[g];
         }
     }
@@ -160,22 +160,23 @@ static size_t smooth_round(size_t N, size_t J, const double *syn_root, const dou
                 continue;
             double v[3], q[4], out[4];
             for (int d = 0; d < 3; d++)
-                v[d] = cf[3 * j + (size_t)d] + bj * (av[3 * j + (size_t)d] - cf[3 * j + (size_t)d]);
+                v[d] =
+                    cf[3 * j + (size_t)d] + bj * (av[3 * j + (size_t)d] - cf[3 * j + (size_t)d]);
             const double *a = syn_rot + 4 * (f * J + j);
             const double n = sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2] + a[3] * a[3]);
             const double an[4] = {a[0] / n, a[1] / n, a[2] / n, a[3] / n};
             mlr__rotvec_quat(v, q);
             mlr__qmul4(q, an, out);
             double *r = rot + 4 * (f * J + j);
-            const double sg = out[0] * r[0] + out[1] * r[1] + out[2] * r[2] + out[3] * r[3] < 0 ? -1 : 1;
+            const double sg =
+                out[0] * r[0] + out[1] * r[1] + out[2] * r[2] + out[3] * r[3] < 0 ? -1 : 1;
             for (int i = 0; i < 4; i++)
                 r[i] = sg * out[i];
         }
         const double br = dist ? b * free_weight(dist[J], h, w->edge) : b;
         for (int d = 0; d < 3 && br > 0.0; d++)
-            root[3 * f + (size_t)d] =
-                syn_root[3 * f + (size_t)d] + cf[3 * J + (size_t)d] +
-                br * (av[3 * J + (size_t)d] - cf[3 * J + (size_t)d]);
+            root[3 * f + (size_t)d] = syn_root[3 * f + (size_t)d] + cf[3 * J + (size_t)d] +
+                                      br * (av[3 * J + (size_t)d] - cf[3 * J + (size_t)d]);
     }
     return changed;
 }
@@ -210,9 +211,9 @@ static mlr_status clamp_hinges(const mlr_limits *limits, size_t N, size_t J, dou
 mlr_status mlr_depop(const mlr_rig *rig, size_t N, double fps, const double *in_root,
                      const double *in_rot, const double *in_trans, const double *syn_root,
                      const double *syn_rot, const double *trans, size_t C, const int32_t *joints,
-                     const int32_t *end_sites, const uint8_t *contacts,
-                     const mlr_limits *limits, const double *alpha, size_t n_alpha, double *root,
-                     double *rot, size_t *smoothed, const mlr_allocator *alloc)
+                     const int32_t *end_sites, const uint8_t *contacts, const mlr_limits *limits,
+                     const double *alpha, size_t n_alpha, double *root, double *rot,
+                     size_t *smoothed, const mlr_allocator *alloc)
 {
     if (smoothed)
         *smoothed = 0;
@@ -276,8 +277,8 @@ mlr_status mlr_depop(const mlr_rig *rig, size_t N, double fps, const double *in_
     for (int s = 0; s < 2 && st == MLR_OK; s++) {
         if (!src_root[s])
             continue;
-        st = cleanup__fk_points(rig, N, src_root[s], src_rot[s], src_trans[s], C, joints, end_sites,
-                                w.pos, w.wrot, w.pts, alloc, NULL, 0, NULL);
+        st = cleanup__fk_points(rig, N, src_root[s], src_rot[s], src_trans[s], C, joints,
+                                end_sites, w.pos, w.wrot, w.pts, alloc, NULL, 0, NULL);
         if (st == MLR_OK)
             base = fmax(base, frame_accel(w.pts, N, C, NULL));
     }

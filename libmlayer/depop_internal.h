@@ -19,8 +19,8 @@
 mlr_status mlr_depop(const mlr_rig *rig, size_t N, double fps, const double *in_root,
                      const double *in_rot, const double *in_trans, const double *syn_root,
                      const double *syn_rot, const double *trans, size_t C, const int32_t *joints,
-                     const int32_t *end_sites, const uint8_t *contacts,
-                     const mlr_limits *limits, const double *alpha, size_t n_alpha, double *root,
-                     double *rot, size_t *smoothed, const mlr_allocator *alloc);
+                     const int32_t *end_sites, const uint8_t *contacts, const mlr_limits *limits,
+                     const double *alpha, size_t n_alpha, double *root, double *rot,
+                     size_t *smoothed, const mlr_allocator *alloc);
 
 #endif /* MLR_DEPOP_INTERNAL_H */
