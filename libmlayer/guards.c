@@ -6,6 +6,7 @@
 #include "cleanup_internal.h"
 #include "contacts_internal.h"
 #include "depop_internal.h"
+#include "floor_chains_internal.h"
 #include "limits_internal.h"
 #include "quat_internal.h"
 #include "options_internal.h"
@@ -1114,6 +1115,24 @@ mlr_status mlr_guards_apply(const mlr_guards *g, const double *alpha, size_t n_a
     }
     const size_t C = g->contacts_on ? g->n_points : 0;
     const int floor_on = g->floor_on && isfinite(g->floor_height) && g->n_points > 0;
+    int stylizing = 0;
+    for (size_t k = 0; k < n_alpha; k++)
+        stylizing |= alpha[k] != 1.0;
+    if (floor_on && stylizing) { /* the rest of the body above the floor (floor_chains.c),
+                                    before the cleanup pins the feet of the result; not in
+                                    denoise, where the input is the noisy capture (blending
+                                    MediaPipe's toward it changed denoise by 47% of H) */
+        size_t lifted = 0;
+        st = mlr_floor_chains(&g->rig, N, g->fps, g->up, g->floor_height,
+                              GUARDS_FLOOR_SLACK * g->body_height, g->root_pos, g->rot, g->trans,
+                              work_root, work, trans, g->n_points, g->joints, &lifted, &g->alloc);
+        if (st != MLR_OK) {
+            mlr_diag_set(diag, st, 0, 0, "guards apply: %s",
+                         st == MLR_E_NO_MEMORY ? "out of memory"
+                                               : "forward kinematics of the result failed");
+            goto done;
+        }
+    }
     if (C > 0 || floor_on) {
         int denoising = 1;
         for (size_t k = 0; k < n_alpha; k++)

@@ -93,6 +93,17 @@ static inline void mlr__rotvec_quat(const double *v, double *q)
     q[0] = cos(0.5 * a), q[1] = k * v[0], q[2] = k * v[1], q[3] = k * v[2];
 }
 
+/* o = q v q* for unit quaternion q (w, x, y, z) and vector v (o may not alias v). */
+static inline void mlr__quat_rotate3(const double *q, const double *v, double *o)
+{
+    const double w = q[0], x = q[1], y = q[2], z = q[3];
+    const double tx = 2.0 * (y * v[2] - z * v[1]), ty = 2.0 * (z * v[0] - x * v[2]),
+                 tz = 2.0 * (x * v[1] - y * v[0]);
+    o[0] = v[0] + w * tx + (y * tz - z * ty);
+    o[1] = v[1] + w * ty + (z * tx - x * tz);
+    o[2] = v[2] + w * tz + (x * ty - y * tx);
+}
+
 /* The unit quaternions of q into out (which may be q): those already unit to rounding (|q|^2
  * within 4 DBL_EPSILON of 1) copied bit for bit, the others divided by their norm (as
  * mlr_quat_normalize_array); the identity for a zero or non-finite one, and then
