@@ -249,6 +249,68 @@ def measure_clean(path: str) -> dict:
     return c
 
 
+def measure_floor(path: str, alpha: float) -> dict:
+    """stylize(m, alpha): every joint's and End Site's depth below the input's floor beyond the
+    input's own there (issue 38's definition), in % of H, and the worst frame and point."""
+    m = mlayer.read_bvh(str(path))
+    out = _quiet(mlayer.stylize, m, alpha)
+    c = _common(m, path)
+    up, H = c["up"], c["H"]
+    pin = np.concatenate([m.positions(), m.end_site_positions()], axis=1)[..., up]
+    pout = np.concatenate([out.positions(), out.end_site_positions()], axis=1)[..., up]
+    floor = float(np.percentile(pin.min(axis=1), 5))
+    ex = 100.0 * ((np.maximum(0.0, floor - pout) - np.maximum(0.0, floor - pin)) / H)
+    t, k = np.unravel_index(int(np.argmax(ex)), ex.shape)
+    c.update(kind="floor", alpha=alpha, floor=floor, pos=out.positions(),
+             es=out.end_site_positions(), excess=ex, frame=int(t), point=int(k))
+    return c
+
+
+def _point_name(c: dict, k: int) -> str:
+    J = len(c["names"])
+    return str(c["names"][k]) if k < J else f"{c['names'][int(c['es_parents'][k - J])]}/End"
+
+
+def _floor_panel(ax, builds, ci, bi, label):
+    """The whole skeleton at the worst frame of the first build, side view, with the floor."""
+    c0, c = builds[0][ci], builds[bi][ci]
+    H, t, k = c0["H"], int(c0["frame"]), int(c0["point"])
+    fwd, lat, up = _body_axes(c0, t)
+    axes = (fwd, up)
+    xy = _proj(c["pos"][t] / H, axes)
+    es = _proj(c["es"][t] / H, axes)
+    f0 = c0["floor"] / H
+    allp = np.concatenate([_proj(b[ci]["pos"][t] / H, axes) for b in builds] +
+                          [_proj(b[ci]["es"][t] / H, axes) for b in builds])
+    m = 0.05
+    xlim, ylim = _fit(allp[:, 0].min() - m, allp[:, 0].max() + m,
+                      min(f0, allp[:, 1].min()) - m, allp[:, 1].max() + m, 0.8)
+    _floor_drawn(ax, f0, xlim, ylim)
+    for j, p in enumerate(c["parents"]):
+        if p >= 0:
+            ax.plot(*zip(xy[p], xy[j]), color=TRUNK_C, lw=2.2, zorder=4)
+    for e, p in enumerate(c["es_parents"]):
+        ax.plot(*zip(xy[int(p)], es[e]), color=TRUNK_C, lw=1.2, zorder=4)
+    J = len(c["names"])
+    pt = xy[k] if k < J else es[k - J]
+    ax.plot(*pt, "o", ms=14, mfc="none", mec=JUMP_C, mew=2.2, zorder=12)
+    d = float(c["excess"][t, k])
+    most = float(c["excess"].max())
+    tw, kw = np.unravel_index(int(np.argmax(c["excess"])), c["excess"].shape)
+    ax.set_title(f"{label}: {c0['clip']}, stylize {c0['alpha']:g}\nframe {t}, side view",
+                 fontsize=11)
+    ax.set_xlabel(f"{_point_name(c0, k)} {max(d, 0.0):.1f}% of body height below the floor\n"
+                  f"(clip's deepest {max(most, 0.0):.1f}%: {_point_name(c, int(kw))}, frame {tw})",
+                  fontsize=11, color="darkred" if d > 0.5 else "darkgreen", weight="bold")
+    ax.set_xlim(*xlim)
+    ax.set_ylim(*ylim)
+    ax.set_aspect("equal")
+    ax.set_xticks([])
+    ax.set_yticks([])
+    if bi == 0 and ci == 0:
+        _scale_bar(ax, xlim, ylim, 10)
+
+
 def save_cases(cases: list[dict], path: str) -> None:
     arrays: dict[str, Any] = {f"c{i}_{k}": np.asarray(v) for i, c in enumerate(cases)
                               for k, v in c.items()}
@@ -501,6 +563,18 @@ def draw_cases(builds: list[list[dict]], labels: list[str], out_png: str, dpi: i
                      f"the leg of {pn}; ▲ toe tips;\nbrown: the input's floor; dotted: {pn}'s "
                      f"path over ±{PATH_HALF} frames, one dot a frame; red arrow: a jump of "
                      f"more than 4x the usual step)", fontsize=12, y=0.995)
+    elif kinds == {"floor"}:
+        n = len(builds) * len(builds[0])
+        fig = Figure(figsize=(16, 6.6), dpi=dpi)
+        FigureCanvasAgg(fig)
+        for ci in range(len(builds[0])):
+            for bi, lab in enumerate(labels):
+                ax = fig.add_subplot(1, n, ci * len(builds) + bi + 1)
+                _floor_panel(ax, builds, ci, bi, lab)
+        fig.suptitle("stylize: the deepest point below the input's floor beyond the input's own "
+                     "depth, at its worst frame before (red ring; brown: the floor; the target "
+                     "is 0.5% of body height)", fontsize=12, y=0.99)
+        fig.tight_layout(rect=(0, 0.01, 1, 0.93), w_pad=1.0)
     else:
         n = len(builds) * len(builds[0])
         fig = Figure(figsize=(16, 6.6), dpi=dpi)
@@ -527,6 +601,10 @@ def _print_cases(builds, labels):
                       f"(frame {c['frame']}, {c['names'][c['point']]}: "
                       f"{100 * float(np.max(c['accel'])) / H:.2f}% H; input "
                       f"{100 * c['a_in'] / H:.2f}%, unguarded {100 * c['a_ref'] / H:.2f}%)")
+            elif c["kind"] == "floor":
+                t, k = np.unravel_index(int(np.argmax(c["excess"])), c["excess"].shape)
+                print(f"{lab}: {c['clip']} stylize {c['alpha']:g}: {_point_name(c, int(k))} "
+                      f"{max(0.0, float(c['excess'][t, k])):.2f}% H below the floor at frame {t}")
             else:
                 t, j = np.unravel_index(int(np.argmax(c["change"])), c["change"].shape)
                 print(f"{lab}: {c['clip']} denoise: guards moved {c['names'][j]} "
@@ -542,7 +620,10 @@ def main(argv=None):
                     help="foot pops of stylize at ALPHA (frames around the largest)")
     ap.add_argument("--clean", action="store_true",
                     help="denoise guarded against unguarded, at the largest change")
-    ap.add_argument("--save", metavar="NPZ", help="with --pop / --clean: save, do not draw")
+    ap.add_argument("--floor", type=float, metavar="ALPHA",
+                    help="stylize at ALPHA: the deepest joint or End Site below the floor")
+    ap.add_argument("--save", metavar="NPZ",
+                    help="with --pop / --clean / --floor: save, do not draw")
     ap.add_argument("--compare", nargs=2, metavar=("BEFORE", "AFTER"),
                     help="draw two files saved by --save")
     ap.add_argument("-o", "--out", default="worst.png")
@@ -555,12 +636,13 @@ def main(argv=None):
         draw_cases(builds, ["before", "after"], a.out, a.dpi or 100)
         _print_cases(builds, ["before", "after"])
         return 0
-    if a.pop is not None or a.clean:
-        if a.pop is not None and a.clean:
-            ap.error("--pop and --clean are separate figures")
+    if a.pop is not None or a.clean or a.floor is not None:
+        if (a.pop is not None) + a.clean + (a.floor is not None) > 1:
+            ap.error("--pop, --clean and --floor are separate figures")
         if not a.clip or (a.pop is not None and len(a.clip) != 1):
-            ap.error("--pop takes one clip, --clean one or more")
+            ap.error("--pop takes one clip, --clean and --floor one or more")
         cases = ([measure_pop(a.clip[0], a.pop)] if a.pop is not None
+                 else [measure_floor(c, a.floor) for c in a.clip] if a.floor is not None
                  else [measure_clean(c) for c in a.clip])
         if a.save:
             save_cases(cases, a.save)

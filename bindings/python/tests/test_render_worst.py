@@ -109,3 +109,29 @@ def test_clean_overlay_is_saved_and_drawn_at_the_worst_frame(tmp_path):
     assert len(fig.axes) == 2
     assert all(f"frame {c['frame']}" in a.get_title() for a in fig.axes)
     assert f"moved {d.max():.2f}% of body height" in fig.axes[0].get_xlabel()
+
+
+def test_floor_panels_are_saved_and_drawn_at_the_deepest_point(mocap, tmp_path):
+    """--floor saves stylize's depth of every joint and End Site below the input's floor beyond
+    the input's own, in % of body height; --compare draws the skeleton at the first file's
+    deepest frame with the point ringed and its depth under the panel."""
+    import numpy as np
+    import mlayer
+    path = mocap / "cmu_131_01_mj_style_walk.bvh"
+    npz = tmp_path / "floor.npz"
+    assert R.main([str(path), "--floor", "2", "--save", str(npz)]) == 0
+    (c,) = R.load_cases(str(npz))
+    m = mlayer.read_bvh(path)
+    up = c["up"]
+    pin = np.concatenate([m.positions(), m.end_site_positions()], axis=1)[..., up]
+    pout = np.concatenate([c["pos"], c["es"]], axis=1)[..., up]
+    fl = np.percentile(pin.min(axis=1), 5)
+    ex = 100 * (np.maximum(0, fl - pout) - np.maximum(0, fl - pin)) / c["H"]
+    np.testing.assert_allclose(c["excess"], ex)
+    assert ex[c["frame"], c["point"]] == ex.max()
+    out = tmp_path / "floor.png"
+    fig = R.draw_cases([[c], [c]], ["before", "after"], str(out), 40)
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert len(fig.axes) == 2
+    assert all(f"frame {c['frame']}" in a.get_title() for a in fig.axes)
+    assert "below the floor" in fig.axes[0].get_xlabel()
