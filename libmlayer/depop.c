@@ -65,11 +65,24 @@ typedef struct depop_work {
 } depop_work;
 
 /* The corrections of the result (root, rot) from the synthesis (syn_root, syn_rot) into
-   w->corr. */
+   w->corr, on the frames within h of one that w->blend marks (the only ones the averages
+   read). */
 static void corrections(size_t N, size_t J, const double *syn_root, const double *syn_rot,
-                        const double *root, const double *rot, const depop_work *w)
+                        const double *root, const double *rot, size_t h, const depop_work *w)
 {
+    /* w->accel (read no more this round) as the frames within h of a marked one */
+    size_t in = 0, add = 0, drop = 0;
     for (size_t f = 0; f < N; f++) {
+        const size_t hi = f + h < N ? f + h : N - 1;
+        for (; add <= hi; add++)
+            in += w->blend[add] > 0.0;
+        for (; drop + h < f; drop++)
+            in -= w->blend[drop] > 0.0;
+        w->accel[f] = in > 0;
+    }
+    for (size_t f = 0; f < N; f++) {
+        if (!(w->accel[f] > 0.0))
+            continue;
         double *cf = w->corr + 3 * (J + 1) * f;
         for (size_t j = 0; j < J; j++) {
             const double *a = syn_rot + 4 * (f * J + j), *b = rot + 4 * (f * J + j);
@@ -126,7 +139,7 @@ static size_t smooth_round(size_t N, size_t J, const double *syn_root, const dou
             w->blend[g] = b > w->blend[g] ? b : w->blend[g];
         }
     }
-    corrections(N, J, syn_root, syn_rot, root, rot, w);
+    corrections(N, J, syn_root, syn_rot, root, rot, h, w);
     const double sigma = 0.5 * (double)h;
     const size_t K = 3 * (J + 1);
     for (size_t f = 0; f < N; f++) {
