@@ -9,7 +9,7 @@
  * rotations on it) is blended toward the input's, by the least weight of 1/FLOOR_STEPS, ..., 1
  * that lifts the point to within the slack (all the way when none does: at 1 the path is the
  * input's, and so is the point). Each point's weights are smoothed in time as the limits'
- * corrections are (a running maximum, then a Gaussian: limits_ease.c), so the path returns to
+ * corrections are (mlr_ease_lookahead: a running maximum, then a Gaussian), so the path returns to
  * the input's pose and back over 0.2 s, and each joint takes the largest weight of the paths it
  * is on. The guards run this before the cleanup, which then pins the feet of the result.
  *
@@ -19,6 +19,7 @@
  */
 #include "floor_chains_internal.h"
 
+#include "limits_internal.h"
 #include "mlr_internal.h"
 #include "quat_internal.h"
 
@@ -27,7 +28,7 @@
 
 #define FLOOR_STEPS 8          /* the weights tried: 0, 1/8, ..., 1 */
 #define FLOOR_EASE_SIGMA 0.04  /* seconds */
-#define FLOOR_EASE_TRUNC 2.5   /* the running maximum's radius and the Gaussian's, in sigmas */
+#define FLOOR_EASE_TRUNC 2.5   /* mlr_ease_kernel's cut, in sigmas */
 #define CHAIN_MAX 64           /* longer chains are left as they are */
 
 /* slerp(a, b, t) of unit quaternions along the shorter arc, into o. */
@@ -58,26 +59,6 @@ static void unit4(const double *a, double *o)
         o[i] = a[i] / n;
 }
 
-/* y = x through a running maximum of radius r and a Gaussian (k[0..r], k[0] the centre) of the
-   same radius, edges repeated; tmp: n scratch. */
-static void ease_weights(const double *x, size_t n, const double *k, size_t r, double *tmp,
-                         double *y)
-{
-    for (size_t f = 0; f < n; f++) {
-        const size_t a = f > r ? f - r : 0, b = f + r < n ? f + r : n - 1;
-        double m = x[a];
-        for (size_t i = a + 1; i <= b; i++)
-            m = x[i] > m ? x[i] : m;
-        tmp[f] = m;
-    }
-    for (size_t f = 0; f < n; f++) {
-        double s = k[0] * tmp[f];
-        for (size_t d = 1; d <= r; d++)
-            s += k[d] * (tmp[f >= d ? f - d : 0] + tmp[f + d < n ? f + d : n - 1]);
-        y[f] = s > 1.0 ? 1.0 : s;
-    }
-}
-
 mlr_status mlr_floor_chains(const mlr_rig *rig, size_t N, double fps, int up, double floor,
                             double slack, const double *in_root, const double *in_rot,
                             const double *in_trans, double *root, double *rot, const double *trans,
@@ -90,8 +71,7 @@ mlr_status mlr_floor_chains(const mlr_rig *rig, size_t N, double fps, int up, do
     if (N < 3 || !isfinite(floor) || !(fps > 0))
         return MLR_OK;
     const double sigma = FLOOR_EASE_SIGMA * fps;
-    size_t r = (size_t)ceil(FLOOR_EASE_TRUNC * sigma);
-    r = r < 1 ? 1 : r;
+    const size_t r = (size_t)ceil(FLOOR_EASE_TRUNC * sigma); /* mlr_ease_kernel's */
     /* scratch: two FKs (positions, world rotations), the input's heights, a point's weights
        and their eased copy, the joints' weights, the running maximum's, a chain's rotations
        and local translations (CHAIN_MAX joints), the kernel; the flags */
@@ -152,13 +132,7 @@ mlr_status mlr_floor_chains(const mlr_rig *rig, size_t N, double fps, int up, do
             }
             h_in[f * P + p] = y;
         }
-    double ks = 0.0;
-    for (size_t d = 0; d <= r; d++) {
-        kern[d] = exp(-0.5 * ((double)d / sigma) * ((double)d / sigma));
-        ks += d ? 2.0 * kern[d] : kern[d];
-    }
-    for (size_t d = 0; d <= r; d++)
-        kern[d] /= ks;
+    mlr_ease_kernel(sigma, kern);
     memset(wj, 0, N * J * sizeof(double));
     size_t n_lifted = 0;
     for (size_t p = 0; p < P; p++) {
@@ -241,7 +215,7 @@ mlr_status mlr_floor_chains(const mlr_rig *rig, size_t N, double fps, int up, do
         if (!any)
             continue;
         n_lifted++;
-        ease_weights(wp, N, kern, r, tmp, wpe);
+        mlr_ease_lookahead(wp, N, kern, r, tmp, wpe);
         for (size_t f = 0; f < N; f++)
             for (size_t i = 0; i < n; i++) {
                 double *x = wj + f * J + (size_t)chain[i];

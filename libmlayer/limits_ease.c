@@ -25,28 +25,33 @@
 #define EASE_SIGMA 0.04 /* seconds */
 #define EASE_TRUNC 2.5  /* the Gaussian's support and the running maximum's radius, in sigmas */
 
-/* y[f] = the largest x over frames [f - r, f + r] within [0, n). */
-static void running_max(const double *x, size_t n, size_t r, double *y)
+size_t mlr_ease_kernel(double sigma, double *k)
 {
-    for (size_t f = 0; f < n; f++) {
+    const size_t r = (size_t)ceil(EASE_TRUNC * sigma);
+    double ks = 0.0;
+    for (size_t d = 0; d <= r; d++) {
+        k[d] = exp(-0.5 * ((double)d / sigma) * ((double)d / sigma));
+        ks += d ? 2.0 * k[d] : k[d];
+    }
+    for (size_t d = 0; d <= r; d++)
+        k[d] /= ks;
+    return r;
+}
+
+void mlr_ease_lookahead(const double *x, size_t n, const double *k, size_t r, double *tmp,
+                        double *y)
+{
+    for (size_t f = 0; f < n; f++) { /* the running maximum */
         const size_t a = f > r ? f - r : 0, b = f + r < n ? f + r : n - 1;
         double m = x[a];
         for (size_t i = a + 1; i <= b; i++)
             m = x[i] > m ? x[i] : m;
-        y[f] = m;
+        tmp[f] = m;
     }
-}
-
-/* y[f] = sum over |d| <= r of k[|d|] x[f + d], the index clamped to [0, n) (the edge values
-   repeated); k sums to 1 over -r..r. */
-static void blur(const double *x, size_t n, const double *k, size_t r, double *y)
-{
-    for (size_t f = 0; f < n; f++) {
-        double s = k[0] * x[f];
-        for (size_t d = 1; d <= r; d++) {
-            const double lo = x[f >= d ? f - d : 0], hi = x[f + d < n ? f + d : n - 1];
-            s += k[d] * (lo + hi);
-        }
+    for (size_t f = 0; f < n; f++) { /* the Gaussian, the edge values repeated */
+        double s = k[0] * tmp[f];
+        for (size_t d = 1; d <= r; d++)
+            s += k[d] * (tmp[f >= d ? f - d : 0] + tmp[f + d < n ? f + d : n - 1]);
         y[f] = s;
     }
 }
@@ -62,8 +67,7 @@ typedef struct ease_work {
 /* out = x through the running maximum and the Gaussian. */
 static void ease_signal(const ease_work *w, const double *x, size_t N, double *out)
 {
-    running_max(x, N, w->r, w->tmp);
-    blur(w->tmp, N, w->kernel, w->r, out);
+    mlr_ease_lookahead(x, N, w->kernel, w->r, w->tmp, out);
 }
 
 /* Component k of the eased correction into w->eased: its positive part eased minus its
@@ -132,13 +136,7 @@ mlr_status mlr_limits_ease(const double *raw, double *lim, size_t N, size_t J, d
     if (!buf)
         return MLR_E_NO_MEMORY;
     ease_work w = {buf, buf + 3 * N, buf + 6 * N, buf + 7 * N, buf + 8 * N, buf + 9 * N, r};
-    double ks = 0.0;
-    for (size_t d = 0; d <= r; d++) {
-        w.kernel[d] = exp(-0.5 * ((double)d / sigma) * ((double)d / sigma));
-        ks += d ? 2.0 * w.kernel[d] : w.kernel[d];
-    }
-    for (size_t d = 0; d <= r; d++)
-        w.kernel[d] /= ks;
+    mlr_ease_kernel(sigma, w.kernel);
     for (size_t j = 0; j < J; j++) {
         if ((counts && counts[j] == 0) || !ease_joint(raw, lim, N, J, j, &w))
             continue;

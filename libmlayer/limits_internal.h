@@ -101,6 +101,14 @@ mlr_status mlr_limits_apply_normalized(const mlr_limits *lim, size_t n_frames,
 mlr_status mlr_limits_rot_error(const mlr_limits *lim, size_t n_frames, const double *rot,
                                 mlr_diag *diag);
 
+/* The look-ahead easing of limits_ease.c, shared with floor_chains.c: k[0..r] the halves of a
+ * Gaussian of sigma frames cut at 2.5 sigma, summing to 1 over -r..r (k: at least
+ * 2.5 sigma + 2 values); returns r. y = x through a running maximum of radius r and then that
+ * Gaussian, the edge values repeated (tmp: n scratch; y may not alias x or tmp): at least x
+ * wherever x is, and smooth. */
+size_t mlr_ease_kernel(double sigma, double *k);
+void mlr_ease_lookahead(const double *x, size_t n, const double *k, size_t r, double *tmp,
+                        double *y);
 /* The limits' corrections eased in time (limits_ease.c): lim (n_frames x J unit quaternions,
  * the limits of raw, which may be unnormalized) is rewritten as exp(e) * raw, e the correction
  * lim * conj(raw) as a rotation vector, each component's positive and negative part through a

@@ -541,6 +541,17 @@ def _clean_panel(ax, builds, ci, bi, label):
         _scale_bar(ax, xlim, ylim, 5)
 
 
+def _panel_row(builds, labels, panel, dpi):
+    """A figure with one panel per clip and build, drawn by panel(ax, builds, ci, bi, label)."""
+    n = len(builds) * len(builds[0])
+    fig = Figure(figsize=(16, 6.6), dpi=dpi)
+    FigureCanvasAgg(fig)
+    for ci in range(len(builds[0])):
+        for bi, lab in enumerate(labels):
+            panel(fig.add_subplot(1, n, ci * len(builds) + bi + 1), builds, ci, bi, lab)
+    return fig
+
+
 def draw_cases(builds: list[list[dict]], labels: list[str], out_png: str, dpi: int = 100):
     """The --pop strip (a row per build) or the --clean panels (a panel per clip and build) of
     builds (lists of cases saved by --save, in the same order) into out_png."""
@@ -564,25 +575,13 @@ def draw_cases(builds: list[list[dict]], labels: list[str], out_png: str, dpi: i
                      f"path over ±{PATH_HALF} frames, one dot a frame; red arrow: a jump of "
                      f"more than 4x the usual step)", fontsize=12, y=0.995)
     elif kinds == {"floor"}:
-        n = len(builds) * len(builds[0])
-        fig = Figure(figsize=(16, 6.6), dpi=dpi)
-        FigureCanvasAgg(fig)
-        for ci in range(len(builds[0])):
-            for bi, lab in enumerate(labels):
-                ax = fig.add_subplot(1, n, ci * len(builds) + bi + 1)
-                _floor_panel(ax, builds, ci, bi, lab)
+        fig = _panel_row(builds, labels, _floor_panel, dpi)
         fig.suptitle("stylize: the deepest point below the input's floor beyond the input's own "
                      "depth, at its worst frame before (red ring; brown: the floor; the target "
                      "is 0.5% of body height)", fontsize=12, y=0.99)
         fig.tight_layout(rect=(0, 0.01, 1, 0.93), w_pad=1.0)
     else:
-        n = len(builds) * len(builds[0])
-        fig = Figure(figsize=(16, 6.6), dpi=dpi)
-        FigureCanvasAgg(fig)
-        for ci in range(len(builds[0])):
-            for bi, lab in enumerate(labels):
-                ax = fig.add_subplot(1, n, ci * len(builds) + bi + 1)
-                _clean_panel(ax, builds, ci, bi, lab)
+        fig = _panel_row(builds, labels, _clean_panel, dpi)
         fig.suptitle("denoise: the guards' change to clean clips, at the worst frame before "
                      "(orange, wide: unguarded denoise; blue: guarded; red ring: the joint the "
                      "guards moved most;\n▲ toe tips; brown: the input's floor; the target is "
