@@ -249,6 +249,18 @@ def measure_clean(path: str) -> dict:
     return c
 
 
+def _panel_frame(ax, xlim, ylim, bar_pct):
+    """A panel's limits, equal aspect and no ticks; a scale bar of bar_pct % of body height
+    (0: none)."""
+    ax.set_xlim(*xlim)
+    ax.set_ylim(*ylim)
+    ax.set_aspect("equal")
+    ax.set_xticks([])
+    ax.set_yticks([])
+    if bar_pct:
+        _scale_bar(ax, xlim, ylim, bar_pct)
+
+
 def measure_floor(path: str, alpha: float) -> dict:
     """stylize(m, alpha): every joint's and End Site's depth below the input's floor beyond the
     input's own there (issue 38's definition), in % of H, and the worst frame and point."""
@@ -302,13 +314,7 @@ def _floor_panel(ax, builds, ci, bi, label):
     ax.set_xlabel(f"{_point_name(c0, k)} {max(d, 0.0):.1f}% of body height below the floor\n"
                   f"(clip's deepest {max(most, 0.0):.1f}%: {_point_name(c, int(kw))}, frame {tw})",
                   fontsize=11, color="darkred" if d > 0.5 else "darkgreen", weight="bold")
-    ax.set_xlim(*xlim)
-    ax.set_ylim(*ylim)
-    ax.set_aspect("equal")
-    ax.set_xticks([])
-    ax.set_yticks([])
-    if bi == 0 and ci == 0:
-        _scale_bar(ax, xlim, ylim, 10)
+    _panel_frame(ax, xlim, ylim, 10 if bi == 0 and ci == 0 else 0)
 
 
 def save_cases(cases: list[dict], path: str) -> None:
@@ -532,13 +538,7 @@ def _clean_panel(ax, builds, ci, bi, label):
             if c["change"].max() >= 0.005 else "guarded = unguarded on every frame")
     ax.set_xlabel(f"{name} moved {d:.2f}% of body height\n({most})",
                   fontsize=11, color="darkred" if d > 0.5 else "darkgreen", weight="bold")
-    ax.set_xlim(*xlim)
-    ax.set_ylim(*ylim)
-    ax.set_aspect("equal")
-    ax.set_xticks([])
-    ax.set_yticks([])
-    if bi == 0 and ci == 0:
-        _scale_bar(ax, xlim, ylim, 5)
+    _panel_frame(ax, xlim, ylim, 5 if bi == 0 and ci == 0 else 0)
 
 
 def _panel_row(builds, labels, panel, dpi):
