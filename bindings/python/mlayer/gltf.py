@@ -47,6 +47,7 @@ import binascii
 import json
 import math
 import os
+import stat
 import struct
 import urllib.parse
 import warnings
@@ -538,22 +539,45 @@ class _Data:
                 except (binascii.Error, ValueError) as e:
                     raise _Bad(f"buffers[{i}]: broken base64 ({e})") from None
             else:
-                rel = urllib.parse.unquote(uri)
-                if "://" in rel or os.path.isabs(rel) or self.dir is None:
-                    raise _Bad(f"buffers[{i}].uri {uri!r}: only data: URIs and files beside "
-                               "the glTF file are read")
-                full = os.path.join(self.dir, rel)
-                try:
-                    with open(full, "rb") as f:
-                        data = f.read()
-                except OSError as e:
-                    raise _Bad(f"buffers[{i}]: cannot read {rel}: {e.strerror or e}") from None
+                data = self._external(i, uri, b.get("byteLength"))
         n = b.get("byteLength")
         _need(isinstance(n, int) and not isinstance(n, bool) and n >= 0,
               f"buffers[{i}].byteLength is missing or not a count")
         _need(len(data) >= n, f"buffers[{i}] is truncated: byteLength {n}, {len(data)} bytes "
                               "present")
         self.cache[i] = data
+        return data
+
+    def _external(self, i: int, uri: str, n: Any) -> bytes:
+        """buffers[i]'s file: only a regular file inside the glTF's own folder (after
+        URL-decoding and resolving symlinks: no "..", no absolute path, no device, FIFO or link
+        leading out), only its first byteLength bytes read, after its size was checked."""
+        rel = urllib.parse.unquote(uri)
+        where = f"buffers[{i}].uri {uri!r}"
+        if (self.dir is None or "://" in rel or "\0" in rel or os.path.isabs(rel) or
+                rel.startswith(("/", "\\")) or ".." in rel.replace("\\", "/").split("/")):
+            raise _Bad(f"{where}: only data: URIs and files inside the glTF file's folder are "
+                       "read")
+        _need(isinstance(n, int) and not isinstance(n, bool) and n >= 0,
+              f"buffers[{i}].byteLength is missing or not a count")
+        folder = os.path.realpath(self.dir)
+        full = os.path.realpath(os.path.join(folder, rel))
+        if os.path.commonpath([folder, full]) != folder:
+            raise _Bad(f"{where} leads outside the glTF file's folder (through a link)")
+        try:
+            # O_NONBLOCK: a FIFO does not hang the open; fstat then refuses it
+            fd = os.open(full, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) |
+                         getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_BINARY", 0))
+        except OSError as e:
+            raise _Bad(f"buffers[{i}]: cannot read {rel}: {e.strerror or e}") from None
+        with os.fdopen(fd, "rb") as f:
+            st = os.fstat(f.fileno())
+            if not stat.S_ISREG(st.st_mode):
+                raise _Bad(f"{where} is not a regular file")
+            _need(st.st_size >= n, f"buffers[{i}] is truncated: byteLength {n}, {st.st_size} "
+                                   f"bytes in {rel}")
+            data = f.read(n)
+        _need(len(data) == n, f"buffers[{i}]: {rel} shrank while it was read")
         return data
 
     def _raw(self, view_i: int, offset: int, dtype: Any, count: int, ncomp: int,
@@ -1005,7 +1029,10 @@ def read_gltf(path: str | os.PathLike[str], animation: int = 0, *, fps: float | 
     ----------
     path : str or os.PathLike
         The file; GLB or JSON is told by its first bytes, not its name. A ``.gltf`` may keep
-        its buffers in ``data:`` URIs or in files beside it.
+        its buffers in ``data:`` URIs or in files inside its own folder: a buffer ``uri``
+        (URL-decoded, symlinks resolved) that leads out of it (``..``, an absolute path, a link),
+        or to anything but a regular file (a device, a FIFO), is a ``ParseError``, and only the
+        buffer's ``byteLength`` bytes are read, after the file's size was checked.
     animation : int
         Which of the file's animations (default the first).
     fps : float or None

@@ -23,6 +23,7 @@ import pathlib
 import shutil
 import struct
 import subprocess
+import sys
 import warnings
 
 import numpy as np
@@ -488,7 +489,7 @@ def test_bad_input(tmp_path, mocap):
     _bad(tmp_path, d, "cannot read missing.bin")
     d = json.loads(json.dumps(doc))
     d["buffers"][0]["uri"] = "https://example.com/x.bin"
-    _bad(tmp_path, d, "only data: URIs and files beside")
+    _bad(tmp_path, d, "only data: URIs and files inside")
     d = json.loads(json.dumps(doc))
     d["animations"][0]["samplers"][0]["interpolation"] = "BEZIER"
     _bad(tmp_path, d, "BEZIER")
@@ -692,3 +693,73 @@ def test_hostile_key_times(tmp_path, rng):
     path.write_text(json.dumps(doc))
     with pytest.raises(mlayer.ParseError, match="too many"):
         mlayer.read_gltf(path)
+
+
+def _side_doc(tmp_path, mocap):
+    """A small glTF in tmp_path/g/ whose one buffer is the file s.bin beside it; the doc and
+    its buffer's bytes."""
+    doc = _small(tmp_path, mocap)
+    head, _, payload = doc["buffers"][0]["uri"].partition(",")
+    data = base64.b64decode(payload)
+    (tmp_path / "g").mkdir()
+    (tmp_path / "g" / "s.bin").write_bytes(data)
+    doc["buffers"][0]["uri"] = "s.bin"
+    return doc, data
+
+
+def _read_with_uri(tmp_path, doc, uri, byte_length=None):
+    d = json.loads(json.dumps(doc))
+    d["buffers"][0]["uri"] = uri
+    if byte_length is not None:
+        d["buffers"][0]["byteLength"] = byte_length
+    p = tmp_path / "g" / "x.gltf"
+    p.write_text(json.dumps(d))
+    return mlayer.read_gltf(p)
+
+
+def test_external_buffers_are_read_only_inside_the_files_folder(tmp_path, mocap):
+    """Issue 39, item 1: a buffer uri resolves only to a regular file inside the glTF's folder
+    (URL-decoded, symlinks resolved); anything else is a ParseError naming the buffer, and
+    nothing outside is opened (a FIFO would hang, /dev/zero would fill the memory)."""
+    doc, data = _side_doc(tmp_path, mocap)
+    # beside it, and in a subfolder: read
+    assert _read_with_uri(tmp_path, doc, "s.bin").n_frames == 5
+    (tmp_path / "g" / "sub").mkdir()
+    shutil.copy(tmp_path / "g" / "s.bin", tmp_path / "g" / "sub" / "t%20x.bin")
+    assert _read_with_uri(tmp_path, doc, "sub/t%2520x.bin").n_frames == 5
+    # a secret beside the folder, with the same bytes (so the read would "work" if allowed)
+    (tmp_path / "secret.bin").write_bytes(data)
+    for uri in ["../secret.bin", "..%2Fsecret.bin", "sub/../../secret.bin",
+                str(tmp_path / "secret.bin"), "%2F" + str(tmp_path / "secret.bin")[1:],
+                "../../../../../../dev/zero", "/proc/self/environ", "file:///etc/passwd"]:
+        with pytest.raises(mlayer.ParseError, match=r"buffers\[0\]") as e:
+            _read_with_uri(tmp_path, doc, uri)
+        assert "inside the glTF file's folder" in str(e.value), uri
+    # a link inside the folder that leads out
+    os.symlink(tmp_path / "secret.bin", tmp_path / "g" / "link.bin")
+    with pytest.raises(mlayer.ParseError, match=r"buffers\[0\].*outside the glTF file's folder"):
+        _read_with_uri(tmp_path, doc, "link.bin")
+    # a FIFO inside the folder: refused at once, not read (it would block forever)
+    os.mkfifo(tmp_path / "g" / "fifo.bin")
+    with pytest.raises(mlayer.ParseError, match=r"buffers\[0\].*not a regular file"):
+        _read_with_uri(tmp_path, doc, "fifo.bin")
+    # a byteLength beyond the file: refused before reading
+    with pytest.raises(mlayer.ParseError, match=r"buffers\[0\] is truncated"):
+        _read_with_uri(tmp_path, doc, "s.bin", byte_length=len(data) + 1)
+
+
+def test_convert_refuses_a_gltf_reaching_outside_its_folder(tmp_path, mocap):
+    """The CLI: one line naming the file and the buffer, exit code 2, no output file."""
+    doc, data = _side_doc(tmp_path, mocap)
+    (tmp_path / "secret.bin").write_bytes(data)
+    d = json.loads(json.dumps(doc))
+    d["buffers"][0]["uri"] = "../secret.bin"
+    p = tmp_path / "g" / "x.gltf"
+    p.write_text(json.dumps(d))
+    out = tmp_path / "out.bvh"
+    r = subprocess.run([sys.executable, "-m", "mlayer", "convert", str(p), str(out)],
+                       capture_output=True, text=True)
+    assert r.returncode != 0
+    assert "buffers[0]" in r.stderr and "Traceback" not in r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1
+    assert not out.exists()
