@@ -763,3 +763,44 @@ def test_convert_refuses_a_gltf_reaching_outside_its_folder(tmp_path, mocap):
     assert "buffers[0]" in r.stderr and "Traceback" not in r.stderr
     assert len(r.stderr.strip().splitlines()) == 1
     assert not out.exists()
+
+
+def _chain_doc(tmp_path, mocap, k):
+    """The small glTF under a chain of k static nodes (a file of about 30 k bytes)."""
+    doc = _small(tmp_path, mocap)
+    nodes = doc["nodes"]
+    n0 = len(nodes)
+    roots = set(range(n0)) - {c for nd in nodes for c in nd.get("children", [])}
+    for i in range(k):
+        nodes.append({"children": [n0 + i + 1] if i + 1 < k else sorted(roots)})
+    for sc in doc.get("scenes", []):
+        sc["nodes"] = [n0]
+    return doc
+
+
+def test_node_trees_are_checked_in_linear_time(tmp_path, mocap, monkeypatch):
+    """Issue 39: a chain of 40,000 nodes (940 KB) took 157 s, each node walked up to its root
+    to rule out cycles (quadratic). Counted, not timed: the reader's checks on a 4,000-node
+    chain stay within a few per node (about 8 million before)."""
+    calls = [0]
+    need = G._need
+
+    def counting(cond, reason):
+        calls[0] += 1
+        return need(cond, reason)
+
+    monkeypatch.setattr(G, "_need", counting)
+    p = tmp_path / "chain.gltf"
+    p.write_text(json.dumps(_chain_doc(tmp_path, mocap, 4000)))
+    m = mlayer.read_gltf(p)
+    assert m.n_frames == 5
+    assert calls[0] < 20 * 4000
+    # a cycle among the nodes is still found
+    doc = _chain_doc(tmp_path, mocap, 50)
+    doc["nodes"][-1]["children"].append(len(doc["nodes"]) - 50)
+    _bad(tmp_path, doc, "two parents|cycle")
+
+
+def test_json_nested_too_deep_is_a_parse_error(tmp_path):
+    """Issue 39: JSON nested 100,000 deep ended in a RecursionError traceback."""
+    _bad(tmp_path, b'{"asset": ' + b"[" * 100000 + b"]" * 100000 + b"}", "nested too deep")
