@@ -878,10 +878,10 @@ def _read_doc(doc: dict, data: _Data, animation: int, fps: float | None, name: s
         while a >= 0 and depth_of[a] < 0:
             walk.append(a)
             a = parent[a]
-        r, d = (top[a], depth_of[a]) if a >= 0 else (walk[-1], -1)
+        rt, d = (top[a], depth_of[a]) if a >= 0 else (walk[-1], -1)
         for w in reversed(walk):
             d += 1
-            top[w], depth_of[w] = r, d
+            top[w], depth_of[w] = rt, d
     tops: dict[int, list[int]] = {}
     for i in sorted(members):
         tops.setdefault(top[i], []).append(i)
