@@ -63,6 +63,10 @@ class AmassBody(NamedTuple):
     """The body model the poses were read as: "smpl", "smplh" or "smplx"."""
 
 
+MAX_BYTES = 1 << 30
+"""The default ``max_bytes`` of :func:`read_amass`: the most its members may expand to."""
+
+
 def _gender(z: Any) -> str | None:
     if "gender" not in z.files:
         return None
@@ -117,12 +121,16 @@ def _get(z: Any, path: str, key: str) -> np.ndarray:
     if not _declared_size_ok(z, key):
         raise _fail(path, f"{key!r} declares a larger array than the file holds (damaged)")
     try:
-        return z[key]
+        a = z[key]
     except ValueError as e:  # object arrays need pickle
         raise _fail(path, f"{key!r} cannot be read without pickle ({e}); mlayer does not "
                           "unpickle files") from None
     except (OSError, EOFError, zipfile.BadZipFile) as e:
         raise _fail(path, f"{key!r} is damaged ({e})") from None
+    if not isinstance(a, np.ndarray):  # a member that is not .npy: its raw bytes
+        raise _fail(path, f"{key!r} is not a numpy array (a raw pickle or other data); "
+                          "mlayer does not unpickle files")
+    return a
 
 
 def _numeric(a: np.ndarray, path: str, key: str, ndim: int) -> np.ndarray:
@@ -219,13 +227,15 @@ def _rest_offsets(joint_positions: Any, names: tuple[str, ...], parents: tuple[i
 
 @overload
 def read_amass(path: str | os.PathLike[str], *, joint_positions: Any = None,
-               model: str = "auto", return_body: Literal[False] = False) -> Motion: ...
+               model: str = "auto", return_body: Literal[False] = False,
+               max_bytes: int = MAX_BYTES) -> Motion: ...
 @overload
 def read_amass(path: str | os.PathLike[str], *, joint_positions: Any = None,
-               model: str = "auto", return_body: Literal[True]) -> tuple[Motion, AmassBody]: ...
+               model: str = "auto", return_body: Literal[True],
+               max_bytes: int = MAX_BYTES) -> tuple[Motion, AmassBody]: ...
 def read_amass(path: str | os.PathLike[str], *, joint_positions: Any = None,
-               model: str = "auto",
-               return_body: bool = False) -> Motion | tuple[Motion, AmassBody]:
+               model: str = "auto", return_body: bool = False,
+               max_bytes: int = MAX_BYTES) -> Motion | tuple[Motion, AmassBody]:
     """Read an AMASS-style ``.npz`` file into a Motion on the SMPL or SMPL-H tree.
 
     Parameters
@@ -245,6 +255,10 @@ def read_amass(path: str | os.PathLike[str], *, joint_positions: Any = None,
         has it, else by the width of ``poses`` (72 or 66: SMPL, 156: SMPL-H, 165: SMPL-X).
     return_body : bool
         Also return the file's :class:`AmassBody` (betas, gender, model), to write them back.
+    max_bytes : int
+        The most bytes the archive's members may expand to, all together, as their zip entries
+        declare them (checked before anything is decompressed; a member cannot expand beyond
+        its declared size). Default 1 GiB: an hour of SMPL-X at 120 fps is about 570 MB.
 
     Returns
     -------
@@ -263,8 +277,10 @@ def read_amass(path: str | os.PathLike[str], *, joint_positions: Any = None,
     Raises
     ------
     ParseError
-        Not an ``.npz`` archive, a key that needs pickle, missing keys (``poses`` or
-        ``root_orient`` + ``pose_body``, ``trans``, the frame rate), wrong shapes or dtypes,
+        Not an ``.npz`` archive, members expanding to more than ``max_bytes``, a member that
+        is not a numpy array (a raw pickle), no frames, a key that needs pickle, missing keys
+        (``poses`` or ``root_orient`` + ``pose_body``, ``trans``, the frame rate), wrong
+        shapes or dtypes,
         non-finite values, a frame rate not above 0; the message starts with the path.
     MlayerIOError
         The file cannot be opened.
@@ -274,8 +290,15 @@ def read_amass(path: str | os.PathLike[str], *, joint_positions: Any = None,
     if model not in ("auto",) + MODELS:
         raise InvalidArgumentError(f"read_amass: model must be 'auto' or one of {MODELS}, got "
                                    f"{model!r}")
+    if not (isinstance(max_bytes, int) and not isinstance(max_bytes, bool) and max_bytes > 0):
+        raise InvalidArgumentError(f"read_amass: max_bytes must be a positive int, got "
+                                   f"{max_bytes!r}")
     path = os.fspath(path)
     with _load(path) as z:
+        total = sum(info.file_size for info in z.zip.infolist())
+        if total > max_bytes:
+            raise _fail(path, f"its members expand to {total} bytes, more than max_bytes="
+                              f"{max_bytes} (a zip bomb, or pass a larger max_bytes)")
         poses = _poses(z, path)
         if "trans" not in z.files:
             raise _fail(path, "no 'trans' (F x 3 root translations)")
@@ -288,6 +311,8 @@ def read_amass(path: str | os.PathLike[str], *, joint_positions: Any = None,
         model = _model_of(z, path, poses.shape[1], model)
         gender = _gender(z)
     F = poses.shape[0]
+    if F == 0:
+        raise _fail(path, "no frames: 'poses' has 0 rows")
     if trans.shape != (F, 3):
         raise _fail(path, f"'trans' must be ({F}, 3) for {F} frames of 'poses', got "
                           f"{trans.shape}")

@@ -477,3 +477,32 @@ def test_cli_convert_amass(tmp_path, capsys):
     # npz to npz is not a conversion
     assert main(["convert", str(src), str(tmp_path / "e.npz")]) == 1
     assert not (tmp_path / "e.npz").exists()
+
+
+def test_hostile_archives_are_refused_before_they_expand(tmp_path):
+    """Issue 39: a raw pickle member raised AttributeError; a 0-frame file was accepted and
+    could not be written back; an archive's members are checked against max_bytes (their
+    declared sizes, before anything is decompressed)."""
+    import pickle
+    import zipfile
+    p = tmp_path / "pk.npz"
+    with zipfile.ZipFile(p, "w") as z:
+        z.writestr("poses", pickle.dumps([1, 2, 3]))
+        z.writestr("trans.npy", b"")
+    with pytest.raises(mlayer.ParseError, match="'poses' is not a numpy array"):
+        mlayer.read_amass(p)
+    p = tmp_path / "zero.npz"
+    np.savez(p, poses=np.zeros((0, 156)), trans=np.zeros((0, 3)),
+             mocap_framerate=np.array(120.0))
+    with pytest.raises(mlayer.ParseError, match="no frames"):
+        mlayer.read_amass(p)
+    # 40,000 frames of zeros: 25 MB of members in a 0.1 MB file
+    p = tmp_path / "bomb.npz"
+    np.savez_compressed(p, poses=np.zeros((40000, 156)), trans=np.zeros((40000, 3)),
+                        mocap_framerate=np.array(120.0))
+    assert p.stat().st_size < 200_000
+    with pytest.raises(mlayer.ParseError, match=r"expand to \d+ bytes, more than max_bytes"):
+        mlayer.read_amass(p, max_bytes=10_000_000)
+    assert mlayer.read_amass(p).n_frames == 40000  # within the default budget
+    with pytest.raises(mlayer.InvalidArgumentError, match="max_bytes"):
+        mlayer.read_amass(p, max_bytes=0)
