@@ -72,6 +72,9 @@ _FLOAT, _UBYTE, _USHORT, _UINT = 5126, 5121, 5123, 5125
 _ARRAY_BUFFER, _ELEMENT_ARRAY_BUFFER = 34962, 34963
 _TRANS_CHANNELS = "Xposition Yposition Zposition Zrotation Yrotation Xrotation"
 _MAX_FRAMES = 50_000_000  # frames read_gltf resamples to at most (fps=)
+MAX_BYTES = 1 << 30
+"""The default ``max_bytes`` of :func:`read_gltf`."""
+_FRAME_BYTES = 112  # per frame and joint: sampled rotation and translation, the Motion's copies
 _MAX_VALUES = 1 << 27  # values of an accessor without a bufferView (zeros, sparse) at most
 
 # Signed permutation matrices of the proper rotations taking each up axis to +Y (as
@@ -769,7 +772,8 @@ def _joint_names(nodes: list, order: list[int]) -> list[str]:
     return out
 
 
-def _read_doc(doc: dict, data: _Data, animation: int, fps: float | None, name: str) -> Motion:
+def _read_doc(doc: dict, data: _Data, animation: int, fps: float | None, name: str,
+              max_bytes: int = 1 << 30) -> Motion:
     nodes = _list(doc, "nodes")
     _need(len(nodes) > 0, "no nodes: nothing to read")
     parent = [-1] * len(nodes)
@@ -946,9 +950,11 @@ def _read_doc(doc: dict, data: _Data, animation: int, fps: float | None, name: s
     if fps is not None:
         frame_time = 1.0 / float(fps)
         n_out = int(math.floor((allk[-1] - allk[0]) / frame_time + 1e-9)) + 1
-        if n_out > _MAX_FRAMES:
-            raise InvalidArgumentError(f"mlayer.read_gltf: fps={fps!r} makes {n_out} frames of "
-                                       f"{allk[-1] - allk[0]:.6g} s (at most {_MAX_FRAMES})")
+        if n_out > _MAX_FRAMES or n_out * J * _FRAME_BYTES > max_bytes:
+            raise InvalidArgumentError(
+                f"mlayer.read_gltf: fps={fps!r} makes {n_out} frames of "
+                f"{allk[-1] - allk[0]:.6g} s for {J} joints ({n_out * J * _FRAME_BYTES} bytes; "
+                f"at most {_MAX_FRAMES} frames and max_bytes={max_bytes})")
         times = allk[0] + np.arange(n_out) * frame_time
     elif allk.shape[0] == 1:
         frame_time, times = ft_hint or 1.0 / 30.0, allk
@@ -967,6 +973,9 @@ def _read_doc(doc: dict, data: _Data, animation: int, fps: float | None, name: s
                   f"({frame_time:.3g} s over {allk[-1] - allk[0]:.6g} s); pass fps=")
             times = allk[0] + np.arange(n_out) * frame_time
     N = times.shape[0]
+    _need(N * J * _FRAME_BYTES <= max_bytes,
+          f"{aw}: {N} frames of {J} joints take {N * J * _FRAME_BYTES} bytes, more than "
+          f"max_bytes={max_bytes} (pass a larger max_bytes to read it)")
     _need(frame_time >= MIN_FRAME_TIME, f"{aw}: key times {frame_time:.3g} s apart: below "
                                         f"{MIN_FRAME_TIME:g} s, not frames of a motion")
 
@@ -1048,7 +1057,8 @@ def _read_doc(doc: dict, data: _Data, animation: int, fps: float | None, name: s
 
 
 def read_gltf(path: str | os.PathLike[str], animation: int = 0, *, fps: float | None = None,
-              up: str | None = None, units: str | None = None) -> Motion:
+              up: str | None = None, units: str | None = None,
+              max_bytes: int = MAX_BYTES) -> Motion:
     """Read one skeletal animation of a glTF 2.0 file (``.glb`` or ``.gltf``) as a Motion.
 
     Parameters
@@ -1070,6 +1080,11 @@ def read_gltf(path: str | os.PathLike[str], animation: int = 0, *, fps: float | 
         that want one.
     units : {"m", "cm", "mm", "in", "ft"} or None
         The length unit of the motion returned (default "m", the file's).
+    max_bytes : int
+        The most memory the motion's frames may take (frames x joints x 112 bytes: the sampled
+        rotations and translations and the Motion's copies), checked before they are
+        allocated: a file of a few kilobytes can name millions of key times over hundreds of
+        joints. Default 1 GiB (two hours of a 60-joint rig at 30 fps).
 
     Returns
     -------
@@ -1101,12 +1116,15 @@ def read_gltf(path: str | os.PathLike[str], animation: int = 0, *, fps: float | 
     if fps is not None and not (isinstance(fps, (int, float)) and not isinstance(fps, bool)
                                 and math.isfinite(fps) and fps > 0):
         raise InvalidArgumentError(f"mlayer.read_gltf: fps must be finite and > 0, got {fps!r}")
+    if not (isinstance(max_bytes, int) and not isinstance(max_bytes, bool) and max_bytes > 0):
+        raise InvalidArgumentError(f"mlayer.read_gltf: max_bytes must be a positive int, got "
+                                   f"{max_bytes!r}")
     with open(path, "rb") as f:
         raw = f.read()
     try:
         doc, binary = _container(raw)
         data = _Data(doc, binary, os.path.dirname(os.path.abspath(name)))
-        m = _read_doc(doc, data, animation, fps, name)
+        m = _read_doc(doc, data, animation, fps, name, max_bytes)
     except _Bad as e:
         raise ParseError(f"{name}: {e}", path=name) from None
     except InvalidArgumentError as e:

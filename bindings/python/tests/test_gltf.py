@@ -804,3 +804,22 @@ def test_node_trees_are_checked_in_linear_time(tmp_path, mocap, monkeypatch):
 def test_json_nested_too_deep_is_a_parse_error(tmp_path):
     """Issue 39: JSON nested 100,000 deep ended in a RecursionError traceback."""
     _bad(tmp_path, b'{"asset": ' + b"[" * 100000 + b"]" * 100000 + b"}", "nested too deep")
+
+
+def test_frames_are_checked_against_max_bytes_before_they_are_allocated(tmp_path, mocap):
+    """Issue 39: a 406 KB GLB of 600 joints and 100k key times took 3.7 GB; fps= on a small
+    file asked for 28 GiB. The frames x joints are checked against max_bytes first."""
+    p = tmp_path / "s.gltf"
+    p.write_text(json.dumps(_small(tmp_path, mocap)))
+    m = mlayer.read_gltf(p)
+    need = m.n_frames * m.n_joints * G._FRAME_BYTES
+    assert mlayer.read_gltf(p, max_bytes=need).n_frames == m.n_frames
+    with pytest.raises(mlayer.ParseError, match=r"more than max_bytes=") as e:
+        mlayer.read_gltf(p, max_bytes=need - 1)
+    assert str(p) in str(e.value)
+    # fps= asks for the frames: the caller's argument, named
+    with pytest.raises(mlayer.InvalidArgumentError, match=r"fps=100000.*max_bytes=1000000"):
+        mlayer.read_gltf(p, fps=100000, max_bytes=1_000_000)
+    for bad in (0, -1, 1.5, True):
+        with pytest.raises(mlayer.InvalidArgumentError, match="max_bytes"):
+            mlayer.read_gltf(p, max_bytes=bad)
