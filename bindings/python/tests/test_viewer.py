@@ -392,3 +392,41 @@ def test_cli_bad_port(mocap, capsys):
     from mlayer import cli
     assert cli.main(["view", str(mocap / WALK), "--port", "70000"]) == 1
     assert "--port must be in 0..65535" in capsys.readouterr().err
+
+
+def test_host_header_checked_on_a_wildcard_address(mocap):
+    """Issue 39: bound to 0.0.0.0, the page and its token were served for any Host header and
+    the API accepted that Origin (a DNS-rebinding page got full access). Now only the names it
+    serves under (loopback, this machine's, --allow-host) are answered, and two Host headers
+    are refused."""
+    import socket
+    srv = make_server([mocap / WALK], "0.0.0.0", log=sys.stderr,
+                      allow_hosts=["viewer.lan", "proxy.example:8443"])
+    t = threading.Thread(target=srv.serve_forever, kwargs={"poll_interval": 0.05}, daemon=True)
+    t.start()
+    try:
+        port = srv.server_address[1]
+        status, _, body = get(srv, "/", host=f"rebind.attacker.example:{port}", token=False)
+        assert status == 403 and b"allow-host" in body
+        assert get(srv, "/api/clips", host=f"rebind.attacker.example:{port}")[0] == 403
+        for ok in (f"127.0.0.1:{port}", f"localhost:{port}", f"viewer.lan:{port}",
+                   "proxy.example:8443", f"{socket.gethostname()}:{port}"):
+            assert get(srv, "/api/clips", host=ok)[0] == 200, ok
+        # two Host headers, the server's own first
+        c = http.client.HTTPConnection("127.0.0.1", port, timeout=30)
+        try:
+            c.putrequest("GET", "/api/clips", skip_host=True)
+            c.putheader("Host", f"127.0.0.1:{port}")
+            c.putheader("Host", "rebind.attacker.example")
+            c.putheader("X-Mlayer-Token", srv.token)
+            c.endheaders()
+            r = c.getresponse()
+            assert r.status == 400 and b"Host headers" in r.read()
+        finally:
+            c.close()
+    finally:
+        srv.shutdown()
+        srv.server_close()
+        t.join(5)
+    with pytest.raises(mlayer.InvalidArgumentError, match="allow-host"):
+        make_server([mocap / WALK], "127.0.0.1", allow_hosts=["bad host"])

@@ -25,6 +25,11 @@ def _arguments(p) -> None:
     p.add_argument("--host", default="127.0.0.1",
                    help="address to bind (default 127.0.0.1; anything but loopback exposes "
                         "the clips to the network)")
+    p.add_argument("--allow-host", action="append", default=[], metavar="NAME",
+                   help="a further host name (or name:port) the page may be requested under "
+                        "(repeatable); served without it: the bound address, the loopback "
+                        "names, and on 0.0.0.0 or :: this machine's name and addresses; any "
+                        "other Host header is refused (DNS rebinding)")
     p.add_argument("--open", action="store_true", help="open the page in a web browser")
     from ..viewer.server import (DEFAULT_CACHE_BYTES, DEFAULT_MANIFOLD_FRAMES,
                                 DEFAULT_MAX_VALUES, DEFAULT_THREADS, DEFAULT_TIMEOUT)
@@ -63,7 +68,8 @@ def cmd_view(args) -> int:
         raise InvalidArgumentError(f"--cache-mb must be a number of MB >= 0, got {args.cache_mb}")
     server = make_server(args.inputs, args.host, args.port, max_values=args.max_values,
                          cache_bytes=int(args.cache_mb * 2**20), threads=args.threads,
-                         timeout=args.timeout, manifold_frames=args.manifold_frames)
+                         timeout=args.timeout, manifold_frames=args.manifold_frames,
+                         allow_hosts=args.allow_host)
     good = [c for c in server.clips if c.ok]
     for c in server.clips:
         if not c.ok:

@@ -41,8 +41,10 @@ Limits (options of :class:`ViewerServer`, and of ``mlayer view``):
   and embedded in the page (``<meta name="mlayer-token">``): the page's script sends it in the
   ``X-Mlayer-Token`` header (or ``token=`` in the query, for links and images). Requests with an
   ``Origin`` other than the server's own or ``Sec-Fetch-Site: cross-site`` are refused (and
-  ``same-site`` on the API: another port of localhost is the same site), as are, on loopback,
-  requests naming another host (DNS rebinding).
+  ``same-site`` on the API: another port of localhost is the same site), as are requests naming
+  a host the server does not serve under (DNS rebinding: the bound address, the loopback names,
+  on a wildcard address this machine's name and addresses, and ``allow_hosts``) and requests
+  with more than one Host header.
 - ``threads`` workers serve the requests (a bounded pool, not a thread per connection); idle
   connections wait in one watcher thread; the listen backlog is :data:`BACKLOG`.
 - ``timeout``: a connection idle that long is closed, a request must arrive whole within it and
@@ -124,6 +126,35 @@ def _static(name: str) -> bytes:
     return (resources.files(__package__) / name).read_bytes()
 
 
+def _served_hosts(host: str, shown: str, port: int, extra: Iterable[str]) -> set[str]:
+    """The Host headers a server bound to host:port answers: its own address and the loopback
+    names; on a wildcard address, this machine's name and addresses too; plus extra (names,
+    or name:port). Port 80 may go without the port, as browsers send it."""
+    names = {"127.0.0.1", "localhost", "[::1]", shown}
+    if host.strip("[]") in ("0.0.0.0", "::", ""):
+        try:
+            hn = socket.gethostname()
+            names.add(hn)
+            names.update(socket.gethostbyname_ex(hn)[2])
+        except OSError:
+            pass
+    out: set[str] = set()
+    for h in extra:
+        if not isinstance(h, str) or not h or any(c.isspace() for c in h) or "/" in h:
+            raise InvalidArgumentError(f"allow_hosts (--allow-host of mlayer view): {h!r} is "
+                                       "not a host name")
+        if h.rsplit(":", 1)[-1].isdigit() and not h.endswith("]"):
+            out.add(h)
+        else:
+            names.add(h)
+    for n in names:
+        n = f"[{n}]" if ":" in n and not n.startswith("[") else n
+        out.add(f"{n}:{port}")
+        if port == 80:
+            out.add(n)
+    return out
+
+
 class ViewerServer(HTTPServer):
     """An HTTP server holding the clips.
 
@@ -152,6 +183,11 @@ class ViewerServer(HTTPServer):
         Worker threads.
     manifold_frames : int, optional
         The most training frames of the manifold page.
+    allow_hosts : iterable of str, optional
+        More names (or ``name:port``) the page may be requested under, as the Host header
+        gives them. Served without them: the bound address, and the loopback names; bound to
+        a wildcard address (``0.0.0.0``, ``::``), also this machine's host name and its
+        addresses. Any other Host is refused (403): a DNS-rebinding page names its own.
     """
 
     allow_reuse_address = True
@@ -161,7 +197,8 @@ class ViewerServer(HTTPServer):
                  log: IO[str] | None = None, max_values: int = DEFAULT_MAX_VALUES,
                  cache_bytes: int = DEFAULT_CACHE_BYTES, timeout: float = DEFAULT_TIMEOUT,
                  threads: int = DEFAULT_THREADS,
-                 manifold_frames: int = DEFAULT_MANIFOLD_FRAMES) -> None:
+                 manifold_frames: int = DEFAULT_MANIFOLD_FRAMES,
+                 allow_hosts: Iterable[str] = ()) -> None:
         self.max_values = _int_option("max_values", max_values, 1000)
         self.cache = ResultCache(_int_option("cache_bytes", cache_bytes, 0))  # --cache-mb
         if not (isinstance(timeout, (int, float)) and math.isfinite(timeout) and
@@ -192,11 +229,9 @@ class ViewerServer(HTTPServer):
         port = self.server_address[1]
         shown = f"[{host.strip('[]')}]" if family_v6 else host
         self.url = f"http://{shown}:{port}/"
-        # DNS rebinding guard: on loopback, only requests naming a loopback host are served
-        self.allowed_hosts: set[str] | None = None
-        if is_loopback(host):
-            self.allowed_hosts = {f"{h}:{port}" for h in ("127.0.0.1", "localhost", "[::1]",
-                                                         shown)}
+        # DNS rebinding guard: only requests naming this server are served (a rebinding
+        # page's requests name the page's own host)
+        self.allowed_hosts: set[str] = _served_hosts(host, shown, port, allow_hosts)
 
     # -- connections: accepted -> watcher -> (readable) pool -> watcher or closed --
 
@@ -282,17 +317,15 @@ class ViewerServer(HTTPServer):
         Parameters
         ----------
         host_header : str
-            The request's Host header.
+            The request's Host header (it is one of the allowed hosts: the others are
+            refused before).
 
         Returns
         -------
         set of str
-            ``http://`` plus each allowed host, or plus the Host header when any host is
-            allowed.
+            ``http://`` plus each allowed host.
         """
-        if self.allowed_hosts is not None:
-            return {f"http://{h}" for h in self.allowed_hosts}
-        return {f"http://{host_header}"}
+        return {f"http://{h}" for h in self.allowed_hosts}
 
     def warm(self) -> threading.Thread:
         """Decompose every clip in a background thread, so the first slider move is fast.
@@ -497,9 +530,13 @@ class _Handler(BaseHTTPRequestHandler):
         return rest
 
     def _route(self) -> None:
-        allowed = self.server.allowed_hosts
-        if allowed is not None and self.headers.get("Host", "") not in allowed:
-            raise ParamError(f"unexpected Host header {self.headers.get('Host')!r}", 403)
+        hosts = self.headers.get_all("Host") or []
+        if len(hosts) > 1:
+            raise ParamError(f"{len(hosts)} Host headers: a request names one host", 400)
+        if (hosts[0] if hosts else "") not in self.server.allowed_hosts:
+            raise ParamError(f"unexpected Host header {self.headers.get('Host')!r}: this viewer "
+                             f"serves {self.server.url} (mlayer view --allow-host NAME adds a "
+                             "name)", 403)
         url = urlsplit(self.path)
         path = url.path
         self._check_site(path.startswith("/api/"))
