@@ -191,6 +191,8 @@ def test_start_frame_sampled(server, trained):
     _, info = md.generate(80, start_frame=10, noise=0.05, seed=3, return_info=True)
     assert d["primitives"] == list(info["primitives"])
     again = motion_json(server, "start=0:40&chain=sample&noise=0.05&seed=3&frames=80")
+    # the documented maximum seed is taken (10 digits were refused before, issue 39)
+    motion_json(server, "start=0:40&chain=sample&noise=0.05&seed=2147483647&frames=80")
     np.testing.assert_array_equal(again["pos"], d["pos"])
 
 
@@ -209,6 +211,8 @@ def test_start_frame_sampled(server, trained):
     ("start=0:1&chain=best", 400, "chain must be one of most, second, sample"),
     ("start=0:1&noise=-1", 400, "noise must be in [0, 10]"),
     ("start=0:1&noise=inf", 400, "finite"), ("start=0:1&seed=x", 400, "seed"),
+    ("start=0:1&seed=2147483648", 400, "seed must be in 0..2147483647"),
+    ("start=0:1&seed=%C2%B2", 400, "seed must be a non-negative integer"),
     ("start=0:1,0:2", 400, "one CLIP:FRAME"), ("points=1,1&noise=0.1", 400, "start= only"),
     ("points=1,1&keys=0:1", 400, "exactly one of"), ("frames=10", 400, "exactly one of"),
     ("points=1,1&frames=1", 400, "frames must be in 2..5000"),

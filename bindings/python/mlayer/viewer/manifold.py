@@ -170,8 +170,11 @@ def _pairs(query: str) -> dict:
 
 
 def _int(raw: str, name: str, lo: int, hi: int) -> int:
-    if not raw.isdigit() or len(raw) > 9:
-        raise ParamError(f"{name} must be a non-negative integer, got {raw[:40]!r}")
+    # ASCII digits only (str.isdigit takes "²", which int() refuses), and no more of them than
+    # hi has (so that int() never reads a huge number); the range is checked after
+    if not (raw.isascii() and raw.isdigit()) or len(raw.lstrip("0")) > len(str(hi)):
+        raise ParamError(f"{name} must be a non-negative integer in {lo}..{hi}, got "
+                         f"{raw[:40]!r}")
     v = int(raw)
     if not lo <= v <= hi:
         raise ParamError(f"{name} must be in {lo}..{hi}, got {v}")
