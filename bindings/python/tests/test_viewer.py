@@ -430,3 +430,17 @@ def test_host_header_checked_on_a_wildcard_address(mocap):
         t.join(5)
     with pytest.raises(mlayer.InvalidArgumentError, match="allow-host"):
         make_server([mocap / WALK], "127.0.0.1", allow_hosts=["bad host"])
+
+
+def test_http_0_9_request_is_answered_400(server):
+    """Issue 39: "GET /" alone (HTTP/0.9) got no answer, and a traceback on the server (the
+    handler waited for headers HTTP/0.9 does not send, then wrote an answer without a status
+    line)."""
+    import socket
+    s = socket.create_connection(("127.0.0.1", server.server_address[1]), timeout=5)
+    try:
+        s.sendall(b"GET /\r\n")
+        head = s.recv(4096).split(b"\r\n", 1)[0]
+    finally:
+        s.close()
+    assert head.startswith(b"HTTP/1.") and b" 400 " in head

@@ -409,6 +409,20 @@ class _Handler(BaseHTTPRequestHandler):
         self.rfile = conn.rfile
         self.wfile = conn.wfile
 
+    def parse_request(self) -> bool:
+        """http.server's parse, refusing HTTP/0.9 ("GET /" alone): its answer would have no
+        status line, and the header writes failed (no answer and a traceback on the server)."""
+        raw = getattr(self, "raw_requestline", b"")  # (http.server sets it; no stub has it)
+        words = str(raw, "iso-8859-1").rstrip("\r\n").split()
+        if len(words) == 2:  # before http.server waits for headers HTTP/0.9 does not send
+            self.requestline = " ".join(words)
+            self.command, self.path = words[0], words[1]
+            self.request_version = "HTTP/1.0"  # so that the answer has a status line
+            self.close_connection = True
+            self._fail(400, "HTTP/0.9 requests are not served: send HTTP/1.0 or 1.1", close=True)
+            return False
+        return super().parse_request()
+
     def handle(self):
         self.close_connection = True
         self.handle_one_request()
