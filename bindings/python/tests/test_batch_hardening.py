@@ -153,3 +153,26 @@ def test_batch_on_workers_honours_umask_077(tmp_path, mocap):
     assert sorted(p.suffix for p in written) == [".bvh", ".csv", ".json"]
     for p in written:
         assert stat.S_IMODE(p.stat().st_mode) == 0o600, p
+
+
+def test_links_leading_out_of_the_input_folder_are_refused(corpus, tmp_path):
+    """Issue 39: a *.bvh link to /etc/passwd was read and its first line quoted in the report.
+    A link to a file outside the input folder is refused and listed, never read; one to a
+    file inside it is still a clip of its own."""
+    secret = tmp_path / "secret.txt"
+    secret.write_text("root:x:0:0:SECRET-LINE\n")
+    os.symlink(secret, corpus / "passwd.bvh")
+    os.symlink(corpus / CLIPS[0], corpus / "again.bvh")
+    out = tmp_path / "out"
+    r = mlayer.batch("features", corpus, out, n_workers=1, progress=False, metrics=False,
+                     report=out / "report.json")
+    links = {os.path.basename(r_["input"]): r_["error"] for r_ in r.records
+             if r_["status"] == B.STATUS_LINK}
+    assert "passwd.bvh" in links and "leading out of the input folder" in links["passwd.bvh"]
+    assert "SECRET" not in r.table() and "SECRET" not in (out / "report.json").read_text()
+    assert r.ok == 4, r.table()  # the three clips and the link to one of them
+    # a glob: the same for a file link leading out of its folder
+    found: list = []
+    pairs = B.find_inputs(str(corpus / "*.bvh"), links=found)
+    assert all(os.path.basename(p) != "passwd.bvh" for p, _ in pairs)
+    assert any(os.path.basename(str(p)) == "passwd.bvh" for p, _ in found)

@@ -44,6 +44,9 @@ def _walk(folder: pathlib.Path, exclude: str | os.PathLike[str] | None,
             if f.is_dir():
                 links.append((f, "link to a folder: not followed, its clips are skipped"))
                 continue
+            if not _under(f, folder):
+                links.append((f, "link leading out of the input folder: refused, not read"))
+                continue
         if _is_bvh(f):
             out.append((f, rel))
     return out
@@ -68,6 +71,9 @@ def _glob(pattern: str, exclude: str | os.PathLike[str] | None,
             continue
         if f.is_symlink() and not f.exists():
             links.append((f, "dangling link (its target does not exist): skipped"))
+            continue
+        if f.is_symlink() and f.is_file() and not _under(f, root):
+            links.append((f, "link leading out of the pattern's folder: refused, not read"))
             continue
         if not _is_bvh(f):
             continue
@@ -98,8 +104,9 @@ def find_inputs(inputs: str | os.PathLike[str] | Iterable[str | os.PathLike[str]
     links : list, optional
         Receives (path, note) for each symbolic link that was not simply read: links to
         folders (not followed in a folder walk; followed by a glob, as Python's glob does)
-        and dangling links (skipped). Links to files are read as clips (each link a clip of
-        its own).
+        and dangling links (skipped). Links to files inside the input folder (a glob's
+        fixed prefix) are read as clips (each link a clip of its own); a link to a file
+        outside it (``x.bvh -> /etc/passwd``) is refused and listed, never read.
 
     Returns
     -------
