@@ -176,3 +176,23 @@ def test_links_leading_out_of_the_input_folder_are_refused(corpus, tmp_path):
     pairs = B.find_inputs(str(corpus / "*.bvh"), links=found)
     assert all(os.path.basename(p) != "passwd.bvh" for p, _ in pairs)
     assert any(os.path.basename(str(p)) == "passwd.bvh" for p, _ in found)
+
+
+def test_embedded_cluster_serves_no_dashboard():
+    """Issue 39: the embedded cluster served Dask's dashboard on 127.0.0.1:8787 (and a port per
+    worker) without authentication, for any Host header. Its HTTP servers now have no routes
+    and no fixed port."""
+    import urllib.error
+    import urllib.request
+    from mlayer.batching.run import _client
+    with _client(None, 1) as client:
+        info = client.scheduler_info()
+        ports = [info["services"]["dashboard"]] + [
+            w["services"]["dashboard"] for w in info["workers"].values()
+            if "dashboard" in w.get("services", {})]
+        assert info["services"]["dashboard"] != 8787
+        for port in ports:
+            for path in ("/status", "/health", "/metrics", "/info/main/workers.html"):
+                with pytest.raises(urllib.error.HTTPError) as e:
+                    urllib.request.urlopen(f"http://127.0.0.1:{port}{path}", timeout=10)
+                assert e.value.code == 404, (port, path)

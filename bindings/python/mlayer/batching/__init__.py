@@ -11,8 +11,10 @@ so with a remote cluster the input and output folders must be visible to every w
 the same paths (a shared file system), and the workers need mlayer installed.
 
 Without ``scheduler``, an embedded ``dask.distributed.LocalCluster`` is started on loopback
-(mutual TLS with temporary credentials: no other process can submit work to it),
-one single-threaded worker process per CPU (``n_workers`` to change it), and closed at the end.
+(mutual TLS with temporary credentials: no other process can submit work to it; no
+dashboard: its HTTP servers, on free ports, answer every request with 404, so other users of
+the machine read no task, clip or metric page), one single-threaded worker process per CPU
+(``n_workers`` to change it), and closed at the end.
 
 Nothing is lost:
 - every output is written to a temporary file and renamed into place, then a small sidecar

@@ -43,10 +43,17 @@ def _client(scheduler: Any, n_workers: int | None) -> Iterator[Any]:
             with Client(str(scheduler), timeout="30s") as client:
                 yield client
         return
-    with LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
-                      host="127.0.0.1", protocol="tls://", security=_embedded_security(),
-                      dashboard_address=None,
-                      silence_logs=logging.ERROR) as cluster, Client(cluster) as client:
+    import dask
+    # no dashboard: the scheduler and each worker still start an HTTP server (this version of
+    # distributed starts one even with dashboard_address=None, on 127.0.0.1:8787), so they
+    # are given no routes (every request 404: no dashboard, health or metrics page for other
+    # users of the machine to read) and a free port instead of 8787
+    with dask.config.set({"distributed.scheduler.http.routes": [],
+                          "distributed.worker.http.routes": []}), \
+            LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
+                         host="127.0.0.1", protocol="tls://", security=_embedded_security(),
+                         dashboard_address="127.0.0.1:0", scheduler_kwargs={"dashboard": False},
+                         silence_logs=logging.ERROR) as cluster, Client(cluster) as client:
         yield client
 
 
