@@ -9,6 +9,9 @@
 #include <math.h>
 #include <stdio.h>
 #include <time.h>
+#ifndef _WIN32
+#include <sys/stat.h>
+#endif
 
 #ifdef _WIN32
 #define WIN32_LEAN_AND_MEAN
@@ -401,6 +404,19 @@ static int file_write(void *user, const char *data, size_t len)
     return fwrite(data, 1, len, (FILE *)user) == len ? 0 : 1;
 }
 
+/* The mode of an existing regular file at to given to from (which replaces it), so that
+   rewriting a 0600 output keeps it 0600 (it became 0644 under umask 022). */
+static void keep_mode(const char *from, const char *to)
+{
+#ifndef _WIN32
+    struct stat st;
+    if (stat(to, &st) == 0 && S_ISREG(st.st_mode))
+        (void)chmod(from, st.st_mode & 07777);
+#else
+    (void)from, (void)to;
+#endif
+}
+
 static int replace_file(const char *from, const char *to)
 {
 #ifdef _WIN32
@@ -483,6 +499,8 @@ mlr_status mlr_bvh_write_file(const mlr_motion *m, const char *path, mlr_diag *d
         mlr_diag_set(diag, s, 0, 0, "write failed: %s", strerror(errno));
     if (fclose(fp) != 0 && s == MLR_OK)
         s = mlr_diag_set(diag, MLR_E_IO, 0, 0, "write failed: %s", strerror(errno));
+    if (s == MLR_OK)
+        keep_mode(tmp, path);
     if (s == MLR_OK && replace_file(tmp, path) != 0)
         s = mlr_diag_set(diag, MLR_E_IO, 0, 0, "cannot rename the temporary file: %s",
                          strerror(errno));

@@ -223,16 +223,25 @@ START_TEST(write_file_honours_the_umask)
     ck_assert_int_eq(mlr_bvh_read_memory(tiny_bvh, strlen(tiny_bvh), NULL, &m, &d), MLR_OK);
     char path[128];
     snprintf(path, sizeof path, "%s/out.bvh", dir);
+    /* a new file takes 0666 less the umask; a rewrite keeps the existing file's mode whatever
+       the umask (a 0600 output became 0644 when rewritten, issue 39) */
     static const struct {
         mode_t mask, mode;
-    } cases[] = {{022, 0644}, {077, 0600}, {027, 0640}, {022, 0644}};
+        int fresh;    /* remove the file first */
+        mode_t chmod; /* set this mode before writing (0: none) */
+    } cases[] = {{022, 0644, 1, 0}, {077, 0600, 1, 0},    {022, 0600, 0, 0}, {027, 0640, 1, 0},
+                 {077, 0640, 0, 0}, {022, 0604, 0, 0604}, {022, 0644, 1, 0}};
     const mode_t old = umask(022);
-    for (size_t i = 0; i < MLR_COUNTOF(cases); i++) { /* a new file, then replacing it */
+    for (size_t i = 0; i < MLR_COUNTOF(cases); i++) {
+        if (cases[i].fresh)
+            (void)remove(path);
+        if (cases[i].chmod)
+            ck_assert_int_eq(chmod(path, cases[i].chmod), 0);
         umask(cases[i].mask);
         ck_assert_int_eq(mlr_bvh_write_file(m, path, &d), MLR_OK);
         struct stat st;
         ck_assert_int_eq(stat(path, &st), 0);
-        ck_assert_msg((st.st_mode & 07777) == cases[i].mode, "umask %03o: mode %03o",
+        ck_assert_msg((st.st_mode & 07777) == cases[i].mode, "case %zu, umask %03o: mode %03o", i,
                       (unsigned)cases[i].mask, (unsigned)(st.st_mode & 07777));
     }
     umask(old);

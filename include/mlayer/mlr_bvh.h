@@ -235,8 +235,9 @@ MLR_API mlr_status mlr_bvh_write_memory(const mlr_motion *motion, char *buf, siz
 /**
  * Write the motion to a BVH file atomically: the text goes to a new temporary file in the same
  * directory, which then replaces path by a rename. On any failure the temporary file is
- * removed and path is left as it was. The file gets the mode a plain fopen gives it (0666
- * less the umask: 0644 under umask 022).
+ * removed and path is left as it was. A new file gets the mode a plain fopen gives it (0666
+ * less the umask: 0644 under umask 022); a file that replaces an existing regular file takes
+ * that file's mode (POSIX), so a 0600 output stays 0600.
  *
  * The temporary's name is part of this contract, so that a caller can clean up after a writer
  * that was killed: the temporary of DIR/NAME is

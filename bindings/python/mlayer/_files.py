@@ -17,6 +17,7 @@ import glob
 import os
 import re
 import secrets
+import stat
 import threading
 from collections.abc import Iterator
 
@@ -77,7 +78,8 @@ def atomic_output(path: str | os.PathLike[str], suffix: str | None = None) -> It
     extension (matplotlib, Pillow, numpy).
 
     The file is created (empty, exclusively) with the mode a plain ``open`` would give it
-    (0666 less the umask: 0644 under umask 022), like the BVH files the C writer creates.
+    (0666 less the umask: 0644 under umask 022), like the BVH files the C writer creates; when
+    it replaces an existing regular file, it takes that file's mode (as the C writer does).
     """
     path = os.fspath(path)
     if suffix is None:
@@ -96,6 +98,11 @@ def atomic_output(path: str | os.PathLike[str], suffix: str | None = None) -> It
         raise FileExistsError(f"atomic_output: no free temporary name beside {path}")
     try:
         yield tmp
+        # an existing file's mode carries over (a 0600 output rewritten became 0644)
+        with contextlib.suppress(OSError):
+            st = os.stat(path)
+            if stat.S_ISREG(st.st_mode):
+                os.chmod(tmp, stat.S_IMODE(st.st_mode))
         os.replace(tmp, path)
     except BaseException:
         with contextlib.suppress(OSError):

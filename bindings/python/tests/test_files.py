@@ -43,6 +43,27 @@ def test_atomic_output_and_write_bvh_modes(tmp_path, mask):
         assert stat.S_IMODE(p.stat().st_mode) == 0o666 & ~mask, p
 
 
+def test_rewriting_keeps_an_existing_files_mode(tmp_path):
+    """Issue 39: an existing 0600 output became 0644 when rewritten (by either writer)."""
+    m = mlayer.data.load_sample()[:10]
+    old = os.umask(0o022)
+    try:
+        for name in ("a.bvh", "a.npz"):
+            p = tmp_path / name
+            p.write_bytes(b"old")
+            os.chmod(p, 0o600)
+            if name.endswith(".bvh"):
+                mlayer.write_bvh(m, p)  # the C writer
+            else:
+                with atomic_output(p, ".npz") as tmp:
+                    with open(tmp, "wb") as f:
+                        f.write(b"new")
+            assert p.read_bytes() != b"old"
+            assert stat.S_IMODE(p.stat().st_mode) == 0o600, name
+    finally:
+        os.umask(old)
+
+
 def test_temporaries_follow_the_rule_and_are_listed(tmp_path):
     out = tmp_path / "out.bvh"
     names = {os.path.basename(temporary_name(out)) for _ in range(50)}
