@@ -110,6 +110,10 @@ offline solve is measurable (``decay_rate ** lag``), and about 1 GB of buffers f
 skeleton. A larger lag is taken as a mistake (frames given for seconds, say)."""
 
 
+MAX_BYTES = 256 << 20
+"""The default ``max_bytes`` of :class:`Stream`: the most its buffers may take."""
+
+
 def _as_lag(lag: int) -> int:
     lag = integer(lag, "Stream: lag", 0)
     if lag > MAX_LAG:
@@ -144,6 +148,11 @@ class Stream(ReadOnlyAttributes, NativeHandle):
         Joint limits (:func:`mlayer.joint_limits`) applied to every output frame with the
         stream's alphas (``mlr_stream_set_limits``): a soft saturation of each frame on its
         own, so a live exaggeration stays within the ranges as the offline one does.
+    max_bytes : int, optional
+        The most memory the stream's buffers may take (about 8 bytes x (lag + 1) x the values
+        of a frame, twice for a layered stream), checked before they are allocated. Default
+        256 MiB: lag 60,000 on a 31-joint skeleton; ``lag=10**6`` on a 165-joint one took
+        5.1 GB.
     """
 
     _readonly = ("skeleton", "lam", "sigma", "lam_base", "sigma_base", "limits", "_layered",
@@ -153,7 +162,7 @@ class Stream(ReadOnlyAttributes, NativeHandle):
     def __init__(self, skeleton_or_motion: Skeleton | Motion, *, lam: float, sigma: float,
                  lag: int, alpha: float | ArrayLike | None = None,
                  lam_base: float | None = None, sigma_base: float | None = None,
-                 limits: JointLimits | None = None) -> None:
+                 limits: JointLimits | None = None, max_bytes: int = MAX_BYTES) -> None:
         if isinstance(skeleton_or_motion, Motion):
             sk = skeleton_or_motion.skeleton
         elif isinstance(skeleton_or_motion, Skeleton):
@@ -169,8 +178,13 @@ class Stream(ReadOnlyAttributes, NativeHandle):
         # the C stream keeps max(lag + 1, 4) frames per smoother (and lag more when layered) and
         # clears them at once: refuse a lag whose buffers cannot fit before asking for them
         m, n_sm = 3 + 3 * P + 4 * J, 2 if self._layered else 1
-        _arrays.check_memory(8.0 * (max(lag + 1, 4) * (m + 3) * n_sm + self._layered * lag * m),
-                             f"Stream: lag={lag} ({m} values per frame)")
+        need = 8 * (max(lag + 1, 4) * (m + 3) * n_sm + self._layered * lag * m)
+        max_bytes = integer(max_bytes, "Stream: max_bytes", 1)
+        _arrays.check_memory(float(need), f"Stream: lag={lag} ({m} values per frame)")
+        if need > max_bytes:
+            raise InvalidArgumentError(
+                f"Stream: lag={lag} on {J} joints needs {need} bytes of buffers, more than "
+                f"max_bytes={max_bytes} (a smaller lag, or a larger max_bytes)")
         out = ffi.new("mlr_stream **")
         diag = ffi.new("mlr_diag *")
         try:

@@ -39,6 +39,20 @@ def test_stream_lag(clip, little_memory):
     assert st.lag == 1000
 
 
+def test_stream_buffers_are_checked_against_max_bytes(clip):
+    """Issue 39: Stream(lag=10**6), the allowed maximum, took 5.1 GB on a 165-joint skeleton
+    wherever that much memory was free. The buffers are now checked against max_bytes
+    (default 256 MiB) first, with a clear error naming lag, the joints and the size."""
+    with pytest.raises(mlayer.InvalidArgumentError,
+                       match=r"lag=500000 on 31 joints needs \d+ bytes .*max_bytes=268435456"):
+        mlayer.Stream(clip, lam=1.0, sigma=1.0, lag=500_000)
+    with pytest.raises(mlayer.InvalidArgumentError, match=r"max_bytes=1000\b"):
+        mlayer.Stream(clip, lam=1.0, sigma=1.0, lag=1000, max_bytes=1000)
+    with pytest.raises(mlayer.InvalidArgumentError, match="max_bytes"):
+        mlayer.Stream(clip, lam=1.0, sigma=1.0, lag=10, max_bytes=0)
+    assert mlayer.Stream(clip, lam=1.0, sigma=1.0, lag=1000).lag == 1000
+
+
 def test_check_memory_uses_the_machine():
     avail = _arrays.available_memory()
     assert avail is None or avail > 0
