@@ -3,7 +3,8 @@
     python bench/python/bench_batch.py [--copies 25] [--op denoise] [--no-contacts]
                                        [--metrics] [--workers 1,2] [MOCAP_DIR]
 
-The shared corpus (8 clips) is repeated to about 200 clips by symlinks in a temporary folder.
+The shared corpus (8 clips) is repeated to about 200 clips by links in a temporary folder (hard
+links, or copies across file systems: batch refuses symbolic links that leave its input folder).
 The loop does per clip what a batch task does: read_bvh, the operation, write_bvh (atomic) to
 the output folder. Each Dask run uses a fresh LocalCluster (processes, one thread each, on
 loopback) started before the clock; its start-up time is printed apart. Every run is forced
@@ -45,7 +46,11 @@ def main():
         ind.mkdir()
         for k in range(a.copies):
             for f in src:
-                os.symlink(f, ind / f"c{k:03d}_{f.name}")
+                dst = ind / f"c{k:03d}_{f.name}"
+                try:
+                    os.link(f, dst)
+                except OSError:  # another file system
+                    shutil.copyfile(f, dst)
         clips = sorted(ind.glob("*.bvh"))
         n = len(clips)
         frames = sum(mlayer.read_bvh(f).n_frames for f in src) * a.copies
