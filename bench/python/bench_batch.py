@@ -23,7 +23,8 @@ import time
 import mlayer
 from mlayer.batching import batch, operations
 # the task's writer (write_bvh, or np.savez atomically) and its figures
-from mlayer.batching.task import _metrics_before, _write
+from mlayer.batching.task import _figures, _write
+from mlayer.pipeline import Clip
 
 
 def main():
@@ -66,10 +67,10 @@ def main():
         out.mkdir()
         t0 = time.perf_counter()
         for f in clips:
-            m = mlayer.read_bvh(f)
+            clip = Clip(mlayer.read_bvh(f))
             if a.metrics:
-                _metrics_before(m)
-            res = op.run(m, variants, **options)
+                _figures(clip)
+            res = op.run(clip, variants, **options)
             _write(res[0], str(out / (f.stem + op.extension)))
         t_loop = time.perf_counter() - t0
         print(f"{'plain loop':22} {t_loop:7.2f} s  {n / t_loop:7.1f} clips/s")
