@@ -3,6 +3,7 @@
  * (its arguments, the floor, the feet's targets, and its steps in order).
  */
 #include "cleanup_internal.h"
+#include "depop_internal.h"
 #include "ik_internal.h"
 
 #include <math.h>
@@ -539,25 +540,6 @@ static double smootherstep(double x)
     return x * x * x * (x * (6.0 * x - 15.0) + 10.0);
 }
 
-/* The largest second difference of the contact points (P, N x C x 3) over frames and points:
-   the synthesized feet's largest acceleration, per frame squared. */
-static double points_max_accel(const double *P, size_t N, size_t C)
-{
-    double m = 0.0;
-    for (size_t f = 1; f + 1 < N; f++)
-        for (size_t c = 0; c < C; c++) {
-            double a2 = 0.0;
-            for (int d = 0; d < 3; d++) {
-                const double a = P[3 * ((f + 1) * C + c) + (size_t)d] -
-                                 2.0 * P[3 * (f * C + c) + (size_t)d] +
-                                 P[3 * ((f - 1) * C + c) + (size_t)d];
-                a2 += a * a;
-            }
-            m = mlr_fmax(m, sqrt(a2));
-        }
-    return m;
-}
-
 /* An edge of a contact run: the offsets of the anchor and the placed point at its edge frame
    f (run_offset), and the length of its ramp. (Ramps that also carried the correction's
    velocity at the edge, through a cubic Hermite term, met the target on 6 more of 107 clips at
@@ -665,7 +647,7 @@ static void ramp_target(const cleanup_state *cu, cleanup_foot *ft, size_t f, con
 static void ramp_runs(cleanup_state *cu, const contact_run *runs, size_t n)
 {
     const size_t N = cu->N;
-    const double budget = RAMP_BUDGET * points_max_accel(cu->P, N, cu->C);
+    const double budget = RAMP_BUDGET * mlr_points_accel(cu->P, N, cu->C, NULL);
     for (size_t i = 0; i < n; i++) {
         const contact_run *r = &runs[i];
         cleanup_foot *ft = &cu->feet[r->k];

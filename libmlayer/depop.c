@@ -28,12 +28,10 @@
 #define DEPOP_WINDOW 0.05 /* seconds: the first round's half window; each round adds one */
 #define DEPOP_ROUNDS 4
 
-/* a[f] = the largest acceleration (second difference) of the C points pts (N x C x 3) at frame
-   f (0 at the first and last); returns the largest over the frames. */
-static double frame_accel(const double *pts, size_t N, size_t C, double *a)
+double mlr_points_accel(const double *pts, size_t N, size_t C, double *a)
 {
     double m = 0.0;
-    if (a)
+    if (a && N > 0)
         a[0] = a[N - 1] = 0.0;
     for (size_t f = 1; f + 1 < N; f++) {
         double af = 0.0;
@@ -293,13 +291,13 @@ mlr_status mlr_depop(const mlr_rig *rig, size_t N, double fps, const double *in_
         st = cleanup__fk_points(rig, N, src_root[s], src_rot[s], src_trans[s], C, joints,
                                 end_sites, w.pos, w.wrot, w.pts, alloc, NULL, 0, NULL);
         if (st == MLR_OK)
-            base = fmax(base, frame_accel(w.pts, N, C, NULL));
+            base = fmax(base, mlr_points_accel(w.pts, N, C, NULL));
     }
     const double limit = DEPOP_RATIO * base;
     for (int round = 0; st == MLR_OK && round < DEPOP_ROUNDS && base > 0.0; round++) {
         st = cleanup__fk_points(rig, N, root, rot, trans, C, joints, end_sites, w.pos, w.wrot,
                                 w.pts, alloc, NULL, 0, NULL);
-        if (st != MLR_OK || !(frame_accel(w.pts, N, C, w.accel) > limit))
+        if (st != MLR_OK || !(mlr_points_accel(w.pts, N, C, w.accel) > limit))
             break;
         const double hs = DEPOP_WINDOW * (double)(round + 1) * fps;
         const size_t h = hs < 2.0 ? 2 : (size_t)ceil(hs);

@@ -5,6 +5,11 @@
 #include "mlayer/mlr_limits.h"
 #include "mlayer/mlr_rig.h"
 
+/* The largest acceleration (second difference, per frame squared) of the C points pts
+ * (N x C x 3) over points, per frame into a (N values, 0 at the first and last; or NULL), and
+ * over the frames as the return value (0 for N < 3). */
+double mlr_points_accel(const double *pts, size_t N, size_t C, double *a);
+
 /* Where a point (C points: joints, End Sites as mlr_rig_point_positions takes them) of the
  * result (root, rot: N frames, replaced) accelerates faster than 1.25 times the largest
  * acceleration of the input's (in_root, in_rot, in_trans; in_root NULL: none) and of the
