@@ -3,7 +3,8 @@
 # clang-format), the Check suites of the C core through meson,
 # the install check, the release check (sdist and abi3 wheel, installed into a fresh venv
 # without libcholmod), the same C suites again under AddressSanitizer +
-# UndefinedBehaviorSanitizer, a bounded fuzzing run of the BVH reader, then pytest (the Python
+# UndefinedBehaviorSanitizer, a bounded fuzzing run of the BVH reader and one of the glTF and
+# AMASS readers (tests/fuzz/fuzz_readers.py), then pytest (the Python
 # examples included; the C examples run with the Check suites), then the documentation.
 # Usage: bash scripts/test.sh
 set -euo pipefail
@@ -42,6 +43,10 @@ if bash tests/fuzz/run.sh 60 >build-fuzz/fuzz.log 2>&1; then
 else
   tail -40 build-fuzz/fuzz.log; echo "fuzzing the BVH reader failed" >&2; exit 1
 fi
+
+echo "== glTF and AMASS readers fuzzed for 20 s each (mutated seeds, a child under a memory limit) =="
+python tests/fuzz/fuzz_readers.py --seconds 20 \
+  || { echo "fuzzing the glTF and AMASS readers failed" >&2; exit 1; }
 
 echo "== Python package: pytest =="
 # setup.sh builds this checkout with CHOLMOD: its tests must not be skipped silently

@@ -16,14 +16,16 @@ inverse for motions on those trees. Files are read without pickle
 from __future__ import annotations
 
 import os
+import tokenize
 import zipfile
+import zlib
 from typing import Any, Literal, NamedTuple, overload
 
 import numpy as np
 
 from . import quat, smpl
 from ._files import atomic_output
-from .errors import InvalidArgumentError, MlayerIOError, ParseError
+from .errors import Error, InvalidArgumentError, MlayerIOError, ParseError
 from .motion import MIN_FRAME_TIME, Motion, Skeleton
 
 __all__ = ["read_amass", "write_amass", "AmassBody", "MODELS"]
@@ -74,7 +76,7 @@ def _gender(z: Any) -> str | None:
         g = z["gender"]
     except (ValueError, OSError, EOFError, zipfile.BadZipFile):
         return None
-    if g.dtype.kind not in "US" or g.size != 1:
+    if not isinstance(g, np.ndarray) or g.dtype.kind not in "US" or g.size != 1:
         return None
     v = g.reshape(()).item()
     return v.decode("utf-8", "replace") if isinstance(v, bytes) else str(v)
@@ -91,7 +93,7 @@ def _load(path: str) -> Any:
         if isinstance(e, (FileNotFoundError, PermissionError, IsADirectoryError)):
             raise MlayerIOError(f"read_amass: cannot open {path}: {e.strerror or e}") from e
         raise _fail(path, f"not a numpy .npz archive ({e})") from None
-    except (ValueError, EOFError, zipfile.BadZipFile) as e:
+    except (ValueError, EOFError, zipfile.BadZipFile, NotImplementedError, zlib.error) as e:
         raise _fail(path, f"not a numpy .npz archive ({e})") from None
     if not isinstance(z, np.lib.npyio.NpzFile):
         raise _fail(path, "a single .npy array, not an .npz archive of named arrays")
@@ -225,6 +227,26 @@ def _rest_offsets(joint_positions: Any, names: tuple[str, ...], parents: tuple[i
     return off
 
 
+def _arrays(z: Any, path: str, max_bytes: int, model: str) -> tuple[Any, ...]:
+    """read_amass's arrays of an open archive: poses, trans, fps, betas, model, gender."""
+    total = sum(info.file_size for info in z.zip.infolist())
+    if total > max_bytes:
+        raise _fail(path, f"its members expand to {total} bytes, more than max_bytes="
+                          f"{max_bytes} (a zip bomb, or pass a larger max_bytes)")
+    poses = _poses(z, path)
+    if "trans" not in z.files:
+        raise _fail(path, "no 'trans' (F x 3 root translations)")
+    trans = _numeric(_get(z, path, "trans"), path, "trans", 2)
+    fps = _framerate(z, path)
+    betas = None
+    if "betas" in z.files:
+        b = _get(z, path, "betas")
+        betas = _numeric(b.reshape(-1) if b.ndim <= 2 else b, path, "betas", 1)
+    model = _model_of(z, path, poses.shape[1], model)
+    gender = _gender(z)
+    return poses, trans, fps, betas, model, gender
+
+
 @overload
 def read_amass(path: str | os.PathLike[str], *, joint_positions: Any = None,
                model: str = "auto", return_body: Literal[False] = False,
@@ -295,21 +317,16 @@ def read_amass(path: str | os.PathLike[str], *, joint_positions: Any = None,
                                    f"{max_bytes!r}")
     path = os.fspath(path)
     with _load(path) as z:
-        total = sum(info.file_size for info in z.zip.infolist())
-        if total > max_bytes:
-            raise _fail(path, f"its members expand to {total} bytes, more than max_bytes="
-                              f"{max_bytes} (a zip bomb, or pass a larger max_bytes)")
-        poses = _poses(z, path)
-        if "trans" not in z.files:
-            raise _fail(path, "no 'trans' (F x 3 root translations)")
-        trans = _numeric(_get(z, path, "trans"), path, "trans", 2)
-        fps = _framerate(z, path)
-        betas = None
-        if "betas" in z.files:
-            b = _get(z, path, "betas")
-            betas = _numeric(b.reshape(-1) if b.ndim <= 2 else b, path, "betas", 1)
-        model = _model_of(z, path, poses.shape[1], model)
-        gender = _gender(z)
+        try:
+            poses, trans, fps, betas, model, gender = _arrays(z, path, max_bytes, model)
+        except Error:
+            raise
+        except (KeyError, IndexError, TypeError, ValueError, AttributeError, SyntaxError,
+                EOFError, OSError, zipfile.BadZipFile, zlib.error, tokenize.TokenError,
+                NotImplementedError) as e:
+            # a safety net: what the checks in _arrays missed is still a ParseError, never
+            # a bare zlib.error or AttributeError (fuzz_readers.py found both)
+            raise _fail(path, f"malformed archive ({type(e).__name__}: {str(e)[:200]})") from None
     F = poses.shape[0]
     if F == 0:
         raise _fail(path, "no frames: 'poses' has 0 rows")

@@ -576,10 +576,11 @@ class _Data:
                          getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_BINARY", 0))
         except OSError as e:
             raise _Bad(f"buffers[{i}]: cannot read {rel}: {e.strerror or e}") from None
+        st = os.fstat(fd)
+        if not stat.S_ISREG(st.st_mode):  # a folder, a device, a FIFO: before fdopen reads it
+            os.close(fd)
+            raise _Bad(f"{where} is not a regular file")
         with os.fdopen(fd, "rb") as f:
-            st = os.fstat(f.fileno())
-            if not stat.S_ISREG(st.st_mode):
-                raise _Bad(f"{where} is not a regular file")
             _need(st.st_size >= n, f"buffers[{i}] is truncated: byteLength {n}, {st.st_size} "
                                    f"bytes in {rel}")
             data = f.read(n)

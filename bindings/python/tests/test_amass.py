@@ -506,3 +506,23 @@ def test_hostile_archives_are_refused_before_they_expand(tmp_path):
     assert mlayer.read_amass(p).n_frames == 40000  # within the default budget
     with pytest.raises(mlayer.InvalidArgumentError, match="max_bytes"):
         mlayer.read_amass(p, max_bytes=0)
+
+
+@pytest.mark.parametrize("name", ["amass_zlib_error.npz", "amass_header_token_error.npz"])
+def test_fuzzed_archives_are_parse_errors(name):
+    """Cases tests/fuzz/fuzz_readers.py found (issue 39, item 2): a zlib.error and a
+    TokenError before; a ParseError naming the file now."""
+    from conftest import REPO
+    path = REPO / "tests" / "data" / "fuzz" / name
+    with pytest.raises(mlayer.ParseError) as e:
+        mlayer.read_amass(path)
+    assert str(path) in str(e.value)
+
+
+def test_fuzzed_gender_that_is_not_an_array_is_left_out():
+    """Another case the fuzzer found: ``gender`` stored as raw bytes (not .npy) raised an
+    AttributeError; like a gender that would need pickle, it is now read as absent."""
+    from conftest import REPO
+    m, body = mlayer.read_amass(REPO / "tests" / "data" / "fuzz" / "amass_gender_not_npy.npz",
+                                return_body=True)
+    assert m.n_frames == 10 and body.gender is None
