@@ -838,6 +838,23 @@ static mlr_status apply_reference(const mlr_guards *g, const double *ref_root_po
     return MLR_OK;
 }
 
+/* Whether every alpha is 1: denoise (the layers as they are), not a stylization. */
+static int is_denoise(const double *alpha, size_t n_alpha)
+{
+    int ones = 1;
+    for (size_t k = 0; k < n_alpha; k++)
+        ones &= alpha[k] == 1.0;
+    return ones;
+}
+
+/* The diag of a step of apply that runs forward kinematics of the result (st: its failure). */
+static void fk_failure(mlr_status st, mlr_diag *diag)
+{
+    mlr_diag_set(diag, st, 0, 0, "guards apply: %s",
+                 st == MLR_E_NO_MEMORY ? "out of memory"
+                                       : "forward kinematics of the result failed");
+}
+
 /* The cleanup's options for this apply (at most GUARDS_MAX_COPTS, in copts); returns their
    count. */
 static size_t cleanup_options(const mlr_guards *g, int has_ref, const double *alpha,
@@ -847,9 +864,7 @@ static size_t cleanup_options(const mlr_guards *g, int has_ref, const double *al
     size_t n_copts = 0;
     /* a given reference (the denoised motion) is followed as it is; the input is
      * smoothed against its capture noise first (the cleanup's default) */
-    int denoising = 1;
-    for (size_t k = 0; k < n_alpha; k++)
-        denoising &= alpha[k] == 1.0;
+    const int denoising = is_denoise(alpha, n_alpha);
     if (g->follow)
         copts[n_copts++] = (mlr_cleanup_option){MLR_CLEANUP_OPT_REF_SMOOTH,
                                                 has_ref || denoising ? 0.0 : GUARDS_REF_SMOOTH};
@@ -1115,10 +1130,8 @@ mlr_status mlr_guards_apply(const mlr_guards *g, const double *alpha, size_t n_a
     }
     const size_t C = g->contacts_on ? g->n_points : 0;
     const int floor_on = g->floor_on && isfinite(g->floor_height) && g->n_points > 0;
-    int stylizing = 0;
-    for (size_t k = 0; k < n_alpha; k++)
-        stylizing |= alpha[k] != 1.0;
-    if (floor_on && stylizing) { /* the rest of the body above the floor (floor_chains.c),
+    const int denoising = is_denoise(alpha, n_alpha);
+    if (floor_on && !denoising) { /* the rest of the body above the floor (floor_chains.c),
                                     before the cleanup pins the feet of the result; not in
                                     denoise, where the input is the noisy capture (blending
                                     MediaPipe's toward it changed denoise by 47% of H) */
@@ -1127,16 +1140,11 @@ mlr_status mlr_guards_apply(const mlr_guards *g, const double *alpha, size_t n_a
                               GUARDS_FLOOR_SLACK * g->body_height, g->root_pos, g->rot, g->trans,
                               work_root, work, trans, g->n_points, g->joints, &lifted, &g->alloc);
         if (st != MLR_OK) {
-            mlr_diag_set(diag, st, 0, 0, "guards apply: %s",
-                         st == MLR_E_NO_MEMORY ? "out of memory"
-                                               : "forward kinematics of the result failed");
+            fk_failure(st, diag);
             goto done;
         }
     }
     if (C > 0 || floor_on) {
-        int denoising = 1;
-        for (size_t k = 0; k < n_alpha; k++)
-            denoising &= alpha[k] == 1.0;
         if ((st = apply_reference(g, ref_root_pos, ref_rot, ref_trans, denoising, &ref, &made_ref,
                                   diag)) != MLR_OK)
             goto done;
@@ -1190,18 +1198,14 @@ mlr_status mlr_guards_apply(const mlr_guards *g, const double *alpha, size_t n_a
                        rep.limits_applied ? g->limits : NULL, alpha, n_alpha, work_root, work,
                        &smoothed, &g->alloc);
         if (st != MLR_OK) {
-            mlr_diag_set(diag, st, 0, 0, "guards apply: %s",
-                         st == MLR_E_NO_MEMORY ? "out of memory"
-                                               : "forward kinematics of the result failed");
+            fk_failure(st, diag);
             goto done;
         }
     }
     if (floor_on) {
         st = raise_to_floor(g, ref, work_root, work, trans, &rep.floor_raised);
         if (st != MLR_OK) {
-            mlr_diag_set(diag, st, 0, 0, "guards apply: %s",
-                         st == MLR_E_NO_MEMORY ? "out of memory"
-                                               : "forward kinematics of the result failed");
+            fk_failure(st, diag);
             goto done;
         }
     }
