@@ -58,6 +58,9 @@ struct mlr_guards {
     int up, limits_mode, contacts_on, floor_on, floor_given, follow;
     double floor_height;
     double body_height; /* mlr_rig_body_height of the input (0 when it could not be measured) */
+    int32_t body_joint, body_trans; /* the joint that carries the input's body translation
+                                       (mlr_rig_body_translation_joint) and its index among the
+                                       trans joints; body_trans -1 when it is the root */
     mlr_limits *learned;
     const mlr_limits *limits; /* learned or borrowed */
     /* the input's trajectories as the cleanup's reference (the pinned feet follow them):
@@ -441,6 +444,16 @@ mlr_status mlr_guards_create(const mlr_rig *rig, double fps, size_t n_frames,
     memcpy(g->root_pos, root_pos, 3 * N * sizeof(double));
     if (P)
         memcpy(g->trans, trans, 3 * N * P * sizeof(double));
+    g->body_trans = -1;
+    if ((st = mlr_rig_body_translation_joint(&g->rig, N, g->root_pos, g->trans, &g->body_joint,
+                                             diag)) != MLR_OK)
+        goto done;
+    size_t depth = 0; /* carry_body_shift walks the body joint's ancestors (at most 64) */
+    for (int32_t j = g->parents[g->body_joint]; j >= 0; j = g->parents[j])
+        depth++;
+    for (size_t k = 0; k < P && depth <= 64; k++)
+        if (g->trans_joints[k] == g->body_joint)
+            g->body_trans = (int32_t)k;
     /* unit rotations, as the layers, the limits and the cleanup take them */
     st = mlr__quat_unit_array((const mlr_quat *)rot, N * J, (mlr_quat *)g->rot);
     if (st != MLR_OK) { /* the message of the first value not finite, else of a zero */
@@ -1081,11 +1094,49 @@ static mlr_status ease_limits(const mlr_guards *g, const double *rot, double *wo
     return st;
 }
 
-mlr_status mlr_guards_apply(const mlr_guards *g, const double *alpha, size_t n_alpha,
-                            const double *ref_root_pos, const double *ref_rot,
-                            const double *ref_trans, double *root_pos, double *rot,
-                            const double *trans, size_t *limited, size_t n_limited,
-                            mlr_guards_report *report, mlr_diag *diag)
+/* Where a static root stands above a moving pelvis (Bandai's joint_Root at the origin, the walk
+   in the position channels of Hips), the body's shifts in root_pos (the cleanup lowering the
+   body, the floor raising it) are carried by the body joint instead: its translation gets the
+   shift in its parent's frame and the root keeps the synthesis's place. The body joint's
+   subtree is where it was; the root (and any joint outside that subtree) no longer moves with
+   the body: Bandai's joint_Root went 16% of body height under the floor at alpha 3. */
+static void carry_body_shift(const mlr_guards *g, const double *root_in, double *work_root,
+                             const double *rot, double *trans)
+{
+    const size_t N = g->n_frames, J = g->n_joints, P = g->n_trans;
+    const int32_t b = g->body_joint;
+    for (size_t f = 0; f < N; f++) {
+        double d[3];
+        for (int k = 0; k < 3; k++)
+            d[k] = work_root[3 * f + k] - root_in[3 * f + k];
+        if (d[0] == 0.0 && d[1] == 0.0 && d[2] == 0.0)
+            continue;
+        /* the world rotation of the body joint's parent: the product along its ancestors */
+        mlr_quat w = {1.0, 0.0, 0.0, 0.0};
+        int32_t chain[64];
+        size_t n = 0;
+        for (int32_t j = g->parents[b]; j >= 0 && n < 64; j = g->parents[j])
+            chain[n++] = j;
+        while (n > 0) {
+            const mlr_quat *q = (const mlr_quat *)(rot + 4 * (f * J + (size_t)chain[--n]));
+            mlr_quat_mul_inline(&w, q, &w);
+        }
+        const mlr_quat wc = {w.w, -w.x, -w.y, -w.z};
+        double local[3];
+        mlr_quat_rotate_inline(&wc, d, local);
+        double *t = trans + 3 * (f * P + (size_t)g->body_trans);
+        for (int k = 0; k < 3; k++) {
+            t[k] += local[k];
+            work_root[3 * f + k] = root_in[3 * f + k];
+        }
+    }
+}
+
+static mlr_status guards_apply(const mlr_guards *g, const double *alpha, size_t n_alpha,
+                               const double *ref_root_pos, const double *ref_rot,
+                               const double *ref_trans, double *root_pos, double *rot,
+                               const double *trans, double *trans_out, size_t *limited,
+                               size_t n_limited, mlr_guards_report *report, mlr_diag *diag)
 {
     mlr_status st = apply_check(g, alpha, n_alpha, ref_root_pos, ref_rot, ref_trans, root_pos, rot,
                                 trans, limited, n_limited, diag);
@@ -1213,6 +1264,8 @@ mlr_status mlr_guards_apply(const mlr_guards *g, const double *alpha, size_t n_a
         rep.limited_joints += counts[j] > 0;
         rep.limited_frames = counts[j] > rep.limited_frames ? counts[j] : rep.limited_frames;
     }
+    if (trans_out && g->body_trans >= 0)
+        carry_body_shift(g, root_pos, work_root, work, trans_out);
     memcpy(root_pos, work_root, 3 * N * sizeof(double));
     memcpy(rot, work, 4 * N * J * sizeof(double));
     if (limited)
@@ -1229,4 +1282,24 @@ done:
     free_array(&g->alloc, changed, N * J, 1);
     free_array(&g->alloc, legs, J, sizeof(int32_t));
     return st;
+}
+
+mlr_status mlr_guards_apply(const mlr_guards *g, const double *alpha, size_t n_alpha,
+                            const double *ref_root_pos, const double *ref_rot,
+                            const double *ref_trans, double *root_pos, double *rot,
+                            const double *trans, size_t *limited, size_t n_limited,
+                            mlr_guards_report *report, mlr_diag *diag)
+{
+    return guards_apply(g, alpha, n_alpha, ref_root_pos, ref_rot, ref_trans, root_pos, rot, trans,
+                        NULL, limited, n_limited, report, diag);
+}
+
+mlr_status mlr_guards_apply_trans(const mlr_guards *g, const double *alpha, size_t n_alpha,
+                                  const double *ref_root_pos, const double *ref_rot,
+                                  const double *ref_trans, double *root_pos, double *rot,
+                                  double *trans, size_t *limited, size_t n_limited,
+                                  mlr_guards_report *report, mlr_diag *diag)
+{
+    return guards_apply(g, alpha, n_alpha, ref_root_pos, ref_rot, ref_trans, root_pos, rot, trans,
+                        trans, limited, n_limited, report, diag);
 }

@@ -212,6 +212,106 @@ START_TEST(stylized_feet_slide_no_more_than_the_inputs)
 }
 END_TEST
 
+/* World positions (N x J x 3) of frames on the clip's rig. */
+static void world_of(const clip *c, const double *root, const double *rot, const double *trans,
+                     double *pos)
+{
+    ck_assert_int_eq(mlr_fk_arrays(c->n, c->j, c->rig.parents, c->rig.offsets, root, rot,
+                                   c->rig.n_trans, c->rig.trans_joints, trans, pos, NULL, NULL,
+                                   NULL),
+                     MLR_OK);
+}
+
+/* Bandai keeps joint_Root at the origin and walks in the position channels of Hips. With its
+ * body 8 cm up, the planted feet are out of reach and the guards lower the body:
+ * mlr_guards_apply through root_pos (joint_Root leaves the origin with it),
+ * mlr_guards_apply_trans through Hips' translation (joint_Root stays); every other joint ends in
+ * the same place either way. On a rig whose root carries the body (the root moving), the two
+ * give the same bits and trans is untouched. */
+START_TEST(the_body_shift_rides_on_the_joint_that_carries_the_body)
+{
+    clip c;
+    if (!load("bandai1_walk_happy_001.bvh", 120, &c))
+        return;
+    const size_t N = c.n, J = c.j, P = c.rig.n_trans;
+    ck_assert_uint_gt(P, 0);
+    const int hips = joint_named(&c, "Hips");
+    size_t kh = P;
+    for (size_t k = 0; k < P; k++)
+        if (c.rig.trans_joints[k] == hips)
+            kh = k;
+    ck_assert_uint_lt(kh, P);
+    double *root1 = malloc(3 * N * sizeof(double)), *root2 = malloc(3 * N * sizeof(double));
+    double *rot1 = malloc(4 * N * J * sizeof(double)), *rot2 = malloc(4 * N * J * sizeof(double));
+    double *trans1 = malloc(3 * N * P * sizeof(double));
+    double *trans2 = malloc(3 * N * P * sizeof(double));
+    double *pos1 = malloc(3 * N * J * sizeof(double)), *pos2 = malloc(3 * N * J * sizeof(double));
+    memcpy(root1, mlr_motion_root_pos(c.m), 3 * N * sizeof(double));
+    memcpy(rot1, mlr_motion_rot(c.m), 4 * N * J * sizeof(double));
+    memcpy(trans1, mlr_motion_trans(c.m), 3 * N * P * sizeof(double));
+    for (size_t f = 0; f < N; f++)
+        trans1[3 * (f * P + kh) + 1] += 8.0; /* the body 8 cm up: planted feet out of reach */
+    memcpy(root2, root1, 3 * N * sizeof(double));
+    memcpy(rot2, rot1, 4 * N * J * sizeof(double));
+    memcpy(trans2, trans1, 3 * N * P * sizeof(double));
+    mlr_guards *g = guards_of(&c, NULL, 0);
+    const double alpha = 2.0;
+    mlr_diag d;
+    ck_assert_msg(mlr_guards_apply(g, &alpha, 1, NULL, NULL, NULL, root1, rot1, trans1, NULL, 0,
+                                   NULL, &d) == MLR_OK,
+                  "%s", d.message);
+    ck_assert_msg(mlr_guards_apply_trans(g, &alpha, 1, NULL, NULL, NULL, root2, rot2, trans2, NULL,
+                                         0, NULL, &d) == MLR_OK,
+                  "%s", d.message);
+    double moved = 0.0, root_moved = 0.0, diff = 0.0;
+    for (size_t i = 0; i < 3 * N; i++) {
+        moved = fmax(moved, fabs(root1[i] - mlr_motion_root_pos(c.m)[i]));
+        root_moved = fmax(root_moved, fabs(root2[i] - mlr_motion_root_pos(c.m)[i]));
+    }
+    ck_assert_double_gt(moved, 3.0); /* the body was lowered, through root_pos */
+    ck_assert_double_eq(root_moved, 0.0);
+    ck_assert_mem_eq(rot1, rot2, 4 * N * J * sizeof(double));
+    world_of(&c, root1, rot1, trans1, pos1);
+    world_of(&c, root2, rot2, trans2, pos2);
+    for (size_t f = 0; f < N; f++)
+        for (size_t j = 1; j < J; j++)
+            for (int k = 0; k < 3; k++)
+                diff = fmax(diff, fabs(pos1[3 * (f * J + j) + k] - pos2[3 * (f * J + j) + k]));
+    ck_assert_double_lt(diff, 1e-9);
+    mlr_guards_destroy(g);
+
+    /* the root carries the body (it moves): the same bits as mlr_guards_apply, trans as it was */
+    for (size_t f = 0; f < N; f++) {
+        root1[3 * f] = mlr_motion_root_pos(c.m)[3 * f] + 0.5 * (double)f;
+        root1[3 * f + 1] = mlr_motion_root_pos(c.m)[3 * f + 1];
+        root1[3 * f + 2] = mlr_motion_root_pos(c.m)[3 * f + 2];
+    }
+    memcpy(rot1, mlr_motion_rot(c.m), 4 * N * J * sizeof(double));
+    memcpy(trans1, mlr_motion_trans(c.m), 3 * N * P * sizeof(double));
+    ck_assert_msg(
+        mlr_guards_create(&c.rig, c.fps, N, root1, rot1, trans1, NULL, 0, NULL, &g, &d) == MLR_OK,
+        "%s", d.message);
+    for (size_t f = 0; f < N; f++)
+        trans1[3 * (f * P + kh) + 1] += 8.0;
+    memcpy(root2, root1, 3 * N * sizeof(double));
+    memcpy(rot2, rot1, 4 * N * J * sizeof(double));
+    memcpy(trans2, trans1, 3 * N * P * sizeof(double));
+    ck_assert_int_eq(
+        mlr_guards_apply(g, &alpha, 1, NULL, NULL, NULL, root1, rot1, trans1, NULL, 0, NULL, NULL),
+        MLR_OK);
+    ck_assert_int_eq(mlr_guards_apply_trans(g, &alpha, 1, NULL, NULL, NULL, root2, rot2, trans2,
+                                            NULL, 0, NULL, NULL),
+                     MLR_OK);
+    ck_assert_mem_eq(root1, root2, 3 * N * sizeof(double));
+    ck_assert_mem_eq(rot1, rot2, 4 * N * J * sizeof(double));
+    ck_assert_mem_eq(trans1, trans2, 3 * N * P * sizeof(double));
+    mlr_guards_destroy(g);
+    unload(&c);
+    free(root1), free(root2), free(rot1), free(rot2), free(trans1), free(trans2), free(pos1),
+        free(pos2);
+}
+END_TEST
+
 START_TEST(every_guard_switched_off_leaves_the_frames_alone)
 {
     clip c;
@@ -501,6 +601,7 @@ static Suite *guards_suite(void)
     TCase *tc = tcase_create("guards");
     tcase_add_test(tc, stylized_knees_stay_within_the_fold_limit_and_feet_above_the_floor);
     tcase_add_test(tc, stylized_feet_slide_no_more_than_the_inputs);
+    tcase_add_test(tc, the_body_shift_rides_on_the_joint_that_carries_the_body);
     tcase_add_test(tc, every_guard_switched_off_leaves_the_frames_alone);
     tcase_add_test(tc, bad_input_gets_the_right_status_and_message);
     tcase_add_test(tc, every_allocation_failure_returns_no_memory_without_leaks);

@@ -84,8 +84,8 @@ int main(int argc, char **argv)
     st = mlr_layers_synthesize(layers, 0, n, &alpha, 1, root, 3 * n, rot, 4 * n * j, &diag);
     mlr_guards_report report;
     if (st >= 0)
-        st = mlr_guards_apply(guards, &alpha, 1, NULL, NULL, NULL, root, rot, mlr_motion_trans(m),
-                              NULL, 0, &report, &diag);
+        st = mlr_guards_apply_trans(guards, &alpha, 1, NULL, NULL, NULL, root, rot,
+                                    mlr_motion_trans_mut(m), NULL, 0, &report, &diag);
     if (st < 0) {
         failed("synthesize", st, &diag);
         goto done;

@@ -32,8 +32,9 @@
  *
  * Rigs whose body translation rides on a non-root joint (position channels of "Hips" under a
  * static root): the frames here are whole motions (root_pos, rot and every trans joint), so
- * whichever joint carries the translation, forward kinematics and the cleanup see it; the
- * cleanup moves the body through root_pos.
+ * whichever joint carries the translation, forward kinematics and the cleanup see it. The
+ * cleanup moves the body through root_pos in mlr_guards_apply, and through the body joint's
+ * translation in mlr_guards_apply_trans (the static root then stays where it is).
  *
  * Arrays are row-major float64; quaternions scalar-first (w, x, y, z).
  */
@@ -192,6 +193,24 @@ MLR_API mlr_status mlr_guards_apply(const mlr_guards *g, const double *alpha, si
                                     const double *ref_trans, double *root_pos, double *rot,
                                     const double *trans, size_t *limited, size_t n_limited,
                                     mlr_guards_report *report, mlr_diag *diag);
+
+/**
+ * mlr_guards_apply with the translations in and out: where the input's body translation rides
+ * on a joint below a static root (mlr_rig_body_translation_joint; Bandai's Hips under
+ * joint_Root), the body's shifts (the cleanup lowering the body toward planted feet, the floor
+ * raising it) go into that joint's translation, in its parent's frame, and root_pos keeps the
+ * synthesis's values: the static root stays where it is instead of moving under the floor with
+ * the body. The body joint and everything below it end where mlr_guards_apply puts them. On
+ * rigs whose root carries the body translation, trans is left as it is and the result is
+ * mlr_guards_apply's. What mlayer's Python pipeline calls.
+ * @param trans     [in/out] N x P x 3 (NULL when P is 0)
+ * Other parameters, return values, allocation and threads: as mlr_guards_apply.
+ */
+MLR_API mlr_status mlr_guards_apply_trans(const mlr_guards *g, const double *alpha, size_t n_alpha,
+                                          const double *ref_root_pos, const double *ref_rot,
+                                          const double *ref_trans, double *root_pos, double *rot,
+                                          double *trans, size_t *limited, size_t n_limited,
+                                          mlr_guards_report *report, mlr_diag *diag);
 
 /** Release the handle. NULL is a no-op. */
 MLR_API void mlr_guards_destroy(mlr_guards *g);

@@ -534,6 +534,11 @@ mlr_status mlr_guards_apply(const mlr_guards *g, const double *alpha, size_t n_a
                             const double *ref_trans, double *root_pos, double *rot,
                             const double *trans, size_t *limited, size_t n_limited,
                             mlr_guards_report *report, mlr_diag *diag);
+mlr_status mlr_guards_apply_trans(const mlr_guards *g, const double *alpha, size_t n_alpha,
+                                  const double *ref_root_pos, const double *ref_rot,
+                                  const double *ref_trans, double *root_pos, double *rot,
+                                  double *trans, size_t *limited, size_t n_limited,
+                                  mlr_guards_report *report, mlr_diag *diag);
 void mlr_guards_destroy(mlr_guards *g);
 
 /* Exact retiming (issue 20). */

@@ -267,13 +267,13 @@ def guard_motion(motion: Motion, names: Sequence[str], contacts: ArrayLike, *,
     if limits is not None:
         check(lib.mlr_guards_set_limits(g, limits._h, diag), "limits", diag)
     a = np.ones(1)
-    r, q = root.copy(), rot.copy()
+    r, q, t = root.copy(), rot.copy(), trans.copy()
     J = motion.n_joints
     limited = np.zeros(J, dtype=np.uintp)
     rep = ffi.new("mlr_guards_report *")
-    check(lib.mlr_guards_apply(
+    check(lib.mlr_guards_apply_trans(
         g, _arrays.ptr(a), 1, ffi.NULL, ffi.NULL, ffi.NULL, _arrays.ptr_out(r),
-        _arrays.ptr_out(q), tptr, ffi.cast("size_t *", ffi.from_buffer(limited)), J, rep, diag),
+        _arrays.ptr_out(q), _arrays.ptr_out(t) if t.size else ffi.NULL, ffi.cast("size_t *", ffi.from_buffer(limited)), J, rep, diag),
         "guards", diag)
     del keep
     report = GuardReport(
@@ -281,4 +281,4 @@ def guard_motion(motion: Motion, names: Sequence[str], contacts: ArrayLike, *,
         limits_applied=bool(rep.limits_applied), contact_frames=int(rep.contact_frames),
         floor_frames=int(rep.floor_frames), floor_height=float(rep.floor_height),
         root_shift_max=float(rep.root_shift_max), floor_raised=int(rep.floor_raised))
-    return motion.with_frames(root_pos=r, rot=q), report
+    return motion.with_frames(root_pos=r, rot=q, trans=t), report

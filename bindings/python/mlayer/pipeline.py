@@ -323,8 +323,8 @@ class Synthesis(ReadOnlyAttributes):
         limited = np.zeros(J, dtype=np.uintp)
         rep = ffi.new("mlr_guards_report *")
         diag = ffi.new("mlr_diag *")
-        tptr = _arrays.ptr(trans) if trans.size else ffi.NULL
-        check(lib.mlr_guards_apply(
+        tptr = _arrays.ptr_out(trans) if trans.size else ffi.NULL
+        check(lib.mlr_guards_apply_trans(
             self._guards, _arrays.ptr(a), a.size, ref_ptr(rr), ref_ptr(rq), ref_ptr(rt),
             _arrays.ptr_out(root), _arrays.ptr_out(rot),
             tptr, ffi.cast("size_t *", ffi.from_buffer(limited)), J, rep, diag), "guards", diag)
@@ -333,7 +333,7 @@ class Synthesis(ReadOnlyAttributes):
             limits_applied=bool(rep.limits_applied), contact_frames=int(rep.contact_frames),
             floor_frames=int(rep.floor_frames), floor_height=float(rep.floor_height),
             root_shift_max=float(rep.root_shift_max), floor_raised=int(rep.floor_raised))
-        return synthesized.with_frames(root_pos=root, rot=rot), report
+        return synthesized.with_frames(root_pos=root, rot=rot, trans=trans), report
 
     def run(self, alpha: float = 1.0, joints: Mapping[str, float] | None = None, *,
             root_alpha: float | None = None, residual: bool = False

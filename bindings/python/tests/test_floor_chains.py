@@ -47,3 +47,18 @@ def test_no_part_of_the_body_goes_through_the_floor(mocap, name, alpha):
         raw = mlayer.stylize(m, alpha, limits=None, floor=None, keep_contacts=False)
     assert floor_excess(m, raw) > 0.005  # the synthesis does go through it
     assert floor_excess(m, out) <= 0.005
+
+
+@pytest.mark.parametrize("alpha", [2.0, 3.0])
+def test_a_static_root_stays_where_it_is(mocap, alpha):
+    """Bandai keeps joint_Root at the origin and walks in Hips' position channels. The guards
+    lower the body toward the planted feet; they did it through the root's translation, which
+    took joint_Root 16% of body height under the floor at alpha 3 (5.6% at 2). The shift now
+    rides on Hips' translation (mlr_guards_apply_trans): joint_Root stays where the input has
+    it, and the body is where it was."""
+    m = mlayer.read_bvh(mocap / "bandai1_walk_happy_001.bvh")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        out = mlayer.stylize(m, alpha)
+    np.testing.assert_array_equal(out.root_pos, m.root_pos)
+    assert floor_excess(m, out) <= 0.005

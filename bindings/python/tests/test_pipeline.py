@@ -82,9 +82,9 @@ def _c_stylize(m, alpha):
                                  ffi.NULL, 0, ffi.NULL, g, diag) == 0, ffi.string(diag.message)
     guards = ffi.gc(g[0], lib.mlr_guards_destroy)
     w = np.array([alpha], dtype=np.float64)
-    assert lib.mlr_guards_apply(
+    assert lib.mlr_guards_apply_trans(
         guards, _arrays.ptr(w), 1, ffi.NULL, ffi.NULL, ffi.NULL, _arrays.ptr_out(out_r),
-        _arrays.ptr_out(out_q), _arrays.ptr(out_t) if trans.size else ffi.NULL, ffi.NULL, 0,
+        _arrays.ptr_out(out_q), _arrays.ptr_out(out_t) if trans.size else ffi.NULL, ffi.NULL, 0,
         ffi.NULL, diag) == 0, ffi.string(diag.message)
     return m.with_frames(root_pos=out_r, rot=out_q, trans=out_t)
 
