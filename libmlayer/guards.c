@@ -70,28 +70,78 @@ struct mlr_guards {
 
 static mlr_status check_floor_given(const mlr_guards *g, const double *wpos, mlr_diag *diag);
 
-/* The End Sites below the C points' joints that are not points themselves (a toe joint's End
-   Site: the toe tip), written to tj, te (NULL: counted only); returns how many. They are the
-   cleanup's floor-only points (no contact frame): the floor guard keeps them above the floor as
-   it does the feet (toe tips sank 1-3.7% of body height at alpha 0.5-3 on CMU clips). */
+/* 1 when joint j is one of the C points' joints (a point on the joint itself, no End Site). */
+static int is_point_joint(size_t C, const int32_t *joints, const int32_t *end_sites, int32_t j)
+{
+    for (size_t c = 0; c < C; c++)
+        if (joints[c] == j && end_sites[c] < 0)
+            return 1;
+    return 0;
+}
+
+/* The nearest of the points' joints at or above joint j, or -1. */
+static int32_t point_above(const mlr_guards *g, size_t C, const int32_t *joints,
+                           const int32_t *end_sites, int32_t j)
+{
+    for (; j >= 0; j = g->parents[j])
+        if (is_point_joint(C, joints, end_sites, j))
+            return j;
+    return -1;
+}
+
+/* Most floor-only points taken below one point's joint (the cleanup places at most 16 points on
+   a foot). */
+#define GUARDS_TIPS_PER_JOINT 8
+
+/* The tips below the C points' joints that are not points themselves, written to tj, te (NULL:
+   counted only); returns how many. A tip is an End Site (the toe tip) or a joint with no child
+   joint (Mixamo's Toe_End, below the ToeBase point) in the subtree of a point's joint, taken by
+   the nearest point joint above it, End Sites first, at most GUARDS_TIPS_PER_JOINT each. They
+   are the cleanup's floor-only points (no contact frame): the floor guard keeps them above the
+   floor as it does the feet (toe tips sank 1-3.7% of body height at alpha 0.5-3 on CMU clips;
+   Mixamo's Toe_End and its End Site 2-5% when only End Sites right below a point were taken). */
 static size_t tips_of(const mlr_guards *g, size_t C, const int32_t *joints,
                       const int32_t *end_sites, int32_t *tj, int32_t *te)
 {
+    const size_t J = g->n_joints, E = g->rig.n_end_sites;
     size_t n = 0;
     for (size_t c = 0; c < C; c++) {
+        const int32_t p = joints[c];
         if (end_sites[c] >= 0)
             continue;
-        for (size_t e = 0; e < g->rig.n_end_sites; e++) {
-            if (g->rig.end_site_parents[e] != joints[c])
+        int first = 1; /* a joint listed by several points is taken once */
+        for (size_t d = 0; d < c && first; d++)
+            first = !(joints[d] == p && end_sites[d] < 0);
+        if (!first)
+            continue;
+        size_t taken = 0;
+        for (size_t e = 0; e < E && taken < GUARDS_TIPS_PER_JOINT; e++) {
+            const int32_t q = g->rig.end_site_parents[e];
+            if (point_above(g, C, joints, end_sites, q) != p)
                 continue;
             int listed = 0;
             for (size_t d = 0; d < C && !listed; d++)
-                listed = joints[d] == joints[c] && end_sites[d] == (int32_t)e;
+                listed = joints[d] == q && end_sites[d] == (int32_t)e;
             if (listed)
                 continue;
             if (tj)
-                tj[n] = joints[c], te[n] = (int32_t)e;
-            n++;
+                tj[n] = q, te[n] = (int32_t)e;
+            n++, taken++;
+        }
+        /* joints with no child joint, below p (its descendants follow it: depth-first order) */
+        for (size_t k = (size_t)p + 1; k < J && taken < GUARDS_TIPS_PER_JOINT; k++) {
+            int32_t a = g->parents[k];
+            while (a > p)
+                a = g->parents[a];
+            if (a != p)
+                break; /* past p's subtree */
+            if (k + 1 < J && g->parents[k + 1] == (int32_t)k)
+                continue; /* has a child joint */
+            if (point_above(g, C, joints, end_sites, (int32_t)k) != p)
+                continue;
+            if (tj)
+                tj[n] = (int32_t)k, te[n] = -1;
+            n++, taken++;
         }
     }
     return n;

@@ -7,6 +7,7 @@ along the up axis). Before the guards blended the path to an offending point tow
 only the feet were kept up: the AI4Animation dog's tail went 21% of its height under the floor
 at alpha 2 (44% at 3), CMU 131_01's hips 7.4% at alpha 3.
 """
+import re
 import warnings
 
 import numpy as np
@@ -61,4 +62,56 @@ def test_a_static_root_stays_where_it_is(mocap, alpha):
         warnings.simplefilter("ignore")
         out = mlayer.stylize(m, alpha)
     np.testing.assert_array_equal(out.root_pos, m.root_pos)
+    assert floor_excess(m, out) <= 0.005
+
+
+def _with_toe_end_joints(text: str) -> str:
+    """The BVH text with each toe's End Site made a joint ``<toe>_End`` (zero rotation, the End
+    Site's offset) with an End Site of its own, as Mixamo's rigs have: the same poses, and
+    the toe tip now a joint below the toe."""
+    lines, out, col, added = text.splitlines(), [], 0, []
+    i = 0
+    while i < len(lines):
+        ln = lines[i]
+        if ln.strip() == "MOTION":
+            break
+        out.append(ln)
+        m = re.match(r"\s*CHANNELS\s+(\d+)", ln)
+        if m:
+            col += int(m.group(1))
+            name = lines[i - 3].split()[1]
+            if "toe" in name.lower() and lines[i + 1].strip() == "End Site":
+                off = [float(v) for v in lines[i + 3].split()[1:4]]
+                out += [f"JOINT {name}_End", "{", "OFFSET " + " ".join(map(str, off)),
+                        "CHANNELS 3 Zrotation Yrotation Xrotation", "End Site", "{",
+                        "OFFSET " + " ".join(str(0.3 * v) for v in off), "}", "}"]
+                added.append(col)
+                col += 3
+                i += 4  # past the End Site block
+        i += 1
+    frames = []
+    for ln in lines[i + 3:]:
+        v = ln.split()
+        for c in added:
+            v[c:c] = ["0", "0", "0"]
+        frames.append(" ".join(v))
+    return "\n".join(out + lines[i:i + 3] + frames) + "\n"
+
+
+def test_a_toe_end_joint_stays_above_the_floor(mocap, tmp_path):
+    """Mixamo ends a foot in ToeBase -> Toe_End (a joint) -> End Site; the guards kept only
+    the End Sites right below a contact point's joint above the floor, so Toe_End and its tip
+    went 2-5% of body height under it on Mixamo clips. CMU 131_01 with its toe tips made such
+    joints (the same poses): 1.5% under at alpha 0.5 before, the tips now kept like a toe's."""
+    src = (mocap / "cmu_131_01_mj_style_walk.bvh").read_text()
+    path = tmp_path / "toe_end.bvh"
+    path.write_text(_with_toe_end_joints(src))
+    m = mlayer.read_bvh(path)
+    m0 = mlayer.read_bvh(mocap / "cmu_131_01_mj_style_walk.bvh")
+    assert m.n_joints == m0.n_joints + 2 and "LeftToe_End" in m.joint_names
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        out = mlayer.stylize(m, 0.5)
+        raw = mlayer.stylize(m, 0.5, limits=None, floor=None, keep_contacts=False)
+    assert floor_excess(m, raw) > 0.005
     assert floor_excess(m, out) <= 0.005
