@@ -273,7 +273,8 @@ def guard_motion(motion: Motion, names: Sequence[str], contacts: ArrayLike, *,
     rep = ffi.new("mlr_guards_report *")
     check(lib.mlr_guards_apply_trans(
         g, _arrays.ptr(a), 1, ffi.NULL, ffi.NULL, ffi.NULL, _arrays.ptr_out(r),
-        _arrays.ptr_out(q), _arrays.ptr_out(t) if t.size else ffi.NULL, ffi.cast("size_t *", ffi.from_buffer(limited)), J, rep, diag),
+        _arrays.ptr_out(q), _arrays.ptr_out(t) if t.size else ffi.NULL,
+        ffi.cast("size_t *", ffi.from_buffer(limited)), J, rep, diag),
         "guards", diag)
     del keep
     report = GuardReport(
