@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 import mlayer
+from conftest import REPO
 
 AXIS = {"x": 0, "y": 1, "z": 2}
 
@@ -113,5 +114,19 @@ def test_a_toe_end_joint_stays_above_the_floor(mocap, tmp_path):
         warnings.simplefilter("ignore")
         out = mlayer.stylize(m, 0.5)
         raw = mlayer.stylize(m, 0.5, limits=None, floor=None, keep_contacts=False)
+    assert floor_excess(m, raw) > 0.005
+    assert floor_excess(m, out) <= 0.005
+
+
+def test_a_clip_without_contact_frames_still_has_a_floor():
+    """MakeHuman's walk (tests/data/wild) is 14 frames at 24 fps: too short for a contact, so
+    the guards had no floor (NaN) and its toe tips went 1.4% of body height under it at alpha
+    0.5. Without a contact frame the floor is the 5th percentile of the feet's lowest point."""
+    m = mlayer.read_bvh(REPO / "tests" / "data" / "wild" / "makehuman_walk1_zup.bvh")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        out, rep = mlayer.stylize(m, 0.5, return_report=True)
+        raw = mlayer.stylize(m, 0.5, limits=None, floor=None, keep_contacts=False)
+    assert rep.contact_frames == 0 and np.isfinite(rep.floor_height)
     assert floor_excess(m, raw) > 0.005
     assert floor_excess(m, out) <= 0.005
