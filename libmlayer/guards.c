@@ -7,6 +7,7 @@
 #include "contacts_internal.h"
 #include "depop_internal.h"
 #include "floor_chains_internal.h"
+#include "legs_swivel_internal.h"
 #include "limits_internal.h"
 #include "quat_internal.h"
 #include "options_internal.h"
@@ -1298,8 +1299,10 @@ static mlr_status guards_apply(const mlr_guards *g, const double *alpha, size_t 
         st = clean_and_limit(g, &w, alpha, n_alpha, trans, ref, C ? g->contacts : none, copts,
                              n_copts, &rep, &crep, diag);
         free_array(&g->alloc, none, g->n_points * N, 1);
-        if (st != MLR_OK)
+        if (st != MLR_OK) {
+            mlr_diag_prefix(diag, st, "guards"); /* the cleanup's message names guards */
             goto done;
+        }
         rep.contact_frames = crep.contact_frames;
         rep.floor_frames = crep.floor_frames;
         rep.floor_height = floor_on ? crep.floor_height : NAN;
@@ -1311,6 +1314,17 @@ static mlr_status guards_apply(const mlr_guards *g, const double *alpha, size_t 
                        g->n_points, g->joints, g->end_sites, C ? g->contacts : NULL,
                        rep.limits_applied ? g->limits : NULL, alpha, n_alpha, work_root, work,
                        &smoothed, &g->alloc);
+        if (st != MLR_OK) {
+            fk_failure(st, diag);
+            goto done;
+        }
+    }
+    if (floor_on && C > 0 && !denoising) {
+        /* knees above the floor: each leg turned about its hip-ankle axis (legs_swivel.c) */
+        size_t turned = 0;
+        st = mlr_legs_swivel(&g->rig, N, g->fps, g->up, g->floor_height,
+                             GUARDS_FLOOR_SLACK * g->body_height, g->root_pos, g->rot, g->trans,
+                             work_root, work, trans, g->n_points, g->joints, &turned, &g->alloc);
         if (st != MLR_OK) {
             fk_failure(st, diag);
             goto done;

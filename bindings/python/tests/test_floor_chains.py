@@ -130,3 +130,16 @@ def test_a_clip_without_contact_frames_still_has_a_floor():
     assert rep.contact_frames == 0 and np.isfinite(rep.floor_height)
     assert floor_excess(m, raw) > 0.005
     assert floor_excess(m, out) <= 0.005
+
+
+def test_a_knee_the_cleanup_folds_through_the_floor_is_turned_above_it():
+    """PyMO's walk (tests/data/wild) at alpha 3: the cleanup pins a foot the synthesis had
+    lifted, and the two-bone IK, keeping the leg's plane, swung the right knee 8.7% of body
+    height through the floor. The leg is now turned about its hip-ankle line
+    (libmlayer/legs_swivel.c): the knee above the floor, the foot where it was pinned, the
+    knee's bend as it was."""
+    m = mlayer.read_bvh(REPO / "tests" / "data" / "wild" / "pymo_av_8walk_meredith_first600.bvh")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        out = mlayer.stylize(m, 3.0)
+    assert floor_excess(m, out) <= 0.005
