@@ -1,9 +1,11 @@
 """The lifetime of the C handles Python objects own: read-only attributes that describe a C
-object, closing, and refusing copies that would share a handle."""
+object (:class:`mlayer._attrs.ReadOnlyAttributes`), closing, and refusing copies that would
+share a handle."""
 from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any, SupportsIndex
 
+from ._attrs import ReadOnlyAttributes
 from ._native import ffi
 from .errors import InvalidArgumentError
 
@@ -11,35 +13,6 @@ if TYPE_CHECKING:
     from typing_extensions import Self
 
 __all__ = ["NativeHandle", "ReadOnlyAttributes", "refuse_copy"]
-
-
-class ReadOnlyAttributes:
-    """Mixin: the attribute names in ``_readonly`` can be set once (by ``__init__``) and
-    raise AttributeError when assigned again or deleted. For the sizes and parameters a C
-    handle was made with: a reassigned ``n_out`` or ``rows`` would make the wrapper hand C a
-    buffer of the wrong size."""
-
-    __slots__ = ()
-    _readonly: tuple = ()
-
-    def __setattr__(self, name: str, value: Any) -> None:
-        if name in type(self)._readonly and _is_set(self, name):
-            raise AttributeError(f"{type(self).__name__}.{name} is read-only (it describes the "
-                                 "C object; make a new one instead)")
-        object.__setattr__(self, name, value)
-
-    def __delattr__(self, name: str) -> None:
-        if name in type(self)._readonly:
-            raise AttributeError(f"{type(self).__name__}.{name} is read-only")
-        object.__delattr__(self, name)
-
-
-def _is_set(obj: Any, name: str) -> bool:
-    try:
-        object.__getattribute__(obj, name)
-    except AttributeError:
-        return False
-    return True
 
 
 def refuse_copy(obj: Any, what: str = "copy", hint: str = "make a new one") -> TypeError:

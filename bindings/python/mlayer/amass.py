@@ -26,7 +26,7 @@ import numpy as np
 from . import quat, smpl
 from ._files import atomic_output
 from .errors import Error, InvalidArgumentError, MlayerIOError, ParseError
-from .motion import MIN_FRAME_TIME, Motion, Skeleton
+from .motion import MAX_FRAME_TIME, MIN_FRAME_TIME, Motion, Skeleton
 
 __all__ = ["read_amass", "write_amass", "AmassBody", "MODELS"]
 
@@ -156,9 +156,9 @@ def _framerate(z: Any, path: str) -> float:
     if a.size != 1:
         raise _fail(path, f"{keys[0]!r} must be one number, got shape {a.shape}")
     fps = float(_numeric(a.reshape(()), path, keys[0], 0))
-    if not (fps > 0 and 1.0 / fps >= MIN_FRAME_TIME):
-        raise _fail(path, f"{keys[0]!r} must be positive and at most {1 / MIN_FRAME_TIME:g} "
-                          f"frames per second, got {fps:g}")
+    if not (fps > 0 and MIN_FRAME_TIME <= 1.0 / fps <= MAX_FRAME_TIME):
+        raise _fail(path, f"{keys[0]!r} must be positive, {1 / MAX_FRAME_TIME:g} .. "
+                          f"{1 / MIN_FRAME_TIME:g} frames per second, got {fps:g}")
     return fps
 
 

@@ -24,7 +24,7 @@ from typing import Any
 from ._native import ffi, lib
 from .errors import InvalidArgumentError, ParseError, ParseWarning, check
 from ._args import threads as _c_threads
-from .motion import MIN_FRAME_TIME, Motion
+from .motion import MAX_FRAME_TIME, MIN_FRAME_TIME, Motion
 from .trimming import _read as trimmed_read, frames_arg
 
 __all__ = ["read_bvh", "write_bvh", "read_bvh_string", "write_bvh_string", "strict_reading"]
@@ -128,6 +128,9 @@ def _motion_or_raise(code: int, out: Any, diag: Any, name: str) -> Motion:
     if not m.frame_time >= MIN_FRAME_TIME:
         raise ParseError(f"{name}: Frame Time {m.frame_time:g} s is below {MIN_FRAME_TIME:g} s "
                          "(over a million frames per second): not a frame time", path=name)
+    if m.frame_time > MAX_FRAME_TIME:
+        raise ParseError(f"{name}: Frame Time {m.frame_time:g} s is above {MAX_FRAME_TIME:g} s: "
+                         "not a frame time", path=name)
     return m
 
 

@@ -60,8 +60,8 @@ from ._files import atomic_output
 from ._version import __version__
 from .errors import (InvalidArgumentError, MlayerIOError, MlayerWarning, ParseError,
                      UnsupportedError)
-from .motion import (DEFAULT_JOINT_CHANNELS, DEFAULT_ROOT_CHANNELS, MIN_FRAME_TIME, Motion,
-                     Skeleton)
+from .motion import (DEFAULT_JOINT_CHANNELS, DEFAULT_ROOT_CHANNELS, MAX_FRAME_TIME,
+                     MIN_FRAME_TIME, Motion, Skeleton)
 
 __all__ = ["write_gltf", "read_gltf", "gltf_bytes", "reframe"]
 
@@ -979,6 +979,8 @@ def _read_doc(doc: dict, data: _Data, animation: int, fps: float | None, name: s
           f"max_bytes={max_bytes} (pass a larger max_bytes to read it)")
     _need(frame_time >= MIN_FRAME_TIME, f"{aw}: key times {frame_time:.3g} s apart: below "
                                         f"{MIN_FRAME_TIME:g} s, not frames of a motion")
+    _need(frame_time <= MAX_FRAME_TIME, f"{aw}: key times {frame_time:.3g} s apart: above "
+                                        f"{MAX_FRAME_TIME:g} s, not frames of a motion")
 
     # sample every joint's translation, rotation and scale (a track per joint, contiguous)
     T: list[np.ndarray] = []  # (N, 3) where animated, else the static (3,)

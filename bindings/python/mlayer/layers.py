@@ -219,7 +219,8 @@ class Layers(ReadOnlyAttributes):
     control_gcv: NDArray[np.float64]
     control_dof: NDArray[np.float64]
 
-    _readonly = ("motion", "body_joint", "_h", "base", "control", "residual") + tuple(_PARAMS)
+    _readonly = ("motion", "body_joint", "_h", "base", "control", "residual",
+                 "outliers") + tuple(_PARAMS)
 
     def __init__(self, motion: Motion, handle: Any, params: dict[str, NDArray[Any]],
                  body_joint: int = 0) -> None:

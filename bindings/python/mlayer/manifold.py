@@ -13,7 +13,7 @@ from typing import Any, cast
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from . import _arrays
+from . import _arrays, _attrs
 from ._native import ffi, lib
 from .errors import InvalidArgumentError, SingularMatrixError, check
 from ._args import default_threads, integer
@@ -30,13 +30,15 @@ def _data(X: ArrayLike, name: str = "X", *, min_rows: int = 1) -> NDArray[np.flo
     return X
 
 
-class PCA:
+class PCA(_attrs.ReadOnlyAttributes):
     """Principal component analysis by the SVD of the centred data.
 
     After :meth:`fit`: ``mean_`` (d,), ``components_`` (n_components, d, orthonormal rows, the
     sign fixed so that the largest entry of each row is positive), ``singular_values_``,
     ``explained_variance_`` (variance along each component, ddof=1) and
-    ``explained_variance_ratio_``.
+    ``explained_variance_ratio_``. These and ``n_components`` are read-only (AttributeError
+    when assigned): :meth:`fit` sets them together; make a new PCA for another number of
+    components.
 
     Parameters
     ----------
@@ -44,9 +46,13 @@ class PCA:
         Components kept (>= 1).
     """
 
+    _readonly = ("n_components", "mean_", "components_", "singular_values_",
+                 "explained_variance_", "explained_variance_ratio_")
+
     def __init__(self, n_components: int = 2) -> None:
         self.n_components = integer(n_components, "PCA: n_components", 1)
 
+    @_attrs.builds
     def fit(self, X: ArrayLike) -> PCA:
         """Fit the components to the rows of X.
 
@@ -206,7 +212,7 @@ _KERNEL_IDS = {"thin_plate": lib.MLR_GRBF_THIN_PLATE, "gaussian": lib.MLR_GRBF_G
 _TRI_BLOCK = 256
 
 
-class GRBF:
+class GRBF(_attrs.ReadOnlyAttributes):
     """Generalized radial basis function mapping from e-dimensional points (e = 2 for the
     manifold) to d outputs: ``f(x) = sum_i w_i phi(|x - c_i|) + a0 + a . x``.
 
@@ -257,11 +263,25 @@ class GRBF:
         available; the values do not depend on it). numpy's BLAS, used by the other fits, has
         its own threads.
 
+    Attributes
+    ----------
+    kernel, lattice, bounds, centers, width, smoothing
+        The arguments (read-only: make a new GRBF for others).
+    n_threads : int
+        Assignable: an integer 1 .. 64 (InvalidArgumentError otherwise).
+    centers_, coef_, width_, bounds_, n_outputs_
+        After :meth:`fit`, read-only: the centres, the coefficients B (N + 1 + e, d), the
+        Gaussian's width, the lattice's box and d.
+
     Raises
     ------
     mlayer.InvalidArgumentError
         For an unknown kernel or bad lattice, centres, bounds, width or smoothing.
     """
+
+    _readonly = ("kernel", "lattice", "bounds", "centers", "width", "smoothing", "centers_",
+                 "coef_", "width_", "bounds_", "n_outputs_")
+    _checked = {"n_threads": _attrs.integer(1, 64)}
 
     def __init__(self, kernel: str = "thin_plate", lattice: tuple[int, int] = (15, 15), *,
                  centers: ArrayLike | None = None,
@@ -361,6 +381,7 @@ class GRBF:
 
     # -- fit and predict -----------------------------------------------------------------------
 
+    @_attrs.builds
     def fit(self, points: ArrayLike, values: ArrayLike) -> GRBF:
         """Fit the coefficients B to values at points.
 

@@ -41,6 +41,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from . import _attrs
 from .errors import InvalidArgumentError
 from ._args import integer
 
@@ -143,13 +144,15 @@ def _state(j: Any, n: int, name: str = "state") -> int:
     return int(j)
 
 
-class Markov:
+class Markov(_attrs.ReadOnlyAttributes):
     """A Markov model of primitive labels.
 
     A transition matrix ``P`` (n, n), rows summing to 1, plus the transition counts and the
     mean run length (frames spent in a state before leaving it) of each state; and the jump
     model of the distinct primitives: ``order`` (1 .. 3), ``min_count`` (the back-off rule)
-    and ``contexts``.
+    and ``contexts``. These are attributes of the same names; ``min_count`` can be assigned
+    (an integer >= 1, else InvalidArgumentError), the others are read-only (they were
+    estimated together: make a new Markov, or :meth:`perturbed`).
 
     Parameters
     ----------
@@ -174,6 +177,9 @@ class Markov:
     mlayer.InvalidArgumentError
         For a P that is not a stochastic matrix or parameters out of range.
     """
+
+    _readonly = ("P", "counts", "run_length", "order", "contexts")
+    _checked = {"min_count": _attrs.integer(1)}
 
     def __init__(self, P: ArrayLike, counts: ArrayLike | None = None,
                  run_length: ArrayLike | None = None, *, order: int = 1, min_count: int = 1,

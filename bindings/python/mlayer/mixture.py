@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from . import _arrays
+from . import _arrays, _attrs
 from ._args import integer
 from .errors import InvalidArgumentError
 
@@ -189,11 +189,14 @@ def fuzzy_cmeans(X: ArrayLike, c: int, m: float = 2.0, *, init: str | ArrayLike 
 _LOG_2PI = math.log(2.0 * math.pi)
 
 
-class GaussianMixture:
+class GaussianMixture(_attrs.ReadOnlyAttributes):
     """Gaussian mixture of k components fitted by EM.
 
     After :meth:`fit`: ``weights_``, ``means_``, ``covariances_``, ``converged_``,
-    ``n_iter_``, ``lower_bound_`` (mean log-likelihood of the training rows).
+    ``n_iter_``, ``lower_bound_`` (mean log-likelihood of the training rows), read-only.
+    The arguments are kept as attributes of the same names: ``max_iter``, ``tol``,
+    ``reg_covar`` and ``seed`` can be assigned (checked as here: InvalidArgumentError for a
+    value out of range), the others (whose shapes the fit depends on) are read-only.
 
     Parameters
     ----------
@@ -222,6 +225,11 @@ class GaussianMixture:
     mlayer.InvalidArgumentError
         For parameters out of range.
     """
+
+    _readonly = ("k", "covariance", "init", "weights_init", "covariances_init", "weights_",
+                 "means_", "covariances_", "converged_", "n_iter_", "lower_bound_")
+    _checked = {"max_iter": _attrs.integer(1), "tol": _attrs.number(0.0),
+                "reg_covar": _attrs.number(0.0), "seed": _attrs.integer(0)}
 
     def __init__(self, k: int, covariance: str = "full", *,
                  init: str | ArrayLike = "k-means++", weights_init: ArrayLike | None = None,
@@ -313,6 +321,7 @@ class GaussianMixture:
                                        f"model of dimension {self.means_.shape[1]}")
         return X
 
+    @_attrs.builds
     def fit(self, X: ArrayLike) -> GaussianMixture:
         """Fit the mixture to rows by EM.
 

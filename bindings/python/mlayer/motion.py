@@ -39,7 +39,7 @@ if TYPE_CHECKING:
     import pandas as pd
 
 __all__ = ["Motion", "Skeleton", "ScipyFrames", "DEFAULT_ROOT_CHANNELS",
-           "DEFAULT_JOINT_CHANNELS", "MIN_FRAME_TIME", "depth_first_order"]
+           "DEFAULT_JOINT_CHANNELS", "MIN_FRAME_TIME", "MAX_FRAME_TIME", "depth_first_order"]
 
 DEFAULT_ROOT_CHANNELS = "Xposition Yposition Zposition Zrotation Yrotation Xrotation"
 DEFAULT_JOINT_CHANNELS = "Zrotation Yrotation Xrotation"
@@ -435,12 +435,21 @@ MIN_FRAME_TIME = 1e-6
 ones are mistakes or hostile files (a BVH with Frame Time 1e-300 made every rate-dependent
 step overflow) and are refused with InvalidArgumentError (ParseError from the readers)."""
 
+MAX_FRAME_TIME = 1e6
+"""The longest frame time a Motion takes, in seconds (a frame every 11.6 days). Longer ones
+are mistakes: ``frame_time = 1e308`` made the clip's duration infinite (write_gltf failed)."""
+
 
 def _frame_time_arg(v: Any, name: str) -> float:
+    if isinstance(v, (bool, np.bool_)):
+        raise InvalidArgumentError(f"{name} must be a number of seconds, got {v!r}")
     ft = _arrays.finite(v, name)
     if not ft >= MIN_FRAME_TIME:
         raise InvalidArgumentError(f"{name} must be at least {MIN_FRAME_TIME:g} s (finite, "
                                    f"at most 1e6 frames per second), got {v!r}")
+    if ft > MAX_FRAME_TIME:
+        raise InvalidArgumentError(f"{name} must be at most {MAX_FRAME_TIME:g} s (mlayer.motion."
+                                   f"MAX_FRAME_TIME), got {v!r}")
     return ft
 
 
@@ -452,6 +461,19 @@ def _frame_array(a: ArrayLike, name: str, tail: tuple[int, ...]) -> NDArray[np.f
                                    f"got {a.shape}")
     _arrays.require_finite(a, name)
     return a
+
+
+def _unit_quaternions(rot: NDArray[np.float64], name: str) -> NDArray[np.float64]:
+    """rot (N, J, 4), or InvalidArgumentError naming the first quaternion that is not unit."""
+    if rot.shape[0]:
+        norm = np.sqrt(np.einsum("...i,...i->...", rot, rot))
+        bad = np.abs(norm - 1.0) > 1e-6
+        if bad.any():
+            f, j = np.argwhere(bad)[0]
+            raise InvalidArgumentError(
+                f"{name}[{f}, {j}] has norm {norm[f, j]:.9g}, expected unit quaternions "
+                "(mlayer.quat.normalize)")
+    return rot
 
 
 def _create_handle(names: Sequence[str], parents: NDArray[np.int32],
@@ -479,16 +501,18 @@ class Motion:
 
     The numpy arrays are the data; edit them in place or build a new motion with
     :meth:`with_frames`. Assigned arrays are checked (dtype, dimensions, the skeleton's
-    joints, finite values) and converted to C-contiguous float64. ``m[a:b]`` (or
-    ``m[a:b:k]``) is a new motion holding copies of those frames (a step k multiplies the
-    frame time by k); ``len(m)`` is the number of frames.
+    joints, finite values, unit quaternions for ``rot``) and converted to C-contiguous
+    float64; ``frame_time``, ``skeleton``, ``up_axis`` and ``units`` are checked too, and the
+    other attributes are read-only (InvalidArgumentError or AttributeError when assigned).
+    ``m[a:b]`` (or ``m[a:b:k]``) is a new motion holding copies of those frames (a step k
+    multiplies the frame time by k); ``len(m)`` is the number of frames.
 
     Parameters
     ----------
     skeleton : Skeleton
         The skeleton (shared, immutable).
     frame_time : float
-        Seconds per frame, at least :data:`MIN_FRAME_TIME`.
+        Seconds per frame, :data:`MIN_FRAME_TIME` .. :data:`MAX_FRAME_TIME`.
     root_pos : array_like, shape (N, 3)
         Root translations.
     rot : array_like, shape (N, J, 4)
@@ -551,14 +575,7 @@ class Motion:
         trans = _frame_array(trans, "Motion: trans", (P, 3))
         if trans.shape != (N, P, 3):
             raise InvalidArgumentError(f"Motion: trans must be ({N}, {P}, 3), got {trans.shape}")
-        if N:
-            norm = np.sqrt(np.einsum("...i,...i->...", rot, rot))
-            bad = np.abs(norm - 1.0) > 1e-6
-            if bad.any():
-                f, j = np.argwhere(bad)[0]
-                raise InvalidArgumentError(
-                    f"Motion: rot[{f}, {j}] has norm {norm[f, j]:.9g}, expected unit quaternions "
-                    "(mlayer.quat.normalize)")
+        _unit_quaternions(rot, "Motion: rot")
         self._frame_time, self._root_pos, self._rot, self._trans = ft, root_pos, rot, trans
 
     # ---- the attributes, checked when they are assigned ------------------------------------
@@ -580,7 +597,8 @@ class Motion:
 
     @property
     def frame_time(self) -> float:
-        """Seconds per frame (:attr:`fps` is its inverse)."""
+        """Seconds per frame (:attr:`fps` is its inverse); assignable, in
+        :data:`MIN_FRAME_TIME` .. :data:`MAX_FRAME_TIME`."""
         return self._frame_time
 
     @frame_time.setter
@@ -599,12 +617,13 @@ class Motion:
 
     @property
     def rot(self) -> NDArray[np.float64]:
-        """(N, J, 4) local rotations, scalar-first unit quaternions."""
+        """(N, J, 4) local rotations, scalar-first unit quaternions (checked when assigned)."""
         return self._rot
 
     @rot.setter
     def rot(self, a: ArrayLike) -> None:
-        self._rot = _frame_array(a, "Motion.rot", (self._skeleton.n_joints, 4))
+        rot = _frame_array(a, "Motion.rot", (self._skeleton.n_joints, 4))
+        self._rot = _unit_quaternions(rot, "Motion.rot")
         self._found.clear()
 
     @property
@@ -869,10 +888,10 @@ class Motion:
         start, stop, step = key.indices(N)
         if step <= 0:
             raise InvalidArgumentError("Motion slices need a positive step")
-        return Motion(self.skeleton, self.frame_time * step,
-                      self.root_pos[start:stop:step].copy(order="C"),
-                      self.rot[start:stop:step].copy(order="C"),
-                      self.trans[start:stop:step].copy(order="C"), _trusted=True)._same_up(self)
+        root, rot, trans = self._frames()  # the arrays agree (they may have been replaced)
+        return Motion(self.skeleton, _frame_time_arg(self.frame_time * step, "Motion slice"),
+                      root[start:stop:step].copy(order="C"), rot[start:stop:step].copy(order="C"),
+                      trans[start:stop:step].copy(order="C"), _trusted=True)._same_up(self)
 
     # ---- kinematics ------------------------------------------------------------------------
 

@@ -26,8 +26,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from . import _arrays
+from . import _arrays, _attrs
 from .errors import InvalidArgumentError
+from .motion import MIN_FRAME_TIME
 
 __all__ = ["OneEuroFilter", "one_euro"]
 
@@ -36,13 +37,16 @@ def _alpha(rate: float, cutoff: Any) -> Any:
     return 1.0 / (1.0 + rate / (2.0 * math.pi * cutoff))
 
 
-class OneEuroFilter:
+class OneEuroFilter(_attrs.ReadOnlyAttributes):
     """A One Euro filter over m channels, one sample at a time (:meth:`__call__`).
+
+    The parameters are attributes of the same names, checked when they are assigned (as here:
+    InvalidArgumentError for a value out of range); a change applies from the next sample.
 
     Parameters
     ----------
     rate : float
-        Samples per second (> 0).
+        Samples per second (> 0, at most a million).
     min_cutoff : float, optional
         Cutoff at rest, Hz (> 0).
     beta : float, optional
@@ -55,6 +59,10 @@ class OneEuroFilter:
     mlayer.InvalidArgumentError
         For parameters out of range.
     """
+
+    _checked = {"rate": _attrs.number(0.0, 1.0 / MIN_FRAME_TIME, above=True),
+                "min_cutoff": _attrs.number(0.0, above=True), "beta": _attrs.number(0.0),
+                "d_cutoff": _attrs.number(0.0, above=True)}
 
     def __init__(self, rate: float, min_cutoff: float = 1.0, beta: float = 0.0,
                  d_cutoff: float = 1.0) -> None:
@@ -69,7 +77,6 @@ class OneEuroFilter:
                                        f"{beta!r}")
         self.rate, self.min_cutoff, self.beta, self.d_cutoff = (float(rate), float(min_cutoff),
                                                                 float(beta), float(d_cutoff))
-        self._a_d = _alpha(self.rate, self.d_cutoff)
         self.reset()
 
     def reset(self) -> None:
@@ -109,7 +116,7 @@ class OneEuroFilter:
         x0, dx0 = self._x, self._dx
         assert dx0 is not None  # set with _x
         dx = (x - x0) * self.rate
-        dx0 += self._a_d * (dx - dx0)
+        dx0 += _alpha(self.rate, self.d_cutoff) * (dx - dx0)
         a = _alpha(self.rate, self.min_cutoff + self.beta * np.abs(dx0))
         x0 += a * (x - x0)
         return x0.copy()

@@ -44,7 +44,7 @@ from typing import TYPE_CHECKING, Any, Literal, NoReturn, SupportsIndex, overloa
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from . import _arrays
+from . import _arrays, _attrs
 from ._handles import ReadOnlyAttributes, refuse_copy
 from ._native import ffi, lib
 from ._rig import c_rig, motion_axis
@@ -483,7 +483,7 @@ def stylize(motion: Motion, alpha: float, joints: Mapping[str, float] | None = N
     return (out, report) if return_report else out
 
 
-class Clip:
+class Clip(ReadOnlyAttributes):
     """One input of a run and what is computed from it once.
 
     ``Clip.read(path, strict=, up=, trim=, units=)`` or ``Clip(motion)``. The forward
@@ -494,6 +494,8 @@ class Clip:
     decomposition. The input is not modified; do not modify it in place while the clip is in
     use (the kept figures would not follow).
 
+    ``motion`` and the figures kept are read-only; ``name`` can be assigned a str.
+
     Parameters
     ----------
     motion : Motion
@@ -501,6 +503,9 @@ class Clip:
     name : str, optional
         What the clip is called in messages (default ``"<motion>"``).
     """
+
+    _readonly = ("motion", "forward_kinematics", "up", "body_height", "contacts")
+    _checked = {"name": _attrs.text}
 
     def __init__(self, motion: Motion, *, name: str | None = None) -> None:
         from .motion import Motion

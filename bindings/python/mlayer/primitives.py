@@ -46,14 +46,14 @@ from typing import TYPE_CHECKING, Any, cast
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from . import _arrays, quat
+from . import _arrays, _attrs, quat
 from ._args import integer
 from ._progress import Bar, ProgressArg, resolve
 from .errors import InvalidArgumentError, MlayerIOError
 from .smoothing import lgs
 from .manifold import GRBF, PCA
 from .markov import Markov
-from .motion import Motion, Skeleton
+from .motion import Motion, Skeleton, _frame_time_arg
 
 if TYPE_CHECKING:
     from .limits import JointLimits
@@ -291,7 +291,30 @@ def _say(steps: _Steps, msg: str, advance: bool = False) -> None:
     steps.say(msg, advance)
 
 
-class PrimitiveModel:
+def _clip_names(model: Any, v: Any, name: str) -> list[str]:
+    """PrimitiveModel.clip_names: one distinct str per training clip."""
+    if isinstance(v, (str, bytes)) or not isinstance(v, (list, tuple)) \
+            or not all(isinstance(x, str) for x in v):
+        raise InvalidArgumentError(f"{name} must be a list of str, got {v!r}"[:200])
+    n = len(model.__dict__.get("clip_starts", v))
+    if len(v) != n or len(set(v)) != len(v):
+        raise InvalidArgumentError(f"{name} must be {n} distinct names (one per training "
+                                   f"clip), got {list(v)!r}"[:200])
+    return list(v)
+
+
+def _markov(model: Any, v: Any, name: str) -> Markov:
+    """PrimitiveModel.markov: a Markov model of as many states as there are primitives."""
+    if not isinstance(v, Markov):
+        raise InvalidArgumentError(f"{name} must be a mlayer.Markov, got {type(v).__name__}")
+    centers = model.__dict__.get("centers")
+    if centers is not None and v.n_states != centers.shape[0]:
+        raise InvalidArgumentError(f"{name} must have {centers.shape[0]} states (one per "
+                                   f"primitive), got {v.n_states}")
+    return v
+
+
+class PrimitiveModel(_attrs.ReadOnlyAttributes):
     """A learned motion manifold with primitives; build it with :meth:`fit` or :meth:`load`.
 
     Attributes: ``skeleton``, ``frame_time``, ``body_joint`` (the joint whose translation and
@@ -301,7 +324,23 @@ class PrimitiveModel:
     ``grbf``, ``bounds`` (the manifold box the GRBF lattice spans), ``elbow_ks`` and
     ``elbow_inertia`` (the curve when k was chosen automatically), ``som_codebook``
     (rows, cols, dim) or ``pca_mean``/``pca_components``.
+
+    Four can be assigned, checked where they are (InvalidArgumentError naming the attribute
+    otherwise): ``frame_time`` (seconds, as :attr:`mlayer.Motion.frame_time`),
+    ``floor_height`` (finite, or NaN for no floor), ``clip_names`` (one distinct str per
+    training clip) and ``markov`` (a :class:`mlayer.Markov` of one state per primitive, e.g.
+    ``model.markov.perturbed(0.1)``). The others are read-only (AttributeError): they were
+    learned together and their shapes depend on each other.
     """
+
+    _readonly = ("skeleton", "body_joint", "manifold", "points", "clip_starts", "labels",
+                 "centers", "grbf", "bounds", "elbow_ks", "elbow_inertia", "som_codebook",
+                 "pca_mean", "pca_components", "criteria", "criterion", "cluster",
+                 "order_loglik", "contacts", "contact_names", "train_rot", "train_trans",
+                 "rest_root_pos", "rest_trans", "fit_error")
+    _checked = {"frame_time": lambda m, v, name: _frame_time_arg(v, name),
+                "floor_height": _attrs.number(nan=True), "clip_names": _clip_names,
+                "markov": _markov}
 
     criteria: KCriteria | None
     contacts: NDArray[np.bool_] | None
@@ -419,6 +458,7 @@ class PrimitiveModel:
                               epochs=epochs, lattice=lattice, kernel=kernel,
                               smoothing=smoothing, seed=seed)
 
+    @_attrs.builds
     def _fit(self, clips: list[Motion], plan: dict[str, Any], progress: _Steps, *,
              manifold: str, som: Any, epochs: int, lattice: Any, kernel: str,
              smoothing: float, seed: int) -> PrimitiveModel:
@@ -1315,43 +1355,45 @@ class PrimitiveModel:
                     raise MlayerIOError(f"{path}: model format {fmt}, expected one of "
                                         f"{', '.join(map(str, _FORMATS))}")
                 self = cls()
-                self.skeleton = Skeleton([str(s) for s in z["joint_names"]], z["parents"],
-                                         z["offsets"], [str(s) for s in z["channels"]],
-                                         z["end_site_parents"], z["end_site_offsets"])
-                self.manifold = str(z["manifold"])
-                self.frame_time = float(z["frame_time"])
-                for name in ("points", "clip_starts", "labels", "centers", "elbow_ks",
-                             "elbow_inertia"):
-                    setattr(self, name, z[name])
-                self.bounds = tuple(tuple(float(v) for v in b) for b in z["bounds"])
-                self._load_dynamics(z, fmt)
-                g = GRBF(str(z["grbf_kernel"]),
-                         cast(tuple[int, int], tuple(int(v) for v in z["grbf_lattice"])),
-                         bounds=self.bounds)
-                g.centers_, g.coef_, g._vector = z["grbf_centers"], z["grbf_coef"], False
-                g.bounds_ = self.bounds
-                g.width_ = float(z["grbf_width"])
-                g.n_outputs_ = g.coef_.shape[1]
-                self.grbf = g
-                self.fit_error = float(z["fit_error"])
-                # models written before the body joint was stored drive the root
-                self._set_body(int(z["body_joint"]) if "body_joint" in z else 0)
-                if self.body_joint != 0:
-                    self.rest_root_pos = np.asarray(z["rest_root_pos"], dtype=np.float64)
-                    self.rest_trans = np.asarray(z["rest_trans"], dtype=np.float64)
-                # models written before the guards of generated motion have no contacts
-                self.contacts = None
-                if "contacts" in z:
-                    self.contact_names = [str(v) for v in z["contact_names"]]
-                    self.contacts = np.asarray(z["contacts"]).astype(bool).reshape(
-                        self.points.shape[0], len(self.contact_names))
-                    self.floor_height = float(z["floor_height"])
-                    self.train_rot = np.asarray(z["train_rot"], dtype=np.float64)
-                    self.train_trans = np.asarray(z["train_trans"], dtype=np.float64)
-                if self.manifold == "som":
-                    self.som_codebook = z["som_codebook"]
-                else:
-                    self.pca_mean, self.pca_components = z["pca_mean"], z["pca_components"]
+                with _attrs.building(self):  # the read-only attributes set here
+                    self.skeleton = Skeleton([str(s) for s in z["joint_names"]], z["parents"],
+                                             z["offsets"], [str(s) for s in z["channels"]],
+                                             z["end_site_parents"], z["end_site_offsets"])
+                    self.manifold = str(z["manifold"])
+                    self.frame_time = float(z["frame_time"])
+                    for name in ("points", "clip_starts", "labels", "centers", "elbow_ks",
+                                 "elbow_inertia"):
+                        setattr(self, name, z[name])
+                    self.bounds = tuple(tuple(float(v) for v in b) for b in z["bounds"])
+                    self._load_dynamics(z, fmt)
+                    g = GRBF(str(z["grbf_kernel"]),
+                             cast(tuple[int, int], tuple(int(v) for v in z["grbf_lattice"])),
+                             bounds=self.bounds)
+                    with _attrs.building(g):
+                        g.centers_, g.coef_, g._vector = z["grbf_centers"], z["grbf_coef"], False
+                        g.bounds_ = self.bounds
+                        g.width_ = float(z["grbf_width"])
+                        g.n_outputs_ = g.coef_.shape[1]
+                    self.grbf = g
+                    self.fit_error = float(z["fit_error"])
+                    # models written before the body joint was stored drive the root
+                    self._set_body(int(z["body_joint"]) if "body_joint" in z else 0)
+                    if self.body_joint != 0:
+                        self.rest_root_pos = np.asarray(z["rest_root_pos"], dtype=np.float64)
+                        self.rest_trans = np.asarray(z["rest_trans"], dtype=np.float64)
+                    # models written before the guards of generated motion have no contacts
+                    self.contacts = None
+                    if "contacts" in z:
+                        self.contact_names = [str(v) for v in z["contact_names"]]
+                        self.contacts = np.asarray(z["contacts"]).astype(bool).reshape(
+                            self.points.shape[0], len(self.contact_names))
+                        self.floor_height = float(z["floor_height"])
+                        self.train_rot = np.asarray(z["train_rot"], dtype=np.float64)
+                        self.train_trans = np.asarray(z["train_trans"], dtype=np.float64)
+                    if self.manifold == "som":
+                        self.som_codebook = z["som_codebook"]
+                    else:
+                        self.pca_mean, self.pca_components = z["pca_mean"], z["pca_components"]
             except KeyError as e:
                 raise MlayerIOError(f"{path}: not an mlayer primitives model (missing {e})") \
                     from None

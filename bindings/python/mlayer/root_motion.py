@@ -27,7 +27,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from . import _arrays
+from . import _arrays, _attrs
 from ._files import atomic_output
 from ._native import ffi, lib
 from ._rig import c_rig, motion_axis
@@ -44,10 +44,11 @@ MODES = {"ground": 0, "position": 1}
 _CSV_HEADER = ["frame", "time", "x", "y", "z", "heading"]
 
 
-class RootTrack:
+class RootTrack(_attrs.ReadOnlyAttributes):
     """A root track: positions on the ground plane and headings about the up axis, per frame.
 
-    The arguments are kept as the attributes of the same names.
+    The arguments are kept as the read-only attributes of the same names (AttributeError when
+    assigned: make a new RootTrack).
 
     Parameters
     ----------
@@ -63,6 +64,7 @@ class RootTrack:
     """
 
     __slots__ = ("positions", "heading", "fps", "up_axis")
+    _readonly = __slots__
 
     def __init__(self, positions: ArrayLike, heading: ArrayLike, fps: float,
                  up_axis: str = "y") -> None:

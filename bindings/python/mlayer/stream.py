@@ -292,8 +292,8 @@ class Stream(ReadOnlyAttributes, NativeHandle):
                     f"Stream.push: a Motion frame must hold 1 frame, got {frame.n_frames}")
             if frame.skeleton is not self.skeleton and frame.skeleton != self.skeleton:
                 raise InvalidArgumentError("Stream.push: the Motion has another skeleton")
-            parts = (frame.root_pos[0], frame.rot[0], frame.trans[0]) if self._P \
-                else (frame.root_pos[0], frame.rot[0])
+            root, rot, trans = frame._frames()  # the arrays agree (they may have been replaced)
+            parts = (root[0], rot[0], trans[0]) if self._P else (root[0], rot[0])
             kind = "motion"
         elif isinstance(frame, tuple) and len(frame) in (2, 3):
             parts = frame if len(frame) == 3 or not self._P \

@@ -29,9 +29,9 @@ FIELDS = ("input", "output", "variant", "status", "error", "frames", "frames_out
           "worker")
 
 
-@dataclasses.dataclass
+@dataclasses.dataclass(frozen=True)
 class BatchResult:
-    """What :func:`mlayer.batch` did.
+    """What :func:`mlayer.batch` did (read-only: a report of a run).
 
     Attributes
     ----------
