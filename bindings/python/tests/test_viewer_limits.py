@@ -386,8 +386,8 @@ def test_the_pool_is_bounded(mocap):
         assert r.get("/api/clips")[0] == 200
         # 200 idle connections: they wait in the watcher, no worker
         idle = [r.raw() for _ in range(200)]
-        # 16 connections that each start a request and stall: they take the 4 workers in
-        # turn (each for at most the timeout), not 16 threads
+        # 16 connections that each start a request and stall: they wait in the watcher too,
+        # and no more than 4 worker threads exist
         slow = [r.raw() for _ in range(16)]
         for s in slow:
             s.sendall(f"GET /api/clips HTTP/1.1\r\nHost: {r.host()}\r\n".encode())
@@ -425,15 +425,33 @@ def _settles(condition, seconds: float) -> bool:
 
 def test_a_full_queue_is_answered_503(mocap, monkeypatch):
     monkeypatch.setattr(server_mod, "MAX_PENDING", 2)
+    # requests that stall in the worker (an incomplete request no longer takes one: it waits
+    # in the watcher, test_viewer_slow_clients.py)
+    entered, release = threading.Event(), threading.Event()
+    real = server_mod._Handler._clips
+
+    def stalled(self, query):
+        entered.set()
+        release.wait(10)
+        real(self, query)
+    monkeypatch.setattr(server_mod._Handler, "_clips", stalled)
     with Running([mocap / BANDAI], threads=1, timeout=2.0) as r:
-        stall = [r.raw() for _ in range(3)]     # one in the worker, two queued
-        for s in stall:
-            s.sendall(b"GET /api/clips HTTP/1.1\r\n")
-            time.sleep(0.1)
-        s = r.raw()
-        s.sendall(_request(r.host(), "/api/clips", r.srv.token))
-        raw = _read_until_closed(s, 5)
-        assert _statuses(raw) == [503] and b"--threads" in raw
+        try:
+            stall = [r.raw() for _ in range(3)]     # one in the worker, two queued
+            for k, s in enumerate(stall):
+                s.sendall(_request(r.host(), "/api/clips", r.srv.token, close=True))
+                if k == 0:
+                    assert entered.wait(5)
+            assert _settles(lambda: r.srv._pool._q.qsize() == 2, 5.0)
+            s = r.raw()
+            s.sendall(_request(r.host(), "/api/clips", r.srv.token))
+            raw = _read_until_closed(s, 5)
+            assert _statuses(raw) == [503] and b"--threads" in raw
+        finally:
+            release.set()
+        # the stalled ones are served once the worker is free
+        for x in stall:
+            assert _statuses(_read_until_closed(x, 10)) == [200]
         for x in stall + [s]:
             x.close()
 

@@ -8,8 +8,8 @@ the page; the others are served.
 
 Limits: --max-values (the output of one request, frames x points), --cache-mb (the result
 cache), --manifold-frames (the training frames of the motion manifold panel), --threads (the
-worker pool), --timeout (idle and slow connections); the API needs the session token of the
-page and refuses other sites (see mlayer.viewer.server).
+worker pool), --timeout (idle, slow and non-reading connections); the API needs the session
+token of the page and refuses other sites (see mlayer.viewer.server).
 """
 from __future__ import annotations
 
@@ -45,9 +45,11 @@ def _arguments(p) -> None:
                    help="worker threads serving requests, whatever the number of connections "
                         "(default %(default)s)")
     p.add_argument("--timeout", type=float, default=DEFAULT_TIMEOUT, metavar="SECONDS",
-                   help="close a connection idle this long; a request must arrive whole "
-                        "within it (default %(default)g). Every /api/ request needs the page's "
-                        "session token; requests from other sites are refused")
+                   help="a request must arrive whole within this many seconds of the "
+                        "connect or of the previous answer, and an answer must be taken "
+                        "whole within it, or the connection is closed (default %(default)g). "
+                        "Every /api/ request needs the page's session token; requests from "
+                        "other sites are refused")
     p.add_argument("--manifold-frames", type=int, default=DEFAULT_MANIFOLD_FRAMES, metavar="N",
                    help="the most training frames of the page's motion manifold (the clips "
                         "decimated by one stride; default %(default)s)")

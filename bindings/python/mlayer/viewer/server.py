@@ -45,10 +45,18 @@ Limits (options of :class:`ViewerServer`, and of ``mlayer view``):
   a host the server does not serve under (DNS rebinding: the bound address, the loopback names,
   on a wildcard address this machine's name and addresses, and ``allow_hosts``) and requests
   with more than one Host header.
-- ``threads`` workers serve the requests (a bounded pool, not a thread per connection); idle
-  connections wait in one watcher thread; the listen backlog is :data:`BACKLOG`.
-- ``timeout``: a connection idle that long is closed, a request must arrive whole within it and
-  each MiB of an answer must be taken within it.
+- ``threads`` workers serve the requests (a bounded pool, not a thread per connection); the
+  listen backlog is :data:`BACKLOG`. One watcher thread holds the connections while a request
+  arrives and while an answer is taken (:mod:`mlayer.viewer._net`): a worker gets only
+  requests that arrived whole, and leaves what the client does not read at once to the watcher.
+- ``timeout``: a request (line, headers, body) must arrive whole within ``timeout`` seconds of
+  the accept, or of the end of the previous answer on a kept-alive connection; a connection
+  idle or trickling that long is closed without taking a worker. An answer must be taken whole
+  within ``timeout`` seconds of its first byte, then the connection is closed.
+- The request line and headers are read up to 128 KiB (431 beyond, closed); a line over 64 KiB
+  is 414 or 431, as in ``http.server``. Unsent answers are queued up to :data:`MAX_QUEUED`
+  bytes over all connections; beyond, a worker writes the answer itself (within the same
+  deadline).
 - A GET or HEAD with a body: a ``Content-Length`` up to 64 KiB is read and ignored, a larger
   one or a ``Transfer-Encoding`` is refused (413 / 400) and the connection closed, so a body is
   never read as a second request. Other methods: 405, connection closed.
@@ -63,7 +71,6 @@ import secrets
 import socket
 import sys
 import threading
-import time
 import traceback
 from collections.abc import Iterable
 from http.server import BaseHTTPRequestHandler, HTTPServer
@@ -72,7 +79,8 @@ from typing import IO, Any, cast
 from urllib.parse import unquote, urlsplit
 
 from ..errors import Error, InvalidArgumentError
-from ._net import Conn, Pool, Reactor
+from . import _net
+from ._net import MAX_BODY, Conn, Pool, Reactor, WriteBudget, body_size
 from .manifold import DEFAULT_MANIFOLD_FRAMES, ManifoldSession
 from .session import (DEFAULT_CACHE_BYTES, DEFAULT_MAX_VALUES, PARAMS, Clip, ParamError,
                       ResultCache, json_bytes, load_clips, parse_params)
@@ -86,7 +94,8 @@ BACKLOG = 1024
 DEFAULT_TIMEOUT = 10.0   # seconds
 DEFAULT_THREADS = 8
 MAX_PENDING = 1024       # connections with a request waiting for a worker
-_MAX_BODY = 65536        # a GET body up to this is read and ignored
+#: bytes of answers not yet taken by their clients, over all connections, the watcher queues
+MAX_QUEUED = 256 << 20
 _TOKEN_HEADER = "X-Mlayer-Token"
 _TOKEN_META = b'<meta name="mlayer-token" content="">'
 
@@ -178,7 +187,8 @@ class ViewerServer(HTTPServer):
     cache_bytes : int, optional
         Size of the shared result cache.
     timeout : float, optional
-        Seconds a connection may stay idle or take to send a request.
+        Seconds a client may take to send a request (from its connect, or from the previous
+        answer), and to take an answer.
     threads : int, optional
         Worker threads.
     manifold_frames : int, optional
@@ -219,6 +229,7 @@ class ViewerServer(HTTPServer):
         self._page: bytes | None = None
         self._reactor: Reactor | None = None
         self._pool = Pool(self._serve_conn, self.threads, MAX_PENDING)
+        self._budget = WriteBudget(MAX_QUEUED)
         self._start_lock = threading.Lock()
         self._closing = False
         family_v6 = ":" in host
@@ -233,7 +244,8 @@ class ViewerServer(HTTPServer):
         # page's requests name the page's own host)
         self.allowed_hosts: set[str] = _served_hosts(host, shown, port, allow_hosts)
 
-    # -- connections: accepted -> watcher -> (readable) pool -> watcher or closed --
+    # -- connections: accepted -> watcher (until a request is in) -> pool -> watcher (the
+    #    rest of the answer, the next request) or closed --
 
     def process_request(self, request: Any, client_address: Any) -> None:
         """Hand an accepted connection to the watcher (the reactor), started on first use.
@@ -250,26 +262,33 @@ class ViewerServer(HTTPServer):
                 self._reactor = Reactor(self._dispatch, cast(float, self.timeout))
                 self._reactor.start()
             reactor = self._reactor
-        reactor.add(Conn(request, client_address, cast(float, self.timeout)))
+        reactor.add(Conn(request, client_address, cast(float, self.timeout), self._budget))
 
     def _dispatch(self, conn: Conn) -> None:
         if self._closing or not self._pool.submit(conn):
             conn.refuse_busy()
 
     def _serve_conn(self, conn: Conn) -> None:
-        """One worker's turn on a connection: the requests it has sent, then back to the
-        watcher (or closed)."""
+        """One worker's turn on a connection: its request (whole, the watcher waited for it)
+        and the pipelined ones already whole after it, while each answer went out whole; then
+        back to the watcher (the rest of the answer, the next request) or closed."""
         try:
             while True:
-                conn.rfile.deadline = time.monotonic() + cast(float, self.timeout)
+                conn.wfile.start()
                 h = _Handler(cast(Any, conn), conn.addr, self)
-                if h.close_connection or self._closing:
-                    conn.close()
+                if conn.wfile.broken or self._closing:
+                    conn.close(abort=conn.wfile.broken)
                     return
-                if not conn.rfile.pending():
+                if h.close_connection:
+                    if not conn.wfile.out:
+                        conn.close()
+                        return
+                    conn.closing = True   # once the answer is out
+                    break
+                if conn.wfile.out or conn.rfile.state() != _net.READY:
                     break
             assert self._reactor is not None  # started by process_request
-            self._reactor.add(conn)
+            self._reactor.resume(conn)
         except OSError:
             conn.close()
         except Exception:
@@ -491,22 +510,21 @@ class _Handler(BaseHTTPRequestHandler):
     def _read_body(self) -> bool:
         """Read and drop a small body of a GET / HEAD; refuse (and close) otherwise, so a body
         is never taken for the next request. False when refused."""
-        if self.headers.get("Transfer-Encoding") is not None:
+        n, why = body_size(self.headers)   # the watcher waited for the same n bytes
+        if why == "transfer-encoding":
             self._fail(400, "a GET request takes no body (Transfer-Encoding is not accepted)",
                        close=True)
             return False
-        lengths = self.headers.get_all("Content-Length") or []
-        if not lengths:
-            return True
-        if len(set(v.strip() for v in lengths)) != 1 or \
-                not lengths[0].strip().isdigit() or len(lengths[0].strip()) > 18:
+        if why == "bad-length":
+            lengths = self.headers.get_all("Content-Length") or []
             self._fail(400, f"bad Content-Length {', '.join(lengths)[:100]!r}", close=True)
             return False
-        n = int(lengths[0])
-        if n > _MAX_BODY:
+        if why == "too-large":
             self._fail(413, f"a GET request takes no body; got Content-Length {n} (at most "
-                            f"{_MAX_BODY} bytes are read and ignored)", close=True)
+                            f"{MAX_BODY} bytes are read and ignored)", close=True)
             return False
+        if n == 0:
+            return True
         got = self.rfile.read(n)
         if len(got) < n:
             self.close_connection = True
