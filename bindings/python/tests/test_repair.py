@@ -103,7 +103,7 @@ def test_c_repair_bad_arguments(glitched):
 def _c_stylize_repaired(m, alpha):
     """A runtime on the C ABI with every default, the guards' input repaired in C:
     decompose (fps, body height, body joint), mlr_layers_repair on a copy of the input,
-    mlr_guards_create on it, synthesize at alpha, mlr_guards_apply (no reference)."""
+    mlr_guards_create on it, synthesize at alpha, mlr_guards_apply_trans (no reference)."""
     from mlayer._rig import c_rig
     N, J = m.n_frames, m.n_joints
     root, rot, trans = m._frames()
@@ -138,9 +138,9 @@ def _c_stylize_repaired(m, alpha):
     out_r, out_t = (s0, trans.copy()) if body == 0 else (root.copy(), trans.copy())
     if body:
         out_t[:, col] = s0
-    assert lib.mlr_guards_apply(
+    assert lib.mlr_guards_apply_trans(
         guards, _arrays.ptr(w), 1, ffi.NULL, ffi.NULL, ffi.NULL, _arrays.ptr_out(out_r),
-        _arrays.ptr_out(q), _arrays.ptr(out_t) if out_t.size else ffi.NULL, ffi.NULL, 0,
+        _arrays.ptr_out(q), _arrays.ptr_out(out_t) if out_t.size else ffi.NULL, ffi.NULL, 0,
         ffi.NULL, diag) == 0, ffi.string(diag.message)
     return m.with_frames(root_pos=out_r, rot=q, trans=out_t)
 
