@@ -307,3 +307,23 @@ def test_oversized_heads_and_odd_lengths_are_refused(mocap):
         s.close()
         assert _statuses(raw) == [400] and b"Content-Length" in raw, raw[:300]
         assert r.get("/api/clips")[0] == 200
+
+
+def test_connections_beyond_the_cap_are_answered_503(mocap):
+    """At most max_connections are open at once (each may hold up to 192 KiB of request in
+    the watcher until its deadline): one more is answered 503 at once; when one closes, a new
+    connection is served again. The previous build had no cap: the file-descriptor limit was
+    the only bound."""
+    with Running([mocap / BANDAI], threads=2, timeout=TIMEOUT, max_connections=4) as r:
+        held = [_connect(r) for _ in range(4)]
+        for s in held:
+            s.sendall(b"GET /api/clips HTTP/1.1\r\n")  # a head not finished: kept open
+        assert _settles(lambda: r.srv.n_idle == 4, 2.0), r.srv.n_idle
+        status, took = _timed_get(r, "/api/clips")
+        assert status == 503 and took < 1.0, (status, took)
+        held.pop().close()
+        assert _settles(lambda: r.srv.n_idle == 3, 2.0), r.srv.n_idle
+        status, _ = _timed_get(r, "/api/clips")
+        assert status == 200
+        for s in held:
+            s.close()

@@ -8,7 +8,8 @@ the page; the others are served.
 
 Limits: --max-values (the output of one request, frames x points), --cache-mb (the result
 cache), --manifold-frames (the training frames of the motion manifold panel), --threads (the
-worker pool), --timeout (idle, slow and non-reading connections); the API needs the session
+worker pool), --timeout (idle, slow and non-reading connections), --max-connections; the API
+needs the session
 token of the page and refuses other sites (see mlayer.viewer.server).
 """
 from __future__ import annotations
@@ -32,7 +33,8 @@ def _arguments(p) -> None:
                         "other Host header is refused (DNS rebinding)")
     p.add_argument("--open", action="store_true", help="open the page in a web browser")
     from ..viewer.server import (DEFAULT_CACHE_BYTES, DEFAULT_MANIFOLD_FRAMES,
-                                DEFAULT_MAX_VALUES, DEFAULT_THREADS, DEFAULT_TIMEOUT)
+                                DEFAULT_MAX_CONNECTIONS, DEFAULT_MAX_VALUES, DEFAULT_THREADS,
+                                DEFAULT_TIMEOUT)
     p.add_argument("--max-values", type=int, default=DEFAULT_MAX_VALUES, metavar="N",
                    help="the most output one request may produce, in frames x points (joints "
                         "and End Sites), checked before any work; longer lengths or higher "
@@ -50,6 +52,9 @@ def _arguments(p) -> None:
                         "whole within it, or the connection is closed (default %(default)g). "
                         "Every /api/ request needs the page's session token; requests from "
                         "other sites are refused")
+    p.add_argument("--max-connections", type=int, default=DEFAULT_MAX_CONNECTIONS, metavar="N",
+                   help="connections open at once; one more is answered 503 and closed "
+                        "(default %(default)s)")
     p.add_argument("--manifold-frames", type=int, default=DEFAULT_MANIFOLD_FRAMES, metavar="N",
                    help="the most training frames of the page's motion manifold (the clips "
                         "decimated by one stride; default %(default)s)")
@@ -71,7 +76,7 @@ def cmd_view(args) -> int:
     server = make_server(args.inputs, args.host, args.port, max_values=args.max_values,
                          cache_bytes=int(args.cache_mb * 2**20), threads=args.threads,
                          timeout=args.timeout, manifold_frames=args.manifold_frames,
-                         allow_hosts=args.allow_host)
+                         allow_hosts=args.allow_host, max_connections=args.max_connections)
     good = [c for c in server.clips if c.ok]
     for c in server.clips:
         if not c.ok:

@@ -44,7 +44,8 @@ import struct
 import threading
 import time
 
-__all__ = ["Conn", "Reactor", "Pool", "WriteBudget", "body_size", "MAX_BODY", "MAX_HEAD"]
+__all__ = ["Conn", "Reactor", "Pool", "refuse_busy", "WriteBudget", "body_size", "MAX_BODY",
+           "MAX_HEAD"]
 
 #: the longest line http.server and http.client read (the request line, each header line)
 MAX_LINE = 65536
@@ -220,7 +221,8 @@ class _Reader:
 
 
 class WriteBudget:
-    """The bytes of answers queued and not yet sent, over all connections, within a limit."""
+    """A count within a limit, taken and given back from several threads: the bytes of answers
+    queued and not yet sent over all connections, or the connections open."""
 
     def __init__(self, limit: int):
         self.limit = limit
@@ -320,9 +322,10 @@ class Conn:
     """One client connection (its socket non-blocking): address, reader, writer, the deadline
     of what it is doing, and whether it closes once its answer is out."""
 
-    __slots__ = ("sock", "addr", "rfile", "wfile", "deadline", "closing")
+    __slots__ = ("sock", "addr", "rfile", "wfile", "deadline", "closing", "slot")
 
-    def __init__(self, sock: socket.socket, addr, timeout: float, budget: WriteBudget):
+    def __init__(self, sock: socket.socket, addr, timeout: float, budget: WriteBudget,
+                 slot: WriteBudget | None = None):
         try:  # the head and the body are separate writes: no Nagle wait for the ACK between
             sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
         except OSError:
@@ -334,11 +337,16 @@ class Conn:
         self.wfile = _Writer(sock, timeout, budget)
         self.deadline = time.monotonic() + timeout   # the first request's: from the accept
         self.closing = False
+        self.slot = slot  # the open connections' count this one holds a place in (given back
+        #                   at the close)
 
     def close(self, abort: bool = False) -> None:
         """Close; ``abort``: at once, dropping what the kernel still holds to send (a reset,
         for an answer not taken in time: a plain close would still send it all)."""
         self.wfile.discard()
+        slot, self.slot = self.slot, None
+        if slot is not None:
+            slot.give(1)
         try:
             if abort:
                 self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER, _RESET)
@@ -367,6 +375,21 @@ class Conn:
     def refuse_busy(self) -> None:
         """503 (too many requests waiting) and close."""
         self.refuse(_BUSY)
+
+
+def refuse_busy(sock: socket.socket) -> None:
+    """503 (too many connections open) and close, for a connection that was accepted but is
+    not served."""
+    try:
+        sock.setblocking(False)
+        sock.send(_BUSY)
+    except OSError:
+        pass
+    try:
+        sock.shutdown(socket.SHUT_RDWR)
+    except OSError:
+        pass
+    sock.close()
 
 
 class Reactor(threading.Thread):

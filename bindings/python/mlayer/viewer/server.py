@@ -49,6 +49,8 @@ Limits (options of :class:`ViewerServer`, and of ``mlayer view``):
   listen backlog is :data:`BACKLOG`. One watcher thread holds the connections while a request
   arrives and while an answer is taken (:mod:`mlayer.viewer._net`): a worker gets only
   requests that arrived whole, and leaves what the client does not read at once to the watcher.
+- At most ``max_connections`` connections are open at once (:data:`DEFAULT_MAX_CONNECTIONS`);
+  one more is answered 503 and closed at once.
 - ``timeout``: a request (line, headers, body) must arrive whole within ``timeout`` seconds of
   the accept, or of the end of the previous answer on a kept-alive connection; a connection
   idle or trickling that long is closed without taking a worker. An answer must be taken whole
@@ -87,13 +89,16 @@ from .session import (DEFAULT_CACHE_BYTES, DEFAULT_MAX_VALUES, PARAMS, Clip, Par
 
 __all__ = ["ViewerServer", "make_server", "is_loopback", "BACKLOG", "DEFAULT_MAX_VALUES",
            "DEFAULT_CACHE_BYTES", "DEFAULT_TIMEOUT", "DEFAULT_THREADS",
-           "DEFAULT_MANIFOLD_FRAMES"]
+           "DEFAULT_MANIFOLD_FRAMES", "DEFAULT_MAX_CONNECTIONS"]
 
 #: the listen queue (the kernel caps it at net.core.somaxconn)
 BACKLOG = 1024
 DEFAULT_TIMEOUT = 10.0   # seconds
 DEFAULT_THREADS = 8
 MAX_PENDING = 1024       # connections with a request waiting for a worker
+#: connections open at once (each may hold up to 192 KiB of request in the watcher); beyond,
+#: a new one is answered 503 and closed
+DEFAULT_MAX_CONNECTIONS = 1024
 #: bytes of answers not yet taken by their clients, over all connections, the watcher queues
 MAX_QUEUED = 256 << 20
 _TOKEN_HEADER = "X-Mlayer-Token"
@@ -198,6 +203,9 @@ class ViewerServer(HTTPServer):
         gives them. Served without them: the bound address, and the loopback names; bound to
         a wildcard address (``0.0.0.0``, ``::``), also this machine's host name and its
         addresses. Any other Host is refused (403): a DNS-rebinding page names its own.
+    max_connections : int, optional
+        Connections open at once; a connection beyond is answered 503 and closed (a flood of
+        slow connections would otherwise hold up to 192 KiB each until its deadline).
     """
 
     allow_reuse_address = True
@@ -208,7 +216,8 @@ class ViewerServer(HTTPServer):
                  cache_bytes: int = DEFAULT_CACHE_BYTES, timeout: float = DEFAULT_TIMEOUT,
                  threads: int = DEFAULT_THREADS,
                  manifold_frames: int = DEFAULT_MANIFOLD_FRAMES,
-                 allow_hosts: Iterable[str] = ()) -> None:
+                 allow_hosts: Iterable[str] = (),
+                 max_connections: int = DEFAULT_MAX_CONNECTIONS) -> None:
         self.max_values = _int_option("max_values", max_values, 1000)
         self.cache = ResultCache(_int_option("cache_bytes", cache_bytes, 0))  # --cache-mb
         if not (isinstance(timeout, (int, float)) and math.isfinite(timeout) and
@@ -230,6 +239,7 @@ class ViewerServer(HTTPServer):
         self._reactor: Reactor | None = None
         self._pool = Pool(self._serve_conn, self.threads, MAX_PENDING)
         self._budget = WriteBudget(MAX_QUEUED)
+        self._open = WriteBudget(_int_option("max_connections", max_connections, 1, 1 << 20))
         self._start_lock = threading.Lock()
         self._closing = False
         family_v6 = ":" in host
@@ -262,7 +272,11 @@ class ViewerServer(HTTPServer):
                 self._reactor = Reactor(self._dispatch, cast(float, self.timeout))
                 self._reactor.start()
             reactor = self._reactor
-        reactor.add(Conn(request, client_address, cast(float, self.timeout), self._budget))
+        if not self._open.take(1):
+            _net.refuse_busy(request)
+            return
+        reactor.add(Conn(request, client_address, cast(float, self.timeout), self._budget,
+                         self._open))
 
     def _dispatch(self, conn: Conn) -> None:
         if self._closing or not self._pool.submit(conn):
@@ -404,8 +418,8 @@ def make_server(paths: Iterable[str | os.PathLike[str]], host: str = "127.0.0.1"
     log : text stream, optional
         Where the server's lines go (default stderr).
     **limits
-        ``max_values``, ``cache_bytes``, ``timeout``, ``threads``, ``manifold_frames`` (see
-        :class:`ViewerServer`).
+        ``max_values``, ``cache_bytes``, ``timeout``, ``threads``, ``manifold_frames``,
+        ``allow_hosts``, ``max_connections`` (see :class:`ViewerServer`).
 
     Returns
     -------
