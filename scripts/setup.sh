@@ -4,7 +4,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-APT_PACKAGES=(build-essential pkg-config ninja-build check libsuitesparse-dev libopenblas-dev
+APT_PACKAGES=(build-essential pkg-config cmake ninja-build check libsuitesparse-dev libopenblas-dev
               clang libclang-rt-14-dev python3-venv
               chromium chromium-driver)
 missing=()

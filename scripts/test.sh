@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Set up (scripts/setup.sh), then run every test: the static checks (scripts/lint.sh: ruff, mypy,
 # clang-format), the Check suites of the C core through meson,
-# the install check, the release check (sdist and abi3 wheel, installed into a fresh venv
+# the install check (pkg-config and CMake consumers, shared and static), the release check (sdist and abi3 wheel, installed into a fresh venv
 # without libcholmod), the same C suites again under AddressSanitizer +
 # UndefinedBehaviorSanitizer, a bounded fuzzing run of the BVH reader and one of the glTF and
 # AMASS readers (tests/fuzz/fuzz_readers.py), then pytest (the Python
@@ -21,7 +21,7 @@ meson setup build-test -Dtests=enabled -Dcholmod=enabled --reconfigure >/dev/nul
 meson compile -C build-test >/dev/null
 meson test -C build-test -v --print-errorlogs
 
-echo "== C users: meson install, then a program built with pkg-config only =="
+echo "== C users: meson install, then programs built with pkg-config and CMake, shared and static =="
 bash tests/install/run.sh
 
 echo "== Release: sdist and wheel built, listed, installed in a fresh venv without libcholmod =="

@@ -1,6 +1,7 @@
-/* A program outside the build tree using the installed library through pkg-config: it checks
- * that the headers, the shared library and the .pc file installed by `meson install` work
- * together, and that the library that got loaded is the one the headers describe. */
+/* A program outside the build tree using the installed library through pkg-config or CMake's
+ * find_package: it checks that the headers, the library and the .pc file or CMake package
+ * installed by `meson install` work together, and that the library that got loaded is the one
+ * the headers describe. */
 #include <mlayer/mlayer.h>
 #include <stdio.h>
 #include <string.h>
@@ -22,6 +23,6 @@ int main(void)
     for (int i = 0; i < 5; i++)
         if (s != MLR_OK || x[i] < i - 1e-9 || x[i] > i + 1e-9)
             return 1;
-    printf("consumer: mlayer %s via pkg-config OK\n", mlr_version_string());
+    printf("consumer: mlayer %s OK\n", mlr_version_string());
     return 0;
 }
