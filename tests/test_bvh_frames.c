@@ -158,7 +158,6 @@ static size_t simple_line(mlr_test_rng *r, size_t C, char *buf)
 
 START_TEST(line_kernel_takes_every_line_of_every_clip)
 {
-    MLR_TEST_NEED_CLIPS();
     static const char *const files[] = {
         "cmu_01_01_playground_jumps.bvh", "cmu_131_01_mj_style_walk.bvh",
         "cmu_10_01_soccer_kick.bvh",      "cmu_60_10_salsa_dance.bvh",
@@ -168,11 +167,10 @@ START_TEST(line_kernel_takes_every_line_of_every_clip)
     const bvh_kernels k = line_variant(_i / 8);
     if (!k.line)
         return; /* no such kernel on this CPU: the careful parser or the other kernel reads */
-    const char *dir = mlr_test_mocap_dir();
-    ck_assert_ptr_nonnull(dir);
     char path[4096];
     const char *file = files[_i % 8];
-    snprintf(path, sizeof path, "%s/%s", dir, file);
+    MLR_TEST_NEED_CLIP(file);
+    mlr_test_clip_path(file, path, sizeof path);
     FILE *fp = fopen(path, "rb");
     ck_assert_ptr_nonnull(fp);
     fseek(fp, 0, SEEK_END);

@@ -412,15 +412,9 @@ static const char *clips[] = {"cmu_01_01_playground_jumps.bvh", "cmu_60_10_salsa
 
 START_TEST(real_clips_pinned_and_above_the_floor)
 {
-    const char *dir = mlr_test_mocap_dir();
     char path[4096];
-    if (!dir)
-        return;
-    snprintf(path, sizeof path, "%s/%s", dir, clips[_i]);
-    FILE *probe = fopen(path, "rb");
-    if (!probe)
-        return; /* clip absent: skipped */
-    fclose(probe);
+    MLR_TEST_NEED_CLIP(clips[_i]);
+    mlr_test_clip_path(clips[_i], path, sizeof path);
     mlr_motion *m;
     mlr_diag d;
     ck_assert_int_eq(mlr_bvh_read_file(path, NULL, &m, &d), MLR_OK);

@@ -663,15 +663,9 @@ static const char *const clip_feet[] = {
 
 START_TEST(real_clips_feet_and_contacts)
 {
-    const char *dir = mlr_test_mocap_dir();
     char path[4096];
-    if (!dir)
-        return;
-    snprintf(path, sizeof path, "%s/%s", dir, clip_files[_i]);
-    FILE *probe = fopen(path, "rb");
-    if (!probe)
-        return; /* clip absent: skipped */
-    fclose(probe);
+    MLR_TEST_NEED_CLIP(clip_files[_i]);
+    mlr_test_clip_path(clip_files[_i], path, sizeof path);
     mlr_motion *m = NULL;
     mlr_diag d;
     ck_assert_int_eq(mlr_bvh_read_file(path, NULL, &m, &d), MLR_OK);

@@ -9,7 +9,7 @@
 
 typedef mlr_test_clip clip;
 
-/* The first max_frames frames of a shared clip (0 when the clips are absent). */
+/* The first max_frames frames of a real clip (0 when it is absent). */
 static int load(const char *file, size_t max_frames, clip *c)
 {
     if (!mlr_test_clip_load(file, c))
@@ -74,8 +74,8 @@ static int joint_named(const clip *c, const char *name)
 START_TEST(stylized_knees_stay_within_the_fold_limit_and_feet_above_the_floor)
 {
     clip c;
-    if (!load("cmu_131_01_mj_style_walk.bvh", 994, &c))
-        return;
+    MLR_TEST_NEED_CLIP("cmu_131_01_mj_style_walk.bvh");
+    ck_assert(load("cmu_131_01_mj_style_walk.bvh", 994, &c));
     const size_t N = c.n, J = c.j;
     double *root = malloc(3 * N * sizeof(double)), *rot = malloc(4 * N * J * sizeof(double));
     double *ref_root = malloc(3 * N * sizeof(double));
@@ -169,8 +169,8 @@ static double sliding(const clip *c, const double *root, const double *rot, size
 START_TEST(stylized_feet_slide_no_more_than_the_inputs)
 {
     clip c;
-    if (!load("lafan1_clip_a.bvh", 3000, &c))
-        return;
+    MLR_TEST_NEED_CLIP("lafan1_clip_a.bvh");
+    ck_assert(load("lafan1_clip_a.bvh", 3000, &c));
     const size_t N = c.n, J = c.j;
     double *root = malloc(3 * N * sizeof(double)), *rot = malloc(4 * N * J * sizeof(double));
     stylized(&c, 3.0, root, rot);
@@ -231,8 +231,8 @@ static void world_of(const clip *c, const double *root, const double *rot, const
 START_TEST(the_body_shift_rides_on_the_joint_that_carries_the_body)
 {
     clip c;
-    if (!load("bandai1_walk_happy_001.bvh", 120, &c))
-        return;
+    MLR_TEST_NEED_CLIP("bandai1_walk_happy_001.bvh");
+    ck_assert(load("bandai1_walk_happy_001.bvh", 120, &c));
     const size_t N = c.n, J = c.j, P = c.rig.n_trans;
     ck_assert_uint_gt(P, 0);
     const int hips = joint_named(&c, "Hips");
@@ -315,8 +315,8 @@ END_TEST
 START_TEST(every_guard_switched_off_leaves_the_frames_alone)
 {
     clip c;
-    if (!load("cmu_131_01_mj_style_walk.bvh", 300, &c))
-        return;
+    MLR_TEST_NEED_CLIP("cmu_131_01_mj_style_walk.bvh");
+    ck_assert(load("cmu_131_01_mj_style_walk.bvh", 300, &c));
     const size_t N = c.n, J = c.j;
     double *root = malloc(3 * N * sizeof(double)), *rot = malloc(4 * N * J * sizeof(double));
     double *root0 = malloc(3 * N * sizeof(double)), *rot0 = malloc(4 * N * J * sizeof(double));
@@ -362,8 +362,8 @@ END_TEST
 START_TEST(bad_input_gets_the_right_status_and_message)
 {
     clip c;
-    if (!load("cmu_131_01_mj_style_walk.bvh", 120, &c))
-        return;
+    MLR_TEST_NEED_CLIP("cmu_131_01_mj_style_walk.bvh");
+    ck_assert(load("cmu_131_01_mj_style_walk.bvh", 120, &c));
     const size_t N = c.n, J = c.j;
     mlr_guards *g = NULL;
     mlr_diag d;
@@ -467,8 +467,8 @@ END_TEST
 START_TEST(every_allocation_failure_returns_no_memory_without_leaks)
 {
     clip c;
-    if (!load("cmu_131_01_mj_style_walk.bvh", 120, &c))
-        return;
+    MLR_TEST_NEED_CLIP("cmu_131_01_mj_style_walk.bvh");
+    ck_assert(load("cmu_131_01_mj_style_walk.bvh", 120, &c));
     const size_t N = c.n, J = c.j;
     double *root = malloc(3 * N * sizeof(double)), *rot = malloc(4 * N * J * sizeof(double));
     stylized(&c, 2.5, root, rot);
@@ -515,8 +515,8 @@ END_TEST
 START_TEST(reference_trajectories_are_the_same_however_made)
 {
     clip c;
-    if (!load("cmu_131_01_mj_style_walk.bvh", 240, &c))
-        return;
+    MLR_TEST_NEED_CLIP("cmu_131_01_mj_style_walk.bvh");
+    ck_assert(load("cmu_131_01_mj_style_walk.bvh", 240, &c));
     const size_t N = c.n, J = c.j;
     double *root = malloc(3 * N * sizeof(double)), *rot = malloc(4 * N * J * sizeof(double));
     double *r1 = malloc(3 * N * sizeof(double)), *q1 = malloc(4 * N * J * sizeof(double));

