@@ -19,6 +19,7 @@
  */
 #include "floor_chains_internal.h"
 
+#include "fk_internal.h"
 #include "limits_internal.h"
 #include "mlr_internal.h"
 #include "quat_internal.h"
@@ -92,11 +93,8 @@ mlr_status mlr_floor_chains(const mlr_rig *rig, size_t N, double fps, int up, do
            *wj = wpe + N, *tmp = wj + N * J, *qc = tmp + N, *lt = qc + 4 * CHAIN_MAX,
            *kern = lt + 3 * CHAIN_MAX;
     int32_t *foot = ib, *tidx = ib + J, *chain = ib + 2 * J;
-    mlr_status st = mlr_fk_arrays(N, J, rig->parents, rig->offsets, in_root, in_rot, rig->n_trans,
-                                  rig->trans_joints, in_trans, pos_in, wrot_in, alloc, NULL);
-    if (st == MLR_OK)
-        st = mlr_fk_arrays(N, J, rig->parents, rig->offsets, root, rot, rig->n_trans,
-                           rig->trans_joints, trans, pos, wrot, alloc, NULL);
+    mlr_status st = fk__two_motions(rig, N, in_root, in_rot, in_trans, pos_in, wrot_in, root, rot,
+                                    trans, pos, wrot, alloc);
     if (st != MLR_OK)
         goto done;
     /* the feet's joints: the contact points' joints, their ancestors and descendants */

@@ -25,6 +25,7 @@
  */
 #include "legs_swivel_internal.h"
 
+#include "fk_internal.h"
 #include "limits_internal.h"
 #include "mlr_internal.h"
 #include "quat_internal.h"
@@ -171,11 +172,8 @@ mlr_status mlr_legs_swivel(const mlr_rig *rig, size_t N, double fps, int up, dou
            *wrot = pos + 3 * N * J, *tp = wrot + 4 * N * J, *tn = tp + N, *ep = tn + N,
            *en = ep + N, *pref = en + N, *dp = pref + N, *dn = dp + N, *tmp = dn + N,
            *kern = tmp + N;
-    mlr_status st = mlr_fk_arrays(N, J, rig->parents, rig->offsets, in_root, in_rot, rig->n_trans,
-                                  rig->trans_joints, in_trans, pos_in, wrot_in, alloc, NULL);
-    if (st == MLR_OK)
-        st = mlr_fk_arrays(N, J, rig->parents, rig->offsets, root, rot, rig->n_trans,
-                           rig->trans_joints, trans, pos, wrot, alloc, NULL);
+    mlr_status st = fk__two_motions(rig, N, in_root, in_rot, in_trans, pos_in, wrot_in, root, rot,
+                                    trans, pos, wrot, alloc);
     if (st != MLR_OK)
         goto done;
     mlr_ease_kernel(sigma, kern);
