@@ -136,6 +136,29 @@ def test_contacts_along_nearest_training_frames():
     assert out[2:25, 0].all() and not out[25:, 0].any() and not out[:2, 0].any()
 
 
+def test_contacts_along_votes_as_a_kd_tree_does(monkeypatch):
+    """The vote is numpy only (generation needs no scipy; issue 42): the same contacts as
+    scipy's cKDTree query and ball query gave, on a SOM-like grid of shared units (ties) and
+    on scattered points, and it runs with scipy unimportable."""
+    from scipy.spatial import cKDTree
+    rng = np.random.default_rng(4)
+    grid = np.repeat(rng.integers(0, 8, size=(60, 2)).astype(float), 5, axis=0)  # tied units
+    for pts in (grid, rng.normal(size=(400, 2))):
+        con = rng.random((pts.shape[0], 3)) < 0.5
+        traj = np.concatenate([pts[rng.integers(0, pts.shape[0], 100)],
+                               rng.normal(scale=3.0, size=(100, 2))])
+        tree, k = cKDTree(pts), 8
+        d, _ = tree.query(traj, k=k)
+        want = np.array([con[tree.query_ball_point(p, r * (1 + 1e-9) + 1e-12)].mean(axis=0) > 0.5
+                         for p, r in zip(traj, d[:, -1])])
+        got = contacts_along(pts, traj, con, 1000.0, neighbours=k)
+        np.testing.assert_array_equal(got, clean_contacts(want, 1000.0))
+    import sys
+    monkeypatch.setitem(sys.modules, "scipy", None)
+    monkeypatch.setitem(sys.modules, "scipy.spatial", None)
+    assert contacts_along(grid, grid[:50], grid[:, :1] > 3, 100.0).shape == (50, 1)
+
+
 def test_split_drifting_cuts_a_contact_the_body_walks_away_from():
     n = 60
     pos = np.zeros((n, 1, 3))
