@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+import pathlib
 import stat
 import subprocess
 import sys
@@ -196,3 +197,31 @@ def test_embedded_cluster_serves_no_dashboard():
                 with pytest.raises(urllib.error.HTTPError) as e:
                     urllib.request.urlopen(f"http://127.0.0.1:{port}{path}", timeout=10)
                 assert e.value.code == 404, (port, path)
+
+
+def test_a_script_without_a_main_guard_fails_in_one_line(tmp_path):
+    """The README's batch snippet saved as a script without `if __name__ == "__main__":` died
+    in 483 lines of Dask tracebacks ("Nanny failed to start"): the embedded cluster's worker
+    processes import the script again and start a cluster each. It now fails before anything
+    starts, saying what to add; under the guard the same call runs (issue 42)."""
+    wild = pathlib.Path(__file__).resolve().parents[3] / "tests" / "data" / "wild"
+    body = (f"import mlayer\n"
+            f"r = mlayer.batch('denoise', [{str(wild / 'pybvh_test1.bvh')!r}], "
+            f"{str(tmp_path / 'out')!r}, n_workers=1)\n"
+            f"print('records', len(r.records))\n")
+    script = tmp_path / "unguarded.py"
+    script.write_text(body)
+    p = subprocess.run([sys.executable, str(script)], capture_output=True, text=True,
+                       timeout=120, cwd=tmp_path)
+    assert p.returncode != 0
+    last = p.stderr.strip().splitlines()[-1]
+    assert "InvalidArgumentError" in last and 'if __name__ == "__main__":' in last, p.stderr
+    assert f"{script}:2" in last and "Nanny" not in p.stderr
+    assert not (tmp_path / "out").exists()
+    guarded = tmp_path / "guarded.py"
+    lines = body.splitlines()
+    guarded.write_text(lines[0] + "\nif __name__ == '__main__':\n" +
+                       "".join(f"    {x}\n" for x in lines[1:]))
+    p = subprocess.run([sys.executable, str(guarded)], capture_output=True, text=True,
+                       timeout=300, cwd=tmp_path)
+    assert p.returncode == 0 and "records 1" in p.stdout, p.stderr

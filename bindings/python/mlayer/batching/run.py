@@ -2,10 +2,12 @@
 scheduling of one task per clip, and the records gathered into a :class:`BatchResult`."""
 from __future__ import annotations
 
+import ast
 import contextlib
 import logging
 import os
 import pathlib
+import sys
 import time
 from collections.abc import Iterable, Iterator
 from typing import Any
@@ -55,6 +57,46 @@ def _client(scheduler: Any, n_workers: int | None) -> Iterator[Any]:
                          dashboard_address="127.0.0.1:0", scheduler_kwargs={"dashboard": False},
                          silence_logs=logging.ERROR) as cluster, Client(cluster) as client:
         yield client
+
+
+def _is_main_test(test: ast.expr) -> bool:
+    """``__name__ == "__main__"`` (either way round)."""
+    if not (isinstance(test, ast.Compare) and len(test.ops) == 1 and
+            isinstance(test.ops[0], ast.Eq)):
+        return False
+    sides = [test.left, test.comparators[0]]
+    return (any(isinstance(x, ast.Name) and x.id == "__name__" for x in sides) and
+            any(isinstance(x, ast.Constant) and x.value == "__main__" for x in sides))
+
+
+def unguarded_call() -> str | None:
+    """Where the main script calls into this outside ``if __name__ == "__main__":`` (the
+    script's path and line), else None. The embedded cluster's worker processes start by
+    importing the main script again (multiprocessing's spawn), so such a call would start a
+    cluster in every worker: Dask then fails with pages of "Nanny failed to start". Only a
+    script run by path counts (a package's ``__main__``, as ``python -m mlayer``, is not
+    imported again)."""
+    main = sys.modules.get("__main__")
+    path = getattr(main, "__file__", None)
+    spec = getattr(main, "__spec__", None)
+    if not path or (spec is not None and spec.name.endswith("__main__")):
+        return None
+    frame = sys._getframe(1)
+    while frame is not None and not (frame.f_code.co_name == "<module>" and
+                                     frame.f_globals.get("__name__") == "__main__"):
+        frame = frame.f_back
+    if frame is None:
+        return None
+    line = frame.f_lineno
+    try:
+        tree = ast.parse(pathlib.Path(path).read_text(encoding="utf-8"))
+    except (OSError, SyntaxError, UnicodeDecodeError, ValueError):
+        return None
+    for node in ast.walk(tree):
+        if (isinstance(node, ast.If) and _is_main_test(node.test) and
+                node.lineno <= line <= (node.end_lineno or node.lineno)):
+            return None
+    return f"{path}:{line}"
 
 
 def _embedded_security() -> Any:
@@ -131,8 +173,10 @@ def batch(operation: str | Operation,
     Raises
     ------
     mlayer.InvalidArgumentError
-        Before anything runs, for an unknown operation or option, no inputs, or outputs that
-        would collide or overwrite an input.
+        Before anything runs, for an unknown operation or option, no inputs, outputs that
+        would collide or overwrite an input, or (the embedded cluster) a call at the top level
+        of a script, outside ``if __name__ == "__main__":``, which the cluster's worker
+        processes would run again.
     mlayer.MissingDependencyError
         (the ``batch`` extra) Before anything runs, without Dask, or without cryptography for
         the embedded cluster.
@@ -141,6 +185,12 @@ def batch(operation: str | Operation,
     require("distributed", feature="mlayer.batch")
     if scheduler is None:  # the embedded cluster's TLS: Security.temporary needs cryptography
         require("cryptography", feature="mlayer.batch's embedded Dask cluster (TLS)")
+        where = unguarded_call()
+        if where is not None:
+            raise InvalidArgumentError(
+                f"mlayer.batch: called at the top level of the script ({where}): its worker "
+                f"processes import the script again; put the call under "
+                f"`if __name__ == \"__main__\":`")
     make_bar = resolve(progress, "mlayer.batch")
     read = read_options(read)
     op = lookup(operation)
