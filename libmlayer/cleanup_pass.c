@@ -266,7 +266,7 @@ static void place_toe_frame(const cleanup_state *cu, const cleanup_foot *ft, siz
     } else { /* r * ga = the old world rotation */
         const double *gold = cu->wrot + 4 * (f * J + a);
         const double cg[4] = {ga[0], -ga[1], -ga[2], -ga[3]};
-        mlr_ik_qmul(gold, cg, r);
+        mlr__qmul4(gold, cg, r);
     }
     mlr_ik_rotate_to_1(cu->newr + 4 * (f * J + a), gp, ga, r);
 }

@@ -179,10 +179,9 @@ static void rotate_block(cleanup_work *w, double *rot, const int32_t *js, size_t
             qw[k] = r[0], qx[k] = r[1], qy[k] = r[2], qz[k] = r[3];
         }
         for (size_t k = 0; k < n; k++) {
-            const double ow = ew[k] * qw[k] - ex[k] * qx[k] - ey[k] * qy[k] - ez[k] * qz[k];
-            const double ox = ew[k] * qx[k] + ex[k] * qw[k] + ey[k] * qz[k] - ez[k] * qy[k];
-            const double oy = ew[k] * qy[k] - ex[k] * qz[k] + ey[k] * qw[k] + ez[k] * qx[k];
-            const double oz = ew[k] * qz[k] + ex[k] * qy[k] - ey[k] * qx[k] + ez[k] * qw[k];
+            const mlr_quat o =
+                mlr_qmul_wxyz(ew[k], ex[k], ey[k], ez[k], qw[k], qx[k], qy[k], qz[k]);
+            const double ow = o.w, ox = o.x, oy = o.y, oz = o.z;
             const double nn = sqrt(ow * ow + ox * ox + oy * oy + oz * oz);
             qw[k] = ow / nn, qx[k] = ox / nn, qy[k] = oy / nn, qz[k] = oz / nn;
         }

@@ -28,18 +28,9 @@ typedef struct mlr_ik_lanes {
 void mlr_ik_two_bone_lanes(mlr_ik_lanes *L, size_t m, int have_axis, double max_ext);
 /* Shortest arc from u to v (as mlr_ik_from_to). */
 void mlr_ik_from_to_1(const double u[3], const double v[3], double q[4]);
-/* out = a * b, out = rotate(q, v) (no aliasing restrictions: computed into temporaries).
-   Inline: the cleanup calls them per frame and joint (about 80,000 times per guards apply of
+/* out = rotate(q, v) (no aliasing restrictions: computed into temporaries); the product is
+   mlr__qmul4. Inline: the cleanup calls them per frame and joint (about 80,000 times per guards apply of
    2,526 frames), and the call cost a quarter of each. */
-static inline void mlr_ik_qmul(const double a[4], const double b[4], double o[4])
-{
-    const double w = a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3];
-    const double x = a[0] * b[1] + a[1] * b[0] + a[2] * b[3] - a[3] * b[2];
-    const double y = a[0] * b[2] - a[1] * b[3] + a[2] * b[0] + a[3] * b[1];
-    const double z = a[0] * b[3] + a[1] * b[2] - a[2] * b[1] + a[3] * b[0];
-    o[0] = w, o[1] = x, o[2] = y, o[3] = z;
-}
-
 static inline void mlr_ik_qrot(const double q[4], const double v[3], double o[3])
 {
     /* v + w t + u x t, t = 2 u x v (as ik._rotate) */
@@ -58,18 +49,17 @@ static inline void mlr_ik_rotate_to_1(double rot_j[4], const double *gp, const d
                                       const double r[4])
 {
     double nw[4];
-    mlr_ik_qmul(r, g, nw);
+    mlr__qmul4(r, g, nw);
     if (gp) {
         const double cgp[4] = {gp[0], -gp[1], -gp[2], -gp[3]};
-        mlr_ik_qmul(cgp, nw, rot_j);
+        mlr__qmul4(cgp, nw, rot_j);
     } else {
         rot_j[0] = nw[0], rot_j[1] = nw[1], rot_j[2] = nw[2], rot_j[3] = nw[3];
     }
     /* unit to rounding already (the product of unit quaternions nearly always is): left as
        it is */
-    const double n2 =
-        rot_j[0] * rot_j[0] + rot_j[1] * rot_j[1] + rot_j[2] * rot_j[2] + rot_j[3] * rot_j[3];
-    if (fabs(n2 - 1.0) <= MLR_NEAR_UNIT2)
+    const double n2 = mlr_quat_norm2_wxyz(rot_j[0], rot_j[1], rot_j[2], rot_j[3]);
+    if (mlr_near_unit2(n2))
         return;
     const double n = sqrt(n2);
     if (n > 0.0)

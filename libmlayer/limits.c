@@ -70,25 +70,43 @@ static inline void hinge_pair(double w, double ux, double uy, double uz, mlr_vec
     *x = (a.x * s[0] + a.y * s[1] + a.z * s[2]) - an * (s[0] * n.x + s[1] * n.y + s[2] * n.z);
 }
 
-/* The unit twist of r (r.w >= 0) about unit t: (r.w, p t) / |(r.w, p)|, p = r.t, or the identity
- * when |(r.w, p)| <= 1e-300. */
-static mlr_quat twist_part(mlr_quat r, mlr_vec3 t)
+/* The swing-twist decomposition of r = (w, x, y, z), w >= 0, about unit t = (tx, ty, tz), in
+ * the closed forms every path of this file takes (scalar and vectorized blocks: the same
+ * operations, the same bits). With p = v.t (v the vector part), the twist is 2 atan2(|p|, w)
+ * and the swing 2 atan2(|v - p t|, |(w, p)|): st_pairs gives p, the swing's sine-like |v - p t|
+ * in *s and its cosine-like |(w, p)| (the twist's norm) in *c. Branch-free: vectorizes. */
+static inline void st_pairs(double w, double x, double y, double z, double tx, double ty,
+                            double tz, double *p, double *s, double *c)
 {
-    const double p = r.x * t.x + r.y * t.y + r.z * t.z;
-    const double tw_n = sqrt(r.w * r.w + p * p);
-    mlr_quat tw = {1, 0, 0, 0};
-    if (tw_n > 1e-300) {
-        tw.w = r.w / tw_n;
-        tw.x = p * t.x / tw_n, tw.y = p * t.y / tw_n, tw.z = p * t.z / tw_n;
-    }
-    return tw;
+    const double pp = x * tx + y * ty + z * tz;
+    const double vx = x - pp * tx, vy = y - pp * ty, vz = z - pp * tz;
+    *p = pp;
+    *s = sqrt(vx * vx + vy * vy + vz * vz);
+    *c = sqrt(w * w + pp * pp);
 }
 
-/* The twist angle of r (r.w >= 0) about unit t, in [-pi, pi] (that of twist_part). */
+/* The swing s = r conj(tw) of r (as st_pairs'; p and tn = |(w, p)| from it), tw the unit twist
+ * (w, p t) / tn, or the identity when tn <= 1e-300; s.w >= 0 (its vector part is the swing
+ * axis' direction, unnormalized). Branch-free: vectorizes. */
+static inline mlr_quat st_swing(double w, double x, double y, double z, double tx, double ty,
+                                double tz, double p, double tn)
+{
+    const int ok = tn > 1e-300;
+    const double d = mlr_select_bits(ok, tn, 1.0);
+    const double tww = mlr_select_bits(ok, w / d, 1.0), twx = mlr_select_bits(ok, p * tx / d, 0.0),
+                 twy = mlr_select_bits(ok, p * ty / d, 0.0),
+                 twz = mlr_select_bits(ok, p * tz / d, 0.0);
+    mlr_quat sq = mlr_qmul_wxyz(w, x, y, z, tww, -twx, -twy, -twz);
+    if (sq.w < 0)
+        sq.w = -sq.w, sq.x = -sq.x, sq.y = -sq.y, sq.z = -sq.z;
+    return sq;
+}
+
+/* The twist angle of r (r.w >= 0) about unit t, in [-pi, pi]. */
 static double twist_angle(mlr_quat r, mlr_vec3 t)
 {
-    const double p = r.x * t.x + r.y * t.y + r.z * t.z;
-    const double tw_n = sqrt(r.w * r.w + p * p);
+    double p, s, tw_n;
+    st_pairs(r.w, r.x, r.y, r.z, t.x, t.y, t.z, &p, &s, &tw_n);
     const double c = tw_n > 1e-300 ? r.w / tw_n : 1.0;
     double twist = 2.0 * atan2(p / (tw_n > 1e-300 ? tw_n : 1.0), c);
     if (twist > PI)
@@ -98,17 +116,7 @@ static double twist_angle(mlr_quat r, mlr_vec3 t)
     return twist;
 }
 
-/* The swing r conj(tw) of r, tw its twist_part, with w >= 0 (its vector part is the swing
- * axis' direction, unnormalized). */
-static mlr_quat swing_part(mlr_quat r, mlr_quat tw)
-{
-    mlr_quat s = qmul(r, qconj(tw));
-    if (s.w < 0)
-        s.w = -s.w, s.x = -s.x, s.y = -s.y, s.z = -s.z;
-    return s;
-}
-
-/* The swing angle of a swing_part s. */
+/* The swing angle of an st_swing s. */
 static double swing_angle(mlr_quat s)
 {
     return 2.0 * atan2(sqrt(s.x * s.x + s.y * s.y + s.z * s.z), s.w);
@@ -501,11 +509,8 @@ static void extents_block(const double *p, size_t stride, size_t m, int unit, ml
     double qw[EXT_FB], qx[EXT_FB], qy[EXT_FB], qz[EXT_FB];
     load_unit(p, stride, m, unit, qw, qx, qy, qz);
     for (size_t i = 0; i < m; i++) {
-        const double bw = qw[i], bx = qx[i], by = qy[i], bz = qz[i];
-        const double w = aw * bw - ax * bx - ay * by - az * bz;
-        const double x = aw * bx + ax * bw + ay * bz - az * by;
-        const double y = aw * by - ax * bz + ay * bw + az * bx;
-        const double z = aw * bz + ax * by - ay * bx + az * bw;
+        const mlr_quat r = mlr_qmul_wxyz(aw, ax, ay, az, qw[i], qx[i], qy[i], qz[i]);
+        const double w = r.w, x = r.x, y = r.y, z = r.z;
         const int neg = w < 0;
         rw[i] = neg ? -w : w, rx[i] = neg ? -x : x, ry[i] = neg ? -y : y, rz[i] = neg ? -z : z;
     }
@@ -518,10 +523,8 @@ static void extents_block(const double *p, size_t stride, size_t m, int unit, ml
     }
     const double tx = t->x, ty = t->y, tz = t->z;
     for (size_t i = 0; i < m; i++) {
-        const double pp = rx[i] * tx + ry[i] * ty + rz[i] * tz;
-        const double vx = rx[i] - pp * tx, vy = ry[i] - pp * ty, vz = rz[i] - pp * tz;
-        s1[i] = sqrt(vx * vx + vy * vy + vz * vz);
-        c1[i] = sqrt(rw[i] * rw[i] + pp * pp);
+        double pp;
+        st_pairs(rw[i], rx[i], ry[i], rz[i], tx, ty, tz, &pp, &s1[i], &c1[i]);
         s2[i] = fabs(pp);
         c2[i] = rw[i];
     }
@@ -532,7 +535,7 @@ static void extents_block(const double *p, size_t stride, size_t m, int unit, ml
  * (y, x) pairs (hinge_pair of q b) in hy, hx, the swing's and the twist's pairs as
  * extents_block's in s1, c1, s2, c2, and the vector parts of the swings s = r conj(twist)
  * (s.w >= 0) in sv (x, y, z by blocks of EXT_FB); the same operations as the scalar helpers
- * (qmul, hinge_pair, twist_part, swing_part): the same bits. Vectorized. */
+ * (hinge_pair, st_pairs, st_swing): the same bits. Vectorized. */
 MLR_CLONES_AVX2
 static void cand_block(const double *restrict p, size_t stride, size_t m, int unit,
                        const mlr_limits_joint *restrict g, const mlr_vec3 *restrict t,
@@ -549,37 +552,20 @@ static void cand_block(const double *restrict p, size_t stride, size_t m, int un
         const double bw = qw[i], bx = qx[i], by = qy[i], bz = qz[i];
         hinge_pair(bw, bx, by, bz, v, a, n, an, &hy[i], &hx[i]);
         /* r = conj(centre) q, r.w >= 0 */
-        double w = aw * bw - ax * bx - ay * by - az * bz;
-        double x = aw * bx + ax * bw + ay * bz - az * by;
-        double y = aw * by - ax * bz + ay * bw + az * bx;
-        double z = aw * bz + ax * by - ay * bx + az * bw;
+        const mlr_quat r = mlr_qmul_wxyz(aw, ax, ay, az, bw, bx, by, bz);
+        double w = r.w, x = r.x, y = r.y, z = r.z;
         const int neg = w < 0;
         w = neg ? -w : w, x = neg ? -x : x, y = neg ? -y : y, z = neg ? -z : z;
         lq[i].w = w, lq[i].x = x, lq[i].y = y, lq[i].z = z;
         /* the swing's and the twist's pairs */
-        const double pp = x * tx + y * ty + z * tz;
-        const double tn = sqrt(w * w + pp * pp);
-        const double px = x - pp * tx, py = y - pp * ty, pz = z - pp * tz;
-        s1[i] = sqrt(px * px + py * py + pz * pz);
+        double pp, tn;
+        st_pairs(w, x, y, z, tx, ty, tz, &pp, &s1[i], &tn);
         c1[i] = tn;
         s2[i] = fabs(pp);
         c2[i] = w;
-        /* s = r conj(tw), tw the unit twist (identity when |(w, p)| <= 1e-300) */
-        const int ok = tn > 1e-300;
-        const double d = mlr_select_bits(ok, tn, 1.0);
-        const double tww = mlr_select_bits(ok, w / d, 1.0),
-                     twx = mlr_select_bits(ok, pp * tx / d, 0.0),
-                     twy = mlr_select_bits(ok, pp * ty / d, 0.0),
-                     twz = mlr_select_bits(ok, pp * tz / d, 0.0);
-        const double cw = tww, cxx = -twx, cyy = -twy, czz = -twz;
-        const double sqw = w * cw - x * cxx - y * cyy - z * czz;
-        const double sqx = w * cxx + x * cw + y * czz - z * cyy;
-        const double sqy = w * cyy - x * czz + y * cw + z * cxx;
-        const double sqz = w * czz + x * cyy - y * cxx + z * cw;
-        const int sneg = sqw < 0;
-        sv[i] = sneg ? -sqx : sqx;
-        sv[EXT_FB + i] = sneg ? -sqy : sqy;
-        sv[2 * EXT_FB + i] = sneg ? -sqz : sqz;
+        /* s = r conj(tw), tw the unit twist */
+        const mlr_quat sq = st_swing(w, x, y, z, tx, ty, tz, pp, tn);
+        sv[i] = sq.x, sv[EXT_FB + i] = sq.y, sv[2 * EXT_FB + i] = sq.z;
     }
 }
 
@@ -1154,15 +1140,14 @@ static inline int limit_joint(const mlr_limits_joint *g, const joint_bounds *b, 
                2 atan2(|p|, w), p = v.t, and the swing 2 atan2(|v - p t|, |(w, p)|) (the
                closed forms of twist_angle's and swing_angle's); one below its knee point is
                left as it is, so its angle is not needed */
-            const double pp = rr.x * t.x + rr.y * t.y + rr.z * t.z;
+            double pp, ss, tn;
+            st_pairs(rr.w, rr.x, rr.y, rr.z, t.x, t.y, t.z, &pp, &ss, &tn);
             const int twist_in = below_half(fabs(pp), rr.w, b->tk_c, b->tk_s);
-            const mlr_vec3 vp = {rr.x - pp * t.x, rr.y - pp * t.y, rr.z - pp * t.z};
-            const int swing_in =
-                below_half(norm3(vp), sqrt(rr.w * rr.w + pp * pp), b->sk_c, b->sk_s);
+            const int swing_in = below_half(ss, tn, b->sk_c, b->sk_s);
             mlr_quat sq = rr;
             double sw = 0.0, sw2 = 0.0;
             if (!(twist_in && swing_in)) {
-                sq = swing_part(rr, twist_part(rr, t));
+                sq = st_swing(rr.w, rr.x, rr.y, rr.z, t.x, t.y, t.z, pp, tn);
                 if (!swing_in) {
                     sw = swing_angle(sq);
                     sw2 = sw > smax - ws ? mlr_limits_soft(sw, smax, ws) : sw;
@@ -1247,11 +1232,8 @@ static void inside_block(const mlr_quat *restrict q, size_t stride, size_t m,
     const double aw = b->cc.w, ax = b->cc.x, ay = b->cc.y, az = b->cc.z, fast = b->fast;
     for (size_t i = 0; i < m; i++) {
         const mlr_quat *p = q + stride * i;
-        const double bw = p->w, bx = p->x, by = p->y, bz = p->z;
-        const double x = aw * bx + ax * bw + ay * bz - az * by;
-        const double y = aw * by - ax * bz + ay * bw + az * bx;
-        const double z = aw * bz + ax * by - ay * bx + az * bw;
-        inside[i] = x * x + y * y + z * z < fast;
+        const mlr_quat r = mlr_qmul_wxyz(aw, ax, ay, az, p->w, p->x, p->y, p->z);
+        inside[i] = r.x * r.x + r.y * r.y + r.z * r.z < fast;
     }
 }
 

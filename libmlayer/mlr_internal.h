@@ -3,6 +3,7 @@
 #define MLR_INTERNAL_H
 
 #include <float.h>
+#include <math.h>
 #include <mlayer/mlayer.h>
 #include <stdint.h>
 #include <string.h>
@@ -59,25 +60,63 @@ mlr_status mlr_diag_prefix(mlr_diag *diag, mlr_status status, const char *who);
    per guards apply in the cleanup): the same values, the ordered comparison returning the
    second argument when equal (as x86-64's maxsd / minsd in glibc's fmax / fmin) and the other
    argument when one is NaN. */
+/* Small helpers every caller must get inlined (the vectorized loops, and the inliner's size
+ * estimates of their callers, which an extra call level would change). */
+#if defined(__GNUC__)
+#define MLR_ALWAYS_INLINE __attribute__((always_inline))
+#else
+#define MLR_ALWAYS_INLINE
+#endif
+
 /* A quaternion whose computed |q|^2 lies within this of 1 is as unit as dividing by its norm
  * makes it (|q| within 2 DBL_EPSILON of 1): the library's normalizations leave it as it is
  * (mlr__quat_unit_array, mlr_ik_rotate_to_1). */
 #define MLR_NEAR_UNIT2 (4.0 * DBL_EPSILON)
 
+/* |q|^2 of q = (w, x, y, z), summed in the one order every near-unit test takes. */
+MLR_ALWAYS_INLINE static inline double mlr_quat_norm2_wxyz(double w, double x, double y, double z)
+{
+    return w * w + x * x + y * y + z * z;
+}
+
+/* The near-unit test on a squared norm n2 (mlr_quat_norm2_wxyz): |q|^2 within MLR_NEAR_UNIT2
+ * of 1; NaN is not. */
+MLR_ALWAYS_INLINE static inline int mlr_near_unit2(double n2)
+{
+    return fabs(n2 - 1.0) <= MLR_NEAR_UNIT2;
+}
+
 static inline double mlr_fmax(double a, double b) { return a > b || b != b ? a : b; }
 static inline double mlr_fmin(double a, double b) { return a < b || b != b ? a : b; }
 
+/* The quaternion product (aw, ax, ay, az) (bw, bx, by, bz), the library's one spelling of it:
+ * every other form (mlr_quat_mul_inline, mlr__qmul4, the structure-of-arrays loops) calls this
+ * one. The library builds with -ffp-contract=off, so every caller gets the same bits. Scalars in
+ * and out, so that loops over structure-of-arrays copies vectorize. */
+MLR_ALWAYS_INLINE static inline mlr_quat mlr_qmul_wxyz(double aw, double ax, double ay, double az,
+                                                       double bw, double bx, double by, double bz)
+{
+    mlr_quat o;
+    o.w = aw * bw - ax * bx - ay * by - az * bz;
+    o.x = aw * bx + ax * bw + ay * bz - az * by;
+    o.y = aw * by - ax * bz + ay * bw + az * bx;
+    o.z = aw * bz + ax * by - ay * bx + az * bw;
+    return o;
+}
+
 /* The quaternion product and rotation, inlined into loops (mlr_quat_mul and mlr_quat_rotate
- * are these; the library builds with -ffp-contract=off, so every caller gets the same bits).
- * out may alias a or b; o must not alias v. */
+ * are these). out may alias a or b; o must not alias v. */
 static inline void mlr_quat_mul_inline(const mlr_quat *a, const mlr_quat *b, mlr_quat *out)
 {
-    const double aw = a->w, ax = a->x, ay = a->y, az = a->z;
-    const double bw = b->w, bx = b->x, by = b->y, bz = b->z;
-    out->w = aw * bw - ax * bx - ay * by - az * bz;
-    out->x = aw * bx + ax * bw + ay * bz - az * by;
-    out->y = aw * by - ax * bz + ay * bw + az * bx;
-    out->z = aw * bz + ax * by - ay * bx + az * bw;
+    const mlr_quat r = mlr_qmul_wxyz(a->w, a->x, a->y, a->z, b->w, b->x, b->y, b->z);
+    out->w = r.w, out->x = r.x, out->y = r.y, out->z = r.z;
+}
+
+/* o = a b, quaternions as (w, x, y, z) arrays; o may alias a or b. */
+static inline void mlr__qmul4(const double *a, const double *b, double *o)
+{
+    const mlr_quat r = mlr_qmul_wxyz(a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3]);
+    o[0] = r.w, o[1] = r.x, o[2] = r.y, o[3] = r.z;
 }
 
 /* c ? a : b by bit masks, so that the compiler keeps both operands computed unconditionally

@@ -177,8 +177,7 @@ static int near_unit_block(const mlr_quat *q, size_t m)
 {
     long far = 0;
     for (size_t i = 0; i < m; i++) {
-        const double s = q[i].w * q[i].w + q[i].x * q[i].x + q[i].y * q[i].y + q[i].z * q[i].z;
-        far |= !(fabs(s - 1.0) <= MLR_NEAR_UNIT2);
+        far |= !mlr_near_unit2(mlr_quat_norm2_wxyz(q[i].w, q[i].x, q[i].y, q[i].z));
     }
     return far == 0;
 }
@@ -234,8 +233,7 @@ static int near_unit_copy(const mlr_quat *q, size_t m, mlr_quat *out)
 static int unit_one(const mlr_quat *q, mlr_quat *out)
 {
     const mlr_quat p = *q;
-    const double s = p.w * p.w + p.x * p.x + p.y * p.y + p.z * p.z;
-    if (fabs(s - 1.0) <= MLR_NEAR_UNIT2) { /* unit to rounding: as it is */
+    if (mlr_near_unit2(mlr_quat_norm2_wxyz(p.w, p.x, p.y, p.z))) { /* unit to rounding: as is */
         *out = p;
         return 1;
     }
@@ -483,10 +481,8 @@ static void conj_mul_log_block(const mlr_quat *a, const mlr_quat *b, size_t m, i
     for (size_t i = 0; i < m; i++) {
         const double aw = a[i].w, ax = sa * a[i].x, ay = sa * a[i].y, az = sa * a[i].z;
         const double bw = b[i].w, bx = sb * b[i].x, by = sb * b[i].y, bz = sb * b[i].z;
-        w[i] = aw * bw - ax * bx - ay * by - az * bz;
-        x[i] = aw * bx + ax * bw + ay * bz - az * by;
-        y[i] = aw * by - ax * bz + ay * bw + az * bx;
-        z[i] = aw * bz + ax * by - ay * bx + az * bw;
+        const mlr_quat r = mlr_qmul_wxyz(aw, ax, ay, az, bw, bx, by, bz);
+        w[i] = r.w, x[i] = r.x, y[i] = r.y, z[i] = r.z;
         const double mx = vmax(vmax(fabs(w[i]), fabs(x[i])), vmax(fabs(y[i]), fabs(z[i])));
         bad |= !((mx >= FAST_LO) & (mx <= FAST_HI) & finite4(w[i], x[i], y[i], z[i]));
     }

@@ -67,15 +67,6 @@ static inline int mlr__quat_unit(const mlr_quat *q, mlr_quat *out)
     return 1;
 }
 
-/* o = a b, quaternions as (w, x, y, z) arrays (o may not alias a or b). */
-static inline void mlr__qmul4(const double *a, const double *b, double *o)
-{
-    o[0] = a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3];
-    o[1] = a[0] * b[1] + a[1] * b[0] + a[2] * b[3] - a[3] * b[2];
-    o[2] = a[0] * b[2] - a[1] * b[3] + a[2] * b[0] + a[3] * b[1];
-    o[3] = a[0] * b[3] + a[1] * b[2] - a[2] * b[1] + a[3] * b[0];
-}
-
 /* The rotation vector (axis times angle, angle in [0, pi]) of unit quaternion q. */
 static inline void mlr__quat_rotvec(const double *q, double *v)
 {
