@@ -9,6 +9,7 @@ import os
 import pathlib
 import sys
 import time
+import types
 from collections.abc import Iterable, Iterator
 from typing import Any
 
@@ -81,7 +82,7 @@ def unguarded_call() -> str | None:
     spec = getattr(main, "__spec__", None)
     if not path or (spec is not None and spec.name.endswith("__main__")):
         return None
-    frame = sys._getframe(1)
+    frame: types.FrameType | None = sys._getframe(1)
     while frame is not None and not (frame.f_code.co_name == "<module>" and
                                      frame.f_globals.get("__name__") == "__main__"):
         frame = frame.f_back
