@@ -41,6 +41,24 @@ def test_gif_has_one_frame_per_tick_and_is_not_blank(tmp_path, sample):
     assert np.any(frames[0] != frames[-1])
 
 
+def test_gif_lasts_as_long_as_the_motion(tmp_path, sample):
+    """GIF delays are whole centiseconds: a constant 33 ms at 30 fps was stored as 30 ms and
+    the GIF played 10% fast (issue 42). The delays now alternate so the total is the clip's."""
+    from PIL import Image
+    from mlayer.render import gif_delays
+    out = tmp_path / "clip.gif"
+    n = render_gif([sample], out, fps=30, panel_size=(80, 100))
+    with Image.open(out) as im:
+        stored = []
+        for k in range(im.n_frames):
+            im.seek(k)
+            stored.append(im.info["duration"])
+    assert n == len(stored) == 60 and sorted(set(stored)) == [30, 40]  # the 2 s sample
+    assert sum(stored) == 2000
+    assert gif_delays(3, 30) == [30, 40, 30] and sum(gif_delays(300, 24)) == 12500
+    assert min(gif_delays(100, 120)) == 20
+
+
 def test_panels_differ_when_motions_differ(tmp_path, sample):
     moved = sample.with_frames(root_pos=sample.root_pos + [0.0, 3.0, 0.0])  # lifted
     out = tmp_path / "two.gif"
