@@ -193,3 +193,26 @@ def test_reading_options_follow_the_declaration():
         has = {"--strict", "--up", "--trim", "--units"} & opts
         assert has == ({"--strict", "--up", "--trim", "--units"} if cmd.reads_clips else set()), \
             cmd.name
+
+
+def test_a_clip_on_the_standard_input(tmp_path, mocap, monkeypatch, capsys):
+    """`-` as an input reads the clip from the standard input (issue 42): `cat a.bvh | mlayer
+    denoise - -o out.bvh` writes what `mlayer denoise a.bvh -o ...` writes; a broken clip is
+    one line naming <stdin> and its line; `-` twice is refused."""
+    import io
+    import mlayer
+    src = mocap / "cmu_131_01_mj_style_walk.bvh"
+    assert cli.main(["denoise", str(src), "-o", str(tmp_path / "a.bvh")]) == 0
+    monkeypatch.setattr("sys.stdin", io.TextIOWrapper(io.BytesIO(src.read_bytes())))
+    assert cli.main(["denoise", "-", "-o", str(tmp_path / "b.bvh")]) == 0
+    a, b = mlayer.read_bvh(tmp_path / "a.bvh"), mlayer.read_bvh(tmp_path / "b.bvh")
+    assert (a.rot == b.rot).all() and (a.root_pos == b.root_pos).all()
+    capsys.readouterr()
+    monkeypatch.setattr("sys.stdin", io.TextIOWrapper(io.BytesIO(b"HIERARCHY\nROOT x {\n")))
+    assert cli.main(["denoise", "-", "-o", str(tmp_path / "c.bvh")]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("mlayer denoise: error: <stdin>:3: "), err
+    assert not (tmp_path / "c.bvh").exists()
+    monkeypatch.setattr("sys.stdin", io.TextIOWrapper(io.BytesIO(src.read_bytes())))
+    assert cli.main(["info", "-", "-"]) == 1
+    assert "only once" in capsys.readouterr().err

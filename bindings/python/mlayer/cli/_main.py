@@ -20,11 +20,14 @@ from typing import Any
 import argparse
 import contextlib
 import logging
+import os
 import re
+import shutil
 import sys
+import tempfile
 
 from .. import __version__, library_version
-from ..errors import Error
+from ..errors import Error, InvalidArgumentError
 from . import batch, contacts, demo, info, layers, primitives, render, retiming, stream, view
 from . import convert
 from . import mirror, rootmotion
@@ -158,7 +161,10 @@ def main(argv: list[str] | None = None) -> int:
     from ..up_axis import reading_up
     from ..trimming import reading_trim
     from ..errors import MlayerWarning
+    stdin_dir = tempfile.TemporaryDirectory(prefix="mlayer-stdin-")
+    stdin_path = ""
     try:
+        stdin_path = _stdin_inputs(cmd, args, stdin_dir.name)
         check_outputs(cmd, args)
         check_requires(cmd, args)
         up = getattr(args, "up", "auto")
@@ -176,6 +182,9 @@ def main(argv: list[str] | None = None) -> int:
     except Error as e:
         where = ""
         path, line = getattr(e, "path", None), getattr(e, "line", None)
+        if path and stdin_path and str(path) == stdin_path:
+            path = "<stdin>"
+            e = type(e)(str(e).replace(stdin_path, path))
         if path:
             where = f"{path}:{line}: " if line else f"{path}: "
             if str(e).startswith(where):  # e.g. ParseError messages already say where
@@ -189,3 +198,26 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print(f"mlayer {args.command}: interrupted", file=sys.stderr)
         return 130
+    finally:
+        stdin_dir.cleanup()
+
+
+def _stdin_inputs(cmd: Any, args: argparse.Namespace, folder: str) -> str:
+    """An input clip given as ``-``: the standard input, saved as a BVH file in folder, the
+    argument pointing to it (once per command). Returns that file's path, or ""."""
+    if not cmd.reads_clips:
+        return ""
+    path = ""
+    for dest in cmd.inputs:
+        value = getattr(args, dest, None)
+        values = value if isinstance(value, list) else [value]
+        if "-" not in values:
+            continue
+        if path or values.count("-") > 1:
+            raise InvalidArgumentError("the standard input ('-') can be read only once")
+        path = os.path.join(folder, "stdin.bvh")
+        with open(path, "wb") as f:
+            shutil.copyfileobj(sys.stdin.buffer, f)
+        setattr(args, dest, [path if v == "-" else v for v in values]
+                if isinstance(value, list) else path)
+    return path
