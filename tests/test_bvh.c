@@ -7,8 +7,8 @@
  * expected line, allocation failures, motions built from arrays. */
 #include "mlr_test.h"
 
-#include "mlr_internal.h" /* private: mlr_quat_from_euler_half, for a bit-exact reference */
-#include "sincosd.h"      /* private: the reader's sines and cosines in degrees */
+#include "common/mlr_internal.h" /* private: mlr_quat_from_euler_half, a bit-exact reference */
+#include "math/sincosd.h"         /* private: the reader's sines and cosines in degrees */
 
 #include <errno.h>
 #include <locale.h>

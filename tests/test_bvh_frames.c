@@ -2,7 +2,7 @@
 #if defined(__clang__)
 #pragma STDC FP_CONTRACT OFF /* the references round as the library does */
 #endif
-/* The BVH reader's MOTION kernels (libmlayer/bvh_frames.c, compiled in here). The whole-line
+/* The BVH reader's MOTION kernels (libmlayer/io/bvh_frames.c, compiled in here). The whole-line
  * number kernel, on a CPU that has it, must take every frame line of every real clip and random
  * lines of numbers, give strtod's double bit for bit, and decline (leave to the careful parser,
  * which reports the error) every line that holds something other than C numbers. The frame
@@ -11,9 +11,9 @@
  * are in test_bvh.c. */
 #include "mlr_test.h"
 
-#include "bvh_frames.c"
-#include "mlr_internal.h" /* mlr_quat_from_euler_half: the reference product */
-#include "numparse.c"
+#include "io/bvh_frames.c"
+#include "common/mlr_internal.h" /* mlr_quat_from_euler_half: the reference product */
+#include "io/numparse.c"
 
 #include <math.h>
 #include <stdio.h>

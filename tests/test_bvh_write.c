@@ -1,13 +1,13 @@
-/* The BVH writer's number formatting (libmlayer/bvh_write.c, compiled in here): the fast
+/* The BVH writer's number formatting (libmlayer/io/bvh_write.c, compiled in here): the fast
  * "%.9g" gives printf's text, but for a last digit off by one where the scaled value lies
  * within an ulp of a half, and declines what it does not cover. The temporaries of
  * mlr_bvh_write_file follow the naming rule of mlr_bvh.h and the files honour the umask. The
  * writer as a whole (round trips of every clip, locales, atomic files) is checked in
  * test_bvh.c. */
 #define _POSIX_C_SOURCE 200809L /* mkdtemp */
-#include "bvh_write.c"
-#include "common.c"   /* the allocator and diag helpers */
-#include "numparse.c" /* mlr_parse_decimal */
+#include "io/bvh_write.c"
+#include "common/common.c"   /* the allocator and diag helpers */
+#include "io/numparse.c" /* mlr_parse_decimal */
 
 #include "mlr_test.h"
 

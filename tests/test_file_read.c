@@ -1,9 +1,9 @@
-/* Whole-file reads (libmlayer/file_read.c, compiled in here): every thread count gives the
+/* Whole-file reads (libmlayer/io/file_read.c, compiled in here): every thread count gives the
  * file's bytes; errors and allocation failures are reported and leave nothing behind. The BVH
  * reader's use of it is checked in test_bvh.c. */
-#include "file_read.c"
-#include "common.c"   /* the allocator and diag helpers */
-#include "parallel.c" /* the thread loop */
+#include "io/file_read.c"
+#include "common/common.c"   /* the allocator and diag helpers */
+#include "common/parallel.c" /* the thread loop */
 
 #include "mlr_test.h"
 

@@ -1,7 +1,7 @@
-/* The page-mapping helper (libmlayer/prefault.c, compiled in here): it maps every page of the
- * range it is given without changing a byte, stays off small ranges, and can be stopped. The
- * solves that use it are checked in test_lgs.c (same bits for every thread count). */
-#include "prefault.c"
+/* The page-mapping helper (libmlayer/common/prefault.c, compiled in here): it maps every page
+ * of the range it is given without changing a byte, stays off small ranges, and can be stopped.
+ * The solves that use it are checked in test_lgs.c (same bits for every thread count). */
+#include "common/prefault.c"
 
 #include "mlr_test.h"
 

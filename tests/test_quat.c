@@ -1,7 +1,7 @@
-/* Check suite for libmlayer/quat.c: invariants and small independent references (explicit
- * rotation matrices, Rodrigues' formula, slerp as a * exp(t log(conj(a) b))). */
+/* Check suite for libmlayer/math/quat.c: invariants and small independent references
+ * (explicit rotation matrices, Rodrigues' formula, slerp as a * exp(t log(conj(a) b))). */
 #include "mlr_test.h"
-#include "sincosd.h" /* private: the BVH reader's sine and cosine in degrees */
+#include "math/sincosd.h" /* private: the BVH reader's sine and cosine in degrees */
 
 #include <float.h>
 #include <math.h>

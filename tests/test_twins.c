@@ -7,8 +7,8 @@
  *   mlr_ik_two_bone_1 on every frame. */
 #include "mlr_test.h"
 
-#include "common.c" /* mlr_diag_set, which ik.c reports through */
-#include "ik.c"
+#include "common/common.c" /* mlr_diag_set, which ik.c reports through */
+#include "guards/ik.c"
 
 #include <math.h>
 #include <stdio.h>

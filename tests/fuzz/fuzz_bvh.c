@@ -5,8 +5,8 @@
  * parses is written and read back to the same skeleton and exact positions. */
 #include <mlayer/mlayer.h>
 
-#include "bvh_frames.h"   /* BVH_KERNELS_*: which kernels */
-#include "bvh_internal.h" /* bvh_read_memory_ex: a kernel set on request */
+#include "io/bvh_frames.h"   /* BVH_KERNELS_*: which kernels */
+#include "motion/bvh_internal.h" /* bvh_read_memory_ex: a kernel set on request */
 
 #include <stdint.h>
 #include <stdlib.h>

@@ -1,4 +1,4 @@
-"""The whole body above the floor (libmlayer/floor_chains.c).
+"""The whole body above the floor (libmlayer/guards/floor_chains.c).
 
 Issue 38 item 2, measured as the issue defines it: every joint and End Site, its depth below
 the input's floor (the 5th percentile over frames of the lowest point) beyond the input's own
@@ -136,7 +136,7 @@ def test_a_knee_the_cleanup_folds_through_the_floor_is_turned_above_it():
     """PyMO's walk (tests/data/wild) at alpha 3: the cleanup pins a foot the synthesis had
     lifted, and the two-bone IK, keeping the leg's plane, swung the right knee 8.7% of body
     height through the floor. The leg is now turned about its hip-ankle line
-    (libmlayer/legs_swivel.c): the knee above the floor, the foot where it was pinned, the
+    (libmlayer/guards/legs_swivel.c): the knee above the floor, the foot where it was pinned, the
     knee's bend as it was."""
     m = mlayer.read_bvh(REPO / "tests" / "data" / "wild" / "pymo_av_8walk_meredith_first600.bvh")
     with warnings.catch_warnings():

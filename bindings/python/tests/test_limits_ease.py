@@ -1,4 +1,4 @@
-"""The guards ease the joint limits' corrections in time (libmlayer/limits_ease.c).
+"""The guards ease the joint limits' corrections in time (libmlayer/guards/limits_ease.c).
 
 Per-frame limits brake a fast joint within the few frames it takes to cross the soft zone: on
 Bandai's walk at alpha 2 the knees stopped at their bound in 30 ms and the feet's acceleration
