@@ -54,7 +54,7 @@ python -m pip install -q "sphinx>=8.1" "furo>=2024.8.6" "myst-parser>=4.0" "hawk
 python -m pip install -q pygltflib
 # test-only: the Khronos glTF validator (npm gltf-validator) that test_gltf.py runs under node,
 # installed into .venv/node_modules (not globally); without npm it is left out, and the
-# validator test skips only where node itself is absent
+# validator tests skip (scripts/test.sh fails them instead where npm is there to install it)
 if command -v npm >/dev/null 2>&1; then
   if [ ! -f .venv/node_modules/gltf-validator/package.json ]; then
     echo "setup: installing the glTF validator (npm gltf-validator) into .venv/node_modules"

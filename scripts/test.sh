@@ -4,8 +4,10 @@
 # the install check (pkg-config and CMake consumers, shared and static), the release check (sdist and abi3 wheel, installed into a fresh venv
 # without libcholmod), the same C suites again under AddressSanitizer +
 # UndefinedBehaviorSanitizer, a bounded fuzzing run of the BVH reader and one of the glTF and
-# AMASS readers (tests/fuzz/fuzz_readers.py), then pytest (the Python
-# examples included; the C examples run with the Check suites), then the documentation.
+# AMASS readers (tests/fuzz/fuzz_readers.py), then pytest as `pip install 'mlayer[test]'` alone
+# would run it (tests/extras/run.py: the other extras' modules blocked, their tests skipped) and
+# with everything (the Python examples included; the C examples run with the Check suites), then
+# the documentation.
 # Usage: bash scripts/test.sh
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -48,9 +50,18 @@ echo "== glTF and AMASS readers fuzzed for 20 s each (mutated seeds, a child und
 python tests/fuzz/fuzz_readers.py --seconds 20 \
   || { echo "fuzzing the glTF and AMASS readers failed" >&2; exit 1; }
 
+echo "== Python package as 'mlayer[test]' alone has it: the other extras' tests skip =="
+# every module outside mlayer[test] and the build requirements blocked (tests/extras/run.py),
+# without its slowest extra-free tests (--fast: about 2 minutes); the full run follows
+python tests/extras/run.py --fast
+
 echo "== Python package: pytest =="
-# setup.sh builds this checkout with CHOLMOD: its tests must not be skipped silently
-MLAYER_EXPECT_CHOLMOD=1 python -m pytest bindings/python/tests -q -p no:cacheprovider
+# setup.sh builds this checkout with CHOLMOD, and with npm it installs the glTF validator: their
+# tests must not be skipped silently
+expect_validator=0
+if command -v npm >/dev/null 2>&1; then expect_validator=1; fi
+MLAYER_EXPECT_CHOLMOD=1 MLAYER_EXPECT_GLTF_VALIDATOR=$expect_validator \
+  python -m pytest bindings/python/tests -q -p no:cacheprovider
 
 echo "== Documentation: Sphinx, warnings are errors (docs/, C and Python references, examples) =="
 rm -rf build-docs

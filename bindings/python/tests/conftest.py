@@ -3,7 +3,57 @@ import pathlib
 
 import pytest
 
+from mlayer import _optional
+
 REPO = pathlib.Path(__file__).resolve().parents[3]
+
+
+# ---- the optional dependencies (pyproject.toml's extras) -------------------------------------
+# The suite passes with `pip install 'mlayer[test]'` alone: a test that needs a module of another
+# extra says so with `requires(EXTRA, ...)` (a mark: `@requires("plot")`, or `pytestmark =
+# requires("plot")` for a whole file) or `need(EXTRA, ...)` (inside a test, or in a
+# pytest.param's marks), and is skipped, with the extra as its reason, where that module is
+# missing. A test that checks a feature *without* its module (a MissingDependencyError) hides
+# the module itself and runs everywhere (test_optional_deps.py).
+
+
+def _extra_modules(extra: str) -> list[str]:
+    mods = [m for m, (_, e) in _optional.EXTRAS.items() if e == extra]
+    if not mods:
+        raise ValueError(f"no extra {extra!r} in mlayer._optional.EXTRAS")
+    return mods
+
+
+def missing(*extras: str) -> str | None:
+    """Why a test needing these extras cannot run here ("needs mlayer[plot]: matplotlib is not
+    installed"), or None when every module of them imports."""
+    for extra in extras:
+        for module in _extra_modules(extra):
+            if not _optional.available(module):
+                return f"needs mlayer[{extra}]: {_optional.EXTRAS[module][0]} is not installed"
+    return None
+
+
+def requires(*extras: str) -> pytest.MarkDecorator:
+    """A mark that skips the test, with the extra as the reason, unless these extras' modules
+    import (e.g. ``requires("render", "video")`` for an MP4)."""
+    why = missing(*extras)
+    return pytest.mark.skipif(why is not None, reason=why or "")
+
+
+def need(*extras: str) -> None:
+    """Inside a test, or at the top of a test file (before importing the extras' modules):
+    skip here, with the extra as the reason, unless these extras' modules import."""
+    why = missing(*extras)
+    if why is not None:
+        pytest.skip(why, allow_module_level=True)
+
+
+def reference(module: str, dist: str):
+    """A third-party package the tests compare mlayer against (scikit-learn, MiniSom, bvhio,
+    scipy: the `test` extra installs them), imported, or the test skipped saying so."""
+    return pytest.importorskip(module, reason=f"needs mlayer[test]: {dist} (a reference of the "
+                                              f"tests) is not installed")
 
 
 #: the eight shared clips (../shared/data/mocap/README.md)

@@ -16,7 +16,10 @@ import time
 import numpy as np
 import pytest
 
-distributed = pytest.importorskip("distributed")
+from conftest import need  # noqa: E402
+
+need("batch")
+import distributed  # noqa: E402
 
 import mlayer  # noqa: E402
 from mlayer.batching import SIDECAR_DIR, Operation, operations, process_clip  # noqa: E402

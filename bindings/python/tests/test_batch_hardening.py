@@ -13,8 +13,9 @@ import sys
 import numpy as np
 import pytest
 
-pytest.importorskip("distributed")
-pytest.importorskip("cryptography")
+from conftest import need  # noqa: E402
+
+need("batch")
 
 import mlayer  # noqa: E402
 import mlayer.batching as B  # noqa: E402  (the subpackage; mlayer.batch is the function)

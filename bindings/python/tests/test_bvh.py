@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import mlayer
-from conftest import mocap_dir
+from conftest import mocap_dir, reference
 
 CLIPS = sorted(p.name for p in mocap_dir().glob("*.bvh")) if mocap_dir().is_dir() else []
 clip_params = pytest.mark.parametrize("clip", CLIPS or [pytest.param(
@@ -65,7 +65,7 @@ def test_round_trip_reproduces_every_clip(clip, motions, tmp_path):
 def test_local_rotations_match_scipy_euler(clip, motions, mocap):
     """Independent of the C reader: numpy reads the MOTION block, scipy converts each joint's
     angles with the order its CHANNELS line names."""
-    R = pytest.importorskip("scipy.spatial.transform").Rotation
+    R = reference("scipy.spatial.transform", "scipy").Rotation
     text = (mocap / clip).read_text()
     head, motion = re.split(r"Frame Time:[^\n]*\n", text, maxsplit=1)
     values = np.array(motion.split(), dtype=np.float64)
@@ -93,7 +93,7 @@ def test_local_rotations_match_scipy_euler(clip, motions, mocap):
 
 
 def _bvhio_positions(path, frames):
-    bvhio = pytest.importorskip("bvhio")
+    bvhio = reference("bvhio", "bvhio")
     root = bvhio.readAsHierarchy(str(path))
     joints = [j for j, _, _ in root.layout()]
     out = np.empty((len(frames), len(joints), 3))

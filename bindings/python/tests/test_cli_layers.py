@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 import mlayer
+from conftest import requires
 from mlayer.cli import main
 
 
@@ -44,6 +45,7 @@ def test_stylize_with_joint_patterns(capsys, tmp_path, short_clip):
     assert "Left*=3" in text
 
 
+@requires("plot")
 def test_layers_plot_and_npz(capsys, tmp_path, short_clip):
     fig, npz = tmp_path / "layers.png", tmp_path / "layers.npz"
     code, text, err = run(capsys, "layers", short_clip, "--plot", fig, "--npz", npz)
@@ -54,6 +56,7 @@ def test_layers_plot_and_npz(capsys, tmp_path, short_clip):
     assert "(root translation)" in text and "LeftKnee" in text
 
 
+@requires("render")
 def test_render_gif(capsys, tmp_path, short_clip):
     out = tmp_path / "clip.gif"
     code, text, err = run(capsys, "render", short_clip, short_clip, "-o", out, "--fps", "10",
@@ -64,6 +67,7 @@ def test_render_gif(capsys, tmp_path, short_clip):
     assert im.size == (240, 140) and im.n_frames == 20
 
 
+@requires("plot")
 def test_demo_on_the_bundled_clip(capsys, tmp_path):
     d = tmp_path / "demo"
     code, text, err = run(capsys, "demo", "-o", d, "--no-gif")
@@ -80,7 +84,9 @@ def test_demo_on_the_bundled_clip(capsys, tmp_path):
     (["denoise", "{clip}", "--gamma", "4", "-o", "{out}"], "gamma"),
     (["denoise", "{bad}", "-o", "{out}"], "bad.bvh:"),
     (["denoise", "{missing}", "-o", "{out}"], "missing.bvh"),
-    (["render", "{clip}", "--size", "big", "-o", "{gif}"], "--size"),
+    # (without Pillow, render says so before it reads its options)
+    pytest.param(["render", "{clip}", "--size", "big", "-o", "{gif}"], "--size",
+                 marks=requires("render")),
 ])
 def test_errors_are_one_line_and_leave_no_output(capsys, tmp_path, short_clip, argv, needle):
     bad = tmp_path / "bad.bvh"

@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 import mlayer
+from conftest import requires
 from mlayer.cli import main
 
 BANDAI = "bandai1_walk_happy_001.bvh"
@@ -22,6 +23,7 @@ def model_file(mocap, tmp_path_factory):
     return clip, out
 
 
+@requires("plot")  # (its elbow figure, on by default)
 def test_primitives_prints_the_criteria_and_orders(mocap, tmp_path, capsys):
     clip = mocap / BANDAI
     if not clip.exists():
@@ -53,6 +55,7 @@ def _one_error(capsys, command: str) -> str:
     return lines[0]
 
 
+@requires("plot")  # (without matplotlib, the default --plots is the first error)
 def test_primitives_bad_input_before_training(mocap, tmp_path, capsys):
     clip = str(mocap / BANDAI)
     out = tmp_path / "bad.npz"

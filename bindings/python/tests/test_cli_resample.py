@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 import mlayer
+from conftest import requires
 from mlayer.cli import main
 
 SAMPLE = mlayer.data.sample_path()  # 994 frames at 120 fps (Frame Time .0083333)
@@ -72,6 +73,7 @@ def test_contacts_kept_by_default_and_no_contacts_skips(capsys, tmp_path):
             assert mlayer.metrics.mpjpe(got, fn(style=2.0, keep_contacts=not keep)) > 1e-2
 
 
+@requires("plot")
 def test_resample_report_prints_and_plots_the_variance(capsys, tmp_path):
     out, png = tmp_path / "up.bvh", tmp_path / "var.png"
     code, text, err = run(capsys, "resample", SAMPLE, "--fps", 240, "-o", out, "--report", png)
@@ -85,13 +87,20 @@ def test_resample_report_prints_and_plots_the_variance(capsys, tmp_path):
     assert lines[4].startswith("  within 5 % of the max: frames ")
     assert len(mlayer.read_bvh(out)) == 1986
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    # without a plot path: the summary only
-    code, text, _ = run(capsys, "resample", SAMPLE, "--frames", 100, "-o", out, "--report")
-    assert code == 0 and "median" in text
     assert only(tmp_path) == ["up.bvh", "var.png"]
 
 
-def test_timewarp(capsys, tmp_path):
+def test_resample_report_without_a_plot_path_prints_the_summary(capsys, tmp_path):
+    out = tmp_path / "up.bvh"
+    code, text, err = run(capsys, "resample", SAMPLE, "--frames", 100, "-o", out, "--report")
+    assert code == 0 and err == "", err
+    assert text.splitlines()[0].startswith("posterior variance per output frame (100 frames")
+    assert "median" in text
+    assert only(tmp_path) == ["up.bvh"]
+
+
+@requires("plot")
+def test_timewarp_plot(capsys, tmp_path):
     out, png = tmp_path / "tw.bvh", tmp_path / "timemap.png"
     code, text, err = run(capsys, "timewarp", SAMPLE, "--strength", 1.5, "-o", out,
                           "--plot", png)
@@ -100,6 +109,16 @@ def test_timewarp(capsys, tmp_path):
     assert len(m) == 994 and m.frame_time == pytest.approx(0.0083333, rel=1e-6)
     assert "strength 1.5" in text and "slowest at input frame" in text
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert only(tmp_path) == ["timemap.png", "tw.bvh"]
+
+
+def test_timewarp(capsys, tmp_path):
+    out = tmp_path / "tw.bvh"
+    code, text, err = run(capsys, "timewarp", SAMPLE, "--strength", 1.5, "-o", out)
+    assert code == 0 and err == ""
+    m = mlayer.read_bvh(out)
+    assert len(m) == 994 and m.frame_time == pytest.approx(0.0083333, rel=1e-6)
+    assert "strength 1.5" in text and "slowest at input frame" in text
     code, _, _ = run(capsys, "timewarp", SAMPLE, "--frames", 1500, "-o", tmp_path / "long.bvh")
     assert code == 0 and len(mlayer.read_bvh(tmp_path / "long.bvh")) == 1500
     # an explicit map from a text file
@@ -163,6 +182,7 @@ def test_bad_maps_and_files_leave_nothing(capsys, tmp_path):
     assert sorted(only(tmp_path)) == ["bad.txt", "broken.bvh", "words.txt"]
 
 
+@requires("plot")
 def test_a_failed_write_leaves_no_figure(capsys, tmp_path, monkeypatch):
     """The figure and the BVH appear together or not at all."""
     from mlayer.cli import retiming as cli_resample

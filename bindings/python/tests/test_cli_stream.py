@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 import mlayer
+from conftest import requires
 from mlayer.cli import main
 
 
@@ -29,8 +30,8 @@ def test_writes_the_streamed_clip(capsys, tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out.bvh"]
 
 
+@requires("plot")
 def test_plot(capsys, tmp_path, mocap):
-    pytest.importorskip("matplotlib")
     src = mocap / "cmu_02_03_run_jog_25fps.bvh"
     png = tmp_path / "cmp.png"
     code, out, err = run(capsys, src, "--lag", 4, "--lam", 2, "--sigma", 0.5, "-o",
@@ -47,8 +48,9 @@ def test_plot(capsys, tmp_path, mocap):
     (["--lag", "-1"], "lag"),
     (["--lam", "-2"], "lam"),
     (["--sigma", "0"], "sigma"),
-    (["--plot", "p.png", "--joint", "Nope"], "Nope"),
-    (["--plot", "p.png", "--euro-min-cutoff", "0"], "cutoff"),
+    # (the options of the plot: without matplotlib, --plot is the first error)
+    pytest.param(["--plot", "p.png", "--joint", "Nope"], "Nope", marks=requires("plot")),
+    pytest.param(["--plot", "p.png", "--euro-min-cutoff", "0"], "cutoff", marks=requires("plot")),
 ])
 def test_bad_options_one_line_exit_1(capsys, tmp_path, extra, msg):
     code, out, err = run(capsys, mlayer.data.sample_path(), "-o", tmp_path / "o.bvh", *extra)

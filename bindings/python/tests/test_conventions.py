@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 import mlayer
+from conftest import need, requires
 from mlayer.cli import main
 
 PACKAGE = pathlib.Path(mlayer.__file__).parent
@@ -55,6 +56,7 @@ def test_library_code_does_not_print():
     assert found == []
 
 
+@requires("render", "progress")
 def test_progress_switch(tmp_path, capsys):
     from mlayer.render import render_gif
     m = mlayer.data.load_sample()[:60]
@@ -80,8 +82,8 @@ def test_progress_switch(tmp_path, capsys):
     assert not (tmp_path / "f.gif").exists()
 
 
+@requires("render", "progress")
 def test_progress_default_on_a_terminal(tmp_path, monkeypatch):
-    pytest.importorskip("tqdm")
     from mlayer.render import render_gif
 
     class Terminal(io.StringIO):
@@ -112,9 +114,8 @@ def test_the_package_logger_has_a_null_handler():
     assert any(isinstance(h, logging.NullHandler) for h in logging.getLogger("mlayer").handlers)
 
 
+@requires("batch")
 def test_batch_progress_callable_and_quiet_default(tmp_path, capsys, walk_1s):
-    pytest.importorskip("distributed")
-    pytest.importorskip("cryptography")
     seen = []
     res = mlayer.batch("features", [str(walk_1s)], tmp_path / "a", n_workers=1,
                        metrics=False, progress=lambda d, t: seen.append((d, t)))
@@ -160,8 +161,8 @@ _FIGURES = textwrap.dedent("""
 """)
 
 
+@requires("plot")
 def test_figures_are_returned_and_leave_the_backend_alone(tmp_path):
-    pytest.importorskip("matplotlib")
     env = dict(os.environ, MPLBACKEND="svg")
     r = subprocess.run([sys.executable, "-c", _FIGURES], capture_output=True, text=True,
                        cwd=tmp_path, env=env, timeout=300)
@@ -169,8 +170,8 @@ def test_figures_are_returned_and_leave_the_backend_alone(tmp_path):
     assert os.listdir(tmp_path) == []  # no path, no file
 
 
+@requires("plot")
 def test_plot_layers_writes_only_when_given_a_path(tmp_path):
-    pytest.importorskip("matplotlib")
     from mlayer.plot import layer_choice, plot_layers
     m = mlayer.data.load_sample()[:120]
     L = mlayer.decompose(m)
@@ -185,10 +186,9 @@ def test_plot_layers_writes_only_when_given_a_path(tmp_path):
 
 # ---- outputs honour the umask ----------------------------------------------------------------
 
+@requires("plot", "render", "video")
 @pytest.mark.parametrize("mask", [0o022, 0o077])
 def test_every_cli_output_honours_the_umask(tmp_path, capsys, walk_1s, small_model, mask):
-    pytest.importorskip("matplotlib")
-    pytest.importorskip("imageio_ffmpeg")
     runs = [
         (["layers", walk_1s, "--plot", "l.png", "--npz", "l.npz"], ["l.png", "l.npz"]),
         (["layers", walk_1s, "--plot", "l.svg"], ["l.svg"]),
@@ -219,6 +219,7 @@ def test_every_cli_output_honours_the_umask(tmp_path, capsys, walk_1s, small_mod
 
 # ---- render by extension ---------------------------------------------------------------------
 
+@requires("render")
 def test_render_writes_what_the_extension_says(tmp_path, capsys, walk_1s):
     from PIL import Image
     gif, mp4, png = tmp_path / "a.GIF", tmp_path / "a.mp4", tmp_path / "a.png"
@@ -244,7 +245,8 @@ def test_render_writes_what_the_extension_says(tmp_path, capsys, walk_1s):
             assert ink.sum() > 20, (r, c)
     assert "(4 frames in the strip)" in out
 
-    ffmpeg = pytest.importorskip("imageio_ffmpeg")
+    need("video")
+    import imageio_ffmpeg as ffmpeg
     code, out, err = run(capsys, "render", walk_1s, "-o", mp4, "--fps", "10",
                          "--size", "100x120")
     assert code == 0, err

@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 import mlayer
+from conftest import requires
 
 EXAMPLES = Path(__file__).resolve().parents[3] / "examples" / "python"
 pytestmark = pytest.mark.skipif(not EXAMPLES.is_dir(), reason="examples/ not in this tree")
@@ -104,8 +105,8 @@ def test_primitives_generate(tmp_path: Path) -> None:
         assert np.ptp(g.positions(), axis=0).max() > 0.05 * mlayer.metrics.body_height(m)
 
 
+@requires("plot")
 def test_plot_layers(tmp_path: Path) -> None:
-    pytest.importorskip("matplotlib")
     run("plot_layers", tmp_path)
     png = (tmp_path / "layers.png").read_bytes()
     assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 10_000

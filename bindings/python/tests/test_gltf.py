@@ -65,15 +65,21 @@ def _file_positions(path, n_joints, times=None):
 
 
 def _validator():
-    """(node, validator folder), or skip when node is absent."""
+    """(node, validator folder), or skip when node or the validator is absent; but where
+    $MLAYER_EXPECT_GLTF_VALIDATOR is 1 (scripts/test.sh, where npm is there for setup.sh to
+    install it) a missing validator fails."""
     node = shutil.which("node")
     if node is None:
         pytest.skip("node is not installed: the Khronos glTF validator (npm gltf-validator) "
                     "cannot run here")
     d = os.environ.get("GLTF_VALIDATOR") or str(REPO / ".venv" / "node_modules" /
                                                 "gltf-validator")
-    assert os.path.isdir(d), (f"node is installed but the glTF validator is not at {d}: run "
-                              "scripts/setup.sh (it installs it with npm)")
+    if not os.path.isdir(d):
+        why = (f"the glTF validator (npm gltf-validator) is not at {d}: scripts/setup.sh "
+               "installs it with npm")
+        if os.environ.get("MLAYER_EXPECT_GLTF_VALIDATOR") == "1":
+            pytest.fail(why)
+        pytest.skip(why)
     return node, d
 
 

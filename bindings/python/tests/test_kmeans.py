@@ -4,9 +4,10 @@ import numpy as np
 import pytest
 
 import mlayer
+from conftest import reference, requires
 from mlayer.clustering import elbow_point, predict
 
-sklearn_cluster = pytest.importorskip("sklearn.cluster")
+sklearn_cluster = reference("sklearn.cluster", "scikit-learn")
 
 
 def blobs(rng, n, d, c, spread=1.0, scale=6.0):
@@ -73,6 +74,7 @@ def test_elbow_point_rule():
     assert elbow_point([3, 1, 2], [1, 1, 1])[0] == 1
 
 
+@requires("plot")
 def test_elbow_plot(rng):
     import matplotlib
     matplotlib.use("Agg")

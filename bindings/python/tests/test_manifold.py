@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 import mlayer
+from conftest import reference, requires
 from mlayer import GRBF, PCA, GaussianMixture, InvalidArgumentError, Markov, fuzzy_cmeans
 
 
@@ -80,7 +81,7 @@ def test_fuzzy_point_on_centre():
 
 @pytest.mark.parametrize("cov", ["full", "diag"])
 def test_gmm_log_likelihood_matches_sklearn(rng, cov):
-    sk = pytest.importorskip("sklearn.mixture")
+    sk = reference("sklearn.mixture", "scikit-learn")
     X, _ = blobs(rng, n=600, d=3, k=4, spread=1.0)
     X[:, 1] += 0.5 * X[:, 0]  # correlated
     k = 4
@@ -108,7 +109,7 @@ def test_gmm_log_likelihood_matches_sklearn(rng, cov):
 def test_gmm_means_only_init_like_sklearn(rng):
     """Means alone: weights and covariances from the hard assignment to the nearest mean (as
     scikit-learn derives them from its k-means labels); sklearn given those three agrees."""
-    sk = pytest.importorskip("sklearn.mixture")
+    sk = reference("sklearn.mixture", "scikit-learn")
     X, _ = blobs(rng, n=400, d=2, k=3)
     means = X[:3].copy()
     lab = np.argmin(((X[:, None, :] - means[None]) ** 2).sum(-1), axis=1)
@@ -191,7 +192,7 @@ def smooth_fn(P):
 
 
 def test_grbf_square_interpolates_and_matches_scipy(rng):
-    interp = pytest.importorskip("scipy.interpolate")
+    interp = reference("scipy.interpolate", "scipy")
     lat = (7, 9)
     bounds = ((0.0, 5.0), (-1.0, 4.0))
     C = mlayer.manifold.lattice_points(lat, bounds)
@@ -277,7 +278,7 @@ def test_grbf_lattice_split_matches_whole_system(rng, monkeypatch, lat, kernel):
 def test_grbf_bench_case_matches_scipy(rng):
     # the case of bench/python/bench_grbf.py: 40 x 50 lattice, 93 outputs, thin plate with
     # linear terms, interpolating; scipy's RBFInterpolator solves the whole system by LU
-    interp = pytest.importorskip("scipy.interpolate")
+    interp = reference("scipy.interpolate", "scipy")
     bounds = ((0.0, 64.0), (0.0, 64.0))
     C = mlayer.manifold.lattice_points((40, 50), bounds)
     f = rng.normal(scale=0.08, size=(2, 93))
@@ -414,6 +415,7 @@ def test_model_bad_input(walk_model):
         type(model).fit([m[:5]], k=6, som=(3, 3), epochs=1, lattice=(2, 2))
 
 
+@requires("plot")  # (the figures of primitives, on by default)
 def test_cli_primitives_generate(mocap, tmp_path, capsys):
     from mlayer.cli import main
     model = tmp_path / "model.npz"

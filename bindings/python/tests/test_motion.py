@@ -4,9 +4,10 @@ import numpy as np
 import pytest
 
 import mlayer
+from conftest import reference
 from mlayer import Motion
 
-R = pytest.importorskip("scipy.spatial.transform").Rotation
+R = reference("scipy.spatial.transform", "scipy").Rotation
 
 
 def random_quats(rng, shape):

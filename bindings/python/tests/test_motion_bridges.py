@@ -5,9 +5,10 @@ import numpy as np
 import pytest
 
 import mlayer
+from conftest import reference, requires
 from mlayer import quat
 
-Rotation = pytest.importorskip("scipy.spatial.transform").Rotation
+Rotation = reference("scipy.spatial.transform", "scipy").Rotation
 
 
 def motion_values(text: str) -> np.ndarray:
@@ -19,8 +20,8 @@ def motion_values(text: str) -> np.ndarray:
 
 @pytest.mark.parametrize("name", ["cmu_131_01_mj_style_walk.bvh", "bandai1_walk_happy_001.bvh",
                                   "lafan1_clip_a.bvh"])
+@requires("dataframe")
 def test_dataframe_holds_the_files_channel_values(mocap, name):
-    pytest.importorskip("pandas")
     path = mocap / name
     m = mlayer.read_bvh(path)
     df = m.to_dataframe()
@@ -48,8 +49,8 @@ def test_dataframe_holds_the_files_channel_values(mocap, name):
     assert k >= 20
 
 
+@requires("dataframe")
 def test_dataframe_of_an_empty_motion(mocap):
-    pytest.importorskip("pandas")
     m = mlayer.read_bvh(mocap / "cmu_131_01_mj_style_walk.bvh")[:0]
     df = m.to_dataframe()
     assert df.shape == (0, m.skeleton.n_channels)

@@ -16,7 +16,7 @@ import pytest
 
 import mlayer
 from mlayer import _optional
-from conftest import REPO
+from conftest import REPO, need, requires
 
 
 def hide(monkeypatch, *modules):
@@ -52,21 +52,32 @@ def test_plot_layers_without_matplotlib(monkeypatch, tmp_path):
         plot_layers(m, layers, tmp_path / "x.png")
     check_error(e, "plot", "matplotlib")
     assert os.listdir(tmp_path) == []
+    elbow = mlayer.elbow(np.arange(40.0).reshape(20, 2), [1, 2, 3])
+    with pytest.raises(ImportError) as e:
+        elbow.plot()
+    check_error(e, "plot", "matplotlib")
 
 
-def test_render_without_pillow_or_ffmpeg(monkeypatch, tmp_path):
+def test_render_without_pillow(monkeypatch, tmp_path):
     from mlayer.render import render, render_gif
     m = mlayer.data.load_sample()[:30]
-    hide(monkeypatch, "imageio_ffmpeg")
-    with pytest.raises(ImportError) as e:
-        render([m], tmp_path / "x.mp4")
-    check_error(e, "video", "imageio_ffmpeg")
     hide(monkeypatch, "PIL")
     for call in (lambda: render_gif([m], tmp_path / "x.gif"),
                  lambda: render([m], tmp_path / "x.png")):
         with pytest.raises(ImportError) as e:
             call()
         check_error(e, "render", "PIL")
+    assert os.listdir(tmp_path) == []
+
+
+@requires("render")  # (an MP4 needs Pillow too, which is checked first)
+def test_render_mp4_without_ffmpeg(monkeypatch, tmp_path):
+    from mlayer.render import render
+    m = mlayer.data.load_sample()[:30]
+    hide(monkeypatch, "imageio_ffmpeg")
+    with pytest.raises(ImportError) as e:
+        render([m], tmp_path / "x.mp4")
+    check_error(e, "video", "imageio_ffmpeg")
     assert os.listdir(tmp_path) == []
 
 
@@ -79,8 +90,8 @@ def test_batch_without_dask_writes_nothing(monkeypatch, tmp_path, walk_1s):
     assert not out.exists()
 
 
+@requires("batch")  # (distributed: checked before cryptography)
 def test_batch_embedded_cluster_without_cryptography(monkeypatch, tmp_path, walk_1s):
-    pytest.importorskip("distributed")
     out = tmp_path / "out"
     hide(monkeypatch, "cryptography")
     with pytest.raises(ImportError) as e:
@@ -89,7 +100,21 @@ def test_batch_embedded_cluster_without_cryptography(monkeypatch, tmp_path, walk
     assert "TLS" in str(e.value) and not out.exists()
 
 
-def test_progress_true_without_tqdm(monkeypatch, tmp_path):
+def test_progress_true_without_tqdm(monkeypatch):
+    m = mlayer.data.load_sample()[:60]
+    hide(monkeypatch, "tqdm")
+    with pytest.raises(ImportError) as e:
+        mlayer.PrimitiveModel.fit(m, k=2, som=(3, 3), lattice=(2, 2), epochs=1, progress=True)
+    check_error(e, "progress", "tqdm")
+    # a callable does not need tqdm
+    steps = []
+    mlayer.PrimitiveModel.fit(m, k=2, som=(3, 3), lattice=(2, 2), epochs=2,
+                              progress=lambda d, t: steps.append((d, t)))
+    assert steps == [(k, 5) for k in range(1, 6)]  # the fit's five steps
+
+
+@requires("render")
+def test_render_progress_true_without_tqdm(monkeypatch, tmp_path):
     from mlayer.render import render_gif
     m = mlayer.data.load_sample()[:30]
     hide(monkeypatch, "tqdm")
@@ -179,8 +204,11 @@ def cli_cases(clip):
 @pytest.mark.parametrize("case", range(12))
 def test_cli_without_an_optional_module(tmp_path, walk_1s, case):
     hidden, argv, line = cli_cases(str(walk_1s))[case]
+    # the modules checked before the hidden one must be there
+    if hidden == ["imageio_ffmpeg"]:
+        need("render")
     if hidden == ["cryptography"]:
-        pytest.importorskip("distributed")
+        need("batch")
     r = run_hidden(tmp_path, hidden, *argv)
     assert r.returncode == 1, (r.returncode, r.stderr)
     assert r.stderr == f"mlayer {argv[0]}: error: {line}\n", r.stderr
@@ -199,3 +227,46 @@ def test_cli_needs_only_what_the_flags_use(tmp_path, walk_1s):
         assert r.returncode == 0, r.stderr
         if out:
             assert (tmp_path / out).is_file()
+
+
+# ---- the check of scripts/test.sh: the suite as mlayer[test] alone runs it --------------------
+
+def test_tests_extras_run_blocks_what_mlayer_test_does_not_install(tmp_path):
+    """tests/extras/run.py blocks every installed module that mlayer[test] and the build do not
+    need (the extras' modules among them, scipy not: `test` installs it), in child processes
+    too; conftest.requires then skips, naming the extra."""
+    run = REPO / "tests" / "extras" / "run.py"
+    if not run.is_file():
+        pytest.skip("tests/extras/ not in this tree")
+    r = subprocess.run([sys.executable, str(run), "--list"], capture_output=True, text=True,
+                       timeout=120)
+    assert r.returncode == 0, r.stderr
+    blocked = set(r.stdout.split())
+    for module, (_, extra) in _optional.EXTRAS.items():
+        if extra != "scipy" and _optional.available(module):
+            assert module in blocked, (module, extra)
+    assert not blocked & {"mlayer", "numpy", "cffi", "pytest", "scipy", "bvhio", "sklearn",
+                          "minisom"}, blocked
+    probe = textwrap.dedent("""
+        import subprocess, sys
+        from mlayer import _optional
+        from conftest import missing
+        try:
+            import matplotlib.pyplot
+        except ModuleNotFoundError as e:
+            print("blocked", e.name)
+        print(_optional.available("matplotlib"), missing("plot"))
+        child = "import importlib.util as u; print(u.find_spec('matplotlib') is None)"
+        print(subprocess.run([sys.executable, "-c", child], capture_output=True,
+                             text=True).stdout.strip())
+    """)
+    env = dict(os.environ, MLAYER_TEST_BLOCK="matplotlib",
+               PYTHONPATH=os.pathsep.join([str(run.parent / "site"), str(REPO / "bindings" /
+                                                                          "python" / "tests"),
+                                           os.environ.get("PYTHONPATH", "")]))
+    r = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, env=env,
+                       cwd=tmp_path, timeout=120)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.splitlines() == [
+        "blocked matplotlib", "False needs mlayer[plot]: matplotlib is not installed",
+        "True"], r.stdout

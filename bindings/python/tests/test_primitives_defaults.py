@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 import mlayer
+from conftest import requires
 from mlayer import InvalidArgumentError, MlayerWarning, PrimitiveModel
 from mlayer.metrics import body_height
 from mlayer.primitives import MIN_FRAMES, default_lattices
@@ -65,6 +66,11 @@ def test_too_few_frames_is_one_clear_error(mocap, tmp_path):
         PrimitiveModel.fit(m)
     # with both lattices given, the defaults' minimum does not apply
     assert PrimitiveModel.fit(m, som=(3, 3), lattice=(2, 2), k=2, epochs=2).points.shape[0] == 12
+
+
+@requires("plot")  # (without matplotlib, the default --plots is the first error)
+def test_too_few_frames_is_one_clear_error_on_the_command_line(mocap, tmp_path):
+    m = _clip(mocap, "bandai1_walk_happy_001.bvh")[:12]
     path = tmp_path / "tiny.bvh"
     mlayer.write_bvh(m, path)
     r = subprocess.run([sys.executable, "-m", "mlayer", "primitives", str(path), "-o",

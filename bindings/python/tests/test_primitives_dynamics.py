@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 import mlayer
+from conftest import reference
 from mlayer import InvalidArgumentError, PrimitiveModel
 from mlayer.clustering import elbow_point, silhouette_score
 
@@ -30,8 +31,8 @@ def bandai(mocap):
 
 @pytest.mark.parametrize("name,frames", CLIPS)
 def test_criteria_match_sklearn(mocap, name, frames):
-    sk_metrics = pytest.importorskip("sklearn.metrics")
-    sk_mixture = pytest.importorskip("sklearn.mixture")
+    sk_metrics = reference("sklearn.metrics", "scikit-learn")
+    sk_mixture = reference("sklearn.mixture", "scikit-learn")
     m = _clip(mocap, name, frames)
     model = PrimitiveModel.fit(m, ks=range(2, 11), **OPTS)
     c, X = model.criteria, model.points
@@ -58,7 +59,7 @@ def test_criteria_match_sklearn(mocap, name, frames):
 
 
 def test_silhouette_reference_and_bad_input(rng):
-    sk_metrics = pytest.importorskip("sklearn.metrics")
+    sk_metrics = reference("sklearn.metrics", "scikit-learn")
     X = rng.normal(size=(300, 3))
     X[:100] += 4
     lab = (X[:, 0] > 2).astype(int) + 2 * (X[:, 1] > 0)

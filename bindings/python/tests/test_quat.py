@@ -4,7 +4,9 @@ import warnings
 import numpy as np
 import pytest
 
-scipy_transform = pytest.importorskip("scipy.spatial.transform")
+from conftest import reference
+
+scipy_transform = reference("scipy.spatial.transform", "scipy")
 Rotation = scipy_transform.Rotation
 Slerp = scipy_transform.Slerp
 

@@ -6,9 +6,11 @@ import pytest
 
 import mlayer
 import mlayer.data
+from conftest import need
 from mlayer.render import body_side, followed_joint, render_gif
 
-PIL = pytest.importorskip("PIL.Image")
+need("render")
+from PIL import Image as PIL  # noqa: E402
 
 
 @pytest.fixture(scope="module")

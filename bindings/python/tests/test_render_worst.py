@@ -11,10 +11,10 @@ import sys
 import pytest
 
 import mlayer
-from conftest import REPO, mocap_dir
+from conftest import REPO, mocap_dir, need
 
 sys.path.insert(0, str(REPO / "bench" / "python"))
-pytest.importorskip("matplotlib")
+need("plot")
 import render_worst as R  # noqa: E402
 
 

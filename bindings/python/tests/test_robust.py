@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 import mlayer
+from conftest import requires
 from mlayer import metrics
 from mlayer.cli import main
 from mlayer.cli.layers import frame_ranges
@@ -94,6 +95,12 @@ def test_cli_reports_outliers_and_no_robust(capsys, tmp_path, lafan):
     assert "mlayer: 5 outlier frames down-weighted (frames 0-4)" in err
     assert main(["denoise", str(src), "-o", str(out), "--no-robust"]) == 0
     assert "outlier" not in capsys.readouterr().err
+
+
+@requires("plot")
+def test_cli_layers_plot_reports_outliers(capsys, tmp_path, lafan):
+    src = tmp_path / "g.bvh"
+    mlayer.write_bvh(glitch(lafan[:300], 0), src)
     fig = tmp_path / "layers.png"
     assert main(["layers", str(src), "--plot", str(fig)]) == 0
     assert fig.stat().st_size > 0

@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 import mlayer
+from conftest import reference
 
 
 def three_blobs(rng):
@@ -13,7 +14,7 @@ def three_blobs(rng):
 
 @pytest.mark.parametrize("mode,epochs", [("online", 5), ("online", 20), ("batch", 20)])
 def test_quantization_error_close_to_minisom(rng, mode, epochs):
-    minisom = pytest.importorskip("minisom")
+    minisom = reference("minisom", "MiniSom")
     X = three_blobs(rng)
     # MiniSom's default schedule divides sigma and the learning rate by 3 over the run
     ms = minisom.MiniSom(10, 10, 4, sigma=3.0, learning_rate=0.5, random_seed=1)

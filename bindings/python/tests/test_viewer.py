@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 import mlayer
+from conftest import requires
 from mlayer import quat
 from mlayer.contacts import detect_contacts
 from mlayer.metrics import body_height, foot_sliding
@@ -296,10 +297,19 @@ def test_download_is_the_processed_bvh(server, mocap):
     np.testing.assert_allclose(got.positions(), pts, atol=1e-3 * body_height(m))
 
 
+@requires("plot")
 def test_layers_png(server):
     status, headers, body = get(server, "/api/layers.png?clip=2")
     assert status == 200 and headers["Content-Type"] == "image/png"
     assert body[:8] == b"\x89PNG\r\n\x1a\n" and len(body) > 10_000
+
+
+def test_layers_png_without_matplotlib(server, monkeypatch):
+    """Without the `plot` extra the figure is a 503 that names it; the viewer serves on."""
+    monkeypatch.setitem(sys.modules, "matplotlib", None)
+    status, _, body = get(server, "/api/layers.png?clip=0")
+    assert status == 503 and b"pip install 'mlayer[plot]'" in body, body
+    assert get(server, "/api/clips")[0] == 200
 
 
 def test_slider_move_is_fast(server):

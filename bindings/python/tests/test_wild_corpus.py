@@ -38,7 +38,7 @@ import numpy as np
 import pytest
 
 import mlayer
-from conftest import REPO
+from conftest import REPO, missing, requires
 from test_bvh import _bvhio_positions, clip_size, rotation_angle
 
 CORPUS = REPO / "tests" / "data" / "wild"
@@ -174,6 +174,8 @@ COMMANDS = [
     ("demo", ["--clip", "IN", "-o", "OUT/demo", "--no-gif"], ["demo"]),
     ("convert", ["IN", "OUT/c.glb"], ["c.glb"]),
 ]
+#: the extras a command of COMMANDS needs as called there (render: Pillow; demo: its figure)
+COMMAND_EXTRAS = {"render": ("render",), "demo": ("plot",)}
 _CLI_RUNS: dict = {}
 
 
@@ -225,6 +227,9 @@ def _one_line_error(cmd, stderr):
 @pytest.mark.parametrize("cmd,args,outputs", COMMANDS, ids=[c[0] for c in COMMANDS])
 def test_cli_command(request, path, cmd, args, outputs, cli_tmp):
     _expect(request, path, cmd)
+    why = missing(*COMMAND_EXTRAS.get(cmd, ()))
+    if why:
+        pytest.skip(why)
     runs = cli_runs(path, cli_tmp)
     if cmd == "generate" and runs["primitives"][0] != 0:
         pytest.skip("no model: primitives failed on this file (" +
@@ -263,6 +268,7 @@ def test_console_version_and_info_over_the_corpus():
         assert str(p) in r.stdout
 
 
+@requires("batch")
 def test_console_batch_over_the_corpus(tmp_path):
     src = tmp_path / "in"
     src.mkdir()

@@ -58,8 +58,11 @@ def main(jobs_path, results_path) -> int:
         jobs = json.load(f)
     fork = hasattr(os, "fork") and sys.platform.startswith("linux")
     if fork:
-        import matplotlib
-        matplotlib.use("Agg")
+        try:  # (the `plot` extra: without it, the commands that draw say so themselves)
+            import matplotlib
+            matplotlib.use("Agg")
+        except ImportError:
+            pass
         from mlayer import cli  # noqa: F401  every command module imported once, before the forks
     results = {}
     for job in jobs:
