@@ -580,7 +580,8 @@ START_TEST(bad_input_gets_the_right_status_and_message)
         const char *msg;
     } bad[] = {
         {{{0, 1.0}}, 1, "unknown option key 0"},
-        {{{14, 1.0}}, 1, "unknown option key 14"},
+        {{{15, 1.0}}, 1, "unknown option key 15"},
+        {{{MLR_CLEANUP_OPT_RAMP_TRACK, 0.5}}, 1, "option ramp_track = 0.5 is not 0 or 1"},
         {{{MLR_CLEANUP_OPT_PIN_DETAIL, 1.5}}, 1, "option pin_detail = 1.5 is not in [0, 1]"},
         {{{MLR_CLEANUP_OPT_KEEP_TOTAL, 0.5}}, 1, "option keep_total = 0.5 is not 0 or 1"},
         {{{MLR_CLEANUP_OPT_BLEND, 0.1}, {MLR_CLEANUP_OPT_BLEND, 0.2}},

@@ -88,12 +88,19 @@ typedef enum mlr_cleanup_key {
                                            REF_SMOOTH: the kept runs that slide most beyond
                                            the reference follow it instead, largest excess
                                            first; 0 (default): off */
-    MLR_CLEANUP_OPT_PIN_DETAIL = 13     /* [0, 1]: how much of the synthesized foot's own fast
+    MLR_CLEANUP_OPT_PIN_DETAIL = 13,    /* [0, 1]: how much of the synthesized foot's own fast
                                            motion (beyond a 0.03 s local linear fit) a pinned
                                            contact keeps; the slow part follows the reference.
                                            0 (default): planted on the reference's smoothed
                                            path; 1: the synthesis' detail kept, the reference's
                                            capture noise left out (the guards' denoise) */
+    MLR_CLEANUP_OPT_RAMP_TRACK = 14     /* 1 (default): the frames around a contact pinned to
+                                           the reference cross-fade from the reference's
+                                           motion (plus the contact's offset) to the
+                                           synthesis's, so the foot meets its contact with
+                                           the contact's velocity; 0: they carry the edge's
+                                           offset alone (the synthesis's velocity at the
+                                           edge: the guards' denoise, retiming). Since 0.3 */
 } mlr_cleanup_key;
 
 /** One option: key (an mlr_cleanup_key) and its value. A frozen value type. */

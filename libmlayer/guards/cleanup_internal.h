@@ -150,6 +150,7 @@ typedef struct cleanup_config {
     double keep_stiller;
     int keep_total;
     double pin_detail;
+    int ramp_track; /* MLR_CLEANUP_OPT_RAMP_TRACK */
 } cleanup_config;
 
 /* A foot: anchor joint, its leg, the columns of its points, the targets. */

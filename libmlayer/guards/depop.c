@@ -192,19 +192,26 @@ static size_t smooth_round(size_t N, size_t J, const double *syn_root, const dou
     return changed;
 }
 
-/* The hinges of the smoothed frames (w->blend > 0) back within their ranges (the hard clamp of
-   mlr_limits_apply_kind_masked): an average of a knee's corrections can bend it past straight
-   (FAIR's jump at alpha 2: 5 degrees the other way on 5 frames). */
-static mlr_status clamp_hinges(const mlr_limits *limits, size_t N, size_t J, double *rot,
-                               const double *alpha, size_t n_alpha, const depop_work *w,
-                               const mlr_allocator *alloc)
+/* The hinges of the smoothed frames (w->blend > 0) back within their ranges: an average of a
+   knee's corrections can bend it past straight (FAIR's jump at alpha 2: 5 degrees the other way
+   on 5 frames). The clamp (mlr_limits_apply_kind_masked's) is eased in time as the guards'
+   limits are (mlr_limits_ease), and what is left of it clamped: clamped on its frames alone it
+   made a corner of its own (the same jump's toe, 3.7x the base at alpha 2; 1.2x eased). */
+static mlr_status clamp_hinges(const mlr_limits *limits, size_t N, size_t J, double fps,
+                               double *rot, const double *alpha, size_t n_alpha,
+                               const depop_work *w, const mlr_allocator *alloc)
 {
-    size_t bytes = 0;
-    if (mlr_mul_size(N, J, &bytes) != MLR_OK)
+    size_t bytes = 0, qbytes = 0;
+    if (mlr_mul_size(N, J, &bytes) != MLR_OK ||
+        mlr_mul_size(bytes, 4 * sizeof(double), &qbytes) != MLR_OK)
         return MLR_E_OVERFLOW;
     uint8_t *mask = mlr_alloc(alloc, bytes);
-    if (!mask)
+    double *raw = mask ? mlr_alloc(alloc, qbytes) : NULL;
+    if (!raw) {
+        if (mask)
+            mlr_free(alloc, mask, bytes);
         return MLR_E_NO_MEMORY;
+    }
     for (size_t f = 0; f < N; f++)
         memset(mask + f * J, w->blend[f] > 0.0, J);
     for (size_t i = 0; i < N * J; i++) { /* the limits take unit quaternions */
@@ -213,10 +220,16 @@ static mlr_status clamp_hinges(const mlr_limits *limits, size_t N, size_t J, dou
         if (mask[i])
             q[0] /= n, q[1] /= n, q[2] /= n, q[3] /= n;
     }
+    memcpy(raw, rot, qbytes);
     mlr_limits_apply_kind_masked(limits, N, (mlr_quat *)rot, alpha, n_alpha, NULL,
                                  MLR_LIMITS_HINGE, mask, NULL, 0, 1);
+    mlr_status st = mlr_limits_ease(raw, rot, N, J, fps, NULL, alloc);
+    if (st == MLR_OK) /* what the easing left outside a range */
+        mlr_limits_apply_kind_masked(limits, N, (mlr_quat *)rot, alpha, n_alpha, NULL,
+                                     MLR_LIMITS_HINGE, NULL, NULL, 0, 1);
+    mlr_free(alloc, raw, qbytes);
     mlr_free(alloc, mask, bytes);
-    return MLR_OK;
+    return st;
 }
 
 mlr_status mlr_depop(const mlr_rig *rig, size_t N, double fps, const double *in_root,
@@ -304,7 +317,8 @@ mlr_status mlr_depop(const mlr_rig *rig, size_t N, double fps, const double *in_
         const size_t n = smooth_round(N, J, syn_root, syn_rot, root, rot, h, limit, &w);
         if (smoothed)
             *smoothed = n > *smoothed ? n : *smoothed;
-        if (limits && (st = clamp_hinges(limits, N, J, rot, alpha, n_alpha, &w, alloc)) != MLR_OK)
+        if (limits &&
+            (st = clamp_hinges(limits, N, J, fps, rot, alpha, n_alpha, &w, alloc)) != MLR_OK)
             break;
     }
     if (w.held)

@@ -15,7 +15,7 @@
 #include <math.h>
 
 /* the cleanup options an apply passes at most (cleanup_options) */
-#define GUARDS_MAX_COPTS 7
+#define GUARDS_MAX_COPTS 8
 
 /* The cleanup passes (of its default 2) whose IK's rotations are limited before the spread,
    and whose blends are limited after it. Limiting the IK's rotations of the second pass as
@@ -958,6 +958,11 @@ static size_t cleanup_options(const mlr_guards *g, int has_ref, const double *al
         copts[n_copts++] = (mlr_cleanup_option){MLR_CLEANUP_OPT_KEEP_TOTAL, 1.0};
         /* denoising: the pinned feet keep the denoised detail, without the input's noise */
         copts[n_copts++] = (mlr_cleanup_option){MLR_CLEANUP_OPT_PIN_DETAIL, denoising ? 1.0 : 0.0};
+        /* denoising: the ramps carry the edge's offset alone; following the reference's
+           motion there (the denoised motion, followed as it is) changed clean captures more
+           (a climbing CMU take 0.94% -> 2.4% of body height) for no fewer pops */
+        if (denoising)
+            copts[n_copts++] = (mlr_cleanup_option){MLR_CLEANUP_OPT_RAMP_TRACK, 0.0};
     }
     copts[n_copts++] = (mlr_cleanup_option){MLR_CLEANUP_OPT_FLOOR, floor_on ? 1.0 : 0.0};
     if (limits_applied)
