@@ -139,8 +139,8 @@ def _run_pool(op: Operation, tasks: list[list[Job]], args: tuple[Any, ...], work
                 except Exception as e:  # noqa: BLE001  (e.g. a result that does not pickle)
                     recs = _failed(chunk, f"{type(e).__name__}: {e}")
                 done(chunk, recs)
-        except BaseException:
-            ex.shutdown(wait=False, cancel_futures=True)
+        except BaseException:  # (KeyboardInterrupt): stop the workers now, not after
+            _terminate(ex)     # their tasks; the sweep removes what they were writing
             raise
     while again:  # one clip at a time: the first one not done is the one that killed
         with ProcessPoolExecutor(1, mp_context=ctx, initializer=_init_worker) as ex:
@@ -158,6 +158,17 @@ def _run_pool(op: Operation, tasks: list[list[Job]], args: tuple[Any, ...], work
                 done([again[k]], recs)
             else:
                 again = []
+
+
+def _terminate(ex: Any) -> None:
+    """Stop a process pool's workers at once and cancel what is queued."""
+    if hasattr(ex, "terminate_workers"):  # Python 3.14
+        ex.terminate_workers()
+        return
+    for proc in list((getattr(ex, "_processes", None) or {}).values()):
+        with contextlib.suppress(Exception):
+            proc.terminate()
+    ex.shutdown(wait=False, cancel_futures=True)
 
 
 def _run_dask(client: Any, op: Operation, tasks: list[list[Job]], args: tuple[Any, ...],
@@ -237,7 +248,11 @@ def batch(operation: str | Operation,
           report: str | os.PathLike[str] | None = None, progress: ProgressArg = None,
           force: bool = False, metrics: bool = True, read: dict[str, Any] | None = None,
           **options: Any) -> BatchResult:
-    """Run an operation over every clip of ``inputs`` on Dask, writing into ``out_dir``.
+    """Run an operation over every clip of ``inputs`` in parallel, writing into ``out_dir``.
+
+    By default on a local pool of worker processes (one per CPU, one thread each); on Dask
+    when ``scheduler`` is given. Each task is a chunk of clips (largest first), so that the
+    cost of sending a task is a small part of its work.
 
     Parameters
     ----------
@@ -255,11 +270,16 @@ def batch(operation: str | Operation,
         Stylize only: one alpha or several (a list, a range such as np.arange, or a string
         ``"0.5:2.5:0.5"`` or ``"1,1.5,2"``); default 2.
     scheduler : None, str, or a dask Client or Cluster, optional
-        None: an embedded LocalCluster on loopback, secured by mutual TLS with credentials
-        made for this run (other users of the machine cannot connect); ``"tls://host:8786"``
-        or ``"tcp://host:8786"``: an existing cluster (a dask Client or LocalCluster object
-        also works). Securing that one is its owner's business: a tcp:// scheduler runs the
-        tasks of anyone who can reach its port. Start it with TLS (``dask scheduler
+        None (default): a local :class:`concurrent.futures.ProcessPoolExecutor` (no Dask
+        needed); where processes are started by spawn or forkserver (macOS, Windows, Python
+        3.14 on Linux) they import the main script again, so a script must call this under
+        ``if __name__ == "__main__":`` (an unguarded call fails at once, saying so).
+        ``"tls://host:8786"`` or ``"tcp://host:8786"``: an existing Dask cluster (a dask
+        Client or LocalCluster object also works). ``"dask"``: an embedded Dask LocalCluster
+        on loopback, secured by mutual TLS with credentials made for this run (other users of
+        the machine cannot connect); slower than the local pool on one machine, it is there to
+        try Dask. Securing a cluster of your own is its owner's business: a tcp:// scheduler
+        runs the tasks of anyone who can reach its port. Start it with TLS (``dask scheduler
         --tls-ca-file ca.pem --tls-cert sched.pem --tls-key sched.key``, the workers
         likewise) and give this process its credentials in the Dask configuration
         (``distributed.comm.tls.ca-file`` and ``distributed.comm.tls.client.cert`` /
@@ -267,8 +287,8 @@ def batch(operation: str | Operation,
         ..._CLIENT__CERT, ..._CLIENT__KEY), or pass
         ``Client(address, security=Security(...))`` as ``scheduler``.
     n_workers : int, optional
-        Worker processes of the embedded cluster (default: one per CPU, at most one per
-        clip).
+        Worker processes of the local pool or the embedded Dask cluster (default: one per
+        CPU, at most one per clip).
     report : str or os.PathLike, optional
         Write the records there: .json, or CSV for any other extension.
     progress : None, bool, stream or callable, optional
@@ -294,12 +314,12 @@ def batch(operation: str | Operation,
     ------
     mlayer.InvalidArgumentError
         Before anything runs, for an unknown operation or option, no inputs, outputs that
-        would collide or overwrite an input, or (the embedded cluster) a call at the top level
-        of a script, outside ``if __name__ == "__main__":``, which the cluster's worker
-        processes would run again.
+        would collide or overwrite an input, or a call at the top level of a script, outside
+        ``if __name__ == "__main__":``, which the worker processes would run again (the
+        embedded Dask cluster; the local pool where it does not fork).
     mlayer.MissingDependencyError
-        (the ``batch`` extra) Before anything runs, without Dask, or without cryptography for
-        the embedded cluster.
+        (the ``batch`` extra) Before anything runs, with a ``scheduler`` but without Dask, or
+        without cryptography for the embedded Dask cluster.
     """
     t0 = time.perf_counter()
     embedded = isinstance(scheduler, str) and scheduler == EMBEDDED_DASK
