@@ -116,7 +116,8 @@ src_key="$(find libmlayer include bindings/python/mlayer bindings/python/cffi \
              -type f ! -name '*.pyc' -print0 | sort -z | xargs -0 sha256sum | sha256sum | cut -c1-16)"
 built="$(stamp_of build)"
 if { [ "$built" = "$src_key cholmod" ] || { [ "$MODE" = demo ] && [ "$built" = "$src_key" ]; }; } \
-   && python -c "import mlayer" 2>/dev/null; then
+   && python -c "import sys, mlayer; sys.exit('$MODE' == 'full' and not mlayer.have_cholmod())" \
+        2>/dev/null; then
   echo "setup: mlayer up to date ($(mlayer --version)), not rebuilt"
 else
   echo "setup: building and installing the mlayer package (build directory $build_dir/)"
