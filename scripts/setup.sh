@@ -1,12 +1,29 @@
 #!/usr/bin/env bash
 # Install what mlayer needs on a Debian machine and build the Python package into .venv.
-# Idempotent: already-installed packages are skipped. Usage: bash scripts/setup.sh
+#   bash scripts/setup.sh           everything: the tests, lint, docs, benchmarks (scripts/test.sh)
+#   bash scripts/setup.sh --demo    only what `mlayer demo` needs (scripts/demo.sh): a C compiler
+#                                   and python3-venv from apt; numpy, cffi, the build tools and the
+#                                   `plot` and `render` extras (matplotlib, Pillow) from pip
+# Re-runs are quick: each step is skipped while what it depends on is unchanged (stamps in
+# .venv/: the Python packages by this script and pyproject.toml, the build by the hash of the C
+# core's and the package's sources and the build options); the build directories build-venv*/
+# are kept, so a changed source recompiles only what it touches.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+MODE=full
+case "${1:-}" in
+  --demo) MODE=demo ;;
+  "") ;;
+  *) echo "usage: bash scripts/setup.sh [--demo]" >&2; exit 2 ;;
+esac
 
-APT_PACKAGES=(build-essential pkg-config cmake ninja-build check libsuitesparse-dev libopenblas-dev
-              clang libclang-rt-14-dev python3-venv
-              chromium chromium-driver)
+if [ "$MODE" = demo ]; then
+  APT_PACKAGES=(build-essential python3-venv)
+else
+  APT_PACKAGES=(build-essential pkg-config cmake ninja-build check libsuitesparse-dev libopenblas-dev
+                clang libclang-rt-14-dev python3-venv
+                chromium chromium-driver)
+fi
 missing=()
 for p in "${APT_PACKAGES[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
@@ -24,9 +41,21 @@ if [ ! -x .venv/bin/python ]; then
   "$PY" -m venv .venv
 fi
 . .venv/bin/activate
-python -m pip install -q --upgrade pip
-python -m pip install -q "meson>=1.3" "meson-python>=0.18" "cffi>=2.1" ninja "numpy>=1.24" \
-  scipy matplotlib pytest
+# what the Python packages depend on: this script's lists and pyproject.toml's extras
+reqs_key="$(cat scripts/setup.sh pyproject.toml | sha256sum | cut -c1-16)"
+stamp_of() { cat ".venv/.mlayer-$1" 2>/dev/null || true; }
+
+demo_packages() {
+  python -m pip install -q --upgrade pip
+  # the build requirements (pyproject.toml [build-system]; the build runs without isolation)
+  python -m pip install -q "meson>=1.3" "meson-python>=0.18" "cffi>=2.1" ninja "numpy>=1.24"
+  # mlayer demo draws a figure and a GIF: the `plot` and `render` extras
+  python -m pip install -q "matplotlib>=3.6" "Pillow>=9"
+}
+
+full_packages() {
+demo_packages
+python -m pip install -q scipy pytest
 # test-only: an independent BVH reader the pytest suite checks forward kinematics against
 python -m pip install -q "bvhio>=1.5"
 # test-only peers of the clustering suite: k-means labels/inertia against scikit-learn's Lloyd,
@@ -63,8 +92,39 @@ if command -v npm >/dev/null 2>&1; then
 else
   echo "setup: npm not found: the glTF validator is not installed (test_gltf.py skips it)"
 fi
-echo "setup: building and installing the mlayer package"
-# pyproject.toml builds wheels without CHOLMOD; this checkout's build keeps it, so that the
-# tests cover the CHOLMOD path too (libsuitesparse-dev is installed above)
-python -m pip install -q --no-build-isolation -Csetup-args=-Dcholmod=enabled .
-echo "setup: $(mlayer --version)"
+# the build check of the release wheel (scripts/build-wheels.sh) makes its own tools venv
+}
+
+if [ "$(stamp_of "packages-$MODE")" = "$reqs_key" ] || [ "$(stamp_of packages-full)" = "$reqs_key" ]; then
+  echo "setup: Python packages up to date ($MODE)"
+else
+  echo "setup: installing Python packages ($MODE)"
+  "${MODE}_packages"
+  echo "$reqs_key" >".venv/.mlayer-packages-$MODE"
+fi
+
+# The package, built from this checkout. pyproject.toml builds wheels without CHOLMOD; the full
+# setup's build keeps it, so that the tests cover the CHOLMOD path too (libsuitesparse-dev is
+# installed above); the demo's needs none.
+if [ "$MODE" = full ]; then
+  build_args=(-Csetup-args=-Dcholmod=enabled); build_dir=build-venv-cholmod
+else
+  build_args=(); build_dir=build-venv
+fi
+src_key="$(find libmlayer include bindings/python/mlayer bindings/python/cffi \
+             bindings/python/meson.build meson.build meson_options.txt pyproject.toml \
+             -type f ! -name '*.pyc' -print0 | sort -z | xargs -0 sha256sum | sha256sum | cut -c1-16)"
+built="$(stamp_of build)"
+if { [ "$built" = "$src_key cholmod" ] || { [ "$MODE" = demo ] && [ "$built" = "$src_key" ]; }; } \
+   && python -c "import sys, mlayer; sys.exit('$MODE' == 'full' and not mlayer.have_cholmod())" \
+        2>/dev/null; then
+  echo "setup: mlayer up to date ($(mlayer --version)), not rebuilt"
+else
+  echo "setup: building and installing the mlayer package (build directory $build_dir/)"
+  rm -f .venv/.mlayer-build
+  python -m pip install -q --no-build-isolation --no-deps -Cbuild-dir="$build_dir" \
+    "${build_args[@]}" .
+  if [ "$MODE" = full ]; then echo "$src_key cholmod" >.venv/.mlayer-build
+  else echo "$src_key" >.venv/.mlayer-build; fi
+  echo "setup: $(mlayer --version)"
+fi

@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
 # Set up (scripts/setup.sh), then run every test: the static checks (scripts/lint.sh: ruff, mypy,
 # clang-format), the Check suites of the C core through meson,
-# the install check (pkg-config and CMake consumers, shared and static), the release check (sdist and abi3 wheel, installed into a fresh venv
-# without libcholmod), the same C suites again under AddressSanitizer +
+# the install check (pkg-config and CMake consumers, shared and static), the release check (sdist
+# and abi3 wheel, installed into a fresh venv without libcholmod), the manylinux wheel
+# (scripts/build-wheels.sh: built for glibc 2.28 by zig cc, auditwheel show and repair, a smoke
+# test in fresh venvs), the same C suites again under AddressSanitizer +
 # UndefinedBehaviorSanitizer, a bounded fuzzing run of the BVH reader and one of the glTF and
 # AMASS readers (tests/fuzz/fuzz_readers.py), then pytest as `pip install 'mlayer[test]'` alone
 # would run it (tests/extras/run.py: the other extras' modules blocked, their tests skipped) and
@@ -28,6 +30,10 @@ bash tests/install/run.sh
 
 echo "== Release: sdist and wheel built, listed, installed in a fresh venv without libcholmod =="
 bash tests/release/run.sh
+
+echo "== Release: the manylinux wheel (scripts/build-wheels.sh: zig cc for glibc 2.28, auditwheel) =="
+# about 45 s on a new machine (its tools venv, zig's first compile), 15 s after
+bash scripts/build-wheels.sh build-wheels/dist
 
 echo "== C core under ASan + UBSan =="
 meson setup build-sanitize -Dtests=enabled -Dcholmod=enabled -Db_sanitize=address,undefined \

@@ -1,6 +1,8 @@
 """Smoke test of an installed mlayer wheel, run by tests/release/run.sh in a fresh venv.
 
     python smoke.py VERSION OUT_DIR
+    python smoke.py                   (cibuildwheel's test: the installed version, a temporary
+                                       folder; Linux, macOS and Windows)
 
 Imports the package, reads the bundled clip, denoises, stylizes and writes it, runs the CLI
 (`mlayer --version`, `mlayer denoise`), and checks that the wheel has no CHOLMOD: have_cholmod()
@@ -11,8 +13,10 @@ from __future__ import annotations
 
 import os
 import pathlib
+import shutil
 import subprocess
 import sys
+import tempfile
 
 
 def fail(msg: str) -> None:
@@ -20,12 +24,22 @@ def fail(msg: str) -> None:
 
 
 def loaded_libraries() -> list[str]:
-    with open("/proc/self/maps") as f:
-        return sorted({line.split()[-1] for line in f if "/" in line})
+    """The files mapped into this process (Linux; elsewhere none are listed)."""
+    try:
+        with open("/proc/self/maps") as f:
+            return sorted({line.split()[-1] for line in f if "/" in line})
+    except OSError:
+        return []
 
 
 def main() -> None:
-    version, out = sys.argv[1], pathlib.Path(sys.argv[2])
+    if len(sys.argv) == 3:
+        version, out = sys.argv[1], pathlib.Path(sys.argv[2])
+    elif len(sys.argv) == 1:
+        from importlib.metadata import version as dist_version
+        version, out = dist_version("mlayer"), pathlib.Path(tempfile.mkdtemp(prefix="smoke-"))
+    else:
+        fail("usage: smoke.py [VERSION OUT_DIR]")
     out.mkdir(parents=True, exist_ok=True)
     import numpy as np
     import mlayer
@@ -63,7 +77,10 @@ def main() -> None:
     else:
         fail("solver='cholmod' did not raise UnsupportedError")
 
-    exe = pathlib.Path(sys.executable).with_name("mlayer")
+    # the console script beside this interpreter (bin/mlayer, Scripts\\mlayer.exe)
+    exe = shutil.which("mlayer", path=os.path.dirname(sys.executable))
+    if exe is None:
+        fail(f"no mlayer command beside {sys.executable}")
     got = subprocess.run([str(exe), "--version"], capture_output=True, text=True, check=True)
     if version not in got.stdout:
         fail(f"mlayer --version printed {got.stdout!r}")

@@ -203,12 +203,13 @@ def test_embedded_cluster_serves_no_dashboard():
 def test_a_script_without_a_main_guard_fails_in_one_line(tmp_path):
     """The README's batch snippet saved as a script without `if __name__ == "__main__":` died
     in 483 lines of Dask tracebacks ("Nanny failed to start"): the embedded cluster's worker
-    processes import the script again and start a cluster each. It now fails before anything
-    starts, saying what to add; under the guard the same call runs (issue 42)."""
+    processes import the script again and start a cluster each. On the embedded Dask cluster
+    it now fails before anything starts, saying what to add; under the guard the same call
+    runs (issue 42). (The default local pool: test_batch_local.py.)"""
     wild = pathlib.Path(__file__).resolve().parents[3] / "tests" / "data" / "wild"
     body = (f"import mlayer\n"
             f"r = mlayer.batch('denoise', [{str(wild / 'pybvh_test1.bvh')!r}], "
-            f"{str(tmp_path / 'out')!r}, n_workers=1)\n"
+            f"{str(tmp_path / 'out')!r}, n_workers=1, scheduler='dask')\n"
             f"print('records', len(r.records))\n")
     script = tmp_path / "unguarded.py"
     script.write_text(body)

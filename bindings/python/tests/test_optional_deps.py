@@ -82,12 +82,16 @@ def test_render_mp4_without_ffmpeg(monkeypatch, tmp_path):
 
 
 def test_batch_without_dask_writes_nothing(monkeypatch, tmp_path, walk_1s):
+    """A Dask scheduler needs the batch extra; the default local pool does not."""
     out = tmp_path / "out"
     hide(monkeypatch, "distributed")
-    with pytest.raises(ImportError) as e:
-        mlayer.batch("denoise", [str(walk_1s)], out, progress=False)
-    check_error(e, "batch", "distributed")
-    assert not out.exists()
+    for scheduler in ("tcp://127.0.0.1:8786", "dask"):
+        with pytest.raises(ImportError) as e:
+            mlayer.batch("denoise", [str(walk_1s)], out, progress=False, scheduler=scheduler)
+        check_error(e, "batch", "distributed")
+        assert not out.exists()
+    res = mlayer.batch("denoise", [str(walk_1s)], out, progress=False, n_workers=1)
+    assert res.ok == 1 and (out / walk_1s.name).is_file()
 
 
 @requires("batch")  # (distributed: checked before cryptography)
@@ -95,7 +99,7 @@ def test_batch_embedded_cluster_without_cryptography(monkeypatch, tmp_path, walk
     out = tmp_path / "out"
     hide(monkeypatch, "cryptography")
     with pytest.raises(ImportError) as e:
-        mlayer.batch("denoise", [str(walk_1s)], out, progress=False)
+        mlayer.batch("denoise", [str(walk_1s)], out, progress=False, scheduler="dask")
     check_error(e, "batch", "cryptography")
     assert "TLS" in str(e.value) and not out.exists()
 
@@ -193,9 +197,9 @@ def cli_cases(clip):
          "mlayer render needs Pillow: pip install 'mlayer[render]'"),
         (["imageio_ffmpeg"], ["render", clip, "-o", "x.mp4"],
          "mlayer render -o FILE.mp4 needs imageio-ffmpeg: pip install 'mlayer[video]'"),
-        (["distributed"], ["batch", "denoise", clip, "-o", "b"],
-         "mlayer batch needs dask[distributed]: pip install 'mlayer[batch]'"),
-        (["cryptography"], ["batch", "denoise", clip, "-o", "b"],
+        (["distributed"], ["batch", "denoise", clip, "-o", "b", "--scheduler", "tcp://h:8786"],
+         "mlayer batch --scheduler needs dask[distributed]: pip install 'mlayer[batch]'"),
+        (["cryptography"], ["batch", "denoise", clip, "-o", "b", "--scheduler", "dask"],
          "mlayer batch's embedded Dask cluster (TLS) needs cryptography: "
          "pip install 'mlayer[batch]'"),
     ]
@@ -219,10 +223,12 @@ def test_cli_without_an_optional_module(tmp_path, walk_1s, case):
 def test_cli_needs_only_what_the_flags_use(tmp_path, walk_1s):
     """Without matplotlib and Pillow, the commands that draw nothing run as before, and so do
     the drawing commands without their drawing options."""
-    hidden = ["matplotlib", "PIL", "tqdm", "pandas"]
+    hidden = ["matplotlib", "PIL", "tqdm", "pandas", "distributed", "cryptography"]
     for argv, out in ((["denoise", walk_1s, "-o", "d.bvh"], "d.bvh"),
                       (["layers", walk_1s, "--npz", "l.npz"], "l.npz"),
-                      (["contacts", walk_1s], None)):
+                      (["contacts", walk_1s], None),
+                      (["batch", "denoise", walk_1s, "-o", "b", "--no-progress", "--workers", "1"],
+                       "b/walk.bvh")):
         r = run_hidden(tmp_path, hidden, *argv)
         assert r.returncode == 0, r.stderr
         if out:

@@ -1,10 +1,22 @@
-"""Running a batch: the plan of outputs, the Dask cluster (embedded, or the caller's), the
-scheduling of one task per clip, and the records gathered into a :class:`BatchResult`."""
+"""Running a batch: the plan of outputs, the workers (a local process pool, or a Dask cluster:
+the caller's, or an embedded one), the tasks (chunks of clips) and the records gathered into a
+:class:`BatchResult`.
+
+The local default is a :class:`concurrent.futures.ProcessPoolExecutor`: one single-threaded
+worker process per CPU (the C core runs one thread per call in the workers), so workers times
+threads never exceed the cores. The clips are sorted largest first and cut into chunks of
+several clips (about four chunks per worker, at most :data:`MAX_CHUNK` clips each), so that
+sending a task costs a small fraction of its work and the last tasks are short. Dask is used
+only when ``scheduler`` names a cluster (an address, a Client or a Cluster, or ``"dask"`` for
+an embedded LocalCluster), with the same chunks.
+"""
 from __future__ import annotations
 
 import ast
 import contextlib
 import logging
+import math
+import multiprocessing
 import os
 import pathlib
 import sys
@@ -21,9 +33,48 @@ from .registry import Operation, lookup, variant_tag, variants
 from .._optional import require
 from .._progress import ProgressArg, resolve
 from .report import FIELDS, STATUS_FAILED, STATUS_LINK, STATUS_SKIPPED, BatchResult
-from .task import process_clip, read_options
+from .task import process_chunk, read_options
 
 __all__ = ["batch"]
+
+#: ``scheduler=EMBEDDED_DASK``: an embedded Dask LocalCluster (TLS on loopback) instead of the
+#: local process pool
+EMBEDDED_DASK = "dask"
+#: the most clips in one task
+MAX_CHUNK = 8
+#: tasks per worker aimed at (load balance against the cost of sending a task)
+CHUNKS_PER_WORKER = 4
+
+#: (input, [(variant, output, sidecar, options key), ...]): the outputs of one clip still to do
+Job = tuple[str, list[tuple[dict[str, Any], str, str, str]]]
+
+
+def chunks(todo: list[Job], workers: int) -> list[list[Job]]:
+    """The tasks: the clips, largest file first, cut into about CHUNKS_PER_WORKER chunks per
+    worker of at most MAX_CHUNK clips (one clip per task when there are few)."""
+    def size(job: Job) -> int:
+        try:
+            return os.stat(job[0]).st_size
+        except OSError:
+            return 0
+    order = sorted(todo, key=size, reverse=True)
+    n = max(1, min(MAX_CHUNK, math.ceil(len(order) / (CHUNKS_PER_WORKER * max(1, workers)))))
+    return [order[i:i + n] for i in range(0, len(order), n)]
+
+
+def start_method() -> str:
+    """The start method of the local pool's processes: this platform's default (fork on Linux
+    before Python 3.14, forkserver after, spawn on macOS and Windows)."""
+    return multiprocessing.get_start_method(allow_none=True) or \
+        multiprocessing.get_all_start_methods()[0]
+
+
+def _init_worker() -> None:
+    """A pool worker: one thread for the numeric libraries too (the workers are the
+    parallelism), where threadpoolctl is there to say so."""
+    with contextlib.suppress(Exception):
+        from threadpoolctl import threadpool_limits  # optional (scikit-learn brings it)
+        threadpool_limits(1)
 
 
 def _default_workers() -> int:
@@ -58,6 +109,85 @@ def _client(scheduler: Any, n_workers: int | None) -> Iterator[Any]:
                          dashboard_address="127.0.0.1:0", scheduler_kwargs={"dashboard": False},
                          silence_logs=logging.ERROR) as cluster, Client(cluster) as client:
         yield client
+
+
+def _failed(chunk: list[Job], error: str) -> list[list[dict[str, Any]]]:
+    return [[{"input": src, "output": out, "variant": v, "status": STATUS_FAILED, "error": error}
+             for v, out, _, _ in need] for src, need in chunk]
+
+
+def _run_pool(op: Operation, tasks: list[list[Job]], args: tuple[Any, ...], workers: int,
+              done: Any) -> None:
+    """Run the tasks on a local process pool, calling ``done(chunk, records)`` as each one
+    ends. A worker process that dies (killed, or crashed in C) breaks the pool: the clips of
+    the tasks it took down are run again one at a time, each in a pool of one process, so that
+    the clip that kills its process is reported failed and the others are done."""
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+    from concurrent.futures.process import BrokenProcessPool
+    ctx = multiprocessing.get_context(start_method())
+    again: list[Job] = []
+    with ProcessPoolExecutor(workers, mp_context=ctx, initializer=_init_worker) as ex:
+        futures = {ex.submit(process_chunk, op, chunk, *args): chunk for chunk in tasks}
+        try:
+            for fut in as_completed(futures):
+                chunk = futures[fut]
+                try:
+                    recs = fut.result()
+                except BrokenProcessPool:
+                    again.extend(chunk)
+                    continue
+                except Exception as e:  # noqa: BLE001  (e.g. a result that does not pickle)
+                    recs = _failed(chunk, f"{type(e).__name__}: {e}")
+                done(chunk, recs)
+        except BaseException:  # (KeyboardInterrupt): stop the workers now, not after
+            _terminate(ex)     # their tasks; the sweep removes what they were writing
+            raise
+    while again:  # one clip at a time: the first one not done is the one that killed
+        with ProcessPoolExecutor(1, mp_context=ctx, initializer=_init_worker) as ex:
+            futs = [ex.submit(process_chunk, op, [job], *args) for job in again]
+            for k, fut in enumerate(futs):
+                try:
+                    recs = fut.result()
+                except BrokenProcessPool:
+                    done([again[k]], _failed([again[k]], "the worker process died on this clip "
+                                             "(killed, or crashed in native code)"))
+                    again = again[k + 1:]
+                    break
+                except Exception as e:  # noqa: BLE001
+                    recs = _failed([again[k]], f"{type(e).__name__}: {e}")
+                done([again[k]], recs)
+            else:
+                again = []
+
+
+def _terminate(ex: Any) -> None:
+    """Stop a process pool's workers at once and cancel what is queued."""
+    if hasattr(ex, "terminate_workers"):  # Python 3.14
+        ex.terminate_workers()
+        return
+    for proc in list((getattr(ex, "_processes", None) or {}).values()):
+        with contextlib.suppress(Exception):
+            proc.terminate()
+    ex.shutdown(wait=False, cancel_futures=True)
+
+
+def _run_dask(client: Any, op: Operation, tasks: list[list[Job]], args: tuple[Any, ...],
+              done: Any) -> None:
+    """Run the tasks on a Dask cluster (a task whose worker died is re-run by Dask)."""
+    from distributed import as_completed
+    futures = {client.submit(process_chunk, op, chunk, *args, pure=False): i
+               for i, chunk in enumerate(tasks)}
+    try:
+        for fut in as_completed(futures):
+            chunk = tasks[futures[fut]]
+            try:
+                recs = fut.result()
+            except Exception as e:  # noqa: BLE001  (e.g. KilledWorker)
+                recs = _failed(chunk, f"{type(e).__name__}: {e}")
+            done(chunk, recs)
+    except BaseException:
+        client.cancel(list(futures))
+        raise
 
 
 def _is_main_test(test: ast.expr) -> bool:
@@ -118,7 +248,11 @@ def batch(operation: str | Operation,
           report: str | os.PathLike[str] | None = None, progress: ProgressArg = None,
           force: bool = False, metrics: bool = True, read: dict[str, Any] | None = None,
           **options: Any) -> BatchResult:
-    """Run an operation over every clip of ``inputs`` on Dask, writing into ``out_dir``.
+    """Run an operation over every clip of ``inputs`` in parallel, writing into ``out_dir``.
+
+    By default on a local pool of worker processes (one per CPU, one thread each); on Dask
+    when ``scheduler`` is given. Each task is a chunk of clips (largest first), so that the
+    cost of sending a task is a small part of its work.
 
     Parameters
     ----------
@@ -136,11 +270,16 @@ def batch(operation: str | Operation,
         Stylize only: one alpha or several (a list, a range such as np.arange, or a string
         ``"0.5:2.5:0.5"`` or ``"1,1.5,2"``); default 2.
     scheduler : None, str, or a dask Client or Cluster, optional
-        None: an embedded LocalCluster on loopback, secured by mutual TLS with credentials
-        made for this run (other users of the machine cannot connect); ``"tls://host:8786"``
-        or ``"tcp://host:8786"``: an existing cluster (a dask Client or LocalCluster object
-        also works). Securing that one is its owner's business: a tcp:// scheduler runs the
-        tasks of anyone who can reach its port. Start it with TLS (``dask scheduler
+        None (default): a local :class:`concurrent.futures.ProcessPoolExecutor` (no Dask
+        needed); where processes are started by spawn or forkserver (macOS, Windows, Python
+        3.14 on Linux) they import the main script again, so a script must call this under
+        ``if __name__ == "__main__":`` (an unguarded call fails at once, saying so).
+        ``"tls://host:8786"`` or ``"tcp://host:8786"``: an existing Dask cluster (a dask
+        Client or LocalCluster object also works). ``"dask"``: an embedded Dask LocalCluster
+        on loopback, secured by mutual TLS with credentials made for this run (other users of
+        the machine cannot connect); slower than the local pool on one machine, it is there to
+        try Dask. Securing a cluster of your own is its owner's business: a tcp:// scheduler
+        runs the tasks of anyone who can reach its port. Start it with TLS (``dask scheduler
         --tls-ca-file ca.pem --tls-cert sched.pem --tls-key sched.key``, the workers
         likewise) and give this process its credentials in the Dask configuration
         (``distributed.comm.tls.ca-file`` and ``distributed.comm.tls.client.cert`` /
@@ -148,8 +287,8 @@ def batch(operation: str | Operation,
         ..._CLIENT__CERT, ..._CLIENT__KEY), or pass
         ``Client(address, security=Security(...))`` as ``scheduler``.
     n_workers : int, optional
-        Worker processes of the embedded cluster (default: one per CPU, at most one per
-        clip).
+        Worker processes of the local pool or the embedded Dask cluster (default: one per
+        CPU, at most one per clip).
     report : str or os.PathLike, optional
         Write the records there: .json, or CSV for any other extension.
     progress : None, bool, stream or callable, optional
@@ -175,17 +314,22 @@ def batch(operation: str | Operation,
     ------
     mlayer.InvalidArgumentError
         Before anything runs, for an unknown operation or option, no inputs, outputs that
-        would collide or overwrite an input, or (the embedded cluster) a call at the top level
-        of a script, outside ``if __name__ == "__main__":``, which the cluster's worker
-        processes would run again.
+        would collide or overwrite an input, or a call at the top level of a script, outside
+        ``if __name__ == "__main__":``, which the worker processes would run again (the
+        embedded Dask cluster; the local pool where it does not fork).
     mlayer.MissingDependencyError
-        (the ``batch`` extra) Before anything runs, without Dask, or without cryptography for
-        the embedded cluster.
+        (the ``batch`` extra) Before anything runs, with a ``scheduler`` but without Dask, or
+        without cryptography for the embedded Dask cluster.
     """
     t0 = time.perf_counter()
-    require("distributed", feature="mlayer.batch")
-    if scheduler is None:  # the embedded cluster's TLS: Security.temporary needs cryptography
+    embedded = isinstance(scheduler, str) and scheduler == EMBEDDED_DASK
+    if scheduler is not None:
+        require("distributed", feature="mlayer.batch(scheduler=...) on Dask")
+    if embedded:  # the embedded cluster's TLS: Security.temporary needs cryptography
         require("cryptography", feature="mlayer.batch's embedded Dask cluster (TLS)")
+    # the processes that import the main script again: Dask's (spawned) and the local pool's
+    # but where it forks
+    if embedded or (scheduler is None and start_method() != "fork"):
         where = unguarded_call()
         if where is not None:
             raise InvalidArgumentError(
@@ -201,9 +345,10 @@ def batch(operation: str | Operation,
                                    f"accepted: {', '.join(sorted(op.options)) or 'none'}")
     runs = variants(op, alphas)
     if n_workers is not None:
-        if scheduler is not None:
-            raise InvalidArgumentError("n_workers sizes the embedded cluster; the cluster at "
-                                       "`scheduler` has its own workers")
+        if scheduler is not None and not embedded:
+            raise InvalidArgumentError("n_workers sizes the local pool (or the embedded "
+                                       "cluster); the cluster at `scheduler` has its own "
+                                       "workers")
         integer(n_workers, "n_workers", 1)
     out_root = pathlib.Path(out_dir).resolve()
     links: list[tuple[str | pathlib.Path, str]] = []
@@ -254,38 +399,33 @@ def batch(operation: str | Operation,
     n_used, address = 0, ""
     if todo:
         workers = n_workers or min(_default_workers(), len(todo))
-        with _client(scheduler, workers if scheduler is None else None) as client:
-            from distributed import as_completed
-            address = client.scheduler.address if client.scheduler else ""
-            n_used = len(client.scheduler_info().get("workers", {})) or workers
-            bar = make_bar(len(todo), op.name, "clip")
-            failed = 0
-            futures = {}
-            for src, need in todo:
-                fut = client.submit(process_clip, op, src, need, options, metrics, read,
-                                    pure=False)
-                futures[fut] = (src, need)
-            try:
-                for fut in as_completed(futures):
-                    src, need = futures[fut]
-                    try:
-                        recs = fut.result()
-                    except Exception as e:  # noqa: BLE001  (e.g. KilledWorker)
-                        recs = [{"input": src, "output": out, "variant": v,
-                                 "status": STATUS_FAILED,
-                                 "error": f"{type(e).__name__}: {e}"} for v, out, _, _ in need]
-                    for r in recs:
-                        records_by_out[r["output"]] = r
-                    if any(r["status"] == STATUS_FAILED for r in recs):
-                        failed += 1
-                        bar.set_postfix_str(f"{failed} failed")
-                    bar.update(1)
-            except BaseException:
-                client.cancel(list(futures))
-                raise
-            finally:
-                bar.close()
-                sweep(written)
+        args = (options, metrics, read)
+        bar = make_bar(len(todo), op.name, "clip")
+        failed = 0
+
+        def done(chunk: list[Job], recs: list[list[dict[str, Any]]]) -> None:
+            nonlocal failed
+            for clip_recs in recs:
+                for r in clip_recs:
+                    records_by_out[r["output"]] = r
+                if any(r["status"] == STATUS_FAILED for r in clip_recs):
+                    failed += 1
+                    bar.set_postfix_str(f"{failed} failed")
+            bar.update(len(chunk))
+
+        try:
+            if scheduler is None:
+                n_used = workers
+                _run_pool(op, chunks(todo, workers), args, workers, done)
+            else:
+                with _client(None if embedded else scheduler,
+                             workers if embedded else None) as client:
+                    address = client.scheduler.address if client.scheduler else ""
+                    n_used = len(client.scheduler_info().get("workers", {})) or workers
+                    _run_dask(client, op, chunks(todo, n_used), args, done)
+        finally:
+            bar.close()
+            sweep(written)
     records = []
     for o in all_outs:
         r = records_by_out[str(o)]

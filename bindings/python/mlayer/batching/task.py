@@ -1,6 +1,7 @@
-"""The task of one clip, run on a Dask worker: read the clip, run the operation for every
-variant, write each output atomically with its sidecar, and return small records (status,
-error text, frames, seconds, jitter and foot sliding before and after).
+"""The task of one clip, run on a worker (a process of the local pool, or Dask's): read the
+clip, run the operation for every variant, write each output atomically with its sidecar, and
+return small records (status, error text, frames, seconds, jitter and foot sliding before and
+after). A task of the batch is a chunk of clips (:func:`process_chunk`).
 
 Quality figures are unit-free: jitter (:func:`mlayer.metrics.jitter`, per second cubed) and
 foot sliding (:func:`mlayer.metrics.foot_sliding` on the contacts detected on the input) both
@@ -10,6 +11,7 @@ from __future__ import annotations
 
 import math
 import os
+import sys
 import time
 from typing import Any
 
@@ -27,7 +29,7 @@ from .cache import write_sidecar
 from .registry import Operation
 from .report import STATUS_FAILED, STATUS_OK
 
-__all__ = ["process_clip", "READ_OPTIONS"]
+__all__ = ["process_clip", "process_chunk", "READ_OPTIONS"]
 
 #: read_bvh's keywords that batch(read=...) passes to the workers.
 READ_OPTIONS = ("strict", "up", "trim", "units")
@@ -76,11 +78,15 @@ def _fin(x: Any) -> float | None:
 
 
 def _worker_name() -> str:
-    try:
-        from distributed import get_worker  # optional: the batch extra
-        return get_worker().address
-    except Exception:  # noqa: BLE001  (not on a worker: a plain call)
-        return f"pid {os.getpid()}"
+    """The Dask worker's address, or ``pid N`` (a process of the local pool, a plain call).
+    Dask is not imported for it: a process that has not imported it is no Dask worker."""
+    if "distributed" in sys.modules:
+        try:
+            from distributed import get_worker  # optional: the batch extra
+            return str(get_worker().address)
+        except Exception:  # noqa: BLE001  (not on a worker: a plain call)
+            pass
+    return f"pid {os.getpid()}"
 
 
 def _write(result: Motion | dict[str, Any], out: str) -> int:
@@ -156,3 +162,30 @@ def process_clip(op: Operation, src: str, jobs: list[tuple[dict[str, Any], str, 
         if r["status"] == STATUS_OK:
             write_sidecar(src, out, sidecar, key, r)
     return records
+
+
+def process_chunk(op: Operation,
+                  chunk: list[tuple[str, list[tuple[dict[str, Any], str, str, str]]]],
+                  options: dict[str, Any], metrics: bool = True,
+                  read: dict[str, Any] | None = None) -> list[list[dict[str, Any]]]:
+    """One task of a batch: :func:`process_clip` for each clip of a chunk, in turn.
+
+    Parameters
+    ----------
+    op : Operation
+        The operation.
+    chunk : list of tuple
+        (input clip, jobs) per clip, the jobs as :func:`process_clip` takes them.
+    options : dict
+        The operation's keyword options.
+    metrics : bool, optional
+        Measure jitter and foot sliding before and after.
+    read : dict, optional
+        read_bvh's keyword arguments (strict, up, trim, units).
+
+    Returns
+    -------
+    list of list of dict
+        The records of each clip, in the chunk's order.
+    """
+    return [process_clip(op, src, jobs, options, metrics, read) for src, jobs in chunk]

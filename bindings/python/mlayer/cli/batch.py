@@ -1,4 +1,5 @@
-"""`mlayer batch`: run an operation over a whole corpus on Dask (mlayer.batch).
+"""`mlayer batch`: run an operation over a whole corpus in parallel (mlayer.batch): a local
+process pool by default, a Dask cluster with --scheduler.
 
     mlayer batch denoise captures/ -o clean/
     mlayer batch stylize 'cmu/**/*.bvh' -o augmented/ --alphas 0.5:2.5:0.5 --report report.json
@@ -35,10 +36,12 @@ def _arguments(p) -> None:
     p.add_argument("--joint", action="append", metavar="PATTERN=ALPHA",
                    help="stylize: alpha for the joints matching a name or glob (repeatable)")
     p.add_argument("--scheduler", metavar="ADDRESS",
-                   help="an existing Dask scheduler (tcp://host:8786) instead of an embedded "
-                        "LocalCluster")
+                   help="run on a Dask cluster: its scheduler (tls://host:8786, tcp://...), or "
+                        "'dask' for an embedded LocalCluster (default: a local process pool, "
+                        "no Dask)")
     p.add_argument("--workers", type=int, metavar="N",
-                   help="worker processes of the embedded cluster (default: one per CPU)")
+                   help="worker processes of the local pool or the embedded cluster (default: "
+                        "one per CPU)")
     p.add_argument("--report", metavar="REPORT.json|csv",
                    help="per-output records as JSON (.json) or CSV")
     p.add_argument("--force", action="store_true", help="redo outputs that are up to date")
@@ -58,12 +61,13 @@ def _arguments(p) -> None:
     g.add_argument("--lam", type=float, help="resample/timewarp: LGS smoothness (default auto)")
 
 
-@command("batch", "run denoise, stylize, features, resample or timewarp over a corpus on Dask",
+@command("batch", "run denoise, stylize, features, resample or timewarp over a corpus in parallel",
          arguments=_arguments, reads_clips=True, inputs=("inputs",),
          outputs={"output_dir": FOLDER,
                   "report": Output((".json", ".csv"), "a JSON or CSV report", makes_dirs=True)},
-         requires=(Needs("distributed", feature="mlayer batch"),
-                   Needs("cryptography", when=lambda a: a.scheduler is None,
+         requires=(Needs("distributed", when=lambda a: a.scheduler is not None,
+                         feature="mlayer batch --scheduler"),
+                   Needs("cryptography", when=lambda a: a.scheduler == "dask",
                          feature="mlayer batch's embedded Dask cluster (TLS)")))
 def cmd_batch(args) -> int:
     options = {}
