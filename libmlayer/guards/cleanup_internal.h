@@ -162,6 +162,7 @@ typedef struct cleanup_foot {
     uint8_t *R;         /* a ramp frame (also U): a pinned run's offset enters or leaves */
     uint8_t *S;         /* this pass: the leg already reaches its target (no IK there) */
     double *at, *tt, *lift;
+    double *rw; /* a ramp frame's weight of its run's offset (1 at the run's edge), else 0 */
     double leg; /* the leg's length (hip to knee to anchor) at the first frame */
     int active;
 } cleanup_foot;
@@ -319,6 +320,7 @@ typedef struct cleanup_state {
     cleanup_work *w;
     const mlr_cleanup_hook *hook; /* or NULL */
     uint8_t *hook_mask;           /* N x J: the rotations the hook changes */
+    double *hook_prev;            /* N x J x 4: the ramps' rotations before the hook */
     int hook_on;     /* the hook's stages in this pass: 1 before the spread, 2 after it, 4 on
                         the ramps' frames before the spread (a pass past ik_passes) */
 } cleanup_state;

@@ -718,6 +718,7 @@ static void ramp_runs(cleanup_state *cu, const contact_run *runs, size_t n)
                 edge_add(cu, ft, &in, f, wb, oa, ot);
             ramp_target(cu, ft, f, oa, ot, mlr_fmax(wa, wb));
             ft->U[f] = ft->R[f] = 1;
+            ft->rw[f] = mlr_fmax(wa, wb);
         }
         /* after the last run of the foot: its ramp out to the clip's end */
         if (!nx) {
@@ -731,6 +732,7 @@ static void ramp_runs(cleanup_state *cu, const contact_run *runs, size_t n)
                 edge_add(cu, ft, &out, f, w, oa, ot);
                 ramp_target(cu, ft, f, oa, ot, w);
                 ft->U[f] = ft->R[f] = 1;
+                ft->rw[f] = w;
             }
         }
     }
@@ -849,14 +851,15 @@ static mlr_status cleanup_targets(cleanup_state *cu, cleanup_arena *ar, contact_
     /* the feet's arrays, one block each for all feet (the arena holds CLEANUP_MAX_BLOCKS
        blocks) */
     uint8_t *all_uf = cleanup__take(ar, N * nf, 5);
-    double *all_at = cleanup__take(ar, N * nf, 7 * sizeof(double));
+    double *all_at = cleanup__take(ar, N * nf, 8 * sizeof(double));
     if (ar->st != MLR_OK)
         return fail_memory(ar, diag);
     for (size_t k = 0; k < nf; k++) {
         cleanup_foot *ft = &cu->feet[k];
         ft->U = all_uf + 5 * N * k, ft->F = ft->U + N, ft->K = ft->F + N, ft->S = ft->K + N;
         ft->R = ft->S + N;
-        ft->at = all_at + 7 * N * k, ft->tt = ft->at + 3 * N, ft->lift = ft->tt + 3 * N;
+        ft->at = all_at + 8 * N * k, ft->tt = ft->at + 3 * N, ft->lift = ft->tt + 3 * N;
+        ft->rw = ft->lift + N;
         mlr_status st = set_foot_frames(cu, k, diag);
         if (st != MLR_OK)
             return st;
@@ -927,6 +930,7 @@ static mlr_status cleanup_passes(cleanup_state *cu, cleanup_arena *ar, mlr_diag 
     cu->w->dirty = dirty;
     if (cu->hook && (cu->hook->ik_passes > 0 || cu->hook->blend_passes > 0)) {
         cu->hook_mask = cleanup__take(ar, N * J, 1);
+        cu->hook_prev = cleanup__take_raw(ar, N * J, 4 * sizeof(double));
         if (ar->st != MLR_OK)
             return fail_memory(ar, diag);
     }
