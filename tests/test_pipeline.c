@@ -381,6 +381,7 @@ static const struct {
     {MLR_PIPELINE_SIGMA_B, INFINITY, "sigma_b"},
     {MLR_PIPELINE_BASE_CUTOFF, -0.25, "base_cutoff"},
     {MLR_PIPELINE_BODY_HEIGHT, NAN, "body_height"},
+    {MLR_PIPELINE_KEEP_MEMORY, 2, "keep_memory"},
     {0, 1, "unknown parameter 0"},
     {99, 1, "unknown parameter 99"},
     {MLR_PIPELINE_INFO_UP, 1, "read-only"},

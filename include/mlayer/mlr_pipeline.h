@@ -98,6 +98,10 @@ typedef enum mlr_pipeline_param {
     MLR_PIPELINE_BODY_HEIGHT = 18,  /* the body height that scales the robust translation gate:
                                        > 0 given; 0 (default): measured; < 0: none (the
                                        layers' default gate) */
+    MLR_PIPELINE_KEEP_MEMORY = 19,  /* 1 (default): keep the memory of the largest run for the
+                                       next ones (see "Memory" above); 0: give the scratch back
+                                       after each call (a pipeline used once, as mlayer's
+                                       Python package uses them) */
     MLR_PIPELINE_INFO_UP = 100,     /* after a prepare: the up axis used (-1 when not needed) */
     MLR_PIPELINE_INFO_TRIMMED = 101, /* after a prepare: the frames dropped at the start */
     MLR_PIPELINE_INFO_FRAMES = 102, /* after a prepare: the frames of the result */
@@ -125,7 +129,8 @@ MLR_API mlr_status mlr_pipeline_create(const mlr_allocator *alloc, mlr_pipeline 
 
 /**
  * Set a parameter (see mlr_pipeline_param for the values each takes).
- * Changing one that prepare uses (all but ALPHA, ROOT_ALPHA and UNITS) after a prepare leaves
+ * Changing one that prepare uses (all but ALPHA, ROOT_ALPHA, UNITS and KEEP_MEMORY) after a
+ * prepare leaves
  * the pipeline needing a new prepare: mlr_pipeline_synthesize then returns MLR_E_BAD_STATE.
  * @return MLR_OK; MLR_E_INVALID_ARG (NULL handle, unknown or read-only key, value out of
  *         range: the diag names the parameter; nothing changed)

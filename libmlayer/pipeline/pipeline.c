@@ -28,7 +28,7 @@ struct mlr_pipeline {
     /* parameters (mlr_pipeline_param) */
     double alpha, root_alpha;
     int root_alpha_set;
-    int up, trim, guards, limits, floor, keep_contacts, robust;
+    int up, trim, guards, limits, floor, keep_contacts, robust, keep_memory;
     double units, floor_height, gamma, lam_c, sigma_c, lam_b, sigma_b, base_cutoff, body_height;
     size_t n_joint_alphas;
     joint_alpha joint_alphas[MLR_PIPELINE_MAX_JOINT_ALPHAS];
@@ -74,6 +74,19 @@ static void drop(mlr_pipeline *p, buffer *b)
     mlr_free(&p->user, b->ptr, b->bytes);
     b->ptr = NULL;
     b->bytes = 0;
+}
+
+/* After a call: grow the arena for the next run (KEEP_MEMORY 1), or give the scratch back. */
+static void keep_or_give_back(mlr_pipeline *p)
+{
+    if (p->keep_memory) {
+        pipeline__arena_reserve(&p->arena);
+        return;
+    }
+    buffer *scratch[] = {&p->names, &p->fk,  &p->body, &p->rep_root, &p->rep_rot,
+                         &p->rep_trans, &p->alphas, &p->root, &p->rot, &p->trans};
+    for (size_t k = 0; k < MLR_COUNTOF(scratch); k++)
+        drop(p, scratch[k]);
 }
 
 static void unprepare(mlr_pipeline *p)
@@ -160,6 +173,7 @@ mlr_status mlr_pipeline_create(const mlr_allocator *alloc, mlr_pipeline **out, m
     p->floor = 1;
     p->keep_contacts = 1;
     p->robust = 1;
+    p->keep_memory = 1;
     p->gamma = PI / 2;
     p->base_cutoff = 0.25;
     unprepare(p);
@@ -194,6 +208,7 @@ static mlr_status check_value(int param, double v, mlr_diag *diag)
     case MLR_PIPELINE_GUARDS:
     case MLR_PIPELINE_KEEP_CONTACTS:
     case MLR_PIPELINE_ROBUST:
+    case MLR_PIPELINE_KEEP_MEMORY:
         if (!(v == 0 || v == 1))
             why = "must be 0 or 1";
         break;
@@ -729,7 +744,7 @@ mlr_status mlr_pipeline_prepare(mlr_pipeline *p, const mlr_motion *in, const mlr
     p->up_used = up_used;
     p->trimmed = n_drop;
     p->prepared = 1;
-    pipeline__arena_reserve(&p->arena);
+    keep_or_give_back(p);
     if (diag) {
         memset(diag, 0, sizeof *diag);
         memcpy(diag->message, note, sizeof note);
@@ -849,7 +864,7 @@ mlr_status mlr_pipeline_synthesize(mlr_pipeline *p, mlr_motion **out, mlr_diag *
     *out = res;
     p->report = rep;
     p->synthesized = 1;
-    pipeline__arena_reserve(&p->arena);
+    keep_or_give_back(p);
     if (diag)
         memset(diag, 0, sizeof *diag);
     return MLR_OK;
