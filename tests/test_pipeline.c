@@ -294,6 +294,13 @@ START_TEST(reuse_allocates_only_for_a_larger_clip)
             max_j = c[k].j > max_j ? c[k].j : max_j;
             max_p = P > max_p ? P : max_p;
         }
+    /* KEEP_MEMORY 0: the scratch goes back after each call, and comes again */
+    ck_assert_int_eq(mlr_pipeline_set(p, MLR_PIPELINE_KEEP_MEMORY, 0, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_pipeline_run(p, c[0].m, &out, NULL), MLR_OK);
+    const size_t before = ta.n_calls, live = ta.live_blocks;
+    ck_assert_int_eq(mlr_pipeline_run(p, c[0].m, &out, NULL), MLR_OK);
+    ck_assert_uint_gt(ta.n_calls, before);
+    ck_assert_uint_eq(ta.live_blocks, live);
     mlr_motion_destroy(out);
     mlr_pipeline_destroy(p);
     ck_assert_uint_eq(ta.live_blocks, 0);

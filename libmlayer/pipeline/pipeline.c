@@ -83,8 +83,8 @@ static void keep_or_give_back(mlr_pipeline *p)
         pipeline__arena_reserve(&p->arena);
         return;
     }
-    buffer *scratch[] = {&p->names, &p->fk,  &p->body, &p->rep_root, &p->rep_rot,
-                         &p->rep_trans, &p->alphas, &p->root, &p->rot, &p->trans};
+    buffer *scratch[] = {&p->names,     &p->fk,     &p->body, &p->rep_root, &p->rep_rot,
+                         &p->rep_trans, &p->alphas, &p->root, &p->rot,      &p->trans};
     for (size_t k = 0; k < MLR_COUNTOF(scratch); k++)
         drop(p, scratch[k]);
 }
@@ -144,6 +144,8 @@ static const char *param_name(int param)
         return "base_cutoff";
     case MLR_PIPELINE_BODY_HEIGHT:
         return "body_height";
+    case MLR_PIPELINE_KEEP_MEMORY:
+        return "keep_memory";
     default:
         return NULL;
     }
@@ -272,6 +274,9 @@ mlr_status mlr_pipeline_set(mlr_pipeline *p, mlr_pipeline_param param, double va
     case MLR_PIPELINE_UNITS:
         p->units = value;
         return MLR_OK;
+    case MLR_PIPELINE_KEEP_MEMORY:
+        p->keep_memory = (int)value;
+        return MLR_OK;
     case MLR_PIPELINE_UP:
         p->up = (int)value;
         break;
@@ -385,6 +390,9 @@ mlr_status mlr_pipeline_get(const mlr_pipeline *p, mlr_pipeline_param param, dou
         break;
     case MLR_PIPELINE_BODY_HEIGHT:
         v = p->body_height;
+        break;
+    case MLR_PIPELINE_KEEP_MEMORY:
+        v = p->keep_memory;
         break;
     case MLR_PIPELINE_INFO_UP:
         v = p->prepared ? p->up_used : none;
