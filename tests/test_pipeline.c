@@ -283,8 +283,8 @@ START_TEST(reuse_allocates_only_for_a_larger_clip)
             ck_assert_msg(mlr_pipeline_run(p, c[k].m, &out, &d) == MLR_OK, "%s", d.message);
             fprintf(stderr,
                     "pipeline reuse: round %d, %zu frames x %zu joints (%zu with position "
-                    "channels): %zu allocations\n",
-                    round, c[k].n, c[k].j, P, ta.n_calls - before);
+                    "channels): %zu allocations, %.1f MB kept\n",
+                    round, c[k].n, c[k].j, P, ta.n_calls - before, (double)ta.live_bytes / 1e6);
             if (round == 0 && k == 0)
                 ck_assert_uint_gt(ta.n_calls, before);
             if (c[k].n <= max_n && c[k].j <= max_j && P <= max_p) /* not larger than before */
