@@ -5,10 +5,12 @@ The composition of the layers and the guards (trim, up axis, body joint, the dec
 options, the repaired input, the guards, the synthesis with the body translation where it rides,
 ``mlr_guards_apply_trans``) lives there, once: this module only sets parameters, hands a Motion
 over and reads the results back. The pipelines made here are used for one clip each
-(``MLR_PIPELINE_KEEP_MEMORY`` 0).
+(``MLR_PIPELINE_KEEP_MEMORY`` 0). A pipeline has one writer at a time: a lock serializes the
+syntheses of one Job (a Synthesis may be run from several threads, as the viewer's server does).
 """
 from __future__ import annotations
 
+import threading
 from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
@@ -34,6 +36,7 @@ class Job:
         self.set({lib.MLR_PIPELINE_KEEP_MEMORY: 0.0, **params})
         self.motion: Motion | None = None
         self._layers: Any = None
+        self._lock = threading.Lock()
 
     def set(self, params: Mapping[int, float]) -> None:
         diag = ffi.new("mlr_diag *")
@@ -62,8 +65,16 @@ class Job:
         return lib.mlr_pipeline_guards(self.h)
 
     def synthesize(self, alpha: float, joints: Mapping[str, float] | None,
-                   root_alpha: float | None) -> tuple[NDArray[np.float64], ...]:
-        """(root_pos, rot, trans) of the guarded synthesis, new arrays."""
+                   root_alpha: float | None, n_joints: int
+                   ) -> tuple[tuple[NDArray[np.float64], ...], Any, NDArray[np.uintp]]:
+        """((root_pos, rot, trans) of the guarded synthesis, new arrays; the guards' report;
+        the frames each joint was limited in)."""
+        with self._lock:
+            frames = self._synthesize(alpha, joints, root_alpha)
+            return (frames, *self._report(n_joints))
+
+    def _synthesize(self, alpha: float, joints: Mapping[str, float] | None,
+                    root_alpha: float | None) -> tuple[NDArray[np.float64], ...]:
         h = self.h
         diag = ffi.new("mlr_diag *")
         lib.mlr_pipeline_clear_joint_alphas(h)
@@ -87,7 +98,7 @@ class Job:
             lib.mlr_motion_destroy(m)
         return root, rot, trans
 
-    def report(self, n_joints: int) -> tuple[Any, NDArray[np.uintp]]:
+    def _report(self, n_joints: int) -> tuple[Any, NDArray[np.uintp]]:
         rep = ffi.new("mlr_guards_report *")
         limited = np.zeros(n_joints, dtype=np.uintp)
         check(lib.mlr_pipeline_report(self.h, rep, ffi.cast("size_t *", ffi.from_buffer(limited)),

@@ -372,10 +372,9 @@ class Synthesis(ReadOnlyAttributes):
             out = out.with_frames(root_pos=out.root_pos + r[:, 0],
                                   rot=quat.normalize(quat.mul(out.rot, quat.exp(r[:, 1:]))))
             return self.guard(out, a)
-        job = self._job
-        root, rot, trans = job.synthesize(float(alpha), joints,
-                                          None if root_alpha is None else float(root_alpha))
-        rep, limited = job.report(self.motion.n_joints)
+        (root, rot, trans), rep, limited = self._job.synthesize(
+            float(alpha), joints, None if root_alpha is None else float(root_alpha),
+            self.motion.n_joints)
         return self.motion.with_frames(root_pos=root, rot=rot, trans=trans), \
             self._report(rep, limited)
 

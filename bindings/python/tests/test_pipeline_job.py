@@ -205,3 +205,16 @@ def test_joint_patterns_are_fnmatch(pattern):
     got = _c_run(m, 1.0, {pattern: 2.0}, guards=0)
     assert max(_diff((py.root_pos, py.rot, py.trans), got[:3], 1.0)) == 0.0
     assert not np.array_equal(got[1], _c_run(m, 1.0, guards=0)[1])
+
+
+def test_one_synthesis_run_from_threads_gives_what_it_gives_alone():
+    """Synthesis.run sets the alphas of its one C pipeline and synthesizes: a lock keeps the
+    threads of a server (the viewer's) from mixing their alphas."""
+    from concurrent.futures import ThreadPoolExecutor
+    m = mlayer.data.load_sample()[:300]
+    s = mlayer.Synthesis(m)
+    alphas = [0.5, 1.0, 1.5, 2.0, 2.5, 3.0] * 3
+    alone = {a: s.run(a)[0].rot for a in set(alphas)}
+    with ThreadPoolExecutor(4) as pool:
+        got = list(pool.map(lambda a: s.run(a)[0].rot, alphas))
+    assert all(np.array_equal(g, alone[a]) for g, a in zip(got, alphas))
