@@ -248,8 +248,8 @@ static mlr_status check_value(int param, double v, mlr_diag *diag)
                             "mlr_pipeline_set: unknown parameter %d", param);
     }
     if (why)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "mlr_pipeline_set: %s %s, got %.17g",
-                            name, why, v);
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "mlr_pipeline_set: option %s %s, got %.17g", name, why, v);
     return MLR_OK;
 }
 

@@ -559,5 +559,5 @@ def _positive(v: Any, name: str) -> float:
     """A value the pipeline takes as given only when > 0 (0 there means "not given")."""
     x = _arrays.number(v, name)
     if not x > 0.0:
-        raise InvalidArgumentError(f"{name} must be > 0, got {v!r}")
+        raise InvalidArgumentError(f"option {name} must be > 0, got {v!r}")
     return x
