@@ -110,8 +110,6 @@ typedef enum mlr_pipeline_param {
                                            (NaN when none was) */
 } mlr_pipeline_param;
 
-/** Most joint patterns one pipeline holds (mlr_pipeline_set_joint_alpha). */
-#define MLR_PIPELINE_MAX_JOINT_ALPHAS 64
 /** Longest joint pattern, in bytes without its NUL. */
 #define MLR_PIPELINE_MAX_PATTERN 127
 
@@ -122,7 +120,7 @@ typedef enum mlr_pipeline_param {
  * @param out    [out] new handle, NULL on failure
  * @param diag   [out] optional: the reason of an error
  * @return MLR_OK; MLR_E_INVALID_ARG (out NULL); MLR_E_NO_MEMORY
- * Allocates: the handle (about 9 kB). Threads: any.
+ * Allocates: the handle. Threads: any.
  */
 MLR_API mlr_status mlr_pipeline_create(const mlr_allocator *alloc, mlr_pipeline **out,
                                        mlr_diag *diag);
@@ -156,9 +154,10 @@ MLR_API mlr_status mlr_pipeline_get(const mlr_pipeline *p, mlr_pipeline_param pa
  * matches no joint of the clip makes mlr_pipeline_synthesize fail, naming it.
  * @param pattern  [in] NUL-terminated, at most MLR_PIPELINE_MAX_PATTERN bytes; copied
  * @param alpha    [in] finite
- * @return MLR_OK; MLR_E_INVALID_ARG (NULL, empty or too long pattern, alpha not finite, more
- *         than MLR_PIPELINE_MAX_JOINT_ALPHAS patterns: nothing changed)
- * Allocates: never. Threads: one writer.
+ * @return MLR_OK; MLR_E_INVALID_ARG (NULL, empty or too long pattern, alpha not finite:
+ *         nothing changed); MLR_E_NO_MEMORY (nothing changed)
+ * Allocates: the list of patterns, when it grows longer than it has been (kept until
+ * mlr_pipeline_destroy; mlr_pipeline_clear_joint_alphas keeps it). Threads: one writer.
  */
 MLR_API mlr_status mlr_pipeline_set_joint_alpha(mlr_pipeline *p, const char *pattern, double alpha,
                                                 mlr_diag *diag);

@@ -31,7 +31,7 @@ struct mlr_pipeline {
     int up, trim, guards, limits, floor, keep_contacts, robust, keep_memory;
     double units, floor_height, gamma, lam_c, sigma_c, lam_b, sigma_b, base_cutoff, body_height;
     size_t n_joint_alphas;
-    joint_alpha joint_alphas[MLR_PIPELINE_MAX_JOINT_ALPHAS];
+    buffer patterns; /* joint_alpha[], grown past its longest list so far */
 
     /* the prepared clip */
     int prepared, stale, synthesized;
@@ -433,11 +433,22 @@ mlr_status mlr_pipeline_set_joint_alpha(mlr_pipeline *p, const char *pattern, do
                             "mlr_pipeline_set_joint_alpha: the alpha of '%.60s' must be finite, "
                             "got %g",
                             pattern, alpha);
-    if (p->n_joint_alphas == MLR_PIPELINE_MAX_JOINT_ALPHAS)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "mlr_pipeline_set_joint_alpha: more than %d patterns",
-                            MLR_PIPELINE_MAX_JOINT_ALPHAS);
-    joint_alpha *ja = &p->joint_alphas[p->n_joint_alphas++];
+    if ((p->n_joint_alphas + 1) * sizeof(joint_alpha) > p->patterns.bytes) { /* grow, keep */
+        const size_t cap = p->n_joint_alphas < 8 ? 16 : 2 * p->n_joint_alphas;
+        size_t bytes;
+        void *n = mlr_mul_size(cap, sizeof(joint_alpha), &bytes) == MLR_OK
+                      ? mlr_alloc(&p->user, bytes)
+                      : NULL;
+        if (!n)
+            return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                                "mlr_pipeline_set_joint_alpha: out of memory (%zu patterns)", cap);
+        if (p->n_joint_alphas)
+            memcpy(n, p->patterns.ptr, p->n_joint_alphas * sizeof(joint_alpha));
+        drop(p, &p->patterns);
+        p->patterns.ptr = n;
+        p->patterns.bytes = bytes;
+    }
+    joint_alpha *ja = (joint_alpha *)p->patterns.ptr + p->n_joint_alphas++;
     memcpy(ja->pattern, pattern, len + 1);
     ja->alpha = alpha;
     return MLR_OK;
@@ -771,7 +782,7 @@ static mlr_status alphas_of(const mlr_pipeline *p, const mlr_motion *m, double *
     if (p->root_alpha_set)
         a[0] = p->root_alpha;
     for (size_t k = 0; k < p->n_joint_alphas; k++) {
-        const joint_alpha *ja = &p->joint_alphas[k];
+        const joint_alpha *ja = (const joint_alpha *)p->patterns.ptr + k;
         size_t hits = 0;
         for (size_t j = 0; j < J; j++)
             if (pipeline__glob_match(ja->pattern, mlr_motion_joint_name(m, j))) {
@@ -933,6 +944,7 @@ void mlr_pipeline_destroy(mlr_pipeline *p)
         return;
     unprepare(p);
     mlr_motion_destroy(p->input);
+    drop(p, &p->patterns);
     buffer *bufs[] = {&p->names,  &p->fk,   &p->body, &p->rep_root, &p->rep_rot, &p->rep_trans,
                       &p->alphas, &p->root, &p->rot,  &p->trans,    &p->limited};
     for (size_t k = 0; k < MLR_COUNTOF(bufs); k++)
