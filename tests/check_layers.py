@@ -22,6 +22,7 @@ LAYERS: dict[str, set[str]] = {
     "manifold": {"common", "math"},
     "guards": {"common", "math", "motion"},
     "stream": {"common", "math", "motion", "layers", "guards"},
+    "pipeline": {"common", "math", "motion", "layers", "guards"},
 }
 
 INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"', re.M)

@@ -1,9 +1,13 @@
 /*
- * Denoise (or stylize) a BVH clip with the C library, as mlayer.denoise / mlayer.stylize do:
- * read the file, decompose the motion into layers, synthesize it with one alpha, make the
- * result plausible with the guards (joint limits, foot contacts, the floor), write it back.
+ * Denoise (or stylize) BVH clips with the C library, as mlayer.denoise / mlayer.stylize do:
+ * one mlr_pipeline (the layers, the guards and their defaults composed in the library), reused
+ * clip after clip.
  *
- *     denoise IN.bvh OUT.bvh [ALPHA]     (ALPHA 1, the default: denoised; 2: exaggerated)
+ *     denoise IN.bvh OUT.bvh [ALPHA [PATTERN=ALPHA ...]]
+ *     denoise --batch ALPHA IN1.bvh OUT1.bvh [IN2.bvh OUT2.bvh ...]
+ *
+ * ALPHA 1 (the default) denoises, 2 exaggerates the style, 0.5 flattens it; PATTERN=ALPHA gives
+ * the joints matching a name or glob their own alpha ("Left*=3"), later patterns winning.
  *
  * Build: cc denoise.c $(pkg-config --cflags --libs mlayer) -o denoise
  */
@@ -20,94 +24,88 @@ static int failed(const char *what, mlr_status st, const mlr_diag *diag)
     return 1;
 }
 
-int main(int argc, char **argv)
+/* Read in, run the pipeline into *out (reused from clip to clip), write it to out_path. */
+static int one_clip(mlr_pipeline *p, const char *in_path, const char *out_path, mlr_motion **out)
 {
-    if (argc < 3 || argc > 4) {
-        fprintf(stderr, "usage: %s IN.bvh OUT.bvh [ALPHA]\n", argv[0]);
-        return 2;
-    }
-    const double alpha = argc == 4 ? strtod(argv[3], NULL) : 1.0;
     mlr_diag diag = {0};
     mlr_motion *m = NULL;
-    mlr_layers *layers = NULL;
-    mlr_guards *guards = NULL;
-    const char **names = NULL;
-    int rc = 1;
-
-    /* 1. Read the clip: a skeleton and N frames of root translation and joint quaternions. */
-    mlr_status st = mlr_bvh_read_file(argv[1], NULL, &m, &diag);
+    mlr_status st = mlr_bvh_read_file(in_path, NULL, &m, &diag);
     if (st < 0)
-        return failed(argv[1], st, &diag);
-    const size_t n = mlr_motion_n_frames(m), j = mlr_motion_n_joints(m);
-    const double fps = 1.0 / mlr_motion_frame_time(m);
-    double *root = mlr_motion_root_pos_mut(m); /* N x 3, synthesized in place below */
-    double *rot = mlr_motion_rot_mut(m);       /* N x J x 4, scalar-first */
+        return failed(in_path, st, &diag);
 
-    /* 2. Decompose. With the frame rate given, the base layer keeps trends slower than 0.25 Hz
-     *    (the base floor) and outlier frames are found and down-weighted (on by default). */
-    const mlr_layers_option opts[] = {{MLR_LAYERS_OPT_FPS, fps}};
-    st = mlr_layers_decompose(n, j, root, rot, opts, 1, NULL, &layers, &diag);
+    /* trim, up axis, layers, repaired input, guards, synthesis, guards applied: one call */
+    st = mlr_pipeline_run(p, m, out, &diag);
     if (st < 0) {
-        failed("decompose", st, &diag);
-        goto done;
+        mlr_motion_destroy(m);
+        return failed(in_path, st, &diag);
     }
+    if (diag.message[0]) /* a guard that cannot run (no feet found): a note, not an error */
+        fprintf(stderr, "denoise: %s: %s\n", in_path, diag.message);
+    mlr_motion_destroy(m);
 
-    /* 3. The guards learn from the input: the rig (names find the feet and the hinges), its
-     *    contacts, its floor and its joint limits. Repair the input's outlier frames first, so
-     *    that a glitch is not taken for a contact or a joint's range. */
-    names = malloc(j * sizeof *names);
-    if (!names)
-        goto done;
-    for (size_t k = 0; k < j; k++)
-        names[k] = mlr_motion_joint_name(m, k);
-    const mlr_rig rig = {j,
-                         mlr_motion_parents(m),
-                         mlr_motion_offsets(m),
-                         names,
-                         mlr_motion_n_trans(m),
-                         mlr_motion_trans_joints(m),
-                         mlr_motion_n_end_sites(m),
-                         mlr_motion_end_site_parents(m),
-                         mlr_motion_end_site_offsets(m)};
-    st = mlr_layers_repair(layers, 0, n, root, 3 * n, rot, 4 * n * j, NULL, &diag);
-    if (st >= 0)
-        st = mlr_guards_create(&rig, fps, n, root, rot, mlr_motion_trans(m), NULL, 0, NULL,
-                               &guards, &diag);
-    if (st < 0) {
-        failed("guards", st, &diag);
-        goto done;
-    }
+    st = mlr_bvh_write_file(*out, out_path, &diag); /* a temporary renamed into place */
+    if (st < 0)
+        return failed(out_path, st, &diag);
 
-    /* 4. Synthesize Mb (+) alpha delta_c over the whole clip (one alpha for every joint and the
-     *    root), into the motion's own arrays, then apply the guards in place, with the input
-     *    as their reference (NULL). */
-    st = mlr_layers_synthesize(layers, 0, n, &alpha, 1, root, 3 * n, rot, 4 * n * j, &diag);
     mlr_guards_report report;
-    if (st >= 0)
-        st = mlr_guards_apply_trans(guards, &alpha, 1, NULL, NULL, NULL, root, rot,
-                                    mlr_motion_trans_mut(m), NULL, 0, &report, &diag);
-    if (st < 0) {
-        failed("synthesize", st, &diag);
-        goto done;
-    }
-
-    /* 5. Write the result (through a temporary file renamed into place). */
-    st = mlr_bvh_write_file(m, argv[2], &diag);
-    if (st < 0) {
-        failed(argv[2], st, &diag);
-        goto done;
-    }
-    printf("%s: %zu frames x %zu joints at %.0f fps, alpha %g -> %s\n", argv[1], n, j, fps, alpha,
-           argv[2]);
+    double up, alpha;
+    mlr_pipeline_report(p, &report, NULL, 0);
+    mlr_pipeline_get(p, MLR_PIPELINE_INFO_UP, &up);
+    mlr_pipeline_get(p, MLR_PIPELINE_ALPHA, &alpha);
+    printf("%s: %zu frames x %zu joints, %c-up, alpha %g -> %s\n", in_path,
+           mlr_motion_n_frames(*out), mlr_motion_n_joints(*out), "XYZ"[(int)up], alpha, out_path);
     printf("guards: limits %s (%zu joints), feet pinned on %zu frames, raised to the floor on "
            "%zu\n",
            report.limits_applied ? "on" : "off", report.limited_joints, report.contact_frames,
            report.floor_frames);
-    rc = 0;
-done:
-    free(names);
-    mlr_guards_destroy(guards);
-    mlr_layers_destroy(layers);
-    mlr_motion_destroy(m);
+    return 0;
+}
+
+int main(int argc, char **argv)
+{
+    const int batch = argc >= 2 && strcmp(argv[1], "--batch") == 0;
+    if (batch ? argc < 5 || (argc - 3) % 2 != 0 : argc < 3) {
+        fprintf(stderr,
+                "usage: %s IN.bvh OUT.bvh [ALPHA [PATTERN=ALPHA ...]]\n"
+                "       %s --batch ALPHA IN1.bvh OUT1.bvh [IN2.bvh OUT2.bvh ...]\n",
+                argv[0], argv[0]);
+        return 2;
+    }
+    mlr_diag diag = {0};
+    mlr_pipeline *p = NULL;
+    mlr_status st = mlr_pipeline_create(NULL, &p, &diag);
+    if (st < 0)
+        return failed("pipeline", st, &diag);
+
+    /* the parameters: every one has mlayer.stylize's default until set */
+    const char *alpha_arg = batch ? argv[2] : argc > 3 ? argv[3] : "1";
+    st = mlr_pipeline_set(p, MLR_PIPELINE_ALPHA, strtod(alpha_arg, NULL), &diag);
+    for (int k = 4; !batch && st >= 0 && k < argc; k++) {
+        char pattern[128];
+        const char *eq = strchr(argv[k], '=');
+        const size_t len = eq ? (size_t)(eq - argv[k]) : 0;
+        if (!eq || len == 0 || len >= sizeof pattern) {
+            fprintf(stderr, "denoise: expected PATTERN=ALPHA, got '%s'\n", argv[k]);
+            mlr_pipeline_destroy(p);
+            return 2;
+        }
+        memcpy(pattern, argv[k], len);
+        pattern[len] = '\0';
+        st = mlr_pipeline_set_joint_alpha(p, pattern, strtod(eq + 1, NULL), &diag);
+    }
+    if (st < 0) {
+        mlr_pipeline_destroy(p);
+        return failed("parameters", st, &diag);
+    }
+
+    int rc = 0;
+    mlr_motion *out = NULL; /* the result, overwritten in place clip after clip */
+    for (int k = batch ? 3 : 1; rc == 0 && k + 1 < argc; k += 2) {
+        rc = one_clip(p, argv[k], argv[k + 1], &out);
+        if (!batch)
+            break;
+    }
+    mlr_motion_destroy(out);
+    mlr_pipeline_destroy(p);
     return rc;
 }

@@ -25,5 +25,6 @@
 #include "mlr_trim.h"
 #include "mlr_mirror.h"
 #include "mlr_root_motion.h"
+#include "mlr_pipeline.h"
 
 #endif /* MLAYER_H */

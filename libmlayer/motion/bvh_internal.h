@@ -47,6 +47,13 @@ struct mlr_motion {
 mlr_status bvh_motion_alloc(const mlr_allocator *alloc, size_t n_joints, size_t n_end,
                             size_t name_bytes, size_t n_frames, size_t n_trans, mlr_motion **out);
 
+/* *dst becomes a motion with src's skeleton, channel layout and frame time and n_frames frames
+ * (their values unset): in place when *dst is not NULL and its block is large enough (it keeps
+ * its allocator), else a new motion made with alloc, the old one destroyed once the new one
+ * exists. On failure *dst is unchanged. dst must not hold src. */
+mlr_status bvh_motion_fit(mlr_motion **dst, const mlr_motion *src, size_t n_frames,
+                          const mlr_allocator *alloc);
+
 /* Parse a channel name (case-insensitive, exact length); -1 when unknown. */
 int bvh_channel_parse(const char *s, size_t len);
 /* Canonical channel name ("Xposition", ...). */

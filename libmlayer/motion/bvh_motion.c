@@ -28,69 +28,94 @@ static size_t layout_add(layout *l, size_t count, size_t elsize, size_t align)
     return off;
 }
 
-mlr_status bvh_motion_alloc(const mlr_allocator *alloc, size_t n_joints, size_t n_end,
-                            size_t name_bytes, size_t n_frames, size_t n_trans, mlr_motion **out)
-{
-    *out = NULL;
-    size_t nj4, njn, ntn;
-    if (mlr_mul_size(n_frames, n_joints, &njn) || mlr_mul_size(njn, 4, &nj4) ||
-        mlr_mul_size(n_frames, n_trans, &ntn))
-        return MLR_E_OVERFLOW;
+/* The block of a motion of these sizes: its size and where each array starts. */
+typedef struct motion_blocks {
+    size_t size, nj4, ntn;
+    size_t root_pos, rot, trans, offsets, end_offsets, names, parents, end_parents, trans_joints,
+        trans_slot, n_ch, ch, order, rot_idx, ch_str, name_buf;
+} motion_blocks;
 
+static mlr_status motion_layout(size_t n_joints, size_t n_end, size_t name_bytes, size_t n_frames,
+                                size_t n_trans, motion_blocks *b)
+{
+    size_t njn;
+    if (mlr_mul_size(n_frames, n_joints, &njn) || mlr_mul_size(njn, 4, &b->nj4) ||
+        mlr_mul_size(n_frames, n_trans, &b->ntn))
+        return MLR_E_OVERFLOW;
     layout l = {0, 0};
     layout_add(&l, 1, sizeof(mlr_motion), 16);
-    size_t o_offsets = layout_add(&l, n_joints, 3 * sizeof(double), 16);
-    size_t o_end_offsets = layout_add(&l, n_end, 3 * sizeof(double), 16);
-    size_t o_root_pos = layout_add(&l, n_frames, 3 * sizeof(double), 16);
-    size_t o_rot = layout_add(&l, nj4, sizeof(double), 16);
-    size_t o_trans = layout_add(&l, ntn, 3 * sizeof(double), 16);
-    size_t o_names = layout_add(&l, n_joints, sizeof(const char *), 16);
-    size_t o_parents = layout_add(&l, n_joints, sizeof(int32_t), 16);
-    size_t o_end_parents = layout_add(&l, n_end, sizeof(int32_t), 16);
-    size_t o_trans_joints = layout_add(&l, n_trans, sizeof(int32_t), 16);
-    size_t o_trans_slot = layout_add(&l, n_joints, sizeof(int32_t), 16);
-    size_t o_n_ch = layout_add(&l, n_joints, 1, 1);
-    size_t o_ch = layout_add(&l, n_joints, BVH_MAX_CHANNELS, 1);
-    size_t o_order = layout_add(&l, n_joints, 1, 1);
-    size_t o_rot_idx = layout_add(&l, n_joints, 3, 1);
-    size_t o_ch_str = layout_add(&l, n_joints, BVH_CHSTR, 1);
-    size_t o_name_buf = layout_add(&l, name_bytes, 1, 1);
+    b->offsets = layout_add(&l, n_joints, 3 * sizeof(double), 16);
+    b->end_offsets = layout_add(&l, n_end, 3 * sizeof(double), 16);
+    b->root_pos = layout_add(&l, n_frames, 3 * sizeof(double), 16);
+    b->rot = layout_add(&l, b->nj4, sizeof(double), 16);
+    b->trans = layout_add(&l, b->ntn, 3 * sizeof(double), 16);
+    b->names = layout_add(&l, n_joints, sizeof(const char *), 16);
+    b->parents = layout_add(&l, n_joints, sizeof(int32_t), 16);
+    b->end_parents = layout_add(&l, n_end, sizeof(int32_t), 16);
+    b->trans_joints = layout_add(&l, n_trans, sizeof(int32_t), 16);
+    b->trans_slot = layout_add(&l, n_joints, sizeof(int32_t), 16);
+    b->n_ch = layout_add(&l, n_joints, 1, 1);
+    b->ch = layout_add(&l, n_joints, BVH_MAX_CHANNELS, 1);
+    b->order = layout_add(&l, n_joints, 1, 1);
+    b->rot_idx = layout_add(&l, n_joints, 3, 1);
+    b->ch_str = layout_add(&l, n_joints, BVH_CHSTR, 1);
+    b->name_buf = layout_add(&l, name_bytes, 1, 1);
     layout_add(&l, 1, 1, 16); /* round the end up */
     if (l.overflow)
         return MLR_E_OVERFLOW;
+    b->size = l.size;
+    return MLR_OK;
+}
 
-    mlr_allocator a;
-    mlr_allocator_resolve(alloc, &a);
-    unsigned char *base = mlr_alloc(&a, l.size);
-    if (!base)
-        return MLR_E_NO_MEMORY;
+/* Lay a motion of these sizes out in base (b->size bytes at least): counts and pointers set,
+ * the contents not; alloc and block_size are the caller's. */
+static mlr_motion *motion_place(unsigned char *base, const motion_blocks *b, size_t n_joints,
+                                size_t n_end, size_t name_bytes, size_t n_frames, size_t n_trans)
+{
     mlr_motion *m = (mlr_motion *)base;
     memset(m, 0, sizeof *m);
-    m->alloc = a;
-    m->block_size = l.size;
     m->n_joints = n_joints;
     m->n_end = n_end;
     m->n_frames = n_frames;
     m->n_trans = n_trans;
     m->frame_time = 1.0 / 30.0;
 #define AT(type, off, count) ((count) ? (type)(void *)(base + (off)) : NULL)
-    m->offsets = AT(double *, o_offsets, n_joints);
-    m->end_offsets = AT(double *, o_end_offsets, n_end);
-    m->root_pos = AT(double *, o_root_pos, n_frames);
-    m->rot = AT(double *, o_rot, nj4);
-    m->trans = AT(double *, o_trans, ntn);
-    m->names = AT(const char **, o_names, n_joints);
-    m->parents = AT(int32_t *, o_parents, n_joints);
-    m->end_parents = AT(int32_t *, o_end_parents, n_end);
-    m->trans_joints = AT(int32_t *, o_trans_joints, n_trans);
-    m->trans_slot = AT(int32_t *, o_trans_slot, n_joints);
-    m->n_ch = AT(unsigned char *, o_n_ch, n_joints);
-    m->ch = AT(unsigned char *, o_ch, n_joints);
-    m->order = AT(unsigned char *, o_order, n_joints);
-    m->rot_idx = AT(unsigned char *, o_rot_idx, n_joints);
-    m->ch_str = AT(char *, o_ch_str, n_joints);
-    m->name_buf = AT(char *, o_name_buf, name_bytes);
+    m->offsets = AT(double *, b->offsets, n_joints);
+    m->end_offsets = AT(double *, b->end_offsets, n_end);
+    m->root_pos = AT(double *, b->root_pos, n_frames);
+    m->rot = AT(double *, b->rot, b->nj4);
+    m->trans = AT(double *, b->trans, b->ntn);
+    m->names = AT(const char **, b->names, n_joints);
+    m->parents = AT(int32_t *, b->parents, n_joints);
+    m->end_parents = AT(int32_t *, b->end_parents, n_end);
+    m->trans_joints = AT(int32_t *, b->trans_joints, n_trans);
+    m->trans_slot = AT(int32_t *, b->trans_slot, n_joints);
+    m->n_ch = AT(unsigned char *, b->n_ch, n_joints);
+    m->ch = AT(unsigned char *, b->ch, n_joints);
+    m->order = AT(unsigned char *, b->order, n_joints);
+    m->rot_idx = AT(unsigned char *, b->rot_idx, n_joints);
+    m->ch_str = AT(char *, b->ch_str, n_joints);
+    m->name_buf = AT(char *, b->name_buf, name_bytes);
 #undef AT
+    return m;
+}
+
+mlr_status bvh_motion_alloc(const mlr_allocator *alloc, size_t n_joints, size_t n_end,
+                            size_t name_bytes, size_t n_frames, size_t n_trans, mlr_motion **out)
+{
+    *out = NULL;
+    motion_blocks b;
+    mlr_status s = motion_layout(n_joints, n_end, name_bytes, n_frames, n_trans, &b);
+    if (s != MLR_OK)
+        return s;
+    mlr_allocator a;
+    mlr_allocator_resolve(alloc, &a);
+    unsigned char *base = mlr_alloc(&a, b.size);
+    if (!base)
+        return MLR_E_NO_MEMORY;
+    mlr_motion *m = motion_place(base, &b, n_joints, n_end, name_bytes, n_frames, n_trans);
+    m->alloc = a;
+    m->block_size = b.size;
     *out = m;
     return MLR_OK;
 }
@@ -398,25 +423,10 @@ mlr_status mlr_motion_create(size_t n_joints, const char *const *names, const in
     return MLR_OK;
 }
 
-mlr_status mlr_motion_copy_frames(const mlr_motion *src, size_t begin, size_t count,
-                                  mlr_motion **out, mlr_diag *diag)
+/* The skeleton, channel layout and frame time of src into m (laid out for them). */
+static void copy_skeleton(mlr_motion *m, const mlr_motion *src, size_t name_bytes)
 {
-    if (!out || !src)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "motion copy: src or out is NULL");
-    *out = NULL;
-    if (begin > src->n_frames || count > src->n_frames - begin)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "motion copy: frames [%zu, %zu + %zu) are not within the %zu frames",
-                            begin, begin, count, src->n_frames);
-    size_t J = src->n_joints, E = src->n_end, P = src->n_trans;
-    size_t name_bytes = 0;
-    for (size_t j = 0; j < J; j++)
-        name_bytes += strlen(src->names[j]) + 1;
-    mlr_motion *m;
-    mlr_status s = bvh_motion_alloc(&src->alloc, J, E, name_bytes, count, P, &m);
-    if (s != MLR_OK)
-        return mlr_diag_set(diag, s, 0, 0, "motion copy: %zu frames of %zu joints: %s", count, J,
-                            mlr_status_string(s));
+    const size_t J = src->n_joints, E = src->n_end, P = src->n_trans;
     m->frame_time = src->frame_time;
     m->n_channels = src->n_channels;
     memcpy(m->name_buf, src->name_buf, name_bytes);
@@ -436,6 +446,63 @@ mlr_status mlr_motion_copy_frames(const mlr_motion *src, size_t begin, size_t co
     }
     if (P)
         memcpy(m->trans_joints, src->trans_joints, P * sizeof(int32_t));
+}
+
+static size_t name_bytes_of(const mlr_motion *src)
+{
+    size_t name_bytes = 0;
+    for (size_t j = 0; j < src->n_joints; j++)
+        name_bytes += strlen(src->names[j]) + 1;
+    return name_bytes;
+}
+
+mlr_status bvh_motion_fit(mlr_motion **dst, const mlr_motion *src, size_t n_frames,
+                          const mlr_allocator *alloc)
+{
+    const size_t J = src->n_joints, E = src->n_end, P = src->n_trans;
+    const size_t name_bytes = name_bytes_of(src);
+    motion_blocks b;
+    mlr_status s = motion_layout(J, E, name_bytes, n_frames, P, &b);
+    if (s != MLR_OK)
+        return s;
+    mlr_motion *old = *dst;
+    if (old && old->block_size >= b.size) {
+        const mlr_allocator a = old->alloc;
+        const size_t block_size = old->block_size;
+        mlr_motion *m = motion_place((unsigned char *)old, &b, J, E, name_bytes, n_frames, P);
+        m->alloc = a;
+        m->block_size = block_size;
+        copy_skeleton(m, src, name_bytes);
+        return MLR_OK;
+    }
+    mlr_motion *m;
+    s = bvh_motion_alloc(alloc, J, E, name_bytes, n_frames, P, &m);
+    if (s != MLR_OK)
+        return s;
+    copy_skeleton(m, src, name_bytes);
+    mlr_motion_destroy(old);
+    *dst = m;
+    return MLR_OK;
+}
+
+mlr_status mlr_motion_copy_frames(const mlr_motion *src, size_t begin, size_t count,
+                                  mlr_motion **out, mlr_diag *diag)
+{
+    if (!out || !src)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "motion copy: src or out is NULL");
+    *out = NULL;
+    if (begin > src->n_frames || count > src->n_frames - begin)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "motion copy: frames [%zu, %zu + %zu) are not within the %zu frames",
+                            begin, begin, count, src->n_frames);
+    const size_t J = src->n_joints, P = src->n_trans;
+    const size_t name_bytes = name_bytes_of(src);
+    mlr_motion *m;
+    mlr_status s = bvh_motion_alloc(&src->alloc, J, src->n_end, name_bytes, count, P, &m);
+    if (s != MLR_OK)
+        return mlr_diag_set(diag, s, 0, 0, "motion copy: %zu frames of %zu joints: %s", count, J,
+                            mlr_status_string(s));
+    copy_skeleton(m, src, name_bytes);
     if (count) {
         memcpy(m->root_pos, src->root_pos + 3 * begin, 3 * count * sizeof(double));
         memcpy(m->rot, src->rot + 4 * J * begin, 4 * J * count * sizeof(double));

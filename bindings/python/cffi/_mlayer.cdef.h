@@ -622,3 +622,49 @@ mlr_status mlr_root_motion_apply(int up, size_t n_frames, const double *track_po
                                  const double *root_rot, size_t ld_root_rot,
                                  double *out_root_pos, double *out_root_rot, size_t ld_out_rot,
                                  mlr_diag *diag);
+
+/* mlr_pipeline.h */
+typedef struct mlr_pipeline mlr_pipeline;
+typedef enum mlr_pipeline_param {
+    MLR_PIPELINE_ALPHA = 1,
+    MLR_PIPELINE_ROOT_ALPHA = 2,
+    MLR_PIPELINE_UP = 3,
+    MLR_PIPELINE_TRIM = 4,
+    MLR_PIPELINE_UNITS = 5,
+    MLR_PIPELINE_GUARDS = 6,
+    MLR_PIPELINE_LIMITS = 7,
+    MLR_PIPELINE_FLOOR = 8,
+    MLR_PIPELINE_FLOOR_HEIGHT = 9,
+    MLR_PIPELINE_KEEP_CONTACTS = 10,
+    MLR_PIPELINE_ROBUST = 11,
+    MLR_PIPELINE_GAMMA = 12,
+    MLR_PIPELINE_LAM_C = 13,
+    MLR_PIPELINE_SIGMA_C = 14,
+    MLR_PIPELINE_LAM_B = 15,
+    MLR_PIPELINE_SIGMA_B = 16,
+    MLR_PIPELINE_BASE_CUTOFF = 17,
+    MLR_PIPELINE_BODY_HEIGHT = 18,
+    MLR_PIPELINE_KEEP_MEMORY = 19,
+    MLR_PIPELINE_INFO_UP = 100,
+    MLR_PIPELINE_INFO_TRIMMED = 101,
+    MLR_PIPELINE_INFO_FRAMES = 102,
+    MLR_PIPELINE_INFO_BODY_JOINT = 103,
+    MLR_PIPELINE_INFO_BODY_HEIGHT = 104
+} mlr_pipeline_param;
+mlr_status mlr_pipeline_create(const mlr_allocator *alloc, mlr_pipeline **out, mlr_diag *diag);
+mlr_status mlr_pipeline_set(mlr_pipeline *p, mlr_pipeline_param param, double value,
+                            mlr_diag *diag);
+mlr_status mlr_pipeline_get(const mlr_pipeline *p, mlr_pipeline_param param, double *value);
+mlr_status mlr_pipeline_set_joint_alpha(mlr_pipeline *p, const char *pattern, double alpha,
+                                        mlr_diag *diag);
+void mlr_pipeline_clear_joint_alphas(mlr_pipeline *p);
+mlr_status mlr_pipeline_prepare(mlr_pipeline *p, const mlr_motion *in, const mlr_layers *layers,
+                                mlr_diag *diag);
+mlr_status mlr_pipeline_synthesize(mlr_pipeline *p, mlr_motion **out, mlr_diag *diag);
+mlr_status mlr_pipeline_run(mlr_pipeline *p, const mlr_motion *in, mlr_motion **out,
+                            mlr_diag *diag);
+mlr_status mlr_pipeline_report(const mlr_pipeline *p, mlr_guards_report *report, size_t *limited,
+                               size_t n_limited);
+const mlr_layers *mlr_pipeline_layers(const mlr_pipeline *p);
+mlr_guards *mlr_pipeline_guards(mlr_pipeline *p);
+void mlr_pipeline_destroy(mlr_pipeline *p);

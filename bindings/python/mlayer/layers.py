@@ -65,13 +65,6 @@ _PARAMS = {
 }
 
 
-def _option(key: int, value: Any, name: str) -> tuple[int, float] | None:
-    """An (option key, value) pair for the C call, or None when value is None."""
-    if value is None:
-        return None
-    return (key, _arrays.number(value, name))  # the range is checked in C, named by name
-
-
 def body_translation_joint(motion: Motion | Sequence[Motion]) -> int:
     """The joint that carries the body translation (``mlr_rig_body_translation_joint``).
 
@@ -178,11 +171,13 @@ class Layers(ReadOnlyAttributes):
     motion : Motion
         The decomposed motion.
     handle : cffi ``mlr_layers *``
-        The C layers (owned, with its finalizer).
+        The C layers: owned (with its finalizer), or borrowed from ``owner``.
     params : dict of str to numpy.ndarray
         The parameter arrays below, by name (made read-only).
     body_joint : int, optional
         The joint of group 0.
+    owner : object, optional
+        What keeps a borrowed handle alive (the C pipeline that made the layers).
 
     Attributes
     ----------
@@ -219,21 +214,22 @@ class Layers(ReadOnlyAttributes):
     control_gcv: NDArray[np.float64]
     control_dof: NDArray[np.float64]
 
-    _readonly = ("motion", "body_joint", "_h", "base", "control", "residual",
+    _readonly = ("motion", "body_joint", "_h", "_owner", "base", "control", "residual",
                  "outliers") + tuple(_PARAMS)
 
     def __init__(self, motion: Motion, handle: Any, params: dict[str, NDArray[Any]],
-                 body_joint: int = 0) -> None:
+                 body_joint: int = 0, owner: Any = None) -> None:
         self.motion = motion
         self.body_joint = int(body_joint)
         self._h = handle
+        self._owner = owner
         for name, values in params.items():
             values.flags.writeable = False
             setattr(self, name, values)
 
     def _share(self, motion: Motion) -> Layers:
         params = {name: getattr(self, name) for name in _PARAMS}
-        return Layers(motion, self._h, params, self.body_joint)
+        return Layers(motion, self._h, params, self.body_joint, self._owner)
 
     def __copy__(self) -> Layers:
         return self._share(self.motion)
@@ -520,48 +516,48 @@ def decompose(motion: Motion, *, gamma: float = math.pi / 2, lam_c: float | None
     >>> layers.control.shape == (240, 1 + m.n_joints, 3)
     True
     """
+    from ._pipeline import Job
+    from ._rig import axis
     n, j = motion.n_frames, motion.n_joints
     if n < 3:
         raise InvalidArgumentError(f"decompose needs at least 3 frames (the second-difference "
                                    f"prior), got {n}")
-    opts = [o for o in (
-        _option(lib.MLR_LAYERS_OPT_GAMMA, gamma, "gamma"),
-        _option(lib.MLR_LAYERS_OPT_LAM_C, lam_c, "lam_c"),
-        _option(lib.MLR_LAYERS_OPT_SIGMA_C, sigma_c, "sigma_c"),
-        _option(lib.MLR_LAYERS_OPT_LAM_B, lam_b, "lam_b"),
-        _option(lib.MLR_LAYERS_OPT_SIGMA_B, sigma_b, "sigma_b")) if o is not None]
-    if base_cutoff is not None and lam_b is None and sigma_b is None:
-        # the floor is the C default given the frame rate (mlr_layers.h, "The base floor")
-        opts += [(lib.MLR_LAYERS_OPT_FPS, motion.fps),
-                 (lib.MLR_LAYERS_OPT_BASE_CUTOFF, _arrays.number(base_cutoff, "base_cutoff"))]
     if not isinstance(robust, (bool, np.bool_)):
         raise InvalidArgumentError(f"robust: expected True or False, got {robust!r}")
-    opts.append((lib.MLR_LAYERS_OPT_ROBUST, float(bool(robust))))
+    # The options are composed in C (mlr_pipeline_prepare, step 4): the base floor at the
+    # clip's frame rate, the body height along the up axis, the body translation joint.
+    params = {lib.MLR_PIPELINE_GUARDS: 0.0, lib.MLR_PIPELINE_ROBUST: float(bool(robust)),
+              lib.MLR_PIPELINE_BASE_CUTOFF: 0.0 if base_cutoff is None
+              else _positive(base_cutoff, "base_cutoff")}
+    for key, value, name in ((lib.MLR_PIPELINE_GAMMA, gamma, "gamma"),
+                             (lib.MLR_PIPELINE_LAM_C, lam_c, "lam_c"),
+                             (lib.MLR_PIPELINE_SIGMA_C, sigma_c, "sigma_c"),
+                             (lib.MLR_PIPELINE_LAM_B, lam_b, "lam_b"),
+                             (lib.MLR_PIPELINE_SIGMA_B, sigma_b, "sigma_b")):
+        if value is not None:
+            params[key] = value if key == lib.MLR_PIPELINE_GAMMA else _positive(value, name)
+            params[key] = _arrays.number(params[key], name)
     if robust:
-        if body_height is None:
-            from .metrics import body_height as measure
-            h = measure(motion)
+        if body_height is None:  # measured along the motion's up axis (given or detected)
+            params[lib.MLR_PIPELINE_UP] = axis(motion.up_axis, "decompose")
         else:
             h = _arrays.finite(body_height, "body_height")
-        if math.isfinite(h) and h > 0.0:
-            opts.append((lib.MLR_LAYERS_OPT_BODY_HEIGHT, h))
-    body = body_translation_joint(motion)
-    if body != 0:
-        opts.append((lib.MLR_LAYERS_OPT_BODY_JOINT, float(body)))
-    copts = ffi.new("mlr_layers_option[]", max(1, len(opts)))
-    for k, (key, value) in enumerate(opts):
-        copts[k].key, copts[k].value = key, value
-    root_pos, rot, trans = motion._frames()  # checked against the skeleton and each other
-    root = root_pos if body == 0 else np.ascontiguousarray(
-        trans[:, int(np.flatnonzero(motion.skeleton.trans_joints == body)[0])])
-    out = ffi.new("mlr_layers **")
-    diag = ffi.new("mlr_diag *")
-    check(lib.mlr_layers_decompose(n, j, _arrays.ptr(root), _arrays.ptr(rot), copts, len(opts),
-                                   ffi.NULL, out, diag), "decompose", diag)
-    handle = ffi.gc(out[0], lib.mlr_layers_destroy)
-    params = {}
+            params[lib.MLR_PIPELINE_BODY_HEIGHT] = h if h > 0.0 else -1.0
+    job = Job(params, "decompose")
+    job.prepare(motion)
+    handle = job.layers()
+    params_out = {}
     for name, which in _PARAMS.items():
         a = np.empty(1 + j)
         check(lib.mlr_layers_get_param(handle, which, _arrays.ptr_out(a), a.size), name)
-        params[name] = a
-    return Layers(motion, handle, params, body)
+        params_out[name] = a
+    return Layers(motion, handle, params_out, int(job.get(lib.MLR_PIPELINE_INFO_BODY_JOINT)),
+                  job)
+
+
+def _positive(v: Any, name: str) -> float:
+    """A value the pipeline takes as given only when > 0 (0 there means "not given")."""
+    x = _arrays.number(v, name)
+    if not x > 0.0:
+        raise InvalidArgumentError(f"option {name} must be > 0, got {v!r}")
+    return x

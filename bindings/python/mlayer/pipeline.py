@@ -1,11 +1,17 @@
 """The synthesis pipeline: decompose once, synthesize, then make the result plausible.
 
-This is the one place that composes the layers (:mod:`mlayer.layers`) with the plausibility
-guards of the C core (``mlr_guards.h``): joint limits (:mod:`mlayer.limits`), foot contacts
-and the floor (:mod:`mlayer.cleanup`). :func:`stylize` and :func:`denoise`, the command line,
-batch runs and the viewer all go through :class:`Synthesis`, so they give the same motion, and
-the same motion as a game runtime that calls ``mlr_layers_decompose``,
-``mlr_layers_synthesize`` and ``mlr_guards_apply`` with their defaults.
+The composition of the layers (:mod:`mlayer.layers`) with the plausibility guards of the C
+core (``mlr_guards.h``: joint limits, foot contacts, the floor) lives in the C core's job
+object, ``mlr_pipeline`` (``mlr_pipeline.h``): the decomposition's options, the repaired input
+the guards learn from, the guards' options, the synthesis with the body translation where it
+rides and ``mlr_guards_apply_trans``. :func:`stylize` and :func:`denoise`, the command line,
+batch runs and the viewer all go through :class:`Synthesis`, a thin caller of it, so they give
+the same motion, and the same motion as a game runtime that calls ``mlr_pipeline_run``.
+What stays here, on top of the C result: the arguments' Python forms (``"auto"``, globs in a
+dict, JointLimits objects, contact points by name, set on the pipeline's guards), the
+:class:`GuardReport` with joint names, the viewer's synthesis with the residual kept
+(``run(residual=True)``: the layers synthesized here, then :meth:`Synthesis.guard`), and the
+:class:`Clip`'s figures.
 
 What runs, in order, on ``M' = Mb (+) alpha delta_c``:
 
@@ -47,7 +53,8 @@ from numpy.typing import ArrayLike, NDArray
 from . import _arrays, _attrs
 from ._handles import ReadOnlyAttributes, refuse_copy
 from ._native import ffi, lib
-from ._rig import c_rig, motion_axis
+from ._pipeline import Job
+from ._rig import motion_axis
 from .errors import InvalidArgumentError, MlayerWarning, check
 from .layers import Layers, decompose
 from .limits import JointLimits
@@ -206,29 +213,24 @@ class Synthesis(ReadOnlyAttributes):
         return self.layers.repaired()
 
     @functools.cached_property
-    def _guards(self) -> Any:
-        m = self._guard_input()
-        root, rot, trans = m._frames()
-        opts = [(lib.MLR_GUARDS_OPT_UP, self._up), (lib.MLR_GUARDS_OPT_LIMITS, self._mode),
-                (lib.MLR_GUARDS_OPT_KEEP_CONTACTS, float(self._keep_contacts)),
-                (lib.MLR_GUARDS_OPT_FLOOR, float(self._floor_on))]
-        if self._floor_height is not None:
-            opts.append((lib.MLR_GUARDS_OPT_FLOOR_HEIGHT, self._floor_height))
-        copts = ffi.new("mlr_guards_option[]", len(opts))
-        for k, (key, v) in enumerate(opts):
-            copts[k].key, copts[k].value = key, v
-        rig, keep = c_rig(m.skeleton)
-        out = ffi.new("mlr_guards **")
-        diag = ffi.new("mlr_diag *")
-        check(lib.mlr_guards_create(rig, m.fps, m.n_frames, _arrays.ptr(root), _arrays.ptr(rot),
-                                    _arrays.ptr(trans) if trans.size else ffi.NULL, copts,
-                                    len(opts), ffi.NULL, out, diag), "guards", diag)
-        g = ffi.gc(out[0], lib.mlr_guards_destroy)
-        note = ffi.string(diag.message).decode("utf-8", "replace")
+    def _job(self) -> Job:
+        """The C pipeline (``mlr_pipeline``) prepared on the input with these layers: the input
+        with its outlier frames repaired (``mlr_layers_repair``, what :meth:`Layers.repaired`
+        gives) is what the guards learn from, so that a glitch does not break a contact or move
+        the floor."""
+        job = Job({lib.MLR_PIPELINE_UP: self._up, lib.MLR_PIPELINE_LIMITS: self._mode,
+                   lib.MLR_PIPELINE_KEEP_CONTACTS: float(self._keep_contacts),
+                   lib.MLR_PIPELINE_FLOOR: 0 if not self._floor_on
+                   else 1 if self._floor_height is None else 2,
+                   lib.MLR_PIPELINE_FLOOR_HEIGHT: self._floor_height or 0.0}, "guards")
+        note = job.prepare(self.motion, self.layers._h)
         if note and self._contact_joints is None:  # (given contact points replace the feet)
             warnings.warn(note, MlayerWarning, stacklevel=4)
+        g = job.guards()
+        diag = ffi.new("mlr_diag *")
         if self._contact_joints is not None and self._keep_contacts:
             from .contacts import _point, detect_contacts
+            m = self._guard_input()
             names, c = detect_contacts(m, self._contact_joints, up="xyz"[self._up])
             pts = [_point(m.skeleton, n) for n in names]
             j = np.array([p[0] for p in pts], dtype=np.int32)
@@ -239,10 +241,14 @@ class Synthesis(ReadOnlyAttributes):
                 ffi.cast("const int32_t *", ffi.from_buffer(e)),
                 ffi.cast("const uint8_t *", ffi.from_buffer(cu)), diag), "contact_joints", diag)
         if self._limits is not None:
-            if self._limits.joint_names != m.joint_names:
+            if self._limits.joint_names != self.motion.joint_names:
                 raise InvalidArgumentError("limits: made for another skeleton than the motion's")
             check(lib.mlr_guards_set_limits(g, self._limits._h, diag), "limits", diag)
-        return g
+        return job
+
+    @property
+    def _guards(self) -> Any:
+        return self._job.guards()
 
     def contacts(self) -> tuple[list[str], NDArray[np.bool_]]:
         """The contacts the guards pin.
@@ -328,12 +334,8 @@ class Synthesis(ReadOnlyAttributes):
             self._guards, _arrays.ptr(a), a.size, ref_ptr(rr), ref_ptr(rq), ref_ptr(rt),
             _arrays.ptr_out(root), _arrays.ptr_out(rot),
             tptr, ffi.cast("size_t *", ffi.from_buffer(limited)), J, rep, diag), "guards", diag)
-        report = GuardReport(
-            limited={n: int(k) for n, k in zip(self.motion.joint_names, limited) if k},
-            limits_applied=bool(rep.limits_applied), contact_frames=int(rep.contact_frames),
-            floor_frames=int(rep.floor_frames), floor_height=float(rep.floor_height),
-            root_shift_max=float(rep.root_shift_max), floor_raised=int(rep.floor_raised))
-        return synthesized.with_frames(root_pos=root, rot=rot, trans=trans), report
+        return synthesized.with_frames(root_pos=root, rot=rot, trans=trans), \
+            self._report(rep, limited)
 
     def run(self, alpha: float = 1.0, joints: Mapping[str, float] | None = None, *,
             root_alpha: float | None = None, residual: bool = False
@@ -362,14 +364,26 @@ class Synthesis(ReadOnlyAttributes):
             What the guards did.
         """
         L: Layers = self.layers
-        a = L.alphas(alpha, joints, root_alpha)
-        out = L.synthesize(alpha, joints, root_alpha=root_alpha)
+        a = L.alphas(alpha, joints, root_alpha)  # (the arguments' Python forms checked here)
         if residual:
             from . import quat
+            out = L.synthesize(alpha, joints, root_alpha=root_alpha)
             r = np.asarray(L.residual)
             out = out.with_frames(root_pos=out.root_pos + r[:, 0],
                                   rot=quat.normalize(quat.mul(out.rot, quat.exp(r[:, 1:]))))
-        return self.guard(out, a)
+            return self.guard(out, a)
+        (root, rot, trans), rep, limited = self._job.synthesize(
+            float(alpha), joints, None if root_alpha is None else float(root_alpha),
+            self.motion.n_joints)
+        return self.motion.with_frames(root_pos=root, rot=rot, trans=trans), \
+            self._report(rep, limited)
+
+    def _report(self, rep: Any, limited: NDArray[np.uintp]) -> GuardReport:
+        return GuardReport(
+            limited={n: int(k) for n, k in zip(self.motion.joint_names, limited) if k},
+            limits_applied=bool(rep.limits_applied), contact_frames=int(rep.contact_frames),
+            floor_frames=int(rep.floor_frames), floor_height=float(rep.floor_height),
+            root_shift_max=float(rep.root_shift_max), floor_raised=int(rep.floor_raised))
 
 
 @overload

@@ -1,0 +1,955 @@
+/* The pipeline (mlr_pipeline.h): trim, up axis, body joint, layers, repair, guards, synthesis
+ * and the guards applied, composed once with the defaults of mlayer.stylize. */
+#include "pipeline/pipeline_internal.h"
+
+#include "motion/bvh_internal.h"
+
+#include <math.h>
+#include <stdio.h>
+
+#define PI 3.14159265358979323846
+
+/* A buffer kept from run to run (from the caller's allocator), grown when a clip needs more. */
+typedef struct buffer {
+    void *ptr;
+    size_t bytes;
+} buffer;
+
+typedef struct joint_alpha {
+    char pattern[MLR_PIPELINE_MAX_PATTERN + 1];
+    double alpha;
+} joint_alpha;
+
+struct mlr_pipeline {
+    mlr_allocator user;    /* the caller's: the handle, the kept buffers, the results */
+    pipeline__arena arena; /* over user: what the layers and the guards allocate */
+    mlr_allocator mem;     /* serves from arena */
+
+    /* parameters (mlr_pipeline_param) */
+    double alpha, root_alpha;
+    int root_alpha_set;
+    int up, trim, guards, limits, floor, keep_contacts, robust, keep_memory;
+    double units, floor_height, gamma, lam_c, sigma_c, lam_b, sigma_b, base_cutoff, body_height;
+    size_t n_joint_alphas;
+    buffer patterns; /* joint_alpha[], grown past its longest list so far */
+
+    /* the prepared clip */
+    int prepared, stale, synthesized;
+    mlr_motion *input; /* the trimmed copy (grown when a clip is larger) */
+    mlr_layers *own_layers;
+    const mlr_layers *layers;
+    mlr_guards *g;
+    int up_used;
+    int32_t body_joint;
+    size_t trimmed;
+    double height_used;
+
+    /* kept buffers */
+    buffer names, fk, body, rep_root, rep_rot, rep_trans, alphas, root, rot, trans, limited;
+    mlr_guards_report report;
+};
+
+/* ---- small helpers --------------------------------------------------------------------------- */
+
+static void *grow(mlr_pipeline *p, buffer *b, size_t count, size_t elsize)
+{
+    size_t bytes;
+    if (mlr_mul_size(count, elsize, &bytes) != MLR_OK)
+        return NULL;
+    if (bytes == 0)
+        bytes = 16;
+    if (b->bytes < bytes) {
+        void *n = mlr_alloc(&p->user, bytes);
+        if (!n)
+            return NULL;
+        mlr_free(&p->user, b->ptr, b->bytes);
+        b->ptr = n;
+        b->bytes = bytes;
+    }
+    return b->ptr;
+}
+
+static void drop(mlr_pipeline *p, buffer *b)
+{
+    mlr_free(&p->user, b->ptr, b->bytes);
+    b->ptr = NULL;
+    b->bytes = 0;
+}
+
+/* After a call: grow the arena for the next run (KEEP_MEMORY 1), or give the scratch back. */
+static void keep_or_give_back(mlr_pipeline *p)
+{
+    if (p->keep_memory) {
+        pipeline__arena_reserve(&p->arena);
+        return;
+    }
+    buffer *scratch[] = {&p->names,     &p->fk,     &p->body, &p->rep_root, &p->rep_rot,
+                         &p->rep_trans, &p->alphas, &p->root, &p->rot,      &p->trans};
+    for (size_t k = 0; k < MLR_COUNTOF(scratch); k++)
+        drop(p, scratch[k]);
+}
+
+static void unprepare(mlr_pipeline *p)
+{
+    mlr_guards_destroy(p->g);
+    p->g = NULL;
+    mlr_layers_destroy(p->own_layers);
+    p->own_layers = NULL;
+    p->layers = NULL;
+    p->prepared = p->stale = p->synthesized = 0;
+    p->up_used = -1;
+    p->body_joint = 0;
+    p->trimmed = 0;
+    p->height_used = NAN;
+}
+
+static int is_integer(double v) { return isfinite(v) && v == floor(v); }
+
+static const char *param_name(int param)
+{
+    switch (param) {
+    case MLR_PIPELINE_ALPHA:
+        return "alpha";
+    case MLR_PIPELINE_ROOT_ALPHA:
+        return "root_alpha";
+    case MLR_PIPELINE_UP:
+        return "up";
+    case MLR_PIPELINE_TRIM:
+        return "trim";
+    case MLR_PIPELINE_UNITS:
+        return "units";
+    case MLR_PIPELINE_GUARDS:
+        return "guards";
+    case MLR_PIPELINE_LIMITS:
+        return "limits";
+    case MLR_PIPELINE_FLOOR:
+        return "floor";
+    case MLR_PIPELINE_FLOOR_HEIGHT:
+        return "floor_height";
+    case MLR_PIPELINE_KEEP_CONTACTS:
+        return "keep_contacts";
+    case MLR_PIPELINE_ROBUST:
+        return "robust";
+    case MLR_PIPELINE_GAMMA:
+        return "gamma";
+    case MLR_PIPELINE_LAM_C:
+        return "lam_c";
+    case MLR_PIPELINE_SIGMA_C:
+        return "sigma_c";
+    case MLR_PIPELINE_LAM_B:
+        return "lam_b";
+    case MLR_PIPELINE_SIGMA_B:
+        return "sigma_b";
+    case MLR_PIPELINE_BASE_CUTOFF:
+        return "base_cutoff";
+    case MLR_PIPELINE_BODY_HEIGHT:
+        return "body_height";
+    case MLR_PIPELINE_KEEP_MEMORY:
+        return "keep_memory";
+    default:
+        return NULL;
+    }
+}
+
+/* ---- create, set, get -------------------------------------------------------------------- */
+
+mlr_status mlr_pipeline_create(const mlr_allocator *alloc, mlr_pipeline **out, mlr_diag *diag)
+{
+    if (!out)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "mlr_pipeline_create: out is NULL");
+    *out = NULL;
+    mlr_allocator a;
+    mlr_allocator_resolve(alloc, &a);
+    mlr_pipeline *p = mlr_alloc(&a, sizeof *p);
+    if (!p)
+        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                            "mlr_pipeline_create: out of memory (the handle, %zu bytes)",
+                            sizeof *p);
+    memset(p, 0, sizeof *p);
+    p->user = a;
+    pipeline__arena_init(&p->arena, &p->user, &p->mem);
+    p->alpha = 1.0;
+    p->up = -1;
+    p->guards = 1;
+    p->limits = MLR_GUARDS_LIMITS_AUTO;
+    p->floor = 1;
+    p->keep_contacts = 1;
+    p->robust = 1;
+    p->keep_memory = 1;
+    p->gamma = PI / 2;
+    p->base_cutoff = 0.25;
+    unprepare(p);
+    *out = p;
+    return MLR_OK;
+}
+
+/* Check value for param; MLR_OK or MLR_E_INVALID_ARG with the reason. */
+static mlr_status check_value(int param, double v, mlr_diag *diag)
+{
+    const char *name = param_name(param);
+    const char *why = NULL;
+    switch (param) {
+    case MLR_PIPELINE_ALPHA:
+    case MLR_PIPELINE_ROOT_ALPHA:
+    case MLR_PIPELINE_FLOOR_HEIGHT:
+        if (!isfinite(v))
+            why = "must be finite";
+        break;
+    case MLR_PIPELINE_UP:
+        if (!(v == -1 || v == MLR_AXIS_X || v == MLR_AXIS_Y || v == MLR_AXIS_Z))
+            why = "must be an mlr_axis (0, 1, 2) or -1 (detect)";
+        break;
+    case MLR_PIPELINE_TRIM:
+        if (!is_integer(v) || v < -1 || v > 1e15)
+            why = "must be a frame count >= 0 or -1 (the lead-in)";
+        break;
+    case MLR_PIPELINE_UNITS:
+        if (!isfinite(v) || v < 0)
+            why = "must be metres per unit > 0, or 0 (unknown)";
+        break;
+    case MLR_PIPELINE_GUARDS:
+    case MLR_PIPELINE_KEEP_CONTACTS:
+    case MLR_PIPELINE_ROBUST:
+    case MLR_PIPELINE_KEEP_MEMORY:
+        if (!(v == 0 || v == 1))
+            why = "must be 0 or 1";
+        break;
+    case MLR_PIPELINE_LIMITS:
+        if (!(v == MLR_GUARDS_LIMITS_OFF || v == MLR_GUARDS_LIMITS_AUTO ||
+              v == MLR_GUARDS_LIMITS_ALWAYS))
+            why = "must be an mlr_guards_limits_mode (0 off, 1 auto, 2 always)";
+        break;
+    case MLR_PIPELINE_FLOOR:
+        if (!(v == 0 || v == 1 || v == 2))
+            why = "must be 0 (off), 1 (from the contacts) or 2 (at floor_height)";
+        break;
+    case MLR_PIPELINE_GAMMA:
+        if (!(v >= PI / 2 && v < PI))
+            why = "must be in [pi/2, pi)";
+        break;
+    case MLR_PIPELINE_LAM_C:
+    case MLR_PIPELINE_SIGMA_C:
+    case MLR_PIPELINE_LAM_B:
+    case MLR_PIPELINE_SIGMA_B:
+    case MLR_PIPELINE_BASE_CUTOFF:
+        if (!isfinite(v) || v < 0)
+            why = "must be finite and > 0, or 0 (not given)";
+        break;
+    case MLR_PIPELINE_BODY_HEIGHT:
+        if (!isfinite(v))
+            why = "must be finite (> 0 given, 0 measured, < 0 none)";
+        break;
+    default:
+        if (param >= MLR_PIPELINE_INFO_UP && param <= MLR_PIPELINE_INFO_BODY_HEIGHT)
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "mlr_pipeline_set: parameter %d is read-only (an INFO key)",
+                                param);
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "mlr_pipeline_set: unknown parameter %d", param);
+    }
+    if (why)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "mlr_pipeline_set: option %s %s, got %.17g", name, why, v);
+    return MLR_OK;
+}
+
+mlr_status mlr_pipeline_set(mlr_pipeline *p, mlr_pipeline_param param, double value,
+                            mlr_diag *diag)
+{
+    if (!p)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "mlr_pipeline_set: p is NULL");
+    mlr_status s = check_value((int)param, value, diag);
+    if (s != MLR_OK)
+        return s;
+    double old = 0;
+    mlr_pipeline_get(p, param, &old);
+    switch ((int)param) {
+    case MLR_PIPELINE_ALPHA:
+        p->alpha = value;
+        return MLR_OK;
+    case MLR_PIPELINE_ROOT_ALPHA:
+        p->root_alpha = value;
+        p->root_alpha_set = 1;
+        return MLR_OK;
+    case MLR_PIPELINE_UNITS:
+        p->units = value;
+        return MLR_OK;
+    case MLR_PIPELINE_KEEP_MEMORY:
+        p->keep_memory = (int)value;
+        return MLR_OK;
+    case MLR_PIPELINE_UP:
+        p->up = (int)value;
+        break;
+    case MLR_PIPELINE_TRIM:
+        p->trim = (int)value;
+        break;
+    case MLR_PIPELINE_GUARDS:
+        p->guards = (int)value;
+        break;
+    case MLR_PIPELINE_LIMITS:
+        p->limits = (int)value;
+        break;
+    case MLR_PIPELINE_FLOOR:
+        p->floor = (int)value;
+        break;
+    case MLR_PIPELINE_FLOOR_HEIGHT:
+        p->floor_height = value;
+        break;
+    case MLR_PIPELINE_KEEP_CONTACTS:
+        p->keep_contacts = (int)value;
+        break;
+    case MLR_PIPELINE_ROBUST:
+        p->robust = (int)value;
+        break;
+    case MLR_PIPELINE_GAMMA:
+        p->gamma = value;
+        break;
+    case MLR_PIPELINE_LAM_C:
+        p->lam_c = value;
+        break;
+    case MLR_PIPELINE_SIGMA_C:
+        p->sigma_c = value;
+        break;
+    case MLR_PIPELINE_LAM_B:
+        p->lam_b = value;
+        break;
+    case MLR_PIPELINE_SIGMA_B:
+        p->sigma_b = value;
+        break;
+    case MLR_PIPELINE_BASE_CUTOFF:
+        p->base_cutoff = value;
+        break;
+    case MLR_PIPELINE_BODY_HEIGHT:
+        p->body_height = value;
+        break;
+    default:
+        break; /* rejected by check_value */
+    }
+    if (p->prepared && old != value)
+        p->stale = (int)param;
+    return MLR_OK;
+}
+
+mlr_status mlr_pipeline_get(const mlr_pipeline *p, mlr_pipeline_param param, double *value)
+{
+    if (!p || !value)
+        return MLR_E_INVALID_ARG;
+    const double none = NAN;
+    double v;
+    switch ((int)param) {
+    case MLR_PIPELINE_ALPHA:
+        v = p->alpha;
+        break;
+    case MLR_PIPELINE_ROOT_ALPHA:
+        v = p->root_alpha_set ? p->root_alpha : p->alpha;
+        break;
+    case MLR_PIPELINE_UP:
+        v = p->up;
+        break;
+    case MLR_PIPELINE_TRIM:
+        v = p->trim;
+        break;
+    case MLR_PIPELINE_UNITS:
+        v = p->units;
+        break;
+    case MLR_PIPELINE_GUARDS:
+        v = p->guards;
+        break;
+    case MLR_PIPELINE_LIMITS:
+        v = p->limits;
+        break;
+    case MLR_PIPELINE_FLOOR:
+        v = p->floor;
+        break;
+    case MLR_PIPELINE_FLOOR_HEIGHT:
+        v = p->floor_height;
+        break;
+    case MLR_PIPELINE_KEEP_CONTACTS:
+        v = p->keep_contacts;
+        break;
+    case MLR_PIPELINE_ROBUST:
+        v = p->robust;
+        break;
+    case MLR_PIPELINE_GAMMA:
+        v = p->gamma;
+        break;
+    case MLR_PIPELINE_LAM_C:
+        v = p->lam_c;
+        break;
+    case MLR_PIPELINE_SIGMA_C:
+        v = p->sigma_c;
+        break;
+    case MLR_PIPELINE_LAM_B:
+        v = p->lam_b;
+        break;
+    case MLR_PIPELINE_SIGMA_B:
+        v = p->sigma_b;
+        break;
+    case MLR_PIPELINE_BASE_CUTOFF:
+        v = p->base_cutoff;
+        break;
+    case MLR_PIPELINE_BODY_HEIGHT:
+        v = p->body_height;
+        break;
+    case MLR_PIPELINE_KEEP_MEMORY:
+        v = p->keep_memory;
+        break;
+    case MLR_PIPELINE_INFO_UP:
+        v = p->prepared ? p->up_used : none;
+        break;
+    case MLR_PIPELINE_INFO_TRIMMED:
+        v = p->prepared ? (double)p->trimmed : none;
+        break;
+    case MLR_PIPELINE_INFO_FRAMES:
+        v = p->prepared ? (double)mlr_motion_n_frames(p->input) : none;
+        break;
+    case MLR_PIPELINE_INFO_BODY_JOINT:
+        v = p->prepared ? p->body_joint : none;
+        break;
+    case MLR_PIPELINE_INFO_BODY_HEIGHT:
+        v = p->prepared ? p->height_used : none;
+        break;
+    default:
+        return MLR_E_INVALID_ARG;
+    }
+    *value = v;
+    return MLR_OK;
+}
+
+mlr_status mlr_pipeline_set_joint_alpha(mlr_pipeline *p, const char *pattern, double alpha,
+                                        mlr_diag *diag)
+{
+    if (!p || !pattern)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "mlr_pipeline_set_joint_alpha: %s is NULL", p ? "pattern" : "p");
+    const size_t len = strlen(pattern);
+    if (len == 0 || len > MLR_PIPELINE_MAX_PATTERN)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "mlr_pipeline_set_joint_alpha: the pattern must have 1 to %d bytes, "
+                            "got %zu",
+                            MLR_PIPELINE_MAX_PATTERN, len);
+    if (!isfinite(alpha))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "mlr_pipeline_set_joint_alpha: the alpha of '%.60s' must be finite, "
+                            "got %g",
+                            pattern, alpha);
+    if ((p->n_joint_alphas + 1) * sizeof(joint_alpha) > p->patterns.bytes) { /* grow, keep */
+        const size_t cap = p->n_joint_alphas < 8 ? 16 : 2 * p->n_joint_alphas;
+        size_t bytes;
+        void *n = mlr_mul_size(cap, sizeof(joint_alpha), &bytes) == MLR_OK
+                      ? mlr_alloc(&p->user, bytes)
+                      : NULL;
+        if (!n)
+            return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                                "mlr_pipeline_set_joint_alpha: out of memory (%zu patterns)", cap);
+        if (p->n_joint_alphas)
+            memcpy(n, p->patterns.ptr, p->n_joint_alphas * sizeof(joint_alpha));
+        drop(p, &p->patterns);
+        p->patterns.ptr = n;
+        p->patterns.bytes = bytes;
+    }
+    joint_alpha *ja = (joint_alpha *)p->patterns.ptr + p->n_joint_alphas++;
+    memcpy(ja->pattern, pattern, len + 1);
+    ja->alpha = alpha;
+    return MLR_OK;
+}
+
+void mlr_pipeline_clear_joint_alphas(mlr_pipeline *p)
+{
+    if (p) {
+        p->n_joint_alphas = 0;
+        p->root_alpha_set = 0;
+    }
+}
+
+/* ---- prepare ----------------------------------------------------------------------------- */
+
+/* The rig view of a motion (names in p->names). */
+static mlr_status rig_of(mlr_pipeline *p, const mlr_motion *m, mlr_rig *rig)
+{
+    const size_t J = mlr_motion_n_joints(m);
+    const char **names = grow(p, &p->names, J, sizeof *names);
+    if (!names)
+        return MLR_E_NO_MEMORY;
+    for (size_t j = 0; j < J; j++)
+        names[j] = mlr_motion_joint_name(m, j);
+    rig->n_joints = J;
+    rig->parents = mlr_motion_parents(m);
+    rig->offsets = mlr_motion_offsets(m);
+    rig->names = names;
+    rig->n_trans = mlr_motion_n_trans(m);
+    rig->trans_joints = rig->n_trans ? mlr_motion_trans_joints(m) : NULL;
+    rig->n_end_sites = mlr_motion_n_end_sites(m);
+    rig->end_site_parents = rig->n_end_sites ? mlr_motion_end_site_parents(m) : NULL;
+    rig->end_site_offsets = rig->n_end_sites ? mlr_motion_end_site_offsets(m) : NULL;
+    return MLR_OK;
+}
+
+/* World positions of m's joints into p->fk (N x J x 3). */
+static mlr_status positions(mlr_pipeline *p, const mlr_motion *m, const double **out,
+                            mlr_diag *diag)
+{
+    const size_t N = mlr_motion_n_frames(m), J = mlr_motion_n_joints(m);
+    size_t nj;
+    if (mlr_mul_size(N, J, &nj) != MLR_OK)
+        return MLR_E_OVERFLOW;
+    double *pos = grow(p, &p->fk, nj, 3 * sizeof(double));
+    if (!pos)
+        return MLR_E_NO_MEMORY;
+    const size_t P = mlr_motion_n_trans(m);
+    mlr_status s =
+        mlr_fk_arrays(N, J, mlr_motion_parents(m), mlr_motion_offsets(m), mlr_motion_root_pos(m),
+                      mlr_motion_rot(m), P, P ? mlr_motion_trans_joints(m) : NULL,
+                      P ? mlr_motion_trans(m) : NULL, pos, NULL, &p->mem, diag);
+    *out = pos;
+    return s;
+}
+
+/* The up axis of m as mlayer.Motion.up_axis gives it: the parameter, else detected (Y when the
+ * detection is not sure). */
+static mlr_status up_of(mlr_pipeline *p, const mlr_motion *m, const mlr_rig *rig, int *up,
+                        mlr_diag *diag)
+{
+    if (p->up >= 0) {
+        *up = p->up;
+        return MLR_OK;
+    }
+    const double *pos;
+    mlr_status s = positions(p, m, &pos, diag);
+    if (s < 0)
+        return s;
+    mlr_up_guess g;
+    s = mlr_rig_up_axis(rig, mlr_motion_n_frames(m), pos, &g, &p->mem, diag);
+    if (s < 0)
+        return s;
+    *up = g.method != MLR_UP_NONE && g.confidence >= MLR_RIG_UP_SURE ? g.axis : MLR_AXIS_Y;
+    return MLR_OK;
+}
+
+/* The frames to drop at the start of in. */
+static mlr_status frames_to_trim(mlr_pipeline *p, const mlr_motion *in, size_t *n_drop,
+                                 mlr_diag *diag)
+{
+    const size_t N = mlr_motion_n_frames(in);
+    if (p->trim >= 0) {
+        *n_drop = (size_t)p->trim;
+    } else {
+        mlr_rig rig;
+        int up;
+        mlr_status s = rig_of(p, in, &rig);
+        if (s < 0)
+            return s;
+        s = up_of(p, in, &rig, &up, diag);
+        if (s < 0)
+            return s;
+        mlr_trim_lead lead;
+        s = mlr_trim_lead_in(&rig, N, mlr_motion_root_pos(in), mlr_motion_rot(in),
+                             mlr_motion_trans(in), up, &lead, &p->mem, diag);
+        if (s < 0)
+            return s;
+        *n_drop = lead.n_frames;
+    }
+    if (*n_drop >= N || N - *n_drop < 3)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "trim: %zu frames dropped from a clip of %zu leave fewer than 3",
+                            *n_drop, N);
+    return MLR_OK;
+}
+
+static size_t trans_slot(const mlr_motion *m, int32_t body)
+{
+    const size_t P = mlr_motion_n_trans(m);
+    const int32_t *tj = mlr_motion_trans_joints(m);
+    size_t slot = 0;
+    while (slot < P && tj[slot] != body)
+        slot++;
+    return slot;
+}
+
+/* The body translation of m (N x 3): root_pos, or the position channels of joint body. */
+static const double *body_translation(mlr_pipeline *p, const mlr_motion *m, int32_t body)
+{
+    if (body == 0)
+        return mlr_motion_root_pos(m);
+    const size_t N = mlr_motion_n_frames(m), P = mlr_motion_n_trans(m);
+    const size_t slot = trans_slot(m, body);
+    double *t = grow(p, &p->body, N, 3 * sizeof(double));
+    if (!t)
+        return NULL;
+    const double *trans = mlr_motion_trans(m);
+    for (size_t i = 0; i < N; i++)
+        memcpy(t + 3 * i, trans + 3 * (i * P + slot), 3 * sizeof(double));
+    return t;
+}
+
+static mlr_status decompose(mlr_pipeline *p, const mlr_motion *m, const mlr_rig *rig, int *up_used,
+                            mlr_diag *diag)
+{
+    const size_t N = mlr_motion_n_frames(m), J = mlr_motion_n_joints(m);
+    const double fps = 1.0 / mlr_motion_frame_time(m);
+    mlr_layers_option opts[12];
+    size_t n = 0;
+    opts[n++] = (mlr_layers_option){MLR_LAYERS_OPT_GAMMA, p->gamma};
+    if (p->lam_c > 0)
+        opts[n++] = (mlr_layers_option){MLR_LAYERS_OPT_LAM_C, p->lam_c};
+    if (p->sigma_c > 0)
+        opts[n++] = (mlr_layers_option){MLR_LAYERS_OPT_SIGMA_C, p->sigma_c};
+    if (p->lam_b > 0)
+        opts[n++] = (mlr_layers_option){MLR_LAYERS_OPT_LAM_B, p->lam_b};
+    if (p->sigma_b > 0)
+        opts[n++] = (mlr_layers_option){MLR_LAYERS_OPT_SIGMA_B, p->sigma_b};
+    if (p->base_cutoff > 0 && !(p->lam_b > 0) && !(p->sigma_b > 0)) {
+        opts[n++] = (mlr_layers_option){MLR_LAYERS_OPT_FPS, fps};
+        opts[n++] = (mlr_layers_option){MLR_LAYERS_OPT_BASE_CUTOFF, p->base_cutoff};
+    }
+    opts[n++] = (mlr_layers_option){MLR_LAYERS_OPT_ROBUST, (double)p->robust};
+    if (p->robust) {
+        double h = p->body_height;
+        if (h == 0) { /* measured along up, as mlayer.metrics.body_height */
+            if (*up_used < 0) {
+                mlr_status s = up_of(p, m, rig, up_used, diag);
+                if (s < 0)
+                    return s;
+            }
+            const double *pos;
+            mlr_status s = positions(p, m, &pos, diag);
+            if (s < 0)
+                return s;
+            s = mlr_rig_body_height(N, J, pos, *up_used, &h, &p->mem, diag);
+            if (s < 0)
+                return s;
+        }
+        if (isfinite(h) && h > 0) {
+            opts[n++] = (mlr_layers_option){MLR_LAYERS_OPT_BODY_HEIGHT, h};
+            p->height_used = h;
+        }
+    }
+    if (p->body_joint != 0)
+        opts[n++] = (mlr_layers_option){MLR_LAYERS_OPT_BODY_JOINT, (double)p->body_joint};
+    const double *root = body_translation(p, m, p->body_joint);
+    if (!root)
+        return MLR_E_NO_MEMORY;
+    return mlr_layers_decompose(N, J, root, mlr_motion_rot(m), opts, n, &p->mem, &p->own_layers,
+                                diag);
+}
+
+/* The input with its outlier frames repaired (mlr_layers_repair), into p->rep_*. */
+static mlr_status repaired(mlr_pipeline *p, const mlr_motion *m, double **root, double **rot,
+                           double **trans, mlr_diag *diag)
+{
+    const size_t N = mlr_motion_n_frames(m), J = mlr_motion_n_joints(m), P = mlr_motion_n_trans(m);
+    size_t nj, np;
+    if (mlr_mul_size(N, J, &nj) || mlr_mul_size(N, P, &np))
+        return MLR_E_OVERFLOW;
+    *root = grow(p, &p->rep_root, N, 3 * sizeof(double));
+    *rot = grow(p, &p->rep_rot, nj, 4 * sizeof(double));
+    *trans = P ? grow(p, &p->rep_trans, np, 3 * sizeof(double)) : NULL;
+    double *body = grow(p, &p->body, N, 3 * sizeof(double));
+    if (!*root || !*rot || (P && !*trans) || !body)
+        return MLR_E_NO_MEMORY;
+    memcpy(*root, mlr_motion_root_pos(m), 3 * N * sizeof(double));
+    memcpy(*rot, mlr_motion_rot(m), 4 * nj * sizeof(double));
+    if (P)
+        memcpy(*trans, mlr_motion_trans(m), 3 * np * sizeof(double));
+    const size_t slot = trans_slot(m, p->body_joint);
+    if (p->body_joint == 0)
+        memcpy(body, *root, 3 * N * sizeof(double));
+    else
+        for (size_t i = 0; i < N; i++)
+            memcpy(body + 3 * i, *trans + 3 * (i * P + slot), 3 * sizeof(double));
+    size_t n_repaired = 0;
+    mlr_status s =
+        mlr_layers_repair(p->layers, 0, N, body, 3 * N, *rot, 4 * nj, &n_repaired, diag);
+    if (s < 0)
+        return s;
+    if (p->body_joint == 0)
+        memcpy(*root, body, 3 * N * sizeof(double));
+    else
+        for (size_t i = 0; i < N; i++)
+            memcpy(*trans + 3 * (i * P + slot), body + 3 * i, 3 * sizeof(double));
+    return MLR_OK;
+}
+
+static mlr_status make_guards(mlr_pipeline *p, const mlr_motion *m, const mlr_rig *rig,
+                              int *up_used, char *note, mlr_diag *diag)
+{
+    if (*up_used < 0) {
+        mlr_status s = up_of(p, m, rig, up_used, diag);
+        if (s < 0)
+            return s;
+    }
+    double *root, *rot, *trans;
+    mlr_status s = repaired(p, m, &root, &rot, &trans, diag);
+    if (s < 0)
+        return s;
+    mlr_guards_option opts[5];
+    size_t n = 0;
+    opts[n++] = (mlr_guards_option){MLR_GUARDS_OPT_UP, (double)*up_used};
+    opts[n++] = (mlr_guards_option){MLR_GUARDS_OPT_LIMITS, (double)p->limits};
+    opts[n++] = (mlr_guards_option){MLR_GUARDS_OPT_KEEP_CONTACTS, (double)p->keep_contacts};
+    opts[n++] = (mlr_guards_option){MLR_GUARDS_OPT_FLOOR, p->floor ? 1.0 : 0.0};
+    if (p->floor == 2)
+        opts[n++] = (mlr_guards_option){MLR_GUARDS_OPT_FLOOR_HEIGHT, p->floor_height};
+    mlr_diag d = {0};
+    s = mlr_guards_create(rig, 1.0 / mlr_motion_frame_time(m), mlr_motion_n_frames(m), root, rot,
+                          trans, opts, n, &p->mem, &p->g, &d);
+    if (s < 0) {
+        if (diag)
+            *diag = d;
+        return s;
+    }
+    memcpy(note, d.message, sizeof d.message);
+    return MLR_OK;
+}
+
+mlr_status mlr_pipeline_prepare(mlr_pipeline *p, const mlr_motion *in, const mlr_layers *layers,
+                                mlr_diag *diag)
+{
+    if (!p || !in)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "mlr_pipeline_prepare: %s is NULL",
+                            p ? "in" : "p");
+    unprepare(p);
+    const size_t N = mlr_motion_n_frames(in), J = mlr_motion_n_joints(in);
+    if (N < 3)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "mlr_pipeline_prepare: the clip needs at least 3 frames, got %zu", N);
+    char note[sizeof(((mlr_diag *)0)->message)] = "";
+    size_t n_drop = 0;
+    mlr_status s = frames_to_trim(p, in, &n_drop, diag);
+    if (s < 0)
+        return mlr_diag_prefix(diag, s, "mlr_pipeline_prepare");
+
+    /* the pipeline's copy of the trimmed clip */
+    const size_t n = N - n_drop, P = mlr_motion_n_trans(in);
+    s = bvh_motion_fit(&p->input, in, n, &p->user);
+    if (s < 0)
+        return mlr_diag_set(diag, s, 0, 0, "mlr_pipeline_prepare: %s (a copy of %zu frames)",
+                            s == MLR_E_NO_MEMORY ? "out of memory" : mlr_status_string(s), n);
+    mlr_motion *m = p->input;
+    memcpy(mlr_motion_root_pos_mut(m), mlr_motion_root_pos(in) + 3 * n_drop,
+           3 * n * sizeof(double));
+    memcpy(mlr_motion_rot_mut(m), mlr_motion_rot(in) + 4 * J * n_drop, 4 * J * n * sizeof(double));
+    if (P)
+        memcpy(mlr_motion_trans_mut(m), mlr_motion_trans(in) + 3 * P * n_drop,
+               3 * P * n * sizeof(double));
+
+    mlr_rig rig;
+    int up_used = -1;
+    s = rig_of(p, m, &rig);
+    if (s >= 0)
+        s = mlr_rig_body_translation_joint(&rig, n, mlr_motion_root_pos(m), mlr_motion_trans(m),
+                                           &p->body_joint, diag);
+    if (s >= 0) {
+        if (layers) {
+            if (mlr_layers_n_frames(layers) != n || mlr_layers_n_joints(layers) != J)
+                s = mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                 "layers: of %zu frames and %zu joints, the clip has %zu and %zu",
+                                 mlr_layers_n_frames(layers), mlr_layers_n_joints(layers), n, J);
+            p->layers = layers;
+        } else {
+            s = decompose(p, m, &rig, &up_used, diag);
+            p->layers = p->own_layers;
+        }
+    }
+    if (s >= 0 && p->guards)
+        s = make_guards(p, m, &rig, &up_used, note, diag);
+    if (s < 0) {
+        const mlr_status r = s == MLR_E_NO_MEMORY && diag && !diag->message[0]
+                                 ? mlr_diag_set(diag, s, 0, 0, "out of memory")
+                                 : s;
+        unprepare(p);
+        return mlr_diag_prefix(diag, r, "mlr_pipeline_prepare");
+    }
+    p->up_used = up_used;
+    p->trimmed = n_drop;
+    p->prepared = 1;
+    keep_or_give_back(p);
+    if (diag) {
+        memset(diag, 0, sizeof *diag);
+        memcpy(diag->message, note, sizeof note);
+    }
+    return MLR_OK;
+}
+
+/* ---- synthesize -------------------------------------------------------------------------- */
+
+/* The 1 + J alphas of the parameters and joint patterns, into a. */
+static mlr_status alphas_of(const mlr_pipeline *p, const mlr_motion *m, double *a, mlr_diag *diag)
+{
+    const size_t J = mlr_motion_n_joints(m);
+    for (size_t k = 0; k <= J; k++)
+        a[k] = p->alpha;
+    if (p->root_alpha_set)
+        a[0] = p->root_alpha;
+    for (size_t k = 0; k < p->n_joint_alphas; k++) {
+        const joint_alpha *ja = (const joint_alpha *)p->patterns.ptr + k;
+        size_t hits = 0;
+        for (size_t j = 0; j < J; j++)
+            if (pipeline__glob_match(ja->pattern, mlr_motion_joint_name(m, j))) {
+                a[1 + j] = ja->alpha;
+                hits++;
+            }
+        if (!hits) {
+            mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                         "joint pattern '%.60s' matches no joint; joints: ", ja->pattern);
+            if (diag) { /* as many names as fit */
+                size_t len = strlen(diag->message);
+                for (size_t j = 0; j < J && len + 1 < sizeof diag->message; j++) {
+                    const int w = snprintf(diag->message + len, sizeof diag->message - len, "%s%s",
+                                           j ? ", " : "", mlr_motion_joint_name(m, j));
+                    if (w < 0)
+                        break;
+                    len += (size_t)w;
+                    if (len >= sizeof diag->message)
+                        len = sizeof diag->message - 1;
+                }
+            }
+            return MLR_E_INVALID_ARG;
+        }
+    }
+    return MLR_OK;
+}
+
+mlr_status mlr_pipeline_synthesize(mlr_pipeline *p, mlr_motion **out, mlr_diag *diag)
+{
+    if (!p || !out)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "mlr_pipeline_synthesize: %s is NULL",
+                            p ? "out" : "p");
+    if (!p->prepared)
+        return mlr_diag_set(diag, MLR_E_BAD_STATE, 0, 0,
+                            "mlr_pipeline_synthesize: not prepared (mlr_pipeline_prepare)");
+    if (p->stale)
+        return mlr_diag_set(diag, MLR_E_BAD_STATE, 0, 0,
+                            "mlr_pipeline_synthesize: %s changed since the prepare: prepare "
+                            "again",
+                            param_name(p->stale));
+    if (*out == p->input)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "mlr_pipeline_synthesize: out is the pipeline's own clip");
+    const mlr_motion *m = p->input;
+    const size_t N = mlr_motion_n_frames(m), J = mlr_motion_n_joints(m), P = mlr_motion_n_trans(m);
+    size_t nj, np;
+    if (mlr_mul_size(N, J, &nj) || mlr_mul_size(N, P, &np))
+        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "mlr_pipeline_synthesize: overflow");
+    double *a = grow(p, &p->alphas, 1 + J, sizeof(double));
+    double *root = grow(p, &p->root, N, 3 * sizeof(double));
+    double *rot = grow(p, &p->rot, nj, 4 * sizeof(double));
+    double *trans = P ? grow(p, &p->trans, np, 3 * sizeof(double)) : NULL;
+    double *body = grow(p, &p->body, N, 3 * sizeof(double));
+    size_t *limited = grow(p, &p->limited, J, sizeof(size_t));
+    if (!a || !root || !rot || (P && !trans) || !body || !limited)
+        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                            "mlr_pipeline_synthesize: out of memory (%zu frames)", N);
+    mlr_status s = alphas_of(p, m, a, diag);
+    if (s < 0)
+        return mlr_diag_prefix(diag, s, "mlr_pipeline_synthesize");
+
+    /* Mb (+) alpha delta_c, the body translation where it rides */
+    s = mlr_layers_synthesize(p->layers, 0, N, a, 1 + J, body, 3 * N, rot, 4 * nj, diag);
+    if (s < 0)
+        return mlr_diag_prefix(diag, s, "mlr_pipeline_synthesize");
+    memcpy(root, mlr_motion_root_pos(m), 3 * N * sizeof(double));
+    if (P)
+        memcpy(trans, mlr_motion_trans(m), 3 * np * sizeof(double));
+    if (p->body_joint == 0) {
+        memcpy(root, body, 3 * N * sizeof(double));
+    } else {
+        const size_t slot = trans_slot(m, p->body_joint);
+        for (size_t i = 0; i < N; i++)
+            memcpy(trans + 3 * (i * P + slot), body + 3 * i, 3 * sizeof(double));
+    }
+
+    mlr_guards_report rep;
+    memset(&rep, 0, sizeof rep);
+    rep.floor_height = NAN;
+    memset(limited, 0, J * sizeof(size_t));
+    if (p->g) {
+        s = mlr_guards_apply_trans(p->g, a, 1 + J, NULL, NULL, NULL, root, rot, trans, limited, J,
+                                   &rep, diag);
+        if (s < 0)
+            return mlr_diag_prefix(diag, s, "mlr_pipeline_synthesize");
+    }
+
+    /* the result, in the caller's motion when it is large enough */
+    mlr_motion *res = *out;
+    s = bvh_motion_fit(&res, m, N, &p->user);
+    if (s < 0)
+        return mlr_diag_set(diag, s, 0, 0, "mlr_pipeline_synthesize: %s (the result, %zu frames)",
+                            s == MLR_E_NO_MEMORY ? "out of memory" : mlr_status_string(s), N);
+    memcpy(mlr_motion_root_pos_mut(res), root, 3 * N * sizeof(double));
+    memcpy(mlr_motion_rot_mut(res), rot, 4 * nj * sizeof(double));
+    if (P)
+        memcpy(mlr_motion_trans_mut(res), trans, 3 * np * sizeof(double));
+    *out = res;
+    p->report = rep;
+    p->synthesized = 1;
+    keep_or_give_back(p);
+    if (diag)
+        memset(diag, 0, sizeof *diag);
+    return MLR_OK;
+}
+
+mlr_status mlr_pipeline_run(mlr_pipeline *p, const mlr_motion *in, mlr_motion **out,
+                            mlr_diag *diag)
+{
+    if (!p || !in || !out)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "mlr_pipeline_run: %s is NULL",
+                            !p    ? "p"
+                            : !in ? "in"
+                                  : "out");
+    if (*out == in)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "mlr_pipeline_run: out holds the input clip (give another motion)");
+    char note[sizeof(((mlr_diag *)0)->message)] = "";
+    mlr_status s = mlr_pipeline_prepare(p, in, NULL, diag);
+    if (s < 0)
+        return s;
+    if (diag)
+        memcpy(note, diag->message, sizeof note);
+    s = mlr_pipeline_synthesize(p, out, diag);
+    if (s >= 0 && diag)
+        memcpy(diag->message, note, sizeof note);
+    return s;
+}
+
+/* ---- results ----------------------------------------------------------------------------- */
+
+mlr_status mlr_pipeline_report(const mlr_pipeline *p, mlr_guards_report *report, size_t *limited,
+                               size_t n_limited)
+{
+    if (!p)
+        return MLR_E_INVALID_ARG;
+    if (!p->prepared || !p->synthesized)
+        return MLR_E_BAD_STATE;
+    const size_t J = mlr_motion_n_joints(p->input);
+    if (limited && n_limited != J)
+        return MLR_E_INVALID_ARG;
+    if (report)
+        *report = p->report;
+    if (limited)
+        memcpy(limited, p->limited.ptr, J * sizeof(size_t));
+    return MLR_OK;
+}
+
+const mlr_layers *mlr_pipeline_layers(const mlr_pipeline *p)
+{
+    return p && p->prepared ? p->layers : NULL;
+}
+
+mlr_guards *mlr_pipeline_guards(mlr_pipeline *p) { return p && p->prepared ? p->g : NULL; }
+
+void mlr_pipeline_destroy(mlr_pipeline *p)
+{
+    if (!p)
+        return;
+    unprepare(p);
+    mlr_motion_destroy(p->input);
+    drop(p, &p->patterns);
+    buffer *bufs[] = {&p->names,  &p->fk,   &p->body, &p->rep_root, &p->rep_rot, &p->rep_trans,
+                      &p->alphas, &p->root, &p->rot,  &p->trans,    &p->limited};
+    for (size_t k = 0; k < MLR_COUNTOF(bufs); k++)
+        drop(p, bufs[k]);
+    pipeline__arena_free(&p->arena);
+    mlr_allocator a = p->user;
+    mlr_free(&a, p, sizeof *p);
+}
