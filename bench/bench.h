@@ -39,5 +39,10 @@ extern const mlr_bench_case mlr_bench_grbf_cases[];
 extern const size_t mlr_bench_grbf_count;
 extern const mlr_bench_case mlr_bench_guards_cases[];
 extern const size_t mlr_bench_guards_count;
+extern const mlr_bench_case mlr_bench_crowd_cases[];
+extern const size_t mlr_bench_crowd_count;
+
+/* Set by a case that found its result wrong (the crowd's frames allocated): main returns 1. */
+extern int mlr_bench_failed;
 
 #endif

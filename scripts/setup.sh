@@ -22,7 +22,8 @@ if [ "$MODE" = demo ]; then
 else
   APT_PACKAGES=(build-essential pkg-config cmake ninja-build check libsuitesparse-dev libopenblas-dev
                 clang libclang-rt-14-dev python3-venv
-                chromium chromium-driver)
+                chromium chromium-driver
+                libglfw3-dev libgl-dev xvfb xauth)  # the C game loop example and its Xvfb test
 fi
 missing=()
 for p in "${APT_PACKAGES[@]}"; do
