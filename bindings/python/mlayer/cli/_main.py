@@ -70,10 +70,10 @@ class Parser(argparse.ArgumentParser):
     pointer to ``--help`` (``mlayer stylize: error: ... (see mlayer stylize --help)``), and
     exit status 2, not argparse's usage block."""
 
-    def error(self, message: str):  # type: ignore[override]
+    def error(self, message: str):
         self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
-    def parse_args(self, args=None, namespace=None):  # type: ignore[override]
+    def parse_args(self, args=None, namespace=None):
         """argparse's, with arguments no parser knows reported by the command's parser (a
         command without positional arguments leaves them to the top level)."""
         ns, extra = self.parse_known_args(args, namespace)
