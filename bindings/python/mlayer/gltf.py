@@ -41,8 +41,8 @@ at every key, is within :data:`SCALE_TOLERANCE` (1e-3, relative) of their mean, 
 factor folded in: exporters write float32 noise there (Khronos' BrainStem.glb has node scales
 from 0.999999 to 1.00002), and 0.1% is a millimetre on a metre-long bone, below what motion
 capture resolves and far below an intended squash or stretch. A non-uniform or animated scale
-beyond it is refused (:class:`~mlayer.UnsupportedError`): a Motion has no scale. Every problem with the file is a
-:class:`~mlayer.ParseError` naming the file and the reason.
+beyond it is refused (:class:`~mlayer.UnsupportedError`): a Motion has no scale. Every problem
+with the file is a :class:`~mlayer.ParseError` naming the file and the reason.
 """
 from __future__ import annotations
 
