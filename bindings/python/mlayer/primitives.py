@@ -401,7 +401,7 @@ def _check_plan(n: int, k: int | str, ks: Iterable[int] | None, criterion: str, 
     """The arguments of :meth:`PrimitiveModel.fit` checked against the n training frames before
     any training: k and the candidate ks given at most the frames and the SOM's units (the
     distinct manifold points a SOM can give), the default candidates cut to that bound with a
-    warning that says so, the GRBF lattice at most n centres."""
+    note in the log that says so, the GRBF lattice at most n centres."""
     from .mixture import CRITERIA
     if criterion not in CRITERIA:
         raise InvalidArgumentError(f"option criterion must be one of {', '.join(CRITERIA)}, "
@@ -434,10 +434,7 @@ def _check_plan(n: int, k: int | str, ks: Iterable[int] | None, criterion: str, 
             f"option ks = {_span(ks)} exceeds {where}: give candidates up to {limit} (such "
             f"as {_span(cut)})")
     if len(cut) < len(ks):
-        import warnings
-        from .errors import MlayerWarning
-        warnings.warn(MlayerWarning(f"primitives: candidate ks {_span(ks)} cut to "
-                                    f"{_span(cut)}: at most {where}"), stacklevel=4)
+        _log.info(f"primitives: candidate ks {_span(ks)} cut to {_span(cut)}: at most {where}")
     if lattice is not None:
         cells = int(lattice[0]) * int(lattice[1])
         if cells > n:
@@ -585,7 +582,8 @@ class PrimitiveModel(_attrs.ReadOnlyAttributes):
             of training frames and, with a SOM, its units (rows x cols: a SOM gives no more
             distinct manifold points), else InvalidArgumentError before any training. Default
             (None): 2 .. 20 when k is "auto", none for an integer k; cut to that bound when it
-            is smaller, with an :class:`mlayer.MlayerWarning` that says so.
+            is smaller, with a note in the log (INFO, the ``mlayer.primitives`` logger; the
+            command line shows it) that says so.
         criterion : {"elbow", "silhouette", "bic"}, optional
             How ``"auto"`` picks k.
         cluster : {"kmeans", "fcm", "gmm"}, optional

@@ -110,9 +110,8 @@ def test_default_ks_cut_to_the_map_with_a_note(mocap, tmp_path, capsys):
                  "--epochs", "2", "--plots", ""]) == 0
     err = capsys.readouterr().err
     notes = [ln for ln in err.splitlines() if "candidate ks" in ln]
-    assert notes == ["mlayer primitives: warning: primitives: candidate ks 2..20 cut to 2..9: at "
-                     "most the SOM's 3x3 = 9 units (a SOM gives at most that many distinct "
-                     "manifold points)"]
+    assert notes == ["primitives: candidate ks 2..20 cut to 2..9: at most the SOM's 3x3 = 9 "
+                     "units (a SOM gives at most that many distinct manifold points)"]
     assert list(mlayer.PrimitiveModel.load(out).criteria.ks) == list(range(2, 10))
 
 

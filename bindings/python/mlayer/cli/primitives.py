@@ -20,7 +20,7 @@ GMM BIC side by side with the k each picks, and the held-out log-likelihood of t
 model of orders 1 to 3 (5-fold blocked cross-validation, mlayer.markov.heldout_loglik), so
 that --k / --criterion and --order can be chosen. k, --ks and the lattices are checked against
 the frames and the SOM's units before the SOM trains (a --ks beyond them is an error; the
-default 2..20 is cut to them with a warning), and the line of the k says where it came from
+default 2..20 is cut to them, with a note), and the line of the k says where it came from
 (given by --k, or picked by the criterion). `generate --through` takes points on the map in the
 coordinates of PREFIX_som.png (x the lattice column, y the row; PCA: x = PC 2, y = PC 1);
 `--keys` key frames CLIP:FRAME, CLIP a training clip's file name or index (or another BVH
@@ -249,7 +249,7 @@ def _primitives_args(p) -> None:
                    help="primitives: 'auto' (the pick of --criterion) or K")
     p.add_argument("--ks", type=_ks, default=None, metavar="LO..HI",
                    help="candidate ks for the criteria, at most the frames and the SOM's units "
-                        "(default with --k auto: 2..20, cut to them with a warning; with --k K: "
+                        "(default with --k auto: 2..20, cut to them with a note; with --k K: "
                         "none)")
     p.add_argument("--criterion", choices=("elbow", "silhouette", "bic"), default="elbow",
                    help="what picks k when --k auto (default elbow)")
