@@ -93,6 +93,106 @@ def timewarp_figure(m: mlayer.Motion, out: Path) -> None:
     mplot.save_figure(fig, out / "timewarp.png")
 
 
+def _angle_between_deg(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Angle of the rotation from a to b (unit quaternions (..., 4)), in degrees."""
+    d = mlayer.quat.mul(mlayer.quat.conj(a), b)
+    return np.degrees(2.0 * np.arctan2(np.linalg.norm(d[..., 1:], axis=-1), np.abs(d[..., 0])))
+
+
+def spin_through_pi(m: mlayer.Motion, joint: str = "LeftShoulder", noise: float = 0.03,
+                    seed: int = 0) -> tuple[mlayer.Motion, int, np.ndarray, np.ndarray]:
+    """The clip with one joint turning about a fixed axis through pi and back (its angle
+    pi + 0.45 pi sin(2 pi 0.4 t)), plus rotation noise of `noise` rad per axis: the clip, the
+    joint, its true rotations and the axis."""
+    j = m.joint_names.index(joint) if joint in m.joint_names else 1
+    t = np.arange(m.n_frames) / m.fps
+    theta = np.pi + 0.45 * np.pi * np.sin(2 * np.pi * 0.4 * t)
+    axis = np.array([0.0, 0.6, 0.8])
+    truth = mlayer.quat.exp(theta[:, None] * axis)
+    rng = np.random.default_rng(seed)
+    rot = m.rot.copy()
+    rot[:, j] = mlayer.quat.mul(truth, mlayer.quat.exp(rng.normal(0, noise, (m.n_frames, 3))))
+    return m.with_frames(rot=rot), j, truth, axis
+
+
+def expmap_figure(m: mlayer.Motion, out: Path) -> dict:
+    """Paper 1, Figure 6: the base layer in quaternions against the exponential map, on a joint
+    that turns through pi (the same LGS strength, lam_b = 90: about a 2 Hz cutoff at 120 fps)."""
+    c, j, truth, axis = spin_through_pi(m)
+    layers = mlayer.decompose(c, lam_b=90.0, sigma_b=1.0)
+    qb, eb = layers.base.rot[:, j], mlayer.expmap_base(c, layers).rot[:, j]
+    err_q, err_e = _angle_between_deg(qb, truth), _angle_between_deg(eb, truth)
+    jump = {name: float(_angle_between_deg(q[1:], q[:-1]).max())
+            for name, q in (("truth", truth), ("quat", qb), ("expmap", eb))}
+
+    def about_axis(q):  # the signed angle about the spin axis, unwrapped, degrees
+        return np.degrees(np.unwrap(2 * np.arctan2(q[:, 1:] @ axis, q[:, 0])))
+    t = np.arange(c.n_frames) / c.fps
+    fig = mplot.new_figure("docs.expmap", figsize=(9, 5.5))
+    ax = fig.subplots(2, 1, sharex=True)
+    ax[0].plot(t, about_axis(c.rot[:, j]), color="0.75", lw=2.2, label="noisy input")
+    ax[0].plot(t, about_axis(truth), color="tab:blue", lw=1.0, label="ground truth")
+    ax[0].plot(t, about_axis(qb), color="tab:green", lw=1.0, label="quaternion base layer")
+    ax[0].plot(t, about_axis(eb), color="tab:red", lw=1.0, label="exp-map base layer")
+    ax[0].axhline(180, color="k", lw=0.5, ls=":")
+    ax[0].set_ylabel(f"{c.joint_names[j]} angle (deg)")
+    ax[0].legend(loc="lower right", fontsize=8, ncol=2)
+    ax[1].semilogy(t, np.maximum(err_q, 1e-3), color="tab:green", lw=1.0,
+                   label=f"quaternion: max {err_q.max():.1f} deg")
+    ax[1].semilogy(t, np.maximum(err_e, 1e-3), color="tab:red", lw=1.0,
+                   label=f"exp map: max {err_e.max():.1f} deg")
+    ax[1].set_ylabel("error to the truth (deg)")
+    ax[1].set_xlabel("time (s)")
+    ax[1].legend(loc="lower right", fontsize=8)
+    ax[0].set_title("base layer of a joint turning through 180 degrees: quaternion vs exp map")
+    mplot.save_figure(fig, out / "expmap_base.png")
+    return {"max error quaternion (deg)": float(err_q.max()),
+            "max error exp map (deg)": float(err_e.max()),
+            "max step truth (deg/frame)": jump["truth"],
+            "max step quaternion (deg/frame)": jump["quat"],
+            "max step exp map (deg/frame)": jump["expmap"]}
+
+
+#: MultiRes levels matched to the layers at 120 fps (low pass below about 0.5 Hz), and the gains:
+#: the finest band (above 15 Hz, the noise) and the low pass kept, the bands between scaled
+MULTIRES_LEVELS = 7
+
+
+def multires_figure(m: mlayer.Motion, out: Path, alpha: float = 2.0) -> dict:
+    """Paper 1, Figure 7: the walk exaggerated by the layers (alpha 2, no guards: the raw
+    synthesis) and by MultiRes frequency bands at the same gain."""
+    from mlayer.metrics import body_height
+    h = body_height(m)
+    styl = mlayer.decompose(m).synthesize(alpha)
+    gains = [1.0] + [alpha] * (MULTIRES_LEVELS - 1) + [1.0]
+    mr = mlayer.multires_stylize(m, gains)
+    p0, ps, pm = m.positions(), styl.positions(), mr.positions()
+
+    def rms(a, b):
+        return float(np.sqrt(((a - b) ** 2).sum(-1).mean()) / h)
+    res = {"stylize vs input (body heights, RMS)": rms(ps, p0),
+           "MultiRes vs input (body heights, RMS)": rms(pm, p0),
+           "MultiRes vs stylize (body heights, RMS)": rms(pm, ps),
+           "MultiRes vs stylize (body heights, max)":
+               float(np.sqrt(((pm - ps) ** 2).sum(-1)).max() / h)}
+    up = "xyz".index(m.up_axis)
+    hand = m.joint_names.index("LeftWrist") if "LeftWrist" in m.joint_names else m.n_joints - 1
+    t = np.arange(m.n_frames) / m.fps
+    fig = mplot.new_figure("docs.multires", figsize=(9, 3.8))
+    ax = fig.subplots(1, 1)
+    ax.plot(t, p0[:, hand, up] / h, color="0.7", lw=2.2, label="original")
+    ax.plot(t, ps[:, hand, up] / h, color="tab:red", lw=1.0, label=f"layers, alpha {alpha:g}")
+    ax.plot(t, pm[:, hand, up] / h, color="tab:purple", lw=1.0,
+            label=f"MultiRes, gain {alpha:g} on bands 1-{MULTIRES_LEVELS - 1}")
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel(f"{m.joint_names[hand]} height (body heights)")
+    ax.set_title(f"exaggerated walk: layers vs MultiRes (RMS difference of the joints "
+                 f"{res['MultiRes vs stylize (body heights, RMS)']:.3f} body heights)")
+    ax.legend(loc="best", fontsize=8)
+    mplot.save_figure(fig, out / "multires_stylize.png")
+    return res
+
+
 def primitives_figures(m: mlayer.Motion, out: Path) -> None:
     """Paper 2, Figures 1-3: the SOM manifold, the elbow and the transition matrix."""
     model = mlayer.PrimitiveModel.fit(m, som=(20, 20), epochs=10, lattice=(10, 10), seed=0)
@@ -107,8 +207,10 @@ def main(argv: list[str]) -> int:
     out.mkdir(parents=True, exist_ok=True)
     m = mlayer.data.load_sample()
     for make in (layers_figure, stylize_figure, resample_figure, timewarp_figure,
-                 primitives_figures):
-        make(m, out)
+                 expmap_figure, multires_figure, primitives_figures):
+        measured = make(m, out)
+        for what, value in (measured or {}).items():  # the figures docs/layers.md quotes
+            print(f"{make.__name__}: {what}: {value:.4g}")
     for png in sorted(out.glob("*.png")):
         print(f"{png.name}: {png.stat().st_size // 1024} KB")
     return 0

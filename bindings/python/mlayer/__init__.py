@@ -23,7 +23,7 @@ from .contacts import detect_contacts
 from .cleanup import fix_contacts
 from .retiming import (resample, slerp_resample, timewarp, timewarp_map, timewarp_speed)
 from . import data
-from .layers import Layers, decompose
+from .layers import Layers, decompose, expmap_base, multires_stylize
 from .pipeline import GuardReport, Synthesis, denoise, stylize
 from .up_axis import UpGuess, detect_up
 from .trimming import LeadIn, lead_in, trim
@@ -57,6 +57,7 @@ __all__ += ["MissingDependencyError"]
 __all__ += ["read_gltf", "write_gltf"]
 __all__ += ["read_amass", "write_amass"]
 __all__ += ["mirror", "mirror_pairs", "RootTrack", "extract_root_motion", "apply_root_motion"]
+__all__ += ["expmap_base", "multires_stylize"]
 
 # the library logs (the `mlayer` logger and its children) and never prints: nothing shows
 # until the application configures logging (the command line shows INFO on stderr)

@@ -36,9 +36,13 @@ those are uniform (the frame rate follows from them), else resampled (``fps=`` f
 resampling): LINEAR translations by linear interpolation, rotations by slerp, STEP by holding,
 CUBICSPLINE by its Hermite curve. Static transforms above the skeleton (an "Armature" node
 turning a Z-up rig, scaling centimetres) are folded into the root; uniform static scales on the
-joints are folded into the offsets. A non-uniform or animated scale is refused
-(:class:`~mlayer.UnsupportedError`): a Motion has no scale. Every problem with the file is a
-:class:`~mlayer.ParseError` naming the file and the reason.
+joints are folded into the offsets. A scale is uniform and static when each of its components,
+at every key, is within :data:`SCALE_TOLERANCE` (1e-3, relative) of their mean, which is the
+factor folded in: exporters write float32 noise there (Khronos' BrainStem.glb has node scales
+from 0.999999 to 1.00002), and 0.1% is a millimetre on a metre-long bone, below what motion
+capture resolves and far below an intended squash or stretch. A non-uniform or animated scale
+beyond it is refused (:class:`~mlayer.UnsupportedError`): a Motion has no scale. Every problem
+with the file is a :class:`~mlayer.ParseError` naming the file and the reason.
 """
 from __future__ import annotations
 
@@ -73,6 +77,10 @@ _ARRAY_BUFFER, _ELEMENT_ARRAY_BUFFER = 34962, 34963
 _TRANS_CHANNELS = "Xposition Yposition Zposition Zrotation Yrotation Xrotation"
 _MAX_FRAMES = 50_000_000  # frames read_gltf resamples to at most (fps=)
 MAX_BYTES = 1 << 30
+#: how far (relative to their mean) the components and keys of a node's scale may spread and
+#: still be read as one uniform, static factor: float32 noise of exporters passes, a real
+#: non-uniform or animated scale does not (see the module's doc)
+SCALE_TOLERANCE = 1e-3
 """The default ``max_bytes`` of :func:`read_gltf`."""
 _FRAME_BYTES = 112  # per frame and joint: sampled rotation and translation, the Motion's copies
 _MAX_VALUES = 1 << 27  # values of an accessor without a bufferView (zeros, sparse) at most
@@ -696,12 +704,14 @@ def _num_list(v: Any, n: int, where: str) -> np.ndarray:
 
 
 def _uniform_scale(s: np.ndarray, where: str) -> float:
-    """The one factor of a (..., 3) scale that is uniform and constant, else refuse."""
+    """The one factor of a (..., 3) scale that is uniform and constant within SCALE_TOLERANCE
+    (its mean), else refuse."""
     c = float(np.mean(s))
-    if not (c > 0 and np.all(np.abs(s - c) <= 1e-5 * c)):
+    if not (c > 0 and np.all(np.abs(s - c) <= SCALE_TOLERANCE * c)):
         raise UnsupportedError(f"{where}: a non-uniform, animated or non-positive scale "
-                               f"(from {np.min(s):.6g} to {np.max(s):.6g}); a mlayer Motion has "
-                               "no scale, so this is not read")
+                               f"(from {np.min(s):.6g} to {np.max(s):.6g}, beyond "
+                               f"{SCALE_TOLERANCE:g} of uniform); a mlayer Motion has no "
+                               "scale, so this is not read")
     return c
 
 
@@ -1104,7 +1114,8 @@ def read_gltf(path: str | os.PathLike[str], animation: int = 0, *, fps: float | 
         the wrong type or out of range, no animation, ...): the message names the file and the
         reason.
     UnsupportedError
-        For an animated or non-uniform scale on a joint.
+        For an animated or non-uniform scale on a joint, beyond :data:`SCALE_TOLERANCE` (a
+        scale within it is read as its mean, uniform and static).
     InvalidArgumentError
         For an ``animation`` the file does not have, a bad ``fps``, ``up`` or ``units``.
     OSError

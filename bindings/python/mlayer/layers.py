@@ -561,3 +561,174 @@ def _positive(v: Any, name: str) -> float:
     if not x > 0.0:
         raise InvalidArgumentError(f"option {name} must be > 0, got {v!r}")
     return x
+
+
+# ---- the baselines of paper 1's comparisons (Figures 6 and 7) ---------------------------------
+#
+# Python over the C core's LGS and quaternion maps, with no numerics of their own beyond the
+# B-spline filter of multires_stylize: they exist to draw and measure the paper's comparisons
+# (docs/make_figures.py, docs/layers.md), not for a runtime, whose base layer and synthesis
+# are the quaternion ones above (in C, mlr_layers.h). slerp_resample (mlayer.retiming) is the
+# same kind of baseline beside resample.
+
+
+def expmap_base(motion: Motion, layers: Layers | None = None) -> Motion:
+    """The base layer smoothed in exponential-map coordinates: the baseline of paper 1, Fig. 6.
+
+    Each joint's rotations are turned into rotation vectors (:func:`mlayer.quat.log`, angle in
+    [0, pi]), each of the 3 channels is smoothed by the LGS with the joint's own base-layer
+    strength (``layers.base_s[1 + j]``, so only the representation differs from the quaternion
+    base layer), and the result is mapped back by :func:`mlayer.quat.exp`. Translations are
+    the base layer's. The rotation vector jumps where a joint's angle crosses pi (v turns into
+    about -v), and the smoothing averages across that jump: rotations near pi come out far from
+    the input, where the quaternion base layer (hemisphere-aligned, :func:`decompose`) does
+    not. docs/layers.md states the measured difference.
+
+    Python over the C core's LGS and quaternion maps: a baseline for figures and comparisons,
+    not for a runtime (the runtime's base layer is the quaternion one, in C).
+
+    Parameters
+    ----------
+    motion : Motion
+        The clip.
+    layers : Layers, optional
+        Its decomposition (default ``decompose(motion)``), for the strengths and translations.
+
+    Returns
+    -------
+    Motion
+        The exp-map base layer on the motion's skeleton.
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        For layers of another motion (another frame or joint count).
+    """
+    from . import quat
+    from .smoothing import lgs
+    if layers is None:
+        layers = decompose(motion)
+    if not isinstance(layers, Layers):
+        raise InvalidArgumentError(f"expmap_base: layers must be a Layers, got "
+                                   f"{type(layers).__name__}")
+    if layers.motion.n_frames != motion.n_frames or layers.motion.n_joints != motion.n_joints:
+        raise InvalidArgumentError("expmap_base: the layers are of another motion "
+                                   f"({layers.motion.n_frames} frames, {layers.motion.n_joints} "
+                                   f"joints; the motion {motion.n_frames}, {motion.n_joints})")
+    base = layers.base
+    v = quat.log(motion.rot)  # (N, J, 3), angle in [0, pi]
+    out = np.empty_like(v)
+    for j in range(motion.n_joints):
+        s = float(layers.base_s[1 + j])
+        out[:, j] = lgs(np.ascontiguousarray(v[:, j]), lam=math.sqrt(s), sigma=1.0) if s > 0 \
+            else v[:, j]
+    return base.with_frames(rot=quat.exp(out))
+
+
+#: the cubic B-spline kernel of Bruderlin and Williams' multiresolution filtering (1/16)
+#: [1 4 6 4 1], spread by 2^k at level k (their expansion without the resampling)
+_B5 = np.array([1.0, 4.0, 6.0, 4.0, 1.0]) / 16.0
+
+
+def _reflect(idx: NDArray[np.int64], n: int) -> NDArray[np.int64]:
+    """Indices outside 0 .. n-1 mirrored about the ends (no repeated end sample), any far."""
+    if n == 1:
+        return np.zeros_like(idx)
+    p = 2 * (n - 1)
+    idx = np.mod(idx, p)
+    return np.where(idx > n - 1, p - idx, idx)
+
+
+def frequency_bands(y: Any, levels: int) -> list[NDArray[np.float64]]:
+    """Bruderlin and Williams' frequency bands of signals (multiresolution filtering, 1995).
+
+    ``G_0 = y``; ``G_{k+1}`` is ``G_k`` filtered by the B-spline kernel [1 4 6 4 1] / 16
+    spread by 2^k (the expanded kernel of their pyramid, undecimated, so any length works),
+    the ends mirrored; band k is ``G_k - G_{k+1}``, the finest first, and the last entry is the
+    low pass ``G_levels``. The bands sum to ``y``.
+
+    Parameters
+    ----------
+    y : array_like, shape (n,) or (n, m)
+        Signals, one column per channel, frames along the first axis.
+    levels : int
+        Number of band-pass bands (>= 1); band k covers about fps / 2^(k+2) .. fps / 2^(k+1).
+
+    Returns
+    -------
+    list of numpy.ndarray
+        ``levels + 1`` arrays of y's shape: the bands, finest first, then the low pass.
+    """
+    from ._args import integer
+    levels = integer(levels, "levels", 1, 30)
+    g = np.array(y, dtype=np.float64)
+    if g.ndim not in (1, 2) or g.shape[0] < 1 or not np.all(np.isfinite(g)):
+        raise InvalidArgumentError(f"frequency_bands: y must be finite, (n,) or (n, m), got "
+                                   f"shape {g.shape}")
+    n = g.shape[0]
+    base = np.arange(n)
+    bands = []
+    for k in range(levels):
+        h = 1 << k
+        smooth = sum(w * g[_reflect(base + (i - 2) * h, n)] for i, w in enumerate(_B5))
+        bands.append(g - smooth)
+        g = smooth
+    bands.append(g)
+    return bands
+
+
+def multires_stylize(motion: Motion, gains: Sequence[float]) -> Motion:
+    """Style modulation by frequency bands (MultiRes): the baseline of paper 1, Figure 7.
+
+    Bruderlin and Williams' multiresolution motion filtering: each signal is split into
+    frequency bands (:func:`frequency_bands`), each band is scaled by its gain and the bands
+    are added up again. Here the signals are, for each joint, its low pass (the
+    hemisphere-aligned quaternions' low pass, renormalized: the coarsest band, like the base
+    layer) and the rotation vectors of the motion about it (the finer bands); and the root
+    translation (and the position channels) per coordinate. The low pass's gain (the last)
+    scales the translations' low pass; the rotations keep theirs (a gain on a mean rotation
+    has no meaning). Gains of 1 give the input back.
+
+    Python and numpy over the C core's quaternion maps: a baseline for figures and
+    comparisons, not for a runtime (the method, :func:`mlayer.stylize`, is in C).
+
+    Parameters
+    ----------
+    motion : Motion
+        The clip.
+    gains : sequence of float
+        One gain per band, finest first, then the low pass's (usually 1): ``len(gains) - 1``
+        band-pass levels. ``[1, a, a, a, a, a, 1]`` at 120 fps scales the content from about
+        0.9 to 30 Hz by a and keeps the finest band (noise) and the low pass.
+
+    Returns
+    -------
+    Motion
+        The modulated motion on the motion's skeleton.
+    """
+    from . import quat
+    g = [_arrays.finite(x, "gains") for x in gains] \
+        if isinstance(gains, (list, tuple, np.ndarray)) else None
+    if g is None or len(g) < 2:
+        raise InvalidArgumentError(f"multires_stylize: gains must list at least 2 numbers (a "
+                                   f"band and the low pass), got {gains!r}")
+    levels = len(g) - 1
+
+    def modulate(y: NDArray[np.float64]) -> NDArray[np.float64]:
+        out = np.zeros(y.shape)
+        for w, b in zip(g, frequency_bands(y, levels)):
+            out += w * b
+        return out
+
+    q = quat.continuous(motion.rot)  # (N, J, 4), consecutive frames in one hemisphere
+    N, J = q.shape[:2]
+    low = frequency_bands(q.reshape(N, 4 * J), levels)[-1].reshape(N, J, 4)
+    low = quat.normalize(low)
+    v = quat.log(quat.mul(quat.conj(low), q))  # (N, J, 3) about the low pass
+    bands = frequency_bands(v.reshape(N, 3 * J), levels)
+    vm = sum(w * b for w, b in zip(g[:-1], bands[:-1])) + bands[-1]
+    rot = quat.mul(low, quat.exp(vm.reshape(N, J, 3)))
+    trans = motion.trans
+    if trans.size:
+        trans = modulate(trans.reshape(N, -1)).reshape(trans.shape)
+    return motion.with_frames(root_pos=modulate(motion.root_pos), rot=rot, trans=trans)

@@ -60,7 +60,8 @@ if TYPE_CHECKING:
     from .mixture import KCriteria
     from .pipeline import GuardReport
 
-__all__ = ["PrimitiveModel", "heading_quat", "split_heading", "default_lattices", "same_units"]
+__all__ = ["PrimitiveModel", "heading_quat", "split_heading", "default_lattices", "same_units",
+           "skeleton_difference", "join_skeletons", "rename_joints", "CMU_NAMES"]
 
 _FORMAT = 2  # 2: jump contexts of order 1 .. 3, the k criteria, clip names; 1 loads as order 1
 _FORMATS = (1, 2)
@@ -213,12 +214,194 @@ def same_units(clips: Sequence[Motion]) -> list[Motion]:
     return out
 
 
+#: the candidate ks of k="auto" when none are given
+DEFAULT_KS = range(2, 21)
+
+
+def _span(ks: Sequence[int]) -> str:
+    """Sorted candidate ks in words: "2..20" for a run, else the list."""
+    ks = list(ks)
+    if len(ks) > 1 and ks == list(range(ks[0], ks[-1] + 1)):
+        return f"{ks[0]}..{ks[-1]}"
+    return ", ".join(map(str, ks))
+
+
+#: CMU's two names of the joints of its 31-joint skeleton: the conversions of subject 131 and
+#: others (keys) and those of subjects 01-09 (values), the same tree. ``rename=CMU_NAMES``
+#: (``--rename cmu``) joins clips of the two.
+CMU_NAMES = {
+    "LeftHip": "LeftUpLeg", "LeftKnee": "LeftLeg", "LeftAnkle": "LeftFoot",
+    "LeftToe": "LeftToeBase", "RightHip": "RightUpLeg", "RightKnee": "RightLeg",
+    "RightAnkle": "RightFoot", "RightToe": "RightToeBase", "lowerback": "LowerBack",
+    "Chest": "Spine", "Chest2": "Spine1", "lowerneck": "Neck", "Neck": "Neck1",
+    "LeftCollar": "LeftShoulder", "LeftShoulder": "LeftArm", "LeftElbow": "LeftForeArm",
+    "LeftWrist": "LeftHand", "lhand": "LeftFingerBase", "RightCollar": "RightShoulder",
+    "RightShoulder": "RightArm", "RightElbow": "RightForeArm", "RightWrist": "RightHand",
+    "rhand": "RightFingerBase"}
+
+
+def skeleton_difference(a: Skeleton, b: Skeleton, b_name: str = "the first clip"
+                        ) -> str | None:
+    """Where skeleton ``a`` first differs from ``b`` in joint names or tree, in words, or None.
+
+    Joints are compared in their (depth-first) order: the first joint whose name or parent
+    differs is named; then a joint count that differs.
+
+    Parameters
+    ----------
+    a, b : Skeleton
+        The skeletons.
+    b_name : str, optional
+        What ``b`` is called in the words.
+
+    Returns
+    -------
+    str or None
+        For example ``"joint 2 is 'LeftHip' where the first clip has 'LeftUpLeg'"``; None
+        when the names and the parents are the same.
+    """
+    return _difference(a.joint_names, a.parents, b.joint_names, b.parents, b_name)
+
+
+def _difference(na: list[str], pa: Any, nb: list[str], pb: Any, b_name: str) -> str | None:
+    for j in range(min(len(na), len(nb))):
+        if na[j] != nb[j]:
+            return f"joint {j} is {na[j]!r} where {b_name} has {nb[j]!r}"
+        if pa[j] != pb[j]:
+            return (f"joint {j} {na[j]!r} has the parent {na[pa[j]]!r} where {b_name} has "
+                    f"{nb[pb[j]]!r}")
+    if len(na) != len(nb):
+        extra = (f" (from {na[len(nb)]!r})" if len(na) > len(nb) else
+                 f" (missing {nb[len(na)]!r})")
+        return f"{len(na)} joints where {b_name} has {len(nb)}{extra}"
+    return None
+
+
+def rename_joints(motion: Motion, mapping: dict[str, str]) -> Motion:
+    """The motion with its joints renamed (the frames, tree and channels as they are).
+
+    Parameters
+    ----------
+    motion : Motion
+        The clip.
+    mapping : dict of str to str
+        Old name to new name, all at once (``{"Neck": "Neck1", "lowerneck": "Neck"}`` swaps
+        nothing twice); names not in it are kept, keys the clip does not have are ignored.
+
+    Returns
+    -------
+    Motion
+        A new motion; the same up axis and units.
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        When two joints would have one name.
+    """
+    sk = motion.skeleton
+    names = [str(mapping.get(n, n)) for n in sk.joint_names]
+    if len(set(names)) != len(names):
+        dup = next(n for n in names if names.count(n) > 1)
+        raise InvalidArgumentError(f"option rename: two joints would be named {dup!r}")
+    renamed = Skeleton(names, sk.parents, sk.offsets, sk.channels, sk.end_site_parents,
+                       sk.end_site_offsets)
+    return Motion(renamed, motion.frame_time, motion.root_pos, motion.rot, motion.trans) \
+        ._same_up(motion)
+
+
+def _rename_arg(rename: Any) -> dict[str, str] | None:
+    if rename is None:
+        return None
+    if not isinstance(rename, dict) or not all(isinstance(k, str) and isinstance(v, str)
+                                               for k, v in rename.items()):
+        raise InvalidArgumentError(f"option rename must map joint names to joint names (a dict "
+                                   f"of str), got {type(rename).__name__}")
+    return dict(rename)
+
+
+def join_skeletons(clips: Sequence[Motion], *, rename: dict[str, str] | None = None,
+                   names: Sequence[str] | None = None, reference: Skeleton | None = None,
+                   reference_name: str | None = None) -> list[Motion]:
+    """Clips checked to have one skeleton, joint names and tree, before any work on them.
+
+    Every clip is compared with the reference (default the first clip): a clip that differs
+    is renamed by ``rename`` (or by its inverse, whichever gives the reference's names; so one
+    mapping between two naming schemes joins clips of either to the first), and a clip that
+    still differs is an error naming the clip and its first differing joint.
+
+    Parameters
+    ----------
+    clips : sequence of Motion
+        The clips.
+    rename : dict of str to str, optional
+        Old joint name to new (:func:`rename_joints`), such as :data:`CMU_NAMES`.
+    names : sequence of str, optional
+        The clips' names, for the message (default "clip I").
+    reference : Skeleton, optional
+        The skeleton to match (a model's); default the first clip's.
+    reference_name : str, optional
+        What the reference is called in the message.
+
+    Returns
+    -------
+    list of Motion
+        The clips, renamed where needed.
+
+    Raises
+    ------
+    mlayer.InvalidArgumentError
+        In one line: ``clip 1 (b.bvh): joint 2 is 'LeftHip' where clip 0 (a.bvh) has
+        'LeftUpLeg'; ...``.
+    """
+    rename = _rename_arg(rename)
+    clips = list(clips)
+
+    def label(i: int) -> str:
+        return f"clip {i}" + (f" ({names[i]})" if names is not None and names[i] != str(i)
+                              else "")
+    first = 0
+    if reference is None:
+        reference, first = clips[0].skeleton, 1
+        reference_name = reference_name or label(0)
+    ref_name = reference_name or "the model"
+    mappings: list[dict[str, str]] = []
+    if rename:
+        mappings.append(rename)
+        inverse = {v: k for k, v in rename.items()}
+        if len(inverse) == len(rename):
+            mappings.append(inverse)
+    out = clips[:first]
+    for i in range(first, len(clips)):
+        m = clips[i]
+        diff = skeleton_difference(m.skeleton, reference, ref_name)
+        if diff is None:
+            out.append(m)
+            continue
+        for mp in mappings:
+            names_i = [mp.get(n, n) for n in m.skeleton.joint_names]
+            if len(set(names_i)) == len(names_i) and names_i == reference.joint_names and \
+                    np.array_equal(m.skeleton.parents, reference.parents):
+                out.append(rename_joints(m, mp))
+                break
+        else:
+            if rename:  # where the renamed clip still differs
+                renamed = [rename.get(n, n) for n in m.skeleton.joint_names]
+                diff = _difference(renamed, m.skeleton.parents, reference.joint_names,
+                                   reference.parents, ref_name) or diff
+            same_tree = np.array_equal(m.skeleton.parents, reference.parents)
+            hint = ("" if not same_tree else "; option rename did not join them" if rename else
+                    "; join two naming schemes with option rename")
+            raise InvalidArgumentError(f"{label(i)}: another skeleton: {diff}{hint}")
+    return out
+
+
 def _check_plan(n: int, k: int | str, ks: Iterable[int] | None, criterion: str, cluster: str,
                 order: int | str, min_count: int, manifold: str, som: Any, lattice: Any,
                 names: Sequence[str] | None, n_clips: int) -> dict[str, Any]:
     """The arguments of :meth:`PrimitiveModel.fit` checked against the n training frames before
-    any training: k at most the frames and the SOM's units (the distinct manifold points a SOM
-    can give), the candidate ks cut to that bound, the GRBF lattice at most n centres."""
+    any training: k and the candidate ks given at most the frames and the SOM's units (the
+    distinct manifold points a SOM can give), the default candidates cut to that bound with a
+    note in the log that says so, the GRBF lattice at most n centres."""
     from .mixture import CRITERIA
     if criterion not in CRITERIA:
         raise InvalidArgumentError(f"option criterion must be one of {', '.join(CRITERIA)}, "
@@ -240,12 +423,18 @@ def _check_plan(n: int, k: int | str, ks: Iterable[int] | None, criterion: str, 
         k = integer(k, "option k", 1)
         if k > limit:
             raise InvalidArgumentError(f"option k = {k} exceeds {where}")
-    if ks is None:
-        ks = range(2, 21) if k == "auto" else ()
-    ks = sorted({integer(q, "option ks", 1) for q in ks})
+    default = ks is None
+    given: Iterable[int] = (DEFAULT_KS if k == "auto" else ()) if ks is None else ks
+    ks = sorted({integer(q, "option ks", 1) for q in given})
     cut = [q for q in ks if q <= limit]
-    if k == "auto" and not cut:
+    if ks and not cut and (k == "auto" or not default):
         raise InvalidArgumentError(f"option ks: every candidate k exceeds {where}")
+    if not default and len(cut) < len(ks):
+        raise InvalidArgumentError(
+            f"option ks = {_span(ks)} exceeds {where}: give candidates up to {limit} (such "
+            f"as {_span(cut)})")
+    if len(cut) < len(ks):
+        _log.info(f"primitives: candidate ks {_span(ks)} cut to {_span(cut)}: at most {where}")
     if lattice is not None:
         cells = int(lattice[0]) * int(lattice[1])
         if cells > n:
@@ -322,8 +511,10 @@ class PrimitiveModel(_attrs.ReadOnlyAttributes):
     (n, 2) manifold point of every training frame, ``clip_starts`` (first frame of each clip),
     ``labels`` (n,), ``centers`` (k, 2) primitive centres on the manifold, ``markov``,
     ``grbf``, ``bounds`` (the manifold box the GRBF lattice spans), ``elbow_ks`` and
-    ``elbow_inertia`` (the curve when k was chosen automatically), ``som_codebook``
-    (rows, cols, dim) or ``pca_mean``/``pca_components``.
+    ``elbow_inertia`` (the curve when k was chosen automatically), ``k_source`` (where k came
+    from: ``"given"`` for an integer k, else the criterion that picked it, ``"elbow"``,
+    ``"silhouette"`` or ``"bic"``; None in model files written before it was stored),
+    ``som_codebook`` (rows, cols, dim) or ``pca_mean``/``pca_components``.
 
     Four can be assigned, checked where they are (InvalidArgumentError naming the attribute
     otherwise): ``frame_time`` (seconds, as :attr:`mlayer.Motion.frame_time`),
@@ -335,7 +526,7 @@ class PrimitiveModel(_attrs.ReadOnlyAttributes):
 
     _readonly = ("skeleton", "body_joint", "manifold", "points", "clip_starts", "labels",
                  "centers", "grbf", "bounds", "elbow_ks", "elbow_inertia", "som_codebook",
-                 "pca_mean", "pca_components", "criteria", "criterion", "cluster",
+                 "pca_mean", "pca_components", "criteria", "criterion", "cluster", "k_source",
                  "order_loglik", "contacts", "contact_names", "train_rot", "train_trans",
                  "rest_root_pos", "rest_trans", "fit_error")
     _checked = {"frame_time": lambda m, v, name: _frame_time_arg(v, name),
@@ -358,7 +549,8 @@ class PrimitiveModel(_attrs.ReadOnlyAttributes):
             lattice: tuple[int, int] | None = None, kernel: str = "thin_plate",
             smoothing: float = 1e-6, seed: int = 0, progress: ProgressArg = None,
             names: Sequence[str] | None = None,
-            on_step: Callable[[str], object] | None = None) -> PrimitiveModel:
+            on_step: Callable[[str], object] | None = None,
+            rename: dict[str, str] | None = None) -> PrimitiveModel:
         """Learn a model from one motion or a list of motions of one skeleton.
 
         k, ks and the lattices are checked against the number of frames before any training.
@@ -385,8 +577,13 @@ class PrimitiveModel(_attrs.ReadOnlyAttributes):
         k : int or "auto", optional
             Number of primitives, or ``"auto"``: the pick of ``criterion`` over ``ks``.
         ks : iterable of int, optional
-            Default 2 .. 20; with an integer k the criteria are computed and stored all the
-            same, in ``criteria``.
+            The candidate ks of the criteria; with an integer k they are computed and stored
+            all the same, in ``criteria``. Every candidate given must be at most the number
+            of training frames and, with a SOM, its units (rows x cols: a SOM gives no more
+            distinct manifold points), else InvalidArgumentError before any training. Default
+            (None): 2 .. 20 when k is "auto", none for an integer k; cut to that bound when it
+            is smaller, with a note in the log (INFO, the ``mlayer.primitives`` logger; the
+            command line shows it) that says so.
         criterion : {"elbow", "silhouette", "bic"}, optional
             How ``"auto"`` picks k.
         cluster : {"kmeans", "fcm", "gmm"}, optional
@@ -420,6 +617,11 @@ class PrimitiveModel(_attrs.ReadOnlyAttributes):
             The clips' names (default their index), for :meth:`generate`'s keys.
         on_step : callable, optional
             Also given each step's line as it is logged (the viewer shows them).
+        rename : dict of str to str, optional
+            Joint names of another naming scheme mapped to the first clip's
+            (:func:`join_skeletons`; :data:`CMU_NAMES` for CMU's two). Every clip must have
+            the first clip's joint names and tree, after this renaming; that is checked before
+            any work, and the first differing joint is named.
 
         Returns
         -------
@@ -429,7 +631,8 @@ class PrimitiveModel(_attrs.ReadOnlyAttributes):
         Raises
         ------
         mlayer.InvalidArgumentError
-            For no clips, clips too short, or a plan that does not fit the frames.
+            For no clips, clips too short, clips of other skeletons (names or tree), or a
+            plan that does not fit the frames.
         """
         clips = list(clips) if isinstance(clips, (list, tuple)) else [cast(Motion, clips)]
         if not clips:
@@ -442,6 +645,9 @@ class PrimitiveModel(_attrs.ReadOnlyAttributes):
                 raise InvalidArgumentError("PrimitiveModel.fit: every clip needs >= 2 frames")
         if manifold not in ("som", "pca"):
             raise InvalidArgumentError(f"manifold must be 'som' or 'pca', got {manifold!r}")
+        clips = join_skeletons(clips, rename=rename,
+                               names=[str(v) for v in names] if names is not None and
+                               len(names) == len(clips) else None)
         if lattice is None or (manifold == "som" and som is None):
             som_d, lattice_d = default_lattices(sum(m.n_frames for m in clips))
             som = som_d if som is None else som
@@ -521,6 +727,7 @@ class PrimitiveModel(_attrs.ReadOnlyAttributes):
         reg = _SOM_REG_COVAR if self.manifold == "som" else 1e-6 * float(
             max(self.points.var(axis=0).max(), 1e-300))
         self.criterion, self.cluster = plan["criterion"], plan["cluster"]
+        self.k_source = "given" if k != "auto" else self.criterion
         km = None
         if ks:
             _say(progress, f"k criteria (elbow, silhouette, GMM BIC): k = {ks[0]} .. {ks[-1]}")
@@ -999,10 +1206,10 @@ class PrimitiveModel(_attrs.ReadOnlyAttributes):
                 raise InvalidArgumentError(f"option keys: {key!r} is not a (clip, frame) pair")
             clip, frame = key
             if isinstance(clip, Motion):
-                if clip.skeleton.n_joints != self.skeleton.n_joints or not np.array_equal(
-                        clip.skeleton.parents, self.skeleton.parents):
-                    raise InvalidArgumentError("option keys: the key clip has another skeleton "
-                                               "than the model")
+                diff = skeleton_difference(clip.skeleton, self.skeleton, "the model")
+                if diff is not None:  # (join_skeletons renames a clip of other names)
+                    raise InvalidArgumentError(f"option keys: the key clip has another skeleton "
+                                               f"than the model: {diff}")
                 n, first, what = clip.n_frames, None, "the key clip"
             else:
                 first, n = self.clip_frames(clip)
@@ -1245,6 +1452,7 @@ class PrimitiveModel(_attrs.ReadOnlyAttributes):
         if fmt == 1:
             self.markov = Markov(z["P"], z["counts"], z["run_length"])
             self.criterion, self.cluster, self.criteria = "elbow", "kmeans", None
+            self.k_source = None
             self.clip_names = [str(i) for i in range(len(z["clip_starts"]))]
             self.order_loglik = {}
             return
@@ -1253,6 +1461,7 @@ class PrimitiveModel(_attrs.ReadOnlyAttributes):
                              contexts=contexts_from_arrays(z["markov_ctx_keys"],
                                                            z["markov_ctx_counts"]))
         self.criterion, self.cluster = str(z["criterion"]), str(z["cluster"])
+        self.k_source = (str(z["k_source"]) or None) if "k_source" in z else None
         self.clip_names = [str(v) for v in z["clip_names"]]
         self.order_loglik = {int(o): (float(v), int(m)) for o, v, m in z["order_loglik"]}
         self.criteria = None
@@ -1289,6 +1498,7 @@ class PrimitiveModel(_attrs.ReadOnlyAttributes):
         arrays.update(markov_order=np.int64(self.markov.order),
                       markov_min_count=np.int64(self.markov.min_count), markov_ctx_keys=K,
                       markov_ctx_counts=R, criterion=np.str_(self.criterion),
+                      k_source=np.str_(self.k_source or ""),
                       cluster=np.str_(self.cluster),
                       clip_names=np.array(self.clip_names, dtype=np.str_),
                       order_loglik=np.array([[o, *self.order_loglik[o]]

@@ -78,3 +78,27 @@ def test_usage_errors(argv):
     with pytest.raises(SystemExit) as e:
         main(argv)
     assert e.value.code == 2
+
+
+def _commands():
+    from mlayer.cli._main import COMMANDS
+    return [c.name for c in COMMANDS]
+
+
+@pytest.mark.parametrize("argv", [[name, "--no-such-option"] for name in _commands()]
+                         + [["no-such-command"], ["primitives", "a.bvh", "-o", "m.npz",
+                                                  "--ks", "9..3"],
+                            ["stylize", "a.bvh", "-o", "b.bvh", "--alpha", "big"],
+                            ["batch", "blur", "a", "-o", "b"]])
+def test_usage_errors_are_one_line_with_a_pointer_to_help(argv, capsys):
+    """argparse prints its usage block and the error; every parser of the command line (the
+    top level and each command's) gives one line naming the error and where --help is."""
+    with pytest.raises(SystemExit) as e:
+        main(argv)
+    assert e.value.code == 2
+    out, err = capsys.readouterr()
+    prog = "mlayer" if argv[0] == "no-such-command" else f"mlayer {argv[0]}"
+    assert out == "" and err.count("\n") == 1, err
+    assert err.startswith(f"{prog}: error: ") and "usage:" not in err
+    assert err.rstrip("\n").endswith(f"(see {prog} --help)")
+    assert argv[-1] in err or "required" in err or "unrecognized" in err

@@ -68,6 +68,13 @@ def test_primitives_bad_input_before_training(mocap, tmp_path, capsys):
         (["--order", "x"], "--order must be 1, 2, 3 or auto"),
         (["--min-count", "0"], "--min-count must be an integer >= 1"),
         (["--ks", "40..50", "--som", "5x5"], "--ks: every candidate k exceeds"),
+        # a range beyond the map or the frames: refused up front, not cut in silence
+        (["--ks", "2..900", "--som", "6x6"], "--ks = 2..900 exceeds the SOM's 6x6 = 36 units (a "
+                                              "SOM gives at most that many distinct manifold "
+                                              "points): give candidates up to 36 (such as 2..36)"),
+        (["--ks", "2..300", "--pca", "--lattice", "4x4"],
+         "--ks = 2..300 exceeds the number of training frames (213): give candidates up to 213"),
+        (["--k", "3", "--ks", "30..40", "--som", "5x5"], "--ks: every candidate k exceeds"),
     ]
     for extra, text in cases:
         capsys.readouterr()
@@ -77,6 +84,35 @@ def test_primitives_bad_input_before_training(mocap, tmp_path, capsys):
         assert len(line) == 1 and text in line[0], (extra, err)
         assert "batch epochs" not in err and "features:" not in err  # nothing trained
         assert not out.exists()
+
+
+def test_the_k_source_is_true(model_file, tmp_path, capsys):
+    """An integer --k is reported as given, even when a criterion picks the same k."""
+    clip, model = model_file
+    picked = mlayer.PrimitiveModel.load(model)
+    assert picked.k_source == "elbow"
+    k = picked.criteria.picks["elbow"]
+    out = tmp_path / "k.npz"
+    capsys.readouterr()
+    assert main(["primitives", str(clip), "-o", str(out), "--som", "8x8", "--lattice", "6x6",
+                 "--epochs", "8", "--ks", "2..9", "--k", str(k), "--plots", ""]) == 0
+    text = capsys.readouterr().out
+    assert f"k = {k} (cluster kmeans, given by --k)" in text and "picked by" not in text
+    assert mlayer.PrimitiveModel.load(out).k_source == "given"
+
+
+def test_default_ks_cut_to_the_map_with_a_note(mocap, tmp_path, capsys):
+    clip = mocap / BANDAI
+    if not clip.exists():
+        pytest.skip(f"{BANDAI} not found")
+    out = tmp_path / "s.npz"
+    assert main(["primitives", str(clip), "-o", str(out), "--som", "3x3", "--lattice", "2x2",
+                 "--epochs", "2", "--plots", ""]) == 0
+    err = capsys.readouterr().err
+    notes = [ln for ln in err.splitlines() if "candidate ks" in ln]
+    assert notes == ["primitives: candidate ks 2..20 cut to 2..9: at most the SOM's 3x3 = 9 "
+                     "units (a SOM gives at most that many distinct manifold points)"]
+    assert list(mlayer.PrimitiveModel.load(out).criteria.ks) == list(range(2, 10))
 
 
 def test_generate_through_keys_and_likely(model_file, tmp_path, capsys):

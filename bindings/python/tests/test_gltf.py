@@ -528,6 +528,35 @@ def test_animated_scale_refused(tmp_path, rng):
         mlayer.read_gltf(path)
 
 
+def test_scales_within_the_tolerance_of_uniform_are_read(tmp_path, rng):
+    """Khronos' BrainStem.glb has node scales from 0.999999 to 1.00002 (float32 noise of its
+    exporter): read as their mean, uniform; a spread beyond gltf.SCALE_TOLERANCE is refused."""
+    ref_path, path = tmp_path / "ref.gltf", tmp_path / "noisy.gltf"
+    _exporter_file(ref_path, np.random.default_rng(7))
+    _exporter_file(path, np.random.default_rng(7))
+    ref = mlayer.read_gltf(ref_path)
+    doc = json.loads(path.read_text())
+    noisy = {2: [0.999999, 1.00002, 1.0], 3: [1.00002, 0.999999, 1.00001]}  # Spine, Neck
+    for node, sc in noisy.items():
+        doc["nodes"][node]["scale"] = sc
+    path.write_text(json.dumps(doc))
+    m = mlayer.read_gltf(path)
+    np.testing.assert_array_equal(m.rot, ref.rot)
+    # each child's offset is scaled by the mean scale of the joints above it
+    s2, s3 = (float(np.mean(v)) for v in noisy.values())
+    want = ref.skeleton.offsets.copy()
+    want[2:] *= s2
+    want[3:] *= s3
+    np.testing.assert_allclose(m.skeleton.offsets, want, rtol=1e-12, atol=1e-15)
+    assert not np.array_equal(m.skeleton.offsets, ref.skeleton.offsets)
+    # beyond the tolerance: refused, the message says by how much
+    tol = G.SCALE_TOLERANCE
+    doc["nodes"][2]["scale"] = [1.0, 1.0 + 3 * tol, 1.0]
+    path.write_text(json.dumps(doc))
+    with pytest.raises(mlayer.UnsupportedError, match=rf"Spine.*non-uniform.*beyond {tol:g}"):
+        mlayer.read_gltf(path)
+
+
 def test_mutated_files_never_crash(tmp_path, mocap, rng):
     """Random edits of a small file's JSON and bytes: a mlayer error or a motion, never a
     KeyError, IndexError or TypeError."""

@@ -125,6 +125,11 @@ def test_arguments_are_checked_before_training(mocap, monkeypatch):
         (dict(k=300, som=(30, 30), lattice=(4, 4)), r"k = 300 exceeds the number of training "
                                                      r"frames \(213\)"),
         (dict(ks=range(20, 30), som=(4, 4), lattice=(2, 2)), "every candidate k exceeds"),
+        (dict(ks=range(2, 901), som=(4, 4), lattice=(2, 2)),
+         r"option ks = 2\.\.900 exceeds the SOM's 4x4 = 16 units .*: give candidates up to 16 "
+         r"\(such as 2\.\.16\)"),
+        (dict(k=3, ks=[2, 5, 400], som=(4, 4), lattice=(2, 2)),
+         r"option ks = 2, 5, 400 exceeds the SOM's"),
         (dict(k=3, som=(8, 8), lattice=(16, 16)), r"lattice 16x16 = 256 GRBF centres exceeds"),
         (dict(k=3, som=(8, 8), lattice=(4, 4), criterion="gap"), "criterion"),
         (dict(k=3, som=(8, 8), lattice=(4, 4), cluster="dbscan"), "cluster"),

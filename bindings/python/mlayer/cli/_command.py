@@ -176,6 +176,50 @@ def add_reading_options(sp) -> None:
                          "suggests, when it does; thresholds do not depend on it)")
 
 
+def add_rename_option(sp) -> None:
+    """--rename: joint names of another naming scheme (see :func:`parse_rename`)."""
+    sp.add_argument("--rename", default=None, metavar="OLD=NEW,...|FILE.json|cmu",
+                    help="join clips whose joint names differ from the first clip's (the "
+                         "model's): pairs OLD=NEW, a JSON file of them, or 'cmu' for CMU's two "
+                         "naming schemes; a clip is renamed by the map or its inverse, "
+                         "whichever gives the first clip's names")
+
+
+def parse_rename(text: str | None) -> dict | None:
+    """The mapping of --rename: ``cmu`` (mlayer.primitives.CMU_NAMES), a JSON file of an object
+    of names (its path ends in .json), or ``OLD=NEW,OLD=NEW``; None for None."""
+    if text is None:
+        return None
+    if text.strip().lower() == "cmu":
+        from ..primitives import CMU_NAMES
+        return dict(CMU_NAMES)
+    if text.lower().endswith(".json"):
+        import json
+        try:
+            with open(text, encoding="utf-8") as f:
+                mapping = json.load(f)
+        except OSError as e:
+            raise MlayerIOError(f"--rename: cannot read {text}: {e.strerror or e}") from None
+        except ValueError as e:
+            raise InvalidArgumentError(f"--rename: {text} is not JSON ({e})") from None
+        if not isinstance(mapping, dict) or not all(
+                isinstance(k, str) and isinstance(v, str) for k, v in mapping.items()):
+            raise InvalidArgumentError(f"--rename: {text} must hold one JSON object of joint "
+                                       f"names, {{\"old\": \"new\", ...}}")
+        return mapping
+    mapping = {}
+    for part in (p.strip() for p in text.split(",") if p.strip()):
+        old, sep, new = (v.strip() for v in part.partition("="))
+        if not sep or not old or not new:
+            raise InvalidArgumentError(f"--rename: {part!r} is not OLD=NEW")
+        if old in mapping:
+            raise InvalidArgumentError(f"--rename: {old!r} is renamed twice")
+        mapping[old] = new
+    if not mapping:
+        raise InvalidArgumentError(f"--rename: no OLD=NEW pairs in {text!r}")
+    return mapping
+
+
 def trim_arg(text: str):
     """--trim: "auto" or a frame count >= 0."""
     if text == "auto":

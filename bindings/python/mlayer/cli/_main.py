@@ -64,6 +64,25 @@ COMMANDS = (
 )
 
 
+class Parser(argparse.ArgumentParser):
+    """The parser of the command line and of each command (argparse gives a subcommand's
+    parser the class of its parent's): a usage error is one line on stderr, the message and a
+    pointer to ``--help`` (``mlayer stylize: error: ... (see mlayer stylize --help)``), and
+    exit status 2, not argparse's usage block."""
+
+    def error(self, message: str):
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+    def parse_args(self, args=None, namespace=None):
+        """argparse's, with arguments no parser knows reported by the command's parser (a
+        command without positional arguments leaves them to the top level)."""
+        ns, extra = self.parse_known_args(args, namespace)
+        if extra:
+            sub = _command_parser(self, getattr(ns, "command", None) or "") or self
+            sub.error("unrecognized arguments: " + " ".join(extra))
+        return ns
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The parser of the ``mlayer`` command line, with every command of :data:`COMMANDS`.
 
@@ -72,8 +91,8 @@ def build_parser() -> argparse.ArgumentParser:
     argparse.ArgumentParser
         A new parser.
     """
-    p = argparse.ArgumentParser(prog="mlayer",
-                                description="Smooth motion layers for character animation.")
+    p = Parser(prog="mlayer",
+               description="Smooth motion layers for character animation.")
     p.add_argument("--version", action="version",
                    version=f"mlayer {__version__} (C library {library_version()})")
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
@@ -124,14 +143,21 @@ def cli_spelling(message: str, flags) -> str:
     return _NAMED.sub(spell, message)
 
 
-def _flags(parser: argparse.ArgumentParser, command: str) -> set:
-    """The option strings of a subcommand's parser."""
+def _command_parser(parser: argparse.ArgumentParser,
+                    command: str) -> argparse.ArgumentParser | None:
+    """A subcommand's parser, or None."""
     p: Any = parser  # argparse keeps the subparsers in private attributes
-    for action in p._subparsers._group_actions:
+    for action in p._subparsers._group_actions if p._subparsers is not None else ():
         sp = action.choices.get(command)
         if sp is not None:
-            return set(sp._option_string_actions)
-    return set()
+            return sp
+    return None
+
+
+def _flags(parser: argparse.ArgumentParser, command: str) -> set:
+    """The option strings of a subcommand's parser."""
+    sp: Any = _command_parser(parser, command)
+    return set(sp._option_string_actions) if sp is not None else set()
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -19,7 +19,9 @@ first (body heights a factor of 2 or more apart) are scaled to its size, with a 
 GMM BIC side by side with the k each picks, and the held-out log-likelihood of the Markov jump
 model of orders 1 to 3 (5-fold blocked cross-validation, mlayer.markov.heldout_loglik), so
 that --k / --criterion and --order can be chosen. k, --ks and the lattices are checked against
-the frames before the SOM trains. `generate --through` takes points on the map in the
+the frames and the SOM's units before the SOM trains (a --ks beyond them is an error; the
+default 2..20 is cut to them, with a note), and the line of the k says where it came from
+(given by --k, or picked by the criterion). `generate --through` takes points on the map in the
 coordinates of PREFIX_som.png (x the lattice column, y the row; PCA: x = PC 2, y = PC 1);
 `--keys` key frames CLIP:FRAME, CLIP a training clip's file name or index (or another BVH
 file of the model's skeleton), FRAME its frame (0-based, after any --trim at training).
@@ -45,7 +47,8 @@ from ..bvh import read_bvh
 from ..errors import InvalidArgumentError
 from ..plot import new_figure, save_figure
 from ..som import u_matrix
-from ._command import BVH_OR_STDOUT, NPZ, PREFIX, Needs, command, output_name, write_bvh_output
+from ._command import (BVH_OR_STDOUT, NPZ, PREFIX, Needs, add_rename_option, command,
+                       output_name, parse_rename, write_bvh_output)
 
 #: what needs matplotlib in the message without it
 _FEATURE = "mlayer primitives --plots (on by default; --plots '' for none)"
@@ -113,9 +116,11 @@ def parse_through(text: str) -> np.ndarray:
     return np.array(pts)
 
 
-def parse_keys(text: str, model) -> list:
+def parse_keys(text: str, model, rename: dict | None = None) -> list:
     """--keys CLIP:FRAME,...: (clip, frame) pairs for PrimitiveModel.generate(keys=...); CLIP a
-    training clip's name or index, or a BVH file of the model's skeleton (read here)."""
+    training clip's name or index, or a BVH file of the model's skeleton, joint names and tree
+    (read here; renamed by ``rename``, mlayer.primitives.join_skeletons)."""
+    from ..primitives import join_skeletons
     keys: list[tuple[Any, int]] = []
     for part in (p.strip() for p in text.split(",") if p.strip()):
         clip, sep, frame = part.rpartition(":")
@@ -132,11 +137,13 @@ def parse_keys(text: str, model) -> list:
             keys.append((int(clip), f))
         elif os.path.isfile(clip):
             m = read_bvh(clip)
-            if m.skeleton.n_joints != model.skeleton.n_joints or not np.array_equal(
-                    m.skeleton.parents, model.skeleton.parents):
+            try:
+                m = join_skeletons([m], rename=rename, names=[clip],
+                                   reference=model.skeleton, reference_name="the model")[0]
+            except InvalidArgumentError as e:  # "clip 0 (...): another skeleton: joint 2 ..."
                 raise InvalidArgumentError(f"--keys: {clip} has another skeleton than the "
-                                           f"model ({m.skeleton.n_joints} joints, the model "
-                                           f"{model.skeleton.n_joints})")
+                                           f"model: {str(e).split('another skeleton: ')[-1]}") \
+                    from None
             keys.append((m, f))
         else:
             raise InvalidArgumentError(f"--keys: no training clip {clip!r} (the model's clips: "
@@ -240,8 +247,10 @@ def _primitives_args(p) -> None:
     p.add_argument("-o", "--output", required=True, help="model file (.npz)")
     p.add_argument("--k", type=_k, default="auto",
                    help="primitives: 'auto' (the pick of --criterion) or K")
-    p.add_argument("--ks", type=_ks, default=range(2, 21), metavar="LO..HI",
-                   help="candidate ks for the criteria (default 2..20)")
+    p.add_argument("--ks", type=_ks, default=None, metavar="LO..HI",
+                   help="candidate ks for the criteria, at most the frames and the SOM's units "
+                        "(default with --k auto: 2..20, cut to them with a note; with --k K: "
+                        "none)")
     p.add_argument("--criterion", choices=("elbow", "silhouette", "bic"), default="elbow",
                    help="what picks k when --k auto (default elbow)")
     p.add_argument("--cluster", choices=("kmeans", "fcm", "gmm"), default="kmeans",
@@ -262,6 +271,7 @@ def _primitives_args(p) -> None:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--plots", metavar="PREFIX", default=None,
                    help="figure path prefix (default: the model path without .npz; '' for none)")
+    add_rename_option(p)
 
 
 @command("primitives", "learn a motion manifold, primitives and their Markov model from clips",
@@ -273,14 +283,14 @@ def cmd_primitives(args) -> int:
     from ..primitives import PrimitiveModel
     # the default prefix (the model path without .npz) is in the model's folder, checked
     prefix = args.plots if args.plots is not None else os.path.splitext(args.output)[0]
+    from ..primitives import join_skeletons
+    rename = parse_rename(args.rename)
     clips = []
     for path in args.clips:
         print(f"primitives: reading {path}", file=sys.stderr, flush=True)
         clips.append(read_bvh(path))
-    sk = clips[0].skeleton
-    for path, m in zip(args.clips[1:], clips[1:]):
-        if not np.array_equal(m.skeleton.parents, sk.parents):
-            raise InvalidArgumentError(f"{path}: another skeleton than {args.clips[0]}")
+    # names and tree before any work (fit checks again, by the names in the model)
+    clips = join_skeletons(clips, rename=rename, names=args.clips)
     model = PrimitiveModel.fit(clips, k=args.k, ks=args.ks, criterion=args.criterion,
                                cluster=args.cluster, order=_order(args.order),
                                min_count=args.min_count,
@@ -322,9 +332,9 @@ def print_criteria(model) -> None:
             marks = [n for n in ("elbow", "silhouette", "bic") if c.picks[n] == q]
             print(f"  {int(q):5d} {c.inertia[i]:11.4g} {c.silhouette[i]:11.4f} "
                   f"{c.bic[i]:11.5g}  {' '.join('<- ' + m for m in marks)}")
-    print(f"primitives: k = {k} (cluster {model.cluster}"
-          + (f", picked by {model.criterion}" if c is not None and c.picks.get(
-              model.criterion) == k else "") + ")")
+    src = model.k_source
+    how = {"given": ", given by --k", None: ""}.get(src, f", picked by {src}")
+    print(f"primitives: k = {k} (cluster {model.cluster}{how})")
     ll = model.order_loglik
     if ll:
         n = next(iter(ll.values()))[1]
@@ -360,6 +370,7 @@ def _generate_args(p) -> None:
     p.add_argument("--no-guards", action="store_true",
                    help="the raw mapping: no joint limits, contact cleanup or floor")
     p.add_argument("-o", "--output", required=True, help="output BVH; - for the standard output")
+    add_rename_option(p)
 
 
 @command("generate", "synthesize a new motion from a primitives model",
@@ -384,7 +395,8 @@ def cmd_generate(args) -> int:
                                        f"{'--through' if args.through is not None else '--keys'}")
     through = parse_through(args.through) if args.through is not None else None
     model = PrimitiveModel.load(args.model)
-    keys = parse_keys(args.keys, model) if args.keys is not None else None
+    keys = parse_keys(args.keys, model, parse_rename(args.rename)) if args.keys is not None \
+        else None
     motion, info = model.generate(args.frames, start_frame=args.start_frame, noise=args.noise,
                                   seed=args.seed, most_likely=args.most_likely,
                                   second_likely=args.second_likely,

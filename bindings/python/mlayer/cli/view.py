@@ -8,15 +8,15 @@ the page; the others are served.
 
 Limits: --max-values (the output of one request, frames x points), --cache-mb (the result
 cache), --manifold-frames (the training frames of the motion manifold panel), --threads (the
-worker pool), --timeout (idle, slow and non-reading connections), --max-connections; the API
-needs the session
-token of the page and refuses other sites (see mlayer.viewer.server).
+worker pool), --timeout (idle, slow and non-reading connections), --max-connections; --rename
+joins clips of another joint naming scheme for the manifold's training. The API needs the
+session token of the page and refuses other sites (see mlayer.viewer.server).
 """
 from __future__ import annotations
 
 import sys
 
-from ._command import command
+from ._command import add_rename_option, command, parse_rename
 
 
 def _arguments(p) -> None:
@@ -58,6 +58,7 @@ def _arguments(p) -> None:
     p.add_argument("--manifold-frames", type=int, default=DEFAULT_MANIFOLD_FRAMES, metavar="N",
                    help="the most training frames of the page's motion manifold (the clips "
                         "decimated by one stride; default %(default)s)")
+    add_rename_option(p)
 
 
 @command("view", "interactive viewer in the browser: alpha sliders, cleanup, retiming",
@@ -76,7 +77,8 @@ def cmd_view(args) -> int:
     server = make_server(args.inputs, args.host, args.port, max_values=args.max_values,
                          cache_bytes=int(args.cache_mb * 2**20), threads=args.threads,
                          timeout=args.timeout, manifold_frames=args.manifold_frames,
-                         allow_hosts=args.allow_host, max_connections=args.max_connections)
+                         allow_hosts=args.allow_host, max_connections=args.max_connections,
+                         rename=parse_rename(args.rename))
     good = [c for c in server.clips if c.ok]
     for c in server.clips:
         if not c.ok:

@@ -229,12 +229,18 @@ class ManifoldSession:
         Where the training's lines go.
     seed : int, optional
         Seed of the training.
+    rename : dict of str to str, optional
+        Joint names of another naming scheme mapped to the first good clip's
+        (:func:`mlayer.primitives.join_skeletons`); a clip of other names or another tree is
+        left out of the training, with the first differing joint as the reason.
     """
 
     def __init__(self, clips: list[Clip], *, cache: ResultCache, max_values: int,
                  max_frames: int = DEFAULT_MANIFOLD_FRAMES, log: IO[str] | None = None,
-                 seed: int = 0) -> None:
+                 seed: int = 0, rename: dict[str, str] | None = None) -> None:
         self.clips = clips
+        self.rename = rename
+        self._joined: dict[int, Any] = {}  # clip index -> its motion, renamed if need be
         self.cache = cache
         self.max_values = int(max_values)
         self.max_frames = int(max_frames)
@@ -257,20 +263,27 @@ class ManifoldSession:
     # -- the training set --
 
     def plan(self) -> None:
-        """Which clips train (those with the first good clip's skeleton) and the common stride
-        that keeps the frames within ``max_frames`` and ``max_values``."""
+        """Which clips train (those with the first good clip's skeleton: joint names, after
+        ``rename``, and tree) and the common stride that keeps the frames within
+        ``max_frames`` and ``max_values``."""
+        from ..primitives import join_skeletons
         good = [c for c in self.clips if c.ok]
         self.used, self.excluded = [], []
+        self._joined = {}
         self.stride = 1
         if not good:
             return
         ref = good[0].motion
         for c in good:
-            m = c.motion
-            if m.n_joints != ref.n_joints or not np.array_equal(m.parents, ref.parents):
+            try:
+                m = ref if c is good[0] else join_skeletons(
+                    [c.motion], rename=self.rename, reference=ref.skeleton,
+                    reference_name=good[0].name)[0]
+            except Error as e:  # "clip 0: another skeleton: joint 2 is ..."
                 self.excluded.append({"clip": c.index, "name": c.name,
-                                      "reason": f"another skeleton than {good[0].name}"})
+                                      "reason": str(e).split(": ", 1)[1]})
             else:
+                self._joined[c.index] = m
                 self.used.append(c)
         total = sum(c.motion.n_frames for c in self.used)
         points = self.used[0].n_points
@@ -291,7 +304,7 @@ class ManifoldSession:
         try:
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always")
-                motions = same_units([c.motion for c in self.used])
+                motions = same_units([self._joined[c.index] for c in self.used])
                 train = [m[::self.stride] for m in motions]
                 self._progress.write(f"training set: {len(train)} clip(s), "
                                      f"{sum(m.n_frames for m in train)} frames (every "

@@ -206,6 +206,9 @@ class ViewerServer(HTTPServer):
     max_connections : int, optional
         Connections open at once; a connection beyond is answered 503 and closed (a flood of
         slow connections would otherwise hold up to 192 KiB each until its deadline).
+    rename : dict of str to str, optional
+        Joint names of another naming scheme mapped to the first clip's, for the manifold's
+        training (:class:`mlayer.viewer.manifold.ManifoldSession`).
     """
 
     allow_reuse_address = True
@@ -217,7 +220,8 @@ class ViewerServer(HTTPServer):
                  threads: int = DEFAULT_THREADS,
                  manifold_frames: int = DEFAULT_MANIFOLD_FRAMES,
                  allow_hosts: Iterable[str] = (),
-                 max_connections: int = DEFAULT_MAX_CONNECTIONS) -> None:
+                 max_connections: int = DEFAULT_MAX_CONNECTIONS,
+                 rename: dict[str, str] | None = None) -> None:
         self.max_values = _int_option("max_values", max_values, 1000)
         self.cache = ResultCache(_int_option("cache_bytes", cache_bytes, 0))  # --cache-mb
         if not (isinstance(timeout, (int, float)) and math.isfinite(timeout) and
@@ -232,7 +236,8 @@ class ViewerServer(HTTPServer):
         self.log = log or sys.stderr
         self.manifold = ManifoldSession(
             clips, cache=self.cache, max_values=self.max_values, log=self.log,
-            max_frames=_int_option("manifold_frames", manifold_frames, 16, 1_000_000))
+            max_frames=_int_option("manifold_frames", manifold_frames, 16, 1_000_000),
+            rename=rename)
         self.token = secrets.token_urlsafe(24)
         self._log_lock = threading.Lock()
         self._page: bytes | None = None
@@ -419,7 +424,7 @@ def make_server(paths: Iterable[str | os.PathLike[str]], host: str = "127.0.0.1"
         Where the server's lines go (default stderr).
     **limits
         ``max_values``, ``cache_bytes``, ``timeout``, ``threads``, ``manifold_frames``,
-        ``allow_hosts``, ``max_connections`` (see :class:`ViewerServer`).
+        ``allow_hosts``, ``max_connections``, ``rename`` (see :class:`ViewerServer`).
 
     Returns
     -------
