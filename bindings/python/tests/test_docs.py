@@ -44,3 +44,47 @@ def test_a_broken_link_is_found(tmp_path):
     mod = _check_links()
     mod.ROOT = tmp_path
     assert len(mod.broken([page])) == 2
+
+
+def _cli_reference():
+    spec = importlib.util.spec_from_file_location("gen_cli_reference",
+                                                  REPO / "docs" / "gen_cli_reference.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def test_the_cli_reference_is_generated_from_the_parser():
+    """docs/cli-reference.md is what docs/gen_cli_reference.py makes of the parser now: after
+    a change to an option, run `python docs/gen_cli_reference.py`."""
+    gen = _cli_reference()
+    assert (REPO / "docs" / "cli-reference.md").read_text() == gen.render(), \
+        "docs/cli-reference.md is out of date: run python docs/gen_cli_reference.py"
+
+
+def test_the_cli_reference_lists_every_command_and_option():
+    from mlayer.cli._main import COMMANDS, build_parser
+    gen = _cli_reference()
+    page = gen.render()
+    subs = gen._subcommands(build_parser())
+    assert [c.name for c in COMMANDS] == list(subs)
+    for name, sp in subs.items():
+        assert f"\n## mlayer {name}\n" in page
+        section = page.split(f"\n## mlayer {name}\n")[1].split("\n## ")[0]
+        for action in sp._actions:
+            for flag in action.option_strings:
+                if flag not in ("-h", "--help"):
+                    assert f"`{flag}" in section or f", {flag}" in section, (name, flag)
+    # a default and a help text as the parser has them
+    stylize = page.split("\n## mlayer stylize\n")[1].split("\n## ")[0]
+    assert "| `--alpha ALPHA` | `2` |" in stylize
+
+
+def test_the_cli_reference_check_fails_on_a_stale_page(tmp_path, monkeypatch):
+    gen = _cli_reference()
+    stale = tmp_path / "cli-reference.md"
+    stale.write_text(gen.render().replace("--alpha", "--alfa"))
+    monkeypatch.setattr(gen, "PAGE", stale)
+    assert gen.main(["--check"]) == 1
+    stale.write_text(gen.render())
+    assert gen.main(["--check"]) == 0
