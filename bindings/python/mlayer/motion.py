@@ -25,7 +25,7 @@ its OFFSET as ``root_pos`` in every frame.
 from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
-from typing import TYPE_CHECKING, Any, NamedTuple, cast
+from typing import TYPE_CHECKING, Any, ClassVar, NamedTuple, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -207,6 +207,15 @@ class Skeleton(ReadOnlyAttributes):
     mlayer.InvalidArgumentError
         For names, parents, offsets, channels or End Sites the C core refuses.
     """
+    parents: NDArray[np.int32]
+    offsets: NDArray[np.float64]
+    channels: tuple[str, ...]
+    euler_orders: tuple[str, ...]
+    end_site_parents: NDArray[np.int32]
+    end_site_offsets: NDArray[np.float64]
+    trans_joints: NDArray[np.int32]
+    n_channels: int
+    source_order: NDArray[np.intp]
 
     __slots__ = ("_names", "parents", "offsets", "channels", "euler_orders",
                  "end_site_parents", "end_site_offsets", "trans_joints", "n_channels",
@@ -368,7 +377,8 @@ class Skeleton(ReadOnlyAttributes):
                 and np.array_equal(self.end_site_parents, other.end_site_parents)
                 and np.array_equal(self.end_site_offsets, other.end_site_offsets))
 
-    __hash__ = None  # type: ignore[assignment]  # equal skeletons compare equal: unhashable
+    # equal skeletons compare equal: unhashable
+    __hash__: ClassVar[None] = None  # type: ignore[assignment]
 
     def __repr__(self) -> str:
         return (f"Skeleton({self.n_joints} joints, {self.n_end_sites} End Sites, "

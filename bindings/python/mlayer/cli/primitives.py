@@ -35,7 +35,7 @@ Bad input: one line on stderr and exit status 1.
 """
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import argparse
 import os
@@ -48,6 +48,9 @@ from ..errors import InvalidArgumentError
 from ..plot import plot_elbow, plot_som, plot_transitions
 from ._command import (BVH_OR_STDOUT, NPZ, PREFIX, Needs, add_rename_option, command,
                        output_name, parse_rename, write_bvh_output)
+
+if TYPE_CHECKING:
+    from ..primitives import PrimitiveModel
 
 #: what needs matplotlib in the message without it
 _FEATURE = "mlayer primitives --plots (on by default; --plots '' for none)"
@@ -115,7 +118,8 @@ def parse_through(text: str) -> np.ndarray:
     return np.array(pts)
 
 
-def parse_keys(text: str, model, rename: dict | None = None) -> list:
+def parse_keys(text: str, model: PrimitiveModel,
+               rename: dict[str, str] | None = None) -> list[tuple[Any, int]]:
     """--keys CLIP:FRAME,...: (clip, frame) pairs for PrimitiveModel.generate(keys=...); CLIP a
     training clip's name or index, or a BVH file of the model's skeleton, joint names and tree
     (read here; renamed by ``rename``, mlayer.primitives.join_skeletons)."""
@@ -230,7 +234,7 @@ def _clip_names(paths) -> list:
     return base if len(set(base)) == len(base) else list(paths)
 
 
-def print_criteria(model) -> None:
+def print_criteria(model: PrimitiveModel) -> None:
     """The k criteria side by side and the held-out log-likelihood of each Markov order."""
     c = model.criteria
     k = model.centers.shape[0]

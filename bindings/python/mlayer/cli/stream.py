@@ -10,6 +10,7 @@ and below, each one's difference to the offline solve.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 import sys
 
 import numpy as np
@@ -22,6 +23,9 @@ from ..one_euro import one_euro
 from ..plot import plot_stream
 from ..stream import decay_rate, motion_channels, stream_motion
 from ._command import BVH_OR_STDOUT, PNG, Needs, command, output_name, write_bvh_output
+
+if TYPE_CHECKING:
+    from ..motion import Motion
 
 _COMPONENTS = "wxyz"
 
@@ -45,7 +49,7 @@ def _arguments(p) -> None:
                    help="One Euro speed coefficient (default 0)")
 
 
-def aligned_channels(motion) -> np.ndarray:
+def aligned_channels(motion: Motion) -> np.ndarray:
     """Stream channels (N, 3 + 3P + 4J) with the quaternions made continuous by the predictive
     rule, as the stream aligns them."""
     y = motion_channels(motion)
@@ -62,7 +66,7 @@ def _renormalize(x: np.ndarray, J: int) -> np.ndarray:
     return x
 
 
-def offline_channels(motion, lam: float, sigma: float) -> np.ndarray:
+def offline_channels(motion: Motion, lam: float, sigma: float) -> np.ndarray:
     """The offline solve the stream converges to: mlayer.lgs (order 2) on the aligned channels,
     quaternions renormalized."""
     y = aligned_channels(motion)
