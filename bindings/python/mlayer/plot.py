@@ -224,8 +224,9 @@ def plot_contacts(names: Sequence[str], contacts: ArrayLike, fps: float,
     ----------
     names : sequence of str
         The contact points' names, as :func:`mlayer.detect_contacts` returns them.
-    contacts : array_like of bool, shape (n_frames, len(names))
-        In contact per frame and point (the second value of :func:`mlayer.detect_contacts`).
+    contacts : array_like of bool, shape (N, len(names))
+        In contact per frame (N frames) and point (the second value of
+        :func:`mlayer.detect_contacts`).
     fps : float
         The clip's frame rate (the time axis is in seconds).
     path : str or os.PathLike, optional
@@ -340,11 +341,12 @@ def plot_timewarp(motion: Motion, warped: Motion, time_map: ArrayLike,
         The input.
     warped : Motion
         The time-warped motion (:func:`mlayer.timewarp`).
-    time_map : array_like, shape (motion.n_frames,)
-        The output frame position of each input frame (:func:`mlayer.timewarp_map`).
+    time_map : array_like, shape (N,)
+        The output frame position of each of the input's N frames
+        (:func:`mlayer.timewarp_map`).
     path : str or os.PathLike, optional
         Also write the figure there (PNG, SVG or PDF, by extension).
-    speed : array_like, shape (motion.n_frames,), optional
+    speed : array_like, shape (N,), optional
         The motion speed per input frame; default :func:`mlayer.timewarp_speed` of ``motion``.
     title : str, optional
         The top axes' title.
@@ -408,10 +410,10 @@ def plot_stream(motion: Motion, channels: ArrayLike, offline: ArrayLike, streame
     ----------
     motion : Motion
         The streamed clip (its frame time and joint names).
-    channels, offline, streamed, one_euro : array_like, shape (n_frames, n_channels)
-        The input's channels (:func:`mlayer.stream.motion_channels`: translations, then 4
-        quaternion components per joint), the offline LGS solve, the stream's output and the
-        One Euro filter's.
+    channels, offline, streamed, one_euro : array_like, shape (N, C)
+        N frames of C channels: the input's (:func:`mlayer.stream.motion_channels`:
+        translations, then 4 quaternion components per joint), the offline LGS solve, the
+        stream's output and the One Euro filter's.
     path : str or os.PathLike, optional
         Also write the figure there (PNG, SVG or PDF, by extension).
     joint : int
