@@ -15,7 +15,7 @@ import numpy as np
 
 import mlayer
 from mlayer import plot as mplot
-from mlayer.cli.primitives import plot_elbow, plot_som, plot_transitions
+from mlayer.plot import plot_elbow, plot_som, plot_transitions
 
 
 def _angle_deg(q: np.ndarray) -> np.ndarray:

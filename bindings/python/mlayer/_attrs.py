@@ -57,7 +57,8 @@ class ReadOnlyAttributes:
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
         if "__init__" in cls.__dict__:  # the constructor builds the object
-            cls.__init__ = builds(cls.__dict__["__init__"])  # type: ignore[method-assign]
+            # setattr: an assignment to cls.__init__ would declare an __init__ attribute here
+            setattr(cls, "__init__", builds(cls.__dict__["__init__"]))  # noqa: B010
 
     def __setattr__(self, name: str, value: Any) -> None:
         cls = type(self)

@@ -18,7 +18,7 @@ video          imageio-ffmpeg, Pillow        MP4 renders
 batch          dask[distributed], crypto...  mlayer.batch on Dask (cryptography: the TLS of
                                              the embedded cluster)
 progress       tqdm                          progress bars (``progress=True``)
-dataframe      pandas                        Motion.to_dataframe
+dataframe      pandas                        Motion.to_dataframe, Motion.from_dataframe
 scipy          scipy                         the scipy Rotation bridges (Motion.to_scipy,
                                              mlayer.quat.to_scipy)
 =============  ============================  ================================================

@@ -102,6 +102,10 @@ class MissingDependencyError(Error, ImportError):
     feature : str, optional
         What needed it.
     """
+    name: str | None
+    module: str
+    extra: str
+    feature: str
 
     def __init__(self, message: str, module: str = "", extra: str = "",
                  feature: str = "") -> None:
@@ -131,6 +135,10 @@ class ParseWarning(MlayerWarning):
     kind : str, optional
         The C warning code's name, e.g. ``"extra_frames"``.
     """
+    path: str | os.PathLike[str] | None
+    line: int | None
+    column: int | None
+    kind: str | None
 
     def __init__(self, message: str, path: str | os.PathLike[str] | None = None,
                  line: int | None = None, column: int | None = None,

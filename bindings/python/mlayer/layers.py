@@ -203,6 +203,7 @@ class Layers(ReadOnlyAttributes):
     control_dof : numpy.ndarray, shape (1 + J,)
         Effective degrees of freedom of the control smoother per channel.
     """
+    body_joint: int
 
     lam: NDArray[np.float64]
     sigma: NDArray[np.float64]

@@ -45,6 +45,11 @@ class PCA(_attrs.ReadOnlyAttributes):
     n_components : int, optional
         Components kept (>= 1).
     """
+    n_components: int
+    mean_: NDArray[np.float64]
+    singular_values_: NDArray[np.float64]
+    explained_variance_: NDArray[np.float64]
+    explained_variance_ratio_: NDArray[np.float64]
 
     _readonly = ("n_components", "mean_", "components_", "singular_values_",
                  "explained_variance_", "explained_variance_ratio_")
@@ -278,6 +283,13 @@ class GRBF(_attrs.ReadOnlyAttributes):
     mlayer.InvalidArgumentError
         For an unknown kernel or bad lattice, centres, bounds, width or smoothing.
     """
+    bounds: tuple[tuple[float, ...], ...] | None
+    centers: NDArray[np.float64] | None
+    width: float | None
+    smoothing: float
+    n_threads: int
+    width_: float
+    n_outputs_: int
 
     _readonly = ("kernel", "lattice", "bounds", "centers", "width", "smoothing", "centers_",
                  "coef_", "width_", "bounds_", "n_outputs_")

@@ -177,6 +177,11 @@ class Markov(_attrs.ReadOnlyAttributes):
     mlayer.InvalidArgumentError
         For a P that is not a stochastic matrix or parameters out of range.
     """
+    counts: NDArray[np.float64]
+    run_length: NDArray[np.float64]
+    order: int
+    min_count: int
+    contexts: dict[tuple[int, ...], tuple[float, NDArray[np.float64]]]
 
     _readonly = ("P", "counts", "run_length", "order", "contexts")
     _checked = {"min_count": _attrs.integer(1)}

@@ -225,6 +225,16 @@ class GaussianMixture(_attrs.ReadOnlyAttributes):
     mlayer.InvalidArgumentError
         For parameters out of range.
     """
+    k: int
+    max_iter: int
+    tol: float
+    reg_covar: float
+    seed: int
+    weights_: NDArray[np.float64]
+    means_: NDArray[np.float64]
+    covariances_: NDArray[np.float64]
+    converged_: bool
+    n_iter_: int
 
     _readonly = ("k", "covariance", "init", "weights_init", "covariances_init", "weights_",
                  "means_", "covariances_", "converged_", "n_iter_", "lower_bound_")

@@ -25,7 +25,7 @@ its OFFSET as ``root_pos`` in every frame.
 from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
-from typing import TYPE_CHECKING, Any, NamedTuple, cast
+from typing import TYPE_CHECKING, Any, ClassVar, NamedTuple, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -207,6 +207,15 @@ class Skeleton(ReadOnlyAttributes):
     mlayer.InvalidArgumentError
         For names, parents, offsets, channels or End Sites the C core refuses.
     """
+    parents: NDArray[np.int32]
+    offsets: NDArray[np.float64]
+    channels: tuple[str, ...]
+    euler_orders: tuple[str, ...]
+    end_site_parents: NDArray[np.int32]
+    end_site_offsets: NDArray[np.float64]
+    trans_joints: NDArray[np.int32]
+    n_channels: int
+    source_order: NDArray[np.intp]
 
     __slots__ = ("_names", "parents", "offsets", "channels", "euler_orders",
                  "end_site_parents", "end_site_offsets", "trans_joints", "n_channels",
@@ -368,7 +377,8 @@ class Skeleton(ReadOnlyAttributes):
                 and np.array_equal(self.end_site_parents, other.end_site_parents)
                 and np.array_equal(self.end_site_offsets, other.end_site_offsets))
 
-    __hash__ = None  # type: ignore[assignment]  # equal skeletons compare equal: unhashable
+    # equal skeletons compare equal: unhashable
+    __hash__: ClassVar[None] = None  # type: ignore[assignment]
 
     def __repr__(self) -> str:
         return (f"Skeleton({self.n_joints} joints, {self.n_end_sites} End Sites, "
@@ -1142,6 +1152,126 @@ class Motion:
                           columns=pd.MultiIndex.from_tuples(columns, names=["joint", "channel"]))
         df.attrs.update(frame_time=self.frame_time, fps=self.fps)
         return df
+
+    @classmethod
+    def from_dataframe(cls, df: pd.DataFrame, skeleton: Skeleton,
+                       frame_time: float | None = None) -> Motion:
+        """A motion of ``skeleton`` from a table of its BVH channels (the inverse of
+        :meth:`to_dataframe`).
+
+        The table has one row per frame and one column per channel of ``skeleton``, named
+        ``(joint, channel)`` (a two-level column index, as :meth:`to_dataframe` gives) or
+        ``"joint/channel"`` (flat names); the columns may come in any order, but every channel
+        must be there once and no other column. Positions are in the skeleton's units,
+        rotations Euler angles in degrees in each joint's channel order, as in a BVH file.
+
+        Parameters
+        ----------
+        df : pandas.DataFrame
+            The channels, one row per frame.
+        skeleton : Skeleton
+            The skeleton the channels belong to (e.g. ``m.skeleton``).
+        frame_time : float, optional
+            Seconds per frame; default ``df.attrs["frame_time"]`` (which
+            :meth:`to_dataframe` sets).
+
+        Returns
+        -------
+        Motion
+            The motion.
+
+        Raises
+        ------
+        mlayer.InvalidArgumentError
+            For a channel of the skeleton missing from the table, a column that is none of its
+            channels or appears twice (each named), values that are not finite numbers, or no
+            frame time.
+        mlayer.MissingDependencyError
+            Without pandas.
+
+        Examples
+        --------
+        >>> df = m.to_dataframe()                                      # doctest: +SKIP
+        >>> df["Hips", "Yposition"] += 2.0                             # doctest: +SKIP
+        >>> lifted = mlayer.Motion.from_dataframe(df, m.skeleton)      # doctest: +SKIP
+        """
+        from ._optional import require
+        from .quat import from_euler
+        pd = require("pandas", feature="mlayer.Motion.from_dataframe")
+        what = "Motion.from_dataframe"
+        if not isinstance(df, pd.DataFrame):
+            raise InvalidArgumentError(f"{what}: df must be a pandas.DataFrame, got "
+                                       f"{type(df).__name__}")
+        if not isinstance(skeleton, Skeleton):
+            raise InvalidArgumentError(f"{what}: skeleton must be a mlayer.Skeleton")
+        if frame_time is None:
+            frame_time = df.attrs.get("frame_time")
+            if frame_time is None:
+                raise InvalidArgumentError(f"{what}: no frame_time given and none in "
+                                           "df.attrs['frame_time']")
+
+        def key(col: Any) -> tuple[str, str]:
+            if isinstance(col, tuple) and len(col) == 2:
+                return str(col[0]), str(col[1])
+            joint, sep, chan = str(col).rpartition("/")
+            if not sep:
+                raise InvalidArgumentError(f"{what}: column {col!r} is not (joint, channel) "
+                                           "nor 'joint/channel'")
+            return joint, chan
+
+        cols = [key(c) for c in df.columns]
+        sk = skeleton
+        want = [(name, c) for j, name in enumerate(sk._names) for c in sk.channels[j].split()]
+        seen: dict[tuple[str, str], int] = {}
+        for i, c in enumerate(cols):
+            if c in seen:
+                raise InvalidArgumentError(f"{what}: column {'/'.join(c)} appears twice")
+            seen[c] = i
+        wanted = set(want)
+        extra = [c for c in cols if c not in wanted]
+        if extra:
+            raise InvalidArgumentError(
+                f"{what}: column {'/'.join(extra[0])} is not a channel of the skeleton"
+                + (f" ({len(extra) - 1} more)" if len(extra) > 1 else ""))
+        missing = [c for c in want if c not in seen]
+        if missing:
+            raise InvalidArgumentError(
+                f"{what}: channel {'/'.join(missing[0])} is missing from the table"
+                + (f" ({len(missing) - 1} more)" if len(missing) > 1 else ""))
+        try:
+            values = df.to_numpy(dtype=np.float64)
+        except (TypeError, ValueError) as e:
+            raise InvalidArgumentError(f"{what}: the values are not numbers ({e})") from None
+        bad = ~np.isfinite(values)
+        if bad.any():
+            row, col = (int(v[0]) for v in np.nonzero(bad))
+            raise InvalidArgumentError(f"{what}: column {'/'.join(cols[col])} is not finite at "
+                                       f"row {row}")
+        N = values.shape[0]
+        J, P = sk.n_joints, sk.trans_joints.shape[0]
+        where = {int(j): p for p, j in enumerate(sk.trans_joints)}
+        root_pos = np.zeros((N, 3))
+        trans = np.broadcast_to(sk.offsets[sk.trans_joints], (N, P, 3)).copy()
+        rot = np.zeros((N, J, 4))
+        rot[..., 0] = 1.0
+        for j, name in enumerate(sk._names):
+            order = sk.euler_orders[j]
+            angles = np.zeros((N, 3))
+            has_rot = False
+            for chan in sk.channels[j].split():
+                v = values[:, seen[(name, chan)]]
+                axis = "XYZ".index(chan[0].upper())
+                if chan[1:].lower() == "position":
+                    if j == 0:
+                        root_pos[:, axis] = v
+                    else:
+                        trans[:, where[j], axis] = v
+                else:
+                    angles[:, order.index(chan[0].upper())] = v
+                    has_rot = True
+            if has_rot:
+                rot[:, j] = from_euler(angles, order)
+        return cls(sk, float(frame_time), root_pos, rot, trans)
 
     # ---- output ----------------------------------------------------------------------------
 

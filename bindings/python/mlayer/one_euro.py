@@ -59,6 +59,10 @@ class OneEuroFilter(_attrs.ReadOnlyAttributes):
     mlayer.InvalidArgumentError
         For parameters out of range.
     """
+    rate: float
+    min_cutoff: float
+    beta: float
+    d_cutoff: float
 
     _checked = {"rate": _attrs.number(0.0, 1.0 / MIN_FRAME_TIME, above=True),
                 "min_cutoff": _attrs.number(0.0, above=True), "beta": _attrs.number(0.0),

@@ -167,6 +167,7 @@ class Synthesis(ReadOnlyAttributes):
     mlayer.InvalidArgumentError
         (naming the argument) For bad options or input.
     """
+    layers: Layers
 
     _readonly = ("motion", "layers", "_mode", "_limits", "_floor_on", "_floor_height",
                  "_keep_contacts", "_contact_joints", "_up")
@@ -517,6 +518,7 @@ class Clip(ReadOnlyAttributes):
     name : str, optional
         What the clip is called in messages (default ``"<motion>"``).
     """
+    name: str
 
     _readonly = ("motion", "forward_kinematics", "up", "body_height", "contacts")
     _checked = {"name": _attrs.text}

@@ -523,6 +523,29 @@ class PrimitiveModel(_attrs.ReadOnlyAttributes):
     ``model.markov.perturbed(0.1)``). The others are read-only (AttributeError): they were
     learned together and their shapes depend on each other.
     """
+    clip_names: list[str]
+    skeleton: Skeleton
+    frame_time: float
+    clip_starts: NDArray[np.int64]
+    som_codebook: NDArray[np.float64]
+    points: NDArray[np.float64]
+    pca_mean: NDArray[np.float64]
+    pca_components: NDArray[np.float64]
+    grbf: GRBF
+    fit_error: float
+    criterion: str
+    cluster: str
+    k_source: str | None
+    centers: NDArray[np.float64]
+    labels: NDArray[np.intp]
+    order_loglik: dict[int, tuple[float, int]]
+    markov: Markov
+    train_rot: NDArray[np.float64]
+    train_trans: NDArray[np.float64]
+    floor_height: float
+    body_joint: int
+    rest_root_pos: NDArray[np.float64]
+    rest_trans: NDArray[np.float64]
 
     _readonly = ("skeleton", "body_joint", "manifold", "points", "clip_starts", "labels",
                  "centers", "grbf", "bounds", "elbow_ks", "elbow_inertia", "som_codebook",

@@ -25,7 +25,7 @@ import os
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from . import _arrays, _attrs
 from ._files import atomic_output
@@ -62,6 +62,9 @@ class RootTrack(_attrs.ReadOnlyAttributes):
     up_axis : {"x", "y", "z"}, optional
         The up axis.
     """
+    positions: NDArray[np.float64]
+    heading: NDArray[np.float64]
+    fps: float
 
     __slots__ = ("positions", "heading", "fps", "up_axis")
     _readonly = __slots__

@@ -82,6 +82,12 @@ class LGS(ReadOnlyAttributes, NativeHandle):
     mlayer.SingularMatrixError
         When the observations do not determine the result.
     """
+    n_out: int
+    n_obs: int | None
+    order: int
+    solver: str
+    lam: float
+    sigma: float
 
     _readonly = ("n_out", "n_obs", "order", "solver", "lam", "sigma", "_t")
 

@@ -52,6 +52,10 @@ class SOM(ReadOnlyAttributes, NativeHandle):
     mlayer.InvalidArgumentError
         For sizes or options out of range.
     """
+    rows: int
+    cols: int
+    dim: int
+    n_threads: int
 
     _readonly = ("rows", "cols", "dim", "n_threads", "_options")
 

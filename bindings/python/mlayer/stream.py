@@ -154,6 +154,11 @@ class Stream(ReadOnlyAttributes, NativeHandle):
         256 MiB: lag 60,000 on a 31-joint skeleton; ``lag=10**6`` on a 165-joint one took
         5.1 GB.
     """
+    skeleton: Skeleton
+    lam: float
+    sigma: float
+    lam_base: float | None
+    sigma_base: float | None
 
     _readonly = ("skeleton", "lam", "sigma", "lam_base", "sigma_base", "limits", "_layered",
                  "_J", "_P", "_m", "_q0", "_in", "_out", "_in_buf", "_out_buf", "_pin", "_pout",

@@ -135,25 +135,22 @@ _FIGURES = textwrap.dedent("""
     import numpy as np
     import mlayer
     from matplotlib.figure import Figure
-    from mlayer.plot import plot_layers
-    from mlayer.cli.contacts import plot_contacts
-    from mlayer.cli.retiming import timemap_figure, variance_figure
-    from mlayer.cli.primitives import plot_elbow, plot_som, plot_transitions
-    from mlayer.cli.stream import stream_figure
+    from mlayer.plot import (plot_contacts, plot_elbow, plot_layers, plot_resample_variance,
+                             plot_som, plot_stream, plot_timewarp, plot_transitions)
     m = mlayer.data.load_sample()[:120]
     figs = [plot_layers(m, mlayer.decompose(m))]
     names, c = mlayer.detect_contacts(m)
     figs.append(plot_contacts(names, c, m.fps))
     out, var = mlayer.resample(m, fps=60, return_var=True)
-    figs.append(variance_figure(var, out.fps, np.arange(m.n_frames) * 0.5, "v"))
+    figs.append(plot_resample_variance(var, out.fps, np.arange(m.n_frames) * 0.5, title="v"))
     t = mlayer.timewarp_map(m)
-    figs.append(timemap_figure(m, mlayer.timewarp(m, time_map=t), t, mlayer.timewarp_speed(m),
-                               "t"))
+    figs.append(plot_timewarp(m, mlayer.timewarp(m, time_map=t), t, title="t"))
     model = mlayer.PrimitiveModel.fit(m, k="auto", ks=range(2, 5), som=(5, 5),
                                       lattice=(3, 3), epochs=3, progress=False)
     figs += [plot_som(model), plot_elbow(model), plot_transitions(model)]
     y = np.cumsum(np.ones((20, 3 + 4 * m.n_joints)), axis=0)
-    figs.append(stream_figure(m[:20], y, y, y, y, 0, 0, 1, 1.0, 1.0, 2.0, 0.0))
+    figs.append(plot_stream(m[:20], y, y, y, y, joint=0, component=0, lag=1, lam=1.0,
+                            sigma=1.0, cutoff=2.0, beta=0.0))
     assert all(isinstance(f, Figure) for f in figs), [type(f) for f in figs]
     assert "matplotlib.pyplot" not in sys.modules, "pyplot was imported"
     assert dict.__getitem__(matplotlib.rcParams, "backend") == backend, "backend changed"

@@ -106,3 +106,68 @@ def test_from_scipy_accepts_flat_and_nd_stacks(mocap):
         mlayer.Motion.from_scipy(m.skeleton, m.frame_time, m.root_pos, per_joint[:-1])
     with pytest.raises(mlayer.InvalidArgumentError, match="Rotation"):
         mlayer.Motion.from_scipy(m.skeleton, m.frame_time, m.root_pos, m.rot)
+
+
+@pytest.mark.parametrize("name", ["cmu_131_01_mj_style_walk.bvh", "bandai1_walk_happy_001.bvh",
+                                  "lafan1_clip_a.bvh"])
+@requires("dataframe")
+def test_from_dataframe_inverts_to_dataframe(mocap, name):
+    m = mlayer.read_bvh(mocap / name)
+    df = m.to_dataframe()
+    back = mlayer.Motion.from_dataframe(df, m.skeleton)
+    assert back.frame_time == m.frame_time and back.n_frames == m.n_frames
+    np.testing.assert_allclose(back.root_pos, m.root_pos, atol=1e-9)
+    np.testing.assert_allclose(back.trans, m.trans, atol=1e-9)
+    # the same rotations (q and -q are one)
+    assert np.abs(np.sum(back.rot * m.rot, axis=-1)).min() > 1 - 1e-12
+    # and the same channel values again
+    assert np.abs(back.to_dataframe().to_numpy() - df.to_numpy()).max() < 1e-7
+    # flat column names, any column order, an explicit frame time
+    flat = df.copy()
+    flat.columns = ["/".join(c) for c in flat.columns]
+    flat = flat[flat.columns[::-1]]
+    flat.attrs.clear()
+    again = mlayer.Motion.from_dataframe(flat, m.skeleton, frame_time=0.5)
+    assert again.frame_time == 0.5
+    np.testing.assert_allclose(again.root_pos, m.root_pos, atol=1e-9)
+
+
+@requires("dataframe")
+def test_from_dataframe_edits_reach_the_motion():
+    m = mlayer.data.load_sample()[:30]
+    df = m.to_dataframe()
+    root = m.joint_names[0]
+    df[root, "Yposition"] += 2.0
+    lifted = mlayer.Motion.from_dataframe(df, m.skeleton)
+    np.testing.assert_allclose(lifted.root_pos[:, 1], m.root_pos[:, 1] + 2.0)
+
+
+@requires("dataframe")
+def test_from_dataframe_names_the_bad_column():
+    m = mlayer.data.load_sample()[:10]
+    df = m.to_dataframe()
+    root = m.joint_names[0]
+    with pytest.raises(mlayer.InvalidArgumentError,
+                       match=f"channel {root}/Xposition is missing from the table"):
+        mlayer.Motion.from_dataframe(df.drop(columns=[(root, "Xposition")]), m.skeleton)
+    extra = df.copy()
+    extra["Nose", "Xposition"] = 0.0
+    with pytest.raises(mlayer.InvalidArgumentError,
+                       match="column Nose/Xposition is not a channel of the skeleton"):
+        mlayer.Motion.from_dataframe(extra, m.skeleton)
+    flat = df.copy()
+    flat.columns = ["/".join(c) for c in flat.columns]
+    twice = flat.rename(columns={f"{root}/Yposition": f"{root}/Xposition"})
+    with pytest.raises(mlayer.InvalidArgumentError, match=f"column {root}/Xposition appears "
+                                                          "twice"):
+        mlayer.Motion.from_dataframe(twice, m.skeleton)
+    nan = df.copy()
+    nan.iloc[3, 2] = np.nan
+    with pytest.raises(mlayer.InvalidArgumentError, match="is not finite at row 3"):
+        mlayer.Motion.from_dataframe(nan, m.skeleton)
+    bare = df.copy()
+    bare.attrs.clear()
+    with pytest.raises(mlayer.InvalidArgumentError, match="no frame_time"):
+        mlayer.Motion.from_dataframe(bare, m.skeleton)
+    with pytest.raises(mlayer.InvalidArgumentError, match="must be a pandas.DataFrame"):
+        mlayer.Motion.from_dataframe(df.to_numpy(), m.skeleton)

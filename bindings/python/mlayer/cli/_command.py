@@ -37,6 +37,7 @@ import os
 import sys
 from dataclasses import dataclass, field
 from collections.abc import Callable
+from typing import Any
 
 from .._optional import require
 from ..errors import InvalidArgumentError, MlayerIOError
@@ -54,13 +55,13 @@ class Output:
                   the command appends names to; '' means no such output)
     makes_dirs    the command creates missing folders, so a missing folder is no error
     """
-    extensions: tuple = ()
+    extensions: tuple[str, ...] = ()
     what: str = "a file"
     stdout: bool = False
     kind: str = "file"
     makes_dirs: bool = False
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         if self.kind not in ("file", "dir", "prefix"):
             raise ValueError(f"Output kind must be file, dir or prefix, got {self.kind!r}")
         if self.kind != "file" and self.extensions:
@@ -96,7 +97,7 @@ class Needs:
     feature: str = ""
     extra: str | None = None
 
-    def applies(self, args) -> bool:
+    def applies(self, args: argparse.Namespace) -> bool:
         if self.when is None:
             return True
         if callable(self.when):
@@ -110,29 +111,32 @@ class Command:
     """One subcommand: what the parser and the shared checks need, and its run(args)."""
     name: str
     help: str
-    run: Callable
-    arguments: Callable | None = None
+    run: Callable[[argparse.Namespace], int]
+    arguments: Callable[[argparse.ArgumentParser], None] | None = None
     reads_clips: bool = True
-    inputs: tuple = ()
-    outputs: dict = field(default_factory=dict)
-    requires: tuple = ()
+    inputs: tuple[str, ...] = ()
+    outputs: dict[str, Output] = field(default_factory=dict)
+    requires: tuple[Needs, ...] = ()
 
-    def __call__(self, args) -> int:
+    def __call__(self, args: argparse.Namespace) -> int:
         return self.run(args)
 
 
-def command(name: str, help: str, *, reads_clips: bool, arguments: Callable | None = None,
-            inputs: tuple = (), outputs: dict | None = None, requires: tuple = ()):
+def command(name: str, help: str, *, reads_clips: bool,
+            arguments: Callable[[argparse.ArgumentParser], None] | None = None,
+            inputs: tuple[str, ...] = (), outputs: dict[str, Any] | None = None,
+            requires: tuple[Needs | str, ...] = ()
+            ) -> Callable[[Callable[[argparse.Namespace], int]], Command]:
     """Decorator declaring `run(args) -> int` as the subcommand `name` (see the module's
     docstring); returns the :class:`Command`. An output given as a tuple of extensions is
     ``Output(extensions)``; a requirement given as a module name is ``Needs(module)``."""
     needs = tuple(n if isinstance(n, Needs) else Needs(n) for n in requires)
-    outs = {}
+    outs: dict[str, Output] = {}
     for dest, spec in (outputs or {}).items():
         outs[dest] = spec if isinstance(spec, Output) else \
             Output(tuple(spec), f"a {'/'.join(spec)} file")
 
-    def wrap(run) -> Command:
+    def wrap(run: Callable[[argparse.Namespace], int]) -> Command:
         return Command(name, help, run, arguments, reads_clips, tuple(inputs), outs, needs)
     return wrap
 

@@ -2,7 +2,7 @@
 
 Prints, per contact point (ankle, toe or End Site), the number of contacts, the duty factor
 (fraction of frames in contact) and the median contact length; --plot draws a timeline per
-point (matplotlib), written atomically.
+point (matplotlib: mlayer.plot.plot_contacts), written atomically.
 """
 from __future__ import annotations
 
@@ -10,6 +10,7 @@ import numpy as np
 
 from ..bvh import read_bvh
 from ..contacts import contact_intervals, detect_contacts
+from ..plot import plot_contacts
 from ._command import FIGURE, Needs, command
 
 
@@ -19,25 +20,6 @@ def _arguments(p) -> None:
                    help="contact joints (default: feet found by name; 'Joint/End' for an "
                         "End Site)")
     p.add_argument("--plot", metavar="contacts.png", help="timeline per contact point")
-
-
-def plot_contacts(names, contacts, fps, path=None):
-    """A timeline per contact point (a matplotlib Figure), written to `path` if given."""
-    from ..plot import new_figure, save_figure
-    n, c = contacts.shape
-    fig = new_figure("mlayer contacts --plot", figsize=(10, 0.45 * c + 1.0))
-    ax = fig.subplots()
-    for i in range(c):
-        for a, b in contact_intervals(contacts[:, i]):
-            ax.broken_barh([(a / fps, (b - a) / fps)], (c - 1 - i + 0.1, 0.8), color="C0")
-    ax.set_yticks([c - 1 - i + 0.5 for i in range(c)], names)
-    ax.set_xlim(0, n / fps)
-    ax.set_ylim(0, c)
-    ax.set_xlabel("time (s)")
-    ax.set_title("foot contacts")
-    fig.tight_layout()
-    save_figure(fig, path, dpi=100)
-    return fig
 
 
 @command("contacts", "detect foot contacts: counts, duty factors, optional timeline plot",

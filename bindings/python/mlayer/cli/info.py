@@ -7,6 +7,7 @@ does not parse gives one line ``mlayer: FILE:LINE: reason`` on stderr and exit s
 from __future__ import annotations
 
 import os
+from typing import TYPE_CHECKING
 import sys
 
 import numpy as np
@@ -18,6 +19,9 @@ from ..up_axis import detect_up
 from ..errors import Error, ParseError
 from ._command import command
 
+if TYPE_CHECKING:
+    from ..motion import Motion
+
 
 def _arguments(p) -> None:
     p.add_argument("files", nargs="+", metavar="FILE.bvh", help="BVH file(s) to describe")
@@ -28,7 +32,7 @@ def _fmt(v: float) -> str:
     return f"{v:.4g}"
 
 
-def describe(m, path: str | None = None, tree: bool = True) -> str:
+def describe(m: Motion, path: str | None = None, tree: bool = True) -> str:
     """The text that `mlayer info` prints for motion m."""
     sk = m.skeleton
     J, E, N = sk.n_joints, sk.n_end_sites, m.n_frames

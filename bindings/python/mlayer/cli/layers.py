@@ -13,6 +13,7 @@ jitter before and after, and writes its outputs atomically.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 import sys
 
 import numpy as np
@@ -44,7 +45,7 @@ def _layer_options(p) -> None:
                    help="do not look for outlier frames (glitches, flips) to down-weight")
 
 
-def frame_ranges(frames) -> str:
+def frame_ranges(frames: Iterable[int]) -> str:
     """[0, 1, 2, 3, 4, 9] -> '0-4, 9'."""
     out: list[list[int]] = []
     frames = [int(f) for f in frames]
@@ -93,9 +94,9 @@ def _guard_summary(report) -> None:
         print(f"  floor at {report.floor_height:.4g}: feet raised on {report.floor_frames} frames")
 
 
-def parse_joint_alphas(items) -> dict:
+def parse_joint_alphas(items: Iterable[str] | None) -> dict[str, float]:
     """['Left*=3', 'Head=0.5'] -> {'Left*': 3.0, 'Head': 0.5}."""
-    out = {}
+    out: dict[str, float] = {}
     for it in items or ():
         name, sep, value = it.rpartition("=")
         if not sep or not name:

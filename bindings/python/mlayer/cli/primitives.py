@@ -35,7 +35,7 @@ Bad input: one line on stderr and exit status 1.
 """
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import argparse
 import os
@@ -45,10 +45,12 @@ import numpy as np
 
 from ..bvh import read_bvh
 from ..errors import InvalidArgumentError
-from ..plot import new_figure, save_figure
-from ..som import u_matrix
+from ..plot import plot_elbow, plot_som, plot_transitions
 from ._command import (BVH_OR_STDOUT, NPZ, PREFIX, Needs, add_rename_option, command,
                        output_name, parse_rename, write_bvh_output)
+
+if TYPE_CHECKING:
+    from ..primitives import PrimitiveModel
 
 #: what needs matplotlib in the message without it
 _FEATURE = "mlayer primitives --plots (on by default; --plots '' for none)"
@@ -116,7 +118,8 @@ def parse_through(text: str) -> np.ndarray:
     return np.array(pts)
 
 
-def parse_keys(text: str, model, rename: dict | None = None) -> list:
+def parse_keys(text: str, model: PrimitiveModel,
+               rename: dict[str, str] | None = None) -> list[tuple[Any, int]]:
     """--keys CLIP:FRAME,...: (clip, frame) pairs for PrimitiveModel.generate(keys=...); CLIP a
     training clip's name or index, or a BVH file of the model's skeleton, joint names and tree
     (read here; renamed by ``rename``, mlayer.primitives.join_skeletons)."""
@@ -151,95 +154,6 @@ def parse_keys(text: str, model, rename: dict | None = None) -> list:
     if not keys:
         raise InvalidArgumentError(f"--keys: no key frames in {text!r}")
     return keys
-
-
-def plot_som(model, path=None, clip: int = 0, title: str | None = None):
-    """The manifold with one clip's trajectory (paper Figure 1) and the primitive centres; a
-    matplotlib Figure, written to `path` if given."""
-    a = int(model.clip_starts[clip])
-    b = int(model.clip_starts[clip + 1]) if clip + 1 < len(model.clip_starts) \
-        else model.points.shape[0]
-    p = model.points[a:b]
-    fig = new_figure(_FEATURE, figsize=(5.5, 5.2))
-    ax = fig.subplots()
-    if model.manifold == "som":
-        rows, cols, _ = model.som_codebook.shape
-        # U-matrix shading: mean distance of each unit to its lattice neighbours
-        ax.imshow(u_matrix(model.som_codebook), cmap="Greys", origin="lower",
-                  extent=(-0.5, cols - 0.5, -0.5, rows - 0.5))
-        ax.set_xlabel("lattice column")
-        ax.set_ylabel("lattice row")
-    else:
-        ax.set_xlabel("PC 1")
-        ax.set_ylabel("PC 2")
-    ax.plot(p[:, 1], p[:, 0], "-", color="tab:blue", lw=0.8, alpha=0.8,
-            label=f"clip {clip} trajectory ({b - a} frames)")
-    ax.plot(p[0, 1], p[0, 0], "o", color="tab:green", label="first frame")
-    c = model.centers
-    ax.scatter(c[:, 1], c[:, 0], s=60, c=np.arange(c.shape[0]), cmap="tab20",
-               edgecolors="k", zorder=3, label="primitive centres")
-    for i, (r, q) in enumerate(c):
-        ax.annotate(str(i), (q, r), xytext=(4, 4), textcoords="offset points", fontsize=8)
-    if model.manifold != "som":
-        ax.set_xlabel("PC 2")
-        ax.set_ylabel("PC 1")
-    ax.set_title(title or f"motion manifold ({model.manifold})")
-    ax.legend(loc="upper right", fontsize=7)
-    fig.tight_layout()
-    save_figure(fig, path)
-    return fig
-
-
-def plot_elbow(model, path=None):
-    """The criteria for the number of primitives side by side: k-means inertia (elbow),
-    silhouette, GMM BIC against k, each criterion's pick circled, the model's k a line. A
-    matplotlib Figure, written to `path` if given."""
-    k = model.centers.shape[0]
-    c = getattr(model, "criteria", None)
-    rows = [("k-means inertia", model.elbow_inertia, "elbow")]
-    if c is not None:
-        rows += [("silhouette", c.silhouette, "silhouette"), ("GMM BIC", c.bic, "bic")]
-    fig = new_figure(_FEATURE, figsize=(5, 2.2 * len(rows) + 0.6))
-    axes = fig.subplots(len(rows), 1, sharex=True, squeeze=False)
-    ks = model.elbow_ks
-    for ax, (label, v, name) in zip(axes[:, 0], rows):
-        ax.plot(ks, v, "o-")
-        pick = c.picks[name] if c is not None else int(ks[0])
-        if name == "elbow" and c is None:
-            from ..clustering import elbow_point
-            pick = elbow_point(ks, v)[0]
-        i = int(np.flatnonzero(ks == pick)[0])
-        ax.plot([pick], [v[i]], "o", ms=12, mfc="none", color="tab:red",
-                label=f"{name}: k = {pick}")
-        ax.axvline(k, color="tab:green", lw=1, ls="--")
-        ax.set_ylabel(label)
-        ax.legend(fontsize=8)
-    axes[-1, 0].set_xlabel(f"k (dashed: the model's k = {k})")
-    fig.tight_layout()
-    save_figure(fig, path)
-    return fig
-
-
-def plot_transitions(model, path=None):
-    """The transition matrix (paper Figure 3): bright = likely; the most likely next distinct
-    primitive of each row (equation 5) is marked. A matplotlib Figure, written to `path` if
-    given."""
-    P = model.markov.P
-    k = P.shape[0]
-    fig = new_figure(_FEATURE, figsize=(5.2, 4.5))
-    ax = fig.subplots()
-    im = ax.imshow(P, cmap="gray", vmin=0, vmax=1)
-    nxt = [model.markov.most_likely_next(j) for j in range(k)]
-    ax.plot(nxt, range(k), "x", color="tab:red", label="most likely next (eq. 5)")
-    ax.set_xlabel("next primitive")
-    ax.set_ylabel("current primitive")
-    ax.set_xticks(range(k))
-    ax.set_yticks(range(k))
-    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.12), fontsize=8)
-    fig.colorbar(im, ax=ax, label="P(next | current)")
-    fig.tight_layout()
-    save_figure(fig, path)
-    return fig
 
 
 def _primitives_args(p) -> None:
@@ -320,7 +234,7 @@ def _clip_names(paths) -> list:
     return base if len(set(base)) == len(base) else list(paths)
 
 
-def print_criteria(model) -> None:
+def print_criteria(model: PrimitiveModel) -> None:
     """The k criteria side by side and the held-out log-likelihood of each Markov order."""
     c = model.criteria
     k = model.centers.shape[0]

@@ -20,7 +20,7 @@ from ..bvh import read_bvh, write_bvh
 from ..errors import InvalidArgumentError
 from ..pipeline import stylize
 from ..retiming import (resample, slerp_resample, timewarp, timewarp_map, timewarp_speed)
-from ..plot import new_figure, save_figure
+from ..plot import plot_resample_variance, plot_timewarp
 from ._command import BVH_OR_STDOUT, FIGURE, Needs, command, output_name, write_bvh_output
 from .layers import _contact_option
 
@@ -66,25 +66,6 @@ def variance_summary(var: np.ndarray, fps: float) -> str:
         f"{var[i_max] / var[i_min]:.3g}",
         f"  within 5 % of the max: frames {', '.join(spans)}{more}",
     ])
-
-
-def variance_figure(var: np.ndarray, fps: float, obs_t: np.ndarray, title: str, path=None):
-    """The posterior variance per output frame (`mlayer resample --report PLOT.png`), a
-    matplotlib Figure; written to `path` if given."""
-    fig = new_figure("mlayer resample --report PLOT", figsize=(9, 3.6))
-    ax = fig.subplots()
-    t = np.arange(var.shape[0]) / fps
-    ax.plot(t, var, color="tab:red", lw=1.3, label="posterior variance")
-    ax.plot(obs_t / fps, np.full(obs_t.shape, var.min()), "|", color="0.4", ms=9,
-            label="input frames (observations)")
-    ax.set_xlabel("output time (s)")
-    ax.set_ylabel("variance (x sigma^2)")
-    ax.set_title(title, fontsize=10)
-    ax.legend(loc="upper right", fontsize=8)
-    ax.grid(alpha=0.3)
-    fig.tight_layout()
-    save_figure(fig, path)
-    return fig
 
 
 def _resample_arguments(p) -> None:
@@ -147,9 +128,9 @@ def cmd_resample(args) -> int:
         if isinstance(args.report, str):
             N, n = m.n_frames, out.n_frames
             obs = np.arange(N) * (n - 1) / (N - 1)
-            fig = variance_figure(var, out.fps, obs,
-                                  f"{os.path.basename(args.input)}: {N} frames at "
-                                  f"{m.fps:.6g} fps -> {n} at {out.fps:.6g} fps (LGS)")
+            fig = plot_resample_variance(
+                var, out.fps, obs, title=f"{os.path.basename(args.input)}: {N} frames at "
+                                         f"{m.fps:.6g} fps -> {n} at {out.fps:.6g} fps (LGS)")
     _write(args, out, fig, args.report if isinstance(args.report, str) else None)
     print(f"{output_name(args.output)}: {out.n_frames} frames at {out.fps:.6g} fps ({method}; "
           f"from "
@@ -158,37 +139,6 @@ def cmd_resample(args) -> int:
 
 
 # ---- mlayer timewarp -------------------------------------------------------------------------
-
-def timemap_figure(m, warped, t, speed, title: str, path=None):
-    """Like paper 1, Figure 9: the time map (output time against input time) with the motion
-    speed under it, and the root height of the original and of the warped motion; a matplotlib
-    Figure, written to `path` if given."""
-    fig = new_figure("mlayer timewarp --plot", figsize=(9, 8))
-    ax = fig.subplots(3, 1, gridspec_kw={"height_ratios": [3, 1.3, 2]})
-    tin = np.arange(m.n_frames) * m.frame_time
-    tout = t * warped.frame_time
-    ax[0].plot(tin, tin * (tout[-1] / tin[-1]), "--", color="0.6", lw=1, label="uniform")
-    ax[0].plot(tin, tout, color="tab:red", lw=1.6, label="time map")
-    ax[0].set_ylabel("output time (s)")
-    ax[0].set_title(title, fontsize=10)
-    ax[0].legend(loc="upper left", fontsize=8)
-    ax[1].plot(tin, speed, color="tab:blue", lw=1)
-    ax[1].set_ylabel("motion speed\n(rad / frame)")
-    ax[1].set_xlabel("input time (s)")
-    ax[1].sharex(ax[0])
-    for a in ax[:2]:
-        a.grid(alpha=0.3)
-    ax[2].plot(tin, m.root_pos[:, 1], color="tab:blue", lw=1.3, label="original")
-    ax[2].plot(np.arange(warped.n_frames) * warped.frame_time, warped.root_pos[:, 1],
-               color="tab:red", lw=1.3, label="time-warped")
-    ax[2].set_xlabel("time (s)")
-    ax[2].set_ylabel("root Y")
-    ax[2].legend(loc="upper right", fontsize=8)
-    ax[2].grid(alpha=0.3)
-    fig.tight_layout()
-    save_figure(fig, path)
-    return fig
-
 
 def _load_map(path: str) -> np.ndarray:
     try:
@@ -245,9 +195,9 @@ def cmd_timewarp(args) -> int:
         how += f", style x{args.style:g}"
     fig = None
     if args.plot:
-        fig = timemap_figure(m, out, t, timewarp_speed(m),
-                             f"{os.path.basename(args.input)}: time warp, {how}; "
-                             f"{m.n_frames} -> {out.n_frames} frames at {out.fps:.6g} fps")
+        fig = plot_timewarp(m, out, t, speed=timewarp_speed(m),
+                            title=f"{os.path.basename(args.input)}: time warp, {how}; "
+                                  f"{m.n_frames} -> {out.n_frames} frames at {out.fps:.6g} fps")
     _write(args, out, fig, args.plot)
     rate = np.diff(t)
     print(f"{output_name(args.output)}: {out.n_frames} frames at {out.fps:.6g} fps ({how}); "

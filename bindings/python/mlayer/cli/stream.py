@@ -10,6 +10,7 @@ and below, each one's difference to the offline solve.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 import sys
 
 import numpy as np
@@ -19,8 +20,12 @@ from ..bvh import read_bvh
 from ..errors import InvalidArgumentError
 from ..smoothing import lgs
 from ..one_euro import one_euro
+from ..plot import plot_stream
 from ..stream import decay_rate, motion_channels, stream_motion
 from ._command import BVH_OR_STDOUT, PNG, Needs, command, output_name, write_bvh_output
+
+if TYPE_CHECKING:
+    from ..motion import Motion
 
 _COMPONENTS = "wxyz"
 
@@ -44,7 +49,7 @@ def _arguments(p) -> None:
                    help="One Euro speed coefficient (default 0)")
 
 
-def aligned_channels(motion) -> np.ndarray:
+def aligned_channels(motion: Motion) -> np.ndarray:
     """Stream channels (N, 3 + 3P + 4J) with the quaternions made continuous by the predictive
     rule, as the stream aligns them."""
     y = motion_channels(motion)
@@ -61,7 +66,7 @@ def _renormalize(x: np.ndarray, J: int) -> np.ndarray:
     return x
 
 
-def offline_channels(motion, lam: float, sigma: float) -> np.ndarray:
+def offline_channels(motion: Motion, lam: float, sigma: float) -> np.ndarray:
     """The offline solve the stream converges to: mlayer.lgs (order 2) on the aligned channels,
     quaternions renormalized."""
     y = aligned_channels(motion)
@@ -88,37 +93,6 @@ def _gaps(motion, x: np.ndarray, ref: np.ndarray) -> tuple[float, float]:
     gt = float(np.abs(x[:, :nt] - ref[:, :nt]).max()) / size if size > 0 else 0.0
     gq = float(np.abs(x[:, nt:] - ref[:, nt:]).max()) if x.shape[1] > nt else 0.0
     return gt, gq
-
-
-def stream_figure(motion, y, ref, x, euro, joint: int, comp: int, lag: int, lam: float,
-                  sigma: float, cutoff: float, beta: float, path=None):
-    """The comparison figure of `mlayer stream --plot` (a matplotlib Figure): one rotation
-    channel (joint, quaternion component) of the input y, the offline solve ref, the stream x
-    and the One Euro filter euro, and each one's difference to ref; written to `path` if
-    given."""
-    from ..plot import new_figure, save_figure
-    col = y.shape[1] - 4 * motion.n_joints + 4 * joint + comp
-    t = np.arange(len(y)) * motion.frame_time
-    name = f"{motion.joint_names[joint]} q.{_COMPONENTS[comp]}"
-    fig = new_figure("mlayer stream --plot", figsize=(11, 6.5))
-    a1, a2 = fig.subplots(2, 1, sharex=True, gridspec_kw={"height_ratios": [3, 2]})
-    a1.plot(t, y[:, col], color="0.75", lw=1.0, label="input")
-    a1.plot(t, ref[:, col], color="k", lw=1.4, label=f"offline LGS (lam {lam:g}, sigma {sigma:g})")
-    a1.plot(t, x[:, col], color="tab:blue", lw=1.0, ls="--", label=f"streamed, lag {lag}")
-    a1.plot(t, euro[:, col], color="tab:red", lw=1.0,
-            label=f"One Euro (min cutoff {cutoff:.3g} Hz, beta {beta:g})")
-    a1.set_ylabel(name)
-    a1.legend(loc="best", fontsize=8)
-    a1.set_title(f"{name}: offline vs streamed vs One Euro")
-    a2.plot(t, x[:, col] - ref[:, col], color="tab:blue", lw=1.0, label="streamed - offline")
-    a2.plot(t, euro[:, col] - ref[:, col], color="tab:red", lw=1.0, label="One Euro - offline")
-    a2.axhline(0.0, color="k", lw=0.6)
-    a2.set_xlabel("time (s)")
-    a2.set_ylabel("difference")
-    a2.legend(loc="best", fontsize=8)
-    fig.tight_layout()
-    save_figure(fig, path)
-    return fig
 
 
 @command("stream", "stream a clip through the fixed-lag LGS smoother (live filtering), write it "
@@ -160,8 +134,9 @@ def cmd_stream(args) -> int:
             joint = int(np.argmax(moves.sum(axis=1)))
         if comp is None:
             comp = int(np.argmax(moves[joint]))
-        stream_figure(motion, y, ref, x, euro, joint, comp, args.lag, args.lam, args.sigma,
-                      cutoff, args.euro_beta, path=args.plot)
+        plot_stream(motion, y, ref, x, euro, args.plot, joint=joint, component=comp,
+                    lag=args.lag, lam=args.lam, sigma=args.sigma, cutoff=cutoff,
+                    beta=args.euro_beta)
         print(f"{args.plot}: {motion.joint_names[joint]} q.{_COMPONENTS[comp]}", file=sys.stdout)
     write_bvh_output(args, out)  # last: a failure above leaves no output
     return 0

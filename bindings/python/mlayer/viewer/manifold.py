@@ -234,6 +234,12 @@ class ManifoldSession:
         (:func:`mlayer.primitives.join_skeletons`); a clip of other names or another tree is
         left out of the training, with the first differing joint as the reason.
     """
+    max_values: int
+    max_frames: int
+    state: str
+    used: list[Clip]
+    excluded: list[dict[str, object]]
+    stride: int
 
     def __init__(self, clips: list[Clip], *, cache: ResultCache, max_values: int,
                  max_frames: int = DEFAULT_MANIFOLD_FRAMES, log: IO[str] | None = None,

@@ -210,6 +210,15 @@ class ViewerServer(HTTPServer):
         Joint names of another naming scheme mapped to the first clip's, for the manifold's
         training (:class:`mlayer.viewer.manifold.ManifoldSession`).
     """
+    address_family: socket.AddressFamily
+    max_values: int
+    cache: ResultCache
+    timeout: float
+    threads: int
+    log: IO[str]
+    manifold: ManifoldSession
+    token: str
+    url: str
 
     allow_reuse_address = True
     request_queue_size = BACKLOG
@@ -274,13 +283,13 @@ class ViewerServer(HTTPServer):
         """
         with self._start_lock:
             if self._reactor is None:
-                self._reactor = Reactor(self._dispatch, cast(float, self.timeout))
+                self._reactor = Reactor(self._dispatch, self.timeout)
                 self._reactor.start()
             reactor = self._reactor
         if not self._open.take(1):
             _net.refuse_busy(request)
             return
-        reactor.add(Conn(request, client_address, cast(float, self.timeout), self._budget,
+        reactor.add(Conn(request, client_address, self.timeout, self._budget,
                          self._open))
 
     def _dispatch(self, conn: Conn) -> None:

@@ -115,7 +115,7 @@ class ParamError(Exception):
 
 
 #: name -> (kind, low, high, default). Floats must be finite and within [low, high].
-PARAMS = {
+PARAMS: dict[str, tuple[str, float | None, float | None, float | bool | None]] = {
     "clip": ("int", 0, None, None),
     "alpha": ("float", 0.0, 4.0, 1.0),
     "arms": ("float", 0.0, 4.0, None),      # None: the global alpha
@@ -257,6 +257,8 @@ class ResultCache:
     max_bytes : int, optional
         The bound.
     """
+    max_bytes: int
+    bytes: int
 
     def __init__(self, max_bytes: int = DEFAULT_CACHE_BYTES) -> None:
         self.max_bytes = int(max_bytes)
@@ -367,6 +369,8 @@ class Clip:
         Caps the frames x points of one request's output (and of its intermediate retiming),
         never below the clip's own size.
     """
+    name: str
+    cache: ResultCache
 
     def __init__(self, index: int, path: str, *, cache: ResultCache | None = None,
                  max_values: int = DEFAULT_MAX_VALUES) -> None:
