@@ -44,11 +44,12 @@ static bvh_kernels line_variant(int v)
     bvh_kernels k;
     bvh_kernels_pick(&k, BVH_KERNELS_PORTABLE);
 #ifdef BVH_X86
-    if (v == 0 && have_avx512())
+    const int isa = cpu__isa(MLR_ISA_BEST);
+    if (v == 0 && isa >= MLR_ISA_AVX512)
         k.line = line_avx512;
-    if (v == 1 && have_avx2())
+    if (v == 1 && isa >= MLR_ISA_AVX2)
         k.line = line_avx2;
-    if (v == 2 && have_avx512() && __builtin_cpu_supports("avx512vbmi2"))
+    if (v == 2 && isa >= MLR_ISA_AVX512_VBMI2)
         k.line = line_vbmi2;
 #else
     (void)v;
@@ -465,9 +466,9 @@ START_TEST(frame_kernels_agree_bit_for_bit)
 {
     bvh_frame_fn fns[3] = {frame_portable, NULL, NULL};
 #ifdef BVH_X86
-    if (__builtin_cpu_supports("avx2"))
+    if (cpu__isa(MLR_ISA_BEST) >= MLR_ISA_AVX2)
         fns[1] = frame_avx2;
-    if (have_avx512())
+    if (cpu__isa(MLR_ISA_BEST) >= MLR_ISA_AVX512)
         fns[2] = frame_avx512;
 #endif
     mlr_test_rng r;

@@ -10,24 +10,8 @@
 
 #define MLR_COUNTOF(a) (sizeof(a) / sizeof((a)[0]))
 
-/* Hot loops that stream over channels get clones for wider vectors, chosen at load time (the
- * build itself assumes only the baseline ISA). GCC on x86-64 Linux only; not under ASan. The
- * clones run the same operations in the same order (no FMA contraction in ISO C mode), so they
- * give the same bits as the baseline. */
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__) && \
-    !defined(__SANITIZE_ADDRESS__)
-#define MLR_CLONES_AVX2 __attribute__((target_clones("avx2", "default")))
-#define MLR_CLONES_AVX512 __attribute__((target_clones("avx512f", "avx2", "default")))
-#else
-#define MLR_CLONES_AVX2
-#define MLR_CLONES_AVX512
-#endif
-
-/* x86 with GCC or Clang: kernels with AVX2 or AVX-512 intrinsics behind __builtin_cpu_supports
- * (the files that have them include <immintrin.h> under it). */
-#if (defined(__x86_64__) || defined(__i386__)) && (defined(__GNUC__) || defined(__clang__))
-#define MLR_X86_DISPATCH 1
-#endif
+/* CPU dispatch (MLR_CLONES, cpu__isa, MLR_X86_DISPATCH) and its promise: common/cpu.h. */
+#include "common/cpu.h"
 
 /* Allocation through a (possibly NULL) allocator. mlr_alloc returns NULL on failure or when
  * size is 0 is not requested; callers never ask for 0 bytes. */

@@ -160,7 +160,7 @@ static mlr_status solve_window(const cleanup_work *w, const uint8_t *mask, size_
    frame). A joint whose v = 0 lies outside the blend: it is left as it is (and its frame not
    marked dirty for it). The product and the norm go through structure-of-arrays copies that
    the compiler vectorizes. */
-MLR_CLONES_AVX2
+MLR_CLONES("avx2")
 static void rotate_block(cleanup_work *w, double *rot, const int32_t *js, size_t nj,
                          const double *y, size_t f0, size_t n)
 {

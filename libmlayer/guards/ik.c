@@ -145,7 +145,7 @@ static inline double lane_min(double a, double b)
     return mlr_select_bits((a < b) | (b != b), a, b);
 }
 
-MLR_CLONES_AVX2
+MLR_CLONES("avx2")
 void mlr_ik_two_bone_lanes(mlr_ik_lanes *L, size_t m, int have_axis, double max_ext)
 {
     if (!have_axis) /* the leg's own plane: bc x (a - b) */
@@ -313,7 +313,7 @@ mlr_status mlr_ik_leg_chain(const mlr_rig *rig, int32_t end, int32_t *hip, int32
 
 /* The hip-local bend normals conj(G_hip) ((end - knee) x (hip - knee)) of m <= BEND_BLOCK
    frames (J joints each) into l (x, y, z by blocks of BEND_BLOCK). Vectorized. */
-MLR_CLONES_AVX2
+MLR_CLONES("avx2")
 static void bend_terms(const double *restrict pos, const double *restrict wrot, size_t J,
                        size_t hip, size_t knee, size_t end, size_t m, double *restrict l)
 {

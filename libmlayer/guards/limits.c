@@ -158,7 +158,7 @@ static double top_eigen(const double *m, mlr_vec3 *e)
 
 /* Are the squared norms of the m <= 64 quaternions at p (4 doubles each) all finite and
  * nonzero? Branch-free, vectorized. */
-MLR_CLONES_AVX2
+MLR_CLONES("avx2")
 static int quat_block_ok(const double *p, size_t m)
 {
     long ok = 1;
@@ -313,7 +313,7 @@ static inline int angle_less(double y1, double x1, double y2, double x2)
 static int wider(double s, double c, double bs, double bc) { return s * bc > bs * c; }
 
 /* Is any of the m pairs (s[i], c[i]) wider than (bs, bc)? Branch-free, vectorized. */
-MLR_CLONES_AVX2
+MLR_CLONES("avx2")
 static int any_wider(const double *s, const double *c, size_t m, double bs, double bc)
 {
     long any = 0;
@@ -424,7 +424,7 @@ static inline void load_unit(const double *restrict p, size_t stride, size_t m, 
  * *qsum sign-aligned (q, or -q when its dot product with qsum is negative) and, unless a is
  * NULL, a x q b added to *xsum, in order, as learn_centres takes them. Vectorized but for the
  * sums. */
-MLR_CLONES_AVX2
+MLR_CLONES("avx2")
 static void centres_block(const double *p, size_t stride, size_t m, int unit, const mlr_vec3 *a,
                           const mlr_vec3 *b, mlr_quat *qsum, mlr_vec3 *xsum)
 {
@@ -500,7 +500,7 @@ static void learn_centres(const learner *L)
  * (the same operations: the same bits), reduced to the pairs of their maxima: with a bone out
  * (unit t), the swing's (|v - p t|, |(w, p)|) in s1, c1 and the twist's (|p|, w) in s2, c2
  * (p = v.t); without one (t NULL), the whole angle's (|v|, w) in s1, c1. Vectorized. */
-MLR_CLONES_AVX2
+MLR_CLONES("avx2")
 static void extents_block(const double *p, size_t stride, size_t m, int unit, mlr_quat cc,
                           const mlr_vec3 *t, double *s1, double *c1, double *s2, double *c2)
 {
@@ -536,7 +536,7 @@ static void extents_block(const double *p, size_t stride, size_t m, int unit, ml
  * extents_block's in s1, c1, s2, c2, and the vector parts of the swings s = r conj(twist)
  * (s.w >= 0) in sv (x, y, z by blocks of EXT_FB); the same operations as the scalar helpers
  * (hinge_pair, st_pairs, st_swing): the same bits. Vectorized. */
-MLR_CLONES_AVX2
+MLR_CLONES("avx2")
 static void cand_block(const double *restrict p, size_t stride, size_t m, int unit,
                        const mlr_limits_joint *restrict g, const mlr_vec3 *restrict t,
                        mlr_quat *restrict lq, double *restrict hy, double *restrict hx,
@@ -572,7 +572,7 @@ static void cand_block(const double *restrict p, size_t stride, size_t m, int un
 /* The smallest and largest hinge angle so far (c->lo_y .. c->hi_x) with the m pairs (hy, hx)
  * (angle_less), in order; first: they are the first pairs (the first one sets both). In the
  * AVX2 clone: three-operand code, fewer register copies. */
-MLR_CLONES_AVX2
+MLR_CLONES("avx2")
 static void hinge_extremes(const double *hy, const double *hx, size_t m, int first, acc *c)
 {
     double lo_y = c->lo_y, lo_x = c->lo_x, hi_y = c->hi_y, hi_x = c->hi_x;
@@ -588,7 +588,7 @@ static void hinge_extremes(const double *hy, const double *hx, size_t m, int fir
 
 /* The upper triangle of the second moments of the m vectors (x, y, z)[stride i] added to mom
  * (3 x 3), in order. In the AVX2 clone: three-operand code, fewer register copies. */
-MLR_CLONES_AVX2
+MLR_CLONES("avx2")
 static void add_moments(const double *x, const double *y, const double *z, size_t stride, size_t m,
                         double *mom)
 {
@@ -1214,7 +1214,7 @@ void mlr_limits_apply_kind(const mlr_limits *lim, size_t n_frames, mlr_quat *rot
  * rotation of squared vector part below b->fast > 0), in inside[i], and a hinge's (y, x)
  * pairs in hy, hx: found for a block of frames at once, as limit_joint decides them (the same
  * operations: the same bits). Vectorized. */
-MLR_CLONES_AVX2
+MLR_CLONES("avx2")
 static void inside_block(const mlr_quat *restrict q, size_t stride, size_t m,
                          const mlr_limits_joint *restrict g, const joint_bounds *restrict b,
                          double *restrict hy, double *restrict hx, int *restrict inside)
@@ -1259,7 +1259,7 @@ static int any_limited(const uint8_t *mask, size_t stride, size_t n)
  * The rotations limit_joint's first fast path leaves as they are are found for the block at once
  * (inside_block), a run of them passed over at once, its last one's angle read only if a later
  * frame needs it. In the AVX2 clone: three-operand code, fewer register copies. */
-MLR_CLONES_AVX2
+MLR_CLONES("avx2")
 static void limit_block(const mlr_limits *lim, size_t j, const joint_bounds *b, prev_angle *prev,
                         mlr_quat *rot, size_t f0, size_t nf, const uint8_t *mask, size_t *counts)
 {

@@ -30,7 +30,9 @@
 
 #include <string.h>
 
-#if (defined(__x86_64__) || defined(__i386__)) && (defined(__GNUC__) || defined(__clang__))
+#include "common/cpu.h"
+
+#ifdef MLR_X86_DISPATCH
 #define BVH_X86 1
 #include <immintrin.h>
 #endif
@@ -720,13 +722,6 @@ AVX2 static int line_avx2(const char *p, const char *end, size_t C, const char *
     return 1;
 }
 
-static int have_avx2(void)
-{
-    return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma") &&
-           __builtin_cpu_supports("bmi") && __builtin_cpu_supports("bmi2") &&
-           __builtin_cpu_supports("popcnt");
-}
-
 AVX512 static size_t count_newlines_avx512(const char *p, const char *end)
 {
     const __m512i lf = _mm512_set1_epi8('\n');
@@ -736,14 +731,6 @@ AVX512 static size_t count_newlines_avx512(const char *p, const char *end)
             _mm512_cmpeq_epi8_mask(_mm512_loadu_si512((const void *)p), lf));
     return n + count_newlines_portable(p, end);
 }
-
-static int have_avx512(void)
-{
-    return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
-           __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512vl") &&
-           __builtin_cpu_supports("avx512cd") && __builtin_cpu_supports("bmi") &&
-           __builtin_cpu_supports("bmi2") && __builtin_cpu_supports("popcnt");
-}
 #endif
 
 void bvh_kernels_pick(bvh_kernels *k, int most)
@@ -752,11 +739,12 @@ void bvh_kernels_pick(bvh_kernels *k, int most)
     k->frame = frame_portable;
     k->count_newlines = count_newlines_portable;
 #ifdef BVH_X86
-    if (most >= BVH_KERNELS_AVX512 && have_avx512()) {
-        k->line = __builtin_cpu_supports("avx512vbmi2") ? line_vbmi2 : line_avx512;
+    const int isa = cpu__isa(most);
+    if (isa >= MLR_ISA_AVX512) {
+        k->line = isa >= MLR_ISA_AVX512_VBMI2 ? line_vbmi2 : line_avx512;
         k->frame = frame_avx512;
         k->count_newlines = count_newlines_avx512;
-    } else if (most >= BVH_KERNELS_AVX2 && have_avx2()) {
+    } else if (isa >= MLR_ISA_AVX2) {
         k->line = line_avx2;
         k->frame = frame_avx2;
     }

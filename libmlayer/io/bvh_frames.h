@@ -10,6 +10,8 @@
 #ifndef MLR_BVH_FRAMES_H
 #define MLR_BVH_FRAMES_H
 
+#include "common/cpu.h"
+
 #include <stddef.h>
 #include <stdint.h>
 
@@ -67,12 +69,12 @@ typedef struct bvh_kernels {
     size_t (*count_newlines)(const char *p, const char *end); /* '\n' bytes in [p, end) */
 } bvh_kernels;
 
-/* Kernel sets, from the portable one up. */
+/* Kernel sets, from the portable one up: ISA levels of common/cpu.h (the one dispatch). */
 enum {
-    BVH_KERNELS_PORTABLE = 0,
-    BVH_KERNELS_AVX2 = 1,
-    BVH_KERNELS_AVX512 = 2,
-    BVH_KERNELS_BEST = BVH_KERNELS_AVX512
+    BVH_KERNELS_PORTABLE = MLR_ISA_BASELINE,
+    BVH_KERNELS_AVX2 = MLR_ISA_AVX2,
+    BVH_KERNELS_AVX512 = MLR_ISA_AVX512,
+    BVH_KERNELS_BEST = MLR_ISA_BEST
 };
 
 /* The fastest kernels this CPU runs, up to the set most (BVH_KERNELS_BEST in the library; the

@@ -431,7 +431,7 @@ mlr_status mlr_layers_repair(const mlr_layers *L, size_t begin, size_t count, do
 
 /* out[t] = qb[t] * e[t] in the hemisphere of qb[t], for m quaternions (displace() without the
    residual, the same operations: the same bits; vectorized). */
-MLR_CLONES_AVX2
+MLR_CLONES("avx2")
 static void displace_block(const double *restrict qb, const mlr_quat *restrict e, size_t m,
                            double *restrict out)
 {

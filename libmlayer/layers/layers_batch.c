@@ -492,7 +492,7 @@ static inline void rss_m(const mlr_lay_batch *b, const size_t m, const double *y
 }
 
 /* The sweeps are the bulk of a decomposition: they get an AVX2 clone (mlr_internal.h). */
-MLR_CLONES_AVX2
+MLR_CLONES("avx2")
 void mlr_lay_batch_solve(const mlr_lay_batch *b, size_t m, const double *y, size_t ldy, double *x,
                          size_t ldx, double *buf)
 {
@@ -504,7 +504,7 @@ void mlr_lay_batch_solve(const mlr_lay_batch *b, size_t m, const double *y, size
         solve_m(b, m, y, ldy, x, ldx, buf);
 }
 
-MLR_CLONES_AVX2
+MLR_CLONES("avx2")
 void mlr_lay_batch_rss(const mlr_lay_batch *b, size_t m, const double *y, size_t ldy, double *z,
                        size_t ldz, double *buf, double *acc)
 {
@@ -514,7 +514,7 @@ void mlr_lay_batch_rss(const mlr_lay_batch *b, size_t m, const double *y, size_t
         rss_m(b, m, y, ldy, z, ldz, buf, acc);
 }
 
-MLR_CLONES_AVX2
+MLR_CLONES("avx2")
 void mlr_lay_sum_sq_diff(size_t n, size_t mm, const double *y, const double *x, double *acc)
 {
     for (size_t c = 0; c < mm; c++)

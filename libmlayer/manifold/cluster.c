@@ -93,11 +93,13 @@ __attribute__((target("avx512f"))) static double dist2_avx512(const double *a, c
 /* Eight partial sums (coordinate t goes to sum t % 8) added pairwise at the end: independent
  * chains the compiler vectorizes; the order is fixed, so a pair always gives the same value
  * (with AVX-512: 16 sums, also in a fixed order). */
-double mlr_dist2(const double *a, const double *b, size_t dim)
+double mlr_dist2(const double *a, const double *b, size_t dim, int isa)
 {
 #ifdef MLR_X86_DISPATCH
-    if (__builtin_cpu_supports("avx512f"))
+    if (isa >= MLR_ISA_AVX512)
         return dist2_avx512(a, b, dim);
+#else
+    (void)isa;
 #endif
     double acc[8] = {0, 0, 0, 0, 0, 0, 0, 0};
     size_t t = 0;
@@ -280,17 +282,19 @@ __attribute__((target("avx512f"))) static void dot1x4_avx512(const double *x, co
 
 typedef void (*dot_fn)(const double *const *xr, const double *blk, size_t dim, double *out);
 
-static dot_fn pick_dot(size_t *group)
+static dot_fn pick_dot(int isa, size_t *group)
 {
 #ifdef MLR_X86_DISPATCH
-    if (__builtin_cpu_supports("avx512f")) {
+    if (isa >= MLR_ISA_AVX512) {
         *group = 6;
         return dot_avx512;
     }
-    if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma")) {
+    if (isa >= MLR_ISA_AVX2) {
         *group = 4;
         return dot_avx2;
     }
+#else
+    (void)isa;
 #endif
     *group = 4;
     return dot_generic;
@@ -355,11 +359,13 @@ __attribute__((target("avx512f"))) static void fold_avx512(const double *o, cons
 }
 #endif
 
-static fold_fn pick_fold(void)
+static fold_fn pick_fold(int isa)
 {
 #ifdef MLR_X86_DISPATCH
-    if (__builtin_cpu_supports("avx512f"))
+    if (isa >= MLR_ISA_AVX512)
         return fold_avx512;
+#else
+    (void)isa;
 #endif
     return fold_generic;
 }
@@ -434,11 +440,13 @@ __attribute__((target("avx512f"))) static void lane_merge_avx512(const lane_min 
 
 typedef void (*merge_fn)(const lane_min *s, double *bv, int32_t *bi, double *sv, int32_t *si);
 
-static merge_fn pick_merge(void)
+static merge_fn pick_merge(int isa)
 {
 #ifdef MLR_X86_DISPATCH
-    if (__builtin_cpu_supports("avx512f"))
+    if (isa >= MLR_ISA_AVX512)
         return lane_merge_avx512;
+#else
+    (void)isa;
 #endif
     return lane_merge;
 }
@@ -448,9 +456,9 @@ void mlr_nearest2(const mlr_packed *p, const double *x, size_t ldx, const size_t
                   int32_t *second)
 {
     size_t G;
-    dot_fn dot = pick_dot(&G);
-    fold_fn fold = pick_fold();
-    merge_fn merge = pick_merge();
+    dot_fn dot = pick_dot(p->isa, &G);
+    fold_fn fold = pick_fold(p->isa);
+    merge_fn merge = pick_merge(p->isa);
 #ifdef MLR_X86_DISPATCH
     const int wide1 = dot == dot_avx512; /* a lone row takes 64 centres per pass */
 #else
@@ -579,11 +587,11 @@ int32_t mlr_packed_sweep(mlr_packed *p, const double *x, const double *h,
 {
     const size_t dim = p->dim, nb = p->kpad / MLR_PACK;
 #ifdef MLR_X86_DISPATCH
-    const int wide = __builtin_cpu_supports("avx512f");
+    const int wide = p->isa >= MLR_ISA_AVX512;
 #else
     const int wide = 0;
 #endif
-    fold_fn fold = pick_fold();
+    fold_fn fold = pick_fold(p->isa);
     lane_min st;
     lane_init(&st);
     double out[4 * MLR_PACK], nn[MLR_PACK];
@@ -633,7 +641,7 @@ int32_t mlr_packed_sweep(mlr_packed *p, const double *x, const double *h,
     double bv = INFINITY, sv;
     int32_t bi = 0, si;
     if (xnext)
-        pick_merge()(&st, &bv, &bi, &sv, &si);
+        pick_merge(p->isa)(&st, &bv, &bi, &sv, &si);
     if (best)
         *best = bv;
     return bi;

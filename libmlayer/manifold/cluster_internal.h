@@ -24,6 +24,8 @@ size_t mlr_rng_below(mlr_rng *r, size_t n);          /* uniform in [0, n), n >= 
 typedef struct mlr_packed {
     double *pc, *cn;   /* kpad * dim and kpad doubles */
     size_t k, kpad, dim;
+    int isa;           /* MLR_ISA_* level of the kernels that search it: cpu__isa(MLR_ISA_BEST),
+                        * set with k, kpad and dim (tests set MLR_ISA_BASELINE too) */
 } mlr_packed;
 size_t mlr_packed_kpad(size_t k);
 /* Pack c (k x dim, row stride ldc) into p (whose buffers the caller sized). */
@@ -64,7 +66,7 @@ int32_t mlr_packed_sweep(mlr_packed *p, const double *x, const double *h,
                          size_t n_parts, double *best);
 
 /* ||a - b||^2 by direct differences (accurate near 0). */
-double mlr_dist2(const double *a, const double *b, size_t dim);
+double mlr_dist2(const double *a, const double *b, size_t dim, int isa);
 /* ||a||^2. */
 double mlr_norm2(const double *a, size_t dim);
 

@@ -26,7 +26,7 @@ static inline double as_f64(uint64_t u)
  * with m in [sqrt(2)/2, sqrt(2)), f = m - 1, s = f / (2 + f), log(1 + f) = f - f^2/2 + s (f^2/2 +
  * R(s^2)) with fdlibm's minimax R (error below 1 ulp). k comes from the exponent bits through
  * the 2^52 trick (no integer to double conversion, so AVX2 and AVX-512F both vectorize it). */
-GRBF_CLONES
+MLR_CLONES("avx512f", "avx2")
 static void thin_plate_row(double *o, size_t n)
 {
     const double Lg1 = 6.666666666666735130e-01, Lg2 = 3.999999999940941908e-01,
@@ -53,7 +53,7 @@ static void thin_plate_row(double *o, size_t n)
 /* o[j] = exp(-o[j] * s) (s > 0), 0 once the argument is below -708. exp(x) = 2^k exp(r), k the
  * nearest integer to x / ln 2 (the 1.5 * 2^52 shifter), r = x - k ln 2 in two parts (|r| <=
  * ln(2)/2), exp(r) by its Taylor polynomial of degree 13 (truncation below 5e-18). */
-GRBF_CLONES
+MLR_CLONES("avx512f", "avx2")
 static void gaussian_row(double *o, size_t n, double s)
 {
     const double log2e = 1.44269504088896338700e+00;
@@ -88,7 +88,7 @@ static void gaussian_row(double *o, size_t n, double s)
 
 /* Squared distances of the point xi (dim values) to the n centres of ct (transposed: coordinate
  * t of centre j at ct[t * ldt + j]), summed over the coordinates in order. */
-GRBF_CLONES
+MLR_CLONES("avx512f", "avx2")
 static void dist2_row(const double *xi, const double *ct, size_t ldt, size_t n, size_t dim,
                       double *o)
 {
@@ -106,15 +106,8 @@ static void dist2_row(const double *xi, const double *ct, size_t ldt, size_t n, 
     }
 }
 
-/* 1 when the AVX-512 product kernel may run. */
-int grbf__cpu_wide(void)
-{
-#ifdef MLR_GRBF_X86
-    return __builtin_cpu_supports("avx512f");
-#else
-    return 0;
-#endif
-}
+/* 1 when the AVX-512 product kernel may run (resolved once per call, common/cpu.h). */
+int grbf__cpu_wide(void) { return cpu__isa(MLR_ISA_BEST) >= MLR_ISA_AVX512; }
 
 void grbf__basis_task(void *ctx, size_t task)
 {

@@ -6,15 +6,9 @@
 #include "manifold/cluster_internal.h" /* mlr_first_nonfinite_row, mlr_parallel_run */
 #include "manifold/grbf_panel.h"       /* PANEL, panel() */
 
-/* The kernel loops get AVX-512 and AVX2 clones chosen at load time with GCC on x86-64 (the
- * build itself assumes only the baseline ISA); the loops are written branch-free, with the bit
- * manipulations of the log and exp reductions in integer lanes, so every clone vectorizes. */
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__) && \
-    !defined(__SANITIZE_ADDRESS__)
-#define GRBF_CLONES __attribute__((target_clones("avx512f", "avx2", "default")))
-#else
-#define GRBF_CLONES
-#endif
+/* The kernel loops get AVX-512 and AVX2 clones (MLR_CLONES, common/cpu.h); the loops are
+ * written branch-free, with the bit manipulations of the log and exp reductions in integer
+ * lanes, so every clone vectorizes. */
 
 /* Rows per task of the parallel loop. */
 #define GRBF_TASK_ROWS 32

@@ -124,7 +124,7 @@ static void cholesky_solve(const double *l, size_t n, size_t ldl, double *x, siz
 }
 
 /* X = (I - beta v v^T) X for X k x m (row-major), t: m values of scratch. */
-GRBF_CLONES
+MLR_CLONES("avx512f", "avx2")
 static void householder_rows(double *x, size_t k, size_t m, const double *v, double beta,
                              double *t)
 {

@@ -9,8 +9,9 @@
 #include <stddef.h>
 #include <string.h>
 
-#if (defined(__x86_64__) || defined(__i386__)) && (defined(__GNUC__) || defined(__clang__))
-#define MLR_GRBF_X86 1
+#include "common/cpu.h" /* MLR_X86_DISPATCH, cpu__isa */
+
+#ifdef MLR_X86_DISPATCH
 #include <immintrin.h>
 #endif
 
@@ -32,7 +33,7 @@ static void panel_generic(const double *a, size_t sp, size_t sk, size_t rows, si
     }
 }
 
-#ifdef MLR_GRBF_X86
+#ifdef MLR_X86_DISPATCH
 /* The same with fused multiply-adds: 8 rows x 24 columns in 24 registers, then single rows
  * (the same fma sequence per output). */
 __attribute__((target("avx512f"))) static void panel_avx512(const double *a, size_t sp, size_t sk,
@@ -107,10 +108,12 @@ __attribute__((target("avx512f"))) static void panel_avx512(const double *a, siz
 }
 #endif
 
+/* wide: 1 for the AVX-512 twin (the caller resolved cpu__isa once, grbf__cpu_wide), 0 for
+ * panel_generic, its reference (tests/test_twins.c compares them). */
 static void panel(int wide, const double *a, size_t sp, size_t sk, size_t rows, size_t kc,
                   const double *b, size_t ldb, double *acc, size_t lda)
 {
-#ifdef MLR_GRBF_X86
+#ifdef MLR_X86_DISPATCH
     if (wide) {
         panel_avx512(a, sp, sk, rows, kc, b, ldb, acc, lda);
         return;

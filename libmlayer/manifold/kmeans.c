@@ -92,7 +92,7 @@ static void assign_task(void *ctx, size_t b)
                     skipped++;
                     continue;
                 }
-                w->u[i] = sqrt(mlr_dist2(w->x + i * w->ldx, w->c + (size_t)a * dim, dim)) * rel;
+                w->u[i] = sqrt(mlr_dist2(w->x + i * w->ldx, w->c + (size_t)a * dim, dim, w->pk.isa)) * rel;
                 if (w->u[i] <= bound) {
                     skipped++;
                     continue;
@@ -148,7 +148,7 @@ static void inertia_task(void *ctx, size_t b)
     blk_range(w->n, w->nblk, b, &lo, &hi);
     double s = 0;
     for (size_t i = lo; i < hi; i++)
-        s += mlr_dist2(w->x + i * w->ldx, w->c + (size_t)w->lab[i] * w->dim, w->dim);
+        s += mlr_dist2(w->x + i * w->ldx, w->c + (size_t)w->lab[i] * w->dim, w->dim, w->pk.isa);
     w->pinert[b] = s;
 }
 
@@ -160,7 +160,7 @@ static void pp_pot_task(void *ctx, size_t b)
     for (size_t c = 0; c < w->n_cand; c++) {
         double s = 0;
         for (size_t i = lo; i < hi; i++) {
-            double d = mlr_dist2(w->x + i * w->ldx, w->cand[c], w->dim);
+            double d = mlr_dist2(w->x + i * w->ldx, w->cand[c], w->dim, w->pk.isa);
             s += d < w->u[i] ? d : w->u[i];
         }
         w->pinert[b * w->n_cand + c] = s;
@@ -173,7 +173,7 @@ static void pp_update_task(void *ctx, size_t b)
     fit_ws *w = ctx;
     size_t lo = b * PP_BLOCK, hi = lo + PP_BLOCK < w->n ? lo + PP_BLOCK : w->n;
     for (size_t i = lo; i < hi; i++) {
-        double d = mlr_dist2(w->x + i * w->ldx, w->cand[0], w->dim);
+        double d = mlr_dist2(w->x + i * w->ldx, w->cand[0], w->dim, w->pk.isa);
         if (d < w->u[i])
             w->u[i] = d;
     }
@@ -251,7 +251,7 @@ static void prepare_centres(fit_ws *w, double xmax2, double eps_d)
         for (size_t q = 0; q < k; q++) {
             if (q == j)
                 continue;
-            double d = mlr_dist2(w->c + j * dim, w->c + q * dim, dim);
+            double d = mlr_dist2(w->c + j * dim, w->c + q * dim, dim, w->pk.isa);
             best = d < best ? d : best;
         }
         w->s[j] = 0.5 * sqrt(best) * (1.0 - eps_d) - w->margin;
@@ -288,7 +288,7 @@ static void relocate_empty(fit_ws *w)
         for (size_t i = 0; i < n; i++) {
             if (w->l[i] == -INFINITY)
                 continue;
-            double d = mlr_dist2(w->x + i * w->ldx, w->c + (size_t)w->lab[i] * dim, dim);
+            double d = mlr_dist2(w->x + i * w->ldx, w->c + (size_t)w->lab[i] * dim, dim, w->pk.isa);
             if (d > fd) {
                 fd = d;
                 far = i;
@@ -330,7 +330,7 @@ static double new_centres(fit_ws *w, double eps_d)
             for (size_t t = 0; t < dim; t++)
                 cn[t] *= inv;
         }
-        double d2 = mlr_dist2(cn, w->c + j * dim, dim);
+        double d2 = mlr_dist2(cn, w->c + j * dim, dim, w->pk.isa);
         tot += d2;
         double d = sqrt(d2) * (1.0 + eps_d);
         w->p[j] = d;
@@ -446,6 +446,7 @@ mlr_status mlr_kmeans_create(size_t k, size_t dim, const mlr_allocator *alloc, m
     km->packed.k = k;
     km->packed.kpad = kpad;
     km->packed.dim = dim;
+    km->packed.isa = cpu__isa(MLR_ISA_BEST);
     mlr_packed_fill(&km->packed, km->centers, dim);
     km->max_iter = 300;
     km->n_init = 1;
@@ -566,7 +567,8 @@ mlr_status mlr_kmeans_predict(const mlr_kmeans *km, const double *x, size_t n, s
         if (dist2)
             for (size_t r = 0; r < m; r++)
                 dist2[i0 + r] = mlr_dist2(x + (i0 + r) * ldx,
-                                          km->centers + (size_t)labels[i0 + r] * km->dim, km->dim);
+                                          km->centers + (size_t)labels[i0 + r] * km->dim, km->dim,
+                                          km->packed.isa);
     }
     return MLR_OK;
 }
@@ -742,6 +744,7 @@ mlr_status mlr_kmeans_fit(mlr_kmeans *km, const double *x, size_t n, size_t ldx,
     w.pk.k = k;
     w.pk.kpad = kpad;
     w.pk.dim = dim;
+    w.pk.isa = cpu__isa(MLR_ISA_BEST);
 
     /* norms, tolerance */
     double xmax2;

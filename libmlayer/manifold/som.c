@@ -70,6 +70,7 @@ mlr_status mlr_som_create(size_t rows, size_t cols, size_t dim, const mlr_alloca
     s->pk.k = units;
     s->pk.kpad = kpad;
     s->pk.dim = dim;
+    s->pk.isa = cpu__isa(MLR_ISA_BEST);
     mlr_packed_fill(&s->pk, s->w, dim);
     s->n_threads = 1;
     s->sigma0 = (double)(rows > cols ? rows : cols) / 2.0;
@@ -189,7 +190,7 @@ static void bmu_task(void *ctx, size_t b)
         if (c->dist || c->errors) {
             for (size_t r = 0; r < m; r++) {
                 double d =
-                    sqrt(mlr_dist2(xr + r * c->ldx, s->w + (size_t)best[r] * s->dim, s->dim));
+                    sqrt(mlr_dist2(xr + r * c->ldx, s->w + (size_t)best[r] * s->dim, s->dim, s->pk.isa));
                 if (c->dist)
                     c->dist[i0 + r] = d;
                 qe += d;

@@ -206,7 +206,7 @@ static inline void row_from1(double *restrict xi, const double *restrict yi,
         xi[c] = yi[c] - l1 * x1[c];
 }
 
-MLR_CLONES_AVX512
+MLR_CLONES("avx512f", "avx2")
 void mlr_band_forward_row_from(const mlr_band *b, size_t i, const double *yi, double *xi,
                                size_t ld, size_t m)
 {
@@ -226,7 +226,7 @@ void mlr_band_forward_row_from(const mlr_band *b, size_t i, const double *yi, do
 
 /* Forward sweep for one row: x_i -= sum_k L(i,i-k) x_{i-k} (the 1/D scaling comes in the
  * backward sweep). */
-MLR_CLONES_AVX512
+MLR_CLONES("avx512f", "avx2")
 void mlr_band_forward_row(const mlr_band *b, size_t i, double *xi, size_t ld, size_t m)
 {
     const size_t kd = b->kd;
@@ -253,7 +253,7 @@ void mlr_band_forward_row_any(const mlr_band *b, size_t i, const double *yi, dou
 
 /* Backward sweep over rows e..a (e >= a) after the forward one, row a at xa, stride ld:
  * x_i = x_i / D_i - sum_k L(i+k,i) x_{i+k}, rows past e taken as zero. */
-MLR_CLONES_AVX512
+MLR_CLONES("avx512f", "avx2")
 static void backward_range(const mlr_band *b, size_t a, size_t e, double *xa, size_t ld, size_t m)
 {
     const size_t kd = b->kd;
@@ -330,7 +330,7 @@ static int tail_homogeneous(const mlr_band *b, size_t e, size_t max_len, double 
 
 /* Add the true boundary (rows e+1, e+2 at next, stride ld_next) to the tail of the chunk
  * ending at row e (at xe, stride ld). */
-MLR_CLONES_AVX512
+MLR_CLONES("avx512f", "avx2")
 static void correct_tail(const mlr_band *b, size_t e, double *xe, size_t ld, const double *next,
                          size_t ld_next, size_t m, double *h)
 {

@@ -120,7 +120,7 @@ static inline int block_load(const mlr_quat *restrict q, size_t m, double *restr
     return !bad;
 }
 
-MLR_CLONES_AVX2
+MLR_CLONES("avx2")
 static int normalize_fast(const mlr_quat *q, size_t m, mlr_quat *out)
 {
     double w[QBLK], x[QBLK], y[QBLK], z[QBLK];
@@ -172,7 +172,7 @@ mlr_status mlr_quat_normalize_array(const mlr_quat *q, size_t count, mlr_quat *o
 
 /* Are the m quaternions q all unit to rounding (|q|^2 within MLR_NEAR_UNIT2 of 1), as
  * mlr__quat_unit_array decides each (the same sum: the same bits)? NaN is not. Vectorized. */
-MLR_CLONES_AVX2
+MLR_CLONES("avx2")
 static int near_unit_block(const mlr_quat *q, size_t m)
 {
     long far = 0;
@@ -215,12 +215,15 @@ __attribute__((target("avx2"))) static int near_unit_copy_avx2(const mlr_quat *q
 }
 #endif
 
-/* Are the m quaternions q all unit to rounding? Then they are copied to out as they are. */
-static int near_unit_copy(const mlr_quat *q, size_t m, mlr_quat *out)
+/* Are the m quaternions q all unit to rounding? Then they are copied to out as they are.
+ * avx2: the caller's cpu__isa(...) >= MLR_ISA_AVX2, resolved once per array. */
+static int near_unit_copy(const mlr_quat *q, size_t m, mlr_quat *out, int avx2)
 {
 #ifdef MLR_X86_DISPATCH
-    if (m % 4 == 0 && __builtin_cpu_supports("avx2"))
+    if (avx2 && m % 4 == 0)
         return near_unit_copy_avx2(q, m, out);
+#else
+    (void)avx2;
 #endif
     if (!near_unit_block(q, m))
         return 0;
@@ -243,12 +246,13 @@ static int unit_one(const mlr_quat *q, mlr_quat *out)
     return 0;
 }
 
-mlr_status mlr__quat_unit_array(const mlr_quat *q, size_t count, mlr_quat *out)
+mlr_status quat__unit_array_isa(const mlr_quat *q, size_t count, mlr_quat *out, int most)
 {
+    const int avx2 = cpu__isa(most < MLR_ISA_AVX2 ? most : MLR_ISA_AVX2) >= MLR_ISA_AVX2;
     int bad = 0;
     for (size_t i0 = 0; i0 < count; i0 += QBLK) {
         const size_t m = count - i0 < QBLK ? count - i0 : QBLK;
-        if (near_unit_copy(q + i0, m, out + i0)) /* every one unit to rounding: as it is */
+        if (near_unit_copy(q + i0, m, out + i0, avx2)) /* every one unit to rounding: as it is */
             continue;
         for (size_t i = i0; i < i0 + m; i++)
             bad |= !unit_one(&q[i], &out[i]);
@@ -256,9 +260,14 @@ mlr_status mlr__quat_unit_array(const mlr_quat *q, size_t count, mlr_quat *out)
     return bad ? MLR_E_INVALID_ARG : MLR_OK;
 }
 
+mlr_status mlr__quat_unit_array(const mlr_quat *q, size_t count, mlr_quat *out)
+{
+    return quat__unit_array_isa(q, count, out, MLR_ISA_BEST);
+}
+
 /* exp of m rotation vectors whose components are all finite and below MLR_SINCOS_LIMIT / 2
  * in magnitude; 0 (nothing written) otherwise. */
-MLR_CLONES_AVX2
+MLR_CLONES("avx2")
 static int exp_fast(const mlr_vec3 *v, size_t m, mlr_quat *out)
 {
     double x[QBLK], y[QBLK], z[QBLK], c[QBLK], k[QBLK];
@@ -438,7 +447,7 @@ static mlr_status log_one(const mlr_quat *q, mlr_vec3 *out)
 }
 
 /* log of m quaternions of block_load's common case; 0 (nothing written) otherwise. */
-MLR_CLONES_AVX2
+MLR_CLONES("avx2")
 static int log_fast(const mlr_quat *q, size_t m, mlr_vec3 *out)
 {
     double w[QBLK], x[QBLK], y[QBLK], z[QBLK];
@@ -471,7 +480,7 @@ mlr_status mlr_quat_log_array(const mlr_quat *q, size_t count, mlr_vec3 *out, ml
 /* prod = conj(a) b (conj_b 0) or a conj(b) (conj_b 1), out = log(prod) for m <= QBLK
  * quaternions; the SoA path when the products are of the common case. The conjugate is a
  * product by -1, exact: both forms give the bits of a negated copy. */
-MLR_CLONES_AVX2
+MLR_CLONES("avx2")
 static void conj_mul_log_block(const mlr_quat *a, const mlr_quat *b, size_t m, int conj_b,
                                mlr_quat *prod, mlr_vec3 *out)
 {

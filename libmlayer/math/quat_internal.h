@@ -101,6 +101,9 @@ static inline void mlr__quat_rotate3(const double *q, const double *v, double *o
  * MLR_E_INVALID_ARG. Cheaper than normalizing: most rotations a motion holds are unit to
  * rounding already. */
 mlr_status mlr__quat_unit_array(const mlr_quat *q, size_t count, mlr_quat *out);
+/* The same with the hand-written kernel limited to the ISA level most (MLR_ISA_*, common/cpu.h):
+ * the same bits at every level (tests/test_twins.c). */
+mlr_status quat__unit_array_isa(const mlr_quat *q, size_t count, mlr_quat *out, int most);
 
 /* The diag of an array function that met n_bad bad elements of arg, the first at index first:
  * "quat log: q: 1 of 40 quaternions zero, NaN or infinite, the first at index 7" (quat.c). */

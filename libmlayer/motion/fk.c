@@ -164,7 +164,7 @@ static inline void fk_block_run(size_t J, const int32_t *parents, const double *
         fk_block_store(J, list ? (size_t)list[i] : i + 1, s, wp, wr);
 }
 
-MLR_CLONES_AVX2
+MLR_CLONES("avx2")
 static void fk_block(size_t J, const int32_t *parents, const double *offsets,
                      const double *root_pos, const double *rot, size_t P,
                      const int32_t *trans_joints, const double *trans, double *wp, double *wr,
@@ -174,7 +174,7 @@ static void fk_block(size_t J, const int32_t *parents, const double *offsets,
                  0, wp, wr, s);
 }
 
-MLR_CLONES_AVX2
+MLR_CLONES("avx2")
 void mlr_fk_list_block(const mlr_fk_list *fl, const double *root_pos, const double *rot,
                        const double *trans, double *wp, double *wr, double *s)
 {
@@ -185,7 +185,7 @@ void mlr_fk_list_block(const mlr_fk_list *fl, const double *root_pos, const doub
 /* fl's listed joints on a block, from seed's world pose as wp and wr hold it (the listed
  * joints' parents are seed or listed before them): the same operations as mlr_fk_list_frame
  * per frame, so the same bits. */
-MLR_CLONES_AVX2
+MLR_CLONES("avx2")
 void mlr_fk_list_block_from(const mlr_fk_list *fl, size_t seed, const double *rot,
                             const double *trans, double *wp, double *wr, double *s)
 {

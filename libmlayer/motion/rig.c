@@ -172,7 +172,7 @@ mlr_status mlr_rig_point_positions(const mlr_rig *rig, size_t n_frames, const do
 /* The lowest and highest of the m <= RANGE_BLOCK frames' J values p[3 (f J + j)] (frames by
  * lanes, joints one after the other: the same min and max as a scan); 0 when one is not
  * finite. Vectorized. */
-MLR_CLONES_AVX2
+MLR_CLONES("avx2")
 static int up_range_block(const double *restrict p, size_t J, size_t m, double *restrict lo,
                           double *restrict hi)
 {
