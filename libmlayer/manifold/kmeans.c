@@ -92,7 +92,9 @@ static void assign_task(void *ctx, size_t b)
                     skipped++;
                     continue;
                 }
-                w->u[i] = sqrt(mlr_dist2(w->x + i * w->ldx, w->c + (size_t)a * dim, dim, w->pk.isa)) * rel;
+                w->u[i] =
+                    sqrt(mlr_dist2(w->x + i * w->ldx, w->c + (size_t)a * dim, dim, w->pk.isa)) *
+                    rel;
                 if (w->u[i] <= bound) {
                     skipped++;
                     continue;
@@ -288,7 +290,8 @@ static void relocate_empty(fit_ws *w)
         for (size_t i = 0; i < n; i++) {
             if (w->l[i] == -INFINITY)
                 continue;
-            double d = mlr_dist2(w->x + i * w->ldx, w->c + (size_t)w->lab[i] * dim, dim, w->pk.isa);
+            double d =
+                mlr_dist2(w->x + i * w->ldx, w->c + (size_t)w->lab[i] * dim, dim, w->pk.isa);
             if (d > fd) {
                 fd = d;
                 far = i;
@@ -566,9 +569,9 @@ mlr_status mlr_kmeans_predict(const mlr_kmeans *km, const double *x, size_t n, s
         mlr_nearest2(&km->packed, x + i0 * ldx, ldx, NULL, m, NULL, labels + i0, db, NULL, NULL);
         if (dist2)
             for (size_t r = 0; r < m; r++)
-                dist2[i0 + r] = mlr_dist2(x + (i0 + r) * ldx,
-                                          km->centers + (size_t)labels[i0 + r] * km->dim, km->dim,
-                                          km->packed.isa);
+                dist2[i0 + r] =
+                    mlr_dist2(x + (i0 + r) * ldx, km->centers + (size_t)labels[i0 + r] * km->dim,
+                              km->dim, km->packed.isa);
     }
     return MLR_OK;
 }

@@ -189,8 +189,8 @@ static void bmu_task(void *ctx, size_t b)
         mlr_nearest2(&s->pk, xr, c->ldx, NULL, m, NULL, best, db, NULL, sec);
         if (c->dist || c->errors) {
             for (size_t r = 0; r < m; r++) {
-                double d =
-                    sqrt(mlr_dist2(xr + r * c->ldx, s->w + (size_t)best[r] * s->dim, s->dim, s->pk.isa));
+                double d = sqrt(mlr_dist2(xr + r * c->ldx, s->w + (size_t)best[r] * s->dim, s->dim,
+                                          s->pk.isa));
                 if (c->dist)
                     c->dist[i0 + r] = d;
                 qe += d;
