@@ -25,6 +25,13 @@ meson setup build-test -Dtests=enabled -Dcholmod=enabled --reconfigure >/dev/nul
 meson compile -C build-test >/dev/null
 meson test -C build-test -v --print-errorlogs
 
+echo "== C core with the baseline ISA forced (-Dforce_baseline=true: no CPU dispatch, common/cpu.h) =="
+meson setup build-baseline -Dtests=enabled -Dcholmod=enabled -Dforce_baseline=true --reconfigure \
+  >/dev/null 2>&1 \
+  || meson setup build-baseline -Dtests=enabled -Dcholmod=enabled -Dforce_baseline=true >/dev/null
+meson compile -C build-baseline >/dev/null
+meson test -C build-baseline --print-errorlogs --suite unit
+
 echo "== C users: meson install, then programs built with pkg-config and CMake, shared and static =="
 bash tests/install/run.sh
 
