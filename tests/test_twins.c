@@ -14,7 +14,8 @@
  * - displace_block (mlr_layers_synthesize): against base * exp(alpha v) one quaternion at a
  *   time through the public quaternion functions, bit for bit.
  * - clustering (cluster.c): mlr_dist2 and mlr_nearest2 at every ISA level against the
- *   baseline: the same nearest centre except at a near tie, distances within 1e-12 relative.
+ *   baseline: the same nearest centre except at a near tie, distances within 1e-12 relative;
+ *   the fused online SOM step (mlr_packed_sweep) likewise, its moved centres within 1e-14.
  * - the GRBF product panel (grbf_panel.h): the AVX-512 panel against panel_generic, within
  *   1e-13 of the sum of the magnitudes of the terms. */
 #include "mlr_test.h"
@@ -434,6 +435,68 @@ START_TEST(cluster_kernels_agree_with_the_baseline)
 }
 END_TEST
 
+START_TEST(som_sweep_agrees_with_the_baseline)
+{
+    static const size_t dims[] = {2, 9, 33}, ks[] = {16, 70, 200};
+    mlr_test_rng r;
+    mlr_test_rng_seed(&r, 4045);
+    const int top = cpu__isa(MLR_ISA_BEST);
+    for (size_t di = 0; di < MLR_COUNTOF(dims); di++)
+        for (size_t ki = 0; ki < MLR_COUNTOF(ks); ki++) {
+            const size_t dim = dims[di], k = ks[ki], kpad = mlr_packed_kpad(k),
+                         nb = kpad / MLR_PACK;
+            double *c = malloc(sizeof(double) *
+                               (k * dim + 2 * dim + 2 * kpad * (dim + 1) + kpad + k * dim));
+            unsigned char *active = malloc(nb);
+            ck_assert(c && active);
+            double *x = c + k * dim, *xnext = x + dim, *pc0 = xnext + dim, *pc1 = pc0 + kpad * dim;
+            double *cn0 = pc1 + kpad * dim, *cn1 = cn0 + kpad, *h = cn1 + kpad, *moved = h + kpad;
+            for (size_t i = 0; i < k * dim; i++)
+                c[i] = 5.0 * mlr_test_rng_normal(&r);
+            for (size_t t = 0; t < dim; t++)
+                x[t] = 5.0 * mlr_test_rng_normal(&r), xnext[t] = 5.0 * mlr_test_rng_normal(&r);
+            for (size_t b = 0; b < nb; b++) /* runs of inactive blocks (the 4-block path) */
+                active[b] = (b / 5) % 2 == 0 && b % 5 != 3;
+            for (size_t j = 0; j < kpad; j++)
+                h[j] =
+                    j < k && active[j / MLR_PACK] && j % 3 ? 0.5 * mlr_test_rng_uniform(&r) : 0.0;
+            for (size_t j = 0; j < k; j++) /* the naive update */
+                for (size_t t = 0; t < dim; t++)
+                    moved[j * dim + t] = c[j * dim + t] + h[j] * (x[t] - c[j * dim + t]);
+            mlr_packed p0 = {pc0, cn0, k, kpad, dim, MLR_ISA_BASELINE};
+            mlr_packed_fill(&p0, c, dim);
+            double v0, v1;
+            const int32_t u0 = mlr_packed_sweep(&p0, x, h, active, xnext, 0, 1, &v0);
+            double dmin = INFINITY;
+            for (size_t j = 0; j < k; j++) {
+                const double dj = mlr_test_dist2(xnext, moved + j * dim, dim);
+                dmin = dj < dmin ? dj : dmin;
+            }
+            const double tol = 1e-12 * (mlr_norm2(xnext, dim) + 100.0 * dim);
+            ck_assert_msg(fabs(mlr_test_dist2(xnext, moved + (size_t)u0 * dim, dim) - dmin) <= tol,
+                          "baseline: unit %d is not the nearest", u0);
+            for (int isa = MLR_ISA_AVX2; isa <= top; isa++) {
+                mlr_packed p1 = {pc1, cn1, k, kpad, dim, isa};
+                mlr_packed_fill(&p1, c, dim);
+                const int32_t u1 = mlr_packed_sweep(&p1, x, h, active, xnext, 0, 1, &v1);
+                for (size_t i = 0; i < kpad * dim; i++)
+                    ck_assert_msg(fabs(pc1[i] - pc0[i]) <= 1e-14 * (fabs(pc0[i]) + 1.0),
+                                  "isa %d dim %zu k %zu: centre value %zu %.17g vs %.17g", isa,
+                                  dim, k, i, pc1[i], pc0[i]);
+                for (size_t j = 0; j < k; j++)
+                    ck_assert_msg(fabs(cn1[j] - cn0[j]) <= 1e-13 * cn0[j], "norm %zu", j);
+                ck_assert_msg(fabs(v1 - v0) <= tol, "isa %d value %.17g vs %.17g", isa, v1, v0);
+                if (u1 != u0) /* only at a near tie */
+                    ck_assert_msg(fabs(mlr_test_dist2(xnext, moved + (size_t)u1 * dim, dim) -
+                                       mlr_test_dist2(xnext, moved + (size_t)u0 * dim, dim)) <=
+                                      tol,
+                                  "isa %d unit %d vs %d", isa, u1, u0);
+            }
+            free(c), free(active);
+        }
+}
+END_TEST
+
 START_TEST(grbf_panel_agrees_with_the_generic_panel)
 {
     static const size_t rows_[] = {1, 7, 8, 9, 17}, kcs[] = {1, 5, 64};
@@ -481,6 +544,7 @@ static Suite *twins_suite(void)
     tcase_add_test(tc, limits_blocks_give_the_bits_of_limit_joint);
     tcase_add_test(tc, displace_block_gives_the_bits_of_one_at_a_time);
     tcase_add_test(tc, cluster_kernels_agree_with_the_baseline);
+    tcase_add_test(tc, som_sweep_agrees_with_the_baseline);
     tcase_add_test(tc, grbf_panel_agrees_with_the_generic_panel);
     suite_add_tcase(s, tc);
     return s;
