@@ -60,11 +60,11 @@ static void unit4(const double *a, double *o)
         o[i] = a[i] / n;
 }
 
-mlr_status mlr_floor_chains(const mlr_rig *rig, size_t N, double fps, int up, double floor,
-                            double slack, const double *in_root, const double *in_rot,
-                            const double *in_trans, double *root, double *rot, const double *trans,
-                            size_t C, const int32_t *joints, size_t *lifted,
-                            const mlr_allocator *alloc)
+mlr_status floor_chains__apply(const mlr_rig *rig, size_t N, double fps, int up, double floor,
+                               double slack, const double *in_root, const double *in_rot,
+                               const double *in_trans, double *root, double *rot,
+                               const double *trans, int32_t body, size_t C, const int32_t *joints,
+                               size_t *lifted, const mlr_allocator *alloc)
 {
     if (lifted)
         *lifted = 0;
@@ -163,15 +163,24 @@ mlr_status mlr_floor_chains(const mlr_rig *rig, size_t N, double fps, int up, do
                 continue;
             /* the local translations of the chain at f */
             const size_t m = n;
+            size_t ib = m; /* the body joint's place on the chain, m when not on it */
             for (size_t i = 0; i < m; i++) {
                 const size_t j = (size_t)chain[i];
                 const double *t = tidx[j] >= 0 ? trans + 3 * (f * rig->n_trans + (size_t)tidx[j])
                                                : rig->offsets + 3 * j;
                 memcpy(lt + 3 * i, t, 3 * sizeof(double));
+                if (body >= 0 && tidx[j] == body)
+                    ib = i;
             }
             double w = 1.0;
             for (int s = 1; s <= FLOOR_STEPS; s++) {
                 const double t = (double)s / FLOOR_STEPS;
+                if (ib < m) { /* the body's translation is blended with the root's */
+                    const double *a = trans + 3 * (f * rig->n_trans + (size_t)body),
+                                 *b = in_trans + 3 * (f * rig->n_trans + (size_t)body);
+                    for (int d = 0; d < 3; d++)
+                        lt[3 * ib + (size_t)d] = a[d] + t * (b[d] - a[d]);
+                }
                 for (size_t i = 0; i < m; i++) {
                     const size_t j = (size_t)chain[i];
                     double a[4], b[4];
@@ -238,6 +247,31 @@ mlr_status mlr_floor_chains(const mlr_rig *rig, size_t N, double fps, int up, do
         const double t = wj[f * J];
         for (int d = 0; d < 3 && t > 0.0; d++)
             root[3 * f + (size_t)d] += t * (in_root[3 * f + (size_t)d] - root[3 * f + (size_t)d]);
+    }
+    if (body >= 0) {
+        /* the body joint's translation, blended by its weight, enters as a root shift (in the
+           world, through its parent's rotation): the guards carry root shifts into the body's
+           translation at the end (carry_body_shift in guards.c) */
+        const int32_t bj = rig->trans_joints[body];
+        for (size_t f = 0; f < N; f++) {
+            const double t = wj[f * J + (size_t)bj];
+            if (!(t > 0.0))
+                continue;
+            double w[4] = {1.0, 0.0, 0.0, 0.0};
+            for (int32_t a = rig->parents[bj]; a >= 0; a = rig->parents[a]) {
+                double r2[4];
+                mlr__qmul4(rot + 4 * (f * J + (size_t)a), w, r2);
+                memcpy(w, r2, sizeof w);
+            }
+            const double *a = trans + 3 * (f * rig->n_trans + (size_t)body),
+                         *b = in_trans + 3 * (f * rig->n_trans + (size_t)body);
+            double dl[3], dw[3];
+            for (int d = 0; d < 3; d++)
+                dl[d] = t * (b[d] - a[d]);
+            mlr__quat_rotate3(w, dl, dw);
+            for (int d = 0; d < 3; d++)
+                root[3 * f + (size_t)d] += dw[d];
+        }
     }
     if (lifted)
         *lifted = n_lifted;

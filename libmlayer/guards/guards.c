@@ -1256,9 +1256,10 @@ static mlr_status guards_apply(const mlr_guards *g, const double *alpha, size_t 
                                     denoise, where the input is the noisy capture (blending
                                     MediaPipe's toward it changed denoise by 47% of H) */
         size_t lifted = 0;
-        st = mlr_floor_chains(&g->rig, N, g->fps, g->up, g->floor_height,
-                              GUARDS_FLOOR_SLACK * g->body_height, g->root_pos, g->rot, g->trans,
-                              work_root, work, trans, g->n_points, g->joints, &lifted, &g->alloc);
+        st = floor_chains__apply(&g->rig, N, g->fps, g->up, g->floor_height,
+                                 GUARDS_FLOOR_SLACK * g->body_height, g->root_pos, g->rot,
+                                 g->trans, work_root, work, trans, g->body_trans, g->n_points,
+                                 g->joints, &lifted, &g->alloc);
         if (st != MLR_OK) {
             fk_failure(st, diag);
             goto done;

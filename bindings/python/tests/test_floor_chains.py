@@ -66,6 +66,39 @@ def test_a_static_root_stays_where_it_is(mocap, alpha):
     assert floor_excess(m, out) <= 0.005
 
 
+def _with_static_root(text: str) -> str:
+    """The BVH text with a static ``joint_Root`` (6 channels, all 0) above its root, as
+    Bandai's rigs have: the same poses, the body translation now in a child's channels."""
+    head, motion = text.split("MOTION", 1)
+    lines = head.replace("ROOT ", "JOINT ", 1).strip().splitlines()
+    head = ("HIERARCHY\nROOT joint_Root\n{\nOFFSET 0 0 0\n"
+            "CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n"
+            + "\n".join(lines[1:]) + "\n}\n")
+    ml = motion.strip().splitlines()
+    frames = [" ".join(["0"] * 6 + ln.split()) for ln in ml[2:]]
+    return head + "MOTION\n" + "\n".join(ml[:2] + frames) + "\n"
+
+
+@pytest.mark.parametrize("alpha", [2.0, 3.0])
+def test_a_body_below_a_static_root_is_lifted_too(mocap, tmp_path, alpha):
+    """The path to a point through the floor was blended toward the input's through the root's
+    translation and the rotations only; where the body's translation rides on a child of a
+    static root (Bandai's Hips below joint_Root), the body stayed where the synthesis put it:
+    a Bandai dance's right hand 13% (alpha 2) and 26% (alpha 3) of body height under the
+    floor. CMU 131_01 given such a root: its hips 6.8% under at alpha 3 before. The body
+    joint's translation is now blended with the path."""
+    path = tmp_path / "static_root.bvh"
+    path.write_text(_with_static_root((mocap / "cmu_131_01_mj_style_walk.bvh").read_text()))
+    m = mlayer.read_bvh(path)
+    assert m.joint_names[:2] == ["joint_Root", "Hips"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        out = mlayer.stylize(m, alpha)
+        raw = mlayer.stylize(m, alpha, limits=None, floor=None, keep_contacts=False)
+    assert floor_excess(m, raw) > 0.05
+    assert floor_excess(m, out) <= 0.005
+
+
 def _with_toe_end_joints(text: str) -> str:
     """The BVH text with each toe's End Site made a joint ``<toe>_End`` (zero rotation, the End
     Site's offset) with an End Site of its own, as Mixamo's rigs have: the same poses, and
