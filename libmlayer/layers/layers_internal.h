@@ -64,6 +64,14 @@ mlr_status mlr_layers_robust_weights(mlr_layers *L, const mlr_layers_cfg *cfg, d
                                      double *fit, double *rhs, double *work, int *any,
                                      mlr_diag *diag);
 
+/* The body translation's runs at the clip's ends, p n x 3: ends[0] frames at the start and
+ * ends[1] at the end (0: none), each the shortest run of 1 to 10 frames that the translation
+ * leaves (or enters) by a step more than 10 times every step inside the run and in the 3 steps
+ * beyond it, with at least 8 frames left outside the runs: a converter's T-pose frame before
+ * the capture. The robust decomposition makes these frames outliers for the translation and for
+ * every joint that jumps there too (layers_robust.c); the pipeline passes them through. */
+void layers__end_runs(size_t n, const double *p, size_t ends[2]);
+
 /*
  * Batched LDL^T of ns pentadiagonal systems A_k = I + s_k L^T L (L the n-row second
  * difference, n >= 3), factored and swept together: the recurrences of one system are

@@ -43,6 +43,8 @@
 #define ROBUST_FLIP_SIDE 3
 #define ROBUST_FLIP_KAPPA 2.5
 #define ROBUST_FLIP_BRIDGE 1.5
+/* a body translation's run at a clip's end: its step past this many times the others */
+#define ROBUST_END_KAPPA 10.0
 /* outlier frames a realignment steps over beyond its window */
 #define ROBUST_REALIGN_SKIP 64
 
@@ -135,6 +137,86 @@ static double steps_max(const double *d, size_t n, size_t lo, size_t hi)
 }
 
 /*
+ * A joint's part in the runs at the clip's ends that a flip's test cannot see (it needs a frame
+ * on either side): where the body translation leaves a run of its first ends[0] frames by a
+ * jump (or enters its last ends[1] frames by one; layers__end_runs: a converter's rest-pose
+ * frame before the capture), the joint's frames of the run weigh 0 in w (stride ldw) when its
+ * step out of the run passes ROBUST_FLIP_KAPPA S, S the largest step inside the run and in the
+ * ROBUST_FLIP_SIDE steps beyond it. Returns the frames flagged.
+ */
+static size_t find_end_runs(size_t n, const double *steps, const size_t ends[2], double *w,
+                            size_t ldw)
+{
+    size_t found = 0;
+    if (ends[0]) {
+        const size_t b = ends[0];
+        const double sc =
+            fmax(steps_max(steps, n, 1, b), steps_max(steps, n, b + 1, b + 1 + ROBUST_FLIP_SIDE));
+        if (steps[b] > ROBUST_FLIP_KAPPA * sc) {
+            for (size_t i = 0; i < b; i++)
+                w[i * ldw] = 0.0;
+            found += b;
+        }
+    }
+    if (ends[1]) {
+        const size_t a = n - ends[1]; /* the last frames [a, n), entered by the step d_a */
+        const double sc =
+            fmax(steps_max(steps, n, a + 1, n),
+                 steps_max(steps, n, a >= ROBUST_FLIP_SIDE ? a - ROBUST_FLIP_SIDE : 1, a));
+        if (steps[a] > ROBUST_FLIP_KAPPA * sc) {
+            for (size_t i = a; i < n; i++)
+                w[i * ldw] = 0.0;
+            found += ends[1];
+        }
+    }
+    return found;
+}
+
+/* |p_i - p_{i-1}| of n x 3 points; 0 at i = 0 */
+static double step_at(const double *p, size_t i)
+{
+    if (i == 0)
+        return 0.0;
+    const double dx = p[3 * i] - p[3 * i - 3], dy = p[3 * i + 1] - p[3 * i - 2],
+                 dz = p[3 * i + 2] - p[3 * i - 1];
+    return sqrt(dx * dx + dy * dy + dz * dz);
+}
+
+/* The largest of the steps [lo, hi) of p (clipped to [1, n)). */
+static double point_steps_max(const double *p, size_t n, size_t lo, size_t hi)
+{
+    double m = 0.0;
+    for (size_t i = lo < 1 ? 1 : lo; i < hi && i < n; i++)
+        m = fmax(m, step_at(p, i));
+    return m;
+}
+
+void layers__end_runs(size_t n, const double *p, size_t ends[2])
+{
+    ends[0] = ends[1] = 0;
+    for (size_t b = 1; b <= ROBUST_FLIP_MAX && b + 2 * ROBUST_FLIP_SIDE + 2 <= n; b++) {
+        const double sc = fmax(point_steps_max(p, n, 1, b),
+                               point_steps_max(p, n, b + 1, b + 1 + ROBUST_FLIP_SIDE));
+        const double d = step_at(p, b);
+        if (d > ROBUST_END_KAPPA * sc && d > 0.0) {
+            ends[0] = b;
+            break;
+        }
+    }
+    for (size_t r = 1; r <= ROBUST_FLIP_MAX && ends[0] + r + 2 * ROBUST_FLIP_SIDE + 2 <= n; r++) {
+        const size_t a = n - r;
+        const double sc =
+            fmax(point_steps_max(p, n, a + 1, n),
+                 point_steps_max(p, n, a >= ROBUST_FLIP_SIDE ? a - ROBUST_FLIP_SIDE : 1, a));
+        const double d = step_at(p, a);
+        if (d > ROBUST_END_KAPPA * sc && d > 0.0) {
+            ends[1] = r;
+            break;
+        }
+    }
+}
+
+/*
  * Flips of a joint, found from its rotations alone: a run of frames [a, b) (1 <= b - a <=
  * ROBUST_FLIP_MAX frames, inside the clip) that the joint enters by a jump and leaves by a
  * jump back. With d_i the rotation angle from frame i - 1 to frame i (blind to the sign of the
@@ -150,7 +232,7 @@ static double steps_max(const double *d, size_t n, size_t lo, size_t hi)
  * per frame, stride ldf); steps: n doubles of scratch. Returns the frames flagged.
  */
 static size_t find_flips(size_t n, size_t j, size_t k, const double *q, double theta,
-                         double *steps, double *w, size_t ldw)
+                         const size_t ends[2], double *steps, double *w, size_t ldw)
 {
     const double *qk = q + 4 * k;
     const size_t s4 = 4 * j;
@@ -204,6 +286,7 @@ static size_t find_flips(size_t n, size_t j, size_t k, const double *q, double t
             break;
         }
     }
+    found += find_end_runs(n, steps, ends, w, ldw);
     return found;
 }
 
@@ -358,9 +441,17 @@ mlr_status mlr_layers_robust_weights(mlr_layers *L, const mlr_layers_cfg *cfg, d
     for (size_t i = 0; i < n * ng; i++)
         rb->w[i] = 1.0;
     double *s = work, *gate = work + j, *buf = work + 2 * j;
+    size_t ends[2] = {0, 0};
+    if (root_pos) { /* the translation's end runs are its outliers from the first fit on */
+        layers__end_runs(n, root_pos, ends);
+        for (size_t i = 0; i < ends[0]; i++)
+            rb->w[i * ng] = 0.0;
+        for (size_t i = n - ends[1]; i < n; i++)
+            rb->w[i * ng] = 0.0;
+    }
     for (size_t k = 0; k < j; k++) {
         gate[k] = cfg->robust_angle;
-        find_flips(n, j, k, q, 0.5 * cfg->robust_angle, rhs, rb->w + 1 + k, ng);
+        find_flips(n, j, k, q, 0.5 * cfg->robust_angle, ends, rhs, rb->w + 1 + k, ng);
     }
     const rgroups joints = {j, 4, 1};
     int any_j = 0, any_r = 0;

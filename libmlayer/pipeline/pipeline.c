@@ -3,6 +3,7 @@
 #include "pipeline/pipeline_internal.h"
 
 #include "motion/bvh_internal.h"
+#include "layers/layers_internal.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -42,6 +43,7 @@ struct mlr_pipeline {
     int up_used;
     int32_t body_joint;
     size_t trimmed;
+    size_t ends[2]; /* the runs at the clip's ends passed through (layers__end_runs) */
     double height_used;
 
     /* kept buffers */
@@ -751,6 +753,21 @@ mlr_status mlr_pipeline_prepare(mlr_pipeline *p, const mlr_motion *in, const mlr
             p->layers = p->own_layers;
         }
     }
+    p->ends[0] = p->ends[1] = 0;
+    if (s >= 0) { /* the end runs that the layers left out as outliers of the translation */
+        const double *body = body_translation(p, m, p->body_joint);
+        if (!body)
+            s = MLR_E_NO_MEMORY;
+        else
+            layers__end_runs(n, body, p->ends);
+        const unsigned char *fl = p->layers->outliers; /* n x (1 + J), the translation first */
+        for (size_t i = 0; i < p->ends[0]; i++)
+            if (!fl[i * (1 + J)])
+                p->ends[0] = 0;
+        for (size_t i = n - p->ends[1]; i < n; i++)
+            if (!fl[i * (1 + J)])
+                p->ends[1] = 0;
+    }
     if (s >= 0 && p->guards)
         s = make_guards(p, m, &rig, &up_used, note, diag);
     if (s < 0) {
@@ -868,6 +885,20 @@ mlr_status mlr_pipeline_synthesize(mlr_pipeline *p, mlr_motion **out, mlr_diag *
                                    &rep, diag);
         if (s < 0)
             return mlr_diag_prefix(diag, s, "mlr_pipeline_synthesize");
+    }
+
+    /* the runs at the clip's ends that the robust decomposition left out (a converter's T-pose
+       frame before the capture): passed through as they are, since no pose of the motion is
+       known there (extrapolated, the bridge put a walk's toes 1% of body height under the
+       floor; the T-pose's standing legs under the bridged root, 29%) */
+    for (int e = 0; e < 2; e++) {
+        const size_t lo = e ? N - p->ends[1] : 0, hi = e ? N : p->ends[0];
+        for (size_t i = lo; i < hi; i++) {
+            memcpy(root + 3 * i, mlr_motion_root_pos(m) + 3 * i, 3 * sizeof(double));
+            memcpy(rot + 4 * J * i, mlr_motion_rot(m) + 4 * J * i, 4 * J * sizeof(double));
+            if (P)
+                memcpy(trans + 3 * P * i, mlr_motion_trans(m) + 3 * P * i, 3 * P * sizeof(double));
+        }
     }
 
     /* the result, in the caller's motion when it is large enough */

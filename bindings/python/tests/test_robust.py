@@ -179,3 +179,33 @@ def test_smaller_flips_are_found_at_30_fps(lafan, angle):
     out = mlayer.decompose(m.with_frames(rot=rot)).outliers
     assert sorted(np.flatnonzero(out[:, 1 + j])) == [at, at + 1, at + 2]
     assert out.sum() == 3
+
+
+def _with_lead_in(m, shift):
+    """m with a converter's lead-in frame before it: the rest pose (every rotation the
+    identity) with the root `shift` away from the capture's first frame."""
+    root = np.concatenate([m.root_pos[:1] + shift, m.root_pos])
+    rot = np.concatenate([np.tile([1.0, 0.0, 0.0, 0.0], (1, m.n_joints, 1)), m.rot])
+    trans = np.concatenate([m.trans[:1], m.trans])
+    return m.with_frames(root_pos=root, rot=rot, trans=trans)
+
+
+@pytest.mark.parametrize("name", ["cmu_131_01_mj_style_walk.bvh", "lafan1_clip_a.bvh"])
+def test_a_lead_in_frame_is_passed_through(mocap, name):
+    """A rest-pose frame before the capture, its root elsewhere (Axis Neuron's exports start
+    so): the robust translation dropped its root, the joints kept the rest pose, and the
+    standing legs under the capture's root put the feet 29% of body height under the floor
+    (AnyBody's sit-to-stand). The frame is now left out of the layers for every joint that
+    jumps there and passed through as it is; the capture after it is denoised as without it."""
+    m = mlayer.read_bvh(mocap / name)[:600]
+    h = metrics.body_height(m)
+    led = _with_lead_in(m, np.array([0.5 * h, 0.0, 0.3 * h]))
+    den, plain = mlayer.denoise(led), mlayer.denoise(m)
+    np.testing.assert_array_equal(den.root_pos[0], led.root_pos[0])
+    np.testing.assert_array_equal(den.rot[0], led.rot[0])
+    err = np.linalg.norm(den.positions()[1:] - plain.positions(), axis=-1).max(axis=1) / h
+    w = int(math.ceil(0.5 * m.fps))
+    assert err[w:].max() < 0.0025
+    sty = mlayer.stylize(led, 2.0)
+    np.testing.assert_array_equal(sty.rot[0], led.rot[0])
+    assert list(mlayer.decompose(led).outlier_frames)[:1] == [0]
