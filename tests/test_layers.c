@@ -302,16 +302,18 @@ START_TEST(alpha_zero_is_base_and_one_is_denoised)
 END_TEST
 
 /* The base of the root translation is the LGS of joint 0's s; the control layer of the root
- * is the LGS of u0 = control + residual at the reported control s. */
+ * is the LGS of u0 = control + residual at the reported control s. (Without the robust search:
+ * a frame it leaves out, such as CMU 10_01's lead-in, weighs 0 in those LGS.) */
 START_TEST(root_layers_match_lgs)
 {
     clip clips[16];
     size_t nc = load_clips(clips, 16);
+    const mlr_layers_option plain[] = {{MLR_LAYERS_OPT_ROBUST, 0}};
     for (size_t ci = 0; ci < nc; ci++) {
         const clip *c = &clips[ci];
         const size_t n = c->n, j = c->j, ng = 3 * n * (1 + j), ld = 3 * (1 + j);
         mlr_layers *L = NULL;
-        ck_assert_int_eq(mlr_layers_decompose(n, j, c->pos, c->rot, NULL, 0, NULL, &L, NULL),
+        ck_assert_int_eq(mlr_layers_decompose(n, j, c->pos, c->rot, plain, 1, NULL, &L, NULL),
                          MLR_OK);
         double *bs = malloc((1 + j) * sizeof *bs), *cs = malloc((1 + j) * sizeof *cs);
         double *bp = malloc(3 * n * sizeof *bp), *x = malloc(3 * n * sizeof *x);
@@ -1275,6 +1277,62 @@ START_TEST(robust_without_outliers_is_plain)
 }
 END_TEST
 
+/* A converter's lead-in (the first frame a pose 90 degrees from the next, with the body 0.5 body heights away) is
+ * a run at the start: an outlier of every group, reported by mlr_layers_get_end_runs; the clean
+ * clip and the search switched off report none. */
+START_TEST(robust_lead_in_is_an_end_run)
+{
+    const size_t n = 300, j = 3, ng = 1 + j;
+    double *pos = malloc(3 * n * sizeof *pos), *rot = malloc(4 * n * j * sizeof *rot);
+    unsigned char *fl = malloc(n * ng);
+    synthetic_big(n, 30.0, pos, rot, 7);
+    const mlr_layers_option on[2] = {{MLR_LAYERS_OPT_ROBUST, 1.0},
+                                     {MLR_LAYERS_OPT_BODY_HEIGHT, 100.0}};
+    const mlr_layers_option off = {MLR_LAYERS_OPT_ROBUST, 0.0};
+    mlr_layers *C = NULL, *L = NULL, *P = NULL;
+    ck_assert_int_eq(mlr_layers_decompose(n, j, pos, rot, on, 2, NULL, &C, NULL), MLR_OK);
+    pos[0] += 50.0, pos[2] -= 30.0;
+    for (size_t k = 0; k < j; k++) {
+        double *q = rot + 4 * k; /* a rest pose 90 degrees away */
+        const double *r = rot + 4 * (j + k);
+        const double h = sqrt(0.5);
+        q[0] = h * (r[0] - r[1]), q[1] = h * (r[1] + r[0]), q[2] = h * (r[2] + r[3]),
+        q[3] = h * (r[3] - r[2]);
+    }
+    ck_assert_int_eq(mlr_layers_decompose(n, j, pos, rot, on, 2, NULL, &L, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_layers_decompose(n, j, pos, rot, &off, 1, NULL, &P, NULL), MLR_OK);
+    size_t head = 9, tail = 9;
+    ck_assert_int_eq(mlr_layers_get_end_runs(L, &head, &tail), MLR_OK);
+    ck_assert_uint_eq(head, 1);
+    ck_assert_uint_eq(tail, 0);
+    ck_assert_int_eq(mlr_layers_get_outliers(L, fl, n * ng), MLR_OK);
+    ck_assert_msg(fl[0] == 1, "the translation's lead-in frame is not an outlier");
+    size_t jumped = 0; /* the joints whose step out of the lead-in is 10 times their next */
+    for (size_t k = 0; k < j; k++) {
+        double st[4];
+        for (size_t i = 1; i <= 4; i++) {
+            const double *a = rot + 4 * ((i - 1) * j + k), *b = rot + 4 * (i * j + k);
+            const double c = fabs(a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]);
+            st[i - 1] = 2.0 * acos(fmin(c, 1.0));
+        }
+        if (st[0] > 10.0 * fmax(st[1], fmax(st[2], st[3]))) {
+            ck_assert_msg(fl[1 + k] == 1, "joint %zu: the lead-in frame is not an outlier", k);
+            jumped++;
+        }
+    }
+    ck_assert_uint_ge(jumped, 1);
+    ck_assert_int_eq(mlr_layers_get_end_runs(C, &head, &tail), MLR_OK);
+    ck_assert_uint_eq(head + tail, 0);
+    ck_assert_int_eq(mlr_layers_get_end_runs(P, &head, &tail), MLR_OK);
+    ck_assert_uint_eq(head + tail, 0);
+    ck_assert_int_eq(mlr_layers_get_end_runs(NULL, &head, &tail), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_layers_get_end_runs(L, NULL, &tail), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_layers_get_end_runs(L, &head, NULL), MLR_E_INVALID_ARG);
+    free(fl), free(pos), free(rot);
+    mlr_layers_destroy(C), mlr_layers_destroy(L), mlr_layers_destroy(P);
+}
+END_TEST
+
 /* A glitch (in the middle, then at the start) is found in every group, exactly its frames; the
  * base translation at a fixed s is the dense weighted LGS with those frames at weight 0 (a
  * 1000-height glitch weighs 0); the layers identity still holds; and the denoised motion more
@@ -1600,6 +1658,7 @@ static Suite *layers_suite(void)
     tcase_add_test(num, body_joint_sets_the_translation_s);
     tcase_add_test(num, robust_without_outliers_is_plain);
     tcase_add_test(num, robust_glitch_is_found_and_local);
+    tcase_add_test(num, robust_lead_in_is_an_end_run);
     tcase_add_test(num, robust_joint_flips_any_fps);
     tcase_add_test(num, repair_replaces_the_outlier_frames);
     suite_add_tcase(s, num);

@@ -287,6 +287,7 @@ mlr_status mlr_layers_decompose(size_t n_frames, size_t n_joints, const double *
     L->param = d, d += z.param;
     L->outliers = (unsigned char *)(void *)d;
     memset(L->outliers, 0, z.flags);
+    L->end_runs[0] = L->end_runs[1] = 0;
 
     double *q = scratch, *fac = q + z.q, *comp = fac + z.fac, *work = comp + z.comp;
     size_t *col = (size_t *)(void *)(work + z.work);
@@ -346,6 +347,15 @@ mlr_status mlr_layers_get_outliers(const mlr_layers *L, unsigned char *out, size
     if (!L || !out || count != L->n * (1 + L->j))
         return MLR_E_INVALID_ARG;
     memcpy(out, L->outliers, count);
+    return MLR_OK;
+}
+
+mlr_status mlr_layers_get_end_runs(const mlr_layers *L, size_t *head, size_t *tail)
+{
+    if (!L || !head || !tail)
+        return MLR_E_INVALID_ARG;
+    *head = L->end_runs[0];
+    *tail = L->end_runs[1];
     return MLR_OK;
 }
 

@@ -21,21 +21,22 @@ struct mlr_layers {
     double *residual;    /* n x (1 + j) x 3 */
     double *param;       /* MLR_LAYERS_N_PARAM x (1 + j), param[which * (1 + j) + g] */
     unsigned char *outliers; /* n x (1 + j): 1 where a frame of a group was down-weighted */
+    size_t end_runs[2]; /* layers__end_runs' runs, made outliers (0 when none or not robust) */
 };
 
 /* Settings of one decomposition, validated. */
 typedef struct mlr_layers_cfg {
     double gamma;
-    double base_s;              /* > 0: fixed base s for every group; 0: heuristic */
-    double control_s;           /* > 0: fixed control s; 0: GCV */
+    double base_s; /* > 0: fixed base s for every group; 0: heuristic */
+    double control_s; /* > 0: fixed control s; 0: GCV */
     double base_s_min, base_s_max;
     double control_s_min, control_s_max;
-    size_t body_joint;          /* the joint whose base s the translation group takes */
-    int robust;                 /* find and down-weight outlier frames (layers_robust.c) */
-    double robust_s;            /* s of the detection smoother */
-    double robust_angle;        /* gate of the joints' residual angle, radians */
-    double robust_length;       /* gate of the translation residual; 0: relative to its median */
-    size_t robust_window;       /* frames a realignment looks back over */
+    size_t body_joint; /* the joint whose base s the translation group takes */
+    int robust; /* find and down-weight outlier frames (layers_robust.c) */
+    double robust_s; /* s of the detection smoother */
+    double robust_angle; /* gate of the joints' residual angle, radians */
+    double robust_length; /* gate of the translation residual; 0: relative to its median */
+    size_t robust_window; /* frames a realignment looks back over */
 } mlr_layers_cfg;
 
 /* Observation weights of a robust decomposition: w (n x (1 + j), group g of frame i at
@@ -69,7 +70,8 @@ mlr_status mlr_layers_robust_weights(mlr_layers *L, const mlr_layers_cfg *cfg, d
  * leaves (or enters) by a step more than 10 times every step inside the run and in the 3 steps
  * beyond it, with at least 8 frames left outside the runs: a converter's T-pose frame before
  * the capture. The robust decomposition makes these frames outliers for the translation and for
- * every joint that jumps there too (layers_robust.c); the pipeline passes them through. */
+ * every joint that jumps there too (layers_robust.c; mlr_layers_get_end_runs reports them); the
+ * pipeline passes them through. */
 void layers__end_runs(size_t n, const double *p, size_t ends[2]);
 
 /*

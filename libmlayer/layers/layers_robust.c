@@ -442,6 +442,7 @@ mlr_status mlr_layers_robust_weights(mlr_layers *L, const mlr_layers_cfg *cfg, d
         rb->w[i] = 1.0;
     double *s = work, *gate = work + j, *buf = work + 2 * j;
     size_t ends[2] = {0, 0};
+    L->end_runs[0] = L->end_runs[1] = 0;
     if (root_pos) { /* the translation's end runs are its outliers from the first fit on */
         layers__end_runs(n, root_pos, ends);
         for (size_t i = 0; i < ends[0]; i++)
@@ -467,6 +468,13 @@ mlr_status mlr_layers_robust_weights(mlr_layers *L, const mlr_layers_cfg *cfg, d
                       diag);
         if (rc != MLR_OK)
             return rc;
+    }
+    for (int e = 0; e < 2; e++) { /* kept where the translation's fits kept them outliers */
+        const size_t lo = e ? n - ends[1] : 0, hi = e ? n : ends[0];
+        int all = hi > lo;
+        for (size_t i = lo; i < hi && all; i++)
+            all = L->outliers[i * ng] != 0;
+        L->end_runs[e] = all ? hi - lo : 0;
     }
     *any = any_j || any_r;
     return MLR_OK;

@@ -3,7 +3,6 @@
 #include "pipeline/pipeline_internal.h"
 
 #include "motion/bvh_internal.h"
-#include "layers/layers_internal.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -43,7 +42,7 @@ struct mlr_pipeline {
     int up_used;
     int32_t body_joint;
     size_t trimmed;
-    size_t ends[2]; /* the runs at the clip's ends passed through (layers__end_runs) */
+    size_t ends[2]; /* the runs at the clip's ends passed through (mlr_layers_get_end_runs) */
     double height_used;
 
     /* kept buffers */
@@ -754,20 +753,8 @@ mlr_status mlr_pipeline_prepare(mlr_pipeline *p, const mlr_motion *in, const mlr
         }
     }
     p->ends[0] = p->ends[1] = 0;
-    if (s >= 0) { /* the end runs that the layers left out as outliers of the translation */
-        const double *body = body_translation(p, m, p->body_joint);
-        if (!body)
-            s = MLR_E_NO_MEMORY;
-        else
-            layers__end_runs(n, body, p->ends);
-        const unsigned char *fl = p->layers->outliers; /* n x (1 + J), the translation first */
-        for (size_t i = 0; i < p->ends[0]; i++)
-            if (!fl[i * (1 + J)])
-                p->ends[0] = 0;
-        for (size_t i = n - p->ends[1]; i < n; i++)
-            if (!fl[i * (1 + J)])
-                p->ends[1] = 0;
-    }
+    if (s >= 0) /* the end runs that the layers left out (mlr_layers_get_end_runs) */
+        mlr_layers_get_end_runs(p->layers, &p->ends[0], &p->ends[1]);
     if (s >= 0 && p->guards)
         s = make_guards(p, m, &rig, &up_used, note, diag);
     if (s < 0) {
