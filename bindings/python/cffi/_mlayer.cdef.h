@@ -577,6 +577,7 @@ mlr_status mlr_bvh_read_file_opts(const char *path, size_t n_threads,
 
 /* Robust layers (issue 20) */
 mlr_status mlr_layers_get_outliers(const mlr_layers *layers, unsigned char *out, size_t count);
+mlr_status mlr_layers_get_end_runs(const mlr_layers *layers, size_t *head, size_t *tail);
 mlr_status mlr_layers_repair(const mlr_layers *layers, size_t begin, size_t count,
                              double *root_pos, size_t n_root_pos, double *rot, size_t n_rot,
                              size_t *n_repaired, mlr_diag *diag);

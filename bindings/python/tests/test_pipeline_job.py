@@ -102,6 +102,11 @@ def _reference(m, alpha, joints=None):
                                      _arrays.ptr_out(r), _arrays.ptr_out(q),
                                      _arrays.ptr_out(tr) if tr.size else ffi.NULL, ffi.NULL, 0,
                                      ffi.NULL, diag), "guards apply", diag)
+    # the runs at the ends that the layers left out, as they are
+    head, tail = ffi.new("size_t *"), ffi.new("size_t *")
+    check(lib.mlr_layers_get_end_runs(L, head, tail), "end runs")
+    for sl in (slice(0, head[0]), slice(N - tail[0], N)):
+        r[sl], q[sl], tr[sl] = root[sl], rot[sl], trans[sl]
     del keep
     return r, q, tr, h
 
