@@ -92,7 +92,7 @@ mlr_status mlr_cleanup_contacts_ref(
 #define CLEANUP_FLOOR_SLACK 0.005
 #endif
 
-enum { CLEANUP_MAX_BLOCKS = 48 };
+enum { CLEANUP_MAX_BLOCKS = 64 };
 
 /* The scratch of one call: up to CLEANUP_MAX_BLOCKS blocks, released together; the first
    failure kept in st (later takes then return NULL). */

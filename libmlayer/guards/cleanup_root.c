@@ -1,10 +1,26 @@
 /*
  * The contact cleanup's root shift: where a leg cannot reach its target, or would fold its
  * knee past MAX_FOLD, the root moves by the need, widened and smoothed.
+ *
+ * The vertical part of the first round's needs, up to ROOT_BOB_CAP leg lengths, is widened and
+ * smoothed over +-ROOT_BOB_HALF_S (a gait cycle) instead of +-0.1 s: at alpha 0.5 a walk's
+ * pelvis, its bob halved, stands higher than the input's in double support, where the planted
+ * legs cannot reach, and a shift that local put the bob back (Xia's walk: 1.89 alpha, where
+ * the synthesis has 1.00); at alpha 3 it took the bob out at its peaks (CMU 02_03's run: 0.69
+ * alpha). Over a gait cycle the body stands lower or higher as a whole and keeps its bob. A
+ * lowering that long must not take the body through the floor (it put jumps' hands and
+ * dogs' tails under it): the long part's lowering at a frame is at most the least height above
+ * the floor of every joint and End Site off the feet, over +-2 ROOT_BOB_HALF_S. The rest of a
+ * need, and every later round's, takes the short way.
  */
 #include "guards/cleanup_internal.h"
 
 #include <math.h>
+
+#include "mlayer/mlr_fk.h"
+
+#define ROOT_BOB_HALF_S 0.5 /* seconds */
+#define ROOT_BOB_CAP 0.1    /* leg lengths */
 
 /* The root shift each frame needs (with the shift so far): where a leg cannot reach its
    contact target, or would fold its knee past MAX_FOLD to reach it or the floor. 1 when some
@@ -165,15 +181,98 @@ mlr_status cleanup__shift_root(cleanup_state *cu, cleanup_arena *ar, mlr_cleanup
         wtab[i] = 0.5 * (1.0 + cos(3.14159265358979323846 * x));
     }
     uint8_t *redo = cleanup__take(ar, N, 1);
+    /* the vertical part of the needs, over a gait cycle */
+    const size_t vhalf = (size_t)mlr_fmax((double)half, round(ROOT_BOB_HALF_S * fps));
+    double *vtab = cleanup__take(ar, 2 * vhalf + 1, sizeof(double));
+    double *vneed = cleanup__take(ar, N * 3, sizeof(double));
+    double *vsh = cleanup__take(ar, N * 3, sizeof(double));
     if (ar->st != MLR_OK)
         return ar->st;
+    for (size_t i = 0; i <= 2 * vhalf; i++) {
+        const double x = ((double)i - (double)vhalf) / (double)(vhalf + 1);
+        vtab[i] = 0.5 * (1.0 + cos(3.14159265358979323846 * x));
+    }
     const double cos_fold = cos(cu->cfg->max_fold);
+    double leg = 0.0;
+    for (size_t k = 0; k < cu->nf; k++)
+        if (cu->feet[k].active)
+            leg = mlr_fmax(leg, cu->feet[k].leg);
+    const double vcap = ROOT_BOB_CAP * leg;
+    /* how far the body may go down over a gait cycle: the least height above the floor of
+       the joints that are not on a foot (at or below an active foot's anchor), its minimum over +-2 vhalf frames (the shift at a frame averages needs from that far) */
+    double *room = NULL;
+    if (vcap > 0.0) {
+        const size_t J = cu->J;
+        room = cleanup__take(ar, N, sizeof(double));
+        double *wp = cleanup__take(ar, N * J * 3, sizeof(double));
+        double *wr = cleanup__take(ar, N * J * 4, sizeof(double));
+        uint8_t *onfoot = cleanup__take(ar, J, 1);
+        if (ar->st != MLR_OK)
+            return ar->st;
+        for (size_t k = 0; k < cu->nf; k++)
+            if (cu->feet[k].active)
+                onfoot[cu->feet[k].anchor] = 1;
+        for (size_t j = 1; j < J; j++)
+            if (onfoot[cu->rig->parents[j]])
+                onfoot[j] = 1;
+        const mlr_rig *rig = cu->rig;
+        if (!cu->floor_active || mlr_fk_arrays(N, J, rig->parents, rig->offsets, out_root_pos,
+                                               cu->out_rot, rig->n_trans, rig->trans_joints,
+                                               cu->trans, wp, wr, ar->a, NULL) != MLR_OK) {
+            for (size_t f = 0; f < N; f++)
+                room[f] = cu->floor_active ? 0.0 : INFINITY;
+        } else {
+            for (size_t f = 0; f < N; f++) {
+                double c = INFINITY;
+                for (size_t j = 0; j < J; j++)
+                    if (!onfoot[j])
+                        c = mlr_fmin(c, wp[3 * (f * J + j) + (size_t)cu->up] - cu->floor_h);
+                for (size_t e = 0; e < rig->n_end_sites; e++) { /* and their End Sites */
+                    const size_t j = (size_t)rig->end_site_parents[e];
+                    if (onfoot[j])
+                        continue;
+                    double v[3];
+                    mlr_quat_rotate_inline((const mlr_quat *)(wr + 4 * (f * J + j)),
+                                           rig->end_site_offsets + 3 * e, v);
+                    c = mlr_fmin(c,
+                                 wp[3 * (f * J + j) + (size_t)cu->up] + v[cu->up] - cu->floor_h);
+                }
+                wp[f] = mlr_fmax(c, 0.0); /* (wp's first N doubles: no longer read) */
+            }
+            const size_t w2 = 2 * vhalf;
+            for (size_t f = 0; f < N; f++) {
+                const size_t lo = f > w2 ? f - w2 : 0, hi = f + w2 < N ? f + w2 : N - 1;
+                double c = INFINITY;
+                for (size_t g = lo; g <= hi; g++)
+                    c = mlr_fmin(c, wp[g]);
+                room[f] = c;
+            }
+        }
+    }
     for (int it = 0; it < 5; it++) {
         if (!root_needs(cu, cos_fold, need, it ? ysh : NULL, redo))
             break;
         /* widen each need to +-0.1 s (the largest need there), then blend and smooth */
+        const int up = cu->up;
+        for (size_t f = 0; f < N; f++) {
+            for (int d = 0; d < 3; d++)
+                vneed[3 * f + (size_t)d] = 0.0;
+            const double v = need[3 * f + (size_t)up];
+            /* the first round only; then what is left goes the short way */
+            const double down = it == 0 && room ? mlr_fmin(vcap, room[f]) : 0.0;
+            const double upw = it == 0 ? vcap : 0.0;
+            const double small = mlr_fmax(-down, mlr_fmin(upw, v));
+            vneed[3 * f + (size_t)up] = small;
+            need[3 * f + (size_t)up] = v - small;
+        }
         widen_needs(N, half, need, n2s, dq, wide, nmask);
         smooth_needs(N, half, wtab, wide, nmask, ysh);
+        widen_needs(N, vhalf, vneed, n2s, dq, wide, nmask);
+        smooth_needs(N, vhalf, vtab, wide, nmask, vsh);
+        for (size_t f = 0; f < N; f++) {
+            ysh[3 * f + (size_t)up] += vsh[3 * f + (size_t)up];
+            need[3 * f + (size_t)up] += vneed[3 * f + (size_t)up];
+        }
         for (size_t i = 0; i < 3 * N; i++)
             shift[i] += ysh[i];
     }
