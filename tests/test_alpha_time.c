@@ -36,7 +36,8 @@ START_TEST(keys_follow_the_smoothstep)
     double k3[] = {2.5 - 2 * h, 2.5 - h, 2.5, 2.5 + h, 2.5 + 2 * h}, w[5];
     ck_assert_int_eq(mlr_alpha_keys_eval(t, a, 3, k3, 5, w, NULL), MLR_OK);
     for (int s = -1; s <= 1; s += 2) {
-        const double d1 = (w[2 + s] - w[2]) / h, d2 = (w[2 + 2 * s] - 2 * w[2 + s] + w[2]) / (h * h);
+        const double d1 = (w[2 + s] - w[2]) / h,
+                     d2 = (w[2 + 2 * s] - 2 * w[2 + s] + w[2]) / (h * h);
         ck_assert_double_le(fabs(d1), 1e-4);
         ck_assert_double_le(fabs(d2), 0.2); /* the second derivative is O(h) near the key */
     }
@@ -81,8 +82,8 @@ END_TEST
 /* A wobbling chain: a control layer that is not zero. */
 static mlr_motion *chain(size_t n_frames, size_t J)
 {
-    const char *names[8] = {"Hips", "LeftUpLeg", "LeftLeg", "LeftFoot",
-                            "RightUpLeg", "RightLeg", "RightFoot", "Spine"};
+    const char *names[8] = {"Hips",       "LeftUpLeg", "LeftLeg",   "LeftFoot",
+                            "RightUpLeg", "RightLeg",  "RightFoot", "Spine"};
     int32_t parents[8] = {-1, 0, 1, 2, 0, 4, 5, 0};
     double offsets[24] = {0};
     for (size_t j = 1; j < J; j++)
@@ -100,7 +101,8 @@ static mlr_motion *chain(size_t n_frames, size_t J)
         root[3 * i + 2] = 0.01 * mlr_test_rng_normal(&r);
         for (size_t j = 0; j < J; j++) {
             double *q = rot + 4 * (J * i + j);
-            const double a = 0.4 * sin(0.3 * (double)i + (double)j) + 0.02 * mlr_test_rng_normal(&r);
+            const double a =
+                0.4 * sin(0.3 * (double)i + (double)j) + 0.02 * mlr_test_rng_normal(&r);
             const double b = 0.2 * cos(0.2 * (double)i + 2.0 * (double)j);
             q[0] = cos(a) * cos(b), q[1] = sin(a) * cos(b), q[2] = cos(a) * sin(b),
             q[3] = sin(a) * sin(b);
@@ -114,8 +116,8 @@ START_TEST(frames_synthesis_is_the_synthesis_per_frame)
     const size_t N = 90, J = 8, G = 1 + J;
     mlr_motion *m = chain(N, J);
     mlr_layers *L = NULL;
-    ck_assert_int_eq(mlr_layers_decompose(N, J, mlr_motion_root_pos(m), mlr_motion_rot(m), NULL,
-                                          0, NULL, &L, NULL),
+    ck_assert_int_eq(mlr_layers_decompose(N, J, mlr_motion_root_pos(m), mlr_motion_rot(m), NULL, 0,
+                                          NULL, &L, NULL),
                      MLR_OK);
     double *alpha = malloc(N * G * sizeof(double));
     double *r1 = malloc(3 * N * sizeof(double)), *q1 = malloc(4 * N * J * sizeof(double));
@@ -127,20 +129,18 @@ START_TEST(frames_synthesis_is_the_synthesis_per_frame)
         alpha[k] = -1.0 + 4.0 * mlr_test_rng_uniform(&rng);
     /* frames 10..69, a row per frame: each frame is the synthesis at its own alphas */
     const size_t b = 10, c = 60;
-    ck_assert_int_eq(mlr_layers_synthesize_frames(L, b, c, alpha, c * G, r1, 3 * c, q1,
-                                                  4 * J * c, NULL),
-                     MLR_OK);
+    ck_assert_int_eq(
+        mlr_layers_synthesize_frames(L, b, c, alpha, c * G, r1, 3 * c, q1, 4 * J * c, NULL),
+        MLR_OK);
     for (size_t f = 0; f < c; f++) {
-        ck_assert_int_eq(mlr_layers_synthesize(L, b + f, 1, alpha + f * G, G, r2, 3, q2, 4 * J,
-                                               NULL),
-                         MLR_OK);
+        ck_assert_int_eq(
+            mlr_layers_synthesize(L, b + f, 1, alpha + f * G, G, r2, 3, q2, 4 * J, NULL), MLR_OK);
         ck_assert_mem_eq(r1 + 3 * f, r2, 3 * sizeof(double));
         ck_assert_mem_eq(q1 + 4 * J * f, q2, 4 * J * sizeof(double));
     }
     /* one alpha per frame for every group */
-    ck_assert_int_eq(mlr_layers_synthesize_frames(L, b, c, alpha, c, r1, 3 * c, q1, 4 * J * c,
-                                                  NULL),
-                     MLR_OK);
+    ck_assert_int_eq(
+        mlr_layers_synthesize_frames(L, b, c, alpha, c, r1, 3 * c, q1, 4 * J * c, NULL), MLR_OK);
     for (size_t f = 0; f < c; f++) {
         ck_assert_int_eq(mlr_layers_synthesize(L, b + f, 1, alpha + f, 1, r2, 3, q2, 4 * J, NULL),
                          MLR_OK);
@@ -150,9 +150,9 @@ START_TEST(frames_synthesis_is_the_synthesis_per_frame)
     /* the same row at every frame: the constant synthesis, bit for bit */
     for (size_t f = 1; f < N; f++)
         memcpy(alpha + f * G, alpha, G * sizeof(double));
-    ck_assert_int_eq(mlr_layers_synthesize_frames(L, 0, N, alpha, N * G, r1, 3 * N, q1, 4 * J * N,
-                                                  NULL),
-                     MLR_OK);
+    ck_assert_int_eq(
+        mlr_layers_synthesize_frames(L, 0, N, alpha, N * G, r1, 3 * N, q1, 4 * J * N, NULL),
+        MLR_OK);
     ck_assert_int_eq(mlr_layers_synthesize(L, 0, N, alpha, G, r2, 3 * N, q2, 4 * J * N, NULL),
                      MLR_OK);
     ck_assert_mem_eq(r1, r2, 3 * N * sizeof(double));
@@ -160,12 +160,12 @@ START_TEST(frames_synthesis_is_the_synthesis_per_frame)
     /* refused: wrong count, NaN (naming frame and group), range; nothing written */
     mlr_diag d = {0};
     memset(r1, 0, 3 * N * sizeof(double));
-    ck_assert_int_eq(mlr_layers_synthesize_frames(L, 0, N, alpha, N * G - 1, r1, 3 * N, q1,
-                                                  4 * J * N, &d),
-                     MLR_E_INVALID_ARG);
+    ck_assert_int_eq(
+        mlr_layers_synthesize_frames(L, 0, N, alpha, N * G - 1, r1, 3 * N, q1, 4 * J * N, &d),
+        MLR_E_INVALID_ARG);
     alpha[5 * G + 3] = NAN;
-    ck_assert_int_eq(mlr_layers_synthesize_frames(L, 2, N - 2, alpha, (N - 2) * G, r1,
-                                                  3 * (N - 2), NULL, 0, &d),
+    ck_assert_int_eq(mlr_layers_synthesize_frames(L, 2, N - 2, alpha, (N - 2) * G, r1, 3 * (N - 2),
+                                                  NULL, 0, &d),
                      MLR_E_INVALID_ARG);
     ck_assert_ptr_nonnull(strstr(d.message, "frame 7, group 3"));
     ck_assert_int_eq(mlr_layers_synthesize_frames(L, 1, N, alpha, N, r1, 3 * N, NULL, 0, &d),

@@ -10,17 +10,17 @@ mlr_status mlr_alpha_keys_check(const double *times, const double *values, size_
                                 mlr_diag *diag)
 {
     if (n_keys == 0 || !times || !values)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "alpha keys: %s", n_keys == 0 ? "no keys (give at least one)"
-                                                          : "times or values is NULL");
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "alpha keys: %s",
+                            n_keys == 0 ? "no keys (give at least one)"
+                                        : "times or values is NULL");
     for (size_t k = 0; k < n_keys; k++) {
         if (!isfinite(times[k]))
             return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                                 "alpha keys: the time of key %zu is not finite (%g)", k, times[k]);
         if (!isfinite(values[k]))
             return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "alpha keys: the alpha of key %zu (at %g s) is not finite (%g)",
-                                k, times[k], values[k]);
+                                "alpha keys: the alpha of key %zu (at %g s) is not finite (%g)", k,
+                                times[k], values[k]);
         if (k && !(times[k] > times[k - 1]))
             return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                                 "alpha keys: times must increase: key %zu at %g s is not after "

@@ -110,6 +110,8 @@ def test_parse_params_defaults_and_values():
     p = parse_params("clip=2&alpha=2.5&arms=0&denoise=false&contacts=1&fps=60&warp=1.5", keys)
     assert (p["clip"], p["alpha"], p["arms"], p["denoise"], p["contacts"], p["fps"],
             p["warp"]) == (2, 2.5, 0.0, False, True, 60.0, 1.5)
+    assert p["keys"] is None and parse_params("keys=", keys)["keys"] is None
+    assert parse_params("keys=0%3A1%2C%202.5%3A3", keys)["keys"] == "0:1,2.5:3"
 
 
 @pytest.mark.parametrize("query, words", [
@@ -120,6 +122,10 @@ def test_parse_params_defaults_and_values():
     ("clip=..%2F..%2Fetc%2Fpasswd", "non-negative integer"), ("clip=%2Fetc%2Fpasswd", "integer"),
     ("path=/etc/passwd", "unknown parameter 'path'"), ("alpha=1&alpha=2", "twice"),
     ("alpha", "malformed"),
+    ("keys=0:1,2", "keys: alpha keys: key 1 '2' is not TIME:ALPHA"),
+    ("keys=0:1,0:2", "times must increase"), ("keys=0:1,1:5", "alpha of key 1 must be in [0, 4]"),
+    ("keys=-1:1", "time of key 0 must be in [0, 36000]"), ("keys=0:nan", "alpha of key 0"),
+    ("keys=" + ",".join(f"{k}:1" for k in range(65)), "at most 64 keys"),
 ])
 def test_parse_params_rejects(query, words):
     with pytest.raises(ParamError) as e:
