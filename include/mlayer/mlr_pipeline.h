@@ -47,7 +47,9 @@
  * joint's max |alpha| (human published ranges never widen), so at frames where a curve is
  * below its peak the range is that of the peak: the limits never cut a frame that the peak's
  * constant alpha would keep, and a frame whose alpha is lower moves less far anyway; the
- * contacts follow the input smoothed unless every alpha is 1 at every frame (a denoise).
+ * contacts follow the input smoothed unless every alpha is 1 at every frame (a denoise: a
+ * curve whose peak is 1 but that is not 1 everywhere goes to the guards as the double just
+ * below 1, which the limits read as 1 and the guards do not take for a denoise).
  * Keys all equal give the constant alpha's motion bit for bit, guards included.
  *
  * What stays in Python (mlayer.pipeline): the GuardReport's joint names (from

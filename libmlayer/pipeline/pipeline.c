@@ -890,8 +890,8 @@ static mlr_status alphas_of(const mlr_pipeline *p, const mlr_motion *m, double *
 /* The alphas over time (src from alphas_of, some group with a curve): N x (1 + J) in
    p->alpha_rows, frame i at i frame_time seconds. a[g] becomes what the guards take for group
    g: its alpha of largest magnitude over the clip (the first such frame's; the constant of a
-   group without a curve), so that they run as for that constant alpha (see "Alpha over time"
-   in mlr_pipeline.h). */
+   group without a curve; just below 1 for a peak of 1 that is not 1 everywhere), so that
+   they run as for that constant alpha (see "Alpha over time" in mlr_pipeline.h). */
 static mlr_status alphas_over_time(mlr_pipeline *p, const mlr_motion *m, double *a, size_t *src,
                                    mlr_diag *diag)
 {
@@ -929,9 +929,14 @@ static mlr_status alphas_over_time(mlr_pipeline *p, const mlr_motion *m, double 
         if (s < 0)
             return s;
         double peak = col[0];
+        int ones = 1;
         for (size_t i = 1; i < N; i++)
             if (fabs(col[i]) > fabs(peak))
                 peak = col[i];
+        for (size_t i = 0; i < N; i++)
+            ones &= col[i] == 1.0;
+        if (peak == 1.0 && !ones) /* not a denoise for the guards; the limits read it as 1 */
+            peak = nextafter(1.0, 0.0);
         for (size_t h = g; h <= J; h++) /* every group of this curve, once */
             if (src[h] == which) {
                 for (size_t i = 0; i < N; i++)

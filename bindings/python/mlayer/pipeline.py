@@ -372,8 +372,7 @@ class Synthesis(ReadOnlyAttributes):
         if has_curve(alpha, joints):
             # (the arguments' Python forms checked here; the guards take each group's peak)
             rows = L.alphas_over_time(alpha, joints, root_alpha)
-            a = rows[np.argmax(np.abs(rows), axis=0), np.arange(rows.shape[1])] \
-                if rows.shape[0] else np.ones(rows.shape[1])
+            a = guard_alphas(rows)
             alpha_c: float | AlphaCurve = as_alpha(alpha, "alpha")
             joints_c: dict[str, float | AlphaCurve] | None = {
                 p: as_alpha(v, f"alpha of {p!r}") for p, v in (joints or {}).items()}
@@ -402,6 +401,30 @@ class Synthesis(ReadOnlyAttributes):
             limits_applied=bool(rep.limits_applied), contact_frames=int(rep.contact_frames),
             floor_frames=int(rep.floor_frames), floor_height=float(rep.floor_height),
             root_shift_max=float(rep.root_shift_max), floor_raised=int(rep.floor_raised))
+
+
+def guard_alphas(rows: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The alphas the guards take for alphas over time, as ``mlr_pipeline`` gives them.
+
+    Each group's alpha of largest magnitude (its first frame's), just below 1 where that is 1
+    but the group is not 1 at every frame (so that the guards do not take it for a denoise;
+    the limits read it as 1).
+
+    Parameters
+    ----------
+    rows : numpy.ndarray, shape (N, 1 + J)
+        The alphas of every frame (:meth:`Layers.alphas_over_time`).
+
+    Returns
+    -------
+    numpy.ndarray, shape (1 + J,)
+        The alphas for :meth:`Synthesis.guard`.
+    """
+    if not rows.shape[0]:
+        return np.ones(rows.shape[1])
+    a = rows[np.argmax(np.abs(rows), axis=0), np.arange(rows.shape[1])].copy()
+    a[(a == 1.0) & ~np.all(rows == 1.0, axis=0)] = np.nextafter(1.0, 0.0)
+    return a
 
 
 @overload

@@ -10,6 +10,7 @@ import pytest
 
 import mlayer
 from mlayer import AlphaCurve
+from mlayer.pipeline import guard_alphas
 
 
 @pytest.fixture(scope="module")
@@ -152,6 +153,21 @@ def test_the_guards_take_each_groups_peak(clip):
     assert rep == rep2
     # a curve within [-1, 1] runs no limits, as a constant alpha within it
     assert not s.run(AlphaCurve("0:1,1:-1,2:0.5"))[1].limits_applied
+    # a curve that peaks at 1 and dips below is no denoise for the guards: they take the
+    # double just below 1 (which the limits read as 1)
+    dip = AlphaCurve("0:1,1:0.5,2.5:1")
+    rows = L.alphas_over_time(dip)
+    a = guard_alphas(rows)
+    assert np.all(a == np.nextafter(1.0, 0.0))
+    np.testing.assert_array_equal(guard_alphas(L.alphas_over_time(AlphaCurve("0:1,3:1"))),
+                                  np.ones(rows.shape[1]))
+    out, rep = s.run(dip)
+    raw = L.synthesize(dip)
+    ref, _ = s.guard(raw, a)
+    np.testing.assert_allclose(out.rot, ref.rot, rtol=0, atol=1e-10)
+    as_denoise, _ = s.guard(raw, np.ones(rows.shape[1]))
+    assert np.abs(out.rot - as_denoise.rot).max() > 1e-6  # (the denoise mode differs)
+    assert not rep.limits_applied
 
 
 def test_flat_stretches_are_the_constant_synthesis(clip):
