@@ -26,7 +26,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ._native import ffi, lib
-from .errors import InvalidArgumentError, check
+from .errors import InvalidArgumentError
 
 __all__ = ["AlphaCurve", "AlphaArg"]
 
@@ -70,7 +70,9 @@ class AlphaCurve:
         t = np.array(tl, dtype=np.float64)
         v = np.array(vl, dtype=np.float64)
         diag = ffi.new("mlr_diag *")
-        check(lib.mlr_alpha_keys_check(_ptr(t), _ptr(v), t.size, diag), "alpha curve", diag)
+        if lib.mlr_alpha_keys_check(_ptr(t), _ptr(v), t.size, diag) != lib.MLR_OK:
+            # (the C core's message as it is: it names the key)
+            raise InvalidArgumentError(ffi.string(diag.message).decode("utf-8", "replace"))
         t.flags.writeable = v.flags.writeable = False
         object.__setattr__(self, "_times", t)
         object.__setattr__(self, "_values", v)
@@ -143,9 +145,10 @@ class AlphaCurve:
         q = np.asarray(t, dtype=np.float64)
         flat = q.reshape(-1).copy()
         diag = ffi.new("mlr_diag *")
-        check(lib.mlr_alpha_keys_eval(_ptr(self._times), _ptr(self._values), self._times.size,
-                                      _ptr(flat), flat.size, ffi.cast("double *", ffi.from_buffer(
-                                          flat)), diag), "alpha curve", diag)
+        out = ffi.cast("double *", ffi.from_buffer(flat)) if flat.size else ffi.NULL
+        if lib.mlr_alpha_keys_eval(_ptr(self._times), _ptr(self._values), self._times.size,
+                                   _ptr(flat), flat.size, out, diag) != lib.MLR_OK:
+            raise InvalidArgumentError(ffi.string(diag.message).decode("utf-8", "replace"))
         return flat.reshape(q.shape)
 
     def sample(self, n_frames: int, fps: float) -> NDArray[np.float64]:

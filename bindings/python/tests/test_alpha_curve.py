@@ -63,6 +63,9 @@ def test_curve_forms_and_text():
     assert pickle.loads(pickle.dumps(c)) == c
     assert hash(c) == hash(AlphaCurve(str(c)))
     np.testing.assert_array_equal(c.sample(5, 2.0), c(np.arange(5) / 2.0))
+    assert c(np.array([])).shape == (0,)
+    with pytest.raises(mlayer.InvalidArgumentError, match="time 1 is not finite"):
+        c([0.0, np.nan])
     with pytest.raises(AttributeError):
         c.times = np.zeros(3)
     with pytest.raises(ValueError):

@@ -194,6 +194,8 @@ def test_unknown_clip_and_bad_parameters(server):
     assert "finite" in get_json(server, "/api/process?clip=0&alpha=NaN", 400)["error"]
     assert "in [0, 4]" in get_json(server, "/api/process?clip=0&legs=-0.5", 400)["error"]
     assert "within 0.1x" in get_json(server, "/api/process?clip=0&length=500", 400)["error"]
+    msg = get_json(server, "/api/process?clip=0&keys=0:1,1:1,0.5:2", 400)["error"]
+    assert "keys: alpha keys: times must increase: key 2" in msg and "MLR_E_" not in msg
     assert "joint must be below 31" in get_json(server, "/api/process?clip=0&joint=31",
                                                 400)["error"]
     assert "takes no parameters" in get_json(server, "/viewer.js?x=1", 400)["error"]

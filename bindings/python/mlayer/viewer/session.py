@@ -584,7 +584,10 @@ class Clip:
                 raise ParamError(f"fps must be within {_MAX_FPS_FACTOR:g}x of the clip's "
                                  f"{m.fps:.6g} fps ({lo:.6g} to {hi:.6g}) for {self.name}, got "
                                  f"{p['fps']:g}")
-            n_out = frames_at_rate(n_len, m.fps, p["fps"])
+            try:
+                n_out = frames_at_rate(n_len, m.fps, p["fps"])
+            except InvalidArgumentError:  # less than one frame at that rate
+                n_out = 0
             if n_out < 4:
                 raise ParamError(f"fps {p['fps']:g} would leave {n_out} frames of {self.name}; "
                                  f"the viewer needs at least 4: raise fps or length")
