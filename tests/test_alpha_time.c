@@ -361,6 +361,74 @@ START_TEST(pipeline_bad_keys_change_nothing)
 }
 END_TEST
 
+/* A keyed run: every group's curve and a pattern's, run, then a synthesis with other keys. */
+static mlr_status keyed_run(mlr_test_allocator *ta, const mlr_motion *clip, mlr_diag *d)
+{
+    const double t[] = {0.0, 0.3, 0.6}, v[] = {1.0, 2.5, 0.5}, w[] = {0.0, 1.0, 3.0};
+    mlr_pipeline *p = NULL;
+    mlr_motion *out = NULL;
+    mlr_status s = mlr_pipeline_create(&ta->base, &p, d);
+    if (s == MLR_OK)
+        s = mlr_pipeline_set_alpha_keys(p, NULL, t, v, 3, d);
+    if (s == MLR_OK)
+        s = mlr_pipeline_set_alpha_keys(p, "Left*", t, w, 3, d);
+    if (s == MLR_OK)
+        s = mlr_pipeline_run(p, clip, &out, d);
+    if (s == MLR_OK)
+        s = mlr_pipeline_set_alpha_keys(p, "Right*", t, v, 3, d);
+    if (s == MLR_OK)
+        s = mlr_pipeline_synthesize(p, &out, d);
+    if (s != MLR_OK)
+        ck_assert_ptr_null(out);
+    mlr_motion_destroy(out);
+    mlr_pipeline_destroy(p);
+    return s;
+}
+
+START_TEST(keyed_allocation_failures_are_clean)
+{
+    mlr_test_clip c;
+    int loaded;
+    mlr_motion *m = pipeline_clip(&c, &loaded), *small = NULL;
+    ck_assert_int_eq(mlr_motion_copy_frames(m, 0, 90, &small, NULL), MLR_OK);
+    mlr_test_allocator ta;
+    mlr_test_allocator_init(&ta, SIZE_MAX);
+    ck_assert_int_eq(keyed_run(&ta, small, NULL), MLR_OK);
+    const size_t n_calls = ta.n_calls;
+    size_t n_failed = 0;
+    for (size_t fail_at = 0; fail_at < n_calls; fail_at++) {
+        mlr_test_allocator_init(&ta, fail_at);
+        mlr_diag d = {0};
+        const mlr_status s = keyed_run(&ta, small, &d);
+        ck_assert_uint_eq(ta.live_blocks, 0);
+        if (s != MLR_OK) { /* (a failed arena reservation is no error) */
+            ck_assert_int_eq(s, MLR_E_NO_MEMORY);
+            ck_assert_msg(strstr(d.message, "mlr_pipeline_") && strstr(d.message, "memory"),
+                          "allocation %zu: '%s'", fail_at, d.message);
+            n_failed++;
+        }
+    }
+    ck_assert_uint_gt(n_failed, n_calls / 2);
+    /* a second keyed synthesis of the same clip takes nothing new from the allocator */
+    mlr_test_allocator_init(&ta, SIZE_MAX);
+    mlr_pipeline *p = NULL;
+    mlr_motion *out = NULL;
+    const double t[] = {0.0, 1.0}, v[] = {1.0, 3.0};
+    ck_assert_int_eq(mlr_pipeline_create(&ta.base, &p, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_pipeline_set_alpha_keys(p, NULL, t, v, 2, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_pipeline_run(p, small, &out, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_pipeline_synthesize(p, &out, NULL), MLR_OK);
+    const size_t before = ta.n_calls;
+    ck_assert_int_eq(mlr_pipeline_synthesize(p, &out, NULL), MLR_OK);
+    ck_assert_uint_eq(ta.n_calls, before);
+    mlr_motion_destroy(out);
+    mlr_pipeline_destroy(p);
+    ck_assert_uint_eq(ta.live_blocks, 0);
+    mlr_motion_destroy(small);
+    unload(&c, m, loaded);
+}
+END_TEST
+
 static Suite *alpha_time_suite(void)
 {
     Suite *s = suite_create("alpha_time");
@@ -373,6 +441,7 @@ static Suite *alpha_time_suite(void)
     tcase_add_test(synth, pipeline_constant_keys_are_the_constant_alpha);
     tcase_add_test(synth, pipeline_curve_is_the_synthesis_at_each_frame);
     tcase_add_test(synth, pipeline_bad_keys_change_nothing);
+    tcase_add_test(synth, keyed_allocation_failures_are_clean);
     suite_add_tcase(s, synth);
     return s;
 }
