@@ -75,6 +75,13 @@ def test_stylize_bad_alpha_keys_one_line(capsys, tmp_path, short_clip, argv, wor
     assert words in err and len(err.strip().splitlines()) == 1, err
 
 
+def test_batch_refuses_joint_keys_in_one_line(capsys, tmp_path, short_clip):
+    code, text, err = run(capsys, "batch", "stylize", short_clip, "-o", tmp_path / "out",
+                          "--alpha", "2", "--joint", "Left*=0:1,2:3")
+    assert code != 0 and "alpha keys over time (PATTERN=T:A,...) are for mlayer stylize" in err
+    assert len(err.strip().splitlines()) == 1, err
+
+
 @requires("plot")
 def test_layers_plot_and_npz(capsys, tmp_path, short_clip):
     fig, npz = tmp_path / "layers.png", tmp_path / "layers.npz"
