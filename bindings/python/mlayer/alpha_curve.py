@@ -13,7 +13,7 @@ alpha's motion bit for bit). Its slope is zero at every key. The evaluation is t
 Wherever an alpha is taken (:func:`mlayer.stylize`, :meth:`mlayer.Layers.synthesize`,
 :meth:`mlayer.Synthesis.run` and the values of their ``joints`` dicts), an AlphaCurve, a
 sequence of ``(time, alpha)`` pairs or a ``"0:1,2.5:3,4:1"`` string is accepted beside a
-number. Time 0 is the motion's first frame; frame ``i`` is at ``i / fps``.
+number. Time 0 is the motion's first frame; frame ``i`` is at ``i * frame_time`` seconds.
 """
 from __future__ import annotations
 

@@ -374,8 +374,8 @@ class Layers(ReadOnlyAttributes):
 
         Composed as :meth:`alphas` (``alpha`` everywhere, ``root_alpha`` for the body
         translation, then the patterns in order, later ones winning), each a number or an
-        :class:`mlayer.AlphaCurve` (or its keys) evaluated by the C core at ``i / fps`` for
-        frame ``i``.
+        :class:`mlayer.AlphaCurve` (or its keys) evaluated by the C core at
+        ``i * frame_time`` seconds for frame ``i``, as ``mlr_pipeline`` does.
 
         Parameters
         ----------
@@ -399,7 +399,7 @@ class Layers(ReadOnlyAttributes):
         from .alpha_curve import as_alpha
         names = self.motion.joint_names
         n = self.n_frames
-        t = np.arange(n, dtype=np.float64) / self.motion.fps
+        t = np.arange(n, dtype=np.float64) * self.motion.frame_time  # (as mlr_pipeline)
 
         def column(a: Any, name: str) -> NDArray[np.float64]:
             a = as_alpha(a, name)
