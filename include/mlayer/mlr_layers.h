@@ -288,6 +288,67 @@ MLR_API mlr_status mlr_layers_synthesize(const mlr_layers *layers, size_t begin,
                                          mlr_diag *diag);
 
 /**
+ * Alpha over time (paper 1, section 6.2: the final motion composited by changing the local
+ * weights over time). mlr_layers_synthesize_frames is mlr_layers_synthesize with a row of
+ * alphas per frame: frame begin + f takes the row at alpha + f n, n = 1 (every group) or 1 + J
+ * (the root translation first). The arithmetic per frame is that of mlr_layers_synthesize, so
+ * a frame comes out bit for bit as mlr_layers_synthesize(layers, begin + f, 1, row, n) gives it,
+ * and the same row for every frame gives the constant synthesis bit for bit.
+ * @param alpha       [in] n_alpha finite values, count x 1 or count x (1 + J), row-major
+ * @param n_alpha     [in] count or count (1 + J)
+ * Other parameters as mlr_layers_synthesize.
+ * @return MLR_OK; MLR_E_INVALID_ARG (NULL handle, frame range outside [0, N), wrong counts,
+ *         an alpha NaN or infinite: the diag names its frame and group; nothing is written)
+ * Allocates: never. Threads: handle only read.
+ */
+MLR_API mlr_status mlr_layers_synthesize_frames(const mlr_layers *layers, size_t begin,
+                                                size_t count, const double *alpha, size_t n_alpha,
+                                                double *root_pos, size_t n_root_pos, double *rot,
+                                                size_t n_rot, mlr_diag *diag);
+
+/**
+ * Keyframed alpha curves: keys (times[k], values[k]), times in seconds strictly increasing,
+ * evaluated at any time t as
+ *
+ *     a(t) = values[0]                         t <= times[0]
+ *            values[n - 1]                     t >= times[n - 1]
+ *            a_k + (a_{k+1} - a_k) s(u)        times[k] <= t < times[k+1],
+ *                                              u = (t - t_k) / (t_{k+1} - t_k),
+ *                                              s(u) = u^3 (10 - 15 u + 6 u^2)
+ *
+ * (one key: a constant). Why this smoothstep and not a spline through the keys: the result's
+ * acceleration has the term a''(t) delta_c, so a curve with a jump in a'' (a C1 curve such as
+ * the monotone cubic of Fritsch-Carlson, or a piecewise linear one with its jumps in a') puts
+ * a step or a kick into every joint's acceleration at each key; s has s' = s'' = 0 at both
+ * ends, so the curve is C2 everywhere. A C2 interpolating spline (natural or clamped cubic)
+ * overshoots: keys 1, 3, 1 give alphas above 3 and the exaggeration goes past what was keyed;
+ * the smoothstep stays within its two keys (max |a| over the clip is the largest |key|), a key
+ * changes only the two segments beside it, and two equal keys give exactly their value between
+ * them (bit for bit: a constant curve is the constant alpha). The price: the slope is zero at
+ * every key, so a curve eases in and out of each key (it holds there for an instant) rather
+ * than passing through with speed; add keys to shape a ramp.
+ */
+
+/**
+ * Check keys: n_keys >= 1, times and values finite, times strictly increasing.
+ * @return MLR_OK; MLR_E_INVALID_ARG (the diag names the first bad key)
+ * Allocates: never. Threads: any.
+ */
+MLR_API mlr_status mlr_alpha_keys_check(const double *times, const double *values, size_t n_keys,
+                                        mlr_diag *diag);
+
+/**
+ * Evaluate keyed alphas (see above) at count times.
+ * @param t      [in] count finite times in seconds (any order)
+ * @param out    [out] count values; may be t
+ * @return MLR_OK; MLR_E_INVALID_ARG (bad keys as mlr_alpha_keys_check, NULL t or out with
+ *         count > 0, a t not finite: nothing written)
+ * Allocates: never. Threads: any. Cost O(count log n_keys).
+ */
+MLR_API mlr_status mlr_alpha_keys_eval(const double *times, const double *values, size_t n_keys,
+                                       const double *t, size_t count, double *out, mlr_diag *diag);
+
+/**
  * Rebuild frames [begin, begin + count) of the input as (Mb (+) delta_c) (+) delta_r. It equals
  * the (normalized) input to rounding, a rotation possibly as -q. Arguments as for synthesize.
  * @return MLR_OK; MLR_E_INVALID_ARG. Allocates: never. Threads: handle only read.

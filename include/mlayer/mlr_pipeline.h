@@ -23,13 +23,34 @@
  *     joint; or layers decomposed elsewhere (mlr_pipeline_prepare);
  *  5. the guards (mlr_guards_create) learned from the input with its outlier frames repaired
  *     (mlr_layers_repair), with the switches below;
- *  6. the synthesis (mlr_layers_synthesize) with the alphas: MLR_PIPELINE_ALPHA everywhere,
- *     MLR_PIPELINE_ROOT_ALPHA for the body translation, then each joint pattern in the order
- *     given (later patterns win); the body translation written to the joint that carries it;
+ *  6. the synthesis (mlr_layers_synthesize) with the alphas: MLR_PIPELINE_ALPHA (or the curve
+ *     of mlr_pipeline_set_alpha_keys with no pattern) everywhere, MLR_PIPELINE_ROOT_ALPHA for
+ *     the body translation, then each joint pattern in the order given (later patterns win),
+ *     a constant or a curve; with a curve anywhere, mlr_layers_synthesize_frames with the
+ *     alphas of every frame (see "Alpha over time" below); the body translation written to the
+ *     joint that carries it;
  *  7. the guards applied (mlr_guards_apply_trans, the input as the reference: under a static
  *     root, the body's shifts go to the joint that carries the body translation).
  * Steps 1 to 5 are mlr_pipeline_prepare, 6 and 7 mlr_pipeline_synthesize, so that a second
  * alpha costs only a synthesis and the guards; mlr_pipeline_run does both.
+ *
+ * Alpha over time (paper 1, section 6.2: the final motion composited by changing the local
+ * weights over time). mlr_pipeline_set_alpha_keys gives every group (no pattern) or the joints
+ * of a pattern keyed alphas instead of a constant: (time, alpha) keys evaluated as
+ * mlr_alpha_keys_eval does (the quintic smoothstep between keys, C2, within its two keys; held
+ * before the first key and after the last), frame i of the prepared clip at i frame_time
+ * seconds (after the trim: time 0 is the result's first frame). The synthesis is then
+ * mlr_layers_synthesize_frames with one row of 1 + J alphas per frame. The guards run on its
+ * result as for a constant alpha per group: the group's alpha of largest magnitude over the
+ * clip. That is what each use of alpha in the guards means: the limits run when some |alpha|
+ * exceeds 1 anywhere (MLR_GUARDS_LIMITS_AUTO), and ranges learned from the input widen by the
+ * joint's max |alpha| (human published ranges never widen), so at frames where a curve is
+ * below its peak the range is that of the peak: the limits never cut a frame that the peak's
+ * constant alpha would keep, and a frame whose alpha is lower moves less far anyway; the
+ * contacts follow the input smoothed unless every alpha is 1 at every frame (a denoise: a
+ * curve whose peak is 1 but that is not 1 everywhere goes to the guards as the double just
+ * below 1, which the limits read as 1 and the guards do not take for a denoise).
+ * Keys all equal give the constant alpha's motion bit for bit, guards included.
  *
  * What stays in Python (mlayer.pipeline): the GuardReport's joint names (from
  * mlr_pipeline_report), the contact points given by name (contact_joints=: set them on
@@ -162,8 +183,31 @@ MLR_API mlr_status mlr_pipeline_get(const mlr_pipeline *p, mlr_pipeline_param pa
 MLR_API mlr_status mlr_pipeline_set_joint_alpha(mlr_pipeline *p, const char *pattern, double alpha,
                                                 mlr_diag *diag);
 
-/** Remove every joint pattern and the root alpha: ALPHA everywhere again. NULL is a no-op.
- *  Allocates: never. */
+/**
+ * Give every group (pattern NULL: the body translation and every joint, in the place of
+ * MLR_PIPELINE_ALPHA) or the joints whose name matches a pattern (in the list of
+ * mlr_pipeline_set_joint_alpha, ordered with its constants, later ones winning) alphas that
+ * change over time: keys (times[k] seconds from the clip's first frame after the trim,
+ * values[k]), interpolated as mlr_alpha_keys_eval (see "Alpha over time" above and in
+ * mlr_layers.h). MLR_PIPELINE_ROOT_ALPHA, when set, stays the body translation's constant; a
+ * later mlr_pipeline_set of MLR_PIPELINE_ALPHA replaces the curve of every group with that
+ * constant (mlr_pipeline_get of ALPHA is NaN while the curve is set). Changes no prepare.
+ * @param pattern  [in] NULL, or as for mlr_pipeline_set_joint_alpha
+ * @param times    [in] n_keys finite times in seconds, strictly increasing; copied
+ * @param values   [in] n_keys finite alphas; copied
+ * @param n_keys   [in] >= 1 (one key: a constant)
+ * @return MLR_OK; MLR_E_INVALID_ARG (NULL p, bad pattern, no keys, a time or alpha not finite,
+ *         times not increasing: the diag names the key; nothing changed); MLR_E_NO_MEMORY,
+ *         MLR_E_OVERFLOW (nothing changed)
+ * Allocates: the list of keys when it grows longer than it has been (kept until
+ * mlr_pipeline_destroy; mlr_pipeline_clear_joint_alphas empties it). Threads: one writer.
+ */
+MLR_API mlr_status mlr_pipeline_set_alpha_keys(mlr_pipeline *p, const char *pattern,
+                                               const double *times, const double *values,
+                                               size_t n_keys, mlr_diag *diag);
+
+/** Remove every joint pattern, every curve of alpha keys and the root alpha: ALPHA everywhere
+ *  again. NULL is a no-op. Allocates: never. */
 MLR_API void mlr_pipeline_clear_joint_alphas(mlr_pipeline *p);
 
 /**

@@ -470,32 +470,22 @@ static void displace(const double *qb, const double *v, double alpha, const doub
     out[0] = sgn * o.w, out[1] = sgn * o.x, out[2] = sgn * o.y, out[3] = sgn * o.z;
 }
 
-mlr_status mlr_layers_synthesize(const mlr_layers *L, size_t begin, size_t count,
-                                 const double *alpha, size_t n_alpha, double *root_pos,
-                                 size_t n_root_pos, double *rot, size_t n_rot, mlr_diag *diag)
+/* Synthesis with the alphas of frame f at alpha + f * fstride (fstride 0: one row for every
+   frame), n_alpha per row; the arguments checked by the callers. The same arithmetic for
+   every stride, so one row repeated gives the bits of the constant synthesis. */
+static void synthesize_rows(const mlr_layers *L, size_t begin, size_t count, const double *alpha,
+                            size_t n_alpha, size_t fstride, double *root_pos, double *rot)
 {
-    mlr_status st =
-        check_range(L, begin, count, root_pos, n_root_pos, rot, n_rot, "synthesize", diag);
-    if (st != MLR_OK)
-        return st;
     const size_t j = L->j, ld = 3 * (1 + j);
-    if (!alpha || (n_alpha != 1 && n_alpha != 1 + j))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "layers synthesize: %zu alphas (NULL: %d), not 1 or 1 + J = %zu",
-                            n_alpha, !alpha, 1 + j);
-    for (size_t g = 0; g < n_alpha; g++)
-        if (!isfinite(alpha[g]))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "layers synthesize: alpha[%zu] is NaN or infinite", g);
     if (root_pos)
         for (size_t f = 0; f < count; f++) {
             const size_t i = begin + f;
-            const double *ci = L->control + i * ld, a0 = alpha[0];
+            const double *ci = L->control + i * ld, a0 = alpha[f * fstride];
             for (size_t c = 0; c < 3; c++)
                 root_pos[3 * f + c] = L->base_pos[3 * i + c] + a0 * ci[c];
         }
     if (!rot)
-        return MLR_OK;
+        return;
     /* the exps and products by blocks of (frame, joint) pairs, in the order of rot (one kernel
        call per block; the same arithmetic per quaternion, so the same bits as displace()) */
     const size_t n = count * j;
@@ -505,7 +495,7 @@ mlr_status mlr_layers_synthesize(const mlr_layers *L, size_t begin, size_t count
         mlr_vec3 av[SYNTH_BLOCK];
         mlr_quat e[SYNTH_BLOCK];
         for (size_t t = 0; t < m; t++) {
-            const double ak = alpha[n_alpha == 1 ? 0 : 1 + k];
+            const double ak = alpha[f * fstride + (n_alpha == 1 ? 0 : 1 + k)];
             const double *v = L->control + (begin + f) * ld + 3 + 3 * k;
             av[t] = (mlr_vec3){ak * v[0], ak * v[1], ak * v[2]};
             if (++k == j)
@@ -514,6 +504,60 @@ mlr_status mlr_layers_synthesize(const mlr_layers *L, size_t begin, size_t count
         mlr_quat_exp_array(av, m, e, NULL);
         displace_block(L->base_rot + 4 * (begin * j + p0), e, m, rot + 4 * p0);
     }
+}
+
+mlr_status mlr_layers_synthesize(const mlr_layers *L, size_t begin, size_t count,
+                                 const double *alpha, size_t n_alpha, double *root_pos,
+                                 size_t n_root_pos, double *rot, size_t n_rot, mlr_diag *diag)
+{
+    mlr_status st =
+        check_range(L, begin, count, root_pos, n_root_pos, rot, n_rot, "synthesize", diag);
+    if (st != MLR_OK)
+        return st;
+    const size_t j = L->j;
+    if (!alpha || (n_alpha != 1 && n_alpha != 1 + j))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "layers synthesize: %zu alphas (NULL: %d), not 1 or 1 + J = %zu",
+                            n_alpha, !alpha, 1 + j);
+    for (size_t g = 0; g < n_alpha; g++)
+        if (!isfinite(alpha[g]))
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "layers synthesize: alpha[%zu] is NaN or infinite", g);
+    synthesize_rows(L, begin, count, alpha, n_alpha, 0, root_pos, rot);
+    return MLR_OK;
+}
+
+mlr_status mlr_layers_synthesize_frames(const mlr_layers *L, size_t begin, size_t count,
+                                        const double *alpha, size_t n_alpha, double *root_pos,
+                                        size_t n_root_pos, double *rot, size_t n_rot,
+                                        mlr_diag *diag)
+{
+    mlr_status st =
+        check_range(L, begin, count, root_pos, n_root_pos, rot, n_rot, "synthesize_frames", diag);
+    if (st != MLR_OK)
+        return st;
+    const size_t g = 1 + L->j;
+    if (!alpha && count)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "layers synthesize_frames: alpha is NULL");
+    size_t per_frame = 0;
+    if (n_alpha == count)
+        per_frame = 1;
+    else if (count && n_alpha / count == g && n_alpha % count == 0)
+        per_frame = g;
+    else
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "layers synthesize_frames: %zu alphas, not count = %zu or "
+                            "count (1 + J) = %zu x %zu",
+                            n_alpha, count, count, g);
+    for (size_t k = 0; k < n_alpha; k++)
+        if (!isfinite(alpha[k]))
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "layers synthesize_frames: the alpha of frame %zu, group %zu is "
+                                "NaN or infinite",
+                                begin + k / per_frame, k % per_frame);
+    if (count)
+        synthesize_rows(L, begin, count, alpha, per_frame, per_frame, root_pos, rot);
     return MLR_OK;
 }
 

@@ -17,7 +17,8 @@ typedef struct buffer {
 
 typedef struct joint_alpha {
     char pattern[MLR_PIPELINE_MAX_PATTERN + 1];
-    double alpha;
+    double alpha;         /* when n_keys is 0 */
+    size_t key0, n_keys;  /* the keys (mlr_pipeline_set_alpha_keys): pairs key0.. in p->keys */
 } joint_alpha;
 
 struct mlr_pipeline {
@@ -32,6 +33,9 @@ struct mlr_pipeline {
     double units, floor_height, gamma, lam_c, sigma_c, lam_b, sigma_b, base_cutoff, body_height;
     size_t n_joint_alphas;
     buffer patterns; /* joint_alpha[], grown past its longest list so far */
+    size_t n_keys; /* the (time, alpha) pairs in keys of every curve set since the last clear */
+    buffer keys;
+    size_t alpha_key0, n_alpha_keys; /* the curve of every group (replaces ALPHA), n 0: none */
 
     /* the prepared clip */
     int prepared, stale, synthesized;
@@ -47,6 +51,8 @@ struct mlr_pipeline {
 
     /* kept buffers */
     buffer names, fk, body, rep_root, rep_rot, rep_trans, alphas, root, rot, trans, limited;
+    buffer alpha_rows, alpha_col, alpha_src; /* N x (1 + J) alphas over time; 2 N of one
+                                               curve; 1 + J curves (see alphas_of) */
     mlr_guards_report report;
 };
 
@@ -84,8 +90,9 @@ static void keep_or_give_back(mlr_pipeline *p)
         pipeline__arena_reserve(&p->arena);
         return;
     }
-    buffer *scratch[] = {&p->names,     &p->fk,     &p->body, &p->rep_root, &p->rep_rot,
-                         &p->rep_trans, &p->alphas, &p->root, &p->rot,      &p->trans};
+    buffer *scratch[] = {&p->names,      &p->fk,        &p->body,     &p->rep_root, &p->rep_rot,
+                         &p->rep_trans,  &p->alphas,    &p->root,     &p->rot,      &p->trans,
+                         &p->alpha_rows, &p->alpha_col, &p->alpha_src};
     for (size_t k = 0; k < MLR_COUNTOF(scratch); k++)
         drop(p, scratch[k]);
 }
@@ -267,6 +274,7 @@ mlr_status mlr_pipeline_set(mlr_pipeline *p, mlr_pipeline_param param, double va
     switch ((int)param) {
     case MLR_PIPELINE_ALPHA:
         p->alpha = value;
+        p->n_alpha_keys = 0; /* a constant again */
         return MLR_OK;
     case MLR_PIPELINE_ROOT_ALPHA:
         p->root_alpha = value;
@@ -339,10 +347,10 @@ mlr_status mlr_pipeline_get(const mlr_pipeline *p, mlr_pipeline_param param, dou
     double v;
     switch ((int)param) {
     case MLR_PIPELINE_ALPHA:
-        v = p->alpha;
+        v = p->n_alpha_keys ? none : p->alpha;
         break;
     case MLR_PIPELINE_ROOT_ALPHA:
-        v = p->root_alpha_set ? p->root_alpha : p->alpha;
+        v = p->root_alpha_set ? p->root_alpha : p->n_alpha_keys ? none : p->alpha;
         break;
     case MLR_PIPELINE_UP:
         v = p->up;
@@ -417,23 +425,21 @@ mlr_status mlr_pipeline_get(const mlr_pipeline *p, mlr_pipeline_param param, dou
     return MLR_OK;
 }
 
-mlr_status mlr_pipeline_set_joint_alpha(mlr_pipeline *p, const char *pattern, double alpha,
-                                        mlr_diag *diag)
+/* Check a pattern (fn: the function, for the diag). */
+static mlr_status check_pattern(const char *pattern, const char *fn, mlr_diag *diag)
 {
-    if (!p || !pattern)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "mlr_pipeline_set_joint_alpha: %s is NULL", p ? "pattern" : "p");
     const size_t len = strlen(pattern);
     if (len == 0 || len > MLR_PIPELINE_MAX_PATTERN)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "mlr_pipeline_set_joint_alpha: the pattern must have 1 to %d bytes, "
-                            "got %zu",
+                            "%s: the pattern must have 1 to %d bytes, got %zu", fn,
                             MLR_PIPELINE_MAX_PATTERN, len);
-    if (!isfinite(alpha))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "mlr_pipeline_set_joint_alpha: the alpha of '%.60s' must be finite, "
-                            "got %g",
-                            pattern, alpha);
+    return MLR_OK;
+}
+
+/* Append a joint pattern with its constant alpha, or its keys (n_keys > 0 at key0). */
+static mlr_status add_pattern(mlr_pipeline *p, const char *pattern, double alpha, size_t key0,
+                              size_t n_keys, const char *fn, mlr_diag *diag)
+{
     if ((p->n_joint_alphas + 1) * sizeof(joint_alpha) > p->patterns.bytes) { /* grow, keep */
         const size_t cap = p->n_joint_alphas < 8 ? 16 : 2 * p->n_joint_alphas;
         size_t bytes;
@@ -441,8 +447,8 @@ mlr_status mlr_pipeline_set_joint_alpha(mlr_pipeline *p, const char *pattern, do
                       ? mlr_alloc(&p->user, bytes)
                       : NULL;
         if (!n)
-            return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
-                                "mlr_pipeline_set_joint_alpha: out of memory (%zu patterns)", cap);
+            return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "%s: out of memory (%zu patterns)",
+                                fn, cap);
         if (p->n_joint_alphas)
             memcpy(n, p->patterns.ptr, p->n_joint_alphas * sizeof(joint_alpha));
         drop(p, &p->patterns);
@@ -450,8 +456,72 @@ mlr_status mlr_pipeline_set_joint_alpha(mlr_pipeline *p, const char *pattern, do
         p->patterns.bytes = bytes;
     }
     joint_alpha *ja = (joint_alpha *)p->patterns.ptr + p->n_joint_alphas++;
-    memcpy(ja->pattern, pattern, len + 1);
+    memcpy(ja->pattern, pattern, strlen(pattern) + 1);
     ja->alpha = alpha;
+    ja->key0 = key0;
+    ja->n_keys = n_keys;
+    return MLR_OK;
+}
+
+mlr_status mlr_pipeline_set_joint_alpha(mlr_pipeline *p, const char *pattern, double alpha,
+                                        mlr_diag *diag)
+{
+    static const char fn[] = "mlr_pipeline_set_joint_alpha";
+    if (!p || !pattern)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: %s is NULL", fn,
+                            p ? "pattern" : "p");
+    mlr_status s = check_pattern(pattern, fn, diag);
+    if (s != MLR_OK)
+        return s;
+    if (!isfinite(alpha))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "%s: the alpha of '%.60s' must be finite, got %g", fn, pattern, alpha);
+    return add_pattern(p, pattern, alpha, 0, 0, fn, diag);
+}
+
+mlr_status mlr_pipeline_set_alpha_keys(mlr_pipeline *p, const char *pattern, const double *times,
+                                       const double *values, size_t n_keys, mlr_diag *diag)
+{
+    static const char fn[] = "mlr_pipeline_set_alpha_keys";
+    if (!p)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: p is NULL", fn);
+    mlr_status s = pattern ? check_pattern(pattern, fn, diag) : MLR_OK;
+    if (s != MLR_OK)
+        return s;
+    if ((s = mlr_alpha_keys_check(times, values, n_keys, diag)) != MLR_OK) {
+        char who[MLR_PIPELINE_MAX_PATTERN + 64];
+        snprintf(who, sizeof who, "%s (%s%.60s%s)", fn, pattern ? "'" : "every joint",
+                 pattern ? pattern : "", pattern ? "'" : "");
+        return mlr_diag_prefix(diag, s, who);
+    }
+    if (n_keys > SIZE_MAX / 4 - p->n_keys)
+        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "%s: too many keys", fn);
+    const size_t need = p->n_keys + n_keys;
+    if (2 * need * sizeof(double) > p->keys.bytes) { /* grow, keep */
+        const size_t cap = need < 64 ? 128 : 2 * need;
+        size_t bytes;
+        void *n = mlr_mul_size(2 * cap, sizeof(double), &bytes) == MLR_OK
+                      ? mlr_alloc(&p->user, bytes)
+                      : NULL;
+        if (!n)
+            return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "%s: out of memory (%zu keys)", fn,
+                                cap);
+        if (p->n_keys)
+            memcpy(n, p->keys.ptr, 2 * p->n_keys * sizeof(double));
+        drop(p, &p->keys);
+        p->keys.ptr = n;
+        p->keys.bytes = bytes;
+    }
+    if (pattern && (s = add_pattern(p, pattern, NAN, p->n_keys, n_keys, fn, diag)) != MLR_OK)
+        return s;
+    double *k = (double *)p->keys.ptr + 2 * p->n_keys; /* times, then values */
+    memcpy(k, times, n_keys * sizeof(double));
+    memcpy(k + n_keys, values, n_keys * sizeof(double));
+    if (!pattern) {
+        p->alpha_key0 = p->n_keys;
+        p->n_alpha_keys = n_keys;
+    }
+    p->n_keys = need;
     return MLR_OK;
 }
 
@@ -460,6 +530,7 @@ void mlr_pipeline_clear_joint_alphas(mlr_pipeline *p)
     if (p) {
         p->n_joint_alphas = 0;
         p->root_alpha_set = 0;
+        p->n_keys = p->n_alpha_keys = 0;
     }
 }
 
@@ -777,20 +848,26 @@ mlr_status mlr_pipeline_prepare(mlr_pipeline *p, const mlr_motion *in, const mlr
 
 /* ---- synthesize -------------------------------------------------------------------------- */
 
-/* The 1 + J alphas of the parameters and joint patterns, into a. */
-static mlr_status alphas_of(const mlr_pipeline *p, const mlr_motion *m, double *a, mlr_diag *diag)
+/* The 1 + J alphas of the parameters and joint patterns, into a; src[g] is 0 where a[g] is the
+   group's constant alpha, else where its curve is: 1 the curve of every group, 2 + k joint
+   pattern k's (a[g] is then NaN). */
+static mlr_status alphas_of(const mlr_pipeline *p, const mlr_motion *m, double *a, size_t *src,
+                            mlr_diag *diag)
 {
     const size_t J = mlr_motion_n_joints(m);
-    for (size_t k = 0; k <= J; k++)
-        a[k] = p->alpha;
+    for (size_t k = 0; k <= J; k++) {
+        a[k] = p->n_alpha_keys ? NAN : p->alpha;
+        src[k] = p->n_alpha_keys ? 1 : 0;
+    }
     if (p->root_alpha_set)
-        a[0] = p->root_alpha;
+        a[0] = p->root_alpha, src[0] = 0;
     for (size_t k = 0; k < p->n_joint_alphas; k++) {
         const joint_alpha *ja = (const joint_alpha *)p->patterns.ptr + k;
         size_t hits = 0;
         for (size_t j = 0; j < J; j++)
             if (pipeline__glob_match(ja->pattern, mlr_motion_joint_name(m, j))) {
                 a[1 + j] = ja->alpha;
+                src[1 + j] = ja->n_keys ? 2 + k : 0;
                 hits++;
             }
         if (!hits) {
@@ -810,6 +887,67 @@ static mlr_status alphas_of(const mlr_pipeline *p, const mlr_motion *m, double *
             }
             return MLR_E_INVALID_ARG;
         }
+    }
+    return MLR_OK;
+}
+
+/* The alphas over time (src from alphas_of, some group with a curve): N x (1 + J) in
+   p->alpha_rows, frame i at i frame_time seconds. a[g] becomes what the guards take for group
+   g: its alpha of largest magnitude over the clip (the first such frame's; the constant of a
+   group without a curve; just below 1 for a peak of 1 that is not 1 everywhere), so that
+   they run as for that constant alpha (see "Alpha over time" in mlr_pipeline.h). */
+static mlr_status alphas_over_time(mlr_pipeline *p, const mlr_motion *m, double *a, size_t *src,
+                                   mlr_diag *diag)
+{
+    const size_t N = mlr_motion_n_frames(m), J = mlr_motion_n_joints(m);
+    size_t n;
+    if (mlr_mul_size(N, 1 + J, &n) != MLR_OK)
+        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "alphas over time: overflow");
+    double *rows = grow(p, &p->alpha_rows, n, sizeof(double));
+    double *col = grow(p, &p->alpha_col, N, 2 * sizeof(double));
+    if (!rows || !col)
+        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                            "alphas over time: out of memory (%zu frames)", N);
+    const double dt = mlr_motion_frame_time(m);
+    double *t = col + N; /* the frame times; col the values of one curve */
+    for (size_t i = 0; i < N; i++)
+        t[i] = (double)i * dt;
+    const double *keys = p->keys.ptr;
+    const size_t done = (size_t)-1;
+    for (size_t g = 0; g <= J; g++) {
+        const size_t which = src[g];
+        if (!which) {
+            for (size_t i = 0; i < N; i++)
+                rows[i * (1 + J) + g] = a[g];
+            continue;
+        }
+        if (which == done) /* a curve evaluated for an earlier group */
+            continue;
+        size_t key0 = p->alpha_key0, nk = p->n_alpha_keys;
+        if (which >= 2) {
+            const joint_alpha *ja = (const joint_alpha *)p->patterns.ptr + (which - 2);
+            key0 = ja->key0, nk = ja->n_keys;
+        }
+        mlr_status s =
+            mlr_alpha_keys_eval(keys + 2 * key0, keys + 2 * key0 + nk, nk, t, N, col, diag);
+        if (s < 0)
+            return s;
+        double peak = col[0];
+        int ones = 1;
+        for (size_t i = 1; i < N; i++)
+            if (fabs(col[i]) > fabs(peak))
+                peak = col[i];
+        for (size_t i = 0; i < N; i++)
+            ones &= col[i] == 1.0;
+        if (peak == 1.0 && !ones) /* not a denoise for the guards; the limits read it as 1 */
+            peak = nextafter(1.0, 0.0);
+        for (size_t h = g; h <= J; h++) /* every group of this curve, once */
+            if (src[h] == which) {
+                for (size_t i = 0; i < N; i++)
+                    rows[i * (1 + J) + h] = col[i];
+                a[h] = peak;
+                src[h] = h > g ? done : which;
+            }
     }
     return MLR_OK;
 }
@@ -844,12 +982,23 @@ mlr_status mlr_pipeline_synthesize(mlr_pipeline *p, mlr_motion **out, mlr_diag *
     if (!a || !root || !rot || (P && !trans) || !body || !limited)
         return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
                             "mlr_pipeline_synthesize: out of memory (%zu frames)", N);
-    mlr_status s = alphas_of(p, m, a, diag);
+    size_t *src = grow(p, &p->alpha_src, 1 + J, sizeof(size_t));
+    if (!src)
+        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                            "mlr_pipeline_synthesize: out of memory (%zu joints)", J);
+    mlr_status s = alphas_of(p, m, a, src, diag);
     if (s < 0)
         return mlr_diag_prefix(diag, s, "mlr_pipeline_synthesize");
+    int over_time = 0;
+    for (size_t g = 0; g <= J; g++)
+        over_time |= src[g] != 0;
 
     /* Mb (+) alpha delta_c, the body translation where it rides */
-    s = mlr_layers_synthesize(p->layers, 0, N, a, 1 + J, body, 3 * N, rot, 4 * nj, diag);
+    if (!over_time)
+        s = mlr_layers_synthesize(p->layers, 0, N, a, 1 + J, body, 3 * N, rot, 4 * nj, diag);
+    else if ((s = alphas_over_time(p, m, a, src, diag)) >= 0)
+        s = mlr_layers_synthesize_frames(p->layers, 0, N, p->alpha_rows.ptr, N * (1 + J), body,
+                                         3 * N, rot, 4 * nj, diag);
     if (s < 0)
         return mlr_diag_prefix(diag, s, "mlr_pipeline_synthesize");
     memcpy(root, mlr_motion_root_pos(m), 3 * N * sizeof(double));
@@ -963,6 +1112,10 @@ void mlr_pipeline_destroy(mlr_pipeline *p)
     unprepare(p);
     mlr_motion_destroy(p->input);
     drop(p, &p->patterns);
+    drop(p, &p->keys);
+    drop(p, &p->alpha_rows);
+    drop(p, &p->alpha_col);
+    drop(p, &p->alpha_src);
     buffer *bufs[] = {&p->names,  &p->fk,   &p->body, &p->rep_root, &p->rep_rot, &p->rep_trans,
                       &p->alphas, &p->root, &p->rot,  &p->trans,    &p->limited};
     for (size_t k = 0; k < MLR_COUNTOF(bufs); k++)

@@ -235,6 +235,14 @@ mlr_status mlr_layers_get_param(const mlr_layers *layers, mlr_layers_param which
 mlr_status mlr_layers_synthesize(const mlr_layers *layers, size_t begin, size_t count,
                                  const double *alpha, size_t n_alpha, double *root_pos,
                                  size_t n_root_pos, double *rot, size_t n_rot, mlr_diag *diag);
+mlr_status mlr_layers_synthesize_frames(const mlr_layers *layers, size_t begin, size_t count,
+                                        const double *alpha, size_t n_alpha, double *root_pos,
+                                        size_t n_root_pos, double *rot, size_t n_rot,
+                                        mlr_diag *diag);
+mlr_status mlr_alpha_keys_check(const double *times, const double *values, size_t n_keys,
+                                mlr_diag *diag);
+mlr_status mlr_alpha_keys_eval(const double *times, const double *values, size_t n_keys,
+                               const double *t, size_t count, double *out, mlr_diag *diag);
 mlr_status mlr_layers_reconstruct(const mlr_layers *layers, size_t begin, size_t count,
                                   double *root_pos, size_t n_root_pos, double *rot, size_t n_rot,
                                   mlr_diag *diag);
@@ -658,6 +666,8 @@ mlr_status mlr_pipeline_set(mlr_pipeline *p, mlr_pipeline_param param, double va
 mlr_status mlr_pipeline_get(const mlr_pipeline *p, mlr_pipeline_param param, double *value);
 mlr_status mlr_pipeline_set_joint_alpha(mlr_pipeline *p, const char *pattern, double alpha,
                                         mlr_diag *diag);
+mlr_status mlr_pipeline_set_alpha_keys(mlr_pipeline *p, const char *pattern, const double *times,
+                                       const double *values, size_t n_keys, mlr_diag *diag);
 void mlr_pipeline_clear_joint_alphas(mlr_pipeline *p);
 mlr_status mlr_pipeline_prepare(mlr_pipeline *p, const mlr_motion *in, const mlr_layers *layers,
                                 mlr_diag *diag);

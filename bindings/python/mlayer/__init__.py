@@ -24,6 +24,7 @@ from .cleanup import fix_contacts
 from .retiming import (resample, slerp_resample, timewarp, timewarp_map, timewarp_speed)
 from . import data
 from .layers import Layers, decompose, expmap_base, multires_stylize
+from .alpha_curve import AlphaCurve
 from .pipeline import GuardReport, Synthesis, denoise, stylize
 from .up_axis import UpGuess, detect_up
 from .trimming import LeadIn, lead_in, trim
@@ -54,6 +55,7 @@ __all__ = ["__version__", "library_version", "Error", "InvalidArgumentError", "P
 __all__ += ["ParseWarning", "UpGuess", "detect_up"]
 __all__ += ["LeadIn", "lead_in", "trim"]
 __all__ += ["MissingDependencyError"]
+__all__ += ["AlphaCurve"]
 __all__ += ["read_gltf", "write_gltf"]
 __all__ += ["read_amass", "write_amass"]
 __all__ += ["mirror", "mirror_pairs", "RootTrack", "extract_root_motion", "apply_root_motion"]

@@ -18,6 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ._native import ffi, lib
+from .alpha_curve import AlphaCurve
 from .errors import check
 
 if TYPE_CHECKING:
@@ -64,7 +65,8 @@ class Job:
     def guards(self) -> Any:
         return lib.mlr_pipeline_guards(self.h)
 
-    def synthesize(self, alpha: float, joints: Mapping[str, float] | None,
+    def synthesize(self, alpha: float | AlphaCurve,
+                   joints: Mapping[str, float | AlphaCurve] | None,
                    root_alpha: float | None, n_joints: int
                    ) -> tuple[tuple[NDArray[np.float64], ...], Any, NDArray[np.uintp]]:
         """((root_pos, rot, trans) of the guarded synthesis, new arrays; the guards' report;
@@ -73,18 +75,28 @@ class Job:
             frames = self._synthesize(alpha, joints, root_alpha)
             return (frames, *self._report(n_joints))
 
-    def _synthesize(self, alpha: float, joints: Mapping[str, float] | None,
+    def _synthesize(self, alpha: float | AlphaCurve,
+                    joints: Mapping[str, float | AlphaCurve] | None,
                     root_alpha: float | None) -> tuple[NDArray[np.float64], ...]:
+        """The alphas set (numbers, or AlphaCurves: mlr_pipeline_set_alpha_keys), then the
+        synthesis."""
         h = self.h
         diag = ffi.new("mlr_diag *")
         lib.mlr_pipeline_clear_joint_alphas(h)
-        check(lib.mlr_pipeline_set(h, lib.MLR_PIPELINE_ALPHA, alpha, diag), self.where, diag)
+        if isinstance(alpha, AlphaCurve):
+            check(lib.mlr_pipeline_set_alpha_keys(h, ffi.NULL, *_keys(alpha), diag), self.where,
+                  diag)
+        else:
+            check(lib.mlr_pipeline_set(h, lib.MLR_PIPELINE_ALPHA, alpha, diag), self.where, diag)
         if root_alpha is not None:
             check(lib.mlr_pipeline_set(h, lib.MLR_PIPELINE_ROOT_ALPHA, root_alpha, diag),
                   self.where, diag)
         for pattern, a in (joints or {}).items():
-            check(lib.mlr_pipeline_set_joint_alpha(
-                h, pattern.encode("utf-8", errors="surrogateescape"), a, diag), self.where, diag)
+            name = pattern.encode("utf-8", errors="surrogateescape")
+            if isinstance(a, AlphaCurve):
+                check(lib.mlr_pipeline_set_alpha_keys(h, name, *_keys(a), diag), self.where, diag)
+            else:
+                check(lib.mlr_pipeline_set_joint_alpha(h, name, a, diag), self.where, diag)
         out = ffi.new("mlr_motion **")
         check(lib.mlr_pipeline_synthesize(h, out, diag), self.where, diag)
         m = out[0]
@@ -104,6 +116,12 @@ class Job:
         check(lib.mlr_pipeline_report(self.h, rep, ffi.cast("size_t *", ffi.from_buffer(limited)),
                                       n_joints), self.where)
         return rep, limited
+
+
+def _keys(c: AlphaCurve) -> tuple[Any, Any, int]:
+    """(times, values, n) of a curve for mlr_pipeline_set_alpha_keys (copied there)."""
+    return (ffi.cast("const double *", ffi.from_buffer(c.times)),
+            ffi.cast("const double *", ffi.from_buffer(c.values)), c.times.size)
 
 
 def _copy(ptr: Any, shape: tuple[int, ...]) -> NDArray[np.float64]:

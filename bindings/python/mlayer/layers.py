@@ -37,7 +37,7 @@ import functools
 import math
 import os
 from collections.abc import Callable, Mapping, Sequence
-from typing import TYPE_CHECKING, Any, NoReturn, SupportsIndex
+from typing import TYPE_CHECKING, Any, NoReturn, SupportsIndex, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -50,6 +50,7 @@ from ._rig import c_rig
 from .errors import InvalidArgumentError, check
 
 if TYPE_CHECKING:
+    from .alpha_curve import AlphaArg
     from .motion import Motion
 
 _PARAMS = {
@@ -350,6 +351,10 @@ class Layers(ReadOnlyAttributes):
         mlayer.InvalidArgumentError
             For a pattern that matches no joint or a non-finite alpha.
         """
+        from .alpha_curve import has_curve
+        if has_curve(alpha, joints):
+            raise InvalidArgumentError("alpha: a curve changes over time: use "
+                                       "alphas_over_time() for the alphas of every frame")
         names = self.motion.joint_names
         out = np.full(1 + len(names), _arrays.finite(alpha, "alpha"))
         if root_alpha is not None:
@@ -362,17 +367,69 @@ class Layers(ReadOnlyAttributes):
             out[1 + np.asarray(hits)] = _arrays.finite(a, f"alpha of {pattern!r}")
         return out
 
-    def synthesize(self, alpha: float = 1.0, joints: Mapping[str, float] | None = None, *,
-                   root_alpha: float | None = None) -> Motion:
+    def alphas_over_time(self, alpha: AlphaArg = 1.0,
+                         joints: Mapping[str, AlphaArg] | None = None,
+                         root_alpha: float | None = None) -> NDArray[np.float64]:
+        """The alphas of every frame, as :meth:`synthesize` uses them with curves.
+
+        Composed as :meth:`alphas` (``alpha`` everywhere, ``root_alpha`` for the body
+        translation, then the patterns in order, later ones winning), each a number or an
+        :class:`mlayer.AlphaCurve` (or its keys) evaluated by the C core at
+        ``i * frame_time`` seconds for frame ``i``, as ``mlr_pipeline`` does.
+
+        Parameters
+        ----------
+        alpha : float or AlphaCurve, optional
+            The alpha of every group.
+        joints : dict of str to float or AlphaCurve, optional
+            Joint name or glob -> alpha or curve.
+        root_alpha : float, optional
+            The body translation's alpha (default: ``alpha``).
+
+        Returns
+        -------
+        numpy.ndarray, shape (N, 1 + J)
+            Frame by frame, the body translation first.
+
+        Raises
+        ------
+        mlayer.InvalidArgumentError
+            For a pattern that matches no joint, bad keys or a non-finite alpha.
+        """
+        from .alpha_curve import as_alpha
+        names = self.motion.joint_names
+        n = self.n_frames
+        t = np.arange(n, dtype=np.float64) * self.motion.frame_time  # (as mlr_pipeline)
+
+        def column(a: Any, name: str) -> NDArray[np.float64]:
+            a = as_alpha(a, name)
+            return np.full(n, a) if isinstance(a, float) else a(t)
+
+        out = np.empty((n, 1 + len(names)))
+        out[:] = column(alpha, "alpha")[:, None]
+        if root_alpha is not None:
+            out[:, 0] = _arrays.finite(root_alpha, "root_alpha")
+        for pattern, a in (joints or {}).items():
+            hits = [k for k, nm in enumerate(names) if fnmatch.fnmatchcase(nm, pattern)]
+            if not hits:
+                raise InvalidArgumentError(
+                    f"joint pattern {pattern!r} matches no joint; joints: {', '.join(names)}")
+            out[:, 1 + np.asarray(hits)] = column(a, f"alpha of {pattern!r}")[:, None]
+        return out
+
+    def synthesize(self, alpha: AlphaArg = 1.0, joints: Mapping[str, AlphaArg] | None = None,
+                   *, root_alpha: float | None = None) -> Motion:
         """``M' = Mb (+) W control`` (paper eq. 16, 17), as a Motion on the same skeleton.
 
         Parameters
         ----------
-        alpha : float, optional
+        alpha : float or AlphaCurve, optional
             Scale of the controllable layer for every joint and the body translation (1:
-            denoised, > 1 exaggerated, 0: the base layer).
-        joints : dict of str to float, optional
-            Maps a joint name or a glob such as ``"Left*"`` to its own alpha.
+            denoised, > 1 exaggerated, 0: the base layer); an :class:`mlayer.AlphaCurve` (or
+            its ``(time, alpha)`` keys) for an alpha that changes over time
+            (``mlr_layers_synthesize_frames``).
+        joints : dict of str to float or AlphaCurve, optional
+            Maps a joint name or a glob such as ``"Left*"`` to its own alpha or curve.
         root_alpha : float, optional
             Alpha of the body translation (default: alpha): the root's, or that of
             ``body_joint`` when a joint below a static root carries it.
@@ -382,7 +439,14 @@ class Layers(ReadOnlyAttributes):
         Motion
             The synthesized motion.
         """
-        w = self.alphas(alpha, joints, root_alpha)
+        from .alpha_curve import has_curve
+        if has_curve(alpha, joints):
+            rows = np.ascontiguousarray(self.alphas_over_time(alpha, joints, root_alpha))
+            return self._frames(lambda r, q, d: lib.mlr_layers_synthesize_frames(
+                self._h, 0, self.n_frames, _arrays.ptr(rows), rows.size, _arrays.ptr_out(r),
+                r.size, _arrays.ptr_out(q), q.size, d), "synthesize")
+        w = self.alphas(cast(float, alpha), cast("Mapping[str, float] | None", joints),
+                        root_alpha)
         return self._frames(lambda r, q, d: lib.mlr_layers_synthesize(
             self._h, 0, self.n_frames, _arrays.ptr(w), w.size, _arrays.ptr_out(r), r.size,
             _arrays.ptr_out(q), q.size, d), "synthesize")

@@ -45,7 +45,7 @@ import os
 import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Literal, NoReturn, SupportsIndex, overload
+from typing import TYPE_CHECKING, Any, Literal, NoReturn, SupportsIndex, cast, overload
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -60,6 +60,7 @@ from .layers import Layers, decompose
 from .limits import JointLimits
 
 if TYPE_CHECKING:
+    from .alpha_curve import AlphaArg, AlphaCurve
     from .motion import Motion
 
 __all__ = ["Clip", "Synthesis", "GuardReport", "stylize", "denoise"]
@@ -338,7 +339,7 @@ class Synthesis(ReadOnlyAttributes):
         return synthesized.with_frames(root_pos=root, rot=rot, trans=trans), \
             self._report(rep, limited)
 
-    def run(self, alpha: float = 1.0, joints: Mapping[str, float] | None = None, *,
+    def run(self, alpha: AlphaArg = 1.0, joints: Mapping[str, AlphaArg] | None = None, *,
             root_alpha: float | None = None, residual: bool = False
             ) -> tuple[Motion, GuardReport]:
         """Synthesize, then guard.
@@ -348,10 +349,12 @@ class Synthesis(ReadOnlyAttributes):
 
         Parameters
         ----------
-        alpha : float, optional
-            The alpha of every joint and the body translation.
-        joints : dict of str to float, optional
-            Joint name or glob -> alpha.
+        alpha : float or AlphaCurve, optional
+            The alpha of every joint and the body translation; an :class:`mlayer.AlphaCurve`
+            (or its keys) for alpha over time. The guards then run as for each group's alpha of
+            largest magnitude over the clip (``mlr_pipeline.h``, "Alpha over time").
+        joints : dict of str to float or AlphaCurve, optional
+            Joint name or glob -> alpha or curve.
         root_alpha : float, optional
             The body translation's alpha (default: ``alpha``).
         residual : bool, optional
@@ -365,16 +368,29 @@ class Synthesis(ReadOnlyAttributes):
             What the guards did.
         """
         L: Layers = self.layers
-        a = L.alphas(alpha, joints, root_alpha)  # (the arguments' Python forms checked here)
+        from .alpha_curve import as_alpha, has_curve
+        if has_curve(alpha, joints):
+            # (the arguments' Python forms checked here; the guards take each group's peak)
+            rows = L.alphas_over_time(alpha, joints, root_alpha)
+            a = guard_alphas(rows)
+            alpha_c: float | AlphaCurve = as_alpha(alpha, "alpha")
+            joints_c: dict[str, float | AlphaCurve] | None = {
+                p: as_alpha(v, f"alpha of {p!r}") for p, v in (joints or {}).items()}
+        else:
+            # (the arguments' Python forms checked here)
+            a = L.alphas(cast(float, alpha), cast("Mapping[str, float] | None", joints),
+                         root_alpha)
+            alpha_c = float(cast(float, alpha))
+            joints_c = cast("dict[str, float | AlphaCurve] | None", joints)
         if residual:
             from . import quat
-            out = L.synthesize(alpha, joints, root_alpha=root_alpha)
+            out = L.synthesize(alpha_c, joints_c, root_alpha=root_alpha)
             r = np.asarray(L.residual)
             out = out.with_frames(root_pos=out.root_pos + r[:, 0],
                                   rot=quat.normalize(quat.mul(out.rot, quat.exp(r[:, 1:]))))
             return self.guard(out, a)
         (root, rot, trans), rep, limited = self._job.synthesize(
-            float(alpha), joints, None if root_alpha is None else float(root_alpha),
+            alpha_c, joints_c, None if root_alpha is None else float(root_alpha),
             self.motion.n_joints)
         return self.motion.with_frames(root_pos=root, rot=rot, trans=trans), \
             self._report(rep, limited)
@@ -385,6 +401,30 @@ class Synthesis(ReadOnlyAttributes):
             limits_applied=bool(rep.limits_applied), contact_frames=int(rep.contact_frames),
             floor_frames=int(rep.floor_frames), floor_height=float(rep.floor_height),
             root_shift_max=float(rep.root_shift_max), floor_raised=int(rep.floor_raised))
+
+
+def guard_alphas(rows: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The alphas the guards take for alphas over time, as ``mlr_pipeline`` gives them.
+
+    Each group's alpha of largest magnitude (its first frame's), just below 1 where that is 1
+    but the group is not 1 at every frame (so that the guards do not take it for a denoise;
+    the limits read it as 1).
+
+    Parameters
+    ----------
+    rows : numpy.ndarray, shape (N, 1 + J)
+        The alphas of every frame (:meth:`Layers.alphas_over_time`).
+
+    Returns
+    -------
+    numpy.ndarray, shape (1 + J,)
+        The alphas for :meth:`Synthesis.guard`.
+    """
+    if not rows.shape[0]:
+        return np.ones(rows.shape[1])
+    a = rows[np.argmax(np.abs(rows), axis=0), np.arange(rows.shape[1])].copy()
+    a[(a == 1.0) & ~np.all(rows == 1.0, axis=0)] = np.nextafter(1.0, 0.0)
+    return a
 
 
 @overload
@@ -441,20 +481,20 @@ def denoise(motion: Motion, *, limits: LimitsArg = "auto", floor: FloorArg = "au
 
 
 @overload
-def stylize(motion: Motion, alpha: float, joints: Mapping[str, float] | None = None, *,
+def stylize(motion: Motion, alpha: AlphaArg, joints: Mapping[str, AlphaArg] | None = None, *,
             root_alpha: float | None = None, limits: LimitsArg = "auto",
             floor: FloorArg = "auto", keep_contacts: bool = True,
             contact_joints: str | Sequence[str | int] | None = None,
             up: str | int | None = None, return_report: Literal[False] = False,
             **layer_options: Any) -> Motion: ...
 @overload
-def stylize(motion: Motion, alpha: float, joints: Mapping[str, float] | None = None, *,
+def stylize(motion: Motion, alpha: AlphaArg, joints: Mapping[str, AlphaArg] | None = None, *,
             root_alpha: float | None = None, limits: LimitsArg = "auto",
             floor: FloorArg = "auto", keep_contacts: bool = True,
             contact_joints: str | Sequence[str | int] | None = None,
             up: str | int | None = None, return_report: Literal[True],
             **layer_options: Any) -> tuple[Motion, GuardReport]: ...
-def stylize(motion: Motion, alpha: float, joints: Mapping[str, float] | None = None, *,
+def stylize(motion: Motion, alpha: AlphaArg, joints: Mapping[str, AlphaArg] | None = None, *,
             root_alpha: float | None = None, limits: LimitsArg = "auto",
             floor: FloorArg = "auto", keep_contacts: bool = True,
             contact_joints: str | Sequence[str | int] | None = None,
@@ -469,10 +509,13 @@ def stylize(motion: Motion, alpha: float, joints: Mapping[str, float] | None = N
     ----------
     motion : Motion
         The input.
-    alpha : float
-        2 exaggerates, 0.5 flattens.
-    joints : dict of str to float, optional
-        Joint names or globs (``"Left*"``) -> their own alpha.
+    alpha : float or AlphaCurve
+        2 exaggerates, 0.5 flattens. An :class:`mlayer.AlphaCurve`, ``(time_s, alpha)`` keys
+        or their text (``"0:1,2.5:3,4:1"``) give an alpha that changes over time, smoothly
+        between the keys (:mod:`mlayer.alpha_curve`; paper 1, section 6.2); the guards then
+        run as for each joint's largest |alpha| over the clip.
+    joints : dict of str to float or AlphaCurve, optional
+        Joint names or globs (``"Left*"``) -> their own alpha or curve.
     root_alpha : float, optional
         The body translation's alpha (default: ``alpha``).
     limits, floor, keep_contacts, contact_joints, up
@@ -678,16 +721,16 @@ class Clip(ReadOnlyAttributes):
         """
         return self.synthesis(**options).run(1.0)
 
-    def stylize(self, alpha: float, joints: Mapping[str, float] | None = None, *,
+    def stylize(self, alpha: AlphaArg, joints: Mapping[str, AlphaArg] | None = None, *,
                 root_alpha: float | None = None, **options: Any) -> tuple[Motion, GuardReport]:
         """:func:`stylize` of the input.
 
         Parameters
         ----------
-        alpha : float
-            The style scale.
-        joints : dict of str to float, optional
-            Joint name or glob -> alpha.
+        alpha : float or AlphaCurve
+            The style scale, or its curve over time.
+        joints : dict of str to float or AlphaCurve, optional
+            Joint name or glob -> alpha or curve.
         root_alpha : float, optional
             The body translation's alpha.
         **options

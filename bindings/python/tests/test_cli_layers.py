@@ -45,6 +45,43 @@ def test_stylize_with_joint_patterns(capsys, tmp_path, short_clip):
     assert "Left*=3" in text
 
 
+def test_stylize_alpha_keys(capsys, tmp_path, short_clip):
+    """--alpha-keys and --joint PATTERN=T:A,... give mlayer.stylize's motion with the curves."""
+    out = tmp_path / "keys.bvh"
+    code, text, err = run(capsys, "stylize", short_clip, "--alpha-keys", "0:1,1:3,2:1",
+                          "--joint", "Left*=0:0.5,2:2", "-o", out)
+    assert code == 0, err
+    src = mlayer.read_bvh(short_clip)
+    ref = mlayer.stylize(src, mlayer.AlphaCurve("0:1,1:3,2:1"),
+                         {"Left*": mlayer.AlphaCurve([(0, 0.5), (2, 2)])})
+    assert np.allclose(mlayer.read_bvh(out).positions(), ref.positions(), atol=1e-5)
+    const = mlayer.stylize(src, 2.0)
+    assert not np.allclose(mlayer.read_bvh(out).positions(), const.positions(), atol=1e-3)
+    assert "alpha keys 0:1,1:3,2:1 (peak 3)" in text and "Left*=keys 0:0.5,2:2" in text
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["--alpha-keys", "0:1,2.5"], "--alpha-keys '0:1,2.5': alpha keys: key 1 '2.5' is not "
+                                  "TIME:ALPHA"),
+    (["--alpha-keys", "0:1,0:2"], "times must increase: key 1"),
+    (["--alpha-keys", "0:1,1:nan"], "the alpha of key 1"),
+    (["--alpha-keys", "0:1", "--alpha", "2"], "--alpha and --alpha-keys: give one of them"),
+    (["--joint", "Left*=0:1,x:2"], "--joint 'Left*=0:1,x:2': alpha keys: key 1 'x:2'"),
+])
+def test_stylize_bad_alpha_keys_one_line(capsys, tmp_path, short_clip, argv, words):
+    out = tmp_path / "bad.bvh"
+    code, text, err = run(capsys, "stylize", short_clip, *argv, "-o", out)
+    assert code != 0 and not out.exists()
+    assert words in err and len(err.strip().splitlines()) == 1, err
+
+
+def test_batch_refuses_joint_keys_in_one_line(capsys, tmp_path, short_clip):
+    code, text, err = run(capsys, "batch", "stylize", short_clip, "-o", tmp_path / "out",
+                          "--alpha", "2", "--joint", "Left*=0:1,2:3")
+    assert code != 0 and "alpha keys over time (PATTERN=T:A,...) are for mlayer stylize" in err
+    assert len(err.strip().splitlines()) == 1, err
+
+
 @requires("plot")
 def test_layers_plot_and_npz(capsys, tmp_path, short_clip):
     fig, npz = tmp_path / "layers.png", tmp_path / "layers.npz"

@@ -225,6 +225,9 @@ def _classes() -> dict[str, tuple[Callable[[], Any], list[Call]]]:
                   ("synthesis", lambda c: c.synthesis(floor=None).run(2.0))]),
         "UpGuess": (lambda: mlayer.detect_up(_clip()), [("repr", lambda g: repr(g))]),
         "LeadIn": (lambda: mlayer.lead_in(_clip()), [("repr", lambda g: repr(g))]),
+        "AlphaCurve": (lambda: mlayer.AlphaCurve([(0.0, 1.0), (0.5, 3.0), (1.0, 1.0)]),
+                       [("call", lambda c: c(np.linspace(-1.0, 2.0, 7))),
+                        ("sample", lambda c: c.sample(10, 30.0))]),
         "BatchResult": (lambda: BatchResult("denoise", [dict(_RECORD)], 1.5, 1),
                         [("table", lambda r: r.table()), ("exit_code", lambda r: r.exit_code),
                          ("report", lambda r: r.write_report(os.path.join(_tmp(), "r.csv")))]),
@@ -391,7 +394,8 @@ CLASSES = ["Motion", "Skeleton", "Layers", "Synthesis", "GuardReport", "LGS", "S
            "JointLimits", "SOM", "KMeansResult", "ElbowResult", "FuzzyResult", "KCriteria",
            "PCA", "PCA:unfitted", "GRBF", "GRBF:unfitted", "GaussianMixture",
            "GaussianMixture:unfitted", "Markov", "PrimitiveModel", "PrimitiveModel:pca",
-           "RootTrack", "OneEuroFilter", "Clip", "UpGuess", "LeadIn", "Frame", "BatchResult"]
+           "RootTrack", "OneEuroFilter", "Clip", "UpGuess", "LeadIn", "Frame", "BatchResult",
+           "AlphaCurve"]
 
 
 # ---- the tests ----------------------------------------------------------------------------------

@@ -110,6 +110,8 @@ def test_parse_params_defaults_and_values():
     p = parse_params("clip=2&alpha=2.5&arms=0&denoise=false&contacts=1&fps=60&warp=1.5", keys)
     assert (p["clip"], p["alpha"], p["arms"], p["denoise"], p["contacts"], p["fps"],
             p["warp"]) == (2, 2.5, 0.0, False, True, 60.0, 1.5)
+    assert p["keys"] is None and parse_params("keys=", keys)["keys"] is None
+    assert parse_params("keys=0%3A1%2C%202.5%3A3", keys)["keys"] == "0:1,2.5:3"
 
 
 @pytest.mark.parametrize("query, words", [
@@ -120,6 +122,10 @@ def test_parse_params_defaults_and_values():
     ("clip=..%2F..%2Fetc%2Fpasswd", "non-negative integer"), ("clip=%2Fetc%2Fpasswd", "integer"),
     ("path=/etc/passwd", "unknown parameter 'path'"), ("alpha=1&alpha=2", "twice"),
     ("alpha", "malformed"),
+    ("keys=0:1,2", "keys: alpha keys: key 1 '2' is not TIME:ALPHA"),
+    ("keys=0:1,0:2", "times must increase"), ("keys=0:1,1:5", "alpha of key 1 must be in [0, 4]"),
+    ("keys=-1:1", "time of key 0 must be in [0, 36000]"), ("keys=0:nan", "alpha of key 0"),
+    ("keys=" + ",".join(f"{k}:1" for k in range(65)), "at most 64 keys"),
 ])
 def test_parse_params_rejects(query, words):
     with pytest.raises(ParamError) as e:
@@ -188,6 +194,8 @@ def test_unknown_clip_and_bad_parameters(server):
     assert "finite" in get_json(server, "/api/process?clip=0&alpha=NaN", 400)["error"]
     assert "in [0, 4]" in get_json(server, "/api/process?clip=0&legs=-0.5", 400)["error"]
     assert "within 0.1x" in get_json(server, "/api/process?clip=0&length=500", 400)["error"]
+    msg = get_json(server, "/api/process?clip=0&keys=0:1,1:1,0.5:2", 400)["error"]
+    assert "keys: alpha keys: times must increase: key 2" in msg and "MLR_E_" not in msg
     assert "joint must be below 31" in get_json(server, "/api/process?clip=0&joint=31",
                                                 400)["error"]
     assert "takes no parameters" in get_json(server, "/viewer.js?x=1", 400)["error"]

@@ -258,6 +258,66 @@ def test_parts_denoise_retiming_and_camera(browser, server, mocap):
     assert js(d, "mlayerViewer.state.proc.plot.processed.length") > 10
 
 
+def test_alpha_keys_over_the_timeline(browser, server, mocap):
+    """Alpha over time: keys set at the playhead with the global slider, the curve drawn under
+    the chart, the figure the server's synthesis with the curve; bad keys shown as an error."""
+    from selenium.webdriver.common.keys import Keys
+    d = browser
+    open_page(d, server)
+    m = mlayer.read_bvh(mocap / WALK)
+    h = mlayer.metrics.body_height(m)
+    assert js(d, "document.getElementById('alpha-chart').hidden")
+
+    def after(action, what):
+        n = js(d, "mlayerViewer.state.responses")
+        action()
+        wait(lambda: js(d, "mlayerViewer.state.responses") > n, what=what)
+        wait(lambda: settled(d), what=what)
+        return js(d, "mlayerViewer.state.lastQuery")
+
+    drawn_at(d, 120)  # 1 s at 120 fps
+    after(lambda: move_slider(d, "alpha", 0.9), "the alpha slider")
+    a_hi = float(d.find_element("id", "alpha").get_attribute("value"))
+    after(lambda: d.find_element("id", "key-alpha").click(), "the first key")
+    drawn_at(d, 480)  # 4 s
+    after(lambda: move_slider(d, "alpha", 0.1), "the alpha slider")
+    a_lo = float(d.find_element("id", "alpha").get_attribute("value"))
+    q = after(lambda: d.find_element("id", "key-alpha").click(), "the second key")
+    assert js(d, "mlayerViewer.state.lastError") is None
+    keys = d.find_element("id", "alpha-keys").get_attribute("value")
+    assert keys == f"1:{a_hi:g},4:{a_lo:g}" and a_hi > 2 and a_lo < 0.6
+    assert "keys=" in q
+    ac = js(d, "mlayerViewer.state.proc.alphaCurve")
+    assert ac["keys"] == [[1.0, a_hi], [4.0, a_lo]]
+    assert max(ac["alpha"]) == pytest.approx(a_hi) and min(ac["alpha"]) == pytest.approx(a_lo)
+    # the curve is drawn under the chart
+    assert not js(d, "document.getElementById('alpha-chart').hidden")
+    from PIL import Image
+    img = np.asarray(Image.open(io.BytesIO(
+        d.find_element("id", "alpha-chart").screenshot_as_png)).convert("RGB")).astype(int)
+    green = (img[..., 1] > 120) & (img[..., 0] < 90) & (img[..., 2] < 120)
+    assert green.sum() > 100, "the alpha curve is not drawn"
+    # the figure is the server's synthesis with the curve, which mlayer.stylize gives too
+    after_pose, _ = drawn_at(d, 300)
+    p = parse_params(urllib.parse.urlencode(dict(urllib.parse.parse_qsl(q))), tuple(PARAMS))
+    _, proc = server.clips[0].process(p)
+    np.testing.assert_allclose(after_pose, proc.positions()[300], atol=1e-4 * h)
+    const_pose = mlayer.stylize(m, a_lo).positions()[300]
+    assert np.abs(proc.positions()[300] - const_pose).max() > 0.01 * h
+    # bad keys: the server's message, one line
+    el = d.find_element("id", "alpha-keys")
+    el.clear()
+    el.send_keys("0:1,x:2")
+    n = js(d, "mlayerViewer.state.responses")
+    el.send_keys(Keys.TAB)
+    wait(lambda: js(d, "mlayerViewer.state.responses") > n, what="the bad keys' answer")
+    assert "keys: alpha keys: key 1 'x:2'" in js(d, "mlayerViewer.state.lastError")
+    after(lambda: d.find_element("id", "clear-keys").click(), "clear keys")
+    assert js(d, "mlayerViewer.state.lastError") is None
+    assert js(d, "document.getElementById('alpha-chart').hidden")
+    d.get_log("browser")  # (the bad keys' 400 is expected: not a console error of the page)
+
+
 def test_bad_clip_shows_its_error(browser, server):
     d = browser
     open_page(d, server)

@@ -21,6 +21,7 @@ from urllib.parse import quote
 
 import pytest
 
+import mlayer
 from mlayer.viewer import make_server, parse_params
 from mlayer.viewer.session import PARAMS, ParamError
 
@@ -98,6 +99,9 @@ def _check_value(key, v):
         assert v is True or v is False
     elif kind == "int":
         assert isinstance(v, int) and 0 <= v < 10**9
+    elif kind == "keys":  # the canonical text of valid keys
+        c = mlayer.AlphaCurve.parse(v)
+        assert str(c) == v and lo <= c.values.min() and c.values.max() <= hi
     else:
         assert isinstance(v, float) and math.isfinite(v) and lo <= v <= hi
 

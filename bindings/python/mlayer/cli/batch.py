@@ -79,6 +79,9 @@ def cmd_batch(args) -> int:
         options["keep_contacts"] = False
     if args.joint:
         options["joints"] = parse_joint_alphas(args.joint)
+        if any(not isinstance(v, float) for v in options["joints"].values()):
+            raise InvalidArgumentError("--joint: alpha keys over time (PATTERN=T:A,...) are "
+                                       "for mlayer stylize; batch takes PATTERN=ALPHA")
     alphas = None
     if args.alpha or args.alphas:
         alphas = list(args.alpha or []) + (parse_alphas(args.alphas) if args.alphas else [])

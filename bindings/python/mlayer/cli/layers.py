@@ -12,12 +12,14 @@ jitter before and after, and writes its outputs atomically.
 """
 from __future__ import annotations
 
+import argparse
 import math
 from collections.abc import Iterable
 import sys
 
 import numpy as np
 
+from ..alpha_curve import AlphaCurve
 from ..bvh import read_bvh
 from ..errors import InvalidArgumentError
 from ..pipeline import Clip
@@ -94,18 +96,34 @@ def _guard_summary(report) -> None:
         print(f"  floor at {report.floor_height:.4g}: feet raised on {report.floor_frames} frames")
 
 
-def parse_joint_alphas(items: Iterable[str] | None) -> dict[str, float]:
-    """['Left*=3', 'Head=0.5'] -> {'Left*': 3.0, 'Head': 0.5}."""
-    out: dict[str, float] = {}
+def parse_joint_alphas(items: Iterable[str] | None) -> dict[str, float | AlphaCurve]:
+    """['Left*=3', 'Head=0.5', 'Right*=0:1,2:3'] -> {'Left*': 3.0, 'Head': 0.5,
+    'Right*': AlphaCurve(...)} (a value with ':' is a curve of TIME:ALPHA keys)."""
+    out: dict[str, float | AlphaCurve] = {}
     for it in items or ():
         name, sep, value = it.rpartition("=")
         if not sep or not name:
-            raise InvalidArgumentError(f"--joint expects PATTERN=ALPHA, got {it!r}")
+            raise InvalidArgumentError(f"--joint expects PATTERN=ALPHA or "
+                                       f"PATTERN=TIME:ALPHA,..., got {it!r}")
+        if ":" in value:
+            try:
+                out[name] = AlphaCurve.parse(value)
+            except InvalidArgumentError as e:
+                raise InvalidArgumentError(f"--joint {it!r}: {e}") from None
+            continue
         try:
             out[name] = float(value)
         except ValueError:
             raise InvalidArgumentError(f"--joint {it!r}: {value!r} is not a number") from None
     return out
+
+
+def parse_alpha_keys(text: str) -> AlphaCurve:
+    """--alpha-keys "0:1,2.5:3,4:1" -> its AlphaCurve (a one-line error naming the key)."""
+    try:
+        return AlphaCurve.parse(text)
+    except InvalidArgumentError as e:
+        raise InvalidArgumentError(f"--alpha-keys {text!r}: {e}") from None
 
 
 def _jitter_line(clip, after) -> str:
@@ -155,16 +173,30 @@ def cmd_denoise(args) -> int:
     return 0
 
 
+class _StoreGiven(argparse.Action):
+    """Store the value and note that it was given (``args.<dest>_given``)."""
+
+    def __call__(self, parser, namespace, values, option_string=None) -> None:
+        setattr(namespace, self.dest, values)
+        setattr(namespace, f"{self.dest}_given", True)
+
+
 def _arguments_stylize(p) -> None:
     p.add_argument("input", metavar="IN.bvh")
     p.add_argument("-o", "--output", required=True, metavar="OUT.bvh",
                    help="the output BVH file; - for the standard output")
-    p.add_argument("--alpha", type=float, default=2.0,
+    p.add_argument("--alpha", type=float, default=2.0, action=_StoreGiven,
                    help="scale of the controllable layer for every joint (default 2: "
                         "exaggerate; 0 gives the base layer, 1 the denoised clip)")
+    p.add_argument("--alpha-keys", metavar="T:A,T:A,...", default=None,
+                   help="alpha over time instead of --alpha: keys of time in seconds from the "
+                        "first frame and alpha, eased smoothly from key to key (quintic "
+                        "smoothstep), e.g. '0:1,2.5:3,4:1'; the guards run as for the "
+                        "largest |alpha|")
     p.add_argument("--joint", action="append", metavar="PATTERN=ALPHA",
-                   help="alpha for the joints matching a name or glob, e.g. 'Left*=3' "
-                        "(repeatable; later patterns win)")
+                   help="alpha for the joints matching a name or glob, e.g. 'Left*=3', or "
+                        "their keys over time, e.g. 'Left*=0:1,2:3' (repeatable; later "
+                        "patterns win)")
     _layer_options(p)
     _contact_option(p)
 
@@ -173,16 +205,26 @@ def _arguments_stylize(p) -> None:
          arguments=_arguments_stylize, reads_clips=True, inputs=("input",),
          outputs={"output": BVH_OR_STDOUT})
 def cmd_stylize(args) -> int:
-    if not math.isfinite(args.alpha):
-        raise InvalidArgumentError(f"--alpha must be finite, got {args.alpha}")
+    if getattr(args, "alpha_given", False) and args.alpha_keys is not None:
+        raise InvalidArgumentError("--alpha and --alpha-keys: give one of them")
+    alpha: float | AlphaCurve
+    if args.alpha_keys is not None:
+        alpha = parse_alpha_keys(args.alpha_keys)
+    else:
+        if not math.isfinite(args.alpha):
+            raise InvalidArgumentError(f"--alpha must be finite, got {args.alpha}")
+        alpha = float(args.alpha)
     joints = parse_joint_alphas(args.joint)
     clip = Clip.read(args.input)
     s = clip.synthesis(**_synthesis_options(args))
-    out, report = s.run(args.alpha, joints or None)
+    out, report = s.run(alpha, joints or None)
     _summary(args.input, clip, out, s.layers)
     write_bvh_output(args, out)
     _guard_summary(report)
-    print(f"  alpha {args.alpha:g}" + "".join(f", {k}={v:g}" for k, v in joints.items()))
+
+    def text(a: float | AlphaCurve) -> str:
+        return f"{a:g}" if isinstance(a, float) else f"keys {a} (peak {a.peak:g})"
+    print(f"  alpha {text(alpha)}" + "".join(f", {k}={text(v)}" for k, v in joints.items()))
     print(f"  wrote {output_name(args.output)}")
     _outlier_note(s.layers)
     return 0

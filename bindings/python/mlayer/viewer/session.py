@@ -127,7 +127,11 @@ PARAMS: dict[str, tuple[str, float | None, float | None, float | bool | None]] =
     "fps": ("float", 1.0, 1000.0, None),        # None: the clip's own
     "warp": ("float", 0.0, 5.0, 0.0),
     "joint": ("int", 0, None, None),            # the joint of the layer chart
+    # alpha over time: "t:a,t:a,..." (seconds of the input clip, alphas within alpha's range),
+    # replacing the global alpha; None: the constant global alpha
+    "keys": ("keys", 0.0, 4.0, None),
 }
+_MAX_KEYS = 64
 _LENGTH_RATIO = (0.1, 10.0)   # target length / clip length
 _MAX_FPS_FACTOR = 100.0       # new fps / clip fps, either way (mlayer.resample's limit)
 
@@ -185,7 +189,7 @@ def parse_params(query: str, allowed: Collection[str]) -> dict[str, Any]:
         (400) For anything else.
     """
     seen = query_pairs(query, allowed)
-    out = {}
+    out: dict[str, Any] = {}
     for key in allowed:
         kind, lo, hi, default = PARAMS[key]
         if key not in seen:
@@ -198,6 +202,9 @@ def parse_params(query: str, allowed: Collection[str]) -> dict[str, Any]:
                 raise ParamError(f"{key} must be 0, 1, true or false, got {raw!r}")
             out[key] = low in ("1", "true")
             continue
+        if kind == "keys":
+            out[key] = _alpha_keys(raw, key, lo, hi) if raw else None
+            continue
         if kind == "int":
             if not re.fullmatch(r"[0-9]{1,9}", raw):
                 raise ParamError(f"{key} must be a non-negative integer, got {raw!r}")
@@ -209,6 +216,26 @@ def parse_params(query: str, allowed: Collection[str]) -> dict[str, Any]:
             raise ParamError(f"{key} must be in [{lo:g}, {hi:g}], got {raw!r}")
         out[key] = v
     return out
+
+
+def _alpha_keys(raw: str, name: str, lo: float | None, hi: float | None) -> str:
+    """The keys of an alpha curve, checked (at most _MAX_KEYS, alphas in [lo, hi], times in
+    [0, 36000] s), in their canonical text; ParamError (400) naming the key otherwise."""
+    from ..alpha_curve import AlphaCurve
+    if raw.count(",") >= _MAX_KEYS:
+        raise ParamError(f"{name}: at most {_MAX_KEYS} keys")
+    try:
+        c = AlphaCurve.parse(raw)
+    except InvalidArgumentError as e:
+        raise ParamError(f"{name}: {e}") from None
+    assert lo is not None and hi is not None
+    for k, (t, a) in enumerate(c.keys):
+        if not lo <= a <= hi:
+            raise ParamError(f"{name}: the alpha of key {k} must be in [{lo:g}, {hi:g}], "
+                             f"got {a:g}")
+        if not 0.0 <= t <= 36000.0:
+            raise ParamError(f"{name}: the time of key {k} must be in [0, 36000] s, got {t:g}")
+    return str(c)
 
 
 # ---- answers and the result cache ----------------------------------------------------------
@@ -557,7 +584,10 @@ class Clip:
                 raise ParamError(f"fps must be within {_MAX_FPS_FACTOR:g}x of the clip's "
                                  f"{m.fps:.6g} fps ({lo:.6g} to {hi:.6g}) for {self.name}, got "
                                  f"{p['fps']:g}")
-            n_out = frames_at_rate(n_len, m.fps, p["fps"])
+            try:
+                n_out = frames_at_rate(n_len, m.fps, p["fps"])
+            except InvalidArgumentError:  # less than one frame at that rate
+                n_out = 0
             if n_out < 4:
                 raise ParamError(f"fps {p['fps']:g} would leave {n_out} frames of {self.name}; "
                                  f"the viewer needs at least 4: raise fps or length")
@@ -644,14 +674,18 @@ class Clip:
     def _run(self, L, p):
         m = self.motion
         t0 = time.perf_counter()
-        alpha = p["alpha"]
+        alpha: Any = p["alpha"]
+        if p.get("keys"):  # alpha over time in the place of the global alpha
+            from ..alpha_curve import AlphaCurve
+            alpha = AlphaCurve.parse(p["keys"])
         joints = {}
         for name, part in zip(m.joint_names, self._parts):  # the root joint is "spine"
             if p.get(part) is not None:
                 joints[_glob_escape(name)] = p[part]
-        # the root translation follows the global alpha
+        # the root translation follows the global alpha (its curve with keys)
         out, _report = self._synth[bool(p["contacts"])].run(
-            alpha, joints or None, root_alpha=alpha, residual=not p["denoise"])
+            alpha, joints or None, root_alpha=None if p.get("keys") else alpha,
+            residual=not p["denoise"])
         names, c = self._contacts
         src = np.arange(m.n_frames, dtype=np.float64)   # input frame of each output frame
         N = m.n_frames
@@ -701,7 +735,18 @@ class Clip:
                 "t_processed": (ip / out.fps).tolist(),
                 "processed": _angle_deg(out.rot[ip, j]).tolist(),
             },
+            "alpha_curve": self._alpha_curve(p, io),
         }
+
+    def _alpha_curve(self, p: dict[str, Any], io: NDArray[np.int64]) -> dict | None:
+        """The global alpha over the input's time at the chart's frames, with its keys (None
+        without keys)."""
+        if not p.get("keys"):
+            return None
+        from ..alpha_curve import AlphaCurve
+        c = AlphaCurve.parse(p["keys"])
+        t = io / self.motion.fps
+        return {"t": t.tolist(), "alpha": c(t).tolist(), "keys": c.keys}
 
     def download(self, p: dict[str, Any]) -> tuple[str, str]:
         """The processed motion as a BVH file.

@@ -154,6 +154,8 @@
     const q = new URLSearchParams();
     q.set("clip", S.clip);
     q.set("alpha", $("alpha").value);
+    const keys = $("alpha-keys").value.trim();
+    if (keys) q.set("keys", keys);
     for (const p of PARTS) if (!S.linked[p]) q.set(p, $(p).value);
     q.set("denoise", $("denoise").checked ? "1" : "0");
     q.set("contacts", $("contacts").checked ? "1" : "0");
@@ -180,6 +182,7 @@
       const u = phase();
       S.proc = decodeMotion(d, d.n_points);
       S.proc.plot = d.plot;
+      S.proc.alphaCurve = d.alpha_curve;
       S.t = u * S.proc.duration;
       S.lastQuery = q;
       S.lastError = null;
@@ -231,6 +234,9 @@
         request();
       });
     }
+    $("alpha-keys").addEventListener("change", request);
+    $("key-alpha").addEventListener("click", keyAlpha);
+    $("clear-keys").addEventListener("click", () => { $("alpha-keys").value = ""; request(); });
     $("reset-parts").addEventListener("click", () => {
       for (const p of PARTS) {
         S.linked[p] = true;
@@ -511,6 +517,58 @@
     line(pl.t, pl.control, "#9467bd", 1.1, [5, 3]);
     line(pl.t_processed, pl.processed, "#d62728", 1.3);
     S.chart = { X, Y, W, H, T, B, image: ctx.getImageData(0, 0, cv.width, cv.height) };
+    drawAlphaChart(L, R, tmax);
+  }
+
+  // ---------- alpha over time: the keys of the global alpha, and its curve under the chart ----------
+
+  function parseKeys(text) {  // [[t, a], ...] of "t:a,t:a" (the server checks them)
+    return text.split(",").map((k) => k.split(":").map(Number))
+      .filter((k) => k.length === 2 && Number.isFinite(k[0]) && Number.isFinite(k[1]));
+  }
+
+  function keyAlpha() {  // a key at the playhead's input time with the global alpha's value
+    if (!S.orig || !S.drawn) return;
+    const t = +(S.drawn.origFrame / S.orig.fps).toFixed(3);
+    const a = +(+$("alpha").value).toFixed(2);
+    const keys = parseKeys($("alpha-keys").value).filter((k) => Math.abs(k[0] - t) > 1e-6);
+    keys.push([t, a]);
+    keys.sort((x, y) => x[0] - y[0]);
+    $("alpha-keys").value = keys.map((k) => `${k[0]}:${k[1]}`).join(",");
+    request();
+  }
+
+  function drawAlphaChart(L, R, tmax) {
+    const cv = $("alpha-chart");
+    const ac = S.proc && S.proc.alphaCurve;
+    cv.hidden = !ac;
+    S.alphaChart = null;
+    if (!ac) return;
+    const dpr = window.devicePixelRatio || 1;
+    cv.width = Math.round(cv.clientWidth * dpr);
+    cv.height = Math.round(70 * dpr);
+    const ctx = cv.getContext("2d");
+    ctx.setTransform(dpr, 0, 0, dpr, 0, 0);
+    const W = cv.width / dpr, H = cv.height / dpr, T = 6, B = 14;
+    ctx.fillStyle = "#fff";
+    ctx.fillRect(0, 0, W, H);
+    let hi = 1;
+    for (const v of ac.alpha) hi = Math.max(hi, v);
+    for (const k of ac.keys) hi = Math.max(hi, k[1]);
+    const X = (t) => L + ((W - L - R) * Math.min(t, tmax)) / tmax, Y = (v) => T + ((H - T - B) * (hi - v)) / hi;
+    ctx.strokeStyle = "#ccc"; ctx.lineWidth = 1;
+    ctx.fillStyle = "#555"; ctx.font = "11px system-ui, sans-serif"; ctx.textAlign = "right";
+    for (const v of [0, 1, hi]) {
+      ctx.beginPath(); ctx.moveTo(L, Y(v)); ctx.lineTo(W - R, Y(v)); ctx.stroke();
+      ctx.fillText(`α ${+v.toFixed(2)}`, L - 4, Y(v) + 4);
+    }
+    ctx.strokeStyle = "#2ca02c"; ctx.lineWidth = 1.6;
+    ctx.beginPath();
+    ac.alpha.forEach((v, i) => (i ? ctx.lineTo(X(ac.t[i]), Y(v)) : ctx.moveTo(X(ac.t[i]), Y(v))));
+    ctx.stroke();
+    ctx.fillStyle = "#2ca02c";
+    for (const k of ac.keys) { ctx.beginPath(); ctx.arc(X(k[0]), Y(k[1]), 3.5, 0, 2 * Math.PI); ctx.fill(); }
+    S.alphaChart = { X, T, B, H, image: ctx.getImageData(0, 0, cv.width, cv.height) };
   }
 
   function drawCursor() {  // the current time on the chart
@@ -522,6 +580,15 @@
     ctx.strokeStyle = "rgba(0,0,0,0.5)";
     ctx.lineWidth = 1;
     ctx.beginPath(); ctx.moveTo(x, ch.T); ctx.lineTo(x, ch.H - ch.B); ctx.stroke();
+    const ac = S.alphaChart;
+    if (ac && S.orig && S.drawn) {  // the input time of the frame shown
+      const c2 = $("alpha-chart").getContext("2d");
+      c2.putImageData(ac.image, 0, 0);
+      const xa = ac.X(S.drawn.origFrame / S.orig.fps);
+      c2.strokeStyle = "rgba(0,0,0,0.5)";
+      c2.lineWidth = 1;
+      c2.beginPath(); c2.moveTo(xa, ac.T); c2.lineTo(xa, ac.H - ac.B); c2.stroke();
+    }
   }
 
 
