@@ -94,13 +94,21 @@ typedef enum mlr_cleanup_key {
                                            0 (default): planted on the reference's smoothed
                                            path; 1: the synthesis' detail kept, the reference's
                                            capture noise left out (the guards' denoise) */
-    MLR_CLEANUP_OPT_RAMP_TRACK = 14     /* 1 (default): the frames around a contact pinned to
+    MLR_CLEANUP_OPT_RAMP_TRACK = 14,    /* 1 (default): the frames around a contact pinned to
                                            the reference cross-fade from the reference's
                                            motion (plus the contact's offset) to the
                                            synthesis's, so the foot meets its contact with
                                            the contact's velocity; 0: they carry the edge's
                                            offset alone (the synthesis's velocity at the
                                            edge: the guards' denoise, retiming). Since 0.3 */
+    MLR_CLEANUP_OPT_ROOT_BOB = 15       /* seconds, >= 0: the vertical part of the root's shift
+                                           (up to 0.1 leg lengths, in the first round) is
+                                           spread over +- this many seconds, no lower than the
+                                           body's parts off the feet stand above the floor, so
+                                           that a body whose bob was scaled keeps it; 0
+                                           (default): off, every need within +-0.1 s. The
+                                           guards pass 0.5 when the body translation's alpha
+                                           is not 1. Since 0.3 */
 } mlr_cleanup_key;
 
 /** One option: key (an mlr_cleanup_key) and its value. A frozen value type. */

@@ -24,6 +24,7 @@ static const mlr_opt_spec cleanup_opts[] = {
     {MLR_CLEANUP_OPT_KEEP_TOTAL, "keep_total", MLR_OPT_BOOL, 0.0, 1.0, 0, 0, 0.0, NULL},
     {MLR_CLEANUP_OPT_PIN_DETAIL, "pin_detail", MLR_OPT_DOUBLE, 0.0, 1.0, 0, 0, 0.0, NULL},
     {MLR_CLEANUP_OPT_RAMP_TRACK, "ramp_track", MLR_OPT_BOOL, 0.0, 1.0, 0, 0, 1.0, NULL},
+    {MLR_CLEANUP_OPT_ROOT_BOB, "root_bob", MLR_OPT_DOUBLE, 0.0, INFINITY, 0, 0, 0.0, NULL},
 };
 #undef PI
 
@@ -52,6 +53,7 @@ mlr_status cleanup__parse_options(const mlr_cleanup_option *opts, size_t n_opts,
     cfg->keep_total = o.v[MLR_CLEANUP_OPT_KEEP_TOTAL] != 0.0;
     cfg->pin_detail = o.v[MLR_CLEANUP_OPT_PIN_DETAIL];
     cfg->ramp_track = o.v[MLR_CLEANUP_OPT_RAMP_TRACK] != 0.0;
+    cfg->root_bob = o.v[MLR_CLEANUP_OPT_ROOT_BOB];
     return MLR_OK;
 }
 

@@ -3,14 +3,14 @@
  * knee past MAX_FOLD, the root moves by the need, widened and smoothed.
  *
  * The vertical part of the first round's needs, up to ROOT_BOB_CAP leg lengths, is widened and
- * smoothed over +-ROOT_BOB_HALF_S (a gait cycle) instead of +-0.1 s: at alpha 0.5 a walk's
+ * smoothed over +-MLR_CLEANUP_OPT_ROOT_BOB seconds (the guards' 0.5: a gait cycle) instead of +-0.1 s: at alpha 0.5 a walk's
  * pelvis, its bob halved, stands higher than the input's in double support, where the planted
  * legs cannot reach, and a shift that local put the bob back (Xia's walk: 1.89 alpha, where
  * the synthesis has 1.00); at alpha 3 it took the bob out at its peaks (CMU 02_03's run: 0.69
  * alpha). Over a gait cycle the body stands lower or higher as a whole and keeps its bob. A
  * lowering that long must not take the body through the floor (it put jumps' hands and
  * dogs' tails under it): the long part's lowering at a frame is at most the least height above
- * the floor of every joint and End Site off the feet, over +-2 ROOT_BOB_HALF_S. The rest of a
+ * the floor of every joint and End Site off the feet, over twice that. The rest of a
  * need, and every later round's, takes the short way.
  */
 #include "guards/cleanup_internal.h"
@@ -19,7 +19,6 @@
 
 #include "mlayer/mlr_fk.h"
 
-#define ROOT_BOB_HALF_S 0.5 /* seconds */
 #define ROOT_BOB_CAP 0.1    /* leg lengths */
 
 /* The root shift each frame needs (with the shift so far): where a leg cannot reach its
@@ -182,7 +181,7 @@ mlr_status cleanup__shift_root(cleanup_state *cu, cleanup_arena *ar, mlr_cleanup
     }
     uint8_t *redo = cleanup__take(ar, N, 1);
     /* the vertical part of the needs, over a gait cycle */
-    const size_t vhalf = (size_t)mlr_fmax((double)half, round(ROOT_BOB_HALF_S * fps));
+    const size_t vhalf = (size_t)mlr_fmax((double)half, round(cu->cfg->root_bob * fps));
     double *vtab = cleanup__take(ar, 2 * vhalf + 1, sizeof(double));
     double *vneed = cleanup__take(ar, N * 3, sizeof(double));
     double *vsh = cleanup__take(ar, N * 3, sizeof(double));
@@ -197,7 +196,7 @@ mlr_status cleanup__shift_root(cleanup_state *cu, cleanup_arena *ar, mlr_cleanup
     for (size_t k = 0; k < cu->nf; k++)
         if (cu->feet[k].active)
             leg = mlr_fmax(leg, cu->feet[k].leg);
-    const double vcap = ROOT_BOB_CAP * leg;
+    const double vcap = cu->cfg->root_bob > 0.0 ? ROOT_BOB_CAP * leg : 0.0;
     /* how far the body may go down over a gait cycle: the least height above the floor of
        the joints that are not on a foot (at or below an active foot's anchor), its minimum over +-2 vhalf frames (the shift at a frame averages needs from that far) */
     double *room = NULL;

@@ -15,7 +15,8 @@
 #include <math.h>
 
 /* the cleanup options an apply passes at most (cleanup_options) */
-#define GUARDS_MAX_COPTS 8
+#define GUARDS_MAX_COPTS 10
+#define GUARDS_ROOT_BOB 0.5 /* seconds: MLR_CLEANUP_OPT_ROOT_BOB when the body's alpha is not 1 */
 
 /* The cleanup passes (of its default 2) whose IK's rotations are limited before the spread,
    and whose blends are limited after it. Limiting the IK's rotations of the second pass as
@@ -965,6 +966,10 @@ static size_t cleanup_options(const mlr_guards *g, int has_ref, const double *al
             copts[n_copts++] = (mlr_cleanup_option){MLR_CLEANUP_OPT_RAMP_TRACK, 0.0};
     }
     copts[n_copts++] = (mlr_cleanup_option){MLR_CLEANUP_OPT_FLOOR, floor_on ? 1.0 : 0.0};
+    /* a body whose bob the synthesis scaled keeps it: the root's vertical shift over a gait
+       cycle (off at alpha 1, where the bob is the input's: denoise, generated motion) */
+    if (alpha[0] != 1.0)
+        copts[n_copts++] = (mlr_cleanup_option){MLR_CLEANUP_OPT_ROOT_BOB, GUARDS_ROOT_BOB};
     if (limits_applied)
         copts[n_copts++] = (mlr_cleanup_option){MLR_CLEANUP_OPT_MAX_FOLD, knee_fold_limit(g)};
     if (floor_on)
@@ -977,7 +982,7 @@ static size_t cleanup_options(const mlr_guards *g, int has_ref, const double *al
 typedef struct apply_work {
     double *rot, *root;
     size_t *counts, *counts2;
-    double *before;   /* N x n_legs x 4: the rotations of legs[] before the cleanup (compact,
+    double *before; /* N x n_legs x 4: the rotations of legs[] before the cleanup (compact,
                          so that the frames' legs are read from cache) */
     uint8_t *changed; /* N x J: the rotations the cleanup changed */
     const int32_t *legs; /* the hinges the cleanup can change: those among the contact

@@ -41,7 +41,7 @@ _OPT = {"blend": lib.MLR_CLEANUP_OPT_BLEND, "reach": lib.MLR_CLEANUP_OPT_REACH,
         "root": lib.MLR_CLEANUP_OPT_ROOT, "max_fold": lib.MLR_CLEANUP_OPT_MAX_FOLD,
         "keep_stiller": lib.MLR_CLEANUP_OPT_KEEP_STILLER,
         "keep_total": lib.MLR_CLEANUP_OPT_KEEP_TOTAL, "pin_detail": lib.MLR_CLEANUP_OPT_PIN_DETAIL,
-        "ramp_track": lib.MLR_CLEANUP_OPT_RAMP_TRACK}
+        "ramp_track": lib.MLR_CLEANUP_OPT_RAMP_TRACK, "root_bob": lib.MLR_CLEANUP_OPT_ROOT_BOB}
 
 
 def _points(skeleton: Skeleton, names: Sequence[str | int]
@@ -173,7 +173,9 @@ def fix_contacts(motion: Motion, contacts: ArrayLike, names: str | Sequence[str]
         reference's; the kept contacts that slide most beyond it follow it instead),
         ramp_track (True: the frames around a contact cross-fade from the reference's motion
         to the synthesis's, so the foot meets its contact with the contact's velocity;
-        False: they carry the contact's offset at its edge alone).
+        False: they carry the contact's offset at its edge alone), root_bob (seconds, 0: the
+        vertical part of the root's shift spread over +- this, so that a body whose bob was
+        scaled keeps it; stylize passes 0.5 when the body's alpha is not 1).
 
     Returns
     -------
