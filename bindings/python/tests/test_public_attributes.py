@@ -129,6 +129,7 @@ def _model_calls() -> list[Call]:
             ("primitive_path", lambda p: p.primitive_path(0, 30)),
             ("through", lambda p: p.generate(20, through=[[1, 1], [4, 4]], guards=False)),
             ("generate", lambda p: p.generate(30, seed=1)),
+            ("runtime_bytes", lambda p: len(p.runtime_bytes())),
             ("generate_keys", lambda p: p.generate(30, keys=[(0, 3), (0, 50)])),
             ("training_clips", lambda p: p.training_clips()),
             ("joint_limits", lambda p: p.joint_limits()),
@@ -202,11 +203,14 @@ def _classes() -> dict[str, tuple[Callable[[], Any], list[Call]]]:
         "GRBF:unfitted": (lambda: mlayer.GRBF("thin_plate", (4, 4)), grbf_calls),
         "GaussianMixture": (lambda: mlayer.GaussianMixture(2, seed=1).fit(X), gmm_calls),
         "GaussianMixture:unfitted": (lambda: mlayer.GaussianMixture(2, seed=1), gmm_calls),
+        "Rng": (lambda: mlayer.markov.Rng(5),
+                [("below", lambda r: r.below(10)), ("uniform", lambda r: r.uniform())]),
         "Markov": (lambda: mlayer.Markov.fit(labels, order=2),
                    [("sample", lambda k: k.sample(0, 20, seed=1)),
                     ("sample_distinct", lambda k: k.sample(0, 10, seed=1, distinct=True)),
                     ("perturbed", lambda k: k.perturbed(0.1, 1).sample(0, 10, seed=1)),
                     ("ranked_next", lambda k: k.ranked_next([0, 1], 1)),
+                    ("walk", lambda k: k.walk(0, 20, seed=1)),
                     ("next", lambda k: k.next_distribution([0, 1])),
                     ("path", lambda k: k.most_likely_path(0, 5)),
                     ("stationary", lambda k: k.stationary()),
@@ -390,7 +394,7 @@ def check_class(name: str, limit: int | None = None) -> tuple[int, list[str]]:
 CLASSES = ["Motion", "Skeleton", "Layers", "Synthesis", "GuardReport", "LGS", "Stream",
            "JointLimits", "SOM", "KMeansResult", "ElbowResult", "FuzzyResult", "KCriteria",
            "PCA", "PCA:unfitted", "GRBF", "GRBF:unfitted", "GaussianMixture",
-           "GaussianMixture:unfitted", "Markov", "PrimitiveModel", "PrimitiveModel:pca",
+           "GaussianMixture:unfitted", "Markov", "Rng", "PrimitiveModel", "PrimitiveModel:pca",
            "RootTrack", "OneEuroFilter", "Clip", "UpGuess", "LeadIn", "Frame", "BatchResult"]
 
 

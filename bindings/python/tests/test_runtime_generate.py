@@ -1,0 +1,186 @@
+"""Generation at run time (mlr_generate.h): a model written by PrimitiveModel.runtime_bytes,
+loaded by the C core, generates the frames PrimitiveModel.generate(guards=False) returns for
+the same seed and options; bad model files and options are refused with a diag naming them."""
+from __future__ import annotations
+
+import struct
+import zlib
+
+import numpy as np
+import pytest
+
+import mlayer
+from mlayer._native import ffi, lib
+from mlayer.primitives import PrimitiveModel
+
+
+def _load(data: bytes, skeleton=ffi.NULL):
+    out = ffi.new("mlr_gen_model **")
+    diag = ffi.new("mlr_diag *")
+    buf = ffi.from_buffer(data)
+    st = lib.mlr_gen_model_load(ffi.NULL, buf, len(data), skeleton, out, diag)
+    msg = ffi.string(diag.message).decode()
+    if st != 0:
+        assert out[0] == ffi.NULL
+        return st, msg
+    return st, ffi.gc(out[0], lib.mlr_gen_model_destroy)
+
+
+def _frames(model_h, n: int, seed: int, **opts: float) -> tuple[np.ndarray, int]:
+    gen = ffi.new("mlr_generator **")
+    diag = ffi.new("mlr_diag *")
+    assert lib.mlr_generator_create(ffi.NULL, model_h, seed, gen, diag) == 0
+    g = ffi.gc(gen[0], lib.mlr_generator_destroy)
+    names = {"frames": lib.MLR_GEN_FRAMES, "start_frame": lib.MLR_GEN_START_FRAME,
+             "rank": lib.MLR_GEN_RANK, "smooth": lib.MLR_GEN_SMOOTH}
+    for k, v in opts.items():
+        assert lib.mlr_generator_set(g, names[k], v, diag) == 0, ffi.string(diag.message)
+    size = lib.mlr_gen_model_frame_size(model_h)
+    out = np.empty((n, size))
+    for f in range(n):
+        st = lib.mlr_generator_next(g, ffi.cast("double *", ffi.from_buffer(out[f])), diag)
+        assert st == 0, ffi.string(diag.message)
+    return out, int(lib.mlr_generator_start_frame(g))
+
+
+@pytest.fixture(scope="module")
+def walk(mocap):
+    m = mlayer.read_bvh(mocap / "cmu_131_01_mj_style_walk.bvh")
+    model = PrimitiveModel.fit([m], epochs=4, k=6, som=(10, 10), lattice=(6, 6), order=2)
+    return m, model
+
+
+def _python(model: PrimitiveModel, n: int, seed: int, **kw) -> np.ndarray:
+    g = model.generate(n, seed=seed, guards=False, **kw)
+    b = model.body_joint
+    pos = g.root_pos if b == 0 else g.trans[:, model._body_slot()]
+    return np.hstack([pos, g.rot.reshape(n, -1)])
+
+
+@pytest.mark.parametrize("seed,kw", [(0, {}), (7, {"start_frame": 40}),
+                                     (3, {"most_likely": True}),
+                                     (11, {"second_likely": True, "smooth": 0.5}),
+                                     (5, {"smooth": 0.0})])
+def test_c_frames_equal_python_generate(walk, seed, kw):
+    _, model = walk
+    st, h = _load(model.runtime_bytes())
+    assert st == 0, h
+    n = 150
+    want = _python(model, n, seed, **kw)
+    opts: dict[str, float] = {"frames": n}
+    if "start_frame" in kw:
+        opts["start_frame"] = kw["start_frame"]
+    if kw.get("most_likely"):
+        opts["rank"] = 1
+    if kw.get("second_likely"):
+        opts["rank"] = 2
+    if "smooth" in kw:
+        opts["smooth"] = kw["smooth"]
+    got, start = _frames(h, n, seed, **opts)
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
+    # the unseeded start frame is the generator's first draw, in Python as in C
+    if "start_frame" not in kw:
+        assert start == mlayer.markov.Rng(seed).below(model.points.shape[0])
+
+
+def test_endless_frames_continue(walk):
+    _, model = walk
+    st, h = _load(model.runtime_bytes())
+    got, _ = _frames(h, 400, 2, frames=100)
+    np.testing.assert_allclose(got[:100], _python(model, 100, 2), rtol=0, atol=1e-12)
+    assert np.isfinite(got).all()
+    q = got[:, 3:].reshape(400, -1, 4)
+    np.testing.assert_allclose(np.linalg.norm(q, axis=-1), 1.0, atol=1e-12)
+    # no jump at the segment joins larger than the largest step within the segments
+    step = np.abs(np.diff(got[:, :3], axis=0)).max(axis=1)
+    inside = np.delete(step, [99, 199, 299])
+    assert step[[99, 199, 299]].max() <= 2.0 * inside.max()
+
+
+def test_skeleton_check(walk):
+    from mlayer.motion import _create_handle
+    m, model = walk
+    data = model.runtime_bytes()
+    sk = m.skeleton
+
+    def handle(names):
+        return _create_handle(list(names), np.ascontiguousarray(sk.parents, np.int32),
+                              np.ascontiguousarray(sk.offsets), list(sk.channels),
+                              np.ascontiguousarray(sk.end_site_parents, np.int32),
+                              np.ascontiguousarray(sk.end_site_offsets), 0, 1.0)
+    with handle(sk.joint_names) as hs:
+        st, h = _load(data, hs)
+        assert st == 0, h
+    assert lib.mlr_gen_model_n_joints(h) == sk.n_joints
+    assert ffi.string(lib.mlr_gen_model_joint_name(h, 1)).decode() == sk.joint_names[1]
+    other = list(sk.joint_names)
+    other[2] = "Elsewhere"
+    with handle(other) as hs:
+        st, msg = _load(data, hs)
+    assert st == lib.MLR_E_INVALID_ARG
+    assert f"joint 2 is '{sk.joint_names[2]}' in the model, 'Elsewhere' in the skeleton" in msg
+
+
+def _rebuild(body: bytes, version: int = 1, mark: int = 0x01020304, n_fields: int | None = None,
+             head: bytes | None = None) -> bytes:
+    """A file from its original header fields with a replaced payload, size and CRC fixed."""
+    nf = struct.unpack_from("<I", head, 20)[0] if n_fields is None else n_fields
+    lib_v, skel = struct.unpack_from("<I", head, 16)[0], struct.unpack_from("<Q", head, 32)[0]
+    h = b"MLRGEN\0\0" + struct.pack("<IIIIQQQ", version, mark, lib_v, nf, 64 + len(body), skel,
+                                    zlib.crc32(body))
+    return h.ljust(64, b"\0") + body
+
+
+def test_bad_files_are_refused(walk):
+    _, model = walk
+    data = model.runtime_bytes()
+    head, body = data[:64], data[64:]
+    cases = {
+        "truncated": (data[:-8], "the header gives"),
+        "short": (data[:40], "no MLRGEN magic"),
+        "magic": (b"MLRGEX\0\0" + data[8:], "no MLRGEN magic"),
+        "version": (_rebuild(body, version=2, head=head), "model format version 2"),
+        "byte order": (_rebuild(body, mark=0x04030201, head=head), "byte-order mark"),
+        "damaged": (data[:-1] + bytes([data[-1] ^ 1]), "CRC-32"),
+        "fields": (_rebuild(body, n_fields=99, head=head), "99 fields"),
+    }
+    # a count too large: the first field's first dimension
+    big = bytearray(body)
+    struct.pack_into("<Q", big, 32, 1 << 40)
+    cases["count"] = (_rebuild(bytes(big), head=head), "run past the end of the file")
+    # an unknown field name
+    unk = bytearray(body)
+    unk[0:24] = b"frame_tyme".ljust(24, b"\0")
+    cases["unknown"] = (_rebuild(bytes(unk), head=head), "unknown field 'frame_tyme'")
+    for what, (bad, msg) in cases.items():
+        st, text = _load(bad)
+        assert st == lib.MLR_E_PARSE, (what, st, text)
+        assert msg in text, (what, text)
+
+
+def test_every_truncation_is_refused(walk):
+    _, model = walk
+    data = model.runtime_bytes()
+    for cut in list(range(0, 200, 7)) + list(range(len(data) - 100, len(data), 3)):
+        st, _ = _load(data[:cut])
+        assert st == lib.MLR_E_PARSE, cut
+
+
+def test_bad_options_are_refused(walk):
+    _, model = walk
+    st, h = _load(model.runtime_bytes())
+    gen = ffi.new("mlr_generator **")
+    diag = ffi.new("mlr_diag *")
+    assert lib.mlr_generator_create(ffi.NULL, h, 0, gen, diag) == 0
+    g = ffi.gc(gen[0], lib.mlr_generator_destroy)
+    n = model.points.shape[0]
+    for opt, v, msg in [(99, 1.0, "unknown option 99"), (lib.MLR_GEN_FRAMES, 1, "MLR_GEN_FRAMES"),
+                        (lib.MLR_GEN_FRAMES, 2.5, "MLR_GEN_FRAMES"),
+                        (lib.MLR_GEN_START_FRAME, n, f"0 .. {n - 1}"),
+                        (lib.MLR_GEN_RANK, 3, "MLR_GEN_RANK"),
+                        (lib.MLR_GEN_SMOOTH, float("nan"), "MLR_GEN_SMOOTH")]:
+        assert lib.mlr_generator_set(g, opt, v, diag) == lib.MLR_E_INVALID_ARG
+        assert msg in ffi.string(diag.message).decode()
+    pose = np.empty(lib.mlr_gen_model_frame_size(h))
+    assert lib.mlr_generator_next(g, ffi.cast("double *", ffi.from_buffer(pose)), diag) == 0
+    assert lib.mlr_generator_set(g, lib.MLR_GEN_RANK, 1, diag) == lib.MLR_E_BAD_STATE

@@ -1,0 +1,413 @@
+/* Generation at run time (mlr_markov.h, mlr_generate.h): the sampler's frequencies and ranked
+ * steps against the probabilities; a model file written here by hand from
+ * docs/model-format.md, loaded, generating unit quaternions reproducibly; bad files
+ * (truncated at every length, another magic, version, byte order, counts too large, another
+ * skeleton) refused with a status and a diag, nothing left allocated; allocation failures. */
+#include "mlr_test.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* ---- the sampler -------------------------------------------------------------------------- */
+
+START_TEST(sampled_frequencies_follow_the_row)
+{
+    /* state 0 jumps to 1, 2, 3 with 0.2, 0.5, 0.3 */
+    double J[16] = {0, 0.2, 0.5, 0.3, 1.0 / 3, 0, 1.0 / 3, 1.0 / 3,
+                    0.5, 0.5, 0, 0, 0.25, 0.25, 0.5, 0};
+    double rl[4] = {1, 2, 3, 4};
+    mlr_markov *mk = NULL;
+    ck_assert_int_eq(mlr_markov_create(4, J, rl, 1, 1, 0, NULL, NULL, NULL, NULL, &mk, NULL),
+                     MLR_OK);
+    mlr_rng rng;
+    mlr_rng_seed(&rng, 42);
+    size_t count[4] = {0, 0, 0, 0}, n = 200000;
+    int64_t h = 0, next;
+    for (size_t i = 0; i < n; i++) {
+        ck_assert_int_eq(mlr_markov_next(mk, &h, 1, 0, &rng, &next, NULL), MLR_OK);
+        count[next]++;
+    }
+    ck_assert_uint_eq(count[0], 0); /* a jump leaves its state */
+    for (int k = 1; k < 4; k++) /* 4.5 binomial standard deviations at most */
+        ck_assert_double_eq_tol((double)count[k] / (double)n, J[k],
+                                4.5 * sqrt(J[k] * (1 - J[k]) / (double)n));
+    /* ranked: equation 5 and the second most likely, lowest index on ties */
+    ck_assert_int_eq(mlr_markov_next(mk, &h, 1, 1, NULL, &next, NULL), MLR_OK);
+    ck_assert_int_eq(next, 2);
+    ck_assert_int_eq(mlr_markov_next(mk, &h, 1, 2, NULL, &next, NULL), MLR_OK);
+    ck_assert_int_eq(next, 3);
+    h = 2;
+    ck_assert_int_eq(mlr_markov_next(mk, &h, 1, 2, NULL, &next, NULL), MLR_OK);
+    ck_assert_int_eq(next, 1);
+    ck_assert_int_eq(mlr_markov_next(mk, &h, 1, 3, NULL, &next, NULL), MLR_OK);
+    ck_assert_int_eq(next, 1); /* fewer than 3 possible: the least likely of those */
+    /* a path fills the frames: steps of (max(rl, 1) + max(rl, 1)) / 2 */
+    int64_t path[32];
+    size_t len;
+    mlr_rng_seed(&rng, 1);
+    ck_assert_int_eq(mlr_markov_path(mk, NULL, 0, 0, 20, 0, &rng, path, 21, &len, NULL), MLR_OK);
+    double total = 0;
+    for (size_t i = 1; i < len; i++) {
+        ck_assert_int_ne(path[i], path[i - 1]);
+        total += (rl[path[i - 1]] + rl[path[i]]) / 2;
+        if (i + 1 < len)
+            ck_assert(total < 20);
+    }
+    ck_assert(total >= 20);
+    mlr_markov_destroy(mk);
+}
+END_TEST
+
+START_TEST(contexts_back_off)
+{
+    /* order 2: after (1, 0) always 3; the context (2, 0) seen once, below min_count 2 */
+    double J[16] = {0, 1.0 / 3, 1.0 / 3, 1.0 / 3, 1, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0};
+    double rl[4] = {1, 1, 1, 1};
+    int64_t keys[4] = {1, 0, 2, 0};
+    double seen[2] = {5, 1}, probs[8] = {0, 0, 0, 1, 0, 1, 0, 0};
+    mlr_markov *mk = NULL;
+    ck_assert_int_eq(mlr_markov_create(4, J, rl, 2, 2, 2, keys, seen, probs, NULL, &mk, NULL),
+                     MLR_OK);
+    int64_t h[2] = {1, 0}, next;
+    ck_assert_int_eq(mlr_markov_next(mk, h, 2, 1, NULL, &next, NULL), MLR_OK);
+    ck_assert_int_eq(next, 3);
+    h[0] = 2; /* backs off to the jump row of 0: 1, 2, 3 tie, the lowest index */
+    ck_assert_int_eq(mlr_markov_next(mk, h, 2, 1, NULL, &next, NULL), MLR_OK);
+    ck_assert_int_eq(next, 1);
+    mlr_markov_destroy(mk);
+    /* bad keys and rows */
+    mlr_diag d;
+    int64_t bad_keys[4] = {1, 0, 4, 0};
+    ck_assert_int_eq(mlr_markov_create(4, J, rl, 2, 1, 2, bad_keys, seen, probs, NULL, &mk, &d),
+                     MLR_E_INVALID_ARG);
+    ck_assert_ptr_null(mk);
+    ck_assert_ptr_nonnull(strstr(d.message, "context key 1 holds state 4"));
+    ck_assert_int_eq(mlr_markov_create(4, J, rl, 4, 1, 0, NULL, NULL, NULL, NULL, &mk, &d),
+                     MLR_E_INVALID_ARG);
+    ck_assert_ptr_nonnull(strstr(d.message, "order 4"));
+}
+END_TEST
+
+/* ---- a model file by hand ----------------------------------------------------------------- */
+
+typedef struct buf {
+    unsigned char *b;
+    size_t n, cap;
+} buf;
+
+static void put(buf *o, const void *p, size_t n)
+{
+    if (o->n + n > o->cap) {
+        o->cap = (o->n + n) * 2;
+        o->b = realloc(o->b, o->cap);
+    }
+    memcpy(o->b + o->n, p, n);
+    o->n += n;
+}
+
+static void put_u32(buf *o, uint32_t v)
+{
+    unsigned char b[4] = {(unsigned char)v, (unsigned char)(v >> 8), (unsigned char)(v >> 16),
+                          (unsigned char)(v >> 24)};
+    put(o, b, 4);
+}
+
+static void put_u64(buf *o, uint64_t v)
+{
+    put_u32(o, (uint32_t)v);
+    put_u32(o, (uint32_t)(v >> 32));
+}
+
+static void field(buf *o, const char *name, uint32_t type, uint32_t ndim, uint64_t d0,
+                  uint64_t d1, const void *data)
+{
+    char nm[24] = {0};
+    strncpy(nm, name, 23);
+    put(o, nm, 24);
+    put_u32(o, type);
+    put_u32(o, ndim);
+    put_u64(o, d0);
+    put_u64(o, d1);
+    size_t n = (size_t)((d0 > 64 ? 6 : d0) * d1); /* a count too large: 6 rows follow */
+    for (size_t i = 0; i < n; i++) {
+        if (type == 3) {
+            put(o, (const unsigned char *)data + i, 1);
+        } else {
+            uint64_t u;
+            memcpy(&u, (const char *)data + 8 * i, 8);
+            put_u64(o, u);
+        }
+    }
+    static const unsigned char zero[8] = {0};
+    size_t nb = type == 3 ? n : 8 * n;
+    put(o, zero, (8 - nb % 8) % 8);
+}
+
+static uint32_t crc32_ref(const unsigned char *b, size_t n)
+{
+    uint32_t c = 0xFFFFFFFFu;
+    for (size_t i = 0; i < n; i++) {
+        c ^= b[i];
+        for (int k = 0; k < 8; k++)
+            c = (c >> 1) ^ (0xEDB88320u & (0u - (c & 1)));
+    }
+    return ~c;
+}
+
+static uint64_t fnv_ref(uint64_t h, const unsigned char *b, size_t n)
+{
+    for (size_t i = 0; i < n; i++)
+        h = (h ^ b[i]) * 0x100000001b3ull;
+    return h;
+}
+
+/* A model of 2 joints (root, child), 6 training frames, 3 primitives, a 2x2 GRBF lattice.
+ * version, mark and the field count as given (1, 0x01020304, 0 for the real count). */
+static buf model_file(uint32_t version, uint32_t mark, uint32_t n_fields, uint64_t points_rows)
+{
+    buf p = {0};
+    const char names[] = "Hips\0Spine";
+    int64_t parents[2] = {-1, 0}, body = 0, labels[6] = {0, 0, 1, 1, 2, 2};
+    double ft = 1.0 / 30, points[12] = {0, 0, 0, 1, 1, 1, 1, 2, 2, 2, 2, 3};
+    double centers[6] = {0, 0.5, 1, 1.5, 2, 2.5}, bounds[4] = {0, 2, 0, 3};
+    double jumps[9] = {0, 0.7, 0.3, 0.5, 0, 0.5, 0.9, 0.1, 0};
+    double run[3] = {4, 3, 5};
+    int64_t markov[2] = {1, 1}, kernel = 0;
+    double width = 0, gc[8] = {0, 0, 0, 3, 2, 0, 2, 3};
+    size_t nout = 4 + 7 * 2;
+    double coef[7 * 18];
+    for (size_t r = 0; r < 7; r++)
+        for (size_t c = 0; c < nout; c++)
+            coef[r * nout + c] = r < 4 ? 0.01 * (double)((r * 7 + c * 3) % 11) - 0.05
+                                       : (r == 4 ? (c == 4 || c == 8 ? 1.0 : 0.1) : 0.02);
+    field(&p, "frame_time", 1, 1, 1, 1, &ft);
+    field(&p, "joint_names", 3, 1, sizeof names, 1, names);
+    field(&p, "parents", 2, 1, 2, 1, parents);
+    field(&p, "body_joint", 2, 1, 1, 1, &body);
+    field(&p, "points", 1, 2, points_rows, 2, points);
+    field(&p, "labels", 2, 1, 6, 1, labels);
+    field(&p, "centers", 1, 2, 3, 2, centers);
+    field(&p, "bounds", 1, 2, 2, 2, bounds);
+    field(&p, "jumps", 1, 2, 3, 3, jumps);
+    field(&p, "run_length", 1, 1, 3, 1, run);
+    field(&p, "markov", 2, 1, 2, 1, markov);
+    field(&p, "context_keys", 2, 2, 0, 1, NULL);
+    field(&p, "context_seen", 1, 1, 0, 1, NULL);
+    field(&p, "context_probs", 1, 2, 0, 3, NULL);
+    field(&p, "grbf_kernel", 2, 1, 1, 1, &kernel);
+    field(&p, "grbf_width", 1, 1, 1, 1, &width);
+    field(&p, "grbf_centers", 1, 2, 4, 2, gc);
+    field(&p, "grbf_coef", 1, 2, 7, nout, coef);
+    buf o = {0};
+    put(&o, "MLRGEN\0\0", 8);
+    put_u32(&o, version);
+    put_u32(&o, mark);
+    put_u32(&o, 400);
+    put_u32(&o, n_fields ? n_fields : 18);
+    put_u64(&o, 64 + p.n);
+    /* the skeleton hash: the names field's bytes, then the parents' (as in the file) */
+    unsigned char pb[16];
+    for (int i = 0; i < 16; i++)
+        pb[i] = (unsigned char)((uint64_t)parents[i / 8] >> (8 * (i % 8)));
+    put_u64(&o, fnv_ref(fnv_ref(0xcbf29ce484222325ull, (const unsigned char *)names,
+                                sizeof names),
+                        pb, 16));
+    put_u64(&o, crc32_ref(p.b, p.n));
+    static const unsigned char zero[16] = {0};
+    put(&o, zero, 16);
+    put(&o, p.b, p.n);
+    free(p.b);
+    return o;
+}
+
+static mlr_status load(const buf *f, size_t n, mlr_gen_model **m, mlr_diag *d)
+{
+    mlr_test_allocator ta;
+    mlr_test_allocator_init(&ta, SIZE_MAX);
+    mlr_status st = mlr_gen_model_load(&ta.base, f->b, n, NULL, m, d);
+    if (st) {
+        ck_assert_ptr_null(*m);
+        ck_assert_uint_eq(ta.live_blocks, 0);
+    } else {
+        mlr_gen_model_destroy(*m);
+        ck_assert_uint_eq(ta.live_blocks, 0);
+        st = mlr_gen_model_load(NULL, f->b, n, NULL, m, d);
+    }
+    return st;
+}
+
+START_TEST(hand_written_model_generates)
+{
+    buf f = model_file(1, 0x01020304u, 0, 6);
+    mlr_gen_model *m = NULL;
+    mlr_diag d;
+    ck_assert_msg(load(&f, f.n, &m, &d) == MLR_OK, "%s", d.message);
+    ck_assert_uint_eq(mlr_gen_model_n_joints(m), 2);
+    ck_assert_str_eq(mlr_gen_model_joint_name(m, 1), "Spine");
+    ck_assert_uint_eq(mlr_gen_model_n_points(m), 6);
+    ck_assert_uint_eq(mlr_gen_model_n_primitives(m), 3);
+    ck_assert_uint_eq(mlr_gen_model_frame_size(m), 11);
+    ck_assert_double_eq(mlr_gen_model_frame_time(m), 1.0 / 30);
+    double a[11], b[11];
+    mlr_generator *g1 = NULL, *g2 = NULL;
+    ck_assert_int_eq(mlr_generator_create(NULL, m, 9, &g1, &d), MLR_OK);
+    ck_assert_int_eq(mlr_generator_create(NULL, m, 9, &g2, &d), MLR_OK);
+    ck_assert_int_eq(mlr_generator_set(g1, MLR_GEN_FRAMES, 40, &d), MLR_OK);
+    ck_assert_int_eq(mlr_generator_set(g2, MLR_GEN_FRAMES, 40, &d), MLR_OK);
+    for (int f_ = 0; f_ < 130; f_++) { /* through three segment starts */
+        ck_assert_int_eq(mlr_generator_next(g1, a, &d), MLR_OK);
+        ck_assert_int_eq(mlr_generator_next(g2, b, &d), MLR_OK);
+        ck_assert_mem_eq(a, b, sizeof a);
+        for (int j = 0; j < 2; j++) {
+            const double *q = a + 3 + 4 * j;
+            ck_assert_double_eq_tol(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3], 1.0,
+                                    1e-14);
+        }
+        double pt[2];
+        mlr_generator_point(g1, pt);
+        ck_assert(pt[0] >= 0 && pt[0] <= 2 && pt[1] >= 0 && pt[1] <= 3);
+        int64_t prim = mlr_generator_primitive(g1);
+        ck_assert(prim >= 0 && prim < 3);
+    }
+    ck_assert_uint_eq(mlr_generator_frame(g1), 130);
+    int64_t sf = mlr_generator_start_frame(g1);
+    mlr_rng r;
+    mlr_rng_seed(&r, 9);
+    ck_assert_int_eq(sf, (int64_t)mlr_rng_below(&r, 6)); /* the first draw */
+    ck_assert_int_eq(mlr_generator_set(g1, MLR_GEN_RANK, 1, &d), MLR_E_BAD_STATE);
+    mlr_generator_destroy(g1);
+    mlr_generator_destroy(g2);
+    mlr_gen_model_destroy(m);
+    free(f.b);
+}
+END_TEST
+
+START_TEST(bad_files_are_refused)
+{
+    buf f = model_file(1, 0x01020304u, 0, 6);
+    mlr_gen_model *m = NULL;
+    mlr_diag d;
+    for (size_t n = 0; n < f.n; n++) /* every truncation */
+        ck_assert_int_eq(load(&f, n, &m, &d), MLR_E_PARSE);
+    struct {
+        buf file;
+        const char *says;
+    } cases[] = {
+        {model_file(2, 0x01020304u, 0, 6), "model format version 2 (written by mlayer 0.4.0)"},
+        {model_file(1, 0x04030201u, 0, 6), "byte-order mark"},
+        {model_file(1, 0x01020304u, 17, 6), "bytes after the last field"},
+        {model_file(1, 0x01020304u, 40, 6), "40 fields"},
+        {model_file(1, 0x01020304u, 0, 5), "field 'points' is 5 x 2"},
+        {model_file(1, 0x01020304u, 0, (uint64_t)1 << 61), "run past the end"},
+    };
+    for (size_t i = 0; i < MLR_COUNTOF(cases); i++) {
+        buf *c = &cases[i].file;
+        ck_assert_int_eq(load(c, c->n, &m, &d), MLR_E_PARSE);
+        ck_assert_msg(strstr(d.message, cases[i].says) != NULL, "case %zu: %s", i, d.message);
+        free(c->b);
+    }
+    /* another magic, a flipped payload byte */
+    f.b[3] = 'X';
+    ck_assert_int_eq(load(&f, f.n, &m, &d), MLR_E_PARSE);
+    ck_assert_ptr_nonnull(strstr(d.message, "magic"));
+    f.b[3] = 'G';
+    f.b[f.n - 9] ^= 0x40;
+    ck_assert_int_eq(load(&f, f.n, &m, &d), MLR_E_PARSE);
+    ck_assert_ptr_nonnull(strstr(d.message, "CRC-32"));
+    free(f.b);
+}
+END_TEST
+
+START_TEST(another_skeleton_is_refused)
+{
+    buf f = model_file(1, 0x01020304u, 0, 6);
+    const char *names[2] = {"Hips", "Chest"};
+    int32_t parents[2] = {-1, 0};
+    double offsets[6] = {0, 0, 0, 0, 1, 0};
+    const char *channels[2] = {"Xposition Yposition Zposition Zrotation Xrotation Yrotation",
+                               "Zrotation Xrotation Yrotation"};
+    mlr_motion *sk = NULL;
+    ck_assert_int_eq(mlr_motion_create(2, names, parents, offsets, channels, 0, NULL, NULL, 0,
+                                       1.0 / 30, NULL, &sk, NULL),
+                     MLR_OK);
+    mlr_gen_model *m = NULL;
+    mlr_diag d;
+    mlr_test_allocator ta;
+    mlr_test_allocator_init(&ta, SIZE_MAX);
+    ck_assert_int_eq(mlr_gen_model_load(&ta.base, f.b, f.n, sk, &m, &d), MLR_E_INVALID_ARG);
+    ck_assert_ptr_null(m);
+    ck_assert_uint_eq(ta.live_blocks, 0);
+    ck_assert_ptr_nonnull(strstr(d.message, "joint 1 is 'Spine' in the model, 'Chest'"));
+    mlr_motion_destroy(sk);
+    names[1] = "Spine";
+    ck_assert_int_eq(mlr_motion_create(2, names, parents, offsets, channels, 0, NULL, NULL, 0,
+                                       1.0 / 30, NULL, &sk, NULL),
+                     MLR_OK);
+    ck_assert_int_eq(mlr_gen_model_load(NULL, f.b, f.n, sk, &m, &d), MLR_OK);
+    mlr_gen_model_destroy(m);
+    mlr_motion_destroy(sk);
+    free(f.b);
+}
+END_TEST
+
+START_TEST(bad_options_and_allocation_failures)
+{
+    buf f = model_file(1, 0x01020304u, 0, 6);
+    mlr_gen_model *m = NULL;
+    mlr_diag d;
+    ck_assert_int_eq(mlr_gen_model_load(NULL, f.b, f.n, NULL, &m, &d), MLR_OK);
+    mlr_generator *g = NULL;
+    ck_assert_int_eq(mlr_generator_create(NULL, m, 0, &g, &d), MLR_OK);
+    ck_assert_int_eq(mlr_generator_set(g, 77, 1, &d), MLR_E_INVALID_ARG);
+    ck_assert_ptr_nonnull(strstr(d.message, "unknown option 77"));
+    ck_assert_int_eq(mlr_generator_set(g, MLR_GEN_START_FRAME, 6, &d), MLR_E_INVALID_ARG);
+    ck_assert_ptr_nonnull(strstr(d.message, "0 .. 5"));
+    ck_assert_int_eq(mlr_generator_set(g, MLR_GEN_START, 3, &d), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_generator_set(g, MLR_GEN_SMOOTH, -1, &d), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_generator_next(g, NULL, &d), MLR_E_INVALID_ARG);
+    mlr_generator_destroy(g);
+    /* every allocation of loading and of a generator's first two segments fails cleanly */
+    for (size_t fail_at = 0;; fail_at++) {
+        mlr_test_allocator ta;
+        mlr_test_allocator_init(&ta, fail_at);
+        mlr_gen_model *mm = NULL;
+        mlr_status st = mlr_gen_model_load(&ta.base, f.b, f.n, NULL, &mm, &d);
+        mlr_generator *gg = NULL;
+        if (!st)
+            st = mlr_generator_create(&ta.base, mm, 3, &gg, &d);
+        if (!st)
+            st = mlr_generator_set(gg, MLR_GEN_FRAMES, 20, &d);
+        double pose[11];
+        for (int k = 0; !st && k < 30; k++)
+            st = mlr_generator_next(gg, pose, &d);
+        mlr_generator_destroy(gg);
+        mlr_gen_model_destroy(mm);
+        ck_assert_uint_eq(ta.live_blocks, 0);
+        if (st == MLR_OK)
+            break;
+        ck_assert_int_eq(st, MLR_E_NO_MEMORY);
+        ck_assert_uint_lt(fail_at, 100);
+    }
+    mlr_gen_model_destroy(m);
+    free(f.b);
+}
+END_TEST
+
+static Suite *generate_suite(void)
+{
+    Suite *s = suite_create("generate");
+    TCase *t = tcase_create("generate");
+    tcase_set_timeout(t, 120);
+    tcase_add_test(t, sampled_frequencies_follow_the_row);
+    tcase_add_test(t, contexts_back_off);
+    tcase_add_test(t, hand_written_model_generates);
+    tcase_add_test(t, bad_files_are_refused);
+    tcase_add_test(t, another_skeleton_is_refused);
+    tcase_add_test(t, bad_options_and_allocation_failures);
+    suite_add_tcase(s, t);
+    return s;
+}
+
+int main(void) { return mlr_test_run(generate_suite()); }
