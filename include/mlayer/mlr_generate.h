@@ -130,8 +130,7 @@ MLR_API mlr_status mlr_generator_create(const mlr_allocator *alloc, const mlr_ge
  * @return MLR_OK; MLR_E_INVALID_ARG (an unknown option, naming its number; a value out of
  *         range, naming the option and the range); MLR_E_BAD_STATE (frames were produced).
  */
-MLR_API mlr_status mlr_generator_set(mlr_generator *gen, int option, double value,
-                                     mlr_diag *diag);
+MLR_API mlr_status mlr_generator_set(mlr_generator *gen, int option, double value, mlr_diag *diag);
 
 /**
  * The next frame: pose[0 .. 2] the body position (x, height, z; the body joint's position

@@ -83,8 +83,7 @@ MLR_API mlr_status mlr_markov_create(size_t n_states, const double *jumps,
                                      const double *run_length, unsigned order, size_t min_count,
                                      size_t n_contexts, const int64_t *context_keys,
                                      const double *context_seen, const double *context_probs,
-                                     const mlr_allocator *alloc, mlr_markov **out,
-                                     mlr_diag *diag);
+                                     const mlr_allocator *alloc, mlr_markov **out, mlr_diag *diag);
 
 /** States n. */
 MLR_API size_t mlr_markov_n_states(const mlr_markov *mk);
@@ -124,10 +123,9 @@ MLR_API double mlr_markov_step_frames(const mlr_markov *mk, int64_t a, int64_t b
  * @return MLR_OK; MLR_E_INVALID_ARG (NULL pointers, states out of range, cap too small).
  * Allocates: never.
  */
-MLR_API mlr_status mlr_markov_path(const mlr_markov *mk, const int64_t *history,
-                                   size_t n_history, int64_t start, size_t n_frames, int rank,
-                                   mlr_rng *rng, int64_t *path, size_t cap, size_t *len,
-                                   mlr_diag *diag);
+MLR_API mlr_status mlr_markov_path(const mlr_markov *mk, const int64_t *history, size_t n_history,
+                                   int64_t start, size_t n_frames, int rank, mlr_rng *rng,
+                                   int64_t *path, size_t cap, size_t *len, mlr_diag *diag);
 
 /** Free the model. NULL is a no-op. */
 MLR_API void mlr_markov_destroy(mlr_markov *mk);

@@ -72,40 +72,51 @@ mlr_status mlr_generator_set(mlr_generator *g, int option, double v, mlr_diag *d
     if (!g)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: gen is NULL", who);
     if (g->started)
-        return mlr_diag_set(diag, MLR_E_BAD_STATE, 0, 0, "%s: options are set before the first "
-                            "frame", who);
+        return mlr_diag_set(diag, MLR_E_BAD_STATE, 0, 0,
+                            "%s: options are set before the first "
+                            "frame",
+                            who);
     const mlr_gen_model *m = g->model;
     int integral = v == floor(v);
     switch (option) {
     case MLR_GEN_FRAMES:
         if (!(integral && v >= 2 && v <= MAX_FRAMES))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: MLR_GEN_FRAMES %g out of "
-                                "range (an integer 2 .. %d)", who, v, MAX_FRAMES);
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "%s: MLR_GEN_FRAMES %g out of "
+                                "range (an integer 2 .. %d)",
+                                who, v, MAX_FRAMES);
         g->frames = (size_t)v;
         return MLR_OK;
     case MLR_GEN_START_FRAME:
         if (!(integral && v >= -1 && v < (double)m->n_points))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: MLR_GEN_START_FRAME %g out "
-                                "of range (-1, or a training frame 0 .. %zu)", who, v,
-                                m->n_points - 1);
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "%s: MLR_GEN_START_FRAME %g out "
+                                "of range (-1, or a training frame 0 .. %zu)",
+                                who, v, m->n_points - 1);
         g->start_frame_opt = (int64_t)v;
         return MLR_OK;
     case MLR_GEN_START:
         if (!(integral && v >= -1 && v < (double)m->k))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: MLR_GEN_START %g out of "
-                                "range (-1, or a primitive 0 .. %zu)", who, v, m->k - 1);
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "%s: MLR_GEN_START %g out of "
+                                "range (-1, or a primitive 0 .. %zu)",
+                                who, v, m->k - 1);
         g->start_opt = (int64_t)v;
         return MLR_OK;
     case MLR_GEN_RANK:
         if (!(v == 0 || v == 1 || v == 2))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: MLR_GEN_RANK %g out of "
-                                "range (0 sampled, 1 most likely, 2 second most likely)", who, v);
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "%s: MLR_GEN_RANK %g out of "
+                                "range (0 sampled, 1 most likely, 2 second most likely)",
+                                who, v);
         g->rank = (int)v;
         return MLR_OK;
     case MLR_GEN_SMOOTH:
         if (!(v >= 0 && v < HUGE_VAL))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: MLR_GEN_SMOOTH %g out of "
-                                "range (finite, >= 0)", who, v);
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "%s: MLR_GEN_SMOOTH %g out of "
+                                "range (finite, >= 0)",
+                                who, v);
         g->smooth = v;
         return MLR_OK;
     default:
@@ -125,8 +136,10 @@ static mlr_status allocate(mlr_generator *g, mlr_diag *diag)
     total = (4 * cap + 2 * n + ny) * 8;
     unsigned char *b = mlr_alloc(&g->alloc, total);
     if (!b)
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "mlr_generator_next: out of memory "
-                            "(%zu bytes for %zu frames)", total, n);
+        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                            "mlr_generator_next: out of memory "
+                            "(%zu bytes for %zu frames)",
+                            total, n);
     g->block = b;
     g->bytes = total;
     g->path = (int64_t *)(void *)b;
@@ -208,10 +221,10 @@ static mlr_status next_walk(mlr_generator *g, mlr_diag *diag)
     int64_t from = g->path[i - 1], to = g->path[i];
     double full = mlr_markov_step_frames(m->markov, from, to);
     double done = g->times[i] - g->times[i - 1];
-    double span = g->knots[2 * i] != m->centers[2 * to] ||
-                          g->knots[2 * i + 1] != m->centers[2 * to + 1]
-                      ? full - done
-                      : -1.0;
+    double span =
+        g->knots[2 * i] != m->centers[2 * to] || g->knots[2 * i + 1] != m->centers[2 * to + 1]
+            ? full - done
+            : -1.0;
     int64_t hist[MLR_MARKOV_MAX_ORDER];
     size_t nh = 0;
     for (size_t j = i >= MLR_MARKOV_MAX_ORDER ? i - MLR_MARKOV_MAX_ORDER + 1 : 0; j < i; j++)
@@ -255,7 +268,8 @@ static mlr_status segment(mlr_generator *g, mlr_diag *diag)
         return st;
     for (size_t i = 1; i < g->n_knots; i++)
         if (!(g->times[i] > g->times[i - 1]))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "mlr_generator_next: knots at "
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "mlr_generator_next: knots at "
                                 "the same frame");
     if (g->n_knots == 1) {
         for (size_t f = 0; f < n; f++) {
@@ -299,7 +313,8 @@ mlr_status mlr_generator_next(mlr_generator *g, double *pose, mlr_diag *diag)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "mlr_generator_next: %s is NULL",
                             g ? "pose" : "gen");
     if (g->broken)
-        return mlr_diag_set(diag, MLR_E_BAD_STATE, 0, 0, "mlr_generator_next: a segment failed "
+        return mlr_diag_set(diag, MLR_E_BAD_STATE, 0, 0,
+                            "mlr_generator_next: a segment failed "
                             "before; destroy the generator");
     const mlr_gen_model *m = g->model;
     mlr_status st;

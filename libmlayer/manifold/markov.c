@@ -45,8 +45,10 @@ mlr_status mlr_markov_create(size_t n_states, const double *jumps, const double 
     const char *who = "mlr_markov_create";
     size_t n = n_states, m = n_contexts;
     if (n == 0 || n > INT32_MAX)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: n_states %zu out of range "
-                            "(1 .. 2^31 - 1)", who, n);
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "%s: n_states %zu out of range "
+                            "(1 .. 2^31 - 1)",
+                            who, n);
     if (!jumps || !run_length)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: %s is NULL", who,
                             jumps ? "run_length" : "jumps");
@@ -56,8 +58,10 @@ mlr_status mlr_markov_create(size_t n_states, const double *jumps, const double 
     if (min_count < 1)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: min_count must be >= 1", who);
     if (m > 0 && (!context_keys || !context_seen || !context_probs))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: %zu contexts but a context array "
-                            "is NULL", who, m);
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "%s: %zu contexts but a context array "
+                            "is NULL",
+                            who, m);
     if (m > 0 && order == 1)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: contexts need order >= 2", who);
     size_t nn, mn, mo, total;
@@ -67,37 +71,51 @@ mlr_status mlr_markov_create(size_t n_states, const double *jumps, const double 
     total = (nn + n + m + mn + mo) * sizeof(double);
     size_t r = bad_row(jumps, n, n);
     if (r < n)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: jumps row %zu is not finite, "
-                            ">= 0 and summing to 1", who, r);
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "%s: jumps row %zu is not finite, "
+                            ">= 0 and summing to 1",
+                            who, r);
     if (n > 1)
         for (size_t j = 0; j < n; j++)
             if (jumps[j * n + j] != 0.0)
-                return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: jumps[%zu][%zu] must be 0 "
-                                    "(a jump leaves its state)", who, j, j);
+                return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "%s: jumps[%zu][%zu] must be 0 "
+                                    "(a jump leaves its state)",
+                                    who, j, j);
     for (size_t j = 0; j < n; j++)
         if (!(run_length[j] >= 0.0 && run_length[j] < HUGE_VAL))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: run_length[%zu] must be "
-                                "finite and >= 0", who, j);
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "%s: run_length[%zu] must be "
+                                "finite and >= 0",
+                                who, j);
     r = m ? bad_row(context_probs, m, n) : 0;
     if (r < m)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: context_probs row %zu is not "
-                            "finite, >= 0 and summing to 1", who, r);
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "%s: context_probs row %zu is not "
+                            "finite, >= 0 and summing to 1",
+                            who, r);
     for (size_t c = 0; c < m; c++) {
         if (!(context_seen[c] >= 0.0 && context_seen[c] < HUGE_VAL))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: context_seen[%zu] must be "
-                                "finite and >= 0", who, c);
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "%s: context_seen[%zu] must be "
+                                "finite and >= 0",
+                                who, c);
         const int64_t *k = context_keys + c * order;
         size_t pad = 0;
         while (pad < order && k[pad] == -1)
             pad++;
         if (order - pad < 2)
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: context key %zu has fewer "
-                                "than 2 states", who, c);
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "%s: context key %zu has fewer "
+                                "than 2 states",
+                                who, c);
         for (size_t i = pad; i < order; i++)
             if (k[i] < 0 || (uint64_t)k[i] >= n)
-                return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: context key %zu holds "
+                return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "%s: context key %zu holds "
                                     "state %lld, out of range (0 .. %zu, -1 only as left "
-                                    "padding)", who, c, (long long)k[i], n - 1);
+                                    "padding)",
+                                    who, c, (long long)k[i], n - 1);
     }
     mlr_allocator a;
     mlr_allocator_resolve(alloc, &a);
@@ -234,14 +252,15 @@ static mlr_status step(const mlr_markov *mk, const int64_t *h, size_t len, int r
     return MLR_OK;
 }
 
-static mlr_status check_states(const mlr_markov *mk, const int64_t *h, size_t len,
-                               const char *who, const char *what, mlr_diag *diag)
+static mlr_status check_states(const mlr_markov *mk, const int64_t *h, size_t len, const char *who,
+                               const char *what, mlr_diag *diag)
 {
     for (size_t i = 0; i < len; i++)
         if (h[i] < 0 || (uint64_t)h[i] >= mk->n)
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: %s[%zu] = %lld out of range "
-                                "(the model has %zu states, 0 .. %zu)", who, what, i,
-                                (long long)h[i], mk->n, mk->n - 1);
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "%s: %s[%zu] = %lld out of range "
+                                "(the model has %zu states, 0 .. %zu)",
+                                who, what, i, (long long)h[i], mk->n, mk->n - 1);
     return MLR_OK;
 }
 
@@ -251,7 +270,10 @@ mlr_status mlr_markov_next(const mlr_markov *mk, const int64_t *history, size_t 
     const char *who = "mlr_markov_next";
     if (!mk || !history || !next || (rank == 0 && !rng))
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: %s is NULL", who,
-                            !mk ? "mk" : !history ? "history" : !next ? "next" : "rng");
+                            !mk        ? "mk"
+                            : !history ? "history"
+                            : !next    ? "next"
+                                       : "rng");
     if (len == 0)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: empty history", who);
     if (rank < 0)
@@ -270,13 +292,19 @@ mlr_status mlr_markov_path(const mlr_markov *mk, const int64_t *history, size_t 
     const char *who = "mlr_markov_path";
     if (!mk || !path || !len || (n_history && !history) || (rank == 0 && !rng))
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: %s is NULL", who,
-                            !mk ? "mk" : !path ? "path" : !len ? "len" : !rng ? "rng" : "history");
+                            !mk     ? "mk"
+                            : !path ? "path"
+                            : !len  ? "len"
+                            : !rng  ? "rng"
+                                    : "history");
     *len = 0;
     if (rank < 0)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: rank %d must be >= 0", who, rank);
     if (n_frames < 1 || n_frames == SIZE_MAX || cap < n_frames + 1)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: cap %zu < n_frames + 1 (n_frames "
-                            "%zu >= 1)", who, cap, n_frames);
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "%s: cap %zu < n_frames + 1 (n_frames "
+                            "%zu >= 1)",
+                            who, cap, n_frames);
     mlr_status st = check_states(mk, history, n_history, who, "history", diag);
     if (!st)
         st = check_states(mk, &start, 1, who, "start", diag);

@@ -184,3 +184,35 @@ def test_bad_options_are_refused(walk):
     pose = np.empty(lib.mlr_gen_model_frame_size(h))
     assert lib.mlr_generator_next(g, ffi.cast("double *", ffi.from_buffer(pose)), diag) == 0
     assert lib.mlr_generator_set(g, lib.MLR_GEN_RANK, 1, diag) == lib.MLR_E_BAD_STATE
+
+
+def test_save_runtime_loads_from_the_file(walk, tmp_path):
+    _, model = walk
+    path = tmp_path / "walk.mlrgen"
+    model.save_runtime(path)
+    assert path.read_bytes() == model.runtime_bytes()
+    out = ffi.new("mlr_gen_model **")
+    diag = ffi.new("mlr_diag *")
+    st = lib.mlr_gen_model_load_file(ffi.NULL, str(path).encode(), ffi.NULL, out, diag)
+    assert st == 0, ffi.string(diag.message)
+    h = ffi.gc(out[0], lib.mlr_gen_model_destroy)
+    assert lib.mlr_gen_model_n_points(h) == model.points.shape[0]
+    assert lib.mlr_gen_model_n_primitives(h) == model.centers.shape[0]
+
+
+def test_c_example_writes_the_bvh_python_writes(walk, mocap, tmp_path):
+    """examples/c/generate.c, from a meson build named by MLR_BUILD_DIR: its BVH file of the
+    first segment is byte for byte the one of generate(guards=False) written by Python."""
+    import os
+    import subprocess
+    build = os.environ.get("MLR_BUILD_DIR")
+    exe = os.path.join(build, "examples", "c", "example_generate") if build else ""
+    if not (exe and os.path.exists(exe)):
+        pytest.skip("set MLR_BUILD_DIR to a meson build of the C examples")
+    _, model = walk
+    model.save_runtime(tmp_path / "walk.mlrgen")
+    mlayer.write_bvh(model.generate(120, seed=3, guards=False), tmp_path / "py.bvh")
+    rig = str(mocap / "cmu_131_01_mj_style_walk.bvh")
+    subprocess.run([exe, rig, str(tmp_path / "walk.mlrgen"), str(tmp_path / "c.bvh"), "120", "3",
+                    "120"], check=True, capture_output=True)
+    assert (tmp_path / "c.bvh").read_bytes() == (tmp_path / "py.bvh").read_bytes()
