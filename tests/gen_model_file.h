@@ -35,8 +35,8 @@ static void put_u64(buf *o, uint64_t v)
     put_u32(o, (uint32_t)(v >> 32));
 }
 
-static void field(buf *o, const char *name, uint32_t type, uint32_t ndim, uint64_t d0,
-                  uint64_t d1, const void *data)
+static void field(buf *o, const char *name, uint32_t type, uint32_t ndim, uint64_t d0, uint64_t d1,
+                  const void *data)
 {
     char nm[24] = {0};
     strncpy(nm, name, 23);
@@ -126,8 +126,7 @@ static buf model_file(uint32_t version, uint32_t mark, uint32_t n_fields, uint64
     unsigned char pb[16];
     for (int i = 0; i < 16; i++)
         pb[i] = (unsigned char)((uint64_t)parents[i / 8] >> (8 * (i % 8)));
-    put_u64(&o, fnv_ref(fnv_ref(0xcbf29ce484222325ull, (const unsigned char *)names,
-                                sizeof names),
+    put_u64(&o, fnv_ref(fnv_ref(0xcbf29ce484222325ull, (const unsigned char *)names, sizeof names),
                         pb, 16));
     put_u64(&o, crc32_ref(p.b, p.n));
     static const unsigned char zero[16] = {0};

@@ -40,11 +40,10 @@ static mlr_status rig_motion(const mlr_motion *rig, size_t n, mlr_motion **out, 
         names[j] = mlr_motion_joint_name(rig, j);
         chans[j] = mlr_motion_joint_channels(rig, j);
     }
-    mlr_status st = mlr_motion_create(J, names, mlr_motion_parents(rig), mlr_motion_offsets(rig),
-                                      chans, mlr_motion_n_end_sites(rig),
-                                      mlr_motion_end_site_parents(rig),
-                                      mlr_motion_end_site_offsets(rig), n,
-                                      mlr_motion_frame_time(rig), NULL, out, diag);
+    mlr_status st = mlr_motion_create(
+        J, names, mlr_motion_parents(rig), mlr_motion_offsets(rig), chans,
+        mlr_motion_n_end_sites(rig), mlr_motion_end_site_parents(rig),
+        mlr_motion_end_site_offsets(rig), n, mlr_motion_frame_time(rig), NULL, out, diag);
     free(names);
     free(chans);
     return st;

@@ -216,3 +216,26 @@ def test_c_example_writes_the_bvh_python_writes(walk, mocap, tmp_path):
     subprocess.run([exe, rig, str(tmp_path / "walk.mlrgen"), str(tmp_path / "c.bvh"), "120", "3",
                     "120"], check=True, capture_output=True)
     assert (tmp_path / "c.bvh").read_bytes() == (tmp_path / "py.bvh").read_bytes()
+
+
+def test_cli_runtime_model_under_a_static_root(mocap, tmp_path):
+    """`mlayer primitives --runtime` on a rig whose body joint (Hips) is below a static root
+    (Bandai's joint_Root): the C frames drive the body joint's position channels as Python's
+    generate does."""
+    from mlayer.cli import main
+    clip = mocap / "bandai1_walk_happy_001.bvh"
+    if not clip.exists():
+        pytest.skip("bandai1_walk_happy_001.bvh not found")
+    npz, rt = tmp_path / "m.npz", tmp_path / "m.mlrgen"
+    assert main(["primitives", str(clip), "-o", str(npz), "--som", "8x8", "--lattice", "6x6",
+                 "--epochs", "4", "--k", "5", "--plots", "", "--runtime", str(rt)]) == 0
+    model = PrimitiveModel.load(npz)
+    assert model.body_joint != 0
+    st, h = _load(rt.read_bytes())
+    assert st == 0, h
+    assert lib.mlr_gen_model_body_joint(h) == model.body_joint
+    got, _ = _frames(h, 120, 4, frames=120)
+    np.testing.assert_allclose(got, _python(model, 120, 4), rtol=0, atol=1e-12)
+    # a wrong extension is refused before any work
+    assert main(["primitives", str(clip), "-o", str(npz), "--runtime",
+                 str(tmp_path / "m.bin")]) == 1
