@@ -57,6 +57,32 @@ START_TEST(sampled_frequencies_follow_the_row)
             ck_assert(total < 20);
     }
     ck_assert(total >= 20);
+    /* the perturbed chain: rows still distributions over the same support, the diagonal 0;
+     * with allow_unseen every other state reachable */
+    mlr_markov *pk = NULL;
+    mlr_rng_seed(&rng, 3);
+    ck_assert_int_eq(mlr_markov_perturb(mk, 0.5, 0, &rng, NULL, &pk, NULL), MLR_OK);
+    mlr_rng_seed(&rng, 3);
+    h = 2;
+    size_t seen3 = 0;
+    for (int i = 0; i < 2000; i++) {
+        ck_assert_int_eq(mlr_markov_next(pk, &h, 1, 0, &rng, &next, NULL), MLR_OK);
+        ck_assert(next == 0 || next == 1); /* row 2: 0.5, 0.5, 0, 0 */
+    }
+    mlr_markov_destroy(pk);
+    ck_assert_int_eq(mlr_markov_perturb(mk, 0.0, 1, &rng, NULL, &pk, NULL), MLR_OK);
+    for (int i = 0; i < 20000; i++) {
+        ck_assert_int_eq(mlr_markov_next(pk, &h, 1, 0, &rng, &next, NULL), MLR_OK);
+        ck_assert_int_ne(next, 2);
+        seen3 += next == 3;
+    }
+    /* 0.02 / 1 of the mass opened to state 3: about 400 of 20000 */
+    ck_assert(seen3 > 250 && seen3 < 550);
+    mlr_markov_destroy(pk);
+    mlr_diag dd;
+    ck_assert_int_eq(mlr_markov_perturb(mk, -1.0, 0, &rng, NULL, &pk, &dd), MLR_E_INVALID_ARG);
+    ck_assert_ptr_null(pk);
+    ck_assert_ptr_nonnull(strstr(dd.message, "noise"));
     mlr_markov_destroy(mk);
 }
 END_TEST
@@ -259,6 +285,9 @@ START_TEST(bad_options_and_allocation_failures)
     ck_assert_ptr_nonnull(strstr(d.message, "0 .. 5"));
     ck_assert_int_eq(mlr_generator_set(g, MLR_GEN_START, 3, &d), MLR_E_INVALID_ARG);
     ck_assert_int_eq(mlr_generator_set(g, MLR_GEN_SMOOTH, -1, &d), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_generator_set(g, MLR_GEN_NOISE, INFINITY, &d), MLR_E_INVALID_ARG);
+    ck_assert_ptr_nonnull(strstr(d.message, "MLR_GEN_NOISE"));
+    ck_assert_int_eq(mlr_generator_set(g, MLR_GEN_ALLOW_UNSEEN, 0.5, &d), MLR_E_INVALID_ARG);
     ck_assert_int_eq(mlr_generator_next(g, NULL, &d), MLR_E_INVALID_ARG);
     mlr_generator_destroy(g);
     /* every allocation of loading and of a generator's first two segments fails cleanly */
@@ -272,6 +301,8 @@ START_TEST(bad_options_and_allocation_failures)
             st = mlr_generator_create(&ta.base, mm, 3, &gg, &d);
         if (!st)
             st = mlr_generator_set(gg, MLR_GEN_FRAMES, 20, &d);
+        if (!st) /* the perturbed chain's allocations too */
+            st = mlr_generator_set(gg, MLR_GEN_NOISE, 0.5, &d);
         double pose[11];
         for (int k = 0; !st && k < 30; k++)
             st = mlr_generator_next(gg, pose, &d);

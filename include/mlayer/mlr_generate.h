@@ -4,12 +4,15 @@
  * docs/model-format.md, loaded here, and a generator that produces the frames of a generated
  * motion one at a time, without Python.
  *
- * What a generator computes is what PrimitiveModel.generate(frames, start_frame=,
- * most_likely= / second_likely=, seed=, smooth=, guards=False) computes, step for step:
+ * What a generator computes is what PrimitiveModel.generate(frames, start_frame=, start=,
+ * most_likely= / second_likely=, noise=, allow_unseen=, seed=, smooth=, guards=False)
+ * computes, step for step:
  *  1. the seeded generator (mlr_rng, mlr_markov.h) seeded with the seed; the start frame (the
  *     option, or mlr_rng_below(n_points) when it is -1) and its primitive (the option, or the
  *     frame's label);
- *  2. the walk of distinct primitives (mlr_markov_path: sampled, or ranked) filling the frames;
+ *  2. the walk of distinct primitives (mlr_markov_path: sampled, or ranked) filling the frames,
+ *     on the chain perturbed once at the first frame when MLR_GEN_NOISE > 0 or
+ *     MLR_GEN_ALLOW_UNSEEN (mlr_markov_perturb, its own generator: MLR_GEN_NOISE_SEED_XOR);
  *  3. the knots: the start frame's manifold point, then the primitives' centres, at times
  *     spaced by the steps' frames; the knot past the last frame cut to it by linear
  *     interpolation;
@@ -111,8 +114,16 @@ enum {
     MLR_GEN_START = 3,       /* the first primitive, -1 (default): the start frame's label */
     MLR_GEN_RANK = 4,        /* 0 (default): sampled transitions; 1 most likely (equation 5),
                                 2 second most likely */
-    MLR_GEN_SMOOTH = 5       /* lam of the LGS that smooths the outputs, finite, >= 0 (2) */
+    MLR_GEN_SMOOTH = 5,      /* lam of the LGS that smooths the outputs, finite, >= 0 (2) */
+    MLR_GEN_NOISE = 6,       /* the chain perturbed first (mlr_markov_perturb), finite, >= 0
+                                (default 0: the learned chain) */
+    MLR_GEN_ALLOW_UNSEEN = 7 /* 0 (default) or 1: the perturbation may open transitions the
+                                data never showed */
 };
+
+/** The perturbation's generator is seeded with seed ^ MLR_GEN_NOISE_SEED_XOR (the first 64
+ *  fractional bits of sqrt(2)), apart from the stream of the start frame and the walk. */
+#define MLR_GEN_NOISE_SEED_XOR 0x6A09E667F3BCC908ull
 
 typedef struct mlr_generator mlr_generator;
 

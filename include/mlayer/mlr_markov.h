@@ -54,6 +54,11 @@ MLR_API double mlr_rng_uniform(mlr_rng *rng);
  *  rejected and drawn again). n == 0 returns 0 and draws nothing. */
 MLR_API size_t mlr_rng_below(mlr_rng *rng, size_t n);
 
+/** A gamma variate of the given shape (scale 1): Marsaglia and Tsang's method (2000) for
+ *  shape >= 1, normals by Marsaglia's polar method; for shape < 1 a variate of shape + 1 times
+ *  U^(1/shape). NaN (drawing nothing) for a shape that is not finite and > 0. */
+MLR_API double mlr_rng_gamma(mlr_rng *rng, double shape);
+
 /** The largest order of the jump model. */
 #define MLR_MARKOV_MAX_ORDER 3
 
@@ -126,6 +131,31 @@ MLR_API double mlr_markov_step_frames(const mlr_markov *mk, int64_t a, int64_t b
 MLR_API mlr_status mlr_markov_path(const mlr_markov *mk, const int64_t *history, size_t n_history,
                                    int64_t start, size_t n_frames, int rank, mlr_rng *rng,
                                    int64_t *path, size_t cap, size_t *len, mlr_diag *diag);
+
+/** The share of each row that allow_unseen gives to the transitions never seen. */
+#define MLR_MARKOV_UNSEEN_MASS 0.02
+
+/**
+ * A model with redrawn rows (paper 2 section 5.2; mlayer.Markov.perturbed's rule for the jump
+ * model): every row r of the jump matrix (in order), then of each context (in the order given
+ * at creation), is redrawn from Dirichlet(r / noise) over its entries > 0, the others staying
+ * 0: E[r'] = r, Var[r'_k] = r_k (1 - r_k) noise / (1 + noise). Each draw is one mlr_rng_gamma
+ * per entry > 0, in index order, divided by their sum (a row whose gammas all underflow puts
+ * all its mass on its largest entry, the first on ties); a row with one entry > 0, or noise 0,
+ * is kept. With allow_unseen the centre of each row first gives MLR_MARKOV_UNSEEN_MASS of its
+ * mass, in equal parts, to the entries that are 0 and may be opened (a jump row: not its own
+ * state; a context row: not the context's current state).
+ * @param noise        finite, >= 0
+ * @param allow_unseen 0 or 1
+ * @param rng          the generator of the draws
+ * @param out          [out] the new model (the steps' frames, order, min_count, context keys
+ *                     and times seen as mk's); NULL on failure
+ * @return MLR_OK; MLR_E_INVALID_ARG; MLR_E_NO_MEMORY (nothing allocated).
+ * Allocates: the new model and a workspace of its rows, released before returning.
+ */
+MLR_API mlr_status mlr_markov_perturb(const mlr_markov *mk, double noise, int allow_unseen,
+                                      mlr_rng *rng, const mlr_allocator *alloc, mlr_markov **out,
+                                      mlr_diag *diag);
 
 /** Free the model. NULL is a no-op. */
 MLR_API void mlr_markov_destroy(mlr_markov *mk);

@@ -17,8 +17,11 @@ struct mlr_generator {
     /* options */
     size_t frames;
     int64_t start_frame_opt, start_opt;
-    int rank;
-    double smooth;
+    int rank, allow_unseen;
+    double smooth, noise;
+    uint64_t seed;
+    mlr_markov *perturbed;   /* the chain with noise, or NULL */
+    const mlr_markov *mk;    /* the chain walked */
     /* state */
     int started, broken;
     uint64_t produced;
@@ -55,6 +58,7 @@ mlr_status mlr_generator_create(const mlr_allocator *alloc, const mlr_gen_model 
     g->alloc = a;
     g->model = model;
     mlr_rng_seed(&g->rng, seed);
+    g->seed = seed;
     g->frames = 300;
     g->start_frame_opt = -1;
     g->start_opt = -1;
@@ -119,6 +123,22 @@ mlr_status mlr_generator_set(mlr_generator *g, int option, double v, mlr_diag *d
                                 who, v);
         g->smooth = v;
         return MLR_OK;
+    case MLR_GEN_NOISE:
+        if (!(v >= 0 && v < HUGE_VAL))
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "%s: MLR_GEN_NOISE %g out of "
+                                "range (finite, >= 0)",
+                                who, v);
+        g->noise = v;
+        return MLR_OK;
+    case MLR_GEN_ALLOW_UNSEEN:
+        if (!(v == 0 || v == 1))
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "%s: MLR_GEN_ALLOW_UNSEEN %g out "
+                                "of range (0 or 1)",
+                                who, v);
+        g->allow_unseen = (int)v;
+        return MLR_OK;
     default:
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: unknown option %d", who, option);
     }
@@ -147,6 +167,16 @@ static mlr_status allocate(mlr_generator *g, mlr_diag *diag)
     g->times = g->knots + 2 * cap;
     g->traj = g->times + cap;
     g->y = g->traj + 2 * n;
+    g->mk = m->markov;
+    if (g->noise > 0 || g->allow_unseen) {
+        mlr_rng r;
+        mlr_rng_seed(&r, g->seed ^ MLR_GEN_NOISE_SEED_XOR);
+        mlr_status st = mlr_markov_perturb(m->markov, g->noise, g->allow_unseen, &r, &g->alloc,
+                                           &g->perturbed, diag);
+        if (st)
+            return mlr_diag_prefix(diag, st, "mlr_generator_next");
+        g->mk = g->perturbed;
+    }
     if (g->smooth > 0 && n > 2) {
         mlr_status st = mlr_lgs_create(n, 2, g->smooth, 1.0, NULL, n, MLR_LGS_BANDED, &g->alloc,
                                        &g->smoother, diag);
@@ -170,7 +200,7 @@ static void knots_from_path(mlr_generator *g, const double *p0, double first_ste
         const double *c = m->centers + 2 * (size_t)g->path[i];
         g->knots[2 * i] = c[0];
         g->knots[2 * i + 1] = c[1];
-        double step = mlr_markov_step_frames(m->markov, g->path[i - 1], g->path[i]);
+        double step = mlr_markov_step_frames(g->mk, g->path[i - 1], g->path[i]);
         if (i == 1 && first_step >= 0)
             step = first_step;
         g->times[i] = g->times[i - 1] + step;
@@ -198,8 +228,8 @@ static mlr_status first_walk(mlr_generator *g, mlr_diag *diag)
     g->start_frame = g->start_frame_opt >= 0 ? g->start_frame_opt
                                              : (int64_t)mlr_rng_below(&g->rng, m->n_points);
     int64_t first = g->start_opt >= 0 ? g->start_opt : m->labels[g->start_frame];
-    mlr_status st = mlr_markov_path(m->markov, NULL, 0, first, g->frames, g->rank, &g->rng,
-                                    g->path, g->frames + 1, &g->path_len, diag);
+    mlr_status st = mlr_markov_path(g->mk, NULL, 0, first, g->frames, g->rank, &g->rng, g->path,
+                                    g->frames + 1, &g->path_len, diag);
     if (st)
         return mlr_diag_prefix(diag, st, "mlr_generator_next");
     knots_from_path(g, m->points + 2 * (size_t)g->start_frame, -1.0);
@@ -219,7 +249,7 @@ static mlr_status next_walk(mlr_generator *g, mlr_diag *diag)
     }
     size_t i = g->n_knots - 1; /* the last knot (maybe cut) */
     int64_t from = g->path[i - 1], to = g->path[i];
-    double full = mlr_markov_step_frames(m->markov, from, to);
+    double full = mlr_markov_step_frames(g->mk, from, to);
     double done = g->times[i] - g->times[i - 1];
     double span =
         g->knots[2 * i] != m->centers[2 * to] || g->knots[2 * i + 1] != m->centers[2 * to + 1]
@@ -232,7 +262,7 @@ static mlr_status next_walk(mlr_generator *g, mlr_diag *diag)
     if (span > 0) {
         /* path: from (the state left), to, then the walk on from to */
         size_t len = 0;
-        mlr_status st = mlr_markov_path(m->markov, hist, nh, to, g->frames, g->rank, &g->rng,
+        mlr_status st = mlr_markov_path(g->mk, hist, nh, to, g->frames, g->rank, &g->rng,
                                         g->path + 1, g->frames + 1, &len, diag);
         if (st)
             return mlr_diag_prefix(diag, st, "mlr_generator_next");
@@ -244,8 +274,8 @@ static mlr_status next_walk(mlr_generator *g, mlr_diag *diag)
         hist[nh++] = to;
         size_t len = 0;
         int64_t start = to;
-        mlr_status st = mlr_markov_path(m->markov, hist, nh - 1, start, g->frames, g->rank,
-                                        &g->rng, g->path, g->frames + 1, &len, diag);
+        mlr_status st = mlr_markov_path(g->mk, hist, nh - 1, start, g->frames, g->rank, &g->rng,
+                                        g->path, g->frames + 1, &len, diag);
         if (st)
             return mlr_diag_prefix(diag, st, "mlr_generator_next");
         g->path_len = len;
@@ -394,6 +424,7 @@ void mlr_generator_destroy(mlr_generator *g)
         return;
     mlr_allocator a = g->alloc;
     mlr_lgs_destroy(g->smoother);
+    mlr_markov_destroy(g->perturbed);
     if (g->block)
         mlr_free(&a, g->block, g->bytes);
     mlr_free(&a, g, sizeof *g);

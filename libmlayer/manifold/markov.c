@@ -340,3 +340,113 @@ mlr_status mlr_markov_path(const mlr_markov *mk, const int64_t *history, size_t 
     *len = k;
     return MLR_OK;
 }
+
+/* ---- noise -------------------------------------------------------------------------------- */
+
+static double rng_normal(mlr_rng *r)
+{
+    double u, v, q;
+    do {
+        u = 2.0 * mlr_rng_uniform(r) - 1.0;
+        v = 2.0 * mlr_rng_uniform(r) - 1.0;
+        q = u * u + v * v;
+    } while (q >= 1.0 || q == 0.0);
+    return u * sqrt(-2.0 * log(q) / q);
+}
+
+double mlr_rng_gamma(mlr_rng *r, double a)
+{
+    if (!r || !(a > 0.0 && a < HUGE_VAL))
+        return NAN;
+    double boost = 1.0;
+    if (a < 1.0) {
+        boost = pow(mlr_rng_uniform(r), 1.0 / a);
+        a += 1.0;
+    }
+    double d = a - 1.0 / 3.0, c = 1.0 / sqrt(9.0 * d);
+    for (;;) {
+        double x, v;
+        do {
+            x = rng_normal(r);
+            v = 1.0 + c * x;
+        } while (v <= 0.0);
+        v = v * v * v;
+        double u = mlr_rng_uniform(r);
+        if (u < 1.0 - 0.0331 * (x * x) * (x * x) || log(u) < 0.5 * x * x + d * (1.0 - v + log(v)))
+            return boost * d * v;
+    }
+}
+
+/* Python's dirichlet_rows for one row: closed is the entry that may not be opened (or n). */
+static void redraw(double *c, size_t n, size_t closed, double noise, int allow_unseen, mlr_rng *r)
+{
+    if (allow_unseen) {
+        size_t un = 0;
+        double sum = 0.0;
+        for (size_t k = 0; k < n; k++) {
+            un += !(c[k] > 0.0) && k != closed;
+            sum += c[k];
+        }
+        if (un && sum > 0.0) {
+            for (size_t k = 0; k < n; k++)
+                c[k] = !(c[k] > 0.0) && k != closed ? MLR_MARKOV_UNSEEN_MASS / (double)un
+                                                    : c[k] * (1.0 - MLR_MARKOV_UNSEEN_MASS);
+        }
+    }
+    size_t pos = 0, top = n;
+    for (size_t k = 0; k < n; k++)
+        if (c[k] > 0.0) {
+            pos++;
+            if (top == n || c[k] > c[top])
+                top = k;
+        }
+    if (noise == 0.0 || pos <= 1)
+        return;
+    double sum = 0.0;
+    for (size_t k = 0; k < n; k++)
+        if (c[k] > 0.0) {
+            c[k] = mlr_rng_gamma(r, c[k] / noise);
+            sum += c[k];
+        }
+    int ok = sum > 0.0 && sum < HUGE_VAL;
+    for (size_t k = 0; k < n; k++)
+        c[k] = ok ? c[k] / sum : (k == top ? 1.0 : 0.0);
+}
+
+mlr_status mlr_markov_perturb(const mlr_markov *mk, double noise, int allow_unseen, mlr_rng *rng,
+                              const mlr_allocator *alloc, mlr_markov **out, mlr_diag *diag)
+{
+    const char *who = "mlr_markov_perturb";
+    if (!out)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: out is NULL", who);
+    *out = NULL;
+    if (!mk || !rng)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: %s is NULL", who,
+                            mk ? "rng" : "mk");
+    if (!(noise >= 0.0 && noise < HUGE_VAL))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: noise %g must be finite and >= 0",
+                            who, noise);
+    if (allow_unseen != 0 && allow_unseen != 1)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: allow_unseen must be 0 or 1", who);
+    size_t n = mk->n, m = mk->m, nn = n * n, mn = m * n, total = (nn + mn + n) * sizeof(double);
+    mlr_allocator a;
+    mlr_allocator_resolve(alloc, &a);
+    double *w = mlr_alloc(&a, total);
+    if (!w)
+        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "%s: out of memory", who);
+    double *J = w, *P = w + nn, *run = P + mn;
+    memcpy(J, mk->jumps, nn * sizeof(double));
+    if (m)
+        memcpy(P, mk->probs, mn * sizeof(double));
+    for (size_t j = 0; j < n; j++) {
+        run[j] = mk->dur[j]; /* max(run_length, 1): the same steps */
+        redraw(J + j * n, n, n > 1 ? j : n, noise, allow_unseen, rng);
+    }
+    for (size_t c = 0; c < m; c++)
+        redraw(P + c * n, n, (size_t)mk->keys[c * mk->order + mk->order - 1], noise, allow_unseen,
+               rng);
+    mlr_status st = mlr_markov_create(n, J, run, mk->order, mk->min_count, m, m ? mk->keys : NULL,
+                                      m ? mk->seen : NULL, m ? P : NULL, &a, out, diag);
+    mlr_free(&a, w, total);
+    return st ? mlr_diag_prefix(diag, st, who) : MLR_OK;
+}

@@ -285,6 +285,9 @@ mlr_status mlr_markov_path(const mlr_markov *mk, const int64_t *history, size_t 
                            int64_t start, size_t n_frames, int rank, mlr_rng *rng, int64_t *path,
                            size_t cap, size_t *len, mlr_diag *diag);
 void mlr_markov_destroy(mlr_markov *mk);
+double mlr_rng_gamma(mlr_rng *rng, double shape);
+mlr_status mlr_markov_perturb(const mlr_markov *mk, double noise, int allow_unseen, mlr_rng *rng,
+                              const mlr_allocator *alloc, mlr_markov **out, mlr_diag *diag);
 
 /* mlr_generate.h */
 #define MLR_GEN_FORMAT_VERSION 1
@@ -304,7 +307,7 @@ size_t mlr_gen_model_frame_size(const mlr_gen_model *model);
 void mlr_gen_model_destroy(mlr_gen_model *model);
 enum {
     MLR_GEN_FRAMES = 1, MLR_GEN_START_FRAME = 2, MLR_GEN_START = 3, MLR_GEN_RANK = 4,
-    MLR_GEN_SMOOTH = 5
+    MLR_GEN_SMOOTH = 5, MLR_GEN_NOISE = 6, MLR_GEN_ALLOW_UNSEEN = 7
 };
 typedef struct mlr_generator mlr_generator;
 mlr_status mlr_generator_create(const mlr_allocator *alloc, const mlr_gen_model *model,

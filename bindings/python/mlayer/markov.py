@@ -48,6 +48,9 @@ from ._args import integer
 __all__ = ["Markov", "Rng", "heldout_loglik", "UNSEEN_MASS", "MAX_ORDER"]
 
 UNSEEN_MASS = 0.02  # the prior mass per row that allow_unseen gives to transitions never seen
+#: the perturbation of :meth:`Markov.walk` draws from ``Rng(seed ^ NOISE_SEED_XOR)``
+#: (``MLR_GEN_NOISE_SEED_XOR``: the first 64 fractional bits of sqrt(2))
+NOISE_SEED_XOR = 0x6A09E667F3BCC908
 MAX_ORDER = 3
 HELDOUT_FOLDS = 5      # the blocks of each clip in heldout_loglik's cross-validation
 HELDOUT_FLOOR = 1e-3    # mixed into each held-out prediction: see heldout_loglik
@@ -637,7 +640,8 @@ class Markov(_attrs.ReadOnlyAttributes):
         return ffi.gc(out[0], lib.mlr_markov_destroy)
 
     def walk(self, start: int, n_frames: int, *, rank: int = 0, rng: Rng | None = None,
-             seed: int = 0, history: Sequence[int] | None = None) -> NDArray[np.int64]:
+             seed: int = 0, history: Sequence[int] | None = None, noise: float = 0.0,
+             allow_unseen: bool = False, noise_rng: Rng | None = None) -> NDArray[np.int64]:
         """Distinct primitives from a start, enough to fill n_frames at their mean run lengths,
         by the C core (``mlr_markov_path``: the same path a C program gets from the same model
         and generator).
@@ -662,6 +666,15 @@ class Markov(_attrs.ReadOnlyAttributes):
             Seed of the default generator.
         history : sequence of int, optional
             Distinct states before start (the first context, order > 1).
+        noise : float, optional
+            > 0: walk the jump model with its rows redrawn first, by the C core
+            (``mlr_markov_perturb``: Dirichlet(r / noise) per row, as :meth:`perturbed` draws
+            them, from its own generator).
+        allow_unseen : bool, optional
+            As for :meth:`perturbed` (a perturbation even at noise 0).
+        noise_rng : Rng, optional
+            The perturbation's generator (default ``Rng(seed ^ 0x6A09E667F3BCC908)``, as the
+            C generator seeds it: ``MLR_GEN_NOISE_SEED_XOR``).
 
         Returns
         -------
@@ -677,10 +690,22 @@ class Markov(_attrs.ReadOnlyAttributes):
             rng = Rng(seed)
         h = np.array([_state(v, self.n_states, "history") for v in (history or [])],
                      dtype=np.int64)
+        noise = _noise(noise, "walk: noise")
+        if not isinstance(allow_unseen, (bool, np.bool_)):
+            raise InvalidArgumentError(f"allow_unseen must be True or False, got "
+                                       f"{allow_unseen!r}")
         out = np.empty(n_frames + 1, dtype=np.int64)
         got = ffi.new("size_t *")
         diag = ffi.new("mlr_diag *")
-        check(lib.mlr_markov_path(self._native(),
+        model = self._native()
+        if noise > 0 or allow_unseen:
+            if noise_rng is None:
+                noise_rng = Rng(integer(seed, "walk: seed", 0, 2**64 - 1) ^ NOISE_SEED_XOR)
+            pert = ffi.new("mlr_markov **")
+            check(lib.mlr_markov_perturb(model, noise, int(bool(allow_unseen)), noise_rng._state,
+                                         ffi.NULL, pert, diag), "mlayer.Markov.walk", diag)
+            model = ffi.gc(pert[0], lib.mlr_markov_destroy)
+        check(lib.mlr_markov_path(model,
                                   ffi.cast("int64_t *", ffi.from_buffer(h)) if h.size
                                   else ffi.NULL, h.size, s, n_frames, rank, rng._state,
                                   ffi.cast("int64_t *", ffi.from_buffer(out)), out.size, got,

@@ -1139,7 +1139,8 @@ class PrimitiveModel(_attrs.ReadOnlyAttributes):
         n_frames : int
             Frames to fill.
         noise : float, optional
-            Perturb the chain first when > 0 (:meth:`mlayer.Markov.perturbed`).
+            Perturb the chain first when > 0 (the C core's ``mlr_markov_perturb``, the draws of
+            :meth:`mlayer.Markov.perturbed` for the jump model; :meth:`mlayer.Markov.walk`).
         seed : int, optional
             Seed of the perturbation and of the sampling's generator.
         most_likely, second_likely : bool, optional
@@ -1159,14 +1160,17 @@ class PrimitiveModel(_attrs.ReadOnlyAttributes):
             raise InvalidArgumentError("generate: most_likely and second_likely exclude each "
                                        "other (--most-likely, --second-likely)")
         noise = _non_negative(noise, "generate: noise")
-        mk = self.markov.perturbed(noise, seed, allow_unseen=allow_unseen) \
-            if noise > 0 or allow_unseen else self.markov
+        if not isinstance(allow_unseen, (bool, np.bool_)):
+            raise InvalidArgumentError(f"allow_unseen must be True or False, got "
+                                       f"{allow_unseen!r}")
         rank = 1 if most_likely else 2 if second_likely else 0
         n_frames = integer(n_frames, "generate: frames", 1)
-        # the C core's walk (mlr_markov_path): a C program gets the same path from the same
-        # model and generator (docs/model-format.md)
-        return mk.walk(int(start), n_frames, rank=rank, rng=rng if rng is not None else
-                       Rng(seed))
+        seed = integer(seed, "generate: seed", 0, 2**64 - 1)
+        # the C core's perturbation and walk (mlr_markov_perturb, mlr_markov_path): a C program
+        # gets the same path from the same model and seed (mlr_generate.h)
+        return self.markov.walk(int(start), n_frames, rank=rank,
+                                rng=rng if rng is not None else Rng(seed), seed=seed,
+                                noise=noise, allow_unseen=bool(allow_unseen))
 
     def through_points(self, points: ArrayLike) -> NDArray[np.float64]:
         """Manifold points checked to be finite and on the map (the box the GRBF spans).
@@ -1341,7 +1345,7 @@ class PrimitiveModel(_attrs.ReadOnlyAttributes):
         n_frames = integer(n_frames, "generate: frames", 2)
         smooth = _non_negative(smooth, "generate: smooth")
         noise = _non_negative(noise, "generate: noise")
-        seed = integer(seed, "generate: seed", 0)
+        seed = integer(seed, "generate: seed", 0, 2**64 - 1)
         # the mapping's outputs, their smoothing and the guards: a few copies of n_frames poses
         per_frame = getattr(self.grbf, "n_outputs_", 0) + 8 * self.skeleton.n_joints
         _arrays.check_memory(64.0 * n_frames * per_frame, f"generate: n_frames={n_frames}")

@@ -4,6 +4,8 @@ walk, whose next-state distributions come from mlayer.Markov.next_distribution (
 back-off) and whose ranked steps from mlayer.Markov.ranked_next."""
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -147,3 +149,110 @@ def test_c_model_refuses_rows_that_are_not_distributions() -> None:
                                ffi.cast("double *", ffi.from_buffer(rl)), 1, 1, 0, ffi.NULL,
                                ffi.NULL, ffi.NULL, ffi.NULL, out, diag)
     assert st == lib.MLR_E_INVALID_ARG and "jumps[0][0]" in ffi.string(diag.message).decode()
+
+
+# ---- noise: the gamma variates and the perturbed chain ----------------------------------------
+
+def ref_normal(r: RefRng) -> float:
+    while True:
+        u = 2.0 * r.uniform() - 1.0
+        v = 2.0 * r.uniform() - 1.0
+        q = u * u + v * v
+        if 0.0 < q < 1.0:
+            return u * math.sqrt(-2.0 * math.log(q) / q)
+
+
+def ref_gamma(r: RefRng, a: float) -> float:
+    boost = 1.0
+    if a < 1.0:
+        boost = math.pow(r.uniform(), 1.0 / a)
+        a += 1.0
+    d = a - 1.0 / 3.0
+    c = 1.0 / math.sqrt(9.0 * d)
+    while True:
+        while True:
+            x = ref_normal(r)
+            v = 1.0 + c * x
+            if v > 0.0:
+                break
+        v = v * v * v
+        u = r.uniform()
+        if u < 1.0 - 0.0331 * (x * x) * (x * x) or \
+                math.log(u) < 0.5 * x * x + d * (1.0 - v + math.log(v)):
+            return boost * d * v
+
+
+def ref_redraw(row: np.ndarray, closed: int | None, noise: float, allow_unseen: bool,
+               r: RefRng) -> np.ndarray:
+    c = row.copy()
+    n = c.size
+    if allow_unseen:
+        un = [k for k in range(n) if not c[k] > 0 and k != closed]
+        if un and c.sum() > 0:
+            c = np.where([not c[k] > 0 and k != closed for k in range(n)],
+                         0.02 / len(un), c * (1.0 - 0.02))
+    pos = [k for k in range(n) if c[k] > 0]
+    if noise == 0 or len(pos) <= 1:
+        return c
+    s = 0.0
+    for k in pos:
+        c[k] = ref_gamma(r, c[k] / noise)
+        s += c[k]
+    return c / s
+
+
+def ref_perturbed(mk: Markov, noise: float, allow_unseen: bool, seed: int) -> Markov:
+    r = RefRng(seed ^ 0x6A09E667F3BCC908)
+    n = mk.n_states
+    J = np.array([ref_redraw(row, j if n > 1 else None, noise, allow_unseen, r)
+                  for j, row in enumerate(mk.jump_matrix())])
+    ctx = {}
+    for key in sorted(mk.contexts):
+        cnt, row = mk.contexts[key]
+        ctx[key] = (cnt, ref_redraw(row, key[-1], noise, allow_unseen, r))
+    return Markov(mk.P, mk.counts, mk.run_length, order=mk.order, min_count=mk.min_count,
+                  contexts=ctx, jumps=J)
+
+
+@pytest.mark.parametrize("shape", [0.05, 0.3, 1.0, 4.5, 80.0])
+def test_gamma_moments(shape: float) -> None:
+    from mlayer._native import lib
+    r = Rng(11)
+    n = 100000
+    x = np.array([lib.mlr_rng_gamma(r._state, shape) for _ in range(n)])
+    assert (x >= 0).all()
+    # mean shape, variance shape: within 5 standard errors
+    assert abs(x.mean() - shape) < 5 * math.sqrt(shape / n)
+    assert abs(x.var() - shape) < 5 * math.sqrt((2 * shape ** 2 + 6 * shape) / n)
+    # the same variates as the reference written from the method's definition
+    r2, ref = Rng(11), RefRng(11)
+    assert [lib.mlr_rng_gamma(r2._state, shape) for _ in range(200)] == \
+        [ref_gamma(ref, shape) for _ in range(200)]
+    assert math.isnan(lib.mlr_rng_gamma(r2._state, 0.0))
+
+
+@pytest.mark.parametrize("noise,allow_unseen", [(0.3, False), (2.0, True), (0.0, True)])
+@pytest.mark.parametrize("order", [1, 3])
+def test_perturbed_walk_matches_the_reference(noise: float, allow_unseen: bool,
+                                              order: int) -> None:
+    mk = _model(order, 1, 4)
+    for seed in (0, 5, 2**64 - 1):
+        got = mk.walk(2, 150, seed=seed, noise=noise, allow_unseen=allow_unseen)
+        want = ref_walk(ref_perturbed(mk, noise, allow_unseen, seed), 2, 150, 0, RefRng(seed))
+        assert got.tolist() == want
+    if noise > 0:  # the noise changes the paths
+        assert any(mk.walk(2, 150, seed=s, noise=noise).tolist() != mk.walk(2, 150, seed=s)
+                   .tolist() for s in range(5))
+
+
+def test_perturbed_rows_have_the_dirichlet_moments() -> None:
+    """E[r'] = r and Var[r'_k] = r_k (1 - r_k) noise / (1 + noise) over many seeds."""
+    mk = _model(1, 1, 6)
+    row = mk.jump_matrix()[0]
+    noise = 0.5
+    draws = np.array([ref_perturbed(mk, noise, False, s).jump_matrix()[0] for s in range(3000)])
+    var = row * (1 - row) * noise / (1 + noise)
+    se = np.sqrt(var / draws.shape[0])
+    assert (np.abs(draws.mean(axis=0) - row) <= 5 * se + 1e-15).all()
+    ok = var > 0
+    assert (np.abs(draws.var(axis=0)[ok] / var[ok] - 1) < 0.15).all()

@@ -32,7 +32,8 @@ def _frames(model_h, n: int, seed: int, **opts: float) -> tuple[np.ndarray, int]
     assert lib.mlr_generator_create(ffi.NULL, model_h, seed, gen, diag) == 0
     g = ffi.gc(gen[0], lib.mlr_generator_destroy)
     names = {"frames": lib.MLR_GEN_FRAMES, "start_frame": lib.MLR_GEN_START_FRAME,
-             "rank": lib.MLR_GEN_RANK, "smooth": lib.MLR_GEN_SMOOTH}
+             "start": lib.MLR_GEN_START, "rank": lib.MLR_GEN_RANK, "smooth": lib.MLR_GEN_SMOOTH,
+             "noise": lib.MLR_GEN_NOISE, "allow_unseen": lib.MLR_GEN_ALLOW_UNSEEN}
     for k, v in opts.items():
         assert lib.mlr_generator_set(g, names[k], v, diag) == 0, ffi.string(diag.message)
     size = lib.mlr_gen_model_frame_size(model_h)
@@ -60,7 +61,11 @@ def _python(model: PrimitiveModel, n: int, seed: int, **kw) -> np.ndarray:
 @pytest.mark.parametrize("seed,kw", [(0, {}), (7, {"start_frame": 40}),
                                      (3, {"most_likely": True}),
                                      (11, {"second_likely": True, "smooth": 0.5}),
-                                     (5, {"smooth": 0.0})])
+                                     (5, {"smooth": 0.0}),
+                                     (9, {"start_frame": 10, "start": 2}),
+                                     (13, {"noise": 0.4}),
+                                     (2, {"noise": 1.0, "allow_unseen": True}),
+                                     (2**64 - 1, {"noise": 0.1, "most_likely": True})])
 def test_c_frames_equal_python_generate(walk, seed, kw):
     _, model = walk
     st, h = _load(model.runtime_bytes())
@@ -74,8 +79,9 @@ def test_c_frames_equal_python_generate(walk, seed, kw):
         opts["rank"] = 1
     if kw.get("second_likely"):
         opts["rank"] = 2
-    if "smooth" in kw:
-        opts["smooth"] = kw["smooth"]
+    for k in ("smooth", "start", "noise", "allow_unseen"):
+        if k in kw:
+            opts[k] = float(kw[k])
     got, start = _frames(h, n, seed, **opts)
     np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
     # the unseeded start frame is the generator's first draw, in Python as in C
@@ -178,6 +184,8 @@ def test_bad_options_are_refused(walk):
                         (lib.MLR_GEN_FRAMES, 2.5, "MLR_GEN_FRAMES"),
                         (lib.MLR_GEN_START_FRAME, n, f"0 .. {n - 1}"),
                         (lib.MLR_GEN_RANK, 3, "MLR_GEN_RANK"),
+                        (lib.MLR_GEN_NOISE, -0.5, "MLR_GEN_NOISE"),
+                        (lib.MLR_GEN_ALLOW_UNSEEN, 2, "MLR_GEN_ALLOW_UNSEEN"),
                         (lib.MLR_GEN_SMOOTH, float("nan"), "MLR_GEN_SMOOTH")]:
         assert lib.mlr_generator_set(g, opt, v, diag) == lib.MLR_E_INVALID_ARG
         assert msg in ffi.string(diag.message).decode()
