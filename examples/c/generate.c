@@ -10,7 +10,9 @@
  * names the first joint that differs) and, for a rig whose body joint is below a static root,
  * the root's position (its first frame). SEGMENT (default 300) is the generator's
  * MLR_GEN_FRAMES: the first SEGMENT frames are those of `mlayer generate --frames SEGMENT
- * --seed SEED --no-guards`; the frames after them continue the walk.
+ * --seed SEED --no-guards`; the frames after them continue the walk. It prints the mean time
+ * of a mlr_generator_next call and the slowest one (a segment's first frame computes the
+ * segment).
  *
  * Build: cc generate.c $(pkg-config --cflags --libs mlayer) -o generate
  */
@@ -19,6 +21,14 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
+
+static double now(void)
+{
+    struct timespec t;
+    timespec_get(&t, TIME_UTC);
+    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
 
 static int failed(const char *what, mlr_status st, const mlr_diag *diag)
 {
@@ -104,8 +114,13 @@ int main(int argc, char **argv)
     double *root = mlr_motion_root_pos_mut(out), *rot = mlr_motion_rot_mut(out);
     double *trans = mlr_motion_trans_mut(out);
     const double *rig_root = mlr_motion_n_frames(rig) ? mlr_motion_root_pos(rig) : NULL;
+    double total = 0, slowest = 0;
     for (long f = 0; f < frames; f++) {
+        double t0 = now();
         st = mlr_generator_next(gen, pose, &diag); /* no allocation between segment starts */
+        double dt = now() - t0;
+        total += dt;
+        slowest = dt > slowest ? dt : slowest;
         if (st) {
             rc = failed("frame", st, &diag);
             goto done;
@@ -124,8 +139,10 @@ int main(int argc, char **argv)
         rc = failed(argv[3], st, &diag);
         goto done;
     }
-    printf("generate: wrote %s (%ld frames, start frame %lld, seed %llu)\n", argv[3], frames,
-           (long long)mlr_generator_start_frame(gen), seed);
+    printf("generate: wrote %s (%ld frames, start frame %lld, seed %llu); a frame took %.2f us "
+           "on average, the slowest %.0f us\n",
+           argv[3], frames, (long long)mlr_generator_start_frame(gen), seed,
+           1e6 * total / (double)frames, 1e6 * slowest);
     rc = 0;
 done:
     free(pose);
