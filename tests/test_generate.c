@@ -149,10 +149,9 @@ START_TEST(hand_written_model_generates)
     ck_assert_double_eq(mlr_gen_model_frame_time(m), 1.0 / 30);
     double a[11], b[11];
     mlr_generator *g1 = NULL, *g2 = NULL;
-    ck_assert_int_eq(mlr_generator_create(NULL, m, 9, &g1, &d), MLR_OK);
-    ck_assert_int_eq(mlr_generator_create(NULL, m, 9, &g2, &d), MLR_OK);
-    ck_assert_int_eq(mlr_generator_set(g1, MLR_GEN_FRAMES, 40, &d), MLR_OK);
-    ck_assert_int_eq(mlr_generator_set(g2, MLR_GEN_FRAMES, 40, &d), MLR_OK);
+    mlr_generate_option o40[] = {{MLR_GEN_OPT_FRAMES, 40}};
+    ck_assert_int_eq(mlr_generator_create(NULL, m, 9, o40, 1, &g1, &d), MLR_OK);
+    ck_assert_int_eq(mlr_generator_create(NULL, m, 9, o40, 1, &g2, &d), MLR_OK);
     for (int f_ = 0; f_ < 130; f_++) { /* through three segment starts */
         ck_assert_int_eq(mlr_generator_next(g1, a, &d), MLR_OK);
         ck_assert_int_eq(mlr_generator_next(g2, b, &d), MLR_OK);
@@ -173,7 +172,6 @@ START_TEST(hand_written_model_generates)
     mlr_rng r;
     mlr_rng_seed(&r, 9);
     ck_assert_int_eq(sf, (int64_t)mlr_rng_below(&r, 6)); /* the first draw */
-    ck_assert_int_eq(mlr_generator_set(g1, MLR_GEN_RANK, 1, &d), MLR_E_BAD_STATE);
     mlr_generator_destroy(g1);
     mlr_generator_destroy(g2);
     mlr_gen_model_destroy(m);
@@ -278,16 +276,28 @@ START_TEST(bad_options_and_allocation_failures)
     mlr_diag d;
     ck_assert_int_eq(mlr_gen_model_load(NULL, f.b, f.n, NULL, &m, &d), MLR_OK);
     mlr_generator *g = NULL;
-    ck_assert_int_eq(mlr_generator_create(NULL, m, 0, &g, &d), MLR_OK);
-    ck_assert_int_eq(mlr_generator_set(g, 77, 1, &d), MLR_E_INVALID_ARG);
-    ck_assert_ptr_nonnull(strstr(d.message, "unknown option 77"));
-    ck_assert_int_eq(mlr_generator_set(g, MLR_GEN_START_FRAME, 6, &d), MLR_E_INVALID_ARG);
-    ck_assert_ptr_nonnull(strstr(d.message, "0 .. 5"));
-    ck_assert_int_eq(mlr_generator_set(g, MLR_GEN_START, 3, &d), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_generator_set(g, MLR_GEN_SMOOTH, -1, &d), MLR_E_INVALID_ARG);
-    ck_assert_int_eq(mlr_generator_set(g, MLR_GEN_NOISE, INFINITY, &d), MLR_E_INVALID_ARG);
-    ck_assert_ptr_nonnull(strstr(d.message, "MLR_GEN_NOISE"));
-    ck_assert_int_eq(mlr_generator_set(g, MLR_GEN_ALLOW_UNSEEN, 0.5, &d), MLR_E_INVALID_ARG);
+    struct {
+        mlr_generate_option o[2];
+        size_t n;
+        const char *says;
+    } bad[] = {
+        {{{77, 1}}, 1, "generate: unknown option key 77"},
+        {{{MLR_GEN_OPT_FRAMES, 1}}, 1, "option frames = 1 is not"},
+        {{{MLR_GEN_OPT_FRAMES, 2.5}}, 1, "option frames = 2.5 is not"},
+        {{{MLR_GEN_OPT_START_FRAME, 6}}, 1, "option start_frame = 6 is not in -1 .. 5"},
+        {{{MLR_GEN_OPT_START, 3}}, 1, "option start = 3 is not in -1 .. 2"},
+        {{{MLR_GEN_OPT_SMOOTH, -1}}, 1, "option smooth = -1 is not"},
+        {{{MLR_GEN_OPT_NOISE, INFINITY}}, 1, "option noise = inf is not finite"},
+        {{{MLR_GEN_OPT_ALLOW_UNSEEN, 0.5}}, 1, "option allow_unseen = 0.5 is not"},
+        {{{MLR_GEN_OPT_RANK, 1}, {MLR_GEN_OPT_RANK, 2}}, 2, "option rank given twice"},
+    };
+    for (size_t i = 0; i < MLR_COUNTOF(bad); i++) {
+        ck_assert_int_eq(mlr_generator_create(NULL, m, 0, bad[i].o, bad[i].n, &g, &d),
+                         MLR_E_INVALID_ARG);
+        ck_assert_ptr_null(g);
+        ck_assert_msg(strstr(d.message, bad[i].says) != NULL, "%zu: %s", i, d.message);
+    }
+    ck_assert_int_eq(mlr_generator_create(NULL, m, 0, NULL, 0, &g, &d), MLR_OK);
     ck_assert_int_eq(mlr_generator_next(g, NULL, &d), MLR_E_INVALID_ARG);
     mlr_generator_destroy(g);
     /* every allocation of loading and of a generator's first two segments fails cleanly */
@@ -297,12 +307,10 @@ START_TEST(bad_options_and_allocation_failures)
         mlr_gen_model *mm = NULL;
         mlr_status st = mlr_gen_model_load(&ta.base, f.b, f.n, NULL, &mm, &d);
         mlr_generator *gg = NULL;
+        /* the perturbed chain's allocations too */
+        mlr_generate_option o[] = {{MLR_GEN_OPT_FRAMES, 20}, {MLR_GEN_OPT_NOISE, 0.5}};
         if (!st)
-            st = mlr_generator_create(&ta.base, mm, 3, &gg, &d);
-        if (!st)
-            st = mlr_generator_set(gg, MLR_GEN_FRAMES, 20, &d);
-        if (!st) /* the perturbed chain's allocations too */
-            st = mlr_generator_set(gg, MLR_GEN_NOISE, 0.5, &d);
+            st = mlr_generator_create(&ta.base, mm, 3, o, 2, &gg, &d);
         double pose[11];
         for (int k = 0; !st && k < 30; k++)
             st = mlr_generator_next(gg, pose, &d);

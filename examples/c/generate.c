@@ -9,7 +9,7 @@
  * RIG.bvh gives the skeleton (its joint names and tree must be the model's, else the loader
  * names the first joint that differs) and, for a rig whose body joint is below a static root,
  * the root's position (its first frame). SEGMENT (default 300) is the generator's
- * MLR_GEN_FRAMES: the first SEGMENT frames are those of `mlayer generate --frames SEGMENT
+ * option frames (MLR_GEN_OPT_FRAMES): the first SEGMENT frames are those of `mlayer generate --frames SEGMENT
  * --seed SEED --no-guards`; the frames after them continue the walk. It prints the mean time
  * of a mlr_generator_next call and the slowest one (a segment's first frame computes the
  * segment).
@@ -88,9 +88,8 @@ int main(int argc, char **argv)
         rc = failed(argv[2], st, &diag);
         goto done;
     }
-    st = mlr_generator_create(NULL, model, seed, &gen, &diag);
-    if (!st)
-        st = mlr_generator_set(gen, MLR_GEN_FRAMES, segment, &diag);
+    mlr_generate_option opts[] = {{MLR_GEN_OPT_FRAMES, segment}};
+    st = mlr_generator_create(NULL, model, seed, opts, 1, &gen, &diag);
     if (!st)
         st = rig_motion(rig, (size_t)frames, &out, &diag);
     if (st) {

@@ -11,8 +11,8 @@
  *     option, or mlr_rng_below(n_points) when it is -1) and its primitive (the option, or the
  *     frame's label);
  *  2. the walk of distinct primitives (mlr_markov_path: sampled, or ranked) filling the frames,
- *     on the chain perturbed once at the first frame when MLR_GEN_NOISE > 0 or
- *     MLR_GEN_ALLOW_UNSEEN (mlr_markov_perturb, its own generator: MLR_GEN_NOISE_SEED_XOR);
+ *     on the chain perturbed once at the first frame when the option noise > 0 or
+ *     allow_unseen (mlr_markov_perturb, its own generator: MLR_GEN_NOISE_SEED_XOR);
  *  3. the knots: the start frame's manifold point, then the primitives' centres, at times
  *     spaced by the steps' frames; the knot past the last frame cut to it by linear
  *     interpolation;
@@ -106,20 +106,27 @@ MLR_API size_t mlr_gen_model_frame_size(const mlr_gen_model *model);
 /** Free the model (after its generators). NULL is a no-op. */
 MLR_API void mlr_gen_model_destroy(mlr_gen_model *model);
 
-/** Options of a generator (mlr_generator_set), before its first frame. */
-enum {
-    MLR_GEN_FRAMES = 1,      /* frames per segment, 2 .. 10,000,000 (default 300: `mlayer
-                                generate --frames`) */
-    MLR_GEN_START_FRAME = 2, /* the training frame to start from, -1 (default): drawn */
-    MLR_GEN_START = 3,       /* the first primitive, -1 (default): the start frame's label */
-    MLR_GEN_RANK = 4,        /* 0 (default): sampled transitions; 1 most likely (equation 5),
-                                2 second most likely */
-    MLR_GEN_SMOOTH = 5,      /* lam of the LGS that smooths the outputs, finite, >= 0 (2) */
-    MLR_GEN_NOISE = 6,       /* the chain perturbed first (mlr_markov_perturb), finite, >= 0
-                                (default 0: the learned chain) */
-    MLR_GEN_ALLOW_UNSEEN = 7 /* 0 (default) or 1: the perturbation may open transitions the
-                                data never showed */
-};
+/** Keys of the options of a generator (docs/OPTIONS.md: the name of an option is the
+ *  lower-case suffix of its key, the keyword of PrimitiveModel.generate where it has one). */
+typedef enum mlr_generate_key {
+    MLR_GEN_OPT_FRAMES = 1,      /* frames per segment, an integer in 2 .. 10,000,000 (300:
+                                    `mlayer generate --frames`) */
+    MLR_GEN_OPT_START_FRAME = 2, /* the training frame to start from, -1 (default): drawn */
+    MLR_GEN_OPT_START = 3,       /* the first primitive, -1 (default): the start frame's label */
+    MLR_GEN_OPT_RANK = 4,        /* 0 (default): sampled transitions; 1 most likely (equation
+                                    5, most_likely), 2 second most likely (second_likely) */
+    MLR_GEN_OPT_SMOOTH = 5,      /* lam of the LGS that smooths the outputs, >= 0 (2) */
+    MLR_GEN_OPT_NOISE = 6,       /* the chain perturbed first (mlr_markov_perturb), >= 0
+                                    (default 0: the learned chain) */
+    MLR_GEN_OPT_ALLOW_UNSEEN = 7 /* 0 (default) or 1: the perturbation may open transitions the
+                                    data never showed */
+} mlr_generate_key;
+
+/** One option: key (an mlr_generate_key) and its value. A frozen value type. */
+typedef struct mlr_generate_option {
+    int key;
+    double value;
+} mlr_generate_option;
 
 /** The perturbation's generator is seeded with seed ^ MLR_GEN_NOISE_SEED_XOR (the first 64
  *  fractional bits of sqrt(2)), apart from the stream of the start frame and the walk. */
@@ -129,19 +136,16 @@ typedef struct mlr_generator mlr_generator;
 
 /**
  * A generator of frames from a model. The model must outlive it.
- * @param seed  seed of its mlr_rng (the start frame and the sampled transitions)
- * @return MLR_OK; MLR_E_INVALID_ARG; MLR_E_NO_MEMORY (nothing allocated).
+ * @param seed    seed of its mlr_rng (the start frame and the sampled transitions)
+ * @param opts    [in] n_opts options (NULL when n_opts is 0); the others at their defaults
+ * @return MLR_OK; MLR_E_INVALID_ARG (NULL pointers; an unknown key, a key given twice, a value
+ *         out of range: "generate: option start_frame = 900 is not in -1 .. 799 (the model's
+ *         training frames)"); MLR_E_NO_MEMORY (nothing allocated).
  * Allocates: the generator (the segment's buffers come at the first mlr_generator_next).
  */
 MLR_API mlr_status mlr_generator_create(const mlr_allocator *alloc, const mlr_gen_model *model,
-                                        uint64_t seed, mlr_generator **out, mlr_diag *diag);
-
-/**
- * Set an option before the first frame.
- * @return MLR_OK; MLR_E_INVALID_ARG (an unknown option, naming its number; a value out of
- *         range, naming the option and the range); MLR_E_BAD_STATE (frames were produced).
- */
-MLR_API mlr_status mlr_generator_set(mlr_generator *gen, int option, double value, mlr_diag *diag);
+                                        uint64_t seed, const mlr_generate_option *opts,
+                                        size_t n_opts, mlr_generator **out, mlr_diag *diag);
 
 /**
  * The next frame: pose[0 .. 2] the body position (x, height, z; the body joint's position

@@ -3,6 +3,7 @@
  * the generator's buffers; the frames of the segment are then finished one by one (rotations
  * renormalized, heading and body position integrated). The steps and their order are those of
  * PrimitiveModel.generate and motion_along (bindings/python/mlayer/primitives.py). */
+#include "common/options_internal.h"
 #include "generate/gen_internal.h"
 
 #include <math.h>
@@ -42,106 +43,59 @@ struct mlr_generator {
     void *block;
 };
 
+static const mlr_opt_spec generate_opts[] = {
+    {MLR_GEN_OPT_FRAMES, "frames", MLR_OPT_INT, 2.0, MAX_FRAMES, 0, 0, 300.0,
+     "an integer in 2 .. 10000000"},
+    {MLR_GEN_OPT_START_FRAME, "start_frame", MLR_OPT_INT, -1.0, INFINITY, 0, 0, -1.0, NULL},
+    {MLR_GEN_OPT_START, "start", MLR_OPT_INT, -1.0, INFINITY, 0, 0, -1.0, NULL},
+    {MLR_GEN_OPT_RANK, "rank", MLR_OPT_INT, 0.0, 2.0, 0, 0, 0.0,
+     "0 (sampled), 1 (most likely) or 2 (second most likely)"},
+    {MLR_GEN_OPT_SMOOTH, "smooth", MLR_OPT_DOUBLE, 0.0, INFINITY, 0, 0, 2.0, NULL},
+    {MLR_GEN_OPT_NOISE, "noise", MLR_OPT_DOUBLE, 0.0, INFINITY, 0, 0, 0.0, NULL},
+    {MLR_GEN_OPT_ALLOW_UNSEEN, "allow_unseen", MLR_OPT_BOOL, 0.0, 1.0, 0, 0, 0.0, NULL},
+};
+
 mlr_status mlr_generator_create(const mlr_allocator *alloc, const mlr_gen_model *model,
-                                uint64_t seed, mlr_generator **out, mlr_diag *diag)
+                                uint64_t seed, const mlr_generate_option *opts, size_t n_opts,
+                                mlr_generator **out, mlr_diag *diag)
 {
     if (!out || !model)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "mlr_generator_create: %s is NULL",
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "generate: %s is NULL",
                             out ? "model" : "out");
     *out = NULL;
+    mlr_opt_values v;
+    mlr_status st = MLR_OPTIONS_READ("generate", generate_opts, opts, n_opts, &v, diag);
+    if (st)
+        return st;
+    if (v.v[MLR_GEN_OPT_START_FRAME] >= (double)model->n_points)
+        return mlr_option_reject(diag, "generate", "start_frame", v.v[MLR_GEN_OPT_START_FRAME],
+                                 "in -1 .. %zu (the model's training frames)",
+                                 model->n_points - 1);
+    if (v.v[MLR_GEN_OPT_START] >= (double)model->k)
+        return mlr_option_reject(diag, "generate", "start", v.v[MLR_GEN_OPT_START],
+                                 "in -1 .. %zu (the model's primitives)", model->k - 1);
     mlr_allocator a;
     mlr_allocator_resolve(alloc, &a);
     mlr_generator *g = mlr_alloc(&a, sizeof *g);
     if (!g)
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "mlr_generator_create: out of memory");
+        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "generate: out of memory");
     memset(g, 0, sizeof *g);
     g->alloc = a;
     g->model = model;
     mlr_rng_seed(&g->rng, seed);
     g->seed = seed;
-    g->frames = 300;
-    g->start_frame_opt = -1;
-    g->start_opt = -1;
-    g->smooth = 2.0;
+    g->frames = (size_t)v.v[MLR_GEN_OPT_FRAMES];
+    g->start_frame_opt = (int64_t)v.v[MLR_GEN_OPT_START_FRAME];
+    g->start_opt = (int64_t)v.v[MLR_GEN_OPT_START];
+    g->rank = (int)v.v[MLR_GEN_OPT_RANK];
+    g->smooth = v.v[MLR_GEN_OPT_SMOOTH];
+    g->noise = v.v[MLR_GEN_OPT_NOISE];
+    g->allow_unseen = v.v[MLR_GEN_OPT_ALLOW_UNSEEN] != 0.0;
     g->start_frame = -1;
     g->prev_state = -1;
     g->point[0] = g->point[1] = NAN;
     *out = g;
     return MLR_OK;
-}
-
-mlr_status mlr_generator_set(mlr_generator *g, int option, double v, mlr_diag *diag)
-{
-    const char *who = "mlr_generator_set";
-    if (!g)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: gen is NULL", who);
-    if (g->started)
-        return mlr_diag_set(diag, MLR_E_BAD_STATE, 0, 0,
-                            "%s: options are set before the first "
-                            "frame",
-                            who);
-    const mlr_gen_model *m = g->model;
-    int integral = v == floor(v);
-    switch (option) {
-    case MLR_GEN_FRAMES:
-        if (!(integral && v >= 2 && v <= MAX_FRAMES))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "%s: MLR_GEN_FRAMES %g out of "
-                                "range (an integer 2 .. %d)",
-                                who, v, MAX_FRAMES);
-        g->frames = (size_t)v;
-        return MLR_OK;
-    case MLR_GEN_START_FRAME:
-        if (!(integral && v >= -1 && v < (double)m->n_points))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "%s: MLR_GEN_START_FRAME %g out "
-                                "of range (-1, or a training frame 0 .. %zu)",
-                                who, v, m->n_points - 1);
-        g->start_frame_opt = (int64_t)v;
-        return MLR_OK;
-    case MLR_GEN_START:
-        if (!(integral && v >= -1 && v < (double)m->k))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "%s: MLR_GEN_START %g out of "
-                                "range (-1, or a primitive 0 .. %zu)",
-                                who, v, m->k - 1);
-        g->start_opt = (int64_t)v;
-        return MLR_OK;
-    case MLR_GEN_RANK:
-        if (!(v == 0 || v == 1 || v == 2))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "%s: MLR_GEN_RANK %g out of "
-                                "range (0 sampled, 1 most likely, 2 second most likely)",
-                                who, v);
-        g->rank = (int)v;
-        return MLR_OK;
-    case MLR_GEN_SMOOTH:
-        if (!(v >= 0 && v < HUGE_VAL))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "%s: MLR_GEN_SMOOTH %g out of "
-                                "range (finite, >= 0)",
-                                who, v);
-        g->smooth = v;
-        return MLR_OK;
-    case MLR_GEN_NOISE:
-        if (!(v >= 0 && v < HUGE_VAL))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "%s: MLR_GEN_NOISE %g out of "
-                                "range (finite, >= 0)",
-                                who, v);
-        g->noise = v;
-        return MLR_OK;
-    case MLR_GEN_ALLOW_UNSEEN:
-        if (!(v == 0 || v == 1))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "%s: MLR_GEN_ALLOW_UNSEEN %g out "
-                                "of range (0 or 1)",
-                                who, v);
-        g->allow_unseen = (int)v;
-        return MLR_OK;
-    default:
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: unknown option %d", who, option);
-    }
 }
 
 /* The buffers of one segment, at the first frame. */

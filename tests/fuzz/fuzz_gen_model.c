@@ -77,9 +77,9 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     }
     mlr_generator *g = NULL;
     /* odd sizes walk a perturbed chain (mlr_markov_perturb), even ones the learned one */
-    if (mlr_generator_create(&a, m, 1, &g, &d) == MLR_OK &&
-        mlr_generator_set(g, MLR_GEN_FRAMES, 16, &d) == MLR_OK &&
-        mlr_generator_set(g, MLR_GEN_NOISE, size % 2 ? 0.3 : 0.0, &d) == MLR_OK) {
+    mlr_generate_option opts[] = {{MLR_GEN_OPT_FRAMES, 16},
+                                  {MLR_GEN_OPT_NOISE, size % 2 ? 0.3 : 0.0}};
+    if (mlr_generator_create(&a, m, 1, opts, 2, &g, &d) == MLR_OK) {
         size_t n = mlr_gen_model_frame_size(m), J = mlr_gen_model_n_joints(m);
         double *pose = malloc(n * sizeof *pose);
         for (int f = 0; pose && f < 40; f++) {

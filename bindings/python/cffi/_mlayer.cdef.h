@@ -305,14 +305,19 @@ size_t mlr_gen_model_n_primitives(const mlr_gen_model *model);
 double mlr_gen_model_frame_time(const mlr_gen_model *model);
 size_t mlr_gen_model_frame_size(const mlr_gen_model *model);
 void mlr_gen_model_destroy(mlr_gen_model *model);
-enum {
-    MLR_GEN_FRAMES = 1, MLR_GEN_START_FRAME = 2, MLR_GEN_START = 3, MLR_GEN_RANK = 4,
-    MLR_GEN_SMOOTH = 5, MLR_GEN_NOISE = 6, MLR_GEN_ALLOW_UNSEEN = 7
-};
+typedef enum mlr_generate_key {
+    MLR_GEN_OPT_FRAMES = 1, MLR_GEN_OPT_START_FRAME = 2, MLR_GEN_OPT_START = 3,
+    MLR_GEN_OPT_RANK = 4, MLR_GEN_OPT_SMOOTH = 5, MLR_GEN_OPT_NOISE = 6,
+    MLR_GEN_OPT_ALLOW_UNSEEN = 7
+} mlr_generate_key;
+typedef struct mlr_generate_option {
+    int key;
+    double value;
+} mlr_generate_option;
 typedef struct mlr_generator mlr_generator;
 mlr_status mlr_generator_create(const mlr_allocator *alloc, const mlr_gen_model *model,
-                                uint64_t seed, mlr_generator **out, mlr_diag *diag);
-mlr_status mlr_generator_set(mlr_generator *gen, int option, double value, mlr_diag *diag);
+                                uint64_t seed, const mlr_generate_option *opts, size_t n_opts,
+                                mlr_generator **out, mlr_diag *diag);
 mlr_status mlr_generator_next(mlr_generator *gen, double *pose, mlr_diag *diag);
 uint64_t mlr_generator_frame(const mlr_generator *gen);
 void mlr_generator_point(const mlr_generator *gen, double point[2]);

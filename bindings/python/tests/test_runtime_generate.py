@@ -26,16 +26,31 @@ def _load(data: bytes, skeleton=ffi.NULL):
     return st, ffi.gc(out[0], lib.mlr_gen_model_destroy)
 
 
-def _frames(model_h, n: int, seed: int, **opts: float) -> tuple[np.ndarray, int]:
+_KEYS = {"frames": "MLR_GEN_OPT_FRAMES", "start_frame": "MLR_GEN_OPT_START_FRAME",
+         "start": "MLR_GEN_OPT_START", "rank": "MLR_GEN_OPT_RANK", "smooth": "MLR_GEN_OPT_SMOOTH",
+         "noise": "MLR_GEN_OPT_NOISE", "allow_unseen": "MLR_GEN_OPT_ALLOW_UNSEEN"}
+
+
+def _generator(model_h, seed: int, opts: list[tuple[int, float]]):
+    """(status, the generator or the diag's message)."""
     gen = ffi.new("mlr_generator **")
     diag = ffi.new("mlr_diag *")
-    assert lib.mlr_generator_create(ffi.NULL, model_h, seed, gen, diag) == 0
-    g = ffi.gc(gen[0], lib.mlr_generator_destroy)
-    names = {"frames": lib.MLR_GEN_FRAMES, "start_frame": lib.MLR_GEN_START_FRAME,
-             "start": lib.MLR_GEN_START, "rank": lib.MLR_GEN_RANK, "smooth": lib.MLR_GEN_SMOOTH,
-             "noise": lib.MLR_GEN_NOISE, "allow_unseen": lib.MLR_GEN_ALLOW_UNSEEN}
-    for k, v in opts.items():
-        assert lib.mlr_generator_set(g, names[k], v, diag) == 0, ffi.string(diag.message)
+    arr = ffi.new("mlr_generate_option[]", max(len(opts), 1))
+    for i, (k, v) in enumerate(opts):
+        arr[i].key, arr[i].value = k, v
+    st = lib.mlr_generator_create(ffi.NULL, model_h, seed, arr if opts else ffi.NULL, len(opts),
+                                  gen, diag)
+    if st != 0:
+        assert gen[0] == ffi.NULL
+        return st, ffi.string(diag.message).decode()
+    return st, ffi.gc(gen[0], lib.mlr_generator_destroy)
+
+
+def _frames(model_h, n: int, seed: int, **opts: float) -> tuple[np.ndarray, int]:
+    st, g = _generator(model_h, seed, [(getattr(lib, _KEYS[k]), float(v))
+                                       for k, v in opts.items()])
+    assert st == 0, g
+    diag = ffi.new("mlr_diag *")
     size = lib.mlr_gen_model_frame_size(model_h)
     out = np.empty((n, size))
     for f in range(n):
@@ -175,23 +190,23 @@ def test_every_truncation_is_refused(walk):
 def test_bad_options_are_refused(walk):
     _, model = walk
     st, h = _load(model.runtime_bytes())
-    gen = ffi.new("mlr_generator **")
-    diag = ffi.new("mlr_diag *")
-    assert lib.mlr_generator_create(ffi.NULL, h, 0, gen, diag) == 0
-    g = ffi.gc(gen[0], lib.mlr_generator_destroy)
-    n = model.points.shape[0]
-    for opt, v, msg in [(99, 1.0, "unknown option 99"), (lib.MLR_GEN_FRAMES, 1, "MLR_GEN_FRAMES"),
-                        (lib.MLR_GEN_FRAMES, 2.5, "MLR_GEN_FRAMES"),
-                        (lib.MLR_GEN_START_FRAME, n, f"0 .. {n - 1}"),
-                        (lib.MLR_GEN_RANK, 3, "MLR_GEN_RANK"),
-                        (lib.MLR_GEN_NOISE, -0.5, "MLR_GEN_NOISE"),
-                        (lib.MLR_GEN_ALLOW_UNSEEN, 2, "MLR_GEN_ALLOW_UNSEEN"),
-                        (lib.MLR_GEN_SMOOTH, float("nan"), "MLR_GEN_SMOOTH")]:
-        assert lib.mlr_generator_set(g, opt, v, diag) == lib.MLR_E_INVALID_ARG
-        assert msg in ffi.string(diag.message).decode()
-    pose = np.empty(lib.mlr_gen_model_frame_size(h))
-    assert lib.mlr_generator_next(g, ffi.cast("double *", ffi.from_buffer(pose)), diag) == 0
-    assert lib.mlr_generator_set(g, lib.MLR_GEN_RANK, 1, diag) == lib.MLR_E_BAD_STATE
+    n, k = model.points.shape[0], model.centers.shape[0]
+    key = {name: getattr(lib, c) for name, c in _KEYS.items()}
+    for opts, msg in [([(99, 1.0)], "generate: unknown option key 99"),
+                      ([(key["frames"], 1)],
+                       "option frames = 1 is not an integer in 2 .. 10000000"),
+                      ([(key["frames"], 2.5)], "option frames = 2.5 is not"),
+                      ([(key["start_frame"], n)],
+                       f"option start_frame = {n} is not in -1 .. {n - 1}"),
+                      ([(key["start"], k)], f"option start = {k} is not in -1 .. {k - 1}"),
+                      ([(key["rank"], 3)], "option rank = 3 is not 0 (sampled), 1"),
+                      ([(key["noise"], -0.5)], "option noise = -0.5 is not"),
+                      ([(key["allow_unseen"], 2)], "option allow_unseen = 2 is not"),
+                      ([(key["smooth"], float("nan"))], "option smooth = nan is not finite"),
+                      ([(key["rank"], 1), (key["rank"], 1)], "option rank given twice")]:
+        st, text = _generator(h, 0, opts)
+        assert st == lib.MLR_E_INVALID_ARG, (opts, text)
+        assert msg in text, (opts, text)
 
 
 def test_save_runtime_loads_from_the_file(walk, tmp_path):
