@@ -34,10 +34,12 @@
  * frames, continuing the walk (the transition in progress first, from the last manifold point)
  * and the heading and body position; only the first segment is what generate returns.
  *
- * Memory: mlr_gen_model_load makes the model in two allocations (the model, its Markov
- * model); mlr_generator_create allocates the buffers of one segment (about frames * (n_out + 8)
- * doubles, n_out = 4 + 7 J); at the start of each segment the spline's factorization and
- * mlr_grbf_eval's workspace are allocated and released; the other calls of
+ * Memory: mlr_gen_model_load allocates the model (two blocks) and its Markov model (two
+ * blocks; a temporary copy of its arrays is released before returning); mlr_generator_create
+ * the generator; its first mlr_generator_next the buffers of one segment (about
+ * frames * (n_out + 6) doubles, n_out = 4 + 7 J), the smoothing's factorization and, with
+ * noise or allow_unseen, the perturbed chain; at the start of each segment the spline's
+ * factorization and mlr_grbf_eval's workspace are allocated and released; the other calls of
  * mlr_generator_next allocate nothing.
  *
  * Threads: a model is read only after loading (generators on several threads may share it);
