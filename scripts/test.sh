@@ -5,7 +5,8 @@
 # and abi3 wheel, installed into a fresh venv without libcholmod), the manylinux wheel
 # (scripts/build-wheels.sh: built for glibc 2.28 by zig cc, auditwheel show and repair, a smoke
 # test in fresh venvs), the same C suites again under AddressSanitizer +
-# UndefinedBehaviorSanitizer, a bounded fuzzing run of the BVH reader and one of the glTF and
+# UndefinedBehaviorSanitizer, a bounded fuzzing run of the BVH reader, one of the runtime model
+# loader (tests/fuzz/run_gen_model.sh) and one of the glTF and
 # AMASS readers (tests/fuzz/fuzz_readers.py), then pytest as `pip install 'mlayer[test]'` alone
 # would run it (tests/extras/run.py: the other extras' modules blocked, their tests skipped) and
 # with everything (the Python examples included; the C examples run with the Check suites), then
@@ -57,6 +58,13 @@ if bash tests/fuzz/run.sh 60 >build-fuzz/fuzz.log 2>&1; then
   grep -E "^(fuzzing|Done)" build-fuzz/fuzz.log
 else
   tail -40 build-fuzz/fuzz.log; echo "fuzzing the BVH reader failed" >&2; exit 1
+fi
+
+echo "== Runtime model loader fuzzed for 30 s (libFuzzer, ASan + UBSan, a hand-written model as seed) =="
+if bash tests/fuzz/run_gen_model.sh 30 >build-fuzz/fuzz-gen.log 2>&1; then
+  grep -E "^(fuzzing|Done)" build-fuzz/fuzz-gen.log
+else
+  tail -40 build-fuzz/fuzz-gen.log; echo "fuzzing the runtime model loader failed" >&2; exit 1
 fi
 
 echo "== glTF and AMASS readers fuzzed for 20 s each (mutated seeds, a child under a memory limit) =="

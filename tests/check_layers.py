@@ -21,6 +21,7 @@ LAYERS: dict[str, set[str]] = {
     "layers": {"common", "math", "motion"},
     "manifold": {"common", "math"},
     "guards": {"common", "math", "motion"},
+    "generate": {"common", "math", "motion", "io", "manifold", "guards"},
     "stream": {"common", "math", "motion", "layers", "guards"},
     "pipeline": {"common", "math", "motion", "layers", "guards"},
 }

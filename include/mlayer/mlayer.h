@@ -16,6 +16,8 @@
 #include "mlr_kmeans.h"
 #include "mlr_som.h"
 #include "mlr_grbf.h"
+#include "mlr_markov.h"
+#include "mlr_generate.h"
 #include "mlr_rig.h"
 #include "mlr_contacts.h"
 #include "mlr_limits.h"

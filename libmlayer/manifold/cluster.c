@@ -43,6 +43,8 @@ double mlr_rng_uniform(mlr_rng *r) { return (double)(mlr_rng_u64(r) >> 11) * 0x1
 
 size_t mlr_rng_below(mlr_rng *r, size_t n)
 {
+    if (n == 0)
+        return 0;
     uint64_t lim = UINT64_MAX - UINT64_MAX % (uint64_t)n, v;
     do
         v = mlr_rng_u64(r);

@@ -9,14 +9,8 @@
 
 #include <stdint.h>
 
-/* xoshiro256** seeded through splitmix64. */
-typedef struct mlr_rng {
-    uint64_t s[4];
-} mlr_rng;
-void mlr_rng_seed(mlr_rng *r, uint64_t seed);
-uint64_t mlr_rng_u64(mlr_rng *r);
-double mlr_rng_uniform(mlr_rng *r);                  /* [0, 1), 53 bits */
-size_t mlr_rng_below(mlr_rng *r, size_t n);          /* uniform in [0, n), n >= 1, unbiased */
+/* The seeded generator mlr_rng (xoshiro256** seeded through splitmix64) is public:
+ * mlr_markov.h. */
 
 /* Centres packed for the search: blocks of 16, pc[(jb * dim + t) * 16 + l] is coordinate t of
  * centre 16 jb + l; cn[j] = ||c_j||^2, +inf for the padding centres (never chosen). */

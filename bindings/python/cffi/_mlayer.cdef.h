@@ -270,6 +270,69 @@ size_t mlr_kmeans_k(const mlr_kmeans *km);
 size_t mlr_kmeans_dim(const mlr_kmeans *km);
 void mlr_kmeans_destroy(mlr_kmeans *km);
 
+/* mlr_markov.h */
+typedef struct mlr_rng {
+    uint64_t s[4];
+} mlr_rng;
+void mlr_rng_seed(mlr_rng *rng, uint64_t seed);
+uint64_t mlr_rng_u64(mlr_rng *rng);
+double mlr_rng_uniform(mlr_rng *rng);
+size_t mlr_rng_below(mlr_rng *rng, size_t n);
+typedef struct mlr_markov mlr_markov;
+mlr_status mlr_markov_create(size_t n_states, const double *jumps, const double *run_length,
+                             unsigned order, size_t min_count, size_t n_contexts,
+                             const int64_t *context_keys, const double *context_seen,
+                             const double *context_probs, const mlr_allocator *alloc,
+                             mlr_markov **out, mlr_diag *diag);
+size_t mlr_markov_n_states(const mlr_markov *mk);
+unsigned mlr_markov_order(const mlr_markov *mk);
+mlr_status mlr_markov_next(const mlr_markov *mk, const int64_t *history, size_t len, int rank,
+                           mlr_rng *rng, int64_t *next, mlr_diag *diag);
+double mlr_markov_step_frames(const mlr_markov *mk, int64_t a, int64_t b);
+mlr_status mlr_markov_path(const mlr_markov *mk, const int64_t *history, size_t n_history,
+                           int64_t start, size_t n_frames, int rank, mlr_rng *rng, int64_t *path,
+                           size_t cap, size_t *len, mlr_diag *diag);
+void mlr_markov_destroy(mlr_markov *mk);
+double mlr_rng_gamma(mlr_rng *rng, double shape);
+mlr_status mlr_markov_perturb(const mlr_markov *mk, double noise, int allow_unseen, mlr_rng *rng,
+                              const mlr_allocator *alloc, mlr_markov **out, mlr_diag *diag);
+
+/* mlr_generate.h */
+#define MLR_GEN_FORMAT_VERSION 1
+typedef struct mlr_gen_model mlr_gen_model;
+mlr_status mlr_gen_model_load(const mlr_allocator *alloc, const void *bytes, size_t size,
+                              const mlr_motion *skeleton, mlr_gen_model **out, mlr_diag *diag);
+mlr_status mlr_gen_model_load_file(const mlr_allocator *alloc, const char *path,
+                                   const mlr_motion *skeleton, mlr_gen_model **out,
+                                   mlr_diag *diag);
+size_t mlr_gen_model_n_joints(const mlr_gen_model *model);
+const char *mlr_gen_model_joint_name(const mlr_gen_model *model, size_t joint);
+size_t mlr_gen_model_body_joint(const mlr_gen_model *model);
+size_t mlr_gen_model_n_points(const mlr_gen_model *model);
+size_t mlr_gen_model_n_primitives(const mlr_gen_model *model);
+double mlr_gen_model_frame_time(const mlr_gen_model *model);
+size_t mlr_gen_model_frame_size(const mlr_gen_model *model);
+void mlr_gen_model_destroy(mlr_gen_model *model);
+typedef enum mlr_generate_key {
+    MLR_GEN_OPT_FRAMES = 1, MLR_GEN_OPT_START_FRAME = 2, MLR_GEN_OPT_START = 3,
+    MLR_GEN_OPT_RANK = 4, MLR_GEN_OPT_SMOOTH = 5, MLR_GEN_OPT_NOISE = 6,
+    MLR_GEN_OPT_ALLOW_UNSEEN = 7
+} mlr_generate_key;
+typedef struct mlr_generate_option {
+    int key;
+    double value;
+} mlr_generate_option;
+typedef struct mlr_generator mlr_generator;
+mlr_status mlr_generator_create(const mlr_allocator *alloc, const mlr_gen_model *model,
+                                uint64_t seed, const mlr_generate_option *opts, size_t n_opts,
+                                mlr_generator **out, mlr_diag *diag);
+mlr_status mlr_generator_next(mlr_generator *gen, double *pose, mlr_diag *diag);
+uint64_t mlr_generator_frame(const mlr_generator *gen);
+void mlr_generator_point(const mlr_generator *gen, double point[2]);
+int64_t mlr_generator_primitive(const mlr_generator *gen);
+int64_t mlr_generator_start_frame(const mlr_generator *gen);
+void mlr_generator_destroy(mlr_generator *gen);
+
 /* mlr_som.h */
 typedef struct mlr_som mlr_som;
 enum {

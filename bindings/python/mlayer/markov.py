@@ -45,9 +45,12 @@ from . import _attrs
 from .errors import InvalidArgumentError
 from ._args import integer
 
-__all__ = ["Markov", "heldout_loglik", "UNSEEN_MASS", "MAX_ORDER"]
+__all__ = ["Markov", "Rng", "heldout_loglik", "UNSEEN_MASS", "MAX_ORDER"]
 
 UNSEEN_MASS = 0.02  # the prior mass per row that allow_unseen gives to transitions never seen
+#: the perturbation of :meth:`Markov.walk` draws from ``Rng(seed ^ NOISE_SEED_XOR)``
+#: (``MLR_GEN_NOISE_SEED_XOR``: the first 64 fractional bits of sqrt(2))
+NOISE_SEED_XOR = 0x6A09E667F3BCC908
 MAX_ORDER = 3
 HELDOUT_FOLDS = 5      # the blocks of each clip in heldout_loglik's cross-validation
 HELDOUT_FLOOR = 1e-3    # mixed into each held-out prediction: see heldout_loglik
@@ -134,6 +137,56 @@ def dirichlet_rows(R: ArrayLike, noise: float, rng: np.random.Generator, *,
             q[int(np.argmax(c[s]))] = 1.0
         out[i, s] = q / q.sum()
     return out
+
+
+class Rng(_attrs.ReadOnlyAttributes):
+    """The C core's seeded generator (``mlr_rng``, ``mlr_markov.h``): xoshiro256** seeded by
+    splitmix64. The same seed gives the same numbers here and in a C program, which is what
+    makes :meth:`Markov.walk` and ``mlayer generate`` reproducible at run time.
+
+    Parameters
+    ----------
+    seed : int
+        0 .. 2^64 - 1; the read-only attribute ``seed``.
+    """
+
+    seed: int
+    _readonly = ("seed",)
+
+    def __init__(self, seed: int = 0) -> None:
+        from ._native import ffi, lib
+        seed = integer(seed, "Rng: seed", 0, 2**64 - 1)
+        self.seed = int(seed)
+        self._state = ffi.new("mlr_rng *")
+        lib.mlr_rng_seed(self._state, seed)
+
+    def below(self, n: int) -> int:
+        """A uniform integer in [0, n) (``mlr_rng_below``: unbiased, by rejection).
+
+        Parameters
+        ----------
+        n : int
+            >= 1.
+
+        Returns
+        -------
+        int
+            The integer; the generator advances.
+        """
+        from ._native import lib
+        n = integer(n, "Rng.below: n", 1)
+        return int(lib.mlr_rng_below(self._state, n))
+
+    def uniform(self) -> float:
+        """A uniform float in [0, 1) (``mlr_rng_uniform``: the top 53 bits times 2^-53).
+
+        Returns
+        -------
+        float
+            The number; the generator advances.
+        """
+        from ._native import lib
+        return float(lib.mlr_rng_uniform(self._state))
 
 
 def _state(j: Any, n: int, name: str = "state") -> int:
@@ -544,6 +597,120 @@ class Markov(_attrs.ReadOnlyAttributes):
             s = int(np.searchsorted(cum[s], u[i - 1], side="right"))
             out[i] = s
         return out
+
+    def c_arrays(self) -> dict[str, Any]:
+        """The jump model as the C core takes it (``mlr_markov_create``).
+
+        Returns
+        -------
+        dict
+            ``jumps`` (n, n), ``run_length`` (n,), ``order``, ``min_count``,
+            ``context_keys`` (m, order) int64 left-padded with -1, ``context_seen`` (m,) and
+            ``context_probs`` (m, n), the contexts in sorted order.
+        """
+        keys = sorted(self.contexts)
+        K = np.full((len(keys), self.order), -1, dtype=np.int64)
+        seen = np.zeros(len(keys))
+        probs = np.zeros((len(keys), self.n_states))
+        for i, key in enumerate(keys):
+            K[i, self.order - len(key):] = key
+            seen[i], probs[i] = self.contexts[key]
+        return {"jumps": np.ascontiguousarray(self.jump_matrix(), dtype=np.float64),
+                "run_length": np.ascontiguousarray(self.run_length, dtype=np.float64),
+                "order": int(self.order), "min_count": int(self.min_count),
+                "context_keys": K, "context_seen": seen, "context_probs": probs}
+
+    def _native(self) -> Any:
+        """The C jump model (``mlr_markov``), freed with the returned handle (made for each
+        call, so that a Markov stays picklable and a contexts dict edited in place is seen)."""
+        from ._native import ffi, lib
+        from .errors import check
+        a = self.c_arrays()
+        out = ffi.new("mlr_markov **")
+        diag = ffi.new("mlr_diag *")
+        keys = a["context_keys"]
+        m = keys.shape[0]
+        check(lib.mlr_markov_create(
+            self.n_states, ffi.cast("double *", ffi.from_buffer(a["jumps"])),
+            ffi.cast("double *", ffi.from_buffer(a["run_length"])), a["order"], a["min_count"],
+            m, ffi.cast("int64_t *", ffi.from_buffer(keys)) if m else ffi.NULL,
+            ffi.cast("double *", ffi.from_buffer(a["context_seen"])) if m else ffi.NULL,
+            ffi.cast("double *", ffi.from_buffer(a["context_probs"])) if m else ffi.NULL,
+            ffi.NULL, out, diag), "mlayer.Markov", diag)
+        return ffi.gc(out[0], lib.mlr_markov_destroy)
+
+    def walk(self, start: int, n_frames: int, *, rank: int = 0, rng: Rng | None = None,
+             seed: int = 0, history: Sequence[int] | None = None, noise: float = 0.0,
+             allow_unseen: bool = False, noise_rng: Rng | None = None) -> NDArray[np.int64]:
+        """Distinct primitives from a start, enough to fill n_frames at their mean run lengths,
+        by the C core (``mlr_markov_path``: the same path a C program gets from the same model
+        and generator).
+
+        path[0] = start; each next state is sampled from the jump model after the path so far
+        (one uniform from the generator per step), or with rank r >= 1 the r-th most likely
+        (:meth:`ranked_next`); a step from j to k lasts (max(run_length[j], 1) +
+        max(run_length[k], 1)) / 2 frames, and the walk stops once the steps last n_frames or
+        more.
+
+        Parameters
+        ----------
+        start : int
+            The first state.
+        n_frames : int
+            Frames to fill, >= 1.
+        rank : int, optional
+            0 sampled, 1 most likely, 2 second most likely, ...
+        rng : Rng, optional
+            The generator (its state advances); default ``Rng(seed)``.
+        seed : int, optional
+            Seed of the default generator.
+        history : sequence of int, optional
+            Distinct states before start (the first context, order > 1).
+        noise : float, optional
+            > 0: walk the jump model with its rows redrawn first, by the C core
+            (``mlr_markov_perturb``: Dirichlet(r / noise) per row, as :meth:`perturbed` draws
+            them, from its own generator).
+        allow_unseen : bool, optional
+            As for :meth:`perturbed` (a perturbation even at noise 0).
+        noise_rng : Rng, optional
+            The perturbation's generator (default ``Rng(seed ^ 0x6A09E667F3BCC908)``, as the
+            C generator seeds it: ``MLR_GEN_NOISE_SEED_XOR``).
+
+        Returns
+        -------
+        numpy.ndarray of int64
+            The states, at most n_frames + 1.
+        """
+        from ._native import ffi, lib
+        from .errors import check
+        s = _state(start, self.n_states, "start")
+        n_frames = integer(n_frames, "walk: n_frames", 1)
+        rank = integer(rank, "walk: rank", 0, 2**31 - 1)
+        if rng is None:
+            rng = Rng(seed)
+        h = np.array([_state(v, self.n_states, "history") for v in (history or [])],
+                     dtype=np.int64)
+        noise = _noise(noise, "walk: noise")
+        if not isinstance(allow_unseen, (bool, np.bool_)):
+            raise InvalidArgumentError(f"allow_unseen must be True or False, got "
+                                       f"{allow_unseen!r}")
+        out = np.empty(n_frames + 1, dtype=np.int64)
+        got = ffi.new("size_t *")
+        diag = ffi.new("mlr_diag *")
+        model = self._native()
+        if noise > 0 or allow_unseen:
+            if noise_rng is None:
+                noise_rng = Rng(integer(seed, "walk: seed", 0, 2**64 - 1) ^ NOISE_SEED_XOR)
+            pert = ffi.new("mlr_markov **")
+            check(lib.mlr_markov_perturb(model, noise, int(bool(allow_unseen)), noise_rng._state,
+                                         ffi.NULL, pert, diag), "mlayer.Markov.walk", diag)
+            model = ffi.gc(pert[0], lib.mlr_markov_destroy)
+        check(lib.mlr_markov_path(model,
+                                  ffi.cast("int64_t *", ffi.from_buffer(h)) if h.size
+                                  else ffi.NULL, h.size, s, n_frames, rank, rng._state,
+                                  ffi.cast("int64_t *", ffi.from_buffer(out)), out.size, got,
+                                  diag), "mlayer.Markov.walk", diag)
+        return out[:got[0]].copy()
 
     def stationary(self) -> NDArray[np.float64]:
         """Stationary distribution of P.

@@ -40,6 +40,8 @@ from __future__ import annotations
 import logging
 import math
 import os
+import struct
+import zlib
 from collections.abc import Callable, Iterable, Sequence
 from typing import TYPE_CHECKING, Any, cast
 
@@ -52,7 +54,7 @@ from ._progress import Bar, ProgressArg, resolve
 from .errors import InvalidArgumentError, MlayerIOError
 from .smoothing import lgs
 from .manifold import GRBF, PCA
-from .markov import Markov
+from .markov import Markov, Rng
 from .motion import Motion, Skeleton, _frame_time_arg
 
 if TYPE_CHECKING:
@@ -65,6 +67,16 @@ __all__ = ["PrimitiveModel", "heading_quat", "split_heading", "default_lattices"
 
 _FORMAT = 2  # 2: jump contexts of order 1 .. 3, the k criteria, clip names; 1 loads as order 1
 _FORMATS = (1, 2)
+#: the format version of :meth:`PrimitiveModel.runtime_bytes` (``MLR_GEN_FORMAT_VERSION``)
+RUNTIME_FORMAT = 1
+
+
+def _fnv1a(data: bytes) -> int:
+    """FNV-1a, 64 bits (the skeleton hash of a runtime model file)."""
+    h = 0xcbf29ce484222325
+    for byte in data:
+        h = ((h ^ byte) * 0x100000001b3) & 0xFFFFFFFFFFFFFFFF
+    return h
 # SOM manifold points are lattice positions (the BMU's, rounded to the unit): the GMM of the BIC
 # criterion adds the variance of that rounding, 1/12 per axis, to its covariances
 _SOM_REG_COVAR = 1.0 / 12.0
@@ -1112,7 +1124,8 @@ class PrimitiveModel(_attrs.ReadOnlyAttributes):
 
     def primitive_path(self, start: int, n_frames: int, *, noise: float = 0.0, seed: int = 0,
                        most_likely: bool = False, second_likely: bool = False,
-                       allow_unseen: bool = False) -> NDArray[np.int64]:
+                       allow_unseen: bool = False, rng: Rng | None = None
+                       ) -> NDArray[np.int64]:
         """Primitives from a start, enough to fill n_frames at their mean durations.
 
         Sampled from the chain of distinct primitives (of the model's order), or following the
@@ -1126,13 +1139,17 @@ class PrimitiveModel(_attrs.ReadOnlyAttributes):
         n_frames : int
             Frames to fill.
         noise : float, optional
-            Perturb the chain first when > 0 (:meth:`mlayer.Markov.perturbed`).
+            Perturb the chain first when > 0 (the C core's ``mlr_markov_perturb``, the draws of
+            :meth:`mlayer.Markov.perturbed` for the jump model; :meth:`mlayer.Markov.walk`).
         seed : int, optional
-            Seed of the perturbation and the sampling.
+            Seed of the perturbation and of the sampling's generator.
         most_likely, second_likely : bool, optional
             Follow the most likely or the second most likely next primitive.
         allow_unseen : bool, optional
             As for :meth:`mlayer.Markov.perturbed`.
+        rng : mlayer.markov.Rng, optional
+            The sampling's generator (default ``Rng(seed)``); one uniform per sampled step
+            (:meth:`mlayer.Markov.walk`).
 
         Returns
         -------
@@ -1143,31 +1160,17 @@ class PrimitiveModel(_attrs.ReadOnlyAttributes):
             raise InvalidArgumentError("generate: most_likely and second_likely exclude each "
                                        "other (--most-likely, --second-likely)")
         noise = _non_negative(noise, "generate: noise")
-        mk = self.markov.perturbed(noise, seed, allow_unseen=allow_unseen) \
-            if noise > 0 or allow_unseen else self.markov
+        if not isinstance(allow_unseen, (bool, np.bool_)):
+            raise InvalidArgumentError(f"allow_unseen must be True or False, got "
+                                       f"{allow_unseen!r}")
         rank = 1 if most_likely else 2 if second_likely else 0
-        dur = np.maximum(mk.run_length, 1.0)
-        path = [int(start)]
-        total = 0.0
-        chunk = 64
-        i = 0
-        while total < n_frames:
-            if rank:
-                nxt = mk.ranked_next(path[-mk.order:], rank)
-                if nxt < 0:
-                    break
-                path.append(nxt)
-            else:
-                if i % chunk == 0:
-                    seq = mk.sample(path[-1], chunk + 1, seed=seed + i, distinct=True,
-                                    history=path[:-1][-(mk.order - 1):] if mk.order > 1
-                                    else None)[1:]
-                path.append(int(seq[i % chunk]))
-            i += 1
-            total += (dur[path[-2]] + dur[path[-1]]) / 2.0
-            if i > 100000:
-                break
-        return np.array(path, dtype=np.int64)
+        n_frames = integer(n_frames, "generate: frames", 1)
+        seed = integer(seed, "generate: seed", 0, 2**64 - 1)
+        # the C core's perturbation and walk (mlr_markov_perturb, mlr_markov_path): a C program
+        # gets the same path from the same model and seed (mlr_generate.h)
+        return self.markov.walk(int(start), n_frames, rank=rank,
+                                rng=rng if rng is not None else Rng(seed), seed=seed,
+                                noise=noise, allow_unseen=bool(allow_unseen))
 
     def through_points(self, points: ArrayLike) -> NDArray[np.float64]:
         """Manifold points checked to be finite and on the map (the box the GRBF spans).
@@ -1342,7 +1345,7 @@ class PrimitiveModel(_attrs.ReadOnlyAttributes):
         n_frames = integer(n_frames, "generate: frames", 2)
         smooth = _non_negative(smooth, "generate: smooth")
         noise = _non_negative(noise, "generate: noise")
-        seed = integer(seed, "generate: seed", 0)
+        seed = integer(seed, "generate: seed", 0, 2**64 - 1)
         # the mapping's outputs, their smoothing and the guards: a few copies of n_frames poses
         per_frame = getattr(self.grbf, "n_outputs_", 0) + 8 * self.skeleton.n_joints
         _arrays.check_memory(64.0 * n_frames * per_frame, f"generate: n_frames={n_frames}")
@@ -1376,8 +1379,10 @@ class PrimitiveModel(_attrs.ReadOnlyAttributes):
                 else np.zeros(1)
             seq = np.array([int(np.argmin(((self.centers - p) ** 2).sum(1))) for p in knots])
         else:
+            # one generator for the start frame and the walk, as the C runtime draws them
+            rng = Rng(seed)
             if start_frame is None:
-                start_frame = int(np.random.default_rng(seed).integers(n))
+                start_frame = rng.below(n)
             if isinstance(start_frame, bool) or not isinstance(start_frame, (int, np.integer)) \
                     or not 0 <= start_frame < n:
                 raise InvalidArgumentError(f"generate: start frame {start_frame!r} out of range "
@@ -1386,7 +1391,7 @@ class PrimitiveModel(_attrs.ReadOnlyAttributes):
             if path is None:
                 seq = self.primitive_path(first, n_frames, noise=noise, seed=seed,
                                           most_likely=most_likely, second_likely=second_likely,
-                                          allow_unseen=allow_unseen)
+                                          allow_unseen=allow_unseen, rng=rng)
             else:
                 seq = np.asarray(path, dtype=np.int64)
                 if seq.ndim != 1 or seq.size == 0 or seq.min() < 0 \
@@ -1543,6 +1548,79 @@ class PrimitiveModel(_attrs.ReadOnlyAttributes):
         with atomic_output(path, suffix=".npz") as tmp:
             with open(tmp, "wb") as f:
                 np.savez_compressed(f, **arrays)
+
+    def runtime_bytes(self) -> bytes:
+        """The model in the binary format of generation at run time (docs/model-format.md),
+        what the C core's ``mlr_gen_model_load`` reads.
+
+        Returns
+        -------
+        bytes
+            The file's contents.
+        """
+        sk = self.skeleton
+        mk = self.markov.c_arrays()
+        names = b"".join(str(n).encode("utf-8") + b"\0" for n in sk.joint_names)
+        f64, i64 = np.dtype("<f8"), np.dtype("<i8")
+        fields: list[tuple[str, Any]] = [
+            ("frame_time", np.array([self.frame_time], f64)),
+            ("joint_names", np.frombuffer(names, np.uint8)),
+            ("parents", np.asarray(sk.parents).astype(i64)),
+            ("body_joint", np.array([getattr(self, "body_joint", 0)], i64)),
+            ("points", np.asarray(self.points, f64).reshape(-1, 2)),
+            ("labels", np.asarray(self.labels).astype(i64)),
+            ("centers", np.asarray(self.centers, f64).reshape(-1, 2)),
+            ("bounds", np.array(self.bounds, f64).reshape(2, 2)),
+            ("jumps", mk["jumps"].astype(f64)),
+            ("run_length", mk["run_length"].astype(f64)),
+            ("markov", np.array([mk["order"], mk["min_count"]], i64)),
+            ("context_keys", mk["context_keys"].astype(i64).reshape(-1, mk["order"])),
+            ("context_seen", mk["context_seen"].astype(f64)),
+            ("context_probs", mk["context_probs"].astype(f64).reshape(-1, self.markov.n_states)),
+            ("grbf_kernel", np.array([0 if self.grbf.kernel == "thin_plate" else 1], i64)),
+            ("grbf_width", np.array([float(getattr(self.grbf, "width_", 0.0) or 0.0)], f64)),
+            ("grbf_centers", np.asarray(self.grbf.centers_, f64)),
+            ("grbf_coef", np.asarray(self.grbf.coef_, f64))]
+        if self.manifold == "som":
+            rows, cols, d = self.som_codebook.shape
+            fields += [("som_codebook", np.asarray(self.som_codebook, f64).reshape(-1, d)),
+                       ("som_lattice", np.array([rows, cols], i64))]
+        if self.has_guards:
+            cn = b"".join(str(n).encode("utf-8") + b"\0" for n in self.contact_names)
+            fields += [("contact_names", np.frombuffer(cn, np.uint8)),
+                       ("contacts", np.asarray(self.contacts).astype(np.uint8).reshape(
+                           self.points.shape[0], -1)),
+                       ("floor_height", np.array([self.floor_height], f64))]
+        body = bytearray()
+        for name, a in fields:
+            a = np.ascontiguousarray(a)
+            dims = (a.shape[0], a.shape[1] if a.ndim == 2 else 1)
+            kind = 1 if a.dtype == f64 else 2 if a.dtype == i64 else 3
+            body += name.encode("ascii").ljust(24, b"\0")
+            body += struct.pack("<IIQQ", kind, a.ndim, *dims)
+            data = a.tobytes()
+            body += data + b"\0" * (-len(data) % 8)
+        from ._native import lib
+        skel = names + np.asarray(sk.parents).astype(i64).tobytes()
+        head = b"MLRGEN\0\0" + struct.pack("<IIIIQQQ", RUNTIME_FORMAT, 0x01020304,
+                                           int(lib.mlr_version_number()), len(fields),
+                                           64 + len(body), _fnv1a(skel), zlib.crc32(body))
+        return bytes(head.ljust(64, b"\0") + body)
+
+    def save_runtime(self, path: str | os.PathLike[str]) -> None:
+        """Write :meth:`runtime_bytes` to a file, atomically: the model a C program loads with
+        ``mlr_gen_model_load_file`` to generate frames without Python (mlr_generate.h).
+
+        Parameters
+        ----------
+        path : str or os.PathLike
+            The file.
+        """
+        from ._files import atomic_output
+        data = self.runtime_bytes()
+        with atomic_output(path, suffix=".mlrgen") as tmp:
+            with open(tmp, "wb") as f:
+                f.write(data)
 
     @classmethod
     def load(cls, path: str | os.PathLike[str]) -> PrimitiveModel:

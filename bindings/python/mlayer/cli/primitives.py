@@ -5,7 +5,7 @@ then synthesize new motion from it (paper 2).
                                [--criterion elbow|silhouette|bic] [--cluster kmeans|fcm|gmm]
                                [--order 1|2|3|auto] [--min-count M] [--som RxC] [--pca]
                                [--epochs 20] [--lattice RxC] [--kernel thin_plate|gaussian]
-                               [--plots PREFIX]
+                               [--plots PREFIX] [--runtime FILE.mlrgen]
 
 The SOM and GRBF lattices default to sizes that scale with the training frames (30x30 and 15x15
 from 900 frames on; see mlayer.primitives.default_lattices); clips in other units than the
@@ -46,7 +46,7 @@ import numpy as np
 from ..bvh import read_bvh
 from ..errors import InvalidArgumentError
 from ..plot import plot_elbow, plot_som, plot_transitions
-from ._command import (BVH_OR_STDOUT, NPZ, PREFIX, Needs, add_rename_option, command,
+from ._command import (BVH_OR_STDOUT, MLRGEN, NPZ, PREFIX, Needs, add_rename_option, command,
                        output_name, parse_rename, write_bvh_output)
 
 if TYPE_CHECKING:
@@ -185,16 +185,19 @@ def _primitives_args(p) -> None:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--plots", metavar="PREFIX", default=None,
                    help="figure path prefix (default: the model path without .npz; '' for none)")
+    p.add_argument("--runtime", metavar="FILE.mlrgen", default=None,
+                   help="also write the model for generation at run time, without Python (the "
+                        "C core's mlr_generate.h; docs/model-format.md)")
     add_rename_option(p)
 
 
 @command("primitives", "learn a motion manifold, primitives and their Markov model from clips",
          arguments=_primitives_args, reads_clips=True, inputs=("clips",),
-         outputs={"output": NPZ, "plots": PREFIX},
+         outputs={"output": NPZ, "plots": PREFIX, "runtime": MLRGEN},
          requires=(Needs("matplotlib", when=lambda a: a.plots is None or a.plots != "",
                          feature=_FEATURE),))
 def cmd_primitives(args) -> int:
-    from ..primitives import PrimitiveModel
+    from ..primitives import RUNTIME_FORMAT, PrimitiveModel
     # the default prefix (the model path without .npz) is in the model's folder, checked
     prefix = args.plots if args.plots is not None else os.path.splitext(args.output)[0]
     from ..primitives import join_skeletons
@@ -216,6 +219,10 @@ def cmd_primitives(args) -> int:
     print_criteria(model)
     print(f"primitives: wrote {args.output} (k = {model.centers.shape[0]}, "
           f"{model.points.shape[0]} frames)")
+    if args.runtime:
+        model.save_runtime(args.runtime)
+        print(f"primitives: wrote {args.runtime} (the runtime model, format "
+              f"{RUNTIME_FORMAT})")
     if prefix:
         plot_som(model, prefix + "_som.png")
         outs = [prefix + "_som.png"]

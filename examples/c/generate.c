@@ -1,0 +1,153 @@
+/*
+ * Generate an endless walk (or idle) from a trained primitives model, without Python: the
+ * model file PrimitiveModel.save_runtime writes (docs/model-format.md) is loaded against the
+ * game's rig, and a generator produces one frame per call (mlr_generate.h); here FRAMES frames
+ * go into a BVH file of the rig.
+ *
+ *     generate RIG.bvh MODEL.mlrgen OUT.bvh FRAMES [SEED [SEGMENT]]
+ *
+ * RIG.bvh gives the skeleton (its joint names and tree must be the model's, else the loader
+ * names the first joint that differs) and, for a rig whose body joint is below a static root,
+ * the root's position (its first frame). SEGMENT (default 300) is the generator's
+ * option frames (MLR_GEN_OPT_FRAMES): the first SEGMENT frames are those of `mlayer generate --frames SEGMENT
+ * --seed SEED --no-guards`; the frames after them continue the walk. It prints the mean time
+ * of a mlr_generator_next call and the slowest one (a segment's first frame computes the
+ * segment).
+ *
+ * Build: cc generate.c $(pkg-config --cflags --libs mlayer) -o generate
+ */
+#include <mlayer/mlayer.h>
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+static double now(void)
+{
+    struct timespec t;
+    timespec_get(&t, TIME_UTC);
+    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
+
+static int failed(const char *what, mlr_status st, const mlr_diag *diag)
+{
+    fprintf(stderr, "generate: %s: %s (%s)\n", what, diag->message, mlr_status_name(st));
+    return 1;
+}
+
+/* A motion of the rig's skeleton with n frames (the rest pose). */
+static mlr_status rig_motion(const mlr_motion *rig, size_t n, mlr_motion **out, mlr_diag *diag)
+{
+    size_t J = mlr_motion_n_joints(rig);
+    const char **names = malloc(J * sizeof *names), **chans = malloc(J * sizeof *chans);
+    if (!names || !chans) {
+        free(names);
+        free(chans);
+        return MLR_E_NO_MEMORY;
+    }
+    for (size_t j = 0; j < J; j++) {
+        names[j] = mlr_motion_joint_name(rig, j);
+        chans[j] = mlr_motion_joint_channels(rig, j);
+    }
+    mlr_status st = mlr_motion_create(
+        J, names, mlr_motion_parents(rig), mlr_motion_offsets(rig), chans,
+        mlr_motion_n_end_sites(rig), mlr_motion_end_site_parents(rig),
+        mlr_motion_end_site_offsets(rig), n, mlr_motion_frame_time(rig), NULL, out, diag);
+    free(names);
+    free(chans);
+    return st;
+}
+
+int main(int argc, char **argv)
+{
+    if (argc < 5 || argc > 7) {
+        fprintf(stderr, "usage: generate RIG.bvh MODEL.mlrgen OUT.bvh FRAMES [SEED [SEGMENT]]\n");
+        return 2;
+    }
+    long frames = atol(argv[4]);
+    unsigned long long seed = argc > 5 ? strtoull(argv[5], NULL, 10) : 0;
+    double segment = argc > 6 ? atof(argv[6]) : 300;
+    if (frames < 1) {
+        fprintf(stderr, "generate: FRAMES must be >= 1, got %s\n", argv[4]);
+        return 2;
+    }
+    mlr_diag diag = {0};
+    mlr_motion *rig = NULL, *out = NULL;
+    mlr_gen_model *model = NULL;
+    mlr_generator *gen = NULL;
+    double *pose = NULL;
+    int rc = 1;
+    mlr_status st = mlr_bvh_read_file(argv[1], NULL, &rig, &diag);
+    if (st) {
+        rc = failed(argv[1], st, &diag);
+        goto done;
+    }
+    st = mlr_gen_model_load_file(NULL, argv[2], rig, &model, &diag);
+    if (st) {
+        rc = failed(argv[2], st, &diag);
+        goto done;
+    }
+    mlr_generate_option opts[] = {{MLR_GEN_OPT_FRAMES, segment}};
+    st = mlr_generator_create(NULL, model, seed, opts, 1, &gen, &diag);
+    if (!st)
+        st = rig_motion(rig, (size_t)frames, &out, &diag);
+    if (st) {
+        rc = failed("generator", st, &diag);
+        goto done;
+    }
+    size_t J = mlr_gen_model_n_joints(model), body = mlr_gen_model_body_joint(model);
+    size_t P = mlr_motion_n_trans(out), slot = P;
+    const int32_t *tj = mlr_motion_trans_joints(out);
+    for (size_t i = 0; i < P; i++)
+        if ((size_t)tj[i] == body)
+            slot = i;
+    if (body != 0 && slot == P) {
+        fprintf(stderr, "generate: the body joint %s has no position channels in %s\n",
+                mlr_gen_model_joint_name(model, body), argv[1]);
+        goto done;
+    }
+    pose = malloc(mlr_gen_model_frame_size(model) * sizeof *pose);
+    if (!pose)
+        goto done;
+    double *root = mlr_motion_root_pos_mut(out), *rot = mlr_motion_rot_mut(out);
+    double *trans = mlr_motion_trans_mut(out);
+    const double *rig_root = mlr_motion_n_frames(rig) ? mlr_motion_root_pos(rig) : NULL;
+    double total = 0, slowest = 0;
+    for (long f = 0; f < frames; f++) {
+        double t0 = now();
+        st = mlr_generator_next(gen, pose, &diag); /* no allocation between segment starts */
+        double dt = now() - t0;
+        total += dt;
+        slowest = dt > slowest ? dt : slowest;
+        if (st) {
+            rc = failed("frame", st, &diag);
+            goto done;
+        }
+        memcpy(rot + (size_t)f * J * 4, pose + 3, J * 4 * sizeof(double));
+        if (body == 0) {
+            memcpy(root + (size_t)f * 3, pose, 3 * sizeof(double));
+        } else {
+            memcpy(trans + ((size_t)f * P + slot) * 3, pose, 3 * sizeof(double));
+            if (rig_root)
+                memcpy(root + (size_t)f * 3, rig_root, 3 * sizeof(double));
+        }
+    }
+    st = mlr_bvh_write_file(out, argv[3], &diag);
+    if (st) {
+        rc = failed(argv[3], st, &diag);
+        goto done;
+    }
+    printf("generate: wrote %s (%ld frames, start frame %lld, seed %llu); a frame took %.2f us "
+           "on average, the slowest %.0f us\n",
+           argv[3], frames, (long long)mlr_generator_start_frame(gen), seed,
+           1e6 * total / (double)frames, 1e6 * slowest);
+    rc = 0;
+done:
+    free(pose);
+    mlr_generator_destroy(gen);
+    mlr_gen_model_destroy(model);
+    mlr_motion_destroy(out);
+    mlr_motion_destroy(rig);
+    return rc;
+}

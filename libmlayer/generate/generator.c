@@ -1,0 +1,385 @@
+/* Frames of a generated motion one at a time (mlr_generate.h): a segment of `frames` frames is
+ * computed at its first frame (the walk, the knots, the spline, the GRBF, the smoothing) into
+ * the generator's buffers; the frames of the segment are then finished one by one (rotations
+ * renormalized, heading and body position integrated). The steps and their order are those of
+ * PrimitiveModel.generate and motion_along (bindings/python/mlayer/primitives.py). */
+#include "common/options_internal.h"
+#include "generate/gen_internal.h"
+
+#include <math.h>
+
+#define STIFFNESS 1e-3 /* PrimitiveModel.spline's lam^2 sigma^2 */
+#define MAX_FRAMES 10000000
+
+struct mlr_generator {
+    mlr_allocator alloc;
+    const mlr_gen_model *model;
+    mlr_rng rng;
+    /* options */
+    size_t frames;
+    int64_t start_frame_opt, start_opt;
+    int rank, allow_unseen;
+    double smooth, noise;
+    uint64_t seed;
+    mlr_markov *perturbed;   /* the chain with noise, or NULL */
+    const mlr_markov *mk;    /* the chain walked */
+    /* state */
+    int started, broken;
+    uint64_t produced;
+    size_t f;                /* frame within the segment */
+    int64_t start_frame;
+    double yaw, x, z;        /* heading and body position of the next frame */
+    double point[2];
+    /* the walk: the distinct states of the segment, and the one before it */
+    int64_t *path;           /* frames + 3 */
+    size_t path_len;
+    int64_t prev_state;      /* the state before path[0] at a continuation, -1 at the first */
+    double *knots, *times;   /* (frames + 3) x 2, frames + 3 */
+    size_t n_knots, knot;    /* knots used, the knot the current frame moves toward */
+    double *traj;            /* frames x 2 */
+    double *y;               /* frames x n_out */
+    mlr_lgs *smoother;       /* the outputs' LGS, made once */
+    size_t bytes;
+    void *block;
+};
+
+static const mlr_opt_spec generate_opts[] = {
+    {MLR_GEN_OPT_FRAMES, "frames", MLR_OPT_INT, 2.0, MAX_FRAMES, 0, 0, 300.0,
+     "an integer in 2 .. 10000000"},
+    {MLR_GEN_OPT_START_FRAME, "start_frame", MLR_OPT_INT, -1.0, INFINITY, 0, 0, -1.0, NULL},
+    {MLR_GEN_OPT_START, "start", MLR_OPT_INT, -1.0, INFINITY, 0, 0, -1.0, NULL},
+    {MLR_GEN_OPT_RANK, "rank", MLR_OPT_INT, 0.0, 2.0, 0, 0, 0.0,
+     "0 (sampled), 1 (most likely) or 2 (second most likely)"},
+    {MLR_GEN_OPT_SMOOTH, "smooth", MLR_OPT_DOUBLE, 0.0, INFINITY, 0, 0, 2.0, NULL},
+    {MLR_GEN_OPT_NOISE, "noise", MLR_OPT_DOUBLE, 0.0, INFINITY, 0, 0, 0.0, NULL},
+    {MLR_GEN_OPT_ALLOW_UNSEEN, "allow_unseen", MLR_OPT_BOOL, 0.0, 1.0, 0, 0, 0.0, NULL},
+};
+
+mlr_status mlr_generator_create(const mlr_allocator *alloc, const mlr_gen_model *model,
+                                uint64_t seed, const mlr_generate_option *opts, size_t n_opts,
+                                mlr_generator **out, mlr_diag *diag)
+{
+    if (!out || !model)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "generate: %s is NULL",
+                            out ? "model" : "out");
+    *out = NULL;
+    mlr_opt_values v;
+    mlr_status st = MLR_OPTIONS_READ("generate", generate_opts, opts, n_opts, &v, diag);
+    if (st)
+        return st;
+    if (v.v[MLR_GEN_OPT_START_FRAME] >= (double)model->n_points)
+        return mlr_option_reject(diag, "generate", "start_frame", v.v[MLR_GEN_OPT_START_FRAME],
+                                 "in -1 .. %zu (the model's training frames)",
+                                 model->n_points - 1);
+    if (v.v[MLR_GEN_OPT_START] >= (double)model->k)
+        return mlr_option_reject(diag, "generate", "start", v.v[MLR_GEN_OPT_START],
+                                 "in -1 .. %zu (the model's primitives)", model->k - 1);
+    mlr_allocator a;
+    mlr_allocator_resolve(alloc, &a);
+    mlr_generator *g = mlr_alloc(&a, sizeof *g);
+    if (!g)
+        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "generate: out of memory");
+    memset(g, 0, sizeof *g);
+    g->alloc = a;
+    g->model = model;
+    mlr_rng_seed(&g->rng, seed);
+    g->seed = seed;
+    g->frames = (size_t)v.v[MLR_GEN_OPT_FRAMES];
+    g->start_frame_opt = (int64_t)v.v[MLR_GEN_OPT_START_FRAME];
+    g->start_opt = (int64_t)v.v[MLR_GEN_OPT_START];
+    g->rank = (int)v.v[MLR_GEN_OPT_RANK];
+    g->smooth = v.v[MLR_GEN_OPT_SMOOTH];
+    g->noise = v.v[MLR_GEN_OPT_NOISE];
+    g->allow_unseen = v.v[MLR_GEN_OPT_ALLOW_UNSEEN] != 0.0;
+    g->start_frame = -1;
+    g->prev_state = -1;
+    g->point[0] = g->point[1] = NAN;
+    *out = g;
+    return MLR_OK;
+}
+
+/* The buffers of one segment, at the first frame. */
+static mlr_status allocate(mlr_generator *g, mlr_diag *diag)
+{
+    const mlr_gen_model *m = g->model;
+    size_t n = g->frames, cap = n + 3, total;
+    /* path (cap int64), knots (2 cap), times (cap), traj (2 n), y (n n_out) */
+    size_t ny;
+    if (mlr_mul_size(n, m->n_out, &ny) || ny > SIZE_MAX / 8 - 6 * cap - 2 * n)
+        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "mlr_generator_next: sizes overflow");
+    total = (4 * cap + 2 * n + ny) * 8;
+    unsigned char *b = mlr_alloc(&g->alloc, total);
+    if (!b)
+        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                            "mlr_generator_next: out of memory "
+                            "(%zu bytes for %zu frames)",
+                            total, n);
+    g->block = b;
+    g->bytes = total;
+    g->path = (int64_t *)(void *)b;
+    g->knots = (double *)(void *)(b + 8 * cap);
+    g->times = g->knots + 2 * cap;
+    g->traj = g->times + cap;
+    g->y = g->traj + 2 * n;
+    g->mk = m->markov;
+    if (g->noise > 0 || g->allow_unseen) {
+        mlr_rng r;
+        mlr_rng_seed(&r, g->seed ^ MLR_GEN_NOISE_SEED_XOR);
+        mlr_status st = mlr_markov_perturb(m->markov, g->noise, g->allow_unseen, &r, &g->alloc,
+                                           &g->perturbed, diag);
+        if (st)
+            return mlr_diag_prefix(diag, st, "mlr_generator_next");
+        g->mk = g->perturbed;
+    }
+    if (g->smooth > 0 && n > 2) {
+        mlr_status st = mlr_lgs_create(n, 2, g->smooth, 1.0, NULL, n, MLR_LGS_BANDED, &g->alloc,
+                                       &g->smoother, diag);
+        if (st < 0)
+            return mlr_diag_prefix(diag, st, "mlr_generator_next");
+    }
+    return MLR_OK;
+}
+
+/* The knots and times of the segment from its walk (path[0 .. path_len-1], the first knot
+ * given), cut at the last frame: PrimitiveModel.generate's. first_step: the frames of the first
+ * step (a continuation's remainder), < 0 for the whole step. */
+static void knots_from_path(mlr_generator *g, const double *p0, double first_step)
+{
+    const mlr_gen_model *m = g->model;
+    size_t L = g->path_len;
+    g->knots[0] = p0[0];
+    g->knots[1] = p0[1];
+    g->times[0] = 0.0;
+    for (size_t i = 1; i < L; i++) {
+        const double *c = m->centers + 2 * (size_t)g->path[i];
+        g->knots[2 * i] = c[0];
+        g->knots[2 * i + 1] = c[1];
+        double step = mlr_markov_step_frames(g->mk, g->path[i - 1], g->path[i]);
+        if (i == 1 && first_step >= 0)
+            step = first_step;
+        g->times[i] = g->times[i - 1] + step;
+    }
+    g->n_knots = L;
+    double last = (double)(g->frames - 1);
+    if (g->times[L - 1] > last) {
+        size_t i = 0; /* np.searchsorted(times, last): the first time >= last */
+        while (g->times[i] < last)
+            i++;
+        double a = (last - g->times[i - 1]) / (g->times[i] - g->times[i - 1]);
+        double *k0 = g->knots + 2 * (i - 1), *k1 = g->knots + 2 * i;
+        double e0 = k0[0] + a * (k1[0] - k0[0]), e1 = k0[1] + a * (k1[1] - k0[1]);
+        k1[0] = e0;
+        k1[1] = e1;
+        g->times[i] = last;
+        g->n_knots = i + 1;
+    }
+}
+
+/* The first segment: the start frame, the walk, its knots. */
+static mlr_status first_walk(mlr_generator *g, mlr_diag *diag)
+{
+    const mlr_gen_model *m = g->model;
+    g->start_frame = g->start_frame_opt >= 0 ? g->start_frame_opt
+                                             : (int64_t)mlr_rng_below(&g->rng, m->n_points);
+    int64_t first = g->start_opt >= 0 ? g->start_opt : m->labels[g->start_frame];
+    mlr_status st = mlr_markov_path(g->mk, NULL, 0, first, g->frames, g->rank, &g->rng, g->path,
+                                    g->frames + 1, &g->path_len, diag);
+    if (st)
+        return mlr_diag_prefix(diag, st, "mlr_generator_next");
+    knots_from_path(g, m->points + 2 * (size_t)g->start_frame, -1.0);
+    return MLR_OK;
+}
+
+/* A continuation: from the last point, through the state the last segment was heading to
+ * (the rest of that step), then on along the walk. */
+static mlr_status next_walk(mlr_generator *g, mlr_diag *diag)
+{
+    const mlr_gen_model *m = g->model;
+    double p0[2] = {g->point[0], g->point[1]};
+    if (g->n_knots < 2) { /* a walk of one state (a ranked walk on one primitive) */
+        g->path_len = 1;
+        knots_from_path(g, p0, -1.0);
+        return MLR_OK;
+    }
+    size_t i = g->n_knots - 1; /* the last knot (maybe cut) */
+    int64_t from = g->path[i - 1], to = g->path[i];
+    double full = mlr_markov_step_frames(g->mk, from, to);
+    double done = g->times[i] - g->times[i - 1];
+    double span =
+        g->knots[2 * i] != m->centers[2 * to] || g->knots[2 * i + 1] != m->centers[2 * to + 1]
+            ? full - done
+            : -1.0;
+    int64_t hist[MLR_MARKOV_MAX_ORDER];
+    size_t nh = 0;
+    for (size_t j = i >= MLR_MARKOV_MAX_ORDER ? i - MLR_MARKOV_MAX_ORDER + 1 : 0; j < i; j++)
+        hist[nh++] = g->path[j];
+    if (span > 0) {
+        /* path: from (the state left), to, then the walk on from to */
+        size_t len = 0;
+        mlr_status st = mlr_markov_path(g->mk, hist, nh, to, g->frames, g->rank, &g->rng,
+                                        g->path + 1, g->frames + 1, &len, diag);
+        if (st)
+            return mlr_diag_prefix(diag, st, "mlr_generator_next");
+        g->path[0] = from;
+        g->path_len = len + 1;
+        knots_from_path(g, p0, span);
+    } else {
+        /* the last knot was the centre itself: the walk goes on from it */
+        hist[nh++] = to;
+        size_t len = 0;
+        int64_t start = to;
+        mlr_status st = mlr_markov_path(g->mk, hist, nh - 1, start, g->frames, g->rank, &g->rng,
+                                        g->path, g->frames + 1, &len, diag);
+        if (st)
+            return mlr_diag_prefix(diag, st, "mlr_generator_next");
+        g->path_len = len;
+        knots_from_path(g, p0, -1.0);
+    }
+    return MLR_OK;
+}
+
+/* The spline, the clip to the bounds, the GRBF and the smoothing of a segment. */
+static mlr_status segment(mlr_generator *g, mlr_diag *diag)
+{
+    const mlr_gen_model *m = g->model;
+    size_t n = g->frames;
+    mlr_status st;
+    if (g->produced == 0)
+        st = first_walk(g, diag);
+    else
+        st = next_walk(g, diag);
+    if (st)
+        return st;
+    for (size_t i = 1; i < g->n_knots; i++)
+        if (!(g->times[i] > g->times[i - 1]))
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "mlr_generator_next: knots at "
+                                "the same frame");
+    if (g->n_knots == 1) {
+        for (size_t f = 0; f < n; f++) {
+            g->traj[2 * f] = g->knots[0];
+            g->traj[2 * f + 1] = g->knots[1];
+        }
+    } else {
+        mlr_lgs *sp = NULL;
+        st = mlr_lgs_create(n, 2, sqrt(STIFFNESS), 1.0, g->times, g->n_knots, MLR_LGS_BANDED,
+                            &g->alloc, &sp, diag);
+        if (st < 0)
+            return mlr_diag_prefix(diag, st, "mlr_generator_next: spline");
+        st = mlr_lgs_solve(sp, g->knots, 2, 2, g->traj, 2, diag);
+        mlr_lgs_destroy(sp);
+        if (st < 0)
+            return mlr_diag_prefix(diag, st, "mlr_generator_next: spline");
+    }
+    for (size_t f = 0; f < n; f++)
+        for (int j = 0; j < 2; j++) {
+            double v = g->traj[2 * f + j], lo = m->bounds[2 * j], hi = m->bounds[2 * j + 1];
+            g->traj[2 * f + j] = v < lo ? lo : v > hi ? hi : v; /* np.clip */
+        }
+    st = mlr_grbf_eval(m->kernel, m->kernel ? m->width : 1.0, m->grbf_centers, m->n_centers, 2,
+                       m->grbf_coef, m->n_out, m->n_out, g->traj, n, 2, 2, 1, g->y, m->n_out,
+                       &g->alloc, diag);
+    if (st < 0)
+        return mlr_diag_prefix(diag, st, "mlr_generator_next: GRBF");
+    if (g->smoother) {
+        st = mlr_lgs_solve(g->smoother, g->y, m->n_out, m->n_out, g->y, m->n_out, diag);
+        if (st < 0)
+            return mlr_diag_prefix(diag, st, "mlr_generator_next: smoothing");
+    }
+    g->f = 0;
+    g->knot = 1;
+    return MLR_OK;
+}
+
+mlr_status mlr_generator_next(mlr_generator *g, double *pose, mlr_diag *diag)
+{
+    if (!g || !pose)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "mlr_generator_next: %s is NULL",
+                            g ? "pose" : "gen");
+    if (g->broken)
+        return mlr_diag_set(diag, MLR_E_BAD_STATE, 0, 0,
+                            "mlr_generator_next: a segment failed "
+                            "before; destroy the generator");
+    const mlr_gen_model *m = g->model;
+    mlr_status st;
+    if (!g->started) {
+        g->started = 1;
+        st = allocate(g, diag);
+        if (st) {
+            g->broken = 1;
+            return st;
+        }
+    }
+    if (g->produced == 0 || g->f == g->frames) {
+        st = segment(g, diag);
+        if (st) {
+            g->broken = 1;
+            return st;
+        }
+    }
+    size_t f = g->f, J = m->n_joints;
+    const double *y = g->y + f * m->n_out;
+    /* motion_along: rotations renormalized (_split), the body joint's turned by the heading */
+    double c = cos(g->yaw), s = sin(g->yaw);
+    double vx = y[1], vz = y[2];
+    pose[0] = g->x;
+    pose[1] = y[0];
+    pose[2] = g->z;
+    mlr_quat *o = (mlr_quat *)(void *)(pose + 3);
+    for (size_t j = 0; j < J; j++) {
+        const double *q = y + 4 + 4 * j;
+        /* _split: q / np.linalg.norm(q) */
+        double nq = sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+        o[j].w = q[0] / nq;
+        o[j].x = q[1] / nq;
+        o[j].y = q[2] / nq;
+        o[j].z = q[3] / nq;
+    }
+    const mlr_quat head = {cos(g->yaw / 2), 0.0, sin(g->yaw / 2), 0.0}; /* heading_quat */
+    mlr_quat_mul(&head, &o[m->body_joint], &o[m->body_joint]);
+    st = mlr_quat_normalize_array(o, J, o, diag); /* quat.normalize */
+    if (st < 0) {
+        g->broken = 1;
+        return mlr_diag_prefix(diag, st, "mlr_generator_next");
+    }
+    g->point[0] = g->traj[2 * f];
+    g->point[1] = g->traj[2 * f + 1];
+    while (g->knot + 1 < g->n_knots && g->times[g->knot] < (double)f)
+        g->knot++;
+    /* the next frame's heading and position */
+    g->x += c * vx + s * vz;
+    g->z += -s * vx + c * vz;
+    g->yaw += y[3];
+    g->f++;
+    g->produced++;
+    return MLR_OK;
+}
+
+uint64_t mlr_generator_frame(const mlr_generator *g) { return g ? g->produced : 0; }
+
+void mlr_generator_point(const mlr_generator *g, double point[2])
+{
+    if (!point)
+        return;
+    point[0] = g ? g->point[0] : NAN;
+    point[1] = g ? g->point[1] : NAN;
+}
+
+int64_t mlr_generator_primitive(const mlr_generator *g)
+{
+    return g && g->produced ? g->path[g->knot < g->path_len ? g->knot : g->path_len - 1] : -1;
+}
+
+int64_t mlr_generator_start_frame(const mlr_generator *g) { return g ? g->start_frame : -1; }
+
+void mlr_generator_destroy(mlr_generator *g)
+{
+    if (!g)
+        return;
+    mlr_allocator a = g->alloc;
+    mlr_lgs_destroy(g->smoother);
+    mlr_markov_destroy(g->perturbed);
+    if (g->block)
+        mlr_free(&a, g->block, g->bytes);
+    mlr_free(&a, g, sizeof *g);
+}
