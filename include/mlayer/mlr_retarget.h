@@ -1,0 +1,146 @@
+/*
+ * Retargeting: a motion of one humanoid rig put onto another rig (other names, other
+ * proportions, another rest pose, another up axis).
+ *
+ * Humanoid roles (mlr_retarget_roles). Each rig's joints get roles from their names and the
+ * tree: the side of a joint is the one mlr_mirror_pairs tells by name (Left/Right, _L/_R, l/r
+ * prefixes); the feet are the topmost joints of each side whose names contain "foot" or
+ * "ankle", the hands those with "hand" or "wrist", the head the topmost mid-plane joint with
+ * "head". The rest follows from the tree: the lower leg is the foot's parent, the upper leg
+ * the lower leg's, the hips the upper legs' nearest common ancestor; the lower arm is the
+ * hand's parent, the upper arm the lower arm's, the shoulder (clavicle) the upper arm's parent
+ * when that joint is an ancestor of neither the other arm nor the head; the spine chain is the
+ * path from the hips (excluded) to the nearest common ancestor of the two upper arms
+ * (included), the neck chain the path from there to the head (both excluded); the toes are
+ * the foot's first child joint. Joints on the way that get no role (CMU's LHipJoint, a twist
+ * joint) stay unmatched. A spine chain longer than MLR_RETARGET_MAX_SPINE (a neck chain longer
+ * than MLR_RETARGET_MAX_NECK) gives its roles to joints spread evenly along it.
+ *
+ * The retarget (mlr_retarget). Both rest poses are the OFFSETs with identity rotations. Each
+ * rig has a body frame F (columns: left, up, forward; up from the hips to the head, left from
+ * the right upper leg to the left one, forward = left x up) and every role joint j with a bone
+ * a rest frame P_j: its first column along the bone (to the next joint of its role chain:
+ * upper leg to lower leg, lower arm to hand, spine to spine, neck or head, the foot to the toes
+ * or its End Site, the hand to the mean of its children, the head to its End Site), its second
+ * the body axis least aligned with the source's bone (Gram-Schmidt). With G = F_s F_t^T (target
+ * world to source world) and, per matched role, C = P_s P_t^T (C = G for the hips and for a
+ * role without a bone on either rig), the target joint's world rotation at each frame is
+ *     W_t = G^T W_s C,
+ * so that the direction of every matched bone in the target's world is the source's (mapped by
+ * G) and its roll follows the source's. Unmatched target joints keep their rest (identity)
+ * local rotations; the local rotation of a matched joint is W_parent^-1 W_t. Chains of other
+ * lengths are distributed: target spine joint k of n follows source spine joint
+ * ceil((k + 1) m / n) - 1 of m (likewise the neck). The target hips' world position is the
+ * source hips' mapped by G^T and scaled by s = L_t / L_s, L being the mean over both sides of
+ * the rest lengths upper leg -> lower leg -> foot; it is put into the target's root translation
+ * (the hips are the root), the hips' position channels (a static root above them: Bandai), or
+ * the root translation that puts the hips there (the root's rotation stays at rest). Other
+ * position channels of the target keep their OFFSETs. Retargeting a rig onto itself gives the
+ * input back (G = C = I, s = 1) up to rounding.
+ *
+ * An override map pairs source joints with target joints by name: target joint t takes the
+ * role of source joint s (any joint that had that role on the target loses it).
+ */
+#ifndef MLR_RETARGET_H
+#define MLR_RETARGET_H
+
+#include <stdint.h>
+
+#include "mlr_common.h"
+#include "mlr_rig.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/** Longest spine and neck chains given roles. */
+#define MLR_RETARGET_MAX_SPINE 8
+#define MLR_RETARGET_MAX_NECK 4
+
+/** Humanoid roles. Values pinned. */
+typedef enum mlr_role {
+    MLR_ROLE_HIPS = 0,
+    MLR_ROLE_SPINE = 1, /**< SPINE + k, k < MLR_RETARGET_MAX_SPINE, from the hips up */
+    MLR_ROLE_NECK = 9,  /**< NECK + k, k < MLR_RETARGET_MAX_NECK, from the chest up */
+    MLR_ROLE_HEAD = 13,
+    MLR_ROLE_LEFT_SHOULDER = 14,
+    MLR_ROLE_LEFT_UPPER_ARM = 15,
+    MLR_ROLE_LEFT_LOWER_ARM = 16,
+    MLR_ROLE_LEFT_HAND = 17,
+    MLR_ROLE_RIGHT_SHOULDER = 18,
+    MLR_ROLE_RIGHT_UPPER_ARM = 19,
+    MLR_ROLE_RIGHT_LOWER_ARM = 20,
+    MLR_ROLE_RIGHT_HAND = 21,
+    MLR_ROLE_LEFT_UPPER_LEG = 22,
+    MLR_ROLE_LEFT_LOWER_LEG = 23,
+    MLR_ROLE_LEFT_FOOT = 24,
+    MLR_ROLE_LEFT_TOES = 25,
+    MLR_ROLE_RIGHT_UPPER_LEG = 26,
+    MLR_ROLE_RIGHT_LOWER_LEG = 27,
+    MLR_ROLE_RIGHT_FOOT = 28,
+    MLR_ROLE_RIGHT_TOES = 29,
+    MLR_ROLE_COUNT = 30
+} mlr_role;
+
+/** The name of a role ("Hips", "Spine0", "LeftUpperArm"), or NULL outside 0..MLR_ROLE_COUNT-1.
+ *  Allocates: never. Threads: any. */
+MLR_API const char *mlr_role_name(int role);
+
+/**
+ * The joint of every humanoid role of a rig (the rules of the file comment).
+ * @param rig        [in] a valid rig with names
+ * @param role_joint [out] MLR_ROLE_COUNT joint indices, -1 for a role no joint has
+ * @param alloc      [in] for scratch; NULL for malloc/free
+ * @param diag       [out] optional: the reason of an error
+ * @return MLR_OK; MLR_E_INVALID_ARG (NULL arguments, an invalid rig, no names, and a rig
+ *         without the humanoid minimum: the hips and both legs (upper leg, lower leg, foot);
+ *         the message names what is missing); MLR_E_NO_MEMORY
+ * Allocates: scratch only, released before return. Cost O(J log J) string work. Threads: any.
+ */
+MLR_API mlr_status mlr_retarget_roles(const mlr_rig *rig, int32_t *role_joint,
+                                      const mlr_allocator *alloc, mlr_diag *diag);
+
+/** Figures of a retarget. A frozen value type: fields are never reordered or removed. */
+typedef struct mlr_retarget_info {
+    double scale;         /**< s = L_t / L_s, the target's leg length over the source's */
+    size_t n_matched;     /**< target joints that follow a source joint */
+    double to_source[9];  /**< G, row-major: target world to source world */
+} mlr_retarget_info;
+
+/**
+ * Retarget a motion of the source rig onto the target rig (the formulas of the file comment).
+ * @param source       [in] a valid rig with names
+ * @param n_frames     [in] N (0 allowed)
+ * @param root_pos     [in] N x 3 source root translations
+ * @param rot          [in] N x J_s x 4 source local rotations (unit, scalar first)
+ * @param trans        [in] N x P_s x 3 translations of source->trans_joints; NULL when P_s is 0
+ * @param target       [in] a valid rig with names
+ * @param map          [in] 2 n_map names, pair k = (source joint map[2k], target joint
+ *                     map[2k+1]); NULL when n_map is 0
+ * @param n_map        [in] number of pairs
+ * @param out_root_pos [out] N x 3 target root translations
+ * @param out_rot      [out] N x J_t x 4 target local rotations
+ * @param out_trans    [out] N x P_t x 3 translations of target->trans_joints; NULL when P_t
+ *                     is 0
+ * @param info         [out] optional: the scale, the matched joints, G
+ * @param alloc        [in] for scratch; NULL for malloc/free
+ * @param diag         [out] optional: the reason of an error
+ * @return MLR_OK; MLR_E_INVALID_ARG (NULL arguments, an invalid rig, a rig without the
+ *         humanoid minimum, a map name that is no joint of its rig or a source joint of the
+ *         map without a role, a target joint named twice, non-finite input: the message names
+ *         the rig and the joint; nothing is written to the outputs then); MLR_E_NO_MEMORY;
+ *         MLR_E_OVERFLOW
+ * Allocates: scratch of O(J_s + J_t) per frame, released before return. Cost O(N (J_s + J_t)).
+ * Threads: any; inputs only read; outputs must not alias inputs.
+ */
+MLR_API mlr_status mlr_retarget(const mlr_rig *source, size_t n_frames, const double *root_pos,
+                                const double *rot, const double *trans, const mlr_rig *target,
+                                const char *const *map, size_t n_map, double *out_root_pos,
+                                double *out_rot, double *out_trans, mlr_retarget_info *info,
+                                const mlr_allocator *alloc, mlr_diag *diag);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* MLR_RETARGET_H */
