@@ -15,12 +15,12 @@
 /* ---- role names --------------------------------------------------------------------------- */
 
 static const char *const fixed_names[MLR_ROLE_COUNT] = {
-    "Hips",         "Spine0",        "Spine1",        "Spine2",        "Spine3",
-    "Spine4",       "Spine5",        "Spine6",        "Spine7",        "Neck0",
-    "Neck1",        "Neck2",         "Neck3",         "Head",          "LeftShoulder",
-    "LeftUpperArm", "LeftLowerArm",  "LeftHand",      "RightShoulder", "RightUpperArm",
-    "RightLowerArm", "RightHand",    "LeftUpperLeg",  "LeftLowerLeg",  "LeftFoot",
-    "LeftToes",     "RightUpperLeg", "RightLowerLeg", "RightFoot",     "RightToes"};
+    "Hips",          "Spine0",        "Spine1",        "Spine2",        "Spine3",
+    "Spine4",        "Spine5",        "Spine6",        "Spine7",        "Neck0",
+    "Neck1",         "Neck2",         "Neck3",         "Head",          "LeftShoulder",
+    "LeftUpperArm",  "LeftLowerArm",  "LeftHand",      "RightShoulder", "RightUpperArm",
+    "RightLowerArm", "RightHand",     "LeftUpperLeg",  "LeftLowerLeg",  "LeftFoot",
+    "LeftToes",      "RightUpperLeg", "RightLowerLeg", "RightFoot",     "RightToes"};
 
 const char *mlr_role_name(int role)
 {
@@ -202,8 +202,8 @@ static mlr_status detect_roles(const mlr_rig *rig, int32_t *role, const mlr_allo
             continue;
         const int32_t p = limb_parent(rig, upper);
         if (p <= 0 || (other > 0 && is_ancestor(rig, p, other)) ||
-            (head >= 0 && is_ancestor(rig, p, head)) || (hips >= 0 && !is_ancestor(rig, hips, p)) ||
-            p == hips)
+            (head >= 0 && is_ancestor(rig, p, head)) ||
+            (hips >= 0 && !is_ancestor(rig, hips, p)) || p == hips)
             continue;
         role[(s == 0 ? MLR_ROLE_LEFT_SHOULDER : MLR_ROLE_RIGHT_SHOULDER)] = p;
     }
@@ -230,9 +230,13 @@ static mlr_status detect_roles(const mlr_rig *rig, int32_t *role, const mlr_allo
 /* The humanoid minimum: hips and both legs. */
 static mlr_status check_minimum(const int32_t *role, const char *who, mlr_diag *diag)
 {
-    static const int need[] = {MLR_ROLE_LEFT_FOOT,      MLR_ROLE_RIGHT_FOOT,
-                               MLR_ROLE_LEFT_LOWER_LEG, MLR_ROLE_RIGHT_LOWER_LEG,
-                               MLR_ROLE_LEFT_UPPER_LEG, MLR_ROLE_RIGHT_UPPER_LEG, MLR_ROLE_HIPS};
+    static const int need[] = {MLR_ROLE_LEFT_FOOT,
+                               MLR_ROLE_RIGHT_FOOT,
+                               MLR_ROLE_LEFT_LOWER_LEG,
+                               MLR_ROLE_RIGHT_LOWER_LEG,
+                               MLR_ROLE_LEFT_UPPER_LEG,
+                               MLR_ROLE_RIGHT_UPPER_LEG,
+                               MLR_ROLE_HIPS};
     for (size_t i = 0; i < MLR_COUNTOF(need); i++)
         if (role[need[i]] < 0) {
             const int r = need[i];
@@ -243,8 +247,8 @@ static mlr_status check_minimum(const int32_t *role, const char *who, mlr_diag *
                 : r == MLR_ROLE_HIPS ? "the common ancestor of the two upper legs"
                                      : "from the foot up the tree";
             return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "retarget: %s: no humanoid %s (%s); name it with a map entry",
-                                who, fixed_names[r], how);
+                                "retarget: %s: no humanoid %s (%s); name it with a map entry", who,
+                                fixed_names[r], how);
         }
     return MLR_OK;
 }
@@ -268,7 +272,10 @@ mlr_status mlr_retarget_roles(const mlr_rig *rig, int32_t *role_joint, const mlr
 
 /* ---- small linear algebra ----------------------------------------------------------------- */
 
-static double dot3(const double *a, const double *b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+static double dot3(const double *a, const double *b)
+{
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
 
 static void cross3(const double *a, const double *b, double *o)
 {
@@ -308,7 +315,8 @@ static void mul_abt(const double *a, const double *b, double *o)
 {
     for (int r = 0; r < 3; r++)
         for (int c = 0; c < 3; c++)
-            o[3 * r + c] = a[3 * r] * b[3 * c] + a[3 * r + 1] * b[3 * c + 1] + a[3 * r + 2] * b[3 * c + 2];
+            o[3 * r + c] =
+                a[3 * r] * b[3 * c] + a[3 * r + 1] * b[3 * c + 1] + a[3 * r + 2] * b[3 * c + 2];
 }
 
 static void quat_of_matrix(const double *m, mlr_quat *q)
@@ -362,7 +370,8 @@ static void end_site_pos(const rig_rest *r, int32_t j, double *out, int *found)
     for (size_t e = 0; e < rig->n_end_sites; e++)
         if (rig->end_site_parents[e] == j) {
             for (int c = 0; c < 3; c++)
-                out[c] = r->pos[3 * (size_t)j + (size_t)c] + rig->end_site_offsets[3 * e + (size_t)c];
+                out[c] =
+                    r->pos[3 * (size_t)j + (size_t)c] + rig->end_site_offsets[3 * e + (size_t)c];
             *found = 1;
             return;
         }
@@ -392,7 +401,8 @@ static int bone_end(const rig_rest *r, int role, double *out)
     } else if (role >= MLR_ROLE_NECK && role < MLR_ROLE_NECK + MLR_RETARGET_MAX_NECK) {
         const int k = role - MLR_ROLE_NECK;
         next = k + 1 < r->n_neck ? R[role + 1] : R[MLR_ROLE_HEAD];
-    } else if (role == MLR_ROLE_HEAD || role == MLR_ROLE_LEFT_TOES || role == MLR_ROLE_RIGHT_TOES) {
+    } else if (role == MLR_ROLE_HEAD || role == MLR_ROLE_LEFT_TOES ||
+               role == MLR_ROLE_RIGHT_TOES) {
         end_site_pos(r, j, out, &found);
         if (found)
             return 1;
@@ -410,7 +420,8 @@ static int bone_end(const rig_rest *r, int role, double *out)
         for (size_t e = 0; e < rig->n_end_sites; e++)
             if (rig->end_site_parents[e] == j) {
                 for (int a = 0; a < 3; a++)
-                    sum[a] += r->pos[3 * (size_t)j + (size_t)a] + rig->end_site_offsets[3 * e + (size_t)a];
+                    sum[a] += r->pos[3 * (size_t)j + (size_t)a] +
+                              rig->end_site_offsets[3 * e + (size_t)a];
                 n++;
             }
         if (!n)
@@ -548,6 +559,29 @@ static mlr_status apply_map(const rig_rest *src, rig_rest *dst, const char *cons
     return MLR_OK;
 }
 
+/* After a map: the legs and arms up from the feet and hands it named, the hips where the legs
+ * meet, for the roles still without a joint. */
+static void complete_roles(const mlr_rig *rig, int32_t *role)
+{
+    static const int limbs[4] = {MLR_ROLE_LEFT_UPPER_LEG, MLR_ROLE_RIGHT_UPPER_LEG,
+                                 MLR_ROLE_LEFT_UPPER_ARM, MLR_ROLE_RIGHT_UPPER_ARM};
+    for (int i = 0; i < 4; i++) {
+        const int up = limbs[i], end = up + 2;
+        if (role[end] <= 0)
+            continue;
+        if (role[up + 1] < 0)
+            role[up + 1] = limb_parent(rig, role[end]);
+        if (role[up] < 0 && role[up + 1] > 0)
+            role[up] = limb_parent(rig, role[up + 1]);
+    }
+    const int32_t ll = role[MLR_ROLE_LEFT_UPPER_LEG], rl = role[MLR_ROLE_RIGHT_UPPER_LEG];
+    if (role[MLR_ROLE_HIPS] < 0 && ll > 0 && rl > 0) {
+        const int32_t h = lca(rig, ll, rl);
+        if (h != ll && h != rl)
+            role[MLR_ROLE_HIPS] = h;
+    }
+}
+
 /* ---- the retarget ------------------------------------------------------------------------- */
 
 /* A spine or neck chain: its joints, then the joint it ends at, with the fraction of the
@@ -570,7 +604,8 @@ static void chain_of(const rig_rest *r, int first, int n, int32_t end, chain *c)
     c->j[n] = end;
     c->u[0] = 0.0;
     for (int k = 0; k < n; k++)
-        c->u[k + 1] = c->u[k] + dist3(r->pos + 3 * (size_t)c->j[k], r->pos + 3 * (size_t)c->j[k + 1]);
+        c->u[k + 1] =
+            c->u[k] + dist3(r->pos + 3 * (size_t)c->j[k], r->pos + 3 * (size_t)c->j[k + 1]);
     const double L = c->u[n];
     if (!(L > 0))
         return;
@@ -617,16 +652,31 @@ static int source_role(const rig_rest *src, const chain *ss, const chain *sn, co
     return src->role[r] >= 0 ? r : -1;
 }
 
-/* The point at fraction u along source chain c, from the frame's world positions. */
-static void chain_point(const chain *c, const double *wpos, double u, double *out)
+/* The direction from fraction u0 to u1 along source chain c at one frame: the chain's rest
+ * segments turned by the world rotations of their joints (so that position channels that only
+ * repeat an OFFSET with noise do not move it), or the world positions where a segment's end is
+ * not its joint's child. */
+static void chain_span(const chain *c, const rig_rest *r, const double *wpos, const mlr_quat *wrot,
+                       double u0, double u1, double *out)
 {
-    const int i = segment_at(c, u);
-    const double len = c->u[i + 1] - c->u[i];
-    double t = len > 0 ? (u - c->u[i]) / len : 0.0;
-    t = t < 0 ? 0 : t > 1 ? 1 : t;
-    const double *a = wpos + 3 * (size_t)c->j[i], *b = wpos + 3 * (size_t)c->j[i + 1];
-    for (int k = 0; k < 3; k++)
-        out[k] = a[k] + t * (b[k] - a[k]);
+    out[0] = out[1] = out[2] = 0.0;
+    for (int i = 0; i < c->n; i++) {
+        const double lo = c->u[i], hi = c->u[i + 1], len = hi - lo;
+        const double a = u0 > lo ? u0 : lo, b = u1 < hi ? u1 : hi;
+        if (!(b > a) || !(len > 0))
+            continue;
+        const int32_t j = c->j[i], k = c->j[i + 1];
+        double seg[3];
+        if (r->rig->parents[k] == j) {
+            mlr_quat_rotate_inline(&wrot[j], r->rig->offsets + 3 * (size_t)k, seg);
+        } else {
+            for (int x = 0; x < 3; x++)
+                seg[x] = wpos[3 * (size_t)k + (size_t)x] - wpos[3 * (size_t)j + (size_t)x];
+        }
+        const double w = (b - a) / len;
+        for (int x = 0; x < 3; x++)
+            out[x] += w * seg[x];
+    }
 }
 
 /* The shortest rotation taking direction a onto direction b (both nonzero). */
@@ -733,8 +783,8 @@ mlr_status mlr_retarget(const mlr_rig *source, size_t n_frames, const double *ro
                             source->names ? "target" : "source");
     const size_t Js = source->n_joints, Jt = target->n_joints;
     const size_t Ps = source->n_trans, Pt = target->n_trans;
-    if (n_frames && (!root_pos || !rot || (Ps && !trans) || !out_root_pos || !out_rot ||
-                     (Pt && !out_trans)))
+    if (n_frames &&
+        (!root_pos || !rot || (Ps && !trans) || !out_root_pos || !out_rot || (Pt && !out_trans)))
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                             "retarget: a frame array is NULL with %zu frames", n_frames);
     if (n_map && !map)
@@ -757,6 +807,7 @@ mlr_status mlr_retarget(const mlr_rig *source, size_t n_frames, const double *ro
         return st;
     if ((st = apply_map(&src, &dst, map, n_map, diag)) != MLR_OK)
         return st;
+    complete_roles(target, dst.role);
     if ((st = check_minimum(dst.role, "target", diag)) != MLR_OK)
         return st;
 
@@ -864,11 +915,8 @@ mlr_status mlr_retarget(const mlr_rig *source, size_t n_frames, const double *ro
                 if (rec->chain) {
                     /* the bone along the source chain between the same fractions */
                     const chain *c = rec->chain == 1 ? &ss : &sn;
-                    double p0[3], p1[3], d[3], want[3], cur[3];
-                    chain_point(c, s_wpos, rec->u0, p0);
-                    chain_point(c, s_wpos, rec->u1, p1);
-                    for (int k = 0; k < 3; k++)
-                        d[k] = p1[k] - p0[k];
+                    double d[3], want[3], cur[3];
+                    chain_span(c, &src, s_wpos, sw, rec->u0, rec->u1, d);
                     mlr_quat_rotate_inline(&gc, d, want);
                     mlr_quat_rotate_inline(&w, rec->bone, cur);
                     w = qmul(swing(cur, want), w);
