@@ -77,8 +77,8 @@ START_TEST(every_shared_human_rig_has_its_roles)
         ck_assert(mlr_test_clip_load(want[k].file, &c));
         int32_t role[MLR_ROLE_COUNT];
         mlr_diag d;
-        ck_assert_msg(mlr_retarget_roles(&c.rig, role, NULL, &d) == MLR_OK, "%s: %s",
-                      want[k].file, d.message);
+        ck_assert_msg(mlr_retarget_roles(&c.rig, role, NULL, &d) == MLR_OK, "%s: %s", want[k].file,
+                      d.message);
         const struct {
             int role;
             const char *name;
@@ -96,8 +96,8 @@ START_TEST(every_shared_human_rig_has_its_roles)
         for (size_t i = 0; i < MLR_COUNTOF(checks); i++) {
             const int32_t j = role[checks[i].role];
             if (!checks[i].name)
-                ck_assert_msg(j == -1, "%s: %s is %d", want[k].file,
-                              mlr_role_name(checks[i].role), j);
+                ck_assert_msg(j == -1, "%s: %s is %d", want[k].file, mlr_role_name(checks[i].role),
+                              j);
             else
                 ck_assert_msg(j == joint_named(&c, checks[i].name), "%s: %s is %s, not %s",
                               want[k].file, mlr_role_name(checks[i].role),
@@ -205,13 +205,14 @@ START_TEST(every_matched_bone_points_as_the_source_s)
             mlr_diag d;
             double *st = clean_trans(&s, N);
             ck_assert_msg(mlr_retarget(&s.rig, N, mlr_motion_root_pos(s.m), mlr_motion_rot(s.m),
-                                       st, &t.rig, NULL, 0, orp, orot, otr,
-                                       &info, NULL, &d) == MLR_OK,
+                                       st, &t.rig, NULL, 0, orp, orot, otr, &info, NULL,
+                                       &d) == MLR_OK,
                           "%s -> %s: %s", human_clips[a], human_clips[b], d.message);
             int32_t rs[MLR_ROLE_COUNT], rt[MLR_ROLE_COUNT];
             ck_assert_int_eq(mlr_retarget_roles(&s.rig, rs, NULL, NULL), MLR_OK);
             ck_assert_int_eq(mlr_retarget_roles(&t.rig, rt, NULL, NULL), MLR_OK);
-            double *ps = malloc(N * Js * 3 * sizeof(double)), *pt = malloc(N * Jt * 3 * sizeof(double));
+            double *ps = malloc(N * Js * 3 * sizeof(double)),
+                   *pt = malloc(N * Jt * 3 * sizeof(double));
             ck_assert_int_eq(mlr_fk_arrays(N, Js, s.rig.parents, s.rig.offsets,
                                            mlr_motion_root_pos(s.m), mlr_motion_rot(s.m),
                                            s.rig.n_trans, s.rig.trans_joints, st, ps, NULL, NULL,
@@ -228,10 +229,10 @@ START_TEST(every_matched_bone_points_as_the_source_s)
                     if (rs[r0] < 0 || rt[r0] < 0)
                         continue;
                     double ds[3], dt[3], gdt[3];
-                    unit_dir(ps + 3 * (f * Js + (size_t)rs[r0]), ps + 3 * (f * Js + (size_t)rs[r1]),
-                             ds);
-                    unit_dir(pt + 3 * (f * Jt + (size_t)rt[r0]), pt + 3 * (f * Jt + (size_t)rt[r1]),
-                             dt);
+                    unit_dir(ps + 3 * (f * Js + (size_t)rs[r0]),
+                             ps + 3 * (f * Js + (size_t)rs[r1]), ds);
+                    unit_dir(pt + 3 * (f * Jt + (size_t)rt[r0]),
+                             pt + 3 * (f * Jt + (size_t)rt[r1]), dt);
                     for (int r = 0; r < 3; r++) /* target world to source world */
                         gdt[r] = G[3 * r] * dt[0] + G[3 * r + 1] * dt[1] + G[3 * r + 2] * dt[2];
                     for (int c = 0; c < 3; c++)
@@ -261,19 +262,19 @@ END_TEST
 
 /* Two legs need a right one: the rig of 15 joints with it. */
 enum { TJ = 15 };
-static const char *const y_names[TJ] = {
-    "Hips",     "Spine",     "Head",      "LeftArm",   "LeftForeArm",
-    "LeftHand", "RightArm",  "RightForeArm", "RightHand", "LeftUpLeg",
-    "LeftLeg",  "LeftFoot",  "RightUpLeg", "RightLeg",  "RightFoot"};
-static const char *const z_names[TJ] = {
-    "pelvis",    "spine_01",  "head",      "upperarm_l", "lowerarm_l",
-    "hand_l",    "upperarm_r", "lowerarm_r", "hand_r",    "thigh_l",
-    "calf_l",    "foot_l",    "thigh_r",    "calf_r",     "foot_r"};
+static const char *const y_names[TJ] = {"Hips",        "Spine",     "Head",     "LeftArm",
+                                        "LeftForeArm", "LeftHand",  "RightArm", "RightForeArm",
+                                        "RightHand",   "LeftUpLeg", "LeftLeg",  "LeftFoot",
+                                        "RightUpLeg",  "RightLeg",  "RightFoot"};
+static const char *const z_names[TJ] = {"pelvis",     "spine_01", "head",       "upperarm_l",
+                                        "lowerarm_l", "hand_l",   "upperarm_r", "lowerarm_r",
+                                        "hand_r",     "thigh_l",  "calf_l",     "foot_l",
+                                        "thigh_r",    "calf_r",   "foot_r"};
 static const int32_t y_parents[TJ] = {-1, 0, 1, 1, 3, 4, 1, 6, 7, 0, 9, 10, 0, 12, 13};
 /* Y-up, facing +z, left = +x, T-pose */
-static const double y_offsets[3 * TJ] = {0, 0, 0,   0, 10, 0,  0, 10, 0, 5, 8, 0,   10, 0, 0,
-                                         10, 0, 0,  -5, 8, 0,  -10, 0, 0, -10, 0, 0, 3, -2, 0,
-                                         0, -15, 0, 0, -15, 0, -3, -2, 0, 0, -15, 0, 0, -15, 0};
+static const double y_offsets[3 * TJ] = {
+    0, 0,   0, 0, 10, 0,  0, 10, 0,   5, 8, 0,   10, 0,  0,  10, 0, 0,   -5, 8, 0,   -10, 0,
+    0, -10, 0, 0, 3,  -2, 0, 0,  -15, 0, 0, -15, 0,  -3, -2, 0,  0, -15, 0,  0, -15, 0};
 
 /* The z rig: the y rig's geometry scaled by 1.2, turned Z-up (y -> z, z -> -y) and with the
  * arms lowered 40 degrees (an A-pose). */
@@ -294,7 +295,7 @@ static void random_pose(mlr_test_rng *g, size_t N, size_t J, double *rp, double 
 {
     for (size_t f = 0; f < N; f++) {
         rp[3 * f] = mlr_test_rng_normal(g), rp[3 * f + 1] = 30 + mlr_test_rng_normal(g),
-                   rp[3 * f + 2] = mlr_test_rng_normal(g);
+               rp[3 * f + 2] = mlr_test_rng_normal(g);
         for (size_t j = 0; j < J; j++) {
             double q[4], n = 0.0;
             for (int c = 0; c < 4; c++)
@@ -329,11 +330,12 @@ START_TEST(a_z_up_a_pose_rig_takes_the_bone_directions)
     /* the positions of the z rig are the y rig's turned and scaled: every bone here has a
      * role and both rigs are the same body, so the whole pose must agree */
     double py[3 * N * TJ], pz[3 * N * TJ];
-    ck_assert_int_eq(mlr_fk_arrays(N, TJ, y_parents, y_offsets, rp, rot, 0, NULL, NULL, py, NULL,
-                                   NULL, NULL),
-                     MLR_OK);
     ck_assert_int_eq(
-        mlr_fk_arrays(N, TJ, y_parents, zo, orp, orot, 0, NULL, NULL, pz, NULL, NULL, NULL), MLR_OK);
+        mlr_fk_arrays(N, TJ, y_parents, y_offsets, rp, rot, 0, NULL, NULL, py, NULL, NULL, NULL),
+        MLR_OK);
+    ck_assert_int_eq(
+        mlr_fk_arrays(N, TJ, y_parents, zo, orp, orot, 0, NULL, NULL, pz, NULL, NULL, NULL),
+        MLR_OK);
     for (size_t i = 0; i < N * TJ; i++) {
         const double *a = py + 3 * i, *b = pz + 3 * i;
         /* z rig (x, y, z) is y rig (x, -z, y) * 1.2 */
@@ -343,9 +345,9 @@ START_TEST(a_z_up_a_pose_rig_takes_the_bone_directions)
                       a[2]);
     }
     /* and back: the input again */
-    ck_assert_int_eq(mlr_retarget(&rz, N, orp, orot, NULL, &ry, NULL, 0, back_rp, back, NULL, NULL,
-                                  NULL, NULL),
-                     MLR_OK);
+    ck_assert_int_eq(
+        mlr_retarget(&rz, N, orp, orot, NULL, &ry, NULL, 0, back_rp, back, NULL, NULL, NULL, NULL),
+        MLR_OK);
     for (size_t i = 0; i < 3 * N; i++)
         ck_assert_double_eq_tol(back_rp[i], rp[i], 1e-9);
     for (size_t f = 0; f < N * TJ; f++) {
@@ -377,9 +379,9 @@ START_TEST(bad_input_names_the_joint_and_writes_nothing)
     for (size_t i = 0; i < 3 * N; i++)
         orp[i] = 7.0;
     mlr_diag d;
-    ck_assert_int_eq(mlr_retarget(&ry, N, rp, rot, NULL, &rc, NULL, 0, orp, orot, NULL, NULL, NULL,
-                                  &d),
-                     MLR_E_INVALID_ARG);
+    ck_assert_int_eq(
+        mlr_retarget(&ry, N, rp, rot, NULL, &rc, NULL, 0, orp, orot, NULL, NULL, NULL, &d),
+        MLR_E_INVALID_ARG);
     ck_assert_ptr_nonnull(strstr(d.message, "target: no humanoid LeftFoot"));
     ck_assert_double_eq(orp[0], 7.0); /* nothing written */
     int32_t role[MLR_ROLE_COUNT];
@@ -387,31 +389,32 @@ START_TEST(bad_input_names_the_joint_and_writes_nothing)
     ck_assert_ptr_nonnull(strstr(d.message, "LeftFoot"));
 
     const char *unknown_t[2] = {"LeftFoot", "no_such_foot"};
-    ck_assert_int_eq(mlr_retarget(&ry, N, rp, rot, NULL, &rz, unknown_t, 1, orp, orot, NULL, NULL,
-                                  NULL, &d),
-                     MLR_E_INVALID_ARG);
+    ck_assert_int_eq(
+        mlr_retarget(&ry, N, rp, rot, NULL, &rz, unknown_t, 1, orp, orot, NULL, NULL, NULL, &d),
+        MLR_E_INVALID_ARG);
     ck_assert_ptr_nonnull(strstr(d.message, "the target has no joint 'no_such_foot'"));
     const char *unknown_s[2] = {"Lefty", "foot_l"};
-    ck_assert_int_eq(mlr_retarget(&ry, N, rp, rot, NULL, &rz, unknown_s, 1, orp, orot, NULL, NULL,
-                                  NULL, &d),
-                     MLR_E_INVALID_ARG);
+    ck_assert_int_eq(
+        mlr_retarget(&ry, N, rp, rot, NULL, &rz, unknown_s, 1, orp, orot, NULL, NULL, NULL, &d),
+        MLR_E_INVALID_ARG);
     ck_assert_ptr_nonnull(strstr(d.message, "the source has no joint 'Lefty'"));
     const char *twice[4] = {"LeftFoot", "foot_l", "RightFoot", "foot_l"};
-    ck_assert_int_eq(mlr_retarget(&ry, N, rp, rot, NULL, &rz, twice, 2, orp, orot, NULL, NULL,
-                                  NULL, &d),
-                     MLR_E_INVALID_ARG);
+    ck_assert_int_eq(
+        mlr_retarget(&ry, N, rp, rot, NULL, &rz, twice, 2, orp, orot, NULL, NULL, NULL, &d),
+        MLR_E_INVALID_ARG);
     ck_assert_ptr_nonnull(strstr(d.message, "'foot_l' is named twice"));
     ck_assert_double_eq(orp[0], 7.0);
 
     /* a map rescues a target whose feet are not named so: the chain rig's joints can take
      * roles only by the map; here the z rig with its feet renamed */
-    static const char *const odd_names[TJ] = {
-        "pelvis", "spine_01", "head",   "upperarm_l", "lowerarm_l", "hand_l", "upperarm_r",
-        "lowerarm_r", "hand_r", "thigh_l", "calf_l", "paw_a", "thigh_r", "calf_r", "paw_b"};
+    static const char *const odd_names[TJ] = {"pelvis",     "spine_01", "head",       "upperarm_l",
+                                              "lowerarm_l", "hand_l",   "upperarm_r", "lowerarm_r",
+                                              "hand_r",     "thigh_l",  "calf_l",     "paw_a",
+                                              "thigh_r",    "calf_r",   "paw_b"};
     const mlr_rig ro = {TJ, y_parents, zo, odd_names, 0, NULL, 0, NULL, NULL};
-    ck_assert_int_eq(mlr_retarget(&ry, N, rp, rot, NULL, &ro, NULL, 0, orp, orot, NULL, NULL, NULL,
-                                  &d),
-                     MLR_E_INVALID_ARG);
+    ck_assert_int_eq(
+        mlr_retarget(&ry, N, rp, rot, NULL, &ro, NULL, 0, orp, orot, NULL, NULL, NULL, &d),
+        MLR_E_INVALID_ARG);
     ck_assert_ptr_nonnull(strstr(d.message, "target: no humanoid"));
     const char *paws[4] = {"LeftFoot", "paw_a", "RightFoot", "paw_b"};
     ck_assert_msg(mlr_retarget(&ry, N, rp, rot, NULL, &ro, paws, 2, orp, orot, NULL, NULL, NULL,
@@ -420,9 +423,9 @@ START_TEST(bad_input_names_the_joint_and_writes_nothing)
 
     /* non-finite input */
     rot[5] = NAN;
-    ck_assert_int_eq(mlr_retarget(&ry, N, rp, rot, NULL, &rz, NULL, 0, orp, orot, NULL, NULL, NULL,
-                                  &d),
-                     MLR_E_INVALID_ARG);
+    ck_assert_int_eq(
+        mlr_retarget(&ry, N, rp, rot, NULL, &rz, NULL, 0, orp, orot, NULL, NULL, NULL, &d),
+        MLR_E_INVALID_ARG);
     ck_assert_ptr_nonnull(strstr(d.message, "rot: a value of frame 0 is not finite"));
 }
 END_TEST
@@ -439,7 +442,8 @@ START_TEST(every_allocation_failure_is_no_memory_without_leaks)
     mlr_test_rng_seed(&g, 7);
     random_pose(&g, N, TJ, rp, rot);
     ck_assert_int_eq(
-        mlr_retarget(&ry, N, rp, rot, NULL, &rz, NULL, 0, orp, ref, NULL, NULL, NULL, NULL), MLR_OK);
+        mlr_retarget(&ry, N, rp, rot, NULL, &rz, NULL, 0, orp, ref, NULL, NULL, NULL, NULL),
+        MLR_OK);
     size_t fails = 0;
     for (size_t at = 0;; at++) {
         mlr_test_allocator ta;

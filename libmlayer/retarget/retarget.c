@@ -122,6 +122,63 @@ static void fill_chain(const mlr_rig *rig, int32_t from, int32_t to, int include
     (void)n;
 }
 
+static int first_child(const mlr_rig *rig, int32_t j);
+
+/* The roles that follow from the tree (each only where it has no joint yet): the hips where the
+ * upper legs meet, the toes, the head (a candidate below the hips), the shoulders, the spine
+ * and neck chains. */
+static void tree_roles(const mlr_rig *rig, int32_t *role, int32_t head)
+{
+    const int32_t ll = role[MLR_ROLE_LEFT_UPPER_LEG], rl = role[MLR_ROLE_RIGHT_UPPER_LEG];
+    int32_t hips = role[MLR_ROLE_HIPS];
+    if (hips < 0 && ll > 0 && rl > 0) {
+        hips = lca(rig, ll, rl);
+        if (hips == ll || hips == rl)
+            hips = -1;
+    }
+    role[MLR_ROLE_HIPS] = hips;
+    for (int s = 0; s < 2; s++) { /* the toes: the foot's first child joint */
+        const int toes = s == 0 ? MLR_ROLE_LEFT_TOES : MLR_ROLE_RIGHT_TOES;
+        const int32_t foot = role[toes - 1];
+        if (foot > 0 && role[toes] < 0)
+            role[toes] = (int32_t)first_child(rig, foot);
+    }
+    const int32_t la = role[MLR_ROLE_LEFT_UPPER_ARM], ra = role[MLR_ROLE_RIGHT_UPPER_ARM];
+    if (role[MLR_ROLE_HEAD] < 0 && head >= 0 &&
+        (hips < 0 || (head != hips && is_ancestor(rig, hips, head))))
+        role[MLR_ROLE_HEAD] = head;
+    head = role[MLR_ROLE_HEAD];
+    /* the shoulders: the upper arm's parent, unless the other arm or the head hangs from it */
+    for (int s = 0; s < 2; s++) {
+        const int32_t upper = s == 0 ? la : ra, other = s == 0 ? ra : la;
+        if (upper <= 0 || role[s == 0 ? MLR_ROLE_LEFT_SHOULDER : MLR_ROLE_RIGHT_SHOULDER] >= 0)
+            continue;
+        const int32_t p = limb_parent(rig, upper);
+        if (p <= 0 || (other > 0 && is_ancestor(rig, p, other)) ||
+            (head >= 0 && is_ancestor(rig, p, head)) ||
+            (hips >= 0 && !is_ancestor(rig, hips, p)) || p == hips)
+            continue;
+        role[(s == 0 ? MLR_ROLE_LEFT_SHOULDER : MLR_ROLE_RIGHT_SHOULDER)] = p;
+    }
+    if (hips < 0)
+        return;
+    /* the chest: where the arms meet, or else the head's parent */
+    int32_t chest = -1;
+    if (la > 0 && ra > 0)
+        chest = lca(rig, la, ra);
+    else if (head > 0)
+        chest = rig->parents[head];
+    if (chest >= 0 && (chest == hips || !is_ancestor(rig, hips, chest)))
+        chest = -1;
+    if (chest >= 0 && role[MLR_ROLE_SPINE] < 0)
+        fill_chain(rig, hips, chest, 1, role, MLR_ROLE_SPINE, MLR_RETARGET_MAX_SPINE);
+    if (head > 0) {
+        const int32_t from = chest >= 0 ? chest : hips;
+        if (is_ancestor(rig, from, head) && head != from && role[MLR_ROLE_NECK] < 0)
+            fill_chain(rig, from, head, 0, role, MLR_ROLE_NECK, MLR_RETARGET_MAX_NECK);
+    }
+}
+
 /* The roles found by the rules, without the minimum check. */
 static mlr_status detect_roles(const mlr_rig *rig, int32_t *role, const mlr_allocator *alloc,
                                mlr_diag *diag)
@@ -161,11 +218,6 @@ static mlr_status detect_roles(const mlr_rig *rig, int32_t *role, const mlr_allo
                 role[leg + 2] = foot;
                 role[leg + 1] = lower;
                 role[leg] = upper;
-                for (size_t c = (size_t)foot + 1; c < J; c++)
-                    if (rig->parents[c] == foot) {
-                        role[leg + 3] = (int32_t)c;
-                        break;
-                    }
             }
         }
         const int32_t hand = topmost(rig, side, sides[s], hand_words, NULL);
@@ -183,47 +235,7 @@ static mlr_status detect_roles(const mlr_rig *rig, int32_t *role, const mlr_allo
     if (head < 0)
         head = topmost(rig, side, 0, head_words, NULL);
     mlr_free(&a, scratch, bytes);
-    const int32_t ll = role[MLR_ROLE_LEFT_UPPER_LEG], rl = role[MLR_ROLE_RIGHT_UPPER_LEG];
-    int32_t hips = -1;
-    if (ll > 0 && rl > 0) {
-        hips = lca(rig, ll, rl);
-        if (hips == ll || hips == rl)
-            hips = -1;
-    }
-    role[MLR_ROLE_HIPS] = hips;
-    const int32_t la = role[MLR_ROLE_LEFT_UPPER_ARM], ra = role[MLR_ROLE_RIGHT_UPPER_ARM];
-    if (head >= 0 && (hips < 0 || (head != hips && is_ancestor(rig, hips, head))))
-        role[MLR_ROLE_HEAD] = head;
-    head = role[MLR_ROLE_HEAD];
-    /* the shoulders: the upper arm's parent, unless the other arm or the head hangs from it */
-    for (int s = 0; s < 2; s++) {
-        const int32_t upper = s == 0 ? la : ra, other = s == 0 ? ra : la;
-        if (upper <= 0)
-            continue;
-        const int32_t p = limb_parent(rig, upper);
-        if (p <= 0 || (other > 0 && is_ancestor(rig, p, other)) ||
-            (head >= 0 && is_ancestor(rig, p, head)) ||
-            (hips >= 0 && !is_ancestor(rig, hips, p)) || p == hips)
-            continue;
-        role[(s == 0 ? MLR_ROLE_LEFT_SHOULDER : MLR_ROLE_RIGHT_SHOULDER)] = p;
-    }
-    if (hips < 0)
-        return MLR_OK;
-    /* the chest: where the arms meet, or else the head's parent */
-    int32_t chest = -1;
-    if (la > 0 && ra > 0)
-        chest = lca(rig, la, ra);
-    else if (head > 0)
-        chest = rig->parents[head];
-    if (chest >= 0 && (chest == hips || !is_ancestor(rig, hips, chest)))
-        chest = -1;
-    if (chest >= 0)
-        fill_chain(rig, hips, chest, 1, role, MLR_ROLE_SPINE, MLR_RETARGET_MAX_SPINE);
-    if (head > 0) {
-        const int32_t from = chest >= 0 ? chest : hips;
-        if (is_ancestor(rig, from, head) && head != from)
-            fill_chain(rig, from, head, 0, role, MLR_ROLE_NECK, MLR_RETARGET_MAX_NECK);
-    }
+    tree_roles(rig, role, head);
     return MLR_OK;
 }
 
@@ -580,6 +592,7 @@ static void complete_roles(const mlr_rig *rig, int32_t *role)
         if (h != ll && h != rl)
             role[MLR_ROLE_HIPS] = h;
     }
+    tree_roles(rig, role, role[MLR_ROLE_HEAD]);
 }
 
 /* ---- the retarget ------------------------------------------------------------------------- */

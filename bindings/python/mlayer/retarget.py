@@ -41,6 +41,16 @@ MapArg = str | Mapping[str, str] | Iterable[tuple[str, str]]
 def parse_map(text: str) -> list[tuple[str, str]]:
     """A map written ``"SRC=TGT,SRC2=TGT2"`` (the command line's ``--map``) as pairs.
 
+    Parameters
+    ----------
+    text : str
+        Comma-separated ``SOURCE=TARGET`` items; spaces around names are dropped.
+
+    Returns
+    -------
+    list of (str, str)
+        The (source joint, target joint) pairs in the order given.
+
     Raises
     ------
     InvalidArgumentError
@@ -69,7 +79,7 @@ def _map_pairs(mapping: MapArg) -> list[tuple[str, str]]:
     for p in out:
         if len(p) != 2 or not all(isinstance(n, str) for n in p):
             raise InvalidArgumentError(f"retarget: mapping: {p!r} is not a pair of joint names")
-    return out  # type: ignore[return-value]
+    return out
 
 
 def _target_of(target: Any) -> tuple[Skeleton, Motion | None]:
@@ -97,7 +107,7 @@ def _target_of(target: Any) -> tuple[Skeleton, Motion | None]:
 
 
 def retarget_roles(skeleton: Skeleton | Motion) -> dict[str, str]:
-    """The humanoid roles of a rig's joints, ``{role: joint name}`` (roles no joint has are left out).
+    """The humanoid roles of a rig's joints, ``{role: joint name}``; the roles found only.
 
     Parameters
     ----------
