@@ -23,7 +23,7 @@ LAYERS: dict[str, set[str]] = {
     "guards": {"common", "math", "motion"},
     "stream": {"common", "math", "motion", "layers", "guards"},
     "pipeline": {"common", "math", "motion", "layers", "guards"},
-    "retarget": {"common", "math", "motion"},
+    "retarget": {"common", "math", "motion", "guards"},
 }
 
 INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"', re.M)

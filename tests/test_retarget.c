@@ -1,7 +1,7 @@
 /* Retargeting: the humanoid roles of every shared human rig, a rig onto itself (the input back
  * to rounding), the direction of every matched bone against the source's (forward kinematics
- * of both, the body frames' rotation G applied) for every pair of shared human rigs, the hips
- * scaled by the leg lengths, a synthetic rig turned Z-up and put in an A-pose, bad input with
+ * of both, the body frames' rotation G applied) for every pair of shared human rigs, the legs'
+ * top scaled by the leg lengths, a synthetic rig turned Z-up and put in an A-pose, bad input with
  * nothing written, allocation failures. */
 #include "mlr_test.h"
 
@@ -240,17 +240,37 @@ START_TEST(every_matched_bone_points_as_the_source_s)
                 }
             ck_assert_msg(worst < 1e-9, "%s -> %s: bones differ by %g", human_clips[a],
                           human_clips[b], worst);
-            /* the hips where the scaled source's are */
-            const int32_t hs = rs[MLR_ROLE_HIPS], ht = rt[MLR_ROLE_HIPS];
+            /* the middle of the upper legs where the scaled source's is, up to one lift along
+             * up for the soles (the same in every frame, a few % of a leg at most) */
+            double lift0[3] = {0, 0, 0}, leg = 0.0;
             for (size_t f = 0; f < N; f++) {
-                const double *x = pt + 3 * (f * Jt + (size_t)ht);
-                for (int r = 0; r < 3; r++) {
-                    const double g = G[3 * r] * x[0] + G[3 * r + 1] * x[1] + G[3 * r + 2] * x[2];
-                    const double want = info.scale * ps[3 * (f * Js + (size_t)hs) + (size_t)r];
-                    ck_assert_msg(fabs(g - want) < 1e-9 * (1.0 + fabs(want)), "%s -> %s: hips",
-                                  human_clips[a], human_clips[b]);
+                double x[3], m[3], lift[3];
+                for (int c = 0; c < 3; c++) {
+                    x[c] = 0.5 *
+                           (pt[3 * (f * Jt + (size_t)rt[MLR_ROLE_LEFT_UPPER_LEG]) + (size_t)c] +
+                            pt[3 * (f * Jt + (size_t)rt[MLR_ROLE_RIGHT_UPPER_LEG]) + (size_t)c]);
+                    m[c] = 0.5 *
+                           (ps[3 * (f * Js + (size_t)rs[MLR_ROLE_LEFT_UPPER_LEG]) + (size_t)c] +
+                            ps[3 * (f * Js + (size_t)rs[MLR_ROLE_RIGHT_UPPER_LEG]) + (size_t)c]);
                 }
+                for (int r = 0; r < 3; r++)
+                    lift[r] = G[3 * r] * x[0] + G[3 * r + 1] * x[1] + G[3 * r + 2] * x[2] -
+                              info.scale * m[r];
+                if (f == 0) {
+                    memcpy(lift0, lift, sizeof lift);
+                    const double *k = pt + 3 * (size_t)rt[MLR_ROLE_LEFT_UPPER_LEG];
+                    const double *n = pt + 3 * (size_t)rt[MLR_ROLE_LEFT_LOWER_LEG];
+                    leg = sqrt((k[0] - n[0]) * (k[0] - n[0]) + (k[1] - n[1]) * (k[1] - n[1]) +
+                               (k[2] - n[2]) * (k[2] - n[2]));
+                }
+                for (int r = 0; r < 3; r++)
+                    ck_assert_msg(fabs(lift[r] - lift0[r]) < 1e-9 * (1.0 + fabs(m[r])),
+                                  "%s -> %s: legs", human_clips[a], human_clips[b]);
             }
+            ck_assert_msg(sqrt(lift0[0] * lift0[0] + lift0[1] * lift0[1] + lift0[2] * lift0[2]) <
+                              0.2 * leg,
+                          "%s -> %s: lift %g %g %g", human_clips[a], human_clips[b], lift0[0],
+                          lift0[1], lift0[2]);
             free(ps), free(pt), free(orp), free(orot), free(otr), free(st);
             mlr_test_clip_unload(&s);
             mlr_test_clip_unload(&t);

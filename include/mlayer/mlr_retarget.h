@@ -18,7 +18,9 @@
  *
  * The retarget (mlr_retarget). Both rest poses are the OFFSETs with identity rotations. Each
  * rig has a body frame F (columns: left, up, forward; up from the hips to the head, left from
- * the right upper leg to the left one, forward = left x up) and every role joint j with a bone
+ * the right upper leg to the left one without its part along up, each snapped to the nearest
+ * world axis with its sign, so that a rest pose leaning a few degrees does not tilt the floor;
+ * forward = left x up) and every role joint j with a bone
  * a rest frame P_j: its first column along the bone (to the next joint of its role chain:
  * upper leg to lower leg, lower arm to hand, spine to spine, neck or head, the foot to the toes
  * or its End Site, the hand to the mean of its children, the head to its End Site), its second
@@ -29,14 +31,25 @@
  * so that the direction of every matched bone in the target's world is the source's (mapped by
  * G) and its roll follows the source's. Unmatched target joints keep their rest (identity)
  * local rotations; the local rotation of a matched joint is W_parent^-1 W_t. Chains of other
- * lengths are distributed: target spine joint k of n follows source spine joint
- * ceil((k + 1) m / n) - 1 of m (likewise the neck). The target hips' world position is the
- * source hips' mapped by G^T and scaled by s = L_t / L_s, L being the mean over both sides of
- * the rest lengths upper leg -> lower leg -> foot; it is put into the target's root translation
- * (the hips are the root), the hips' position channels (a static root above them: Bandai), or
- * the root translation that puts the hips there (the root's rotation stays at rest). Other
- * position channels of the target keep their OFFSETs. Retargeting a rig onto itself gives the
- * input back (G = C = I, s = 1) up to rounding.
+ * lengths are distributed by the fractions of their rest lengths: target chain joint k, whose
+ * bone spans fractions u_k .. u_k+1 of its chain (spine: up to the first neck joint or the head;
+ * neck: up to the head), takes the roll of the source chain joint whose segment holds the
+ * middle of that span, and its bone is turned (the shortest way) to point along the source
+ * chain from fraction u_k to u_k+1 (the source's rest segments turned by their joints' world
+ * rotations). Joints without a role on either rig follow the source joint of the same name
+ * when there is one that has no role either (fingers named alike), with C from their bones to
+ * their first child (or End Site).
+ *
+ * Placement. s = L_t / L_s, L being the mean over both sides of the rest lengths upper leg ->
+ * lower leg -> foot. The middle of the target's upper legs goes where the source's is, mapped
+ * by G^T and scaled by s (about the origin: the floor is taken at height 0), raised along the
+ * target's up by a_t - s a_s, a being the rest height of the ankles above the lowest joint or
+ * End Site of their feet (so that soles on the floor stay on it). The shift that puts it there
+ * goes into the root translation (the hips are the root, or the root carries them: its
+ * rotation stays at rest) or into the hips' position channels (a static root above them:
+ * Bandai). Other position channels of the target keep their OFFSETs. Retargeting a rig onto
+ * itself gives the input back (G = C = I, s = 1) up to rounding; A -> B -> A gives back A's
+ * joints whose roles B has, up to the chains' distribution.
  *
  * An override map pairs source joints with target joints by name: target joint t takes the
  * role of source joint s (any joint that had that role on the target loses it).
@@ -46,6 +59,7 @@
 
 #include <stdint.h>
 
+#include "mlr_cleanup.h"
 #include "mlr_common.h"
 #include "mlr_rig.h"
 
@@ -138,6 +152,42 @@ MLR_API mlr_status mlr_retarget(const mlr_rig *source, size_t n_frames, const do
                                 const char *const *map, size_t n_map, double *out_root_pos,
                                 double *out_rot, double *out_trans, mlr_retarget_info *info,
                                 const mlr_allocator *alloc, mlr_diag *diag);
+
+/**
+ * The feet of a retargeted motion (the output of mlr_retarget, changed in place): the source's
+ * contacts become the target's and the contact cleanup (mlr_cleanup_contacts, two-bone IK with
+ * the corrections spread in time, no reference) plants them. The contact points of each rig
+ * are, per side, the ankle (foot role) and the toes or else the ankle's first End Site; the
+ * source's are detected by mlr_contacts_detect (default options) and each target point takes
+ * the contacts of the source point of its kind (the ankle's when the source has no such
+ * point). The floor is the source's (mlr_cleanup_floor_height, quantile 0.05, along up) scaled
+ * by s and raised by the soles' difference, as the placement of mlr_retarget does; it is left
+ * out when the source's up does not map onto a positive world axis of the target. Contact
+ * points are pinned to their mean over each contact run (so they slide no more than zero),
+ * knees bend the way the target's IK chain does, bone lengths are kept.
+ * @param source     [in] the source rig (as given to mlr_retarget)
+ * @param n_frames   [in] N; fewer than 3: nothing is done
+ * @param fps        [in] frames per second, finite, > 0
+ * @param up         [in] the source's up axis, an mlr_axis
+ * @param root_pos, rot, trans [in] the source motion (as given to mlr_retarget)
+ * @param target, map, n_map   [in] as given to mlr_retarget
+ * @param out_root_pos, out_rot [in, out] the retargeted motion, N x 3 and N x J_t x 4
+ * @param out_trans  [in] its N x P_t x 3 translations (kept), NULL when P_t is 0
+ * @param report     [out] optional: what the cleanup did
+ * @param alloc      [in] for scratch; NULL for malloc/free
+ * @param diag       [out] optional: the reason of an error
+ * @return MLR_OK; MLR_E_INVALID_ARG (as mlr_retarget; bad up or fps; the cleanup's reasons);
+ *         MLR_E_NO_MEMORY; MLR_E_OVERFLOW
+ * Allocates: N (7 J_s + 1) doubles and the cleanup's scratch, released before return.
+ * Threads: any; the source is only read.
+ */
+MLR_API mlr_status mlr_retarget_feet(const mlr_rig *source, size_t n_frames, double fps, int up,
+                                     const double *root_pos, const double *rot,
+                                     const double *trans, const mlr_rig *target,
+                                     const char *const *map, size_t n_map, double *out_root_pos,
+                                     double *out_rot, const double *out_trans,
+                                     mlr_cleanup_report *report, const mlr_allocator *alloc,
+                                     mlr_diag *diag);
 
 #ifdef __cplusplus
 }

@@ -9,6 +9,8 @@
 #include <string.h>
 
 #include "motion/mirror_internal.h"
+#include "mlayer/mlr_cleanup.h"
+#include "mlayer/mlr_contacts.h"
 #include "mlayer/mlr_fk.h"
 #include "mlayer/mlr_retarget.h"
 
@@ -516,13 +518,58 @@ static mlr_status rest_setup(rig_rest *r, const char *who, mlr_diag *diag)
                             "retarget: %s: the rest pose has no body frame (the upper legs or "
                             "the hips and the head coincide, or are in line)",
                             who);
-    /* m's columns: up, left', up x left' = -forward; F's: left, up, forward */
+    /* m's columns: up, left' (left without its part along up). Each snapped to the world axis
+     * it is nearest, with its sign (rigs stand and face along axes; a rest pose leaning a few
+     * degrees must not tilt the floor), then F's columns: left, up, forward = left x up. */
+    double su[3] = {0, 0, 0}, sl[3] = {0, 0, 0};
+    int ku = 0, kl = -1;
+    for (int c = 1; c < 3; c++)
+        if (fabs(m[3 * c]) > fabs(m[3 * ku]))
+            ku = c;
+    for (int c = 0; c < 3; c++)
+        if (c != ku && (kl < 0 || fabs(m[3 * c + 1]) > fabs(m[3 * kl + 1])))
+            kl = c;
+    su[ku] = m[3 * ku] > 0 ? 1.0 : -1.0;
+    sl[kl] = m[3 * kl + 1] > 0 ? 1.0 : -1.0;
+    double fw[3];
+    cross3(sl, su, fw);
     for (int row = 0; row < 3; row++) {
-        r->body[3 * row] = m[3 * row + 1];
-        r->body[3 * row + 1] = m[3 * row];
-        r->body[3 * row + 2] = -m[3 * row + 2];
+        r->body[3 * row] = sl[row];
+        r->body[3 * row + 1] = su[row];
+        r->body[3 * row + 2] = fw[row];
     }
     return MLR_OK;
+}
+
+/* The rest height of the ankles above the soles: along the body's up, the foot joint above the
+ * lowest of its subtree's joints and End Sites; the mean of both feet. */
+static double side_sole(const rig_rest *r, int32_t foot, const double *up)
+{
+    const mlr_rig *rig = r->rig;
+    const double top = dot3(r->pos + 3 * (size_t)foot, up);
+    double low = top;
+    for (size_t k = (size_t)foot; k < rig->n_joints; k++) {
+        if (k > (size_t)foot && !is_ancestor(rig, foot, (int32_t)k))
+            break; /* depth-first: the subtree is contiguous */
+        low = fmin(low, dot3(r->pos + 3 * k, up));
+    }
+    for (size_t e = 0; e < rig->n_end_sites; e++) {
+        const int32_t j = rig->end_site_parents[e];
+        if (!is_ancestor(rig, foot, j))
+            continue;
+        double p[3];
+        for (int c = 0; c < 3; c++)
+            p[c] = r->pos[3 * (size_t)j + (size_t)c] + rig->end_site_offsets[3 * e + (size_t)c];
+        low = fmin(low, dot3(p, up));
+    }
+    return top - low;
+}
+
+static double sole_height(const rig_rest *r)
+{
+    const double up[3] = {r->body[1], r->body[4], r->body[7]};
+    return 0.5 * (side_sole(r, r->role[MLR_ROLE_LEFT_FOOT], up) +
+                  side_sole(r, r->role[MLR_ROLE_RIGHT_FOOT], up));
 }
 
 /* ---- the map ------------------------------------------------------------------------------ */
@@ -735,14 +782,16 @@ static mlr_quat correction(const rig_rest *src, const rig_rest *dst, int have, c
 {
     if (!have)
         return g;
-    /* the body axis least along the source's bone, the same axis on both */
+    /* the body axis least along either bone (the largest of the two cosines smallest), the
+     * same axis on both */
     int axis = 0;
-    double best = 2.0, u[3] = {ps[0], ps[1], ps[2]};
-    if (!normalize3(u))
+    double best = 2.0, u[3] = {ps[0], ps[1], ps[2]}, v[3] = {pt[0], pt[1], pt[2]};
+    if (!normalize3(u) || !normalize3(v))
         return g;
     for (int a = 0; a < 3; a++) {
-        const double col[3] = {src->body[a], src->body[3 + a], src->body[6 + a]};
-        const double d = fabs(dot3(u, col));
+        const double cs[3] = {src->body[a], src->body[3 + a], src->body[6 + a]};
+        const double ct[3] = {dst->body[a], dst->body[3 + a], dst->body[6 + a]};
+        const double d = fmax(fabs(dot3(u, cs)), fabs(dot3(v, ct)));
         if (d < best)
             best = d, axis = a;
     }
@@ -766,6 +815,22 @@ static mlr_status check_finite(const double *x, size_t n, const char *what, size
                             "retarget: %s: a value of frame %zu is not finite", what,
                             i / per_frame);
     return MLR_OK;
+}
+
+/* The roles of both rigs, the map applied, the humanoid minimum checked. */
+static mlr_status pair_roles(rig_rest *src, rig_rest *dst, const char *const *map, size_t n_map,
+                             const mlr_allocator *alloc, mlr_diag *diag)
+{
+    mlr_status st;
+    if ((st = detect_roles(src->rig, src->role, alloc, diag)) != MLR_OK ||
+        (st = detect_roles(dst->rig, dst->role, alloc, diag)) != MLR_OK)
+        return st;
+    if ((st = check_minimum(src->role, "source", diag)) != MLR_OK)
+        return st;
+    if ((st = apply_map(src, dst, map, n_map, diag)) != MLR_OK)
+        return st;
+    complete_roles(dst->rig, dst->role);
+    return check_minimum(dst->role, "target", diag);
 }
 
 /* What one target joint does: follow a source joint (with a correction), and for a chain
@@ -813,15 +878,7 @@ mlr_status mlr_retarget(const mlr_rig *source, size_t n_frames, const double *ro
         return st;
 
     rig_rest src = {.rig = source}, dst = {.rig = target};
-    if ((st = detect_roles(source, src.role, alloc, diag)) != MLR_OK ||
-        (st = detect_roles(target, dst.role, alloc, diag)) != MLR_OK)
-        return st;
-    if ((st = check_minimum(src.role, "source", diag)) != MLR_OK)
-        return st;
-    if ((st = apply_map(&src, &dst, map, n_map, diag)) != MLR_OK)
-        return st;
-    complete_roles(target, dst.role);
-    if ((st = check_minimum(dst.role, "target", diag)) != MLR_OK)
+    if ((st = pair_roles(&src, &dst, map, n_map, alloc, diag)) != MLR_OK)
         return st;
 
     /* scratch: rest positions of both, the source frame's world pose, the target's */
@@ -907,9 +964,12 @@ mlr_status mlr_retarget(const mlr_rig *source, size_t n_frames, const double *ro
         matched++;
     }
 
-    const int32_t hips_s = src.role[MLR_ROLE_HIPS], hips_t = dst.role[MLR_ROLE_HIPS];
+    const int32_t hips_t = dst.role[MLR_ROLE_HIPS];
     scale = dst.leg / src.leg;
-    const long hips_row = mlr_rig_trans_row(target, hips_t);
+    const long hips_row = hips_t > 0 ? mlr_rig_trans_row(target, hips_t) : -1;
+    const int32_t tl = dst.role[MLR_ROLE_LEFT_UPPER_LEG], tr = dst.role[MLR_ROLE_RIGHT_UPPER_LEG];
+    const size_t last_leg = (size_t)(tl > tr ? tl : tr);
+    const double lift = sole_height(&dst) - scale * sole_height(&src);
     for (size_t f = 0; f < n_frames; f++) {
         st = mlr_fk_arrays(1, Js, source->parents, source->offsets, root_pos + 3 * f,
                            rot + 4 * Js * f, Ps, source->trans_joints,
@@ -942,11 +1002,16 @@ mlr_status mlr_retarget(const mlr_rig *source, size_t n_frames, const double *ro
             orot[4 * j] = local.w, orot[4 * j + 1] = local.x, orot[4 * j + 2] = local.y,
                      orot[4 * j + 3] = local.z;
         }
-        /* the target's translations at rest, then the hips put where the scaled source's are */
+        /* the target's translations at rest, then the hips moved so that the middle of the
+         * upper legs is where the scaled source's is, raised by the difference of the soles */
+        const double *sl = s_wpos + 3 * (size_t)src.role[MLR_ROLE_LEFT_UPPER_LEG];
+        const double *sr = s_wpos + 3 * (size_t)src.role[MLR_ROLE_RIGHT_UPPER_LEG];
         double want[3], hs[3];
         for (int c = 0; c < 3; c++)
-            hs[c] = s_wpos[3 * (size_t)hips_s + (size_t)c] * scale;
+            hs[c] = 0.5 * (sl[c] + sr[c]) * scale;
         mlr_quat_rotate_inline(&gc, hs, want);
+        for (int c = 0; c < 3; c++)
+            want[c] += lift * dst.body[3 * c + 1];
         double *oroot = out_root_pos + 3 * f;
         double *otr = Pt ? out_trans + 3 * Pt * f : NULL;
         for (int c = 0; c < 3; c++)
@@ -955,33 +1020,29 @@ mlr_status mlr_retarget(const mlr_rig *source, size_t n_frames, const double *ro
             for (int c = 0; c < 3; c++)
                 otr[3 * i + (size_t)c] =
                     target->offsets[3 * (size_t)target->trans_joints[i] + (size_t)c];
-        if (hips_t == 0) {
-            for (int c = 0; c < 3; c++)
-                oroot[c] = want[c];
-            continue;
-        }
-        /* world positions down to the hips, the root translation at its OFFSET */
+        /* world positions down to the upper legs, the root translation at its OFFSET */
         for (int c = 0; c < 3; c++)
             t_wpos[c] = oroot[c];
-        for (size_t j = 1; j <= (size_t)hips_t; j++) {
+        for (size_t j = 1; j <= last_leg; j++) {
             const int32_t p = target->parents[j];
             double v[3];
             mlr_quat_rotate_inline(&tw[p], target->offsets + 3 * j, v);
             for (int c = 0; c < 3; c++)
                 t_wpos[3 * j + (size_t)c] = t_wpos[3 * (size_t)p + (size_t)c] + v[c];
         }
-        const int32_t hp = target->parents[hips_t];
+        double shift[3];
+        for (int c = 0; c < 3; c++)
+            shift[c] = want[c] - 0.5 * (t_wpos[3 * (size_t)tl + (size_t)c] +
+                                        t_wpos[3 * (size_t)tr + (size_t)c]);
         if (hips_row >= 0) {
-            double d[3], v[3];
+            const mlr_quat pc = qconj(tw[target->parents[hips_t]]);
+            double v[3];
+            mlr_quat_rotate_inline(&pc, shift, v);
             for (int c = 0; c < 3; c++)
-                d[c] = want[c] - t_wpos[3 * (size_t)hp + (size_t)c];
-            const mlr_quat pc = qconj(tw[hp]);
-            mlr_quat_rotate_inline(&pc, d, v);
-            for (int c = 0; c < 3; c++)
-                otr[3 * (size_t)hips_row + (size_t)c] = v[c];
+                otr[3 * (size_t)hips_row + (size_t)c] += v[c];
         } else {
             for (int c = 0; c < 3; c++)
-                oroot[c] += want[c] - t_wpos[3 * (size_t)hips_t + (size_t)c];
+                oroot[c] += shift[c];
         }
     }
     if (info) {
@@ -991,5 +1052,158 @@ mlr_status mlr_retarget(const mlr_rig *source, size_t n_frames, const double *ro
     }
 done:
     mlr_free(&a, buf, bytes + rbytes);
+    return st;
+}
+
+/* ---- the feet ----------------------------------------------------------------------------- */
+
+/* The contact points of a rig's feet: per side the ankle, then the toes or else the ankle's
+ * first End Site; their count. */
+static size_t foot_points(const rig_rest *r, int32_t *joints, int32_t *ends, int *kind)
+{
+    const mlr_rig *rig = r->rig;
+    size_t n = 0;
+    for (int side = 0; side < 2; side++) {
+        const int foot = side == 0 ? MLR_ROLE_LEFT_FOOT : MLR_ROLE_RIGHT_FOOT;
+        joints[n] = r->role[foot], ends[n] = -1, kind[n] = 2 * side, n++;
+        if (r->role[foot + 1] >= 0) {
+            joints[n] = r->role[foot + 1], ends[n] = -1, kind[n] = 2 * side + 1, n++;
+            continue;
+        }
+        for (size_t e = 0; e < rig->n_end_sites; e++)
+            if (rig->end_site_parents[e] == r->role[foot]) {
+                joints[n] = r->role[foot], ends[n] = (int32_t)e, kind[n] = 2 * side + 1, n++;
+                break;
+            }
+    }
+    return n;
+}
+
+/* The rest height, along the body's up, of the lowest of a rig's contact points above the lowest
+ * point of the feet (sole_height's), the mean of both sides. */
+static double point_rise(const rig_rest *r, const int32_t *joints, const int32_t *ends, size_t n)
+{
+    const mlr_rig *rig = r->rig;
+    const double up[3] = {r->body[1], r->body[4], r->body[7]};
+    double sum = 0.0;
+    for (int side = 0; side < 2; side++) {
+        const int32_t foot = r->role[side == 0 ? MLR_ROLE_LEFT_FOOT : MLR_ROLE_RIGHT_FOOT];
+        const double ankle = dot3(r->pos + 3 * (size_t)foot, up);
+        double low = INFINITY;
+        for (size_t i = 0; i < n; i++) {
+            if (!is_ancestor(rig, foot, joints[i]))
+                continue;
+            double p[3];
+            for (int c = 0; c < 3; c++)
+                p[c] =
+                    r->pos[3 * (size_t)joints[i] + (size_t)c] +
+                    (ends[i] >= 0 ? rig->end_site_offsets[3 * (size_t)ends[i] + (size_t)c] : 0.0);
+            low = fmin(low, dot3(p, up));
+        }
+        /* the sole is sole_height below the ankle */
+        sum += low - (ankle - side_sole(r, foot, up));
+    }
+    return 0.5 * sum;
+}
+
+mlr_status mlr_retarget_feet(const mlr_rig *source, size_t n_frames, double fps, int up,
+                             const double *root_pos, const double *rot, const double *trans,
+                             const mlr_rig *target, const char *const *map, size_t n_map,
+                             double *out_root_pos, double *out_rot, const double *out_trans,
+                             mlr_cleanup_report *report, const mlr_allocator *alloc,
+                             mlr_diag *diag)
+{
+    mlr_status st = mlr_rig_check(source, diag);
+    if (st != MLR_OK)
+        return mlr_diag_prefix(diag, st, "retarget: source");
+    st = mlr_rig_check(target, diag);
+    if (st != MLR_OK)
+        return mlr_diag_prefix(diag, st, "retarget: target");
+    if (!source->names || !target->names)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "retarget: the %s rig has no joint names to find roles by",
+                            source->names ? "target" : "source");
+    if (up < 0 || up > 2)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "retarget: up %d is not an axis", up);
+    if (!(fps > 0) || !isfinite(fps))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "retarget: fps must be > 0");
+    const size_t Js = source->n_joints, Jt = target->n_joints;
+    if (n_frames < 3)
+        return MLR_OK; /* too short for contacts */
+    if (!root_pos || !rot || (source->n_trans && !trans) || !out_root_pos || !out_rot ||
+        (target->n_trans && !out_trans))
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "retarget: a frame array is NULL with %zu frames", n_frames);
+    rig_rest src = {.rig = source}, dst = {.rig = target};
+    if ((st = pair_roles(&src, &dst, map, n_map, alloc, diag)) != MLR_OK)
+        return st;
+    size_t nw, bytes;
+    if (mlr_mul_size(n_frames, 7 * Js, &nw) != MLR_OK || nw > SIZE_MAX - 3 * (Js + Jt) ||
+        mlr_mul_size(nw + 3 * (Js + Jt), sizeof(double), &bytes) != MLR_OK ||
+        bytes > SIZE_MAX - 2 * 4 * n_frames)
+        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "retarget: the frames are too many");
+    const size_t cbytes = 2 * 4 * n_frames; /* the source's and the target's contacts */
+    mlr_allocator a;
+    mlr_allocator_resolve(alloc, &a);
+    double *buf = mlr_alloc(&a, bytes + cbytes);
+    if (!buf)
+        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "retarget: out of memory");
+    src.pos = buf;
+    dst.pos = src.pos + 3 * Js;
+    double *wpos = dst.pos + 3 * Jt, *wrot = wpos + 3 * n_frames * Js;
+    uint8_t *cs = (uint8_t *)(void *)(wrot + 4 * n_frames * Js), *ct = cs + 4 * n_frames;
+    if ((st = rest_setup(&src, "source", diag)) != MLR_OK ||
+        (st = rest_setup(&dst, "target", diag)) != MLR_OK)
+        goto done;
+    int32_t sj[4], se[4], tj[4], te[4];
+    int sk[4], tk[4];
+    const size_t ns = foot_points(&src, sj, se, sk), nt = foot_points(&dst, tj, te, tk);
+    if ((st = mlr_fk_arrays(n_frames, Js, source->parents, source->offsets, root_pos, rot,
+                            source->n_trans, source->trans_joints, trans, wpos, wrot, alloc,
+                            diag)) != MLR_OK ||
+        (st = mlr_contacts_detect(source, fps, up, n_frames, wpos, wrot, ns, sj, se, NULL, 0, cs,
+                                  alloc, diag)) != MLR_OK)
+        goto done;
+    /* each target point takes the contacts of the source point of its kind (ankle or toe), or
+     * of that side's ankle */
+    for (size_t i = 0; i < nt; i++) {
+        size_t from = ns;
+        for (size_t k = 0; k < ns; k++)
+            if (sk[k] == tk[i])
+                from = k;
+        for (size_t k = 0; k < ns && from == ns; k++)
+            if (sk[k] == (tk[i] & ~1))
+                from = k; /* the ankle is always there */
+        for (size_t f = 0; f < n_frames; f++)
+            ct[f * nt + i] = cs[f * ns + from];
+    }
+    double h;
+    if ((st = mlr_cleanup_floor_height(source, n_frames, root_pos, rot, trans, ns, sj, se, cs, up,
+                                       0.05, &h, alloc, diag)) != MLR_OK)
+        goto done;
+    /* the target's up: where G^T takes the source's (the body frames are signed axes) */
+    double G[9];
+    mul_abt(src.body, dst.body, G);
+    int tup = 0;
+    for (int c = 1; c < 3; c++)
+        if (fabs(G[3 * up + c]) > fabs(G[3 * up + tup]))
+            tup = c;
+    const double sign = G[3 * up + tup];
+    const double scale = dst.leg / src.leg;
+    /* h is a height of contact points; the ground is below it by the rest height of each rig's
+     * lowest contact point above its sole */
+    const double floor_t =
+        scale * (h - point_rise(&src, sj, se, ns)) + point_rise(&dst, tj, te, nt);
+    mlr_cleanup_option opts[2];
+    size_t n_opts = 0;
+    if (isfinite(h) && sign > 0.5)
+        opts[n_opts++] = (mlr_cleanup_option){MLR_CLEANUP_OPT_FLOOR_HEIGHT, floor_t};
+    else
+        opts[n_opts++] = (mlr_cleanup_option){MLR_CLEANUP_OPT_FLOOR, 0.0};
+    st = mlr_cleanup_contacts(target, n_frames, fps, tup, out_root_pos, out_rot, out_trans, NULL,
+                              NULL, NULL, nt, tj, te, ct, opts, n_opts, out_root_pos, out_rot,
+                              report, alloc, diag);
+done:
+    mlr_free(&a, buf, bytes + cbytes);
     return st;
 }

@@ -615,6 +615,12 @@ mlr_status mlr_retarget(const mlr_rig *source, size_t n_frames, const double *ro
                         const char *const *map, size_t n_map, double *out_root_pos,
                         double *out_rot, double *out_trans, mlr_retarget_info *info,
                         const mlr_allocator *alloc, mlr_diag *diag);
+mlr_status mlr_retarget_feet(const mlr_rig *source, size_t n_frames, double fps, int up,
+                             const double *root_pos, const double *rot, const double *trans,
+                             const mlr_rig *target, const char *const *map, size_t n_map,
+                             double *out_root_pos, double *out_rot, const double *out_trans,
+                             mlr_cleanup_report *report, const mlr_allocator *alloc,
+                             mlr_diag *diag);
 
 /* mlr_root_motion.h */
 typedef enum mlr_root_motion_mode {

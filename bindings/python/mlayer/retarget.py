@@ -142,7 +142,7 @@ def retarget_roles(skeleton: Skeleton | Motion) -> dict[str, str]:
 
 
 def retarget(motion: Motion, target: Skeleton | Motion | str | os.PathLike[str], *,
-             mapping: MapArg = "auto") -> Motion:
+             mapping: MapArg = "auto", feet: bool = True) -> Motion:
     """The motion put onto another humanoid rig.
 
     Parameters
@@ -157,6 +157,13 @@ def retarget(motion: Motion, target: Skeleton | Motion | str | os.PathLike[str],
         "auto" (default): joints matched by their humanoid roles (:func:`retarget_roles`).
         Explicit pairs ``{source_joint: target_joint}`` (or ``"A=B,C=D"``) override: the target
         joint takes the role of the source joint.
+    feet : bool, optional
+        True (default): the source's foot contacts (:func:`mlayer.detect_contacts` on the
+        source's ankles and toes) become the target's and the contact cleanup plants them (the
+        same two-bone IK and corrections spread in time as the guards of
+        :func:`mlayer.stylize`; C: ``mlr_retarget_feet``): each contact run pinned where the
+        retargeted foot is on average, no foot below the source's floor scaled to the target,
+        knees bending the way the target's bend. False: the bones follow the source's exactly.
 
     Returns
     -------
@@ -195,8 +202,16 @@ def retarget(motion: Motion, target: Skeleton | Motion | str | os.PathLike[str],
                             _arrays.ptr(trans) if trans.size else ffi.NULL, dst_rig, c_map,
                             len(pairs), _arrays.ptr_out(out_root), _arrays.ptr_out(out_rot),
                             _arrays.ptr_out(out_trans) if Pt else ffi.NULL, info, ffi.NULL, diag)
-    del keep_s, keep_t, keep_names
     check(code, "retarget", diag)
+    if feet and N >= 3:
+        from ._rig import motion_axis
+        code = lib.mlr_retarget_feet(
+            src_rig, N, 1.0 / motion.frame_time, motion_axis(motion, None, "retarget"),
+            _arrays.ptr(root_pos), _arrays.ptr(rot), _arrays.ptr(trans) if trans.size else ffi.NULL,
+            dst_rig, c_map, len(pairs), _arrays.ptr_out(out_root), _arrays.ptr_out(out_rot),
+            _arrays.ptr(out_trans) if Pt else ffi.NULL, ffi.NULL, ffi.NULL, diag)
+        check(code, "retarget", diag)
+    del keep_s, keep_t, keep_names
     out = Motion(tsk, motion.frame_time, out_root, out_rot, out_trans, _trusted=True)
     if tmotion is not None:
         out._same_up(tmotion)

@@ -1,7 +1,7 @@
 """mlayer.retarget against an independent reference: forward kinematics by scipy's Rotation
 (world rotations composed down the tree) and the body frames of both rest poses by numpy, so
 that every matched bone's world direction in the target is checked against the source's; a rig
-onto itself; the hips scaled by the leg lengths; the target as a skeleton, a motion or a file;
+onto itself; the top of the legs scaled by the leg lengths; the target as a skeleton, a motion or a file;
 the map; bad input (a rig without legs, unknown joints) with nothing written; the command."""
 from __future__ import annotations
 
@@ -68,7 +68,7 @@ def rest_positions(sk) -> np.ndarray:
 
 def body_frame(sk) -> np.ndarray:
     """Columns left, up, forward of a rest pose (mlr_retarget.h): up from the hips to the head,
-    left from the right upper leg to the left one, by Gram-Schmidt."""
+    left from the right upper leg to the left one, each snapped to the nearest world axis."""
     roles = mlayer.retarget_roles(sk)
     names = sk.joint_names
     rp = rest_positions(sk)
@@ -78,7 +78,16 @@ def body_frame(sk) -> np.ndarray:
     left = at["LeftUpperLeg"] - at["RightUpperLeg"]
     left -= left @ up * up
     left /= np.linalg.norm(left)
+    up, left = snap(up), snap(left)
     return np.column_stack([left, up, np.cross(left, up)])
+
+
+def snap(v: np.ndarray) -> np.ndarray:
+    """The signed world axis nearest v."""
+    out = np.zeros(3)
+    k = int(np.argmax(np.abs(v)))
+    out[k] = np.sign(v[k])
+    return out
 
 
 def bone_dirs(m: mlayer.Motion, pos: np.ndarray) -> dict:
@@ -90,6 +99,31 @@ def bone_dirs(m: mlayer.Motion, pos: np.ndarray) -> dict:
             d = pos[:, names.index(roles[b])] - pos[:, names.index(roles[a])]
             out[(a, b)] = d / np.linalg.norm(d, axis=-1, keepdims=True)
     return out
+
+
+def sole_height(sk) -> float:
+    """The rest height of the ankles above the lowest joint or End Site of their feet, along the
+    body's up (the mean of both feet)."""
+    roles = mlayer.retarget_roles(sk)
+    rp = rest_positions(sk)
+    up = body_frame(sk)[:, 1]
+    out = []
+    for side in ("Left", "Right"):
+        foot = sk.joint_names.index(roles[f"{side}Foot"])
+        below = [j for j in range(sk.n_joints) if _descends(sk, j, foot)]
+        pts = [rp[j] for j in below] + [rp[p] + o for p, o in zip(sk.end_site_parents,
+                                                                   sk.end_site_offsets)
+                                        if p in below]
+        out.append(rp[foot] @ up - min(p @ up for p in pts))
+    return float(np.mean(out))
+
+
+def _descends(sk, j: int, a: int) -> bool:
+    while j >= 0:
+        if j == a:
+            return True
+        j = sk.parents[j]
+    return False
 
 
 def leg_length(sk) -> float:
@@ -105,25 +139,31 @@ def leg_length(sk) -> float:
 @pytest.mark.parametrize("dst", HUMANS)
 def test_every_matched_bone_points_as_the_source_s(mocap, src, dst):
     a, b = clip(mocap, src), clip(mocap, dst)
-    out = mlayer.retarget(a, b)
+    out = mlayer.retarget(a, b, feet=False)
     assert out.joint_names == b.joint_names and out.n_frames == a.n_frames
     G = body_frame(a.skeleton) @ body_frame(b.skeleton).T  # target world -> source world
     ds, dt = bone_dirs(a, scipy_fk(a)), bone_dirs(out, scipy_fk(out))
     assert set(dt) == set(ds) & set(dt) and len(dt) >= 8
     for k in dt:
         np.testing.assert_allclose(dt[k] @ G.T, ds[k], atol=1e-9, err_msg=f"{src}->{dst} {k}")
-    # the hips where the source's are, scaled by the leg lengths
-    ra, rb = mlayer.retarget_roles(a), mlayer.retarget_roles(b)
-    ha = scipy_fk(a)[:, a.joint_names.index(ra["Hips"])]
-    hb = scipy_fk(out)[:, b.joint_names.index(rb["Hips"])]
+    # the top of the legs where the source's is, scaled by the leg lengths, raised by the
+    # target's sole height less the scaled source's
+    def mid(m, pos):
+        r = mlayer.retarget_roles(m)
+        return 0.5 * (pos[:, m.joint_names.index(r["LeftUpperLeg"])]
+                      + pos[:, m.joint_names.index(r["RightUpperLeg"])])
     s = leg_length(b.skeleton) / leg_length(a.skeleton)
-    np.testing.assert_allclose(hb @ G.T, s * ha, atol=1e-9 * s * np.abs(ha).max())
+    up_b = body_frame(b.skeleton)[:, 1]
+    lift = sole_height(b.skeleton) - s * sole_height(a.skeleton)
+    want = s * mid(a, scipy_fk(a)) + lift * (G @ up_b)
+    np.testing.assert_allclose(mid(out, scipy_fk(out)) @ G.T, want,
+                               atol=1e-9 * np.abs(want).max())
 
 
 @pytest.mark.parametrize("name", HUMANS)
 def test_a_rig_onto_itself_gives_the_input_back(mocap, name):
     m = clip(mocap, name)
-    out = mlayer.retarget(m, m)
+    out = mlayer.retarget(m, m, feet=False)
     np.testing.assert_allclose(out.rot, m.rot, atol=1e-9)
     np.testing.assert_allclose(out.root_pos, m.root_pos, atol=1e-9)
     np.testing.assert_allclose(out.trans, m.trans, atol=1e-9)
@@ -195,7 +235,8 @@ def test_a_map_names_joints_the_names_do_not(mocap):
                           sk.end_site_offsets)
     with pytest.raises(mlayer.InvalidArgumentError, match="target: no humanoid"):
         mlayer.retarget(a, odd)
-    out = mlayer.retarget(a, odd, mapping={"LeftFoot": "paw_a", "RightFoot": "paw_b"})
+    out = mlayer.retarget(a, odd, mapping={"LeftFoot": "paw_a", "RightFoot": "paw_b"},
+                          feet=False)
     np.testing.assert_allclose(out.rot, a.rot, atol=1e-9)  # the same rig, renamed
 
 

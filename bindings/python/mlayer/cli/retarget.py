@@ -1,13 +1,13 @@
 """`mlayer retarget`: a clip put onto another humanoid rig (mlayer.retarget).
 
-    mlayer retarget IN --to TARGET -o OUT [--map SRC=TGT,...]
+    mlayer retarget IN --to TARGET -o OUT [--map SRC=TGT,...] [--no-feet]
 
 IN and TARGET are BVH (.bvh), glTF (.glb, .gltf) or AMASS (.npz) files; the target's skeleton
 (its OFFSETs, the rest pose) is taken, its frames are not used. OUT is a BVH or glTF file. The
 joints are matched by their humanoid roles, found from the names and the tree; --map pairs
 source joints with target joints by name where those are wrong or missing. Bad input (a rig
 without hips and two legs, an unknown joint in --map) gives one line on stderr naming the
-joint and exit status 1; the output is written atomically, so a failed run leaves none.
+joint and exit status 1. The source's foot contacts are planted on the target (--no-feet: not); the output is written atomically, so a failed run leaves none.
 """
 from __future__ import annotations
 
@@ -32,6 +32,9 @@ def _arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--map", default=None, metavar="SRC=TGT,...",
                    help="source joint = target joint pairs overriding the roles found by name "
                         "and tree (the target joint takes the source joint's role)")
+    p.add_argument("--no-feet", action="store_true",
+                   help="leave the feet as the bones put them (default: the source's contacts "
+                        "planted on the target, above the scaled floor)")
 
 
 def _read(path: str):
@@ -51,7 +54,7 @@ def cmd_retarget(args: argparse.Namespace) -> int:
     mapping = "auto" if args.map is None else parse_map(args.map)
     m = _read(args.input)
     target = _read(args.to)
-    out = retarget(m, target, mapping=mapping)
+    out = retarget(m, target, mapping=mapping, feet=not args.no_feet)
     if os.path.splitext(args.output)[1].lower() in _GLTF:
         from ..gltf import write_gltf
         write_gltf(out, args.output)
