@@ -2,7 +2,7 @@
  * to rounding), the direction of every matched bone against the source's (forward kinematics
  * of both, the body frames' rotation G applied) for every pair of shared human rigs, the legs'
  * top scaled by the leg lengths, a synthetic rig turned Z-up and put in an A-pose, bad input with
- * nothing written, allocation failures. */
+ * nothing written, allocation failures, the feet planted with the upper body kept. */
 #include "mlr_test.h"
 
 #include <math.h>
@@ -483,6 +483,60 @@ START_TEST(every_allocation_failure_is_no_memory_without_leaks)
 }
 END_TEST
 
+/* ---- the feet ------------------------------------------------------------------------------ */
+
+START_TEST(the_feet_are_planted_and_the_upper_body_kept)
+{
+    mlr_test_clip s, t;
+    if (!MLR_TEST_HAVE_CLIP("cmu_131_01_mj_style_walk.bvh") ||
+        !MLR_TEST_HAVE_CLIP("bandai1_walk_happy_001.bvh"))
+        return;
+    ck_assert(mlr_test_clip_load("cmu_131_01_mj_style_walk.bvh", &s));
+    ck_assert(mlr_test_clip_load("bandai1_walk_happy_001.bvh", &t));
+    const size_t N = 240, Jt = t.j, Pt = t.rig.n_trans;
+    double *rp = malloc(N * 3 * sizeof(double)), *rot = malloc(N * Jt * 4 * sizeof(double));
+    double *tr = malloc(N * Pt * 3 * sizeof(double));
+    ck_assert_int_eq(mlr_retarget(&s.rig, N, mlr_motion_root_pos(s.m), mlr_motion_rot(s.m), NULL,
+                                  &t.rig, NULL, 0, rp, rot, tr, NULL, NULL, NULL),
+                     MLR_OK);
+    double *rot0 = malloc(N * Jt * 4 * sizeof(double));
+    memcpy(rot0, rot, N * Jt * 4 * sizeof(double));
+    mlr_cleanup_report rep;
+    mlr_diag d;
+    ck_assert_msg(mlr_retarget_feet(&s.rig, N, s.fps, MLR_AXIS_Y, mlr_motion_root_pos(s.m),
+                                    mlr_motion_rot(s.m), NULL, &t.rig, NULL, 0, rp, rot, tr, &rep,
+                                    NULL, &d) == MLR_OK,
+                  "%s", d.message);
+    ck_assert_uint_gt(rep.contact_frames, N / 4);
+    ck_assert(isfinite(rep.floor_height));
+    /* the arms and the head keep their local rotations; the legs changed */
+    int32_t role[MLR_ROLE_COUNT];
+    ck_assert_int_eq(mlr_retarget_roles(&t.rig, role, NULL, NULL), MLR_OK);
+    const int kept[] = {MLR_ROLE_LEFT_UPPER_ARM, MLR_ROLE_RIGHT_LOWER_ARM, MLR_ROLE_HEAD};
+    for (size_t f = 0; f < N; f++)
+        for (size_t i = 0; i < MLR_COUNTOF(kept); i++)
+            for (int c = 0; c < 4; c++) {
+                const size_t k = 4 * (f * Jt + (size_t)role[kept[i]]) + (size_t)c;
+                ck_assert_double_eq(rot[k], rot0[k]);
+            }
+    double moved = 0.0;
+    for (size_t f = 0; f < N; f++)
+        for (int c = 0; c < 4; c++) {
+            const size_t k = 4 * (f * Jt + (size_t)role[MLR_ROLE_LEFT_LOWER_LEG]) + (size_t)c;
+            moved = fmax(moved, fabs(rot[k] - rot0[k]));
+        }
+    ck_assert(moved > 1e-4);
+    ck_assert_int_eq(mlr_retarget_feet(&s.rig, N, s.fps, 3, mlr_motion_root_pos(s.m),
+                                       mlr_motion_rot(s.m), NULL, &t.rig, NULL, 0, rp, rot, tr,
+                                       NULL, NULL, &d),
+                     MLR_E_INVALID_ARG);
+    ck_assert_ptr_nonnull(strstr(d.message, "up 3 is not an axis"));
+    free(rp), free(rot), free(rot0), free(tr);
+    mlr_test_clip_unload(&s);
+    mlr_test_clip_unload(&t);
+}
+END_TEST
+
 static Suite *retarget_suite(void)
 {
     Suite *s = suite_create("retarget");
@@ -493,6 +547,7 @@ static Suite *retarget_suite(void)
     tcase_add_test(tc, a_z_up_a_pose_rig_takes_the_bone_directions);
     tcase_add_test(tc, bad_input_names_the_joint_and_writes_nothing);
     tcase_add_test(tc, every_allocation_failure_is_no_memory_without_leaks);
+    tcase_add_test(tc, the_feet_are_planted_and_the_upper_body_kept);
     suite_add_tcase(s, tc);
     return s;
 }

@@ -16,9 +16,10 @@ Per pair A -> B (A a clip, B another rig's skeleton):
   - floor: the deepest point of B's feet (ankle and toe roles and their End Sites) below A's
     floor scaled to B (A's floor: the median lowest foot point in A's contact frames), in % of
     B's body height;
-  - reversals: frames where a knee or elbow bent more than 15 degrees in both bends the other
-    way in B than in A (the sign of the bend about the hips' left-right axis).
-"bones" is mlayer.retarget(feet=False): the bones alone, no contact cleanup. The naive copy: B's joint of each role takes the local rotation of A's joint of that role (the
+  - reversals: knee and elbow frames bent more than 15 degrees in both A and B whose bend axes
+    (upper bone x lower bone, B's turned into A's world) point opposite ways.
+"bones" is mlayer.retarget(feet=False): the bones alone, no contact cleanup. The naive copy:
+B's joint of each role takes the local rotation of A's joint of that role (the
 best a copy by name can do across rigs that name joints differently), B's hips take A's hips'
 world position unchanged, other joints stay at rest.
 """
@@ -47,8 +48,10 @@ LIMBS = [("LeftUpperLeg", "LeftLowerLeg"), ("LeftLowerLeg", "LeftFoot"),
          ("LeftShoulder", "LeftUpperArm"), ("LeftUpperArm", "LeftLowerArm"),
          ("LeftLowerArm", "LeftHand"), ("RightShoulder", "RightUpperArm"),
          ("RightUpperArm", "RightLowerArm"), ("RightLowerArm", "RightHand")]
-HINGES = [("LeftUpperLeg", "LeftLowerLeg", "LeftFoot"), ("RightUpperLeg", "RightLowerLeg", "RightFoot"),
-          ("LeftUpperArm", "LeftLowerArm", "LeftHand"), ("RightUpperArm", "RightLowerArm", "RightHand")]
+HINGES = [("LeftUpperLeg", "LeftLowerLeg", "LeftFoot"),
+          ("RightUpperLeg", "RightLowerLeg", "RightFoot"),
+          ("LeftUpperArm", "LeftLowerArm", "LeftHand"),
+          ("RightUpperArm", "RightLowerArm", "RightHand")]
 
 
 def smpl_skeleton() -> mlayer.Skeleton:
@@ -137,21 +140,21 @@ def foot_points(m: mlayer.Motion, pos: np.ndarray) -> np.ndarray:
     return np.stack(pts, axis=1)
 
 
-def hinge_signs(m: mlayer.Motion, pos: np.ndarray, up: np.ndarray) -> tuple[np.ndarray, ...]:
-    """(N, 4) bend sign about the hips' left-right axis and (N, 4) bend angles (degrees)."""
+def hinge_normals(m: mlayer.Motion, pos: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(N, 4, 3) the bend normals (upper bone x lower bone) of the knees and elbows and (N, 4)
+    their bend angles in degrees (zero where the rig lacks the joints)."""
     r = role_index(m.skeleton)
-    left = pos[:, r["LeftUpperLeg"]] - pos[:, r["RightUpperLeg"]]
-    signs, angles = [], []
+    normals, angles = [], []
     for a, b, c in HINGES:
         if not all(k in r for k in (a, b, c)):
-            signs.append(np.zeros(len(pos))), angles.append(np.zeros(len(pos)))
+            normals.append(np.zeros((len(pos), 3))), angles.append(np.zeros(len(pos)))
             continue
         d1, d2 = pos[:, r[b]] - pos[:, r[a]], pos[:, r[c]] - pos[:, r[b]]
-        n = np.cross(d1, d2)
-        signs.append(np.sign(np.einsum("ij,ij->i", n, left)))
-        cos = np.einsum("ij,ij->i", d1, d2) / np.linalg.norm(d1, axis=1) / np.linalg.norm(d2, axis=1)
+        normals.append(np.cross(d1, d2))
+        cos = np.einsum("ij,ij->i", d1, d2) / np.linalg.norm(d1, axis=1) \
+            / np.linalg.norm(d2, axis=1)
         angles.append(np.degrees(np.arccos(np.clip(cos, -1, 1))))
-    return np.stack(signs, 1), np.stack(angles, 1)
+    return np.stack(normals, 1), np.stack(angles, 1)
 
 
 def measure(a: mlayer.Motion, sk_b: mlayer.Skeleton, method) -> dict[str, float]:
@@ -173,7 +176,8 @@ def measure(a: mlayer.Motion, sk_b: mlayer.Skeleton, method) -> dict[str, float]
         if all(k in ra and k in rb for k in (x, y)):
             da = pa[:, ra[y]] - pa[:, ra[x]]
             db = (pb[:, rb[y]] - pb[:, rb[x]]) @ G.T
-            cos = np.einsum("ij,ij->i", da, db) / np.linalg.norm(da, axis=1) / np.linalg.norm(db, axis=1)
+            cos = np.einsum("ij,ij->i", da, db) / np.linalg.norm(da, axis=1) \
+                / np.linalg.norm(db, axis=1)
             angles.append(np.degrees(np.arccos(np.clip(cos, -1, 1))))
     # contacts of A: its ankle roles
     names, contacts = mlayer.detect_contacts(a)
@@ -209,11 +213,11 @@ def measure(a: mlayer.Motion, sk_b: mlayer.Skeleton, method) -> dict[str, float]
     h_b = mlayer.metrics.body_height(b, up="xyz"[up_b])
     pen = float(np.max(np.maximum(s * floor_a - fb, 0.0))) / h_b * 100
     pen_a = float(np.max(np.maximum(floor_a - fa, 0.0))) / h_a * 100
-    # hinge reversals
-    sa, aa = hinge_signs(a, pa, None)
-    sb, ab = hinge_signs(b, pb @ G.T, None)
+    # hinge reversals: bent more than 15 degrees in both, about opposite axes
+    na, aa = hinge_normals(a, pa)
+    nb, ab = hinge_normals(b, pb @ G.T)
     bent = (aa > 15) & (ab > 15)
-    rev = int(np.sum(bent & (sa != sb)))
+    rev = int(np.sum(bent & (np.einsum("ijk,ijk->ij", na, nb) < 0)))
     return {"rt_mean": float(err.mean()), "rt_p95": float(np.percentile(err, 95)),
             "bone_deg": float(np.mean(angles)), "slide_a": slide_a, "slide_b": slide_b,
             "pen_a": pen_a, "pen_b": pen, "reversals": rev, "b": b}
@@ -221,29 +225,46 @@ def measure(a: mlayer.Motion, sk_b: mlayer.Skeleton, method) -> dict[str, float]
 
 def figure(path: pathlib.Path, a: mlayer.Motion, ours: mlayer.Motion, naive: mlayer.Motion,
            title: str) -> None:
+    """Side views (forward to the right, up) of 6 frames, one row per motion, each frame's hips
+    at its own place along the row (joints above the hips, a static root, not drawn)."""
     from matplotlib.figure import Figure
-    fig = Figure(figsize=(10, 4.2))
-    frames = np.linspace(0, a.n_frames - 1, 4).astype(int)
-    for col, (m, name) in enumerate([(a, "source"), (ours, "mlayer.retarget"),
-                                     (naive, "naive copy")]):
-        ax = fig.add_subplot(1, 3, col + 1)
-        p = m.positions()
-        up = "xyz".index(m.up_axis)
-        G = body_frame(m.skeleton)  # columns left, up, forward in the rig's world
-        q = p @ G  # to (left, up, forward)
+    fig = Figure(figsize=(10, 6.6))
+    frames = np.linspace(0, a.n_frames - 1, 6).astype(int)
+    for row, (m, name) in enumerate([(a, "source (CMU rig)"),
+                                     (ours, "mlayer.retarget (Bandai rig)"),
+                                     (naive, "naive copy of local rotations (Bandai rig)")]):
+        ax = fig.add_subplot(3, 1, row + 1)
+        r = role_index(m.skeleton)
+        q = m.positions() @ body_frame(m.skeleton)  # (left, up, forward)
+        hips = r["Hips"]
+        q[..., 1] -= np.median(q[:, :, 1].min(axis=1))  # the feet's usual level at 0
+        height = np.percentile(q[:, :, 1].max(axis=1), 90)
         par = m.skeleton.parents
+        above = {j for j in range(m.n_joints) if j != hips and _descends(m.skeleton, hips, j)}
         for k, f in enumerate(frames):
-            shift = k * 1.2 * (q[:, :, 1].max() - q[:, :, 1].min())
+            x0 = k * 1.1 * height - q[f, hips, 2]
             for j in range(1, m.n_joints):
-                ax.plot([q[f, j, 2] + shift, q[f, par[j], 2] + shift],
-                        [q[f, j, 1], q[f, par[j], 1]], color="C%d" % col, lw=1.2)
+                if j in above or par[j] in above:
+                    continue
+                ax.plot([q[f, j, 2] + x0, q[f, par[j], 2] + x0], [q[f, j, 1], q[f, par[j], 1]],
+                        color=f"C{row}", lw=1.4)
+            ax.text(k * 1.1 * height, -0.12 * height, f"frame {f}", ha="center", fontsize=7)
+        ax.axhline(0, color="0.6", lw=0.6)
         ax.set_aspect("equal")
         ax.set_title(name, fontsize=9)
         ax.set_xticks([]), ax.set_yticks([])
-        del up
     fig.suptitle(title, fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=90)
+
+
+def _descends(sk, j: int, a: int) -> bool:
+    """Whether joint j is a or below it."""
+    while j >= 0:
+        if j == a:
+            return True
+        j = sk.parents[j]
+    return False
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -299,7 +320,8 @@ def main(argv: list[str] | None = None) -> int:
         figure(args.figure, a, mlayer.retarget(a, targets["Bandai"]),
                naive_copy(a, targets["Bandai"]),
                "CMU 131_01 walk onto the Bandai rig: source, mlayer.retarget, naive copy")
-        print(f"# figure: {args.figure.relative_to(REPO) if args.figure.is_absolute() else args.figure}")
+        shown = args.figure.relative_to(REPO) if args.figure.is_absolute() else args.figure
+        print(f"# figure: {shown}")
     return 0
 
 

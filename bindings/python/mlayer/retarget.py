@@ -207,8 +207,9 @@ def retarget(motion: Motion, target: Skeleton | Motion | str | os.PathLike[str],
         from ._rig import motion_axis
         code = lib.mlr_retarget_feet(
             src_rig, N, 1.0 / motion.frame_time, motion_axis(motion, None, "retarget"),
-            _arrays.ptr(root_pos), _arrays.ptr(rot), _arrays.ptr(trans) if trans.size else ffi.NULL,
-            dst_rig, c_map, len(pairs), _arrays.ptr_out(out_root), _arrays.ptr_out(out_rot),
+            _arrays.ptr(root_pos), _arrays.ptr(rot),
+            _arrays.ptr(trans) if trans.size else ffi.NULL, dst_rig, c_map, len(pairs),
+            _arrays.ptr_out(out_root), _arrays.ptr_out(out_rot),
             _arrays.ptr(out_trans) if Pt else ffi.NULL, ffi.NULL, ffi.NULL, diag)
         check(code, "retarget", diag)
     del keep_s, keep_t, keep_names

@@ -1,8 +1,9 @@
 """mlayer.retarget against an independent reference: forward kinematics by scipy's Rotation
 (world rotations composed down the tree) and the body frames of both rest poses by numpy, so
 that every matched bone's world direction in the target is checked against the source's; a rig
-onto itself; the top of the legs scaled by the leg lengths; the target as a skeleton, a motion or a file;
-the map; bad input (a rig without legs, unknown joints) with nothing written; the command."""
+onto itself; the top of the legs scaled by the leg lengths; the target as a skeleton, a motion
+or a file; the map; bad input (a rig without legs, unknown joints) with nothing written; the
+command; the feet sliding no more than the source's with the upper body kept."""
 from __future__ import annotations
 
 import numpy as np
@@ -281,3 +282,36 @@ def test_the_command_refuses_a_target_without_legs(capsys, tmp_path, mocap):
     out = tmp_path / "out.bvh"
     code, _, err = run(capsys, "retarget", mocap / "lafan1_clip_a.bvh", "--to", chain, "-o", out)
     assert code == 1 and "target: no humanoid LeftFoot" in err and not out.exists()
+
+
+# ---- the feet ------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("src,dst", [("cmu_131_01_mj_style_walk.bvh",
+                                      "bandai1_walk_happy_001.bvh"),
+                                     ("bandai1_walk_happy_001.bvh", "lafan1_clip_a.bvh"),
+                                     ("lafan1_clip_a.bvh", "cmu_10_01_soccer_kick.bvh")])
+def test_the_feet_slide_no_more_than_the_source_s(mocap, src, dst):
+    a = mlayer.read_bvh(mocap / src)[:240]
+    b = mlayer.read_bvh(mocap / dst)
+    bones, out = mlayer.retarget(a, b, feet=False), mlayer.retarget(a, b)
+    ra, rb = mlayer.retarget_roles(a), mlayer.retarget_roles(b)
+    # the source's contacts of its ankles, by mlayer.detect_contacts (the same detection the
+    # C core runs), and the horizontal speed of the ankles on those frames, in leg lengths/s
+    names = [ra["LeftFoot"], ra["RightFoot"]]
+    _, c = mlayer.detect_contacts(a, names)
+    assert c.sum() > 20
+
+    def sliding(m, feet, leg):
+        return mlayer.metrics.foot_sliding(m, c, feet) / leg
+
+    s_a = sliding(a, names, leg_length(a.skeleton))
+    s_out = sliding(out, [rb["LeftFoot"], rb["RightFoot"]], leg_length(b.skeleton))
+    s_bones = sliding(bones, [rb["LeftFoot"], rb["RightFoot"]], leg_length(b.skeleton))
+    assert s_out <= s_a and s_out < s_bones
+    # the rest of the body keeps its bones: the arms point as without the cleanup
+    p1, p2 = bones.positions(), out.positions()
+    for x, y in BONES[5:]:
+        if x in rb and y in rb:
+            d1 = p1[:, b.joint_names.index(rb[y])] - p1[:, b.joint_names.index(rb[x])]
+            d2 = p2[:, b.joint_names.index(rb[y])] - p2[:, b.joint_names.index(rb[x])]
+            np.testing.assert_allclose(d1, d2, atol=1e-9 * np.abs(d1).max())

@@ -5,9 +5,10 @@
 IN and TARGET are BVH (.bvh), glTF (.glb, .gltf) or AMASS (.npz) files; the target's skeleton
 (its OFFSETs, the rest pose) is taken, its frames are not used. OUT is a BVH or glTF file. The
 joints are matched by their humanoid roles, found from the names and the tree; --map pairs
-source joints with target joints by name where those are wrong or missing. Bad input (a rig
-without hips and two legs, an unknown joint in --map) gives one line on stderr naming the
-joint and exit status 1. The source's foot contacts are planted on the target (--no-feet: not); the output is written atomically, so a failed run leaves none.
+source joints with target joints by name where those are wrong or missing. The source's foot
+contacts are planted on the target (--no-feet: not). Bad input (a rig without hips and two
+legs, an unknown joint in --map) gives one line on stderr naming the joint and exit status 1;
+the output is written atomically, so a failed run leaves none.
 """
 from __future__ import annotations
 
