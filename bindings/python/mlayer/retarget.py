@@ -39,7 +39,7 @@ MapArg = str | Mapping[str, str] | Iterable[tuple[str, str]]
 
 
 def parse_map(text: str) -> list[tuple[str, str]]:
-    """A map written ``"SRC=TGT,SRC2=TGT2"`` (the command line's ``--map``) as pairs.
+    """A map written ``"SRC=TGT,SRC2=TGT2"`` (the command line's ``--mapping``) as pairs.
 
     Parameters
     ----------

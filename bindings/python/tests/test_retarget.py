@@ -262,8 +262,8 @@ def test_the_command_writes_the_retargeted_clip(capsys, tmp_path, mocap):
 
 
 @pytest.mark.parametrize("argv,message", [
-    (["--map", "LeftAnkle=Nope"], "target has no joint 'Nope'"),
-    (["--map", "LeftAnkle"], "is not SOURCE=TARGET"),
+    (["--mapping", "LeftAnkle=Nope"], "target has no joint 'Nope'"),
+    (["--mapping", "LeftAnkle"], "is not SOURCE=TARGET"),
 ])
 def test_the_command_fails_in_one_line_and_writes_nothing(capsys, tmp_path, mocap, argv,
                                                           message):

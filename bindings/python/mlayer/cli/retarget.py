@@ -1,13 +1,13 @@
 """`mlayer retarget`: a clip put onto another humanoid rig (mlayer.retarget).
 
-    mlayer retarget IN --to TARGET -o OUT [--map SRC=TGT,...] [--no-feet]
+    mlayer retarget IN --to TARGET -o OUT [--mapping SRC=TGT,...] [--no-feet]
 
 IN and TARGET are BVH (.bvh), glTF (.glb, .gltf) or AMASS (.npz) files; the target's skeleton
 (its OFFSETs, the rest pose) is taken, its frames are not used. OUT is a BVH or glTF file. The
-joints are matched by their humanoid roles, found from the names and the tree; --map pairs
+joints are matched by their humanoid roles, found from the names and the tree; --mapping pairs
 source joints with target joints by name where those are wrong or missing. The source's foot
 contacts are planted on the target (--no-feet: not). Bad input (a rig without hips and two
-legs, an unknown joint in --map) gives one line on stderr naming the joint and exit status 1;
+legs, an unknown joint in --mapping) gives one line on stderr naming the joint and exit status 1;
 the output is written atomically, so a failed run leaves none.
 """
 from __future__ import annotations
@@ -30,7 +30,7 @@ def _arguments(p: argparse.ArgumentParser) -> None:
                         "taken")
     p.add_argument("-o", "--output", required=True, metavar="OUT",
                    help="output file: .bvh, .glb or .gltf")
-    p.add_argument("--map", default=None, metavar="SRC=TGT,...",
+    p.add_argument("--mapping", default=None, metavar="SRC=TGT,...",
                    help="source joint = target joint pairs overriding the roles found by name "
                         "and tree (the target joint takes the source joint's role)")
     p.add_argument("--no-feet", action="store_true",
@@ -52,7 +52,7 @@ def _read(path: str):
          outputs={"output": Output((".bvh",) + _GLTF, "a BVH or glTF file (.bvh, .glb, .gltf)")})
 def cmd_retarget(args: argparse.Namespace) -> int:
     """Run `mlayer retarget` (see the module docstring); returns the exit status."""
-    mapping = "auto" if args.map is None else parse_map(args.map)
+    mapping = "auto" if args.mapping is None else parse_map(args.mapping)
     m = _read(args.input)
     target = _read(args.to)
     out = retarget(m, target, mapping=mapping, feet=not args.no_feet)
