@@ -139,8 +139,9 @@ START_TEST(a_rig_onto_itself_gives_the_input_back)
         double *otr = P ? malloc(N * P * 3 * sizeof(double)) : NULL;
         mlr_retarget_info info;
         mlr_diag d;
-        ck_assert_msg(mlr_retarget(&c.rig, N, rp, rot, tr, &c.rig, NULL, 0, orp, orot, otr, &info,
-                                   NULL, &d) == MLR_OK,
+        ck_assert_msg(mlr_retarget(&c.rig, N, rp, rot, tr, &c.rig, MLR_RETARGET_UP_REST,
+                                   MLR_RETARGET_UP_REST, NULL, 0, orp, orot, otr, &info, NULL,
+                                   &d) == MLR_OK,
                       "%s: %s", human_clips[k], d.message);
         ck_assert_double_eq_tol(info.scale, 1.0, 1e-15);
         ck_assert_uint_eq(info.n_matched, J);
@@ -205,8 +206,8 @@ START_TEST(every_matched_bone_points_as_the_source_s)
             mlr_diag d;
             double *st = clean_trans(&s, N);
             ck_assert_msg(mlr_retarget(&s.rig, N, mlr_motion_root_pos(s.m), mlr_motion_rot(s.m),
-                                       st, &t.rig, NULL, 0, orp, orot, otr, &info, NULL,
-                                       &d) == MLR_OK,
+                                       st, &t.rig, MLR_RETARGET_UP_REST, MLR_RETARGET_UP_REST,
+                                       NULL, 0, orp, orot, otr, &info, NULL, &d) == MLR_OK,
                           "%s -> %s: %s", human_clips[a], human_clips[b], d.message);
             int32_t rs[MLR_ROLE_COUNT], rt[MLR_ROLE_COUNT];
             ck_assert_int_eq(mlr_retarget_roles(&s.rig, rs, NULL, NULL), MLR_OK);
@@ -340,7 +341,8 @@ START_TEST(a_z_up_a_pose_rig_takes_the_bone_directions)
     random_pose(&g, N, TJ, rp, rot);
     mlr_retarget_info info;
     mlr_diag d;
-    ck_assert_msg(mlr_retarget(&ry, N, rp, rot, NULL, &rz, NULL, 0, orp, orot, NULL, &info, NULL,
+    ck_assert_msg(mlr_retarget(&ry, N, rp, rot, NULL, &rz, MLR_RETARGET_UP_REST,
+                               MLR_RETARGET_UP_REST, NULL, 0, orp, orot, NULL, &info, NULL,
                                &d) == MLR_OK,
                   "%s", d.message);
     ck_assert_double_eq_tol(info.scale, 1.2, 1e-12);
@@ -365,9 +367,10 @@ START_TEST(a_z_up_a_pose_rig_takes_the_bone_directions)
                       a[2]);
     }
     /* and back: the input again */
-    ck_assert_int_eq(
-        mlr_retarget(&rz, N, orp, orot, NULL, &ry, NULL, 0, back_rp, back, NULL, NULL, NULL, NULL),
-        MLR_OK);
+    ck_assert_int_eq(mlr_retarget(&rz, N, orp, orot, NULL, &ry, MLR_RETARGET_UP_REST,
+                                  MLR_RETARGET_UP_REST, NULL, 0, back_rp, back, NULL, NULL, NULL,
+                                  NULL),
+                     MLR_OK);
     for (size_t i = 0; i < 3 * N; i++)
         ck_assert_double_eq_tol(back_rp[i], rp[i], 1e-9);
     for (size_t f = 0; f < N * TJ; f++) {
@@ -399,9 +402,9 @@ START_TEST(bad_input_names_the_joint_and_writes_nothing)
     for (size_t i = 0; i < 3 * N; i++)
         orp[i] = 7.0;
     mlr_diag d;
-    ck_assert_int_eq(
-        mlr_retarget(&ry, N, rp, rot, NULL, &rc, NULL, 0, orp, orot, NULL, NULL, NULL, &d),
-        MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_retarget(&ry, N, rp, rot, NULL, &rc, MLR_RETARGET_UP_REST,
+                                  MLR_RETARGET_UP_REST, NULL, 0, orp, orot, NULL, NULL, NULL, &d),
+                     MLR_E_INVALID_ARG);
     ck_assert_ptr_nonnull(strstr(d.message, "target: no humanoid LeftFoot"));
     ck_assert_double_eq(orp[0], 7.0); /* nothing written */
     int32_t role[MLR_ROLE_COUNT];
@@ -409,19 +412,21 @@ START_TEST(bad_input_names_the_joint_and_writes_nothing)
     ck_assert_ptr_nonnull(strstr(d.message, "LeftFoot"));
 
     const char *unknown_t[2] = {"LeftFoot", "no_such_foot"};
-    ck_assert_int_eq(
-        mlr_retarget(&ry, N, rp, rot, NULL, &rz, unknown_t, 1, orp, orot, NULL, NULL, NULL, &d),
-        MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_retarget(&ry, N, rp, rot, NULL, &rz, MLR_RETARGET_UP_REST,
+                                  MLR_RETARGET_UP_REST, unknown_t, 1, orp, orot, NULL, NULL, NULL,
+                                  &d),
+                     MLR_E_INVALID_ARG);
     ck_assert_ptr_nonnull(strstr(d.message, "the target has no joint 'no_such_foot'"));
     const char *unknown_s[2] = {"Lefty", "foot_l"};
-    ck_assert_int_eq(
-        mlr_retarget(&ry, N, rp, rot, NULL, &rz, unknown_s, 1, orp, orot, NULL, NULL, NULL, &d),
-        MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_retarget(&ry, N, rp, rot, NULL, &rz, MLR_RETARGET_UP_REST,
+                                  MLR_RETARGET_UP_REST, unknown_s, 1, orp, orot, NULL, NULL, NULL,
+                                  &d),
+                     MLR_E_INVALID_ARG);
     ck_assert_ptr_nonnull(strstr(d.message, "the source has no joint 'Lefty'"));
     const char *twice[4] = {"LeftFoot", "foot_l", "RightFoot", "foot_l"};
-    ck_assert_int_eq(
-        mlr_retarget(&ry, N, rp, rot, NULL, &rz, twice, 2, orp, orot, NULL, NULL, NULL, &d),
-        MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_retarget(&ry, N, rp, rot, NULL, &rz, MLR_RETARGET_UP_REST,
+                                  MLR_RETARGET_UP_REST, twice, 2, orp, orot, NULL, NULL, NULL, &d),
+                     MLR_E_INVALID_ARG);
     ck_assert_ptr_nonnull(strstr(d.message, "'foot_l' is named twice"));
     ck_assert_double_eq(orp[0], 7.0);
 
@@ -432,20 +437,21 @@ START_TEST(bad_input_names_the_joint_and_writes_nothing)
                                               "hand_r",     "thigh_l",  "calf_l",     "paw_a",
                                               "thigh_r",    "calf_r",   "paw_b"};
     const mlr_rig ro = {TJ, y_parents, zo, odd_names, 0, NULL, 0, NULL, NULL};
-    ck_assert_int_eq(
-        mlr_retarget(&ry, N, rp, rot, NULL, &ro, NULL, 0, orp, orot, NULL, NULL, NULL, &d),
-        MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_retarget(&ry, N, rp, rot, NULL, &ro, MLR_RETARGET_UP_REST,
+                                  MLR_RETARGET_UP_REST, NULL, 0, orp, orot, NULL, NULL, NULL, &d),
+                     MLR_E_INVALID_ARG);
     ck_assert_ptr_nonnull(strstr(d.message, "target: no humanoid"));
     const char *paws[4] = {"LeftFoot", "paw_a", "RightFoot", "paw_b"};
-    ck_assert_msg(mlr_retarget(&ry, N, rp, rot, NULL, &ro, paws, 2, orp, orot, NULL, NULL, NULL,
+    ck_assert_msg(mlr_retarget(&ry, N, rp, rot, NULL, &ro, MLR_RETARGET_UP_REST,
+                               MLR_RETARGET_UP_REST, paws, 2, orp, orot, NULL, NULL, NULL,
                                &d) == MLR_OK,
                   "%s", d.message);
 
     /* non-finite input */
     rot[5] = NAN;
-    ck_assert_int_eq(
-        mlr_retarget(&ry, N, rp, rot, NULL, &rz, NULL, 0, orp, orot, NULL, NULL, NULL, &d),
-        MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_retarget(&ry, N, rp, rot, NULL, &rz, MLR_RETARGET_UP_REST,
+                                  MLR_RETARGET_UP_REST, NULL, 0, orp, orot, NULL, NULL, NULL, &d),
+                     MLR_E_INVALID_ARG);
     ck_assert_ptr_nonnull(strstr(d.message, "rot: a value of frame 0 is not finite"));
 }
 END_TEST
@@ -461,16 +467,17 @@ START_TEST(every_allocation_failure_is_no_memory_without_leaks)
     mlr_test_rng g;
     mlr_test_rng_seed(&g, 7);
     random_pose(&g, N, TJ, rp, rot);
-    ck_assert_int_eq(
-        mlr_retarget(&ry, N, rp, rot, NULL, &rz, NULL, 0, orp, ref, NULL, NULL, NULL, NULL),
-        MLR_OK);
+    ck_assert_int_eq(mlr_retarget(&ry, N, rp, rot, NULL, &rz, MLR_RETARGET_UP_REST,
+                                  MLR_RETARGET_UP_REST, NULL, 0, orp, ref, NULL, NULL, NULL, NULL),
+                     MLR_OK);
     size_t fails = 0;
     for (size_t at = 0;; at++) {
         mlr_test_allocator ta;
         mlr_test_allocator_init(&ta, at);
         mlr_diag d;
         const mlr_status st =
-            mlr_retarget(&ry, N, rp, rot, NULL, &rz, NULL, 0, orp, orot, NULL, NULL, &ta.base, &d);
+            mlr_retarget(&ry, N, rp, rot, NULL, &rz, MLR_RETARGET_UP_REST, MLR_RETARGET_UP_REST,
+                         NULL, 0, orp, orot, NULL, NULL, &ta.base, &d);
         ck_assert_uint_eq(ta.live_blocks, 0);
         if (st == MLR_OK) {
             ck_assert_mem_eq(orot, ref, sizeof ref);
@@ -497,17 +504,35 @@ START_TEST(the_feet_are_planted_and_the_upper_body_kept)
     double *rp = malloc(N * 3 * sizeof(double)), *rot = malloc(N * Jt * 4 * sizeof(double));
     double *tr = malloc(N * Pt * 3 * sizeof(double));
     ck_assert_int_eq(mlr_retarget(&s.rig, N, mlr_motion_root_pos(s.m), mlr_motion_rot(s.m), NULL,
-                                  &t.rig, NULL, 0, rp, rot, tr, NULL, NULL, NULL),
+                                  &t.rig, MLR_AXIS_Y, MLR_AXIS_Y, NULL, 0, rp, rot, tr, NULL, NULL,
+                                  NULL),
                      MLR_OK);
     double *rot0 = malloc(N * Jt * 4 * sizeof(double));
     memcpy(rot0, rot, N * Jt * 4 * sizeof(double));
     mlr_cleanup_report rep;
     mlr_diag d;
     ck_assert_msg(mlr_retarget_feet(&s.rig, N, s.fps, MLR_AXIS_Y, mlr_motion_root_pos(s.m),
-                                    mlr_motion_rot(s.m), NULL, &t.rig, NULL, 0, rp, rot, tr, &rep,
-                                    NULL, &d) == MLR_OK,
+                                    mlr_motion_rot(s.m), NULL, &t.rig, MLR_AXIS_Y, NULL, 0, rp,
+                                    rot, tr, &rep, NULL, &d) == MLR_OK,
                   "%s", d.message);
     ck_assert_uint_gt(rep.contact_frames, N / 4);
+    /* Bandai's bind pose lies along x; with its world up given (y) the character stands: the
+     * head above the hips along y in every frame */
+    {
+        double *pos = malloc(N * Jt * 3 * sizeof(double));
+        ck_assert_int_eq(mlr_fk_arrays(N, Jt, t.rig.parents, t.rig.offsets, rp, rot, Pt,
+                                       t.rig.trans_joints, tr, pos, NULL, NULL, NULL),
+                         MLR_OK);
+        int32_t rr[MLR_ROLE_COUNT];
+        ck_assert_int_eq(mlr_retarget_roles(&t.rig, rr, NULL, NULL), MLR_OK);
+        for (size_t f = 0; f < N; f++) {
+            const double *h = pos + 3 * (f * Jt + (size_t)rr[MLR_ROLE_HIPS]);
+            const double *e = pos + 3 * (f * Jt + (size_t)rr[MLR_ROLE_HEAD]);
+            const double d[3] = {e[0] - h[0], e[1] - h[1], e[2] - h[2]};
+            ck_assert(d[1] > 0.8 * sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]));
+        }
+        free(pos);
+    }
     ck_assert(isfinite(rep.floor_height));
     /* the arms and the head keep their local rotations; the legs changed */
     int32_t role[MLR_ROLE_COUNT];
@@ -527,8 +552,8 @@ START_TEST(the_feet_are_planted_and_the_upper_body_kept)
         }
     ck_assert(moved > 1e-4);
     ck_assert_int_eq(mlr_retarget_feet(&s.rig, N, s.fps, 3, mlr_motion_root_pos(s.m),
-                                       mlr_motion_rot(s.m), NULL, &t.rig, NULL, 0, rp, rot, tr,
-                                       NULL, NULL, &d),
+                                       mlr_motion_rot(s.m), NULL, &t.rig, MLR_RETARGET_UP_REST,
+                                       NULL, 0, rp, rot, tr, NULL, NULL, &d),
                      MLR_E_INVALID_ARG);
     ck_assert_ptr_nonnull(strstr(d.message, "up 3 is not an axis"));
     free(rp), free(rot), free(rot0), free(tr);

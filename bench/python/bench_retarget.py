@@ -15,7 +15,8 @@ Per pair A -> B (A a clip, B another rig's skeleton):
     (mlayer.detect_contacts on A), in leg lengths per second, for A and for A -> B;
   - floor: the deepest point of B's feet (ankle and toe roles and their End Sites) below A's
     floor scaled to B (A's floor: the median lowest foot point in A's contact frames), in % of
-    B's body height;
+    B's body height; hovering: the median height of B's lowest foot point above that floor on A's
+    contact frames, less A's own, in % of body height;
   - reversals: knee and elbow frames bent more than 15 degrees in both A and B whose bend axes
     (upper bone x lower bone, B's turned into A's world) point opposite ways.
 "bones" is mlayer.retarget(feet=False): the bones alone, no contact cleanup. The naive copy:
@@ -94,6 +95,19 @@ def snap(v: np.ndarray) -> np.ndarray:
     return out
 
 
+def world_frame(sk, up: str) -> np.ndarray:
+    """The world frame of mlr_retarget.h: the rest body frame, or, where the world's up is
+    another axis than the rest's, that up with the rest's left where level, else its forward."""
+    body = body_frame(sk)
+    k = "xyz".index(up)
+    if abs(body[k, 1]) > 0.5:
+        return body
+    u = np.eye(3)[k]
+    if abs(body[k, 0]) < 0.5:
+        return np.column_stack([body[:, 0], u, np.cross(body[:, 0], u)])
+    return np.column_stack([np.cross(u, body[:, 2]), u, body[:, 2]])
+
+
 def leg_length(sk) -> float:
     r, rp = role_index(sk), rest_positions(sk)
     return float(np.mean([np.linalg.norm(rp[r[f"{s}UpperLeg"]] - rp[r[f"{s}LowerLeg"]])
@@ -101,7 +115,8 @@ def leg_length(sk) -> float:
                           for s in ("Left", "Right")]))
 
 
-def naive_copy(a: mlayer.Motion, sk: mlayer.Skeleton) -> mlayer.Motion:
+def naive_copy(a: mlayer.Motion, target) -> mlayer.Motion:
+    sk = target.skeleton if isinstance(target, mlayer.Motion) else target
     ra, rb = role_index(a.skeleton), role_index(sk)
     N = a.n_frames
     rot = np.zeros((N, sk.n_joints, 4))
@@ -120,7 +135,7 @@ def naive_copy(a: mlayer.Motion, sk: mlayer.Skeleton) -> mlayer.Motion:
     else:
         root = root + hips - rest_positions(sk)[hb] - sk.offsets[0]
     out = mlayer.Motion(sk, a.frame_time, root, rot, trans)
-    out.up_axis = a.up_axis
+    out.up_axis = target.up_axis if isinstance(target, mlayer.Motion) else "y"
     return out
 
 
@@ -157,14 +172,15 @@ def hinge_normals(m: mlayer.Motion, pos: np.ndarray) -> tuple[np.ndarray, np.nda
     return np.stack(normals, 1), np.stack(angles, 1)
 
 
-def measure(a: mlayer.Motion, sk_b: mlayer.Skeleton, method) -> dict[str, float]:
-    b = method(a, sk_b)
-    back = method(b, a.skeleton)
+def measure(a: mlayer.Motion, target, method) -> dict[str, float]:
+    b = method(a, target)
+    back = method(b, a)
+    sk_b = b.skeleton
     pa, pb, pback = a.positions(), b.positions(), back.positions()
     ra, rb = role_index(a.skeleton), role_index(sk_b)
     h_a = mlayer.metrics.body_height(a)
     upk = "xyz".index(a.up_axis)
-    G = body_frame(a.skeleton) @ body_frame(sk_b).T   # B world -> A world
+    G = world_frame(a.skeleton, a.up_axis) @ world_frame(sk_b, b.up_axis).T  # B world -> A
     # round trip over A's joints whose role B has (a chain: B has one of its kind)
     kinds = {k.rstrip("0123456789") for k in rb}
     keep = [j for k, j in ra.items() if k in rb or (k[-1].isdigit() and k.rstrip("0123456789")
@@ -213,6 +229,11 @@ def measure(a: mlayer.Motion, sk_b: mlayer.Skeleton, method) -> dict[str, float]
     h_b = mlayer.metrics.body_height(b, up="xyz"[up_b])
     pen = float(np.max(np.maximum(s * floor_a - fb, 0.0))) / h_b * 100
     pen_a = float(np.max(np.maximum(floor_a - fa, 0.0))) / h_a * 100
+    # hovering: how far B's lowest foot point is above the scaled floor on A's contact frames
+    # (median), less A's own (zero by the floor's definition when A has contacts)
+    frames = in_contact if in_contact.any() else np.ones(len(fa), dtype=bool)
+    hover = float(np.median(fb[frames] - s * floor_a)) / h_b * 100 \
+        - float(np.median(fa[frames] - floor_a)) / h_a * 100
     # hinge reversals: bent more than 15 degrees in both, about opposite axes
     na, aa = hinge_normals(a, pa)
     nb, ab = hinge_normals(b, pb @ G.T)
@@ -220,7 +241,7 @@ def measure(a: mlayer.Motion, sk_b: mlayer.Skeleton, method) -> dict[str, float]
     rev = int(np.sum(bent & (np.einsum("ijk,ijk->ij", na, nb) < 0)))
     return {"rt_mean": float(err.mean()), "rt_p95": float(np.percentile(err, 95)),
             "bone_deg": float(np.mean(angles)), "slide_a": slide_a, "slide_b": slide_b,
-            "pen_a": pen_a, "pen_b": pen, "reversals": rev, "b": b}
+            "pen_a": pen_a, "pen_b": pen, "hover": hover, "reversals": rev, "b": b}
 
 
 def figure(path: pathlib.Path, a: mlayer.Motion, ours: mlayer.Motion, naive: mlayer.Motion,
@@ -235,7 +256,7 @@ def figure(path: pathlib.Path, a: mlayer.Motion, ours: mlayer.Motion, naive: mla
                                      (naive, "naive copy of local rotations (Bandai rig)")]):
         ax = fig.add_subplot(3, 1, row + 1)
         r = role_index(m.skeleton)
-        q = m.positions() @ body_frame(m.skeleton)  # (left, up, forward)
+        q = m.positions() @ world_frame(m.skeleton, m.up_axis)  # (left, up, forward)
         hips = r["Hips"]
         q[..., 1] -= np.median(q[:, :, 1].min(axis=1))  # the feet's usual level at 0
         height = np.percentile(q[:, :, 1].max(axis=1), 90)
@@ -286,19 +307,27 @@ def main(argv: list[str] | None = None) -> int:
             print(f"# {name}: {path} not found, left out", file=sys.stderr)
             continue
         clips[name] = mlayer.read_bvh(path)[first:first + args.frames]
-    targets = {n: m.skeleton for n, m in clips.items()}
+    # the targets as motions, so that their world up (Motion.up_axis) is known: LaFAN1's and
+    # Bandai's bind poses lie along x; SMPL's template is Y-up
+    targets: dict = dict(clips)
     targets["SMPL"] = smpl_skeleton()
-    cols = ("rt_mean", "rt_p95", "bone_deg", "slide_a", "slide_b", "pen_a", "pen_b", "reversals")
+    cols = ("rt_mean", "rt_p95", "bone_deg", "slide_a", "slide_b", "pen_a", "pen_b", "hover",
+            "reversals")
     print("method  A -> B  " + "  ".join(cols))
     rows: dict[str, list] = {"retarget": [], "bones": [], "naive": []}
 
-    def bones_only(m, sk):
-        return mlayer.retarget(m, sk, feet=False)
+    def ours(m, target):
+        return mlayer.retarget(m, target, target_up=None if isinstance(target, mlayer.Motion)
+                               else "y")
+
+    def bones_only(m, target):
+        return mlayer.retarget(m, target, feet=False,
+                               target_up=None if isinstance(target, mlayer.Motion) else "y")
     for an, a in clips.items():
         for bn, sk in targets.items():
             if an == bn:
                 continue
-            for meth, fn in (("retarget", mlayer.retarget), ("bones", bones_only),
+            for meth, fn in (("retarget", ours), ("bones", bones_only),
                              ("naive", naive_copy)):
                 r = measure(a, sk, fn)
                 rows[meth].append(r)
@@ -313,7 +342,9 @@ def main(argv: list[str] | None = None) -> int:
               f"{int(np.sum(arr['slide_b'] > arr['slide_a'] * 1.0001))} pairs "
               f"(worst ratio {np.nanmax(arr['slide_b'] / arr['slide_a']):.3g}); penetration "
               f"worst {np.nanmax(arr['pen_b']):.3g}% (pairs above 0.5%: "
-              f"{int(np.sum(arr['pen_b'] > 0.5))}); reversal frames "
+              f"{int(np.sum(arr['pen_b'] > 0.5))}); hovering median "
+              f"{np.nanmedian(arr['hover']):.3g}% (range {np.nanmin(arr['hover']):.3g} to "
+              f"{np.nanmax(arr['hover']):.3g}); reversal frames "
               f"{int(np.nansum(arr['reversals']))}")
     if args.figure and "CMU" in clips and "Bandai" in targets:
         a = clips["CMU"]

@@ -17,15 +17,17 @@
  * than MLR_RETARGET_MAX_NECK) gives its roles to joints spread evenly along it.
  *
  * The retarget (mlr_retarget). Both rest poses are the OFFSETs with identity rotations. Each
- * rig has a body frame F (columns: left, up, forward; up from the hips to the head, left from
- * the right upper leg to the left one without its part along up, each snapped to the nearest
- * world axis with its sign, so that a rest pose leaning a few degrees does not tilt the floor;
- * forward = left x up) and every role joint j with a bone
+ * rig has a rest body frame B (columns: left, up, forward; up from the hips to the head, left
+ * from the right upper leg to the left one without its part along up, each snapped to the
+ * nearest world axis with its sign, so that a rest pose leaning a few degrees does not tilt the
+ * floor; forward = left x up) and a world frame F: B, or, where the rig's world up is given and
+ * is another axis than B's up (a bind pose lying along x, as Bandai's), that up with B's left
+ * where it is level (else B's forward), forward = left x up. Every role joint j with a bone has
  * a rest frame P_j: its first column along the bone (to the next joint of its role chain:
  * upper leg to lower leg, lower arm to hand, spine to spine, neck or head, the foot to the toes
  * or its End Site, the hand to the mean of its children, the head to its End Site), its second
- * the body axis least aligned with the source's bone (Gram-Schmidt). With G = F_s F_t^T (target
- * world to source world) and, per matched role, C = P_s P_t^T (C = G for the hips and for a
+ * the axis of B least aligned with both bones (Gram-Schmidt). With G = F_s F_t^T (target world
+ * to source world) and, per matched role, C = P_s P_t^T (C = B_s B_t^T for the hips and for a
  * role without a bone on either rig), the target joint's world rotation at each frame is
  *     W_t = G^T W_s C,
  * so that the direction of every matched bone in the target's world is the source's (mapped by
@@ -43,7 +45,7 @@
  * Placement. s = L_t / L_s, L being the mean over both sides of the rest lengths upper leg ->
  * lower leg -> foot. The middle of the target's upper legs goes where the source's is, mapped
  * by G^T and scaled by s (about the origin: the floor is taken at height 0), raised along the
- * target's up by a_t - s a_s, a being the rest height of the ankles above the lowest joint or
+ * target's world up by a_t - s a_s, a being the rest height of the ankles above the lowest joint or
  * End Site of their feet (so that soles on the floor stay on it). The shift that puts it there
  * goes into the root translation (the hips are the root, or the root carries them: its
  * rotation stays at rest) or into the hips' position channels (a static root above them:
@@ -66,6 +68,9 @@
 #ifdef __cplusplus
 extern "C" {
 #endif
+
+/** The up argument that takes a rig's up from its rest pose (the hips to the head). */
+#define MLR_RETARGET_UP_REST (-1)
 
 /** Longest spine and neck chains given roles. */
 #define MLR_RETARGET_MAX_SPINE 8
@@ -129,6 +134,8 @@ typedef struct mlr_retarget_info {
  * @param rot          [in] N x J_s x 4 source local rotations (unit, scalar first)
  * @param trans        [in] N x P_s x 3 translations of source->trans_joints; NULL when P_s is 0
  * @param target       [in] a valid rig with names
+ * @param source_up    [in] the source's world up, an mlr_axis, or MLR_RETARGET_UP_REST
+ * @param target_up    [in] the target's likewise (the world frames of the file comment)
  * @param map          [in] 2 n_map names, pair k = (source joint map[2k], target joint
  *                     map[2k+1]); NULL when n_map is 0
  * @param n_map        [in] number of pairs
@@ -149,9 +156,10 @@ typedef struct mlr_retarget_info {
  */
 MLR_API mlr_status mlr_retarget(const mlr_rig *source, size_t n_frames, const double *root_pos,
                                 const double *rot, const double *trans, const mlr_rig *target,
-                                const char *const *map, size_t n_map, double *out_root_pos,
-                                double *out_rot, double *out_trans, mlr_retarget_info *info,
-                                const mlr_allocator *alloc, mlr_diag *diag);
+                                int source_up, int target_up, const char *const *map, size_t n_map,
+                                double *out_root_pos, double *out_rot, double *out_trans,
+                                mlr_retarget_info *info, const mlr_allocator *alloc,
+                                mlr_diag *diag);
 
 /**
  * The feet of a retargeted motion (the output of mlr_retarget, changed in place): the source's
@@ -164,13 +172,17 @@ MLR_API mlr_status mlr_retarget(const mlr_rig *source, size_t n_frames, const do
  * by s and raised by the soles' difference, as the placement of mlr_retarget does; it is left
  * out when the source's up does not map onto a positive world axis of the target. Contact
  * points are pinned to their mean over each contact run (so they slide no more than zero),
- * knees bend the way the target's IK chain does, bone lengths are kept.
+ * knees bend the way the target's IK chain does, bone lengths are kept. Last, as the guards'
+ * last step: the ground the source's feet stand on (the median over its contact frames of its
+ * lowest foot point: ankles, toes and their End Sites) is scaled by s, and the target's whole
+ * body is raised along up by a smooth envelope of the shortfall (the largest within +-0.1 s,
+ * averaged with a raised-cosine window as wide) wherever its lowest foot point is below it.
  * @param source     [in] the source rig (as given to mlr_retarget)
  * @param n_frames   [in] N; fewer than 3: nothing is done
  * @param fps        [in] frames per second, finite, > 0
  * @param up         [in] the source's up axis, an mlr_axis
  * @param root_pos, rot, trans [in] the source motion (as given to mlr_retarget)
- * @param target, map, n_map   [in] as given to mlr_retarget
+ * @param target, target_up, map, n_map [in] as given to mlr_retarget
  * @param out_root_pos, out_rot [in, out] the retargeted motion, N x 3 and N x J_t x 4
  * @param out_trans  [in] its N x P_t x 3 translations (kept), NULL when P_t is 0
  * @param report     [out] optional: what the cleanup did
@@ -178,12 +190,13 @@ MLR_API mlr_status mlr_retarget(const mlr_rig *source, size_t n_frames, const do
  * @param diag       [out] optional: the reason of an error
  * @return MLR_OK; MLR_E_INVALID_ARG (as mlr_retarget; bad up or fps; the cleanup's reasons);
  *         MLR_E_NO_MEMORY; MLR_E_OVERFLOW
- * Allocates: N (7 J_s + 1) doubles and the cleanup's scratch, released before return.
+ * Allocates: N (7 J_s + 1) and N (7 J_t + 2) doubles and the cleanup's scratch, released
+ * before return.
  * Threads: any; the source is only read.
  */
 MLR_API mlr_status mlr_retarget_feet(const mlr_rig *source, size_t n_frames, double fps, int up,
                                      const double *root_pos, const double *rot,
-                                     const double *trans, const mlr_rig *target,
+                                     const double *trans, const mlr_rig *target, int target_up,
                                      const char *const *map, size_t n_map, double *out_root_pos,
                                      double *out_rot, const double *out_trans,
                                      mlr_cleanup_report *report, const mlr_allocator *alloc,

@@ -374,7 +374,8 @@ typedef struct rig_rest {
     int32_t role[MLR_ROLE_COUNT];
     int n_spine, n_neck;
     double *pos;       /* J x 3 rest positions, the root at the origin */
-    double body[9];    /* F: columns left, up, forward */
+    double body[9];    /* columns left, up, forward of the rest pose (snapped to axes) */
+    double world[9];   /* F: the same in the world: up the given axis where one is given */
     double leg;        /* L: mean leg length */
 } rig_rest;
 
@@ -476,7 +477,7 @@ static double dist3(const double *a, const double *b)
 }
 
 /* Rest positions, the body frame and the leg length (roles already set). */
-static mlr_status rest_setup(rig_rest *r, const char *who, mlr_diag *diag)
+static mlr_status rest_setup(rig_rest *r, const char *who, int up_axis, mlr_diag *diag)
 {
     const mlr_rig *rig = r->rig;
     const int32_t *R = r->role;
@@ -538,38 +539,26 @@ static mlr_status rest_setup(rig_rest *r, const char *who, mlr_diag *diag)
         r->body[3 * row + 1] = su[row];
         r->body[3 * row + 2] = fw[row];
     }
+    memcpy(r->world, r->body, sizeof r->body);
+    if (up_axis >= 0 && up_axis != ku) {
+        /* the world's up is given and the rest pose lies along another axis (Bandai's bind
+         * pose: the bones along x): left stays the rest's where it is level, else forward does */
+        double wu[3] = {0, 0, 0}, wl[3], wf[3];
+        wu[up_axis] = 1.0;
+        if (kl != up_axis) {
+            memcpy(wl, sl, sizeof wl);
+            cross3(wl, wu, wf);
+        } else {
+            memcpy(wf, fw, sizeof wf);
+            cross3(wu, wf, wl);
+        }
+        for (int row = 0; row < 3; row++) {
+            r->world[3 * row] = wl[row];
+            r->world[3 * row + 1] = wu[row];
+            r->world[3 * row + 2] = wf[row];
+        }
+    }
     return MLR_OK;
-}
-
-/* The rest height of the ankles above the soles: along the body's up, the foot joint above the
- * lowest of its subtree's joints and End Sites; the mean of both feet. */
-static double side_sole(const rig_rest *r, int32_t foot, const double *up)
-{
-    const mlr_rig *rig = r->rig;
-    const double top = dot3(r->pos + 3 * (size_t)foot, up);
-    double low = top;
-    for (size_t k = (size_t)foot; k < rig->n_joints; k++) {
-        if (k > (size_t)foot && !is_ancestor(rig, foot, (int32_t)k))
-            break; /* depth-first: the subtree is contiguous */
-        low = fmin(low, dot3(r->pos + 3 * k, up));
-    }
-    for (size_t e = 0; e < rig->n_end_sites; e++) {
-        const int32_t j = rig->end_site_parents[e];
-        if (!is_ancestor(rig, foot, j))
-            continue;
-        double p[3];
-        for (int c = 0; c < 3; c++)
-            p[c] = r->pos[3 * (size_t)j + (size_t)c] + rig->end_site_offsets[3 * e + (size_t)c];
-        low = fmin(low, dot3(p, up));
-    }
-    return top - low;
-}
-
-static double sole_height(const rig_rest *r)
-{
-    const double up[3] = {r->body[1], r->body[4], r->body[7]};
-    return 0.5 * (side_sole(r, r->role[MLR_ROLE_LEFT_FOOT], up) +
-                  side_sole(r, r->role[MLR_ROLE_RIGHT_FOOT], up));
 }
 
 /* ---- the map ------------------------------------------------------------------------------ */
@@ -640,6 +629,32 @@ static void complete_roles(const mlr_rig *rig, int32_t *role)
             role[MLR_ROLE_HIPS] = h;
     }
     tree_roles(rig, role, role[MLR_ROLE_HEAD]);
+}
+
+/* The height along up of a rig's ankle (foot role) above the lowest of its foot's points (the
+ * toes and the End Sites of the foot and the toes), posed by the world rotations wrot (J). */
+static double foot_drop(const rig_rest *r, int side, const mlr_quat *wrot, const double *up)
+{
+    const mlr_rig *rig = r->rig;
+    const int foot_role = side == 0 ? MLR_ROLE_LEFT_FOOT : MLR_ROLE_RIGHT_FOOT;
+    const int32_t foot = r->role[foot_role], toes = r->role[foot_role + 1];
+    double low = 0.0, toe_rel[3] = {0, 0, 0};
+    if (toes >= 0 && rig->parents[toes] == foot) {
+        mlr_quat_rotate_inline(&wrot[foot], rig->offsets + 3 * (size_t)toes, toe_rel);
+        low = fmin(low, dot3(toe_rel, up));
+    }
+    for (size_t e = 0; e < rig->n_end_sites; e++) {
+        const int32_t j = rig->end_site_parents[e];
+        if (j != foot && (j != toes || toes < 0 || rig->parents[toes] != foot))
+            continue;
+        double v[3];
+        mlr_quat_rotate_inline(&wrot[j], rig->end_site_offsets + 3 * e, v);
+        if (j == toes)
+            for (int c = 0; c < 3; c++)
+                v[c] += toe_rel[c];
+        low = fmin(low, dot3(v, up));
+    }
+    return -low;
 }
 
 /* ---- the retarget ------------------------------------------------------------------------- */
@@ -845,9 +860,9 @@ typedef struct follow_rec {
 
 mlr_status mlr_retarget(const mlr_rig *source, size_t n_frames, const double *root_pos,
                         const double *rot, const double *trans, const mlr_rig *target,
-                        const char *const *map, size_t n_map, double *out_root_pos,
-                        double *out_rot, double *out_trans, mlr_retarget_info *info,
-                        const mlr_allocator *alloc, mlr_diag *diag)
+                        int source_up, int target_up, const char *const *map, size_t n_map,
+                        double *out_root_pos, double *out_rot, double *out_trans,
+                        mlr_retarget_info *info, const mlr_allocator *alloc, mlr_diag *diag)
 {
     mlr_status st = mlr_rig_check(source, diag);
     if (st != MLR_OK)
@@ -868,6 +883,10 @@ mlr_status mlr_retarget(const mlr_rig *source, size_t n_frames, const double *ro
     if (n_map && !map)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "retarget: map is NULL with %zu pairs",
                             n_map);
+    if (source_up < -1 || source_up > 2 || target_up < -1 || target_up > 2)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "retarget: up %d is not an axis or MLR_RETARGET_UP_REST",
+                            source_up < -1 || source_up > 2 ? source_up : target_up);
     size_t nr, nq, nt;
     if (mlr_mul_size(n_frames, 3, &nr) || mlr_mul_size(n_frames, 4 * Js, &nq) ||
         mlr_mul_size(n_frames, 3 * Ps, &nt))
@@ -901,14 +920,20 @@ mlr_status mlr_retarget(const mlr_rig *source, size_t n_frames, const double *ro
     follow_rec *fr = (follow_rec *)(void *)(t_wrot + 4 * Jt);
     size_t matched = 0;
     double G[9], scale = 0.0;
+    double *drop = NULL, *hipq = NULL; /* N drops, N x 4 hips' parents, N of scratch */
+    size_t dbytes = 0;
 
-    if ((st = rest_setup(&src, "source", diag)) != MLR_OK ||
-        (st = rest_setup(&dst, "target", diag)) != MLR_OK)
+    if ((st = rest_setup(&src, "source", source_up, diag)) != MLR_OK ||
+        (st = rest_setup(&dst, "target", target_up, diag)) != MLR_OK)
         goto done;
-    mul_abt(src.body, dst.body, G); /* F_s F_t^T */
+    mul_abt(src.world, dst.world, G); /* F_s F_t^T */
     mlr_quat g;
     quat_of_matrix(G, &g);
     const mlr_quat gc = qconj(g);
+    double B[9]; /* the rest poses' body frames: the correction of a joint without a bone */
+    mul_abt(src.body, dst.body, B);
+    mlr_quat rb;
+    quat_of_matrix(B, &rb);
     chain ss, sn, ts, tn;
     chains_of(&src, &ss, &sn);
     chains_of(&dst, &ts, &tn);
@@ -929,7 +954,7 @@ mlr_status mlr_retarget(const mlr_rig *source, size_t n_frames, const double *ro
                 ps[c] -= src.pos[3 * (size_t)f->src + (size_t)c];
                 pt[c] -= dst.pos[3 * (size_t)t + (size_t)c];
             }
-        f->corr = correction(&src, &dst, have, ps, pt, g);
+        f->corr = correction(&src, &dst, have, ps, pt, rb);
         const int is_spine = r >= MLR_ROLE_SPINE && r < MLR_ROLE_SPINE + MLR_RETARGET_MAX_SPINE;
         const int is_neck = r >= MLR_ROLE_NECK && r < MLR_ROLE_NECK + MLR_RETARGET_MAX_NECK;
         const chain *sc = is_spine ? &ss : &sn, *tc = is_spine ? &ts : &tn;
@@ -960,7 +985,7 @@ mlr_status mlr_retarget(const mlr_rig *source, size_t n_frames, const double *ro
                 pt[c] -= dst.pos[3 * j + (size_t)c];
             }
         fr[j].src = s;
-        fr[j].corr = correction(&src, &dst, have, ps, pt, g);
+        fr[j].corr = correction(&src, &dst, have, ps, pt, rb);
         matched++;
     }
 
@@ -969,7 +994,23 @@ mlr_status mlr_retarget(const mlr_rig *source, size_t n_frames, const double *ro
     const long hips_row = hips_t > 0 ? mlr_rig_trans_row(target, hips_t) : -1;
     const int32_t tl = dst.role[MLR_ROLE_LEFT_UPPER_LEG], tr = dst.role[MLR_ROLE_RIGHT_UPPER_LEG];
     const size_t last_leg = (size_t)(tl > tr ? tl : tr);
-    const double lift = sole_height(&dst) - scale * sole_height(&src);
+    /* the soles: per frame, the ankles above their feet's lowest points, target less scaled
+     * source, the mean of both sides; their median raises the whole motion (A -> B -> A: the
+     * way back's is minus this one over s, so the round trip cancels it) */
+    if (n_frames) {
+        if (mlr_mul_size(n_frames, 6 * sizeof(double), &dbytes) != MLR_OK) {
+            st = mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "retarget: the frames are too many");
+            goto done;
+        }
+        drop = mlr_alloc(&a, dbytes);
+        if (!drop) {
+            st = mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "retarget: out of memory");
+            goto done;
+        }
+        hipq = drop + n_frames;
+    }
+    const double up_s[3] = {src.world[1], src.world[4], src.world[7]};
+    const double up_t[3] = {dst.world[1], dst.world[4], dst.world[7]};
     for (size_t f = 0; f < n_frames; f++) {
         st = mlr_fk_arrays(1, Js, source->parents, source->offsets, root_pos + 3 * f,
                            rot + 4 * Js * f, Ps, source->trans_joints,
@@ -1010,8 +1051,6 @@ mlr_status mlr_retarget(const mlr_rig *source, size_t n_frames, const double *ro
         for (int c = 0; c < 3; c++)
             hs[c] = 0.5 * (sl[c] + sr[c]) * scale;
         mlr_quat_rotate_inline(&gc, hs, want);
-        for (int c = 0; c < 3; c++)
-            want[c] += lift * dst.body[3 * c + 1];
         double *oroot = out_root_pos + 3 * f;
         double *otr = Pt ? out_trans + 3 * Pt * f : NULL;
         for (int c = 0; c < 3; c++)
@@ -1040,9 +1079,32 @@ mlr_status mlr_retarget(const mlr_rig *source, size_t n_frames, const double *ro
             mlr_quat_rotate_inline(&pc, shift, v);
             for (int c = 0; c < 3; c++)
                 otr[3 * (size_t)hips_row + (size_t)c] += v[c];
+            memcpy(hipq + 4 * f, &pc, sizeof pc);
         } else {
             for (int c = 0; c < 3; c++)
                 oroot[c] += shift[c];
+        }
+        drop[f] = 0.0;
+        for (int k = 0; k < 2; k++)
+            drop[f] += 0.5 * (foot_drop(&dst, k, tw, up_t) - scale * foot_drop(&src, k, sw, up_s));
+    }
+    if (n_frames) {
+        double *tmp = hipq + 4 * n_frames; /* the median reorders: a copy */
+        memcpy(tmp, drop, n_frames * sizeof(double));
+        const double lift = mlr_median(tmp, n_frames);
+        for (size_t f = 0; f < n_frames; f++) {
+            const double v[3] = {lift * up_t[0], lift * up_t[1], lift * up_t[2]};
+            if (hips_row >= 0) {
+                double w[3];
+                mlr_quat q;
+                memcpy(&q, hipq + 4 * f, sizeof q);
+                mlr_quat_rotate_inline(&q, v, w);
+                for (int c = 0; c < 3; c++)
+                    out_trans[3 * (Pt * f + (size_t)hips_row) + (size_t)c] += w[c];
+            } else {
+                for (int c = 0; c < 3; c++)
+                    out_root_pos[3 * f + (size_t)c] += v[c];
+            }
         }
     }
     if (info) {
@@ -1051,6 +1113,8 @@ mlr_status mlr_retarget(const mlr_rig *source, size_t n_frames, const double *ro
         memcpy(info->to_source, G, sizeof G);
     }
 done:
+    if (drop)
+        mlr_free(&a, drop, dbytes);
     mlr_free(&a, buf, bytes + rbytes);
     return st;
 }
@@ -1079,39 +1143,96 @@ static size_t foot_points(const rig_rest *r, int32_t *joints, int32_t *ends, int
     return n;
 }
 
-/* The rest height, along the body's up, of the lowest of a rig's contact points above the lowest
- * point of the feet (sole_height's), the mean of both sides. */
-static double point_rise(const rig_rest *r, const int32_t *joints, const int32_t *ends, size_t n)
+/* The lowest foot point of each frame along up (axis up, positive): the ankles, the toes and
+ * the End Sites below them. wpos and wrot are scratch of N x J x 3 and N x J x 4 (the frames'
+ * forward kinematics); out (N) may be wpos itself. */
+static void lowest_foot(const rig_rest *r, size_t n_frames, const double *root_pos,
+                        const double *rot, const double *trans, int up, double *wpos, double *wrot,
+                        double *out)
 {
     const mlr_rig *rig = r->rig;
-    const double up[3] = {r->body[1], r->body[4], r->body[7]};
-    double sum = 0.0;
+    const size_t J = rig->n_joints;
+    (void)mlr_fk_arrays(n_frames, J, rig->parents, rig->offsets, root_pos, rot, rig->n_trans,
+                        rig->trans_joints, trans, wpos, wrot, NULL, NULL);
+    int32_t pts[4];
+    size_t np = 0;
     for (int side = 0; side < 2; side++) {
-        const int32_t foot = r->role[side == 0 ? MLR_ROLE_LEFT_FOOT : MLR_ROLE_RIGHT_FOOT];
-        const double ankle = dot3(r->pos + 3 * (size_t)foot, up);
-        double low = INFINITY;
-        for (size_t i = 0; i < n; i++) {
-            if (!is_ancestor(rig, foot, joints[i]))
-                continue;
-            double p[3];
-            for (int c = 0; c < 3; c++)
-                p[c] =
-                    r->pos[3 * (size_t)joints[i] + (size_t)c] +
-                    (ends[i] >= 0 ? rig->end_site_offsets[3 * (size_t)ends[i] + (size_t)c] : 0.0);
-            low = fmin(low, dot3(p, up));
-        }
-        /* the sole is sole_height below the ankle */
-        sum += low - (ankle - side_sole(r, foot, up));
+        const int foot = side == 0 ? MLR_ROLE_LEFT_FOOT : MLR_ROLE_RIGHT_FOOT;
+        pts[np++] = r->role[foot];
+        if (r->role[foot + 1] >= 0)
+            pts[np++] = r->role[foot + 1];
     }
-    return 0.5 * sum;
+    for (size_t f = 0; f < n_frames; f++) {
+        double lo = INFINITY;
+        for (size_t i = 0; i < np; i++)
+            lo = fmin(lo, wpos[3 * (f * J + (size_t)pts[i]) + (size_t)up]);
+        for (size_t e = 0; e < rig->n_end_sites; e++) {
+            const int32_t j = rig->end_site_parents[e];
+            int mine = 0;
+            for (size_t i = 0; i < np; i++)
+                mine |= j == pts[i];
+            if (!mine)
+                continue;
+            double v[3];
+            const mlr_quat *q = (const mlr_quat *)(const void *)(wrot + 4 * (f * J + (size_t)j));
+            mlr_quat_rotate_inline(q, rig->end_site_offsets + 3 * e, v);
+            lo = fmin(lo, wpos[3 * (f * J + (size_t)j) + (size_t)up] + v[up]);
+        }
+        out[f] = lo; /* f <= 3 f J: out may overlay wpos */
+    }
+}
+
+/* Raise the target's whole body along up (its root translation) where its lowest foot point is
+ * below ground: by a smooth envelope of the shortfall (the largest within +-0.1 s, averaged with
+ * a raised-cosine window of the same width, so it covers every frame's shortfall and is zero
+ * farther than 0.2 s from any). */
+static mlr_status raise_feet(const rig_rest *r, size_t n_frames, double fps, int up, double ground,
+                             double *root_pos, const double *rot, const double *trans,
+                             const mlr_allocator *a, mlr_diag *diag)
+{
+    const size_t J = r->rig->n_joints;
+    size_t nd, bytes;
+    if (mlr_mul_size(n_frames, 7 * J + 2, &nd) != MLR_OK ||
+        mlr_mul_size(nd, sizeof(double), &bytes) != MLR_OK)
+        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "retarget: the frames are too many");
+    double *wpos = mlr_alloc(a, bytes);
+    if (!wpos)
+        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "retarget: out of memory");
+    double *wrot = wpos + 3 * n_frames * J, *need = wrot + 4 * n_frames * J,
+           *wide = need + n_frames;
+    lowest_foot(r, n_frames, root_pos, rot, trans, up, wpos, wrot, need);
+    for (size_t f = 0; f < n_frames; f++)
+        need[f] = fmax(0.0, ground - need[f]);
+    const size_t half = (size_t)fmax(1.0, round(0.1 * fps));
+    for (size_t f = 0; f < n_frames; f++) {
+        const size_t lo = f > half ? f - half : 0,
+                     hi = f + half < n_frames ? f + half : n_frames - 1;
+        double m = 0.0;
+        for (size_t k = lo; k <= hi; k++)
+            m = fmax(m, need[k]);
+        wide[f] = m;
+    }
+    for (size_t f = 0; f < n_frames; f++) {
+        const size_t lo = f > half ? f - half : 0,
+                     hi = f + half < n_frames ? f + half : n_frames - 1;
+        double acc = 0.0, wsum = 0.0;
+        for (size_t k = lo; k <= hi; k++) {
+            const double x = ((double)k - (double)f) / (double)(half + 1);
+            const double w = 0.5 * (1.0 + cos(3.14159265358979323846 * x));
+            acc += w * wide[k], wsum += w;
+        }
+        root_pos[3 * f + (size_t)up] += acc / wsum;
+    }
+    mlr_free(a, wpos, bytes);
+    return MLR_OK;
 }
 
 mlr_status mlr_retarget_feet(const mlr_rig *source, size_t n_frames, double fps, int up,
                              const double *root_pos, const double *rot, const double *trans,
-                             const mlr_rig *target, const char *const *map, size_t n_map,
-                             double *out_root_pos, double *out_rot, const double *out_trans,
-                             mlr_cleanup_report *report, const mlr_allocator *alloc,
-                             mlr_diag *diag)
+                             const mlr_rig *target, int target_up, const char *const *map,
+                             size_t n_map, double *out_root_pos, double *out_rot,
+                             const double *out_trans, mlr_cleanup_report *report,
+                             const mlr_allocator *alloc, mlr_diag *diag)
 {
     mlr_status st = mlr_rig_check(source, diag);
     if (st != MLR_OK)
@@ -1125,6 +1246,9 @@ mlr_status mlr_retarget_feet(const mlr_rig *source, size_t n_frames, double fps,
                             source->names ? "target" : "source");
     if (up < 0 || up > 2)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "retarget: up %d is not an axis", up);
+    if (target_up < -1 || target_up > 2)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "retarget: up %d is not an axis or MLR_RETARGET_UP_REST", target_up);
     if (!(fps > 0) || !isfinite(fps))
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "retarget: fps must be > 0");
     const size_t Js = source->n_joints, Jt = target->n_joints;
@@ -1152,8 +1276,8 @@ mlr_status mlr_retarget_feet(const mlr_rig *source, size_t n_frames, double fps,
     dst.pos = src.pos + 3 * Js;
     double *wpos = dst.pos + 3 * Jt, *wrot = wpos + 3 * n_frames * Js;
     uint8_t *cs = (uint8_t *)(void *)(wrot + 4 * n_frames * Js), *ct = cs + 4 * n_frames;
-    if ((st = rest_setup(&src, "source", diag)) != MLR_OK ||
-        (st = rest_setup(&dst, "target", diag)) != MLR_OK)
+    if ((st = rest_setup(&src, "source", up, diag)) != MLR_OK ||
+        (st = rest_setup(&dst, "target", target_up, diag)) != MLR_OK)
         goto done;
     int32_t sj[4], se[4], tj[4], te[4];
     int sk[4], tk[4];
@@ -1183,26 +1307,44 @@ mlr_status mlr_retarget_feet(const mlr_rig *source, size_t n_frames, double fps,
         goto done;
     /* the target's up: where G^T takes the source's (the body frames are signed axes) */
     double G[9];
-    mul_abt(src.body, dst.body, G);
+    mul_abt(src.world, dst.world, G);
     int tup = 0;
     for (int c = 1; c < 3; c++)
         if (fabs(G[3 * up + c]) > fabs(G[3 * up + tup]))
             tup = c;
     const double sign = G[3 * up + tup];
     const double scale = dst.leg / src.leg;
-    /* h is a height of contact points; the ground is below it by the rest height of each rig's
-     * lowest contact point above its sole */
-    const double floor_t =
-        scale * (h - point_rise(&src, sj, se, ns)) + point_rise(&dst, tj, te, nt);
-    mlr_cleanup_option opts[2];
+    /* the floor: the cleanup's own estimate on the retargeted motion (its soles already stand
+     * where the scaled source's do, mlr_retarget); off when up does not map onto a positive
+     * axis */
+    mlr_cleanup_option opts[1];
     size_t n_opts = 0;
-    if (isfinite(h) && sign > 0.5)
-        opts[n_opts++] = (mlr_cleanup_option){MLR_CLEANUP_OPT_FLOOR_HEIGHT, floor_t};
-    else
+    if (!(isfinite(h) && sign > 0.5))
         opts[n_opts++] = (mlr_cleanup_option){MLR_CLEANUP_OPT_FLOOR, 0.0};
     st = mlr_cleanup_contacts(target, n_frames, fps, tup, out_root_pos, out_rot, out_trans, NULL,
                               NULL, NULL, nt, tj, te, ct, opts, n_opts, out_root_pos, out_rot,
                               report, alloc, diag);
+    if (st == MLR_OK && sign > 0.5) {
+        /* the last word, as the guards' (guards.c, raise_to_floor): the ground the source's
+         * feet stand on (the median over its contact frames of its lowest foot point, End Sites
+         * included) scaled, and the whole body raised smoothly wherever a foot point of the
+         * result is below it */
+        double *low = wpos; /* the source's frames are no longer needed: N lows, N needs */
+        lowest_foot(&src, n_frames, root_pos, rot, trans, up, wpos, wrot, low);
+        size_t m = 0;
+        for (size_t f = 0; f < n_frames; f++) {
+            int any = 0;
+            for (size_t i = 0; i < ns; i++)
+                any |= cs[f * ns + i] != 0;
+            if (any)
+                low[m++] = low[f];
+        }
+        if (m) {
+            const double ground = scale * mlr_median(low, m);
+            st = raise_feet(&dst, n_frames, fps, tup, ground, out_root_pos, out_rot, out_trans, &a,
+                            diag);
+        }
+    }
 done:
     mlr_free(&a, buf, bytes + cbytes);
     return st;

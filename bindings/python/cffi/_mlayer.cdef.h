@@ -612,13 +612,14 @@ typedef struct mlr_retarget_info {
 } mlr_retarget_info;
 mlr_status mlr_retarget(const mlr_rig *source, size_t n_frames, const double *root_pos,
                         const double *rot, const double *trans, const mlr_rig *target,
-                        const char *const *map, size_t n_map, double *out_root_pos,
-                        double *out_rot, double *out_trans, mlr_retarget_info *info,
+                        int source_up, int target_up, const char *const *map, size_t n_map,
+                        double *out_root_pos, double *out_rot, double *out_trans, mlr_retarget_info *info,
                         const mlr_allocator *alloc, mlr_diag *diag);
 mlr_status mlr_retarget_feet(const mlr_rig *source, size_t n_frames, double fps, int up,
                              const double *root_pos, const double *rot, const double *trans,
-                             const mlr_rig *target, const char *const *map, size_t n_map,
-                             double *out_root_pos, double *out_rot, const double *out_trans,
+                             const mlr_rig *target, int target_up, const char *const *map,
+                             size_t n_map, double *out_root_pos, double *out_rot,
+                             const double *out_trans,
                              mlr_cleanup_report *report, const mlr_allocator *alloc,
                              mlr_diag *diag);
 

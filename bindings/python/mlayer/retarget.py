@@ -142,7 +142,8 @@ def retarget_roles(skeleton: Skeleton | Motion) -> dict[str, str]:
 
 
 def retarget(motion: Motion, target: Skeleton | Motion | str | os.PathLike[str], *,
-             mapping: MapArg = "auto", feet: bool = True) -> Motion:
+             mapping: MapArg = "auto", feet: bool = True,
+             target_up: str | None = None) -> Motion:
     """The motion put onto another humanoid rig.
 
     Parameters
@@ -163,7 +164,14 @@ def retarget(motion: Motion, target: Skeleton | Motion | str | os.PathLike[str],
         same two-bone IK and corrections spread in time as the guards of
         :func:`mlayer.stylize`; C: ``mlr_retarget_feet``): each contact run pinned where the
         retargeted foot is on average, no foot below the source's floor scaled to the target,
-        knees bending the way the target's bend. False: the bones follow the source's exactly.
+        knees bending the way the target's bend, and, as the guards' last step, the whole body
+        raised smoothly wherever a foot is below the ground the source's feet stand on, scaled.
+        False: the bones follow the source's exactly.
+    target_up : {"x", "y", "z"}, optional
+        The target's world up axis. Default: the target motion's :attr:`~mlayer.Motion.up_axis`
+        (a Motion or a file), or, for a Skeleton, the up of its rest pose (hips to head); give
+        it for a skeleton whose rest pose lies along another axis than the world's up (a bind
+        pose along x, as Bandai's). The source's is its ``up_axis``.
 
     Returns
     -------
@@ -185,6 +193,12 @@ def retarget(motion: Motion, target: Skeleton | Motion | str | os.PathLike[str],
                                    f"{type(motion).__name__}")
     tsk, tmotion = _target_of(target)
     pairs = _map_pairs(mapping)
+    from ._rig import axis, motion_axis
+    s_up = motion_axis(motion, None, "retarget")
+    if target_up is not None:
+        t_up = axis(target_up, "retarget: target_up")
+    else:
+        t_up = motion_axis(tmotion, None, "retarget") if tmotion is not None else -1
     keep_names = [ffi.new("char[]", n.encode("utf-8", errors="surrogateescape"))
                   for p in pairs for n in p]
     c_map = ffi.new("const char *[]", keep_names) if keep_names else ffi.NULL
@@ -199,16 +213,16 @@ def retarget(motion: Motion, target: Skeleton | Motion | str | os.PathLike[str],
     dst_rig, keep_t = c_rig(tsk)
     diag = ffi.new("mlr_diag *")
     code = lib.mlr_retarget(src_rig, N, _arrays.ptr(root_pos), _arrays.ptr(rot),
-                            _arrays.ptr(trans) if trans.size else ffi.NULL, dst_rig, c_map,
+                            _arrays.ptr(trans) if trans.size else ffi.NULL, dst_rig, s_up, t_up,
+                            c_map,
                             len(pairs), _arrays.ptr_out(out_root), _arrays.ptr_out(out_rot),
                             _arrays.ptr_out(out_trans) if Pt else ffi.NULL, info, ffi.NULL, diag)
     check(code, "retarget", diag)
     if feet and N >= 3:
-        from ._rig import motion_axis
         code = lib.mlr_retarget_feet(
-            src_rig, N, 1.0 / motion.frame_time, motion_axis(motion, None, "retarget"),
+            src_rig, N, 1.0 / motion.frame_time, s_up,
             _arrays.ptr(root_pos), _arrays.ptr(rot),
-            _arrays.ptr(trans) if trans.size else ffi.NULL, dst_rig, c_map, len(pairs),
+            _arrays.ptr(trans) if trans.size else ffi.NULL, dst_rig, t_up, c_map, len(pairs),
             _arrays.ptr_out(out_root), _arrays.ptr_out(out_rot),
             _arrays.ptr(out_trans) if Pt else ffi.NULL, ffi.NULL, ffi.NULL, diag)
         check(code, "retarget", diag)
@@ -216,4 +230,6 @@ def retarget(motion: Motion, target: Skeleton | Motion | str | os.PathLike[str],
     out = Motion(tsk, motion.frame_time, out_root, out_rot, out_trans, _trusted=True)
     if tmotion is not None:
         out._same_up(tmotion)
+    if t_up >= 0:
+        out.up_axis = "xyz"[t_up]
     return out

@@ -91,6 +91,22 @@ def snap(v: np.ndarray) -> np.ndarray:
     return out
 
 
+def world_frame(sk, up: str) -> np.ndarray:
+    """The world frame (mlr_retarget.h): the rest body frame, or, where the world's up (given)
+    is another axis than the rest's up (Bandai's bind pose lies along x), that up with the rest's
+    left where it is level, else with the rest's forward."""
+    body = body_frame(sk)
+    k = "xyz".index(up)
+    if abs(body[k, 1]) > 0.5:
+        return body
+    u = np.eye(3)[k]
+    if abs(body[k, 0]) < 0.5:
+        left = body[:, 0]
+        return np.column_stack([left, u, np.cross(left, u)])
+    fwd = body[:, 2]
+    return np.column_stack([np.cross(u, fwd), u, fwd])
+
+
 def bone_dirs(m: mlayer.Motion, pos: np.ndarray) -> dict:
     roles = mlayer.retarget_roles(m)
     names = m.joint_names
@@ -100,31 +116,6 @@ def bone_dirs(m: mlayer.Motion, pos: np.ndarray) -> dict:
             d = pos[:, names.index(roles[b])] - pos[:, names.index(roles[a])]
             out[(a, b)] = d / np.linalg.norm(d, axis=-1, keepdims=True)
     return out
-
-
-def sole_height(sk) -> float:
-    """The rest height of the ankles above the lowest joint or End Site of their feet, along the
-    body's up (the mean of both feet)."""
-    roles = mlayer.retarget_roles(sk)
-    rp = rest_positions(sk)
-    up = body_frame(sk)[:, 1]
-    out = []
-    for side in ("Left", "Right"):
-        foot = sk.joint_names.index(roles[f"{side}Foot"])
-        below = [j for j in range(sk.n_joints) if _descends(sk, j, foot)]
-        pts = [rp[j] for j in below] + [rp[p] + o for p, o in zip(sk.end_site_parents,
-                                                                   sk.end_site_offsets)
-                                        if p in below]
-        out.append(rp[foot] @ up - min(p @ up for p in pts))
-    return float(np.mean(out))
-
-
-def _descends(sk, j: int, a: int) -> bool:
-    while j >= 0:
-        if j == a:
-            return True
-        j = sk.parents[j]
-    return False
 
 
 def leg_length(sk) -> float:
@@ -142,23 +133,61 @@ def test_every_matched_bone_points_as_the_source_s(mocap, src, dst):
     a, b = clip(mocap, src), clip(mocap, dst)
     out = mlayer.retarget(a, b, feet=False)
     assert out.joint_names == b.joint_names and out.n_frames == a.n_frames
-    G = body_frame(a.skeleton) @ body_frame(b.skeleton).T  # target world -> source world
+    # target world -> source world
+    G = world_frame(a.skeleton, a.up_axis) @ world_frame(b.skeleton, b.up_axis).T
     ds, dt = bone_dirs(a, scipy_fk(a)), bone_dirs(out, scipy_fk(out))
     assert set(dt) == set(ds) & set(dt) and len(dt) >= 8
     for k in dt:
         np.testing.assert_allclose(dt[k] @ G.T, ds[k], atol=1e-9, err_msg=f"{src}->{dst} {k}")
-    # the top of the legs where the source's is, scaled by the leg lengths, raised by the
-    # target's sole height less the scaled source's
+    # the top of the legs where the source's is, scaled by the leg lengths, raised along the
+    # target's up by the median over frames of the target's ankle heights above their feet's
+    # lowest points less the source's scaled (the mean of both sides)
     def mid(m, pos):
         r = mlayer.retarget_roles(m)
         return 0.5 * (pos[:, m.joint_names.index(r["LeftUpperLeg"])]
                       + pos[:, m.joint_names.index(r["RightUpperLeg"])])
     s = leg_length(b.skeleton) / leg_length(a.skeleton)
-    up_b = body_frame(b.skeleton)[:, 1]
-    lift = sole_height(b.skeleton) - s * sole_height(a.skeleton)
-    want = s * mid(a, scipy_fk(a)) + lift * (G @ up_b)
-    np.testing.assert_allclose(mid(out, scipy_fk(out)) @ G.T, want,
-                               atol=1e-9 * np.abs(want).max())
+    up_a = world_frame(a.skeleton, a.up_axis)[:, 1]
+    up_b = world_frame(b.skeleton, b.up_axis)[:, 1]
+    pa, pb = scipy_fk(a), scipy_fk(out)
+    da, _ = foot_drops(a, pa, up_a)
+    db, _ = foot_drops(out, pb, up_b)
+    lift = np.median((db - s * da).mean(axis=1))
+    want = s * mid(a, pa) + lift * (G @ up_b)
+    np.testing.assert_allclose(mid(out, pb) @ G.T, want, atol=1e-9 * np.abs(want).max())
+
+
+def foot_drops(m, pos, up) -> tuple[np.ndarray, np.ndarray]:
+    """(N, 2) each ankle's height above the lowest of its foot's points (toes, the End Sites of
+    the foot and the toes) and (N, 2) the height of that lowest point, along up."""
+    sk = m.skeleton
+    r = mlayer.retarget_roles(m)
+    wr = world_rotations_scipy(m)
+    drops, lows = [], []
+    for side in ("Left", "Right"):
+        foot = sk.joint_names.index(r[f"{side}Foot"])
+        toes = sk.joint_names.index(r[f"{side}Toes"]) if f"{side}Toes" in r else -1
+        pts = [pos[:, foot]]
+        if toes >= 0:
+            pts.append(pos[:, foot] + wr[foot].apply(np.array(sk.offsets[toes])))
+        for p, o in zip(sk.end_site_parents.tolist(), sk.end_site_offsets):
+            if p == foot:
+                pts.append(pos[:, foot] + wr[foot].apply(np.array(o)))
+            elif p == toes:
+                pts.append(pts[1] + wr[toes].apply(np.array(o)))
+        h = np.stack(pts, 1) @ up
+        drops.append(h[:, 0] - h.min(axis=1))
+        lows.append(h.min(axis=1))
+    return np.stack(drops, 1), np.stack(lows, 1)
+
+
+def world_rotations_scipy(m) -> list:
+    sk = m.skeleton
+    wr: list = [None] * sk.n_joints
+    for j in range(sk.n_joints):
+        local = Rotation.from_quat(m.rot[:, j][:, [1, 2, 3, 0]])
+        wr[j] = local if sk.parents[j] < 0 else wr[sk.parents[j]] * local
+    return wr
 
 
 @pytest.mark.parametrize("name", HUMANS)
@@ -176,10 +205,16 @@ def test_the_target_as_skeleton_motion_or_file(mocap):
     b = mlayer.read_bvh(path, up="y")
     by_motion = mlayer.retarget(a, b)
     assert by_motion.up_axis == "y"
-    for other in (mlayer.retarget(a, b.skeleton), mlayer.retarget(a, path),
+    # LaFAN1's bind pose lies along x: a bare skeleton needs its world up said
+    for other in (mlayer.retarget(a, b.skeleton, target_up="y"), mlayer.retarget(a, path),
                   mlayer.retarget(a, str(path))):
         np.testing.assert_array_equal(other.rot, by_motion.rot)
         np.testing.assert_array_equal(other.root_pos, by_motion.root_pos)
+    # standing: the head above the hips along y
+    r = mlayer.retarget_roles(b)
+    p = by_motion.positions()
+    d = p[:, b.joint_names.index(r["Head"])] - p[:, b.joint_names.index(r["Hips"])]
+    assert np.all(d[:, 1] > 0.8 * np.linalg.norm(d, axis=1))
 
 
 def test_unmatched_target_joints_stay_at_rest(mocap):
@@ -237,7 +272,7 @@ def test_a_map_names_joints_the_names_do_not(mocap):
     with pytest.raises(mlayer.InvalidArgumentError, match="target: no humanoid"):
         mlayer.retarget(a, odd)
     out = mlayer.retarget(a, odd, mapping={"LeftFoot": "paw_a", "RightFoot": "paw_b"},
-                          feet=False)
+                          feet=False, target_up="y")
     np.testing.assert_allclose(out.rot, a.rot, atol=1e-9)  # the same rig, renamed
 
 
