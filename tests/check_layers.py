@@ -24,6 +24,7 @@ LAYERS: dict[str, set[str]] = {
     "generate": {"common", "math", "motion", "io", "manifold", "guards"},
     "stream": {"common", "math", "motion", "layers", "guards"},
     "pipeline": {"common", "math", "motion", "layers", "guards"},
+    "retarget": {"common", "math", "motion", "guards"},
 }
 
 INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"', re.M)

@@ -28,5 +28,6 @@
 #include "mlr_mirror.h"
 #include "mlr_root_motion.h"
 #include "mlr_pipeline.h"
+#include "mlr_retarget.h"
 
 #endif /* MLAYER_H */

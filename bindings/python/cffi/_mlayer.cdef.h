@@ -671,6 +671,31 @@ mlr_status mlr_mirror_motion(const mlr_rig *rig, const int32_t *partner, int axi
                              double *out_rot, double *out_trans, double *out_offsets,
                              double *out_end_site_offsets, mlr_diag *diag);
 
+/* mlr_retarget.h */
+#define MLR_RETARGET_MAX_SPINE 8
+#define MLR_RETARGET_MAX_NECK 4
+enum { MLR_ROLE_COUNT = 30 };
+const char *mlr_role_name(int role);
+mlr_status mlr_retarget_roles(const mlr_rig *rig, int32_t *role_joint, const mlr_allocator *alloc,
+                              mlr_diag *diag);
+typedef struct mlr_retarget_info {
+    double scale;
+    size_t n_matched;
+    double to_source[9];
+} mlr_retarget_info;
+mlr_status mlr_retarget(const mlr_rig *source, size_t n_frames, const double *root_pos,
+                        const double *rot, const double *trans, const mlr_rig *target,
+                        int source_up, int target_up, const char *const *map, size_t n_map,
+                        double *out_root_pos, double *out_rot, double *out_trans, mlr_retarget_info *info,
+                        const mlr_allocator *alloc, mlr_diag *diag);
+mlr_status mlr_retarget_feet(const mlr_rig *source, size_t n_frames, double fps, int up,
+                             const double *root_pos, const double *rot, const double *trans,
+                             const mlr_rig *target, int target_up, const char *const *map,
+                             size_t n_map, double *out_root_pos, double *out_rot,
+                             const double *out_trans,
+                             mlr_cleanup_report *report, const mlr_allocator *alloc,
+                             mlr_diag *diag);
+
 /* mlr_root_motion.h */
 typedef enum mlr_root_motion_mode {
     MLR_ROOT_MOTION_GROUND = 0,

@@ -41,6 +41,7 @@ from .gltf import read_gltf, write_gltf
 from .amass import read_amass, write_amass
 from .mirror import mirror, mirror_pairs
 from .root_motion import RootTrack, apply_root_motion, extract_root_motion
+from .retarget import retarget, retarget_roles
 
 
 __all__ = ["__version__", "library_version", "Error", "InvalidArgumentError", "ParseError",
@@ -60,6 +61,7 @@ __all__ += ["read_gltf", "write_gltf"]
 __all__ += ["read_amass", "write_amass"]
 __all__ += ["mirror", "mirror_pairs", "RootTrack", "extract_root_motion", "apply_root_motion"]
 __all__ += ["expmap_base", "multires_stylize"]
+__all__ += ["retarget", "retarget_roles"]
 
 # the library logs (the `mlayer` logger and its children) and never prints: nothing shows
 # until the application configures logging (the command line shows INFO on stderr)

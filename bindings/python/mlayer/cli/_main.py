@@ -30,7 +30,7 @@ from .. import __version__, library_version
 from ..errors import Error, InvalidArgumentError
 from . import batch, contacts, demo, info, layers, primitives, render, retiming, stream, view
 from . import convert
-from . import mirror, rootmotion
+from . import mirror, retarget, rootmotion
 from ._command import (add_parser, check_outputs, check_requires, command, show_parse_warning,
                        show_trim, stdout_outputs)
 
@@ -54,6 +54,7 @@ COMMANDS = (
     retiming.cmd_resample,
     retiming.cmd_timewarp,
     mirror.cmd_mirror,
+    retarget.cmd_retarget,
     rootmotion.cmd_rootmotion,
     view.cmd_view,
     batch.cmd_batch,
