@@ -81,6 +81,8 @@ def _fnv1a(data: bytes) -> int:
 # criterion adds the variance of that rounding, 1/12 per axis, to its covariances
 _SOM_REG_COVAR = 1.0 / 12.0
 CLUSTERS = ("kmeans", "fcm", "gmm")
+#: What the primitives cluster: the manifold's 2-D points (the paper's) or the pose features.
+CLUSTER_ON = ("manifold", "features")
 # generated contacts: a pin holds while the generated foot drifts at most this many body heights
 # from where the contact started; a new contact starts after a gap of _PIN_GAP seconds
 _PIN_DRIFT = 0.25
@@ -409,7 +411,8 @@ def join_skeletons(clips: Sequence[Motion], *, rename: dict[str, str] | None = N
 
 def _check_plan(n: int, k: int | str, ks: Iterable[int] | None, criterion: str, cluster: str,
                 order: int | str, min_count: int, manifold: str, som: Any, lattice: Any,
-                names: Sequence[str] | None, n_clips: int) -> dict[str, Any]:
+                names: Sequence[str] | None, n_clips: int,
+                cluster_on: str = "manifold") -> dict[str, Any]:
     """The arguments of :meth:`PrimitiveModel.fit` checked against the n training frames before
     any training: k and the candidate ks given at most the frames and the SOM's units (the
     distinct manifold points a SOM can give), the default candidates cut to that bound with a
@@ -421,12 +424,15 @@ def _check_plan(n: int, k: int | str, ks: Iterable[int] | None, criterion: str, 
     if cluster not in CLUSTERS:
         raise InvalidArgumentError(f"option cluster must be one of {', '.join(CLUSTERS)}, got "
                                    f"{cluster!r}")
+    if cluster_on not in CLUSTER_ON:
+        raise InvalidArgumentError(f"option cluster_on must be one of {', '.join(CLUSTER_ON)}, "
+                                   f"got {cluster_on!r}")
     if order != "auto":
         from .markov import MAX_ORDER
         order = integer(order, "option order", 1, MAX_ORDER)
     min_count = integer(min_count, "option min_count", 1)
     limit, where = n, f"the number of training frames ({n})"
-    if manifold == "som":
+    if manifold == "som" and cluster_on == "manifold":
         units = int(som[0]) * int(som[1])
         if units < limit:
             limit, where = units, (f"the SOM's {int(som[0])}x{int(som[1])} = {units} units (a "
@@ -461,7 +467,7 @@ def _check_plan(n: int, k: int | str, ks: Iterable[int] | None, criterion: str, 
             raise InvalidArgumentError(f"names: need {n_clips} distinct clip names, got "
                                        f"{names!r}")
     return dict(k=k, ks=cut, criterion=criterion, cluster=cluster, order=order,
-                min_count=min_count, names=names)
+                min_count=min_count, names=names, cluster_on=cluster_on)
 
 
 #: the steps of PrimitiveModel.fit are logged here (INFO); the command line shows them
@@ -547,6 +553,7 @@ class PrimitiveModel(_attrs.ReadOnlyAttributes):
     fit_error: float
     criterion: str
     cluster: str
+    cluster_on: str
     k_source: str | None
     centers: NDArray[np.float64]
     labels: NDArray[np.intp]
@@ -561,7 +568,8 @@ class PrimitiveModel(_attrs.ReadOnlyAttributes):
 
     _readonly = ("skeleton", "body_joint", "manifold", "points", "clip_starts", "labels",
                  "centers", "grbf", "bounds", "elbow_ks", "elbow_inertia", "som_codebook",
-                 "pca_mean", "pca_components", "criteria", "criterion", "cluster", "k_source",
+                 "pca_mean", "pca_components", "criteria", "criterion", "cluster", "cluster_on",
+                 "k_source",
                  "order_loglik", "contacts", "contact_names", "train_rot", "train_trans",
                  "rest_root_pos", "rest_trans", "fit_error")
     _checked = {"frame_time": lambda m, v, name: _frame_time_arg(v, name),
@@ -579,6 +587,7 @@ class PrimitiveModel(_attrs.ReadOnlyAttributes):
     @classmethod
     def fit(cls, clips: Motion | Sequence[Motion], *, k: int | str = "auto",
             ks: Iterable[int] | None = None, criterion: str = "elbow", cluster: str = "kmeans",
+            cluster_on: str = "manifold",
             order: int | str = 1, min_count: int = 1, manifold: str = "som",
             som: tuple[int, int] | None = None, epochs: int = 20,
             lattice: tuple[int, int] | None = None, kernel: str = "thin_plate",
@@ -626,6 +635,12 @@ class PrimitiveModel(_attrs.ReadOnlyAttributes):
             (each frame in its cluster of largest membership) or a Gaussian mixture (the most
             responsible component), both started from the k-means centres; clusters that get
             no frame are dropped.
+        cluster_on : {"manifold", "features"}, optional
+            What is clustered (and what the k criteria measure): the manifold's 2-D points
+            (paper 2, section 4.1: "the low dimensional representation"; the default) or the
+            pose features (:func:`mlayer.features.pose_features`, 3 x joints dimensions). With
+            features, each primitive's centre on the map is the mean of its frames' points.
+            What each gives on walks and dances: docs/primitives.md.
         order : int or "auto", optional
             1 .. 3, or ``"auto"`` (the order of best held-out log-likelihood).
         min_count : int, optional
@@ -691,7 +706,7 @@ class PrimitiveModel(_attrs.ReadOnlyAttributes):
                     min(g, int(s)) for g, s in zip(lattice_d, som)))
         n_frames = sum(m.n_frames for m in clips)
         plan = _check_plan(n_frames, k, ks, criterion, cluster, order, min_count, manifold,
-                           som, lattice, names, len(clips))
+                           som, lattice, names, len(clips), cluster_on)
         make_bar = resolve(progress, "PrimitiveModel.fit")  # before any work
         clips = same_units(clips)
         with make_bar(_FIT_STEPS, "primitives", "step") as bar:
@@ -737,7 +752,7 @@ class PrimitiveModel(_attrs.ReadOnlyAttributes):
             self.bounds = tuple((float(self.points[:, j].min()), float(self.points[:, j].max()))
                                 for j in range(2))
         progress.bar.update(1)
-        self._set_primitives(plan, seed, progress)
+        self._set_primitives(plan, seed, progress, X)
         Y = self._targets(clips, X)
         _say(progress, f"GRBF: {kernel}, {lattice[0]}x{lattice[1]} centres, "
                        f"{X.shape[0]} frames -> {Y.shape[1]} outputs")
@@ -754,19 +769,23 @@ class PrimitiveModel(_attrs.ReadOnlyAttributes):
                        f"{self.floor_height:.4g}", True)
         return self
 
-    def _set_primitives(self, plan: dict[str, Any], seed: int, progress: _Steps) -> None:
+    def _set_primitives(self, plan: dict[str, Any], seed: int, progress: _Steps,
+                        features: NDArray[np.float64] | None = None) -> None:
         """Primitives (labels, centres), the k criteria and the Markov model of the labels."""
         from .clustering import kmeans
         from .mixture import k_criteria
         ks, k = plan["ks"], plan["k"]
-        reg = _SOM_REG_COVAR if self.manifold == "som" else 1e-6 * float(
-            max(self.points.var(axis=0).max(), 1e-300))
+        self.cluster_on = plan.get("cluster_on", "manifold")
+        on_features = self.cluster_on == "features" and features is not None
+        Z = np.ascontiguousarray(features, np.float64) if on_features else self.points
+        reg = _SOM_REG_COVAR if self.manifold == "som" and not on_features else 1e-6 * float(
+            max(Z.var(axis=0).max(), 1e-300))
         self.criterion, self.cluster = plan["criterion"], plan["cluster"]
         self.k_source = "given" if k != "auto" else self.criterion
         km = None
         if ks:
             _say(progress, f"k criteria (elbow, silhouette, GMM BIC): k = {ks[0]} .. {ks[-1]}")
-            c = k_criteria(self.points, ks, seed=seed, n_init=3, reg_covar=reg)
+            c = k_criteria(Z, ks, seed=seed, n_init=3, reg_covar=reg)
             self.criteria = c
             self.elbow_ks, self.elbow_inertia = np.asarray(c.ks), np.asarray(c.inertia)
             if k == "auto":
@@ -777,21 +796,26 @@ class PrimitiveModel(_attrs.ReadOnlyAttributes):
             self.criteria = None
             self.elbow_ks = self.elbow_inertia = np.zeros(0)
         if km is None:
-            km = kmeans(self.points, k, seed=seed, n_init=3)
+            km = kmeans(Z, k, seed=seed, n_init=3)
         centers, labels = np.asarray(km.centers, np.float64), np.asarray(km.labels, np.int64)
         if self.cluster == "fcm":
             from .mixture import fuzzy_cmeans
-            f = fuzzy_cmeans(self.points, k, init=centers, seed=seed)
+            f = fuzzy_cmeans(Z, k, init=centers, seed=seed)
             centers, labels = f.centers, np.asarray(f.labels, np.int64)
         elif self.cluster == "gmm":
             from .mixture import GaussianMixture
-            g = GaussianMixture(k, init=centers, reg_covar=reg, seed=seed).fit(self.points)
-            centers, labels = g.means_, np.asarray(g.predict(self.points), np.int64)
+            g = GaussianMixture(k, init=centers, reg_covar=reg, seed=seed).fit(Z)
+            centers, labels = g.means_, np.asarray(g.predict(Z), np.int64)
         used = np.unique(labels)  # a cluster that got no frame is no primitive
+        if on_features:  # each primitive's centre on the map: the mean of its frames' points
+            centers = np.stack([self.points[labels == c].mean(axis=0) if (labels == c).any()
+                                else np.zeros(self.points.shape[1])
+                                for c in range(int(labels.max()) + 1)])
         self.centers = np.ascontiguousarray(centers[used], dtype=np.float64)
         self.labels = np.searchsorted(used, labels).astype(np.int64)
         k = self.centers.shape[0]
         _say(progress, f"primitives: k = {k} ({self.cluster}"
+                       + (", on the pose features" if on_features else "")
                        + (f", {self.criterion}" if plan["k"] == "auto" else "") + ")", True)
         from .markov import best_order, heldout_loglik
         seqs = self.clip_labels()
@@ -1480,6 +1504,7 @@ class PrimitiveModel(_attrs.ReadOnlyAttributes):
         if fmt == 1:
             self.markov = Markov(z["P"], z["counts"], z["run_length"])
             self.criterion, self.cluster, self.criteria = "elbow", "kmeans", None
+            self.cluster_on = "manifold"
             self.k_source = None
             self.clip_names = [str(i) for i in range(len(z["clip_starts"]))]
             self.order_loglik = {}
@@ -1489,6 +1514,7 @@ class PrimitiveModel(_attrs.ReadOnlyAttributes):
                              contexts=contexts_from_arrays(z["markov_ctx_keys"],
                                                            z["markov_ctx_counts"]))
         self.criterion, self.cluster = str(z["criterion"]), str(z["cluster"])
+        self.cluster_on = str(z["cluster_on"]) if "cluster_on" in z else "manifold"
         self.k_source = (str(z["k_source"]) or None) if "k_source" in z else None
         self.clip_names = [str(v) for v in z["clip_names"]]
         self.order_loglik = {int(o): (float(v), int(m)) for o, v, m in z["order_loglik"]}
@@ -1527,7 +1553,7 @@ class PrimitiveModel(_attrs.ReadOnlyAttributes):
                       markov_min_count=np.int64(self.markov.min_count), markov_ctx_keys=K,
                       markov_ctx_counts=R, criterion=np.str_(self.criterion),
                       k_source=np.str_(self.k_source or ""),
-                      cluster=np.str_(self.cluster),
+                      cluster=np.str_(self.cluster), cluster_on=np.str_(self.cluster_on),
                       clip_names=np.array(self.clip_names, dtype=np.str_),
                       order_loglik=np.array([[o, *self.order_loglik[o]]
                                              for o in sorted(self.order_loglik)]).reshape(-1, 3))

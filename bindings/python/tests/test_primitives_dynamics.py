@@ -113,6 +113,38 @@ def test_soft_clusterings_drive_the_labels(bandai, cluster):
     assert model.generate(80, start_frame=5, seed=1, guards=False).n_frames == 80
 
 
+def test_primitives_on_the_pose_features(bandai, tmp_path):
+    """cluster_on="features": k-means (and the k criteria) on the pose features instead of
+    the map's 2-D points; each primitive's centre on the map is its frames' mean point."""
+    from mlayer.features import pose_features
+    from mlayer.mixture import k_criteria
+    from sklearn.cluster import KMeans
+    from sklearn.metrics import adjusted_rand_score
+    m, ref = bandai
+    assert ref.cluster_on == "manifold"
+    model = PrimitiveModel.fit(m, som=(8, 8), epochs=8, lattice=(6, 6), ks=range(2, 9),
+                               cluster_on="features")
+    X = pose_features(m)
+    np.testing.assert_array_equal(model.points, ref.points)
+    c = k_criteria(X, range(2, 9), seed=0, n_init=3,
+                   reg_covar=1e-6 * float(X.var(axis=0).max()))
+    np.testing.assert_array_equal(model.criteria.inertia, c.inertia)
+    k = c.picks["elbow"]
+    km = mlayer.kmeans(X, k, seed=0, n_init=3)
+    used = np.unique(km.labels)
+    np.testing.assert_array_equal(model.labels, np.searchsorted(used, km.labels))
+    for i, u in enumerate(used):
+        np.testing.assert_allclose(model.centers[i], ref.points[km.labels == u].mean(axis=0))
+    # a peer's k-means on the same features finds the same partition
+    sk = KMeans(k, n_init=10, random_state=0).fit(X)
+    assert adjusted_rand_score(sk.labels_, model.labels) > 0.9
+    assert model.cluster_on == "features"
+    model.save(tmp_path / "f.npz")
+    assert PrimitiveModel.load(tmp_path / "f.npz").cluster_on == "features"
+    with pytest.raises(InvalidArgumentError, match="cluster_on"):
+        PrimitiveModel.fit(m, k=3, cluster_on="pose")
+
+
 def test_arguments_are_checked_before_training(mocap, monkeypatch):
     m = _clip(mocap, "bandai1_walk_happy_001.bvh")
     import mlayer.som

@@ -3,6 +3,7 @@ then synthesize new motion from it (paper 2).
 
     mlayer primitives CLIPS... -o model.npz [--k auto|K] [--ks 2..20]
                                [--criterion elbow|silhouette|bic] [--cluster kmeans|fcm|gmm]
+                               [--cluster-on manifold|features]
                                [--order 1|2|3|auto] [--min-count M] [--som RxC] [--pca]
                                [--epochs 20] [--lattice RxC] [--kernel thin_plate|gaussian]
                                [--plots PREFIX] [--runtime FILE.mlrgen]
@@ -169,6 +170,9 @@ def _primitives_args(p) -> None:
                    help="what picks k when --k auto (default elbow)")
     p.add_argument("--cluster", choices=("kmeans", "fcm", "gmm"), default="kmeans",
                    help="what labels the frames: k-means, fuzzy c-means or a Gaussian mixture")
+    p.add_argument("--cluster-on", choices=("manifold", "features"), default="manifold",
+                   help="what is clustered: the map's 2-D points (the paper's) or the pose "
+                        "features")
     p.add_argument("--order", default="1", metavar="1|2|3|auto",
                    help="order of the Markov jump model (auto: best held-out likelihood)")
     p.add_argument("--min-count", type=int, default=1,
@@ -209,7 +213,8 @@ def cmd_primitives(args) -> int:
     # names and tree before any work (fit checks again, by the names in the model)
     clips = join_skeletons(clips, rename=rename, names=args.clips)
     model = PrimitiveModel.fit(clips, k=args.k, ks=args.ks, criterion=args.criterion,
-                               cluster=args.cluster, order=_order(args.order),
+                               cluster=args.cluster, cluster_on=args.cluster_on,
+                               order=_order(args.order),
                                min_count=args.min_count,
                                manifold="pca" if args.pca else "som", som=args.som,
                                epochs=args.epochs, lattice=args.lattice, kernel=args.kernel,
