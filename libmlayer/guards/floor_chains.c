@@ -64,7 +64,7 @@ mlr_status floor_chains__apply(const mlr_rig *rig, size_t N, double fps, int up,
                                double slack, const double *in_root, const double *in_rot,
                                const double *in_trans, double *root, double *rot,
                                const double *trans, int32_t body, size_t C, const int32_t *joints,
-                               size_t *lifted, const mlr_allocator *alloc)
+                               int keep_feet, size_t *lifted, const mlr_allocator *alloc)
 {
     if (lifted)
         *lifted = 0;
@@ -173,9 +173,13 @@ mlr_status floor_chains__apply(const mlr_rig *rig, size_t N, double fps, int up,
                     ib = i;
             }
             double w = 1.0;
+            /* keep_feet: the blend does not reach the input's pose (the feet's ancestors keep
+               theirs), so where no weight lifts the point enough, the one that lifts it most,
+               and none when no weight lifts it at all */
+            double best_depth = (floor - y) - din, best_w = 0.0;
             for (int s = 1; s <= FLOOR_STEPS; s++) {
                 const double t = (double)s / FLOOR_STEPS;
-                if (ib < m) { /* the body's translation is blended with the root's */
+                if (ib < m && !keep_feet) { /* the body's translation, with the root's */
                     const double *a = trans + 3 * (f * rig->n_trans + (size_t)body),
                                  *b = in_trans + 3 * (f * rig->n_trans + (size_t)body);
                     for (int d = 0; d < 3; d++)
@@ -186,15 +190,16 @@ mlr_status floor_chains__apply(const mlr_rig *rig, size_t N, double fps, int up,
                     double a[4], b[4];
                     unit4(rot + 4 * (f * J + j), a);
                     unit4(in_rot + 4 * (f * J + j), b);
-                    slerp4(a, b, t, qc + 4 * i);
+                    slerp4(a, b, keep_feet && foot[j] ? 0.0 : t, qc + 4 * i);
                 }
                 double pt[3];
                 /* the point's position: forward kinematics down the chain from the root,
                    whose translation is blended too */
                 double pp[3], rr[4];
+                const double tr = keep_feet ? 0.0 : t; /* the root's translation */
                 for (int d = 0; d < 3; d++)
                     pp[d] = root[3 * f + (size_t)d] +
-                            t * (in_root[3 * f + (size_t)d] - root[3 * f + (size_t)d]);
+                            tr * (in_root[3 * f + (size_t)d] - root[3 * f + (size_t)d]);
                 memcpy(rr, qc, sizeof rr);
                 for (size_t i = 1; i < m; i++) {
                     double v[3], r2[4];
@@ -215,7 +220,13 @@ mlr_status floor_chains__apply(const mlr_rig *rig, size_t N, double fps, int up,
                     w = t;
                     break;
                 }
+                if ((floor - pt[up]) - din < best_depth)
+                    best_depth = (floor - pt[up]) - din, best_w = t;
+                if (keep_feet && s == FLOOR_STEPS)
+                    w = best_w;
             }
+            if (!(w > 0.0))
+                continue;
             wp[f] = w;
             any = 1;
         }
@@ -231,7 +242,7 @@ mlr_status floor_chains__apply(const mlr_rig *rig, size_t N, double fps, int up,
     }
     for (size_t f = 0; f < N; f++)
         for (size_t j = 0; j < J; j++) {
-            const double t = wj[f * J + j];
+            const double t = keep_feet && foot[j] ? 0.0 : wj[f * J + j];
             if (!(t > 0.0))
                 continue;
             double a[4], b[4], o[4];
@@ -243,12 +254,12 @@ mlr_status floor_chains__apply(const mlr_rig *rig, size_t N, double fps, int up,
             for (int i = 0; i < 4; i++)
                 q[i] = sg * o[i];
         }
-    for (size_t f = 0; f < N; f++) {
+    for (size_t f = 0; f < N && !keep_feet; f++) {
         const double t = wj[f * J];
         for (int d = 0; d < 3 && t > 0.0; d++)
             root[3 * f + (size_t)d] += t * (in_root[3 * f + (size_t)d] - root[3 * f + (size_t)d]);
     }
-    if (body >= 0) {
+    if (body >= 0 && !keep_feet) {
         /* the body joint's translation, blended by its weight, enters as a root shift (in the
            world, through its parent's rotation): the guards carry root shifts into the body's
            translation at the end (carry_body_shift in guards.c) */

@@ -12,11 +12,13 @@
  * translation, the rotations, and the translation of the body joint, trans joint body (-1: the
  * root carries the body), which enters as a root shift) is blended toward the input's by the least weight in steps
  * of 1/8 that lifts it, the weights eased in time over 0.2 s. *lifted: how many points needed
- * it. Arguments checked by the caller; the motion unchanged on failure. */
+ * it. keep_feet: the root's translation and the rotations of the contact points' joints and
+ * their ancestors are left as they are (after the cleanup, which pinned the feet). Arguments
+ * checked by the caller; the motion unchanged on failure. */
 mlr_status floor_chains__apply(const mlr_rig *rig, size_t N, double fps, int up, double floor,
                                double slack, const double *in_root, const double *in_rot,
                                const double *in_trans, double *root, double *rot,
                                const double *trans, int32_t body, size_t C, const int32_t *joints,
-                               size_t *lifted, const mlr_allocator *alloc);
+                               int keep_feet, size_t *lifted, const mlr_allocator *alloc);
 
 #endif /* MLR_FLOOR_CHAINS_INTERNAL_H */

@@ -38,6 +38,9 @@ def floor_excess(m: mlayer.Motion, out: mlayer.Motion) -> float:
 
 @pytest.mark.parametrize("name, alpha", [
     ("ai4a_dog_D1_008_KAN01_002.bvh", 2.0),  # the tail: 21% of H under before
+    # alpha 3: the tail 2.6% under, taken there by the cleanup's root shift after the floor
+    # guard; the chains that carry no foot are now lifted after the cleanup too
+    ("ai4a_dog_D1_008_KAN01_002.bvh", 3.0),
     ("cmu_131_01_mj_style_walk.bvh", 3.0),  # the hips: 7.4%
     ("cmu_131_01_mj_style_walk.bvh", 2.0),  # 1.0%
 ])
