@@ -198,7 +198,8 @@ mlr_status cleanup__shift_root(cleanup_state *cu, cleanup_arena *ar, mlr_cleanup
             leg = mlr_fmax(leg, cu->feet[k].leg);
     const double vcap = cu->cfg->root_bob > 0.0 ? ROOT_BOB_CAP * leg : 0.0;
     /* how far the body may go down over a gait cycle: the least height above the floor of
-       the joints that are not on a foot (at or below an active foot's anchor), its minimum over +-2 vhalf frames (the shift at a frame averages needs from that far) */
+       the joints and End Sites that are not on a foot (at or below an active foot's anchor),
+       its minimum over +-2 vhalf frames (the shift at a frame averages needs from that far) */
     double *room = NULL;
     if (vcap > 0.0) {
         const size_t J = cu->J;
@@ -251,26 +252,27 @@ mlr_status cleanup__shift_root(cleanup_state *cu, cleanup_arena *ar, mlr_cleanup
     for (int it = 0; it < 5; it++) {
         if (!root_needs(cu, cos_fold, need, it ? ysh : NULL, redo))
             break;
-        /* widen each need to +-0.1 s (the largest need there), then blend and smooth */
-        const int up = cu->up;
-        for (size_t f = 0; f < N; f++) {
+        /* the first round's vertical part over a gait cycle (ROOT_BOB), up to vcap and
+           room; what is left, and every later round, the short way */
+        const int up = cu->up, bob = it == 0 && vcap > 0.0;
+        for (size_t f = 0; f < N && bob; f++) {
             for (int d = 0; d < 3; d++)
                 vneed[3 * f + (size_t)d] = 0.0;
             const double v = need[3 * f + (size_t)up];
-            /* the first round only; then what is left goes the short way */
-            const double down = it == 0 && room ? mlr_fmin(vcap, room[f]) : 0.0;
-            const double upw = it == 0 ? vcap : 0.0;
-            const double small = mlr_fmax(-down, mlr_fmin(upw, v));
+            const double small = mlr_fmax(-mlr_fmin(vcap, room[f]), mlr_fmin(vcap, v));
             vneed[3 * f + (size_t)up] = small;
             need[3 * f + (size_t)up] = v - small;
         }
+        /* widen each need to +-0.1 s (the largest need there), then blend and smooth */
         widen_needs(N, half, need, n2s, dq, wide, nmask);
         smooth_needs(N, half, wtab, wide, nmask, ysh);
-        widen_needs(N, vhalf, vneed, n2s, dq, wide, nmask);
-        smooth_needs(N, vhalf, vtab, wide, nmask, vsh);
-        for (size_t f = 0; f < N; f++) {
-            ysh[3 * f + (size_t)up] += vsh[3 * f + (size_t)up];
-            need[3 * f + (size_t)up] += vneed[3 * f + (size_t)up];
+        if (bob) {
+            widen_needs(N, vhalf, vneed, n2s, dq, wide, nmask);
+            smooth_needs(N, vhalf, vtab, wide, nmask, vsh);
+            for (size_t f = 0; f < N; f++) {
+                ysh[3 * f + (size_t)up] += vsh[3 * f + (size_t)up];
+                need[3 * f + (size_t)up] += vneed[3 * f + (size_t)up];
+            }
         }
         for (size_t i = 0; i < 3 * N; i++)
             shift[i] += ysh[i];
