@@ -60,6 +60,8 @@ extern "C" {
 /** The format version of model files this library reads and Python writes. */
 #define MLR_GEN_FORMAT_VERSION 1
 
+/** A loaded runtime model (mlr_gen_model_load): read only after loading, so one model may be
+ *  shared by generators on several threads. Opaque. */
 typedef struct mlr_gen_model mlr_gen_model;
 
 /**
@@ -134,6 +136,8 @@ typedef struct mlr_generate_option {
  *  fractional bits of sqrt(2)), apart from the stream of the start frame and the walk. */
 #define MLR_GEN_NOISE_SEED_XOR 0x6A09E667F3BCC908ull
 
+/** A frame-by-frame generator over a model (mlr_generator_create): its own random state and
+ *  buffers; one thread at a time. Opaque. */
 typedef struct mlr_generator mlr_generator;
 
 /**

@@ -62,6 +62,7 @@ MLR_API double mlr_rng_gamma(mlr_rng *rng, double shape);
 /** The largest order of the jump model. */
 #define MLR_MARKOV_MAX_ORDER 3
 
+/** The jump model of the distinct primitives (mlr_markov_create): read only once made. Opaque. */
 typedef struct mlr_markov mlr_markov;
 
 /**
