@@ -42,7 +42,7 @@ START_TEST(every_thread_count_reads_the_same_bytes)
             mlr_diag d;
             mlr_allocator a;
             mlr_allocator_resolve(NULL, &a);
-            ck_assert_int_eq(mlr_read_file(path, threads, &a, &buf, &len, &cap, &d), MLR_OK);
+            ck_assert_int_eq(file_read__read(path, threads, &a, &buf, &len, &cap, &d), MLR_OK);
             ck_assert_uint_eq(len, sizes[z]);
             ck_assert_uint_gt(cap, len);
             ck_assert(len == 0 || memcmp(buf, expect, len) == 0);
@@ -60,15 +60,15 @@ START_TEST(errors_are_reported)
     mlr_diag d;
     mlr_allocator a;
     mlr_allocator_resolve(NULL, &a);
-    ck_assert_int_eq(mlr_read_file("/nonexistent/f.bin", 0, &a, &buf, &len, &cap, &d), MLR_E_IO);
+    ck_assert_int_eq(file_read__read("/nonexistent/f.bin", 0, &a, &buf, &len, &cap, &d), MLR_E_IO);
     ck_assert_ptr_null(buf);
     ck_assert_msg(strstr(d.message, "cannot open") && strstr(d.message, "No such file"), "%s",
                   d.message);
-    ck_assert_int_eq(mlr_read_file("/tmp", 2, &a, &buf, &len, &cap, &d), MLR_E_IO);
+    ck_assert_int_eq(file_read__read("/tmp", 2, &a, &buf, &len, &cap, &d), MLR_E_IO);
     ck_assert_ptr_null(buf);
     ck_assert_msg(strstr(d.message, "directory") != NULL, "%s", d.message);
     /* not a regular file: read sequentially to its end */
-    ck_assert_int_eq(mlr_read_file("/dev/null", 2, &a, &buf, &len, &cap, &d), MLR_OK);
+    ck_assert_int_eq(file_read__read("/dev/null", 2, &a, &buf, &len, &cap, &d), MLR_OK);
     ck_assert_uint_eq(len, 0);
     mlr_free(&a, buf, cap);
 }
@@ -86,7 +86,7 @@ START_TEST(allocation_failures_leave_nothing)
             char *buf;
             size_t len, cap;
             mlr_diag d;
-            mlr_status s = mlr_read_file(path, threads, &a, &buf, &len, &cap, &d);
+            mlr_status s = file_read__read(path, threads, &a, &buf, &len, &cap, &d);
             if (s == MLR_OK) {
                 ck_assert_uint_eq(len, 2 * MLR_FILE_PARALLEL_MIN_BYTES + 3);
                 mlr_free(&a, buf, cap);

@@ -45,7 +45,7 @@ START_TEST(maps_every_page_and_keeps_the_bytes)
         p[i] = (unsigned char)(i * 2654435761u >> 13);
     ck_assert_uint_lt(resident_pages(p, bytes, page), bytes / page / 2);
     mlr_prefault pf;
-    mlr_prefault_start(&pf, p + 100, bytes - 200); /* not page-aligned: whole pages are used */
+    prefault__start(&pf, p + 100, bytes - 200); /* not page-aligned: whole pages are used */
 #ifdef MADV_POPULATE_WRITE
     ck_assert_int_eq(pf.started, 1);
 #endif
@@ -62,7 +62,7 @@ START_TEST(maps_every_page_and_keeps_the_bytes)
     if (supported)
         ck_assert_uint_eq(resident_pages(p, bytes, page), bytes / page);
 #endif
-    mlr_prefault_finish(&pf); /* after the end: nothing to do */
+    prefault__finish(&pf); /* after the end: nothing to do */
     munmap(p, bytes);
 }
 END_TEST
@@ -71,12 +71,12 @@ START_TEST(small_ranges_get_no_thread)
 {
     static unsigned char buf[4096];
     mlr_prefault pf;
-    mlr_prefault_start(&pf, buf, sizeof buf);
+    prefault__start(&pf, buf, sizeof buf);
     ck_assert_int_eq(pf.started, 0);
-    mlr_prefault_finish(&pf);
-    mlr_prefault_start(&pf, buf, MLR_PREFAULT_MIN_BYTES - 1);
+    prefault__finish(&pf);
+    prefault__start(&pf, buf, MLR_PREFAULT_MIN_BYTES - 1);
     ck_assert_int_eq(pf.started, 0);
-    mlr_prefault_finish(&pf);
+    prefault__finish(&pf);
 }
 END_TEST
 
@@ -89,9 +89,9 @@ START_TEST(stops_when_asked)
     ck_assert_ptr_ne(p, MAP_FAILED);
     for (int k = 0; k < 20; k++) {
         mlr_prefault pf;
-        mlr_prefault_start(&pf, p, bytes);
+        prefault__start(&pf, p, bytes);
         p[(size_t)k << 20] = (unsigned char)(k + 1); /* the caller writes meanwhile */
-        mlr_prefault_finish(&pf);
+        prefault__finish(&pf);
         ck_assert_int_eq(pf.started, 0);
         ck_assert_uint_eq(p[(size_t)k << 20], (unsigned)(k + 1));
     }

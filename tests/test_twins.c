@@ -4,18 +4,18 @@
  * mixed with degenerate ones, at every ISA level this CPU has (cpu__isa, common/cpu.h: the
  * baseline always), by the promise of common/cpu.h: bit for bit for the guards and the layers,
  * within a stated tolerance for clustering and the GRBF.
- * - two-bone IK: mlr_ik_two_bone_lanes (the batch the cleanup and mlr_ik_two_bone use) against
- *   mlr_ik_two_bone_1 (the one mlr_ik_apply_leg uses), frame by frame, on every frame the batch
+ * - two-bone IK: ik__two_bone_lanes (the batch the cleanup and mlr_ik_two_bone use) against
+ *   ik__two_bone_1 (the one mlr_ik_apply_leg uses), frame by frame, on every frame the batch
  *   does not flag slow; and mlr_ik_two_bone (batch plus the slow frames' fallback) against
- *   mlr_ik_two_bone_1 on every frame.
+ *   ik__two_bone_1 on every frame.
  * - the limits blocks (limit_block: inside_block and the runs it passes over, the lazy angle):
- *   mlr_limits_apply_kind(_masked) and mlr_limits_apply_normalized against limit_joint frame by
+ *   limits__apply_kind(_masked) and limits__apply_normalized against limit_joint frame by
  *   frame with its own unwrapping state, bit for bit, on a real clip pushed past its limits.
  * - displace_block (mlr_layers_synthesize): against base * exp(alpha v) one quaternion at a
  *   time through the public quaternion functions, bit for bit.
- * - clustering (cluster.c): mlr_dist2 and mlr_nearest2 at every ISA level against the
+ * - clustering (cluster.c): cluster__dist2 and cluster__nearest2 at every ISA level against the
  *   baseline: the same nearest centre except at a near tie, distances within 1e-12 relative;
- *   the fused online SOM step (mlr_packed_sweep) likewise, its moved centres within 1e-14.
+ *   the fused online SOM step (cluster__packed_sweep) likewise, its moved centres within 1e-14.
  * - the GRBF product panel (grbf_panel.h): the AVX-512 panel against panel_generic, within
  *   1e-13 of the sum of the magnitudes of the terms. */
 #include "mlr_test.h"
@@ -113,12 +113,12 @@ START_TEST(ik_lanes_give_the_bits_of_two_bone_1)
                         L.a[k][i] = A[q], L.b[k][i] = B[q], L.c[k][i] = C[q], L.t[k][i] = T[q];
                         L.axis[k][i] = axis ? axis[q] : 0.0;
                     }
-                mlr_ik_two_bone_lanes(&L, m, axis != NULL, MLR_IK_MAX_EXTENSION);
+                ik__two_bone_lanes(&L, m, axis != NULL, MLR_IK_MAX_EXTENSION);
                 for (size_t i = 0; i < m; i++) {
                     const size_t f = f0 + i;
                     double h1[4], k1[4];
-                    mlr_ik_two_bone_1(A + 3 * f, B + 3 * f, C + 3 * f, T + 3 * f,
-                                      axis ? axis + 3 * f : NULL, MLR_IK_MAX_EXTENSION, h1, k1);
+                    ik__two_bone_1(A + 3 * f, B + 3 * f, C + 3 * f, T + 3 * f,
+                                   axis ? axis + 3 * f : NULL, MLR_IK_MAX_EXTENSION, h1, k1);
                     if (L.slow[i])
                         continue;
                     n_fast++;
@@ -138,9 +138,9 @@ START_TEST(ik_lanes_give_the_bits_of_two_bone_1)
             ck_assert_int_eq(
                 mlr_ik_two_bone(N, A, B, C, T, axis, MLR_IK_MAX_EXTENSION, rh, rk, NULL), MLR_OK);
             for (size_t f = 0; f < N; f++)
-                mlr_ik_two_bone_1(A + 3 * f, B + 3 * f, C + 3 * f, T + 3 * f,
-                                  axis ? axis + 3 * f : NULL, MLR_IK_MAX_EXTENSION, rh1 + 4 * f,
-                                  rk1 + 4 * f);
+                ik__two_bone_1(A + 3 * f, B + 3 * f, C + 3 * f, T + 3 * f,
+                               axis ? axis + 3 * f : NULL, MLR_IK_MAX_EXTENSION, rh1 + 4 * f,
+                               rk1 + 4 * f);
             ck_assert_mem_eq(rh, rh1, sizeof(double) * 4 * N);
             ck_assert_mem_eq(rk, rk1, sizeof(double) * 4 * N);
         }
@@ -170,7 +170,7 @@ END_TEST
 
 /* limit_joint frame by frame along each joint of kind, each with its own unwrapping state: what
  * limit_block does with its fast paths (inside_block, the runs it passes over, the angle it
- * reads lazily). mask as mlr_limits_apply_kind_masked's (NULL: every frame). */
+ * reads lazily). mask as limits__apply_kind_masked's (NULL: every frame). */
 static void limits_reference(const mlr_limits *lim, size_t n, mlr_quat *rot, double alpha,
                              size_t *counts, int kind, const uint8_t *mask, int hard)
 {
@@ -268,8 +268,8 @@ START_TEST(limits_blocks_give_the_bits_of_limit_joint)
                     memcpy(got, in, sizeof(mlr_quat) * N * J);
                     memcpy(want, in, sizeof(mlr_quat) * N * J);
                     memset(cnt, 0, 2 * J * sizeof(size_t));
-                    mlr_limits_apply_kind_masked(lim, N, got, &alphas[ai], 1, cnt, kind, mk, NULL,
-                                                 0, hard);
+                    limits__apply_kind_masked(lim, N, got, &alphas[ai], 1, cnt, kind, mk, NULL, 0,
+                                              hard);
                     limits_reference(lim, N, want, alphas[ai], cnt + J, kind, mk, hard);
                     for (size_t i = 0; i < N * J; i++)
                         ck_assert_msg(memcmp(&got[i], &want[i], sizeof(mlr_quat)) == 0,
@@ -292,7 +292,7 @@ START_TEST(limits_blocks_give_the_bits_of_limit_joint)
     for (size_t ai = 0; ai < MLR_COUNTOF(alphas); ai++) {
         memset(cnt, 0, 2 * J * sizeof(size_t));
         ck_assert_int_eq(
-            mlr_limits_apply_normalized(lim, N, &in[0].w, &got[0].w, &alphas[ai], 1, cnt), MLR_OK);
+            limits__apply_normalized(lim, N, &in[0].w, &got[0].w, &alphas[ai], 1, cnt), MLR_OK);
         ck_assert_int_eq(quat__unit_array_isa(in, N * J, want, MLR_ISA_BASELINE), MLR_OK);
         for (int kind = MLR_LIMITS_HINGE; kind <= MLR_LIMITS_SWING_TWIST; kind++)
             limits_reference(lim, N, want, alphas[ai], cnt + J, kind, NULL, 0);
@@ -377,7 +377,7 @@ START_TEST(cluster_kernels_agree_with_the_baseline)
     size_t n_checked = 0;
     for (size_t di = 0; di < MLR_COUNTOF(dims); di++)
         for (size_t ki = 0; ki < MLR_COUNTOF(ks); ki++) {
-            const size_t dim = dims[di], k = ks[ki], kpad = mlr_packed_kpad(k);
+            const size_t dim = dims[di], k = ks[ki], kpad = cluster__packed_kpad(k);
             double *c = malloc(sizeof(double) * (k * dim + M * dim + kpad * dim + kpad + 4 * M));
             int32_t *ib = malloc(sizeof(int32_t) * 4 * M);
             ck_assert(c && ib);
@@ -394,14 +394,14 @@ START_TEST(cluster_kernels_agree_with_the_baseline)
                                      : i % 4 == 2 ? 0.5 * (c[t] + c[(k - 1) * dim + t])
                                                   : 12.0 * mlr_test_rng_normal(&r);
             mlr_packed p = {pc, cn, k, kpad, dim, MLR_ISA_BASELINE};
-            mlr_packed_fill(&p, c, dim);
-            mlr_nearest2(&p, x, dim, NULL, M, NULL, bi0, db0, ds0, si0);
+            cluster__packed_fill(&p, c, dim);
+            cluster__nearest2(&p, x, dim, NULL, M, NULL, bi0, db0, ds0, si0);
             for (int isa = MLR_ISA_AVX2; isa <= top; isa++) {
                 p.isa = isa;
-                mlr_nearest2(&p, x, dim, NULL, M, NULL, bi, db, ds, si);
+                cluster__nearest2(&p, x, dim, NULL, M, NULL, bi, db, ds, si);
                 for (size_t i = 0; i < M; i++) {
                     const double *xi = x + i * dim;
-                    const double scale = mlr_norm2(xi, dim) + 400.0 * dim;
+                    const double scale = cluster__norm2(xi, dim) + 400.0 * dim;
                     const double tol = 1e-12 * scale;
                     ck_assert_msg(fabs(db[i] - db0[i]) <= tol,
                                   "isa %d dim %zu k %zu row %zu: %.17g vs %.17g", isa, dim, k, i,
@@ -418,8 +418,9 @@ START_TEST(cluster_kernels_agree_with_the_baseline)
                     for (size_t j = 0; j < k; j++) {
                         const double dj = mlr_test_dist2(xi, c + j * dim, dim);
                         dmin = dj < dmin ? dj : dmin;
-                        const double e = fabs(mlr_dist2(xi, c + j * dim, dim, isa) -
-                                              mlr_dist2(xi, c + j * dim, dim, MLR_ISA_BASELINE));
+                        const double e =
+                            fabs(cluster__dist2(xi, c + j * dim, dim, isa) -
+                                 cluster__dist2(xi, c + j * dim, dim, MLR_ISA_BASELINE));
                         ck_assert_msg(e <= 1e-13 * (dj + 1e-300), "dist2 isa %d: off by %g", isa,
                                       e);
                     }
@@ -443,7 +444,7 @@ START_TEST(som_sweep_agrees_with_the_baseline)
     const int top = cpu__isa(MLR_ISA_BEST);
     for (size_t di = 0; di < MLR_COUNTOF(dims); di++)
         for (size_t ki = 0; ki < MLR_COUNTOF(ks); ki++) {
-            const size_t dim = dims[di], k = ks[ki], kpad = mlr_packed_kpad(k),
+            const size_t dim = dims[di], k = ks[ki], kpad = cluster__packed_kpad(k),
                          nb = kpad / MLR_PACK;
             double *c = malloc(sizeof(double) *
                                (k * dim + 2 * dim + 2 * kpad * (dim + 1) + kpad + k * dim));
@@ -464,21 +465,21 @@ START_TEST(som_sweep_agrees_with_the_baseline)
                 for (size_t t = 0; t < dim; t++)
                     moved[j * dim + t] = c[j * dim + t] + h[j] * (x[t] - c[j * dim + t]);
             mlr_packed p0 = {pc0, cn0, k, kpad, dim, MLR_ISA_BASELINE};
-            mlr_packed_fill(&p0, c, dim);
+            cluster__packed_fill(&p0, c, dim);
             double v0, v1;
-            const int32_t u0 = mlr_packed_sweep(&p0, x, h, active, xnext, 0, 1, &v0);
+            const int32_t u0 = cluster__packed_sweep(&p0, x, h, active, xnext, 0, 1, &v0);
             double dmin = INFINITY;
             for (size_t j = 0; j < k; j++) {
                 const double dj = mlr_test_dist2(xnext, moved + j * dim, dim);
                 dmin = dj < dmin ? dj : dmin;
             }
-            const double tol = 1e-12 * (mlr_norm2(xnext, dim) + 100.0 * dim);
+            const double tol = 1e-12 * (cluster__norm2(xnext, dim) + 100.0 * dim);
             ck_assert_msg(fabs(mlr_test_dist2(xnext, moved + (size_t)u0 * dim, dim) - dmin) <= tol,
                           "baseline: unit %d is not the nearest", u0);
             for (int isa = MLR_ISA_AVX2; isa <= top; isa++) {
                 mlr_packed p1 = {pc1, cn1, k, kpad, dim, isa};
-                mlr_packed_fill(&p1, c, dim);
-                const int32_t u1 = mlr_packed_sweep(&p1, x, h, active, xnext, 0, 1, &v1);
+                cluster__packed_fill(&p1, c, dim);
+                const int32_t u1 = cluster__packed_sweep(&p1, x, h, active, xnext, 0, 1, &v1);
                 for (size_t i = 0; i < kpad * dim; i++)
                     ck_assert_msg(fabs(pc1[i] - pc0[i]) <= 1e-14 * (fabs(pc0[i]) + 1.0),
                                   "isa %d dim %zu k %zu: centre value %zu %.17g vs %.17g", isa,

@@ -54,18 +54,18 @@ mlr_status mlr_diag_prefix(mlr_diag *diag, mlr_status status, const char *who);
 
 /* A quaternion whose computed |q|^2 lies within this of 1 is as unit as dividing by its norm
  * makes it (|q| within 2 DBL_EPSILON of 1): the library's normalizations leave it as it is
- * (mlr__quat_unit_array, mlr_ik_rotate_to_1). */
+ * (quat__unit_array, ik__rotate_to_1). */
 #define MLR_NEAR_UNIT2 (4.0 * DBL_EPSILON)
 
 /* |q|^2 of q = (w, x, y, z), summed in the one order every near-unit test takes. */
-MLR_ALWAYS_INLINE static inline double mlr_quat_norm2_wxyz(double w, double x, double y, double z)
+MLR_ALWAYS_INLINE static inline double ik__quat_norm2_wxyz(double w, double x, double y, double z)
 {
     return w * w + x * x + y * y + z * z;
 }
 
-/* The near-unit test on a squared norm n2 (mlr_quat_norm2_wxyz): |q|^2 within MLR_NEAR_UNIT2
+/* The near-unit test on a squared norm n2 (ik__quat_norm2_wxyz): |q|^2 within MLR_NEAR_UNIT2
  * of 1; NaN is not. */
-MLR_ALWAYS_INLINE static inline int mlr_near_unit2(double n2)
+MLR_ALWAYS_INLINE static inline int ik__near_unit2(double n2)
 {
     return fabs(n2 - 1.0) <= MLR_NEAR_UNIT2;
 }
@@ -74,7 +74,7 @@ static inline double mlr_fmax(double a, double b) { return a > b || b != b ? a :
 static inline double mlr_fmin(double a, double b) { return a < b || b != b ? a : b; }
 
 /* The quaternion product (aw, ax, ay, az) (bw, bx, by, bz), the library's one spelling of it:
- * every other form (mlr_quat_mul_inline, mlr__qmul4, the structure-of-arrays loops) calls this
+ * every other form (mlr_quat_mul_inline, ik__qmul4, the structure-of-arrays loops) calls this
  * one. The library builds with -ffp-contract=off, so every caller gets the same bits. Scalars in
  * and out, so that loops over structure-of-arrays copies vectorize. */
 MLR_ALWAYS_INLINE static inline mlr_quat mlr_qmul_wxyz(double aw, double ax, double ay, double az,
@@ -97,7 +97,7 @@ static inline void mlr_quat_mul_inline(const mlr_quat *a, const mlr_quat *b, mlr
 }
 
 /* o = a b, quaternions as (w, x, y, z) arrays; o may alias a or b. */
-static inline void mlr__qmul4(const double *a, const double *b, double *o)
+static inline void ik__qmul4(const double *a, const double *b, double *o)
 {
     const mlr_quat r = mlr_qmul_wxyz(a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3]);
     o[0] = r.w, o[1] = r.x, o[2] = r.y, o[3] = r.z;

@@ -52,8 +52,8 @@ static int in_range(const mlr_opt_spec *s, double v)
     }
 }
 
-mlr_status mlr_option_reject(mlr_diag *diag, const char *subject, const char *name, double value,
-                             const char *why, ...)
+mlr_status options__reject(mlr_diag *diag, const char *subject, const char *name, double value,
+                           const char *why, ...)
 {
     if (diag) {
         char text[120];
@@ -67,9 +67,9 @@ mlr_status mlr_option_reject(mlr_diag *diag, const char *subject, const char *na
     return MLR_E_INVALID_ARG;
 }
 
-mlr_status mlr_options_read(const char *subject, const mlr_opt_spec *spec, size_t n_spec,
-                            const int *key0, const double *value0, size_t stride, size_t n_opts,
-                            mlr_opt_values *out, mlr_diag *diag)
+mlr_status options__read(const char *subject, const mlr_opt_spec *spec, size_t n_spec,
+                         const int *key0, const double *value0, size_t stride, size_t n_opts,
+                         mlr_opt_values *out, mlr_diag *diag)
 {
     const mlr_opt_spec *by_key[MLR_OPT_MAX_KEYS] = {0};
     for (size_t i = 0; i < n_spec; i++) {
@@ -91,11 +91,11 @@ mlr_status mlr_options_read(const char *subject, const mlr_opt_spec *spec, size_
             return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: option %s given twice",
                                 subject, s->name);
         if (!isfinite(v))
-            return mlr_option_reject(diag, subject, s->name, v, "finite");
+            return options__reject(diag, subject, s->name, v, "finite");
         if (!in_range(s, v)) {
             char buf[64];
-            return mlr_option_reject(diag, subject, s->name, v, "%s",
-                                     range_text(s, buf, sizeof buf));
+            return options__reject(diag, subject, s->name, v, "%s",
+                                   range_text(s, buf, sizeof buf));
         }
         out->given[key] = 1;
         out->v[key] = v;

@@ -14,7 +14,7 @@
  *     SUBJECT: option NAME = V is not RANGE
  *
  * Checks that depend on other options or on the data (a joint index below J, a cutoff below
- * fps / 2) stay with the subject and report through mlr_option_reject in the same format.
+ * fps / 2) stay with the subject and report through options__reject in the same format.
  * Booleans of functions without several tunables are flags (unsigned bitmasks such as
  * MLR_RESAMPLE_ALLOW_EXTREME); their messages name the flag the same way ("allow_extreme").
  */
@@ -54,17 +54,17 @@ typedef struct mlr_opt_values {
 
 /* Read n_opts options (their keys at key0, values at value0, stride bytes apart; NULL when
  * n_opts is 0) against spec[0 .. n_spec). MLR_OK or MLR_E_INVALID_ARG with the message above. */
-mlr_status mlr_options_read(const char *subject, const mlr_opt_spec *spec, size_t n_spec,
-                            const int *key0, const double *value0, size_t stride, size_t n_opts,
-                            mlr_opt_values *out, mlr_diag *diag);
+mlr_status options__read(const char *subject, const mlr_opt_spec *spec, size_t n_spec,
+                         const int *key0, const double *value0, size_t stride, size_t n_opts,
+                         mlr_opt_values *out, mlr_diag *diag);
 
-#define MLR_OPTIONS_READ(subject, spec, opts, n_opts, out, diag)                         \
-    mlr_options_read((subject), (spec), MLR_COUNTOF(spec), (opts) ? &(opts)->key : NULL, \
-                     (opts) ? &(opts)->value : NULL, sizeof *(opts), (n_opts), (out), (diag))
+#define MLR_OPTIONS_READ(subject, spec, opts, n_opts, out, diag)                      \
+    options__read((subject), (spec), MLR_COUNTOF(spec), (opts) ? &(opts)->key : NULL, \
+                  (opts) ? &(opts)->value : NULL, sizeof *(opts), (n_opts), (out), (diag))
 
 /* "SUBJECT: option NAME = V is not WHY..." (WHY a printf format); MLR_E_INVALID_ARG. */
-mlr_status mlr_option_reject(mlr_diag *diag, const char *subject, const char *name, double value,
-                             const char *why, ...)
+mlr_status options__reject(mlr_diag *diag, const char *subject, const char *name, double value,
+                           const char *why, ...)
 #if defined(__GNUC__)
     __attribute__((format(printf, 5, 6)))
 #endif

@@ -35,7 +35,7 @@ static void *par_worker(void *arg)
     return NULL;
 }
 
-void mlr_parallel_run_workers(size_t n_threads, size_t n_tasks, mlr_task_worker_fn fn, void *ctx)
+void parallel__run_workers(size_t n_threads, size_t n_tasks, mlr_task_worker_fn fn, void *ctx)
 {
     if (n_threads > MLR_MAX_THREADS)
         n_threads = MLR_MAX_THREADS;
@@ -79,13 +79,13 @@ static void par_plain_task(void *ctx, size_t task, size_t worker)
     pp->fn(pp->ctx, task);
 }
 
-void mlr_parallel_run(size_t n_threads, size_t n_tasks, mlr_task_fn fn, void *ctx)
+void parallel__run(size_t n_threads, size_t n_tasks, mlr_task_fn fn, void *ctx)
 {
     par_plain pp = {fn, ctx};
-    mlr_parallel_run_workers(n_threads, n_tasks, par_plain_task, &pp);
+    parallel__run_workers(n_threads, n_tasks, par_plain_task, &pp);
 }
 
-size_t mlr_wait_nonzero(atomic_size_t *a)
+size_t parallel__wait_nonzero(atomic_size_t *a)
 {
     size_t v;
     for (unsigned i = 0; (v = atomic_load_explicit(a, memory_order_acquire)) == 0; i++)
@@ -94,7 +94,7 @@ size_t mlr_wait_nonzero(atomic_size_t *a)
     return v;
 }
 
-size_t mlr_online_cpus(void)
+size_t parallel__online_cpus(void)
 {
 #ifdef _SC_NPROCESSORS_ONLN
     long n = sysconf(_SC_NPROCESSORS_ONLN);

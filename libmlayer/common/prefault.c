@@ -26,7 +26,7 @@ static void *prefault_run(void *arg)
 }
 #endif
 
-void mlr_prefault_start(mlr_prefault *pf, void *p, size_t bytes)
+void prefault__start(mlr_prefault *pf, void *p, size_t bytes)
 {
     pf->started = 0;
     atomic_init(&pf->stop, 0);
@@ -46,7 +46,7 @@ void mlr_prefault_start(mlr_prefault *pf, void *p, size_t bytes)
 #endif
 }
 
-void mlr_prefault_finish(mlr_prefault *pf)
+void prefault__finish(mlr_prefault *pf)
 {
     if (!pf->started)
         return;

@@ -20,16 +20,16 @@
 typedef struct mlr_prefault {
     pthread_t thread;
     int started;
-    atomic_int stop; /* set by mlr_prefault_finish: the helper stops at its next piece */
+    atomic_int stop; /* set by prefault__finish: the helper stops at its next piece */
     unsigned char *begin, *end; /* page-aligned range */
 } mlr_prefault;
 
 /* Start the helper on the pages of [p, p + bytes) when bytes >= MLR_PREFAULT_MIN_BYTES and the
  * system can populate pages; otherwise (or if the thread cannot start) only records that there
- * is none. The memory must stay valid and writable until mlr_prefault_finish. */
-void mlr_prefault_start(mlr_prefault *pf, void *p, size_t bytes);
+ * is none. The memory must stay valid and writable until prefault__finish. */
+void prefault__start(mlr_prefault *pf, void *p, size_t bytes);
 
 /* Stop the helper (if any) and wait for it. */
-void mlr_prefault_finish(mlr_prefault *pf);
+void prefault__finish(mlr_prefault *pf);
 
 #endif

@@ -490,7 +490,7 @@ mlr_status mlr_gen_model_load_file(const mlr_allocator *alloc, const char *path,
     size_t len = 0, cap = 0;
     mlr_allocator a;
     mlr_allocator_resolve(alloc, &a);
-    mlr_status st = mlr_read_file(path, 1, &a, &buf, &len, &cap, diag);
+    mlr_status st = file_read__read(path, 1, &a, &buf, &len, &cap, diag);
     if (st)
         return mlr_diag_prefix(diag, st, "mlr_gen_model_load_file");
     if (len > MAX_FILE)

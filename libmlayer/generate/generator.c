@@ -68,12 +68,11 @@ mlr_status mlr_generator_create(const mlr_allocator *alloc, const mlr_gen_model 
     if (st)
         return st;
     if (v.v[MLR_GEN_OPT_START_FRAME] >= (double)model->n_points)
-        return mlr_option_reject(diag, "generate", "start_frame", v.v[MLR_GEN_OPT_START_FRAME],
-                                 "in -1 .. %zu (the model's training frames)",
-                                 model->n_points - 1);
+        return options__reject(diag, "generate", "start_frame", v.v[MLR_GEN_OPT_START_FRAME],
+                               "in -1 .. %zu (the model's training frames)", model->n_points - 1);
     if (v.v[MLR_GEN_OPT_START] >= (double)model->k)
-        return mlr_option_reject(diag, "generate", "start", v.v[MLR_GEN_OPT_START],
-                                 "in -1 .. %zu (the model's primitives)", model->k - 1);
+        return options__reject(diag, "generate", "start", v.v[MLR_GEN_OPT_START],
+                               "in -1 .. %zu (the model's primitives)", model->k - 1);
     mlr_allocator a;
     mlr_allocator_resolve(alloc, &a);
     mlr_generator *g = mlr_alloc(&a, sizeof *g);

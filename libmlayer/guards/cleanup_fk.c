@@ -46,8 +46,8 @@ void cleanup__fk_masked_frame(const mlr_rig *rig, size_t f, const int32_t *list,
 {
     const size_t J = rig->n_joints, P = rig->n_trans;
     const mlr_fk_list fl = cleanup__fk_list_of(rig, list, n, tidx);
-    mlr_fk_list_frame(&fl, root_pos ? root_pos + 3 * f : NULL, rot + 4 * J * f,
-                      P ? trans + 3 * P * f : NULL, wp, wrot_f);
+    fk__list_frame(&fl, root_pos ? root_pos + 3 * f : NULL, rot + 4 * J * f,
+                   P ? trans + 3 * P * f : NULL, wp, wrot_f);
 }
 
 void cleanup__fk_chain_frame(const mlr_rig *rig, size_t f, const int32_t *chain, size_t n,
@@ -79,7 +79,7 @@ mlr_status cleanup__fk_list_points(const mlr_rig *rig, const mlr_fk_list *fl, si
                                    size_t C, const int32_t *joints, const int32_t *end_sites,
                                    double *pos, double *wrot, double *pts, double *s)
 {
-    mlr_fk_list_arrays(fl, N, root_pos, rot, trans, pos, wrot, s);
+    fk__list_arrays(fl, N, root_pos, rot, trans, pos, wrot, s);
     if (!pts)
         return MLR_OK;
     return mlr_rig_point_positions(rig, N, pos, wrot, C, joints, end_sites, pts, NULL);
@@ -134,10 +134,10 @@ size_t cleanup__fk_need(const mlr_rig *rig, size_t C, const int32_t *joints,
     return n;
 }
 
-mlr_status mlr_cleanup_point_heights(const mlr_rig *rig, size_t N, const double *root_pos,
-                                     const double *rot, const double *trans, size_t C,
-                                     const int32_t *joints, const int32_t *end_sites, int up,
-                                     double *h, const mlr_allocator *a)
+mlr_status cleanup__point_heights(const mlr_rig *rig, size_t N, const double *root_pos,
+                                  const double *rot, const double *trans, size_t C,
+                                  const int32_t *joints, const int32_t *end_sites, int up,
+                                  double *h, const mlr_allocator *a)
 {
     /* CLEANUP_HEIGHT_FRAMES frames at a time (or all, when fewer): their forward kinematics
        (F x J x 7, written at the points' joints only), the blocks' scratch

@@ -61,7 +61,7 @@ mlr_status mlr_cleanup_floor_height(const mlr_rig *rig, size_t N, const double *
     st = cleanup__fk_points(rig, N, root_pos, rot, trans, C, joints, end_sites, pos, wrot, pts, &A,
                             NULL, 0, NULL);
     if (st == MLR_OK)
-        st = mlr_cleanup_floor_of_points(N, C, pts, contacts, up, quantile, height, &A);
+        st = cleanup__floor_of_points(N, C, pts, contacts, up, quantile, height, &A);
     cleanup__release(&ar);
     if (st == MLR_OK)
         return MLR_OK;
@@ -70,9 +70,9 @@ mlr_status mlr_cleanup_floor_height(const mlr_rig *rig, size_t N, const double *
                                               : "floor_height: FK failed");
 }
 
-mlr_status mlr_cleanup_floor_of_points(size_t n_frames, size_t n_points, const double *pts,
-                                       const uint8_t *contacts, int up, double quantile,
-                                       double *height, const mlr_allocator *a)
+mlr_status cleanup__floor_of_points(size_t n_frames, size_t n_points, const double *pts,
+                                    const uint8_t *contacts, int up, double quantile,
+                                    double *height, const mlr_allocator *a)
 {
     size_t k = 0;
     for (size_t i = 0; i < n_frames * n_points; i++)

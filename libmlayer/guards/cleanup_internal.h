@@ -14,19 +14,19 @@
  * (N x C x 3, as mlr_rig_point_positions gives them) instead of the frames: the quantile of
  * their up coordinates on their contact frames, NaN when nothing touches. Arguments checked
  * by the caller; N C doubles of scratch from a. */
-mlr_status mlr_cleanup_floor_of_points(size_t n_frames, size_t n_points, const double *pts,
-                                       const uint8_t *contacts, int up, double quantile,
-                                       double *height, const mlr_allocator *a);
+mlr_status cleanup__floor_of_points(size_t n_frames, size_t n_points, const double *pts,
+                                    const uint8_t *contacts, int up, double quantile,
+                                    double *height, const mlr_allocator *a);
 
 /* Heights along up of the contact points (N x C into h) of frames (root_pos, rot, trans), by
  * forward kinematics of the points' chains only, bit for bit what mlr_fk_arrays and
- * mlr_rig_point_positions give, 32 frames at a time (mlr_fk_list_block). Arguments checked by
+ * mlr_rig_point_positions give, 32 frames at a time (fk__list_block). Arguments checked by
  * the caller; one allocation of scratch from a: about 280 J + 96 C doubles (for N >= 32:
  * those frames' J x 7 and C x 3, and the blocks' 56 J). */
-mlr_status mlr_cleanup_point_heights(const mlr_rig *rig, size_t N, const double *root_pos,
-                                     const double *rot, const double *trans, size_t C,
-                                     const int32_t *joints, const int32_t *end_sites, int up,
-                                     double *h, const mlr_allocator *a);
+mlr_status cleanup__point_heights(const mlr_rig *rig, size_t N, const double *root_pos,
+                                  const double *rot, const double *trans, size_t C,
+                                  const int32_t *joints, const int32_t *end_sites, int up,
+                                  double *h, const mlr_allocator *a);
 
 /* A reference's trajectories, as mlr_cleanup_contacts derives them from the reference frames:
  * what depends on the reference alone, made once and then read by any number of cleanups of
@@ -49,14 +49,13 @@ typedef struct mlr_cleanup_ref {
  * forward kinematics (N x J x 3 and N x J x 4) when at hand, else NULL (computed here). opts:
  * the cleanup's options (only REF_SMOOTH is read; the others are checked). *out NULL on
  * failure. Allocates about N (5 C + 3 F) doubles. */
-mlr_status mlr_cleanup_ref_create(const mlr_rig *rig, size_t N, double fps, int up,
-                                  const double *root_pos, const double *rot, const double *trans,
-                                  const double *world_pos, const double *world_rot, size_t C,
-                                  const int32_t *joints, const int32_t *end_sites,
-                                  const mlr_cleanup_option *opts, size_t n_opts,
-                                  const mlr_allocator *alloc, mlr_cleanup_ref **out,
-                                  mlr_diag *diag);
-void mlr_cleanup_ref_destroy(mlr_cleanup_ref *ref);
+mlr_status cleanup__ref_create(const mlr_rig *rig, size_t N, double fps, int up,
+                               const double *root_pos, const double *rot, const double *trans,
+                               const double *world_pos, const double *world_rot, size_t C,
+                               const int32_t *joints, const int32_t *end_sites,
+                               const mlr_cleanup_option *opts, size_t n_opts,
+                               const mlr_allocator *alloc, mlr_cleanup_ref **out, mlr_diag *diag);
+void cleanup__ref_destroy(mlr_cleanup_ref *ref);
 
 /* What a caller does to the legs' rotations a pass set (the guards: the joint limits). fn
  * changes rot (N x J x 4) where mask (N x J) is set, only ever at the n_joints joints
@@ -74,12 +73,14 @@ typedef struct mlr_cleanup_hook {
  * then ref_root_pos and the others of the public call are NULL). trusted: the rig, the points
  * and the motion were checked by the caller, so they are not checked again. hook: NULL, or
  * what to do to the IK's rotations before the spread. */
-mlr_status mlr_cleanup_contacts_ref(
-    const mlr_rig *rig, size_t N, double fps, int up, const double *root_pos, const double *rot,
-    const double *trans, const mlr_cleanup_ref *ref, int trusted, const mlr_cleanup_hook *hook,
-    size_t C, const int32_t *joints, const int32_t *end_sites, const uint8_t *contacts,
-    const mlr_cleanup_option *opts, size_t n_opts, double *out_root_pos, double *out_rot,
-    mlr_cleanup_report *report, const mlr_allocator *alloc, mlr_diag *diag);
+mlr_status cleanup__contacts_ref(const mlr_rig *rig, size_t N, double fps, int up,
+                                 const double *root_pos, const double *rot, const double *trans,
+                                 const mlr_cleanup_ref *ref, int trusted,
+                                 const mlr_cleanup_hook *hook, size_t C, const int32_t *joints,
+                                 const int32_t *end_sites, const uint8_t *contacts,
+                                 const mlr_cleanup_option *opts, size_t n_opts,
+                                 double *out_root_pos, double *out_rot, mlr_cleanup_report *report,
+                                 const mlr_allocator *alloc, mlr_diag *diag);
 
 /* ---- between the cleanup's files ---- */
 
@@ -209,7 +210,7 @@ double cleanup__quantile_of(double *v, size_t n, double q);
    parents, the root not in it) of frame f, with the arithmetic of mlr_fk_arrays (mlr_fk.h:
    mlr_quat_mul / mlr_quat_rotate, inlined), so each computed value is bit for bit what the
    full FK gives; the other joints are not written. tidx[j]: j's index among the rig's trans
-   joints, or -1. wp, wrot_f: J x 3 and J x 4, the frame's (mlr_fk_list_frame). */
+   joints, or -1. wp, wrot_f: J x 3 and J x 4, the frame's (fk__list_frame). */
 void cleanup__fk_masked_frame(const mlr_rig *rig, size_t f, const int32_t *list, size_t n,
                               const int32_t *tidx, const double *root_pos, const double *rot,
                               const double *trans, double *wp, double *wrot_f);
@@ -246,7 +247,7 @@ mlr_fk_list cleanup__fk_list_of(const mlr_rig *rig, const int32_t *list, size_t 
                                 const int32_t *tidx);
 
 /* The values of cleanup__fk_masked_frame on each of N frames at fl's joints (pos, wrot:
-   N x J x 3 and N x J x 4), 8 frames at a time (mlr_fk_list_arrays; s: MLR_FK_BLOCK_SCRATCH(J)
+   N x J x 3 and N x J x 4), 8 frames at a time (fk__list_arrays; s: MLR_FK_BLOCK_SCRATCH(J)
    doubles of scratch, or NULL: frame by frame), then the points into pts (N x C x 3) unless
    NULL (their joints must be among those fl writes). */
 mlr_status cleanup__fk_list_points(const mlr_rig *rig, const mlr_fk_list *fl, size_t N,

@@ -37,7 +37,7 @@ mlr_status cleanup__parse_options(const mlr_cleanup_option *opts, size_t n_opts,
         return st;
     const double ks = o.v[MLR_CLEANUP_OPT_KEEP_STILLER];
     if (ks > 0.0 && ks < 1.0)
-        return mlr_option_reject(diag, "cleanup", "keep_stiller", ks, "0 (off) or >= 1");
+        return options__reject(diag, "cleanup", "keep_stiller", ks, "0 (off) or >= 1");
     cfg->blend = o.v[MLR_CLEANUP_OPT_BLEND];
     cfg->reach = o.v[MLR_CLEANUP_OPT_REACH];
     cfg->passes = (int)o.v[MLR_CLEANUP_OPT_PASSES];

@@ -145,7 +145,7 @@ static int aligned(const double *a, const double *b, const double *o)
 }
 
 /* The legs' rotations of the batch's frames f[i] into newr, from L's IK (its slow frames by
-   mlr_ik_two_bone_1 first). */
+   ik__two_bone_1 first). */
 static void finish_legs(const cleanup_state *cu, const cleanup_foot *ft, mlr_ik_lanes *L,
                         const size_t *fr, size_t m, int have_axis)
 {
@@ -161,22 +161,22 @@ static void finish_legs(const cleanup_state *cu, const cleanup_foot *ft, mlr_ik_
                          c[3] = {L->c[0][i], L->c[1][i], L->c[2][i]},
                          t[3] = {L->t[0][i], L->t[1][i], L->t[2][i]},
                          ax[3] = {L->axis[0][i], L->axis[1][i], L->axis[2][i]};
-            mlr_ik_two_bone_1(a, b, c, t, have_axis ? ax : NULL, MLR_IK_MAX_EXTENSION, rh, rk);
+            ik__two_bone_1(a, b, c, t, have_axis ? ax : NULL, MLR_IK_MAX_EXTENSION, rh, rk);
         } else {
             for (int k = 0; k < 4; k++)
                 rh[k] = L->r_hip[k][i], rk[k] = L->r_knee[k][i];
         }
-        mlr_ik_rotate_to_1(cu->newr + 4 * (fr[i] * J + kn), pk >= 0 ? G + 4 * (size_t)pk : NULL,
-                           G + 4 * kn, rk);
-        mlr_ik_rotate_to_1(cu->newr + 4 * (fr[i] * J + h), ph >= 0 ? G + 4 * (size_t)ph : NULL,
-                           G + 4 * h, rh);
+        ik__rotate_to_1(cu->newr + 4 * (fr[i] * J + kn), pk >= 0 ? G + 4 * (size_t)pk : NULL,
+                        G + 4 * kn, rk);
+        ik__rotate_to_1(cu->newr + 4 * (fr[i] * J + h), ph >= 0 ? G + 4 * (size_t)ph : NULL,
+                        G + 4 * h, rh);
     }
 }
 
 /* Two-bone IK of each leg on its constrained frames (contact targets, or the ankle raised
    above the floor), into newr; where the anchor (and on contact frames the placed point) is
    already within REACHED of its target, the leg is left as it is (ft->S). The frames to
-   solve go by batches of MLR_IK_LANES through mlr_ik_two_bone_lanes. */
+   solve go by batches of MLR_IK_LANES through ik__two_bone_lanes. */
 static void solve_legs(const cleanup_state *cu)
 {
     const size_t N = cu->N, J = cu->J, C = cu->C;
@@ -217,20 +217,20 @@ static void solve_legs(const cleanup_state *cu)
             }
             double ax[3] = {0, 0, 0};
             if (have_local)
-                mlr_ik_qrot(G + 4 * h, local, ax);
+                ik__qrot(G + 4 * h, local, ax);
             for (int d = 0; d < 3; d++) {
                 L.a[d][m] = Pf[3 * h + (size_t)d], L.b[d][m] = Pf[3 * kn + (size_t)d];
                 L.c[d][m] = Pf[3 * a + (size_t)d], L.t[d][m] = target[d], L.axis[d][m] = ax[d];
             }
             fr[m++] = f;
             if (m == MLR_IK_LANES) {
-                mlr_ik_two_bone_lanes(&L, m, have_local, MLR_IK_MAX_EXTENSION);
+                ik__two_bone_lanes(&L, m, have_local, MLR_IK_MAX_EXTENSION);
                 finish_legs(cu, ft, &L, fr, m, have_local);
                 m = 0;
             }
         }
         if (m) {
-            mlr_ik_two_bone_lanes(&L, m, have_local, MLR_IK_MAX_EXTENSION);
+            ik__two_bone_lanes(&L, m, have_local, MLR_IK_MAX_EXTENSION);
             finish_legs(cu, ft, &L, fr, m, have_local);
         }
     }
@@ -255,7 +255,7 @@ static void place_toe_frame(const cleanup_state *cu, const cleanup_foot *ft, siz
     if (ft->U[f]) {
         double now[3], u[3], v[3];
         if (e >= 0)
-            mlr_ik_qrot(wrot2 + 4 * j, rig->end_site_offsets + 3 * (size_t)e, now);
+            ik__qrot(wrot2 + 4 * j, rig->end_site_offsets + 3 * (size_t)e, now);
         else
             now[0] = now[1] = now[2] = 0.0;
         for (int d = 0; d < 3; d++) {
@@ -263,13 +263,13 @@ static void place_toe_frame(const cleanup_state *cu, const cleanup_foot *ft, siz
             u[d] = now[d] - pos2[3 * a + (size_t)d];
             v[d] = ft->tt[3 * f + (size_t)d] - pos2[3 * a + (size_t)d];
         }
-        mlr_ik_from_to_1(u, v, r);
+        ik__from_to_1(u, v, r);
     } else { /* r * ga = the old world rotation */
         const double *gold = cu->wrot + 4 * (f * J + a);
         const double cg[4] = {ga[0], -ga[1], -ga[2], -ga[3]};
-        mlr__qmul4(gold, cg, r);
+        ik__qmul4(gold, cg, r);
     }
-    mlr_ik_rotate_to_1(cu->newr + 4 * (f * J + a), gp, ga, r);
+    ik__rotate_to_1(cu->newr + 4 * (f * J + a), gp, ga, r);
 }
 
 /* Is foot k's toe placed on frame f (constrained, not kept, not reached)? */
@@ -280,7 +280,7 @@ static int toe_frame(const cleanup_foot *ft, size_t f)
 
 /* The chained case: foot by foot (no foot's leg joints lie on another's chain), the chain's
    forward kinematics of newr by blocks of MLR_FK_BLOCK frames from the hip's parent where a
-   run of the foot's frames allows (mlr_fk_list_block_from: the same bits as
+   run of the foot's frames allows (fk__list_block_from: the same bits as
    cleanup__fk_chain_frame, which the frames short of a block take), then each frame's toe. */
 static void place_toes_chained(const cleanup_state *cu)
 {
@@ -306,9 +306,9 @@ static void place_toes_chained(const cleanup_state *cu)
                     memcpy(cu->blk_rot + 4 * (J * l + sj), cu->wrot + 4 * (J * (f0 + l) + sj),
                            4 * sizeof(double));
                 }
-                mlr_fk_list_block_from(&fl, sj, cu->newr + 4 * J * f0,
-                                       P ? cu->trans + 3 * P * f0 : NULL, cu->blk_pos, cu->blk_rot,
-                                       cu->fk_s);
+                fk__list_block_from(&fl, sj, cu->newr + 4 * J * f0,
+                                    P ? cu->trans + 3 * P * f0 : NULL, cu->blk_pos, cu->blk_rot,
+                                    cu->fk_s);
                 for (size_t l = 0; l < B; l++)
                     place_toe_frame(cu, ft, f0 + l, cu->blk_pos + 3 * J * l,
                                     cu->blk_rot + 4 * J * l);
@@ -444,7 +444,7 @@ static void run_hook(const cleanup_state *cu, int stage)
 /* The forward kinematics of the frames where only legs' rotations changed (dirty with foot
    k's bit and not CLEANUP_DIRTY_ALL): each such leg's joints at and below its hip, from its
    hip's parent as pos and wrot hold it, by blocks of MLR_FK_BLOCK frames where a run of them
-   allows (mlr_fk_list_block_from), else frame by frame: the same values either way. */
+   allows (fk__list_block_from), else frame by frame: the same values either way. */
 static void fk_legs(const cleanup_state *cu)
 {
     const size_t N = cu->N, J = cu->J, P = cu->rig->n_trans;
@@ -462,9 +462,9 @@ static void fk_legs(const cleanup_state *cu)
                 if (++run < MLR_FK_BLOCK || seed < 0)
                     continue;
                 const size_t f0 = f + 1 - MLR_FK_BLOCK;
-                mlr_fk_list_block_from(&fl, (size_t)seed, cu->out_rot + 4 * J * f0,
-                                       P ? cu->trans + 3 * P * f0 : NULL, cu->pos + 3 * J * f0,
-                                       cu->wrot + 4 * J * f0, cu->fk_s);
+                fk__list_block_from(&fl, (size_t)seed, cu->out_rot + 4 * J * f0,
+                                    P ? cu->trans + 3 * P * f0 : NULL, cu->pos + 3 * J * f0,
+                                    cu->wrot + 4 * J * f0, cu->fk_s);
                 run = 0;
                 continue;
             }
@@ -498,9 +498,9 @@ mlr_status cleanup__pass(cleanup_state *cu)
                 if (++run < MLR_FK_BLOCK)
                     continue;
                 const size_t g0 = e + 1 - MLR_FK_BLOCK;
-                mlr_fk_list_block(&fl, cu->out_root_pos + 3 * g0, cu->out_rot + 4 * J * g0,
-                                  P ? cu->trans + 3 * P * g0 : NULL, cu->pos + 3 * J * g0,
-                                  cu->wrot + 4 * J * g0, cu->fk_s);
+                fk__list_block(&fl, cu->out_root_pos + 3 * g0, cu->out_rot + 4 * J * g0,
+                               P ? cu->trans + 3 * P * g0 : NULL, cu->pos + 3 * J * g0,
+                               cu->wrot + 4 * J * g0, cu->fk_s);
                 run = 0;
                 continue;
             }

@@ -6,7 +6,7 @@
 
 #include <math.h>
 
-void mlr_cleanup_ref_destroy(mlr_cleanup_ref *ref)
+void cleanup__ref_destroy(mlr_cleanup_ref *ref)
 {
     if (!ref)
         return;
@@ -62,7 +62,7 @@ static mlr_cleanup_ref *ref_new(const mlr_allocator *A, size_t N, size_t C, size
     return r;
 }
 
-/* The scratch of mlr_cleanup_ref_create. */
+/* The scratch of cleanup__ref_create. */
 typedef struct ref_scratch {
     uint8_t *listed, *assigned, *need;
     int32_t *tidx, *list;
@@ -139,13 +139,12 @@ static mlr_status ref_smooth(mlr_cleanup_ref *r, double fps, double *tmp, const 
     return MLR_OK;
 }
 
-mlr_status mlr_cleanup_ref_create(const mlr_rig *rig, size_t N, double fps, int up,
-                                  const double *root_pos, const double *rot, const double *trans,
-                                  const double *world_pos, const double *world_rot, size_t C,
-                                  const int32_t *joints, const int32_t *end_sites,
-                                  const mlr_cleanup_option *opts, size_t n_opts,
-                                  const mlr_allocator *alloc, mlr_cleanup_ref **out,
-                                  mlr_diag *diag)
+mlr_status cleanup__ref_create(const mlr_rig *rig, size_t N, double fps, int up,
+                               const double *root_pos, const double *rot, const double *trans,
+                               const double *world_pos, const double *world_rot, size_t C,
+                               const int32_t *joints, const int32_t *end_sites,
+                               const mlr_cleanup_option *opts, size_t n_opts,
+                               const mlr_allocator *alloc, mlr_cleanup_ref **out, mlr_diag *diag)
 {
     *out = NULL;
     cleanup_config cfg;
@@ -187,7 +186,7 @@ mlr_status mlr_cleanup_ref_create(const mlr_rig *rig, size_t N, double fps, int 
     }
     cleanup__release(&ar);
     if (st != MLR_OK) {
-        mlr_cleanup_ref_destroy(r);
+        cleanup__ref_destroy(r);
         return st;
     }
     *out = r;

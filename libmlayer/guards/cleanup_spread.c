@@ -142,13 +142,13 @@ static mlr_status solve_window(const cleanup_work *w, const uint8_t *mask, size_
         band.l[2 * i] = i >= 1 ? ab[3 * (i - 1) + 1] : 0.0;
         band.l[2 * i + 1] = i >= 2 ? ab[3 * (i - 2) + 2] : 0.0;
     }
-    const mlr_status st = mlr_band_factor_in_place(&band);
+    const mlr_status st = band__factor_in_place(&band);
     if (st < 0) /* a positive status is a warning (ill-conditioned), not a failure */
         return st;
     double *x = y + a * m;
     for (size_t i = 1; i < n; i++)
-        mlr_band_forward_row(&band, i, x + i * m, m, m);
-    mlr_band_backward(&band, x, m, m);
+        band__forward_row(&band, i, x + i * m, m, m);
+    band__backward(&band, x, m, m);
     return MLR_OK;
 }
 

@@ -214,16 +214,15 @@ mlr_status mlr_contacts_detect(const mlr_rig *rig, double fps, int up, size_t n_
                                const mlr_contacts_option *opts, size_t n_opts, uint8_t *contacts,
                                const mlr_allocator *alloc, mlr_diag *diag)
 {
-    return mlr__contacts_detect(rig, fps, up, n_frames, world_pos, world_rot, n_points, joints,
-                                end_sites, opts, n_opts, contacts, alloc, NULL, diag);
+    return contacts__detect(rig, fps, up, n_frames, world_pos, world_rot, n_points, joints,
+                            end_sites, opts, n_opts, contacts, alloc, NULL, diag);
 }
 
-mlr_status mlr__contacts_detect(const mlr_rig *rig, double fps, int up, size_t n_frames,
-                                const double *world_pos, const double *world_rot, size_t n_points,
-                                const int32_t *joints, const int32_t *end_sites,
-                                const mlr_contacts_option *opts, size_t n_opts, uint8_t *contacts,
-                                const mlr_allocator *alloc, const double *body_height,
-                                mlr_diag *diag)
+mlr_status contacts__detect(const mlr_rig *rig, double fps, int up, size_t n_frames,
+                            const double *world_pos, const double *world_rot, size_t n_points,
+                            const int32_t *joints, const int32_t *end_sites,
+                            const mlr_contacts_option *opts, size_t n_opts, uint8_t *contacts,
+                            const mlr_allocator *alloc, const double *body_height, mlr_diag *diag)
 {
     const size_t N = n_frames, C = n_points;
     double speed = SPEED_ON, height = HEIGHT_ON, min_duration = MIN_CONTACT;

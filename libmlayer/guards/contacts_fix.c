@@ -685,7 +685,7 @@ static void ramp_target(const cleanup_state *cu, cleanup_foot *ft, size_t f, con
 static void ramp_runs(cleanup_state *cu, const contact_run *runs, size_t n)
 {
     const size_t N = cu->N;
-    const double budget = RAMP_BUDGET * mlr_points_accel(cu->P, N, cu->C, NULL);
+    const double budget = RAMP_BUDGET * depop__points_accel(cu->P, N, cu->C, NULL);
     for (size_t i = 0; i < n; i++) {
         const contact_run *r = &runs[i];
         cleanup_foot *ft = &cu->feet[r->k];
@@ -995,9 +995,9 @@ static mlr_status cleanup_run(const mlr_rig *rig, size_t N, double fps, int up,
         goto done;
     /* the reference's trajectories: given made, or made here from its frames */
     if (have_arrays && !pre) {
-        if ((st = mlr_cleanup_ref_create(rig, N, fps, up, ref_root_pos, ref_rot, ref_trans, NULL,
-                                         NULL, C, joints, end_sites, opts, n_opts, &A, &owned,
-                                         diag)) != MLR_OK)
+        if ((st = cleanup__ref_create(rig, N, fps, up, ref_root_pos, ref_rot, ref_trans, NULL,
+                                      NULL, C, joints, end_sites, opts, n_opts, &A, &owned,
+                                      diag)) != MLR_OK)
             goto done;
         pre = owned;
     }
@@ -1024,7 +1024,7 @@ static mlr_status cleanup_run(const mlr_rig *rig, size_t N, double fps, int up,
         }
     }
 done:
-    mlr_cleanup_ref_destroy(owned);
+    cleanup__ref_destroy(owned);
     cleanup__release(&ar);
     return st;
 }
@@ -1043,12 +1043,14 @@ mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t N, double fps, int up
                        out_rot, report, alloc, diag);
 }
 
-mlr_status mlr_cleanup_contacts_ref(
-    const mlr_rig *rig, size_t N, double fps, int up, const double *root_pos, const double *rot,
-    const double *trans, const mlr_cleanup_ref *ref, int trusted, const mlr_cleanup_hook *hook,
-    size_t C, const int32_t *joints, const int32_t *end_sites, const uint8_t *contacts,
-    const mlr_cleanup_option *opts, size_t n_opts, double *out_root_pos, double *out_rot,
-    mlr_cleanup_report *report, const mlr_allocator *alloc, mlr_diag *diag)
+mlr_status cleanup__contacts_ref(const mlr_rig *rig, size_t N, double fps, int up,
+                                 const double *root_pos, const double *rot, const double *trans,
+                                 const mlr_cleanup_ref *ref, int trusted,
+                                 const mlr_cleanup_hook *hook, size_t C, const int32_t *joints,
+                                 const int32_t *end_sites, const uint8_t *contacts,
+                                 const mlr_cleanup_option *opts, size_t n_opts,
+                                 double *out_root_pos, double *out_rot, mlr_cleanup_report *report,
+                                 const mlr_allocator *alloc, mlr_diag *diag)
 {
     return cleanup_run(rig, N, fps, up, root_pos, rot, trans, NULL, NULL, NULL, ref, trusted, hook,
                        C, joints, end_sites, contacts, opts, n_opts, out_root_pos, out_rot, report,

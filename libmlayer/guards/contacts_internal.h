@@ -7,15 +7,14 @@
 
 /* mlr_contacts_find_feet and mlr_contacts_detect with the body height of world_pos
  * (mlr_rig_body_height) given in *height (*body_height), or measured when it is NULL: the same results. */
-mlr_status mlr__contacts_find_feet(const mlr_rig *rig, size_t n_frames, const double *world_pos,
-                                   int up, size_t capacity, int32_t *joints, int32_t *end_sites,
-                                   size_t *n_feet, const mlr_allocator *alloc,
-                                   const double *height, mlr_diag *diag);
-mlr_status mlr__contacts_detect(const mlr_rig *rig, double fps, int up, size_t n_frames,
-                                const double *world_pos, const double *world_rot, size_t n_points,
-                                const int32_t *joints, const int32_t *end_sites,
-                                const mlr_contacts_option *opts, size_t n_opts, uint8_t *contacts,
-                                const mlr_allocator *alloc, const double *body_height,
-                                mlr_diag *diag);
+mlr_status contacts__find_feet(const mlr_rig *rig, size_t n_frames, const double *world_pos,
+                               int up, size_t capacity, int32_t *joints, int32_t *end_sites,
+                               size_t *n_feet, const mlr_allocator *alloc, const double *height,
+                               mlr_diag *diag);
+mlr_status contacts__detect(const mlr_rig *rig, double fps, int up, size_t n_frames,
+                            const double *world_pos, const double *world_rot, size_t n_points,
+                            const int32_t *joints, const int32_t *end_sites,
+                            const mlr_contacts_option *opts, size_t n_opts, uint8_t *contacts,
+                            const mlr_allocator *alloc, const double *body_height, mlr_diag *diag);
 
 #endif

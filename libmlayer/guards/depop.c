@@ -28,7 +28,7 @@
 #define DEPOP_WINDOW 0.05 /* seconds: the first round's half window; each round adds one */
 #define DEPOP_ROUNDS 4
 
-double mlr_points_accel(const double *pts, size_t N, size_t C, double *a)
+double depop__points_accel(const double *pts, size_t N, size_t C, double *a)
 {
     double m = 0.0;
     if (a && N > 0)
@@ -89,8 +89,8 @@ static void corrections(size_t N, size_t J, const double *syn_root, const double
             const double ac[4] = {a[0] / n, -a[1] / n, -a[2] / n, -a[3] / n};
             const double bu[4] = {b[0] / bn, b[1] / bn, b[2] / bn, b[3] / bn};
             double c[4];
-            mlr__qmul4(bu, ac, c);
-            mlr__quat_rotvec(c, cf + 3 * j);
+            ik__qmul4(bu, ac, c);
+            quat__rotvec(c, cf + 3 * j);
         }
         for (int d = 0; d < 3; d++)
             cf[3 * J + (size_t)d] = root[3 * f + (size_t)d] - syn_root[3 * f + (size_t)d];
@@ -176,8 +176,8 @@ static size_t smooth_round(size_t N, size_t J, const double *syn_root, const dou
             const double *a = syn_rot + 4 * (f * J + j);
             const double n = sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2] + a[3] * a[3]);
             const double an[4] = {a[0] / n, a[1] / n, a[2] / n, a[3] / n};
-            mlr__rotvec_quat(v, q);
-            mlr__qmul4(q, an, out);
+            quat__rotvec_quat(v, q);
+            ik__qmul4(q, an, out);
             double *r = rot + 4 * (f * J + j);
             const double sg =
                 out[0] * r[0] + out[1] * r[1] + out[2] * r[2] + out[3] * r[3] < 0 ? -1 : 1;
@@ -194,8 +194,8 @@ static size_t smooth_round(size_t N, size_t J, const double *syn_root, const dou
 
 /* The hinges of the smoothed frames (w->blend > 0) back within their ranges: an average of a
    knee's corrections can bend it past straight (FAIR's jump at alpha 2: 5 degrees the other way
-   on 5 frames). The clamp (mlr_limits_apply_kind_masked's) is eased in time as the guards'
-   limits are (mlr_limits_ease), and what is left of it clamped: clamped on its frames alone it
+   on 5 frames). The clamp (limits__apply_kind_masked's) is eased in time as the guards'
+   limits are (limits__ease), and what is left of it clamped: clamped on its frames alone it
    made a corner of its own (the same jump's toe, 3.7x the base at alpha 2; 1.2x eased). */
 static mlr_status clamp_hinges(const mlr_limits *limits, size_t N, size_t J, double fps,
                                double *rot, const double *alpha, size_t n_alpha,
@@ -221,23 +221,23 @@ static mlr_status clamp_hinges(const mlr_limits *limits, size_t N, size_t J, dou
             q[0] /= n, q[1] /= n, q[2] /= n, q[3] /= n;
     }
     memcpy(raw, rot, qbytes);
-    mlr_limits_apply_kind_masked(limits, N, (mlr_quat *)rot, alpha, n_alpha, NULL,
-                                 MLR_LIMITS_HINGE, mask, NULL, 0, 1);
-    mlr_status st = mlr_limits_ease(raw, rot, N, J, fps, NULL, alloc);
+    limits__apply_kind_masked(limits, N, (mlr_quat *)rot, alpha, n_alpha, NULL, MLR_LIMITS_HINGE,
+                              mask, NULL, 0, 1);
+    mlr_status st = limits__ease(raw, rot, N, J, fps, NULL, alloc);
     if (st == MLR_OK) /* what the easing left outside a range */
-        mlr_limits_apply_kind_masked(limits, N, (mlr_quat *)rot, alpha, n_alpha, NULL,
-                                     MLR_LIMITS_HINGE, NULL, NULL, 0, 1);
+        limits__apply_kind_masked(limits, N, (mlr_quat *)rot, alpha, n_alpha, NULL,
+                                  MLR_LIMITS_HINGE, NULL, NULL, 0, 1);
     mlr_free(alloc, raw, qbytes);
     mlr_free(alloc, mask, bytes);
     return st;
 }
 
-mlr_status mlr_depop(const mlr_rig *rig, size_t N, double fps, const double *in_root,
-                     const double *in_rot, const double *in_trans, const double *syn_root,
-                     const double *syn_rot, const double *trans, size_t C, const int32_t *joints,
-                     const int32_t *end_sites, const uint8_t *contacts, const mlr_limits *limits,
-                     const double *alpha, size_t n_alpha, double *root, double *rot,
-                     size_t *smoothed, const mlr_allocator *alloc)
+mlr_status depop__apply(const mlr_rig *rig, size_t N, double fps, const double *in_root,
+                        const double *in_rot, const double *in_trans, const double *syn_root,
+                        const double *syn_rot, const double *trans, size_t C,
+                        const int32_t *joints, const int32_t *end_sites, const uint8_t *contacts,
+                        const mlr_limits *limits, const double *alpha, size_t n_alpha,
+                        double *root, double *rot, size_t *smoothed, const mlr_allocator *alloc)
 {
     if (smoothed)
         *smoothed = 0;
@@ -304,13 +304,13 @@ mlr_status mlr_depop(const mlr_rig *rig, size_t N, double fps, const double *in_
         st = cleanup__fk_points(rig, N, src_root[s], src_rot[s], src_trans[s], C, joints,
                                 end_sites, w.pos, w.wrot, w.pts, alloc, NULL, 0, NULL);
         if (st == MLR_OK)
-            base = fmax(base, mlr_points_accel(w.pts, N, C, NULL));
+            base = fmax(base, depop__points_accel(w.pts, N, C, NULL));
     }
     const double limit = DEPOP_RATIO * base;
     for (int round = 0; st == MLR_OK && round < DEPOP_ROUNDS && base > 0.0; round++) {
         st = cleanup__fk_points(rig, N, root, rot, trans, C, joints, end_sites, w.pos, w.wrot,
                                 w.pts, alloc, NULL, 0, NULL);
-        if (st != MLR_OK || !(mlr_points_accel(w.pts, N, C, w.accel) > limit))
+        if (st != MLR_OK || !(depop__points_accel(w.pts, N, C, w.accel) > limit))
             break;
         const double hs = DEPOP_WINDOW * (double)(round + 1) * fps;
         const size_t h = hs < 2.0 ? 2 : (size_t)ceil(hs);

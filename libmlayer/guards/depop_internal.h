@@ -8,7 +8,7 @@
 /* The largest acceleration (second difference, per frame squared) of the C points pts
  * (N x C x 3) over points, per frame into a (N values, 0 at the first and last; or NULL), and
  * over the frames as the return value (0 for N < 3). */
-double mlr_points_accel(const double *pts, size_t N, size_t C, double *a);
+double depop__points_accel(const double *pts, size_t N, size_t C, double *a);
 
 /* Where a point (C points: joints, End Sites as mlr_rig_point_positions takes them) of the
  * result (root, rot: N frames, replaced) accelerates faster than 1.25 times the largest
@@ -21,11 +21,11 @@ double mlr_points_accel(const double *pts, size_t N, size_t C, double *a);
  * clamped to their ranges at alpha (1 or 1 + J values) after each round. *smoothed: the
  * most frames a round changed (0: none). Arguments checked by the caller (finite, in range);
  * MLR_E_NO_MEMORY or MLR_E_OVERFLOW leave some frames smoothed. */
-mlr_status mlr_depop(const mlr_rig *rig, size_t N, double fps, const double *in_root,
-                     const double *in_rot, const double *in_trans, const double *syn_root,
-                     const double *syn_rot, const double *trans, size_t C, const int32_t *joints,
-                     const int32_t *end_sites, const uint8_t *contacts, const mlr_limits *limits,
-                     const double *alpha, size_t n_alpha, double *root, double *rot,
-                     size_t *smoothed, const mlr_allocator *alloc);
+mlr_status depop__apply(const mlr_rig *rig, size_t N, double fps, const double *in_root,
+                        const double *in_rot, const double *in_trans, const double *syn_root,
+                        const double *syn_rot, const double *trans, size_t C,
+                        const int32_t *joints, const int32_t *end_sites, const uint8_t *contacts,
+                        const mlr_limits *limits, const double *alpha, size_t n_alpha,
+                        double *root, double *rot, size_t *smoothed, const mlr_allocator *alloc);
 
 #endif /* MLR_DEPOP_INTERNAL_H */

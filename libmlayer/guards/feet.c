@@ -155,14 +155,14 @@ mlr_status mlr_contacts_find_feet(const mlr_rig *rig, size_t n_frames, const dou
                                   int up, size_t capacity, int32_t *joints, int32_t *end_sites,
                                   size_t *n_feet, const mlr_allocator *alloc, mlr_diag *diag)
 {
-    return mlr__contacts_find_feet(rig, n_frames, world_pos, up, capacity, joints, end_sites,
-                                   n_feet, alloc, NULL, diag);
+    return contacts__find_feet(rig, n_frames, world_pos, up, capacity, joints, end_sites, n_feet,
+                               alloc, NULL, diag);
 }
 
-mlr_status mlr__contacts_find_feet(const mlr_rig *rig, size_t n_frames, const double *world_pos,
-                                   int up, size_t capacity, int32_t *joints, int32_t *end_sites,
-                                   size_t *n_feet, const mlr_allocator *alloc,
-                                   const double *height, mlr_diag *diag)
+mlr_status contacts__find_feet(const mlr_rig *rig, size_t n_frames, const double *world_pos,
+                               int up, size_t capacity, int32_t *joints, int32_t *end_sites,
+                               size_t *n_feet, const mlr_allocator *alloc, const double *height,
+                               mlr_diag *diag)
 {
     mlr_status st = mlr_rig_check(rig, diag);
     if (st != MLR_OK)

@@ -9,7 +9,7 @@
  * rotations on it) is blended toward the input's, by the least weight of 1/FLOOR_STEPS, ..., 1
  * that lifts the point to within the slack (all the way when none does: at 1 the path is the
  * input's, and so is the point). Each point's weights are smoothed in time as the limits'
- * corrections are (mlr_ease_lookahead: a running maximum, then a Gaussian), so the path returns to
+ * corrections are (limits__ease_lookahead: a running maximum, then a Gaussian), so the path returns to
  * the input's pose and back over 0.2 s, and each joint takes the largest weight of the paths it
  * is on. The guards run this before the cleanup, which then pins the feet of the result.
  *
@@ -29,7 +29,7 @@
 
 #define FLOOR_STEPS 8          /* the weights tried: 0, 1/8, ..., 1 */
 #define FLOOR_EASE_SIGMA 0.04  /* seconds */
-#define FLOOR_EASE_TRUNC 2.5   /* mlr_ease_kernel's cut, in sigmas */
+#define FLOOR_EASE_TRUNC 2.5   /* limits__ease_kernel's cut, in sigmas */
 #define CHAIN_MAX 64           /* longer chains are left as they are */
 
 /* slerp(a, b, t) of unit quaternions along the shorter arc, into o. */
@@ -72,7 +72,7 @@ mlr_status floor_chains__apply(const mlr_rig *rig, size_t N, double fps, int up,
     if (N < 3 || !isfinite(floor) || !(fps > 0))
         return MLR_OK;
     const double sigma = FLOOR_EASE_SIGMA * fps;
-    const size_t r = (size_t)ceil(FLOOR_EASE_TRUNC * sigma); /* mlr_ease_kernel's */
+    const size_t r = (size_t)ceil(FLOOR_EASE_TRUNC * sigma); /* limits__ease_kernel's */
     /* scratch: two FKs (positions, world rotations), the input's heights, a point's weights
        and their eased copy, the joints' weights, the running maximum's, a chain's rotations
        and local translations (CHAIN_MAX joints), the kernel; the flags */
@@ -124,13 +124,12 @@ mlr_status floor_chains__apply(const mlr_rig *rig, size_t N, double fps, int up,
             double y = pos_in[3 * (f * J + j) + (size_t)up];
             if (p >= J) {
                 double v[3];
-                mlr__quat_rotate3(wrot_in + 4 * (f * J + j), rig->end_site_offsets + 3 * (p - J),
-                                  v);
+                quat__rotate3(wrot_in + 4 * (f * J + j), rig->end_site_offsets + 3 * (p - J), v);
                 y += v[up];
             }
             h_in[f * P + p] = y;
         }
-    mlr_ease_kernel(sigma, kern);
+    limits__ease_kernel(sigma, kern);
     memset(wj, 0, N * J * sizeof(double));
     size_t n_lifted = 0;
     for (size_t p = 0; p < P; p++) {
@@ -155,8 +154,7 @@ mlr_status floor_chains__apply(const mlr_rig *rig, size_t N, double fps, int up,
             double y = pos[3 * (f * J + jp) + (size_t)up];
             if (e >= 0) {
                 double v[3];
-                mlr__quat_rotate3(wrot + 4 * (f * J + jp), rig->end_site_offsets + 3 * (size_t)e,
-                                  v);
+                quat__rotate3(wrot + 4 * (f * J + jp), rig->end_site_offsets + 3 * (size_t)e, v);
                 y += v[up];
             }
             if (!((floor - y) - din > slack))
@@ -203,15 +201,15 @@ mlr_status floor_chains__apply(const mlr_rig *rig, size_t N, double fps, int up,
                 memcpy(rr, qc, sizeof rr);
                 for (size_t i = 1; i < m; i++) {
                     double v[3], r2[4];
-                    mlr__quat_rotate3(rr, lt + 3 * i, v);
+                    quat__rotate3(rr, lt + 3 * i, v);
                     for (int d = 0; d < 3; d++)
                         pp[d] += v[d];
-                    mlr__qmul4(rr, qc + 4 * i, r2);
+                    ik__qmul4(rr, qc + 4 * i, r2);
                     memcpy(rr, r2, sizeof rr);
                 }
                 if (e >= 0) {
                     double v[3];
-                    mlr__quat_rotate3(rr, rig->end_site_offsets + 3 * (size_t)e, v);
+                    quat__rotate3(rr, rig->end_site_offsets + 3 * (size_t)e, v);
                     for (int d = 0; d < 3; d++)
                         pp[d] += v[d];
                 }
@@ -233,7 +231,7 @@ mlr_status floor_chains__apply(const mlr_rig *rig, size_t N, double fps, int up,
         if (!any)
             continue;
         n_lifted++;
-        mlr_ease_lookahead(wp, N, kern, r, tmp, wpe);
+        limits__ease_lookahead(wp, N, kern, r, tmp, wpe);
         for (size_t f = 0; f < N; f++)
             for (size_t i = 0; i < n; i++) {
                 double *x = wj + f * J + (size_t)chain[i];
@@ -271,7 +269,7 @@ mlr_status floor_chains__apply(const mlr_rig *rig, size_t N, double fps, int up,
             double w[4] = {1.0, 0.0, 0.0, 0.0};
             for (int32_t a = rig->parents[bj]; a >= 0; a = rig->parents[a]) {
                 double r2[4];
-                mlr__qmul4(rot + 4 * (f * J + (size_t)a), w, r2);
+                ik__qmul4(rot + 4 * (f * J + (size_t)a), w, r2);
                 memcpy(w, r2, sizeof w);
             }
             const double *a = trans + 3 * (f * rig->n_trans + (size_t)body),
@@ -279,7 +277,7 @@ mlr_status floor_chains__apply(const mlr_rig *rig, size_t N, double fps, int up,
             double dl[3], dw[3];
             for (int d = 0; d < 3; d++)
                 dl[d] = t * (b[d] - a[d]);
-            mlr__quat_rotate3(w, dl, dw);
+            quat__rotate3(w, dl, dw);
             for (int d = 0; d < 3; d++)
                 root[3 * f + (size_t)d] += dw[d];
         }

@@ -206,8 +206,8 @@ void mlr_guards_destroy(mlr_guards *g)
     free_array(&g->alloc, g->rot, 4 * N * J, sizeof(double));
     free_array(&g->alloc, g->trans, 3 * N * P, sizeof(double));
     free_contacts(g);
-    mlr_cleanup_ref_destroy(g->input_ref);
-    mlr_cleanup_ref_destroy(g->input_ref_raw);
+    cleanup__ref_destroy(g->input_ref);
+    cleanup__ref_destroy(g->input_ref_raw);
     mlr_limits_destroy(g->learned);
     mlr_allocator a = g->alloc;
     mlr_free(&a, g, sizeof *g);
@@ -316,8 +316,8 @@ static mlr_status floor_from_positions(mlr_guards *g, const double *wpos, const 
         st = mlr_rig_point_positions(&g->rig, g->n_frames, wpos, wrot, g->n_points, g->joints,
                                      g->end_sites, pts, diag);
     if (st == MLR_OK)
-        st = mlr_cleanup_floor_of_points(g->n_frames, g->n_points, pts, g->contacts, g->up, 0.05,
-                                         &g->floor_height, &g->alloc);
+        st = cleanup__floor_of_points(g->n_frames, g->n_points, pts, g->contacts, g->up, 0.05,
+                                      &g->floor_height, &g->alloc);
     if (st == MLR_OK && isnan(g->floor_height)) {
         /* no contact frame (a clip of 14 frames, a jump in the air): the 5th percentile over
            frames of the feet's lowest point, so the feet still go no lower than the input's
@@ -366,8 +366,8 @@ static mlr_status find_contacts(mlr_guards *g, const double *world_pos, const do
     }
     if (st == MLR_OK) {
         mlr_diag quiet;
-        st = mlr__contacts_find_feet(&g->rig, N, world_pos, g->up, J, fj, fe, &n_feet, &g->alloc,
-                                     height, &quiet);
+        st = contacts__find_feet(&g->rig, N, world_pos, g->up, J, fj, fe, &n_feet, &g->alloc,
+                                 height, &quiet);
         if (st == MLR_E_INVALID_ARG) { /* no feet by name: nothing to pin */
             st = MLR_OK;
             n_feet = 0;
@@ -394,9 +394,8 @@ static mlr_status find_contacts(mlr_guards *g, const double *world_pos, const do
             tips_of(g, C, fj, fe, g->joints + C, g->end_sites + C);
             /* the contacts of the C points (N x C), then spread to the N x (C + T) layout with
                the tips' columns 0 */
-            st =
-                mlr__contacts_detect(&g->rig, g->fps, g->up, N, world_pos, world_rot, C, g->joints,
-                                     g->end_sites, NULL, 0, g->contacts, &g->alloc, height, diag);
+            st = contacts__detect(&g->rig, g->fps, g->up, N, world_pos, world_rot, C, g->joints,
+                                  g->end_sites, NULL, 0, g->contacts, &g->alloc, height, diag);
             if (st == MLR_E_INVALID_ARG) /* a flat skeleton: no body size, nothing to pin */
                 st = MLR_OK, free_contacts(g);
             else if (st == MLR_OK && T)
@@ -424,8 +423,8 @@ static mlr_status make_input_ref(const mlr_guards *g, size_t C, const int32_t *j
     mlr_diag d = {0, 0, ""};
     const mlr_cleanup_option smooth = {MLR_CLEANUP_OPT_REF_SMOOTH, seconds};
     const mlr_status st =
-        mlr_cleanup_ref_create(&g->rig, g->n_frames, g->fps, g->up, g->root_pos, g->rot, g->trans,
-                               wpos, wrot, C, joints, end_sites, &smooth, 1, &g->alloc, out, &d);
+        cleanup__ref_create(&g->rig, g->n_frames, g->fps, g->up, g->root_pos, g->rot, g->trans,
+                            wpos, wrot, C, joints, end_sites, &smooth, 1, &g->alloc, out, &d);
     if (st ==
         MLR_E_INVALID_ARG) /* points the cleanup refuses (over 16 on a foot): apply says so */
         return MLR_OK;
@@ -520,7 +519,7 @@ mlr_status mlr_guards_create(const mlr_rig *rig, double fps, size_t n_frames,
         if (g->trans_joints[k] == g->body_joint)
             g->body_trans = (int32_t)k;
     /* unit rotations, as the layers, the limits and the cleanup take them */
-    st = mlr__quat_unit_array((const mlr_quat *)rot, N * J, (mlr_quat *)g->rot);
+    st = quat__unit_array((const mlr_quat *)rot, N * J, (mlr_quat *)g->rot);
     if (st != MLR_OK) { /* the message of the first value not finite, else of a zero */
         if (check_finite(rot, n_rot, "rot", diag) == MLR_OK)
             mlr_diag_set(diag, st, 0, 0, "guards: a rotation of the input is zero");
@@ -542,8 +541,8 @@ mlr_status mlr_guards_create(const mlr_rig *rig, double fps, size_t n_frames,
         if (i == n_ends)
             ends[n_ends++] = g->rig.end_site_parents[e];
     }
-    st = mlr_fk_arrays_rot_at(N, J, g->parents, g->offsets, g->root_pos, g->rot, P,
-                              g->trans_joints, g->trans, wpos, wrot, ends, n_ends, &a);
+    st = fk__arrays_rot_at(N, J, g->parents, g->offsets, g->root_pos, g->rot, P, g->trans_joints,
+                           g->trans, wpos, wrot, ends, n_ends, &a);
     free_array(&a, ends, J, sizeof(int32_t));
     if (st != MLR_OK) {
         mlr_diag_set(diag, st, 0, 0, "guards: forward kinematics of the input failed");
@@ -561,7 +560,7 @@ mlr_status mlr_guards_create(const mlr_rig *rig, double fps, size_t n_frames,
             goto done;
     if (g->limits_mode != MLR_GUARDS_LIMITS_OFF) {
         const mlr_limits_clip clip = {N, g->rot, P ? g->trans : NULL};
-        st = mlr_limits_create_unit(&g->rig, &clip, 1, &a, &g->learned, diag);
+        st = limits__create_unit(&g->rig, &clip, 1, &a, &g->learned, diag);
         if (st != MLR_OK)
             goto done;
         g->limits = g->learned;
@@ -654,15 +653,15 @@ mlr_status mlr_guards_set_contacts(mlr_guards *g, size_t n_points, const int32_t
         ((st = make_input_ref(g, A, nj, ne, NULL, NULL, GUARDS_REF_SMOOTH, &ref, diag)) !=
              MLR_OK ||
          (st = make_input_ref(g, A, nj, ne, NULL, NULL, 0.0, &raw, diag)) != MLR_OK)) {
-        mlr_cleanup_ref_destroy(ref);
+        cleanup__ref_destroy(ref);
         free_array(&g->alloc, nj, A, sizeof(int32_t));
         free_array(&g->alloc, ne, A, sizeof(int32_t));
         free_array(&g->alloc, nc, A * N, 1);
         return st;
     }
     free_contacts(g);
-    mlr_cleanup_ref_destroy(g->input_ref);
-    mlr_cleanup_ref_destroy(g->input_ref_raw);
+    cleanup__ref_destroy(g->input_ref);
+    cleanup__ref_destroy(g->input_ref_raw);
     g->input_ref = ref, g->input_ref_raw = raw;
     g->joints = nj, g->end_sites = ne, g->contacts = nc, g->n_points = A, g->n_public = C;
     return estimate_floor(g, diag);
@@ -718,8 +717,8 @@ static mlr_status raise_to_floor(const mlr_guards *g, const mlr_cleanup_ref *ref
     double *hout = alloc_array(&g->alloc, N * C, sizeof(double), &st);
     double *need = alloc_array(&g->alloc, 2 * N, sizeof(double), &st);
     if (st == MLR_OK)
-        st = mlr_cleanup_point_heights(&g->rig, N, root, rot, trans, C, g->joints, g->end_sites,
-                                       g->up, hout, &g->alloc);
+        st = cleanup__point_heights(&g->rig, N, root, rot, trans, C, g->joints, g->end_sites,
+                                    g->up, hout, &g->alloc);
     if (st == MLR_OK) {
         double *wide = need + N;
         int any = 0;
@@ -879,7 +878,7 @@ static mlr_status rot_error(const mlr_guards *g, const double *rot, mlr_diag *di
 {
     mlr_status st = check_finite(rot, 4 * g->n_frames * g->n_joints, "rot", diag);
     if (st == MLR_OK)
-        st = mlr_limits_rot_error(g->limits, g->n_frames, rot, diag);
+        st = limits__rot_error(g->limits, g->n_frames, rot, diag);
     /* (a quaternion that fails the normalization is zero or not finite: one of the two) */
     return st != MLR_OK ? st
                         : mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
@@ -899,10 +898,10 @@ static mlr_status apply_reference(const mlr_guards *g, const double *ref_root_po
     if (g->follow && has_ref) {
         const mlr_cleanup_option smooth0 = {MLR_CLEANUP_OPT_REF_SMOOTH, 0.0};
         if ((st = check_reference(g, ref_root_pos, ref_rot, ref_trans, diag)) != MLR_OK ||
-            (st = mlr_cleanup_ref_create(&g->rig, g->n_frames, g->fps, g->up, ref_root_pos,
-                                         ref_rot, g->n_trans ? ref_trans : NULL, NULL, NULL,
-                                         g->n_points, g->joints, g->end_sites, &smooth0, 1,
-                                         &g->alloc, made, diag)) != MLR_OK)
+            (st = cleanup__ref_create(&g->rig, g->n_frames, g->fps, g->up, ref_root_pos, ref_rot,
+                                      g->n_trans ? ref_trans : NULL, NULL, NULL, g->n_points,
+                                      g->joints, g->end_sites, &smooth0, 1, &g->alloc, made,
+                                      diag)) != MLR_OK)
             return mlr_diag_prefix(diag, st, "guards");
         *ref = *made;
     } else if (g->follow) {
@@ -1066,8 +1065,8 @@ static void limit_ik(void *ctx, size_t N, size_t J, double *rot, const uint8_t *
     const ik_limits *c = ctx;
     (void)J; /* (the IK's and the spread's rotations are unit to rounding) */
     for (int kind = MLR_LIMITS_HINGE; kind <= MLR_LIMITS_SWING_TWIST; kind++)
-        mlr_limits_apply_kind_masked(c->g->limits, N, (mlr_quat *)rot, c->alpha, c->n_alpha,
-                                     c->counts, kind, mask, joints, n_joints, 0);
+        limits__apply_kind_masked(c->g->limits, N, (mlr_quat *)rot, c->alpha, c->n_alpha,
+                                  c->counts, kind, mask, joints, n_joints, 0);
 }
 
 /* The hinges (knees, elbows: a rotation about the hinge axis each) that the cleanup took out
@@ -1083,8 +1082,8 @@ static mlr_status clamp_changed_hinges(const mlr_guards *g, const apply_work *w,
         return MLR_OK;
     mlr_status st = normalize_masked(w->rot, w->changed, N, J, w->legs, w->n_legs, diag);
     if (st == MLR_OK)
-        mlr_limits_apply_kind_masked(g->limits, N, (mlr_quat *)w->rot, alpha, n_alpha, w->counts2,
-                                     MLR_LIMITS_HINGE, w->changed, w->legs, w->n_legs, 1);
+        limits__apply_kind_masked(g->limits, N, (mlr_quat *)w->rot, alpha, n_alpha, w->counts2,
+                                  MLR_LIMITS_HINGE, w->changed, w->legs, w->n_legs, 1);
     return st;
 }
 
@@ -1125,9 +1124,9 @@ static mlr_status clean_and_limit(const mlr_guards *g, const apply_work *w, cons
        apply_reference; the rig and the points were checked at create, the motion by
        apply_check (the limits keep it finite), so the cleanup does not check them again */
     mlr_status st =
-        mlr_cleanup_contacts_ref(&g->rig, N, g->fps, g->up, w->root, w->rot, trans, ref, 1,
-                                 limits ? &hook : NULL, g->n_points, g->joints, g->end_sites,
-                                 contacts, copts, n_copts, w->root, w->rot, crep, &g->alloc, diag);
+        cleanup__contacts_ref(&g->rig, N, g->fps, g->up, w->root, w->rot, trans, ref, 1,
+                              limits ? &hook : NULL, g->n_points, g->joints, g->end_sites,
+                              contacts, copts, n_copts, w->root, w->rot, crep, &g->alloc, diag);
     if (st != MLR_OK)
         return st;
     rep->root_shift_max = crep->root_shift_max;
@@ -1140,7 +1139,7 @@ static mlr_status clean_and_limit(const mlr_guards *g, const apply_work *w, cons
     return st;
 }
 
-/* The limits' corrections of rot (its limits in work) eased in time (mlr_limits_ease): a joint
+/* The limits' corrections of rot (its limits in work) eased in time (limits__ease): a joint
    running into its bound is braked over 0.2 s instead of in the frames where it crosses the
    soft zone (the foot's acceleration was up to 3.7x the synthesis's on Xia's walks at alpha 2-3,
    0.7-0.9x after). A hinge swung from one bound to the other within that window can be left a
@@ -1150,18 +1149,18 @@ static mlr_status ease_limits(const mlr_guards *g, const double *rot, double *wo
                               const double *alpha, size_t n_alpha, const size_t *counts)
 {
     const size_t N = g->n_frames, J = g->n_joints;
-    mlr_status st = mlr_limits_ease(rot, work, N, J, g->fps, counts, &g->alloc);
+    mlr_status st = limits__ease(rot, work, N, J, g->fps, counts, &g->alloc);
     if (st != MLR_OK)
         return st;
     double *clamped = alloc_array(&g->alloc, 4 * N * J, sizeof(double), &st);
     if (st != MLR_OK)
         return st;
     memcpy(clamped, work, 4 * N * J * sizeof(double));
-    mlr_limits_apply_kind_masked(g->limits, N, (mlr_quat *)clamped, alpha, n_alpha, NULL,
-                                 MLR_LIMITS_HINGE, NULL, NULL, 0, 1);
-    if ((st = mlr_limits_ease(work, clamped, N, J, g->fps, counts, &g->alloc)) == MLR_OK) {
-        mlr_limits_apply_kind_masked(g->limits, N, (mlr_quat *)clamped, alpha, n_alpha, NULL,
-                                     MLR_LIMITS_HINGE, NULL, NULL, 0, 1);
+    limits__apply_kind_masked(g->limits, N, (mlr_quat *)clamped, alpha, n_alpha, NULL,
+                              MLR_LIMITS_HINGE, NULL, NULL, 0, 1);
+    if ((st = limits__ease(work, clamped, N, J, g->fps, counts, &g->alloc)) == MLR_OK) {
+        limits__apply_kind_masked(g->limits, N, (mlr_quat *)clamped, alpha, n_alpha, NULL,
+                                  MLR_LIMITS_HINGE, NULL, NULL, 0, 1);
         memcpy(work, clamped, 4 * N * J * sizeof(double));
     }
     free_array(&g->alloc, clamped, 4 * N * J, sizeof(double));
@@ -1240,8 +1239,7 @@ static mlr_status guards_apply(const mlr_guards *g, const double *alpha, size_t 
     memset(counts, 0, J * sizeof(size_t));
     if (limits_on) {
         /* the limits take 1 or 1 + J alphas, as the layers' synthesis */
-        if (mlr_limits_apply_normalized(g->limits, N, rot, work, alpha, n_alpha, counts) !=
-            MLR_OK) {
+        if (limits__apply_normalized(g->limits, N, rot, work, alpha, n_alpha, counts) != MLR_OK) {
             st = rot_error(g, rot, diag);
             goto done;
         }
@@ -1321,10 +1319,10 @@ static mlr_status guards_apply(const mlr_guards *g, const double *alpha, size_t 
     if (C > 0 || floor_on || rep.limits_applied) {
         /* the corners where guards meet, smoothed (depop.c); before the floor's last word */
         size_t smoothed = 0;
-        st = mlr_depop(&g->rig, N, g->fps, g->root_pos, g->rot, g->trans, root_pos, rot, trans,
-                       g->n_points, g->joints, g->end_sites, C ? g->contacts : NULL,
-                       rep.limits_applied ? g->limits : NULL, alpha, n_alpha, work_root, work,
-                       &smoothed, &g->alloc);
+        st = depop__apply(&g->rig, N, g->fps, g->root_pos, g->rot, g->trans, root_pos, rot, trans,
+                          g->n_points, g->joints, g->end_sites, C ? g->contacts : NULL,
+                          rep.limits_applied ? g->limits : NULL, alpha, n_alpha, work_root, work,
+                          &smoothed, &g->alloc);
         if (st != MLR_OK) {
             fk_failure(st, diag);
             goto done;
@@ -1347,9 +1345,10 @@ static mlr_status guards_apply(const mlr_guards *g, const double *alpha, size_t 
     if (floor_on && C > 0 && !denoising) {
         /* knees above the floor: each leg turned about its hip-ankle axis (legs_swivel.c) */
         size_t turned = 0;
-        st = mlr_legs_swivel(&g->rig, N, g->fps, g->up, g->floor_height,
-                             GUARDS_FLOOR_SLACK * g->body_height, g->root_pos, g->rot, g->trans,
-                             work_root, work, trans, g->n_points, g->joints, &turned, &g->alloc);
+        st =
+            legs_swivel__apply(&g->rig, N, g->fps, g->up, g->floor_height,
+                               GUARDS_FLOOR_SLACK * g->body_height, g->root_pos, g->rot, g->trans,
+                               work_root, work, trans, g->n_points, g->joints, &turned, &g->alloc);
         if (st != MLR_OK) {
             fk_failure(st, diag);
             goto done;
@@ -1375,7 +1374,7 @@ static mlr_status guards_apply(const mlr_guards *g, const double *alpha, size_t 
     if (report)
         *report = rep;
 done:
-    mlr_cleanup_ref_destroy(made_ref);
+    cleanup__ref_destroy(made_ref);
     free_array(&g->alloc, work, 4 * N * J, sizeof(double));
     free_array(&g->alloc, work_root, 3 * N, sizeof(double));
     free_array(&g->alloc, counts, J, sizeof(size_t));

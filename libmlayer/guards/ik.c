@@ -56,7 +56,7 @@ static void from_to_unit(double u[3], double v[3], double q[4])
     q[0] /= n, q[1] /= n, q[2] /= n, q[3] /= n;
 }
 
-void mlr_ik_from_to_1(const double u_in[3], const double v_in[3], double q[4])
+void ik__from_to_1(const double u_in[3], const double v_in[3], double q[4])
 {
     double u[3] = {u_in[0], u_in[1], u_in[2]}, v[3] = {v_in[0], v_in[1], v_in[2]};
     const double nu = norm3(u), nv = norm3(v), p = nu * nv, d = dot3(u, v);
@@ -73,8 +73,8 @@ void mlr_ik_from_to_1(const double u_in[3], const double v_in[3], double q[4])
     q[0] /= n, q[1] /= n, q[2] /= n, q[3] /= n;
 }
 
-void mlr_ik_two_bone_1(const double a[3], const double b[3], const double c[3], const double t[3],
-                       const double *axis, double max_ext, double r_hip[4], double r_knee[4])
+void ik__two_bone_1(const double a[3], const double b[3], const double c[3], const double t[3],
+                    const double *axis, double max_ext, double r_hip[4], double r_knee[4])
 {
     double ab[3], bc[3], ac[3], at[3], mab[3];
     for (int k = 0; k < 3; k++) {
@@ -132,7 +132,7 @@ void mlr_ik_two_bone_1(const double a[3], const double b[3], const double c[3], 
     double c1a[3];
     for (int k = 0; k < 3; k++)
         c1a[k] = b[k] + cp * bc[k] + sp * w[k] - a[k];
-    mlr_ik_from_to_1(c1a, at, r_hip);
+    ik__from_to_1(c1a, at, r_hip);
 }
 
 /* mlr_fmax and mlr_fmin (the same values) without control flow, for the vectorized loop. */
@@ -146,7 +146,7 @@ static inline double lane_min(double a, double b)
 }
 
 MLR_CLONES("avx2")
-void mlr_ik_two_bone_lanes(mlr_ik_lanes *L, size_t m, int have_axis, double max_ext)
+void ik__two_bone_lanes(mlr_ik_lanes *L, size_t m, int have_axis, double max_ext)
 {
     if (!have_axis) /* the leg's own plane: bc x (a - b) */
         for (size_t i = 0; i < m; i++) {
@@ -196,7 +196,7 @@ void mlr_ik_two_bone_lanes(mlr_ik_lanes *L, size_t m, int have_axis, double max_
         const double ch = mlr_select_bits(front, ch1, ch2), sh = mlr_select_bits(front, sh1, sh2);
         L->r_knee[0][i] = ch, L->r_knee[1][i] = sh * n[0], L->r_knee[2][i] = sh * n[1],
         L->r_knee[3][i] = sh * n[2];
-        /* mlr_ik_from_to_1(b + cp bc + sp w - a, at) on its fast path */
+        /* ik__from_to_1(b + cp bc + sp w - a, at) on its fast path */
         double u[3];
         for (int k = 0; k < 3; k++)
             u[k] = L->b[k][i] + cp * bc[k] + sp * w[k] - L->a[k][i];
@@ -246,13 +246,13 @@ mlr_status mlr_ik_two_bone(size_t n, const double *hip, const double *knee, cons
                 L.a[k][i] = hip[q], L.b[k][i] = knee[q], L.c[k][i] = end[q], L.t[k][i] = target[q];
                 L.axis[k][i] = bend_axis ? bend_axis[q] : 0.0;
             }
-        mlr_ik_two_bone_lanes(&L, m, bend_axis != NULL, max_extension);
+        ik__two_bone_lanes(&L, m, bend_axis != NULL, max_extension);
         for (size_t i = 0; i < m; i++) {
             const size_t f = f0 + i;
             if (L.slow[i]) {
-                mlr_ik_two_bone_1(hip + 3 * f, knee + 3 * f, end + 3 * f, target + 3 * f,
-                                  bend_axis ? bend_axis + 3 * f : NULL, max_extension,
-                                  r_hip + 4 * f, r_knee + 4 * f);
+                ik__two_bone_1(hip + 3 * f, knee + 3 * f, end + 3 * f, target + 3 * f,
+                               bend_axis ? bend_axis + 3 * f : NULL, max_extension, r_hip + 4 * f,
+                               r_knee + 4 * f);
                 continue;
             }
             for (int k = 0; k < 4; k++)
@@ -268,7 +268,7 @@ mlr_status mlr_ik_from_to(size_t n, const double *u, const double *v, double *ou
     if (n && (!u || !v || !out))
         return MLR_E_INVALID_ARG;
     for (size_t f = 0; f < n; f++)
-        mlr_ik_from_to_1(u + 3 * f, v + 3 * f, out + 4 * f);
+        ik__from_to_1(u + 3 * f, v + 3 * f, out + 4 * f);
     return MLR_OK;
 }
 
@@ -325,7 +325,7 @@ static void bend_terms(const double *restrict pos, const double *restrict wrot, 
             ek[k] = pe[k] - pk[k], hk[k] = ph[k] - pk[k];
         cross3(ek, hk, c);
         const double cg[4] = {g[0], -g[1], -g[2], -g[3]};
-        mlr_ik_qrot(cg, c, o);
+        ik__qrot(cg, c, o);
         l[i] = o[0], l[BEND_BLOCK + i] = o[1], l[2 * BEND_BLOCK + i] = o[2];
     }
 }
@@ -382,9 +382,9 @@ mlr_status mlr_ik_rotate_to(size_t n, size_t J, const int32_t *parents, double *
         return st;
     const int32_t p = parents[joint];
     for (size_t f = 0; f < n; f++)
-        mlr_ik_rotate_to_1(rot + 4 * (f * J + (size_t)joint),
-                           p >= 0 ? wrot + 4 * (f * J + (size_t)p) : NULL,
-                           wrot + 4 * (f * J + (size_t)joint), r_world + 4 * f);
+        ik__rotate_to_1(rot + 4 * (f * J + (size_t)joint),
+                        p >= 0 ? wrot + 4 * (f * J + (size_t)p) : NULL,
+                        wrot + 4 * (f * J + (size_t)joint), r_world + 4 * f);
     return MLR_OK;
 }
 
@@ -420,17 +420,15 @@ mlr_status mlr_ik_apply_leg(size_t n, size_t J, const int32_t *parents, double *
         double ax[3], rh[4], rk[4];
         const double *axp = bend_axis ? bend_axis + 3 * f : NULL;
         if (have_local) {
-            mlr_ik_qrot(G + 4 * h, local, ax);
+            ik__qrot(G + 4 * h, local, ax);
             axp = ax;
         }
-        mlr_ik_two_bone_1(P + 3 * h, P + 3 * k, P + 3 * e, target + 3 * f, axp,
-                          MLR_IK_MAX_EXTENSION, rh, rk);
+        ik__two_bone_1(P + 3 * h, P + 3 * k, P + 3 * e, target + 3 * f, axp, MLR_IK_MAX_EXTENSION,
+                       rh, rk);
         /* the knee's parent keeps its old world rotation here: the hip's delta turns knee and
            parent alike */
-        mlr_ik_rotate_to_1(rot + 4 * (f * J + k), pk >= 0 ? G + 4 * (size_t)pk : NULL, G + 4 * k,
-                           rk);
-        mlr_ik_rotate_to_1(rot + 4 * (f * J + h), ph >= 0 ? G + 4 * (size_t)ph : NULL, G + 4 * h,
-                           rh);
+        ik__rotate_to_1(rot + 4 * (f * J + k), pk >= 0 ? G + 4 * (size_t)pk : NULL, G + 4 * k, rk);
+        ik__rotate_to_1(rot + 4 * (f * J + h), ph >= 0 ? G + 4 * (size_t)ph : NULL, G + 4 * h, rh);
     }
     return MLR_OK;
 }

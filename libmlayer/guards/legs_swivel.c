@@ -10,7 +10,7 @@
  * the guards' slack) is found in closed form (the knee's height along the circle is
  * c + r A cos(phi - phi0)), the way toward the top of the circle (where the knee sits at the
  * bottom, toward the side the input's knee is on); the turns are eased in time like the limits' corrections
- * (mlr_ease_lookahead: a running maximum, then a 40 ms Gaussian; positive and negative turns
+ * (limits__ease_lookahead: a running maximum, then a 40 ms Gaussian; positive and negative turns
  * apart), so a knee leaves the floor and returns over about 0.1 s. The hip's world rotation
  * takes the turn; the ankle's local rotation gives it back, so the foot keeps its world
  * orientation and stays where the cleanup planted it.
@@ -34,7 +34,7 @@
 #include <string.h>
 
 #define SWIVEL_EASE_SIGMA 0.04 /* seconds */
-#define SWIVEL_EASE_TRUNC 2.5  /* mlr_ease_kernel's cut, in sigmas */
+#define SWIVEL_EASE_TRUNC 2.5  /* limits__ease_kernel's cut, in sigmas */
 #define SWIVEL_MAX_LEGS 16
 #define SWIVEL_PI 3.14159265358979323846
 
@@ -112,8 +112,8 @@ static double input_angle(const mlr_rig *rig, const double *pos_in, const double
     const double *Wi = wrot_in + 4 * (f * J + p), *Wo = wrot + 4 * (f * J + p);
     const double Wic[4] = {Wi[0], -Wi[1], -Wi[2], -Wi[3]};
     double local[3], d[3];
-    mlr__quat_rotate3(Wic, d1, local);
-    mlr__quat_rotate3(Wo, local, d);
+    quat__rotate3(Wic, d1, local);
+    quat__rotate3(Wo, local, d);
     const double x = d[0] * e1[0] + d[1] * e1[1] + d[2] * e1[2];
     const double y = d[0] * e2[0] + d[1] * e2[1] + d[2] * e2[2];
     return hypot(x, y) > 0.0 ? atan2(y, x) : 0.0;
@@ -144,11 +144,11 @@ static size_t find_legs(const mlr_rig *rig, size_t C, const int32_t *joints, int
     return n;
 }
 
-mlr_status mlr_legs_swivel(const mlr_rig *rig, size_t N, double fps, int up, double floor,
-                           double slack, const double *in_root, const double *in_rot,
-                           const double *in_trans, const double *root, double *rot,
-                           const double *trans, size_t C, const int32_t *joints, size_t *turned,
-                           const mlr_allocator *alloc)
+mlr_status legs_swivel__apply(const mlr_rig *rig, size_t N, double fps, int up, double floor,
+                              double slack, const double *in_root, const double *in_rot,
+                              const double *in_trans, const double *root, double *rot,
+                              const double *trans, size_t C, const int32_t *joints, size_t *turned,
+                              const mlr_allocator *alloc)
 {
     if (turned)
         *turned = 0;
@@ -158,7 +158,7 @@ mlr_status mlr_legs_swivel(const mlr_rig *rig, size_t N, double fps, int up, dou
     if (N < 3 || nl == 0 || !isfinite(floor) || !(fps > 0))
         return MLR_OK;
     const double sigma = SWIVEL_EASE_SIGMA * fps;
-    const size_t r = (size_t)ceil(SWIVEL_EASE_TRUNC * sigma); /* mlr_ease_kernel's */
+    const size_t r = (size_t)ceil(SWIVEL_EASE_TRUNC * sigma); /* limits__ease_kernel's */
     /* scratch: the input's positions, the motion's positions and world rotations, the turns
        (positive and negative parts, eased copies, the running maximum's), the kernel */
     size_t nd = 0, bytes = 0;
@@ -176,7 +176,7 @@ mlr_status mlr_legs_swivel(const mlr_rig *rig, size_t N, double fps, int up, dou
                                     trans, pos, wrot, alloc);
     if (st != MLR_OK)
         goto done;
-    mlr_ease_kernel(sigma, kern);
+    limits__ease_kernel(sigma, kern);
     size_t n_turned = 0;
     for (size_t l = 0; l < nl; l++) {
         const size_t h = (size_t)legs[3 * l], k = (size_t)legs[3 * l + 1];
@@ -238,8 +238,8 @@ mlr_status mlr_legs_swivel(const mlr_rig *rig, size_t N, double fps, int up, dou
         if (!any)
             continue;
         n_turned++;
-        mlr_ease_lookahead(tp, N, kern, r, tmp, ep);
-        mlr_ease_lookahead(tn, N, kern, r, tmp, en);
+        limits__ease_lookahead(tp, N, kern, r, tmp, ep);
+        limits__ease_lookahead(tn, N, kern, r, tmp, en);
         const size_t ph_ = (size_t)rig->parents[h];
         for (size_t f = 0; f < N; f++) {
             const double phi = ep[f] - en[f];
@@ -258,11 +258,11 @@ mlr_status mlr_legs_swivel(const mlr_rig *rig, size_t N, double fps, int up, dou
             const double Wkc[4] = {Wk[0], -Wk[1], -Wk[2], -Wk[3]};
             double t1[4], t2[4], qh[4], qa[4];
             /* hip: W_p^-1 R W_h, with W_h = W_p q_h */
-            mlr__qmul4(R, wrot + 4 * (f * J + h), t1);
-            mlr__qmul4(Wpc, t1, qh);
+            ik__qmul4(R, wrot + 4 * (f * J + h), t1);
+            ik__qmul4(Wpc, t1, qh);
             /* ankle: (R W_k)^-1 W_a = W_k^-1 R^-1 W_a */
-            mlr__qmul4(Rc, Wa, t1);
-            mlr__qmul4(Wkc, t1, t2);
+            ik__qmul4(Rc, Wa, t1);
+            ik__qmul4(Wkc, t1, t2);
             memcpy(qa, t2, sizeof qa);
             double *q_h = rot + 4 * (f * J + h), *q_a = rot + 4 * (f * J + a);
             const double sh = qh[0] * q_h[0] + qh[1] * q_h[1] + qh[2] * q_h[2] + qh[3] * q_h[3];

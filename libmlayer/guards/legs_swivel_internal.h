@@ -15,10 +15,10 @@
  * rotation takes the turn and the ankle's gives it back: the ankle and the foot stay where the
  * cleanup put them, the knee's bend is kept. *turned: how many legs needed it. Arguments checked
  * by the caller; the motion unchanged on failure. */
-mlr_status mlr_legs_swivel(const mlr_rig *rig, size_t N, double fps, int up, double floor,
-                           double slack, const double *in_root, const double *in_rot,
-                           const double *in_trans, const double *root, double *rot,
-                           const double *trans, size_t C, const int32_t *joints, size_t *turned,
-                           const mlr_allocator *alloc);
+mlr_status legs_swivel__apply(const mlr_rig *rig, size_t N, double fps, int up, double floor,
+                              double slack, const double *in_root, const double *in_rot,
+                              const double *in_trans, const double *root, double *rot,
+                              const double *trans, size_t C, const int32_t *joints, size_t *turned,
+                              const mlr_allocator *alloc);
 
 #endif /* MLR_LEGS_SWIVEL_INTERNAL_H */

@@ -621,7 +621,7 @@ static void measure_extents(const learner *L)
         c->sw_s = c->tw_s = c->an_s = 0.0, c->sw_c = c->tw_c = c->an_c = 1.0;
         /* the moments of the rotation vectors and the hinge angle extremes: for find_hinges'
            candidates; the swings': for named hinges */
-        const int named = rig->names ? mlr_limits_hinge_name(rig->names[j]) : 0;
+        const int named = rig->names ? limits__hinge_name(rig->names[j]) : 0;
         const int cand = j > 0 && norm3(jt[j].axis) > 0 && (!rig->names || named);
         c->need_m = cand;
         c->need_ms = cand && named;
@@ -703,7 +703,7 @@ static int find_hinges(const learner *L, int human_opt)
         /* e is an axis of the centred rotations conj(centre) q; the hinge axis lives in the
            parent's frame, where the rotations about e turn about centre e */
         const double along = fabs(dot3(qrot(g->centre, e), g->axis));
-        const int named = rig->names ? mlr_limits_hinge_name(rig->names[j]) : 0;
+        const int named = rig->names ? limits__hinge_name(rig->names[j]) : 0;
         if (named && conc >= 0.5 && along >= cos35) {
             is_hinge[j] = named;
         } else if (named) {
@@ -742,7 +742,7 @@ static void set_ranges(const learner *L, const mlr_limits *lim, const create_opt
     int *cls = L->cls;
     const int *is_hinge = L->is_hinge;
     const int32_t *main_child = L->main_child;
-    mlr_limits_classify(rig, is_hinge, main_child, cls);
+    limits__classify(rig, is_hinge, main_child, cls);
     size_t count[MLR_LIMITS_CLASS_COUNT] = {0};
     for (size_t j = 0; j < J; j++)
         count[cls[j]]++;
@@ -768,7 +768,7 @@ static void set_ranges(const learner *L, const mlr_limits *lim, const create_opt
         const double in_sw = fmin(PI, fmax(MIN_INPUT_BOUND, g->stats[2] * grow));
         const double in_tw = fmin(PI, fmax(MIN_INPUT_BOUND, g->stats[3] * grow));
         double t_sw, t_tw;
-        if (lim->human && mlr_limits_table(cls[j], count[cls[j]], &t_sw, &t_tw)) {
+        if (lim->human && limits__table(cls[j], count[cls[j]], &t_sw, &t_tw)) {
             r->swing = fmin(PI, fmax(t_sw, g->stats[2] * grow));
             r->twist = fmin(PI, fmax(t_tw, g->stats[3] * grow));
             r->widen = 0, r->source = MLR_LIMITS_SOURCE_TABLE;
@@ -841,8 +841,8 @@ mlr_status mlr_limits_create(const mlr_rig *rig, const mlr_limits_clip *clips, s
     return create_limits(rig, clips, n_clips, opts, n_opts, alloc, 0, out, diag);
 }
 
-mlr_status mlr_limits_create_unit(const mlr_rig *rig, const mlr_limits_clip *clips, size_t n_clips,
-                                  const mlr_allocator *alloc, mlr_limits **out, mlr_diag *diag)
+mlr_status limits__create_unit(const mlr_rig *rig, const mlr_limits_clip *clips, size_t n_clips,
+                               const mlr_allocator *alloc, mlr_limits **out, mlr_diag *diag)
 {
     return create_limits(rig, clips, n_clips, NULL, 0, alloc, 1, out, diag);
 }
@@ -1116,9 +1116,9 @@ static inline int limit_joint(const mlr_limits_joint *g, const joint_bounds *b, 
                    : phi < r->lo ? r->lo + HARD_INSIDE * (r->hi - r->lo)
                                  : phi;
         else if (phi > r->hi - w_hi)
-            phi2 = mlr_limits_soft(phi, r->hi, w_hi);
+            phi2 = limits__soft(phi, r->hi, w_hi);
         else if (phi < r->lo + w_lo)
-            phi2 = -mlr_limits_soft(-phi, -r->lo, w_lo);
+            phi2 = -limits__soft(-phi, -r->lo, w_lo);
         if (phi2 == phi)
             return 0;
         *q = qmul(axis_angle(g->axis, phi2 - phi), *q);
@@ -1150,7 +1150,7 @@ static inline int limit_joint(const mlr_limits_joint *g, const joint_bounds *b, 
                 sq = st_swing(rr.w, rr.x, rr.y, rr.z, t.x, t.y, t.z, pp, tn);
                 if (!swing_in) {
                     sw = swing_angle(sq);
-                    sw2 = sw > smax - ws ? mlr_limits_soft(sw, smax, ws) : sw;
+                    sw2 = sw > smax - ws ? limits__soft(sw, smax, ws) : sw;
                 }
             }
             if (twist_in && sw2 == sw) { /* unchanged; its twist read if a later frame needs it */
@@ -1168,7 +1168,7 @@ static inline int limit_joint(const mlr_limits_joint *g, const joint_bounds *b, 
                 prev->v = tw, prev->pending = 0;
             }
             const double atw = fabs(tw);
-            const double tw2 = atw > tmax - wt ? copysign(mlr_limits_soft(atw, tmax, wt), tw) : tw;
+            const double tw2 = atw > tmax - wt ? copysign(limits__soft(atw, tmax, wt), tw) : tw;
             if (sw2 == sw && tw2 == tw)
                 return 0;
             const mlr_quat s2 = sw2 == sw ? sq : with_angle(sq, sw2);
@@ -1180,7 +1180,7 @@ static inline int limit_joint(const mlr_limits_joint *g, const joint_bounds *b, 
             const double ang = 2.0 * atan2(vs, rr.w);
             if (!(ang > smax - ws))
                 return 0;
-            *q = qmul(g->centre, with_angle(rr, mlr_limits_soft(ang, smax, ws)));
+            *q = qmul(g->centre, with_angle(rr, limits__soft(ang, smax, ws)));
         }
     } else {
         return 0;
@@ -1190,8 +1190,8 @@ static inline int limit_joint(const mlr_limits_joint *g, const joint_bounds *b, 
     return 1;
 }
 
-void mlr_limits_apply_frame(const mlr_limits *lim, mlr_quat *q, const double *alpha, size_t stride,
-                            size_t *counts)
+void limits__apply_frame(const mlr_limits *lim, mlr_quat *q, const double *alpha, size_t stride,
+                         size_t *counts)
 {
     for (size_t j = 0; j < lim->n_joints; j++) {
         const double a = alpha ? alpha[stride * j] : 1.0;
@@ -1202,11 +1202,10 @@ void mlr_limits_apply_frame(const mlr_limits *lim, mlr_quat *q, const double *al
     }
 }
 
-void mlr_limits_apply_kind(const mlr_limits *lim, size_t n_frames, mlr_quat *rot,
-                           const double *alpha, size_t n_alpha, size_t *counts, int kind)
+void limits__apply_kind(const mlr_limits *lim, size_t n_frames, mlr_quat *rot, const double *alpha,
+                        size_t n_alpha, size_t *counts, int kind)
 {
-    mlr_limits_apply_kind_masked(lim, n_frames, rot, alpha, n_alpha, counts, kind, NULL, NULL, 0,
-                                 0);
+    limits__apply_kind_masked(lim, n_frames, rot, alpha, n_alpha, counts, kind, NULL, NULL, 0, 0);
 }
 
 /* Which of the m quaternions q[stride i] of joint g limit_joint leaves as they are by its first
@@ -1251,11 +1250,11 @@ static int any_limited(const uint8_t *mask, size_t stride, size_t n)
     return 0;
 }
 
-/* The frames of a block of mlr_limits_apply_kind_masked. */
+/* The frames of a block of limits__apply_kind_masked. */
 #define APPLY_FB 64
 
 /* limit_joint on the nf <= APPLY_FB frames from f0 of joint j of rot (n_frames x J), in order
- * (b, prev: its bounds and unwrapping state; mask and counts as mlr_limits_apply_kind_masked's).
+ * (b, prev: its bounds and unwrapping state; mask and counts as limits__apply_kind_masked's).
  * The rotations limit_joint's first fast path leaves as they are are found for the block at once
  * (inside_block), a run of them passed over at once, its last one's angle read only if a later
  * frame needs it. In the AVX2 clone: three-operand code, fewer register copies. */
@@ -1301,10 +1300,10 @@ static void limit_block(const mlr_limits *lim, size_t j, const joint_bounds *b, 
     }
 }
 
-void mlr_limits_apply_kind_masked(const mlr_limits *lim, size_t n_frames, mlr_quat *rot,
-                                  const double *alpha, size_t n_alpha, size_t *counts, int kind,
-                                  const uint8_t *mask, const int32_t *joints, size_t n_joints,
-                                  int hard)
+void limits__apply_kind_masked(const mlr_limits *lim, size_t n_frames, mlr_quat *rot,
+                               const double *alpha, size_t n_alpha, size_t *counts, int kind,
+                               const uint8_t *mask, const int32_t *joints, size_t n_joints,
+                               int hard)
 {
     const size_t J = lim->n_joints, n_look = joints ? n_joints : J;
     const double *aj = alpha ? (n_alpha == 1 ? alpha : alpha + 1) : NULL;
@@ -1339,20 +1338,20 @@ void mlr_limits_apply_kind_masked(const mlr_limits *lim, size_t n_frames, mlr_qu
     }
 }
 
-/* The joints that mlr_limits_apply_normalized limits in one go (more: kind by kind). */
+/* The joints that limits__apply_normalized limits in one go (more: kind by kind). */
 #define FUSED_JOINTS 64
 
-mlr_status mlr_limits_apply_normalized(const mlr_limits *lim, size_t n_frames,
-                                       const double *rot_in, double *rot_out, const double *alpha,
-                                       size_t n_alpha, size_t *counts)
+mlr_status limits__apply_normalized(const mlr_limits *lim, size_t n_frames, const double *rot_in,
+                                    double *rot_out, const double *alpha, size_t n_alpha,
+                                    size_t *counts)
 {
     const size_t J = lim->n_joints;
     mlr_quat *q = (mlr_quat *)rot_out;
     if (J > FUSED_JOINTS) {
-        if (mlr__quat_unit_array((const mlr_quat *)rot_in, J * n_frames, q) != MLR_OK)
+        if (quat__unit_array((const mlr_quat *)rot_in, J * n_frames, q) != MLR_OK)
             return MLR_E_INVALID_ARG;
         for (int kind = MLR_LIMITS_HINGE; kind <= MLR_LIMITS_SWING_TWIST; kind++)
-            mlr_limits_apply_kind(lim, n_frames, q, alpha, n_alpha, counts, kind);
+            limits__apply_kind(lim, n_frames, q, alpha, n_alpha, counts, kind);
         return MLR_OK;
     }
     /* by blocks of APPLY_FB frames: the block normalized, then each limited joint along it
@@ -1375,7 +1374,7 @@ mlr_status mlr_limits_apply_normalized(const mlr_limits *lim, size_t n_frames,
         }
     for (size_t f0 = 0; f0 < n_frames; f0 += APPLY_FB) {
         const size_t nf = n_frames - f0 < APPLY_FB ? n_frames - f0 : APPLY_FB;
-        if (mlr__quat_unit_array((const mlr_quat *)rot_in + J * f0, J * nf, q + J * f0) != MLR_OK)
+        if (quat__unit_array((const mlr_quat *)rot_in + J * f0, J * nf, q + J * f0) != MLR_OK)
             return MLR_E_INVALID_ARG;
         for (size_t i = 0; i < m; i++)
             limit_block(lim, js[i], &b[i], &prev[i], q, f0, nf, NULL, counts);
@@ -1383,8 +1382,8 @@ mlr_status mlr_limits_apply_normalized(const mlr_limits *lim, size_t n_frames,
     return MLR_OK;
 }
 
-mlr_status mlr_limits_rot_error(const mlr_limits *lim, size_t n_frames, const double *rot,
-                                mlr_diag *diag)
+mlr_status limits__rot_error(const mlr_limits *lim, size_t n_frames, const double *rot,
+                             mlr_diag *diag)
 {
     const size_t J = lim->n_joints, nq = J * n_frames, bad = first_bad_quat(rot, nq);
     if (bad == nq)
@@ -1416,7 +1415,7 @@ mlr_status mlr_limits_apply(const mlr_limits *lim, size_t n_frames, const double
                             "limits: counts must have J = %zu values, got %zu", J, n_counts);
     if (counts)
         memset(counts, 0, J * sizeof *counts);
-    mlr_status st = mlr_limits_rot_error(lim, n_frames, rot_in, diag);
+    mlr_status st = limits__rot_error(lim, n_frames, rot_in, diag);
     if (st != MLR_OK)
         return st;
     const size_t nq = J * n_frames;
@@ -1426,9 +1425,9 @@ mlr_status mlr_limits_apply(const mlr_limits *lim, size_t n_frames, const double
     const int apart = out_at + bytes <= in_at || in_at + bytes <= out_at;
     if (rot_out != rot_in && !apart) /* overlapping arrays: in place */
         memmove(rot_out, rot_in, 4 * nq * sizeof(double));
-    (void)mlr__quat_unit_array(apart ? (const mlr_quat *)rot_in : q, nq, q);
+    (void)quat__unit_array(apart ? (const mlr_quat *)rot_in : q, nq, q);
     /* joint by joint, so that hinge angles are unwrapped along the frames */
     for (int kind = MLR_LIMITS_HINGE; kind <= MLR_LIMITS_SWING_TWIST; kind++)
-        mlr_limits_apply_kind(lim, n_frames, q, alpha, n_alpha, counts, kind);
+        limits__apply_kind(lim, n_frames, q, alpha, n_alpha, counts, kind);
     return MLR_OK;
 }

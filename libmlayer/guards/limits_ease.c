@@ -25,7 +25,7 @@
 #define EASE_SIGMA 0.04 /* seconds */
 #define EASE_TRUNC 2.5  /* the Gaussian's support and the running maximum's radius, in sigmas */
 
-size_t mlr_ease_kernel(double sigma, double *k)
+size_t limits__ease_kernel(double sigma, double *k)
 {
     const size_t r = (size_t)ceil(EASE_TRUNC * sigma);
     double ks = 0.0;
@@ -38,8 +38,8 @@ size_t mlr_ease_kernel(double sigma, double *k)
     return r;
 }
 
-void mlr_ease_lookahead(const double *x, size_t n, const double *k, size_t r, double *tmp,
-                        double *y)
+void limits__ease_lookahead(const double *x, size_t n, const double *k, size_t r, double *tmp,
+                            double *y)
 {
     for (size_t f = 0; f < n; f++) { /* the running maximum */
         const size_t a = f > r ? f - r : 0, b = f + r < n ? f + r : n - 1;
@@ -67,13 +67,13 @@ typedef struct ease_work {
 /* out = x through the running maximum and the Gaussian. */
 static void ease_signal(const ease_work *w, const double *x, size_t N, double *out)
 {
-    mlr_ease_lookahead(x, N, w->kernel, w->r, w->tmp, out);
+    limits__ease_lookahead(x, N, w->kernel, w->r, w->tmp, out);
 }
 
 /* Component k of the eased correction into w->eased: its positive part eased minus its
    negative part eased. Where the two overlap (a knee swung from one bound to the other within
    0.2 s: CMU and Xia walks at alpha 2-3) their difference can fall short of a frame's own
-   correction; the caller sees to that (mlr_limits_ease's comment in limits_internal.h).
+   correction; the caller sees to that (limits__ease's comment in limits_internal.h).
    Keeping the frame's own correction there instead jumped by up to 30 degrees in a frame (the
    other bound's eased part is large there); shrinking the window there (so that the parts
    never overlap) braked Xia's knees within a few frames again (3.3x the synthesis's foot
@@ -109,8 +109,8 @@ static int ease_joint(const double *raw, const double *lim, size_t N, size_t J, 
         const double n = sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2] + a[3] * a[3]);
         const double ac[4] = {a[0] / n, -a[1] / n, -a[2] / n, -a[3] / n};
         double c[4];
-        mlr__qmul4(b, ac, c);
-        mlr__quat_rotvec(c, w->v + 3 * f);
+        ik__qmul4(b, ac, c);
+        quat__rotvec(c, w->v + 3 * f);
         any |= w->v[3 * f] != 0 || w->v[3 * f + 1] != 0 || w->v[3 * f + 2] != 0;
     }
     if (!any)
@@ -120,8 +120,8 @@ static int ease_joint(const double *raw, const double *lim, size_t N, size_t J, 
     return 1;
 }
 
-mlr_status mlr_limits_ease(const double *raw, double *lim, size_t N, size_t J, double fps,
-                           const size_t *counts, const mlr_allocator *alloc)
+mlr_status limits__ease(const double *raw, double *lim, size_t N, size_t J, double fps,
+                        const size_t *counts, const mlr_allocator *alloc)
 {
     if (N < 3)
         return MLR_OK;
@@ -136,7 +136,7 @@ mlr_status mlr_limits_ease(const double *raw, double *lim, size_t N, size_t J, d
     if (!buf)
         return MLR_E_NO_MEMORY;
     ease_work w = {buf, buf + 3 * N, buf + 6 * N, buf + 7 * N, buf + 8 * N, buf + 9 * N, r};
-    mlr_ease_kernel(sigma, w.kernel);
+    limits__ease_kernel(sigma, w.kernel);
     for (size_t j = 0; j < J; j++) {
         if ((counts && counts[j] == 0) || !ease_joint(raw, lim, N, J, j, &w))
             continue;
@@ -149,8 +149,8 @@ mlr_status mlr_limits_ease(const double *raw, double *lim, size_t N, size_t J, d
             const double n = sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2] + a[3] * a[3]);
             const double an[4] = {a[0] / n, a[1] / n, a[2] / n, a[3] / n};
             double c[4], q[4];
-            mlr__rotvec_quat(e, c);
-            mlr__qmul4(c, an, q);
+            quat__rotvec_quat(e, c);
+            ik__qmul4(c, an, q);
             /* the hemisphere of the limited rotation it replaces */
             const double sg = q[0] * b[0] + q[1] * b[1] + q[2] * b[2] + q[3] * b[3] < 0 ? -1 : 1;
             for (int i = 0; i < 4; i++)

@@ -49,7 +49,7 @@ static const struct {
     [MLR_LIMITS_CLASS_NECK] = {(45.0 + 45.0) / 2, (60.0 + 60.0) / 2, 1},
 };
 
-int mlr_limits_table(int cls, size_t n_of_class, double *swing, double *twist)
+int limits__table(int cls, size_t n_of_class, double *swing, double *twist)
 {
     if (cls < 0 || cls >= MLR_LIMITS_CLASS_COUNT || table[cls].swing == 0.0)
         return 0;
@@ -68,7 +68,7 @@ static void lower(const char *name, char *buf, size_t n)
     buf[i] = 0;
 }
 
-int mlr_limits_hinge_name(const char *name)
+int limits__hinge_name(const char *name)
 {
     char b[128];
     if (!name)
@@ -83,7 +83,7 @@ int mlr_limits_hinge_name(const char *name)
     return 0;
 }
 
-int mlr_limits_free_name(const char *name)
+int limits__free_name(const char *name)
 {
     char b[128];
     if (!name)
@@ -102,14 +102,13 @@ static int name_has(const mlr_rig *rig, size_t j, const char *a, const char *b)
     return strstr(buf, a) || (b && strstr(buf, b));
 }
 
-void mlr_limits_classify(const mlr_rig *rig, const int *is_hinge, const int32_t *main_child,
-                         int *cls)
+void limits__classify(const mlr_rig *rig, const int *is_hinge, const int32_t *main_child, int *cls)
 {
     const size_t J = rig->n_joints;
     for (size_t j = 0; j < J; j++)
         cls[j] = MLR_LIMITS_CLASS_OTHER;
     for (size_t j = 0; j < J; j++)
-        if (j == 0 || (rig->names && mlr_limits_free_name(rig->names[j])))
+        if (j == 0 || (rig->names && limits__free_name(rig->names[j])))
             cls[j] = MLR_LIMITS_CLASS_FREE;
     for (size_t j = 1; j < J; j++) {
         if (!is_hinge[j])

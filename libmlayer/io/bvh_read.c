@@ -290,7 +290,7 @@ static mlr_status read_file(const char *path, size_t n_threads, const read_mode 
     char *buf;
     size_t len, cap;
     /* a large file is read in parallel chunks (n_threads permitting), then parsed */
-    mlr_status s = mlr_read_file(path, n_threads, &a, &buf, &len, &cap, diag);
+    mlr_status s = file_read__read(path, n_threads, &a, &buf, &len, &cap, diag);
     if (s == MLR_E_NO_MEMORY || s == MLR_E_OVERFLOW)
         return mlr_diag_prefix(diag, s, "bvh read");
     if (s != MLR_OK)

@@ -121,7 +121,7 @@ static void frames_task_run(void *ctx, size_t k, size_t worker)
     frames_task *tk = &r->tasks[k];
     const size_t N = r->pl->m->n_frames;
     /* the task before publishes early in its run (its thread is running: tasks go out in order) */
-    const size_t f0 = mlr_wait_nonzero(&tk->first) - 1;
+    const size_t f0 = parallel__wait_nonzero(&tk->first) - 1;
     size_t f1 = N;
     if (k + 1 < r->K) {
         const size_t n = r->pl->k.count_newlines(tk->start, r->tasks[k + 1].start);
@@ -145,7 +145,7 @@ size_t bvh__auto_threads(size_t bytes)
     size_t t = bytes >> 19;
     if (t <= 1)
         return 1; /* small files do not ask for the processor count */
-    const size_t cpus = mlr_online_cpus();
+    const size_t cpus = parallel__online_cpus();
     if (t > cpus)
         t = cpus;
     return t > 8 ? 8 : t;
@@ -188,7 +188,7 @@ mlr_status bvh__parse_frames(parser *ps, const frames_plan *pl, const bvh_scratc
     for (size_t k = 0; k < used; k++)
         atomic_init(&tasks[k].first, k == 0 ? 1 : 0);
     const frames_run r = {pl, ps, scratch, tasks, used};
-    mlr_parallel_run_workers(T, used, frames_task_run, (void *)&r);
+    parallel__run_workers(T, used, frames_task_run, (void *)&r);
     mlr_status s = MLR_OK;
     *ps = tasks[0].ps;
     if (tasks[0].status != MLR_OK)

@@ -146,7 +146,7 @@ static int read_parallel(int fd, size_t size, size_t T, const mlr_allocator *a, 
     }
     read_job j = {fd, buf, size, 0};
     atomic_init(&j.err, 0);
-    mlr_parallel_run(T, (size + READ_CHUNK - 1) / READ_CHUNK, read_chunk_run, &j);
+    parallel__run(T, (size + READ_CHUNK - 1) / READ_CHUNK, read_chunk_run, &j);
     const int err = atomic_load(&j.err);
     if (err > 0) {
         mlr_free(a, buf, cap);
@@ -169,8 +169,8 @@ static int read_parallel(int fd, size_t size, size_t T, const mlr_allocator *a, 
 }
 #endif
 
-mlr_status mlr_read_file(const char *path, size_t n_threads, const mlr_allocator *a, char **buf,
-                         size_t *len, size_t *cap, mlr_diag *diag)
+mlr_status file_read__read(const char *path, size_t n_threads, const mlr_allocator *a, char **buf,
+                           size_t *len, size_t *cap, mlr_diag *diag)
 {
     *buf = NULL;
     *len = *cap = 0;
@@ -187,7 +187,7 @@ mlr_status mlr_read_file(const char *path, size_t n_threads, const mlr_allocator
         (unsigned long long)st.st_size < SIZE_MAX / 2) {
         const size_t size = (size_t)st.st_size;
         size_t T = n_threads ? n_threads : size >> 20;
-        const size_t cpus = mlr_online_cpus();
+        const size_t cpus = parallel__online_cpus();
         if (!n_threads && T > cpus)
             T = cpus;
         if (T > READ_MAX_THREADS)

@@ -14,8 +14,8 @@
  * thread per MiB up to the online processors and 8, more allows that many. A file that changes
  * size while it is read in parallel is read again sequentially. Returns MLR_OK, MLR_E_IO (the
  * reason in diag), MLR_E_NO_MEMORY or MLR_E_OVERFLOW; on failure *buf is NULL. */
-mlr_status mlr_read_file(const char *path, size_t n_threads, const mlr_allocator *a, char **buf,
-                         size_t *len, size_t *cap, mlr_diag *diag);
+mlr_status file_read__read(const char *path, size_t n_threads, const mlr_allocator *a, char **buf,
+                           size_t *len, size_t *cap, mlr_diag *diag);
 
 /* Most threads a read uses. */
 #define MLR_FILE_MAX_THREADS 8

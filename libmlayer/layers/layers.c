@@ -74,7 +74,7 @@ static mlr_status parse_options(const mlr_layers_option *opts, size_t n_opts, si
     }
     const double b = val[MLR_LAYERS_OPT_BODY_JOINT];
     if (!(b < (double)n_joints))
-        return mlr_option_reject(diag, S, "body_joint", b, "a joint index in [0, %zu)", n_joints);
+        return options__reject(diag, S, "body_joint", b, "a joint index in [0, %zu)", n_joints);
     cfg->body_joint = (size_t)b;
     cfg->robust = val[MLR_LAYERS_OPT_ROBUST] == 1.0;
     cfg->robust_angle = val[MLR_LAYERS_OPT_ROBUST_ANGLE];
@@ -98,8 +98,8 @@ static mlr_status parse_options(const mlr_layers_option *opts, size_t n_opts, si
         const double fps = val[MLR_LAYERS_OPT_FPS];
         const double fc = val[MLR_LAYERS_OPT_BASE_CUTOFF];
         if (!(fc < 0.5 * fps))
-            return mlr_option_reject(diag, S, "base_cutoff", fc, "in (0, fps/2) = (0, %g) Hz",
-                                     0.5 * fps);
+            return options__reject(diag, S, "base_cutoff", fc, "in (0, fps/2) = (0, %g) Hz",
+                                   0.5 * fps);
         if (seen[MLR_LAYERS_OPT_BASE_CUTOFF] && seen[MLR_LAYERS_OPT_BASE_S_MAX])
             return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                                 S ": options base_cutoff and base_s_max both set the upper end "
@@ -107,9 +107,9 @@ static mlr_status parse_options(const mlr_layers_option *opts, size_t n_opts, si
         if (!seen[MLR_LAYERS_OPT_BASE_S_MAX]) {
             cfg->base_s_max = floor_s_max(fps, fc); /* >= 1/16 > the default BASE_S_MIN */
             if (!(cfg->base_s_min < cfg->base_s_max))
-                return mlr_option_reject(diag, S, "base_s_min", cfg->base_s_min,
-                                         "below the base floor's s %g (cutoff %g Hz at %g fps)",
-                                         cfg->base_s_max, fc, fps);
+                return options__reject(diag, S, "base_s_min", cfg->base_s_min,
+                                       "below the base floor's s %g (cutoff %g Hz at %g fps)",
+                                       cfg->base_s_max, fc, fps);
         }
     }
     cfg->control_s_min = val[MLR_LAYERS_OPT_CONTROL_S_MIN];
@@ -182,7 +182,7 @@ static void displacements(mlr_layers *L, const double *root_pos, int robust, dou
                           double *delta, double *tmp)
 {
     const size_t n = L->n, j = L->j, ld = 3 * (1 + j);
-    double *amax = mlr_layers_param_slot(L, MLR_LAYERS_PARAM_BASE_MAX_ANGLE, 0);
+    double *amax = layers__param_slot(L, MLR_LAYERS_PARAM_BASE_MAX_ANGLE, 0);
     double *a2 = tmp; /* largest squared norms */
     for (size_t g = 0; g <= j; g++)
         a2[g] = 0.0;
@@ -295,18 +295,18 @@ mlr_status mlr_layers_decompose(size_t n_frames, size_t n_joints, const double *
     const mlr_lay_robust weights = {rhs + z.rhs, rhs + z.rhs + z.flags};
     const mlr_lay_robust *rb = NULL;
 
-    st = mlr_layers_prepare_rot(n_frames, n_joints, rot, q, diag);
+    st = layers__prepare_rot(n_frames, n_joints, rot, q, diag);
     if (st == MLR_OK && cfg.robust) {
         int any = 0;
-        st = mlr_layers_robust_weights(L, &cfg, q, root_pos, &weights, fac, comp, rhs, work, &any,
-                                       diag);
+        st = layers__robust_weights(L, &cfg, q, root_pos, &weights, fac, comp, rhs, work, &any,
+                                    diag);
         rb = any ? &weights : NULL;
     }
     if (st == MLR_OK)
-        st = mlr_layers_base(L, &cfg, q, root_pos, rb, fac, comp, work, col, diag);
+        st = layers__base(L, &cfg, q, root_pos, rb, fac, comp, work, col, diag);
     if (st == MLR_OK) {
         displacements(L, root_pos, rb != NULL, q, L->residual, fac);
-        st = mlr_layers_control(L, &cfg, L->residual, rb, fac, comp, work, col, diag);
+        st = layers__control(L, &cfg, L->residual, rb, fac, comp, work, col, diag);
     }
     if (st == MLR_OK)
         residuals(L, q, L->residual, fac);
@@ -382,7 +382,7 @@ mlr_status mlr_layers_get_param(const mlr_layers *L, mlr_layers_param which, dou
 {
     if (!L || !out || count != 1 + L->j || (int)which < 0 || (int)which >= MLR_LAYERS_N_PARAM)
         return MLR_E_INVALID_ARG;
-    memcpy(out, mlr_layers_param_slot(L, (int)which, 0), count * sizeof(double));
+    memcpy(out, layers__param_slot(L, (int)which, 0), count * sizeof(double));
     return MLR_OK;
 }
 

@@ -18,8 +18,7 @@
 #define BASE_BRACKET_RATIO 1.04
 #define BASE_MAX_STEPS 60
 
-mlr_status mlr_layers_prepare_rot(size_t n, size_t j, const double *rot_in, double *q,
-                                  mlr_diag *diag)
+mlr_status layers__prepare_rot(size_t n, size_t j, const double *rot_in, double *q, mlr_diag *diag)
 {
     if (mlr_quat_normalize_array((const mlr_quat *)rot_in, n * j, (mlr_quat *)q, NULL) != MLR_OK) {
         for (size_t i = 0; i < n * j; i++) {
@@ -81,9 +80,9 @@ static void min_cos2_inliers(size_t n, size_t j, size_t ns, const size_t *col, c
 /* The weights of group g0 + col[k] / cw of rb->w packed into rb->wpk (n x ns), and the
  * observations y (channel col[k] + c of the rows, stride ldy) times them into comp (stride
  * m ns). */
-void mlr_layers_pack_weighted(size_t n, size_t ng, const mlr_lay_robust *rb, size_t g0, size_t cw,
-                              const size_t *col, size_t ns, size_t m, const double *y, size_t ldy,
-                              double *comp)
+void layers__pack_weighted(size_t n, size_t ng, const mlr_lay_robust *rb, size_t g0, size_t cw,
+                           const size_t *col, size_t ns, size_t m, const double *y, size_t ldy,
+                           double *comp)
 {
     for (size_t i = 0; i < n; i++) {
         const double *wi = rb->w + i * ng + g0, *yi = y + i * ldy;
@@ -109,17 +108,17 @@ static mlr_status eval_angles(mlr_layers *L, const double *q, const mlr_lay_robu
 {
     const size_t n = L->n, j = L->j, ns = b->ns;
     if (rb) { /* weighted: W q packed into comp; the bound over the frames that are inliers */
-        mlr_layers_pack_weighted(n, 1 + j, rb, 1, 4, col, ns, 4, q, 4 * j, comp);
+        layers__pack_weighted(n, 1 + j, rb, 1, 4, col, ns, 4, q, 4 * j, comp);
         b->w = rb->wpk;
     }
-    size_t bad = mlr_lay_batch_factor(b, s);
+    size_t bad = layers__batch_factor(b, s);
     if (bad)
         return mlr_diag_set(diag, MLR_E_SINGULAR, 0, 0,
                             "base smoothing of joint %zu failed at s = %g: s is too large for "
                             "%zu frames",
                             col[bad - 1] / 4, s[bad - 1], n);
     if (rb) {
-        mlr_lay_batch_solve(b, 4, comp, 4 * ns, L->base_rot, 4 * ns, ebuf);
+        layers__batch_solve(b, 4, comp, 4 * ns, L->base_rot, 4 * ns, ebuf);
         min_cos2_inliers(n, j, ns, col, q, L->base_rot, L->outliers, angle);
         for (size_t k = 0; k < ns; k++)
             angle[k] = angle_of_cos2(angle[k]);
@@ -135,7 +134,7 @@ static mlr_status eval_angles(mlr_layers *L, const double *q, const mlr_lay_robu
         }
         y = comp;
     }
-    mlr_lay_batch_solve(b, 4, y, 4 * ns, L->base_rot, 4 * ns, ebuf);
+    layers__batch_solve(b, 4, y, 4 * ns, L->base_rot, 4 * ns, ebuf);
     min_cos2(n, ns, y, 4 * ns, L->base_rot, 4 * ns, angle);
     for (size_t k = 0; k < ns; k++)
         angle[k] = angle_of_cos2(angle[k]);
@@ -296,9 +295,9 @@ static mlr_status smooth_root(mlr_layers *L, const mlr_layers_cfg *cfg, const do
 {
     const size_t n = L->n, j = L->j;
     const double s0 = s_best[cfg->body_joint], k0 = sqrt(sqrt(100.0 * s0));
-    *mlr_layers_param_slot(L, MLR_LAYERS_PARAM_BASE_S, 0) = s0;
-    *mlr_layers_param_slot(L, MLR_LAYERS_PARAM_BASE_LAM, 0) = k0;
-    *mlr_layers_param_slot(L, MLR_LAYERS_PARAM_BASE_SIGMA, 0) = 0.1 * k0;
+    *layers__param_slot(L, MLR_LAYERS_PARAM_BASE_S, 0) = s0;
+    *layers__param_slot(L, MLR_LAYERS_PARAM_BASE_LAM, 0) = k0;
+    *layers__param_slot(L, MLR_LAYERS_PARAM_BASE_SIGMA, 0) = 0.1 * k0;
     if (!root_pos) {
         memset(L->base_pos, 0, 3 * n * sizeof(double));
         return MLR_OK;
@@ -307,20 +306,20 @@ static mlr_status smooth_root(mlr_layers *L, const mlr_layers_cfg *cfg, const do
     col[0] = 0;
     const double *y = root_pos;
     if (rb) {
-        mlr_layers_pack_weighted(n, 1 + j, rb, 0, 1, col, 1, 3, root_pos, 3, comp);
+        layers__pack_weighted(n, 1 + j, rb, 0, 1, col, 1, 3, root_pos, 3, comp);
         b->w = rb->wpk;
         y = comp;
     }
-    if (mlr_lay_batch_factor(b, &s0))
+    if (layers__batch_factor(b, &s0))
         return mlr_diag_set(diag, MLR_E_SINGULAR, 0, 0,
                             "base smoothing of the root translation failed at s = %g", s0);
-    mlr_lay_batch_solve(b, 3, y, 3, L->base_pos, 3, ebuf);
+    layers__batch_solve(b, 3, y, 3, L->base_pos, 3, ebuf);
     return MLR_OK;
 }
 
-mlr_status mlr_layers_base(mlr_layers *L, const mlr_layers_cfg *cfg, const double *q,
-                           const double *root_pos, const mlr_lay_robust *rb, double *fac,
-                           double *comp, double *work, size_t *col, mlr_diag *diag)
+mlr_status layers__base(mlr_layers *L, const mlr_layers_cfg *cfg, const double *q,
+                        const double *root_pos, const mlr_lay_robust *rb, double *fac,
+                        double *comp, double *work, size_t *col, mlr_diag *diag)
 {
     const size_t n = L->n, j = L->j;
     mlr_lay_batch b = {n, j, n, fac, fac + n * j, fac + 2 * n * j, NULL};
@@ -365,9 +364,9 @@ mlr_status mlr_layers_base(mlr_layers *L, const mlr_layers_cfg *cfg, const doubl
         return rc;
     for (size_t k = 0; k < j; k++) {
         const double sk = s_best[k], kk = sqrt(sqrt(100.0 * sk));
-        *mlr_layers_param_slot(L, MLR_LAYERS_PARAM_BASE_S, 1 + k) = sk;
-        *mlr_layers_param_slot(L, MLR_LAYERS_PARAM_BASE_LAM, 1 + k) = kk;
-        *mlr_layers_param_slot(L, MLR_LAYERS_PARAM_BASE_SIGMA, 1 + k) = 0.1 * kk;
+        *layers__param_slot(L, MLR_LAYERS_PARAM_BASE_S, 1 + k) = sk;
+        *layers__param_slot(L, MLR_LAYERS_PARAM_BASE_LAM, 1 + k) = kk;
+        *layers__param_slot(L, MLR_LAYERS_PARAM_BASE_SIGMA, 1 + k) = 0.1 * kk;
     }
     renormalize_base(L, q);
     return smooth_root(L, cfg, root_pos, rb, &b, col, comp, bs.ebuf, s_best, diag);

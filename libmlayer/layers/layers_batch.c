@@ -1,7 +1,7 @@
 /*
  * Batched smoothing systems of the layers: A_k = I + s_k L^T L for many k at once (one per
  * joint or per displacement group, each with its own s). The LDL^T recurrences follow band.c
- * (mlr_band_ldl2_row, the selected inversion of mlr_band_inverse_diagonal); here they run over
+ * (band__ldl2_row, the selected inversion of mlr_band_inverse_diagonal); here they run over
  * the systems in the innermost loop, which the compiler vectorizes, instead of one
  * latency-bound chain per system.
  *
@@ -24,9 +24,9 @@ static void ltl_row(size_t n, size_t i, double *d0, double *d1, double *d2)
         *d0 = 6.0, *d1 = -4.0, *d2 = 1.0;
         return;
     }
-    *d0 = mlr_lgs_ltl_entry(n, 2, i, i);
-    *d1 = i >= 1 ? mlr_lgs_ltl_entry(n, 2, i, i - 1) : 0.0;
-    *d2 = i >= 2 ? mlr_lgs_ltl_entry(n, 2, i, i - 2) : 0.0;
+    *d0 = lgs__ltl_entry(n, 2, i, i);
+    *d1 = i >= 1 ? lgs__ltl_entry(n, 2, i, i - 1) : 0.0;
+    *d2 = i >= 2 ? lgs__ltl_entry(n, 2, i, i - 2) : 0.0;
 }
 
 /* factor_row with observation weights: the diagonal is w_i + s c0 instead of 1 + s c0. */
@@ -105,7 +105,7 @@ static int row_repeats(const mlr_lay_batch *b, size_t i)
     return !diff;
 }
 
-size_t mlr_lay_batch_factor(mlr_lay_batch *b, const double *s)
+size_t layers__batch_factor(mlr_lay_batch *b, const double *s)
 {
     const size_t n = b->n, ns = b->ns;
     b->k = n;
@@ -250,7 +250,7 @@ static inline void fwd_m(const mlr_lay_batch *b, const size_t m, const double *y
                 x1[c] = y1[c] - a[k] * x0[c];
     }
     for (size_t i = 2; i < n; i++) {
-        const size_t r = mlr_lay_row(b, i);
+        const size_t r = layers__row(b, i);
         double *xi = x + i * ldx;
         if (conv && r == kc)
             fwd_channels(mm, e1, e2, y + i * ldy, xi, xi - ldx, xi - 2 * ldx);
@@ -272,19 +272,19 @@ static inline void solve_m(const mlr_lay_batch *b, const size_t m, const double 
     fwd_m(b, m, y, ldy, x, ldx, e1, e2, conv);
     {
         double *xl = x + (n - 1) * ldx;
-        const double *d = dv + mlr_lay_row(b, n - 1) * ns;
+        const double *d = dv + layers__row(b, n - 1) * ns;
         for (size_t k = 0; k < ns; k++)
             for (size_t c = k * m; c < k * m + m; c++)
                 xl[c] *= d[k];
         double *xp = x + (n - 2) * ldx;
-        const double *d2 = dv + mlr_lay_row(b, n - 2) * ns, *a = l1 + mlr_lay_row(b, n - 1) * ns;
+        const double *d2 = dv + layers__row(b, n - 2) * ns, *a = l1 + layers__row(b, n - 1) * ns;
         for (size_t k = 0; k < ns; k++)
             for (size_t c = k * m; c < k * m + m; c++)
                 xp[c] = xp[c] * d2[k] - a[k] * xl[c];
     }
     for (size_t i = n - 2; i-- > 0;) {
-        const size_t r0 = mlr_lay_row(b, i), r1 = mlr_lay_row(b, i + 1),
-                     r2 = mlr_lay_row(b, i + 2);
+        const size_t r0 = layers__row(b, i), r1 = layers__row(b, i + 1),
+                     r2 = layers__row(b, i + 2);
         double *xi = x + i * ldx;
         if (conv && r0 == kc && r1 == kc && r2 == kc)
             bwd_channels(mm, ed, e1, e2, xi, xi + ldx, xi + 2 * ldx);
@@ -310,7 +310,7 @@ static inline void mlr_lay_sum_sq_diff_rows(size_t rows, size_t mm, const double
 
 /*
  * The residual sums in a single pass over y by chunks, for long clips whose arrays do not stay
- * in cache (the method of mlr_band_solve_rows in band.c): each chunk is swept forward into a
+ * in cache (the method of band__solve_rows in band.c): each chunk is swept forward into a
  * ring of three chunk buffers, one chunk later backward with zero rows past its end, and one
  * chunk later again its tail gets the true boundary through the homogeneous solutions h (the
  * same for every chunk: the interior coefficients are constant), after which its rows are
@@ -394,7 +394,7 @@ static inline int rss_chunked(const mlr_lay_batch *b, const size_t m, const doub
                 i = 2;
             }
             for (; i <= CHUNK_E(q); i++) {
-                const size_t r = mlr_lay_row(b, i);
+                const size_t r = layers__row(b, i);
                 double *xi = SLOT_ROW(q, i);
                 if (r == kc)
                     fwd_channels(mm, e1, e2, y + i * ldy, xi, xi - mm, xi - 2 * mm);
@@ -406,9 +406,9 @@ static inline int rss_chunked(const mlr_lay_batch *b, const size_t m, const doub
         if (q >= 1) { /* backward sweep of chunk q-1, zero rows past its end */
             const size_t a = CHUNK_A(q - 1), e = CHUNK_E(q - 1);
             for (size_t i = e + 1; i-- > a;) {
-                const size_t r0 = mlr_lay_row(b, i);
-                const size_t r1 = mlr_lay_row(b, i + 1 < n ? i + 1 : n - 1);
-                const size_t r2 = mlr_lay_row(b, i + 2 < n ? i + 2 : n - 1);
+                const size_t r0 = layers__row(b, i);
+                const size_t r1 = layers__row(b, i + 1 < n ? i + 1 : n - 1);
+                const size_t r2 = layers__row(b, i + 2 < n ? i + 2 : n - 1);
                 double *xi = SLOT_ROW(q - 1, i);
                 const double *x1 = i + 1 <= e ? xi + mm : zero,
                              *x2 = i + 2 <= e ? xi + 2 * mm : zero;
@@ -446,7 +446,7 @@ static inline int rss_chunked(const mlr_lay_batch *b, const size_t m, const doub
 /* The residual sums of the solve without keeping the solution: the forward sweep into z (full
  * rows, stride ldz), the backward one through a ring of three rows, acc[c] = sum_i
  * (y_i[c] - x_i[c])^2 accumulated as it goes (one pass less over the arrays than a solve and
- * mlr_lay_sum_sq_diff). */
+ * layers__sum_sq_diff). */
 #if defined(__GNUC__)
 __attribute__((always_inline))
 #endif
@@ -467,8 +467,8 @@ static inline void rss_m(const mlr_lay_batch *b, const size_t m, const double *y
         double *xl = ring + ((n - 1) % 3) * mm, *xp = ring + ((n - 2) % 3) * mm;
         const double *zl = z + (n - 1) * ldz, *zp = z + (n - 2) * ldz;
         const double *yl = y + (n - 1) * ldy, *yp = y + (n - 2) * ldy;
-        const double *d = dv + mlr_lay_row(b, n - 1) * ns;
-        const double *d2 = dv + mlr_lay_row(b, n - 2) * ns, *a = l1 + mlr_lay_row(b, n - 1) * ns;
+        const double *d = dv + layers__row(b, n - 1) * ns;
+        const double *d2 = dv + layers__row(b, n - 2) * ns, *a = l1 + layers__row(b, n - 1) * ns;
         for (size_t k = 0; k < ns; k++) {
             for (size_t c = k * m; c < k * m + m; c++) {
                 xl[c] = zl[c] * d[k];
@@ -479,8 +479,8 @@ static inline void rss_m(const mlr_lay_batch *b, const size_t m, const double *y
         }
     }
     for (size_t i = n - 2; i-- > 0;) {
-        const size_t r0 = mlr_lay_row(b, i), r1 = mlr_lay_row(b, i + 1),
-                     r2 = mlr_lay_row(b, i + 2);
+        const size_t r0 = layers__row(b, i), r1 = layers__row(b, i + 1),
+                     r2 = layers__row(b, i + 2);
         double *xi = ring + (i % 3) * mm;
         const double *x1 = ring + ((i + 1) % 3) * mm, *x2 = ring + ((i + 2) % 3) * mm;
         if (conv && r0 == kc && r1 == kc && r2 == kc)
@@ -493,7 +493,7 @@ static inline void rss_m(const mlr_lay_batch *b, const size_t m, const double *y
 
 /* The sweeps are the bulk of a decomposition: they get an AVX2 clone (mlr_internal.h). */
 MLR_CLONES("avx2")
-void mlr_lay_batch_solve(const mlr_lay_batch *b, size_t m, const double *y, size_t ldy, double *x,
+void layers__batch_solve(const mlr_lay_batch *b, size_t m, const double *y, size_t ldy, double *x,
                          size_t ldx, double *buf)
 {
     if (m == 3)
@@ -505,7 +505,7 @@ void mlr_lay_batch_solve(const mlr_lay_batch *b, size_t m, const double *y, size
 }
 
 MLR_CLONES("avx2")
-void mlr_lay_batch_rss(const mlr_lay_batch *b, size_t m, const double *y, size_t ldy, double *z,
+void layers__batch_rss(const mlr_lay_batch *b, size_t m, const double *y, size_t ldy, double *z,
                        size_t ldz, double *buf, double *acc)
 {
     if (m == 3)
@@ -515,7 +515,7 @@ void mlr_lay_batch_rss(const mlr_lay_batch *b, size_t m, const double *y, size_t
 }
 
 MLR_CLONES("avx2")
-void mlr_lay_sum_sq_diff(size_t n, size_t mm, const double *y, const double *x, double *acc)
+void layers__sum_sq_diff(size_t n, size_t mm, const double *y, const double *x, double *acc)
 {
     for (size_t c = 0; c < mm; c++)
         acc[c] = 0.0;
@@ -530,16 +530,16 @@ void mlr_lay_sum_sq_diff(size_t n, size_t mm, const double *y, const double *x, 
  * In the constant interior, once the state repeats bit for bit, the rows down to the start
  * of that stretch each add the same Z(i, i).
  */
-void mlr_lay_batch_trace(const mlr_lay_batch *b, double *trace, double *work)
+void layers__batch_trace(const mlr_lay_batch *b, double *trace, double *work)
 {
-    mlr_lay_batch_leverage(b, trace, NULL, work);
+    layers__batch_leverage(b, trace, NULL, work);
 }
 
-void mlr_lay_batch_leverage(const mlr_lay_batch *b, double *trace, double *lev, double *work)
+void layers__batch_leverage(const mlr_lay_batch *b, double *trace, double *lev, double *work)
 {
     const size_t n = b->n, ns = b->ns, kc = b->k - 1;
     double *restrict za = work, *restrict zb = work + ns, *restrict zc = work + 2 * ns;
-    const double *dl = b->dinv + mlr_lay_row(b, n - 1) * ns;
+    const double *dl = b->dinv + layers__row(b, n - 1) * ns;
     const double *wt = b->w;
     for (size_t k = 0; k < ns; k++) {
         za[k] = dl[k]; /* Z(i+1, i+1) */
@@ -550,9 +550,9 @@ void mlr_lay_batch_leverage(const mlr_lay_batch *b, double *trace, double *lev, 
             lev[(n - 1) * ns + k] = trace[k];
     }
     for (size_t i = n - 1; i-- > 0;) {
-        const size_t r0 = mlr_lay_row(b, i), r1 = mlr_lay_row(b, i + 1);
+        const size_t r0 = layers__row(b, i), r1 = layers__row(b, i + 1);
         const double *restrict di = b->dinv + r0 * ns, *restrict l1 = b->l1 + r1 * ns;
-        const double *restrict l2 = i + 2 < n ? b->l2 + mlr_lay_row(b, i + 2) * ns : NULL;
+        const double *restrict l2 = i + 2 < n ? b->l2 + layers__row(b, i + 2) * ns : NULL;
         int moved = 0;
         for (size_t k = 0; k < ns; k++) {
             const double a1 = l1[k], a2 = l2 ? l2[k] : 0.0;

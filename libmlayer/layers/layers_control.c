@@ -101,19 +101,19 @@ static mlr_status eval_gcv(const mlr_layers *L, mlr_lay_batch *b, const double *
                            double *dof, const gcv_work *w, mlr_diag *diag)
 {
     const size_t n = L->n, ns = b->ns, mm = 3 * ng, m = mm / ns;
-    size_t bad = mlr_lay_batch_factor(b, s);
+    size_t bad = layers__batch_factor(b, s);
     if (bad)
         return mlr_diag_set(diag, MLR_E_SINGULAR, 0, 0,
                             "control smoothing of group %zu failed at s = %g: s is too large "
                             "for %zu frames",
                             col[(bad - 1) * m / 3] / 3, s[bad - 1], n);
     if (keep) {
-        mlr_lay_batch_solve(b, m, y, mm, x, mm, w->ebuf);
-        mlr_lay_sum_sq_diff(n, mm, y, x, w->acc);
+        layers__batch_solve(b, m, y, mm, x, mm, w->ebuf);
+        layers__sum_sq_diff(n, mm, y, x, w->acc);
     } else {
-        mlr_lay_batch_rss(b, m, y, mm, x, mm, w->ebuf, w->acc);
+        layers__batch_rss(b, m, y, mm, x, mm, w->ebuf, w->acc);
     }
-    mlr_lay_batch_trace(b, w->trace, w->tw);
+    layers__batch_trace(b, w->trace, w->tw);
     const double *acc = w->acc;
     const double nd = (double)n;
     for (size_t g = 0; g < ng; g++) {
@@ -138,15 +138,15 @@ static mlr_status eval_gcv_weighted(const mlr_layers *L, mlr_lay_batch *b, const
 {
     const size_t n = L->n, ng = 1 + L->j, ld = 3 * ng, mm = 3 * na;
     b->ns = na;
-    mlr_layers_pack_weighted(n, ng, rb, 0, 3, col, na, 3, delta, ld, comp);
+    layers__pack_weighted(n, ng, rb, 0, 3, col, na, 3, delta, ld, comp);
     b->w = rb->wpk;
-    size_t bad = mlr_lay_batch_factor(b, s);
+    size_t bad = layers__batch_factor(b, s);
     if (bad)
         return mlr_diag_set(diag, MLR_E_SINGULAR, 0, 0,
                             "control smoothing of group %zu failed at s = %g: s is too large "
                             "for %zu frames",
                             col[bad - 1] / 3, s[bad - 1], n);
-    mlr_lay_batch_solve(b, 3, comp, mm, x, mm, w->ebuf);
+    layers__batch_solve(b, 3, comp, mm, x, mm, w->ebuf);
     double *rss = w->acc, *nw = w->acc + na; /* acc holds 3 ng doubles */
     for (size_t k = 0; k < na; k++)
         rss[k] = nw[k] = 0.0;
@@ -159,7 +159,7 @@ static mlr_status eval_gcv_weighted(const mlr_layers *L, mlr_lay_batch *b, const
             nw[k] += wi[k];
         }
     }
-    mlr_lay_batch_trace(b, w->trace, w->tw);
+    layers__batch_trace(b, w->trace, w->tw);
     for (size_t k = 0; k < na; k++) {
         const double tr = w->trace[k], den = 1.0 - tr / nw[k];
         dof[k] = tr;
@@ -317,9 +317,9 @@ static mlr_status brent_search(const gcv_search *gs, size_t na, size_t packed, c
     return MLR_OK;
 }
 
-mlr_status mlr_layers_control(mlr_layers *L, const mlr_layers_cfg *cfg, const double *delta,
-                              const mlr_lay_robust *rb, double *fac, double *comp, double *work,
-                              size_t *col, mlr_diag *diag)
+mlr_status layers__control(mlr_layers *L, const mlr_layers_cfg *cfg, const double *delta,
+                           const mlr_lay_robust *rb, double *fac, double *comp, double *work,
+                           size_t *col, mlr_diag *diag)
 {
     const size_t n = L->n, ng = 1 + L->j;
     mlr_lay_batch b = {n, ng, n, fac, fac + n * ng, fac + 2 * n * ng, NULL};
@@ -377,12 +377,12 @@ mlr_status mlr_layers_control(mlr_layers *L, const mlr_layers_cfg *cfg, const do
         return rc;
     for (size_t g = 0; g < ng; g++) {
         const double sg = s_best[g], k = sqrt(sqrt(sg));
-        *mlr_layers_param_slot(L, MLR_LAYERS_PARAM_CONTROL_S, g) = sg;
-        *mlr_layers_param_slot(L, MLR_LAYERS_PARAM_CONTROL_LAM, g) = k;
-        *mlr_layers_param_slot(L, MLR_LAYERS_PARAM_CONTROL_SIGMA, g) = k;
-        *mlr_layers_param_slot(L, MLR_LAYERS_PARAM_CONTROL_GCV, g) =
+        *layers__param_slot(L, MLR_LAYERS_PARAM_CONTROL_S, g) = sg;
+        *layers__param_slot(L, MLR_LAYERS_PARAM_CONTROL_LAM, g) = k;
+        *layers__param_slot(L, MLR_LAYERS_PARAM_CONTROL_SIGMA, g) = k;
+        *layers__param_slot(L, MLR_LAYERS_PARAM_CONTROL_GCV, g) =
             cfg->control_s > 0.0 ? NAN : gcv[g];
-        *mlr_layers_param_slot(L, MLR_LAYERS_PARAM_CONTROL_DOF, g) = dof[g];
+        *layers__param_slot(L, MLR_LAYERS_PARAM_CONTROL_DOF, g) = dof[g];
     }
     return MLR_OK;
 }

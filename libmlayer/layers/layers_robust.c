@@ -346,7 +346,7 @@ static mlr_status reweight(mlr_layers *L, const mlr_layers_cfg *cfg, const rgrou
         realign(n, j, q, L->outliers, ng, cfg->robust_window);
     for (int it = 0; it < ROBUST_MAX_IT; it++) {
         b.w = it == 0 && !seeded ? NULL : wk;
-        if (mlr_lay_batch_factor(&b, s))
+        if (layers__batch_factor(&b, s))
             return mlr_diag_set(diag, MLR_E_SINGULAR, 0, 0,
                                 "outlier search: the smoothing of %zu frames failed", n);
         const double *obs = y;
@@ -357,8 +357,8 @@ static mlr_status reweight(mlr_layers *L, const mlr_layers_cfg *cfg, const rgrou
                         rhs[i * mm + k * m + c] = wk[i * ns + k] * y[i * mm + k * m + c];
             obs = rhs;
         }
-        mlr_lay_batch_solve(&b, m, obs, mm, fit, mm, buf);
-        mlr_lay_batch_leverage(&b, buf, lev, buf + ns);
+        layers__batch_solve(&b, m, obs, mm, fit, mm, buf);
+        layers__batch_leverage(&b, buf, lev, buf + ns);
         if (it == 0 && gk->g0 == 0 && cfg->robust_length <= 0.0) {
             /* the translation's gate relative to its median residual */
             double *r = rhs;
@@ -431,10 +431,9 @@ static mlr_status reweight(mlr_layers *L, const mlr_layers_cfg *cfg, const rgrou
     return MLR_OK;
 }
 
-mlr_status mlr_layers_robust_weights(mlr_layers *L, const mlr_layers_cfg *cfg, double *q,
-                                     const double *root_pos, const mlr_lay_robust *rb, double *fac,
-                                     double *fit, double *rhs, double *work, int *any,
-                                     mlr_diag *diag)
+mlr_status layers__robust_weights(mlr_layers *L, const mlr_layers_cfg *cfg, double *q,
+                                  const double *root_pos, const mlr_lay_robust *rb, double *fac,
+                                  double *fit, double *rhs, double *work, int *any, mlr_diag *diag)
 {
     const size_t n = L->n, j = L->j, ng = 1 + j;
     memset(L->outliers, 0, n * ng);

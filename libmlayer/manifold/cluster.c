@@ -54,10 +54,10 @@ size_t mlr_rng_below(mlr_rng *r, size_t n)
 
 /* ---- packed centres ----------------------------------------------------------------------- */
 
-size_t mlr_packed_kpad(size_t k) { return (k + MLR_PACK - 1) / MLR_PACK * MLR_PACK; }
+size_t cluster__packed_kpad(size_t k) { return (k + MLR_PACK - 1) / MLR_PACK * MLR_PACK; }
 
-/* Same eight-way order as mlr_dist2. */
-double mlr_norm2(const double *a, size_t dim)
+/* Same eight-way order as cluster__dist2. */
+double cluster__norm2(const double *a, size_t dim)
 {
     double acc[8] = {0, 0, 0, 0, 0, 0, 0, 0};
     size_t t = 0;
@@ -95,7 +95,7 @@ __attribute__((target("avx512f"))) static double dist2_avx512(const double *a, c
 /* Eight partial sums (coordinate t goes to sum t % 8) added pairwise at the end: independent
  * chains the compiler vectorizes; the order is fixed, so a pair always gives the same value
  * (with AVX-512: 16 sums, also in a fixed order). */
-double mlr_dist2(const double *a, const double *b, size_t dim, int isa)
+double cluster__dist2(const double *a, const double *b, size_t dim, int isa)
 {
 #ifdef MLR_X86_DISPATCH
     if (isa >= MLR_ISA_AVX512)
@@ -117,25 +117,25 @@ double mlr_dist2(const double *a, const double *b, size_t dim, int isa)
     return ((acc[0] + acc[1]) + (acc[2] + acc[3])) + ((acc[4] + acc[5]) + (acc[6] + acc[7]));
 }
 
-void mlr_packed_set(mlr_packed *p, size_t j, const double *c)
+void cluster__packed_set(mlr_packed *p, size_t j, const double *c)
 {
     double *blk = p->pc + (j / MLR_PACK) * p->dim * MLR_PACK + j % MLR_PACK;
     for (size_t t = 0; t < p->dim; t++)
         blk[t * MLR_PACK] = c[t];
-    p->cn[j] = mlr_norm2(c, p->dim);
+    p->cn[j] = cluster__norm2(c, p->dim);
 }
 
-void mlr_packed_get(const mlr_packed *p, size_t j, double *c)
+void cluster__packed_get(const mlr_packed *p, size_t j, double *c)
 {
     const double *blk = p->pc + (j / MLR_PACK) * p->dim * MLR_PACK + j % MLR_PACK;
     for (size_t t = 0; t < p->dim; t++)
         c[t] = blk[t * MLR_PACK];
 }
 
-void mlr_packed_fill(mlr_packed *p, const double *c, size_t ldc)
+void cluster__packed_fill(mlr_packed *p, const double *c, size_t ldc)
 {
     for (size_t j = 0; j < p->k; j++)
-        mlr_packed_set(p, j, c + j * ldc);
+        cluster__packed_set(p, j, c + j * ldc);
     for (size_t j = p->k; j < p->kpad; j++) {
         double *blk = p->pc + (j / MLR_PACK) * p->dim * MLR_PACK + j % MLR_PACK;
         for (size_t t = 0; t < p->dim; t++)
@@ -453,9 +453,9 @@ static merge_fn pick_merge(int isa)
     return lane_merge;
 }
 
-void mlr_nearest2(const mlr_packed *p, const double *x, size_t ldx, const size_t *rows, size_t m,
-                  const double *xn, int32_t *best, double *d2best, double *d2second,
-                  int32_t *second)
+void cluster__nearest2(const mlr_packed *p, const double *x, size_t ldx, const size_t *rows,
+                       size_t m, const double *xn, int32_t *best, double *d2best, double *d2second,
+                       int32_t *second)
 {
     size_t G;
     dot_fn dot = pick_dot(p->isa, &G);
@@ -498,7 +498,7 @@ void mlr_nearest2(const mlr_packed *p, const double *x, size_t ldx, const size_t
             double bv, sv;
             int32_t bi, si;
             merge(&st[r], &bv, &bi, &sv, &si);
-            double xx = xn ? xn[r0 + r] : mlr_norm2(xr[r], dim);
+            double xx = xn ? xn[r0 + r] : cluster__norm2(xr[r], dim);
             double b = bv + xx, s = sv + xx;
             best[r0 + r] = bi;
             d2best[r0 + r] = b > 0 ? b : 0;
@@ -583,9 +583,9 @@ __attribute__((target("avx512f"))) static void dot1_avx512(const double *x, cons
 }
 #endif
 
-int32_t mlr_packed_sweep(mlr_packed *p, const double *x, const double *h,
-                         const unsigned char *active, const double *xnext, size_t part,
-                         size_t n_parts, double *best)
+int32_t cluster__packed_sweep(mlr_packed *p, const double *x, const double *h,
+                              const unsigned char *active, const double *xnext, size_t part,
+                              size_t n_parts, double *best)
 {
     const size_t dim = p->dim, nb = p->kpad / MLR_PACK;
 #ifdef MLR_X86_DISPATCH
@@ -649,7 +649,7 @@ int32_t mlr_packed_sweep(mlr_packed *p, const double *x, const double *h,
     return bi;
 }
 
-size_t mlr_first_nonfinite_row(const double *x, size_t n, size_t dim, size_t ldx)
+size_t cluster__first_nonfinite_row(const double *x, size_t n, size_t dim, size_t ldx)
 {
     for (size_t i = 0; i < n; i++) {
         const double *r = x + i * ldx;
@@ -680,8 +680,8 @@ static uint64_t fnv1a(const unsigned char *b, size_t n)
     return h;
 }
 
-void mlr_blob_write(void *buf, const char tag[8], uint32_t version, const uint64_t dims[3],
-                    const double *payload, size_t n_payload)
+void cluster__blob_write(void *buf, const char tag[8], uint32_t version, const uint64_t dims[3],
+                         const double *payload, size_t n_payload)
 {
     unsigned char *b = buf;
     uint32_t bom = 0x01020304u;
@@ -699,9 +699,9 @@ void mlr_blob_write(void *buf, const char tag[8], uint32_t version, const uint64
     memcpy(b + 56, &h, 8);
 }
 
-mlr_status mlr_blob_check(const void *buf, size_t size, const char tag[8], uint32_t version,
-                          uint64_t dims[3], const unsigned char **payload, size_t *n_payload,
-                          mlr_diag *diag)
+mlr_status cluster__blob_check(const void *buf, size_t size, const char tag[8], uint32_t version,
+                               uint64_t dims[3], const unsigned char **payload, size_t *n_payload,
+                               mlr_diag *diag)
 {
     const unsigned char *b = buf;
     if (!buf)

@@ -21,13 +21,13 @@ typedef struct mlr_packed {
     int isa;           /* MLR_ISA_* level of the kernels that search it: cpu__isa(MLR_ISA_BEST),
                         * set with k, kpad and dim (tests set MLR_ISA_BASELINE too) */
 } mlr_packed;
-size_t mlr_packed_kpad(size_t k);
+size_t cluster__packed_kpad(size_t k);
 /* Pack c (k x dim, row stride ldc) into p (whose buffers the caller sized). */
-void mlr_packed_fill(mlr_packed *p, const double *c, size_t ldc);
+void cluster__packed_fill(mlr_packed *p, const double *c, size_t ldc);
 /* Overwrite centre j of p with c (dim values) and update its norm. */
-void mlr_packed_set(mlr_packed *p, size_t j, const double *c);
+void cluster__packed_set(mlr_packed *p, size_t j, const double *c);
 /* Read centre j of p into c. */
-void mlr_packed_get(const mlr_packed *p, size_t j, double *c);
+void cluster__packed_get(const mlr_packed *p, size_t j, double *c);
 
 /* For the m rows x + rows[r] * ldx (rows NULL: rows 0 .. m-1): index of the nearest centre
  * (lowest index among exact ties), its squared distance and the squared distance of the
@@ -35,9 +35,9 @@ void mlr_packed_get(const mlr_packed *p, size_t j, double *c);
  * a fixed order: the same row gives the same result whatever m, rows and the thread are.
  * xn[r] (optional, NULL: computed) is ||x_r||^2. d2second and second (the index of the second
  * nearest, == best when k == 1) may be NULL. */
-void mlr_nearest2(const mlr_packed *p, const double *x, size_t ldx, const size_t *rows, size_t m,
-                  const double *xn, int32_t *best, double *d2best, double *d2second,
-                  int32_t *second);
+void cluster__nearest2(const mlr_packed *p, const double *x, size_t ldx, const size_t *rows,
+                       size_t m, const double *xn, int32_t *best, double *d2best, double *d2second,
+                       int32_t *second);
 
 /* One online SOM step fused with the search for the next row, in a single pass over p (the
  * codebook, units in lattice order, unit u at row u / cols, column u % cols): every unit u with
@@ -47,25 +47,25 @@ void mlr_nearest2(const mlr_packed *p, const double *x, size_t ldx, const size_t
  * nearest to xnext in the updated codebook, lowest index among exact ties, and its value
  * ||c||^2 - 2 xnext.c in *best (optional; +inf and unit 0 without xnext). A unit's value does
  * not depend on whether it moved (with AVX-512 and in plain C the dot products are those of
- * mlr_nearest2 for a lone row, same fma sequence; on AVX2-only CPUs the search takes the plain C
- * dot products, the results are then reproducible but can differ from mlr_nearest2 in the last
+ * cluster__nearest2 for a lone row, same fma sequence; on AVX2-only CPUs the search takes the plain C
+ * dot products, the results are then reproducible but can differ from cluster__nearest2 in the last
  * bit).
  * Parts: only the groups of MLR_SWEEP_GROUP blocks g with g % n_parts == part are visited (part
  * 0 of 1: all), so n_parts threads can share one step on disjoint units; a unit's update and
  * value do not depend on the split, and the unit of the whole step is the part result with the
  * lowest (value, index). */
 #define MLR_SWEEP_GROUP 4
-int32_t mlr_packed_sweep(mlr_packed *p, const double *x, const double *h,
-                         const unsigned char *active, const double *xnext, size_t part,
-                         size_t n_parts, double *best);
+int32_t cluster__packed_sweep(mlr_packed *p, const double *x, const double *h,
+                              const unsigned char *active, const double *xnext, size_t part,
+                              size_t n_parts, double *best);
 
 /* ||a - b||^2 by direct differences (accurate near 0). */
-double mlr_dist2(const double *a, const double *b, size_t dim, int isa);
+double cluster__dist2(const double *a, const double *b, size_t dim, int isa);
 /* ||a||^2. */
-double mlr_norm2(const double *a, size_t dim);
+double cluster__norm2(const double *a, size_t dim);
 
 /* First index of x (n rows, stride ldx, dim columns) that holds a NaN or an infinity, or n. */
-size_t mlr_first_nonfinite_row(const double *x, size_t n, size_t dim, size_t ldx);
+size_t cluster__first_nonfinite_row(const double *x, size_t n, size_t dim, size_t ldx);
 
 /* Relocatable blob of a trained model: a 64-byte header then the payload of doubles.
  *   0 tag[8]   "MLRSOM\0\0", "MLRKMN\0\0", ...      32 dims[3] (u64 each: model specific)
@@ -73,12 +73,12 @@ size_t mlr_first_nonfinite_row(const double *x, size_t n, size_t dim, size_t ldx
  *  16 u64 total size in bytes, 24 u64 payload doubles
  * Values are in the writer's byte order; import refuses another byte order (MLR_E_PARSE). */
 #define MLR_BLOB_HEADER 64
-void mlr_blob_write(void *buf, const char tag[8], uint32_t version, const uint64_t dims[3],
-                    const double *payload, size_t n_payload);
+void cluster__blob_write(void *buf, const char tag[8], uint32_t version, const uint64_t dims[3],
+                         const double *payload, size_t n_payload);
 /* Checks tag, version, size, byte order and hash; fills dims and points *payload into buf
  * (doubles may be unaligned: read with memcpy). */
-mlr_status mlr_blob_check(const void *buf, size_t size, const char tag[8], uint32_t version,
-                          uint64_t dims[3], const unsigned char **payload, size_t *n_payload,
-                          mlr_diag *diag);
+mlr_status cluster__blob_check(const void *buf, size_t size, const char tag[8], uint32_t version,
+                               uint64_t dims[3], const unsigned char **payload, size_t *n_payload,
+                               mlr_diag *diag);
 
 #endif

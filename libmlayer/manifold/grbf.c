@@ -248,7 +248,7 @@ mlr_status mlr_grbf_basis(int kernel, double width, const double *centers, size_
                    ct,     x,         n_centers,
                    ldx,    n,         dim,
                    ldo,    out};
-    mlr_parallel_run(n_threads, (n + GRBF_TASK_ROWS - 1) / GRBF_TASK_ROWS, grbf__basis_task, &c);
+    parallel__run(n_threads, (n + GRBF_TASK_ROWS - 1) / GRBF_TASK_ROWS, grbf__basis_task, &c);
     mlr_free(&a, ct, bytes);
     return MLR_OK;
 }
@@ -338,7 +338,7 @@ mlr_status mlr_grbf_eval(int kernel, double width, const double *centers, size_t
         return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "evaluation workspace overflows");
     if ((st = check_data(centers, n_centers, ldc, x, n, ldx, dim, diag)))
         return st;
-    size_t bad = mlr_first_nonfinite_row(coef, K, n_out, ldcoef);
+    size_t bad = cluster__first_nonfinite_row(coef, K, n_out, ldcoef);
     if (bad < K)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                             "coefficient row %zu holds a NaN or an infinity", bad);
@@ -365,7 +365,7 @@ mlr_status mlr_grbf_eval(int kernel, double width, const double *centers, size_t
                   n,         K,   npanel,
                   n_out,     ldo, out};
     c.wide = grbf__cpu_wide();
-    mlr_parallel_run(n_threads, (n + EVAL_ROWS - 1) / EVAL_ROWS, eval_task, &c);
+    parallel__run(n_threads, (n + EVAL_ROWS - 1) / EVAL_ROWS, eval_task, &c);
     mlr_free(&a, ws, ct_bytes + pan_bytes);
     return MLR_OK;
 }

@@ -3,7 +3,7 @@
 #ifndef MLR_GRBF_INTERNAL_H
 #define MLR_GRBF_INTERNAL_H
 
-#include "manifold/cluster_internal.h" /* mlr_first_nonfinite_row, mlr_parallel_run */
+#include "manifold/cluster_internal.h" /* cluster__first_nonfinite_row, parallel__run */
 #include "manifold/grbf_panel.h"       /* PANEL, panel() */
 
 /* The kernel loops get AVX-512 and AVX2 clones (MLR_CLONES, common/cpu.h); the loops are

@@ -294,7 +294,7 @@ static mlr_status check_lattice_data(const double *xs, size_t rows, const double
                                 "ys is not symmetric about its middle (ys[%zu] + ys[%zu])", c,
                                 cols - 1 - c);
     const size_t N = rows * cols;
-    bad = mlr_first_nonfinite_row(y, N, n_out, ldy);
+    bad = cluster__first_nonfinite_row(y, N, n_out, ldy);
     if (bad < N)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "y row %zu holds a NaN or an infinity",
                             bad);
@@ -383,7 +383,7 @@ mlr_status mlr_grbf_fit_lattice(int kernel, double width, const double *xs, size
                     ct,     rep, N,
                     2,      nr,  2,
                     N,      krow};
-    mlr_parallel_run(n_threads, (nr + GRBF_TASK_ROWS - 1) / GRBF_TASK_ROWS, grbf__basis_task, &bc);
+    parallel__run(n_threads, (nr + GRBF_TASK_ROWS - 1) / GRBF_TASK_ROWS, grbf__basis_task, &bc);
     lattice_ctx lc = {rows,
                       cols,
                       Rh,
@@ -403,7 +403,7 @@ mlr_status mlr_grbf_fit_lattice(int kernel, double width, const double *xs, size
                       {ptr[11], ptr[12], ptr[13], ptr[14]},
                       {ptr[15], ptr[15] + n_out, ptr[15] + 2 * n_out},
                       {0, 0, 0, 0}};
-    mlr_parallel_run(n_threads, 4, lattice_class_task, &lc);
+    parallel__run(n_threads, 4, lattice_class_task, &lc);
     st = MLR_OK;
     for (size_t cls = 0; cls < 4; cls++)
         if (lc.failed[cls] && !st)

@@ -92,9 +92,9 @@ static void assign_task(void *ctx, size_t b)
                     skipped++;
                     continue;
                 }
-                w->u[i] =
-                    sqrt(mlr_dist2(w->x + i * w->ldx, w->c + (size_t)a * dim, dim, w->pk.isa)) *
-                    rel;
+                w->u[i] = sqrt(cluster__dist2(w->x + i * w->ldx, w->c + (size_t)a * dim, dim,
+                                              w->pk.isa)) *
+                          rel;
                 if (w->u[i] <= bound) {
                     skipped++;
                     continue;
@@ -104,7 +104,8 @@ static void assign_task(void *ctx, size_t b)
             xnb[m++] = w->xn[i];
         }
         if (m) {
-            mlr_nearest2(&w->pk, w->x, w->ldx, rows, m, xnb, lb, db, w->hamerly ? ds : NULL, NULL);
+            cluster__nearest2(&w->pk, w->x, w->ldx, rows, m, xnb, lb, db, w->hamerly ? ds : NULL,
+                              NULL);
             for (size_t r = 0; r < m; r++) {
                 size_t i = rows[r];
                 if (lb[r] != w->lab[i]) {
@@ -150,7 +151,8 @@ static void inertia_task(void *ctx, size_t b)
     blk_range(w->n, w->nblk, b, &lo, &hi);
     double s = 0;
     for (size_t i = lo; i < hi; i++)
-        s += mlr_dist2(w->x + i * w->ldx, w->c + (size_t)w->lab[i] * w->dim, w->dim, w->pk.isa);
+        s += cluster__dist2(w->x + i * w->ldx, w->c + (size_t)w->lab[i] * w->dim, w->dim,
+                            w->pk.isa);
     w->pinert[b] = s;
 }
 
@@ -162,7 +164,7 @@ static void pp_pot_task(void *ctx, size_t b)
     for (size_t c = 0; c < w->n_cand; c++) {
         double s = 0;
         for (size_t i = lo; i < hi; i++) {
-            double d = mlr_dist2(w->x + i * w->ldx, w->cand[c], w->dim, w->pk.isa);
+            double d = cluster__dist2(w->x + i * w->ldx, w->cand[c], w->dim, w->pk.isa);
             s += d < w->u[i] ? d : w->u[i];
         }
         w->pinert[b * w->n_cand + c] = s;
@@ -175,7 +177,7 @@ static void pp_update_task(void *ctx, size_t b)
     fit_ws *w = ctx;
     size_t lo = b * PP_BLOCK, hi = lo + PP_BLOCK < w->n ? lo + PP_BLOCK : w->n;
     for (size_t i = lo; i < hi; i++) {
-        double d = mlr_dist2(w->x + i * w->ldx, w->cand[0], w->dim, w->pk.isa);
+        double d = cluster__dist2(w->x + i * w->ldx, w->cand[0], w->dim, w->pk.isa);
         if (d < w->u[i])
             w->u[i] = d;
     }
@@ -193,7 +195,7 @@ static void kmeans_pp(fit_ws *w, mlr_rng *rng)
     w->cand[0] = w->x + first * w->ldx;
     for (size_t i = 0; i < n; i++)
         w->u[i] = INFINITY;
-    mlr_parallel_run(nth, nb, pp_update_task, w);
+    parallel__run(nth, nb, pp_update_task, w);
     double pot = 0;
     for (size_t i = 0; i < n; i++)
         pot += w->u[i];
@@ -216,7 +218,7 @@ static void kmeans_pp(fit_ws *w, mlr_rng *rng)
             w->cand[t] = w->x + ids[t] * w->ldx;
         }
         w->n_cand = trials;
-        mlr_parallel_run(nth, nb, pp_pot_task, w);
+        parallel__run(nth, nb, pp_pot_task, w);
         size_t bt = 0;
         double bpot = INFINITY;
         for (size_t t = 0; t < trials; t++) {
@@ -231,7 +233,7 @@ static void kmeans_pp(fit_ws *w, mlr_rng *rng)
         pot = bpot;
         w->cand[0] = w->x + ids[bt] * w->ldx;
         memcpy(w->c + c * dim, w->cand[0], dim * sizeof(double));
-        mlr_parallel_run(nth, nb, pp_update_task, w);
+        parallel__run(nth, nb, pp_update_task, w);
     }
 }
 
@@ -241,7 +243,7 @@ static void kmeans_pp(fit_ws *w, mlr_rng *rng)
 static void prepare_centres(fit_ws *w, double xmax2, double eps_d)
 {
     const size_t k = w->k, dim = w->dim;
-    mlr_packed_fill(&w->pk, w->c, dim);
+    cluster__packed_fill(&w->pk, w->c, dim);
     double cmax2 = 0;
     for (size_t j = 0; j < k; j++)
         cmax2 = w->pk.cn[j] > cmax2 ? w->pk.cn[j] : cmax2;
@@ -253,7 +255,7 @@ static void prepare_centres(fit_ws *w, double xmax2, double eps_d)
         for (size_t q = 0; q < k; q++) {
             if (q == j)
                 continue;
-            double d = mlr_dist2(w->c + j * dim, w->c + q * dim, dim, w->pk.isa);
+            double d = cluster__dist2(w->c + j * dim, w->c + q * dim, dim, w->pk.isa);
             best = d < best ? d : best;
         }
         w->s[j] = 0.5 * sqrt(best) * (1.0 - eps_d) - w->margin;
@@ -291,7 +293,7 @@ static void relocate_empty(fit_ws *w)
             if (w->l[i] == -INFINITY)
                 continue;
             double d =
-                mlr_dist2(w->x + i * w->ldx, w->c + (size_t)w->lab[i] * dim, dim, w->pk.isa);
+                cluster__dist2(w->x + i * w->ldx, w->c + (size_t)w->lab[i] * dim, dim, w->pk.isa);
             if (d > fd) {
                 fd = d;
                 far = i;
@@ -333,7 +335,7 @@ static double new_centres(fit_ws *w, double eps_d)
             for (size_t t = 0; t < dim; t++)
                 cn[t] *= inv;
         }
-        double d2 = mlr_dist2(cn, w->c + j * dim, dim, w->pk.isa);
+        double d2 = cluster__dist2(cn, w->c + j * dim, dim, w->pk.isa);
         tot += d2;
         double d = sqrt(d2) * (1.0 + eps_d);
         w->p[j] = d;
@@ -368,7 +370,7 @@ static void run_lloyd(fit_ws *w, double tol_abs, double xmax2, double *inertia, 
     for (it = 0; it < km->max_iter; it++) {
         prepare_centres(w, xmax2, eps_d);
         w->update = 1;
-        mlr_parallel_run(nth, w->nblk, assign_task, w);
+        parallel__run(nth, w->nblk, assign_task, w);
         w->first = 0;
         size_t changed = 0, skip_it = 0;
         for (size_t b = 0; b < w->nblk; b++) {
@@ -399,9 +401,9 @@ static void run_lloyd(fit_ws *w, double tol_abs, double xmax2, double *inertia, 
     if (!strict) { /* labels of the final centres */
         prepare_centres(w, xmax2, eps_d);
         w->update = 0;
-        mlr_parallel_run(nth, w->nblk, assign_task, w);
+        parallel__run(nth, w->nblk, assign_task, w);
     }
-    mlr_parallel_run(nth, w->nblk, inertia_task, w);
+    parallel__run(nth, w->nblk, inertia_task, w);
     double in = 0;
     for (size_t b = 0; b < w->nblk; b++)
         in += w->pinert[b];
@@ -423,7 +425,7 @@ mlr_status mlr_kmeans_create(size_t k, size_t dim, const mlr_allocator *alloc, m
                             dim);
     if (k > INT32_MAX)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "k = %zu exceeds INT32_MAX", k);
-    size_t kpad = mlr_packed_kpad(k), nc, np;
+    size_t kpad = cluster__packed_kpad(k), nc, np;
     if (mlr_mul_size(k, dim, &nc) || mlr_mul_size(kpad, dim + 1, &np) ||
         mlr_mul_size(nc + np, sizeof(double), &nc))
         return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "k * dim overflows");
@@ -450,7 +452,7 @@ mlr_status mlr_kmeans_create(size_t k, size_t dim, const mlr_allocator *alloc, m
     km->packed.kpad = kpad;
     km->packed.dim = dim;
     km->packed.isa = cpu__isa(MLR_ISA_BEST);
-    mlr_packed_fill(&km->packed, km->centers, dim);
+    cluster__packed_fill(&km->packed, km->centers, dim);
     km->max_iter = 300;
     km->n_init = 1;
     km->n_threads = 1;
@@ -463,7 +465,7 @@ mlr_status mlr_kmeans_create(size_t k, size_t dim, const mlr_allocator *alloc, m
 
 static size_t total_bytes(const mlr_kmeans *km)
 {
-    size_t kpad = mlr_packed_kpad(km->k);
+    size_t kpad = cluster__packed_kpad(km->k);
     return (km->k * km->dim + kpad * (km->dim + 1)) * sizeof(double);
 }
 
@@ -530,13 +532,13 @@ mlr_status mlr_kmeans_set_centers(mlr_kmeans *km, const double *c, size_t ldc, m
     if (ldc < km->dim)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                             "dimension mismatch: centre stride %zu < dim %zu", ldc, km->dim);
-    size_t bad = mlr_first_nonfinite_row(c, km->k, km->dim, ldc);
+    size_t bad = cluster__first_nonfinite_row(c, km->k, km->dim, ldc);
     if (bad < km->k)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "centre %zu holds a NaN or an infinity",
                             bad);
     for (size_t j = 0; j < km->k; j++)
         memcpy(km->centers + j * km->dim, c + j * ldc, km->dim * sizeof(double));
-    mlr_packed_fill(&km->packed, km->centers, km->dim);
+    cluster__packed_fill(&km->packed, km->centers, km->dim);
     return MLR_OK;
 }
 
@@ -559,19 +561,20 @@ mlr_status mlr_kmeans_predict(const mlr_kmeans *km, const double *x, size_t n, s
     if (ldx < km->dim)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                             "dimension mismatch: row stride %zu < dim %zu", ldx, km->dim);
-    size_t bad = mlr_first_nonfinite_row(x, n, km->dim, ldx);
+    size_t bad = cluster__first_nonfinite_row(x, n, km->dim, ldx);
     if (bad < n)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "row %zu holds a NaN or an infinity",
                             bad);
     double db[SUB];
     for (size_t i0 = 0; i0 < n; i0 += SUB) {
         size_t m = n - i0 < SUB ? n - i0 : SUB;
-        mlr_nearest2(&km->packed, x + i0 * ldx, ldx, NULL, m, NULL, labels + i0, db, NULL, NULL);
+        cluster__nearest2(&km->packed, x + i0 * ldx, ldx, NULL, m, NULL, labels + i0, db, NULL,
+                          NULL);
         if (dist2)
             for (size_t r = 0; r < m; r++)
-                dist2[i0 + r] =
-                    mlr_dist2(x + (i0 + r) * ldx, km->centers + (size_t)labels[i0 + r] * km->dim,
-                              km->dim, km->packed.isa);
+                dist2[i0 + r] = cluster__dist2(x + (i0 + r) * ldx,
+                                               km->centers + (size_t)labels[i0 + r] * km->dim,
+                                               km->dim, km->packed.isa);
     }
     return MLR_OK;
 }
@@ -594,11 +597,11 @@ static mlr_status fit_check(const mlr_kmeans *km, const double *x, size_t n, siz
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                             "dimension mismatch: initial centre stride %zu < dim %zu", ldinit,
                             dim);
-    size_t bad = mlr_first_nonfinite_row(x, n, dim, ldx);
+    size_t bad = cluster__first_nonfinite_row(x, n, dim, ldx);
     if (bad < n)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "row %zu holds a NaN or an infinity",
                             bad);
-    if (init && (bad = mlr_first_nonfinite_row(init, k, dim, ldinit)) < k)
+    if (init && (bad = cluster__first_nonfinite_row(init, k, dim, ldinit)) < k)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                             "initial centre %zu holds a NaN or an infinity", bad);
     size_t tmp;
@@ -618,7 +621,7 @@ static double data_stats(fit_ws *w, double *xmax_out)
     memset(var, 0, dim * sizeof(double));
     for (size_t i = 0; i < n; i++) { /* row by row: the column sums still run over i in order */
         const double *xi = x + i * ldx;
-        w->xn[i] = mlr_norm2(xi, dim);
+        w->xn[i] = cluster__norm2(xi, dim);
         xmax2 = w->xn[i] > xmax2 ? w->xn[i] : xmax2;
         for (size_t t = 0; t < dim; t++)
             mean[t] += xi[t];
@@ -710,7 +713,7 @@ mlr_status mlr_kmeans_fit(mlr_kmeans *km, const double *x, size_t n, size_t ldx,
     w.nblk = nblk;
     size_t n_ppblk = (n + PP_BLOCK - 1) / PP_BLOCK;
     w.n_pot = n_ppblk * 32 > nblk ? n_ppblk * 32 : nblk;
-    size_t kpad = mlr_packed_kpad(k);
+    size_t kpad = cluster__packed_kpad(k);
     int multi = !init && km->n_init > 1;
     int32_t *best_lab = NULL;
     double *best_c = NULL;
@@ -757,7 +760,7 @@ mlr_status mlr_kmeans_fit(mlr_kmeans *km, const double *x, size_t n, size_t ldx,
     size_t best_it, best_skip;
     fit_runs(&w, init, ldinit, tol_abs, xmax2, best_lab, best_c, &best_in, &best_it, &best_skip);
     memcpy(km->centers, w.c, k * dim * sizeof(double));
-    mlr_packed_fill(&km->packed, km->centers, dim);
+    cluster__packed_fill(&km->packed, km->centers, dim);
     km->inertia = best_in;
     km->n_iter = best_it;
     km->n_skipped = best_skip;

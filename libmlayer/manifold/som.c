@@ -39,7 +39,7 @@ mlr_status mlr_som_create(size_t rows, size_t cols, size_t dim, const mlr_alloca
     if (mlr_mul_size(rows, cols, &units) || units > INT32_MAX)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "lattice %zu x %zu is too large", rows,
                             cols);
-    size_t kpad = mlr_packed_kpad(units);
+    size_t kpad = cluster__packed_kpad(units);
     if (mlr_mul_size(units, dim, &nw) || mlr_mul_size(kpad, dim + 1, &np) ||
         mlr_mul_size(nw + np + 16, sizeof(double), &bytes))
         return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "codebook size overflows");
@@ -71,7 +71,7 @@ mlr_status mlr_som_create(size_t rows, size_t cols, size_t dim, const mlr_alloca
     s->pk.kpad = kpad;
     s->pk.dim = dim;
     s->pk.isa = cpu__isa(MLR_ISA_BEST);
-    mlr_packed_fill(&s->pk, s->w, dim);
+    cluster__packed_fill(&s->pk, s->w, dim);
     s->n_threads = 1;
     s->sigma0 = (double)(rows > cols ? rows : cols) / 2.0;
     s->sigma1 = 1.0;
@@ -137,7 +137,7 @@ static mlr_status check_data(const mlr_som *som, const double *x, size_t n, size
     if (ldx < som->dim)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                             "dimension mismatch: row stride %zu < dim %zu", ldx, som->dim);
-    size_t bad = mlr_first_nonfinite_row(x, n, som->dim, ldx);
+    size_t bad = cluster__first_nonfinite_row(x, n, som->dim, ldx);
     if (bad < n)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "row %zu holds a NaN or an infinity",
                             bad);
@@ -153,7 +153,7 @@ mlr_status mlr_som_init_random(mlr_som *som, const double *x, size_t n, size_t l
     mlr_rng_seed(&rng, som->seed);
     for (size_t u = 0; u < som->units; u++)
         memcpy(som->w + u * som->dim, x + mlr_rng_below(&rng, n) * ldx, som->dim * sizeof(double));
-    mlr_packed_fill(&som->pk, som->w, som->dim);
+    cluster__packed_fill(&som->pk, som->w, som->dim);
     som->initialized = 1;
     return MLR_OK;
 }
@@ -186,11 +186,11 @@ static void bmu_task(void *ctx, size_t b)
         const double *xr = c->x + i0 * c->ldx;
         int32_t *best = c->bmu ? c->bmu + i0 : lb;
         int32_t *sec = c->second ? c->second + i0 : (c->errors ? l2 : NULL);
-        mlr_nearest2(&s->pk, xr, c->ldx, NULL, m, NULL, best, db, NULL, sec);
+        cluster__nearest2(&s->pk, xr, c->ldx, NULL, m, NULL, best, db, NULL, sec);
         if (c->dist || c->errors) {
             for (size_t r = 0; r < m; r++) {
-                double d = sqrt(mlr_dist2(xr + r * c->ldx, s->w + (size_t)best[r] * s->dim, s->dim,
-                                          s->pk.isa));
+                double d = sqrt(cluster__dist2(xr + r * c->ldx, s->w + (size_t)best[r] * s->dim,
+                                               s->dim, s->pk.isa));
                 if (c->dist)
                     c->dist[i0 + r] = d;
                 qe += d;
@@ -229,7 +229,7 @@ mlr_status mlr_som_bmu(const mlr_som *som, const double *x, size_t n, size_t ldx
     c.bmu = bmu;
     c.dist = dist;
     c.second = second;
-    mlr_parallel_run(som->n_threads, N_BLOCKS, bmu_task, &c);
+    parallel__run(som->n_threads, N_BLOCKS, bmu_task, &c);
     return MLR_OK;
 }
 
@@ -246,7 +246,7 @@ mlr_status mlr_som_errors(const mlr_som *som, const double *x, size_t n, size_t 
     c.n = n;
     c.ldx = ldx;
     c.errors = 1;
-    mlr_parallel_run(som->n_threads, N_BLOCKS, bmu_task, &c);
+    parallel__run(som->n_threads, N_BLOCKS, bmu_task, &c);
     double q = 0;
     size_t t = 0;
     for (size_t b = 0; b < N_BLOCKS; b++) {
@@ -374,7 +374,7 @@ static void online_clear(const mlr_som *s, double *h, unsigned char *active, con
 }
 
 /* Online steps shared by a team: the caller sweeps part 0 of every step and n_parts - 1
- * workers the other parts (mlr_packed_sweep parts, disjoint units). Per step the caller
+ * workers the other parts (cluster__packed_sweep parts, disjoint units). Per step the caller
  * publishes the step number in go (release) after writing x, xnext, h and active. Part q is
  * done by whoever claims it first for the step (a compare-and-swap of the step number into its
  * claim word): its worker as soon as it sees go, or the caller once its own part is done. So a
@@ -442,8 +442,8 @@ static void *team_worker(void *arg)
         if (cur >= seen || !atomic_compare_exchange_strong_explicit(
                                &sl->claim, &cur, seen, memory_order_acq_rel, memory_order_acquire))
             continue; /* the caller took this step's part */
-        sl->unit = mlr_packed_sweep(t->pk, t->x, t->h, t->active, t->xnext, ta->part, t->n_parts,
-                                    &sl->value);
+        sl->unit = cluster__packed_sweep(t->pk, t->x, t->h, t->active, t->xnext, ta->part,
+                                         t->n_parts, &sl->value);
         atomic_store_explicit(&sl->done, seen, memory_order_release);
     }
 }
@@ -456,7 +456,7 @@ static int32_t team_step(team *t, size_t step, const double *x, const double *xn
     if (t->n_parts > 1)
         atomic_store_explicit(&t->go, step + 1, memory_order_release);
     double bv;
-    int32_t bi = mlr_packed_sweep(t->pk, x, t->h, t->active, xnext, 0, t->n_parts, &bv);
+    int32_t bi = cluster__packed_sweep(t->pk, x, t->h, t->active, xnext, 0, t->n_parts, &bv);
     for (size_t q = 1; q < t->n_parts; q++) {
         team_slot *sl = &t->slot[q];
         double v;
@@ -465,7 +465,7 @@ static int32_t team_step(team *t, size_t step, const double *x, const double *xn
         if (cur < step + 1 &&
             atomic_compare_exchange_strong_explicit(&sl->claim, &cur, step + 1,
                                                     memory_order_acq_rel, memory_order_acquire)) {
-            u = mlr_packed_sweep(t->pk, x, t->h, t->active, xnext, q, t->n_parts, &v);
+            u = cluster__packed_sweep(t->pk, x, t->h, t->active, xnext, q, t->n_parts, &v);
         } else { /* the worker has it */
             size_t d = atomic_load_explicit(&sl->done, memory_order_acquire);
             while (d != step + 1)
@@ -549,9 +549,9 @@ static void train_batch(mlr_som *som, const double *x, size_t n, size_t ldx, siz
         }
         gauss_table(g, som->rows, sigma);
         gauss_table(g + som->rows, som->cols, sigma);
-        mlr_parallel_run(som->n_threads, som->rows, conv_cols_task, &c);
-        mlr_parallel_run(som->n_threads, som->rows, conv_rows_task, &c);
-        mlr_packed_fill(&som->pk, som->w, dim);
+        parallel__run(som->n_threads, som->rows, conv_cols_task, &c);
+        parallel__run(som->n_threads, som->rows, conv_rows_task, &c);
+        cluster__packed_fill(&som->pk, som->w, dim);
     }
 }
 
@@ -608,7 +608,7 @@ static void train_online(mlr_som *som, const double *x, size_t n, size_t ldx, si
          * next row in the same pass over the codebook */
         int32_t b;
         double d2;
-        mlr_nearest2(&som->pk, x + order[0] * ldx, ldx, NULL, 1, NULL, &b, &d2, NULL, NULL);
+        cluster__nearest2(&som->pk, x + order[0] * ldx, ldx, NULL, 1, NULL, &b, &d2, NULL, NULL);
         for (size_t i = 0; i < n; i++, step++) {
             double sigma = decay(som->sigma0, som->sigma1, step, tw->steps);
             double alpha = decay(som->alpha0, som->alpha1, step, tw->steps);
@@ -626,8 +626,8 @@ static void train_online(mlr_som *som, const double *x, size_t n, size_t ldx, si
             pthread_join(th[q], NULL);
     }
     for (size_t u = 0; u < units; u++)
-        mlr_packed_get(&som->pk, u, som->w + u * dim);
-    mlr_packed_fill(&som->pk, som->w, dim); /* norms by the same rule as everywhere */
+        cluster__packed_get(&som->pk, u, som->w + u * dim);
+    cluster__packed_fill(&som->pk, som->w, dim); /* norms by the same rule as everywhere */
 }
 
 mlr_status mlr_som_train(mlr_som *som, const double *x, size_t n, size_t ldx, size_t epochs,
@@ -668,13 +668,13 @@ mlr_status mlr_som_set_codebook(mlr_som *som, const double *w, size_t ldw, mlr_d
     if (ldw < som->dim)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                             "dimension mismatch: codebook stride %zu < dim %zu", ldw, som->dim);
-    size_t bad = mlr_first_nonfinite_row(w, som->units, som->dim, ldw);
+    size_t bad = cluster__first_nonfinite_row(w, som->units, som->dim, ldw);
     if (bad < som->units)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "unit %zu holds a NaN or an infinity",
                             bad);
     for (size_t u = 0; u < som->units; u++)
         memcpy(som->w + u * som->dim, w + u * ldw, som->dim * sizeof(double));
-    mlr_packed_fill(&som->pk, som->w, som->dim);
+    cluster__packed_fill(&som->pk, som->w, som->dim);
     som->initialized = 1;
     return MLR_OK;
 }
@@ -692,7 +692,7 @@ mlr_status mlr_som_export(const mlr_som *som, void *buf, size_t size, mlr_diag *
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "buffer of %zu bytes, need %zu", size,
                             mlr_som_export_size(som));
     uint64_t dims[3] = {som->rows, som->cols, som->dim};
-    mlr_blob_write(buf, som_tag, SOM_BLOB_VERSION, dims, som->w, som->units * som->dim);
+    cluster__blob_write(buf, som_tag, SOM_BLOB_VERSION, dims, som->w, som->units * som->dim);
     return MLR_OK;
 }
 
@@ -706,7 +706,7 @@ mlr_status mlr_som_import(const void *buf, size_t size, const mlr_allocator *all
     const unsigned char *payload;
     size_t np;
     mlr_status st =
-        mlr_blob_check(buf, size, som_tag, SOM_BLOB_VERSION, dims, &payload, &np, diag);
+        cluster__blob_check(buf, size, som_tag, SOM_BLOB_VERSION, dims, &payload, &np, diag);
     if (st)
         return st;
     if (dims[0] == 0 || dims[1] == 0 || dims[2] == 0 || dims[0] > INT32_MAX ||
@@ -718,11 +718,11 @@ mlr_status mlr_som_import(const void *buf, size_t size, const mlr_allocator *all
     if (st)
         return mlr_diag_prefix(diag, st, "som import");
     memcpy(s->w, payload, np * sizeof(double));
-    if (mlr_first_nonfinite_row(s->w, s->units, s->dim, s->dim) < s->units) {
+    if (cluster__first_nonfinite_row(s->w, s->units, s->dim, s->dim) < s->units) {
         mlr_som_destroy(s);
         return mlr_diag_set(diag, MLR_E_PARSE, 0, 0, "blob holds a NaN or an infinity");
     }
-    mlr_packed_fill(&s->pk, s->w, s->dim);
+    cluster__packed_fill(&s->pk, s->w, s->dim);
     s->initialized = 1;
     *out = s;
     return MLR_OK;

@@ -71,7 +71,7 @@ static inline int pivot_ok(double d, double aii, mlr_status *status)
     return 1;
 }
 
-mlr_status mlr_band_factor_in_place(mlr_band *b)
+mlr_status band__factor_in_place(mlr_band *b)
 {
     const size_t n = b->n, kd = b->kd;
     double *l = b->l, *dinv = b->dinv;
@@ -82,9 +82,9 @@ mlr_status mlr_band_factor_in_place(mlr_band *b)
         for (size_t i = 0; i < n; i++) {
             double *li = l + 2 * i, aii = dinv[i];
             const double a1 = li[0], a2 = li[1];
-            double d = mlr_band_ldl2_row(i, aii, a1, a2, i >= 2 ? l[2 * (i - 1)] : 0.0,
-                                         i >= 1 ? dinv[i - 1] : 0.0, i >= 2 ? dinv[i - 2] : 0.0,
-                                         &li[0], &li[1]);
+            double d = band__ldl2_row(i, aii, a1, a2, i >= 2 ? l[2 * (i - 1)] : 0.0,
+                                      i >= 1 ? dinv[i - 1] : 0.0, i >= 2 ? dinv[i - 2] : 0.0,
+                                      &li[0], &li[1]);
             if (!pivot_ok(d, aii, &status)) {
                 b->bad_row = i;
                 return MLR_E_SINGULAR;
@@ -152,7 +152,7 @@ mlr_status mlr_band_factor(mlr_band *b, const double *ab, size_t ldab, mlr_diag 
         for (size_t k = 1; k <= kd; k++)
             b->l[i * kd + k - 1] = k <= i ? ab[(i - k) * ldab + k] : 0.0;
     }
-    const mlr_status st = mlr_band_factor_in_place(b);
+    const mlr_status st = band__factor_in_place(b);
     if (st == MLR_E_SINGULAR)
         return mlr_diag_set(diag, st, 0, 0,
                             "band factor: ab is not positive definite (the pivot of row %zu is "
@@ -207,8 +207,8 @@ static inline void row_from1(double *restrict xi, const double *restrict yi,
 }
 
 MLR_CLONES("avx512f", "avx2")
-void mlr_band_forward_row_from(const mlr_band *b, size_t i, const double *yi, double *xi,
-                               size_t ld, size_t m)
+void band__forward_row_from(const mlr_band *b, size_t i, const double *yi, double *xi, size_t ld,
+                            size_t m)
 {
     const size_t kd = b->kd;
     const double *li = b->l + i * kd;
@@ -227,7 +227,7 @@ void mlr_band_forward_row_from(const mlr_band *b, size_t i, const double *yi, do
 /* Forward sweep for one row: x_i -= sum_k L(i,i-k) x_{i-k} (the 1/D scaling comes in the
  * backward sweep). */
 MLR_CLONES("avx512f", "avx2")
-void mlr_band_forward_row(const mlr_band *b, size_t i, double *xi, size_t ld, size_t m)
+void band__forward_row(const mlr_band *b, size_t i, double *xi, size_t ld, size_t m)
 {
     const size_t kd = b->kd;
     const double *li = b->l + i * kd;
@@ -242,13 +242,13 @@ void mlr_band_forward_row(const mlr_band *b, size_t i, double *xi, size_t ld, si
     }
 }
 
-void mlr_band_forward_row_any(const mlr_band *b, size_t i, const double *yi, double *xi, size_t ld,
-                              size_t m)
+void band__forward_row_any(const mlr_band *b, size_t i, const double *yi, double *xi, size_t ld,
+                           size_t m)
 {
     if (yi == xi)
-        mlr_band_forward_row(b, i, xi, ld, m);
+        band__forward_row(b, i, xi, ld, m);
     else
-        mlr_band_forward_row_from(b, i, yi, xi, ld, m);
+        band__forward_row_from(b, i, yi, xi, ld, m);
 }
 
 /* Backward sweep over rows e..a (e >= a) after the forward one, row a at xa, stride ld:
@@ -275,7 +275,7 @@ static void backward_range(const mlr_band *b, size_t a, size_t e, double *xa, si
     }
 }
 
-void mlr_band_backward(const mlr_band *b, double *x, size_t ldx, size_t m)
+void band__backward(const mlr_band *b, double *x, size_t ldx, size_t m)
 {
     backward_range(b, 0, b->n - 1, x, ldx, m);
 }
@@ -369,8 +369,8 @@ static void stream_out(double *dst, size_t ld, const double *src, size_t m, size
     }
 }
 
-void mlr_band_solve_rows(const mlr_band *b, mlr_band_row_fn forward_row, const void *ctx,
-                         double *x, size_t ldx, size_t m)
+void band__solve_rows(const mlr_band *b, mlr_band_row_fn forward_row, const void *ctx, double *x,
+                      size_t ldx, size_t m)
 {
     const size_t n = b->n, kd = b->kd;
     size_t chunk = MLR_BAND_CHUNK_BYTES / (m * sizeof(double) + 1);
@@ -389,7 +389,7 @@ void mlr_band_solve_rows(const mlr_band *b, mlr_band_row_fn forward_row, const v
     if (!ring) { /* small, not chunkable, or no memory: two sweeps over x */
         for (size_t r = 0; r < n; r++)
             forward_row(ctx, r, x + r * ldx, ldx, m);
-        mlr_band_backward(b, x, ldx, m);
+        band__backward(b, x, ldx, m);
         return;
     }
     /* chunks [k*chunk, min(n, (k+1)*chunk) - 1]; only the last one can be shorter */
@@ -434,7 +434,7 @@ typedef struct inplace_ctx {
 static void forward_in_place(const void *vctx, size_t r, double *xr, size_t ld, size_t m)
 {
     const inplace_ctx *ctx = vctx;
-    mlr_band_forward_row_any(ctx->b, r, ctx->y + r * ctx->ldy, xr, ld, m);
+    band__forward_row_any(ctx->b, r, ctx->y + r * ctx->ldy, xr, ld, m);
 }
 
 /* MLR_E_BAD_STATE for a handle without a factor (fn names the function). */
@@ -459,7 +459,7 @@ mlr_status mlr_band_solve(const mlr_band *b, double *x, size_t ldx, size_t m, ml
     if (ldx < m)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "band solve: ldx %zu < m %zu", ldx, m);
     inplace_ctx ctx = {b, x, ldx};
-    mlr_band_solve_rows(b, forward_in_place, &ctx, x, ldx, m);
+    band__solve_rows(b, forward_in_place, &ctx, x, ldx, m);
     return MLR_OK;
 }
 

@@ -60,8 +60,8 @@ mlr_status mlr_quat_from_euler_array(const double *angles, size_t count, mlr_eul
                                  cos(0.5 * a2), sin(0.5 * a2), axes, s, &out[n]);
     }
     if (n_bad)
-        return mlr__quat_bad_elements(diag, "quat from_euler", "angles", "angle triples", first,
-                                      n_bad, count);
+        return quat__bad_elements(diag, "quat from_euler", "angles", "angle triples", first, n_bad,
+                                  count);
     return MLR_OK;
 }
 
@@ -81,7 +81,7 @@ mlr_status mlr_quat_to_euler_array(const mlr_quat *q, size_t count, mlr_euler_or
     for (size_t n = 0; n < count; n++) {
         double *out = &angles[3 * n];
         mlr_quat p;
-        if (!mlr__quat_unit(&q[n], &p)) {
+        if (!quat__unit(&q[n], &p)) {
             out[0] = out[1] = out[2] = 0.0;
             first = n_bad++ ? first : n;
             continue;
@@ -115,8 +115,7 @@ mlr_status mlr_quat_to_euler_array(const mlr_quat *q, size_t count, mlr_euler_or
         out[2] = wrap_pi(a2);
     }
     if (n_bad)
-        return mlr__quat_bad_elements(diag, "quat to_euler", "q", "quaternions", first, n_bad,
-                                      count);
+        return quat__bad_elements(diag, "quat to_euler", "q", "quaternions", first, n_bad, count);
     return MLR_OK;
 }
 

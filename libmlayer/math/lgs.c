@@ -45,7 +45,7 @@ typedef struct system_ctx {
     const double *ata_o; /* A^T A (i, i-1) (NULL: zero) */
 } system_ctx;
 
-double mlr_lgs_ltl_entry(size_t n, unsigned p, size_t i, size_t j)
+double lgs__ltl_entry(size_t n, unsigned p, size_t i, size_t j)
 {
     if (i - j > p || n <= p)
         return 0.0;
@@ -61,7 +61,7 @@ double mlr_lgs_ltl_entry(size_t n, unsigned p, size_t i, size_t j)
 static double system_entry(const void *vctx, size_t i, size_t j)
 {
     const system_ctx *ctx = vctx;
-    double v = ctx->s == 0.0 ? 0.0 : ctx->s * mlr_lgs_ltl_entry(ctx->n, ctx->order, i, j);
+    double v = ctx->s == 0.0 ? 0.0 : ctx->s * lgs__ltl_entry(ctx->n, ctx->order, i, j);
     if (i == j)
         v += ctx->ata_d ? ctx->ata_d[i] : 1.0;
     else if (i == j + 1 && ctx->ata_o)
@@ -122,7 +122,7 @@ static void lgs_free(mlr_lgs *g)
     mlr_allocator a = g->alloc;
     mlr_band_destroy(g->band);
 #ifdef MLR_HAVE_CHOLMOD
-    mlr_sparse_spd_destroy(g->sparse);
+    lgs__sparse_spd_destroy(g->sparse);
 #endif
     mlr_free(&a, g->first, g->first_bytes);
     mlr_free(&a, g->f, g->f_bytes);
@@ -201,7 +201,7 @@ static mlr_status factor_banded(mlr_lgs *g, const system_ctx *ctx)
         for (size_t k = 1; k <= order; k++)
             li[k - 1] = k <= i ? system_entry(ctx, i, i - k) : 0.0;
     }
-    return mlr_band_factor_in_place(b);
+    return band__factor_in_place(b);
 }
 
 mlr_status mlr_lgs_create(size_t n_out, unsigned order, double lam, double sigma, const double *t,
@@ -258,7 +258,7 @@ mlr_status mlr_lgs_create(size_t n_out, unsigned order, double lam, double sigma
         st = factor_banded(g, &ctx);
     } else {
 #ifdef MLR_HAVE_CHOLMOD
-        st = mlr_sparse_spd_create(n_out, order, system_entry, &ctx, &g->sparse);
+        st = lgs__sparse_spd_create(n_out, order, system_entry, &ctx, &g->sparse);
 #else
         st = MLR_E_UNSUPPORTED;
 #endif
@@ -321,13 +321,13 @@ static void row_interp(const void *vctx, size_t r, double *xr, size_t ld, size_t
 {
     const solve_ctx *c = vctx;
     rhs_row(c->g, r, c->y, c->ldy, m, xr);
-    mlr_band_forward_row(c->g->band, r, xr, ld, m);
+    band__forward_row(c->g->band, r, xr, ld, m);
 }
 
 static void row_copy(const void *vctx, size_t r, double *xr, size_t ld, size_t m)
 {
     const solve_ctx *c = vctx;
-    mlr_band_forward_row_any(c->g->band, r, c->y + r * c->ldy, xr, ld, m);
+    band__forward_row_any(c->g->band, r, c->y + r * c->ldy, xr, ld, m);
 }
 
 static int row_finite(const double *x, size_t m)
@@ -380,10 +380,10 @@ mlr_status mlr_lgs_solve_mt(const mlr_lgs *g, const double *y, size_t ldy, size_
                             * first, so small solves never ask for the processor count */
         if (n_threads != 1 && mlr_mul_size(n - 1, ldx, &rows) == MLR_OK && rows <= SIZE_MAX - m &&
             mlr_mul_size(rows + m, sizeof(double), &span) == MLR_OK &&
-            span >= MLR_PREFAULT_MIN_BYTES && (n_threads > 1 || mlr_online_cpus() > 1))
-            mlr_prefault_start(&pf, x, span);
-        mlr_band_solve_rows(g->band, fn, &ctx, x, ldx, m);
-        mlr_prefault_finish(&pf);
+            span >= MLR_PREFAULT_MIN_BYTES && (n_threads > 1 || parallel__online_cpus() > 1))
+            prefault__start(&pf, x, span);
+        band__solve_rows(g->band, fn, &ctx, x, ldx, m);
+        prefault__finish(&pf);
     } else {
 #ifdef MLR_HAVE_CHOLMOD
         /* a sparse factor need not connect every row with every other: check y itself */
@@ -397,7 +397,7 @@ mlr_status mlr_lgs_solve_mt(const mlr_lgs *g, const double *y, size_t ldy, size_
             else if (xr != y + r * ldy)
                 memcpy(xr, y + r * ldy, m * sizeof(double));
         }
-        mlr_status st = mlr_sparse_spd_solve(g->sparse, x, ldx, m);
+        mlr_status st = lgs__sparse_spd_solve(g->sparse, x, ldx, m);
         if (st != MLR_OK)
             return mlr_diag_set(diag, st, 0, 0, "lgs solve: CHOLMOD: %s", mlr_status_string(st));
 #else

@@ -30,7 +30,7 @@ static mlr_status status_of(const cholmod_common *c)
     }
 }
 
-void mlr_sparse_spd_destroy(mlr_sparse_spd *s)
+void lgs__sparse_spd_destroy(mlr_sparse_spd *s)
 {
     if (!s)
         return;
@@ -40,8 +40,8 @@ void mlr_sparse_spd_destroy(mlr_sparse_spd *s)
     free(s);
 }
 
-mlr_status mlr_sparse_spd_create(size_t n, size_t kd, mlr_band_entry_fn entry, const void *ctx,
-                                 mlr_sparse_spd **out)
+mlr_status lgs__sparse_spd_create(size_t n, size_t kd, mlr_band_entry_fn entry, const void *ctx,
+                                  mlr_sparse_spd **out)
 {
     *out = NULL;
     if (n > (size_t)1 << 30)
@@ -63,7 +63,7 @@ mlr_status mlr_sparse_spd_create(size_t n, size_t kd, mlr_band_entry_fn entry, c
     cholmod_sparse *A = cholmod_allocate_sparse(n, n, nnz, 1, 1, -1, CHOLMOD_REAL, &s->common);
     if (!A) {
         mlr_status st = status_of(&s->common);
-        mlr_sparse_spd_destroy(s);
+        lgs__sparse_spd_destroy(s);
         return st < 0 ? st : MLR_E_NO_MEMORY;
     }
     int *Ap = A->p, *Ai = A->i;
@@ -90,14 +90,14 @@ mlr_status mlr_sparse_spd_create(size_t n, size_t kd, mlr_band_entry_fn entry, c
     }
     cholmod_free_sparse(&A, &s->common);
     if (!s->factor || st < 0) {
-        mlr_sparse_spd_destroy(s);
+        lgs__sparse_spd_destroy(s);
         return st < 0 ? st : MLR_E_NO_MEMORY;
     }
     *out = s;
     return st;
 }
 
-mlr_status mlr_sparse_spd_solve(mlr_sparse_spd *s, double *x, size_t ldx, size_t m)
+mlr_status lgs__sparse_spd_solve(mlr_sparse_spd *s, double *x, size_t ldx, size_t m)
 {
     const size_t n = s->n;
     if (m > (size_t)1 << 30)

@@ -19,7 +19,7 @@
 /* |(x, y, z)| without spurious overflow or underflow, for finite input. */
 static double norm3(double x, double y, double z)
 {
-    double m = mlr__max4_abs(x, y, z, 0.0);
+    double m = quat__max4_abs(x, y, z, 0.0);
     if (m == 0.0)
         return 0.0;
     if (m < SAFE_LO || m > SAFE_HI) {
@@ -137,8 +137,8 @@ static int normalize_fast(const mlr_quat *q, size_t m, mlr_quat *out)
 
 /* The diag of an array function that met n_bad bad elements of arg, the first at index first:
  * "quat log: q: 1 of 40 quaternions zero, NaN or infinite, the first at index 7". */
-mlr_status mlr__quat_bad_elements(mlr_diag *diag, const char *fn, const char *arg,
-                                  const char *what, size_t first, size_t n_bad, size_t count)
+mlr_status quat__bad_elements(mlr_diag *diag, const char *fn, const char *arg, const char *what,
+                              size_t first, size_t n_bad, size_t count)
 {
     return mlr_diag_set(
         diag, MLR_E_INVALID_ARG, 0, 0, "%s: %s: %zu of %zu %s %s, the first at index %zu", fn, arg,
@@ -158,26 +158,25 @@ mlr_status mlr_quat_normalize_array(const mlr_quat *q, size_t count, mlr_quat *o
         if (normalize_fast(q + i0, m, out + i0))
             continue;
         for (size_t i = i0; i < i0 + m; i++) {
-            if (!mlr__quat_unit(&q[i], &out[i])) {
+            if (!quat__unit(&q[i], &out[i])) {
                 out[i] = mlr__quat_identity;
                 first = n_bad++ ? first : i;
             }
         }
     }
     if (n_bad)
-        return mlr__quat_bad_elements(diag, "quat normalize", "q", "quaternions", first, n_bad,
-                                      count);
+        return quat__bad_elements(diag, "quat normalize", "q", "quaternions", first, n_bad, count);
     return MLR_OK;
 }
 
 /* Are the m quaternions q all unit to rounding (|q|^2 within MLR_NEAR_UNIT2 of 1), as
- * mlr__quat_unit_array decides each (the same sum: the same bits)? NaN is not. Vectorized. */
+ * quat__unit_array decides each (the same sum: the same bits)? NaN is not. Vectorized. */
 MLR_CLONES("avx2")
 static int near_unit_block(const mlr_quat *q, size_t m)
 {
     long far = 0;
     for (size_t i = 0; i < m; i++) {
-        far |= !mlr_near_unit2(mlr_quat_norm2_wxyz(q[i].w, q[i].x, q[i].y, q[i].z));
+        far |= !ik__near_unit2(ik__quat_norm2_wxyz(q[i].w, q[i].x, q[i].y, q[i].z));
     }
     return far == 0;
 }
@@ -232,15 +231,15 @@ static int near_unit_copy(const mlr_quat *q, size_t m, mlr_quat *out, int avx2)
     return 1;
 }
 
-/* One quaternion of mlr__quat_unit_array; 0 when it is zero or not finite (identity). */
+/* One quaternion of quat__unit_array; 0 when it is zero or not finite (identity). */
 static int unit_one(const mlr_quat *q, mlr_quat *out)
 {
     const mlr_quat p = *q;
-    if (mlr_near_unit2(mlr_quat_norm2_wxyz(p.w, p.x, p.y, p.z))) { /* unit to rounding: as is */
+    if (ik__near_unit2(ik__quat_norm2_wxyz(p.w, p.x, p.y, p.z))) { /* unit to rounding: as is */
         *out = p;
         return 1;
     }
-    if (mlr__quat_unit(&p, out))
+    if (quat__unit(&p, out))
         return 1;
     *out = mlr__quat_identity;
     return 0;
@@ -260,7 +259,7 @@ mlr_status quat__unit_array_isa(const mlr_quat *q, size_t count, mlr_quat *out, 
     return bad ? MLR_E_INVALID_ARG : MLR_OK;
 }
 
-mlr_status mlr__quat_unit_array(const mlr_quat *q, size_t count, mlr_quat *out)
+mlr_status quat__unit_array(const mlr_quat *q, size_t count, mlr_quat *out)
 {
     return quat__unit_array_isa(q, count, out, MLR_ISA_BEST);
 }
@@ -337,8 +336,7 @@ mlr_status mlr_quat_exp_array(const mlr_vec3 *v, size_t count, mlr_quat *out, ml
         }
     }
     if (n_bad)
-        return mlr__quat_bad_elements(diag, "quat exp", "v", "rotation vectors", first, n_bad,
-                                      count);
+        return quat__bad_elements(diag, "quat exp", "v", "rotation vectors", first, n_bad, count);
     return MLR_OK;
 }
 
@@ -426,7 +424,7 @@ static inline void log_soa(const double *restrict w, const double *restrict x,
 static mlr_status log_one(const mlr_quat *q, mlr_vec3 *out)
 {
     mlr_quat p = *q;
-    if (!mlr__quat_is_finite(&p) || !mlr__quat_prescale(&p)) {
+    if (!quat__is_finite(&p) || !quat__prescale(&p)) {
         out->x = out->y = out->z = 0.0;
         return MLR_E_INVALID_ARG;
     }
@@ -473,7 +471,7 @@ mlr_status mlr_quat_log_array(const mlr_quat *q, size_t count, mlr_vec3 *out, ml
                 first = n_bad++ ? first : i;
     }
     if (n_bad)
-        return mlr__quat_bad_elements(diag, "quat log", "q", "quaternions", first, n_bad, count);
+        return quat__bad_elements(diag, "quat log", "q", "quaternions", first, n_bad, count);
     return MLR_OK;
 }
 
@@ -528,10 +526,10 @@ mlr_status mlr_quat_slerp_array(const mlr_quat *a, const mlr_quat *b, const doub
     for (size_t i = 0; i < count; i++) {
         mlr_quat p, r;
         const double ti = t[i];
-        const char *bad = !isfinite(ti)                ? "t is NaN or infinite"
-                          : !mlr__quat_unit(&a[i], &p) ? "a is a zero, NaN or infinite quaternion"
-                          : !mlr__quat_unit(&b[i], &r) ? "b is a zero, NaN or infinite quaternion"
-                                                       : NULL;
+        const char *bad = !isfinite(ti)            ? "t is NaN or infinite"
+                          : !quat__unit(&a[i], &p) ? "a is a zero, NaN or infinite quaternion"
+                          : !quat__unit(&b[i], &r) ? "b is a zero, NaN or infinite quaternion"
+                                                   : NULL;
         if (bad) {
             out[i] = mlr__quat_identity;
             if (!n_bad++)
@@ -557,7 +555,7 @@ mlr_status mlr_quat_slerp_array(const mlr_quat *a, const mlr_quat *b, const doub
         const double kb = ti * sinc(ti * theta) / sinc_theta;
         mlr_quat m = {ka * p.w + kb * r.w, ka * p.x + kb * r.x, ka * p.y + kb * r.y,
                       ka * p.z + kb * r.z};
-        if (!mlr__quat_unit(&m, &out[i])) { /* only for a t far outside [0, 1] */
+        if (!quat__unit(&m, &out[i])) { /* only for a t far outside [0, 1] */
             out[i] = mlr__quat_identity;
             if (!n_bad++)
                 first = i, what = "t is too far outside [0, 1]";

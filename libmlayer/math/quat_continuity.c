@@ -75,8 +75,7 @@ void mlr_quat_continue_sign(const mlr_quat *prev, size_t n_prev, const mlr_quat 
         return;
     }
     mlr_quat u1, u2, uc, step, pred;
-    if (!mlr__quat_unit(p1, &u1) || !mlr__quat_unit(&prev[n_prev - 2], &u2) ||
-        !mlr__quat_unit(&c, &uc)) {
+    if (!quat__unit(p1, &u1) || !quat__unit(&prev[n_prev - 2], &u2) || !quat__unit(&c, &uc)) {
         *out = c;
         return;
     }
@@ -93,7 +92,7 @@ void mlr_quat_continue_sign(const mlr_quat *prev, size_t n_prev, const mlr_quat 
     }
     if (n_prev >= 3) {
         mlr_quat u3, step_before;
-        if (!mlr__quat_unit(&prev[0], &u3)) {
+        if (!quat__unit(&prev[0], &u3)) {
             *out = c;
             return;
         }

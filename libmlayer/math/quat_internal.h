@@ -14,12 +14,12 @@
 
 static const mlr_quat mlr__quat_identity = {1.0, 0.0, 0.0, 0.0};
 
-static inline int mlr__quat_is_finite(const mlr_quat *q)
+static inline int quat__is_finite(const mlr_quat *q)
 {
     return isfinite(q->w) && isfinite(q->x) && isfinite(q->y) && isfinite(q->z);
 }
 
-static inline double mlr__max4_abs(double a, double b, double c, double d)
+static inline double quat__max4_abs(double a, double b, double c, double d)
 {
     double m = fabs(a);
     if (fabs(b) > m)
@@ -33,9 +33,9 @@ static inline double mlr__max4_abs(double a, double b, double c, double d)
 
 /* Scale a finite quaternion so that its squares neither overflow nor underflow (direction is
  * unchanged). Returns 0 for the zero quaternion. */
-static inline int mlr__quat_prescale(mlr_quat *q)
+static inline int quat__prescale(mlr_quat *q)
 {
-    double m = mlr__max4_abs(q->w, q->x, q->y, q->z);
+    double m = quat__max4_abs(q->w, q->x, q->y, q->z);
     if (m == 0.0)
         return 0;
     if (m < SAFE_LO || m > SAFE_HI) {
@@ -47,19 +47,19 @@ static inline int mlr__quat_prescale(mlr_quat *q)
     return 1;
 }
 
-/* |q| for a quaternion that went through mlr__quat_prescale. */
-static inline double mlr__quat_norm(const mlr_quat *q)
+/* |q| for a quaternion that went through quat__prescale. */
+static inline double quat__norm(const mlr_quat *q)
 {
     return sqrt(q->w * q->w + q->x * q->x + q->y * q->y + q->z * q->z);
 }
 
 /* Unit quaternion in the direction of q; 0 when q is zero or not finite. */
-static inline int mlr__quat_unit(const mlr_quat *q, mlr_quat *out)
+static inline int quat__unit(const mlr_quat *q, mlr_quat *out)
 {
     mlr_quat p = *q;
-    if (!mlr__quat_is_finite(&p) || !mlr__quat_prescale(&p))
+    if (!quat__is_finite(&p) || !quat__prescale(&p))
         return 0;
-    double n = mlr__quat_norm(&p);
+    double n = quat__norm(&p);
     out->w = p.w / n;
     out->x = p.x / n;
     out->y = p.y / n;
@@ -68,7 +68,7 @@ static inline int mlr__quat_unit(const mlr_quat *q, mlr_quat *out)
 }
 
 /* The rotation vector (axis times angle, angle in [0, pi]) of unit quaternion q. */
-static inline void mlr__quat_rotvec(const double *q, double *v)
+static inline void quat__rotvec(const double *q, double *v)
 {
     const double sg = q[0] < 0 ? -1.0 : 1.0;
     const double s = sqrt(q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
@@ -77,7 +77,7 @@ static inline void mlr__quat_rotvec(const double *q, double *v)
 }
 
 /* The unit quaternion of rotation vector v. */
-static inline void mlr__rotvec_quat(const double *v, double *q)
+static inline void quat__rotvec_quat(const double *v, double *q)
 {
     const double a = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
     const double k = a > 1e-300 ? sin(0.5 * a) / a : 0.5;
@@ -85,7 +85,7 @@ static inline void mlr__rotvec_quat(const double *v, double *q)
 }
 
 /* o = q v q* for unit quaternion q (w, x, y, z) and vector v (o may not alias v). */
-static inline void mlr__quat_rotate3(const double *q, const double *v, double *o)
+static inline void quat__rotate3(const double *q, const double *v, double *o)
 {
     const double w = q[0], x = q[1], y = q[2], z = q[3];
     const double tx = 2.0 * (y * v[2] - z * v[1]), ty = 2.0 * (z * v[0] - x * v[2]),
@@ -100,14 +100,14 @@ static inline void mlr__quat_rotate3(const double *q, const double *v, double *o
  * mlr_quat_normalize_array); the identity for a zero or non-finite one, and then
  * MLR_E_INVALID_ARG. Cheaper than normalizing: most rotations a motion holds are unit to
  * rounding already. */
-mlr_status mlr__quat_unit_array(const mlr_quat *q, size_t count, mlr_quat *out);
+mlr_status quat__unit_array(const mlr_quat *q, size_t count, mlr_quat *out);
 /* The same with the hand-written kernel limited to the ISA level most (MLR_ISA_*, common/cpu.h):
  * the same bits at every level (tests/test_twins.c). */
 mlr_status quat__unit_array_isa(const mlr_quat *q, size_t count, mlr_quat *out, int most);
 
 /* The diag of an array function that met n_bad bad elements of arg, the first at index first:
  * "quat log: q: 1 of 40 quaternions zero, NaN or infinite, the first at index 7" (quat.c). */
-mlr_status mlr__quat_bad_elements(mlr_diag *diag, const char *fn, const char *arg,
-                                  const char *what, size_t first, size_t n_bad, size_t count);
+mlr_status quat__bad_elements(mlr_diag *diag, const char *fn, const char *arg, const char *what,
+                              size_t first, size_t n_bad, size_t count);
 
 #endif

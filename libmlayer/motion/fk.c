@@ -68,8 +68,8 @@ static void fk_frame(size_t J, const int32_t *parents, const double *offsets,
                  wr);
 }
 
-void mlr_fk_list_frame(const mlr_fk_list *fl, const double *root_pos, const double *rot,
-                       const double *trans, double *wp, double *wr)
+void fk__list_frame(const mlr_fk_list *fl, const double *root_pos, const double *rot,
+                    const double *trans, double *wp, double *wr)
 {
     fk_frame_run(0, fl->n_joints, fl->parents, fl->offsets, root_pos, rot, fl->n_trans, NULL,
                  fl->tidx, trans, fl->list, fl->n, wp, (mlr_quat *)(void *)wr);
@@ -175,19 +175,19 @@ static void fk_block(size_t J, const int32_t *parents, const double *offsets,
 }
 
 MLR_CLONES("avx2")
-void mlr_fk_list_block(const mlr_fk_list *fl, const double *root_pos, const double *rot,
-                       const double *trans, double *wp, double *wr, double *s)
+void fk__list_block(const mlr_fk_list *fl, const double *root_pos, const double *rot,
+                    const double *trans, double *wp, double *wr, double *s)
 {
     fk_block_run(fl->n_joints, fl->parents, fl->offsets, root_pos, rot, fl->n_trans, NULL,
                  fl->tidx, trans, fl->list, fl->n, fl->keep, fl->n_keep, wp, wr, s);
 }
 
 /* fl's listed joints on a block, from seed's world pose as wp and wr hold it (the listed
- * joints' parents are seed or listed before them): the same operations as mlr_fk_list_frame
+ * joints' parents are seed or listed before them): the same operations as fk__list_frame
  * per frame, so the same bits. */
 MLR_CLONES("avx2")
-void mlr_fk_list_block_from(const mlr_fk_list *fl, size_t seed, const double *rot,
-                            const double *trans, double *wp, double *wr, double *s)
+void fk__list_block_from(const mlr_fk_list *fl, size_t seed, const double *rot,
+                         const double *trans, double *wp, double *wr, double *s)
 {
     enum { B = FK_BLOCK };
     const size_t J = fl->n_joints, sr = 4 * J, st = 3 * fl->n_trans;
@@ -211,18 +211,18 @@ void mlr_fk_list_block_from(const mlr_fk_list *fl, size_t seed, const double *ro
         fk_block_store(J, (size_t)fl->list[i], s, wp, wr);
 }
 
-void mlr_fk_list_arrays(const mlr_fk_list *fl, size_t N, const double *root_pos, const double *rot,
-                        const double *trans, double *wp, double *wr, double *s)
+void fk__list_arrays(const mlr_fk_list *fl, size_t N, const double *root_pos, const double *rot,
+                     const double *trans, double *wp, double *wr, double *s)
 {
     const size_t J = fl->n_joints, P = fl->n_trans;
     size_t f = 0;
     if (s)
         for (; f + FK_BLOCK <= N; f += FK_BLOCK)
-            mlr_fk_list_block(fl, root_pos ? root_pos + 3 * f : NULL, rot + 4 * J * f,
-                              P ? trans + 3 * P * f : NULL, wp + 3 * J * f, wr + 4 * J * f, s);
+            fk__list_block(fl, root_pos ? root_pos + 3 * f : NULL, rot + 4 * J * f,
+                           P ? trans + 3 * P * f : NULL, wp + 3 * J * f, wr + 4 * J * f, s);
     for (; f < N; f++)
-        mlr_fk_list_frame(fl, root_pos ? root_pos + 3 * f : NULL, rot + 4 * J * f,
-                          P ? trans + 3 * P * f : NULL, wp + 3 * J * f, wr + 4 * J * f);
+        fk__list_frame(fl, root_pos ? root_pos + 3 * f : NULL, rot + 4 * J * f,
+                       P ? trans + 3 * P * f : NULL, wp + 3 * J * f, wr + 4 * J * f);
 }
 
 /* Joint j's world rotations of a block from the scratch into wr (frames x J x 4). */
@@ -314,11 +314,11 @@ mlr_status mlr_fk_arrays(size_t n_frames, size_t n_joints, const int32_t *parent
                   trans, world_pos, world_rot, NULL, 0, alloc, diag);
 }
 
-mlr_status mlr_fk_arrays_rot_at(size_t n_frames, size_t n_joints, const int32_t *parents,
-                                const double *offsets, const double *root_pos, const double *rot,
-                                size_t n_trans, const int32_t *trans_joints, const double *trans,
-                                double *world_pos, double *world_rot, const int32_t *rot_joints,
-                                size_t n_rot_joints, const mlr_allocator *alloc)
+mlr_status fk__arrays_rot_at(size_t n_frames, size_t n_joints, const int32_t *parents,
+                             const double *offsets, const double *root_pos, const double *rot,
+                             size_t n_trans, const int32_t *trans_joints, const double *trans,
+                             double *world_pos, double *world_rot, const int32_t *rot_joints,
+                             size_t n_rot_joints, const mlr_allocator *alloc)
 {
     return fk_run(n_frames, n_joints, parents, offsets, root_pos, rot, n_trans, trans_joints,
                   trans, world_pos, world_rot, rot_joints, n_rot_joints, alloc, NULL);

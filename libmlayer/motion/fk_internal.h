@@ -31,34 +31,34 @@ typedef struct mlr_fk_list {
  * (frames x 3, or NULL: the root's offset) and trans (frames x P x 3) start at the block's first
  * frame, and so do wp and wr (frames x J x 3 and frames x J x 4), written at fl's kept joints
  * only. s: MLR_FK_BLOCK_SCRATCH(J) doubles. */
-void mlr_fk_list_block(const mlr_fk_list *fl, const double *root_pos, const double *rot,
-                       const double *trans, double *wp, double *wr, double *s);
+void fk__list_block(const mlr_fk_list *fl, const double *root_pos, const double *rot,
+                    const double *trans, double *wp, double *wr, double *s);
 
 /* The same on one frame (rot: J x 4, root_pos: 3 or NULL, trans: P x 3, wp: J x 3, wr: J x 4),
  * without scratch, written at the root and every listed joint. */
-void mlr_fk_list_frame(const mlr_fk_list *fl, const double *root_pos, const double *rot,
-                       const double *trans, double *wp, double *wr);
+void fk__list_frame(const mlr_fk_list *fl, const double *root_pos, const double *rot,
+                    const double *trans, double *wp, double *wr);
 
 /* The same on MLR_FK_BLOCK frames for fl's listed joints only, from joint seed's world pose as
  * wp and wr hold it already (every listed joint's parent is seed or listed before it; root_pos
  * is not read): written at the listed joints. */
-void mlr_fk_list_block_from(const mlr_fk_list *fl, size_t seed, const double *rot,
-                            const double *trans, double *wp, double *wr, double *s);
+void fk__list_block_from(const mlr_fk_list *fl, size_t seed, const double *rot,
+                         const double *trans, double *wp, double *wr, double *s);
 
 /* The same on N frames: blocks of MLR_FK_BLOCK frames with scratch s (NULL: none, every frame
  * alone, the same values), then the frames left one by one (those written at the root and every
  * listed joint). */
-void mlr_fk_list_arrays(const mlr_fk_list *fl, size_t N, const double *root_pos, const double *rot,
-                        const double *trans, double *wp, double *wr, double *s);
+void fk__list_arrays(const mlr_fk_list *fl, size_t N, const double *root_pos, const double *rot,
+                     const double *trans, double *wp, double *wr, double *s);
 
 /* mlr_fk_arrays (arguments checked by the caller) with the world rotations written at the
  * n_rot_joints joints rot_joints only (the positions at every joint): the same values, without
  * the stores of the others (the guards read the rotations of the End Sites' parents only). */
-mlr_status mlr_fk_arrays_rot_at(size_t n_frames, size_t n_joints, const int32_t *parents,
-                                const double *offsets, const double *root_pos, const double *rot,
-                                size_t n_trans, const int32_t *trans_joints, const double *trans,
-                                double *world_pos, double *world_rot, const int32_t *rot_joints,
-                                size_t n_rot_joints, const mlr_allocator *alloc);
+mlr_status fk__arrays_rot_at(size_t n_frames, size_t n_joints, const int32_t *parents,
+                             const double *offsets, const double *root_pos, const double *rot,
+                             size_t n_trans, const int32_t *trans_joints, const double *trans,
+                             double *world_pos, double *world_rot, const int32_t *rot_joints,
+                             size_t n_rot_joints, const mlr_allocator *alloc);
 
 /* mlr_fk_arrays of two motions on rig's N frames (the guards' passes measure the input, a, and
  * the result, b): the positions and world rotations of both; the first failure's status. */

@@ -69,8 +69,8 @@ static int letter_token(const char *name, size_t i, int rule)
     return (c == 'l' || c == 'r') && is_lower(after);
 }
 
-int mlr_mirror_next_candidate(const char *name, size_t len, mlr_mirror_cursor *cur, char *buf,
-                              int *side)
+int mirror__next_candidate(const char *name, size_t len, mlr_mirror_cursor *cur, char *buf,
+                           int *side)
 {
     if (cur->rule == 0) {
         cur->rule = 2, cur->pos = 0;
@@ -163,7 +163,7 @@ static long mirror_end_site(const mlr_rig *rig, const int32_t *partner, size_t e
     return -1;
 }
 
-mlr_status mlr_mirror_check_partner(const mlr_rig *rig, const int32_t *partner, mlr_diag *diag)
+mlr_status mirror__check_partner(const mlr_rig *rig, const int32_t *partner, mlr_diag *diag)
 {
     const size_t J = rig->n_joints;
     char b1[32], b2[32], b3[32], b4[32];
@@ -197,7 +197,7 @@ mlr_status mlr_mirror_check_partner(const mlr_rig *rig, const int32_t *partner, 
                                 jname(rig, j, b1, sizeof b1), jname(rig, (size_t)k, b2, sizeof b2),
                                 jname(rig, (size_t)p, b3, sizeof b3),
                                 jname(rig, (size_t)rig->parents[k], b4, sizeof b4));
-        if ((mlr_rig_trans_row(rig, (int32_t)j) < 0) != (mlr_rig_trans_row(rig, k) < 0))
+        if ((mirror__rig_trans_row(rig, (int32_t)j) < 0) != (mirror__rig_trans_row(rig, k) < 0))
             return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                                 "mirror: %.40s pairs with %.40s, "
                                 "but only one of them has position channels",
@@ -224,7 +224,7 @@ static int pair_side(const char *a, const char *b, char *buf)
     mlr_mirror_cursor cur = {0, 0};
     int side;
     const size_t len = strlen(a);
-    while (mlr_mirror_next_candidate(a, len, &cur, buf, &side))
+    while (mirror__next_candidate(a, len, &cur, buf, &side))
         if (strcmp(buf, b) == 0)
             return side;
     return 0;
@@ -268,9 +268,9 @@ static mlr_status given_pairs(const mlr_rig *rig, const name_rec *recs, const ch
     return MLR_OK;
 }
 
-mlr_status mlr_mirror_find_pairs(const mlr_rig *rig, const char *const *given, size_t n_given,
-                                 unsigned flags, int32_t *partner, int8_t *side, size_t *n_pairs,
-                                 const mlr_allocator *alloc, mlr_diag *diag)
+mlr_status mirror__find_pairs(const mlr_rig *rig, const char *const *given, size_t n_given,
+                              unsigned flags, int32_t *partner, int8_t *side, size_t *n_pairs,
+                              const mlr_allocator *alloc, mlr_diag *diag)
 {
     mlr_status st;
     if (flags & ~(unsigned)MLR_MIRROR_GIVEN_ONLY)
@@ -334,7 +334,7 @@ mlr_status mlr_mirror_find_pairs(const mlr_rig *rig, const char *const *given, s
             const size_t len = strlen(name);
             mlr_mirror_cursor cur = {0, 0};
             int s;
-            while (mlr_mirror_next_candidate(name, len, &cur, buf, &s)) {
+            while (mirror__next_candidate(name, len, &cur, buf, &s)) {
                 const int32_t k = find_name(recs, J, buf);
                 if (k < 0 || k == (int32_t)j || partner[k] != k)
                     continue;
@@ -369,9 +369,9 @@ mlr_status mlr_mirror_pairs(const mlr_rig *rig, const char *const *given, size_t
     if (st != MLR_OK)
         return st;
     size_t pairs = 0;
-    st = mlr_mirror_find_pairs(rig, given, n_given, flags, partner, side, &pairs, alloc, diag);
+    st = mirror__find_pairs(rig, given, n_given, flags, partner, side, &pairs, alloc, diag);
     if (st == MLR_OK)
-        st = mlr_mirror_check_partner(rig, partner, diag);
+        st = mirror__check_partner(rig, partner, diag);
     if (st != MLR_OK)
         return st;
     if (n_pairs)
@@ -381,7 +381,7 @@ mlr_status mlr_mirror_pairs(const mlr_rig *rig, const char *const *given, size_t
 
 /* ---- plane -------------------------------------------------------------------------------- */
 
-void mlr_mirror_rest_position(const mlr_rig *rig, size_t j, double *out)
+void mirror__rest_position(const mlr_rig *rig, size_t j, double *out)
 {
     out[0] = out[1] = out[2] = 0.0;
     for (size_t i = j; i != 0; i = (size_t)rig->parents[i])
@@ -423,8 +423,8 @@ mlr_status mlr_mirror_plane(const mlr_rig *rig, const int32_t *partner, int plan
         if ((size_t)partner[j] <= j)
             continue;
         double a[3], b[3];
-        mlr_mirror_rest_position(rig, j, a);
-        mlr_mirror_rest_position(rig, (size_t)partner[j], b);
+        mirror__rest_position(rig, j, a);
+        mirror__rest_position(rig, (size_t)partner[j], b);
         for (int c = 0; c < 3; c++)
             sum[c] += fabs(a[c] - b[c]);
         pairs++;
@@ -511,7 +511,7 @@ mlr_status mlr_mirror_motion(const mlr_rig *rig, const int32_t *partner, int axi
                             "mirror: trans or out_trans is NULL "
                             "with %zu translated joints",
                             P);
-    st = mlr_mirror_check_partner(rig, partner, diag);
+    st = mirror__check_partner(rig, partner, diag);
     if (st != MLR_OK)
         return st;
     if (flags & MLR_MIRROR_KEEP_SKELETON) {
@@ -537,7 +537,7 @@ mlr_status mlr_mirror_motion(const mlr_rig *rig, const int32_t *partner, int axi
             if ((size_t)partner[j] >= j)
                 swap_rows(r, o, j, (size_t)partner[j], 4, axis);
         for (size_t p = 0; p < P; p++) {
-            const size_t q = (size_t)mlr_rig_trans_row(rig, partner[rig->trans_joints[p]]);
+            const size_t q = (size_t)mirror__rig_trans_row(rig, partner[rig->trans_joints[p]]);
             if (q >= p)
                 swap_rows(trans + 3 * P * n, out_trans + 3 * P * n, p, q, 3, axis);
         }

@@ -60,8 +60,7 @@ static mlr_status sided_pairs(const mlr_rig *rig, const mlr_allocator *a, int32_
                             J);
     *side = (int8_t *)(*partner + J);
     size_t n_pairs = 0;
-    const mlr_status st =
-        mlr_mirror_find_pairs(rig, NULL, 0, 0, *partner, *side, &n_pairs, a, diag);
+    const mlr_status st = mirror__find_pairs(rig, NULL, 0, 0, *partner, *side, &n_pairs, a, diag);
     if (st != MLR_OK) {
         mlr_free(a, *partner, *bytes);
         *partner = NULL, *side = NULL;
@@ -196,8 +195,8 @@ static mlr_status read_options(const mlr_rig *rig, const mlr_root_motion_option 
     *body_joint = ov.v[MLR_ROOT_MOTION_OPT_BODY_JOINT];
     const size_t J = rig->n_joints;
     if (*body_joint >= (double)J)
-        return mlr_option_reject(diag, SUBJECT, "body_joint", *body_joint,
-                                 "-1 or below %zu joints", J);
+        return options__reject(diag, SUBJECT, "body_joint", *body_joint, "-1 or below %zu joints",
+                               J);
     return MLR_OK;
 }
 

@@ -199,7 +199,7 @@ static mlr_status detect_roles(const mlr_rig *rig, int32_t *role, const mlr_allo
     int32_t *partner = (int32_t *)(void *)scratch;
     int8_t *side = (int8_t *)(scratch + J * sizeof(int32_t));
     size_t n_pairs = 0;
-    mlr_status st = mlr_mirror_find_pairs(rig, NULL, 0, 0, partner, side, &n_pairs, alloc, diag);
+    mlr_status st = mirror__find_pairs(rig, NULL, 0, 0, partner, side, &n_pairs, alloc, diag);
     if (st != MLR_OK) {
         mlr_free(&a, scratch, bytes);
         return st;
@@ -991,7 +991,7 @@ mlr_status mlr_retarget(const mlr_rig *source, size_t n_frames, const double *ro
 
     const int32_t hips_t = dst.role[MLR_ROLE_HIPS];
     scale = dst.leg / src.leg;
-    const long hips_row = hips_t > 0 ? mlr_rig_trans_row(target, hips_t) : -1;
+    const long hips_row = hips_t > 0 ? mirror__rig_trans_row(target, hips_t) : -1;
     const int32_t tl = dst.role[MLR_ROLE_LEFT_UPPER_LEG], tr = dst.role[MLR_ROLE_RIGHT_UPPER_LEG];
     const size_t last_leg = (size_t)(tl > tr ? tl : tr);
     /* the soles: per frame, the ankles above their feet's lowest points, target less scaled

@@ -57,7 +57,7 @@ static double sys_entry(double s, size_t n, size_t i, size_t k)
 {
     if (k > i)
         return 0.0;
-    double v = s == 0.0 ? 0.0 : s * mlr_lgs_ltl_entry(n, 2, i, i - k);
+    double v = s == 0.0 ? 0.0 : s * lgs__ltl_entry(n, 2, i, i - k);
     return k == 0 ? v + 1.0 : v;
 }
 
@@ -66,10 +66,10 @@ static void continuing_row(const mlr_stream *st, smoother *sm, size_t i)
 {
     const size_t R = st->ring, c = i % R, p1 = (i + R - 1) % R, p2 = (i + R - 2) % R;
     const size_t n = i + 3; /* any clip in which row i is not an end row */
-    double d = mlr_band_ldl2_row(i, sys_entry(sm->s, n, i, 0), sys_entry(sm->s, n, i, 1),
-                                 sys_entry(sm->s, n, i, 2), i >= 2 ? sm->l1[p1] : 0.0,
-                                 i >= 1 ? sm->dinv[p1] : 0.0, i >= 2 ? sm->dinv[p2] : 0.0,
-                                 &sm->l1[c], &sm->l2[c]);
+    double d = band__ldl2_row(i, sys_entry(sm->s, n, i, 0), sys_entry(sm->s, n, i, 1),
+                              sys_entry(sm->s, n, i, 2), i >= 2 ? sm->l1[p1] : 0.0,
+                              i >= 1 ? sm->dinv[p1] : 0.0, i >= 2 ? sm->dinv[p2] : 0.0, &sm->l1[c],
+                              &sm->l2[c]);
     sm->dinv[c] = 1.0 / d; /* d >= 1: every Schur complement of s D^T D + I is */
 }
 
@@ -81,18 +81,18 @@ static void end_rows_of(const mlr_stream *st, const smoother *sm, size_t n, end_
     e->dinv[0] = 1.0;
     if (n >= 2) { /* row n-2 after continuing rows n-3, n-4 */
         const size_t i = n - 2, p1 = (i + R - 1) % R, p2 = (i + R - 2) % R;
-        double d = mlr_band_ldl2_row(i, sys_entry(sm->s, n, i, 0), sys_entry(sm->s, n, i, 1),
-                                     sys_entry(sm->s, n, i, 2), i >= 2 ? sm->l1[p1] : 0.0,
-                                     i >= 1 ? sm->dinv[p1] : 0.0, i >= 2 ? sm->dinv[p2] : 0.0,
-                                     &e->l1[0], &e->l2[0]);
+        double d = band__ldl2_row(i, sys_entry(sm->s, n, i, 0), sys_entry(sm->s, n, i, 1),
+                                  sys_entry(sm->s, n, i, 2), i >= 2 ? sm->l1[p1] : 0.0,
+                                  i >= 1 ? sm->dinv[p1] : 0.0, i >= 2 ? sm->dinv[p2] : 0.0,
+                                  &e->l1[0], &e->l2[0]);
         e->dinv[0] = 1.0 / d;
     }
     /* row n-1 after the end row n-2 and the continuing row n-3 */
     const size_t i = n - 1, p2 = (i + R - 2) % R;
-    double d = mlr_band_ldl2_row(i, sys_entry(sm->s, n, i, 0), sys_entry(sm->s, n, i, 1),
-                                 sys_entry(sm->s, n, i, 2), i >= 2 ? e->l1[0] : 0.0,
-                                 i >= 1 ? e->dinv[0] : 0.0, i >= 2 ? sm->dinv[p2] : 0.0, &e->l1[1],
-                                 &e->l2[1]);
+    double d = band__ldl2_row(i, sys_entry(sm->s, n, i, 0), sys_entry(sm->s, n, i, 1),
+                              sys_entry(sm->s, n, i, 2), i >= 2 ? e->l1[0] : 0.0,
+                              i >= 1 ? e->dinv[0] : 0.0, i >= 2 ? sm->dinv[p2] : 0.0, &e->l1[1],
+                              &e->l2[1]);
     e->dinv[1] = 1.0 / d;
 }
 
@@ -307,7 +307,7 @@ static void finish_row(const mlr_stream *st, double *x, double *xb)
     if (st->layered)
         compose_layers(st, x, xb, q);
     if (st->limits)
-        mlr_limits_apply_frame(st->limits, q, st->layered ? st->alpha : NULL, 1, NULL);
+        limits__apply_frame(st->limits, q, st->layered ? st->alpha : NULL, 1, NULL);
 }
 
 /* x = xb (+) alpha (x (-) xb) of a layered stream (q: the normalized quaternions of x). */
