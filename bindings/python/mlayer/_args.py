@@ -57,3 +57,34 @@ def default_threads() -> int:
 def threads(v: int | None, name: str = "threads") -> int:
     """A C function's thread count: None -> 0 (the library picks), else an integer >= 1."""
     return 0 if v is None else integer(v, name, 1)
+
+
+def name_pairs(text: str, where: str, form: str, written: str) -> list[tuple[str, str]]:
+    """``"A=B,C=D"`` as [("A", "B"), ("C", "D")], the names stripped: the one parser of the
+    joint name pairs that mirror's pairs, retarget's map and the CLI take. An item without
+    exactly one ``=`` or with an empty name: InvalidArgumentError ``"{where}: 'x' is not {form}
+    ({written} A=B,C=D)"``."""
+    out = []
+    for item in text.split(","):
+        parts = [p.strip() for p in item.split("=")]
+        if len(parts) != 2 or not parts[0] or not parts[1]:
+            raise InvalidArgumentError(f"{where}: {item.strip()!r} is not {form} ({written} "
+                                       "A=B,C=D)")
+        out.append((parts[0], parts[1]))
+    return out
+
+
+def name_pair_items(value: Any, where: str, a: str, b: str) -> list[tuple[str, str]]:
+    """A mapping {a: b} or a sequence of (a, b) joint names as a list of pairs; anything else:
+    InvalidArgumentError naming ``where``."""
+    from collections.abc import Mapping
+    items = value.items() if isinstance(value, Mapping) else value
+    try:
+        out = [tuple(p) for p in items]
+    except TypeError:
+        raise InvalidArgumentError(f"{where} must be 'auto', a mapping {{{a}: {b}}} or a "
+                                   f"sequence of ({a}, {b}) names, got {value!r}") from None
+    for p in out:
+        if len(p) != 2 or not all(isinstance(n, str) for n in p):
+            raise InvalidArgumentError(f"{where}: {p!r} is not a pair of joint names")
+    return out

@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from . import _arrays
+from ._args import name_pair_items, name_pairs
 from ._native import ffi, lib
 from ._rig import c_rig
 from .errors import InvalidArgumentError, check
@@ -59,29 +60,14 @@ def parse_pairs(text: str) -> list[tuple[str, str]]:
     InvalidArgumentError
         An item without exactly one ``=`` or with an empty name.
     """
-    out = []
-    for item in text.split(","):
-        parts = [p.strip() for p in item.split("=")]
-        if len(parts) != 2 or not parts[0] or not parts[1]:
-            raise InvalidArgumentError(f"mirror: pairs: {item.strip()!r} is not NAME=NAME "
-                                       "(pairs are written A=B,C=D)")
-        out.append((parts[0], parts[1]))
-    return out
+    return name_pairs(text, "mirror: pairs", "NAME=NAME", "pairs are written")
 
 
 def _given_pairs(pairs: PairsArg) -> list[tuple[str, str]]:
     if isinstance(pairs, str):
         return parse_pairs(pairs)
-    items = pairs.items() if isinstance(pairs, Mapping) else pairs
-    try:
-        out = [tuple(p) for p in items]
-    except TypeError:
-        raise InvalidArgumentError("mirror: pairs must be 'auto', a mapping {left: right} or a "
-                                   f"sequence of (left, right) names, got {pairs!r}") from None
-    for p in out:
-        if len(p) != 2 or not all(isinstance(n, str) for n in p):
-            raise InvalidArgumentError(f"mirror: pairs: {p!r} is not a pair of joint names")
-    return out
+    return name_pair_items(pairs, "mirror: pairs", "left", "right")
+
 
 
 def _partner(skeleton: Skeleton, pairs: PairsArg, by_name: bool) -> tuple[np.ndarray,

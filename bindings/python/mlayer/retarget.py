@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from . import _arrays
+from ._args import name_pair_items, name_pairs
 from ._native import ffi, lib
 from ._rig import c_rig
 from .errors import InvalidArgumentError, check
@@ -56,30 +57,13 @@ def parse_map(text: str) -> list[tuple[str, str]]:
     InvalidArgumentError
         An item without exactly one ``=`` or with an empty name.
     """
-    out = []
-    for item in text.split(","):
-        parts = [p.strip() for p in item.split("=")]
-        if len(parts) != 2 or not parts[0] or not parts[1]:
-            raise InvalidArgumentError(f"retarget: map: {item.strip()!r} is not SOURCE=TARGET "
-                                       "(a map is written A=B,C=D)")
-        out.append((parts[0], parts[1]))
-    return out
+    return name_pairs(text, "retarget: map", "SOURCE=TARGET", "a map is written")
 
 
 def _map_pairs(mapping: MapArg) -> list[tuple[str, str]]:
     if isinstance(mapping, str):
         return [] if mapping == "auto" else parse_map(mapping)
-    items = mapping.items() if isinstance(mapping, Mapping) else mapping
-    try:
-        out = [tuple(p) for p in items]
-    except TypeError:
-        raise InvalidArgumentError("retarget: mapping must be 'auto', a mapping {source: "
-                                   "target} or (source, target) pairs, got "
-                                   f"{mapping!r}") from None
-    for p in out:
-        if len(p) != 2 or not all(isinstance(n, str) for n in p):
-            raise InvalidArgumentError(f"retarget: mapping: {p!r} is not a pair of joint names")
-    return out
+    return name_pair_items(mapping, "retarget: mapping", "source", "target")
 
 
 def _target_of(target: Any) -> tuple[Skeleton, Motion | None]:
