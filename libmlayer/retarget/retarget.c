@@ -858,11 +858,9 @@ typedef struct follow_rec {
     mlr_quat corr;
 } follow_rec;
 
-mlr_status mlr_retarget(const mlr_rig *source, size_t n_frames, const double *root_pos,
-                        const double *rot, const double *trans, const mlr_rig *target,
-                        int source_up, int target_up, const char *const *map, size_t n_map,
-                        double *out_root_pos, double *out_rot, double *out_trans,
-                        mlr_retarget_info *info, const mlr_allocator *alloc, mlr_diag *diag)
+/* Both rigs valid (mlr_rig_check) and named: the checks that open mlr_retarget and
+   mlr_retarget_feet. */
+static mlr_status check_rigs(const mlr_rig *source, const mlr_rig *target, mlr_diag *diag)
 {
     mlr_status st = mlr_rig_check(source, diag);
     if (st != MLR_OK)
@@ -874,6 +872,18 @@ mlr_status mlr_retarget(const mlr_rig *source, size_t n_frames, const double *ro
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                             "retarget: the %s rig has no joint names to find roles by",
                             source->names ? "target" : "source");
+    return MLR_OK;
+}
+
+mlr_status mlr_retarget(const mlr_rig *source, size_t n_frames, const double *root_pos,
+                        const double *rot, const double *trans, const mlr_rig *target,
+                        int source_up, int target_up, const char *const *map, size_t n_map,
+                        double *out_root_pos, double *out_rot, double *out_trans,
+                        mlr_retarget_info *info, const mlr_allocator *alloc, mlr_diag *diag)
+{
+    mlr_status st = check_rigs(source, target, diag);
+    if (st != MLR_OK)
+        return st;
     const size_t Js = source->n_joints, Jt = target->n_joints;
     const size_t Ps = source->n_trans, Pt = target->n_trans;
     if (n_frames &&
@@ -1234,16 +1244,9 @@ mlr_status mlr_retarget_feet(const mlr_rig *source, size_t n_frames, double fps,
                              const double *out_trans, mlr_cleanup_report *report,
                              const mlr_allocator *alloc, mlr_diag *diag)
 {
-    mlr_status st = mlr_rig_check(source, diag);
+    mlr_status st = check_rigs(source, target, diag);
     if (st != MLR_OK)
-        return mlr_diag_prefix(diag, st, "retarget: source");
-    st = mlr_rig_check(target, diag);
-    if (st != MLR_OK)
-        return mlr_diag_prefix(diag, st, "retarget: target");
-    if (!source->names || !target->names)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "retarget: the %s rig has no joint names to find roles by",
-                            source->names ? "target" : "source");
+        return st;
     if (up < 0 || up > 2)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "retarget: up %d is not an axis", up);
     if (target_up < -1 || target_up > 2)
