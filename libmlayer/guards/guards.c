@@ -7,6 +7,7 @@
 #include "guards/contacts_internal.h"
 #include "guards/depop_internal.h"
 #include "guards/floor_chains_internal.h"
+#include "guards/toe_tilt_internal.h"
 #include "guards/legs_swivel_internal.h"
 #include "guards/limits_internal.h"
 #include "math/quat_internal.h"
@@ -1263,6 +1264,17 @@ static mlr_status guards_apply(const mlr_guards *g, const double *alpha, size_t 
                                  GUARDS_FLOOR_SLACK * g->body_height, g->root_pos, g->rot,
                                  g->trans, work_root, work, trans, g->body_trans, g->n_points,
                                  g->joints, 0, &lifted, &g->alloc);
+        if (st != MLR_OK) {
+            fk_failure(st, diag);
+            goto done;
+        }
+    }
+    if (floor_on) { /* toe tips above the floor by a tilt, before the
+                                    cleanup would lift the whole foot for them (toe_tilt.c) */
+        st = toe_tilt__apply(&g->rig, N, g->fps, g->up, g->floor_height,
+                             GUARDS_FLOOR_SLACK * g->body_height, g->root_pos, g->rot, g->trans,
+                             work_root, work, trans, g->n_points, g->joints, g->end_sites, NULL,
+                             &g->alloc);
         if (st != MLR_OK) {
             fk_failure(st, diag);
             goto done;
