@@ -654,6 +654,62 @@ START_TEST(bad_input_gets_the_right_status_and_message)
 }
 END_TEST
 
+/* The job (mlr_cleanup_job): the same bits as the long form, with and without a reference and
+   a floor; the job's own field errors named; validate agrees with run. */
+START_TEST(a_job_gives_the_long_forms_bits)
+{
+    synth *s = malloc(sizeof *s), *t = malloc(sizeof *t);
+    pose_clip(0.01, 0.0, 0, 0, s->root, s->rot);
+    pose_clip(0.0, 0.0, 0, 0, s->rroot, s->rrot);
+    contacts_of(s->c);
+    const mlr_rig rg = rig();
+    for (int with_ref = 0; with_ref < 2; with_ref++) {
+        mlr_cleanup_report r1, r2;
+        mlr_diag d;
+        ck_assert_msg(run(s, with_ref, NULL, 0, &r1, NULL, &d) == MLR_OK, "%s", d.message);
+        mlr_cleanup_job job = {0};
+        job.rig = &rg, job.fps = 60.0, job.up = MLR_AXIS_Y;
+        job.motion = (mlr_frames){N, s->root, s->rot, NULL};
+        if (with_ref)
+            job.reference = (mlr_frames){N, s->rroot, s->rrot, NULL};
+        job.points = (mlr_cleanup_points){C, pj, NULL, s->c};
+        job.out_root_pos = t->oroot, job.out_rot = t->orot, job.report = &r2;
+        ck_assert_int_eq(mlr_cleanup_job_validate(&job, &d), MLR_OK);
+        ck_assert_msg(mlr_cleanup_job_run(&job, NULL, &d) == MLR_OK, "%s", d.message);
+        ck_assert_int_eq(memcmp(t->oroot, s->oroot, sizeof s->oroot), 0);
+        ck_assert_int_eq(memcmp(t->orot, s->orot, sizeof s->orot), 0);
+        ck_assert(r1.contact_frames == r2.contact_frames && r1.floor_frames == r2.floor_frames);
+        ck_assert(r1.floor_height == r2.floor_height && r1.root_shift_max == r2.root_shift_max);
+        double h1, h2;
+        ck_assert_int_eq(mlr_cleanup_floor_height(&rg, N, s->root, s->rot, NULL, C, pj, NULL, s->c,
+                                                  MLR_AXIS_Y, 0.05, &h1, NULL, NULL),
+                         MLR_OK);
+        ck_assert_int_eq(mlr_cleanup_job_floor_height(&job, 0.05, &h2, NULL, NULL), MLR_OK);
+        ck_assert(h1 == h2 && isfinite(h1));
+        /* the job's own fields */
+        job.reference.n_frames = with_ref ? N - 1 : 3;
+        ck_assert_int_eq(mlr_cleanup_job_validate(&job, &d), MLR_E_INVALID_ARG);
+        ck_assert_ptr_nonnull(strstr(d.message, "job.reference.n_frames"));
+        ck_assert_int_eq(mlr_cleanup_job_run(&job, NULL, &d), MLR_E_INVALID_ARG);
+        ck_assert_ptr_nonnull(strstr(d.message, "job.reference.n_frames"));
+        job.reference.n_frames = with_ref ? N : 0;
+        /* what the long form refuses, validate refuses with its message */
+        job.fps = 0.0;
+        ck_assert_int_eq(mlr_cleanup_job_validate(&job, &d), MLR_E_INVALID_ARG);
+        ck_assert_ptr_nonnull(strstr(d.message, "fps 0 is not finite"));
+        job.fps = 60.0, job.points.contacts = NULL;
+        ck_assert_int_eq(mlr_cleanup_job_validate(&job, &d), MLR_E_INVALID_ARG);
+        ck_assert_ptr_nonnull(strstr(d.message, "NULL outputs or contacts"));
+    }
+    mlr_diag d;
+    ck_assert_int_eq(mlr_cleanup_job_validate(NULL, &d), MLR_E_INVALID_ARG);
+    ck_assert_ptr_nonnull(strstr(d.message, "NULL job"));
+    ck_assert_int_eq(mlr_cleanup_job_run(NULL, NULL, &d), MLR_E_INVALID_ARG);
+    ck_assert_int_eq(mlr_cleanup_job_floor_height(NULL, 0.05, NULL, NULL, &d), MLR_E_INVALID_ARG);
+    free(s), free(t);
+}
+END_TEST
+
 START_TEST(every_allocation_failure_returns_no_memory_without_leaks)
 {
     synth *s = malloc(sizeof *s);
@@ -775,6 +831,7 @@ static Suite *cleanup_suite(void)
     tcase_add_loop_test(tc, real_clips_pinned_and_above_the_floor, 0, (int)MLR_COUNTOF(clips));
     tcase_add_test(tc, a_rig_with_eight_feet_is_cleaned_up);
     tcase_add_test(tc, bad_input_gets_the_right_status_and_message);
+    tcase_add_test(tc, a_job_gives_the_long_forms_bits);
     tcase_add_test(tc, every_allocation_failure_returns_no_memory_without_leaks);
     suite_add_tcase(s, tc);
     return s;

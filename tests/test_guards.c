@@ -512,6 +512,78 @@ END_TEST
  * kinematics, and again by set_contacts through the cleanup's own: the same points and contacts
  * set again give the same motion bit for bit. A given reference is made once per apply for
  * both rounds: its allocation failures, and set_contacts', are clean too. */
+/* The guards as a job (mlr_guards_input, mlr_guards_job): the same bits as the long forms,
+   with and without a reference, with the body's shift in root_pos or in trans; the job's own
+   field errors named. */
+START_TEST(a_job_gives_the_long_forms_bits)
+{
+    clip c;
+    MLR_TEST_NEED_CLIP("cmu_131_01_mj_style_walk.bvh");
+    ck_assert(load("cmu_131_01_mj_style_walk.bvh", 240, &c));
+    const size_t N = c.n, J = c.j;
+    double *root = malloc(3 * N * sizeof(double)), *rot = malloc(4 * N * J * sizeof(double));
+    double *r1 = malloc(3 * N * sizeof(double)), *q1 = malloc(4 * N * J * sizeof(double));
+    double *r2 = malloc(3 * N * sizeof(double)), *q2 = malloc(4 * N * J * sizeof(double));
+    double *rr = malloc(3 * N * sizeof(double)), *rq = malloc(4 * N * J * sizeof(double));
+    size_t *l1 = malloc(J * sizeof(size_t)), *l2 = malloc(J * sizeof(size_t));
+    stylized(&c, 2.5, root, rot);
+    stylized(&c, 1.0, rr, rq);
+    const double alpha = 2.5;
+    mlr_guards *g = guards_of(&c, NULL, 0), *h = NULL;
+    mlr_diag d;
+    const mlr_guards_input in = {&c.rig, c.fps,
+                                 (mlr_frames){N, mlr_motion_root_pos(c.m), mlr_motion_rot(c.m),
+                                              mlr_motion_trans(c.m)},
+                                 NULL, 0};
+    ck_assert_msg(mlr_guards_create_from(&in, NULL, &h, &d) == MLR_OK, "%s", d.message);
+    for (int with_ref = 0; with_ref < 2; with_ref++)
+        for (int body = 0; body < 2; body++) {
+            mlr_guards_report rep1, rep2;
+            memcpy(r1, root, 3 * N * sizeof(double)), memcpy(q1, rot, 4 * N * J * sizeof(double));
+            memcpy(r2, root, 3 * N * sizeof(double)), memcpy(q2, rot, 4 * N * J * sizeof(double));
+            const double *a = with_ref ? rr : NULL, *b = with_ref ? rq : NULL;
+            ck_assert_int_eq(body ? mlr_guards_apply_trans(g, &alpha, 1, a, b, NULL, r1, q1, NULL,
+                                                           l1, J, &rep1, NULL)
+                                  : mlr_guards_apply(g, &alpha, 1, a, b, NULL, r1, q1, NULL, l1,
+                                                     J, &rep1, NULL),
+                             MLR_OK);
+            mlr_guards_job job = {0};
+            job.alpha = &alpha, job.n_alpha = 1;
+            if (with_ref)
+                job.reference = (mlr_frames){N, rr, rq, NULL};
+            job.root_pos = r2, job.rot = q2, job.body_on_trans = body;
+            job.limited = l2, job.n_limited = J, job.report = &rep2;
+            ck_assert_int_eq(mlr_guards_job_validate(h, &job, &d), MLR_OK);
+            ck_assert_msg(mlr_guards_run(h, &job, &d) == MLR_OK, "%s", d.message);
+            ck_assert_int_eq(memcmp(r1, r2, 3 * N * sizeof(double)), 0);
+            ck_assert_int_eq(memcmp(q1, q2, 4 * N * J * sizeof(double)), 0);
+            ck_assert_int_eq(memcmp(l1, l2, J * sizeof(size_t)), 0);
+            ck_assert_uint_eq(rep1.contact_frames, rep2.contact_frames);
+            ck_assert(rep1.floor_height == rep2.floor_height);
+            /* the job's own fields */
+            job.reference.n_frames = with_ref ? N - 1 : 2;
+            ck_assert_int_eq(mlr_guards_job_validate(h, &job, &d), MLR_E_INVALID_ARG);
+            ck_assert_ptr_nonnull(strstr(d.message, "job.reference.n_frames"));
+            ck_assert_int_eq(mlr_guards_run(h, &job, &d), MLR_E_INVALID_ARG);
+            job.reference.n_frames = with_ref ? N : 0;
+            job.n_alpha = 5; /* what the long form refuses, with its message */
+            ck_assert_int_eq(mlr_guards_job_validate(h, &job, &d), MLR_E_INVALID_ARG);
+            ck_assert_ptr_nonnull(strstr(d.message, "5 alphas"));
+        }
+    ck_assert_int_eq(mlr_guards_run(h, NULL, &d), MLR_E_INVALID_ARG);
+    ck_assert_ptr_nonnull(strstr(d.message, "NULL job"));
+    ck_assert_int_eq(mlr_guards_job_validate(NULL, NULL, &d), MLR_E_INVALID_ARG);
+    ck_assert_ptr_nonnull(strstr(d.message, "NULL handle"));
+    mlr_guards *none = (mlr_guards *)&d;
+    ck_assert_int_eq(mlr_guards_create_from(NULL, NULL, &none, &d), MLR_E_INVALID_ARG);
+    ck_assert_ptr_null(none);
+    mlr_guards_destroy(g), mlr_guards_destroy(h);
+    free(root), free(rot), free(r1), free(q1), free(r2), free(q2), free(rr), free(rq);
+    free(l1), free(l2);
+    unload(&c);
+}
+END_TEST
+
 START_TEST(reference_trajectories_are_the_same_however_made)
 {
     clip c;
@@ -606,6 +678,7 @@ static Suite *guards_suite(void)
     tcase_add_test(tc, bad_input_gets_the_right_status_and_message);
     tcase_add_test(tc, every_allocation_failure_returns_no_memory_without_leaks);
     tcase_add_test(tc, reference_trajectories_are_the_same_however_made);
+    tcase_add_test(tc, a_job_gives_the_long_forms_bits);
     suite_add_tcase(s, tc);
     return s;
 }

@@ -126,7 +126,8 @@ typedef struct mlr_cleanup_report {
 } mlr_cleanup_report;
 
 /**
- * The floor height of a motion from its contacts: the `quantile` quantile (linear
+ * The floor height of a motion from its contacts (the long form of
+ * mlr_cleanup_job_floor_height, kept for the ABI of 0.2): the `quantile` quantile (linear
  * interpolation between order statistics) of the up coordinates of the contact points on their
  * contact frames.
  * @param rig       [in] the skeleton (mlr_rig_check)
@@ -153,7 +154,8 @@ MLR_API mlr_status mlr_cleanup_floor_height(const mlr_rig *rig, size_t n_frames,
 
 /**
  * Pin the feet of a synthesized motion during contacts and keep them above the floor (see the
- * file comment).
+ * file comment). The long form of mlr_cleanup_job_run, kept for the ABI of 0.2: new code fills
+ * an mlr_cleanup_job.
  * @param rig        [in] the skeleton of motion and reference (mlr_rig_check)
  * @param n_frames   [in] N >= 1 (N < 2 or nothing to do: the input is copied)
  * @param fps        [in] frames per second, finite, > 0
@@ -182,6 +184,63 @@ MLR_API mlr_status mlr_cleanup_contacts(
     const double *ref_trans, size_t n_points, const int32_t *joints, const int32_t *end_sites,
     const uint8_t *contacts, const mlr_cleanup_option *opts, size_t n_opts, double *out_root_pos,
     double *out_rot, mlr_cleanup_report *report, const mlr_allocator *alloc, mlr_diag *diag);
+
+/** Contact points: C joints (n_points), each with an End Site index or -1 (end_sites NULL:
+ *  all joints), and their contacts, N x C uint8, nonzero where a point touches. Borrowed. A
+ *  frozen value type. Since 0.3 */
+typedef struct mlr_cleanup_points {
+    size_t n_points;
+    const int32_t *joints;
+    const int32_t *end_sites;
+    const uint8_t *contacts;
+} mlr_cleanup_points;
+
+/** A cleanup job, in the manner of ozz-animation's jobs: what mlr_cleanup_contacts takes, in
+ *  one struct, so that no call takes more than a few arguments. Fill it (zero what you do not
+ *  use: `mlr_cleanup_job job = {0};`), check it with mlr_cleanup_job_validate and run it with
+ *  mlr_cleanup_job_run (which checks it too); mlr_cleanup_job_floor_height reads the same
+ *  fields. Every pointer is borrowed for the call. A frozen value type. Since 0.3 */
+typedef struct mlr_cleanup_job {
+    const mlr_rig *rig;           /* the skeleton of motion and reference (mlr_rig_check) */
+    double fps;                   /* frames per second, finite, > 0 (run only) */
+    int up;                       /* the up axis, an mlr_axis */
+    mlr_frames motion;            /* the synthesized motion, N = motion.n_frames >= 1 */
+    mlr_frames reference;         /* the reference at the same frames, or all NULL (run only) */
+    mlr_cleanup_points points;    /* the contact points and their contacts */
+    const mlr_cleanup_option *opts; /* n_opts options (mlr_cleanup_key); NULL when n_opts is 0 */
+    size_t n_opts;
+    double *out_root_pos;         /* [out] N x 3; may be motion.root_pos itself (run only) */
+    double *out_rot;              /* [out] N x J x 4; may be motion.rot itself (run only) */
+    mlr_cleanup_report *report;   /* [out] optional (run only) */
+} mlr_cleanup_job;
+
+/**
+ * Check a cleanup job's fields as mlr_cleanup_job_run would, without running it.
+ * @return MLR_OK; MLR_E_INVALID_ARG (NULL job, or what mlr_cleanup_contacts refuses; the
+ *         reason in diag names the field, e.g. "job.points.joints: NULL")
+ * Allocates: never. Threads: any.
+ */
+MLR_API mlr_status mlr_cleanup_job_validate(const mlr_cleanup_job *job, mlr_diag *diag);
+
+/**
+ * Run a cleanup job: mlr_cleanup_contacts with the job's fields (the same bits).
+ * @return as mlr_cleanup_contacts; MLR_E_INVALID_ARG for a NULL job
+ * Allocates, cost, threads: as mlr_cleanup_contacts.
+ */
+MLR_API mlr_status mlr_cleanup_job_run(const mlr_cleanup_job *job, const mlr_allocator *alloc,
+                                       mlr_diag *diag);
+
+/**
+ * The floor height of a job's motion from its contacts: mlr_cleanup_floor_height with the
+ * job's rig, motion, points and up axis (fps, reference, options and outputs are not read).
+ * @param quantile  [in] in [0, 1] (the guards take 0.05)
+ * @param height    [out] the floor; NaN when no point is in contact on any frame
+ * @return as mlr_cleanup_floor_height; MLR_E_INVALID_ARG for a NULL job
+ * Allocates, threads: as mlr_cleanup_floor_height.
+ */
+MLR_API mlr_status mlr_cleanup_job_floor_height(const mlr_cleanup_job *job, double quantile,
+                                                double *height, const mlr_allocator *alloc,
+                                                mlr_diag *diag);
 
 #ifdef __cplusplus
 }

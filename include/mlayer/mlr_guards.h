@@ -98,7 +98,8 @@ typedef struct mlr_guards_report {
 } mlr_guards_report;
 
 /**
- * Prepare the guards of an input clip: copies the rig and the frames, finds the feet by joint
+ * Prepare the guards of an input clip (the long form of mlr_guards_create_from, kept for the
+ * ABI of 0.2): copies the rig and the frames, finds the feet by joint
  * name (mlr_contacts_find_feet; a rig without recognisable feet gets no contact and no floor
  * guard, which is not an error), detects their contacts (mlr_contacts_detect, default
  * thresholds), estimates the floor from them, and learns the joint limits from the clip
@@ -170,7 +171,8 @@ MLR_API mlr_status mlr_guards_set_limits(mlr_guards *g, const mlr_limits *limits
 
 /**
  * Make N synthesized frames (the input's frames, synthesized with alpha) plausible, in place:
- * joint limits (by mode and alpha), then the contacts and the floor in one cleanup.
+ * joint limits (by mode and alpha), then the contacts and the floor in one cleanup. The long
+ * form of mlr_guards_run, kept for the ABI of 0.2: new code fills an mlr_guards_job.
  * @param alpha     [in] the synthesis scales: 1 value or 1 + J (the root translation first, as
  *                  mlr_layers_synthesize), finite
  * @param ref_root_pos, ref_rot, ref_trans [in] the reference at the same frames (see the top
@@ -211,6 +213,65 @@ MLR_API mlr_status mlr_guards_apply_trans(const mlr_guards *g, const double *alp
                                           const double *ref_trans, double *root_pos, double *rot,
                                           double *trans, size_t *limited, size_t n_limited,
                                           mlr_guards_report *report, mlr_diag *diag);
+
+/** The input clip of a guards handle (mlr_guards_create_from): the rig, the frame rate, the
+ *  input's frames (N = frames.n_frames >= 3) and the options. Borrowed for the call (create
+ *  copies what it keeps). A frozen value type. Since 0.3 */
+typedef struct mlr_guards_input {
+    const mlr_rig *rig;
+    double fps;
+    mlr_frames frames;
+    const mlr_guards_option *opts; /* n_opts options, a key at most once; NULL when n_opts is 0 */
+    size_t n_opts;
+} mlr_guards_input;
+
+/**
+ * mlr_guards_create with its arguments in one struct.
+ * @return as mlr_guards_create; MLR_E_INVALID_ARG for a NULL input
+ * Allocates, threads: as mlr_guards_create.
+ */
+MLR_API mlr_status mlr_guards_create_from(const mlr_guards_input *input,
+                                          const mlr_allocator *alloc, mlr_guards **out,
+                                          mlr_diag *diag);
+
+/** A guards job, in the manner of ozz-animation's jobs: what mlr_guards_apply and
+ *  mlr_guards_apply_trans take, in one struct, for mlr_guards_run (zero what you do not use:
+ *  `mlr_guards_job job = {0};`). Every pointer is borrowed for the call. A frozen value type.
+ *  Since 0.3 */
+typedef struct mlr_guards_job {
+    const double *alpha;         /* the synthesis scales: 1 value or 1 + J, finite */
+    size_t n_alpha;
+    mlr_frames reference;        /* the reference at the handle's N frames, or all NULL with
+                                    n_frames 0 for the input */
+    double *root_pos;            /* [in/out] N x 3 */
+    double *rot;                 /* [in/out] N x J x 4 unit quaternions */
+    double *trans;               /* N x P x 3 (NULL when P is 0): read, or [in/out] with
+                                    body_on_trans */
+    int body_on_trans;           /* nonzero: the body's shifts go into the translation of the
+                                    joint that carries the body (mlr_guards_apply_trans); 0:
+                                    into root_pos, trans kept (mlr_guards_apply) */
+    size_t *limited;             /* [out] J counts of frames each joint was limited in, or NULL */
+    size_t n_limited;            /* J when limited is not NULL */
+    mlr_guards_report *report;   /* [out] optional */
+} mlr_guards_job;
+
+/**
+ * Check a guards job against its handle as mlr_guards_run would, without running it.
+ * @return MLR_OK; MLR_E_INVALID_ARG (NULL handle or job, a reference for other frames, or what
+ *         mlr_guards_apply refuses; reason in diag)
+ * Allocates: never. Threads: as mlr_guards_apply.
+ */
+MLR_API mlr_status mlr_guards_job_validate(const mlr_guards *g, const mlr_guards_job *job,
+                                           mlr_diag *diag);
+
+/**
+ * Run a guards job: mlr_guards_apply_trans (body_on_trans) or mlr_guards_apply with the job's
+ * fields, the same bits.
+ * @return as mlr_guards_apply; MLR_E_INVALID_ARG for a NULL job or a reference for other frames
+ * Allocates, threads: as mlr_guards_apply.
+ */
+MLR_API mlr_status mlr_guards_run(const mlr_guards *g, const mlr_guards_job *job,
+                                  mlr_diag *diag);
 
 /** Release the handle. NULL is a no-op. */
 MLR_API void mlr_guards_destroy(mlr_guards *g);

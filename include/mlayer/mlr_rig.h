@@ -34,6 +34,17 @@ typedef struct mlr_rig {
     const double *end_site_offsets;  /* E x 3, or NULL when E is 0 */
 } mlr_rig;
 
+/** Frames of a motion over a rig, as the guards and the cleanup take them (their jobs): N
+ *  root translations (N x 3), local rotations (N x J x 4 unit quaternions) and the rig's trans
+ *  joints' translations (N x P x 3; NULL when P is 0). Borrowed, never copied by a job. A
+ *  reference that is not given is all NULL with n_frames 0. A frozen value type. Since 0.3 */
+typedef struct mlr_frames {
+    size_t n_frames;
+    const double *root_pos;
+    const double *rot;
+    const double *trans;
+} mlr_frames;
+
 /** Axes, for the up axis of a clip. Values pinned. */
 typedef enum mlr_axis { MLR_AXIS_X = 0, MLR_AXIS_Y = 1, MLR_AXIS_Z = 2 } mlr_axis;
 

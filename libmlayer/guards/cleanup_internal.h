@@ -69,6 +69,15 @@ typedef struct mlr_cleanup_hook {
     int ik_passes, blend_passes; /* the passes that call it before / after the spread */
 } mlr_cleanup_hook;
 
+/* The argument checks of mlr_cleanup_contacts alone (mlr_cleanup_job_validate). */
+mlr_status cleanup__validate(const mlr_rig *rig, size_t N, double fps, int up,
+                             const double *root_pos, const double *rot, const double *trans,
+                             const double *ref_root_pos, const double *ref_rot,
+                             const double *ref_trans, size_t C, const int32_t *joints,
+                             const int32_t *end_sites, const uint8_t *contacts,
+                             const mlr_cleanup_option *opts, size_t n_opts,
+                             const double *out_root_pos, const double *out_rot, mlr_diag *diag);
+
 /* mlr_cleanup_contacts with the reference's trajectories made (ref, or NULL for no reference:
  * then ref_root_pos and the others of the public call are NULL). trusted: the rig, the points
  * and the motion were checked by the caller, so they are not checked again. hook: NULL, or

@@ -1029,6 +1029,20 @@ done:
     return st;
 }
 
+mlr_status cleanup__validate(const mlr_rig *rig, size_t N, double fps, int up,
+                             const double *root_pos, const double *rot, const double *trans,
+                             const double *ref_root_pos, const double *ref_rot,
+                             const double *ref_trans, size_t C, const int32_t *joints,
+                             const int32_t *end_sites, const uint8_t *contacts,
+                             const mlr_cleanup_option *opts, size_t n_opts,
+                             const double *out_root_pos, const double *out_rot, mlr_diag *diag)
+{
+    cleanup_config cfg;
+    return cleanup_check(rig, N, fps, up, root_pos, rot, trans, ref_root_pos, ref_rot, ref_trans,
+                         NULL, 0, C, joints, end_sites, contacts, opts, n_opts, out_root_pos,
+                         out_rot, &cfg, diag);
+}
+
 mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t N, double fps, int up,
                                 const double *root_pos, const double *rot, const double *trans,
                                 const double *ref_root_pos, const double *ref_rot,

@@ -1416,3 +1416,52 @@ mlr_status mlr_guards_apply_trans(const mlr_guards *g, const double *alpha, size
     return guards_apply(g, alpha, n_alpha, ref_root_pos, ref_rot, ref_trans, root_pos, rot, trans,
                         trans, limited, n_limited, report, diag);
 }
+
+mlr_status mlr_guards_create_from(const mlr_guards_input *input, const mlr_allocator *alloc,
+                                  mlr_guards **out, mlr_diag *diag)
+{
+    if (!input) {
+        if (out)
+            *out = NULL;
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "guards: NULL input");
+    }
+    const mlr_frames *f = &input->frames;
+    return mlr_guards_create(input->rig, input->fps, f->n_frames, f->root_pos, f->rot, f->trans,
+                             input->opts, input->n_opts, alloc, out, diag);
+}
+
+/* The job's own fields: a handle and a job, a reference given for the handle's frames. */
+static mlr_status job_check(const mlr_guards *g, const mlr_guards_job *job, mlr_diag *diag)
+{
+    if (!g || !job)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "guards job: NULL %s",
+                            g ? "job" : "handle");
+    const mlr_frames *r = &job->reference;
+    const int any = r->root_pos || r->rot || r->trans;
+    if (any ? r->n_frames != g->n_frames : r->n_frames != 0)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "guards job: job.reference.n_frames is %zu, expected %zu", r->n_frames,
+                            any ? g->n_frames : (size_t)0);
+    return MLR_OK;
+}
+
+mlr_status mlr_guards_job_validate(const mlr_guards *g, const mlr_guards_job *job, mlr_diag *diag)
+{
+    mlr_status st = job_check(g, job, diag);
+    if (st != MLR_OK)
+        return st;
+    const mlr_frames *r = &job->reference;
+    return apply_check(g, job->alpha, job->n_alpha, r->root_pos, r->rot, r->trans, job->root_pos,
+                       job->rot, job->trans, job->limited, job->n_limited, diag);
+}
+
+mlr_status mlr_guards_run(const mlr_guards *g, const mlr_guards_job *job, mlr_diag *diag)
+{
+    mlr_status st = job_check(g, job, diag);
+    if (st != MLR_OK)
+        return st;
+    const mlr_frames *r = &job->reference;
+    return guards_apply(g, job->alpha, job->n_alpha, r->root_pos, r->rot, r->trans, job->root_pos,
+                        job->rot, job->trans, job->body_on_trans ? job->trans : NULL, job->limited,
+                        job->n_limited, job->report, diag);
+}

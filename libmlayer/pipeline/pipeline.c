@@ -763,8 +763,9 @@ static mlr_status make_guards(mlr_pipeline *p, const mlr_motion *m, const mlr_ri
     if (p->floor == 2)
         opts[n++] = (mlr_guards_option){MLR_GUARDS_OPT_FLOOR_HEIGHT, p->floor_height};
     mlr_diag d = {0};
-    s = mlr_guards_create(rig, 1.0 / mlr_motion_frame_time(m), mlr_motion_n_frames(m), root, rot,
-                          trans, opts, n, &p->mem, &p->g, &d);
+    const mlr_guards_input in = {rig, 1.0 / mlr_motion_frame_time(m),
+                                 (mlr_frames){mlr_motion_n_frames(m), root, rot, trans}, opts, n};
+    s = mlr_guards_create_from(&in, &p->mem, &p->g, &d);
     if (s < 0) {
         if (diag)
             *diag = d;
@@ -1017,8 +1018,11 @@ mlr_status mlr_pipeline_synthesize(mlr_pipeline *p, mlr_motion **out, mlr_diag *
     rep.floor_height = NAN;
     memset(limited, 0, J * sizeof(size_t));
     if (p->g) {
-        s = mlr_guards_apply_trans(p->g, a, 1 + J, NULL, NULL, NULL, root, rot, trans, limited, J,
-                                   &rep, diag);
+        mlr_guards_job job = {0};
+        job.alpha = a, job.n_alpha = 1 + J;
+        job.root_pos = root, job.rot = rot, job.trans = trans, job.body_on_trans = 1;
+        job.limited = limited, job.n_limited = J, job.report = &rep;
+        s = mlr_guards_run(p->g, &job, diag);
         if (s < 0)
             return mlr_diag_prefix(diag, s, "mlr_pipeline_synthesize");
     }

@@ -222,8 +222,9 @@ mlr_status char_clip_load(const char *path, const mlr_allocator *alloc, char_cli
     /* The guards of the clip find its feet and their contacts; the floor from those. */
     if (s >= 0) {
         const mlr_guards_option opt[] = {{MLR_GUARDS_OPT_UP, (double)c->up}};
-        s = mlr_guards_create(&rig, CHAR_STEP_HZ, n, c->root_pos, c->rot, c->trans, opt, 1,
-                              &c->alloc, &g, diag);
+        const mlr_guards_input in = {&rig, CHAR_STEP_HZ, {n, c->root_pos, c->rot, c->trans}, opt,
+                                     1};
+        s = mlr_guards_create_from(&in, &c->alloc, &g, diag);
     }
     if (s >= 0 && (c->n_points = mlr_guards_n_points(g)) > 0) {
         const size_t cp = c->n_points;
@@ -245,10 +246,13 @@ mlr_status char_clip_load(const char *path, const mlr_allocator *alloc, char_cli
             c->pt_height[k] = pts[3 * k + (size_t)c->up];
         if (pts)
             c->alloc.release(c->alloc.user, pts, n * cp * 3 * sizeof(double));
-        if (s >= 0)
-            s = mlr_cleanup_floor_height(&rig, n, c->root_pos, c->rot, c->trans, cp, c->pt_joint,
-                                         c->pt_end, contacts, c->up, FLOOR_Q, &c->floor_height,
-                                         &c->alloc, diag);
+        if (s >= 0) {
+            mlr_cleanup_job job = {0};
+            job.rig = &rig, job.up = c->up;
+            job.motion = (mlr_frames){n, c->root_pos, c->rot, c->trans};
+            job.points = (mlr_cleanup_points){cp, c->pt_joint, c->pt_end, contacts};
+            s = mlr_cleanup_job_floor_height(&job, FLOOR_Q, &c->floor_height, &c->alloc, diag);
+        }
         if (s >= 0)
             s = find_feet(c, contacts, wpos, wrot, diag);
     }
