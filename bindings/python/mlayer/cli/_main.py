@@ -184,9 +184,9 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help(sys.stderr)
         return 2
     import warnings
-    from ..bvh import reading_units, strict_reading
-    from ..up_axis import reading_up
-    from ..trimming import reading_trim
+    from ..io.bvh import reading_units, strict_reading
+    from ..model.up_axis import reading_up
+    from ..model.trimming import reading_trim
     from ..errors import MlayerWarning
     stdin_dir = tempfile.TemporaryDirectory(prefix="mlayer-stdin-")
     stdin_path = ""

@@ -11,8 +11,8 @@ import os
 import sys
 import time
 
-from ..bvh import read_bvh, write_bvh
-from ..metrics import body_height, foot_sliding, jitter
+from ..io.bvh import read_bvh, write_bvh
+from ..guards.metrics import body_height, foot_sliding, jitter
 from ._command import FOLDER, Needs, command
 
 
@@ -33,9 +33,9 @@ def _arguments(p) -> None:
                          feature="mlayer demo (its GIF; --no-gif for none)")))
 def cmd_demo(args) -> int:
     from .. import data
-    from ..pipeline import Synthesis
-    from ..plot import layer_choice, plot_layers
-    from ..render import render_gif
+    from ..pipeline.pipeline import Synthesis
+    from ..plotting.plot import layer_choice, plot_layers
+    from ..plotting.render import render_gif
 
     clip = args.clip or data.sample_path()
     out = lambda name: os.path.join(args.output_dir, name)  # noqa: E731

@@ -10,7 +10,7 @@ import pathlib
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
-    from ..motion import Motion
+    from ..model.motion import Motion
 
 __all__ = ["SAMPLE", "sample_path", "load_sample"]
 
@@ -43,5 +43,5 @@ def load_sample() -> Motion:
     >>> m.n_frames, round(m.fps)
     (994, 120)
     """
-    from ..bvh import read_bvh
+    from ..io.bvh import read_bvh
     return read_bvh(sample_path())
