@@ -45,7 +45,8 @@ def python_passes(argv):
     M.Motion._fk = counting_fk
     import mlayer.io.bvh
     import mlayer.pipeline.pipeline
-    mlayer.io.bvh.read_bvh = mlayer.read_bvh = counting_read
+    # every name the clip is read through (Clip.from_file imports read_bvh at its file's top)
+    mlayer.io.bvh.read_bvh = mlayer.read_bvh = mlayer.pipeline.pipeline.read_bvh = counting_read
     try:
         from mlayer.cli import main
         with open(os.devnull, "w") as null:
@@ -57,7 +58,7 @@ def python_passes(argv):
                 sys.stdout, sys.stderr = old
     finally:
         M.Motion._fk = orig
-        mlayer.io.bvh.read_bvh = mlayer.read_bvh = read
+        mlayer.io.bvh.read_bvh = mlayer.read_bvh = mlayer.pipeline.pipeline.read_bvh = read
     if rc != 0:
         raise SystemExit(f"mlayer {' '.join(argv)} failed ({rc})")
     return counts

@@ -83,13 +83,15 @@ def test_join_renames_either_way(walk, other):
 
 
 def test_fit_refuses_before_any_training(walk, other, monkeypatch):
-    import mlayer.manifold.som
     import mlayer.manifold.features
+    import mlayer.manifold.primitives
+    import mlayer.manifold.som
 
     def no_work(*a, **k):
         raise AssertionError("work started before the skeletons were checked")
     monkeypatch.setattr(mlayer.manifold.som.SOM, "train", no_work)
     monkeypatch.setattr(mlayer.manifold.features, "pose_features", no_work)
+    monkeypatch.setattr(mlayer.manifold.primitives, "pose_features", no_work)  # its caller's name
     with pytest.raises(InvalidArgumentError, match=r"^clip 1 \(b\): another skeleton: joint 2"):
         PrimitiveModel.fit([walk, other], names=["a", "b"], **SMALL)
 

@@ -41,6 +41,8 @@ from typing import Any
 
 from .._optional import require
 from ..errors import InvalidArgumentError, MlayerIOError
+from ..io.bvh import write_bvh, write_bvh_string
+from ..manifold.primitives import CMU_NAMES
 
 
 @dataclass(frozen=True)
@@ -196,7 +198,6 @@ def parse_rename(text: str | None) -> dict | None:
     if text is None:
         return None
     if text.strip().lower() == "cmu":
-        from ..manifold.primitives import CMU_NAMES
         return dict(CMU_NAMES)
     if text.lower().endswith(".json"):
         import json
@@ -338,7 +339,6 @@ def write_bvh_output(args, motion, dest: str = "output", write=None) -> None:
     """Write `motion` to the output `dest` of the command: the file, atomically (`write`,
     default mlayer.write_bvh), or the standard output for '-' (the stream _main kept aside, as
     bytes so the text is the file's byte for byte)."""
-    from ..io.bvh import write_bvh, write_bvh_string
     path = getattr(args, dest)
     if path != "-":
         (write or write_bvh)(motion, path)

@@ -20,10 +20,12 @@ import sys
 
 import numpy as np
 
-from ..layers.alpha_curve import AlphaCurve
-from ..io.bvh import read_bvh
 from ..errors import InvalidArgumentError
+from ..io.bvh import read_bvh
+from ..layers.alpha_curve import AlphaCurve
+from ..layers.layers import decompose
 from ..pipeline.pipeline import Clip
+from ..plotting.plot import layer_choice, plot_layers
 from ._command import BVH_OR_STDOUT, FIGURE, NPZ, Needs, command, output_name, write_bvh_output
 
 
@@ -79,7 +81,6 @@ def _synthesis_options(args) -> dict:
 
 
 def _decompose(args, motion):
-    from ..layers.layers import decompose
     return decompose(motion, gamma=args.gamma, lam_c=args.lam_c, sigma_c=args.sigma_c,
                      robust=not args.no_robust)
 
@@ -260,7 +261,6 @@ def cmd_layers(args) -> int:
         print(f"{name:24s} {layers.base_s[g]:10.3g} {ang_txt} {layers.lam_c[g]:8.3g} "
               f"{layers.sigma_c[g]:8.3g} {layers.control_dof[g]:8.1f}")
     if args.plot:  # the figure's joint is checked before anything is written
-        from ..plotting.plot import layer_choice, plot_layers
         joint, axis = layer_choice(m, layers, args.joint)
     if args.npz:
         layers.save_npz(args.npz)

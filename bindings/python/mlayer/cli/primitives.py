@@ -36,7 +36,7 @@ Bad input: one line on stderr and exit status 1.
 """
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import argparse
 import os
@@ -44,14 +44,13 @@ import sys
 
 import numpy as np
 
-from ..io.bvh import read_bvh
 from ..errors import InvalidArgumentError
+from ..io.bvh import read_bvh
+from ..manifold.primitives import PrimitiveModel, RUNTIME_FORMAT, join_skeletons
 from ..plotting.plot import plot_elbow, plot_som, plot_transitions
-from ._command import (BVH_OR_STDOUT, MLRGEN, NPZ, PREFIX, Needs, add_rename_option, command,
+from ._command import (BVH_OR_STDOUT, MLRGEN, NPZ, Needs, PREFIX, add_rename_option, command,
                        output_name, parse_rename, write_bvh_output)
 
-if TYPE_CHECKING:
-    from ..manifold.primitives import PrimitiveModel
 
 #: what needs matplotlib in the message without it
 _FEATURE = "mlayer primitives --plots (on by default; --plots '' for none)"
@@ -124,7 +123,6 @@ def parse_keys(text: str, model: PrimitiveModel,
     """--keys CLIP:FRAME,...: (clip, frame) pairs for PrimitiveModel.generate(keys=...); CLIP a
     training clip's name or index, or a BVH file of the model's skeleton, joint names and tree
     (read here; renamed by ``rename``, mlayer.manifold.primitives.join_skeletons)."""
-    from ..manifold.primitives import join_skeletons
     keys: list[tuple[Any, int]] = []
     for part in (p.strip() for p in text.split(",") if p.strip()):
         clip, sep, frame = part.rpartition(":")
@@ -201,10 +199,8 @@ def _primitives_args(p) -> None:
          requires=(Needs("matplotlib", when=lambda a: a.plots is None or a.plots != "",
                          feature=_FEATURE),))
 def cmd_primitives(args) -> int:
-    from ..manifold.primitives import RUNTIME_FORMAT, PrimitiveModel
     # the default prefix (the model path without .npz) is in the model's folder, checked
     prefix = args.plots if args.plots is not None else os.path.splitext(args.output)[0]
-    from ..manifold.primitives import join_skeletons
     rename = parse_rename(args.rename)
     clips = []
     for path in args.clips:
@@ -303,7 +299,6 @@ def _generate_args(p) -> None:
          arguments=_generate_args, reads_clips=False, inputs=("model",),
          outputs={"output": BVH_OR_STDOUT})
 def cmd_generate(args) -> int:
-    from ..manifold.primitives import PrimitiveModel
     if args.frames < 2:
         raise InvalidArgumentError(f"--frames must be >= 2, got {args.frames}")
     if args.through is not None and args.keys is not None:

@@ -10,7 +10,9 @@ from __future__ import annotations
 
 import os
 
+from ..errors import InvalidArgumentError
 from ..io.bvh import read_bvh
+from ..plotting.render import render
 from ._command import Needs, Output, command
 
 #: what `mlayer render -o` accepts
@@ -43,8 +45,6 @@ def _arguments(p) -> None:
          requires=(Needs("PIL", feature="mlayer render"),
                    Needs("imageio_ffmpeg", when=_is_mp4, feature="mlayer render -o FILE.mp4")))
 def cmd_render(args) -> int:
-    from ..errors import InvalidArgumentError
-    from ..plotting.render import render
     try:
         w, h = (int(v) for v in args.size.lower().split("x"))
     except ValueError:

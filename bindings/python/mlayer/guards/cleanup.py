@@ -29,6 +29,8 @@ from .. import _arrays
 from .._native import ffi, lib
 from ..errors import InvalidArgumentError, check
 from ..model._rig import c_rig, motion_axis
+from ..model.motion import Motion
+from .contacts import _point, _resolve_names, detect_contacts, find_feet
 
 if TYPE_CHECKING:
     from ..model.motion import Motion, Skeleton
@@ -46,7 +48,6 @@ _OPT = {"blend": lib.MLR_CLEANUP_OPT_BLEND, "reach": lib.MLR_CLEANUP_OPT_REACH,
 
 def _points(skeleton: Skeleton, names: Sequence[str | int]
             ) -> tuple[NDArray[np.int32], NDArray[np.int32]]:
-    from .contacts import _point
     pts = [_point(skeleton, n) for n in names]
     j = np.array([p[0] for p in pts], dtype=np.int32)
     e = np.array([p[1] for p in pts], dtype=np.int32)
@@ -101,8 +102,6 @@ def floor_height(motion: Motion, contacts: ArrayLike | None = None,
     mlayer.InvalidArgumentError
         For a bad motion, contacts array or quantile.
     """
-    from .contacts import detect_contacts
-    from ..model.motion import Motion
     if not isinstance(motion, Motion):
         raise InvalidArgumentError("floor_height: motion must be a mlayer.Motion")
     if contacts is None or names is None:
@@ -187,8 +186,6 @@ def fix_contacts(motion: Motion, contacts: ArrayLike, names: str | Sequence[str]
     mlayer.InvalidArgumentError
         For bad arguments, an unknown option or an option out of range.
     """
-    from .contacts import _resolve_names
-    from ..model.motion import Motion
     if not isinstance(motion, Motion):
         raise InvalidArgumentError("fix_contacts: motion must be a mlayer.Motion")
     names = [names] if isinstance(names, str) else list(names)
@@ -254,7 +251,6 @@ def fix_contacts(motion: Motion, contacts: ArrayLike, names: str | Sequence[str]
 
 
 def _has_feet(original: Motion, joints: Any) -> bool:
-    from .contacts import find_feet
     if joints is not None:
         return True
     try:
@@ -301,7 +297,6 @@ def keep_contacts_retimed(original: Motion, retimed: Motion, reference: Motion,
     Motion
         The cleaned retimed motion (``retimed`` itself when there is nothing to pin).
     """
-    from .contacts import detect_contacts
     if original.n_frames < 3 or retimed.n_frames < 2:
         return retimed
     if contacts is not None:
@@ -358,7 +353,6 @@ def keep_contacts(original: Motion, synthesized: Motion,
     Motion
         The cleaned motion (``synthesized`` itself when there is nothing to pin).
     """
-    from .contacts import detect_contacts
     if original.n_frames < 3 or not _has_feet(original, joints):
         return synthesized
     names, c = detect_contacts(original, joints)

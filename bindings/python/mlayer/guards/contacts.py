@@ -32,8 +32,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from .._arrays import as_f64, number, ptr, ptr_out
 from .._native import ffi, lib
-from ..model._rig import c_rig, motion_axis
 from ..errors import InvalidArgumentError, check
+from ..model._rig import c_rig, motion_axis
+from ..model.motion import Motion
 
 if TYPE_CHECKING:
     from ..model.motion import Motion, Skeleton
@@ -74,7 +75,6 @@ def _end_site_of(sk: Skeleton, j: int) -> int:
 
 
 def _check_motion(motion: Any, where: str) -> None:
-    from ..model.motion import Motion
     if not isinstance(motion, Motion):
         raise InvalidArgumentError(f"{where}: motion must be a mlayer.Motion")
 

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Mapping
-from typing import TYPE_CHECKING, Any, NoReturn, SupportsIndex
+from typing import Any, NoReturn, SupportsIndex
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -23,11 +23,10 @@ from numpy.typing import ArrayLike, NDArray
 from .. import _arrays
 from .._handles import ReadOnlyAttributes, refuse_copy
 from .._native import ffi, lib
-from ..model._rig import c_rig
 from ..errors import InvalidArgumentError, check
+from ..model._rig import c_rig
+from ..model.motion import Motion
 
-if TYPE_CHECKING:
-    from ..model.motion import Motion
 
 KINDS = {lib.MLR_LIMITS_FREE: "free", lib.MLR_LIMITS_HINGE: "hinge",
          lib.MLR_LIMITS_SWING_TWIST: "swing-twist"}
@@ -287,7 +286,6 @@ def joint_limits(motions: Motion | Iterable[Motion], *, human: bool | None = Non
     mlayer.InvalidArgumentError
         For bad arguments, skeletons that differ, non-finite data.
     """
-    from ..model.motion import Motion
     ms = [motions] if isinstance(motions, Motion) else list(motions)
     if not ms or not all(isinstance(m, Motion) for m in ms):
         raise InvalidArgumentError("motions: expected a Motion or a non-empty list of Motions")
@@ -359,7 +357,6 @@ def apply_limits(motion: Motion, limits: JointLimits, alphas: float | ArrayLike 
     mlayer.InvalidArgumentError
         For something else than a Motion and JointLimits, or limits of another skeleton.
     """
-    from ..model.motion import Motion
     if not isinstance(motion, Motion):
         raise InvalidArgumentError(f"motion: expected a Motion, got {type(motion).__name__}")
     if not isinstance(limits, JointLimits):

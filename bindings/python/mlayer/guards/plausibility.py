@@ -22,11 +22,11 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..model import quat as _q
 from ..errors import InvalidArgumentError
+from ..model import quat as _q
+from .limits import JointLimits
 
 if TYPE_CHECKING:
-    from .limits import JointLimits
     from ..model.motion import Motion
 
 _LEG_WORDS = ("knee", "leg", "shin", "calf")
@@ -73,7 +73,6 @@ def hinge_chains(limits_or_chains: JointLimits | Iterable[Sequence[Any]],
     mlayer.InvalidArgumentError
         For a JointLimits without motion, or tuples of another length.
     """
-    from .limits import JointLimits
     if isinstance(limits_or_chains, JointLimits):
         if motion is None:
             raise InvalidArgumentError("motion is needed to find the hinges' children")

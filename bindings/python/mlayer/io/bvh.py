@@ -21,11 +21,13 @@ import warnings
 from collections.abc import Iterator
 from typing import Any
 
+from .._args import threads as _c_threads
 from .._native import ffi, lib
 from ..errors import InvalidArgumentError, ParseError, ParseWarning, check
-from .._args import threads as _c_threads
 from ..model.motion import MAX_FRAME_TIME, MIN_FRAME_TIME, Motion
 from ..model.trimming import _read as trimmed_read, frames_arg
+from ..model.units import units_arg
+from ..model.up_axis import axis_name, default_up
 
 __all__ = ["read_bvh", "write_bvh", "read_bvh_string", "write_bvh_string", "strict_reading"]
 
@@ -223,7 +225,6 @@ def read_bvh(path: str | bytes | os.PathLike[str] | os.PathLike[bytes], *,
 
 def _units_arg(units: str | None, where: str) -> str | None:
     """The length unit a read clip gets: units, or the CLI's --units (reading_units), or None."""
-    from ..model.units import units_arg
     units = units_arg(units, where)
     return _UNITS.get() if units is None else units
 
@@ -232,7 +233,6 @@ def _units_arg(units: str | None, where: str) -> str | None:
 def reading_units(units: str | None) -> Iterator[None]:
     """Within the block, clips read with ``units=None`` get this length unit (the CLI's
     ``--units``)."""
-    from ..model.units import units_arg
     token = _UNITS.set(units_arg(units, "--units"))
     try:
         yield
@@ -242,7 +242,6 @@ def reading_units(units: str | None) -> Iterator[None]:
 
 def _up_arg(up: str | None, where: str) -> str | None:
     """The up axis a read clip gets: up, or the CLI's --up (reading_up), or None (detect)."""
-    from ..model.up_axis import axis_name, default_up
     up = axis_name(up, where)
     return default_up() if up is None else up
 

@@ -59,13 +59,15 @@ from typing import Any
 
 import numpy as np
 
-from ..model import quat
 from .._files import atomic_output
 from .._version import __version__
 from ..errors import (InvalidArgumentError, MlayerIOError, MlayerWarning, ParseError,
-                     UnsupportedError)
+                      UnsupportedError)
+from ..model import quat
 from ..model.motion import (DEFAULT_JOINT_CHANNELS, DEFAULT_ROOT_CHANNELS, MAX_FRAME_TIME,
-                     MIN_FRAME_TIME, Motion, Skeleton)
+                            MIN_FRAME_TIME, Motion, Skeleton)
+from ..model.units import UNITS, units_arg
+from ..model.up_axis import axis_name
 
 __all__ = ["write_gltf", "read_gltf", "gltf_bytes", "reframe"]
 
@@ -166,8 +168,6 @@ def _reframed(motion: Motion, rotation: np.ndarray,
 def _source_frame(motion: Motion, up: str | None,
                   units: str | None) -> tuple[str, str | None, float]:
     """The clip's up axis and unit (given or the motion's) and its size in metres."""
-    from ..model.units import UNITS, units_arg
-    from ..model.up_axis import axis_name
     up = axis_name(up, "mlayer.write_gltf") or motion.up_axis
     units = units_arg(units, "mlayer.write_gltf") or motion.units
     if units is None:
@@ -1121,8 +1121,6 @@ def read_gltf(path: str | os.PathLike[str], animation: int = 0, *, fps: float | 
     OSError
         When the file cannot be read.
     """
-    from ..model.units import UNITS, units_arg
-    from ..model.up_axis import axis_name
     path = os.fspath(path)
     name = os.fsdecode(path)
     up = axis_name(up, "mlayer.read_gltf") or "y"

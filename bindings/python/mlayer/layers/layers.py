@@ -43,15 +43,20 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .. import _arrays
+from .._args import integer
 from .._files import atomic_output
 from .._handles import ReadOnlyAttributes
 from .._native import ffi, lib
-from ..model._rig import c_rig
 from ..errors import InvalidArgumentError, check
+from ..model import quat
+from ..model._rig import axis, c_rig
+from ..model.motion import Motion
+from ._pipeline import Job
+from .alpha_curve import as_alpha, has_curve
+from .smoothing import lgs
 
 if TYPE_CHECKING:
     from .alpha_curve import AlphaArg
-    from ..model.motion import Motion
 
 _PARAMS = {
     "base_s": lib.MLR_LAYERS_PARAM_BASE_S,
@@ -90,7 +95,6 @@ def body_translation_joint(motion: Motion | Sequence[Motion]) -> int:
     mlayer.InvalidArgumentError
         For something else than Motions.
     """
-    from ..model.motion import Motion
     clips: list[Any] = list(motion) if isinstance(motion, (list, tuple)) else [motion]
     for m in clips:
         if not isinstance(m, Motion):
@@ -351,7 +355,6 @@ class Layers(ReadOnlyAttributes):
         mlayer.InvalidArgumentError
             For a pattern that matches no joint or a non-finite alpha.
         """
-        from .alpha_curve import has_curve
         if has_curve(alpha, joints):
             raise InvalidArgumentError("alpha: a curve changes over time: use "
                                        "alphas_over_time() for the alphas of every frame")
@@ -396,7 +399,6 @@ class Layers(ReadOnlyAttributes):
         mlayer.InvalidArgumentError
             For a pattern that matches no joint, bad keys or a non-finite alpha.
         """
-        from .alpha_curve import as_alpha
         names = self.motion.joint_names
         n = self.n_frames
         t = np.arange(n, dtype=np.float64) * self.motion.frame_time  # (as mlr_pipeline)
@@ -439,7 +441,6 @@ class Layers(ReadOnlyAttributes):
         Motion
             The synthesized motion.
         """
-        from .alpha_curve import has_curve
         if has_curve(alpha, joints):
             rows = np.ascontiguousarray(self.alphas_over_time(alpha, joints, root_alpha))
             return self._frames(lambda r, q, d: lib.mlr_layers_synthesize_frames(
@@ -581,8 +582,6 @@ def decompose(motion: Motion, *, gamma: float = math.pi / 2, lam_c: float | None
     >>> layers.control.shape == (240, 1 + m.n_joints, 3)
     True
     """
-    from ._pipeline import Job
-    from ..model._rig import axis
     n, j = motion.n_frames, motion.n_joints
     if n < 3:
         raise InvalidArgumentError(f"decompose needs at least 3 frames (the second-difference "
@@ -669,8 +668,6 @@ def expmap_base(motion: Motion, layers: Layers | None = None) -> Motion:
     mlayer.InvalidArgumentError
         For layers of another motion (another frame or joint count).
     """
-    from ..model import quat
-    from .smoothing import lgs
     if layers is None:
         layers = decompose(motion)
     if not isinstance(layers, Layers):
@@ -724,7 +721,6 @@ def frequency_bands(y: Any, levels: int) -> list[NDArray[np.float64]]:
     list of numpy.ndarray
         ``levels + 1`` arrays of y's shape: the bands, finest first, then the low pass.
     """
-    from .._args import integer
     levels = integer(levels, "levels", 1, 30)
     g = np.array(y, dtype=np.float64)
     if g.ndim not in (1, 2) or g.shape[0] < 1 or not np.all(np.isfinite(g)):
@@ -771,7 +767,6 @@ def multires_stylize(motion: Motion, gains: Sequence[float]) -> Motion:
     Motion
         The modulated motion on the motion's skeleton.
     """
-    from ..model import quat
     g = [_arrays.finite(x, "gains") for x in gains] \
         if isinstance(gains, (list, tuple, np.ndarray)) else None
     if g is None or len(g) < 2:

@@ -16,6 +16,7 @@ from numpy.typing import ArrayLike, NDArray
 from .. import _arrays
 from .._args import default_threads, integer
 from .._native import ffi, lib
+from .._optional import require
 from ..errors import InvalidArgumentError, check
 
 if TYPE_CHECKING:
@@ -232,7 +233,6 @@ class ElbowResult:
         matplotlib.axes.Axes
             The axes.
         """
-        from .._optional import require
         require("matplotlib", feature="mlayer.ElbowResult.plot")
         import matplotlib.pyplot as plt
         if ax is None:

@@ -11,6 +11,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import InvalidArgumentError
+from ..layers.layers import body_translation_joint
 from ..model.motion import Motion
 from ..model.up_axis import to_y_up
 
@@ -103,7 +104,6 @@ def pose_features(motion: Motion | Sequence[Motion]) -> NDArray[np.float64]:
     for i, m in enumerate(clips[1:], 1):
         if not np.array_equal(m.skeleton.parents, sk.parents):
             raise InvalidArgumentError(f"pose_features: clip {i} has another skeleton than clip 0")
-    from ..layers.layers import body_translation_joint
     body = body_translation_joint(clips)
     return np.concatenate([_one(m, body) for m in clips], axis=0)
 

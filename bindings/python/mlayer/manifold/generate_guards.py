@@ -20,20 +20,20 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .. import _arrays
 from .._native import ffi, lib
-from ..model._rig import c_rig, motion_axis
 from ..errors import InvalidArgumentError, check
+from ..guards.contacts import _point
 from ..guards.limits import JointLimits
+from ..model._rig import c_rig, motion_axis
+from ..model.motion import Motion
 from ..pipeline.pipeline import GuardReport
 
-if TYPE_CHECKING:
-    from ..model.motion import Motion
 
 __all__ = ["contacts_along", "guard_motion", "clean_contacts", "split_drifting"]
 
@@ -218,8 +218,6 @@ def guard_motion(motion: Motion, names: Sequence[str], contacts: ArrayLike, *,
     mlayer.InvalidArgumentError
         For bad arguments.
     """
-    from ..guards.contacts import _point
-    from ..model.motion import Motion
     if not isinstance(motion, Motion):
         raise InvalidArgumentError(f"motion: expected a mlayer.Motion, got "
                                    f"{type(motion).__name__}")

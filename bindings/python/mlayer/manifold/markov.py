@@ -42,8 +42,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .. import _attrs
-from ..errors import InvalidArgumentError
 from .._args import integer
+from .._native import ffi, lib
+from ..errors import InvalidArgumentError, check
 
 __all__ = ["Markov", "Rng", "heldout_loglik", "UNSEEN_MASS", "MAX_ORDER"]
 
@@ -154,7 +155,6 @@ class Rng(_attrs.ReadOnlyAttributes):
     _readonly = ("seed",)
 
     def __init__(self, seed: int = 0) -> None:
-        from .._native import ffi, lib
         seed = integer(seed, "Rng: seed", 0, 2**64 - 1)
         self.seed = int(seed)
         self._state = ffi.new("mlr_rng *")
@@ -173,7 +173,6 @@ class Rng(_attrs.ReadOnlyAttributes):
         int
             The integer; the generator advances.
         """
-        from .._native import lib
         n = integer(n, "Rng.below: n", 1)
         return int(lib.mlr_rng_below(self._state, n))
 
@@ -185,7 +184,6 @@ class Rng(_attrs.ReadOnlyAttributes):
         float
             The number; the generator advances.
         """
-        from .._native import lib
         return float(lib.mlr_rng_uniform(self._state))
 
 
@@ -623,8 +621,6 @@ class Markov(_attrs.ReadOnlyAttributes):
     def _native(self) -> Any:
         """The C jump model (``mlr_markov``), freed with the returned handle (made for each
         call, so that a Markov stays picklable and a contexts dict edited in place is seen)."""
-        from .._native import ffi, lib
-        from ..errors import check
         a = self.c_arrays()
         out = ffi.new("mlr_markov **")
         diag = ffi.new("mlr_diag *")
@@ -681,8 +677,6 @@ class Markov(_attrs.ReadOnlyAttributes):
         numpy.ndarray of int64
             The states, at most n_frames + 1.
         """
-        from .._native import ffi, lib
-        from ..errors import check
         s = _state(start, self.n_states, "start")
         n_frames = integer(n_frames, "walk: n_frames", 1)
         rank = integer(rank, "walk: rank", 0, 2**31 - 1)

@@ -13,6 +13,7 @@ from numpy.typing import ArrayLike, NDArray
 from .. import _arrays, _attrs
 from .._args import integer
 from ..errors import InvalidArgumentError
+from .clustering import elbow_point, kmeans, silhouette_score
 
 if TYPE_CHECKING:
     from .clustering import KMeansResult
@@ -43,7 +44,6 @@ def _initial_centers(X: NDArray[np.float64], k: int, init: str | ArrayLike, seed
         if init != "k-means++":
             raise InvalidArgumentError(f"{who}: init must be 'k-means++' or an array of "
                                        f"centres, got {init!r}")
-        from .clustering import kmeans  # the C core's seeding and Lloyd
         return kmeans(X, k, seed=seed).centers
     C = _arrays.as_f64(init, "init", ndim=2)
     if C.shape != (k, X.shape[1]):
@@ -553,7 +553,6 @@ def k_criteria(X: ArrayLike, ks: Iterable[int], *, seed: int = 0, n_init: int = 
     KCriteria
         The curves and the picks.
     """
-    from .clustering import elbow_point, kmeans, silhouette_score
     X = _data(X, 1, "k")
     ks = sorted(integer(k, "k", 1) for k in ks)
     if not ks:

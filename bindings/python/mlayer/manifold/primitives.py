@@ -49,18 +49,29 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .. import _arrays, _attrs
-from ..model import quat
 from .._args import integer
+from .._files import atomic_output
+from .._native import lib
 from .._progress import Bar, ProgressArg, resolve
-from ..errors import InvalidArgumentError, MlayerIOError
+from ..errors import InvalidArgumentError, MlayerIOError, MlayerWarning
+from ..guards.cleanup import floor_height
+from ..guards.contacts import contact_positions, detect_contacts
+from ..guards.limits import joint_limits
+from ..guards.metrics import body_height
+from ..layers.layers import body_translation, body_translation_joint
 from ..layers.smoothing import lgs
-from .manifold import GRBF, PCA
-from .markov import Markov, Rng
+from ..model import quat
 from ..model.motion import Motion, Skeleton, _frame_time_arg
+from .clustering import kmeans
+from .features import heading, pose_features
+from .generate_guards import contacts_along, guard_motion, split_drifting
+from .manifold import GRBF, PCA
+from .markov import MAX_ORDER, Markov, Rng, best_order, contexts_from_arrays, heldout_loglik
+from .mixture import CRITERIA, GaussianMixture, KCriteria, fuzzy_cmeans, k_criteria
+from .som import SOM
 
 if TYPE_CHECKING:
     from ..guards.limits import JointLimits
-    from .mixture import KCriteria
     from ..pipeline.pipeline import GuardReport
 
 __all__ = ["PrimitiveModel", "heading_quat", "split_heading", "default_lattices", "same_units",
@@ -91,7 +102,6 @@ _PIN_GAP = 0.1
 
 
 def _yaw(rot_root: ArrayLike) -> NDArray[np.float64]:
-    from .features import heading
     return heading(rot_root)
 
 
@@ -208,8 +218,6 @@ def same_units(clips: Sequence[Motion]) -> list[Motion]:
         The clips, scaled where needed.
     """
     import warnings
-    from ..errors import MlayerWarning
-    from ..guards.metrics import body_height
     h0 = body_height(clips[0])
     out = [clips[0]]
     for i, m in enumerate(clips[1:], 1):
@@ -418,7 +426,6 @@ def _check_plan(n: int, k: int | str, ks: Iterable[int] | None, criterion: str, 
     any training: k and the candidate ks given at most the frames and the SOM's units (the
     distinct manifold points a SOM can give), the default candidates cut to that bound with a
     note in the log that says so, the GRBF lattice at most n centres."""
-    from .mixture import CRITERIA
     if criterion not in CRITERIA:
         raise InvalidArgumentError(f"option criterion must be one of {', '.join(CRITERIA)}, "
                                    f"got {criterion!r}")
@@ -429,7 +436,6 @@ def _check_plan(n: int, k: int | str, ks: Iterable[int] | None, criterion: str, 
         raise InvalidArgumentError(f"option cluster_on must be one of {', '.join(CLUSTER_ON)}, "
                                    f"got {cluster_on!r}")
     if order != "auto":
-        from .markov import MAX_ORDER
         order = integer(order, "option order", 1, MAX_ORDER)
     min_count = integer(min_count, "option min_count", 1)
     limit, where = n, f"the number of training frames ({n})"
@@ -721,8 +727,6 @@ class PrimitiveModel(_attrs.ReadOnlyAttributes):
              smoothing: float, seed: int) -> PrimitiveModel:
         """The steps of :meth:`fit` on checked arguments (`plan`: _check_plan's; clips in one
         unit; `progress`: where the steps go)."""
-        from .features import pose_features
-        from ..layers.layers import body_translation_joint
         self.clip_names = plan["names"]
         self.skeleton = clips[0].skeleton
         self.frame_time = float(np.median([m.frame_time for m in clips]))
@@ -734,7 +738,6 @@ class PrimitiveModel(_attrs.ReadOnlyAttributes):
         self.clip_starts = np.cumsum([0] + [m.n_frames for m in clips[:-1]]).astype(np.int64)
         self.manifold = manifold
         if manifold == "som":
-            from .som import SOM
             rows, cols = (int(v) for v in som)
             _say(progress, f"SOM {rows}x{cols}: {epochs} batch epochs on {X.shape[0]} x "
                            f"{X.shape[1]}")
@@ -773,8 +776,6 @@ class PrimitiveModel(_attrs.ReadOnlyAttributes):
     def _set_primitives(self, plan: dict[str, Any], seed: int, progress: _Steps,
                         features: NDArray[np.float64] | None = None) -> None:
         """Primitives (labels, centres), the k criteria and the Markov model of the labels."""
-        from .clustering import kmeans
-        from .mixture import k_criteria
         ks, k = plan["ks"], plan["k"]
         self.cluster_on = plan.get("cluster_on", "manifold")
         on_features = self.cluster_on == "features" and features is not None
@@ -800,11 +801,9 @@ class PrimitiveModel(_attrs.ReadOnlyAttributes):
             km = kmeans(Z, k, seed=seed, n_init=3)
         centers, labels = np.asarray(km.centers, np.float64), np.asarray(km.labels, np.int64)
         if self.cluster == "fcm":
-            from .mixture import fuzzy_cmeans
             f = fuzzy_cmeans(Z, k, init=centers, seed=seed)
             centers, labels = f.centers, np.asarray(f.labels, np.int64)
         elif self.cluster == "gmm":
-            from .mixture import GaussianMixture
             g = GaussianMixture(k, init=centers, reg_covar=reg, seed=seed).fit(Z)
             centers, labels = g.means_, np.asarray(g.predict(Z), np.int64)
         used = np.unique(labels)  # a cluster that got no frame is no primitive
@@ -818,7 +817,6 @@ class PrimitiveModel(_attrs.ReadOnlyAttributes):
         _say(progress, f"primitives: k = {k} ({self.cluster}"
                        + (", on the pose features" if on_features else "")
                        + (f", {self.criterion}" if plan["k"] == "auto" else "") + ")", True)
-        from .markov import best_order, heldout_loglik
         seqs = self.clip_labels()
         self.order_loglik = heldout_loglik(seqs, k, (1, 2, 3), min_count=plan["min_count"])
         order = best_order(self.order_loglik) if plan["order"] == "auto" else plan["order"]
@@ -877,8 +875,6 @@ class PrimitiveModel(_attrs.ReadOnlyAttributes):
         every training frame (:func:`mlayer.detect_contacts`, the points of the first clip),
         the floor (:func:`mlayer.guards.cleanup.floor_height` of those contacts over all clips) and
         the rotations and translations the joint limits are learned from."""
-        from ..guards.cleanup import floor_height
-        from ..guards.contacts import detect_contacts
         names = None
         parts = []
         for m in clips:
@@ -942,7 +938,6 @@ class PrimitiveModel(_attrs.ReadOnlyAttributes):
         """
         lim = self.__dict__.get("_limits_cache")
         if lim is None:
-            from ..guards.limits import joint_limits
             lim = joint_limits(self.training_clips())
             self.__dict__["_limits_cache"] = lim
         return lim
@@ -962,7 +957,6 @@ class PrimitiveModel(_attrs.ReadOnlyAttributes):
         numpy.ndarray of bool, shape (n, C)
             C = len(contact_names).
         """
-        from .generate_guards import contacts_along
         return contacts_along(self.points, self.clamp(traj), np.asarray(self.contacts),
                               1.0 / self.frame_time)
 
@@ -989,14 +983,10 @@ class PrimitiveModel(_attrs.ReadOnlyAttributes):
         contacts : numpy.ndarray of bool, shape (n, C)
             The generated frames' contacts.
         """
-        from .generate_guards import guard_motion
         if not self.has_guards:
             raise InvalidArgumentError("guards: the model was written before generated motion "
                                        "had guards; fit it again, or generate without guards "
                                        "(guards=False, --no-guards)")
-        from ..guards.contacts import contact_positions
-        from .generate_guards import split_drifting
-        from ..guards.metrics import body_height
         c = self.contacts_along(traj)
         if c.shape[1]:
             c = split_drifting(c, contact_positions(motion, self.contact_names),
@@ -1029,7 +1019,6 @@ class PrimitiveModel(_attrs.ReadOnlyAttributes):
         quaternions (body joint without heading), 3J positions]. The body's translation and
         heading are the root's, or on rigs with a static root those of body_joint in its
         parent's frame (its position channels and local rotation)."""
-        from ..layers.layers import body_translation
         b = self.body_joint
         parts = []
         for m in clips:
@@ -1123,7 +1112,6 @@ class PrimitiveModel(_attrs.ReadOnlyAttributes):
         numpy.ndarray, shape (n, 2)
             The BMU's lattice position (SOM) or the PCA projection.
         """
-        from .features import pose_features
         X = pose_features(poses) if isinstance(poses, Motion) else np.asarray(poses, np.float64)
         if X.ndim == 1:
             X = X[None, :]
@@ -1138,7 +1126,6 @@ class PrimitiveModel(_attrs.ReadOnlyAttributes):
         if not np.isfinite(X).all():
             raise InvalidArgumentError("to_manifold: poses contain NaN or infinite values")
         if self.manifold == "som":
-            from .som import SOM
             rows, cols, d = self.som_codebook.shape
             s = SOM(rows, cols, d)
             s.codebook = self.som_codebook
@@ -1500,8 +1487,6 @@ class PrimitiveModel(_attrs.ReadOnlyAttributes):
     def _load_dynamics(self, z: Any, fmt: int) -> None:
         """The Markov model, the k criteria and the clip names of a model file; format 1 files
         (before orders and criteria) load as order 1, clips named by their index."""
-        from .mixture import KCriteria
-        from .markov import contexts_from_arrays
         if fmt == 1:
             self.markov = Markov(z["P"], z["counts"], z["run_length"])
             self.criterion, self.cluster, self.criteria = "elbow", "kmeans", None
@@ -1533,7 +1518,6 @@ class PrimitiveModel(_attrs.ReadOnlyAttributes):
         path : str or os.PathLike
             The file.
         """
-        from .._files import atomic_output
         sk = self.skeleton
         arrays = dict(
             format=np.int64(_FORMAT), manifold=np.str_(self.manifold),
@@ -1627,7 +1611,6 @@ class PrimitiveModel(_attrs.ReadOnlyAttributes):
             body += struct.pack("<IIQQ", kind, a.ndim, *dims)
             data = a.tobytes()
             body += data + b"\0" * (-len(data) % 8)
-        from .._native import lib
         skel = names + np.asarray(sk.parents).astype(i64).tobytes()
         head = b"MLRGEN\0\0" + struct.pack("<IIIIQQQ", RUNTIME_FORMAT, 0x01020304,
                                            int(lib.mlr_version_number()), len(fields),
@@ -1643,7 +1626,6 @@ class PrimitiveModel(_attrs.ReadOnlyAttributes):
         path : str or os.PathLike
             The file.
         """
-        from .._files import atomic_output
         data = self.runtime_bytes()
         with atomic_output(path, suffix=".mlrgen") as tmp:
             with open(tmp, "wb") as f:

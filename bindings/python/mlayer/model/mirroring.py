@@ -21,18 +21,17 @@ back exactly (only signs and joint order change).
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from .. import _arrays
 from .._args import name_pair_items, name_pairs
 from .._native import ffi, lib
-from ._rig import c_rig
 from ..errors import InvalidArgumentError, check
+from ._rig import c_rig
+from .motion import Motion, Skeleton
 
-if TYPE_CHECKING:
-    from .motion import Motion, Skeleton
 
 __all__ = ["mirror", "mirror_pairs", "mirror_plane", "parse_pairs"]
 
@@ -94,7 +93,6 @@ def _partner(skeleton: Skeleton, pairs: PairsArg, by_name: bool) -> tuple[np.nda
 
 
 def _skeleton_of(obj: Any, where: str) -> Skeleton:
-    from .motion import Motion, Skeleton
     if isinstance(obj, Motion):
         return obj.skeleton
     if isinstance(obj, Skeleton):
@@ -219,7 +217,6 @@ def mirror(motion: Motion, *, plane: str = "auto", pairs: PairsArg = "auto",
         A bad plane (the message names ``plane``), an unknown joint in ``pairs``, a pair
         naming one joint twice, pairs that break the hierarchy, or "auto" with no pairs.
     """
-    from .motion import Motion, Skeleton
     if not isinstance(motion, Motion):
         raise InvalidArgumentError(f"mirror: expected a mlayer.Motion, got "
                                    f"{type(motion).__name__}")

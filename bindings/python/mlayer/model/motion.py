@@ -33,7 +33,13 @@ from numpy.typing import ArrayLike, NDArray
 from .. import _arrays
 from .._handles import ReadOnlyAttributes
 from .._native import ffi, lib
+from .._optional import require
 from ..errors import InvalidArgumentError, check
+from . import quat
+from ._rig import axis, body_height_of
+from .quat import from_euler, from_scalar_last, to_euler, to_scipy
+from .units import UNITS, human_leg_length, length_unit, units_arg
+from .up_axis import axis_name, detect_up
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -661,14 +667,12 @@ class Motion:
         if self._up is not None:
             return self._up
         if "up" not in self._found:
-            from .up_axis import detect_up
             g = detect_up(self)
             self._found["up"] = g.axis if g.sure else "y"
         return self._found["up"]
 
     @up_axis.setter
     def up_axis(self, up: str | None) -> None:
-        from .up_axis import axis_name
         self._up = axis_name(up, "Motion.up_axis")
         self._found.clear()
 
@@ -687,8 +691,6 @@ class Motion:
         if self._units is not None:
             return self._units
         if "units" not in self._found:
-            from ._rig import axis, body_height_of
-            from .units import human_leg_length, length_unit
             self._found["units"] = (length_unit(body_height_of(self.positions(),
                                                                axis(self.up_axis, "units")),
                                                 leg=human_leg_length(self))
@@ -697,14 +699,12 @@ class Motion:
 
     @units.setter
     def units(self, units: str | None) -> None:
-        from .units import units_arg
         self._units = units_arg(units, "Motion.units")
         self._found.pop("units", None)
 
     @property
     def metres_per_unit(self) -> float | None:
         """The size of the clip's length unit in metres (from :attr:`units`), or None."""
-        from .units import UNITS
         u = self.units
         return UNITS[u] if u else None
 
@@ -1009,7 +1009,6 @@ class Motion:
 
     def _end_sites(self, pos: np.ndarray, wrot: np.ndarray) -> np.ndarray:
         """(N, E, 3) End Site positions from this motion's forward kinematics (pos, wrot)."""
-        from . import quat
         sk = self.skeleton
         if sk.n_end_sites == 0:
             return np.zeros((self.n_frames, 0, 3))
@@ -1041,8 +1040,6 @@ class Motion:
         mlayer.MissingDependencyError
             Without scipy.
         """
-        from .._optional import require
-        from .quat import to_scipy
         require("scipy", feature="mlayer.Motion.to_scipy")
         root_pos, rot, trans = self._frames()
         return ScipyFrames(root_pos.copy(), [to_scipy(rot[:, j]) for j in range(rot.shape[1])],
@@ -1079,7 +1076,6 @@ class Motion:
         mlayer.InvalidArgumentError
             For a count of rotations that does not match the frames and joints.
         """
-        from .quat import from_scalar_last
         if not isinstance(skeleton, Skeleton):
             raise InvalidArgumentError("Motion.from_scipy: skeleton must be a mlayer.Skeleton")
         J = skeleton.n_joints
@@ -1126,8 +1122,6 @@ class Motion:
         mlayer.MissingDependencyError
             Without pandas.
         """
-        from .._optional import require
-        from .quat import to_euler
         pd = require("pandas", feature="mlayer.Motion.to_dataframe")
         root_pos, rot, trans = self._frames()
         sk = self.skeleton
@@ -1195,8 +1189,6 @@ class Motion:
         >>> df["Hips", "Yposition"] += 2.0                             # doctest: +SKIP
         >>> lifted = mlayer.Motion.from_dataframe(df, m.skeleton)      # doctest: +SKIP
         """
-        from .._optional import require
-        from .quat import from_euler
         pd = require("pandas", feature="mlayer.Motion.from_dataframe")
         what = "Motion.from_dataframe"
         if not isinstance(df, pd.DataFrame):

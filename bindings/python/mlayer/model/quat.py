@@ -19,6 +19,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from .. import _arrays
 from .._native import ffi, lib
+from .._optional import require
 from ..errors import InvalidArgumentError, check
 
 if TYPE_CHECKING:
@@ -84,7 +85,6 @@ def to_scipy(q: ArrayLike) -> Rotation:
     mlayer.MissingDependencyError
         When scipy is not installed.
     """
-    from .._optional import require
     require("scipy", feature="mlayer.quat.to_scipy")
     from scipy.spatial.transform import Rotation as _Rotation
     return _Rotation.from_quat(to_scalar_last(q).reshape(-1, 4))

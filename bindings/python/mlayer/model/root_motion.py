@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import csv
 import os
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -30,11 +30,10 @@ from numpy.typing import ArrayLike, NDArray
 from .. import _arrays, _attrs
 from .._files import atomic_output
 from .._native import ffi, lib
-from ._rig import c_rig, motion_axis
 from ..errors import InvalidArgumentError, check
+from ._rig import axis, c_rig, motion_axis
+from .motion import Motion
 
-if TYPE_CHECKING:
-    from .motion import Motion
 
 __all__ = ["RootTrack", "extract_root_motion", "apply_root_motion", "MODES"]
 
@@ -71,7 +70,6 @@ class RootTrack(_attrs.ReadOnlyAttributes):
 
     def __init__(self, positions: ArrayLike, heading: ArrayLike, fps: float,
                  up_axis: str = "y") -> None:
-        from ._rig import axis
         pos = _arrays.as_f64(positions, "RootTrack: positions", ndim=2, last=(3,))
         head = _arrays.as_f64(heading, "RootTrack: heading", ndim=1)
         if head.shape[0] != pos.shape[0]:
@@ -177,7 +175,6 @@ class RootTrack(_attrs.ReadOnlyAttributes):
 
 
 def _motion_arg(motion: Any, where: str) -> Motion:
-    from .motion import Motion
     if not isinstance(motion, Motion):
         raise InvalidArgumentError(f"{where}: expected a mlayer.Motion, got "
                                    f"{type(motion).__name__}")

@@ -18,17 +18,16 @@ from __future__ import annotations
 import contextlib
 import contextvars
 from collections.abc import Callable, Iterator
-from typing import TYPE_CHECKING, Any, NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 
 from .. import _arrays
 from .._native import ffi, lib
-from ._rig import axis, c_rig
 from ..errors import InvalidArgumentError, check
+from ._rig import axis, c_rig
+from .motion import Motion
 
-if TYPE_CHECKING:
-    from .motion import Motion
 
 __all__ = ["LeadIn", "lead_in", "trim", "reading_trim"]
 
@@ -75,7 +74,6 @@ def lead_in(motion: Motion, *, up: str | int | None = None) -> LeadIn:
     mlayer.InvalidArgumentError
         When ``motion`` is not a Motion.
     """
-    from .motion import Motion
     if not isinstance(motion, Motion):
         raise InvalidArgumentError(f"lead_in: expected a mlayer.Motion, got "
                                    f"{type(motion).__name__}")

@@ -53,15 +53,21 @@ from numpy.typing import ArrayLike, NDArray
 from .. import _arrays, _attrs
 from .._handles import ReadOnlyAttributes, refuse_copy
 from .._native import ffi, lib
-from ..layers._pipeline import Job
-from ..model._rig import motion_axis
 from ..errors import InvalidArgumentError, MlayerWarning, check
-from ..layers.layers import Layers, decompose
+from ..guards.contacts import _point, detect_contacts, find_feet
 from ..guards.limits import JointLimits
+from ..guards.metrics import body_height, foot_sliding, jitter
+from ..io.bvh import read_bvh, write_bvh
+from ..layers._pipeline import Job
+from ..layers.alpha_curve import as_alpha, has_curve
+from ..layers.layers import Layers, decompose
+from ..model import quat
+from ..model._rig import motion_axis
+from ..model.motion import Motion
+from ..model.up_axis import detect_up
 
 if TYPE_CHECKING:
     from ..layers.alpha_curve import AlphaArg, AlphaCurve
-    from ..model.motion import Motion
 
 __all__ = ["Clip", "Synthesis", "GuardReport", "stylize", "denoise"]
 
@@ -189,7 +195,6 @@ class Synthesis(ReadOnlyAttributes):
                  contact_joints: str | Sequence[str | int] | None = None,
                  up: str | int | None = None, layers: Layers | None = None,
                  **layer_options: Any) -> None:
-        from ..model.motion import Motion
         if not isinstance(motion, Motion):
             raise InvalidArgumentError(f"motion: expected a mlayer.Motion, got "
                                        f"{type(motion).__name__}")
@@ -231,7 +236,6 @@ class Synthesis(ReadOnlyAttributes):
         g = job.guards()
         diag = ffi.new("mlr_diag *")
         if self._contact_joints is not None and self._keep_contacts:
-            from ..guards.contacts import _point, detect_contacts
             m = self._guard_input()
             names, c = detect_contacts(m, self._contact_joints, up="xyz"[self._up])
             pts = [_point(m.skeleton, n) for n in names]
@@ -278,7 +282,6 @@ class Synthesis(ReadOnlyAttributes):
     def _same_frames(self, m: Motion | None, name: str) -> None:
         """The C guards read a synthesis (and its reference) on the input's frames and
         skeleton: anything else is refused before the call."""
-        from ..model.motion import Motion
         if m is None and name == "reference":
             return
         if not isinstance(m, Motion):
@@ -368,7 +371,6 @@ class Synthesis(ReadOnlyAttributes):
             What the guards did.
         """
         L: Layers = self.layers
-        from ..layers.alpha_curve import as_alpha, has_curve
         if has_curve(alpha, joints):
             # (the arguments' Python forms checked here; the guards take each group's peak)
             rows = L.alphas_over_time(alpha, joints, root_alpha)
@@ -383,7 +385,6 @@ class Synthesis(ReadOnlyAttributes):
             alpha_c = float(cast(float, alpha))
             joints_c = cast("dict[str, float | AlphaCurve] | None", joints)
         if residual:
-            from ..model import quat
             out = L.synthesize(alpha_c, joints_c, root_alpha=root_alpha)
             r = np.asarray(L.residual)
             out = out.with_frames(root_pos=out.root_pos + r[:, 0],
@@ -567,7 +568,6 @@ class Clip(ReadOnlyAttributes):
     _checked = {"name": _attrs.text}
 
     def __init__(self, motion: Motion, *, name: str | None = None) -> None:
-        from ..model.motion import Motion
         if not isinstance(motion, Motion):
             raise InvalidArgumentError(f"motion: expected a mlayer.Motion, got "
                                        f"{type(motion).__name__}")
@@ -592,7 +592,6 @@ class Clip(ReadOnlyAttributes):
         Clip
             The clip, named by the path.
         """
-        from ..io.bvh import read_bvh
         return cls(read_bvh(path, **read_options), name=str(path))
 
     @functools.cached_property
@@ -615,7 +614,6 @@ class Clip(ReadOnlyAttributes):
         m = self.motion
         if m._up is not None:
             return m._up
-        from ..model.up_axis import detect_up
         g = detect_up(m, self.positions)
         return g.axis if g.sure else "y"
 
@@ -623,7 +621,6 @@ class Clip(ReadOnlyAttributes):
     def body_height(self) -> float:
         """:func:`mlayer.guards.metrics.body_height` of the input along :attr:`up` (NaN for an
         empty clip)."""
-        from ..guards.metrics import body_height
         return body_height(self.positions, up=self.up) if self.motion.n_frames else math.nan
 
     @functools.cached_property
@@ -633,7 +630,6 @@ class Clip(ReadOnlyAttributes):
         Its feet, along :attr:`up`, from :attr:`forward_kinematics`; no points for a skeleton
         without feet (:func:`mlayer.guards.contacts.find_feet`).
         """
-        from ..guards.contacts import detect_contacts, find_feet
         m = self.motion
         try:
             find_feet(m, self.positions, up=self.up)
@@ -695,7 +691,6 @@ class Clip(ReadOnlyAttributes):
         if s is None:
             if up is not None and layer_options.get("robust", True) \
                     and "body_height" not in layer_options and self.motion.n_frames:
-                from ..guards.metrics import body_height
                 h = body_height(self.positions, up=up)  # along the axis asked for
                 if math.isfinite(h) and h > 0.0:
                     layer_options["body_height"] = h
@@ -758,7 +753,6 @@ class Clip(ReadOnlyAttributes):
         float
             The jitter; NaN under 4 frames or without a body height.
         """
-        from ..guards.metrics import jitter
         m = self.motion if motion is None else motion
         h = self.body_height
         if m.n_frames < 4 or not (h > 0.0):
@@ -779,7 +773,6 @@ class Clip(ReadOnlyAttributes):
         float
             Body heights per second; NaN without contacts or a body height.
         """
-        from ..guards.metrics import foot_sliding
         names, c = self.contacts
         h = self.body_height
         if not names or not (h > 0.0):
@@ -788,7 +781,6 @@ class Clip(ReadOnlyAttributes):
             pos, wrot = self.forward_kinematics
             return foot_sliding(self.motion, c, names, up=self.up, pos=pos, wrot=wrot) / h
         if motion.n_frames != c.shape[0]:
-            from ..guards.contacts import detect_contacts
             names, c = detect_contacts(motion, up=self.up)
             if not names:
                 return math.nan
@@ -804,5 +796,4 @@ class Clip(ReadOnlyAttributes):
         path : str or os.PathLike
             The file.
         """
-        from ..io.bvh import write_bvh
         write_bvh(motion, path)

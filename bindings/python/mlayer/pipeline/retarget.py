@@ -16,18 +16,20 @@ from __future__ import annotations
 
 import os
 from collections.abc import Iterable, Mapping
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from .. import _arrays
 from .._args import name_pair_items, name_pairs
 from .._native import ffi, lib
-from ..model._rig import c_rig
 from ..errors import InvalidArgumentError, check
+from ..io.amass import read_amass
+from ..io.bvh import read_bvh
+from ..io.gltf import read_gltf
+from ..model._rig import axis, c_rig, motion_axis
+from ..model.motion import Motion, Skeleton
 
-if TYPE_CHECKING:
-    from ..model.motion import Motion, Skeleton
 
 __all__ = ["retarget", "retarget_roles", "parse_map", "ROLES"]
 
@@ -68,7 +70,6 @@ def _map_pairs(mapping: MapArg) -> list[tuple[str, str]]:
 
 def _target_of(target: Any) -> tuple[Skeleton, Motion | None]:
     """(skeleton, motion or None) of a target given as a Skeleton, a Motion or a file."""
-    from ..model.motion import Motion, Skeleton
     if isinstance(target, Motion):
         return target.skeleton, target
     if isinstance(target, Skeleton):
@@ -77,13 +78,10 @@ def _target_of(target: Any) -> tuple[Skeleton, Motion | None]:
         path = os.fspath(target)
         low = path.lower()
         if low.endswith((".gltf", ".glb")):
-            from ..io.gltf import read_gltf
             m = read_gltf(path)
         elif low.endswith(".npz"):
-            from ..io.amass import read_amass
             m = read_amass(path)
         else:
-            from ..io.bvh import read_bvh
             m = read_bvh(path)
         return m.skeleton, m
     raise InvalidArgumentError("retarget: target must be a mlayer.Skeleton, a Motion or a file "
@@ -111,7 +109,6 @@ def retarget_roles(skeleton: Skeleton | Motion) -> dict[str, str]:
         A rig without the humanoid minimum (the hips and both legs): the message names the
         missing role.
     """
-    from ..model.motion import Motion
     sk = skeleton.skeleton if isinstance(skeleton, Motion) else skeleton
     roles = np.empty(lib.MLR_ROLE_COUNT, dtype=np.int32)
     rig, keep = c_rig(sk)
@@ -171,13 +168,11 @@ def retarget(motion: Motion, target: Skeleton | Motion | str | os.PathLike[str],
         the role), a map naming a joint that is not in its rig or a source joint without a
         role (named in the message).
     """
-    from ..model.motion import Motion
     if not isinstance(motion, Motion):
         raise InvalidArgumentError(f"retarget: expected a mlayer.Motion, got "
                                    f"{type(motion).__name__}")
     tsk, tmotion = _target_of(target)
     pairs = _map_pairs(mapping)
-    from ..model._rig import axis, motion_axis
     s_up = motion_axis(motion, None, "retarget")
     if target_up is not None:
         t_up = axis(target_up, "retarget: target_up")

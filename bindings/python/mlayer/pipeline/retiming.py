@@ -27,7 +27,7 @@ step of a time map) are refused unless ``allow_extreme=True``: they are usually 
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Any, Literal, overload
+from typing import Any, Literal, overload
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -36,10 +36,11 @@ from .. import _arrays
 from .._args import integer
 from .._native import ffi, lib
 from ..errors import InvalidArgumentError, check
+from ..guards.cleanup import keep_contacts_retimed
+from ..guards.metrics import body_height
 from ..model.motion import Motion
+from .pipeline import Clip
 
-if TYPE_CHECKING:
-    from .pipeline import Clip
 
 __all__ = ["resample", "slerp_resample", "timewarp", "timewarp_map", "timewarp_speed",
            "MAX_FACTOR"]
@@ -180,7 +181,6 @@ def _stylized(motion: Motion, style: float | dict[str, Any] | None, where: str
     kinematics and contacts computed once for the style and the contacts' retiming) and the motion
     with its style scaled first (:meth:`Clip.stylize`), when style is given: an alpha, or a dict of
     stylize's arguments ({"alpha": 2, "joints": {"Left*": 3}, ...})."""
-    from .pipeline import Clip
     clip = Clip(motion)
     if style is None:
         return clip, motion
@@ -311,7 +311,6 @@ def _pinned(clip: Clip, res: Any, reference: Motion, source_frames: NDArray[Any]
             ) -> Any:
     """res (a motion, or a tuple starting with one) with the feet pinned during the contacts
     of the input (a :class:`mlayer.pipeline.pipeline.Clip`), carried to the new frames."""
-    from ..guards.cleanup import keep_contacts_retimed
     original = clip.motion
     contacts = clip.contacts if original.n_frames >= 3 else ([], None)
     if isinstance(res, tuple):
@@ -380,7 +379,6 @@ def _speed_args(motion: Motion, root_weight: float, joint_weights: ArrayLike | N
     if not (math.isfinite(rw) and rw >= 0):
         raise InvalidArgumentError(f"{where}: root_weight must be finite and >= 0, got {rw:g}")
     if rw > 0:
-        from ..guards.metrics import body_height  # the one body size (C mlr_rig_body_height)
         h = body_height(motion) if motion.n_frames else 0.0
         root_w = rw / (h if h > 0 and math.isfinite(h) else 1.0)
     else:

@@ -36,7 +36,7 @@ A stream is not thread-safe; separate streams are independent.
 from __future__ import annotations
 
 
-from typing import TYPE_CHECKING, Any, NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -46,10 +46,9 @@ from .._args import integer
 from .._handles import NativeHandle, ReadOnlyAttributes
 from .._native import ffi, lib
 from ..errors import InvalidArgumentError, check
+from ..guards.limits import JointLimits
 from ..model.motion import Motion, Skeleton
 
-if TYPE_CHECKING:
-    from ..guards.limits import JointLimits
 
 __all__ = ["Stream", "Frame", "stream_motion", "decay_rate"]
 
@@ -231,7 +230,6 @@ class Stream(ReadOnlyAttributes, NativeHandle):
         self._alpha = (1.0, np.ones(J))
         self._last_kind = "tuple"
         if limits is not None:
-            from ..guards.limits import JointLimits
             if not isinstance(limits, JointLimits) or limits.joint_names != sk.joint_names:
                 raise InvalidArgumentError("Stream: limits must be the JointLimits of this "
                                            "skeleton (mlayer.joint_limits(clip))")

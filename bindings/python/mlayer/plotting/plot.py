@@ -21,10 +21,14 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..model import quat
 from .._files import atomic_output
 from .._optional import require
 from ..errors import InvalidArgumentError
+from ..guards.contacts import contact_intervals
+from ..manifold.clustering import elbow_point
+from ..manifold.som import u_matrix
+from ..model import quat
+from ..pipeline.retiming import timewarp_speed
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -252,7 +256,6 @@ def plot_contacts(names: Sequence[str], contacts: ArrayLike, fps: float,
     >>> names, c = mlayer.detect_contacts(m)                            # doctest: +SKIP
     >>> mlayer.plotting.plot.plot_contacts(names, c, m.fps, "contacts.png")      # doctest: +SKIP
     """
-    from ..guards.contacts import contact_intervals
     c = np.asarray(contacts, dtype=bool)
     names = list(names)
     if c.ndim != 2 or c.shape[1] != len(names):
@@ -367,7 +370,6 @@ def plot_timewarp(motion: Motion, warped: Motion, time_map: ArrayLike,
     >>> mlayer.plotting.plot.plot_timewarp(m, mlayer.timewarp(m, time_map=t), t)  # doctest: +SKIP
     """
     if speed is None:
-        from ..pipeline.retiming import timewarp_speed
         speed = timewarp_speed(motion)
     t = np.asarray(time_map, dtype=np.float64)
     sp = np.asarray(speed, dtype=np.float64)
@@ -489,7 +491,6 @@ def plot_som(model: PrimitiveModel, path: str | os.PathLike[str] | None = None, 
     mlayer.InvalidArgumentError
         For a clip the model does not have.
     """
-    from ..manifold.som import u_matrix
     starts = np.asarray(model.clip_starts)
     if not 0 <= clip < len(starts):
         raise InvalidArgumentError(f"clip must be 0 to {len(starts) - 1}, got {clip}")
@@ -564,7 +565,6 @@ def plot_elbow(model: PrimitiveModel, path: str | os.PathLike[str] | None = None
         if c is not None:
             pick = c.picks[name]
         else:
-            from ..manifold.clustering import elbow_point
             pick = elbow_point(ks, v)[0]
         i = int(np.flatnonzero(ks == pick)[0])
         ax.plot([pick], [v[i]], "o", ms=12, mfc="none", color="tab:red",

@@ -38,10 +38,14 @@ from typing import IO, TYPE_CHECKING, Any, cast
 import numpy as np
 from numpy.typing import NDArray
 
-from ..io.bvh import write_bvh_string
 from ..errors import Error
-from ..plotting.render import body_side
+from ..guards.contacts import contact_positions
+from ..guards.metrics import body_height
+from ..io.bvh import write_bvh_string
+from ..manifold.features import pose_features
+from ..manifold.primitives import PrimitiveModel, join_skeletons, same_units
 from ..manifold.som import u_matrix
+from ..plotting.render import body_side
 from .session import (Clip, ParamError, ResultCache, _b64, _points, finite_number, json_bytes,
                       query_pairs)
 
@@ -272,7 +276,6 @@ class ManifoldSession:
         """Which clips train (those with the first good clip's skeleton: joint names, after
         ``rename``, and tree) and the common stride that keeps the frames within
         ``max_frames`` and ``max_values``."""
-        from ..manifold.primitives import join_skeletons
         good = [c for c in self.clips if c.ok]
         self.used, self.excluded = [], []
         self._joined = {}
@@ -306,7 +309,6 @@ class ManifoldSession:
         self.used = keep
 
     def _train(self) -> None:
-        from ..manifold.primitives import PrimitiveModel, same_units
         try:
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always")
@@ -616,7 +618,6 @@ class ManifoldSession:
     def _features_of(self, pos: int) -> np.ndarray:
         X = self._features.get(pos)
         if X is None:
-            from ..manifold.features import pose_features
             X = self._features[pos] = pose_features(self._motions[pos])
         return X
 
@@ -676,8 +677,6 @@ class ManifoldSession:
 
     def _figure(self, motion, info: dict, p: dict) -> dict:
         """The figure data of a manifold motion, as the page's clip endpoint gives it."""
-        from ..guards.contacts import contact_positions
-        from ..guards.metrics import body_height
         md = self.model
         sk = motion.skeleton
         fk = motion.forward_kinematics()

@@ -28,13 +28,16 @@ from urllib.parse import parse_qsl
 import numpy as np
 from numpy.typing import NDArray
 
-from ..model import quat
-from ..io.bvh import read_bvh, write_bvh_string
 from ..errors import Error, InvalidArgumentError
-from ..pipeline import pipeline
+from ..guards.contacts import contact_positions
 from ..guards.metrics import foot_sliding, jitter
-from ..plotting.render import body_side
+from ..io.bvh import read_bvh, write_bvh_string
+from ..layers.alpha_curve import AlphaCurve
+from ..model import quat
+from ..pipeline import pipeline
 from ..pipeline.retiming import frames_at_rate, resample, timewarp
+from ..plotting.plot import plot_layers
+from ..plotting.render import body_side
 
 if TYPE_CHECKING:
     from ..model.motion import Motion
@@ -221,7 +224,6 @@ def parse_params(query: str, allowed: Collection[str]) -> dict[str, Any]:
 def _alpha_keys(raw: str, name: str, lo: float | None, hi: float | None) -> str:
     """The keys of an alpha curve, checked (at most _MAX_KEYS, alphas in [lo, hi], times in
     [0, 36000] s), in their canonical text; ParamError (400) naming the key otherwise."""
-    from ..layers.alpha_curve import AlphaCurve
     if raw.count(",") >= _MAX_KEYS:
         raise ParamError(f"{name}: at most {_MAX_KEYS} keys")
     try:
@@ -537,7 +539,6 @@ class Clip:
         """(N, C, 3) positions of the contact points of m, from its forward kinematics fk."""
         if not names:
             return np.zeros((m.n_frames, 0, 3))
-        from ..guards.contacts import contact_positions
         return contact_positions(m, names, *fk)
 
     @property
@@ -676,7 +677,6 @@ class Clip:
         t0 = time.perf_counter()
         alpha: Any = p["alpha"]
         if p.get("keys"):  # alpha over time in the place of the global alpha
-            from ..layers.alpha_curve import AlphaCurve
             alpha = AlphaCurve.parse(p["keys"])
         joints = {}
         for name, part in zip(m.joint_names, self._parts):  # the root joint is "spine"
@@ -743,7 +743,6 @@ class Clip:
         without keys)."""
         if not p.get("keys"):
             return None
-        from ..layers.alpha_curve import AlphaCurve
         c = AlphaCurve.parse(p["keys"])
         t = io / self.motion.fps
         return {"t": t.tolist(), "alpha": c(t).tolist(), "keys": c.keys}
@@ -777,7 +776,6 @@ class Clip:
             L = self._ensure()
             if self._plot_png is None:
                 import io
-                from ..plotting.plot import plot_layers
                 fig = plot_layers(self.motion, L, title=f"{self.name}: layers")
                 buf = io.BytesIO()
                 fig.savefig(buf, format="png", dpi=110)
