@@ -160,3 +160,43 @@ def test_the_check_sees(name, source, expect):
         assert errors and all(expect in e for e in errors), errors
     else:
         assert errors == []
+
+
+def _all_modules() -> dict:
+    """Every module of the installed package, imported: {dotted name: module}."""
+    import importlib
+    import pkgutil
+
+    import mlayer
+    names = ["mlayer"] + [i.name for i in pkgutil.walk_packages(mlayer.__path__, "mlayer.")
+                          if not i.name.endswith("__main__")]  # that one runs the CLI
+    return {n: importlib.import_module(n) for n in names}
+
+
+def test_no_module_is_hidden_by_a_name():
+    """mlayer.X is the module mlayer/X.py whenever that module exists (issue 40: the function
+    mlayer.mirror hid the module mlayer/mirror.py, mlayer.retarget likewise), in every package
+    of the tree."""
+    import sys
+    hidden = []
+    for name in _all_modules():
+        parent, _, leaf = name.rpartition(".")
+        if parent and getattr(sys.modules[parent], leaf, None) is not sys.modules[name]:
+            hidden.append(f"{name}: {parent}.{leaf} is {getattr(sys.modules[parent], leaf)!r}")
+    assert not hidden, "\n".join(hidden)
+
+
+def test_one_class_named_clip():
+    """One class named Clip in the package: the clip of a run (mlayer.pipeline.pipeline); the
+    viewer's is ViewerClip, its old name still answering with a DeprecationWarning."""
+    import inspect
+    clips = {f"{v.__module__}.{v.__qualname__}" for mod in _all_modules().values()
+             for v in vars(mod).values()
+             if inspect.isclass(v) and v.__name__ == "Clip" and v.__module__.startswith("mlayer")}
+    assert clips == {"mlayer.pipeline.pipeline.Clip"}
+    import mlayer.viewer
+    with pytest.warns(DeprecationWarning, match="ViewerClip"):
+        old = mlayer.viewer.Clip
+    assert old is mlayer.viewer.ViewerClip
+    with pytest.raises(AttributeError):
+        mlayer.viewer.NoSuchName  # noqa: B018

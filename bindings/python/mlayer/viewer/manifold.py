@@ -46,8 +46,8 @@ from ..manifold.features import pose_features
 from ..manifold.primitives import PrimitiveModel, join_skeletons, same_units
 from ..manifold.som import u_matrix
 from ..plotting.render import body_side
-from .session import (Clip, ParamError, ResultCache, _b64, _points, finite_number, json_bytes,
-                      query_pairs)
+from .session import (ParamError, ResultCache, ViewerClip, _b64, _points, finite_number,
+                      json_bytes, query_pairs)
 
 if TYPE_CHECKING:
     from ..manifold.markov import Markov
@@ -221,7 +221,7 @@ class ManifoldSession:
 
     Parameters
     ----------
-    clips : list of mlayer.viewer.session.Clip
+    clips : list of mlayer.viewer.session.ViewerClip
         The server's clips.
     cache : ResultCache
         Its result cache.
@@ -241,11 +241,11 @@ class ManifoldSession:
     max_values: int
     max_frames: int
     state: str
-    used: list[Clip]
+    used: list[ViewerClip]
     excluded: list[dict[str, object]]
     stride: int
 
-    def __init__(self, clips: list[Clip], *, cache: ResultCache, max_values: int,
+    def __init__(self, clips: list[ViewerClip], *, cache: ResultCache, max_values: int,
                  max_frames: int = DEFAULT_MANIFOLD_FRAMES, log: IO[str] | None = None,
                  seed: int = 0, rename: dict[str, str] | None = None) -> None:
         self.clips = clips

@@ -42,7 +42,7 @@ from ..plotting.render import body_side
 if TYPE_CHECKING:
     from ..model.motion import Motion
 
-__all__ = ["Clip", "load_clips", "body_parts", "parse_params", "ParamError", "PARAMS",
+__all__ = ["ViewerClip", "load_clips", "body_parts", "parse_params", "ParamError", "PARAMS",
            "PART_NAMES", "ResultCache", "json_bytes", "DEFAULT_MAX_VALUES",
            "DEFAULT_CACHE_BYTES"]
 
@@ -380,7 +380,7 @@ def _decimate(n: int, most: int = 1500) -> np.ndarray:
     return np.unique(np.linspace(0, n - 1, min(n, most)).round().astype(np.int64))
 
 
-class Clip:
+class ViewerClip:
     """One clip named on the command line: its motion (or the error that stopped it).
 
     Thread-safe: one lock serializes the work on a clip; answers already in the cache are
@@ -789,8 +789,8 @@ def _glob_escape(name: str) -> str:
 
 
 def load_clips(paths: Iterable[str | os.PathLike[str]], *, cache: ResultCache | None = None,
-               max_values: int = DEFAULT_MAX_VALUES) -> list[Clip]:
-    """Read every path; a clip that fails keeps its error (see ``Clip.error``).
+               max_values: int = DEFAULT_MAX_VALUES) -> list[ViewerClip]:
+    """Read every path; a clip that fails keeps its error (see ``ViewerClip.error``).
 
     Parameters
     ----------
@@ -803,9 +803,9 @@ def load_clips(paths: Iterable[str | os.PathLike[str]], *, cache: ResultCache | 
 
     Returns
     -------
-    list of Clip
+    list of ViewerClip
         One per path, in order.
     """
     cache = cache if cache is not None else ResultCache()
-    return [Clip(i, os.fspath(p), cache=cache, max_values=max_values)
+    return [ViewerClip(i, os.fspath(p), cache=cache, max_values=max_values)
             for i, p in enumerate(paths)]
