@@ -6,7 +6,9 @@ along the first axis; quaternions are scalar-first (w, x, y, z).
 from __future__ import annotations
 
 import logging as _logging
+from types import ModuleType as _ModuleType
 
+from . import _moved
 from ._version import __version__, library_version
 from .errors import (Error, InvalidArgumentError, MlayerIOError, MlayerWarning, ParseError,
                      SingularMatrixError, UnsupportedError)
@@ -62,6 +64,18 @@ __all__ += ["read_amass", "write_amass"]
 __all__ += ["mirror", "mirror_pairs", "RootTrack", "extract_root_motion", "apply_root_motion"]
 __all__ += ["expmap_base", "multires_stylize"]
 __all__ += ["retarget", "retarget_roles"]
+
+
+
+def __getattr__(name: str) -> _ModuleType:
+    """``mlayer.contacts`` and the other module paths of before the subpackages (mlayer._moved),
+    with a DeprecationWarning."""
+    if f"mlayer.{name}" in _moved.MOVED:
+        return _moved.moved(f"mlayer.{name}")
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+_moved.install()
 
 # the library logs (the `mlayer` logger and its children) and never prints: nothing shows
 # until the application configures logging (the command line shows INFO on stderr)
