@@ -14,8 +14,8 @@ from pathlib import Path
 import numpy as np
 
 import mlayer
-from mlayer import plot as mplot
-from mlayer.plot import plot_elbow, plot_som, plot_transitions
+from mlayer.plotting import plot as mplot
+from mlayer.plotting.plot import plot_elbow, plot_som, plot_transitions
 
 
 def _angle_deg(q: np.ndarray) -> np.ndarray:
@@ -161,7 +161,7 @@ MULTIRES_LEVELS = 7
 def multires_figure(m: mlayer.Motion, out: Path, alpha: float = 2.0) -> dict:
     """Paper 1, Figure 7: the walk exaggerated by the layers (alpha 2, no guards: the raw
     synthesis) and by MultiRes frequency bands at the same gain."""
-    from mlayer.metrics import body_height
+    from mlayer.guards.metrics import body_height
     h = body_height(m)
     styl = mlayer.decompose(m).synthesize(alpha)
     gains = [1.0] + [alpha] * (MULTIRES_LEVELS - 1) + [1.0]

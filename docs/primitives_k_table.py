@@ -2,15 +2,15 @@
 
 Paper 2 (section 4.1) clusters "the low dimensional representation" with k-means and reads k
 at the elbow of the inertia: 10 primitives for walking, 15 for ballet. This script measures,
-per clip, what the elbow (kneedle rule, :func:`mlayer.clustering.elbow_point`), the largest
-silhouette and the smallest GMM BIC (:func:`mlayer.mixture.k_criteria`) pick on four
+per clip, what the elbow (kneedle rule, :func:`mlayer.manifold.clustering.elbow_point`), the largest
+silhouette and the smallest GMM BIC (:func:`mlayer.manifold.mixture.k_criteria`) pick on four
 representations of the same frames, over two ranges of k:
 
 - ``som``: the 2-D coordinates of each frame's best-matching unit on the SOM that
   :class:`mlayer.PrimitiveModel` trains (its default manifold: what mlayer clusters);
 - ``pca2``: the first two principal components of the pose features (``manifold="pca"``);
 - ``pca95``: as many principal components as keep 95% of the variance;
-- ``features``: the pose features themselves (:func:`mlayer.features.pose_features`).
+- ``features``: the pose features themselves (:func:`mlayer.manifold.features.pose_features`).
 
 Usage: python docs/primitives_k_table.py CLIP.bvh [CLIP.bvh ...] [--frames 3000]
 Prints a Markdown table (rows: clip, representation; columns: elbow / silhouette / BIC for
@@ -23,11 +23,11 @@ import warnings
 import numpy as np
 
 import mlayer
-from mlayer.features import pose_features
-from mlayer.manifold import PCA
-from mlayer.mixture import k_criteria
-from mlayer.primitives import default_lattices
-from mlayer.som import SOM
+from mlayer.manifold.features import pose_features
+from mlayer.manifold.manifold import PCA
+from mlayer.manifold.mixture import k_criteria
+from mlayer.manifold.primitives import default_lattices
+from mlayer.manifold.som import SOM
 
 
 def representations(m, seed=0):

@@ -3,8 +3,8 @@
 before, per body part), for stylize(m, alpha, keep_contacts=False) at alpha 0.5, 2, 3.
 Usage: python scripts/limits_measure.py [clip-name-part ...]"""
 import sys, glob, time, numpy as np, mlayer
-from mlayer import plausibility as pl
-from mlayer.limits import apply_limits
+from mlayer.guards import plausibility as pl
+from mlayer.guards.limits import apply_limits
 import os, pathlib
 MOCAP = os.environ.get('MLR_TEST_MOCAP_DIR') or str(pathlib.Path(__file__).resolve().parents[2] / 'shared' / 'data' / 'mocap')
 clips = sorted(glob.glob(MOCAP + '/*.bvh'))

@@ -30,7 +30,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 import mlayer
-from mlayer import smpl
+from mlayer.io import smpl
 from benchutil import median_seconds
 
 

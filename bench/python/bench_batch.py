@@ -39,7 +39,7 @@ import mlayer
 from mlayer.batching import operations
 # the task's writer and figures: the loop does what a batch task does
 from mlayer.batching.task import _figures, _write
-from mlayer.pipeline import Clip
+from mlayer.pipeline.pipeline import Clip
 
 
 def find(items: list[str]) -> list[pathlib.Path]:

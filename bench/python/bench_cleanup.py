@@ -8,7 +8,7 @@ contacts detected on the input) of the input, of denoise without and with the cl
 Floor (item 3): stylize(m, a, keep_contacts=False) ("raw") and the cleaned stylize at alpha 2
 and 3: frames where a contact point is below min(floor, its input height) by more than 0.5% of
 body height, in % of frames, and the deepest, in % of body height. floor: the input's floor
-height (mlayer.cleanup.floor_height when present, else the same statistic in numpy: the 5%
+height (mlayer.guards.cleanup.floor_height when present, else the same statistic in numpy: the 5%
 quantile of the contact points' heights on their contact frames). The CMU clips converted with
 an inserted T-pose (every cmu_* but cmu_131_01) start at frame 6 (see the data README).
 """
@@ -19,8 +19,8 @@ import time
 import numpy as np
 
 import mlayer
-from mlayer import contacts as C
-from mlayer.metrics import body_height, foot_sliding
+from mlayer.guards import contacts as C
+from mlayer.guards.metrics import body_height, foot_sliding
 
 args = [a for a in sys.argv[1:] if not a.startswith("--")]
 dirs = [pathlib.Path(a) for a in args] or [
@@ -30,7 +30,7 @@ UP = 1
 
 def floor_of(m, names, c):
     try:
-        from mlayer.cleanup import floor_height
+        from mlayer.guards.cleanup import floor_height
         return floor_height(m, c, names)
     except ImportError:
         p = C.contact_positions(m, names)[..., UP]

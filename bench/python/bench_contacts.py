@@ -14,7 +14,7 @@ import sys
 import time
 
 import mlayer
-from mlayer.metrics import foot_sliding, jitter
+from mlayer.guards.metrics import foot_sliding, jitter
 
 d = pathlib.Path(sys.argv[1] if len(sys.argv) > 1 else
                  pathlib.Path(__file__).resolve().parents[3] / "shared/data/mocap")

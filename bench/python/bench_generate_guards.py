@@ -8,9 +8,9 @@ import pathlib
 import sys
 sys.path.insert(0, "bindings/python/tests")
 from test_generate_guards import WALKS, STARTS, _fit
-from mlayer.metrics import body_height, foot_sliding
-from mlayer.plausibility import hinge_violations
-from mlayer.contacts import contact_positions
+from mlayer.guards.metrics import body_height, foot_sliding
+from mlayer.guards.plausibility import hinge_violations
+from mlayer.guards.contacts import contact_positions
 mocap = pathlib.Path("../shared/data/mocap")
 for clip, frames, opts in WALKS:
     m, model = _fit(mocap, clip, frames, opts)

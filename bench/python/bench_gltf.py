@@ -129,8 +129,8 @@ def accuracy(mocap: pathlib.Path, tmp: str) -> None:
     sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[2] / "bindings" / "python"
                            / "tests"))
     import gltf_eval as E
-    from mlayer.gltf import _TO_Y, reframe
-    from mlayer.units import UNITS
+    from mlayer.io.gltf import _TO_Y, reframe
+    from mlayer.model.units import UNITS
     out = os.path.join(tmp, "a.glb")
     for p in sorted(mocap.glob("*.bvh")):
         m = mlayer.read_bvh(p)

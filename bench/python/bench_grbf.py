@@ -46,7 +46,7 @@ import numpy as np  # noqa: E402
 from scipy.interpolate import RBFInterpolator  # noqa: E402
 
 import mlayer  # noqa: E402
-from mlayer.manifold import lattice_points  # noqa: E402
+from mlayer.manifold.manifold import lattice_points  # noqa: E402
 
 
 def main() -> None:

@@ -26,7 +26,7 @@ DEFAULT_CLIP = ROOT.parent / "shared" / "data" / "mocap" / "cmu_01_01_playground
 
 def python_passes(argv):
     import mlayer
-    from mlayer import motion as M
+    from mlayer.model import motion as M
     inputs = []
     counts = {"input": 0, "other": 0}
     orig = M.Motion._fk
@@ -43,9 +43,10 @@ def python_passes(argv):
         return orig(self, want_rot)
 
     M.Motion._fk = counting_fk
-    import mlayer.bvh
-    import mlayer.pipeline
-    mlayer.bvh.read_bvh = mlayer.read_bvh = counting_read
+    import mlayer.io.bvh
+    import mlayer.pipeline.pipeline
+    # every name the clip is read through (Clip.from_file imports read_bvh at its file's top)
+    mlayer.io.bvh.read_bvh = mlayer.read_bvh = mlayer.pipeline.pipeline.read_bvh = counting_read
     try:
         from mlayer.cli import main
         with open(os.devnull, "w") as null:
@@ -57,7 +58,7 @@ def python_passes(argv):
                 sys.stdout, sys.stderr = old
     finally:
         M.Motion._fk = orig
-        mlayer.bvh.read_bvh = mlayer.read_bvh = read
+        mlayer.io.bvh.read_bvh = mlayer.read_bvh = mlayer.pipeline.pipeline.read_bvh = read
     if rc != 0:
         raise SystemExit(f"mlayer {' '.join(argv)} failed ({rc})")
     return counts

@@ -56,9 +56,9 @@ HINGES = [("LeftUpperLeg", "LeftLowerLeg", "LeftFoot"),
 
 
 def smpl_skeleton() -> mlayer.Skeleton:
-    from mlayer import smpl
+    from mlayer.io import smpl
     names, parents, off = smpl.tree(False)
-    order = mlayer.motion.depth_first_order(parents, names)
+    order = mlayer.model.motion.depth_first_order(parents, names)
     inv = {int(o): k for k, o in enumerate(order)}
     return mlayer.Skeleton([names[o] for o in order],
                            [-1 if parents[o] < 0 else inv[parents[o]] for o in order],

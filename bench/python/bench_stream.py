@@ -16,8 +16,8 @@ import numpy as np
 
 import mlayer
 from benchutil import mocap_dir
-from mlayer.one_euro import OneEuroFilter
-from mlayer.stream import motion_channels
+from mlayer.layers.one_euro import OneEuroFilter
+from mlayer.pipeline.stream import motion_channels
 
 HERE = pathlib.Path(__file__).resolve()
 DEFAULT_MOCAP = mocap_dir()

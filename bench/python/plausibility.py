@@ -10,14 +10,14 @@ metrics cannot grade themselves.
 Definitions (all on world positions from forward kinematics; the output has the input's
 frames and skeleton):
 
-- Body height H: :func:`mlayer.metrics.body_height` of the input (median over frames of the
+- Body height H: :func:`mlayer.guards.metrics.body_height` of the input (median over frames of the
   joints' vertical extent, End Sites excluded). Vertical is the input's
   :attr:`mlayer.Motion.up_axis` (detected, or given to read_bvh), for the height, the floor
   and the penetration depths alike; :func:`up_axis` is this module's own estimate, shown by
   the bench beside it.
-- Limb chains: legs from :func:`mlayer.contacts.find_feet` (each ankle, the "foot" joints that
-  are not hands) and arms from joints named /hand|wrist/ that are not feet, each turned into
-  (upper, middle, end) by :func:`mlayer.ik.leg_chain` (the nearest ancestors at a non-zero
+- Limb chains: legs from :func:`mlayer.guards.contacts.find_feet` (each ankle, the "foot" joints
+  that are not hands) and arms from joints named /hand|wrist/ that are not feet, each turned into
+  (upper, middle, end) by :func:`mlayer.guards.ik.leg_chain` (the nearest ancestors at a non-zero
   distance: hip-knee-ankle, shoulder-elbow-wrist).
 - Flexion of a knee or elbow: the angle in degrees between the upper-limb vector
   (middle - upper) and the lower-limb vector (end - middle): 0 for a straight limb, 90 for a
@@ -65,7 +65,7 @@ from typing import Any
 import numpy as np
 
 import mlayer
-from mlayer import contacts as _contacts
+from mlayer.guards import contacts as _contacts
 from mlayer import ik as _ik
 
 HUMAN_LIMIT_DEG = 150.0
@@ -80,7 +80,7 @@ Chain = tuple[int, int, int]
 def up_axis(motion: Any) -> str:
     """'X', 'Y' or 'Z', with '-' when up is the negative direction: the dominant component of
     the median over frames of (mean position of the hips - mean position of the feet of
-    find_feet; hips from mlayer.ik.leg_chain): the hips are above the feet along the up axis
+    find_feet; hips from mlayer.guards.ik.leg_chain): the hips are above the feet along the up axis
     in every frame, while the horizontal components
     change sign with the heading. Without feet: the axis of the largest median extent of the
     joints over frames."""
@@ -354,7 +354,7 @@ def _qmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 def swing_twist_excess(limits: Any, rot: np.ndarray, alpha: float = 1.0) -> dict[str, float]:
     """Largest swing/twist excess (degrees) per joint over the ranges of ``limits``.
 
-    ``limits``: a :class:`mlayer.limits.JointLimits` (of the input); ``rot``: frames x
+    ``limits``: a :class:`mlayer.guards.limits.JointLimits` (of the input); ``rot``: frames x
     joints x 4 rotations of a motion on its skeleton; ``alpha``: the synthesis' alpha (the
     ranges marked ``widen`` grow with |alpha|). Returns {joint name: excess} for every
     swing-twist joint with a bone (see the module docstring).

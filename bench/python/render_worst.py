@@ -116,7 +116,7 @@ def worst_frames(m, un, gu, chains, feet, floor, H):
     fl = P.floor_report(m, un, feet, floor, H)
     if fl["worst"]:
         t, pn, d = fl["worst"]
-        yg = mlayer.contacts.contact_positions(gu, [pn])[t, 0, P._up_index(m)]
+        yg = mlayer.guards.contacts.contact_positions(gu, [pn])[t, 0, P._up_index(m)]
         jn = pn.split("/")[0]
         out.append(("floor", t, names.index(jn),
                     f"{pn} {d:.1f}% of height below the floor",

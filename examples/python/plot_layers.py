@@ -8,7 +8,7 @@ matplotlib Figure, so it can also be shown or edited; the backend is left alone.
 from __future__ import annotations
 
 import mlayer
-import mlayer.plot
+import mlayer.plotting.plot
 from _common import arguments
 
 
@@ -16,8 +16,8 @@ def main() -> None:
     args = arguments(__doc__.splitlines()[0])
     m = mlayer.read_bvh(args.input)
     layers = mlayer.decompose(m)
-    joint, axis = mlayer.plot.layer_choice(m, layers)
-    fig = mlayer.plot.plot_layers(m, layers, args.out / "layers.png")
+    joint, axis = mlayer.plotting.plot.layer_choice(m, layers)
+    fig = mlayer.plotting.plot.plot_layers(m, layers, args.out / "layers.png")
     layers.save_npz(args.out / "layers.npz")
     print(f"{len(fig.axes)} panels: the root's {'XYZ'[axis]} translation and {joint}; "
           f"base smoothing per joint (lam) {layers.lam.min():.3g} .. {layers.lam.max():.3g}")

@@ -6,42 +6,44 @@ along the first axis; quaternions are scalar-first (w, x, y, z).
 from __future__ import annotations
 
 import logging as _logging
+from types import ModuleType as _ModuleType
 
+from . import _moved
 from ._version import __version__, library_version
 from .errors import (Error, InvalidArgumentError, MlayerIOError, MlayerWarning, ParseError,
                      SingularMatrixError, UnsupportedError)
 from .errors import ParseWarning
 from .errors import MissingDependencyError
-from . import quat
-from .smoothing import LGS, have_cholmod, lgs
-from .motion import Motion, Skeleton
-from .bvh import read_bvh, read_bvh_string, write_bvh, write_bvh_string
-from . import metrics
-from .stream import Stream, stream_motion
-from . import ik
-from .contacts import detect_contacts
-from .cleanup import fix_contacts
-from .retiming import (resample, slerp_resample, timewarp, timewarp_map, timewarp_speed)
+from .model import quat
+from .layers.smoothing import LGS, have_cholmod, lgs
+from .model.motion import Motion, Skeleton
+from .io.bvh import read_bvh, read_bvh_string, write_bvh, write_bvh_string
+from .guards import metrics
+from .pipeline.stream import Stream, stream_motion
+from .guards import ik
+from .guards.contacts import detect_contacts
+from .guards.cleanup import fix_contacts
+from .pipeline.retiming import (resample, slerp_resample, timewarp, timewarp_map, timewarp_speed)
 from . import data
-from .layers import Layers, decompose, expmap_base, multires_stylize
-from .alpha_curve import AlphaCurve
-from .pipeline import GuardReport, Synthesis, denoise, stylize
-from .up_axis import UpGuess, detect_up
-from .trimming import LeadIn, lead_in, trim
-from .limits import JointLimits, joint_limits
-from .clustering import KMeansResult, elbow, kmeans
-from .som import SOM
-from .features import pose_features
+from .layers.layers import Layers, decompose, expmap_base, multires_stylize
+from .layers.alpha_curve import AlphaCurve
+from .pipeline.pipeline import GuardReport, Synthesis, denoise, stylize
+from .model.up_axis import UpGuess, detect_up
+from .model.trimming import LeadIn, lead_in, trim
+from .guards.limits import JointLimits, joint_limits
+from .manifold.clustering import KMeansResult, elbow, kmeans
+from .manifold.som import SOM
+from .manifold.features import pose_features
 from .batching import batch
-from .manifold import GRBF, PCA
-from .mixture import GaussianMixture, fuzzy_cmeans
-from .markov import Markov
-from .primitives import PrimitiveModel
-from .gltf import read_gltf, write_gltf
-from .amass import read_amass, write_amass
-from .mirror import mirror, mirror_pairs
-from .root_motion import RootTrack, apply_root_motion, extract_root_motion
-from .retarget import retarget, retarget_roles
+from .manifold.manifold import GRBF, PCA
+from .manifold.mixture import GaussianMixture, fuzzy_cmeans
+from .manifold.markov import Markov
+from .manifold.primitives import PrimitiveModel
+from .io.gltf import read_gltf, write_gltf
+from .io.amass import read_amass, write_amass
+from .model.mirroring import mirror, mirror_pairs
+from .model.root_motion import RootTrack, apply_root_motion, extract_root_motion
+from .pipeline.retarget import retarget, retarget_roles
 
 
 __all__ = ["__version__", "library_version", "Error", "InvalidArgumentError", "ParseError",
@@ -62,6 +64,18 @@ __all__ += ["read_amass", "write_amass"]
 __all__ += ["mirror", "mirror_pairs", "RootTrack", "extract_root_motion", "apply_root_motion"]
 __all__ += ["expmap_base", "multires_stylize"]
 __all__ += ["retarget", "retarget_roles"]
+
+
+
+def __getattr__(name: str) -> _ModuleType:
+    """``mlayer.contacts`` and the other module paths of before the subpackages (mlayer._moved),
+    with a DeprecationWarning."""
+    if f"mlayer.{name}" in _moved.MOVED:
+        return _moved.moved(f"mlayer.{name}")
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+_moved.install()
 
 # the library logs (the `mlayer` logger and its children) and never prints: nothing shows
 # until the application configures logging (the command line shows INFO on stderr)

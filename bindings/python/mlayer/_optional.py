@@ -12,8 +12,9 @@ every one of them):
 =============  ============================  ================================================
 extra          installs                      features
 =============  ============================  ================================================
-plot           matplotlib                    figures (mlayer.plot, the CLI's --plot options)
-render         Pillow                        GIF and PNG renders (mlayer.render)
+plot           matplotlib                    figures (mlayer.plotting.plot, the CLI's --plot
+                                             options)
+render         Pillow                        GIF and PNG renders (mlayer.plotting.render)
 video          imageio-ffmpeg, Pillow        MP4 renders
 batch          dask[distributed], crypto...  mlayer.batch on Dask (cryptography: the TLS of
                                              the embedded cluster)

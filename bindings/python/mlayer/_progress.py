@@ -5,7 +5,7 @@ package adds a NullHandler, so nothing shows unless the application configures l
 command line does) and draws progress bars with tqdm through :func:`progress_bar`.
 
 The ``progress=`` argument of the calls that take one (``mlayer.batch``,
-``mlayer.render.render``/``render_gif``, ``PrimitiveModel.fit``):
+``mlayer.plotting.render.render``/``render_gif``, ``PrimitiveModel.fit``):
 
 - ``None`` (the default): a bar on stderr when stderr is a terminal and tqdm is installed;
   nothing otherwise;
@@ -44,7 +44,7 @@ class Bar(Protocol):
 #: ``make(total, desc="", unit="it") -> Bar``
 BarFactory = Callable[..., Bar]
 
-#: the package's logger (children: ``mlayer.primitives``, ``mlayer.batch``, ...)
+#: the package's logger (children: ``mlayer.manifold.primitives``, ``mlayer.batch``, ...)
 logger = logging.getLogger("mlayer")
 
 

@@ -1,6 +1,6 @@
 """An independent glTF 2.0 evaluator for the tests: node world positions at given times.
 
-Written from the glTF 2.0 specification, separately from mlayer.gltf (it shares no code with
+Written from the glTF 2.0 specification, separately from mlayer.io.gltf (it shares no code with
 it and uses only numpy): GLB / JSON containers, data: URIs and files beside the .gltf,
 accessors with strides, sparse substitution and normalized integers, TRS and matrix nodes,
 animation samplers (LINEAR with slerp for rotations, STEP, CUBICSPLINE), and world transforms

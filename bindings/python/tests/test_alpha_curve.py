@@ -10,7 +10,7 @@ import pytest
 
 import mlayer
 from mlayer import AlphaCurve
-from mlayer.pipeline import guard_alphas
+from mlayer.pipeline.pipeline import guard_alphas
 
 
 @pytest.fixture(scope="module")

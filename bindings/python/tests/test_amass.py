@@ -8,7 +8,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 import mlayer
-from mlayer import smpl
+from mlayer.io import smpl
 
 RNG = np.random.default_rng(20261202)
 
@@ -409,11 +409,11 @@ def test_large_trees_in_linear_time():
     J = 40000
     parents = np.concatenate([[-1], np.arange(19999), np.zeros(20000, dtype=np.int64)])
     t0 = time.perf_counter()
-    order = mlayer.motion.depth_first_order(parents)
+    order = mlayer.model.motion.depth_first_order(parents)
     assert np.array_equal(order, np.arange(J))
     # the same tree listed backwards (every parent after its children) is reordered
     rev = np.where(parents[::-1] < 0, -1, J - 1 - parents[::-1])
-    order = mlayer.motion.depth_first_order(rev)
+    order = mlayer.model.motion.depth_first_order(rev)
     assert order[0] == J - 1 and np.array_equal(np.sort(order), np.arange(J))
     assert time.perf_counter() - t0 < 5.0
 

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import mlayer
-from mlayer.layers import frequency_bands
+from mlayer.layers.layers import frequency_bands
 from conftest import reference
 
 Rotation = reference("scipy.spatial.transform", "scipy").Rotation
@@ -130,7 +130,7 @@ def test_multires_stylize_against_scipy_and_dense_bands(walk):
 def test_multires_at_matched_gain_is_close_to_the_layers():
     """Paper 1, Figure 7 on the bundled walk: the two exaggerations differ by much less than
     either differs from the input (docs/layers.md quotes the figures)."""
-    from mlayer.metrics import body_height
+    from mlayer.guards.metrics import body_height
     m = mlayer.data.load_sample()
     h = body_height(m)
     styl = mlayer.decompose(m).synthesize(2.0).positions()

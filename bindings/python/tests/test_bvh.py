@@ -435,7 +435,7 @@ def test_lenient_reading_warns_with_file_and_line(name, text, n, kinds, tmp_path
     else:
         with pytest.raises(mlayer.ParseError):
             mlayer.read_bvh(f, strict=True)
-        with mlayer.bvh.strict_reading(), pytest.raises(mlayer.ParseError):
+        with mlayer.io.bvh.strict_reading(), pytest.raises(mlayer.ParseError):
             mlayer.read_bvh(f)
 
 

@@ -1,17 +1,17 @@
-"""mlayer.cleanup (mlr_cleanup.h): the wrapper against a direct cffi call on a real clip, the
-floor height against numpy's quantile, argument errors, and denoise on the shared clips: the
+"""mlayer.guards.cleanup (mlr_cleanup.h): the wrapper against a direct cffi call on a real clip,
+the floor height against numpy's quantile, argument errors, and denoise on the shared clips: the
 cleanup and the floor move joints by at most 0.5% of body height."""
 import numpy as np
 import pytest
 
 import mlayer
 from conftest import SHARED_CLIPS
-from mlayer import cleanup
+from mlayer.guards import cleanup
 from mlayer._native import ffi, lib
-from mlayer._rig import c_rig
-from mlayer.contacts import _point, detect_contacts
+from mlayer.model._rig import c_rig
+from mlayer.guards.contacts import _point, detect_contacts
 from mlayer.errors import InvalidArgumentError
-from mlayer.metrics import body_height
+from mlayer.guards.metrics import body_height
 
 CLIPS = SHARED_CLIPS
 
@@ -124,7 +124,7 @@ def test_denoise_changes_only_what_slides(mocap, name):
     in all than the input's (path lengths, which at 120 fps are mostly capture noise); now by
     at most 0.73%, and the denoised feet's path is at most 1.08x the input's (CMU 01_01: 1.074x,
     the dog 1.024x, CMU 131_01 1.010x; 0.998-1.0x before)."""
-    from mlayer.metrics import foot_sliding
+    from mlayer.guards.metrics import foot_sliding
     path = mocap / name
     if not path.exists():
         pytest.skip(f"{name} absent")

@@ -3,8 +3,8 @@ import numpy as np
 import pytest
 
 import mlayer
-from mlayer import contacts as C
-from mlayer.metrics import body_height, foot_sliding, jitter
+from mlayer.guards import contacts as C
+from mlayer.guards.metrics import body_height, foot_sliding, jitter
 
 WALKS = ["cmu_131_01_mj_style_walk.bvh", "bandai1_walk_happy_001.bvh", "lafan1_clip_a.bvh",
          "ai4a_dog_D1_008_KAN01_002.bvh"]
@@ -84,7 +84,7 @@ def test_stylize_keeps_contacts(mocap, name):
     assert _jumps(fixed, names) <= 1.5 * _jumps(raw, names), body_height(m)
     # bone lengths unchanged (not the "bone" from a static root to the joint that carries the
     # body translation, Bandai's joint_Root -> Hips: stylize scales that path)
-    from mlayer.layers import body_translation_joint
+    from mlayer.layers.layers import body_translation_joint
     p0, p1 = m.positions(), fixed.positions()
     kids = np.array([j for j in range(1, m.n_joints) if j != body_translation_joint(m)])
     par = m.parents[kids]
@@ -171,7 +171,7 @@ def test_no_feet_message():
     with pytest.raises(mlayer.InvalidArgumentError, match=r"no feet found.*joints=.*root, a, b"):
         mlayer.detect_contacts(m)
     # stylize's default cleanup leaves such skeletons alone
-    assert mlayer.cleanup.keep_contacts(m, m) is m
+    assert mlayer.guards.cleanup.keep_contacts(m, m) is m
 
 
 def test_bad_input(mocap):
@@ -471,7 +471,7 @@ def test_feet_found_by_geometry_where_no_name_says_foot(mocap):
     names = [f"j{k}" for k in range(m.n_joints)]
     anon = mlayer.Motion.from_arrays(names, m.skeleton.parents, m.skeleton.offsets, m.root_pos,
                                      m.rot, fps=m.fps)
-    feet = mlayer.contacts.find_feet(anon)
+    feet = mlayer.guards.contacts.find_feet(anon)
     assert sorted(a for a, _ in feet) == sorted(
         names[m.joint_names.index(n)] for n in ("LeftFoot", "RightFoot"))
     with warnings.catch_warnings():

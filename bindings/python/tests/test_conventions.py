@@ -58,7 +58,7 @@ def test_library_code_does_not_print():
 
 @requires("render", "progress")
 def test_progress_switch(tmp_path, capsys):
-    from mlayer.render import render_gif
+    from mlayer.plotting.render import render_gif
     m = mlayer.data.load_sample()[:60]
     # default: a bar only when stderr is a terminal (it is captured here: none)
     n = render_gif([m], tmp_path / "a.gif", fps=10)
@@ -84,7 +84,7 @@ def test_progress_switch(tmp_path, capsys):
 
 @requires("render", "progress")
 def test_progress_default_on_a_terminal(tmp_path, monkeypatch):
-    from mlayer.render import render_gif
+    from mlayer.plotting.render import render_gif
 
     class Terminal(io.StringIO):
         def isatty(self):
@@ -100,7 +100,7 @@ def test_fit_logs_its_steps_and_prints_nothing(caplog, capsys):
     with caplog.at_level(logging.INFO, logger="mlayer"):
         mlayer.PrimitiveModel.fit(m, k=3, som=(6, 6), lattice=(3, 3), epochs=5)
     assert capsys.readouterr() == ("", "")
-    msgs = [r.getMessage() for r in caplog.records if r.name == "mlayer.primitives"]
+    msgs = [r.getMessage() for r in caplog.records if r.name == "mlayer.manifold.primitives"]
     assert any(s.startswith("features: 1 clip(s), 240 frames") for s in msgs), msgs
     assert any(s.startswith("GRBF: thin_plate, 3x3 centres") for s in msgs), msgs
     assert all(r.levelno == logging.INFO for r in caplog.records if r.name.startswith("mlayer"))
@@ -135,8 +135,9 @@ _FIGURES = textwrap.dedent("""
     import numpy as np
     import mlayer
     from matplotlib.figure import Figure
-    from mlayer.plot import (plot_contacts, plot_elbow, plot_layers, plot_resample_variance,
-                             plot_som, plot_stream, plot_timewarp, plot_transitions)
+    from mlayer.plotting.plot import (plot_contacts, plot_elbow, plot_layers,
+                                      plot_resample_variance, plot_som, plot_stream, plot_timewarp,
+                                      plot_transitions)
     m = mlayer.data.load_sample()[:120]
     figs = [plot_layers(m, mlayer.decompose(m))]
     names, c = mlayer.detect_contacts(m)
@@ -169,7 +170,7 @@ def test_figures_are_returned_and_leave_the_backend_alone(tmp_path):
 
 @requires("plot")
 def test_plot_layers_writes_only_when_given_a_path(tmp_path):
-    from mlayer.plot import layer_choice, plot_layers
+    from mlayer.plotting.plot import layer_choice, plot_layers
     m = mlayer.data.load_sample()[:120]
     L = mlayer.decompose(m)
     fig = plot_layers(m, L, tmp_path / "l.svg", joint="LeftKnee")
@@ -259,7 +260,7 @@ def test_render_writes_what_the_extension_says(tmp_path, capsys, walk_1s):
 
 
 def test_render_refuses_other_extensions_before_any_work(tmp_path):
-    from mlayer.render import render
+    from mlayer.plotting.render import render
     m = mlayer.data.load_sample()[:30]
     for name in ("x.avi", "x.webm", "noext"):
         with pytest.raises(mlayer.InvalidArgumentError, match="ending in .gif, .mp4 or .png"):

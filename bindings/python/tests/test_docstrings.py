@@ -255,9 +255,10 @@ def entries() -> list[Entry]:
 def test_the_walk_finds_the_api(entries: list[Entry]) -> None:
     names = {e.name for e in entries}
     # a few that must be there, so that an empty or broken walk cannot pass
-    for expected in ("mlayer.bvh.read_bvh", "mlayer.motion.Motion",
-                     "mlayer.motion.Motion.positions", "mlayer.quat.mul", "mlayer.errors.check",
-                     "mlayer.layers.decompose"):
+    for expected in ("mlayer.io.bvh.read_bvh", "mlayer.model.motion.Motion",
+                     "mlayer.model.motion.Motion.positions", "mlayer.model.quat.mul",
+                     "mlayer.errors.check",
+                     "mlayer.layers.layers.decompose"):
         assert expected in names
     assert len(entries) > 150
 

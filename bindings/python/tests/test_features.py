@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import mlayer
-from mlayer.features import heading
+from mlayer.manifold.features import heading
 
 
 def yaw_quat(theta):

@@ -5,11 +5,11 @@ import numpy as np
 import pytest
 
 import mlayer
-from mlayer.contacts import contact_positions
+from mlayer.guards.contacts import contact_positions
 from mlayer.errors import InvalidArgumentError
-from mlayer.generate_guards import clean_contacts, contacts_along, split_drifting
-from mlayer.metrics import body_height, foot_sliding
-from mlayer.plausibility import hinge_violations
+from mlayer.manifold.generate_guards import clean_contacts, contacts_along, split_drifting
+from mlayer.guards.metrics import body_height, foot_sliding
+from mlayer.guards.plausibility import hinge_violations
 
 # (clip, frames used, fit options): the walks among the shared clips
 WALKS = [
@@ -29,7 +29,7 @@ STARTS = [(10, 1), (30, 4), (100, 5)]
 
 
 def _fit(mocap, clip, frames, opts):
-    from mlayer.primitives import PrimitiveModel
+    from mlayer.manifold.primitives import PrimitiveModel
     m = mlayer.read_bvh(mocap / clip)
     if frames:
         m = m[:frames]
@@ -59,7 +59,7 @@ def test_generated_walks_do_not_skate(walks, clip):
         # the generated walk touches the ground about as often as the training clip does
         assert 0.2 < c.mean() < 0.95, c.mean()
         rep = info["guards"]
-        assert isinstance(rep, mlayer.pipeline.GuardReport) and rep.limits_applied
+        assert isinstance(rep, mlayer.pipeline.pipeline.GuardReport) and rep.limits_applied
         assert rep.contact_frames > 100 and rep.floor_height == model.floor_height
         # sliding with the generated motion's contacts: at most 1.5x the training clip's
         # (measured: raw 1.5-21x, guarded 0-0.7x)
@@ -74,7 +74,7 @@ def test_generated_walks_do_not_skate(walks, clip):
         assert low.min() >= model.floor_height - 0.005 * h, (low.min(), model.floor_height)
         # the guards change rotations and the body translation only: bones keep their lengths
         # (the body translation is the root's, or the body joint's under a static root)
-        body = mlayer.layers.body_translation_joint(raw)
+        body = mlayer.layers.layers.body_translation_joint(raw)
         kept = [k for k, j in enumerate(raw.skeleton.trans_joints) if j != body]
         np.testing.assert_array_equal(out.trans[:, kept], raw.trans[:, kept])
         if body != 0:
@@ -195,7 +195,7 @@ def test_cli_generate_no_guards(mocap, tmp_path, capsys):
     assert main(["generate", str(model), "--frames", "120", "--start-frame", "5",
                  "--no-guards", "-o", str(b)]) == 0
     assert "guards:" not in capsys.readouterr().out
-    m = mlayer.primitives.PrimitiveModel.load(model)
+    m = mlayer.manifold.primitives.PrimitiveModel.load(model)
     raw = m.generate(120, start_frame=5, guards=False)
     np.testing.assert_allclose(mlayer.read_bvh(b).positions(), raw.positions(), atol=1e-3)
     assert np.abs(mlayer.read_bvh(a).positions() - raw.positions()).max() > 1e-2

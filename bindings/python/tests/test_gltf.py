@@ -30,9 +30,9 @@ import numpy as np
 import pytest
 
 import mlayer
-import mlayer.gltf as G
+import mlayer.io.gltf as G
 from mlayer import quat
-from mlayer.units import UNITS
+from mlayer.model.units import UNITS
 from conftest import SHARED_CLIPS, REPO
 
 import gltf_eval as E
@@ -204,7 +204,7 @@ def test_real_zup_clip(tmp_path):
     assert m.up_axis == "z"
     mlayer.write_gltf(m, tmp_path / "w.glb", units="m")
     _, got = _file_positions(tmp_path / "w.glb", m.n_joints)
-    want = mlayer.up_axis.to_y_up("z", m.positions())
+    want = mlayer.model.up_axis.to_y_up("z", m.positions())
     assert np.abs(got - want).max() <= 1e-6 * _size(want)
     ext = np.ptp(got, axis=1).mean(axis=0)  # the body's extent along x, y, z
     assert ext[1] > 2 * max(ext[0], ext[2])  # standing along Y

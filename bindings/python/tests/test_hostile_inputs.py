@@ -141,8 +141,11 @@ def _clip(n=40):
 
 def _motion_calls(tmp):
     import mlayer
-    from mlayer import cleanup, contacts, features, generate_guards, layers, limits, metrics
-    from mlayer import plausibility
+    from mlayer import metrics
+    from mlayer.guards import cleanup, contacts, limits
+    from mlayer.manifold import features, generate_guards
+    from mlayer.layers import layers
+    from mlayer.guards import plausibility
     feet = ["LeftFoot", "RightFoot"]
     return [
         ("positions", lambda m: m.positions()),
@@ -287,7 +290,7 @@ def _group_layers(ch, rng, tmp):
     attrs = ["motion", "body_joint", "base", "control", "residual", "lam", "sigma", "base_s",
              "base_max_angle", "lam_c", "sigma_c", "control_s", "control_gcv", "control_dof"]
     _hostile_object(ch, rng, lambda: mlayer.Layers(m, L0._h, {
-        n: np.array(getattr(L0, n)) for n in mlayer.layers._PARAMS}, L0.body_joint),
+        n: np.array(getattr(L0, n)) for n in mlayer.layers.layers._PARAMS}, L0.body_joint),
         attrs, calls, k=5)
     # the motion the layers keep, edited afterwards
     for attr in ("root_pos", "rot", "trans"):

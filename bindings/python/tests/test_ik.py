@@ -19,7 +19,7 @@ def _leg(rng, n):
 
 
 def _apply(hip, knee, end, r_hip, r_knee):
-    from mlayer.ik import _rotate
+    from mlayer.guards.ik import _rotate
     c1 = knee + _rotate(r_knee, end - knee)
     return hip + _rotate(r_hip, knee - hip), hip + _rotate(r_hip, c1 - hip)
 
@@ -60,7 +60,7 @@ def test_from_to(rng):
     u, v = rng.normal(size=(300, 3)), rng.normal(size=(300, 3))
     u[0], v[0] = [1, 0, 0], [-1, 0, 0]  # opposite
     q = ik.from_to(u, v)
-    from mlayer.ik import _rotate
+    from mlayer.guards.ik import _rotate
     r = _rotate(q, u / np.linalg.norm(u, axis=1, keepdims=True))
     np.testing.assert_allclose(r, v / np.linalg.norm(v, axis=1, keepdims=True), atol=1e-12)
 

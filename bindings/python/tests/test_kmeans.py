@@ -5,7 +5,7 @@ import pytest
 
 import mlayer
 from conftest import reference, requires
-from mlayer.clustering import elbow_point, predict
+from mlayer.manifold.clustering import elbow_point, predict
 
 sklearn_cluster = reference("sklearn.cluster", "scikit-learn")
 

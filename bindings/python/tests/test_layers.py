@@ -8,7 +8,7 @@ from scipy.spatial.transform import Rotation
 
 import mlayer
 from mlayer import quat
-from mlayer.layers import base_s_max, body_translation
+from mlayer.layers.layers import base_s_max, body_translation
 
 CLIPS = ["cmu_01_01_playground_jumps", "cmu_131_01_mj_style_walk", "cmu_10_01_soccer_kick",
          "cmu_60_10_salsa_dance", "cmu_02_03_run_jog_25fps", "lafan1_clip_a",
@@ -252,7 +252,7 @@ def bandai(mocap):
 
 
 def test_body_translation_joint_on_the_clips(mocap, bandai):
-    from mlayer.layers import body_translation_joint
+    from mlayer.layers.layers import body_translation_joint
     hips = bandai.joint_names.index("Hips")
     assert hips != 0 and body_translation_joint(bandai) == hips
     assert mlayer.decompose(bandai).body_joint == hips

@@ -8,8 +8,8 @@ import pytest
 
 import mlayer
 from conftest import REPO, SHARED_CLIPS
-from mlayer import plausibility as pl
-from mlayer.limits import apply_limits
+from mlayer.guards import plausibility as pl
+from mlayer.guards.limits import apply_limits
 
 CLIPS = SHARED_CLIPS
 

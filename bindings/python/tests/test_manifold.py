@@ -195,7 +195,7 @@ def test_grbf_square_interpolates_and_matches_scipy(rng):
     interp = reference("scipy.interpolate", "scipy")
     lat = (7, 9)
     bounds = ((0.0, 5.0), (-1.0, 4.0))
-    C = mlayer.manifold.lattice_points(lat, bounds)
+    C = mlayer.manifold.manifold.lattice_points(lat, bounds)
     Y = smooth_fn(C)
     g = GRBF("thin_plate", lat, bounds=bounds).fit(C, Y)
     np.testing.assert_allclose(g.predict(C), Y, atol=1e-9)
@@ -256,7 +256,7 @@ def test_grbf_lattice_split_matches_whole_system(rng, monkeypatch, lat, kernel):
     orig = GRBF._fit_lattice_c
     monkeypatch.setattr(GRBF, "_fit_lattice_c", lambda self, Y: calls.append(1) or orig(self, Y))
     bounds = ((-1.0, 3.0), (0.5, 2.0))
-    C = mlayer.manifold.lattice_points(lat, bounds)
+    C = mlayer.manifold.manifold.lattice_points(lat, bounds)
     Y = np.hstack([smooth_fn(C), rng.normal(size=(C.shape[0], 2))])
     g = GRBF(kernel, lat, bounds=bounds).fit(C, Y)
     assert calls == [1]
@@ -280,7 +280,7 @@ def test_grbf_bench_case_matches_scipy(rng):
     # linear terms, interpolating; scipy's RBFInterpolator solves the whole system by LU
     interp = reference("scipy.interpolate", "scipy")
     bounds = ((0.0, 64.0), (0.0, 64.0))
-    C = mlayer.manifold.lattice_points((40, 50), bounds)
+    C = mlayer.manifold.manifold.lattice_points((40, 50), bounds)
     f = rng.normal(scale=0.08, size=(2, 93))
     ph = rng.uniform(0, 2 * np.pi, size=93)
     amp = rng.uniform(1, 20, size=93)
@@ -363,7 +363,7 @@ def test_bad_input_messages(rng):
 
 @pytest.fixture(scope="module")
 def walk_model(mocap):
-    from mlayer.primitives import PrimitiveModel
+    from mlayer.manifold.primitives import PrimitiveModel
     m = mlayer.read_bvh(mocap / "cmu_131_01_mj_style_walk.bvh")
     return m, PrimitiveModel.fit([m], som=(12, 12), epochs=8, lattice=(8, 8), k="auto",
                                  ks=range(2, 9))
@@ -394,7 +394,7 @@ def test_model_fit_generate_roundtrip(walk_model, tmp_path):
     # inverse mapping of training frames: their own manifold points
     np.testing.assert_array_equal(model.to_manifold(m[:50]), model.points[:50])
     # key poses: the path passes through their manifold points
-    keys = mlayer.features.pose_features(m)[[100, 400, 800]]
+    keys = mlayer.manifold.features.pose_features(m)[[100, 400, 800]]
     kout, kinfo = model.generate(90, key_poses=keys, return_info=True)
     assert kout.n_frames == 90
     np.testing.assert_allclose(kinfo["trajectory"][[0, 45, 89]].round(),
@@ -442,7 +442,7 @@ def test_cli_primitives_generate(mocap, tmp_path, capsys):
 def test_generated_bandai_walk_moves_its_hips(mocap, tmp_path):
     # Bandai: a static joint_Root, the walk in the Hips channels. The model drives Hips (its
     # height, velocity and heading), so the generated hips walk at the training speed
-    from mlayer.primitives import PrimitiveModel
+    from mlayer.manifold.primitives import PrimitiveModel
     b = mlayer.read_bvh(mocap / "bandai1_walk_happy_001.bvh")
     hips = b.joint_names.index("Hips")
     model = PrimitiveModel.fit([b], som=(8, 8), epochs=8, lattice=(6, 6), k="auto",

@@ -7,12 +7,12 @@ import pytest
 
 import mlayer
 from mlayer import InvalidArgumentError, Markov
-from mlayer.markov import UNSEEN_MASS, best_order, heldout_loglik
+from mlayer.manifold.markov import UNSEEN_MASS, best_order, heldout_loglik
 
 
 @pytest.fixture(scope="module")
 def dog_labels(mocap):
-    from mlayer.primitives import PrimitiveModel
+    from mlayer.manifold.primitives import PrimitiveModel
     path = mocap / "ai4a_dog_D1_008_KAN01_002.bvh"
     if not path.exists():
         pytest.skip("dog clip not found")
@@ -158,7 +158,7 @@ def test_backoff_uses_long_contexts_only_where_seen_often():
 
 
 def test_held_out_log_likelihood_on_the_shared_clips(mocap):
-    from mlayer.primitives import PrimitiveModel
+    from mlayer.manifold.primitives import PrimitiveModel
     for name, frames in (("cmu_131_01_mj_style_walk.bvh", None), ("lafan1_clip_a.bvh", 1200),
                          ("bandai1_walk_happy_001.bvh", None),
                          ("ai4a_dog_D1_008_KAN01_002.bvh", None)):

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import mlayer
-from mlayer.markov import Markov, Rng
+from mlayer.manifold.markov import Markov, Rng
 
 M64 = (1 << 64) - 1
 

@@ -57,7 +57,7 @@ def test_jitter_hand_made():
 
 
 def test_units_are_guessed_from_the_body_height_or_given(mocap):
-    from mlayer.units import length_unit
+    from mlayer.model.units import length_unit
     assert length_unit(1.7) == "m" and length_unit(170.0) == "cm" and length_unit(1700.0) == "mm"
     assert length_unit(24.0) is None and length_unit(0.01) is None  # CMU's ~24 units: unclear
     lafan = mlayer.read_bvh(mocap / "lafan1_clip_a.bvh")
@@ -66,7 +66,7 @@ def test_units_are_guessed_from_the_body_height_or_given(mocap):
     assert cmu.units is None and cmu.metres_per_unit is None
     cmu = mlayer.read_bvh(mocap / "cmu_131_01_mj_style_walk.bvh", units="IN")
     assert cmu.units == "in" and cmu[3:9].units == "in" and cmu.copy().metres_per_unit == 0.0254
-    with mlayer.bvh.reading_units("ft"):
+    with mlayer.io.bvh.reading_units("ft"):
         assert mlayer.read_bvh(mocap / "lafan1_clip_a.bvh").units == "ft"
     for bad in ("furlong", 1.0, True):
         with pytest.raises(mlayer.InvalidArgumentError, match="units must be one of"):
@@ -76,7 +76,7 @@ def test_units_are_guessed_from_the_body_height_or_given(mocap):
 def test_inches_are_guessed_where_only_they_give_a_person(mocap):
     """Issue 38, item 5: clips in inches were taken as centimetres (people 0.53-0.59 m tall);
     a character at an odd scale was called millimetres (0.35 m)."""
-    from mlayer.units import human_leg_length, length_unit
+    from mlayer.model.units import human_leg_length, length_unit
     assert length_unit(53.6, leg=32.3) == "in"      # PyMO's optical walk
     assert length_unit(5.3, leg=2.7) == "ft"
     assert length_unit(154.3, leg=85.9) == "cm"     # LaFAN1

@@ -9,7 +9,7 @@ import pytest
 
 import mlayer
 from mlayer.cli import main
-from mlayer.mirror import mirror_plane
+from mlayer.model.mirroring import mirror_plane
 from conftest import SHARED_CLIPS
 
 _CACHE: dict = {}

@@ -62,7 +62,8 @@ def test_from_arrays_defaults(rng):
     m = Motion.from_arrays(["a", "b", "c"], [-1, 0, 1], np.eye(3), np.zeros((N, 3)),
                            random_quats(rng, (N, 3)))
     assert m.fps == pytest.approx(30.0) and m.n_frames == N == len(m) and m.n_joints == 3
-    root_ch, joint_ch = mlayer.motion.DEFAULT_ROOT_CHANNELS, mlayer.motion.DEFAULT_JOINT_CHANNELS
+    M = mlayer.model.motion
+    root_ch, joint_ch = M.DEFAULT_ROOT_CHANNELS, M.DEFAULT_JOINT_CHANNELS
     assert m.channels == (root_ch, joint_ch, joint_ch)
     assert m.euler_orders == ("ZYX",) * 3
     assert m.trans.shape == (N, 0, 3) and m.trans_joints.shape == (0,)

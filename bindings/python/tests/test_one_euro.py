@@ -1,4 +1,4 @@
-"""mlayer.one_euro: the One Euro filter against a scalar transcription of the paper's
+"""mlayer.layers.one_euro: the One Euro filter against a scalar transcription of the paper's
 Algorithm 1, and against scipy's one-pole filter for beta = 0."""
 import math
 
@@ -7,7 +7,7 @@ import pytest
 from scipy.signal import lfilter
 
 import mlayer
-from mlayer.one_euro import OneEuroFilter, one_euro
+from mlayer.layers.one_euro import OneEuroFilter, one_euro
 
 
 def scalar_reference(x, rate, min_cutoff, beta, d_cutoff):

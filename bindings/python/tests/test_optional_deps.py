@@ -44,7 +44,7 @@ def test_require_names_the_extra(monkeypatch):
 
 
 def test_plot_layers_without_matplotlib(monkeypatch, tmp_path):
-    from mlayer.plot import plot_layers
+    from mlayer.plotting.plot import plot_layers
     m = mlayer.data.load_sample()[:60]
     layers = mlayer.decompose(m)
     hide(monkeypatch, "matplotlib")
@@ -59,7 +59,7 @@ def test_plot_layers_without_matplotlib(monkeypatch, tmp_path):
 
 
 def test_render_without_pillow(monkeypatch, tmp_path):
-    from mlayer.render import render, render_gif
+    from mlayer.plotting.render import render, render_gif
     m = mlayer.data.load_sample()[:30]
     hide(monkeypatch, "PIL")
     for call in (lambda: render_gif([m], tmp_path / "x.gif"),
@@ -72,7 +72,7 @@ def test_render_without_pillow(monkeypatch, tmp_path):
 
 @requires("render")  # (an MP4 needs Pillow too, which is checked first)
 def test_render_mp4_without_ffmpeg(monkeypatch, tmp_path):
-    from mlayer.render import render
+    from mlayer.plotting.render import render
     m = mlayer.data.load_sample()[:30]
     hide(monkeypatch, "imageio_ffmpeg")
     with pytest.raises(ImportError) as e:
@@ -119,7 +119,7 @@ def test_progress_true_without_tqdm(monkeypatch):
 
 @requires("render")
 def test_render_progress_true_without_tqdm(monkeypatch, tmp_path):
-    from mlayer.render import render_gif
+    from mlayer.plotting.render import render_gif
     m = mlayer.data.load_sample()[:30]
     hide(monkeypatch, "tqdm")
     with pytest.raises(ImportError) as e:

@@ -1,5 +1,5 @@
-"""The synthesis pipeline (mlayer.pipeline): the C defaults give the Python API's motion, the
-guards keep stylized real clips within what a body does, and bad switches are refused."""
+"""The synthesis pipeline (mlayer.pipeline.pipeline): the C defaults give the Python API's motion,
+the guards keep stylized real clips within what a body does, and bad switches are refused."""
 import math
 import warnings
 
@@ -8,10 +8,11 @@ import pytest
 
 import mlayer
 from conftest import REPO, SHARED_CLIPS
-from mlayer import _arrays, plausibility as pl
+from mlayer import _arrays
+from mlayer.guards import plausibility as pl
 from mlayer._native import ffi, lib
-from mlayer._rig import c_rig
-from mlayer.metrics import body_height
+from mlayer.model._rig import c_rig
+from mlayer.guards.metrics import body_height
 
 CLIPS = SHARED_CLIPS
 
@@ -109,7 +110,7 @@ def test_stylized_feet_slide_at_most_the_inputs(mocap, name, alpha):
     input's on the input's contacts. The last limits pass leaves the hinges IK put within
     their range as they are (LaFAN1 at alpha 3 slid 1.09x the input's when that pass also
     softened the straight stance knees within the reversal margin)."""
-    from mlayer.metrics import foot_sliding
+    from mlayer.guards.metrics import foot_sliding
     m = _read(mocap, name)
     names, c = mlayer.detect_contacts(m)
     out = mlayer.stylize(m, alpha)
@@ -195,7 +196,7 @@ def test_nan_alpha_is_refused(mocap):
 
 def _count_fk(monkeypatch, inputs):
     """Count Motion._fk passes: (over the given motions' frames, over anything else)."""
-    from mlayer import motion as M
+    from mlayer.model import motion as M
     counts = {"input": 0, "other": 0}
     orig = M.Motion._fk
 
@@ -213,7 +214,7 @@ def test_a_clip_computes_the_input_fk_once(mocap, monkeypatch):
     the results are those of the separate functions."""
     m = _read(mocap, "lafan1_clip_a.bvh", 600)
     counts = _count_fk(monkeypatch, [m])
-    clip = mlayer.pipeline.Clip(m)
+    clip = mlayer.pipeline.pipeline.Clip(m)
     out, rep = clip.stylize(2.0)
     den, _ = clip.denoise()
     figures = (clip.up, clip.body_height, clip.jitter(), clip.foot_sliding())

@@ -17,10 +17,10 @@ import mlayer
 from conftest import REPO, mocap_dir
 from mlayer import _arrays
 from mlayer._native import ffi, lib
-from mlayer._rig import c_rig
+from mlayer.model._rig import c_rig
 from mlayer.errors import check
-from mlayer.layers import body_translation_joint
-from mlayer.metrics import body_height
+from mlayer.layers.layers import body_translation_joint
+from mlayer.guards.metrics import body_height
 
 SHARED = ["cmu_131_01_mj_style_walk.bvh", "bandai1_walk_happy_001.bvh",
           "cmu_01_01_playground_jumps.bvh", "cmu_10_01_soccer_kick.bvh",
@@ -175,7 +175,7 @@ def test_trim_up_and_switches_as_the_python_options():
     if not p.is_file():
         pytest.skip(f"shared clip not found: {p}")
     full = mlayer.read_bvh(p)[:400]
-    trimmed = mlayer.trimming.trim(full, "auto")
+    trimmed = mlayer.model.trimming.trim(full, "auto")
     assert trimmed.n_frames == full.n_frames - 1
     h = body_height(trimmed)
     py = mlayer.stylize(trimmed, 2.0)

@@ -1,4 +1,4 @@
-"""The public figure functions of mlayer.plot (every figure the command line draws): each
+"""The public figure functions of mlayer.plotting.plot (every figure the command line draws): each
 returns a matplotlib Figure with the axes it documents, writes it to ``path`` when given, and
 refuses inputs it cannot draw with one line."""
 import numpy as np
@@ -10,7 +10,7 @@ need("plot")
 
 import mlayer  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
-from mlayer import plot  # noqa: E402
+from mlayer.plotting import plot  # noqa: E402
 
 
 @pytest.fixture(scope="module")
@@ -42,7 +42,8 @@ def test_plot_contacts(clip, tmp_path):
     assert [t.get_text() for t in ax.get_yticklabels()] == list(names)
     assert ax.get_xlim() == pytest.approx((0, clip.n_frames / clip.fps))
     # one bar per contact interval
-    n_intervals = sum(len(mlayer.contacts.contact_intervals(c[:, i])) for i in range(len(names)))
+    intervals = mlayer.guards.contacts.contact_intervals
+    n_intervals = sum(len(intervals(c[:, i])) for i in range(len(names)))
     assert sum(len(coll.get_paths()) for coll in ax.collections) == n_intervals
     assert (tmp_path / "c.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     with pytest.raises(mlayer.InvalidArgumentError, match="contacts must be"):
@@ -73,7 +74,7 @@ def test_plot_timewarp(clip):
 
 def test_plot_stream(clip):
     m = clip[:40]
-    y = mlayer.stream.motion_channels(m)
+    y = mlayer.pipeline.stream.motion_channels(m)
     fig = plot.plot_stream(m, y, y, y + 0.01, y - 0.02, joint=1, component=2, lag=3, lam=1.0,
                            sigma=1.0, cutoff=2.0, beta=0.0)
     assert isinstance(fig, Figure) and len(fig.axes) == 2

@@ -10,8 +10,8 @@ import pytest
 import mlayer
 from conftest import requires
 from mlayer import InvalidArgumentError, MlayerWarning, PrimitiveModel
-from mlayer.metrics import body_height
-from mlayer.primitives import MIN_FRAMES, default_lattices
+from mlayer.guards.metrics import body_height
+from mlayer.manifold.primitives import MIN_FRAMES, default_lattices
 
 
 def _clip(mocap, name, *, trim="auto"):

@@ -7,7 +7,7 @@ import pytest
 import mlayer
 from conftest import reference
 from mlayer import InvalidArgumentError, PrimitiveModel
-from mlayer.clustering import elbow_point, silhouette_score
+from mlayer.manifold.clustering import elbow_point, silhouette_score
 
 CLIPS = [("cmu_131_01_mj_style_walk.bvh", None), ("lafan1_clip_a.bvh", 1200),
          ("bandai1_walk_happy_001.bvh", None), ("ai4a_dog_D1_008_KAN01_002.bvh", None)]
@@ -90,7 +90,7 @@ def test_the_user_picks_the_criterion(bandai):
 
 @pytest.mark.parametrize("cluster", ["fcm", "gmm"])
 def test_soft_clusterings_drive_the_labels(bandai, cluster):
-    from mlayer.mixture import GaussianMixture, fuzzy_cmeans
+    from mlayer.manifold.mixture import GaussianMixture, fuzzy_cmeans
     m, ref = bandai
     k = ref.centers.shape[0]
     model = PrimitiveModel.fit(m, som=(8, 8), epochs=8, lattice=(6, 6), k=k, cluster=cluster)
@@ -116,8 +116,8 @@ def test_soft_clusterings_drive_the_labels(bandai, cluster):
 def test_primitives_on_the_pose_features(bandai, tmp_path):
     """cluster_on="features": k-means (and the k criteria) on the pose features instead of
     the map's 2-D points; each primitive's centre on the map is its frames' mean point."""
-    from mlayer.features import pose_features
-    from mlayer.mixture import k_criteria
+    from mlayer.manifold.features import pose_features
+    from mlayer.manifold.mixture import k_criteria
     from sklearn.cluster import KMeans
     from sklearn.metrics import adjusted_rand_score
     m, ref = bandai
@@ -147,11 +147,11 @@ def test_primitives_on_the_pose_features(bandai, tmp_path):
 
 def test_arguments_are_checked_before_training(mocap, monkeypatch):
     m = _clip(mocap, "bandai1_walk_happy_001.bvh")
-    import mlayer.som
+    import mlayer.manifold.som
 
     def no_training(*a, **k):
         raise AssertionError("the SOM trained before the arguments were checked")
-    monkeypatch.setattr(mlayer.som.SOM, "train", no_training)
+    monkeypatch.setattr(mlayer.manifold.som.SOM, "train", no_training)
     cases = [
         (dict(k=10, som=(3, 3), lattice=(2, 2)), r"option k = 10 exceeds the SOM's 3x3 = 9 units"),
         (dict(k=300, som=(30, 30), lattice=(4, 4)), r"k = 300 exceeds the number of training "

@@ -28,10 +28,14 @@ import numpy as np
 import pytest
 
 import mlayer
-from mlayer import clustering, contacts, metrics, mixture, pipeline, root_motion
+from mlayer import metrics
+from mlayer.manifold import clustering, mixture
+from mlayer.guards import contacts
+from mlayer.pipeline import pipeline
+from mlayer.model import root_motion
 from mlayer.batching import BatchResult
 from mlayer.batching.report import FIELDS
-from mlayer.one_euro import OneEuroFilter
+from mlayer.layers.one_euro import OneEuroFilter
 
 Call = tuple[str, Callable[[Any], Any]]
 
@@ -182,7 +186,7 @@ def _classes() -> dict[str, tuple[Callable[[], Any], list[Call]]]:
                     ("lag", lambda s: s.lag), ("repr", lambda s: repr(s))]),
         "JointLimits": (lambda: mlayer.joint_limits(_clip()),
                         [("range", lambda j: j.range(1)),
-                         ("apply", lambda j: mlayer.limits.apply_limits(_clip(), j, 2.0))]),
+                         ("apply", lambda j: mlayer.guards.limits.apply_limits(_clip(), j, 2.0))]),
         "SOM": (lambda: mlayer.SOM(3, 4, 3).train(X, 2),
                 [("train", lambda s: s.train(X, 2)), ("bmu", lambda s: s.bmu(X)),
                  ("qe", lambda s: s.quantization_error(X)),
@@ -203,7 +207,7 @@ def _classes() -> dict[str, tuple[Callable[[], Any], list[Call]]]:
         "GRBF:unfitted": (lambda: mlayer.GRBF("thin_plate", (4, 4)), grbf_calls),
         "GaussianMixture": (lambda: mlayer.GaussianMixture(2, seed=1).fit(X), gmm_calls),
         "GaussianMixture:unfitted": (lambda: mlayer.GaussianMixture(2, seed=1), gmm_calls),
-        "Rng": (lambda: mlayer.markov.Rng(5),
+        "Rng": (lambda: mlayer.manifold.markov.Rng(5),
                 [("below", lambda r: r.below(10)), ("uniform", lambda r: r.uniform())]),
         "Markov": (lambda: mlayer.Markov.fit(labels, order=2),
                    [("sample", lambda k: k.sample(0, 20, seed=1)),
@@ -409,10 +413,12 @@ def test_every_class_is_listed():
     example here)."""
     import inspect
     seen = set()
-    for mod in [mlayer, clustering, contacts, mixture, pipeline, root_motion, mlayer.manifold,
-                mlayer.markov, mlayer.som, mlayer.stream, mlayer.limits, mlayer.layers,
-                mlayer.motion, mlayer.smoothing, mlayer.primitives, mlayer.one_euro,
-                mlayer.up_axis, mlayer.trimming, mlayer.batching]:
+    for mod in [mlayer, clustering, contacts, mixture, pipeline, root_motion,
+                mlayer.manifold.manifold, mlayer.manifold.markov, mlayer.manifold.som,
+                mlayer.pipeline.stream, mlayer.guards.limits, mlayer.layers.layers,
+                mlayer.model.motion, mlayer.layers.smoothing, mlayer.manifold.primitives,
+                mlayer.layers.one_euro, mlayer.model.up_axis, mlayer.model.trimming,
+                mlayer.batching]:
         for n in getattr(mod, "__all__", []):
             v = getattr(mod, n)
             if inspect.isclass(v) and not issubclass(v, BaseException):

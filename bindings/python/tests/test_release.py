@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import mlayer
-from mlayer import smoothing
+from mlayer.layers import smoothing
 from mlayer._native import lib
 from conftest import REPO
 

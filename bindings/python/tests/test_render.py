@@ -7,7 +7,7 @@ import pytest
 import mlayer
 import mlayer.data
 from conftest import need
-from mlayer.render import body_side, followed_joint, render_gif
+from mlayer.plotting.render import body_side, followed_joint, render_gif
 
 need("render")
 from PIL import Image as PIL  # noqa: E402
@@ -47,7 +47,7 @@ def test_gif_lasts_as_long_as_the_motion(tmp_path, sample):
     """GIF delays are whole centiseconds: a constant 33 ms at 30 fps was stored as 30 ms and
     the GIF played 10% fast (issue 42). The delays now alternate so the total is the clip's."""
     from PIL import Image
-    from mlayer.render import gif_delays
+    from mlayer.plotting.render import gif_delays
     out = tmp_path / "clip.gif"
     n = render_gif([sample], out, fps=30, panel_size=(80, 100))
     with Image.open(out) as im:

@@ -6,8 +6,8 @@ import pytest
 import mlayer
 from mlayer import _arrays
 from mlayer._native import ffi, lib
-from mlayer.metrics import body_height
-from mlayer.pipeline import Synthesis
+from mlayer.guards.metrics import body_height
+from mlayer.pipeline.pipeline import Synthesis
 from test_robust import glitch
 
 
@@ -104,7 +104,7 @@ def _c_stylize_repaired(m, alpha):
     """A runtime on the C ABI with every default, the guards' input repaired in C:
     decompose (fps, body height, body joint), mlr_layers_repair on a copy of the input,
     mlr_guards_create on it, synthesize at alpha, mlr_guards_apply_trans (no reference)."""
-    from mlayer._rig import c_rig
+    from mlayer.model._rig import c_rig
     N, J = m.n_frames, m.n_joints
     root, rot, trans = m._frames()
     rig, keep = c_rig(m.skeleton)

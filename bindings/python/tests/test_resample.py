@@ -6,7 +6,7 @@ from scipy.spatial.transform import Rotation, Slerp
 
 import mlayer
 from mlayer import quat
-from mlayer.metrics import body_height
+from mlayer.guards.metrics import body_height
 
 # converter-inserted T-pose and blend frames at the start of the CMU clips (mocap README)
 SKIP = {"cmu_01_01_playground_jumps.bvh": 1, "cmu_131_01_mj_style_walk.bvh": 0,

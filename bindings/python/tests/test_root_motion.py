@@ -8,7 +8,7 @@ import pytest
 
 import mlayer
 from mlayer._native import ffi, lib
-from mlayer._rig import c_rig
+from mlayer.model._rig import c_rig
 from mlayer.cli import main
 from conftest import SHARED_CLIPS
 from test_mirror import native_z_up

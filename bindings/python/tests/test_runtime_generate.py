@@ -11,7 +11,7 @@ import pytest
 
 import mlayer
 from mlayer._native import ffi, lib
-from mlayer.primitives import PrimitiveModel
+from mlayer.manifold.primitives import PrimitiveModel
 
 
 def _load(data: bytes, skeleton=ffi.NULL):
@@ -101,7 +101,7 @@ def test_c_frames_equal_python_generate(walk, seed, kw):
     np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
     # the unseeded start frame is the generator's first draw, in Python as in C
     if "start_frame" not in kw:
-        assert start == mlayer.markov.Rng(seed).below(model.points.shape[0])
+        assert start == mlayer.manifold.markov.Rng(seed).below(model.points.shape[0])
 
 
 def test_endless_frames_continue(walk):
@@ -119,7 +119,7 @@ def test_endless_frames_continue(walk):
 
 
 def test_skeleton_check(walk):
-    from mlayer.motion import _create_handle
+    from mlayer.model.motion import _create_handle
     m, model = walk
     data = model.runtime_bytes()
     sk = m.skeleton

@@ -10,7 +10,7 @@ import pytest
 import mlayer
 from conftest import REPO
 from mlayer.errors import InvalidArgumentError
-from mlayer.primitives import (CMU_NAMES, PrimitiveModel, join_skeletons, rename_joints,
+from mlayer.manifold.primitives import (CMU_NAMES, PrimitiveModel, join_skeletons, rename_joints,
                                skeleton_difference)
 from mlayer.cli import main
 
@@ -83,13 +83,15 @@ def test_join_renames_either_way(walk, other):
 
 
 def test_fit_refuses_before_any_training(walk, other, monkeypatch):
-    import mlayer.som
-    import mlayer.features
+    import mlayer.manifold.features
+    import mlayer.manifold.primitives
+    import mlayer.manifold.som
 
     def no_work(*a, **k):
         raise AssertionError("work started before the skeletons were checked")
-    monkeypatch.setattr(mlayer.som.SOM, "train", no_work)
-    monkeypatch.setattr(mlayer.features, "pose_features", no_work)
+    monkeypatch.setattr(mlayer.manifold.som.SOM, "train", no_work)
+    monkeypatch.setattr(mlayer.manifold.features, "pose_features", no_work)
+    monkeypatch.setattr(mlayer.manifold.primitives, "pose_features", no_work)  # its caller's name
     with pytest.raises(InvalidArgumentError, match=r"^clip 1 \(b\): another skeleton: joint 2"):
         PrimitiveModel.fit([walk, other], names=["a", "b"], **SMALL)
 

@@ -1,4 +1,4 @@
-"""The rest joints of mlayer.smpl: the neutral SMPL-H body with betas = 0, checked against
+"""The rest joints of mlayer.io.smpl: the neutral SMPL-H body with betas = 0, checked against
 independently generated tables of other permissively licensed projects (the numbers only,
 rounded as those projects publish them)."""
 from __future__ import annotations
@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import mlayer
-from mlayer import smpl
+from mlayer.io import smpl
 
 # The body offsets (SMPL order, joints 1..21, template frame, metres) of the neutral SMPL model
 # with betas = 0 as written, at 4 decimals, in smpl_sim/data/assets/mjcf/smpl_humanoid.xml of

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import mlayer
-from mlayer.stream import Frame, decay_rate, motion_channels
+from mlayer.pipeline.stream import Frame, decay_rate, motion_channels
 
 CLIPS = ["cmu_01_01_playground_jumps.bvh", "cmu_131_01_mj_style_walk.bvh",
          "cmu_10_01_soccer_kick.bvh", "cmu_60_10_salsa_dance.bvh",
@@ -325,7 +325,7 @@ def test_empty_and_short_clips(walk):
 
 
 def test_a_stream_with_limits_keeps_exaggerated_knees_in_range(mocap):
-    from mlayer import plausibility as pl
+    from mlayer.guards import plausibility as pl
     m = mlayer.read_bvh(mocap / "cmu_131_01_mj_style_walk.bvh")
     lim = mlayer.joint_limits(m)
     kw = dict(lam=1.0, sigma=1.0, lag=8, lam_base=30.0, sigma_base=30.0, alpha=3.0)

@@ -8,7 +8,7 @@ import pytest
 
 import mlayer
 from mlayer import InvalidArgumentError
-from mlayer.features import pose_features
+from mlayer.manifold.features import pose_features
 
 T_POSE = ["cmu_01_01_playground_jumps.bvh", "cmu_10_01_soccer_kick.bvh",
           "cmu_60_10_salsa_dance.bvh", "cmu_02_03_run_jog_25fps.bvh"]
@@ -27,7 +27,7 @@ def _reference(m):
     """The rule of mlr_trim.h in numpy, on mlayer.pose_features (an independent pose code):
     (n_frames, n_held, distance)."""
     X = pose_features(m).reshape(m.n_frames, -1, 3)
-    from mlayer.layers import body_translation_joint
+    from mlayer.layers.layers import body_translation_joint
     b = body_translation_joint([m])
     inside = np.zeros(m.n_joints, bool)
     inside[b] = True

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import mlayer
-from mlayer.up_axis import to_y_up
+from mlayer.model.up_axis import to_y_up
 from conftest import SHARED_CLIPS
 
 _H = np.sqrt(0.5)
@@ -74,15 +74,15 @@ def test_contacts_height_guards_and_features_follow_the_up_axis(mocap, name):
     names_t, c_t = mlayer.detect_contacts(t)
     assert names_t == names
     assert (c_t == c).mean() > 0.999
-    assert mlayer.cleanup.floor_height(t) == pytest.approx(
-        mlayer.cleanup.floor_height(m), abs=1e-6 * h)
+    assert mlayer.guards.cleanup.floor_height(t) == pytest.approx(
+        mlayer.guards.cleanup.floor_height(m), abs=1e-6 * h)
     # stylize with every guard: the turned result is the result turned
     s = mlayer.stylize(m, 2.0)
     s_t = mlayer.stylize(t, 2.0)
     err = np.abs(to_y_up("z", s_t.positions()) - s.positions()).max()
     assert err < 1e-6 * h, err / h
     # pose features remove the heading about the up axis
-    f, f_t = mlayer.features.pose_features(m), mlayer.features.pose_features(t)
+    f, f_t = mlayer.manifold.features.pose_features(m), mlayer.manifold.features.pose_features(t)
     assert np.abs(f - f_t).max() < 1e-6 * h
 
 
@@ -96,7 +96,7 @@ def test_read_bvh_and_assignment_give_the_axis(mocap):
     assert m.up_axis == "y"
     text = path.read_text()
     assert mlayer.read_bvh_string(text, up=0).up_axis == "x"
-    with mlayer.up_axis.reading_up("z"):
+    with mlayer.model.up_axis.reading_up("z"):
         assert mlayer.read_bvh(path).up_axis == "z"
         assert mlayer.read_bvh(path, up="y").up_axis == "y"
     assert mlayer.read_bvh(path).up_axis == "y"

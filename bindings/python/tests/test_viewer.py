@@ -15,8 +15,8 @@ import pytest
 import mlayer
 from conftest import requires
 from mlayer import quat
-from mlayer.contacts import detect_contacts
-from mlayer.metrics import body_height, foot_sliding
+from mlayer.guards.contacts import detect_contacts
+from mlayer.guards.metrics import body_height, foot_sliding
 from mlayer.viewer import body_parts, is_loopback, make_server, parse_params
 from mlayer.viewer.session import PARAMS, ParamError
 

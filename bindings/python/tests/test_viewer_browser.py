@@ -438,7 +438,7 @@ def test_manifold_click_play_and_download(browser, server, mocap, downloads):
     wait(lambda: responses() > n and not js(d, "mlayerViewer.manifold.state.inflight"), 60,
          "the key-frame motion")
     assert js(d, "mlayerViewer.manifold.state.lastError") is None
-    from mlayer.features import pose_features
+    from mlayer.manifold.features import pose_features
     walk = mlayer.read_bvh(mocap / WALK)
     np.testing.assert_allclose(js(d, "mlayerViewer.manifold.state.motion.knots"),
                                md.to_manifold(pose_features(walk)[[20, 600]]))

@@ -21,7 +21,7 @@ import pytest
 import mlayer
 from mlayer.viewer import make_server
 from mlayer.viewer import server as server_mod
-from mlayer.viewer.session import DEFAULT_MAX_VALUES, Clip
+from mlayer.viewer.session import DEFAULT_MAX_VALUES, ViewerClip
 
 WALK = "cmu_131_01_mj_style_walk.bvh"
 BANDAI = "bandai1_walk_happy_001.bvh"
@@ -104,8 +104,8 @@ def _closed_within(s, seconds) -> float:
 
 def test_cap_refuses_before_any_work(mocap, monkeypatch):
     runs = []
-    real = Clip._run
-    monkeypatch.setattr(Clip, "_run", lambda self, L, p: runs.append(p) or real(self, L, p))
+    real = ViewerClip._run
+    monkeypatch.setattr(ViewerClip, "_run", lambda self, L, p: runs.append(p) or real(self, L, p))
     m = mlayer.read_bvh(mocap / WALK)
     points = m.n_joints + m.skeleton.n_end_sites
     with Running([mocap / WALK]) as r:

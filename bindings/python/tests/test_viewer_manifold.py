@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 
 import mlayer
-from mlayer.features import pose_features
-from mlayer.markov import Markov
-from mlayer.metrics import body_height
-from mlayer.som import u_matrix
+from mlayer.manifold.features import pose_features
+from mlayer.manifold.markov import Markov
+from mlayer.guards.metrics import body_height
+from mlayer.manifold.som import u_matrix
 from mlayer.viewer.manifold import ManifoldSession, ranked_chain, ranked_cycle, ranked_next
 from mlayer.viewer.session import ResultCache, load_clips
 

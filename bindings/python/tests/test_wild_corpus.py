@@ -338,7 +338,7 @@ def test_stylize_is_plausible(request, path):
                             f"(worst {knee['worst_reversal']})")
     if feet:
         H = mlayer.metrics.body_height(m)
-        _, cc = mlayer.contacts.detect_contacts(m, feet)
+        _, cc = mlayer.guards.contacts.detect_contacts(m, feet)
         floor = P.floor_level(m, feet, cc)
         fl = P.floor_report(m, out, feet, floor, H)
         if fl["frames"]:

@@ -37,9 +37,9 @@ Nothing is lost:
   by the rule of ``mlr_bvh.h``, :func:`mlayer._files.stale_temporaries`) are removed at the
   start and at the end of the run.
 
-Quality figures in the records are unit-free: jitter (:func:`mlayer.metrics.jitter`, per
-second cubed) and foot sliding (:func:`mlayer.metrics.foot_sliding` on the contacts detected
-on the input) both divided by the input's body height (:func:`mlayer.metrics.body_height`).
+Quality figures in the records are unit-free: jitter (:func:`mlayer.guards.metrics.jitter`, per
+second cubed) and foot sliding (:func:`mlayer.guards.metrics.foot_sliding` on the contacts detected
+on the input) both divided by the input's body height (:func:`mlayer.guards.metrics.body_height`).
 
 The function is :func:`mlayer.batch` (this subpackage has another name, so that
 ``import mlayer.batching`` gives the module); its parts:

@@ -15,13 +15,13 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..errors import InvalidArgumentError
-from ..features import pose_features
-from ..layers import _PARAMS
-from ..retiming import resample, timewarp
+from ..manifold.features import pose_features
+from ..layers.layers import _PARAMS
+from ..pipeline.retiming import resample, timewarp
 
 if TYPE_CHECKING:
-    from ..motion import Motion
-    from ..pipeline import Clip
+    from ..model.motion import Motion
+    from ..pipeline.pipeline import Clip
 
 __all__ = ["Operation", "register_operation", "operations", "parse_alphas", "variants"]
 
@@ -47,7 +47,7 @@ class Operation:
     help : str, optional
         One line for the CLI.
     takes_clip : bool, optional
-        True when ``run`` takes the input's :class:`mlayer.pipeline.Clip` instead of its
+        True when ``run`` takes the input's :class:`mlayer.pipeline.pipeline.Clip` instead of its
         Motion (the built-in operations: the forward kinematics, contacts and layers of the
         input are then computed once for the outputs and the figures).
     """
@@ -125,7 +125,7 @@ def _op_stylize(clip: Clip, variants: list[dict[str, Any]], keep_contacts: bool 
                 joints: Any = None, root_alpha: float | None = None,
                 **options: Any) -> list[Motion]:
     """mlayer.stylize for every alpha, sharing one decomposition and one set of guards
-    (mlayer.pipeline.Clip.synthesis)."""
+    (mlayer.pipeline.pipeline.Clip.synthesis)."""
     s = clip.synthesis(keep_contacts=keep_contacts, **options)
     return [s.run(v["alpha"], joints, root_alpha=root_alpha)[0] for v in variants]
 

@@ -3,9 +3,9 @@ clip, run the operation for every variant, write each output atomically with its
 return small records (status, error text, frames, seconds, jitter and foot sliding before and
 after). A task of the batch is a chunk of clips (:func:`process_chunk`).
 
-Quality figures are unit-free: jitter (:func:`mlayer.metrics.jitter`, per second cubed) and
-foot sliding (:func:`mlayer.metrics.foot_sliding` on the contacts detected on the input) both
-divided by the input's body height (:func:`mlayer.metrics.body_height`).
+Quality figures are unit-free: jitter (:func:`mlayer.guards.metrics.jitter`, per second cubed) and
+foot sliding (:func:`mlayer.guards.metrics.foot_sliding` on the contacts detected on the input)
+both divided by the input's body height (:func:`mlayer.guards.metrics.body_height`).
 """
 from __future__ import annotations
 
@@ -18,13 +18,13 @@ from typing import Any
 import numpy as np
 
 from .._files import atomic_output
-from ..bvh import _options as _bvh_options, read_bvh, write_bvh
+from ..io.bvh import _options as _bvh_options, read_bvh, write_bvh
 from ..errors import InvalidArgumentError
-from ..motion import Motion
-from ..pipeline import Clip
-from ..trimming import frames_arg
-from ..units import units_arg
-from ..up_axis import axis_name
+from ..model.motion import Motion
+from ..pipeline.pipeline import Clip
+from ..model.trimming import frames_arg
+from ..model.units import units_arg
+from ..model.up_axis import axis_name
 from .cache import write_sidecar
 from .registry import Operation
 from .report import STATUS_FAILED, STATUS_OK
@@ -58,8 +58,9 @@ def read_options(read: dict[str, Any] | None) -> dict[str, Any]:
 
 def _figures(clip: Clip, out: Motion | None = None) -> tuple[float, float]:
     """(jitter, foot sliding) of the input, or of an output ``out``, in body heights
-    (:meth:`mlayer.pipeline.Clip.jitter` and :meth:`~mlayer.pipeline.Clip.foot_sliding`: the
-    input's forward kinematics and contacts are computed once for every output)."""
+    (:meth:`mlayer.pipeline.pipeline.Clip.jitter` and
+    :meth:`~mlayer.pipeline.pipeline.Clip.foot_sliding`: the input's forward kinematics and
+    contacts are computed once for every output)."""
     j = clip.jitter(out)
     try:
         s = clip.foot_sliding(out)

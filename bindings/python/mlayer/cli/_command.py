@@ -41,6 +41,8 @@ from typing import Any
 
 from .._optional import require
 from ..errors import InvalidArgumentError, MlayerIOError
+from ..io.bvh import write_bvh, write_bvh_string
+from ..manifold.primitives import CMU_NAMES
 
 
 @dataclass(frozen=True)
@@ -191,12 +193,11 @@ def add_rename_option(sp) -> None:
 
 
 def parse_rename(text: str | None) -> dict | None:
-    """The mapping of --rename: ``cmu`` (mlayer.primitives.CMU_NAMES), a JSON file of an object
-    of names (its path ends in .json), or ``OLD=NEW,OLD=NEW``; None for None."""
+    """The mapping of --rename: ``cmu`` (mlayer.manifold.primitives.CMU_NAMES), a JSON file of an
+    object of names (its path ends in .json), or ``OLD=NEW,OLD=NEW``; None for None."""
     if text is None:
         return None
     if text.strip().lower() == "cmu":
-        from ..primitives import CMU_NAMES
         return dict(CMU_NAMES)
     if text.lower().endswith(".json"):
         import json
@@ -338,7 +339,6 @@ def write_bvh_output(args, motion, dest: str = "output", write=None) -> None:
     """Write `motion` to the output `dest` of the command: the file, atomically (`write`,
     default mlayer.write_bvh), or the standard output for '-' (the stream _main kept aside, as
     bytes so the text is the file's byte for byte)."""
-    from ..bvh import write_bvh, write_bvh_string
     path = getattr(args, dest)
     if path != "-":
         (write or write_bvh)(motion, path)

@@ -26,11 +26,13 @@ import shutil
 import sys
 import tempfile
 
-from .. import __version__, library_version
-from ..errors import Error, InvalidArgumentError
-from . import batch, contacts, demo, info, layers, primitives, render, retiming, stream, view
-from . import convert
-from . import mirror, retarget, rootmotion
+from .._version import __version__, library_version
+from ..errors import Error, InvalidArgumentError, MlayerWarning
+from ..io.bvh import reading_units, strict_reading
+from ..model.trimming import reading_trim
+from ..model.up_axis import reading_up
+from . import (batch, contacts, convert, demo, info, layers, mirror, primitives, render, retarget,
+               retiming, rootmotion, stream, view)
 from ._command import (add_parser, check_outputs, check_requires, command, show_parse_warning,
                        show_trim, stdout_outputs)
 
@@ -184,10 +186,6 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help(sys.stderr)
         return 2
     import warnings
-    from ..bvh import reading_units, strict_reading
-    from ..up_axis import reading_up
-    from ..trimming import reading_trim
-    from ..errors import MlayerWarning
     stdin_dir = tempfile.TemporaryDirectory(prefix="mlayer-stdin-")
     stdin_path = ""
     try:

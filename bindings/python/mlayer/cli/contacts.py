@@ -2,15 +2,15 @@
 
 Prints, per contact point (ankle, toe or End Site), the number of contacts, the duty factor
 (fraction of frames in contact) and the median contact length; --plot draws a timeline per
-point (matplotlib: mlayer.plot.plot_contacts), written atomically.
+point (matplotlib: mlayer.plotting.plot.plot_contacts), written atomically.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from ..bvh import read_bvh
-from ..contacts import contact_intervals, detect_contacts
-from ..plot import plot_contacts
+from ..io.bvh import read_bvh
+from ..guards.contacts import contact_intervals, detect_contacts
+from ..plotting.plot import plot_contacts
 from ._command import FIGURE, Needs, command
 
 

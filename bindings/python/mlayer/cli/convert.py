@@ -18,10 +18,10 @@ from __future__ import annotations
 import argparse
 import os
 
-from ..amass import read_amass, write_amass
-from ..bvh import read_bvh, write_bvh
+from ..io.amass import read_amass, write_amass
+from ..io.bvh import read_bvh, write_bvh
 from ..errors import InvalidArgumentError
-from ..gltf import read_gltf, write_gltf
+from ..io.gltf import read_gltf, write_gltf
 from ._command import Output, command
 
 _GLTF = (".glb", ".gltf")

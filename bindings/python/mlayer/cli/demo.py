@@ -11,8 +11,12 @@ import os
 import sys
 import time
 
-from ..bvh import read_bvh, write_bvh
-from ..metrics import body_height, foot_sliding, jitter
+from .. import data
+from ..guards.metrics import body_height, foot_sliding, jitter
+from ..io.bvh import read_bvh, write_bvh
+from ..pipeline.pipeline import Synthesis
+from ..plotting.plot import layer_choice, plot_layers
+from ..plotting.render import render_gif
 from ._command import FOLDER, Needs, command
 
 
@@ -32,10 +36,6 @@ def _arguments(p) -> None:
                    Needs("PIL", when=lambda a: not a.no_gif,
                          feature="mlayer demo (its GIF; --no-gif for none)")))
 def cmd_demo(args) -> int:
-    from .. import data
-    from ..pipeline import Synthesis
-    from ..plot import layer_choice, plot_layers
-    from ..render import render_gif
 
     clip = args.clip or data.sample_path()
     out = lambda name: os.path.join(args.output_dir, name)  # noqa: E731

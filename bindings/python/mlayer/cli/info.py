@@ -12,15 +12,15 @@ import sys
 
 import numpy as np
 
-from ..bvh import read_bvh
-from ..metrics import body_height
-from ..units import UNITS, length_unit
-from ..up_axis import detect_up
+from ..io.bvh import read_bvh
+from ..guards.metrics import body_height
+from ..model.units import UNITS, length_unit
+from ..model.up_axis import detect_up
 from ..errors import Error, ParseError
 from ._command import command
 
 if TYPE_CHECKING:
-    from ..motion import Motion
+    from ..model.motion import Motion
 
 
 def _arguments(p) -> None:

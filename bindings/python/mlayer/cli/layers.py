@@ -3,7 +3,8 @@
     mlayer denoise IN.bvh -o OUT.bvh [--lam-c L --sigma-c S] [--gamma G]
     mlayer stylize IN.bvh --alpha 2 [--joint 'Left*=3' ...] -o OUT.bvh
 
-denoise and stylize pin the feet during the contacts detected on the input (mlayer.contacts);
+denoise and stylize pin the feet during the contacts detected on the input
+(mlayer.guards.contacts);
 --no-contacts skips that.
     mlayer layers IN.bvh --plot layers.png [--npz layers.npz] [--joint NAME]
 
@@ -19,10 +20,12 @@ import sys
 
 import numpy as np
 
-from ..alpha_curve import AlphaCurve
-from ..bvh import read_bvh
 from ..errors import InvalidArgumentError
-from ..pipeline import Clip
+from ..io.bvh import read_bvh
+from ..layers.alpha_curve import AlphaCurve
+from ..layers.layers import decompose
+from ..pipeline.pipeline import Clip
+from ..plotting.plot import layer_choice, plot_layers
 from ._command import BVH_OR_STDOUT, FIGURE, NPZ, Needs, command, output_name, write_bvh_output
 
 
@@ -69,7 +72,7 @@ def _outlier_note(layers) -> None:
 
 
 def _synthesis_options(args) -> dict:
-    """The options of mlayer.pipeline.Clip.synthesis that the command line gives."""
+    """The options of mlayer.pipeline.pipeline.Clip.synthesis that the command line gives."""
     return dict(limits=None if getattr(args, "no_limits", False) else "auto",
                 floor=None if getattr(args, "no_floor", False) else "auto",
                 keep_contacts=not getattr(args, "no_contacts", False),
@@ -78,13 +81,12 @@ def _synthesis_options(args) -> dict:
 
 
 def _decompose(args, motion):
-    from ..layers import decompose
     return decompose(motion, gamma=args.gamma, lam_c=args.lam_c, sigma_c=args.sigma_c,
                      robust=not args.no_robust)
 
 
 def _guard_summary(report) -> None:
-    """One line per guard that did something (mlayer.pipeline.GuardReport)."""
+    """One line per guard that did something (mlayer.pipeline.pipeline.GuardReport)."""
     if report.limited:
         worst = sorted(report.limited.items(), key=lambda kv: -kv[1])[:4]
         print(f"  joint limits: {len(report.limited)} joints limited ("
@@ -259,7 +261,6 @@ def cmd_layers(args) -> int:
         print(f"{name:24s} {layers.base_s[g]:10.3g} {ang_txt} {layers.lam_c[g]:8.3g} "
               f"{layers.sigma_c[g]:8.3g} {layers.control_dof[g]:8.1f}")
     if args.plot:  # the figure's joint is checked before anything is written
-        from ..plot import layer_choice, plot_layers
         joint, axis = layer_choice(m, layers, args.joint)
     if args.npz:
         layers.save_npz(args.npz)

@@ -12,8 +12,8 @@ from __future__ import annotations
 
 import argparse
 
-from ..bvh import read_bvh, write_bvh
-from ..mirror import mirror, mirror_pairs, mirror_plane, parse_pairs
+from ..io.bvh import read_bvh, write_bvh
+from ..model.mirroring import mirror, mirror_pairs, mirror_plane, parse_pairs
 from ._command import BVH_OR_STDOUT, command, output_name, write_bvh_output
 
 

@@ -9,7 +9,7 @@ then synthesize new motion from it (paper 2).
                                [--plots PREFIX] [--runtime FILE.mlrgen]
 
 The SOM and GRBF lattices default to sizes that scale with the training frames (30x30 and 15x15
-from 900 frames on; see mlayer.primitives.default_lattices); clips in other units than the
+from 900 frames on; see mlayer.manifold.primitives.default_lattices); clips in other units than the
 first (body heights a factor of 2 or more apart) are scaled to its size, with a warning.
     mlayer generate model.npz --frames 300 [--start-frame T] [--noise S] [--seed N]
                               [--most-likely | --second-likely] [--allow-unseen]
@@ -18,7 +18,7 @@ first (body heights a factor of 2 or more apart) are scaled to its size, with a 
 
 `primitives` prints, for the candidate ks, the k-means inertia (elbow), the silhouette and the
 GMM BIC side by side with the k each picks, and the held-out log-likelihood of the Markov jump
-model of orders 1 to 3 (5-fold blocked cross-validation, mlayer.markov.heldout_loglik), so
+model of orders 1 to 3 (5-fold blocked cross-validation, mlayer.manifold.markov.heldout_loglik), so
 that --k / --criterion and --order can be chosen. k, --ks and the lattices are checked against
 the frames and the SOM's units before the SOM trains (a --ks beyond them is an error; the
 default 2..20 is cut to them, with a note), and the line of the k says where it came from
@@ -36,7 +36,7 @@ Bad input: one line on stderr and exit status 1.
 """
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import argparse
 import os
@@ -44,14 +44,13 @@ import sys
 
 import numpy as np
 
-from ..bvh import read_bvh
 from ..errors import InvalidArgumentError
-from ..plot import plot_elbow, plot_som, plot_transitions
-from ._command import (BVH_OR_STDOUT, MLRGEN, NPZ, PREFIX, Needs, add_rename_option, command,
+from ..io.bvh import read_bvh
+from ..manifold.primitives import PrimitiveModel, RUNTIME_FORMAT, join_skeletons
+from ..plotting.plot import plot_elbow, plot_som, plot_transitions
+from ._command import (BVH_OR_STDOUT, MLRGEN, NPZ, Needs, PREFIX, add_rename_option, command,
                        output_name, parse_rename, write_bvh_output)
 
-if TYPE_CHECKING:
-    from ..primitives import PrimitiveModel
 
 #: what needs matplotlib in the message without it
 _FEATURE = "mlayer primitives --plots (on by default; --plots '' for none)"
@@ -123,8 +122,7 @@ def parse_keys(text: str, model: PrimitiveModel,
                rename: dict[str, str] | None = None) -> list[tuple[Any, int]]:
     """--keys CLIP:FRAME,...: (clip, frame) pairs for PrimitiveModel.generate(keys=...); CLIP a
     training clip's name or index, or a BVH file of the model's skeleton, joint names and tree
-    (read here; renamed by ``rename``, mlayer.primitives.join_skeletons)."""
-    from ..primitives import join_skeletons
+    (read here; renamed by ``rename``, mlayer.manifold.primitives.join_skeletons)."""
     keys: list[tuple[Any, int]] = []
     for part in (p.strip() for p in text.split(",") if p.strip()):
         clip, sep, frame = part.rpartition(":")
@@ -201,10 +199,8 @@ def _primitives_args(p) -> None:
          requires=(Needs("matplotlib", when=lambda a: a.plots is None or a.plots != "",
                          feature=_FEATURE),))
 def cmd_primitives(args) -> int:
-    from ..primitives import RUNTIME_FORMAT, PrimitiveModel
     # the default prefix (the model path without .npz) is in the model's folder, checked
     prefix = args.plots if args.plots is not None else os.path.splitext(args.output)[0]
-    from ..primitives import join_skeletons
     rename = parse_rename(args.rename)
     clips = []
     for path in args.clips:
@@ -303,7 +299,6 @@ def _generate_args(p) -> None:
          arguments=_generate_args, reads_clips=False, inputs=("model",),
          outputs={"output": BVH_OR_STDOUT})
 def cmd_generate(args) -> int:
-    from ..primitives import PrimitiveModel
     if args.frames < 2:
         raise InvalidArgumentError(f"--frames must be >= 2, got {args.frames}")
     if args.through is not None and args.keys is not None:

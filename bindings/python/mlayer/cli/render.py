@@ -1,16 +1,18 @@
 """`mlayer render IN.bvh [MORE.bvh ...] -o clip.gif|clip.mp4|strip.png`: stick figures side by
 side, one camera.
 
-The output's extension says what is written (mlayer.render.render): ``.gif`` an animated GIF,
-``.mp4`` an H.264 video (needs imageio-ffmpeg: ``pip install 'mlayer[video]'``), ``.png`` a strip
-of --strip-frames frames (time left to right, one row per clip); other extensions are refused
+The output's extension says what is written (mlayer.plotting.render.render): ``.gif`` an animated
+GIF, ``.mp4`` an H.264 video (needs imageio-ffmpeg: ``pip install 'mlayer[video]'``), ``.png`` a
+strip of --strip-frames frames (time left to right, one row per clip); other extensions are refused
 before any work. Pillow (``mlayer[render]``) is needed for all three.
 """
 from __future__ import annotations
 
 import os
 
-from ..bvh import read_bvh
+from ..errors import InvalidArgumentError
+from ..io.bvh import read_bvh
+from ..plotting.render import render
 from ._command import Needs, Output, command
 
 #: what `mlayer render -o` accepts
@@ -43,8 +45,6 @@ def _arguments(p) -> None:
          requires=(Needs("PIL", feature="mlayer render"),
                    Needs("imageio_ffmpeg", when=_is_mp4, feature="mlayer render -o FILE.mp4")))
 def cmd_render(args) -> int:
-    from ..errors import InvalidArgumentError
-    from ..render import render
     try:
         w, h = (int(v) for v in args.size.lower().split("x"))
     except ValueError:

@@ -16,7 +16,9 @@ import argparse
 import os
 
 from ..errors import InvalidArgumentError
-from ..retarget import _target_of, parse_map, retarget
+from ..io.bvh import write_bvh
+from ..io.gltf import write_gltf
+from ..pipeline.retarget import _target_of, parse_map, retarget
 from ._command import Output, command, output_name
 
 _GLTF = (".glb", ".gltf")
@@ -57,10 +59,8 @@ def cmd_retarget(args: argparse.Namespace) -> int:
     target = _read(args.to)
     out = retarget(m, target, mapping=mapping, feet=not args.no_feet)
     if os.path.splitext(args.output)[1].lower() in _GLTF:
-        from ..gltf import write_gltf
         write_gltf(out, args.output)
     else:
-        from ..bvh import write_bvh
         write_bvh(out, args.output)
     print(f"{output_name(args.output)}: {out.n_frames} frames retargeted from {m.n_joints} to "
           f"{out.n_joints} joints")

@@ -5,7 +5,7 @@
     mlayer timewarp IN.bvh --strength 1.5 [--frames N] -o OUT.bvh [--plot TIMEMAP.png]
     mlayer timewarp IN.bvh --map MAP.txt -o OUT.bvh
 
-Both keep foot contacts by default (the feet follow the input's, mlayer.contacts);
+Both keep foot contacts by default (the feet follow the input's, mlayer.guards.contacts);
 --no-contacts skips that. Bad input gives one line on stderr and exit status 1; every output
 (BVH, figure) is computed first and written atomically, so a failed run leaves no output file.
 """
@@ -16,11 +16,11 @@ import os
 import numpy as np
 
 from .._files import atomic_output
-from ..bvh import read_bvh, write_bvh
+from ..io.bvh import read_bvh, write_bvh
 from ..errors import InvalidArgumentError
-from ..pipeline import stylize
-from ..retiming import (resample, slerp_resample, timewarp, timewarp_map, timewarp_speed)
-from ..plot import plot_resample_variance, plot_timewarp
+from ..pipeline.pipeline import stylize
+from ..pipeline.retiming import (resample, slerp_resample, timewarp, timewarp_map, timewarp_speed)
+from ..plotting.plot import plot_resample_variance, plot_timewarp
 from ._command import BVH_OR_STDOUT, FIGURE, Needs, command, output_name, write_bvh_output
 from .layers import _contact_option
 

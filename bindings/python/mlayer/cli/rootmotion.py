@@ -16,8 +16,8 @@ import argparse
 import numpy as np
 
 from .._files import atomic_output
-from ..bvh import read_bvh, write_bvh
-from ..root_motion import MODES, extract_root_motion
+from ..io.bvh import read_bvh, write_bvh
+from ..model.root_motion import MODES, extract_root_motion
 from ._command import BVH_OR_STDOUT, Output, command, output_name, write_bvh_output
 
 CSV = Output((".csv",), "a CSV file")

@@ -4,8 +4,8 @@ Streams a clip frame by frame through the fixed-lag LGS smoother (:class:`mlayer
 a live system would, writes the streamed motion and prints its largest gap to the offline solve
 (``mlayer.lgs`` on the same channels with the same lam, sigma). ``--plot`` draws one joint
 rotation channel over time: the input, the offline solve, the stream and a One Euro filter
-(:mod:`mlayer.one_euro`, by default with the LGS's half-power frequency as its cutoff and beta 0),
-and below, each one's difference to the offline solve.
+(:mod:`mlayer.layers.one_euro`, by default with the LGS's half-power frequency as its cutoff and
+beta 0), and below, each one's difference to the offline solve.
 """
 from __future__ import annotations
 
@@ -15,17 +15,17 @@ import sys
 
 import numpy as np
 
-from .. import quat
-from ..bvh import read_bvh
+from ..model import quat
+from ..io.bvh import read_bvh
 from ..errors import InvalidArgumentError
-from ..smoothing import lgs
-from ..one_euro import one_euro
-from ..plot import plot_stream
-from ..stream import decay_rate, motion_channels, stream_motion
+from ..layers.smoothing import lgs
+from ..layers.one_euro import one_euro
+from ..plotting.plot import plot_stream
+from ..pipeline.stream import decay_rate, motion_channels, stream_motion
 from ._command import BVH_OR_STDOUT, PNG, Needs, command, output_name, write_bvh_output
 
 if TYPE_CHECKING:
-    from ..motion import Motion
+    from ..model.motion import Motion
 
 _COMPONENTS = "wxyz"
 

@@ -16,6 +16,10 @@ from __future__ import annotations
 
 import sys
 
+from ..errors import InvalidArgumentError
+from ..viewer import is_loopback, make_server
+from ..viewer.server import (DEFAULT_CACHE_BYTES, DEFAULT_MANIFOLD_FRAMES, DEFAULT_MAX_CONNECTIONS,
+                             DEFAULT_MAX_VALUES, DEFAULT_THREADS, DEFAULT_TIMEOUT)
 from ._command import add_rename_option, command, parse_rename
 
 
@@ -32,9 +36,6 @@ def _arguments(p) -> None:
                         "names, and on 0.0.0.0 or :: this machine's name and addresses; any "
                         "other Host header is refused (DNS rebinding)")
     p.add_argument("--open", action="store_true", help="open the page in a web browser")
-    from ..viewer.server import (DEFAULT_CACHE_BYTES, DEFAULT_MANIFOLD_FRAMES,
-                                DEFAULT_MAX_CONNECTIONS, DEFAULT_MAX_VALUES, DEFAULT_THREADS,
-                                DEFAULT_TIMEOUT)
     p.add_argument("--max-values", type=int, default=DEFAULT_MAX_VALUES, metavar="N",
                    help="the most output one request may produce, in frames x points (joints "
                         "and End Sites), checked before any work; longer lengths or higher "
@@ -64,8 +65,6 @@ def _arguments(p) -> None:
 @command("view", "interactive viewer in the browser: alpha sliders, cleanup, retiming",
          arguments=_arguments, reads_clips=True, inputs=("inputs",))
 def cmd_view(args) -> int:
-    from ..errors import InvalidArgumentError
-    from ..viewer import is_loopback, make_server
     if not 0 <= args.port <= 65535:
         raise InvalidArgumentError(f"--port must be in 0..65535, got {args.port}")
     if not is_loopback(args.host):

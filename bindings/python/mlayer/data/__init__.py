@@ -7,10 +7,9 @@ created with funding from NSF EIA-0196217. See README.md beside this file for it
 from __future__ import annotations
 
 import pathlib
-from typing import TYPE_CHECKING
 
-if TYPE_CHECKING:
-    from ..motion import Motion
+from ..io.bvh import read_bvh
+from ..model.motion import Motion
 
 __all__ = ["SAMPLE", "sample_path", "load_sample"]
 
@@ -43,5 +42,4 @@ def load_sample() -> Motion:
     >>> m.n_frames, round(m.fps)
     (994, 120)
     """
-    from ..bvh import read_bvh
     return read_bvh(sample_path())

@@ -8,8 +8,21 @@ processed motion through the C core on every slider move (:mod:`.session`).
 """
 from __future__ import annotations
 
-from .server import ViewerServer, is_loopback, make_server
-from .session import Clip, body_parts, load_clips, parse_params
+import warnings as _warnings
+from typing import Any as _Any
 
-__all__ = ["ViewerServer", "make_server", "is_loopback", "Clip", "body_parts", "load_clips",
+from .server import ViewerServer, is_loopback, make_server
+from .session import ViewerClip, body_parts, load_clips, parse_params
+
+__all__ = ["ViewerServer", "make_server", "is_loopback", "ViewerClip", "body_parts", "load_clips",
            "parse_params"]
+
+
+def __getattr__(name: str) -> _Any:
+    """``Clip``: the old name of :class:`ViewerClip` (issue 40: ``mlayer.pipeline.pipeline.Clip``
+    is the one ``Clip``), kept for one minor release with a DeprecationWarning."""
+    if name == "Clip":
+        _warnings.warn("mlayer.viewer.Clip is renamed mlayer.viewer.ViewerClip",
+                       DeprecationWarning, stacklevel=2)
+        return ViewerClip
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -38,16 +38,20 @@ from typing import IO, TYPE_CHECKING, Any, cast
 import numpy as np
 from numpy.typing import NDArray
 
-from ..bvh import write_bvh_string
 from ..errors import Error
-from ..render import body_side
-from ..som import u_matrix
-from .session import (Clip, ParamError, ResultCache, _b64, _points, finite_number, json_bytes,
-                      query_pairs)
+from ..guards.contacts import contact_positions
+from ..guards.metrics import body_height
+from ..io.bvh import write_bvh_string
+from ..manifold.features import pose_features
+from ..manifold.primitives import PrimitiveModel, join_skeletons, same_units
+from ..manifold.som import u_matrix
+from ..plotting.render import body_side
+from .session import (ParamError, ResultCache, ViewerClip, _b64, _points, finite_number,
+                      json_bytes, query_pairs)
 
 if TYPE_CHECKING:
-    from ..markov import Markov
-    from ..motion import Motion
+    from ..manifold.markov import Markov
+    from ..model.motion import Motion
 
 __all__ = ["ManifoldSession", "ranked_next", "ranked_chain", "ranked_cycle",
            "DEFAULT_MANIFOLD_FRAMES", "MAX_MOTION_FRAMES", "MAX_KNOTS"]
@@ -217,7 +221,7 @@ class ManifoldSession:
 
     Parameters
     ----------
-    clips : list of mlayer.viewer.session.Clip
+    clips : list of mlayer.viewer.session.ViewerClip
         The server's clips.
     cache : ResultCache
         Its result cache.
@@ -231,17 +235,17 @@ class ManifoldSession:
         Seed of the training.
     rename : dict of str to str, optional
         Joint names of another naming scheme mapped to the first good clip's
-        (:func:`mlayer.primitives.join_skeletons`); a clip of other names or another tree is
-        left out of the training, with the first differing joint as the reason.
+        (:func:`mlayer.manifold.primitives.join_skeletons`); a clip of other names or another tree
+        is left out of the training, with the first differing joint as the reason.
     """
     max_values: int
     max_frames: int
     state: str
-    used: list[Clip]
+    used: list[ViewerClip]
     excluded: list[dict[str, object]]
     stride: int
 
-    def __init__(self, clips: list[Clip], *, cache: ResultCache, max_values: int,
+    def __init__(self, clips: list[ViewerClip], *, cache: ResultCache, max_values: int,
                  max_frames: int = DEFAULT_MANIFOLD_FRAMES, log: IO[str] | None = None,
                  seed: int = 0, rename: dict[str, str] | None = None) -> None:
         self.clips = clips
@@ -272,7 +276,6 @@ class ManifoldSession:
         """Which clips train (those with the first good clip's skeleton: joint names, after
         ``rename``, and tree) and the common stride that keeps the frames within
         ``max_frames`` and ``max_values``."""
-        from ..primitives import join_skeletons
         good = [c for c in self.clips if c.ok]
         self.used, self.excluded = [], []
         self._joined = {}
@@ -306,7 +309,6 @@ class ManifoldSession:
         self.used = keep
 
     def _train(self) -> None:
-        from ..primitives import PrimitiveModel, same_units
         try:
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always")
@@ -616,7 +618,6 @@ class ManifoldSession:
     def _features_of(self, pos: int) -> np.ndarray:
         X = self._features.get(pos)
         if X is None:
-            from ..features import pose_features
             X = self._features[pos] = pose_features(self._motions[pos])
         return X
 
@@ -676,8 +677,6 @@ class ManifoldSession:
 
     def _figure(self, motion, info: dict, p: dict) -> dict:
         """The figure data of a manifold motion, as the page's clip endpoint gives it."""
-        from ..contacts import contact_positions
-        from ..metrics import body_height
         md = self.model
         sk = motion.skeleton
         fk = motion.forward_kinematics()

@@ -84,7 +84,7 @@ from ..errors import Error, InvalidArgumentError
 from . import _net
 from ._net import MAX_BODY, Conn, Pool, Reactor, WriteBudget, body_size
 from .manifold import DEFAULT_MANIFOLD_FRAMES, ManifoldSession
-from .session import (DEFAULT_CACHE_BYTES, DEFAULT_MAX_VALUES, PARAMS, Clip, ParamError,
+from .session import (DEFAULT_CACHE_BYTES, DEFAULT_MAX_VALUES, PARAMS, ViewerClip, ParamError,
                       ResultCache, json_bytes, load_clips, parse_params)
 
 __all__ = ["ViewerServer", "make_server", "is_loopback", "BACKLOG", "DEFAULT_MAX_VALUES",
@@ -179,7 +179,7 @@ class ViewerServer(HTTPServer):
 
     Parameters
     ----------
-    clips : list of Clip
+    clips : list of ViewerClip
         The clips (:func:`mlayer.viewer.load_clips`).
     host : str, optional
         The address to bind.
@@ -223,7 +223,7 @@ class ViewerServer(HTTPServer):
     allow_reuse_address = True
     request_queue_size = BACKLOG
 
-    def __init__(self, clips: list[Clip], host: str = "127.0.0.1", port: int = 0, *,
+    def __init__(self, clips: list[ViewerClip], host: str = "127.0.0.1", port: int = 0, *,
                  log: IO[str] | None = None, max_values: int = DEFAULT_MAX_VALUES,
                  cache_bytes: int = DEFAULT_CACHE_BYTES, timeout: float = DEFAULT_TIMEOUT,
                  threads: int = DEFAULT_THREADS,
@@ -616,7 +616,7 @@ class _Handler(BaseHTTPRequestHandler):
             raise ParamError(f"no such page: {path[:200]}", 404)
         api(self._take_token(url.query))
 
-    def _clip_of(self, p: dict) -> Clip:
+    def _clip_of(self, p: dict) -> ViewerClip:
         i = p["clip"]
         if i is None:
             raise ParamError("missing parameter 'clip' (the clip's index)")

@@ -6,7 +6,7 @@ are computed once and cached; a request is then only
 
     synthesize(alpha per joint)                    C core, eq. 16-17
     (+ residual when denoising is off)             q * exp(residual), C quaternion kernels
-    the guards (mlayer.pipeline.Synthesis)         joint limits, contacts, floor (mlr_guards)
+    the guards (mlayer.Synthesis)                  joint limits, contacts, floor (mlr_guards)
     timewarp (length, strength), resample (fps)    C LGS solves
 
 followed by forward kinematics for the figure and the metrics.
@@ -28,18 +28,21 @@ from urllib.parse import parse_qsl
 import numpy as np
 from numpy.typing import NDArray
 
-from .. import quat
-from ..bvh import read_bvh, write_bvh_string
 from ..errors import Error, InvalidArgumentError
-from .. import pipeline
-from ..metrics import foot_sliding, jitter
-from ..render import body_side
-from ..retiming import frames_at_rate, resample, timewarp
+from ..guards.contacts import contact_positions
+from ..guards.metrics import foot_sliding, jitter
+from ..io.bvh import read_bvh, write_bvh_string
+from ..layers.alpha_curve import AlphaCurve
+from ..model import quat
+from ..pipeline import pipeline
+from ..pipeline.retiming import frames_at_rate, resample, timewarp
+from ..plotting.plot import plot_layers
+from ..plotting.render import body_side
 
 if TYPE_CHECKING:
-    from ..motion import Motion
+    from ..model.motion import Motion
 
-__all__ = ["Clip", "load_clips", "body_parts", "parse_params", "ParamError", "PARAMS",
+__all__ = ["ViewerClip", "load_clips", "body_parts", "parse_params", "ParamError", "PARAMS",
            "PART_NAMES", "ResultCache", "json_bytes", "DEFAULT_MAX_VALUES",
            "DEFAULT_CACHE_BYTES"]
 
@@ -61,8 +64,8 @@ _LEG_WORDS = re.compile(r"hip|upleg|thigh|leg|knee|shin|calf|foot|ankle|toe|ball
 def body_parts(names: Sequence[str], parents: Sequence[int] | NDArray[np.int32]) -> list[str]:
     """The body part of every joint, from its name.
 
-    A joint on the left or right side (:func:`mlayer.render.body_side`) whose name matches an
-    arm or leg keyword is that part (a centre-line joint only below a joint of that part); any
+    A joint on the left or right side (:func:`mlayer.plotting.render.body_side`) whose name matches
+    an arm or leg keyword is that part (a centre-line joint only below a joint of that part); any
     other joint takes its parent's part (an eye under the head, a MakeHuman toe under a foot);
     the root and the centre line (spine, neck, head, tail) are the spine.
 
@@ -221,7 +224,6 @@ def parse_params(query: str, allowed: Collection[str]) -> dict[str, Any]:
 def _alpha_keys(raw: str, name: str, lo: float | None, hi: float | None) -> str:
     """The keys of an alpha curve, checked (at most _MAX_KEYS, alphas in [lo, hi], times in
     [0, 36000] s), in their canonical text; ParamError (400) naming the key otherwise."""
-    from ..alpha_curve import AlphaCurve
     if raw.count(",") >= _MAX_KEYS:
         raise ParamError(f"{name}: at most {_MAX_KEYS} keys")
     try:
@@ -378,7 +380,7 @@ def _decimate(n: int, most: int = 1500) -> np.ndarray:
     return np.unique(np.linspace(0, n - 1, min(n, most)).round().astype(np.int64))
 
 
-class Clip:
+class ViewerClip:
     """One clip named on the command line: its motion (or the error that stopped it).
 
     Thread-safe: one lock serializes the work on a clip; answers already in the cache are
@@ -537,7 +539,6 @@ class Clip:
         """(N, C, 3) positions of the contact points of m, from its forward kinematics fk."""
         if not names:
             return np.zeros((m.n_frames, 0, 3))
-        from ..contacts import contact_positions
         return contact_positions(m, names, *fk)
 
     @property
@@ -676,7 +677,6 @@ class Clip:
         t0 = time.perf_counter()
         alpha: Any = p["alpha"]
         if p.get("keys"):  # alpha over time in the place of the global alpha
-            from ..alpha_curve import AlphaCurve
             alpha = AlphaCurve.parse(p["keys"])
         joints = {}
         for name, part in zip(m.joint_names, self._parts):  # the root joint is "spine"
@@ -743,7 +743,6 @@ class Clip:
         without keys)."""
         if not p.get("keys"):
             return None
-        from ..alpha_curve import AlphaCurve
         c = AlphaCurve.parse(p["keys"])
         t = io / self.motion.fps
         return {"t": t.tolist(), "alpha": c(t).tolist(), "keys": c.keys}
@@ -766,7 +765,7 @@ class Clip:
         return f"{stem}_processed.bvh", write_bvh_string(out)
 
     def layers_png(self) -> bytes:
-        """The layer figure of ``mlayer layers`` (:mod:`mlayer.plot`, matplotlib), cached.
+        """The layer figure of ``mlayer layers`` (:mod:`mlayer.plotting.plot`, matplotlib), cached.
 
         Returns
         -------
@@ -777,7 +776,6 @@ class Clip:
             L = self._ensure()
             if self._plot_png is None:
                 import io
-                from ..plot import plot_layers
                 fig = plot_layers(self.motion, L, title=f"{self.name}: layers")
                 buf = io.BytesIO()
                 fig.savefig(buf, format="png", dpi=110)
@@ -791,8 +789,8 @@ def _glob_escape(name: str) -> str:
 
 
 def load_clips(paths: Iterable[str | os.PathLike[str]], *, cache: ResultCache | None = None,
-               max_values: int = DEFAULT_MAX_VALUES) -> list[Clip]:
-    """Read every path; a clip that fails keeps its error (see ``Clip.error``).
+               max_values: int = DEFAULT_MAX_VALUES) -> list[ViewerClip]:
+    """Read every path; a clip that fails keeps its error (see ``ViewerClip.error``).
 
     Parameters
     ----------
@@ -805,9 +803,9 @@ def load_clips(paths: Iterable[str | os.PathLike[str]], *, cache: ResultCache | 
 
     Returns
     -------
-    list of Clip
+    list of ViewerClip
         One per path, in order.
     """
     cache = cache if cache is not None else ResultCache()
-    return [Clip(i, os.fspath(p), cache=cache, max_values=max_values)
+    return [ViewerClip(i, os.fspath(p), cache=cache, max_values=max_values)
             for i, p in enumerate(paths)]
