@@ -5,6 +5,10 @@
  * PrimitiveModel.generate and motion_along (bindings/python/mlayer/primitives.py). */
 #include "common/options_internal.h"
 #include "generate/gen_internal.h"
+#include "guards/limits_internal.h"
+#include "mlayer/mlr_fk.h"
+#include "mlayer/mlr_generate.h"
+#include "mlayer/mlr_rig.h"
 
 #include <math.h>
 
@@ -41,6 +45,16 @@ struct mlr_generator {
     mlr_lgs *smoother;       /* the outputs' LGS, made once */
     size_t bytes;
     void *block;
+    /* the per-frame guards (mlr_generator_set_guards), all borrowed but gbuf */
+    int guarded;
+    const mlr_rig *rig;
+    const mlr_limits *limits;
+    size_t n_floor;          /* floor points (the model's contact points), 0: no floor guard */
+    size_t body_slot;        /* the body joint's slot among the rig's trans joints */
+    double *g_root, *g_trans, *g_wpos, *g_wrot, *g_pts; /* 3, 3 P, 3 J, 4 J, 3 C */
+    int32_t *g_joint, *g_end;                            /* C, C */
+    size_t gbytes;
+    void *gbuf;
 };
 
 static const mlr_opt_spec generate_opts[] = {
@@ -290,6 +304,133 @@ static mlr_status segment(mlr_generator *g, mlr_diag *diag)
     return MLR_OK;
 }
 
+/* A rig with the model's joints (names and parents), in the diag the first that differs. */
+static mlr_status same_joints(const mlr_gen_model *m, const mlr_rig *rig, mlr_diag *diag)
+{
+    if (rig->n_joints != m->n_joints)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "mlr_generator_set_guards: rig: %zu joints, the model has %zu",
+                            rig->n_joints, m->n_joints);
+    for (size_t j = 0; j < m->n_joints; j++) {
+        const char *b = rig->names ? rig->names[j] : NULL;
+        if (!b || strcmp(m->name_at[j], b) != 0 || rig->parents[j] != m->parents[j])
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "mlr_generator_set_guards: rig: joint %zu is '%.40s' (parent "
+                                "%d), the model's is '%.40s' (parent %d)",
+                                j, b ? b : "", (int)rig->parents[j], m->name_at[j],
+                                (int)m->parents[j]);
+    }
+    return MLR_OK;
+}
+
+mlr_status mlr_generator_set_guards(mlr_generator *g, const mlr_rig *rig, const double *rest,
+                                    const mlr_limits *limits, mlr_diag *diag)
+{
+    if (!g || !rig)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "mlr_generator_set_guards: %s is NULL",
+                            g ? "rig" : "gen");
+    if (g->started || g->guarded)
+        return mlr_diag_set(diag, MLR_E_BAD_STATE, 0, 0, "mlr_generator_set_guards: %s",
+                            g->guarded ? "the guards are set already"
+                                       : "frames were generated already (set the guards before "
+                                         "the first mlr_generator_next)");
+    const mlr_gen_model *m = g->model;
+    mlr_status st = mlr_rig_check(rig, diag);
+    if (st)
+        return mlr_diag_prefix(diag, st, "mlr_generator_set_guards: rig");
+    st = same_joints(m, rig, diag);
+    if (st)
+        return st;
+    const size_t J = m->n_joints, P = rig->n_trans, C = m->n_contacts;
+    size_t slot = 0;
+    if (m->body_joint != 0) {
+        while (slot < P && (size_t)rig->trans_joints[slot] != m->body_joint)
+            slot++;
+        if (slot == P)
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "mlr_generator_set_guards: rig: the body joint %zu '%.40s' has "
+                                "no position channels (not one of the rig's trans joints)",
+                                m->body_joint, m->name_at[m->body_joint]);
+    }
+    if (limits && mlr_limits_n_joints(limits) != J)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "mlr_generator_set_guards: limits of %zu joints for a model of %zu",
+                            mlr_limits_n_joints(limits), J);
+    if (rest)
+        for (size_t i = 0; i < 3 + 3 * P; i++)
+            if (!isfinite(rest[i]))
+                return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "mlr_generator_set_guards: rest[%zu] is NaN or infinite", i);
+    const size_t nc = isnan(m->floor_height) ? 0 : C;
+    /* doubles 3 + 3 P + 7 J + 3 C, then 2 C int32 (sizes bounded by the rig's and the file's) */
+    const size_t nd = 3 + 3 * P + 7 * J + 3 * nc, bytes = nd * 8 + 2 * nc * sizeof(int32_t);
+    unsigned char *b = mlr_alloc(&g->alloc, bytes);
+    if (!b)
+        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                            "mlr_generator_set_guards: out of memory (%zu bytes)", bytes);
+    double *d = (double *)(void *)b;
+    g->g_root = d, d += 3;
+    g->g_trans = d, d += 3 * P;
+    g->g_wpos = d, d += 3 * J;
+    g->g_wrot = d, d += 4 * J;
+    g->g_pts = d, d += 3 * nc;
+    g->g_joint = (int32_t *)(void *)d;
+    g->g_end = g->g_joint + nc;
+    /* the floor points: the model's contact points, by name on the rig */
+    const char *name = m->contact_names;
+    for (size_t c = 0; c < nc; c++, name += strlen(name) + 1) {
+        st = mlr_rig_find_point(rig, name, &g->g_joint[c], &g->g_end[c], diag);
+        if (st) {
+            mlr_free(&g->alloc, b, bytes);
+            return mlr_diag_prefix(diag, st,
+                                   "mlr_generator_set_guards: the model's contact point");
+        }
+    }
+    for (int a = 0; a < 3; a++)
+        g->g_root[a] = rest ? rest[a] : 0.0;
+    for (size_t p = 0; p < 3 * P; p++) /* Python's rest_trans: the offsets without clips */
+        g->g_trans[p] =
+            rest ? rest[3 + p] : rig->offsets[3 * (size_t)rig->trans_joints[p / 3] + p % 3];
+    g->gbuf = b;
+    g->gbytes = bytes;
+    g->rig = rig;
+    g->limits = limits;
+    g->n_floor = nc;
+    g->body_slot = slot;
+    g->guarded = 1;
+    return MLR_OK;
+}
+
+/* The per-frame guards on a finished frame: the joint limits (alpha 1), then the body lifted
+ * by how far the lowest floor point is below the model's floor (y up), nothing when none is. */
+static mlr_status guard_frame(mlr_generator *g, double *pose, mlr_diag *diag)
+{
+    const mlr_gen_model *m = g->model;
+    const mlr_rig *rig = g->rig;
+    if (g->limits)
+        limits__apply_frame(g->limits, (mlr_quat *)(void *)(pose + 3), NULL, 1, NULL);
+    if (!g->n_floor)
+        return MLR_OK;
+    const size_t P = rig->n_trans;
+    double *body = m->body_joint == 0 ? g->g_root : g->g_trans + 3 * g->body_slot;
+    memcpy(body, pose, 3 * sizeof(double));
+    mlr_status st = mlr_fk_arrays(1, m->n_joints, rig->parents, rig->offsets, g->g_root, pose + 3,
+                                  P, rig->trans_joints, P ? g->g_trans : NULL, g->g_wpos,
+                                  g->g_wrot, &g->alloc, diag);
+    if (st == MLR_OK)
+        st = mlr_rig_point_positions(rig, 1, g->g_wpos, g->g_wrot, g->n_floor, g->g_joint,
+                                     g->g_end, g->g_pts, diag);
+    if (st)
+        return mlr_diag_prefix(diag, st, "mlr_generator_next: guards");
+    double lift = 0.0;
+    for (size_t c = 0; c < g->n_floor; c++) {
+        const double below = m->floor_height - g->g_pts[3 * c + 1];
+        lift = below > lift ? below : lift;
+    }
+    pose[1] += lift;
+    return MLR_OK;
+}
+
 mlr_status mlr_generator_next(mlr_generator *g, double *pose, mlr_diag *diag)
 {
     if (!g || !pose)
@@ -341,6 +482,13 @@ mlr_status mlr_generator_next(mlr_generator *g, double *pose, mlr_diag *diag)
         g->broken = 1;
         return mlr_diag_prefix(diag, st, "mlr_generator_next");
     }
+    if (g->guarded) {
+        st = guard_frame(g, pose, diag);
+        if (st) {
+            g->broken = 1;
+            return st;
+        }
+    }
     g->point[0] = g->traj[2 * f];
     g->point[1] = g->traj[2 * f + 1];
     while (g->knot + 1 < g->n_knots && g->times[g->knot] < (double)f)
@@ -380,5 +528,7 @@ void mlr_generator_destroy(mlr_generator *g)
     mlr_markov_destroy(g->perturbed);
     if (g->block)
         mlr_free(&a, g->block, g->bytes);
+    if (g->gbuf)
+        mlr_free(&a, g->gbuf, g->gbytes);
     mlr_free(&a, g, sizeof *g);
 }

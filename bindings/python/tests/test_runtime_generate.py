@@ -3,6 +3,7 @@ loaded by the C core, generates the frames PrimitiveModel.generate(guards=False)
 the same seed and options; bad model files and options are refused with a diag naming them."""
 from __future__ import annotations
 
+import math
 import struct
 import zlib
 
@@ -262,3 +263,152 @@ def test_cli_runtime_model_under_a_static_root(mocap, tmp_path):
     # a wrong extension is refused before any work
     assert main(["primitives", str(clip), "-o", str(npz), "--runtime",
                  str(tmp_path / "m.bin")]) == 1
+
+
+def _fk_points(skeleton, frames: np.ndarray, joints: list[int], body_joint: int = 0,
+               rest_root=None, rest_trans=None) -> np.ndarray:
+    """World positions of joints of generated frames, by numpy (not the C core)."""
+    n, J = frames.shape[0], skeleton.n_joints
+    rot = frames[:, 3:].reshape(n, J, 4)
+    local = np.repeat(np.asarray(skeleton.offsets, float)[None], n, axis=0)
+    root = np.repeat(np.zeros(3)[None] if rest_root is None else np.asarray(rest_root)[None], n, 0)
+    tj = list(skeleton.trans_joints)
+    for i, j in enumerate(tj):
+        local[:, j] = skeleton.offsets[j] if rest_trans is None else rest_trans[i]
+    if body_joint == 0:
+        root = frames[:, :3]
+    else:
+        local[:, body_joint] = frames[:, :3]
+
+    def rotate(q, v):
+        w, u = q[:, :1], q[:, 1:]
+        t = 2.0 * np.cross(u, v)
+        return v + w * t + np.cross(u, t)
+
+    def mul(a, b):
+        w1, v1, w2, v2 = a[:, :1], a[:, 1:], b[:, :1], b[:, 1:]
+        return np.hstack([w1 * w2 - np.sum(v1 * v2, axis=1, keepdims=True),
+                          w1 * v2 + w2 * v1 + np.cross(v1, v2)])
+    wpos, wrot = np.empty((n, J, 3)), np.empty((n, J, 4))
+    for j in range(J):
+        p = skeleton.parents[j]
+        if p < 0:
+            wpos[:, j], wrot[:, j] = root, rot[:, j]
+        else:
+            wpos[:, j] = wpos[:, p] + rotate(wrot[:, p], local[:, j])
+            wrot[:, j] = mul(wrot[:, p], rot[:, j])
+    return wpos[:, joints]
+
+
+def _guarded(model_h, rig, limits_h, n: int, seed: int, frames: int, rest=ffi.NULL):
+    st, g = _generator(model_h, seed, [(lib.MLR_GEN_OPT_FRAMES, float(frames))])
+    assert st == 0, g
+    diag = ffi.new("mlr_diag *")
+    st = lib.mlr_generator_set_guards(g, rig, rest, limits_h, diag)
+    assert st == 0, ffi.string(diag.message)
+    out = np.empty((n, lib.mlr_gen_model_frame_size(model_h)))
+    for f in range(n):
+        st = lib.mlr_generator_next(g, ffi.cast("double *", ffi.from_buffer(out[f])), diag)
+        assert st == 0, ffi.string(diag.message)
+    return out
+
+
+def test_guards_keep_generated_frames_in_their_limits_and_above_the_floor(walk, mocap):
+    """mlr_generator_set_guards: with the guards on, every generated frame (over several
+    segments) has its contact points on or above the model's floor and its joints within the
+    limits, measured by numpy forward kinematics and swing-twist angles; the unguarded frames
+    of the same seed break both. The guards leave the walk, the heading and the ground track
+    alone: guards-off frames are those of the generator without the call, bit for bit."""
+    import sys
+    from conftest import REPO
+    from mlayer._rig import c_rig
+    sys.path.insert(0, str(REPO / "bench" / "python"))
+    import plausibility as bench_pl
+    m, model = walk
+    st, h = _load(model.runtime_bytes())
+    assert st == 0, h
+    lim = mlayer.joint_limits(m)
+    n, seg, seed = 500, 150, 3
+    plain, _ = _frames(h, n, seed, frames=seg)
+    J = m.n_joints
+    # tighter ranges than the generated frames reach, on four swing-twist joints: half the
+    # largest swing of the unguarded frames (measured with a range of 0.001 radians)
+    swing = {}
+    for name in ("LeftHip", "RightHip", "LeftShoulder", "RightShoulder"):
+        r = lim.range(name)
+        assert r["kind"] == "swing-twist"
+        lim.set_range(name, kind="swing-twist", swing=1e-3, twist=math.pi)
+        reach = bench_pl.swing_twist_excess(lim, plain[:, 3:].reshape(n, J, 4))[name]
+        swing[name] = 0.5 * (math.radians(reach) + 1e-3)
+        lim.set_range(name, kind="swing-twist", swing=swing[name], twist=r["twist"])
+    before = bench_pl.swing_twist_excess(lim, plain[:, 3:].reshape(n, J, 4))
+    assert min(before[k] for k in swing) > 1.0, before  # degrees past the tight ranges
+    rig, keep = c_rig(m.skeleton)
+    got = _guarded(h, rig, lim._h, n, seed, seg)
+    after = bench_pl.swing_twist_excess(lim, got[:, 3:].reshape(n, J, 4))
+    assert max(after.values()) == 0.0, after
+    # the floor: the model's contact points (joints here), by numpy forward kinematics
+    names = list(model.contact_names)
+    joints = [m.joint_names.index(c) for c in names]
+    floor = model.floor_height
+    low_plain = _fk_points(m.skeleton, plain, joints)[..., 1].min()
+    low = _fk_points(m.skeleton, got, joints)[..., 1].min(axis=1)
+    size = float(np.ptp(m.root_pos[:, 1]) + 1.0)
+    assert floor - low_plain > 0.5  # the unguarded feet go that far below the floor
+    assert low.min() >= floor - 1e-12 * size
+    # a frame is lifted by exactly its own lowest point's distance below the floor
+    lift = got[:, 1] - plain[:, 1]
+    below = np.maximum(floor - _fk_points(m.skeleton, np.hstack([plain[:, :3], got[:, 3:]]),
+                                          joints)[..., 1].min(axis=1), 0.0)
+    np.testing.assert_allclose(lift, below, rtol=0, atol=1e-12 * size)
+    # the ground track and heading are the unguarded ones, bit for bit
+    np.testing.assert_array_equal(got[:, [0, 2]], plain[:, [0, 2]])
+    # the root is free (no limits, no floor on its rotation): its rotation bit for bit
+    np.testing.assert_array_equal(got[:, 3:7], plain[:, 3:7])
+    del keep
+
+
+def test_guards_are_refused_on_bad_arguments(walk, mocap):
+    from mlayer._rig import c_rig
+    m, model = walk
+    st, h = _load(model.runtime_bytes())
+    assert st == 0, h
+    rig, keep = c_rig(m.skeleton)
+    lim = mlayer.joint_limits(m)
+    diag = ffi.new("mlr_diag *")
+
+    def fresh():
+        st, g = _generator(h, 1, [])
+        assert st == 0, g
+        return g
+    assert lib.mlr_generator_set_guards(fresh(), ffi.NULL, ffi.NULL, lim._h, diag) == \
+        lib.MLR_E_INVALID_ARG
+    assert "rig is NULL" in ffi.string(diag.message).decode()
+    # another skeleton, named by its first differing joint
+    other = mlayer.read_bvh(mocap / "bandai1_walk_happy_001.bvh")
+    orig, okeep = c_rig(other.skeleton)
+    assert lib.mlr_generator_set_guards(fresh(), orig, ffi.NULL, ffi.NULL, diag) == \
+        lib.MLR_E_INVALID_ARG
+    msg = ffi.string(diag.message).decode()
+    assert "mlr_generator_set_guards: rig:" in msg and "the model" in msg, msg
+    # limits of another rig
+    olim = mlayer.joint_limits(other)
+    if olim.n_joints != m.n_joints:
+        assert lib.mlr_generator_set_guards(fresh(), rig, ffi.NULL, olim._h, diag) == \
+            lib.MLR_E_INVALID_ARG
+        assert "limits of" in ffi.string(diag.message).decode()
+    # a non-finite rest value
+    rest = np.zeros(3 + 3 * len(m.skeleton.trans_joints))
+    rest[1] = np.nan
+    assert lib.mlr_generator_set_guards(fresh(), rig, ffi.cast("double *", ffi.from_buffer(rest)),
+                                        lim._h, diag) == lib.MLR_E_INVALID_ARG
+    assert "rest[1]" in ffi.string(diag.message).decode()
+    # after the first frame, or twice
+    g = fresh()
+    pose = np.empty(lib.mlr_gen_model_frame_size(h))
+    assert lib.mlr_generator_next(g, ffi.cast("double *", ffi.from_buffer(pose)), diag) == 0
+    assert lib.mlr_generator_set_guards(g, rig, ffi.NULL, lim._h, diag) == lib.MLR_E_BAD_STATE
+    assert "before the first mlr_generator_next" in ffi.string(diag.message).decode()
+    g = fresh()
+    assert lib.mlr_generator_set_guards(g, rig, ffi.NULL, lim._h, diag) == 0
+    assert lib.mlr_generator_set_guards(g, rig, ffi.NULL, lim._h, diag) == lib.MLR_E_BAD_STATE
