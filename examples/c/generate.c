@@ -10,12 +10,14 @@
  * names the first joint that differs) and, for a rig whose body joint is below a static root,
  * the root's position (its first frame). SEGMENT (default 300) is the generator's
  * option frames (MLR_GEN_OPT_FRAMES): the first SEGMENT frames are those of `mlayer generate --frames SEGMENT
- * --seed SEED --no-guards`; the frames after them continue the walk. It prints the mean time
- * of a mlr_generator_next call and the slowest one (a segment's first frame computes the
- * segment).
+ * --seed SEED --no-guards`; the frames after them continue the walk. It prints the time of the
+ * first mlr_generator_next call (it computes the first segment) and the median, mean, 99th and
+ * 99.9th percentiles and largest time of the others, in wall time and in the thread's processor
+ * time (the wall time includes the time the machine gave to other jobs during a call).
  *
  * Build: cc generate.c $(pkg-config --cflags --libs mlayer) -o generate
  */
+#define _POSIX_C_SOURCE 200809L /* clock_gettime, CLOCK_THREAD_CPUTIME_ID */
 #include <mlayer/mlayer.h>
 
 #include <stdio.h>
@@ -28,6 +30,38 @@ static double now(void)
     struct timespec t;
     timespec_get(&t, TIME_UTC);
     return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
+
+/* The processor time of this thread: a call's own work, without the time the machine gave
+ * to other jobs meanwhile (the wall time includes it). 0 where there is no such clock. */
+static double cpu_now(void)
+{
+#ifdef CLOCK_THREAD_CPUTIME_ID
+    struct timespec t;
+    if (clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t) == 0)
+        return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+#endif
+    return 0.0;
+}
+
+static int by_value(const void *a, const void *b)
+{
+    const double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+/* Median, mean, 99th and 99.9th percentiles (nearest rank) and largest of n > 0 times (sorted
+ * here), in microseconds. */
+static void summary(const char *what, double *t, size_t n)
+{
+    double total = 0;
+    for (size_t i = 0; i < n; i++)
+        total += t[i];
+    qsort(t, n, sizeof *t, by_value);
+    printf("  %s: median %.2f us, mean %.2f us, 99th percentile %.1f us, 99.9th %.1f us, "
+           "slowest %.1f us\n",
+           what, 1e6 * t[(n - 1) / 2], 1e6 * total / (double)n, 1e6 * t[(n * 99 + 99) / 100 - 1],
+           1e6 * t[(n * 999 + 999) / 1000 - 1], 1e6 * t[n - 1]);
 }
 
 static int failed(const char *what, mlr_status st, const mlr_diag *diag)
@@ -76,7 +110,7 @@ int main(int argc, char **argv)
     mlr_motion *rig = NULL, *out = NULL;
     mlr_gen_model *model = NULL;
     mlr_generator *gen = NULL;
-    double *pose = NULL;
+    double *pose = NULL, *took = NULL;
     int rc = 1;
     mlr_status st = mlr_bvh_read_file(argv[1], NULL, &rig, &diag);
     if (st) {
@@ -108,18 +142,17 @@ int main(int argc, char **argv)
         goto done;
     }
     pose = malloc(mlr_gen_model_frame_size(model) * sizeof *pose);
-    if (!pose)
+    took = malloc(2 * (size_t)frames * sizeof *took); /* wall, then processor times */
+    if (!pose || !took)
         goto done;
     double *root = mlr_motion_root_pos_mut(out), *rot = mlr_motion_rot_mut(out);
     double *trans = mlr_motion_trans_mut(out);
     const double *rig_root = mlr_motion_n_frames(rig) ? mlr_motion_root_pos(rig) : NULL;
-    double total = 0, slowest = 0;
     for (long f = 0; f < frames; f++) {
-        double t0 = now();
-        st = mlr_generator_next(gen, pose, &diag); /* no allocation between segment starts */
-        double dt = now() - t0;
-        total += dt;
-        slowest = dt > slowest ? dt : slowest;
+        double t0 = now(), c0 = cpu_now();
+        st = mlr_generator_next(gen, pose, &diag);
+        took[f] = now() - t0;
+        took[frames + f] = cpu_now() - c0;
         if (st) {
             rc = failed("frame", st, &diag);
             goto done;
@@ -138,12 +171,17 @@ int main(int argc, char **argv)
         rc = failed(argv[3], st, &diag);
         goto done;
     }
-    printf("generate: wrote %s (%ld frames, start frame %lld, seed %llu); a frame took %.2f us "
-           "on average, the slowest %.0f us\n",
-           argv[3], frames, (long long)mlr_generator_start_frame(gen), seed,
-           1e6 * total / (double)frames, 1e6 * slowest);
+    printf("generate: wrote %s (%ld frames, start frame %lld, seed %llu); the first call "
+           "took %.0f us (%.0f us of processor time); the other calls:\n",
+           argv[3], frames, (long long)mlr_generator_start_frame(gen), seed, 1e6 * took[0],
+           1e6 * took[frames]);
+    if (frames > 1) {
+        summary("wall time", took + 1, (size_t)frames - 1);
+        summary("processor time", took + frames + 1, (size_t)frames - 1);
+    }
     rc = 0;
 done:
+    free(took);
     free(pose);
     mlr_generator_destroy(gen);
     mlr_gen_model_destroy(model);

@@ -35,13 +35,20 @@
  * frames, continuing the walk (the transition in progress first, from the last manifold point)
  * and the heading and body position; only the first segment is what generate returns.
  *
+ * Work per call: the first mlr_generator_next computes the first segment whole. Each later
+ * segment is computed ahead, in equal parts over the calls of the segment before it (its walk
+ * and spline, then its GRBF rows four at a time, then its smoothing 16 outputs at a time), so no
+ * later call does a whole segment's work; the parts are the same sums in the same order, so the
+ * frames are those computed whole, bit for bit.
+ *
  * Memory: mlr_gen_model_load allocates the model (two blocks) and its Markov model (two
  * blocks; a temporary copy of its arrays is released before returning); mlr_generator_create
- * the generator; its first mlr_generator_next the buffers of one segment (about
- * frames * (n_out + 6) doubles, n_out = 4 + 7 J), the smoothing's factorization and, with
- * noise or allow_unseen, the perturbed chain; at the start of each segment the spline's
- * factorization and mlr_grbf_eval's workspace are allocated and released; the other calls of
- * mlr_generator_next allocate nothing.
+ * the generator; its first mlr_generator_next the buffers of two segments (about
+ * 2 frames * (n_out + 6) doubles, n_out = 4 + 7 J) and the GRBF's packed coefficients (about
+ * 24 ceil(n_out / 24) (N + 3) doubles, N the GRBF centres) in one block, the smoothing's
+ * factorization and, with noise or allow_unseen, the perturbed chain; the call that computes
+ * the walk of a segment ahead (the first of each segment) allocates and releases the spline's
+ * factorization; the other calls of mlr_generator_next allocate nothing.
  *
  * Threads: a model is read only after loading (generators on several threads may share it);
  * a generator serves one thread at a time.
@@ -197,7 +204,8 @@ MLR_API mlr_status mlr_generator_set_guards(mlr_generator *gen, const mlr_rig *r
  * the heading.
  * @param pose  [out] mlr_gen_model_frame_size(model) doubles
  * @return MLR_OK; MLR_E_INVALID_ARG (NULL); MLR_E_NO_MEMORY, MLR_E_SINGULAR (at a segment's
- *         start; the generator is then unusable, MLR_E_BAD_STATE after).
+ *         start, also when computing it ahead failed: the failure is kept until its first
+ *         frame is asked for; the generator is then unusable, MLR_E_BAD_STATE after).
  */
 MLR_API mlr_status mlr_generator_next(mlr_generator *gen, double *pose, mlr_diag *diag);
 
