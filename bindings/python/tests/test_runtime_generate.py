@@ -368,6 +368,37 @@ def test_guards_keep_generated_frames_in_their_limits_and_above_the_floor(walk, 
     del keep
 
 
+def test_guards_under_a_static_root_use_the_rest_translations(mocap):
+    """Bandai's body joint (Hips) is below a static root: the floor guard's kinematics put the
+    root and the other position channels at the rest values given (the model's
+    rest_root_pos, rest_trans) and the generated position on the body joint, as motion_along
+    does; its contact points then stay on or above the floor (numpy forward kinematics), the
+    unguarded ones go below it, and without limits only the height changes."""
+    from mlayer._rig import c_rig
+    clip = mocap / "bandai1_walk_happy_001.bvh"
+    if not clip.exists():
+        pytest.skip("bandai1_walk_happy_001.bvh not found")
+    m = mlayer.read_bvh(clip)
+    model = PrimitiveModel.fit([m], epochs=4, k=5, som=(8, 8), lattice=(6, 6))
+    assert model.body_joint != 0
+    st, h = _load(model.runtime_bytes())
+    assert st == 0, h
+    rest = np.ascontiguousarray(np.r_[model.rest_root_pos, np.asarray(model.rest_trans).ravel()])
+    rig, keep = c_rig(m.skeleton)
+    plain, _ = _frames(h, 300, 2, frames=100)
+    got = _guarded(h, rig, ffi.NULL, 300, 2, 100, ffi.cast("double *", ffi.from_buffer(rest)))
+    joints = [m.joint_names.index(c) for c in model.contact_names]
+
+    def lowest(frames):
+        return _fk_points(m.skeleton, frames, joints, model.body_joint, model.rest_root_pos,
+                          model.rest_trans)[..., 1].min()
+    size = float(np.ptp(m.trans[:, 0, 1]) + 1.0)
+    assert model.floor_height - lowest(plain) > 0.1
+    assert lowest(got) >= model.floor_height - 1e-12 * size
+    np.testing.assert_array_equal(np.delete(got, 1, axis=1), np.delete(plain, 1, axis=1))
+    del keep
+
+
 def test_guards_are_refused_on_bad_arguments(walk, mocap):
     from mlayer._rig import c_rig
     m, model = walk
