@@ -174,10 +174,31 @@ def test_bad_files_are_refused(walk):
     unk = bytearray(body)
     unk[0:24] = b"frame_tyme".ljust(24, b"\0")
     cases["unknown"] = (_rebuild(bytes(unk), head=head), "unknown field 'frame_tyme'")
+    # the contact names and the floor the runtime guards read
+    names_at, floor_at = _field_data(body, "contact_names"), _field_data(body, "floor_height")
+    merged = bytearray(body)
+    merged[body.index(b"\0", names_at)] = ord("x")  # two names become one
+    cases["contact names"] = (_rebuild(bytes(merged), head=head),
+                              "field 'contact_names' holds 3 names for 4 contact columns")
+    inf_floor = bytearray(body)
+    struct.pack_into("<d", inf_floor, floor_at, float("inf"))
+    cases["floor"] = (_rebuild(bytes(inf_floor), head=head), "field 'floor_height' is infinite")
     for what, (bad, msg) in cases.items():
         st, text = _load(bad)
         assert st == lib.MLR_E_PARSE, (what, st, text)
         assert msg in text, (what, text)
+
+
+def _field_data(body: bytes, name: str) -> int:
+    """Offset in body of the data of the named field (docs/model-format.md)."""
+    at = 0
+    while at < len(body):
+        field = body[at:at + 24].rstrip(b"\0").decode()
+        typ, _, d0, d1 = struct.unpack_from("<IIQQ", body, at + 24)
+        if field == name:
+            return at + 48
+        at += 48 + (d0 * d1 * (1 if typ == 3 else 8) + 7) // 8 * 8
+    raise KeyError(name)
 
 
 def test_every_truncation_is_refused(walk):
