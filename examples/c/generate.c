@@ -8,7 +8,9 @@
  *
  * RIG.bvh gives the skeleton (its joint names and tree must be the model's, else the loader
  * names the first joint that differs) and, for a rig whose body joint is below a static root,
- * the root's position (its first frame). SEGMENT (default 300) is the generator's
+ * the root's position (its first frame). GUARDS 1 turns on the per-frame guards
+ * (mlr_generator_set_guards): the joint limits learned from RIG.bvh's frames (give a training
+ * clip) and the model's floor. SEGMENT (default 300) is the generator's
  * option frames (MLR_GEN_OPT_FRAMES): the first SEGMENT frames are those of `mlayer generate --frames SEGMENT
  * --seed SEED --no-guards`; the frames after them continue the walk. It prints the time of the
  * first mlr_generator_next call (it computes the first segment) and the median, mean, 99th and
@@ -95,10 +97,12 @@ static mlr_status rig_motion(const mlr_motion *rig, size_t n, mlr_motion **out, 
 
 int main(int argc, char **argv)
 {
-    if (argc < 5 || argc > 7) {
-        fprintf(stderr, "usage: generate RIG.bvh MODEL.mlrgen OUT.bvh FRAMES [SEED [SEGMENT]]\n");
+    if (argc < 5 || argc > 8) {
+        fprintf(stderr, "usage: generate RIG.bvh MODEL.mlrgen OUT.bvh FRAMES [SEED [SEGMENT "
+                        "[GUARDS]]]\n");
         return 2;
     }
+    const int guards = argc > 7 && atoi(argv[7]) != 0;
     long frames = atol(argv[4]);
     unsigned long long seed = argc > 5 ? strtoull(argv[5], NULL, 10) : 0;
     double segment = argc > 6 ? atof(argv[6]) : 300;
@@ -110,7 +114,9 @@ int main(int argc, char **argv)
     mlr_motion *rig = NULL, *out = NULL;
     mlr_gen_model *model = NULL;
     mlr_generator *gen = NULL;
-    double *pose = NULL, *took = NULL;
+    double *pose = NULL, *took = NULL, *rest = NULL;
+    const char **names = NULL;
+    mlr_limits *limits = NULL;
     int rc = 1;
     mlr_status st = mlr_bvh_read_file(argv[1], NULL, &rig, &diag);
     if (st) {
@@ -132,6 +138,42 @@ int main(int argc, char **argv)
     }
     size_t J = mlr_gen_model_n_joints(model), body = mlr_gen_model_body_joint(model);
     size_t P = mlr_motion_n_trans(out), slot = P;
+    /* The guards: the joint limits learned from RIG.bvh's frames, the model's floor; the root
+     * and the other position channels at RIG.bvh's first frame. rig_view, names and limits
+     * must outlive the generator. */
+    mlr_rig rig_view = {0};
+    if (guards) {
+        names = malloc(J * sizeof *names);
+        rest = malloc((3 + 3 * P) * sizeof *rest);
+        if (!names || !rest || mlr_motion_n_frames(rig) == 0) {
+            fprintf(stderr, "generate: GUARDS needs the frames of %s\n", argv[1]);
+            goto done;
+        }
+        for (size_t j = 0; j < J; j++)
+            names[j] = mlr_motion_joint_name(rig, j);
+        mlr_rig r = {J,
+                     mlr_motion_parents(rig),
+                     mlr_motion_offsets(rig),
+                     names,
+                     P,
+                     mlr_motion_trans_joints(rig),
+                     mlr_motion_n_end_sites(rig),
+                     mlr_motion_end_site_parents(rig),
+                     mlr_motion_end_site_offsets(rig)};
+        rig_view = r;
+        memcpy(rest, mlr_motion_root_pos(rig), 3 * sizeof *rest);
+        if (P)
+            memcpy(rest + 3, mlr_motion_trans(rig), 3 * P * sizeof *rest);
+        const mlr_limits_clip clip = {mlr_motion_n_frames(rig), mlr_motion_rot(rig),
+                                      mlr_motion_trans(rig)};
+        st = mlr_limits_create(&rig_view, &clip, 1, NULL, 0, NULL, &limits, &diag);
+        if (!st)
+            st = mlr_generator_set_guards(gen, &rig_view, rest, limits, &diag);
+        if (st) {
+            rc = failed("guards", st, &diag);
+            goto done;
+        }
+    }
     const int32_t *tj = mlr_motion_trans_joints(out);
     for (size_t i = 0; i < P; i++)
         if ((size_t)tj[i] == body)
@@ -184,6 +226,9 @@ done:
     free(took);
     free(pose);
     mlr_generator_destroy(gen);
+    mlr_limits_destroy(limits);
+    free(rest);
+    free(names);
     mlr_gen_model_destroy(model);
     mlr_motion_destroy(out);
     mlr_motion_destroy(rig);

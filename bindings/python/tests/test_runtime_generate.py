@@ -261,6 +261,16 @@ def test_c_example_writes_the_bvh_python_writes(walk, mocap, tmp_path):
     subprocess.run([exe, rig, str(tmp_path / "walk.mlrgen"), str(tmp_path / "c.bvh"), "120", "3",
                     "120"], check=True, capture_output=True)
     assert (tmp_path / "c.bvh").read_bytes() == (tmp_path / "py.bvh").read_bytes()
+    # GUARDS 1: the limits learned from the rig's frames and the model's floor; the contact
+    # points of the written file stay above the floor but for the file's six decimals
+    for guards, out in (("0", "c0.bvh"), ("1", "c1.bvh")):
+        subprocess.run([exe, rig, str(tmp_path / "walk.mlrgen"), str(tmp_path / out), "400",
+                        "3", "120", guards], check=True, capture_output=True)
+    from mlayer.contacts import contact_positions
+    low = [contact_positions(mlayer.read_bvh(tmp_path / f), model.contact_names)[..., 1].min()
+           for f in ("c0.bvh", "c1.bvh")]
+    assert low[0] < model.floor_height - 0.5
+    assert low[1] >= model.floor_height - 1e-5
 
 
 def test_cli_runtime_model_under_a_static_root(mocap, tmp_path):
