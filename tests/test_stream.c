@@ -463,6 +463,68 @@ START_TEST(layers_match_offline_composition)
 }
 END_TEST
 
+/* The layered stream's output, bit for bit, against the two plain streams (main and base)
+ * composed here joint by joint with the public calls: translations xb + a (x - xb), joint j
+ * qb exp(a_j log(conj(qb) q)) where a_j != 1 (the stream batches these over the joints, and
+ * takes joints whose scaled vectors leave the exp's fast range, a_j = 1e6 here, one by one).
+ * Every alpha 1 (the base layer then not read) equals the main stream. */
+START_TEST(layers_bitwise_per_joint_composition)
+{
+    clip c;
+    clip_load(&c, 0);
+    const size_t N = c.N < 300 ? c.N : 300, m = c.m, J = c.J, nt = 3 + 3 * c.P, lag = 12;
+    const double lam = 1.0, sigma = 1.0, lam_b = 20.0, sigma_b = 1.0;
+    double *xm = malloc(N * m * sizeof(double)), *xb = malloc(N * m * sizeof(double));
+    double *x = malloc(N * m * sizeof(double)), *alpha = malloc(J * sizeof(double));
+    mlr_stream *st = NULL;
+    ck_assert_int_eq(mlr_stream_create(J, 1, c.P, lam, sigma, lag, NULL, &st, NULL), MLR_OK);
+    stream_all(st, c.y, N, m, xm);
+    mlr_stream_destroy(st);
+    ck_assert_int_eq(mlr_stream_create(J, 1, c.P, lam_b, sigma_b, lag, NULL, &st, NULL), MLR_OK);
+    stream_all(st, c.y, N, m, xb);
+    mlr_stream_destroy(st);
+    const double a_trans[] = {1.0, 1.0, 0.6, 2.5};
+    for (int t = 0; t < 4; t++) {
+        for (size_t j = 0; j < J; j++) {
+            const double mixed[] = {1.0, 2.5, -0.5, 0.0, 1.0, 0.75, 1e6};
+            alpha[j] = t == 0 ? 1.0 : t == 1 ? 1.8 : mixed[j % MLR_COUNTOF(mixed)];
+        }
+        ck_assert_int_eq(
+            mlr_stream_create_layered(J, 1, c.P, lam, sigma, lam_b, sigma_b, lag, NULL, &st, NULL),
+            MLR_OK);
+        ck_assert_int_eq(mlr_stream_set_alpha(st, a_trans[t], alpha, J, NULL), MLR_OK);
+        stream_all(st, c.y, N, m, x);
+        mlr_stream_destroy(st);
+        for (size_t f = 0; f < N; f++) {
+            double want[512];
+            ck_assert_uint_le(m, MLR_COUNTOF(want));
+            const double *rm = xm + f * m, *rb = xb + f * m;
+            for (size_t k = 0; k < nt; k++)
+                want[k] = a_trans[t] == 1.0 ? rm[k] : rb[k] + a_trans[t] * (rm[k] - rb[k]);
+            for (size_t j = 0; j < J; j++) {
+                const mlr_quat *qm = (const mlr_quat *)(rm + nt) + j;
+                const mlr_quat *qb = (const mlr_quat *)(rb + nt) + j;
+                mlr_quat *w = (mlr_quat *)(want + nt) + j;
+                *w = *qm;
+                if (alpha[j] == 1.0)
+                    continue;
+                mlr_quat bc = {qb->w, -qb->x, -qb->y, -qb->z}, d, e;
+                mlr_vec3 v;
+                mlr_quat_mul(&bc, qm, &d);
+                mlr_quat_log_array(&d, 1, &v, NULL);
+                v.x *= alpha[j], v.y *= alpha[j], v.z *= alpha[j];
+                mlr_quat_exp_array(&v, 1, &e, NULL);
+                mlr_quat_mul(qb, &e, w);
+            }
+            ck_assert_msg(memcmp(x + f * m, want, m * sizeof(double)) == 0,
+                          "alphas %d, frame %zu differs", t, f);
+        }
+    }
+    free(xm), free(xb), free(x), free(alpha);
+    clip_free(&c);
+}
+END_TEST
+
 /* ---------------------------------------------------------------------------------------- */
 /* Memory and bad input                                                                     */
 
@@ -636,6 +698,7 @@ static Suite *stream_suite(void)
     tcase_add_test(num, gap_decays_geometrically);
     tcase_add_test(num, decay_rate_is_a_root);
     tcase_add_test(num, reset_repeats_bitwise);
+    tcase_add_test(num, layers_bitwise_per_joint_composition);
     tcase_add_test(num, signs_follow_predictive_rule);
     tcase_add_test(num, layers_match_offline_composition);
     suite_add_tcase(s, num);

@@ -27,20 +27,28 @@
  *     the heading, the body joint's rotation turned by the heading.
  * Frames 0 .. frames-1 of a generator therefore equal those of generate (the walk by the same
  * C code; the rest by the same C solvers in the same order, measured equal within 1e-12 by
- * the tests). The guards (contacts pinned by IK, floor, joint limits) are not applied here:
- * see docs/primitives.md, "Runtime generation".
+ * the tests). The guards are off by default; mlr_generator_set_guards applies the joint
+ * limits and the floor to each frame (the contacts pinned by IK are not applied at run time:
+ * see docs/primitives.md, "Runtime generation").
  *
  * Endless generation: after `frames` frames the generator starts the next segment of `frames`
  * frames, continuing the walk (the transition in progress first, from the last manifold point)
  * and the heading and body position; only the first segment is what generate returns.
  *
+ * Work per call: the first mlr_generator_next computes the first segment whole. Each later
+ * segment is computed ahead, in equal parts over the calls of the segment before it (its walk
+ * and spline, then its GRBF rows four at a time, then its smoothing 16 outputs at a time), so no
+ * later call does a whole segment's work; the parts are the same sums in the same order, so the
+ * frames are those computed whole, bit for bit.
+ *
  * Memory: mlr_gen_model_load allocates the model (two blocks) and its Markov model (two
  * blocks; a temporary copy of its arrays is released before returning); mlr_generator_create
- * the generator; its first mlr_generator_next the buffers of one segment (about
- * frames * (n_out + 6) doubles, n_out = 4 + 7 J), the smoothing's factorization and, with
- * noise or allow_unseen, the perturbed chain; at the start of each segment the spline's
- * factorization and mlr_grbf_eval's workspace are allocated and released; the other calls of
- * mlr_generator_next allocate nothing.
+ * the generator; its first mlr_generator_next the buffers of two segments (about
+ * 2 frames * (n_out + 6) doubles, n_out = 4 + 7 J) and the GRBF's packed coefficients (about
+ * 24 ceil(n_out / 24) (N + 3) doubles, N the GRBF centres) in one block, the smoothing's
+ * factorization and, with noise or allow_unseen, the perturbed chain; the call that computes
+ * the walk of a segment ahead (the first of each segment) allocates and releases the spline's
+ * factorization; the other calls of mlr_generator_next allocate nothing.
  *
  * Threads: a model is read only after loading (generators on several threads may share it);
  * a generator serves one thread at a time.
@@ -49,7 +57,9 @@
 #define MLR_GENERATE_H
 
 #include "mlr_common.h"
+#include "mlr_limits.h"
 #include "mlr_motion.h"
+#include "mlr_rig.h"
 
 #include <stdint.h>
 
@@ -154,12 +164,48 @@ MLR_API mlr_status mlr_generator_create(const mlr_allocator *alloc, const mlr_ge
                                         size_t n_opts, mlr_generator **out, mlr_diag *diag);
 
 /**
+ * Turn on the per-frame guards of generated frames, before the first mlr_generator_next. Each
+ * frame is then finished, after step 7 above, as a stream's output is (mlr_stream_set_limits,
+ * and the floor of examples/c/game_loop/character.c), on that frame alone:
+ *  1. the joint limits (mlr_limits_apply's map at alpha 1) on its rotations, when limits is
+ *     given (normally mlr_limits_create on the training clips: PrimitiveModel.joint_limits);
+ *  2. the floor, when the model file holds its contact points and floor (the optional fields
+ *     contact_names and floor_height, a finite floor): forward kinematics of the frame on the
+ *     rig, and the body position raised by how far the lowest contact point is below the
+ *     floor (y up, as the generated frames); a frame with every point above it is unchanged.
+ *     The lift depends on the frame alone (no state), so it is as continuous as the frames.
+ * The generator's walk, heading and body position are those of the unguarded frames: with the
+ * guards off (the default) the frames are the ones described above, bit for bit. Not done at
+ * run time: the contacts pinned by IK (PrimitiveModel.generate's guards do it over the whole
+ * clip).
+ * @param rig    [in] the model's skeleton (its joint names and parents; offsets, trans joints
+ *               and End Sites for the kinematics); borrowed: it must outlive the generator
+ * @param rest   [in] 3 + 3 P doubles (P = rig->n_trans): the root translation, then the trans
+ *               joints' translations, that the frames keep where the generator does not drive
+ *               them (Python's rest_root_pos, rest_trans; only the body joint's channels are
+ *               generated); NULL: the root at 0, the trans joints at their offsets
+ * @param limits [in] limits of the rig's joints, or NULL (no limits); borrowed, as rig, and
+ *               not changed (mlr_limits_set_range) while the generator runs
+ * @return MLR_OK; MLR_E_INVALID_ARG (NULL gen or rig, a bad rig, another skeleton than the
+ *         model's: the diag names the first joint that differs, a body joint without position
+ *         channels, limits of another count of joints, a non-finite rest value, a contact
+ *         point of the model the rig does not have); MLR_E_BAD_STATE (set already, or frames
+ *         generated already); MLR_E_NO_MEMORY. Nothing changes on failure.
+ * Allocates: the guards' buffers (3 + 3 P + 7 J + 3 C doubles and 2 C int32, C the contact
+ * points); mlr_generator_next allocates nothing more for them. Threads: as the generator.
+ */
+MLR_API mlr_status mlr_generator_set_guards(mlr_generator *gen, const mlr_rig *rig,
+                                            const double *rest, const mlr_limits *limits,
+                                            mlr_diag *diag);
+
+/**
  * The next frame: pose[0 .. 2] the body position (x, height, z; the body joint's position
  * channels), then J quaternions (w, x, y, z; joint j at pose + 3 + 4 j), the body joint's with
  * the heading.
  * @param pose  [out] mlr_gen_model_frame_size(model) doubles
  * @return MLR_OK; MLR_E_INVALID_ARG (NULL); MLR_E_NO_MEMORY, MLR_E_SINGULAR (at a segment's
- *         start; the generator is then unusable, MLR_E_BAD_STATE after).
+ *         start, also when computing it ahead failed: the failure is kept until its first
+ *         frame is asked for; the generator is then unusable, MLR_E_BAD_STATE after).
  */
 MLR_API mlr_status mlr_generator_next(mlr_generator *gen, double *pose, mlr_diag *diag);
 

@@ -22,6 +22,9 @@ struct mlr_gen_model {
     double *grbf_centers;  /* n_centers x 2 */
     double *grbf_coef;     /* (n_centers + 3) x n_out */
     mlr_markov *markov;
+    size_t n_contacts;     /* contact points (0: none in the file) */
+    char *contact_names;   /* n_contacts names, each NUL-terminated ("Joint" or "Joint/End") */
+    double floor_height;   /* the training clips' floor along y, NaN: none */
 };
 
 #endif

@@ -378,8 +378,33 @@ mlr_status mlr_gen_model_load(const mlr_allocator *alloc, const void *bytes, siz
              "parent %lld (the root -1, the others an earlier joint)",
              (unsigned long long)j, (long long)p);
     }
+    /* the contact points' names and the floor (optional): mlr_generator_set_guards */
+    uint64_t nc = 0, cnb = 0;
+    double floor_height = NAN;
+    if (f[F_CONTACTS].found) {
+        const unsigned char *cn = f[F_CONTACT_NAMES].data;
+        uint64_t cc = 0, cl = 0;
+        nc = f[F_CONTACTS].dim[1];
+        cnb = f[F_CONTACT_NAMES].dim[0];
+        for (uint64_t i = 0; i < cnb; i++) {
+            if (cn[i] == 0) {
+                NEED(cl > 0, "field 'contact_names': name %llu is empty", (unsigned long long)cc);
+                cc++;
+                cl = 0;
+            } else {
+                cl++;
+            }
+        }
+        NEED(cc == nc && cl == 0,
+             "field 'contact_names' holds %llu names for %llu contact columns "
+             "(each NUL-terminated)",
+             (unsigned long long)cc, (unsigned long long)nc);
+        floor_height = rdf(f[F_FLOOR].data);
+        NEED(!isinf(floor_height), "field 'floor_height' is infinite (NaN: no floor)");
+    }
     /* sizes, then one block */
-    size_t off_names = 0, off_ptr, off_par, off_pts, off_lab, off_cen, off_gc, off_coef, total;
+    size_t off_names = 0, off_ptr, off_par, off_pts, off_lab, off_cen, off_gc, off_coef, off_cn;
+    size_t total;
     size_t sz = (size_t)nb;
     off_ptr = (sz + 7) / 8 * 8;
     off_par = off_ptr + (size_t)J * sizeof(char *);
@@ -389,7 +414,8 @@ mlr_status mlr_gen_model_load(const mlr_allocator *alloc, const void *bytes, siz
     off_cen = off_lab + (size_t)n * 8;
     off_gc = off_cen + (size_t)k * 16;
     off_coef = off_gc + (size_t)N * 16;
-    total = off_coef + (size_t)((N + 3) * nout) * 8; /* all bounded by size: no overflow */
+    off_cn = off_coef + (size_t)((N + 3) * nout) * 8;
+    total = off_cn + (size_t)cnb; /* all bounded by size: no overflow */
     mlr_allocator a;
     mlr_allocator_resolve(alloc, &a);
     mlr_gen_model *g = mlr_alloc(&a, sizeof *g);
@@ -439,6 +465,11 @@ mlr_status mlr_gen_model_load(const mlr_allocator *alloc, const void *bytes, siz
     g->grbf_coef = (double *)(void *)(blk + off_coef);
     for (size_t i = 0; i < (N + 3) * nout; i++)
         g->grbf_coef[i] = rdf(f[F_COEF].data + 8 * i);
+    g->n_contacts = (size_t)nc;
+    g->contact_names = (char *)blk + off_cn;
+    if (cnb)
+        memcpy(g->contact_names, f[F_CONTACT_NAMES].data, (size_t)cnb);
+    g->floor_height = floor_height;
     st = skeleton ? check_skeleton(g, skeleton, diag) : MLR_OK;
     if (!st) {
         /* the Markov model from aligned copies of its arrays (in the caller's byte order) */

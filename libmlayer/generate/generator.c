@@ -1,15 +1,37 @@
-/* Frames of a generated motion one at a time (mlr_generate.h): a segment of `frames` frames is
- * computed at its first frame (the walk, the knots, the spline, the GRBF, the smoothing) into
- * the generator's buffers; the frames of the segment are then finished one by one (rotations
- * renormalized, heading and body position integrated). The steps and their order are those of
- * PrimitiveModel.generate and motion_along (bindings/python/mlayer/primitives.py). */
+/* Frames of a generated motion one at a time (mlr_generate.h). A segment of `frames` frames is
+ * computed (the walk, the knots, the spline, the GRBF, the smoothing) into one of two sets of
+ * buffers; its frames are then finished one by one (rotations renormalized, heading and body
+ * position integrated). The first segment is computed in the first call; each later one is
+ * computed ahead, in equal parts over the calls of the segment before it (its walk and spline,
+ * then its GRBF rows one by one, then its smoothing a few columns at a time), so no call does a
+ * whole segment's work. The parts are the same computations in the same order (the GRBF rows
+ * and the smoothing's columns are independent sums), so the frames do not change. The steps and
+ * their order are those of PrimitiveModel.generate and motion_along
+ * (bindings/python/mlayer/primitives.py). */
 #include "common/options_internal.h"
 #include "generate/gen_internal.h"
+#include "guards/limits_internal.h"
+#include "manifold/grbf_eval_internal.h"
+#include "mlayer/mlr_fk.h"
+#include "mlayer/mlr_generate.h"
+#include "mlayer/mlr_rig.h"
 
 #include <math.h>
 
 #define STIFFNESS 1e-3 /* PrimitiveModel.spline's lam^2 sigma^2 */
 #define MAX_FRAMES 10000000
+#define SMOOTH_COLS 16 /* outputs smoothed per part of a segment computed ahead */
+#define GRBF_ROWS 4    /* GRBF rows per part */
+
+/* One segment's walk, knots, manifold points and outputs. */
+typedef struct segment {
+    int64_t *path;           /* frames + 3: the distinct states of the walk */
+    size_t path_len;
+    double *knots, *times;   /* (frames + 3) x 2, frames + 3 */
+    size_t n_knots;          /* knots used */
+    double *traj;            /* frames x 2 */
+    double *y;               /* frames x n_out */
+} segment;
 
 struct mlr_generator {
     mlr_allocator alloc;
@@ -30,17 +52,27 @@ struct mlr_generator {
     int64_t start_frame;
     double yaw, x, z;        /* heading and body position of the next frame */
     double point[2];
-    /* the walk: the distinct states of the segment, and the one before it */
-    int64_t *path;           /* frames + 3 */
-    size_t path_len;
-    int64_t prev_state;      /* the state before path[0] at a continuation, -1 at the first */
-    double *knots, *times;   /* (frames + 3) x 2, frames + 3 */
-    size_t n_knots, knot;    /* knots used, the knot the current frame moves toward */
-    double *traj;            /* frames x 2 */
-    double *y;               /* frames x n_out */
+    segment seg[2];          /* the current segment (cur) and the next, computed ahead */
+    int cur;
+    size_t knot;             /* the current segment's knot the current frame moves toward */
+    size_t parts, done;      /* parts of the next segment, parts computed */
+    size_t grbf_parts;       /* parts of the GRBF rows */
+    mlr_status ahead_st;     /* a failure computing the next segment, reported at its start */
+    mlr_diag ahead_diag;
+    grbf_eval_plan plan;     /* the model's GRBF, packed once */
     mlr_lgs *smoother;       /* the outputs' LGS, made once */
     size_t bytes;
     void *block;
+    /* the per-frame guards (mlr_generator_set_guards), all borrowed but gbuf */
+    int guarded;
+    const mlr_rig *rig;
+    const mlr_limits *limits;
+    size_t n_floor;          /* floor points (the model's contact points), 0: no floor guard */
+    size_t body_slot;        /* the body joint's slot among the rig's trans joints */
+    double *g_root, *g_trans, *g_wpos, *g_wrot, *g_pts; /* 3, 3 P, 3 J, 4 J, 3 C */
+    int32_t *g_joint, *g_end;                            /* C, C */
+    size_t gbytes;
+    void *gbuf;
 };
 
 static const mlr_opt_spec generate_opts[] = {
@@ -91,22 +123,24 @@ mlr_status mlr_generator_create(const mlr_allocator *alloc, const mlr_gen_model 
     g->noise = v.v[MLR_GEN_OPT_NOISE];
     g->allow_unseen = v.v[MLR_GEN_OPT_ALLOW_UNSEEN] != 0.0;
     g->start_frame = -1;
-    g->prev_state = -1;
     g->point[0] = g->point[1] = NAN;
     *out = g;
     return MLR_OK;
 }
 
-/* The buffers of one segment, at the first frame. */
+/* The buffers of two segments and the GRBF's plan, at the first frame. */
 static mlr_status allocate(mlr_generator *g, mlr_diag *diag)
 {
     const mlr_gen_model *m = g->model;
-    size_t n = g->frames, cap = n + 3, total;
-    /* path (cap int64), knots (2 cap), times (cap), traj (2 n), y (n n_out) */
-    size_t ny;
-    if (mlr_mul_size(n, m->n_out, &ny) || ny > SIZE_MAX / 8 - 6 * cap - 2 * n)
+    size_t n = g->frames, cap = n + 3, total, ny;
+    /* per segment: path (cap int64), knots (2 cap), times (cap), traj (2 n), y (n n_out); then
+     * the plan (a multiple of 8 bytes) */
+    const size_t plan = grbf__eval_plan_bytes(m->n_centers, 2, m->n_out);
+    if (mlr_mul_size(n, m->n_out, &ny) || ny > SIZE_MAX / 16 - 4 * cap - 2 * n || plan == 0 ||
+        plan > SIZE_MAX - 16 * (4 * cap + 2 * n + ny))
         return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "mlr_generator_next: sizes overflow");
-    total = (4 * cap + 2 * n + ny) * 8;
+    const size_t per = 4 * cap + 2 * n + ny;
+    total = 2 * per * 8 + plan;
     unsigned char *b = mlr_alloc(&g->alloc, total);
     if (!b)
         return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
@@ -115,11 +149,18 @@ static mlr_status allocate(mlr_generator *g, mlr_diag *diag)
                             total, n);
     g->block = b;
     g->bytes = total;
-    g->path = (int64_t *)(void *)b;
-    g->knots = (double *)(void *)(b + 8 * cap);
-    g->times = g->knots + 2 * cap;
-    g->traj = g->times + cap;
-    g->y = g->traj + 2 * n;
+    for (int k = 0; k < 2; k++) {
+        segment *sg = &g->seg[k];
+        unsigned char *p = b + (size_t)k * per * 8;
+        sg->path = (int64_t *)(void *)p;
+        sg->knots = (double *)(void *)(p + 8 * cap);
+        sg->times = sg->knots + 2 * cap;
+        sg->traj = sg->times + cap;
+        sg->y = sg->traj + 2 * n;
+    }
+    grbf__eval_plan_init(&g->plan, m->kernel, m->kernel ? m->width : 1.0, m->grbf_centers,
+                         m->n_centers, 2, m->grbf_coef, m->n_out, m->n_out, 2,
+                         (double *)(void *)(b + 2 * per * 8));
     g->mk = m->markov;
     if (g->noise > 0 || g->allow_unseen) {
         mlr_rng r;
@@ -136,157 +177,323 @@ static mlr_status allocate(mlr_generator *g, mlr_diag *diag)
         if (st < 0)
             return mlr_diag_prefix(diag, st, "mlr_generator_next");
     }
+    /* a segment in parts: the walk and spline, the GRBF rows, the smoothing's column groups */
+    g->grbf_parts = (n + GRBF_ROWS - 1) / GRBF_ROWS;
+    g->parts = 1 + g->grbf_parts + (g->smoother ? (m->n_out + SMOOTH_COLS - 1) / SMOOTH_COLS : 0);
     return MLR_OK;
 }
 
 /* The knots and times of the segment from its walk (path[0 .. path_len-1], the first knot
  * given), cut at the last frame: PrimitiveModel.generate's. first_step: the frames of the first
  * step (a continuation's remainder), < 0 for the whole step. */
-static void knots_from_path(mlr_generator *g, const double *p0, double first_step)
+static void knots_from_path(const mlr_generator *g, segment *s, const double *p0,
+                            double first_step)
 {
     const mlr_gen_model *m = g->model;
-    size_t L = g->path_len;
-    g->knots[0] = p0[0];
-    g->knots[1] = p0[1];
-    g->times[0] = 0.0;
+    size_t L = s->path_len;
+    s->knots[0] = p0[0];
+    s->knots[1] = p0[1];
+    s->times[0] = 0.0;
     for (size_t i = 1; i < L; i++) {
-        const double *c = m->centers + 2 * (size_t)g->path[i];
-        g->knots[2 * i] = c[0];
-        g->knots[2 * i + 1] = c[1];
-        double step = mlr_markov_step_frames(g->mk, g->path[i - 1], g->path[i]);
+        const double *c = m->centers + 2 * (size_t)s->path[i];
+        s->knots[2 * i] = c[0];
+        s->knots[2 * i + 1] = c[1];
+        double step = mlr_markov_step_frames(g->mk, s->path[i - 1], s->path[i]);
         if (i == 1 && first_step >= 0)
             step = first_step;
-        g->times[i] = g->times[i - 1] + step;
+        s->times[i] = s->times[i - 1] + step;
     }
-    g->n_knots = L;
+    s->n_knots = L;
     double last = (double)(g->frames - 1);
-    if (g->times[L - 1] > last) {
+    if (s->times[L - 1] > last) {
         size_t i = 0; /* np.searchsorted(times, last): the first time >= last */
-        while (g->times[i] < last)
+        while (s->times[i] < last)
             i++;
-        double a = (last - g->times[i - 1]) / (g->times[i] - g->times[i - 1]);
-        double *k0 = g->knots + 2 * (i - 1), *k1 = g->knots + 2 * i;
+        double a = (last - s->times[i - 1]) / (s->times[i] - s->times[i - 1]);
+        double *k0 = s->knots + 2 * (i - 1), *k1 = s->knots + 2 * i;
         double e0 = k0[0] + a * (k1[0] - k0[0]), e1 = k0[1] + a * (k1[1] - k0[1]);
         k1[0] = e0;
         k1[1] = e1;
-        g->times[i] = last;
-        g->n_knots = i + 1;
+        s->times[i] = last;
+        s->n_knots = i + 1;
     }
 }
 
 /* The first segment: the start frame, the walk, its knots. */
-static mlr_status first_walk(mlr_generator *g, mlr_diag *diag)
+static mlr_status first_walk(mlr_generator *g, segment *s, mlr_diag *diag)
 {
     const mlr_gen_model *m = g->model;
     g->start_frame = g->start_frame_opt >= 0 ? g->start_frame_opt
                                              : (int64_t)mlr_rng_below(&g->rng, m->n_points);
     int64_t first = g->start_opt >= 0 ? g->start_opt : m->labels[g->start_frame];
-    mlr_status st = mlr_markov_path(g->mk, NULL, 0, first, g->frames, g->rank, &g->rng, g->path,
-                                    g->frames + 1, &g->path_len, diag);
+    mlr_status st = mlr_markov_path(g->mk, NULL, 0, first, g->frames, g->rank, &g->rng, s->path,
+                                    g->frames + 1, &s->path_len, diag);
     if (st)
         return mlr_diag_prefix(diag, st, "mlr_generator_next");
-    knots_from_path(g, m->points + 2 * (size_t)g->start_frame, -1.0);
+    knots_from_path(g, s, m->points + 2 * (size_t)g->start_frame, -1.0);
     return MLR_OK;
 }
 
-/* A continuation: from the last point, through the state the last segment was heading to
- * (the rest of that step), then on along the walk. */
-static mlr_status next_walk(mlr_generator *g, mlr_diag *diag)
+/* A continuation of segment pv: from its last point, through the state it was heading to (the
+ * rest of that step), then on along the walk. */
+static mlr_status next_walk(mlr_generator *g, const segment *pv, segment *s, mlr_diag *diag)
 {
     const mlr_gen_model *m = g->model;
-    double p0[2] = {g->point[0], g->point[1]};
-    if (g->n_knots < 2) { /* a walk of one state (a ranked walk on one primitive) */
-        g->path_len = 1;
-        knots_from_path(g, p0, -1.0);
+    const double *p0 = pv->traj + 2 * (g->frames - 1); /* the last frame's point */
+    if (pv->n_knots < 2) { /* a walk of one state (a ranked walk on one primitive) */
+        s->path[0] = pv->path[0];
+        s->path_len = 1;
+        knots_from_path(g, s, p0, -1.0);
         return MLR_OK;
     }
-    size_t i = g->n_knots - 1; /* the last knot (maybe cut) */
-    int64_t from = g->path[i - 1], to = g->path[i];
+    size_t i = pv->n_knots - 1; /* the last knot (maybe cut) */
+    int64_t from = pv->path[i - 1], to = pv->path[i];
     double full = mlr_markov_step_frames(g->mk, from, to);
-    double done = g->times[i] - g->times[i - 1];
+    double done = pv->times[i] - pv->times[i - 1];
     double span =
-        g->knots[2 * i] != m->centers[2 * to] || g->knots[2 * i + 1] != m->centers[2 * to + 1]
+        pv->knots[2 * i] != m->centers[2 * to] || pv->knots[2 * i + 1] != m->centers[2 * to + 1]
             ? full - done
             : -1.0;
     int64_t hist[MLR_MARKOV_MAX_ORDER];
     size_t nh = 0;
     for (size_t j = i >= MLR_MARKOV_MAX_ORDER ? i - MLR_MARKOV_MAX_ORDER + 1 : 0; j < i; j++)
-        hist[nh++] = g->path[j];
+        hist[nh++] = pv->path[j];
     if (span > 0) {
         /* path: from (the state left), to, then the walk on from to */
         size_t len = 0;
         mlr_status st = mlr_markov_path(g->mk, hist, nh, to, g->frames, g->rank, &g->rng,
-                                        g->path + 1, g->frames + 1, &len, diag);
+                                        s->path + 1, g->frames + 1, &len, diag);
         if (st)
             return mlr_diag_prefix(diag, st, "mlr_generator_next");
-        g->path[0] = from;
-        g->path_len = len + 1;
-        knots_from_path(g, p0, span);
+        s->path[0] = from;
+        s->path_len = len + 1;
+        knots_from_path(g, s, p0, span);
     } else {
         /* the last knot was the centre itself: the walk goes on from it */
         hist[nh++] = to;
         size_t len = 0;
         int64_t start = to;
         mlr_status st = mlr_markov_path(g->mk, hist, nh - 1, start, g->frames, g->rank, &g->rng,
-                                        g->path, g->frames + 1, &len, diag);
+                                        s->path, g->frames + 1, &len, diag);
         if (st)
             return mlr_diag_prefix(diag, st, "mlr_generator_next");
-        g->path_len = len;
-        knots_from_path(g, p0, -1.0);
+        s->path_len = len;
+        knots_from_path(g, s, p0, -1.0);
     }
     return MLR_OK;
 }
 
-/* The spline, the clip to the bounds, the GRBF and the smoothing of a segment. */
-static mlr_status segment(mlr_generator *g, mlr_diag *diag)
+/* Part 0 of a segment: the walk (pv: the segment before, NULL for the first), the spline
+ * through the knots, the clip to the bounds. */
+static mlr_status walk_and_spline(mlr_generator *g, const segment *pv, segment *s, mlr_diag *diag)
 {
     const mlr_gen_model *m = g->model;
     size_t n = g->frames;
-    mlr_status st;
-    if (g->produced == 0)
-        st = first_walk(g, diag);
-    else
-        st = next_walk(g, diag);
+    mlr_status st = pv ? next_walk(g, pv, s, diag) : first_walk(g, s, diag);
     if (st)
         return st;
-    for (size_t i = 1; i < g->n_knots; i++)
-        if (!(g->times[i] > g->times[i - 1]))
+    for (size_t i = 1; i < s->n_knots; i++)
+        if (!(s->times[i] > s->times[i - 1]))
             return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                                 "mlr_generator_next: knots at "
                                 "the same frame");
-    if (g->n_knots == 1) {
+    if (s->n_knots == 1) {
         for (size_t f = 0; f < n; f++) {
-            g->traj[2 * f] = g->knots[0];
-            g->traj[2 * f + 1] = g->knots[1];
+            s->traj[2 * f] = s->knots[0];
+            s->traj[2 * f + 1] = s->knots[1];
         }
     } else {
         mlr_lgs *sp = NULL;
-        st = mlr_lgs_create(n, 2, sqrt(STIFFNESS), 1.0, g->times, g->n_knots, MLR_LGS_BANDED,
+        st = mlr_lgs_create(n, 2, sqrt(STIFFNESS), 1.0, s->times, s->n_knots, MLR_LGS_BANDED,
                             &g->alloc, &sp, diag);
         if (st < 0)
             return mlr_diag_prefix(diag, st, "mlr_generator_next: spline");
-        st = mlr_lgs_solve(sp, g->knots, 2, 2, g->traj, 2, diag);
+        st = mlr_lgs_solve(sp, s->knots, 2, 2, s->traj, 2, diag);
         mlr_lgs_destroy(sp);
         if (st < 0)
             return mlr_diag_prefix(diag, st, "mlr_generator_next: spline");
     }
     for (size_t f = 0; f < n; f++)
         for (int j = 0; j < 2; j++) {
-            double v = g->traj[2 * f + j], lo = m->bounds[2 * j], hi = m->bounds[2 * j + 1];
-            g->traj[2 * f + j] = v < lo ? lo : v > hi ? hi : v; /* np.clip */
+            double v = s->traj[2 * f + j], lo = m->bounds[2 * j], hi = m->bounds[2 * j + 1];
+            s->traj[2 * f + j] = v < lo ? lo : v > hi ? hi : v; /* np.clip */
         }
-    st = mlr_grbf_eval(m->kernel, m->kernel ? m->width : 1.0, m->grbf_centers, m->n_centers, 2,
-                       m->grbf_coef, m->n_out, m->n_out, g->traj, n, 2, 2, 1, g->y, m->n_out,
-                       &g->alloc, diag);
-    if (st < 0)
-        return mlr_diag_prefix(diag, st, "mlr_generator_next: GRBF");
-    if (g->smoother) {
-        st = mlr_lgs_solve(g->smoother, g->y, m->n_out, m->n_out, g->y, m->n_out, diag);
+    return MLR_OK;
+}
+
+/* Parts [from, to) of segment s (pv the one before it, NULL for the first): part 0 the walk
+ * and the spline, parts 1 .. G the GRBF rows, GRBF_ROWS per part, then the smoothing of
+ * SMOOTH_COLS outputs per part. Runs of rows and of columns are computed together (the same
+ * sums). */
+static mlr_status compute_parts(mlr_generator *g, const segment *pv, segment *s, size_t from,
+                                size_t to, mlr_diag *diag)
+{
+    const mlr_gen_model *m = g->model;
+    const size_t n = g->frames, no = m->n_out, G = g->grbf_parts;
+    if (from == 0 && to > 0) {
+        mlr_status st = walk_and_spline(g, pv, s, diag);
+        if (st)
+            return st;
+        from = 1;
+    }
+    if (from < to && from <= G) { /* the GRBF rows of parts from .. p1 - 1 */
+        const size_t p1 = to < G + 1 ? to : G + 1;
+        const size_t r0 = (from - 1) * GRBF_ROWS, r1 = (p1 - 1) * GRBF_ROWS;
+        grbf__eval_plan_rows(&g->plan, s->traj + 2 * r0, (r1 < n ? r1 : n) - r0, 2, s->y + r0 * no,
+                             no);
+        from = p1;
+    }
+    if (from < to) { /* the smoothing's columns */
+        const size_t c0 = (from - 1 - G) * SMOOTH_COLS, c1 = (to - 1 - G) * SMOOTH_COLS;
+        const size_t cols = (c1 < no ? c1 : no) - c0;
+        mlr_status st = mlr_lgs_solve(g->smoother, s->y + c0, no, cols, s->y + c0, no, diag);
         if (st < 0)
             return mlr_diag_prefix(diag, st, "mlr_generator_next: smoothing");
     }
-    g->f = 0;
-    g->knot = 1;
+    return MLR_OK;
+}
+
+/* After frame f (0 .. frames-1) of the current segment: the next segment's parts up to
+ * ceil((f + 1) parts / frames), so they are all done after the last frame. A failure is kept
+ * for the start of the next segment. */
+static void compute_ahead(mlr_generator *g, size_t f)
+{
+    if (g->ahead_st)
+        return;
+    const size_t n = g->frames;
+    size_t target = (size_t)(((unsigned long long)(f + 1) * g->parts + n - 1) / n);
+    target = target < g->parts ? target : g->parts;
+    if (target > g->done) {
+        g->ahead_st = compute_parts(g, &g->seg[g->cur], &g->seg[1 - g->cur], g->done, target,
+                                    &g->ahead_diag);
+        g->done = target;
+    }
+}
+
+/* A rig with the model's joints (names and parents), in the diag the first that differs. */
+static mlr_status same_joints(const mlr_gen_model *m, const mlr_rig *rig, mlr_diag *diag)
+{
+    if (rig->n_joints != m->n_joints)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "mlr_generator_set_guards: rig: %zu joints, the model has %zu",
+                            rig->n_joints, m->n_joints);
+    for (size_t j = 0; j < m->n_joints; j++) {
+        const char *b = rig->names ? rig->names[j] : NULL;
+        if (!b || strcmp(m->name_at[j], b) != 0 || rig->parents[j] != m->parents[j])
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "mlr_generator_set_guards: rig: joint %zu is '%.40s' (parent "
+                                "%d), the model's is '%.40s' (parent %d)",
+                                j, b ? b : "", (int)rig->parents[j], m->name_at[j],
+                                (int)m->parents[j]);
+    }
+    return MLR_OK;
+}
+
+mlr_status mlr_generator_set_guards(mlr_generator *g, const mlr_rig *rig, const double *rest,
+                                    const mlr_limits *limits, mlr_diag *diag)
+{
+    if (!g || !rig)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "mlr_generator_set_guards: %s is NULL",
+                            g ? "rig" : "gen");
+    if (g->started || g->guarded)
+        return mlr_diag_set(diag, MLR_E_BAD_STATE, 0, 0, "mlr_generator_set_guards: %s",
+                            g->guarded ? "the guards are set already"
+                                       : "frames were generated already (set the guards before "
+                                         "the first mlr_generator_next)");
+    const mlr_gen_model *m = g->model;
+    mlr_status st = mlr_rig_check(rig, diag);
+    if (st)
+        return mlr_diag_prefix(diag, st, "mlr_generator_set_guards: rig");
+    st = same_joints(m, rig, diag);
+    if (st)
+        return st;
+    const size_t J = m->n_joints, P = rig->n_trans, C = m->n_contacts;
+    size_t slot = 0;
+    if (m->body_joint != 0) {
+        while (slot < P && (size_t)rig->trans_joints[slot] != m->body_joint)
+            slot++;
+        if (slot == P)
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "mlr_generator_set_guards: rig: the body joint %zu '%.40s' has "
+                                "no position channels (not one of the rig's trans joints)",
+                                m->body_joint, m->name_at[m->body_joint]);
+    }
+    if (limits && mlr_limits_n_joints(limits) != J)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "mlr_generator_set_guards: limits of %zu joints for a model of %zu",
+                            mlr_limits_n_joints(limits), J);
+    if (rest)
+        for (size_t i = 0; i < 3 + 3 * P; i++)
+            if (!isfinite(rest[i]))
+                return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "mlr_generator_set_guards: rest[%zu] is NaN or infinite", i);
+    const size_t nc = isnan(m->floor_height) ? 0 : C;
+    /* doubles 3 + 3 P + 7 J + 3 C, then 2 C int32 (sizes bounded by the rig's and the file's) */
+    const size_t nd = 3 + 3 * P + 7 * J + 3 * nc, bytes = nd * 8 + 2 * nc * sizeof(int32_t);
+    unsigned char *b = mlr_alloc(&g->alloc, bytes);
+    if (!b)
+        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                            "mlr_generator_set_guards: out of memory (%zu bytes)", bytes);
+    double *d = (double *)(void *)b;
+    g->g_root = d, d += 3;
+    g->g_trans = d, d += 3 * P;
+    g->g_wpos = d, d += 3 * J;
+    g->g_wrot = d, d += 4 * J;
+    g->g_pts = d, d += 3 * nc;
+    g->g_joint = (int32_t *)(void *)d;
+    g->g_end = g->g_joint + nc;
+    /* the floor points: the model's contact points, by name on the rig */
+    const char *name = m->contact_names;
+    for (size_t c = 0; c < nc; c++, name += strlen(name) + 1) {
+        st = mlr_rig_find_point(rig, name, &g->g_joint[c], &g->g_end[c], diag);
+        if (st) {
+            mlr_free(&g->alloc, b, bytes);
+            return mlr_diag_prefix(diag, st,
+                                   "mlr_generator_set_guards: the model's contact point");
+        }
+    }
+    for (int a = 0; a < 3; a++)
+        g->g_root[a] = rest ? rest[a] : 0.0;
+    for (size_t p = 0; p < 3 * P; p++) /* Python's rest_trans: the offsets without clips */
+        g->g_trans[p] =
+            rest ? rest[3 + p] : rig->offsets[3 * (size_t)rig->trans_joints[p / 3] + p % 3];
+    g->gbuf = b;
+    g->gbytes = bytes;
+    g->rig = rig;
+    g->limits = limits;
+    g->n_floor = nc;
+    g->body_slot = slot;
+    g->guarded = 1;
+    return MLR_OK;
+}
+
+/* The per-frame guards on a finished frame: the joint limits (alpha 1), then the body lifted
+ * by how far the lowest floor point is below the model's floor (y up), nothing when none is. */
+static mlr_status guard_frame(mlr_generator *g, double *pose, mlr_diag *diag)
+{
+    const mlr_gen_model *m = g->model;
+    const mlr_rig *rig = g->rig;
+    if (g->limits)
+        limits__apply_frame(g->limits, (mlr_quat *)(void *)(pose + 3), NULL, 1, NULL);
+    if (!g->n_floor)
+        return MLR_OK;
+    const size_t P = rig->n_trans;
+    double *body = m->body_joint == 0 ? g->g_root : g->g_trans + 3 * g->body_slot;
+    memcpy(body, pose, 3 * sizeof(double));
+    mlr_status st = mlr_fk_arrays(1, m->n_joints, rig->parents, rig->offsets, g->g_root, pose + 3,
+                                  P, rig->trans_joints, P ? g->g_trans : NULL, g->g_wpos,
+                                  g->g_wrot, &g->alloc, diag);
+    if (st == MLR_OK)
+        st = mlr_rig_point_positions(rig, 1, g->g_wpos, g->g_wrot, g->n_floor, g->g_joint,
+                                     g->g_end, g->g_pts, diag);
+    if (st)
+        return mlr_diag_prefix(diag, st, "mlr_generator_next: guards");
+    double lift = 0.0;
+    for (size_t c = 0; c < g->n_floor; c++) {
+        const double below = m->floor_height - g->g_pts[3 * c + 1];
+        lift = below > lift ? below : lift;
+    }
+    pose[1] += lift;
     return MLR_OK;
 }
 
@@ -309,15 +516,29 @@ mlr_status mlr_generator_next(mlr_generator *g, double *pose, mlr_diag *diag)
             return st;
         }
     }
-    if (g->produced == 0 || g->f == g->frames) {
-        st = segment(g, diag);
+    if (g->produced == 0) { /* the first segment, whole */
+        st = compute_parts(g, NULL, &g->seg[0], 0, g->parts, diag);
         if (st) {
             g->broken = 1;
             return st;
         }
+        g->f = 0;
+        g->knot = 1;
+    } else if (g->f == g->frames) { /* the next segment, computed ahead */
+        if (g->ahead_st) {
+            g->broken = 1;
+            if (diag)
+                *diag = g->ahead_diag;
+            return g->ahead_st;
+        }
+        g->cur = 1 - g->cur;
+        g->done = 0;
+        g->f = 0;
+        g->knot = 1;
     }
     size_t f = g->f, J = m->n_joints;
-    const double *y = g->y + f * m->n_out;
+    const segment *cs = &g->seg[g->cur];
+    const double *y = cs->y + f * m->n_out;
     /* motion_along: rotations renormalized (_split), the body joint's turned by the heading */
     double c = cos(g->yaw), s = sin(g->yaw);
     double vx = y[1], vz = y[2];
@@ -341,9 +562,16 @@ mlr_status mlr_generator_next(mlr_generator *g, double *pose, mlr_diag *diag)
         g->broken = 1;
         return mlr_diag_prefix(diag, st, "mlr_generator_next");
     }
-    g->point[0] = g->traj[2 * f];
-    g->point[1] = g->traj[2 * f + 1];
-    while (g->knot + 1 < g->n_knots && g->times[g->knot] < (double)f)
+    if (g->guarded) {
+        st = guard_frame(g, pose, diag);
+        if (st) {
+            g->broken = 1;
+            return st;
+        }
+    }
+    g->point[0] = cs->traj[2 * f];
+    g->point[1] = cs->traj[2 * f + 1];
+    while (g->knot + 1 < cs->n_knots && cs->times[g->knot] < (double)f)
         g->knot++;
     /* the next frame's heading and position */
     g->x += c * vx + s * vz;
@@ -351,6 +579,7 @@ mlr_status mlr_generator_next(mlr_generator *g, double *pose, mlr_diag *diag)
     g->yaw += y[3];
     g->f++;
     g->produced++;
+    compute_ahead(g, f);
     return MLR_OK;
 }
 
@@ -366,7 +595,10 @@ void mlr_generator_point(const mlr_generator *g, double point[2])
 
 int64_t mlr_generator_primitive(const mlr_generator *g)
 {
-    return g && g->produced ? g->path[g->knot < g->path_len ? g->knot : g->path_len - 1] : -1;
+    if (!g || !g->produced)
+        return -1;
+    const segment *s = &g->seg[g->cur];
+    return s->path[g->knot < s->path_len ? g->knot : s->path_len - 1];
 }
 
 int64_t mlr_generator_start_frame(const mlr_generator *g) { return g ? g->start_frame : -1; }
@@ -380,5 +612,7 @@ void mlr_generator_destroy(mlr_generator *g)
     mlr_markov_destroy(g->perturbed);
     if (g->block)
         mlr_free(&a, g->block, g->bytes);
+    if (g->gbuf)
+        mlr_free(&a, g->gbuf, g->gbytes);
     mlr_free(&a, g, sizeof *g);
 }

@@ -220,7 +220,7 @@ mlr_status mlr_grbf_basis(int kernel, double width, const double *centers, size_
                           size_t n_threads, double *out, size_t ldo, const mlr_allocator *alloc,
                           mlr_diag *diag)
 {
-    size_t bytes;
+    size_t bytes = 0;
     mlr_status st = check_common(kernel, width, centers, n_centers, ldc, x, n, ldx, dim, n_threads,
                                  &bytes, diag);
     if (st)
@@ -318,7 +318,7 @@ mlr_status mlr_grbf_eval(int kernel, double width, const double *centers, size_t
                          const double *x, size_t n, size_t ldx, size_t dim, size_t n_threads,
                          double *out, size_t ldo, const mlr_allocator *alloc, mlr_diag *diag)
 {
-    size_t ct_bytes;
+    size_t ct_bytes = 0;
     mlr_status st = check_common(kernel, width, centers, n_centers, ldc, x, n, ldx, dim, n_threads,
                                  &ct_bytes, diag);
     if (st)
@@ -351,7 +351,36 @@ mlr_status mlr_grbf_eval(int kernel, double width, const double *centers, size_t
         return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
                             "grbf eval: out of memory for the workspace (%zu bytes)",
                             ct_bytes + pan_bytes);
-    double *ct = ws, *pan = ws + ct_bytes / sizeof(double);
+    grbf_eval_plan plan;
+    grbf__eval_plan_init(&plan, kernel, width, centers, n_centers, ldc, coef, ldcoef, n_out, dim,
+                         ws);
+    eval_ctx c = {plan.kernel, plan.wide, plan.s, plan.ct, x,     plan.pan, n_centers, dim,
+                  ldx,         n,         K,      npanel,  n_out, ldo,      out};
+    parallel__run(n_threads, (n + EVAL_ROWS - 1) / EVAL_ROWS, eval_task, &c);
+    mlr_free(&a, ws, ct_bytes + pan_bytes);
+    return MLR_OK;
+}
+
+size_t grbf__eval_plan_bytes(size_t n_centers, size_t dim, size_t n_out)
+{
+    const size_t npanel = n_out / EVAL_PANEL + (n_out % EVAL_PANEL != 0);
+    size_t ct, pan, K;
+    if (dim > SIZE_MAX - 1 - n_centers)
+        return 0;
+    K = n_centers + 1 + dim;
+    if (mlr_mul_size(n_centers, dim, &ct) || mlr_mul_size(npanel * EVAL_PANEL, K, &pan) ||
+        ct > SIZE_MAX / sizeof(double) - pan)
+        return 0;
+    return (ct + pan) * sizeof(double);
+}
+
+void grbf__eval_plan_init(grbf_eval_plan *p, int kernel, double width, const double *centers,
+                          size_t n_centers, size_t ldc, const double *coef, size_t ldcoef,
+                          size_t n_out, size_t dim, double *ws)
+{
+    const size_t K = n_centers + 1 + dim;
+    const size_t npanel = n_out / EVAL_PANEL + (n_out % EVAL_PANEL != 0);
+    double *ct = ws, *pan = ws + n_centers * dim;
     transpose_centres(centers, n_centers, ldc, dim, ct);
     for (size_t q = 0; q < npanel; q++) /* pan[(q K + k) 24 + l] = B[k][24 q + l], 0 padded */
         for (size_t k = 0; k < K; k++)
@@ -359,13 +388,23 @@ mlr_status mlr_grbf_eval(int kernel, double width, const double *centers, size_t
                 size_t o = q * EVAL_PANEL + l;
                 pan[(q * K + k) * EVAL_PANEL + l] = o < n_out ? coef[k * ldcoef + o] : 0.0;
             }
-    eval_ctx c = {kernel,    0,   kernel == MLR_GRBF_GAUSSIAN ? 1.0 / (width * width) : 0.0,
-                  ct,        x,   pan,
-                  n_centers, dim, ldx,
-                  n,         K,   npanel,
-                  n_out,     ldo, out};
-    c.wide = grbf__cpu_wide();
-    parallel__run(n_threads, (n + EVAL_ROWS - 1) / EVAL_ROWS, eval_task, &c);
-    mlr_free(&a, ws, ct_bytes + pan_bytes);
-    return MLR_OK;
+    p->kernel = kernel;
+    p->wide = grbf__cpu_wide();
+    p->s = kernel == MLR_GRBF_GAUSSIAN ? 1.0 / (width * width) : 0.0;
+    p->ct = ct;
+    p->pan = pan;
+    p->nc = n_centers;
+    p->dim = dim;
+    p->K = K;
+    p->npanel = npanel;
+    p->n_out = n_out;
+}
+
+void grbf__eval_plan_rows(const grbf_eval_plan *p, const double *x, size_t n, size_t ldx,
+                          double *out, size_t ldo)
+{
+    eval_ctx c = {p->kernel, p->wide, p->s, p->ct,     x,        p->pan, p->nc, p->dim,
+                  ldx,       n,       p->K, p->npanel, p->n_out, ldo,    out};
+    for (size_t t = 0; t < (n + EVAL_ROWS - 1) / EVAL_ROWS; t++)
+        eval_task(&c, t);
 }

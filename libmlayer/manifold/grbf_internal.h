@@ -4,6 +4,7 @@
 #define MLR_GRBF_INTERNAL_H
 
 #include "manifold/cluster_internal.h" /* cluster__first_nonfinite_row, parallel__run */
+#include "manifold/grbf_eval_internal.h" /* grbf_eval_plan */
 #include "manifold/grbf_panel.h"       /* PANEL, panel() */
 
 /* The kernel loops get AVX-512 and AVX2 clones (MLR_CLONES, common/cpu.h); the loops are

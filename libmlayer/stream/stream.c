@@ -12,7 +12,9 @@
  * min(j, n-4) .. n-3 of z, j = n-1-lag). The aligned inputs keep 3 rows (y_{n-2}, y_{n-1}
  * for the end rows, one spare); the sign rule keeps its own 3 earlier quaternion rows.
  */
+#include "common/cpu.h"
 #include "math/lgs_internal.h"
+#include "math/sincosd.h"
 #include "guards/limits_internal.h"
 
 #include <math.h>
@@ -46,7 +48,10 @@ struct mlr_stream {
     double *flush_base;         /* lag x m: base layer rows of a flush (layered only) */
     double *alpha;              /* n_joints layer scales */
     double alpha_trans;
-    const mlr_limits *limits;   /* borrowed (mlr_stream_set_limits), or NULL */
+    int alpha_one; /* every joint's alpha is 1: the rotations are the main layer's */
+    mlr_quat *lq, *le; /* n_joints scratch quaternions of compose_layers */
+    mlr_vec3 *lv; /* n_joints scratch rotation vectors of compose_layers */
+    const mlr_limits *limits; /* borrowed (mlr_stream_set_limits), or NULL */
 };
 
 /* ---------------------------------------------------------------------------------------- */
@@ -112,6 +117,9 @@ static void hat_row(const mlr_stream *st, const smoother *sm, const end_rows *e,
 /* ---------------------------------------------------------------------------------------- */
 /* Channel kernels (rows distinct: restrict lets the compiler vectorize over channels)       */
 
+/* The two kernels over every channel get an AVX2 clone (common/cpu.h): the same operations in
+ * the same order (no contraction), so the same bits, in fewer instructions. */
+MLR_CLONES("avx2")
 static void row_forward(double *restrict z, const double *restrict y, const double *restrict z1,
                         const double *restrict z2, double l1, double l2, size_t m)
 {
@@ -128,6 +136,7 @@ static void row_scale_sub2(double *restrict xi, const double *x1, const double *
 }
 
 /* out = sum_r coef[r] * src[r][.], r < count (count >= 1). */
+MLR_CLONES("avx2")
 static void weighted_sum(double *restrict out, const double *const *src, const double *coef,
                          size_t count, size_t m)
 {
@@ -259,9 +268,9 @@ static void smoother_tail(mlr_stream *st, const smoother *sm, size_t first, doub
         double l1, l2, dinv, a1 = 0.0, a2 = 0.0;
         hat_row(st, sm, &e, n, i, &l1, &l2, &dinv);
         if (i + 1 < n)
-            hat_row(st, sm, &e, n, i + 1, &a1, &l2, &l1);   /* a1 = L(i+1, i) */
+            hat_row(st, sm, &e, n, i + 1, &a1, &l2, &l1); /* a1 = L(i+1, i) */
         if (i + 2 < n)
-            hat_row(st, sm, &e, n, i + 2, &l1, &a2, &l2);   /* a2 = L(i+2, i) */
+            hat_row(st, sm, &e, n, i + 2, &l1, &a2, &l2); /* a2 = L(i+2, i) */
         if (i + 2 < n)
             row_scale_sub2(xi, xi + m, xi + 2 * m, dinv, a1, a2, m);
         else if (i + 1 < n)
@@ -297,41 +306,66 @@ static void align_signs(mlr_stream *st, size_t i, double *yi)
 
 static void compose_layers(const mlr_stream *st, double *x, double *xb, mlr_quat *q);
 
+/* Whether an output row needs the base layer's row: some alpha is not 1. */
+static int needs_base(const mlr_stream *st)
+{
+    return st->layered && !(st->alpha_one && st->alpha_trans == 1.0);
+}
+
 /* Renormalize the quaternions of an output row x; with layers, compose it with the base row
- * xb (raw, normalized here): x = xb (+) alpha (x (-) xb); then the joint limits, if any. */
+ * xb (raw, normalized here; not read when every alpha is 1): x = xb (+) alpha (x (-) xb); then
+ * the joint limits, if any. */
 static void finish_row(const mlr_stream *st, double *x, double *xb)
 {
     const size_t J = st->n_joints;
     mlr_quat *q = (mlr_quat *)(x + st->q_off);
     (void)mlr_quat_normalize_array(q, J, q, NULL); /* a zero mean gives the identity */
-    if (st->layered)
+    if (needs_base(st))
         compose_layers(st, x, xb, q);
     if (st->limits)
         limits__apply_frame(st->limits, q, st->layered ? st->alpha : NULL, 1, NULL);
 }
 
-/* x = xb (+) alpha (x (-) xb) of a layered stream (q: the normalized quaternions of x). */
+/* x = xb (+) alpha (x (-) xb) of a layered stream (q: the normalized quaternions of x). Per
+ * joint with alpha a != 1: q = b exp(a log(conj(b) q)), b the normalized base. The products
+ * and logs of all joints go through one call and the exps of the joints with a != 1 through
+ * another: those kernels compute each element on its own (no sums across elements), so the
+ * bits are those of one call per joint. An exp whose vectors leave the kernels' fast range
+ * (|a| in the tens of thousands) is taken one joint at a time, as it always was. */
 static void compose_layers(const mlr_stream *st, double *x, double *xb, mlr_quat *q)
 {
     const size_t J = st->n_joints;
     if (st->alpha_trans != 1.0)
         for (size_t c = 0; c < st->q_off; c++)
             x[c] = xb[c] + st->alpha_trans * (x[c] - xb[c]);
+    if (st->alpha_one)
+        return;
     mlr_quat *b = (mlr_quat *)(xb + st->q_off);
     (void)mlr_quat_normalize_array(b, J, b, NULL);
+    mlr_quat_conj_mul_log(b, q, J, 0, st->lq, st->lv); /* the angle in [0, pi]: shorter way */
+    mlr_vec3 *v = st->lv;
+    size_t n = 0;
+    int fast = 1;
     for (size_t j = 0; j < J; j++) {
         const double a = st->alpha[j];
         if (a == 1.0)
             continue;
-        mlr_quat d, e;
-        mlr_vec3 v;
-        const mlr_quat bc = {b[j].w, -b[j].x, -b[j].y, -b[j].z};
-        mlr_quat_mul(&bc, &q[j], &d);
-        (void)mlr_quat_log_array(&d, 1, &v, NULL); /* angle in [0, pi]: the shorter way */
-        v.x *= a, v.y *= a, v.z *= a;
-        (void)mlr_quat_exp_array(&v, 1, &e, NULL);
-        mlr_quat_mul(&b[j], &e, &q[j]);
+        mlr_vec3 w = v[j];
+        w.x *= a, w.y *= a, w.z *= a;
+        const double lim = 0.5 * MLR_SINCOS_LIMIT; /* false for a NaN or an infinity too */
+        fast &= (fabs(w.x) <= lim) & (fabs(w.y) <= lim) & (fabs(w.z) <= lim);
+        v[n++] = w;
     }
+    if (fast) {
+        (void)mlr_quat_exp_array(v, n, st->le, NULL);
+    } else {
+        for (size_t k = 0; k < n; k++)
+            (void)mlr_quat_exp_array(&v[k], 1, &st->le[k], NULL);
+    }
+    n = 0;
+    for (size_t j = 0; j < J; j++)
+        if (st->alpha[j] != 1.0)
+            mlr_quat_mul_inline(&b[j], &st->le[n++], &q[j]);
 }
 
 /* ---------------------------------------------------------------------------------------- */
@@ -383,10 +417,10 @@ static mlr_status stream_create(size_t n_joints, int root, size_t n_trans, doubl
         return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "stream: the state's size overflows");
     const size_t ring = lag + 1 > 4 ? lag + 1 : 4, n_sm = layered ? 2 : 1;
     /* doubles: per smoother ring x m + 3 ring; y 3m; coef 2 (ring + 4); raw_base, zh m each;
-     * qhist 16 J; flush_base lag m; alpha J. Then ring + 4 pointers. */
+     * qhist 16 J; flush_base lag m; alpha J; lq, le, lv 11 J. Then ring + 4 pointers. */
     size_t nd = 0, per_sm = 0;
     if (add_size(&per_sm, ring, m) || add_size(&per_sm, ring, 3) || add_size(&nd, per_sm, n_sm) ||
-        add_size(&nd, m, 5) || add_size(&nd, ring + 4, 2) || add_size(&nd, n_joints, 17) ||
+        add_size(&nd, m, 5) || add_size(&nd, ring + 4, 2) || add_size(&nd, n_joints, 28) ||
         (layered && add_size(&nd, lag, m)))
         return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "stream: the state's size overflows");
     size_t bytes = 0;
@@ -425,12 +459,16 @@ static mlr_status stream_create(size_t n_joints, int root, size_t n_trans, doubl
     s->coef = p, p += 2 * (ring + 4);
     s->qhist = p, p += 16 * n_joints;
     s->alpha = p, p += n_joints;
+    s->lq = (mlr_quat *)(void *)p, p += 4 * n_joints;
+    s->le = (mlr_quat *)(void *)p, p += 4 * n_joints;
+    s->lv = (mlr_vec3 *)(void *)p, p += 3 * n_joints;
     if (layered)
         s->flush_base = p, p += lag * m;
     s->src = (const double **)(void *)p;
     for (size_t j = 0; j < n_joints; j++)
         s->alpha[j] = 1.0;
     s->alpha_trans = 1.0;
+    s->alpha_one = 1;
     *out = s;
     return MLR_OK;
 }
@@ -515,7 +553,7 @@ mlr_status mlr_stream_push(mlr_stream *st, const double *frame, size_t n_values,
         return MLR_OK;
     const size_t j = st->n - 1 - st->lag;
     smoother_point(st, &st->sm[0], st->n, j, out);
-    if (st->layered)
+    if (needs_base(st))
         smoother_point(st, &st->sm[1], st->n, j, st->raw_base);
     finish_row(st, out, st->raw_base);
     st->n_out = j + 1;
@@ -585,6 +623,9 @@ mlr_status mlr_stream_set_alpha(mlr_stream *st, double alpha_trans, const double
     st->alpha_trans = alpha_trans;
     if (n_joints > 0)
         memcpy(st->alpha, alpha, n_joints * sizeof(double));
+    st->alpha_one = 1;
+    for (size_t j = 0; j < n_joints; j++)
+        st->alpha_one &= alpha[j] == 1.0;
     return MLR_OK;
 }
 

@@ -496,6 +496,9 @@ mlr_status mlr_limits_apply(const mlr_limits *lim, size_t n_frames, const double
                             double *rot_out, const double *alpha, size_t n_alpha,
                             size_t *counts, size_t n_counts, mlr_diag *diag);
 void mlr_limits_destroy(mlr_limits *lim);
+/* mlr_generate.h, after mlr_rig and mlr_limits */
+mlr_status mlr_generator_set_guards(mlr_generator *gen, const mlr_rig *rig, const double *rest,
+                                    const mlr_limits *limits, mlr_diag *diag);
 mlr_status mlr_stream_set_limits(mlr_stream *st, const mlr_limits *limits, mlr_diag *diag);
 
 /* mlr_ik.h */
