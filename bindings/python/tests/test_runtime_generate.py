@@ -266,7 +266,7 @@ def test_c_example_writes_the_bvh_python_writes(walk, mocap, tmp_path):
     for guards, out in (("0", "c0.bvh"), ("1", "c1.bvh")):
         subprocess.run([exe, rig, str(tmp_path / "walk.mlrgen"), str(tmp_path / out), "400",
                         "3", "120", guards], check=True, capture_output=True)
-    from mlayer.contacts import contact_positions
+    from mlayer.guards.contacts import contact_positions
     low = [contact_positions(mlayer.read_bvh(tmp_path / f), model.contact_names)[..., 1].min()
            for f in ("c0.bvh", "c1.bvh")]
     assert low[0] < model.floor_height - 0.5
@@ -352,7 +352,7 @@ def test_guards_keep_generated_frames_in_their_limits_and_above_the_floor(walk, 
     alone: guards-off frames are those of the generator without the call, bit for bit."""
     import sys
     from conftest import REPO
-    from mlayer._rig import c_rig
+    from mlayer.model._rig import c_rig
     sys.path.insert(0, str(REPO / "bench" / "python"))
     import plausibility as bench_pl
     m, model = walk
@@ -405,7 +405,7 @@ def test_guards_under_a_static_root_use_the_rest_translations(mocap):
     rest_root_pos, rest_trans) and the generated position on the body joint, as motion_along
     does; its contact points then stay on or above the floor (numpy forward kinematics), the
     unguarded ones go below it, and without limits only the height changes."""
-    from mlayer._rig import c_rig
+    from mlayer.model._rig import c_rig
     clip = mocap / "bandai1_walk_happy_001.bvh"
     if not clip.exists():
         pytest.skip("bandai1_walk_happy_001.bvh not found")
@@ -431,7 +431,7 @@ def test_guards_under_a_static_root_use_the_rest_translations(mocap):
 
 
 def test_guards_are_refused_on_bad_arguments(walk, mocap):
-    from mlayer._rig import c_rig
+    from mlayer.model._rig import c_rig
     m, model = walk
     st, h = _load(model.runtime_bytes())
     assert st == 0, h
