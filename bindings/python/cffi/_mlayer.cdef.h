@@ -389,6 +389,12 @@ typedef struct mlr_rig {
     const int32_t *end_site_parents;
     const double *end_site_offsets;
 } mlr_rig;
+typedef struct mlr_frames {
+    size_t n_frames;
+    const double *root_pos;
+    const double *rot;
+    const double *trans;
+} mlr_frames;
 typedef enum mlr_axis { MLR_AXIS_X = 0, MLR_AXIS_Y = 1, MLR_AXIS_Z = 2 } mlr_axis;
 mlr_status mlr_rig_check(const mlr_rig *rig, mlr_diag *diag);
 mlr_status mlr_rig_depth_first_order(size_t n_joints, const int32_t *parents,
@@ -563,6 +569,31 @@ mlr_status mlr_cleanup_contacts(const mlr_rig *rig, size_t n_frames, double fps,
                                 size_t n_opts, double *out_root_pos, double *out_rot,
                                 mlr_cleanup_report *report, const mlr_allocator *alloc,
                                 mlr_diag *diag);
+typedef struct mlr_cleanup_points {
+    size_t n_points;
+    const int32_t *joints;
+    const int32_t *end_sites;
+    const uint8_t *contacts;
+} mlr_cleanup_points;
+typedef struct mlr_cleanup_job {
+    const mlr_rig *rig;
+    double fps;
+    int up;
+    mlr_frames motion;
+    mlr_frames reference;
+    mlr_cleanup_points points;
+    const mlr_cleanup_option *opts;
+    size_t n_opts;
+    double *out_root_pos;
+    double *out_rot;
+    mlr_cleanup_report *report;
+} mlr_cleanup_job;
+mlr_status mlr_cleanup_job_validate(const mlr_cleanup_job *job, mlr_diag *diag);
+mlr_status mlr_cleanup_job_run(const mlr_cleanup_job *job, const mlr_allocator *alloc,
+                               mlr_diag *diag);
+mlr_status mlr_cleanup_job_floor_height(const mlr_cleanup_job *job, double quantile,
+                                        double *height, const mlr_allocator *alloc,
+                                        mlr_diag *diag);
 
 
 /* mlr_guards.h */
@@ -615,6 +646,30 @@ mlr_status mlr_guards_apply_trans(const mlr_guards *g, const double *alpha, size
                                   const double *ref_trans, double *root_pos, double *rot,
                                   double *trans, size_t *limited, size_t n_limited,
                                   mlr_guards_report *report, mlr_diag *diag);
+typedef struct mlr_guards_input {
+    const mlr_rig *rig;
+    double fps;
+    mlr_frames frames;
+    const mlr_guards_option *opts;
+    size_t n_opts;
+} mlr_guards_input;
+mlr_status mlr_guards_create_from(const mlr_guards_input *input, const mlr_allocator *alloc,
+                                  mlr_guards **out, mlr_diag *diag);
+typedef struct mlr_guards_job {
+    const double *alpha;
+    size_t n_alpha;
+    mlr_frames reference;
+    double *root_pos;
+    double *rot;
+    double *trans;
+    int body_on_trans;
+    size_t *limited;
+    size_t n_limited;
+    mlr_guards_report *report;
+} mlr_guards_job;
+mlr_status mlr_guards_job_validate(const mlr_guards *g, const mlr_guards_job *job,
+                                   mlr_diag *diag);
+mlr_status mlr_guards_run(const mlr_guards *g, const mlr_guards_job *job, mlr_diag *diag);
 void mlr_guards_destroy(mlr_guards *g);
 
 /* Exact retiming (issue 20). */

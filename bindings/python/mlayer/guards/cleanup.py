@@ -115,12 +115,13 @@ def floor_height(motion: Motion, contacts: ArrayLike | None = None,
     root, rot, trans = _frames(motion)
     out = ffi.new("double *")
     diag = ffi.new("mlr_diag *")
-    check(lib.mlr_cleanup_floor_height(
-        rig, motion.n_frames, _arrays.ptr(root), _arrays.ptr(rot),
-        _arrays.ptr(trans) if trans.size else ffi.NULL, len(names), _i32(j), _i32(e),
-        ffi.cast("const uint8_t *", ffi.from_buffer(c)), motion_axis(motion, up, "floor_height"),
-        float(quantile), out,
-        ffi.NULL, diag), "floor_height", diag)
+    job = ffi.new("mlr_cleanup_job *")
+    job.rig, job.up = rig, motion_axis(motion, up, "floor_height")
+    job.motion = (motion.n_frames, _arrays.ptr(root), _arrays.ptr(rot),
+                  _arrays.ptr(trans) if trans.size else ffi.NULL)
+    job.points = (len(names), _i32(j), _i32(e), ffi.cast("const uint8_t *", ffi.from_buffer(c)))
+    check(lib.mlr_cleanup_job_floor_height(job, float(quantile), out, ffi.NULL, diag),
+          "floor_height", diag)
     del keep
     return float(out[0])
 
@@ -227,21 +228,21 @@ def fix_contacts(motion: Motion, contacts: ArrayLike, names: str | Sequence[str]
     rig, keep = c_rig(motion.skeleton)
     root, rot, trans = _frames(motion)
     P = trans.shape[1]
-    if reference is not None:
-        rr, rq, rt = _frames(reference)
-        refp = (_arrays.ptr(rr), _arrays.ptr(rq), _arrays.ptr(rt) if P else ffi.NULL)
-    else:
-        refp = (ffi.NULL, ffi.NULL, ffi.NULL)
     out_root, out_rot = np.empty_like(root), np.empty_like(rot)
     rep = ffi.new("mlr_cleanup_report *")
     diag = ffi.new("mlr_diag *")
-    check(lib.mlr_cleanup_contacts(
-        rig, N, float(motion.fps), motion_axis(motion, up, "fix_contacts"), _arrays.ptr(root),
-        _arrays.ptr(rot),
-        _arrays.ptr(trans) if P else ffi.NULL, *refp, len(names), _i32(j), _i32(e),
-        ffi.cast("const uint8_t *", ffi.from_buffer(c)) if c.size else ffi.NULL, copts,
-        len(opts), _arrays.ptr_out(out_root), _arrays.ptr_out(out_rot), rep, ffi.NULL, diag),
-        "fix_contacts", diag)
+    job = ffi.new("mlr_cleanup_job *")
+    job.rig, job.fps, job.up = rig, float(motion.fps), motion_axis(motion, up, "fix_contacts")
+    job.motion = (N, _arrays.ptr(root), _arrays.ptr(rot), _arrays.ptr(trans) if P else ffi.NULL)
+    if reference is not None:
+        rr, rq, rt = _frames(reference)
+        job.reference = (N, _arrays.ptr(rr), _arrays.ptr(rq), _arrays.ptr(rt) if P else ffi.NULL)
+    job.points = (len(names), _i32(j), _i32(e),
+                  ffi.cast("const uint8_t *", ffi.from_buffer(c)) if c.size else ffi.NULL)
+    job.opts, job.n_opts = copts, len(opts)
+    job.out_root_pos, job.out_rot = _arrays.ptr_out(out_root), _arrays.ptr_out(out_rot)
+    job.report = rep
+    check(lib.mlr_cleanup_job_run(job, ffi.NULL, diag), "fix_contacts", diag)
     del keep
     out = motion.with_frames(root_pos=out_root, rot=out_rot)
     if return_report:

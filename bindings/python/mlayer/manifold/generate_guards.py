@@ -253,9 +253,11 @@ def guard_motion(motion: Motion, names: Sequence[str], contacts: ArrayLike, *,
     out = ffi.new("mlr_guards **")
     diag = ffi.new("mlr_diag *")
     tptr = _arrays.ptr(trans) if trans.size else ffi.NULL
-    check(lib.mlr_guards_create(rig, motion.fps, motion.n_frames, _arrays.ptr(root),
-                                _arrays.ptr(rot), tptr, copts, len(opts), ffi.NULL, out, diag),
-          "guards", diag)
+    inp = ffi.new("mlr_guards_input *")
+    inp.rig, inp.fps = rig, motion.fps
+    inp.frames = (motion.n_frames, _arrays.ptr(root), _arrays.ptr(rot), tptr)
+    inp.opts, inp.n_opts = copts, len(opts)
+    check(lib.mlr_guards_create_from(inp, ffi.NULL, out, diag), "guards", diag)
     g = ffi.gc(out[0], lib.mlr_guards_destroy)
     pts = [_point(motion.skeleton, n) for n in names]
     j = np.array([p[0] for p in pts], dtype=np.int32).reshape(-1)
@@ -272,11 +274,13 @@ def guard_motion(motion: Motion, names: Sequence[str], contacts: ArrayLike, *,
     J = motion.n_joints
     limited = np.zeros(J, dtype=np.uintp)
     rep = ffi.new("mlr_guards_report *")
-    check(lib.mlr_guards_apply_trans(
-        g, _arrays.ptr(a), 1, ffi.NULL, ffi.NULL, ffi.NULL, _arrays.ptr_out(r),
-        _arrays.ptr_out(q), _arrays.ptr_out(t) if t.size else ffi.NULL,
-        ffi.cast("size_t *", ffi.from_buffer(limited)), J, rep, diag),
-        "guards", diag)
+    job = ffi.new("mlr_guards_job *")
+    job.alpha, job.n_alpha = _arrays.ptr(a), 1
+    job.root_pos, job.rot = _arrays.ptr_out(r), _arrays.ptr_out(q)
+    job.trans, job.body_on_trans = (_arrays.ptr_out(t) if t.size else ffi.NULL), 1
+    job.limited, job.n_limited = ffi.cast("size_t *", ffi.from_buffer(limited)), J
+    job.report = rep
+    check(lib.mlr_guards_run(g, job, diag), "guards", diag)
     del keep
     report = GuardReport(
         limited={n: int(k) for n, k in zip(motion.joint_names, limited) if k},

@@ -334,11 +334,16 @@ class Synthesis(ReadOnlyAttributes):
         limited = np.zeros(J, dtype=np.uintp)
         rep = ffi.new("mlr_guards_report *")
         diag = ffi.new("mlr_diag *")
-        tptr = _arrays.ptr_out(trans) if trans.size else ffi.NULL
-        check(lib.mlr_guards_apply_trans(
-            self._guards, _arrays.ptr(a), a.size, ref_ptr(rr), ref_ptr(rq), ref_ptr(rt),
-            _arrays.ptr_out(root), _arrays.ptr_out(rot),
-            tptr, ffi.cast("size_t *", ffi.from_buffer(limited)), J, rep, diag), "guards", diag)
+        job = ffi.new("mlr_guards_job *")
+        job.alpha, job.n_alpha = _arrays.ptr(a), a.size
+        if reference is not None:
+            job.reference = (reference.n_frames, ref_ptr(rr), ref_ptr(rq), ref_ptr(rt))
+        job.root_pos, job.rot = _arrays.ptr_out(root), _arrays.ptr_out(rot)
+        job.trans = _arrays.ptr_out(trans) if trans.size else ffi.NULL
+        job.body_on_trans = 1
+        job.limited, job.n_limited = ffi.cast("size_t *", ffi.from_buffer(limited)), J
+        job.report = rep
+        check(lib.mlr_guards_run(self._guards, job, diag), "guards", diag)
         return synthesized.with_frames(root_pos=root, rot=rot, trans=trans), \
             self._report(rep, limited)
 
