@@ -531,10 +531,10 @@ START_TEST(a_job_gives_the_long_forms_bits)
     const double alpha = 2.5;
     mlr_guards *g = guards_of(&c, NULL, 0), *h = NULL;
     mlr_diag d;
-    const mlr_guards_input in = {&c.rig, c.fps,
-                                 (mlr_frames){N, mlr_motion_root_pos(c.m), mlr_motion_rot(c.m),
-                                              mlr_motion_trans(c.m)},
-                                 NULL, 0};
+    const mlr_guards_input in = {
+        &c.rig, c.fps,
+        (mlr_frames){N, mlr_motion_root_pos(c.m), mlr_motion_rot(c.m), mlr_motion_trans(c.m)},
+        NULL, 0};
     ck_assert_msg(mlr_guards_create_from(&in, NULL, &h, &d) == MLR_OK, "%s", d.message);
     for (int with_ref = 0; with_ref < 2; with_ref++)
         for (int body = 0; body < 2; body++) {
@@ -544,8 +544,8 @@ START_TEST(a_job_gives_the_long_forms_bits)
             const double *a = with_ref ? rr : NULL, *b = with_ref ? rq : NULL;
             ck_assert_int_eq(body ? mlr_guards_apply_trans(g, &alpha, 1, a, b, NULL, r1, q1, NULL,
                                                            l1, J, &rep1, NULL)
-                                  : mlr_guards_apply(g, &alpha, 1, a, b, NULL, r1, q1, NULL, l1,
-                                                     J, &rep1, NULL),
+                                  : mlr_guards_apply(g, &alpha, 1, a, b, NULL, r1, q1, NULL, l1, J,
+                                                     &rep1, NULL),
                              MLR_OK);
             mlr_guards_job job = {0};
             job.alpha = &alpha, job.n_alpha = 1;

@@ -239,20 +239,20 @@ MLR_API mlr_status mlr_guards_create_from(const mlr_guards_input *input,
  *  `mlr_guards_job job = {0};`). Every pointer is borrowed for the call. A frozen value type.
  *  Since 0.3 */
 typedef struct mlr_guards_job {
-    const double *alpha;         /* the synthesis scales: 1 value or 1 + J, finite */
+    const double *alpha; /* the synthesis scales: 1 value or 1 + J, finite */
     size_t n_alpha;
-    mlr_frames reference;        /* the reference at the handle's N frames, or all NULL with
+    mlr_frames reference; /* the reference at the handle's N frames, or all NULL with
                                     n_frames 0 for the input */
-    double *root_pos;            /* [in/out] N x 3 */
-    double *rot;                 /* [in/out] N x J x 4 unit quaternions */
-    double *trans;               /* N x P x 3 (NULL when P is 0): read, or [in/out] with
+    double *root_pos; /* [in/out] N x 3 */
+    double *rot; /* [in/out] N x J x 4 unit quaternions */
+    double *trans; /* N x P x 3 (NULL when P is 0): read, or [in/out] with
                                     body_on_trans */
-    int body_on_trans;           /* nonzero: the body's shifts go into the translation of the
+    int body_on_trans; /* nonzero: the body's shifts go into the translation of the
                                     joint that carries the body (mlr_guards_apply_trans); 0:
                                     into root_pos, trans kept (mlr_guards_apply) */
-    size_t *limited;             /* [out] J counts of frames each joint was limited in, or NULL */
-    size_t n_limited;            /* J when limited is not NULL */
-    mlr_guards_report *report;   /* [out] optional */
+    size_t *limited; /* [out] J counts of frames each joint was limited in, or NULL */
+    size_t n_limited; /* J when limited is not NULL */
+    mlr_guards_report *report; /* [out] optional */
 } mlr_guards_job;
 
 /**
@@ -270,8 +270,7 @@ MLR_API mlr_status mlr_guards_job_validate(const mlr_guards *g, const mlr_guards
  * @return as mlr_guards_apply; MLR_E_INVALID_ARG for a NULL job or a reference for other frames
  * Allocates, threads: as mlr_guards_apply.
  */
-MLR_API mlr_status mlr_guards_run(const mlr_guards *g, const mlr_guards_job *job,
-                                  mlr_diag *diag);
+MLR_API mlr_status mlr_guards_run(const mlr_guards *g, const mlr_guards_job *job, mlr_diag *diag);
 
 /** Release the handle. NULL is a no-op. */
 MLR_API void mlr_guards_destroy(mlr_guards *g);

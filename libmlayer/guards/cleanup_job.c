@@ -52,8 +52,7 @@ mlr_status mlr_cleanup_job_run(const mlr_cleanup_job *job, const mlr_allocator *
 }
 
 mlr_status mlr_cleanup_job_floor_height(const mlr_cleanup_job *job, double quantile,
-                                        double *height, const mlr_allocator *alloc,
-                                        mlr_diag *diag)
+                                        double *height, const mlr_allocator *alloc, mlr_diag *diag)
 {
     if (!job)
         return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "floor_height: NULL job");

@@ -80,15 +80,17 @@ mlr_status toe_tilt__apply(const mlr_rig *rig, size_t N, double fps, int up, dou
         if (flag[j] != 0)
             continue; /* a joint with children (its tilt would move them), or done */
         flag[j] = 2;
-        const double len = sqrt(rig->end_site_offsets[3 * e] * rig->end_site_offsets[3 * e] +
-                                rig->end_site_offsets[3 * e + 1] * rig->end_site_offsets[3 * e + 1] +
-                                rig->end_site_offsets[3 * e + 2] * rig->end_site_offsets[3 * e + 2]);
+        const double len =
+            sqrt(rig->end_site_offsets[3 * e] * rig->end_site_offsets[3 * e] +
+                 rig->end_site_offsets[3 * e + 1] * rig->end_site_offsets[3 * e + 1] +
+                 rig->end_site_offsets[3 * e + 2] * rig->end_site_offsets[3 * e + 2]);
         if (!(len > 0.0))
             continue;
         int any = 0;
         for (size_t f = 0; f < N; f++) {
             double d[3];
-            const double lim = mlr_fmin(floor, tip_height(rig, J, pos_in, wrot_in, f, j, e, up, d));
+            const double lim =
+                mlr_fmin(floor, tip_height(rig, J, pos_in, wrot_in, f, j, e, up, d));
             const double y = tip_height(rig, J, pos, wrot, f, j, e, up, d);
             th[f] = 0.0;
             if (!(y < lim - slack))
@@ -122,9 +124,8 @@ mlr_status toe_tilt__apply(const mlr_rig *rig, size_t N, double fps, int up, dou
             const int32_t p = rig->parents[j];
             ik__rotate_to_1(nr, p >= 0 ? wrot + 4 * (f * J + (size_t)p) : NULL,
                             wrot + 4 * (f * J + j), q);
-            const double sg = nr[0] * rj[0] + nr[1] * rj[1] + nr[2] * rj[2] + nr[3] * rj[3] < 0
-                                  ? -1.0
-                                  : 1.0;
+            const double sg =
+                nr[0] * rj[0] + nr[1] * rj[1] + nr[2] * rj[2] + nr[3] * rj[3] < 0 ? -1.0 : 1.0;
             for (int i = 0; i < 4; i++)
                 rj[i] = sg * nr[i];
         }

@@ -222,8 +222,8 @@ mlr_status char_clip_load(const char *path, const mlr_allocator *alloc, char_cli
     /* The guards of the clip find its feet and their contacts; the floor from those. */
     if (s >= 0) {
         const mlr_guards_option opt[] = {{MLR_GUARDS_OPT_UP, (double)c->up}};
-        const mlr_guards_input in = {&rig, CHAR_STEP_HZ, {n, c->root_pos, c->rot, c->trans}, opt,
-                                     1};
+        const mlr_guards_input in = {
+            &rig, CHAR_STEP_HZ, {n, c->root_pos, c->rot, c->trans}, opt, 1};
         s = mlr_guards_create_from(&in, &c->alloc, &g, diag);
     }
     if (s >= 0 && (c->n_points = mlr_guards_n_points(g)) > 0) {
