@@ -34,7 +34,7 @@
  *   so the gain at the output Nyquist is about 0.02. With the linear-interpolation rows of A (a
  *   triangle prefilter two output frames wide) a sinusoid above the new Nyquist comes back as an
  *   alias of at most 5 % of its amplitude (measured at 120 -> 30 fps from 16 to 55 Hz, see
- *   tests/test_resample.c), where plain decimation returns it whole. Below w_c / 2 (2.8 Hz at
+ *   tests/layers/test_resample.c), where plain decimation returns it whole. Below w_c / 2 (2.8 Hz at
  *   30 fps) the gain stays above 0.94; 120 -> 30 -> 120 fps round trips of real clips move the
  *   joints by 0.1 to 0.4 % of the body height (MPJPE). A weaker prior (smaller KAPPA_DOWN) would
  *   keep more of the 3 to 10 Hz band at the price of more aliasing (0.2 gives 10 % at 16 Hz).

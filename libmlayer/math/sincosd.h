@@ -15,7 +15,7 @@
  *   Permission to use, copy, modify, and distribute this software is freely granted, provided
  *   that this notice is preserved.)
  * Finally the quadrant k mod 4 swaps sine and cosine and sets their signs. Measured against a
- * long double reference (tests/test_quat.c) the error stays within about 1 ulp.
+ * long double reference (tests/math/test_quat.c) the error stays within about 1 ulp.
  *
  * Larger angles (|x| >= 2^50 degrees) are first reduced with fmod(x, 360), which is exact. NaN
  * gives NaN, infinities give NaN. */
