@@ -266,12 +266,13 @@ def test_start_frame_sampled(server, trained):
     ("start=0:1&seed=%C2%B2", 400, "seed must be a non-negative integer"),
     ("start=0:1,0:2", 400, "one CLIP:FRAME"), ("points=1,1&noise=0.1", 400, "start= only"),
     ("points=1,1&keys=0:1", 400, "exactly one of"), ("frames=10", 400, "exactly one of"),
-    ("points=1,1&frames=1", 400, "frames must be in 2..5000"),
+    ("points=1,1&frames=1", 400, "frames must be in 3..5000"),
+    ("points=1,1;5,5&frames=2", 400, "frames must be in 3..5000"),  # was a 400 from the LGS
     ("points=1,1&frames=-3", 400, "non-negative integer"),
     ("points=1,1&guards=2", 400, "guards must be"), ("points=1,1&path=/etc", 400, "unknown"),
     ("points=1,1&points=2,2", 400, "twice"),
     ("points=1,1;1,2;1,3;1,4;1,5;1,6&frames=5", 400, "more than 5 frames"),
-    ("keys=0:1,0:2,0:3&frames=2", 400, "at least as many frames"),
+    ("keys=0:1,0:2,0:3,0:4&frames=3", 400, "at least as many frames"),
 ])
 def test_bad_motion_requests(server, trained, query, status, words):
     for path in ("/api/manifold/motion?", "/api/manifold/download?"):

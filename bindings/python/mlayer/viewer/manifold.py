@@ -497,7 +497,7 @@ class ManifoldSession:
         kind = kinds[0]
         sk = md.skeleton
         n_pts = sk.n_joints + sk.n_end_sites
-        most = min(MAX_MOTION_FRAMES, max(2, self.max_values // n_pts))
+        most = min(MAX_MOTION_FRAMES, max(3, self.max_values // n_pts))
         p: dict[str, Any] = {"kind": kind, "frames": 120, "guards": True, "chain": "most",
                              "noise": 0.0,
              "seed": 0}
@@ -506,8 +506,9 @@ class ManifoldSession:
             if not raw.isdigit() or len(raw) > 9:
                 raise ParamError(f"frames must be a non-negative integer, got {raw[:40]!r}")
             n = int(raw)
-            if n < 2 or n > MAX_MOTION_FRAMES:
-                raise ParamError(f"frames must be in 2..{MAX_MOTION_FRAMES}, got {n}")
+            # 3 at least: the spline's smoothing and the guards take an order-2 prior
+            if n < 3 or n > MAX_MOTION_FRAMES:
+                raise ParamError(f"frames must be in 3..{MAX_MOTION_FRAMES}, got {n}")
             if n > most:
                 raise ParamError(f"frames={n} x {n_pts} points is over the viewer's limit of "
                                  f"{self.max_values:,} values ({most} frames); restart mlayer "

@@ -720,7 +720,7 @@
       if (+$("m-noise").value > 0) q.set("noise", $("m-noise").value);
       q.set("seed", Math.max(0, Math.floor(+$("m-seed").value)));
     }
-    q.set("frames", Math.max(2, Math.floor(+$("m-frames").value)));
+    q.set("frames", Math.max(3, Math.floor(+$("m-frames").value)));
     if (!$("m-guards").checked) q.set("guards", "0");
     return q.toString();
   }
