@@ -2,7 +2,7 @@
 MiniSom, in one run, same machine, same thread count. Reports medians and ratios (peer time /
 mlayer time, > 1 means mlayer is faster).
 
-    python bench/python/bench_cluster.py [--threads 2] [--repeat 3] [--only kmeans|som]
+    python bench/python/bench_cluster.py [--threads 2] [--repeat 3] [--only kmeans|som] [--whole]
 
 k-means: n = 200,000 rows, k = 64, 20 Lloyd iterations (tol = 0) from the same initial centres
 (k-means++ of mlayer), time per iteration = wall time of the fit / n_iter, on
@@ -13,7 +13,8 @@ k-means: n = 200,000 rows, k = 64, 20 Lloyd iterations (tol = 0) from the same i
   - random normal data, d = 96 (the worst case: no structure for the bounds to exploit).
 The repeats are interleaved (mlayer, mlayer Lloyd, scikit-learn, then again), so that load from
 other processes falls on all three alike; the ratio of each repeat is printed beside the ratio
-of the medians.
+of the medians. --whole also times whole fits with the defaults (k-means++ seeding included,
+one init, tol 1e-4; each library seeded its own way) and the seeding alone.
 SOM: 65 x 65 lattice on 10,000 x 93 pose features (tiled with the same jitter), batch training,
 time per epoch; somoclu
 (batch, Gaussian, planar, rectangular; `pip install --no-build-isolation somoclu`, optional)
@@ -37,6 +38,8 @@ def parse():
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--only", choices=["kmeans", "som"], default=None)
+    ap.add_argument("--whole", action="store_true",
+                    help="also time whole k-means fits with the defaults, seeding included")
     ap.add_argument("--mocap", default=os.path.join(os.path.dirname(__file__), "..", "..", "..",
                                                      "shared", "data", "mocap"))
     return ap.parse_args()
@@ -118,6 +121,43 @@ def bench_kmeans(name, X, k=64, iters=20):
     print(f"  ratio sklearn/mlayer {res['sklearn'][0] / res['mlayer'][0]:.2f}x "
           f"(plain Lloyd {res['sklearn'][0] / res['mlayer-lloyd'][0]:.2f}x); "
           f"per repeat {each}")
+    sys.stdout.flush()
+    if ARGS.whole:
+        bench_whole(X, k)
+
+
+def bench_whole(X, k):
+    """Whole fits with the defaults (k-means++ seeding, one init, tol 1e-4), each library
+    seeded its own way: the seeding's share shows (labels differ: the seeds do)."""
+    from sklearn.cluster import KMeans
+
+    def ours():
+        t0 = time.perf_counter()
+        r = mlayer.kmeans(X, k, seed=0, n_threads=ARGS.threads)
+        t1 = time.perf_counter()
+        mlayer.kmeans(X, k, seed=0, max_iter=1, n_threads=ARGS.threads)
+        return t1 - t0, time.perf_counter() - t1, r.n_iter, r.inertia
+
+    def sk():
+        from sklearn.cluster import kmeans_plusplus
+        t0 = time.perf_counter()
+        km = KMeans(k, n_init=1, random_state=0).fit(X)
+        t1 = time.perf_counter()
+        kmeans_plusplus(X, k, random_state=0)
+        return t1 - t0, time.perf_counter() - t1, km.n_iter_, km.inertia_
+
+    ts = {"mlayer": [], "sklearn": []}
+    for _ in range(ARGS.repeat):
+        for label, fn in (("mlayer", ours), ("sklearn", sk)):
+            ts[label].append(fn())
+    for label, what in (("mlayer", "k-means++ and 1 iteration"),
+                        ("sklearn", "kmeans_plusplus alone")):
+        a = np.array([t[:2] for t in ts[label]])
+        print(f"  whole fit {label:8s} {np.median(a[:, 0]):6.2f} s ({ts[label][-1][2]} "
+              f"iterations, inertia {ts[label][-1][3]:.6g}); {what} {np.median(a[:, 1]):.2f} s")
+    each = ", ".join(f"{b[0] / a[0]:.2f}" for a, b in zip(ts["mlayer"], ts["sklearn"]))
+    ratio = np.median([t[0] for t in ts["sklearn"]]) / np.median([t[0] for t in ts["mlayer"]])
+    print(f"  whole fit ratio sklearn/mlayer {ratio:.2f}x; per repeat {each}")
     sys.stdout.flush()
 
 
