@@ -5,8 +5,11 @@
 Needs what bindings/python/tests/test_viewer_browser.py needs: Debian's chromium and
 chromium-driver (`apt-get install chromium chromium-driver`, as scripts/setup.sh does) and
 selenium (`pip install selenium`), and Pillow. Writes viewer.png (the page after the alpha
-slider moved to about 2.35, paused at frame 400) and viewer_manifold.png (the motion manifold
-panel after learning it and clicking two points on the map).
+slider moved to about 2.35, paused at frame 400), viewer_manifold.png (the motion manifold
+panel after learning it and clicking two points on the map, paused at frame 60: the poses along
+the spline on the map, the key-pose column, the pose strip) and viewer_manifold_generated.png
+(the panel after generating 80 frames from frame 400 by the most likely transitions, paused at
+frame 40: paper 2, Figures 6 and 7).
 """
 from __future__ import annotations
 
@@ -105,9 +108,35 @@ def main(argv: list[str]) -> int:
         # the panel holding the map: its nearest section (or the map's parent)
         panel = d.execute_script("return arguments[0].closest('section, fieldset, .panel') "
                                  "|| arguments[0].parentElement;", panel)
-        d.execute_script("arguments[0].scrollIntoView();", panel)
-        time.sleep(0.5)
-        _save(panel.screenshot_as_png, out / "viewer_manifold.png")
+
+        def shot(frame: int, name: str) -> None:
+            d.execute_script(f"mlayerViewer.manifold.pause(); "
+                             f"mlayerViewer.manifold.setFrame({frame});")
+            _wait(lambda: js(f"mlayerViewer.manifold.drawn.frame === {frame}"),
+                  what=f"manifold frame {frame}")
+            d.execute_script("arguments[0].scrollIntoView();", panel)
+            time.sleep(0.5)
+            _save(panel.screenshot_as_png, out / name)
+
+        d.set_window_size(1280, 1400)  # the whole panel in view, strip included
+        shot(60, "viewer_manifold.png")
+        # 80 frames from frame 400 by the most likely transitions (paper Figures 6 and 7)
+        from selenium.webdriver.common.keys import Keys
+        from selenium.webdriver.support.ui import Select
+        el = d.find_element("id", "m-frames")
+        el.send_keys(Keys.CONTROL, "a")
+        el.send_keys("80")
+        el = d.find_element("id", "m-start-frame")
+        el.send_keys(Keys.CONTROL, "a")
+        el.send_keys("400", Keys.TAB)
+        Select(d.find_element("id", "m-chain")).select_by_value("most")
+        _wait(lambda: not js("mlayerViewer.manifold.state.inflight")
+              and not js("mlayerViewer.manifold.state.pending"), 60, "the requests")
+        n = js("mlayerViewer.manifold.state.responses")
+        d.find_element("id", "m-generate").click()
+        _wait(lambda: js("mlayerViewer.manifold.state.responses") > n
+              and not js("mlayerViewer.manifold.state.inflight"), 60, "the generated motion")
+        shot(40, "viewer_manifold_generated.png")
     finally:
         d.quit()
         srv.shutdown()

@@ -17,7 +17,10 @@
  *   baseline: the same nearest centre except at a near tie, distances within 1e-12 relative;
  *   the fused online SOM step (cluster__packed_sweep) likewise, its moved centres within 1e-14.
  * - the GRBF product panel (grbf_panel.h): the AVX-512 panel against panel_generic, within
- *   1e-13 of the sum of the magnitudes of the terms. */
+ *   1e-13 of the sum of the magnitudes of the terms.
+ * - k-means++ (kmeans.c): with its triangle-inequality bounds against the plain search (no
+ *   bound table), at every ISA level: the same centres, closest distances and labels, bit for
+ *   bit. */
 #include "mlr_test.h"
 
 #include "common/common.c" /* mlr_diag_set, which ik.c reports through */
@@ -37,6 +40,8 @@
 #define norm3 quat_norm3
 #include "math/quat.c"
 #undef norm3
+#include "common/parallel.c" /* what kmeans.c runs its tasks through */
+#include "manifold/kmeans.c" /* kmeans_pp, with and without its bounds */
 
 #include <math.h>
 #include <stdio.h>
@@ -536,6 +541,92 @@ START_TEST(grbf_panel_agrees_with_the_generic_panel)
 }
 END_TEST
 
+/* k-means++ seeded the same way twice, without and with the bound table: clustered rows, exact
+ * duplicates (rows whose closest distance becomes 0), coordinates over 12 orders of magnitude. */
+static void pp_run(const double *x, size_t n, size_t d, size_t k, uint64_t seed, int isa,
+                   int bounded, double *c, double *u, int32_t *lab)
+{
+    mlr_kmeans km;
+    memset(&km, 0, sizeof km);
+    km.n_threads = 3;
+    fit_ws w;
+    memset(&w, 0, sizeof w);
+    w.km = &km;
+    w.x = x;
+    w.n = n;
+    w.ldx = d;
+    w.dim = d;
+    w.k = k;
+    w.u = u;
+    w.lab = lab;
+    w.c = c;
+    w.l = malloc(n * sizeof(double));
+    w.pinert = malloc(((n + PP_BLOCK - 1) / PP_BLOCK) * 32 * sizeof(double));
+    w.ppd = bounded ? malloc(32 * k * sizeof(double)) : NULL;
+    w.pk.isa = isa;
+    mlr_rng rng;
+    mlr_rng_seed(&rng, seed);
+    kmeans_pp(&w, &rng);
+    free(w.l);
+    free(w.pinert);
+    free(w.ppd);
+}
+
+START_TEST(kmeanspp_bounds_give_the_bits_of_the_plain_search)
+{
+    const size_t cases[][4] = {
+        {5000, 7, 40, 1}, {2400, 93, 64, 2}, {640, 3, 80, 3}, {900, 2, 9, 4}};
+    for (size_t q = 0; q < MLR_COUNTOF(cases); q++) {
+        const size_t n = cases[q][0], d = cases[q][1], k = cases[q][2];
+        mlr_test_rng r;
+        mlr_test_rng_seed(&r, 100 + q);
+        double *x = malloc(n * d * sizeof *x), *mu = malloc(12 * d * sizeof *mu);
+        for (size_t t = 0; t < 12 * d; t++)
+            mu[t] = 10.0 * mlr_test_rng_normal(&r);
+        for (size_t i = 0; i < n; i++) {
+            if (i % 5 == 4) { /* an exact duplicate of an earlier row */
+                memcpy(x + i * d, x + (size_t)(mlr_test_rng_u64(&r) % i) * d, d * sizeof *x);
+                continue;
+            }
+            const size_t j = (size_t)(mlr_test_rng_u64(&r) % 12);
+            for (size_t t = 0; t < d; t++)
+                x[i * d + t] =
+                    (mu[j * d + t] + 0.3 * mlr_test_rng_normal(&r)) * (t % 3 == 0   ? 1e6
+                                                                       : t % 3 == 1 ? 1.0
+                                                                                    : 1e-6);
+        }
+        double *c0 = malloc(k * d * sizeof *c0), *c1 = malloc(k * d * sizeof *c1);
+        double *u0 = malloc(n * sizeof *u0), *u1 = malloc(n * sizeof *u1);
+        int32_t *l0 = malloc(n * sizeof *l0), *l1 = malloc(n * sizeof *l1);
+        const int isas[] = {MLR_ISA_BASELINE, cpu__isa(MLR_ISA_BEST)};
+        for (size_t s = 0; s < 2; s++) {
+            pp_run(x, n, d, k, 7 + q, isas[s], 0, c0, u0, l0);
+            pp_run(x, n, d, k, 7 + q, isas[s], 1, c1, u1, l1);
+            ck_assert_msg(memcmp(c0, c1, k * d * sizeof *c0) == 0, "case %zu isa %d: centres", q,
+                          isas[s]);
+            ck_assert_msg(memcmp(u0, u1, n * sizeof *u0) == 0, "case %zu: distances", q);
+            ck_assert_msg(memcmp(l0, l1, n * sizeof *l0) == 0, "case %zu: labels", q);
+            /* the labels name the closest chosen centre, at the distance kept */
+            size_t zeros = 0;
+            for (size_t i = 0; i < n; i++) {
+                ck_assert(l1[i] >= 0 && (size_t)l1[i] < k);
+                ck_assert(cluster__dist2(x + i * d, c1 + (size_t)l1[i] * d, d, isas[s]) == u1[i]);
+                zeros += u1[i] == 0;
+            }
+            ck_assert(zeros >= k); /* the chosen rows, and duplicates of them */
+        }
+        free(x);
+        free(mu);
+        free(c0);
+        free(c1);
+        free(u0);
+        free(u1);
+        free(l0);
+        free(l1);
+    }
+}
+END_TEST
+
 static Suite *twins_suite(void)
 {
     Suite *s = suite_create("twins");
@@ -547,6 +638,7 @@ static Suite *twins_suite(void)
     tcase_add_test(tc, cluster_kernels_agree_with_the_baseline);
     tcase_add_test(tc, som_sweep_agrees_with_the_baseline);
     tcase_add_test(tc, grbf_panel_agrees_with_the_generic_panel);
+    tcase_add_test(tc, kmeanspp_bounds_give_the_bits_of_the_plain_search);
     suite_add_tcase(s, tc);
     return s;
 }

@@ -2,14 +2,19 @@
 MiniSom, in one run, same machine, same thread count. Reports medians and ratios (peer time /
 mlayer time, > 1 means mlayer is faster).
 
-    python bench/python/bench_cluster.py [--threads 2] [--repeat 3] [--only kmeans|som]
+    python bench/python/bench_cluster.py [--threads 2] [--repeat 3] [--only kmeans|som] [--whole]
 
 k-means: n = 200,000 rows, k = 64, 20 Lloyd iterations (tol = 0) from the same initial centres
 (k-means++ of mlayer), time per iteration = wall time of the fit / n_iter, on
   - mocap-like data: pose features (mlayer.pose_features) of the real clips in
-    ../shared/data/mocap of the CMU skeleton, tiled to 200,000 rows, plus Gaussian jitter of
-    1% of each column's standard deviation (near-duplicate rows, as 120 fps captures have);
+    ../shared/data/mocap, one case per CMU skeleton found (31 joints: d = 93; 43 joints:
+    d = 129), tiled to 200,000 rows, plus Gaussian jitter of 1% of each column's standard
+    deviation (near-duplicate rows, as 120 fps captures have);
   - random normal data, d = 96 (the worst case: no structure for the bounds to exploit).
+The repeats are interleaved (mlayer, mlayer Lloyd, scikit-learn, then again), so that load from
+other processes falls on all three alike; the ratio of each repeat is printed beside the ratio
+of the medians. --whole also times whole fits with the defaults (k-means++ seeding included,
+one init, tol 1e-4; each library seeded its own way) and the seeding alone.
 SOM: 65 x 65 lattice on 10,000 x 93 pose features (tiled with the same jitter), batch training,
 time per epoch; somoclu
 (batch, Gaussian, planar, rectangular; `pip install --no-build-isolation somoclu`, optional)
@@ -33,6 +38,8 @@ def parse():
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--only", choices=["kmeans", "som"], default=None)
+    ap.add_argument("--whole", action="store_true",
+                    help="also time whole k-means fits with the defaults, seeding included")
     ap.add_argument("--mocap", default=os.path.join(os.path.dirname(__file__), "..", "..", "..",
                                                      "shared", "data", "mocap"))
     return ap.parse_args()
@@ -53,8 +60,8 @@ def median_of(fn, repeat):
     return float(np.median(out))
 
 
-def mocap_features(mocap_dir):
-    """Pose features of the clips of one skeleton, stacked."""
+def features_by_width(mocap_dir):
+    """Pose features of the clips, stacked per feature width (one skeleton each)."""
     by_shape = {}
     for path in sorted(glob.glob(os.path.join(mocap_dir, "*.bvh"))):
         try:
@@ -63,9 +70,7 @@ def mocap_features(mocap_dir):
             continue
         f = mlayer.pose_features(m)
         by_shape.setdefault(f.shape[1], []).append(f)
-    # the CMU skeleton (31 joints, 93 columns) when present, else the most frames
-    d = 93 if 93 in by_shape else max(by_shape, key=lambda k: sum(len(f) for f in by_shape[k]))
-    return np.concatenate(by_shape[d])
+    return {d: np.concatenate(fs) for d, fs in by_shape.items()}
 
 
 def tiled(F, n, seed=0):
@@ -95,13 +100,14 @@ def bench_kmeans(name, X, k=64, iters=20):
         km = KMeans(k, init=init, n_init=1, max_iter=iters, tol=0.0, algorithm="lloyd").fit(X)
         return (time.perf_counter() - t0) / km.n_iter_, km
 
-    res = {}
-    for label, fn in (("mlayer", ours), ("mlayer-lloyd", ours_lloyd), ("sklearn", sk)):
-        ts, last = [], None
-        for _ in range(ARGS.repeat):
-            t, last = fn()
-            ts.append(t)
-        res[label] = (float(np.median(ts)), last)
+    runs = (("mlayer", ours), ("mlayer-lloyd", ours_lloyd), ("sklearn", sk))
+    ts = {label: [] for label, _ in runs}
+    last = {}
+    for _ in range(ARGS.repeat):  # interleaved: load from other processes hits all three
+        for label, fn in runs:
+            t, last[label] = fn()
+            ts[label].append(t)
+    res = {label: (float(np.median(ts[label])), last[label]) for label, _ in runs}
     r, km = res["mlayer"][1], res["sklearn"][1]
     same = bool(np.array_equal(r.labels, km.labels_))
     rel = abs(r.inertia - km.inertia_) / km.inertia_
@@ -111,8 +117,47 @@ def bench_kmeans(name, X, k=64, iters=20):
           f"rows skipped by bounds {100 * skipped:.0f}%")
     for label in ("mlayer", "mlayer-lloyd", "sklearn"):
         print(f"  {label:13s} {1e3 * res[label][0]:8.2f} ms/iteration")
+    each = ", ".join(f"{a / b:.2f}" for a, b in zip(ts["sklearn"], ts["mlayer"]))
     print(f"  ratio sklearn/mlayer {res['sklearn'][0] / res['mlayer'][0]:.2f}x "
-          f"(plain Lloyd {res['sklearn'][0] / res['mlayer-lloyd'][0]:.2f}x)")
+          f"(plain Lloyd {res['sklearn'][0] / res['mlayer-lloyd'][0]:.2f}x); "
+          f"per repeat {each}")
+    sys.stdout.flush()
+    if ARGS.whole:
+        bench_whole(X, k)
+
+
+def bench_whole(X, k):
+    """Whole fits with the defaults (k-means++ seeding, one init, tol 1e-4), each library
+    seeded its own way: the seeding's share shows (labels differ: the seeds do)."""
+    from sklearn.cluster import KMeans
+
+    def ours():
+        t0 = time.perf_counter()
+        r = mlayer.kmeans(X, k, seed=0, n_threads=ARGS.threads)
+        t1 = time.perf_counter()
+        mlayer.kmeans(X, k, seed=0, max_iter=1, n_threads=ARGS.threads)
+        return t1 - t0, time.perf_counter() - t1, r.n_iter, r.inertia
+
+    def sk():
+        from sklearn.cluster import kmeans_plusplus
+        t0 = time.perf_counter()
+        km = KMeans(k, n_init=1, random_state=0).fit(X)
+        t1 = time.perf_counter()
+        kmeans_plusplus(X, k, random_state=0)
+        return t1 - t0, time.perf_counter() - t1, km.n_iter_, km.inertia_
+
+    ts = {"mlayer": [], "sklearn": []}
+    for _ in range(ARGS.repeat):
+        for label, fn in (("mlayer", ours), ("sklearn", sk)):
+            ts[label].append(fn())
+    for label, what in (("mlayer", "k-means++ and 1 iteration"),
+                        ("sklearn", "kmeans_plusplus alone")):
+        a = np.array([t[:2] for t in ts[label]])
+        print(f"  whole fit {label:8s} {np.median(a[:, 0]):6.2f} s ({ts[label][-1][2]} "
+              f"iterations, inertia {ts[label][-1][3]:.6g}); {what} {np.median(a[:, 1]):.2f} s")
+    each = ", ".join(f"{b[0] / a[0]:.2f}" for a, b in zip(ts["mlayer"], ts["sklearn"]))
+    ratio = np.median([t[0] for t in ts["sklearn"]]) / np.median([t[0] for t in ts["mlayer"]])
+    print(f"  whole fit ratio sklearn/mlayer {ratio:.2f}x; per repeat {each}")
     sys.stdout.flush()
 
 
@@ -168,10 +213,15 @@ def bench_som(F):
 
 
 def main():
-    F = mocap_features(ARGS.mocap)
+    by_width = features_by_width(ARGS.mocap)
+    F = by_width[93] if 93 in by_width else max(by_width.values(), key=len)
     print(f"threads {ARGS.threads}; pose features of the clips: {F.shape}")
     if ARGS.only in (None, "kmeans"):
-        bench_kmeans("mocap-like", tiled(F, 200_000))
+        # the CMU skeletons: 31 joints (93 columns) and 43 joints (129 columns)
+        cases = [d for d in (93, 129) if d in by_width] or [F.shape[1]]
+        for d in cases:
+            Fd = by_width[d] if d in by_width else F
+            bench_kmeans(f"mocap-like ({len(Fd)} frames)", tiled(Fd, 200_000))
         rng = np.random.default_rng(0)
         bench_kmeans("random normal", rng.normal(size=(200_000, 96)))
     if ARGS.only in (None, "som"):

@@ -50,6 +50,13 @@ typedef struct fit_ws {
     /* k-means++ task state */
     const double *cand[32];
     size_t n_cand;
+    /* k-means++ bounds: lab[i] is the chosen centre whose squared distance u[i] is; ppd[t * k
+     * + a] the squared distance from candidate t to chosen centre a (pp_bound: in use) */
+    double *ppd;
+    const double *ppd_best; /* ppd's row of the candidate taken */
+    int pp_bound;
+    int32_t pp_new;         /* index of the centre taken */
+    double pp_lo, pp_hi;    /* rounding factors of the skip test */
 } fit_ws;
 
 static void blk_range(size_t n, size_t nblk, size_t b, size_t *lo, size_t *hi)
@@ -156,30 +163,56 @@ static void inertia_task(void *ctx, size_t b)
     w->pinert[b] = s;
 }
 
-/* k-means++: potential of each candidate over one block (closest in w->u). */
+/* k-means++ bounds (the triangle inequality, as Elkan's k-means uses it): a row x whose
+ * closest chosen centre a is at squared distance u, and a candidate c at squared distance D
+ * from a, has |x - c| >= |c - a| - |x - a|; when D lo >= 4 u hi (lo, hi: the relative rounding
+ * of the computed distances, taken three times), the computed ||x - c||^2 is >= u, so
+ * min(||x - c||^2, u) = u without computing it: the sums and updates are those of the plain
+ * search, bit for bit. */
+static int pp_far(const fit_ws *w, const double *drow, size_t i)
+{
+    return w->pp_bound && drow[w->lab[i]] * w->pp_lo >= 4.0 * w->u[i] * w->pp_hi;
+}
+
+/* k-means++: potential of each candidate over one block (closest in w->u). One pass over the
+ * rows for all the candidates (each row read once while the candidates stay in cache); each
+ * candidate's sum still runs over the rows in order, so the sums are those of one pass per
+ * candidate, bit for bit. */
 static void pp_pot_task(void *ctx, size_t b)
 {
     fit_ws *w = ctx;
     size_t lo = b * PP_BLOCK, hi = lo + PP_BLOCK < w->n ? lo + PP_BLOCK : w->n;
-    for (size_t c = 0; c < w->n_cand; c++) {
-        double s = 0;
-        for (size_t i = lo; i < hi; i++) {
-            double d = cluster__dist2(w->x + i * w->ldx, w->cand[c], w->dim, w->pk.isa);
-            s += d < w->u[i] ? d : w->u[i];
+    const size_t nc = w->n_cand;
+    double s[32] = {0};
+    for (size_t i = lo; i < hi; i++) {
+        const double *xi = w->x + i * w->ldx, ui = w->u[i];
+        for (size_t c = 0; c < nc; c++) {
+            if (pp_far(w, w->ppd + c * w->k, i)) {
+                s[c] += ui;
+                continue;
+            }
+            double d = cluster__dist2(xi, w->cand[c], w->dim, w->pk.isa);
+            s[c] += d < ui ? d : ui;
         }
-        w->pinert[b * w->n_cand + c] = s;
     }
+    for (size_t c = 0; c < nc; c++)
+        w->pinert[b * nc + c] = s[c];
 }
 
-/* k-means++: closest = min(closest, d(x, cand[0])) over one block. */
+/* k-means++: closest = min(closest, d(x, cand[0])) over one block, lab the centre pp_new where
+ * it is closer. */
 static void pp_update_task(void *ctx, size_t b)
 {
     fit_ws *w = ctx;
     size_t lo = b * PP_BLOCK, hi = lo + PP_BLOCK < w->n ? lo + PP_BLOCK : w->n;
     for (size_t i = lo; i < hi; i++) {
+        if (pp_far(w, w->ppd_best, i))
+            continue;
         double d = cluster__dist2(w->x + i * w->ldx, w->cand[0], w->dim, w->pk.isa);
-        if (d < w->u[i])
+        if (d < w->u[i]) {
             w->u[i] = d;
+            w->lab[i] = w->pp_new;
+        }
     }
 }
 
@@ -193,9 +226,18 @@ static void kmeans_pp(fit_ws *w, mlr_rng *rng)
     size_t first = mlr_rng_below(rng, n);
     memcpy(w->c, w->x + first * w->ldx, dim * sizeof(double));
     w->cand[0] = w->x + first * w->ldx;
-    for (size_t i = 0; i < n; i++)
+    for (size_t i = 0; i < n; i++) {
         w->u[i] = INFINITY;
+        w->lab[i] = 0;
+    }
+    const double e = 4.0 * (double)(dim + 2) * DBL_EPSILON;
+    w->pp_lo = (1.0 - e) * (1.0 - e) * (1.0 - e);
+    w->pp_hi = (1.0 + e) * (1.0 + e) * (1.0 + e);
+    w->pp_bound = 0;
+    w->pp_new = 0;
     parallel__run(nth, nb, pp_update_task, w);
+    /* the bounds cost trials * k distances per centre: worth it while k is small beside n */
+    const int bound = w->ppd != NULL;
     double pot = 0;
     for (size_t i = 0; i < n; i++)
         pot += w->u[i];
@@ -203,7 +245,7 @@ static void kmeans_pp(fit_ws *w, mlr_rng *rng)
         double cum = 0; /* w->l = running sums of the closest distances */
         for (size_t i = 0; i < n; i++)
             w->l[i] = (cum += w->u[i]);
-        size_t ids[32];
+        size_t ids[32] = {0};
         for (size_t t = 0; t < trials; t++) {
             double v = mlr_rng_uniform(rng) * pot;
             size_t lo = 0, hi = n; /* first i with cum[i] >= v */
@@ -218,6 +260,12 @@ static void kmeans_pp(fit_ws *w, mlr_rng *rng)
             w->cand[t] = w->x + ids[t] * w->ldx;
         }
         w->n_cand = trials;
+        if (bound) { /* candidate to chosen-centre distances */
+            for (size_t t = 0; t < trials; t++)
+                for (size_t a = 0; a < c; a++)
+                    w->ppd[t * k + a] = cluster__dist2(w->cand[t], w->c + a * dim, dim, w->pk.isa);
+            w->pp_bound = 1;
+        }
         parallel__run(nth, nb, pp_pot_task, w);
         size_t bt = 0;
         double bpot = INFINITY;
@@ -232,6 +280,8 @@ static void kmeans_pp(fit_ws *w, mlr_rng *rng)
         }
         pot = bpot;
         w->cand[0] = w->x + ids[bt] * w->ldx;
+        w->ppd_best = bound ? w->ppd + bt * k : NULL;
+        w->pp_new = (int32_t)c;
         memcpy(w->c + c * dim, w->cand[0], dim * sizeof(double));
         parallel__run(nth, nb, pp_update_task, w);
     }
@@ -715,6 +765,13 @@ mlr_status mlr_kmeans_fit(mlr_kmeans *km, const double *x, size_t n, size_t ldx,
     w.n_pot = n_ppblk * 32 > nblk ? n_ppblk * 32 : nblk;
     size_t kpad = cluster__packed_kpad(k);
     int multi = !init && km->n_init > 1;
+    /* k-means++ bounds (kmeans_pp): trials * k distances, for k up to n / 8 (then their cost
+     * stays within 1/16 of the seeding's row distances); 256 k <= 32 n bytes, within the
+     * overflow check of fit_check */
+    size_t pp_trials = k > 1 ? 2 + (size_t)floor(log((double)k)) : 0;
+    if (pp_trials > 32)
+        pp_trials = 32;
+    const size_t pp_bytes = !init && k >= 2 && k <= n / 8 ? pp_trials * k * sizeof(double) : 0;
     int32_t *best_lab = NULL;
     double *best_c = NULL;
     ws_block blocks[] = {
@@ -734,6 +791,7 @@ mlr_status mlr_kmeans_fit(mlr_kmeans *km, const double *x, size_t n, size_t ldx,
         {(void **)&w.pskip, nblk * sizeof(size_t)},
         {(void **)&w.pinert, w.n_pot * sizeof(double)},
         {(void **)&w.cnt, k * sizeof(size_t)},
+        {(void **)&w.ppd, pp_bytes},
         {(void **)&best_lab, multi ? n * sizeof(int32_t) : 0},
         {(void **)&best_c, multi ? k * dim * sizeof(double) : 0},
     };

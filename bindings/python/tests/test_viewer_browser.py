@@ -458,3 +458,144 @@ def test_manifold_click_play_and_download(browser, server, mocap, downloads):
     assert js(d, "mlayerViewer.manifold.state.motion.primitives") == [int(v) for v in want]
     logs = [e for e in d.get_log("browser") if e["level"] == "SEVERE"]
     assert logs == []
+
+
+def _png(el):
+    from PIL import Image
+    return np.asarray(Image.open(io.BytesIO(el.screenshot_as_png)).convert("RGB")).astype(int)
+
+
+def _near(img, rgb, tol=40):
+    """Pixels within tol of an RGB colour (per channel)."""
+    return (np.abs(img - np.asarray(rgb)[None, None]) <= tol).all(-1)
+
+
+def test_manifold_paper_figures(browser, server, mocap):
+    """The paper's figures in the manifold panel: the key-pose column (Figs. 2 (b) and 5), the
+    poses drawn along the spline through clicked points (Fig. 4), and a generated sequence as
+    a pose strip over each frame's primitive memberships (Figs. 6 and 7): counts, the server's
+    numbers, and the pixels of the canvases."""
+    from scipy.spatial.distance import cdist
+    from selenium.webdriver.common.action_chains import ActionChains
+    from selenium.webdriver.common.keys import Keys
+    from selenium.webdriver.support.ui import Select
+    d = browser
+    open_page(d, server)
+    d.find_element("id", "m-train").click()   # kept from an earlier test, else learned now
+    wait(lambda: js(d, "mlayerViewer.manifold.state.state") in ("ready", "failed"), 120,
+         "the manifold to be learned")
+    assert js(d, "mlayerViewer.manifold.state.state") == "ready"
+    md = server.manifold.model
+    k = md.centers.shape[0]
+    M = "mlayerViewer.manifold.state"
+
+    def color(j):
+        return js(d, f"mlayerViewer.manifold.colorOf({j})")
+
+    # ---- the key-pose column: k figures, each in its primitive's colour, in its own cell
+    col = js(d, f"{M}.column")
+    assert col["count"] == k == len(col["cells"]) and col["highlight"] == -1
+    cv = d.find_element("id", "m-keyposes")
+    d.execute_script("arguments[0].scrollIntoView({block: 'start'})", cv)
+    img = _png(cv)
+    assert img.shape[0] == k * col["cell"] + 2  # the canvas and its border
+    for j, c in enumerate(col["cells"]):
+        cell = img[1 + c["top"]:1 + c["bottom"]]
+        assert _near(cell, color(j)).sum() > 60, f"no figure of primitive {j}"
+        others = [i for i in range(k) if i != j and color(i) != color(j)]
+        assert all(_near(cell, color(i), 10).sum() < 5 for i in others)
+        x0, y0, x1, y1 = c["box"]
+        assert y1 - y0 > 0.5 * col["cell"] and c["top"] <= y0 < y1 <= c["bottom"]
+
+    # ---- Fig. 4: two clicks, poses along the spline on the map
+    cv = d.find_element("id", "m-map")
+    d.execute_script("arguments[0].scrollIntoView({block: 'center'})", cv)
+    w, h = cv.size["width"], cv.size["height"]
+    d.find_element("id", "m-clear").click()
+    for fx, fy in ((0.15, 0.85), (0.85, 0.2)):
+        n = js(d, f"{M}.responses")
+        ActionChains(d).move_to_element_with_offset(cv, int((fx - 0.5) * w),
+                                                    int((fy - 0.5) * h)).click().perform()
+        wait(lambda n=n: js(d, f"{M}.responses") > n and not js(d, f"{M}.inflight"), 60,
+             "the manifold motion")
+        assert js(d, f"{M}.lastError") is None
+    d.execute_script("mlayerViewer.manifold.pause(); mlayerViewer.manifold.setFrame(60);")
+    wait(lambda: js(d, "mlayerViewer.manifold.drawn.frame === 60"), what="frame 60")
+    n_frames = js(d, f"{M}.motion.frames")
+    figs = js(d, f"{M}.overlay.figures")
+    frames = [f["frame"] for f in figs]
+    assert frames == sorted(set(frames)) and frames[0] == 0 and frames[-1] == n_frames - 1
+    assert [f["kind"] for f in figs if f["kind"] != "between"] == ["knot", "last"]
+    assert len(figs) >= 6
+    traj = np.array(js(d, f"{M}.motion.traj"))
+    for f in figs:  # each figure hangs at its frame's point of the path
+        x, y = js(d, f"mlayerViewer.manifold.toCanvas({traj[f['frame'], 0]}, "
+                     f"{traj[f['frame'], 1]})")
+        assert (f["x"], f["y"]) == pytest.approx((x, y))
+    on = _png(cv)
+    d.find_element("id", "m-poses").click()   # off: the map without the figures
+    wait(lambda: js(d, f"{M}.overlay.figures.length") == 0, what="the figures to go")
+    off = _png(cv)
+    changed = np.abs(on - off).max(-1) > 30
+    inside = np.zeros_like(changed)
+    for f in figs:
+        x0, y0, x1, y1 = (int(round(v)) for v in f["box"])
+        inside[max(0, y0 - 3):y1 + 5, max(0, x0 - 3):x1 + 5] = True
+    assert changed.sum() > 40 * len(figs), "the figures do not show on the map"
+    assert changed[~inside].sum() < 0.02 * changed.sum()
+    x0, y0, x1, y1 = (int(round(v)) for v in figs[-1]["box"])
+    assert _near(on[y0:y1 + 2, x0:x1 + 2], (214, 39, 40)).sum() > 10  # the last point's, red
+    d.find_element("id", "m-poses").click()
+    wait(lambda: js(d, f"{M}.overlay.figures.length") == len(figs), what="the figures back")
+
+    # ---- Figs. 6 and 7: 80 frames from a start frame, most likely transitions
+    el = d.find_element("id", "m-frames")
+    el.send_keys(Keys.CONTROL, "a")   # typed over, not cleared (clear() sends a change event)
+    el.send_keys("80")
+    el = d.find_element("id", "m-start-frame")
+    el.clear()
+    el.send_keys("400", Keys.TAB)
+    Select(d.find_element("id", "m-chain")).select_by_value("most")
+    wait(lambda: not js(d, f"{M}.inflight") and not js(d, f"{M}.pending"), 60, "the requests")
+    n = js(d, f"{M}.responses")
+    d.find_element("id", "m-generate").click()
+    wait(lambda: js(d, f"{M}.responses") > n and not js(d, f"{M}.inflight")
+         and js(d, f"{M}.motion.kind") == "start", 60, "the generated motion")
+    assert js(d, f"{M}.lastError") is None
+    d.execute_script("mlayerViewer.manifold.pause(); mlayerViewer.manifold.setFrame(0);")
+    wait(lambda: js(d, "mlayerViewer.manifold.drawn.frame === 0"), what="frame 0")
+    strip = js(d, f"{M}.strip")
+    assert js(d, f"{M}.motion.frames") == 80
+    # the paper's strip: frames 1, 5, 9, ..., 77
+    assert [f["frame"] + 1 for f in strip["figures"]] == list(range(1, 80, 4))
+    assert strip["step"] == 4
+    traj = np.array(js(d, f"{M}.motion.traj"))
+    want = np.argmin(cdist(traj, md.centers, "sqeuclidean"), axis=1)
+    memb = js(d, f"{M}.motion.membership")
+    np.testing.assert_array_equal(memb, want)
+    assert len(set(memb)) >= 2
+    assert [f["primitive"] for f in strip["figures"]] == [int(want[f]) for f in range(0, 80, 4)]
+    assert js(d, f"{M}.column.highlight") == int(want[0])
+    sv = d.find_element("id", "m-strip")
+    d.execute_script("arguments[0].scrollIntoView({block: 'center'})", sv)
+    img = _png(sv)[1:-1, 1:-1]  # inside the border
+    W = strip["width"]
+    # the row under the bar: each frame's primitive of largest membership, in its colour
+    yr = int(strip["rowTop"] + strip["rowH"] / 2)
+    for f in range(3, 80):  # away from the playhead's marker at frame 0
+        x = int(strip["L"] + (f + 0.5) * (W - strip["L"] - strip["R"]) / 80)
+        assert np.abs(img[yr, x] - np.array(color(int(want[f])))).max() <= 2, f"frame {f}"
+    # the bar: a frame's column holds the colours of its memberships, largest the most
+    u = np.array(js(d, f"Array.from({M}.motion.memberships)")).reshape(80, k)
+    for f in (20, 40, 60):
+        x = int(strip["L"] + (f + 0.5) * (W - strip["L"] - strip["R"]) / 80)
+        colm = img[int(strip["barTop"]) + 1:int(strip["barTop"] + strip["barH"]) - 1, x]
+        top = int(np.argmax(u[f]))
+        share = _near(colm[:, None], color(top), 2)[:, 0].mean()
+        assert abs(share - u[f, top]) < 0.12, (f, share, u[f, top])
+    # each strip figure drawn in its primitive's colour within its box
+    for fig in strip["figures"]:
+        x0, y0, x1, y1 = (int(round(v)) for v in fig["box"])
+        assert _near(img[y0:y1 + 1, x0:x1 + 1], color(fig["primitive"])).sum() > 15
+    logs = [e for e in d.get_log("browser") if e["level"] == "SEVERE"]
+    assert logs == []

@@ -113,6 +113,57 @@ def test_map_data_is_the_models(server, trained):
         assert d["cycles"]["most"][j] == list(md.markov.most_likely_path(j))
 
 
+def test_key_poses_are_the_poses_at_the_centres(server, trained):
+    """The key-pose column's data (paper Figures 2 (b) and 5): each primitive's pose is the
+    GRBF's rotations at its centre, root at (0, height, 0), no heading; forward kinematics of
+    the Motion built here from the model's raw outputs."""
+    d = trained
+    md = server.manifold.model
+    sk = md.skeleton
+    k, n_pts = d["k"], d["n_points"]
+    kp = f32(d["key_poses"], (k, n_pts, 3))
+    assert len(d["parents"]) == len(d["sides"]) == n_pts == sk.n_joints + sk.n_end_sites
+    assert d["parents"][:sk.n_joints] == [int(p) for p in sk.parents]
+    out = md.predict(md.centers)
+    assert md.body_joint == 0  # the walk's root is its body
+    for j in range(k):
+        root = np.array([[0.0, out["height"][j], 0.0]])
+        ref = mlayer.Motion(sk, md.frame_time, root, out["rot"][j:j + 1]).positions()[0]
+        h = np.ptp(ref[:, 1])
+        np.testing.assert_allclose(kp[j, :sk.n_joints], ref, atol=1e-5 * h)
+    # the poses differ from one primitive to the next, and the scale is the tallest
+    assert min(np.abs(kp[a] - kp[b]).max() for a in range(k) for b in range(a)) > 1e-3 * h
+    assert d["height"] == pytest.approx(np.ptp(kp[..., 1], axis=1).max(), rel=1e-6)
+
+
+@pytest.mark.parametrize("query", ["points=1,1;12.5,13&frames=80", "keys=0:20,0:600",
+                                   "start=0:400&chain=most&frames=80"])
+def test_memberships_of_each_frame(server, trained, query):
+    """Each frame's fuzzy membership (m = 2) in the primitives and its largest (the colour bar
+    under the pose strip, paper Figures 6 and 7), against scipy's distances to the centres;
+    the knots' frames (the poses on the map, Figure 4)."""
+    from scipy.spatial.distance import cdist
+    md = server.manifold.model
+    d = motion_json(server, query)
+    k = md.centers.shape[0]
+    assert d["k"] == k
+    u = f32(d["memberships"], (d["frames"], k))
+    traj = np.array(d["trajectory"])
+    d2 = cdist(traj, md.centers, "sqeuclidean")
+    assert d2.min() > 0  # no frame exactly on a centre here
+    want = (1.0 / d2) / (1.0 / d2).sum(axis=1, keepdims=True)
+    np.testing.assert_allclose(u, want, atol=2e-7)
+    np.testing.assert_array_equal(d["membership"], np.argmin(d2, axis=1))
+    assert len(set(d["membership"])) >= 2  # the path crosses primitives
+    t = np.array(d["knot_times"])
+    assert len(t) == len(d["knots"]) and t[0] == 0 and t[-1] == d["frames"] - 1
+    assert np.all(np.diff(t) > 0)
+    # the knots are where the trajectory is at their times
+    for ti, kn in zip(t, d["knots"]):
+        if float(ti).is_integer():
+            assert np.linalg.norm(traj[int(ti)] - md.clamp(np.array([kn]))[0]) < 0.1
+
+
 # ---- motions -----------------------------------------------------------------------------------
 
 def test_points_spline_motion_and_download(server, trained, mocap):
@@ -215,12 +266,13 @@ def test_start_frame_sampled(server, trained):
     ("start=0:1&seed=%C2%B2", 400, "seed must be a non-negative integer"),
     ("start=0:1,0:2", 400, "one CLIP:FRAME"), ("points=1,1&noise=0.1", 400, "start= only"),
     ("points=1,1&keys=0:1", 400, "exactly one of"), ("frames=10", 400, "exactly one of"),
-    ("points=1,1&frames=1", 400, "frames must be in 2..5000"),
+    ("points=1,1&frames=1", 400, "frames must be in 3..5000"),
+    ("points=1,1;5,5&frames=2", 400, "frames must be in 3..5000"),  # was a 400 from the LGS
     ("points=1,1&frames=-3", 400, "non-negative integer"),
     ("points=1,1&guards=2", 400, "guards must be"), ("points=1,1&path=/etc", 400, "unknown"),
     ("points=1,1&points=2,2", 400, "twice"),
     ("points=1,1;1,2;1,3;1,4;1,5;1,6&frames=5", 400, "more than 5 frames"),
-    ("keys=0:1,0:2,0:3&frames=2", 400, "at least as many frames"),
+    ("keys=0:1,0:2,0:3,0:4&frames=3", 400, "at least as many frames"),
 ])
 def test_bad_motion_requests(server, trained, query, status, words):
     for path in ("/api/manifold/motion?", "/api/manifold/download?"):

@@ -26,6 +26,14 @@ Motions (:meth:`ManifoldSession.motion`), one of three kinds per request:
 
 Every motion goes through the guards of generated motion (``guards=0`` turns them off). Answers
 and motions are cached in the server's result cache.
+
+The paper's figures are drawn by the page from these answers: the map data carries each
+primitive's key pose (the GRBF's pose at the primitive's centre, paper Figure 2 (b); the page's
+key-pose column) and the skeleton's tree; a motion carries its knots' frames (``knot_times``,
+the poses drawn along the spline on the map, Figure 4) and each frame's fuzzy membership in the
+primitives (``memberships``, fuzzy c-means memberships with m = 2 of the frame's manifold point
+to the primitives' centres, and ``membership``, the primitive of the largest; the colour bar
+under the pose strip, Figures 6 and 7).
 """
 from __future__ import annotations
 
@@ -43,6 +51,7 @@ from ..guards.contacts import contact_positions
 from ..guards.metrics import body_height
 from ..io.bvh import write_bvh_string
 from ..manifold.features import pose_features
+from ..manifold.mixture import _memberships
 from ..manifold.primitives import PrimitiveModel, join_skeletons, same_units
 from ..manifold.som import u_matrix
 from ..plotting.render import body_side
@@ -53,7 +62,7 @@ if TYPE_CHECKING:
     from ..manifold.markov import Markov
     from ..model.motion import Motion
 
-__all__ = ["ManifoldSession", "ranked_next", "ranked_chain", "ranked_cycle",
+__all__ = ["ManifoldSession", "ranked_next", "ranked_chain", "ranked_cycle", "memberships",
            "DEFAULT_MANIFOLD_FRAMES", "MAX_MOTION_FRAMES", "MAX_KNOTS"]
 
 #: the most training frames (all clips together, after decimation)
@@ -425,6 +434,7 @@ class ManifoldSession:
                           "points": md.points[a:b].tolist(),
                           "labels": md.labels[a:b].tolist()})
         sk = md.skeleton
+        keys = self._key_poses()
         return {
             "state": "ready", "error": None, "progress": 1.0, "steps": self._progress.lines,
             "seconds": (self._t1 or time.monotonic()) - cast(float, self._t0),
@@ -441,7 +451,19 @@ class ManifoldSession:
             "joint_names": list(sk.joint_names), "n_points": sk.n_joints + sk.n_end_sites,
             "max_frames": min(MAX_MOTION_FRAMES,
                               self.max_values // (sk.n_joints + sk.n_end_sites)),
+            "parents": _parents(sk), "sides": _sides(sk),
+            "key_poses": _b64(keys, np.float32), "height": _height(keys),
         }
+
+    def _key_poses(self) -> np.ndarray:
+        """(k, points, 3): each primitive's key pose, the GRBF's pose at its centre (root at
+        the origin, no heading, not smoothed), joints then End Sites."""
+        md = self.model
+        out = []
+        for c in md.centers:
+            m = md.motion_along(np.asarray(c, dtype=np.float64)[None], smooth=0.0)
+            out.append(_points(m)[0])
+        return np.stack(out)
 
     def _ready(self):
         if self.state != "ready":
@@ -477,7 +499,7 @@ class ManifoldSession:
         kind = kinds[0]
         sk = md.skeleton
         n_pts = sk.n_joints + sk.n_end_sites
-        most = min(MAX_MOTION_FRAMES, max(2, self.max_values // n_pts))
+        most = min(MAX_MOTION_FRAMES, max(3, self.max_values // n_pts))
         p: dict[str, Any] = {"kind": kind, "frames": 120, "guards": True, "chain": "most",
                              "noise": 0.0,
              "seed": 0}
@@ -486,8 +508,9 @@ class ManifoldSession:
             if not raw.isdigit() or len(raw) > 9:
                 raise ParamError(f"frames must be a non-negative integer, got {raw[:40]!r}")
             n = int(raw)
-            if n < 2 or n > MAX_MOTION_FRAMES:
-                raise ParamError(f"frames must be in 2..{MAX_MOTION_FRAMES}, got {n}")
+            # 3 at least: the spline's smoothing and the guards take an order-2 prior
+            if n < 3 or n > MAX_MOTION_FRAMES:
+                raise ParamError(f"frames must be in 3..{MAX_MOTION_FRAMES}, got {n}")
             if n > most:
                 raise ParamError(f"frames={n} x {n_pts} points is over the viewer's limit of "
                                  f"{self.max_values:,} values ({most} frames); restart mlayer "
@@ -687,10 +710,10 @@ class ManifoldSession:
             names, c = [], np.zeros((motion.n_frames, 0), dtype=bool)
         cpos = contact_positions(motion, names, *fk) if names else \
             np.zeros((motion.n_frames, 0, 3))
-        parents = list(map(int, sk.parents)) + list(map(int, sk.end_site_parents))
-        sides = [body_side(nm) for nm in sk.joint_names]
-        sides += [sides[q] for q in map(int, sk.end_site_parents)]
+        parents, sides = _parents(sk), _sides(sk)
         knots = np.asarray(info["knots"], dtype=np.float64)
+        traj = np.asarray(info["trajectory"], dtype=np.float64)
+        u = memberships(traj, md.centers)
         return {
             "kind": p["kind"], "frames": motion.n_frames, "fps": motion.fps,
             "duration": motion.duration, "height": body_height(motion) or 1.0,
@@ -698,8 +721,49 @@ class ManifoldSession:
             "n_points": pts.shape[1], "positions": _b64(pts, np.float32),
             "contact_names": names, "contact_points": _b64(cpos, np.float32),
             "contacts": _b64(np.asarray(c, dtype=bool), np.uint8),
-            "trajectory": np.asarray(info["trajectory"]).tolist(), "knots": knots.tolist(),
+            "trajectory": traj.tolist(), "knots": knots.tolist(),
+            "knot_times": np.asarray(info["times"], dtype=np.float64).tolist(),
             "primitives": [int(v) for v in info["primitives"]],
+            "k": int(md.centers.shape[0]), "memberships": _b64(u, np.float32),
+            "membership": np.argmax(u, axis=1).tolist(),
             "start_training_frame": info.get("start_training_frame"),
             "compute_ms": info["compute_ms"],
         }
+
+
+def memberships(points: NDArray[np.float64], centers: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Fuzzy c-means memberships (m = 2) of manifold points to the primitives' centres.
+
+    Parameters
+    ----------
+    points : array_like, shape (n, 2)
+        Manifold points (a motion's trajectory).
+    centers : array_like, shape (k, 2)
+        The primitives' centres on the map.
+
+    Returns
+    -------
+    numpy.ndarray, shape (n, k)
+        u[i, j] = 1 / sum_l (d_ij / d_il)^2, rows summing to 1; a point on a centre belongs to
+        it alone (paper 2, Figure 6: the membership of each sampled point).
+    """
+    P = np.asarray(points, dtype=np.float64)
+    C = np.asarray(centers, dtype=np.float64)
+    d2 = ((P[:, None, :] - C[None, :, :]) ** 2).sum(-1)
+    return _memberships(d2, 2.0)
+
+
+def _parents(sk) -> list[int]:
+    return list(map(int, sk.parents)) + list(map(int, sk.end_site_parents))
+
+
+def _sides(sk) -> list[str]:
+    sides = [body_side(nm) for nm in sk.joint_names]
+    return sides + [sides[q] for q in map(int, sk.end_site_parents)]
+
+
+def _height(pts: np.ndarray) -> float:
+    """The tallest key pose's extent along y (the up axis of the figures), for the page's
+    scale."""
+    h = float((pts[..., 1].max(axis=1) - pts[..., 1].min(axis=1)).max()) if pts.size else 0.0
+    return h if h > 0 else 1.0

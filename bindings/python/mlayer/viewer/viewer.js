@@ -612,6 +612,7 @@
     state: "idle", map: null, points: [], keys: [], motion: null, t: 0, playing: true,
     requests: 0, responses: 0, inflight: false, pending: null, lastError: null, lastQuery: "",
     lastKind: null, drawn: null, target: null, mapImage: null,
+    keyPoses: null, column: null, overlay: null, strip: null, stripImage: null,
     cam: { yaw: 0.7, pitch: 0.28, zoom: 1 },
   };
 
@@ -631,6 +632,8 @@
     });
     $("m-frames").addEventListener("change", () => { if (M.lastKind) manifoldRequest(M.lastKind); });
     $("m-guards").addEventListener("change", () => { if (M.lastKind) manifoldRequest(M.lastKind); });
+    $("m-poses").addEventListener("change", () => drawMapOverlay());
+    window.addEventListener("resize", () => { if (M.motion) drawStrip(); });
     $("m-noise").addEventListener("input", () => {
       $("m-noise-out").textContent = (+$("m-noise").value).toFixed(2);
     });
@@ -701,8 +704,10 @@
     $("m-frames").max = d.max_frames;
     const cyc = (c) => c.map((p) => p.join("→")).join(", ");
     $("m-cycles").textContent = `most likely next (eq. 5): ${cyc(d.cycles.most)}; second most likely: ${cyc(d.cycles.second)}`;
+    M.keyPoses = f32(d.key_poses);
     drawMapBase();
     drawTransitions();
+    drawKeyColumn(-1);
   }
 
   function manifoldQuery(kind) {
@@ -715,7 +720,7 @@
       if (+$("m-noise").value > 0) q.set("noise", $("m-noise").value);
       q.set("seed", Math.max(0, Math.floor(+$("m-seed").value)));
     }
-    q.set("frames", Math.max(2, Math.floor(+$("m-frames").value)));
+    q.set("frames", Math.max(3, Math.floor(+$("m-frames").value)));
     if (!$("m-guards").checked) q.set("guards", "0");
     return q.toString();
   }
@@ -737,7 +742,8 @@
       let ymin = Infinity;
       for (let k = 1; k < m.pos.length; k += 3) ymin = Math.min(ymin, m.pos[k]);
       m.sk.floor = ymin;
-      Object.assign(m, { kind: d.kind, traj: d.trajectory, knots: d.knots, primitives: d.primitives });
+      Object.assign(m, { kind: d.kind, traj: d.trajectory, knots: d.knots, primitives: d.primitives,
+        knotTimes: d.knot_times, k: d.k, memberships: f32(d.memberships), membership: d.membership });
       M.motion = m;
       M.t = 0;
       M.target = null;
@@ -750,6 +756,7 @@
           `from training frame ${d.start_training_frame}`;
       $("m-info").textContent = `${what}: ${d.frames} frames @ ${fpsText(d.fps)} fps, primitives ${d.primitives.join(" → ")}; ` +
         `computed in ${d.compute_ms.toFixed(0)} ms`;
+      drawStrip();
       mStatus("");
       M.responses++;
     }).catch((e) => {
@@ -841,6 +848,8 @@
         ctx.fillStyle = "rgba(200,30,30,0.9)";
         for (const p of m.knots) { const [x, y] = toCanvas(p[0], p[1]); ctx.fillRect(x - 4, y - 4, 8, 8); }
       }
+      if ($("m-poses").checked) drawPathPoses(ctx, m);
+      else M.overlay = { figures: [] };
       const f = manifoldFrame();
       const [x, y] = toCanvas(m.traj[f][0], m.traj[f][1]);
       ctx.fillStyle = "#0a6";
@@ -877,6 +886,182 @@
     }
   }
 
+  // ---------- the paper's figures: small stick figures on the map (Fig. 4), the key-pose column
+  // (Figs. 2 (b) and 5), the pose strip over the primitive memberships (Figs. 6 and 7) ----------
+  //
+  // A small figure is an orthographic side view (the yaw of the manifold figure's camera) of one
+  // pose, its root's horizontal position taken off: u = x cos(yaw) - z sin(yaw), v = y.
+
+  function miniProject(pos, base, nPoints, yaw) {
+    const c = Math.cos(yaw), s = Math.sin(yaw);
+    const rx = pos[base], rz = pos[base + 2];
+    const out = new Array(nPoints);
+    for (let k = 0; k < nPoints; k++) {
+      const i = base + 3 * k;
+      out[k] = [(pos[i] - rx) * c - (pos[i + 2] - rz) * s, pos[i + 1]];
+    }
+    return out;
+  }
+
+  // draw projected points pts (from miniProject) with the root at (x, y), scale px per unit;
+  // returns the pixel box of the figure
+  function drawMini(ctx, pts, parents, x, y, scale, rgb, width) {
+    const rootV = pts[0][1];
+    const at = (k) => [x + scale * pts[k][0], y - scale * (pts[k][1] - rootV)];
+    const box = [Infinity, Infinity, -Infinity, -Infinity];
+    ctx.lineCap = "round";
+    for (const pass of [0, 1]) {  // a white halo, then the figure
+      ctx.strokeStyle = pass ? `rgb(${rgb[0]},${rgb[1]},${rgb[2]})` : "rgba(255,255,255,0.85)";
+      ctx.lineWidth = pass ? width : width + 2;
+      ctx.beginPath();
+      for (let k = 1; k < pts.length; k++) {
+        if (parents[k] < 0) continue;
+        const a = at(parents[k]), b = at(k);
+        ctx.moveTo(a[0], a[1]);
+        ctx.lineTo(b[0], b[1]);
+        if (pass) {
+          box[0] = Math.min(box[0], a[0], b[0]); box[1] = Math.min(box[1], a[1], b[1]);
+          box[2] = Math.max(box[2], a[0], b[0]); box[3] = Math.max(box[3], a[1], b[1]);
+        }
+      }
+      ctx.stroke();
+    }
+    return box;
+  }
+
+  // Fig. 4: the poses at the knots (red: the last, blue: the earlier ones) and in between (cyan)
+  function drawPathPoses(ctx, m) {
+    const n = m.frames, g = mapSize();
+    const knotFrames = m.knotTimes.map((t) => Math.max(0, Math.min(n - 1, Math.round(t))));
+    const frames = new Map();
+    knotFrames.forEach((f, i) => frames.set(f, i === knotFrames.length - 1 ? "last" : "knot"));
+    const gap = Math.max(1, Math.round((n - 1) / 8));  // about 8 poses in between
+    for (let f = 0; f < n; f += gap) {
+      if (!knotFrames.some((q) => Math.abs(q - f) < gap / 2)) frames.set(f, "between");
+    }
+    const hue = { last: [214, 39, 40], knot: [31, 79, 180], between: [0, 160, 190] };
+    const size = Math.max(20, Math.min(48, 1.6 * Math.min(g.cw, g.ch)));
+    const scale = size / m.sk.height;
+    const figures = [];
+    const order = [...frames.entries()].sort((a, b) => (a[1] === "between") - (b[1] === "between") || a[0] - b[0]).reverse();
+    for (const [f, kind] of order) {  // knots drawn last, on top
+      const [x, y] = toCanvas(m.traj[f][0], m.traj[f][1]);
+      const pts = miniProject(m.pos, f * m.nPoints * 3, m.nPoints, M.cam.yaw);
+      const box = drawMini(ctx, pts, m.sk.parents, x, y, scale, hue[kind], kind === "between" ? 1.5 : 2);
+      figures.push({ frame: f, kind, x, y, box });
+    }
+    M.overlay = { figures: figures.sort((a, b) => a.frame - b.frame), size };
+  }
+
+  // Figs. 2 (b) and 5: a column of the primitives' key poses, the current one framed
+  function drawKeyColumn(highlight) {
+    const d = M.map, cv = $("m-keyposes");
+    const k = d.k, np = d.n_points;
+    const cell = Math.max(56, Math.min(100, Math.floor(440 / k)));  // about the map's height
+    cv.style.height = `${k * cell + 2}px`;  // and the 1 px border (box-sizing: border-box)
+    const ctx = hidpi(cv);
+    const W = cv.clientWidth;
+    ctx.fillStyle = "#fff";
+    ctx.fillRect(0, 0, W, k * cell);
+    const scale = (0.78 * cell) / d.height;
+    const cells = [];
+    ctx.font = "11px system-ui, sans-serif";
+    ctx.textAlign = "left";
+    for (let j = 0; j < k; j++) {
+      const pts = miniProject(M.keyPoses, j * np * 3, np, M.cam.yaw);
+      let lo = Infinity, hi = -Infinity;
+      for (const p of pts) { lo = Math.min(lo, p[1]); hi = Math.max(hi, p[1]); }
+      const top = j * cell, rgb = colorOf(j);
+      // the root placed so that the pose's vertical extent is centred in its cell
+      const y = top + cell / 2 + scale * ((hi + lo) / 2 - pts[0][1]);
+      ctx.fillStyle = `rgb(${rgb[0]},${rgb[1]},${rgb[2]})`;
+      ctx.fillRect(2, top + 4, 16, 14);
+      ctx.fillStyle = "#222";
+      ctx.fillText(String(j), 22, top + 15);
+      const box = drawMini(ctx, pts, d.parents, W / 2 + 10, y, scale, rgb, 2);
+      if (j === highlight) {
+        ctx.strokeStyle = "#111";
+        ctx.lineWidth = 2;
+        ctx.strokeRect(1, top + 1, W - 2, cell - 2);
+      }
+      cells.push({ top, bottom: top + cell, box });
+    }
+    M.column = { count: k, cell, cells, highlight };
+  }
+
+  // Figs. 6 and 7: every step-th frame as a small figure (coloured by its primitive), over a
+  // bar of each frame's fuzzy memberships (stacked, primitive 0 on top) and a row of the
+  // primitive of the largest membership
+  function drawStrip() {
+    const m = M.motion;
+    if (!m) return;
+    $("m-strip-box").hidden = false;
+    const cv = $("m-strip");
+    cv.getContext("2d", { willReadFrequently: true });  // its image is read back once per motion
+    const ctx = hidpi(cv);
+    const W = cv.clientWidth, H = cv.clientHeight;
+    ctx.fillStyle = "#fff";
+    ctx.fillRect(0, 0, W, H);
+    const L = 8, R = 8, figH = 92, barTop = 116, barH = 28, rowTop = barTop + barH + 2, rowH = 8;
+    const n = m.frames, k = m.k;
+    // at most 20 figures, as the paper's strips (80 frames: 1, 5, 9, ..., 77), and 34 px each
+    const most = Math.max(2, Math.min(20, Math.floor((W - L - R) / 34)));
+    const step = Math.max(1, Math.ceil(n / most));
+    const fx = (f) => L + ((f + 0.5) * (W - L - R)) / n;  // frame f's column of the bar
+    const scale = (0.8 * figH) / m.sk.height;
+    const figures = [];
+    ctx.font = "10px system-ui, sans-serif";
+    ctx.textAlign = "center";
+    for (let f = 0; f < n; f += step) {
+      const pts = miniProject(m.pos, f * m.nPoints * 3, m.nPoints, M.cam.yaw);
+      let lo = Infinity;
+      for (const p of pts) lo = Math.min(lo, p[1]);
+      const x = L + (figures.length + 0.5) * ((W - L - R) / Math.ceil(n / step));
+      const y = 12 + figH - scale * (pts[0][1] - lo);  // feet on a common line
+      const rgb = colorOf(m.membership[f]);
+      const box = drawMini(ctx, pts, m.sk.parents, x, y, scale, rgb, 1.6);
+      ctx.fillStyle = "#444";
+      ctx.fillText(String(f + 1), x, 10);
+      ctx.strokeStyle = "rgba(0,0,0,0.25)";
+      ctx.lineWidth = 1;
+      ctx.beginPath(); ctx.moveTo(x, 12 + figH + 2); ctx.lineTo(fx(f), barTop); ctx.stroke();
+      figures.push({ frame: f, x, box, primitive: m.membership[f] });
+    }
+    const cw = (W - L - R) / n;
+    for (let f = 0; f < n; f++) {
+      let y = barTop;
+      for (let j = 0; j < k; j++) {
+        const u = m.memberships[f * k + j];
+        if (u <= 0) continue;
+        const c = colorOf(j);
+        ctx.fillStyle = `rgb(${c[0]},${c[1]},${c[2]})`;
+        ctx.fillRect(L + f * cw, y, cw + 0.5, u * barH);
+        y += u * barH;
+      }
+      const c = colorOf(m.membership[f]);
+      ctx.fillStyle = `rgb(${c[0]},${c[1]},${c[2]})`;
+      ctx.fillRect(L + f * cw, rowTop, cw + 0.5, rowH);
+    }
+    M.stripImage = ctx.getImageData(0, 0, cv.width, cv.height);
+    M.strip = { step, figures, L, R, barTop, barH, rowTop, rowH, width: W, marker: -1 };
+    const used = [...new Set(m.membership)].sort((a, b) => a - b);
+    $("m-strip-note").textContent = `frames ${figures.map((q) => q.frame + 1).slice(0, 4).join(", ")}, … (every ${step}. frame); ` +
+      `bar: each frame's fuzzy membership in the primitives (m = 2), the row under it the largest; primitives met: ${used.join(", ")}`;
+  }
+
+  function drawStripMarker(f) {
+    if (!M.strip || !M.stripImage || M.strip.marker === f) return;
+    const cv = $("m-strip");
+    const ctx = cv.getContext("2d");
+    ctx.putImageData(M.stripImage, 0, 0);
+    const s = M.strip, n = M.motion.frames;
+    const x = s.L + ((f + 0.5) * (s.width - s.L - s.R)) / n;
+    ctx.strokeStyle = "#0a6";
+    ctx.lineWidth = 2;
+    ctx.beginPath(); ctx.moveTo(x, s.barTop - 4); ctx.lineTo(x, s.rowTop + s.rowH + 4); ctx.stroke();
+    s.marker = f;
+  }
+
   function manifoldFrame() {
     const m = M.motion;
     return m ? Math.min(m.frames - 1, Math.max(0, Math.floor(M.t * m.fps + 1e-6))) : 0;
@@ -907,6 +1092,8 @@
     $("m-time").textContent = `${f + 1} / ${m.frames} · ${(f / m.fps).toFixed(2)} s`;
     M.drawn = { frame: f, positions: Array.from({ length: m.sk.nJoints }, (_, k) => point(m, f, k, [0, 0, 0])) };
     drawMapOverlay();
+    if (M.column && M.column.highlight !== m.membership[f]) drawKeyColumn(m.membership[f]);
+    drawStripMarker(f);
   }
 
   window.addEventListener("resize", () => { if (S.proc) drawChart(); });
@@ -915,7 +1102,7 @@
     state: S, play, pause, setFrame, request,
     get ready() { return S.ready; },
     get drawn() { return S.drawn; },
-    manifold: { state: M, train: manifoldTrain, request: manifoldRequest, toLattice, toCanvas,
+    manifold: { state: M, train: manifoldTrain, request: manifoldRequest, toLattice, toCanvas, colorOf,
       pause: () => { M.playing = false; $("m-play").textContent = "play"; },
       setFrame: (f) => { if (M.motion) M.t = Math.max(0, Math.min(M.motion.frames - 1, f)) / M.motion.fps; },
       get drawn() { return M.drawn; } },
