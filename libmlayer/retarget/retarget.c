@@ -1297,8 +1297,8 @@ static void lowest_foot(const rig_rest *r, size_t n_frames, const double *root_p
  * a raised-cosine window of the same width, so it covers every frame's shortfall and is zero
  * farther than 0.2 s from any). */
 static mlr_status raise_feet(const rig_rest *r, size_t n_frames, double fps, int up, double ground,
-                             double *root_pos, const double *rot, const double *trans,
-                             const mlr_allocator *a, mlr_diag *diag)
+                             const double *allow, double *root_pos, const double *rot,
+                             const double *trans, const mlr_allocator *a, mlr_diag *diag)
 {
     const size_t J = r->rig->n_joints;
     size_t nd, bytes;
@@ -1312,7 +1312,7 @@ static mlr_status raise_feet(const rig_rest *r, size_t n_frames, double fps, int
            *wide = need + n_frames;
     lowest_foot(r, n_frames, root_pos, rot, trans, up, wpos, wrot, need);
     for (size_t f = 0; f < n_frames; f++)
-        need[f] = fmax(0.0, ground - need[f]);
+        need[f] = fmax(0.0, (allow ? fmin(ground, allow[f]) : ground) - need[f]);
     const size_t half = (size_t)fmax(1.0, round(0.1 * fps));
     for (size_t f = 0; f < n_frames; f++) {
         const size_t lo = f > half ? f - half : 0,
@@ -1515,6 +1515,8 @@ mlr_status mlr_retarget_feet(const mlr_rig *source, size_t n_frames, double fps,
      * scaled source's lowest foot point less the target's, raises the whole target (a round trip
      * undoes it, as it undoes the lift: the way back's median is minus this one over s). Only
      * where up maps onto a positive axis of the target. */
+    double src_ground = -INFINITY;
+    const double *allow = NULL; /* the scaled source's own lowest foot point of each frame */
     if (st == MLR_OK && sign > 0.5) {
         double *alow = wpos, *blow = rp; /* over the frames no longer needed */
         lowest_foot(&src, n_frames, root_pos, rot, trans, up, wpos, wrot, alow);
@@ -1531,16 +1533,30 @@ mlr_status mlr_retarget_feet(const mlr_rig *source, size_t n_frames, double fps,
         const double sole = m ? mlr_median(blow, m) : 0.0;
         for (size_t f = 0; f < n_frames; f++)
             out_root_pos[3 * f + (size_t)tup] += sole;
+        /* the scaled source's ground: the 0.05 quantile of its lowest foot point over its
+         * contact frames */
+        double *v = wpos + n_frames;
+        m = 0;
+        for (size_t f = 0; f < n_frames; f++) {
+            int any = 0;
+            for (size_t i = 0; i < ns; i++)
+                any |= cs[f * ns + i] != 0;
+            if (any)
+                v[m++] = alow[f];
+        }
+        if (m)
+            src_ground = scale * cleanup__quantile_of(v, m, 0.05);
+        for (size_t f = 0; f < n_frames; f++)
+            alow[f] *= scale;
+        allow = alow;
     }
     if (st == MLR_OK && sign > 0.5) {
         /* the last word, as the guards' (guards.c, raise_to_floor): the ground the target's
          * feet stand on (the 0.05 quantile over its contact frames of its lowest foot point,
-         * End Sites included), and the whole body raised smoothly wherever a foot point of the
-         * result is below it. The target's own ground, not the scaled source's: the soles were
-         * put where the scaled source's are by mlr_retarget (the median of their difference,
-         * which a round trip undoes); what is left below are the frames where the two feet's
-         * shapes differ (another pitch puts another point lowest) or the source's own foot
-         * went below its floor. */
+         * End Sites included) or the scaled source's, the higher, and the whole body raised
+         * smoothly wherever a foot point of the result is below it. What is left below are the
+         * frames where the two feet's shapes differ (another pitch puts another point lowest)
+         * or the source's own foot went below its floor. */
         double *low = sp; /* N lows, then the target's forward kinematics */
         lowest_foot(&dst, n_frames, out_root_pos, out_rot, out_trans, tup, sp + n_frames,
                     sp + n_frames + 3 * n_frames * Jt, low);
@@ -1553,9 +1569,9 @@ mlr_status mlr_retarget_feet(const mlr_rig *source, size_t n_frames, double fps,
                 low[m++] = low[f];
         }
         if (m) {
-            const double ground = cleanup__quantile_of(low, m, 0.05);
-            st = raise_feet(&dst, n_frames, fps, tup, ground, out_root_pos, out_rot, out_trans, &a,
-                            diag);
+            const double ground = fmax(cleanup__quantile_of(low, m, 0.05), src_ground);
+            st = raise_feet(&dst, n_frames, fps, tup, ground, allow, out_root_pos, out_rot,
+                            out_trans, &a, diag);
         }
     }
 done:
