@@ -198,10 +198,12 @@ MLR_API mlr_status mlr_retarget(const mlr_rig *source, size_t n_frames, const do
  * contact frames of the scaled source's lowest foot point (ankles, toes and their End Sites)
  * less the target's, a constant that puts the soles of the contact frames together where the
  * two feet pitch or are shaped otherwise (a round trip undoes it, as it undoes the lift); last,
- * as the guards' last step, the target's own ground (the 0.05 quantile over its contact frames
- * of its lowest foot point) is kept: the body is raised along up by a smooth envelope of the
- * shortfall (the largest within +-0.1 s, averaged with a raised-cosine window as wide)
- * wherever its lowest foot point is below it.
+ * as the guards' last step, the ground is kept: the higher of the target's own (the 0.05
+ * quantile over its contact frames of its lowest foot point) and the scaled source's (the same
+ * of the source, times s), but on each frame no higher than the scaled source's own lowest
+ * foot point (the target goes no deeper than the source did); the body is raised along up by
+ * a smooth envelope of the shortfall (the largest within +-0.1 s, averaged with a
+ * raised-cosine window as wide) wherever its lowest foot point is below that.
  * @param source     [in] the source rig (as given to mlr_retarget)
  * @param n_frames   [in] N; fewer than 3: nothing is done
  * @param fps        [in] frames per second, finite, > 0
