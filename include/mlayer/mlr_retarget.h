@@ -55,8 +55,12 @@
  * middle of that span, and its bone is turned (the shortest way) to point along the source
  * chain from fraction u_k to u_k+1 (the source's rest segments turned by their joints' world
  * rotations). Joints without a role on either rig follow the source joint of the same name
- * when there is one that has no role either (fingers named alike), with C from their bones to
- * their first child (or End Site).
+ * when there is one that has no role either, or else, for a finger (a joint below a hand role
+ * whose name holds thumb, index, middle, ring, pinky, pinkie or little), the source joint of
+ * the same finger below the same hand at the same place counted from the finger's tip
+ * (MakeHuman's Index1_L follows Mixamo's LeftHandIndex1 or Daz's lIndex1; a metacarpal joint
+ * more at the base is left at rest), with C from their bones to their first
+ * child (or End Site).
  *
  * Placement. s = L_t / L_s, L being the mean over both sides of the rest lengths upper leg ->
  * lower leg -> foot. The middle of the target's upper legs goes where the source's is, mapped

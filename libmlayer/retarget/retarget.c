@@ -757,6 +757,69 @@ static double foot_drop(const rig_rest *r, int side, const mlr_quat *wrot, const
     return -low;
 }
 
+/* ---- fingers ------------------------------------------------------------------------------ */
+
+/* The finger a joint's name names: 0 thumb, 1 index, 2 middle, 3 ring, 4 little; -1 none. */
+static int finger_kind(const char *name)
+{
+    static const char *const thumb[] = {"thumb", NULL}, *const index[] = {"index", NULL},
+                             *const middle[] = {"middle", NULL}, *const ring[] = {"ring", NULL},
+                             *const little[] = {"pinky", "pinkie", "little", NULL};
+    static const char *const *const kinds[5] = {thumb, index, middle, ring, little};
+    for (int k = 0; k < 5; k++)
+        if (mlr_name_matches(name, kinds[k]))
+            return k;
+    return -1;
+}
+
+/* A finger joint of a rig: its side (0 left, 1 right: below that hand role), its finger, its
+ * place k from the hand among the joints of that finger above it and the count n of that
+ * finger's joints below the hand; 0 when j is none (no role hand above it, no finger name). */
+static int finger_of(const rig_rest *r, int32_t j, int *side, int *kind, int *k, int *n)
+{
+    const mlr_rig *rig = r->rig;
+    *kind = finger_kind(rig->names[j]);
+    if (*kind < 0)
+        return 0;
+    int32_t hand = -1;
+    for (int s = 0; s < 2 && hand < 0; s++) {
+        const int32_t h = r->role[s ? MLR_ROLE_RIGHT_HAND : MLR_ROLE_LEFT_HAND];
+        if (h >= 0 && h != j && is_ancestor(rig, h, j))
+            hand = h, *side = s;
+    }
+    if (hand < 0)
+        return 0;
+    *k = 0;
+    for (int32_t a = rig->parents[j]; a != hand; a = rig->parents[a])
+        *k += finger_kind(rig->names[a]) == *kind;
+    *n = 0;
+    for (size_t c = (size_t)hand + 1; c < rig->n_joints; c++)
+        *n += finger_kind(rig->names[c]) == *kind && is_ancestor(rig, hand, (int32_t)c);
+    return 1;
+}
+
+/* The source joint that target finger joint j follows: the joint of the same hand and finger
+ * at the same place counted from the finger's tip (a rig with a metacarpal joint more, as
+ * MakeHuman's and Axis Neuron's, lines up at the tips); -1 when none, or when it has a role. */
+static int32_t finger_source(const rig_rest *src, const rig_rest *dst, int32_t j)
+{
+    int ts, tk, tpos, tn;
+    if (!finger_of(dst, j, &ts, &tk, &tpos, &tn))
+        return -1;
+    for (size_t c = 1; c < src->rig->n_joints; c++) {
+        int ss, sk, spos, sn;
+        if (!finger_of(src, (int32_t)c, &ss, &sk, &spos, &sn) || ss != ts || sk != tk)
+            continue;
+        if (spos - (sn - tn) != tpos)
+            continue;
+        for (int r = 0; r < MLR_ROLE_COUNT; r++)
+            if (src->role[r] == (int32_t)c)
+                return -1;
+        return (int32_t)c;
+    }
+    return -1;
+}
+
 /* ---- the retarget ------------------------------------------------------------------------- */
 
 /* A spine or neck chain: its joints, then the joint it ends at, with the fraction of the
@@ -1075,17 +1138,19 @@ mlr_status mlr_retarget(const mlr_rig *source, size_t n_frames, const double *ro
             memcpy(f->bone, pt, sizeof pt);
         }
     }
-    /* joints without a role on either rig follow the source joint of their name */
+    /* joints without a role on either rig follow the source joint of their name, or, for the
+     * fingers, the joint of the same finger of the same hand at the same place from its tip */
     for (size_t j = 0; j < Jt; j++) {
         int roled = 0;
         for (int r = 0; r < MLR_ROLE_COUNT; r++)
             roled |= dst.role[r] == (int32_t)j;
-        const int32_t s = roled || fr[j].src >= 0 ? -1 : find_joint(source, target->names[j]);
+        int32_t s = roled || fr[j].src >= 0 ? -1 : find_joint(source, target->names[j]);
+        for (int r = 0; s >= 0 && r < MLR_ROLE_COUNT; r++)
+            if (src.role[r] == s)
+                s = -1;
+        if (s < 0 && !roled && fr[j].src < 0)
+            s = finger_source(&src, &dst, (int32_t)j); /* the same finger of the same hand */
         if (s < 0)
-            continue;
-        for (int r = 0; r < MLR_ROLE_COUNT; r++)
-            roled |= src.role[r] == s;
-        if (roled)
             continue;
         double ps[3], pt[3];
         const int have = plain_bone_end(&src, s, ps) && plain_bone_end(&dst, (int32_t)j, pt);

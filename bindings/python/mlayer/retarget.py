@@ -10,7 +10,8 @@ meet, the neck from there to the head, the shoulders and toes). Every matched ta
 then points the way the source's bone points in the world (its roll follows the source's
 too), whatever the two rest poses are; spine and neck chains of other lengths are spread
 along each other; the hips follow the source's, scaled by the ratio of the leg lengths;
-joints without a role keep their rest pose.
+joints without a role follow a source joint of the same name or, for the fingers, the same
+finger of the same hand (thumb, index, middle, ring, pinky), else keep their rest pose.
 """
 from __future__ import annotations
 
@@ -166,7 +167,8 @@ def retarget(motion: Motion, target: Skeleton | Motion | str | os.PathLike[str],
     Motion
         A new motion on the target's skeleton with the source's frame time: every matched bone
         points in the world as the source's does, the hips follow the source's scaled by the
-        target's leg length over the source's, the other joints are at rest.
+        target's leg length over the source's, the fingers follow the source's same fingers,
+        the other joints are at rest.
 
     Raises
     ------

@@ -442,3 +442,27 @@ def test_a_rig_whose_legs_hang_beside_the_spine_has_its_hips_and_head():
     assert (r["Hips"], r["Head"], r["Neck0"], r["Spine0"], r["Spine1"]) == \
         ("Root", "Head", "Neck", "Spine1", "Spine2")
     assert r["LeftUpperLeg"] == "UpLeg_L" and "Spine2" not in r
+
+
+def test_fingers_named_otherwise_follow_the_same_finger(mocap):
+    # Daz's lIndex1, lThumb2 .. renamed as MakeHuman names them (Index1_L, Thumb2_L ..): the same
+    # rig, so every finger must turn as the source's (they stayed at rest when only joints of
+    # the same name were matched)
+    a = clip(mocap, "cmu_10_01_soccer_kick.bvh", 20)
+    sk = a.skeleton
+
+    def rename(n: str) -> str:
+        for f in ("Thumb", "Index", "Ring", "Pinky"):
+            if len(n) == len(f) + 2 and n[1:].startswith(f) and n[0] in "lr":
+                return f"{f}{n[-1]}_{n[0].upper()}"
+        return n
+    names = [rename(n) for n in sk.joint_names]
+    fingers = [j for j, (n, m) in enumerate(zip(sk.joint_names, names)) if n != m]
+    assert len(fingers) == 16
+    odd = mlayer.Skeleton(names, sk.parents, sk.offsets, sk.channels, sk.end_site_parents,
+                          sk.end_site_offsets)
+    out = mlayer.retarget(a, odd, feet=False, target_up="y")
+    moving = [j for j in fingers if not np.allclose(np.abs(a.rot[:, j, 0]), 1.0)]
+    assert len(moving) == 6  # the others are still in this clip
+    dots = np.abs(np.einsum("fjc,fjc->fj", out.rot[:, fingers], a.rot[:, fingers]))
+    np.testing.assert_allclose(dots, 1.0, atol=1e-9)
