@@ -189,7 +189,9 @@ MLR_API mlr_status mlr_retarget(const mlr_rig *source, size_t n_frames, const do
  * and the toes or else the ankle's first End Site; the source's are detected by
  * mlr_contacts_detect (default options); a target's toe point is kept where the source has one
  * of the same nature (a toe joint for a toe joint, an End Site for an End Site), and each
- * target point takes the contacts of the source point of its kind (the ankle's for the ankle).
+ * target point takes the contacts of the source point of its kind (the ankle's for the ankle;
+ * an ankle without a toe point of its own also the source's toe contacts: the heel up, the
+ * foot on its toes).
  * The reference of each target point is the source's point of its kind mapped into the
  * target's world (G^T), scaled by s about the origin and raised by mlr_retarget's lift (the
  * median over frames of the target's upper legs' middle above the scaled source's), not

@@ -1488,6 +1488,15 @@ mlr_status mlr_retarget_feet(const mlr_rig *source, size_t n_frames, double fps,
                 from = k; /* the ankle is always there */
         for (size_t f = 0; f < n_frames; f++)
             ct[f * nt + i] = cs[f * ns + from];
+        /* an ankle without a toe point of its own takes the source's toe contacts too: its
+         * foot stands on the toes there (the heel up), and the ankle follows the source's */
+        int own_toe = 0;
+        for (size_t k = 0; k < nt; k++)
+            own_toe |= tk[k] == (tk[i] | 1);
+        for (size_t k = 0; k < ns && !(tk[i] & 1) && !own_toe; k++)
+            if (sk[k] == (tk[i] | 1))
+                for (size_t f = 0; f < n_frames; f++)
+                    ct[f * nt + i] |= cs[f * ns + k];
     }
     /* the target's up: where G^T takes the source's (the body frames are signed axes) */
     double G[9];
