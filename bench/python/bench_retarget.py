@@ -1,9 +1,10 @@
 """Retargeting between rigs: mlayer.retarget against the naive copy of local rotations, on every
-pair of seven rigs (CMU, LaFAN1, Bandai from the shared clips; Mixamo, Xsens and Axis Neuron from
-a corpus folder given as an argument; SMPL's neutral body as a target only).
+pair of eight rigs (CMU, LaFAN1, Bandai from the shared clips; Mixamo, Xsens and Axis Neuron from
+a corpus folder given as an argument; SMPL's neutral body and MakeHuman's CC0 rig as targets
+only).
 
     python bench/python/bench_retarget.py --corpus DIR [--mocap DIR] [--frames N]
-                                          [--figure docs/img/retarget.png]
+                                          [--figure docs/img/retarget.png] [--proportions]
 
 Per pair A -> B (A a clip, B another rig's skeleton):
   - round trip: A -> B -> A against A, joint positions of A's joints whose role B has too
@@ -13,16 +14,24 @@ Per pair A -> B (A a clip, B another rig's skeleton):
     arms, shoulders) of B and of A (B's world turned into A's by the rest poses' body frames);
   - sliding: mean horizontal speed of the feet (the ankle roles) in A's contact frames
     (mlayer.detect_contacts on A), in leg lengths per second, for A and for A -> B;
-  - floor: the deepest point of B's feet (ankle and toe roles and their End Sites) below A's
-    floor scaled to B (A's floor: the median lowest foot point in A's contact frames), in % of
-    B's body height; hovering: the median height of B's lowest foot point above that floor on A's
-    contact frames, less A's own, in % of body height;
+  - floor: defined here, not by the code under test: A's floor is the 5th percentile over all
+    of A's frames of its lowest foot point (ankle and toe roles and their End Sites) along A's
+    up; B's floor is A's scaled by the leg lengths' ratio s about the origin and turned into B's
+    world, as mlayer.retarget scales the root translation (the soles' height above the floor is
+    the retarget's to get right, so nothing of B's placement enters it). Penetration: the
+    deepest point of B's feet below B's floor in % of B's body height, and A's below its own
+    in % of A's; hovering: the median height of B's lowest foot point above its floor on A's
+    contact frames, less A's own above A's floor, in % of body height;
   - reversals: knee and elbow frames bent more than 15 degrees in both A and B whose bend axes
     (upper bone x lower bone, B's turned into A's world) point opposite ways.
 "bones" is mlayer.retarget(feet=False): the bones alone, no contact cleanup. The naive copy:
 B's joint of each role takes the local rotation of A's joint of that role (the
 best a copy by name can do across rigs that name joints differently), B's hips take A's hips'
 world position unchanged, other joints stay at rest.
+
+--proportions prints, for every BVH file of the corpus and the shared clips, the arms' and the
+torso's lengths over the legs' that mlr_retarget_roles uses to tell a humanoid from a quadruped
+(or the error it gives).
 """
 from __future__ import annotations
 
@@ -44,6 +53,8 @@ RIGS = [  # (name, folder key, file, first frame, up)
     ("Xsens", "corpus", "ammr_xsens_s01_trial01.bvh", 0),
     ("AxisNeuron", "corpus", "ammr_neuron_sit_stand3_chr00.bvh", 0),
 ]
+#: targets only: MakeHuman's rig (CC0; its clip is 14 frames) and SMPL's (smpl_skeleton)
+MAKEHUMAN = "makehuman_walk1_zup.bvh"
 LIMBS = [("LeftUpperLeg", "LeftLowerLeg"), ("LeftLowerLeg", "LeftFoot"),
          ("RightUpperLeg", "RightLowerLeg"), ("RightLowerLeg", "RightFoot"),
          ("LeftShoulder", "LeftUpperArm"), ("LeftUpperArm", "LeftLowerArm"),
@@ -219,10 +230,10 @@ def measure(a: mlayer.Motion, target, method) -> dict[str, float]:
     up_b = int(np.argmax(np.abs(G.T[:, upk])))  # B's axis that A's up maps to
     slide_a = sliding(pa, feet, leg_a, upk)
     slide_b = sliding(pb, [rb["LeftFoot"], rb["RightFoot"]], leg_b, up_b)
-    # floor
+    # floor: A's own (the 5th percentile of its lowest foot point over all its frames), scaled
     fa = foot_points(a, pa)[..., upk].min(axis=1)
     in_contact = cmask.any(axis=1)
-    floor_a = float(np.median(fa[in_contact])) if in_contact.any() else float(np.min(fa))
+    floor_a = float(np.percentile(fa, 5))
     s = leg_b / leg_a
     sign_b = np.sign(G.T[up_b, upk])
     fb = sign_b * foot_points(b, pb)[..., up_b].min(axis=1)
@@ -230,7 +241,7 @@ def measure(a: mlayer.Motion, target, method) -> dict[str, float]:
     pen = float(np.max(np.maximum(s * floor_a - fb, 0.0))) / h_b * 100
     pen_a = float(np.max(np.maximum(floor_a - fa, 0.0))) / h_a * 100
     # hovering: how far B's lowest foot point is above the scaled floor on A's contact frames
-    # (median), less A's own (zero by the floor's definition when A has contacts)
+    # (median), less A's own above its floor
     frames = in_contact if in_contact.any() else np.ones(len(fa), dtype=bool)
     hover = float(np.median(fb[frames] - s * floor_a)) / h_b * 100 \
         - float(np.median(fa[frames] - floor_a)) / h_a * 100
@@ -245,15 +256,15 @@ def measure(a: mlayer.Motion, target, method) -> dict[str, float]:
 
 
 def figure(path: pathlib.Path, a: mlayer.Motion, ours: mlayer.Motion, naive: mlayer.Motion,
-           title: str) -> None:
+           title: str, rig: str) -> None:
     """Side views (forward to the right, up) of 6 frames, one row per motion, each frame's hips
     at its own place along the row (joints above the hips, a static root, not drawn)."""
     from matplotlib.figure import Figure
     fig = Figure(figsize=(10, 6.6))
     frames = np.linspace(0, a.n_frames - 1, 6).astype(int)
     for row, (m, name) in enumerate([(a, "source (CMU rig)"),
-                                     (ours, "mlayer.retarget (Bandai rig)"),
-                                     (naive, "naive copy of local rotations (Bandai rig)")]):
+                                     (ours, f"mlayer.retarget ({rig} rig)"),
+                                     (naive, f"naive copy of local rotations ({rig} rig)")]):
         ax = fig.add_subplot(3, 1, row + 1)
         r = role_index(m.skeleton)
         q = m.positions() @ world_frame(m.skeleton, m.up_axis)  # (left, up, forward)
@@ -288,6 +299,35 @@ def _descends(sk, j: int, a: int) -> bool:
     return False
 
 
+def proportions(files: list[pathlib.Path]) -> int:
+    """The arms (upper + lower arm) and the torso (hips to the upper arms' middle) over the legs
+    (upper + lower leg), rest lengths, of each rig mlayer.retarget_roles accepts; the error of
+    the others. Then the range over the accepted rigs."""
+    arms, torsos = [], []
+    for path in files:
+        try:
+            sk = mlayer.read_bvh(path).skeleton
+            r, rp = role_index(sk), rest_positions(sk)
+        except mlayer.Error as e:
+            print(f"{path.name:45s} refused: {str(e).splitlines()[0][:150]}")
+            continue
+
+        def d(x, y):
+            return float(np.linalg.norm(rp[r[x]] - rp[r[y]]))
+        leg = np.mean([d(f"{s}UpperLeg", f"{s}LowerLeg") + d(f"{s}LowerLeg", f"{s}Foot")
+                       for s in ("Left", "Right")])
+        arm = np.mean([d(f"{s}UpperArm", f"{s}LowerArm") + d(f"{s}LowerArm", f"{s}Hand")
+                       for s in ("Left", "Right")])
+        mid = 0.5 * (rp[r["LeftUpperArm"]] + rp[r["RightUpperArm"]])
+        torso = float(np.linalg.norm(mid - rp[r["Hips"]]))
+        arms.append(arm / leg), torsos.append(torso / leg)
+        print(f"{path.name:45s} arms/legs {arm / leg:.2f}  torso/legs {torso / leg:.2f}")
+    if arms:
+        print(f"# accepted: {len(arms)} files; arms/legs {min(arms):.2f} to {max(arms):.2f}, "
+              f"torso/legs {min(torsos):.2f} to {max(torsos):.2f}")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--corpus", type=pathlib.Path, required=True,
@@ -297,8 +337,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--frames", type=int, default=600, help="frames of each clip (default 600)")
     ap.add_argument("--figure", type=pathlib.Path, default=None,
                     help="write the side-by-side figure (CMU -> Bandai) here")
+    ap.add_argument("--proportions", action="store_true",
+                    help="print the arms' and torso's lengths over the legs' of every rig")
     args = ap.parse_args(argv)
     warnings.simplefilter("ignore")
+    if args.proportions:
+        return proportions(sorted(args.corpus.glob("*.bvh")) + sorted(args.mocap.glob("*.bvh")))
     clips = {}
     for name, key, file, first in RIGS:
         folder = args.mocap if key == "mocap" else args.corpus
@@ -311,6 +355,8 @@ def main(argv: list[str] | None = None) -> int:
     # Bandai's bind poses lie along x; SMPL's template is Y-up
     targets: dict = dict(clips)
     targets["SMPL"] = smpl_skeleton()
+    if (args.corpus / MAKEHUMAN).exists():
+        targets["MakeHuman"] = mlayer.read_bvh(args.corpus / MAKEHUMAN)
     cols = ("rt_mean", "rt_p95", "bone_deg", "slide_a", "slide_b", "pen_a", "pen_b", "hover",
             "reversals")
     print("method  A -> B  " + "  ".join(cols))
@@ -346,11 +392,13 @@ def main(argv: list[str] | None = None) -> int:
               f"{np.nanmedian(arr['hover']):.3g}% (range {np.nanmin(arr['hover']):.3g} to "
               f"{np.nanmax(arr['hover']):.3g}); reversal frames "
               f"{int(np.nansum(arr['reversals']))}")
-    if args.figure and "CMU" in clips and "Bandai" in targets:
+    if args.figure and "CMU" in clips and "MakeHuman" in targets:
+        # the figure's rigs must be free to redistribute: CMU's data and MakeHuman's CC0 rig
         a = clips["CMU"]
-        figure(args.figure, a, mlayer.retarget(a, targets["Bandai"]),
-               naive_copy(a, targets["Bandai"]),
-               "CMU 131_01 walk onto the Bandai rig: source, mlayer.retarget, naive copy")
+        figure(args.figure, a, mlayer.retarget(a, targets["MakeHuman"]),
+               naive_copy(a, targets["MakeHuman"]),
+               "CMU 131_01 walk onto the MakeHuman rig (CC0): source, mlayer.retarget, naive copy",
+               "MakeHuman")
         shown = args.figure.relative_to(REPO) if args.figure.is_absolute() else args.figure
         print(f"# figure: {shown}")
     return 0

@@ -56,6 +56,15 @@ mlr_status cleanup__ref_create(const mlr_rig *rig, size_t N, double fps, int up,
                                const mlr_cleanup_option *opts, size_t n_opts,
                                const mlr_allocator *alloc, mlr_cleanup_ref **out, mlr_diag *diag);
 void cleanup__ref_destroy(mlr_cleanup_ref *ref);
+/* A reference made from the contact points' trajectories themselves (pts: N x C x 3, finite,
+ * as mlr_rig_point_positions would give them), not from frames: each foot's anchor is the
+ * point of its ankle joint (an error when the ankle is not a point). The same smoothing,
+ * heights and steps as cleanup__ref_create. Allocates about N (5 C + 3 F) doubles. */
+mlr_status cleanup__ref_of_points(const mlr_rig *rig, size_t N, double fps, int up, size_t C,
+                                  const int32_t *joints, const int32_t *end_sites,
+                                  const double *pts, const mlr_cleanup_option *opts, size_t n_opts,
+                                  const mlr_allocator *alloc, mlr_cleanup_ref **out,
+                                  mlr_diag *diag);
 
 /* What a caller does to the legs' rotations a pass set (the guards: the joint limits). fn
  * changes rot (N x J x 4) where mask (N x J) is set, only ever at the n_joints joints

@@ -70,6 +70,26 @@ typedef struct ref_scratch {
     double *tmp;          /* N x 3 max(C, nf): the smoothing's output */
 } ref_scratch;
 
+/* The heights and the horizontal steps of the points r->pts (unsmoothed yet). */
+static void ref_heights_steps(mlr_cleanup_ref *r)
+{
+    const size_t N = r->n_frames, C = r->n_points;
+    const double *Pr = r->pts;
+    for (size_t i = 0; i < N * C; i++)
+        r->h[i] = Pr[3 * i + (size_t)r->up];
+    for (size_t f = 0; f < N; f++)
+        for (size_t c = 0; c < C; c++) {
+            double d2 = 0.0;
+            for (int d = 0; f + 1 < N && d < 3; d++)
+                if (d != r->up) {
+                    const double x =
+                        Pr[3 * ((f + 1) * C + c) + (size_t)d] - Pr[3 * (f * C + c) + (size_t)d];
+                    d2 += x * x;
+                }
+            r->step[f * C + c] = sqrt(d2);
+        }
+}
+
 /* The reference's points and anchors (unsmoothed) and the points' heights: from its world
    positions and rotations when given, else by forward kinematics of the contact points, the
    anchors and their ancestors only. */
@@ -101,19 +121,7 @@ static mlr_status ref_points(const mlr_rig *rig, const double *root_pos, const d
     }
     if (st != MLR_OK)
         return st;
-    for (size_t i = 0; i < N * C; i++)
-        r->h[i] = Pr[3 * i + (size_t)r->up];
-    for (size_t f = 0; f < N; f++)
-        for (size_t c = 0; c < C; c++) {
-            double d2 = 0.0;
-            for (int d = 0; f + 1 < N && d < 3; d++)
-                if (d != r->up) {
-                    const double x =
-                        Pr[3 * ((f + 1) * C + c) + (size_t)d] - Pr[3 * (f * C + c) + (size_t)d];
-                    d2 += x * x;
-                }
-            r->step[f * C + c] = sqrt(d2);
-        }
+    ref_heights_steps(r);
     return MLR_OK;
 }
 
@@ -183,6 +191,70 @@ mlr_status cleanup__ref_create(const mlr_rig *rig, size_t N, double fps, int up,
         mlr_diag_set(diag, st, 0, 0, "cleanup: the reference's points failed");
     } else if (cfg.ref_smooth > 0.0) {
         st = ref_smooth(r, fps, s.tmp, &A, diag);
+    }
+    cleanup__release(&ar);
+    if (st != MLR_OK) {
+        cleanup__ref_destroy(r);
+        return st;
+    }
+    *out = r;
+    return MLR_OK;
+}
+
+mlr_status cleanup__ref_of_points(const mlr_rig *rig, size_t N, double fps, int up, size_t C,
+                                  const int32_t *joints, const int32_t *end_sites,
+                                  const double *pts, const mlr_cleanup_option *opts, size_t n_opts,
+                                  const mlr_allocator *alloc, mlr_cleanup_ref **out,
+                                  mlr_diag *diag)
+{
+    *out = NULL;
+    cleanup_config cfg;
+    mlr_status st = ref_check(N, C, opts, n_opts, &cfg, diag);
+    if (st != MLR_OK)
+        return st;
+    mlr_allocator A;
+    mlr_allocator_resolve(alloc, &A);
+    const size_t J = rig->n_joints;
+    cleanup_foot feet[64];
+    size_t nf = 0;
+    cleanup_arena ar = {.a = &A, .st = MLR_OK};
+    uint8_t *listed = cleanup__take(&ar, J, 1), *assigned = cleanup__take(&ar, C, 1);
+    if (ar.st != MLR_OK) {
+        cleanup__release(&ar);
+        return mlr_diag_set(diag, ar.st, 0, 0, "cleanup: out of memory");
+    }
+    if ((st = cleanup__assign_feet(rig, C, joints, end_sites, feet, &nf, listed, assigned,
+                                   diag)) != MLR_OK) {
+        cleanup__release(&ar);
+        return st;
+    }
+    /* each foot's anchor is one of the points (a listed joint, not an End Site of it) */
+    size_t anchor_col[64];
+    for (size_t k = 0; k < nf; k++) {
+        anchor_col[k] = C;
+        for (size_t c = 0; c < C && anchor_col[k] == C; c++)
+            if (joints[c] == feet[k].anchor && (!end_sites || end_sites[c] < 0))
+                anchor_col[k] = c;
+        if (anchor_col[k] == C) {
+            cleanup__release(&ar);
+            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "cleanup reference: the ankle joint %d is not a point",
+                                (int)feet[k].anchor);
+        }
+    }
+    mlr_cleanup_ref *r = ref_new(&A, N, C, nf, up, cfg.ref_smooth);
+    double *tmp = cleanup__take(&ar, N * 3 * (C > nf ? C : nf), sizeof(double));
+    if (!r || !r->h || !r->pts || !r->step || (nf && !r->anchors) || ar.st != MLR_OK) {
+        st = mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "cleanup: out of memory");
+    } else {
+        memcpy(r->pts, pts, 3 * N * C * sizeof(double));
+        for (size_t f = 0; f < N; f++)
+            for (size_t k = 0; k < nf; k++)
+                memcpy(r->anchors + 3 * (f * nf + k), pts + 3 * (f * C + anchor_col[k]),
+                       3 * sizeof(double));
+        ref_heights_steps(r);
+        if (cfg.ref_smooth > 0.0)
+            st = ref_smooth(r, fps, tmp, &A, diag);
     }
     cleanup__release(&ar);
     if (st != MLR_OK) {

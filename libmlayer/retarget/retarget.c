@@ -8,6 +8,7 @@
 #include <math.h>
 #include <string.h>
 
+#include "guards/cleanup_internal.h"
 #include "motion/mirror_internal.h"
 #include "mlayer/mlr_cleanup.h"
 #include "mlayer/mlr_contacts.h"
@@ -132,11 +133,21 @@ static int first_child(const mlr_rig *rig, int32_t j);
 static void tree_roles(const mlr_rig *rig, int32_t *role, int32_t head)
 {
     const int32_t ll = role[MLR_ROLE_LEFT_UPPER_LEG], rl = role[MLR_ROLE_RIGHT_UPPER_LEG];
+    const int32_t la = role[MLR_ROLE_LEFT_UPPER_ARM], ra = role[MLR_ROLE_RIGHT_UPPER_ARM];
     int32_t hips = role[MLR_ROLE_HIPS];
     if (hips < 0 && ll > 0 && rl > 0) {
         hips = lca(rig, ll, rl);
         if (hips == ll || hips == rl)
             hips = -1;
+        /* the hips carry the upper body too: where the legs hang from a pelvis joint beside
+         * the spine (MakeHuman: Root -> Hips -> legs, Root -> Spine1 -> .. -> Head), the joint
+         * where the legs and the upper body (the named head, else the arms) meet */
+        const int32_t upper = head > 0 ? head : la > 0 && ra > 0 ? lca(rig, la, ra) : -1;
+        if (hips >= 0 && upper > 0 && !is_ancestor(rig, hips, upper)) {
+            const int32_t h = lca(rig, hips, upper);
+            if (h >= 0 && h != upper)
+                hips = h;
+        }
     }
     role[MLR_ROLE_HIPS] = hips;
     for (int s = 0; s < 2; s++) { /* the toes: the foot's first child joint */
@@ -145,7 +156,6 @@ static void tree_roles(const mlr_rig *rig, int32_t *role, int32_t head)
         if (foot > 0 && role[toes] < 0)
             role[toes] = (int32_t)first_child(rig, foot);
     }
-    const int32_t la = role[MLR_ROLE_LEFT_UPPER_ARM], ra = role[MLR_ROLE_RIGHT_UPPER_ARM];
     if (role[MLR_ROLE_HEAD] < 0 && head >= 0 &&
         (hips < 0 || (head != hips && is_ancestor(rig, hips, head))))
         role[MLR_ROLE_HEAD] = head;
@@ -174,6 +184,26 @@ static void tree_roles(const mlr_rig *rig, int32_t *role, int32_t head)
         chest = -1;
     if (chest >= 0 && role[MLR_ROLE_SPINE] < 0)
         fill_chain(rig, hips, chest, 1, role, MLR_ROLE_SPINE, MLR_RETARGET_MAX_SPINE);
+    if (head < 0 && chest >= 0) {
+        /* no joint named head: the end of the middle chain up from the chest (its child that
+         * carries neither arm, then the only child of each joint while there is one) */
+        int32_t j = -1;
+        for (size_t c = (size_t)chest + 1; c < rig->n_joints && j < 0; c++)
+            if (rig->parents[c] == chest && !(la > 0 && is_ancestor(rig, (int32_t)c, la)) &&
+                !(ra > 0 && is_ancestor(rig, (int32_t)c, ra)))
+                j = (int32_t)c;
+        while (j >= 0) {
+            int n = 0, only = -1;
+            for (size_t c = (size_t)j + 1; c < rig->n_joints; c++)
+                if (rig->parents[c] == j)
+                    n++, only = (int)c;
+            if (n != 1)
+                break;
+            j = only;
+        }
+        if (j > 0)
+            role[MLR_ROLE_HEAD] = head = j;
+    }
     if (head > 0) {
         const int32_t from = chest >= 0 ? chest : hips;
         if (is_ancestor(rig, from, head) && head != from && role[MLR_ROLE_NECK] < 0)
@@ -241,8 +271,39 @@ static mlr_status detect_roles(const mlr_rig *rig, int32_t *role, const mlr_allo
     return MLR_OK;
 }
 
-/* The humanoid minimum: hips and both legs. */
-static mlr_status check_minimum(const int32_t *role, const char *who, mlr_diag *diag)
+/* The rest position of joint j (the OFFSETs summed from the root, the root at the origin). */
+static void rest_of(const mlr_rig *rig, int32_t j, double *out)
+{
+    out[0] = out[1] = out[2] = 0.0;
+    for (; j > 0; j = rig->parents[j])
+        for (int c = 0; c < 3; c++)
+            out[c] += rig->offsets[3 * (size_t)j + (size_t)c];
+}
+
+static double rest_dist(const mlr_rig *rig, int32_t a, int32_t b)
+{
+    double pa[3], pb[3];
+    rest_of(rig, a, pa), rest_of(rig, b, pb);
+    const double d[3] = {pa[0] - pb[0], pa[1] - pb[1], pa[2] - pb[2]};
+    return sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+}
+
+/* A humanoid's arms are shorter than its legs and its torso shorter than its legs; a
+ * quadruped's front legs (taken for arms) are about as long as its hind legs and its torso,
+ * spanning from the hind legs to the front ones, is longer. Measured (bench_retarget.py
+ * --proportions) over the 93 rigs it accepts among 103 BVH files: arms 0.22 to 0.80 of the
+ * legs (one Kinect skeleton with glitched OFFSETs, 1.14), torsos 0.24 to 0.73; the
+ * AI4Animation dog 0.97 and 1.38, the Truebones elephant 0.86 and 0.84. Both at or above these
+ * are refused. */
+#define HUMANOID_MAX_ARM 0.8
+#define HUMANOID_MAX_TORSO 0.75
+
+/* The humanoid minimum: both legs (upper leg, lower leg, foot), the hips above them, both arms
+ * (upper arm, lower arm, hand), a head, and the proportions of a humanoid's limbs rather than a
+ * quadruped's. A spine is not required: Kinect skeletons hang the arms, the legs and the neck
+ * from one torso joint. */
+static mlr_status check_minimum(const mlr_rig *rig, const int32_t *role, const char *who,
+                                mlr_diag *diag)
 {
     static const int need[] = {MLR_ROLE_LEFT_FOOT,
                                MLR_ROLE_RIGHT_FOOT,
@@ -250,7 +311,14 @@ static mlr_status check_minimum(const int32_t *role, const char *who, mlr_diag *
                                MLR_ROLE_RIGHT_LOWER_LEG,
                                MLR_ROLE_LEFT_UPPER_LEG,
                                MLR_ROLE_RIGHT_UPPER_LEG,
-                               MLR_ROLE_HIPS};
+                               MLR_ROLE_HIPS,
+                               MLR_ROLE_LEFT_HAND,
+                               MLR_ROLE_RIGHT_HAND,
+                               MLR_ROLE_LEFT_LOWER_ARM,
+                               MLR_ROLE_RIGHT_LOWER_ARM,
+                               MLR_ROLE_LEFT_UPPER_ARM,
+                               MLR_ROLE_RIGHT_UPPER_ARM,
+                               MLR_ROLE_HEAD};
     for (size_t i = 0; i < MLR_COUNTOF(need); i++)
         if (role[need[i]] < 0) {
             const int r = need[i];
@@ -258,12 +326,44 @@ static mlr_status check_minimum(const int32_t *role, const char *who, mlr_diag *
                 r == MLR_ROLE_LEFT_FOOT || r == MLR_ROLE_RIGHT_FOOT
                     ? "a joint of that side (Left/Right, _L/_R, l/r) named with foot or ankle, "
                       "two joints below the root"
+                : r == MLR_ROLE_LEFT_HAND || r == MLR_ROLE_RIGHT_HAND
+                    ? "a joint of that side named with hand or wrist, two joints below the "
+                      "shoulder"
                 : r == MLR_ROLE_HIPS ? "the common ancestor of the two upper legs"
-                                     : "from the foot up the tree";
+                : r == MLR_ROLE_HEAD
+                    ? "a joint named with head, or the end of the chain up from the chest"
+                : r >= MLR_ROLE_LEFT_SHOULDER && r <= MLR_ROLE_RIGHT_HAND
+                    ? "from the hand up the tree"
+                    : "from the foot up the tree";
             return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
                                 "retarget: %s: no humanoid %s (%s); name it with a map entry", who,
                                 fixed_names[r], how);
         }
+    const int32_t *R = role;
+    double leg = 0.0, arm = 0.0, mid_arms[3], hips[3], a[3], b[3];
+    for (int s = 0; s < 2; s++) {
+        const int ul = s ? MLR_ROLE_RIGHT_UPPER_LEG : MLR_ROLE_LEFT_UPPER_LEG;
+        const int ua = s ? MLR_ROLE_RIGHT_UPPER_ARM : MLR_ROLE_LEFT_UPPER_ARM;
+        leg += 0.5 * (rest_dist(rig, R[ul], R[ul + 1]) + rest_dist(rig, R[ul + 1], R[ul + 2]));
+        arm += 0.5 * (rest_dist(rig, R[ua], R[ua + 1]) + rest_dist(rig, R[ua + 1], R[ua + 2]));
+    }
+    rest_of(rig, R[MLR_ROLE_LEFT_UPPER_ARM], a);
+    rest_of(rig, R[MLR_ROLE_RIGHT_UPPER_ARM], b);
+    rest_of(rig, R[MLR_ROLE_HIPS], hips);
+    for (int c = 0; c < 3; c++)
+        mid_arms[c] = 0.5 * (a[c] + b[c]) - hips[c];
+    const double torso =
+        sqrt(mid_arms[0] * mid_arms[0] + mid_arms[1] * mid_arms[1] + mid_arms[2] * mid_arms[2]);
+    if (leg > 0 && arm >= HUMANOID_MAX_ARM * leg && torso >= HUMANOID_MAX_TORSO * leg)
+        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "retarget: %s: not a humanoid: its arms (%s, %s) are %.2f of its "
+                            "legs' length and its torso (%s to the arms) %.2f, a quadruped's "
+                            "four legs (a humanoid's arms are under %.2f of its legs or its "
+                            "torso under %.2f)",
+                            who, rig->names[R[MLR_ROLE_LEFT_UPPER_ARM]],
+                            rig->names[R[MLR_ROLE_RIGHT_UPPER_ARM]], arm / leg,
+                            rig->names[R[MLR_ROLE_HIPS]], torso / leg, HUMANOID_MAX_ARM,
+                            HUMANOID_MAX_TORSO);
     return MLR_OK;
 }
 
@@ -281,7 +381,7 @@ mlr_status mlr_retarget_roles(const mlr_rig *rig, int32_t *role_joint, const mlr
     st = detect_roles(rig, role_joint, alloc, diag);
     if (st != MLR_OK)
         return st;
-    return check_minimum(role_joint, "rig", diag);
+    return check_minimum(rig, role_joint, "rig", diag);
 }
 
 /* ---- small linear algebra ----------------------------------------------------------------- */
@@ -657,6 +757,69 @@ static double foot_drop(const rig_rest *r, int side, const mlr_quat *wrot, const
     return -low;
 }
 
+/* ---- fingers ------------------------------------------------------------------------------ */
+
+/* The finger a joint's name names: 0 thumb, 1 index, 2 middle, 3 ring, 4 little; -1 none. */
+static int finger_kind(const char *name)
+{
+    static const char *const thumb[] = {"thumb", NULL}, *const index[] = {"index", NULL},
+                             *const middle[] = {"middle", NULL}, *const ring[] = {"ring", NULL},
+                             *const little[] = {"pinky", "pinkie", "little", NULL};
+    static const char *const *const kinds[5] = {thumb, index, middle, ring, little};
+    for (int k = 0; k < 5; k++)
+        if (mlr_name_matches(name, kinds[k]))
+            return k;
+    return -1;
+}
+
+/* A finger joint of a rig: its side (0 left, 1 right: below that hand role), its finger, its
+ * place k from the hand among the joints of that finger above it and the count n of that
+ * finger's joints below the hand; 0 when j is none (no role hand above it, no finger name). */
+static int finger_of(const rig_rest *r, int32_t j, int *side, int *kind, int *k, int *n)
+{
+    const mlr_rig *rig = r->rig;
+    *kind = finger_kind(rig->names[j]);
+    if (*kind < 0)
+        return 0;
+    int32_t hand = -1;
+    for (int s = 0; s < 2 && hand < 0; s++) {
+        const int32_t h = r->role[s ? MLR_ROLE_RIGHT_HAND : MLR_ROLE_LEFT_HAND];
+        if (h >= 0 && h != j && is_ancestor(rig, h, j))
+            hand = h, *side = s;
+    }
+    if (hand < 0)
+        return 0;
+    *k = 0;
+    for (int32_t a = rig->parents[j]; a != hand; a = rig->parents[a])
+        *k += finger_kind(rig->names[a]) == *kind;
+    *n = 0;
+    for (size_t c = (size_t)hand + 1; c < rig->n_joints; c++)
+        *n += finger_kind(rig->names[c]) == *kind && is_ancestor(rig, hand, (int32_t)c);
+    return 1;
+}
+
+/* The source joint that target finger joint j follows: the joint of the same hand and finger
+ * at the same place counted from the finger's tip (a rig with a metacarpal joint more, as
+ * MakeHuman's and Axis Neuron's, lines up at the tips); -1 when none, or when it has a role. */
+static int32_t finger_source(const rig_rest *src, const rig_rest *dst, int32_t j)
+{
+    int ts, tk, tpos, tn;
+    if (!finger_of(dst, j, &ts, &tk, &tpos, &tn))
+        return -1;
+    for (size_t c = 1; c < src->rig->n_joints; c++) {
+        int ss, sk, spos, sn;
+        if (!finger_of(src, (int32_t)c, &ss, &sk, &spos, &sn) || ss != ts || sk != tk)
+            continue;
+        if (spos - (sn - tn) != tpos)
+            continue;
+        for (int r = 0; r < MLR_ROLE_COUNT; r++)
+            if (src->role[r] == (int32_t)c)
+                return -1;
+        return (int32_t)c;
+    }
+    return -1;
+}
+
 /* ---- the retarget ------------------------------------------------------------------------- */
 
 /* A spine or neck chain: its joints, then the joint it ends at, with the fraction of the
@@ -840,12 +1003,12 @@ static mlr_status pair_roles(rig_rest *src, rig_rest *dst, const char *const *ma
     if ((st = detect_roles(src->rig, src->role, alloc, diag)) != MLR_OK ||
         (st = detect_roles(dst->rig, dst->role, alloc, diag)) != MLR_OK)
         return st;
-    if ((st = check_minimum(src->role, "source", diag)) != MLR_OK)
+    if ((st = check_minimum(src->rig, src->role, "source", diag)) != MLR_OK)
         return st;
     if ((st = apply_map(src, dst, map, n_map, diag)) != MLR_OK)
         return st;
     complete_roles(dst->rig, dst->role);
-    return check_minimum(dst->role, "target", diag);
+    return check_minimum(dst->rig, dst->role, "target", diag);
 }
 
 /* What one target joint does: follow a source joint (with a correction), and for a chain
@@ -975,17 +1138,19 @@ mlr_status mlr_retarget(const mlr_rig *source, size_t n_frames, const double *ro
             memcpy(f->bone, pt, sizeof pt);
         }
     }
-    /* joints without a role on either rig follow the source joint of their name */
+    /* joints without a role on either rig follow the source joint of their name, or, for the
+     * fingers, the joint of the same finger of the same hand at the same place from its tip */
     for (size_t j = 0; j < Jt; j++) {
         int roled = 0;
         for (int r = 0; r < MLR_ROLE_COUNT; r++)
             roled |= dst.role[r] == (int32_t)j;
-        const int32_t s = roled || fr[j].src >= 0 ? -1 : find_joint(source, target->names[j]);
+        int32_t s = roled || fr[j].src >= 0 ? -1 : find_joint(source, target->names[j]);
+        for (int r = 0; s >= 0 && r < MLR_ROLE_COUNT; r++)
+            if (src.role[r] == s)
+                s = -1;
+        if (s < 0 && !roled && fr[j].src < 0)
+            s = finger_source(&src, &dst, (int32_t)j); /* the same finger of the same hand */
         if (s < 0)
-            continue;
-        for (int r = 0; r < MLR_ROLE_COUNT; r++)
-            roled |= src.role[r] == s;
-        if (roled)
             continue;
         double ps[3], pt[3];
         const int have = plain_bone_end(&src, s, ps) && plain_bone_end(&dst, (int32_t)j, pt);
@@ -1197,8 +1362,8 @@ static void lowest_foot(const rig_rest *r, size_t n_frames, const double *root_p
  * a raised-cosine window of the same width, so it covers every frame's shortfall and is zero
  * farther than 0.2 s from any). */
 static mlr_status raise_feet(const rig_rest *r, size_t n_frames, double fps, int up, double ground,
-                             double *root_pos, const double *rot, const double *trans,
-                             const mlr_allocator *a, mlr_diag *diag)
+                             const double *allow, double *root_pos, const double *rot,
+                             const double *trans, const mlr_allocator *a, mlr_diag *diag)
 {
     const size_t J = r->rig->n_joints;
     size_t nd, bytes;
@@ -1212,7 +1377,7 @@ static mlr_status raise_feet(const rig_rest *r, size_t n_frames, double fps, int
            *wide = need + n_frames;
     lowest_foot(r, n_frames, root_pos, rot, trans, up, wpos, wrot, need);
     for (size_t f = 0; f < n_frames; f++)
-        need[f] = fmax(0.0, ground - need[f]);
+        need[f] = fmax(0.0, (allow ? fmin(ground, allow[f]) : ground) - need[f]);
     const size_t half = (size_t)fmax(1.0, round(0.1 * fps));
     for (size_t f = 0; f < n_frames; f++) {
         const size_t lo = f > half ? f - half : 0,
@@ -1264,8 +1429,12 @@ mlr_status mlr_retarget_feet(const mlr_rig *source, size_t n_frames, double fps,
     rig_rest src = {.rig = source}, dst = {.rig = target};
     if ((st = pair_roles(&src, &dst, map, n_map, alloc, diag)) != MLR_OK)
         return st;
+    /* scratch: both rest poses; the source's forward kinematics (N x Js x 7); its contact
+     * points (N x 4 x 3); the target's reference points (N x 4 x 3), whose place first holds N
+     * doubles and the target's forward kinematics (N x Jt x 7); then the contacts */
     size_t nw, bytes;
-    if (mlr_mul_size(n_frames, 7 * Js, &nw) != MLR_OK || nw > SIZE_MAX - 3 * (Js + Jt) ||
+    if (mlr_mul_size(n_frames, 7 * (Js + Jt) + 24, &nw) != MLR_OK ||
+        nw > SIZE_MAX - 3 * (Js + Jt) ||
         mlr_mul_size(nw + 3 * (Js + Jt), sizeof(double), &bytes) != MLR_OK ||
         bytes > SIZE_MAX - 2 * 4 * n_frames)
         return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "retarget: the frames are too many");
@@ -1278,13 +1447,29 @@ mlr_status mlr_retarget_feet(const mlr_rig *source, size_t n_frames, double fps,
     src.pos = buf;
     dst.pos = src.pos + 3 * Js;
     double *wpos = dst.pos + 3 * Jt, *wrot = wpos + 3 * n_frames * Js;
-    uint8_t *cs = (uint8_t *)(void *)(wrot + 4 * n_frames * Js), *ct = cs + 4 * n_frames;
+    uint8_t *cs = (uint8_t *)(void *)(buf + 3 * (Js + Jt) + nw), *ct = cs + 4 * n_frames;
     if ((st = rest_setup(&src, "source", up, diag)) != MLR_OK ||
         (st = rest_setup(&dst, "target", target_up, diag)) != MLR_OK)
         goto done;
     int32_t sj[4], se[4], tj[4], te[4];
     int sk[4], tk[4];
-    const size_t ns = foot_points(&src, sj, se, sk), nt = foot_points(&dst, tj, te, tk);
+    const size_t ns = foot_points(&src, sj, se, sk);
+    size_t nt = foot_points(&dst, tj, te, tk);
+    {
+        /* a toe point of the target stays when the source has one of the same nature (a toe
+         * joint for a toe joint, an End Site for an End Site): a toe joint pinned where the
+         * source's toe tip is would tip the foot over (Axis Neuron's feet end in an End Site
+         * on the ground, CMU's toe joints stand above theirs) */
+        size_t n = 0;
+        for (size_t i = 0; i < nt; i++) {
+            int keep = !(tk[i] & 1);
+            for (size_t k = 0; k < ns && !keep; k++)
+                keep = sk[k] == tk[i] && (se[k] >= 0) == (te[i] >= 0);
+            if (keep)
+                tj[n] = tj[i], te[n] = te[i], tk[n] = tk[i], n++;
+        }
+        nt = n;
+    }
     if ((st = mlr_fk_arrays(n_frames, Js, source->parents, source->offsets, root_pos, rot,
                             source->n_trans, source->trans_joints, trans, wpos, wrot, alloc,
                             diag)) != MLR_OK ||
@@ -1303,11 +1488,16 @@ mlr_status mlr_retarget_feet(const mlr_rig *source, size_t n_frames, double fps,
                 from = k; /* the ankle is always there */
         for (size_t f = 0; f < n_frames; f++)
             ct[f * nt + i] = cs[f * ns + from];
+        /* an ankle without a toe point of its own takes the source's toe contacts too: its
+         * foot stands on the toes there (the heel up), and the ankle follows the source's */
+        int own_toe = 0;
+        for (size_t k = 0; k < nt; k++)
+            own_toe |= tk[k] == (tk[i] | 1);
+        for (size_t k = 0; k < ns && !(tk[i] & 1) && !own_toe; k++)
+            if (sk[k] == (tk[i] | 1))
+                for (size_t f = 0; f < n_frames; f++)
+                    ct[f * nt + i] |= cs[f * ns + k];
     }
-    double h;
-    if ((st = mlr_cleanup_floor_height(source, n_frames, root_pos, rot, trans, ns, sj, se, cs, up,
-                                       0.05, &h, alloc, diag)) != MLR_OK)
-        goto done;
     /* the target's up: where G^T takes the source's (the body frames are signed axes) */
     double G[9];
     mul_abt(src.world, dst.world, G);
@@ -1317,35 +1507,145 @@ mlr_status mlr_retarget_feet(const mlr_rig *source, size_t n_frames, double fps,
             tup = c;
     const double sign = G[3 * up + tup];
     const double scale = dst.leg / src.leg;
-    /* the floor: the cleanup's own estimate on the retargeted motion (its soles already stand
-     * where the scaled source's do, mlr_retarget); off when up does not map onto a positive
-     * axis */
-    mlr_cleanup_option opts[1];
+    /* the reference of the target's contact points: the source's points of their kind, mapped
+     * by G^T and scaled by s, raised by the placement's lift (the median over frames of the
+     * target's upper legs' middle above the scaled source's, along the target's up: the soles'
+     * difference of mlr_retarget) */
+    double *sp = wpos + 7 * n_frames * Js; /* N x ns x 3 source points, then N x nt x 3 */
+    double *rp = sp + 12 * n_frames;
+    if ((st = mlr_rig_point_positions(source, n_frames, wpos, wrot, ns, sj, se, sp, diag)) !=
+        MLR_OK)
+        goto done;
+    const double up_t[3] = {dst.world[1], dst.world[4], dst.world[7]};
+    double lift;
+    {
+        /* the source's upper legs' middle of each frame, then the target's (its forward
+         * kinematics over the source's, no longer needed) */
+        const int32_t sl = src.role[MLR_ROLE_LEFT_UPPER_LEG],
+                      sr = src.role[MLR_ROLE_RIGHT_UPPER_LEG];
+        const int32_t tl = dst.role[MLR_ROLE_LEFT_UPPER_LEG],
+                      tr = dst.role[MLR_ROLE_RIGHT_UPPER_LEG];
+        double *mid = rp; /* N of scratch (rp is written later) */
+        for (size_t f = 0; f < n_frames; f++) {
+            double m[3], y[3];
+            for (int c = 0; c < 3; c++)
+                m[c] = 0.5 * scale *
+                       (wpos[3 * (f * Js + (size_t)sl) + (size_t)c] +
+                        wpos[3 * (f * Js + (size_t)sr) + (size_t)c]);
+            for (int r = 0; r < 3; r++)
+                y[r] = G[r] * m[0] + G[3 + r] * m[1] + G[6 + r] * m[2];
+            mid[f] = -dot3(y, up_t);
+        }
+        double *tpos = mid + n_frames, *trot = tpos + 3 * n_frames * Jt;
+        if ((st = mlr_fk_arrays(n_frames, Jt, target->parents, target->offsets, out_root_pos,
+                                out_rot, target->n_trans, target->trans_joints, out_trans, tpos,
+                                trot, alloc, diag)) != MLR_OK)
+            goto done;
+        for (size_t f = 0; f < n_frames; f++) {
+            double m[3];
+            for (int c = 0; c < 3; c++)
+                m[c] = 0.5 * (tpos[3 * (f * Jt + (size_t)tl) + (size_t)c] +
+                              tpos[3 * (f * Jt + (size_t)tr) + (size_t)c]);
+            mid[f] += dot3(m, up_t);
+        }
+        lift = mlr_median(mid, n_frames);
+    }
+    for (size_t f = 0; f < n_frames; f++)
+        for (size_t i = 0; i < nt; i++) {
+            size_t from = ns;
+            for (size_t k = 0; k < ns; k++)
+                if (sk[k] == tk[i])
+                    from = k;
+            for (size_t k = 0; k < ns && from == ns; k++)
+                if (sk[k] == (tk[i] & ~1))
+                    from = k;
+            const double *x = sp + 3 * (f * ns + from);
+            double *y = rp + 3 * (f * nt + i);
+            for (int r = 0; r < 3; r++)
+                y[r] = scale * (G[r] * x[0] + G[3 + r] * x[1] + G[6 + r] * x[2]) + lift * up_t[r];
+        }
+    /* the cleanup: each contact run of the target follows the reference's trajectory, shifted
+     * horizontally by the run's mean offset, at its heights; the floor is the reference's (the
+     * scaled source's); off when up does not map onto a positive axis of the target */
+    mlr_cleanup_option opts[2];
     size_t n_opts = 0;
-    if (!(isfinite(h) && sign > 0.5))
+    opts[n_opts++] = (mlr_cleanup_option){MLR_CLEANUP_OPT_REF_SMOOTH, 0.0};
+    if (!(sign > 0.5))
         opts[n_opts++] = (mlr_cleanup_option){MLR_CLEANUP_OPT_FLOOR, 0.0};
-    st = mlr_cleanup_contacts(target, n_frames, fps, tup, out_root_pos, out_rot, out_trans, NULL,
-                              NULL, NULL, nt, tj, te, ct, opts, n_opts, out_root_pos, out_rot,
-                              report, alloc, diag);
+    mlr_cleanup_ref *ref = NULL;
+    if ((st = cleanup__ref_of_points(target, n_frames, fps, tup, nt, tj, te, rp, opts, n_opts,
+                                     alloc, &ref, diag)) != MLR_OK)
+        goto done;
+    st = cleanup__contacts_ref(target, n_frames, fps, tup, out_root_pos, out_rot, out_trans, ref,
+                               0, NULL, nt, tj, te, ct, opts, n_opts, out_root_pos, out_rot,
+                               report, alloc, diag);
+    cleanup__ref_destroy(ref);
+    /* the soles on the contact frames: mlr_retarget raised the target by the median over all
+     * frames of the ankles' heights above their feet's lowest points (target less scaled
+     * source), and the cleanup put the ankles at the reference's heights; where the feet
+     * pitch otherwise in the air than on the ground, or the source's feet are shaped by
+     * position channels the target does not carry, the soles of the contact frames are left
+     * apart. The rest of their difference, the median over the source's contact frames of the
+     * scaled source's lowest foot point less the target's, raises the whole target (a round trip
+     * undoes it, as it undoes the lift: the way back's median is minus this one over s). Only
+     * where up maps onto a positive axis of the target. */
+    double src_ground = -INFINITY;
+    const double *allow = NULL; /* the scaled source's own lowest foot point of each frame */
     if (st == MLR_OK && sign > 0.5) {
-        /* the last word, as the guards' (guards.c, raise_to_floor): the ground the source's
-         * feet stand on (the median over its contact frames of its lowest foot point, End Sites
-         * included) scaled, and the whole body raised smoothly wherever a foot point of the
-         * result is below it */
-        double *low = wpos; /* the source's frames are no longer needed: N lows, N needs */
-        lowest_foot(&src, n_frames, root_pos, rot, trans, up, wpos, wrot, low);
+        double *alow = wpos, *blow = rp; /* over the frames no longer needed */
+        lowest_foot(&src, n_frames, root_pos, rot, trans, up, wpos, wrot, alow);
+        lowest_foot(&dst, n_frames, out_root_pos, out_rot, out_trans, tup, blow,
+                    blow + 3 * n_frames * Jt, blow);
         size_t m = 0;
         for (size_t f = 0; f < n_frames; f++) {
             int any = 0;
             for (size_t i = 0; i < ns; i++)
                 any |= cs[f * ns + i] != 0;
             if (any)
+                blow[m++] = scale * alow[f] - blow[f];
+        }
+        const double sole = m ? mlr_median(blow, m) : 0.0;
+        for (size_t f = 0; f < n_frames; f++)
+            out_root_pos[3 * f + (size_t)tup] += sole;
+        /* the scaled source's ground: the 0.05 quantile of its lowest foot point over its
+         * contact frames */
+        double *v = wpos + n_frames;
+        m = 0;
+        for (size_t f = 0; f < n_frames; f++) {
+            int any = 0;
+            for (size_t i = 0; i < ns; i++)
+                any |= cs[f * ns + i] != 0;
+            if (any)
+                v[m++] = alow[f];
+        }
+        if (m)
+            src_ground = scale * cleanup__quantile_of(v, m, 0.05);
+        for (size_t f = 0; f < n_frames; f++)
+            alow[f] *= scale;
+        allow = alow;
+    }
+    if (st == MLR_OK && sign > 0.5) {
+        /* the last word, as the guards' (guards.c, raise_to_floor): the ground the target's
+         * feet stand on (the 0.05 quantile over its contact frames of its lowest foot point,
+         * End Sites included) or the scaled source's, the higher, and the whole body raised
+         * smoothly wherever a foot point of the result is below it. What is left below are the
+         * frames where the two feet's shapes differ (another pitch puts another point lowest)
+         * or the source's own foot went below its floor. */
+        double *low = sp; /* N lows, then the target's forward kinematics */
+        lowest_foot(&dst, n_frames, out_root_pos, out_rot, out_trans, tup, sp + n_frames,
+                    sp + n_frames + 3 * n_frames * Jt, low);
+        size_t m = 0;
+        for (size_t f = 0; f < n_frames; f++) {
+            int any = 0;
+            for (size_t i = 0; i < nt; i++)
+                any |= ct[f * nt + i] != 0;
+            if (any)
                 low[m++] = low[f];
         }
         if (m) {
-            const double ground = scale * mlr_median(low, m);
-            st = raise_feet(&dst, n_frames, fps, tup, ground, out_root_pos, out_rot, out_trans, &a,
-                            diag);
+            const double ground = fmax(cleanup__quantile_of(low, m, 0.05), src_ground);
+            st = raise_feet(&dst, n_frames, fps, tup, ground, allow, out_root_pos, out_rot,
+                            out_trans, &a, diag);
         }
     }
 done:

@@ -456,6 +456,77 @@ START_TEST(bad_input_names_the_joint_and_writes_nothing)
 }
 END_TEST
 
+/* ---- what is not a humanoid, and humanoids the names alone do not tell -------------------- */
+
+/* A quadruped with a humanoid's names (the AI4Animation dog is so named): Y-up, the spine along
+ * +z, the front legs ("arms") hanging from the chest as long as the hind legs from the hips. */
+START_TEST(a_quadruped_is_refused_naming_its_limbs)
+{
+    /* y_names' tree: Hips, Spine (the chest), Head, the arms from the Spine, the legs from the
+     * Hips */
+    static const double dog[3 * TJ] = {0, 0,  0, 0,  0,  14, 0,  3,  5, 2, 0,  0, 0, -6, 0,
+                                       0, -6, 0, -2, 0,  0,  0,  -6, 0, 0, -6, 0, 2, 0,  0,
+                                       0, -6, 0, 0,  -6, 0,  -2, 0,  0, 0, -6, 0, 0, -6, 0};
+    const mlr_rig rd = {TJ, y_parents, dog, y_names, 0, NULL, 0, NULL, NULL};
+    int32_t role[MLR_ROLE_COUNT];
+    mlr_diag d;
+    ck_assert_int_eq(mlr_retarget_roles(&rd, role, NULL, &d), MLR_E_INVALID_ARG);
+    ck_assert_msg(strstr(d.message,
+                         "rig: not a humanoid: its arms (LeftArm, RightArm) are 1.00 "
+                         "of its legs' length and its torso (Hips to the arms) 1.17") != NULL,
+                  "%s", d.message);
+    /* and so as a target: nothing written */
+    const mlr_rig ry = {TJ, y_parents, y_offsets, y_names, 0, NULL, 0, NULL, NULL};
+    enum { N = 2 };
+    double rp[3 * N] = {0}, rot[4 * N * TJ], orp[3 * N], orot[4 * N * TJ];
+    for (size_t i = 0; i < N * TJ; i++)
+        rot[4 * i] = 1, rot[4 * i + 1] = rot[4 * i + 2] = rot[4 * i + 3] = 0;
+    orp[0] = 7.0;
+    ck_assert_int_eq(mlr_retarget(&ry, N, rp, rot, NULL, &rd, MLR_RETARGET_UP_REST,
+                                  MLR_RETARGET_UP_REST, NULL, 0, orp, orot, NULL, NULL, NULL, &d),
+                     MLR_E_INVALID_ARG);
+    ck_assert_ptr_nonnull(strstr(d.message, "retarget: target: not a humanoid"));
+    ck_assert_double_eq(orp[0], 7.0);
+    /* the same tree as a humanoid (the y rig) passes; without arms it is refused by name */
+    ck_assert_int_eq(mlr_retarget_roles(&ry, role, NULL, &d), MLR_OK);
+    static const char *const no_hands[TJ] = {
+        "Hips",    "Spine",    "Head",         "LeftArm",  "LeftForeArm",
+        "LeftPaw", "RightArm", "RightForeArm", "RightPaw", "LeftUpLeg",
+        "LeftLeg", "LeftFoot", "RightUpLeg",   "RightLeg", "RightFoot"};
+    const mlr_rig rn = {TJ, y_parents, y_offsets, no_hands, 0, NULL, 0, NULL, NULL};
+    ck_assert_int_eq(mlr_retarget_roles(&rn, role, NULL, &d), MLR_E_INVALID_ARG);
+    ck_assert_msg(strstr(d.message, "rig: no humanoid LeftHand") != NULL, "%s", d.message);
+}
+END_TEST
+
+/* MakeHuman's tree: the root carries the spine and a pelvis joint named Hips that carries the
+ * legs; and a head that is not named so (video2bvh's Neck1) */
+START_TEST(the_hips_carry_the_upper_body_and_the_head_ends_the_neck)
+{
+    enum { MK = 18 };
+    static const char *const mk_names[MK] = {"Root",    "Spine1",  "Spine2",  "Neck",    "Neck1",
+                                             "UpArm_L", "LoArm_L", "Hand_L",  "UpArm_R", "LoArm_R",
+                                             "Hand_R",  "Hips",    "UpLeg_L", "LoLeg_L", "Foot_L",
+                                             "UpLeg_R", "LoLeg_R", "Foot_R"};
+    static const int32_t mk_parents[MK] = {-1, 0, 1, 2,  3,  2,  5,  6,  2,
+                                           8,  9, 0, 11, 12, 13, 11, 15, 16};
+    static const double mk_off[3 * MK] = {0, 0,   0,  0,  8,  0, 0,  8,   0, 0,  3,   0, 0,   4,
+                                          0, 4,   0,  0,  8,  0, 0,  8,   0, 0,  -4,  0, 0,   -8,
+                                          0, 0,   -8, 0,  0,  0, -1, 0,   2, -2, 0,   0, -15, 0,
+                                          0, -15, 0,  -2, -2, 0, 0,  -15, 0, 0,  -15, 0};
+    const mlr_rig rm = {MK, mk_parents, mk_off, mk_names, 0, NULL, 0, NULL, NULL};
+    int32_t role[MLR_ROLE_COUNT];
+    mlr_diag d;
+    ck_assert_msg(mlr_retarget_roles(&rm, role, NULL, &d) == MLR_OK, "%s", d.message);
+    ck_assert_int_eq(role[MLR_ROLE_HIPS], 0);                      /* Root, not the pelvis */
+    ck_assert_int_eq(role[MLR_ROLE_HEAD], 4);                      /* Neck1: the chain's end */
+    ck_assert_int_eq(role[MLR_ROLE_NECK], 3);
+    ck_assert_int_eq(role[MLR_ROLE_SPINE], 1);
+    ck_assert_int_eq(role[MLR_ROLE_SPINE + 1], 2);
+    ck_assert_int_eq(role[MLR_ROLE_LEFT_UPPER_LEG], 12);
+}
+END_TEST
+
 START_TEST(every_allocation_failure_is_no_memory_without_leaks)
 {
     double zo[3 * TJ];
@@ -571,6 +642,8 @@ static Suite *retarget_suite(void)
     tcase_add_test(tc, every_matched_bone_points_as_the_source_s);
     tcase_add_test(tc, a_z_up_a_pose_rig_takes_the_bone_directions);
     tcase_add_test(tc, bad_input_names_the_joint_and_writes_nothing);
+    tcase_add_test(tc, a_quadruped_is_refused_naming_its_limbs);
+    tcase_add_test(tc, the_hips_carry_the_upper_body_and_the_head_ends_the_neck);
     tcase_add_test(tc, every_allocation_failure_is_no_memory_without_leaks);
     tcase_add_test(tc, the_feet_are_planted_and_the_upper_body_kept);
     suite_add_tcase(s, tc);

@@ -10,7 +10,8 @@ meet, the neck from there to the head, the shoulders and toes). Every matched ta
 then points the way the source's bone points in the world (its roll follows the source's
 too), whatever the two rest poses are; spine and neck chains of other lengths are spread
 along each other; the hips follow the source's, scaled by the ratio of the leg lengths;
-joints without a role keep their rest pose.
+joints without a role follow a source joint of the same name or, for the fingers, the same
+finger of the same hand (thumb, index, middle, ring, pinky), else keep their rest pose.
 """
 from __future__ import annotations
 
@@ -106,8 +107,9 @@ def retarget_roles(skeleton: Skeleton | Motion) -> dict[str, str]:
     Raises
     ------
     InvalidArgumentError
-        A rig without the humanoid minimum (the hips and both legs): the message names the
-        missing role.
+        A rig that is not a humanoid: without the hips, both legs, both arms with hands or a
+        head (the message names the missing role), or with a quadruped's proportions (arms and
+        torso as long as the legs; the message names the arms and the ratios).
     """
     sk = skeleton.skeleton if isinstance(skeleton, Motion) else skeleton
     roles = np.empty(lib.MLR_ROLE_COUNT, dtype=np.int32)
@@ -143,10 +145,13 @@ def retarget(motion: Motion, target: Skeleton | Motion | str | os.PathLike[str],
         True (default): the source's foot contacts (:func:`mlayer.detect_contacts` on the
         source's ankles and toes) become the target's and the contact cleanup plants them (the
         same two-bone IK and corrections spread in time as the guards of
-        :func:`mlayer.stylize`; C: ``mlr_retarget_feet``): each contact run pinned where the
-        retargeted foot is on average, no foot below the source's floor scaled to the target,
-        knees bending the way the target's bend, and, as the guards' last step, the whole body
-        raised smoothly wherever a foot is below the ground the source's feet stand on, scaled.
+        :func:`mlayer.stylize`; C: ``mlr_retarget_feet``): each contact run follows the scaled
+        source's ankle and toe trajectories (shifted sideways by the run's mean offset), so the
+        feet slide as the source's do and a way back puts them back; knees bend the way the
+        target's bend; the soles of the contact frames are put together; and, as the guards'
+        last step, the whole body is raised smoothly wherever a foot is below the ground (the
+        target's or the scaled source's, the higher), never above where the scaled source's own
+        foot was.
         False: the bones follow the source's exactly.
     target_up : {"x", "y", "z"}, optional
         The target's world up axis. Default: the target motion's :attr:`~mlayer.Motion.up_axis`
@@ -159,14 +164,15 @@ def retarget(motion: Motion, target: Skeleton | Motion | str | os.PathLike[str],
     Motion
         A new motion on the target's skeleton with the source's frame time: every matched bone
         points in the world as the source's does, the hips follow the source's scaled by the
-        target's leg length over the source's, the other joints are at rest.
+        target's leg length over the source's, the fingers follow the source's same fingers,
+        the other joints are at rest.
 
     Raises
     ------
     InvalidArgumentError
-        A rig without the humanoid minimum (hips and both legs; the message names the rig and
-        the role), a map naming a joint that is not in its rig or a source joint without a
-        role (named in the message).
+        A rig that is not a humanoid (no hips, legs, arms with hands or head, or a quadruped's
+        proportions; the message names the rig and the role or the ratios), a map naming a
+        joint that is not in its rig or a source joint without a role (named in the message).
     """
     if not isinstance(motion, Motion):
         raise InvalidArgumentError(f"retarget: expected a mlayer.Motion, got "
