@@ -23,7 +23,7 @@
  *   bit. */
 #include "mlr_test.h"
 
-#include "common/common.c" /* mlr_diag_set, which ik.c reports through */
+#include "common/common.c" /* common__diag_set, which ik.c reports through */
 #include "guards/ik.c"
 #define lane_min cluster_lane_min /* a static name of ik.c too */
 #include "manifold/cluster.c"

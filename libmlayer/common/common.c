@@ -57,7 +57,7 @@ static void default_release(void *user, void *ptr, size_t size)
     free(ptr);
 }
 
-void mlr_allocator_resolve(const mlr_allocator *in, mlr_allocator *out)
+void common__allocator_resolve(const mlr_allocator *in, mlr_allocator *out)
 {
     if (in && in->allocate && in->release) {
         *out = *in;
@@ -68,15 +68,15 @@ void mlr_allocator_resolve(const mlr_allocator *in, mlr_allocator *out)
     }
 }
 
-void *mlr_alloc(const mlr_allocator *a, size_t size) { return a->allocate(a->user, size, 16); }
+void *common__alloc(const mlr_allocator *a, size_t size) { return a->allocate(a->user, size, 16); }
 
-void mlr_free(const mlr_allocator *a, void *ptr, size_t size)
+void common__free(const mlr_allocator *a, void *ptr, size_t size)
 {
     if (ptr)
         a->release(a->user, ptr, size);
 }
 
-mlr_status mlr_diag_prefix(mlr_diag *diag, mlr_status status, const char *who)
+mlr_status common__diag_prefix(mlr_diag *diag, mlr_status status, const char *who)
 {
     const size_t n = strlen(who);
     if (!diag || (strncmp(diag->message, who, n) == 0 && diag->message[n] == ':'))
@@ -99,8 +99,8 @@ mlr_status mlr_diag_prefix(mlr_diag *diag, mlr_status status, const char *who)
     return status;
 }
 
-mlr_status mlr_diag_set(mlr_diag *diag, mlr_status status, size_t line, size_t column,
-                        const char *fmt, ...)
+mlr_status common__diag_set(mlr_diag *diag, mlr_status status, size_t line, size_t column,
+                            const char *fmt, ...)
 {
     if (diag) {
         va_list ap;

@@ -61,8 +61,8 @@ mlr_status options__reject(mlr_diag *diag, const char *subject, const char *name
         va_start(ap, why);
         vsnprintf(text, sizeof text, why, ap);
         va_end(ap);
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: option %s = %g is not %s", subject,
-                            name, value, text);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: option %s = %g is not %s",
+                                subject, name, value, text);
     }
     return MLR_E_INVALID_ARG;
 }
@@ -78,18 +78,18 @@ mlr_status options__read(const char *subject, const mlr_opt_spec *spec, size_t n
     }
     memset(out->given, 0, sizeof out->given);
     if (n_opts > 0 && (!key0 || !value0))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: opts is NULL but n_opts is %zu",
-                            subject, n_opts);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "%s: opts is NULL but n_opts is %zu", subject, n_opts);
     for (size_t i = 0; i < n_opts; i++) {
         const int key = *(const int *)(const void *)((const char *)key0 + i * stride);
         const double v = *(const double *)(const void *)((const char *)value0 + i * stride);
         const mlr_opt_spec *s = key > 0 && key < MLR_OPT_MAX_KEYS ? by_key[key] : NULL;
         if (!s)
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: unknown option key %d",
-                                subject, key);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: unknown option key %d",
+                                    subject, key);
         if (out->given[key])
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: option %s given twice",
-                                subject, s->name);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: option %s given twice",
+                                    subject, s->name);
         if (!isfinite(v))
             return options__reject(diag, subject, s->name, v, "finite");
         if (!in_range(s, v)) {

@@ -18,7 +18,7 @@ static int cmp_double(const void *a, const void *b)
  * larger and everything after it no smaller: quickselect (median-of-three pivots, Hoare
  * partition), O(n) on average; after 2 log2(n) + 8 rounds the rest is sorted (bounded worst
  * case). Values are finite; mlr_internal.h. */
-void mlr_select_kth(double *v, size_t n, size_t k)
+void common__select_kth(double *v, size_t n, size_t k)
 {
     size_t lo = 0, hi = n - 1, rounds = 8;
     for (size_t m = n; m > 1; m >>= 1)
@@ -52,9 +52,9 @@ void mlr_select_kth(double *v, size_t n, size_t k)
 }
 
 /* numpy's median of n >= 1 finite values (reorders v); mlr_internal.h. */
-double mlr_median(double *v, size_t n)
+double common__median(double *v, size_t n)
 {
-    mlr_select_kth(v, n, n / 2);
+    common__select_kth(v, n, n / 2);
     if (n % 2)
         return v[n / 2];
     double below = v[0]; /* the largest of v[0 .. n/2), all <= v[n/2] */
@@ -67,7 +67,7 @@ double mlr_median(double *v, size_t n)
    finite when its exponent bits are all ones: (bits & EXP) + 2^52 then sets bit 63, and only
    then; blocks of 64 values are tested with integer operations alone (no branch per value,
    so the loop vectorizes), then the block that holds one is searched. */
-size_t mlr_first_nonfinite(const double *x, size_t n)
+size_t common__first_nonfinite(const double *x, size_t n)
 {
     const uint64_t exp_bits = 0x7ff0000000000000u, one = 0x0010000000000000u;
     size_t k = 0;

@@ -136,28 +136,29 @@ static mlr_status bad(mlr_diag *diag, const char *fmt, ...)
     va_start(ap, fmt);
     vsnprintf(msg, sizeof msg, fmt, ap);
     va_end(ap);
-    return mlr_diag_set(diag, MLR_E_PARSE, 0, 0, "mlr_gen_model_load: %s", msg);
+    return common__diag_set(diag, MLR_E_PARSE, 0, 0, "mlr_gen_model_load: %s", msg);
 }
 
 /* The header and the field entries: every field's bytes within size. */
 static mlr_status scan(const unsigned char *b, size_t size, field *f, mlr_diag *diag)
 {
     if (size < HEADER || memcmp(b, magic, 8) != 0)
-        return mlr_diag_set(diag, MLR_E_PARSE, 0, 0, "mlr_gen_model_load: not a model file (%s)",
-                            size < 8 ? "shorter than its magic" : "no MLRGEN magic");
+        return common__diag_set(diag, MLR_E_PARSE, 0, 0,
+                                "mlr_gen_model_load: not a model file (%s)",
+                                size < 8 ? "shorter than its magic" : "no MLRGEN magic");
     uint32_t version = rd32(b + 8), mark = rd32(b + 12), lib = rd32(b + 16);
     if (mark != 0x01020304u)
-        return mlr_diag_set(diag, MLR_E_PARSE, 0, 0,
-                            "mlr_gen_model_load: byte-order mark "
-                            "0x%08x, expected 0x01020304 (little-endian)",
-                            (unsigned)mark);
+        return common__diag_set(diag, MLR_E_PARSE, 0, 0,
+                                "mlr_gen_model_load: byte-order mark "
+                                "0x%08x, expected 0x01020304 (little-endian)",
+                                (unsigned)mark);
     if (version != MLR_GEN_FORMAT_VERSION)
-        return mlr_diag_set(diag, MLR_E_PARSE, 0, 0,
-                            "mlr_gen_model_load: model format version "
-                            "%u (written by mlayer %u.%u.%u), this library reads version %d",
-                            (unsigned)version, (unsigned)(lib / 10000),
-                            (unsigned)(lib / 100 % 100), (unsigned)(lib % 100),
-                            MLR_GEN_FORMAT_VERSION);
+        return common__diag_set(diag, MLR_E_PARSE, 0, 0,
+                                "mlr_gen_model_load: model format version "
+                                "%u (written by mlayer %u.%u.%u), this library reads version %d",
+                                (unsigned)version, (unsigned)(lib / 10000),
+                                (unsigned)(lib / 100 % 100), (unsigned)(lib % 100),
+                                MLR_GEN_FORMAT_VERSION);
     uint32_t n_fields = rd32(b + 20);
     uint64_t total = rd64(b + 24);
     if (total != size)
@@ -165,9 +166,9 @@ static mlr_status scan(const unsigned char *b, size_t size, field *f, mlr_diag *
                    (unsigned long long)total, size);
 #ifndef FUZZING_BUILD_MODE_UNSAFE_FOR_PRODUCTION /* the fuzz target's mutations reach the fields */
     if ((uint64_t)crc32_of(b + HEADER, size - HEADER) != rd64(b + 40))
-        return mlr_diag_set(diag, MLR_E_PARSE, 0, 0,
-                            "mlr_gen_model_load: payload CRC-32 "
-                            "mismatch (the file is damaged)");
+        return common__diag_set(diag, MLR_E_PARSE, 0, 0,
+                                "mlr_gen_model_load: payload CRC-32 "
+                                "mismatch (the file is damaged)");
 #endif
     if (n_fields > MAX_FIELDS)
         return bad(diag, "%u fields, at most %d", (unsigned)n_fields, MAX_FIELDS);
@@ -247,23 +248,24 @@ static mlr_status check_skeleton(const mlr_gen_model *m, const mlr_motion *sk, m
     for (size_t j = 0; j < J && j < m->n_joints; j++) {
         const char *a = m->name_at[j], *b = mlr_motion_joint_name(sk, j);
         if (!b || strcmp(a, b) != 0)
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "mlr_gen_model_load: another "
-                                "skeleton: joint %zu is '%.40s' in the model, '%.40s' in the "
-                                "skeleton",
-                                j, a, b ? b : "");
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "mlr_gen_model_load: another "
+                                    "skeleton: joint %zu is '%.40s' in the model, '%.40s' in the "
+                                    "skeleton",
+                                    j, a, b ? b : "");
         if (par[j] != m->parents[j])
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "mlr_gen_model_load: another "
-                                "skeleton: joint %zu '%.40s' has parent %d in the model, %d in "
-                                "the skeleton",
-                                j, a, (int)m->parents[j], (int)par[j]);
+            return common__diag_set(
+                diag, MLR_E_INVALID_ARG, 0, 0,
+                "mlr_gen_model_load: another "
+                "skeleton: joint %zu '%.40s' has parent %d in the model, %d in "
+                "the skeleton",
+                j, a, (int)m->parents[j], (int)par[j]);
     }
     if (J != m->n_joints)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "mlr_gen_model_load: another "
-                            "skeleton: %zu joints in the model, %zu in the skeleton",
-                            m->n_joints, J);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "mlr_gen_model_load: another "
+                                "skeleton: %zu joints in the model, %zu in the skeleton",
+                                m->n_joints, J);
     return MLR_OK;
 }
 
@@ -271,10 +273,11 @@ mlr_status mlr_gen_model_load(const mlr_allocator *alloc, const void *bytes, siz
                               const mlr_motion *skeleton, mlr_gen_model **out, mlr_diag *diag)
 {
     if (!out)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "mlr_gen_model_load: out is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "mlr_gen_model_load: out is NULL");
     *out = NULL;
     if (!bytes && size)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "mlr_gen_model_load: bytes is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "mlr_gen_model_load: bytes is NULL");
     const unsigned char *b = bytes;
     field f[F_COUNT];
     memcpy(f, field_table, sizeof f);
@@ -285,10 +288,10 @@ mlr_status mlr_gen_model_load(const mlr_allocator *alloc, const void *bytes, siz
     uint64_t J = f[F_PARENTS].dim[0], n = f[F_LABELS].dim[0], k = f[F_RUN].dim[0];
     uint64_t N = f[F_GCENTERS].dim[0], nout = f[F_COEF].dim[1], m = f[F_SEEN].dim[0];
     uint64_t nb = f[F_NAMES].dim[0];
-#define NEED(cond, ...)                                                                       \
-    do {                                                                                      \
-        if (!(cond))                                                                          \
-            return mlr_diag_set(diag, MLR_E_PARSE, 0, 0, "mlr_gen_model_load: " __VA_ARGS__); \
+#define NEED(cond, ...)                                                                           \
+    do {                                                                                          \
+        if (!(cond))                                                                              \
+            return common__diag_set(diag, MLR_E_PARSE, 0, 0, "mlr_gen_model_load: " __VA_ARGS__); \
     } while (0)
     NEED(J >= 1 && J <= 100000, "field 'parents': %llu joints (1 .. 100000)",
          (unsigned long long)J);
@@ -417,13 +420,13 @@ mlr_status mlr_gen_model_load(const mlr_allocator *alloc, const void *bytes, siz
     off_cn = off_coef + (size_t)((N + 3) * nout) * 8;
     total = off_cn + (size_t)cnb; /* all bounded by size: no overflow */
     mlr_allocator a;
-    mlr_allocator_resolve(alloc, &a);
-    mlr_gen_model *g = mlr_alloc(&a, sizeof *g);
-    unsigned char *blk = g ? mlr_alloc(&a, total) : NULL;
+    common__allocator_resolve(alloc, &a);
+    mlr_gen_model *g = common__alloc(&a, sizeof *g);
+    unsigned char *blk = g ? common__alloc(&a, total) : NULL;
     if (!blk) {
         if (g)
-            mlr_free(&a, g, sizeof *g);
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "mlr_gen_model_load: out of memory");
+            common__free(&a, g, sizeof *g);
+        return common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "mlr_gen_model_load: out of memory");
     }
     memset(g, 0, sizeof *g);
     g->alloc = a;
@@ -474,9 +477,10 @@ mlr_status mlr_gen_model_load(const mlr_allocator *alloc, const void *bytes, siz
     if (!st) {
         /* the Markov model from aligned copies of its arrays (in the caller's byte order) */
         size_t kk = (size_t)(k * k), mk_n = (size_t)(kk + k + m + m * k + m * order);
-        double *tmp = mlr_alloc(&a, mk_n * 8);
+        double *tmp = common__alloc(&a, mk_n * 8);
         if (!tmp) {
-            st = mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "mlr_gen_model_load: out of memory");
+            st =
+                common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "mlr_gen_model_load: out of memory");
         } else {
             double *jumps = tmp, *run = tmp + kk, *seen = run + k, *probs = seen + m;
             int64_t *keys = (int64_t *)(void *)(probs + m * k);
@@ -492,17 +496,17 @@ mlr_status mlr_gen_model_load(const mlr_allocator *alloc, const void *bytes, siz
                 keys[i] = rdi(f[F_KEYS].data + 8 * i);
             st = mlr_markov_create((size_t)k, jumps, run, (unsigned)order, (size_t)min_count,
                                    (size_t)m, keys, seen, probs, &a, &g->markov, diag);
-            mlr_free(&a, tmp, mk_n * 8);
+            common__free(&a, tmp, mk_n * 8);
             if (st) {
                 /* a file's Markov arrays that the model refuses: a parse error of the file */
-                st = mlr_diag_prefix(diag, st == MLR_E_INVALID_ARG ? MLR_E_PARSE : st,
-                                     "mlr_gen_model_load");
+                st = common__diag_prefix(diag, st == MLR_E_INVALID_ARG ? MLR_E_PARSE : st,
+                                         "mlr_gen_model_load");
             }
         }
     }
     if (st) {
-        mlr_free(&a, blk, total);
-        mlr_free(&a, g, sizeof *g);
+        common__free(&a, blk, total);
+        common__free(&a, g, sizeof *g);
         return st;
     }
     *out = g;
@@ -514,24 +518,24 @@ mlr_status mlr_gen_model_load_file(const mlr_allocator *alloc, const char *path,
                                    const mlr_motion *skeleton, mlr_gen_model **out, mlr_diag *diag)
 {
     if (!out || !path)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "mlr_gen_model_load_file: %s is NULL",
-                            out ? "path" : "out");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "mlr_gen_model_load_file: %s is NULL", out ? "path" : "out");
     *out = NULL;
     char *buf = NULL;
     size_t len = 0, cap = 0;
     mlr_allocator a;
-    mlr_allocator_resolve(alloc, &a);
+    common__allocator_resolve(alloc, &a);
     mlr_status st = file_read__read(path, 1, &a, &buf, &len, &cap, diag);
     if (st)
-        return mlr_diag_prefix(diag, st, "mlr_gen_model_load_file");
+        return common__diag_prefix(diag, st, "mlr_gen_model_load_file");
     if (len > MAX_FILE)
-        st = mlr_diag_set(diag, MLR_E_PARSE, 0, 0,
-                          "mlr_gen_model_load_file: %zu bytes, more "
-                          "than a model file has (1 GiB)",
-                          len);
+        st = common__diag_set(diag, MLR_E_PARSE, 0, 0,
+                              "mlr_gen_model_load_file: %zu bytes, more "
+                              "than a model file has (1 GiB)",
+                              len);
     else
         st = mlr_gen_model_load(&a, buf, len, skeleton, out, diag);
-    mlr_free(&a, buf, cap);
+    common__free(&a, buf, cap);
     return st;
 }
 
@@ -552,6 +556,6 @@ void mlr_gen_model_destroy(mlr_gen_model *m)
         return;
     mlr_allocator a = m->alloc;
     mlr_markov_destroy(m->markov);
-    mlr_free(&a, m->block, m->bytes);
-    mlr_free(&a, m, sizeof *m);
+    common__free(&a, m->block, m->bytes);
+    common__free(&a, m, sizeof *m);
 }

@@ -92,8 +92,8 @@ mlr_status mlr_generator_create(const mlr_allocator *alloc, const mlr_gen_model 
                                 mlr_generator **out, mlr_diag *diag)
 {
     if (!out || !model)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "generate: %s is NULL",
-                            out ? "model" : "out");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "generate: %s is NULL",
+                                out ? "model" : "out");
     *out = NULL;
     mlr_opt_values v;
     mlr_status st = MLR_OPTIONS_READ("generate", generate_opts, opts, n_opts, &v, diag);
@@ -106,10 +106,10 @@ mlr_status mlr_generator_create(const mlr_allocator *alloc, const mlr_gen_model 
         return options__reject(diag, "generate", "start", v.v[MLR_GEN_OPT_START],
                                "in -1 .. %zu (the model's primitives)", model->k - 1);
     mlr_allocator a;
-    mlr_allocator_resolve(alloc, &a);
-    mlr_generator *g = mlr_alloc(&a, sizeof *g);
+    common__allocator_resolve(alloc, &a);
+    mlr_generator *g = common__alloc(&a, sizeof *g);
     if (!g)
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "generate: out of memory");
+        return common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "generate: out of memory");
     memset(g, 0, sizeof *g);
     g->alloc = a;
     g->model = model;
@@ -136,17 +136,17 @@ static mlr_status allocate(mlr_generator *g, mlr_diag *diag)
     /* per segment: path (cap int64), knots (2 cap), times (cap), traj (2 n), y (n n_out); then
      * the plan (a multiple of 8 bytes) */
     const size_t plan = grbf__eval_plan_bytes(m->n_centers, 2, m->n_out);
-    if (mlr_mul_size(n, m->n_out, &ny) || ny > SIZE_MAX / 16 - 4 * cap - 2 * n || plan == 0 ||
+    if (common__mul_size(n, m->n_out, &ny) || ny > SIZE_MAX / 16 - 4 * cap - 2 * n || plan == 0 ||
         plan > SIZE_MAX - 16 * (4 * cap + 2 * n + ny))
-        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "mlr_generator_next: sizes overflow");
+        return common__diag_set(diag, MLR_E_OVERFLOW, 0, 0, "mlr_generator_next: sizes overflow");
     const size_t per = 4 * cap + 2 * n + ny;
     total = 2 * per * 8 + plan;
-    unsigned char *b = mlr_alloc(&g->alloc, total);
+    unsigned char *b = common__alloc(&g->alloc, total);
     if (!b)
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
-                            "mlr_generator_next: out of memory "
-                            "(%zu bytes for %zu frames)",
-                            total, n);
+        return common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                                "mlr_generator_next: out of memory "
+                                "(%zu bytes for %zu frames)",
+                                total, n);
     g->block = b;
     g->bytes = total;
     for (int k = 0; k < 2; k++) {
@@ -168,14 +168,14 @@ static mlr_status allocate(mlr_generator *g, mlr_diag *diag)
         mlr_status st = mlr_markov_perturb(m->markov, g->noise, g->allow_unseen, &r, &g->alloc,
                                            &g->perturbed, diag);
         if (st)
-            return mlr_diag_prefix(diag, st, "mlr_generator_next");
+            return common__diag_prefix(diag, st, "mlr_generator_next");
         g->mk = g->perturbed;
     }
     if (g->smooth > 0 && n > 2) {
         mlr_status st = mlr_lgs_create(n, 2, g->smooth, 1.0, NULL, n, MLR_LGS_BANDED, &g->alloc,
                                        &g->smoother, diag);
         if (st < 0)
-            return mlr_diag_prefix(diag, st, "mlr_generator_next");
+            return common__diag_prefix(diag, st, "mlr_generator_next");
     }
     /* a segment in parts: the walk and spline, the GRBF rows, the smoothing's column groups */
     g->grbf_parts = (n + GRBF_ROWS - 1) / GRBF_ROWS;
@@ -229,7 +229,7 @@ static mlr_status first_walk(mlr_generator *g, segment *s, mlr_diag *diag)
     mlr_status st = mlr_markov_path(g->mk, NULL, 0, first, g->frames, g->rank, &g->rng, s->path,
                                     g->frames + 1, &s->path_len, diag);
     if (st)
-        return mlr_diag_prefix(diag, st, "mlr_generator_next");
+        return common__diag_prefix(diag, st, "mlr_generator_next");
     knots_from_path(g, s, m->points + 2 * (size_t)g->start_frame, -1.0);
     return MLR_OK;
 }
@@ -264,7 +264,7 @@ static mlr_status next_walk(mlr_generator *g, const segment *pv, segment *s, mlr
         mlr_status st = mlr_markov_path(g->mk, hist, nh, to, g->frames, g->rank, &g->rng,
                                         s->path + 1, g->frames + 1, &len, diag);
         if (st)
-            return mlr_diag_prefix(diag, st, "mlr_generator_next");
+            return common__diag_prefix(diag, st, "mlr_generator_next");
         s->path[0] = from;
         s->path_len = len + 1;
         knots_from_path(g, s, p0, span);
@@ -276,7 +276,7 @@ static mlr_status next_walk(mlr_generator *g, const segment *pv, segment *s, mlr
         mlr_status st = mlr_markov_path(g->mk, hist, nh - 1, start, g->frames, g->rank, &g->rng,
                                         s->path, g->frames + 1, &len, diag);
         if (st)
-            return mlr_diag_prefix(diag, st, "mlr_generator_next");
+            return common__diag_prefix(diag, st, "mlr_generator_next");
         s->path_len = len;
         knots_from_path(g, s, p0, -1.0);
     }
@@ -294,9 +294,9 @@ static mlr_status walk_and_spline(mlr_generator *g, const segment *pv, segment *
         return st;
     for (size_t i = 1; i < s->n_knots; i++)
         if (!(s->times[i] > s->times[i - 1]))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "mlr_generator_next: knots at "
-                                "the same frame");
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "mlr_generator_next: knots at "
+                                    "the same frame");
     if (s->n_knots == 1) {
         for (size_t f = 0; f < n; f++) {
             s->traj[2 * f] = s->knots[0];
@@ -307,11 +307,11 @@ static mlr_status walk_and_spline(mlr_generator *g, const segment *pv, segment *
         st = mlr_lgs_create(n, 2, sqrt(STIFFNESS), 1.0, s->times, s->n_knots, MLR_LGS_BANDED,
                             &g->alloc, &sp, diag);
         if (st < 0)
-            return mlr_diag_prefix(diag, st, "mlr_generator_next: spline");
+            return common__diag_prefix(diag, st, "mlr_generator_next: spline");
         st = mlr_lgs_solve(sp, s->knots, 2, 2, s->traj, 2, diag);
         mlr_lgs_destroy(sp);
         if (st < 0)
-            return mlr_diag_prefix(diag, st, "mlr_generator_next: spline");
+            return common__diag_prefix(diag, st, "mlr_generator_next: spline");
     }
     for (size_t f = 0; f < n; f++)
         for (int j = 0; j < 2; j++) {
@@ -348,7 +348,7 @@ static mlr_status compute_parts(mlr_generator *g, const segment *pv, segment *s,
         const size_t cols = (c1 < no ? c1 : no) - c0;
         mlr_status st = mlr_lgs_solve(g->smoother, s->y + c0, no, cols, s->y + c0, no, diag);
         if (st < 0)
-            return mlr_diag_prefix(diag, st, "mlr_generator_next: smoothing");
+            return common__diag_prefix(diag, st, "mlr_generator_next: smoothing");
     }
     return MLR_OK;
 }
@@ -374,17 +374,17 @@ static void compute_ahead(mlr_generator *g, size_t f)
 static mlr_status same_joints(const mlr_gen_model *m, const mlr_rig *rig, mlr_diag *diag)
 {
     if (rig->n_joints != m->n_joints)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "mlr_generator_set_guards: rig: %zu joints, the model has %zu",
-                            rig->n_joints, m->n_joints);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "mlr_generator_set_guards: rig: %zu joints, the model has %zu",
+                                rig->n_joints, m->n_joints);
     for (size_t j = 0; j < m->n_joints; j++) {
         const char *b = rig->names ? rig->names[j] : NULL;
         if (!b || strcmp(m->name_at[j], b) != 0 || rig->parents[j] != m->parents[j])
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "mlr_generator_set_guards: rig: joint %zu is '%.40s' (parent "
-                                "%d), the model's is '%.40s' (parent %d)",
-                                j, b ? b : "", (int)rig->parents[j], m->name_at[j],
-                                (int)m->parents[j]);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "mlr_generator_set_guards: rig: joint %zu is '%.40s' (parent "
+                                    "%d), the model's is '%.40s' (parent %d)",
+                                    j, b ? b : "", (int)rig->parents[j], m->name_at[j],
+                                    (int)m->parents[j]);
     }
     return MLR_OK;
 }
@@ -393,17 +393,18 @@ mlr_status mlr_generator_set_guards(mlr_generator *g, const mlr_rig *rig, const 
                                     const mlr_limits *limits, mlr_diag *diag)
 {
     if (!g || !rig)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "mlr_generator_set_guards: %s is NULL",
-                            g ? "rig" : "gen");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "mlr_generator_set_guards: %s is NULL", g ? "rig" : "gen");
     if (g->started || g->guarded)
-        return mlr_diag_set(diag, MLR_E_BAD_STATE, 0, 0, "mlr_generator_set_guards: %s",
-                            g->guarded ? "the guards are set already"
-                                       : "frames were generated already (set the guards before "
-                                         "the first mlr_generator_next)");
+        return common__diag_set(diag, MLR_E_BAD_STATE, 0, 0, "mlr_generator_set_guards: %s",
+                                g->guarded
+                                    ? "the guards are set already"
+                                    : "frames were generated already (set the guards before "
+                                      "the first mlr_generator_next)");
     const mlr_gen_model *m = g->model;
     mlr_status st = mlr_rig_check(rig, diag);
     if (st)
-        return mlr_diag_prefix(diag, st, "mlr_generator_set_guards: rig");
+        return common__diag_prefix(diag, st, "mlr_generator_set_guards: rig");
     st = same_joints(m, rig, diag);
     if (st)
         return st;
@@ -413,27 +414,30 @@ mlr_status mlr_generator_set_guards(mlr_generator *g, const mlr_rig *rig, const 
         while (slot < P && (size_t)rig->trans_joints[slot] != m->body_joint)
             slot++;
         if (slot == P)
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "mlr_generator_set_guards: rig: the body joint %zu '%.40s' has "
-                                "no position channels (not one of the rig's trans joints)",
-                                m->body_joint, m->name_at[m->body_joint]);
+            return common__diag_set(
+                diag, MLR_E_INVALID_ARG, 0, 0,
+                "mlr_generator_set_guards: rig: the body joint %zu '%.40s' has "
+                "no position channels (not one of the rig's trans joints)",
+                m->body_joint, m->name_at[m->body_joint]);
     }
     if (limits && mlr_limits_n_joints(limits) != J)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "mlr_generator_set_guards: limits of %zu joints for a model of %zu",
-                            mlr_limits_n_joints(limits), J);
+        return common__diag_set(
+            diag, MLR_E_INVALID_ARG, 0, 0,
+            "mlr_generator_set_guards: limits of %zu joints for a model of %zu",
+            mlr_limits_n_joints(limits), J);
     if (rest)
         for (size_t i = 0; i < 3 + 3 * P; i++)
             if (!isfinite(rest[i]))
-                return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                    "mlr_generator_set_guards: rest[%zu] is NaN or infinite", i);
+                return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                        "mlr_generator_set_guards: rest[%zu] is NaN or infinite",
+                                        i);
     const size_t nc = isnan(m->floor_height) ? 0 : C;
     /* doubles 3 + 3 P + 7 J + 3 C, then 2 C int32 (sizes bounded by the rig's and the file's) */
     const size_t nd = 3 + 3 * P + 7 * J + 3 * nc, bytes = nd * 8 + 2 * nc * sizeof(int32_t);
-    unsigned char *b = mlr_alloc(&g->alloc, bytes);
+    unsigned char *b = common__alloc(&g->alloc, bytes);
     if (!b)
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
-                            "mlr_generator_set_guards: out of memory (%zu bytes)", bytes);
+        return common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                                "mlr_generator_set_guards: out of memory (%zu bytes)", bytes);
     double *d = (double *)(void *)b;
     g->g_root = d, d += 3;
     g->g_trans = d, d += 3 * P;
@@ -447,9 +451,9 @@ mlr_status mlr_generator_set_guards(mlr_generator *g, const mlr_rig *rig, const 
     for (size_t c = 0; c < nc; c++, name += strlen(name) + 1) {
         st = mlr_rig_find_point(rig, name, &g->g_joint[c], &g->g_end[c], diag);
         if (st) {
-            mlr_free(&g->alloc, b, bytes);
-            return mlr_diag_prefix(diag, st,
-                                   "mlr_generator_set_guards: the model's contact point");
+            common__free(&g->alloc, b, bytes);
+            return common__diag_prefix(diag, st,
+                                       "mlr_generator_set_guards: the model's contact point");
         }
     }
     for (int a = 0; a < 3; a++)
@@ -487,7 +491,7 @@ static mlr_status guard_frame(mlr_generator *g, double *pose, mlr_diag *diag)
         st = mlr_rig_point_positions(rig, 1, g->g_wpos, g->g_wrot, g->n_floor, g->g_joint,
                                      g->g_end, g->g_pts, diag);
     if (st)
-        return mlr_diag_prefix(diag, st, "mlr_generator_next: guards");
+        return common__diag_prefix(diag, st, "mlr_generator_next: guards");
     double lift = 0.0;
     for (size_t c = 0; c < g->n_floor; c++) {
         const double below = m->floor_height - g->g_pts[3 * c + 1];
@@ -500,12 +504,12 @@ static mlr_status guard_frame(mlr_generator *g, double *pose, mlr_diag *diag)
 mlr_status mlr_generator_next(mlr_generator *g, double *pose, mlr_diag *diag)
 {
     if (!g || !pose)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "mlr_generator_next: %s is NULL",
-                            g ? "pose" : "gen");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "mlr_generator_next: %s is NULL",
+                                g ? "pose" : "gen");
     if (g->broken)
-        return mlr_diag_set(diag, MLR_E_BAD_STATE, 0, 0,
-                            "mlr_generator_next: a segment failed "
-                            "before; destroy the generator");
+        return common__diag_set(diag, MLR_E_BAD_STATE, 0, 0,
+                                "mlr_generator_next: a segment failed "
+                                "before; destroy the generator");
     const mlr_gen_model *m = g->model;
     mlr_status st;
     if (!g->started) {
@@ -560,7 +564,7 @@ mlr_status mlr_generator_next(mlr_generator *g, double *pose, mlr_diag *diag)
     st = mlr_quat_normalize_array(o, J, o, diag); /* quat.normalize */
     if (st < 0) {
         g->broken = 1;
-        return mlr_diag_prefix(diag, st, "mlr_generator_next");
+        return common__diag_prefix(diag, st, "mlr_generator_next");
     }
     if (g->guarded) {
         st = guard_frame(g, pose, diag);
@@ -611,8 +615,8 @@ void mlr_generator_destroy(mlr_generator *g)
     mlr_lgs_destroy(g->smoother);
     mlr_markov_destroy(g->perturbed);
     if (g->block)
-        mlr_free(&a, g->block, g->bytes);
+        common__free(&a, g->block, g->bytes);
     if (g->gbuf)
-        mlr_free(&a, g->gbuf, g->gbytes);
-    mlr_free(&a, g, sizeof *g);
+        common__free(&a, g->gbuf, g->gbytes);
+    common__free(&a, g, sizeof *g);
 }

@@ -32,10 +32,10 @@ mlr_status cleanup__assign_feet(const mlr_rig *rig, size_t C, const int32_t *joi
             feet[nf++].anchor = j;
         }
         if (feet[k].n_cols == 16) {
-            st = mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                              "cleanup: more than 16 contact "
-                              "points on the foot of joint %d",
-                              (int)j);
+            st = common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                  "cleanup: more than 16 contact "
+                                  "points on the foot of joint %d",
+                                  (int)j);
             return st;
         }
         feet[k].cols[feet[k].n_cols++] = c, feet[k].n_own++;
@@ -63,10 +63,10 @@ mlr_status cleanup__assign_feet(const mlr_rig *rig, size_t C, const int32_t *joi
             feet[nf++].anchor = anchor;
         }
         if (feet[k].n_cols == 16) {
-            st = mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                              "cleanup: more than 16 contact "
-                              "points on the foot of joint %d",
-                              (int)anchor);
+            st = common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                  "cleanup: more than 16 contact "
+                                  "points on the foot of joint %d",
+                                  (int)anchor);
             return st;
         }
         feet[k].cols[feet[k].n_cols++] = c;

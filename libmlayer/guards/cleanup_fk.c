@@ -14,7 +14,7 @@ static inline void fk_joint(const mlr_rig *rig, size_t f, size_t j, const int32_
     const double *t =
         tidx[j] >= 0 ? trans + 3 * (rig->n_trans * f + (size_t)tidx[j]) : rig->offsets + 3 * j;
     const mlr_quat q = {r[4 * j], r[4 * j + 1], r[4 * j + 2], r[4 * j + 3]};
-    mlr_fk_joint_inline(&wr[p], wp + 3 * p, &q, t, &wr[j], wp + 3 * j);
+    common__fk_joint_inline(&wr[p], wp + 3 * p, &q, t, &wr[j], wp + 3 * j);
 }
 
 void cleanup__fk_list_frame(const mlr_rig *rig, size_t f, const int32_t *list, size_t n,
@@ -93,19 +93,19 @@ mlr_status cleanup__fk_points(const mlr_rig *rig, size_t N, const double *root_p
 {
     if (list) { /* with the blocks' scratch */
         mlr_allocator a;
-        mlr_allocator_resolve(alloc, &a);
+        common__allocator_resolve(alloc, &a);
         size_t bytes = 0;
         double *s = NULL;
         if (N >= MLR_FK_BLOCK) {
-            if (mlr_mul_size(rig->n_joints, MLR_FK_BLOCK_SCRATCH(1) * sizeof(double), &bytes))
+            if (common__mul_size(rig->n_joints, MLR_FK_BLOCK_SCRATCH(1) * sizeof(double), &bytes))
                 return MLR_E_OVERFLOW;
-            if (!(s = mlr_alloc(&a, bytes)))
+            if (!(s = common__alloc(&a, bytes)))
                 return MLR_E_NO_MEMORY;
         }
         const mlr_fk_list fl = cleanup__fk_list_of(rig, list, n, tidx);
         const mlr_status st = cleanup__fk_list_points(rig, &fl, N, root_pos, rot, trans, C, joints,
                                                       end_sites, pos, wrot, pts, s);
-        mlr_free(&a, s, bytes);
+        common__free(&a, s, bytes);
         return st;
     }
     mlr_status st = mlr_fk_arrays(N, rig->n_joints, rig->parents, rig->offsets, root_pos, rot,
@@ -148,11 +148,11 @@ mlr_status cleanup__point_heights(const mlr_rig *rig, size_t N, const double *ro
     const size_t F = N < CLEANUP_HEIGHT_FRAMES ? (N ? N : 1) : CLEANUP_HEIGHT_FRAMES;
     const size_t per_joint = (7 * F + 7 * MLR_FK_BLOCK) * sizeof(double) + 3 * sizeof(int32_t) + 1;
     size_t bytes;
-    if (mlr_mul_size(J, per_joint, &bytes) != MLR_OK ||
+    if (common__mul_size(J, per_joint, &bytes) != MLR_OK ||
         C > (SIZE_MAX - bytes) / (3 * F * sizeof(double)))
         return MLR_E_OVERFLOW;
     bytes += 3 * F * C * sizeof(double);
-    double *wp = mlr_alloc(a, bytes);
+    double *wp = common__alloc(a, bytes);
     if (!wp)
         return MLR_E_NO_MEMORY;
     double *wr = wp + 3 * F * J, *s = wr + 4 * F * J, *pts = s + MLR_FK_BLOCK_SCRATCH(J);
@@ -178,6 +178,6 @@ mlr_status cleanup__point_heights(const mlr_rig *rig, size_t N, const double *ro
         for (size_t i = 0; st == MLR_OK && i < m * C; i++)
             h[f * C + i] = pts[3 * i + (size_t)up];
     }
-    mlr_free(a, wp, bytes);
+    common__free(a, wp, bytes);
     return st;
 }

@@ -13,10 +13,10 @@ double cleanup__quantile_of(double *v, size_t n, double q)
     const double pos = q * (double)(n - 1);
     const size_t i = (size_t)floor(pos);
     if (i + 1 >= n) {
-        mlr_select_kth(v, n, n - 1);
+        common__select_kth(v, n, n - 1);
         return v[n - 1];
     }
-    mlr_select_kth(v, n, i);
+    common__select_kth(v, n, i);
     double next = v[i + 1];
     for (size_t k = i + 2; k < n; k++)
         next = v[k] < next ? v[k] : next;
@@ -34,21 +34,21 @@ mlr_status mlr_cleanup_floor_height(const mlr_rig *rig, size_t N, const double *
     if (st != MLR_OK)
         return st;
     if (!height || N == 0 || (C && !contacts))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "floor_height: NULL output or contacts, or no frames");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "floor_height: NULL output or contacts, or no frames");
     if (up < 0 || up > 2)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "floor_height: up axis %d is not "
-                            "0 (X), 1 (Y) or 2 (Z)",
-                            up);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "floor_height: up axis %d is not "
+                                "0 (X), 1 (Y) or 2 (Z)",
+                                up);
     if (!(quantile >= 0.0 && quantile <= 1.0))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "floor_height: quantile %g outside [0, 1]", quantile);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "floor_height: quantile %g outside [0, 1]", quantile);
     if ((st = cleanup__check_points(rig, C, joints, end_sites, diag)) != MLR_OK ||
         (st = cleanup__check_motion(rig, N, root_pos, rot, trans, "motion", diag)) != MLR_OK)
         return st;
     mlr_allocator A;
-    mlr_allocator_resolve(alloc, &A);
+    common__allocator_resolve(alloc, &A);
     cleanup_arena ar = {.a = &A, .st = MLR_OK};
     const size_t J = rig->n_joints;
     double *pos = cleanup__take(&ar, N * J * 3, sizeof(double));
@@ -56,7 +56,7 @@ mlr_status mlr_cleanup_floor_height(const mlr_rig *rig, size_t N, const double *
     double *pts = cleanup__take(&ar, N * C * 3, sizeof(double));
     if (ar.st != MLR_OK) {
         cleanup__release(&ar);
-        return mlr_diag_set(diag, ar.st, 0, 0, "floor_height: out of memory");
+        return common__diag_set(diag, ar.st, 0, 0, "floor_height: out of memory");
     }
     st = cleanup__fk_points(rig, N, root_pos, rot, trans, C, joints, end_sites, pos, wrot, pts, &A,
                             NULL, 0, NULL);
@@ -65,9 +65,9 @@ mlr_status mlr_cleanup_floor_height(const mlr_rig *rig, size_t N, const double *
     cleanup__release(&ar);
     if (st == MLR_OK)
         return MLR_OK;
-    return mlr_diag_set(diag, st, 0, 0,
-                        st == MLR_E_NO_MEMORY ? "floor_height: out of memory"
-                                              : "floor_height: FK failed");
+    return common__diag_set(diag, st, 0, 0,
+                            st == MLR_E_NO_MEMORY ? "floor_height: out of memory"
+                                                  : "floor_height: FK failed");
 }
 
 mlr_status cleanup__floor_of_points(size_t n_frames, size_t n_points, const double *pts,
@@ -80,7 +80,7 @@ mlr_status cleanup__floor_of_points(size_t n_frames, size_t n_points, const doub
     *height = NAN;
     if (k == 0)
         return MLR_OK;
-    double *v = mlr_alloc(a, k * sizeof(double));
+    double *v = common__alloc(a, k * sizeof(double));
     if (!v)
         return MLR_E_NO_MEMORY;
     k = 0;
@@ -88,6 +88,6 @@ mlr_status cleanup__floor_of_points(size_t n_frames, size_t n_points, const doub
         if (contacts[i])
             v[k++] = pts[3 * i + (size_t)up];
     *height = cleanup__quantile_of(v, k, quantile);
-    mlr_free(a, v, k * sizeof(double));
+    common__free(a, v, k * sizeof(double));
     return MLR_OK;
 }

@@ -130,11 +130,11 @@ static inline void *cleanup__take_block(cleanup_arena *ar, size_t count, size_t 
     size_t bytes;
     if (ar->st != MLR_OK)
         return NULL;
-    if (mlr_mul_size(count ? count : 1, elem, &bytes) != MLR_OK) {
+    if (common__mul_size(count ? count : 1, elem, &bytes) != MLR_OK) {
         ar->st = MLR_E_OVERFLOW;
         return NULL;
     }
-    void *p = ar->count < CLEANUP_MAX_BLOCKS ? mlr_alloc(ar->a, bytes) : NULL;
+    void *p = ar->count < CLEANUP_MAX_BLOCKS ? common__alloc(ar->a, bytes) : NULL;
     if (!p) {
         ar->st = MLR_E_NO_MEMORY;
         return NULL;
@@ -158,7 +158,7 @@ static inline void *cleanup__take_raw(cleanup_arena *ar, size_t count, size_t el
 static inline void cleanup__release(cleanup_arena *ar)
 {
     for (int i = ar->count - 1; i >= 0; i--)
-        mlr_free(ar->a, ar->p[i], ar->n[i]);
+        common__free(ar->a, ar->p[i], ar->n[i]);
     ar->count = 0;
 }
 

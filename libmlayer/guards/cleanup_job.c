@@ -9,18 +9,18 @@
 static mlr_status job_check(const mlr_cleanup_job *job, mlr_diag *diag)
 {
     if (!job)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "cleanup job: NULL job");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "cleanup job: NULL job");
     const mlr_frames *r = &job->reference;
     const int any = r->root_pos || r->rot || r->trans;
     if (any && r->n_frames != job->motion.n_frames)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "cleanup job: job.reference.n_frames is %zu, not the motion's %zu",
-                            r->n_frames, job->motion.n_frames);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "cleanup job: job.reference.n_frames is %zu, not the motion's %zu",
+                                r->n_frames, job->motion.n_frames);
     if (!any && r->n_frames != 0)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "cleanup job: job.reference.n_frames is %zu with no arrays (0 for "
-                            "no reference)",
-                            r->n_frames);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "cleanup job: job.reference.n_frames is %zu with no arrays (0 for "
+                                "no reference)",
+                                r->n_frames);
     return MLR_OK;
 }
 
@@ -55,7 +55,7 @@ mlr_status mlr_cleanup_job_floor_height(const mlr_cleanup_job *job, double quant
                                         double *height, const mlr_allocator *alloc, mlr_diag *diag)
 {
     if (!job)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "floor_height: NULL job");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "floor_height: NULL job");
     const mlr_frames *m = &job->motion;
     const mlr_cleanup_points *p = &job->points;
     return mlr_cleanup_floor_height(job->rig, m->n_frames, m->root_pos, m->rot, m->trans,

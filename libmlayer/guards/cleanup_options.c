@@ -59,7 +59,7 @@ mlr_status cleanup__parse_options(const mlr_cleanup_option *opts, size_t n_opts,
 
 static int finite_all(const double *x, size_t count)
 {
-    return mlr_first_nonfinite(x, count) == count;
+    return common__first_nonfinite(x, count) == count;
 }
 
 mlr_status cleanup__check_motion(const mlr_rig *rig, size_t N, const double *root_pos,
@@ -68,12 +68,12 @@ mlr_status cleanup__check_motion(const mlr_rig *rig, size_t N, const double *roo
 {
     const size_t J = rig->n_joints, P = rig->n_trans;
     if (!root_pos || !rot || (P && !trans))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: root_pos, rot%s is NULL", what,
-                            P ? " or trans" : "");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: root_pos, rot%s is NULL", what,
+                                P ? " or trans" : "");
     if (!finite_all(root_pos, 3 * N) || !finite_all(rot, 4 * N * J) ||
         (P && !finite_all(trans, 3 * N * P)))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s contains NaN or infinite values",
-                            what);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "%s contains NaN or infinite values", what);
     return MLR_OK;
 }
 
@@ -81,22 +81,23 @@ mlr_status cleanup__check_points(const mlr_rig *rig, size_t C, const int32_t *jo
                                  const int32_t *end_sites, mlr_diag *diag)
 {
     if (C && !joints)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "contact points: joints is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "contact points: joints is NULL");
     for (size_t c = 0; c < C; c++) {
         const int32_t j = joints[c], e = end_sites ? end_sites[c] : -1;
         if (j < 0 || (size_t)j >= rig->n_joints)
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "contact point %zu: joint %d names nothing (the rig has %zu "
-                                "joints)",
-                                c, (int)j, rig->n_joints);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "contact point %zu: joint %d names nothing (the rig has %zu "
+                                    "joints)",
+                                    c, (int)j, rig->n_joints);
         if (e < -1 || (e >= 0 && ((size_t)e >= rig->n_end_sites || rig->end_site_parents[e] != j)))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "contact point %zu: End Site %d is not an End Site of joint %d", c,
-                                (int)e, (int)j);
+            return common__diag_set(
+                diag, MLR_E_INVALID_ARG, 0, 0,
+                "contact point %zu: End Site %d is not an End Site of joint %d", c, (int)e,
+                (int)j);
         for (size_t d = 0; d < c; d++)
             if (joints[d] == j && (end_sites ? end_sites[d] : -1) == e)
-                return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                    "contact points %zu and %zu are the same point", d, c);
+                return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                        "contact points %zu and %zu are the same point", d, c);
     }
     return MLR_OK;
 }

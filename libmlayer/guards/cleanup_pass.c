@@ -82,7 +82,8 @@ static void find_floor_frames(cleanup_state *cu)
             double lift = 0.0;
             for (size_t i = 0; i < ft->n_cols; i++) {
                 const size_t c = ft->cols[i];
-                lift = mlr_fmax(lift, lim[f * C + c] - P2[3 * (f * C + c) + (size_t)up] - slack);
+                lift =
+                    common__fmax(lift, lim[f * C + c] - P2[3 * (f * C + c) + (size_t)up] - slack);
             }
             if (lift > 0.0 && !ft->U[f] && fade >= 1.0) {
                 double x = to_kept(ft, N, f, fade) / fade;
@@ -205,7 +206,7 @@ static void solve_legs(const cleanup_state *cu)
                 memcpy(target, ft->at + 3 * f, sizeof target);
             } else {
                 memcpy(target, Pf + 3 * a, sizeof target);
-                target[up] += mlr_fmax(ft->lift[f], 0.0);
+                target[up] += common__fmax(ft->lift[f], 0.0);
             }
             const double eps = REACHED * (cleanup__dist3(Pf + 3 * h, Pf + 3 * kn) +
                                           cleanup__dist3(Pf + 3 * kn, Pf + 3 * a));

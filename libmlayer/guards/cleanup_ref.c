@@ -13,14 +13,14 @@ void cleanup__ref_destroy(mlr_cleanup_ref *ref)
     const size_t N = ref->n_frames, C = ref->n_points, F = ref->n_feet;
     mlr_allocator a = ref->alloc;
     if (ref->h)
-        mlr_free(&a, ref->h, N * C * sizeof(double));
+        common__free(&a, ref->h, N * C * sizeof(double));
     if (ref->pts)
-        mlr_free(&a, ref->pts, 3 * N * C * sizeof(double));
+        common__free(&a, ref->pts, 3 * N * C * sizeof(double));
     if (ref->step)
-        mlr_free(&a, ref->step, N * C * sizeof(double));
+        common__free(&a, ref->step, N * C * sizeof(double));
     if (ref->anchors)
-        mlr_free(&a, ref->anchors, 3 * N * F * sizeof(double));
-    mlr_free(&a, ref, sizeof *ref);
+        common__free(&a, ref->anchors, 3 * N * F * sizeof(double));
+    common__free(&a, ref, sizeof *ref);
 }
 
 /* The options and the counts of a reference: at most 64 points, at least one, and frames. */
@@ -32,15 +32,15 @@ static mlr_status ref_check(size_t N, size_t C, const mlr_cleanup_option *opts, 
     if (st != MLR_OK)
         return st;
     if (C > 64)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "cleanup: at most 64 contact "
-                            "points, got %zu",
-                            C);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "cleanup: at most 64 contact "
+                                "points, got %zu",
+                                C);
     if (C == 0 || N == 0)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "cleanup reference: %zu points, %zu "
-                            "frames",
-                            C, N);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "cleanup reference: %zu points, %zu "
+                                "frames",
+                                C, N);
     return MLR_OK;
 }
 
@@ -49,15 +49,15 @@ static mlr_status ref_check(size_t N, size_t C, const mlr_cleanup_option *opts, 
 static mlr_cleanup_ref *ref_new(const mlr_allocator *A, size_t N, size_t C, size_t nf, int up,
                                 double smooth)
 {
-    mlr_cleanup_ref *r = mlr_alloc(A, sizeof *r);
+    mlr_cleanup_ref *r = common__alloc(A, sizeof *r);
     if (r) {
         memset(r, 0, sizeof *r);
         r->alloc = *A, r->n_frames = N, r->n_points = C, r->n_feet = nf, r->up = up;
         r->smooth = smooth;
-        r->h = mlr_alloc(A, N * C * sizeof(double));
-        r->pts = mlr_alloc(A, 3 * N * C * sizeof(double));
-        r->step = mlr_alloc(A, N * C * sizeof(double));
-        r->anchors = nf ? mlr_alloc(A, 3 * N * nf * sizeof(double)) : NULL;
+        r->h = common__alloc(A, N * C * sizeof(double));
+        r->pts = common__alloc(A, 3 * N * C * sizeof(double));
+        r->step = common__alloc(A, N * C * sizeof(double));
+        r->anchors = nf ? common__alloc(A, 3 * N * nf * sizeof(double)) : NULL;
     }
     return r;
 }
@@ -135,7 +135,7 @@ static mlr_status ref_smooth(mlr_cleanup_ref *r, double fps, double *tmp, const 
     const double lam = (r->smooth * fps) * (r->smooth * fps);
     mlr_status st = mlr_lgs_create(N, 2, lam, 1.0, NULL, N, MLR_LGS_BANDED, A, &ref_lgs, diag);
     if (st < 0)
-        return mlr_diag_prefix(diag, st, "cleanup");
+        return common__diag_prefix(diag, st, "cleanup");
     mlr_lgs_solve(ref_lgs, Pr, 3 * C, 3 * C, tmp, 3 * C, NULL);
     memcpy(Pr, tmp, N * C * 3 * sizeof(double));
     for (size_t k = 0; k < nf; k++) { /* the ankles' trajectories */
@@ -160,7 +160,7 @@ mlr_status cleanup__ref_create(const mlr_rig *rig, size_t N, double fps, int up,
     if (st != MLR_OK)
         return st;
     mlr_allocator A;
-    mlr_allocator_resolve(alloc, &A);
+    common__allocator_resolve(alloc, &A);
     const size_t J = rig->n_joints;
     cleanup_foot feet[64];
     size_t nf = 0;
@@ -175,7 +175,7 @@ mlr_status cleanup__ref_create(const mlr_rig *rig, size_t N, double fps, int up,
     s.wrot2 = cleanup__take(&ar, J * 4, sizeof(double));
     if (ar.st != MLR_OK) {
         cleanup__release(&ar);
-        return mlr_diag_set(diag, ar.st, 0, 0, "cleanup: out of memory");
+        return common__diag_set(diag, ar.st, 0, 0, "cleanup: out of memory");
     }
     if ((st = cleanup__assign_feet(rig, C, joints, end_sites, feet, &nf, s.listed, s.assigned,
                                    diag)) != MLR_OK) {
@@ -185,10 +185,10 @@ mlr_status cleanup__ref_create(const mlr_rig *rig, size_t N, double fps, int up,
     mlr_cleanup_ref *r = ref_new(&A, N, C, nf, up, cfg.ref_smooth);
     s.tmp = cleanup__take(&ar, N * 3 * (C > nf ? C : nf), sizeof(double));
     if (!r || !r->h || !r->pts || !r->step || (nf && !r->anchors) || ar.st != MLR_OK) {
-        st = mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "cleanup: out of memory");
+        st = common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "cleanup: out of memory");
     } else if ((st = ref_points(rig, root_pos, rot, trans, world_pos, world_rot, joints, end_sites,
                                 feet, &s, r)) != MLR_OK) {
-        mlr_diag_set(diag, st, 0, 0, "cleanup: the reference's points failed");
+        common__diag_set(diag, st, 0, 0, "cleanup: the reference's points failed");
     } else if (cfg.ref_smooth > 0.0) {
         st = ref_smooth(r, fps, s.tmp, &A, diag);
     }
@@ -213,7 +213,7 @@ mlr_status cleanup__ref_of_points(const mlr_rig *rig, size_t N, double fps, int 
     if (st != MLR_OK)
         return st;
     mlr_allocator A;
-    mlr_allocator_resolve(alloc, &A);
+    common__allocator_resolve(alloc, &A);
     const size_t J = rig->n_joints;
     cleanup_foot feet[64];
     size_t nf = 0;
@@ -221,7 +221,7 @@ mlr_status cleanup__ref_of_points(const mlr_rig *rig, size_t N, double fps, int 
     uint8_t *listed = cleanup__take(&ar, J, 1), *assigned = cleanup__take(&ar, C, 1);
     if (ar.st != MLR_OK) {
         cleanup__release(&ar);
-        return mlr_diag_set(diag, ar.st, 0, 0, "cleanup: out of memory");
+        return common__diag_set(diag, ar.st, 0, 0, "cleanup: out of memory");
     }
     if ((st = cleanup__assign_feet(rig, C, joints, end_sites, feet, &nf, listed, assigned,
                                    diag)) != MLR_OK) {
@@ -237,15 +237,15 @@ mlr_status cleanup__ref_of_points(const mlr_rig *rig, size_t N, double fps, int 
                 anchor_col[k] = c;
         if (anchor_col[k] == C) {
             cleanup__release(&ar);
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "cleanup reference: the ankle joint %d is not a point",
-                                (int)feet[k].anchor);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "cleanup reference: the ankle joint %d is not a point",
+                                    (int)feet[k].anchor);
         }
     }
     mlr_cleanup_ref *r = ref_new(&A, N, C, nf, up, cfg.ref_smooth);
     double *tmp = cleanup__take(&ar, N * 3 * (C > nf ? C : nf), sizeof(double));
     if (!r || !r->h || !r->pts || !r->step || (nf && !r->anchors) || ar.st != MLR_OK) {
-        st = mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "cleanup: out of memory");
+        st = common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "cleanup: out of memory");
     } else {
         memcpy(r->pts, pts, 3 * N * C * sizeof(double));
         for (size_t f = 0; f < N; f++)

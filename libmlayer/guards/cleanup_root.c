@@ -59,7 +59,7 @@ static int root_needs(const cleanup_state *cu, double cos_fold, double *need, co
                 double lift = 0.0;
                 for (size_t i = 0; i < ft->n_cols; i++) {
                     const size_t c = ft->cols[i];
-                    lift = mlr_fmax(lift, lim[f * C + c] - P[3 * (f * C + c) + (size_t)up]);
+                    lift = common__fmax(lift, lim[f * C + c] - P[3 * (f * C + c) + (size_t)up]);
                 }
                 if (!(lift > 0.0))
                     continue;
@@ -71,11 +71,11 @@ static int root_needs(const cleanup_state *cu, double cos_fold, double *need, co
             const double l1 = cleanup__dist3(pk, ph), l2 = cleanup__dist3(pe, pk);
             const double length = l1 + l2;
             const double now = cleanup__dist3(pe, ph);
-            const double reach = mlr_fmax(cfg->reach * length, now);
+            const double reach = common__fmax(cfg->reach * length, now);
             /* the hip-ankle distance of a knee folded to max_fold: a target nearer
                than that would fold the knee past its limit */
-            const double fold =
-                mlr_fmin(sqrt(mlr_fmax(l1 * l1 + l2 * l2 + 2.0 * l1 * l2 * cos_fold, 0.0)), now);
+            const double fold = common__fmin(
+                sqrt(common__fmax(l1 * l1 + l2 * l2 + 2.0 * l1 * l2 * cos_fold, 0.0)), now);
             double v[3];
             for (int d = 0; d < 3; d++)
                 v[d] = target[d] - (ph[d] + shift[3 * f + (size_t)d]);
@@ -93,7 +93,7 @@ static int root_needs(const cleanup_state *cu, double cos_fold, double *need, co
                                     need[3 * f + 2] * need[3 * f + 2]);
             if (fabs(excess) > cur) {
                 for (int d = 0; d < 3; d++)
-                    need[3 * f + (size_t)d] = v[d] * excess / mlr_fmax(dist, 1e-12);
+                    need[3 * f + (size_t)d] = v[d] * excess / common__fmax(dist, 1e-12);
                 any = 1;
             }
         }
@@ -168,7 +168,7 @@ mlr_status cleanup__shift_root(cleanup_state *cu, cleanup_arena *ar, mlr_cleanup
     double *ysh = cleanup__take(ar, N * 3, sizeof(double));
     if (ar->st != MLR_OK)
         return ar->st;
-    const size_t half = (size_t)mlr_fmax(1.0, round(0.1 * fps));
+    const size_t half = (size_t)common__fmax(1.0, round(0.1 * fps));
     /* the raised-cosine window's weights, by offset g - f + half */
     double *wtab = cleanup__take(ar, 2 * half + 1, sizeof(double));
     double *n2s = cleanup__take(ar, N, sizeof(double));
@@ -181,7 +181,7 @@ mlr_status cleanup__shift_root(cleanup_state *cu, cleanup_arena *ar, mlr_cleanup
     }
     uint8_t *redo = cleanup__take(ar, N, 1);
     /* the vertical part of the needs, over a gait cycle */
-    const size_t vhalf = (size_t)mlr_fmax((double)half, round(cu->cfg->root_bob * fps));
+    const size_t vhalf = (size_t)common__fmax((double)half, round(cu->cfg->root_bob * fps));
     double *vtab = cleanup__take(ar, 2 * vhalf + 1, sizeof(double));
     double *vneed = cleanup__take(ar, N * 3, sizeof(double));
     double *vsh = cleanup__take(ar, N * 3, sizeof(double));
@@ -195,7 +195,7 @@ mlr_status cleanup__shift_root(cleanup_state *cu, cleanup_arena *ar, mlr_cleanup
     double leg = 0.0;
     for (size_t k = 0; k < cu->nf; k++)
         if (cu->feet[k].active)
-            leg = mlr_fmax(leg, cu->feet[k].leg);
+            leg = common__fmax(leg, cu->feet[k].leg);
     const double vcap = cu->cfg->root_bob > 0.0 ? ROOT_BOB_CAP * leg : 0.0;
     /* how far the body may go down over a gait cycle: the least height above the floor of
        the joints and End Sites that are not on a foot (at or below an active foot's anchor),
@@ -226,25 +226,25 @@ mlr_status cleanup__shift_root(cleanup_state *cu, cleanup_arena *ar, mlr_cleanup
                 double c = INFINITY;
                 for (size_t j = 0; j < J; j++)
                     if (!onfoot[j])
-                        c = mlr_fmin(c, wp[3 * (f * J + j) + (size_t)cu->up] - cu->floor_h);
+                        c = common__fmin(c, wp[3 * (f * J + j) + (size_t)cu->up] - cu->floor_h);
                 for (size_t e = 0; e < rig->n_end_sites; e++) { /* and their End Sites */
                     const size_t j = (size_t)rig->end_site_parents[e];
                     if (onfoot[j])
                         continue;
                     double v[3];
-                    mlr_quat_rotate_inline((const mlr_quat *)(wr + 4 * (f * J + j)),
-                                           rig->end_site_offsets + 3 * e, v);
-                    c = mlr_fmin(c,
-                                 wp[3 * (f * J + j) + (size_t)cu->up] + v[cu->up] - cu->floor_h);
+                    common__quat_rotate_inline((const mlr_quat *)(wr + 4 * (f * J + j)),
+                                               rig->end_site_offsets + 3 * e, v);
+                    c = common__fmin(c, wp[3 * (f * J + j) + (size_t)cu->up] + v[cu->up] -
+                                            cu->floor_h);
                 }
-                wp[f] = mlr_fmax(c, 0.0); /* (wp's first N doubles: no longer read) */
+                wp[f] = common__fmax(c, 0.0); /* (wp's first N doubles: no longer read) */
             }
             const size_t w2 = 2 * vhalf;
             for (size_t f = 0; f < N; f++) {
                 const size_t lo = f > w2 ? f - w2 : 0, hi = f + w2 < N ? f + w2 : N - 1;
                 double c = INFINITY;
                 for (size_t g = lo; g <= hi; g++)
-                    c = mlr_fmin(c, wp[g]);
+                    c = common__fmin(c, wp[g]);
                 room[f] = c;
             }
         }
@@ -259,7 +259,7 @@ mlr_status cleanup__shift_root(cleanup_state *cu, cleanup_arena *ar, mlr_cleanup
             for (int d = 0; d < 3; d++)
                 vneed[3 * f + (size_t)d] = 0.0;
             const double v = need[3 * f + (size_t)up];
-            const double small = mlr_fmax(-mlr_fmin(vcap, room[f]), mlr_fmin(vcap, v));
+            const double small = common__fmax(-common__fmin(vcap, room[f]), common__fmin(vcap, v));
             vneed[3 * f + (size_t)up] = small;
             need[3 * f + (size_t)up] = v - small;
         }
@@ -284,7 +284,7 @@ mlr_status cleanup__shift_root(cleanup_state *cu, cleanup_arena *ar, mlr_cleanup
             const double n =
                 sqrt(shift[3 * f] * shift[3 * f] + shift[3 * f + 1] * shift[3 * f + 1] +
                      shift[3 * f + 2] * shift[3 * f + 2]);
-            report->root_shift_max = mlr_fmax(report->root_shift_max, n);
+            report->root_shift_max = common__fmax(report->root_shift_max, n);
         }
     }
     return MLR_OK;

@@ -180,7 +180,7 @@ static void rotate_block(cleanup_work *w, double *rot, const int32_t *js, size_t
         }
         for (size_t k = 0; k < n; k++) {
             const mlr_quat o =
-                mlr_qmul_wxyz(ew[k], ex[k], ey[k], ez[k], qw[k], qx[k], qy[k], qz[k]);
+                common__qmul_wxyz(ew[k], ex[k], ey[k], ez[k], qw[k], qx[k], qy[k], qz[k]);
             const double ow = o.w, ox = o.x, oy = o.y, oz = o.z;
             const double nn = sqrt(ow * ow + ox * ox + oy * oy + oz * oz);
             qw[k] = ow / nn, qx[k] = ox / nn, qy[k] = oy / nn, qz[k] = oz / nn;
@@ -227,7 +227,7 @@ typedef struct log_block {
 /* v = log(a conj(b)) of the pending pairs, their frames with a nonzero value a source. */
 static void log_flush(log_block *blk, uint8_t *cls)
 {
-    mlr_quat_conj_mul_log(blk->a, blk->b, blk->n, 1, blk->b, blk->lg);
+    common__quat_conj_mul_log(blk->a, blk->b, blk->n, 1, blk->b, blk->lg);
     for (size_t k = 0; k < blk->n; k++) {
         double *v = blk->v[k];
         v[0] = blk->lg[k].x, v[1] = blk->lg[k].y, v[2] = blk->lg[k].z;

@@ -123,18 +123,18 @@ static mlr_status detect_check(const mlr_rig *rig, double fps, int up, size_t N,
     if (st != MLR_OK)
         return st;
     if (!(isfinite(fps) && fps > 0))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "contacts: fps must be finite and > 0, got %g", fps);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "contacts: fps must be finite and > 0, got %g", fps);
     if (up < MLR_AXIS_X || up > MLR_AXIS_Z)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "contacts: up axis %d is not 0 (X), 1 (Y) or 2 (Z)", up);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "contacts: up axis %d is not 0 (X), 1 (Y) or 2 (Z)", up);
     if (N < 3)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "contacts: detection needs at least 3 frames, got %zu", N);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "contacts: detection needs at least 3 frames, got %zu", N);
     if (C == 0)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "contacts: no contact points");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "contacts: no contact points");
     if (!world_pos || !joints || !contacts)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "contacts: NULL argument");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "contacts: NULL argument");
     st = parse_options(opts, n_opts, speed, height, min_duration, diag);
     if (st != MLR_OK)
         return st;
@@ -142,8 +142,8 @@ static mlr_status detect_check(const mlr_rig *rig, double fps, int up, size_t N,
         for (size_t d = 0; d < c; d++)
             if (joints[c] == joints[d] &&
                 (end_sites ? end_sites[c] : -1) == (end_sites ? end_sites[d] : -1))
-                return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                    "contacts: points %zu and %zu are the same", d, c);
+                return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                        "contacts: points %zu and %zu are the same", d, c);
     /* validates the points; positions first, so that bad points fail before the allocation */
     return mlr_rig_point_positions(rig, 0, world_pos, world_rot, C, joints, end_sites, NULL, diag);
 }
@@ -232,35 +232,35 @@ mlr_status contacts__detect(const mlr_rig *rig, double fps, int up, size_t n_fra
         return st;
 
     mlr_allocator a;
-    mlr_allocator_resolve(alloc, &a);
+    common__allocator_resolve(alloc, &a);
     double H = body_height ? *body_height : 0.0;
     st = body_height ? MLR_OK : mlr_rig_body_height(N, rig->n_joints, world_pos, up, &H, &a, diag);
     if (st != MLR_OK)
-        return mlr_diag_prefix(diag, st, "contacts");
+        return common__diag_prefix(diag, st, "contacts");
     if (!(H > 0))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "contacts: the motion has no extent along the up axis (a flat "
-                            "skeleton), so no body size to scale thresholds by");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "contacts: the motion has no extent along the up axis (a flat "
+                                "skeleton), so no body size to scale thresholds by");
 
     const size_t half_raw = round_half_even(FLOOR_WINDOW * fps);
     const size_t half = half_raw < N - 1 ? half_raw : N - 1; /* a wider window adds nothing */
     const size_t L = padded_len(N, half);
     size_t NC, bytes;
-    if (mlr_mul_size(N, C, &NC) != MLR_OK || NC > SIZE_MAX / 4 - 3 * L - 2 * N ||
-        mlr_mul_size(4 * NC + 3 * L + 2 * N, sizeof(double), &bytes) != MLR_OK)
-        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "contacts: too many frames");
-    double *p = mlr_alloc(&a, bytes);
+    if (common__mul_size(N, C, &NC) != MLR_OK || NC > SIZE_MAX / 4 - 3 * L - 2 * N ||
+        common__mul_size(4 * NC + 3 * L + 2 * N, sizeof(double), &bytes) != MLR_OK)
+        return common__diag_set(diag, MLR_E_OVERFLOW, 0, 0, "contacts: too many frames");
+    double *p = common__alloc(&a, bytes);
     if (!p)
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "contacts: out of memory");
+        return common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "contacts: out of memory");
     double *v = p + 3 * NC, *pad = v + NC, *fwd = pad + L, *bwd = fwd + L, *y = bwd + L,
            *fl = y + N;
     mlr_rig_point_positions(rig, N, world_pos, world_rot, C, joints, end_sites, p, NULL);
     for (size_t i = 0; i < 3 * NC; i++)
         if (!isfinite(p[i])) {
-            mlr_free(&a, p, bytes);
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "contacts: position of point %zu at frame %zu is not finite",
-                                (i / 3) % C, i / (3 * C));
+            common__free(&a, p, bytes);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "contacts: position of point %zu at frame %zu is not finite",
+                                    (i / 3) % C, i / (3 * C));
         }
     point_speeds(p, N, C, fps, v);
 
@@ -271,6 +271,6 @@ mlr_status contacts__detect(const mlr_rig *rig, double fps, int up, size_t n_fra
     th.shortest = shortest0 > 2 ? shortest0 : 2;
     for (size_t c = 0; c < C; c++)
         detect_point(p, v, N, C, c, up, &th, y, pad, fwd, bwd, fl, contacts);
-    mlr_free(&a, p, bytes);
+    common__free(&a, p, bytes);
     return MLR_OK;
 }

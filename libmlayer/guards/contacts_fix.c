@@ -48,18 +48,18 @@ static mlr_status cleanup_check(const mlr_rig *rig, size_t N, double fps, int up
     if ((st = cleanup__parse_options(opts, n_opts, cfg, diag)) != MLR_OK)
         return st;
     if (N == 0 || !out_root_pos || !out_rot || (C && !contacts))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "cleanup: no frames, or NULL outputs or contacts");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "cleanup: no frames, or NULL outputs or contacts");
     if (!(isfinite(fps) && fps > 0.0))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "cleanup: fps %g is not finite "
-                            "and > 0",
-                            fps);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "cleanup: fps %g is not finite "
+                                "and > 0",
+                                fps);
     if (up < 0 || up > 2)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "cleanup: up axis %d is not 0 (X), "
-                            "1 (Y) or 2 (Z)",
-                            up);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "cleanup: up axis %d is not 0 (X), "
+                                "1 (Y) or 2 (Z)",
+                                up);
     const int have_arrays = ref_root_pos || ref_rot || ref_trans;
     if (!trusted &&
         ((st = cleanup__check_points(rig, C, joints, end_sites, diag)) != MLR_OK ||
@@ -69,13 +69,13 @@ static mlr_status cleanup_check(const mlr_rig *rig, size_t N, double fps, int up
         return st;
     if (pre && (pre->n_frames != N || pre->n_points != C || pre->up != up ||
                 pre->smooth != cfg->ref_smooth))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "cleanup: the reference was made for other frames or options");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "cleanup: the reference was made for other frames or options");
     if (C > 64)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "cleanup: at most 64 contact "
-                            "points, got %zu",
-                            C);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "cleanup: at most 64 contact "
+                                "points, got %zu",
+                                C);
     return MLR_OK;
 }
 
@@ -105,7 +105,7 @@ static mlr_status set_floor(cleanup_state *cu, const mlr_cleanup_ref *pre, clean
                 floor_h = cleanup__quantile_of(v, k, cfg->floor_q);
         }
         for (size_t i = 0; i < N * C; i++)
-            lim[i] = pre ? mlr_fmin(floor_h, pre->h[i]) : floor_h;
+            lim[i] = pre ? common__fmin(floor_h, pre->h[i]) : floor_h;
     }
     cu->floor_h = floor_h;
     cu->floor_active = cfg->floor_on && isfinite(floor_h);
@@ -190,9 +190,9 @@ static void pin_run_to_means(const cleanup_state *cu, cleanup_foot *ft, size_t s
         if (cu->floor_active) { /* the pinned points stay above the floor */
             double lift = 0.0;
             if (ft->n_own)
-                lift = mlr_fmax(lift, floor_h - ft->at[3 * f + (size_t)up]);
+                lift = common__fmax(lift, floor_h - ft->at[3 * f + (size_t)up]);
             if (has_toe)
-                lift = mlr_fmax(lift, floor_h - ft->tt[3 * f + (size_t)up]);
+                lift = common__fmax(lift, floor_h - ft->tt[3 * f + (size_t)up]);
             ft->at[3 * f + (size_t)up] += lift;
             if (has_toe)
                 ft->tt[3 * f + (size_t)up] += lift;
@@ -591,7 +591,7 @@ static double run_offset(const cleanup_state *cu, const cleanup_foot *ft, size_t
         const double *pt = cu->P + 3 * (f * C + ft->cols[ft->n_own]);
         for (int d = 0; d < 3; d++)
             dt[d] = ft->tt[3 * f + (size_t)d] - (pt[d] + sh[d]);
-        n = mlr_fmax(n, sqrt(dt[0] * dt[0] + dt[1] * dt[1] + dt[2] * dt[2]));
+        n = common__fmax(n, sqrt(dt[0] * dt[0] + dt[1] * dt[1] + dt[2] * dt[2]));
     }
     return n;
 }
@@ -670,7 +670,7 @@ static void ramp_target(const cleanup_state *cu, cleanup_foot *ft, size_t f, con
         const double h =
             cu->P[3 * (f * C + c) + (size_t)up] + sh[up] + (i < ft->n_own ? oa[up] : ot[up]);
         const double need = cu->lim[f * C + c] - h - CLEANUP_FLOOR_SLACK * ft->leg;
-        lift = mlr_fmax(lift, pinned ? need : (1.0 - w) * need);
+        lift = common__fmax(lift, pinned ? need : (1.0 - w) * need);
     }
     ft->at[3 * f + (size_t)up] += lift;
     if (has_toe)
@@ -700,8 +700,8 @@ static void ramp_runs(cleanup_state *cu, const contact_run *runs, size_t n)
         const double L = p ? (double)(r->s - (p->e - 1)) : INFINITY;
         if (p && in.frames + prev.frames > L) { /* the two ramps share the gap */
             const double bi = in.frames, bp = prev.frames;
-            in.frames = bi > 0.0 ? (bp > 0.0 ? L : mlr_fmin(bi, L)) : 0.0;
-            prev.frames = bp > 0.0 ? (bi > 0.0 ? L : mlr_fmin(bp, L)) : 0.0;
+            in.frames = bi > 0.0 ? (bp > 0.0 ? L : common__fmin(bi, L)) : 0.0;
+            prev.frames = bp > 0.0 ? (bi > 0.0 ? L : common__fmin(bp, L)) : 0.0;
         }
         for (size_t f = g0; f < r->s; f++) {
             const double t = (double)f;
@@ -716,9 +716,9 @@ static void ramp_runs(cleanup_state *cu, const contact_run *runs, size_t n)
                 edge_add(cu, ft, &prev, f, wa, oa, ot);
             if (wb > 0.0)
                 edge_add(cu, ft, &in, f, wb, oa, ot);
-            ramp_target(cu, ft, f, oa, ot, mlr_fmax(wa, wb));
+            ramp_target(cu, ft, f, oa, ot, common__fmax(wa, wb));
             ft->U[f] = ft->R[f] = 1;
-            ft->rw[f] = mlr_fmax(wa, wb);
+            ft->rw[f] = common__fmax(wa, wb);
         }
         /* after the last run of the foot: its ramp out to the clip's end */
         if (!nx) {
@@ -742,15 +742,15 @@ static void ramp_runs(cleanup_state *cu, const contact_run *runs, size_t n)
    solve that failed). */
 static mlr_status fail_memory(const cleanup_arena *ar, mlr_diag *diag)
 {
-    return mlr_diag_set(diag, ar->st, 0, 0, "cleanup: out of memory");
+    return common__diag_set(diag, ar->st, 0, 0, "cleanup: out of memory");
 }
 
 static mlr_status fail_status(mlr_status st, mlr_diag *diag)
 {
     if (st == MLR_E_NO_MEMORY)
-        mlr_diag_set(diag, st, 0, 0, "cleanup: out of memory");
+        common__diag_set(diag, st, 0, 0, "cleanup: out of memory");
     else
-        mlr_diag_set(diag, st, 0, 0, "cleanup: internal solve failed (status %d)", (int)st);
+        common__diag_set(diag, st, 0, 0, "cleanup: internal solve failed (status %d)", (int)st);
     return st;
 }
 
@@ -988,7 +988,7 @@ static mlr_status cleanup_run(const mlr_rig *rig, size_t N, double fps, int up,
                        .w = &w,
                        .hook = hook};
     mlr_allocator A;
-    mlr_allocator_resolve(alloc, &A);
+    common__allocator_resolve(alloc, &A);
     cleanup_arena ar = {.a = &A, .st = MLR_OK};
     if ((st = cleanup_feet(&c, &ar, diag)) != MLR_OK ||
         (st = cleanup_fk(&c, root_pos, rot, &ar, &A, diag)) != MLR_OK)

@@ -202,14 +202,14 @@ static mlr_status clamp_hinges(const mlr_limits *limits, size_t N, size_t J, dou
                                const depop_work *w, const mlr_allocator *alloc)
 {
     size_t bytes = 0, qbytes = 0;
-    if (mlr_mul_size(N, J, &bytes) != MLR_OK ||
-        mlr_mul_size(bytes, 4 * sizeof(double), &qbytes) != MLR_OK)
+    if (common__mul_size(N, J, &bytes) != MLR_OK ||
+        common__mul_size(bytes, 4 * sizeof(double), &qbytes) != MLR_OK)
         return MLR_E_OVERFLOW;
-    uint8_t *mask = mlr_alloc(alloc, bytes);
-    double *raw = mask ? mlr_alloc(alloc, qbytes) : NULL;
+    uint8_t *mask = common__alloc(alloc, bytes);
+    double *raw = mask ? common__alloc(alloc, qbytes) : NULL;
     if (!raw) {
         if (mask)
-            mlr_free(alloc, mask, bytes);
+            common__free(alloc, mask, bytes);
         return MLR_E_NO_MEMORY;
     }
     for (size_t f = 0; f < N; f++)
@@ -227,8 +227,8 @@ static mlr_status clamp_hinges(const mlr_limits *limits, size_t N, size_t J, dou
     if (st == MLR_OK) /* what the easing left outside a range */
         limits__apply_kind_masked(limits, N, (mlr_quat *)rot, alpha, n_alpha, NULL,
                                   MLR_LIMITS_HINGE, NULL, NULL, 0, 1);
-    mlr_free(alloc, raw, qbytes);
-    mlr_free(alloc, mask, bytes);
+    common__free(alloc, raw, qbytes);
+    common__free(alloc, mask, bytes);
     return st;
 }
 
@@ -245,10 +245,10 @@ mlr_status depop__apply(const mlr_rig *rig, size_t N, double fps, const double *
     if (N < 5 || C == 0 || !(fps > 0))
         return MLR_OK;
     size_t n_doubles = 0, bytes = 0;
-    if (mlr_mul_size(N, 7 * J + 3 * C + 6 * (J + 1) + 2, &n_doubles) != MLR_OK ||
-        mlr_mul_size(n_doubles, sizeof(double), &bytes) != MLR_OK)
+    if (common__mul_size(N, 7 * J + 3 * C + 6 * (J + 1) + 2, &n_doubles) != MLR_OK ||
+        common__mul_size(n_doubles, sizeof(double), &bytes) != MLR_OK)
         return MLR_E_OVERFLOW;
-    double *buf = mlr_alloc(alloc, bytes);
+    double *buf = common__alloc(alloc, bytes);
     if (!buf)
         return MLR_E_NO_MEMORY;
     depop_work w;
@@ -258,8 +258,8 @@ mlr_status depop__apply(const mlr_rig *rig, size_t N, double fps, const double *
     w.held = NULL;
     w.edge = DEPOP_EDGE * fps;
     size_t held_bytes = 0;
-    if (contacts && mlr_mul_size(N, (J + 1) * sizeof(int16_t), &held_bytes) == MLR_OK &&
-        (w.held = mlr_alloc(alloc, held_bytes)) != NULL) {
+    if (contacts && common__mul_size(N, (J + 1) * sizeof(int16_t), &held_bytes) == MLR_OK &&
+        (w.held = common__alloc(alloc, held_bytes)) != NULL) {
         memset(w.held, 0, held_bytes);
         for (size_t f = 0; f < N; f++)
             for (size_t c = 0; c < C; c++) {
@@ -290,7 +290,7 @@ mlr_status depop__apply(const mlr_rig *rig, size_t N, double fps, const double *
             }
         }
     } else if (contacts) {
-        mlr_free(alloc, buf, bytes);
+        common__free(alloc, buf, bytes);
         return MLR_E_NO_MEMORY;
     }
     /* the base: the input's and the synthesis's largest acceleration */
@@ -322,7 +322,7 @@ mlr_status depop__apply(const mlr_rig *rig, size_t N, double fps, const double *
             break;
     }
     if (w.held)
-        mlr_free(alloc, w.held, held_bytes);
-    mlr_free(alloc, buf, bytes);
+        common__free(alloc, w.held, held_bytes);
+    common__free(alloc, buf, bytes);
     return st;
 }

@@ -29,7 +29,7 @@ static void find_toe(const mlr_rig *rig, int32_t a, int32_t *joint, int32_t *end
     double best_len = 0.0;
     for (int pass = 0; pass < 2 && best < 0; pass++)
         for (size_t k = (size_t)a + 1; k < J; k++) {
-            if (!mlr_name_matches(rig->names[k], toe_patterns))
+            if (!common__name_matches(rig->names[k], toe_patterns))
                 continue;
             int32_t p = rig->parents[k];
             if (pass == 0 && p != a)
@@ -68,33 +68,33 @@ static mlr_status low_hands(const mlr_rig *rig, size_t N, const double *world_po
     double H = height ? *height : 0.0;
     mlr_status st = height ? MLR_OK : mlr_rig_body_height(N, J, world_pos, up, &H, a, diag);
     if (st != MLR_OK)
-        return mlr_diag_prefix(diag, st, "find_feet");
+        return common__diag_prefix(diag, st, "find_feet");
     if (H == 0.0)
         H = 1.0;
     size_t count, bytes;
-    if (mlr_mul_size(N, n_ankles + 2, &count) != MLR_OK ||
-        mlr_mul_size(count, sizeof(double), &bytes) != MLR_OK)
-        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "find_feet: too many frames");
-    double *ground = mlr_alloc(a, bytes);
+    if (common__mul_size(N, n_ankles + 2, &count) != MLR_OK ||
+        common__mul_size(count, sizeof(double), &bytes) != MLR_OK)
+        return common__diag_set(diag, MLR_E_OVERFLOW, 0, 0, "find_feet: too many frames");
+    double *ground = common__alloc(a, bytes);
     if (!ground)
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "find_feet: out of memory");
+        return common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "find_feet: out of memory");
     double *rel = ground + N, *tmp = rel + N * n_ankles;
-    (void)mlr_rig_up_range(N, J, world_pos, up, ground, NULL); /* the ground of each frame */
+    (void)common__rig_up_range(N, J, world_pos, up, ground, NULL); /* the ground of each frame */
     size_t i = 0;
     for (size_t f = 0; f < N; f++)
         for (size_t j = 0; j < J; j++)
             if (flags[j] & IS_ANKLE)
                 rel[i++] = world_pos[3 * (f * J + j) + (size_t)up] - ground[f];
-    const double foot_h = mlr_median(rel, i);
+    const double foot_h = common__median(rel, i);
     for (size_t j = 0; j < J; j++) {
         if (!(flags[j] & IS_HAND))
             continue;
         for (size_t f = 0; f < N; f++)
             tmp[f] = world_pos[3 * (f * J + j) + (size_t)up] - ground[f];
-        if (mlr_median(tmp, N) <= foot_h + HAND_LOW * H)
+        if (common__median(tmp, N) <= foot_h + HAND_LOW * H)
             flags[j] |= IS_ANKLE;
     }
-    mlr_free(a, ground, bytes);
+    common__free(a, ground, bytes);
     return MLR_OK;
 }
 
@@ -114,21 +114,21 @@ static size_t ground_leaves(const mlr_rig *rig, size_t N, const double *world_po
     if (*st != MLR_OK || !(H > 0.0))
         return 0;
     size_t bytes;
-    if (mlr_mul_size(2 * N + J, sizeof(double), &bytes) != MLR_OK) {
-        *st = mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "find_feet: too many frames");
+    if (common__mul_size(2 * N + J, sizeof(double), &bytes) != MLR_OK) {
+        *st = common__diag_set(diag, MLR_E_OVERFLOW, 0, 0, "find_feet: too many frames");
         return 0;
     }
-    double *ground = mlr_alloc(a, bytes);
+    double *ground = common__alloc(a, bytes);
     if (!ground) {
-        *st = mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "find_feet: out of memory");
+        *st = common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "find_feet: out of memory");
         return 0;
     }
     double *tmp = ground + N, *med = tmp + N;
-    (void)mlr_rig_up_range(N, J, world_pos, up, ground, NULL);
+    (void)common__rig_up_range(N, J, world_pos, up, ground, NULL);
     for (size_t j = 0; j < J; j++) {
         for (size_t f = 0; f < N; f++)
             tmp[f] = world_pos[3 * (f * J + j) + (size_t)up] - ground[f];
-        med[j] = mlr_median(tmp, N);
+        med[j] = common__median(tmp, N);
     }
     size_t n = 0;
     for (size_t j = 0; j < J; j++) {
@@ -147,7 +147,7 @@ static size_t ground_leaves(const mlr_rig *rig, size_t N, const double *world_po
         if (!(flags[ankle] & IS_ANKLE))
             flags[ankle] |= IS_ANKLE, n++;
     }
-    mlr_free(a, ground, bytes);
+    common__free(a, ground, bytes);
     return n;
 }
 
@@ -168,20 +168,20 @@ mlr_status contacts__find_feet(const mlr_rig *rig, size_t n_frames, const double
     if (st != MLR_OK)
         return st;
     if (!n_feet || (capacity && (!joints || !end_sites)) || (n_frames && !world_pos))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "find_feet: NULL argument");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "find_feet: NULL argument");
     *n_feet = 0;
     if (!rig->names)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "find_feet: the rig has no joint names");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "find_feet: the rig has no joint names");
     if (up < MLR_AXIS_X || up > MLR_AXIS_Z)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "find_feet: up axis %d is not 0 (X), 1 (Y) or 2 (Z)", up);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "find_feet: up axis %d is not 0 (X), 1 (Y) or 2 (Z)", up);
     const size_t J = rig->n_joints;
     mlr_allocator a;
-    mlr_allocator_resolve(alloc, &a);
-    unsigned char *flags = mlr_alloc(&a, J);
+    common__allocator_resolve(alloc, &a);
+    unsigned char *flags = common__alloc(&a, J);
     if (!flags)
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "find_feet: out of memory");
+        return common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "find_feet: out of memory");
     size_t n_ankles = 0, n_hands = 0;
     for (size_t j = 0; j < J; j++) {
         const int32_t p = rig->parents[j];
@@ -190,12 +190,12 @@ mlr_status contacts__find_feet(const mlr_rig *rig, size_t n_frames, const double
             f |= (flags[p] & (FOOT_NAME | FOOT_BELOW)) ? FOOT_BELOW : 0;
             f |= (flags[p] & (HAND_NAME | HAND_BELOW)) ? HAND_BELOW : 0;
         }
-        if (mlr_name_matches(rig->names[j], foot_patterns)) {
+        if (common__name_matches(rig->names[j], foot_patterns)) {
             f |= FOOT_NAME;
             if (!(f & FOOT_BELOW))
                 f |= IS_ANKLE, n_ankles++;
         }
-        if (mlr_name_matches(rig->names[j], hand_patterns)) {
+        if (common__name_matches(rig->names[j], hand_patterns)) {
             f |= HAND_NAME;
             if (!(f & HAND_BELOW) && !(f & IS_ANKLE))
                 f |= IS_HAND, n_hands++;
@@ -205,23 +205,23 @@ mlr_status contacts__find_feet(const mlr_rig *rig, size_t n_frames, const double
     if (n_ankles == 0 && n_frames) { /* no name says foot: the leaves on the ground */
         n_ankles = ground_leaves(rig, n_frames, world_pos, up, flags, &a, height, &st, diag);
         if (st != MLR_OK) {
-            mlr_free(&a, flags, J);
+            common__free(&a, flags, J);
             return st;
         }
         n_hands = 0; /* (the low leaves are every foot there is) */
     }
     if (n_ankles == 0) {
-        mlr_free(&a, flags, J);
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "no feet found: no joint name contains foot, ankle, paw or hoof "
-                            "(case-insensitive; toes: toe or ball below a foot), and no leaf "
-                            "joint stays on the ground; name the "
-                            "contact points yourself ('Joint/End' names a joint's End Site)");
+        common__free(&a, flags, J);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "no feet found: no joint name contains foot, ankle, paw or hoof "
+                                "(case-insensitive; toes: toe or ball below a foot), and no leaf "
+                                "joint stays on the ground; name the "
+                                "contact points yourself ('Joint/End' names a joint's End Site)");
     }
     if (n_hands && n_frames) {
         st = low_hands(rig, n_frames, world_pos, up, flags, n_ankles, &a, height, diag);
         if (st != MLR_OK) {
-            mlr_free(&a, flags, J);
+            common__free(&a, flags, J);
             return st;
         }
     }
@@ -229,9 +229,9 @@ mlr_status contacts__find_feet(const mlr_rig *rig, size_t n_frames, const double
     for (size_t j = 0; j < J; j++)
         F += (flags[j] & IS_ANKLE) != 0;
     if (F > capacity) {
-        mlr_free(&a, flags, J);
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "find_feet: %zu feet found, room for %zu", F, capacity);
+        common__free(&a, flags, J);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "find_feet: %zu feet found, room for %zu", F, capacity);
     }
     size_t f = 0;
     for (size_t j = 0; j < J; j++) {
@@ -243,6 +243,6 @@ mlr_status contacts__find_feet(const mlr_rig *rig, size_t n_frames, const double
         f++;
     }
     *n_feet = F;
-    mlr_free(&a, flags, J);
+    common__free(&a, flags, J);
     return MLR_OK;
 }

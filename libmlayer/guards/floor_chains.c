@@ -77,15 +77,15 @@ mlr_status floor_chains__apply(const mlr_rig *rig, size_t N, double fps, int up,
        and their eased copy, the joints' weights, the running maximum's, a chain's rotations
        and local translations (CHAIN_MAX joints), the kernel; the flags */
     size_t nd = 0, bytes = 0, fb = 0;
-    if (mlr_mul_size(N, 14 * J + P + J + 3, &nd) != MLR_OK ||
-        mlr_mul_size(nd + 7 * CHAIN_MAX + r + 1, sizeof(double), &bytes) != MLR_OK ||
-        mlr_mul_size(3 * J, sizeof(int32_t), &fb) != MLR_OK)
+    if (common__mul_size(N, 14 * J + P + J + 3, &nd) != MLR_OK ||
+        common__mul_size(nd + 7 * CHAIN_MAX + r + 1, sizeof(double), &bytes) != MLR_OK ||
+        common__mul_size(3 * J, sizeof(int32_t), &fb) != MLR_OK)
         return MLR_E_OVERFLOW;
-    double *buf = mlr_alloc(alloc, bytes);
-    int32_t *ib = mlr_alloc(alloc, fb);
+    double *buf = common__alloc(alloc, bytes);
+    int32_t *ib = common__alloc(alloc, fb);
     if (!buf || !ib) {
-        mlr_free(alloc, buf, bytes);
-        mlr_free(alloc, ib, fb);
+        common__free(alloc, buf, bytes);
+        common__free(alloc, ib, fb);
         return MLR_E_NO_MEMORY;
     }
     double *pos_in = buf, *wrot_in = pos_in + 3 * N * J, *pos = wrot_in + 4 * N * J,
@@ -285,7 +285,7 @@ mlr_status floor_chains__apply(const mlr_rig *rig, size_t N, double fps, int up,
     if (lifted)
         *lifted = n_lifted;
 done:
-    mlr_free(alloc, buf, bytes);
-    mlr_free(alloc, ib, fb);
+    common__free(alloc, buf, bytes);
+    common__free(alloc, ib, fb);
     return st;
 }

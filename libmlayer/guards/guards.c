@@ -155,11 +155,11 @@ static void *alloc_array(const mlr_allocator *a, size_t count, size_t size, mlr_
     size_t bytes;
     if (*st != MLR_OK || count == 0)
         return NULL;
-    if (mlr_mul_size(count, size, &bytes) != MLR_OK) {
+    if (common__mul_size(count, size, &bytes) != MLR_OK) {
         *st = MLR_E_OVERFLOW;
         return NULL;
     }
-    void *p = mlr_alloc(a, bytes);
+    void *p = common__alloc(a, bytes);
     if (!p)
         *st = MLR_E_NO_MEMORY;
     return p;
@@ -168,7 +168,7 @@ static void *alloc_array(const mlr_allocator *a, size_t count, size_t size, mlr_
 static void free_array(const mlr_allocator *a, void *p, size_t count, size_t size)
 {
     if (p)
-        mlr_free(a, p, count * size);
+        common__free(a, p, count * size);
 }
 
 static void free_names(mlr_guards *g)
@@ -177,7 +177,7 @@ static void free_names(mlr_guards *g)
         return;
     for (size_t j = 0; j < g->n_joints; j++)
         if (g->names[j])
-            mlr_free(&g->alloc, g->names[j], strlen(g->names[j]) + 1);
+            common__free(&g->alloc, g->names[j], strlen(g->names[j]) + 1);
     free_array(&g->alloc, g->names, g->n_joints, sizeof(char *));
     free_array(&g->alloc, g->name_ptrs, g->n_joints, sizeof(char *));
 }
@@ -211,7 +211,7 @@ void mlr_guards_destroy(mlr_guards *g)
     cleanup__ref_destroy(g->input_ref_raw);
     mlr_limits_destroy(g->learned);
     mlr_allocator a = g->alloc;
-    mlr_free(&a, g, sizeof *g);
+    common__free(&a, g, sizeof *g);
 }
 
 /* Copy the rig's arrays into the handle; g->rig then points at the copies. */
@@ -233,7 +233,7 @@ static mlr_status copy_rig(mlr_guards *g, const mlr_rig *src)
         for (size_t j = 0; st == MLR_OK && j < J; j++) {
             const char *s = src->names[j] ? src->names[j] : "";
             const size_t n = strlen(s) + 1;
-            g->names[j] = mlr_alloc(a, n);
+            g->names[j] = common__alloc(a, n);
             if (!g->names[j])
                 st = MLR_E_NO_MEMORY;
             else
@@ -327,15 +327,15 @@ static mlr_status floor_from_positions(mlr_guards *g, const double *wpos, const 
         for (size_t f = 0; f < N; f++) {
             double low = pts[3 * (f * C) + (size_t)g->up];
             for (size_t c = 1; c < C; c++)
-                low = mlr_fmin(low, pts[3 * (f * C + c) + (size_t)g->up]);
+                low = common__fmin(low, pts[3 * (f * C + c) + (size_t)g->up]);
             pts[f] = low; /* (row f's values are read before row f is written: f <= 3 f C) */
         }
         g->floor_height = cleanup__quantile_of(pts, N, 0.05);
     }
     free_array(&g->alloc, pts, 3 * g->n_frames * g->n_points, sizeof(double));
     return st == MLR_OK ? MLR_OK
-                        : mlr_diag_set(diag, st, 0, 0, "guards: the floor: %s",
-                                       st == MLR_E_NO_MEMORY ? "out of memory" : "bad points");
+                        : common__diag_set(diag, st, 0, 0, "guards: the floor: %s",
+                                           st == MLR_E_NO_MEMORY ? "out of memory" : "bad points");
 }
 
 /* Feet by name and their contacts on the input; a rig without feet gets none. */
@@ -350,8 +350,8 @@ static mlr_status find_contacts(mlr_guards *g, const double *world_pos, const do
     int32_t *fe = alloc_array(&g->alloc, 2 * J, sizeof(int32_t), &st);
     size_t n_feet = 0;
     if (st != MLR_OK)
-        mlr_diag_set(diag, st, 0, 0, "guards: %s for the feet (2 x %zu joints)",
-                     st == MLR_E_OVERFLOW ? "size overflow" : "out of memory", J);
+        common__diag_set(diag, st, 0, 0, "guards: %s for the feet (2 x %zu joints)",
+                         st == MLR_E_OVERFLOW ? "size overflow" : "out of memory", J);
     /* the body height, once for find_feet and detect; when it cannot be measured (a position
      * not finite) they measure it themselves and fail as they would */
     double H = 0.0;
@@ -361,7 +361,7 @@ static mlr_status find_contacts(mlr_guards *g, const double *world_pos, const do
         if (st == MLR_OK)
             height = &H, g->body_height = H;
         else if (st == MLR_E_NO_MEMORY)
-            mlr_diag_set(diag, st, 0, 0, "guards: out of memory for the body height");
+            common__diag_set(diag, st, 0, 0, "guards: out of memory for the body height");
         else
             st = MLR_OK;
     }
@@ -373,7 +373,7 @@ static mlr_status find_contacts(mlr_guards *g, const double *world_pos, const do
             st = MLR_OK;
             n_feet = 0;
         } else if (st != MLR_OK) {
-            mlr_diag_set(diag, st, 0, 0, "guards: finding the feet: %s", quiet.message);
+            common__diag_set(diag, st, 0, 0, "guards: finding the feet: %s", quiet.message);
         }
     }
     size_t C = 0;
@@ -387,8 +387,8 @@ static mlr_status find_contacts(mlr_guards *g, const double *world_pos, const do
         g->contacts = alloc_array(&g->alloc, (C + T) * N, 1, &st);
         g->n_points = C + T, g->n_public = C;
         if (st != MLR_OK)
-            mlr_diag_set(diag, st, 0, 0, "guards: %s for %zu contact points",
-                         st == MLR_E_OVERFLOW ? "size overflow" : "out of memory", C);
+            common__diag_set(diag, st, 0, 0, "guards: %s for %zu contact points",
+                             st == MLR_E_OVERFLOW ? "size overflow" : "out of memory", C);
         if (st == MLR_OK) {
             memcpy(g->joints, fj, C * sizeof(int32_t));
             memcpy(g->end_sites, fe, C * sizeof(int32_t));
@@ -429,17 +429,17 @@ static mlr_status make_input_ref(const mlr_guards *g, size_t C, const int32_t *j
     if (st ==
         MLR_E_INVALID_ARG) /* points the cleanup refuses (over 16 on a foot): apply says so */
         return MLR_OK;
-    return st == MLR_OK ? MLR_OK : mlr_diag_set(diag, st, 0, 0, "guards: %s", d.message);
+    return st == MLR_OK ? MLR_OK : common__diag_set(diag, st, 0, 0, "guards: %s", d.message);
 }
 
 static mlr_status check_finite(const double *x, size_t n, const char *what, mlr_diag *diag)
 {
-    const size_t k = mlr_first_nonfinite(x, n);
+    const size_t k = common__first_nonfinite(x, n);
     if (k < n)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "guards: %s value %zu is not "
-                            "finite",
-                            what, k);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "guards: %s value %zu is not "
+                                "finite",
+                                what, k);
     return MLR_OK;
 }
 
@@ -449,37 +449,38 @@ mlr_status mlr_guards_create(const mlr_rig *rig, double fps, size_t n_frames,
                              const mlr_allocator *alloc, mlr_guards **out, mlr_diag *diag)
 {
     if (!out)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "guards: out is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "guards: out is NULL");
     *out = NULL;
     mlr_status st = mlr_rig_check(rig, diag);
     if (st != MLR_OK)
         return st;
     const size_t J = rig->n_joints, N = n_frames, P = rig->n_trans;
     if (!(isfinite(fps) && fps > 0.0))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "guards: fps must be finite and > 0, "
-                            "got %g",
-                            fps);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "guards: fps must be finite and > 0, "
+                                "got %g",
+                                fps);
     if (N < 3)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "guards: need at least 3 frames, "
-                            "got %zu",
-                            N);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "guards: need at least 3 frames, "
+                                "got %zu",
+                                N);
     if (!root_pos || !rot || (P && !trans))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "guards: NULL frames");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "guards: NULL frames");
     size_t n_rot, n_pos;
-    if (mlr_mul_size(4 * J, N, &n_rot) != MLR_OK || mlr_mul_size(3 * J, N, &n_pos) != MLR_OK)
-        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "guards: frames too large");
+    if (common__mul_size(4 * J, N, &n_rot) != MLR_OK ||
+        common__mul_size(3 * J, N, &n_pos) != MLR_OK)
+        return common__diag_set(diag, MLR_E_OVERFLOW, 0, 0, "guards: frames too large");
     /* rot is checked by its normalization below (the same message) */
     if ((st = check_finite(root_pos, 3 * N, "root_pos", diag)) != MLR_OK ||
         (P && (st = check_finite(trans, 3 * N * P, "trans", diag)) != MLR_OK))
         return st;
 
     mlr_allocator a;
-    mlr_allocator_resolve(alloc, &a);
-    mlr_guards *g = mlr_alloc(&a, sizeof *g);
+    common__allocator_resolve(alloc, &a);
+    mlr_guards *g = common__alloc(&a, sizeof *g);
     if (!g)
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "guards: out of memory");
+        return common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "guards: out of memory");
     memset(g, 0, sizeof *g);
     g->alloc = a;
     g->fps = fps;
@@ -503,7 +504,7 @@ mlr_status mlr_guards_create(const mlr_rig *rig, double fps, size_t n_frames,
     double *wpos = alloc_array(&a, n_pos, sizeof(double), &st);
     double *wrot = alloc_array(&a, n_rot, sizeof(double), &st);
     if (st != MLR_OK) {
-        mlr_diag_set(diag, st, 0, 0, "guards: out of memory");
+        common__diag_set(diag, st, 0, 0, "guards: out of memory");
         goto done;
     }
     memcpy(g->root_pos, root_pos, 3 * N * sizeof(double));
@@ -523,7 +524,7 @@ mlr_status mlr_guards_create(const mlr_rig *rig, double fps, size_t n_frames,
     st = quat__unit_array((const mlr_quat *)rot, N * J, (mlr_quat *)g->rot);
     if (st != MLR_OK) { /* the message of the first value not finite, else of a zero */
         if (check_finite(rot, n_rot, "rot", diag) == MLR_OK)
-            mlr_diag_set(diag, st, 0, 0, "guards: a rotation of the input is zero");
+            common__diag_set(diag, st, 0, 0, "guards: a rotation of the input is zero");
         st = MLR_E_INVALID_ARG;
         goto done;
     }
@@ -532,7 +533,7 @@ mlr_status mlr_guards_create(const mlr_rig *rig, double fps, size_t n_frames,
     size_t n_ends = 0;
     int32_t *ends = alloc_array(&a, J, sizeof(int32_t), &st);
     if (st != MLR_OK) {
-        mlr_diag_set(diag, st, 0, 0, "guards: out of memory");
+        common__diag_set(diag, st, 0, 0, "guards: out of memory");
         goto done;
     }
     for (size_t e = 0; e < g->rig.n_end_sites; e++) {
@@ -546,7 +547,7 @@ mlr_status mlr_guards_create(const mlr_rig *rig, double fps, size_t n_frames,
                            g->trans, wpos, wrot, ends, n_ends, &a);
     free_array(&a, ends, J, sizeof(int32_t));
     if (st != MLR_OK) {
-        mlr_diag_set(diag, st, 0, 0, "guards: forward kinematics of the input failed");
+        common__diag_set(diag, st, 0, 0, "guards: forward kinematics of the input failed");
         goto done;
     }
     if (g->floor_on && g->floor_given && (st = check_floor_given(g, wpos, diag)) != MLR_OK)
@@ -571,15 +572,16 @@ done:
     free_array(&a, wrot, n_rot, sizeof(double));
     if (st != MLR_OK) {
         mlr_guards_destroy(g);
-        return mlr_diag_prefix(diag, st, "guards"); /* a nested call's message names guards */
+        return common__diag_prefix(diag, st, "guards"); /* a nested call's message names guards */
     }
     *out = g;
     if (diag)
         diag->message[0] = '\0', diag->line = diag->column = 0;
     if ((g->contacts_on || g->floor_on) && g->n_points == 0)
-        mlr_diag_set(diag, MLR_OK, 0, 0,
-                     "guards: no foot found (no joint named foot, ankle or toe, nor a hand that "
-                     "stays low): the contact and floor guards are skipped");
+        common__diag_set(
+            diag, MLR_OK, 0, 0,
+            "guards: no foot found (no joint named foot, ankle or toe, nor a hand that "
+            "stays low): the contact and floor guards are skipped");
     return MLR_OK;
 }
 
@@ -605,20 +607,21 @@ mlr_status mlr_guards_set_contacts(mlr_guards *g, size_t n_points, const int32_t
                                    mlr_diag *diag)
 {
     if (!g || (n_points && (!joints || !contacts)))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "guards: NULL argument");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "guards: NULL argument");
     const size_t N = g->n_frames, C = n_points;
     for (size_t c = 0; c < C; c++) {
         const int32_t j = joints[c], e = end_sites ? end_sites[c] : -1;
         if (j < 0 || (size_t)j >= g->n_joints || e < -1 ||
             (e >= 0 && ((size_t)e >= g->rig.n_end_sites || g->rig.end_site_parents[e] != j)))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "guards: contact point %zu (joint %d, End Site %d) names nothing "
-                                "in the rig",
-                                c, (int)j, (int)e);
+            return common__diag_set(
+                diag, MLR_E_INVALID_ARG, 0, 0,
+                "guards: contact point %zu (joint %d, End Site %d) names nothing "
+                "in the rig",
+                c, (int)j, (int)e);
         for (size_t d = 0; d < c; d++)
             if (joints[d] == j && (end_sites ? end_sites[d] : -1) == e)
-                return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                    "guards: contact point %zu is listed twice", c);
+                return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                        "guards: contact point %zu is listed twice", c);
     }
     mlr_status st = MLR_OK;
     int32_t *nj = alloc_array(&g->alloc, C, sizeof(int32_t), &st);
@@ -638,7 +641,7 @@ mlr_status mlr_guards_set_contacts(mlr_guards *g, size_t n_points, const int32_t
         free_array(&g->alloc, nj, A, sizeof(int32_t));
         free_array(&g->alloc, ne, A, sizeof(int32_t));
         free_array(&g->alloc, nc, A * N, 1);
-        return mlr_diag_set(diag, st, 0, 0, "guards: out of memory");
+        return common__diag_set(diag, st, 0, 0, "guards: out of memory");
     }
     for (size_t c = 0; c < C; c++) {
         nj[c] = joints[c];
@@ -671,11 +674,11 @@ mlr_status mlr_guards_set_contacts(mlr_guards *g, size_t n_points, const int32_t
 mlr_status mlr_guards_set_limits(mlr_guards *g, const mlr_limits *limits, mlr_diag *diag)
 {
     if (!g)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "guards: NULL handle");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "guards: NULL handle");
     if (limits && mlr_limits_n_joints(limits) != g->n_joints)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "guards: limits for %zu joints, the rig has %zu",
-                            mlr_limits_n_joints(limits), g->n_joints);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "guards: limits for %zu joints, the rig has %zu",
+                                mlr_limits_n_joints(limits), g->n_joints);
     g->limits = limits ? limits : g->learned;
     return MLR_OK;
 }
@@ -728,8 +731,8 @@ static mlr_status raise_to_floor(const mlr_guards *g, const mlr_cleanup_ref *ref
             for (size_t c = 0; c < C; c++) {
                 /* no reference: the floor alone */
                 const double lim =
-                    ref ? mlr_fmin(g->floor_height, ref->h[f * C + c]) : g->floor_height;
-                d = mlr_fmax(d, lim - hout[f * C + c] - GUARDS_FLOOR_SLACK * g->body_height);
+                    ref ? common__fmin(g->floor_height, ref->h[f * C + c]) : g->floor_height;
+                d = common__fmax(d, lim - hout[f * C + c] - GUARDS_FLOOR_SLACK * g->body_height);
             }
             need[f] = d;
             any |= d > 0.0;
@@ -753,7 +756,7 @@ static mlr_status raise_to_floor(const mlr_guards *g, const mlr_cleanup_ref *ref
                     in_window -= need[next_out] > 0.0;
                 double m = 0.0;
                 for (size_t k = lo; in_window && k <= hi; k++)
-                    m = mlr_fmax(m, need[k]);
+                    m = common__fmax(m, need[k]);
                 wide[f] = m;
             }
             in_window = next_in = next_out = 0;
@@ -799,10 +802,10 @@ static mlr_status check_floor_given(const mlr_guards *g, const double *wpos, mlr
     const double f = g->floor_height;
     if (f >= lo - (hi - lo) && f <= hi)
         return MLR_OK;
-    return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                        "guards: floor height %.6g is not near the input's body (its joints "
-                        "lie from %.6g to %.6g along up)",
-                        f, lo, hi);
+    return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "guards: floor height %.6g is not near the input's body (its joints "
+                            "lie from %.6g to %.6g along up)",
+                            f, lo, hi);
 }
 
 /* The given reference as the cleanup checks it (the same message). */
@@ -821,8 +824,8 @@ static mlr_status check_reference(const mlr_guards *g, const double *root, const
             goto bad;
     return MLR_OK;
 bad:
-    return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                        "reference contains NaN or infinite values");
+    return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "reference contains NaN or infinite values");
 }
 
 static int limits_wanted(const mlr_guards *g, const double *alpha, size_t n_alpha)
@@ -845,23 +848,25 @@ static mlr_status apply_check(const mlr_guards *g, const double *alpha, size_t n
                               mlr_diag *diag)
 {
     if (!g || !alpha || !root_pos || !rot || (g->n_trans && !trans))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "guards apply: NULL argument");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "guards apply: NULL argument");
     const size_t N = g->n_frames, J = g->n_joints, P = g->n_trans;
     if (n_alpha != 1 && n_alpha != 1 + J)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "guards apply: %zu alphas, expected 1 or %zu", n_alpha, 1 + J);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "guards apply: %zu alphas, expected 1 or %zu", n_alpha, 1 + J);
     if (limited && n_limited != J)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "guards apply: limited holds %zu counts, expected %zu", n_limited, J);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "guards apply: limited holds %zu counts, expected %zu", n_limited,
+                                J);
     const int has_ref = ref_root_pos || ref_rot || ref_trans;
     if (has_ref && (!ref_root_pos || !ref_rot || (P && !ref_trans)))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "guards apply: give the whole reference (root_pos, rot and trans) or "
-                            "none");
+        return common__diag_set(
+            diag, MLR_E_INVALID_ARG, 0, 0,
+            "guards apply: give the whole reference (root_pos, rot and trans) or "
+            "none");
     for (size_t k = 0; k < n_alpha; k++)
         if (!isfinite(alpha[k]))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "guards apply: alpha %zu is not finite", k);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "guards apply: alpha %zu is not finite", k);
     /* with the limits on, rot is checked by their normalization (rot_error, the same
        messages) */
     mlr_status st;
@@ -882,8 +887,8 @@ static mlr_status rot_error(const mlr_guards *g, const double *rot, mlr_diag *di
         st = limits__rot_error(g->limits, g->n_frames, rot, diag);
     /* (a quaternion that fails the normalization is zero or not finite: one of the two) */
     return st != MLR_OK ? st
-                        : mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                       "guards apply: a rotation is zero or not finite");
+                        : common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                           "guards apply: a rotation is zero or not finite");
 }
 
 /* The reference the pinned feet follow: the input's trajectories (made at create), or those
@@ -903,7 +908,7 @@ static mlr_status apply_reference(const mlr_guards *g, const double *ref_root_po
                                       g->n_trans ? ref_trans : NULL, NULL, NULL, g->n_points,
                                       g->joints, g->end_sites, &smooth0, 1, &g->alloc, made,
                                       diag)) != MLR_OK)
-            return mlr_diag_prefix(diag, st, "guards");
+            return common__diag_prefix(diag, st, "guards");
         *ref = *made;
     } else if (g->follow) {
         *ref = denoising ? g->input_ref_raw : g->input_ref;
@@ -928,9 +933,9 @@ static int is_denoise(const double *alpha, size_t n_alpha)
 /* The diag of a step of apply that runs forward kinematics of the result (st: its failure). */
 static void fk_failure(mlr_status st, mlr_diag *diag)
 {
-    mlr_diag_set(diag, st, 0, 0, "guards apply: %s",
-                 st == MLR_E_NO_MEMORY ? "out of memory"
-                                       : "forward kinematics of the result failed");
+    common__diag_set(diag, st, 0, 0, "guards apply: %s",
+                     st == MLR_E_NO_MEMORY ? "out of memory"
+                                           : "forward kinematics of the result failed");
 }
 
 /* The cleanup's options for this apply (at most GUARDS_MAX_COPTS, in copts); returns their
@@ -1043,8 +1048,9 @@ static mlr_status normalize_masked(double *rot, const uint8_t *mask, size_t N, s
             double *q = rot + 4 * i;
             const double n2 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3];
             if (!isfinite(n2) || !(n2 > 0))
-                return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "limits: rot_in[%zu][%d] is %s",
-                                    f, (int)joints[l], isfinite(n2) ? "zero" : "not finite");
+                return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                        "limits: rot_in[%zu][%d] is %s", f, (int)joints[l],
+                                        isfinite(n2) ? "zero" : "not finite");
             const double r = sqrt(n2);
             q[0] /= r, q[1] /= r, q[2] /= r, q[3] /= r;
         }
@@ -1193,11 +1199,11 @@ static void carry_body_shift(const mlr_guards *g, const double *root_in, double 
             chain[n++] = j;
         while (n > 0) {
             const mlr_quat *q = (const mlr_quat *)(rot + 4 * (f * J + (size_t)chain[--n]));
-            mlr_quat_mul_inline(&w, q, &w);
+            common__quat_mul_inline(&w, q, &w);
         }
         const mlr_quat wc = {w.w, -w.x, -w.y, -w.z};
         double local[3];
-        mlr_quat_rotate_inline(&wc, d, local);
+        common__quat_rotate_inline(&wc, d, local);
         double *t = trans + 3 * (f * P + (size_t)g->body_trans);
         for (int k = 0; k < 3; k++) {
             t[k] += local[k];
@@ -1233,7 +1239,7 @@ static mlr_status guards_apply(const mlr_guards *g, const double *alpha, size_t 
     uint8_t *changed = limits_on ? alloc_array(&g->alloc, N * J, 1, &st) : NULL;
     int32_t *legs = limits_on ? alloc_array(&g->alloc, J, sizeof(int32_t), &st) : NULL;
     if (st != MLR_OK) {
-        mlr_diag_set(diag, st, 0, 0, "guards apply: out of memory");
+        common__diag_set(diag, st, 0, 0, "guards apply: out of memory");
         goto done;
     }
     memcpy(work_root, root_pos, 3 * N * sizeof(double));
@@ -1245,7 +1251,7 @@ static mlr_status guards_apply(const mlr_guards *g, const double *alpha, size_t 
             goto done;
         }
         if ((st = ease_limits(g, rot, work, alpha, n_alpha, counts)) != MLR_OK) {
-            mlr_diag_set(diag, st, 0, 0, "guards apply: out of memory");
+            common__diag_set(diag, st, 0, 0, "guards apply: out of memory");
             goto done;
         }
         rep.limits_applied = 1;
@@ -1289,7 +1295,7 @@ static mlr_status guards_apply(const mlr_guards *g, const double *alpha, size_t 
         if (C == 0) {
             none = alloc_array(&g->alloc, g->n_points * N, 1, &st);
             if (st != MLR_OK) {
-                mlr_diag_set(diag, st, 0, 0, "guards apply: out of memory");
+                common__diag_set(diag, st, 0, 0, "guards apply: out of memory");
                 goto done;
             }
             memset(none, 0, g->n_points * N);
@@ -1312,7 +1318,7 @@ static mlr_status guards_apply(const mlr_guards *g, const double *alpha, size_t 
             before = alloc_array(&g->alloc, n_before, sizeof(double), &st);
             if (st != MLR_OK) {
                 free_array(&g->alloc, none, g->n_points * N, 1);
-                mlr_diag_set(diag, st, 0, 0, "guards apply: out of memory");
+                common__diag_set(diag, st, 0, 0, "guards apply: out of memory");
                 goto done;
             }
         }
@@ -1321,7 +1327,7 @@ static mlr_status guards_apply(const mlr_guards *g, const double *alpha, size_t 
                              n_copts, &rep, &crep, diag);
         free_array(&g->alloc, none, g->n_points * N, 1);
         if (st != MLR_OK) {
-            mlr_diag_prefix(diag, st, "guards"); /* the cleanup's message names guards */
+            common__diag_prefix(diag, st, "guards"); /* the cleanup's message names guards */
             goto done;
         }
         rep.contact_frames = crep.contact_frames;
@@ -1423,7 +1429,7 @@ mlr_status mlr_guards_create_from(const mlr_guards_input *input, const mlr_alloc
     if (!input) {
         if (out)
             *out = NULL;
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "guards: NULL input");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "guards: NULL input");
     }
     const mlr_frames *f = &input->frames;
     return mlr_guards_create(input->rig, input->fps, f->n_frames, f->root_pos, f->rot, f->trans,
@@ -1434,14 +1440,14 @@ mlr_status mlr_guards_create_from(const mlr_guards_input *input, const mlr_alloc
 static mlr_status job_check(const mlr_guards *g, const mlr_guards_job *job, mlr_diag *diag)
 {
     if (!g || !job)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "guards job: NULL %s",
-                            g ? "job" : "handle");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "guards job: NULL %s",
+                                g ? "job" : "handle");
     const mlr_frames *r = &job->reference;
     const int any = r->root_pos || r->rot || r->trans;
     if (any ? r->n_frames != g->n_frames : r->n_frames != 0)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "guards job: job.reference.n_frames is %zu, expected %zu", r->n_frames,
-                            any ? g->n_frames : (size_t)0);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "guards job: job.reference.n_frames is %zu, expected %zu",
+                                r->n_frames, any ? g->n_frames : (size_t)0);
     return MLR_OK;
 }
 

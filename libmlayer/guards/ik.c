@@ -83,8 +83,8 @@ void ik__two_bone_1(const double a[3], const double b[3], const double c[3], con
     }
     const double l1 = norm3(ab), l2 = norm3(bc), d_now = norm3(ac);
     double d = norm3(at);
-    const double hi = mlr_fmax(max_ext * (l1 + l2), d_now);
-    d = mlr_fmin(d, hi);
+    const double hi = common__fmax(max_ext * (l1 + l2), d_now);
+    d = common__fmin(d, hi);
     double n[3], bcu[3] = {bc[0], bc[1], bc[2]};
     if (axis)
         n[0] = axis[0], n[1] = axis[1], n[2] = axis[2];
@@ -95,7 +95,7 @@ void ik__two_bone_1(const double a[3], const double b[3], const double c[3], con
     const double p = dot3(n, bcu);
     for (int k = 0; k < 3; k++)
         n[k] -= p * bcu[k];
-    const double small = 1e-9 * mlr_fmax(l1 * l2, IK_EPS);
+    const double small = 1e-9 * common__fmax(l1 * l2, IK_EPS);
     double nn = norm3(n);
     if (nn <= small) { /* hinge along the shin: the leg's own plane, or any axis */
         cross3(bc, mab, n);
@@ -112,7 +112,7 @@ void ik__two_bone_1(const double a[3], const double b[3], const double c[3], con
     cross3(n, bc, w);
     const double K = l1 * l1 + l2 * l2, P = dot3(ab, bc), Q = dot3(ab, w);
     const double A = sqrt(P * P + Q * Q);
-    double cosb = (d * d - K) / mlr_fmax(2.0 * A, IK_EPS);
+    double cosb = (d * d - K) / common__fmax(2.0 * A, IK_EPS);
     cosb = cosb < -1.0 ? -1.0 : cosb > 1.0 ? 1.0 : cosb;
     /* the forward-bent solution phi = phi0 + acos(cosb), phi0 = atan2(Q, P), as its cosine
        and sine (the angle sum) and the knee's half angle in [-pi/2, pi/2] from them (the
@@ -135,14 +135,14 @@ void ik__two_bone_1(const double a[3], const double b[3], const double c[3], con
     ik__from_to_1(c1a, at, r_hip);
 }
 
-/* mlr_fmax and mlr_fmin (the same values) without control flow, for the vectorized loop. */
+/* common__fmax and common__fmin (the same values) without control flow, for the vectorized loop. */
 static inline double lane_max(double a, double b)
 {
-    return mlr_select_bits((a > b) | (b != b), a, b);
+    return common__select_bits((a > b) | (b != b), a, b);
 }
 static inline double lane_min(double a, double b)
 {
-    return mlr_select_bits((a < b) | (b != b), a, b);
+    return common__select_bits((a < b) | (b != b), a, b);
 }
 
 MLR_CLONES("avx2")
@@ -169,7 +169,7 @@ void ik__two_bone_lanes(mlr_ik_lanes *L, size_t m, int have_axis, double max_ext
         double n[3] = {L->axis[0][i], L->axis[1][i], L->axis[2][i]}, bcu[3];
         const int by_l2 = l2 > IK_EPS;
         for (int k = 0; k < 3; k++)
-            bcu[k] = mlr_select_bits(by_l2, bc[k] / l2, bc[k]);
+            bcu[k] = common__select_bits(by_l2, bc[k] / l2, bc[k]);
         const double p = dot3(n, bcu);
         for (int k = 0; k < 3; k++)
             n[k] -= p * bcu[k];
@@ -177,23 +177,24 @@ void ik__two_bone_lanes(mlr_ik_lanes *L, size_t m, int have_axis, double max_ext
         const double nn = norm3(n);
         const int by_nn = nn > IK_EPS;
         for (int k = 0; k < 3; k++)
-            n[k] = mlr_select_bits(by_nn, n[k] / nn, n[k]);
+            n[k] = common__select_bits(by_nn, n[k] / nn, n[k]);
         double w[3];
         cross3(n, bc, w);
         const double K = l1 * l1 + l2 * l2, P = dot3(ab, bc), Q = dot3(ab, w);
         const double A = sqrt(P * P + Q * Q);
         const double cosr = (d * d - K) / lane_max(2.0 * A, IK_EPS);
         const double cosb =
-            mlr_select_bits(cosr < -1.0, -1.0, mlr_select_bits(cosr > 1.0, 1.0, cosr));
+            common__select_bits(cosr < -1.0, -1.0, common__select_bits(cosr > 1.0, 1.0, cosr));
         const int pos_a = A > 0.0;
-        const double c0 = mlr_select_bits(pos_a, P / A, 1.0),
-                     s0 = mlr_select_bits(pos_a, Q / A, 0.0);
+        const double c0 = common__select_bits(pos_a, P / A, 1.0),
+                     s0 = common__select_bits(pos_a, Q / A, 0.0);
         const double sb = sqrt((1.0 - cosb) * (1.0 + cosb));
         const double cp = c0 * cosb - s0 * sb, sp = s0 * cosb + c0 * sb;
         const double ch1 = sqrt(0.5 * (1.0 + cp)), sh1 = sp / (2.0 * ch1);
         const double sh2 = copysign(sqrt(0.5 * (1.0 - cp)), sp), ch2 = sp / (2.0 * sh2);
         const int front = cp >= 0.0;
-        const double ch = mlr_select_bits(front, ch1, ch2), sh = mlr_select_bits(front, sh1, sh2);
+        const double ch = common__select_bits(front, ch1, ch2),
+                     sh = common__select_bits(front, sh1, sh2);
         L->r_knee[0][i] = ch, L->r_knee[1][i] = sh * n[0], L->r_knee[2][i] = sh * n[1],
         L->r_knee[3][i] = sh * n[2];
         /* ik__from_to_1(b + cp bc + sp w - a, at) on its fast path */
@@ -226,16 +227,16 @@ mlr_status mlr_ik_two_bone(size_t n, const double *hip, const double *knee, cons
                            double *r_hip, double *r_knee, mlr_diag *diag)
 {
     if (n && (!hip || !knee || !end || !target || !r_hip || !r_knee))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "two_bone: NULL array");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "two_bone: NULL array");
     if (!(max_extension > 0.0 && max_extension <= 1.0))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "two_bone: max_extension %g outside (0, 1]", max_extension);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "two_bone: max_extension %g outside (0, 1]", max_extension);
     const double *arrs[5] = {hip, knee, end, target, bend_axis};
     const char *names[5] = {"hip", "knee", "end", "target", "bend_axis"};
     for (int i = 0; i < 5; i++)
         if (arrs[i] && !all_finite(arrs[i], 3 * n))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "two_bone: %s contains NaN or infinite values", names[i]);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "two_bone: %s contains NaN or infinite values", names[i]);
     /* by batches of MLR_IK_LANES frames (the same bits as frame by frame) */
     mlr_ik_lanes L;
     for (size_t f0 = 0; f0 < n; f0 += MLR_IK_LANES) {
@@ -287,22 +288,22 @@ mlr_status mlr_ik_leg_chain(const mlr_rig *rig, int32_t end, int32_t *hip, int32
     if (st != MLR_OK)
         return st;
     if (!hip || !knee)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "leg_chain: NULL output");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "leg_chain: NULL output");
     if (end < 0 || (size_t)end >= rig->n_joints)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "leg_chain: joint %d outside [0, %zu)",
-                            (int)end, rig->n_joints);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "leg_chain: joint %d outside [0, %zu)", (int)end, rig->n_joints);
     const int32_t k = bone_parent(rig, end);
     const int32_t h = k >= 0 ? bone_parent(rig, k) : -1;
     if (k < 0 || h < 0) {
         if (rig->names && rig->names[end])
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "joint '%.60s' has no two-bone chain above it (needs two "
-                                "ancestors at non-zero distances: a hip and a knee)",
-                                rig->names[end]);
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "joint %d has no two-bone chain above it (needs two ancestors at "
-                            "non-zero distances: a hip and a knee)",
-                            (int)end);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "joint '%.60s' has no two-bone chain above it (needs two "
+                                    "ancestors at non-zero distances: a hip and a knee)",
+                                    rig->names[end]);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "joint %d has no two-bone chain above it (needs two ancestors at "
+                                "non-zero distances: a hip and a knee)",
+                                (int)end);
     }
     *hip = h, *knee = k;
     return MLR_OK;
@@ -335,17 +336,17 @@ mlr_status mlr_ik_bend_axis_local(size_t n, size_t J, const double *pos, const d
                                   mlr_diag *diag)
 {
     if (!axis || (n && (!pos || !wrot)))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "bend_axis_local: %s is NULL",
-                            !axis  ? "axis"
-                            : !pos ? "world_pos"
-                                   : "world_rot");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "bend_axis_local: %s is NULL",
+                                !axis  ? "axis"
+                                : !pos ? "world_pos"
+                                       : "world_rot");
     const int32_t joint[3] = {hip, knee, end};
     static const char *const role[3] = {"hip", "knee", "end"};
     for (int r = 0; r < 3; r++)
         if (joint[r] < 0 || (size_t)joint[r] >= J)
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "bend_axis_local: %s joint %d outside [0, %zu)", role[r],
-                                (int)joint[r], J);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "bend_axis_local: %s joint %d outside [0, %zu)", role[r],
+                                    (int)joint[r], J);
     /* each frame's term by blocks (vectorized), summed in frame order */
     double s[3] = {0.0, 0.0, 0.0}, l[3 * BEND_BLOCK];
     for (size_t f0 = 0; f0 < n; f0 += BEND_BLOCK) {
@@ -364,10 +365,11 @@ mlr_status mlr_ik_bend_axis_local(size_t n, size_t J, const double *pos, const d
 static mlr_status check_joint(size_t J, const int32_t *parents, int32_t j, mlr_diag *diag)
 {
     if (j < 0 || (size_t)j >= J)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "joint %d outside [0, %zu)", (int)j, J);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "joint %d outside [0, %zu)", (int)j,
+                                J);
     if ((j == 0 && parents[0] != -1) || (j > 0 && (parents[j] < 0 || parents[j] >= j)))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "joint %d: bad parent %d", (int)j,
-                            (int)parents[j]);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "joint %d: bad parent %d", (int)j,
+                                (int)parents[j]);
     return MLR_OK;
 }
 
@@ -376,7 +378,7 @@ mlr_status mlr_ik_rotate_to(size_t n, size_t J, const int32_t *parents, double *
                             mlr_diag *diag)
 {
     if (!parents || (n && (!rot || !wrot || !r_world)))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "rotate_to: NULL array");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "rotate_to: NULL array");
     mlr_status st = check_joint(J, parents, joint, diag);
     if (st != MLR_OK)
         return st;
@@ -394,19 +396,19 @@ mlr_status mlr_ik_apply_leg(size_t n, size_t J, const int32_t *parents, double *
                             mlr_diag *diag)
 {
     if (!parents || (n && (!rot || !pos || !wrot || !target)))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "apply_leg: NULL array");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "apply_leg: NULL array");
     mlr_status st;
     if ((st = check_joint(J, parents, hip, diag)) != MLR_OK ||
         (st = check_joint(J, parents, knee, diag)) != MLR_OK ||
         (st = check_joint(J, parents, end, diag)) != MLR_OK)
         return st;
     if (!(hip < knee && knee < end))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "apply_leg: (%d, %d, %d) is not a hip, knee, end chain", (int)hip,
-                            (int)knee, (int)end);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "apply_leg: (%d, %d, %d) is not a hip, knee, end chain", (int)hip,
+                                (int)knee, (int)end);
     if (!all_finite(target, 3 * n) || (bend_axis && !all_finite(bend_axis, 3 * n)))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "apply_leg: target or bend_axis contains NaN or infinite values");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "apply_leg: target or bend_axis contains NaN or infinite values");
     double local[3] = {0.0, 0.0, 0.0};
     int have_local = 0;
     if (!bend_axis) {

@@ -162,10 +162,10 @@ mlr_status legs_swivel__apply(const mlr_rig *rig, size_t N, double fps, int up, 
     /* scratch: the input's positions, the motion's positions and world rotations, the turns
        (positive and negative parts, eased copies, the running maximum's), the kernel */
     size_t nd = 0, bytes = 0;
-    if (mlr_mul_size(N, 14 * J + 8, &nd) != MLR_OK ||
-        mlr_mul_size(nd + r + 3, sizeof(double), &bytes) != MLR_OK)
+    if (common__mul_size(N, 14 * J + 8, &nd) != MLR_OK ||
+        common__mul_size(nd + r + 3, sizeof(double), &bytes) != MLR_OK)
         return MLR_E_OVERFLOW;
-    double *buf = mlr_alloc(alloc, bytes);
+    double *buf = common__alloc(alloc, bytes);
     if (!buf)
         return MLR_E_NO_MEMORY;
     double *pos_in = buf, *wrot_in = pos_in + 3 * N * J, *pos = wrot_in + 4 * N * J,
@@ -278,6 +278,6 @@ mlr_status legs_swivel__apply(const mlr_rig *rig, size_t N, double fps, int up, 
     if (turned)
         *turned = n_turned;
 done:
-    mlr_free(alloc, buf, bytes);
+    common__free(alloc, buf, bytes);
     return st;
 }

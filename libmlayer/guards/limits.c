@@ -36,14 +36,14 @@ static mlr_quat qconj(mlr_quat q)
 static mlr_quat qmul(mlr_quat a, mlr_quat b)
 {
     mlr_quat c;
-    mlr_quat_mul_inline(&a, &b, &c);
+    common__quat_mul_inline(&a, &b, &c);
     return c;
 }
 static mlr_vec3 qrot(mlr_quat q, mlr_vec3 v)
 {
     const double vv[3] = {v.x, v.y, v.z};
     double o[3];
-    mlr_quat_rotate_inline(&q, vv, o);
+    common__quat_rotate_inline(&q, vv, o);
     return (mlr_vec3){o[0], o[1], o[2]};
 }
 /* Rotation by angle about the unit axis n. */
@@ -63,7 +63,7 @@ static inline void hinge_pair(double w, double ux, double uy, double uz, mlr_vec
     const mlr_quat q = {w, ux, uy, uz};
     const double vv[3] = {v.x, v.y, v.z};
     double s[3];
-    mlr_quat_rotate_inline(&q, vv, s);
+    common__quat_rotate_inline(&q, vv, s);
     const double cx = a.y * s[2] - a.z * s[1], cy = a.z * s[0] - a.x * s[2],
                  cz = a.x * s[1] - a.y * s[0];
     *y = n.x * cx + n.y * cy + n.z * cz;
@@ -92,11 +92,12 @@ static inline mlr_quat st_swing(double w, double x, double y, double z, double t
                                 double tz, double p, double tn)
 {
     const int ok = tn > 1e-300;
-    const double d = mlr_select_bits(ok, tn, 1.0);
-    const double tww = mlr_select_bits(ok, w / d, 1.0), twx = mlr_select_bits(ok, p * tx / d, 0.0),
-                 twy = mlr_select_bits(ok, p * ty / d, 0.0),
-                 twz = mlr_select_bits(ok, p * tz / d, 0.0);
-    mlr_quat sq = mlr_qmul_wxyz(w, x, y, z, tww, -twx, -twy, -twz);
+    const double d = common__select_bits(ok, tn, 1.0);
+    const double tww = common__select_bits(ok, w / d, 1.0),
+                 twx = common__select_bits(ok, p * tx / d, 0.0),
+                 twy = common__select_bits(ok, p * ty / d, 0.0),
+                 twz = common__select_bits(ok, p * tz / d, 0.0);
+    mlr_quat sq = common__qmul_wxyz(w, x, y, z, tww, -twx, -twy, -twz);
     if (sq.w < 0)
         sq.w = -sq.w, sq.x = -sq.x, sq.y = -sq.y, sq.z = -sq.z;
     return sq;
@@ -204,26 +205,26 @@ static mlr_status check_clips(const mlr_rig *rig, const mlr_limits_clip *clips, 
 {
     const size_t J = rig->n_joints, P = rig->n_trans;
     if (!clips || n_clips == 0)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "limits: no clips");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "limits: no clips");
     for (size_t k = 0; k < n_clips; k++) {
         const mlr_limits_clip *c = &clips[k];
         if (c->n_frames == 0 || !c->rot)
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "limits: clip %zu has %s", k,
-                                c->rot ? "no frames" : "rot NULL");
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "limits: clip %zu has %s", k,
+                                    c->rot ? "no frames" : "rot NULL");
         size_t nq;
-        if (mlr_mul_size(c->n_frames, J, &nq) != MLR_OK || nq > SIZE_MAX / 4)
-            return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "limits: clip %zu too large", k);
+        if (common__mul_size(c->n_frames, J, &nq) != MLR_OK || nq > SIZE_MAX / 4)
+            return common__diag_set(diag, MLR_E_OVERFLOW, 0, 0, "limits: clip %zu too large", k);
         const size_t i = quats_unit ? nq : first_bad_quat(c->rot, nq);
         if (i < nq)
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "limits: clip %zu rot[%zu][%zu] is %s", k, i / J, i % J,
-                                quat_finite(c->rot + 4 * i) ? "zero" : "not finite");
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "limits: clip %zu rot[%zu][%zu] is %s", k, i / J, i % J,
+                                    quat_finite(c->rot + 4 * i) ? "zero" : "not finite");
         if (c->trans && P > 0)
             for (size_t i = 0; i < c->n_frames * P * 3; i++)
                 if (!isfinite(c->trans[i]))
-                    return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                        "limits: clip %zu trans[%zu][%zu] is not finite", k,
-                                        i / (3 * P), (i / 3) % P);
+                    return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                            "limits: clip %zu trans[%zu][%zu] is not finite", k,
+                                            i / (3 * P), (i / 3) % P);
     }
     return MLR_OK;
 }
@@ -444,7 +445,7 @@ static void centres_block(const double *p, size_t stride, size_t m, int unit, co
     for (size_t i = 0; i < m; i++) {
         const mlr_quat q = {qw[i], qx[i], qy[i], qz[i]};
         double o[3];
-        mlr_quat_rotate_inline(&q, v, o);
+        common__quat_rotate_inline(&q, v, o);
         xs[i] = ay * o[2] - az * o[1];
         xs[EXT_FB + i] = az * o[0] - ax * o[2];
         xs[2 * EXT_FB + i] = ax * o[1] - ay * o[0];
@@ -509,7 +510,7 @@ static void extents_block(const double *p, size_t stride, size_t m, int unit, ml
     double qw[EXT_FB], qx[EXT_FB], qy[EXT_FB], qz[EXT_FB];
     load_unit(p, stride, m, unit, qw, qx, qy, qz);
     for (size_t i = 0; i < m; i++) {
-        const mlr_quat r = mlr_qmul_wxyz(aw, ax, ay, az, qw[i], qx[i], qy[i], qz[i]);
+        const mlr_quat r = common__qmul_wxyz(aw, ax, ay, az, qw[i], qx[i], qy[i], qz[i]);
         const double w = r.w, x = r.x, y = r.y, z = r.z;
         const int neg = w < 0;
         rw[i] = neg ? -w : w, rx[i] = neg ? -x : x, ry[i] = neg ? -y : y, rz[i] = neg ? -z : z;
@@ -552,7 +553,7 @@ static void cand_block(const double *restrict p, size_t stride, size_t m, int un
         const double bw = qw[i], bx = qx[i], by = qy[i], bz = qz[i];
         hinge_pair(bw, bx, by, bz, v, a, n, an, &hy[i], &hx[i]);
         /* r = conj(centre) q, r.w >= 0 */
-        const mlr_quat r = mlr_qmul_wxyz(aw, ax, ay, az, bw, bx, by, bz);
+        const mlr_quat r = common__qmul_wxyz(aw, ax, ay, az, bw, bx, by, bz);
         double w = r.w, x = r.x, y = r.y, z = r.z;
         const int neg = w < 0;
         w = neg ? -w : w, x = neg ? -x : x, y = neg ? -y : y, z = neg ? -z : z;
@@ -787,7 +788,7 @@ static mlr_status create_limits(const mlr_rig *rig, const mlr_limits_clip *clips
     if (out)
         *out = NULL;
     if (!out)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "limits: out is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "limits: out is NULL");
     mlr_status st = mlr_rig_check(rig, diag);
     if (st != MLR_OK)
         return st;
@@ -798,25 +799,25 @@ static mlr_status create_limits(const mlr_rig *rig, const mlr_limits_clip *clips
         return st;
     const size_t J = rig->n_joints;
     mlr_allocator a;
-    mlr_allocator_resolve(alloc, &a);
+    common__allocator_resolve(alloc, &a);
     size_t jbytes, sbytes;
-    if (mlr_mul_size(J, sizeof(mlr_limits_joint), &jbytes) != MLR_OK ||
-        mlr_mul_size(J, sizeof(acc) + 3 * sizeof(int32_t), &sbytes) != MLR_OK)
-        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "limits: too many joints");
-    mlr_limits *lim = mlr_alloc(&a, sizeof *lim);
+    if (common__mul_size(J, sizeof(mlr_limits_joint), &jbytes) != MLR_OK ||
+        common__mul_size(J, sizeof(acc) + 3 * sizeof(int32_t), &sbytes) != MLR_OK)
+        return common__diag_set(diag, MLR_E_OVERFLOW, 0, 0, "limits: too many joints");
+    mlr_limits *lim = common__alloc(&a, sizeof *lim);
     if (!lim)
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "limits: out of memory");
+        return common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "limits: out of memory");
     memset(lim, 0, sizeof *lim);
     lim->alloc = a;
     lim->n_joints = J;
     lim->soft = o.soft;
     lim->rev_soft = o.rev_soft;
-    lim->joints = mlr_alloc(&a, jbytes);
-    void *scratch = mlr_alloc(&a, sbytes);
+    lim->joints = common__alloc(&a, jbytes);
+    void *scratch = common__alloc(&a, sbytes);
     if (!lim->joints || !scratch) {
-        mlr_free(&a, scratch, sbytes);
+        common__free(&a, scratch, sbytes);
         mlr_limits_destroy(lim);
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "limits: out of memory");
+        return common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "limits: out of memory");
     }
     memset(lim->joints, 0, jbytes);
     memset(scratch, 0, sbytes);
@@ -829,7 +830,7 @@ static mlr_status create_limits(const mlr_rig *rig, const mlr_limits_clip *clips
     measure_extents(&L);
     lim->human = find_hinges(&L, o.human);
     set_ranges(&L, lim, &o);
-    mlr_free(&a, scratch, sbytes);
+    common__free(&a, scratch, sbytes);
     *out = lim;
     return MLR_OK;
 }
@@ -865,11 +866,11 @@ mlr_status mlr_limits_set_range(mlr_limits *lim, size_t joint, const mlr_limits_
                                 mlr_diag *diag)
 {
     if (!lim || !range)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "limits: %s is NULL",
-                            lim ? "range" : "limits");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "limits: %s is NULL",
+                                lim ? "range" : "limits");
     if (joint >= lim->n_joints)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "limits: joint %zu out of range (J = %zu)", joint, lim->n_joints);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "limits: joint %zu out of range (J = %zu)", joint, lim->n_joints);
     mlr_limits_joint *g = &lim->joints[joint];
     mlr_limits_range r = *range;
     switch (r.kind) {
@@ -877,25 +878,25 @@ mlr_status mlr_limits_set_range(mlr_limits *lim, size_t joint, const mlr_limits_
         break;
     case MLR_LIMITS_HINGE:
         if (!(norm3(g->axis) > 0) || !(norm3(g->bone_out) > 0))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "limits: joint %zu has no thigh and shin vectors for a hinge",
-                                joint);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "limits: joint %zu has no thigh and shin vectors for a hinge",
+                                    joint);
         if (!isfinite(r.lo) || !isfinite(r.hi) || !(r.lo > -PI) || !(r.hi <= PI) || !(r.lo < r.hi))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "limits: joint %zu hinge range [%g, %g] must satisfy "
-                                "-pi < lo < hi <= pi",
-                                joint, r.lo, r.hi);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "limits: joint %zu hinge range [%g, %g] must satisfy "
+                                    "-pi < lo < hi <= pi",
+                                    joint, r.lo, r.hi);
         break;
     case MLR_LIMITS_SWING_TWIST:
         if (!isfinite(r.swing) || !isfinite(r.twist) || !(r.swing > 0) || !(r.swing <= PI) ||
             !(r.twist > 0) || !(r.twist <= PI))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "limits: joint %zu swing %g and twist %g must be in (0, pi]",
-                                joint, r.swing, r.twist);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "limits: joint %zu swing %g and twist %g must be in (0, pi]",
+                                    joint, r.swing, r.twist);
         break;
     default:
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "limits: joint %zu unknown kind %d",
-                            joint, r.kind);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "limits: joint %zu unknown kind %d",
+                                joint, r.kind);
     }
     r.widen = r.widen != 0;
     r.source = MLR_LIMITS_SOURCE_USER;
@@ -929,8 +930,8 @@ void mlr_limits_destroy(mlr_limits *lim)
         return;
     mlr_allocator a = lim->alloc;
     if (lim->joints)
-        mlr_free(&a, lim->joints, lim->n_joints * sizeof(mlr_limits_joint));
-    mlr_free(&a, lim, sizeof *lim);
+        common__free(&a, lim->joints, lim->n_joints * sizeof(mlr_limits_joint));
+    common__free(&a, lim, sizeof *lim);
 }
 
 /* ---------------------------------------------------------------------------------------- */
@@ -1231,7 +1232,7 @@ static void inside_block(const mlr_quat *restrict q, size_t stride, size_t m,
     const double aw = b->cc.w, ax = b->cc.x, ay = b->cc.y, az = b->cc.z, fast = b->fast;
     for (size_t i = 0; i < m; i++) {
         const mlr_quat *p = q + stride * i;
-        const mlr_quat r = mlr_qmul_wxyz(aw, ax, ay, az, p->w, p->x, p->y, p->z);
+        const mlr_quat r = common__qmul_wxyz(aw, ax, ay, az, p->w, p->x, p->y, p->z);
         inside[i] = r.x * r.x + r.y * r.y + r.z * r.z < fast;
     }
 }
@@ -1388,8 +1389,8 @@ mlr_status limits__rot_error(const mlr_limits *lim, size_t n_frames, const doubl
     const size_t J = lim->n_joints, nq = J * n_frames, bad = first_bad_quat(rot, nq);
     if (bad == nq)
         return MLR_OK;
-    return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "limits: rot_in[%zu][%zu] is %s", bad / J,
-                        bad % J, quat_finite(rot + 4 * bad) ? "zero" : "not finite");
+    return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "limits: rot_in[%zu][%zu] is %s",
+                            bad / J, bad % J, quat_finite(rot + 4 * bad) ? "zero" : "not finite");
 }
 
 mlr_status mlr_limits_apply(const mlr_limits *lim, size_t n_frames, const double *rot_in,
@@ -1397,22 +1398,22 @@ mlr_status mlr_limits_apply(const mlr_limits *lim, size_t n_frames, const double
                             size_t n_counts, mlr_diag *diag)
 {
     if (!lim)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "limits: limits is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "limits: limits is NULL");
     const size_t J = lim->n_joints;
     if (n_frames > 0 && (!rot_in || !rot_out))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "limits: rot_%s is NULL",
-                            rot_in ? "out" : "in");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "limits: rot_%s is NULL",
+                                rot_in ? "out" : "in");
     if (!(n_alpha == 0 && !alpha) && !(alpha && (n_alpha == 1 || n_alpha == 1 + J)))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "limits: alpha must have 1 or 1 + J = %zu values, got %zu", 1 + J,
-                            alpha ? n_alpha : 0);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "limits: alpha must have 1 or 1 + J = %zu values, got %zu", 1 + J,
+                                alpha ? n_alpha : 0);
     for (size_t i = 0; i < n_alpha; i++)
         if (!isfinite(alpha[i]))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "limits: alpha[%zu] is not finite",
-                                i);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "limits: alpha[%zu] is not finite", i);
     if (counts && n_counts != J)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "limits: counts must have J = %zu values, got %zu", J, n_counts);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "limits: counts must have J = %zu values, got %zu", J, n_counts);
     if (counts)
         memset(counts, 0, J * sizeof *counts);
     mlr_status st = limits__rot_error(lim, n_frames, rot_in, diag);

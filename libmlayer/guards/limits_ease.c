@@ -130,9 +130,9 @@ mlr_status limits__ease(const double *raw, double *lim, size_t N, size_t J, doub
     if (!(sigma > 0) || r == 0)
         return MLR_OK;
     size_t bytes = 0;
-    if (mlr_mul_size(9 * N + r + 1, sizeof(double), &bytes) != MLR_OK)
+    if (common__mul_size(9 * N + r + 1, sizeof(double), &bytes) != MLR_OK)
         return MLR_E_OVERFLOW;
-    double *buf = mlr_alloc(alloc, bytes);
+    double *buf = common__alloc(alloc, bytes);
     if (!buf)
         return MLR_E_NO_MEMORY;
     ease_work w = {buf, buf + 3 * N, buf + 6 * N, buf + 7 * N, buf + 8 * N, buf + 9 * N, r};
@@ -157,6 +157,6 @@ mlr_status limits__ease(const double *raw, double *lim, size_t N, size_t J, doub
                 b[i] = sg * q[i];
         }
     }
-    mlr_free(alloc, buf, bytes);
+    common__free(alloc, buf, bytes);
     return MLR_OK;
 }

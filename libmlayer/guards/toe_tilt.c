@@ -50,14 +50,14 @@ mlr_status toe_tilt__apply(const mlr_rig *rig, size_t N, double fps, int up, dou
     /* scratch: two forward kinematics, a tip's raw and eased angles, the running maximum's,
        the kernel; a flag per joint */
     size_t nd = 0, bytes = 0;
-    if (mlr_mul_size(N, 14 * J + 3, &nd) != MLR_OK ||
-        mlr_mul_size(nd + r + 1, sizeof(double), &bytes) != MLR_OK)
+    if (common__mul_size(N, 14 * J + 3, &nd) != MLR_OK ||
+        common__mul_size(nd + r + 1, sizeof(double), &bytes) != MLR_OK)
         return MLR_E_OVERFLOW;
-    double *buf = mlr_alloc(alloc, bytes);
-    uint8_t *flag = mlr_alloc(alloc, J);
+    double *buf = common__alloc(alloc, bytes);
+    uint8_t *flag = common__alloc(alloc, J);
     if (!buf || !flag) {
-        mlr_free(alloc, buf, bytes);
-        mlr_free(alloc, flag, J);
+        common__free(alloc, buf, bytes);
+        common__free(alloc, flag, J);
         return MLR_E_NO_MEMORY;
     }
     double *pos_in = buf, *wrot_in = pos_in + 3 * N * J, *pos = wrot_in + 4 * N * J,
@@ -90,16 +90,16 @@ mlr_status toe_tilt__apply(const mlr_rig *rig, size_t N, double fps, int up, dou
         for (size_t f = 0; f < N; f++) {
             double d[3];
             const double lim =
-                mlr_fmin(floor, tip_height(rig, J, pos_in, wrot_in, f, j, e, up, d));
+                common__fmin(floor, tip_height(rig, J, pos_in, wrot_in, f, j, e, up, d));
             const double y = tip_height(rig, J, pos, wrot, f, j, e, up, d);
             th[f] = 0.0;
             if (!(y < lim - slack))
                 continue;
             /* the bone's pitch now and the one that puts the tip at lim - slack / 2 */
             const double h = d[up], rise = lim - 0.5 * slack - y;
-            const double s0 = mlr_fmax(-1.0, mlr_fmin(1.0, h / len));
-            const double s1 = mlr_fmax(-1.0, mlr_fmin(1.0, (h + rise) / len));
-            th[f] = mlr_fmin(TOE_TILT_MAX, asin(s1) - asin(s0));
+            const double s0 = common__fmax(-1.0, common__fmin(1.0, h / len));
+            const double s1 = common__fmax(-1.0, common__fmin(1.0, (h + rise) / len));
+            th[f] = common__fmin(TOE_TILT_MAX, asin(s1) - asin(s0));
             any = 1;
         }
         if (!any)
@@ -133,7 +133,7 @@ mlr_status toe_tilt__apply(const mlr_rig *rig, size_t N, double fps, int up, dou
     if (tilted)
         *tilted = n_tilted;
 done:
-    mlr_free(alloc, buf, bytes);
-    mlr_free(alloc, flag, J);
+    common__free(alloc, buf, bytes);
+    common__free(alloc, flag, J);
     return st;
 }

@@ -54,7 +54,7 @@ static inline const uint32_t *gather_translations(const bvh_conv *cv, const doub
 }
 
 /* Portable: gathers, sines and cosines of the half-angles, and q = q_i(a0) q_j(a1) q_k(a2) in
- * the same operations as mlr_quat_from_euler_half. */
+ * the same operations as common__quat_from_euler_half. */
 #if defined(__GNUC__)
 __attribute__((always_inline))
 #endif

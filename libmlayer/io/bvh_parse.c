@@ -11,14 +11,14 @@ static void *vec_push(vec *v, const mlr_allocator *a)
 {
     if (v->len == v->cap) {
         size_t cap = v->cap ? v->cap * 2 : 16, bytes;
-        if (cap < v->cap || mlr_mul_size(cap, v->elsize, &bytes) != MLR_OK)
+        if (cap < v->cap || common__mul_size(cap, v->elsize, &bytes) != MLR_OK)
             return NULL;
-        unsigned char *d = mlr_alloc(a, bytes);
+        unsigned char *d = common__alloc(a, bytes);
         if (!d)
             return NULL;
         if (v->len)
             memcpy(d, v->data, v->len * v->elsize);
-        mlr_free(a, v->data, v->cap * v->elsize);
+        common__free(a, v->data, v->cap * v->elsize);
         v->data = d;
         v->cap = cap;
     }
@@ -27,7 +27,7 @@ static void *vec_push(vec *v, const mlr_allocator *a)
 
 void bvh__vec_free(vec *v, const mlr_allocator *a)
 {
-    mlr_free(a, v->data, v->cap * v->elsize);
+    common__free(a, v->data, v->cap * v->elsize);
     v->data = NULL;
     v->len = v->cap = 0;
 }

@@ -117,7 +117,7 @@ static mlr_status read_frames(parser *ps, size_t n_threads, int kernels, size_t 
         s = bvh__parse_frames(ps, &pl, scratch, T);
     if (!ps->strict)
         s = bvh__lenient_tail(ps, &pl, scratch, mp, s);
-    mlr_free(&ps->a, block, bytes);
+    common__free(&ps->a, block, bytes);
     return s;
 }
 
@@ -184,17 +184,17 @@ static mlr_status bvh_read(const char *text, size_t len, size_t n_threads, int k
     if (warnings)
         warnings->count = 0;
     if (!out)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "out is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "out is NULL");
     *out = NULL;
     if (!text && len)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "text is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "text is NULL");
     if (diag) {
         diag->line = diag->column = 0;
         diag->message[0] = '\0';
     }
     parser ps;
     memset(&ps, 0, sizeof ps);
-    mlr_allocator_resolve(alloc, &ps.a);
+    common__allocator_resolve(alloc, &ps.a);
     ps.begin = ps.p = text ? text : "";
     ps.end = ps.p + len;
     ps.line_start = ps.p;
@@ -214,7 +214,7 @@ static mlr_status bvh_read(const char *text, size_t len, size_t n_threads, int k
     bvh__vec_free(&ps.ends, &ps.a);
     bvh__vec_free(&ps.names, &ps.a);
     if (s == MLR_E_NO_MEMORY || s == MLR_E_OVERFLOW)
-        mlr_diag_set(diag, s, 0, 0, "bvh read: %s", mlr_status_string(s));
+        common__diag_set(diag, s, 0, 0, "bvh read: %s", mlr_status_string(s));
     if (s != MLR_OK && warnings)
         warnings->count = 0;
     return s;
@@ -281,22 +281,22 @@ static mlr_status read_file(const char *path, size_t n_threads, const read_mode 
     if (warnings)
         warnings->count = 0;
     if (!out)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "out is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "out is NULL");
     *out = NULL;
     if (!path)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "path is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "path is NULL");
     mlr_allocator a;
-    mlr_allocator_resolve(alloc, &a);
+    common__allocator_resolve(alloc, &a);
     char *buf;
     size_t len, cap;
     /* a large file is read in parallel chunks (n_threads permitting), then parsed */
     mlr_status s = file_read__read(path, n_threads, &a, &buf, &len, &cap, diag);
     if (s == MLR_E_NO_MEMORY || s == MLR_E_OVERFLOW)
-        return mlr_diag_prefix(diag, s, "bvh read");
+        return common__diag_prefix(diag, s, "bvh read");
     if (s != MLR_OK)
         return s;
     s = bvh_read(buf, len, n_threads, BVH_KERNELS_BEST, mode, &a, out, warnings, diag);
-    mlr_free(&a, buf, cap);
+    common__free(&a, buf, cap);
     return s;
 }
 

@@ -168,7 +168,7 @@ mlr_status bvh__parse_frames(parser *ps, const frames_plan *pl, const bvh_scratc
     size_t K = len / FRAMES_CHUNK;
     K = K < T ? T : K > 16 * T ? 16 * T : K;
     const size_t bytes = K * sizeof(frames_task) + _Alignof(frames_task);
-    unsigned char *block = mlr_alloc(&ps->a, bytes);
+    unsigned char *block = common__alloc(&ps->a, bytes);
     if (!block)
         return MLR_E_NO_MEMORY;
     frames_task *tasks =
@@ -202,7 +202,7 @@ mlr_status bvh__parse_frames(parser *ps, const frames_plan *pl, const bvh_scratc
         ps->line_start = tasks[k].ps.line_start;
         ps->line += tasks[k].ps.line - 1;
     }
-    mlr_free(&ps->a, block, bytes);
+    common__free(&ps->a, block, bytes);
     return s;
 }
 
@@ -240,10 +240,10 @@ mlr_status bvh__frames_setup(parser *ps, mlr_motion *m, size_t T, frames_plan *p
     const size_t per = row_b + tmp_b + ends_b;
     const size_t shared = Jp * sizeof(double) + n_src * sizeof(uint32_t) + 4 * Jp + 64;
     size_t total;
-    if (mlr_mul_size(per, T, &total) != MLR_OK || total > SIZE_MAX - shared - SCRATCH_ALIGN)
+    if (common__mul_size(per, T, &total) != MLR_OK || total > SIZE_MAX - shared - SCRATCH_ALIGN)
         return MLR_E_OVERFLOW;
     total += shared + SCRATCH_ALIGN;
-    unsigned char *b = mlr_alloc(&ps->a, total);
+    unsigned char *b = common__alloc(&ps->a, total);
     if (!b)
         return MLR_E_NO_MEMORY;
     *block = b;

@@ -212,27 +212,28 @@ static mlr_status check_writable(const mlr_motion *m, mlr_diag *diag)
     const size_t J = m->n_joints, N = m->n_frames, P = m->n_trans, E = m->n_end;
     size_t i;
     if (!isfinite(m->frame_time) || !(m->frame_time > 0.0))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "bvh write: frame_time %g is not finite and > 0", m->frame_time);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "bvh write: frame_time %g is not finite and > 0", m->frame_time);
     if ((i = first_nonfinite(m->offsets, 3 * J)) < 3 * J)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "bvh write: offsets: joint %zu ('%s') is NaN or infinite", i / 3,
-                            m->names[i / 3]);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "bvh write: offsets: joint %zu ('%s') is NaN or infinite", i / 3,
+                                m->names[i / 3]);
     if ((i = first_nonfinite(m->end_offsets, 3 * E)) < 3 * E)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "bvh write: end site offsets: End Site %zu is NaN or infinite", i / 3);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "bvh write: end site offsets: End Site %zu is NaN or infinite",
+                                i / 3);
     if ((i = first_nonfinite(m->root_pos, 3 * N)) < 3 * N)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "bvh write: root_pos: frame %zu is NaN or infinite", i / 3);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "bvh write: root_pos: frame %zu is NaN or infinite", i / 3);
     if ((i = first_nonfinite(m->trans, 3 * N * P)) < 3 * N * P)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "bvh write: trans: frame %zu, joint '%s' is NaN or infinite",
-                            i / (3 * P), m->names[m->trans_joints[i / 3 % P]]);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "bvh write: trans: frame %zu, joint '%s' is NaN or infinite",
+                                i / (3 * P), m->names[m->trans_joints[i / 3 % P]]);
     if ((i = first_unusable_quat(m->rot, N * J)) < N * J)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "bvh write: rot: frame %zu, joint '%s' is a zero, NaN or infinite "
-                            "quaternion",
-                            i / J, m->names[i % J]);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "bvh write: rot: frame %zu, joint '%s' is a zero, NaN or infinite "
+                                "quaternion",
+                                i / J, m->names[i % J]);
     return MLR_OK;
 }
 
@@ -331,8 +332,8 @@ static void write_frames(const mlr_motion *m, sink *s)
 mlr_status mlr_bvh_write(const mlr_motion *m, mlr_bvh_write_fn fn, void *user, mlr_diag *diag)
 {
     if (!m || !fn)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "bvh write: %s is NULL",
-                            !m ? "motion" : "fn");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "bvh write: %s is NULL",
+                                !m ? "motion" : "fn");
     /* Validate everything first so that nothing is written for bad data. */
     mlr_status st = check_writable(m, diag);
     if (st != MLR_OK)
@@ -353,7 +354,7 @@ mlr_status mlr_bvh_write(const mlr_motion *m, mlr_bvh_write_fn fn, void *user, m
     write_frames(m, &s);
     flush(&s);
     if (s.failed)
-        return mlr_diag_set(diag, MLR_E_IO, 0, 0, "bvh write: fn returned nonzero (stop)");
+        return common__diag_set(diag, MLR_E_IO, 0, 0, "bvh write: fn returned nonzero (stop)");
     return MLR_OK;
 }
 
@@ -381,19 +382,20 @@ mlr_status mlr_bvh_write_memory(const mlr_motion *m, char *buf, size_t cap, size
                                 mlr_diag *diag)
 {
     if (!len)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "bvh write_memory: len is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "bvh write_memory: len is NULL");
     *len = 0;
     mem_sink ms = {buf, buf ? cap : 0, 0};
     mlr_status s = mlr_bvh_write(m, mem_write, &ms, diag);
     if (s == MLR_E_IO) /* mem_write stops only when the length overflows a size_t */
-        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0,
-                            "bvh write_memory: the text is longer than SIZE_MAX bytes");
+        return common__diag_set(diag, MLR_E_OVERFLOW, 0, 0,
+                                "bvh write_memory: the text is longer than SIZE_MAX bytes");
     if (s != MLR_OK)
         return s;
     *len = ms.len;
     if (buf && ms.len > cap)
-        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0,
-                            "bvh write_memory: cap %zu < the %zu bytes of the text", cap, ms.len);
+        return common__diag_set(diag, MLR_E_OVERFLOW, 0, 0,
+                                "bvh write_memory: cap %zu < the %zu bytes of the text", cap,
+                                ms.len);
     return MLR_OK;
 }
 
@@ -458,20 +460,21 @@ mlr_status mlr_bvh_write_file(const mlr_motion *m, const char *path, mlr_diag *d
         diag->message[0] = '\0';
     }
     if (!m || !path || !*path)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "motion or path is NULL or empty");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "motion or path is NULL or empty");
     const char *base = base_name(path);
     if (!*base)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "path names a folder (it ends with a "
-                            "path separator)");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "path names a folder (it ends with a "
+                                "path separator)");
     size_t plen = strlen(path);
     const size_t suffix = 24; /* "." + ".tmp-" + 16 hex digits + NUL, rounded up */
     if (plen > SIZE_MAX - suffix)
-        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "bvh write: the path's length overflows");
-    char *tmp = mlr_alloc(&m->alloc, plen + suffix);
+        return common__diag_set(diag, MLR_E_OVERFLOW, 0, 0,
+                                "bvh write: the path's length overflows");
+    char *tmp = common__alloc(&m->alloc, plen + suffix);
     if (!tmp)
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
-                            "bvh write: out of memory for the temporary file's name");
+        return common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                                "bvh write: out of memory for the temporary file's name");
 
     /* A name no other writer is likely to pick; "x" makes the creation exclusive. */
     uint64_t seed = (uint64_t)time(NULL) ^ ((uint64_t)clock() << 20) ^ (uint64_t)(uintptr_t)tmp ^
@@ -488,24 +491,24 @@ mlr_status mlr_bvh_write_file(const mlr_motion *m, const char *path, mlr_diag *d
             break;
     }
     if (!fp) {
-        mlr_free(&m->alloc, tmp, plen + suffix);
-        return mlr_diag_set(diag, MLR_E_IO, 0, 0,
-                            "cannot create a temporary file next to the "
-                            "target: %s",
-                            strerror(err ? err : EEXIST));
+        common__free(&m->alloc, tmp, plen + suffix);
+        return common__diag_set(diag, MLR_E_IO, 0, 0,
+                                "cannot create a temporary file next to the "
+                                "target: %s",
+                                strerror(err ? err : EEXIST));
     }
     mlr_status s = mlr_bvh_write(m, file_write, fp, diag); /* names the first bad value */
     if (s == MLR_E_IO)
-        mlr_diag_set(diag, s, 0, 0, "write failed: %s", strerror(errno));
+        common__diag_set(diag, s, 0, 0, "write failed: %s", strerror(errno));
     if (fclose(fp) != 0 && s == MLR_OK)
-        s = mlr_diag_set(diag, MLR_E_IO, 0, 0, "write failed: %s", strerror(errno));
+        s = common__diag_set(diag, MLR_E_IO, 0, 0, "write failed: %s", strerror(errno));
     if (s == MLR_OK)
         keep_mode(tmp, path);
     if (s == MLR_OK && replace_file(tmp, path) != 0)
-        s = mlr_diag_set(diag, MLR_E_IO, 0, 0, "cannot rename the temporary file: %s",
-                         strerror(errno));
+        s = common__diag_set(diag, MLR_E_IO, 0, 0, "cannot rename the temporary file: %s",
+                             strerror(errno));
     if (s != MLR_OK)
         remove(tmp);
-    mlr_free(&m->alloc, tmp, plen + suffix);
+    common__free(&m->alloc, tmp, plen + suffix);
     return s;
 }

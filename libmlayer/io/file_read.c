@@ -35,7 +35,7 @@ static mlr_status io_error(mlr_diag *diag, const char *what, int err)
 #else
     snprintf(reason, sizeof reason, "error %d", err);
 #endif
-    return mlr_diag_set(diag, MLR_E_IO, 0, 0, "%s: %s", what, reason);
+    return common__diag_set(diag, MLR_E_IO, 0, 0, "%s: %s", what, reason);
 }
 
 /* The size of an open file from fseek/ftell, or 0 when unknown: only a first guess. */
@@ -69,14 +69,14 @@ static mlr_status read_stream(FILE *fp, const mlr_allocator *a, char **out, size
                 s = MLR_E_OVERFLOW;
                 break;
             }
-            char *nb = mlr_alloc(a, ncap);
+            char *nb = common__alloc(a, ncap);
             if (!nb) {
                 s = MLR_E_NO_MEMORY;
                 break;
             }
             if (len)
                 memcpy(nb, buf, len);
-            mlr_free(a, buf, cap);
+            common__free(a, buf, cap);
             buf = nb;
             cap = ncap;
         }
@@ -93,10 +93,10 @@ static mlr_status read_stream(FILE *fp, const mlr_allocator *a, char **out, size
         }
     }
     if (s != MLR_OK) {
-        mlr_free(a, buf, cap);
+        common__free(a, buf, cap);
         if (s == MLR_E_IO)
             return io_error(diag, "read error", err ? err : EIO);
-        return mlr_diag_set(diag, s, 0, 0, "%s", mlr_status_string(s));
+        return common__diag_set(diag, s, 0, 0, "%s", mlr_status_string(s));
     }
     *out = buf;
     *out_len = len;
@@ -138,10 +138,10 @@ static int read_parallel(int fd, size_t size, size_t T, const mlr_allocator *a, 
                          size_t *out_len, size_t *out_cap, mlr_status *status, mlr_diag *diag)
 {
     const size_t cap = size + 1;
-    char *buf = mlr_alloc(a, cap);
+    char *buf = common__alloc(a, cap);
     if (!buf) {
-        *status =
-            mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "%s", mlr_status_string(MLR_E_NO_MEMORY));
+        *status = common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "%s",
+                                   mlr_status_string(MLR_E_NO_MEMORY));
         return -1;
     }
     read_job j = {fd, buf, size, 0};
@@ -149,7 +149,7 @@ static int read_parallel(int fd, size_t size, size_t T, const mlr_allocator *a, 
     parallel__run(T, (size + READ_CHUNK - 1) / READ_CHUNK, read_chunk_run, &j);
     const int err = atomic_load(&j.err);
     if (err > 0) {
-        mlr_free(a, buf, cap);
+        common__free(a, buf, cap);
         *status = io_error(diag, "read error", err);
         return -1;
     }
@@ -159,7 +159,7 @@ static int read_parallel(int fd, size_t size, size_t T, const mlr_allocator *a, 
         more = pread(fd, buf + size, 1, (off_t)size);
     while (more < 0 && errno == EINTR);
     if (err < 0 || more != 0) {
-        mlr_free(a, buf, cap);
+        common__free(a, buf, cap);
         return 0;
     }
     *out = buf;

@@ -10,22 +10,25 @@ mlr_status mlr_alpha_keys_check(const double *times, const double *values, size_
                                 mlr_diag *diag)
 {
     if (n_keys == 0 || !times || !values)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "alpha keys: %s",
-                            n_keys == 0 ? "no keys (give at least one)"
-                                        : "times or values is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "alpha keys: %s",
+                                n_keys == 0 ? "no keys (give at least one)"
+                                            : "times or values is NULL");
     for (size_t k = 0; k < n_keys; k++) {
         if (!isfinite(times[k]))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "alpha keys: the time of key %zu is not finite (%g)", k, times[k]);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "alpha keys: the time of key %zu is not finite (%g)", k,
+                                    times[k]);
         if (!isfinite(values[k]))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "alpha keys: the alpha of key %zu (at %g s) is not finite (%g)", k,
-                                times[k], values[k]);
+            return common__diag_set(
+                diag, MLR_E_INVALID_ARG, 0, 0,
+                "alpha keys: the alpha of key %zu (at %g s) is not finite (%g)", k, times[k],
+                values[k]);
         if (k && !(times[k] > times[k - 1]))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "alpha keys: times must increase: key %zu at %g s is not after "
-                                "key %zu at %g s",
-                                k, times[k], k - 1, times[k - 1]);
+            return common__diag_set(
+                diag, MLR_E_INVALID_ARG, 0, 0,
+                "alpha keys: times must increase: key %zu at %g s is not after "
+                "key %zu at %g s",
+                k, times[k], k - 1, times[k - 1]);
     }
     return MLR_OK;
 }
@@ -60,11 +63,11 @@ mlr_status mlr_alpha_keys_eval(const double *times, const double *values, size_t
     if (st != MLR_OK)
         return st;
     if (count && (!t || !out))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "alpha keys: t or out is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "alpha keys: t or out is NULL");
     for (size_t i = 0; i < count; i++)
         if (!isfinite(t[i]))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "alpha keys: time %zu is not finite (%g)", i, t[i]);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "alpha keys: time %zu is not finite (%g)", i, t[i]);
     for (size_t i = 0; i < count; i++)
         out[i] = eval1(times, values, n_keys, t[i]);
     return MLR_OK;

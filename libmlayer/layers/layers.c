@@ -61,16 +61,17 @@ static mlr_status parse_options(const mlr_layers_option *opts, size_t n_opts, si
         const double lam = val[MLR_LAYERS_OPT_LAM_B], sig = val[MLR_LAYERS_OPT_SIGMA_B];
         cfg->base_s = lam * lam * sig * sig;
         if (!(cfg->base_s > 0.0) || !isfinite(cfg->base_s))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                S ": lam_b^2 sigma_b^2 = %g is not finite and > 0", cfg->base_s);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    S ": lam_b^2 sigma_b^2 = %g is not finite and > 0",
+                                    cfg->base_s);
     }
     if (seen[MLR_LAYERS_OPT_LAM_C] || seen[MLR_LAYERS_OPT_SIGMA_C]) {
         const double lam = val[MLR_LAYERS_OPT_LAM_C], sig = val[MLR_LAYERS_OPT_SIGMA_C];
         cfg->control_s = lam * lam * sig * sig;
         if (!(cfg->control_s > 0.0) || !isfinite(cfg->control_s))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                S ": lam_c^2 sigma_c^2 = %g is not finite and > 0",
-                                cfg->control_s);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    S ": lam_c^2 sigma_c^2 = %g is not finite and > 0",
+                                    cfg->control_s);
     }
     const double b = val[MLR_LAYERS_OPT_BODY_JOINT];
     if (!(b < (double)n_joints))
@@ -91,9 +92,10 @@ static mlr_status parse_options(const mlr_layers_option *opts, size_t n_opts, si
     cfg->base_s_min = val[MLR_LAYERS_OPT_BASE_S_MIN];
     cfg->base_s_max = val[MLR_LAYERS_OPT_BASE_S_MAX];
     if (seen[MLR_LAYERS_OPT_BASE_CUTOFF] && !seen[MLR_LAYERS_OPT_FPS])
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            S ": option base_cutoff = %g (Hz) needs the frame rate (option fps)",
-                            val[MLR_LAYERS_OPT_BASE_CUTOFF]);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                S
+                                ": option base_cutoff = %g (Hz) needs the frame rate (option fps)",
+                                val[MLR_LAYERS_OPT_BASE_CUTOFF]);
     if (seen[MLR_LAYERS_OPT_FPS]) {
         const double fps = val[MLR_LAYERS_OPT_FPS];
         const double fc = val[MLR_LAYERS_OPT_BASE_CUTOFF];
@@ -101,9 +103,10 @@ static mlr_status parse_options(const mlr_layers_option *opts, size_t n_opts, si
             return options__reject(diag, S, "base_cutoff", fc, "in (0, fps/2) = (0, %g) Hz",
                                    0.5 * fps);
         if (seen[MLR_LAYERS_OPT_BASE_CUTOFF] && seen[MLR_LAYERS_OPT_BASE_S_MAX])
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                S ": options base_cutoff and base_s_max both set the upper end "
-                                  "of the base search: give one");
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    S
+                                    ": options base_cutoff and base_s_max both set the upper end "
+                                    "of the base search: give one");
         if (!seen[MLR_LAYERS_OPT_BASE_S_MAX]) {
             cfg->base_s_max = floor_s_max(fps, fc); /* >= 1/16 > the default BASE_S_MIN */
             if (!(cfg->base_s_min < cfg->base_s_max))
@@ -115,13 +118,14 @@ static mlr_status parse_options(const mlr_layers_option *opts, size_t n_opts, si
     cfg->control_s_min = val[MLR_LAYERS_OPT_CONTROL_S_MIN];
     cfg->control_s_max = val[MLR_LAYERS_OPT_CONTROL_S_MAX];
     if (!(cfg->base_s_min < cfg->base_s_max))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            S ": options base_s_min %g and base_s_max %g are not ordered",
-                            cfg->base_s_min, cfg->base_s_max);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                S ": options base_s_min %g and base_s_max %g are not ordered",
+                                cfg->base_s_min, cfg->base_s_max);
     if (!(cfg->control_s_min < cfg->control_s_max))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            S ": options control_s_min %g and control_s_max %g are not ordered",
-                            cfg->control_s_min, cfg->control_s_max);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                S
+                                ": options control_s_min %g and control_s_max %g are not ordered",
+                                cfg->control_s_min, cfg->control_s_max);
     return MLR_OK;
 }
 #undef S
@@ -136,21 +140,22 @@ typedef struct sizes {
 static mlr_status compute_sizes(size_t n, size_t j, int robust, sizes *z)
 {
     size_t ng = j + 1, t;
-    if (ng == 0 || mlr_mul_size(n, 3, &z->pos) || mlr_mul_size(n, j, &t) ||
-        mlr_mul_size(t, 4, &z->rot) || mlr_mul_size(n, ng, &t) || mlr_mul_size(t, 3, &z->grp) ||
-        mlr_mul_size(ng, MLR_LAYERS_N_PARAM, &z->param) ||
-        mlr_mul_size(ng, MLR_LAYERS_WORK, &z->work))
+    if (ng == 0 || common__mul_size(n, 3, &z->pos) || common__mul_size(n, j, &t) ||
+        common__mul_size(t, 4, &z->rot) || common__mul_size(n, ng, &t) ||
+        common__mul_size(t, 3, &z->grp) || common__mul_size(ng, MLR_LAYERS_N_PARAM, &z->param) ||
+        common__mul_size(ng, MLR_LAYERS_WORK, &z->work))
         return MLR_E_OVERFLOW;
     z->q = z->rot;
     z->fac = z->grp; /* three n x (1 + j) factor arrays */
     z->comp = z->rot > z->grp ? z->rot : z->grp; /* compacted channels of the searches */
     z->col = ng;
     z->rhs = 0;
-    if (robust && (mlr_mul_size(n, j, &t) || t > SIZE_MAX - z->comp))
+    if (robust && (common__mul_size(n, j, &t) || t > SIZE_MAX - z->comp))
         return MLR_E_OVERFLOW;
     if (robust)
         z->rhs = z->comp + t; /* right-hand sides (4 n j) and leverages (n j) */
-    if (mlr_mul_size(n, ng, &z->flags) || mlr_mul_size(z->flags, robust ? 2 : 0, &z->weights))
+    if (common__mul_size(n, ng, &z->flags) ||
+        common__mul_size(z->flags, robust ? 2 : 0, &z->weights))
         return MLR_E_OVERFLOW;
     size_t total = z->pos;
     const size_t parts[] = {z->rot, z->grp, z->grp, z->param};
@@ -159,7 +164,7 @@ static mlr_status compute_sizes(size_t n, size_t j, int robust, sizes *z)
             return MLR_E_OVERFLOW;
         total += parts[i];
     }
-    if (mlr_mul_size(total, sizeof(double), &t) ||
+    if (common__mul_size(total, sizeof(double), &t) ||
         t > SIZE_MAX - sizeof(mlr_layers) - 64 - z->flags)
         return MLR_E_OVERFLOW;
     z->handle_bytes = t + sizeof(mlr_layers) + 64 + z->flags;
@@ -170,7 +175,7 @@ static mlr_status compute_sizes(size_t n, size_t j, int robust, sizes *z)
             return MLR_E_OVERFLOW;
         total += sparts[i];
     }
-    if (mlr_mul_size(total, sizeof(double), &z->scratch_bytes))
+    if (common__mul_size(total, sizeof(double), &z->scratch_bytes))
         return MLR_E_OVERFLOW;
     return MLR_OK;
 }
@@ -192,8 +197,8 @@ static void displacements(mlr_layers *L, const double *root_pos, int robust, dou
         for (size_t c = 0; c < 3; c++)
             di[c] = root_pos ? root_pos[3 * i + c] - pb[c] : 0.0;
         mlr_quat *qi = (mlr_quat *)(void *)(q + 4 * j * i);
-        mlr_quat_conj_mul_log((const mlr_quat *)(const void *)(L->base_rot + 4 * j * i), qi, j, 0,
-                              qi, (mlr_vec3 *)(void *)(di + 3));
+        common__quat_conj_mul_log((const mlr_quat *)(const void *)(L->base_rot + 4 * j * i), qi, j,
+                                  0, qi, (mlr_vec3 *)(void *)(di + 3));
         const unsigned char *fl = L->outliers + i * (1 + j);
         for (size_t g = 0; g <= j; g++) {
             const double *v = di + 3 * g;
@@ -217,8 +222,8 @@ static void residuals(mlr_layers *L, const double *p, double *delta, double *tmp
         for (size_t c = 0; c < 3; c++)
             ri[c] -= ci[c];
         mlr_quat_exp_array((const mlr_vec3 *)(const void *)(ci + 3), j, e, NULL);
-        mlr_quat_conj_mul_log(e, (const mlr_quat *)(const void *)(p + 4 * j * i), j, 0, r,
-                              (mlr_vec3 *)(void *)(ri + 3));
+        common__quat_conj_mul_log(e, (const mlr_quat *)(const void *)(p + 4 * j * i), j, 0, r,
+                                  (mlr_vec3 *)(void *)(ri + 3));
     }
 }
 
@@ -238,40 +243,42 @@ mlr_status mlr_layers_decompose(size_t n_frames, size_t n_joints, const double *
                                 const mlr_allocator *alloc, mlr_layers **out, mlr_diag *diag)
 {
     if (!out)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "out is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "out is NULL");
     *out = NULL;
     if (n_frames < 3)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "the second-difference prior needs at least 3 frames, got %zu",
-                            n_frames);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "the second-difference prior needs at least 3 frames, got %zu",
+                                n_frames);
     if (n_joints == 0)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "no joints");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "no joints");
     if (!rot)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "rot is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "rot is NULL");
     mlr_layers_cfg cfg;
     mlr_status st = parse_options(opts, n_opts, n_joints, &cfg, diag);
     if (st != MLR_OK)
         return st;
     sizes z;
     if (compute_sizes(n_frames, n_joints, cfg.robust, &z) != MLR_OK)
-        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "%zu frames x %zu joints overflow a size",
-                            n_frames, n_joints);
+        return common__diag_set(diag, MLR_E_OVERFLOW, 0, 0,
+                                "%zu frames x %zu joints overflow a size", n_frames, n_joints);
     size_t bad;
     if (root_pos && !all_finite(root_pos, z.pos, &bad))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "root translation of frame %zu is not finite", bad / 3);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "root translation of frame %zu is not finite", bad / 3);
 
     mlr_allocator a;
-    mlr_allocator_resolve(alloc, &a);
-    unsigned char *block = mlr_alloc(&a, z.handle_bytes);
+    common__allocator_resolve(alloc, &a);
+    unsigned char *block = common__alloc(&a, z.handle_bytes);
     if (!block)
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
-                            "decompose: out of memory (%zu bytes for the layers)", z.handle_bytes);
-    double *scratch = mlr_alloc(&a, z.scratch_bytes);
+        return common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                                "decompose: out of memory (%zu bytes for the layers)",
+                                z.handle_bytes);
+    double *scratch = common__alloc(&a, z.scratch_bytes);
     if (!scratch) {
-        mlr_free(&a, block, z.handle_bytes);
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
-                            "decompose: out of memory (%zu bytes of scratch)", z.scratch_bytes);
+        common__free(&a, block, z.handle_bytes);
+        return common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                                "decompose: out of memory (%zu bytes of scratch)",
+                                z.scratch_bytes);
     }
     mlr_layers *L = (mlr_layers *)(void *)block;
     memset(L, 0, sizeof *L);
@@ -310,9 +317,9 @@ mlr_status mlr_layers_decompose(size_t n_frames, size_t n_joints, const double *
     }
     if (st == MLR_OK)
         residuals(L, q, L->residual, fac);
-    mlr_free(&a, scratch, z.scratch_bytes);
+    common__free(&a, scratch, z.scratch_bytes);
     if (st != MLR_OK) {
-        mlr_free(&a, block, z.handle_bytes);
+        common__free(&a, block, z.handle_bytes);
         return st;
     }
     *out = L;
@@ -324,7 +331,7 @@ void mlr_layers_destroy(mlr_layers *L)
     if (!L)
         return;
     mlr_allocator a = L->alloc;
-    mlr_free(&a, L, L->bytes);
+    common__free(&a, L, L->bytes);
 }
 
 size_t mlr_layers_n_frames(const mlr_layers *L) { return L ? L->n : 0; }
@@ -391,19 +398,20 @@ static mlr_status check_range(const mlr_layers *L, size_t begin, size_t count, d
                               mlr_diag *diag)
 {
     if (!L)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "layers %s: the handle is NULL", fn);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "layers %s: the handle is NULL",
+                                fn);
     if (begin > L->n || count > L->n - begin)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "layers %s: frames [%zu, %zu + %zu) are not within the %zu frames", fn,
-                            begin, begin, count, L->n);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "layers %s: frames [%zu, %zu + %zu) are not within the %zu frames",
+                                fn, begin, begin, count, L->n);
     if (root_pos && n_root_pos != 3 * count)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "layers %s: n_root_pos is %zu, 3 count is %zu", fn, n_root_pos,
-                            3 * count);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "layers %s: n_root_pos is %zu, 3 count is %zu", fn, n_root_pos,
+                                3 * count);
     if (rot && n_rot != 4 * L->j * count)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "layers %s: n_rot is %zu, 4 J count is %zu", fn, n_rot,
-                            4 * L->j * count);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "layers %s: n_rot is %zu, 4 J count is %zu", fn, n_rot,
+                                4 * L->j * count);
     return MLR_OK;
 }
 
@@ -448,7 +456,7 @@ static void displace_block(const double *restrict qb, const mlr_quat *restrict e
     for (size_t t = 0; t < m; t++) {
         const double *b = qb + 4 * t;
         mlr_quat o;
-        mlr_quat_mul_inline((const mlr_quat *)(const void *)b, &e[t], &o);
+        common__quat_mul_inline((const mlr_quat *)(const void *)b, &e[t], &o);
         const double sgn = o.w * b[0] + o.x * b[1] + o.y * b[2] + o.z * b[3] < 0.0 ? -1.0 : 1.0;
         double *q = out + 4 * t;
         q[0] = sgn * o.w, q[1] = sgn * o.x, q[2] = sgn * o.y, q[3] = sgn * o.z;
@@ -516,13 +524,13 @@ mlr_status mlr_layers_synthesize(const mlr_layers *L, size_t begin, size_t count
         return st;
     const size_t j = L->j;
     if (!alpha || (n_alpha != 1 && n_alpha != 1 + j))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "layers synthesize: %zu alphas (NULL: %d), not 1 or 1 + J = %zu",
-                            n_alpha, !alpha, 1 + j);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "layers synthesize: %zu alphas (NULL: %d), not 1 or 1 + J = %zu",
+                                n_alpha, !alpha, 1 + j);
     for (size_t g = 0; g < n_alpha; g++)
         if (!isfinite(alpha[g]))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "layers synthesize: alpha[%zu] is NaN or infinite", g);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "layers synthesize: alpha[%zu] is NaN or infinite", g);
     synthesize_rows(L, begin, count, alpha, n_alpha, 0, root_pos, rot);
     return MLR_OK;
 }
@@ -538,24 +546,25 @@ mlr_status mlr_layers_synthesize_frames(const mlr_layers *L, size_t begin, size_
         return st;
     const size_t g = 1 + L->j;
     if (!alpha && count)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "layers synthesize_frames: alpha is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "layers synthesize_frames: alpha is NULL");
     size_t per_frame = 0;
     if (n_alpha == count)
         per_frame = 1;
     else if (count && n_alpha / count == g && n_alpha % count == 0)
         per_frame = g;
     else
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "layers synthesize_frames: %zu alphas, not count = %zu or "
-                            "count (1 + J) = %zu x %zu",
-                            n_alpha, count, count, g);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "layers synthesize_frames: %zu alphas, not count = %zu or "
+                                "count (1 + J) = %zu x %zu",
+                                n_alpha, count, count, g);
     for (size_t k = 0; k < n_alpha; k++)
         if (!isfinite(alpha[k]))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "layers synthesize_frames: the alpha of frame %zu, group %zu is "
-                                "NaN or infinite",
-                                begin + k / per_frame, k % per_frame);
+            return common__diag_set(
+                diag, MLR_E_INVALID_ARG, 0, 0,
+                "layers synthesize_frames: the alpha of frame %zu, group %zu is "
+                "NaN or infinite",
+                begin + k / per_frame, k % per_frame);
     if (count)
         synthesize_rows(L, begin, count, alpha, per_frame, per_frame, root_pos, rot);
     return MLR_OK;

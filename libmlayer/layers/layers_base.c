@@ -25,11 +25,11 @@ mlr_status layers__prepare_rot(size_t n, size_t j, const double *rot_in, double 
             const double *r = rot_in + 4 * i;
             const double nn = r[0] * r[0] + r[1] * r[1] + r[2] * r[2] + r[3] * r[3];
             if (!isfinite(r[0] + r[1] + r[2] + r[3]) || nn == 0.0)
-                return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                    "rotation of frame %zu, joint %zu is %s", i / j, i % j,
-                                    nn == 0.0 ? "zero" : "not finite");
+                return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                        "rotation of frame %zu, joint %zu is %s", i / j, i % j,
+                                        nn == 0.0 ? "zero" : "not finite");
         }
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "a rotation cannot be normalized");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "a rotation cannot be normalized");
     }
     mlr_quat_make_continuous((mlr_quat *)q, n, j);
     return MLR_OK;
@@ -113,10 +113,10 @@ static mlr_status eval_angles(mlr_layers *L, const double *q, const mlr_lay_robu
     }
     size_t bad = layers__batch_factor(b, s);
     if (bad)
-        return mlr_diag_set(diag, MLR_E_SINGULAR, 0, 0,
-                            "base smoothing of joint %zu failed at s = %g: s is too large for "
-                            "%zu frames",
-                            col[bad - 1] / 4, s[bad - 1], n);
+        return common__diag_set(diag, MLR_E_SINGULAR, 0, 0,
+                                "base smoothing of joint %zu failed at s = %g: s is too large for "
+                                "%zu frames",
+                                col[bad - 1] / 4, s[bad - 1], n);
     if (rb) {
         layers__batch_solve(b, 4, comp, 4 * ns, L->base_rot, 4 * ns, ebuf);
         min_cos2_inliers(n, j, ns, col, q, L->base_rot, L->outliers, angle);
@@ -311,8 +311,8 @@ static mlr_status smooth_root(mlr_layers *L, const mlr_layers_cfg *cfg, const do
         y = comp;
     }
     if (layers__batch_factor(b, &s0))
-        return mlr_diag_set(diag, MLR_E_SINGULAR, 0, 0,
-                            "base smoothing of the root translation failed at s = %g", s0);
+        return common__diag_set(diag, MLR_E_SINGULAR, 0, 0,
+                                "base smoothing of the root translation failed at s = %g", s0);
     layers__batch_solve(b, 3, y, 3, L->base_pos, 3, ebuf);
     return MLR_OK;
 }

@@ -103,10 +103,10 @@ static mlr_status eval_gcv(const mlr_layers *L, mlr_lay_batch *b, const double *
     const size_t n = L->n, ns = b->ns, mm = 3 * ng, m = mm / ns;
     size_t bad = layers__batch_factor(b, s);
     if (bad)
-        return mlr_diag_set(diag, MLR_E_SINGULAR, 0, 0,
-                            "control smoothing of group %zu failed at s = %g: s is too large "
-                            "for %zu frames",
-                            col[(bad - 1) * m / 3] / 3, s[bad - 1], n);
+        return common__diag_set(diag, MLR_E_SINGULAR, 0, 0,
+                                "control smoothing of group %zu failed at s = %g: s is too large "
+                                "for %zu frames",
+                                col[(bad - 1) * m / 3] / 3, s[bad - 1], n);
     if (keep) {
         layers__batch_solve(b, m, y, mm, x, mm, w->ebuf);
         layers__sum_sq_diff(n, mm, y, x, w->acc);
@@ -142,10 +142,10 @@ static mlr_status eval_gcv_weighted(const mlr_layers *L, mlr_lay_batch *b, const
     b->w = rb->wpk;
     size_t bad = layers__batch_factor(b, s);
     if (bad)
-        return mlr_diag_set(diag, MLR_E_SINGULAR, 0, 0,
-                            "control smoothing of group %zu failed at s = %g: s is too large "
-                            "for %zu frames",
-                            col[bad - 1] / 3, s[bad - 1], n);
+        return common__diag_set(diag, MLR_E_SINGULAR, 0, 0,
+                                "control smoothing of group %zu failed at s = %g: s is too large "
+                                "for %zu frames",
+                                col[bad - 1] / 3, s[bad - 1], n);
     layers__batch_solve(b, 3, comp, mm, x, mm, w->ebuf);
     double *rss = w->acc, *nw = w->acc + na; /* acc holds 3 ng doubles */
     for (size_t k = 0; k < na; k++)

@@ -347,8 +347,8 @@ static mlr_status reweight(mlr_layers *L, const mlr_layers_cfg *cfg, const rgrou
     for (int it = 0; it < ROBUST_MAX_IT; it++) {
         b.w = it == 0 && !seeded ? NULL : wk;
         if (layers__batch_factor(&b, s))
-            return mlr_diag_set(diag, MLR_E_SINGULAR, 0, 0,
-                                "outlier search: the smoothing of %zu frames failed", n);
+            return common__diag_set(diag, MLR_E_SINGULAR, 0, 0,
+                                    "outlier search: the smoothing of %zu frames failed", n);
         const double *obs = y;
         if (b.w) {
             for (size_t i = 0; i < n; i++)

@@ -30,10 +30,10 @@ static mlr_status check_factor(double r, unsigned flags, mlr_diag *diag)
     if (extreme_ok(flags))
         return MLR_OK;
     if (r > lim * (1.0 + FACTOR_SLACK) || r < (1.0 - FACTOR_SLACK) / lim)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "resampling factor %g is beyond %gx (set the flag allow_extreme "
-                            "if this is intended)",
-                            r >= 1.0 ? r : 1.0 / r, lim);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "resampling factor %g is beyond %gx (set the flag allow_extreme "
+                                "if this is intended)",
+                                r >= 1.0 ? r : 1.0 / r, lim);
     return MLR_OK;
 }
 
@@ -41,7 +41,7 @@ static mlr_status check_flags(unsigned flags, mlr_diag *diag)
 {
     if (flags & ~(unsigned)(MLR_RESAMPLE_ALLOW_EXTREME | MLR_RESAMPLE_NEAREST_SIGN |
                             MLR_RESAMPLE_OPEN_END))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "unknown flags 0x%x", flags);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "unknown flags 0x%x", flags);
     return MLR_OK;
 }
 
@@ -49,19 +49,19 @@ mlr_status mlr_resample_n_out(size_t n_frames, double fps_in, double fps_out, un
                               size_t *n_out, mlr_diag *diag)
 {
     if (!n_out)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "n_out is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "n_out is NULL");
     *n_out = 0;
     if (check_flags(flags, diag))
         return MLR_E_INVALID_ARG;
     if (n_frames < 2)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "resampling needs at least 2 frames, got %zu", n_frames);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "resampling needs at least 2 frames, got %zu", n_frames);
     if (!isfinite(fps_in) || !(fps_in > 0.0))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "input fps must be finite and > 0, got %g", fps_in);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "input fps must be finite and > 0, got %g", fps_in);
     if (!isfinite(fps_out) || !(fps_out > 0.0))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "output fps must be finite and > 0, got %g", fps_out);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "output fps must be finite and > 0, got %g", fps_out);
     const double r = fps_out / fps_in;
     mlr_status st = check_factor(r, flags, diag);
     if (st != MLR_OK)
@@ -70,17 +70,18 @@ mlr_status mlr_resample_n_out(size_t n_frames, double fps_in, double fps_out, un
         const double x = exact_last(n_frames, fps_in, fps_out);
         const double n = floor(x + RATE_SNAP * (x > 1.0 ? x : 1.0)) + 1.0;
         if (!(n < (double)SIZE_MAX / 2))
-            return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "output frame count overflows");
+            return common__diag_set(diag, MLR_E_OVERFLOW, 0, 0, "output frame count overflows");
         if (n < 2.0)
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "%zu frames at %g fps last %g s, less than one frame at %g fps",
-                                n_frames, fps_in, (double)(n_frames - 1) / fps_in, fps_out);
+            return common__diag_set(
+                diag, MLR_E_INVALID_ARG, 0, 0,
+                "%zu frames at %g fps last %g s, less than one frame at %g fps", n_frames, fps_in,
+                (double)(n_frames - 1) / fps_in, fps_out);
         *n_out = (size_t)n;
         return MLR_OK;
     }
     const double n = round((double)(n_frames - 1) * r) + 1.0;
     if (!(n < (double)SIZE_MAX / 2))
-        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "output frame count overflows");
+        return common__diag_set(diag, MLR_E_OVERFLOW, 0, 0, "output frame count overflows");
     *n_out = n < 2.0 ? 2 : (size_t)n;
     return MLR_OK;
 }
@@ -89,7 +90,7 @@ mlr_status mlr_resample_rate_map(size_t n_frames, double fps_in, double fps_out,
                                  double *t, size_t *n_out, mlr_diag *diag)
 {
     if (!t || !n_out)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "t or n_out is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "t or n_out is NULL");
     mlr_status st =
         mlr_resample_n_out(n_frames, fps_in, fps_out, flags | MLR_RESAMPLE_OPEN_END, n_out, diag);
     if (st != MLR_OK)
@@ -108,29 +109,30 @@ mlr_status mlr_timemap_validate(const double *t, size_t n_frames, size_t n_out, 
     if (check_flags(flags, diag))
         return MLR_E_INVALID_ARG;
     if (n_frames < 2)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "a time map needs at least 2 frames, got %zu", n_frames);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "a time map needs at least 2 frames, got %zu", n_frames);
     if (n_out < 2)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "the output needs at least 2 frames, got %zu", n_out);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "the output needs at least 2 frames, got %zu", n_out);
     if (!t)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "time map is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "time map is NULL");
     const double last = (double)(n_out - 1);
     for (size_t i = 0; i < n_frames; i++)
         if (!isfinite(t[i]))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "time map: t[%zu] is not finite",
-                                i);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "time map: t[%zu] is not finite", i);
     if (t[0] != 0.0)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "time map: t[0] must be 0 (the first frame stays put), got %g", t[0]);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "time map: t[0] must be 0 (the first frame stays put), got %g",
+                                t[0]);
     if (flags & MLR_RESAMPLE_OPEN_END) {
         if (!(t[n_frames - 1] >= last && t[n_frames - 1] < last + 1.0))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "time map: t[%zu] must lie in [n_out - 1, n_out) = [%zu, %zu) "
-                                "(open end), got %g",
-                                n_frames - 1, n_out - 1, n_out, t[n_frames - 1]);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "time map: t[%zu] must lie in [n_out - 1, n_out) = [%zu, %zu) "
+                                    "(open end), got %g",
+                                    n_frames - 1, n_out - 1, n_out, t[n_frames - 1]);
     } else if (t[n_frames - 1] != last) {
-        return mlr_diag_set(
+        return common__diag_set(
             diag, MLR_E_INVALID_ARG, 0, 0,
             "time map: t[%zu] must be n_out - 1 = %zu (the last frame stays put), got %g",
             n_frames - 1, n_out - 1, t[n_frames - 1]);
@@ -143,11 +145,12 @@ mlr_status mlr_timemap_validate(const double *t, size_t n_frames, size_t n_out, 
     for (size_t i = 1; i < n_frames; i++) {
         const double d = t[i] - t[i - 1];
         if (!(d > 0.0))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "time map is not strictly increasing: t[%zu] = %g, t[%zu] = %g",
-                                i - 1, t[i - 1], i, t[i]);
+            return common__diag_set(
+                diag, MLR_E_INVALID_ARG, 0, 0,
+                "time map is not strictly increasing: t[%zu] = %g, t[%zu] = %g", i - 1, t[i - 1],
+                i, t[i]);
         if (!extreme_ok(flags) && (d < lo || d > hi))
-            return mlr_diag_set(
+            return common__diag_set(
                 diag, MLR_E_INVALID_ARG, 0, 0,
                 "time map step t[%zu] - t[%zu] = %g is beyond the %gx factor limit "
                 "(set the flag allow_extreme if this is intended)",
@@ -179,25 +182,28 @@ static mlr_status check_motion(size_t n_frames, size_t n_joints, size_t n_trans,
     if (check_flags(flags, diag))
         return MLR_E_INVALID_ARG;
     if (n_frames < 2)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "resampling needs at least 2 frames, got %zu", n_frames);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "resampling needs at least 2 frames, got %zu", n_frames);
     if (n_out < 2)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "the output needs at least 2 frames, got %zu", n_out);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "the output needs at least 2 frames, got %zu", n_out);
     if (!root_pos || !root_out)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "root_pos or root_out is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "root_pos or root_out is NULL");
     if (n_joints > 0 && (!rot || !rot_out))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "rot or rot_out is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "rot or rot_out is NULL");
     if (n_trans > 0 && (!trans || !trans_out))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "trans or trans_out is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "trans or trans_out is NULL");
     size_t tmp;
-    if (mlr_mul_size(n_frames, 3 * sizeof(double), &tmp) ||
-        mlr_mul_size(n_out, 3 * sizeof(double), &tmp) || mlr_mul_size(n_frames, n_joints, &tmp) ||
-        mlr_mul_size(tmp, 4 * sizeof(double), &tmp) || mlr_mul_size(n_out, n_joints, &tmp) ||
-        mlr_mul_size(tmp, 4 * sizeof(double), &tmp) || mlr_mul_size(n_frames, n_trans, &tmp) ||
-        mlr_mul_size(tmp, 3 * sizeof(double), &tmp) || mlr_mul_size(n_out, n_trans, &tmp) ||
-        mlr_mul_size(tmp, 3 * sizeof(double), &tmp))
-        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "array sizes overflow");
+    if (common__mul_size(n_frames, 3 * sizeof(double), &tmp) ||
+        common__mul_size(n_out, 3 * sizeof(double), &tmp) ||
+        common__mul_size(n_frames, n_joints, &tmp) ||
+        common__mul_size(tmp, 4 * sizeof(double), &tmp) ||
+        common__mul_size(n_out, n_joints, &tmp) ||
+        common__mul_size(tmp, 4 * sizeof(double), &tmp) ||
+        common__mul_size(n_frames, n_trans, &tmp) ||
+        common__mul_size(tmp, 3 * sizeof(double), &tmp) ||
+        common__mul_size(n_out, n_trans, &tmp) || common__mul_size(tmp, 3 * sizeof(double), &tmp))
+        return common__diag_set(diag, MLR_E_OVERFLOW, 0, 0, "array sizes overflow");
     return MLR_OK;
 }
 
@@ -217,12 +223,12 @@ static mlr_status check_translations(size_t n_frames, size_t n_trans, const doub
 {
     size_t bad;
     if (!all_finite(root_pos, n_frames * 3, &bad))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "root_pos of frame %zu is not finite",
-                            bad / 3);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "root_pos of frame %zu is not finite", bad / 3);
     if (n_trans > 0 && !all_finite(trans, n_frames * n_trans * 3, &bad))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "trans of frame %zu, joint %zu is not finite", bad / (3 * n_trans),
-                            (bad / 3) % n_trans);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "trans of frame %zu, joint %zu is not finite", bad / (3 * n_trans),
+                                (bad / 3) % n_trans);
     return MLR_OK;
 }
 
@@ -242,8 +248,8 @@ static int rot_row_ok(const double *q, size_t n_joints, size_t *bad_joint)
 
 static mlr_status bad_rot(mlr_diag *diag, size_t f, size_t j)
 {
-    return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                        "rot of frame %zu, joint %zu is zero or not finite", f, j);
+    return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "rot of frame %zu, joint %zu is zero or not finite", f, j);
 }
 
 /* The arguments of mlr_resample_arrays after check_motion: sigma, lam, the time map (or the
@@ -253,11 +259,11 @@ static mlr_status check_smoothing(size_t n_frames, size_t n_trans, const double 
                                   double sigma, unsigned flags, mlr_diag *diag)
 {
     if (!isfinite(sigma) || !(sigma > 0.0))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "sigma must be finite and > 0, got %g",
-                            sigma);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "sigma must be finite and > 0, got %g", sigma);
     if (isnan(lam) || (lam >= 0.0 && !isfinite(lam)))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "lam must be finite and >= 0, or MLR_RESAMPLE_AUTO; got %g", lam);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "lam must be finite and >= 0, or MLR_RESAMPLE_AUTO; got %g", lam);
     mlr_status st;
     if (t) {
         st = mlr_timemap_validate(t, n_frames, n_out, flags, diag);
@@ -279,9 +285,9 @@ typedef struct resample_work {
 
 static void work_free(resample_work *w)
 {
-    mlr_free(&w->a, w->q, w->q_bytes);
-    mlr_free(&w->a, w->tu, w->tu_bytes);
-    mlr_free(&w->a, w->grid, w->grid_bytes);
+    common__free(&w->a, w->q, w->q_bytes);
+    common__free(&w->a, w->tu, w->tu_bytes);
+    common__free(&w->a, w->grid, w->grid_bytes);
 }
 
 /* The solution grid of n_grid rows: a grid of the work (root, rotations, translations,
@@ -297,13 +303,13 @@ static mlr_status output_grid(resample_work *w, size_t n_grid, size_t n_out, siz
         return MLR_OK;
     /* sizes checked in check_motion for n_out rows; one more row stays far from SIZE_MAX */
     const size_t n_rot = n_joints * 4, row = 3 + n_rot + 3 * n_trans + 1;
-    if (mlr_mul_size(n_grid, row * sizeof(double), &w->grid_bytes) != MLR_OK)
-        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "array sizes overflow");
-    w->grid = mlr_alloc(&w->a, w->grid_bytes);
+    if (common__mul_size(n_grid, row * sizeof(double), &w->grid_bytes) != MLR_OK)
+        return common__diag_set(diag, MLR_E_OVERFLOW, 0, 0, "array sizes overflow");
+    w->grid = common__alloc(&w->a, w->grid_bytes);
     if (!w->grid)
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
-                            "resample: out of memory (%zu bytes for the output grid)",
-                            w->grid_bytes);
+        return common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                                "resample: out of memory (%zu bytes for the output grid)",
+                                w->grid_bytes);
     const int var = g->var != NULL;
     g->root = w->grid;
     g->rot = g->root + 3 * n_grid;
@@ -320,10 +326,11 @@ static mlr_status uniform_map(resample_work *w, size_t n_frames, size_t n_out, c
     if (*t || n_out == n_frames)
         return MLR_OK;
     w->tu_bytes = n_frames * sizeof(double);
-    w->tu = mlr_alloc(&w->a, w->tu_bytes);
+    w->tu = common__alloc(&w->a, w->tu_bytes);
     if (!w->tu)
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
-                            "resample: out of memory (%zu bytes for the time map)", w->tu_bytes);
+        return common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                                "resample: out of memory (%zu bytes for the time map)",
+                                w->tu_bytes);
     const double step = (double)(n_out - 1) / (double)(n_frames - 1);
     for (size_t i = 0; i + 1 < n_frames; i++)
         w->tu[i] = (double)i * step;
@@ -340,10 +347,11 @@ static mlr_status continuous_rotations(resample_work *w, size_t n_frames, size_t
         return MLR_OK;
     const size_t n_rot = n_joints * 4;
     w->q_bytes = n_frames * n_rot * sizeof(double);
-    w->q = mlr_alloc(&w->a, w->q_bytes);
+    w->q = common__alloc(&w->a, w->q_bytes);
     if (!w->q)
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
-                            "resample: out of memory (%zu bytes for the rotations)", w->q_bytes);
+        return common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                                "resample: out of memory (%zu bytes for the rotations)",
+                                w->q_bytes);
     double *q = w->q;
     const int nearest = (flags & MLR_RESAMPLE_NEAREST_SIGN) != 0;
     for (size_t f = 0; f < n_frames; f++) {
@@ -357,7 +365,7 @@ static mlr_status continuous_rotations(resample_work *w, size_t n_frames, size_t
         if (nearest)
             mlr_quat_make_continuous((mlr_quat *)(q + (f - 1) * n_rot), 2, n_joints);
         else
-            mlr_quat_continue_frame((mlr_quat *)q, f, n_joints);
+            common__quat_continue_frame((mlr_quat *)q, f, n_joints);
     }
     return MLR_OK;
 }
@@ -375,7 +383,7 @@ static mlr_status solve_grid(resample_work *w, size_t n_frames, size_t n_joints,
     mlr_status st = mlr_lgs_create(n_grid, n_grid >= 3 ? 2 : 1, lam, sigma, t, n_frames,
                                    MLR_LGS_BANDED, &w->a, &lgs, diag);
     if (st < 0)
-        return mlr_diag_prefix(diag, st, "resample");
+        return common__diag_prefix(diag, st, "resample");
     *created = st;
     st = mlr_lgs_solve(lgs, root_pos, 3, 3, g->root, 3, diag);
     if (st == MLR_OK && n_joints > 0)
@@ -385,7 +393,7 @@ static mlr_status solve_grid(resample_work *w, size_t n_frames, size_t n_joints,
     if (st == MLR_OK && g->var)
         st = mlr_lgs_variance(lgs, g->var, n_grid, diag);
     mlr_lgs_destroy(lgs);
-    return st == MLR_OK ? st : mlr_diag_prefix(diag, st, "resample");
+    return st == MLR_OK ? st : common__diag_prefix(diag, st, "resample");
 }
 
 mlr_status mlr_resample_arrays(size_t n_frames, size_t n_joints, size_t n_trans,
@@ -413,7 +421,7 @@ mlr_status mlr_resample_arrays(size_t n_frames, size_t n_joints, size_t n_trans,
 
     resample_work w;
     memset(&w, 0, sizeof w);
-    mlr_allocator_resolve(alloc, &w.a);
+    common__allocator_resolve(alloc, &w.a);
     grid_rows g = {root_out, rot_out, trans_out, var_out};
     st = output_grid(&w, n_grid, n_out, n_joints, n_trans, &g, diag);
     if (st == MLR_OK)
@@ -441,8 +449,9 @@ mlr_status mlr_resample_arrays(size_t n_frames, size_t n_joints, size_t n_trans,
     work_free(&w);
     if (n_joints > 0 && mlr_quat_normalize_array((const mlr_quat *)rot_out, n_out * n_joints,
                                                  (mlr_quat *)rot_out, NULL) != MLR_OK)
-        return mlr_diag_set(diag, MLR_E_SINGULAR, 0, 0,
-                            "an interpolated quaternion vanished (a key step near 360 degrees?)");
+        return common__diag_set(
+            diag, MLR_E_SINGULAR, 0, 0,
+            "an interpolated quaternion vanished (a key step near 360 degrees?)");
     return created;
 }
 

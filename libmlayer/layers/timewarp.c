@@ -29,30 +29,30 @@ mlr_status mlr_timewarp_speed(size_t n_frames, size_t n_joints, const double *ro
                               double *speed, mlr_diag *diag)
 {
     if (n_frames < 2)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "time warping needs at least 2 frames, got %zu", n_frames);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "time warping needs at least 2 frames, got %zu", n_frames);
     if (!root_pos || !speed || (n_joints > 0 && !rot))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "NULL array");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "NULL array");
     if (!isfinite(root_weight) || root_weight < 0.0)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "root_weight must be finite and >= 0, got %g", root_weight);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "root_weight must be finite and >= 0, got %g", root_weight);
     double wsum = 0.0;
     if (joint_weights) {
         for (size_t j = 0; j < n_joints; j++) {
             if (!isfinite(joint_weights[j]) || joint_weights[j] < 0.0)
-                return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                    "joint_weights[%zu] must be finite and >= 0, got %g", j,
-                                    joint_weights[j]);
+                return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                        "joint_weights[%zu] must be finite and >= 0, got %g", j,
+                                        joint_weights[j]);
             wsum += joint_weights[j];
         }
         if (n_joints > 0 && !(wsum > 0.0))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "joint_weights are all zero");
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "joint_weights are all zero");
     } else {
         wsum = (double)n_joints;
     }
     size_t tmp;
-    if (mlr_mul_size(n_frames, n_joints, &tmp) || mlr_mul_size(tmp, 4, &tmp))
-        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "array sizes overflow");
+    if (common__mul_size(n_frames, n_joints, &tmp) || common__mul_size(tmp, 4, &tmp))
+        return common__diag_set(diag, MLR_E_OVERFLOW, 0, 0, "array sizes overflow");
     for (size_t i = 0; i < n_frames; i++) {
         const size_t a = i > 0 ? i - 1 : 0, b = i + 1 < n_frames ? i + 1 : n_frames - 1;
         const double span = (double)(b - a);
@@ -69,8 +69,8 @@ mlr_status mlr_timewarp_speed(size_t n_frames, size_t n_joints, const double *ro
             v += ang / wsum;
         speed[i] = v / span;
         if (!isfinite(speed[i]))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "frames %zu..%zu hold non-finite values", a, b);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "frames %zu..%zu hold non-finite values", a, b);
     }
     return MLR_OK;
 }
@@ -81,19 +81,19 @@ mlr_status mlr_timewarp_map(size_t n_frames, size_t n_joints, const double *root
                             double *t, const mlr_allocator *alloc, mlr_diag *diag)
 {
     if (!isfinite(strength) || strength < 0.0 || strength > TW_MAX_STRENGTH)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "strength must be finite and in [0, %g], got %g", TW_MAX_STRENGTH,
-                            strength);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "strength must be finite and in [0, %g], got %g", TW_MAX_STRENGTH,
+                                strength);
     if (!isfinite(smooth_frames) || !(smooth_frames >= 1.0))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "smooth_frames must be finite and >= 1, got %g", smooth_frames);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "smooth_frames must be finite and >= 1, got %g", smooth_frames);
     if (n_out < 2)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "the output needs at least 2 frames, got %zu", n_out);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "the output needs at least 2 frames, got %zu", n_out);
     if (flags & ~(unsigned)MLR_RESAMPLE_ALLOW_EXTREME)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "unknown flags 0x%x", flags);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "unknown flags 0x%x", flags);
     if (!t)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "t is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "t is NULL");
     mlr_status st =
         mlr_timewarp_speed(n_frames, n_joints, root_pos, rot, joint_weights, root_weight, t, diag);
     if (st != MLR_OK)
@@ -116,7 +116,7 @@ mlr_status mlr_timewarp_map(size_t n_frames, size_t n_joints, const double *root
         st = mlr_lgs_create(n_frames, 2, lam, 1.0, NULL, n_frames, MLR_LGS_BANDED, alloc, &lgs,
                             diag);
         if (st < 0)
-            return mlr_diag_prefix(diag, st, "timewarp");
+            return common__diag_prefix(diag, st, "timewarp");
         st = mlr_lgs_solve(lgs, t, 1, 1, t, 1, diag);
         mlr_lgs_destroy(lgs);
         if (st != MLR_OK)

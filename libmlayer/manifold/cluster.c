@@ -705,12 +705,12 @@ mlr_status cluster__blob_check(const void *buf, size_t size, const char tag[8], 
 {
     const unsigned char *b = buf;
     if (!buf)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "blob is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "blob is NULL");
     if (size < MLR_BLOB_HEADER)
-        return mlr_diag_set(diag, MLR_E_PARSE, 0, 0,
-                            "blob of %zu bytes is shorter than its header", size);
+        return common__diag_set(diag, MLR_E_PARSE, 0, 0,
+                                "blob of %zu bytes is shorter than its header", size);
     if (memcmp(b, tag, 8) != 0)
-        return mlr_diag_set(diag, MLR_E_PARSE, 0, 0, "blob tag is not %.6s", tag);
+        return common__diag_set(diag, MLR_E_PARSE, 0, 0, "blob tag is not %.6s", tag);
     uint32_t ver, bom;
     uint64_t total, np, h;
     memcpy(&ver, b + 8, 4);
@@ -720,16 +720,18 @@ mlr_status cluster__blob_check(const void *buf, size_t size, const char tag[8], 
     memcpy(dims, b + 32, 24);
     memcpy(&h, b + 56, 8);
     if (bom != 0x01020304u)
-        return mlr_diag_set(diag, MLR_E_PARSE, 0, 0, "blob written with another byte order");
+        return common__diag_set(diag, MLR_E_PARSE, 0, 0, "blob written with another byte order");
     if (ver != version)
-        return mlr_diag_set(diag, MLR_E_PARSE, 0, 0, "blob version %u, this library reads %u",
-                            (unsigned)ver, (unsigned)version);
+        return common__diag_set(diag, MLR_E_PARSE, 0, 0, "blob version %u, this library reads %u",
+                                (unsigned)ver, (unsigned)version);
     if (total != size || np > (size - MLR_BLOB_HEADER) / 8 || MLR_BLOB_HEADER + np * 8 != total)
-        return mlr_diag_set(diag, MLR_E_PARSE, 0, 0,
-                            "blob size %zu does not match its header (%llu bytes, %llu values)",
-                            size, (unsigned long long)total, (unsigned long long)np);
+        return common__diag_set(
+            diag, MLR_E_PARSE, 0, 0,
+            "blob size %zu does not match its header (%llu bytes, %llu values)", size,
+            (unsigned long long)total, (unsigned long long)np);
     if (fnv1a(b + MLR_BLOB_HEADER, (size_t)np * 8) != h)
-        return mlr_diag_set(diag, MLR_E_PARSE, 0, 0, "blob hash mismatch: the data is corrupt");
+        return common__diag_set(diag, MLR_E_PARSE, 0, 0,
+                                "blob hash mismatch: the data is corrupt");
     *payload = b + MLR_BLOB_HEADER;
     *n_payload = (size_t)np;
     return MLR_OK;

@@ -147,18 +147,18 @@ size_t grbf__first_bad_row(const double *p, size_t n, size_t dim, size_t ld)
 int grbf__rows_overflow(size_t n, size_t ld)
 {
     size_t span;
-    return n > 0 && (mlr_mul_size(n - 1, ld, &span) || span > SIZE_MAX / sizeof(double) - ld);
+    return n > 0 && (common__mul_size(n - 1, ld, &span) || span > SIZE_MAX / sizeof(double) - ld);
 }
 
 /* The kernel id and, for the Gaussian, its width. */
 mlr_status grbf__check_kernel(int kernel, double width, mlr_diag *diag)
 {
     if (kernel != MLR_GRBF_THIN_PLATE && kernel != MLR_GRBF_GAUSSIAN)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "unknown GRBF kernel %d", kernel);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "unknown GRBF kernel %d", kernel);
     if (kernel == MLR_GRBF_GAUSSIAN &&
         !(width > 0 && width < INFINITY && 1.0 / (width * width) < INFINITY))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "Gaussian width must be finite and >= 1e-150, got %g", width);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "Gaussian width must be finite and >= 1e-150, got %g", width);
     return MLR_OK;
 }
 
@@ -172,22 +172,22 @@ static mlr_status check_common(int kernel, double width, const double *centers, 
     if (st != MLR_OK)
         return st;
     if (n_centers == 0 || dim == 0)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "%zu centres of dimension %zu: both must be >= 1", n_centers, dim);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "%zu centres of dimension %zu: both must be >= 1", n_centers, dim);
     if (!centers || (n > 0 && !x))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "centers or x is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "centers or x is NULL");
     if (ldc < dim || ldx < dim)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "dimension mismatch: strides ldc %zu, ldx %zu < dim %zu", ldc, ldx,
-                            dim);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "dimension mismatch: strides ldc %zu, ldx %zu < dim %zu", ldc, ldx,
+                                dim);
     if (n_threads < 1 || n_threads > MLR_MAX_THREADS)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "n_threads %zu not in 1 .. %d",
-                            n_threads, MLR_MAX_THREADS);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "n_threads %zu not in 1 .. %d",
+                                n_threads, MLR_MAX_THREADS);
     size_t nct;
-    if (mlr_mul_size(n_centers, dim, &nct) || mlr_mul_size(nct, sizeof(double), ct_bytes) ||
-        dim > SIZE_MAX - 1 - n_centers || grbf__rows_overflow(n_centers, ldc) ||
-        grbf__rows_overflow(n, ldx))
-        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "input or workspace size overflows");
+    if (common__mul_size(n_centers, dim, &nct) ||
+        common__mul_size(nct, sizeof(double), ct_bytes) || dim > SIZE_MAX - 1 - n_centers ||
+        grbf__rows_overflow(n_centers, ldc) || grbf__rows_overflow(n, ldx))
+        return common__diag_set(diag, MLR_E_OVERFLOW, 0, 0, "input or workspace size overflows");
     return MLR_OK;
 }
 
@@ -196,14 +196,14 @@ static mlr_status check_data(const double *centers, size_t n_centers, size_t ldc
 {
     size_t bad = grbf__first_bad_row(centers, n_centers, dim, ldc);
     if (bad < n_centers)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "centre %zu holds a NaN, an infinity or a coordinate beyond 1e150",
-                            bad);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "centre %zu holds a NaN, an infinity or a coordinate beyond 1e150",
+                                bad);
     bad = grbf__first_bad_row(x, n, dim, ldx);
     if (bad < n)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "point %zu holds a NaN, an infinity or a coordinate beyond 1e150",
-                            bad);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "point %zu holds a NaN, an infinity or a coordinate beyond 1e150",
+                                bad);
     return MLR_OK;
 }
 
@@ -227,29 +227,29 @@ mlr_status mlr_grbf_basis(int kernel, double width, const double *centers, size_
         return st;
     size_t cols = n_centers + (poly ? 1 + dim : 0);
     if (n > 0 && !out)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "out is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "out is NULL");
     if (ldo < cols)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "output stride ldo %zu < %zu basis columns", ldo, cols);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "output stride ldo %zu < %zu basis columns", ldo, cols);
     if (grbf__rows_overflow(n, ldo))
-        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "output size overflows");
+        return common__diag_set(diag, MLR_E_OVERFLOW, 0, 0, "output size overflows");
     if ((st = check_data(centers, n_centers, ldc, x, n, ldx, dim, diag)))
         return st;
     if (n == 0)
         return MLR_OK;
     mlr_allocator a;
-    mlr_allocator_resolve(alloc, &a);
-    double *ct = mlr_alloc(&a, bytes);
+    common__allocator_resolve(alloc, &a);
+    double *ct = common__alloc(&a, bytes);
     if (!ct)
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
-                            "grbf basis: out of memory for %zu centres", n_centers);
+        return common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                                "grbf basis: out of memory for %zu centres", n_centers);
     transpose_centres(centers, n_centers, ldc, dim, ct);
     basis_ctx c = {kernel, poly != 0, kernel == MLR_GRBF_GAUSSIAN ? 1.0 / (width * width) : 0.0,
                    ct,     x,         n_centers,
                    ldx,    n,         dim,
                    ldo,    out};
     parallel__run(n_threads, (n + GRBF_TASK_ROWS - 1) / GRBF_TASK_ROWS, grbf__basis_task, &c);
-    mlr_free(&a, ct, bytes);
+    common__free(&a, ct, bytes);
     return MLR_OK;
 }
 
@@ -325,39 +325,39 @@ mlr_status mlr_grbf_eval(int kernel, double width, const double *centers, size_t
         return st;
     const size_t K = n_centers + 1 + dim;
     if (n_out == 0 || !coef || (n > 0 && !out))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "no outputs (n_out %zu) or coef or out NULL", n_out);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "no outputs (n_out %zu) or coef or out NULL", n_out);
     if (ldcoef < n_out || ldo < n_out)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "dimension mismatch: strides ldcoef %zu, ldo %zu < n_out %zu", ldcoef,
-                            ldo, n_out);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "dimension mismatch: strides ldcoef %zu, ldo %zu < n_out %zu",
+                                ldcoef, ldo, n_out);
     size_t npanel = n_out / EVAL_PANEL + (n_out % EVAL_PANEL != 0), pan_n, pan_bytes;
     if (grbf__rows_overflow(n, ldo) || grbf__rows_overflow(K, ldcoef) ||
-        mlr_mul_size(npanel * EVAL_PANEL, K, &pan_n) ||
-        mlr_mul_size(pan_n, sizeof(double), &pan_bytes) || ct_bytes > SIZE_MAX - pan_bytes)
-        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "evaluation workspace overflows");
+        common__mul_size(npanel * EVAL_PANEL, K, &pan_n) ||
+        common__mul_size(pan_n, sizeof(double), &pan_bytes) || ct_bytes > SIZE_MAX - pan_bytes)
+        return common__diag_set(diag, MLR_E_OVERFLOW, 0, 0, "evaluation workspace overflows");
     if ((st = check_data(centers, n_centers, ldc, x, n, ldx, dim, diag)))
         return st;
     size_t bad = cluster__first_nonfinite_row(coef, K, n_out, ldcoef);
     if (bad < K)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "coefficient row %zu holds a NaN or an infinity", bad);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "coefficient row %zu holds a NaN or an infinity", bad);
     if (n == 0)
         return MLR_OK;
     mlr_allocator a;
-    mlr_allocator_resolve(alloc, &a);
-    double *ws = mlr_alloc(&a, ct_bytes + pan_bytes);
+    common__allocator_resolve(alloc, &a);
+    double *ws = common__alloc(&a, ct_bytes + pan_bytes);
     if (!ws)
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
-                            "grbf eval: out of memory for the workspace (%zu bytes)",
-                            ct_bytes + pan_bytes);
+        return common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                                "grbf eval: out of memory for the workspace (%zu bytes)",
+                                ct_bytes + pan_bytes);
     grbf_eval_plan plan;
     grbf__eval_plan_init(&plan, kernel, width, centers, n_centers, ldc, coef, ldcoef, n_out, dim,
                          ws);
     eval_ctx c = {plan.kernel, plan.wide, plan.s, plan.ct, x,     plan.pan, n_centers, dim,
                   ldx,         n,         K,      npanel,  n_out, ldo,      out};
     parallel__run(n_threads, (n + EVAL_ROWS - 1) / EVAL_ROWS, eval_task, &c);
-    mlr_free(&a, ws, ct_bytes + pan_bytes);
+    common__free(&a, ws, ct_bytes + pan_bytes);
     return MLR_OK;
 }
 
@@ -368,7 +368,7 @@ size_t grbf__eval_plan_bytes(size_t n_centers, size_t dim, size_t n_out)
     if (dim > SIZE_MAX - 1 - n_centers)
         return 0;
     K = n_centers + 1 + dim;
-    if (mlr_mul_size(n_centers, dim, &ct) || mlr_mul_size(npanel * EVAL_PANEL, K, &pan) ||
+    if (common__mul_size(n_centers, dim, &ct) || common__mul_size(npanel * EVAL_PANEL, K, &pan) ||
         ct > SIZE_MAX / sizeof(double) - pan)
         return 0;
     return (ct + pan) * sizeof(double);

@@ -249,24 +249,25 @@ static mlr_status lattice_workspace(size_t rows, size_t cols, size_t ldy, size_t
     const size_t Rh = (rows + 1) / 2, Ch = (cols + 1) / 2;
     size_t N, nr, nkrow, kk;
     *total = 0;
-    if (mlr_mul_size(rows, cols, &N) || N > SIZE_MAX / 4 - 3 || mlr_mul_size(Rh, Ch, &nr) ||
-        mlr_mul_size(nr, N, &nkrow) || mlr_mul_size(nr, nr, &kk) || grbf__rows_overflow(N, ldy) ||
+    if (common__mul_size(rows, cols, &N) || N > SIZE_MAX / 4 - 3 ||
+        common__mul_size(Rh, Ch, &nr) || common__mul_size(nr, N, &nkrow) ||
+        common__mul_size(nr, nr, &kk) || grbf__rows_overflow(N, ldy) ||
         grbf__rows_overflow(N + 3, ldcoef))
-        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "lattice workspace overflows");
+        return common__diag_set(diag, MLR_E_OVERFLOW, 0, 0, "lattice workspace overflows");
     if (n_out > SIZE_MAX / 16 - PANEL || nr > SIZE_MAX / (4 * (PANEL + 2)))
-        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "lattice workspace overflows");
+        return common__diag_set(diag, MLR_E_OVERFLOW, 0, 0, "lattice workspace overflows");
     const size_t mp = (n_out + PANEL - 1) / PANEL * PANEL;
     const size_t fixed[LATTICE_PARTS] = {2 * N, 2 * nr, nkrow, kk, kk, kk, kk, 0,
                                          0,     0,      0,     0,  0,  0,  0,  3 * n_out};
     memcpy(parts, fixed, sizeof fixed);
     for (size_t q = 7; q < 11; q++)
-        if (mlr_mul_size(nr, mp, &parts[q]))
-            return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "lattice workspace overflows");
+        if (common__mul_size(nr, mp, &parts[q]))
+            return common__diag_set(diag, MLR_E_OVERFLOW, 0, 0, "lattice workspace overflows");
     for (size_t q = 11; q < 15; q++)
         parts[q] = LATTICE_WORK(nr, mp);
     for (size_t q = 0; q < LATTICE_PARTS; q++) {
         if (parts[q] > SIZE_MAX / sizeof(double) - *total)
-            return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "lattice workspace overflows");
+            return common__diag_set(diag, MLR_E_OVERFLOW, 0, 0, "lattice workspace overflows");
         *total += parts[q];
     }
     return MLR_OK;
@@ -278,26 +279,27 @@ static mlr_status check_lattice_data(const double *xs, size_t rows, const double
 {
     size_t bad = grbf__first_bad_row(xs, 1, rows, rows);
     if (bad == 0 || grbf__first_bad_row(ys, 1, cols, cols) == 0)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "lattice coordinates hold a NaN, an infinity or a value beyond 1e150");
+        return common__diag_set(
+            diag, MLR_E_INVALID_ARG, 0, 0,
+            "lattice coordinates hold a NaN, an infinity or a value beyond 1e150");
     /* the reflections must map the lattice onto itself */
     double xm = 0.5 * (xs[0] + xs[rows - 1]), ym = 0.5 * (ys[0] + ys[cols - 1]);
     double xe = fabs(xs[rows - 1] - xs[0]), ye = fabs(ys[cols - 1] - ys[0]);
     for (size_t r = 0; r < rows; r++)
         if (!(fabs(xs[r] + xs[rows - 1 - r] - 2.0 * xm) <= 1e-12 * xe))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "xs is not symmetric about its middle (xs[%zu] + xs[%zu])", r,
-                                rows - 1 - r);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "xs is not symmetric about its middle (xs[%zu] + xs[%zu])", r,
+                                    rows - 1 - r);
     for (size_t c = 0; c < cols; c++)
         if (!(fabs(ys[c] + ys[cols - 1 - c] - 2.0 * ym) <= 1e-12 * ye))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "ys is not symmetric about its middle (ys[%zu] + ys[%zu])", c,
-                                cols - 1 - c);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "ys is not symmetric about its middle (ys[%zu] + ys[%zu])", c,
+                                    cols - 1 - c);
     const size_t N = rows * cols;
     bad = cluster__first_nonfinite_row(y, N, n_out, ldy);
     if (bad < N)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "y row %zu holds a NaN or an infinity",
-                            bad);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "y row %zu holds a NaN or an infinity", bad);
     return MLR_OK;
 }
 
@@ -339,19 +341,19 @@ mlr_status mlr_grbf_fit_lattice(int kernel, double width, const double *xs, size
     if (st != MLR_OK)
         return st;
     if (rows < 2 || cols < 2)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "lattice %zu x %zu: needs at least 2 x 2 (the linear terms)", rows,
-                            cols);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "lattice %zu x %zu: needs at least 2 x 2 (the linear terms)", rows,
+                                cols);
     if (!xs || !ys || !y || !coef || n_out == 0)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "xs, ys, y or coef NULL, or no outputs (n_out %zu)", n_out);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "xs, ys, y or coef NULL, or no outputs (n_out %zu)", n_out);
     if (ldy < n_out || ldcoef < n_out)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "dimension mismatch: strides ldy %zu, ldcoef %zu < n_out %zu", ldy,
-                            ldcoef, n_out);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "dimension mismatch: strides ldy %zu, ldcoef %zu < n_out %zu", ldy,
+                                ldcoef, n_out);
     if (n_threads < 1 || n_threads > MLR_MAX_THREADS)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "n_threads %zu not in 1 .. %d",
-                            n_threads, MLR_MAX_THREADS);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "n_threads %zu not in 1 .. %d",
+                                n_threads, MLR_MAX_THREADS);
     size_t parts[LATTICE_PARTS], total;
     if ((st = lattice_workspace(rows, cols, ldy, n_out, ldcoef, parts, &total, diag)) ||
         (st = check_lattice_data(xs, rows, ys, cols, y, ldy, n_out, diag)))
@@ -360,12 +362,12 @@ mlr_status mlr_grbf_fit_lattice(int kernel, double width, const double *xs, size
     const size_t mp = (n_out + PANEL - 1) / PANEL * PANEL;
     const double xm = 0.5 * (xs[0] + xs[rows - 1]), ym = 0.5 * (ys[0] + ys[cols - 1]);
     mlr_allocator a;
-    mlr_allocator_resolve(alloc, &a);
-    double *ws = mlr_alloc(&a, total * sizeof(double));
+    common__allocator_resolve(alloc, &a);
+    double *ws = common__alloc(&a, total * sizeof(double));
     if (!ws)
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
-                            "grbf fit_lattice: out of memory for the workspace (%zu doubles)",
-                            total);
+        return common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                                "grbf fit_lattice: out of memory for the workspace (%zu doubles)",
+                                total);
     double *ptr[LATTICE_PARTS];
     for (size_t q = 0, off = 0; q < LATTICE_PARTS; off += parts[q], q++)
         ptr[q] = ws + off;
@@ -407,12 +409,12 @@ mlr_status mlr_grbf_fit_lattice(int kernel, double width, const double *xs, size
     st = MLR_OK;
     for (size_t cls = 0; cls < 4; cls++)
         if (lc.failed[cls] && !st)
-            st = mlr_diag_set(diag, MLR_E_SINGULAR, 0, 0,
-                              "symmetry class %zu of the kernel matrix is not numerically "
-                              "positive definite (coincident centres or a too wide Gaussian)",
-                              cls);
+            st = common__diag_set(diag, MLR_E_SINGULAR, 0, 0,
+                                  "symmetry class %zu of the kernel matrix is not numerically "
+                                  "positive definite (coincident centres or a too wide Gaussian)",
+                                  cls);
     if (!st)
         lattice_coefficients(&lc, coef, ldcoef);
-    mlr_free(&a, ws, total * sizeof(double));
+    common__free(&a, ws, total * sizeof(double));
     return st;
 }

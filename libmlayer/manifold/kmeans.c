@@ -468,32 +468,32 @@ mlr_status mlr_kmeans_create(size_t k, size_t dim, const mlr_allocator *alloc, m
                              mlr_diag *diag)
 {
     if (!out)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "out is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "out is NULL");
     *out = NULL;
     if (k == 0 || dim == 0)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "k = %zu and dim = %zu must be >= 1", k,
-                            dim);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "k = %zu and dim = %zu must be >= 1", k, dim);
     if (k > INT32_MAX)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "k = %zu exceeds INT32_MAX", k);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "k = %zu exceeds INT32_MAX", k);
     size_t kpad = cluster__packed_kpad(k), nc, np;
-    if (mlr_mul_size(k, dim, &nc) || mlr_mul_size(kpad, dim + 1, &np) ||
-        mlr_mul_size(nc + np, sizeof(double), &nc))
-        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "k * dim overflows");
+    if (common__mul_size(k, dim, &nc) || common__mul_size(kpad, dim + 1, &np) ||
+        common__mul_size(nc + np, sizeof(double), &nc))
+        return common__diag_set(diag, MLR_E_OVERFLOW, 0, 0, "k * dim overflows");
     mlr_allocator a;
-    mlr_allocator_resolve(alloc, &a);
-    mlr_kmeans *km = mlr_alloc(&a, sizeof *km);
+    common__allocator_resolve(alloc, &a);
+    mlr_kmeans *km = common__alloc(&a, sizeof *km);
     if (!km)
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
-                            "kmeans create: out of memory for the model");
+        return common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                                "kmeans create: out of memory for the model");
     memset(km, 0, sizeof *km);
     km->a = a;
     km->k = k;
     km->dim = dim;
-    km->centers = mlr_alloc(&a, nc);
+    km->centers = common__alloc(&a, nc);
     if (!km->centers) {
-        mlr_free(&a, km, sizeof *km);
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
-                            "kmeans create: out of memory for %zu centres", k);
+        common__free(&a, km, sizeof *km);
+        return common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                                "kmeans create: out of memory for %zu centres", k);
     }
     memset(km->centers, 0, k * dim * sizeof(double));
     km->packed.pc = km->centers + k * dim;
@@ -524,8 +524,8 @@ void mlr_kmeans_destroy(mlr_kmeans *km)
     if (!km)
         return;
     mlr_allocator a = km->a;
-    mlr_free(&a, km->centers, total_bytes(km));
-    mlr_free(&a, km, sizeof *km);
+    common__free(&a, km->centers, total_bytes(km));
+    common__free(&a, km, sizeof *km);
 }
 
 static int is_int(double v, double lo, double hi)
@@ -536,7 +536,7 @@ static int is_int(double v, double lo, double hi)
 mlr_status mlr_kmeans_set(mlr_kmeans *km, int option, double v, mlr_diag *diag)
 {
     if (!km)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "km is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "km is NULL");
     switch (option) {
     case MLR_KMEANS_MAX_ITER:
         if (!is_int(v, 1, 1e15))
@@ -569,23 +569,24 @@ mlr_status mlr_kmeans_set(mlr_kmeans *km, int option, double v, mlr_diag *diag)
         km->algorithm = (int)v;
         return MLR_OK;
     default:
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "unknown k-means option %d", option);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "unknown k-means option %d",
+                                option);
     }
-    return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "k-means option %d: value %g out of range",
-                        option, v);
+    return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "k-means option %d: value %g out of range", option, v);
 }
 
 mlr_status mlr_kmeans_set_centers(mlr_kmeans *km, const double *c, size_t ldc, mlr_diag *diag)
 {
     if (!km || !c)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "km or centres NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "km or centres NULL");
     if (ldc < km->dim)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "dimension mismatch: centre stride %zu < dim %zu", ldc, km->dim);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "dimension mismatch: centre stride %zu < dim %zu", ldc, km->dim);
     size_t bad = cluster__first_nonfinite_row(c, km->k, km->dim, ldc);
     if (bad < km->k)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "centre %zu holds a NaN or an infinity",
-                            bad);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "centre %zu holds a NaN or an infinity", bad);
     for (size_t j = 0; j < km->k; j++)
         memcpy(km->centers + j * km->dim, c + j * ldc, km->dim * sizeof(double));
     cluster__packed_fill(&km->packed, km->centers, km->dim);
@@ -603,18 +604,18 @@ mlr_status mlr_kmeans_predict(const mlr_kmeans *km, const double *x, size_t n, s
                               int32_t *labels, double *dist2, mlr_diag *diag)
 {
     if (!km)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "km is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "km is NULL");
     if (n == 0)
         return MLR_OK;
     if (!x || !labels)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "x or labels NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "x or labels NULL");
     if (ldx < km->dim)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "dimension mismatch: row stride %zu < dim %zu", ldx, km->dim);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "dimension mismatch: row stride %zu < dim %zu", ldx, km->dim);
     size_t bad = cluster__first_nonfinite_row(x, n, km->dim, ldx);
     if (bad < n)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "row %zu holds a NaN or an infinity",
-                            bad);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "row %zu holds a NaN or an infinity", bad);
     double db[SUB];
     for (size_t i0 = 0; i0 < n; i0 += SUB) {
         size_t m = n - i0 < SUB ? n - i0 : SUB;
@@ -634,29 +635,30 @@ static mlr_status fit_check(const mlr_kmeans *km, const double *x, size_t n, siz
                             const double *init, size_t ldinit, mlr_diag *diag)
 {
     if (!km)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "km is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "km is NULL");
     const size_t k = km->k, dim = km->dim;
     if (!x || n == 0)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "empty data: no rows");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "empty data: no rows");
     if (k > n)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "k = %zu exceeds the %zu rows", k, n);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "k = %zu exceeds the %zu rows", k,
+                                n);
     if (ldx < dim)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "dimension mismatch: row stride %zu < dim %zu", ldx, dim);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "dimension mismatch: row stride %zu < dim %zu", ldx, dim);
     if (init && ldinit < dim)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "dimension mismatch: initial centre stride %zu < dim %zu", ldinit,
-                            dim);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "dimension mismatch: initial centre stride %zu < dim %zu", ldinit,
+                                dim);
     size_t bad = cluster__first_nonfinite_row(x, n, dim, ldx);
     if (bad < n)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "row %zu holds a NaN or an infinity",
-                            bad);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "row %zu holds a NaN or an infinity", bad);
     if (init && (bad = cluster__first_nonfinite_row(init, k, dim, ldinit)) < k)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "initial centre %zu holds a NaN or an infinity", bad);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "initial centre %zu holds a NaN or an infinity", bad);
     size_t tmp;
-    if (mlr_mul_size(n, ldx, &tmp) || mlr_mul_size(n, 4 * sizeof(double), &tmp))
-        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "n = %zu rows overflow", n);
+    if (common__mul_size(n, ldx, &tmp) || common__mul_size(n, 4 * sizeof(double), &tmp))
+        return common__diag_set(diag, MLR_E_OVERFLOW, 0, 0, "n = %zu rows overflow", n);
     return MLR_OK;
 }
 
@@ -798,10 +800,10 @@ mlr_status mlr_kmeans_fit(mlr_kmeans *km, const double *x, size_t n, size_t ldx,
     for (size_t q = 0; q < MLR_COUNTOF(blocks); q++) {
         if (blocks[q].bytes == 0)
             continue;
-        *blocks[q].slot = mlr_alloc(&km->a, blocks[q].bytes);
+        *blocks[q].slot = common__alloc(&km->a, blocks[q].bytes);
         if (!*blocks[q].slot) {
-            st = mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
-                              "kmeans fit: out of memory for the workspace");
+            st = common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                                  "kmeans fit: out of memory for the workspace");
             goto done;
         }
     }
@@ -827,6 +829,6 @@ mlr_status mlr_kmeans_fit(mlr_kmeans *km, const double *x, size_t n, size_t ldx,
 done:
     for (size_t q = 0; q < MLR_COUNTOF(blocks); q++)
         if (blocks[q].bytes)
-            mlr_free(&km->a, *blocks[q].slot, blocks[q].bytes);
+            common__free(&km->a, *blocks[q].slot, blocks[q].bytes);
     return st;
 }

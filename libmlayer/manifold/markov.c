@@ -40,93 +40,96 @@ mlr_status mlr_markov_create(size_t n_states, const double *jumps, const double 
                              mlr_markov **out, mlr_diag *diag)
 {
     if (!out)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "mlr_markov_create: out is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "mlr_markov_create: out is NULL");
     *out = NULL;
     const char *who = "mlr_markov_create";
     size_t n = n_states, m = n_contexts;
     if (n == 0 || n > INT32_MAX)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "%s: n_states %zu out of range "
-                            "(1 .. 2^31 - 1)",
-                            who, n);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "%s: n_states %zu out of range "
+                                "(1 .. 2^31 - 1)",
+                                who, n);
     if (!jumps || !run_length)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: %s is NULL", who,
-                            jumps ? "run_length" : "jumps");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: %s is NULL", who,
+                                jumps ? "run_length" : "jumps");
     if (order < 1 || order > MLR_MARKOV_MAX_ORDER)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: order %u out of range (1 .. %d)",
-                            who, order, MLR_MARKOV_MAX_ORDER);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "%s: order %u out of range (1 .. %d)", who, order,
+                                MLR_MARKOV_MAX_ORDER);
     if (min_count < 1)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: min_count must be >= 1", who);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: min_count must be >= 1", who);
     if (m > 0 && (!context_keys || !context_seen || !context_probs))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "%s: %zu contexts but a context array "
-                            "is NULL",
-                            who, m);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "%s: %zu contexts but a context array "
+                                "is NULL",
+                                who, m);
     if (m > 0 && order == 1)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: contexts need order >= 2", who);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: contexts need order >= 2",
+                                who);
     size_t nn, mn, mo, total;
-    if (mlr_mul_size(n, n, &nn) || mlr_mul_size(m, n, &mn) || mlr_mul_size(m, order, &mo) ||
-        nn > SIZE_MAX / 16 || mn > SIZE_MAX / 16 || mo > SIZE_MAX / 16 || m > SIZE_MAX / 16)
-        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "%s: sizes overflow", who);
+    if (common__mul_size(n, n, &nn) || common__mul_size(m, n, &mn) ||
+        common__mul_size(m, order, &mo) || nn > SIZE_MAX / 16 || mn > SIZE_MAX / 16 ||
+        mo > SIZE_MAX / 16 || m > SIZE_MAX / 16)
+        return common__diag_set(diag, MLR_E_OVERFLOW, 0, 0, "%s: sizes overflow", who);
     total = (nn + n + m + mn + mo) * sizeof(double);
     size_t r = bad_row(jumps, n, n);
     if (r < n)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "%s: jumps row %zu is not finite, "
-                            ">= 0 and summing to 1",
-                            who, r);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "%s: jumps row %zu is not finite, "
+                                ">= 0 and summing to 1",
+                                who, r);
     if (n > 1)
         for (size_t j = 0; j < n; j++)
             if (jumps[j * n + j] != 0.0)
-                return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                    "%s: jumps[%zu][%zu] must be 0 "
-                                    "(a jump leaves its state)",
-                                    who, j, j);
+                return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                        "%s: jumps[%zu][%zu] must be 0 "
+                                        "(a jump leaves its state)",
+                                        who, j, j);
     for (size_t j = 0; j < n; j++)
         if (!(run_length[j] >= 0.0 && run_length[j] < HUGE_VAL))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "%s: run_length[%zu] must be "
-                                "finite and >= 0",
-                                who, j);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "%s: run_length[%zu] must be "
+                                    "finite and >= 0",
+                                    who, j);
     r = m ? bad_row(context_probs, m, n) : 0;
     if (r < m)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "%s: context_probs row %zu is not "
-                            "finite, >= 0 and summing to 1",
-                            who, r);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "%s: context_probs row %zu is not "
+                                "finite, >= 0 and summing to 1",
+                                who, r);
     for (size_t c = 0; c < m; c++) {
         if (!(context_seen[c] >= 0.0 && context_seen[c] < HUGE_VAL))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "%s: context_seen[%zu] must be "
-                                "finite and >= 0",
-                                who, c);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "%s: context_seen[%zu] must be "
+                                    "finite and >= 0",
+                                    who, c);
         const int64_t *k = context_keys + c * order;
         size_t pad = 0;
         while (pad < order && k[pad] == -1)
             pad++;
         if (order - pad < 2)
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "%s: context key %zu has fewer "
-                                "than 2 states",
-                                who, c);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "%s: context key %zu has fewer "
+                                    "than 2 states",
+                                    who, c);
         for (size_t i = pad; i < order; i++)
             if (k[i] < 0 || (uint64_t)k[i] >= n)
-                return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                    "%s: context key %zu holds "
-                                    "state %lld, out of range (0 .. %zu, -1 only as left "
-                                    "padding)",
-                                    who, c, (long long)k[i], n - 1);
+                return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                        "%s: context key %zu holds "
+                                        "state %lld, out of range (0 .. %zu, -1 only as left "
+                                        "padding)",
+                                        who, c, (long long)k[i], n - 1);
     }
     mlr_allocator a;
-    mlr_allocator_resolve(alloc, &a);
-    mlr_markov *mk = mlr_alloc(&a, sizeof *mk);
+    common__allocator_resolve(alloc, &a);
+    mlr_markov *mk = common__alloc(&a, sizeof *mk);
     if (!mk)
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "%s: out of memory", who);
-    double *block = mlr_alloc(&a, total);
+        return common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "%s: out of memory", who);
+    double *block = common__alloc(&a, total);
     if (!block) {
-        mlr_free(&a, mk, sizeof *mk);
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "%s: out of memory (%zu bytes)", who,
-                            total);
+        common__free(&a, mk, sizeof *mk);
+        return common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "%s: out of memory (%zu bytes)", who,
+                                total);
     }
     mk->alloc = a;
     mk->n = n;
@@ -159,8 +162,8 @@ void mlr_markov_destroy(mlr_markov *mk)
     if (!mk)
         return;
     mlr_allocator a = mk->alloc;
-    mlr_free(&a, mk->jumps, mk->bytes);
-    mlr_free(&a, mk, sizeof *mk);
+    common__free(&a, mk->jumps, mk->bytes);
+    common__free(&a, mk, sizeof *mk);
 }
 
 double mlr_markov_step_frames(const mlr_markov *mk, int64_t a, int64_t b)
@@ -257,10 +260,10 @@ static mlr_status check_states(const mlr_markov *mk, const int64_t *h, size_t le
 {
     for (size_t i = 0; i < len; i++)
         if (h[i] < 0 || (uint64_t)h[i] >= mk->n)
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "%s: %s[%zu] = %lld out of range "
-                                "(the model has %zu states, 0 .. %zu)",
-                                who, what, i, (long long)h[i], mk->n, mk->n - 1);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "%s: %s[%zu] = %lld out of range "
+                                    "(the model has %zu states, 0 .. %zu)",
+                                    who, what, i, (long long)h[i], mk->n, mk->n - 1);
     return MLR_OK;
 }
 
@@ -269,15 +272,16 @@ mlr_status mlr_markov_next(const mlr_markov *mk, const int64_t *history, size_t 
 {
     const char *who = "mlr_markov_next";
     if (!mk || !history || !next || (rank == 0 && !rng))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: %s is NULL", who,
-                            !mk        ? "mk"
-                            : !history ? "history"
-                            : !next    ? "next"
-                                       : "rng");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: %s is NULL", who,
+                                !mk        ? "mk"
+                                : !history ? "history"
+                                : !next    ? "next"
+                                           : "rng");
     if (len == 0)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: empty history", who);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: empty history", who);
     if (rank < 0)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: rank %d must be >= 0", who, rank);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: rank %d must be >= 0", who,
+                                rank);
     size_t keep = len < mk->order ? len : mk->order;
     mlr_status st = check_states(mk, history + len - keep, keep, who, "history", diag);
     if (st)
@@ -291,20 +295,21 @@ mlr_status mlr_markov_path(const mlr_markov *mk, const int64_t *history, size_t 
 {
     const char *who = "mlr_markov_path";
     if (!mk || !path || !len || (n_history && !history) || (rank == 0 && !rng))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: %s is NULL", who,
-                            !mk     ? "mk"
-                            : !path ? "path"
-                            : !len  ? "len"
-                            : !rng  ? "rng"
-                                    : "history");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: %s is NULL", who,
+                                !mk     ? "mk"
+                                : !path ? "path"
+                                : !len  ? "len"
+                                : !rng  ? "rng"
+                                        : "history");
     *len = 0;
     if (rank < 0)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: rank %d must be >= 0", who, rank);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: rank %d must be >= 0", who,
+                                rank);
     if (n_frames < 1 || n_frames == SIZE_MAX || cap < n_frames + 1)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "%s: cap %zu < n_frames + 1 (n_frames "
-                            "%zu >= 1)",
-                            who, cap, n_frames);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "%s: cap %zu < n_frames + 1 (n_frames "
+                                "%zu >= 1)",
+                                who, cap, n_frames);
     mlr_status st = check_states(mk, history, n_history, who, "history", diag);
     if (!st)
         st = check_states(mk, &start, 1, who, "start", diag);
@@ -418,22 +423,23 @@ mlr_status mlr_markov_perturb(const mlr_markov *mk, double noise, int allow_unse
 {
     const char *who = "mlr_markov_perturb";
     if (!out)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: out is NULL", who);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: out is NULL", who);
     *out = NULL;
     if (!mk || !rng)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: %s is NULL", who,
-                            mk ? "rng" : "mk");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: %s is NULL", who,
+                                mk ? "rng" : "mk");
     if (!(noise >= 0.0 && noise < HUGE_VAL))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: noise %g must be finite and >= 0",
-                            who, noise);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "%s: noise %g must be finite and >= 0", who, noise);
     if (allow_unseen != 0 && allow_unseen != 1)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: allow_unseen must be 0 or 1", who);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: allow_unseen must be 0 or 1",
+                                who);
     size_t n = mk->n, m = mk->m, nn = n * n, mn = m * n, total = (nn + mn + n) * sizeof(double);
     mlr_allocator a;
-    mlr_allocator_resolve(alloc, &a);
-    double *w = mlr_alloc(&a, total);
+    common__allocator_resolve(alloc, &a);
+    double *w = common__alloc(&a, total);
     if (!w)
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "%s: out of memory", who);
+        return common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "%s: out of memory", who);
     double *J = w, *P = w + nn, *run = P + mn;
     memcpy(J, mk->jumps, nn * sizeof(double));
     if (m)
@@ -447,6 +453,6 @@ mlr_status mlr_markov_perturb(const mlr_markov *mk, double noise, int allow_unse
                rng);
     mlr_status st = mlr_markov_create(n, J, run, mk->order, mk->min_count, m, m ? mk->keys : NULL,
                                       m ? mk->seen : NULL, m ? P : NULL, &a, out, diag);
-    mlr_free(&a, w, total);
-    return st ? mlr_diag_prefix(diag, st, who) : MLR_OK;
+    common__free(&a, w, total);
+    return st ? common__diag_prefix(diag, st, who) : MLR_OK;
 }

@@ -29,32 +29,33 @@ mlr_status mlr_som_create(size_t rows, size_t cols, size_t dim, const mlr_alloca
                           mlr_som **out, mlr_diag *diag)
 {
     if (!out)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "out is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "out is NULL");
     *out = NULL;
     if (rows == 0 || cols == 0 || dim == 0)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "lattice %zu x %zu with dim %zu: every size must be >= 1", rows, cols,
-                            dim);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "lattice %zu x %zu with dim %zu: every size must be >= 1", rows,
+                                cols, dim);
     size_t units, nw, np, bytes;
-    if (mlr_mul_size(rows, cols, &units) || units > INT32_MAX)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "lattice %zu x %zu is too large", rows,
-                            cols);
+    if (common__mul_size(rows, cols, &units) || units > INT32_MAX)
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "lattice %zu x %zu is too large",
+                                rows, cols);
     size_t kpad = cluster__packed_kpad(units);
-    if (mlr_mul_size(units, dim, &nw) || mlr_mul_size(kpad, dim + 1, &np) ||
-        mlr_mul_size(nw + np + 16, sizeof(double), &bytes))
-        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "codebook size overflows");
+    if (common__mul_size(units, dim, &nw) || common__mul_size(kpad, dim + 1, &np) ||
+        common__mul_size(nw + np + 16, sizeof(double), &bytes))
+        return common__diag_set(diag, MLR_E_OVERFLOW, 0, 0, "codebook size overflows");
     mlr_allocator a;
-    mlr_allocator_resolve(alloc, &a);
-    mlr_som *s = mlr_alloc(&a, sizeof *s);
+    common__allocator_resolve(alloc, &a);
+    mlr_som *s = common__alloc(&a, sizeof *s);
     if (!s)
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "som create: out of memory for the map");
+        return common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                                "som create: out of memory for the map");
     memset(s, 0, sizeof *s);
     s->a = a;
-    s->w = mlr_alloc(&a, bytes);
+    s->w = common__alloc(&a, bytes);
     if (!s->w) {
-        mlr_free(&a, s, sizeof *s);
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
-                            "som create: out of memory for a %zu x %zu codebook", units, dim);
+        common__free(&a, s, sizeof *s);
+        return common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                                "som create: out of memory for a %zu x %zu codebook", units, dim);
     }
     s->bytes = bytes;
     s->rows = rows;
@@ -87,14 +88,14 @@ void mlr_som_destroy(mlr_som *som)
     if (!som)
         return;
     mlr_allocator a = som->a;
-    mlr_free(&a, som->w, som->bytes);
-    mlr_free(&a, som, sizeof *som);
+    common__free(&a, som->w, som->bytes);
+    common__free(&a, som, sizeof *som);
 }
 
 mlr_status mlr_som_set(mlr_som *som, int option, double v, mlr_diag *diag)
 {
     if (!som)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "som is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "som is NULL");
     int ok = 0;
     switch (option) {
     case MLR_SOM_SEED:
@@ -120,27 +121,27 @@ mlr_status mlr_som_set(mlr_som *som, int option, double v, mlr_diag *diag)
             som->cutoff = v;
         break;
     default:
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "unknown SOM option %d", option);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "unknown SOM option %d", option);
     }
     return ok ? MLR_OK
-              : mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "SOM option %d: value %g out of range",
-                             option, v);
+              : common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                 "SOM option %d: value %g out of range", option, v);
 }
 
 static mlr_status check_data(const mlr_som *som, const double *x, size_t n, size_t ldx,
                              mlr_diag *diag)
 {
     if (!som)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "som is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "som is NULL");
     if (!x || n == 0)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "empty data: no rows");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "empty data: no rows");
     if (ldx < som->dim)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "dimension mismatch: row stride %zu < dim %zu", ldx, som->dim);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "dimension mismatch: row stride %zu < dim %zu", ldx, som->dim);
     size_t bad = cluster__first_nonfinite_row(x, n, som->dim, ldx);
     if (bad < n)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "row %zu holds a NaN or an infinity",
-                            bad);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "row %zu holds a NaN or an infinity", bad);
     return MLR_OK;
 }
 
@@ -219,7 +220,7 @@ mlr_status mlr_som_bmu(const mlr_som *som, const double *x, size_t n, size_t ldx
     if (st)
         return st;
     if (!bmu)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "bmu is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "bmu is NULL");
     bmu_ctx c;
     memset(&c, 0, sizeof c);
     c.som = som;
@@ -495,11 +496,11 @@ typedef struct train_work {
 
 static void train_work_free(const mlr_som *som, train_work *tw, int mode)
 {
-    mlr_free(&som->a, tw->g, tw->gbytes);
-    mlr_free(&som->a, tw->idx, tw->ibytes);
-    mlr_free(&som->a, tw->sum, tw->sbytes);
+    common__free(&som->a, tw->g, tw->gbytes);
+    common__free(&som->a, tw->idx, tw->ibytes);
+    common__free(&som->a, tw->sum, tw->sbytes);
     if (mode == MLR_SOM_BATCH)
-        mlr_free(&som->a, tw->tmp, tw->sbytes);
+        common__free(&som->a, tw->tmp, tw->sbytes);
 }
 
 /* Sizes and allocation of the training scratch of n rows, epochs epochs. */
@@ -508,22 +509,22 @@ static mlr_status train_work_alloc(const mlr_som *som, size_t n, size_t epochs, 
 {
     memset(tw, 0, sizeof *tw);
     const size_t w = som->dim + 1;
-    if (mlr_mul_size(som->units, w * sizeof(double), &tw->nb) ||
-        mlr_mul_size(epochs, n, &tw->steps))
-        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "training workspace overflows");
+    if (common__mul_size(som->units, w * sizeof(double), &tw->nb) ||
+        common__mul_size(epochs, n, &tw->steps))
+        return common__diag_set(diag, MLR_E_OVERFLOW, 0, 0, "training workspace overflows");
     const size_t kpad = som->pk.kpad;
     tw->gbytes = (som->rows + som->cols) * sizeof(double);
     tw->ibytes = n * (mode == MLR_SOM_BATCH ? sizeof(int32_t) : sizeof(size_t));
     /* batch: per-unit sums; online: h (kpad doubles) then the block marks (kpad / 16 bytes) */
     tw->sbytes = mode == MLR_SOM_BATCH ? tw->nb : kpad * sizeof(double) + kpad / MLR_PACK;
-    tw->g = mlr_alloc(&som->a, tw->gbytes);
-    tw->idx = mlr_alloc(&som->a, tw->ibytes);
-    tw->sum = tw->sbytes ? mlr_alloc(&som->a, tw->sbytes) : NULL;
-    tw->tmp = mode == MLR_SOM_BATCH ? mlr_alloc(&som->a, tw->sbytes) : NULL;
+    tw->g = common__alloc(&som->a, tw->gbytes);
+    tw->idx = common__alloc(&som->a, tw->ibytes);
+    tw->sum = tw->sbytes ? common__alloc(&som->a, tw->sbytes) : NULL;
+    tw->tmp = mode == MLR_SOM_BATCH ? common__alloc(&som->a, tw->sbytes) : NULL;
     if (!tw->g || !tw->idx || !tw->sum || (mode == MLR_SOM_BATCH && !tw->tmp)) {
         train_work_free(som, tw, mode);
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
-                            "som train: out of memory for the workspace");
+        return common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                                "som train: out of memory for the workspace");
     }
     return MLR_OK;
 }
@@ -637,9 +638,9 @@ mlr_status mlr_som_train(mlr_som *som, const double *x, size_t n, size_t ldx, si
     if (st)
         return st;
     if (epochs == 0)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "epochs must be >= 1");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "epochs must be >= 1");
     if (mode != MLR_SOM_BATCH && mode != MLR_SOM_ONLINE)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "unknown training mode %d", mode);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "unknown training mode %d", mode);
     train_work tw;
     st = train_work_alloc(som, n, epochs, mode, &tw, diag);
     if (st != MLR_OK)
@@ -664,14 +665,15 @@ size_t mlr_som_dim(const mlr_som *som) { return som ? som->dim : 0; }
 mlr_status mlr_som_set_codebook(mlr_som *som, const double *w, size_t ldw, mlr_diag *diag)
 {
     if (!som || !w)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "som or codebook NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "som or codebook NULL");
     if (ldw < som->dim)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "dimension mismatch: codebook stride %zu < dim %zu", ldw, som->dim);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "dimension mismatch: codebook stride %zu < dim %zu", ldw,
+                                som->dim);
     size_t bad = cluster__first_nonfinite_row(w, som->units, som->dim, ldw);
     if (bad < som->units)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "unit %zu holds a NaN or an infinity",
-                            bad);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "unit %zu holds a NaN or an infinity", bad);
     for (size_t u = 0; u < som->units; u++)
         memcpy(som->w + u * som->dim, w + u * ldw, som->dim * sizeof(double));
     cluster__packed_fill(&som->pk, som->w, som->dim);
@@ -687,10 +689,10 @@ size_t mlr_som_export_size(const mlr_som *som)
 mlr_status mlr_som_export(const mlr_som *som, void *buf, size_t size, mlr_diag *diag)
 {
     if (!som || !buf)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "som or buffer NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "som or buffer NULL");
     if (size < mlr_som_export_size(som))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "buffer of %zu bytes, need %zu", size,
-                            mlr_som_export_size(som));
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "buffer of %zu bytes, need %zu",
+                                size, mlr_som_export_size(som));
     uint64_t dims[3] = {som->rows, som->cols, som->dim};
     cluster__blob_write(buf, som_tag, SOM_BLOB_VERSION, dims, som->w, som->units * som->dim);
     return MLR_OK;
@@ -700,7 +702,7 @@ mlr_status mlr_som_import(const void *buf, size_t size, const mlr_allocator *all
                           mlr_diag *diag)
 {
     if (!out)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "out is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "out is NULL");
     *out = NULL;
     uint64_t dims[3];
     const unsigned char *payload;
@@ -712,15 +714,16 @@ mlr_status mlr_som_import(const void *buf, size_t size, const mlr_allocator *all
     if (dims[0] == 0 || dims[1] == 0 || dims[2] == 0 || dims[0] > INT32_MAX ||
         dims[1] > INT32_MAX / dims[0] || dims[2] > SIZE_MAX / (dims[0] * dims[1]) ||
         dims[0] * dims[1] * dims[2] != np)
-        return mlr_diag_set(diag, MLR_E_PARSE, 0, 0, "blob dimensions do not match its payload");
+        return common__diag_set(diag, MLR_E_PARSE, 0, 0,
+                                "blob dimensions do not match its payload");
     mlr_som *s;
     st = mlr_som_create((size_t)dims[0], (size_t)dims[1], (size_t)dims[2], alloc, &s, diag);
     if (st)
-        return mlr_diag_prefix(diag, st, "som import");
+        return common__diag_prefix(diag, st, "som import");
     memcpy(s->w, payload, np * sizeof(double));
     if (cluster__first_nonfinite_row(s->w, s->units, s->dim, s->dim) < s->units) {
         mlr_som_destroy(s);
-        return mlr_diag_set(diag, MLR_E_PARSE, 0, 0, "blob holds a NaN or an infinity");
+        return common__diag_set(diag, MLR_E_PARSE, 0, 0, "blob holds a NaN or an infinity");
     }
     cluster__packed_fill(&s->pk, s->w, s->dim);
     s->initialized = 1;

@@ -17,32 +17,33 @@ mlr_status mlr_band_create(size_t n, size_t kd, const mlr_allocator *alloc, mlr_
                            mlr_diag *diag)
 {
     if (!out)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "band create: out is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "band create: out is NULL");
     *out = NULL;
     if (n == 0 || kd >= n)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "band create: n %zu, kd %zu: needs n >= 1 and kd < n", n, kd);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "band create: n %zu, kd %zu: needs n >= 1 and kd < n", n, kd);
     mlr_allocator a;
-    mlr_allocator_resolve(alloc, &a);
+    common__allocator_resolve(alloc, &a);
     size_t nl, bytes;
-    if (mlr_mul_size(n, kd, &nl) || mlr_mul_size(nl + n, sizeof(double), &bytes))
-        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0,
-                            "band create: n %zu x (kd %zu + 1) doubles overflow a size_t", n, kd);
-    mlr_band *b = mlr_alloc(&a, sizeof *b);
+    if (common__mul_size(n, kd, &nl) || common__mul_size(nl + n, sizeof(double), &bytes))
+        return common__diag_set(diag, MLR_E_OVERFLOW, 0, 0,
+                                "band create: n %zu x (kd %zu + 1) doubles overflow a size_t", n,
+                                kd);
+    mlr_band *b = common__alloc(&a, sizeof *b);
     if (!b)
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
-                            "band create: out of memory for the handle");
+        return common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                                "band create: out of memory for the handle");
     b->alloc = a;
     b->n = n;
     b->kd = kd;
     b->factored = 0;
     b->bad_row = 0;
     b->storage_bytes = bytes;
-    b->dinv = mlr_alloc(&a, bytes);
+    b->dinv = common__alloc(&a, bytes);
     if (!b->dinv) {
-        mlr_free(&a, b, sizeof *b);
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
-                            "band create: out of memory for the factor (%zu bytes)", bytes);
+        common__free(&a, b, sizeof *b);
+        return common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                                "band create: out of memory for the factor (%zu bytes)", bytes);
     }
     b->l = b->dinv + n;
     *out = b;
@@ -54,8 +55,8 @@ void mlr_band_destroy(mlr_band *b)
     if (!b)
         return;
     mlr_allocator a = b->alloc;
-    mlr_free(&a, b->dinv, b->storage_bytes);
-    mlr_free(&a, b, sizeof *b);
+    common__free(&a, b->dinv, b->storage_bytes);
+    common__free(&a, b, sizeof *b);
 }
 
 /* Pivot below this fraction of its diagonal entry: the factor is usable but inaccurate. */
@@ -141,11 +142,11 @@ mlr_status band__factor_in_place(mlr_band *b)
 mlr_status mlr_band_factor(mlr_band *b, const double *ab, size_t ldab, mlr_diag *diag)
 {
     if (!b || !ab)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "band factor: %s is NULL",
-                            !b ? "band" : "ab");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "band factor: %s is NULL",
+                                !b ? "band" : "ab");
     if (ldab < b->kd + 1)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "band factor: ldab %zu < kd + 1 = %zu",
-                            ldab, b->kd + 1);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "band factor: ldab %zu < kd + 1 = %zu", ldab, b->kd + 1);
     const size_t n = b->n, kd = b->kd;
     for (size_t i = 0; i < n; i++) {
         b->dinv[i] = ab[i * ldab];
@@ -154,10 +155,11 @@ mlr_status mlr_band_factor(mlr_band *b, const double *ab, size_t ldab, mlr_diag 
     }
     const mlr_status st = band__factor_in_place(b);
     if (st == MLR_E_SINGULAR)
-        return mlr_diag_set(diag, st, 0, 0,
-                            "band factor: ab is not positive definite (the pivot of row %zu is "
-                            "<= 0 or not finite)",
-                            b->bad_row);
+        return common__diag_set(
+            diag, st, 0, 0,
+            "band factor: ab is not positive definite (the pivot of row %zu is "
+            "<= 0 or not finite)",
+            b->bad_row);
     return st;
 }
 
@@ -385,7 +387,7 @@ void band__solve_rows(const mlr_band *b, mlr_band_row_fn forward_row, const void
     }
     /* the ring: three slots of kd halo rows (the previous chunk's last forward rows) + chunk */
     const size_t slot = (kd + chunk) * m, ring_bytes = 3 * slot * sizeof(double);
-    double *ring = chunked ? mlr_alloc(&b->alloc, ring_bytes) : NULL;
+    double *ring = chunked ? common__alloc(&b->alloc, ring_bytes) : NULL;
     if (!ring) { /* small, not chunkable, or no memory: two sweeps over x */
         for (size_t r = 0; r < n; r++)
             forward_row(ctx, r, x + r * ldx, ldx, m);
@@ -419,7 +421,7 @@ void band__solve_rows(const mlr_band *b, mlr_band_row_fn forward_row, const void
 #if defined(__SSE2__)
     _mm_sfence();
 #endif
-    mlr_free(&b->alloc, ring, ring_bytes);
+    common__free(&b->alloc, ring, ring_bytes);
 #undef CHUNK_A
 #undef CHUNK_E
 #undef SLOT_ROW
@@ -440,24 +442,26 @@ static void forward_in_place(const void *vctx, size_t r, double *xr, size_t ld, 
 /* MLR_E_BAD_STATE for a handle without a factor (fn names the function). */
 static mlr_status not_factored(mlr_diag *diag, const char *fn)
 {
-    return mlr_diag_set(diag, MLR_E_BAD_STATE, 0, 0,
-                        "band %s: band is not factored (mlr_band_factor failed or was not "
-                        "called)",
-                        fn);
+    return common__diag_set(diag, MLR_E_BAD_STATE, 0, 0,
+                            "band %s: band is not factored (mlr_band_factor failed or was not "
+                            "called)",
+                            fn);
 }
 
 mlr_status mlr_band_solve(const mlr_band *b, double *x, size_t ldx, size_t m, mlr_diag *diag)
 {
     if (!b)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "band solve: band is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "band solve: band is NULL");
     if (!b->factored)
         return not_factored(diag, "solve");
     if (m == 0)
         return MLR_OK;
     if (!x)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "band solve: x is NULL with m %zu", m);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "band solve: x is NULL with m %zu",
+                                m);
     if (ldx < m)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "band solve: ldx %zu < m %zu", ldx, m);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "band solve: ldx %zu < m %zu", ldx,
+                                m);
     inplace_ctx ctx = {b, x, ldx};
     band__solve_rows(b, forward_in_place, &ctx, x, ldx, m);
     return MLR_OK;
@@ -472,25 +476,26 @@ mlr_status mlr_band_solve(const mlr_band *b, double *x, size_t ldx, size_t m, ml
 mlr_status mlr_band_inverse_diagonal(const mlr_band *b, double *var, size_t n, mlr_diag *diag)
 {
     if (!b || !var)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "band inverse_diagonal: %s is NULL",
-                            !b ? "band" : "var");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "band inverse_diagonal: %s is NULL",
+                                !b ? "band" : "var");
     if (n != b->n)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "band inverse_diagonal: n %zu is not the order %zu of band", n, b->n);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "band inverse_diagonal: n %zu is not the order %zu of band", n,
+                                b->n);
     if (!b->factored)
         return not_factored(diag, "inverse_diagonal");
     const size_t kd = b->kd, w = kd + 1;
     size_t nz, bytes;
-    if (mlr_mul_size(n, w, &nz) || mlr_mul_size(nz, sizeof(double), &bytes))
-        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0,
-                            "band inverse_diagonal: workspace of n %zu x (kd %zu + 1) doubles "
-                            "overflows",
-                            n, kd);
-    double *z = mlr_alloc(&b->alloc, bytes);
+    if (common__mul_size(n, w, &nz) || common__mul_size(nz, sizeof(double), &bytes))
+        return common__diag_set(diag, MLR_E_OVERFLOW, 0, 0,
+                                "band inverse_diagonal: workspace of n %zu x (kd %zu + 1) doubles "
+                                "overflows",
+                                n, kd);
+    double *z = common__alloc(&b->alloc, bytes);
     if (!z)
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
-                            "band inverse_diagonal: out of memory for the workspace (%zu bytes)",
-                            bytes);
+        return common__diag_set(
+            diag, MLR_E_NO_MEMORY, 0, 0,
+            "band inverse_diagonal: out of memory for the workspace (%zu bytes)", bytes);
     const double *l = b->l;
     for (size_t i = n; i-- > 0;) {
         size_t kmax = n - 1 - i < kd ? n - 1 - i : kd;
@@ -513,6 +518,6 @@ mlr_status mlr_band_inverse_diagonal(const mlr_band *b, double *var, size_t n, m
         z[i * w] = s;
         var[i] = s;
     }
-    mlr_free(&b->alloc, z, bytes);
+    common__free(&b->alloc, z, bytes);
     return MLR_OK;
 }

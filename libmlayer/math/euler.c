@@ -32,8 +32,8 @@ static int order_is_valid(mlr_euler_order order) { return (int)order >= 0 && (in
 
 static mlr_status bad_order(mlr_diag *diag, const char *fn, mlr_euler_order order)
 {
-    return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: order %d is not an mlr_euler_order",
-                        fn, (int)order);
+    return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "%s: order %d is not an mlr_euler_order", fn, (int)order);
 }
 
 mlr_status mlr_quat_from_euler_array(const double *angles, size_t count, mlr_euler_order order,
@@ -44,8 +44,8 @@ mlr_status mlr_quat_from_euler_array(const double *angles, size_t count, mlr_eul
     if (count == 0)
         return MLR_OK;
     if (!angles || !out)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "quat from_euler: angles or out is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "quat from_euler: angles or out is NULL");
     const unsigned char *axes = mlr_euler_axes[order];
     const double s = mlr_euler_parity[order];
     size_t n_bad = 0, first = 0;
@@ -56,8 +56,8 @@ mlr_status mlr_quat_from_euler_array(const double *angles, size_t count, mlr_eul
             first = n_bad++ ? first : n;
             continue;
         }
-        mlr_quat_from_euler_half(cos(0.5 * a0), sin(0.5 * a0), cos(0.5 * a1), sin(0.5 * a1),
-                                 cos(0.5 * a2), sin(0.5 * a2), axes, s, &out[n]);
+        common__quat_from_euler_half(cos(0.5 * a0), sin(0.5 * a0), cos(0.5 * a1), sin(0.5 * a1),
+                                     cos(0.5 * a2), sin(0.5 * a2), axes, s, &out[n]);
     }
     if (n_bad)
         return quat__bad_elements(diag, "quat from_euler", "angles", "angle triples", first, n_bad,
@@ -73,7 +73,8 @@ mlr_status mlr_quat_to_euler_array(const mlr_quat *q, size_t count, mlr_euler_or
     if (count == 0)
         return MLR_OK;
     if (!q || !angles)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "quat to_euler: q or angles is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "quat to_euler: q or angles is NULL");
     const unsigned ia = mlr_euler_axes[order][0], ja = mlr_euler_axes[order][1],
                    ka = mlr_euler_axes[order][2];
     const double s = mlr_euler_parity[order];
@@ -122,7 +123,7 @@ mlr_status mlr_quat_to_euler_array(const mlr_quat *q, size_t count, mlr_euler_or
 mlr_status mlr_euler_order_parse(const char *name, mlr_euler_order *out, mlr_diag *diag)
 {
     if (!name || !out)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "euler order: name or out is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "euler order: name or out is NULL");
     int axis[3];
     for (int k = 0; k < 3; k++) {
         switch (name[k]) {
@@ -139,13 +140,14 @@ mlr_status mlr_euler_order_parse(const char *name, mlr_euler_order *out, mlr_dia
             axis[k] = 2;
             break;
         default: /* also stops at a NUL before the third letter */
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "euler order \"%.8s\" is not three of the letters X, Y, Z", name);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "euler order \"%.8s\" is not three of the letters X, Y, Z",
+                                    name);
         }
     }
     if (name[3] != '\0')
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "euler order \"%.8s\" is longer than three letters", name);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "euler order \"%.8s\" is longer than three letters", name);
     for (int o = 0; o < 6; o++) {
         if (mlr_euler_axes[o][0] == axis[0] && mlr_euler_axes[o][1] == axis[1] &&
             mlr_euler_axes[o][2] == axis[2]) {
@@ -154,7 +156,7 @@ mlr_status mlr_euler_order_parse(const char *name, mlr_euler_order *out, mlr_dia
         }
     }
     /* a repeated axis ("XYX"): proper Euler orders are not used */
-    return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                        "euler order \"%s\" repeats an axis (XYZ, XZY, YXZ, YZX, ZXY or ZYX)",
-                        name);
+    return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "euler order \"%s\" repeats an axis (XYZ, XZY, YXZ, YZX, ZXY or ZYX)",
+                            name);
 }

@@ -73,44 +73,46 @@ static mlr_status check_params(size_t n_out, unsigned order, double lam, double 
                                const double *t, size_t n_obs, mlr_diag *diag)
 {
     if (order != 1 && order != 2)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "order must be 1 or 2, got %u", order);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "order must be 1 or 2, got %u",
+                                order);
     if (!isfinite(lam) || lam < 0.0)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "lam must be finite and >= 0, got %g",
-                            lam);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "lam must be finite and >= 0, got %g", lam);
     if (!isfinite(sigma) || !(sigma > 0.0))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "sigma must be finite and > 0, got %g",
-                            sigma);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "sigma must be finite and > 0, got %g", sigma);
     if (n_out <= order)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "an order-%u prior needs at least %u frames, got %zu", order,
-                            order + 1, n_out);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "an order-%u prior needs at least %u frames, got %zu", order,
+                                order + 1, n_out);
     if (!t) {
         if (n_obs != n_out)
-            return mlr_diag_set(
+            return common__diag_set(
                 diag, MLR_E_INVALID_ARG, 0, 0,
                 "without positions t the observations (%zu) must equal the output frames (%zu)",
                 n_obs, n_out);
         return MLR_OK;
     }
     if (n_obs == 0)
-        return mlr_diag_set(diag, MLR_E_SINGULAR, 0, 0, "no observations");
+        return common__diag_set(diag, MLR_E_SINGULAR, 0, 0, "no observations");
     const double tmax = (double)(n_out - 1);
     size_t distinct = 0;
     for (size_t i = 0; i < n_obs; i++) {
         if (!isfinite(t[i]))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "t[%zu] is not finite", i);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "t[%zu] is not finite", i);
         if (t[i] < 0.0 || t[i] > tmax)
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "t[%zu] = %g is outside [0, n_out-1 = %zu]", i, t[i], n_out - 1);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "t[%zu] = %g is outside [0, n_out-1 = %zu]", i, t[i],
+                                    n_out - 1);
         if (i > 0 && t[i] < t[i - 1])
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "t is not sorted: t[%zu] = %g < t[%zu] = %g", i, t[i], i - 1,
-                                t[i - 1]);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "t is not sorted: t[%zu] = %g < t[%zu] = %g", i, t[i], i - 1,
+                                    t[i - 1]);
         if (i == 0 || t[i] != t[i - 1])
             distinct++;
     }
     if (lam > 0.0 && distinct < order)
-        return mlr_diag_set(
+        return common__diag_set(
             diag, MLR_E_SINGULAR, 0, 0,
             "an order-%u prior needs observations at %u distinct positions, got %zu", order, order,
             distinct);
@@ -124,9 +126,9 @@ static void lgs_free(mlr_lgs *g)
 #ifdef MLR_HAVE_CHOLMOD
     lgs__sparse_spd_destroy(g->sparse);
 #endif
-    mlr_free(&a, g->first, g->first_bytes);
-    mlr_free(&a, g->f, g->f_bytes);
-    mlr_free(&a, g, sizeof *g);
+    common__free(&a, g->first, g->first_bytes);
+    common__free(&a, g->f, g->f_bytes);
+    common__free(&a, g, sizeof *g);
 }
 
 /* Observation i sits between frames lo and lo+1 with weight f on lo+1; lo <= n_out - 2. */
@@ -146,19 +148,19 @@ static mlr_status observation_map(mlr_lgs *g, const double *t, double **ata, siz
                                   mlr_diag *diag)
 {
     const size_t n_out = g->n_out, n_obs = g->n_obs;
-    if (mlr_mul_size(n_out + 1, sizeof(size_t), &g->first_bytes) ||
-        mlr_mul_size(n_obs, sizeof(double), &g->f_bytes) ||
-        mlr_mul_size(n_out, 2 * sizeof(double), ata_bytes))
-        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0,
-                            "lgs: %zu output frames, %zu observations overflow a size", n_out,
-                            n_obs);
-    g->first = mlr_alloc(&g->alloc, g->first_bytes);
-    g->f = mlr_alloc(&g->alloc, g->f_bytes);
-    *ata = mlr_alloc(&g->alloc, *ata_bytes);
+    if (common__mul_size(n_out + 1, sizeof(size_t), &g->first_bytes) ||
+        common__mul_size(n_obs, sizeof(double), &g->f_bytes) ||
+        common__mul_size(n_out, 2 * sizeof(double), ata_bytes))
+        return common__diag_set(diag, MLR_E_OVERFLOW, 0, 0,
+                                "lgs: %zu output frames, %zu observations overflow a size", n_out,
+                                n_obs);
+    g->first = common__alloc(&g->alloc, g->first_bytes);
+    g->f = common__alloc(&g->alloc, g->f_bytes);
+    *ata = common__alloc(&g->alloc, *ata_bytes);
     if (!g->first || !g->f || !*ata)
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
-                            "lgs: out of memory for the observation map (%zu observations)",
-                            n_obs);
+        return common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                                "lgs: out of memory for the observation map (%zu observations)",
+                                n_obs);
     double *ata_d = *ata, *ata_o = *ata + n_out;
     memset(*ata, 0, *ata_bytes);
     size_t r = 0;
@@ -209,25 +211,25 @@ mlr_status mlr_lgs_create(size_t n_out, unsigned order, double lam, double sigma
                           mlr_lgs **out, mlr_diag *diag)
 {
     if (!out)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "out is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "out is NULL");
     *out = NULL;
     if (t == NULL && n_obs > 0 && n_obs != n_out)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "t is NULL but n_obs != n_out");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "t is NULL but n_obs != n_out");
     mlr_status st = check_params(n_out, order, lam, sigma, t, n_obs, diag);
     if (st != MLR_OK)
         return st;
     if (solver != MLR_LGS_BANDED && solver != MLR_LGS_CHOLMOD)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "unknown solver %d", (int)solver);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "unknown solver %d", (int)solver);
     if (solver == MLR_LGS_CHOLMOD && !mlr_lgs_have_cholmod())
-        return mlr_diag_set(diag, MLR_E_UNSUPPORTED, 0, 0,
-                            "this build of mlayer has no CHOLMOD "
-                            "(build it with SuiteSparse and -Dcholmod=enabled)");
+        return common__diag_set(diag, MLR_E_UNSUPPORTED, 0, 0,
+                                "this build of mlayer has no CHOLMOD "
+                                "(build it with SuiteSparse and -Dcholmod=enabled)");
 
     mlr_allocator a;
-    mlr_allocator_resolve(alloc, &a);
-    mlr_lgs *g = mlr_alloc(&a, sizeof *g);
+    common__allocator_resolve(alloc, &a);
+    mlr_lgs *g = common__alloc(&a, sizeof *g);
     if (!g)
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "lgs: out of memory for the handle");
+        return common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "lgs: out of memory for the handle");
     memset(g, 0, sizeof *g);
     g->alloc = a;
     g->n_out = n_out;
@@ -238,7 +240,7 @@ mlr_status mlr_lgs_create(size_t n_out, unsigned order, double lam, double sigma
     g->solver = solver;
     if (!isfinite(g->s)) {
         lgs_free(g);
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "lam^2 sigma^2 overflows");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "lam^2 sigma^2 overflows");
     }
 
     double *ata = NULL;
@@ -247,7 +249,7 @@ mlr_status mlr_lgs_create(size_t n_out, unsigned order, double lam, double sigma
     if (t) {
         st = observation_map(g, t, &ata, &ata_bytes, diag);
         if (st != MLR_OK) {
-            mlr_free(&a, ata, ata_bytes);
+            common__free(&a, ata, ata_bytes);
             lgs_free(g);
             return st;
         }
@@ -263,17 +265,17 @@ mlr_status mlr_lgs_create(size_t n_out, unsigned order, double lam, double sigma
         st = MLR_E_UNSUPPORTED;
 #endif
     }
-    mlr_free(&a, ata, ata_bytes);
+    common__free(&a, ata, ata_bytes);
     if (st < 0) {
         lgs_free(g);
         if (st == MLR_E_SINGULAR)
-            return mlr_diag_set(
+            return common__diag_set(
                 diag, st, 0, 0,
                 "the system is singular: some output frames are not determined "
                 "by the observations and the prior (lam = 0 with unobserved frames?)");
-        return mlr_diag_set(diag, st, 0, 0, "lgs: the %s factorization of %zu frames: %s",
-                            solver == MLR_LGS_BANDED ? "banded" : "CHOLMOD", n_out,
-                            mlr_status_string(st));
+        return common__diag_set(diag, st, 0, 0, "lgs: the %s factorization of %zu frames: %s",
+                                solver == MLR_LGS_BANDED ? "banded" : "CHOLMOD", n_out,
+                                mlr_status_string(st));
     }
     *out = g;
     return st;
@@ -350,27 +352,28 @@ static mlr_status bad_y(const double *y, size_t n, size_t m, size_t ldy, mlr_dia
     for (size_t i = 0; i < n; i++)
         for (size_t c = 0; c < m; c++)
             if (!isfinite(y[i * ldy + c]))
-                return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                    "lgs solve: y[%zu][%zu] is NaN or infinite", i, c);
-    return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                        "lgs solve: the solution is not finite (y too large)");
+                return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                        "lgs solve: y[%zu][%zu] is NaN or infinite", i, c);
+    return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "lgs solve: the solution is not finite (y too large)");
 }
 
 mlr_status mlr_lgs_solve_mt(const mlr_lgs *g, const double *y, size_t ldy, size_t m, double *x,
                             size_t ldx, size_t n_threads, mlr_diag *diag)
 {
     if (!g)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "lgs solve: the handle is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "lgs solve: the handle is NULL");
     if (m == 0)
         return MLR_OK;
     if (!y || !x)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "lgs solve: y or x is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "lgs solve: y or x is NULL");
     if (ldy < m || ldx < m)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "lgs solve: ldy %zu or ldx %zu is below m = %zu columns", ldy, ldx, m);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "lgs solve: ldy %zu or ldx %zu is below m = %zu columns", ldy, ldx,
+                                m);
     if (g->first && x == y)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "lgs solve: x is y, but an in-place solve needs t == NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "lgs solve: x is y, but an in-place solve needs t == NULL");
     const size_t n = g->n_out;
     if (g->solver == MLR_LGS_BANDED) {
         solve_ctx ctx = {g, y, ldy};
@@ -378,8 +381,8 @@ mlr_status mlr_lgs_solve_mt(const mlr_lgs *g, const double *y, size_t ldy, size_
         mlr_prefault pf = {0};
         size_t rows, span; /* bytes from x's first to its last value; the size test comes
                             * first, so small solves never ask for the processor count */
-        if (n_threads != 1 && mlr_mul_size(n - 1, ldx, &rows) == MLR_OK && rows <= SIZE_MAX - m &&
-            mlr_mul_size(rows + m, sizeof(double), &span) == MLR_OK &&
+        if (n_threads != 1 && common__mul_size(n - 1, ldx, &rows) == MLR_OK &&
+            rows <= SIZE_MAX - m && common__mul_size(rows + m, sizeof(double), &span) == MLR_OK &&
             span >= MLR_PREFAULT_MIN_BYTES && (n_threads > 1 || parallel__online_cpus() > 1))
             prefault__start(&pf, x, span);
         band__solve_rows(g->band, fn, &ctx, x, ldx, m);
@@ -399,9 +402,11 @@ mlr_status mlr_lgs_solve_mt(const mlr_lgs *g, const double *y, size_t ldy, size_
         }
         mlr_status st = lgs__sparse_spd_solve(g->sparse, x, ldx, m);
         if (st != MLR_OK)
-            return mlr_diag_set(diag, st, 0, 0, "lgs solve: CHOLMOD: %s", mlr_status_string(st));
+            return common__diag_set(diag, st, 0, 0, "lgs solve: CHOLMOD: %s",
+                                    mlr_status_string(st));
 #else
-        return mlr_diag_set(diag, MLR_E_UNSUPPORTED, 0, 0, "lgs solve: no CHOLMOD in this build");
+        return common__diag_set(diag, MLR_E_UNSUPPORTED, 0, 0,
+                                "lgs solve: no CHOLMOD in this build");
 #endif
     }
     /* Any NaN or inf in y reaches every output row through the two sweeps (0 * inf and
@@ -414,18 +419,18 @@ mlr_status mlr_lgs_solve_mt(const mlr_lgs *g, const double *y, size_t ldy, size_
 mlr_status mlr_lgs_variance(const mlr_lgs *g, double *var, size_t n_out, mlr_diag *diag)
 {
     if (!g || !var)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "lgs variance: the handle or var is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "lgs variance: the handle or var is NULL");
     if (n_out != g->n_out)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "lgs variance: n_out is %zu, the handle has %zu output frames", n_out,
-                            g->n_out);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "lgs variance: n_out is %zu, the handle has %zu output frames",
+                                n_out, g->n_out);
     if (g->solver != MLR_LGS_BANDED)
-        return mlr_diag_set(diag, MLR_E_UNSUPPORTED, 0, 0,
-                            "lgs variance: needs the banded solver, the handle is CHOLMOD's");
+        return common__diag_set(diag, MLR_E_UNSUPPORTED, 0, 0,
+                                "lgs variance: needs the banded solver, the handle is CHOLMOD's");
     mlr_status st = mlr_band_inverse_diagonal(g->band, var, n_out, NULL);
     if (st != MLR_OK)
-        return mlr_diag_set(diag, st, 0, 0, "lgs variance: %s", mlr_status_string(st));
+        return common__diag_set(diag, st, 0, 0, "lgs variance: %s", mlr_status_string(st));
     for (size_t i = 0; i < n_out; i++)
         var[i] *= g->sigma2;
     return MLR_OK;

@@ -45,7 +45,7 @@ void mlr_quat_mul(const mlr_quat *a, const mlr_quat *b, mlr_quat *out)
 {
     if (!a || !b || !out)
         return;
-    mlr_quat_mul_inline(a, b, out);
+    common__quat_mul_inline(a, b, out);
 }
 
 void mlr_quat_rotate(const mlr_quat *q, const mlr_vec3 *v, mlr_vec3 *out)
@@ -54,7 +54,7 @@ void mlr_quat_rotate(const mlr_quat *q, const mlr_vec3 *v, mlr_vec3 *out)
         return;
     const double vv[3] = {v->x, v->y, v->z};
     double o[3];
-    mlr_quat_rotate_inline(q, vv, o);
+    common__quat_rotate_inline(q, vv, o);
     out->x = o[0], out->y = o[1], out->z = o[2];
 }
 
@@ -63,7 +63,7 @@ void mlr_quat_mul_array(const mlr_quat *a, const mlr_quat *b, size_t count, mlr_
     if (!a || !b || !out)
         return;
     for (size_t i = 0; i < count; i++)
-        mlr_quat_mul_inline(&a[i], &b[i], &out[i]);
+        common__quat_mul_inline(&a[i], &b[i], &out[i]);
 }
 
 void mlr_quat_conj_array(const mlr_quat *q, size_t count, mlr_quat *out)
@@ -140,7 +140,7 @@ static int normalize_fast(const mlr_quat *q, size_t m, mlr_quat *out)
 mlr_status quat__bad_elements(mlr_diag *diag, const char *fn, const char *arg, const char *what,
                               size_t first, size_t n_bad, size_t count)
 {
-    return mlr_diag_set(
+    return common__diag_set(
         diag, MLR_E_INVALID_ARG, 0, 0, "%s: %s: %zu of %zu %s %s, the first at index %zu", fn, arg,
         n_bad, count, what,
         strcmp(what, "quaternions") ? "NaN or infinite" : "zero, NaN or infinite", first);
@@ -151,7 +151,7 @@ mlr_status mlr_quat_normalize_array(const mlr_quat *q, size_t count, mlr_quat *o
     if (count == 0)
         return MLR_OK;
     if (!q || !out)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "quat normalize: q or out is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "quat normalize: q or out is NULL");
     size_t n_bad = 0, first = 0;
     for (size_t i0 = 0; i0 < count; i0 += QBLK) {
         const size_t m = count - i0 < QBLK ? count - i0 : QBLK;
@@ -289,7 +289,7 @@ static int exp_fast(const mlr_vec3 *v, size_t m, mlr_quat *out)
         /* a nonzero angle is above 1e-162 */
         const double ratio = sn / vmax(angle, 0x1p-600);
         c[i] = cs;
-        k[i] = mlr_select_bits(angle > 0.0, ratio, 0.5); /* sin(angle / 2) / angle */
+        k[i] = common__select_bits(angle > 0.0, ratio, 0.5); /* sin(angle / 2) / angle */
     }
     for (size_t i = 0; i < m; i++) {
         out[i].w = c[i];
@@ -305,7 +305,7 @@ mlr_status mlr_quat_exp_array(const mlr_vec3 *v, size_t count, mlr_quat *out, ml
     if (count == 0)
         return MLR_OK;
     if (!v || !out)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "quat exp: v or out is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "quat exp: v or out is NULL");
     size_t n_bad = 0, first = 0;
     for (size_t i0 = 0; i0 < count; i0 += QBLK) {
         const size_t m = count - i0 < QBLK ? count - i0 : QBLK;
@@ -371,12 +371,12 @@ static inline double atan2_pos(double s, double w)
                         T10 = 1.62858201153657823623e-02;
     const int big = s > w;
     /* the selects are bit masks so that the divisions stay unconditional (vectorizable) */
-    const double x = mlr_select_bits(big, w, s) / mlr_select_bits(big, s, w);
+    const double x = common__select_bits(big, w, s) / common__select_bits(big, s, w);
     const int i0 = x >= 0.4375, i1 = x >= 0.6875;
     /* t = (x - c) / (1 + c x) for c = 0, 1/2, 1 with exact numerators */
     const double n1 = x - 1.0, d1 = x + 1.0, n0 = 2.0 * x - 1.0, d0 = 2.0 + x;
-    const double t = mlr_select_bits(i1, n1, mlr_select_bits(i0, n0, x)) /
-                     mlr_select_bits(i1, d1, mlr_select_bits(i0, d0, 1.0));
+    const double t = common__select_bits(i1, n1, common__select_bits(i0, n0, x)) /
+                     common__select_bits(i1, d1, common__select_bits(i0, d0, 1.0));
     /* atan(c) (or pi/2 - atan(c) when big) as hi + lo */
     const double hi = big ? (i1   ? 7.85398163397448278999e-01
                              : i0 ? 1.10714871779409040897e+00
@@ -410,7 +410,7 @@ static inline void log_soa(const double *restrict w, const double *restrict x,
         const double s = sqrt(x[i] * x[i] + y[i] * y[i] + z[i] * z[i]);
         /* both forms computed, one kept (the other may be 0/0 there) */
         const double ks = log_series(s, aw), ka = 2.0 * atan2_pos(s, aw) / s;
-        k[i] = sg * mlr_select_bits(s < LOG_SERIES_ARG * aw, ks, ka);
+        k[i] = sg * common__select_bits(s < LOG_SERIES_ARG * aw, ks, ka);
     }
     for (size_t i = 0; i < m; i++) {
         out[i].x = k[i] * x[i];
@@ -460,7 +460,7 @@ mlr_status mlr_quat_log_array(const mlr_quat *q, size_t count, mlr_vec3 *out, ml
     if (count == 0)
         return MLR_OK;
     if (!q || !out)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "quat log: q or out is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "quat log: q or out is NULL");
     size_t n_bad = 0, first = 0;
     for (size_t i0 = 0; i0 < count; i0 += QBLK) {
         const size_t m = count - i0 < QBLK ? count - i0 : QBLK;
@@ -488,7 +488,7 @@ static void conj_mul_log_block(const mlr_quat *a, const mlr_quat *b, size_t m, i
     for (size_t i = 0; i < m; i++) {
         const double aw = a[i].w, ax = sa * a[i].x, ay = sa * a[i].y, az = sa * a[i].z;
         const double bw = b[i].w, bx = sb * b[i].x, by = sb * b[i].y, bz = sb * b[i].z;
-        const mlr_quat r = mlr_qmul_wxyz(aw, ax, ay, az, bw, bx, by, bz);
+        const mlr_quat r = common__qmul_wxyz(aw, ax, ay, az, bw, bx, by, bz);
         w[i] = r.w, x[i] = r.x, y[i] = r.y, z[i] = r.z;
         const double mx = vmax(vmax(fabs(w[i]), fabs(x[i])), vmax(fabs(y[i]), fabs(z[i])));
         bad |= !((mx >= FAST_LO) & (mx <= FAST_HI) & finite4(w[i], x[i], y[i], z[i]));
@@ -505,8 +505,8 @@ static void conj_mul_log_block(const mlr_quat *a, const mlr_quat *b, size_t m, i
         log_one(&prod[i], &out[i]);
 }
 
-void mlr_quat_conj_mul_log(const mlr_quat *a, const mlr_quat *b, size_t count, int conj_b,
-                           mlr_quat *prod, mlr_vec3 *out)
+void common__quat_conj_mul_log(const mlr_quat *a, const mlr_quat *b, size_t count, int conj_b,
+                               mlr_quat *prod, mlr_vec3 *out)
 {
     for (size_t i0 = 0; i0 < count; i0 += QBLK) {
         const size_t m = count - i0 < QBLK ? count - i0 : QBLK;
@@ -520,7 +520,8 @@ mlr_status mlr_quat_slerp_array(const mlr_quat *a, const mlr_quat *b, const doub
     if (count == 0)
         return MLR_OK;
     if (!a || !b || !t || !out)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "quat slerp: a, b, t or out is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "quat slerp: a, b, t or out is NULL");
     size_t n_bad = 0, first = 0;
     const char *what = "";
     for (size_t i = 0; i < count; i++) {
@@ -561,8 +562,8 @@ mlr_status mlr_quat_slerp_array(const mlr_quat *a, const mlr_quat *b, const doub
                 first = i, what = "t is too far outside [0, 1]";
         }
     }
-    return n_bad ? mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "quat slerp: %zu of %zu bad, the first at index %zu: %s", n_bad,
-                                count, first, what)
+    return n_bad ? common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "quat slerp: %zu of %zu bad, the first at index %zu: %s",
+                                    n_bad, count, first, what)
                  : MLR_OK;
 }

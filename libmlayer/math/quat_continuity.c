@@ -105,7 +105,7 @@ void mlr_quat_continue_sign(const mlr_quat *prev, size_t n_prev, const mlr_quat 
     quat_neg(&c, out);
 }
 
-void mlr_quat_continue_frame(mlr_quat *q, size_t f, size_t n_tracks)
+void common__quat_continue_frame(mlr_quat *q, size_t f, size_t n_tracks)
 {
     const size_t n_prev = f < 3 ? f : 3;
     mlr_quat *cur = &q[f * n_tracks];
@@ -122,5 +122,5 @@ void mlr_quat_make_continuous_predictive(mlr_quat *q, size_t n_frames, size_t n_
     if (!q || n_frames < 2 || n_tracks == 0)
         return;
     for (size_t f = 1; f < n_frames; f++)
-        mlr_quat_continue_frame(q, f, n_tracks);
+        common__quat_continue_frame(q, f, n_tracks);
 }

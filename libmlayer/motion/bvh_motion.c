@@ -15,7 +15,7 @@ typedef struct layout {
 static size_t layout_add(layout *l, size_t count, size_t elsize, size_t align)
 {
     size_t bytes;
-    if (l->overflow || mlr_mul_size(count, elsize, &bytes) != MLR_OK) {
+    if (l->overflow || common__mul_size(count, elsize, &bytes) != MLR_OK) {
         l->overflow = 1;
         return 0;
     }
@@ -39,8 +39,8 @@ static mlr_status motion_layout(size_t n_joints, size_t n_end, size_t name_bytes
                                 size_t n_trans, motion_blocks *b)
 {
     size_t njn;
-    if (mlr_mul_size(n_frames, n_joints, &njn) || mlr_mul_size(njn, 4, &b->nj4) ||
-        mlr_mul_size(n_frames, n_trans, &b->ntn))
+    if (common__mul_size(n_frames, n_joints, &njn) || common__mul_size(njn, 4, &b->nj4) ||
+        common__mul_size(n_frames, n_trans, &b->ntn))
         return MLR_E_OVERFLOW;
     layout l = {0, 0};
     layout_add(&l, 1, sizeof(mlr_motion), 16);
@@ -109,8 +109,8 @@ mlr_status bvh_motion_alloc(const mlr_allocator *alloc, size_t n_joints, size_t 
     if (s != MLR_OK)
         return s;
     mlr_allocator a;
-    mlr_allocator_resolve(alloc, &a);
-    unsigned char *base = mlr_alloc(&a, b.size);
+    common__allocator_resolve(alloc, &a);
+    unsigned char *base = common__alloc(&a, b.size);
     if (!base)
         return MLR_E_NO_MEMORY;
     mlr_motion *m = motion_place(base, &b, n_joints, n_end, name_bytes, n_frames, n_trans);
@@ -124,7 +124,7 @@ void mlr_motion_destroy(mlr_motion *motion)
 {
     if (motion) {
         mlr_allocator a = motion->alloc;
-        mlr_free(&a, motion, motion->block_size);
+        common__free(&a, motion, motion->block_size);
     }
 }
 
@@ -244,13 +244,14 @@ static int parse_channel_list(const char *s, unsigned char *codes, size_t j, mlr
             s++;
         int c = bvh_channel_parse(t, (size_t)(s - t));
         if (c < 0) {
-            mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "channels[%zu]: unknown channel '%.*s'", j,
-                         (int)((s - t) > 40 ? 40 : (s - t)), t);
+            common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                             "channels[%zu]: unknown channel '%.*s'", j,
+                             (int)((s - t) > 40 ? 40 : (s - t)), t);
             return -1;
         }
         if (seen & (1 << c)) {
-            mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "channels[%zu]: %s listed twice", j,
-                         channel_names[c]);
+            common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "channels[%zu]: %s listed twice", j,
+                             channel_names[c]);
             return -1;
         }
         seen |= 1 << c;
@@ -290,38 +291,38 @@ static mlr_status check_joints(size_t n_joints, const char *const *names, const 
     *name_bytes = *n_trans = 0;
     for (size_t j = 0; j < n_joints; j++) {
         if (!names[j] || !name_is_valid(names[j]))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "names[%zu] is empty or has control characters, braces, or "
-                                "leading or trailing blanks",
-                                j);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "names[%zu] is empty or has control characters, braces, or "
+                                    "leading or trailing blanks",
+                                    j);
         size_t len = strlen(names[j]);
         if (*name_bytes > SIZE_MAX - len - 1)
-            return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0,
-                                "motion create: the names' bytes overflow a size");
+            return common__diag_set(diag, MLR_E_OVERFLOW, 0, 0,
+                                    "motion create: the names' bytes overflow a size");
         *name_bytes += len + 1;
         /* depth-first order: parents[j] is j-1 or an ancestor of j-1 */
         int32_t p = parents[j];
         if (j == 0) {
             if (p != -1)
-                return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "parents[0] must be -1");
+                return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "parents[0] must be -1");
         } else {
             int32_t a = (int32_t)(j - 1);
             while (a >= 0 && a != p)
                 a = parents[a];
             if (p < 0 || a != p)
-                return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                    "parents[%zu] = %d: joints must be in depth-first order "
-                                    "(the parent is the previous joint or one of its "
-                                    "ancestors)",
-                                    j, (int)p);
+                return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                        "parents[%zu] = %d: joints must be in depth-first order "
+                                        "(the parent is the previous joint or one of its "
+                                        "ancestors)",
+                                        j, (int)p);
         }
         for (size_t k = 0; k < 3; k++)
             if (!isfinite(offsets[3 * j + k]))
-                return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "offsets[%zu] is not finite",
-                                    j);
+                return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                        "offsets[%zu] is not finite", j);
         const char *cl = channel_list(channels, j);
         if (!cl)
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "channels[%zu] is NULL", j);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "channels[%zu] is NULL", j);
         int n = parse_channel_list(cl, codes, j, diag);
         if (n < 0)
             return MLR_E_INVALID_ARG;
@@ -342,13 +343,13 @@ static mlr_status check_end_sites(size_t n_joints, size_t n_end_sites, const int
     for (size_t e = 0; e < n_end_sites; e++) {
         if (end_parents[e] < 0 || (size_t)end_parents[e] >= n_joints ||
             (e && end_parents[e] < end_parents[e - 1]))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "end_parents[%zu] = %d: must be a joint index, non-decreasing", e,
-                                (int)end_parents[e]);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "end_parents[%zu] = %d: must be a joint index, non-decreasing",
+                                    e, (int)end_parents[e]);
         for (size_t k = 0; k < 3; k++)
             if (!isfinite(end_offsets[3 * e + k]))
-                return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                    "end_offsets[%zu] is not finite", e);
+                return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                        "end_offsets[%zu] is not finite", e);
     }
     return MLR_OK;
 }
@@ -393,15 +394,15 @@ mlr_status mlr_motion_create(size_t n_joints, const char *const *names, const in
                              const mlr_allocator *alloc, mlr_motion **out, mlr_diag *diag)
 {
     if (!out)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "out is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "out is NULL");
     *out = NULL;
     if (n_joints == 0 || n_joints > BVH_MAX_JOINTS || n_end_sites > BVH_MAX_JOINTS)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "bad joint or End Site count");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "bad joint or End Site count");
     if (!names || !parents || !offsets || (n_end_sites && (!end_parents || !end_offsets)))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "a required array is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "a required array is NULL");
     if (!isfinite(frame_time) || frame_time <= 0.0)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "frame_time must be finite and positive");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "frame_time must be finite and positive");
     size_t name_bytes, n_trans;
     mlr_status s =
         check_joints(n_joints, names, parents, offsets, channels, &name_bytes, &n_trans, diag);
@@ -413,8 +414,8 @@ mlr_status mlr_motion_create(size_t n_joints, const char *const *names, const in
     mlr_motion *m;
     s = bvh_motion_alloc(alloc, n_joints, n_end_sites, name_bytes, n_frames, n_trans, &m);
     if (s != MLR_OK)
-        return mlr_diag_set(diag, s, 0, 0, "motion create: %zu frames of %zu joints: %s", n_frames,
-                            n_joints, mlr_status_string(s));
+        return common__diag_set(diag, s, 0, 0, "motion create: %zu frames of %zu joints: %s",
+                                n_frames, n_joints, mlr_status_string(s));
     m->frame_time = frame_time;
     fill_skeleton(m, names, parents, offsets, channels, end_parents, end_offsets);
     for (size_t f = 0; f < n_frames; f++)
@@ -489,19 +490,20 @@ mlr_status mlr_motion_copy_frames(const mlr_motion *src, size_t begin, size_t co
                                   mlr_motion **out, mlr_diag *diag)
 {
     if (!out || !src)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "motion copy: src or out is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "motion copy: src or out is NULL");
     *out = NULL;
     if (begin > src->n_frames || count > src->n_frames - begin)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "motion copy: frames [%zu, %zu + %zu) are not within the %zu frames",
-                            begin, begin, count, src->n_frames);
+        return common__diag_set(
+            diag, MLR_E_INVALID_ARG, 0, 0,
+            "motion copy: frames [%zu, %zu + %zu) are not within the %zu frames", begin, begin,
+            count, src->n_frames);
     const size_t J = src->n_joints, P = src->n_trans;
     const size_t name_bytes = name_bytes_of(src);
     mlr_motion *m;
     mlr_status s = bvh_motion_alloc(&src->alloc, J, src->n_end, name_bytes, count, P, &m);
     if (s != MLR_OK)
-        return mlr_diag_set(diag, s, 0, 0, "motion copy: %zu frames of %zu joints: %s", count, J,
-                            mlr_status_string(s));
+        return common__diag_set(diag, s, 0, 0, "motion copy: %zu frames of %zu joints: %s", count,
+                                J, mlr_status_string(s));
     copy_skeleton(m, src, name_bytes);
     if (count) {
         memcpy(m->root_pos, src->root_pos + 3 * begin, 3 * count * sizeof(double));

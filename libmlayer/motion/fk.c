@@ -9,21 +9,23 @@ static mlr_status check_skeleton(size_t n_joints, const int32_t *parents, size_t
                                  const int32_t *trans_joints, mlr_diag *diag)
 {
     if (n_joints == 0 || n_joints > BVH_MAX_JOINTS)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "fk: %zu joints, not in [1, %zu]",
-                            n_joints, BVH_MAX_JOINTS);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "fk: %zu joints, not in [1, %zu]",
+                                n_joints, BVH_MAX_JOINTS);
     if (parents[0] != -1)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "fk: parents[0] is %d, not -1",
-                            (int)parents[0]);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "fk: parents[0] is %d, not -1",
+                                (int)parents[0]);
     for (size_t j = 1; j < n_joints; j++)
         if (parents[j] < 0 || (size_t)parents[j] >= j)
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "fk: parents[%zu] is %d, not in [0, %zu)", j, (int)parents[j], j);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "fk: parents[%zu] is %d, not in [0, %zu)", j, (int)parents[j],
+                                    j);
     for (size_t k = 0; k < n_trans; k++)
         if (trans_joints[k] < 1 || (size_t)trans_joints[k] >= n_joints ||
             (k && trans_joints[k] <= trans_joints[k - 1]))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "fk: trans_joints[%zu] is %d: not in [1, %zu) or not increasing",
-                                k, (int)trans_joints[k], n_joints);
+            return common__diag_set(
+                diag, MLR_E_INVALID_ARG, 0, 0,
+                "fk: trans_joints[%zu] is %d: not in [1, %zu) or not increasing", k,
+                (int)trans_joints[k], n_joints);
     return MLR_OK;
 }
 
@@ -56,7 +58,7 @@ static inline void fk_frame_run(int every, size_t J, const int32_t *parents, con
         if (every ? k < P && (size_t)trans_joints[k] == j : tidx[j] >= 0)
             t = trans + 3 * (every ? k++ : (size_t)tidx[j]);
         const mlr_quat q = {rot[4 * j], rot[4 * j + 1], rot[4 * j + 2], rot[4 * j + 3]};
-        mlr_fk_joint_inline(&wr[p], wp + 3 * p, &q, t, &wr[j], wp + 3 * j);
+        common__fk_joint_inline(&wr[p], wp + 3 * p, &q, t, &wr[j], wp + 3 * j);
     }
 }
 
@@ -77,13 +79,13 @@ void fk__list_frame(const mlr_fk_list *fl, const double *root_pos, const double 
 
 /* FK_BLOCK frames at once, joint by joint, in structure-of-arrays scratch (s: 7 * FK_BLOCK
  * doubles per joint: w x y z of the world rotation, then the world position, lane fastest) so
- * that the lane loops vectorize. Every lane does the operations of mlr_fk_joint_inline in its
+ * that the lane loops vectorize. Every lane does the operations of common__fk_joint_inline in its
  * order (the library builds with -ffp-contract=off): the bits are those of fk_frame. rot, wp and
  * wr (NULL: not wanted) start at the block's first frame; root_pos and trans too, or NULL. */
 #define FK_BLOCK MLR_FK_BLOCK
 #define FK_BLOCK_STACK_JOINTS 64 /* 28 KiB */
 
-/* One joint in every lane of the block, mlr_fk_joint_inline lane by lane (the compiler
+/* One joint in every lane of the block, common__fk_joint_inline lane by lane (the compiler
  * vectorizes over the lanes): so (its 7 x FK_BLOCK scratch) from sq (its parent's), its local
  * rotations (lane l's at r + sr l) and translations (lane l's at tv + st l; st 0: its offset in
  * every lane). */
@@ -101,7 +103,7 @@ static inline void fk_block_joint(const double *restrict sq, const double *restr
         const double t[3] = {tv[st * l], tv[st * l + 1], tv[st * l + 2]};
         mlr_quat wr_j;
         double wp_j[3];
-        mlr_fk_joint_inline(&wr_p, wp_p, &q, t, &wr_j, wp_j);
+        common__fk_joint_inline(&wr_p, wp_p, &q, t, &wr_j, wp_j);
         so[l] = wr_j.w, so[B + l] = wr_j.x, so[2 * B + l] = wr_j.y, so[3 * B + l] = wr_j.z;
         so[4 * B + l] = wp_j[0], so[5 * B + l] = wp_j[1], so[6 * B + l] = wp_j[2];
     }
@@ -249,13 +251,14 @@ static mlr_status fk_run(size_t N, size_t J, const int32_t *parents, const doubl
     size_t scratch_bytes = 0;
     double *all_rot = rot_keep ? NULL : world_rot; /* written at every joint */
     if (!all_rot && J > FK_STACK_JOINTS && N > 0) {
-        mlr_allocator_resolve(alloc, &a);
-        if (mlr_mul_size(J, sizeof(mlr_quat), &scratch_bytes) != MLR_OK)
-            return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "fk: %zu joints overflow a size", J);
-        scratch = mlr_alloc(&a, scratch_bytes);
+        common__allocator_resolve(alloc, &a);
+        if (common__mul_size(J, sizeof(mlr_quat), &scratch_bytes) != MLR_OK)
+            return common__diag_set(diag, MLR_E_OVERFLOW, 0, 0, "fk: %zu joints overflow a size",
+                                    J);
+        scratch = common__alloc(&a, scratch_bytes);
         if (!scratch)
-            return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
-                                "fk: out of memory for %zu world rotations of scratch", J);
+            return common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                                    "fk: out of memory for %zu world rotations of scratch", J);
     }
     /* The blocks' scratch: on the stack for up to FK_BLOCK_STACK_JOINTS joints, else allocated;
      * without it (no memory) every frame goes the one-frame way, which gives the same bits. */
@@ -264,10 +267,10 @@ static mlr_status fk_run(size_t N, size_t J, const int32_t *parents, const doubl
     size_t f = 0, block_bytes = 0;
     mlr_allocator ab;
     if (N >= FK_BLOCK && J > FK_BLOCK_STACK_JOINTS) {
-        mlr_allocator_resolve(alloc, &ab);
+        common__allocator_resolve(alloc, &ab);
         s = NULL;
-        if (mlr_mul_size(J, 7 * FK_BLOCK * sizeof(double), &block_bytes) == MLR_OK)
-            s = mlr_alloc(&ab, block_bytes);
+        if (common__mul_size(J, 7 * FK_BLOCK * sizeof(double), &block_bytes) == MLR_OK)
+            s = common__alloc(&ab, block_bytes);
     }
     if (s)
         for (; f + FK_BLOCK <= N; f += FK_BLOCK) {
@@ -278,7 +281,7 @@ static mlr_status fk_run(size_t N, size_t J, const int32_t *parents, const doubl
                 fk_block_store_rot(J, (size_t)rot_keep[i], s, world_rot + 4 * J * f);
         }
     if (s && s != block_stack)
-        mlr_free(&ab, s, block_bytes);
+        common__free(&ab, s, block_bytes);
     for (; f < N; f++) {
         mlr_quat *wr = all_rot ? (mlr_quat *)(void *)(all_rot + 4 * J * f) : scratch;
         fk_frame(J, parents, offsets, root_pos ? root_pos + 3 * f : NULL, rot + 4 * J * f, P,
@@ -288,7 +291,7 @@ static mlr_status fk_run(size_t N, size_t J, const int32_t *parents, const doubl
                    4 * sizeof(double));
     }
     if (scratch != stack_scratch)
-        mlr_free(&a, scratch, scratch_bytes);
+        common__free(&a, scratch, scratch_bytes);
     return MLR_OK;
 }
 
@@ -300,16 +303,16 @@ mlr_status mlr_fk_arrays(size_t n_frames, size_t n_joints, const int32_t *parent
 {
     if (!parents || !offsets || (n_trans && (!trans_joints || !trans)) ||
         (n_frames && (!rot || !world_pos)))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "fk: parents, offsets, rot, world_pos%s is NULL",
-                            n_trans ? ", trans_joints or trans" : "");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "fk: parents, offsets, rot, world_pos%s is NULL",
+                                n_trans ? ", trans_joints or trans" : "");
     mlr_status s = check_skeleton(n_joints, parents, n_trans, trans_joints, diag);
     if (s != MLR_OK)
         return s;
     size_t nj;
-    if (mlr_mul_size(n_frames, n_joints, &nj) || mlr_mul_size(nj, 4, &nj))
-        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "fk: %zu frames x %zu joints overflow",
-                            n_frames, n_joints);
+    if (common__mul_size(n_frames, n_joints, &nj) || common__mul_size(nj, 4, &nj))
+        return common__diag_set(diag, MLR_E_OVERFLOW, 0, 0, "fk: %zu frames x %zu joints overflow",
+                                n_frames, n_joints);
     return fk_run(n_frames, n_joints, parents, offsets, root_pos, rot, n_trans, trans_joints,
                   trans, world_pos, world_rot, NULL, 0, alloc, diag);
 }
@@ -328,11 +331,11 @@ mlr_status mlr_fk_motion(const mlr_motion *m, size_t begin, size_t count, double
                          double *world_rot, mlr_diag *diag)
 {
     if (!m || (count && !world_pos))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "fk: motion or world_pos is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "fk: motion or world_pos is NULL");
     if (begin > m->n_frames || count > m->n_frames - begin)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "fk: frames [%zu, %zu + %zu) are not within the motion's %zu", begin,
-                            begin, count, m->n_frames);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "fk: frames [%zu, %zu + %zu) are not within the motion's %zu",
+                                begin, begin, count, m->n_frames);
     const size_t J = m->n_joints, P = m->n_trans;
     return fk_run(count, J, m->parents, m->offsets, count ? m->root_pos + 3 * begin : NULL,
                   count ? m->rot + 4 * J * begin : NULL, P, m->trans_joints,

@@ -170,48 +170,49 @@ mlr_status mirror__check_partner(const mlr_rig *rig, const int32_t *partner, mlr
     for (size_t j = 0; j < J; j++) {
         const int32_t k = partner[j];
         if (k < 0 || (size_t)k >= J || partner[k] != (int32_t)j)
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "mirror: partner[%zu] = %d is "
-                                "not a joint whose partner is %zu",
-                                j, (int)k, j);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "mirror: partner[%zu] = %d is "
+                                    "not a joint whose partner is %zu",
+                                    j, (int)k, j);
     }
     if (partner[0] != 0)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "mirror: the root %.40s cannot be "
-                            "paired (with %.40s)",
-                            jname(rig, 0, b1, sizeof b1),
-                            jname(rig, (size_t)partner[0], b2, sizeof b2));
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "mirror: the root %.40s cannot be "
+                                "paired (with %.40s)",
+                                jname(rig, 0, b1, sizeof b1),
+                                jname(rig, (size_t)partner[0], b2, sizeof b2));
     for (size_t j = 1; j < J; j++) {
         const int32_t k = partner[j], p = rig->parents[j];
         if (k == (int32_t)j && partner[p] != p) /* a one-sided joint: a prop in one hand */
-            return mlr_diag_set(
+            return common__diag_set(
                 diag, MLR_E_INVALID_ARG, 0, 0,
                 "mirror: %.30s has no partner but hangs under %.30s, which has one "
                 "(%.30s): a mirror needs a partner for it there",
                 jname(rig, j, b1, sizeof b1), jname(rig, (size_t)p, b2, sizeof b2),
                 jname(rig, (size_t)partner[p], b3, sizeof b3));
         if (rig->parents[k] != partner[p])
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "mirror: %.30s pairs with %.30s, "
-                                "but their parents %.30s and %.30s are not partners",
-                                jname(rig, j, b1, sizeof b1), jname(rig, (size_t)k, b2, sizeof b2),
-                                jname(rig, (size_t)p, b3, sizeof b3),
-                                jname(rig, (size_t)rig->parents[k], b4, sizeof b4));
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "mirror: %.30s pairs with %.30s, "
+                                    "but their parents %.30s and %.30s are not partners",
+                                    jname(rig, j, b1, sizeof b1),
+                                    jname(rig, (size_t)k, b2, sizeof b2),
+                                    jname(rig, (size_t)p, b3, sizeof b3),
+                                    jname(rig, (size_t)rig->parents[k], b4, sizeof b4));
         if ((mirror__rig_trans_row(rig, (int32_t)j) < 0) != (mirror__rig_trans_row(rig, k) < 0))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "mirror: %.40s pairs with %.40s, "
-                                "but only one of them has position channels",
-                                jname(rig, j, b1, sizeof b1),
-                                jname(rig, (size_t)k, b2, sizeof b2));
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "mirror: %.40s pairs with %.40s, "
+                                    "but only one of them has position channels",
+                                    jname(rig, j, b1, sizeof b1),
+                                    jname(rig, (size_t)k, b2, sizeof b2));
     }
     for (size_t e = 0; e < rig->n_end_sites; e++)
         if (mirror_end_site(rig, partner, e) < 0) {
             const size_t j = (size_t)rig->end_site_parents[e];
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "mirror: %.40s pairs with %.40s, "
-                                "but they have different numbers of End Sites",
-                                jname(rig, j, b1, sizeof b1),
-                                jname(rig, (size_t)partner[j], b2, sizeof b2));
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "mirror: %.40s pairs with %.40s, "
+                                    "but they have different numbers of End Sites",
+                                    jname(rig, j, b1, sizeof b1),
+                                    jname(rig, (size_t)partner[j], b2, sizeof b2));
         }
     return MLR_OK;
 }
@@ -239,28 +240,28 @@ static mlr_status given_pairs(const mlr_rig *rig, const name_rec *recs, const ch
         for (int i = 0; i < 2; i++) {
             const char *s = given[2 * g + (size_t)i];
             if (!s)
-                return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                    "mirror: pairs[%zu] has a "
-                                    "NULL name",
-                                    g);
+                return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                        "mirror: pairs[%zu] has a "
+                                        "NULL name",
+                                        g);
             jk[i] = find_name(recs, J, s);
             if (jk[i] < 0)
-                return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                    "mirror: pairs: no joint "
-                                    "named '%.80s'",
-                                    s);
+                return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                        "mirror: pairs: no joint "
+                                        "named '%.80s'",
+                                        s);
         }
         if (jk[0] == jk[1])
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "mirror: pairs: '%.80s' is "
-                                "paired with itself",
-                                given[2 * g]);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "mirror: pairs: '%.80s' is "
+                                    "paired with itself",
+                                    given[2 * g]);
         for (int i = 0; i < 2; i++)
             if (partner[jk[i]] != jk[i])
-                return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                    "mirror: pairs: '%.80s' is "
-                                    "in two pairs",
-                                    rig->names[jk[i]]);
+                return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                        "mirror: pairs: '%.80s' is "
+                                        "in two pairs",
+                                        rig->names[jk[i]]);
         partner[jk[0]] = jk[1];
         partner[jk[1]] = jk[0];
         ++*n_pairs;
@@ -274,28 +275,28 @@ mlr_status mirror__find_pairs(const mlr_rig *rig, const char *const *given, size
 {
     mlr_status st;
     if (flags & ~(unsigned)MLR_MIRROR_GIVEN_ONLY)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "mirror: unknown flags 0x%x for "
-                            "pairs",
-                            flags);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "mirror: unknown flags 0x%x for "
+                                "pairs",
+                                flags);
     if (n_given && !given)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "mirror: pairs is NULL with %zu "
-                            "pairs",
-                            n_given);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "mirror: pairs is NULL with %zu "
+                                "pairs",
+                                n_given);
     const size_t J = rig->n_joints;
     const int by_name = !(flags & MLR_MIRROR_GIVEN_ONLY);
     if (!rig->names && (by_name || n_given))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "mirror: the rig has no joint "
-                            "names to pair joints by");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "mirror: the rig has no joint "
+                                "names to pair joints by");
     size_t longest = 0;
     for (size_t j = 0; j < J && rig->names; j++) {
         if (!rig->names[j])
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "mirror: joint %zu has no "
-                                "name",
-                                j);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "mirror: joint %zu has no "
+                                    "name",
+                                    j);
         const size_t n = strlen(rig->names[j]);
         longest = n > longest ? n : longest;
     }
@@ -304,24 +305,24 @@ mlr_status mirror__find_pairs(const mlr_rig *rig, const char *const *given, size
     size_t pairs = 0;
     if (rig->names) {
         mlr_allocator a;
-        mlr_allocator_resolve(alloc, &a);
+        common__allocator_resolve(alloc, &a);
         size_t rec_bytes, buf_bytes;
         /* rule 1 turns "left" (4) into "right" (5): at most 5/4 of the length, + NUL */
-        if (mlr_mul_size(J, sizeof(name_rec), &rec_bytes) != MLR_OK ||
+        if (common__mul_size(J, sizeof(name_rec), &rec_bytes) != MLR_OK ||
             longest > (SIZE_MAX - 2) / 2)
-            return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0,
-                                "mirror: %zu joint names overflow "
-                                "the size",
-                                J);
+            return common__diag_set(diag, MLR_E_OVERFLOW, 0, 0,
+                                    "mirror: %zu joint names overflow "
+                                    "the size",
+                                    J);
         buf_bytes = 2 * longest + 2;
-        name_rec *recs = mlr_alloc(&a, rec_bytes);
-        char *buf = recs ? mlr_alloc(&a, buf_bytes) : NULL;
+        name_rec *recs = common__alloc(&a, rec_bytes);
+        char *buf = recs ? common__alloc(&a, buf_bytes) : NULL;
         if (!buf) {
-            mlr_free(&a, recs, rec_bytes);
-            return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
-                                "mirror: out of memory for the "
-                                "name index of %zu joints",
-                                J);
+            common__free(&a, recs, rec_bytes);
+            return common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                                    "mirror: out of memory for the "
+                                    "name index of %zu joints",
+                                    J);
         }
         for (size_t j = 0; j < J; j++)
             recs[j] = (name_rec){rig->names[j], (int32_t)j};
@@ -348,8 +349,8 @@ mlr_status mirror__find_pairs(const mlr_rig *rig, const char *const *given, size
                 side[j] = partner[j] == (int32_t)j
                               ? 0
                               : (int8_t)pair_side(rig->names[j], rig->names[partner[j]], buf);
-        mlr_free(&a, buf, buf_bytes);
-        mlr_free(&a, recs, rec_bytes);
+        common__free(&a, buf, buf_bytes);
+        common__free(&a, recs, rec_bytes);
         if (st != MLR_OK)
             return st;
     } else if (side) {
@@ -364,7 +365,7 @@ mlr_status mlr_mirror_pairs(const mlr_rig *rig, const char *const *given, size_t
                             const mlr_allocator *alloc, mlr_diag *diag)
 {
     if (!partner)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "mirror: partner is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "mirror: partner is NULL");
     mlr_status st = mlr_rig_check(rig, diag);
     if (st != MLR_OK)
         return st;
@@ -393,30 +394,30 @@ mlr_status mlr_mirror_plane(const mlr_rig *rig, const int32_t *partner, int plan
                             mlr_diag *diag)
 {
     if (!axis)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "mirror: axis is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "mirror: axis is NULL");
     mlr_status st = mlr_rig_check(rig, diag);
     if (st != MLR_OK)
         return st;
     if (plane != MLR_MIRROR_PLANE_AUTO && (plane < MLR_AXIS_X || plane > MLR_AXIS_Z))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "mirror: plane %d is not -1 (auto), "
-                            "0 (x), 1 (y) or 2 (z)",
-                            plane);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "mirror: plane %d is not -1 (auto), "
+                                "0 (x), 1 (y) or 2 (z)",
+                                plane);
     if (plane != MLR_MIRROR_PLANE_AUTO) {
         *axis = plane;
         return MLR_OK;
     }
     if (!partner)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "mirror: partner is NULL for the "
-                            "auto plane");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "mirror: partner is NULL for the "
+                                "auto plane");
     const size_t J = rig->n_joints;
     for (size_t j = 0; j < J; j++)
         if (partner[j] < 0 || (size_t)partner[j] >= J || partner[partner[j]] != (int32_t)j)
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "mirror: partner[%zu] = %d is "
-                                "not a joint whose partner is %zu",
-                                j, (int)partner[j], j);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "mirror: partner[%zu] = %d is "
+                                    "not a joint whose partner is %zu",
+                                    j, (int)partner[j], j);
     double sum[3] = {0.0, 0.0, 0.0};
     size_t pairs = 0;
     for (size_t j = 0; j < J; j++) {
@@ -430,18 +431,18 @@ mlr_status mlr_mirror_plane(const mlr_rig *rig, const int32_t *partner, int plan
         pairs++;
     }
     if (pairs == 0)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "mirror: no left/right joint pairs "
-                            "to find the plane from; give the plane (x, y or z) or the pairs");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "mirror: no left/right joint pairs "
+                                "to find the plane from; give the plane (x, y or z) or the pairs");
     int best = 0;
     for (int c = 1; c < 3; c++)
         if (sum[c] > sum[best])
             best = c;
     if (!(sum[best] > 0.0))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "mirror: the %zu joint pairs have "
-                            "the same rest positions; give the plane (x, y or z)",
-                            pairs);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "mirror: the %zu joint pairs have "
+                                "the same rest positions; give the plane (x, y or z)",
+                                pairs);
     *axis = best;
     return MLR_OK;
 }
@@ -489,28 +490,28 @@ mlr_status mlr_mirror_motion(const mlr_rig *rig, const int32_t *partner, int axi
     if (st != MLR_OK)
         return st;
     if (!partner)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "mirror: partner is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "mirror: partner is NULL");
     if (axis < MLR_AXIS_X || axis > MLR_AXIS_Z)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "mirror: axis %d is not 0 (x), "
-                            "1 (y) or 2 (z)",
-                            axis);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "mirror: axis %d is not 0 (x), "
+                                "1 (y) or 2 (z)",
+                                axis);
     if (flags & ~(unsigned)MLR_MIRROR_KEEP_SKELETON)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "mirror: unknown flags 0x%x for "
-                            "motion",
-                            flags);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "mirror: unknown flags 0x%x for "
+                                "motion",
+                                flags);
     const size_t N = n_frames, J = rig->n_joints, P = rig->n_trans, E = rig->n_end_sites;
     if (N && (!root_pos || !rot || !out_root_pos || !out_rot))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "mirror: root_pos, rot or their "
-                            "outputs are NULL with %zu frames",
-                            N);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "mirror: root_pos, rot or their "
+                                "outputs are NULL with %zu frames",
+                                N);
     if (N && P && (!trans || !out_trans))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "mirror: trans or out_trans is NULL "
-                            "with %zu translated joints",
-                            P);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "mirror: trans or out_trans is NULL "
+                                "with %zu translated joints",
+                                P);
     st = mirror__check_partner(rig, partner, diag);
     if (st != MLR_OK)
         return st;

@@ -26,7 +26,7 @@ static size_t match_char(const unsigned char *s, char c)
 }
 
 /* mlr_internal.h */
-int mlr_name_matches(const char *name, const char *const *patterns)
+int common__name_matches(const char *name, const char *const *patterns)
 {
     if (!name)
         return 0;
@@ -46,43 +46,46 @@ int mlr_name_matches(const char *name, const char *const *patterns)
 mlr_status mlr_rig_check(const mlr_rig *rig, mlr_diag *diag)
 {
     if (!rig)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "rig is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "rig is NULL");
     const size_t J = rig->n_joints;
     if (J == 0 || !rig->parents || !rig->offsets)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "rig: needs at least one joint, parents and offsets");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "rig: needs at least one joint, parents and offsets");
     if (rig->parents[0] != -1)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "rig: parents[0] must be -1, got %d",
-                            (int)rig->parents[0]);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "rig: parents[0] must be -1, got %d", (int)rig->parents[0]);
     for (size_t j = 1; j < J; j++)
         if (rig->parents[j] < 0 || (size_t)rig->parents[j] >= j)
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "rig: parents[%zu] = %d is not a joint before it", j,
-                                (int)rig->parents[j]);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "rig: parents[%zu] = %d is not a joint before it", j,
+                                    (int)rig->parents[j]);
     for (size_t k = 0; k < 3 * J; k++)
         if (!isfinite(rig->offsets[k]))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "rig: offset of joint %zu is not finite", k / 3);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "rig: offset of joint %zu is not finite", k / 3);
     if (rig->n_trans && !rig->trans_joints)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "rig: trans_joints is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "rig: trans_joints is NULL");
     for (size_t p = 0; p < rig->n_trans; p++) {
         int32_t t = rig->trans_joints[p];
         if (t < 1 || (size_t)t >= J || (p > 0 && t <= rig->trans_joints[p - 1]))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "rig: trans_joints must be strictly increasing in [1, %zu)", J);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "rig: trans_joints must be strictly increasing in [1, %zu)",
+                                    J);
     }
     if (rig->n_end_sites && (!rig->end_site_parents || !rig->end_site_offsets))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "rig: End Site arrays are NULL for %zu End Sites", rig->n_end_sites);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "rig: End Site arrays are NULL for %zu End Sites",
+                                rig->n_end_sites);
     for (size_t e = 0; e < rig->n_end_sites; e++) {
         int32_t p = rig->end_site_parents[e];
         if (p < 0 || (size_t)p >= J)
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "rig: End Site %zu has parent %d outside [0, %zu)", e, (int)p, J);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "rig: End Site %zu has parent %d outside [0, %zu)", e, (int)p,
+                                    J);
         for (int k = 0; k < 3; k++)
             if (!isfinite(rig->end_site_offsets[3 * e + (size_t)k]))
-                return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                    "rig: offset of End Site %zu is not finite", e);
+                return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                        "rig: offset of End Site %zu is not finite", e);
     }
     return MLR_OK;
 }
@@ -91,10 +94,11 @@ mlr_status mlr_rig_find_point(const mlr_rig *rig, const char *name, int32_t *joi
                               int32_t *end_site, mlr_diag *diag)
 {
     if (!rig || !name || !joint || !end_site)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "find_point: NULL argument");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "find_point: NULL argument");
     if (!rig->names)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "find_point: the rig has no joint names (looking for '%.80s')", name);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "find_point: the rig has no joint names (looking for '%.80s')",
+                                name);
     const size_t len = strlen(name), suffix = sizeof MLR_RIG_END_SUFFIX - 1;
     const int end = len > suffix && strcmp(name + len - suffix, MLR_RIG_END_SUFFIX) == 0;
     for (int pass = 0; pass < 2; pass++) {
@@ -118,11 +122,12 @@ mlr_status mlr_rig_find_point(const mlr_rig *rig, const char *name, int32_t *joi
                     *end_site = (int32_t)e;
                     return MLR_OK;
                 }
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "joint '%.80s' has no End Site", s);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "joint '%.80s' has no End Site",
+                                    s);
         }
     }
-    return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                        "no joint named '%.80s' ('Joint/End' names a joint's End Site)", name);
+    return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "no joint named '%.80s' ('Joint/End' names a joint's End Site)", name);
 }
 
 mlr_status mlr_rig_point_positions(const mlr_rig *rig, size_t n_frames, const double *world_pos,
@@ -130,21 +135,21 @@ mlr_status mlr_rig_point_positions(const mlr_rig *rig, size_t n_frames, const do
                                    const int32_t *end_sites, double *out, mlr_diag *diag)
 {
     if (!rig || (n_frames && n_points && (!world_pos || !joints || !out)))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "point_positions: NULL argument");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "point_positions: NULL argument");
     const size_t J = rig->n_joints;
     for (size_t c = 0; c < n_points; c++) {
         if (joints[c] < 0 || (size_t)joints[c] >= J)
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "point %zu: joint %d outside [0, %zu)", c, (int)joints[c], J);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "point %zu: joint %d outside [0, %zu)", c, (int)joints[c], J);
         int32_t e = end_sites ? end_sites[c] : -1;
         if (e < -1 ||
             (e >= 0 && ((size_t)e >= rig->n_end_sites || rig->end_site_parents[e] != joints[c])))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "point %zu: End Site %d is not below joint %d", c, (int)e,
-                                (int)joints[c]);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "point %zu: End Site %d is not below joint %d", c, (int)e,
+                                    (int)joints[c]);
         if (e >= 0 && !world_rot)
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "point %zu is an End Site: world_rot is needed", c);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "point %zu is an End Site: world_rot is needed", c);
     }
     for (size_t f = 0; f < n_frames; f++)
         for (size_t c = 0; c < n_points; c++) {
@@ -160,7 +165,7 @@ mlr_status mlr_rig_point_positions(const mlr_rig *rig, size_t n_frames, const do
             const mlr_quat qq = {q[0], q[1], q[2], q[3]};
             const double *v = rig->end_site_offsets + 3 * (size_t)e;
             double r[3];
-            mlr_quat_rotate_inline(&qq, v, r);
+            common__quat_rotate_inline(&qq, v, r);
             o[0] = p[0] + r[0], o[1] = p[1] + r[1], o[2] = p[2] + r[2];
         }
     return MLR_OK;
@@ -192,8 +197,8 @@ static int up_range_block(const double *restrict p, size_t J, size_t m, double *
     return ok;
 }
 
-size_t mlr_rig_up_range(size_t n_frames, size_t n_joints, const double *world_pos, int up,
-                        double *lo, double *hi)
+size_t common__rig_up_range(size_t n_frames, size_t n_joints, const double *world_pos, int up,
+                            double *lo, double *hi)
 {
     for (size_t f0 = 0; f0 < n_frames; f0 += RANGE_BLOCK) {
         const size_t m = n_frames - f0 < RANGE_BLOCK ? n_frames - f0 : RANGE_BLOCK;
@@ -218,38 +223,39 @@ mlr_status mlr_rig_body_height(size_t n_frames, size_t n_joints, const double *w
                                double *height, const mlr_allocator *alloc, mlr_diag *diag)
 {
     if (!world_pos || !height)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "body_height: world_pos or height is "
-                            "NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "body_height: world_pos or height is "
+                                "NULL");
     if (n_frames == 0 || n_joints == 0)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "body_height: needs at least one frame and one joint");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "body_height: needs at least one frame and one joint");
     if (up < MLR_AXIS_X || up > MLR_AXIS_Z)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "body_height: up axis %d is not "
-                            "0 (X), 1 (Y) or 2 (Z)",
-                            up);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "body_height: up axis %d is not "
+                                "0 (X), 1 (Y) or 2 (Z)",
+                                up);
     size_t bytes;
-    if (mlr_mul_size(n_frames, 2 * sizeof(double), &bytes) != MLR_OK)
-        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0,
-                            "body_height: %zu frames of scratch overflow a size", n_frames);
+    if (common__mul_size(n_frames, 2 * sizeof(double), &bytes) != MLR_OK)
+        return common__diag_set(diag, MLR_E_OVERFLOW, 0, 0,
+                                "body_height: %zu frames of scratch overflow a size", n_frames);
     mlr_allocator a;
-    mlr_allocator_resolve(alloc, &a);
-    double *ext = mlr_alloc(&a, bytes), *lo = ext + n_frames; /* the highest, then the lowest */
+    common__allocator_resolve(alloc, &a);
+    double *ext = common__alloc(&a, bytes),
+           *lo = ext + n_frames; /* the highest, then the lowest */
     if (!ext)
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "body_height: out of memory");
-    const size_t bad = mlr_rig_up_range(n_frames, n_joints, world_pos, up, lo, ext);
+        return common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "body_height: out of memory");
+    const size_t bad = common__rig_up_range(n_frames, n_joints, world_pos, up, lo, ext);
     if (bad < n_frames * n_joints) {
-        mlr_free(&a, ext, bytes);
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "body_height: position of joint %zu at frame %zu is not finite",
-                            bad % n_joints, bad / n_joints);
+        common__free(&a, ext, bytes);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "body_height: position of joint %zu at frame %zu is not finite",
+                                bad % n_joints, bad / n_joints);
     }
     for (size_t f = 0; f < n_frames; f++)
         ext[f] -= lo[f];
     /* numpy's median: the mean of the two middle values for an even count */
-    *height = mlr_median(ext, n_frames);
-    mlr_free(&a, ext, bytes);
+    *height = common__median(ext, n_frames);
+    common__free(&a, ext, bytes);
     return MLR_OK;
 }
 
@@ -308,8 +314,8 @@ mlr_status mlr_rig_body_translation_joint(const mlr_rig *rig, size_t n_frames,
                                           int32_t *joint, mlr_diag *diag)
 {
     if (!joint)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "body_translation_joint: joint is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "body_translation_joint: joint is NULL");
     *joint = 0;
     mlr_status st = mlr_rig_check(rig, diag);
     if (st != MLR_OK)
@@ -318,18 +324,18 @@ mlr_status mlr_rig_body_translation_joint(const mlr_rig *rig, size_t n_frames,
     if (n_frames == 0)
         return MLR_OK;
     if (P > 0 && !trans)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "body_translation_joint: trans is NULL for %zu trans joints", P);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "body_translation_joint: trans is NULL for %zu trans joints", P);
     double amax = 0.0;
     for (size_t f = 0; f < n_frames; f++)
         for (size_t k = 0; k < 3 * (1 + P); k++) {
             const double v =
                 k < 3 ? (root_pos ? root_pos[3 * f + k] : 0.0) : trans[3 * P * f + k - 3];
             if (!isfinite(v))
-                return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                    "body_translation_joint: %s translation at frame %zu is "
-                                    "not finite",
-                                    k < 3 ? "root" : "a trans joint's", f);
+                return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                        "body_translation_joint: %s translation at frame %zu is "
+                                        "not finite",
+                                        k < 3 ? "root" : "a trans joint's", f);
             amax = fabs(v) > amax ? fabs(v) : amax;
         }
     double size = rest_size(rig);

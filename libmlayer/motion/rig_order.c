@@ -27,13 +27,13 @@ static mlr_status check_parents(size_t J, const int32_t *parents, const char *co
     for (size_t j = 0; j < J; j++) {
         const int32_t p = parents[j];
         if (p < -1 || (p >= 0 && (size_t)p >= J))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "depth-first order: joint %s has parent %d, outside -1..%zu",
-                                joint_label(names, j, a, sizeof a), (int)p, J - 1);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "depth-first order: joint %s has parent %d, outside -1..%zu",
+                                    joint_label(names, j, a, sizeof a), (int)p, J - 1);
         if (p >= 0 && (size_t)p == j)
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "depth-first order: joint %s is its own parent",
-                                joint_label(names, j, a, sizeof a));
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "depth-first order: joint %s is its own parent",
+                                    joint_label(names, j, a, sizeof a));
         if (p == -1) {
             if (n_roots == 0)
                 first = j;
@@ -43,15 +43,16 @@ static mlr_status check_parents(size_t J, const int32_t *parents, const char *co
         }
     }
     if (n_roots == 0)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "depth-first order: the joints must form one tree, found no root "
-                            "(no parent -1)");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "depth-first order: the joints must form one tree, found no root "
+                                "(no parent -1)");
     if (n_roots > 1)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "depth-first order: the joints must form one tree, found %zu roots: "
-                            "joints %s and %s both have parent -1",
-                            n_roots, joint_label(names, first, a, sizeof a),
-                            joint_label(names, second, b, sizeof b));
+        return common__diag_set(
+            diag, MLR_E_INVALID_ARG, 0, 0,
+            "depth-first order: the joints must form one tree, found %zu roots: "
+            "joints %s and %s both have parent -1",
+            n_roots, joint_label(names, first, a, sizeof a),
+            joint_label(names, second, b, sizeof b));
     *root = first;
     return MLR_OK;
 }
@@ -90,32 +91,33 @@ mlr_status mlr_rig_depth_first_order(size_t n_joints, const int32_t *parents,
                                      const mlr_allocator *alloc, mlr_diag *diag)
 {
     if (!parents || !order)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "depth-first order: parents and order must not be NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "depth-first order: parents and order must not be NULL");
     if (n_joints == 0)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "depth-first order: needs at least one joint");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "depth-first order: needs at least one joint");
     if (n_joints > (size_t)INT32_MAX)
-        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0,
-                            "depth-first order: %zu joints overflow the int32 indices", n_joints);
+        return common__diag_set(diag, MLR_E_OVERFLOW, 0, 0,
+                                "depth-first order: %zu joints overflow the int32 indices",
+                                n_joints);
     const size_t J = n_joints;
     size_t root = 0;
     mlr_status st = check_parents(J, parents, names, &root, diag);
     if (st != MLR_OK)
         return st;
     mlr_allocator a;
-    mlr_allocator_resolve(alloc, &a);
+    common__allocator_resolve(alloc, &a);
     size_t start_bytes, idx_bytes;
-    if (mlr_mul_size(J + 1, sizeof(size_t), &start_bytes) != MLR_OK ||
-        mlr_mul_size(J, sizeof(int32_t), &idx_bytes) != MLR_OK)
-        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0,
-                            "depth-first order: size overflow for %zu joints", J);
-    size_t *start = mlr_alloc(&a, start_bytes);
-    int32_t *child = mlr_alloc(&a, idx_bytes);
-    int32_t *stack = mlr_alloc(&a, idx_bytes);
+    if (common__mul_size(J + 1, sizeof(size_t), &start_bytes) != MLR_OK ||
+        common__mul_size(J, sizeof(int32_t), &idx_bytes) != MLR_OK)
+        return common__diag_set(diag, MLR_E_OVERFLOW, 0, 0,
+                                "depth-first order: size overflow for %zu joints", J);
+    size_t *start = common__alloc(&a, start_bytes);
+    int32_t *child = common__alloc(&a, idx_bytes);
+    int32_t *stack = common__alloc(&a, idx_bytes);
     if (!start || !child || !stack) {
-        st = mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
-                          "depth-first order: out of memory for %zu joints", J);
+        st = common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                              "depth-first order: out of memory for %zu joints", J);
     } else {
         const size_t reached = walk(J, parents, root, start, child, stack, order);
         if (reached != J) {
@@ -129,17 +131,17 @@ mlr_status mlr_rig_depth_first_order(size_t n_joints, const int32_t *parents,
             while (seen[j])
                 j++;
             char b[96];
-            st = mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                              "depth-first order: joint %s is not below the root (its parents "
-                              "form a cycle)",
-                              joint_label(names, j, b, sizeof b));
+            st = common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                  "depth-first order: joint %s is not below the root (its parents "
+                                  "form a cycle)",
+                                  joint_label(names, j, b, sizeof b));
         }
     }
     if (start)
-        mlr_free(&a, start, start_bytes);
+        common__free(&a, start, start_bytes);
     if (child)
-        mlr_free(&a, child, idx_bytes);
+        common__free(&a, child, idx_bytes);
     if (stack)
-        mlr_free(&a, stack, idx_bytes);
+        common__free(&a, stack, idx_bytes);
     return st;
 }

@@ -47,22 +47,22 @@ static mlr_status sided_pairs(const mlr_rig *rig, const mlr_allocator *a, int32_
     for (size_t j = 0; j < J; j++)
         if (!rig->names[j])
             return MLR_OK;
-    if (mlr_mul_size(J, sizeof(int32_t) + 1, bytes) != MLR_OK)
-        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0,
-                            SUBJECT ": %zu joints overflow the "
-                                    "size",
-                            J);
-    *partner = mlr_alloc(a, *bytes);
+    if (common__mul_size(J, sizeof(int32_t) + 1, bytes) != MLR_OK)
+        return common__diag_set(diag, MLR_E_OVERFLOW, 0, 0,
+                                SUBJECT ": %zu joints overflow the "
+                                        "size",
+                                J);
+    *partner = common__alloc(a, *bytes);
     if (!*partner)
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
-                            SUBJECT ": out of memory for the "
-                                    "left/right pairs of %zu joints",
-                            J);
+        return common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                                SUBJECT ": out of memory for the "
+                                        "left/right pairs of %zu joints",
+                                J);
     *side = (int8_t *)(*partner + J);
     size_t n_pairs = 0;
     const mlr_status st = mirror__find_pairs(rig, NULL, 0, 0, *partner, *side, &n_pairs, a, diag);
     if (st != MLR_OK) {
-        mlr_free(a, *partner, *bytes);
+        common__free(a, *partner, *bytes);
         *partner = NULL, *side = NULL;
     }
     return st;
@@ -108,33 +108,33 @@ static mlr_status check_args(const mlr_rig *rig, double fps, int up, int mode, s
     if (st != MLR_OK)
         return st;
     if (!(isfinite(fps) && fps > 0.0))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            SUBJECT ": fps %g is not finite "
-                                    "and > 0",
-                            fps);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                SUBJECT ": fps %g is not finite "
+                                        "and > 0",
+                                fps);
     if (up < MLR_AXIS_X || up > MLR_AXIS_Z)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            SUBJECT ": up axis %d is not 0 (x), "
-                                    "1 (y) or 2 (z)",
-                            up);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                SUBJECT ": up axis %d is not 0 (x), "
+                                        "1 (y) or 2 (z)",
+                                up);
     if (mode != MLR_ROOT_MOTION_GROUND && mode != MLR_ROOT_MOTION_POSITION)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            SUBJECT ": mode %d is not 0 "
-                                    "(ground) or 1 (position)",
-                            mode);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                SUBJECT ": mode %d is not 0 "
+                                        "(ground) or 1 (position)",
+                                mode);
     if (N == 0)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, SUBJECT ": no frames");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, SUBJECT ": no frames");
     if (!root_pos || !rot || (rig->n_trans && !trans))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            SUBJECT ": root_pos, rot or trans "
-                                    "is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                SUBJECT ": root_pos, rot or trans "
+                                        "is NULL");
     if (!track_pos || !track_heading || !out_root_pos || !out_root_rot)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, SUBJECT ": an output is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, SUBJECT ": an output is NULL");
     if (ld_out_rot < 4)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            SUBJECT ": ld_out_rot %zu is below "
-                                    "4",
-                            ld_out_rot);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                SUBJECT ": ld_out_rot %zu is below "
+                                        "4",
+                                ld_out_rot);
     return MLR_OK;
 }
 
@@ -145,22 +145,22 @@ static mlr_status check_finite(const mlr_rig *rig, size_t N, const double *root_
     const size_t J = rig->n_joints, P = rig->n_trans;
     for (size_t k = 0; k < 3 * N; k++)
         if (!isfinite(root_pos[k]))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                SUBJECT ": root_pos[%zu][%zu] "
-                                        "is not finite",
-                                k / 3, k % 3);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    SUBJECT ": root_pos[%zu][%zu] "
+                                            "is not finite",
+                                    k / 3, k % 3);
     for (size_t k = 0; k < 4 * N * J; k++)
         if (!isfinite(rot[k]))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                SUBJECT ": rot[%zu][%zu] is not "
-                                        "finite",
-                                k / (4 * J), k / 4 % J);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    SUBJECT ": rot[%zu][%zu] is not "
+                                            "finite",
+                                    k / (4 * J), k / 4 % J);
     for (size_t k = 0; k < 3 * N * P; k++)
         if (!isfinite(trans[k]))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                SUBJECT ": trans[%zu][%zu] is "
-                                        "not finite",
-                                k / (3 * P), k / 3 % P);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    SUBJECT ": trans[%zu][%zu] is "
+                                            "not finite",
+                                    k / (3 * P), k / 3 % P);
     return MLR_OK;
 }
 
@@ -238,7 +238,7 @@ static mlr_status body_path(const mlr_rig *rig, size_t N, const double *root_pos
             const double *p = wpos + 3 * j, *q = wpos + 3 * (size_t)partner[j];
             const double d[3] = {p[0] - q[0], p[1] - q[1], p[2] - q[2]};
             double dl[3];
-            mlr_quat_rotate_inline(&winv, d, dl);
+            common__quat_rotate_inline(&winv, d, dl);
             for (int c = 0; c < 3; c++)
                 left[c] += dl[c];
             *total += sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
@@ -263,7 +263,7 @@ static void body_headings(size_t N, int ground, int g1, int g2, double left[3], 
         left[0] = left[1] = left[2] = 0.0, left[g2] = 1.0;
     for (size_t n = 0; ground && n < N; n++) {
         double v[3];
-        mlr_quat_rotate_inline((const mlr_quat *)(tw->wb + 4 * n), left, v);
+        common__quat_rotate_inline((const mlr_quat *)(tw->wb + 4 * n), left, v);
         /* f = v x e_up: its ground components are f.g1 = v[g2], f.g2 = -v[g1] */
         const double f1 = v[g2], f2 = -v[g1];
         valid[n] = sqrt(f1 * f1 + f2 * f2) > 1e-9;
@@ -286,8 +286,8 @@ static void in_place_root(const mlr_rig *rig, int up, size_t N, const double *ro
         const mlr_quat hinv = heading_quat(up, -track_heading[n]);
         const double d[3] = {p[0] - c[0], p[1] - c[1], p[2] - c[2]};
         const mlr_quat q = *(const mlr_quat *)(rot + 4 * J * n);
-        mlr_quat_rotate_inline(&hinv, d, out_root_pos + 3 * n);
-        mlr_quat_mul_inline(&hinv, &q, (mlr_quat *)(out_root_rot + ld_out_rot * n));
+        common__quat_rotate_inline(&hinv, d, out_root_pos + 3 * n);
+        common__quat_mul_inline(&hinv, &q, (mlr_quat *)(out_root_rot + ld_out_rot * n));
     }
 }
 
@@ -316,44 +316,44 @@ mlr_status mlr_root_motion_extract(const mlr_rig *rig, double fps, int up, int m
     const int ground = mode == MLR_ROOT_MOTION_GROUND;
     const int g1 = (up + 1) % 3, g2 = (up + 2) % 3;
     mlr_allocator a;
-    mlr_allocator_resolve(alloc, &a);
+    common__allocator_resolve(alloc, &a);
     int32_t *partner = NULL;
     int8_t *side = NULL;
     size_t pair_bytes = 0, n_doubles, bytes;
     if (ground && (st = sided_pairs(rig, &a, &partner, &side, &pair_bytes, diag)) != MLR_OK)
         return st;
     /* the scratch: see track_work */
-    if (mlr_mul_size(N + J, 7, &n_doubles) != MLR_OK ||
-        mlr_mul_size(n_doubles, sizeof(double), &bytes) != MLR_OK || bytes > SIZE_MAX - N) {
-        mlr_free(&a, partner, pair_bytes);
-        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0,
-                            SUBJECT ": %zu frames of %zu joints "
-                                    "overflow the size",
-                            N, J);
+    if (common__mul_size(N + J, 7, &n_doubles) != MLR_OK ||
+        common__mul_size(n_doubles, sizeof(double), &bytes) != MLR_OK || bytes > SIZE_MAX - N) {
+        common__free(&a, partner, pair_bytes);
+        return common__diag_set(diag, MLR_E_OVERFLOW, 0, 0,
+                                SUBJECT ": %zu frames of %zu joints "
+                                        "overflow the size",
+                                N, J);
     }
     bytes += N;
-    double *y = mlr_alloc(&a, bytes);
+    double *y = common__alloc(&a, bytes);
     if (!y) {
-        mlr_free(&a, partner, pair_bytes);
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
-                            SUBJECT ": out of memory for the "
-                                    "track of %zu frames",
-                            N);
+        common__free(&a, partner, pair_bytes);
+        return common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                                SUBJECT ": out of memory for the "
+                                        "track of %zu frames",
+                                N);
     }
     track_work tw = {y, y + 3 * N, y + 7 * N, y + 7 * N + 3 * J, NULL};
     tw.valid = (unsigned char *)(tw.wrot + 4 * J);
     double left[3] = {0.0, 0.0, 0.0}, total = 0.0;
     st = body_path(rig, N, root_pos, rot, trans, b, g1, g2, partner, side, &tw, left, &total, &a,
                    diag);
-    mlr_free(&a, partner, pair_bytes);
+    common__free(&a, partner, pair_bytes);
     if (st != MLR_OK) {
-        mlr_free(&a, y, bytes);
+        common__free(&a, y, bytes);
         return st;
     }
     body_headings(N, ground, g1, g2, left, total, &tw);
     st = smooth_track(y, N, ground ? 3 : 2, smooth, fps, &a, diag);
     if (st < 0) {
-        mlr_free(&a, y, bytes);
+        common__free(&a, y, bytes);
         return st;
     }
     for (size_t n = 0; n < N; n++) {
@@ -361,7 +361,7 @@ mlr_status mlr_root_motion_extract(const mlr_rig *rig, double fps, int up, int m
         c[up] = 0.0, c[g1] = y[3 * n], c[g2] = y[3 * n + 1];
         track_heading[n] = y[3 * n + 2];
     }
-    mlr_free(&a, y, bytes);
+    common__free(&a, y, bytes);
     in_place_root(rig, up, N, root_pos, rot, track_pos, track_heading, out_root_pos, out_root_rot,
                   ld_out_rot);
     return st;
@@ -374,33 +374,33 @@ mlr_status mlr_root_motion_apply(int up, size_t n_frames, const double *track_po
 {
     const size_t N = n_frames;
     if (up < MLR_AXIS_X || up > MLR_AXIS_Z)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            SUBJECT ": up axis %d is not 0 (x), "
-                                    "1 (y) or 2 (z)",
-                            up);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                SUBJECT ": up axis %d is not 0 (x), "
+                                        "1 (y) or 2 (z)",
+                                up);
     if (ld_root_rot < 4 || ld_out_rot < 4)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            SUBJECT ": rotation strides %zu and "
-                                    "%zu must be >= 4",
-                            ld_root_rot, ld_out_rot);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                SUBJECT ": rotation strides %zu and "
+                                        "%zu must be >= 4",
+                                ld_root_rot, ld_out_rot);
     if (N &&
         (!track_pos || !track_heading || !root_pos || !root_rot || !out_root_pos || !out_root_rot))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            SUBJECT ": NULL argument with %zu "
-                                    "frames",
-                            N);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                SUBJECT ": NULL argument with %zu "
+                                        "frames",
+                                N);
     for (size_t n = 0; n < N; n++) {
         if (!isfinite(track_heading[n]))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                SUBJECT ": track heading[%zu] "
-                                        "is not finite",
-                                n);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    SUBJECT ": track heading[%zu] "
+                                            "is not finite",
+                                    n);
         for (size_t c = 0; c < 3; c++)
             if (!isfinite(track_pos[3 * n + c]))
-                return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                    SUBJECT ": track "
-                                            "position[%zu][%zu] is not finite",
-                                    n, c);
+                return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                        SUBJECT ": track "
+                                                "position[%zu][%zu] is not finite",
+                                        n, c);
     }
     for (size_t n = 0; n < N; n++) {
         const mlr_quat h = heading_quat(up, track_heading[n]);
@@ -408,10 +408,10 @@ mlr_status mlr_root_motion_apply(int up, size_t n_frames, const double *track_po
         const double p[3] = {root_pos[3 * n], root_pos[3 * n + 1], root_pos[3 * n + 2]};
         const mlr_quat q = *(const mlr_quat *)(root_rot + ld_root_rot * n);
         double r[3];
-        mlr_quat_rotate_inline(&h, p, r);
+        common__quat_rotate_inline(&h, p, r);
         for (int k = 0; k < 3; k++)
             out_root_pos[3 * n + (size_t)k] = c[k] + r[k];
-        mlr_quat_mul_inline(&h, &q, (mlr_quat *)(out_root_rot + ld_out_rot * n));
+        common__quat_mul_inline(&h, &q, (mlr_quat *)(out_root_rot + ld_out_rot * n));
     }
     return MLR_OK;
 }

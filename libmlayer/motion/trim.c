@@ -42,7 +42,7 @@ static void pose_of(const double *wp, const double *wr, size_t J, size_t b, cons
 {
     static const double forward[3][3] = {{0, 0, 1}, {0, 0, 1}, {0, -1, 0}};
     double f[3], fy[3];
-    mlr_quat_rotate_inline((const mlr_quat *)(wr + 4 * b), forward[u], f);
+    common__quat_rotate_inline((const mlr_quat *)(wr + 4 * b), forward[u], f);
     to_y_up(u, f, fy);
     const double yaw = atan2(fy[0], fy[2]), c = cos(yaw), s = sin(yaw);
     const double *pb = wp + 3 * b;
@@ -67,18 +67,18 @@ static mlr_status check_clip(const mlr_rig *rig, size_t N, const double *root_po
     if (st != MLR_OK)
         return st;
     if (up < MLR_AXIS_X || up > MLR_AXIS_Z)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "lead_in: up axis %d is not 0 (X), "
-                            "1 (Y) or 2 (Z)",
-                            up);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "lead_in: up axis %d is not 0 (X), "
+                                "1 (Y) or 2 (Z)",
+                                up);
     const size_t J = rig->n_joints, P = rig->n_trans;
     if (N > 0 && !rot)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "lead_in: rot is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "lead_in: rot is NULL");
     if (N > 0 && P > 0 && !trans)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "lead_in: trans is NULL with %zu "
-                            "translated joints",
-                            P);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "lead_in: trans is NULL with %zu "
+                                "translated joints",
+                                P);
     if (N < MLR_TRIM_MIN_FRAMES)
         return MLR_OK;
     for (size_t f = 0; f < N; f++) {
@@ -87,10 +87,10 @@ static mlr_status check_clip(const mlr_rig *rig, size_t N, const double *root_po
         for (size_t i = 4 * J * f; i < 4 * J * (f + 1) && finite; i++)
             finite = isfinite(rot[i]);
         if (!finite)
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "lead_in: frame %zu has "
-                                "non-finite rotations or translations",
-                                f);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "lead_in: frame %zu has "
+                                    "non-finite rotations or translations",
+                                    f);
     }
     return MLR_OK;
 }
@@ -107,8 +107,8 @@ static mlr_status clip_poses(const mlr_rig *rig, size_t N, const double *root_po
             1, J, rig->parents, rig->offsets, root_pos ? root_pos + 3 * f : NULL, rot + 4 * J * f,
             P, rig->trans_joints, P ? trans + 3 * P * f : NULL, wp, wr, A, NULL);
         if (st != MLR_OK)
-            return mlr_diag_set(diag, st, 0, 0, "lead_in: forward kinematics of frame %zu: %s", f,
-                                mlr_status_string(st));
+            return common__diag_set(diag, st, 0, 0, "lead_in: forward kinematics of frame %zu: %s",
+                                    f, mlr_status_string(st));
         pose_of(wp, wr, J, b, inside, up, x + 3 * K * f);
     }
     return MLR_OK;
@@ -127,7 +127,7 @@ static void lead_rule(const double *x, size_t N, size_t K, double *step, double 
             s += sqrt(xf[k] * xf[k] + xf[k + 1] * xf[k + 1] + xf[k + 2] * xf[k + 2]);
         tmp[f] = s / (double)K;
     }
-    const double still = MLR_TRIM_STILL * mlr_median(tmp, N);
+    const double still = MLR_TRIM_STILL * common__median(tmp, N);
     /* 1. held: the frames that hold the first pose */
     size_t h = 1;
     while (h < N && !(pose_distance(x, x + 3 * K * h, K) > still))
@@ -137,7 +137,7 @@ static void lead_rule(const double *x, size_t N, size_t K, double *step, double 
     /* the median step of the rest, floored at `still` */
     for (size_t f = h; f + 1 < N; f++)
         tmp[f - h] = step[f] = pose_distance(x + 3 * K * f, x + 3 * K * (f + 1), K);
-    const double m = fmax(mlr_median(tmp, N - 1 - h), still);
+    const double m = fmax(common__median(tmp, N - 1 - h), still);
     /* 2. blend: until the steps are ordinary again, MLR_TRIM_SETTLE of them in a row */
     size_t c = h;
     for (size_t f = h, run = 0; f + 1 < N && f < h + MLR_TRIM_MAX_BLEND + MLR_TRIM_SETTLE; f++) {
@@ -163,7 +163,7 @@ mlr_status mlr_trim_lead_in(const mlr_rig *rig, size_t n_frames, const double *r
                             const mlr_allocator *alloc, mlr_diag *diag)
 {
     if (!out)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "lead_in: out is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "lead_in: out is NULL");
     *out = (mlr_trim_lead){0, 0, 0.0};
     const size_t N = n_frames;
     mlr_status st = check_clip(rig, N, root_pos, rot, trans, up, diag);
@@ -176,10 +176,10 @@ mlr_status mlr_trim_lead_in(const mlr_rig *rig, size_t n_frames, const double *r
     const size_t b = (size_t)body, J = rig->n_joints;
 
     mlr_allocator A;
-    mlr_allocator_resolve(alloc, &A);
-    uint8_t *inside = mlr_alloc(&A, J);
+    common__allocator_resolve(alloc, &A);
+    uint8_t *inside = common__alloc(&A, J);
     if (!inside)
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "lead_in: out of memory");
+        return common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "lead_in: out of memory");
     /* the joints below the body joint (parents come before children): their pose */
     size_t K = 0;
     for (size_t j = 0; j < J; j++) {
@@ -188,29 +188,29 @@ mlr_status mlr_trim_lead_in(const mlr_rig *rig, size_t n_frames, const double *r
     }
     inside[b] = 0;
     if (K == 0) {
-        mlr_free(&A, inside, J);
+        common__free(&A, inside, J);
         return MLR_OK;
     }
     /* scratch: poses N x K x 3, steps N, a copy for medians N, one frame's FK J x 7 */
     size_t n_pose, bytes;
-    if (mlr_mul_size(N, 3 * K, &n_pose) != MLR_OK || n_pose > SIZE_MAX / 2 - 2 * N - 7 * J ||
-        mlr_mul_size(n_pose + 2 * N + 7 * J, sizeof(double), &bytes) != MLR_OK) {
-        mlr_free(&A, inside, J);
-        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0,
-                            "lead_in: %zu frames x %zu joints "
-                            "overflow a size",
-                            N, J);
+    if (common__mul_size(N, 3 * K, &n_pose) != MLR_OK || n_pose > SIZE_MAX / 2 - 2 * N - 7 * J ||
+        common__mul_size(n_pose + 2 * N + 7 * J, sizeof(double), &bytes) != MLR_OK) {
+        common__free(&A, inside, J);
+        return common__diag_set(diag, MLR_E_OVERFLOW, 0, 0,
+                                "lead_in: %zu frames x %zu joints "
+                                "overflow a size",
+                                N, J);
     }
-    double *x = mlr_alloc(&A, bytes);
+    double *x = common__alloc(&A, bytes);
     if (!x) {
-        mlr_free(&A, inside, J);
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "lead_in: out of memory");
+        common__free(&A, inside, J);
+        return common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "lead_in: out of memory");
     }
     double *step = x + n_pose, *tmp = step + N, *wp = tmp + N, *wr = wp + 3 * J;
     st = clip_poses(rig, N, root_pos, rot, trans, b, inside, K, up, x, wp, wr, &A, diag);
     if (st == MLR_OK)
         lead_rule(x, N, K, step, tmp, out);
-    mlr_free(&A, x, bytes);
-    mlr_free(&A, inside, J);
+    common__free(&A, x, bytes);
+    common__free(&A, inside, J);
     return st;
 }

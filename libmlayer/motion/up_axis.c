@@ -63,9 +63,9 @@ static mlr_status from_floor(size_t N, size_t J, const double *wp, mlr_up_guess 
                              const mlr_allocator *a)
 {
     size_t bytes;
-    if (mlr_mul_size(N, 3 * sizeof(double), &bytes) != MLR_OK)
+    if (common__mul_size(N, 3 * sizeof(double), &bytes) != MLR_OK)
         return MLR_E_OVERFLOW;
-    double *lo = mlr_alloc(a, bytes);
+    double *lo = common__alloc(a, bytes);
     if (!lo)
         return MLR_E_NO_MEMORY;
     double *hi = lo + N, *ext = hi + N;
@@ -91,7 +91,7 @@ static mlr_status from_floor(size_t N, size_t J, const double *wp, mlr_up_guess 
         spread[k][0] = (quantile(lo, N, 0.95) - quantile(lo, N, 0.05)) / size;
         spread[k][1] = (quantile(hi, N, 0.95) - quantile(hi, N, 0.05)) / size;
     }
-    mlr_free(a, lo, bytes);
+    common__free(a, lo, bytes);
     if (!any)
         return MLR_OK;
     int bk = 0, bs = 0;
@@ -116,7 +116,7 @@ mlr_status mlr_rig_up_axis(const mlr_rig *rig, size_t n_frames, const double *wo
                            mlr_up_guess *out, const mlr_allocator *alloc, mlr_diag *diag)
 {
     if (!out)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "up axis: out is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "up axis: out is NULL");
     *out = (mlr_up_guess){MLR_AXIS_Y, 1, 0.0, MLR_UP_NONE};
     mlr_status st = mlr_rig_check(rig, diag);
     if (st != MLR_OK)
@@ -125,35 +125,35 @@ mlr_status mlr_rig_up_axis(const mlr_rig *rig, size_t n_frames, const double *wo
     if (N == 0)
         return MLR_OK;
     if (!world_pos)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "up axis: world_pos is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "up axis: world_pos is NULL");
     size_t count;
-    if (mlr_mul_size(N, 3 * J, &count) != MLR_OK)
-        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0,
-                            "up axis: %zu frames x %zu joints "
-                            "overflow a size",
-                            N, J);
+    if (common__mul_size(N, 3 * J, &count) != MLR_OK)
+        return common__diag_set(diag, MLR_E_OVERFLOW, 0, 0,
+                                "up axis: %zu frames x %zu joints "
+                                "overflow a size",
+                                N, J);
     for (size_t i = 0; i < count; i++)
         if (!isfinite(world_pos[i]))
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "up axis: position %zu of frame "
-                                "%zu is not finite",
-                                (i / 3) % J, i / (3 * J));
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "up axis: position %zu of frame "
+                                    "%zu is not finite",
+                                    (i / 3) % J, i / (3 * J));
     mlr_allocator a;
-    mlr_allocator_resolve(alloc, &a);
-    uint8_t *is_foot = mlr_alloc(&a, J);
+    common__allocator_resolve(alloc, &a);
+    uint8_t *is_foot = common__alloc(&a, J);
     if (!is_foot)
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "up axis: out of memory");
+        return common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "up axis: out of memory");
     size_t n_feet = 0;
     for (size_t j = 0; j < J; j++)
-        n_feet += is_foot[j] = rig->names && mlr_name_matches(rig->names[j], foot_names);
+        n_feet += is_foot[j] = rig->names && common__name_matches(rig->names[j], foot_names);
     if (n_feet > 0 && n_feet < J)
         from_feet(rig, N, world_pos, is_foot, out);
-    mlr_free(&a, is_foot, J);
+    common__free(&a, is_foot, J);
     if (out->method == MLR_UP_NONE && J > 1) {
         st = from_floor(N, J, world_pos, out, &a);
         if (st != MLR_OK)
-            return mlr_diag_set(diag, st, 0, 0, "up axis: %s",
-                                st == MLR_E_NO_MEMORY ? "out of memory" : "frames too large");
+            return common__diag_set(diag, st, 0, 0, "up axis: %s",
+                                    st == MLR_E_NO_MEMORY ? "out of memory" : "frames too large");
     }
     return MLR_OK;
 }

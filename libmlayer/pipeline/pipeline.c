@@ -61,15 +61,15 @@ struct mlr_pipeline {
 static void *grow(mlr_pipeline *p, buffer *b, size_t count, size_t elsize)
 {
     size_t bytes;
-    if (mlr_mul_size(count, elsize, &bytes) != MLR_OK)
+    if (common__mul_size(count, elsize, &bytes) != MLR_OK)
         return NULL;
     if (bytes == 0)
         bytes = 16;
     if (b->bytes < bytes) {
-        void *n = mlr_alloc(&p->user, bytes);
+        void *n = common__alloc(&p->user, bytes);
         if (!n)
             return NULL;
-        mlr_free(&p->user, b->ptr, b->bytes);
+        common__free(&p->user, b->ptr, b->bytes);
         b->ptr = n;
         b->bytes = bytes;
     }
@@ -78,7 +78,7 @@ static void *grow(mlr_pipeline *p, buffer *b, size_t count, size_t elsize)
 
 static void drop(mlr_pipeline *p, buffer *b)
 {
-    mlr_free(&p->user, b->ptr, b->bytes);
+    common__free(&p->user, b->ptr, b->bytes);
     b->ptr = NULL;
     b->bytes = 0;
 }
@@ -164,15 +164,15 @@ static const char *param_name(int param)
 mlr_status mlr_pipeline_create(const mlr_allocator *alloc, mlr_pipeline **out, mlr_diag *diag)
 {
     if (!out)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "mlr_pipeline_create: out is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "mlr_pipeline_create: out is NULL");
     *out = NULL;
     mlr_allocator a;
-    mlr_allocator_resolve(alloc, &a);
-    mlr_pipeline *p = mlr_alloc(&a, sizeof *p);
+    common__allocator_resolve(alloc, &a);
+    mlr_pipeline *p = common__alloc(&a, sizeof *p);
     if (!p)
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
-                            "mlr_pipeline_create: out of memory (the handle, %zu bytes)",
-                            sizeof *p);
+        return common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                                "mlr_pipeline_create: out of memory (the handle, %zu bytes)",
+                                sizeof *p);
     memset(p, 0, sizeof *p);
     p->user = a;
     pipeline__arena_init(&p->arena, &p->user, &p->mem);
@@ -249,15 +249,15 @@ static mlr_status check_value(int param, double v, mlr_diag *diag)
         break;
     default:
         if (param >= MLR_PIPELINE_INFO_UP && param <= MLR_PIPELINE_INFO_BODY_HEIGHT)
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "mlr_pipeline_set: parameter %d is read-only (an INFO key)",
-                                param);
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "mlr_pipeline_set: unknown parameter %d", param);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "mlr_pipeline_set: parameter %d is read-only (an INFO key)",
+                                    param);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "mlr_pipeline_set: unknown parameter %d", param);
     }
     if (why)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "mlr_pipeline_set: option %s %s, got %.17g", name, why, v);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "mlr_pipeline_set: option %s %s, got %.17g", name, why, v);
     return MLR_OK;
 }
 
@@ -265,7 +265,7 @@ mlr_status mlr_pipeline_set(mlr_pipeline *p, mlr_pipeline_param param, double va
                             mlr_diag *diag)
 {
     if (!p)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "mlr_pipeline_set: p is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "mlr_pipeline_set: p is NULL");
     mlr_status s = check_value((int)param, value, diag);
     if (s != MLR_OK)
         return s;
@@ -430,9 +430,9 @@ static mlr_status check_pattern(const char *pattern, const char *fn, mlr_diag *d
 {
     const size_t len = strlen(pattern);
     if (len == 0 || len > MLR_PIPELINE_MAX_PATTERN)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "%s: the pattern must have 1 to %d bytes, got %zu", fn,
-                            MLR_PIPELINE_MAX_PATTERN, len);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "%s: the pattern must have 1 to %d bytes, got %zu", fn,
+                                MLR_PIPELINE_MAX_PATTERN, len);
     return MLR_OK;
 }
 
@@ -443,12 +443,12 @@ static mlr_status add_pattern(mlr_pipeline *p, const char *pattern, double alpha
     if ((p->n_joint_alphas + 1) * sizeof(joint_alpha) > p->patterns.bytes) { /* grow, keep */
         const size_t cap = p->n_joint_alphas < 8 ? 16 : 2 * p->n_joint_alphas;
         size_t bytes;
-        void *n = mlr_mul_size(cap, sizeof(joint_alpha), &bytes) == MLR_OK
-                      ? mlr_alloc(&p->user, bytes)
+        void *n = common__mul_size(cap, sizeof(joint_alpha), &bytes) == MLR_OK
+                      ? common__alloc(&p->user, bytes)
                       : NULL;
         if (!n)
-            return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "%s: out of memory (%zu patterns)",
-                                fn, cap);
+            return common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                                    "%s: out of memory (%zu patterns)", fn, cap);
         if (p->n_joint_alphas)
             memcpy(n, p->patterns.ptr, p->n_joint_alphas * sizeof(joint_alpha));
         drop(p, &p->patterns);
@@ -468,14 +468,15 @@ mlr_status mlr_pipeline_set_joint_alpha(mlr_pipeline *p, const char *pattern, do
 {
     static const char fn[] = "mlr_pipeline_set_joint_alpha";
     if (!p || !pattern)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: %s is NULL", fn,
-                            p ? "pattern" : "p");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: %s is NULL", fn,
+                                p ? "pattern" : "p");
     mlr_status s = check_pattern(pattern, fn, diag);
     if (s != MLR_OK)
         return s;
     if (!isfinite(alpha))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "%s: the alpha of '%.60s' must be finite, got %g", fn, pattern, alpha);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "%s: the alpha of '%.60s' must be finite, got %g", fn, pattern,
+                                alpha);
     return add_pattern(p, pattern, alpha, 0, 0, fn, diag);
 }
 
@@ -484,7 +485,7 @@ mlr_status mlr_pipeline_set_alpha_keys(mlr_pipeline *p, const char *pattern, con
 {
     static const char fn[] = "mlr_pipeline_set_alpha_keys";
     if (!p)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: p is NULL", fn);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "%s: p is NULL", fn);
     mlr_status s = pattern ? check_pattern(pattern, fn, diag) : MLR_OK;
     if (s != MLR_OK)
         return s;
@@ -492,20 +493,20 @@ mlr_status mlr_pipeline_set_alpha_keys(mlr_pipeline *p, const char *pattern, con
         char who[MLR_PIPELINE_MAX_PATTERN + 64];
         snprintf(who, sizeof who, "%s (%s%.60s%s)", fn, pattern ? "'" : "every joint",
                  pattern ? pattern : "", pattern ? "'" : "");
-        return mlr_diag_prefix(diag, s, who);
+        return common__diag_prefix(diag, s, who);
     }
     if (n_keys > SIZE_MAX / 4 - p->n_keys)
-        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "%s: too many keys", fn);
+        return common__diag_set(diag, MLR_E_OVERFLOW, 0, 0, "%s: too many keys", fn);
     const size_t need = p->n_keys + n_keys;
     if (2 * need * sizeof(double) > p->keys.bytes) { /* grow, keep */
         const size_t cap = need < 64 ? 128 : 2 * need;
         size_t bytes;
-        void *n = mlr_mul_size(2 * cap, sizeof(double), &bytes) == MLR_OK
-                      ? mlr_alloc(&p->user, bytes)
+        void *n = common__mul_size(2 * cap, sizeof(double), &bytes) == MLR_OK
+                      ? common__alloc(&p->user, bytes)
                       : NULL;
         if (!n)
-            return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "%s: out of memory (%zu keys)", fn,
-                                cap);
+            return common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "%s: out of memory (%zu keys)",
+                                    fn, cap);
         if (p->n_keys)
             memcpy(n, p->keys.ptr, 2 * p->n_keys * sizeof(double));
         drop(p, &p->keys);
@@ -563,7 +564,7 @@ static mlr_status positions(mlr_pipeline *p, const mlr_motion *m, const double *
 {
     const size_t N = mlr_motion_n_frames(m), J = mlr_motion_n_joints(m);
     size_t nj;
-    if (mlr_mul_size(N, J, &nj) != MLR_OK)
+    if (common__mul_size(N, J, &nj) != MLR_OK)
         return MLR_E_OVERFLOW;
     double *pos = grow(p, &p->fk, nj, 3 * sizeof(double));
     if (!pos)
@@ -622,9 +623,9 @@ static mlr_status frames_to_trim(mlr_pipeline *p, const mlr_motion *in, size_t *
         *n_drop = lead.n_frames;
     }
     if (*n_drop >= N || N - *n_drop < 3)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "trim: %zu frames dropped from a clip of %zu leave fewer than 3",
-                            *n_drop, N);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "trim: %zu frames dropped from a clip of %zu leave fewer than 3",
+                                *n_drop, N);
     return MLR_OK;
 }
 
@@ -711,7 +712,7 @@ static mlr_status repaired(mlr_pipeline *p, const mlr_motion *m, double **root, 
 {
     const size_t N = mlr_motion_n_frames(m), J = mlr_motion_n_joints(m), P = mlr_motion_n_trans(m);
     size_t nj, np;
-    if (mlr_mul_size(N, J, &nj) || mlr_mul_size(N, P, &np))
+    if (common__mul_size(N, J, &nj) || common__mul_size(N, P, &np))
         return MLR_E_OVERFLOW;
     *root = grow(p, &p->rep_root, N, 3 * sizeof(double));
     *rot = grow(p, &p->rep_rot, nj, 4 * sizeof(double));
@@ -779,25 +780,26 @@ mlr_status mlr_pipeline_prepare(mlr_pipeline *p, const mlr_motion *in, const mlr
                                 mlr_diag *diag)
 {
     if (!p || !in)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "mlr_pipeline_prepare: %s is NULL",
-                            p ? "in" : "p");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "mlr_pipeline_prepare: %s is NULL",
+                                p ? "in" : "p");
     unprepare(p);
     const size_t N = mlr_motion_n_frames(in), J = mlr_motion_n_joints(in);
     if (N < 3)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "mlr_pipeline_prepare: the clip needs at least 3 frames, got %zu", N);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "mlr_pipeline_prepare: the clip needs at least 3 frames, got %zu",
+                                N);
     char note[sizeof(((mlr_diag *)0)->message)] = "";
     size_t n_drop = 0;
     mlr_status s = frames_to_trim(p, in, &n_drop, diag);
     if (s < 0)
-        return mlr_diag_prefix(diag, s, "mlr_pipeline_prepare");
+        return common__diag_prefix(diag, s, "mlr_pipeline_prepare");
 
     /* the pipeline's copy of the trimmed clip */
     const size_t n = N - n_drop, P = mlr_motion_n_trans(in);
     s = bvh_motion_fit(&p->input, in, n, &p->user);
     if (s < 0)
-        return mlr_diag_set(diag, s, 0, 0, "mlr_pipeline_prepare: %s (a copy of %zu frames)",
-                            s == MLR_E_NO_MEMORY ? "out of memory" : mlr_status_string(s), n);
+        return common__diag_set(diag, s, 0, 0, "mlr_pipeline_prepare: %s (a copy of %zu frames)",
+                                s == MLR_E_NO_MEMORY ? "out of memory" : mlr_status_string(s), n);
     mlr_motion *m = p->input;
     memcpy(mlr_motion_root_pos_mut(m), mlr_motion_root_pos(in) + 3 * n_drop,
            3 * n * sizeof(double));
@@ -815,9 +817,10 @@ mlr_status mlr_pipeline_prepare(mlr_pipeline *p, const mlr_motion *in, const mlr
     if (s >= 0) {
         if (layers) {
             if (mlr_layers_n_frames(layers) != n || mlr_layers_n_joints(layers) != J)
-                s = mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                 "layers: of %zu frames and %zu joints, the clip has %zu and %zu",
-                                 mlr_layers_n_frames(layers), mlr_layers_n_joints(layers), n, J);
+                s = common__diag_set(
+                    diag, MLR_E_INVALID_ARG, 0, 0,
+                    "layers: of %zu frames and %zu joints, the clip has %zu and %zu",
+                    mlr_layers_n_frames(layers), mlr_layers_n_joints(layers), n, J);
             p->layers = layers;
         } else {
             s = decompose(p, m, &rig, &up_used, diag);
@@ -831,10 +834,10 @@ mlr_status mlr_pipeline_prepare(mlr_pipeline *p, const mlr_motion *in, const mlr
         s = make_guards(p, m, &rig, &up_used, note, diag);
     if (s < 0) {
         const mlr_status r = s == MLR_E_NO_MEMORY && diag && !diag->message[0]
-                                 ? mlr_diag_set(diag, s, 0, 0, "out of memory")
+                                 ? common__diag_set(diag, s, 0, 0, "out of memory")
                                  : s;
         unprepare(p);
-        return mlr_diag_prefix(diag, r, "mlr_pipeline_prepare");
+        return common__diag_prefix(diag, r, "mlr_pipeline_prepare");
     }
     p->up_used = up_used;
     p->trimmed = n_drop;
@@ -872,8 +875,8 @@ static mlr_status alphas_of(const mlr_pipeline *p, const mlr_motion *m, double *
                 hits++;
             }
         if (!hits) {
-            mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                         "joint pattern '%.60s' matches no joint; joints: ", ja->pattern);
+            common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                             "joint pattern '%.60s' matches no joint; joints: ", ja->pattern);
             if (diag) { /* as many names as fit */
                 size_t len = strlen(diag->message);
                 for (size_t j = 0; j < J && len + 1 < sizeof diag->message; j++) {
@@ -902,13 +905,13 @@ static mlr_status alphas_over_time(mlr_pipeline *p, const mlr_motion *m, double 
 {
     const size_t N = mlr_motion_n_frames(m), J = mlr_motion_n_joints(m);
     size_t n;
-    if (mlr_mul_size(N, 1 + J, &n) != MLR_OK)
-        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "alphas over time: overflow");
+    if (common__mul_size(N, 1 + J, &n) != MLR_OK)
+        return common__diag_set(diag, MLR_E_OVERFLOW, 0, 0, "alphas over time: overflow");
     double *rows = grow(p, &p->alpha_rows, n, sizeof(double));
     double *col = grow(p, &p->alpha_col, N, 2 * sizeof(double));
     if (!rows || !col)
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
-                            "alphas over time: out of memory (%zu frames)", N);
+        return common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                                "alphas over time: out of memory (%zu frames)", N);
     const double dt = mlr_motion_frame_time(m);
     double *t = col + N; /* the frame times; col the values of one curve */
     for (size_t i = 0; i < N; i++)
@@ -956,24 +959,24 @@ static mlr_status alphas_over_time(mlr_pipeline *p, const mlr_motion *m, double 
 mlr_status mlr_pipeline_synthesize(mlr_pipeline *p, mlr_motion **out, mlr_diag *diag)
 {
     if (!p || !out)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "mlr_pipeline_synthesize: %s is NULL",
-                            p ? "out" : "p");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "mlr_pipeline_synthesize: %s is NULL", p ? "out" : "p");
     if (!p->prepared)
-        return mlr_diag_set(diag, MLR_E_BAD_STATE, 0, 0,
-                            "mlr_pipeline_synthesize: not prepared (mlr_pipeline_prepare)");
+        return common__diag_set(diag, MLR_E_BAD_STATE, 0, 0,
+                                "mlr_pipeline_synthesize: not prepared (mlr_pipeline_prepare)");
     if (p->stale)
-        return mlr_diag_set(diag, MLR_E_BAD_STATE, 0, 0,
-                            "mlr_pipeline_synthesize: %s changed since the prepare: prepare "
-                            "again",
-                            param_name(p->stale));
+        return common__diag_set(diag, MLR_E_BAD_STATE, 0, 0,
+                                "mlr_pipeline_synthesize: %s changed since the prepare: prepare "
+                                "again",
+                                param_name(p->stale));
     if (*out == p->input)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "mlr_pipeline_synthesize: out is the pipeline's own clip");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "mlr_pipeline_synthesize: out is the pipeline's own clip");
     const mlr_motion *m = p->input;
     const size_t N = mlr_motion_n_frames(m), J = mlr_motion_n_joints(m), P = mlr_motion_n_trans(m);
     size_t nj, np;
-    if (mlr_mul_size(N, J, &nj) || mlr_mul_size(N, P, &np))
-        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "mlr_pipeline_synthesize: overflow");
+    if (common__mul_size(N, J, &nj) || common__mul_size(N, P, &np))
+        return common__diag_set(diag, MLR_E_OVERFLOW, 0, 0, "mlr_pipeline_synthesize: overflow");
     double *a = grow(p, &p->alphas, 1 + J, sizeof(double));
     double *root = grow(p, &p->root, N, 3 * sizeof(double));
     double *rot = grow(p, &p->rot, nj, 4 * sizeof(double));
@@ -981,15 +984,15 @@ mlr_status mlr_pipeline_synthesize(mlr_pipeline *p, mlr_motion **out, mlr_diag *
     double *body = grow(p, &p->body, N, 3 * sizeof(double));
     size_t *limited = grow(p, &p->limited, J, sizeof(size_t));
     if (!a || !root || !rot || (P && !trans) || !body || !limited)
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
-                            "mlr_pipeline_synthesize: out of memory (%zu frames)", N);
+        return common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                                "mlr_pipeline_synthesize: out of memory (%zu frames)", N);
     size_t *src = grow(p, &p->alpha_src, 1 + J, sizeof(size_t));
     if (!src)
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
-                            "mlr_pipeline_synthesize: out of memory (%zu joints)", J);
+        return common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                                "mlr_pipeline_synthesize: out of memory (%zu joints)", J);
     mlr_status s = alphas_of(p, m, a, src, diag);
     if (s < 0)
-        return mlr_diag_prefix(diag, s, "mlr_pipeline_synthesize");
+        return common__diag_prefix(diag, s, "mlr_pipeline_synthesize");
     int over_time = 0;
     for (size_t g = 0; g <= J; g++)
         over_time |= src[g] != 0;
@@ -1001,7 +1004,7 @@ mlr_status mlr_pipeline_synthesize(mlr_pipeline *p, mlr_motion **out, mlr_diag *
         s = mlr_layers_synthesize_frames(p->layers, 0, N, p->alpha_rows.ptr, N * (1 + J), body,
                                          3 * N, rot, 4 * nj, diag);
     if (s < 0)
-        return mlr_diag_prefix(diag, s, "mlr_pipeline_synthesize");
+        return common__diag_prefix(diag, s, "mlr_pipeline_synthesize");
     memcpy(root, mlr_motion_root_pos(m), 3 * N * sizeof(double));
     if (P)
         memcpy(trans, mlr_motion_trans(m), 3 * np * sizeof(double));
@@ -1024,7 +1027,7 @@ mlr_status mlr_pipeline_synthesize(mlr_pipeline *p, mlr_motion **out, mlr_diag *
         job.limited = limited, job.n_limited = J, job.report = &rep;
         s = mlr_guards_run(p->g, &job, diag);
         if (s < 0)
-            return mlr_diag_prefix(diag, s, "mlr_pipeline_synthesize");
+            return common__diag_prefix(diag, s, "mlr_pipeline_synthesize");
     }
 
     /* the runs at the clip's ends that the robust decomposition left out (a converter's T-pose
@@ -1045,8 +1048,9 @@ mlr_status mlr_pipeline_synthesize(mlr_pipeline *p, mlr_motion **out, mlr_diag *
     mlr_motion *res = *out;
     s = bvh_motion_fit(&res, m, N, &p->user);
     if (s < 0)
-        return mlr_diag_set(diag, s, 0, 0, "mlr_pipeline_synthesize: %s (the result, %zu frames)",
-                            s == MLR_E_NO_MEMORY ? "out of memory" : mlr_status_string(s), N);
+        return common__diag_set(diag, s, 0, 0,
+                                "mlr_pipeline_synthesize: %s (the result, %zu frames)",
+                                s == MLR_E_NO_MEMORY ? "out of memory" : mlr_status_string(s), N);
     memcpy(mlr_motion_root_pos_mut(res), root, 3 * N * sizeof(double));
     memcpy(mlr_motion_rot_mut(res), rot, 4 * nj * sizeof(double));
     if (P)
@@ -1064,13 +1068,14 @@ mlr_status mlr_pipeline_run(mlr_pipeline *p, const mlr_motion *in, mlr_motion **
                             mlr_diag *diag)
 {
     if (!p || !in || !out)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "mlr_pipeline_run: %s is NULL",
-                            !p    ? "p"
-                            : !in ? "in"
-                                  : "out");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "mlr_pipeline_run: %s is NULL",
+                                !p    ? "p"
+                                : !in ? "in"
+                                      : "out");
     if (*out == in)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "mlr_pipeline_run: out holds the input clip (give another motion)");
+        return common__diag_set(
+            diag, MLR_E_INVALID_ARG, 0, 0,
+            "mlr_pipeline_run: out holds the input clip (give another motion)");
     char note[sizeof(((mlr_diag *)0)->message)] = "";
     mlr_status s = mlr_pipeline_prepare(p, in, NULL, diag);
     if (s < 0)
@@ -1126,5 +1131,5 @@ void mlr_pipeline_destroy(mlr_pipeline *p)
         drop(p, bufs[k]);
     pipeline__arena_free(&p->arena);
     mlr_allocator a = p->user;
-    mlr_free(&a, p, sizeof *p);
+    common__free(&a, p, sizeof *p);
 }

@@ -67,7 +67,7 @@ static const char *const twist_words[] = {"twist", "roll", NULL};
 static int32_t limb_parent(const mlr_rig *rig, int32_t j)
 {
     int32_t p = j > 0 ? rig->parents[j] : -1;
-    while (p > 0 && mlr_name_matches(rig->names[p], twist_words))
+    while (p > 0 && common__name_matches(rig->names[p], twist_words))
         p = rig->parents[p];
     return p;
 }
@@ -80,9 +80,9 @@ static int32_t topmost(const mlr_rig *rig, const int8_t *side, int want_side,
     int32_t best = -1;
     size_t best_depth = 0;
     for (size_t j = 0; j < rig->n_joints; j++) {
-        if (side[j] != want_side || !mlr_name_matches(rig->names[j], words))
+        if (side[j] != want_side || !common__name_matches(rig->names[j], words))
             continue;
-        if (not_words && mlr_name_matches(rig->names[j], not_words))
+        if (not_words && common__name_matches(rig->names[j], not_words))
             continue;
         const size_t d = depth_of(rig, (int32_t)j);
         if (best < 0 || d < best_depth)
@@ -219,19 +219,19 @@ static mlr_status detect_roles(const mlr_rig *rig, int32_t *role, const mlr_allo
     for (int r = 0; r < MLR_ROLE_COUNT; r++)
         role[r] = -1;
     size_t bytes;
-    if (mlr_mul_size(J, sizeof(int32_t) + sizeof(int8_t), &bytes) != MLR_OK)
-        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "retarget: too many joints");
+    if (common__mul_size(J, sizeof(int32_t) + sizeof(int8_t), &bytes) != MLR_OK)
+        return common__diag_set(diag, MLR_E_OVERFLOW, 0, 0, "retarget: too many joints");
     mlr_allocator a;
-    mlr_allocator_resolve(alloc, &a);
-    unsigned char *scratch = mlr_alloc(&a, bytes);
+    common__allocator_resolve(alloc, &a);
+    unsigned char *scratch = common__alloc(&a, bytes);
     if (!scratch)
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "retarget: out of memory");
+        return common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "retarget: out of memory");
     int32_t *partner = (int32_t *)(void *)scratch;
     int8_t *side = (int8_t *)(scratch + J * sizeof(int32_t));
     size_t n_pairs = 0;
     mlr_status st = mirror__find_pairs(rig, NULL, 0, 0, partner, side, &n_pairs, alloc, diag);
     if (st != MLR_OK) {
-        mlr_free(&a, scratch, bytes);
+        common__free(&a, scratch, bytes);
         return st;
     }
     static const char *const foot_words[] = {"foot", "ankle", NULL};
@@ -266,7 +266,7 @@ static mlr_status detect_roles(const mlr_rig *rig, int32_t *role, const mlr_allo
     int32_t head = topmost(rig, side, 0, head_words, head_not);
     if (head < 0)
         head = topmost(rig, side, 0, head_words, NULL);
-    mlr_free(&a, scratch, bytes);
+    common__free(&a, scratch, bytes);
     tree_roles(rig, role, head);
     return MLR_OK;
 }
@@ -335,9 +335,9 @@ static mlr_status check_minimum(const mlr_rig *rig, const int32_t *role, const c
                 : r >= MLR_ROLE_LEFT_SHOULDER && r <= MLR_ROLE_RIGHT_HAND
                     ? "from the hand up the tree"
                     : "from the foot up the tree";
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "retarget: %s: no humanoid %s (%s); name it with a map entry", who,
-                                fixed_names[r], how);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "retarget: %s: no humanoid %s (%s); name it with a map entry",
+                                    who, fixed_names[r], how);
         }
     const int32_t *R = role;
     double leg = 0.0, arm = 0.0, mid_arms[3], hips[3], a[3], b[3];
@@ -355,15 +355,15 @@ static mlr_status check_minimum(const mlr_rig *rig, const int32_t *role, const c
     const double torso =
         sqrt(mid_arms[0] * mid_arms[0] + mid_arms[1] * mid_arms[1] + mid_arms[2] * mid_arms[2]);
     if (leg > 0 && arm >= HUMANOID_MAX_ARM * leg && torso >= HUMANOID_MAX_TORSO * leg)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "retarget: %s: not a humanoid: its arms (%s, %s) are %.2f of its "
-                            "legs' length and its torso (%s to the arms) %.2f, a quadruped's "
-                            "four legs (a humanoid's arms are under %.2f of its legs or its "
-                            "torso under %.2f)",
-                            who, rig->names[R[MLR_ROLE_LEFT_UPPER_ARM]],
-                            rig->names[R[MLR_ROLE_RIGHT_UPPER_ARM]], arm / leg,
-                            rig->names[R[MLR_ROLE_HIPS]], torso / leg, HUMANOID_MAX_ARM,
-                            HUMANOID_MAX_TORSO);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "retarget: %s: not a humanoid: its arms (%s, %s) are %.2f of its "
+                                "legs' length and its torso (%s to the arms) %.2f, a quadruped's "
+                                "four legs (a humanoid's arms are under %.2f of its legs or its "
+                                "torso under %.2f)",
+                                who, rig->names[R[MLR_ROLE_LEFT_UPPER_ARM]],
+                                rig->names[R[MLR_ROLE_RIGHT_UPPER_ARM]], arm / leg,
+                                rig->names[R[MLR_ROLE_HIPS]], torso / leg, HUMANOID_MAX_ARM,
+                                HUMANOID_MAX_TORSO);
     return MLR_OK;
 }
 
@@ -372,12 +372,12 @@ mlr_status mlr_retarget_roles(const mlr_rig *rig, int32_t *role_joint, const mlr
 {
     mlr_status st = mlr_rig_check(rig, diag);
     if (st != MLR_OK)
-        return mlr_diag_prefix(diag, st, "retarget");
+        return common__diag_prefix(diag, st, "retarget");
     if (!role_joint)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "retarget: role_joint is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "retarget: role_joint is NULL");
     if (!rig->names)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "retarget: the rig has no joint names to find roles by");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "retarget: the rig has no joint names to find roles by");
     st = detect_roles(rig, role_joint, alloc, diag);
     if (st != MLR_OK)
         return st;
@@ -463,7 +463,7 @@ static mlr_quat qconj(mlr_quat q)
 static mlr_quat qmul(mlr_quat a, mlr_quat b)
 {
     mlr_quat o;
-    mlr_quat_mul_inline(&a, &b, &o);
+    common__quat_mul_inline(&a, &b, &o);
     return o;
 }
 
@@ -594,8 +594,8 @@ static mlr_status rest_setup(rig_rest *r, const char *who, int up_axis, mlr_diag
                     dist3(RP(MLR_ROLE_RIGHT_UPPER_LEG), RP(MLR_ROLE_RIGHT_LOWER_LEG)) +
                     dist3(RP(MLR_ROLE_RIGHT_LOWER_LEG), RP(MLR_ROLE_RIGHT_FOOT)));
     if (!(r->leg > 0) || !isfinite(r->leg))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "retarget: %s: the legs have no length in the rest pose", who);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "retarget: %s: the legs have no length in the rest pose", who);
     /* up: the hips to the head, the neck, the chest or the arms */
     int32_t top = R[MLR_ROLE_HEAD];
     if (top < 0)
@@ -615,10 +615,10 @@ static mlr_status rest_setup(rig_rest *r, const char *who, int up_axis, mlr_diag
 #undef RP
     double m[9];
     if (!frame_of(up, left, m))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "retarget: %s: the rest pose has no body frame (the upper legs or "
-                            "the hips and the head coincide, or are in line)",
-                            who);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "retarget: %s: the rest pose has no body frame (the upper legs or "
+                                "the hips and the head coincide, or are in line)",
+                                who);
     /* m's columns: up, left' (left without its part along up). Each snapped to the world axis
      * it is nearest, with its sign (rigs stand and face along axes; a rest pose leaning a few
      * degrees must not tilt the floor), then F's columns: left, up, forward = left x up. */
@@ -677,28 +677,28 @@ static mlr_status apply_map(const rig_rest *src, rig_rest *dst, const char *cons
     for (size_t k = 0; k < n_map; k++) {
         const char *sn = map[2 * k], *tn = map[2 * k + 1];
         if (!sn || !tn)
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "retarget: map: pair %zu has a NULL name", k);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "retarget: map: pair %zu has a NULL name", k);
         const int32_t s = find_joint(src->rig, sn), t = find_joint(dst->rig, tn);
         if (s < 0)
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "retarget: map: the source has no joint '%s'", sn);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "retarget: map: the source has no joint '%s'", sn);
         if (t < 0)
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "retarget: map: the target has no joint '%s'", tn);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "retarget: map: the target has no joint '%s'", tn);
         for (size_t i = 0; i < k; i++)
             if (strcmp(map[2 * i + 1], tn) == 0)
-                return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                    "retarget: map: the target joint '%s' is named twice", tn);
+                return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                        "retarget: map: the target joint '%s' is named twice", tn);
         int role = -1;
         for (int r = 0; r < MLR_ROLE_COUNT; r++)
             if (src->role[r] == s)
                 role = r;
         if (role < 0)
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "retarget: map: the source joint '%s' has no humanoid role "
-                                "(mlr_retarget_roles)",
-                                sn);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "retarget: map: the source joint '%s' has no humanoid role "
+                                    "(mlr_retarget_roles)",
+                                    sn);
         for (int r = 0; r < MLR_ROLE_COUNT; r++)
             if (dst->role[r] == t)
                 dst->role[r] = -1;
@@ -740,7 +740,7 @@ static double foot_drop(const rig_rest *r, int side, const mlr_quat *wrot, const
     const int32_t foot = r->role[foot_role], toes = r->role[foot_role + 1];
     double low = 0.0, toe_rel[3] = {0, 0, 0};
     if (toes >= 0 && rig->parents[toes] == foot) {
-        mlr_quat_rotate_inline(&wrot[foot], rig->offsets + 3 * (size_t)toes, toe_rel);
+        common__quat_rotate_inline(&wrot[foot], rig->offsets + 3 * (size_t)toes, toe_rel);
         low = fmin(low, dot3(toe_rel, up));
     }
     for (size_t e = 0; e < rig->n_end_sites; e++) {
@@ -748,7 +748,7 @@ static double foot_drop(const rig_rest *r, int side, const mlr_quat *wrot, const
         if (j != foot && (j != toes || toes < 0 || rig->parents[toes] != foot))
             continue;
         double v[3];
-        mlr_quat_rotate_inline(&wrot[j], rig->end_site_offsets + 3 * e, v);
+        common__quat_rotate_inline(&wrot[j], rig->end_site_offsets + 3 * e, v);
         if (j == toes)
             for (int c = 0; c < 3; c++)
                 v[c] += toe_rel[c];
@@ -767,7 +767,7 @@ static int finger_kind(const char *name)
                              *const little[] = {"pinky", "pinkie", "little", NULL};
     static const char *const *const kinds[5] = {thumb, index, middle, ring, little};
     for (int k = 0; k < 5; k++)
-        if (mlr_name_matches(name, kinds[k]))
+        if (common__name_matches(name, kinds[k]))
             return k;
     return -1;
 }
@@ -906,7 +906,7 @@ static void chain_span(const chain *c, const rig_rest *r, const double *wpos, co
         const int32_t j = c->j[i], k = c->j[i + 1];
         double seg[3];
         if (r->rig->parents[k] == j) {
-            mlr_quat_rotate_inline(&wrot[j], r->rig->offsets + 3 * (size_t)k, seg);
+            common__quat_rotate_inline(&wrot[j], r->rig->offsets + 3 * (size_t)k, seg);
         } else {
             for (int x = 0; x < 3; x++)
                 seg[x] = wpos[3 * (size_t)k + (size_t)x] - wpos[3 * (size_t)j + (size_t)x];
@@ -987,11 +987,11 @@ static mlr_quat correction(const rig_rest *src, const rig_rest *dst, int have, c
 static mlr_status check_finite(const double *x, size_t n, const char *what, size_t per_frame,
                                mlr_diag *diag)
 {
-    const size_t i = mlr_first_nonfinite(x, n);
+    const size_t i = common__first_nonfinite(x, n);
     if (i < n)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "retarget: %s: a value of frame %zu is not finite", what,
-                            i / per_frame);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "retarget: %s: a value of frame %zu is not finite", what,
+                                i / per_frame);
     return MLR_OK;
 }
 
@@ -1027,14 +1027,14 @@ static mlr_status check_rigs(const mlr_rig *source, const mlr_rig *target, mlr_d
 {
     mlr_status st = mlr_rig_check(source, diag);
     if (st != MLR_OK)
-        return mlr_diag_prefix(diag, st, "retarget: source");
+        return common__diag_prefix(diag, st, "retarget: source");
     st = mlr_rig_check(target, diag);
     if (st != MLR_OK)
-        return mlr_diag_prefix(diag, st, "retarget: target");
+        return common__diag_prefix(diag, st, "retarget: target");
     if (!source->names || !target->names)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "retarget: the %s rig has no joint names to find roles by",
-                            source->names ? "target" : "source");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "retarget: the %s rig has no joint names to find roles by",
+                                source->names ? "target" : "source");
     return MLR_OK;
 }
 
@@ -1051,19 +1051,19 @@ mlr_status mlr_retarget(const mlr_rig *source, size_t n_frames, const double *ro
     const size_t Ps = source->n_trans, Pt = target->n_trans;
     if (n_frames &&
         (!root_pos || !rot || (Ps && !trans) || !out_root_pos || !out_rot || (Pt && !out_trans)))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "retarget: a frame array is NULL with %zu frames", n_frames);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "retarget: a frame array is NULL with %zu frames", n_frames);
     if (n_map && !map)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "retarget: map is NULL with %zu pairs",
-                            n_map);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "retarget: map is NULL with %zu pairs", n_map);
     if (source_up < -1 || source_up > 2 || target_up < -1 || target_up > 2)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "retarget: up %d is not an axis or MLR_RETARGET_UP_REST",
-                            source_up < -1 || source_up > 2 ? source_up : target_up);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "retarget: up %d is not an axis or MLR_RETARGET_UP_REST",
+                                source_up < -1 || source_up > 2 ? source_up : target_up);
     size_t nr, nq, nt;
-    if (mlr_mul_size(n_frames, 3, &nr) || mlr_mul_size(n_frames, 4 * Js, &nq) ||
-        mlr_mul_size(n_frames, 3 * Ps, &nt))
-        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "retarget: the frames are too many");
+    if (common__mul_size(n_frames, 3, &nr) || common__mul_size(n_frames, 4 * Js, &nq) ||
+        common__mul_size(n_frames, 3 * Ps, &nt))
+        return common__diag_set(diag, MLR_E_OVERFLOW, 0, 0, "retarget: the frames are too many");
     if ((st = check_finite(root_pos, nr, "root_pos", 3, diag)) != MLR_OK ||
         (st = check_finite(rot, nq, "rot", 4 * Js, diag)) != MLR_OK ||
         (Ps && (st = check_finite(trans, nt, "trans", 3 * Ps, diag)) != MLR_OK))
@@ -1076,14 +1076,14 @@ mlr_status mlr_retarget(const mlr_rig *source, size_t n_frames, const double *ro
     /* scratch: rest positions of both, the source frame's world pose, the target's */
     const size_t doubles = 3 * Js + 3 * Jt + 7 * Js + 7 * Jt;
     size_t bytes, rbytes;
-    if (mlr_mul_size(doubles, sizeof(double), &bytes) != MLR_OK ||
-        mlr_mul_size(Jt, sizeof(follow_rec), &rbytes) != MLR_OK || bytes + rbytes < bytes)
-        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "retarget: too many joints");
+    if (common__mul_size(doubles, sizeof(double), &bytes) != MLR_OK ||
+        common__mul_size(Jt, sizeof(follow_rec), &rbytes) != MLR_OK || bytes + rbytes < bytes)
+        return common__diag_set(diag, MLR_E_OVERFLOW, 0, 0, "retarget: too many joints");
     mlr_allocator a;
-    mlr_allocator_resolve(alloc, &a);
-    double *buf = mlr_alloc(&a, bytes + rbytes);
+    common__allocator_resolve(alloc, &a);
+    double *buf = common__alloc(&a, bytes + rbytes);
     if (!buf)
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "retarget: out of memory");
+        return common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "retarget: out of memory");
     src.pos = buf;
     dst.pos = src.pos + 3 * Js;
     double *s_wpos = dst.pos + 3 * Jt;
@@ -1173,13 +1173,13 @@ mlr_status mlr_retarget(const mlr_rig *source, size_t n_frames, const double *ro
      * source, the mean of both sides; their median raises the whole motion (A -> B -> A: the
      * way back's is minus this one over s, so the round trip cancels it) */
     if (n_frames) {
-        if (mlr_mul_size(n_frames, 6 * sizeof(double), &dbytes) != MLR_OK) {
-            st = mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "retarget: the frames are too many");
+        if (common__mul_size(n_frames, 6 * sizeof(double), &dbytes) != MLR_OK) {
+            st = common__diag_set(diag, MLR_E_OVERFLOW, 0, 0, "retarget: the frames are too many");
             goto done;
         }
-        drop = mlr_alloc(&a, dbytes);
+        drop = common__alloc(&a, dbytes);
         if (!drop) {
-            st = mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "retarget: out of memory");
+            st = common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "retarget: out of memory");
             goto done;
         }
         hipq = drop + n_frames;
@@ -1206,8 +1206,8 @@ mlr_status mlr_retarget(const mlr_rig *source, size_t n_frames, const double *ro
                     const chain *c = rec->chain == 1 ? &ss : &sn;
                     double d[3], want[3], cur[3];
                     chain_span(c, &src, s_wpos, sw, rec->u0, rec->u1, d);
-                    mlr_quat_rotate_inline(&gc, d, want);
-                    mlr_quat_rotate_inline(&w, rec->bone, cur);
+                    common__quat_rotate_inline(&gc, d, want);
+                    common__quat_rotate_inline(&w, rec->bone, cur);
                     w = qmul(swing(cur, want), w);
                 }
             } else {
@@ -1225,7 +1225,7 @@ mlr_status mlr_retarget(const mlr_rig *source, size_t n_frames, const double *ro
         double want[3], hs[3];
         for (int c = 0; c < 3; c++)
             hs[c] = 0.5 * (sl[c] + sr[c]) * scale;
-        mlr_quat_rotate_inline(&gc, hs, want);
+        common__quat_rotate_inline(&gc, hs, want);
         double *oroot = out_root_pos + 3 * f;
         double *otr = Pt ? out_trans + 3 * Pt * f : NULL;
         for (int c = 0; c < 3; c++)
@@ -1240,7 +1240,7 @@ mlr_status mlr_retarget(const mlr_rig *source, size_t n_frames, const double *ro
         for (size_t j = 1; j <= last_leg; j++) {
             const int32_t p = target->parents[j];
             double v[3];
-            mlr_quat_rotate_inline(&tw[p], target->offsets + 3 * j, v);
+            common__quat_rotate_inline(&tw[p], target->offsets + 3 * j, v);
             for (int c = 0; c < 3; c++)
                 t_wpos[3 * j + (size_t)c] = t_wpos[3 * (size_t)p + (size_t)c] + v[c];
         }
@@ -1251,7 +1251,7 @@ mlr_status mlr_retarget(const mlr_rig *source, size_t n_frames, const double *ro
         if (hips_row >= 0) {
             const mlr_quat pc = qconj(tw[target->parents[hips_t]]);
             double v[3];
-            mlr_quat_rotate_inline(&pc, shift, v);
+            common__quat_rotate_inline(&pc, shift, v);
             for (int c = 0; c < 3; c++)
                 otr[3 * (size_t)hips_row + (size_t)c] += v[c];
             memcpy(hipq + 4 * f, &pc, sizeof pc);
@@ -1266,14 +1266,14 @@ mlr_status mlr_retarget(const mlr_rig *source, size_t n_frames, const double *ro
     if (n_frames) {
         double *tmp = hipq + 4 * n_frames; /* the median reorders: a copy */
         memcpy(tmp, drop, n_frames * sizeof(double));
-        const double lift = mlr_median(tmp, n_frames);
+        const double lift = common__median(tmp, n_frames);
         for (size_t f = 0; f < n_frames; f++) {
             const double v[3] = {lift * up_t[0], lift * up_t[1], lift * up_t[2]};
             if (hips_row >= 0) {
                 double w[3];
                 mlr_quat q;
                 memcpy(&q, hipq + 4 * f, sizeof q);
-                mlr_quat_rotate_inline(&q, v, w);
+                common__quat_rotate_inline(&q, v, w);
                 for (int c = 0; c < 3; c++)
                     out_trans[3 * (Pt * f + (size_t)hips_row) + (size_t)c] += w[c];
             } else {
@@ -1289,8 +1289,8 @@ mlr_status mlr_retarget(const mlr_rig *source, size_t n_frames, const double *ro
     }
 done:
     if (drop)
-        mlr_free(&a, drop, dbytes);
-    mlr_free(&a, buf, bytes + rbytes);
+        common__free(&a, drop, dbytes);
+    common__free(&a, buf, bytes + rbytes);
     return st;
 }
 
@@ -1350,7 +1350,7 @@ static void lowest_foot(const rig_rest *r, size_t n_frames, const double *root_p
                 continue;
             double v[3];
             const mlr_quat *q = (const mlr_quat *)(const void *)(wrot + 4 * (f * J + (size_t)j));
-            mlr_quat_rotate_inline(q, rig->end_site_offsets + 3 * e, v);
+            common__quat_rotate_inline(q, rig->end_site_offsets + 3 * e, v);
             lo = fmin(lo, wpos[3 * (f * J + (size_t)j) + (size_t)up] + v[up]);
         }
         out[f] = lo; /* f <= 3 f J: out may overlay wpos */
@@ -1367,12 +1367,12 @@ static mlr_status raise_feet(const rig_rest *r, size_t n_frames, double fps, int
 {
     const size_t J = r->rig->n_joints;
     size_t nd, bytes;
-    if (mlr_mul_size(n_frames, 7 * J + 2, &nd) != MLR_OK ||
-        mlr_mul_size(nd, sizeof(double), &bytes) != MLR_OK)
-        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "retarget: the frames are too many");
-    double *wpos = mlr_alloc(a, bytes);
+    if (common__mul_size(n_frames, 7 * J + 2, &nd) != MLR_OK ||
+        common__mul_size(nd, sizeof(double), &bytes) != MLR_OK)
+        return common__diag_set(diag, MLR_E_OVERFLOW, 0, 0, "retarget: the frames are too many");
+    double *wpos = common__alloc(a, bytes);
     if (!wpos)
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "retarget: out of memory");
+        return common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "retarget: out of memory");
     double *wrot = wpos + 3 * n_frames * J, *need = wrot + 4 * n_frames * J,
            *wide = need + n_frames;
     lowest_foot(r, n_frames, root_pos, rot, trans, up, wpos, wrot, need);
@@ -1398,7 +1398,7 @@ static mlr_status raise_feet(const rig_rest *r, size_t n_frames, double fps, int
         }
         root_pos[3 * f + (size_t)up] += acc / wsum;
     }
-    mlr_free(a, wpos, bytes);
+    common__free(a, wpos, bytes);
     return MLR_OK;
 }
 
@@ -1413,19 +1413,21 @@ mlr_status mlr_retarget_feet(const mlr_rig *source, size_t n_frames, double fps,
     if (st != MLR_OK)
         return st;
     if (up < 0 || up > 2)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "retarget: up %d is not an axis", up);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "retarget: up %d is not an axis",
+                                up);
     if (target_up < -1 || target_up > 2)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "retarget: up %d is not an axis or MLR_RETARGET_UP_REST", target_up);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "retarget: up %d is not an axis or MLR_RETARGET_UP_REST",
+                                target_up);
     if (!(fps > 0) || !isfinite(fps))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "retarget: fps must be > 0");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "retarget: fps must be > 0");
     const size_t Js = source->n_joints, Jt = target->n_joints;
     if (n_frames < 3)
         return MLR_OK; /* too short for contacts */
     if (!root_pos || !rot || (source->n_trans && !trans) || !out_root_pos || !out_rot ||
         (target->n_trans && !out_trans))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "retarget: a frame array is NULL with %zu frames", n_frames);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "retarget: a frame array is NULL with %zu frames", n_frames);
     rig_rest src = {.rig = source}, dst = {.rig = target};
     if ((st = pair_roles(&src, &dst, map, n_map, alloc, diag)) != MLR_OK)
         return st;
@@ -1433,17 +1435,17 @@ mlr_status mlr_retarget_feet(const mlr_rig *source, size_t n_frames, double fps,
      * points (N x 4 x 3); the target's reference points (N x 4 x 3), whose place first holds N
      * doubles and the target's forward kinematics (N x Jt x 7); then the contacts */
     size_t nw, bytes;
-    if (mlr_mul_size(n_frames, 7 * (Js + Jt) + 24, &nw) != MLR_OK ||
+    if (common__mul_size(n_frames, 7 * (Js + Jt) + 24, &nw) != MLR_OK ||
         nw > SIZE_MAX - 3 * (Js + Jt) ||
-        mlr_mul_size(nw + 3 * (Js + Jt), sizeof(double), &bytes) != MLR_OK ||
+        common__mul_size(nw + 3 * (Js + Jt), sizeof(double), &bytes) != MLR_OK ||
         bytes > SIZE_MAX - 2 * 4 * n_frames)
-        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "retarget: the frames are too many");
+        return common__diag_set(diag, MLR_E_OVERFLOW, 0, 0, "retarget: the frames are too many");
     const size_t cbytes = 2 * 4 * n_frames; /* the source's and the target's contacts */
     mlr_allocator a;
-    mlr_allocator_resolve(alloc, &a);
-    double *buf = mlr_alloc(&a, bytes + cbytes);
+    common__allocator_resolve(alloc, &a);
+    double *buf = common__alloc(&a, bytes + cbytes);
     if (!buf)
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "retarget: out of memory");
+        return common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "retarget: out of memory");
     src.pos = buf;
     dst.pos = src.pos + 3 * Js;
     double *wpos = dst.pos + 3 * Jt, *wrot = wpos + 3 * n_frames * Js;
@@ -1548,7 +1550,7 @@ mlr_status mlr_retarget_feet(const mlr_rig *source, size_t n_frames, double fps,
                               tpos[3 * (f * Jt + (size_t)tr) + (size_t)c]);
             mid[f] += dot3(m, up_t);
         }
-        lift = mlr_median(mid, n_frames);
+        lift = common__median(mid, n_frames);
     }
     for (size_t f = 0; f < n_frames; f++)
         for (size_t i = 0; i < nt; i++) {
@@ -1604,7 +1606,7 @@ mlr_status mlr_retarget_feet(const mlr_rig *source, size_t n_frames, double fps,
             if (any)
                 blow[m++] = scale * alow[f] - blow[f];
         }
-        const double sole = m ? mlr_median(blow, m) : 0.0;
+        const double sole = m ? common__median(blow, m) : 0.0;
         for (size_t f = 0; f < n_frames; f++)
             out_root_pos[3 * f + (size_t)tup] += sole;
         /* the scaled source's ground: the 0.05 quantile of its lowest foot point over its
@@ -1649,6 +1651,6 @@ mlr_status mlr_retarget_feet(const mlr_rig *source, size_t n_frames, double fps,
         }
     }
 done:
-    mlr_free(&a, buf, bytes + cbytes);
+    common__free(&a, buf, bytes + cbytes);
     return st;
 }

@@ -288,7 +288,7 @@ static void smoother_tail(mlr_stream *st, const smoother *sm, size_t first, doub
  * Online sign continuity of the new frame's quaternions (frame i), placed in st->qhist row 3,
  * against the aligned frames i-3 .. i-1 (rows 0 .. 2; only the last min(i, 3) exist): the
  * second-order predictive rule of mlr_quat_continue_sign, through the very per-frame step the
- * batch mlr_quat_make_continuous_predictive takes (mlr_quat_continue_frame), so the aligned
+ * batch mlr_quat_make_continuous_predictive takes (common__quat_continue_frame), so the aligned
  * input equals the offline clip's bit for bit.
  */
 static void align_signs(mlr_stream *st, size_t i, double *yi)
@@ -299,7 +299,7 @@ static void align_signs(mlr_stream *st, size_t i, double *yi)
     mlr_quat *h = (mlr_quat *)st->qhist;
     const size_t n_prev = i < 3 ? i : 3;
     memcpy(h + 3 * J, yi + st->q_off, qb);
-    mlr_quat_continue_frame(h + (3 - n_prev) * J, n_prev, J);
+    common__quat_continue_frame(h + (3 - n_prev) * J, n_prev, J);
     memcpy(yi + st->q_off, h + 3 * J, qb);
     memmove(h, h + J, 3 * qb); /* rows 1 .. 3 become rows 0 .. 2 */
 }
@@ -342,7 +342,7 @@ static void compose_layers(const mlr_stream *st, double *x, double *xb, mlr_quat
         return;
     mlr_quat *b = (mlr_quat *)(xb + st->q_off);
     (void)mlr_quat_normalize_array(b, J, b, NULL);
-    mlr_quat_conj_mul_log(b, q, J, 0, st->lq, st->lv); /* the angle in [0, pi]: shorter way */
+    common__quat_conj_mul_log(b, q, J, 0, st->lq, st->lv); /* the angle in [0, pi]: shorter way */
     mlr_vec3 *v = st->lv;
     size_t n = 0;
     int fast = 1;
@@ -365,7 +365,7 @@ static void compose_layers(const mlr_stream *st, double *x, double *xb, mlr_quat
     n = 0;
     for (size_t j = 0; j < J; j++)
         if (st->alpha[j] != 1.0)
-            mlr_quat_mul_inline(&b[j], &st->le[n++], &q[j]);
+            common__quat_mul_inline(&b[j], &st->le[n++], &q[j]);
 }
 
 /* ---------------------------------------------------------------------------------------- */
@@ -375,7 +375,7 @@ static void compose_layers(const mlr_stream *st, double *x, double *xb, mlr_quat
 static int add_size(size_t *acc, size_t a, size_t b)
 {
     size_t p;
-    if (mlr_mul_size(a, b, &p) || *acc > SIZE_MAX - p)
+    if (common__mul_size(a, b, &p) || *acc > SIZE_MAX - p)
         return 1;
     *acc += p;
     return 0;
@@ -384,14 +384,14 @@ static int add_size(size_t *acc, size_t a, size_t b)
 static mlr_status check_lam_sigma(double lam, double sigma, const char *which, mlr_diag *diag)
 {
     if (!isfinite(lam) || lam < 0.0)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "lam%s must be finite and >= 0, got %g",
-                            which, lam);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "lam%s must be finite and >= 0, got %g", which, lam);
     if (!isfinite(sigma) || !(sigma > 0.0))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "sigma%s must be finite and > 0, got %g", which, sigma);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "sigma%s must be finite and > 0, got %g", which, sigma);
     if (!isfinite(lam * lam * sigma * sigma))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "lam%s^2 sigma%s^2 overflows", which,
-                            which);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "lam%s^2 sigma%s^2 overflows",
+                                which, which);
     return MLR_OK;
 }
 
@@ -401,7 +401,7 @@ static mlr_status stream_create(size_t n_joints, int root, size_t n_trans, doubl
                                 mlr_diag *diag)
 {
     if (!out)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "out is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "out is NULL");
     *out = NULL;
     mlr_status st = check_lam_sigma(lam, sigma, "", diag);
     if (st == MLR_OK && layered)
@@ -410,11 +410,12 @@ static mlr_status stream_create(size_t n_joints, int root, size_t n_trans, doubl
         return st;
     size_t m = root ? 3 : 0;
     if (add_size(&m, n_trans, 3) || add_size(&m, n_joints, 4))
-        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "stream: the state's size overflows");
+        return common__diag_set(diag, MLR_E_OVERFLOW, 0, 0, "stream: the state's size overflows");
     if (m == 0)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "a frame needs at least one channel");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "a frame needs at least one channel");
     if (lag == SIZE_MAX)
-        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "stream: the state's size overflows");
+        return common__diag_set(diag, MLR_E_OVERFLOW, 0, 0, "stream: the state's size overflows");
     const size_t ring = lag + 1 > 4 ? lag + 1 : 4, n_sm = layered ? 2 : 1;
     /* doubles: per smoother ring x m + 3 ring; y 3m; coef 2 (ring + 4); raw_base, zh m each;
      * qhist 16 J; flush_base lag m; alpha J; lq, le, lv 11 J. Then ring + 4 pointers. */
@@ -422,22 +423,22 @@ static mlr_status stream_create(size_t n_joints, int root, size_t n_trans, doubl
     if (add_size(&per_sm, ring, m) || add_size(&per_sm, ring, 3) || add_size(&nd, per_sm, n_sm) ||
         add_size(&nd, m, 5) || add_size(&nd, ring + 4, 2) || add_size(&nd, n_joints, 28) ||
         (layered && add_size(&nd, lag, m)))
-        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "stream: the state's size overflows");
+        return common__diag_set(diag, MLR_E_OVERFLOW, 0, 0, "stream: the state's size overflows");
     size_t bytes = 0;
     if (add_size(&bytes, nd, sizeof(double)) || add_size(&bytes, ring + 4, sizeof(double *)))
-        return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0, "stream: the state's size overflows");
+        return common__diag_set(diag, MLR_E_OVERFLOW, 0, 0, "stream: the state's size overflows");
 
     mlr_allocator a;
-    mlr_allocator_resolve(alloc, &a);
-    mlr_stream *s = mlr_alloc(&a, sizeof *s);
+    common__allocator_resolve(alloc, &a);
+    mlr_stream *s = common__alloc(&a, sizeof *s);
     if (!s)
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "stream: out of memory");
+        return common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "stream: out of memory");
     memset(s, 0, sizeof *s);
-    double *p = mlr_alloc(&a, bytes);
+    double *p = common__alloc(&a, bytes);
     if (!p) {
-        mlr_free(&a, s, sizeof *s);
-        return mlr_diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
-                            "stream: out of memory (%zu bytes for the state)", bytes);
+        common__free(&a, s, sizeof *s);
+        return common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
+                                "stream: out of memory (%zu bytes for the state)", bytes);
     }
     memset(p, 0, bytes);
     s->alloc = a;
@@ -493,14 +494,15 @@ void mlr_stream_destroy(mlr_stream *st)
     if (!st)
         return;
     mlr_allocator a = st->alloc;
-    mlr_free(&a, st->sm[0].z, st->block_bytes); /* start of the single block */
-    mlr_free(&a, st, sizeof *st);
+    common__free(&a, st->sm[0].z, st->block_bytes); /* start of the single block */
+    common__free(&a, st, sizeof *st);
 }
 
 static mlr_status flushed(mlr_diag *diag, const char *fn)
 {
-    return mlr_diag_set(diag, MLR_E_BAD_STATE, 0, 0,
-                        "stream %s: the stream was flushed; reset it before pushing again", fn);
+    return common__diag_set(diag, MLR_E_BAD_STATE, 0, 0,
+                            "stream %s: the stream was flushed; reset it before pushing again",
+                            fn);
 }
 
 /* The first non-finite value of v[0 .. n): the message of a rejected frame or alpha. */
@@ -510,10 +512,10 @@ static mlr_status not_finite(mlr_diag *diag, const char *fn, const char *what, c
     size_t i = 0;
     while (i < n && isfinite(v[i]))
         i++;
-    return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                        "stream %s: %s[%zu] is NaN or infinite (rejected; the stream is "
-                        "unchanged)",
-                        fn, what, i);
+    return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                            "stream %s: %s[%zu] is NaN or infinite (rejected; the stream is "
+                            "unchanged)",
+                            fn, what, i);
 }
 
 mlr_status mlr_stream_push(mlr_stream *st, const double *frame, size_t n_values, double *out,
@@ -522,17 +524,18 @@ mlr_status mlr_stream_push(mlr_stream *st, const double *frame, size_t n_values,
     if (n_ready)
         *n_ready = 0;
     if (!st || !frame || !out || !n_ready)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "stream push: st, frame, out or n_ready is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "stream push: st, frame, out or n_ready is NULL");
     if (st->finished)
         return flushed(diag, "push");
     const size_t m = st->m, R = st->ring, i = st->n;
     if (n_values != m)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "stream push: n_values is %zu, a frame has %zu", n_values, m);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "stream push: n_values is %zu, a frame has %zu", n_values, m);
     if (out_len < m)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "stream push: out_len %zu is below the frame size %zu", out_len, m);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "stream push: out_len %zu is below the frame size %zu", out_len,
+                                m);
     if (!values_finite(frame, m))
         return not_finite(diag, "push", "frame", frame, m);
     double *yi = st->y + (i % 3) * m;
@@ -567,20 +570,20 @@ mlr_status mlr_stream_flush(mlr_stream *st, double *out, size_t out_len, size_t 
     if (n_written)
         *n_written = 0;
     if (!st || !n_written)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "stream flush: st or n_written is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "stream flush: st or n_written is NULL");
     if (st->finished)
-        return mlr_diag_set(diag, MLR_E_BAD_STATE, 0, 0,
-                            "stream flush: the stream was flushed already; reset it first");
+        return common__diag_set(diag, MLR_E_BAD_STATE, 0, 0,
+                                "stream flush: the stream was flushed already; reset it first");
     const size_t pending = st->n - st->n_out, m = st->m; /* pending <= lag: fits (create) */
     if (pending > 0) {
         if (!out)
-            return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "stream flush: out is NULL with %zu frames pending", pending);
+            return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                    "stream flush: out is NULL with %zu frames pending", pending);
         if (out_len / m < pending)
-            return mlr_diag_set(diag, MLR_E_OVERFLOW, 0, 0,
-                                "stream flush: out_len %zu is below %zu pending frames of %zu",
-                                out_len, pending, m);
+            return common__diag_set(diag, MLR_E_OVERFLOW, 0, 0,
+                                    "stream flush: out_len %zu is below %zu pending frames of %zu",
+                                    out_len, pending, m);
         smoother_tail(st, &st->sm[0], st->n_out, out);
         if (st->layered)
             smoother_tail(st, &st->sm[1], st->n_out, st->flush_base);
@@ -605,19 +608,20 @@ mlr_status mlr_stream_set_alpha(mlr_stream *st, double alpha_trans, const double
                                 size_t n_joints, mlr_diag *diag)
 {
     if (!st || (n_joints > 0 && !alpha))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "stream set_alpha: st or alpha is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "stream set_alpha: st or alpha is NULL");
     if (n_joints != st->n_joints)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "stream set_alpha: %zu alphas for a stream of %zu joints", n_joints,
-                            st->n_joints);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "stream set_alpha: %zu alphas for a stream of %zu joints",
+                                n_joints, st->n_joints);
     if (!isfinite(alpha_trans))
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "stream set_alpha: alpha_trans = %g is NaN or infinite", alpha_trans);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "stream set_alpha: alpha_trans = %g is NaN or infinite",
+                                alpha_trans);
     if (!st->layered)
-        return mlr_diag_set(diag, MLR_E_BAD_STATE, 0, 0,
-                            "stream set_alpha: the stream has no base layer (create it with "
-                            "mlr_stream_create_layered)");
+        return common__diag_set(diag, MLR_E_BAD_STATE, 0, 0,
+                                "stream set_alpha: the stream has no base layer (create it with "
+                                "mlr_stream_create_layered)");
     if (n_joints > 0 && !values_finite(alpha, n_joints))
         return not_finite(diag, "set_alpha", "alpha", alpha, n_joints);
     st->alpha_trans = alpha_trans;
@@ -632,11 +636,11 @@ mlr_status mlr_stream_set_alpha(mlr_stream *st, double alpha_trans, const double
 mlr_status mlr_stream_set_limits(mlr_stream *st, const mlr_limits *limits, mlr_diag *diag)
 {
     if (!st)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "stream set_limits: st is NULL");
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0, "stream set_limits: st is NULL");
     if (limits && mlr_limits_n_joints(limits) != st->n_joints)
-        return mlr_diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                            "stream set_limits: limits of %zu joints for a stream of %zu",
-                            mlr_limits_n_joints(limits), st->n_joints);
+        return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
+                                "stream set_limits: limits of %zu joints for a stream of %zu",
+                                mlr_limits_n_joints(limits), st->n_joints);
     st->limits = limits;
     return MLR_OK;
 }

@@ -7,8 +7,8 @@
  * expected line, allocation failures, motions built from arrays. */
 #include "mlr_test.h"
 
-#include "common/mlr_internal.h" /* private: mlr_quat_from_euler_half, a bit-exact reference */
-#include "math/sincosd.h"         /* private: the reader's sines and cosines in degrees */
+#include "common/mlr_internal.h" /* private: common__quat_from_euler_half, a bit-exact reference */
+#include "math/sincosd.h" /* private: the reader's sines and cosines in degrees */
 
 #include <errno.h>
 #include <locale.h>
@@ -116,7 +116,7 @@ typedef struct clip_info {
     const char *file;
     size_t frames, joints, end_sites, channels;
     double frame_time;
-    size_t n_trans;   /* non-root joints with position channels */
+    size_t n_trans; /* non-root joints with position channels */
 } clip_info;
 
 static const clip_info clips[] = {
@@ -203,7 +203,7 @@ static const double ref_parity[6] = {1.0, -1.0, -1.0, 1.0, 1.0, -1.0};
 /* Every frame of m against the text after its Frame Time line, bit for bit: each value read
  * with strtod; position channels replacing the OFFSET; each joint's quaternion rebuilt from its
  * angles (in channel order, missing ones zero) with the reader's arithmetic, the sine and
- * cosine of each half-angle (mlr_sincosd_kernel) and the product of mlr_quat_from_euler_half.
+ * cosine of each half-angle (mlr_sincosd_kernel) and the product of common__quat_from_euler_half.
  * Blank lines between frames are allowed. */
 static void assert_frames_are_strtods(const mlr_motion *m, const char *text, const char *what)
 {
@@ -239,8 +239,8 @@ static void assert_frames_are_strtods(const mlr_motion *m, const char *text, con
                                    &cs[k]);
             }
             mlr_quat q;
-            mlr_quat_from_euler_half(cs[0], sn[0], cs[1], sn[1], cs[2], sn[2], ref_axes[o],
-                                     ref_parity[o], &q);
+            common__quat_from_euler_half(cs[0], sn[0], cs[1], sn[1], cs[2], sn[2], ref_axes[o],
+                                         ref_parity[o], &q);
             const double want[4] = {q.w, q.x, q.y, q.z};
             const double *got = mlr_motion_rot(m) + 4 * (J * f + j);
             ck_assert_msg(memcmp(want, got, sizeof want) == 0,
@@ -1008,7 +1008,7 @@ static const char hier[] = "HIERARCHY\nROOT r\n{\nOFFSET 0 0 0\nCHANNELS 3 Xrota
 static const struct bad_case {
     const char *text; /* "%H" at the start stands for hier */
     size_t line;
-    const char *reason;  /* substring of the message */
+    const char *reason; /* substring of the message */
 } bad_cases[] = {
     {"", 1, "empty input"},
     {"   \n\n", 3, "empty input"},
@@ -1109,14 +1109,14 @@ enum { LENIENT = 0, STRICT = 1, KEEP = 2 };
 
 /* Frame line k holds "k 0 0" (Xrotation k degrees), so the frames read are known by angle. */
 static const struct lenient_case {
-    const char *text;        /* "%H" stands for hier: MOTION on line 7, Frames: 8, the first
+    const char *text; /* "%H" stands for hier: MOTION on line 7, Frames: 8, the first
                                 frame line 10 */
     int mode;
     mlr_status status;
-    size_t n_frames;         /* on MLR_OK; frames 1..n_frames */
-    int codes[3];            /* warning codes in order, 0-terminated */
-    size_t line;             /* line of the first warning, or of the error */
-    const char *reason;      /* in the first warning, or in the error */
+    size_t n_frames; /* on MLR_OK; frames 1..n_frames */
+    int codes[3]; /* warning codes in order, 0-terminated */
+    size_t line; /* line of the first warning, or of the error */
+    const char *reason; /* in the first warning, or in the error */
 } lenient_cases[] = {
     /* one motion line more than Frames: (an assimp test file; Blender and bvhio read it) */
     {"%HFrames: 2\nFrame Time: 1\n1 0 0\n2 0 0\n3 0 0\n",
@@ -1530,8 +1530,8 @@ END_TEST
 START_TEST(lenient_allocation_failures_are_clean)
 {
     static const char *const texts[] = {
-        "%HFrames: 1\nFrame Time: 1\n1 0 0\n2 0 0\n",     /* extra: a bigger motion */
-        "%HFrames: 3\nFrame Time: 1\n1 0 0\n2 0 0\n",     /* missing: a smaller copy */
+        "%HFrames: 1\nFrame Time: 1\n1 0 0\n2 0 0\n", /* extra: a bigger motion */
+        "%HFrames: 3\nFrame Time: 1\n1 0 0\n2 0 0\n", /* missing: a smaller copy */
     };
     for (size_t c = 0; c < MLR_COUNTOF(texts); c++) {
         char text[256];

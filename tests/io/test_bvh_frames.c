@@ -7,12 +7,12 @@
  * lines of numbers, give strtod's double bit for bit, and decline (leave to the careful parser,
  * which reports the error) every line that holds something other than C numbers. The frame
  * kernels (portable, AVX2, AVX-512) must give the same bits on random conversion plans, those of
- * mlr_quat_from_euler_half on the sines and cosines of the half-angles. The reader-level checks
+ * common__quat_from_euler_half on the sines and cosines of the half-angles. The reader-level checks
  * are in test_bvh.c. */
 #include "mlr_test.h"
 
 #include "io/bvh_frames.c"
-#include "common/mlr_internal.h" /* mlr_quat_from_euler_half: the reference product */
+#include "common/mlr_internal.h" /* common__quat_from_euler_half: the reference product */
 #include "io/numparse.c"
 
 #include <math.h>
@@ -513,8 +513,8 @@ START_TEST(frame_kernels_agree_bit_for_bit)
             for (size_t a = 0; a < 3; a++)
                 axes[cv->sel[a * cv->Jp + j]] = (unsigned char)a;
             mlr_quat q;
-            mlr_quat_from_euler_half(cs[0], sn[0], cs[1], sn[1], cs[2], sn[2], axes, cv->par[j],
-                                     &q);
+            common__quat_from_euler_half(cs[0], sn[0], cs[1], sn[1], cs[2], sn[2], axes,
+                                         cv->par[j], &q);
             const double want[4] = {q.w, q.x, q.y, q.z};
             ck_assert(memcmp(want, out[0] + 3 + 3 * P + 4 * j, sizeof want) == 0);
         }

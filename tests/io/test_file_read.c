@@ -41,12 +41,12 @@ START_TEST(every_thread_count_reads_the_same_bytes)
             size_t len, cap;
             mlr_diag d;
             mlr_allocator a;
-            mlr_allocator_resolve(NULL, &a);
+            common__allocator_resolve(NULL, &a);
             ck_assert_int_eq(file_read__read(path, threads, &a, &buf, &len, &cap, &d), MLR_OK);
             ck_assert_uint_eq(len, sizes[z]);
             ck_assert_uint_gt(cap, len);
             ck_assert(len == 0 || memcmp(buf, expect, len) == 0);
-            mlr_free(&a, buf, cap);
+            common__free(&a, buf, cap);
         }
         remove_file();
     }
@@ -59,7 +59,7 @@ START_TEST(errors_are_reported)
     size_t len = 1, cap = 1;
     mlr_diag d;
     mlr_allocator a;
-    mlr_allocator_resolve(NULL, &a);
+    common__allocator_resolve(NULL, &a);
     ck_assert_int_eq(file_read__read("/nonexistent/f.bin", 0, &a, &buf, &len, &cap, &d), MLR_E_IO);
     ck_assert_ptr_null(buf);
     ck_assert_msg(strstr(d.message, "cannot open") && strstr(d.message, "No such file"), "%s",
@@ -70,7 +70,7 @@ START_TEST(errors_are_reported)
     /* not a regular file: read sequentially to its end */
     ck_assert_int_eq(file_read__read("/dev/null", 2, &a, &buf, &len, &cap, &d), MLR_OK);
     ck_assert_uint_eq(len, 0);
-    mlr_free(&a, buf, cap);
+    common__free(&a, buf, cap);
 }
 END_TEST
 
@@ -82,14 +82,14 @@ START_TEST(allocation_failures_leave_nothing)
             mlr_test_allocator ta;
             mlr_test_allocator_init(&ta, fail_at);
             mlr_allocator a;
-            mlr_allocator_resolve(&ta.base, &a);
+            common__allocator_resolve(&ta.base, &a);
             char *buf;
             size_t len, cap;
             mlr_diag d;
             mlr_status s = file_read__read(path, threads, &a, &buf, &len, &cap, &d);
             if (s == MLR_OK) {
                 ck_assert_uint_eq(len, 2 * MLR_FILE_PARALLEL_MIN_BYTES + 3);
-                mlr_free(&a, buf, cap);
+                common__free(&a, buf, cap);
                 ck_assert_uint_eq(ta.live_blocks, 0);
                 break;
             }
