@@ -132,8 +132,15 @@ typedef enum mlr_generate_key {
     MLR_GEN_OPT_SMOOTH = 5,      /* lam of the LGS that smooths the outputs, >= 0 (2) */
     MLR_GEN_OPT_NOISE = 6,       /* the chain perturbed first (mlr_markov_perturb), >= 0
                                     (default 0: the learned chain) */
-    MLR_GEN_OPT_ALLOW_UNSEEN = 7 /* 0 (default) or 1: the perturbation may open transitions the
+    MLR_GEN_OPT_ALLOW_UNSEEN = 7, /* 0 (default) or 1: the perturbation may open transitions the
                                     data never showed */
+    MLR_GEN_OPT_PIN_FEET = 8     /* 1 (default) or 0: with the guards set
+                                    (mlr_generator_set_guards), each foot found by name on the rig
+                                    is pinned where it touches down (its lowest point within 0.08
+                                    leg lengths of the model's floor, its ankle slower than 0.6
+                                    leg lengths a second) by two-bone IK, and let go over 0.2 s
+                                    when it lifts or leaves; 0: the guards do the limits and the
+                                    floor only. Since 0.3 */
 } mlr_generate_key;
 
 /** One option: key (an mlr_generate_key) and its value. A frozen value type. */
@@ -173,11 +180,17 @@ MLR_API mlr_status mlr_generator_create(const mlr_allocator *alloc, const mlr_ge
  *     contact_names and floor_height, a finite floor): forward kinematics of the frame on the
  *     rig, and the body position raised by how far the lowest contact point is below the
  *     floor (y up, as the generated frames); a frame with every point above it is unchanged.
- *     The lift depends on the frame alone (no state), so it is as continuous as the frames.
+ *     The lift depends on the frame alone (no state), so it is as continuous as the frames;
+ *  3. between the two, with MLR_GEN_OPT_PIN_FEET (the default) and the contact points: the feet
+ *     (the contact joints with no contact joint above them, each with the points below it)
+ *     pinned causally: a foot whose lowest point is within 0.08 leg lengths of the floor and
+ *     whose ankle moved slower than 0.6 leg lengths a second since the frame before is held
+ *     where it touched down, by two-bone IK on its leg (mlr_ik_apply_leg), the limits applied
+ *     again to what the IK turned; when it lifts or moves on it is let go over 0.2 s.
  * The generator's walk, heading and body position are those of the unguarded frames: with the
- * guards off (the default) the frames are the ones described above, bit for bit. Not done at
- * run time: the contacts pinned by IK (PrimitiveModel.generate's guards do it over the whole
- * clip).
+ * guards off (the default) the frames are the ones described above, bit for bit. The guarded
+ * frames are not PrimitiveModel.generate's guarded ones: that cleanup sees the whole clip and
+ * pins each contact at its mean; this one sees the frames so far.
  * @param rig    [in] the model's skeleton (its joint names and parents; offsets, trans joints
  *               and End Sites for the kinematics); borrowed: it must outlive the generator
  * @param rest   [in] 3 + 3 P doubles (P = rig->n_trans): the root translation, then the trans

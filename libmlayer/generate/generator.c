@@ -14,6 +14,7 @@
 #include "manifold/grbf_eval_internal.h"
 #include "mlayer/mlr_fk.h"
 #include "mlayer/mlr_generate.h"
+#include "mlayer/mlr_ik.h"
 #include "mlayer/mlr_rig.h"
 
 #include <math.h>
@@ -22,6 +23,16 @@
 #define MAX_FRAMES 10000000
 #define SMOOTH_COLS 16 /* outputs smoothed per part of a segment computed ahead */
 #define GRBF_ROWS 4    /* GRBF rows per part */
+#define GEN_MAX_FEET 8 /* feet pinned at run time */
+/* a foot touches: its lowest point within PIN_HEIGHT leg lengths of the floor and its ankle
+   slower than PIN_SPEED leg lengths a second; a pinned foot is let go over PIN_RELEASE s */
+#ifndef PIN_HEIGHT
+#define PIN_HEIGHT 0.08
+#endif
+#ifndef PIN_SPEED
+#define PIN_SPEED 0.6
+#endif
+#define PIN_RELEASE 0.2
 
 /* One segment's walk, knots, manifold points and outputs. */
 typedef struct segment {
@@ -70,9 +81,18 @@ struct mlr_generator {
     size_t n_floor;          /* floor points (the model's contact points), 0: no floor guard */
     size_t body_slot;        /* the body joint's slot among the rig's trans joints */
     double *g_root, *g_trans, *g_wpos, *g_wrot, *g_pts; /* 3, 3 P, 3 J, 4 J, 3 C */
-    int32_t *g_joint, *g_end;                            /* C, C */
+    int32_t *g_joint, *g_end, *g_foot;                   /* C, C, C (a point's foot or -1) */
     size_t gbytes;
     void *gbuf;
+    /* the feet pinned at run time (MLR_GEN_OPT_PIN_FEET): ankle, hip, knee, the foot's points
+       (ankle, toe: joint or End Site, -1 for none), the leg's length; per foot the state */
+    int pin_feet;
+    size_t n_feet;
+    int32_t ft_ankle[GEN_MAX_FEET], ft_hip[GEN_MAX_FEET], ft_knee[GEN_MAX_FEET];
+    double ft_leg[GEN_MAX_FEET];
+    int ft_pinned[GEN_MAX_FEET], ft_have_prev;
+    double ft_held[GEN_MAX_FEET][3], ft_release[GEN_MAX_FEET], ft_prev[GEN_MAX_FEET][3];
+    double ft_from[GEN_MAX_FEET][3]; /* where a released foot's target starts */
 };
 
 static const mlr_opt_spec generate_opts[] = {
@@ -85,6 +105,7 @@ static const mlr_opt_spec generate_opts[] = {
     {MLR_GEN_OPT_SMOOTH, "smooth", MLR_OPT_DOUBLE, 0.0, INFINITY, 0, 0, 2.0, NULL},
     {MLR_GEN_OPT_NOISE, "noise", MLR_OPT_DOUBLE, 0.0, INFINITY, 0, 0, 0.0, NULL},
     {MLR_GEN_OPT_ALLOW_UNSEEN, "allow_unseen", MLR_OPT_BOOL, 0.0, 1.0, 0, 0, 0.0, NULL},
+    {MLR_GEN_OPT_PIN_FEET, "pin_feet", MLR_OPT_BOOL, 0.0, 1.0, 0, 0, 1.0, NULL},
 };
 
 mlr_status mlr_generator_create(const mlr_allocator *alloc, const mlr_gen_model *model,
@@ -121,6 +142,7 @@ mlr_status mlr_generator_create(const mlr_allocator *alloc, const mlr_gen_model 
     g->rank = (int)v.v[MLR_GEN_OPT_RANK];
     g->smooth = v.v[MLR_GEN_OPT_SMOOTH];
     g->noise = v.v[MLR_GEN_OPT_NOISE];
+    g->pin_feet = v.v[MLR_GEN_OPT_PIN_FEET] != 0.0;
     g->allow_unseen = v.v[MLR_GEN_OPT_ALLOW_UNSEEN] != 0.0;
     g->start_frame = -1;
     g->point[0] = g->point[1] = NAN;
@@ -432,8 +454,8 @@ mlr_status mlr_generator_set_guards(mlr_generator *g, const mlr_rig *rig, const 
                                         "mlr_generator_set_guards: rest[%zu] is NaN or infinite",
                                         i);
     const size_t nc = isnan(m->floor_height) ? 0 : C;
-    /* doubles 3 + 3 P + 7 J + 3 C, then 2 C int32 (sizes bounded by the rig's and the file's) */
-    const size_t nd = 3 + 3 * P + 7 * J + 3 * nc, bytes = nd * 8 + 2 * nc * sizeof(int32_t);
+    /* doubles 3 + 3 P + 7 J + 3 C, then 3 C int32 (sizes bounded by the rig's and the file's) */
+    const size_t nd = 3 + 3 * P + 7 * J + 3 * nc, bytes = nd * 8 + 3 * nc * sizeof(int32_t);
     unsigned char *b = common__alloc(&g->alloc, bytes);
     if (!b)
         return common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0,
@@ -446,6 +468,7 @@ mlr_status mlr_generator_set_guards(mlr_generator *g, const mlr_rig *rig, const 
     g->g_pts = d, d += 3 * nc;
     g->g_joint = (int32_t *)(void *)d;
     g->g_end = g->g_joint + nc;
+    g->g_foot = g->g_end + nc;
     /* the floor points: the model's contact points, by name on the rig */
     const char *name = m->contact_names;
     for (size_t c = 0; c < nc; c++, name += strlen(name) + 1) {
@@ -461,6 +484,36 @@ mlr_status mlr_generator_set_guards(mlr_generator *g, const mlr_rig *rig, const 
     for (size_t p = 0; p < 3 * P; p++) /* Python's rest_trans: the offsets without clips */
         g->g_trans[p] =
             rest ? rest[3 + p] : rig->offsets[3 * (size_t)rig->trans_joints[p / 3] + p % 3];
+    /* the feet: the model's contact points that are joints with no other contact joint above
+       them (the ankles, the paws), each with the contact points at or below it; a foot whose
+       leg has no two-bone chain is not pinned */
+    g->n_feet = 0;
+    for (size_t c = 0; c < nc; c++)
+        g->g_foot[c] = -1;
+    for (size_t c = 0; g->pin_feet && c < nc && g->n_feet < GEN_MAX_FEET; c++) {
+        const int32_t j = g->g_joint[c];
+        int top = g->g_end[c] < 0 && g->g_foot[c] < 0;
+        for (size_t c2 = 0; top && c2 < nc; c2++)
+            for (int32_t a = rig->parents[j]; top && a >= 0; a = rig->parents[a])
+                top = !(g->g_end[c2] < 0 && g->g_joint[c2] == a);
+        int32_t hip, knee;
+        mlr_diag quiet;
+        if (!top || mlr_ik_leg_chain(rig, j, &hip, &knee, &quiet) != MLR_OK)
+            continue;
+        const size_t k = g->n_feet++;
+        g->ft_ankle[k] = j, g->ft_hip[k] = hip, g->ft_knee[k] = knee;
+        for (size_t c2 = 0; c2 < nc; c2++)
+            for (int32_t a = g->g_joint[c2]; a >= 0; a = rig->parents[a])
+                if (a == j) {
+                    g->g_foot[c2] = (int32_t)k;
+                    break;
+                }
+        const double *ok = rig->offsets + 3 * (size_t)knee, *oa = rig->offsets + 3 * (size_t)j;
+        g->ft_leg[k] = sqrt(ok[0] * ok[0] + ok[1] * ok[1] + ok[2] * ok[2]) +
+                       sqrt(oa[0] * oa[0] + oa[1] * oa[1] + oa[2] * oa[2]);
+        g->ft_pinned[k] = 0, g->ft_release[k] = INFINITY;
+    }
+    g->ft_have_prev = 0;
     g->gbuf = b;
     g->gbytes = bytes;
     g->rig = rig;
@@ -471,8 +524,79 @@ mlr_status mlr_generator_set_guards(mlr_generator *g, const mlr_rig *rig, const 
     return MLR_OK;
 }
 
-/* The per-frame guards on a finished frame: the joint limits (alpha 1), then the body lifted
- * by how far the lowest floor point is below the model's floor (y up), nothing when none is. */
+static double smoothstep(double x)
+{
+    x = x < 0.0 ? 0.0 : x > 1.0 ? 1.0 : x;
+    return x * x * (3.0 - 2.0 * x);
+}
+
+/* The feet of a frame (its forward kinematics in g_wpos, g_wrot) pinned: a foot whose lowest
+ * point is near the floor and whose ankle moves slowly (from the frame before, as generated)
+ * keeps the ankle's position from its touch-down, by two-bone IK on its leg; a foot that lifts
+ * or moves on is let go over PIN_RELEASE. *moved: some leg was turned. */
+static mlr_status pin_feet(mlr_generator *g, double *pose, int *moved, mlr_diag *diag)
+{
+    const mlr_gen_model *m = g->model;
+    const mlr_rig *rig = g->rig;
+    const size_t J = m->n_joints, F = g->n_feet;
+    const double dt = m->frame_time;
+    double ankle[GEN_MAX_FEET][3], low[GEN_MAX_FEET];
+    mlr_status st = mlr_rig_point_positions(rig, 1, g->g_wpos, g->g_wrot, g->n_floor, g->g_joint,
+                                            g->g_end, g->g_pts, diag);
+    if (st)
+        return st;
+    for (size_t f = 0; f < F; f++) {
+        memcpy(ankle[f], g->g_wpos + 3 * (size_t)g->ft_ankle[f], sizeof ankle[f]);
+        low[f] = INFINITY;
+    }
+    for (size_t c = 0; c < g->n_floor; c++)
+        if (g->g_foot[c] >= 0)
+            low[g->g_foot[c]] = fmin(low[g->g_foot[c]], g->g_pts[3 * c + 1]);
+    *moved = 0;
+    for (size_t f = 0; f < F; f++) {
+        const double L = g->ft_leg[f];
+        double speed = INFINITY;
+        if (g->ft_have_prev) {
+            const double dx = ankle[f][0] - g->ft_prev[f][0], dz = ankle[f][2] - g->ft_prev[f][2];
+            speed = sqrt(dx * dx + dz * dz) / dt;
+        }
+        const int touch = low[f] <= m->floor_height + PIN_HEIGHT * L && speed <= PIN_SPEED * L;
+        double target[3], w;
+        if (touch) {
+            if (!g->ft_pinned[f]) /* touch-down: held where the foot is (or where a release
+                                     was taking it) */
+                memcpy(g->ft_held[f], g->ft_release[f] < PIN_RELEASE ? g->ft_from[f] : ankle[f],
+                       sizeof g->ft_held[f]);
+            g->ft_pinned[f] = 1;
+            w = 1.0;
+        } else {
+            if (g->ft_pinned[f]) { /* let go: from the held position */
+                g->ft_pinned[f] = 0;
+                g->ft_release[f] = 0.0;
+            }
+            if (!(g->ft_release[f] < PIN_RELEASE))
+                continue;
+            g->ft_release[f] += dt;
+            w = 1.0 - smoothstep(g->ft_release[f] / PIN_RELEASE);
+        }
+        for (int k = 0; k < 3; k++)
+            target[k] = ankle[f][k] + w * (g->ft_held[f][k] - ankle[f][k]);
+        memcpy(g->ft_from[f], target, sizeof target);
+        st = mlr_ik_apply_leg(1, J, rig->parents, pose + 3, g->g_wpos, g->g_wrot, g->ft_hip[f],
+                              g->ft_knee[f], g->ft_ankle[f], target, NULL, diag);
+        if (st)
+            return st;
+        *moved = 1;
+    }
+    for (size_t f = 0; f < F; f++)
+        memcpy(g->ft_prev[f], ankle[f], sizeof ankle[f]);
+    g->ft_have_prev = 1;
+    return MLR_OK;
+}
+
+/* The per-frame guards on a finished frame: the joint limits (alpha 1), the feet pinned
+ * (pin_feet) and the limits again on what the IK turned, then the body lifted by how far the lowest floor point is below the model's floor
+ * (y up), nothing when none is. */
 static mlr_status guard_frame(mlr_generator *g, double *pose, mlr_diag *diag)
 {
     const mlr_gen_model *m = g->model;
@@ -487,6 +611,16 @@ static mlr_status guard_frame(mlr_generator *g, double *pose, mlr_diag *diag)
     mlr_status st = mlr_fk_arrays(1, m->n_joints, rig->parents, rig->offsets, g->g_root, pose + 3,
                                   P, rig->trans_joints, P ? g->g_trans : NULL, g->g_wpos,
                                   g->g_wrot, &g->alloc, diag);
+    if (st == MLR_OK && g->n_feet) {
+        int moved = 0;
+        st = pin_feet(g, pose, &moved, diag);
+        if (st == MLR_OK && moved && g->limits) /* the legs the IK turned, within the limits */
+            limits__apply_frame(g->limits, (mlr_quat *)(void *)(pose + 3), NULL, 1, NULL);
+        if (st == MLR_OK && moved)
+            st = mlr_fk_arrays(1, m->n_joints, rig->parents, rig->offsets, g->g_root, pose + 3, P,
+                               rig->trans_joints, P ? g->g_trans : NULL, g->g_wpos, g->g_wrot,
+                               &g->alloc, diag);
+    }
     if (st == MLR_OK)
         st = mlr_rig_point_positions(rig, 1, g->g_wpos, g->g_wrot, g->n_floor, g->g_joint,
                                      g->g_end, g->g_pts, diag);

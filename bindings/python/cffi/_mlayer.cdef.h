@@ -316,7 +316,7 @@ void mlr_gen_model_destroy(mlr_gen_model *model);
 typedef enum mlr_generate_key {
     MLR_GEN_OPT_FRAMES = 1, MLR_GEN_OPT_START_FRAME = 2, MLR_GEN_OPT_START = 3,
     MLR_GEN_OPT_RANK = 4, MLR_GEN_OPT_SMOOTH = 5, MLR_GEN_OPT_NOISE = 6,
-    MLR_GEN_OPT_ALLOW_UNSEEN = 7
+    MLR_GEN_OPT_ALLOW_UNSEEN = 7, MLR_GEN_OPT_PIN_FEET = 8
 } mlr_generate_key;
 typedef struct mlr_generate_option {
     int key;

@@ -29,7 +29,8 @@ def _load(data: bytes, skeleton=ffi.NULL):
 
 _KEYS = {"frames": "MLR_GEN_OPT_FRAMES", "start_frame": "MLR_GEN_OPT_START_FRAME",
          "start": "MLR_GEN_OPT_START", "rank": "MLR_GEN_OPT_RANK", "smooth": "MLR_GEN_OPT_SMOOTH",
-         "noise": "MLR_GEN_OPT_NOISE", "allow_unseen": "MLR_GEN_OPT_ALLOW_UNSEEN"}
+         "noise": "MLR_GEN_OPT_NOISE", "allow_unseen": "MLR_GEN_OPT_ALLOW_UNSEEN",
+         "pin_feet": "MLR_GEN_OPT_PIN_FEET"}
 
 
 def _generator(model_h, seed: int, opts: list[tuple[int, float]]):
@@ -331,8 +332,10 @@ def _fk_points(skeleton, frames: np.ndarray, joints: list[int], body_joint: int 
     return wpos[:, joints]
 
 
-def _guarded(model_h, rig, limits_h, n: int, seed: int, frames: int, rest=ffi.NULL):
-    st, g = _generator(model_h, seed, [(lib.MLR_GEN_OPT_FRAMES, float(frames))])
+def _guarded(model_h, rig, limits_h, n: int, seed: int, frames: int, rest=ffi.NULL,
+             pin_feet: bool = True):
+    st, g = _generator(model_h, seed, [(lib.MLR_GEN_OPT_FRAMES, float(frames)),
+                                       (lib.MLR_GEN_OPT_PIN_FEET, float(pin_feet))])
     assert st == 0, g
     diag = ffi.new("mlr_diag *")
     st = lib.mlr_generator_set_guards(g, rig, rest, limits_h, diag)
@@ -399,6 +402,47 @@ def test_guards_keep_generated_frames_in_their_limits_and_above_the_floor(walk, 
     del keep
 
 
+def test_pinned_feet_slide_less(walk):
+    """MLR_GEN_OPT_PIN_FEET (on by default with the guards): each foot found by name is held
+    where it touches down, by IK, and let go over 0.2 s. Measured with the plausibility bench's
+    own rule (its forward kinematics, foot points, floor and height-and-speed contacts, as
+    bench_generate_sliding.py measures PrimitiveModel.generate): 600 frames of the CMU walk's
+    model slid 1.38x the training clip's sliding with the limits and the floor alone, 0.67x with
+    the feet pinned; the feet accelerate no harder (2.37x and 2.48x the training clip's largest
+    foot acceleration, which the generation itself exceeds at segment joins)."""
+    import sys
+    from conftest import REPO
+    from mlayer.model._rig import c_rig
+    sys.path.insert(0, str(REPO / "bench" / "python"))
+    import bench_plausibility as bp
+    m, model = walk
+    st, h = _load(model.runtime_bytes())
+    assert st == 0, h
+    rig, keep = c_rig(m.skeleton)
+    lim = mlayer.joint_limits(m)
+    pts, _ = bp.all_points(m)
+    brig = bp.make_rig(m, pts)
+
+    def measure(motion):
+        p, _ = bp.all_points(motion)
+        f = p[:, brig.feet]
+        c = bp.contact_frames(f, brig.up, brig.floor, brig.H, float(motion.fps))
+        acc = np.linalg.norm(f[2:] - 2 * f[1:-1] + f[:-2], axis=-1).max()
+        return bp.mean_contact_speed(f, c, brig.up, float(motion.fps)) / brig.H, acc
+
+    train, acc0 = measure(m)
+    n, J = 600, m.n_joints
+    got = {}
+    for pin in (False, True):
+        out = _guarded(h, rig, lim._h, n, 3, 150, pin_feet=pin)
+        got[pin] = measure(m[:n].with_frames(root_pos=out[:, :3].copy(),
+                                            rot=out[:, 3:].reshape(n, J, 4).copy()))
+    assert got[False][0] > 1.2 * train  # the limits and the floor leave the feet sliding
+    assert got[True][0] < 0.6 * got[False][0]
+    assert got[True][0] < train
+    assert got[True][1] <= 1.1 * max(got[False][1], acc0)
+
+
 def test_guards_under_a_static_root_use_the_rest_translations(mocap):
     """Bandai's body joint (Hips) is below a static root: the floor guard's kinematics put the
     root and the other position channels at the rest values given (the model's
@@ -417,7 +461,9 @@ def test_guards_under_a_static_root_use_the_rest_translations(mocap):
     rest = np.ascontiguousarray(np.r_[model.rest_root_pos, np.asarray(model.rest_trans).ravel()])
     rig, keep = c_rig(m.skeleton)
     plain, _ = _frames(h, 300, 2, frames=100)
-    got = _guarded(h, rig, ffi.NULL, 300, 2, 100, ffi.cast("double *", ffi.from_buffer(rest)))
+    # the floor's subject: the feet left unpinned, so that only the lift changes the frames
+    got = _guarded(h, rig, ffi.NULL, 300, 2, 100, ffi.cast("double *", ffi.from_buffer(rest)),
+                   pin_feet=False)
     joints = [m.joint_names.index(c) for c in model.contact_names]
 
     def lowest(frames):
