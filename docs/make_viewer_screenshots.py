@@ -2,7 +2,7 @@
 
     python docs/make_viewer_screenshots.py [OUT_DIR]      # default docs/img
 
-Needs what bindings/python/tests/test_viewer_browser.py needs: Debian's chromium and
+Needs what bindings/python/tests/viewer/test_viewer_browser.py needs: Debian's chromium and
 chromium-driver (`apt-get install chromium chromium-driver`, as scripts/setup.sh does) and
 selenium (`pip install selenium`), and Pillow. Writes viewer.png (the page after the alpha
 slider moved to about 2.35, paused at frame 400), viewer_manifold.png (the motion manifold

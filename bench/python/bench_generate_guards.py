@@ -6,7 +6,7 @@ reversals, floor penetration and the body offset. Run from the repository root:
 import numpy as np
 import pathlib
 import sys
-sys.path.insert(0, "bindings/python/tests")
+sys.path.insert(0, "bindings/python/tests/manifold")
 from test_generate_guards import WALKS, STARTS, _fit
 from mlayer.guards.metrics import body_height, foot_sliding
 from mlayer.guards.plausibility import hinge_violations

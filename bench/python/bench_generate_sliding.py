@@ -8,8 +8,8 @@ motion at most 1.5x the training clip's.
     python bench/python/bench_generate_sliding.py [--frames 300] [--extra CLIP.bvh ...]
 
 Run from the repository root, with ../shared/data/mocap beside it (the walks and the dog of
-bindings/python/tests/test_generate_guards.py, trained as that test does); --extra adds clips
-of your own (the first 1800 frames, a 12 x 12 map, 8 x 8 centres, k from 2 to 8).
+bindings/python/tests/manifold/test_generate_guards.py, trained as that test does); --extra
+adds clips of your own (the first 1800 frames, a 12 x 12 map, 8 x 8 centres, k from 2 to 8).
 """
 from __future__ import annotations
 
@@ -21,7 +21,7 @@ import bench_plausibility as bp
 import mlayer
 
 HERE = pathlib.Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE.parents[1] / "bindings" / "python" / "tests"))
+sys.path.insert(0, str(HERE.parents[1] / "bindings" / "python" / "tests" / "manifold"))
 
 
 def sliding(m, rig) -> float:  # type: ignore[no-untyped-def]

@@ -7,7 +7,7 @@ Prints the median of the repeats and the peer's time divided by mlayer's.
     python bench/python/bench_gltf.py --accuracy     # every shared clip: the file's error
 
 ``--accuracy`` writes every shared clip as GLB and prints the largest distance between the
-joint positions that the tests' independent evaluator (bindings/python/tests/gltf_eval.py)
+joint positions that the tests' independent evaluator (bindings/python/tests/io/gltf_eval.py)
 computes from the file and ``motion.positions()`` turned to Y-up metres, relative to the body
 size, and the largest rotation error after read_gltf.
 
@@ -127,7 +127,7 @@ def accuracy(mocap: pathlib.Path, tmp: str) -> None:
     import sys
     import warnings
     sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[2] / "bindings" / "python"
-                           / "tests"))
+                           / "tests" / "io"))
     import gltf_eval as E
     from mlayer.io.gltf import _TO_Y, reframe
     from mlayer.model.units import UNITS

@@ -35,15 +35,15 @@ ROOTS = [("mlayer", {"test"}), ("pip", set()), ("setuptools", set()),
 #: slowest tests, which use no extra's feature (the viewer's network limits, forward kinematics
 #: against bvhio, hostile inputs and attributes, golden outputs, the generated walks' skating),
 #: about half of the time of this run.
-SLOW = ["bindings/python/tests/test_viewer_limits.py",
-        "bindings/python/tests/test_viewer_slow_clients.py",
-        "bindings/python/tests/test_viewer_fuzz.py",
+SLOW = ["bindings/python/tests/viewer/test_viewer_limits.py",
+        "bindings/python/tests/viewer/test_viewer_slow_clients.py",
+        "bindings/python/tests/viewer/test_viewer_fuzz.py",
         "bindings/python/tests/test_public_attributes.py",
         "bindings/python/tests/test_hostile_inputs.py",
         "bindings/python/tests/test_golden.py",
-        "bindings/python/tests/test_markov_dynamics.py",
-        "bindings/python/tests/test_bvh.py::test_fk_agrees_with_bvhio",
-        "bindings/python/tests/test_generate_guards.py::test_generated_walks_do_not_skate"]
+        "bindings/python/tests/manifold/test_markov_dynamics.py",
+        "bindings/python/tests/io/test_bvh.py::test_fk_agrees_with_bvhio",
+        "bindings/python/tests/manifold/test_generate_guards.py::test_generated_walks_do_not_skate"]
 
 
 def closure(roots=ROOTS) -> set[str]:

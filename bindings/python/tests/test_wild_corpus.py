@@ -39,7 +39,10 @@ import pytest
 
 import mlayer
 from conftest import REPO, missing, requires
-from test_bvh import _bvhio_positions, clip_size, rotation_angle
+
+# the helpers of io/test_bvh.py and viewer/test_viewer.py, which this cross-cutting test shares
+sys.path[:0] = [str(pathlib.Path(__file__).resolve().parent / d) for d in ("io", "viewer")]
+from test_bvh import _bvhio_positions, clip_size, rotation_angle  # noqa: E402
 
 CORPUS = REPO / "tests" / "data" / "wild"
 DRIVER = pathlib.Path(__file__).with_name("wild_cli_driver.py")

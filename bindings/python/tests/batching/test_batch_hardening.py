@@ -206,7 +206,7 @@ def test_a_script_without_a_main_guard_fails_in_one_line(tmp_path):
     processes import the script again and start a cluster each. On the embedded Dask cluster
     it now fails before anything starts, saying what to add; under the guard the same call
     runs (issue 42). (The default local pool: test_batch_local.py.)"""
-    wild = pathlib.Path(__file__).resolve().parents[3] / "tests" / "data" / "wild"
+    wild = pathlib.Path(__file__).resolve().parents[4] / "tests" / "data" / "wild"
     body = (f"import mlayer\n"
             f"r = mlayer.batch('denoise', [{str(wild / 'pybvh_test1.bvh')!r}], "
             f"{str(tmp_path / 'out')!r}, n_workers=1, scheduler='dask')\n"

@@ -113,7 +113,7 @@ def _corpus_dir():
     import os
     import pathlib
     env = os.environ.get("MLR_TEST_CORPUS_DIR")
-    return pathlib.Path(env) if env else pathlib.Path(__file__).resolve().parents[4] / "corpus"
+    return pathlib.Path(env) if env else pathlib.Path(__file__).resolve().parents[5] / "corpus"
 
 
 def _flip_clip(request, which):

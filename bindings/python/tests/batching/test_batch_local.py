@@ -108,7 +108,7 @@ def test_a_dying_worker_takes_only_its_clip_down(clips, tmp_path):
 
 
 def _script(tmp_path, guarded: bool) -> pathlib.Path:
-    wild = pathlib.Path(__file__).resolve().parents[3] / "tests" / "data" / "wild"
+    wild = pathlib.Path(__file__).resolve().parents[4] / "tests" / "data" / "wild"
     call = (f"r = mlayer.batch('denoise', [{str(wild / 'pybvh_test1.bvh')!r}], "
             f"{str(tmp_path / 'out')!r}, n_workers=2)\nprint('records', len(r.records))\n")
     if guarded:
