@@ -299,8 +299,8 @@ def _generate_args(p) -> None:
          arguments=_generate_args, reads_clips=False, inputs=("model",),
          outputs={"output": BVH_OR_STDOUT})
 def cmd_generate(args) -> int:
-    if args.frames < 2:
-        raise InvalidArgumentError(f"--frames must be >= 2, got {args.frames}")
+    if args.frames < 3:
+        raise InvalidArgumentError(f"--frames must be >= 3, got {args.frames}")
     if args.through is not None and args.keys is not None:
         raise InvalidArgumentError("--through and --keys exclude each other")
     if args.most_likely and args.second_likely:

@@ -1313,7 +1313,7 @@ class PrimitiveModel(_attrs.ReadOnlyAttributes):
         Parameters
         ----------
         n_frames : int
-            Frames to generate.
+            Frames to generate, at least 3 (the spline and its smoothing are order-2 LGS).
         start_frame : int, optional
             The training frame to start from (default a seeded random frame).
         start : int, optional
@@ -1354,7 +1354,8 @@ class PrimitiveModel(_attrs.ReadOnlyAttributes):
             raise InvalidArgumentError("generate: the model was written before generated motion "
                                        "had guards; fit it again, or generate without guards "
                                        "(guards=False, --no-guards)")
-        n_frames = integer(n_frames, "generate: frames", 2)
+        # the spline and the smoothing are order-2 LGS: 3 frames at least (2 failed in the LGS)
+        n_frames = integer(n_frames, "generate: frames", 3)
         smooth = _non_negative(smooth, "generate: smooth")
         noise = _non_negative(noise, "generate: noise")
         seed = integer(seed, "generate: seed", 0, 2**64 - 1)

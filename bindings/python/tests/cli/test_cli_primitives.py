@@ -165,7 +165,8 @@ def test_generate_bad_input(model_file, mocap, tmp_path, capsys):
         (["--most-likely", "--second-likely"], "--most-likely and --second-likely exclude"),
         (["--through", "1,1;2,2", "--noise", "0.5"], "--noise applies to the primitives' path"),
         (["--noise", "-1"], "noise must be"),
-        (["--frames", "1"], "--frames must be >= 2"),
+        (["--frames", "1"], "--frames must be >= 3"),
+        (["--frames", "2"], "--frames must be >= 3"),  # the spline's LGS needs 3
     ]
     for extra, text in cases:
         if not cmu.exists() and str(cmu) in " ".join(extra):

@@ -405,8 +405,11 @@ def test_model_bad_input(walk_model):
     m, model = walk_model
     with pytest.raises(InvalidArgumentError, match="out of range"):
         model.generate(100, start_frame=10 ** 6)
-    with pytest.raises(InvalidArgumentError, match=">= 2"):
-        model.generate(1)
+    # the spline and the smoothing are order-2 LGS: 2 frames failed there, after the walk
+    for n in (1, 2):
+        with pytest.raises(InvalidArgumentError, match="generate: frames must be an integer >= 3"):
+            model.generate(n)
+    assert model.generate(3, guards=False).n_frames == 3
     with pytest.raises(InvalidArgumentError, match="dimension mismatch"):
         model.to_manifold(np.zeros((2, 5)))
     with pytest.raises(InvalidArgumentError, match="primitives 0"):
@@ -432,6 +435,9 @@ def test_cli_primitives_generate(mocap, tmp_path, capsys):
     assert main(["generate", str(model), "--frames", "50", "--start-frame", "99999", "-o",
                  str(tmp_path / "x.bvh")]) == 1
     assert "out of range" in capsys.readouterr().err
+    assert not (tmp_path / "x.bvh").exists()
+    assert main(["generate", str(model), "--frames", "2", "-o", str(tmp_path / "x.bvh")]) == 1
+    assert "--frames must be >= 3, got 2" in capsys.readouterr().err
     assert not (tmp_path / "x.bvh").exists()
     assert main(["generate", str(tmp_path / "missing.npz"), "-o", str(out)]) == 1
     other = str(mocap / "cmu_10_01_soccer_kick.bvh")
