@@ -7,6 +7,7 @@
 #include "guards/contacts_internal.h"
 #include "guards/depop_internal.h"
 #include "guards/floor_chains_internal.h"
+#include "guards/floor_lift_internal.h"
 #include "guards/toe_tilt_internal.h"
 #include "guards/legs_swivel_internal.h"
 #include "guards/limits_internal.h"
@@ -706,25 +707,48 @@ static double knee_fold_limit(const mlr_guards *g)
 }
 
 /* The last word of the floor guard: where a foot point of the result is still below
- * min(floor, the reference's height of that point), by more than nothing, the whole body is
- * raised along up by a smooth envelope of the shortfall (the largest shortfall within
- * +-0.1 s, averaged with a raised-cosine window of the same width: every value it averages
- * at a frame is at least that frame's shortfall, so it covers it, and it is zero farther than
- * 0.2 s from any). Joint angles do not change, so the
- * limits stay met; a foot that the joint limits or IK could not keep above the floor is
- * lifted with the body. Adds the raised frames to *raised. */
+ * min(floor, the reference's height of that point), or (whole_body) any joint or End Site below
+ * min(floor, the input's height of that point), by more than the slack, the whole body is
+ * raised along up by a smooth envelope of the shortfall (floor_lift.c: it covers the
+ * shortfall, enters and leaves over ramps that grow with its size, and is zero far from it).
+ * Joint angles do not change, so the limits stay met; a foot that the joint limits or IK could
+ * not keep above the floor is lifted with the body, and so is what the cleanup's root shift,
+ * pinning the feet, took below it (a rearing dog's head 21% of body height at alpha 3; the
+ * chains that carry a foot cannot be blended without unpinning it). Adds the raised frames to
+ * *raised. */
 static mlr_status raise_to_floor(const mlr_guards *g, const mlr_cleanup_ref *ref, double *root,
-                                 const double *rot, const double *trans, size_t *raised)
+                                 const double *rot, const double *trans, int whole_body,
+                                 size_t *raised)
 {
-    const size_t N = g->n_frames, C = g->n_points;
+    const size_t N = g->n_frames, C = g->n_points, J = g->n_joints, E = g->rig.n_end_sites;
+    const size_t B = whole_body ? J + E : 0; /* the body's points: every joint and End Site */
     mlr_status st = MLR_OK;
-    double *hout = alloc_array(&g->alloc, N * C, sizeof(double), &st);
-    double *need = alloc_array(&g->alloc, 2 * N, sizeof(double), &st);
+    double *hout = alloc_array(&g->alloc, 2 * N * C, sizeof(double), &st);
+    double *hin = hout ? hout + N * C : NULL; /* the input's */
+    double *need = alloc_array(&g->alloc, N, sizeof(double), &st);
+    /* the result's heights of the body's points (N x B), then the input's at one frame (B) */
+    double *hb = B ? alloc_array(&g->alloc, N * B + B, sizeof(double), &st) : NULL;
+    /* the body's points: their joints (-1: not counted), End Sites, joints */
+    int32_t *bj = B ? alloc_array(&g->alloc, 3 * B, sizeof(int32_t), &st) : NULL;
     if (st == MLR_OK)
         st = cleanup__point_heights(&g->rig, N, root, rot, trans, C, g->joints, g->end_sites,
                                     g->up, hout, &g->alloc);
+    if (st == MLR_OK && B) { /* the body's points, in the input (hb) and in the result */
+        for (size_t p = 0; p < B; p++) {
+            bj[p] = bj[2 * B + p] = p < J ? (int32_t)p : g->rig.end_site_parents[p - J];
+            bj[B + p] = p < J ? -1 : (int32_t)(p - J);
+        }
+        st = cleanup__point_heights(&g->rig, N, root, rot, trans, B, bj + 2 * B, bj + B, g->up, hb,
+                                    &g->alloc);
+        /* the joints above the one that carries the body stay where they are (the guards
+           carry a root shift into the body's translation: carry_body_shift) */
+        if (g->body_trans >= 0)
+            for (int32_t a = g->parents[g->body_joint]; a >= 0; a = g->parents[a])
+                for (size_t p = 0; p < B; p++)
+                    if (p < J ? p == (size_t)a : g->rig.end_site_parents[p - J] == a)
+                        bj[p] = -1;
+    }
     if (st == MLR_OK) {
-        double *wide = need + N;
         int any = 0;
         for (size_t f = 0; f < N; f++) {
             double d = 0.0;
@@ -734,56 +758,50 @@ static mlr_status raise_to_floor(const mlr_guards *g, const mlr_cleanup_ref *ref
                     ref ? common__fmin(g->floor_height, ref->h[f * C + c]) : g->floor_height;
                 d = common__fmax(d, lim - hout[f * C + c] - GUARDS_FLOOR_SLACK * g->body_height);
             }
+            /* the body's points: below the floor only as deep as the input there (its
+               heights found for the frames where some point is below the floor at all) */
+            const double low = g->floor_height - GUARDS_FLOOR_SLACK * g->body_height;
+            int below = 0;
+            for (size_t p = 0; p < B && !below; p++)
+                below = bj[p] >= 0 && hb[f * B + p] < low;
+            if (below) {
+                double *hb_in = hb + N * B;
+                const size_t P = g->n_trans;
+                st = cleanup__point_heights(&g->rig, 1, g->root_pos + 3 * f, g->rot + 4 * J * f,
+                                            P ? g->trans + 3 * P * f : NULL, B, bj + 2 * B, bj + B,
+                                            g->up, hb_in, &g->alloc);
+                if (st != MLR_OK)
+                    break;
+                for (size_t p = 0; p < B; p++) /* (Bandai's joint_Root, above the body: not) */
+                    if (bj[p] >= 0)
+                        d = common__fmax(d, common__fmin(g->floor_height, hb_in[p]) -
+                                                hb[f * B + p] -
+                                                GUARDS_FLOOR_SLACK * g->body_height);
+            }
             need[f] = d;
             any |= d > 0.0;
         }
-        const size_t half = (size_t)fmax(1.0, round(0.1 * g->fps));
-        double *wtab = any ? alloc_array(&g->alloc, 2 * half + 1, sizeof(double), &st) : NULL;
         if (any && st == MLR_OK) {
-            /* the raised-cosine window's weights, by offset k - f + half */
-            for (size_t i = 0; i <= 2 * half; i++) {
-                const double x = ((double)i - (double)half) / (double)(half + 1);
-                wtab[i] = 0.5 * (1.0 + cos(3.14159265358979323846 * x));
-            }
-            /* the windows with no need (the most) are 0 without their sums: a count of the
-               needs within the window (and of the nonzero wide values below) */
-            size_t in_window = 0, next_in = 0, next_out = 0;
-            for (size_t f = 0; f < N; f++) {
-                const size_t lo = f > half ? f - half : 0, hi = f + half < N ? f + half : N - 1;
-                for (; next_in <= hi; next_in++)
-                    in_window += need[next_in] > 0.0;
-                for (; next_out < lo; next_out++)
-                    in_window -= need[next_out] > 0.0;
-                double m = 0.0;
-                for (size_t k = lo; in_window && k <= hi; k++)
-                    m = common__fmax(m, need[k]);
-                wide[f] = m;
-            }
-            in_window = next_in = next_out = 0;
-            for (size_t f = 0; f < N; f++) {
-                const size_t lo = f > half ? f - half : 0, hi = f + half < N ? f + half : N - 1;
-                for (; next_in <= hi; next_in++)
-                    in_window += wide[next_in] > 0.0;
-                for (; next_out < lo; next_out++)
-                    in_window -= wide[next_out] > 0.0;
+            for (size_t f = 0; f < N; f++)
                 *raised += need[f] > 0.0;
-                if (!in_window) /* what the sums give: 0 / wsum, added */
-                    continue;
-                double acc = 0.0, wsum = 0.0;
-                for (size_t k = lo; k <= hi; k++) {
-                    const double w = wtab[k + half - f];
-                    acc += w * wide[k], wsum += w;
-                }
-                const double lift = acc / wsum;
-                root[3 * f + (size_t)g->up] += lift;
-            }
+            st = cleanup__point_heights(&g->rig, N, g->root_pos, g->rot, g->trans, C, g->joints,
+                                        g->end_sites, g->up, hin, &g->alloc);
         }
-        free_array(&g->alloc, wtab, 2 * half + 1, sizeof(double));
+        if (any && st == MLR_OK) {
+            double a_ref = 0.0; /* the input's largest vertical second difference at its feet */
+            for (size_t f = 1; f + 1 < N; f++)
+                for (size_t c = 0; c < C; c++)
+                    a_ref = common__fmax(a_ref, fabs(hin[(f + 1) * C + c] - 2.0 * hin[f * C + c] +
+                                                     hin[(f - 1) * C + c]));
+            st = floor_lift__smooth(N, g->fps, need, a_ref, g->up, root, &g->alloc);
+        }
     } else if (st != MLR_E_NO_MEMORY && st != MLR_E_OVERFLOW) {
         st = MLR_E_INVALID_ARG;
     }
-    free_array(&g->alloc, hout, N * C, sizeof(double));
-    free_array(&g->alloc, need, 2 * N, sizeof(double));
+    free_array(&g->alloc, hout, 2 * N * C, sizeof(double));
+    free_array(&g->alloc, need, N, sizeof(double));
+    free_array(&g->alloc, hb, N * B + B, sizeof(double));
+    free_array(&g->alloc, bj, 3 * B, sizeof(int32_t));
     return st;
 }
 
@@ -1373,7 +1391,7 @@ static mlr_status guards_apply(const mlr_guards *g, const double *alpha, size_t 
         }
     }
     if (floor_on) {
-        st = raise_to_floor(g, ref, work_root, work, trans, &rep.floor_raised);
+        st = raise_to_floor(g, ref, work_root, work, trans, 1, &rep.floor_raised);
         if (st != MLR_OK) {
             fk_failure(st, diag);
             goto done;
