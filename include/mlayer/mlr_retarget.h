@@ -200,16 +200,22 @@ MLR_API mlr_status mlr_retarget(const mlr_rig *source, size_t n_frames, const do
  * feet slide as the source's do (in leg lengths) and a round trip A -> B -> A puts A's feet
  * back where they were. The cleanup's floor is the reference's (the 0.05 quantile of its
  * contact heights; off when the source's up does not map onto a positive world axis of the
- * target). Then, where it does: the whole target is raised by the median over the source's
- * contact frames of the scaled source's lowest foot point (ankles, toes and their End Sites)
- * less the target's, a constant that puts the soles of the contact frames together where the
- * two feet pitch or are shaped otherwise (a round trip undoes it, as it undoes the lift); last,
- * as the guards' last step, the ground is kept: the higher of the target's own (the 0.05
- * quantile over its contact frames of its lowest foot point) and the scaled source's (the same
- * of the source, times s), but on each frame no higher than the scaled source's own lowest
- * foot point (the target goes no deeper than the source did); the body is raised along up by
- * a smooth envelope of the shortfall (the largest within +-0.1 s, averaged with a
- * raised-cosine window as wide) wherever its lowest foot point is below that.
+ * target). A target toe joint whose side has no toe joint in the source (Axis Neuron's feet
+ * end in an End Site) has no motion of its own: on its foot's contact frames it keeps the
+ * pitch against the ground that its bone has at rest (where the foot pitches down, heel up,
+ * it turns up about the level axis across it by the shortfall, entering by a C1 ramp of 5
+ * degrees), with a weight that is 1 on the contact frames and eases to 0 within 0.2 s of them
+ * (in the air it hangs from its foot, at rest). Then, where up maps onto a positive axis: the
+ * whole target is raised by the median over the source's contact frames of the scaled source's
+ * lowest foot point (ankles, toes and their End Sites) less the target's, a constant that puts
+ * the soles of the contact frames together where the two feet pitch or are shaped otherwise
+ * (a round trip undoes it, as it undoes the lift); last, as the guards' last step, the ground
+ * is kept: the higher of the target's own (the 0.05 quantile over its contact frames of its
+ * lowest foot point) and the scaled source's (the same of the source, times s); the body is
+ * raised along up by a smooth envelope of the shortfall (the largest within +-0.1 s, averaged
+ * with a raised-cosine window as wide) wherever its lowest foot point is below that, also
+ * where the source's own foot went below its ground (no foot point of the target ends below
+ * the ground it is placed on).
  * @param source     [in] the source rig (as given to mlr_retarget)
  * @param n_frames   [in] N; fewer than 3: nothing is done
  * @param fps        [in] frames per second, finite, > 0
@@ -223,8 +229,8 @@ MLR_API mlr_status mlr_retarget(const mlr_rig *source, size_t n_frames, const do
  * @param diag       [out] optional: the reason of an error
  * @return MLR_OK; MLR_E_INVALID_ARG (as mlr_retarget; bad up or fps; the cleanup's reasons);
  *         MLR_E_NO_MEMORY; MLR_E_OVERFLOW
- * Allocates: N (7 J_s + 7 J_t + 24) doubles, the reference's N (5 C + 3 F) and N (7 J_t + 2)
- * doubles and the cleanup's scratch, released before return.
+ * Allocates: N (7 J_s + 7 J_t + 24) doubles, the reference's N (5 C + 3 F), N (7 J_t + 3) for
+ * the toes and N (7 J_t + 2) doubles and the cleanup's scratch, released before return.
  * Threads: any; the source is only read.
  */
 MLR_API mlr_status mlr_retarget_feet(const mlr_rig *source, size_t n_frames, double fps, int up,

@@ -1357,13 +1357,147 @@ static void lowest_foot(const rig_rest *r, size_t n_frames, const double *root_p
     }
 }
 
+/* A target toe joint that no source joint drives (the source has no toe role on that side)
+ * stays at rest on its foot, and where the foot pitches down on the ground (the heel up) its
+ * tip would go into the ground, which the source's toes, bending, did not: on the frames where
+ * its foot is planted, the toe keeps the pitch against the ground that its bone has at rest
+ * (flat; its tip never lower against the toe joint than at rest). The shortfall of the toe
+ * bone's elevation below its rest elevation (radians) is made up by a turn of the toe about the
+ * level axis across it, eased in by a C1 ramp of TOE_LEVEL_EASE radians (no turn where the toe
+ * is higher than at rest by more than that, the shortfall and a little more within it, the
+ * shortfall itself beyond), times a weight that is 1 on the foot's contact frames and eases to
+ * 0 within 0.2 s of them (raise_feet's envelope): the toe hangs from its foot in the air. */
+#define TOE_LEVEL_EASE 0.0873 /* radians (5 degrees) */
+
+typedef struct toe_level {
+    int32_t j;      /* the toe joint, or -1 */
+    double bone[3]; /* its rest bone (rest world = its local frame) */
+    double elev;    /* the bone's rest elevation along up, radians */
+} toe_level;
+
+/* The toes of the target whose side has no toe role in the source, whose parent is the foot,
+ * with a bone; tl[k] for side k. */
+static void toe_levels(const rig_rest *src, const rig_rest *dst, const double *up, toe_level *tl)
+{
+    for (int k = 0; k < 2; k++) {
+        const int role = k == 0 ? MLR_ROLE_LEFT_TOES : MLR_ROLE_RIGHT_TOES;
+        const int32_t t = dst->role[role];
+        double end[3];
+        tl[k].j = -1;
+        if (t <= 0 || src->role[role] >= 0 || dst->rig->parents[t] != dst->role[role - 1] ||
+            !bone_end(dst, role, end))
+            continue;
+        for (int c = 0; c < 3; c++)
+            tl[k].bone[c] = end[c] - dst->pos[3 * (size_t)t + (size_t)c];
+        const double n = sqrt(dot3(tl[k].bone, tl[k].bone));
+        if (!(n > 0.0))
+            continue;
+        tl[k].j = t;
+        tl[k].elev = asin(fmax(-1.0, fmin(1.0, dot3(tl[k].bone, up) / n)));
+    }
+}
+
+/* The turn (a unit quaternion, applied on the left of the toe's world rotation w) that brings a
+ * toe of toe_levels up to its rest elevation (see above), scaled by weight. */
+static mlr_quat toe_level_turn(const toe_level *tl, mlr_quat w, const double *up, double weight)
+{
+    double cur[3], axis[3];
+    const mlr_quat one = {1.0, 0.0, 0.0, 0.0};
+    common__quat_rotate_inline(&w, tl->bone, cur);
+    const double n = sqrt(dot3(cur, cur));
+    const double e = asin(fmax(-1.0, fmin(1.0, dot3(cur, up) / n)));
+    const double d = tl->elev - e, h = TOE_LEVEL_EASE;
+    double turn = d >= h ? d : d <= -h ? 0.0 : (d + h) * (d + h) / (4.0 * h);
+    turn = weight * fmin(turn, 0.5 * 3.14159265358979323846 - e); /* never past the vertical */
+    cross3(cur, up, axis);
+    if (!(turn > 0.0) || !normalize3(axis))
+        return one;
+    const double sh = sin(0.5 * turn);
+    return (mlr_quat){cos(0.5 * turn), sh * axis[0], sh * axis[1], sh * axis[2]};
+}
+
+/* A smooth envelope of x (N, in [0, 1]): the largest within +-half frames, averaged with a
+ * raised-cosine window as wide; wide is N of scratch. out may not be x. */
+static void envelope(const double *x, size_t n_frames, size_t half, double *wide, double *out)
+{
+    for (size_t f = 0; f < n_frames; f++) {
+        const size_t lo = f > half ? f - half : 0,
+                     hi = f + half < n_frames ? f + half : n_frames - 1;
+        double m = 0.0;
+        for (size_t k = lo; k <= hi; k++)
+            m = fmax(m, x[k]);
+        wide[f] = m;
+    }
+    for (size_t f = 0; f < n_frames; f++) {
+        const size_t lo = f > half ? f - half : 0,
+                     hi = f + half < n_frames ? f + half : n_frames - 1;
+        double acc = 0.0, wsum = 0.0;
+        for (size_t k = lo; k <= hi; k++) {
+            const double u = ((double)k - (double)f) / (double)(half + 1);
+            const double w = 0.5 * (1.0 + cos(3.14159265358979323846 * u));
+            acc += w * wide[k], wsum += w;
+        }
+        out[f] = acc / wsum;
+    }
+}
+
+/* The toes of toe_levels turned up on their feet's contact frames (ct: N x nt flags of the
+ * target's points of kinds tk), eased in time; out_rot rewritten. */
+static mlr_status level_toes(const rig_rest *src, const rig_rest *dst, size_t n_frames, double fps,
+                             const double *up, const double *root_pos, double *rot,
+                             const double *trans, size_t nt, const int *tk, const uint8_t *ct,
+                             const mlr_allocator *a, mlr_diag *diag)
+{
+    toe_level tl[2];
+    toe_levels(src, dst, up, tl);
+    if (tl[0].j < 0 && tl[1].j < 0)
+        return MLR_OK;
+    const mlr_rig *rig = dst->rig;
+    const size_t J = rig->n_joints;
+    size_t nd, bytes;
+    if (common__mul_size(n_frames, 7 * J + 3, &nd) != MLR_OK ||
+        common__mul_size(nd, sizeof(double), &bytes) != MLR_OK)
+        return common__diag_set(diag, MLR_E_OVERFLOW, 0, 0, "retarget: the frames are too many");
+    double *wpos = common__alloc(a, bytes);
+    if (!wpos)
+        return common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "retarget: out of memory");
+    double *wrot = wpos + 3 * n_frames * J, *on = wrot + 4 * n_frames * J, *wide = on + n_frames,
+           *weight = wide + n_frames;
+    mlr_status st = mlr_fk_arrays(n_frames, J, rig->parents, rig->offsets, root_pos, rot,
+                                  rig->n_trans, rig->trans_joints, trans, wpos, wrot, a, diag);
+    const size_t half = (size_t)fmax(1.0, round(0.1 * fps));
+    for (int k = 0; k < 2 && st == MLR_OK; k++) {
+        if (tl[k].j < 0)
+            continue;
+        for (size_t f = 0; f < n_frames; f++) {
+            on[f] = 0.0;
+            for (size_t i = 0; i < nt; i++)
+                if ((tk[i] >> 1) == k && ct[f * nt + i])
+                    on[f] = 1.0;
+        }
+        envelope(on, n_frames, half, wide, weight);
+        const size_t t = (size_t)tl[k].j;
+        for (size_t f = 0; f < n_frames; f++) {
+            mlr_quat w, pw;
+            memcpy(&w, wrot + 4 * (f * J + t), sizeof w);
+            memcpy(&pw, wrot + 4 * (f * J + (size_t)rig->parents[t]), sizeof pw);
+            const mlr_quat q = toe_level_turn(&tl[k], w, up, weight[f]);
+            const mlr_quat local = qmul(qconj(pw), qmul(q, w));
+            double *o = rot + 4 * (f * J + t);
+            o[0] = local.w, o[1] = local.x, o[2] = local.y, o[3] = local.z;
+        }
+    }
+    common__free(a, wpos, bytes);
+    return st;
+}
+
 /* Raise the target's whole body along up (its root translation) where its lowest foot point is
- * below ground: by a smooth envelope of the shortfall (the largest within +-0.1 s, averaged with
- * a raised-cosine window of the same width, so it covers every frame's shortfall and is zero
- * farther than 0.2 s from any). */
+ * below ground: by a smooth envelope of the shortfall (envelope: the largest within +-0.1 s,
+ * averaged with a raised-cosine window of the same width, so it covers every frame's shortfall
+ * and is zero farther than 0.2 s from any). */
 static mlr_status raise_feet(const rig_rest *r, size_t n_frames, double fps, int up, double ground,
-                             const double *allow, double *root_pos, const double *rot,
-                             const double *trans, const mlr_allocator *a, mlr_diag *diag)
+                             double *root_pos, const double *rot, const double *trans,
+                             const mlr_allocator *a, mlr_diag *diag)
 {
     const size_t J = r->rig->n_joints;
     size_t nd, bytes;
@@ -1377,27 +1511,10 @@ static mlr_status raise_feet(const rig_rest *r, size_t n_frames, double fps, int
            *wide = need + n_frames;
     lowest_foot(r, n_frames, root_pos, rot, trans, up, wpos, wrot, need);
     for (size_t f = 0; f < n_frames; f++)
-        need[f] = fmax(0.0, (allow ? fmin(ground, allow[f]) : ground) - need[f]);
-    const size_t half = (size_t)fmax(1.0, round(0.1 * fps));
-    for (size_t f = 0; f < n_frames; f++) {
-        const size_t lo = f > half ? f - half : 0,
-                     hi = f + half < n_frames ? f + half : n_frames - 1;
-        double m = 0.0;
-        for (size_t k = lo; k <= hi; k++)
-            m = fmax(m, need[k]);
-        wide[f] = m;
-    }
-    for (size_t f = 0; f < n_frames; f++) {
-        const size_t lo = f > half ? f - half : 0,
-                     hi = f + half < n_frames ? f + half : n_frames - 1;
-        double acc = 0.0, wsum = 0.0;
-        for (size_t k = lo; k <= hi; k++) {
-            const double x = ((double)k - (double)f) / (double)(half + 1);
-            const double w = 0.5 * (1.0 + cos(3.14159265358979323846 * x));
-            acc += w * wide[k], wsum += w;
-        }
-        root_pos[3 * f + (size_t)up] += acc / wsum;
-    }
+        need[f] = fmax(0.0, ground - need[f]);
+    envelope(need, n_frames, (size_t)fmax(1.0, round(0.1 * fps)), wide, wpos);
+    for (size_t f = 0; f < n_frames; f++)
+        root_pos[3 * f + (size_t)up] += wpos[f];
     common__free(a, wpos, bytes);
     return MLR_OK;
 }
@@ -1582,6 +1699,9 @@ mlr_status mlr_retarget_feet(const mlr_rig *source, size_t n_frames, double fps,
                                0, NULL, nt, tj, te, ct, opts, n_opts, out_root_pos, out_rot,
                                report, alloc, diag);
     cleanup__ref_destroy(ref);
+    if (st == MLR_OK)
+        st = level_toes(&src, &dst, n_frames, fps, up_t, out_root_pos, out_rot, out_trans, nt, tk,
+                        ct, &a, diag);
     /* the soles on the contact frames: mlr_retarget raised the target by the median over all
      * frames of the ankles' heights above their feet's lowest points (target less scaled
      * source), and the cleanup put the ankles at the reference's heights; where the feet
@@ -1592,7 +1712,6 @@ mlr_status mlr_retarget_feet(const mlr_rig *source, size_t n_frames, double fps,
      * undoes it, as it undoes the lift: the way back's median is minus this one over s). Only
      * where up maps onto a positive axis of the target. */
     double src_ground = -INFINITY;
-    const double *allow = NULL; /* the scaled source's own lowest foot point of each frame */
     if (st == MLR_OK && sign > 0.5) {
         double *alow = wpos, *blow = rp; /* over the frames no longer needed */
         lowest_foot(&src, n_frames, root_pos, rot, trans, up, wpos, wrot, alow);
@@ -1622,17 +1741,14 @@ mlr_status mlr_retarget_feet(const mlr_rig *source, size_t n_frames, double fps,
         }
         if (m)
             src_ground = scale * cleanup__quantile_of(v, m, 0.05);
-        for (size_t f = 0; f < n_frames; f++)
-            alow[f] *= scale;
-        allow = alow;
     }
     if (st == MLR_OK && sign > 0.5) {
         /* the last word, as the guards' (guards.c, raise_to_floor): the ground the target's
          * feet stand on (the 0.05 quantile over its contact frames of its lowest foot point,
          * End Sites included) or the scaled source's, the higher, and the whole body raised
-         * smoothly wherever a foot point of the result is below it. What is left below are the
-         * frames where the two feet's shapes differ (another pitch puts another point lowest)
-         * or the source's own foot went below its floor. */
+         * smoothly wherever a foot point of the result is below it, also where the source's
+         * own foot went below its floor (the target's feet stay on the ground it is placed
+         * on; a round trip gives back the source raised there). */
         double *low = sp; /* N lows, then the target's forward kinematics */
         lowest_foot(&dst, n_frames, out_root_pos, out_rot, out_trans, tup, sp + n_frames,
                     sp + n_frames + 3 * n_frames * Jt, low);
@@ -1646,8 +1762,8 @@ mlr_status mlr_retarget_feet(const mlr_rig *source, size_t n_frames, double fps,
         }
         if (m) {
             const double ground = fmax(cleanup__quantile_of(low, m, 0.05), src_ground);
-            st = raise_feet(&dst, n_frames, fps, tup, ground, allow, out_root_pos, out_rot,
-                            out_trans, &a, diag);
+            st = raise_feet(&dst, n_frames, fps, tup, ground, out_root_pos, out_rot, out_trans, &a,
+                            diag);
         }
     }
 done:

@@ -2,7 +2,8 @@
  * to rounding), the direction of every matched bone against the source's (forward kinematics
  * of both, the body frames' rotation G applied) for every pair of shared human rigs, the legs'
  * top scaled by the leg lengths, a synthetic rig turned Z-up and put in an A-pose, bad input with
- * nothing written, allocation failures, the feet planted with the upper body kept. */
+ * nothing written, allocation failures, the feet planted with the upper body kept, the feet on
+ * the ground where the source's sink below it. */
 #include "mlr_test.h"
 
 #include <math.h>
@@ -633,6 +634,108 @@ START_TEST(the_feet_are_planted_and_the_upper_body_kept)
 }
 END_TEST
 
+/* The lowest foot point of each frame along y: the ankles, the toes and their End Sites. */
+static void lowest_feet(const mlr_rig *rig, size_t N, const double *pos, const double *wrot,
+                        double *out)
+{
+    const size_t J = rig->n_joints;
+    int32_t role[MLR_ROLE_COUNT];
+    ck_assert_int_eq(mlr_retarget_roles(rig, role, NULL, NULL), MLR_OK);
+    const int32_t pts[4] = {role[MLR_ROLE_LEFT_FOOT], role[MLR_ROLE_RIGHT_FOOT],
+                            role[MLR_ROLE_LEFT_TOES], role[MLR_ROLE_RIGHT_TOES]};
+    for (size_t f = 0; f < N; f++) {
+        double lo = INFINITY;
+        for (int i = 0; i < 4; i++) {
+            if (pts[i] < 0)
+                continue;
+            const size_t j = (size_t)pts[i];
+            lo = fmin(lo, pos[3 * (f * J + j) + 1]);
+            for (size_t e = 0; e < rig->n_end_sites; e++) {
+                if (rig->end_site_parents[e] != pts[i])
+                    continue;
+                const double *q = wrot + 4 * (f * J + j), *v = rig->end_site_offsets + 3 * e;
+                /* y of q v q*: the second row of q's matrix */
+                const double w = q[0], x = q[1], y = q[2], z = q[3];
+                const double vy = 2 * (x * y + w * z) * v[0] + (1 - 2 * (x * x + z * z)) * v[1] +
+                                  2 * (y * z - w * x) * v[2];
+                lo = fmin(lo, pos[3 * (f * J + j) + 1] + vy);
+            }
+        }
+        out[f] = lo;
+    }
+}
+
+static int cmp_double(const void *a, const void *b)
+{
+    const double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+START_TEST(the_feet_stay_on_the_ground_where_the_source_s_sink)
+{
+    /* LaFAN1's walk with its root lowered by 3% of its height over 0.4 s: its feet go under
+     * its floor there. The target's (CMU 131_01's rig) went as deep (no deeper than the
+     * source did); now no foot point of it is below its ground elsewhere (the 5th percentile
+     * of its lowest foot point over the other frames) by more than 0.1% of its height */
+    mlr_test_clip s, t;
+    if (!MLR_TEST_HAVE_CLIP("lafan1_clip_a.bvh") ||
+        !MLR_TEST_HAVE_CLIP("cmu_131_01_mj_style_walk.bvh"))
+        return;
+    ck_assert(mlr_test_clip_load("lafan1_clip_a.bvh", &s));
+    ck_assert(mlr_test_clip_load("cmu_131_01_mj_style_walk.bvh", &t));
+    const size_t N = 300, Js = s.j, Jt = t.j;
+    ck_assert_uint_ge(s.n, N);
+    double *srp = malloc(N * 3 * sizeof(double));
+    memcpy(srp, mlr_motion_root_pos(s.m), N * 3 * sizeof(double));
+    double *spos = malloc(N * Js * 3 * sizeof(double));
+    ck_assert_int_eq(mlr_fk_arrays(N, Js, s.rig.parents, s.rig.offsets, srp, mlr_motion_rot(s.m),
+                                   0, NULL, NULL, spos, NULL, NULL, NULL),
+                     MLR_OK);
+    double hs = 0.0;
+    for (size_t j = 0; j < Js; j++)
+        for (size_t k = 0; k < Js; k++)
+            hs = fmax(hs, spos[3 * j + 1] - spos[3 * k + 1]);
+    const size_t n = (size_t)lround(0.4 * s.fps), f0 = N / 2 - n / 2;
+    for (size_t k = 0; k < n; k++)
+        srp[3 * (f0 + k) + 1] -=
+            0.03 * hs * 0.5 * (1 - cos(2 * M_PI * (double)k / (double)(n - 1)));
+    double *rp = malloc(N * 3 * sizeof(double)), *rot = malloc(N * Jt * 4 * sizeof(double));
+    mlr_diag d;
+    ck_assert_int_eq(mlr_retarget(&s.rig, N, srp, mlr_motion_rot(s.m), NULL, &t.rig, MLR_AXIS_Y,
+                                  MLR_AXIS_Y, NULL, 0, rp, rot, NULL, NULL, NULL, NULL),
+                     MLR_OK);
+    ck_assert_msg(mlr_retarget_feet(&s.rig, N, s.fps, MLR_AXIS_Y, srp, mlr_motion_rot(s.m), NULL,
+                                    &t.rig, MLR_AXIS_Y, NULL, 0, rp, rot, NULL, NULL, NULL,
+                                    &d) == MLR_OK,
+                  "%s", d.message);
+    double *pos = malloc(N * Jt * 3 * sizeof(double)), *wrot = malloc(N * Jt * 4 * sizeof(double));
+    ck_assert_int_eq(mlr_fk_arrays(N, Jt, t.rig.parents, t.rig.offsets, rp, rot, 0, NULL, NULL,
+                                   pos, wrot, NULL, NULL),
+                     MLR_OK);
+    double ht = 0.0;
+    for (size_t j = 0; j < Jt; j++)
+        for (size_t k = 0; k < Jt; k++)
+            ht = fmax(ht, pos[3 * j + 1] - pos[3 * k + 1]);
+    double *low = malloc(N * sizeof(double)), *other = malloc(N * sizeof(double));
+    lowest_feet(&t.rig, N, pos, wrot, low);
+    size_t m = 0;
+    double deepest = INFINITY;
+    for (size_t f = 0; f < N; f++) {
+        if (f < f0 || f >= f0 + n)
+            other[m++] = low[f];
+        else
+            deepest = fmin(deepest, low[f]);
+    }
+    qsort(other, m, sizeof(double), cmp_double);
+    const double ground = other[(size_t)(0.05 * (double)(m - 1))];
+    ck_assert_msg((ground - deepest) / ht < 1e-3, "%g%% of its height below its ground",
+                  100 * (ground - deepest) / ht);
+    free(srp), free(spos), free(rp), free(rot), free(pos), free(wrot), free(low), free(other);
+    mlr_test_clip_unload(&s);
+    mlr_test_clip_unload(&t);
+}
+END_TEST
+
 static Suite *retarget_suite(void)
 {
     Suite *s = suite_create("retarget");
@@ -646,6 +749,7 @@ static Suite *retarget_suite(void)
     tcase_add_test(tc, the_hips_carry_the_upper_body_and_the_head_ends_the_neck);
     tcase_add_test(tc, every_allocation_failure_is_no_memory_without_leaks);
     tcase_add_test(tc, the_feet_are_planted_and_the_upper_body_kept);
+    tcase_add_test(tc, the_feet_stay_on_the_ground_where_the_source_s_sink);
     suite_add_tcase(s, tc);
     return s;
 }

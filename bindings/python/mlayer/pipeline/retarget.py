@@ -148,10 +148,11 @@ def retarget(motion: Motion, target: Skeleton | Motion | str | os.PathLike[str],
         :func:`mlayer.stylize`; C: ``mlr_retarget_feet``): each contact run follows the scaled
         source's ankle and toe trajectories (shifted sideways by the run's mean offset), so the
         feet slide as the source's do and a way back puts them back; knees bend the way the
-        target's bend; the soles of the contact frames are put together; and, as the guards'
-        last step, the whole body is raised smoothly wherever a foot is below the ground (the
-        target's or the scaled source's, the higher), never above where the scaled source's own
-        foot was.
+        target's bend; a target toe joint that no source toe drives keeps its rest pitch
+        against the ground on its foot's contact frames (flat, eased in and out within 0.2 s);
+        the soles of the contact frames are put together; and, as the guards' last step, the
+        whole body is raised smoothly wherever a foot is below the ground (the target's or the
+        scaled source's, the higher), also where the source's own foot went below it.
         False: the bones follow the source's exactly.
     target_up : {"x", "y", "z"}, optional
         The target's world up axis. Default: the target motion's :attr:`~mlayer.Motion.up_axis`
