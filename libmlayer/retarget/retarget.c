@@ -356,10 +356,9 @@ static mlr_status check_minimum(const mlr_rig *rig, const int32_t *role, const c
         sqrt(mid_arms[0] * mid_arms[0] + mid_arms[1] * mid_arms[1] + mid_arms[2] * mid_arms[2]);
     if (leg > 0 && arm >= HUMANOID_MAX_ARM * leg && torso >= HUMANOID_MAX_TORSO * leg)
         return common__diag_set(diag, MLR_E_INVALID_ARG, 0, 0,
-                                "retarget: %s: not a humanoid: its arms (%s, %s) are %.2f of its "
-                                "legs' length and its torso (%s to the arms) %.2f, a quadruped's "
-                                "four legs (a humanoid's arms are under %.2f of its legs or its "
-                                "torso under %.2f)",
+                                "retarget: %s: not a humanoid: arms (%s, %s) %.2f and torso "
+                                "(%s-arms) %.2f of the legs: a quadruped's (humanoid: arms < "
+                                "%.2f or torso < %.2f)",
                                 who, rig->names[R[MLR_ROLE_LEFT_UPPER_ARM]],
                                 rig->names[R[MLR_ROLE_RIGHT_UPPER_ARM]], arm / leg,
                                 rig->names[R[MLR_ROLE_HIPS]], torso / leg, HUMANOID_MAX_ARM,

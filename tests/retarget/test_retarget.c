@@ -473,8 +473,8 @@ START_TEST(a_quadruped_is_refused_naming_its_limbs)
     mlr_diag d;
     ck_assert_int_eq(mlr_retarget_roles(&rd, role, NULL, &d), MLR_E_INVALID_ARG);
     ck_assert_msg(strstr(d.message,
-                         "rig: not a humanoid: its arms (LeftArm, RightArm) are 1.00 "
-                         "of its legs' length and its torso (Hips to the arms) 1.17") != NULL,
+                         "rig: not a humanoid: arms (LeftArm, RightArm) 1.00 and torso "
+                         "(Hips-arms) 1.17 of the legs: a quadruped's (humanoid: arms < ") != NULL,
                   "%s", d.message);
     /* and so as a target: nothing written */
     const mlr_rig ry = {TJ, y_parents, y_offsets, y_names, 0, NULL, 0, NULL, NULL};
