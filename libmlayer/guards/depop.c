@@ -10,9 +10,13 @@
  * joint (the rotation from the synthesis's to the result's, as a rotation vector) and of the
  * root (the translation) is replaced, over a window around the frame, by its Gaussian average
  * in time, blended in with a raised cosine; the window grows round after round while a pop is
- * left. Frames away from pops are not touched, so clean clips keep their output; nor are the
- * joints on the chain of a point in contact, nor the root, on its contact frames (the
- * smoothing fades in around those), so planted feet stay where the cleanup put them.
+ * left, and the round with the smallest pop is kept. Frames away from pops are not touched, so
+ * clean clips keep their output; nor, in the first round, are the joints on the chain of a
+ * point in contact, nor the root, on its contact frames (the smoothing fades in around those),
+ * so planted feet stay where the cleanup put them; a pop left inside a contact run is a pin
+ * that moves too fast, and the later rounds smooth the planted chain too (DEPOP_RELEASE).
+ * Joints and End Sites are measured each against their own kind's base (a toe tip's
+ * acceleration hid a toe joint's corners).
  */
 #include "guards/depop_internal.h"
 
@@ -27,6 +31,12 @@
 #define DEPOP_RATIO 1.25  /* a pop: a point's acceleration above this times the base */
 #define DEPOP_WINDOW 0.05 /* seconds: the first round's half window; each round adds one */
 #define DEPOP_ROUNDS 4
+/* The first round (0-based) that smooths the joints held by a contact too, near the pops the
+   rounds before left: a corner inside a contact run (a planted toe whose pin the limits and the
+   IK move from frame to frame: FAIR's jump at alpha 0.5, 2.2x its base; an Xsens capture whose
+   toes are in contact on every frame) is a pin that moves faster than C2 allows, not a foot
+   that stands still, and only the smoothing of its own chain removes it. */
+#define DEPOP_RELEASE 1
 
 double depop__points_accel(const double *pts, size_t N, size_t C, double *a)
 {
@@ -53,6 +63,60 @@ double depop__points_accel(const double *pts, size_t N, size_t C, double *a)
     return m;
 }
 
+/* The largest acceleration of the joint points (kind 0) and of the End Site points (kind 1)
+   of pts (N x C x 3; end_sites: C values, -1 a joint, or NULL: all joints) over the frames,
+   into base[2]. */
+static void kind_accel(const double *pts, size_t N, size_t C, const int32_t *end_sites,
+                       double base[2])
+{
+    base[0] = base[1] = 0.0;
+    for (size_t f = 1; f + 1 < N; f++)
+        for (size_t c = 0; c < C; c++) {
+            double s = 0.0;
+            for (int d = 0; d < 3; d++) {
+                const double x = pts[3 * ((f + 1) * C + c) + (size_t)d] -
+                                 2.0 * pts[3 * (f * C + c) + (size_t)d] +
+                                 pts[3 * ((f - 1) * C + c) + (size_t)d];
+                s += x * x;
+            }
+            const int k = end_sites && end_sites[c] >= 0;
+            base[k] = s > base[k] ? s : base[k];
+        }
+    base[0] = sqrt(base[0]), base[1] = sqrt(base[1]);
+}
+
+/* Per frame into a (0 at the first and last), the largest over the points of pts of a point's
+   acceleration over its kind's base (kind_accel: joints, End Sites; a kind whose base is 0 is
+   not counted); returns the largest over the frames. Each kind by its own base: a toe tip's
+   acceleration (8x the toe joint's on an Xsens capture at 240 fps) set the bar of the joints,
+   whose corners (2.1x their own base) then went unseen. */
+static double relative_accel(const double *pts, size_t N, size_t C, const int32_t *end_sites,
+                             const double base[2], double *a)
+{
+    double m = 0.0;
+    a[0] = a[N - 1] = 0.0;
+    for (size_t f = 1; f + 1 < N; f++) {
+        double af = 0.0;
+        for (size_t c = 0; c < C; c++) {
+            const int k = end_sites && end_sites[c] >= 0;
+            if (!(base[k] > 0.0))
+                continue;
+            double s = 0.0;
+            for (int d = 0; d < 3; d++) {
+                const double x = pts[3 * ((f + 1) * C + c) + (size_t)d] -
+                                 2.0 * pts[3 * (f * C + c) + (size_t)d] +
+                                 pts[3 * ((f - 1) * C + c) + (size_t)d];
+                s += x * x;
+            }
+            s = sqrt(s) / base[k];
+            af = s > af ? s : af;
+        }
+        a[f] = af;
+        m = af > m ? af : m;
+    }
+    return m;
+}
+
 typedef struct depop_work {
     double *pos, *wrot, *pts; /* N x J x 3, N x J x 4, N x C x 3 */
     double *corr, *avg;       /* N x (J + 1) x 3: the corrections (the root's last), averaged */
@@ -60,6 +124,7 @@ typedef struct depop_work {
     int16_t *held;            /* N x (J + 1): a joint's (the root translation's last) signed
                                  distance to its contact runs (free_weight), within +-1000 */
     double edge;              /* DEPOP_EDGE in frames */
+    int release;              /* this round smooths the held joints too (DEPOP_RELEASE) */
 } depop_work;
 
 /* The corrections of the result (root, rot) from the synthesis (syn_root, syn_rot) into
@@ -166,7 +231,7 @@ static size_t smooth_round(size_t N, size_t J, const double *syn_root, const dou
         const double *cf = w->corr + K * f, *av = w->avg + K * f;
         const int16_t *dist = w->held ? w->held + (J + 1) * f : NULL;
         for (size_t j = 0; j < J; j++) {
-            const double bj = dist ? b * free_weight(dist[j], h, w->edge) : b;
+            const double bj = dist && !w->release ? b * free_weight(dist[j], h, w->edge) : b;
             if (!(bj > 0.0))
                 continue;
             double v[3], q[4], out[4];
@@ -184,7 +249,7 @@ static size_t smooth_round(size_t N, size_t J, const double *syn_root, const dou
             for (int i = 0; i < 4; i++)
                 r[i] = sg * out[i];
         }
-        const double br = dist ? b * free_weight(dist[J], h, w->edge) : b;
+        const double br = dist && !w->release ? b * free_weight(dist[J], h, w->edge) : b;
         for (int d = 0; d < 3 && br > 0.0; d++)
             root[3 * f + (size_t)d] = syn_root[3 * f + (size_t)d] + cf[3 * J + (size_t)d] +
                                       br * (av[3 * J + (size_t)d] - cf[3 * J + (size_t)d]);
@@ -256,6 +321,7 @@ mlr_status depop__apply(const mlr_rig *rig, size_t N, double fps, const double *
     w.corr = w.pts + 3 * N * C, w.avg = w.corr + 3 * N * (J + 1);
     w.accel = w.avg + 3 * N * (J + 1), w.blend = w.accel + N;
     w.held = NULL;
+    w.release = 0;
     w.edge = DEPOP_EDGE * fps;
     size_t held_bytes = 0;
     if (contacts && common__mul_size(N, (J + 1) * sizeof(int16_t), &held_bytes) == MLR_OK &&
@@ -293,8 +359,9 @@ mlr_status depop__apply(const mlr_rig *rig, size_t N, double fps, const double *
         common__free(alloc, buf, bytes);
         return MLR_E_NO_MEMORY;
     }
-    /* the base: the input's and the synthesis's largest acceleration */
-    double base = 0.0;
+    /* the base: the input's and the synthesis's largest acceleration, of the joints and of
+       the End Sites apart */
+    double base[2] = {0.0, 0.0};
     const double *src_root[2] = {in_root, syn_root}, *src_rot[2] = {in_rot, syn_rot},
                  *src_trans[2] = {in_trans, trans};
     mlr_status st = MLR_OK;
@@ -303,24 +370,56 @@ mlr_status depop__apply(const mlr_rig *rig, size_t N, double fps, const double *
             continue;
         st = cleanup__fk_points(rig, N, src_root[s], src_rot[s], src_trans[s], C, joints,
                                 end_sites, w.pos, w.wrot, w.pts, alloc, NULL, 0, NULL);
-        if (st == MLR_OK)
-            base = fmax(base, depop__points_accel(w.pts, N, C, NULL));
+        if (st == MLR_OK) {
+            double b[2];
+            kind_accel(w.pts, N, C, end_sites, b);
+            base[0] = fmax(base[0], b[0]), base[1] = fmax(base[1], b[1]);
+        }
     }
-    const double limit = DEPOP_RATIO * base;
-    for (int round = 0; st == MLR_OK && round < DEPOP_ROUNDS && base > 0.0; round++) {
+    /* the rounds; the result with the smallest pop is kept (a round can make one larger: the
+       averaged corrections of a foot lifted by the floor, Assimp's boxing at alpha 2, 1.44x
+       its base before the smoothing, 1.83x after the second round) */
+    const double limit = DEPOP_RATIO; /* (accelerations over their base) */
+    const size_t n_keep = 3 * N + 4 * N * J;
+    double *keep = NULL, best = INFINITY;
+    size_t n_now = 0, n_best = 0;
+    int at_best = 1;
+    for (int round = 0; st == MLR_OK && (base[0] > 0.0 || base[1] > 0.0); round++) {
         st = cleanup__fk_points(rig, N, root, rot, trans, C, joints, end_sites, w.pos, w.wrot,
                                 w.pts, alloc, NULL, 0, NULL);
-        if (st != MLR_OK || !(depop__points_accel(w.pts, N, C, w.accel) > limit))
+        if (st != MLR_OK)
             break;
+        const double m = relative_accel(w.pts, N, C, end_sites, base, w.accel);
+        at_best = m < best;
+        if (!(m > limit) || round == DEPOP_ROUNDS)
+            break;
+        if (at_best) {
+            if (!keep && !(keep = common__alloc(alloc, n_keep * sizeof(double)))) {
+                st = MLR_E_NO_MEMORY;
+                break;
+            }
+            best = m, n_best = n_now;
+            memcpy(keep, root, 3 * N * sizeof(double));
+            memcpy(keep + 3 * N, rot, 4 * N * J * sizeof(double));
+        }
         const double hs = DEPOP_WINDOW * (double)(round + 1) * fps;
         const size_t h = hs < 2.0 ? 2 : (size_t)ceil(hs);
+        w.release = round >= DEPOP_RELEASE;
         const size_t n = smooth_round(N, J, syn_root, syn_rot, root, rot, h, limit, &w);
-        if (smoothed)
-            *smoothed = n > *smoothed ? n : *smoothed;
+        n_now = n > n_now ? n : n_now;
         if (limits &&
             (st = clamp_hinges(limits, N, J, fps, rot, alpha, n_alpha, &w, alloc)) != MLR_OK)
             break;
     }
+    if (st == MLR_OK && !at_best && keep) { /* the last round's pop is not the smallest */
+        memcpy(root, keep, 3 * N * sizeof(double));
+        memcpy(rot, keep + 3 * N, 4 * N * J * sizeof(double));
+        n_now = n_best;
+    }
+    if (smoothed)
+        *smoothed = n_now;
+    if (keep)
+        common__free(alloc, keep, n_keep * sizeof(double));
     if (w.held)
         common__free(alloc, w.held, held_bytes);
     common__free(alloc, buf, bytes);
