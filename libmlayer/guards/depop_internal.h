@@ -16,7 +16,7 @@ double depop__points_accel(const double *pts, size_t N, size_t C, double *a);
  * the synthesis's (syn_root, syn_rot, trans, which the result shares) over the points of its
  * kind (the joints, the End Sites), the corrections of every joint and of the root from the
  * synthesis are replaced near it by their Gaussian average in time, over 50 ms and then up to
- * 4 rounds of 50 ms more while a pop is left; of the rounds' results the one with the smallest
+ * 5 rounds of 50 ms more while a pop is left; of the rounds' results the one with the smallest
  * pop is kept. contacts (N x C, or NULL): in the first round, on a point's contact frames,
  * its joint and their ancestors, and the root translation, are left as they are; the later
  * rounds smooth the joints of the limb of a point that still pops (up to the joint below the
