@@ -30,8 +30,8 @@
 
 #define DEPOP_RATIO 1.25  /* a pop: a point's acceleration above this times the base */
 #define DEPOP_WINDOW 0.05 /* seconds: the first round's half window; each round adds one */
-/* Rounds at most: 4 left a Bandai dance's toe at alpha 3 (where the limits move the feet by
-   up to 90% of body height) 1.54x its base, 5 1.47x, 6 0.82x. Rounds past the first pop-free
+/* Rounds at most: 4 left a Bandai dance's toe at alpha 3 (where the guards move a toe by up
+   to 90% of body height) 1.54x its base, 5 1.47x, 6 0.82x. Rounds past the first pop-free
    result do not run. */
 #define DEPOP_ROUNDS 6
 /* A point's base: its own largest acceleration in the input and the synthesis, at least this

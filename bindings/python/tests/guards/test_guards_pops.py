@@ -126,6 +126,6 @@ def test_a_smoothing_round_that_makes_a_pop_larger_is_not_kept():
 
 
 def test_large_limit_corrections_get_more_smoothing_rounds():
-    """A Bandai dance at alpha 3, where the limits move the feet by up to 90% of body height:
-    the smoothing's 4 rounds left a toe 1.55x its base; 6 rounds, 0.82x."""
+    """A Bandai dance at alpha 3, where the guards move a toe by up to 90% of body height: the
+    smoothing's 4 rounds left it 1.55x its base; 6 rounds, 0.82x."""
     assert _pop_ratio(_corpus_clip("bandai1_dance_short_normal_001.bvh"), 3.0) <= 1.5
