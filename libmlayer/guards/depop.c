@@ -10,9 +10,13 @@
  * joint (the rotation from the synthesis's to the result's, as a rotation vector) and of the
  * root (the translation) is replaced, over a window around the frame, by its Gaussian average
  * in time, blended in with a raised cosine; the window grows round after round while a pop is
- * left. Frames away from pops are not touched, so clean clips keep their output; nor are the
- * joints on the chain of a point in contact, nor the root, on its contact frames (the
- * smoothing fades in around those), so planted feet stay where the cleanup put them.
+ * left, and the round with the smallest pop is kept. Frames away from pops are not touched, so
+ * clean clips keep their output; nor, in the first round, are the joints on the chain of a
+ * point in contact, nor the root, on its contact frames (the smoothing fades in around those),
+ * so planted feet stay where the cleanup put them; a pop left inside a contact run is a pin
+ * that moves too fast, and the later rounds smooth the planted limb of the point that pops
+ * too (DEPOP_RELEASE). Joints and End Sites are measured each against their own kind's base
+ * (DEPOP_KIND_SHARE: a toe tip's acceleration hid a toe joint's corners).
  */
 #include "guards/depop_internal.h"
 
@@ -26,7 +30,27 @@
 
 #define DEPOP_RATIO 1.25  /* a pop: a point's acceleration above this times the base */
 #define DEPOP_WINDOW 0.05 /* seconds: the first round's half window; each round adds one */
-#define DEPOP_ROUNDS 4
+/* Rounds at most: 4 left a Bandai dance's toe at alpha 3 (where the guards move a toe by up
+   to 90% of body height) 1.54x its base, 5 1.47x, 6 0.82x. Rounds past the first pop-free
+   result do not run. */
+#define DEPOP_ROUNDS 6
+/* A point's base: its own largest acceleration in the input and the synthesis, at least this
+   share of the largest of its kind's (the joints, the End Sites; 1: the kind's). One base for
+   all points let the fastest (a toe tip, 8x the toe joint's on an Xsens capture at 240 fps)
+   hide the corners of the others. A share of 0.5 also fixed a falling body whose hands, 1.6x
+   the feet, set the joints' base (game_die at alpha 3, 1.69x -> 1.12x) but made FAIR's first
+   400 frames pop 1.12x -> 1.20x (alpha 2) and 1.06x -> 1.16x (alpha 3): 1 stays. */
+#ifndef DEPOP_KIND_SHARE
+#define DEPOP_KIND_SHARE 1.0
+#endif
+/* The first round (0-based) that smooths the joints held by a contact too, near the pops the
+   rounds before left: a corner inside a contact run (a planted toe whose pin the limits and the
+   IK move from frame to frame: FAIR's jump at alpha 0.5, 2.2x its base; an Xsens capture whose
+   toes are in contact on every frame) is a pin that moves faster than C2 allows, not a foot
+   that stands still, and only the smoothing of its own chain removes it. Only the limb of the
+   point that pops (limbs) is freed: freeing every held joint (the hips too) made the other
+   foot slide (SFU's kicks at alpha 3: 1.42x -> 1.79x the input's sliding in the bench). */
+#define DEPOP_RELEASE 1
 
 double depop__points_accel(const double *pts, size_t N, size_t C, double *a)
 {
@@ -53,6 +77,68 @@ double depop__points_accel(const double *pts, size_t N, size_t C, double *a)
     return m;
 }
 
+/* Per point of pts (N x C x 3), the largest acceleration over the frames, raised into acc (C
+   values) where it is larger. */
+static void point_accel(const double *pts, size_t N, size_t C, double *acc)
+{
+    for (size_t f = 1; f + 1 < N; f++)
+        for (size_t c = 0; c < C; c++) {
+            double s = 0.0;
+            for (int d = 0; d < 3; d++) {
+                const double x = pts[3 * ((f + 1) * C + c) + (size_t)d] -
+                                 2.0 * pts[3 * (f * C + c) + (size_t)d] +
+                                 pts[3 * ((f - 1) * C + c) + (size_t)d];
+                s += x * x;
+            }
+            s = sqrt(s);
+            acc[c] = s > acc[c] ? s : acc[c];
+        }
+}
+
+/* Each point's base (C values in base, its own largest acceleration on entry): at least
+   DEPOP_KIND_SHARE of the largest of its kind's (the joints, the End Sites; end_sites: C
+   values, -1 a joint, or NULL: all joints). */
+static void point_bases(size_t C, const int32_t *end_sites, double *base)
+{
+    double kind[2] = {0.0, 0.0};
+    for (size_t c = 0; c < C; c++) {
+        const int k = end_sites && end_sites[c] >= 0;
+        kind[k] = base[c] > kind[k] ? base[c] : kind[k];
+    }
+    for (size_t c = 0; c < C; c++) {
+        const double m = DEPOP_KIND_SHARE * kind[end_sites && end_sites[c] >= 0];
+        base[c] = base[c] > m ? base[c] : m;
+    }
+}
+
+/* Per frame into a (0 at the first and last), the largest over the points of pts of a point's
+   acceleration over its base (point_bases; a point whose base is 0 is not counted); returns
+   the largest over the frames. */
+static double relative_accel(const double *pts, size_t N, size_t C, const double *base, double *a)
+{
+    double m = 0.0;
+    a[0] = a[N - 1] = 0.0;
+    for (size_t f = 1; f + 1 < N; f++) {
+        double af = 0.0;
+        for (size_t c = 0; c < C; c++) {
+            if (!(base[c] > 0.0))
+                continue;
+            double s = 0.0;
+            for (int d = 0; d < 3; d++) {
+                const double x = pts[3 * ((f + 1) * C + c) + (size_t)d] -
+                                 2.0 * pts[3 * (f * C + c) + (size_t)d] +
+                                 pts[3 * ((f - 1) * C + c) + (size_t)d];
+                s += x * x;
+            }
+            s = sqrt(s) / base[c];
+            af = s > af ? s : af;
+        }
+        a[f] = af;
+        m = af > m ? af : m;
+    }
+    return m;
+}
+
 typedef struct depop_work {
     double *pos, *wrot, *pts; /* N x J x 3, N x J x 4, N x C x 3 */
     double *corr, *avg;       /* N x (J + 1) x 3: the corrections (the root's last), averaged */
@@ -60,7 +146,58 @@ typedef struct depop_work {
     int16_t *held;            /* N x (J + 1): a joint's (the root translation's last) signed
                                  distance to its contact runs (free_weight), within +-1000 */
     double edge;              /* DEPOP_EDGE in frames */
+    int release;              /* this round smooths the held joints in w->freed too */
+    uint8_t *limb;            /* C x J: the joints of each point's limb (limbs) */
+    uint8_t *freed;           /* N x J: a held joint that a release round smooths */
 } depop_work;
+
+/* The limb of each point c in limb (C x J): its joint and the ancestors up to the first whose
+   parent has other children too (the leg of a toe, up to the thigh; not the hips, which carry
+   the other feet). */
+static void limbs(const mlr_rig *rig, size_t C, const int32_t *joints, uint8_t *limb)
+{
+    const size_t J = rig->n_joints;
+    memset(limb, 0, C * J);
+    for (size_t c = 0; c < C; c++)
+        for (int32_t j = joints[c]; j >= 0; j = rig->parents[j]) {
+            limb[c * J + (size_t)j] = 1;
+            const int32_t p = rig->parents[j];
+            size_t n = 0;
+            for (size_t k = 0; p >= 0 && k < J; k++)
+                n += rig->parents[k] == p;
+            if (p < 0 || n > 1)
+                break;
+        }
+}
+
+/* w->freed: the joints of the limb of a point that accelerates faster than limit times its
+   base (pts: N x C x 3, the result's) on a frame within h. */
+static void mark_freed(const double *pts, size_t N, size_t C, size_t J, const double *base,
+                       double limit, size_t h, const depop_work *w)
+{
+    memset(w->freed, 0, N * J);
+    for (size_t c = 0; c < C; c++) {
+        if (!(base[c] > 0.0))
+            continue;
+        size_t done = 0; /* c's frames below this are marked */
+        for (size_t g = 1; g + 1 < N; g++) {
+            double s = 0.0;
+            for (int d = 0; d < 3; d++) {
+                const double x = pts[3 * ((g + 1) * C + c) + (size_t)d] -
+                                 2.0 * pts[3 * (g * C + c) + (size_t)d] +
+                                 pts[3 * ((g - 1) * C + c) + (size_t)d];
+                s += x * x;
+            }
+            if (!(sqrt(s) > limit * base[c]))
+                continue;
+            const size_t lo = g > h ? g - h : 0, hi = g + h < N ? g + h : N - 1;
+            for (size_t t = lo > done ? lo : done; t <= hi; t++)
+                for (size_t j = 0; j < J; j++)
+                    w->freed[t * J + j] |= w->limb[c * J + j];
+            done = hi + 1;
+        }
+    }
+}
 
 /* The corrections of the result (root, rot) from the synthesis (syn_root, syn_rot) into
    w->corr, on the frames within h of one that w->blend marks (the only ones the averages
@@ -166,7 +303,9 @@ static size_t smooth_round(size_t N, size_t J, const double *syn_root, const dou
         const double *cf = w->corr + K * f, *av = w->avg + K * f;
         const int16_t *dist = w->held ? w->held + (J + 1) * f : NULL;
         for (size_t j = 0; j < J; j++) {
-            const double bj = dist ? b * free_weight(dist[j], h, w->edge) : b;
+            const double bj = dist && !(w->release && w->freed[f * J + j])
+                                  ? b * free_weight(dist[j], h, w->edge)
+                                  : b;
             if (!(bj > 0.0))
                 continue;
             double v[3], q[4], out[4];
@@ -256,10 +395,15 @@ mlr_status depop__apply(const mlr_rig *rig, size_t N, double fps, const double *
     w.corr = w.pts + 3 * N * C, w.avg = w.corr + 3 * N * (J + 1);
     w.accel = w.avg + 3 * N * (J + 1), w.blend = w.accel + N;
     w.held = NULL;
+    w.release = 0;
+    w.limb = w.freed = NULL;
     w.edge = DEPOP_EDGE * fps;
     size_t held_bytes = 0;
     if (contacts && common__mul_size(N, (J + 1) * sizeof(int16_t), &held_bytes) == MLR_OK &&
-        (w.held = common__alloc(alloc, held_bytes)) != NULL) {
+        (w.held = common__alloc(alloc, held_bytes)) != NULL &&
+        (w.limb = common__alloc(alloc, (C + N) * J)) != NULL) {
+        w.freed = w.limb + C * J;
+        limbs(rig, C, joints, w.limb);
         memset(w.held, 0, held_bytes);
         for (size_t f = 0; f < N; f++)
             for (size_t c = 0; c < C; c++) {
@@ -290,39 +434,84 @@ mlr_status depop__apply(const mlr_rig *rig, size_t N, double fps, const double *
             }
         }
     } else if (contacts) {
+        if (w.held)
+            common__free(alloc, w.held, held_bytes);
         common__free(alloc, buf, bytes);
         return MLR_E_NO_MEMORY;
     }
-    /* the base: the input's and the synthesis's largest acceleration */
-    double base = 0.0;
+    /* the bases: the input's and the synthesis's largest acceleration, per point */
+    double *base = common__alloc(alloc, C * sizeof(double));
+    mlr_status st = base ? MLR_OK : MLR_E_NO_MEMORY;
+    if (base)
+        memset(base, 0, C * sizeof(double));
     const double *src_root[2] = {in_root, syn_root}, *src_rot[2] = {in_rot, syn_rot},
                  *src_trans[2] = {in_trans, trans};
-    mlr_status st = MLR_OK;
     for (int s = 0; s < 2 && st == MLR_OK; s++) {
         if (!src_root[s])
             continue;
         st = cleanup__fk_points(rig, N, src_root[s], src_rot[s], src_trans[s], C, joints,
                                 end_sites, w.pos, w.wrot, w.pts, alloc, NULL, 0, NULL);
         if (st == MLR_OK)
-            base = fmax(base, depop__points_accel(w.pts, N, C, NULL));
+            point_accel(w.pts, N, C, base);
     }
-    const double limit = DEPOP_RATIO * base;
-    for (int round = 0; st == MLR_OK && round < DEPOP_ROUNDS && base > 0.0; round++) {
+    double any = 0.0;
+    if (st == MLR_OK) {
+        point_bases(C, end_sites, base);
+        for (size_t c = 0; c < C; c++)
+            any = base[c] > any ? base[c] : any;
+    }
+    /* the rounds; the result with the smallest pop is kept (a round can make one larger: the
+       averaged corrections of a foot lifted by the floor, Assimp's boxing at alpha 2, 1.44x
+       its base before the smoothing, 1.83x after the second round) */
+    const double limit = DEPOP_RATIO; /* (accelerations over their base) */
+    const size_t n_keep = 3 * N + 4 * N * J;
+    double *keep = NULL, best = INFINITY;
+    size_t n_now = 0, n_best = 0;
+    int at_best = 1;
+    for (int round = 0; st == MLR_OK && any > 0.0; round++) {
         st = cleanup__fk_points(rig, N, root, rot, trans, C, joints, end_sites, w.pos, w.wrot,
                                 w.pts, alloc, NULL, 0, NULL);
-        if (st != MLR_OK || !(depop__points_accel(w.pts, N, C, w.accel) > limit))
+        if (st != MLR_OK)
             break;
+        const double m = relative_accel(w.pts, N, C, base, w.accel);
+        at_best = m < best;
+        if (!(m > limit) || round == DEPOP_ROUNDS)
+            break;
+        if (at_best) {
+            if (!keep && !(keep = common__alloc(alloc, n_keep * sizeof(double)))) {
+                st = MLR_E_NO_MEMORY;
+                break;
+            }
+            best = m, n_best = n_now;
+            memcpy(keep, root, 3 * N * sizeof(double));
+            memcpy(keep + 3 * N, rot, 4 * N * J * sizeof(double));
+        }
         const double hs = DEPOP_WINDOW * (double)(round + 1) * fps;
         const size_t h = hs < 2.0 ? 2 : (size_t)ceil(hs);
+        w.release = round >= DEPOP_RELEASE && w.held;
+        if (w.release)
+            mark_freed(w.pts, N, C, J, base, limit, h, &w);
         const size_t n = smooth_round(N, J, syn_root, syn_rot, root, rot, h, limit, &w);
-        if (smoothed)
-            *smoothed = n > *smoothed ? n : *smoothed;
+        n_now = n > n_now ? n : n_now;
         if (limits &&
             (st = clamp_hinges(limits, N, J, fps, rot, alpha, n_alpha, &w, alloc)) != MLR_OK)
             break;
     }
-    if (w.held)
+    if (st == MLR_OK && !at_best && keep) { /* the last round's pop is not the smallest */
+        memcpy(root, keep, 3 * N * sizeof(double));
+        memcpy(rot, keep + 3 * N, 4 * N * J * sizeof(double));
+        n_now = n_best;
+    }
+    if (smoothed)
+        *smoothed = n_now;
+    if (keep)
+        common__free(alloc, keep, n_keep * sizeof(double));
+    if (base)
+        common__free(alloc, base, C * sizeof(double));
+    if (w.held) {
         common__free(alloc, w.held, held_bytes);
+        common__free(alloc, w.limb, (C + N) * J);
+    }
     common__free(alloc, buf, bytes);
     return st;
 }

@@ -11,16 +11,19 @@
 double depop__points_accel(const double *pts, size_t N, size_t C, double *a);
 
 /* Where a point (C points: joints, End Sites as mlr_rig_point_positions takes them) of the
- * result (root, rot: N frames, replaced) accelerates faster than 1.25 times the largest
- * acceleration of the input's (in_root, in_rot, in_trans; in_root NULL: none) and of the
- * synthesis's (syn_root, syn_rot, trans, which the result shares), the corrections of every
- * joint and of the root from the synthesis are replaced near it by their Gaussian average in
- * time, over 50 ms and then up to 4 rounds of 50 ms more while a pop is left; contacts
- * (N x C, or NULL): on a point's contact frames, its joint and their ancestors, and the root
- * translation, are left as they are. limits (or NULL): the hinges of the smoothed frames are
- * clamped to their ranges at alpha (1 or 1 + J values) after each round. *smoothed: the
- * most frames a round changed (0: none). Arguments checked by the caller (finite, in range);
- * MLR_E_NO_MEMORY or MLR_E_OVERFLOW leave some frames smoothed. */
+ * result (root, rot: N frames, replaced) accelerates faster than 1.25 times its base, the
+ * largest acceleration of the input's (in_root, in_rot, in_trans; in_root NULL: none) and of
+ * the synthesis's (syn_root, syn_rot, trans, which the result shares) over the points of its
+ * kind (the joints, the End Sites), the corrections of every joint and of the root from the
+ * synthesis are replaced near it by their Gaussian average in time, over 50 ms and then up to
+ * 5 rounds of 50 ms more while a pop is left; of the rounds' results the one with the smallest
+ * pop is kept. contacts (N x C, or NULL): in the first round, on a point's contact frames,
+ * its joint and their ancestors, and the root translation, are left as they are; the later
+ * rounds smooth the joints of the limb of a point that still pops (up to the joint below the
+ * first that branches) near its pops. limits (or NULL): the hinges of the smoothed frames are
+ * clamped to their ranges at alpha (1 or 1 + J values) after each round. *smoothed: the most
+ * frames a round of the kept result changed (0: none). Arguments checked by the caller
+ * (finite, in range); MLR_E_NO_MEMORY or MLR_E_OVERFLOW leave some frames smoothed. */
 mlr_status depop__apply(const mlr_rig *rig, size_t N, double fps, const double *in_root,
                         const double *in_rot, const double *in_trans, const double *syn_root,
                         const double *syn_rot, const double *trans, size_t C,
