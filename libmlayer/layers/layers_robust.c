@@ -25,6 +25,18 @@
  * flip still outweighs the residual sums of the control layer's GCV at weak smoothing, and
  * moved the control s of a flipped joint for the whole clip.
  *
+ * A flip run of 2-10 frames whose corruption is a constant turn (q R or R q, R the same on
+ * every frame of the run: a joint flipped by a converter or a solver) is undone rather than
+ * bridged (undo_flip): R is estimated at both edges of the run, and where the two estimates
+ * agree the run is rewritten without it in the working quaternions. Its frames then count in
+ * every fit with their repaired rotation (weight 1: flag 2 in L->outliers until the layers
+ * are done), so that at 30 fps the layers follow a knee through a 10-frame flip, where the
+ * prior's bridge over a third of a second missed it by up to 20% of body height. They are
+ * still outliers for mlr_layers_get_outliers and mlr_layers_repair, and the residual layer
+ * keeps the input there (layers.c, restore_undone). A run of one frame, or one whose two
+ * estimates disagree (not a constant turn, or a joint that changes speed at both edges), is
+ * bridged as before.
+ *
  * A glitch of 180 degrees leaves the hemisphere alignment of the frames after it to chance (the
  * flipped quaternion is orthogonal to its neighbours), so whenever new outliers are found the
  * quaternions are realigned: each frame with the most similar of its last frames (a quarter
