@@ -81,7 +81,17 @@
  * every frame of the run is more than half the smaller jump off the slerp between them).
  * Those frames are outliers from the first fit on, so a burst of 10 frames at 30 fps cannot
  * drag the fit it is measured against, and a flip of 90 degrees, below the gate, is found
- * too; q -> -q is no step and never an outlier. An outlier frame weighs 0 in the layers.
+ * too; q -> -q is no step and never an outlier. A flip of 2 to 10 frames whose corruption is
+ * a constant turn R (q R or R q, R the same on each frame of the run) is undone: R is
+ * estimated at each end of the run (the step across the end as the mean of the steps beside
+ * it; a constant turn leaves the steps inside the run as they were, in the world frame for
+ * q R, in the joint's own for R q), and where the two estimates of one form agree (within a
+ * quarter of the smaller jump and 0.25 rad) the run is rewritten as q_bad R^-1 (R^-1 q_bad),
+ * R the two estimates weighed by the inverse squares of their uncertainties (the angle
+ * between the two steps each end's step is the mean of). Those frames count in the layers
+ * with their repaired rotations, so that synthesis and mlr_layers_repair follow the motion
+ * through the flip rather than the prior's bridge; they are still reported as outliers, and
+ * the residual layer keeps the input there. Any other outlier frame weighs 0 in the layers.
  * When a weight is below 1, every LGS of the decomposition weights its observations,
  * (W + s L^T L) x = W y, the base heuristic's bound and MLR_LAYERS_PARAM_BASE_MAX_ANGLE skip the
  * outlier frames, GCV counts a frame by its weight, and a joint's quaternion takes the
@@ -220,8 +230,9 @@ MLR_API mlr_status mlr_layers_get_param(const mlr_layers *layers, mlr_layers_par
 
 /**
  * The outlier frames found (see "Outliers"): out[i (1 + J) + g] is 1 where frame i of group g
- * (0 the body translation, 1 + k joint k) was down-weighted (weight below 1/2), else 0. All 0
- * when robust is off or nothing passed a gate.
+ * (0 the body translation, 1 + k joint k) was down-weighted (weight below 1/2) or belongs to a
+ * flip that was undone (its repaired rotation counted), else 0. All 0 when robust is off or
+ * nothing passed a gate.
  * @param out    [out] N (1 + J) bytes
  * @param count  [in] must be N (1 + J)
  * @return MLR_OK; MLR_E_INVALID_ARG (NULL, wrong count). Allocates: never. Threads: handle

@@ -227,6 +227,30 @@ static void residuals(mlr_layers *L, const double *p, double *delta, double *tmp
     }
 }
 
+/* The frames of a flip that the robust search undid (flag 2 in L->outliers) counted in the
+ * fits with their repaired rotation; the residual layer keeps the input there (p = conj(qb)
+ * q_in, in the hemisphere of the repaired product, so that the identity still holds) and the
+ * flag becomes 1, an outlier like the others. */
+static void restore_undone(mlr_layers *L, const double *rot, double *p)
+{
+    const size_t n = L->n, j = L->j;
+    for (size_t i = 0; i < n; i++) {
+        unsigned char *fl = L->outliers + i * (1 + j) + 1;
+        for (size_t k = 0; k < j; k++) {
+            if (fl[k] != 2)
+                continue;
+            fl[k] = 1;
+            const double *r = rot + 4 * (i * j + k), *b = L->base_rot + 4 * (i * j + k);
+            const double nr = sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2] + r[3] * r[3]);
+            const mlr_quat o = common__qmul_wxyz(b[0], -b[1], -b[2], -b[3], r[0] / nr, r[1] / nr,
+                                                 r[2] / nr, r[3] / nr);
+            double *x = p + 4 * (i * j + k);
+            const double sg = o.w * x[0] + o.x * x[1] + o.y * x[2] + o.z * x[3] < 0.0 ? -1.0 : 1.0;
+            x[0] = sg * o.w, x[1] = sg * o.x, x[2] = sg * o.y, x[3] = sg * o.z;
+        }
+    }
+}
+
 static int all_finite(const double *x, size_t count, size_t *bad)
 {
     for (size_t i = 0; i < count; i++) {
@@ -315,6 +339,8 @@ mlr_status mlr_layers_decompose(size_t n_frames, size_t n_joints, const double *
         displacements(L, root_pos, rb != NULL, q, L->residual, fac);
         st = layers__control(L, &cfg, L->residual, rb, fac, comp, work, col, diag);
     }
+    if (st == MLR_OK && cfg.robust)
+        restore_undone(L, rot, q);
     if (st == MLR_OK)
         residuals(L, q, L->residual, fac);
     common__free(&a, scratch, z.scratch_bytes);

@@ -25,6 +25,18 @@
  * flip still outweighs the residual sums of the control layer's GCV at weak smoothing, and
  * moved the control s of a flipped joint for the whole clip.
  *
+ * A flip run of 2-10 frames whose corruption is a constant turn (q R or R q, R the same on
+ * every frame of the run: a joint flipped by a converter or a solver) is undone rather than
+ * bridged (undo_flip): R is estimated at both edges of the run, and where the two estimates
+ * agree the run is rewritten without it in the working quaternions. Its frames then count in
+ * every fit with their repaired rotation (weight 1: flag 2 in L->outliers until the layers
+ * are done), so that at 30 fps the layers follow a knee through a 10-frame flip, where the
+ * prior's bridge over a third of a second missed it by up to 20% of body height. They are
+ * still outliers for mlr_layers_get_outliers and mlr_layers_repair, and the residual layer
+ * keeps the input there (layers.c, restore_undone). A run of one frame, or one whose two
+ * estimates disagree (not a constant turn, or a joint that changes speed at both edges), is
+ * bridged as before.
+ *
  * A glitch of 180 degrees leaves the hemisphere alignment of the frames after it to chance (the
  * flipped quaternion is orthogonal to its neighbours), so whenever new outliers are found the
  * quaternions are realigned: each frame with the most similar of its last frames (a quarter
@@ -34,6 +46,7 @@
 
 #include <math.h>
 
+#define MLR_PI_R 3.14159265358979323846
 #define ROBUST_MAX_IT 12
 /* without a length gate: the translation's gate is this many times the median residual */
 #define ROBUST_REL_GATE 100.0
@@ -43,6 +56,12 @@
 #define ROBUST_FLIP_SIDE 3
 #define ROBUST_FLIP_KAPPA 2.5
 #define ROBUST_FLIP_BRIDGE 1.5
+/* undo_flip: the largest angle between the two estimates of a flip's constant turn, radians */
+#define ROBUST_FLIP_AGREE 0.25
+/* undo_flip: the square of the smallest uncertainty of an estimate (0.01 rad) */
+#define ROBUST_FLIP_U2 1e-4
+/* rb->w of a flip frame undone by undo_flip until the end of the search (then 1) */
+#define ROBUST_UNDONE (-1.0)
 /* a body translation's run at a clip's end: its step past this many times the others */
 #define ROBUST_END_KAPPA 10.0
 /* outlier frames a realignment steps over beyond its window */
@@ -153,8 +172,8 @@ static size_t find_end_runs(size_t n, const double *steps, const size_t ends[2],
         const double sc =
             fmax(steps_max(steps, n, 1, b), steps_max(steps, n, b + 1, b + 1 + ROBUST_FLIP_SIDE));
         if (steps[b] > ROBUST_FLIP_KAPPA * sc) {
-            for (size_t i = 0; i < b; i++)
-                w[i * ldw] = 0.0;
+            for (size_t i = 0; i < b; i++) /* an undone flip stays undone */
+                w[i * ldw] = w[i * ldw] < 0.0 ? w[i * ldw] : 0.0;
             found += b;
         }
     }
@@ -165,7 +184,7 @@ static size_t find_end_runs(size_t n, const double *steps, const size_t ends[2],
                  steps_max(steps, n, a >= ROBUST_FLIP_SIDE ? a - ROBUST_FLIP_SIDE : 1, a));
         if (steps[a] > ROBUST_FLIP_KAPPA * sc) {
             for (size_t i = a; i < n; i++)
-                w[i * ldw] = 0.0;
+                w[i * ldw] = w[i * ldw] < 0.0 ? w[i * ldw] : 0.0;
             found += ends[1];
         }
     }
@@ -216,6 +235,132 @@ void layers__end_runs(size_t n, const double *p, size_t ends[2])
     }
 }
 
+/* o = conj(a) b (rc 0) or a conj(b) (rc 1), quaternions as (w, x, y, z) arrays. */
+static void qmul_conj(const double *a, const double *b, int rc, double *o)
+{
+    const mlr_quat r = rc ? common__qmul_wxyz(a[0], a[1], a[2], a[3], b[0], -b[1], -b[2], -b[3])
+                          : common__qmul_wxyz(a[0], -a[1], -a[2], -a[3], b[0], b[1], b[2], b[3]);
+    o[0] = r.w, o[1] = r.x, o[2] = r.y, o[3] = r.z;
+}
+
+/* The slerp from a to b (taken in a's hemisphere) at t, unit. */
+static void slerp_unit(const double *a, const double *b, double t, double *o)
+{
+    const double dot = a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3];
+    const double sg = dot < 0.0 ? -1.0 : 1.0, d = fabs(dot) < 1.0 ? fabs(dot) : 1.0;
+    const double half = acos(d);
+    double c0 = 1.0 - t, c1 = t;
+    if (half > 1e-9) {
+        const double sh = sin(half);
+        c0 = sin((1.0 - t) * half) / sh, c1 = sin(t * half) / sh;
+    }
+    for (int c = 0; c < 4; c++)
+        o[c] = c0 * a[c] + sg * c1 * b[c];
+    const double nr = sqrt(o[0] * o[0] + o[1] * o[1] + o[2] * o[2] + o[3] * o[3]);
+    for (int c = 0; c < 4; c++)
+        o[c] /= nr;
+}
+
+/* The step between two frames x -> y, near the identity (w >= 0): y conj(x) in the world
+ * frame (wf 1), conj(x) y in the joint's own (wf 0). */
+static void step_of(const double *x, const double *y, int wf, double *o)
+{
+    if (wf)
+        qmul_conj(y, x, 1, o);
+    else
+        qmul_conj(x, y, 0, o);
+    if (o[0] < 0.0)
+        o[0] = -o[0], o[1] = -o[1], o[2] = -o[2], o[3] = -o[3];
+}
+
+/* The step across a run's edge: the mean (slerp at 1/2) of the step beside it outside the
+ * run (NULL at the clip's end) and the one beside it inside. Returns its uncertainty: the
+ * angle between the two (pi without the outside one). */
+static double edge_step(const double *out, const double *in, double *o)
+{
+    if (!out) {
+        memcpy(o, in, 4 * sizeof(double));
+        return MLR_PI_R;
+    }
+    slerp_unit(out, in, 0.5, o);
+    return angle_between(out, in);
+}
+
+/*
+ * Undo a flip run [a, b) (at least 2 frames) of joint k whose corruption is a constant turn:
+ * q_bad = q R (right form) or R q (left form). A constant turn leaves the steps inside the run
+ * as they were, in the world frame (q(i+1) conj(q(i))) for the right form, in the joint's frame
+ * (conj(q(i)) q(i+1)) for the left one. So the step across each edge of the run is estimated
+ * as the mean of the steps beside it (outside the run and inside it), and R from it: at the
+ * start against q(a-1) carried on by that step, at the end against q(b) carried back by it.
+ * Where the two estimates of one form agree (their angle below jump / 4 and ROBUST_FLIP_AGREE;
+ * the form with the closer pair), the run is rewritten as q_bad R^-1 (or R^-1 q_bad) with one
+ * R for the run: the slerp between the two estimates that weighs each by the inverse square
+ * of its uncertainty (the angle between the two steps its edge step is the mean of, at least
+ * 0.01 rad: a joint that changes speed at one edge, a knee at 30 fps, makes that estimate the
+ * weaker), and returns 1. Otherwise q is left as it is and 0 returned (the run is bridged by
+ * the prior, as a run of one frame is, whose turn cannot be told from the motion).
+ */
+static int undo_flip(size_t n, size_t j, size_t k, double *q, size_t a, size_t b, double jump)
+{
+    if (b - a < 2)
+        return 0;
+    const size_t s4 = 4 * j;
+    double *qk = q + 4 * k;
+    const double *qa1 = qk + (a - 1) * s4, *qb0 = qk + b * s4;
+    const double *xa = qk + a * s4, *xb = qk + (b - 1) * s4;
+    double ra[2][4], rb[2][4], dis[2], ua[2], ub[2];
+    for (int f = 0; f < 2; f++) { /* f 0: q_bad = q R (world-frame steps); 1: R q (own) */
+        double so[4], si[4], se[4], p[4];
+        /* start: q(a) = se q(a-1) (world) or q(a-1) se (own); R = conj(q) q_bad, q_bad conj(q) */
+        if (a >= 2)
+            step_of(qk + (a - 2) * s4, qa1, !f, so);
+        step_of(xa, xa + s4, !f, si);
+        ua[f] = edge_step(a >= 2 ? so : NULL, si, se);
+        if (f == 0) {
+            ik__qmul4(se, qa1, p);
+            qmul_conj(p, xa, 0, ra[f]);
+        } else {
+            ik__qmul4(qa1, se, p);
+            qmul_conj(xa, p, 1, ra[f]);
+        }
+        /* end: q(b-1) = conj(se) q(b) (world) or q(b) conj(se) (own) */
+        if (b + 1 < n)
+            step_of(qb0, qb0 + s4, !f, so);
+        step_of(xb - s4, xb, !f, si);
+        ub[f] = edge_step(b + 1 < n ? so : NULL, si, se);
+        if (f == 0) {
+            qmul_conj(se, qb0, 0, p);
+            qmul_conj(p, xb, 0, rb[f]);
+        } else {
+            qmul_conj(qb0, se, 1, p);
+            qmul_conj(xb, p, 1, rb[f]);
+        }
+        dis[f] = angle_between(ra[f], rb[f]);
+    }
+    const int f = dis[1] < dis[0];
+    if (!(dis[f] < 0.25 * jump) || !(dis[f] < ROBUST_FLIP_AGREE))
+        return 0;
+    /* one turn: the two estimates weighed by the inverse squares of their uncertainties */
+    const double va = ua[f] * ua[f] + ROBUST_FLIP_U2, vb = ub[f] * ub[f] + ROBUST_FLIP_U2;
+    double r[4];
+    slerp_unit(ra[f], rb[f], va / (va + vb), r);
+    for (size_t i = a; i < b; i++) {
+        double o[4];
+        double *x = qk + i * s4;
+        if (f == 0)
+            qmul_conj(x, r, 1, o); /* q_bad conj(R) */
+        else
+            qmul_conj(r, x, 0, o); /* conj(R) q_bad */
+        const double nr = sqrt(o[0] * o[0] + o[1] * o[1] + o[2] * o[2] + o[3] * o[3]);
+        const double sg =
+            o[0] * qa1[0] + o[1] * qa1[1] + o[2] * qa1[2] + o[3] * qa1[3] < 0.0 ? -1.0 : 1.0;
+        for (int c = 0; c < 4; c++)
+            x[c] = sg * o[c] / nr;
+    }
+    return 1;
+}
+
 /*
  * Flips of a joint, found from its rotations alone: a run of frames [a, b) (1 <= b - a <=
  * ROBUST_FLIP_MAX frames, inside the clip) that the joint enters by a jump and leaves by a
@@ -231,7 +376,7 @@ void layers__end_runs(size_t n, const double *p, size_t ends[2])
  * motion has large steps all along, which raise S. Found runs get weight 0 in flag (1 byte
  * per frame, stride ldf); steps: n doubles of scratch. Returns the frames flagged.
  */
-static size_t find_flips(size_t n, size_t j, size_t k, const double *q, double theta,
+static size_t find_flips(size_t n, size_t j, size_t k, double *q, double theta,
                          const size_t ends[2], double *steps, double *w, size_t ldw)
 {
     const double *qk = q + 4 * k;
@@ -279,8 +424,9 @@ static size_t find_flips(size_t n, size_t j, size_t k, const double *q, double t
             }
             if (!off)
                 continue;
+            const double mark = undo_flip(n, j, k, q, a, b, jump) ? ROBUST_UNDONE : 0.0;
             for (size_t i = a; i < b; i++)
-                w[i * ldw] = 0.0;
+                w[i * ldw] = mark;
             found += b - a;
             a = b; /* the loop's a++ then looks past the run's last jump */
             break;
@@ -295,8 +441,6 @@ static size_t find_flips(size_t n, size_t j, size_t k, const double *q, double t
 typedef struct rgroups {
     size_t ns, m, g0;
 } rgroups;
-
-#define MLR_PI_R 3.14159265358979323846
 
 /* cos^2 of half the rotation angle between a unit quaternion y and the direction of f. */
 static inline double cos2_of(const double *y, const double *f)
@@ -331,15 +475,16 @@ static mlr_status reweight(mlr_layers *L, const mlr_layers_cfg *cfg, const rgrou
     for (size_t k = 0; k < ns; k++)
         s[k] = cfg->robust_s;
     *any = 0;
-    /* the flips found beforehand (weight 0 in rb->w) are outliers from the first fit on */
+    /* the flips found beforehand (weight 0 in rb->w; ROBUST_UNDONE where undone: weight 1,
+     * flag 2) are outliers from the first fit on */
     int seeded = 0;
     for (size_t i = 0; i < n; i++) {
         unsigned char *fl = L->outliers + i * ng + gk->g0;
         for (size_t k = 0; k < ns; k++) {
-            const int f = rb->w[i * ng + gk->g0 + k] == 0.0;
-            wk[i * ns + k] = f ? 0.0 : 1.0;
-            fl[k] = (unsigned char)f;
-            seeded |= f;
+            const double w0 = rb->w[i * ng + gk->g0 + k];
+            wk[i * ns + k] = w0 == 0.0 ? 0.0 : 1.0;
+            fl[k] = (unsigned char)(w0 == 0.0 ? 1 : w0 < 0.0 ? 2 : 0);
+            seeded |= w0 <= 0.0;
         }
     }
     if (seeded && q)
@@ -389,16 +534,19 @@ static mlr_status reweight(mlr_layers *L, const mlr_layers_cfg *cfg, const rgrou
             unsigned char *fl = L->outliers + i * ng + gk->g0;
             for (size_t k = 0; k < ns; k++) {
                 const double *yk = y + i * mm + k * m, *fk = fit + i * mm + k * m;
+                const double w0 = rb->w[i * ng + gk->g0 + k];
                 double w = 1.0;
-                if (rb->w[i * ng + gk->g0 + k] == 0.0)
+                if (w0 == 0.0)
                     w = 0.0; /* a flip */
+                else if (w0 < 0.0)
+                    w = 1.0; /* a flip undone: its frames count as they are now */
                 else if (m != 4 || cos2_of(yk, fk) < c2min[k])
                     w = robust_weight(residual_of(yk, fk, m) / (1.0 - lev[i * ns + k]), gate[k]);
-                const unsigned char f = w < 0.5;
-                changed |= f != fl[k];
+                const unsigned char f = w < 0.5 || w0 < 0.0;
+                changed |= f != (fl[k] != 0);
                 fresh |= f && !fl[k];
                 some |= w < 1.0;
-                fl[k] = f;
+                fl[k] = (unsigned char)(w0 < 0.0 ? 2 : f);
                 wk[i * ns + k] = w;
             }
         }
@@ -407,10 +555,11 @@ static mlr_status reweight(mlr_layers *L, const mlr_layers_cfg *cfg, const rgrou
             for (size_t i = 0; i < n && kept < 3; i++)
                 kept += wk[i * ns + k] >= 0.5;
             if (kept < 3) {
-                for (size_t i = 0; i < n; i++) {
+                for (size_t i = 0; i < n; i++) { /* an undone flip stays undone */
+                    const int u = rb->w[i * ng + gk->g0 + k] < 0.0;
                     wk[i * ns + k] = 1.0;
-                    rb->w[i * ng + gk->g0 + k] = 1.0;
-                    L->outliers[i * ng + gk->g0 + k] = 0;
+                    rb->w[i * ng + gk->g0 + k] = u ? ROBUST_UNDONE : 1.0;
+                    L->outliers[i * ng + gk->g0 + k] = (unsigned char)(u ? 2 : 0);
                 }
             }
         }
@@ -424,10 +573,13 @@ static mlr_status reweight(mlr_layers *L, const mlr_layers_cfg *cfg, const rgrou
             realign(n, j, q, L->outliers, ng, cfg->robust_window);
     }
     /* an outlier frame weighs nothing in the layers: a weight of e^-10 times the square of a
-     * flip would still outweigh the residual sums of GCV at weak smoothing */
+     * flip would still outweigh the residual sums of GCV at weak smoothing; an undone flip
+     * (flag 2) weighs 1 */
     for (size_t i = 0; i < n; i++)
-        for (size_t k = 0; k < ns; k++)
-            rb->w[i * ng + gk->g0 + k] = L->outliers[i * ng + gk->g0 + k] ? 0.0 : wk[i * ns + k];
+        for (size_t k = 0; k < ns; k++) {
+            const unsigned char o = L->outliers[i * ng + gk->g0 + k];
+            rb->w[i * ng + gk->g0 + k] = o == 2 ? 1.0 : o ? 0.0 : wk[i * ns + k];
+        }
     return MLR_OK;
 }
 

@@ -283,8 +283,9 @@ class Layers(ReadOnlyAttributes):
         """bool (N, 1 + J), the frames down-weighted as outliers per group.
 
         True where a frame of a group (0 the body translation, 1 + j joint j) was found an
-        outlier and down-weighted by the robust decomposition; all False when robust is off or
-        nothing was found.
+        outlier and down-weighted by the robust decomposition, or belongs to a joint's flip of
+        constant turn that was undone (its repaired rotation counted in the layers; see
+        "Outliers" in mlr_layers.h); all False when robust is off or nothing was found.
         """
         a = np.zeros((self.motion.n_frames, 1 + self.motion.n_joints), dtype=np.uint8)
         check(lib.mlr_layers_get_outliers(self._h, ffi.from_buffer("unsigned char[]", a,
