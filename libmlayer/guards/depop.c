@@ -51,6 +51,8 @@
    point that pops (limbs) is freed: freeing every held joint (the hips too) made the other
    foot slide (SFU's kicks at alpha 3: 1.42x -> 1.79x the input's sliding in the bench). */
 #define DEPOP_RELEASE 1
+/* how much more the planted points may travel after the release rounds than before them */
+#define DEPOP_SLIDE_GROWTH 1.5
 
 double depop__points_accel(const double *pts, size_t N, size_t C, double *a)
 {
@@ -137,6 +139,26 @@ static double relative_accel(const double *pts, size_t N, size_t C, const double
         m = af > m ? af : m;
     }
     return m;
+}
+
+/* How far the points of pts (N x C x 3) travel between consecutive frames that are both
+   contact frames of theirs (contacts: N x C), summed: what the planted feet slide. */
+static double planted_travel(const double *pts, size_t N, size_t C, const uint8_t *contacts)
+{
+    double s = 0.0;
+    for (size_t f = 1; f < N; f++)
+        for (size_t c = 0; c < C; c++) {
+            if (!contacts[f * C + c] || !contacts[(f - 1) * C + c])
+                continue;
+            double d2 = 0.0;
+            for (int d = 0; d < 3; d++) {
+                const double x =
+                    pts[3 * (f * C + c) + (size_t)d] - pts[3 * ((f - 1) * C + c) + (size_t)d];
+                d2 += x * x;
+            }
+            s += sqrt(d2);
+        }
+    return s;
 }
 
 typedef struct depop_work {
@@ -465,7 +487,7 @@ mlr_status depop__apply(const mlr_rig *rig, size_t N, double fps, const double *
        its base before the smoothing, 1.83x after the second round) */
     const double limit = DEPOP_RATIO; /* (accelerations over their base) */
     const size_t n_keep = 3 * N + 4 * N * J;
-    double *keep = NULL, best = INFINITY;
+    double *keep = NULL, best = INFINITY, travel0 = 0.0;
     size_t n_now = 0, n_best = 0;
     int at_best = 1;
     for (int round = 0; st == MLR_OK && any > 0.0; round++) {
@@ -474,6 +496,16 @@ mlr_status depop__apply(const mlr_rig *rig, size_t N, double fps, const double *
         if (st != MLR_OK)
             break;
         const double m = relative_accel(w.pts, N, C, base, w.accel);
+        /* a release round's result is taken only while the planted feet slide little more
+           than before the releases: generated walks, whose transitions pop on most contact
+           runs, slid 5x their training clip once their planted legs were smoothed */
+        if (round == DEPOP_RELEASE && w.held)
+            travel0 = planted_travel(w.pts, N, C, contacts);
+        if (round > DEPOP_RELEASE && w.held &&
+            planted_travel(w.pts, N, C, contacts) > DEPOP_SLIDE_GROWTH * travel0) {
+            at_best = 0; /* the best before it is kept */
+            break;
+        }
         at_best = m < best;
         if (!(m > limit) || round == DEPOP_ROUNDS)
             break;
