@@ -93,8 +93,9 @@ typedef struct mlr_guards_report {
     size_t floor_frames;    /* frames where some foot was raised to the floor */
     double floor_height;    /* the floor used; NaN when the floor guard was off or unknown */
     double root_shift_max;  /* the largest root correction of the cleanup (length units) */
-    size_t floor_raised;    /* frames where a foot point was still below the floor after the
-                               cleanup and the limits, so the whole body was raised */
+    size_t floor_raised;    /* frames where a foot point, or any joint or End Site, was still
+                               below the floor (beyond the input's own depth there) after the
+                               other guards, so the whole body was raised */
 } mlr_guards_report;
 
 /**

@@ -98,7 +98,8 @@ class GuardReport:
         Largest root correction of the contact cleanup, in the clip's units.
     floor_raised : int
         Frames where the whole body was raised because a foot the limited legs could not
-        keep up was still below the floor.
+        keep up, or any other joint or End Site, was still below the floor (beyond the
+        input's own depth there) after the other guards.
     """
     limited: dict[str, int] = field(default_factory=dict)
     limits_applied: bool = False
