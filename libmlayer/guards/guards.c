@@ -1352,6 +1352,19 @@ static mlr_status guards_apply(const mlr_guards *g, const double *alpha, size_t 
         rep.floor_frames = crep.floor_frames;
         rep.floor_height = floor_on ? crep.floor_height : NAN;
     }
+    if (floor_on) { /* the toe tips once more, where the cleanup's IK and root shift took them
+                       under the floor, before the corners' smoothing: the last lift raised
+                       the whole body for them once a step (CMU 12_01 at alpha 0.5 kept 2.65
+                       alpha of its bob) */
+        st = toe_tilt__apply(&g->rig, N, g->fps, g->up, g->floor_height,
+                             GUARDS_FLOOR_SLACK * g->body_height, g->root_pos, g->rot, g->trans,
+                             work_root, work, trans, g->n_points, g->joints, g->end_sites, NULL,
+                             &g->alloc);
+        if (st != MLR_OK) {
+            fk_failure(st, diag);
+            goto done;
+        }
+    }
     if (C > 0 || floor_on || rep.limits_applied) {
         /* the corners where guards meet, smoothed (depop.c); before the floor's last word */
         size_t smoothed = 0;

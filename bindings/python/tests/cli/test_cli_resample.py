@@ -70,7 +70,11 @@ def test_contacts_kept_by_default_and_no_contacts_skips(capsys, tmp_path):
             style = 2.0 if keep else {"alpha": 2.0, "keep_contacts": False}
             got = mlayer.read_bvh(out)
             assert mlayer.metrics.mpjpe(got, fn(style=style, keep_contacts=keep)) < 1e-3
-            assert mlayer.metrics.mpjpe(got, fn(style=2.0, keep_contacts=not keep)) > 1e-2
+            # the other setting moves some joint by more than 0.4% of body height (the
+            # retiming's contact pass acts on a few frames, after the style's guards have pinned
+            # the feet: its mean over all joints and frames is 0.008, its largest 0.76)
+            other = fn(style=2.0, keep_contacts=not keep)
+            assert np.abs(got.positions() - other.positions()).max() > 0.1
 
 
 @requires("plot")
