@@ -33,6 +33,12 @@ size_t floor_lift__half_width(double peak, double a_ref, double fps)
 mlr_status floor_lift__smooth(size_t N, double fps, const double *need, double a_ref, int up,
                               double *root, const mlr_allocator *alloc)
 {
+    return floor_lift__envelope(N, fps, need, a_ref, root + up, 3, alloc);
+}
+
+mlr_status floor_lift__envelope(size_t N, double fps, const double *need, double a_ref,
+                                double *out, size_t stride, const mlr_allocator *alloc)
+{
     if (N == 0)
         return MLR_OK;
     const size_t hmax = floor_lift__half_width(0.0, 0.0, fps);
@@ -97,7 +103,7 @@ mlr_status floor_lift__smooth(size_t N, double fps, const double *need, double a
                 acc += k >= wa && k <= we ? w * wide[k] : 0.0;
                 wsum += w;
             }
-            root[3 * f + (size_t)up] += acc / wsum;
+            out[stride * f] += acc / wsum;
         }
     }
     common__free(alloc, buf, bytes);

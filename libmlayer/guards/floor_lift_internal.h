@@ -21,4 +21,10 @@ size_t floor_lift__half_width(double peak, double a_ref, double fps);
 mlr_status floor_lift__smooth(size_t N, double fps, const double *need, double a_ref, int up,
                               double *root, const mlr_allocator *alloc);
 
+/* What floor_lift__smooth adds, added to out[stride f] (f < N) instead: the envelope of any
+ * need in time (a_ref = INFINITY: 0.1 s ramps whatever the need, as the retarget's lift and
+ * its toes' weights take it). */
+mlr_status floor_lift__envelope(size_t N, double fps, const double *need, double a_ref,
+                                double *out, size_t stride, const mlr_allocator *alloc);
+
 #endif /* MLR_FLOOR_LIFT_INTERNAL_H */

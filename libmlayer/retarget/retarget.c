@@ -9,6 +9,7 @@
 #include <string.h>
 
 #include "guards/cleanup_internal.h"
+#include "guards/floor_lift_internal.h"
 #include "motion/mirror_internal.h"
 #include "mlayer/mlr_cleanup.h"
 #include "mlayer/mlr_contacts.h"
@@ -1415,31 +1416,6 @@ static mlr_quat toe_level_turn(const toe_level *tl, mlr_quat w, const double *up
     return (mlr_quat){cos(0.5 * turn), sh * axis[0], sh * axis[1], sh * axis[2]};
 }
 
-/* A smooth envelope of x (N, in [0, 1]): the largest within +-half frames, averaged with a
- * raised-cosine window as wide; wide is N of scratch. out may not be x. */
-static void envelope(const double *x, size_t n_frames, size_t half, double *wide, double *out)
-{
-    for (size_t f = 0; f < n_frames; f++) {
-        const size_t lo = f > half ? f - half : 0,
-                     hi = f + half < n_frames ? f + half : n_frames - 1;
-        double m = 0.0;
-        for (size_t k = lo; k <= hi; k++)
-            m = fmax(m, x[k]);
-        wide[f] = m;
-    }
-    for (size_t f = 0; f < n_frames; f++) {
-        const size_t lo = f > half ? f - half : 0,
-                     hi = f + half < n_frames ? f + half : n_frames - 1;
-        double acc = 0.0, wsum = 0.0;
-        for (size_t k = lo; k <= hi; k++) {
-            const double u = ((double)k - (double)f) / (double)(half + 1);
-            const double w = 0.5 * (1.0 + cos(3.14159265358979323846 * u));
-            acc += w * wide[k], wsum += w;
-        }
-        out[f] = acc / wsum;
-    }
-}
-
 /* The toes of toe_levels turned up on their feet's contact frames (ct: N x nt flags of the
  * target's points of kinds tk), eased in time; out_rot rewritten. */
 static mlr_status level_toes(const rig_rest *src, const rig_rest *dst, size_t n_frames, double fps,
@@ -1454,17 +1430,15 @@ static mlr_status level_toes(const rig_rest *src, const rig_rest *dst, size_t n_
     const mlr_rig *rig = dst->rig;
     const size_t J = rig->n_joints;
     size_t nd, bytes;
-    if (common__mul_size(n_frames, 7 * J + 3, &nd) != MLR_OK ||
+    if (common__mul_size(n_frames, 7 * J + 2, &nd) != MLR_OK ||
         common__mul_size(nd, sizeof(double), &bytes) != MLR_OK)
         return common__diag_set(diag, MLR_E_OVERFLOW, 0, 0, "retarget: the frames are too many");
     double *wpos = common__alloc(a, bytes);
     if (!wpos)
         return common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "retarget: out of memory");
-    double *wrot = wpos + 3 * n_frames * J, *on = wrot + 4 * n_frames * J, *wide = on + n_frames,
-           *weight = wide + n_frames;
+    double *wrot = wpos + 3 * n_frames * J, *on = wrot + 4 * n_frames * J, *weight = on + n_frames;
     mlr_status st = mlr_fk_arrays(n_frames, J, rig->parents, rig->offsets, root_pos, rot,
                                   rig->n_trans, rig->trans_joints, trans, wpos, wrot, a, diag);
-    const size_t half = (size_t)fmax(1.0, round(0.1 * fps));
     for (int k = 0; k < 2 && st == MLR_OK; k++) {
         if (tl[k].j < 0)
             continue;
@@ -1474,7 +1448,12 @@ static mlr_status level_toes(const rig_rest *src, const rig_rest *dst, size_t n_
                 if ((tk[i] >> 1) == k && ct[f * nt + i])
                     on[f] = 1.0;
         }
-        envelope(on, n_frames, half, wide, weight);
+        /* eased over 0.1 s (floor_lift.c's envelope, its ramps fixed) */
+        memset(weight, 0, n_frames * sizeof(double));
+        if ((st = floor_lift__envelope(n_frames, fps, on, INFINITY, weight, 1, a)) != MLR_OK) {
+            common__diag_set(diag, st, 0, 0, "retarget: out of memory");
+            break;
+        }
         const size_t t = (size_t)tl[k].j;
         for (size_t f = 0; f < n_frames; f++) {
             mlr_quat w, pw;
@@ -1491,31 +1470,29 @@ static mlr_status level_toes(const rig_rest *src, const rig_rest *dst, size_t n_
 }
 
 /* Raise the target's whole body along up (its root translation) where its lowest foot point is
- * below ground: by a smooth envelope of the shortfall (envelope: the largest within +-0.1 s,
- * averaged with a raised-cosine window of the same width, so it covers every frame's shortfall
- * and is zero farther than 0.2 s from any). */
+ * below ground: by a smooth envelope of the shortfall (floor_lift__envelope with its ramps fixed
+ * at 0.1 s: the largest within +-0.1 s, averaged with a raised-cosine window of the same width,
+ * so it covers every frame's shortfall and is zero farther than 0.2 s from any). */
 static mlr_status raise_feet(const rig_rest *r, size_t n_frames, double fps, int up, double ground,
                              double *root_pos, const double *rot, const double *trans,
                              const mlr_allocator *a, mlr_diag *diag)
 {
     const size_t J = r->rig->n_joints;
     size_t nd, bytes;
-    if (common__mul_size(n_frames, 7 * J + 2, &nd) != MLR_OK ||
+    if (common__mul_size(n_frames, 7 * J + 1, &nd) != MLR_OK ||
         common__mul_size(nd, sizeof(double), &bytes) != MLR_OK)
         return common__diag_set(diag, MLR_E_OVERFLOW, 0, 0, "retarget: the frames are too many");
     double *wpos = common__alloc(a, bytes);
     if (!wpos)
         return common__diag_set(diag, MLR_E_NO_MEMORY, 0, 0, "retarget: out of memory");
-    double *wrot = wpos + 3 * n_frames * J, *need = wrot + 4 * n_frames * J,
-           *wide = need + n_frames;
+    double *wrot = wpos + 3 * n_frames * J, *need = wrot + 4 * n_frames * J;
     lowest_foot(r, n_frames, root_pos, rot, trans, up, wpos, wrot, need);
     for (size_t f = 0; f < n_frames; f++)
         need[f] = fmax(0.0, ground - need[f]);
-    envelope(need, n_frames, (size_t)fmax(1.0, round(0.1 * fps)), wide, wpos);
-    for (size_t f = 0; f < n_frames; f++)
-        root_pos[3 * f + (size_t)up] += wpos[f];
+    const mlr_status st =
+        floor_lift__envelope(n_frames, fps, need, INFINITY, root_pos + (size_t)up, 3, a);
     common__free(a, wpos, bytes);
-    return MLR_OK;
+    return st == MLR_OK ? MLR_OK : common__diag_set(diag, st, 0, 0, "retarget: out of memory");
 }
 
 mlr_status mlr_retarget_feet(const mlr_rig *source, size_t n_frames, double fps, int up,
