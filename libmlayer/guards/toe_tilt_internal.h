@@ -6,14 +6,17 @@
 #include "mlayer/mlr_rig.h"
 
 /* For every End Site among the C points (end_sites[c] >= 0) whose parent joint has no child
- * joint (a toe tip at the end of the foot), wherever the motion (root, rot, trans: N frames;
- * rot rewritten) puts it more than slack below floor (along axis up) beyond the input's own
- * depth there (the input: in_root, in_rot, in_trans), the parent joint is turned about the
- * horizontal axis across the bone until the tip is within slack / 2 of that limit, by at most
- * TOE_TILT_MAX; the angles eased in time as the limits' corrections are (a running maximum,
- * then a Gaussian of 40 ms), so the tilt enters and leaves smoothly. No joint moves: only the
- * tip. *tilted: how many tips needed it. Arguments checked by the caller; the motion unchanged
- * on failure (MLR_E_NO_MEMORY, MLR_E_OVERFLOW). */
+ * joint (a toe tip at the end of the foot), and for every joint point that carries a short
+ * chain below it (up to 3 single children, none of them a point, and the End Sites of the
+ * last: Mixamo's ToeBase carrying Toe_End and its tip), wherever the motion (root, rot, trans:
+ * N frames; rot rewritten) puts such a tip more than slack below floor (along axis up) beyond
+ * the input's own depth there (the input: in_root, in_rot, in_trans), the joint that carries
+ * it is turned about the horizontal axis across its bone until every tip is within slack / 2
+ * of that limit, by at most TOE_TILT_MAX; the angles eased in time as the limits' corrections
+ * are (a running maximum, then a Gaussian of 40 ms), so the tilt enters and leaves smoothly.
+ * No point moves: only what lies below the last one. *tilted: how many joints needed it.
+ * Arguments checked by the caller; the motion unchanged on failure (MLR_E_NO_MEMORY,
+ * MLR_E_OVERFLOW). */
 mlr_status toe_tilt__apply(const mlr_rig *rig, size_t N, double fps, int up, double floor,
                            double slack, const double *in_root, const double *in_rot,
                            const double *in_trans, const double *root, double *rot,
