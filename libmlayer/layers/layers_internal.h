@@ -73,6 +73,13 @@ mlr_status layers__robust_weights(mlr_layers *L, const mlr_layers_cfg *cfg, doub
  * every joint that jumps there too (layers_robust.c; mlr_layers_get_end_runs reports them); the
  * pipeline passes them through. */
 void layers__end_runs(size_t n, const double *p, size_t ends[2]);
+/* The same runs found from the pose where the translation gave none (ends[e] == 0 on entry):
+ * the shortest run of 1 to 10 frames that at least 3 joints (q: n x j x 4 unit quaternions)
+ * leave (or enter) by a turn of more than 20 degrees and more than 10 times each of their turns
+ * inside the run and in the 3 beyond it: CMU's rest frame before a capture, the root already
+ * where the capture starts (a pybvh export of 12_01: arms 82 degrees, a knee 52, against
+ * 2.5 a frame after it). */
+void layers__pose_end_runs(size_t n, size_t j, const double *q, size_t ends[2]);
 
 /*
  * Batched LDL^T of ns pentadiagonal systems A_k = I + s_k L^T L (L the n-row second

@@ -64,6 +64,11 @@
 #define ROBUST_UNDONE (-1.0)
 /* a body translation's run at a clip's end: its step past this many times the others */
 #define ROBUST_END_KAPPA 10.0
+/* a pose's run at a clip's end with no step of the translation (layers__pose_end_runs): this
+   many joints step out of it past ROBUST_END_KAPPA times their others, by more than this angle
+   (radians, 20 degrees) */
+#define ROBUST_END_JOINTS 3
+#define ROBUST_END_ANGLE 0.35
 /* outlier frames a realignment steps over beyond its window */
 #define ROBUST_REALIGN_SKIP 64
 
@@ -233,6 +238,60 @@ void layers__end_runs(size_t n, const double *p, size_t ends[2])
             break;
         }
     }
+}
+
+/* The joints' steps into frame i of joint k (working quaternions q, n x j x 4); 0 at i = 0. */
+static double rot_step(const double *q, size_t j, size_t k, size_t i)
+{
+    return i ? angle_between(q + 4 * (i * j + k), q + 4 * ((i - 1) * j + k)) : 0.0;
+}
+
+/* The largest of joint k's steps [lo, hi) (clipped to [1, n)). */
+static double rot_steps_max(const double *q, size_t n, size_t j, size_t k, size_t lo, size_t hi)
+{
+    double m = 0.0;
+    for (size_t i = lo < 1 ? 1 : lo; i < hi && i < n; i++)
+        m = fmax(m, rot_step(q, j, k, i));
+    return m;
+}
+
+/* Does the pose jump at step b, the edge of a run at a clip's end: do at least
+   ROBUST_END_JOINTS joints step there by more than ROBUST_END_ANGLE and by more than
+   ROBUST_END_KAPPA times each of their steps [in_lo, in_hi) (inside the run) and
+   [out_lo, out_hi) (the ROBUST_FLIP_SIDE steps beyond it)? */
+static int pose_jumps(const double *q, size_t n, size_t j, size_t b, size_t in_lo, size_t in_hi,
+                      size_t out_lo, size_t out_hi)
+{
+    size_t count = 0;
+    for (size_t k = 0; k < j; k++) {
+        const double d = rot_step(q, j, k, b);
+        if (!(d > ROBUST_END_ANGLE))
+            continue;
+        const double sc = fmax(rot_steps_max(q, n, j, k, in_lo, in_hi),
+                               rot_steps_max(q, n, j, k, out_lo, out_hi));
+        count += d > ROBUST_END_KAPPA * sc;
+    }
+    return count >= ROBUST_END_JOINTS;
+}
+
+void layers__pose_end_runs(size_t n, size_t j, const double *q, size_t ends[2])
+{
+    if (!ends[0])
+        for (size_t b = 1; b <= ROBUST_FLIP_MAX && b + 2 * ROBUST_FLIP_SIDE + 2 <= n; b++)
+            if (pose_jumps(q, n, j, b, 1, b, b + 1, b + 1 + ROBUST_FLIP_SIDE)) {
+                ends[0] = b;
+                break;
+            }
+    if (!ends[1])
+        for (size_t r = 1; r <= ROBUST_FLIP_MAX && ends[0] + r + 2 * ROBUST_FLIP_SIDE + 2 <= n;
+             r++) {
+            const size_t a = n - r;
+            if (pose_jumps(q, n, j, a, a + 1, n, a >= ROBUST_FLIP_SIDE ? a - ROBUST_FLIP_SIDE : 1,
+                           a)) {
+                ends[1] = r;
+                break;
+            }
+        }
 }
 
 /* o = conj(a) b (rc 0) or a conj(b) (rc 1), quaternions as (w, x, y, z) arrays. */
@@ -594,8 +653,12 @@ mlr_status layers__robust_weights(mlr_layers *L, const mlr_layers_cfg *cfg, doub
     double *s = work, *gate = work + j, *buf = work + 2 * j;
     size_t ends[2] = {0, 0};
     L->end_runs[0] = L->end_runs[1] = 0;
-    if (root_pos) { /* the translation's end runs are its outliers from the first fit on */
+    if (root_pos) /* the translation's end runs */
         layers__end_runs(n, root_pos, ends);
+    /* and the pose's, where the translation stays (CMU's rest frame before a capture, with the
+       root where the capture starts) */
+    layers__pose_end_runs(n, j, q, ends);
+    if (root_pos) { /* outliers of the translation from the first fit on */
         for (size_t i = 0; i < ends[0]; i++)
             rb->w[i * ng] = 0.0;
         for (size_t i = n - ends[1]; i < n; i++)
@@ -623,7 +686,7 @@ mlr_status layers__robust_weights(mlr_layers *L, const mlr_layers_cfg *cfg, doub
     for (int e = 0; e < 2; e++) { /* kept where the translation's fits kept them outliers */
         const size_t lo = e ? n - ends[1] : 0, hi = e ? n : ends[0];
         int all = hi > lo;
-        for (size_t i = lo; i < hi && all; i++)
+        for (size_t i = lo; i < hi && all && root_pos; i++)
             all = L->outliers[i * ng] != 0;
         L->end_runs[e] = all ? hi - lo : 0;
     }

@@ -1333,6 +1333,52 @@ START_TEST(robust_lead_in_is_an_end_run)
 }
 END_TEST
 
+/* Frame f of joints [0, nk) turned 90 degrees from frame g's pose (a rest pose). */
+static void rest_pose_at(double *rot, size_t j, size_t nk, size_t f, size_t g)
+{
+    const double h = sqrt(0.5);
+    for (size_t k = 0; k < nk; k++) {
+        double *q = rot + 4 * (f * j + k);
+        const double *r = rot + 4 * (g * j + k);
+        const double a = r[0], b = r[1], c = r[2], d = r[3];
+        q[0] = h * (a - b), q[1] = h * (b + a), q[2] = h * (c + d), q[3] = h * (d - c);
+    }
+}
+
+/* A rest pose before and after the capture with the root already where the capture starts and
+ * ends (CMU's 12_01 as pybvh exports it): no step of the translation, so the pose's own steps
+ * find the runs (layers__pose_end_runs), and the pipeline passes them through. A turn of two
+ * joints alone is motion, not a rest pose. */
+START_TEST(robust_rest_pose_with_the_root_in_place_is_an_end_run)
+{
+    const size_t n = 300, j = 3, ng = 1 + j;
+    double *pos = malloc(3 * n * sizeof *pos), *rot = malloc(4 * n * j * sizeof *rot);
+    unsigned char *fl = malloc(n * ng);
+    const mlr_layers_option on[2] = {{MLR_LAYERS_OPT_ROBUST, 1.0},
+                                     {MLR_LAYERS_OPT_BODY_HEIGHT, 100.0}};
+    for (size_t nk = 2; nk <= 3; nk++) {
+        synthetic_big(n, 30.0, pos, rot, 7);
+        memcpy(pos, pos + 3, 3 * sizeof *pos); /* the root where the capture starts */
+        memcpy(pos + 3 * (n - 1), pos + 3 * (n - 2), 3 * sizeof *pos);
+        rest_pose_at(rot, j, nk, 0, 1);
+        rest_pose_at(rot, j, nk, n - 1, n - 2);
+        mlr_layers *L = NULL;
+        ck_assert_int_eq(mlr_layers_decompose(n, j, pos, rot, on, 2, NULL, &L, NULL), MLR_OK);
+        size_t head = 9, tail = 9;
+        ck_assert_int_eq(mlr_layers_get_end_runs(L, &head, &tail), MLR_OK);
+        ck_assert_uint_eq(head, (nk == 3 ? 1u : 0u));
+        ck_assert_uint_eq(tail, (nk == 3 ? 1u : 0u));
+        if (nk == 3) {
+            ck_assert_int_eq(mlr_layers_get_outliers(L, fl, n * ng), MLR_OK);
+            for (size_t g = 0; g < ng; g++) /* every group: the translation and each joint */
+                ck_assert(fl[g] != 0 && fl[(n - 1) * ng + g] != 0);
+        }
+        mlr_layers_destroy(L);
+    }
+    free(fl), free(pos), free(rot);
+}
+END_TEST
+
 /* A glitch (in the middle, then at the start) is found in every group, exactly its frames; the
  * base translation at a fixed s is the dense weighted LGS with those frames at weight 0 (a
  * 1000-height glitch weighs 0); the layers identity still holds; and the denoised motion more
@@ -1737,6 +1783,7 @@ static Suite *layers_suite(void)
     tcase_add_test(num, robust_without_outliers_is_plain);
     tcase_add_test(num, robust_glitch_is_found_and_local);
     tcase_add_test(num, robust_lead_in_is_an_end_run);
+    tcase_add_test(num, robust_rest_pose_with_the_root_in_place_is_an_end_run);
     tcase_add_test(num, robust_joint_flips_any_fps);
     tcase_add_test(num, robust_flip_of_constant_turn_is_undone);
     tcase_add_test(num, repair_replaces_the_outlier_frames);
