@@ -1031,17 +1031,21 @@ mlr_status mlr_pipeline_synthesize(mlr_pipeline *p, mlr_motion **out, mlr_diag *
     }
 
     /* the runs at the clip's ends that the robust decomposition left out (a converter's T-pose
-       frame before the capture): passed through as they are, since no pose of the motion is
-       known there (extrapolated, the bridge put a walk's toes 1% of body height under the
-       floor; the T-pose's standing legs under the bridged root, 29%) */
-    for (int e = 0; e < 2; e++) {
-        const size_t lo = e ? N - p->ends[1] : 0, hi = e ? N : p->ends[0];
-        for (size_t i = lo; i < hi; i++) {
-            memcpy(root + 3 * i, mlr_motion_root_pos(m) + 3 * i, 3 * sizeof(double));
-            memcpy(rot + 4 * J * i, mlr_motion_rot(m) + 4 * J * i, 4 * J * sizeof(double));
-            if (P)
-                memcpy(trans + 3 * P * i, mlr_motion_trans(m) + 3 * P * i, 3 * P * sizeof(double));
-        }
+       frame before the capture): as they are in a denoise, else the result's pose next to each
+       held over it (pipeline_ends.c) */
+    if (p->ends[0] || p->ends[1]) {
+        int denoise = 1;
+        for (size_t g = 0; g <= J; g++)
+            denoise &= a[g] == 1.0;
+        mlr_rig rig;
+        s = rig_of(p, m, &rig);
+        if (s >= 0)
+            s = pipeline__fill_end_runs(&rig, N, p->ends, denoise, rep.floor_height, p->up_used,
+                                        mlr_motion_root_pos(m), mlr_motion_rot(m),
+                                        P ? mlr_motion_trans(m) : NULL, root, rot, trans, &p->mem);
+        if (s < 0)
+            return common__diag_set(diag, s, 0, 0, "mlr_pipeline_synthesize: %s (the end runs)",
+                                    mlr_status_string(s));
     }
 
     /* the result, in the caller's motion when it is large enough */

@@ -1,9 +1,10 @@
-/* What the files of the pipeline share (pipeline.c, pipeline_memory.c, glob.c). Not
- * installed. */
+/* What the files of the pipeline share (pipeline.c, pipeline_memory.c, pipeline_ends.c,
+ * glob.c). Not installed. */
 #ifndef MLR_PIPELINE_INTERNAL_H
 #define MLR_PIPELINE_INTERNAL_H
 
 #include "common/mlr_internal.h"
+#include "mlayer/mlr_rig.h"
 
 /* The arena every allocation of a pipeline's runs goes through (the layers, the guards, their
  * scratch): a stack of blocks over one kept allocation, grown after a run that needed more
@@ -35,5 +36,19 @@ void pipeline__arena_free(pipeline__arena *a);
  * a `[` without a closing `]` is itself), anything else itself; characters are UTF-8 code
  * points. Both NUL-terminated. */
 int pipeline__glob_match(const char *pattern, const char *name);
+
+/* The runs at the clip's ends that the layers left out (ends[0] frames at the start, ends[1]
+ * at the end; mlr_layers_get_end_runs) in the result (root N x 3, rot N x J x 4, trans N x P x
+ * 3 or NULL when the rig has no translation channels): denoise (every alpha 1): the input's
+ * frames (in_root, in_rot, in_trans) as they are; else the result's pose next to each run held
+ * over it, raised along up (0-2) by the most that a point of it (a joint or an End Site) goes
+ * deeper under floor than the input's same point on a frame of the run, one height over the
+ * run (floor NaN: not raised). A run of
+ * the whole clip is left as it is. MLR_E_NO_MEMORY (7 J doubles and two heights per point),
+ * MLR_E_OVERFLOW; the result may be partly filled then. */
+mlr_status pipeline__fill_end_runs(const mlr_rig *rig, size_t N, const size_t ends[2], int denoise,
+                                   double floor, int up, const double *in_root,
+                                   const double *in_rot, const double *in_trans, double *root,
+                                   double *rot, double *trans, const mlr_allocator *alloc);
 
 #endif

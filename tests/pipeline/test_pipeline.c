@@ -44,6 +44,51 @@ static size_t slot_of(const mlr_motion *m, int32_t joint)
     return s;
 }
 
+/* The heights along up of every joint and End Site of frame i of (root, rot, trans). */
+static void point_heights(const mlr_rig *rig, const double *root, const double *rot,
+                          const double *trans, size_t i, int up, double *h)
+{
+    const size_t J = rig->n_joints, P = rig->n_trans;
+    double *pos = malloc(3 * J * sizeof(double)), *wrot = malloc(4 * J * sizeof(double));
+    ck_assert(pos && wrot);
+    ck_assert_int_eq(mlr_fk_arrays(1, J, rig->parents, rig->offsets, root + 3 * i, rot + 4 * J * i,
+                                   P, rig->trans_joints, P ? trans + 3 * P * i : NULL, pos, wrot,
+                                   NULL, NULL),
+                     MLR_OK);
+    for (size_t j = 0; j < J; j++)
+        h[j] = pos[3 * j + (size_t)up];
+    for (size_t e = 0; e < rig->n_end_sites; e++) {
+        const size_t j = (size_t)rig->end_site_parents[e];
+        const double *q = wrot + 4 * j, *v = rig->end_site_offsets + 3 * e;
+        /* v rotated by q, its up component: v + 2 w (u x v) + 2 u x (u x v) */
+        const double u[3] = {q[1], q[2], q[3]};
+        const double t[3] = {2 * (u[1] * v[2] - u[2] * v[1]), 2 * (u[2] * v[0] - u[0] * v[2]),
+                             2 * (u[0] * v[1] - u[1] * v[0])};
+        const double r[3] = {v[0] + q[0] * t[0] + u[1] * t[2] - u[2] * t[1],
+                             v[1] + q[0] * t[1] + u[2] * t[0] - u[0] * t[2],
+                             v[2] + q[0] * t[2] + u[0] * t[1] - u[1] * t[0]};
+        h[J + e] = pos[3 * j + (size_t)up] + r[up];
+    }
+    free(pos), free(wrot);
+}
+
+/* How far the result's pose of frame k, held at frame i, goes deeper under the floor than the
+   input's same point on frame i (its largest over the points, at least 0). */
+static double held_need(const mlr_rig *rig, const mlr_motion *m, const frames *f, size_t i,
+                        size_t k, double floor, int up)
+{
+    const size_t K = rig->n_joints + rig->n_end_sites;
+    double *ho = malloc(K * sizeof(double)), *hi = malloc(K * sizeof(double));
+    ck_assert(ho && hi);
+    point_heights(rig, f->root, f->rot, f->trans, k, up, ho);
+    point_heights(rig, mlr_motion_root_pos(m), mlr_motion_rot(m), mlr_motion_trans(m), i, up, hi);
+    double need = 0.0;
+    for (size_t p = 0; p < K; p++)
+        need = fmax(need, fmax(0.0, floor - ho[p]) - fmax(0.0, floor - hi[p]));
+    free(ho), free(hi);
+    return need;
+}
+
 /* Stylize c.m with alpha everywhere, joints matching `pattern` (a prefix and '*') at pattern_alpha,
  * the way mlayer.stylize composed it; up axis and body height as mlayer.Motion finds them. */
 static frames reference(const mlr_test_clip *c, double alpha, const char *prefix,
@@ -127,19 +172,37 @@ static frames reference(const mlr_test_clip *c, double alpha, const char *prefix
     for (size_t i = 0; i < N; i++)
         memcpy(body ? f.trans + 3 * (i * P + slot) : f.root + 3 * i, t + 3 * i,
                3 * sizeof(double));
+    mlr_guards_report rep;
     ck_assert_msg(mlr_guards_apply_trans(G, a, 1 + J, NULL, NULL, NULL, f.root, f.rot, f.trans,
-                                         NULL, 0, NULL, &d) == MLR_OK,
+                                         NULL, 0, &rep, &d) == MLR_OK,
                   "%s", d.message);
-    /* the runs at the ends that the layers left out, as they are */
+    /* the runs at the ends that the layers left out: as they are in a denoise, else the
+       result's pose next to the run held over it */
     size_t ends[2];
     ck_assert_int_eq(mlr_layers_get_end_runs(L, &ends[0], &ends[1]), MLR_OK);
+    int denoise = 1;
+    for (size_t k = 0; k <= J; k++)
+        denoise &= a[k] == 1.0;
     for (size_t i = 0; i < N; i++) {
         if (i >= ends[0] && i < N - ends[1])
             continue;
-        memcpy(f.root + 3 * i, mlr_motion_root_pos(m) + 3 * i, 3 * sizeof(double));
-        memcpy(f.rot + 4 * i * J, mlr_motion_rot(m) + 4 * i * J, 4 * J * sizeof(double));
+        const size_t k = denoise ? i : i < ends[0] ? ends[0] : N - ends[1] - 1;
+        const double *r = denoise ? mlr_motion_root_pos(m) : f.root;
+        const double *q = denoise ? mlr_motion_rot(m) : f.rot;
+        const double *tr = denoise ? mlr_motion_trans(m) : f.trans;
+        memmove(f.root + 3 * i, r + 3 * k, 3 * sizeof(double));
+        memmove(f.rot + 4 * i * J, q + 4 * k * J, 4 * J * sizeof(double));
         if (P)
-            memcpy(f.trans + 3 * i * P, mlr_motion_trans(m) + 3 * i * P, 3 * P * sizeof(double));
+            memmove(f.trans + 3 * i * P, tr + 3 * k * P, 3 * P * sizeof(double));
+    }
+    for (int e = 0; e < 2 && !denoise && isfinite(rep.floor_height); e++) {
+        /* the held frames raised, by one height over each run, where deeper than the input */
+        const size_t lo = e ? N - ends[1] : 0, hi = e ? N : ends[0], k = e ? lo - 1 : hi;
+        double need = 0.0;
+        for (size_t i = lo; i < hi; i++)
+            need = fmax(need, held_need(&c->rig, m, &f, i, k, rep.floor_height, up));
+        for (size_t i = lo; i < hi; i++)
+            f.root[3 * i + (size_t)up] += need;
     }
     free(a);
     free(t);

@@ -42,6 +42,12 @@ def _read(name):
     return mlayer.read_bvh(p)
 
 
+def _point_heights(m, root, rot, trans, up):
+    """(N, J + E) heights along up of every joint and End Site of m's skeleton moved so."""
+    x = m.with_frames(root_pos=root, rot=rot, trans=trans)
+    return np.concatenate([x.positions()[..., up], x.end_site_positions()[..., up]], axis=1)
+
+
 def _reference(m, alpha, joints=None):
     """The motion mlayer.stylize gave before it called mlr_pipeline (see the module doc)."""
     J, sk = m.n_joints, m.skeleton
@@ -98,15 +104,26 @@ def _reference(m, alpha, joints=None):
         tr[:, col] = st
     else:
         r = st
+    rep = ffi.new("mlr_guards_report *")
     check(lib.mlr_guards_apply_trans(G, _arrays.ptr(a), a.size, ffi.NULL, ffi.NULL, ffi.NULL,
                                      _arrays.ptr_out(r), _arrays.ptr_out(q),
                                      _arrays.ptr_out(tr) if tr.size else ffi.NULL, ffi.NULL, 0,
-                                     ffi.NULL, diag), "guards apply", diag)
-    # the runs at the ends that the layers left out, as they are
+                                     rep, diag), "guards apply", diag)
+    # the runs at the ends that the layers left out: as they are in a denoise, else the
+    # result's pose next to the run held over it
     head, tail = ffi.new("size_t *"), ffi.new("size_t *")
     check(lib.mlr_layers_get_end_runs(L, head, tail), "end runs")
-    for sl in (slice(0, head[0]), slice(N - tail[0], N)):
-        r[sl], q[sl], tr[sl] = root[sl], rot[sl], trans[sl]
+    for sl, nxt in ((slice(0, head[0]), head[0]), (slice(N - tail[0], N), N - tail[0] - 1)):
+        if np.all(a == 1.0):
+            r[sl], q[sl], tr[sl] = root[sl], rot[sl], trans[sl]
+        elif sl.stop > sl.start:
+            r[sl], q[sl], tr[sl] = r[nxt], q[nxt], tr[nxt]
+            if math.isfinite(rep.floor_height):  # raised where deeper than the input
+                held, inp = (_point_heights(m, r, q, tr, up)[sl],
+                             _point_heights(m, root, rot, trans, up)[sl])
+                f = rep.floor_height
+                need = (np.maximum(0.0, f - held) - np.maximum(0.0, f - inp)).max(axis=1)
+                r[sl, up] += max(need.max(), 0.0)  # one lift over the run
     del keep
     return r, q, tr, h
 
