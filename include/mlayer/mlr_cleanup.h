@@ -101,7 +101,7 @@ typedef enum mlr_cleanup_key {
                                            the contact's velocity; 0: they carry the edge's
                                            offset alone (the synthesis's velocity at the
                                            edge: the guards' denoise, retiming). Since 0.3 */
-    MLR_CLEANUP_OPT_ROOT_BOB = 15       /* seconds, >= 0: the vertical part of the root's shift
+    MLR_CLEANUP_OPT_ROOT_BOB = 15,      /* seconds, >= 0: the vertical part of the root's shift
                                            (up to 0.1 leg lengths, in the first round) is
                                            spread over +- this many seconds, no lower than the
                                            body's parts off the feet stand above the floor, so
@@ -109,6 +109,15 @@ typedef enum mlr_cleanup_key {
                                            (default): off, every need within +-0.1 s. The
                                            guards pass 0.5 when the body translation's alpha
                                            is not 1. Since 0.3 */
+    MLR_CLEANUP_OPT_STRAIGHT_SLACK = 16 /* leg lengths, >= 0: on a leg within about a degree
+                                           of straight, the part of a contact target's
+                                           correction along the hip-anchor line, l, becomes
+                                           l x^2 / (1 + x^2), x = |l| / this, blended back into
+                                           the whole correction by 6 degrees of bend, so that
+                                           a straight leg asked to shorten by a hair does not
+                                           bend its knee for it (what is left along the line is
+                                           at most half of this); 0 (default): every
+                                           correction whole. The guards pass 0.002. Since 0.3 */
 } mlr_cleanup_key;
 
 /** One option: key (an mlr_cleanup_key) and its value. A frozen value type. */

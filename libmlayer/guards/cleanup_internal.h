@@ -171,6 +171,7 @@ typedef struct cleanup_config {
     double pin_detail;
     int ramp_track; /* MLR_CLEANUP_OPT_RAMP_TRACK */
     double root_bob; /* MLR_CLEANUP_OPT_ROOT_BOB, seconds; 0: off */
+    double straight_slack; /* MLR_CLEANUP_OPT_STRAIGHT_SLACK, leg lengths; 0: off */
 } cleanup_config;
 
 /* A foot: anchor joint, its leg, the columns of its points, the targets. */

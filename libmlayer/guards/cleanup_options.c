@@ -25,6 +25,8 @@ static const mlr_opt_spec cleanup_opts[] = {
     {MLR_CLEANUP_OPT_PIN_DETAIL, "pin_detail", MLR_OPT_DOUBLE, 0.0, 1.0, 0, 0, 0.0, NULL},
     {MLR_CLEANUP_OPT_RAMP_TRACK, "ramp_track", MLR_OPT_BOOL, 0.0, 1.0, 0, 0, 1.0, NULL},
     {MLR_CLEANUP_OPT_ROOT_BOB, "root_bob", MLR_OPT_DOUBLE, 0.0, INFINITY, 0, 0, 0.0, NULL},
+    {MLR_CLEANUP_OPT_STRAIGHT_SLACK, "straight_slack", MLR_OPT_DOUBLE, 0.0, INFINITY, 0, 0, 0.0,
+     NULL},
 };
 #undef PI
 
@@ -54,6 +56,7 @@ mlr_status cleanup__parse_options(const mlr_cleanup_option *opts, size_t n_opts,
     cfg->pin_detail = o.v[MLR_CLEANUP_OPT_PIN_DETAIL];
     cfg->ramp_track = o.v[MLR_CLEANUP_OPT_RAMP_TRACK] != 0.0;
     cfg->root_bob = o.v[MLR_CLEANUP_OPT_ROOT_BOB];
+    cfg->straight_slack = o.v[MLR_CLEANUP_OPT_STRAIGHT_SLACK];
     return MLR_OK;
 }
 

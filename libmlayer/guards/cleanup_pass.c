@@ -174,6 +174,47 @@ static void finish_legs(const cleanup_state *cu, const cleanup_foot *ft, mlr_ik_
     }
 }
 
+/* A contact target that asks a straight leg to shorten by a hair (MLR_CLEANUP_OPT_STRAIGHT_SLACK,
+   zone in leg lengths; the guards' 0.002): the part of the correction
+   d along the hip-anchor line, l, becomes l x^2 / (1 + x^2), x = |l| / zone, on a leg whose
+   bones are within STRAIGHT_FROM of straight (the sine of the angle between them), blended
+   back into the whole correction by STRAIGHT_TO. On a straight leg a hair is no small thing:
+   the IK bent the knee of CMU 01_03's climbing leg by 2 degrees (0.58% of body height at the
+   knee) to take its foot 0.03% of body height closer to the hip, on a capture the cleanup
+   should leave as it is. What is left along the line is at most zone / 2;
+   across it (a slide) the correction is whole: the same zone on the whole correction let a
+   slow walk's planted foot wobble (Xia's depressed walk at alpha 3: a pop of 1.8x). */
+#define STRAIGHT_FROM 0.02
+#define STRAIGHT_TO 0.1
+static void pin_dead_zone(const double *hip, const double *knee, const double *now, double zone,
+                          double *target)
+{
+    const double u[3] = {knee[0] - hip[0], knee[1] - hip[1], knee[2] - hip[2]};
+    const double v[3] = {now[0] - knee[0], now[1] - knee[1], now[2] - knee[2]};
+    const double c[3] = {u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2],
+                         u[0] * v[1] - u[1] * v[0]};
+    const double uv = sqrt((u[0] * u[0] + u[1] * u[1] + u[2] * u[2]) *
+                           (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]));
+    double e[3] = {now[0] - hip[0], now[1] - hip[1], now[2] - hip[2]};
+    const double en = sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]);
+    if (!(uv > 0.0) || !(en > 0.0) || !(zone > 0.0))
+        return;
+    const double sb = sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]) / uv;
+    const double w =
+        1.0 -
+        common__fmin(1.0, common__fmax(0.0, (sb - STRAIGHT_FROM) / (STRAIGHT_TO - STRAIGHT_FROM)));
+    if (w <= 0.0)
+        return;
+    double l = 0.0;
+    for (int k = 0; k < 3; k++) {
+        e[k] /= en;
+        l += (target[k] - now[k]) * e[k];
+    }
+    const double s = 1.0 - w + w * l * l / (l * l + zone * zone);
+    for (int k = 0; k < 3; k++)
+        target[k] += (s - 1.0) * l * e[k];
+}
+
 /* Two-bone IK of each leg on its constrained frames (contact targets, or the ankle raised
    above the floor), into newr; where the anchor (and on contact frames the placed point) is
    already within REACHED of its target, the leg is left as it is (ft->S). The frames to
@@ -202,14 +243,17 @@ static void solve_legs(const cleanup_state *cu)
                 continue;
             const double *Pf = pos + 3 * f * J, *G = wrot + 4 * f * J;
             double target[3];
+            const double len =
+                cleanup__dist3(Pf + 3 * h, Pf + 3 * kn) + cleanup__dist3(Pf + 3 * kn, Pf + 3 * a);
             if (ft->U[f]) {
                 memcpy(target, ft->at + 3 * f, sizeof target);
+                pin_dead_zone(Pf + 3 * h, Pf + 3 * kn, Pf + 3 * a, cu->cfg->straight_slack * len,
+                              target);
             } else {
                 memcpy(target, Pf + 3 * a, sizeof target);
                 target[up] += common__fmax(ft->lift[f], 0.0);
             }
-            const double eps = REACHED * (cleanup__dist3(Pf + 3 * h, Pf + 3 * kn) +
-                                          cleanup__dist3(Pf + 3 * kn, Pf + 3 * a));
+            const double eps = REACHED * len;
             if (cleanup__dist3(Pf + 3 * a, target) <= eps &&
                 (!ft->U[f] || !has_toe ||
                  aligned(P + 3 * (f * C + toe), ft->tt + 3 * f, Pf + 3 * a))) {

@@ -17,7 +17,10 @@
 #include <math.h>
 
 /* the cleanup options an apply passes at most (cleanup_options) */
-#define GUARDS_MAX_COPTS 10
+#define GUARDS_MAX_COPTS 12
+/* leg lengths: MLR_CLEANUP_OPT_STRAIGHT_SLACK (CMU 01_03's straight climbing leg bent its knee
+   0.58% of body height for a pin 0.03% closer to the hip) */
+#define GUARDS_STRAIGHT_SLACK 0.002
 #define GUARDS_ROOT_BOB 0.5 /* seconds: MLR_CLEANUP_OPT_ROOT_BOB when the body's alpha is not 1 */
 
 /* The cleanup passes (of its default 2) whose IK's rotations are limited before the spread,
@@ -997,6 +1000,7 @@ static size_t cleanup_options(const mlr_guards *g, int has_ref, const double *al
         copts[n_copts++] = (mlr_cleanup_option){MLR_CLEANUP_OPT_MAX_FOLD, knee_fold_limit(g)};
     if (floor_on)
         copts[n_copts++] = (mlr_cleanup_option){MLR_CLEANUP_OPT_FLOOR_HEIGHT, g->floor_height};
+    copts[n_copts++] = (mlr_cleanup_option){MLR_CLEANUP_OPT_STRAIGHT_SLACK, GUARDS_STRAIGHT_SLACK};
     return n_copts;
 }
 

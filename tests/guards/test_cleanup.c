@@ -580,9 +580,11 @@ START_TEST(bad_input_gets_the_right_status_and_message)
         const char *msg;
     } bad[] = {
         {{{0, 1.0}}, 1, "unknown option key 0"},
-        {{{16, 1.0}}, 1, "unknown option key 16"},
+        {{{17, 1.0}}, 1, "unknown option key 17"},
         {{{MLR_CLEANUP_OPT_ROOT_BOB, -1}}, 1, "option root_bob = -1 is not >= 0"},
         {{{MLR_CLEANUP_OPT_ROOT_BOB, NAN}}, 1, "option root_bob = nan is not finite"},
+        {{{MLR_CLEANUP_OPT_STRAIGHT_SLACK, -1}}, 1, "option straight_slack = -1 is not >= 0"},
+        {{{MLR_CLEANUP_OPT_STRAIGHT_SLACK, NAN}}, 1, "option straight_slack = nan is not finite"},
         {{{MLR_CLEANUP_OPT_RAMP_TRACK, 0.5}}, 1, "option ramp_track = 0.5 is not 0 or 1"},
         {{{MLR_CLEANUP_OPT_PIN_DETAIL, 1.5}}, 1, "option pin_detail = 1.5 is not in [0, 1]"},
         {{{MLR_CLEANUP_OPT_KEEP_TOTAL, 0.5}}, 1, "option keep_total = 0.5 is not 0 or 1"},

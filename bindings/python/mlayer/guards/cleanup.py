@@ -43,7 +43,8 @@ _OPT = {"blend": lib.MLR_CLEANUP_OPT_BLEND, "reach": lib.MLR_CLEANUP_OPT_REACH,
         "root": lib.MLR_CLEANUP_OPT_ROOT, "max_fold": lib.MLR_CLEANUP_OPT_MAX_FOLD,
         "keep_stiller": lib.MLR_CLEANUP_OPT_KEEP_STILLER,
         "keep_total": lib.MLR_CLEANUP_OPT_KEEP_TOTAL, "pin_detail": lib.MLR_CLEANUP_OPT_PIN_DETAIL,
-        "ramp_track": lib.MLR_CLEANUP_OPT_RAMP_TRACK, "root_bob": lib.MLR_CLEANUP_OPT_ROOT_BOB}
+        "ramp_track": lib.MLR_CLEANUP_OPT_RAMP_TRACK, "root_bob": lib.MLR_CLEANUP_OPT_ROOT_BOB,
+        "straight_slack": lib.MLR_CLEANUP_OPT_STRAIGHT_SLACK}
 
 
 def _points(skeleton: Skeleton, names: Sequence[str | int]
@@ -175,7 +176,10 @@ def fix_contacts(motion: Motion, contacts: ArrayLike, names: str | Sequence[str]
         to the synthesis's, so the foot meets its contact with the contact's velocity;
         False: they carry the contact's offset at its edge alone), root_bob (seconds, 0: the
         vertical part of the root's shift spread over +- this, so that a body whose bob was
-        scaled keeps it; stylize passes 0.5 when the body's alpha is not 1).
+        scaled keeps it; stylize passes 0.5 when the body's alpha is not 1), straight_slack
+        (leg lengths, 0: on a leg within about a degree of straight, a correction along the
+        hip-ankle line taken softly, l x^2 / (1 + x^2) with x = l / straight_slack, so that a
+        straight leg asked to shorten by a hair does not bend its knee; the guards pass 0.002).
 
     Returns
     -------
