@@ -109,13 +109,13 @@ mlr_status toe_tilt__apply(const mlr_rig *rig, size_t N, double fps, int up, dou
     double *pos_in = buf, *wrot_in = pos_in + 3 * N * J, *pos = wrot_in + 4 * N * J,
            *wrot = pos + 3 * N * J, *th = wrot + 4 * N * J, *the = th + N, *tmp = the + N,
            *kern = tmp + N;
-    uint8_t *n_child = jb, *is_point = jb + J, *done = jb + 2 * J;
-    int32_t *child = (int32_t *)(void *)(jb + 3 * J);
+    int32_t *child = (int32_t *)(void *)jb; /* first: the allocation's alignment */
+    uint8_t *n_child = jb + J * sizeof(int32_t), *is_point = n_child + J, *done = is_point + J;
     mlr_status st = fk__two_motions(rig, N, in_root, in_rot, in_trans, pos_in, wrot_in, root, rot,
                                     trans, pos, wrot, alloc);
     if (st != MLR_OK)
         goto done;
-    memset(jb, 0, 3 * J);
+    memset(n_child, 0, 3 * J);
     for (size_t j = 1; j < J; j++) {
         const size_t p = (size_t)rig->parents[j];
         n_child[p] = (uint8_t)(n_child[p] < 2 ? n_child[p] + 1 : 2);
