@@ -158,7 +158,12 @@ typedef struct mlr_up_guess {
  *    its leg hangs from (its grandparent: ankle, knee, hip; a leg of a biped or a quadruped,
  *    whatever the torso does), points down; the axis is d's largest component, up its
  *    opposite sign; confidence is that component over |d| (1: straight down the axis; 0.58:
- *    along a diagonal).
+ *    along a diagonal). Where that stands the clip upside down, yet on 15% of the frames or
+ *    more the legs hang straight down another axis (within about 25 degrees, feet below their
+ *    hips) and on none down this one, that other axis is up, with a confidence of at least
+ *    MLR_RIG_UP_SURE: a body that stood and then lay down for longer (a game's death clip)
+ *    summed to an upside-down lie. Depth cameras' and video estimates' upside-down clips keep
+ *    their verdict.
  *  - Without: for each axis and side, the spread over frames (5% to 95% quantile) of the
  *    lowest (or highest) joint along it, over the body's median extent along it; the floor is
  *    the side with the smallest spread; confidence 1 - smallest / smallest of the other axes.

@@ -9,6 +9,10 @@
 
 static const char *const foot_names[] = {"foot", "ankle", "toe", "paw", "hoof", NULL};
 
+/* from_feet's upright stretch: its share of the frames, and how straight down the legs hang */
+#define UPRIGHT_SHARE 0.15
+#define UPRIGHT_COS 0.9
+
 static int cmp_double(const void *a, const void *b)
 {
     const double x = *(const double *)a, y = *(const double *)b;
@@ -57,6 +61,38 @@ static void from_feet(const mlr_rig *rig, size_t N, const double *wp, const uint
     out->sign = d[best] < 0 ? 1 : -1;
     out->confidence = fabs(d[best]) / n;
     out->method = MLR_UP_FEET;
+    if (out->sign > 0)
+        return;
+    /* upside down on the whole: depth cameras and video estimates are (Y down), but a body
+       that stands upright for a stretch and lies down for longer (a game's death: standing
+       along Y, then lying along Z, legs toward +Z) sums to an upside-down lie. A stretch of
+       UPRIGHT_SHARE of the frames whose legs hang down another axis (feet below their hips
+       by UPRIGHT_COS of their offset) is taken as the up the body stood in. */
+    size_t votes[3] = {0, 0, 0};
+    for (size_t f = 0; f < N; f++) {
+        const double *p = wp + 3 * J * f;
+        double e[3] = {0, 0, 0};
+        for (size_t j = 0; j < J; j++) {
+            if (!is_foot[j])
+                continue;
+            const size_t h = leg_top(rig, j);
+            for (int k = 0; k < 3; k++)
+                e[k] += p[3 * j + (size_t)k] - p[3 * h + (size_t)k];
+        }
+        const double en = sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]);
+        for (int k = 0; k < 3 && en > 0.0; k++)
+            votes[k] += e[k] < -UPRIGHT_COS * en;
+    }
+    int up = -1;
+    for (int k = 0; k < 3; k++)
+        if (k != best && (double)votes[k] >= UPRIGHT_SHARE * (double)N &&
+            (up < 0 || votes[k] > votes[up]))
+            up = k;
+    if (up < 0 || votes[best] > 0)
+        return;
+    out->axis = up;
+    out->sign = 1;
+    out->confidence = fmax(MLR_RIG_UP_SURE, (double)votes[up] / (double)N);
 }
 
 static mlr_status from_floor(size_t N, size_t J, const double *wp, mlr_up_guess *out,

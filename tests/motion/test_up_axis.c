@@ -125,6 +125,43 @@ START_TEST(confidence_is_the_cosine_of_the_feet_direction)
 }
 END_TEST
 
+/* A body that stands for a third of the clip (feet down Y) and lies for the rest (legs toward
+ * +Z) sums to an upside-down lie along Z: the upright stretch decides (Y, at SURE; a game's
+ * death clip was taken as Z-up, upside down). Lying throughout, with no upright stretch, it
+ * stays what the sum says, as a depth camera's upside-down clip does. */
+START_TEST(a_body_that_stood_and_lay_down_is_up_the_way_it_stood)
+{
+    static const int32_t parents[3] = {-1, 0, 0};
+    static const double offsets[9] = {0, 0, 0, 0, 1, 0, 0, -1, 0};
+    static const char *const names[3] = {"Hips", "Head", "LeftFoot"};
+    mlr_rig r = {3, parents, offsets, names, 0, NULL, 0, NULL, NULL};
+    enum { N = 30 };
+    double wp[N * 9];
+    for (int stood = 10; stood >= 0; stood -= 10) {
+        for (int f = 0; f < N; f++) {
+            double *p = wp + 9 * f;
+            const double hz = 0.3 * f; /* the body moves along Z */
+            p[0] = 0, p[1] = f < stood ? 1 : 0.2, p[2] = hz;
+            if (f < stood) /* head up Y, foot down Y */
+                p[3] = 0, p[4] = 2, p[5] = hz, p[6] = 0, p[7] = 0, p[8] = hz;
+            else /* lying: head toward -Z, foot toward +Z, all at one height */
+                p[3] = 0, p[4] = 0.2, p[5] = hz - 1, p[6] = 0, p[7] = 0.2, p[8] = hz + 1;
+        }
+        mlr_up_guess g;
+        ck_assert_int_eq(mlr_rig_up_axis(&r, N, wp, &g, NULL, NULL), MLR_OK);
+        ck_assert_int_eq(g.method, MLR_UP_FEET);
+        if (stood) {
+            ck_assert_int_eq(g.axis, MLR_AXIS_Y);
+            ck_assert_int_eq(g.sign, 1);
+            ck_assert(g.confidence >= MLR_RIG_UP_SURE);
+        } else {
+            ck_assert_int_eq(g.axis, MLR_AXIS_Z);
+            ck_assert_int_eq(g.sign, -1);
+        }
+    }
+}
+END_TEST
+
 START_TEST(bad_input_says_why_and_empty_input_is_y)
 {
     static const int32_t parents[2] = {-1, 0};
@@ -195,6 +232,7 @@ static Suite *up_axis_suite(void)
     tcase_add_test(tc, the_shared_clips_and_turned_copies_stand_on_the_axis_found);
     tcase_add_test(tc, without_names_the_floor_is_the_side_that_stays_at_one_height);
     tcase_add_test(tc, confidence_is_the_cosine_of_the_feet_direction);
+    tcase_add_test(tc, a_body_that_stood_and_lay_down_is_up_the_way_it_stood);
     tcase_add_test(tc, bad_input_says_why_and_empty_input_is_y);
     tcase_add_test(tc, every_allocation_failure_is_no_memory_without_leaks);
     suite_add_tcase(s, tc);
