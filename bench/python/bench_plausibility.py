@@ -118,6 +118,11 @@ foot points, knees and elbows, the pelvis; "-" where a measure is not defined):
           local rotations of x and of the base layer (mlayer.decompose(m).base). 1: the
           guards kept all of the synthesis' departure from the base layer. No target.
 
+  flip    joint flips: frames x joints where the output's local rotation turns by more than
+          30 degrees from the frame before and by more than 3 times the larger of the input's
+          and the unguarded synthesis's turn there, plus 5 degrees (a limit clamped to the
+          other bound, a twist snapping a half turn). Target: 0 (the bench's own).
+
 Summary: per target, the clips where it applies, how many meet it in every case, the worst
 three (clip, case, value) and every failing (clip, case, value) by clip. Notes per clip:
 the reader's warnings, an up axis that differs from the bench's estimate, an input whose
@@ -166,6 +171,9 @@ HUMAN_LIMIT_DEG = 150.0
 FOLD_MARGIN_DEG = 10.0
 REVERSAL_TOL_DEG = 1.0
 HINGE_MIN_FLEX_DEG = 20.0
+FLIP_MIN_DEG = 30.0       # a joint flip: a turn from the frame before of more than this ...
+FLIP_FACTOR = 3.0         # ... and more than this times the input's and the synthesis's turn
+FLIP_MARGIN_DEG = 5.0     # ... plus this
 BOB_WINDOW_S = 1.0
 BOB_MIN = 1e-4            # of H
 JUMP_NOTE = 0.25          # of H in one frame: the input's pelvis jumps (noted)
@@ -181,6 +189,7 @@ TARGETS = {  # key: description (target_value and target_passes say how)
     "elbow_fold": "elbow folds = 0",
     "elbow_rev": "elbow reversals = 0",
     "bone": "bone% <= 1",
+    "flip": "joint flips = 0",
 }
 
 HEAD_RE = re.compile(r"head|neck|tail|jaw|eye|skull|face|nose", re.I)
@@ -660,6 +669,28 @@ def bob(y: np.ndarray, fps: float) -> float:
     return float(np.std(y - moving_average(y, w)))
 
 
+def turns(rot: np.ndarray) -> np.ndarray:
+    """(N - 1, J) angles in degrees of each joint's local rotation from the frame before."""
+    d = np.abs(np.einsum("nji,nji->nj", rot[1:], rot[:-1]))
+    return np.degrees(2.0 * np.arccos(np.clip(d, 0.0, 1.0)))
+
+
+def joint_flips(rot_out: np.ndarray, rot_in: np.ndarray,
+                rot_ref: np.ndarray) -> tuple[int, tuple[int, int, float] | None]:
+    """(count, worst (frame, joint, degrees) or None) of the joint flips of rot_out (see the
+    module docstring): frames x joints turning by more than FLIP_MIN_DEG and more than
+    FLIP_FACTOR times the larger of rot_in's and rot_ref's turn plus FLIP_MARGIN_DEG."""
+    if rot_out.shape[0] < 2:
+        return 0, None
+    t_out = turns(rot_out)
+    bad = (t_out > FLIP_MIN_DEG) & \
+        (t_out > FLIP_FACTOR * np.maximum(turns(rot_in), turns(rot_ref)) + FLIP_MARGIN_DEG)
+    if not bad.any():
+        return 0, None
+    t, j = np.unravel_index(int(np.argmax(np.where(bad, t_out, -1.0))), bad.shape)
+    return int(bad.sum()), (int(t) + 1, int(j), float(t_out[t, j]))
+
+
 def rms_angle(rot_a: np.ndarray, rot_b: np.ndarray, joints: np.ndarray) -> float:
     """RMS over frames and the joints of the angle 2 acos|a . b| (radians)."""
     if joints.size == 0:
@@ -786,6 +817,11 @@ def measure_clip(m: Any, alphas: list[float], name: str = "") -> dict:
         for part, js in rig.parts.items():
             row[f"keep_{part}"] = _ratio(rms_angle(out.rot, base.rot, js),
                                          rms_angle(ref.rot, base.rot, js))
+        n_flip, worst_flip = joint_flips(np.asarray(out.rot), np.asarray(m.rot),
+                                         np.asarray(ref.rot))
+        row["flip"] = n_flip
+        row["flip_worst"] = None if worst_flip is None else \
+            (worst_flip[0], sk.joint_names[worst_flip[1]], worst_flip[2])
         rows.append(row)
     return {"info": info, "rows": rows}
 
@@ -882,11 +918,12 @@ COLS = [("case", "{:<11}", 11), ("pop", "{:.2f}", 5), ("floor", "{:.2f}", 6),
         ("ref.floor", "{:.2f}", 6), ("clean", "{:.2f}", 6), ("slide_in", "{:.3f}", 6),
         ("slide_out", "{:.3f}", 6),
         ("slide", "{:.2f}", 5), ("knee_fold", "{:d}", 4), ("knee_rev", "{:d}", 4),
-        ("elbow_fold", "{:d}", 4), ("elbow_rev", "{:d}", 4), ("bone", "{:.2f}", 5),
+        ("elbow_fold", "{:d}", 4), ("elbow_rev", "{:d}", 4), ("flip", "{:d}", 4),
+        ("bone", "{:.2f}", 5),
         ("bob", "{:.2f}", 5), ("keep_legs", "{:.2f}", 5), ("keep_arms", "{:.2f}", 5),
         ("keep_spine", "{:.2f}", 5)]
 HEAD = ["case", "pop", "floor%", "flU%", "clean%", "slIn", "slOut", "slide", "kF", "kR", "eF",
-        "eR", "bone%", "bob", "kpL", "kpA", "kpS"]
+        "eR", "jF", "bone%", "bob", "kpL", "kpA", "kpS"]
 
 
 def _get(row: dict, key: str) -> Any:

@@ -388,3 +388,19 @@ def test_legacy_swing_twist_excess() -> None:
     swung = inp.rot.copy()
     swung[5, j] = quat.mul(g["centre"], _axis_angle(perp, np.degrees(r["swing"]) + 7.0))
     assert P.swing_twist_excess(lim, swung)[name] == pytest.approx(7.0, abs=1e-6)
+
+
+def test_joint_flips() -> None:
+    """A joint that snaps a half turn in one frame where the input and the synthesis turn a few
+    degrees is a flip; a turn the synthesis makes too is not."""
+    n = 20
+    ang = np.radians(np.linspace(0.0, 40.0, n))  # 2.1 degrees a frame about z
+    q = np.zeros((n, 2, 4))
+    q[:, :, 0], q[:, :, 3] = np.cos(ang / 2)[:, None], np.sin(ang / 2)[:, None]
+    out = q.copy()
+    out[10:, 0] = [B.qmul(np.array([0.0, 1.0, 0.0, 0.0]), r) for r in q[10:, 0]]  # half turn
+    count, worst = B.joint_flips(out, q, q)
+    assert count == 1 and worst is not None
+    assert worst[0] == 10 and worst[1] == 0 and abs(worst[2] - 180.0) < 1e-6
+    assert B.joint_flips(out, q, out)[0] == 0  # the synthesis flips there too
+    assert B.joint_flips(q, q, q) == (0, None)
