@@ -54,6 +54,19 @@
 /* how much more the planted points may travel after the release rounds than before them */
 #define DEPOP_SLIDE_GROWTH 1.5
 
+/* |p(f + 1) - 2 p(f) + p(f - 1)|^2 of point c of pts (N x C x 3). */
+static inline double accel2_at(const double *pts, size_t C, size_t f, size_t c)
+{
+    double s = 0.0;
+    for (int d = 0; d < 3; d++) {
+        const double x = pts[3 * ((f + 1) * C + c) + (size_t)d] -
+                         2.0 * pts[3 * (f * C + c) + (size_t)d] +
+                         pts[3 * ((f - 1) * C + c) + (size_t)d];
+        s += x * x;
+    }
+    return s;
+}
+
 double depop__points_accel(const double *pts, size_t N, size_t C, double *a)
 {
     double m = 0.0;
@@ -62,13 +75,7 @@ double depop__points_accel(const double *pts, size_t N, size_t C, double *a)
     for (size_t f = 1; f + 1 < N; f++) {
         double af = 0.0;
         for (size_t c = 0; c < C; c++) {
-            double s = 0.0;
-            for (int d = 0; d < 3; d++) {
-                const double x = pts[3 * ((f + 1) * C + c) + (size_t)d] -
-                                 2.0 * pts[3 * (f * C + c) + (size_t)d] +
-                                 pts[3 * ((f - 1) * C + c) + (size_t)d];
-                s += x * x;
-            }
+            const double s = accel2_at(pts, C, f, c);
             af = s > af ? s : af;
         }
         af = sqrt(af);
@@ -85,14 +92,7 @@ static void point_accel(const double *pts, size_t N, size_t C, double *acc)
 {
     for (size_t f = 1; f + 1 < N; f++)
         for (size_t c = 0; c < C; c++) {
-            double s = 0.0;
-            for (int d = 0; d < 3; d++) {
-                const double x = pts[3 * ((f + 1) * C + c) + (size_t)d] -
-                                 2.0 * pts[3 * (f * C + c) + (size_t)d] +
-                                 pts[3 * ((f - 1) * C + c) + (size_t)d];
-                s += x * x;
-            }
-            s = sqrt(s);
+            const double s = sqrt(accel2_at(pts, C, f, c));
             acc[c] = s > acc[c] ? s : acc[c];
         }
 }
@@ -125,14 +125,7 @@ static double relative_accel(const double *pts, size_t N, size_t C, const double
         for (size_t c = 0; c < C; c++) {
             if (!(base[c] > 0.0))
                 continue;
-            double s = 0.0;
-            for (int d = 0; d < 3; d++) {
-                const double x = pts[3 * ((f + 1) * C + c) + (size_t)d] -
-                                 2.0 * pts[3 * (f * C + c) + (size_t)d] +
-                                 pts[3 * ((f - 1) * C + c) + (size_t)d];
-                s += x * x;
-            }
-            s = sqrt(s) / base[c];
+            const double s = sqrt(accel2_at(pts, C, f, c)) / base[c];
             af = s > af ? s : af;
         }
         a[f] = af;

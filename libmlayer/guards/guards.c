@@ -959,6 +959,20 @@ static void fk_failure(mlr_status st, mlr_diag *diag)
                                            : "forward kinematics of the result failed");
 }
 
+/* The toe tips of the working frames above the floor by a tilt (toe_tilt.c), against the
+   input; the diag set on failure. */
+static mlr_status tilt_toes(const mlr_guards *g, const double *root, double *rot,
+                            const double *trans, mlr_diag *diag)
+{
+    const mlr_status st =
+        toe_tilt__apply(&g->rig, g->n_frames, g->fps, g->up, g->floor_height,
+                        GUARDS_FLOOR_SLACK * g->body_height, g->root_pos, g->rot, g->trans, root,
+                        rot, trans, g->n_points, g->joints, g->end_sites, NULL, &g->alloc);
+    if (st != MLR_OK)
+        fk_failure(st, diag);
+    return st;
+}
+
 /* The cleanup's options for this apply (at most GUARDS_MAX_COPTS, in copts); returns their
    count. */
 static size_t cleanup_options(const mlr_guards *g, int has_ref, const double *alpha,
@@ -1297,17 +1311,9 @@ static mlr_status guards_apply(const mlr_guards *g, const double *alpha, size_t 
             goto done;
         }
     }
-    if (floor_on) { /* toe tips above the floor by a tilt, before the
-                                    cleanup would lift the whole foot for them (toe_tilt.c) */
-        st = toe_tilt__apply(&g->rig, N, g->fps, g->up, g->floor_height,
-                             GUARDS_FLOOR_SLACK * g->body_height, g->root_pos, g->rot, g->trans,
-                             work_root, work, trans, g->n_points, g->joints, g->end_sites, NULL,
-                             &g->alloc);
-        if (st != MLR_OK) {
-            fk_failure(st, diag);
-            goto done;
-        }
-    }
+    if (floor_on && (st = tilt_toes(g, work_root, work, trans, diag)) != MLR_OK)
+        goto done; /* toe tips above the floor by a tilt, before the cleanup would lift the
+                      whole foot for them (toe_tilt.c) */
     if (C > 0 || floor_on) {
         if ((st = apply_reference(g, ref_root_pos, ref_rot, ref_trans, denoising, &ref, &made_ref,
                                   diag)) != MLR_OK)
@@ -1356,19 +1362,11 @@ static mlr_status guards_apply(const mlr_guards *g, const double *alpha, size_t 
         rep.floor_frames = crep.floor_frames;
         rep.floor_height = floor_on ? crep.floor_height : NAN;
     }
-    if (floor_on) { /* the toe tips once more, where the cleanup's IK and root shift took them
-                       under the floor, before the corners' smoothing: the last lift raised
-                       the whole body for them once a step (CMU 12_01 at alpha 0.5 kept 2.65
-                       alpha of its bob) */
-        st = toe_tilt__apply(&g->rig, N, g->fps, g->up, g->floor_height,
-                             GUARDS_FLOOR_SLACK * g->body_height, g->root_pos, g->rot, g->trans,
-                             work_root, work, trans, g->n_points, g->joints, g->end_sites, NULL,
-                             &g->alloc);
-        if (st != MLR_OK) {
-            fk_failure(st, diag);
-            goto done;
-        }
-    }
+    /* the toe tips once more, where the cleanup's IK and root shift took them under the floor,
+       before the corners' smoothing: the last lift raised the whole body for them once a step
+       (CMU 12_01 at alpha 0.5 kept 2.65 alpha of its bob) */
+    if (floor_on && (st = tilt_toes(g, work_root, work, trans, diag)) != MLR_OK)
+        goto done;
     if (C > 0 || floor_on || rep.limits_applied) {
         /* the corners where guards meet, smoothed (depop.c); before the floor's last word */
         size_t smoothed = 0;

@@ -40,14 +40,21 @@ static void from_feet(const mlr_rig *rig, size_t N, const double *wp, const uint
 {
     const size_t J = rig->n_joints;
     double d[3] = {0, 0, 0};
+    size_t votes[3] = {0, 0, 0}; /* frames whose legs hang straight down +k (UPRIGHT_COS) */
     for (size_t f = 0; f < N; f++) {
         const double *p = wp + 3 * J * f;
+        double e[3] = {0, 0, 0};
         for (size_t j = 0; j < J; j++) {
             if (!is_foot[j])
                 continue;
             const size_t h = leg_top(rig, j);
             for (int k = 0; k < 3; k++)
-                d[k] += p[3 * j + (size_t)k] - p[3 * h + (size_t)k];
+                e[k] += p[3 * j + (size_t)k] - p[3 * h + (size_t)k];
+        }
+        const double en = sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]);
+        for (int k = 0; k < 3; k++) {
+            d[k] += e[k];
+            votes[k] += en > 0.0 && e[k] < -UPRIGHT_COS * en;
         }
     }
     const double n = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
@@ -68,21 +75,6 @@ static void from_feet(const mlr_rig *rig, size_t N, const double *wp, const uint
        along Y, then lying along Z, legs toward +Z) sums to an upside-down lie. A stretch of
        UPRIGHT_SHARE of the frames whose legs hang down another axis (feet below their hips
        by UPRIGHT_COS of their offset) is taken as the up the body stood in. */
-    size_t votes[3] = {0, 0, 0};
-    for (size_t f = 0; f < N; f++) {
-        const double *p = wp + 3 * J * f;
-        double e[3] = {0, 0, 0};
-        for (size_t j = 0; j < J; j++) {
-            if (!is_foot[j])
-                continue;
-            const size_t h = leg_top(rig, j);
-            for (int k = 0; k < 3; k++)
-                e[k] += p[3 * j + (size_t)k] - p[3 * h + (size_t)k];
-        }
-        const double en = sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]);
-        for (int k = 0; k < 3 && en > 0.0; k++)
-            votes[k] += e[k] < -UPRIGHT_COS * en;
-    }
     int up = -1;
     for (int k = 0; k < 3; k++)
         if (k != best && (double)votes[k] >= UPRIGHT_SHARE * (double)N &&

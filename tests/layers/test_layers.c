@@ -1492,6 +1492,22 @@ START_TEST(robust_glitch_is_found_and_local)
 }
 END_TEST
 
+/* The largest angle between q0 and q1 (n frames x j joints) on the frames [at, at + len) of a
+   flip (*during) and on those more than half frames away from it (*far). */
+static void flip_errors(const double *q0, const double *q1, size_t n, size_t j, size_t at,
+                        size_t len, size_t half, double *during, double *far)
+{
+    *during = *far = 0.0;
+    for (size_t i = 0; i < n; i++)
+        for (size_t k = 0; k < j; k++) {
+            const double e = qangle(q0 + 4 * (i * j + k), q1 + 4 * (i * j + k));
+            if (i >= at && i < at + len)
+                *during = fmax(*during, e);
+            else if (i + half < at || i >= at + len + half)
+                *far = fmax(*far, e);
+        }
+}
+
 /* Flips of single joints found from their rotations at 30 and 240 fps (issue 38): joints 1
  * and 2 of synthetic_big turned by 180 degrees (and by 90) about a seeded axis for 5 frames,
  * the translation untouched. Exactly those frames of those joints are outliers, the denoised
@@ -1556,16 +1572,8 @@ START_TEST(robust_joint_flips_any_fps)
             ck_assert_int_eq(
                 mlr_layers_synthesize(G, 0, n, (double[]){1.0}, 1, NULL, 0, q1, 4 * n * j, NULL),
                 MLR_OK);
-            const size_t half = (size_t)ceil(0.5 * fps);
-            double during = 0.0, far = 0.0;
-            for (size_t i = 0; i < n; i++)
-                for (size_t k = 0; k < j; k++) {
-                    const double e = qangle(q0 + 4 * (i * j + k), q1 + 4 * (i * j + k));
-                    if (i >= at && i < at + len)
-                        during = fmax(during, e);
-                    else if (i + half < at || i >= at + len + half)
-                        far = fmax(far, e);
-                }
+            double during, far;
+            flip_errors(q0, q1, n, j, at, len, (size_t)ceil(0.5 * fps), &during, &far);
             ck_assert_msg(during < 0.1 && far < 0.005, "%g fps, flip %zu: %g rad during, %g after",
                           fps, v, during, far);
             mlr_layers_destroy(G);
@@ -1635,16 +1643,8 @@ START_TEST(robust_flip_of_constant_turn_is_undone)
         ck_assert_int_eq(
             mlr_layers_synthesize(G, 0, n, (double[]){1.0}, 1, NULL, 0, q1, 4 * n * j, NULL),
             MLR_OK);
-        const size_t half = 15;
-        double during = 0.0, far = 0.0;
-        for (size_t i = 0; i < n; i++)
-            for (size_t k = 0; k < j; k++) {
-                const double e = qangle(q0 + 4 * (i * j + k), q1 + 4 * (i * j + k));
-                if (i >= at && i < at + len)
-                    during = fmax(during, e);
-                else if (i + half < at || i >= at + len + half)
-                    far = fmax(far, e);
-            }
+        double during, far;
+        flip_errors(q0, q1, n, j, at, len, 15, &during, &far);
         ck_assert_msg(during < 0.05 && far < 0.005, "form %d: %g rad during, %g after", form,
                       during, far);
         mlr_layers_destroy(G);
