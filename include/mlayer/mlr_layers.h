@@ -244,11 +244,14 @@ MLR_API mlr_status mlr_layers_get_outliers(const mlr_layers *layers, unsigned ch
 /**
  * The runs at the clip's ends that the robust decomposition left out whole: the first *head
  * and the last *tail frames (0: none), each 1-10 frames that the body translation leaves (or
- * enters) by a step more than 10 times every step inside the run and the 3 beyond it, with at
- * least 8 frames outside the runs (a converter's rest-pose frame before the capture). They are
- * outliers of the translation and of every joint that jumps there too; mlr_pipeline passes
- * them through unchanged, since the layers know no pose of the motion there. 0 and 0 when
- * robust is off.
+ * enters) by a step more than 10 times every step inside the run and the 3 beyond it, or, where
+ * the translation does not, that at least 3 joints leave (enter) by a turn of more than 20
+ * degrees and 10 times each of theirs inside the run and the 3 beyond it, with at least 8
+ * frames outside the runs (a converter's rest-pose frame before the capture). They are outliers
+ * of the translation and of every joint that jumps there too; since the layers know no pose of
+ * the motion there, mlr_pipeline passes them through unchanged in a denoise (every alpha 1) and
+ * otherwise holds the result's pose next to each run over it (raised where it would sink
+ * deeper under the floor than the rest pose). 0 and 0 when robust is off.
  * @return MLR_OK; MLR_E_INVALID_ARG (NULL). Allocates: never. Threads: handle only read.
  */
 MLR_API mlr_status mlr_layers_get_end_runs(const mlr_layers *layers, size_t *head, size_t *tail);

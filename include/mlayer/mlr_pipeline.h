@@ -30,8 +30,12 @@
  *     alphas of every frame (see "Alpha over time" below); the body translation written to the
  *     joint that carries it;
  *  7. the guards applied (mlr_guards_apply_trans, the input as the reference: under a static
- *     root, the body's shifts go to the joint that carries the body translation).
- * Steps 1 to 5 are mlr_pipeline_prepare, 6 and 7 mlr_pipeline_synthesize, so that a second
+ *     root, the body's shifts go to the joint that carries the body translation);
+ *  8. the runs at the clip's ends the layers left out (mlr_layers_get_end_runs: a converter's
+ *     rest pose): the input's frames in a denoise (every alpha 1), else the result's pose next
+ *     to each run held over it, raised by what its points would go deeper under the floor
+ *     than the rest pose's (pipeline_ends.c).
+ * Steps 1 to 5 are mlr_pipeline_prepare, 6 to 8 mlr_pipeline_synthesize, so that a second
  * alpha costs only a synthesis and the guards; mlr_pipeline_run does both.
  *
  * Alpha over time (paper 1, section 6.2: the final motion composited by changing the local
