@@ -196,14 +196,7 @@ static void mark_freed(const double *pts, size_t N, size_t C, size_t J, const do
             continue;
         size_t done = 0; /* c's frames below this are marked */
         for (size_t g = 1; g + 1 < N; g++) {
-            double s = 0.0;
-            for (int d = 0; d < 3; d++) {
-                const double x = pts[3 * ((g + 1) * C + c) + (size_t)d] -
-                                 2.0 * pts[3 * (g * C + c) + (size_t)d] +
-                                 pts[3 * ((g - 1) * C + c) + (size_t)d];
-                s += x * x;
-            }
-            if (!(sqrt(s) > limit * base[c]))
+            if (!(sqrt(accel2_at(pts, C, g, c)) > limit * base[c]))
                 continue;
             const size_t lo = g > h ? g - h : 0, hi = g + h < N ? g + h : N - 1;
             for (size_t t = lo > done ? lo : done; t <= hi; t++)
