@@ -11,8 +11,9 @@
  * - the limits blocks (limit_block: inside_block and the runs it passes over, the lazy angle):
  *   limits__apply_kind(_masked) and limits__apply_normalized against limit_joint frame by
  *   frame with its own unwrapping state, bit for bit, on a real clip pushed past its limits.
- * - displace_block (mlr_layers_synthesize): against base * exp(alpha v) one quaternion at a
- *   time through the public quaternion functions, bit for bit.
+ * - displace_block (mlr_layers_synthesize): against base * exp(alpha v) (alpha v saturated
+ *   below a half turn, quat__scale_turn) one quaternion at a time through the public
+ *   quaternion functions, bit for bit.
  * - clustering (cluster.c): cluster__dist2 and cluster__nearest2 at every ISA level against the
  *   baseline: the same nearest centre except at a near tie, distances within 1e-12 relative;
  *   the fused online SOM step (cluster__packed_sweep) likewise, its moved centres within 1e-14.
@@ -350,7 +351,7 @@ START_TEST(displace_block_gives_the_bits_of_one_at_a_time)
             for (size_t k = 0; k < J; k++) {
                 const double *v = ctl + (begin + f) * ld + 3 + 3 * k, ak = alpha[1 + k];
                 const double *b = base + 4 * ((begin + f) * J + k);
-                const mlr_vec3 av = {ak * v[0], ak * v[1], ak * v[2]};
+                const mlr_vec3 av = quat__scale_turn((mlr_vec3){v[0], v[1], v[2]}, ak);
                 mlr_quat e, q;
                 mlr_quat_exp_array(&av, 1, &e, NULL);
                 mlr_quat_mul((const mlr_quat *)(const void *)b, &e, &q);

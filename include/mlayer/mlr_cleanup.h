@@ -109,7 +109,7 @@ typedef enum mlr_cleanup_key {
                                            (default): off, every need within +-0.1 s. The
                                            guards pass 0.5 when the body translation's alpha
                                            is not 1. Since 0.3 */
-    MLR_CLEANUP_OPT_STRAIGHT_SLACK = 16 /* leg lengths, >= 0: on a leg within about a degree
+    MLR_CLEANUP_OPT_STRAIGHT_SLACK = 16, /* leg lengths, >= 0: on a leg within about a degree
                                            of straight, the part of a contact target's
                                            correction along the hip-anchor line, l, becomes
                                            l x^2 / (1 + x^2), x = |l| / this, blended back into
@@ -118,6 +118,13 @@ typedef enum mlr_cleanup_key {
                                            bend its knee for it (what is left along the line is
                                            at most half of this); 0 (default): every
                                            correction whole. The guards pass 0.002. Since 0.3 */
+    MLR_CLEANUP_OPT_SOFT_REACH = 17 /* leg lengths, in [0, 0.5]: a leg's target farther from
+                                       its hip than b = L (1 - this), L its length, is drawn
+                                       in to b + this L (1 - exp(-(d - b) / (this L))), but
+                                       no nearer than the leg's extension now, so that the
+                                       knee straightens smoothly as its target nears full
+                                       reach instead of snapping straight and back; 0
+                                       (default): off. The guards pass 0.02. Since 0.3 */
 } mlr_cleanup_key;
 
 /** One option: key (an mlr_cleanup_key) and its value. A frozen value type. */

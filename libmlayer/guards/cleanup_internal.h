@@ -73,9 +73,12 @@ mlr_status cleanup__ref_of_points(const mlr_rig *rig, size_t N, double fps, int 
  * on the frames of the spread's blends after it (see cleanup_pass.c). */
 typedef struct mlr_cleanup_hook {
     void (*fn)(void *ctx, size_t N, size_t J, double *rot, const uint8_t *mask,
-               const int32_t *joints, size_t n_joints);
+               const int32_t *joints, size_t n_joints, int count);
     void *ctx;
     int ik_passes, blend_passes; /* the passes that call it before / after the spread */
+    /* per joint: 1 where the hook's correction is cut to the pass's excess (run_hook), 0
+       where it stays whole; NULL: whole everywhere */
+    const uint8_t *excess;
 } mlr_cleanup_hook;
 
 /* The argument checks of mlr_cleanup_contacts alone (mlr_cleanup_job_validate). */
@@ -172,6 +175,7 @@ typedef struct cleanup_config {
     int ramp_track; /* MLR_CLEANUP_OPT_RAMP_TRACK */
     double root_bob; /* MLR_CLEANUP_OPT_ROOT_BOB, seconds; 0: off */
     double straight_slack; /* MLR_CLEANUP_OPT_STRAIGHT_SLACK, leg lengths; 0: off */
+    double soft_reach;     /* MLR_CLEANUP_OPT_SOFT_REACH, leg lengths; 0: off */
 } cleanup_config;
 
 /* A foot: anchor joint, its leg, the columns of its points, the targets. */
@@ -341,7 +345,9 @@ typedef struct cleanup_state {
     cleanup_work *w;
     const mlr_cleanup_hook *hook; /* or NULL */
     uint8_t *hook_mask;           /* N x J: the rotations the hook changes */
-    double *hook_prev;            /* N x J x 4: the ramps' rotations before the hook */
+    double *hook_prev;            /* N x J x 4: the rotations the hook is given */
+    double *hook_pre;             /* N x J x 4: the rotations before the pass, hooked */
+    double *hook_snap;            /* N x J x 4: the rotations before the spread */
     int hook_on;     /* the hook's stages in this pass: 1 before the spread, 2 after it, 4 on
                         the ramps' frames before the spread (a pass past ik_passes) */
 } cleanup_state;

@@ -27,6 +27,7 @@ static const mlr_opt_spec cleanup_opts[] = {
     {MLR_CLEANUP_OPT_ROOT_BOB, "root_bob", MLR_OPT_DOUBLE, 0.0, INFINITY, 0, 0, 0.0, NULL},
     {MLR_CLEANUP_OPT_STRAIGHT_SLACK, "straight_slack", MLR_OPT_DOUBLE, 0.0, INFINITY, 0, 0, 0.0,
      NULL},
+    {MLR_CLEANUP_OPT_SOFT_REACH, "soft_reach", MLR_OPT_DOUBLE, 0.0, 0.5, 0, 0, 0.0, NULL},
 };
 #undef PI
 
@@ -57,6 +58,7 @@ mlr_status cleanup__parse_options(const mlr_cleanup_option *opts, size_t n_opts,
     cfg->ramp_track = o.v[MLR_CLEANUP_OPT_RAMP_TRACK] != 0.0;
     cfg->root_bob = o.v[MLR_CLEANUP_OPT_ROOT_BOB];
     cfg->straight_slack = o.v[MLR_CLEANUP_OPT_STRAIGHT_SLACK];
+    cfg->soft_reach = o.v[MLR_CLEANUP_OPT_SOFT_REACH];
     return MLR_OK;
 }
 

@@ -215,6 +215,28 @@ static void pin_dead_zone(const double *hip, const double *knee, const double *n
         target[k] += (s - 1.0) * l * e[k];
 }
 
+/* A target farther from the hip than b = L (1 - soft) drawn in along the hip-target line
+   to b + soft L (1 - exp(-(d - b) / (soft L))), but no nearer than the leg's extension now
+   (MLR_CLEANUP_OPT_SOFT_REACH; L the leg's length): the soft IK of game runtimes. Near full
+   reach the knee's bend turns fast with the target's distance (d = L cos(bend / 2) for equal
+   bones: 1% nearer bends it by 16 degrees), so a target that passes full reach for a few
+   frames snapped the knee straight and back. The curve leaves d as it is up to b, is C1 there
+   and stays below L; the leg's own extension as a floor keeps a straight leg asked to move a
+   hair straight (it is not bent for the softness). */
+static void soft_reach(const double *hip, double len, double d_now, double soft, double *target)
+{
+    if (!(soft > 0.0) || !(len > 0.0))
+        return;
+    double e[3] = {target[0] - hip[0], target[1] - hip[1], target[2] - hip[2]};
+    const double d = sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]);
+    const double s = soft * len, b = len - s;
+    if (!(d > b))
+        return;
+    const double d2 = common__fmax(b + s * (1.0 - exp(-(d - b) / s)), common__fmin(d, d_now));
+    for (int k = 0; k < 3; k++)
+        target[k] = hip[k] + e[k] * (d2 / d);
+}
+
 /* Two-bone IK of each leg on its constrained frames (contact targets, or the ankle raised
    above the floor), into newr; where the anchor (and on contact frames the placed point) is
    already within REACHED of its target, the leg is left as it is (ft->S). The frames to
@@ -253,6 +275,8 @@ static void solve_legs(const cleanup_state *cu)
                 memcpy(target, Pf + 3 * a, sizeof target);
                 target[up] += common__fmax(ft->lift[f], 0.0);
             }
+            soft_reach(Pf + 3 * h, len, cleanup__dist3(Pf + 3 * h, Pf + 3 * a),
+                       cu->cfg->soft_reach, target);
             const double eps = REACHED * len;
             if (cleanup__dist3(Pf + 3 * a, target) <= eps &&
                 (!ft->U[f] || !has_toe ||
@@ -407,6 +431,48 @@ static void place_toes(const cleanup_state *cu)
    a ramp's target need not be met exactly, its legs within their ranges do (without, the
    second pass's IK took the dog's front legs 100 degrees past their swing range at alpha 3). */
 enum { HOOK_IK = 0, HOOK_BLEND = 1, HOOK_RAMPS = 2 };
+
+/* The angle between unit quaternions a and b (radians, in [0, pi]). */
+static double quat_angle(const double *a, const double *b)
+{
+    const double d = fabs(a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]);
+    return 2.0 * acos(d > 1.0 ? 1.0 : d);
+}
+
+/* The hook's correction of one solved rotation, q (hooked: its hooked value, into q), cut to
+   what the pass added to the correction the rotation it started from, p (p_hooked), would have
+   taken: with e(r) the angle from r to its hooked value, q is turned toward its hooked value
+   by e(q) - e(p), a part of the way, or left as the pass solved it when e(q) <= e(p). Where
+   the pass started inside the limits (e(p) = 0, the usual case) that is the whole correction,
+   as it was. Where the eased limits (limits__ease) left the rotation outside them, it is
+   what keeps the solved frames continuous with the frames around them, which the pass did
+   not solve and the hook does not see: the whole correction there (from the far side of the
+   range, the nearest bound is the other one) turned a thigh of CMU 60_10 by 166 degrees on
+   the frames the contact IK solved at alpha 3 where the IK had moved it by 2. */
+static void hook_excess(const double *p, const double *p_hooked, const double *q, double *hooked)
+{
+    const double ep = quat_angle(p, p_hooked);
+    if (!(ep > 0.0))
+        return; /* the whole correction, as the hook gave it */
+    const double eq = quat_angle(q, hooked);
+    if (!(eq > ep)) {
+        memcpy(hooked, q, 4 * sizeof(double));
+        return;
+    }
+    /* slerp from q toward hooked by the part t of the way */
+    const double t = (eq - ep) / eq;
+    const double d = q[0] * hooked[0] + q[1] * hooked[1] + q[2] * hooked[2] + q[3] * hooked[3];
+    const double sg = d < 0.0 ? -1.0 : 1.0, th = 0.5 * eq, sth = sin(th);
+    const double wa = sin((1.0 - t) * th) / sth, wb = sg * sin(t * th) / sth;
+    double r[4], n = 0.0;
+    for (int c = 0; c < 4; c++) {
+        r[c] = wa * q[c] + wb * hooked[c];
+        n += r[c] * r[c];
+    }
+    n = sqrt(n);
+    for (int c = 0; c < 4; c++)
+        hooked[c] = r[c] / n;
+}
 static void run_hook(const cleanup_state *cu, int stage)
 {
     const int blend = stage == HOOK_BLEND;
@@ -441,13 +507,23 @@ static void run_hook(const cleanup_state *cu, int stage)
                 m[ft->anchor] = 1;
         }
     }
-    const int ease = stage == HOOK_RAMPS && cu->hook_prev;
-    if (ease)
-        for (size_t i = 0; i < N * J; i++)
-            if (mask[i])
-                memcpy(cu->hook_prev + 4 * i, cu->newr + 4 * i, 4 * sizeof(double));
-    cu->hook->fn(cu->hook->ctx, N, J, blend ? cu->out_rot : cu->newr, mask, joints, n_joints);
-    if (!ease)
+    /* the rotations the pass gives (newr, or after the spread out_rot) and the ones it
+       started from (out_rot, or before the spread hook_pre), each through the hook; then only
+       the excess (hook_excess) */
+    double *rot = blend ? cu->out_rot : cu->newr;
+    for (size_t i = 0; i < N * J; i++)
+        if (mask[i]) {
+            memcpy(cu->hook_prev + 4 * i, rot + 4 * i, 4 * sizeof(double));
+            memcpy(cu->hook_pre + 4 * i, blend ? cu->hook_snap + 4 * i : cu->out_rot + 4 * i,
+                   4 * sizeof(double));
+        }
+    cu->hook->fn(cu->hook->ctx, N, J, cu->hook_pre, mask, joints, n_joints, 0);
+    cu->hook->fn(cu->hook->ctx, N, J, rot, mask, joints, n_joints, 1);
+    for (size_t i = 0; i < N * J; i++)
+        if (mask[i] && cu->hook->excess && cu->hook->excess[i % J])
+            hook_excess(blend ? cu->hook_snap + 4 * i : cu->out_rot + 4 * i, cu->hook_pre + 4 * i,
+                        cu->hook_prev + 4 * i, rot + 4 * i);
+    if (stage != HOOK_RAMPS)
         return;
     /* the limits' correction of a ramp frame's hip and knee faded in from the run's edge by
        1 - the weight of the run's offset there: the run's own frames are not limited in these
@@ -572,6 +648,8 @@ mlr_status cleanup__pass(cleanup_state *cu)
         run_hook(cu, HOOK_IK);
     else if (cu->hook_on & 4)
         run_hook(cu, HOOK_RAMPS);
+    if (cu->hook_on & 2) /* the rotations before the spread, for the blends' hook */
+        memcpy(cu->hook_snap, cu->out_rot, N * J * 4 * sizeof(double));
     /* spread per leg */
     for (size_t k = 0; k < cu->nf; k++) {
         const cleanup_foot *ft = &cu->feet[k];

@@ -931,6 +931,8 @@ static mlr_status cleanup_passes(cleanup_state *cu, cleanup_arena *ar, mlr_diag 
     if (cu->hook && (cu->hook->ik_passes > 0 || cu->hook->blend_passes > 0)) {
         cu->hook_mask = cleanup__take(ar, N * J, 1);
         cu->hook_prev = cleanup__take_raw(ar, N * J, 4 * sizeof(double));
+        cu->hook_pre = cleanup__take_raw(ar, N * J, 4 * sizeof(double));
+        cu->hook_snap = cleanup__take_raw(ar, N * J, 4 * sizeof(double));
         if (ar->st != MLR_OK)
             return fail_memory(ar, diag);
     }

@@ -21,6 +21,8 @@
 /* leg lengths: MLR_CLEANUP_OPT_STRAIGHT_SLACK (CMU 01_03's straight climbing leg bent its knee
    0.58% of body height for a pin 0.03% closer to the hip) */
 #define GUARDS_STRAIGHT_SLACK 0.002
+/* leg lengths: MLR_CLEANUP_OPT_SOFT_REACH (a knee near full reach straightens smoothly) */
+#define GUARDS_SOFT_REACH 0.02
 #define GUARDS_ROOT_BOB 0.5 /* seconds: MLR_CLEANUP_OPT_ROOT_BOB when the body's alpha is not 1 */
 
 /* The cleanup passes (of its default 2) whose IK's rotations are limited before the spread,
@@ -1015,6 +1017,7 @@ static size_t cleanup_options(const mlr_guards *g, int has_ref, const double *al
     if (floor_on)
         copts[n_copts++] = (mlr_cleanup_option){MLR_CLEANUP_OPT_FLOOR_HEIGHT, g->floor_height};
     copts[n_copts++] = (mlr_cleanup_option){MLR_CLEANUP_OPT_STRAIGHT_SLACK, GUARDS_STRAIGHT_SLACK};
+    copts[n_copts++] = (mlr_cleanup_option){MLR_CLEANUP_OPT_SOFT_REACH, GUARDS_SOFT_REACH};
     return n_copts;
 }
 
@@ -1103,13 +1106,13 @@ typedef struct ik_limits {
 } ik_limits;
 
 static void limit_ik(void *ctx, size_t N, size_t J, double *rot, const uint8_t *mask,
-                     const int32_t *joints, size_t n_joints)
+                     const int32_t *joints, size_t n_joints, int count)
 {
     const ik_limits *c = ctx;
     (void)J; /* (the IK's and the spread's rotations are unit to rounding) */
     for (int kind = MLR_LIMITS_HINGE; kind <= MLR_LIMITS_SWING_TWIST; kind++)
         limits__apply_kind_masked(c->g->limits, N, (mlr_quat *)rot, c->alpha, c->n_alpha,
-                                  c->counts, kind, mask, joints, n_joints, 0);
+                                  count ? c->counts : NULL, kind, mask, joints, n_joints, 0);
 }
 
 /* The hinges (knees, elbows: a rotation about the hinge axis each) that the cleanup took out
@@ -1157,8 +1160,16 @@ static mlr_status clean_and_limit(const mlr_guards *g, const apply_work *w, cons
     const size_t N = g->n_frames, J = g->n_joints;
     const int limits = rep->limits_applied;
     ik_limits ctx = {g, alpha, n_alpha, w->counts2};
+    mlr_status st = MLR_OK;
+    /* the swing-twist joints' corrections cut to the cleanup's excess (run_hook's
+       hook_excess); the hinges' stay whole (clamp_changed_hinges clamps them after) */
+    uint8_t *excess = limits ? alloc_array(&g->alloc, J, 1, &st) : NULL;
+    if (st != MLR_OK)
+        return common__diag_set(diag, st, 0, 0, "guards: out of memory (%zu joints)", J);
+    for (size_t j = 0; excess && j < J; j++)
+        excess[j] = g->limits->joints[j].range.kind == MLR_LIMITS_SWING_TWIST;
     const mlr_cleanup_hook hook = {limit_ik, &ctx, GUARDS_IK_LIMIT_PASSES,
-                                   GUARDS_BLEND_LIMIT_PASSES};
+                                   GUARDS_BLEND_LIMIT_PASSES, excess};
     if (limits) {
         keep_legs(w, N, J);
         memset(w->counts2, 0, J * sizeof(size_t));
@@ -1166,10 +1177,10 @@ static mlr_status clean_and_limit(const mlr_guards *g, const apply_work *w, cons
     /* the reference's trajectories are made once: the input's at create, a given one in
        apply_reference; the rig and the points were checked at create, the motion by
        apply_check (the limits keep it finite), so the cleanup does not check them again */
-    mlr_status st =
-        cleanup__contacts_ref(&g->rig, N, g->fps, g->up, w->root, w->rot, trans, ref, 1,
-                              limits ? &hook : NULL, g->n_points, g->joints, g->end_sites,
-                              contacts, copts, n_copts, w->root, w->rot, crep, &g->alloc, diag);
+    st = cleanup__contacts_ref(&g->rig, N, g->fps, g->up, w->root, w->rot, trans, ref, 1,
+                               limits ? &hook : NULL, g->n_points, g->joints, g->end_sites,
+                               contacts, copts, n_copts, w->root, w->rot, crep, &g->alloc, diag);
+    free_array(&g->alloc, excess, J, 1);
     if (st != MLR_OK)
         return st;
     rep->root_shift_max = crep->root_shift_max;

@@ -5,6 +5,7 @@
  */
 #include "layers/layers_internal.h"
 #include "common/options_internal.h"
+#include "math/quat_internal.h"
 
 #include <math.h>
 
@@ -531,7 +532,7 @@ static void synthesize_rows(const mlr_layers *L, size_t begin, size_t count, con
         for (size_t t = 0; t < m; t++) {
             const double ak = alpha[f * fstride + (n_alpha == 1 ? 0 : 1 + k)];
             const double *v = L->control + (begin + f) * ld + 3 + 3 * k;
-            av[t] = (mlr_vec3){ak * v[0], ak * v[1], ak * v[2]};
+            av[t] = quat__scale_turn((mlr_vec3){v[0], v[1], v[2]}, ak);
             if (++k == j)
                 k = 0, f++;
         }

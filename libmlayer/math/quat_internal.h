@@ -76,6 +76,29 @@ static inline void quat__rotvec(const double *q, double *v)
     v[0] = sg * k * q[1], v[1] = sg * k * q[2], v[2] = sg * k * q[3];
 }
 
+/* The exaggerated displacement a v (v a rotation vector of angle at most pi, |a| > 1 the
+ * exaggeration) with its angle saturated below a half turn: past pi, exp(a v) turns back the
+ * other way (a thigh's 89 degree kick at alpha 3 is a rotation of 267 degrees, which is one of
+ * -93), so the limits found the exaggerated joint on the far side of its range and snapped it
+ * from one bound to the other (CMU 60_10's thigh turned 180 degrees in a frame). The angle
+ * x = |a v| is kept up to TURN_KNEE, above it TURN_KNEE + (TURN_MAX - TURN_KNEE)
+ * tanh((x - TURN_KNEE) / (TURN_MAX - TURN_KNEE)) (smooth, increasing, below TURN_MAX), and
+ * never below v's own angle (alpha 1's). |a| <= 1 and angles up to the knee: a v as it is,
+ * to the bit. */
+#define QUAT_TURN_KNEE (0.5 * 3.14159265358979323846)
+#define QUAT_TURN_MAX (0.9 * 3.14159265358979323846)
+static inline mlr_vec3 quat__scale_turn(mlr_vec3 v, double a)
+{
+    mlr_vec3 w = {a * v.x, a * v.y, a * v.z};
+    const double x2 = w.x * w.x + w.y * w.y + w.z * w.z;
+    if (!(fabs(a) > 1.0) || !(x2 > QUAT_TURN_KNEE * QUAT_TURN_KNEE) || !isfinite(x2))
+        return w;
+    const double x = sqrt(x2), own = x / fabs(a), span = QUAT_TURN_MAX - QUAT_TURN_KNEE;
+    const double s = fmax(own, QUAT_TURN_KNEE + span * tanh((x - QUAT_TURN_KNEE) / span)) / x;
+    w.x *= s, w.y *= s, w.z *= s;
+    return w;
+}
+
 /* The unit quaternion of rotation vector v. */
 static inline void quat__rotvec_quat(const double *v, double *q)
 {

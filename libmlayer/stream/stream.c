@@ -14,6 +14,7 @@
  */
 #include "common/cpu.h"
 #include "math/lgs_internal.h"
+#include "math/quat_internal.h"
 #include "math/sincosd.h"
 #include "guards/limits_internal.h"
 
@@ -350,8 +351,7 @@ static void compose_layers(const mlr_stream *st, double *x, double *xb, mlr_quat
         const double a = st->alpha[j];
         if (a == 1.0)
             continue;
-        mlr_vec3 w = v[j];
-        w.x *= a, w.y *= a, w.z *= a;
+        const mlr_vec3 w = quat__scale_turn(v[j], a);
         const double lim = 0.5 * MLR_SINCOS_LIMIT; /* false for a NaN or an infinity too */
         fast &= (fabs(w.x) <= lim) & (fabs(w.y) <= lim) & (fabs(w.z) <= lim);
         v[n++] = w;

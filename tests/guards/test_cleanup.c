@@ -158,6 +158,55 @@ START_TEST(a_sliding_foot_is_pinned_to_its_contact)
 }
 END_TEST
 
+/* The body rises 1.2 (15% of the leg's 8) in the middle of the left foot's contact, the root
+   shift off: the pinned ankle goes out of reach. Without SOFT_REACH the knee snaps straight
+   there; with 0.05 the ankle's distance from the hip stays below the leg's length, the knee
+   bent, and the right leg, whose targets stay within the soft zone's start (its knee bent 0.5
+   rad: 0.969 L), is the same bits as without. */
+START_TEST(soft_reach_bends_a_knee_whose_target_leaves_its_reach)
+{
+    synth *s = malloc(sizeof *s);
+    pose_clip(0.0, -1.2, 92, 108, s->root, s->rot);
+    contacts_of(s->c);
+    const double L = 8.0;
+    double dmax[2] = {0.0, 0.0}, step[2] = {0.0, 0.0};
+    double *keep = malloc(4 * N * J * sizeof(double));
+    for (int soft = 0; soft < 2; soft++) {
+        const mlr_cleanup_option o[3] = {{MLR_CLEANUP_OPT_FLOOR, 0.0},
+                                         {MLR_CLEANUP_OPT_ROOT, 0.0},
+                                         {MLR_CLEANUP_OPT_SOFT_REACH, 0.05}};
+        mlr_cleanup_report rep;
+        mlr_diag d;
+        ck_assert_msg(run(s, 0, o, soft ? 3 : 2, &rep, NULL, &d) == MLR_OK, "%s", d.message);
+        fk_pts(s->oroot, s->orot, s->opos, s->opts);
+        double prev = NAN;
+        for (size_t f = 80; f < 120; f++) {
+            const double *h = s->opos + 3 * (f * J + 1), *a = s->opos + 3 * (f * J + 3);
+            dmax[soft] = fmax(dmax[soft], dist(h, a));
+            /* the knee's bend, from the law of cosines on its two bones of 4 */
+            const double bend = PI - acos((32.0 - dist(h, a) * dist(h, a)) / 32.0);
+            if (!isnan(prev))
+                step[soft] = fmax(step[soft], fabs(bend - prev));
+            prev = bend;
+        }
+        if (!soft)
+            memcpy(keep, s->orot, 4 * N * J * sizeof(double));
+        else
+            for (size_t f = 0; f < N; f++)
+                for (size_t j = 5; j < 9; j++) /* the right leg */
+                    ck_assert_int_eq(memcmp(keep + 4 * (f * J + j), s->orot + 4 * (f * J + j),
+                                            4 * sizeof(double)),
+                                     0);
+    }
+    ck_assert_msg(dmax[0] > 0.999 * L, "without: the knee straight (%.5f L)", dmax[0] / L);
+    ck_assert_msg(dmax[1] < 0.998 * L, "with 0.05: %.5f L", dmax[1] / L);
+    ck_assert_msg(step[1] < 0.5 * step[0], "the knee's largest step: %.2f deg with, %.2f without",
+                  step[1] * 180 / PI, step[0] * 180 / PI);
+    free(keep);
+    free(s);
+}
+END_TEST
+
 /* Horizontal (x, z) path of the points pts (N x C x 3) over consecutive contact frames. */
 static double slide_of(const double *pts, const uint8_t *c)
 {
@@ -580,7 +629,9 @@ START_TEST(bad_input_gets_the_right_status_and_message)
         const char *msg;
     } bad[] = {
         {{{0, 1.0}}, 1, "unknown option key 0"},
-        {{{17, 1.0}}, 1, "unknown option key 17"},
+        {{{18, 1.0}}, 1, "unknown option key 18"},
+        {{{MLR_CLEANUP_OPT_SOFT_REACH, 0.6}}, 1, "option soft_reach = 0.6 is not in [0, 0.5]"},
+        {{{MLR_CLEANUP_OPT_SOFT_REACH, NAN}}, 1, "option soft_reach = nan is not finite"},
         {{{MLR_CLEANUP_OPT_ROOT_BOB, -1}}, 1, "option root_bob = -1 is not >= 0"},
         {{{MLR_CLEANUP_OPT_ROOT_BOB, NAN}}, 1, "option root_bob = nan is not finite"},
         {{{MLR_CLEANUP_OPT_STRAIGHT_SLACK, -1}}, 1, "option straight_slack = -1 is not >= 0"},
@@ -825,6 +876,7 @@ static Suite *cleanup_suite(void)
     Suite *s = suite_create("cleanup");
     TCase *tc = tcase_create("cleanup");
     tcase_add_test(tc, a_sliding_foot_is_pinned_to_its_contact);
+    tcase_add_test(tc, soft_reach_bends_a_knee_whose_target_leaves_its_reach);
     tcase_add_test(tc, keep_total_caps_the_feet_sliding_at_the_references);
     tcase_add_test(tc, frames_far_from_every_constrained_frame_keep_the_input);
     tcase_add_test(tc, the_floor_is_respected);

@@ -286,11 +286,12 @@ START_TEST(alpha_zero_is_base_and_one_is_denoised)
         for (size_t i = 0; i < n; i++) {
             for (size_t k = 0; k < j; k++) {
                 const double *v = ctl + 3 * (1 + j) * i + 3 + 3 * k;
-                double want =
-                    k == pick ? 2.0 * sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]) : 0.0;
+                const double own = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+                double want = k == pick ? 2.0 * own : 0.0;
+                if (want > 0.5 * PI) /* saturated below a half turn (quat__scale_turn) */
+                    want = fmax(own, 0.5 * PI + 0.4 * PI * tanh((want - 0.5 * PI) / (0.4 * PI)));
                 double got = qangle(sr + 4 * (i * j + k), br + 4 * (i * j + k));
-                if (want < PI - 1e-6)
-                    ck_assert_double_le(fabs(got - want), 1e-9);
+                ck_assert_double_le(fabs(got - want), 1e-9);
             }
         }
         free(alpha);
@@ -724,6 +725,47 @@ START_TEST(denoises_synthetic_motion)
         mlr_layers_destroy(L);
         free(clean), free(noisy), free(pos), free(out);
     }
+}
+END_TEST
+
+/* A kick whose displacement from the base layer is 100 degrees, exaggerated 3x: its angle
+   saturates below a half turn (at most 0.9 pi) and never falls below alpha 1's, frame to
+   frame continuous. Scaled as it is (300 degrees), exp(3 v) turns back the other way: a
+   rotation of 300 degrees is one of -60, less than alpha 1's, and the joint limits then
+   found it on the far side of its range. */
+START_TEST(exaggeration_stays_below_a_half_turn)
+{
+    const size_t n = 240, j = 1;
+    double *rot = malloc(4 * n * sizeof *rot), *pos = calloc(3 * n, sizeof *pos);
+    double *r0 = malloc(4 * n * sizeof *r0), *r1 = malloc(4 * n * sizeof *r1),
+           *r3 = malloc(4 * n * sizeof *r3);
+    for (size_t i = 0; i < n; i++) { /* 100 degrees about z, a bump of 0.08 s at 120 fps */
+        const double t = ((double)i - 120.0) / 10.0, a = 100.0 * PI / 180.0 * exp(-0.5 * t * t);
+        rot[4 * i] = cos(0.5 * a), rot[4 * i + 1] = rot[4 * i + 2] = 0.0;
+        rot[4 * i + 3] = sin(0.5 * a);
+    }
+    mlr_layers *L = NULL;
+    ck_assert_int_eq(mlr_layers_decompose(n, j, pos, rot, NULL, 0, NULL, &L, NULL), MLR_OK);
+    const double a0 = 0.0, a1 = 1.0, a3 = 3.0;
+    ck_assert_int_eq(mlr_layers_synthesize(L, 0, n, &a0, 1, NULL, 0, r0, 4 * n, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_layers_synthesize(L, 0, n, &a1, 1, NULL, 0, r1, 4 * n, NULL), MLR_OK);
+    ck_assert_int_eq(mlr_layers_synthesize(L, 0, n, &a3, 1, NULL, 0, r3, 4 * n, NULL), MLR_OK);
+    double peak1 = 0.0, peak3 = 0.0, step = 0.0;
+    for (size_t i = 0; i < n; i++) {
+        const double d1 = qangle(r0 + 4 * i, r1 + 4 * i), d3 = qangle(r0 + 4 * i, r3 + 4 * i);
+        ck_assert_msg(d3 >= d1 - 1e-9, "frame %zu: alpha 3 displaced %.1f deg, alpha 1 %.1f", i,
+                      d3 * 180 / PI, d1 * 180 / PI);
+        ck_assert_msg(d3 <= 0.9 * PI + 1e-9, "frame %zu: alpha 3 displaced %.1f deg", i,
+                      d3 * 180 / PI);
+        peak1 = fmax(peak1, d1), peak3 = fmax(peak3, d3);
+        if (i)
+            step = fmax(step, qangle(r3 + 4 * (i - 1), r3 + 4 * i));
+    }
+    ck_assert_msg(peak1 > 1.2 && peak3 > 2.5, "peaks %.1f, %.1f deg", peak1 * 180 / PI,
+                  peak3 * 180 / PI); /* the case is there: alpha 1 near 100, alpha 3 near 160 */
+    ck_assert_msg(step < 3.0 * 0.25, "largest step %.1f deg", step * 180 / PI);
+    mlr_layers_destroy(L);
+    free(rot), free(pos), free(r0), free(r1), free(r3);
 }
 END_TEST
 
@@ -1778,6 +1820,7 @@ static Suite *layers_suite(void)
     tcase_add_test(num, gcv_matches_dense_scan);
     tcase_add_test(num, gcv_long_clip_matches_banded_scan);
     tcase_add_test(num, denoises_synthetic_motion);
+    tcase_add_test(num, exaggeration_stays_below_a_half_turn);
     tcase_add_test(num, constant_motion_and_no_root);
     tcase_add_test(num, body_joint_sets_the_translation_s);
     tcase_add_test(num, robust_without_outliers_is_plain);

@@ -9,6 +9,22 @@
 #include <stdlib.h>
 #include <string.h>
 
+/* a v with its angle saturated below a half turn, as the layers' synthesis scales a
+   displacement (mlr_layers.h, "Exaggeration"): past 90 degrees the angle x goes to
+   90 + 72 tanh((x - 90) / 72) degrees, never below v's own. */
+static mlr_vec3 scale_turn(mlr_vec3 v, double a)
+{
+    const double pi = 3.14159265358979323846, knee = 0.5 * pi, span = 0.9 * pi - knee;
+    mlr_vec3 w = {a * v.x, a * v.y, a * v.z};
+    const double x2 = w.x * w.x + w.y * w.y + w.z * w.z;
+    if (!(fabs(a) > 1.0) || !(x2 > knee * knee) || !isfinite(x2))
+        return w;
+    const double x = sqrt(x2), own = x / fabs(a);
+    const double s = fmax(own, knee + span * tanh((x - knee) / span)) / x;
+    w.x *= s, w.y *= s, w.z *= s;
+    return w;
+}
+
 /* ---------------------------------------------------------------------------------------- */
 /* References                                                                               */
 
@@ -442,7 +458,7 @@ START_TEST(layers_match_offline_composition)
                 mlr_vec3 v;
                 mlr_quat_mul(&bc, qm, &d);
                 mlr_quat_log_array(&d, 1, &v, NULL);
-                v.x *= alpha[j], v.y *= alpha[j], v.z *= alpha[j];
+                v = scale_turn(v, alpha[j]);
                 mlr_quat_exp_array(&v, 1, &e, NULL);
                 mlr_quat_mul(qb, &e, &want);
                 if (alpha[j] == 1.0)
@@ -512,7 +528,7 @@ START_TEST(layers_bitwise_per_joint_composition)
                 mlr_vec3 v;
                 mlr_quat_mul(&bc, qm, &d);
                 mlr_quat_log_array(&d, 1, &v, NULL);
-                v.x *= alpha[j], v.y *= alpha[j], v.z *= alpha[j];
+                v = scale_turn(v, alpha[j]);
                 mlr_quat_exp_array(&v, 1, &e, NULL);
                 mlr_quat_mul(qb, &e, w);
             }

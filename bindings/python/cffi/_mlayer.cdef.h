@@ -542,7 +542,8 @@ typedef enum mlr_cleanup_key {
     MLR_CLEANUP_OPT_PIN_DETAIL = 13,
     MLR_CLEANUP_OPT_RAMP_TRACK = 14,
     MLR_CLEANUP_OPT_ROOT_BOB = 15,
-    MLR_CLEANUP_OPT_STRAIGHT_SLACK = 16
+    MLR_CLEANUP_OPT_STRAIGHT_SLACK = 16,
+    MLR_CLEANUP_OPT_SOFT_REACH = 17
 } mlr_cleanup_key;
 typedef struct mlr_cleanup_option {
     int key;

@@ -91,3 +91,19 @@ def walk_1s(tmp_path_factory):
     p = tmp_path_factory.mktemp("walk_1s") / "walk.bvh"
     mlayer.write_bvh(mlayer.data.load_sample()[:120], p)
     return p
+
+
+def scale_turn(v, alpha):
+    """alpha v for rotation vectors v (..., 3) and alphas (...) as the layers' synthesis scales
+    them (mlr_layers.h): above |alpha| 1 an angle x past 90 degrees becomes
+    90 + 72 tanh((x - 90) / 72) degrees, never below v's own angle."""
+    import numpy as np
+    v = np.asarray(v, float)
+    a = np.broadcast_to(np.asarray(alpha, float), v.shape[:-1])
+    w = a[..., None] * v
+    x = np.linalg.norm(w, axis=-1)
+    knee, span = 0.5 * np.pi, 0.4 * np.pi
+    sat = np.maximum(np.linalg.norm(v, axis=-1), knee + span * np.tanh((x - knee) / span))
+    on = (np.abs(a) > 1.0) & (x > knee)
+    return np.where(on[..., None], w * (sat / np.where(on, x, 1.0))[..., None], w)
+

@@ -44,7 +44,8 @@ _OPT = {"blend": lib.MLR_CLEANUP_OPT_BLEND, "reach": lib.MLR_CLEANUP_OPT_REACH,
         "keep_stiller": lib.MLR_CLEANUP_OPT_KEEP_STILLER,
         "keep_total": lib.MLR_CLEANUP_OPT_KEEP_TOTAL, "pin_detail": lib.MLR_CLEANUP_OPT_PIN_DETAIL,
         "ramp_track": lib.MLR_CLEANUP_OPT_RAMP_TRACK, "root_bob": lib.MLR_CLEANUP_OPT_ROOT_BOB,
-        "straight_slack": lib.MLR_CLEANUP_OPT_STRAIGHT_SLACK}
+        "straight_slack": lib.MLR_CLEANUP_OPT_STRAIGHT_SLACK,
+        "soft_reach": lib.MLR_CLEANUP_OPT_SOFT_REACH}
 
 
 def _points(skeleton: Skeleton, names: Sequence[str | int]
@@ -179,7 +180,11 @@ def fix_contacts(motion: Motion, contacts: ArrayLike, names: str | Sequence[str]
         scaled keeps it; stylize passes 0.5 when the body's alpha is not 1), straight_slack
         (leg lengths, 0: on a leg within about a degree of straight, a correction along the
         hip-ankle line taken softly, l x^2 / (1 + x^2) with x = l / straight_slack, so that a
-        straight leg asked to shorten by a hair does not bend its knee; the guards pass 0.002).
+        straight leg asked to shorten by a hair does not bend its knee; the guards pass 0.002),
+        soft_reach (leg lengths, 0: a target farther from the hip than b = L (1 - soft_reach)
+        drawn in to b + soft_reach L (1 - exp(-(d - b) / (soft_reach L))), no nearer than the
+        leg's extension, so that a knee straightens smoothly as its target nears full reach;
+        the guards pass 0.02).
 
     Returns
     -------

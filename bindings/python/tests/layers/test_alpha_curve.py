@@ -7,6 +7,7 @@ import pickle
 
 import numpy as np
 import pytest
+from conftest import scale_turn
 
 import mlayer
 from mlayer import AlphaCurve
@@ -123,7 +124,7 @@ def test_synthesis_with_curves_is_the_numpy_formula(clip):
                                rtol=0, atol=1e-13)
     base, control = L.base, np.asarray(L.control)
     root = base.root_pos + a[:, :1] * control[:, 0]
-    q = _quat_mul(base.rot, _quat_exp(a[:, 1:, None] * control[:, 1:]))
+    q = _quat_mul(base.rot, _quat_exp(scale_turn(control[:, 1:], a[:, 1:])))
     q *= np.where(np.sum(q * base.rot, axis=-1, keepdims=True) < 0, -1.0, 1.0)
     np.testing.assert_allclose(out.root_pos, root, rtol=0, atol=1e-12)
     np.testing.assert_allclose(out.rot, q, rtol=0, atol=1e-12)
