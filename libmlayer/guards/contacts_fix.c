@@ -202,6 +202,44 @@ static void pin_run_to_means(const cleanup_state *cu, cleanup_foot *ft, size_t s
 
 /* Foot k's contact frames, leg chain and targets before any run is pinned (the anchor's and
    the placed point's own trajectories). */
+/* With a reference, a foot's contact gaps of at most GAP_MERGE seconds across which the
+   reference's foot (its first own point) moves less than GAP_STILL leg lengths sideways are
+   closed: the two runs become one, pinned with one offset (pin_run_to_reference). Pinned apart, each run to its own
+   place, the foot crossed between the pins in the gap's few frames: a death clip (game_die)
+   breaks its right foot's contact for 3 frames at 30 fps while the input's foot slides 3.7 cm
+   (5% of the leg), and at alpha 3 the two pins lay 82 cm apart (the foot's acceleration 1.68x
+   the larger of the input's and the unguarded synthesis's). The detection closes gaps of
+   0.05 s; a gap of generated contacts (mlayer's generator) is closed here as well. */
+#define GAP_MERGE 0.1
+#define GAP_STILL 0.1
+static void close_still_gaps(const cleanup_state *cu, cleanup_foot *ft)
+{
+    if (!cu->have_ref || !cu->Pr)
+        return; /* pin_run_to_means pins each point's own contact runs apart */
+    const size_t N = cu->N, C = cu->C, c = ft->cols[0];
+    const double *P = cu->Pr;
+    const size_t most = (size_t)floor(GAP_MERGE * cu->fps + 1e-9);
+    for (size_t f = 1; f < N; f++) {
+        if (ft->U[f] || !ft->U[f - 1])
+            continue;
+        size_t g = f;
+        while (g < N && !ft->U[g] && g - f < most)
+            g++;
+        if (g >= N || !ft->U[g]) { /* longer than GAP_MERGE, or to the clip's end */
+            f = g;
+            continue;
+        }
+        const double *a = P + 3 * ((f - 1) * C + c), *b = P + 3 * (g * C + c);
+        double d2 = 0.0;
+        for (int k = 0; k < 3; k++)
+            if (k != cu->up)
+                d2 += (b[k] - a[k]) * (b[k] - a[k]);
+        if (sqrt(d2) < GAP_STILL * ft->leg)
+            memset(ft->U + f, 1, g - f);
+        f = g;
+    }
+}
+
 static mlr_status set_foot_frames(cleanup_state *cu, size_t k, mlr_diag *diag)
 {
     const size_t N = cu->N, J = cu->J, C = cu->C;
@@ -222,6 +260,7 @@ static mlr_status set_foot_frames(cleanup_state *cu, size_t k, mlr_diag *diag)
         return st;
     ft->leg = cleanup__dist3(pos + 3 * (size_t)ft->hip, pos + 3 * (size_t)ft->knee) +
               cleanup__dist3(pos + 3 * (size_t)ft->knee, pos + 3 * (size_t)ft->anchor);
+    close_still_gaps(cu, ft);
     const size_t a = (size_t)ft->anchor;
     const int has_toe = ft->n_cols > ft->n_own;
     const size_t toe = has_toe ? ft->cols[ft->n_own] : 0;
