@@ -9,6 +9,7 @@
 #include "guards/floor_chains_internal.h"
 #include "guards/floor_lift_internal.h"
 #include "guards/toe_tilt_internal.h"
+#include "guards/upright_internal.h"
 #include "guards/legs_swivel_internal.h"
 #include "guards/limits_internal.h"
 #include "math/quat_internal.h"
@@ -556,6 +557,12 @@ mlr_status mlr_guards_create(const mlr_rig *rig, double fps, size_t n_frames,
         common__diag_set(diag, st, 0, 0, "guards: forward kinematics of the input failed");
         goto done;
     }
+    int upside_down = 0;
+    if ((g->contacts_on || g->floor_on) &&
+        (st = upright__upside_down(&g->rig, N, wpos, g->up, &a, &upside_down)) != MLR_OK) {
+        common__diag_set(diag, st, 0, 0, "guards: out of memory");
+        goto done;
+    }
     if (g->floor_on && g->floor_given && (st = check_floor_given(g, wpos, diag)) != MLR_OK)
         goto done;
     if (g->contacts_on || g->floor_on)
@@ -588,6 +595,12 @@ done:
             diag, MLR_OK, 0, 0,
             "guards: no foot found (no joint named foot, ankle or toe, nor a hand that "
             "stays low): the contact and floor guards are skipped");
+    else if (upside_down)
+        common__diag_set(
+            diag, MLR_OK, 0, 0,
+            "guards: the body stands upside down along +%c (feet above the joints' mean; "
+            "image y down?): the floor guards take its head as lowest; turn it upright",
+            "XYZ"[g->up]);
     return MLR_OK;
 }
 

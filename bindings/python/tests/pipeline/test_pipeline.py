@@ -256,6 +256,27 @@ def test_up_axis_is_detected_once_and_kept(mocap, monkeypatch):
     assert m.up_axis == "y" and counts == {"input": 3, "other": 0}
 
 
+def test_a_body_upside_down_is_named_in_a_warning():
+    """Video pose estimators write image coordinates, y down: MediaPipe's and Azure Kinect's
+    BVH exports stand on their heads along +Y, and the guards, which measure height along +Y,
+    take their heads for the lowest points. The C guards note it, Python warns with it; the
+    same clip upright does not warn."""
+    m = mlayer.data.load_sample()[:240]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", mlayer.MlayerWarning)
+        mlayer.stylize(m, 2.0)
+    # a half turn about X: y and z negated, the root's rotation turned with them
+    root = m.root_pos.copy()
+    root[:, 1:] = -root[:, 1:]
+    rot = m.rot.copy()
+    w, x, y, z = (rot[:, 0, i].copy() for i in range(4))
+    rot[:, 0] = np.stack([-x, w, -z, y], axis=-1)
+    flipped = m.with_frames(root_pos=root, rot=rot)
+    flipped.up_axis = "y"
+    with pytest.warns(mlayer.MlayerWarning, match=r"upside down along \+Y"):
+        mlayer.stylize(flipped, 2.0)
+
+
 def test_a_guard_that_cannot_run_is_named_in_a_warning():
     """Issue 38, item 7: a rig without feet (fairmotion's 4-joint chain) got no contact or floor
     guard, silently; the C guards leave a note in their diag, Python warns with it."""
