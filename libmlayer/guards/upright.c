@@ -5,8 +5,9 @@
  * Kinect's BVH exports stand on their heads along +Y (MediaPipe's cxk dance: the feet's median
  * height +67, the head's -49, the hips at 0). mlr_rig_up_axis finds the axis but not its sign,
  * and the guards measure heights along +up: they take the head and the hands for the body's
- * lowest points, and the floor from the feet's contacts lies above them (the floor's chains
- * then turned cxk's hands by 86 degrees a frame in denoise). The guards note it at create
+ * lowest points, and the floor from the feet's contacts lies above them (with the contact and
+ * floor guards on, cxk's hands turned by up to 86 degrees a frame in denoise; by none with
+ * them off). The guards note it at create
  * (mlr_guards_create's diag, Python's MlayerWarning). Turning such a body upright inside the
  * guards (a half turn of its root, and back) was tried: right for the body, but a measure that
  * takes +Y as up then sees its head 5-18% of body height under its floor; the clip is better
