@@ -26,31 +26,29 @@ mlr_status upright__upside_down(const mlr_rig *rig, size_t N, const double *wpos
     *upside_down = 0;
     if (N == 0 || !rig->names)
         return MLR_OK;
-    size_t n_feet = 0;
-    for (size_t j = 1; j < J; j++)
-        n_feet += rig->names[j] && common__name_matches(rig->names[j], foot_names);
-    if (n_feet == 0)
-        return MLR_OK;
-    size_t bytes = 0;
-    if (common__mul_size(2 * N, sizeof(double), &bytes) != MLR_OK)
+    size_t n_feet = 0, bytes = 0, n_idx = 0;
+    if (common__mul_size(2 * N + J, sizeof(double), &bytes) != MLR_OK)
         return MLR_E_OVERFLOW;
     double *feet = common__alloc(alloc, bytes);
     if (!feet)
         return MLR_E_NO_MEMORY;
-    double *body = feet + N;
-    for (size_t f = 0; f < N; f++) {
+    double *body = feet + N, *idx = body + N; /* the foot joints' indices, found once */
+    for (size_t j = 1; j < J; j++)
+        if (rig->names[j] && common__name_matches(rig->names[j], foot_names))
+            idx[n_idx++] = (double)j;
+    n_feet = n_idx;
+    for (size_t f = 0; n_feet && f < N; f++) {
         const double *p = wpos + 3 * f * J;
         double s = 0.0, all = 0.0;
-        for (size_t j = 0; j < J; j++) {
+        for (size_t j = 0; j < J; j++)
             all += p[3 * j + (size_t)up];
-            if (j > 0 && rig->names[j] && common__name_matches(rig->names[j], foot_names))
-                s += p[3 * j + (size_t)up];
-        }
+        for (size_t i = 0; i < n_feet; i++)
+            s += p[3 * (size_t)idx[i] + (size_t)up];
         feet[f] = s / (double)n_feet;
         body[f] = all / (double)J;
     }
-    const double mf = common__median(feet, N), mb = common__median(body, N);
+    if (n_feet)
+        *upside_down = common__median(feet, N) > common__median(body, N);
     common__free(alloc, feet, bytes);
-    *upside_down = mf > mb;
     return MLR_OK;
 }
