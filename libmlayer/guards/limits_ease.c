@@ -16,6 +16,7 @@
  * floor off): Xia's walks at alpha 2-3 from 2.6-3.7x the synthesis's to 0.7-0.9x, CMU/FAIR's
  * jumps from 3.1-3.3x to 0.7x. */
 #include <math.h>
+#include <stdint.h>
 #include <string.h>
 
 #include "guards/limits_internal.h"
@@ -41,18 +42,37 @@ size_t limits__ease_kernel(double sigma, double *k)
 void limits__ease_lookahead(const double *x, size_t n, const double *k, size_t r, double *tmp,
                             double *y)
 {
-    for (size_t f = 0; f < n; f++) { /* the running maximum */
-        const size_t a = f > r ? f - r : 0, b = f + r < n ? f + r : n - 1;
-        double m = x[a];
-        for (size_t i = a + 1; i <= b; i++)
-            m = x[i] > m ? x[i] : m;
-        tmp[f] = m;
-    }
-    for (size_t f = 0; f < n; f++) { /* the Gaussian, the edge values repeated */
-        double s = k[0] * tmp[f];
-        for (size_t d = 1; d <= r; d++)
-            s += k[d] * (tmp[f >= d ? f - d : 0] + tmp[f + d < n ? f + d : n - 1]);
-        y[f] = s;
+    /* A frame whose window [f - r, f + r] holds only zeros gets its first value (a zero) from
+       the running maximum and 0 from the Gaussian, as the loops below would give it; the
+       corrections are sparse (a joint near its bound, a chain under the floor), so only the
+       frames within r of a value that is not zero are computed (NaN counts as not zero). */
+    const double *in[2] = {x, tmp};
+    for (int pass = 0; pass < 2; pass++) {
+        const double *v = in[pass];
+        size_t next = 0, last = SIZE_MAX; /* the first nonzero at or after f; the last before */
+        for (size_t f = 0; f < n; f++) {
+            const size_t a = f > r ? f - r : 0, b = f + r < n ? f + r : n - 1;
+            if (next < f)
+                next = f;
+            while (next < n && v[next] == 0.0)
+                next++;
+            const int quiet = next > b && (last == SIZE_MAX || last < a);
+            if (v[f] != 0.0)
+                last = f;
+            if (pass == 0) { /* the running maximum */
+                double m = x[a];
+                for (size_t i = a + 1; !quiet && i <= b; i++)
+                    m = x[i] > m ? x[i] : m;
+                tmp[f] = m;
+            } else if (quiet) {
+                y[f] = 0.0;
+            } else { /* the Gaussian, the edge values repeated */
+                double s = k[0] * tmp[f];
+                for (size_t d = 1; d <= r; d++)
+                    s += k[d] * (tmp[f >= d ? f - d : 0] + tmp[f + d < n ? f + d : n - 1]);
+                y[f] = s;
+            }
+        }
     }
 }
 
@@ -106,6 +126,11 @@ static int ease_joint(const double *raw, const double *lim, size_t N, size_t J, 
     int any = 0;
     for (size_t f = 0; f < N; f++) {
         const double *a = raw + 4 * (f * J + j), *b = lim + 4 * (f * J + j);
+        if (memcmp(a, b, 4 * sizeof(double)) == 0) { /* not limited: no correction (the
+                                                        product below leaves 1e-17 there) */
+            w->v[3 * f] = w->v[3 * f + 1] = w->v[3 * f + 2] = 0.0;
+            continue;
+        }
         const double n = sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2] + a[3] * a[3]);
         const double ac[4] = {a[0] / n, -a[1] / n, -a[2] / n, -a[3] / n};
         double c[4];
