@@ -61,8 +61,7 @@ static void unit4(const double *a, double *o)
 }
 
 mlr_status floor_chains__apply(const mlr_rig *rig, size_t N, double fps, int up, double floor,
-                               double slack, const double *in_root, const double *in_rot,
-                               const double *in_trans, double *root, double *rot,
+                               double slack, const guards_input *in, double *root, double *rot,
                                const double *trans, int32_t body, size_t C, const int32_t *joints,
                                int keep_feet, size_t *lifted, const mlr_allocator *alloc)
 {
@@ -77,7 +76,7 @@ mlr_status floor_chains__apply(const mlr_rig *rig, size_t N, double fps, int up,
        and their eased copy, the joints' weights, the running maximum's, a chain's rotations
        and local translations (CHAIN_MAX joints), the kernel; the flags */
     size_t nd = 0, bytes = 0, fb = 0;
-    if (common__mul_size(N, 14 * J + P + J + 3, &nd) != MLR_OK ||
+    if (common__mul_size(N, 7 * J + P + J + 3, &nd) != MLR_OK ||
         common__mul_size(nd + 7 * CHAIN_MAX + r + 1, sizeof(double), &bytes) != MLR_OK ||
         common__mul_size(3 * J, sizeof(int32_t), &fb) != MLR_OK)
         return MLR_E_OVERFLOW;
@@ -88,13 +87,14 @@ mlr_status floor_chains__apply(const mlr_rig *rig, size_t N, double fps, int up,
         common__free(alloc, ib, fb);
         return MLR_E_NO_MEMORY;
     }
-    double *pos_in = buf, *wrot_in = pos_in + 3 * N * J, *pos = wrot_in + 4 * N * J,
-           *wrot = pos + 3 * N * J, *h_in = wrot + 4 * N * J, *wp = h_in + N * P, *wpe = wp + N,
-           *wj = wpe + N, *tmp = wj + N * J, *qc = tmp + N, *lt = qc + 4 * CHAIN_MAX,
-           *kern = lt + 3 * CHAIN_MAX;
+    const double *pos_in = in->pos, *wrot_in = in->wrot, *in_root = in->root, *in_rot = in->rot,
+                 *in_trans = in->trans;
+    double *pos = buf, *wrot = pos + 3 * N * J, *h_in = wrot + 4 * N * J, *wp = h_in + N * P,
+           *wpe = wp + N, *wj = wpe + N, *tmp = wj + N * J, *qc = tmp + N,
+           *lt = qc + 4 * CHAIN_MAX, *kern = lt + 3 * CHAIN_MAX;
     int32_t *foot = ib, *tidx = ib + J, *chain = ib + 2 * J;
-    mlr_status st = fk__two_motions(rig, N, in_root, in_rot, in_trans, pos_in, wrot_in, root, rot,
-                                    trans, pos, wrot, alloc);
+    mlr_status st = mlr_fk_arrays(N, J, rig->parents, rig->offsets, root, rot, rig->n_trans,
+                                  rig->trans_joints, trans, pos, wrot, alloc, NULL);
     if (st != MLR_OK)
         goto done;
     /* the feet's joints: the contact points' joints, their ancestors and descendants */

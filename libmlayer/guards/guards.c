@@ -976,13 +976,12 @@ static void fk_failure(mlr_status st, mlr_diag *diag)
 
 /* The toe tips of the working frames above the floor by a tilt (toe_tilt.c), against the
    input; the diag set on failure. */
-static mlr_status tilt_toes(const mlr_guards *g, const double *root, double *rot,
-                            const double *trans, mlr_diag *diag)
+static mlr_status tilt_toes(const mlr_guards *g, const guards_input *in, const double *root,
+                            double *rot, const double *trans, mlr_diag *diag)
 {
-    const mlr_status st =
-        toe_tilt__apply(&g->rig, g->n_frames, g->fps, g->up, g->floor_height,
-                        GUARDS_FLOOR_SLACK * g->body_height, g->root_pos, g->rot, g->trans, root,
-                        rot, trans, g->n_points, g->joints, g->end_sites, NULL, &g->alloc);
+    const mlr_status st = toe_tilt__apply(
+        &g->rig, g->n_frames, g->fps, g->up, g->floor_height, GUARDS_FLOOR_SLACK * g->body_height,
+        in, root, rot, trans, g->n_points, g->joints, g->end_sites, NULL, &g->alloc);
     if (st != MLR_OK)
         fk_failure(st, diag);
     return st;
@@ -1298,6 +1297,7 @@ static mlr_status guards_apply(const mlr_guards *g, const double *alpha, size_t 
     size_t n_before = 0;
     uint8_t *changed = limits_on ? alloc_array(&g->alloc, N * J, 1, &st) : NULL;
     int32_t *legs = limits_on ? alloc_array(&g->alloc, J, sizeof(int32_t), &st) : NULL;
+    double *in_pos = NULL, *in_wrot = NULL; /* (made once the floor is known to be on) */
     if (st != MLR_OK) {
         common__diag_set(diag, st, 0, 0, "guards apply: out of memory");
         goto done;
@@ -1321,21 +1321,32 @@ static mlr_status guards_apply(const mlr_guards *g, const double *alpha, size_t 
     const size_t C = g->contacts_on ? g->n_points : 0;
     const int floor_on = g->floor_on && isfinite(g->floor_height) && g->n_points > 0;
     const int denoising = is_denoise(alpha, n_alpha);
+    if (floor_on) { /* the input's forward kinematics, once for the passes that compare with it */
+        in_pos = alloc_array(&g->alloc, 3 * N * J, sizeof(double), &st);
+        in_wrot = alloc_array(&g->alloc, 4 * N * J, sizeof(double), &st);
+        if (st == MLR_OK)
+            st = mlr_fk_arrays(N, J, g->parents, g->offsets, g->root_pos, g->rot, g->n_trans,
+                               g->trans_joints, g->trans, in_pos, in_wrot, &g->alloc, NULL);
+        if (st != MLR_OK) {
+            fk_failure(st, diag);
+            goto done;
+        }
+    }
+    const guards_input in = {g->root_pos, g->rot, g->trans, in_pos, in_wrot};
     if (floor_on && !denoising) { /* the rest of the body above the floor (floor_chains.c),
                                     before the cleanup pins the feet of the result; not in
                                     denoise, where the input is the noisy capture (blending
                                     MediaPipe's toward it changed denoise by 47% of H) */
         size_t lifted = 0;
         st = floor_chains__apply(&g->rig, N, g->fps, g->up, g->floor_height,
-                                 GUARDS_FLOOR_SLACK * g->body_height, g->root_pos, g->rot,
-                                 g->trans, work_root, work, trans, g->body_trans, g->n_points,
-                                 g->joints, 0, &lifted, &g->alloc);
+                                 GUARDS_FLOOR_SLACK * g->body_height, &in, work_root, work, trans,
+                                 g->body_trans, g->n_points, g->joints, 0, &lifted, &g->alloc);
         if (st != MLR_OK) {
             fk_failure(st, diag);
             goto done;
         }
     }
-    if (floor_on && (st = tilt_toes(g, work_root, work, trans, diag)) != MLR_OK)
+    if (floor_on && (st = tilt_toes(g, &in, work_root, work, trans, diag)) != MLR_OK)
         goto done; /* toe tips above the floor by a tilt, before the cleanup would lift the
                       whole foot for them (toe_tilt.c) */
     if (C > 0 || floor_on) {
@@ -1389,7 +1400,7 @@ static mlr_status guards_apply(const mlr_guards *g, const double *alpha, size_t 
     /* the toe tips once more, where the cleanup's IK and root shift took them under the floor,
        before the corners' smoothing: the last lift raised the whole body for them once a step
        (CMU 12_01 at alpha 0.5 kept 2.65 alpha of its bob) */
-    if (floor_on && (st = tilt_toes(g, work_root, work, trans, diag)) != MLR_OK)
+    if (floor_on && (st = tilt_toes(g, &in, work_root, work, trans, diag)) != MLR_OK)
         goto done;
     if (C > 0 || floor_on || rep.limits_applied) {
         /* the corners where guards meet, smoothed (depop.c); before the floor's last word */
@@ -1409,9 +1420,8 @@ static mlr_status guards_apply(const mlr_guards *g, const double *alpha, size_t 
            foot: the feet stay pinned */
         size_t lifted = 0;
         st = floor_chains__apply(&g->rig, N, g->fps, g->up, g->floor_height,
-                                 GUARDS_FLOOR_SLACK * g->body_height, g->root_pos, g->rot,
-                                 g->trans, work_root, work, trans, g->body_trans, g->n_points,
-                                 g->joints, 1, &lifted, &g->alloc);
+                                 GUARDS_FLOOR_SLACK * g->body_height, &in, work_root, work, trans,
+                                 g->body_trans, g->n_points, g->joints, 1, &lifted, &g->alloc);
         if (st != MLR_OK) {
             fk_failure(st, diag);
             goto done;
@@ -1420,10 +1430,9 @@ static mlr_status guards_apply(const mlr_guards *g, const double *alpha, size_t 
     if (floor_on && C > 0 && !denoising) {
         /* knees above the floor: each leg turned about its hip-ankle axis (legs_swivel.c) */
         size_t turned = 0;
-        st =
-            legs_swivel__apply(&g->rig, N, g->fps, g->up, g->floor_height,
-                               GUARDS_FLOOR_SLACK * g->body_height, g->root_pos, g->rot, g->trans,
-                               work_root, work, trans, g->n_points, g->joints, &turned, &g->alloc);
+        st = legs_swivel__apply(&g->rig, N, g->fps, g->up, g->floor_height,
+                                GUARDS_FLOOR_SLACK * g->body_height, &in, work_root, work, trans,
+                                g->n_points, g->joints, &turned, &g->alloc);
         if (st != MLR_OK) {
             fk_failure(st, diag);
             goto done;
@@ -1457,6 +1466,8 @@ done:
     free_array(&g->alloc, before, n_before, sizeof(double));
     free_array(&g->alloc, changed, N * J, 1);
     free_array(&g->alloc, legs, J, sizeof(int32_t));
+    free_array(&g->alloc, in_pos, 3 * N * J, sizeof(double));
+    free_array(&g->alloc, in_wrot, 4 * N * J, sizeof(double));
     return st;
 }
 

@@ -145,10 +145,9 @@ static size_t find_legs(const mlr_rig *rig, size_t C, const int32_t *joints, int
 }
 
 mlr_status legs_swivel__apply(const mlr_rig *rig, size_t N, double fps, int up, double floor,
-                              double slack, const double *in_root, const double *in_rot,
-                              const double *in_trans, const double *root, double *rot,
-                              const double *trans, size_t C, const int32_t *joints, size_t *turned,
-                              const mlr_allocator *alloc)
+                              double slack, const guards_input *in, const double *root,
+                              double *rot, const double *trans, size_t C, const int32_t *joints,
+                              size_t *turned, const mlr_allocator *alloc)
 {
     if (turned)
         *turned = 0;
@@ -162,18 +161,18 @@ mlr_status legs_swivel__apply(const mlr_rig *rig, size_t N, double fps, int up, 
     /* scratch: the input's positions, the motion's positions and world rotations, the turns
        (positive and negative parts, eased copies, the running maximum's), the kernel */
     size_t nd = 0, bytes = 0;
-    if (common__mul_size(N, 14 * J + 8, &nd) != MLR_OK ||
+    if (common__mul_size(N, 7 * J + 8, &nd) != MLR_OK ||
         common__mul_size(nd + r + 3, sizeof(double), &bytes) != MLR_OK)
         return MLR_E_OVERFLOW;
     double *buf = common__alloc(alloc, bytes);
     if (!buf)
         return MLR_E_NO_MEMORY;
-    double *pos_in = buf, *wrot_in = pos_in + 3 * N * J, *pos = wrot_in + 4 * N * J,
-           *wrot = pos + 3 * N * J, *tp = wrot + 4 * N * J, *tn = tp + N, *ep = tn + N,
+    const double *pos_in = in->pos, *wrot_in = in->wrot;
+    double *pos = buf, *wrot = pos + 3 * N * J, *tp = wrot + 4 * N * J, *tn = tp + N, *ep = tn + N,
            *en = ep + N, *pref = en + N, *dp = pref + N, *dn = dp + N, *tmp = dn + N,
            *kern = tmp + N;
-    mlr_status st = fk__two_motions(rig, N, in_root, in_rot, in_trans, pos_in, wrot_in, root, rot,
-                                    trans, pos, wrot, alloc);
+    mlr_status st = mlr_fk_arrays(N, J, rig->parents, rig->offsets, root, rot, rig->n_trans,
+                                  rig->trans_joints, trans, pos, wrot, alloc, NULL);
     if (st != MLR_OK)
         goto done;
     limits__ease_kernel(sigma, kern);

@@ -79,8 +79,7 @@ static size_t tips_below(const mlr_rig *rig, const uint8_t *n_child, const int32
 }
 
 mlr_status toe_tilt__apply(const mlr_rig *rig, size_t N, double fps, int up, double floor,
-                           double slack, const double *in_root, const double *in_rot,
-                           const double *in_trans, const double *root, double *rot,
+                           double slack, const guards_input *in, const double *root, double *rot,
                            const double *trans, size_t C, const int32_t *joints,
                            const int32_t *end_sites, size_t *tilted, const mlr_allocator *alloc)
 {
@@ -95,7 +94,7 @@ mlr_status toe_tilt__apply(const mlr_rig *rig, size_t N, double fps, int up, dou
        the kernel; per joint its children's count, its one child, whether it is a contact
        point's, whether it was done */
     size_t nd = 0, bytes = 0, jbytes = 0;
-    if (common__mul_size(N, 14 * J + 3, &nd) != MLR_OK ||
+    if (common__mul_size(N, 7 * J + 3, &nd) != MLR_OK ||
         common__mul_size(nd + r + 1, sizeof(double), &bytes) != MLR_OK ||
         common__mul_size(J, 3 + sizeof(int32_t), &jbytes) != MLR_OK)
         return MLR_E_OVERFLOW;
@@ -106,13 +105,13 @@ mlr_status toe_tilt__apply(const mlr_rig *rig, size_t N, double fps, int up, dou
         common__free(alloc, jb, jbytes);
         return MLR_E_NO_MEMORY;
     }
-    double *pos_in = buf, *wrot_in = pos_in + 3 * N * J, *pos = wrot_in + 4 * N * J,
-           *wrot = pos + 3 * N * J, *th = wrot + 4 * N * J, *the = th + N, *tmp = the + N,
-           *kern = tmp + N;
+    const double *pos_in = in->pos, *wrot_in = in->wrot;
+    double *pos = buf, *wrot = pos + 3 * N * J, *th = wrot + 4 * N * J, *the = th + N,
+           *tmp = the + N, *kern = tmp + N;
     int32_t *child = (int32_t *)(void *)jb; /* first: the allocation's alignment */
     uint8_t *n_child = jb + J * sizeof(int32_t), *is_point = n_child + J, *done = is_point + J;
-    mlr_status st = fk__two_motions(rig, N, in_root, in_rot, in_trans, pos_in, wrot_in, root, rot,
-                                    trans, pos, wrot, alloc);
+    mlr_status st = mlr_fk_arrays(N, J, rig->parents, rig->offsets, root, rot, rig->n_trans,
+                                  rig->trans_joints, trans, pos, wrot, alloc, NULL);
     if (st != MLR_OK)
         goto done;
     memset(n_child, 0, 3 * J);

@@ -342,17 +342,3 @@ mlr_status mlr_fk_motion(const mlr_motion *m, size_t begin, size_t count, double
                   (count && P) ? m->trans + 3 * P * begin : NULL, world_pos, world_rot, NULL, 0,
                   &m->alloc, diag);
 }
-
-mlr_status fk__two_motions(const mlr_rig *rig, size_t N, const double *root_a, const double *rot_a,
-                           const double *trans_a, double *pos_a, double *wrot_a,
-                           const double *root_b, const double *rot_b, const double *trans_b,
-                           double *pos_b, double *wrot_b, const mlr_allocator *alloc)
-{
-    const size_t J = rig->n_joints;
-    mlr_status st = mlr_fk_arrays(N, J, rig->parents, rig->offsets, root_a, rot_a, rig->n_trans,
-                                  rig->trans_joints, trans_a, pos_a, wrot_a, alloc, NULL);
-    if (st == MLR_OK)
-        st = mlr_fk_arrays(N, J, rig->parents, rig->offsets, root_b, rot_b, rig->n_trans,
-                           rig->trans_joints, trans_b, pos_b, wrot_b, alloc, NULL);
-    return st;
-}

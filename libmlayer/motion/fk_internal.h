@@ -60,11 +60,4 @@ mlr_status fk__arrays_rot_at(size_t n_frames, size_t n_joints, const int32_t *pa
                              double *world_pos, double *world_rot, const int32_t *rot_joints,
                              size_t n_rot_joints, const mlr_allocator *alloc);
 
-/* mlr_fk_arrays of two motions on rig's N frames (the guards' passes measure the input, a, and
- * the result, b): the positions and world rotations of both; the first failure's status. */
-mlr_status fk__two_motions(const mlr_rig *rig, size_t N, const double *root_a, const double *rot_a,
-                           const double *trans_a, double *pos_a, double *wrot_a,
-                           const double *root_b, const double *rot_b, const double *trans_b,
-                           double *pos_b, double *wrot_b, const mlr_allocator *alloc);
-
 #endif
