@@ -648,8 +648,18 @@ mlr_status cleanup__pass(cleanup_state *cu)
         run_hook(cu, HOOK_IK);
     else if (cu->hook_on & 4)
         run_hook(cu, HOOK_RAMPS);
-    if (cu->hook_on & 2) /* the rotations before the spread, for the blends' hook */
-        memcpy(cu->hook_snap, cu->out_rot, N * J * 4 * sizeof(double));
+    if (cu->hook_on & 2) /* the rotations before the spread, for the blends' hook (which
+                            reads the active legs' hip, knee and anchor only) */
+        for (size_t k = 0; k < cu->nf; k++) {
+            const cleanup_foot *ft = &cu->feet[k];
+            const int32_t leg[3] = {ft->hip, ft->knee, ft->anchor};
+            const int n_leg = 2 + (ft->n_cols > ft->n_own); /* run_hook's */
+            for (size_t f = 0; ft->active && f < N; f++)
+                for (int i = 0; i < n_leg; i++) {
+                    const size_t at = 4 * (f * J + (size_t)leg[i]);
+                    memcpy(cu->hook_snap + at, cu->out_rot + at, 4 * sizeof(double));
+                }
+        }
     /* spread per leg */
     for (size_t k = 0; k < cu->nf; k++) {
         const cleanup_foot *ft = &cu->feet[k];

@@ -1,5 +1,5 @@
-/* Contacts: private entry points of feet.c and contacts_detect.c for the guards (guards.c),
- * which measure the body height once for both. */
+/* Contacts: private entry points of feet.c and contacts_detect.c for the guards (guards.c,
+ * which measure the body height once for both; upright.c). */
 #ifndef MLR_CONTACTS_INTERNAL_H
 #define MLR_CONTACTS_INTERNAL_H
 
@@ -16,5 +16,8 @@ mlr_status contacts__detect(const mlr_rig *rig, double fps, int up, size_t n_fra
                             const int32_t *joints, const int32_t *end_sites,
                             const mlr_contacts_option *opts, size_t n_opts, uint8_t *contacts,
                             const mlr_allocator *alloc, const double *body_height, mlr_diag *diag);
+/* Whether a joint's name says foot (foot, ankle, paw or hoof, case-insensitive): the names
+ * contacts__find_feet takes a foot by; 0 for NULL. */
+int contacts__is_foot_name(const char *name);
 
 #endif

@@ -12,6 +12,11 @@ static const char *const foot_patterns[] = {"foot", "ankle", "paw", "hoof", NULL
 static const char *const toe_patterns[] = {"toe", "ball", NULL};
 static const char *const hand_patterns[] = {"hand", "wrist", NULL};
 
+int contacts__is_foot_name(const char *name)
+{
+    return name && common__name_matches(name, foot_patterns);
+}
+
 #define HAND_LOW 0.2       /* hands within this (body heights) of the feet's height are feet */
 #define ZERO_LENGTH 1e-9   /* a joint this short is passed through on the way to a toe */
 

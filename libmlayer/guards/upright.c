@@ -16,8 +16,7 @@
 #include "guards/upright_internal.h"
 
 #include "common/mlr_internal.h"
-
-static const char *const foot_names[] = {"foot", "ankle", "toe", "paw", "hoof", NULL};
+#include "guards/contacts_internal.h"
 
 mlr_status upright__upside_down(const mlr_rig *rig, size_t N, const double *wpos, int up,
                                 const mlr_allocator *alloc, int *upside_down)
@@ -26,29 +25,34 @@ mlr_status upright__upside_down(const mlr_rig *rig, size_t N, const double *wpos
     *upside_down = 0;
     if (N == 0 || !rig->names)
         return MLR_OK;
-    size_t n_feet = 0, bytes = 0, n_idx = 0;
-    if (common__mul_size(2 * N + J, sizeof(double), &bytes) != MLR_OK)
+    size_t bytes = 0, ibytes = 0, n_feet = 0;
+    if (common__mul_size(2 * N, sizeof(double), &bytes) != MLR_OK ||
+        common__mul_size(J, sizeof(size_t), &ibytes) != MLR_OK)
         return MLR_E_OVERFLOW;
     double *feet = common__alloc(alloc, bytes);
-    if (!feet)
+    size_t *idx = common__alloc(alloc, ibytes); /* the foot joints, found once */
+    if (!feet || !idx) {
+        common__free(alloc, feet, bytes);
+        common__free(alloc, idx, ibytes);
         return MLR_E_NO_MEMORY;
-    double *body = feet + N, *idx = body + N; /* the foot joints' indices, found once */
+    }
+    double *body = feet + N;
     for (size_t j = 1; j < J; j++)
-        if (rig->names[j] && common__name_matches(rig->names[j], foot_names))
-            idx[n_idx++] = (double)j;
-    n_feet = n_idx;
+        if (contacts__is_foot_name(rig->names[j]))
+            idx[n_feet++] = j;
     for (size_t f = 0; n_feet && f < N; f++) {
         const double *p = wpos + 3 * f * J;
         double s = 0.0, all = 0.0;
         for (size_t j = 0; j < J; j++)
             all += p[3 * j + (size_t)up];
         for (size_t i = 0; i < n_feet; i++)
-            s += p[3 * (size_t)idx[i] + (size_t)up];
+            s += p[3 * idx[i] + (size_t)up];
         feet[f] = s / (double)n_feet;
         body[f] = all / (double)J;
     }
     if (n_feet)
         *upside_down = common__median(feet, N) > common__median(body, N);
     common__free(alloc, feet, bytes);
+    common__free(alloc, idx, ibytes);
     return MLR_OK;
 }

@@ -6,7 +6,7 @@
 
 #include <stddef.h>
 
-/* *upside_down = 1 when the clip's named feet (foot, ankle, toe, paw, hoof) stand above the
+/* *upside_down = 1 when the clip's named feet (contacts__is_foot_name: foot, ankle, paw, hoof) stand above the
  * mean of its joints along +up in the median over its frames (world positions wpos, N x J x
  * 3; the mean, not the root: Bandai's root joint lies on the ground under the hips): the
  * body is upside down, as a video pose estimator's image coordinates (y down) leave it; 0
