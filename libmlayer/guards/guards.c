@@ -8,6 +8,7 @@
 #include "guards/depop_internal.h"
 #include "guards/floor_chains_internal.h"
 #include "guards/floor_lift_internal.h"
+#include "guards/hinge_side_internal.h"
 #include "guards/toe_tilt_internal.h"
 #include "guards/upright_internal.h"
 #include "guards/legs_swivel_internal.h"
@@ -76,6 +77,9 @@ struct mlr_guards {
     /* the input's trajectories as the cleanup's reference (the pinned feet follow them):
        made at create (and again when the contacts change) when the feet follow the input */
     mlr_cleanup_ref *input_ref, *input_ref_raw; /* smoothed (stylize), unsmoothed (denoise) */
+    /* the arms whose elbows are kept on the input's side of straight (hinge_side.c) */
+    hinge_side arms[HINGE_SIDE_MAX];
+    size_t n_arms;
 };
 
 static mlr_status check_floor_given(const mlr_guards *g, const double *wpos, mlr_diag *diag);
@@ -543,12 +547,19 @@ mlr_status mlr_guards_create(const mlr_rig *rig, double fps, size_t n_frames,
         common__diag_set(diag, st, 0, 0, "guards: out of memory");
         goto done;
     }
-    for (size_t e = 0; e < g->rig.n_end_sites; e++) {
+    /* and of the elbows' parents (the arms' hinge axes live in their frames) */
+    hinge_side arms[HINGE_SIDE_MAX];
+    const size_t n_arms = g->limits_mode != MLR_GUARDS_LIMITS_OFF
+                              ? hinge_side__chains(&g->rig, arms, HINGE_SIDE_MAX)
+                              : 0;
+    for (size_t e = 0; e < g->rig.n_end_sites + n_arms; e++) {
+        const int32_t p = e < g->rig.n_end_sites ? g->rig.end_site_parents[e]
+                                                 : g->parents[arms[e - g->rig.n_end_sites].middle];
         size_t i = 0;
-        while (i < n_ends && ends[i] != g->rig.end_site_parents[e])
+        while (i < n_ends && ends[i] != p)
             i++;
         if (i == n_ends)
-            ends[n_ends++] = g->rig.end_site_parents[e];
+            ends[n_ends++] = p;
     }
     st = fk__arrays_rot_at(N, J, g->parents, g->offsets, g->root_pos, g->rot, P, g->trans_joints,
                            g->trans, wpos, wrot, ends, n_ends, &a);
@@ -557,6 +568,9 @@ mlr_status mlr_guards_create(const mlr_rig *rig, double fps, size_t n_frames,
         common__diag_set(diag, st, 0, 0, "guards: forward kinematics of the input failed");
         goto done;
     }
+    for (size_t k = 0; k < n_arms; k++)
+        if (hinge_side__learn(&g->rig, N, wpos, wrot, &arms[k]))
+            g->arms[g->n_arms++] = arms[k];
     int upside_down = 0;
     if ((g->contacts_on || g->floor_on) &&
         (st = upright__upside_down(&g->rig, N, wpos, g->up, &a, &upside_down)) != MLR_OK) {
@@ -1333,6 +1347,17 @@ static mlr_status guards_apply(const mlr_guards *g, const double *alpha, size_t 
         }
     }
     const guards_input in = {g->root_pos, g->rot, g->trans, in_pos, in_wrot};
+    if (rep.limits_applied && !denoising && g->n_arms) {
+        /* elbows on the input's side of straight (hinge_side.c), before the floor's passes
+           see the arms */
+        size_t turned = 0;
+        st = hinge_side__apply(&g->rig, N, g->fps, g->arms, g->n_arms, work_root, work, trans,
+                               &turned, &g->alloc);
+        if (st != MLR_OK) {
+            fk_failure(st, diag);
+            goto done;
+        }
+    }
     if (floor_on && !denoising) { /* the rest of the body above the floor (floor_chains.c),
                                     before the cleanup pins the feet of the result; not in
                                     denoise, where the input is the noisy capture (blending
