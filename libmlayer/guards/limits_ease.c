@@ -25,6 +25,7 @@
 
 #define EASE_SIGMA 0.04 /* seconds */
 #define EASE_TRUNC 2.5  /* the Gaussian's support and the running maximum's radius, in sigmas */
+#define EASE_DEQUE 1024 /* the running maximum's deque, in frames */
 
 size_t limits__ease_kernel(double sigma, double *k)
 {
@@ -39,40 +40,64 @@ size_t limits__ease_kernel(double sigma, double *k)
     return r;
 }
 
+/* tmp[f] = the largest of x over [f - r, f + r] (clamped to the clip), the first of equal
+   ones (as a scan from f - r keeps it): a deque of the indices whose values no later one in
+   the window exceeds, O(n) however wide the window; the scan where the window is wider than
+   the deque (r > 511: sigma 40 ms at over 5 kHz). */
+static void running_max(const double *x, size_t n, size_t r, double *tmp)
+{
+    const size_t w = 2 * r + 1;
+    if (w > EASE_DEQUE) {
+        for (size_t f = 0; f < n; f++) {
+            const size_t a = f > r ? f - r : 0, b = f + r < n ? f + r : n - 1;
+            double m = x[a];
+            for (size_t i = a + 1; i <= b; i++)
+                m = x[i] > m ? x[i] : m;
+            tmp[f] = m;
+        }
+        return;
+    }
+    size_t q[EASE_DEQUE], head = 0, len = 0, pushed = 0; /* q: a ring of w */
+    for (size_t f = 0; f < n; f++) {
+        const size_t a = f > r ? f - r : 0, b = f + r < n ? f + r : n - 1;
+        while (len && q[head] < a)
+            head = head + 1 == w ? 0 : head + 1, len--;
+        for (; pushed <= b; pushed++) {
+            while (len && x[q[(head + len - 1) % w]] < x[pushed])
+                len--;
+            q[(head + len) % w] = pushed;
+            len++;
+        }
+        tmp[f] = x[q[head]];
+    }
+}
+
 void limits__ease_lookahead(const double *x, size_t n, const double *k, size_t r, double *tmp,
                             double *y)
 {
-    /* A frame whose window [f - r, f + r] holds only zeros gets its first value (a zero) from
-       the running maximum and 0 from the Gaussian, as the loops below would give it; the
-       corrections are sparse (a joint near its bound, a chain under the floor), so only the
-       frames within r of a value that is not zero are computed (NaN counts as not zero). */
-    const double *in[2] = {x, tmp};
-    for (int pass = 0; pass < 2; pass++) {
-        const double *v = in[pass];
-        size_t next = 0, last = SIZE_MAX; /* the first nonzero at or after f; the last before */
-        for (size_t f = 0; f < n; f++) {
-            const size_t a = f > r ? f - r : 0, b = f + r < n ? f + r : n - 1;
-            if (next < f)
-                next = f;
-            while (next < n && v[next] == 0.0)
-                next++;
-            const int quiet = next > b && (last == SIZE_MAX || last < a);
-            if (v[f] != 0.0)
-                last = f;
-            if (pass == 0) { /* the running maximum */
-                double m = x[a];
-                for (size_t i = a + 1; !quiet && i <= b; i++)
-                    m = x[i] > m ? x[i] : m;
-                tmp[f] = m;
-            } else if (quiet) {
-                y[f] = 0.0;
-            } else { /* the Gaussian, the edge values repeated */
-                double s = k[0] * tmp[f];
-                for (size_t d = 1; d <= r; d++)
-                    s += k[d] * (tmp[f >= d ? f - d : 0] + tmp[f + d < n ? f + d : n - 1]);
-                y[f] = s;
-            }
+    running_max(x, n, r, tmp);
+    /* The Gaussian, the edge values repeated. A frame whose window [f - r, f + r] holds only
+       zeros gets 0, as the sum would give it; the corrections are sparse (a joint near its
+       bound, a chain under the floor), so only the frames within r of a value that is not
+       zero are summed (NaN counts as not zero). */
+    size_t next = 0, last = SIZE_MAX; /* the first nonzero at or after f; the last before */
+    for (size_t f = 0; f < n; f++) {
+        const size_t a = f > r ? f - r : 0, b = f + r < n ? f + r : n - 1;
+        if (next < f)
+            next = f;
+        while (next < n && tmp[next] == 0.0)
+            next++;
+        const int quiet = next > b && (last == SIZE_MAX || last < a);
+        if (tmp[f] != 0.0)
+            last = f;
+        if (quiet) {
+            y[f] = 0.0;
+            continue;
         }
+        double s = k[0] * tmp[f];
+        for (size_t d = 1; d <= r; d++)
+            s += k[d] * (tmp[f >= d ? f - d : 0] + tmp[f + d < n ? f + d : n - 1]);
+        y[f] = s;
     }
 }
 

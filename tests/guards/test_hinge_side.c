@@ -202,6 +202,34 @@ START_TEST(no_memory_leaves_the_motion_as_it_was)
 }
 END_TEST
 
+/* The eased limits' running maximum (limits_ease.c, compiled in here for the pass): the
+   deque gives the scan's values to the bit, the first of equal ones (+0 before -0 and after),
+   for windows narrower and wider than the clip and past the deque's size. */
+START_TEST(the_running_maximum_is_the_scans)
+{
+    enum { M = 700 };
+    static double x[M], got[M];
+    mlr_test_rng s;
+    mlr_test_rng_seed(&s, 2024);
+    for (size_t i = 0; i < M; i++) {
+        const double u = mlr_test_rng_uniform(&s);
+        x[i] = u < 0.3 ? 0.0 : u < 0.4 ? -0.0 : u < 0.6 ? (double)(int)(4.0 * u) : u - 0.5;
+    }
+    const size_t radii[] = {0, 1, 3, 12, 400, 600, 1000};
+    for (size_t t = 0; t < sizeof radii / sizeof radii[0]; t++) {
+        const size_t r = radii[t];
+        running_max(x, M, r, got);
+        for (size_t f = 0; f < M; f++) {
+            const size_t a = f > r ? f - r : 0, b = f + r < M ? f + r : M - 1;
+            double m = x[a];
+            for (size_t i = a + 1; i <= b; i++)
+                m = x[i] > m ? x[i] : m;
+            ck_assert_msg(memcmp(&m, &got[f], sizeof m) == 0, "r %zu frame %zu", r, f);
+        }
+    }
+}
+END_TEST
+
 static Suite *suite(void)
 {
     Suite *s = suite_create("hinge_side");
@@ -210,6 +238,7 @@ static Suite *suite(void)
     tcase_add_test(tc, an_input_bent_far_both_ways_has_no_side);
     tcase_add_test(tc, a_bend_the_other_way_and_a_fold_are_turned_back_smoothly);
     tcase_add_test(tc, no_memory_leaves_the_motion_as_it_was);
+    tcase_add_test(tc, the_running_maximum_is_the_scans);
     suite_add_tcase(s, tc);
     return s;
 }
