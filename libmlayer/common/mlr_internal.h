@@ -104,6 +104,20 @@ static inline void ik__qmul4(const double *a, const double *b, double *o)
     o[0] = r.w, o[1] = r.x, o[2] = r.y, o[3] = r.z;
 }
 
+/* a . b for 3 doubles. */
+static inline double common__dot3(const double *a, const double *b)
+{
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
+/* o = a x b for 3 doubles; o may alias a or b. */
+static inline void common__cross3(const double *a, const double *b, double *o)
+{
+    const double x = a[1] * b[2] - a[2] * b[1], y = a[2] * b[0] - a[0] * b[2],
+                 z = a[0] * b[1] - a[1] * b[0];
+    o[0] = x, o[1] = y, o[2] = z;
+}
+
 /* c ? a : b by bit masks, so that the compiler keeps both operands computed unconditionally
  * (GCC otherwise moves a division under a branch, which stops the vectorizer). */
 static inline double common__select_bits(int c, double a, double b)

@@ -72,18 +72,6 @@ static void sub3(const double *a, const double *b, double *o)
     o[0] = a[0] - b[0], o[1] = a[1] - b[1], o[2] = a[2] - b[2];
 }
 
-static double dot3(const double *a, const double *b)
-{
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-}
-
-static void cross3(const double *a, const double *b, double *o)
-{
-    o[0] = a[1] * b[2] - a[2] * b[1];
-    o[1] = a[2] * b[0] - a[0] * b[2];
-    o[2] = a[0] * b[1] - a[1] * b[0];
-}
-
 /* The unit bones u (upper to middle) and w (middle to end) of h at frame f; 0 when one has no
    length. */
 static int bones(const hinge_side *h, size_t J, const double *wpos, size_t f, double *u, double *w)
@@ -91,7 +79,7 @@ static int bones(const hinge_side *h, size_t J, const double *wpos, size_t f, do
     const double *p = wpos + 3 * f * J;
     sub3(p + 3 * (size_t)h->middle, p + 3 * (size_t)h->upper, u);
     sub3(p + 3 * (size_t)h->end, p + 3 * (size_t)h->middle, w);
-    const double nu = sqrt(dot3(u, u)), nw = sqrt(dot3(w, w));
+    const double nu = sqrt(common__dot3(u, u)), nw = sqrt(common__dot3(w, w));
     if (!(nu > 0.0) || !(nw > 0.0))
         return 0;
     for (int i = 0; i < 3; i++)
@@ -107,9 +95,9 @@ static double signed_flexion(const mlr_rig *rig, const hinge_side *h, const doub
     double u[3], w[3], n[3], ax[3];
     if (!bones(h, J, wpos, f, u, w))
         return NAN;
-    cross3(u, w, n);
+    common__cross3(u, w, n);
     ik__qrot(wrot + 4 * (f * J + p), h->axis, ax);
-    return atan2(dot3(n, ax), dot3(u, w));
+    return atan2(common__dot3(n, ax), common__dot3(u, w));
 }
 
 int hinge_side__learn(const mlr_rig *rig, size_t N, const double *wpos, const double *wrot,
@@ -120,10 +108,10 @@ int hinge_side__learn(const mlr_rig *rig, size_t N, const double *wpos, const do
     double m[3] = {0, 0, 0};
     for (size_t f = 0; f < N; f++) {
         double u[3], w[3], n[3], l[3];
-        if (!bones(h, J, wpos, f, u, w) || !(dot3(u, w) < bent))
+        if (!bones(h, J, wpos, f, u, w) || !(common__dot3(u, w) < bent))
             continue;
-        cross3(u, w, n);
-        const double nn = sqrt(dot3(n, n));
+        common__cross3(u, w, n);
+        const double nn = sqrt(common__dot3(n, n));
         if (!(nn > 0.0))
             continue;
         const double *q = wrot + 4 * (f * J + p);
@@ -132,7 +120,7 @@ int hinge_side__learn(const mlr_rig *rig, size_t N, const double *wpos, const do
         for (int i = 0; i < 3; i++)
             m[i] += l[i] / nn;
     }
-    const double nm = sqrt(dot3(m, m));
+    const double nm = sqrt(common__dot3(m, m));
     if (!(nm > 1e-9) || !isfinite(nm))
         return 0;
     for (int i = 0; i < 3; i++)
@@ -164,16 +152,16 @@ static int plane_angle(const mlr_rig *rig, const hinge_side *h, const double *po
         return 0;
     const double *W = wrot + 4 * (f * J + p);
     ik__qrot(W, h->axis, ax);
-    const double along = dot3(ax, u);
+    const double along = common__dot3(ax, u);
     for (int i = 0; i < 3; i++)
         ax[i] -= along * u[i];
-    const double k = sqrt(dot3(ax, ax)); /* (the axis is unit) */
+    const double k = sqrt(common__dot3(ax, ax)); /* (the axis is unit) */
     if (!(k > HINGE_SIDE_MIN_ACROSS))
         return 0;
     for (int i = 0; i < 3; i++)
         ax[i] /= k;
-    cross3(ax, u, e2);
-    *phi = atan2(dot3(w, e2), dot3(w, u));
+    common__cross3(ax, u, e2);
+    *phi = atan2(common__dot3(w, e2), common__dot3(w, u));
     *phi_lo = atan2(sin(h->lo) / k, cos(h->lo));
     *phi_hi = atan2(sin(h->hi) / k, cos(h->hi));
     const double Wc[4] = {W[0], -W[1], -W[2], -W[3]};

@@ -8,19 +8,7 @@
 
 #define IK_EPS 1e-12
 
-static double dot3(const double a[3], const double b[3])
-{
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-}
-
-static void cross3(const double a[3], const double b[3], double o[3])
-{
-    const double x = a[1] * b[2] - a[2] * b[1], y = a[2] * b[0] - a[0] * b[2],
-                 z = a[0] * b[1] - a[1] * b[0];
-    o[0] = x, o[1] = y, o[2] = z;
-}
-
-static double norm3(const double a[3]) { return sqrt(dot3(a, a)); }
+static double norm3(const double a[3]) { return sqrt(common__dot3(a, a)); }
 
 static void unit3(double a[3])
 {
@@ -35,16 +23,16 @@ static void from_to_unit(double u[3], double v[3], double q[4])
 {
     unit3(u);
     unit3(v);
-    const double c = dot3(u, v);
+    const double c = common__dot3(u, v);
     double axis[3];
-    cross3(u, v, axis);
+    common__cross3(u, v, axis);
     q[0] = 1.0 + c, q[1] = axis[0], q[2] = axis[1], q[3] = axis[2];
     if (c < -1.0 + 1e-12) {
         const double ex[3] = {1.0, 0.0, 0.0}, ey[3] = {0.0, 1.0, 0.0};
         double perp[3];
-        cross3(u, ex, perp);
+        common__cross3(u, ex, perp);
         if (norm3(perp) < 1e-6)
-            cross3(u, ey, perp);
+            common__cross3(u, ey, perp);
         unit3(perp);
         q[0] = 0.0, q[1] = perp[0], q[2] = perp[1], q[3] = perp[2];
     }
@@ -59,7 +47,7 @@ static void from_to_unit(double u[3], double v[3], double q[4])
 void ik__from_to_1(const double u_in[3], const double v_in[3], double q[4])
 {
     double u[3] = {u_in[0], u_in[1], u_in[2]}, v[3] = {v_in[0], v_in[1], v_in[2]};
-    const double nu = norm3(u), nv = norm3(v), p = nu * nv, d = dot3(u, v);
+    const double nu = norm3(u), nv = norm3(v), p = nu * nv, d = common__dot3(u, v);
     if (!(nu > IK_EPS && nv > IK_EPS && p <= DBL_MAX) || !(d >= (-1.0 + 1e-12) * p)) {
         from_to_unit(u, v, q); /* a zero vector, antiparallel, too long, or not finite */
         return;
@@ -67,7 +55,7 @@ void ik__from_to_1(const double u_in[3], const double v_in[3], double q[4])
     /* (1 + c, u' x v') for the unit u', v' is (|u| |v| + u.v, u x v) / (|u| |v|): normalized
        as it is, without the unit vectors' divisions */
     double axis[3];
-    cross3(u, v, axis);
+    common__cross3(u, v, axis);
     q[0] = p + d, q[1] = axis[0], q[2] = axis[1], q[3] = axis[2];
     const double n = sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
     q[0] /= n, q[1] /= n, q[2] /= n, q[3] /= n;
@@ -89,19 +77,19 @@ void ik__two_bone_1(const double a[3], const double b[3], const double c[3], con
     if (axis)
         n[0] = axis[0], n[1] = axis[1], n[2] = axis[2];
     else
-        cross3(bc, mab, n);
+        common__cross3(bc, mab, n);
     if (l2 > IK_EPS) /* unit3(bcu), with the norm l2 already is */
         bcu[0] /= l2, bcu[1] /= l2, bcu[2] /= l2;
-    const double p = dot3(n, bcu);
+    const double p = common__dot3(n, bcu);
     for (int k = 0; k < 3; k++)
         n[k] -= p * bcu[k];
     const double small = 1e-9 * common__fmax(l1 * l2, IK_EPS);
     double nn = norm3(n);
     if (nn <= small) { /* hinge along the shin: the leg's own plane, or any axis */
-        cross3(bc, mab, n);
+        common__cross3(bc, mab, n);
         if ((nn = norm3(n)) <= small) {
             const double ex[3] = {1.0, 0.0, 0.0};
-            cross3(bc, ex, n);
+            common__cross3(bc, ex, n);
             nn = norm3(n);
         }
     }
@@ -109,8 +97,8 @@ void ik__two_bone_1(const double a[3], const double b[3], const double c[3], con
         n[0] /= nn, n[1] /= nn, n[2] /= nn;
     /* |ab + R(n, phi) bc|^2 = K + 2 (P cos phi + Q sin phi) = K + 2 A cos(phi - phi0) */
     double w[3];
-    cross3(n, bc, w);
-    const double K = l1 * l1 + l2 * l2, P = dot3(ab, bc), Q = dot3(ab, w);
+    common__cross3(n, bc, w);
+    const double K = l1 * l1 + l2 * l2, P = common__dot3(ab, bc), Q = common__dot3(ab, w);
     const double A = sqrt(P * P + Q * Q);
     double cosb = (d * d - K) / common__fmax(2.0 * A, IK_EPS);
     cosb = cosb < -1.0 ? -1.0 : cosb > 1.0 ? 1.0 : cosb;
@@ -155,7 +143,7 @@ void ik__two_bone_lanes(mlr_ik_lanes *L, size_t m, int have_axis, double max_ext
             const double mab[3] = {-(L->b[0][i] - L->a[0][i]), -(L->b[1][i] - L->a[1][i]),
                                    -(L->b[2][i] - L->a[2][i])};
             double n[3];
-            cross3(bc, mab, n);
+            common__cross3(bc, mab, n);
             L->axis[0][i] = n[0], L->axis[1][i] = n[1], L->axis[2][i] = n[2];
         }
     for (size_t i = 0; i < m; i++) {
@@ -170,7 +158,7 @@ void ik__two_bone_lanes(mlr_ik_lanes *L, size_t m, int have_axis, double max_ext
         const int by_l2 = l2 > IK_EPS;
         for (int k = 0; k < 3; k++)
             bcu[k] = common__select_bits(by_l2, bc[k] / l2, bc[k]);
-        const double p = dot3(n, bcu);
+        const double p = common__dot3(n, bcu);
         for (int k = 0; k < 3; k++)
             n[k] -= p * bcu[k];
         const double small = 1e-9 * lane_max(l1 * l2, IK_EPS);
@@ -179,8 +167,8 @@ void ik__two_bone_lanes(mlr_ik_lanes *L, size_t m, int have_axis, double max_ext
         for (int k = 0; k < 3; k++)
             n[k] = common__select_bits(by_nn, n[k] / nn, n[k]);
         double w[3];
-        cross3(n, bc, w);
-        const double K = l1 * l1 + l2 * l2, P = dot3(ab, bc), Q = dot3(ab, w);
+        common__cross3(n, bc, w);
+        const double K = l1 * l1 + l2 * l2, P = common__dot3(ab, bc), Q = common__dot3(ab, w);
         const double A = sqrt(P * P + Q * Q);
         const double cosr = (d * d - K) / lane_max(2.0 * A, IK_EPS);
         const double cosb =
@@ -201,9 +189,9 @@ void ik__two_bone_lanes(mlr_ik_lanes *L, size_t m, int have_axis, double max_ext
         double u[3];
         for (int k = 0; k < 3; k++)
             u[k] = L->b[k][i] + cp * bc[k] + sp * w[k] - L->a[k][i];
-        const double nu = norm3(u), nv = norm3(at), pq = nu * nv, du = dot3(u, at);
+        const double nu = norm3(u), nv = norm3(at), pq = nu * nv, du = common__dot3(u, at);
         double axis[3];
-        cross3(u, at, axis);
+        common__cross3(u, at, axis);
         const double q0 = pq + du;
         const double qn =
             sqrt(q0 * q0 + axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]);
@@ -324,7 +312,7 @@ static void bend_terms(const double *restrict pos, const double *restrict wrot, 
         double ek[3], hk[3], c[3], o[3];
         for (int k = 0; k < 3; k++)
             ek[k] = pe[k] - pk[k], hk[k] = ph[k] - pk[k];
-        cross3(ek, hk, c);
+        common__cross3(ek, hk, c);
         const double cg[4] = {g[0], -g[1], -g[2], -g[3]};
         ik__qrot(cg, c, o);
         l[i] = o[0], l[BEND_BLOCK + i] = o[1], l[2 * BEND_BLOCK + i] = o[2];

@@ -386,21 +386,9 @@ mlr_status mlr_retarget_roles(const mlr_rig *rig, int32_t *role_joint, const mlr
 
 /* ---- small linear algebra ----------------------------------------------------------------- */
 
-static double dot3(const double *a, const double *b)
-{
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-}
-
-static void cross3(const double *a, const double *b, double *o)
-{
-    o[0] = a[1] * b[2] - a[2] * b[1];
-    o[1] = a[2] * b[0] - a[0] * b[2];
-    o[2] = a[0] * b[1] - a[1] * b[0];
-}
-
 static int normalize3(double *v)
 {
-    const double n = sqrt(dot3(v, v));
+    const double n = sqrt(common__dot3(v, v));
     if (!(n > 1e-12))
         return 0;
     v[0] /= n, v[1] /= n, v[2] /= n;
@@ -413,12 +401,12 @@ static int frame_of(const double *primary, const double *secondary, double *m)
     double e1[3] = {primary[0], primary[1], primary[2]}, e2[3], e3[3];
     if (!normalize3(e1))
         return 0;
-    const double d = dot3(secondary, e1);
+    const double d = common__dot3(secondary, e1);
     for (int c = 0; c < 3; c++)
         e2[c] = secondary[c] - d * e1[c];
     if (!normalize3(e2))
         return 0;
-    cross3(e1, e2, e3);
+    common__cross3(e1, e2, e3);
     for (int r = 0; r < 3; r++)
         m[3 * r] = e1[r], m[3 * r + 1] = e2[r], m[3 * r + 2] = e3[r];
     return 1;
@@ -573,7 +561,7 @@ static void count_chains(rig_rest *r)
 static double dist3(const double *a, const double *b)
 {
     const double d[3] = {a[0] - b[0], a[1] - b[1], a[2] - b[2]};
-    return sqrt(dot3(d, d));
+    return sqrt(common__dot3(d, d));
 }
 
 /* Rest positions, the body frame and the leg length (roles already set). */
@@ -633,7 +621,7 @@ static mlr_status rest_setup(rig_rest *r, const char *who, int up_axis, mlr_diag
     su[ku] = m[3 * ku] > 0 ? 1.0 : -1.0;
     sl[kl] = m[3 * kl + 1] > 0 ? 1.0 : -1.0;
     double fw[3];
-    cross3(sl, su, fw);
+    common__cross3(sl, su, fw);
     for (int row = 0; row < 3; row++) {
         r->body[3 * row] = sl[row];
         r->body[3 * row + 1] = su[row];
@@ -647,10 +635,10 @@ static mlr_status rest_setup(rig_rest *r, const char *who, int up_axis, mlr_diag
         wu[up_axis] = 1.0;
         if (kl != up_axis) {
             memcpy(wl, sl, sizeof wl);
-            cross3(wl, wu, wf);
+            common__cross3(wl, wu, wf);
         } else {
             memcpy(wf, fw, sizeof wf);
-            cross3(wu, wf, wl);
+            common__cross3(wu, wf, wl);
         }
         for (int row = 0; row < 3; row++) {
             r->world[3 * row] = wl[row];
@@ -741,7 +729,7 @@ static double foot_drop(const rig_rest *r, int side, const mlr_quat *wrot, const
     double low = 0.0, toe_rel[3] = {0, 0, 0};
     if (toes >= 0 && rig->parents[toes] == foot) {
         common__quat_rotate_inline(&wrot[foot], rig->offsets + 3 * (size_t)toes, toe_rel);
-        low = fmin(low, dot3(toe_rel, up));
+        low = fmin(low, common__dot3(toe_rel, up));
     }
     for (size_t e = 0; e < rig->n_end_sites; e++) {
         const int32_t j = rig->end_site_parents[e];
@@ -752,7 +740,7 @@ static double foot_drop(const rig_rest *r, int side, const mlr_quat *wrot, const
         if (j == toes)
             for (int c = 0; c < 3; c++)
                 v[c] += toe_rel[c];
-        low = fmin(low, dot3(v, up));
+        low = fmin(low, common__dot3(v, up));
     }
     return -low;
 }
@@ -924,12 +912,12 @@ static mlr_quat swing(const double *a_, const double *b_)
     mlr_quat q = {1.0, 0.0, 0.0, 0.0};
     if (!normalize3(a) || !normalize3(b))
         return q;
-    const double d = dot3(a, b);
-    cross3(a, b, x);
+    const double d = common__dot3(a, b);
+    common__cross3(a, b, x);
     if (d < -1.0 + 1e-12) {
         /* opposite: half a turn about any axis normal to a */
         const double e[3] = {fabs(a[0]) < 0.9 ? 1.0 : 0.0, fabs(a[0]) < 0.9 ? 0.0 : 1.0, 0.0};
-        cross3(a, e, x);
+        common__cross3(a, e, x);
         normalize3(x);
         return (mlr_quat){0.0, x[0], x[1], x[2]};
     }
@@ -969,7 +957,7 @@ static mlr_quat correction(const rig_rest *src, const rig_rest *dst, int have, c
     for (int a = 0; a < 3; a++) {
         const double cs[3] = {src->body[a], src->body[3 + a], src->body[6 + a]};
         const double ct[3] = {dst->body[a], dst->body[3 + a], dst->body[6 + a]};
-        const double d = fmax(fabs(dot3(u, cs)), fabs(dot3(v, ct)));
+        const double d = fmax(fabs(common__dot3(u, cs)), fabs(common__dot3(v, ct)));
         if (d < best)
             best = d, axis = a;
     }
@@ -1389,11 +1377,11 @@ static void toe_levels(const rig_rest *src, const rig_rest *dst, const double *u
             continue;
         for (int c = 0; c < 3; c++)
             tl[k].bone[c] = end[c] - dst->pos[3 * (size_t)t + (size_t)c];
-        const double n = sqrt(dot3(tl[k].bone, tl[k].bone));
+        const double n = sqrt(common__dot3(tl[k].bone, tl[k].bone));
         if (!(n > 0.0))
             continue;
         tl[k].j = t;
-        tl[k].elev = asin(fmax(-1.0, fmin(1.0, dot3(tl[k].bone, up) / n)));
+        tl[k].elev = asin(fmax(-1.0, fmin(1.0, common__dot3(tl[k].bone, up) / n)));
     }
 }
 
@@ -1404,12 +1392,12 @@ static mlr_quat toe_level_turn(const toe_level *tl, mlr_quat w, const double *up
     double cur[3], axis[3];
     const mlr_quat one = {1.0, 0.0, 0.0, 0.0};
     common__quat_rotate_inline(&w, tl->bone, cur);
-    const double n = sqrt(dot3(cur, cur));
-    const double e = asin(fmax(-1.0, fmin(1.0, dot3(cur, up) / n)));
+    const double n = sqrt(common__dot3(cur, cur));
+    const double e = asin(fmax(-1.0, fmin(1.0, common__dot3(cur, up) / n)));
     const double d = tl->elev - e, h = TOE_LEVEL_EASE;
     double turn = d >= h ? d : d <= -h ? 0.0 : (d + h) * (d + h) / (4.0 * h);
     turn = weight * fmin(turn, 0.5 * 3.14159265358979323846 - e); /* never past the vertical */
-    cross3(cur, up, axis);
+    common__cross3(cur, up, axis);
     if (!(turn > 0.0) || !normalize3(axis))
         return one;
     const double sh = sin(0.5 * turn);
@@ -1629,7 +1617,7 @@ mlr_status mlr_retarget_feet(const mlr_rig *source, size_t n_frames, double fps,
                         wpos[3 * (f * Js + (size_t)sr) + (size_t)c]);
             for (int r = 0; r < 3; r++)
                 y[r] = G[r] * m[0] + G[3 + r] * m[1] + G[6 + r] * m[2];
-            mid[f] = -dot3(y, up_t);
+            mid[f] = -common__dot3(y, up_t);
         }
         double *tpos = mid + n_frames, *trot = tpos + 3 * n_frames * Jt;
         if ((st = mlr_fk_arrays(n_frames, Jt, target->parents, target->offsets, out_root_pos,
@@ -1641,7 +1629,7 @@ mlr_status mlr_retarget_feet(const mlr_rig *source, size_t n_frames, double fps,
             for (int c = 0; c < 3; c++)
                 m[c] = 0.5 * (tpos[3 * (f * Jt + (size_t)tl) + (size_t)c] +
                               tpos[3 * (f * Jt + (size_t)tr) + (size_t)c]);
-            mid[f] += dot3(m, up_t);
+            mid[f] += common__dot3(m, up_t);
         }
         lift = common__median(mid, n_frames);
     }

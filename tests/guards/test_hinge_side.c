@@ -65,8 +65,8 @@ static void measure(const double *root, const double *rot, double *deg)
         double u[3], w[3], c[3];
         sub3(p + 6, p + 3, u);
         sub3(p + 9, p + 6, w);
-        cross3(u, w, c);
-        deg[f] = atan2(c[2], dot3(u, w)) / DEGR;
+        common__cross3(u, w, c);
+        deg[f] = atan2(c[2], common__dot3(u, w)) / DEGR;
     }
 }
 
